@@ -1,0 +1,36 @@
+"""Shared pytest fixtures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """Root of the project's shared real-data folder (``../shared/data``); skip if absent."""
+    if not SHARED_DATA.is_dir():
+        pytest.skip(f"shared data folder not found at {SHARED_DATA}")
+    return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
+def paper_reference(shared_data: Path):
+    """Loader for the original implementation's reference outputs, keyed by map name."""
+    import numpy as np
+
+    cache: dict[str, dict] = {}
+
+    def load(name: str) -> dict:
+        if name not in cache:
+            path = shared_data / "reference" / f"original_{name}.npz"
+            if not path.is_file():
+                pytest.skip(f"reference file missing: {path}")
+            with np.load(path) as z:
+                cache[name] = {k: z[k] for k in z.files}
+        return cache[name]
+
+    return load

@@ -1,0 +1,390 @@
+"""Full-map pipeline: occupancy map -> distance map -> ridges -> skeleton -> graph.
+
+The JAX stages run as one fused kernel per tile (:func:`forward_tile`): windowed squared
+distance, Gaussian, border reflection, Laplacian, threshold.  Tiles go to the compiled
+kernel in chunks of a fixed size (``PipelineConfig.tiles_per_call``), so one compilation
+serves every map size; the CPU stages (thinning, T removal, graph) then run on the whole
+assembled ridge map.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import networkx as nx
+import numpy as np
+from jax import lax
+
+from .config import DistanceConfig, PipelineConfig, RidgeConfig
+from .distance import FAR_SQ, gaussian_from_sq_distance, window_sq_distance_tile
+from .filters import HALO_PX, laplacian_valid, reflect_101_halo, ridge_from_laplacian
+from .tiling import TileGrid
+
+__all__ = [
+    "TopologyResult",
+    "DenseFields",
+    "build_graph",
+    "dense_fields",
+    "distance_map",
+    "ridge_map",
+    "forward_tile",
+    "trace_counts",
+]
+
+_TRACES: Counter[str] = Counter()
+
+
+def trace_counts() -> dict[str, int]:
+    """How many times each jitted kernel has been traced (compiled) in this process."""
+    return dict(_TRACES)
+
+
+def forward_tile(
+    patch: jax.Array,
+    origin: jax.Array,
+    map_shape: jax.Array,
+    sigma_px: jax.Array,
+    scale: jax.Array,
+    threshold: jax.Array,
+    *,
+    tile_px: int,
+    half_width: int,
+    ksize: int,
+):
+    """All JAX stages for one tile.
+
+    Parameters
+    ----------
+    patch : bool array, shape (T + 2 (2 + R), T + 2 (2 + R))
+        Obstacles around the tile (``T = tile_px``, ``R = half_width``; the 2 is the
+        Laplacian halo).  Outside the map: False.
+    origin : int32 (2,)
+        Map (row, col) of the tile's first core pixel.
+    map_shape : int32 (2,)
+        Map (rows, cols).
+    sigma_px, scale, threshold : float32 scalars
+        See :class:`~topojax.config.DistanceConfig` and :class:`~topojax.config.RidgeConfig`.
+    tile_px, half_width, ksize : int
+        Static, shape-setting.
+
+    Returns
+    -------
+    sq_distance : int32 (T, T)
+        Windowed squared distance to the nearest obstacle, px^2 (``FAR_SQ`` if none).
+    distance : float32 (T, T)
+        Distance map ``H`` in [0, 1].
+    lap_abs : uint8 (T, T)
+        Rounded, saturated absolute Laplacian of ``scale * H``.
+    ridge : bool (T, T)
+        ``lap_abs > threshold``.
+    """
+    out = tile_px + 2 * HALO_PX
+    d2 = window_sq_distance_tile(patch, out_px=out, half_width=half_width)
+    h = gaussian_from_sq_distance(d2, sigma_px)
+    lap = laplacian_valid(reflect_101_halo(h, origin, map_shape, halo=HALO_PX), ksize=ksize)
+    lap_abs, ridge = ridge_from_laplacian(lap, scale=scale, threshold=threshold)
+    core = slice(HALO_PX, HALO_PX + tile_px)
+    return d2[core, core], h[core, core], lap_abs, ridge
+
+
+@partial(jax.jit, static_argnames=("tile_px", "half_width", "ksize"))
+def _forward_tiles(
+    patches, origins, map_shape, sigma_px, scale, threshold, *, tile_px, half_width, ksize
+):
+    _TRACES["forward_tiles"] += 1
+    # lax.map, not vmap: each tile (and each band of rows inside it) runs its own exact
+    # number of distance offsets; under vmap every tile would run the slowest one's count.
+    fn = partial(forward_tile, tile_px=tile_px, half_width=half_width, ksize=ksize)
+    return lax.map(
+        lambda args: fn(args[0], args[1], map_shape, sigma_px, scale, threshold),
+        (patches, origins),
+    )
+
+
+@dataclass(frozen=True)
+class DenseFields:
+    """Per-pixel outputs of the JAX stages for a whole map (all ``(H, W)``, ``[row, col]``).
+
+    Attributes
+    ----------
+    sq_distance_px : int32
+        Windowed squared distance to the nearest obstacle in px^2 (``FAR_SQ`` if none in
+        the window).
+    distance : float32
+        Gaussian distance map ``H`` in [0, 1].
+    lap_abs : uint8
+        ``convertScaleAbs(Laplacian(scale * H))``.
+    ridges : bool
+        ``lap_abs > threshold``.
+    """
+
+    sq_distance_px: np.ndarray
+    distance: np.ndarray
+    lap_abs: np.ndarray
+    ridges: np.ndarray
+
+
+def _as_obstacles(obstacles) -> np.ndarray:
+    arr = np.asarray(obstacles)
+    if arr.ndim != 2:
+        raise ValueError(f"obstacles must be a 2-D (rows, cols) mask, got shape {arr.shape}")
+    if arr.dtype != bool:
+        if not np.issubdtype(arr.dtype, np.number):
+            raise TypeError(f"obstacles must be a boolean mask, got dtype {arr.dtype}")
+        if np.issubdtype(arr.dtype, np.floating) and np.isnan(arr).any():
+            raise ValueError(f"obstacles contains {int(np.isnan(arr).sum())} NaN values")
+        arr = arr != 0
+    if min(arr.shape) < 2:
+        raise ValueError(f"obstacles must be at least 2 x 2 pixels, got shape {arr.shape}")
+    return arr
+
+
+def dense_fields(
+    obstacles,
+    *,
+    distance: DistanceConfig | None = None,
+    ridge: RidgeConfig | None = None,
+    tile_px: int = 256,
+    tiles_per_call: int = 4,
+) -> DenseFields:
+    """Run the JAX stages (distance map, Laplacian, ridges) over a whole map, tile by tile.
+
+    Parameters
+    ----------
+    obstacles : bool array, shape (H, W)
+        Obstacle mask, ``obstacles[row, col]``.
+    distance, ridge : configs, optional
+    tile_px : int
+        Tile side (shape-setting; every map size uses the same compiled kernel).
+    tiles_per_call : int
+        Tiles per kernel call (fixed bucket; the last call is padded with empty tiles).
+
+    Returns
+    -------
+    DenseFields
+    """
+    obstacles = _as_obstacles(obstacles)
+    distance = distance or DistanceConfig()
+    ridge = ridge or RidgeConfig()
+    grid = TileGrid(obstacles.shape, tile_px)
+    halo = HALO_PX + distance.half_width_px
+    origins = grid.origins()
+    n = grid.n_tiles
+    n_calls = -(-n // tiles_per_call)
+    map_shape = jnp.asarray(obstacles.shape, jnp.int32)
+    scalars = (
+        jnp.float32(distance.sigma_px),
+        jnp.float32(ridge.scale),
+        jnp.float32(ridge.threshold),
+    )
+    outs = []
+    for c in range(n_calls):
+        idx = np.arange(c * tiles_per_call, min(n, (c + 1) * tiles_per_call))
+        patches = grid.patches(obstacles, halo, fill=False, index=idx)
+        org = origins[idx]
+        short = tiles_per_call - len(idx)
+        if short:
+            patches = np.concatenate([patches, np.zeros((short,) + patches.shape[1:], bool)])
+            org = np.concatenate([org, np.zeros((short, 2), np.int32)])
+        outs.append(
+            _forward_tiles(
+                patches,
+                org,
+                map_shape,
+                *scalars,
+                tile_px=tile_px,
+                half_width=distance.half_width_px,
+                ksize=ridge.ksize,
+            )
+        )
+    fields = [grid.assemble(np.concatenate([np.asarray(o[k]) for o in outs])[:n]) for k in range(4)]
+    return DenseFields(*fields)
+
+
+def distance_map(
+    obstacles, *, config: DistanceConfig | None = None, tile_px: int = 256
+) -> np.ndarray:
+    """Gaussian max-splat distance map of an obstacle mask.
+
+    Parameters
+    ----------
+    obstacles : bool array, shape (H, W)
+        ``True`` where a pixel is an obstacle (``obstacles[row, col]``), or an
+        :class:`~topojax.maps.OccupancyMap` (its ``occupied`` mask).
+    config : DistanceConfig, optional
+    tile_px : int
+
+    Returns
+    -------
+    float32 array, shape (H, W), values in [0, 1]: ``max_p exp(-|x - p|^2 / (2 sigma^2))``
+    over obstacles ``p`` in the square window.
+    """
+    obstacles = getattr(obstacles, "occupied", obstacles)
+    return dense_fields(obstacles, distance=config, tile_px=tile_px).distance
+
+
+def ridge_map(
+    obstacles,
+    *,
+    distance: DistanceConfig | None = None,
+    ridge: RidgeConfig | None = None,
+    tile_px: int = 256,
+) -> np.ndarray:
+    """Binary ridge map (paper Fig. 1d) of an obstacle mask; bool (H, W)."""
+    obstacles = getattr(obstacles, "occupied", obstacles)
+    return dense_fields(obstacles, distance=distance, ridge=ridge, tile_px=tile_px).ridges
+
+
+@dataclass(frozen=True)
+class TopologyResult:
+    """Everything :func:`build_graph` produced.
+
+    Attributes
+    ----------
+    map : OccupancyMap
+        The input map.
+    distance : float32 (H, W)
+        Gaussian distance map in [0, 1].
+    lap_abs : uint8 (H, W)
+        Absolute Laplacian response (scaled, rounded, saturated).
+    ridges : bool (H, W)
+        Thresholded ridge map.
+    skeleton : bool (H, W)
+        Thinned ridges after T-centre removal.
+    clearance_px : float32 (H, W)
+        Euclidean distance to the nearest obstacle in pixels (``inf`` with no obstacle).
+    graph : networkx.MultiGraph
+        The topology graph (see :func:`topojax.graph.skeleton_to_graph`).
+    config : PipelineConfig
+    timings_s : dict[str, float]
+        Wall time of each stage in seconds.
+    """
+
+    map: object
+    distance: np.ndarray
+    lap_abs: np.ndarray
+    ridges: np.ndarray
+    skeleton: np.ndarray
+    clearance_px: np.ndarray
+    graph: nx.MultiGraph
+    config: PipelineConfig
+    timings_s: dict[str, float] = field(default_factory=dict)
+
+
+def clearance_from_sq_distance(
+    sq_distance_px: np.ndarray, obstacles: np.ndarray, half_width_px: int, need: np.ndarray
+) -> np.ndarray:
+    """True Euclidean clearance in pixels from the windowed squared distance.
+
+    The windowed distance equals the Euclidean distance transform wherever it is at most
+    the window half-width; pixels beyond that (only in very open maps) are filled in from
+    an exact unwindowed transform, computed only if a pixel in ``need`` requires it.
+    """
+    d2 = sq_distance_px
+    clearance = np.sqrt(d2.astype(np.float32))
+    beyond = d2 > half_width_px * half_width_px
+    if np.any(beyond & need):
+        if obstacles.any():
+            import cv2
+
+            edt = cv2.distanceTransform(
+                (~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE
+            )
+            clearance = np.where(beyond, edt, clearance)
+        else:
+            clearance = np.where(beyond, np.float32(np.inf), clearance)
+    return clearance.astype(np.float32)
+
+
+def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyResult:
+    """Build the topology graph of a finished occupancy map (paper §II).
+
+    Parameters
+    ----------
+    occupancy : OccupancyMap or array
+        The map.  Arrays are converted with :meth:`OccupancyMap.from_array` (bool: True =
+        occupied; uint8 image; int8 occupancy grid).
+    config : PipelineConfig, optional
+        All stage settings; default reproduces the paper with Guo–Hall thinning.
+
+    Returns
+    -------
+    TopologyResult
+        ``.graph`` is a :class:`networkx.MultiGraph`: junctions and dead ends as vertices,
+        corridors as edges carrying their pixel paths and world polylines.  A map with no
+        obstacles or no free space gives an empty graph.
+    """
+    from .graph import skeleton_to_graph
+    from .maps import OccupancyMap
+    from .skeleton import remove_t_centres, thin
+
+    config = config or PipelineConfig()
+    if not isinstance(config, PipelineConfig):
+        raise TypeError(f"config must be a PipelineConfig, got {type(config).__name__}")
+    if not isinstance(occupancy, OccupancyMap):
+        occupancy = OccupancyMap.from_array(occupancy)
+    timings: dict[str, float] = {}
+    obstacles = occupancy.occupied
+
+    t0 = time.perf_counter()
+    if obstacles.any():
+        fields = dense_fields(
+            obstacles,
+            distance=config.distance,
+            ridge=config.ridge,
+            tile_px=config.tile_px,
+            tiles_per_call=config.tiles_per_call,
+        )
+    else:  # nothing to measure distances from: H = 0 everywhere, no ridges
+        shape = obstacles.shape
+        fields = DenseFields(
+            np.full(shape, FAR_SQ, np.int32),
+            np.zeros(shape, np.float32),
+            np.zeros(shape, np.uint8),
+            np.zeros(shape, bool),
+        )
+    t1 = time.perf_counter()
+    timings["distance_ridges"] = t1 - t0
+
+    ridges = fields.ridges
+    skeleton = thin(ridges, method=config.skeleton.thinning)
+    t2 = time.perf_counter()
+    timings["thinning"] = t2 - t1
+    if config.skeleton.remove_t:
+        skeleton = remove_t_centres(skeleton)
+    t3 = time.perf_counter()
+    timings["t_removal"] = t3 - t2
+
+    clearance = clearance_from_sq_distance(
+        fields.sq_distance_px, obstacles, config.distance.half_width_px, skeleton
+    )
+    graph = skeleton_to_graph(
+        skeleton,
+        clearance_px=clearance,
+        resolution_m=occupancy.resolution_m,
+        pixel_to_world=occupancy.pixel_to_world,
+        merge_junction_clusters=config.graph.merge_junction_clusters,
+    )
+    graph.graph["origin"] = tuple(float(v) for v in occupancy.origin)
+    graph.graph["thinning"] = config.skeleton.thinning
+    if occupancy.source is not None:
+        graph.graph["source"] = str(occupancy.source)
+    t4 = time.perf_counter()
+    timings["graph"] = t4 - t3
+    timings["total"] = t4 - t0
+    return TopologyResult(
+        map=occupancy,
+        distance=fields.distance,
+        lap_abs=fields.lap_abs,
+        ridges=ridges,
+        skeleton=skeleton,
+        clearance_px=clearance,
+        graph=graph,
+        config=config,
+        timings_s=timings,
+    )
