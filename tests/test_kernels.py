@@ -1,0 +1,187 @@
+"""JAX kernels against independent float64 references (NumPy brute force, OpenCV, SciPy).
+
+Tolerances: distance map 1e-5 absolute on the [0, 1] scale (the issue's bound; float32
+exp gives ~6e-8); squared distances exact (integers); Laplacian equal to OpenCV's on the
+same float32 map (0 differing pixels); ridges identical.
+"""
+
+from __future__ import annotations
+
+import cv2
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from topojax.config import ORIGINAL_HALF_WIDTH_PX, ORIGINAL_SIGMA_PX, DistanceConfig, RidgeConfig
+from topojax.distance import FAR_SQ, brute_force_distance_map, window_sq_distance_tile
+from topojax.filters import laplacian_valid, reflect_101_halo, ridge_from_laplacian
+from topojax.pipeline import dense_fields, trace_counts
+from topojax.tiling import TileGrid
+
+
+def brute_sq_distance(obstacles: np.ndarray, r: int) -> np.ndarray:
+    """Float64 brute-force windowed squared distance (independent of the kernel)."""
+    h, w = obstacles.shape
+    out = np.full((h, w), np.inf)
+    ys, xs = np.nonzero(obstacles)
+    rr, cc = np.mgrid[0:h, 0:w]
+    for y, x in zip(ys, xs, strict=True):
+        inside = (np.abs(rr - y) <= r) & (np.abs(cc - x) <= r)
+        d2 = (rr - y) ** 2 + (cc - x) ** 2
+        out = np.where(inside, np.minimum(out, d2), out)
+    return out
+
+
+def test_original_sigma_matches_reference_value():
+    assert ORIGINAL_SIGMA_PX == pytest.approx(64.19283, abs=1e-5)
+    assert ORIGINAL_HALF_WIDTH_PX == 227
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    h=st.integers(2, 40),
+    w=st.integers(2, 40),
+    density=st.floats(0.0, 0.3),
+    r=st.integers(1, 12),
+    tile=st.sampled_from([8, 16, 24]),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_sq_distance_matches_brute_force(h, w, density, r, tile, seed):
+    rng = np.random.default_rng(seed)
+    obstacles = rng.random((h, w)) < density
+    fields = dense_fields(
+        obstacles, distance=DistanceConfig(sigma_px=3.0, half_width_px=r), tile_px=tile
+    )
+    ref = brute_sq_distance(obstacles, r)
+    got = fields.sq_distance_px.astype(np.float64)
+    got[fields.sq_distance_px >= FAR_SQ] = np.inf
+    np.testing.assert_array_equal(got, ref)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_distance_map_matches_float64_max_splat(seed):
+    rng = np.random.default_rng(seed)
+    obstacles = rng.random((70, 90)) < 0.01
+    obstacles[rng.integers(0, 70), :40] = True  # a wall
+    cfg = DistanceConfig(sigma_px=9.5, half_width_px=20)
+    ref = brute_force_distance_map(obstacles, sigma_px=cfg.sigma_px, half_width_px=20)
+    got = dense_fields(obstacles, distance=cfg, tile_px=32).distance
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-5)
+
+
+def test_distance_map_paper_map_matches_reference(paper_reference):
+    ref = paper_reference("intel")
+    got = dense_fields(ref["obstacle"]).distance
+    np.testing.assert_allclose(got, ref["dist_map"], rtol=0, atol=1e-5)
+
+
+def test_distance_map_paper_map_matches_brute_force_splat_on_crop(paper_reference):
+    """Float64 brute-force max-splat with the original window, on a crop of a paper map."""
+    obstacles = paper_reference("a_scan")["obstacle"][200:330, 300:420]
+    ref = brute_force_distance_map(obstacles, sigma_px=ORIGINAL_SIGMA_PX, half_width_px=227)
+    got = dense_fields(obstacles).distance
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-5)
+
+
+@pytest.mark.parametrize("ksize", [1, 3, 5])
+@pytest.mark.parametrize("shape", [(37, 53), (64, 64), (5, 129)])
+def test_laplacian_matches_opencv_with_reflect_101_border(ksize, shape):
+    rng = np.random.default_rng(ksize)
+    values = rng.random(shape).astype(np.float32)
+    grid = TileGrid(shape, 16)
+    patches = grid.patches(values, 2, fill=np.float32(0))
+    map_shape = jnp.asarray(shape, jnp.int32)
+
+    @jax.jit
+    def run(p, o):
+        return jax.vmap(
+            lambda a, b: laplacian_valid(reflect_101_halo(a, b, map_shape, halo=2), ksize=ksize)
+        )(p, o)
+
+    got = grid.assemble(np.asarray(run(patches, grid.origins())))
+    ref = cv2.Laplacian(values.astype(np.float64), cv2.CV_64F, ksize=ksize)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=2e-5 * np.abs(ref).max() + 1e-5)
+
+
+def test_convert_scale_abs_semantics():
+    # exactly representable half-way cases: OpenCV rounds half to even
+    values = [10.49, 10.5, 10.51, -11.5, 12.5, 300.0, -0.2, 0.5, 1.5]
+    lap = jnp.asarray(values, jnp.float32)
+    lap_abs, ridge = ridge_from_laplacian(lap, scale=1.0, threshold=10)
+    ref = cv2.convertScaleAbs(np.asarray(lap, np.float64)).ravel()
+    np.testing.assert_array_equal(np.asarray(lap_abs), ref)
+    np.testing.assert_array_equal(np.asarray(ridge), ref > 10)
+
+
+@pytest.mark.parametrize("name", ["intel", "office", "a_scan"])
+def test_ridges_identical_to_original(paper_reference, name):
+    ref = paper_reference(name)
+    fields = dense_fields(ref["obstacle"])
+    np.testing.assert_array_equal(fields.ridges, ref["ridge"])
+    # the Laplacian of our float32 map equals OpenCV's on that same map, bit for bit
+    lap = cv2.convertScaleAbs(
+        cv2.Laplacian(fields.distance.astype(np.float64) * 255.0, cv2.CV_64F, ksize=5)
+    )
+    assert int((lap != fields.lap_abs).sum()) == 0
+
+
+@pytest.mark.parametrize("tile", [32, 48, 100, 256])
+def test_tiled_equals_whole_map(tile):
+    rng = np.random.default_rng(tile)
+    obstacles = ndimage.binary_dilation(rng.random((150, 170)) < 0.003, iterations=2)
+    cfg = DistanceConfig(sigma_px=12.0, half_width_px=40)
+    whole = dense_fields(obstacles, distance=cfg, tile_px=512, tiles_per_call=1)
+    tiled = dense_fields(obstacles, distance=cfg, tile_px=tile, tiles_per_call=3)
+    np.testing.assert_array_equal(tiled.sq_distance_px, whole.sq_distance_px)
+    np.testing.assert_array_equal(tiled.distance, whole.distance)
+    np.testing.assert_array_equal(tiled.ridges, whole.ridges)
+
+
+def test_eager_jit_vmap_agree():
+    rng = np.random.default_rng(7)
+    r, out = 6, 12
+    patches = rng.random((3, out + 2 * r, out + 2 * r)) < 0.05
+    eager = [
+        np.asarray(window_sq_distance_tile(jnp.asarray(p), out_px=out, half_width=r))
+        for p in patches
+    ]
+    jitted = jax.jit(lambda p: window_sq_distance_tile(p, out_px=out, half_width=r))
+    vmapped = jax.jit(jax.vmap(lambda p: window_sq_distance_tile(p, out_px=out, half_width=r)))
+    batch = np.asarray(vmapped(jnp.asarray(patches)))
+    for i, p in enumerate(patches):
+        np.testing.assert_array_equal(np.asarray(jitted(jnp.asarray(p))), eager[i])
+        np.testing.assert_array_equal(batch[i], eager[i])
+
+
+def test_one_trace_serves_every_map_size():
+    cfg = DistanceConfig(sigma_px=5.0, half_width_px=9)
+    rcfg = RidgeConfig()
+    dense_fields(np.eye(20, 30, dtype=bool), distance=cfg, ridge=rcfg, tile_px=24)
+    before = trace_counts().get("forward_tiles", 0)
+    for shape in [(21, 33), (70, 25), (2, 2), (100, 101)]:
+        obstacles = np.zeros(shape, bool)
+        obstacles[0, 0] = True
+        dense_fields(obstacles, distance=cfg, ridge=rcfg, tile_px=24)
+    dense_fields(
+        np.eye(40, dtype=bool), distance=DistanceConfig(sigma_px=7.0, half_width_px=9), tile_px=24
+    )
+    assert trace_counts()["forward_tiles"] == before
+
+
+def test_bad_obstacle_input():
+    with pytest.raises(ValueError, match="2-D"):
+        dense_fields(np.zeros(5, bool))
+    with pytest.raises(ValueError, match="NaN"):
+        dense_fields(np.full((4, 4), np.nan))
+    with pytest.raises(ValueError, match="at least 2 x 2"):
+        dense_fields(np.zeros((1, 9), bool))
+    with pytest.raises(ValueError, match="half_width_px"):
+        DistanceConfig(half_width_px=0)
+    with pytest.raises(ValueError, match="sigma_px"):
+        DistanceConfig(sigma_px=float("nan"))
+    with pytest.raises(ValueError, match="ksize"):
+        RidgeConfig(ksize=7)
