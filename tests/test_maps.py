@@ -1,0 +1,804 @@
+"""Tests for topojax.maps: OccupancyMap, from_array, load_map, save_map."""
+
+from __future__ import annotations
+
+import math
+import re
+import struct
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+from conftest import SHARED_DATA
+from PIL import Image
+
+from topojax.maps import OccupancyMap, load_map, save_map
+
+MAP_SUFFIXES = {".yaml", ".png", ".pgm"}
+_MAPS_DIR = SHARED_DATA / "maps"
+MAP_FILES = (
+    sorted(p for p in _MAPS_DIR.rglob("*") if p.suffix.lower() in MAP_SUFFIXES)
+    if _MAPS_DIR.is_dir()
+    else []
+)
+
+
+# ---------------------------------------------------------------------- reference helpers
+
+
+def _png_bit_depth(path: Path) -> int | None:
+    """Bit depth from a PNG's IHDR chunk (byte 24 of the file), None if not a PNG."""
+    head = path.read_bytes()[:25]
+    if head[:8] != b"\x89PNG\r\n\x1a\n":
+        return None
+    return head[24]
+
+
+def reference_grey(path: Path) -> tuple[np.ndarray, int]:
+    """Mean of the colour channels as float64, decoded independently of topojax.
+
+    8-bit files are decoded with PIL (palette/LA/RGBA converted to RGB); 16-bit PNGs with
+    OpenCV (PIL cannot give 16-bit RGBA), returning the full scale (255 or 65535).
+    """
+    if _png_bit_depth(path) == 16:
+        raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        assert raw.dtype == np.uint16
+        colour = raw if raw.ndim == 2 else raw[..., :3]
+        grey = colour.astype(np.float64) if raw.ndim == 2 else colour.mean(axis=2)
+        return grey, 65535
+    with Image.open(path) as im:
+        if im.mode == "L":
+            return np.asarray(im, dtype=np.float64), 255
+        rgb = np.asarray(im.convert("RGB"), dtype=np.float64)
+    return rgb.mean(axis=2), 255
+
+
+def reference_classes(
+    grey: np.ndarray, full: int, occ: float, free: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """map_server rule written out in float64: p = (full - v) / full."""
+    p = (full - grey) / full
+    occupied = p > occ
+    free_m = p < free
+    unknown = ~occupied & ~free_m
+    return occupied, free_m, unknown
+
+
+def yaml_doc(path: Path) -> dict:
+    with open(path, encoding="utf-8") as fh:
+        return yaml.safe_load(fh)
+
+
+def yaml_image_path(path: Path) -> Path:
+    """Image of a map YAML, resolved independently (by basename next to the YAML)."""
+    return path.parent / Path(yaml_doc(path)["image"]).name
+
+
+def assert_partition(m: OccupancyMap) -> None:
+    for mask in (m.occupied, m.free, m.unknown):
+        assert mask.dtype == np.bool_
+        assert mask.shape == m.shape
+        assert not mask.flags.writeable
+    total = m.occupied.astype(int) + m.free.astype(int) + m.unknown.astype(int)
+    assert np.all(total == 1)
+    h, w = m.shape
+    assert int(m.occupied.sum() + m.free.sum() + m.unknown.sum()) == h * w
+
+
+# ---------------------------------------------------------------------- every real map
+
+
+@pytest.mark.parametrize(
+    "map_path", MAP_FILES, ids=[str(p.relative_to(_MAPS_DIR)) for p in MAP_FILES]
+)
+def test_every_shared_map_loads_and_matches_reference(shared_data: Path, map_path: Path):
+    m = load_map(map_path)
+    assert_partition(m)
+    assert m.source == str(map_path)
+    if map_path.suffix == ".yaml":
+        doc = yaml_doc(map_path)
+        grey, full = reference_grey(yaml_image_path(map_path))
+        occ_t = float(doc.get("occupied_thresh", 0.65))
+        free_t = float(doc.get("free_thresh", 0.196))
+        assert int(doc.get("negate", 0)) == 0
+        assert doc.get("mode", "trinary") == "trinary"
+        assert m.resolution_m == float(doc["resolution"])
+        assert m.origin == tuple(float(v) for v in doc["origin"])
+    else:
+        grey, full = reference_grey(map_path)
+        occ_t, free_t = 0.65, 0.196
+        assert m.origin == (0.0, 0.0, 0.0)
+        head = map_path.read_bytes()[:200]
+        if b"m/pix" in head:
+            expected = float(head.split(b"m/pix")[0].split()[-1])
+            assert m.resolution_m == pytest.approx(expected, rel=0, abs=1e-12)
+        else:
+            assert m.resolution_m == 0.05
+    assert m.shape == grey.shape
+    occupied, free, unknown = reference_classes(grey, full, occ_t, free_t)
+    assert np.array_equal(m.occupied, occupied)
+    assert np.array_equal(m.free, free)
+    assert np.array_equal(m.unknown, unknown)
+    counts = (int(m.occupied.sum()), int(m.free.sum()), int(m.unknown.sum()))
+    assert counts == (int(occupied.sum()), int(free.sum()), int(unknown.sum()))
+    if full == 255 and (occ_t, free_t) == (0.65, 0.196):
+        # README: with 0.65 / 0.196, v <= 89 is occupied, v >= 206 is free (integer means).
+        integral = grey == np.round(grey)
+        assert np.array_equal(m.occupied[integral], grey[integral] <= 89)
+        assert np.array_equal(m.free[integral], grey[integral] >= 206)
+
+
+# ---------------------------------------------------------------------- specific real maps
+
+
+def _grey_of(shared_data: Path, rel: str) -> np.ndarray:
+    grey, full = reference_grey(shared_data / "maps" / rel)
+    assert full == 255
+    return grey
+
+
+def test_trinary_slam_pgms_are_exactly_0_205_254(shared_data: Path):
+    for p in sorted((shared_data / "maps" / "slam_pgm").glob("*.pgm")):
+        v = _grey_of(shared_data, str(p.relative_to(shared_data / "maps")))
+        assert set(np.unique(v).tolist()) <= {0.0, 205.0, 254.0}
+        m = load_map(p)
+        assert np.array_equal(m.occupied, v == 0)
+        assert np.array_equal(m.unknown, v == 205)
+        assert np.array_equal(m.free, v == 254)
+
+
+def test_pal_office_127_is_unknown(shared_data: Path):
+    m = load_map(shared_data / "maps/ros/pal_office_7th_floor/map.yaml")
+    v = _grey_of(shared_data, "ros/pal_office_7th_floor/map.pgm")
+    assert set(np.unique(v).tolist()) == {0.0, 127.0, 255.0}
+    assert np.count_nonzero(v == 127) > 0
+    assert np.array_equal(m.unknown, v == 127)
+    assert np.array_equal(m.occupied, v == 0)
+    assert np.array_equal(m.free, v == 255)
+    assert m.resolution_m == 0.025
+    assert m.origin == (-15.010291, -29.007413, 0.0)
+
+
+def test_depot_205_is_free_with_free_thresh_025(shared_data: Path):
+    yaml_path = shared_data / "maps/simulated/nav2/depot.yaml"
+    m = load_map(yaml_path)
+    v = _grey_of(shared_data, "simulated/nav2/depot.pgm")
+    assert np.count_nonzero(v == 205) > 0
+    assert np.all(m.free[v == 205])
+    assert int(m.unknown.sum()) == 0
+    # With the usual 0.196 (keyword overrides the YAML) 205 becomes unknown again.
+    m2 = load_map(yaml_path, free_thresh=0.196)
+    assert np.array_equal(m2.unknown, v == 205)
+    # The PGM alone uses the default thresholds.
+    m3 = load_map(shared_data / "maps/simulated/nav2/depot.pgm")
+    assert np.array_equal(m3.unknown, m2.unknown)
+
+
+def test_warehouse_free_thresh_01(shared_data: Path):
+    m = load_map(shared_data / "maps/simulated/nav2/warehouse.yaml")
+    v = _grey_of(shared_data, "simulated/nav2/warehouse.pgm")
+    # free iff (255 - v) / 255 < 0.1  <=>  v >= 230 for integer v.
+    assert np.array_equal(m.free, v >= 230)
+    assert np.all(m.unknown[v == 205])
+    assert np.all(m.free[(v == 254) | (v == 255)])
+
+
+def test_turtlebot3_absolute_image_path_falls_back_to_basename(shared_data: Path):
+    yaml_path = shared_data / "maps/ros/turtlebot3_office/map_office_raw.yaml"
+    image = yaml_doc(yaml_path)["image"]
+    assert Path(image).is_absolute() and not Path(image).exists()
+    m = load_map(yaml_path)
+    direct = load_map(yaml_path.with_suffix(".pgm"))
+    assert np.array_equal(m.occupied, direct.occupied)
+    assert np.array_equal(m.free, direct.free)
+    assert m.origin == (-10.0, -10.0, 0.0)
+    assert m.resolution_m == 0.05
+    # Centre of the lower-left pixel is half a pixel inside the origin.
+    x, y = m.pixel_to_world(m.shape[0] - 1, 0)
+    assert x == pytest.approx(-10.0 + 0.025, abs=1e-12)
+    assert y == pytest.approx(-10.0 + 0.025, abs=1e-12)
+    # Centre of the top-right pixel.
+    x, y = m.pixel_to_world(0, m.shape[1] - 1)
+    assert x == pytest.approx(-10.0 + (384 - 0.5) * 0.05, abs=1e-12)
+    assert y == pytest.approx(-10.0 + (384 - 0.5) * 0.05, abs=1e-12)
+
+
+def test_pgm_header_resolution_is_used(shared_data: Path):
+    assert load_map(shared_data / "maps/slam_pgm/DM_0.11.pgm").resolution_m == 0.11
+    assert load_map(shared_data / "maps/slam_pgm/aces_0.10.pgm").resolution_m == 0.1
+    # GIMP re-saved file: no header, default 0.05 (the file name says 0.06).
+    assert load_map(shared_data / "maps/slam_pgm/edmonton_0.06.pgm").resolution_m == 0.05
+    assert (
+        load_map(shared_data / "maps/slam_pgm/edmonton_0.06.pgm", resolution_m=0.06).resolution_m
+        == 0.06
+    )
+
+
+def test_paper_maps_have_no_unknown(shared_data: Path):
+    for name in ("intel", "office", "a_scan"):
+        v = _grey_of(shared_data, f"paper/{name}.png")
+        m = load_map(shared_data / "maps/paper" / f"{name}.png")
+        assert set(np.unique(v).tolist()) == {0.0, 255.0}
+        assert int(m.unknown.sum()) == 0
+        assert np.array_equal(m.occupied, v == 0)
+
+
+def test_ipa_mode_and_default_mode_on_ipa_map(shared_data: Path):
+    path = shared_data / "maps/ipa/freiburg_building79.png"
+    v = _grey_of(shared_data, "ipa/freiburg_building79.png")
+    assert set(np.unique(v).tolist()) == {0.0, 153.0, 255.0}
+    default = load_map(path)
+    assert np.array_equal(default.unknown, v == 153)  # grey outside is unknown by default
+    ipa = load_map(path, mode="ipa")
+    assert np.array_equal(ipa.free, v >= 250)
+    assert np.array_equal(ipa.occupied, v < 250)
+    assert int(ipa.unknown.sum()) == 0
+
+
+def test_palette_png_from_data(shared_data: Path):
+    path = shared_data / "maps/ipa/lab_e.png"
+    with Image.open(path) as im:
+        assert im.mode == "P"
+    v = _grey_of(shared_data, "ipa/lab_e.png")
+    m = load_map(path)
+    assert np.array_equal(m.occupied, v == 0)
+    assert np.array_equal(m.free, v == 255)
+
+
+def test_16bit_rgba_png_from_data(shared_data: Path):
+    path = shared_data / "maps/ipa/lab_b.png"
+    assert _png_bit_depth(path) == 16
+    raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    grey = raw[..., :3].astype(np.float64).mean(axis=2)
+    m = load_map(path)
+    occ, free, unk = reference_classes(grey, 65535, 0.65, 0.196)
+    assert np.array_equal(m.occupied, occ)
+    assert np.array_equal(m.free, free)
+    # The 8-bit view (high byte) agrees except possibly right at the thresholds.
+    hi = (raw[..., :3] >> 8).astype(np.float64).mean(axis=2)
+    occ8, free8, _ = reference_classes(hi, 255, 0.65, 0.196)
+    assert np.count_nonzero(occ8 != occ) + np.count_nonzero(free8 != free) < 0.001 * grey.size
+
+
+# ---------------------------------------------------------------------- coordinates
+
+
+def _small_map(h: int = 5, w: int = 7, **kw) -> OccupancyMap:
+    arr = np.zeros((h, w), dtype=bool)
+    arr[0, :] = True
+    return OccupancyMap.from_array(arr, **kw)
+
+
+def test_pixel_to_world_without_yaw_matches_map_server_formula():
+    m = _small_map(resolution_m=0.1, origin=(2.0, -3.0, 0.0))
+    rows = np.array([0, 4, 2])
+    cols = np.array([0, 6, 3])
+    x, y = m.pixel_to_world(rows, cols)
+    assert x.dtype == np.float64 and y.dtype == np.float64
+    np.testing.assert_allclose(x, 2.0 + (cols + 0.5) * 0.1, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(y, -3.0 + (5 - rows - 0.5) * 0.1, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("yaw", [0.0, 0.3, -1.2, math.pi / 2, math.pi, 2.5])
+def test_pixel_to_world_with_yaw_and_round_trip(yaw: float):
+    res, ox, oy = 0.05, 1.5, -2.25
+    m = _small_map(h=40, w=30, resolution_m=res, origin=(ox, oy, yaw))
+    rng = np.random.default_rng(0)
+    rows = rng.uniform(-5, 45, size=200)
+    cols = rng.uniform(-5, 35, size=200)
+    x, y = m.pixel_to_world(rows, cols)
+    # Reference: rotation matrix applied to the unrotated map-frame point.
+    local = np.stack([(cols + 0.5) * res, (40 - rows - 0.5) * res])
+    rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    ref = rot @ local + np.array([[ox], [oy]])
+    np.testing.assert_allclose(x, ref[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(y, ref[1], rtol=0, atol=1e-12)
+    r2, c2 = m.world_to_pixel(x, y)
+    np.testing.assert_allclose(r2, rows, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(c2, cols, rtol=0, atol=1e-9)
+    # Integer pixel centres round-trip to integers.
+    rr, cc = np.meshgrid(np.arange(40), np.arange(30), indexing="ij")
+    r3, c3 = m.world_to_pixel(*m.pixel_to_world(rr, cc))
+    assert np.array_equal(np.rint(r3).astype(int), rr)
+    assert np.array_equal(np.rint(c3).astype(int), cc)
+    # Scalars and broadcasting.
+    xs, ys = m.pixel_to_world(3, np.arange(4))
+    assert xs.shape == (4,) and ys.shape == (4,)
+
+
+def test_yaml_yaw_is_honoured(tmp_path: Path):
+    img = np.full((10, 20), 254, dtype=np.uint8)
+    img[2:4, 5:9] = 0
+    cv2.imwrite(str(tmp_path / "m.pgm"), img)
+    (tmp_path / "m.yaml").write_text(
+        "image: m.pgm\nresolution: 0.2\norigin: [1.0, 2.0, 0.7]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    )
+    m = load_map(tmp_path / "m.yaml")
+    assert m.origin == (1.0, 2.0, 0.7)
+    # Lower-left pixel centre is (0.1, 0.1) in the map frame, rotated by 0.7 rad.
+    x, y = m.pixel_to_world(9, 0)
+    c, s = math.cos(0.7), math.sin(0.7)
+    assert x == pytest.approx(1.0 + c * 0.1 - s * 0.1, abs=1e-12)
+    assert y == pytest.approx(2.0 + s * 0.1 + c * 0.1, abs=1e-12)
+    assert np.array_equal(m.occupied, img == 0)
+
+
+# ---------------------------------------------------------------------- from_array
+
+
+def test_from_array_bool():
+    arr = np.array([[True, False, False], [False, True, True]])
+    m = OccupancyMap.from_array(arr, resolution_m=0.1)
+    assert np.array_equal(m.occupied, arr)
+    assert np.array_equal(m.free, ~arr)
+    assert not m.unknown.any()
+    assert m.shape == (2, 3)
+    # The caller's array stays writeable and is not aliased.
+    arr[0, 0] = False
+    assert m.occupied[0, 0]
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.int32, np.int64, np.uint16])
+def test_from_array_occupancy_grid(dtype):
+    values = np.array([-1, 0, 19, 20, 50, 65, 66, 100], dtype=np.int64)
+    if dtype == np.uint16:
+        values = values[1:]
+    arr = np.stack([values, values[::-1]]).astype(dtype)
+    m = OccupancyMap.from_array(arr)
+    v = arr.astype(np.int64)
+    assert np.array_equal(m.unknown, (v == -1) | ((v >= 20) & (v <= 65)))
+    assert np.array_equal(m.free, (v >= 0) & (v <= 19))
+    assert np.array_equal(m.occupied, v >= 66)
+    m2 = OccupancyMap.from_array(arr, occupied_thresh=0.5, free_thresh=0.25)
+    assert np.array_equal(m2.free, (v >= 0) & (v < 25))
+    assert np.array_equal(m2.occupied, v > 50)
+
+
+def test_from_array_float_probability():
+    arr = np.array([[0.0, 0.1, 0.195, 0.196, 0.5], [0.65, 0.651, 0.9, 1.0, 0.3]])
+    for dtype in (np.float32, np.float64):
+        a = arr.astype(dtype)
+        m = OccupancyMap.from_array(a)
+        assert np.array_equal(m.free, a < np.float64(0.196))
+        assert np.array_equal(m.occupied, a > np.float64(0.65))
+        assert np.array_equal(m.unknown, ~m.free & ~m.occupied)
+
+
+def test_from_array_uint8_grey_threshold_boundaries():
+    v = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    m = OccupancyMap.from_array(v)
+    assert np.array_equal(m.occupied, v <= 89)
+    assert np.array_equal(m.free, v >= 206)
+    assert np.array_equal(m.unknown, (v >= 90) & (v <= 205))
+    n = OccupancyMap.from_array(v, negate=True)
+    # negate: p = v / 255, occupied if v > 165.75, free if v < 49.98.
+    assert np.array_equal(n.occupied, v >= 166)
+    assert np.array_equal(n.free, v <= 49)
+    s = OccupancyMap.from_array(v, mode="scale")
+    assert np.array_equal(s.occupied, m.occupied) and np.array_equal(s.free, m.free)
+
+
+def test_from_array_colour_channels_use_mean():
+    rng = np.random.default_rng(1)
+    rgb = rng.integers(0, 256, size=(30, 40, 3), dtype=np.uint8)
+    m = OccupancyMap.from_array(rgb)
+    occ, free, unk = reference_classes(rgb.astype(np.float64).mean(axis=2), 255, 0.65, 0.196)
+    assert np.array_equal(m.occupied, occ)
+    assert np.array_equal(m.free, free)
+    assert np.array_equal(m.unknown, unk)
+    # Channel order does not matter (RGB vs BGR) and alpha is ignored.
+    assert np.array_equal(OccupancyMap.from_array(rgb[..., ::-1]).occupied, occ)
+    alpha = rng.integers(0, 256, size=(30, 40, 1), dtype=np.uint8)
+    rgba = np.concatenate([rgb, alpha], axis=2)
+    assert np.array_equal(OccupancyMap.from_array(rgba).free, free)
+    grey = rgb[..., :1]
+    la = np.concatenate([grey, alpha], axis=2)
+    ref = OccupancyMap.from_array(grey[..., 0])
+    assert np.array_equal(OccupancyMap.from_array(la).occupied, ref.occupied)
+    assert np.array_equal(OccupancyMap.from_array(grey).unknown, ref.unknown)
+
+
+def test_from_array_raw_mode():
+    v = np.array([[0, 10, 19, 20, 65], [66, 100, 101, 200, 255]], dtype=np.uint8)
+    m = OccupancyMap.from_array(v, mode="raw")
+    vi = v.astype(int)
+    assert np.array_equal(m.free, vi <= 19)
+    assert np.array_equal(m.occupied, (vi >= 66) & (vi <= 100))
+    assert np.array_equal(m.unknown, ((vi >= 20) & (vi <= 65)) | (vi > 100))
+    # negate (ROS 1 behaviour): value 255 - v.
+    n = OccupancyMap.from_array(255 - v, mode="raw", negate=True)
+    assert np.array_equal(n.free, m.free) and np.array_equal(n.occupied, m.occupied)
+
+
+def test_from_array_unknown_values():
+    v = np.array([[0, 230, 255], [230, 127, 254]], dtype=np.uint8)
+    base = OccupancyMap.from_array(v)
+    assert base.free[0, 1]  # 230 is free under map_server rules
+    m = OccupancyMap.from_array(v, unknown_values=[230])
+    assert np.array_equal(m.unknown, (v == 230) | (v == 127))
+    rgb = np.repeat(v[..., None], 3, axis=2)
+    assert np.array_equal(OccupancyMap.from_array(rgb, unknown_values=(230,)).unknown, m.unknown)
+    grid = np.array([[0, 255], [100, -1]], dtype=np.int16)
+    g = OccupancyMap.from_array(grid, unknown_values=[255])
+    assert np.array_equal(g.unknown, np.array([[False, True], [False, True]]))
+    prob = np.array([[0.0, -1.0], [1.0, 0.5]])
+    pm = OccupancyMap.from_array(prob, unknown_values=[-1.0])
+    assert np.array_equal(pm.unknown, np.array([[False, True], [False, True]]))
+
+
+def test_from_array_metadata():
+    m = _small_map(resolution_m=0.25, origin=[1, 2, 3])
+    assert m.resolution_m == 0.25
+    assert m.origin == (1.0, 2.0, 3.0)
+    assert all(isinstance(v, float) for v in m.origin)
+    assert "shape=(5, 7)" in repr(m)
+
+
+# ---------------------------------------------------------------------- from_array errors
+
+
+@pytest.mark.parametrize(
+    "arr",
+    [
+        np.zeros((0, 0), dtype=bool),
+        np.zeros((1, 1), dtype=bool),
+        np.zeros((1, 5), dtype=np.uint8),
+        np.zeros((5, 1), dtype=np.float64),
+    ],
+    ids=["0x0", "1x1", "1x5", "5x1"],
+)
+def test_too_small_maps_raise(arr):
+    with pytest.raises(ValueError, match=r"2x2.*" + re.escape(str(arr.shape))):
+        OccupancyMap.from_array(arr)
+
+
+def test_from_array_errors():
+    with pytest.raises(ValueError, match="3 NaN"):
+        OccupancyMap.from_array(np.array([[np.nan, 0.1], [np.nan, np.nan]]))
+    with pytest.raises(ValueError, match=r"\[0, 1\]"):
+        OccupancyMap.from_array(np.array([[1.5, 0.1], [0.0, 0.0]]))
+    with pytest.raises(ValueError, match="-1..100"):
+        OccupancyMap.from_array(np.array([[101, 0], [0, 0]], dtype=np.int32))
+    with pytest.raises(ValueError, match="-1..100"):
+        OccupancyMap.from_array(np.array([[-2, 0], [0, 0]], dtype=np.int8))
+    with pytest.raises(TypeError, match="complex"):
+        OccupancyMap.from_array(np.zeros((3, 3), dtype=np.complex128))
+    with pytest.raises(TypeError, match="object"):
+        OccupancyMap.from_array(np.array([[None, None], [None, None]], dtype=object))
+    with pytest.raises(ValueError, match="shape"):
+        OccupancyMap.from_array(np.zeros((3, 3, 5), dtype=np.uint8))
+    with pytest.raises(ValueError, match="shape"):
+        OccupancyMap.from_array(np.zeros((3, 3, 3), dtype=np.float64))
+    with pytest.raises(ValueError, match=r"free_thresh=0\.7.*occupied_thresh=0\.6"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), occupied_thresh=0.6, free_thresh=0.7)
+    with pytest.raises(ValueError, match=r"free_thresh=-0\.1"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), free_thresh=-0.1)
+    with pytest.raises(ValueError, match=r"occupied_thresh=1\.5"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), occupied_thresh=1.5)
+    with pytest.raises(ValueError, match="resolution_m"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), resolution_m=0.0)
+    with pytest.raises(ValueError, match="resolution_m"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), resolution_m=float("inf"))
+    with pytest.raises(ValueError, match="origin"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), origin=(0.0, 0.0))
+    with pytest.raises(ValueError, match="origin"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), origin=(0.0, float("nan"), 0.0))
+    with pytest.raises(ValueError, match="mode"):
+        OccupancyMap.from_array(np.zeros((3, 3), np.uint8), mode="binary")
+    with pytest.raises(ValueError, match="negate"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), negate=True)
+    with pytest.raises(ValueError, match="raw"):
+        OccupancyMap.from_array(np.zeros((3, 3), np.int8), mode="raw")
+    with pytest.raises(ValueError, match="unknown_values"):
+        OccupancyMap.from_array(np.zeros((3, 3), bool), unknown_values=[1])
+    with pytest.raises(ValueError, match="unknown_values"):
+        OccupancyMap.from_array(np.zeros((3, 3), np.uint8), unknown_values=[300])
+
+
+def test_occupancy_map_validation():
+    a = np.zeros((3, 3), dtype=bool)
+    t = np.ones((3, 3), dtype=bool)
+    m = OccupancyMap(a, t, a.copy())
+    assert m.free.all()
+    assert not m.free.flags.writeable
+    with pytest.raises(ValueError):
+        m.free[0, 0] = False
+    with pytest.raises(ValueError, match="partition"):
+        OccupancyMap(t, t, a)
+    with pytest.raises(ValueError, match="partition"):
+        OccupancyMap(a, a, a)
+    with pytest.raises(TypeError, match="dtype bool"):
+        OccupancyMap(a.astype(np.uint8), t, a)
+    with pytest.raises(ValueError, match="same shape"):
+        OccupancyMap(np.zeros((3, 4), bool), t, a)
+    with pytest.raises(ValueError, match="2-D"):
+        OccupancyMap(np.zeros((3, 3, 1), bool), t[..., None], a[..., None])
+    with pytest.raises(ValueError, match="resolution_m"):
+        OccupancyMap(a, t, a, resolution_m=-1.0)
+    with pytest.raises(ValueError, match="origin"):
+        OccupancyMap(a, t, a, origin=(1.0, 2.0, 3.0, 4.0))
+    with pytest.raises(TypeError, match="numpy"):
+        OccupancyMap([[False]], t, a)  # type: ignore[arg-type]
+
+
+# ---------------------------------------------------------------------- image files
+
+
+def _write_pgm(path: Path, img: np.ndarray, *, comment: str | None = None, maxval=255) -> None:
+    h, w = img.shape
+    header = "P5\n" + (f"# {comment}\n" if comment else "") + f"{w} {h}\n{maxval}\n"
+    if maxval < 256:
+        body = img.astype(np.uint8).tobytes()
+    else:
+        body = img.astype(">u2").tobytes()
+    path.write_bytes(header.encode("ascii") + body)
+
+
+def test_pgm_comment_resolution_and_override(tmp_path: Path):
+    img = np.array([[0, 205, 254], [254, 254, 0]], dtype=np.uint8)
+    _write_pgm(tmp_path / "a.pgm", img, comment="CREATOR: map_saver.cpp 0.070 m/pix")
+    m = load_map(tmp_path / "a.pgm")
+    assert m.resolution_m == 0.07
+    assert np.array_equal(m.unknown, img == 205)
+    assert load_map(tmp_path / "a.pgm", resolution_m=0.5).resolution_m == 0.5
+    _write_pgm(tmp_path / "b.pgm", img)
+    assert load_map(tmp_path / "b.pgm").resolution_m == 0.05
+
+
+def test_pgm_with_other_maxval(tmp_path: Path):
+    img = np.array([[0, 30, 40], [80, 90, 100]], dtype=np.uint8)
+    _write_pgm(tmp_path / "m.pgm", img, maxval=100)
+    m = load_map(tmp_path / "m.pgm")
+    p = (100 - img.astype(float)) / 100
+    assert np.array_equal(m.occupied, p > 0.65)
+    assert np.array_equal(m.free, p < 0.196)
+    img16 = np.array([[0, 20000], [40000, 65535]], dtype=np.uint16)
+    _write_pgm(tmp_path / "w.pgm", img16, maxval=65535)
+    m16 = load_map(tmp_path / "w.pgm")
+    p16 = (65535 - img16.astype(float)) / 65535
+    assert np.array_equal(m16.occupied, p16 > 0.65)
+    assert np.array_equal(m16.free, p16 < 0.196)
+
+
+def test_16bit_png_full_precision(tmp_path: Path):
+    # Values straddling the occupied threshold in 16-bit precision.
+    edge = 65535 * (1 - 0.65)
+    img = np.array([[0, int(edge) - 1, int(edge) + 1], [65535, 52000, 30000]], dtype=np.uint16)
+    assert cv2.imwrite(str(tmp_path / "m.png"), img)
+    m = load_map(tmp_path / "m.png")
+    p = (65535 - img.astype(float)) / 65535
+    assert np.array_equal(m.occupied, p > 0.65)
+    assert np.array_equal(m.free, p < 0.196)
+    assert m.occupied[0, 1] and not m.occupied[0, 2]
+
+
+def test_other_image_formats(tmp_path: Path):
+    img = np.full((40, 60), 255, dtype=np.uint8)
+    img[10:30, 20:40] = 0
+    img[:, :5] = 205
+    for suffix in (".png", ".bmp", ".tif", ".pgm"):
+        path = tmp_path / f"m{suffix}"
+        assert cv2.imwrite(str(path), img)
+        m = load_map(path)
+        assert np.array_equal(m.occupied, img == 0), suffix
+        assert np.array_equal(m.unknown, img == 205), suffix
+    # JPEG is lossy: check block interiors only.
+    assert cv2.imwrite(str(tmp_path / "m.jpg"), img, [cv2.IMWRITE_JPEG_QUALITY, 95])
+    m = load_map(tmp_path / "m.jpg")
+    assert m.occupied[14:26, 24:36].all()
+    assert m.free[5:35, 45:55].all()
+    # Colour PNG written by PIL (RGB, palette, LA, RGBA).
+    for mode in ("RGB", "P", "LA", "RGBA"):
+        path = tmp_path / f"pil_{mode}.png"
+        Image.fromarray(img, mode="L").convert(mode).save(path)
+        m = load_map(path)
+        assert np.array_equal(m.occupied, img == 0), mode
+        assert np.array_equal(m.unknown, img == 205), mode
+
+
+def test_image_errors(tmp_path: Path):
+    missing = tmp_path / "nope.png"
+    with pytest.raises(FileNotFoundError, match="nope.png"):
+        load_map(missing)
+    with pytest.raises(FileNotFoundError, match="nope.yaml"):
+        load_map(tmp_path / "nope.yaml")
+    bad = tmp_path / "bad.png"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\nthis is not an image at all" * 3)
+    with pytest.raises(ValueError, match="bad.png"):
+        load_map(bad)
+    empty = tmp_path / "empty.pgm"
+    empty.write_bytes(b"")
+    with pytest.raises(ValueError, match="empty.pgm"):
+        load_map(empty)
+    junk = tmp_path / "junk.jpg"
+    junk.write_bytes(np.random.default_rng(0).integers(0, 256, 500, dtype=np.uint8).tobytes())
+    with pytest.raises(ValueError, match="junk.jpg"):
+        load_map(junk)
+    other = tmp_path / "map.txt"
+    other.write_text("hello")
+    with pytest.raises(ValueError, match="suffix"):
+        load_map(other)
+    tiny = tmp_path / "tiny.png"
+    cv2.imwrite(str(tiny), np.zeros((1, 1), np.uint8))
+    with pytest.raises(ValueError, match=r"\(1, 1\)"):
+        load_map(tiny)
+    fl = tmp_path / "float.tif"
+    Image.fromarray(np.zeros((4, 4), np.float32), mode="F").save(fl)
+    with pytest.raises(ValueError, match="float.tif"):
+        load_map(fl)
+
+
+# ---------------------------------------------------------------------- YAML files
+
+
+def _yaml_map(tmp_path: Path, text: str, img: np.ndarray | None = None) -> Path:
+    if img is None:
+        img = np.array([[0, 205, 254], [254, 100, 0]], dtype=np.uint8)
+    _write_pgm(tmp_path / "m.pgm", img)
+    path = tmp_path / "m.yaml"
+    path.write_text(text)
+    return path
+
+
+GOOD = "image: m.pgm\nresolution: 0.1\norigin: [0.0, 0.0, 0.0]\n"
+
+
+def test_yaml_defaults_and_overrides(tmp_path: Path):
+    path = _yaml_map(tmp_path, GOOD)
+    m = load_map(path)
+    assert m.resolution_m == 0.1
+    assert np.array_equal(m.unknown, np.array([[0, 1, 0], [0, 1, 0]], bool))
+    m2 = load_map(path, resolution_m=0.3, origin=(1, 2, 0.5), free_thresh=0.25)
+    assert m2.resolution_m == 0.3 and m2.origin == (1.0, 2.0, 0.5)
+    assert m2.free[0, 1]  # 205 free with free_thresh 0.25
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    _write_pgm(sub / "x.pgm", np.zeros((2, 2), np.uint8))
+    (tmp_path / "rel.yml").write_text("image: sub/x.pgm\nresolution: 1\norigin: [0, 0, 0]\n")
+    assert load_map(tmp_path / "rel.yml").occupied.all()
+
+
+def test_yaml_negate_and_raw_mode(tmp_path: Path):
+    img = np.array([[0, 50, 100], [150, 255, 10]], dtype=np.uint8)
+    path = _yaml_map(tmp_path, GOOD + "negate: 1\n", img)
+    m = load_map(path)
+    assert np.array_equal(m.occupied, img >= 166)
+    assert np.array_equal(m.free, img <= 49)
+    path = _yaml_map(tmp_path, GOOD + "mode: raw\n", img)
+    r = load_map(path)
+    assert np.array_equal(r.free, img <= 19)
+    assert np.array_equal(r.occupied, (img >= 66) & (img <= 100))
+    assert np.array_equal(r.unknown, ((img > 19) & (img < 66)) | (img > 100))
+    path = _yaml_map(tmp_path, GOOD + "mode: scale\n", img)
+    s = load_map(path)
+    t = load_map(_yaml_map(tmp_path, GOOD, img))
+    assert np.array_equal(s.unknown, t.unknown)
+
+
+def test_yaml_absolute_image_path(tmp_path: Path):
+    _write_pgm(tmp_path / "m.pgm", np.zeros((3, 3), np.uint8))
+    (tmp_path / "abs.yaml").write_text(
+        f"image: {tmp_path / 'm.pgm'}\nresolution: 0.1\norigin: [0, 0, 0]\n"
+    )
+    assert load_map(tmp_path / "abs.yaml").occupied.all()
+    (tmp_path / "gone.yaml").write_text(
+        "image: /definitely/not/here/m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n"
+    )
+    assert load_map(tmp_path / "gone.yaml").occupied.all()
+    (tmp_path / "gone2.yaml").write_text(
+        "image: /definitely/not/here/q.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n"
+    )
+    with pytest.raises(FileNotFoundError, match="q.pgm"):
+        load_map(tmp_path / "gone2.yaml")
+
+
+@pytest.mark.parametrize(
+    ("text", "pattern"),
+    [
+        ("- a\n- b\n", "mapping"),
+        ("image: [unclosed\n", "parsed"),
+        ("resolution: 0.1\norigin: [0, 0, 0]\n", "'image'"),
+        ("image: m.pgm\norigin: [0, 0, 0]\n", "'resolution'"),
+        ("image: m.pgm\nresolution: 0.1\n", "'origin'"),
+        ("image: m.pgm\nresolution: 0\norigin: [0, 0, 0]\n", "'resolution'.*0"),
+        ("image: m.pgm\nresolution: -0.5\norigin: [0, 0, 0]\n", r"'resolution'.*-0\.5"),
+        ("image: m.pgm\nresolution: .nan\norigin: [0, 0, 0]\n", "'resolution'.*nan"),
+        ("image: m.pgm\nresolution: fast\norigin: [0, 0, 0]\n", "'resolution'.*fast"),
+        ("image: m.pgm\nresolution: 0.1\norigin: [0, 0]\n", "'origin'"),
+        ("image: m.pgm\nresolution: 0.1\norigin: zero\n", "'origin'.*zero"),
+        (
+            GOOD + "occupied_thresh: 0.1\nfree_thresh: 0.5\n",
+            r"free_thresh=0\.5.*occupied_thresh=0\.1",
+        ),
+        (GOOD + "occupied_thresh: 1.5\n", r"'occupied_thresh'.*1\.5"),
+        (GOOD + "free_thresh: high\n", "'free_thresh'.*high"),
+        (GOOD + "mode: fancy\n", "'mode'.*fancy"),
+        (GOOD + "negate: 7\n", "'negate'.*7"),
+        ("image: 12\nresolution: 0.1\norigin: [0, 0, 0]\n", "'image'"),
+    ],
+)
+def test_yaml_errors(tmp_path: Path, text: str, pattern: str):
+    path = _yaml_map(tmp_path, text)
+    with pytest.raises(ValueError, match=pattern) as info:
+        load_map(path)
+    assert str(path) in str(info.value)
+
+
+def test_yaml_missing_image_file(tmp_path: Path):
+    (tmp_path / "m.yaml").write_text("image: nothere.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(FileNotFoundError, match="nothere.pgm"):
+        load_map(tmp_path / "m.yaml")
+
+
+# ---------------------------------------------------------------------- saving
+
+
+def test_to_image_values():
+    occ = np.array([[True, False], [False, False]])
+    free = np.array([[False, True], [False, True]])
+    unk = ~occ & ~free
+    img = OccupancyMap(occ, free, unk).to_image()
+    assert img.dtype == np.uint8
+    assert img.tolist() == [[0, 254], [205, 254]]
+
+
+def test_save_map_round_trip(tmp_path: Path):
+    rng = np.random.default_rng(3)
+    codes = rng.integers(0, 3, size=(37, 53))
+    m = OccupancyMap(
+        codes == 0, codes == 1, codes == 2, resolution_m=0.011611161, origin=(-1.25, 3.5, 0.4)
+    )
+    image_path = save_map(m, tmp_path / "out.yaml")
+    assert image_path == tmp_path / "out.pgm"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.pgm", "out.yaml"]
+    back = load_map(tmp_path / "out.yaml")
+    assert np.array_equal(back.occupied, m.occupied)
+    assert np.array_equal(back.free, m.free)
+    assert np.array_equal(back.unknown, m.unknown)
+    assert back.resolution_m == m.resolution_m
+    assert back.origin == m.origin
+    # The PGM is a plain map_saver image readable by other decoders, header resolution kept.
+    with Image.open(image_path) as im:
+        assert im.mode == "L"
+        assert np.array_equal(np.asarray(im), m.to_image())
+    assert load_map(image_path).resolution_m == m.resolution_m
+    doc = yaml_doc(tmp_path / "out.yaml")
+    assert doc["image"] == "out.pgm" and doc["mode"] == "trinary"
+    # Overwrite in place works and leaves no temporary files.
+    save_map(back, tmp_path / "out.yaml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.pgm", "out.yaml"]
+
+
+def test_save_map_real_map_round_trip(shared_data: Path, tmp_path: Path):
+    m = load_map(shared_data / "maps/ros/pal_office_7th_floor/map.yaml")
+    save_map(m, tmp_path / "pal.yaml", image_name="pal_image.pgm")
+    back = load_map(tmp_path / "pal.yaml")
+    assert np.array_equal(back.unknown, m.unknown)
+    assert np.array_equal(back.occupied, m.occupied)
+    assert back.origin == m.origin and back.resolution_m == m.resolution_m
+
+
+def test_save_map_errors(tmp_path: Path):
+    m = _small_map()
+    with pytest.raises(ValueError, match="yaml"):
+        save_map(m, tmp_path / "out.txt")
+    with pytest.raises(ValueError, match="image_name"):
+        save_map(m, tmp_path / "out.yaml", image_name="../x.pgm")
+    with pytest.raises(TypeError, match="OccupancyMap"):
+        save_map(np.zeros((3, 3)), tmp_path / "out.yaml")  # type: ignore[arg-type]
+    with pytest.raises(FileNotFoundError):
+        save_map(m, tmp_path / "no_such_dir" / "out.yaml")
+
+
+def test_pgm_writer_header_is_standard(tmp_path: Path):
+    m = _small_map(h=3, w=4, resolution_m=0.05)
+    save_map(m, tmp_path / "s.yaml")
+    data = (tmp_path / "s.pgm").read_bytes()
+    assert data.startswith(b"P5\n# CREATOR: ")
+    lines = data.split(b"\n", 4)
+    assert lines[2] == b"4 3" and lines[3] == b"255"
+    assert len(lines[4]) == 12
+    assert struct.unpack("12B", lines[4])[:4] == (0, 0, 0, 0)
