@@ -1,0 +1,427 @@
+"""Tests for topojax.io: save_graph / load_graph round trips (GraphML, JSON, GeoJSON)."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+
+from topojax.io import atomic_write_bytes, load_graph, save_graph
+
+FORMATS = (".graphml", ".json", ".geojson")
+
+
+# ---------------------------------------------------------------------- graph builders
+
+
+def _edge_attrs(path: np.ndarray, rng: np.random.Generator) -> dict:
+    world = np.stack([path[:, 1] * 0.05 / 3.0 + 1e-13, 123456.789 - path[:, 0] / 7.0], axis=1)
+    clear = rng.random(len(path)) / 3.0
+    seg = np.diff(world, axis=0)
+    return {
+        "path": path.astype(np.int64),
+        "world": world.astype(np.float64),
+        "length_m": float(np.hypot(seg[:, 0], seg[:, 1]).sum()),
+        "min_clearance_m": float(clear.min()),
+        "mean_clearance_m": float(clear.mean()),
+    }
+
+
+def make_graph() -> nx.MultiGraph:
+    """Hand-made topology graph: parallel edges, a self-loop, isolated node, odd ids/keys."""
+    rng = np.random.default_rng(42)
+    g = nx.MultiGraph(resolution_m=0.05, origin=(1.5, -2.0, 0.1), shape=(100, 200))
+    g.graph["name"] = "hand-made"
+    g.graph["n_tiles"] = 4
+    g.graph["thin_method"] = "guo_hall"
+    g.graph["float_exact"] = 1.0 / 3.0
+    nodes = {
+        10: ((5, 7), "junction"),
+        3: ((40, 60), "junction"),
+        42: ((80, 20), "end"),
+        7: ((50, 150), "isolated"),
+        0: ((20, 100), "ring"),
+    }
+    for n, (pix, kind) in nodes.items():
+        g.add_node(
+            n,
+            pixel=pix,
+            world=(1.5 + (pix[1] + 0.5) * 0.05 / 3.0, -2.0 + (100 - pix[0] - 0.5) / 7.0),
+            kind=kind,
+            clearance_m=float(rng.random() / 7.0),
+        )
+    # Two parallel edges between 10 and 3 with different paths, keys 0 and 5.
+    p1 = np.array([[5, 7], [6, 8], [7, 9], [20, 30], [40, 60]])
+    p2 = np.array([[5, 7], [4, 8], [30, 50], [40, 60]])
+    g.add_edge(10, 3, key=0, **_edge_attrs(p1, rng))
+    g.add_edge(10, 3, key=5, **_edge_attrs(p2, rng))
+    g.add_edge(3, 42, **_edge_attrs(np.array([[40, 60], [60, 40], [80, 20]]), rng))
+    # Self-loop: closed ring, ends included.
+    ring = np.array([[20, 100], [20, 101], [21, 102], [22, 101], [21, 100], [20, 100]])
+    g.add_edge(0, 0, key=2, **_edge_attrs(ring, rng))
+    return g
+
+
+def make_edgeless() -> nx.MultiGraph:
+    g = nx.MultiGraph(resolution_m=0.1, origin=(0.0, 0.0, 0.0), shape=(3, 4))
+    g.add_node(1, pixel=(1, 2), world=(0.25, 0.15), kind="isolated", clearance_m=0.1)
+    g.add_node(0, pixel=(0, 0), world=(0.05, 0.25), kind="isolated", clearance_m=0.05)
+    return g
+
+
+# ---------------------------------------------------------------------- comparison
+
+
+def _assert_value_equal(a, b, where: str) -> None:
+    if isinstance(a, np.ndarray):
+        assert isinstance(b, np.ndarray), where
+        assert a.dtype == b.dtype, where
+        assert a.shape == b.shape, where
+        if np.issubdtype(a.dtype, np.integer):
+            assert np.array_equal(a, b), where
+        else:
+            np.testing.assert_allclose(b, a, rtol=0, atol=1e-12, err_msg=where)
+            assert np.array_equal(a, b), where  # shortest-repr floats are exact
+        return
+    assert type(a) is type(b), f"{where}: {type(a)} vs {type(b)}"
+    if isinstance(a, tuple):
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _assert_value_equal(x, y, f"{where}[{i}]")
+    elif isinstance(a, float):
+        assert abs(a - b) <= 1e-12 and a == b, where
+    else:
+        assert a == b, where
+
+
+def assert_graphs_equal(a: nx.MultiGraph, b: nx.MultiGraph, *, skip_edge=()) -> None:
+    assert isinstance(b, nx.MultiGraph) and not b.is_directed()
+    assert list(a.nodes) == list(b.nodes)
+    assert all(type(n) is int for n in b.nodes)
+    for n in a.nodes:
+        assert set(a.nodes[n]) == set(b.nodes[n]), n
+        for k, v in a.nodes[n].items():
+            _assert_value_equal(v, b.nodes[n][k], f"node {n} {k}")
+    ea = list(a.edges(keys=True))
+    eb = list(b.edges(keys=True))
+    assert ea == eb
+    for u, v, k in ea:
+        da, db = a.edges[u, v, k], b.edges[u, v, k]
+        assert set(da) - set(skip_edge) == set(db) - set(skip_edge), (u, v, k)
+        for name, val in da.items():
+            if name not in skip_edge:
+                _assert_value_equal(val, db[name], f"edge {(u, v, k)} {name}")
+    assert set(a.graph) == set(b.graph)
+    for name, val in a.graph.items():
+        _assert_value_equal(val, b.graph[name], f"graph {name}")
+
+
+# ---------------------------------------------------------------------- round trips
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_round_trip_hand_made(tmp_path: Path, suffix: str):
+    g = make_graph()
+    out = save_graph(g, tmp_path / f"g{suffix}")
+    assert out == tmp_path / f"g{suffix}"
+    back = load_graph(out)
+    assert_graphs_equal(g, back)
+    # Types required by the schema.
+    for _, d in back.nodes(data=True):
+        assert all(type(x) is int for x in d["pixel"])
+        assert all(type(x) is float for x in d["world"])
+        assert type(d["clearance_m"]) is float and type(d["kind"]) is str
+    for _, _, d in back.edges(data=True):
+        assert d["path"].dtype == np.int64 and d["path"].shape[1] == 2
+        assert d["world"].dtype == np.float64 and d["world"].shape == d["path"].shape
+    assert back.graph["origin"] == (1.5, -2.0, 0.1)
+    assert back.graph["shape"] == (100, 200)
+    # Multi-edge structure.
+    assert back.number_of_edges(10, 3) == 2
+    assert set(back[10][3]) == {0, 5}
+    assert back.has_edge(0, 0, key=2)
+    assert back.degree(7) == 0
+    # Only the target file exists (atomic write leaves no temporary files).
+    assert [p.name for p in tmp_path.iterdir()] == [f"g{suffix}"]
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_round_trip_edgeless_and_empty(tmp_path: Path, suffix: str):
+    g = make_edgeless()
+    back = load_graph(save_graph(g, tmp_path / f"e{suffix}"))
+    assert_graphs_equal(g, back)
+    assert back.number_of_edges() == 0
+    empty = nx.MultiGraph()
+    back = load_graph(save_graph(empty, tmp_path / f"empty{suffix}"))
+    assert back.number_of_nodes() == 0 and back.number_of_edges() == 0
+    assert dict(back.graph) == {}
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_round_trip_extra_attribute_types(tmp_path: Path, suffix: str):
+    g = make_graph()
+    g.graph["flag"] = True
+    g.graph["maybe"] = None
+    g.graph["params"] = {"sigma_px": 2.5, "method": "zhang", "sizes": [1, 2]}
+    g.graph["big_int"] = 2**40
+    g.graph["np_scalar"] = np.float32(0.5)
+    for n in g.nodes:
+        g.nodes[n]["degree_hint"] = np.int64(3)
+        g.nodes[n]["tags"] = ["a", "b"]
+    for u, v, k in g.edges(keys=True):
+        g.edges[u, v, k]["clearance_px"] = np.linspace(0.5, 2.0, len(g.edges[u, v, k]["path"]))
+        g.edges[u, v, k]["mask"] = np.ones(3, dtype=bool)
+        g.edges[u, v, k]["pixels32"] = g.edges[u, v, k]["path"].astype(np.int32)
+    back = load_graph(save_graph(g, tmp_path / f"x{suffix}"))
+    expected = g.copy()
+    expected.graph["np_scalar"] = 0.5  # numpy scalars come back as Python scalars
+    for n in expected.nodes:
+        expected.nodes[n]["degree_hint"] = 3
+    assert_graphs_equal(expected, back)
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_plain_graph_and_str_ids(tmp_path: Path, suffix: str):
+    g = nx.Graph()
+    g.add_node(1, world=(0.0, 1.0))
+    g.add_node(2, world=(1.0, 1.0))
+    g.add_edge(1, 2, world=np.array([[0.0, 1.0], [1.0, 1.0]]), length_m=1.0)
+    back = load_graph(save_graph(g, tmp_path / f"p{suffix}"))
+    assert isinstance(back, nx.MultiGraph)
+    assert list(back.edges(keys=True)) == [(1, 2, 0)]
+    s = nx.MultiGraph()
+    s.add_node("a", world=(0.0, 0.0))
+    s.add_node("b", world=(2.0, 0.0))
+    s.add_edge("a", "b", key="main", world=np.array([[0.0, 0.0], [2.0, 0.0]]))
+    back = load_graph(save_graph(s, tmp_path / f"s{suffix}"))
+    assert list(back.edges(keys=True)) == [("a", "b", "main")]
+
+
+def test_format_argument_overrides_suffix(tmp_path: Path):
+    g = make_graph()
+    path = save_graph(g, tmp_path / "graph.txt", format="json")
+    assert json.loads(path.read_text())["multigraph"] is True
+    assert_graphs_equal(g, load_graph(path, format="json"))
+    with pytest.raises(ValueError, match="format"):
+        save_graph(g, tmp_path / "g.json", format="yaml")
+
+
+# ---------------------------------------------------------------------- format validity
+
+
+def test_json_is_node_link_readable_by_networkx(tmp_path: Path):
+    g = make_graph()
+    path = save_graph(g, tmp_path / "g.json")
+    doc = json.loads(path.read_text())
+    assert doc["directed"] is False and doc["multigraph"] is True
+    h = nx.node_link_graph(doc, edges="edges")
+    assert isinstance(h, nx.MultiGraph)
+    assert sorted(h.nodes) == sorted(g.nodes)
+    assert sorted(h.edges(keys=True)) == sorted(g.edges(keys=True))
+    # Arrays are nested lists in the file.
+    e = h.edges[10, 3, 5]
+    assert e["path"] == g.edges[10, 3, 5]["path"].tolist()
+
+
+def test_graphml_is_readable_by_networkx(tmp_path: Path):
+    g = make_graph()
+    path = save_graph(g, tmp_path / "g.graphml")
+    h = nx.read_graphml(path, node_type=int, force_multigraph=True)
+    assert sorted(h.nodes) == sorted(g.nodes)
+    assert h.number_of_edges() == g.number_of_edges()
+    assert isinstance(h.nodes[42]["clearance_m"], float)
+    lengths = sorted(d["length_m"] for _, _, d in h.edges(data=True))
+    assert lengths == sorted(d["length_m"] for _, _, d in g.edges(data=True))
+    # path is a JSON string in GraphML.
+    paths = sorted(json.dumps(d["path"].tolist()) for _, _, d in g.edges(data=True))
+    assert sorted(json.dumps(json.loads(d["path"])) for _, _, d in h.edges(data=True)) == paths
+
+
+def _strict_json(text: str):
+    def bad_constant(name):
+        raise AssertionError(f"non-standard JSON constant {name}")
+
+    return json.loads(text, parse_constant=bad_constant)
+
+
+def test_geojson_structure(tmp_path: Path):
+    g = make_graph()
+    path = save_graph(g, tmp_path / "g.geojson")
+    doc = _strict_json(path.read_text())
+    assert doc["type"] == "FeatureCollection"
+    feats = doc["features"]
+    points = [f for f in feats if f["geometry"]["type"] == "Point"]
+    lines = [f for f in feats if f["geometry"]["type"] == "LineString"]
+    assert len(points) == g.number_of_nodes()
+    assert len(lines) == g.number_of_edges()
+    assert len(points) + len(lines) == len(feats)
+    for f in feats:
+        assert f["type"] == "Feature"
+        assert isinstance(f["properties"], dict)
+    for f in points:
+        props = f["properties"]
+        n = props["id"]
+        # Coordinate order is (x, y).
+        assert f["geometry"]["coordinates"] == list(g.nodes[n]["world"])
+        assert props["kind"] == g.nodes[n]["kind"]
+        assert props["clearance_m"] == g.nodes[n]["clearance_m"]
+        assert props["pixel"] == list(g.nodes[n]["pixel"])
+    for f in lines:
+        props = f["properties"]
+        u, v, k = props["u"], props["v"], props["key"]
+        d = g.edges[u, v, k]
+        coords = np.asarray(f["geometry"]["coordinates"])
+        assert coords.shape[1] == 2 and coords.shape[0] >= 2
+        assert np.array_equal(coords, d["world"])
+        assert props["length_m"] == d["length_m"]
+        assert props["min_clearance_m"] == d["min_clearance_m"]
+        assert props["mean_clearance_m"] == d["mean_clearance_m"]
+        assert props["path"] == d["path"].tolist()
+        if u == v:
+            assert coords[0].tolist() == coords[-1].tolist()  # closed ring
+    # x really is the first coordinate: node 42 is at column 20 -> small x, row 80 -> small y.
+    p42 = next(f for f in points if f["properties"]["id"] == 42)["geometry"]["coordinates"]
+    p7 = next(f for f in points if f["properties"]["id"] == 7)["geometry"]["coordinates"]
+    assert p42[0] < p7[0]  # col 20 < col 150
+    assert p42[1] < p7[1]  # row 80 is lower than row 50
+
+
+def test_geojson_closes_open_self_loop_and_restores_it(tmp_path: Path):
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0))
+    open_ring = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    g.add_edge(0, 0, world=open_ring, path=np.array([[0, 0], [0, 1], [1, 1], [1, 0]]))
+    path = save_graph(g, tmp_path / "ring.geojson")
+    doc = _strict_json(path.read_text())
+    line = next(f for f in doc["features"] if f["geometry"]["type"] == "LineString")
+    coords = line["geometry"]["coordinates"]
+    assert coords[0] == coords[-1] and len(coords) == 5
+    back = load_graph(path)
+    assert np.array_equal(back.edges[0, 0, 0]["world"], open_ring)
+    assert "closed_by_writer" not in back.edges[0, 0, 0]
+
+
+def test_load_foreign_node_link_without_schema(tmp_path: Path):
+    g = nx.MultiGraph(origin=[0.0, 1.0, 0.0])
+    g.add_node(0, pixel=[1, 2], world=[0.5, 0.25], kind="end")
+    g.add_node(1, pixel=[3, 4], world=[1.5, 0.75], kind="end")
+    g.add_edge(0, 1, path=[[1, 2], [2, 3], [3, 4]], world=[[0.5, 0.25], [1.0, 0.5], [1.5, 0.75]])
+    data = nx.node_link_data(g, edges="edges")
+    path = tmp_path / "foreign.json"
+    path.write_text(json.dumps(data))
+    back = load_graph(path)
+    assert back.nodes[0]["pixel"] == (1, 2)
+    assert back.nodes[1]["world"] == (1.5, 0.75)
+    assert back.graph["origin"] == (0.0, 1.0, 0.0)
+    e = back.edges[0, 1, 0]
+    assert e["path"].dtype == np.int64 and e["path"].shape == (3, 2)
+    assert e["world"].dtype == np.float64
+
+
+# ---------------------------------------------------------------------- errors
+
+
+def test_unknown_suffix_lists_supported(tmp_path: Path):
+    with pytest.raises(ValueError, match=r"\.geojson.*\.graphml.*\.json"):
+        save_graph(make_graph(), tmp_path / "g.csv")
+    with pytest.raises(ValueError, match=r"\.xml"):
+        load_graph(tmp_path / "g.xml")
+
+
+def test_load_errors(tmp_path: Path):
+    with pytest.raises(FileNotFoundError, match="missing.json"):
+        load_graph(tmp_path / "missing.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(ValueError, match="bad.json"):
+        load_graph(bad)
+    bad_gml = tmp_path / "bad.graphml"
+    bad_gml.write_text("<graphml><graph><node")
+    with pytest.raises(ValueError, match="bad.graphml"):
+        load_graph(bad_gml)
+    not_fc = tmp_path / "nofc.geojson"
+    not_fc.write_text(json.dumps({"type": "Feature"}))
+    with pytest.raises(ValueError, match="FeatureCollection"):
+        load_graph(not_fc)
+    poly = tmp_path / "poly.geojson"
+    poly.write_text(
+        json.dumps(
+            {
+                "type": "FeatureCollection",
+                "features": [
+                    {
+                        "type": "Feature",
+                        "geometry": {"type": "Polygon", "coordinates": []},
+                        "properties": {},
+                    }
+                ],
+            }
+        )
+    )
+    with pytest.raises(ValueError, match="Polygon"):
+        load_graph(poly)
+    no_nodes = tmp_path / "nonodes.json"
+    no_nodes.write_text(json.dumps({"edges": []}))
+    with pytest.raises(ValueError, match="nodes"):
+        load_graph(no_nodes)
+
+
+def test_save_errors(tmp_path: Path):
+    with pytest.raises(TypeError, match="directed"):
+        save_graph(nx.MultiDiGraph(), tmp_path / "g.json")
+    with pytest.raises(TypeError, match="networkx"):
+        save_graph({"nodes": []}, tmp_path / "g.json")  # type: ignore[arg-type]
+    g = make_graph()
+    g.nodes[3]["obj"] = object()
+    with pytest.raises(TypeError, match="obj"):
+        save_graph(g, tmp_path / "g.json")
+    h = nx.MultiGraph()
+    h.add_node((1, 2))
+    with pytest.raises(TypeError, match="node id"):
+        save_graph(h, tmp_path / "h.graphml")
+    no_world = make_graph()
+    del no_world.nodes[42]["world"]
+    with pytest.raises(ValueError, match="world"):
+        save_graph(no_world, tmp_path / "w.geojson")
+    nan = make_graph()
+    nan.nodes[3]["clearance_m"] = float("nan")
+    with pytest.raises(ValueError, match="NaN"):
+        save_graph(nan, tmp_path / "n.geojson")
+    # NaN is fine in .json / .graphml (Python round-trips it).
+    for suffix in (".json", ".graphml"):
+        back = load_graph(save_graph(nan, tmp_path / f"n{suffix}"))
+        assert np.isnan(back.nodes[3]["clearance_m"])
+    assert not (tmp_path / "g.json").exists()
+    assert not (tmp_path / "w.geojson").exists()
+
+
+def test_unsupported_graph_attribute_is_skipped_with_warning(tmp_path: Path):
+    g = make_graph()
+    g.graph["callback"] = print
+    with pytest.warns(UserWarning, match="callback"):
+        path = save_graph(g, tmp_path / "g.json")
+    back = load_graph(path)
+    assert "callback" not in back.graph
+    assert back.graph["name"] == "hand-made"
+
+
+def test_atomic_write_keeps_old_file_on_failure(tmp_path: Path, monkeypatch):
+    target = tmp_path / "g.json"
+    save_graph(make_edgeless(), target)
+    before = target.read_bytes()
+
+    def boom(src, dst):
+        raise OSError("simulated failure")
+
+    monkeypatch.setattr(os, "replace", boom)
+    with pytest.raises(OSError, match="simulated"):
+        save_graph(make_graph(), target)
+    monkeypatch.undo()
+    assert target.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["g.json"]
+    with pytest.raises(FileNotFoundError, match="no_dir"):
+        atomic_write_bytes(tmp_path / "no_dir" / "x.bin", b"x")

@@ -1,0 +1,699 @@
+"""Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON).
+
+Graphs are :class:`networkx.MultiGraph` objects with integer node ids. The topojax
+attribute schema is
+
+* nodes: ``pixel`` (tuple (row, col) of int), ``world`` (tuple (x, y) of float, metres),
+  ``kind`` (str), ``clearance_m`` (float);
+* edges: ``path`` (np.ndarray of int, (K, 2), (row, col)), ``world`` (np.ndarray of float,
+  (K, 2), (x, y) metres), ``length_m``, ``min_clearance_m``, ``mean_clearance_m`` (float);
+* graph: ``resolution_m``, ``origin`` (3-tuple), ``shape`` ((H, W)) and any other
+  attributes.
+
+Every file also stores a small *type schema* (``"topojax_schema"``) that records, per
+attribute name, whether values were numpy arrays (with dtype and trailing shape), tuples,
+lists or other JSON values, and the type of node ids and edge keys. :func:`load_graph` uses
+it to give back the same Python/numpy types. Files without a schema (written by other
+tools) are decoded with the topojax defaults above.
+
+Floats are written with Python's shortest round-trip representation, so they come back
+bit-exact. Writes are atomic: a temporary file in the target folder is renamed over the
+destination with :func:`os.replace`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import tempfile
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+
+__all__ = ["GRAPH_FORMATS", "atomic_write_bytes", "load_graph", "save_graph"]
+
+#: Supported formats and their file suffixes.
+GRAPH_FORMATS = {".graphml": "graphml", ".json": "json", ".geojson": "geojson"}
+
+_SCHEMA_KEY = "topojax_schema"
+_SCHEMA_VERSION = 1
+
+# Decoding used for files without a schema (topojax defaults).
+_DEFAULT_NODE_KINDS: dict[str, dict[str, Any]] = {
+    "pixel": {"kind": "tuple"},
+    "world": {"kind": "tuple"},
+}
+_DEFAULT_EDGE_KINDS: dict[str, dict[str, Any]] = {
+    "path": {"kind": "ndarray", "dtype": "int64", "trailing": [2]},
+    "world": {"kind": "ndarray", "dtype": "float64", "trailing": [2]},
+}
+_DEFAULT_GRAPH_KINDS: dict[str, dict[str, Any]] = {
+    "origin": {"kind": "tuple"},
+    "shape": {"kind": "tuple"},
+}
+
+
+# ---------------------------------------------------------------------- atomic writing
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically.
+
+    The bytes go to a temporary file in the same folder, which is flushed, synced and then
+    renamed over ``path`` with :func:`os.replace`; readers never see a partial file.
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination file. Its folder must exist.
+    data : bytes
+        File content.
+    """
+    dest = Path(path)
+    folder = dest.parent if str(dest.parent) else Path(".")
+    if not folder.is_dir():
+        raise FileNotFoundError(f"folder for output file {dest} does not exist: {folder}")
+    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, dest)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+# ---------------------------------------------------------------------- value encoding
+
+
+def _to_python_scalar(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _jsonable(value: Any, where: str) -> Any:
+    """Convert nested tuples/lists/dicts/numpy values into plain JSON values."""
+    value = _to_python_scalar(value)
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v, where) for v in value]
+    if isinstance(value, dict):
+        out = {}
+        for k, v in value.items():
+            if not isinstance(k, str):
+                raise TypeError(f"{where}: dict keys must be str to be saved, got {k!r}")
+            out[k] = _jsonable(v, where)
+        return out
+    raise TypeError(
+        f"{where}: values of type {type(value).__name__} cannot be saved "
+        "(supported: numbers, str, bool, None, tuple, list, dict, numpy arrays)"
+    )
+
+
+def _value_kind(value: Any) -> dict[str, Any]:
+    """Describe the type of one attribute value for the schema."""
+    if isinstance(value, np.ndarray):
+        return {"kind": "ndarray", "dtype": value.dtype.str, "trailing": list(value.shape[1:])}
+    value = _to_python_scalar(value)
+    if isinstance(value, bool):
+        return {"kind": "bool"}
+    if isinstance(value, int):
+        return {"kind": "int"}
+    if isinstance(value, float):
+        return {"kind": "float"}
+    if isinstance(value, str):
+        return {"kind": "str"}
+    if isinstance(value, tuple):
+        return {"kind": "tuple"}
+    if value is None:
+        return {"kind": "none"}
+    return {"kind": "json"}
+
+
+def _merge_kinds(a: dict[str, Any] | None, b: dict[str, Any], where: str) -> dict[str, Any]:
+    """Combine the kinds of two values of the same attribute."""
+    if a is None or a == b:
+        return b
+    ka, kb = a["kind"], b["kind"]
+    if {ka, kb} == {"int", "float"}:
+        return {"kind": "float"}
+    if ka == kb == "ndarray":
+        merged = dict(a)
+        if a["dtype"] != b["dtype"]:
+            merged["dtype"] = np.result_type(np.dtype(a["dtype"]), np.dtype(b["dtype"])).str
+        if a["trailing"] != b["trailing"]:
+            merged["trailing"] = None
+        return merged
+    # Mixed kinds: keep each value's own JSON form (tuples/arrays come back as lists).
+    warnings.warn(
+        f"{where} mixes values of kinds {ka!r} and {kb!r}; they are saved as plain JSON "
+        "values and may come back as lists",
+        UserWarning,
+        stacklevel=4,
+    )
+    return {"kind": "json"}
+
+
+def _collect_schema(items: list[dict[str, Any]], where: str) -> dict[str, dict[str, Any]]:
+    kinds: dict[str, dict[str, Any] | None] = {}
+    for attrs in items:
+        for name, value in attrs.items():
+            if not isinstance(name, str):
+                raise TypeError(f"{where} attribute names must be str, got {name!r}")
+            kinds[name] = _merge_kinds(
+                kinds.get(name), _value_kind(value), f"{where} attribute {name!r}"
+            )
+    return {k: v for k, v in kinds.items() if v is not None}
+
+
+def _decode_value(value: Any, spec: dict[str, Any] | None) -> Any:
+    """Inverse of :func:`_jsonable` for one attribute value, guided by ``spec``."""
+    if spec is None:
+        return value
+    kind = spec["kind"]
+    if kind == "ndarray":
+        if value is None:
+            return None
+        arr = np.asarray(value, dtype=np.dtype(spec["dtype"]))
+        trailing = spec.get("trailing")
+        if trailing is not None and arr.size == 0:
+            arr = arr.reshape((0, *trailing))
+        return arr
+    if kind == "tuple":
+        return _to_tuple(value) if isinstance(value, list) else value
+    if kind == "float" and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    return value
+
+
+def _to_tuple(value: Any) -> Any:
+    if isinstance(value, list):
+        return tuple(_to_tuple(v) for v in value)
+    return value
+
+
+def _check_key_type(value: Any, what: str) -> str:
+    value = _to_python_scalar(value)
+    if isinstance(value, bool) or not isinstance(value, (int, str)):
+        raise TypeError(f"{what} must be int or str to be saved, got {value!r}")
+    return "int" if isinstance(value, int) else "str"
+
+
+def _id_kind(values: list[Any], what: str) -> str:
+    kinds = {_check_key_type(v, what) for v in values}
+    if len(kinds) > 1:
+        raise TypeError(f"{what}s must all be int or all be str, got a mix")
+    return kinds.pop() if kinds else "int"
+
+
+def _as_multigraph(graph: Any) -> nx.MultiGraph:
+    if not isinstance(graph, nx.Graph):
+        raise TypeError(f"graph must be a networkx graph, got {type(graph).__name__}")
+    if graph.is_directed():
+        raise TypeError("graph must be undirected (networkx.MultiGraph or Graph), got directed")
+    if graph.is_multigraph():
+        return graph
+    return nx.MultiGraph(graph)
+
+
+def _graph_attrs_to_save(graph: nx.MultiGraph) -> dict[str, Any]:
+    """Graph attributes in a saveable form; unsupported values are skipped with a warning."""
+    out: dict[str, Any] = {}
+    for name, value in graph.graph.items():
+        if name == _SCHEMA_KEY:
+            continue
+        if not isinstance(name, str):
+            warnings.warn(f"graph attribute {name!r} skipped: name is not a str", stacklevel=3)
+            continue
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            value = dataclasses.asdict(value)
+        try:
+            _jsonable(value, f"graph attribute {name!r}")
+        except TypeError as exc:
+            warnings.warn(f"graph attribute {name!r} not saved: {exc}", UserWarning, stacklevel=3)
+            continue
+        out[name] = value
+    return out
+
+
+def _build_schema(g: nx.MultiGraph, graph_attrs: dict[str, Any]) -> dict[str, Any]:
+    return {
+        "version": _SCHEMA_VERSION,
+        "node_id": _id_kind(list(g.nodes), "node id"),
+        "edge_key": _id_kind([k for _, _, k in g.edges(keys=True)], "edge key"),
+        "graph": _collect_schema([graph_attrs], "graph"),
+        "node": _collect_schema([d for _, d in g.nodes(data=True)], "node"),
+        "edge": _collect_schema([d for _, _, d in g.edges(data=True)], "edge"),
+    }
+
+
+def _schema_or_default(schema: Any) -> dict[str, Any]:
+    if isinstance(schema, dict) and schema.get("version") == _SCHEMA_VERSION:
+        return schema
+    return {
+        "version": _SCHEMA_VERSION,
+        "node_id": None,
+        "edge_key": None,
+        "graph": _DEFAULT_GRAPH_KINDS,
+        "node": _DEFAULT_NODE_KINDS,
+        "edge": _DEFAULT_EDGE_KINDS,
+    }
+
+
+def _decode_id(value: Any, kind: str | None, what: str, path: Path) -> Any:
+    if kind == "str":
+        return str(value)
+    if kind == "int" or kind is None:
+        if isinstance(value, bool):
+            raise ValueError(f"graph file {path}: bad {what} {value!r}")
+        if isinstance(value, int):
+            return value
+        if isinstance(value, str):
+            try:
+                return int(value)
+            except ValueError:
+                if kind == "int":
+                    raise ValueError(
+                        f"graph file {path}: {what} {value!r} is not an integer"
+                    ) from None
+                return value
+    raise ValueError(f"graph file {path}: bad {what} {value!r}")
+
+
+def _decode_attrs(attrs: dict[str, Any], specs: dict[str, Any]) -> dict[str, Any]:
+    return {k: _decode_value(v, specs.get(k)) for k, v in attrs.items()}
+
+
+# ---------------------------------------------------------------------- JSON node-link
+
+
+def _to_node_link(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
+    nodes = []
+    for n, d in g.nodes(data=True):
+        entry = {k: _jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items()}
+        if "id" in entry:
+            raise ValueError(f"node {n!r} has an attribute named 'id', reserved by node-link")
+        entry["id"] = _jsonable(n, "node id")
+        nodes.append(entry)
+    edges = []
+    for u, v, k, d in g.edges(keys=True, data=True):
+        entry = {
+            name: _jsonable(val, f"edge ({u!r}, {v!r}, {k!r}) attribute {name!r}")
+            for name, val in d.items()
+        }
+        for reserved in ("source", "target", "key"):
+            if reserved in entry:
+                raise ValueError(
+                    f"edge ({u!r}, {v!r}, {k!r}) has an attribute named {reserved!r}, "
+                    "reserved by node-link"
+                )
+        entry["source"] = _jsonable(u, "node id")
+        entry["target"] = _jsonable(v, "node id")
+        entry["key"] = _jsonable(k, "edge key")
+        edges.append(entry)
+    graph_json = {
+        name: _jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
+    }
+    graph_json[_SCHEMA_KEY] = schema
+    return {
+        "directed": False,
+        "multigraph": True,
+        "graph": graph_json,
+        "nodes": nodes,
+        "edges": edges,
+    }
+
+
+def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
+    if not isinstance(doc, dict) or "nodes" not in doc:
+        raise ValueError(f"graph file {path} is not a node-link JSON object with 'nodes'")
+    if doc.get("directed", False):
+        raise ValueError(f"graph file {path} holds a directed graph; expected undirected")
+    edge_list_name = "edges" if "edges" in doc else "links"
+    graph_attrs = dict(doc.get("graph") or {})
+    schema = _schema_or_default(graph_attrs.pop(_SCHEMA_KEY, None))
+    g = nx.MultiGraph()
+    g.graph.update(_decode_attrs(graph_attrs, schema["graph"]))
+    for entry in doc["nodes"]:
+        if not isinstance(entry, dict) or "id" not in entry:
+            raise ValueError(f"graph file {path}: node entry without 'id': {entry!r}")
+        attrs = {k: v for k, v in entry.items() if k != "id"}
+        node = _decode_id(entry["id"], schema["node_id"], "node id", path)
+        g.add_node(node, **_decode_attrs(attrs, schema["node"]))
+    for entry in doc.get(edge_list_name, []):
+        if not isinstance(entry, dict) or "source" not in entry or "target" not in entry:
+            raise ValueError(f"graph file {path}: edge entry without source/target: {entry!r}")
+        u = _decode_id(entry["source"], schema["node_id"], "node id", path)
+        v = _decode_id(entry["target"], schema["node_id"], "node id", path)
+        attrs = {k: val for k, val in entry.items() if k not in ("source", "target", "key")}
+        key = entry.get("key")
+        if key is not None:
+            key = _decode_id(key, schema["edge_key"], "edge key", path)
+        g.add_edge(u, v, key=key, **_decode_attrs(attrs, schema["edge"]))
+    return g
+
+
+# ---------------------------------------------------------------------- GraphML
+
+
+def _graphml_value(value: Any, spec: dict[str, Any], where: str) -> Any:
+    """GraphML holds only scalars: encode everything else as a JSON string."""
+    value = _to_python_scalar(value)
+    kind = spec["kind"]
+    if kind == "float" and isinstance(value, (int, float)):
+        return float(value)
+    if kind in ("bool", "int", "str", "float"):
+        return value
+    return json.dumps(_jsonable(value, where), allow_nan=True)
+
+
+def _graphml_decode(value: Any, spec: dict[str, Any] | None) -> Any:
+    if spec is None:
+        return value
+    if spec["kind"] in ("bool", "int", "str", "float"):
+        return _decode_value(value, spec)
+    if isinstance(value, str):
+        value = json.loads(value)
+    return _decode_value(value, spec)
+
+
+def _write_graphml(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> bytes:
+    h = nx.MultiGraph()
+    for name, val in graph_attrs.items():
+        h.graph[name] = _graphml_value(val, schema["graph"][name], f"graph attribute {name!r}")
+    h.graph[_SCHEMA_KEY] = json.dumps(schema)
+    for n, d in g.nodes(data=True):
+        h.add_node(
+            _to_python_scalar(n),
+            **{
+                k: _graphml_value(v, schema["node"][k], f"node {n!r} attribute {k!r}")
+                for k, v in d.items()
+            },
+        )
+    for u, v, k, d in g.edges(keys=True, data=True):
+        h.add_edge(
+            _to_python_scalar(u),
+            _to_python_scalar(v),
+            key=_to_python_scalar(k),
+            **{
+                name: _graphml_value(
+                    val, schema["edge"][name], f"edge ({u!r}, {v!r}, {k!r}) attribute {name!r}"
+                )
+                for name, val in d.items()
+            },
+        )
+    text = "\n".join(nx.generate_graphml(h, encoding="utf-8", prettyprint=True))
+    return text.encode("utf-8")
+
+
+def _read_graphml(path: Path) -> nx.MultiGraph:
+    try:
+        raw = nx.read_graphml(path, node_type=str, edge_key_type=str, force_multigraph=True)
+    except Exception as exc:  # ElementTree / networkx raise various types on bad files
+        raise ValueError(f"graph file {path} is not valid GraphML: {exc}") from None
+    if raw.is_directed():
+        raise ValueError(f"graph file {path} holds a directed graph; expected undirected")
+    graph_attrs = dict(raw.graph)
+    graph_attrs.pop("node_default", None)
+    graph_attrs.pop("edge_default", None)
+    schema_text = graph_attrs.pop(_SCHEMA_KEY, None)
+    try:
+        schema = _schema_or_default(json.loads(schema_text) if schema_text else None)
+    except json.JSONDecodeError:
+        raise ValueError(f"graph file {path}: unreadable {_SCHEMA_KEY!r} attribute") from None
+    has_schema = schema_text is not None
+    g = nx.MultiGraph()
+    g.graph.update({k: _graphml_decode(v, schema["graph"].get(k)) for k, v in graph_attrs.items()})
+    for n, d in raw.nodes(data=True):
+        node = _decode_id(n, schema["node_id"], "node id", path)
+        g.add_node(node, **{k: _graphml_decode(v, schema["node"].get(k)) for k, v in d.items()})
+    for u, v, k, d in raw.edges(keys=True, data=True):
+        attrs = dict(d)
+        # networkx's reader copies the GraphML edge id into an 'id' attribute.
+        if "id" in attrs and (not has_schema or "id" not in schema["edge"]):
+            attrs.pop("id")
+        g.add_edge(
+            _decode_id(u, schema["node_id"], "node id", path),
+            _decode_id(v, schema["node_id"], "node id", path),
+            key=_decode_id(k, schema["edge_key"], "edge key", path),
+            **{name: _graphml_decode(val, schema["edge"].get(name)) for name, val in attrs.items()},
+        )
+    return g
+
+
+# ---------------------------------------------------------------------- GeoJSON
+
+_GEO_NODE_RESERVED = ("id", "feature")
+_GEO_EDGE_RESERVED = ("u", "v", "key", "feature", "closed_by_writer")
+
+
+def _xy(value: Any, where: str) -> list[float]:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{where} must be 2 finite numbers (x, y), got {value!r}")
+    return [float(arr[0]), float(arr[1])]
+
+
+def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
+    features = []
+    for n, d in g.nodes(data=True):
+        if "world" not in d:
+            raise ValueError(f"GeoJSON needs a 'world' (x, y) attribute on every node; node {n!r}")
+        props = {
+            k: _jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items() if k != "world"
+        }
+        for reserved in _GEO_NODE_RESERVED:
+            if reserved in props:
+                raise ValueError(f"node {n!r} has an attribute named {reserved!r}, reserved")
+        props["feature"] = "node"
+        props["id"] = _jsonable(n, "node id")
+        geometry = {"type": "Point", "coordinates": _xy(d["world"], f"node {n!r} 'world'")}
+        features.append({"type": "Feature", "geometry": geometry, "properties": props})
+    for u, v, k, d in g.edges(keys=True, data=True):
+        where = f"edge ({u!r}, {v!r}, {k!r})"
+        if "world" in d:
+            coords = np.asarray(d["world"], dtype=np.float64)
+            if coords.ndim != 2 or coords.shape[1] != 2 or coords.shape[0] < 1:
+                raise ValueError(f"{where} 'world' must have shape (K, 2), got {coords.shape}")
+        else:
+            raise ValueError(f"GeoJSON needs a 'world' (K, 2) polyline on every edge; {where}")
+        if not np.all(np.isfinite(coords)):
+            raise ValueError(f"{where} 'world' contains non-finite coordinates")
+        line = coords.tolist()
+        appended = 0
+        # A self-loop is a closed ring; a LineString needs at least 2 positions.
+        if (u == v and line[0] != line[-1]) or len(line) < 2:
+            line.append(list(line[0]))
+            appended = 1
+        props = {
+            name: _jsonable(val, f"{where} attribute {name!r}")
+            for name, val in d.items()
+            if name != "world"
+        }
+        for reserved in _GEO_EDGE_RESERVED:
+            if reserved in props:
+                raise ValueError(f"{where} has an attribute named {reserved!r}, reserved")
+        props["feature"] = "edge"
+        props["u"] = _jsonable(u, "node id")
+        props["v"] = _jsonable(v, "node id")
+        props["key"] = _jsonable(k, "edge key")
+        if appended:
+            props["closed_by_writer"] = appended
+        geometry = {"type": "LineString", "coordinates": line}
+        features.append({"type": "Feature", "geometry": geometry, "properties": props})
+    graph_json = {
+        name: _jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
+    }
+    # Foreign members (RFC 7946 section 6.1); coordinates are map-frame metres, not WGS 84.
+    return {
+        "type": "FeatureCollection",
+        "features": features,
+        "graph": graph_json,
+        _SCHEMA_KEY: schema,
+    }
+
+
+def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
+    if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
+        raise ValueError(f"graph file {path} is not a GeoJSON FeatureCollection")
+    schema = _schema_or_default(doc.get(_SCHEMA_KEY))
+    g = nx.MultiGraph()
+    g.graph.update(_decode_attrs(dict(doc.get("graph") or {}), schema["graph"]))
+    edges = []
+    for i, feat in enumerate(doc.get("features", [])):
+        if not isinstance(feat, dict) or feat.get("type") != "Feature":
+            raise ValueError(f"graph file {path}: features[{i}] is not a GeoJSON Feature")
+        geom = feat.get("geometry") or {}
+        props = dict(feat.get("properties") or {})
+        gtype = geom.get("type")
+        coords = geom.get("coordinates")
+        if gtype == "Point":
+            if "id" not in props:
+                raise ValueError(f"graph file {path}: Point features[{i}] has no 'id' property")
+            node = _decode_id(props.pop("id"), schema["node_id"], "node id", path)
+            props.pop("feature", None)
+            attrs = _decode_attrs(props, schema["node"])
+            xy = _xy(coords, f"graph file {path}: features[{i}] coordinates")
+            spec = schema["node"].get("world") or {"kind": "tuple"}
+            attrs["world"] = _decode_value(xy, spec)
+            g.add_node(node, **attrs)
+        elif gtype == "LineString":
+            if "u" not in props or "v" not in props:
+                raise ValueError(f"graph file {path}: LineString features[{i}] lacks 'u'/'v'")
+            edges.append((i, props, coords))
+        else:
+            raise ValueError(
+                f"graph file {path}: features[{i}] has geometry type {gtype!r}; "
+                "expected Point or LineString"
+            )
+    for i, props, coords in edges:
+        u = _decode_id(props.pop("u"), schema["node_id"], "node id", path)
+        v = _decode_id(props.pop("v"), schema["node_id"], "node id", path)
+        key = props.pop("key", None)
+        if key is not None:
+            key = _decode_id(key, schema["edge_key"], "edge key", path)
+        appended = int(props.pop("closed_by_writer", 0))
+        props.pop("feature", None)
+        world = np.asarray(coords, dtype=np.float64)
+        if world.ndim != 2 or world.shape[1] != 2:
+            raise ValueError(
+                f"graph file {path}: features[{i}] coordinates must be a list of [x, y]"
+            )
+        if appended:
+            world = world[:-appended]
+        attrs = _decode_attrs(props, schema["edge"])
+        spec = schema["edge"].get("world")
+        if spec is not None and spec["kind"] == "ndarray":
+            world = world.astype(np.dtype(spec["dtype"]), copy=False)
+        attrs["world"] = world
+        g.add_edge(u, v, key=key, **attrs)
+    return g
+
+
+# ---------------------------------------------------------------------- public API
+
+
+def _format_for(path: Path, format: str | None) -> str:
+    supported = sorted(GRAPH_FORMATS)
+    if format is not None:
+        fmt = str(format).lower().lstrip(".")
+        if fmt not in GRAPH_FORMATS.values():
+            raise ValueError(
+                f"format must be one of {sorted(GRAPH_FORMATS.values())}, got {format!r}"
+            )
+        return fmt
+    suffix = path.suffix.lower()
+    if suffix not in GRAPH_FORMATS:
+        raise ValueError(
+            f"cannot infer the graph format of {str(path)!r} from suffix {path.suffix!r}; "
+            f"supported suffixes: {supported} (or pass format=)"
+        )
+    return GRAPH_FORMATS[suffix]
+
+
+def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = None) -> Path:
+    """Save a topology graph.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        Undirected graph (a plain ``networkx.Graph`` is saved with edge keys 0). Node ids
+        and edge keys must be int (or all str). Attribute values may be numbers, str,
+        bool, None, tuples, lists, dicts and numpy arrays. Graph attributes of other
+        types (e.g. objects) are skipped with a warning; dataclass instances are saved as
+        dicts.
+    path : str or Path
+        Output file; its folder must exist.
+    format : {"graphml", "json", "geojson"}, optional
+        Default: from the suffix (``.graphml``, ``.json``, ``.geojson``).
+
+        * ``graphml``: arrays, tuples and lists are stored as JSON strings.
+        * ``json``: networkx node-link data (``"nodes"`` / ``"edges"``, edge ``"key"``),
+          arrays as nested lists.
+        * ``geojson``: a FeatureCollection with one Point per node (properties ``id``,
+          ``feature: "node"`` and the node attributes except ``world``, which is the
+          geometry) and one LineString per edge (properties ``u``, ``v``, ``key``,
+          ``feature: "edge"`` and the edge attributes except ``world``, which gives the
+          coordinates ``[x, y]``). A self-loop whose polyline is not closed is closed by
+          repeating its first point (recorded as ``closed_by_writer`` so that loading
+          removes it). Needs ``world`` on every node and edge. Coordinates are map-frame
+          metres, not WGS 84.
+
+    Returns
+    -------
+    Path
+        The written path.
+    """
+    p = Path(path)
+    fmt = _format_for(p, format)
+    g = _as_multigraph(graph)
+    graph_attrs = _graph_attrs_to_save(g)
+    schema = _build_schema(g, graph_attrs)
+    if fmt == "graphml":
+        data = _write_graphml(g, graph_attrs, schema)
+    elif fmt == "json":
+        data = json.dumps(_to_node_link(g, graph_attrs, schema), allow_nan=True).encode("utf-8")
+    else:
+        doc = _to_geojson(g, graph_attrs, schema)
+        try:
+            data = json.dumps(doc, allow_nan=False).encode("utf-8")
+        except ValueError:
+            raise ValueError(
+                f"cannot write {p} as GeoJSON: an attribute holds NaN or infinity, which "
+                "strict JSON cannot represent (use .json or .graphml)"
+            ) from None
+    atomic_write_bytes(p, data)
+    return p
+
+
+def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
+    """Load a graph written by :func:`save_graph`.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.graphml``, ``.json`` or ``.geojson`` file.
+    format : {"graphml", "json", "geojson"}, optional
+        Default: from the suffix.
+
+    Returns
+    -------
+    networkx.MultiGraph
+        Same node ids, edge keys, node/edge order and attribute types as saved: numpy
+        arrays (with their dtype) for array attributes such as edge ``path`` / ``world``,
+        tuples for node ``pixel`` / ``world`` and graph ``origin`` / ``shape``.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If the file cannot be parsed as the expected format.
+    """
+    p = Path(path)
+    fmt = _format_for(p, format)
+    if not p.is_file():
+        raise FileNotFoundError(f"graph file not found: {p}")
+    if fmt == "graphml":
+        return _read_graphml(p)
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"graph file {p} is not valid JSON: {exc}") from None
+    reader: Callable[[Any, Path], nx.MultiGraph]
+    reader = _from_node_link if fmt == "json" else _from_geojson
+    return reader(doc, p)
