@@ -1,0 +1,1084 @@
+"""Tests for topojax.scans: the Scan type and the CARMEN / Octave / ROS bag readers."""
+
+from __future__ import annotations
+
+import gzip
+import math
+import struct
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from topojax.scans import (
+    Scan,
+    read_bag,
+    read_carmen,
+    read_octave_laser,
+    read_scans,
+    scans_from_arrays,
+)
+
+DATA = Path(__file__).resolve().parent / "data"
+INTEL_EXCERPT = DATA / "intel_first40.log.gz"
+OCTAVE_EXCERPT = DATA / "csail_laser_octave_first20.txt"
+CCNY_EXCERPT = DATA / "ccny_demo_first25.bag"
+
+# Scans (FLASER lines) per shared CARMEN log, from the shared data README.
+CARMEN_COUNTS = {
+    "intel": (910, 180),
+    "freiburg-079": (4791, 360),
+    "aces": (440, 180),
+    "csail": (406, 361),
+    "infinite-corridor": (1941, 180),
+    "freiburg-101": (292, 360),
+    "freiburg-campus": (2008, 360),
+    "seattle": (241, 361),
+    "orebro": (237, 181),
+    "belgioioso": (395, 361),
+    "fhw": (488, 180),
+    "edmonton": (340, 180),
+    "acapulco": (861, 181),
+}
+
+
+def _se2(x: float, y: float, yaw: float) -> np.ndarray:
+    """3x3 homogeneous matrix of a planar pose (float64)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, x], [s, c, y], [0.0, 0.0, 1.0]])
+
+
+def _reference_endpoints(ranges, angles, pose, offset, mask) -> np.ndarray:
+    """World end points via homogeneous matrices, independent of topojax."""
+    t = _se2(*pose) @ _se2(*offset)
+    r = np.asarray(ranges, dtype=np.float64)[mask]
+    a = np.asarray(angles, dtype=np.float64)[mask]
+    pts = np.stack([r * np.cos(a), r * np.sin(a), np.ones_like(r)])
+    return (t @ pts)[:2].T
+
+
+# ------------------------------------------------------------------------------------------
+# Scan
+# ------------------------------------------------------------------------------------------
+
+
+def test_scan_fields_validated_and_read_only():
+    src = np.array([1.0, 2.0, 3.0])
+    s = Scan(src, -0.5, 0.5, 0.1, 10.0, (1, 2, 0.3), timestamp=5)
+    assert s.pose == (1.0, 2.0, 0.3) and all(isinstance(v, float) for v in s.pose)
+    assert s.sensor_offset == (0.0, 0.0, 0.0)
+    assert s.timestamp == 5.0
+    assert not s.ranges.flags.writeable
+    src[0] = 99.0  # the scan holds a copy
+    assert s.ranges[0] == 1.0
+    with pytest.raises(ValueError):
+        s.ranges[1] = 0.0
+    assert Scan(np.array([1, 2], dtype=np.int32), 0, 1, 0, 5, (0, 0, 0)).ranges.dtype == np.float64
+    assert Scan(np.ones(2, np.float32), 0, 1, 0, 5, (0, 0, 0)).ranges.dtype == np.float32
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "word"),
+    [
+        ({"ranges": np.ones((2, 3))}, ValueError, "ranges"),
+        ({"ranges": np.array(["a", "b"])}, TypeError, "ranges"),
+        ({"angle_increment": 0.0}, ValueError, "angle_increment"),
+        ({"angle_increment": math.nan}, ValueError, "angle_increment"),
+        ({"angle_min": math.inf}, ValueError, "angle_min"),
+        ({"range_min": -0.1}, ValueError, "range_min"),
+        ({"range_max": 0.05}, ValueError, "range_max"),
+        ({"range_max": math.nan}, ValueError, "range_max"),
+        ({"pose": (0.0, math.nan, 0.0)}, ValueError, "pose"),
+        ({"pose": (0.0, 0.0, math.inf)}, ValueError, "pose"),
+        ({"pose": (0.0, 0.0)}, ValueError, "pose"),
+        ({"sensor_offset": (0.0, 0.0, 0.0, 0.0)}, ValueError, "sensor_offset"),
+        ({"sensor_offset": (math.nan, 0.0, 0.0)}, ValueError, "sensor_offset"),
+        ({"timestamp": math.nan}, ValueError, "timestamp"),
+        ({"angle_min": "0"}, TypeError, "angle_min"),
+    ],
+)
+def test_scan_rejects_bad_fields(kwargs, exc, word):
+    base = {
+        "ranges": np.ones(4),
+        "angle_min": 0.0,
+        "angle_increment": 0.1,
+        "range_min": 0.1,
+        "range_max": 10.0,
+        "pose": (0.0, 0.0, 0.0),
+    }
+    base.update(kwargs)
+    with pytest.raises(exc, match=word):
+        Scan(**base)
+
+
+def test_valid_mask_drops_no_returns():
+    r = np.array([1.0, np.nan, np.inf, -np.inf, -1.0, 0.0, 0.05, 0.1, 4.999, 5.0, 7.0])
+    s = Scan(r, 0.0, 0.1, 0.1, 5.0, (0, 0, 0))
+    expected = [True, False, False, False, False, False, False, True, True, False, False]
+    np.testing.assert_array_equal(s.valid_mask(), expected)
+    # range_min = 0 still drops zero and negative readings.
+    s0 = Scan(r, 0.0, 0.1, 0.0, 5.0, (0, 0, 0))
+    assert s0.valid_mask()[6] and not s0.valid_mask()[5] and not s0.valid_mask()[4]
+    assert s.endpoints_world().shape == (3, 2)
+    assert np.all(np.isfinite(s.endpoints_world()))
+
+
+def test_float32_max_range_reading_is_no_return():
+    # A ROS LaserScan stores range_max and ranges as float32: a reading equal to it is dropped.
+    r = np.array([5.6, 5.5, 0.02, 0.019], dtype=np.float32)
+    s = Scan(r, 0.0, 0.1, float(np.float32(0.02)), float(np.float32(5.6)), (0, 0, 0))
+    np.testing.assert_array_equal(s.valid_mask(), [False, True, True, False])
+
+
+def test_angles_and_properties():
+    s = Scan(np.ones(5), -1.0, 0.25, 0.0, 2.0, (0, 0, 0))
+    np.testing.assert_allclose(s.angles(), [-1.0, -0.75, -0.5, -0.25, 0.0], rtol=0, atol=1e-15)
+    assert s.n_beams == 5 and s.angle_max == 0.0
+    assert s.angles().dtype == np.float64
+
+
+def test_endpoints_world_hand_computed():
+    # Robot at (1, 2) facing +y; sensor 0.5 m ahead of the robot centre and turned by +90°.
+    # Sensor pose in the world: (1, 2.5), yaw = pi.
+    s = Scan(
+        np.array([2.0, 3.0, 1.0]),
+        0.0,
+        math.pi / 2,
+        0.0,
+        10.0,
+        (1.0, 2.0, math.pi / 2),
+        (0.5, 0.0, math.pi / 2),
+    )
+    sx, sy, syaw = s.sensor_pose_world()
+    assert (sx, sy) == pytest.approx((1.0, 2.5), abs=1e-12)
+    assert abs(abs(syaw) - math.pi) < 1e-12
+    # beam 0 (angle pi in the world): 2 m towards -x; beam 1 (3pi/2): 3 m towards -y;
+    # beam 2 (2pi): 1 m towards +x.
+    expected = np.array([[-1.0, 2.5], [1.0, -0.5], [2.0, 2.5]])
+    np.testing.assert_allclose(s.endpoints_world(), expected, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_endpoints_world_random_vs_matrices(seed):
+    rng = np.random.default_rng(seed)
+    n = 97
+    ranges = rng.uniform(0.0, 12.0, n)
+    ranges[rng.integers(0, n, 10)] = np.nan
+    ranges[rng.integers(0, n, 5)] = 10.0  # == range_max -> no return
+    pose = tuple(rng.uniform(-20, 20, 2)) + (float(rng.uniform(-4, 4)),)
+    offset = (float(rng.normal()), float(rng.normal()), float(rng.uniform(-4, 4)))
+    inc = float(rng.choice([-1, 1]) * rng.uniform(0.001, 0.05))
+    s = Scan(ranges, float(rng.uniform(-3, 3)), inc, 0.3, 10.0, pose, offset)
+    mask = np.isfinite(ranges) & (ranges >= 0.3) & (ranges < 10.0)
+    np.testing.assert_array_equal(s.valid_mask(), mask)
+    angles = s.angle_min + inc * np.arange(n)
+    ref = _reference_endpoints(ranges, angles, pose, offset, mask)
+    np.testing.assert_allclose(s.endpoints_world(), ref, rtol=0, atol=1e-9)
+    # The sensor pose must match the matrix product as well.
+    t = _se2(*pose) @ _se2(*offset)
+    sx, sy, syaw = s.sensor_pose_world()
+    np.testing.assert_allclose([sx, sy], t[:2, 2], atol=1e-12)
+    assert math.isclose(math.cos(syaw), t[0, 0], abs_tol=1e-12)
+    assert math.isclose(math.sin(syaw), t[1, 0], abs_tol=1e-12)
+    # Sensor-frame end points rotate/translate into the world ones.
+    es = s.endpoints_sensor()
+    np.testing.assert_allclose(
+        (t @ np.vstack([es.T, np.ones(len(es))]))[:2].T, ref, rtol=0, atol=1e-9
+    )
+
+
+def test_from_arrays_and_scans_from_arrays():
+    s = Scan.from_arrays([1.0, 2.0], np.array([1.0, 2.0, 3.0]), angle_min=0.0, angle_increment=0.1)
+    assert s.pose == (1.0, 2.0, 3.0) and s.range_max == math.inf and s.range_min == 0.0
+    ranges = np.arange(12.0).reshape(3, 4) + 1
+    poses = np.array([[0, 0, 0], [1, 0, 0.5], [2, 1, 1.0]])
+    scans = list(
+        scans_from_arrays(
+            ranges,
+            poses,
+            angle_min=-0.3,
+            angle_increment=0.2,
+            range_min=0.0,
+            range_max=10.0,
+            timestamps=[1.0, 2.0, 3.0],
+        )
+    )
+    assert len(scans) == 3
+    for i, sc in enumerate(scans):
+        np.testing.assert_array_equal(sc.ranges, ranges[i])
+        assert sc.pose == tuple(poses[i]) and sc.timestamp == i + 1.0
+    assert scans[1].valid_mask().all()
+    assert scans[2].valid_mask().tolist() == [True, False, False, False]  # 9, 10, 11, 12
+    with pytest.raises(ValueError, match="poses"):
+        scans_from_arrays(ranges, poses[:2], angle_min=0, angle_increment=0.1)
+    with pytest.raises(ValueError, match="timestamps"):
+        scans_from_arrays(ranges, poses, angle_min=0, angle_increment=0.1, timestamps=[1, 2])
+    with pytest.raises(ValueError, match="ranges"):
+        scans_from_arrays(ranges[0], poses, angle_min=0, angle_increment=0.1)
+    with pytest.raises(ValueError, match="angle_increment"):
+        scans_from_arrays(ranges, poses, angle_min=0, angle_increment=0.0)
+
+
+# ------------------------------------------------------------------------------------------
+# CARMEN
+# ------------------------------------------------------------------------------------------
+
+
+def _flaser(ranges, pose, ts=1.5) -> str:
+    x, y, th = pose
+    vals = " ".join(f"{r:.2f}" for r in ranges)
+    return f"FLASER {len(ranges)} {vals} {x} {y} {th} {x} {y} {th} {ts} host {ts}\n"
+
+
+@pytest.mark.parametrize(
+    ("n", "inc"),
+    [
+        (180, math.pi / 180),
+        (360, math.pi / 360),
+        (181, math.pi / 180),
+        (361, math.pi / 360),
+        (7, math.pi / 6),
+        (8, math.pi / 8),
+    ],
+)
+def test_carmen_beam_angle_convention(tmp_path, n, inc):
+    path = tmp_path / "scan.log"
+    path.write_text("# comment\nPARAM robot_frontlaser_offset 0.0 nohost 0\n")
+    with open(path, "a") as fh:
+        fh.write(_flaser(np.full(n, 2.0), (1.0, 2.0, 0.25)))
+        fh.write("NEFF 12.5\nODOM 0 0 0 0 0 0 0 host 0\n")
+    (scan,) = list(read_carmen(path, max_range=50.0))
+    assert scan.n_beams == n
+    assert scan.angle_min == -math.pi / 2
+    assert scan.angle_increment == pytest.approx(inc, rel=1e-15)
+    # Odd counts span exactly [-90°, +90°]; even counts stop one step short of +90°.
+    last = math.pi / 2 if n % 2 else math.pi / 2 - math.pi / n
+    assert scan.angles()[-1] == pytest.approx(last, abs=1e-12)
+    # World beam angles are theta - pi/2 + i * inc, from the line's x, y.
+    a = 0.25 - math.pi / 2 + inc * np.arange(n)
+    ref = np.stack([1.0 + 2.0 * np.cos(a), 2.0 + 2.0 * np.sin(a)], axis=1)
+    np.testing.assert_allclose(scan.endpoints_world(), ref, rtol=0, atol=1e-12)
+
+
+def test_carmen_max_range_sentinel(tmp_path):
+    path = tmp_path / "sentinel.log"
+    lines = [
+        _flaser([1.0, 81.83, 2.0, 81.7, 50.0], (0, 0, 0)),
+        _flaser([81.83, 3.0, 81.83, 81.83, 0.0], (1, 0, 0)),
+    ]
+    path.write_text("".join(lines))
+    a, b = list(read_carmen(path))
+    assert a.range_max == pytest.approx(81.83 - 0.2)
+    np.testing.assert_array_equal(a.valid_mask(), [True, False, True, False, True])
+    np.testing.assert_array_equal(b.valid_mask(), [False, True, False, False, False])
+    # An explicit max range replaces the file maximum (and keeps 81.7).
+    a2, _ = list(read_carmen(path, max_range=81.8))
+    assert a2.range_max == 81.8
+    np.testing.assert_array_equal(a2.valid_mask(), [True, False, True, True, True])
+    a3, _ = list(read_carmen(path, no_return_margin_m=0.0))
+    np.testing.assert_array_equal(a3.valid_mask(), [True, False, True, True, True])
+    with pytest.raises(ValueError, match="max_range"):
+        read_carmen(path, max_range=-1.0)
+
+
+def test_carmen_gzip_detected_by_magic_not_suffix(tmp_path):
+    text = _flaser([1.0, 2.0, 3.0, 4.0], (0.5, 0.25, 1.0)) + _flaser([2.0] * 4, (1, 1, 1))
+    gz_named_txt = tmp_path / "log.txt"
+    with gzip.open(gz_named_txt, "wt") as fh:
+        fh.write(text)
+    plain_named_gz = tmp_path / "log.gz"
+    plain_named_gz.write_text(text)
+    a = list(read_carmen(gz_named_txt, max_range=10.0))
+    b = list(read_carmen(plain_named_gz, max_range=10.0))
+    assert len(a) == len(b) == 2
+    np.testing.assert_array_equal(a[0].ranges, b[0].ranges)
+    assert a[0].pose == b[0].pose == (0.5, 0.25, 1.0)
+
+
+@pytest.mark.parametrize(
+    ("line", "needle"),
+    [
+        ("FLASER x 1 2 3\n", "integer"),
+        ("FLASER 5 1 2 3\n", "at least"),
+        ("FLASER 4 1 2 abc 4 0 0 0 0 0 0 1 h 1\n", "not a number"),
+        ("FLASER 4 1 2 3 4 0 0 0 0 0 1 h 1\n", "fields after the ranges"),
+        ("FLASER 4 1 2 3 4 0 nan 0 0 0 0 1 h 1\n", "finite"),
+        ("FLASER 1 1 0 0 0 0 0 0 1 h 1\n", ">= 2"),
+    ],
+)
+def test_carmen_malformed_lines_raise_with_line_number(tmp_path, line, needle):
+    path = tmp_path / "bad.log"
+    path.write_text(
+        "# header\n" + _flaser([1, 2, 3, 4], (0, 0, 0)) + "ODOM 0 0 0 0 0 0 0 h 0\n" + line
+    )
+    with pytest.raises(ValueError, match=needle) as info:
+        list(read_carmen(path))
+    assert f"{path}:4:" in str(info.value)
+    assert "FLASER" in str(info.value)
+
+
+def test_carmen_errors_for_bad_arguments(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.log"):
+        read_carmen(tmp_path / "nope.log")
+    path = tmp_path / "empty.log"
+    path.write_text("# nothing\nODOM 0 0 0 0 0 0 0 h 0\n")
+    with pytest.raises(ValueError, match="no laser lines"):
+        list(read_carmen(path))
+    with pytest.raises(ValueError, match="laser"):
+        read_carmen(path, laser="LASER9")
+
+
+def test_carmen_robotlaser_line(tmp_path):
+    n = 5
+    start, res = -1.0, 0.5
+    ranges = [1.0, 2.0, 30.0, 4.0, 5.0]
+    laser_pose = (3.2, -1.1, 0.9)
+    robot_pose = (3.0, -1.0, 0.7)
+    line = (
+        f"ROBOTLASER1 0 {start} 2.0 {res} 30.0 0.01 0 {n} "
+        + " ".join(map(str, ranges))
+        + " 2 0.5 0.6 "
+        + " ".join(map(str, laser_pose + robot_pose))
+        + " 0.1 0.0 0.5 0.3 0.0 12.25 host 12.3\n"
+    )
+    path = tmp_path / "new.log"
+    path.write_text("ODOM 0 0 0 0 0 0 0 h 0\n" + line)
+    (scan,) = list(read_carmen(path))
+    assert scan.pose == robot_pose
+    assert scan.range_max == 30.0 and scan.timestamp == 12.25
+    assert scan.angle_min == start and scan.angle_increment == res
+    # Offset = laser pose in the robot frame.
+    off = np.linalg.inv(_se2(*robot_pose)) @ _se2(*laser_pose)
+    np.testing.assert_allclose(scan.sensor_offset[:2], off[:2, 2], atol=1e-12)
+    assert scan.sensor_offset[2] == pytest.approx(0.2, abs=1e-12)
+    # End points are cast from the laser pose.
+    mask = np.array([True, True, False, True, True])
+    a = start + res * np.arange(n)
+    ref = _reference_endpoints(ranges, a, laser_pose, (0, 0, 0), mask)
+    np.testing.assert_allclose(scan.endpoints_world(), ref, rtol=0, atol=1e-12)
+    # Truncated line -> error with line number.
+    path.write_text(line.rsplit(" ", 8)[0] + "\n")
+    with pytest.raises(ValueError, match=r"new\.log:1: malformed ROBOTLASER1"):
+        list(read_carmen(path))
+
+
+def test_carmen_rawlaser_uses_latest_odom(tmp_path):
+    raw = "RAWLASER1 0 -1.5 3.0 0.75 20.0 0.01 0 5 1 2 3 4 20 0 {ts} host {ts}\n"
+    text = (
+        "PARAM robot_frontlaser_offset 0.25 nohost 0\n"
+        + raw.format(ts=0.5)  # before any ODOM: skipped with a warning
+        + "ODOM 1.0 2.0 0.5 0 0 0 1.0 host 1.0\n"
+        + "ODOM 1.5 2.5 0.6 0 0 0 1.1 host 1.1\n"
+        + raw.format(ts=1.2)
+        + "ODOM 2.0 3.0 0.7 0 0 0 1.3 host 1.3\n"
+        + raw.format(ts=1.4)
+    )
+    path = tmp_path / "raw.log"
+    path.write_text(text)
+    with pytest.warns(UserWarning, match="skipped 1 RAWLASER1"):
+        scans = list(read_carmen(path))
+    assert [s.pose for s in scans] == [(1.5, 2.5, 0.6), (2.0, 3.0, 0.7)]
+    assert scans[0].sensor_offset == (0.25, 0.0, 0.0)
+    assert scans[0].range_max == 20.0
+    assert scans[0].valid_mask().tolist() == [True, True, True, True, False]
+    # A laser whose mounting is not in the log needs sensor_offset.
+    path.write_text(text.replace("RAWLASER1", "RAWLASER3"))
+    with pytest.raises(ValueError, match="sensor_offset"):
+        list(read_carmen(path))
+    with pytest.warns(UserWarning, match="skipped 1 RAWLASER3"):
+        scans3 = list(read_carmen(path, sensor_offset=(0.0, 0.0, math.pi)))
+    assert scans3[-1].sensor_offset == (0.0, 0.0, math.pi)
+    # A broken ODOM line is reported (with its line number) when a scan needs it.
+    path.write_text(text.replace("ODOM 1.5 2.5 0.6", "ODOM 1.5 x 0.6"))
+    with pytest.raises(ValueError, match=r"raw\.log:4: malformed ODOM"):
+        list(read_carmen(path))
+
+
+def test_carmen_laser_selection(tmp_path):
+    text = (
+        _flaser([1, 2, 3, 4], (0, 0, 0))
+        + "RLASER 4 5 5 5 5 1 1 3.1 1 1 3.1 1 h 1\n"
+        + _flaser([1, 2, 3, 4], (1, 0, 0))
+    )
+    path = tmp_path / "two.log"
+    path.write_text(text)
+    assert len(list(read_carmen(path))) == 2  # auto = kind of the first laser line
+    (rear,) = list(read_carmen(path, laser="RLASER", max_range=10.0))
+    assert rear.pose == (1.0, 1.0, 3.1) and rear.ranges.tolist() == [5.0] * 4
+
+
+def _first_flaser_tokens(path: Path) -> list[str]:
+    with gzip.open(path, "rt") as fh:
+        for line in fh:
+            if line.startswith("FLASER"):
+                return line.split()
+    raise AssertionError("no FLASER line")
+
+
+def test_intel_excerpt():
+    scans = list(read_carmen(INTEL_EXCERPT))
+    assert len(scans) == 40
+    first = scans[0]
+    assert first.n_beams == 180
+    tok = _first_flaser_tokens(INTEL_EXCERPT)
+    n = int(tok[1])
+    assert n == 180
+    assert first.pose == (float(tok[2 + n]), float(tok[3 + n]), float(tok[4 + n]))
+    np.testing.assert_array_equal(first.ranges, np.array(tok[2 : 2 + n], dtype=float))
+    assert first.timestamp == float(tok[8 + n])
+    assert first.angle_increment == pytest.approx(math.pi / 180)
+    # 81.83 is this log's no-return value: never a valid reading.
+    all_r = np.concatenate([s.ranges for s in scans])
+    assert all_r.max() == 81.83
+    assert all(s.range_max == pytest.approx(81.83 - 0.2) for s in scans)
+    assert not any(np.any(s.ranges[s.valid_mask()] >= 81.0) for s in scans)
+    assert sum(int((~s.valid_mask()).sum()) for s in scans) == int((all_r >= 81.83).sum())
+    pts = np.concatenate([s.endpoints_world() for s in scans])
+    assert np.all(np.isfinite(pts)) and np.abs(pts).max() < 30.0
+
+
+def _check_carmen_file(path: Path, count: int, beams: int) -> None:
+    n = 0
+    file_max = -math.inf
+    for s in read_carmen(path):
+        n += 1
+        assert s.n_beams == beams
+        file_max = max(file_max, float(s.ranges.max()))
+        valid = s.ranges[s.valid_mask()]
+        assert np.all(valid < s.range_max)
+    assert n == count
+    assert s.range_max == pytest.approx(file_max - 0.2)
+
+
+@pytest.mark.parametrize("name", ["orebro", "seattle", "freiburg-101", "edmonton"])
+def test_small_shared_carmen_logs(shared_data, name):
+    path = shared_data / "logs" / "carmen_corrected" / f"{name}-corrected.log.gz"
+    _check_carmen_file(path, *CARMEN_COUNTS[name])
+
+
+@pytest.mark.slow
+def test_all_shared_carmen_logs(shared_data):
+    folder = shared_data / "logs" / "carmen_corrected"
+    found = sorted(p.name for p in folder.glob("*.log.gz"))
+    assert found == sorted(f"{k}-corrected.log.gz" for k in CARMEN_COUNTS)
+    for name, (count, beams) in CARMEN_COUNTS.items():
+        _check_carmen_file(folder / f"{name}-corrected.log.gz", count, beams)
+
+
+# ------------------------------------------------------------------------------------------
+# Octave
+# ------------------------------------------------------------------------------------------
+
+
+def _octave_first_matrix_line(path: Path, field: str) -> list[float]:
+    """First data line of the first element of ``field`` (independent text scan)."""
+    lines = path.read_text().splitlines()
+    i = lines.index(f"# name: {field}")
+    while lines[i].startswith("#"):
+        i += 1
+    return [float(v) for v in lines[i].split()]
+
+
+def test_octave_excerpt():
+    scans = list(read_octave_laser(OCTAVE_EXCERPT))
+    assert len(scans) == 20
+    s0, s1 = scans[0], scans[1]
+    assert s0.n_beams == 361
+    np.testing.assert_array_equal(s0.ranges, _octave_first_matrix_line(OCTAVE_EXCERPT, "ranges"))
+    assert s0.angle_min == -1.570796 and s0.angle_increment == 0.008727
+    assert s0.range_max == 80.0 and s0.range_min == 0.0
+    assert s0.timestamp == 1134864642.914187
+    assert s1.pose == (0.319678, 0.110037, 0.99433)
+    assert s1.sensor_offset == (6.288372600415926e-18, 1.843143693225358e-17, 0.0)
+    # 81.91 means "no return".
+    assert np.any(s1.ranges == 81.91) and not np.any(s1.ranges[s1.valid_mask()] > 80.0)
+
+
+def test_octave_shared_file(shared_data):
+    path = shared_data / "logs" / "robot_mapping_course" / "csail_laser_octave.txt"
+    scans = list(read_octave_laser(path))
+    assert len(scans) == 686
+    assert {s.n_beams for s in scans} == {361}
+    poses = np.array([s.pose for s in scans])
+    assert poses[:, 0].min() == pytest.approx(-8.2, abs=0.05)
+    assert poses[:, 0].max() == pytest.approx(32.0, abs=0.05)
+    assert poses[:, 1].min() == pytest.approx(-29.4, abs=0.05)
+    assert poses[:, 1].max() == pytest.approx(32.3, abs=0.05)
+    excerpt = list(read_octave_laser(OCTAVE_EXCERPT))
+    for a, b in zip(excerpt, scans[:20], strict=True):
+        np.testing.assert_array_equal(a.ranges, b.ranges)
+        assert a.pose == b.pose and a.timestamp == b.timestamp
+
+
+_OCTAVE_NDIMS = """# Created by Octave 8.4.0
+# name: other
+# type: scalar
+3
+
+# name: scans
+# type: struct
+# ndims: 2
+ 1 2
+# length: 5
+# name: start_angle
+# type: cell
+# ndims: 2
+ 1 2
+# name: <cell-element>
+# type: scalar
+-1
+
+
+# name: <cell-element>
+# type: scalar
+-0.5
+
+
+# name: angular_resolution
+# type: cell
+# ndims: 2
+ 1 2
+# name: <cell-element>
+# type: scalar
+0.5
+
+
+# name: <cell-element>
+# type: scalar
+0.25
+
+
+# name: maximum_range
+# type: cell
+# ndims: 2
+ 1 2
+# name: <cell-element>
+# type: scalar
+10
+
+
+# name: <cell-element>
+# type: scalar
+10
+
+
+# name: ranges
+# type: cell
+# ndims: 2
+ 1 2
+# name: <cell-element>
+# type: matrix
+# rows: 1
+# columns: 3
+ 1 2 Inf
+
+
+# name: <cell-element>
+# type: matrix
+# ndims: 2
+ 3 1
+ 4
+ NaN
+ 6
+
+
+# name: pose
+# type: cell
+# ndims: 2
+ 1 2
+# name: <cell-element>
+# type: matrix
+# rows: 3
+# columns: 1
+ 1
+ 2
+ 0.5
+
+
+# name: <cell-element>
+# type: matrix
+# rows: 1
+# columns: 3
+ -1 -2 -0.5
+
+"""
+
+
+def test_octave_parser_newer_headers(tmp_path):
+    path = tmp_path / "scans.txt"
+    path.write_text(_OCTAVE_NDIMS)
+    a, b = list(read_octave_laser(path))
+    assert a.ranges.tolist()[:2] == [1.0, 2.0] and math.isinf(a.ranges[2])
+    assert a.pose == (1.0, 2.0, 0.5) and a.sensor_offset == (0.0, 0.0, 0.0)
+    assert a.timestamp is None and a.angle_min == -1.0 and a.angle_increment == 0.5
+    assert b.ranges[0] == 4.0 and math.isnan(b.ranges[1]) and b.ranges[2] == 6.0
+    assert b.pose == (-1.0, -2.0, -0.5) and b.angle_increment == 0.25
+    assert b.valid_mask().tolist() == [True, False, True]
+    # Found through read_scans too (content sniffing).
+    assert len(list(read_scans(path))) == 2
+
+
+def test_octave_errors(tmp_path):
+    bad = tmp_path / "bad.txt"
+    bad.write_text(_OCTAVE_NDIMS.replace(" 1 2 Inf", " 1 2"))
+    with pytest.raises(ValueError, match=r"bad\.txt:\d+: expected 3 numbers"):
+        list(read_octave_laser(bad))
+    missing = tmp_path / "missing.txt"
+    missing.write_text(_OCTAVE_NDIMS.replace("# length: 5", "# length: 4").split("# name: pose")[0])
+    with pytest.raises(ValueError, match="pose"):
+        list(read_octave_laser(missing))
+    with pytest.raises(ValueError, match="variable"):
+        list(read_octave_laser(OCTAVE_EXCERPT, variable="nope"))
+    with pytest.raises(FileNotFoundError):
+        read_octave_laser(tmp_path / "none.txt")
+
+
+# ------------------------------------------------------------------------------------------
+# ROS bags
+# ------------------------------------------------------------------------------------------
+
+T0_NS = 1_700_000_000 * 1_000_000_000
+MAP_ODOM = (2.0, 1.0, 0.5)
+BASE_LASER = (0.2, -0.1, 0.3)  # x, y, yaw of the laser on the robot (z = 0.3 m)
+N_BEAMS = 40
+
+
+def _odom_base(t: float) -> tuple[float, float, float]:
+    """Robot pose in the odom frame, linear in time (so linear interpolation is exact)."""
+    return (1.0 + 0.5 * t, -2.0 + 0.2 * t, 0.3 + 0.4 * t)
+
+
+def _scan_ranges(k: int) -> np.ndarray:
+    rng = np.random.default_rng(k)
+    r = rng.uniform(0.5, 7.5, N_BEAMS).astype(np.float32)
+    r[3] = np.nan
+    r[5] = 8.0  # == range_max -> no return
+    r[7] = np.inf
+    return r
+
+
+def _quat(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_euler("xyz", [roll, pitch, yaw]).as_quat()  # x, y, z, w
+
+
+def _matrix(x: float, y: float, z: float, quat) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    m = np.eye(4)
+    m[:3, :3] = Rotation.from_quat(quat).as_matrix()
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+class _BagWriter:
+    """Write LaserScan / TF / Odometry messages into a ROS 1 or ROS 2 bag with rosbags."""
+
+    def __init__(self, path: Path, ros: int) -> None:
+        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+        self.ros = ros
+        if ros == 1:
+            from rosbags.rosbag1 import Writer
+
+            self.ts = get_typestore(Stores.ROS1_NOETIC)
+            if "tf2_msgs/msg/TFMessage" not in self.ts.fielddefs:
+                self.ts.register(
+                    get_types_from_msg(
+                        "geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"
+                    )
+                )
+            self.writer = Writer(path)
+        else:
+            from rosbags.rosbag2 import Writer
+
+            self.ts = get_typestore(Stores.ROS2_HUMBLE)
+            self.writer = Writer(path, version=9)
+        self.writer.open()
+        self.conns: dict[str, object] = {}
+
+    def _header(self, t_ns: int, frame: str):
+        t = self.ts.types
+        stamp = t["builtin_interfaces/msg/Time"](sec=t_ns // 10**9, nanosec=t_ns % 10**9)
+        if self.ros == 1:
+            return t["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id=frame)
+        return t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
+
+    def write(self, topic: str, msgtype: str, t_ns: int, msg) -> None:
+        if topic not in self.conns:
+            self.conns[topic] = self.writer.add_connection(topic, msgtype, typestore=self.ts)
+        data = (
+            self.ts.serialize_ros1(msg, msgtype)
+            if self.ros == 1
+            else self.ts.serialize_cdr(msg, msgtype)
+        )
+        self.writer.write(self.conns[topic], t_ns, data)
+
+    def scan(self, topic: str, t_ns: int, frame: str, ranges: np.ndarray) -> None:
+        t = self.ts.types
+        msg = t["sensor_msgs/msg/LaserScan"](
+            header=self._header(t_ns, frame),
+            angle_min=-1.2,
+            angle_max=-1.2 + 0.06 * (N_BEAMS - 1),
+            angle_increment=0.06,
+            time_increment=0.0,
+            scan_time=0.1,
+            range_min=0.1,
+            range_max=8.0,
+            ranges=ranges,
+            intensities=np.zeros(0, dtype=np.float32),
+        )
+        self.write(topic, "sensor_msgs/msg/LaserScan", t_ns, msg)
+
+    def transform(self, parent, child, t_ns, x, y, z, quat):
+        t = self.ts.types
+        return t["geometry_msgs/msg/TransformStamped"](
+            header=self._header(t_ns, parent),
+            child_frame_id=child,
+            transform=t["geometry_msgs/msg/Transform"](
+                translation=t["geometry_msgs/msg/Vector3"](x=x, y=y, z=z),
+                rotation=t["geometry_msgs/msg/Quaternion"](
+                    x=quat[0], y=quat[1], z=quat[2], w=quat[3]
+                ),
+            ),
+        )
+
+    def tf(self, topic: str, t_ns: int, transforms: list) -> None:
+        msg = self.ts.types["tf2_msgs/msg/TFMessage"](transforms=transforms)
+        self.write(topic, "tf2_msgs/msg/TFMessage", t_ns, msg)
+
+    def odometry(self, topic: str, t_ns: int, parent: str, child: str, pose) -> None:
+        t = self.ts.types
+        q = _quat(0, 0, pose[2])
+        msg = t["nav_msgs/msg/Odometry"](
+            header=self._header(t_ns, parent),
+            child_frame_id=child,
+            pose=t["geometry_msgs/msg/PoseWithCovariance"](
+                pose=t["geometry_msgs/msg/Pose"](
+                    position=t["geometry_msgs/msg/Point"](x=pose[0], y=pose[1], z=0.0),
+                    orientation=t["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3]),
+                ),
+                covariance=np.zeros(36),
+            ),
+            twist=t["geometry_msgs/msg/TwistWithCovariance"](
+                twist=t["geometry_msgs/msg/Twist"](
+                    linear=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+                    angular=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+                ),
+                covariance=np.zeros(36),
+            ),
+        )
+        self.write(topic, "nav_msgs/msg/Odometry", t_ns, msg)
+
+    def close(self) -> None:
+        self.writer.close()
+
+
+SCAN_TIMES = [0.05 + 0.29 * k for k in range(10)]  # seconds after T0, inside the tf data
+
+
+def _write_robot_bag(
+    path: Path,
+    ros: int,
+    *,
+    laser_rpy=(0.0, 0.0, BASE_LASER[2]),
+    with_tf: bool = True,
+    with_odom: bool = False,
+    early_scan: bool = False,
+    second_scan_topic: bool = False,
+) -> None:
+    w = _BagWriter(path, ros)
+    if with_tf:
+        w.tf(
+            "/tf_static",
+            T0_NS,
+            [
+                w.transform(
+                    "base_link",
+                    "laser",
+                    T0_NS,
+                    BASE_LASER[0],
+                    BASE_LASER[1],
+                    0.3,
+                    _quat(*laser_rpy),
+                )
+            ],
+        )
+    events = []
+    for k in range(31):  # 10 Hz odom -> base_link, 0 ... 3 s
+        t = 0.1 * k
+        events.append((t, "odom", k))
+    for k in range(4):  # 1 Hz map -> odom (constant)
+        events.append((float(k), "map", k))
+    for k, t in enumerate(SCAN_TIMES):
+        events.append((t, "scan", k))
+    if early_scan:
+        events.append((-0.5, "scan", 99))
+    for t, kind, k in sorted(events):
+        t_ns = T0_NS + int(round(t * 1e9))
+        if kind == "odom":
+            x, y, yaw = _odom_base(t)
+            if with_tf:
+                w.tf(
+                    "/tf",
+                    t_ns,
+                    [w.transform("odom", "base_link", t_ns, x, y, 0.0, _quat(0, 0, yaw))],
+                )
+            if with_odom:
+                w.odometry("/odom", t_ns, "odom", "base_link", (x, y, yaw))
+        elif kind == "map" and with_tf:
+            mx, my, myaw = MAP_ODOM
+            w.tf("/tf", t_ns, [w.transform("map", "odom", t_ns, mx, my, 0.0, _quat(0, 0, myaw))])
+        elif kind == "scan":
+            w.scan("/scan", t_ns, "laser", _scan_ranges(k))
+            if second_scan_topic:
+                w.scan("/scan2", t_ns, "laser", _scan_ranges(k))
+    w.close()
+
+
+def _expected_world_points(t: float, ranges: np.ndarray, parent: str, laser_rpy) -> np.ndarray:
+    """End points from full 3-D homogeneous transforms (scipy rotations), then x, y."""
+    x, y, yaw = _odom_base(t)
+    m = _matrix(x, y, 0.0, _quat(0, 0, yaw))
+    if parent == "map":
+        m = _matrix(MAP_ODOM[0], MAP_ODOM[1], 0.0, _quat(0, 0, MAP_ODOM[2])) @ m
+    m = m @ _matrix(BASE_LASER[0], BASE_LASER[1], 0.3, _quat(*laser_rpy))
+    r = ranges.astype(np.float64)
+    a = float(np.float32(-1.2)) + float(np.float32(0.06)) * np.arange(N_BEAMS)
+    ok = np.isfinite(r) & (r >= np.float32(0.1)) & (r < np.float32(8.0))
+    pts = np.stack([r * np.cos(a), r * np.sin(a), np.zeros_like(r), np.ones_like(r)])[:, ok]
+    return (m @ pts)[:2].T
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+@pytest.mark.parametrize("parent", ["map", "odom"])
+def test_bag_round_trip_with_tf(tmp_path, ros, parent):
+    pytest.importorskip("rosbags")
+    path = tmp_path / ("robot.bag" if ros == 1 else "robot_bag")
+    _write_robot_bag(path, ros)
+    scans = list(read_bag(path, tf_parent=parent))
+    assert len(scans) == len(SCAN_TIMES)
+    for k, (t, s) in enumerate(zip(SCAN_TIMES, scans, strict=True)):
+        assert s.timestamp == pytest.approx((T0_NS + round(t * 1e9)) / 1e9, abs=1e-6)
+        assert s.ranges.dtype == np.float32 and s.n_beams == N_BEAMS
+        np.testing.assert_array_equal(s.ranges, _scan_ranges(k))
+        # Robot pose = parent -> base_link; sensor offset = base_link -> laser.
+        ref = _se2(*_odom_base(t))
+        if parent == "map":
+            ref = _se2(*MAP_ODOM) @ ref
+        got = _se2(*s.pose)
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(s.sensor_offset, BASE_LASER, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(
+            s.endpoints_world(),
+            _expected_world_points(t, s.ranges, parent, (0.0, 0.0, BASE_LASER[2])),
+            rtol=0,
+            atol=1e-6,
+        )
+    # Default tf_parent is "map" when the tree has it.
+    if parent == "map":
+        default = list(read_bag(path))
+        assert [s.pose for s in default] == [s.pose for s in scans]
+        # Without a base frame split, the whole chain becomes the pose.
+        whole = list(read_bag(path, base_frame="laser"))
+        for s, w in zip(scans, whole, strict=True):
+            np.testing.assert_allclose(
+                _se2(*w.pose), _se2(*s.pose) @ _se2(*s.sensor_offset), atol=1e-9
+            )
+            assert w.sensor_offset == (0.0, 0.0, 0.0)
+
+
+def test_bag_pose_topic_odometry(tmp_path):
+    pytest.importorskip("rosbags")
+    path = tmp_path / "odom_bag"
+    _write_robot_bag(path, 2, with_odom=True)
+    scans = list(read_bag(path, pose_topic="/odom"))
+    assert len(scans) == len(SCAN_TIMES)
+    for t, s in zip(SCAN_TIMES, scans, strict=True):
+        np.testing.assert_allclose(_se2(*s.pose), _se2(*_odom_base(t)), atol=1e-9)
+        np.testing.assert_allclose(s.sensor_offset, BASE_LASER, atol=1e-9)
+        np.testing.assert_allclose(
+            s.endpoints_world(),
+            _expected_world_points(t, s.ranges, "odom", (0.0, 0.0, BASE_LASER[2])),
+            atol=1e-6,
+        )
+    # Odometry only (no tf at all): chosen automatically; the laser mounting must be given.
+    path2 = tmp_path / "odom_only"
+    _write_robot_bag(path2, 2, with_tf=False, with_odom=True)
+    with pytest.raises(ValueError, match="sensor_offset"):
+        list(read_bag(path2))
+    scans2 = list(read_bag(path2, sensor_offset=BASE_LASER))
+    for a, b in zip(scans, scans2, strict=True):
+        np.testing.assert_allclose(a.endpoints_world(), b.endpoints_world(), atol=1e-9)
+
+
+@pytest.mark.parametrize("rpy", [(math.pi, 0.0, 0.3), (0.0, math.pi, -0.4)])
+def test_bag_upside_down_laser_mirrors_scan(tmp_path, rpy):
+    pytest.importorskip("rosbags")
+    path = tmp_path / "flipped_bag"
+    _write_robot_bag(path, 2, laser_rpy=rpy)
+    scans = list(read_bag(path))
+    for t, s in zip(SCAN_TIMES, scans, strict=True):
+        assert s.angle_increment < 0
+        np.testing.assert_allclose(
+            s.endpoints_world(), _expected_world_points(t, s.ranges, "map", rpy), atol=1e-6
+        )
+
+
+def test_bag_missing_pose_skip_or_error(tmp_path):
+    pytest.importorskip("rosbags")
+    path = tmp_path / "early.bag"
+    _write_robot_bag(path, 1, early_scan=True)
+    with pytest.warns(UserWarning, match="skipped 1 scan"):
+        scans = list(read_bag(path))
+    assert len(scans) == len(SCAN_TIMES)
+    with pytest.raises(ValueError, match="no pose"):
+        list(read_bag(path, missing_pose="error"))
+    # A large tolerance holds the first tf sample for the early scan.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(list(read_bag(path, pose_tolerance_s=1.0))) == len(SCAN_TIMES) + 1
+
+
+def test_bag_topic_and_frame_errors(tmp_path):
+    pytest.importorskip("rosbags")
+    path = tmp_path / "two_scans"
+    _write_robot_bag(path, 2, second_scan_topic=True)
+    with pytest.raises(ValueError, match=r"scan_topic.*/scan2"):
+        read_bag(path)
+    assert len(list(read_bag(path, scan_topic="/scan2"))) == len(SCAN_TIMES)
+    with pytest.raises(ValueError, match="scan_topic"):
+        read_bag(path, scan_topic="/tf")
+    with pytest.raises(ValueError, match="pose_topic"):
+        read_bag(path, scan_topic="/scan", pose_topic="/scan2")
+    with pytest.raises(ValueError, match="tf_parent"):
+        list(read_bag(path, scan_topic="/scan", tf_parent="world"))
+    with pytest.raises(ValueError, match="base_frame"):
+        list(read_bag(path, scan_topic="/scan", base_frame="nowhere"))
+    with pytest.raises(FileNotFoundError):
+        read_bag(tmp_path / "missing.bag")
+    with pytest.raises(ValueError, match="missing_pose"):
+        read_bag(path, missing_pose="ignore")
+
+
+def test_bag_without_poses(tmp_path):
+    pytest.importorskip("rosbags")
+    path = tmp_path / "scans_only.bag"
+    _write_robot_bag(path, 1, with_tf=False)
+    with pytest.raises(ValueError, match="allow_missing_pose"):
+        read_bag(path)
+    scans = list(read_bag(path, allow_missing_pose=True))
+    assert len(scans) == len(SCAN_TIMES)
+    assert all(s.pose == (0.0, 0.0, 0.0) and s.sensor_offset == (0.0, 0.0, 0.0) for s in scans)
+
+
+def _break_index_lengths(path: Path) -> int:
+    """Rewrite every INDEX_DATA record's data length as count * 20, as the 2010 rosbag did."""
+    data = bytearray(path.read_bytes())
+    pos = 13
+    patched = 0
+    while pos < len(data):
+        (hlen,) = struct.unpack_from("<I", data, pos)
+        hdr = bytes(data[pos + 4 : pos + 4 + hlen])
+        fields = {}
+        i = 0
+        while i < len(hdr):
+            (n,) = struct.unpack_from("<I", hdr, i)
+            k, v = hdr[i + 4 : i + 4 + n].split(b"=", 1)
+            fields[k] = v
+            i += 4 + n
+        (dlen,) = struct.unpack_from("<I", data, pos + 4 + hlen)
+        if fields[b"op"] == b"\x04":
+            (count,) = struct.unpack("<I", fields[b"count"])
+            assert dlen == 12 * count
+            struct.pack_into("<I", data, pos + 4 + hlen, 20 * count)
+            patched += 1
+        pos += 8 + hlen + dlen
+    path.write_bytes(bytes(data))
+    return patched
+
+
+def test_ros1_fallback_reader_matches_rosbags(tmp_path):
+    pytest.importorskip("rosbags")
+    from rosbags.highlevel import AnyReader
+
+    path = tmp_path / "robot.bag"
+    _write_robot_bag(path, 1)
+    good = list(read_bag(path))
+    assert _break_index_lengths(path) > 0
+    with pytest.raises(Exception):  # noqa: B017 - rosbags refuses the file (assertion)
+        with AnyReader([path]) as reader:
+            list(reader.messages())
+    fallback = list(read_bag(path))
+    assert len(fallback) == len(good)
+    for a, b in zip(good, fallback, strict=True):
+        np.testing.assert_array_equal(a.ranges, b.ranges)
+        assert a.pose == pytest.approx(b.pose, abs=1e-12)
+        assert a.sensor_offset == pytest.approx(b.sensor_offset, abs=1e-12)
+        assert a.timestamp == b.timestamp
+
+
+def _check_ccny(scans: list[Scan], count: int) -> None:
+    assert len(scans) == count
+    for s in scans:
+        assert s.n_beams == 681
+        assert s.angle_min == pytest.approx(-2.0862, abs=1e-4)
+        assert s.angle_increment == pytest.approx(0.0061359, abs=1e-7)
+        assert s.range_min == pytest.approx(0.02, abs=1e-6)
+        assert s.range_max == pytest.approx(5.6, abs=1e-6)
+        assert s.pose == (0.0, 0.0, 0.0)
+        assert s.ranges.dtype == np.float32
+    stamps = [s.timestamp for s in scans]
+    assert stamps == sorted(stamps)
+
+
+def test_ccny_excerpt_bag():
+    pytest.importorskip("rosbags")
+    with pytest.raises(ValueError, match="allow_missing_pose"):
+        read_bag(CCNY_EXCERPT)
+    scans = list(read_bag(CCNY_EXCERPT, allow_missing_pose=True))
+    _check_ccny(scans, 25)
+    assert scans[0].timestamp == pytest.approx(1282836370.9708765, abs=1e-6)
+
+
+def test_ccny_shared_bag(shared_data):
+    pytest.importorskip("rosbags")
+    path = shared_data / "logs" / "rosbag" / "ccny_laser_scan_matcher_demo.bag"
+    with pytest.raises(ValueError, match="no pose source") as info:
+        read_bag(path)
+    assert "/scan" in str(info.value) and "allow_missing_pose" in str(info.value)
+    scans = list(read_bag(path, allow_missing_pose=True))
+    _check_ccny(scans, 360)
+    assert scans[-1].timestamp - scans[0].timestamp == pytest.approx(35.8, abs=0.1)
+    excerpt = list(read_bag(CCNY_EXCERPT, allow_missing_pose=True))
+    for a, b in zip(excerpt, scans[:25], strict=True):
+        np.testing.assert_array_equal(a.ranges, b.ranges)
+        assert a.timestamp == b.timestamp
+
+
+# ------------------------------------------------------------------------------------------
+# Dispatch
+# ------------------------------------------------------------------------------------------
+
+
+def test_read_scans_dispatch(tmp_path):
+    a = list(read_scans(INTEL_EXCERPT))
+    assert len(a) == 40 and a[0].n_beams == 180
+    b = list(read_scans(OCTAVE_EXCERPT))
+    assert len(b) == 20 and b[0].n_beams == 361
+    pytest.importorskip("rosbags")
+    c = list(read_scans(CCNY_EXCERPT, allow_missing_pose=True))
+    assert len(c) == 25
+    # A ROS 2 bag: its folder or the storage file inside it.
+    _write_robot_bag(tmp_path / "ros2", 2)
+    db3 = next((tmp_path / "ros2").glob("*.db3"))
+    for target in (tmp_path / "ros2", db3):
+        assert len(list(read_scans(target))) == len(SCAN_TIMES)
+    # A ROS 1 bag without the .bag suffix is recognised by its magic bytes.
+    renamed = tmp_path / "ccny.dat"
+    renamed.write_bytes(CCNY_EXCERPT.read_bytes())
+    assert len(list(read_scans(renamed, allow_missing_pose=True))) == 25
+    with pytest.raises(FileNotFoundError):
+        read_scans(tmp_path / "missing.log")
