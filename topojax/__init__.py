@@ -1,0 +1,88 @@
+"""topojax: topology (route) graphs from 2-D robot maps via Gaussian distance maps.
+
+Implements Yuan & Schwertfeger, *Incrementally Building Topology Graphs via Distance
+Maps* (RCAR 2019): from a finished occupancy map (:func:`build_graph`) or scan by scan
+(:class:`IncrementalMapper`), with the distance map, Laplacian and threshold as JAX kernels
+on fixed-size tiles and the thinning and graph steps compiled for the CPU.
+
+Notation
+--------
+Arrays
+    2-D maps are indexed ``grid[row, col]``; row 0 is the *top* of the image.  Pixel
+    coordinates are ``(row, col)`` pairs, integer at pixel centres.
+World frame
+    ``(x, y)`` in metres, the map frame of ROS ``map_server``: ``origin = (x, y, yaw)`` is
+    the world pose of the lower-left corner of the lower-left pixel.  The centre of pixel
+    ``(row, col)`` of an ``H``-row map lies at ``((col + 0.5) r, (H - row - 0.5) r)`` in
+    the map's own axes (``r`` = ``resolution_m``), rotated by ``yaw`` and shifted by the
+    origin.  :meth:`OccupancyMap.pixel_to_world` and :meth:`OccupancyMap.world_to_pixel`
+    convert.
+Units
+    Names carry their unit: ``_px`` pixels, ``_m`` metres, ``_s`` seconds; angles are
+    radians.
+Distance map
+    ``H(x) = max_p exp(-|x - p|^2 / (2 sigma_px^2))`` over obstacle pixels ``p`` with
+    ``|x - p|_inf <= half_width_px``; float32 in [0, 1], 1 on obstacles.
+Graphs
+    :class:`networkx.MultiGraph`; vertices carry ``pixel``, ``world``, ``kind``
+    (junction / end / ring / isolated) and ``clearance_m``; edges carry the ordered pixel
+    ``path`` (ends included), the ``world`` polyline, ``length_m`` and clearances.
+"""
+
+from __future__ import annotations
+
+from .config import (
+    DistanceConfig,
+    GraphConfig,
+    PipelineConfig,
+    RidgeConfig,
+    SkeletonConfig,
+)
+from .graph import graph_summary, skeleton_to_graph
+from .io import load_graph, save_graph
+from .maps import OccupancyMap, load_map, save_map
+from .pipeline import (
+    TopologyResult,
+    build_graph,
+    dense_fields,
+    distance_map,
+    ridge_map,
+)
+from .scans import Scan, read_bag, read_carmen, read_scans
+from .skeleton import remove_t_centres, thin
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "DistanceConfig",
+    "GraphConfig",
+    "OccupancyMap",
+    "PipelineConfig",
+    "RidgeConfig",
+    "Scan",
+    "SkeletonConfig",
+    "TopologyResult",
+    "build_graph",
+    "dense_fields",
+    "distance_map",
+    "graph_summary",
+    "load_graph",
+    "load_map",
+    "plot",
+    "read_bag",
+    "read_carmen",
+    "read_scans",
+    "remove_t_centres",
+    "ridge_map",
+    "save_graph",
+    "save_map",
+    "skeleton_to_graph",
+    "thin",
+]
+
+
+def plot(result, **kwargs):
+    """Matplotlib overlay of a :class:`TopologyResult`; see :func:`topojax.plotting.plot`."""
+    from .plotting import plot as _plot
+
+    return _plot(result, **kwargs)

@@ -1,0 +1,31 @@
+"""Sample maps shipped with topojax.
+
+The three maps of the paper (``intel``, ``office``, ``a_scan``) come from
+STAR-Center/IncrementalTopo (MIT licence, commit befbcd55), files
+``test_im/<name>/clean.png``; they are cleaned versions of IPA room-segmentation
+benchmark maps (0.05 m per pixel).  Black walls on white; the outside of the building
+is white (free) too.
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+__all__ = ["SAMPLE_MAPS", "sample_map", "sample_map_path"]
+
+SAMPLE_MAPS = ("intel", "office", "a_scan")
+
+
+def sample_map_path(name: str = "intel") -> Path:
+    """Path of a bundled sample map image (``intel``, ``office`` or ``a_scan``)."""
+    if name not in SAMPLE_MAPS:
+        raise ValueError(f"name must be one of {SAMPLE_MAPS}, got {name!r}")
+    return Path(str(resources.files("topojax") / "data" / f"{name}.png"))
+
+
+def sample_map(name: str = "intel"):
+    """Load a bundled sample map as an :class:`~topojax.maps.OccupancyMap` (0.05 m/px)."""
+    from .maps import load_map
+
+    return load_map(sample_map_path(name), resolution_m=0.05)

@@ -1,0 +1,173 @@
+"""Matplotlib helpers: the map, distance map, ridges, skeleton and graph overlay.
+
+All images are drawn in pixel coordinates (``imshow`` with row 0 at the top), so the
+graph's pixel paths overlay exactly; pass ``ax`` to draw into your own axes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "plot",
+    "plot_map",
+    "plot_distance",
+    "plot_ridges",
+    "plot_skeleton",
+    "plot_graph",
+    "plot_stages",
+]
+
+_KIND_COLOURS = {
+    "junction": "#d62728",
+    "end": "#1f77b4",
+    "ring": "#9467bd",
+    "isolated": "#7f7f7f",
+}
+
+
+def _axes(ax, figsize=(8, 8)):
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=figsize)
+    return ax
+
+
+def _map_image(occupancy) -> np.ndarray:
+    img = np.full(occupancy.shape, 0.8, np.float32)  # unknown: light grey
+    img[occupancy.free] = 1.0
+    img[occupancy.occupied] = 0.0
+    return img
+
+
+def plot_map(occupancy, *, ax=None, title: str | None = None):
+    """Occupancy map: occupied black, free white, unknown grey.  Returns the axes."""
+    ax = _axes(ax)
+    ax.imshow(_map_image(occupancy), cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+    ax.set_axis_off()
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_distance(distance: np.ndarray, *, ax=None, title: str | None = "distance map H"):
+    """Distance map ``H`` (float (H, W) in [0, 1]) as a colour image.  Returns the axes."""
+    ax = _axes(ax)
+    im = ax.imshow(distance, cmap="viridis", vmin=0, vmax=1, interpolation="nearest")
+    ax.figure.colorbar(im, ax=ax, fraction=0.046, pad=0.02)
+    ax.set_axis_off()
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_ridges(ridges: np.ndarray, *, ax=None, title: str | None = "ridges"):
+    """Binary ridge map (bool (H, W)).  Returns the axes."""
+    ax = _axes(ax)
+    ax.imshow(ridges, cmap="gray_r", interpolation="nearest")
+    ax.set_axis_off()
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_skeleton(skeleton: np.ndarray, *, ax=None, color="#2ca02c", title: str | None = None):
+    """Skeleton pixels as an overlay (transparent elsewhere).  Returns the axes."""
+    ax = _axes(ax)
+    rgba = np.zeros(skeleton.shape + (4,), np.float32)
+    rgba[skeleton] = (*_hex_rgb(color), 1.0)
+    ax.imshow(rgba, interpolation="nearest")
+    ax.set_axis_off()
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_graph(
+    graph,
+    *,
+    ax=None,
+    edge_color="#ff7f0e",
+    linewidth: float = 1.5,
+    node_size: float = 12.0,
+    title: str | None = None,
+):
+    """Topology graph in pixel coordinates: edges along their pixel paths, vertices by kind.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        As returned by :func:`topojax.build_graph` (edges need ``path``, vertices ``pixel``).
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    from matplotlib.collections import LineCollection
+
+    ax = _axes(ax)
+    segments = [np.asarray(data["path"], float)[:, ::-1] for _, _, data in graph.edges(data=True)]
+    if segments:
+        ax.add_collection(LineCollection(segments, colors=edge_color, linewidths=linewidth))
+    for kind, colour in _KIND_COLOURS.items():
+        pts = np.asarray(
+            [d["pixel"] for _, d in graph.nodes(data=True) if d.get("kind") == kind], float
+        )
+        if len(pts):
+            ax.scatter(pts[:, 1], pts[:, 0], s=node_size, c=colour, label=kind, zorder=3)
+    if graph.number_of_nodes():
+        ax.legend(loc="lower right", fontsize="small", markerscale=1.5)
+    shape = graph.graph.get("shape")
+    if shape is not None:
+        ax.set_xlim(-0.5, shape[1] - 0.5)
+        ax.set_ylim(shape[0] - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_axis_off()
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot(result, *, ax=None, skeleton: bool = True, graph: bool = True, title: str | None = None):
+    """Overlay of map, skeleton and graph for a :class:`~topojax.TopologyResult`.
+
+    Returns the axes; ``ax.figure.savefig(path)`` writes a picture.
+    """
+    ax = _axes(ax, figsize=(9, 9))
+    plot_map(result.map, ax=ax)
+    if skeleton:
+        plot_skeleton(result.skeleton, ax=ax, color="#2ca02c")
+    if graph:
+        plot_graph(result.graph, ax=ax)
+    if title is None:
+        g = result.graph
+        title = f"{g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
+    ax.set_title(title)
+    return ax
+
+
+def plot_stages(result, *, figsize=(15, 9)):
+    """The paper's Fig. 1: map, distance map, Laplacian, ridges, skeleton, graph.
+
+    Returns the figure.
+    """
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 3, figsize=figsize)
+    plot_map(result.map, ax=axes[0, 0], title="occupancy map")
+    plot_distance(result.distance, ax=axes[0, 1])
+    axes[0, 2].imshow(result.lap_abs, cmap="magma", interpolation="nearest")
+    axes[0, 2].set_title("|Laplacian| (x255)")
+    axes[0, 2].set_axis_off()
+    plot_ridges(result.ridges, ax=axes[1, 0], title="ridges (> threshold)")
+    plot_ridges(result.skeleton, ax=axes[1, 1], title="skeleton")
+    plot(result, ax=axes[1, 2])
+    fig.tight_layout()
+    return fig
+
+
+def _hex_rgb(colour: str) -> tuple[float, float, float]:
+    from matplotlib.colors import to_rgb
+
+    return to_rgb(colour)
