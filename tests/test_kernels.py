@@ -185,3 +185,18 @@ def test_bad_obstacle_input():
         DistanceConfig(sigma_px=float("nan"))
     with pytest.raises(ValueError, match="ksize"):
         RidgeConfig(ksize=7)
+
+
+@pytest.mark.parametrize("tile", [16, 20, 64])
+def test_band_worst_pixel_reached_only_by_horizontal_site(tile):
+    """Regression: a band whose worst pixel's nearest site lies exactly at its bound."""
+    obstacles = np.zeros((40, 70), bool)
+    obstacles[:, 0] = True  # every pixel's nearest obstacle is straight to the left
+    obstacles[5, 33] = True
+    r = 60
+    got = dense_fields(
+        obstacles, distance=DistanceConfig(sigma_px=10.0, half_width_px=r), tile_px=tile
+    ).sq_distance_px.astype(np.float64)
+    ref = brute_sq_distance(obstacles, r)
+    got[got >= FAR_SQ] = np.inf
+    np.testing.assert_array_equal(got, ref)

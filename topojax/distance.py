@@ -100,7 +100,7 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
     n_bands = -(-out_px // _BAND_ROWS)
     pad_rows = n_bands * _BAND_ROWS - out_px
     g = jnp.pad(g, ((0, pad_rows), (0, 0)), constant_values=FAR_SQ)
-    bound = jnp.pad(bound, ((0, pad_rows), (0, 0)), constant_values=0)
+    bound = jnp.pad(bound, ((0, pad_rows), (0, 0)), constant_values=FAR_SQ)
 
     def band(args):
         gb, ub = args
@@ -108,7 +108,10 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
         # largest k with k^2 < worst, capped at R
         k_max = jnp.minimum(jnp.ceil(jnp.sqrt(worst.astype(jnp.float32))).astype(jnp.int32), r)
         k_max = jnp.where((k_max * k_max >= worst) & (k_max > 0), k_max - 1, k_max)
-        best = lax.fori_loop(1, k_max + 1, lambda k, b: step(k, b, gb), gb[:, r : r + out_px])
+        # The bound is achieved by a real site, so it seeds the running best: offsets with
+        # k^2 >= worst then cannot improve any pixel, and stopping there is exact.
+        start = jnp.minimum(gb[:, r : r + out_px], ub)
+        best = lax.fori_loop(1, k_max + 1, lambda k, b: step(k, b, gb), start)
         return jnp.minimum(best, far)
 
     bands = g.reshape(n_bands, _BAND_ROWS, size)
