@@ -37,6 +37,7 @@ __all__ = ["FAR_SQ", "window_sq_distance_tile", "gaussian_from_sq_distance"]
 FAR_SQ = 1 << 30
 
 _BAND_ROWS = 16
+_UNROLL = 4
 
 
 def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -> jax.Array:
@@ -111,7 +112,16 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
         # The bound is achieved by a real site, so it seeds the running best: offsets with
         # k^2 >= worst then cannot improve any pixel, and stopping there is exact.
         start = jnp.minimum(gb[:, r : r + out_px], ub)
-        best = lax.fori_loop(1, k_max + 1, lambda k, b: step(k, b, gb), start)
+        # Hand-unrolled by _UNROLL offsets (fori_loop cannot unroll dynamic bounds).
+        # Overshooting k_max is harmless: a slice clamped at the patch edge only adds a
+        # real site's cost plus a larger k^2, never less than the true minimum.
+
+        def unrolled(i, b):
+            for j in range(_UNROLL):
+                b = step(1 + i * _UNROLL + j, b, gb)
+            return b
+
+        best = lax.fori_loop(0, (k_max + _UNROLL - 1) // _UNROLL, unrolled, start)
         return jnp.minimum(best, far)
 
     bands = g.reshape(n_bands, _BAND_ROWS, size)
