@@ -1,0 +1,59 @@
+"""Plot helpers draw what the result holds."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+
+import topojax as tj  # noqa: E402
+from topojax.datasets import sample_map  # noqa: E402
+from topojax.plotting import plot_graph, plot_stages  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def result():
+    return tj.build_graph(sample_map("a_scan"))
+
+
+def test_plot_overlay_draws_every_edge_and_vertex(result):
+    ax = tj.plot(result)
+    lines = [c for c in ax.collections if isinstance(c, LineCollection)]
+    assert len(lines) == 1
+    assert len(lines[0].get_segments()) == result.graph.number_of_edges()
+    n_points = sum(
+        len(c.get_offsets()) for c in ax.collections if not isinstance(c, LineCollection)
+    )
+    assert n_points == result.graph.number_of_nodes()
+    # the map image is drawn in pixel coordinates
+    assert ax.images[0].get_array().shape == result.map.shape
+    plt.close(ax.figure)
+
+
+def test_edge_segments_follow_pixel_paths(result):
+    ax = plot_graph(result.graph)
+    seg = ax.collections[0].get_segments()[0]
+    first = next(iter(result.graph.edges(data=True)))[2]["path"]
+    np.testing.assert_array_equal(seg, first[:, ::-1].astype(float))  # (x=col, y=row)
+    plt.close(ax.figure)
+
+
+def test_stage_figure_and_saving(result, tmp_path):
+    fig = plot_stages(result)
+    assert len(fig.axes) >= 6
+    path = tmp_path / "stages.png"
+    fig.savefig(path)
+    assert path.stat().st_size > 10_000
+    plt.close(fig)
+
+
+def test_plot_empty_graph():
+    res = tj.build_graph(np.zeros((20, 20), bool))
+    ax = tj.plot(res)
+    assert "0 vertices" in ax.get_title()
+    plt.close(ax.figure)
