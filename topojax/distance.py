@@ -70,10 +70,14 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
     big = jnp.int32(1 << 24)
 
     # Pass 1 (columns): nearest obstacle row above / below, by running max / min scans.
+    # Output rows are [r, r + out_px): "above" needs rows up to the last of them only,
+    # "below" rows from the first of them only.
     rows = jnp.arange(size, dtype=jnp.int32)[:, None]
-    above = _running(jnp.maximum, jnp.where(patch, rows, -big), -big, reverse=False)
-    below = _running(jnp.minimum, jnp.where(patch, rows, big), big, reverse=True)
-    dv = jnp.minimum(rows - above, below - rows)[r : r + out_px]  # (out_px, size)
+    top, bottom = slice(0, r + out_px), slice(r, size)
+    above = _running(jnp.maximum, jnp.where(patch[top], rows[top], -big), -big)[r:]
+    below = _running(jnp.minimum, jnp.where(patch[bottom], rows[bottom], big), big, reverse=True)
+    centre = rows[r : r + out_px]
+    dv = jnp.minimum(centre - above, below[:out_px] - centre)  # (out_px, size)
     g = jnp.where(dv <= r, dv * dv, far)
 
     # Upper bound on every pixel's answer from the nearest finite column site on each
