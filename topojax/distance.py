@@ -81,18 +81,16 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
     g = jnp.where(dv <= r, dv * dv, far)
 
     # Upper bound on every pixel's answer from the nearest finite column site on each
-    # side (running scans along the row), and from the first few offsets.
-    cols = jnp.arange(size, dtype=jnp.int32)[None, :]
-    finite = g < far
-    left = _running(jnp.maximum, jnp.where(finite, cols, -big), -big, axis=1, reverse=False)
-    right = _running(jnp.minimum, jnp.where(finite, cols, big), big, axis=1, reverse=True)
-    core = slice(r, r + out_px)
-    kl = cols[:, core] - left[:, core]
-    kr = right[:, core] - cols[:, core]
-    gl = jnp.take_along_axis(g, jnp.clip(left[:, core], 0, size - 1), axis=1)
-    gr = jnp.take_along_axis(g, jnp.clip(right[:, core], 0, size - 1), axis=1)
+    # side: running scans along the row carrying that site's column and value.  As for
+    # pass 1, each direction only scans the columns it needs.
+    left_col, left_g = _last_site(g[:, : r + out_px], reverse=False)
+    right_col, right_g = _last_site(g[:, r:], reverse=True)
+    cols = jnp.arange(r, r + out_px, dtype=jnp.int32)[None, :]
+    kl = cols - left_col[:, r:]
+    kr = right_col[:, :out_px] + r - cols  # right_col counts from column r
     bound = jnp.minimum(
-        jnp.where(kl <= r, gl + kl * kl, far), jnp.where(kr <= r, gr + kr * kr, far)
+        jnp.where(kl <= r, left_g[:, r:] + kl * kl, far),
+        jnp.where(kr <= r, right_g[:, :out_px] + kr * kr, far),
     )
 
     def step(k, best, gb):
@@ -144,6 +142,32 @@ def _running(op, x: jax.Array, init, *, axis: int = 0, reverse: bool = False) ->
 
     _, out = lax.scan(body, jnp.full(xs.shape[1:], init, xs.dtype), xs, reverse=reverse)
     return jnp.moveaxis(out, 0, axis)
+
+
+def _last_site(g: jax.Array, *, reverse: bool) -> tuple[jax.Array, jax.Array]:
+    """Column and value of the nearest finite entry of ``g`` at or before each column.
+
+    With ``reverse``, at or after.  Both outputs have ``g``'s shape (rows, n); columns
+    count from ``g``'s first column, and a missing site gets a column 2^24 away, beyond
+    any window.
+    """
+    n = g.shape[1]
+    big = jnp.int32(1 << 24)
+    far = jnp.int32(FAR_SQ)
+    cols = jnp.arange(n, dtype=jnp.int32)
+
+    def body(carry, xs):
+        col, val = carry
+        gcol, c = xs
+        hit = gcol < far
+        col = jnp.where(hit, c, col)
+        val = jnp.where(hit, gcol, val)
+        return (col, val), (col, val)
+
+    init_col = jnp.full(g.shape[:1], big if reverse else -big, jnp.int32)
+    init = (init_col, jnp.full(g.shape[:1], far, jnp.int32))
+    _, (col, val) = lax.scan(body, init, (g.T, cols), reverse=reverse)
+    return col.T, val.T
 
 
 def gaussian_from_sq_distance(d2: jax.Array, sigma_px: jax.Array | float) -> jax.Array:
