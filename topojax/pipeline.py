@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import networkx as nx
 import numpy as np
 from jax import lax
+from numpy.lib.stride_tricks import sliding_window_view
 
 from .config import DistanceConfig, PipelineConfig, RidgeConfig
 from .distance import FAR_SQ, gaussian_from_sq_distance, window_sq_distance_tile
@@ -109,6 +110,27 @@ def _forward_tiles(
     )
 
 
+def _patch_views(grid: TileGrid, obstacles: np.ndarray, halo: int) -> np.ndarray:
+    """Haloed obstacle patches of every tile as a strided view, shape (n_tiles, P, P)."""
+    t = grid.tile_px
+    gr, gc = grid.grid_shape
+    padded = np.zeros((gr * t + 2 * halo, gc * t + 2 * halo), bool)
+    padded[halo : halo + obstacles.shape[0], halo : halo + obstacles.shape[1]] = obstacles
+    size = t + 2 * halo
+    view = sliding_window_view(padded, (size, size))[::t, ::t]
+    return _FlatTiles(view, gc)
+
+
+class _FlatTiles:
+    """Index a (rows, cols, P, P) view of tiles by raster tile number without copying."""
+
+    def __init__(self, view: np.ndarray, n_cols: int) -> None:
+        self.view, self.n_cols = view, n_cols
+
+    def __getitem__(self, i: int) -> np.ndarray:
+        return self.view[i // self.n_cols, i % self.n_cols]
+
+
 _POOLS: dict[int, ThreadPoolExecutor] = {}
 
 
@@ -171,7 +193,7 @@ def dense_fields(
     distance: DistanceConfig | None = None,
     ridge: RidgeConfig | None = None,
     tile_px: int = 256,
-    tiles_per_call: int = 4,
+    tiles_per_call: int = 1,
     threads: int | None = None,
 ) -> DenseFields:
     """Run the JAX stages (distance map, Laplacian, ridges) over a whole map, tile by tile.
@@ -210,7 +232,7 @@ def dense_fields_many(
     distance: DistanceConfig | None = None,
     ridge: RidgeConfig | None = None,
     tile_px: int = 256,
-    tiles_per_call: int = 4,
+    tiles_per_call: int = 1,
     threads: int | None = None,
 ) -> list[DenseFields]:
     """:func:`dense_fields` for many maps at once, their tiles sharing kernel calls.
@@ -247,14 +269,12 @@ def dense_fields_many(
         jnp.float32(ridge.threshold),
     )
     total = len(owners)
+    # Pad each map once; a patch is then a strided view, copied only when it is stacked.
+    views = [_patch_views(g, m, halo) for g, m in zip(grids, maps, strict=True)]
 
     def run_chunk(start: int):
         sel = np.arange(start, min(total, start + tiles_per_call))
-        patch_list = []
-        for i in np.unique(owners[sel]):
-            mine = sel[owners[sel] == i]
-            patch_list.append(grids[i].patches(maps[i], halo, fill=False, index=local[mine]))
-        patches = np.concatenate(patch_list)
+        patches = np.stack([views[owners[j]][local[j]] for j in sel])
         org = all_origins[sel]
         shp = shapes[owners[sel]]
         short = tiles_per_call - len(sel)
