@@ -425,3 +425,19 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path: Path, monkeypatch):
     assert [p.name for p in tmp_path.iterdir()] == ["g.json"]
     with pytest.raises(FileNotFoundError, match="no_dir"):
         atomic_write_bytes(tmp_path / "no_dir" / "x.bin", b"x")
+
+
+def test_atomic_write_gives_ordinary_file_permissions(tmp_path):
+    import os
+    import stat
+
+    from topojax.io import atomic_write_bytes
+
+    mask = os.umask(0o022)
+    try:
+        target = tmp_path / "out.bin"
+        atomic_write_bytes(target, b"abc")
+        assert stat.S_IMODE(target.stat().st_mode) == 0o644
+        assert target.read_bytes() == b"abc"
+    finally:
+        os.umask(mask)

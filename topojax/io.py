@@ -61,6 +61,12 @@ _DEFAULT_GRAPH_KINDS: dict[str, dict[str, Any]] = {
 # ---------------------------------------------------------------------- atomic writing
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically.
 
@@ -80,6 +86,9 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
         raise FileNotFoundError(f"folder for output file {dest} does not exist: {folder}")
     fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=folder)
     try:
+        # mkstemp creates the file 0600; give the result the permissions any ordinary
+        # new file would get (0666 less the process umask).
+        os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
