@@ -37,6 +37,7 @@ __all__ = [
     "distance_map",
     "ridge_map",
     "forward_tile",
+    "graph_from_ridges",
     "trace_counts",
 ]
 
@@ -403,6 +404,64 @@ def clearance_from_sq_distance(
     return clearance.astype(np.float32)
 
 
+def graph_from_ridges(
+    ridges: np.ndarray,
+    *,
+    clearance_px: np.ndarray | None,
+    resolution_m: float,
+    origin: tuple[float, float, float],
+    pixel_to_world,
+    config: PipelineConfig,
+    source: object = None,
+):
+    """The CPU stages: thinning, T-centre removal and the skeleton-to-graph step.
+
+    Parameters
+    ----------
+    ridges : bool (H, W)
+        Ridge map.
+    clearance_px : float32 (H, W) or None
+        Euclidean clearance in pixels (read at skeleton pixels only).
+    resolution_m : float
+        Metres per pixel.
+    origin : (x, y, yaw)
+        Map origin, stored as a graph attribute.
+    pixel_to_world : callable
+        ``(rows, cols) -> (x, y)``, e.g. :meth:`OccupancyMap.pixel_to_world`.
+    config : PipelineConfig
+    source : optional
+        Where the map came from; stored as the graph attribute ``source``.
+
+    Returns
+    -------
+    skeleton : bool (H, W)
+    graph : networkx.MultiGraph
+    timings_s : dict with ``thinning``, ``t_removal`` and ``graph`` wall times.
+    """
+    from .graph import skeleton_to_graph
+    from .skeleton import remove_t_centres, thin
+
+    t0 = time.perf_counter()
+    skeleton = thin(ridges, method=config.skeleton.thinning)
+    t1 = time.perf_counter()
+    if config.skeleton.remove_t:
+        skeleton = remove_t_centres(skeleton)
+    t2 = time.perf_counter()
+    graph = skeleton_to_graph(
+        skeleton,
+        clearance_px=clearance_px,
+        resolution_m=resolution_m,
+        pixel_to_world=pixel_to_world,
+        merge_junction_clusters=config.graph.merge_junction_clusters,
+    )
+    graph.graph["origin"] = tuple(float(v) for v in origin)
+    graph.graph["thinning"] = config.skeleton.thinning
+    if source is not None:
+        graph.graph["source"] = str(source)
+    t3 = time.perf_counter()
+    return skeleton, graph, {"thinning": t1 - t0, "t_removal": t2 - t1, "graph": t3 - t2}
+
+
 def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyResult:
     """Build the topology graph of a finished occupancy map (paper §II).
 
@@ -421,9 +480,7 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
         corridors as edges carrying their pixel paths and world polylines.  A map with no
         obstacles or no free space gives an empty graph.
     """
-    from .graph import skeleton_to_graph
     from .maps import OccupancyMap
-    from .skeleton import remove_t_centres, thin
 
     config = config or PipelineConfig()
     if not isinstance(config, PipelineConfig):
@@ -453,37 +510,25 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     t1 = time.perf_counter()
     timings["distance_ridges"] = t1 - t0
 
-    ridges = fields.ridges
-    skeleton = thin(ridges, method=config.skeleton.thinning)
-    t2 = time.perf_counter()
-    timings["thinning"] = t2 - t1
-    if config.skeleton.remove_t:
-        skeleton = remove_t_centres(skeleton)
-    t3 = time.perf_counter()
-    timings["t_removal"] = t3 - t2
-
     clearance = clearance_from_sq_distance(
-        fields.sq_distance_px, obstacles, config.distance.half_width_px, skeleton
+        fields.sq_distance_px, obstacles, config.distance.half_width_px, fields.ridges
     )
-    graph = skeleton_to_graph(
-        skeleton,
+    skeleton, graph, cpu_timings = graph_from_ridges(
+        fields.ridges,
         clearance_px=clearance,
         resolution_m=occupancy.resolution_m,
+        origin=occupancy.origin,
         pixel_to_world=occupancy.pixel_to_world,
-        merge_junction_clusters=config.graph.merge_junction_clusters,
+        config=config,
+        source=occupancy.source,
     )
-    graph.graph["origin"] = tuple(float(v) for v in occupancy.origin)
-    graph.graph["thinning"] = config.skeleton.thinning
-    if occupancy.source is not None:
-        graph.graph["source"] = str(occupancy.source)
-    t4 = time.perf_counter()
-    timings["graph"] = t4 - t3
-    timings["total"] = t4 - t0
+    timings.update(cpu_timings)
+    timings["total"] = time.perf_counter() - t0
     return TopologyResult(
         map=occupancy,
         distance=fields.distance,
         lap_abs=fields.lap_abs,
-        ridges=ridges,
+        ridges=fields.ridges,
         skeleton=skeleton,
         clearance_px=clearance,
         graph=graph,
