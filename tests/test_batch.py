@@ -1,0 +1,557 @@
+"""Tests for topojax.batch: batched kernels, worker processes, outputs, faults, resume, Dask.
+
+The reference for every graph is :func:`topojax.build_graph` run on the map alone; graphs
+are compared exactly (node ids and order, every attribute, numpy arrays bit for bit).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+
+from topojax.batch import (
+    SUMMARY_COLUMNS,
+    MapRecord,
+    build_graphs,
+    expand_braces,
+    expand_map_inputs,
+)
+from topojax.config import PipelineConfig, SkeletonConfig
+from topojax.graph import graph_summary
+from topojax.io import load_graph
+from topojax.maps import OccupancyMap, load_map
+from topojax.pipeline import build_graph, trace_counts
+
+PAPER = Path(__file__).resolve().parents[1] / "topojax" / "data"
+PAPER_MAPS = [PAPER / f"{name}.png" for name in ("intel", "office", "a_scan")]
+SMALL_SHARED = (
+    "maps/simulated/nav2/depot.yaml",
+    "maps/simulated/nav2/tb3_sandbox.yaml",
+    "maps/ros/turtlebot3_office/map_office_raw.yaml",
+)
+
+
+# ---------------------------------------------------------------------- helpers
+
+
+def _values_equal(a, b) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return type(a) is type(b) and a == b
+
+
+def assert_attrs_equal(a: dict, b: dict, where: str) -> None:
+    assert a.keys() == b.keys(), f"{where}: attribute names differ"
+    for k in a:
+        assert _values_equal(a[k], b[k]), f"{where}: attribute {k!r} differs"
+
+
+def assert_graphs_equal(got: nx.MultiGraph, want: nx.MultiGraph, where: str = "") -> None:
+    assert isinstance(got, nx.MultiGraph)
+    assert_attrs_equal(got.graph, want.graph, f"{where} graph")
+    assert list(got.nodes) == list(want.nodes), f"{where}: node ids/order differ"
+    for n in want.nodes:
+        assert_attrs_equal(got.nodes[n], want.nodes[n], f"{where} node {n}")
+    ge = list(got.edges(keys=True, data=True))
+    we = list(want.edges(keys=True, data=True))
+    assert [e[:3] for e in ge] == [e[:3] for e in we], f"{where}: edges differ"
+    for (u, v, k, da), (_, _, _, db) in zip(ge, we, strict=True):
+        assert_attrs_equal(da, db, f"{where} edge {(u, v, k)}")
+
+
+def _small_shared(shared_data: Path) -> list[Path]:
+    paths = [shared_data / rel for rel in SMALL_SHARED]
+    missing = [p for p in paths if not p.is_file()]
+    if missing:
+        pytest.skip(f"shared maps missing: {missing}")
+    return paths
+
+
+def _synthetic(shape, seed, *, yaw=0.0, source=None) -> OccupancyMap:
+    """Rooms with random walls: a few rectangles of obstacles inside a frame."""
+    rng = np.random.default_rng(seed)
+    occ = np.zeros(shape, bool)
+    occ[[0, -1], :] = True
+    occ[:, [0, -1]] = True
+    for _ in range(6):
+        r, c = rng.integers(0, shape[0]), rng.integers(0, shape[1])
+        if rng.random() < 0.5:
+            occ[r, max(0, c - 40) : c + 40] = True
+        else:
+            occ[max(0, r - 40) : r + 40, c] = True
+    free = ~occ
+    return OccupancyMap(
+        occupied=occ,
+        free=free,
+        unknown=np.zeros(shape, bool),
+        resolution_m=0.07,
+        origin=(3.0, -1.5, yaw),
+        source=source,
+    )
+
+
+def _file_bytes(folder: Path) -> dict[str, bytes]:
+    return {
+        p.relative_to(folder).as_posix(): p.read_bytes()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+# ---------------------------------------------------------------------- identity
+
+
+def test_identity_with_build_graph_in_worker_processes(shared_data):
+    """Worker processes (default executor) give exactly build_graph's graphs, map by map."""
+    empty = OccupancyMap(
+        occupied=np.zeros((50, 60), bool),
+        free=np.ones((50, 60), bool),
+        unknown=np.zeros((50, 60), bool),
+    )
+    rotated = _synthetic((300, 420), 1, yaw=0.6, source="synthetic/rotated")
+    inputs = [*PAPER_MAPS, *_small_shared(shared_data), rotated, empty]
+    records = build_graphs(inputs, workers=2, progress=False)
+    assert [r.status for r in records] == ["ok"] * len(inputs), [r.message for r in records]
+    for inp, rec in zip(inputs, records, strict=True):
+        occ = inp if isinstance(inp, OccupancyMap) else load_map(inp)
+        want = build_graph(occ).graph
+        assert_graphs_equal(rec.graph, want, where=rec.map)
+        s = graph_summary(want)
+        assert (rec.vertices, rec.edges, rec.components) == (
+            s["n_vertices"],
+            s["n_edges"],
+            s["n_components"],
+        )
+        assert rec.total_length_m == s["total_length_m"]
+        assert (rec.height, rec.width) == occ.shape
+        assert rec.resolution_m == occ.resolution_m
+    assert records[-1].vertices == 0  # no obstacle: empty graph, like build_graph
+    assert records[0].vertices > 100  # the intel map has a real graph
+    # names: relative to the common folder of the files, objects by source or position
+    names = [r.map for r in records]
+    assert len(set(names)) == len(names)
+    assert names[-1] == "map_0007"
+    assert names[0].endswith("topojax/data/intel")
+
+
+def test_zhang_thinning_and_options_pass_through():
+    config = PipelineConfig(skeleton=SkeletonConfig(thinning="zhang", remove_t=False))
+    occ = load_map(PAPER_MAPS[1])
+    (rec,) = build_graphs([occ], workers=0, config=config, progress=False)
+    assert_graphs_equal(rec.graph, build_graph(occ, config=config).graph, "office/zhang")
+    assert rec.graph.graph["thinning"] == "zhang"
+
+
+def test_mixed_sizes_share_one_compiled_kernel():
+    """Maps of very different sizes in one batch: one trace for the bucket, none after."""
+    maps = [
+        _synthetic((40, 300), 2),
+        _synthetic((257, 513), 3),
+        _synthetic((600, 100), 4),
+        _synthetic((130, 130), 5),
+    ]
+    # a bucket (tile_px, tiles_per_call) no other test uses, so the first batch must trace it
+    config = PipelineConfig(tile_px=200, tiles_per_call=5)
+    kw = {"workers": 0, "config": config, "tiles_per_call": 5, "progress": False}
+    before = trace_counts().get("forward_tiles", 0)
+    records = build_graphs(maps, batch_tiles=7, **kw)
+    after_first = trace_counts().get("forward_tiles", 0)
+    assert after_first - before == 1
+    again = build_graphs(maps[::-1], **kw)
+    assert trace_counts().get("forward_tiles", 0) == after_first
+    # results do not depend on the tiling: compare with build_graph's default 256-px tiles
+    for m, rec in zip(maps, records, strict=True):
+        assert_graphs_equal(rec.graph, build_graph(m).graph, f"synthetic {m.shape}")
+    for m, rec in zip(maps[::-1], again, strict=True):
+        assert_graphs_equal(rec.graph, build_graph(m).graph, f"reversed {m.shape}")
+
+
+# ---------------------------------------------------------------------- outputs and faults
+
+
+def _read_summary(out: Path) -> list[dict[str, str]]:
+    with open(out / "summary.csv", newline="") as fh:
+        reader = csv.DictReader(fh)
+        assert tuple(reader.fieldnames or ()) == SUMMARY_COLUMNS
+        return list(reader)
+
+
+@pytest.mark.parametrize("workers", [0, 2])  # files read by threads here / by the workers
+def test_corrupt_and_missing_maps_become_error_rows(tmp_path, shared_data, workers):
+    bad_png = tmp_path / "in" / "corrupt.png"
+    bad_png.parent.mkdir()
+    bad_png.write_bytes(b"\x89PNG\r\n\x1a\n" + os.urandom(200))
+    bad_yaml = tmp_path / "in" / "noimage.yaml"
+    bad_yaml.write_text("image: nowhere.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    missing = tmp_path / "in" / "missing.pgm"
+    good = [PAPER_MAPS[2], _small_shared(shared_data)[0]]
+    out = tmp_path / "out"
+    records = build_graphs(
+        [good[0], bad_png, bad_yaml, missing, good[1]], out_dir=out, workers=workers
+    )
+    status = [r.status for r in records]
+    assert status == ["ok", "error", "error", "error", "ok"]
+    assert "corrupt.png" in records[1].message
+    assert "nowhere.pgm" in records[2].message and "FileNotFoundError" in records[2].message
+    assert "missing.pgm" in records[3].message
+    for rec in records[1:4]:
+        assert rec.height is None and rec.vertices is None
+        assert not list(out.rglob(f"{rec.map}.*")), "no outputs for a failed map"
+    rows = _read_summary(out)
+    assert [r["status"] for r in rows] == status
+    assert [r["map"] for r in rows] == [r.map for r in records]
+    for rec, row in zip(records, rows, strict=True):
+        assert row["path"] == str(rec.path)
+        if rec.status == "ok":
+            assert int(row["vertices"]) == rec.vertices > 0
+            assert int(row["edges"]) == rec.edges
+            assert float(row["total_length_m"]) == rec.total_length_m
+            assert int(row["height"]) == rec.height and float(row["resolution_m"]) > 0
+            assert float(row["t_total_s"]) >= float(row["t_distance_s"]) > 0
+            assert row["message"] == ""
+            # the graph files load back equal to build_graph's graph
+            want = build_graph(load_map(rec.path)).graph
+            for suffix in (".graphml", ".json", ".geojson"):
+                got = load_graph(out / f"{rec.map}{suffix}")
+                assert got.number_of_nodes() == rec.vertices
+                assert got.number_of_edges() == rec.edges
+            assert_graphs_equal(load_graph(out / f"{rec.map}.json"), want, rec.map)
+        else:
+            assert row["vertices"] == "" and row["message"] == rec.message
+
+
+def test_kernel_failure_of_one_map_spares_its_group(monkeypatch):
+    """A kernel call that fails for one map: that map errors, its group-mates finish."""
+    import topojax.pipeline
+
+    real = topojax.pipeline.dense_fields_many
+    bad_shape = (131, 257)
+
+    calls = []
+
+    def flaky(obstacle_maps, **kwargs):
+        calls.append(len(obstacle_maps))
+        if any(np.shape(m) == bad_shape for m in obstacle_maps):
+            raise MemoryError("kernel out of memory (injected)")
+        return real(obstacle_maps, **kwargs)
+
+    monkeypatch.setattr(topojax.pipeline, "dense_fields_many", flaky)
+    maps = [_synthetic((90, 200), 7), _synthetic(bad_shape, 8), _synthetic((200, 90), 9)]
+    before = build_graphs(maps[:1], workers=0, progress=False)  # compile outside the group
+    assert before[0].status == "ok"
+    calls.clear()
+    records = build_graphs(maps, workers=0, progress=False, batch_tiles=1000)
+    assert calls == [3, 1, 1, 1]  # the group of three, then each map alone
+    assert [r.status for r in records] == ["ok", "error", "ok"]
+    assert records[1].message == "MemoryError: kernel out of memory (injected)"
+    assert records[1].height == bad_shape[0] and records[1].vertices is None
+    for i in (0, 2):
+        assert_graphs_equal(records[i].graph, build_graph(maps[i]).graph, f"map {i}")
+
+
+def test_write_failure_leaves_no_manifest_and_resume_redoes(tmp_path, monkeypatch):
+    """A fault while writing a map's files: error row, no manifest; resume redoes it."""
+    import topojax.io
+
+    out = tmp_path / "out"
+    maps = [PAPER_MAPS[0], PAPER_MAPS[2]]
+    real_save = topojax.io.save_graph
+
+    def failing_save(graph, path, *, format=None):
+        if str(path).endswith("a_scan.json"):
+            raise OSError("disk full (injected)")
+        return real_save(graph, path, format=format)
+
+    monkeypatch.setattr(topojax.io, "save_graph", failing_save)
+    first = build_graphs(maps, out_dir=out, workers=0, progress=False)
+    assert [r.status for r in first] == ["ok", "error"]
+    assert "disk full (injected)" in first[1].message
+    assert not (out / "a_scan.manifest.json").exists()
+    assert (out / "intel.manifest.json").exists()
+    assert not (out / "a_scan.json").exists()
+
+    monkeypatch.setattr(topojax.io, "save_graph", real_save)
+    second = build_graphs(maps, out_dir=out, workers=0, resume=True, progress=False)
+    assert [r.status for r in second] == ["skipped", "ok"]
+    assert second[0].vertices == first[0].vertices
+    assert (out / "a_scan.manifest.json").exists()
+    assert load_graph(out / "a_scan.json").number_of_edges() == second[1].edges
+
+
+def test_resume_skips_complete_and_redoes_damaged(tmp_path, shared_data):
+    src = tmp_path / "maps"
+    src.mkdir()
+    inputs = []
+    for p in [*PAPER_MAPS, _small_shared(shared_data)[1]]:
+        if p.suffix == ".yaml":  # copy the YAML with its image
+            doc = p.read_text()
+            (src / p.name).write_text(doc)
+            for line in doc.splitlines():
+                if line.startswith("image:"):
+                    name = line.split(":", 1)[1].strip()
+                    (src / name).write_bytes((p.parent / name).read_bytes())
+        else:
+            (src / p.name).write_bytes(p.read_bytes())
+        inputs.append(src / p.name)
+    out = tmp_path / "out"
+    first = build_graphs(inputs, out_dir=out, workers=0, plot=True, progress=False)
+    assert all(r.status == "ok" for r in first), [r.message for r in first]
+    clean = _file_bytes(out)
+    for rec in first:
+        for suffix in (".graphml", ".json", ".geojson", "_graph.png", ".manifest.json"):
+            assert f"{rec.map}{suffix}" in clean
+        assert clean[f"{rec.map}_graph.png"].startswith(b"\x89PNG")
+    mtimes = {p: p.stat().st_mtime_ns for p in out.iterdir()}
+
+    again = build_graphs(inputs, out_dir=out, workers=0, plot=True, resume=True, progress=False)
+    assert [r.status for r in again] == ["skipped"] * 4
+    assert [r.vertices for r in again] == [r.vertices for r in first]
+    assert [r.edges for r in again] == [r.edges for r in first]
+    assert {p: p.stat().st_mtime_ns for p in out.iterdir() if p.name != "summary.csv"} == {
+        p: t for p, t in mtimes.items() if p.name != "summary.csv"
+    }
+    assert [r["status"] for r in _read_summary(out)] == ["skipped"] * 4
+
+    # damage: truncate one file, delete another, corrupt a third's manifest
+    names = [r.map for r in first]
+    graphml = out / f"{names[0]}.graphml"
+    graphml.write_bytes(graphml.read_bytes()[:100])
+    (out / f"{names[1]}.geojson").unlink()
+    (out / f"{names[2]}.manifest.json").write_text("{not json")
+    third = build_graphs(inputs, out_dir=out, workers=0, plot=True, resume=True, progress=False)
+    assert [r.status for r in third] == ["ok", "ok", "ok", "skipped"]
+    repaired = _file_bytes(out)
+    for key in clean:
+        if key != "summary.csv" and not key.endswith(".png"):
+            assert repaired[key] == clean[key] or key.endswith(".manifest.json"), key
+    for name in names:
+        manifest = json.loads((out / f"{name}.manifest.json").read_text())
+        for rel, meta in manifest["files"].items():
+            assert (out / rel).stat().st_size == meta["bytes"]
+
+    # another setting (thinning) or a changed input: redone, not skipped
+    zhang = PipelineConfig(skeleton=SkeletonConfig(thinning="zhang"))
+    fourth = build_graphs(
+        inputs, out_dir=out, workers=0, plot=True, resume=True, config=zhang, progress=False
+    )
+    assert [r.status for r in fourth] == ["ok"] * 4
+    img = inputs[0]
+    arr = load_map(img).to_image()
+    arr[300:310, 300:500] = 0  # a new wall
+    from PIL import Image
+
+    Image.fromarray(arr).save(img)
+    fifth = build_graphs(
+        inputs, out_dir=out, workers=0, plot=True, resume=True, config=zhang, progress=False
+    )
+    assert [r.status for r in fifth] == ["ok", "skipped", "skipped", "skipped"]
+
+
+_KILL_SCRIPT = """
+import sys
+from topojax.batch import build_graphs
+paths = sys.argv[2:]
+build_graphs(paths, out_dir=sys.argv[1], workers=0, progress=False)
+"""
+
+
+def test_killed_run_leaves_only_complete_files(tmp_path):
+    """SIGKILL a run mid-way: every file under a final name is complete, resume finishes."""
+    src = tmp_path / "in"
+    src.mkdir()
+    inputs = []
+    for i in range(12):  # distinct files, so every map has its own outputs
+        dest = src / f"m{i:02d}.png"
+        dest.write_bytes(PAPER_MAPS[i % 3].read_bytes())
+        inputs.append(str(dest))
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _KILL_SCRIPT, str(out), *inputs],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    deadline = time.monotonic() + 90
+    while time.monotonic() < deadline and proc.poll() is None:
+        if any(out.glob("*.manifest.json")):
+            break
+        time.sleep(0.01)
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert out.is_dir()
+    finals = [p for p in out.iterdir() if not p.name.startswith(".")]
+    assert finals, "the run was killed before writing anything"
+    for p in finals:
+        if p.name.endswith(".manifest.json"):
+            doc = json.loads(p.read_text())
+            for rel, meta in doc["files"].items():
+                assert (out / rel).stat().st_size == meta["bytes"]
+        elif p.suffix in (".graphml", ".json", ".geojson"):
+            load_graph(p)  # parses completely, or raises
+    done = build_graphs(inputs, out_dir=out, workers=0, resume=True, progress=False)
+    assert all(r.status in ("ok", "skipped") for r in done)
+    assert any(r.status == "skipped" for r in done)
+    assert not list(out.glob(".*.tmp")), "stale temporary files of redone maps are removed"
+    for r, inp in zip(done, inputs, strict=True):
+        assert r.edges == build_graph(load_map(inp)).graph.number_of_edges()
+
+
+# ---------------------------------------------------------------------- inputs and CLI
+
+
+def test_expand_braces():
+    assert expand_braces("maps/**/*.{yaml,png,pgm}") == [
+        "maps/**/*.yaml",
+        "maps/**/*.png",
+        "maps/**/*.pgm",
+    ]
+    assert expand_braces("a{b,c{d,e}}f") == ["abf", "acdf", "acef"]
+    assert expand_braces("{x,y}{1,2}") == ["x1", "x2", "y1", "y2"]
+    assert expand_braces("{a}b") == ["{a}b"]  # no comma: literal, as in bash
+    assert expand_braces("a{b") == ["a{b"]
+    assert expand_braces("a{b{c,d}") == ["a{bc", "a{bd"]
+    assert expand_braces("{,x}y") == ["y", "xy"]
+    with pytest.raises(TypeError, match="pattern"):
+        expand_braces(3)  # type: ignore[arg-type]
+
+
+def test_expand_map_inputs(tmp_path):
+    root = tmp_path / "maps"
+    (root / "sub").mkdir(parents=True)
+    (root / ".hidden").mkdir()
+    png = PAPER_MAPS[2].read_bytes()
+    (root / "a.pgm").write_bytes(b"P5\n2 2\n255\n\x00\xfe\xfe\xfe")
+    (root / "a.yaml").write_text("image: a.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    (root / "sub" / "b.png").write_bytes(png)
+    (root / "sub" / "c.PGM").write_bytes(b"P5\n2 2\n255\n\x00\xfe\xfe\xfe")
+    (root / "sub" / "notes.txt").write_text("not a map")
+    (root / ".hidden" / "d.png").write_bytes(png)
+    want = [root / "a.yaml", root / "sub" / "b.png", root / "sub" / "c.PGM"]
+    assert expand_map_inputs([root]) == want
+    got = expand_map_inputs([f"{root}/**/*.{{yaml,png,pgm,PGM}}"])
+    assert sorted(got) == sorted(want)  # the YAML's image a.pgm is not listed twice
+    assert expand_map_inputs([str(root / "sub" / "*.png"), root / "sub"]) == [
+        root / "sub" / "b.png",
+        root / "sub" / "c.PGM",
+    ]
+    literal = tmp_path / "nope.png"
+    assert expand_map_inputs([literal]) == [literal]  # reported later as an error row
+    with pytest.raises(ValueError, match="none found"):
+        expand_map_inputs([str(tmp_path / "*.yaml")])
+
+
+def test_cli_batch(tmp_path, capsys):
+    from topojax.cli import main
+
+    src = tmp_path / "maps"
+    src.mkdir()
+    for p in PAPER_MAPS[1:]:
+        (src / p.name).write_bytes(p.read_bytes())
+    out = tmp_path / "out"
+    argv = ["batch", f"{src}/*.{{png,pgm}}", "-o", str(out), "--workers", "0", "--no-progress"]
+    assert main([*argv, "--formats", "json"]) == 0
+    assert "2 maps" in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == [
+        "a_scan.json",
+        "a_scan.manifest.json",
+        "office.json",
+        "office.manifest.json",
+        "summary.csv",
+    ]
+    assert main([*argv, "--formats", "json", "--resume"]) == 0
+    assert "2 skipped" in capsys.readouterr().out
+    (src / "broken.png").write_bytes(b"not an image")
+    assert main([*argv, "--formats", "json", "--resume"]) == 1
+    captured = capsys.readouterr()
+    assert "1 errors" in captured.out and "broken" in captured.err
+
+
+def test_argument_errors(tmp_path):
+    with pytest.raises(ValueError, match="formats"):
+        build_graphs([PAPER_MAPS[0]], formats=("graphml", "svg"), workers=0)
+    with pytest.raises(TypeError, match=r"maps\[1\]"):
+        build_graphs([PAPER_MAPS[0], 3], workers=0)  # type: ignore[list-item]
+    with pytest.raises(ValueError, match="out_dir"):
+        build_graphs([PAPER_MAPS[0]], plot=True, workers=0)
+    with pytest.raises(TypeError, match="executor"):
+        build_graphs([PAPER_MAPS[0]], executor=object(), workers=0)
+    with pytest.raises(ValueError, match="workers"):
+        build_graphs([PAPER_MAPS[0]], workers=-1)
+    with pytest.raises(TypeError, match="config"):
+        build_graphs([PAPER_MAPS[0]], config={"tile_px": 64}, workers=0)  # type: ignore[arg-type]
+    # writing into the input folder would overwrite an input: refused
+    src = tmp_path / "x"
+    src.mkdir()
+    (src / "m.png").write_bytes(PAPER_MAPS[0].read_bytes())
+    (src / "m_graph.png").write_bytes(PAPER_MAPS[0].read_bytes())
+    with pytest.raises(ValueError, match="overwrite an input"):
+        build_graphs([src / "m.png", src / "m_graph.png"], out_dir=src, plot=True, workers=0)
+
+
+def test_record_row_has_summary_columns():
+    rec = MapRecord(map="m", path=None)
+    assert tuple(rec.row()) == SUMMARY_COLUMNS
+
+
+def test_parquet_summary_when_pyarrow_is_installed(tmp_path):
+    pq = pytest.importorskip("pyarrow.parquet")
+    out = tmp_path / "out"
+    records = build_graphs([PAPER_MAPS[2]], out_dir=out, workers=0, progress=False)
+    table = pq.read_table(out / "summary.parquet").to_pylist()
+    assert [r["map"] for r in table] == [r.map for r in records]
+    assert table[0]["edges"] == records[0].edges
+
+
+# ---------------------------------------------------------------------- Dask
+
+
+def test_dask_local_cluster_matches_local_run(tmp_path, shared_data):
+    distributed = pytest.importorskip("distributed")
+    inputs = [*PAPER_MAPS, *_small_shared(shared_data)[:2]]
+    local = build_graphs(inputs, out_dir=tmp_path / "local", workers=0, progress=False)
+    with (
+        distributed.LocalCluster(
+            n_workers=2,
+            processes=True,
+            threads_per_worker=1,
+            host="127.0.0.1",
+            dashboard_address=None,
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        remote = build_graphs(inputs, executor=client, out_dir=tmp_path / "dask", progress=False)
+        # the executor interface directly, graphs returned
+        in_memory = build_graphs(inputs[:2], executor=client.get_executor(), progress=False)
+        worker_pids = set(client.run(os.getpid).values())
+    assert len(worker_pids) == 2 and os.getpid() not in worker_pids
+    assert [r.status for r in remote] == ["ok"] * len(inputs)
+    for a, b in zip(local, remote, strict=True):
+        assert (a.map, a.vertices, a.edges, a.total_length_m, a.components) == (
+            b.map,
+            b.vertices,
+            b.edges,
+            b.total_length_m,
+            b.components,
+        )
+    want = _file_bytes(tmp_path / "local")
+    got = _file_bytes(tmp_path / "dask")
+    assert want.keys() == got.keys()
+    for key in want:
+        if key.endswith((".graphml", ".json", ".geojson")) and ".manifest" not in key:
+            assert got[key] == want[key], key
+    for rec, inp in zip(in_memory, inputs[:2], strict=True):
+        assert_graphs_equal(rec.graph, build_graph(load_map(inp)).graph, rec.map)
