@@ -1,0 +1,703 @@
+"""Incremental mapper: exact equivalence with the full-map pipeline, state, bad input.
+
+References: :func:`topojax.pipeline.dense_fields` / :func:`topojax.build_graph` run on the
+mapper's exported occupancy map (the full-map pipeline, itself tested against float64
+NumPy, OpenCV and scikit-image), and a float64 NumPy brute-force windowed distance.
+Tolerances: squared distances exact (integers), distance map 1e-6, ridges / skeleton /
+graph identical (graph compared as multisets of vertex (pixel, kind) and of
+orientation-normalised edge paths).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import networkx as nx
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from topojax.config import DistanceConfig, PipelineConfig
+from topojax.distance import FAR_SQ
+from topojax.incremental import (
+    STATE_VERSION,
+    GraphUpdate,
+    IncrementalMapper,
+    ScanReport,
+    replay,
+    timing_summary,
+    trace_counts,
+    vertex_error_metrics,
+)
+from topojax.io import load_graph
+from topojax.maps import load_map
+from topojax.pipeline import build_graph, dense_fields
+from topojax.scans import Scan, read_carmen
+from topojax.tiling import TileManager
+
+DATA = __import__("pathlib").Path(__file__).parent / "data"
+INTEL_EXCERPT = DATA / "intel_first40.log.gz"
+
+# A small configuration for synthetic worlds: many tiles and blocks, short kernels.
+SMALL = DistanceConfig(sigma_px=4.0, half_width_px=10)
+SMALL_KW = {"resolution_m": 0.1, "distance": SMALL, "tile_px": 16, "block_px": 8}
+
+
+# --------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------
+
+
+def canon(graph: nx.MultiGraph):
+    """Graph up to ids: multiset of (pixel, kind) and of orientation-free edge paths."""
+    verts = Counter(
+        (tuple(int(v) for v in d["pixel"]), d["kind"]) for _, d in graph.nodes(data=True)
+    )
+    edges = Counter()
+    for *_, p in graph.edges(data="path"):
+        p = np.ascontiguousarray(p, np.int64)
+        edges[min(p.tobytes(), p[::-1].copy().tobytes())] += 1
+    return verts, edges
+
+
+def assert_matches_full_map(mapper: IncrementalMapper, config: PipelineConfig | None = None):
+    """The mapper (brought up to date) equals the full-map pipeline on its exported map."""
+    config = config or PipelineConfig(distance=mapper.config.distance)
+    mapper.update_graph()
+    occ = mapper.occupancy
+    ref = build_graph(occ, config=config)
+    fields = dense_fields(occ.occupied, distance=config.distance, ridge=config.ridge, tile_px=64)
+    np.testing.assert_array_equal(mapper.sq_distance_px, fields.sq_distance_px)
+    np.testing.assert_allclose(mapper.distance, ref.distance, atol=1e-6, rtol=0)
+    np.testing.assert_array_equal(mapper.ridges, ref.ridges)
+    np.testing.assert_array_equal(mapper.lap_abs, ref.lap_abs)
+    np.testing.assert_array_equal(mapper.skeleton, ref.skeleton)
+    gv, ge = canon(mapper.graph)
+    rv, re_ = canon(ref.graph)
+    assert gv == rv
+    assert ge == re_
+    return ref
+
+
+def room_world(rng: np.random.Generator, n_walls: int = 6) -> np.ndarray:
+    """Segments (n, 4) = (x0, y0, x1, y1) metres: a 6 m x 4 m room around the origin with
+    a few random inner walls (so the map extends into negative coordinates)."""
+    segs = [(-3, -2, 3, -2), (3, -2, 3, 2), (3, 2, -3, 2), (-3, 2, -3, -2)]
+    for _ in range(n_walls):
+        x, y = rng.uniform(-2.6, 2.6), rng.uniform(-1.6, 1.6)
+        if rng.random() < 0.5:
+            segs.append((x, y, x + rng.uniform(0.3, 1.5), y))
+        else:
+            segs.append((x, y, x, y + rng.uniform(0.3, 1.2)))
+    return np.asarray(segs, np.float64)
+
+
+def cast(world: np.ndarray, pose, n_beams: int, fov: float, max_range: float) -> np.ndarray:
+    """Exact ranges of a fan of beams against the segments (inf where nothing is hit)."""
+    x, y, yaw = pose
+    ang = yaw - fov / 2 + np.arange(n_beams) * fov / (n_beams - 1)
+    dx, dy = np.cos(ang)[:, None], np.sin(ang)[:, None]
+    x0, y0, x1, y1 = (world[:, k][None, :] for k in range(4))
+    ex, ey = x1 - x0, y1 - y0
+    den = dx * ey - dy * ex
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = ((x0 - x) * ey - (y0 - y) * ex) / den
+        u = ((x0 - x) * dy - (y0 - y) * dx) / den
+    ok = (np.abs(den) > 1e-12) & (t > 1e-9) & (u >= 0) & (u <= 1)
+    r = np.where(ok, t, np.inf).min(axis=1)
+    return np.where(r < max_range, r, max_range)
+
+
+def synthetic_scans(seed: int, n: int, *, bad: bool = True) -> list[Scan]:
+    rng = np.random.default_rng(seed)
+    world = room_world(rng)
+    scans = []
+    fov = math.radians(270)
+    for _ in range(n):
+        pose = (rng.uniform(-2.5, 2.5), rng.uniform(-1.5, 1.5), rng.uniform(-np.pi, np.pi))
+        r = cast(world, pose, 90, fov, 8.0) + rng.normal(0, 0.02, 90)
+        if bad:
+            k = rng.integers(0, 90, 6)
+            r[k[0]] = np.nan
+            r[k[1]] = np.inf
+            r[k[2]] = -1.0
+            r[k[3]] = 8.0  # max range
+            r[k[4]] = 0.0
+        scans.append(
+            Scan.from_arrays(r, pose, angle_min=-fov / 2, angle_increment=fov / 89, range_max=8.0)
+        )
+    return scans
+
+
+def brute_sq_distance(obstacles: np.ndarray, r: int) -> np.ndarray:
+    """Float64 windowed squared distance by brute force (independent of all kernels)."""
+    h, w = obstacles.shape
+    out = np.full((h, w), np.inf)
+    rr, cc = np.mgrid[0:h, 0:w]
+    for y, x in zip(*np.nonzero(obstacles), strict=True):
+        inside = (np.abs(rr - y) <= r) & (np.abs(cc - x) <= r)
+        out = np.where(inside, np.minimum(out, (rr - y) ** 2 + (cc - x) ** 2), out)
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# TileManager
+# --------------------------------------------------------------------------------------
+
+
+def test_tile_manager_allocates_in_every_direction_and_round_trips():
+    tm = TileManager(
+        tile_px=8, layers={"a": (np.int32, -1), "s": (np.uint8, 0, (2, 3))}, loops=("x",)
+    )
+    assert tm.n_tiles == 0 and tm.pixel_bbox is None
+    slots, n_new = tm.ensure(np.array([0, -3, 0, 5]), np.array([0, 2, 0, -7]))
+    assert n_new == 3 and slots[0] == slots[2]
+    assert tm.tile_bbox == (-3, -7, 6, 3)
+    assert tm.pixel_bbox == (-24, -56, 48, 24)
+    assert (tm.lookup([-3, 1], [2, 1]) == [slots[1], -1]).all()
+    assert set(tm.dirty("x").tolist()) == {0, 1, 2}
+    tm.clear_dirty("x")
+    win = np.arange(20 * 30, dtype=np.int32).reshape(20, 30)
+    mask = np.zeros_like(win, bool)
+    mask[:8, 2:10] = True  # pixels (-24..-17, -40..-33) lie in tile (-3, -5): not allocated
+    with pytest.raises(ValueError, match="not allocated"):
+        tm.write("a", -24, -42, win, mask)
+    tm.write("a", -24, 16 - 30 + 8, win[:8], np.ones((8, 30), bool) & (np.arange(30) >= 22))
+    back = tm.read("a", -24, 16 - 30 + 8, 8, 30)
+    np.testing.assert_array_equal(back[:, 22:], win[:8, 22:])
+    assert (back[:, :22] == -1).all()
+    state = tm.state()
+    tm2 = TileManager(
+        tile_px=8, layers={"a": (np.int32, -1), "s": (np.uint8, 0, (2, 3))}, loops=("x",)
+    )
+    tm2.load_state(state)
+    assert tm2.tile_bbox == tm.tile_bbox
+    np.testing.assert_array_equal(tm2.read("a", -30, -60, 90, 90), tm.read("a", -30, -60, 90, 90))
+    nb = tm.neighbour_slots()
+    assert nb.shape == (3, 9) and (nb[:, 4] == np.arange(3)).all()
+
+
+def test_tile_manager_extent_limit_changes_nothing():
+    tm = TileManager(tile_px=8, layers={"a": (np.int32, 0)}, max_grid_cells=100)
+    tm.ensure([0], [0])
+    with pytest.raises(ValueError, match="max_grid_cells"):
+        tm.ensure([0, 50], [0, 50])
+    assert tm.n_tiles == 1 and tm.tile_bbox == (0, 0, 1, 1)
+    with pytest.raises(ValueError, match="tile_px"):
+        TileManager(tile_px=2, layers={})
+
+
+# --------------------------------------------------------------------------------------
+# Distance loop
+# --------------------------------------------------------------------------------------
+
+
+@settings(
+    max_examples=12,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 12), eager=st.booleans())
+def test_distance_equals_full_map_on_random_scans(seed, n, eager):
+    mapper = IncrementalMapper(
+        skeleton_every=0, graph_every=0, max_pending_points=0 if eager else 4096, **SMALL_KW
+    )
+    for scan in synthetic_scans(seed, n):
+        mapper.add_scan(scan)
+    occ = mapper.occupancy
+    d2 = mapper.sq_distance_px
+    ref = dense_fields(occ.occupied, distance=SMALL, tile_px=32)
+    np.testing.assert_array_equal(d2, ref.sq_distance_px)
+    np.testing.assert_allclose(mapper.distance, ref.distance, atol=1e-6, rtol=0)
+    # independent float64 brute force on a crop around the obstacles
+    rows, cols = np.nonzero(occ.occupied)
+    r0, c0 = max(rows.min() - 12, 0), max(cols.min() - 12, 0)
+    crop = occ.occupied[r0 : rows.max() + 13, c0 : cols.max() + 13]
+    brute = brute_sq_distance(crop, SMALL.half_width_px)
+    got = d2[r0 : r0 + crop.shape[0], c0 : c0 + crop.shape[1]].astype(np.float64)
+    got[got >= FAR_SQ] = np.inf
+    np.testing.assert_array_equal(got, brute)
+
+
+def test_bad_readings_are_dropped_and_counted():
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    r = np.array([1.0, np.nan, np.inf, -np.inf, -1.0, 0.0, 0.05, 5.0, 7.0, 1.5])
+    scan = Scan.from_arrays(
+        r, (0.0, 0.0, 0.0), angle_min=0.0, angle_increment=0.1, range_min=0.1, range_max=5.0
+    )
+    rep = mapper.add_scan(scan)
+    assert isinstance(rep, ScanReport)
+    assert (rep.n_beams, rep.n_valid, rep.n_dropped) == (10, 2, 8)
+    assert rep.n_new_obstacles == 2 and rep.index == 0
+    assert mapper.obstacles.sum() == 2
+    # the two hits, at 1.0 m and 1.5 m along beams 0 and 9
+    occ = mapper.occupancy
+    rows, cols = np.nonzero(occ.occupied)
+    x, y = occ.pixel_to_world(rows, cols)
+    expect = np.array([[1.0, 0.0], [1.5 * math.cos(0.9), 1.5 * math.sin(0.9)]])
+    got = np.stack([x, y], axis=1)
+    for e in expect:
+        assert np.min(np.abs(got - e).max(axis=1)) <= 0.05 + 1e-9
+    # max_range_m drops more
+    m2 = IncrementalMapper(skeleton_every=0, graph_every=0, max_range_m=1.2, **SMALL_KW)
+    assert m2.add_scan(scan).n_valid == 1
+
+
+def test_empty_scan_is_a_counted_no_op():
+    mapper = IncrementalMapper(skeleton_every=2, graph_every=0, **SMALL_KW)
+    empty = Scan.from_arrays(np.full(5, np.nan), (1.0, 2.0, 0.0), angle_min=0, angle_increment=0.1)
+    rep = mapper.add_scan(empty)
+    assert (rep.n_valid, rep.n_new_obstacles, rep.n_tiles) == (0, 0, 0)
+    rep = mapper.add_scan(Scan.from_arrays(np.zeros(0), (0, 0, 0), angle_min=0, angle_increment=1))
+    assert rep.index == 1 and "skeleton" in rep.loops and mapper.n_scans == 2
+    with pytest.raises(ValueError, match="empty"):
+        _ = mapper.occupancy
+    assert mapper.graph.number_of_nodes() == 0
+
+
+def test_bad_input_raises_before_any_change():
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, max_grid_cells=400, **SMALL_KW)
+    scans = synthetic_scans(3, 4, bad=False)
+    mapper.add_scan(scans[0])
+    before = {k: v.copy() for k, v in mapper.tiles.state().items()}
+    with pytest.raises(TypeError, match="Scan"):
+        mapper.add_scan({"ranges": [1.0]})
+    with pytest.raises(TypeError, match="Scan"):
+        mapper.add_scan(np.ones(10))
+    with pytest.raises(ValueError, match="finite"):
+        Scan.from_arrays(np.ones(3), (np.nan, 0, 0), angle_min=0, angle_increment=0.1)
+    with pytest.raises(ValueError, match="beyond"):
+        mapper.add_scan(
+            Scan.from_arrays(np.ones(3), (1e300, 0, 0), angle_min=0, angle_increment=0.1)
+        )
+    far = Scan.from_arrays(np.ones(3), (500.0, 0.0, 0.0), angle_min=0, angle_increment=0.1)
+    with pytest.raises(ValueError, match="max_grid_cells"):
+        mapper.add_scan(far)
+    after = mapper.tiles.state()
+    assert before.keys() == after.keys()
+    for k in before:
+        np.testing.assert_array_equal(before[k], after[k], err_msg=k)
+    assert mapper.n_scans == 1
+    for scan in scans[1:]:  # still works, still exact
+        mapper.add_scan(scan)
+    assert_matches_full_map(mapper)
+
+
+def test_constructor_validation():
+    with pytest.raises(ValueError, match="strategy"):
+        IncrementalMapper(strategy="fast")
+    with pytest.raises(ValueError, match="resolution_m"):
+        IncrementalMapper(resolution_m=0.0)
+    with pytest.raises(ValueError, match="multiple of block_px"):
+        IncrementalMapper(tile_px=24, block_px=16)
+    with pytest.raises(ValueError, match="skeleton_every"):
+        IncrementalMapper(skeleton_every=-1)
+    with pytest.raises(TypeError, match="graph_every"):
+        IncrementalMapper(graph_every=2.5)
+    with pytest.raises(TypeError, match="config"):
+        IncrementalMapper(config="paper")
+    with pytest.raises(ValueError, match="merge_junction_clusters"):
+        from topojax.config import GraphConfig
+
+        IncrementalMapper(config=PipelineConfig(graph=GraphConfig(merge_junction_clusters=True)))
+    m = IncrementalMapper(skeleton_every=None, graph_every=None)
+    assert (m.skeleton_every, m.graph_every) == (0, 0)
+
+
+def test_map_grows_in_negative_directions_and_far_jump_allocates_few_tiles():
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    for scan in synthetic_scans(11, 6, bad=False):
+        mapper.add_scan(scan)
+    keys = mapper.tiles.keys
+    assert (keys[:, 0] < 0).any() and (keys[:, 1] < 0).any()
+    n_before = mapper.n_tiles
+    # one scan 1 km away: only the tiles around it appear (no dense allocation in between)
+    jump = Scan.from_arrays(
+        np.full(20, 1.0), (1000.0, -1000.0, 0.3), angle_min=-1.0, angle_increment=0.1
+    )
+    rep = mapper.add_scan(jump)
+    assert rep.n_new_obstacles > 0
+    new = mapper.n_tiles - n_before
+    window_tiles = (2 * (SMALL.half_width_px + 2) // 16 + 2) ** 2
+    assert 0 < new <= window_tiles + 40  # ~ the 2 m fan + splat windows, not 10^6 tiles
+    r0, c0, r1, c1 = mapper.pixel_bbox
+    assert (r1 - r0) * (c1 - c0) > 1e8  # the bounding box is huge, memory is not
+    assert mapper.tiles.layer("sq_distance").nbytes < 50e6
+    # distances near the far scan equal a brute force on that neighbourhood
+    mapper.update_skeleton()
+    occ_rows, occ_cols = mapper.world_to_pixel(1000.0, -1000.0)
+    w = 40
+    t = mapper.tiles
+    obst = t.read("hits", int(occ_rows) - w, int(occ_cols) - w, 2 * w, 2 * w) > 0
+    d2 = t.read("sq_distance", int(occ_rows) - w, int(occ_cols) - w, 2 * w, 2 * w).astype(float)
+    d2[d2 >= FAR_SQ] = np.inf
+    np.testing.assert_array_equal(d2[12:-12, 12:-12], brute_sq_distance(obst, 10)[12:-12, 12:-12])
+
+
+# --------------------------------------------------------------------------------------
+# Skeleton and graph loops
+# --------------------------------------------------------------------------------------
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    n=st.integers(2, 14),
+    every=st.tuples(st.integers(1, 4), st.integers(1, 6)),
+    thinning=st.sampled_from(["guo_hall", "zhang"]),
+)
+def test_exact_strategy_equals_full_map_on_random_scans(seed, n, every, thinning):
+    from topojax.config import SkeletonConfig
+
+    sk = SkeletonConfig(thinning=thinning)
+    mapper = IncrementalMapper(
+        skeleton_every=every[0], graph_every=every[1], skeleton=sk, **SMALL_KW
+    )
+    for scan in synthetic_scans(seed, n):
+        mapper.add_scan(scan)
+    assert_matches_full_map(mapper, PipelineConfig(distance=SMALL, skeleton=sk))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    shape=st.tuples(st.integers(3, 40), st.integers(3, 40)),
+    density=st.floats(0.2, 0.7),
+    seed=st.integers(0, 2**31 - 1),
+    method=st.sampled_from(["guo_hall", "zhang"]),
+)
+def test_thin_components_equals_whole_image(shape, density, seed, method):
+    from scipy import ndimage
+
+    from topojax.incremental import thin_components
+    from topojax.skeleton import remove_t_centres, thin
+
+    rng = np.random.default_rng(seed)
+    image = rng.random(shape) < density
+    full = remove_t_centres(thin(image, method=method))
+    labels, n = ndimage.label(image, structure=np.ones((3, 3)))
+    if n == 0:
+        return
+    pick = rng.random(n) < 0.5
+    pick[rng.integers(n)] = True
+    rows, cols = np.nonzero(pick[labels - 1] & image)
+    off = rng.integers(-50, 50, 2)  # any global frame
+    got = thin_components(
+        rows + off[0],
+        cols + off[1],
+        (off[0], off[1], off[0] + shape[0], off[1] + shape[1]),
+        method=method,
+    )
+    np.testing.assert_array_equal(got, full[rows, cols])
+
+
+@pytest.mark.parametrize("transpose", [False, True])
+def test_bounding_box_growth_recomputes_the_reflected_border(transpose):
+    """Ridges next to the bounding box use BORDER_REFLECT_101; when the box grows those
+    rows become interior and must be recomputed.  With sigma 4 px and R = 6 px the
+    reflected values near the old border flip ridge pixels."""
+    cfg = DistanceConfig(sigma_px=4.0, half_width_px=6)
+
+    def shot(row, col):  # one 7 m beam ending in pixel (row, col) at 1 m per pixel
+        if transpose:
+            row, col = col, row
+        return Scan.from_arrays(
+            np.array([7.0]),
+            (col + 0.5 - 7.0, -(row + 0.5), 0.0),
+            angle_min=0.0,
+            angle_increment=1.0,
+        )
+
+    mapper = IncrementalMapper(
+        resolution_m=1.0,
+        distance=cfg,
+        tile_px=16,
+        block_px=8,
+        skeleton_every=1,
+        graph_every=1,
+        free_space=False,
+    )
+    mapper.add_scan(shot(7, 7))
+    mapper.add_scan(shot(8, 9))
+    box = mapper.pixel_bbox
+    mapper.add_scan(shot(100, 7))  # far away: the box grows, nothing near the old border
+    assert mapper.pixel_bbox != box
+    assert_matches_full_map(mapper, PipelineConfig(distance=cfg))
+
+
+def test_intel_excerpt_matches_full_map():
+    mapper = IncrementalMapper(skeleton_every=5, graph_every=15)
+    reports = [mapper.add_scan(s) for s in read_carmen(INTEL_EXCERPT)]
+    assert len(reports) == 40
+    assert sum("graph" in r.loops for r in reports) == 2
+    assert all(isinstance(r.graph_update, GraphUpdate) for r in reports if "graph" in r.loops)
+    ref = assert_matches_full_map(mapper)
+    # world coordinates agree with build_graph on the exported map
+    g = mapper.graph
+    by_pixel = {d["pixel"]: d["world"] for _, d in ref.graph.nodes(data=True)}
+    for _, d in g.nodes(data=True):
+        assert d["world"] == by_pixel[d["pixel"]]
+    # and the global lattice: pixel centre x = (col + 0.5) res, y = -(row + 0.5) res
+    r0, c0, _, _ = mapper.pixel_bbox
+    for _, d in list(g.nodes(data=True))[:20]:
+        r, c = d["pixel"]
+        assert d["world"][0] == pytest.approx((c + c0 + 0.5) * 0.05, abs=1e-9)
+        assert d["world"][1] == pytest.approx(-(r + r0 + 0.5) * 0.05, abs=1e-9)
+
+
+@pytest.mark.slow
+def test_intel_log_replay_matches_full_map(shared_data):
+    log = shared_data / "logs" / "carmen_corrected" / "intel-corrected.log.gz"
+    mapper = IncrementalMapper(skeleton_every=20, graph_every=80)
+    for i, scan in enumerate(read_carmen(log)):
+        if i == 300:
+            break
+        mapper.add_scan(scan)
+    assert_matches_full_map(mapper)
+    assert mapper.graph.number_of_edges() > 300
+
+
+@pytest.mark.slow
+def test_second_log_replay_matches_full_map(shared_data):
+    log = shared_data / "logs" / "carmen_corrected" / "seattle-corrected.log.gz"
+    mapper = IncrementalMapper(skeleton_every=20, graph_every=80)
+    for i, scan in enumerate(read_carmen(log)):
+        if i == 120:
+            break
+        mapper.add_scan(scan)
+    assert_matches_full_map(mapper)
+
+
+def test_graph_ids_are_stable_away_from_changes():
+    """Vertices of a region that no later scan touches keep their ids and edges."""
+    rng = np.random.default_rng(5)
+    world = room_world(rng, n_walls=4)
+    fov = math.radians(270)
+
+    def scan_at(x, y, yaw):
+        r = cast(world + np.array([x, y, x, y]), (x, y, yaw), 90, fov, 8.0)
+        return Scan.from_arrays(
+            r, (x, y, yaw), angle_min=-fov / 2, angle_increment=fov / 89, range_max=8.0
+        )
+
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    for yaw in np.linspace(-3, 3, 6):
+        mapper.add_scan(scan_at(0.0, 0.0, yaw))
+    mapper.update_graph()
+    g1 = mapper.graph_global
+    assert g1.number_of_edges() > 3
+    # a second room 40 m away: far beyond every window of the first
+    for yaw in np.linspace(-3, 3, 6):
+        mapper.add_scan(scan_at(40.0, 0.0, yaw))
+    upd = mapper.update_graph()
+    g2 = mapper.graph_global
+    assert upd.added_vertices and upd.added_edges
+    assert not upd.removed_vertices and not upd.removed_edges and not upd.changed_vertices
+    for v, d in g1.nodes(data=True):
+        assert g2.nodes[v]["pixel"] == d["pixel"] and g2.nodes[v]["kind"] == d["kind"]
+    for u, v, k, p in g1.edges(keys=True, data="path"):
+        np.testing.assert_array_equal(g2.edges[u, v, k]["path"], p)
+    assert set(g1.nodes).isdisjoint(upd.added_vertices)
+    # a new room changed nothing old; rescanning the first room only touches its region
+    for yaw in np.linspace(-2.5, 2.5, 3):
+        mapper.add_scan(scan_at(0.1, 0.05, yaw))
+    upd = mapper.update_graph()
+    g3 = mapper.graph_global
+    far = [v for v, d in g2.nodes(data=True) if d["pixel"][1] > 300]
+    assert far and all(v in g3 and g3.nodes[v]["pixel"] == g2.nodes[v]["pixel"] for v in far)
+    assert not set(far) & set(upd.removed_vertices + upd.changed_vertices)
+    assert_matches_full_map(mapper)
+
+
+def test_paper_strategy_reports_paper_metrics(shared_data):
+    log = shared_data / "logs" / "carmen_corrected" / "intel-corrected.log.gz"
+    mapper = IncrementalMapper(strategy="paper")
+    for i, scan in enumerate(read_carmen(log)):
+        if i == 200:
+            break
+        mapper.add_scan(scan)
+    mapper.update_graph()
+    ref = build_graph(mapper.occupancy)
+    m = vertex_error_metrics(mapper.graph, ref.graph)
+    print(f"paper strategy vs full map, intel first 200 scans: {m}")
+    assert m["n_vertices"] == mapper.graph.number_of_nodes() > 100
+    assert 0.0 <= m["share_within_1px"] <= 1.0
+    assert 0 <= m["n_outliers"] <= m["n_vertices"]
+    assert math.isfinite(m["mean_px"]) and 0.0 <= m["mean_px"] <= 20.0
+    # the paper layer never writes outside the changed blocks: the skeleton stays thin
+    assert mapper.skeleton.sum() < 1.2 * ref.skeleton.sum()
+
+
+def test_vertex_error_metrics_on_known_graphs():
+    a, b = nx.Graph(), nx.Graph()
+    for i, pix in enumerate([(0, 0), (10, 0), (50, 50), (7, 7)]):
+        a.add_node(i, pixel=pix)
+    for i, pix in enumerate([(0, 1), (13, 4), (7, 7)]):
+        b.add_node(i, pixel=pix)
+    m = vertex_error_metrics(a, b)
+    # distances: 1, 5, ~50.2 (outlier), 0
+    assert m["n_vertices"] == 4 and m["n_outliers"] == 1
+    assert m["mean_px"] == pytest.approx(2.0)
+    assert m["share_within_1px"] == pytest.approx(0.5)
+    m = vertex_error_metrics(a, b, region=(0, 20, 0, 20))
+    assert m["n_vertices"] == 3 and m["n_outliers"] == 0
+    with pytest.raises(ValueError, match="pixel"):
+        vertex_error_metrics(a, nx.Graph([(0, 1)]))
+    assert vertex_error_metrics(a, nx.Graph())["n_outliers"] == 4
+
+
+# --------------------------------------------------------------------------------------
+# Compilation, state, replay
+# --------------------------------------------------------------------------------------
+
+
+def test_no_new_traces_during_a_replay():
+    scans = list(read_carmen(INTEL_EXCERPT))
+    mapper = IncrementalMapper(skeleton_every=4, graph_every=8)
+    for s in scans[:6]:
+        mapper.add_scan(s)
+    assert "skeleton" in mapper.add_scans(scans[6:8])[-1].loops
+    before = trace_counts()
+    assert before.get("splat_blocks", 0) >= 1 and before.get("ridge_blocks", 0) >= 1
+    for s in scans[8:]:
+        mapper.add_scan(s)
+    mapper.update_graph()
+    _ = mapper.distance
+    other = IncrementalMapper(skeleton_every=3, graph_every=0, max_pending_points=0)
+    other.add_scans(scans[:10])
+    assert trace_counts() == before
+
+
+def test_save_load_continue_equals_uninterrupted(tmp_path):
+    scans = list(read_carmen(INTEL_EXCERPT))
+    kw = {"skeleton_every": 4, "graph_every": 10}
+    straight = IncrementalMapper(**kw)
+    straight.add_scans(scans)
+    first = IncrementalMapper(**kw)
+    first.add_scans(scans[:17])  # pending points, dirty blocks and skeleton changes waiting
+    path = first.save(tmp_path / "state.npz")
+    resumed = IncrementalMapper.load(path)
+    assert resumed.n_scans == 17
+    resumed.add_scans(scans[17:])
+    a, b = straight.tiles.state(), resumed.tiles.state()
+    assert a.keys() == b.keys()
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+    ga, gb = straight.graph_global, resumed.graph_global
+    assert sorted(ga.nodes(data="pixel")) == sorted(gb.nodes(data="pixel"))
+    assert sorted(ga.edges(keys=True)) == sorted(gb.edges(keys=True))
+    for u, v, k, p in ga.edges(keys=True, data="path"):
+        np.testing.assert_array_equal(gb.edges[u, v, k]["path"], p)
+    straight.update_graph()
+    resumed.update_graph()
+    assert canon(straight.graph) == canon(resumed.graph)
+    # atomic: no temporary files left next to the state
+    assert [p.name for p in tmp_path.iterdir()] == ["state.npz"]
+
+
+def test_load_rejects_bad_files(tmp_path):
+    with pytest.raises(FileNotFoundError, match="not found"):
+        IncrementalMapper.load(tmp_path / "missing.npz")
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"this is not a zip file")
+    with pytest.raises(ValueError, match="bad.npz"):
+        IncrementalMapper.load(bad)
+    other = tmp_path / "other.npz"
+    np.savez(other, format=np.asarray("something else"), version=np.asarray(1))
+    with pytest.raises(ValueError, match="format"):
+        IncrementalMapper.load(other)
+    mapper = IncrementalMapper(**SMALL_KW)
+    mapper.add_scans(synthetic_scans(1, 2))
+    good = mapper.save(tmp_path / "good.npz")
+    with np.load(good) as z:
+        data = {k: z[k] for k in z.files}
+    data["version"] = np.asarray(STATE_VERSION + 1)
+    np.savez(tmp_path / "future.npz", **data)
+    with pytest.raises(ValueError, match="version"):
+        IncrementalMapper.load(tmp_path / "future.npz")
+    data["version"] = np.asarray(STATE_VERSION)
+    data["e_len"] = data["e_len"] + 1
+    np.savez(tmp_path / "broken.npz", **data)
+    if data["e_len"].size:
+        with pytest.raises(ValueError, match="corrupt"):
+            IncrementalMapper.load(tmp_path / "broken.npz")
+    del data["tiles/keys"]
+    np.savez(tmp_path / "nokeys.npz", **data)
+    with pytest.raises(ValueError, match="corrupt"):
+        IncrementalMapper.load(tmp_path / "nokeys.npz")
+
+
+def test_replay_writes_graph_map_timings_and_pictures(tmp_path):
+    summary = replay(
+        INTEL_EXCERPT,
+        out_dir=tmp_path / "out",
+        plot=True,
+        animate=tmp_path / "out" / "anim.gif",
+        progress=False,
+        skeleton_every=5,
+        graph_every=10,
+    )
+    out = tmp_path / "out"
+    for name in (
+        "graph.graphml",
+        "graph.json",
+        "map.yaml",
+        "map.pgm",
+        "timings.json",
+        "graph.png",
+        "anim.gif",
+    ):
+        assert (out / name).is_file(), name
+    g = load_graph(out / "graph.json")
+    assert g.number_of_nodes() == summary["vertices"] and g.number_of_edges() == summary["edges"]
+    occ = load_map(out / "map.yaml")
+    assert occ.shape == tuple(summary["map_shape"])
+    assert summary["n_scans"] == 40
+    t = summary["timings"]
+    assert t["distance"]["count"] == 40 and t["graph"]["count"] == 4
+    assert t["add_scan"]["p99_ms"] >= t["add_scan"]["p50_ms"] > 0
+
+
+def test_replay_cli_registers_and_runs(tmp_path, capsys):
+    import argparse
+
+    from topojax.incremental import _add_cli
+
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    _add_cli(sub)
+    args = parser.parse_args(
+        [
+            "replay",
+            str(INTEL_EXCERPT),
+            "-o",
+            str(tmp_path),
+            "--max-scans",
+            "12",
+            "--skeleton-every",
+            "4",
+            "--graph-every",
+            "8",
+            "--no-progress",
+        ]
+    )
+    assert args.handler(args) == 0
+    text = capsys.readouterr().out
+    assert "replayed   12 scans" in text and "skeleton" in text
+    assert (tmp_path / "graph.geojson").is_file()
+    with pytest.raises(ValueError, match="max_scans"):
+        replay(INTEL_EXCERPT, out_dir=tmp_path, max_scans=0, progress=False)
+
+
+def test_timing_summary_statistics():
+    reps = [
+        ScanReport(i, 1, 1, 0, 0, ("distance",), {"distance": 0.001 * (i + 1)}, 1)
+        for i in range(100)
+    ]
+    s = timing_summary(reps)["distance"]
+    assert s["count"] == 100
+    assert s["mean_ms"] == pytest.approx(50.5)
+    assert s["p50_ms"] == pytest.approx(50.5)
+    assert s["per_scan_ms"] == pytest.approx(50.5)
+    assert s["max_ms"] == pytest.approx(100.0)

@@ -1,0 +1,2839 @@
+"""Incremental topology mapping from laser scans (paper §III, made exact).
+
+A robot streams laser scans with poses; :class:`IncrementalMapper` keeps the obstacle map,
+the distance map, the ridges, the skeleton and the topology graph up to date while touching
+only what changed.  Three loops run on their own schedules (paper defaults 1 / 20 / 80
+scans) or on explicit calls:
+
+1. **Distance loop** (every scan, :meth:`IncrementalMapper.add_scan`).  Beam end points
+   become obstacle pixels of an unbounded pixel lattice stored in tiles
+   (:class:`~topojax.tiling.TileManager`, allocated on demand in every direction); free
+   cells along each beam (Bresenham) are counted for the occupancy output.  Pixels hit for
+   the first time are *new obstacles* (obstacles are monotone, like the paper's max-merge);
+   they are Gaussian max-splatted into the blocks they can affect.  Because the Gaussian
+   decreases with distance, the splat is kept as the integer windowed squared distance
+   ``d2(x) = min (dr^2 + dc^2)`` over obstacles ``p`` with ``|x - p|_inf <= R``: the max of
+   kernels becomes a min of squared distances, and ``H = exp(-d2 / (2 sigma^2))`` is
+   computed from it on demand.
+2. **Skeleton loop** (every ``skeleton_every`` scans, :meth:`IncrementalMapper.update_skeleton`).
+   Ridges are recomputed on the blocks whose 2-pixel neighbourhood changed, then the
+   skeleton is updated with one of two strategies (``"exact"``, ``"paper"``).
+3. **Graph loop** (every ``graph_every`` scans, :meth:`IncrementalMapper.update_graph`).
+   The graph is patched around the changed skeleton pixels only (paper §III-C); vertices
+   and edges elsewhere keep their ids.  Each update returns a :class:`GraphUpdate`.
+
+World grid
+----------
+Pixel ``(row, col)`` of the lattice (any integers) has its centre at
+``x = (col + 0.5) * resolution_m``, ``y = -(row + 0.5) * resolution_m`` in the map frame
+(rows grow downwards, i.e. towards -y, as in images).  Exported dense arrays
+(:attr:`IncrementalMapper.distance`, :attr:`~IncrementalMapper.occupancy`, ...) cover the
+bounding box of the allocated tiles; the exported :class:`~topojax.maps.OccupancyMap` has
+the ``origin`` that makes its ``pixel_to_world`` agree with the formula above, so
+:func:`topojax.build_graph` on it gives the same world coordinates.  Tiles are allocated
+for every pixel within ``R + 2`` (Chebyshev) of an obstacle and for every beam cell, so a
+tile that is not allocated has ``H = 0`` on it and on its 2-pixel halo (no ridges).
+
+Splat kernel
+------------
+Tiles are cut into blocks of ``block_px`` (default 16).  A JAX kernel
+(:func:`splat_block`, vmapped over a fixed batch of (block, 16 points) rows: two compiled
+batch sizes, no recompilation) computes the windowed squared distance from a block's
+pixels to up to 16 points; a numba step merges the rows into the tiles with a minimum.
+Pairs (block, point) that cannot change a block are never formed, exactly: (a) the
+squared distance from the point to the block is not below the block's maximum ``d2``;
+(b) another obstacle within 2 pixels of the point is at least as near to all four block
+corners (a half-plane test; see :func:`_splat_rows` for why chains of such dominations
+are safe).  Everything is integer, so the incremental ``d2`` equals the full-map one bit
+for bit.
+
+Exactness
+---------
+* Distance: ``sq_distance_px`` equals ``dense_fields(occupancy.occupied).sq_distance_px``
+  exactly and ``distance`` equals the full-map ``H`` (the same float32 function).
+* Ridges: the full pipeline's maths (:func:`~topojax.distance.gaussian_from_sq_distance`,
+  :func:`~topojax.filters.laplacian_valid`, :func:`~topojax.filters.ridge_from_laplacian`)
+  runs in JAX on haloed blocks; the gather applies ``BORDER_REFLECT_101`` at the border of
+  the bounding box (index reflection commutes with the elementwise Gaussian).  When the
+  box grows, the blocks along its old border are recomputed.
+* ``"exact"`` skeleton: parallel thinning (Guo–Hall or Zhang–Suen) decides every pixel from
+  its 8 neighbours, so it acts on each 8-connected ridge component independently (thinning
+  only deletes pixels: components never merge); T-centre removal only looks at
+  4-neighbours, i.e. inside a component too.  The mapper re-thins exactly the ridge
+  components that contain a changed ridge pixel, a neighbour of a removed one, or a pixel
+  of a moved border of the bounding box (where T removal's border rule applied), found by
+  a flood fill across tiles, on a crop whose border is the map border or at least one
+  pixel away from the components (:func:`thin_components`).  The result equals the
+  full-map skeleton of the exported map.
+* Graph: link masks and degrees of the pixel graph depend on 3x3 neighbourhoods, so only
+  pixels within one pixel of a changed skeleton pixel (the region ``Z``) change.  Old
+  edges that do not touch ``Z`` are edges of the new graph; every new edge that touches
+  ``Z`` lies in ``A`` = the pixels of the old edges touching ``Z`` plus the new skeleton
+  pixels in ``Z``.  The mapper removes those old edges, traces the skeleton on a crop
+  around ``A`` with the kernels of :mod:`topojax.graph` and keeps the traced edges that lie
+  in ``A`` and touch ``Z``; a vertex keeps its id while a vertex exists at its pixel and an
+  edge keeps its key while its path is unchanged.  With the ``"exact"`` skeleton the graph
+  equals ``build_graph`` on the exported map up to ids (same vertex pixels and kinds, same
+  edge paths).  The tests check all of this after replays of real logs.
+
+Laziness
+--------
+The splat of new obstacles is batched: pending points are flushed when
+``max_pending_points`` are waiting, and before anything reads the distance map (the
+skeleton loop, :attr:`~IncrementalMapper.distance`, :attr:`~IncrementalMapper.sq_distance_px`,
+exports).  Results are identical to an eager splat (a minimum does not depend on the
+order); ``max_pending_points=0`` splats at every scan.  :meth:`~IncrementalMapper.save`
+stores pending points as they are.
+
+Memory: 16 bytes per pixel of an allocated tile (hit / miss counters, squared distance,
+ridge, Laplacian, skeleton, graph ids, scratch), about 256 KiB per 128 x 128 tile.
+"""
+
+from __future__ import annotations
+
+import io as _io
+import json
+import math
+import time
+import zipfile
+from collections import Counter
+from dataclasses import asdict, dataclass
+from functools import partial
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import networkx as nx
+import numba
+import numpy as np
+
+from .config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
+from .distance import FAR_SQ, gaussian_from_sq_distance
+from .filters import HALO_PX, laplacian_valid, ridge_from_laplacian
+from .scans import Scan
+from .tiling import MAX_GRID_CELLS, TileManager
+
+__all__ = [
+    "STATE_FORMAT",
+    "STATE_VERSION",
+    "GraphUpdate",
+    "IncrementalMapper",
+    "ScanReport",
+    "replay",
+    "thin_components",
+    "timing_summary",
+    "trace_counts",
+    "vertex_error_metrics",
+]
+
+#: ``format`` field of saved mapper states.
+STATE_FORMAT = "topojax.IncrementalMapper"
+#: Version of the saved-state layout; :meth:`IncrementalMapper.load` accepts only this one.
+STATE_VERSION = 1
+
+STRATEGIES = ("exact", "paper")
+
+#: Points per row of the splat kernel (a row is one block and up to this many points).
+SPLAT_POINTS = 16
+#: Rows per splat kernel call: a small and a large fixed batch (two compilations serve a
+#: whole replay; they are compiled on the first flush).
+SPLAT_ROWS = (128, 1024)
+#: Radius (Chebyshev, px) searched for obstacles that dominate a new point on a block.
+DOMINANCE_PX = 2
+#: Blocks per ridge kernel call (small and large fixed batch).
+RIDGE_BLOCKS = (64, 512)
+
+_MAX_ABS_PIXEL = 1 << 30  # packed pixel keys shift rows by 32 bits
+_UINT16_MAX = 65535
+
+_TRACES: Counter[str] = Counter()
+
+
+def trace_counts() -> dict[str, int]:
+    """How many times each jitted kernel of this module has been traced (compiled)."""
+    return dict(_TRACES)
+
+
+# ======================================================================================
+# JAX kernels
+# ======================================================================================
+
+
+def splat_block(points: jax.Array, *, size: int, half_width: int) -> jax.Array:
+    """Squared distance from each pixel of one block to the nearest of up to ``P`` points.
+
+    Pure function of one (block, point bucket) pair; batched with :func:`jax.vmap`.  The
+    caller merges the result into the map with a minimum (a max-splat of Gaussians).
+
+    Parameters
+    ----------
+    points : int32 array, shape (P, 2)
+        Obstacle pixels ``(row, col)`` relative to the block's first pixel.  Padding
+        points are placed more than ``half_width`` away (they change nothing).
+    size : int
+        Block side ``B`` (static).
+    half_width : int
+        Window half-width ``R`` (static): a point reaches pixels with ``|dr| <= R`` and
+        ``|dc| <= R``.
+
+    Returns
+    -------
+    int32 array, shape (B, B): ``min_p dr^2 + dc^2`` over the points whose window contains
+    the pixel, :data:`~topojax.distance.FAR_SQ` where there is none.
+    """
+    idx = jnp.arange(size, dtype=jnp.int32)
+    dr = idx[None, :] - points[:, 0:1]  # (P, B)
+    dc = idx[None, :] - points[:, 1:2]
+    big = jnp.int32(FAR_SQ // 2)  # > any in-window dr^2 + dc^2; big + big fits in int32
+    a = jnp.where(jnp.abs(dr) <= half_width, dr * dr, big)
+    c = jnp.where(jnp.abs(dc) <= half_width, dc * dc, big)
+    best = jnp.min(a[:, :, None] + c[:, None, :], axis=0)
+    # A sum involving ``big`` means the pixel is outside that point's window.
+    return jnp.where(best >= big, jnp.int32(FAR_SQ), best)
+
+
+@partial(jax.jit, static_argnames=("size", "half_width"))
+def _splat_blocks(points, *, size, half_width):
+    _TRACES["splat_blocks"] += 1
+    return jax.vmap(partial(splat_block, size=size, half_width=half_width))(points)
+
+
+def ridge_block(
+    d2_patch: jax.Array,
+    sigma_px: jax.Array,
+    scale: jax.Array,
+    threshold: jax.Array,
+    *,
+    ksize: int,
+) -> tuple[jax.Array, jax.Array]:
+    """Ridges of one block from its haloed squared distances.
+
+    The same maths as :func:`topojax.pipeline.forward_tile` after its distance stage
+    (:func:`~topojax.distance.gaussian_from_sq_distance`,
+    :func:`~topojax.filters.laplacian_valid`, :func:`~topojax.filters.ridge_from_laplacian`).
+    The halo must already hold the ``BORDER_REFLECT_101`` image of the map where it leaves
+    the map (the gather does it: reflecting indices commutes with the elementwise Gaussian,
+    so this equals :func:`~topojax.filters.reflect_101_halo` on ``H``).
+
+    Parameters
+    ----------
+    d2_patch : int32 array, shape (B + 4, B + 4)
+        Squared distances (px^2) of the block and a 2-pixel halo.
+    sigma_px, scale, threshold : float32 scalars
+    ksize : int
+        Laplacian aperture (static).
+
+    Returns
+    -------
+    lap_abs : uint8 (B, B)
+    ridge : bool (B, B)
+    """
+    h = gaussian_from_sq_distance(d2_patch, sigma_px)
+    lap = laplacian_valid(h, ksize=ksize)
+    return ridge_from_laplacian(lap, scale=scale, threshold=threshold)
+
+
+@partial(jax.jit, static_argnames=("ksize",))
+def _ridge_blocks(patches, sigma_px, scale, threshold, *, ksize):
+    _TRACES["ridge_blocks"] += 1
+    fn = partial(ridge_block, ksize=ksize)
+    return jax.vmap(fn, in_axes=(0, None, None, None))(patches, sigma_px, scale, threshold)
+
+
+@jax.jit
+def _gaussian(d2, sigma_px):
+    _TRACES["gaussian"] += 1
+    return gaussian_from_sq_distance(d2, sigma_px)
+
+
+# ======================================================================================
+# numba kernels (tiles are found through the dense slot grid of the TileManager)
+# ======================================================================================
+
+
+@numba.njit(cache=True, nogil=True)
+def _slot(grid, g0r, g0c, t, r, c):
+    tr = r // t
+    tc = c // t
+    gi = tr - g0r
+    gj = tc - g0c
+    if gi < 0 or gj < 0 or gi >= grid.shape[0] or gj >= grid.shape[1]:
+        return -1
+    return grid[gi, gj]
+
+
+@numba.njit(cache=True, nogil=True)
+def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, syaw, res):
+    """End pixels of the valid beams (same arithmetic as :meth:`Scan.endpoints_world`).
+
+    A reading is valid when finite, > 0, >= ``range_min`` and < ``range_max``.  Returns
+    rows, cols (int64) of the end pixels, and the count of valid beams.
+    """
+    n = ranges.shape[0]
+    er = np.empty(n, np.int64)
+    ec = np.empty(n, np.int64)
+    m = 0
+    for i in range(n):
+        r = np.float64(ranges[i])
+        if not (math.isfinite(r) and r > 0.0 and r >= range_min and r < range_max):
+            continue
+        a = (angle_min + i * angle_inc) + syaw
+        er[m] = math.floor(-(sy + r * math.sin(a)) / res)
+        ec[m] = math.floor((sx + r * math.cos(a)) / res)
+        m += 1
+    return er[:m], ec[:m]
+
+
+@numba.njit(cache=True, nogil=True)
+def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
+    """Tiles touched by the beams (end cells; ray cells too if ``rays``) that are not
+    allocated (with repeats).  Fast path: a ray whose tile rectangle is fully allocated
+    needs no walk."""
+    n = er.shape[0]
+    out = np.empty((16, 2), np.int64)
+    m = 0
+    gh = grid.shape[0]
+    gw = grid.shape[1]
+    str_ = sr // t
+    stc = sc // t
+    for i in range(n):
+        r1 = er[i]
+        c1 = ec[i]
+        if rays:
+            tr0 = min(str_, r1 // t)
+            tr1 = max(str_, r1 // t)
+            tc0 = min(stc, c1 // t)
+            tc1 = max(stc, c1 // t)
+        else:
+            tr0 = tr1 = r1 // t
+            tc0 = tc1 = c1 // t
+        full = True
+        for tr in range(tr0, tr1 + 1):
+            for tc in range(tc0, tc1 + 1):
+                gi = tr - g0r
+                gj = tc - g0c
+                if gi < 0 or gj < 0 or gi >= gh or gj >= gw or grid[gi, gj] < 0:
+                    full = False
+        if full:
+            continue
+        if not rays:
+            if m == out.shape[0]:
+                out = np.concatenate((out, np.empty_like(out)))
+            out[m, 0] = tr0
+            out[m, 1] = tc0
+            m += 1
+            continue
+        r = sr
+        c = sc
+        dr = abs(r1 - r)
+        dc = abs(c1 - c)
+        stp_r = 1 if r1 > r else -1
+        stp_c = 1 if c1 > c else -1
+        err = dc - dr
+        last_r = -(1 << 62)
+        last_c = -(1 << 62)
+        while True:
+            tr = r // t
+            tc = c // t
+            if tr != last_r or tc != last_c:
+                last_r = tr
+                last_c = tc
+                if _slot(grid, g0r, g0c, t, r, c) < 0:
+                    if m == out.shape[0]:
+                        out = np.concatenate((out, np.empty_like(out)))
+                    out[m, 0] = tr
+                    out[m, 1] = tc
+                    m += 1
+            if r == r1 and c == c1:
+                break
+            e2 = 2 * err
+            if e2 > -dr:
+                err -= dr
+                c += stp_c
+            if e2 < dc:
+                err += dc
+                r += stp_r
+    return out[:m]
+
+
+@numba.njit(cache=True, nogil=True)
+def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
+    """Tiles intersecting the squares ``[p - w, p + w]^2`` that are not allocated."""
+    n = pr.shape[0]
+    span = (2 * w) // t + 2
+    out = np.empty((n * span * span + 1, 2), np.int64)
+    m = 0
+    for i in range(n):
+        tr0 = (pr[i] - w) // t
+        tr1 = (pr[i] + w) // t
+        tc0 = (pc[i] - w) // t
+        tc1 = (pc[i] + w) // t
+        for tr in range(tr0, tr1 + 1):
+            for tc in range(tc0, tc1 + 1):
+                gi = tr - g0r
+                gj = tc - g0c
+                ok = gi >= 0 and gj >= 0 and gi < grid.shape[0] and gj < grid.shape[1]
+                if not ok or grid[gi, gj] < 0:
+                    out[m, 0] = tr
+                    out[m, 1] = tc
+                    m += 1
+    return out[:m]
+
+
+@numba.njit(cache=True, nogil=True)
+def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
+    """Count free cells (``misses``, along each beam, end excluded; Bresenham) and hits
+    (end cell).  Every touched tile must exist.
+
+    ``new_flag[i]`` is set when beam ``i`` hits a pixel for the first time ever.
+    Counters saturate at 65535.  Returns the number of new obstacle pixels.
+    """
+    n = er.shape[0]
+    n_new = 0
+    for i in range(n):
+        r1 = er[i]
+        c1 = ec[i]
+        if rays and not (r1 == sr and c1 == sc):
+            r = sr
+            c = sc
+            dr = abs(r1 - r)
+            dc = abs(c1 - c)
+            stp_r = 1 if r1 > r else -1
+            stp_c = 1 if c1 > c else -1
+            err = dc - dr
+            # tile-local stepping: look the tile up only when the ray leaves it
+            s = _slot(grid, g0r, g0c, t, r, c)
+            lr = r - (r // t) * t
+            lc = c - (c // t) * t
+            while True:
+                if misses[s, lr, lc] < _UINT16_MAX:
+                    misses[s, lr, lc] += 1
+                e2 = 2 * err
+                moved = False
+                if e2 > -dr:
+                    err -= dr
+                    c += stp_c
+                    lc += stp_c
+                    moved = lc < 0 or lc >= t
+                if e2 < dc:
+                    err += dc
+                    r += stp_r
+                    lr += stp_r
+                    moved = moved or lr < 0 or lr >= t
+                if r == r1 and c == c1:
+                    break
+                if moved:
+                    s = _slot(grid, g0r, g0c, t, r, c)
+                    lr = r - (r // t) * t
+                    lc = c - (c // t) * t
+        s = _slot(grid, g0r, g0c, t, r1, c1)
+        lr = r1 - (r1 // t) * t
+        lc = c1 - (c1 // t) * t
+        h = hits[s, lr, lc]
+        if h == 0:
+            new_flag[i] = True
+            n_new += 1
+        if h < _UINT16_MAX:
+            hits[s, lr, lc] = h + 1
+    return n_new
+
+
+@numba.njit(cache=True, nogil=True)
+def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rho, n_points_row):
+    """Group the (block, point) pairs that can lower a block into kernel rows.
+
+    A pair is skipped when it provably changes nothing (exact):
+
+    * ``dist^2(p, block) >= max_block d2``: every pixel already has a nearer obstacle;
+    * the block lies in the square ``|x - p|_inf <= R - rho`` and another obstacle ``q``
+      with ``|q - p|_inf <= rho`` (old, or new in this batch) is at least as near as ``p`` to
+      all four block corners, hence (half-plane) to every block pixel, and ``q`` lies in
+      every block pixel's window.  Following such dominations from ``p`` never cycles
+      (two distinct points cannot be equally near all four corners) and ends at a point
+      that is old, or splatted into the block, or skipped by the first rule, so the
+      block's minimum is unaffected.  For one row of blocks each neighbour ``q``
+      dominates a half-line of block columns, so the allowed blocks form an interval.
+
+    Returns ``row_block`` (flat block id ``(slot * nb + block_row) * nb + block_col`` per
+    row), ``row_pts`` (rows, P, 2) int32 relative to the block's first pixel (padding far
+    away), ``row_bidx`` (index of the row's block in ``blocks``) and ``blocks`` (distinct
+    flat block ids).
+    """
+    nb = t // b
+    n_ids = bmax.shape[0] * nb * nb
+    n = pr.shape[0]
+    inner = half - rho
+    side = 2 * rho + 1
+    nbr = np.empty((side * side, 2), np.int64)
+    cap = 1024 + 64 * n
+    pair_k = np.empty(cap, np.int64)
+    pair_i = np.empty(cap, np.int64)
+    n_pairs = 0
+    gh = grid.shape[0]
+    gw = grid.shape[1]
+    for i in range(n):
+        p_r = pr[i]
+        p_c = pc[i]
+        # obstacles near p, relative to p
+        n_q = 0
+        for a in range(-rho, rho + 1):
+            for c in range(-rho, rho + 1):
+                if a == 0 and c == 0:
+                    continue
+                qr = p_r + a
+                qc = p_c + c
+                s = _slot(grid, g0r, g0c, t, qr, qc)
+                if s >= 0 and hits[s, qr - (qr // t) * t, qc - (qc // t) * t] > 0:
+                    nbr[n_q, 0] = a
+                    nbr[n_q, 1] = c
+                    n_q += 1
+        br0 = (p_r - half) // b
+        br1 = (p_r + half) // b
+        bc0 = (p_c - half) // b
+        bc1 = (p_c + half) // b
+        # block columns lying inside the inner square |x - p|_inf <= R - rho
+        ib0 = -((inner - p_c) // b)  # ceil((p_c - inner) / b)
+        ib1 = (p_c + inner - b + 1) // b
+        for gbr in range(br0, br1 + 1):
+            lo = gbr * b - p_r  # block rows relative to p
+            hi = lo + b - 1
+            if lo > 0:
+                dr = lo
+            elif hi < 0:
+                dr = -hi
+            else:
+                dr = 0
+            tr = gbr // nb
+            gi = tr - g0r
+            if gi < 0 or gi >= gh:
+                continue
+            lbr = gbr - tr * nb
+            # Disk bound: no block of this row can gain if dc^2 >= max bmax - dr^2.
+            rmax = 0
+            for tcc in range(bc0 // nb, bc1 // nb + 1):
+                gj = tcc - g0c
+                if 0 <= gj < gw:
+                    ss = grid[gi, gj]
+                    if ss >= 0 and rowmax[ss, lbr] > rmax:
+                        rmax = rowmax[ss, lbr]
+            rem = rmax - dr * dr
+            if rem <= 0:
+                continue
+            e = int(math.sqrt(rem - 1.0))
+            while e * e > rem - 1:
+                e -= 1
+            while (e + 1) * (e + 1) <= rem - 1:
+                e += 1
+            cb0 = max(bc0, -((e + b - 1 - p_c) // b))
+            cb1 = min(bc1, (p_c + e) // b)
+            # Allowed interval [al, ar] of inner block columns.
+            al = ib0
+            ar = ib1
+            if n_q and lo >= -inner and hi <= inner:
+                for j in range(n_q):
+                    qa = nbr[j, 0]
+                    qc = nbr[j, 1]
+                    dd = qa * qa + qc * qc - 2 * (lo if qa > 0 else hi) * qa
+                    if qc > 0:
+                        # dominated iff lo_c >= ceil(dd / (2 qc))
+                        thr = -((-dd) // (2 * qc)) + p_c
+                        ar = min(ar, -((-thr) // b) - 1)
+                    elif qc < 0:
+                        # dominated iff hi_c <= floor(dd / (2 qc))
+                        thr = dd // (2 * qc) + p_c - b + 1
+                        al = max(al, thr // b + 1)
+                    elif dd <= 0:
+                        al = ib1 + 1
+                        ar = ib1
+            else:
+                al = ib1 + 1  # no inner part in this row: every column is tested
+                ar = ib1
+                ib0 = ib1 + 1
+            for part in range(3):
+                if part == 0:
+                    c_from = cb0
+                    c_to = min(cb1, ib0 - 1)
+                elif part == 1:
+                    c_from = max(al, ib0, cb0)
+                    c_to = min(ar, ib1, cb1)
+                else:
+                    c_from = max(ib1 + 1, cb0, ib0)
+                    c_to = cb1
+                if c_from > c_to:
+                    continue
+                for tcc in range(c_from // nb, c_to // nb + 1):
+                    gj = tcc - g0c
+                    if gj < 0 or gj >= gw:
+                        continue
+                    s = grid[gi, gj]
+                    if s < 0:
+                        continue
+                    l0 = max(c_from - tcc * nb, 0)
+                    l1 = min(c_to - tcc * nb, nb - 1)
+                    for lbc in range(l0, l1 + 1):
+                        lo_c = (tcc * nb + lbc) * b - p_c
+                        if lo_c > 0:
+                            dc = lo_c
+                        elif lo_c + b - 1 < 0:
+                            dc = -(lo_c + b - 1)
+                        else:
+                            dc = 0
+                        if dr * dr + dc * dc >= bmax[s, lbr, lbc]:
+                            continue
+                        if n_pairs == cap:
+                            cap *= 2
+                            nk = np.empty(cap, np.int64)
+                            ni = np.empty(cap, np.int64)
+                            nk[:n_pairs] = pair_k[:n_pairs]
+                            ni[:n_pairs] = pair_i[:n_pairs]
+                            pair_k = nk
+                            pair_i = ni
+                        pair_k[n_pairs] = (s * nb + lbr) * nb + lbc
+                        pair_i[n_pairs] = i
+                        n_pairs += 1
+            ib0 = -((inner - p_c) // b)
+    # counting sort of the pairs by block id
+    counts = np.zeros(n_ids + 1, np.int64)
+    for j in range(n_pairs):
+        counts[pair_k[j] + 1] += 1
+    n_rows = 0
+    n_blocks = 0
+    for k in range(n_ids):
+        cnt = counts[k + 1]
+        if cnt:
+            n_blocks += 1
+            n_rows += (cnt + n_points_row - 1) // n_points_row
+        counts[k + 1] += counts[k]
+    members = np.empty(n_pairs, np.int64)
+    for j in range(n_pairs):
+        k = pair_k[j]
+        members[counts[k]] = pair_i[j]
+        counts[k] += 1
+    # counts[k] is now the end of block k's members (and the start of block k + 1's)
+    row_block = np.empty(n_rows, np.int64)
+    row_bidx = np.empty(n_rows, np.int64)
+    row_pts = np.full((n_rows, n_points_row, 2), -(half + 2 * b + 1), np.int32)
+    blocks = np.empty(n_blocks, np.int64)
+    row = 0
+    j = 0
+    start = 0
+    for k in range(n_ids):
+        stop = counts[k]
+        if stop == start:
+            continue
+        s = k // (nb * nb)
+        lbr = (k // nb) % nb
+        lbc = k % nb
+        org_r = keys[s, 0] * t + lbr * b
+        org_c = keys[s, 1] * t + lbc * b
+        blocks[j] = k
+        q = 0
+        for m in range(start, stop):
+            i = members[m]
+            row_pts[row, q, 0] = pr[i] - org_r
+            row_pts[row, q, 1] = pc[i] - org_c
+            row_block[row] = k
+            row_bidx[row] = j
+            q += 1
+            if q == n_points_row:
+                q = 0
+                row += 1
+        if q:
+            row += 1
+        j += 1
+        start = stop
+    return row_block, row_pts, row_bidx, blocks
+
+
+@numba.njit(cache=True, nogil=True)
+def _merge_rows(d2, bmax, row_block, row_bidx, rows, n_blocks, t, b, halo):
+    """``d2 = min(d2, rows)`` block by block; update the block maxima.
+
+    Returns, per distinct block, a 9-bit mask of the blocks whose ridges must be
+    recomputed: bit ``3 * (dy + 1) + (dx + 1)`` for the block at offset ``(dy, dx)``,
+    set when a changed pixel lies within ``halo`` pixels of that neighbour (bit 4, the
+    block itself, for any change).
+    """
+    nb = t // b
+    lo_a = np.full(n_blocks, b, np.int64)
+    hi_a = np.full(n_blocks, -1, np.int64)
+    lo_c = np.full(n_blocks, b, np.int64)
+    hi_c = np.full(n_blocks, -1, np.int64)
+    for i in range(row_block.shape[0]):
+        k = row_block[i]
+        j = row_bidx[i]
+        s = k // (nb * nb)
+        r0 = ((k // nb) % nb) * b
+        c0 = (k % nb) * b
+        for a in range(b):
+            for c in range(b):
+                v = rows[i, a, c]
+                if v < d2[s, r0 + a, c0 + c]:
+                    d2[s, r0 + a, c0 + c] = v
+                    lo_a[j] = min(lo_a[j], a)
+                    hi_a[j] = max(hi_a[j], a)
+                    lo_c[j] = min(lo_c[j], c)
+                    hi_c[j] = max(hi_c[j], c)
+    masks = np.zeros(n_blocks, np.uint16)
+    for i in range(row_block.shape[0]):
+        j = row_bidx[i]
+        if hi_a[j] < 0 or (i > 0 and row_bidx[i - 1] == j):
+            continue
+        dy0 = -1 if lo_a[j] < halo else 0
+        dy1 = 1 if hi_a[j] >= b - halo else 0
+        dx0 = -1 if lo_c[j] < halo else 0
+        dx1 = 1 if hi_c[j] >= b - halo else 0
+        m = 0
+        for dy in range(dy0, dy1 + 1):
+            for dx in range(dx0, dx1 + 1):
+                m |= 1 << (3 * (dy + 1) + dx + 1)
+        masks[j] = m
+        k = row_block[i]
+        s = k // (nb * nb)
+        lbr = (k // nb) % nb
+        lbc = k % nb
+        mx = 0
+        for a in range(b):
+            for c in range(b):
+                v = d2[s, lbr * b + a, lbc * b + c]
+                if v > mx:
+                    mx = v
+        bmax[s, lbr, lbc] = mx
+    return masks
+
+
+@numba.njit(cache=True, nogil=True)
+def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out):
+    """Haloed squared-distance patches of blocks, reflected at the bounding box.
+
+    ``out[i]`` is the ``(b + 2 halo)^2`` patch around block ``(lbr[i], lbc[i])`` of tile
+    ``slots[i]``; rows/cols outside ``bbox = (row0, col0, row1, col1)`` read the
+    ``BORDER_REFLECT_101`` mirror pixel (``-1 -> 1``), missing tiles read ``FAR_SQ``.
+    """
+    r_first = bbox[0]
+    c_first = bbox[1]
+    r_last = bbox[2] - 1
+    c_last = bbox[3] - 1
+    size = b + 2 * halo
+    for i in range(slots.shape[0]):
+        s = slots[i]
+        tile_r0 = keys[s, 0] * t
+        tile_c0 = keys[s, 1] * t
+        org_r = tile_r0 + lbr[i] * b - halo
+        org_c = tile_c0 + lbc[i] * b - halo
+        for a in range(size):
+            r = org_r + a
+            if r < r_first:
+                r = 2 * r_first - r
+            elif r > r_last:
+                r = 2 * r_last - r
+            lr = r - tile_r0
+            oy = 1
+            if lr < 0:
+                lr += t
+                oy = 0
+            elif lr >= t:
+                lr -= t
+                oy = 2
+            for cc in range(size):
+                c = org_c + cc
+                if c < c_first:
+                    c = 2 * c_first - c
+                elif c > c_last:
+                    c = 2 * c_last - c
+                lc = c - tile_c0
+                ox = 1
+                if lc < 0:
+                    lc += t
+                    ox = 0
+                elif lc >= t:
+                    lc -= t
+                    ox = 2
+                ss = nbr9[s, 3 * oy + ox]
+                out[i, a, cc] = FAR_SQ if ss < 0 else d2[ss, lr, lc]
+
+
+@numba.njit(cache=True, nogil=True)
+def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, ridge, lap_abs):
+    """Store recomputed blocks; return the global pixels that became ridge pixels and
+    those that stopped being ones, (n, 2) int64 each."""
+    n = slots.shape[0]
+    cnt = 0
+    for i in range(n):
+        s = slots[i]
+        r0 = lbr[i] * b
+        c0 = lbc[i] * b
+        for a in range(b):
+            for c in range(b):
+                if ridge_l[s, r0 + a, c0 + c] != ridge[i, a, c]:
+                    cnt += 1
+    added = np.empty((cnt, 2), np.int64)
+    removed = np.empty((cnt, 2), np.int64)
+    na = 0
+    nr = 0
+    for i in range(n):
+        s = slots[i]
+        r0 = lbr[i] * b
+        c0 = lbc[i] * b
+        gr = keys[s, 0] * t + r0
+        gc = keys[s, 1] * t + c0
+        for a in range(b):
+            for c in range(b):
+                v = ridge[i, a, c]
+                lap_l[s, r0 + a, c0 + c] = lap_abs[i, a, c]
+                if ridge_l[s, r0 + a, c0 + c] != v:
+                    ridge_l[s, r0 + a, c0 + c] = v
+                    if v:
+                        added[na, 0] = gr + a
+                        added[na, 1] = gc + c
+                        na += 1
+                    else:
+                        removed[nr, 0] = gr + a
+                        removed[nr, 1] = gc + c
+                        nr += 1
+    return added[:na], removed[:nr]
+
+
+@numba.njit(cache=True, nogil=True)
+def _gather_px(layer, grid, g0r, g0c, t, rows, cols, fill, out):
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        c = cols[i]
+        s = _slot(grid, g0r, g0c, t, r, c)
+        if s < 0:
+            out[i] = fill
+        else:
+            out[i] = layer[s, r - (r // t) * t, c - (c // t) * t]
+
+
+@numba.njit(cache=True, nogil=True)
+def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
+    """Write ``values`` at global pixels; returns how many pixels lie in missing tiles."""
+    missing = 0
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        c = cols[i]
+        s = _slot(grid, g0r, g0c, t, r, c)
+        if s < 0:
+            missing += 1
+        else:
+            layer[s, r - (r // t) * t, c - (c // t) * t] = values[i]
+    return missing
+
+
+@numba.njit(cache=True, nogil=True)
+def _region_z(sr, sc, grid, g0r, g0c, t, mark, graph_id, skeleton):
+    """The changed pixels dilated by one (3 x 3), without repeats, with the ``graph_id`` and
+    ``skeleton`` values there.  ``mark`` (scratch uint8 layer) is zero on entry and exit;
+    pixels of missing tiles read -1 / False.  Returns ``zr, zc, gid, skz``."""
+    n = sr.shape[0]
+    zr = np.empty(9 * n, np.int64)
+    zc = np.empty(9 * n, np.int64)
+    gid = np.empty(9 * n, np.int32)
+    skz = np.empty(9 * n, np.bool_)
+    zs = np.empty(9 * n, np.int64)
+    m = 0
+    for i in range(n):
+        for dr in range(-1, 2):
+            for dc in range(-1, 2):
+                r = sr[i] + dr
+                c = sc[i] + dc
+                s = _slot(grid, g0r, g0c, t, r, c)
+                if s >= 0:
+                    lr = r - (r // t) * t
+                    lc = c - (c // t) * t
+                    if mark[s, lr, lc]:
+                        continue
+                    mark[s, lr, lc] = 1
+                    gid[m] = graph_id[s, lr, lc]
+                    skz[m] = skeleton[s, lr, lc]
+                else:
+                    # outside the allocated tiles: only possible one pixel off the bbox;
+                    # repeats there are harmless
+                    gid[m] = -1
+                    skz[m] = False
+                zr[m] = r
+                zc[m] = c
+                zs[m] = s
+                m += 1
+    for i in range(m):
+        if zs[i] >= 0:
+            r = zr[i]
+            c = zc[i]
+            mark[zs[i], r - (r // t) * t, c - (c // t) * t] = 0
+    return zr[:m], zc[:m], gid[:m], skz[:m]
+
+
+@numba.njit(cache=True, nogil=True)
+def _clear_owned(layer, grid, g0r, g0c, t, rows, cols, owner):
+    """Set ``layer`` to -1 at the pixels whose value equals ``owner[i]``."""
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        c = cols[i]
+        s = _slot(grid, g0r, g0c, t, r, c)
+        if s < 0:
+            continue
+        lr = r - (r // t) * t
+        lc = c - (c // t) * t
+        if layer[s, lr, lc] == owner[i]:
+            layer[s, lr, lc] = -1
+
+
+@numba.njit(cache=True, nogil=True)
+def _flood(rflat, mflat, nbr9, t, seeds, queue):
+    """8-connected ridge components containing the seeds (seeds off the ridge ignored).
+
+    Works on flat layer indices ``slot * t^2 + row * t + col`` (``rflat``: the ridge
+    layer raveled; ``mflat``: a raveled scratch uint8 layer, all zero on entry and on
+    exit) and steps between tiles through ``nbr9`` (:meth:`TileManager.neighbour_slots`).
+    ``queue`` must hold at least as many entries as there are ridge pixels.  Returns the
+    number ``n`` of component pixels; their flat indices are ``queue[:n]``.
+    """
+    tt = t * t
+    n = 0
+    for i in range(seeds.shape[0]):
+        f = seeds[i]
+        if f >= 0 and rflat[f] and not mflat[f]:
+            mflat[f] = 1
+            queue[n] = f
+            n += 1
+    head = 0
+    while head < n:
+        f = queue[head]
+        head += 1
+        s = f // tt
+        rem = f - s * tt
+        lr0 = rem // t
+        lc0 = rem - lr0 * t
+        for dr in range(-1, 2):
+            nr = lr0 + dr
+            oy = 1
+            if nr < 0:
+                nr += t
+                oy = 0
+            elif nr >= t:
+                nr -= t
+                oy = 2
+            for dc in range(-1, 2):
+                if dr == 0 and dc == 0:
+                    continue
+                nc = lc0 + dc
+                ox = 1
+                if nc < 0:
+                    nc += t
+                    ox = 0
+                elif nc >= t:
+                    nc -= t
+                    ox = 2
+                ns = nbr9[s, 3 * oy + ox]
+                if ns < 0:
+                    continue
+                g = ns * tt + nr * t + nc
+                if rflat[g] and not mflat[g]:
+                    mflat[g] = 1
+                    queue[n] = g
+                    n += 1
+    for i in range(n):
+        mflat[queue[i]] = 0
+    return n
+
+
+def _interior(off: np.ndarray) -> np.ndarray:
+    """Mask of the interior pixels (not first, not last) of CSR paths with offsets ``off``."""
+    inner = np.ones(int(off[-1]), bool)
+    inner[off[:-1]] = False
+    inner[off[1:] - 1] = False
+    return inner
+
+
+def _signatures(paths: np.ndarray, off: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """Orientation-free signatures of CSR pixel paths (length, hashed ends, hashed pixel
+    sum); equal paths have equal signatures (matches are verified by comparison)."""
+    u = paths.astype(np.uint64)
+    h = (u[:, 0] * np.uint64(0x9E3779B97F4A7C15)) ^ (u[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F))
+    total = np.add.reduceat(h, off[:-1])
+    e0 = h[off[:-1]]
+    e1 = h[off[1:] - 1]
+    return list(
+        zip(
+            np.diff(off).tolist(),
+            np.minimum(e0, e1).tolist(),
+            np.maximum(e0, e1).tolist(),
+            total.tolist(),
+            strict=True,
+        )
+    )
+
+
+def _local_graph(skel: np.ndarray):
+    """Raw topology graph of a skeleton crop, as arrays.
+
+    Uses the link-mask and tracing kernels of :mod:`topojax.graph` (the code behind
+    :func:`~topojax.graph.skeleton_to_graph`, so the vertices, kinds and paths are the
+    same) without building a networkx graph or attributes.
+
+    Returns
+    -------
+    v_rc : int64 (n, 2)
+        Vertex pixels (crop coordinates), raster order.
+    v_kind : int8 (n,)
+        0 isolated, 1 end, 2 ring, 3 junction.
+    e_off : int64 (m + 1,)
+        CSR offsets of the edge paths in ``p_rc``.
+    p_rc : int64 (L, 2)
+        Concatenated edge paths (crop coordinates), each from one end to the other.
+    """
+    from . import graph as _g
+
+    flat, idx, masks, width = _g._padded_links(skel)
+    deg = _g._POPCOUNT[masks]
+    links = np.zeros(flat.shape[0], dtype=np.uint8)
+    links[idx] = masks
+    is_vertex = np.zeros(flat.shape[0], dtype=np.bool_)
+    vmask = deg != 2
+    vertex_idx = idx[vmask]
+    is_vertex[vertex_idx] = True
+    offsets8 = _g._DR * width + _g._DC
+    n_links = int(deg.sum(dtype=np.int64)) // 2
+    rings, _e_u, _e_v, e_off, path_flat = _g._trace(
+        links, is_vertex, vertex_idx, idx[~vmask], offsets8, n_links
+    )
+    v_flat = np.concatenate([vertex_idx, rings])
+    v_kind = np.concatenate(
+        [
+            np.minimum(deg[vmask], _g._KIND_JUNCTION),
+            np.full(rings.shape[0], _g._KIND_RING, np.uint8),
+        ]
+    ).astype(np.int8)
+    order = np.argsort(v_flat, kind="stable")
+    v_flat = v_flat[order]
+    v_rc = np.stack([v_flat // width - 1, v_flat % width - 1], axis=1)
+    p_rc = np.stack([path_flat // width - 1, path_flat % width - 1], axis=1)
+    return v_rc, v_kind[order], e_off.astype(np.int64), p_rc
+
+
+def thin_components(
+    rows: np.ndarray,
+    cols: np.ndarray,
+    bounds: tuple[int, int, int, int],
+    *,
+    method: str = "guo_hall",
+    remove_t: bool = True,
+) -> np.ndarray:
+    """Skeleton of whole 8-connected components, thinned on a crop of their own.
+
+    Thinning and T-centre removal decide every pixel from its 8 (4) neighbours, so they act
+    on each 8-connected component independently.  T removal treats the image border
+    specially (a 1-D rule, applied after the interior), so the crop's border must be the
+    image border or lie at least one pixel from every component pixel; this function
+    chooses it so.  The result then equals ``remove_t_centres(thin(image))`` at these
+    pixels for any image of which these are whole components (tested).
+
+    Parameters
+    ----------
+    rows, cols : int arrays (n,)
+        The pixels of one or more whole components (any order).
+    bounds : (row0, col0, row1, col1)
+        The image the pixels live in (end exclusive): its border rows/columns get the
+        border rule.
+    method : {"guo_hall", "zhang"}
+    remove_t : bool
+
+    Returns
+    -------
+    bool array (n,): skeleton value of each pixel.
+    """
+    from .skeleton import remove_t_centres, thin
+
+    if rows.size == 0:
+        return np.zeros(0, bool)
+    r_lo = max(int(rows.min()) - 1, bounds[0])
+    r_hi = min(int(rows.max()) + 1, bounds[2] - 1)
+    c_lo = max(int(cols.min()) - 1, bounds[1])
+    c_hi = min(int(cols.max()) + 1, bounds[3] - 1)
+    img = np.zeros((r_hi - r_lo + 1, c_hi - c_lo + 1), bool)
+    img[rows - r_lo, cols - c_lo] = True
+    sk = thin(img, method=method)
+    if remove_t:
+        sk = remove_t_centres(sk)
+    return sk[rows - r_lo, cols - c_lo]
+
+
+# ======================================================================================
+# Reports
+# ======================================================================================
+
+
+@dataclass(frozen=True)
+class GraphUpdate:
+    """What one graph update changed.
+
+    Vertex ids and edge keys are stable: a vertex keeps its id as long as a vertex exists at
+    its pixel; an edge keeps its key as long as its path is unchanged (edges are never
+    modified in place: a changed path is a removal plus an addition).
+
+    Attributes
+    ----------
+    added_vertices, removed_vertices : tuple of int
+        Vertex ids.
+    changed_vertices : tuple of int
+        Vertices that stay but whose kind or set of incident edges changed.
+    added_edges, removed_edges : tuple of int
+        Edge keys (unique over the whole graph).
+    region_px : int
+        Pixels in the patched region ``Z`` (changed skeleton pixels dilated by 1).
+    time_s : float
+        Wall time of the update in seconds.
+    """
+
+    added_vertices: tuple[int, ...] = ()
+    removed_vertices: tuple[int, ...] = ()
+    changed_vertices: tuple[int, ...] = ()
+    added_edges: tuple[int, ...] = ()
+    removed_edges: tuple[int, ...] = ()
+    region_px: int = 0
+    time_s: float = 0.0
+
+    @property
+    def empty(self) -> bool:
+        """True when nothing changed."""
+        return not (
+            self.added_vertices
+            or self.removed_vertices
+            or self.changed_vertices
+            or self.added_edges
+            or self.removed_edges
+        )
+
+
+@dataclass(frozen=True)
+class ScanReport:
+    """What :meth:`IncrementalMapper.add_scan` did with one scan.
+
+    Attributes
+    ----------
+    index : int
+        0-based number of the scan in this mapper (empty scans count).
+    n_beams : int
+        Beams in the scan.
+    n_valid : int
+        Beams used (hits): finite, ``range_min <= r < range_max`` (and ``< max_range_m``).
+    n_dropped : int
+        ``n_beams - n_valid``: NaN, inf, non-positive, below ``range_min``, max-range.
+    n_new_obstacles : int
+        Obstacle pixels hit for the first time.
+    loops : tuple of str
+        Loops that ran: ``"distance"`` always; ``"splat"`` when this scan filled the
+        pending-point buffer (``max_pending_points``) and the distance loop splatted it
+        (otherwise pending points are splatted at the start of the skeleton loop, inside
+        its time); ``"skeleton"``; ``"graph"``.
+    timings_s : dict of str to float
+        Wall time per loop in seconds (``"distance"`` includes ``"splat"``).
+    n_tiles : int
+        Tiles allocated after this scan.
+    graph_update : GraphUpdate or None
+        Result of the graph loop if it ran.
+    """
+
+    index: int
+    n_beams: int
+    n_valid: int
+    n_dropped: int
+    n_new_obstacles: int
+    loops: tuple[str, ...]
+    timings_s: dict[str, float]
+    n_tiles: int
+    graph_update: GraphUpdate | None = None
+
+
+# ======================================================================================
+# Helpers
+# ======================================================================================
+
+
+def _batches(n: int, sizes: tuple[int, int]):
+    """Cut ``n`` items into fixed-size kernel batches: ``(start, stop, size)`` with
+    ``stop - start <= size``; the large size while at least half of it is left."""
+    small, large = sizes
+    start = 0
+    while start < n:
+        size = large if n - start >= large // 2 else small
+        stop = min(n, start + size)
+        yield start, stop, size
+        start = stop
+
+
+def _pad_to(a: np.ndarray, size: int, fill) -> np.ndarray:
+    """Pad ``a`` along axis 0 to ``size`` rows with ``fill``."""
+    if a.shape[0] == size:
+        return a
+    pad = np.full((size - a.shape[0],) + a.shape[1:], fill, a.dtype)
+    return np.concatenate([a, pad])
+
+
+def _check_rate(name: str, value) -> int:
+    if value is None:
+        return 0
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int >= 0 or None, got {type(value).__name__}")
+    if value < 0:
+        raise ValueError(f"{name} must be >= 0 (0 or None: explicit calls only), got {value}")
+    return int(value)
+
+
+def _pack(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Pixel coordinates -> one int64 key each (order-preserving within a row)."""
+    return (np.asarray(rows, np.int64) << 32) + (np.asarray(cols, np.int64) + (1 << 31))
+
+
+def _key(row: int, col: int) -> int:
+    """:func:`_pack` for one pixel, in Python integers."""
+    return (int(row) << 32) + int(col) + (1 << 31)
+
+
+def _unpack(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    keys = np.asarray(keys, np.int64)
+    rows = keys >> 32  # the column part lies in [0, 2^32)
+    cols = keys - (rows << 32) - (1 << 31)
+    return rows, cols
+
+
+_NB8 = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc], np.int64)
+_NB9 = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1)], np.int64)
+
+
+# ======================================================================================
+# The mapper
+# ======================================================================================
+
+
+class IncrementalMapper:
+    """Keep distance map, skeleton and topology graph up to date from laser scans.
+
+    Parameters
+    ----------
+    resolution_m : float
+        Pixel size in metres (default 0.05, the paper's).
+    skeleton_every : int or None
+        Run the skeleton loop after every this many scans (default 20); 0 or None: only
+        when :meth:`update_skeleton` (or :meth:`update_graph`) is called.
+    graph_every : int or None
+        Run the graph loop after every this many scans (default 80); 0 or None: only when
+        :meth:`update_graph` is called.
+    strategy : {"exact", "paper"}
+        Skeleton update: ``"exact"`` re-thins the changed ridge components and equals the
+        full-map pipeline; ``"paper"`` thins the new ridges inside the changed blocks plus a
+        ``paper_layer_px`` wide layer of the old skeleton around them and writes back inside
+        the changed blocks only (paper §III-B).
+    config : PipelineConfig, optional
+        Distance, ridge and skeleton settings (default: the paper's).  Its ``tile_px`` and
+        ``tiles_per_call`` are the full-map pipeline's and are not used here.
+        ``config.graph.merge_junction_clusters`` must be False.
+    distance, ridge, skeleton : configs, optional
+        Override the corresponding part of ``config``.
+    tile_px : int
+        Side of the storage tiles in pixels (default 128).  Must be a multiple of
+        ``block_px``.
+    block_px : int
+        Side of the blocks the splat and ridge kernels work on (default 16).
+    max_pending_points : int
+        Splat pending new obstacle pixels once this many are waiting (default 4096; 0 splats
+        at every scan).  Reads of the distance map always splat first.
+    free_space : bool
+        Count free cells along each beam (default True); they only feed the occupancy
+        output (``free`` / ``unknown``), not the graph.
+    max_range_m : float, optional
+        Also drop readings at or beyond this range (in addition to the scan's
+        ``range_max``).
+    paper_layer_px : int
+        Width of the old-skeleton layer of the ``"paper"`` strategy (default 2).
+    max_grid_cells : int
+        Bound on the bounding box of the map in tiles (see
+        :class:`~topojax.tiling.TileManager`); a scan that would exceed it is rejected
+        with ValueError before anything changes.
+
+    Notes
+    -----
+    Obstacles are monotone: a pixel hit once stays an obstacle (like the paper's max-merge
+    of distance maps).  The exported occupancy map marks hit pixels occupied, pixels crossed
+    by a beam but never hit free, and the rest unknown.
+    """
+
+    def __init__(
+        self,
+        *,
+        resolution_m: float = 0.05,
+        skeleton_every: int | None = 20,
+        graph_every: int | None = 80,
+        strategy: str = "exact",
+        config: PipelineConfig | None = None,
+        distance: DistanceConfig | None = None,
+        ridge: RidgeConfig | None = None,
+        skeleton: SkeletonConfig | None = None,
+        tile_px: int = 128,
+        block_px: int = 16,
+        max_pending_points: int = 4096,
+        free_space: bool = True,
+        max_range_m: float | None = None,
+        paper_layer_px: int = 2,
+        max_grid_cells: int = MAX_GRID_CELLS,
+    ) -> None:
+        if isinstance(resolution_m, bool) or not isinstance(resolution_m, (int, float)):
+            raise TypeError(f"resolution_m must be a number, got {type(resolution_m).__name__}")
+        if not math.isfinite(resolution_m) or resolution_m <= 0:
+            raise ValueError(f"resolution_m must be finite and > 0 (metres), got {resolution_m}")
+        if strategy not in STRATEGIES:
+            raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
+        config = config if config is not None else PipelineConfig()
+        if not isinstance(config, PipelineConfig):
+            raise TypeError(f"config must be a PipelineConfig, got {type(config).__name__}")
+        for name, value, cls in (
+            ("distance", distance, DistanceConfig),
+            ("ridge", ridge, RidgeConfig),
+            ("skeleton", skeleton, SkeletonConfig),
+        ):
+            if value is not None and not isinstance(value, cls):
+                raise TypeError(f"{name} must be a {cls.__name__}, got {type(value).__name__}")
+        config = PipelineConfig(
+            distance=distance or config.distance,
+            ridge=ridge or config.ridge,
+            skeleton=skeleton or config.skeleton,
+            graph=config.graph,
+            tile_px=config.tile_px,
+            tiles_per_call=config.tiles_per_call,
+        )
+        if config.graph.merge_junction_clusters:
+            raise ValueError(
+                "config.graph.merge_junction_clusters=True is not supported incrementally; "
+                "expected False (merge clusters on the exported graph instead)"
+            )
+        for name, value, lo in (
+            ("tile_px", tile_px, 8),
+            ("block_px", block_px, 4),
+            ("paper_layer_px", paper_layer_px, 1),
+        ):
+            if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+                raise ValueError(f"{name} must be an int >= {lo}, got {value!r}")
+        if tile_px % block_px:
+            raise ValueError(f"tile_px ({tile_px}) must be a multiple of block_px ({block_px})")
+        if block_px < 2 * HALO_PX:
+            raise ValueError(f"block_px must be >= {2 * HALO_PX}, got {block_px}")
+        if (
+            isinstance(max_pending_points, bool)
+            or not isinstance(max_pending_points, int)
+            or max_pending_points < 0
+        ):
+            raise ValueError(f"max_pending_points must be an int >= 0, got {max_pending_points!r}")
+        if max_range_m is not None:
+            if isinstance(max_range_m, bool) or not isinstance(max_range_m, (int, float)):
+                raise TypeError(f"max_range_m must be a number or None, got {max_range_m!r}")
+            if not max_range_m > 0:
+                raise ValueError(f"max_range_m must be > 0 (metres), got {max_range_m}")
+        if not isinstance(free_space, bool):
+            raise TypeError(f"free_space must be a bool, got {type(free_space).__name__}")
+        self.resolution_m = float(resolution_m)
+        self.skeleton_every = _check_rate("skeleton_every", skeleton_every)
+        self.graph_every = _check_rate("graph_every", graph_every)
+        self.strategy = strategy
+        self.config = config
+        self.tile_px = tile_px
+        self.block_px = block_px
+        self.max_pending_points = max_pending_points
+        self.free_space = free_space
+        self.max_range_m = None if max_range_m is None else float(max_range_m)
+        self.paper_layer_px = paper_layer_px
+        self._half = config.distance.half_width_px
+        nb = tile_px // block_px
+        self._tiles = TileManager(
+            tile_px=tile_px,
+            layers={
+                "hits": (np.uint16, 0),
+                "misses": (np.uint16, 0),
+                "sq_distance": (np.int32, FAR_SQ),
+                "lap_abs": (np.uint8, 0),
+                "ridge": (np.bool_, False),
+                "skeleton": (np.bool_, False),
+                "graph_id": (np.int32, -1),
+                "mark": (np.uint8, 0),
+                "block_max": (np.int32, FAR_SQ, (nb, nb)),
+                "ridge_dirty": (np.bool_, False, (nb, nb)),
+            },
+            loops=("ridge",),
+            max_grid_cells=max_grid_cells,
+        )
+        self._n_scans = 0
+        self._n_ridge = 0
+        self._compiled = False
+        self._pending: list[np.ndarray] = []
+        self._n_pending = 0
+        self._skel_changed: list[np.ndarray] = []
+        self._ridge_bbox: tuple[int, int, int, int] | None = None
+        self._since_skeleton = 0
+        self._since_graph = 0
+        # internal graph: vertex id -> pixel (global), kind, incident edge keys;
+        # edge key -> (u, v) with u <= v and its global pixel path from u to v
+        self._v_pixel: dict[int, tuple[int, int]] = {}
+        self._v_kind: dict[int, str] = {}
+        self._v_edges: dict[int, set[int]] = {}
+        self._e_ends: dict[int, tuple[int, int]] = {}
+        self._e_path: dict[int, np.ndarray] = {}
+        self._vertex_at: dict[int, int] = {}
+        self._next_vertex = 0
+        self._next_edge = 0
+        self._export_cache: dict[str, object] = {}
+        self._scalars = (
+            jnp.float32(config.distance.sigma_px),
+            jnp.float32(config.ridge.scale),
+            jnp.float32(config.ridge.threshold),
+        )
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def n_scans(self) -> int:
+        """Scans added so far (empty ones included)."""
+        return self._n_scans
+
+    @property
+    def n_tiles(self) -> int:
+        """Allocated tiles."""
+        return self._tiles.n_tiles
+
+    @property
+    def tiles(self) -> TileManager:
+        """The tile storage (read-only use: do not modify layers)."""
+        return self._tiles
+
+    @property
+    def pixel_bbox(self) -> tuple[int, int, int, int] | None:
+        """``(row0, col0, row1, col1)`` of the exported arrays (end exclusive), global
+        pixels, or None before anything was allocated."""
+        return self._tiles.pixel_bbox
+
+    def world_to_pixel(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """Global lattice pixel ``(row, col)`` (int64) containing world points ``(x, y)``."""
+        res = self.resolution_m
+        rows = np.floor(-np.asarray(y, np.float64) / res).astype(np.int64)
+        cols = np.floor(np.asarray(x, np.float64) / res).astype(np.int64)
+        return rows, cols
+
+    # ------------------------------------------------------------------ scans
+    def add_scan(self, scan: Scan) -> ScanReport:
+        """Integrate one scan (distance loop), then run the loops that are due.
+
+        Parameters
+        ----------
+        scan : Scan
+            Ranges, beam geometry and the robot pose in the map frame.  Invalid readings
+            (NaN, inf, non-positive, below ``range_min``, at or beyond ``range_max`` or
+            ``max_range_m``) are dropped and counted in the report.  A scan without valid
+            readings changes nothing but the scan counter (and may trigger due loops).
+
+        Returns
+        -------
+        ScanReport
+
+        Raises
+        ------
+        TypeError
+            If ``scan`` is not a :class:`~topojax.scans.Scan`.
+        ValueError
+            If the scan's pixels are absurdly far (beyond 2^30 pixels) or the map would
+            exceed ``max_grid_cells``.  Nothing is changed in that case.
+        """
+        if not isinstance(scan, Scan):
+            raise TypeError(
+                f"scan must be a topojax.Scan (see Scan.from_arrays), got {type(scan).__name__}"
+            )
+        t0 = time.perf_counter()
+        t = self.tile_px
+        sx, sy, syaw = scan.sensor_pose_world()
+        rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)
+        res = self.resolution_m
+        er, ec = _scan_geometry(
+            scan.ranges,
+            scan.angle_min,
+            scan.angle_increment,
+            scan.range_min,
+            rmax,
+            sx,
+            sy,
+            syaw,
+            res,
+        )
+        n_valid = int(er.shape[0])
+        tiles = self._tiles
+        n_new = 0
+        if n_valid:
+            sr = math.floor(-sy / res)
+            sc = math.floor(sx / res)
+            w = self._half + HALO_PX
+            lo_r = min(int(er.min()), sr) - w
+            hi_r = max(int(er.max()), sr) + w
+            lo_c = min(int(ec.min()), sc) - w
+            hi_c = max(int(ec.max()), sc) + w
+            if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
+                raise ValueError(
+                    f"scan: the pose {scan.pose} puts pixels beyond {_MAX_ABS_PIXEL} px from "
+                    f"the origin at resolution {res} m; expected poses in metres"
+                )
+            # Validate the whole extent (beams and splat windows) before changing anything.
+            tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+            rays = self.free_space
+            grid, (g0r, g0c) = tiles.slot_grid
+            need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
+            if need.shape[0]:
+                tiles.ensure(need[:, 0], need[:, 1])
+                grid, (g0r, g0c) = tiles.slot_grid
+            flags = np.zeros(n_valid, np.bool_)
+            n_new = _integrate(
+                sr,
+                sc,
+                er,
+                ec,
+                t,
+                rays,
+                grid,
+                g0r,
+                g0c,
+                tiles.layer("hits"),
+                tiles.layer("misses"),
+                flags,
+            )
+            if n_new:
+                nr, nc = er[flags], ec[flags]
+                miss = _missing_window_tiles(nr, nc, w, t, grid, g0r, g0c)
+                if miss.shape[0]:
+                    tiles.ensure(miss[:, 0], miss[:, 1])
+                self._pending.append(np.stack([nr, nc], axis=1))
+                self._n_pending += n_new
+                self._export_cache.clear()
+        loops = ["distance"]
+        timings: dict[str, float] = {}
+        if self._n_pending and self._n_pending >= self.max_pending_points:
+            ts = time.perf_counter()
+            self._flush_splat()
+            timings["splat"] = time.perf_counter() - ts
+            loops.append("splat")
+        timings["distance"] = time.perf_counter() - t0
+        self._n_scans += 1
+        self._since_skeleton += 1
+        self._since_graph += 1
+        update = None
+        if self.graph_every and self._since_graph >= self.graph_every:
+            ts = time.perf_counter()
+            self.update_skeleton()
+            timings["skeleton"] = time.perf_counter() - ts
+            ts = time.perf_counter()
+            update = self._update_graph()
+            timings["graph"] = time.perf_counter() - ts
+            loops += ["skeleton", "graph"]
+        elif self.skeleton_every and self._since_skeleton >= self.skeleton_every:
+            ts = time.perf_counter()
+            self.update_skeleton()
+            timings["skeleton"] = time.perf_counter() - ts
+            loops.append("skeleton")
+        return ScanReport(
+            index=self._n_scans - 1,
+            n_beams=scan.n_beams,
+            n_valid=n_valid,
+            n_dropped=scan.n_beams - n_valid,
+            n_new_obstacles=int(n_new),
+            loops=tuple(loops),
+            timings_s=timings,
+            n_tiles=tiles.n_tiles,
+            graph_update=update,
+        )
+
+    def compile(self) -> None:
+        """Compile every kernel variant the mapper uses (two batch sizes each of the splat
+        and ridge kernels), so that no compilation happens later.  Runs automatically
+        before the first splat; calling it again does nothing."""
+        if self._compiled:
+            return
+        b, half = self.block_px, self._half
+        size = b + 2 * HALO_PX
+        for n in SPLAT_ROWS:
+            pts = np.full((n, SPLAT_POINTS, 2), -(half + 2 * b + 1), np.int32)
+            _splat_blocks(pts, size=b, half_width=half).block_until_ready()
+        for n in RIDGE_BLOCKS:
+            patches = np.full((n, size, size), FAR_SQ, np.int32)
+            _ridge_blocks(patches, *self._scalars, ksize=self.config.ridge.ksize)[
+                0
+            ].block_until_ready()
+        self._compiled = True
+
+    def add_scans(self, scans) -> list[ScanReport]:
+        """:meth:`add_scan` for every scan of an iterable; returns the reports."""
+        return [self.add_scan(s) for s in scans]
+
+    # ------------------------------------------------------------------ distance loop
+    def _flush_splat(self) -> int:
+        """Splat all pending new obstacle pixels; returns the number of changed blocks."""
+        if not self._pending:
+            return 0
+        self.compile()
+        pts = np.concatenate(self._pending)
+        self._pending = []
+        self._n_pending = 0
+        tiles = self._tiles
+        t, b, half = self.tile_px, self.block_px, self._half
+        nb = t // b
+        grid, (g0r, g0c) = tiles.slot_grid
+        bmax = tiles.layer("block_max")
+        row_block, row_pts, row_bidx, blocks = _splat_rows(
+            pts[:, 0],
+            pts[:, 1],
+            grid,
+            g0r,
+            g0c,
+            tiles.keys,
+            t,
+            b,
+            half,
+            bmax,
+            bmax[: tiles.n_tiles].max(axis=2),
+            tiles.layer("hits"),
+            min(DOMINANCE_PX, half - 1),
+            SPLAT_POINTS,
+        )
+        n_rows = row_block.shape[0]
+        if n_rows == 0:
+            return 0
+        out = np.empty((n_rows, b, b), np.int32)
+        pad = -(half + 2 * b + 1)
+        for start, stop, size in _batches(n_rows, SPLAT_ROWS):
+            p_in = _pad_to(row_pts[start:stop], size, pad)
+            res = _splat_blocks(p_in, size=b, half_width=half)
+            out[start:stop] = np.asarray(res)[: stop - start]
+        masks = _merge_rows(
+            tiles.layer("sq_distance"),
+            bmax,
+            row_block,
+            row_bidx,
+            out,
+            blocks.shape[0],
+            t,
+            b,
+            HALO_PX,
+        )
+        changed = masks != 0
+        if changed.any():
+            s, rem = np.divmod(blocks[changed], nb * nb)
+            br, bc = np.divmod(rem, nb)
+            self._mark_ridge_dirty(s, br, bc, masks[changed])
+        return int(changed.sum())
+
+    def _mark_ridge_dirty(self, slots, brs, bcs, masks) -> None:
+        """Mark blocks ridge-dirty: for each changed block, the neighbours (itself
+        included) selected by its 9-bit mask (see :func:`_merge_rows`)."""
+        nb = self.tile_px // self.block_px
+        keys = self._tiles.keys
+        gbr = keys[slots, 0] * nb + brs
+        gbc = keys[slots, 1] * nb + bcs
+        bits = (masks[:, None].astype(np.int64) >> np.arange(9)[None, :]) & 1
+        sel = bits.astype(bool)
+        gbr = (gbr[:, None] + _NB9[None, :, 0])[sel]
+        gbc = (gbc[:, None] + _NB9[None, :, 1])[sel]
+        self._mark_blocks(gbr, gbc)
+
+    def _mark_blocks(self, gbr, gbc) -> None:
+        """Mark global blocks ridge-dirty (blocks of unallocated tiles are skipped)."""
+        tiles = self._tiles
+        nb = self.tile_px // self.block_px
+        tr, lbr = np.divmod(gbr, nb)
+        tc, lbc = np.divmod(gbc, nb)
+        sl = tiles.lookup(tr, tc)
+        ok = sl >= 0
+        tiles.layer("ridge_dirty")[sl[ok], lbr[ok], lbc[ok]] = True
+        tiles.mark_dirty("ridge", sl[ok])
+
+    # ------------------------------------------------------------------ ridges
+    def _update_ridges(self):
+        """Recompute the ridges of the dirty blocks.
+
+        Returns
+        -------
+        added, removed : int64 arrays (n, 2)
+            Global pixels that became / stopped being ridge pixels.
+        border : int64 array (m, 2)
+            Pixels on the lines of the previous bounding box border that is now interior
+            (their T-removal rule changed).
+        blocks : int64 array (k, 2)
+            Global (block row, block col) of the recomputed blocks.
+        """
+        tiles = self._tiles
+        t, b = self.tile_px, self.block_px
+        nb = t // b
+        bbox = tiles.pixel_bbox
+        empty = np.zeros((0, 2), np.int64)
+        if bbox is None:
+            return empty, empty, empty, empty
+        border = empty
+        old = self._ridge_bbox
+        if old is not None and old != bbox:
+            border = self._old_border(old, bbox)
+        self._ridge_bbox = bbox
+        slots = tiles.dirty("ridge")
+        flags = tiles.layer("ridge_dirty")
+        sl, lbr, lbc = np.nonzero(flags[slots])
+        sl = slots[sl]
+        tiles.clear_dirty("ridge")
+        flags[sl, lbr, lbc] = False
+        if sl.size == 0:
+            return empty, empty, border, empty
+        self.compile()
+        keys = tiles.keys
+        gbr = keys[sl, 0] * nb + lbr
+        gbc = keys[sl, 1] * nb + lbc
+        size = b + 2 * HALO_PX
+        n = sl.size
+        patches = np.empty((n, size, size), np.int32)
+        _gather_ridge_patches(
+            tiles.layer("sq_distance"),
+            tiles.neighbour_slots(),
+            t,
+            b,
+            HALO_PX,
+            sl,
+            lbr,
+            lbc,
+            keys,
+            np.asarray(bbox, np.int64),
+            patches,
+        )
+        lap_abs = np.empty((n, b, b), np.uint8)
+        ridge = np.empty((n, b, b), bool)
+        for start, stop, bsize in _batches(n, RIDGE_BLOCKS):
+            p_in = _pad_to(patches[start:stop], bsize, FAR_SQ)
+            la, ri = _ridge_blocks(p_in, *self._scalars, ksize=self.config.ridge.ksize)
+            lap_abs[start:stop] = np.asarray(la)[: stop - start]
+            ridge[start:stop] = np.asarray(ri)[: stop - start]
+        added, removed = _write_ridges(
+            tiles.layer("ridge"), tiles.layer("lap_abs"), sl, lbr, lbc, keys, t, b, ridge, lap_abs
+        )
+        self._n_ridge += added.shape[0] - removed.shape[0]
+        blocks = np.stack([gbr, gbc], axis=1)
+        return added, removed, border, blocks
+
+    def _old_border(self, old, new) -> np.ndarray:
+        """Dirty the blocks along the sides of the old bounding box that moved and return
+        the pixels on those old border lines."""
+        r0, c0, r1, c1 = old
+        b = self.block_px
+        lines = []
+        if new[0] < r0:
+            lines.append((r0, r0 + 1, c0, c1))
+        if new[2] > r1:
+            lines.append((r1 - 1, r1, c0, c1))
+        if new[1] < c0:
+            lines.append((r0, r1, c0, c0 + 1))
+        if new[3] > c1:
+            lines.append((r0, r1, c1 - 1, c1))
+        pix = []
+        for a0, a1, b0, b1 in lines:
+            rr, cc = np.mgrid[a0:a1, b0:b1]
+            rr = rr.ravel().astype(np.int64)
+            cc = cc.ravel().astype(np.int64)
+            pix.append(np.stack([rr, cc], axis=1))
+            # blocks within the 2-pixel halo of the old border line
+            brs = np.unique(np.concatenate([(rr - HALO_PX) // b, rr // b, (rr + HALO_PX) // b]))
+            bcs = np.unique(np.concatenate([(cc - HALO_PX) // b, cc // b, (cc + HALO_PX) // b]))
+            gbr, gbc = np.meshgrid(brs, bcs, indexing="ij")
+            self._mark_blocks(gbr.ravel(), gbc.ravel())
+        return np.concatenate(pix) if pix else np.zeros((0, 2), np.int64)
+
+    # ------------------------------------------------------------------ skeleton loop
+    def update_skeleton(self) -> int:
+        """Run the skeleton loop now: splat pending points, recompute the dirty ridges and
+        update the skeleton with the mapper's strategy.
+
+        Returns
+        -------
+        int
+            Number of skeleton pixels that changed.
+        """
+        self._flush_splat()
+        added, removed, border, blocks = self._update_ridges()
+        self._since_skeleton = 0
+        self._export_cache.clear()
+        if self.strategy == "exact":
+            return self._skeleton_exact(added, removed, border)
+        return self._skeleton_paper(blocks)
+
+    def _write_skeleton(self, rows, cols, values) -> int:
+        """Write skeleton values, record the changed pixels for the graph loop."""
+        tiles = self._tiles
+        grid, (g0r, g0c) = tiles.slot_grid
+        old = np.empty(rows.shape[0], bool)
+        layer = tiles.layer("skeleton")
+        _gather_px(layer, grid, g0r, g0c, self.tile_px, rows, cols, False, old)
+        ch = old != values
+        if ch.any():
+            r, c = rows[ch], cols[ch]
+            _scatter_px(layer, grid, g0r, g0c, self.tile_px, r, c, values[ch])
+            self._skel_changed.append(np.stack([r, c], axis=1))
+        return int(ch.sum())
+
+    def _thin(self, image: np.ndarray) -> np.ndarray:
+        from .skeleton import remove_t_centres, thin
+
+        sk = thin(image, method=self.config.skeleton.thinning)
+        if self.config.skeleton.remove_t:
+            sk = remove_t_centres(sk)
+        return sk
+
+    def _skeleton_exact(self, added, removed, border) -> int:
+        if added.shape[0] == 0 and removed.shape[0] == 0 and border.shape[0] == 0:
+            return 0
+        tiles = self._tiles
+        t = self.tile_px
+        bbox = tiles.pixel_bbox
+        nbrs = (removed[:, None, :] + _NB8[None]).reshape(-1, 2)
+        seeds = np.concatenate([added, nbrs, border])
+        sl = tiles.lookup(seeds[:, 0] // t, seeds[:, 1] // t)
+        seed_flat = np.where(sl >= 0, (sl * t + seeds[:, 0] % t) * t + seeds[:, 1] % t, -1)
+        queue = np.empty(max(self._n_ridge, 1), np.int64)
+        n_comp = _flood(
+            tiles.layer("ridge").reshape(-1),
+            tiles.layer("mark").reshape(-1),
+            tiles.neighbour_slots(),
+            t,
+            seed_flat,
+            queue,
+        )
+        flat = queue[:n_comp]
+        slot, rem = np.divmod(flat, t * t)
+        lr, lc = np.divmod(rem, t)
+        keys = tiles.keys
+        cr = keys[slot, 0] * t + lr
+        cc = keys[slot, 1] * t + lc
+        sk = self.config.skeleton
+        vals = thin_components(cr, cc, bbox, method=sk.thinning, remove_t=sk.remove_t)
+        # component pixels: through their flat layer indices (no tile lookups)
+        skel = tiles.layer("skeleton").reshape(-1)
+        ch = skel[flat] != vals
+        skel[flat[ch]] = vals[ch]
+        n_changed = int(ch.sum())
+        if n_changed:
+            self._skel_changed.append(np.stack([cr[ch], cc[ch]], axis=1))
+        # removed ridge pixels: no skeleton there any more
+        return n_changed + self._write_skeleton(
+            removed[:, 0], removed[:, 1], np.zeros(removed.shape[0], bool)
+        )
+
+    def _skeleton_paper(self, blocks) -> int:
+        """Paper §III-B: thin the new ridges of the changed blocks together with a layer of
+        the old skeleton around them; write back inside the changed blocks only."""
+        if blocks.shape[0] == 0:
+            return 0
+        from scipy import ndimage
+
+        tiles = self._tiles
+        b, lay = self.block_px, self.paper_layer_px
+        bbox = tiles.pixel_bbox
+        br0, bc0 = blocks.min(axis=0)
+        br1, bc1 = blocks.max(axis=0) + 1
+        grid_blocks = np.zeros((br1 - br0, bc1 - bc0), bool)
+        grid_blocks[blocks[:, 0] - br0, blocks[:, 1] - bc0] = True
+        mask_full = np.repeat(np.repeat(grid_blocks, b, axis=0), b, axis=1)
+        mr0, mc0 = int(br0) * b, int(bc0) * b
+        r0 = max(mr0 - lay, bbox[0])
+        c0 = max(mc0 - lay, bbox[1])
+        r1 = min(int(br1) * b + lay, bbox[2])
+        c1 = min(int(bc1) * b + lay, bbox[3])
+        mask = np.zeros((r1 - r0, c1 - c0), bool)
+        sub = mask_full[r0 - mr0 : r1 - mr0, c0 - mc0 : c1 - mc0]
+        oy, ox = max(0, mr0 - r0), max(0, mc0 - c0)
+        sub = mask_full[max(0, r0 - mr0) : r1 - mr0, max(0, c0 - mc0) : c1 - mc0]
+        mask[oy : oy + sub.shape[0], ox : ox + sub.shape[1]] = sub
+        layer = ndimage.binary_dilation(mask, np.ones((2 * lay + 1, 2 * lay + 1), bool)) & ~mask
+        h, w = mask.shape
+        ridge = tiles.read("ridge", r0, c0, h, w)
+        old = tiles.read("skeleton", r0, c0, h, w)
+        sk = self._thin((ridge & mask) | (old & layer))
+        rr, cc = np.nonzero(mask)
+        return self._write_skeleton(rr + r0, cc + c0, sk[rr, cc])
+
+    # ------------------------------------------------------------------ graph loop
+    def update_graph(self) -> GraphUpdate:
+        """Bring everything up to date: splat, skeleton loop, then the graph loop.
+
+        Returns
+        -------
+        GraphUpdate
+            What the graph loop changed (``time_s`` covers the graph loop only).
+        """
+        self.update_skeleton()
+        return self._update_graph()
+
+    def _update_graph(self) -> GraphUpdate:
+        import cv2
+
+        t0 = time.perf_counter()
+        self._since_graph = 0
+        self._export_cache.clear()
+        if not self._skel_changed:
+            return GraphUpdate(time_s=time.perf_counter() - t0)
+        tiles = self._tiles
+        t = self.tile_px
+        changed = np.concatenate(self._skel_changed)
+        self._skel_changed = []
+        grid, (g0r, g0c) = tiles.slot_grid
+        gl = tiles.layer("graph_id")
+        # Z: the changed pixels dilated by one (where pixel-graph links can change)
+        zr, zc, gid, skz = _region_z(
+            changed[:, 0],
+            changed[:, 1],
+            grid,
+            g0r,
+            g0c,
+            t,
+            tiles.layer("mark"),
+            gl,
+            tiles.layer("skeleton"),
+        )
+        vert_z = {int(-(v + 2)) for v in np.unique(gid[gid <= -2])}
+        removed_e = {int(e) for e in np.unique(gid[gid >= 0])}
+        for v in vert_z:
+            removed_e |= self._v_edges[v]
+        touched = set(vert_z)
+        for k in removed_e:
+            touched.update(self._e_ends[k])
+        before = {v: set(self._v_edges[v]) for v in touched}
+        kind_before = {v: self._v_kind[v] for v in touched}
+        rem_list = sorted(removed_e)
+        rem_paths = [self._e_path[k] for k in rem_list]
+        a_px = np.concatenate(
+            [p.astype(np.int64) for p in rem_paths] + [np.stack([zr[skz], zc[skz]], axis=1)]
+        )
+        # A: pixels of the removed edges and new skeleton pixels in Z.  Every new edge that
+        # touches Z lies in A; A's pixels are >= 2 px inside the crop, so their links are
+        # the same in the crop as in the whole map.  The crop also covers Z (a lone vertex
+        # pixel that vanished is in Z but not in A).
+        bbox = tiles.pixel_bbox
+        r0 = max(min(int(a_px[:, 0].min()) if a_px.size else bbox[2], int(zr.min())) - 2, bbox[0])
+        c0 = max(min(int(a_px[:, 1].min()) if a_px.size else bbox[3], int(zc.min())) - 2, bbox[1])
+        r1 = min(max(int(a_px[:, 0].max()) if a_px.size else bbox[0], int(zr.max())) + 3, bbox[2])
+        c1 = min(max(int(a_px[:, 1].max()) if a_px.size else bbox[1], int(zc.max())) + 3, bbox[3])
+        h, w = r1 - r0, c1 - c0
+        amask = np.zeros((h, w), np.uint8)
+        amask[a_px[:, 0] - r0, a_px[:, 1] - c0] = 1
+        zmask = np.zeros((h, w), bool)
+        zin = (zr >= r0) & (zr < r1) & (zc >= c0) & (zc < c1)
+        zmask[zr[zin] - r0, zc[zin] - c0] = True
+        # Only A and its 1-px neighbourhood matter (links of A pixels); the rest of the
+        # crop is cleared so that tracing costs O(|A|).
+        near = cv2.dilate(amask, np.ones((3, 3), np.uint8)).view(bool)
+        sk = tiles.read("skeleton", r0, c0, h, w) & near
+        amask = amask.view(bool)
+        if sk.any():
+            v_rc, v_kind, e_off, p_rc = _local_graph(sk)
+        else:
+            v_rc = np.zeros((0, 2), np.int64)
+            v_kind = np.zeros(0, np.int8)
+            e_off = np.zeros(1, np.int64)
+            p_rc = np.zeros((0, 2), np.int64)
+        n_e = e_off.shape[0] - 1
+        kept = np.zeros(0, np.int64)
+        new_kind: dict[int, str] = {}
+        if n_e:
+            in_a = amask[p_rc[:, 0], p_rc[:, 1]]
+            in_z = zmask[p_rc[:, 0], p_rc[:, 1]]
+            all_a = np.minimum.reduceat(in_a, e_off[:-1])
+            any_z = np.maximum.reduceat(in_z, e_off[:-1])
+            kept = np.flatnonzero(all_a & any_z)
+            for ends in (p_rc[e_off[kept]], p_rc[e_off[kept + 1] - 1]):
+                for pk in (((ends[:, 0] + r0) << 32) + ends[:, 1] + c0 + (1 << 31)).tolist():
+                    new_kind[pk] = ""
+        if v_rc.shape[0]:
+            vz = zmask[v_rc[:, 0], v_rc[:, 1]]
+            keys = ((v_rc[:, 0] + r0) << 32) + (v_rc[:, 1] + c0 + (1 << 31))
+            for pk, kc, z in zip(keys.tolist(), v_kind.tolist(), vz.tolist(), strict=True):
+                if z or pk in new_kind:
+                    new_kind[pk] = _KIND_NAME[kc]
+        # ---- remove the old edges
+        removed_by_sig: dict[tuple, list[int]] = {}
+        if rem_list:
+            lens_r = np.array([p.shape[0] for p in rem_paths], np.int64)
+            all_r = np.concatenate(rem_paths).astype(np.int64)
+            off_r = np.concatenate([[0], np.cumsum(lens_r)])
+            owner = np.repeat(np.asarray(rem_list, np.int32), lens_r)
+            inner = _interior(off_r)
+            _clear_owned(gl, grid, g0r, g0c, t, all_r[inner, 0], all_r[inner, 1], owner[inner])
+            for k, sig in zip(rem_list, _signatures(all_r, off_r), strict=True):
+                removed_by_sig.setdefault(sig, []).append(k)
+        old_paths = {}
+        for k in rem_list:
+            u, v = self._e_ends.pop(k)
+            old_paths[k] = self._e_path.pop(k)
+            self._v_edges[u].discard(k)
+            self._v_edges[v].discard(k)
+        # ---- vertices
+        removed_v = []
+        for v in touched:
+            pr, pc = self._v_pixel[v]
+            if _key(pr, pc) in new_kind:
+                continue
+            # outside Z a vertex keeps its degree; only a ring vertex can stop being one
+            if zmask[pr - r0, pc - c0] or kind_before[v] == "ring":
+                removed_v.append(v)
+        if removed_v:
+            vr = np.array([self._v_pixel[v][0] for v in removed_v], np.int64)
+            vc = np.array([self._v_pixel[v][1] for v in removed_v], np.int64)
+            _clear_owned(gl, grid, g0r, g0c, t, vr, vc, -(np.asarray(removed_v, np.int32) + 2))
+        for v in removed_v:
+            pr, pc = self._v_pixel.pop(v)
+            del self._v_kind[v]
+            del self._v_edges[v]
+            del self._vertex_at[_key(pr, pc)]
+        added_v: list[int] = []
+        changed_v: set[int] = set()
+        for pk, kind in new_kind.items():
+            v = self._vertex_at.get(pk)
+            if v is None:
+                v = self._next_vertex
+                self._next_vertex += 1
+                pr = pk >> 32
+                pc = pk - (pr << 32) - (1 << 31)
+                self._v_pixel[v] = (pr, pc)
+                self._v_kind[v] = kind
+                self._v_edges[v] = set()
+                self._vertex_at[pk] = v
+                added_v.append(v)
+            elif self._v_kind[v] != kind:
+                self._v_kind[v] = kind
+                changed_v.add(v)
+        # ---- add the new edges (an edge whose path is unchanged keeps its key)
+        added_e: list[int] = []
+        restored: set[int] = set()
+        if kept.size:
+            gp = p_rc + np.array([r0, c0], np.int64)
+            lens_k = e_off[kept + 1] - e_off[kept]
+            off_k = np.concatenate([[0], np.cumsum(lens_k)])
+            sel = np.repeat(e_off[kept] - off_k[:-1], lens_k) + np.arange(int(off_k[-1]))
+            kp = gp[sel]
+            k_first = (kp[off_k[:-1], 0] << 32) + kp[off_k[:-1], 1] + (1 << 31)
+            k_last = (kp[off_k[1:] - 1, 0] << 32) + kp[off_k[1:] - 1, 1] + (1 << 31)
+            va = self._vertex_at
+            a_ids = np.array([va[k] for k in k_first.tolist()], np.int64)
+            b_ids = np.array([va[k] for k in k_last.tolist()], np.int64)
+            flip = (a_ids > b_ids).tolist()
+            kp32 = kp.astype(np.int32)
+            ids = np.empty(kept.size, np.int32)
+            sigs = _signatures(kp, off_k)
+            bounds = off_k.tolist()
+            for i, (a, bq) in enumerate(zip(a_ids.tolist(), b_ids.tolist(), strict=True)):
+                path = kp32[bounds[i] : bounds[i + 1]]
+                if flip[i]:
+                    a, bq = bq, a
+                    path = path[::-1]
+                path = path.copy()
+                k = -1
+                for cand in removed_by_sig.get(sigs[i], ()):
+                    old = old_paths[cand]
+                    if cand not in restored and (
+                        np.array_equal(old, path) or np.array_equal(old, path[::-1])
+                    ):
+                        k = cand
+                        restored.add(k)
+                        break
+                if k < 0:
+                    k = self._next_edge
+                    self._next_edge += 1
+                    added_e.append(k)
+                ids[i] = k
+                self._e_ends[k] = (a, bq)
+                self._e_path[k] = path
+                self._v_edges[a].add(k)
+                self._v_edges[bq].add(k)
+            inner = _interior(off_k)
+            owner = np.repeat(ids, lens_k)
+            _scatter_px(gl, grid, g0r, g0c, t, kp[inner, 0], kp[inner, 1], owner[inner])
+        if new_kind:
+            ids = np.array([self._vertex_at[pk] for pk in new_kind], np.int32)
+            vr, vc = _unpack(np.fromiter(new_kind.keys(), np.int64, len(new_kind)))
+            _scatter_px(gl, grid, g0r, g0c, t, vr, vc, -(ids + 2))
+        removed_set = set(removed_v)
+        for v, ks in before.items():
+            if v not in removed_set and self._v_edges[v] != ks:
+                changed_v.add(v)
+        changed_v -= set(added_v)
+        return GraphUpdate(
+            added_vertices=tuple(sorted(added_v)),
+            removed_vertices=tuple(sorted(removed_v)),
+            changed_vertices=tuple(sorted(changed_v)),
+            added_edges=tuple(sorted(added_e)),
+            removed_edges=tuple(k for k in rem_list if k not in restored),
+            region_px=int(zr.shape[0]),
+            time_s=time.perf_counter() - t0,
+        )
+
+    # ------------------------------------------------------------------ exports
+    def _bbox_or_raise(self) -> tuple[int, int, int, int]:
+        bbox = self._tiles.pixel_bbox
+        if bbox is None:
+            raise ValueError(
+                "the mapper is empty: add scans with valid readings before exporting maps"
+            )
+        return bbox
+
+    def _dense(self, name: str) -> np.ndarray:
+        r0, c0, r1, c1 = self._bbox_or_raise()
+        return self._tiles.read(name, r0, c0, r1 - r0, c1 - c0)
+
+    @property
+    def sq_distance_px(self) -> np.ndarray:
+        """Windowed squared distance to the nearest obstacle, int32 (H, W) px^2 over the
+        bounding box (``FAR_SQ`` where no obstacle is within the window).  Always current
+        (pending splats are applied first)."""
+        self._flush_splat()
+        return self._dense("sq_distance")
+
+    @property
+    def distance(self) -> np.ndarray:
+        """Gaussian distance map ``H``, float32 (H, W) in [0, 1], over the bounding box of
+        the allocated tiles (``[row, col]``, row 0 = top = largest y).  Always current."""
+        self._flush_splat()
+        if "distance" not in self._export_cache:
+            r0, c0, r1, c1 = self._bbox_or_raise()
+            tiles = self._tiles
+            n, t = tiles.n_tiles, self.tile_px
+            d2 = tiles.layer("sq_distance")
+            h = np.empty((n, t, t), np.float32)
+            chunk = 16
+            for s in range(0, n, chunk):
+                block = d2[s : s + chunk]
+                if block.shape[0] < chunk:
+                    pad = np.full((chunk - block.shape[0], t, t), FAR_SQ, np.int32)
+                    block = np.concatenate([block, pad])
+                h[s : s + chunk] = np.asarray(_gaussian(block, self._scalars[0]))[: n - s]
+            out = np.zeros((r1 - r0, c1 - c0), np.float32)
+            for slot, (tr, tc) in enumerate(tiles.keys):
+                out[tr * t - r0 : (tr + 1) * t - r0, tc * t - c0 : (tc + 1) * t - c0] = h[slot]
+            self._export_cache["distance"] = out
+        return self._export_cache["distance"].copy()
+
+    @property
+    def occupancy(self):
+        """The map as an :class:`~topojax.maps.OccupancyMap` over the bounding box of the
+        allocated tiles: hit pixels occupied, pixels crossed by a beam and never hit free,
+        the rest unknown.  Its origin puts pixel centres at the lattice world coordinates,
+        so ``build_graph(mapper.occupancy)`` is in the mapper's world frame."""
+        from .maps import OccupancyMap
+
+        r0, c0, r1, c1 = self._bbox_or_raise()
+        occupied = self._dense("hits") > 0
+        free = (self._dense("misses") > 0) & ~occupied
+        res = self.resolution_m
+        return OccupancyMap(
+            occupied=occupied,
+            free=free,
+            unknown=~(occupied | free),
+            resolution_m=res,
+            origin=(c0 * res, -r1 * res, 0.0),
+        )
+
+    @property
+    def obstacles(self) -> np.ndarray:
+        """Obstacle mask (pixels ever hit), bool (H, W) over the bounding box."""
+        return self._dense("hits") > 0
+
+    @property
+    def ridges(self) -> np.ndarray:
+        """Ridge map as of the last skeleton update, bool (H, W) over the bounding box."""
+        return self._dense("ridge")
+
+    @property
+    def lap_abs(self) -> np.ndarray:
+        """``convertScaleAbs(Laplacian(255 H))`` as of the last skeleton update, uint8."""
+        return self._dense("lap_abs")
+
+    @property
+    def skeleton(self) -> np.ndarray:
+        """Skeleton as of the last skeleton update, bool (H, W) over the bounding box."""
+        return self._dense("skeleton")
+
+    @property
+    def graph(self) -> nx.MultiGraph:
+        """Topology graph as of the last graph update, in the exported map's frame.
+
+        Same attribute schema as :func:`topojax.build_graph`'s graph (node ``pixel``,
+        ``pixels``, ``world``, ``kind``, ``clearance_m``; edge ``path``, ``world``,
+        ``length_m``, ``min_clearance_m``, ``mean_clearance_m``), with pixel coordinates
+        relative to the exported bounding box.  Node ids and edge keys are the mapper's
+        stable ids (see :class:`GraphUpdate`); each edge is stored with ``u <= v`` and its
+        path runs from ``u`` to ``v``.  Clearances use the current distance map.
+        """
+        if "graph" not in self._export_cache:
+            self._export_cache["graph"] = self._export_graph()
+        return self._export_cache["graph"].copy()
+
+    @property
+    def graph_global(self) -> nx.MultiGraph:
+        """The internal graph: node ``pixel`` and edge ``path`` in global lattice pixels,
+        node ``kind``; no other attributes (a new graph)."""
+        out = nx.MultiGraph()
+        for v in sorted(self._v_pixel):
+            out.add_node(v, pixel=self._v_pixel[v], kind=self._v_kind[v])
+        for k in sorted(self._e_ends):
+            u, v = self._e_ends[k]
+            out.add_edge(u, v, key=k, path=self._e_path[k].copy())
+        return out
+
+    def _clearance(self):
+        from .pipeline import clearance_from_sq_distance
+
+        sk = self.skeleton
+        return clearance_from_sq_distance(self.sq_distance_px, self.obstacles, self._half, sk), sk
+
+    def _export_graph(self) -> nx.MultiGraph:
+        res = self.resolution_m
+        out = nx.MultiGraph()
+        bbox = self._tiles.pixel_bbox
+        if bbox is None:
+            out.graph.update(resolution_m=res, shape=(0, 0), merge_junction_clusters=False)
+            return out
+        r0, c0, r1, c1 = bbox
+        occ = self.occupancy
+        clearance, _sk = self._clearance()
+        out.graph.update(
+            resolution_m=res,
+            shape=(r1 - r0, c1 - c0),
+            merge_junction_clusters=False,
+            origin=tuple(float(v) for v in occ.origin),
+            thinning=self.config.skeleton.thinning,
+        )
+        nodes = sorted(self._v_pixel)
+        if nodes:
+            pix = np.array([self._v_pixel[v] for v in nodes], np.int64) - [r0, c0]
+            wx, wy = occ.pixel_to_world(pix[:, 0], pix[:, 1])
+            cl = clearance[pix[:, 0], pix[:, 1]].astype(np.float64) * res
+            for i, v in enumerate(nodes):
+                rc = (int(pix[i, 0]), int(pix[i, 1]))
+                out.add_node(
+                    v,
+                    pixel=rc,
+                    pixels=np.array([rc], np.int32),
+                    world=(float(wx[i]), float(wy[i])),
+                    kind=self._v_kind[v],
+                    clearance_m=float(cl[i]),
+                )
+        edges = sorted(self._e_ends)
+        if edges:
+            paths = [self._e_path[k] for k in edges]
+            lens = np.array([p.shape[0] for p in paths])
+            allp = np.concatenate(paths).astype(np.int64) - [r0, c0]
+            wx, wy = occ.pixel_to_world(allp[:, 0], allp[:, 1])
+            world = np.stack([wx, wy], axis=1)
+            cl = clearance[allp[:, 0], allp[:, 1]].astype(np.float64) * res
+            step = np.abs(np.diff(allp, axis=0))
+            step_len = np.where((step[:, 0] != 0) & (step[:, 1] != 0), math.sqrt(2.0), 1.0)
+            bounds = np.concatenate([[0], np.cumsum(lens)])
+            path32 = allp.astype(np.int32)
+            for i, k in enumerate(edges):
+                u, v = self._e_ends[k]
+                a, b = bounds[i], bounds[i + 1]
+                out.add_edge(
+                    u,
+                    v,
+                    key=k,
+                    path=path32[a:b],
+                    world=world[a:b],
+                    length_m=float(step_len[a : b - 1].sum() * res),
+                    min_clearance_m=float(cl[a:b].min()),
+                    mean_clearance_m=float(cl[a:b].mean()),
+                )
+        return out
+
+    def to_result(self, *, update: bool = True):
+        """Everything as a :class:`topojax.pipeline.TopologyResult` (for plotting and I/O).
+
+        Parameters
+        ----------
+        update : bool
+            Run :meth:`update_graph` first (default) so that ridges, skeleton and graph
+            describe the current map.
+
+        Returns
+        -------
+        TopologyResult
+            ``map`` is :attr:`occupancy`; arrays cover its grid; ``timings_s`` is empty.
+        """
+        from .pipeline import TopologyResult
+
+        if update:
+            self.update_graph()
+        clearance, sk = self._clearance()
+        return TopologyResult(
+            map=self.occupancy,
+            distance=self.distance,
+            lap_abs=self.lap_abs,
+            ridges=self.ridges,
+            skeleton=sk,
+            clearance_px=clearance,
+            graph=self.graph,
+            config=self.config,
+            timings_s={},
+        )
+
+    # ------------------------------------------------------------------ state
+    def _settings(self) -> dict:
+        return {
+            "resolution_m": self.resolution_m,
+            "skeleton_every": self.skeleton_every,
+            "graph_every": self.graph_every,
+            "strategy": self.strategy,
+            "config": asdict(self.config),
+            "tile_px": self.tile_px,
+            "block_px": self.block_px,
+            "max_pending_points": self.max_pending_points,
+            "free_space": self.free_space,
+            "max_range_m": self.max_range_m,
+            "paper_layer_px": self.paper_layer_px,
+            "max_grid_cells": self._tiles.max_grid_cells,
+        }
+
+    def save(self, path) -> Path:
+        """Save the complete state to an ``.npz`` file, atomically.
+
+        The file holds a ``format`` and ``version`` field, the settings (JSON), the tiles
+        (keys and every layer, stacked), pending splat points and skeleton changes, the
+        graph (vertex ids, pixels, kinds; edge keys, ends, concatenated paths) and the
+        counters.  It is written to a temporary file in the same folder and renamed over
+        ``path`` (:func:`topojax.io.atomic_write_bytes`).
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file; its folder must exist.
+
+        Returns
+        -------
+        Path
+        """
+        from .io import atomic_write_bytes
+
+        p = Path(path)
+        arrays: dict[str, np.ndarray] = {
+            "format": np.asarray(STATE_FORMAT),
+            "version": np.asarray(STATE_VERSION, np.int64),
+            "settings": np.asarray(json.dumps(self._settings())),
+        }
+        for key, value in self._tiles.state().items():
+            arrays[f"tiles/{key}"] = value
+        pend = np.concatenate(self._pending) if self._pending else np.zeros((0, 2), np.int64)
+        chg = (
+            np.concatenate(self._skel_changed) if self._skel_changed else np.zeros((0, 2), np.int64)
+        )
+        arrays["pending"] = pend.astype(np.int64)
+        arrays["skel_changed"] = chg.astype(np.int64)
+        rb = self._ridge_bbox
+        arrays["ridge_bbox"] = np.asarray(rb if rb is not None else (0, 0, 0, 0), np.int64)
+        arrays["has_ridge_bbox"] = np.asarray(rb is not None)
+        arrays["counters"] = np.asarray(
+            [
+                self._n_scans,
+                self._since_skeleton,
+                self._since_graph,
+                self._next_vertex,
+                self._next_edge,
+                self._n_ridge,
+            ],
+            np.int64,
+        )
+        nodes = sorted(self._v_pixel)
+        arrays["v_id"] = np.asarray(nodes, np.int64)
+        arrays["v_pixel"] = np.asarray([self._v_pixel[v] for v in nodes], np.int64).reshape(-1, 2)
+        arrays["v_kind"] = np.asarray([_KIND_CODE[self._v_kind[v]] for v in nodes], np.int8)
+        edges = sorted(self._e_ends)
+        arrays["e_id"] = np.asarray(edges, np.int64)
+        arrays["e_uv"] = np.asarray([self._e_ends[k] for k in edges], np.int64).reshape(-1, 2)
+        arrays["e_len"] = np.asarray([self._e_path[k].shape[0] for k in edges], np.int64)
+        arrays["e_path"] = (
+            np.concatenate([self._e_path[k] for k in edges]).astype(np.int64)
+            if edges
+            else np.zeros((0, 2), np.int64)
+        )
+        buf = _io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        atomic_write_bytes(p, buf.getvalue())
+        return p
+
+    @classmethod
+    def load(cls, path) -> IncrementalMapper:
+        """Load a state written by :meth:`save`.
+
+        Raises
+        ------
+        FileNotFoundError
+            If ``path`` does not exist.
+        ValueError
+            If the file is not a mapper state, has another format version, or is corrupt
+            (the message names the file and the problem).
+        """
+        p = Path(path)
+        if not p.is_file():
+            raise FileNotFoundError(f"mapper state file not found: {p}")
+        try:
+            with np.load(p, allow_pickle=False) as z:
+                data = {k: z[k] for k in z.files}
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+            raise ValueError(f"{p}: not a readable mapper state (.npz): {exc}") from None
+        try:
+            fmt = str(data["format"])
+            version = int(data["version"])
+        except KeyError:
+            raise ValueError(f"{p}: not a mapper state (no format/version field)") from None
+        if fmt != STATE_FORMAT:
+            raise ValueError(f"{p}: expected format {STATE_FORMAT!r}, got {fmt!r}")
+        if version != STATE_VERSION:
+            raise ValueError(
+                f"{p}: mapper state version {version} is not supported; expected "
+                f"{STATE_VERSION} (saved by another topojax version)"
+            )
+        try:
+            settings = json.loads(str(data["settings"]))
+            cfg = settings.pop("config")
+            config = PipelineConfig(
+                distance=DistanceConfig(**cfg["distance"]),
+                ridge=RidgeConfig(**cfg["ridge"]),
+                skeleton=SkeletonConfig(**cfg["skeleton"]),
+                graph=GraphConfig(**cfg["graph"]),
+                tile_px=cfg["tile_px"],
+                tiles_per_call=cfg["tiles_per_call"],
+            )
+            mapper = cls(config=config, **settings)
+            tile_state = {k[6:]: v for k, v in data.items() if k.startswith("tiles/")}
+            mapper._tiles.load_state(tile_state)
+            pend = np.asarray(data["pending"], np.int64).reshape(-1, 2)
+            mapper._pending = [pend] if pend.shape[0] else []
+            mapper._n_pending = int(pend.shape[0])
+            chg = np.asarray(data["skel_changed"], np.int64).reshape(-1, 2)
+            mapper._skel_changed = [chg] if chg.shape[0] else []
+            if bool(data["has_ridge_bbox"]):
+                mapper._ridge_bbox = tuple(int(v) for v in data["ridge_bbox"])
+            (
+                mapper._n_scans,
+                mapper._since_skeleton,
+                mapper._since_graph,
+                mapper._next_vertex,
+                mapper._next_edge,
+                mapper._n_ridge,
+            ) = (int(v) for v in data["counters"])
+            for v, (pr, pc), kc in zip(
+                data["v_id"].tolist(),
+                data["v_pixel"].tolist(),
+                data["v_kind"].tolist(),
+                strict=True,
+            ):
+                mapper._v_pixel[v] = (pr, pc)
+                mapper._v_kind[v] = _KIND_NAME[kc]
+                mapper._v_edges[v] = set()
+                mapper._vertex_at[_key(pr, pc)] = v
+            bounds = np.concatenate([[0], np.cumsum(data["e_len"])])
+            paths = np.asarray(data["e_path"], np.int64).reshape(-1, 2)
+            if bounds[-1] != paths.shape[0]:
+                raise ValueError("edge path lengths do not add up to the stored paths")
+            for i, (k, (u, v)) in enumerate(
+                zip(data["e_id"].tolist(), data["e_uv"].tolist(), strict=True)
+            ):
+                if u not in mapper._v_pixel or v not in mapper._v_pixel:
+                    raise ValueError(f"edge {k} ends at unknown vertices ({u}, {v})")
+                mapper._e_ends[k] = (u, v)
+                mapper._e_path[k] = paths[bounds[i] : bounds[i + 1]].astype(np.int32)
+                mapper._v_edges[u].add(k)
+                mapper._v_edges[v].add(k)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise ValueError(f"{p}: corrupt or inconsistent mapper state: {exc}") from None
+        return mapper
+
+
+_KIND_CODE = {"isolated": 0, "end": 1, "ring": 2, "junction": 3}
+_KIND_NAME = {v: k for k, v in _KIND_CODE.items()}
+
+
+# ======================================================================================
+# Paper metrics
+# ======================================================================================
+
+
+def vertex_error_metrics(
+    graph_a: nx.Graph,
+    graph_b: nx.Graph,
+    *,
+    outlier_px: float = 20.0,
+    region: tuple[int, int, int, int] | None = None,
+) -> dict[str, float | int]:
+    """The paper's vertex error of ``graph_a`` against ``graph_b`` (paper §IV).
+
+    For every vertex of ``graph_a`` the Euclidean distance (pixels) to the nearest vertex
+    of ``graph_b`` is taken; distances above ``outlier_px`` are outliers.  The paper
+    reports the mean over non-outliers, the number of outliers out of all vertices and the
+    share of vertices within 1 px (2.28 px, 5 of 251, 63.0 % for its incremental intel
+    run).
+
+    Parameters
+    ----------
+    graph_a, graph_b : networkx graphs
+        Nodes need a ``pixel`` attribute ``(row, col)`` in the same pixel frame (e.g.
+        :attr:`IncrementalMapper.graph` and ``build_graph(mapper.occupancy).graph``).
+    outlier_px : float
+        Outlier threshold in pixels (paper: 20).
+    region : (row0, row1, col0, col1), optional
+        Only vertices with ``row0 <= row < row1`` and ``col0 <= col < col1`` (in both
+        graphs) count, like the paper's "inside room region".
+
+    Returns
+    -------
+    dict
+        ``n_vertices`` (vertices of ``graph_a`` considered), ``n_outliers``,
+        ``mean_px`` (mean distance of non-outliers; NaN if none), ``share_within_1px``
+        (in [0, 1]; NaN without vertices), ``median_px``, ``max_px`` (over all).
+    """
+    from scipy.spatial import cKDTree
+
+    if not (isinstance(graph_a, nx.Graph) and isinstance(graph_b, nx.Graph)):
+        raise TypeError(
+            "graph_a and graph_b must be networkx graphs, got "
+            f"{type(graph_a).__name__} and {type(graph_b).__name__}"
+        )
+    if not (isinstance(outlier_px, (int, float)) and outlier_px > 0):
+        raise ValueError(f"outlier_px must be a number > 0, got {outlier_px!r}")
+
+    def pixels(g: nx.Graph, name: str) -> np.ndarray:
+        pts = []
+        for n, pix in g.nodes(data="pixel"):
+            if pix is None:
+                raise ValueError(f"{name}: node {n!r} has no 'pixel' attribute (row, col)")
+            pts.append(pix)
+        arr = np.asarray(pts, np.float64).reshape(-1, 2)
+        if region is not None:
+            r0, r1, c0, c1 = region
+            keep = (arr[:, 0] >= r0) & (arr[:, 0] < r1) & (arr[:, 1] >= c0) & (arr[:, 1] < c1)
+            arr = arr[keep]
+        return arr
+
+    a = pixels(graph_a, "graph_a")
+    b = pixels(graph_b, "graph_b")
+    if a.shape[0] == 0:
+        nan = float("nan")
+        return {
+            "n_vertices": 0,
+            "n_outliers": 0,
+            "mean_px": nan,
+            "share_within_1px": nan,
+            "median_px": nan,
+            "max_px": nan,
+        }
+    if b.shape[0] == 0:
+        d = np.full(a.shape[0], np.inf)
+    else:
+        d, _ = cKDTree(b).query(a)
+    inlier = d <= outlier_px
+    return {
+        "n_vertices": int(a.shape[0]),
+        "n_outliers": int((~inlier).sum()),
+        "mean_px": float(d[inlier].mean()) if inlier.any() else float("nan"),
+        "share_within_1px": float((d <= 1.0).mean()),
+        "median_px": float(np.median(d)),
+        "max_px": float(d.max()),
+    }
+
+
+# ======================================================================================
+# Replay (used by the ``topojax replay`` command)
+# ======================================================================================
+
+
+def timing_summary(reports: list[ScanReport]) -> dict[str, dict[str, float]]:
+    """Per-loop timing statistics of a replay.
+
+    Parameters
+    ----------
+    reports : list of ScanReport
+
+    Returns
+    -------
+    dict
+        For each loop (``distance``, ``splat``, ``skeleton``, ``graph``) and for
+        ``add_scan`` (the sum of the loops of one call): ``count`` (calls that ran it),
+        ``mean_ms``, ``p50_ms``, ``p99_ms``, ``max_ms`` (over those calls), ``total_s`` and
+        ``per_scan_ms`` (total divided by all scans: the amortised cost).
+    """
+    n = max(len(reports), 1)
+    series: dict[str, list[float]] = {}
+    for r in reports:
+        for k, v in r.timings_s.items():
+            series.setdefault(k, []).append(v)
+        series.setdefault("add_scan", []).append(
+            sum(v for k, v in r.timings_s.items() if k != "splat")
+        )
+    out = {}
+    for k, v in series.items():
+        a = np.asarray(v) * 1e3
+        out[k] = {
+            "count": len(v),
+            "mean_ms": float(a.mean()),
+            "p50_ms": float(np.percentile(a, 50)),
+            "p99_ms": float(np.percentile(a, 99)),
+            "max_ms": float(a.max()),
+            "total_s": float(a.sum() / 1e3),
+            "per_scan_ms": float(a.sum() / n),
+        }
+    return out
+
+
+def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
+    """A small snapshot for the animation: downsampled map image, world extent, edges."""
+    occ = mapper.occupancy
+    img = occ.to_image()
+    step = max(1, -(-max(img.shape) // max_px))
+    h, w = occ.shape
+    ox, oy, _ = occ.origin
+    res = occ.resolution_m
+    g = mapper.graph
+    edges = [d for *_, d in g.edges(data="world")]
+    verts = np.array([d for _, d in g.nodes(data="world")], np.float64).reshape(-1, 2)
+    return {
+        "image": img[::step, ::step],
+        "extent": (ox, ox + w * res, oy, oy + h * res),
+        "edges": edges,
+        "vertices": verts,
+        "scan": mapper.n_scans,
+    }
+
+
+def _write_animation(frames: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    last = frames[-1]["extent"]
+    fig, ax = plt.subplots(figsize=(7, 7))
+
+    def draw(i: int):
+        f = frames[i]
+        ax.clear()
+        ax.imshow(f["image"], cmap="gray", vmin=0, vmax=255, extent=f["extent"])
+        for wline in f["edges"]:
+            ax.plot(wline[:, 0], wline[:, 1], color="#d62728", lw=1.0)
+        if f["vertices"].size:
+            ax.plot(f["vertices"][:, 0], f["vertices"][:, 1], ".", color="#1f77b4", ms=2)
+        ax.set_xlim(last[0], last[1])
+        ax.set_ylim(last[2], last[3])
+        ax.set_title(f"scan {f['scan']}: {len(f['edges'])} edges")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        return []
+
+    anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
+    tmp = path.with_name(f".{path.name}.tmp.gif")
+    anim.save(tmp, writer=PillowWriter(fps=3))
+    plt.close(fig)
+    tmp.replace(path)
+
+
+def replay(
+    source,
+    *,
+    out_dir,
+    plot: bool = False,
+    animate=None,
+    progress: bool = True,
+    max_scans: int | None = None,
+    reader_kwargs: dict | None = None,
+    **mapper_kw,
+) -> dict:
+    """Replay a scan log through an :class:`IncrementalMapper` and write the results.
+
+    Parameters
+    ----------
+    source : str or Path
+        A CARMEN log, ROS bag or Octave laser file (see :func:`topojax.scans.read_scans`).
+    out_dir : str or Path
+        Output folder (created).  Written: ``graph.graphml``, ``graph.json``,
+        ``graph.geojson`` (skipped with a message when an attribute is not finite),
+        ``map.yaml`` + ``map.pgm`` (the occupancy map), ``timings.json`` (per-loop
+        statistics, see :func:`timing_summary`) and, with ``plot``, ``graph.png`` and
+        ``stages.png``.
+    plot : bool
+        Write pictures.
+    animate : str or Path, optional
+        Write an animated GIF with one frame per graph update.
+    progress : bool
+        Show a tqdm progress bar.
+    max_scans : int, optional
+        Stop after this many scans.
+    reader_kwargs : dict, optional
+        Passed to the reader.
+    **mapper_kw
+        Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
+        ``graph_every``, ``strategy``, ...).
+
+    Returns
+    -------
+    dict
+        ``n_scans``, ``n_tiles``, ``vertices``, ``edges``, ``timings`` (per loop),
+        ``written`` (paths), ``messages``.
+    """
+    from tqdm import tqdm
+
+    from .graph import graph_summary
+    from .io import save_graph
+    from .maps import save_map
+    from .scans import read_scans
+
+    if max_scans is not None and (
+        isinstance(max_scans, bool) or not isinstance(max_scans, int) or max_scans < 1
+    ):
+        raise ValueError(f"max_scans must be a positive int or None, got {max_scans!r}")
+    out = Path(out_dir)
+    scans = read_scans(source, **(reader_kwargs or {}))
+    mapper = IncrementalMapper(**mapper_kw)
+    out.mkdir(parents=True, exist_ok=True)
+    reports: list[ScanReport] = []
+    frames: list[dict] = []
+    bar = tqdm(total=max_scans, unit="scan", disable=not progress, desc="replay")
+    t0 = time.perf_counter()
+    for i, scan in enumerate(scans):
+        if max_scans is not None and i >= max_scans:
+            break
+        rep = mapper.add_scan(scan)
+        reports.append(rep)
+        if animate is not None and rep.graph_update is not None and mapper.pixel_bbox:
+            frames.append(_frame(mapper))
+        bar.update(1)
+    bar.close()
+    wall = time.perf_counter() - t0
+    if not reports:
+        raise ValueError(f"source {source}: no scans to replay")
+    if mapper.pixel_bbox is None:
+        raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
+    t_final = time.perf_counter()
+    update = mapper.update_graph()
+    final_s = time.perf_counter() - t_final
+    result = mapper.to_result(update=False)
+    written: list[Path] = []
+    messages: list[str] = []
+    for suffix in (".graphml", ".json", ".geojson"):
+        try:
+            written.append(save_graph(result.graph, out / f"graph{suffix}"))
+        except ValueError as exc:
+            messages.append(f"graph{suffix} not written: {exc}")
+    written.append(save_map(result.map, out / "map.yaml"))
+    written.append(out / "map.yaml")
+    timings = timing_summary(reports)
+    summary_g = graph_summary(result.graph)
+    summary = {
+        "source": str(source),
+        "n_scans": len(reports),
+        "n_tiles": mapper.n_tiles,
+        "map_shape": list(result.map.shape),
+        "vertices": summary_g["n_vertices"],
+        "edges": summary_g["n_edges"],
+        "wall_s": wall,
+        "final_update_s": final_s,
+        "final_update": asdict(update),
+        "timings": timings,
+        "settings": mapper._settings(),
+    }
+    from .io import atomic_write_bytes
+
+    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
+    written.append(out / "timings.json")
+    if plot:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from .plotting import plot as plot_result
+        from .plotting import plot_stages
+
+        ax = plot_result(result)
+        ax.figure.savefig(out / "graph.png", dpi=150, bbox_inches="tight")
+        plt.close(ax.figure)
+        written.append(out / "graph.png")
+        fig = plot_stages(result)
+        fig.savefig(out / "stages.png", dpi=110, bbox_inches="tight")
+        plt.close(fig)
+        written.append(out / "stages.png")
+    if animate is not None:
+        frames.append(_frame(mapper))
+        apath = Path(animate)
+        apath.parent.mkdir(parents=True, exist_ok=True)
+        _write_animation(frames, apath)
+        written.append(apath)
+    summary["written"] = [str(p) for p in written]
+    summary["messages"] = messages
+    if progress:
+        print(_summary_text(summary))
+    return summary
+
+
+def _summary_text(summary: dict) -> str:
+    lines = [
+        f"replayed   {summary['n_scans']} scans of {summary['source']} in "
+        f"{summary['wall_s']:.2f} s; map {summary['map_shape'][0]} x "
+        f"{summary['map_shape'][1]} px in {summary['n_tiles']} tiles",
+        f"graph      {summary['vertices']} vertices, {summary['edges']} edges",
+        "loop        calls    mean ms     p50 ms     p99 ms   amortised ms/scan",
+    ]
+    for k in ("distance", "splat", "skeleton", "graph", "add_scan"):
+        s = summary["timings"].get(k)
+        if s:
+            lines.append(
+                f"{k:10s} {s['count']:6d} {s['mean_ms']:10.3f} {s['p50_ms']:10.3f} "
+                f"{s['p99_ms']:10.3f} {s['per_scan_ms']:12.4f}"
+            )
+    lines.extend(summary.get("messages", []))
+    return "\n".join(lines)
+
+
+def _cmd_replay(args) -> int:
+    kw = {
+        "resolution_m": args.resolution,
+        "skeleton_every": args.skeleton_every,
+        "graph_every": args.graph_every,
+        "strategy": args.strategy,
+    }
+    summary = replay(
+        args.source,
+        out_dir=args.out,
+        plot=args.plot,
+        animate=args.animate,
+        progress=not args.no_progress,
+        max_scans=args.max_scans,
+        **kw,
+    )
+    if args.no_progress:
+        print(_summary_text(summary))
+    print("wrote      " + ", ".join(summary["written"]))
+    return 0
+
+
+def _add_cli(subparsers):
+    """Register the ``replay`` subcommand on an ``argparse`` subparsers object."""
+    p = subparsers.add_parser(
+        "replay",
+        help="build the topology graph incrementally from a laser log",
+        description="Replay a laser log (CARMEN .log/.gz, ROS 1/2 bag, Octave laser file) "
+        "through the incremental mapper; write the final graph (GraphML, JSON, GeoJSON), "
+        "the occupancy map, per-loop timings and optionally pictures and an animation.",
+    )
+    p.add_argument("source", help="log file or bag")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    p.add_argument("--plot", action="store_true", help="also write PNG pictures")
+    p.add_argument("--animate", metavar="PATH", help="write an animated GIF of the graph")
+    p.add_argument(
+        "--skeleton-every", type=int, default=20, help="scans per skeleton update (default 20)"
+    )
+    p.add_argument("--graph-every", type=int, default=80, help="scans per graph update (80)")
+    p.add_argument("--strategy", choices=STRATEGIES, default="exact", help="skeleton update")
+    p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
+    p.add_argument("--max-scans", type=int, help="stop after this many scans")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(handler=_cmd_replay)
+    return p
