@@ -38,6 +38,7 @@ from .config import (
     RidgeConfig,
     SkeletonConfig,
 )
+from .datasets import sample_map
 from .graph import graph_summary, skeleton_to_graph
 from .io import load_graph, save_graph
 from .maps import OccupancyMap, load_map, save_map
@@ -51,18 +52,47 @@ from .pipeline import (
 from .scans import Scan, read_bag, read_carmen, read_scans
 from .skeleton import remove_t_centres, thin
 
+# Imported on first use: the incremental mapper and the batch runner are larger modules
+# that a user of the full-map pipeline (and every batch worker process) need not load.
+_LAZY = {
+    "IncrementalMapper": "incremental",
+    "ScanReport": "incremental",
+    "GraphUpdate": "incremental",
+    "replay": "incremental",
+    "vertex_error_metrics": "incremental",
+    "build_graphs": "batch",
+    "MapRecord": "batch",
+}
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'topojax' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
 __version__ = "0.1.0"
 
 __all__ = [
     "DistanceConfig",
     "GraphConfig",
+    "GraphUpdate",
+    "IncrementalMapper",
+    "MapRecord",
     "OccupancyMap",
     "PipelineConfig",
     "RidgeConfig",
     "Scan",
+    "ScanReport",
     "SkeletonConfig",
     "TopologyResult",
     "build_graph",
+    "build_graphs",
     "dense_fields",
     "distance_map",
     "graph_summary",
@@ -73,11 +103,14 @@ __all__ = [
     "read_carmen",
     "read_scans",
     "remove_t_centres",
+    "replay",
     "ridge_map",
     "save_graph",
+    "sample_map",
     "save_map",
     "skeleton_to_graph",
     "thin",
+    "vertex_error_metrics",
 ]
 
 
