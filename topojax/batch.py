@@ -1543,14 +1543,9 @@ def _add_cli(subparsers: Any) -> Any:
     p.add_argument(
         "--connect-timeout", type=float, default=30.0, help="seconds to reach the scheduler"
     )
-    p.add_argument(
-        "--thinning",
-        choices=("guo_hall", "zhang"),
-        default="guo_hall",
-        help="thinning algorithm (default: guo_hall)",
-    )
-    p.add_argument("--keep-t", action="store_true", help="do not remove T-junction centres")
-    p.add_argument("--tile-px", type=int, default=256, help="JAX tile side in pixels")
+    from .cli import add_pipeline_options
+
+    add_pipeline_options(p)
     p.add_argument(
         "--tiles-per-call", type=int, default=None, help="tiles per kernel call (bucket size)"
     )

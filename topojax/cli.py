@@ -20,7 +20,8 @@ def _pipeline_config(args):
     )
 
 
-def _add_pipeline_options(p: argparse.ArgumentParser) -> None:
+def add_pipeline_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by every command that runs the pipeline (thinning, T removal, tiles)."""
     p.add_argument(
         "--thinning",
         choices=("guo_hall", "zhang"),
@@ -159,7 +160,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")
     p.add_argument("--negate", action="store_true", help="image values are occupancy")
-    _add_pipeline_options(p)
+    add_pipeline_options(p)
     p.set_defaults(handler=_cmd_graph)
 
     p = sub.add_parser(
@@ -170,7 +171,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--map", choices=("intel", "office", "a_scan"), default="intel")
     p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
-    _add_pipeline_options(p)
+    add_pipeline_options(p)
     p.set_defaults(handler=_cmd_demo)
 
     for module in ("incremental", "batch"):

@@ -702,6 +702,23 @@ def _merge_rows(d2, bmax, row_block, row_bidx, rows, n_blocks, t, b, halo):
     return masks
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _reflect_into_tile(g, first, last, tile0, t):
+    """Reflect global index ``g`` into ``[first, last]`` (BORDER_REFLECT_101), then
+    express it relative to the tile starting at ``tile0``: (local index, neighbour 0/1/2
+    for the previous / same / next tile along this axis)."""
+    if g < first:
+        g = 2 * first - g
+    elif g > last:
+        g = 2 * last - g
+    local = g - tile0
+    if local < 0:
+        return local + t, 0
+    if local >= t:
+        return local - t, 2
+    return local, 1
+
+
 @numba.njit(cache=True, nogil=True)
 def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out):
     """Haloed squared-distance patches of blocks, reflected at the bounding box.
@@ -722,33 +739,9 @@ def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out
         org_r = tile_r0 + lbr[i] * b - halo
         org_c = tile_c0 + lbc[i] * b - halo
         for a in range(size):
-            r = org_r + a
-            if r < r_first:
-                r = 2 * r_first - r
-            elif r > r_last:
-                r = 2 * r_last - r
-            lr = r - tile_r0
-            oy = 1
-            if lr < 0:
-                lr += t
-                oy = 0
-            elif lr >= t:
-                lr -= t
-                oy = 2
+            lr, oy = _reflect_into_tile(org_r + a, r_first, r_last, tile_r0, t)
             for cc in range(size):
-                c = org_c + cc
-                if c < c_first:
-                    c = 2 * c_first - c
-                elif c > c_last:
-                    c = 2 * c_last - c
-                lc = c - tile_c0
-                ox = 1
-                if lc < 0:
-                    lc += t
-                    ox = 0
-                elif lc >= t:
-                    lc -= t
-                    ox = 2
+                lc, ox = _reflect_into_tile(org_c + cc, c_first, c_last, tile_c0, t)
                 ss = nbr9[s, 3 * oy + ox]
                 out[i, a, cc] = FAR_SQ if ss < 0 else d2[ss, lr, lc]
 
