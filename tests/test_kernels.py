@@ -200,3 +200,13 @@ def test_band_worst_pixel_reached_only_by_horizontal_site(tile):
     ref = brute_sq_distance(obstacles, r)
     got[got >= FAR_SQ] = np.inf
     np.testing.assert_array_equal(got, ref)
+
+
+def test_distance_config_from_metres():
+    cfg = DistanceConfig.from_metres(sigma_m=3.2096415, resolution_m=0.05)
+    assert cfg.sigma_px == pytest.approx(64.19283, abs=1e-5)
+    assert cfg.half_width_px == 227  # the original's support, scaled with sigma
+    cfg = DistanceConfig.from_metres(sigma_m=1.0, resolution_m=0.1, half_width_m=2.0)
+    assert (cfg.sigma_px, cfg.half_width_px) == (pytest.approx(10.0), 20)
+    with pytest.raises(ValueError, match="resolution_m"):
+        DistanceConfig.from_metres(sigma_m=1.0, resolution_m=0.0)
