@@ -69,28 +69,28 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
     far = jnp.int32(FAR_SQ)
     big = jnp.int32(1 << 24)
 
-    # Pass 1 (columns): nearest obstacle row above / below, by running max / min scans.
-    # Output rows are [r, r + out_px): "above" needs rows up to the last of them only,
-    # "below" rows from the first of them only.
+    # Pass 1 (columns): nearest obstacle row above / below the output rows
+    # [r, r + out_px).  The r halo rows on each side only matter through their last
+    # (first) obstacle row, a single reduction; only the output rows need running scans.
     rows = jnp.arange(size, dtype=jnp.int32)[:, None]
-    top, bottom = slice(0, r + out_px), slice(r, size)
-    above = _running(jnp.maximum, jnp.where(patch[top], rows[top], -big), -big)[r:]
-    below = _running(jnp.minimum, jnp.where(patch[bottom], rows[bottom], big), big, reverse=True)
-    centre = rows[r : r + out_px]
-    dv = jnp.minimum(centre - above, below[:out_px] - centre)  # (out_px, size)
+    inner = slice(r, r + out_px)
+    above0 = jnp.max(jnp.where(patch[:r], rows[:r], -big), axis=0)
+    below0 = jnp.min(jnp.where(patch[r + out_px :], rows[r + out_px :], big), axis=0)
+    above = _running(jnp.maximum, jnp.where(patch[inner], rows[inner], -big), above0)
+    below = _running(jnp.minimum, jnp.where(patch[inner], rows[inner], big), below0, reverse=True)
+    dv = jnp.minimum(rows[inner] - above, below - rows[inner])  # (out_px, size)
     g = jnp.where(dv <= r, dv * dv, far)
 
     # Upper bound on every pixel's answer from the nearest finite column site on each
-    # side: running scans along the row carrying that site's column and value.  As for
-    # pass 1, each direction only scans the columns it needs.
-    left_col, left_g = _last_site(g[:, : r + out_px], reverse=False)
-    right_col, right_g = _last_site(g[:, r:], reverse=True)
-    cols = jnp.arange(r, r + out_px, dtype=jnp.int32)[None, :]
-    kl = cols - left_col[:, r:]
-    kr = right_col[:, :out_px] + r - cols  # right_col counts from column r
+    # side: running scans along the output columns carrying that site's column and value,
+    # started from the last (first) site of the r halo columns on each side.
+    cols = jnp.arange(size, dtype=jnp.int32)
+    left_col, left_g = _last_site(g, cols, start=r, stop=r + out_px, reverse=False)
+    right_col, right_g = _last_site(g, cols, start=r, stop=r + out_px, reverse=True)
+    kl = cols[None, inner] - left_col
+    kr = right_col - cols[None, inner]
     bound = jnp.minimum(
-        jnp.where(kl <= r, left_g[:, r:] + kl * kl, far),
-        jnp.where(kr <= r, right_g[:, :out_px] + kr * kr, far),
+        jnp.where(kl <= r, left_g + kl * kl, far), jnp.where(kr <= r, right_g + kr * kr, far)
     )
 
     def step(k, best, gb):
@@ -132,29 +132,41 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
     return out.reshape(n_bands * _BAND_ROWS, out_px)[:out_px]
 
 
-def _running(op, x: jax.Array, init, *, axis: int = 0, reverse: bool = False) -> jax.Array:
-    """Running ``op`` (max or min) along ``axis`` with a sequential scan (fast on CPU)."""
-    xs = jnp.moveaxis(x, axis, 0)
+def _running(op, x: jax.Array, init: jax.Array, *, reverse: bool = False) -> jax.Array:
+    """Running ``op`` (max or min) down axis 0, starting from ``init`` (shape ``x[0]``),
+    with a sequential scan (fastest on CPU)."""
 
     def body(carry, row):
         carry = op(carry, row)
         return carry, carry
 
-    _, out = lax.scan(body, jnp.full(xs.shape[1:], init, xs.dtype), xs, reverse=reverse)
-    return jnp.moveaxis(out, 0, axis)
+    _, out = lax.scan(body, init, x, reverse=reverse)
+    return out
 
 
-def _last_site(g: jax.Array, *, reverse: bool) -> tuple[jax.Array, jax.Array]:
-    """Column and value of the nearest finite entry of ``g`` at or before each column.
+def _last_site(
+    g: jax.Array, cols: jax.Array, *, start: int, stop: int, reverse: bool
+) -> tuple[jax.Array, jax.Array]:
+    """Column and value of the nearest finite entry of ``g`` at or before each column of
+    ``[start, stop)`` (with ``reverse``: at or after).
 
-    With ``reverse``, at or after.  Both outputs have ``g``'s shape (rows, n); columns
-    count from ``g``'s first column, and a missing site gets a column 2^24 away, beyond
-    any window.
+    Columns outside ``[start, stop)`` enter through one reduction (the last finite site
+    before ``start``, or the first after ``stop``); the scan runs over ``[start, stop)``
+    only.  Returns two int32 arrays (rows, stop - start); a missing site gets a column
+    2^24 away, beyond any window.
     """
-    n = g.shape[1]
     big = jnp.int32(1 << 24)
     far = jnp.int32(FAR_SQ)
-    cols = jnp.arange(n, dtype=jnp.int32)
+    finite = g < far
+    if reverse:
+        outer = slice(stop, None)
+        col0 = jnp.min(jnp.where(finite[:, outer], cols[outer], big), axis=1)
+    else:
+        outer = slice(0, start)
+        col0 = jnp.max(jnp.where(finite[:, outer], cols[outer], -big), axis=1)
+    found = jnp.abs(col0) < big
+    val0 = jnp.take_along_axis(g, jnp.clip(col0, 0, g.shape[1] - 1)[:, None], axis=1)[:, 0]
+    val0 = jnp.where(found, val0, far)
 
     def body(carry, xs):
         col, val = carry
@@ -164,9 +176,8 @@ def _last_site(g: jax.Array, *, reverse: bool) -> tuple[jax.Array, jax.Array]:
         val = jnp.where(hit, gcol, val)
         return (col, val), (col, val)
 
-    init_col = jnp.full(g.shape[:1], big if reverse else -big, jnp.int32)
-    init = (init_col, jnp.full(g.shape[:1], far, jnp.int32))
-    _, (col, val) = lax.scan(body, init, (g.T, cols), reverse=reverse)
+    inner = slice(start, stop)
+    _, (col, val) = lax.scan(body, (col0, val0), (g[:, inner].T, cols[inner]), reverse=reverse)
     return col.T, val.T
 
 
