@@ -272,8 +272,19 @@ def dense_fields_many(
     total = len(owners)
     # Pad each map once; a patch is then a strided view, copied only when it is stacked.
     views = [_patch_views(g, m, halo) for g, m in zip(grids, maps, strict=True)]
+    # Each tile's core goes straight into its map's arrays (tiles never overlap, so the
+    # dispatch threads write disjoint regions).
+    fields = [
+        DenseFields(
+            np.empty(m.shape, np.int32),
+            np.empty(m.shape, np.float32),
+            np.empty(m.shape, np.uint8),
+            np.empty(m.shape, bool),
+        )
+        for m in maps
+    ]
 
-    def run_chunk(start: int):
+    def run_chunk(start: int) -> None:
         sel = np.arange(start, min(total, start + tiles_per_call))
         patches = np.stack([views[owners[j]][local[j]] for j in sel])
         org = all_origins[sel]
@@ -292,20 +303,26 @@ def dense_fields_many(
             half_width=distance.half_width_px,
             ksize=ridge.ksize,
         )
-        return [np.asarray(a)[: len(sel)] for a in out]
+        tiles = [np.asarray(a) for a in out]
+        for n, j in enumerate(sel):
+            target = fields[owners[j]]
+            r0, c0 = all_origins[j]
+            h = min(tile_px, target.ridges.shape[0] - r0)
+            w = min(tile_px, target.ridges.shape[1] - c0)
+            for dest, src in zip(
+                (target.sq_distance_px, target.distance, target.lap_abs, target.ridges),
+                tiles,
+                strict=True,
+            ):
+                dest[r0 : r0 + h, c0 : c0 + w] = src[n, :h, :w]
 
     starts = range(0, total, tiles_per_call)
     n_threads = _dispatch_threads(threads, len(starts))
     if n_threads > 1:
-        chunks = list(_executor(n_threads).map(run_chunk, starts))
+        list(_executor(n_threads).map(run_chunk, starts))
     else:
-        chunks = [run_chunk(s) for s in starts]
-    results = [[c[k] for c in chunks] for k in range(4)]
-    stacked = [np.concatenate(r) for r in results]
-    fields = []
-    for i, g in enumerate(grids):
-        mine = owners == i
-        fields.append(DenseFields(*(g.assemble(a[mine]) for a in stacked)))
+        for start in starts:
+            run_chunk(start)
     return fields
 
 
