@@ -711,7 +711,13 @@ def _reflect_into_tile(g, first, last, tile0, t):
         g = 2 * first - g
     elif g > last:
         g = 2 * last - g
-    local = g - tile0
+    return _wrap_into_tile(g - tile0, t)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _wrap_into_tile(local, t):
+    """A tile-local index that may lie one tile before or after, as (index in that tile,
+    neighbour 0/1/2 for the previous / same / next tile along this axis)."""
     if local < 0:
         return local + t, 0
     if local >= t:
@@ -899,25 +905,11 @@ def _flood(rflat, mflat, nbr9, t, seeds, queue):
         lr0 = rem // t
         lc0 = rem - lr0 * t
         for dr in range(-1, 2):
-            nr = lr0 + dr
-            oy = 1
-            if nr < 0:
-                nr += t
-                oy = 0
-            elif nr >= t:
-                nr -= t
-                oy = 2
+            nr, oy = _wrap_into_tile(lr0 + dr, t)
             for dc in range(-1, 2):
                 if dr == 0 and dc == 0:
                     continue
-                nc = lc0 + dc
-                ox = 1
-                if nc < 0:
-                    nc += t
-                    ox = 0
-                elif nc >= t:
-                    nc -= t
-                    ox = 2
+                nc, ox = _wrap_into_tile(lc0 + dc, t)
                 ns = nbr9[s, 3 * oy + ox]
                 if ns < 0:
                     continue
