@@ -284,6 +284,19 @@ def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, s
     return er[:m], ec[:m]
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _bresenham_step(r, c, err, dr, dc, stp_r, stp_c):
+    """One step of Bresenham's line walk; returns the next (row, col, error)."""
+    e2 = 2 * err
+    if e2 > -dr:
+        err -= dr
+        c += stp_c
+    if e2 < dc:
+        err += dc
+        r += stp_r
+    return r, c, err
+
+
 @numba.njit(cache=True, nogil=True)
 def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
     """Tiles touched by the beams (end cells; ray cells too if ``rays``) that are not
@@ -346,13 +359,7 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
                     m += 1
             if r == r1 and c == c1:
                 break
-            e2 = 2 * err
-            if e2 > -dr:
-                err -= dr
-                c += stp_c
-            if e2 < dc:
-                err += dc
-                r += stp_r
+            r, c, err = _bresenham_step(r, c, err, dr, dc, stp_r, stp_c)
     return out[:m]
 
 
@@ -408,18 +415,11 @@ def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
             while True:
                 if misses[s, lr, lc] < _UINT16_MAX:
                     misses[s, lr, lc] += 1
-                e2 = 2 * err
-                moved = False
-                if e2 > -dr:
-                    err -= dr
-                    c += stp_c
-                    lc += stp_c
-                    moved = lc < 0 or lc >= t
-                if e2 < dc:
-                    err += dc
-                    r += stp_r
-                    lr += stp_r
-                    moved = moved or lr < 0 or lr >= t
+                r2, c2, err = _bresenham_step(r, c, err, dr, dc, stp_r, stp_c)
+                lr += r2 - r
+                lc += c2 - c
+                r, c = r2, c2
+                moved = lr < 0 or lr >= t or lc < 0 or lc >= t
                 if r == r1 and c == c1:
                     break
                 if moved:

@@ -21,7 +21,6 @@ import jax.numpy as jnp
 import networkx as nx
 import numpy as np
 from jax import lax
-from numpy.lib.stride_tricks import sliding_window_view
 
 from .config import DistanceConfig, PipelineConfig, RidgeConfig
 from .distance import FAR_SQ, gaussian_from_sq_distance, window_sq_distance_tile
@@ -109,27 +108,6 @@ def _forward_tiles(
         lambda args: fn(args[0], args[1], args[2], sigma_px, scale, threshold),
         (patches, origins, map_shapes),
     )
-
-
-def _patch_views(grid: TileGrid, obstacles: np.ndarray, halo: int) -> np.ndarray:
-    """Haloed obstacle patches of every tile as a strided view, shape (n_tiles, P, P)."""
-    t = grid.tile_px
-    gr, gc = grid.grid_shape
-    padded = np.zeros((gr * t + 2 * halo, gc * t + 2 * halo), bool)
-    padded[halo : halo + obstacles.shape[0], halo : halo + obstacles.shape[1]] = obstacles
-    size = t + 2 * halo
-    view = sliding_window_view(padded, (size, size))[::t, ::t]
-    return _FlatTiles(view, gc)
-
-
-class _FlatTiles:
-    """Index a (rows, cols, P, P) view of tiles by raster tile number without copying."""
-
-    def __init__(self, view: np.ndarray, n_cols: int) -> None:
-        self.view, self.n_cols = view, n_cols
-
-    def __getitem__(self, i: int) -> np.ndarray:
-        return self.view[i // self.n_cols, i % self.n_cols]
 
 
 _POOLS: dict[int, ThreadPoolExecutor] = {}
@@ -271,7 +249,7 @@ def dense_fields_many(
     )
     total = len(owners)
     # Pad each map once; a patch is then a strided view, copied only when it is stacked.
-    views = [_patch_views(g, m, halo) for g, m in zip(grids, maps, strict=True)]
+    views = [g.patch_view(m, halo, fill=False) for g, m in zip(grids, maps, strict=True)]
     # Each tile's core goes straight into its map's arrays (tiles never overlap, so the
     # dispatch threads write disjoint regions).
     fields = [
@@ -286,7 +264,9 @@ def dense_fields_many(
 
     def run_chunk(start: int) -> None:
         sel = np.arange(start, min(total, start + tiles_per_call))
-        patches = np.stack([views[owners[j]][local[j]] for j in sel])
+        patches = np.stack(
+            [views[owners[j]][divmod(int(local[j]), grids[owners[j]].grid_shape[1])] for j in sel]
+        )
         org = all_origins[sel]
         shp = shapes[owners[sel]]
         short = tiles_per_call - len(sel)

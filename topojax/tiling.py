@@ -75,6 +75,30 @@ class TileGrid:
         -------
         array, shape (n, T + 2 halo, T + 2 halo), same dtype as ``array``.
         """
+        view = self.patch_view(array, halo, fill=fill)
+        gr, gc = self.grid_shape
+        if index is None:
+            index = np.arange(gr * gc)
+        rows, cols = np.divmod(np.asarray(index, dtype=np.intp), gc)
+        return np.ascontiguousarray(view[rows, cols])
+
+    def patch_view(self, array: np.ndarray, halo: int, *, fill=0) -> np.ndarray:
+        """Haloed patches of every tile as a read-only strided view (no copy per patch).
+
+        Parameters
+        ----------
+        array : array, shape (H, W)
+        halo : int
+            Halo width on every side (>= 0).
+        fill : scalar
+            Value of pixels outside the map.
+
+        Returns
+        -------
+        array view, shape (tile rows, tile cols, T + 2 halo, T + 2 halo): ``view[i, j]``
+        is tile ``(i, j)`` with its halo.  The map is padded once; indexing a patch
+        copies nothing until it is stacked.
+        """
         if array.shape != tuple(self.map_shape):
             raise ValueError(f"array must have shape {self.map_shape}, got {array.shape}")
         t = self.tile_px
@@ -82,11 +106,7 @@ class TileGrid:
         padded = np.full((gr * t + 2 * halo, gc * t + 2 * halo), fill, dtype=array.dtype)
         padded[halo : halo + array.shape[0], halo : halo + array.shape[1]] = array
         size = t + 2 * halo
-        view = sliding_window_view(padded, (size, size))[::t, ::t]
-        view = view.reshape(gr * gc, size, size)
-        if index is not None:
-            view = view[np.asarray(index, dtype=np.intp)]
-        return np.ascontiguousarray(view)
+        return sliding_window_view(padded, (size, size))[::t, ::t]
 
     def assemble(self, tiles: np.ndarray) -> np.ndarray:
         """Put per-tile cores back together.
