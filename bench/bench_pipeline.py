@@ -200,34 +200,35 @@ def run_naive(obstacles) -> tuple[dict[str, float], dict[str, Any]]:
 
 
 def topojax_distance_kernel_fn(obstacles) -> Callable[[], Any] | None:
-    """A callable running topojax's distance kernel alone over all tiles of a map.
+    """A callable running topojax's windowed squared distance alone over a whole map.
 
-    Uses the same tile size and chunking as the pipeline (256 px tiles, 4 per call), through
-    the private ``topojax.distance._window_sq_distance_tiles``; None if that is not there.
+    The two passes the pipeline runs (``column_distance_tile`` on each tile's columns,
+    assembled, then ``row_sq_distance_tile``), on 256 px tiles, one tile per call, from
+    one thread; no Gaussian, Laplacian or threshold.  None if those kernels are not there.
     """
+    import jax
     import numpy as np
+    from jax import lax
 
     try:
-        from topojax.distance import _window_sq_distance_tiles
+        from topojax.distance import column_distance_tile, column_dtype, row_sq_distance_tile
         from topojax.tiling import TileGrid
     except ImportError:
         return None
-    tile, per_call, r = 256, 4, HALF_WIDTH_PX
+    tile, r = 256, HALF_WIDTH_PX
     grid = TileGrid(obstacles.shape, tile)
+    none = np.iinfo(column_dtype(r)).max
+    columns_fn = jax.jit(lambda s: lax.map(lambda x: column_distance_tile(x, half_width=r), s))
+    rows_fn = jax.jit(lambda c: lax.map(lambda x: row_sq_distance_tile(x, half_width=r), c))
+    cells = [(i, j) for i in range(grid.grid_shape[0]) for j in range(grid.grid_shape[1])]
 
     def run():
-        patches = grid.patches(obstacles, r, fill=False)
-        n = len(patches)
-        pad = (-n) % per_call
-        if pad:
-            patches = np.concatenate([patches, np.zeros((pad,) + patches.shape[1:], bool)])
-        outs = [
-            np.asarray(
-                _window_sq_distance_tiles(patches[i : i + per_call], out_px=tile, half_width=r)
-            )
-            for i in range(0, len(patches), per_call)
-        ]
-        return grid.assemble(np.concatenate(outs)[:n])
+        strips = grid.patch_view(obstacles, (r, 0), fill=False)
+        columns = grid.assemble(
+            np.concatenate([np.asarray(columns_fn(strips[c][None])) for c in cells])
+        )
+        views = grid.patch_view(columns, (0, r), fill=none)
+        return grid.assemble(np.concatenate([np.asarray(rows_fn(views[c][None])) for c in cells]))
 
     return run
 

@@ -7,6 +7,8 @@ same float32 map (0 differing pixels); ridges identical.
 
 from __future__ import annotations
 
+from functools import partial
+
 import cv2
 import jax
 import jax.numpy as jnp
@@ -17,7 +19,13 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from topojax.config import ORIGINAL_HALF_WIDTH_PX, ORIGINAL_SIGMA_PX, DistanceConfig, RidgeConfig
-from topojax.distance import FAR_SQ, brute_force_distance_map, window_sq_distance_tile
+from topojax.distance import (
+    FAR_SQ,
+    brute_force_distance_map,
+    column_distance_tile,
+    column_dtype,
+    window_sq_distance_tile,
+)
 from topojax.filters import laplacian_valid, reflect_101_halo, ridge_from_laplacian
 from topojax.pipeline import dense_fields, trace_counts
 from topojax.tiling import TileGrid
@@ -88,7 +96,7 @@ def test_distance_map_paper_map_matches_brute_force_splat_on_crop(paper_referenc
 
 
 @pytest.mark.parametrize("ksize", [1, 3, 5])
-@pytest.mark.parametrize("shape", [(37, 53), (64, 64), (5, 129)])
+@pytest.mark.parametrize("shape", [(37, 53), (64, 64), (5, 129), (3, 40), (17, 4)])
 def test_laplacian_matches_opencv_with_reflect_101_border(ksize, shape):
     rng = np.random.default_rng(ksize)
     values = rng.random(shape).astype(np.float32)
@@ -105,6 +113,71 @@ def test_laplacian_matches_opencv_with_reflect_101_border(ksize, shape):
     got = grid.assemble(np.asarray(run(patches, grid.origins())))
     ref = cv2.Laplacian(values.astype(np.float64), cv2.CV_64F, ksize=ksize)
     np.testing.assert_allclose(got, ref, rtol=0, atol=2e-5 * np.abs(ref).max() + 1e-5)
+
+
+def _reflect_101_reference(values, origin, map_shape, halo):
+    """Gather formulation of the border reflection, in NumPy (tiny maps included)."""
+    out = np.asarray(values)
+    for axis in (0, 1):
+        n = out.shape[axis]
+        start = origin[axis] - halo
+        last = map_shape[axis] - 1
+        glob = start + np.arange(n)
+        glob = np.where(glob < 0, -glob, glob)
+        glob = np.where(glob > last, 2 * last - glob, glob)
+        out = np.take(out, np.clip(glob - start, 0, n - 1), axis=axis)
+    return out
+
+
+@pytest.mark.parametrize("map_shape", [(2, 2), (2, 9), (3, 3), (5, 30), (40, 41), (13, 2)])
+@pytest.mark.parametrize("tile", [4, 8])
+def test_reflect_101_halo_equals_gather_reference(map_shape, tile):
+    """Every pixel that the Laplacian of a map pixel reads equals the gather reference."""
+    rng = np.random.default_rng(map_shape[0] * 100 + tile)
+    halo = 2
+    fn = jax.jit(partial(reflect_101_halo, halo=halo))
+    shape = jnp.asarray(map_shape, jnp.int32)
+    for r0 in range(0, map_shape[0], tile):
+        for c0 in range(0, map_shape[1], tile):
+            values = rng.random((tile + 2 * halo, tile + 2 * halo)).astype(np.float32)
+            origin = np.array([r0, c0], np.int32)
+            got = np.asarray(fn(values, jnp.asarray(origin), shape))
+            want = _reflect_101_reference(values, origin, map_shape, halo)
+            # Only pixels within ``halo`` of the map are read by a map pixel's filter.
+            rows = origin[0] - halo + np.arange(tile + 2 * halo)
+            cols = origin[1] - halo + np.arange(tile + 2 * halo)
+            keep = (rows <= map_shape[0] - 1 + halo)[:, None] & (cols <= map_shape[1] - 1 + halo)[
+                None, :
+            ]
+            np.testing.assert_array_equal(got[keep], want[keep])
+
+
+@pytest.mark.parametrize("r", [1, 5, 30])
+def test_column_pass_matches_numpy(r):
+    rng = np.random.default_rng(r)
+    strip = rng.random((23 + 2 * r, 17)) < 0.04
+    got = np.asarray(jax.jit(partial(column_distance_tile, half_width=r))(strip))
+    assert got.dtype == np.uint8
+    want = np.full((23, 17), 255, np.int64)
+    for i in range(23):
+        for j in range(17):
+            hits = np.nonzero(strip[i : i + 2 * r + 1, j])[0]
+            if hits.size:
+                want[i, j] = np.abs(hits - r).min()
+    np.testing.assert_array_equal(got, want)
+
+
+def test_column_dtype_covers_large_windows():
+    assert column_dtype(254) == np.uint8
+    assert column_dtype(255) == np.uint16
+    strip = np.zeros((2 * 300 + 4, 3), bool)
+    strip[0, 1] = True  # exactly R rows above output row 0
+    got = np.asarray(column_distance_tile(jnp.asarray(strip), half_width=300))
+    assert got.dtype == np.uint16
+    assert got[0, 1] == 300 and got[1, 1] == np.iinfo(np.uint16).max
+    assert got[0, 0] == np.iinfo(np.uint16).max
+    with pytest.raises(ValueError, match="half_width"):
+        column_dtype(70000)
 
 
 def test_convert_scale_abs_semantics():
@@ -162,6 +235,8 @@ def test_one_trace_serves_every_map_size():
     rcfg = RidgeConfig()
     dense_fields(np.eye(20, 30, dtype=bool), distance=cfg, ridge=rcfg, tile_px=24)
     before = trace_counts().get("forward_tiles", 0)
+    before_columns = trace_counts().get("column_tiles", 0)
+    assert before >= 1 and before_columns >= 1
     for shape in [(21, 33), (70, 25), (2, 2), (100, 101)]:
         obstacles = np.zeros(shape, bool)
         obstacles[0, 0] = True
@@ -170,6 +245,7 @@ def test_one_trace_serves_every_map_size():
         np.eye(40, dtype=bool), distance=DistanceConfig(sigma_px=7.0, half_width_px=9), tile_px=24
     )
     assert trace_counts()["forward_tiles"] == before
+    assert trace_counts()["column_tiles"] == before_columns
 
 
 def test_bad_obstacle_input():

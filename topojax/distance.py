@@ -7,44 +7,164 @@ maximum::
 
 Because the Gaussian decreases with distance, ``H(x) = exp(-d(x)^2 / (2 sigma^2))`` where
 ``d(x)`` is the distance to the nearest obstacle *inside the square window* of half-width
-``R`` around ``x``.  This module computes that windowed squared distance exactly, in
-integers, with a separable two-pass algorithm that runs as one jitted kernel per tile:
+``R`` around ``x``.  The window is a square, so the windowed squared distance separates
+exactly into two passes, each a pure kernel on one fixed-size tile:
 
-1. along columns: distance to the nearest obstacle within ``R`` rows, from two
-   associative scans (last obstacle above, next obstacle below);
-2. along rows: ``d^2(r, c) = min_{|k| <= R} g(r, c + k) + k^2`` (``g`` from pass 1).  The
-   offsets run in increasing ``|k|`` and stop, per band of rows, as soon as ``k^2`` is not
-   below the largest current best of the band: no larger offset can improve any pixel
-   there.  The early exit is exact, and it makes the cost scale with the local clearance
-   instead of with ``R``.
+1. :func:`column_distance_tile`, along columns: ``v(r, c)``, the distance to the nearest
+   obstacle of column ``c`` within ``R`` rows, from two running scans (last obstacle above,
+   next obstacle below) over the tile's own rows; the ``R`` halo rows on each side enter
+   through one reduction each.  The result is small (``v <= R``), so it is stored in
+   ``uint8`` (``uint16`` for ``R >= 255``), and the row pass can read the ``R`` halo
+   columns of neighbouring tiles from the assembled map instead of recomputing them.
+2. :func:`row_sq_distance_tile`, along rows: ``d^2(r, c) = min_{|k| <= R} v(r, c + k)^2 +
+   k^2``.  Offsets run in increasing ``|k|`` per band of rows and stop as soon as ``k^2``
+   reaches the band's largest current best: no larger offset can improve any pixel there.
+   The running best only comes from real obstacles, so the early exit is exact, and the
+   cost scales with the band's largest clearance instead of with ``R``.
 
 Every number here is an integer until the final ``exp``, so the tiled result does not
-depend on the tiling.
+depend on the tiling.  :func:`window_sq_distance_tile` chains both passes on one square
+patch (used by tests and as the single-tile reference).
 """
 
 from __future__ import annotations
-
-from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-__all__ = ["FAR_SQ", "window_sq_distance_tile", "gaussian_from_sq_distance"]
+__all__ = [
+    "FAR_SQ",
+    "column_dtype",
+    "column_distance_tile",
+    "row_sq_distance_tile",
+    "window_sq_distance_tile",
+    "gaussian_from_sq_distance",
+]
 
 #: Squared-distance value of pixels with no obstacle inside their window.
 FAR_SQ = 1 << 30
 
-_BAND_ROWS = 16
-_UNROLL = 4
+# Row pass: rows per band (each band has its own early exit) and offsets per loop step
+# (the loop's per-iteration cost on the CPU is worth a few offsets of overshoot).
+_BAND_ROWS = 26
+_UNROLL = 16
+
+
+def column_dtype(half_width: int) -> np.dtype:
+    """Smallest unsigned dtype of the column pass for window half-width ``R``.
+
+    Values ``0..R`` are distances; the dtype's maximum (``> R``) means "no obstacle
+    within ``R`` rows".
+    """
+    if half_width < 255:
+        return np.dtype(np.uint8)
+    if half_width < 65535:
+        return np.dtype(np.uint16)
+    raise ValueError(f"half_width must be < 65535 px, got {half_width}")
+
+
+def column_distance_tile(strip: jax.Array, *, half_width: int) -> jax.Array:
+    """Distance along each column to the nearest obstacle within ``R`` rows.
+
+    Pure function of one fixed-size strip; batch it with :func:`jax.vmap`.
+
+    Parameters
+    ----------
+    strip : bool array, shape (n + 2 R, w)
+        Obstacle mask ``strip[row, col]``; the output row ``i`` is ``strip[R + i]``, and
+        the ``R`` rows above and below are its halo.  Pixels outside the map: False.
+    half_width : int
+        Window half-width ``R`` in pixels (static).
+
+    Returns
+    -------
+    array of :func:`column_dtype` (R), shape (n, w)
+        ``min |dr|`` over obstacles ``strip[R + i + dr, j]`` with ``|dr| <= R``, or the
+        dtype's maximum where there is none.
+    """
+    r = half_width
+    size, width = strip.shape
+    n = size - 2 * r
+    if n < 1:
+        raise ValueError(f"strip must have more than 2 R = {2 * r} rows, got {size}")
+    dtype = column_dtype(r)
+    big = jnp.int32(1 << 24)
+    rows = jnp.arange(size, dtype=jnp.int32)[:, None]
+    inner = slice(r, r + n)
+    # The halo rows only matter through their last (first) obstacle row: one reduction
+    # each; the running scans cover the output rows only.
+    above0 = jnp.max(jnp.where(strip[:r], rows[:r], -big), axis=0)
+    below0 = jnp.min(jnp.where(strip[r + n :], rows[r + n :], big), axis=0)
+    above = _running(jnp.maximum, jnp.where(strip[inner], rows[inner], -big), above0)
+    below = _running(jnp.minimum, jnp.where(strip[inner], rows[inner], big), below0, reverse=True)
+    dv = jnp.minimum(rows[inner] - above, below - rows[inner])
+    return jnp.where(dv <= r, dv, np.iinfo(dtype).max).astype(dtype)
+
+
+def row_sq_distance_tile(column: jax.Array, *, half_width: int) -> jax.Array:
+    """Windowed squared distance from the column pass, along rows.
+
+    Pure function of one fixed-size patch; batch it with :func:`jax.lax.map` (each band of
+    rows stops at its own offset, which :func:`jax.vmap` would equalise).
+
+    Parameters
+    ----------
+    column : uint8 or uint16 array, shape (n, w + 2 R)
+        Output of :func:`column_distance_tile` around the tile: output pixel ``(i, j)`` is
+        ``column[i, R + j]``, with ``R`` halo columns on each side.  Columns outside the
+        map must hold the "none" value (the dtype's maximum).
+    half_width : int
+        Window half-width ``R`` in pixels (static).
+
+    Returns
+    -------
+    int32 array, shape (n, w)
+        ``min (dr^2 + dc^2)`` over obstacles with ``|dr| <= R`` and ``|dc| <= R``, or
+        :data:`FAR_SQ` where there is none.
+    """
+    r = half_width
+    n, size = column.shape
+    w = size - 2 * r
+    if w < 1:
+        raise ValueError(f"column must have more than 2 R = {2 * r} columns, got {size}")
+    far = jnp.int32(FAR_SQ)
+    v = column.astype(jnp.int32)
+    g = jnp.where(v <= r, v * v, far)
+
+    n_bands = -(-n // _BAND_ROWS)
+    g = jnp.pad(g, ((0, n_bands * _BAND_ROWS - n), (0, 0)), constant_values=FAR_SQ)
+
+    def band(gb):
+        def cond(carry):
+            k, _, worst = carry
+            return (k * k < worst) & (k <= r)
+
+        def body(carry):
+            k, best, _ = carry
+            # Hand-unrolled; offsets past R are clamped to R, which repeats a real
+            # candidate and so cannot change the minimum.
+            for j in range(_UNROLL):
+                kk = jnp.minimum(k + j, r)
+                right = lax.dynamic_slice_in_dim(gb, r + kk, w, axis=1)
+                left = lax.dynamic_slice_in_dim(gb, r - kk, w, axis=1)
+                best = jnp.minimum(best, jnp.minimum(left, right) + kk * kk)
+            return k + _UNROLL, best, jnp.max(best)
+
+        best0 = gb[:, r : r + w]
+        _, best, _ = lax.while_loop(cond, body, (jnp.int32(1), best0, jnp.max(best0)))
+        return jnp.minimum(best, far)
+
+    out = lax.map(band, g.reshape(n_bands, _BAND_ROWS, size))
+    return out.reshape(n_bands * _BAND_ROWS, w)[:n]
 
 
 def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -> jax.Array:
-    """Windowed squared distance to the nearest obstacle for one tile.
+    """Windowed squared distance to the nearest obstacle for one square patch.
 
-    Pure function of one fixed-size patch; batch it with :func:`jax.vmap` or
-    :func:`jax.lax.map`.
+    Both passes on one patch: :func:`column_distance_tile` over all its columns, then
+    :func:`row_sq_distance_tile`.
 
     Parameters
     ----------
@@ -62,74 +182,11 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
         ``min (dr^2 + dc^2)`` over obstacles with ``|dr| <= R`` and ``|dc| <= R``, or
         :data:`FAR_SQ` where there is none.
     """
-    r = half_width
-    size = out_px + 2 * r
+    size = out_px + 2 * half_width
     if patch.shape != (size, size):
         raise ValueError(f"patch must have shape {(size, size)}, got {patch.shape}")
-    far = jnp.int32(FAR_SQ)
-    big = jnp.int32(1 << 24)
-
-    # Pass 1 (columns): nearest obstacle row above / below the output rows
-    # [r, r + out_px).  The r halo rows on each side only matter through their last
-    # (first) obstacle row, a single reduction; only the output rows need running scans.
-    rows = jnp.arange(size, dtype=jnp.int32)[:, None]
-    inner = slice(r, r + out_px)
-    above0 = jnp.max(jnp.where(patch[:r], rows[:r], -big), axis=0)
-    below0 = jnp.min(jnp.where(patch[r + out_px :], rows[r + out_px :], big), axis=0)
-    above = _running(jnp.maximum, jnp.where(patch[inner], rows[inner], -big), above0)
-    below = _running(jnp.minimum, jnp.where(patch[inner], rows[inner], big), below0, reverse=True)
-    dv = jnp.minimum(rows[inner] - above, below - rows[inner])  # (out_px, size)
-    g = jnp.where(dv <= r, dv * dv, far)
-
-    # Upper bound on every pixel's answer from the nearest finite column site on each
-    # side: running scans along the output columns carrying that site's column and value,
-    # started from the last (first) site of the r halo columns on each side.
-    cols = jnp.arange(size, dtype=jnp.int32)
-    left_col, left_g = _last_site(g, cols, start=r, stop=r + out_px, reverse=False)
-    right_col, right_g = _last_site(g, cols, start=r, stop=r + out_px, reverse=True)
-    kl = cols[None, inner] - left_col
-    kr = right_col - cols[None, inner]
-    bound = jnp.minimum(
-        jnp.where(kl <= r, left_g + kl * kl, far), jnp.where(kr <= r, right_g + kr * kr, far)
-    )
-
-    def step(k, best, gb):
-        right_k = lax.dynamic_slice_in_dim(gb, r + k, out_px, axis=1)
-        left_k = lax.dynamic_slice_in_dim(gb, r - k, out_px, axis=1)
-        return jnp.minimum(best, jnp.minimum(left_k, right_k) + k * k)
-
-    # Pass 2 (rows), by bands of rows: offsets k run while k^2 < the band's largest
-    # upper bound; beyond it no offset can improve any pixel of the band (exact).
-    n_bands = -(-out_px // _BAND_ROWS)
-    pad_rows = n_bands * _BAND_ROWS - out_px
-    g = jnp.pad(g, ((0, pad_rows), (0, 0)), constant_values=FAR_SQ)
-    bound = jnp.pad(bound, ((0, pad_rows), (0, 0)), constant_values=FAR_SQ)
-
-    def band(args):
-        gb, ub = args
-        worst = jnp.max(jnp.where(ub < far, ub, 0))
-        # largest k with k^2 < worst, capped at R
-        k_max = jnp.minimum(jnp.ceil(jnp.sqrt(worst.astype(jnp.float32))).astype(jnp.int32), r)
-        k_max = jnp.where((k_max * k_max >= worst) & (k_max > 0), k_max - 1, k_max)
-        # The bound is achieved by a real site, so it seeds the running best: offsets with
-        # k^2 >= worst then cannot improve any pixel, and stopping there is exact.
-        start = jnp.minimum(gb[:, r : r + out_px], ub)
-        # Hand-unrolled by _UNROLL offsets (fori_loop cannot unroll dynamic bounds).
-        # Overshooting k_max is harmless: a slice clamped at the patch edge only adds a
-        # real site's cost plus a larger k^2, never less than the true minimum.
-
-        def unrolled(i, b):
-            for j in range(_UNROLL):
-                b = step(1 + i * _UNROLL + j, b, gb)
-            return b
-
-        best = lax.fori_loop(0, (k_max + _UNROLL - 1) // _UNROLL, unrolled, start)
-        return jnp.minimum(best, far)
-
-    bands = g.reshape(n_bands, _BAND_ROWS, size)
-    ubs = bound.reshape(n_bands, _BAND_ROWS, out_px)
-    out = lax.map(band, (bands, ubs))
-    return out.reshape(n_bands * _BAND_ROWS, out_px)[:out_px]
+    column = column_distance_tile(patch, half_width=half_width)
+    return row_sq_distance_tile(column, half_width=half_width)
 
 
 def _running(op, x: jax.Array, init: jax.Array, *, reverse: bool = False) -> jax.Array:
@@ -142,43 +199,6 @@ def _running(op, x: jax.Array, init: jax.Array, *, reverse: bool = False) -> jax
 
     _, out = lax.scan(body, init, x, reverse=reverse)
     return out
-
-
-def _last_site(
-    g: jax.Array, cols: jax.Array, *, start: int, stop: int, reverse: bool
-) -> tuple[jax.Array, jax.Array]:
-    """Column and value of the nearest finite entry of ``g`` at or before each column of
-    ``[start, stop)`` (with ``reverse``: at or after).
-
-    Columns outside ``[start, stop)`` enter through one reduction (the last finite site
-    before ``start``, or the first after ``stop``); the scan runs over ``[start, stop)``
-    only.  Returns two int32 arrays (rows, stop - start); a missing site gets a column
-    2^24 away, beyond any window.
-    """
-    big = jnp.int32(1 << 24)
-    far = jnp.int32(FAR_SQ)
-    finite = g < far
-    if reverse:
-        outer = slice(stop, None)
-        col0 = jnp.min(jnp.where(finite[:, outer], cols[outer], big), axis=1)
-    else:
-        outer = slice(0, start)
-        col0 = jnp.max(jnp.where(finite[:, outer], cols[outer], -big), axis=1)
-    found = jnp.abs(col0) < big
-    val0 = jnp.take_along_axis(g, jnp.clip(col0, 0, g.shape[1] - 1)[:, None], axis=1)[:, 0]
-    val0 = jnp.where(found, val0, far)
-
-    def body(carry, xs):
-        col, val = carry
-        gcol, c = xs
-        hit = gcol < far
-        col = jnp.where(hit, c, col)
-        val = jnp.where(hit, gcol, val)
-        return (col, val), (col, val)
-
-    inner = slice(start, stop)
-    _, (col, val) = lax.scan(body, (col0, val0), (g[:, inner].T, cols[inner]), reverse=reverse)
-    return col.T, val.T
 
 
 def gaussian_from_sq_distance(d2: jax.Array, sigma_px: jax.Array | float) -> jax.Array:
@@ -198,11 +218,6 @@ def gaussian_from_sq_distance(d2: jax.Array, sigma_px: jax.Array | float) -> jax
     scale = 1.0 / (2.0 * jnp.asarray(sigma_px, jnp.float32) ** 2)
     h = jnp.exp(-d2.astype(jnp.float32) * scale)
     return jnp.where(d2 >= FAR_SQ, jnp.float32(0), h)
-
-
-@partial(jax.jit, static_argnames=("out_px", "half_width"))
-def _window_sq_distance_tiles(patches: jax.Array, *, out_px: int, half_width: int) -> jax.Array:
-    return lax.map(partial(window_sq_distance_tile, out_px=out_px, half_width=half_width), patches)
 
 
 def brute_force_distance_map(

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+from jax import lax
 
 __all__ = ["HALO_PX", "reflect_101_halo", "laplacian_valid", "ridge_from_laplacian"]
 
@@ -50,18 +51,31 @@ def reflect_101_halo(
     array, same shape and dtype: rows/cols outside ``[0, map_shape)`` hold the
     ``BORDER_REFLECT_101`` image of the inside (OpenCV's default border).
     """
-    n = values.shape[0]
-    local = jnp.arange(n, dtype=jnp.int32)
-
-    def indices(axis: int) -> jax.Array:
+    # Only the ``halo`` rows (cols) just outside each map edge can be read by the
+    # Laplacian of a map pixel, so only those are replaced, by row (col) copies: a gather
+    # of the whole tile costs more than the filter itself.  Sources are read before any
+    # write, so tiny maps whose reflections land outside the map again behave like a
+    # gather from the unmodified tile.
+    out = values
+    for axis in (0, 1):
+        n = out.shape[axis]
         start = origin[axis] - halo
         last = map_shape[axis] - 1
-        glob = start + local
-        glob = jnp.where(glob < 0, -glob, glob)
-        glob = jnp.where(glob > last, 2 * last - glob, glob)
-        return jnp.clip(glob - start, 0, n - 1)
-
-    return jnp.take(jnp.take(values, indices(0), axis=0), indices(1), axis=1)
+        local_last = last - start
+        targets = [jnp.int32(i) for i in range(halo)]
+        targets += [local_last + 1 + i for i in range(halo)]
+        rows = []
+        for t in targets:
+            glob = start + t
+            src = jnp.where(glob < 0, -glob, glob)
+            src = jnp.where(src > last, 2 * last - src, src)
+            src = jnp.clip(src - start, 0, n - 1)
+            inside = (t >= 0) & (t < n)
+            rows.append((jnp.clip(t, 0, n - 1), inside, lax.dynamic_index_in_dim(out, src, axis)))
+        for t, inside, row in rows:
+            current = lax.dynamic_index_in_dim(out, t, axis)
+            out = lax.dynamic_update_index_in_dim(out, jnp.where(inside, row, current), t, axis)
+    return out
 
 
 def laplacian_valid(values: jax.Array, *, ksize: int) -> jax.Array:

@@ -82,31 +82,33 @@ class TileGrid:
         rows, cols = np.divmod(np.asarray(index, dtype=np.intp), gc)
         return np.ascontiguousarray(view[rows, cols])
 
-    def patch_view(self, array: np.ndarray, halo: int, *, fill=0) -> np.ndarray:
+    def patch_view(self, array: np.ndarray, halo, *, fill=0) -> np.ndarray:
         """Haloed patches of every tile as a read-only strided view (no copy per patch).
 
         Parameters
         ----------
         array : array, shape (H, W)
-        halo : int
-            Halo width on every side (>= 0).
+        halo : int or (int, int)
+            Halo width on every side (>= 0), or separate (row, column) halo widths.
         fill : scalar
             Value of pixels outside the map.
 
         Returns
         -------
-        array view, shape (tile rows, tile cols, T + 2 halo, T + 2 halo): ``view[i, j]``
-        is tile ``(i, j)`` with its halo.  The map is padded once; indexing a patch
-        copies nothing until it is stacked.
+        array view, shape (tile rows, tile cols, T + 2 halo_rows, T + 2 halo_cols):
+        ``view[i, j]`` is tile ``(i, j)`` with its halo.  The map is padded once;
+        indexing a patch copies nothing until it is stacked.
         """
         if array.shape != tuple(self.map_shape):
             raise ValueError(f"array must have shape {self.map_shape}, got {array.shape}")
+        hr, hc = (halo, halo) if np.ndim(halo) == 0 else tuple(halo)
+        if min(hr, hc) < 0:
+            raise ValueError(f"halo must be >= 0, got {halo!r}")
         t = self.tile_px
         gr, gc = self.grid_shape
-        padded = np.full((gr * t + 2 * halo, gc * t + 2 * halo), fill, dtype=array.dtype)
-        padded[halo : halo + array.shape[0], halo : halo + array.shape[1]] = array
-        size = t + 2 * halo
-        return sliding_window_view(padded, (size, size))[::t, ::t]
+        padded = np.full((gr * t + 2 * hr, gc * t + 2 * hc), fill, dtype=array.dtype)
+        padded[hr : hr + array.shape[0], hc : hc + array.shape[1]] = array
+        return sliding_window_view(padded, (t + 2 * hr, t + 2 * hc))[::t, ::t]
 
     def assemble(self, tiles: np.ndarray) -> np.ndarray:
         """Put per-tile cores back together.
