@@ -52,9 +52,11 @@ lengths, clearances) are computed with vectorised numpy over all paths at once.
 
 from __future__ import annotations
 
+import gc
 import math
 import numbers
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 import networkx as nx
 import numba
@@ -380,6 +382,22 @@ def _empty_graph(shape: tuple[int, int], res: float, merge: bool) -> nx.MultiGra
     return g
 
 
+@contextmanager
+def paused_gc() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector (restored on exit, also on error).
+
+    Building a networkx graph allocates many small containers, which triggers collections
+    that scan every live object; the objects built here hold no reference cycles.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
 def skeleton_to_graph(
     skeleton: np.ndarray,
     *,
@@ -590,48 +608,51 @@ def skeleton_to_graph(
         node_clear = np.full(n_v, np.nan)
 
     # --- assemble the networkx graph --------------------------------------------------
-    g = _empty_graph(shape, res, merge)
-    vr_l = vr.tolist()
-    vc_l = vc.tolist()
-    kinds = [_KIND_NAMES[int(k)] for k in v_kind]
-    nw = node_world.tolist()
-    ncl = node_clear.tolist()
-    mb = member_bounds.tolist()
-    pixels = [pixels_rc[mb[i] : mb[i + 1]] for i in range(n_v)]
-    g.add_nodes_from(
-        (
-            i,
-            {
-                "pixel": (vr_l[i], vc_l[i]),
-                "pixels": pixels[i],
-                "world": (nw[i][0], nw[i][1]),
-                "kind": kinds[i],
-                "clearance_m": ncl[i],
-            },
-        )
-        for i in range(n_v)
-    )
-    if n_e:
-        order = np.lexsort((np.arange(n_e), v_id, u_id))
-        bnd = e_off.tolist()
-        u_l = u_id.tolist()
-        v_l = v_id.tolist()
-        ln = length_m.tolist()
-        mn = min_c.tolist()
-        me = mean_c.tolist()
-        add_edge = g.add_edge  # faster than add_edges_from for MultiGraph (no view lookups)
-        for i in order.tolist():
-            a, b = bnd[i], bnd[i + 1]
-            add_edge(
-                u_l[i],
-                v_l[i],
-                path=path_rc[a:b],
-                world=path_world[a:b],
-                length_m=ln[i],
-                min_clearance_m=mn[i],
-                mean_clearance_m=me[i],
+    # Thousands of small dicts and tuples: a cyclic-GC pass triggered in the middle
+    # would scan every live object of the process (milliseconds, at random calls).
+    with paused_gc():
+        g = _empty_graph(shape, res, merge)
+        vr_l = vr.tolist()
+        vc_l = vc.tolist()
+        kinds = [_KIND_NAMES[int(k)] for k in v_kind]
+        nw = node_world.tolist()
+        ncl = node_clear.tolist()
+        mb = member_bounds.tolist()
+        pixels = [pixels_rc[mb[i] : mb[i + 1]] for i in range(n_v)]
+        g.add_nodes_from(
+            (
+                i,
+                {
+                    "pixel": (vr_l[i], vc_l[i]),
+                    "pixels": pixels[i],
+                    "world": (nw[i][0], nw[i][1]),
+                    "kind": kinds[i],
+                    "clearance_m": ncl[i],
+                },
             )
-    return g
+            for i in range(n_v)
+        )
+        if n_e:
+            order = np.lexsort((np.arange(n_e), v_id, u_id))
+            bnd = e_off.tolist()
+            u_l = u_id.tolist()
+            v_l = v_id.tolist()
+            ln = length_m.tolist()
+            mn = min_c.tolist()
+            me = mean_c.tolist()
+            add_edge = g.add_edge  # faster than add_edges_from for MultiGraph (no view lookups)
+            for i in order.tolist():
+                a, b = bnd[i], bnd[i + 1]
+                add_edge(
+                    u_l[i],
+                    v_l[i],
+                    path=path_rc[a:b],
+                    world=path_world[a:b],
+                    length_m=ln[i],
+                    min_clearance_m=mn[i],
+                    mean_clearance_m=me[i],
+                )
+        return g
 
 
 def graph_summary(graph: nx.MultiGraph) -> dict[str, float | int]:

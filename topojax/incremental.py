@@ -1852,6 +1852,12 @@ class IncrementalMapper:
         return self._update_graph()
 
     def _update_graph(self) -> GraphUpdate:
+        from .graph import paused_gc
+
+        with paused_gc():
+            return self._patch_graph()
+
+    def _patch_graph(self) -> GraphUpdate:
         import cv2
 
         t0 = time.perf_counter()
