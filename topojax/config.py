@@ -170,7 +170,7 @@ class PipelineConfig:
         is served by the kernels compiled for this tile size.
     tiles_per_call : int
         Number of tiles handed to one kernel call (a fixed bucket, so maps of any size
-        reuse one compiled kernel; a short last call is padded with empty tiles).  On a
+        reuse the compiled kernels; a short last call is padded with empty tiles).  On a
         CPU, 1 wastes nothing on padding and the calls are spread over every core.
     """
 

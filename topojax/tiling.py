@@ -1,11 +1,11 @@
 """Fixed-size tiles: cutting maps into haloed patches and putting results back.
 
-Every JAX kernel in topojax runs on square tiles of one size, so one compiled kernel
-serves maps of every size.  A map of shape ``(H, W)`` is covered by
+Every JAX kernel in topojax runs on square tiles of one size, so each kernel is compiled
+once for maps of every size.  A map of shape ``(H, W)`` is covered by
 ``ceil(H / T) x ceil(W / T)`` tiles of side ``T``; tile ``(i, j)`` owns the map pixels
 ``[i T, (i + 1) T) x [j T, (j + 1) T)`` (its *core*).  Kernels that look at neighbours get
-the core plus a *halo* of ``h`` pixels on every side, cut from the map padded with a
-constant.  Pixels of the last row/column of tiles that fall outside the map are padding and
+the core plus a *halo* of ``h`` pixels on every side (or ``h_rows`` above and below and
+``h_cols`` left and right), cut from the map padded with a constant.  Pixels of the last row/column of tiles that fall outside the map are padding and
 are dropped when the tiles are assembled.
 """
 
