@@ -286,3 +286,16 @@ def test_distance_config_from_metres():
     assert (cfg.sigma_px, cfg.half_width_px) == (pytest.approx(10.0), 20)
     with pytest.raises(ValueError, match="resolution_m"):
         DistanceConfig.from_metres(sigma_m=1.0, resolution_m=0.0)
+
+
+def test_wide_window_uses_uint16_column_pass_end_to_end():
+    """R >= 255 switches the column pass to uint16; results stay exact on a real run."""
+    rng = np.random.default_rng(5)
+    obstacles = np.zeros((300, 40), bool)
+    obstacles[rng.integers(0, 300, 6), rng.integers(0, 40, 6)] = True
+    r = 270
+    got = dense_fields(
+        obstacles, distance=DistanceConfig(sigma_px=90.0, half_width_px=r), tile_px=32
+    ).sq_distance_px.astype(np.float64)
+    got[got >= FAR_SQ] = np.inf
+    np.testing.assert_array_equal(got, brute_sq_distance(obstacles, r))
