@@ -271,8 +271,8 @@ def _check_clearance(clearance_px: object, skel: np.ndarray) -> np.ndarray:
             f"clearance_px: expected shape {skel.shape} (the skeleton's shape), "
             f"received shape {arr.shape}"
         )
-    arr = arr.astype(np.float64, copy=False)
-    vals = arr[skel]
+    # Only skeleton pixels are read: validate (and later convert) just those, not the map.
+    vals = arr[skel].astype(np.float64, copy=False)
     bad = np.isnan(vals) | (vals < 0)
     if bad.any():
         r, c = np.argwhere(skel)[np.flatnonzero(bad)[0]]
@@ -596,14 +596,14 @@ def skeleton_to_graph(
         ends = starts + lens - 1
         length_m = (cum[ends] - cum[starts]) * res
         if clear is not None:
-            cval = clear[pr, pc] * res
+            cval = clear[pr, pc].astype(np.float64) * res
             min_c = np.minimum.reduceat(cval, starts)
             mean_c = np.add.reduceat(cval, starts) / lens
         else:
             min_c = np.full(n_e, np.nan)
             mean_c = np.full(n_e, np.nan)
     if clear is not None:
-        node_clear = clear[vr, vc] * res
+        node_clear = clear[vr, vc].astype(np.float64) * res
     else:
         node_clear = np.full(n_v, np.nan)
 
