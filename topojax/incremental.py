@@ -2171,11 +2171,13 @@ class IncrementalMapper:
             out.add_edge(u, v, key=k, path=self._e_path[k].copy())
         return out
 
-    def _clearance(self):
+    def _clearance(self, *, everywhere: bool = False):
+        """Clearance map (exact at skeleton pixels, or everywhere) and the skeleton."""
         from .pipeline import clearance_from_sq_distance
 
         sk = self.skeleton
-        return clearance_from_sq_distance(self.sq_distance_px, self.obstacles, self._half, sk), sk
+        need = None if everywhere else sk
+        return clearance_from_sq_distance(self.sq_distance_px, self.obstacles, self._half, need), sk
 
     def _export_graph(self) -> nx.MultiGraph:
         res = self.resolution_m
@@ -2254,7 +2256,7 @@ class IncrementalMapper:
 
         if update:
             self.update_graph()
-        clearance, sk = self._clearance()
+        clearance, sk = self._clearance(everywhere=True)
         return TopologyResult(
             map=self.occupancy,
             distance=self.distance,

@@ -426,28 +426,55 @@ class TopologyResult:
 
 
 def clearance_from_sq_distance(
-    sq_distance_px: np.ndarray, obstacles: np.ndarray, half_width_px: int, need: np.ndarray
+    sq_distance_px: np.ndarray,
+    obstacles: np.ndarray,
+    half_width_px: int,
+    need: np.ndarray | None = None,
 ) -> np.ndarray:
     """True Euclidean clearance in pixels from the windowed squared distance.
 
     The windowed distance equals the Euclidean distance transform wherever it is at most
-    the window half-width; pixels beyond that (only in very open maps) are filled in from
-    an exact unwindowed transform, computed only if a pixel in ``need`` requires it.
+    the window half-width ``R`` (an obstacle nearer than ``R`` is inside the window).
+    Pixels beyond that (only in open maps) are filled in from an exact unwindowed
+    transform.
+
+    Parameters
+    ----------
+    sq_distance_px : int32 (H, W)
+        Windowed squared distance, px^2 (``FAR_SQ`` where the window has no obstacle).
+    obstacles : bool (H, W)
+    half_width_px : int
+        Window half-width ``R``.
+    need : bool (H, W), optional
+        If given, only these pixels must be exact: the unwindowed transform is computed
+        only when one of them lies beyond ``R`` (other pixels beyond ``R`` then keep the
+        windowed value).  Default: every pixel is exact.
+
+    Returns
+    -------
+    float32 (H, W): clearance in pixels, ``inf`` everywhere when there are no obstacles.
+    Within ``R`` it is the square root of the exact integer distance; beyond ``R`` it is
+    OpenCV's exact transform in float32 (which can differ by one ulp between calls).
     """
     d2 = sq_distance_px
-    clearance = np.sqrt(d2.astype(np.float32))
-    beyond = d2 > half_width_px * half_width_px
-    if np.any(beyond & need):
-        if obstacles.any():
-            import cv2
+    clearance = d2.astype(np.float32)
+    np.sqrt(clearance, out=clearance)
+    r2 = half_width_px * half_width_px
+    if d2.size == 0 or d2.max() <= r2:
+        return clearance
+    beyond = d2 > r2
+    if need is not None and not np.any(beyond & need):
+        return clearance
+    if obstacles.any():
+        import cv2
 
-            edt = cv2.distanceTransform(
-                (~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE
-            )
-            clearance = np.where(beyond, edt, clearance)
-        else:
-            clearance = np.where(beyond, np.float32(np.inf), clearance)
-    return clearance.astype(np.float32)
+        edt = cv2.distanceTransform(
+            (~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE
+        )
+        np.copyto(clearance, edt, where=beyond)
+    else:
+        clearance[beyond] = np.inf
+    return clearance
 
 
 def graph_from_ridges(
@@ -557,7 +584,7 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     timings["distance_ridges"] = t1 - t0
 
     clearance = clearance_from_sq_distance(
-        fields.sq_distance_px, obstacles, config.distance.half_width_px, fields.ridges
+        fields.sq_distance_px, obstacles, config.distance.half_width_px
     )
     skeleton, graph, cpu_timings = graph_from_ridges(
         fields.ridges,
