@@ -35,6 +35,7 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import sys
@@ -332,6 +333,9 @@ def bench_map(
         _, last[key] = fn()
     for _ in range(repeats):
         for key, fn in variants.items():
+            # Collect the previous run's garbage first (untimed), so that a collection it
+            # would trigger is not charged to the next variant (all variants alike).
+            gc.collect()
             stages, _ = fn()
             samples[key].add(stages)
     entry["warm"] = {k: s.summary() for k, s in samples.items()}
@@ -370,6 +374,7 @@ def bench_map(
         fn()
     for _ in range(repeats):
         for key, fn in dist_fns.items():
+            gc.collect()
             t0 = time.perf_counter()
             fn()
             dist_samples[key].add({"total": time.perf_counter() - t0})
