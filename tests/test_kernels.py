@@ -299,3 +299,27 @@ def test_wide_window_uses_uint16_column_pass_end_to_end():
     ).sq_distance_px.astype(np.float64)
     got[got >= FAR_SQ] = np.inf
     np.testing.assert_array_equal(got, brute_sq_distance(obstacles, r))
+
+
+def test_row_pass_needed_region_is_exact_and_may_stop_early():
+    """Pixels outside ``needed`` do not hold up a band's exit; needed ones stay exact."""
+    from topojax.distance import row_sq_distance_tile
+
+    rng = np.random.default_rng(11)
+    r, n, w = 20, 30, 24
+    strip = rng.random((n + 2 * r, w + 2 * r)) < 0.01
+    strip[:, : r + 6] = False  # an open area on the left: big distances there
+    column = column_distance_tile(jnp.asarray(strip), half_width=r)
+    full = np.asarray(row_sq_distance_tile(column, half_width=r))
+    needed = np.array([3, 25, 8, 24], np.int32)
+    part = np.asarray(
+        jax.jit(partial(row_sq_distance_tile, half_width=r))(column, needed=jnp.asarray(needed))
+    )
+    np.testing.assert_array_equal(part[3:25, 8:24], full[3:25, 8:24])
+    # elsewhere: never below the true value (an upper bound from real obstacles or FAR),
+    # and here the open area's bands did stop early
+    assert (part >= full).all()
+    assert (part != full).any()
+    ref = brute_sq_distance(strip, r)[r : r + n, r : r + w]
+    ref[np.isinf(ref)] = FAR_SQ
+    np.testing.assert_array_equal(full, ref)

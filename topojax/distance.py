@@ -103,7 +103,9 @@ def column_distance_tile(strip: jax.Array, *, half_width: int) -> jax.Array:
     return jnp.where(dv <= r, dv, np.iinfo(dtype).max).astype(dtype)
 
 
-def row_sq_distance_tile(column: jax.Array, *, half_width: int) -> jax.Array:
+def row_sq_distance_tile(
+    column: jax.Array, *, half_width: int, needed: jax.Array | None = None
+) -> jax.Array:
     """Windowed squared distance from the column pass, along rows.
 
     Pure function of one fixed-size patch; batch it with :func:`jax.lax.map` (each band of
@@ -117,12 +119,17 @@ def row_sq_distance_tile(column: jax.Array, *, half_width: int) -> jax.Array:
         map must hold the "none" value (the dtype's maximum).
     half_width : int
         Window half-width ``R`` in pixels (static).
+    needed : int32 array (4,), optional
+        ``(row0, row1, col0, col1)``: only output pixels in ``[row0, row1) x [col0, col1)``
+        are needed (traced, e.g. the part of a border tile that lies inside the map).  The
+        others do not hold up a band's early exit, and their values are then unspecified
+        (an upper bound).  Default: all pixels.
 
     Returns
     -------
     int32 array, shape (n, w)
         ``min (dr^2 + dc^2)`` over obstacles with ``|dr| <= R`` and ``|dc| <= R``, or
-        :data:`FAR_SQ` where there is none.
+        :data:`FAR_SQ` where there is none (at the needed pixels).
     """
     r = half_width
     n, size = column.shape
@@ -134,9 +141,24 @@ def row_sq_distance_tile(column: jax.Array, *, half_width: int) -> jax.Array:
     g = jnp.where(v <= r, v * v, far)
 
     n_bands = -(-n // _BAND_ROWS)
-    g = jnp.pad(g, ((0, n_bands * _BAND_ROWS - n), (0, 0)), constant_values=FAR_SQ)
+    n_pad = n_bands * _BAND_ROWS
+    g = jnp.pad(g, ((0, n_pad - n), (0, 0)), constant_values=FAR_SQ)
+    rows = jnp.arange(n_pad, dtype=jnp.int32)[:, None]
+    cols = jnp.arange(w, dtype=jnp.int32)[None, :]
+    if needed is None:
+        mask = rows < n
+    else:
+        needed = jnp.asarray(needed, jnp.int32)
+        mask = (rows >= needed[0]) & (rows < jnp.minimum(needed[1], n))
+        mask = mask & (cols >= needed[2]) & (cols < needed[3])
+    mask = jnp.broadcast_to(mask, (n_pad, w))
 
-    def band(gb):
+    def band(args):
+        gb, mb = args
+
+        def worst_of(best):
+            return jnp.max(jnp.where(mb, best, 0))
+
         def cond(carry):
             k, _, worst = carry
             return (k * k < worst) & (k <= r)
@@ -150,14 +172,16 @@ def row_sq_distance_tile(column: jax.Array, *, half_width: int) -> jax.Array:
                 right = lax.dynamic_slice_in_dim(gb, r + kk, w, axis=1)
                 left = lax.dynamic_slice_in_dim(gb, r - kk, w, axis=1)
                 best = jnp.minimum(best, jnp.minimum(left, right) + kk * kk)
-            return k + _UNROLL, best, jnp.max(best)
+            return k + _UNROLL, best, worst_of(best)
 
         best0 = gb[:, r : r + w]
-        _, best, _ = lax.while_loop(cond, body, (jnp.int32(1), best0, jnp.max(best0)))
+        _, best, _ = lax.while_loop(cond, body, (jnp.int32(1), best0, worst_of(best0)))
         return jnp.minimum(best, far)
 
-    out = lax.map(band, g.reshape(n_bands, _BAND_ROWS, size))
-    return out.reshape(n_bands * _BAND_ROWS, w)[:n]
+    out = lax.map(
+        band, (g.reshape(n_bands, _BAND_ROWS, size), mask.reshape(n_bands, _BAND_ROWS, w))
+    )
+    return out.reshape(n_pad, w)[:n]
 
 
 def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -> jax.Array:

@@ -98,7 +98,15 @@ def forward_tile(
     ridge : bool (T, T)
         ``lap_abs > threshold``.
     """
-    d2 = row_sq_distance_tile(column, half_width=half_width)
+    # Only pixels inside the map are needed: the Laplacian's halo beyond the map edge is
+    # replaced by reflected values, and the core beyond it is dropped.
+    out = tile_px + 2 * HALO_PX
+    first = origin - HALO_PX  # map (row, col) of the output's first pixel
+    lo = jnp.maximum(-first, 0)
+    hi = jnp.minimum(map_shape - first, out)
+    d2 = row_sq_distance_tile(
+        column, half_width=half_width, needed=jnp.stack([lo[0], hi[0], lo[1], hi[1]])
+    )
     h = gaussian_from_sq_distance(d2, sigma_px)
     lap = laplacian_valid(reflect_101_halo(h, origin, map_shape, halo=HALO_PX), ksize=ksize)
     lap_abs, ridge = ridge_from_laplacian(lap, scale=scale, threshold=threshold)
