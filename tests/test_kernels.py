@@ -323,3 +323,20 @@ def test_row_pass_needed_region_is_exact_and_may_stop_early():
     ref = brute_sq_distance(strip, r)[r : r + n, r : r + w]
     ref[np.isinf(ref)] = FAR_SQ
     np.testing.assert_array_equal(full, ref)
+
+
+@pytest.mark.parametrize("tile", [32, 64])
+def test_sq_distances_above_16_bits_are_exact(tile):
+    """Squared distances of 2^16 and more (nearest obstacle farther than 255 px: only in a
+    window corner) are exact, and windows with no obstacle stay FAR."""
+    r = 200
+    obstacles = np.zeros((215, 240), bool)
+    obstacles[5, 3] = True  # window corners reach 283 px away; beyond 200 px: no window
+    got = dense_fields(
+        obstacles, distance=DistanceConfig(sigma_px=60.0, half_width_px=r), tile_px=tile
+    ).sq_distance_px.astype(np.float64)
+    ref = brute_sq_distance(obstacles, r)
+    assert (ref[np.isfinite(ref)] >= 65535).sum() > 500
+    assert np.isinf(ref).any()
+    got[got >= FAR_SQ] = np.inf
+    np.testing.assert_array_equal(got, ref)
