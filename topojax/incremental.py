@@ -2171,13 +2171,11 @@ class IncrementalMapper:
             out.add_edge(u, v, key=k, path=self._e_path[k].copy())
         return out
 
-    def _clearance(self, *, everywhere: bool = False):
-        """Clearance map (exact at skeleton pixels, or everywhere) and the skeleton."""
+    def _clearance(self):
         from .pipeline import clearance_from_sq_distance
 
         sk = self.skeleton
-        need = None if everywhere else sk
-        return clearance_from_sq_distance(self.sq_distance_px, self.obstacles, self._half, need), sk
+        return clearance_from_sq_distance(self.sq_distance_px, self.obstacles, self._half, sk), sk
 
     def _export_graph(self) -> nx.MultiGraph:
         res = self.resolution_m
@@ -2256,17 +2254,16 @@ class IncrementalMapper:
 
         if update:
             self.update_graph()
-        clearance, sk = self._clearance(everywhere=True)
         return TopologyResult(
             map=self.occupancy,
             distance=self.distance,
             lap_abs=self.lap_abs,
             ridges=self.ridges,
-            skeleton=sk,
-            clearance_px=clearance,
+            skeleton=self.skeleton,
             graph=self.graph,
             config=self.config,
             timings_s={},
+            sq_distance_px=self.sq_distance_px,
         )
 
     # ------------------------------------------------------------------ state

@@ -17,7 +17,7 @@ import time
 from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from functools import partial
+from functools import cached_property, partial
 
 import jax
 import jax.numpy as jnp
@@ -413,13 +413,18 @@ class TopologyResult:
         Thresholded ridge map.
     skeleton : bool (H, W)
         Thinned ridges after T-centre removal.
-    clearance_px : float32 (H, W)
-        Euclidean distance to the nearest obstacle in pixels (``inf`` with no obstacle).
     graph : networkx.MultiGraph
         The topology graph (see :func:`topojax.graph.skeleton_to_graph`).
     config : PipelineConfig
     timings_s : dict[str, float]
         Wall time of each stage in seconds.
+    sq_distance_px : int32 (H, W)
+        Windowed squared distance to the nearest obstacle in px^2 (``FAR_SQ`` where the
+        window holds none); the distance map is ``exp(-sq_distance_px / (2 sigma^2))``.
+    clearance_px : float32 (H, W)
+        Euclidean distance to the nearest obstacle in pixels (``inf`` with no obstacle),
+        on the whole map.  Computed on first access (beyond the window it needs an
+        unwindowed transform); the graph's clearances do not wait for it.
     """
 
     map: object
@@ -427,10 +432,18 @@ class TopologyResult:
     lap_abs: np.ndarray
     ridges: np.ndarray
     skeleton: np.ndarray
-    clearance_px: np.ndarray
     graph: nx.MultiGraph
     config: PipelineConfig
     timings_s: dict[str, float] = field(default_factory=dict)
+    sq_distance_px: np.ndarray | None = None
+
+    @cached_property
+    def clearance_px(self) -> np.ndarray:
+        if self.sq_distance_px is None:
+            raise ValueError("clearance_px needs sq_distance_px, which this result lacks")
+        return clearance_from_sq_distance(
+            self.sq_distance_px, self.map.occupied, self.config.distance.half_width_px
+        )
 
 
 def clearance_from_sq_distance(
@@ -591,8 +604,9 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     t1 = time.perf_counter()
     timings["distance_ridges"] = t1 - t0
 
+    # exact where the graph reads it; the result's whole-map clearance is computed lazily
     clearance = clearance_from_sq_distance(
-        fields.sq_distance_px, obstacles, config.distance.half_width_px
+        fields.sq_distance_px, obstacles, config.distance.half_width_px, fields.ridges
     )
     skeleton, graph, cpu_timings = graph_from_ridges(
         fields.ridges,
@@ -605,14 +619,19 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     )
     timings.update(cpu_timings)
     timings["total"] = time.perf_counter() - t0
-    return TopologyResult(
+    result = TopologyResult(
         map=occupancy,
         distance=fields.distance,
         lap_abs=fields.lap_abs,
         ridges=fields.ridges,
         skeleton=skeleton,
-        clearance_px=clearance,
         graph=graph,
         config=config,
         timings_s=timings,
+        sq_distance_px=fields.sq_distance_px,
     )
+    r = config.distance.half_width_px
+    if fields.sq_distance_px.size and fields.sq_distance_px.max() <= r * r:
+        # nothing lies beyond the window: the graph's clearance map is exact everywhere
+        result.__dict__["clearance_px"] = clearance
+    return result
