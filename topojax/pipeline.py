@@ -89,6 +89,9 @@ def forward_tile(
 
     Returns
     -------
+    All four are exact at the tile's pixels inside the map; pixels beyond the map edge
+    (in the last row and column of tiles) hold unspecified values.
+
     sq_distance : int32 (T, T)
         Windowed squared distance to the nearest obstacle, px^2 (``FAR_SQ`` if none).
     distance : float32 (T, T)
