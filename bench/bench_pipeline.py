@@ -140,19 +140,20 @@ def run_offshelf(obstacles, thinning: str) -> tuple[dict[str, float], dict[str, 
     d = edt.astype(np.float64)
     h = np.exp(-(d * d) / (2.0 * SIGMA_PX * SIGMA_PX))
     t1 = time.perf_counter()
+    stages, out = offshelf_after_distance(h, thinning)
+    return {"distance": t1 - t0, **stages, "total": time.perf_counter() - t0}, out
+
+
+def offshelf_after_distance(h, thinning: str) -> tuple[dict[str, float], dict[str, Any]]:
+    """The steps after the distance map shared by (a) and (b): ridges, thinning, skan."""
+    t0 = time.perf_counter()
     ridges = ridges_from_distance_map(h)
-    t2 = time.perf_counter()
+    t1 = time.perf_counter()
     skeleton = thin_offshelf(ridges, thinning)
-    t3 = time.perf_counter()
+    t2 = time.perf_counter()
     branches = graph_offshelf(skeleton)
-    t4 = time.perf_counter()
-    stages = {
-        "distance": t1 - t0,
-        "ridges": t2 - t1,
-        "thinning": t3 - t2,
-        "graph": t4 - t3,
-        "total": t4 - t0,
-    }
+    t3 = time.perf_counter()
+    stages = {"ridges": t1 - t0, "thinning": t2 - t1, "graph": t3 - t2}
     return stages, {"ridges": ridges, "skeleton": skeleton, "branches": branches}
 
 
@@ -184,20 +185,13 @@ def run_naive(obstacles) -> tuple[dict[str, float], dict[str, Any]]:
     t0 = time.perf_counter()
     h = naive_splat(obstacles)
     t1 = time.perf_counter()
-    ridges = ridges_from_distance_map(h)
-    t2 = time.perf_counter()
-    skeleton = thin_offshelf(ridges, "guo_hall")
-    t3 = time.perf_counter()
-    branches = graph_offshelf(skeleton)
-    t4 = time.perf_counter()
-    stages = {
-        "splat": t1 - t0,
-        "ridges": t2 - t1,
-        "thinning": t3 - t2,
-        "graph": t4 - t3,
-        "total": t4 - t0,
+    stages, out = offshelf_after_distance(h, "guo_hall")
+    total = time.perf_counter() - t0
+    return {"splat": t1 - t0, **stages, "total": total}, {
+        "distance": h,
+        "ridges": out["ridges"],
+        "branches": out["branches"],
     }
-    return stages, {"distance": h, "ridges": ridges, "branches": branches}
 
 
 def topojax_distance_kernel_fn(obstacles) -> Callable[[], Any] | None:

@@ -285,6 +285,14 @@ def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, s
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _bresenham_start(r, c, r1, c1):
+    """Bresenham's line walk from (r, c) to (r1, c1): (dr, dc, stp_r, stp_c, err)."""
+    dr = abs(r1 - r)
+    dc = abs(c1 - c)
+    return dr, dc, (1 if r1 > r else -1), (1 if c1 > c else -1), dc - dr
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _bresenham_step(r, c, err, dr, dc, stp_r, stp_c):
     """One step of Bresenham's line walk; returns the next (row, col, error)."""
     e2 = 2 * err
@@ -338,11 +346,7 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
             continue
         r = sr
         c = sc
-        dr = abs(r1 - r)
-        dc = abs(c1 - c)
-        stp_r = 1 if r1 > r else -1
-        stp_c = 1 if c1 > c else -1
-        err = dc - dr
+        dr, dc, stp_r, stp_c, err = _bresenham_start(r, c, r1, c1)
         last_r = -(1 << 62)
         last_c = -(1 << 62)
         while True:
@@ -403,11 +407,7 @@ def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
         if rays and not (r1 == sr and c1 == sc):
             r = sr
             c = sc
-            dr = abs(r1 - r)
-            dc = abs(c1 - c)
-            stp_r = 1 if r1 > r else -1
-            stp_c = 1 if c1 > c else -1
-            err = dc - dr
+            dr, dc, stp_r, stp_c, err = _bresenham_start(r, c, r1, c1)
             # tile-local stepping: look the tile up only when the ray leaves it
             s = _slot(grid, g0r, g0c, t, r, c)
             lr = r - (r // t) * t
