@@ -74,6 +74,9 @@ def assert_matches_full_map(mapper: IncrementalMapper, config: PipelineConfig | 
     np.testing.assert_array_equal(mapper.ridges, ref.ridges)
     np.testing.assert_array_equal(mapper.lap_abs, ref.lap_abs)
     np.testing.assert_array_equal(mapper.skeleton, ref.skeleton)
+    if mapper.strategy == "exact":  # the state behind the local re-thinning
+        times = thin_times_reference(ref.ridges, config.skeleton.thinning)
+        np.testing.assert_array_equal(mapper._dense("thin_time"), times)
     gv, ge = canon(mapper.graph)
     rv, re_ = canon(ref.graph)
     assert gv == rv
@@ -394,6 +397,177 @@ def test_thin_components_equals_whole_image(shape, density, seed, method):
         method=method,
     )
     np.testing.assert_array_equal(got, full[rows, cols])
+
+
+def thin_times_reference(image: np.ndarray, method: str) -> np.ndarray:
+    """Deletion time of every pixel under parallel thinning, whole-image NumPy reference:
+    0 off the image, ``s + 1`` when deleted by sub-iteration ``s``, 65535 when kept."""
+    from topojax.skeleton import thinning_lookup_tables
+
+    tables = thinning_lookup_tables(method)
+    offsets = [(0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1), (1, 0), (1, 1)]
+    h, w = image.shape
+    alive = image.astype(bool).copy()
+    times = np.where(alive, 65535, 0).astype(np.int64)
+    s, quiet = 0, 0
+    while quiet < 2:
+        p = np.pad(alive, 1).astype(np.int64)
+        code = sum(
+            p[1 + dr : 1 + dr + h, 1 + dc : 1 + dc + w] << k for k, (dr, dc) in enumerate(offsets)
+        )
+        gone = alive & tables[s & 1][code]
+        times[gone] = s + 1
+        alive &= ~gone
+        quiet = 0 if gone.any() else quiet + 1
+        s += 1
+    return times
+
+
+def to_tiles(image: np.ndarray, t: int) -> np.ndarray:
+    """(H, W) -> (n_tiles, t, t), tiles in raster order (slot = tile_row * n_cols + tile_col)."""
+    h, w = image.shape
+    return np.ascontiguousarray(
+        image.reshape(h // t, t, w // t, t).transpose(0, 2, 1, 3).reshape(-1, t, t)
+    )
+
+
+def from_tiles(tiles: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    h, w = shape
+    t = tiles.shape[1]
+    return tiles.reshape(h // t, w // t, t, t).transpose(0, 2, 1, 3).reshape(h, w)
+
+
+def blob_image(rng, shape, n_blobs, max_side):
+    image = np.zeros(shape, bool)
+    for _ in range(n_blobs):
+        a, b = rng.integers(2, max_side, 2)
+        r, c = rng.integers(0, shape[0] - a), rng.integers(0, shape[1] - b)
+        image[r : r + a, c : c + b] = True
+    return image
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    method=st.sampled_from(["guo_hall", "zhang"]),
+    remove_t=st.booleans(),
+)
+def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t):
+    """The exact skeleton loop's kernels on tile layers: re-thinning around changed
+    pixels (growing its region where the change reaches the ring, as in thick blobs) and
+    the ordered T-removal update give the whole-image thinning times and skeleton."""
+    from topojax import incremental as inc
+    from topojax.skeleton import _TABLES_U8, remove_t_centres
+
+    rng = np.random.default_rng(seed)
+    t, b = 16, 4
+    shape = (64, 80)
+    old = blob_image(rng, shape, 12, 30) ^ (rng.random(shape) < 0.05)
+    new = old.copy()
+    edits = rng.integers(0, [shape[0], shape[1]], (int(rng.integers(1, 12)), 2))
+    new[edits[:, 0], edits[:, 1]] ^= True
+    tau_old = thin_times_reference(old, method)
+    tau_new = thin_times_reference(new, method)
+
+    def skeleton(tau):
+        sk = tau == 65535
+        return remove_t_centres(sk) if remove_t else sk
+
+    nr, nc = shape[0] // t, shape[1] // t
+    grid = np.arange(nr * nc, dtype=np.int32).reshape(nr, nc)
+    tr, tc = np.divmod(np.arange(nr * nc), nc)
+    nbr9 = np.full((nr * nc, 9), -1, np.int64)
+    for k, (dr, dc) in enumerate((dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1)):
+        ok = (tr + dr >= 0) & (tr + dr < nr) & (tc + dc >= 0) & (tc + dc < nc)
+        nbr9[ok, k] = grid[tr[ok] + dr, tc[ok] + dc]
+    ridge = to_tiles(new, t)
+    tau = to_tiles(tau_old.astype(np.uint16), t)
+    act = np.zeros((nr * nc, t // b, t // b), np.uint8)
+    blk = np.empty((act.size, 3), np.int64)
+    n_blk = inc._seed_blocks(edits[:, 0], edits[:, 1], grid, 0, 0, t // b, b, act, blk)
+    flat, rounds, _ = inc._rethin(
+        ridge.reshape(-1),
+        tau,
+        nbr9,
+        t,
+        b,
+        act,
+        blk,
+        n_blk,
+        _TABLES_U8[method],
+        inc._THIN_DR,
+        inc._THIN_DC,
+    )
+    np.testing.assert_array_equal(from_tiles(tau, shape), tau_new)
+    assert not act.any()
+    slot, rem = np.divmod(flat, t * t)
+    rows = tr[slot] * t + rem // t
+    cols = tc[slot] * t + rem % t
+    expect = np.argwhere((tau_old == 65535) != (tau_new == 65535))
+    assert sorted(zip(rows.tolist(), cols.tolist(), strict=True)) == sorted(
+        map(tuple, expect.tolist())
+    )
+
+    skel = to_tiles(skeleton(tau_old), t)
+    bbox = np.array([0, 0, shape[0], shape[1]], np.int64)
+    ch_r = np.empty(rows.size + 16, np.int64)
+    ch_c = np.empty(rows.size + 16, np.int64)
+    args = (skel, tau, grid, 0, 0)
+    todo, n_ch = inc._t_seeds(*args, t, bbox, rows, cols, remove_t, ch_r, ch_c)
+    ch_r, ch_c, n_ch = inc._t_update(*args, nbr9, t, bbox, np.sort(todo), ch_r, ch_c, n_ch)
+    want = skeleton(tau_new)
+    np.testing.assert_array_equal(from_tiles(skel, shape), want)
+    got_changed = sorted(zip(ch_r[:n_ch].tolist(), ch_c[:n_ch].tolist(), strict=True))
+    assert got_changed == sorted(map(tuple, np.argwhere(want != skeleton(tau_old)).tolist()))
+
+
+def test_local_rethinning_grows_through_a_thick_blob():
+    """A change at the centre of a thick blob moves the skeleton far beyond one block:
+    the re-thinning region must grow (several rounds) and still be exact."""
+    from topojax import incremental as inc
+    from topojax.skeleton import _TABLES_U8
+
+    t, b = 16, 4
+    old = np.zeros((96, 96), bool)
+    old[8:88, 20:76] = True
+    new = old.copy()
+    new[47:49, 30:66] = False  # a slot through the middle splits the skeleton
+    tau_old = thin_times_reference(old, "guo_hall")
+    grid = np.arange(36, dtype=np.int32).reshape(6, 6)
+    tr, tc = np.divmod(np.arange(36), 6)
+    nbr9 = np.full((36, 9), -1, np.int64)
+    for k, (dr, dc) in enumerate((dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1)):
+        ok = (tr + dr >= 0) & (tr + dr < 6) & (tc + dc >= 0) & (tc + dc < 6)
+        nbr9[ok, k] = grid[tr[ok] + dr, tc[ok] + dc]
+    tau = to_tiles(tau_old.astype(np.uint16), t)
+    act = np.zeros((36, 4, 4), np.uint8)
+    blk = np.empty((act.size, 3), np.int64)
+    rows, cols = np.nonzero(old != new)
+    n_blk = inc._seed_blocks(rows, cols, grid, 0, 0, 4, b, act, blk)
+    _, rounds, _ = inc._rethin(
+        to_tiles(new, t).reshape(-1),
+        tau,
+        nbr9,
+        t,
+        b,
+        act,
+        blk,
+        n_blk,
+        _TABLES_U8["guo_hall"],
+        inc._THIN_DR,
+        inc._THIN_DC,
+    )
+    assert rounds > 1
+    np.testing.assert_array_equal(from_tiles(tau, (96, 96)), thin_times_reference(new, "guo_hall"))
+
+
+def test_thin_times_reference_matches_skimage():
+    from skimage.morphology import skeletonize, thin
+
+    rng = np.random.default_rng(3)
+    image = blob_image(rng, (50, 60), 10, 20) ^ (rng.random((50, 60)) < 0.1)
+    np.testing.assert_array_equal(thin_times_reference(image, "guo_hall") == 65535, thin(image))
+    np.testing.assert_array_equal(thin_times_reference(image, "zhang") == 65535, skeletonize(image))
 
 
 @pytest.mark.parametrize("transpose", [False, True])

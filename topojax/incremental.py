@@ -56,15 +56,27 @@ Exactness
   runs in JAX on haloed blocks; the gather applies ``BORDER_REFLECT_101`` at the border of
   the bounding box (index reflection commutes with the elementwise Gaussian).  When the
   box grows, the blocks along its old border are recomputed.
-* ``"exact"`` skeleton: parallel thinning (Guo–Hall or Zhang–Suen) decides every pixel from
-  its 8 neighbours, so it acts on each 8-connected ridge component independently (thinning
-  only deletes pixels: components never merge); T-centre removal only looks at
-  4-neighbours, i.e. inside a component too.  The mapper re-thins exactly the ridge
-  components that contain a changed ridge pixel, a neighbour of a removed one, or a pixel
-  of a moved border of the bounding box (where T removal's border rule applied), found by
-  a flood fill across tiles, on a crop whose border is the map border or at least one
-  pixel away from the components (:func:`thin_components`).  The result equals the
-  full-map skeleton of the exported map.
+* ``"exact"`` skeleton, re-thinned locally.  Parallel thinning (Guo–Hall or Zhang–Suen)
+  decides a pixel at sub-iteration ``s`` from its 8 neighbours' states at ``s``.  The
+  mapper keeps, per pixel, the sub-iteration at which the thinning of the whole current
+  ridge map deletes it (layer ``thin_time``: 0 off the ridge, ``s + 1``, or 65535 for a
+  skeleton pixel).  After a ridge change it re-thins only the ridge pixels of the blocks
+  around the changed pixels (:func:`_rethin`), reading the pixels just outside (the
+  *ring*) from their stored history.  That is exact as long as every ring pixel sees the
+  same neighbour states as before at every sub-iteration while it is alive (then, by
+  induction over sub-iterations, nothing outside changes); the blocks of ring pixels for
+  which this fails join the region and the round is repeated (it ends at the latest when
+  the region covers whole ridge components, which have no ring).  T-centre removal
+  examines pixels one at a time in raster order, interior first, then the border rows and
+  columns (:func:`topojax.skeleton.remove_t_centres`), so a pixel reads the result of the
+  4-neighbours examined before it and the thinned value of the others; the mapper
+  re-examines, in that order, the pixels whose thinned value changed (or whose border rule
+  changed when the bounding box grew), their 4-neighbours, and every later 4-neighbour of
+  a pixel whose result changed (:func:`_t_update`).  The skeleton, and the stored
+  history, equal those of the full-map pipeline on the exported map (tested after real
+  and random replays, and against a whole-image reference on thick blobs, where the
+  region has to grow).  :func:`thin_components` (whole components on a crop of their
+  own) is the simpler exact alternative the mapper used before; it is kept as a utility.
 * Graph: link masks and degrees of the pixel graph depend on 3x3 neighbourhoods, so only
   pixels within one pixel of a changed skeleton pixel (the region ``Z``) change.  Old
   edges that do not touch ``Z`` are edges of the new graph; every new edge that touches
@@ -85,8 +97,9 @@ exports).  Results are identical to an eager splat (a minimum does not depend on
 order); ``max_pending_points=0`` splats at every scan.  :meth:`~IncrementalMapper.save`
 stores pending points as they are.
 
-Memory: 16 bytes per pixel of an allocated tile (hit / miss counters, squared distance,
-ridge, Laplacian, skeleton, graph ids, scratch), about 256 KiB per 128 x 128 tile.
+Memory: 18 bytes per pixel of an allocated tile (hit / miss counters, squared distance,
+ridge, Laplacian, skeleton, thinning history, graph ids, scratch), about 288 KiB per
+128 x 128 tile.
 """
 
 from __future__ import annotations
@@ -129,7 +142,7 @@ __all__ = [
 #: ``format`` field of saved mapper states.
 STATE_FORMAT = "topojax.IncrementalMapper"
 #: Version of the saved-state layout; :meth:`IncrementalMapper.load` accepts only this one.
-STATE_VERSION = 1
+STATE_VERSION = 2
 
 STRATEGIES = ("exact", "paper")
 
@@ -878,49 +891,400 @@ def _clear_owned(layer, grid, g0r, g0c, t, rows, cols, owner):
             layer[s, lr, lc] = -1
 
 
-@numba.njit(cache=True, nogil=True)
-def _flood(rflat, mflat, nbr9, t, seeds, queue):
-    """8-connected ridge components containing the seeds (seeds off the ridge ignored).
+_SURVIVOR = 65535  # ``thin_time`` of a pixel that thinning keeps
+# (d_row, d_col) of neighbour bit k of the thinning code (E, NE, N, NW, W, SW, S, SE)
+_THIN_DR = np.array([0, -1, -1, -1, 0, 1, 1, 1], np.int64)
+_THIN_DC = np.array([1, 1, 0, -1, -1, -1, 0, 1], np.int64)
+# a pixel and its 4 neighbours (up, down, left, right)
+_T_DR5 = np.array([0, -1, 1, 0, 0], np.int64)
+_T_DC5 = np.array([0, 0, 0, -1, 1], np.int64)
 
-    Works on flat layer indices ``slot * t^2 + row * t + col`` (``rflat``: the ridge
-    layer raveled; ``mflat``: a raveled scratch uint8 layer, all zero on entry and on
-    exit) and steps between tiles through ``nbr9`` (:meth:`TileManager.neighbour_slots`).
-    ``queue`` must hold at least as many entries as there are ridge pixels.  Returns the
-    number ``n`` of component pixels; their flat indices are ``queue[:n]``.
+
+@numba.njit(cache=True, nogil=True)
+def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, act, blk):
+    """Flag (``act``) and list (``blk`` rows ``(slot, block_row, block_col)``) the
+    allocated blocks containing the pixels or next to a block containing one; returns
+    how many were listed."""
+    n = 0
+    pbr = np.int64(-(1 << 62))
+    pbc = pbr
+    for i in range(rows.shape[0]):
+        gbr = rows[i] // b
+        gbc = cols[i] // b
+        if gbr == pbr and gbc == pbc:
+            continue
+        pbr = gbr
+        pbc = gbc
+        for br in range(gbr - 1, gbr + 2):
+            for bc in range(gbc - 1, gbc + 2):
+                s = _slot(grid, g0r, g0c, nb, br, bc)  # blocks are the "pixels" of a tile
+                if s < 0:
+                    continue
+                lbr = br - (br // nb) * nb
+                lbc = bc - (bc // nb) * nb
+                if not act[s, lbr, lbc]:
+                    act[s, lbr, lbc] = 1
+                    blk[n, 0] = s
+                    blk[n, 1] = lbr
+                    blk[n, 2] = lbc
+                    n += 1
+    return n
+
+
+@numba.njit(cache=True, nogil=True)
+def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
+    """Exact local re-thinning around changed ridge pixels (see ``_skeleton_exact``).
+
+    ``tau[slot, row, col]`` (uint16) holds every pixel's *deletion time* under the
+    parallel thinning of the whole current ridge map: 0 off the ridge, ``s + 1`` for a
+    ridge pixel deleted by sub-iteration ``s``, :data:`_SURVIVOR` for a skeleton pixel.  A
+    pixel's state at the start of sub-iteration ``s`` is ``tau > s``.
+
+    ``blk[:n_blk]`` (rows ``(slot, block_row, block_col)``; capacity for every block of
+    the map) are the *active* blocks: at least every block containing a changed ridge
+    pixel and its 8 neighbours.  Their ridge pixels ``I`` are thinned again, sub-iteration
+    by sub-iteration, reading the pixels outside the active blocks (the *ring*) from their
+    old ``tau``.  That is exact when every ring pixel ``q`` sees, at every sub-iteration
+    while it is alive, the same states of its neighbours in ``I`` as before (then, by
+    induction over sub-iterations, nothing outside changes): ``min(tau_new(p), tau(q)) ==
+    min(tau_old(p), tau(q))``.  Blocks of ring pixels that fail this are activated and the
+    round is repeated; the active set only grows, and once it covers whole components there
+    is no ring, so this ends.  ``act`` (uint8, ``(n_slots, nb, nb)``) flags the active
+    blocks; zero on entry and on exit.
+
+    Returns the flat indices (``slot * t^2 + row * t + col``) of the pixels whose thinned
+    state (``tau == _SURVIVOR``) changed, the number of rounds and the size of ``I`` in the
+    last round.  ``tau`` is updated in place.
     """
     tt = t * t
-    n = 0
-    for i in range(seeds.shape[0]):
-        f = seeds[i]
-        if f >= 0 and rflat[f] and not mflat[f]:
-            mflat[f] = 1
-            queue[n] = f
-            n += 1
-    head = 0
-    while head < n:
-        f = queue[head]
-        head += 1
-        s = f // tt
-        rem = f - s * tt
-        lr0 = rem // t
-        lc0 = rem - lr0 * t
-        for dr in range(-1, 2):
-            nr, oy = _wrap_into_tile(lr0 + dr, t)
-            for dc in range(-1, 2):
-                if dr == 0 and dc == 0:
-                    continue
-                nc, ox = _wrap_into_tile(lc0 + dc, t)
+    n_slots = tau.shape[0]
+    tflat = tau.reshape(-1)
+    for j in range(n_blk):
+        act[blk[j, 0], blk[j, 1], blk[j, 2]] = 1
+    rounds = 0
+    while True:
+        rounds += 1
+        # active tiles and a dense local index per active tile
+        tile_map = np.full(n_slots, -1, np.int64)
+        n_at = 0
+        for j in range(n_blk):
+            s = blk[j, 0]
+            if tile_map[s] < 0:
+                tile_map[s] = n_at
+                n_at += 1
+        lidx = np.full((n_at, t, t), -1, np.int32)
+        n = 0
+        for j in range(n_blk):
+            s, br, bc = blk[j, 0], blk[j, 1], blk[j, 2]
+            for a in range(br * b, br * b + b):
+                base = s * tt + a * t
+                for c in range(bc * b, bc * b + b):
+                    if ridge[base + c]:
+                        n += 1
+        pix = np.empty(n, np.int64)
+        n = 0
+        for j in range(n_blk):
+            s, br, bc = blk[j, 0], blk[j, 1], blk[j, 2]
+            m = tile_map[s]
+            for a in range(br * b, br * b + b):
+                base = s * tt + a * t
+                for c in range(bc * b, bc * b + b):
+                    if ridge[base + c]:
+                        pix[n] = base + c
+                        lidx[m, a, c] = n
+                        n += 1
+        # neighbour table: >= 0 local index; < 0: -1 - tau of a pixel outside
+        nbt = np.empty((n, 8), np.int64)
+        ring_max = 0
+        for i in range(n):
+            f = pix[i]
+            s = f // tt
+            rem = f - s * tt
+            lr = rem // t
+            lc = rem - lr * t
+            for k in range(8):
+                nr, oy = _wrap_into_tile(lr + dr8[k], t)
+                nc, ox = _wrap_into_tile(lc + dc8[k], t)
                 ns = nbr9[s, 3 * oy + ox]
                 if ns < 0:
-                    continue
-                g = ns * tt + nr * t + nc
-                if rflat[g] and not mflat[g]:
-                    mflat[g] = 1
-                    queue[n] = g
-                    n += 1
+                    nbt[i, k] = -1
+                elif act[ns, nr // b, nc // b]:
+                    nbt[i, k] = lidx[tile_map[ns], nr, nc]  # -1 off the ridge
+                else:
+                    tq = np.int64(tau[ns, nr, nc])
+                    nbt[i, k] = -1 - tq
+                    if tq != _SURVIVOR and tq > ring_max:
+                        ring_max = tq
+        # thin I, sub-iteration by sub-iteration, the ring following its old history
+        alive = np.ones(n, np.uint8)
+        tnew = np.full(n, _SURVIVOR, np.int64)
+        live = np.arange(n)
+        n_live = n
+        dels = np.empty(n, np.int64)
+        s_it = 0
+        quiet = 0
+        while not (quiet >= 2 and s_it - 2 >= ring_max):
+            lut = tables[s_it & 1]
+            nd = 0
+            for ii in range(n_live):
+                i = live[ii]
+                code = 0
+                for k in range(8):
+                    v = nbt[i, k]
+                    if v >= 0:
+                        bit = alive[v]
+                    else:
+                        bit = 1 if -1 - v > s_it else 0
+                    code |= bit << k
+                if lut[code]:
+                    dels[nd] = i
+                    nd += 1
+            for jj in range(nd):
+                alive[dels[jj]] = 0
+                tnew[dels[jj]] = s_it + 1
+            if nd:
+                m = 0
+                for ii in range(n_live):
+                    i = live[ii]
+                    live[m] = i
+                    m += alive[i]
+                n_live = m
+                quiet = 0
+            else:
+                quiet += 1
+            s_it += 1
+        # check the ring; activate the blocks of ring pixels whose inputs changed
+        grown = False
+        for i in range(n):
+            f = pix[i]
+            told = np.int64(tflat[f])
+            for k in range(8):
+                v = nbt[i, k]
+                if v < -1:
+                    tq = -1 - v
+                    if min(tnew[i], tq) != min(told, tq):
+                        s = f // tt
+                        rem = f - s * tt
+                        lr = rem // t
+                        lc = rem - lr * t
+                        nr, oy = _wrap_into_tile(lr + dr8[k], t)
+                        nc, ox = _wrap_into_tile(lc + dc8[k], t)
+                        ns = nbr9[s, 3 * oy + ox]
+                        if not act[ns, nr // b, nc // b]:
+                            act[ns, nr // b, nc // b] = 1
+                            blk[n_blk, 0] = ns
+                            blk[n_blk, 1] = nr // b
+                            blk[n_blk, 2] = nc // b
+                            n_blk += 1
+                            grown = True
+        if not grown:
+            break
+    # write back; collect the pixels whose thinned state changed
+    out = np.empty(n + n_blk * b * b, np.int64)
+    m = 0
     for i in range(n):
-        mflat[queue[i]] = 0
-    return n
+        f = pix[i]
+        was = tflat[f] == _SURVIVOR
+        if was != (tnew[i] == _SURVIVOR):
+            out[m] = f
+            m += 1
+        tflat[f] = tnew[i]
+    for j in range(n_blk):
+        s, br, bc = blk[j, 0], blk[j, 1], blk[j, 2]
+        act[s, br, bc] = 0
+        for a in range(br * b, br * b + b):
+            base = s * tt + a * t
+            for c in range(bc * b, bc * b + b):
+                f = base + c
+                if not ridge[f] and tflat[f] != 0:
+                    if tflat[f] == _SURVIVOR:
+                        out[m] = f
+                        m += 1
+                    tflat[f] = 0
+    return out[:m], rounds, n
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _t_order(rr, cc, h, w):
+    """Position of bbox pixel ``(rr, cc)`` in T-centre removal's examination order
+    (:func:`topojax.skeleton.remove_t_centres`); -1 for the corners (never examined)."""
+    hw = h * w
+    if 0 < rr < h - 1 and 0 < cc < w - 1:
+        return rr * w + cc
+    if rr == 0 or rr == h - 1:
+        if cc == 0 or cc == w - 1:
+            return -1
+        return hw + cc if rr == 0 else hw + w + cc
+    return hw + 2 * w + rr if cc == 0 else hw + 2 * w + h + rr
+
+
+@numba.njit(cache=True, nogil=True)
+def _heap_push(heap, n, key):
+    """Push ``key`` on the binary min-heap ``heap[:n]`` (grown by doubling); returns the
+    heap array and the new size."""
+    if n == heap.shape[0]:
+        heap = np.concatenate((heap, np.empty(max(n, 16), np.int64)))
+    i = n
+    heap[i] = key
+    while i > 0:
+        p = (i - 1) // 2
+        if heap[p] <= heap[i]:
+            break
+        heap[p], heap[i] = heap[i], heap[p]
+        i = p
+    return heap, n + 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _heap_pop(heap, n):
+    """Pop the smallest key of the binary min-heap ``heap[:n]``; returns it and the new size."""
+    top = heap[0]
+    n -= 1
+    heap[0] = heap[n]
+    i = 0
+    while True:
+        a = 2 * i + 1
+        if a >= n:
+            break
+        if a + 1 < n and heap[a + 1] < heap[a]:
+            a += 1
+        if heap[i] <= heap[a]:
+            break
+        heap[a], heap[i] = heap[i], heap[a]
+        i = a
+    return top, n
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _t_decode(o, h, w):
+    """Inverse of :func:`_t_order` for ``o >= 0``: the bbox pixel ``(rr, cc)``."""
+    hw = h * w
+    if o < hw:
+        return o // w, o - (o // w) * w
+    if o < hw + w:
+        return 0, o - hw
+    if o < hw + 2 * w:
+        return h - 1, o - hw - w
+    if o < hw + 2 * w + h:
+        return o - hw - 2 * w, 0
+    return o - hw - 2 * w - h, w - 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, remove_t, ch_r, ch_c):
+    """First step of :func:`_t_update`: the examination-order keys (:func:`_t_order`) of
+    the seeds and their 4-neighbours, unsorted, with repeats.  Seeds that T removal never
+    examines (corners, or everything when ``remove_t`` is False) get the thinned value
+    directly; those changes go to ``ch_r``, ``ch_c`` (room for every seed) and their
+    number is returned too."""
+    r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
+    h = r1 - r0
+    w = c1 - c0
+    keys = np.empty(5 * seed_r.shape[0], np.int64)
+    n_keys = 0
+    n_ch = 0
+    for i in range(seed_r.shape[0]):
+        for k in range(5):
+            rr = seed_r[i] - r0 + _T_DR5[k]
+            cc = seed_c[i] - c0 + _T_DC5[k]
+            if not (0 <= rr < h and 0 <= cc < w):
+                continue
+            o = _t_order(rr, cc, h, w)
+            if o >= 0 and remove_t:
+                keys[n_keys] = o
+                n_keys += 1
+            elif k == 0:
+                r = rr + r0
+                c = cc + c0
+                s = _slot(grid, g0r, g0c, t, r, c)
+                if s >= 0:
+                    lr = r - (r // t) * t
+                    lc = c - (c // t) * t
+                    new = tau[s, lr, lc] == _SURVIVOR
+                    if new != skel[s, lr, lc]:
+                        skel[s, lr, lc] = new
+                        ch_r[n_ch] = r
+                        ch_c[n_ch] = c
+                        n_ch += 1
+    return keys[:n_keys], n_ch
+
+
+@numba.njit(cache=True, nogil=True)
+def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
+    """Bring the skeleton (T-centre removal of the thinned image ``tau == _SURVIVOR``) up
+    to date after the thinned state changed at some pixels (or their examination rule
+    did: pixels of a moved bounding-box border).
+
+    T removal examines pixels one at a time in a fixed order (:func:`_t_order`), so pixel
+    ``p`` reads the *result* at 4-neighbours examined before it and the *thinned* value at
+    the others.  ``todo`` holds the sorted, distinct keys of the changed pixels and their
+    4-neighbours (:func:`_t_seeds`); they are re-examined in order, merged (through a
+    heap) with every later 4-neighbour of a pixel whose result changes.  All other results
+    keep their inputs and so their values.  Changed pixels are appended to ``ch_r``,
+    ``ch_c`` after the first ``n_ch``; returns the arrays (possibly reallocated) and the
+    new count.
+    """
+    r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
+    h = r1 - r0
+    w = c1 - c0
+    n_todo = todo.shape[0]
+    heap = np.empty(16, np.int64)
+    n_heap = 0
+    j = 0
+    last = -1
+    while j < n_todo or n_heap:
+        if n_heap and (j == n_todo or heap[0] < todo[j]):
+            o, n_heap = _heap_pop(heap, n_heap)
+        else:
+            o = todo[j]
+            j += 1
+        if o == last:
+            continue
+        last = o
+        rr, cc = _t_decode(o, h, w)
+        r = rr + r0
+        c = cc + c0
+        s = _slot(grid, g0r, g0c, t, r, c)
+        if s < 0:
+            continue
+        lr = r - (r // t) * t
+        lc = c - (c // t) * t
+        new = tau[s, lr, lc] == _SURVIVOR
+        if new:
+            cnt = 0
+            for k in range(1, 5):
+                qr = rr + _T_DR5[k]
+                qc = cc + _T_DC5[k]
+                if not (0 <= qr < h and 0 <= qc < w):
+                    continue
+                nr, oy = _wrap_into_tile(lr + _T_DR5[k], t)
+                nc, ox = _wrap_into_tile(lc + _T_DC5[k], t)
+                qs = nbr9[s, 3 * oy + ox]
+                if qs < 0:
+                    continue
+                oq = _t_order(qr, qc, h, w)
+                if 0 <= oq < o:
+                    cnt += 1 if skel[qs, nr, nc] else 0
+                else:
+                    cnt += 1 if tau[qs, nr, nc] == _SURVIVOR else 0
+            if cnt >= 3:
+                new = False
+        if new != skel[s, lr, lc]:
+            skel[s, lr, lc] = new
+            if n_ch == ch_r.shape[0]:
+                ch_r = np.concatenate((ch_r, np.empty(n_ch + 16, np.int64)))
+                ch_c = np.concatenate((ch_c, np.empty(n_ch + 16, np.int64)))
+            ch_r[n_ch] = r
+            ch_c[n_ch] = c
+            n_ch += 1
+            for k in range(1, 5):
+                qr = rr + _T_DR5[k]
+                qc = cc + _T_DC5[k]
+                if 0 <= qr < h and 0 <= qc < w:
+                    oq = _t_order(qr, qc, h, w)
+                    if oq > o:
+                        heap, n_heap = _heap_push(heap, n_heap, oq)
+    return ch_r, ch_c, n_ch
 
 
 def _interior(off: np.ndarray) -> np.ndarray:
@@ -1340,6 +1704,7 @@ class IncrementalMapper:
                 "skeleton": (np.bool_, False),
                 "graph_id": (np.int32, -1),
                 "mark": (np.uint8, 0),
+                "thin_time": (np.uint16, 0),
                 "block_max": (np.int32, FAR_SQ, (nb, nb)),
                 "ridge_dirty": (np.bool_, False, (nb, nb)),
             },
@@ -1768,43 +2133,78 @@ class IncrementalMapper:
         return sk
 
     def _skeleton_exact(self, added, removed, border) -> int:
+        """Exact local update of the skeleton (see the module notes): re-thin around the
+        changed ridge pixels (:func:`_rethin`), then redo T-centre removal where its inputs
+        changed (:func:`_t_update`)."""
         if added.shape[0] == 0 and removed.shape[0] == 0 and border.shape[0] == 0:
             return 0
+        from .skeleton import _TABLES_U8
+
         tiles = self._tiles
-        t = self.tile_px
-        bbox = tiles.pixel_bbox
-        nbrs = (removed[:, None, :] + _NB8[None]).reshape(-1, 2)
-        seeds = np.concatenate([added, nbrs, border])
-        sl = tiles.lookup(seeds[:, 0] // t, seeds[:, 1] // t)
-        seed_flat = np.where(sl >= 0, (sl * t + seeds[:, 0] % t) * t + seeds[:, 1] % t, -1)
-        queue = np.empty(max(self._n_ridge, 1), np.int64)
-        n_comp = _flood(
-            tiles.layer("ridge").reshape(-1),
-            tiles.layer("mark").reshape(-1),
-            tiles.neighbour_slots(),
-            t,
-            seed_flat,
-            queue,
-        )
-        flat = queue[:n_comp]
-        slot, rem = np.divmod(flat, t * t)
-        lr, lc = np.divmod(rem, t)
+        t, b = self.tile_px, self.block_px
+        nb = t // b
         keys = tiles.keys
-        cr = keys[slot, 0] * t + lr
-        cc = keys[slot, 1] * t + lc
-        sk = self.config.skeleton
-        vals = thin_components(cr, cc, bbox, method=sk.thinning, remove_t=sk.remove_t)
-        # component pixels: through their flat layer indices (no tile lookups)
-        skel = tiles.layer("skeleton").reshape(-1)
-        ch = skel[flat] != vals
-        skel[flat[ch]] = vals[ch]
-        n_changed = int(ch.sum())
-        if n_changed:
-            self._skel_changed.append(np.stack([cr[ch], cc[ch]], axis=1))
-        # removed ridge pixels: no skeleton there any more
-        return n_changed + self._write_skeleton(
-            removed[:, 0], removed[:, 1], np.zeros(removed.shape[0], bool)
+        tau = tiles.layer("thin_time")
+        seeds = [border]
+        changed = np.concatenate([added, removed])
+        if changed.shape[0]:
+            grid, (g0r, g0c) = tiles.slot_grid
+            act = np.zeros((tau.shape[0], nb, nb), np.uint8)
+            blk = np.empty((tiles.n_tiles * nb * nb, 3), np.int64)
+            n_blk = _seed_blocks(
+                changed[:, 0].astype(np.int64),
+                changed[:, 1].astype(np.int64),
+                grid,
+                g0r,
+                g0c,
+                nb,
+                b,
+                act,
+                blk,
+            )
+            flat, _rounds, _n = _rethin(
+                tiles.layer("ridge").reshape(-1),
+                tau,
+                tiles.neighbour_slots(),
+                t,
+                b,
+                act,
+                blk,
+                n_blk,
+                _TABLES_U8[self.config.skeleton.thinning],
+                _THIN_DR,
+                _THIN_DC,
+            )
+            slot, rem = np.divmod(flat, t * t)
+            lr, lc = np.divmod(rem, t)
+            seeds.append(np.stack([keys[slot, 0] * t + lr, keys[slot, 1] * t + lc], axis=1))
+        seeds = np.concatenate(seeds)
+        if seeds.shape[0] == 0:
+            return 0
+        grid, (g0r, g0c) = tiles.slot_grid
+        bbox = np.asarray(tiles.pixel_bbox, np.int64)
+        skel = tiles.layer("skeleton")
+        n_seed = seeds.shape[0]
+        ch_r = np.empty(n_seed + 16, np.int64)
+        ch_c = np.empty(n_seed + 16, np.int64)
+        args = (skel, tau, grid, g0r, g0c)
+        todo, n_ch = _t_seeds(
+            *args,
+            t,
+            bbox,
+            seeds[:, 0].astype(np.int64),
+            seeds[:, 1].astype(np.int64),
+            self.config.skeleton.remove_t,
+            ch_r,
+            ch_c,
         )
+        ch_r, ch_c, n_ch = _t_update(
+            *args, tiles.neighbour_slots(), t, bbox, np.sort(todo), ch_r, ch_c, n_ch
+        )
+        ch_r, ch_c = ch_r[:n_ch], ch_c[:n_ch]
+        if ch_r.shape[0]:
+            self._skel_changed.append(np.stack([ch_r, ch_c], axis=1))
+        return int(ch_r.shape[0])
 
     def _skeleton_paper(self, blocks) -> int:
         """Paper §III-B: thin the new ridges of the changed blocks together with a layer of
