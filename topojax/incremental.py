@@ -659,20 +659,13 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
 
 
 @numba.njit(cache=True, nogil=True)
-def _merge_rows(d2, bmax, row_block, row_bidx, rows, n_blocks, t, b, halo):
-    """``d2 = min(d2, rows)`` block by block; update the block maxima.
-
-    Returns, per distinct block, a 9-bit mask of the blocks whose ridges must be
-    recomputed: bit ``3 * (dy + 1) + (dx + 1)`` for the block at offset ``(dy, dx)``,
-    set when a changed pixel lies within ``halo`` pixels of that neighbour (bit 4, the
-    block itself, for any change).
-    """
+def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, lo_c, hi_c):
+    """``d2 = min(d2, rows)`` for kernel rows ``start .. start + n_rows`` (one batch, as
+    the kernel returned it); widen each block's box of changed pixels (``lo_a`` .. ``hi_c``,
+    indexed by the row's distinct block, empty as ``lo = b, hi = -1``)."""
     nb = t // b
-    lo_a = np.full(n_blocks, b, np.int64)
-    hi_a = np.full(n_blocks, -1, np.int64)
-    lo_c = np.full(n_blocks, b, np.int64)
-    hi_c = np.full(n_blocks, -1, np.int64)
-    for i in range(row_block.shape[0]):
+    for ii in range(n_rows):
+        i = start + ii
         k = row_block[i]
         j = row_bidx[i]
         s = k // (nb * nb)
@@ -680,17 +673,26 @@ def _merge_rows(d2, bmax, row_block, row_bidx, rows, n_blocks, t, b, halo):
         c0 = (k % nb) * b
         for a in range(b):
             for c in range(b):
-                v = rows[i, a, c]
+                v = rows[ii, a, c]
                 if v < d2[s, r0 + a, c0 + c]:
                     d2[s, r0 + a, c0 + c] = v
                     lo_a[j] = min(lo_a[j], a)
                     hi_a[j] = max(hi_a[j], a)
                     lo_c[j] = min(lo_c[j], c)
                     hi_c[j] = max(hi_c[j], c)
-    masks = np.zeros(n_blocks, np.uint16)
-    for i in range(row_block.shape[0]):
-        j = row_bidx[i]
-        if hi_a[j] < 0 or (i > 0 and row_bidx[i - 1] == j):
+
+
+@numba.njit(cache=True, nogil=True)
+def _merged_masks(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c):
+    """After :func:`_merge_rows`: update the maxima of the changed blocks and return, per
+    distinct block, a 9-bit mask of the blocks whose ridges must be recomputed: bit
+    ``3 * (dy + 1) + (dx + 1)`` for the block at offset ``(dy, dx)``, set when a changed
+    pixel lies within ``halo`` pixels of that neighbour (bit 4, the block itself, for any
+    change)."""
+    nb = t // b
+    masks = np.zeros(blocks.shape[0], np.uint16)
+    for j in range(blocks.shape[0]):
+        if hi_a[j] < 0:
             continue
         dy0 = -1 if lo_a[j] < halo else 0
         dy1 = 1 if hi_a[j] >= b - halo else 0
@@ -701,7 +703,7 @@ def _merge_rows(d2, bmax, row_block, row_bidx, rows, n_blocks, t, b, halo):
             for dx in range(dx0, dx1 + 1):
                 m |= 1 << (3 * (dy + 1) + dx + 1)
         masks[j] = m
-        k = row_block[i]
+        k = blocks[j]
         s = k // (nb * nb)
         lbr = (k // nb) % nb
         lbc = k % nb
@@ -1949,23 +1951,39 @@ class IncrementalMapper:
         n_rows = row_block.shape[0]
         if n_rows == 0:
             return 0
-        out = np.empty((n_rows, b, b), np.int32)
+        d2 = tiles.layer("sq_distance")
+        n_blocks = blocks.shape[0]
+        lo_a = np.full(n_blocks, b, np.int64)
+        hi_a = np.full(n_blocks, -1, np.int64)
+        lo_c = np.full(n_blocks, b, np.int64)
+        hi_c = np.full(n_blocks, -1, np.int64)
         pad = -(half + 2 * b + 1)
-        for start, stop, size in _batches(n_rows, SPLAT_ROWS):
-            p_in = _pad_to(row_pts[start:stop], size, pad)
-            res = _splat_blocks(p_in, size=b, half_width=half)
-            out[start:stop] = np.asarray(res)[: stop - start]
-        masks = _merge_rows(
-            tiles.layer("sq_distance"),
-            bmax,
-            row_block,
-            row_bidx,
-            out,
-            blocks.shape[0],
-            t,
-            b,
-            HALO_PX,
-        )
+        # Dispatch every batch first (JAX runs them asynchronously), then merge each one
+        # as it arrives: the merge of one batch overlaps the kernel of the next.
+        batches = [
+            (
+                start,
+                stop,
+                _splat_blocks(_pad_to(row_pts[start:stop], size, pad), size=b, half_width=half),
+            )
+            for start, stop, size in _batches(n_rows, SPLAT_ROWS)
+        ]
+        for start, stop, res in batches:
+            _merge_rows(
+                d2,
+                row_block,
+                row_bidx,
+                np.asarray(res),
+                stop - start,
+                start,
+                t,
+                b,
+                lo_a,
+                hi_a,
+                lo_c,
+                hi_c,
+            )
+        masks = _merged_masks(d2, bmax, blocks, t, b, HALO_PX, lo_a, hi_a, lo_c, hi_c)
         changed = masks != 0
         if changed.any():
             s, rem = np.divmod(blocks[changed], nb * nb)
@@ -1975,7 +1993,7 @@ class IncrementalMapper:
 
     def _mark_ridge_dirty(self, slots, brs, bcs, masks) -> None:
         """Mark blocks ridge-dirty: for each changed block, the neighbours (itself
-        included) selected by its 9-bit mask (see :func:`_merge_rows`)."""
+        included) selected by its 9-bit mask (see :func:`_merged_masks`)."""
         nb = self.tile_px // self.block_px
         keys = self._tiles.keys
         gbr = keys[slots, 0] * nb + brs
@@ -2051,16 +2069,38 @@ class IncrementalMapper:
             np.asarray(bbox, np.int64),
             patches,
         )
-        lap_abs = np.empty((n, b, b), np.uint8)
-        ridge = np.empty((n, b, b), bool)
-        for start, stop, bsize in _batches(n, RIDGE_BLOCKS):
-            p_in = _pad_to(patches[start:stop], bsize, FAR_SQ)
-            la, ri = _ridge_blocks(p_in, *self._scalars, ksize=self.config.ridge.ksize)
-            lap_abs[start:stop] = np.asarray(la)[: stop - start]
-            ridge[start:stop] = np.asarray(ri)[: stop - start]
-        added, removed = _write_ridges(
-            tiles.layer("ridge"), tiles.layer("lap_abs"), sl, lbr, lbc, keys, t, b, ridge, lap_abs
-        )
+        # All batches are dispatched first (asynchronous), then written as they arrive.
+        batches = [
+            (
+                start,
+                stop,
+                _ridge_blocks(
+                    _pad_to(patches[start:stop], bsize, FAR_SQ),
+                    *self._scalars,
+                    ksize=self.config.ridge.ksize,
+                ),
+            )
+            for start, stop, bsize in _batches(n, RIDGE_BLOCKS)
+        ]
+        added, removed = [], []
+        for start, stop, (la, ri) in batches:
+            m = stop - start
+            a, r = _write_ridges(
+                tiles.layer("ridge"),
+                tiles.layer("lap_abs"),
+                sl[start:stop],
+                lbr[start:stop],
+                lbc[start:stop],
+                keys,
+                t,
+                b,
+                np.asarray(ri)[:m],
+                np.asarray(la)[:m],
+            )
+            added.append(a)
+            removed.append(r)
+        added = np.concatenate(added)
+        removed = np.concatenate(removed)
         self._n_ridge += added.shape[0] - removed.shape[0]
         blocks = np.stack([gbr, gbc], axis=1)
         return added, removed, border, blocks
