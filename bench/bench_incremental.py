@@ -466,19 +466,19 @@ def markdown(results: dict) -> str:
         "squared distances are equal by construction (integers) and tested.  The naive "
         "splat is not exact: its 240 px window clips the 445 px kernel.",
         "- The skeleton loop includes the (lazy) splat of the 20 scans' new obstacles, the "
-        "ridge recomputation of every block whose distances changed, and the re-thinning of "
-        "the changed ridge components.  In indoor logs a new obstacle pixel (mostly noise "
-        "next to a known wall) moves distances, ridges and skeleton along the whole "
-        "corridor it faces, so each update redoes a sizeable part of the map.  In large open "
-        "spaces (acapulco, freiburg-campus, edmonton) long beams add obstacles far from "
-        "everything every scan, so each one changes a whole 455 x 455 window, and the "
-        "ridge network is one giant component whose re-thinning cost grows with the map: "
-        "there the exact incremental update is slower than the (inexact, 12 m-window) naive "
-        "splat.",
+        "ridge recomputation of every block whose distances changed, the local re-thinning "
+        "around the changed ridge pixels (from the stored thinning history) and the T-removal "
+        "update.  In indoor logs a new obstacle pixel (mostly noise next to a known wall) "
+        "moves distances, ridges and skeleton along the whole corridor it faces, so each "
+        "update redoes a sizeable part of the map (intel: about 2,000 skeleton pixels change "
+        "per update).  In large open spaces (acapulco, freiburg-campus, edmonton) long beams "
+        "add obstacles far from everything every scan, each changing a whole 455 x 455 "
+        "window (acapulco: about 18,000 skeleton pixels per update): there the exact "
+        "incremental update costs about as much as the (inexact, 12 m-window) naive splat.",
         "- *cold* is a fresh process (imports and log reading excluded): numba's on-disk "
         "cache load and the JAX compilation of the 4 kernel variants fall on the first scan "
         "and the first skeleton update.",
-        "- Memory: *tiles* is the tile storage (16 bytes per pixel of allocated tiles); "
+        "- Memory: *tiles* is the tile storage (18 bytes per pixel of allocated tiles); "
         "*peak traced* is the peak of Python/NumPy allocations during a separate replay "
         "(`tracemalloc`), including the exports at the end.",
     ]
