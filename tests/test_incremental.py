@@ -354,11 +354,12 @@ def test_map_grows_in_negative_directions_and_far_jump_allocates_few_tiles():
     n=st.integers(2, 14),
     every=st.tuples(st.integers(1, 4), st.integers(1, 6)),
     thinning=st.sampled_from(["guo_hall", "zhang"]),
+    remove_t=st.booleans(),
 )
-def test_exact_strategy_equals_full_map_on_random_scans(seed, n, every, thinning):
+def test_exact_strategy_equals_full_map_on_random_scans(seed, n, every, thinning, remove_t):
     from topojax.config import SkeletonConfig
 
-    sk = SkeletonConfig(thinning=thinning)
+    sk = SkeletonConfig(thinning=thinning, remove_t=remove_t)
     mapper = IncrementalMapper(
         skeleton_every=every[0], graph_every=every[1], skeleton=sk, **SMALL_KW
     )
