@@ -396,8 +396,10 @@ class TileManager:
         keys[: self._n] = self._keys[: self._n]
         self._keys = keys
         for name, (dt, fill, shape) in self._specs.items():
-            arr = np.full((cap, *shape), fill, dt)
+            # one pass per element: copy the tiles, fill only the new slots
+            arr = np.empty((cap, *shape), dt)
             arr[: self._n] = self._data[name][: self._n]
+            arr[self._n :] = fill
             self._data[name] = arr
         for loop, flags in self._dirty.items():
             new = np.zeros(cap, bool)
