@@ -836,45 +836,50 @@ def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
 
 
 @numba.njit(cache=True, nogil=True)
-def _region_z(sr, sc, grid, g0r, g0c, t, mark, graph_id, skeleton):
+def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     """The changed pixels dilated by one (3 x 3), without repeats, with the ``graph_id`` and
     ``skeleton`` values there.  ``mark`` (scratch uint8 layer) is zero on entry and exit;
-    pixels of missing tiles read -1 / False.  Returns ``zr, zc, gid, skz``."""
+    pixels of missing tiles read -1 / False.  Returns ``zr, zc, gid, skz``.  One tile
+    lookup per changed pixel; its neighbours are reached through ``nbr9``
+    (:meth:`TileManager.neighbour_slots`)."""
     n = sr.shape[0]
     zr = np.empty(9 * n, np.int64)
     zc = np.empty(9 * n, np.int64)
     gid = np.empty(9 * n, np.int32)
     skz = np.empty(9 * n, np.bool_)
     zs = np.empty(9 * n, np.int64)
+    zlr = np.empty(9 * n, np.int64)
+    zlc = np.empty(9 * n, np.int64)
     m = 0
     for i in range(n):
+        s0 = _slot(grid, g0r, g0c, t, sr[i], sc[i])
+        lr0 = sr[i] - (sr[i] // t) * t
+        lc0 = sc[i] - (sc[i] // t) * t
         for dr in range(-1, 2):
+            nr, oy = _wrap_into_tile(lr0 + dr, t)
             for dc in range(-1, 2):
-                r = sr[i] + dr
-                c = sc[i] + dc
-                s = _slot(grid, g0r, g0c, t, r, c)
+                nc, ox = _wrap_into_tile(lc0 + dc, t)
+                s = nbr9[s0, 3 * oy + ox] if s0 >= 0 else -1
                 if s >= 0:
-                    lr = r - (r // t) * t
-                    lc = c - (c // t) * t
-                    if mark[s, lr, lc]:
+                    if mark[s, nr, nc]:
                         continue
-                    mark[s, lr, lc] = 1
-                    gid[m] = graph_id[s, lr, lc]
-                    skz[m] = skeleton[s, lr, lc]
+                    mark[s, nr, nc] = 1
+                    gid[m] = graph_id[s, nr, nc]
+                    skz[m] = skeleton[s, nr, nc]
                 else:
                     # outside the allocated tiles: only possible one pixel off the bbox;
                     # repeats there are harmless
                     gid[m] = -1
                     skz[m] = False
-                zr[m] = r
-                zc[m] = c
+                zr[m] = sr[i] + dr
+                zc[m] = sc[i] + dc
                 zs[m] = s
+                zlr[m] = nr
+                zlc[m] = nc
                 m += 1
     for i in range(m):
         if zs[i] >= 0:
-            r = zr[i]
-            c = zc[i]
-            mark[zs[i], r - (r // t) * t, c - (c // t) * t] = 0
+            mark[zs[i], zlr[i], zlc[i]] = 0
     return zr[:m], zc[:m], gid[:m], skz[:m]
 
 
@@ -2318,6 +2323,7 @@ class IncrementalMapper:
             grid,
             g0r,
             g0c,
+            tiles.neighbour_slots(),
             t,
             tiles.layer("mark"),
             gl,

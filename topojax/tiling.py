@@ -459,9 +459,15 @@ class TileManager:
         if height <= 0 or width <= 0 or self._n == 0:
             return out
         data = self._data[name]
+        grid = self._grid
+        g0r, g0c = self._grid_origin
+        gh, gw = grid.shape
         for tr in range(row0 // t, (row0 + height - 1) // t + 1):
+            if not 0 <= tr - g0r < gh:
+                continue
+            row = grid[tr - g0r].tolist()  # plain ints: no per-tile NumPy call
             for tc in range(col0 // t, (col0 + width - 1) // t + 1):
-                slot = int(self.lookup(tr, tc))
+                slot = row[tc - g0c] if 0 <= tc - g0c < gw else -1
                 if slot < 0:
                     continue
                 r_lo, r_hi = max(row0, tr * t), min(row0 + height, (tr + 1) * t)
