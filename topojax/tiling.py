@@ -395,11 +395,11 @@ class TileManager:
         keys = np.zeros((cap, 2), np.int64)
         keys[: self._n] = self._keys[: self._n]
         self._keys = keys
-        for name, (dt, fill, shape) in self._specs.items():
-            # one pass per element: copy the tiles, fill only the new slots
+        for name, (dt, _fill, shape) in self._specs.items():
+            # Copy the tiles only: :meth:`ensure` fills each slot when it allocates it, so
+            # the unused capacity is never written (its pages stay unmapped until used).
             arr = np.empty((cap, *shape), dt)
             arr[: self._n] = self._data[name][: self._n]
-            arr[self._n :] = fill
             self._data[name] = arr
         for loop, flags in self._dirty.items():
             new = np.zeros(cap, bool)
