@@ -957,7 +957,8 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
     min(tau_old(p), tau(q))``.  Blocks of ring pixels that fail this are activated and the
     round is repeated; the active set only grows, and once it covers whole components there
     is no ring, so this ends.  ``act`` (uint8, ``(n_slots, nb, nb)``) flags the active
-    blocks; zero on entry and on exit.
+    blocks: on entry it may be set at ``blk[:n_blk]`` (as :func:`_seed_blocks` leaves it)
+    and must be zero elsewhere; it is all zero on exit.
 
     Returns the flat indices (``slot * t^2 + row * t + col``) of the pixels whose thinned
     state (``tau == _SURVIVOR``) changed, the number of rounds and the size of ``I`` in the
