@@ -753,18 +753,21 @@ def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out
     r_last = bbox[2] - 1
     c_last = bbox[3] - 1
     size = b + 2 * halo
+    lcs = np.empty(size, np.int64)
+    oxs = np.empty(size, np.int64)
     for i in range(slots.shape[0]):
         s = slots[i]
         tile_r0 = keys[s, 0] * t
         tile_c0 = keys[s, 1] * t
         org_r = tile_r0 + lbr[i] * b - halo
         org_c = tile_c0 + lbc[i] * b - halo
+        for cc in range(size):  # the column mapping is the same for every row
+            lcs[cc], oxs[cc] = _reflect_into_tile(org_c + cc, c_first, c_last, tile_c0, t)
         for a in range(size):
             lr, oy = _reflect_into_tile(org_r + a, r_first, r_last, tile_r0, t)
             for cc in range(size):
-                lc, ox = _reflect_into_tile(org_c + cc, c_first, c_last, tile_c0, t)
-                ss = nbr9[s, 3 * oy + ox]
-                out[i, a, cc] = FAR_SQ if ss < 0 else d2[ss, lr, lc]
+                ss = nbr9[s, 3 * oy + oxs[cc]]
+                out[i, a, cc] = FAR_SQ if ss < 0 else d2[ss, lr, lcs[cc]]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -772,17 +775,9 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, ridge, lap_abs):
     """Store recomputed blocks; return the global pixels that became ridge pixels and
     those that stopped being ones, (n, 2) int64 each."""
     n = slots.shape[0]
-    cnt = 0
-    for i in range(n):
-        s = slots[i]
-        r0 = lbr[i] * b
-        c0 = lbc[i] * b
-        for a in range(b):
-            for c in range(b):
-                if ridge_l[s, r0 + a, c0 + c] != ridge[i, a, c]:
-                    cnt += 1
-    added = np.empty((cnt, 2), np.int64)
-    removed = np.empty((cnt, 2), np.int64)
+    # room for the worst case (np.empty does not touch the memory it does not use)
+    added = np.empty((n * b * b, 2), np.int64)
+    removed = np.empty((n * b * b, 2), np.int64)
     na = 0
     nr = 0
     for i in range(n):
@@ -805,7 +800,7 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, ridge, lap_abs):
                         removed[nr, 0] = gr + a
                         removed[nr, 1] = gc + c
                         nr += 1
-    return added[:na], removed[:nr]
+    return added[:na].copy(), removed[:nr].copy()
 
 
 @numba.njit(cache=True, nogil=True)
