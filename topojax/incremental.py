@@ -1290,6 +1290,20 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
     return ch_r, ch_c, n_ch
 
 
+def _distinct(ids: np.ndarray) -> np.ndarray:
+    """Sorted distinct values of non-negative integer ids (vertex / edge ids): a flag
+    array over ``0 .. max`` (linear; ``np.unique`` sorts, and the graph patch calls this on
+    every pixel of its region)."""
+    if ids.shape[0] == 0:
+        return np.zeros(0, np.int64)
+    top = int(ids.max())
+    if top > 16 * ids.shape[0] + (1 << 20):  # sparse ids: sorting is cheaper
+        return np.unique(ids).astype(np.int64)
+    seen = np.zeros(top + 1, bool)
+    seen[ids] = True
+    return np.flatnonzero(seen)
+
+
 def _interior(off: np.ndarray) -> np.ndarray:
     """Mask of the interior pixels (not first, not last) of CSR paths with offsets ``off``."""
     inner = np.ones(int(off[-1]), bool)
@@ -2325,8 +2339,8 @@ class IncrementalMapper:
             gl,
             tiles.layer("skeleton"),
         )
-        vert_z = {int(-(v + 2)) for v in np.unique(gid[gid <= -2])}
-        removed_e = {int(e) for e in np.unique(gid[gid >= 0])}
+        vert_z = set(_distinct(-(gid[gid <= -2].astype(np.int64) + 2)).tolist())
+        removed_e = set(_distinct(gid[gid >= 0]).tolist())
         for v in vert_z:
             removed_e |= self._v_edges[v]
         touched = set(vert_z)
