@@ -1174,12 +1174,18 @@ def _t_decode(o, h, w):
 
 
 @numba.njit(cache=True, nogil=True)
-def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, remove_t, ch_r, ch_c):
+def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_t, ch_r, ch_c):
     """First step of :func:`_t_update`: the examination-order keys (:func:`_t_order`) of
-    the seeds and their 4-neighbours, unsorted, with repeats.  Seeds that T removal never
-    examines (corners, or everything when ``remove_t`` is False) get the thinned value
-    directly; those changes go to ``ch_r``, ``ch_c`` (room for every seed) and their
-    number is returned too."""
+    the pixels to re-examine, unsorted, with repeats.
+
+    The seeds are pixels whose thinned value changed; the first ``n_rule`` of them are
+    instead pixels whose examination rule changed (a moved bounding-box border).  A
+    changed thinned value is read by the pixel itself and by the 4-neighbours examined
+    *before* it (later ones read its result, and are reached if that changes), so those
+    are listed; for a changed rule, the pixel and all its 4-neighbours.  Seeds that T
+    removal never examines (corners, or everything when ``remove_t`` is False) get the
+    thinned value directly; those changes go to ``ch_r``, ``ch_c`` (room for every seed)
+    and their number is returned too."""
     r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
     h = r1 - r0
     w = c1 - c0
@@ -1187,28 +1193,40 @@ def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, remove_t, ch_r,
     n_keys = 0
     n_ch = 0
     for i in range(seed_r.shape[0]):
-        for k in range(5):
-            rr = seed_r[i] - r0 + _T_DR5[k]
-            cc = seed_c[i] - c0 + _T_DC5[k]
+        rr0 = seed_r[i] - r0
+        cc0 = seed_c[i] - c0
+        if not (0 <= rr0 < h and 0 <= cc0 < w):
+            continue
+        o0 = _t_order(rr0, cc0, h, w)
+        if o0 < 0 or not remove_t:
+            # never examined: the skeleton is the thinned image here
+            r = seed_r[i]
+            c = seed_c[i]
+            s = _slot(grid, g0r, g0c, t, r, c)
+            if s >= 0:
+                lr = r - (r // t) * t
+                lc = c - (c // t) * t
+                new = tau[s, lr, lc] == _SURVIVOR
+                if new != skel[s, lr, lc]:
+                    skel[s, lr, lc] = new
+                    ch_r[n_ch] = r
+                    ch_c[n_ch] = c
+                    n_ch += 1
+            if not remove_t:
+                continue
+        else:
+            keys[n_keys] = o0
+            n_keys += 1
+        for k in range(1, 5):
+            rr = rr0 + _T_DR5[k]
+            cc = cc0 + _T_DC5[k]
             if not (0 <= rr < h and 0 <= cc < w):
                 continue
             o = _t_order(rr, cc, h, w)
-            if o >= 0 and remove_t:
+            # a corner seed (o0 < 0) is read as a thinned value by all its neighbours
+            if o >= 0 and (i < n_rule or o0 < 0 or o < o0):
                 keys[n_keys] = o
                 n_keys += 1
-            elif k == 0:
-                r = rr + r0
-                c = cc + c0
-                s = _slot(grid, g0r, g0c, t, r, c)
-                if s >= 0:
-                    lr = r - (r // t) * t
-                    lc = c - (c // t) * t
-                    new = tau[s, lr, lc] == _SURVIVOR
-                    if new != skel[s, lr, lc]:
-                        skel[s, lr, lc] = new
-                        ch_r[n_ch] = r
-                        ch_c[n_ch] = c
-                        n_ch += 1
     return keys[:n_keys], n_ch
 
 
@@ -2249,6 +2267,7 @@ class IncrementalMapper:
             bbox,
             seeds[:, 0].astype(np.int64),
             seeds[:, 1].astype(np.int64),
+            border.shape[0],
             self.config.skeleton.remove_t,
             ch_r,
             ch_c,
