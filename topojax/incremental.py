@@ -2369,9 +2369,10 @@ class IncrementalMapper:
         kind_before = {v: self._v_kind[v] for v in touched}
         rem_list = sorted(removed_e)
         rem_paths = [self._e_path[k] for k in rem_list]
-        a_px = np.concatenate(
-            [p.astype(np.int64) for p in rem_paths] + [np.stack([zr[skz], zc[skz]], axis=1)]
+        all_r = (
+            np.concatenate(rem_paths).astype(np.int64) if rem_paths else np.zeros((0, 2), np.int64)
         )
+        a_px = np.concatenate([all_r, np.stack([zr[skz], zc[skz]], axis=1)])
         # A: pixels of the removed edges and new skeleton pixels in Z.  Every new edge that
         # touches Z lies in A; A's pixels are >= 2 px inside the crop, so their links are
         # the same in the crop as in the whole map.  The crop also covers Z (a lone vertex
@@ -2421,7 +2422,6 @@ class IncrementalMapper:
         removed_by_sig: dict[tuple, list[int]] = {}
         if rem_list:
             lens_r = np.array([p.shape[0] for p in rem_paths], np.int64)
-            all_r = np.concatenate(rem_paths).astype(np.int64)
             off_r = np.concatenate([[0], np.cumsum(lens_r)])
             owner = np.repeat(np.asarray(rem_list, np.int32), lens_r)
             inner = _interior(off_r)
