@@ -451,6 +451,17 @@ def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
     return n_new
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _isqrt(n):
+    """Largest integer ``e`` with ``e * e <= n`` (``n >= 0``), exact for any int64."""
+    e = int(math.sqrt(float(n)))
+    while e * e > n:
+        e -= 1
+    while (e + 1) * (e + 1) <= n:
+        e += 1
+    return e
+
+
 @numba.njit(cache=True, nogil=True)
 def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rho, n_points_row):
     """Group the (block, point) pairs that can lower a block into kernel rows.
@@ -532,11 +543,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
             rem = rmax - dr * dr
             if rem <= 0:
                 continue
-            e = int(math.sqrt(rem - 1.0))
-            while e * e > rem - 1:
-                e -= 1
-            while (e + 1) * (e + 1) <= rem - 1:
-                e += 1
+            e = _isqrt(rem - 1)
             cb0 = max(bc0, -((e + b - 1 - p_c) // b))
             cb1 = min(bc1, (p_c + e) // b)
             # Allowed interval [al, ar] of inner block columns.
@@ -581,8 +588,15 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                     s = grid[gi, gj]
                     if s < 0:
                         continue
-                    l0 = max(c_from - tcc * nb, 0)
-                    l1 = min(c_to - tcc * nb, nb - 1)
+                    # this tile's own disk bound (the row's bound used the largest maximum)
+                    remt = rowmax[s, lbr] - dr * dr
+                    if remt <= 0:
+                        continue
+                    et = _isqrt(remt - 1)
+                    t_from = max(c_from, -((et + b - 1 - p_c) // b))
+                    t_to = min(c_to, (p_c + et) // b)
+                    l0 = max(t_from - tcc * nb, 0)
+                    l1 = min(t_to - tcc * nb, nb - 1)
                     for lbc in range(l0, l1 + 1):
                         lo_c = (tcc * nb + lbc) * b - p_c
                         if lo_c > 0:
