@@ -989,7 +989,7 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
             if tile_map[s] < 0:
                 tile_map[s] = n_at
                 n_at += 1
-        lidx = np.full((n_at, t, t), -1, np.int32)
+        lidx = np.empty((n_at, t, t), np.int32)  # read only at ridge pixels of I
         n = 0
         for j in range(n_blk):
             s, br, bc = blk[j, 0], blk[j, 1], blk[j, 2]
@@ -1026,7 +1026,8 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
                 if ns < 0:
                     nbt[i, k] = -1
                 elif act[ns, nr // b, nc // b]:
-                    nbt[i, k] = lidx[tile_map[ns], nr, nc]  # -1 off the ridge
+                    g = ns * tt + nr * t + nc
+                    nbt[i, k] = lidx[tile_map[ns], nr, nc] if ridge[g] else -1
                 else:
                     tq = np.int64(tau[ns, nr, nc])
                     nbt[i, k] = -1 - tq
