@@ -184,6 +184,11 @@ def test_tile_manager_allocates_in_every_direction_and_round_trips():
     np.testing.assert_array_equal(tm2.read("a", -30, -60, 90, 90), tm.read("a", -30, -60, 90, 90))
     nb = tm.neighbour_slots()
     assert nb.shape == (3, 9) and (nb[:, 4] == np.arange(3)).all()
+    np.testing.assert_array_equal(tm2.neighbour_slots(), nb)
+    # the cached table follows new tiles: tile (1, 0) is the south neighbour of (0, 0)
+    (s_new,), _ = tm.ensure(np.array([1]), np.array([0]))
+    nb = tm.neighbour_slots()
+    assert nb.shape == (4, 9) and nb[slots[0], 7] == s_new and nb[s_new, 1] == slots[0]
 
 
 def test_tile_manager_extent_limit_changes_nothing():

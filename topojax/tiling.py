@@ -192,6 +192,7 @@ class TileManager:
         self.max_grid_cells = max_grid_cells
         self._capacity = max(1, int(initial_capacity))
         self._n = 0
+        self._nbr9: np.ndarray | None = None
         self._keys = np.zeros((self._capacity, 2), np.int64)
         self._specs: dict[str, tuple[np.dtype, object, tuple[int, ...]]] = {}
         self._data: dict[str, np.ndarray] = {}
@@ -331,12 +332,18 @@ class TileManager:
     def neighbour_slots(self) -> np.ndarray:
         """Slots of the 3 x 3 tiles around every tile, int64 (n_tiles, 9), -1 if absent.
 
-        Column ``3 * (dr + 1) + (dc + 1)`` holds the tile at offset ``(dr, dc)``.
+        Column ``3 * (dr + 1) + (dc + 1)`` holds the tile at offset ``(dr, dc)``.  Cached
+        until tiles are added (the incremental loops ask for it several times per update);
+        the returned array is read-only.
         """
-        k = self.keys
-        dr = np.repeat(np.arange(-1, 2), 3)
-        dc = np.tile(np.arange(-1, 2), 3)
-        return self.lookup(k[:, 0:1] + dr[None, :], k[:, 1:2] + dc[None, :])
+        if self._nbr9 is None:
+            k = self.keys
+            dr = np.repeat(np.arange(-1, 2), 3)
+            dc = np.tile(np.arange(-1, 2), 3)
+            nbr = self.lookup(k[:, 0:1] + dr[None, :], k[:, 1:2] + dc[None, :])
+            nbr.flags.writeable = False
+            self._nbr9 = nbr
+        return self._nbr9
 
     def ensure(self, tile_rows, tile_cols) -> tuple[np.ndarray, int]:
         """Allocate the tiles that do not exist yet.
@@ -374,6 +381,7 @@ class TileManager:
         g0 = self._grid_origin
         self._grid[packed[:, 0] - g0[0], packed[:, 1] - g0[1]] = new_slots
         self._n += n_new
+        self._nbr9 = None
         lo = packed.min(axis=0)
         hi = packed.max(axis=0) + 1
         if self._bbox is None:
@@ -610,6 +618,7 @@ class TileManager:
         self._grid = grid.copy()
         self._grid_origin = (origin[0], origin[1])
         self._n = n
+        self._nbr9 = None
         self._bbox = tuple(int(v) for v in state["bbox"]) if bool(state["has_bbox"]) else None
 
 
