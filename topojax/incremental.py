@@ -2233,10 +2233,10 @@ class IncrementalMapper:
         nb = t // b
         keys = tiles.keys
         tau = tiles.layer("thin_time")
+        grid, (g0r, g0c) = tiles.slot_grid
         seeds = [border]
         changed = np.concatenate([added, removed])
         if changed.shape[0]:
-            grid, (g0r, g0c) = tiles.slot_grid
             act = np.zeros((tau.shape[0], nb, nb), np.uint8)
             blk = np.empty((tiles.n_tiles * nb * nb, 3), np.int64)
             n_blk = _seed_blocks(
@@ -2269,7 +2269,6 @@ class IncrementalMapper:
         seeds = np.concatenate(seeds)
         if seeds.shape[0] == 0:
             return 0
-        grid, (g0r, g0c) = tiles.slot_grid
         bbox = np.asarray(tiles.pixel_bbox, np.int64)
         skel = tiles.layer("skeleton")
         n_seed = seeds.shape[0]
