@@ -91,16 +91,49 @@ _KIND_NAMES = {
 
 
 @numba.njit(cache=True, nogil=True)
-def _link_masks(pad: np.ndarray, idx: np.ndarray, width: int) -> np.ndarray:
-    """Link bit-mask (uint8) of each pixel in ``idx`` (flat indices into the padded image)."""
-    n = idx.shape[0]
-    out = np.zeros(n, dtype=np.uint8)
+def _link_table(keys: np.ndarray, offsets8: np.ndarray):
+    """Neighbour table and link masks of a set of pixels given by their keys.
+
+    ``keys`` (int64, strictly increasing: raster order) are pixel keys whose neighbour in
+    direction ``k`` has the key ``keys[i] + offsets8[k]`` (``row * stride + col`` with a
+    stride larger than every column, so no real pixel wraps onto another row).  Adding a
+    constant keeps the keys sorted, so the row above and the row below are each found by
+    one linear merge: no image-sized array is needed, and the cost is O(n) for n pixels
+    wherever they lie.
+
+    Returns ``nbr`` (int32, (n, 8): index of the neighbour in direction ``k``, or -1) and
+    ``masks`` (uint8, (n,): bit ``k`` set when the pixel is linked to that neighbour).
+    """
+    n = keys.shape[0]
+    nbr = np.full((n, 8), -1, dtype=np.int32)
+    # Same row: the neighbours are adjacent in raster order.
     for i in range(n):
-        p = idx[i]
-        up = pad[p - width]
-        left = pad[p - 1]
-        right = pad[p + 1]
-        down = pad[p + width]
+        if i > 0 and keys[i - 1] == keys[i] + offsets8[1]:
+            nbr[i, 1] = i - 1
+        if i + 1 < n and keys[i + 1] == keys[i] + offsets8[2]:
+            nbr[i, 2] = i + 1
+    # Rows above and below: one linear merge each finds the three candidates, which are
+    # consecutive in raster order when present.
+    for row_dirs in ((4, 0, 5), (6, 3, 7)):
+        d0 = row_dirs[0]
+        j = 0
+        for i in range(n):
+            base = keys[i] + offsets8[d0]
+            while j < n and keys[j] < base:
+                j += 1
+            jj = j
+            for d in row_dirs:
+                target = keys[i] + offsets8[d]
+                while jj < n and keys[jj] < target:
+                    jj += 1
+                if jj < n and keys[jj] == target:
+                    nbr[i, d] = jj
+    masks = np.zeros(n, dtype=np.uint8)
+    for i in range(n):
+        up = nbr[i, 0] >= 0
+        left = nbr[i, 1] >= 0
+        right = nbr[i, 2] >= 0
+        down = nbr[i, 3] >= 0
         m = 0
         if up:
             m |= 1
@@ -111,16 +144,16 @@ def _link_masks(pad: np.ndarray, idx: np.ndarray, width: int) -> np.ndarray:
         if down:
             m |= 8
         # A diagonal is linked only if neither pixel 4-adjacent to both ends is set.
-        if pad[p - width - 1] and not up and not left:
+        if nbr[i, 4] >= 0 and not up and not left:
             m |= 16
-        if pad[p - width + 1] and not up and not right:
+        if nbr[i, 5] >= 0 and not up and not right:
             m |= 32
-        if pad[p + width - 1] and not down and not left:
+        if nbr[i, 6] >= 0 and not down and not left:
             m |= 64
-        if pad[p + width + 1] and not down and not right:
+        if nbr[i, 7] >= 0 and not down and not right:
             m |= 128
-        out[i] = m
-    return out
+        masks[i] = m
+    return nbr, masks
 
 
 @numba.njit(cache=True, nogil=True)
@@ -129,17 +162,18 @@ def _trace(
     is_vertex: np.ndarray,
     vertex_idx: np.ndarray,
     deg2_idx: np.ndarray,
-    offsets8: np.ndarray,
+    nbr: np.ndarray,
     n_links: int,
 ):
     """Trace all edge paths.
 
-    ``links`` and ``is_vertex`` are full padded-image arrays (uint8 / bool).  Returns the
-    ring-vertex flat indices, and per edge the start / end flat index and the concatenated
-    paths with CSR offsets.  ``is_vertex`` is updated in place with the ring vertices.
+    Pixels are numbered ``0..n-1`` in raster order; ``links`` (uint8 masks),
+    ``is_vertex`` (bool) and ``nbr`` (:func:`_link_table`) are indexed by that number.
+    Returns the ring-vertex numbers, and per edge the start / end pixel number and the
+    concatenated paths with CSR offsets.  ``is_vertex`` is updated in place with the ring
+    vertices.
     """
-    npad = links.shape[0]
-    visited = np.zeros(npad, dtype=np.bool_)
+    visited = np.zeros(links.shape[0], dtype=np.bool_)
     max_edges = n_links + 1
     e_u = np.empty(max_edges, dtype=np.int64)
     e_v = np.empty(max_edges, dtype=np.int64)
@@ -174,7 +208,7 @@ def _trace(
             for k in range(8):
                 if not (m >> k) & 1:
                     continue
-                nb = v + offsets8[k]
+                nb = nbr[v, k]
                 if is_vertex[nb]:
                     # Two adjacent vertex pixels: one 2-pixel edge, emitted once.
                     if v < nb:
@@ -202,7 +236,7 @@ def _trace(
                     nxt = -1
                     for kk in range(8):
                         if (mc >> kk) & 1:
-                            cand = cur + offsets8[kk]
+                            cand = nbr[cur, kk]
                             if cand != prev:
                                 nxt = cand
                                 break
@@ -319,16 +353,53 @@ def _world_coords(
 # --------------------------------------------------------------------------------------
 
 
-def _padded_links(skel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Padded flat skeleton, flat indices of its set pixels, their link masks, padded width."""
-    h, w = skel.shape
-    width = w + 2
-    pad = np.zeros((h + 2, width), dtype=np.bool_)
-    pad[1:-1, 1:-1] = skel
-    flat = pad.ravel()
-    idx = np.flatnonzero(flat)  # much faster on bool than on uint8
-    masks = _link_masks(flat, idx, width)
-    return flat, idx, masks, width
+def _dense_keys(skel: np.ndarray) -> tuple[np.ndarray, int]:
+    """Keys ``row * stride + col`` of the set pixels of an image (raster order) and the
+    stride (``W + 1``: the neighbours of column 0 and W - 1 across the row ends fall on the
+    unused column W)."""
+    w = skel.shape[1]
+    idx = np.flatnonzero(skel.ravel())  # much faster on bool than on uint8
+    return idx + idx // w, w + 1
+
+
+def _raw_graph(keys: np.ndarray, stride: int):
+    """Pixel graph and traced edges of the pixels ``keys`` (sorted, unique).
+
+    Parameters
+    ----------
+    keys : int64 (n,)
+        Pixel keys ``row * stride + col`` (any origin), strictly increasing.
+    stride : int
+        Key step of one row; larger than every column index plus one.
+
+    Returns
+    -------
+    v_idx : int64 (n_v,)
+        Vertex pixels (indices into ``keys``), increasing.
+    v_kind : int8 (n_v,)
+        0 isolated, 1 end, 2 ring, 3 junction.
+    e_u, e_v : int64 (n_e,)
+        First and last pixel (indices into ``keys``) of each edge.
+    e_off : int64 (n_e + 1,)
+        CSR offsets of the edge paths in ``path``.
+    path : int64 (L,)
+        Concatenated edge paths (indices into ``keys``), each from one end to the other.
+    """
+    offsets8 = _DR * stride + _DC
+    nbr, masks = _link_table(keys, offsets8)
+    deg = _POPCOUNT[masks]
+    vmask = deg != 2
+    vertex_idx = np.flatnonzero(vmask)
+    n_links = int(deg.sum(dtype=np.int64)) // 2
+    rings, e_u, e_v, e_off, path = _trace(
+        masks, vmask.copy(), vertex_idx, np.flatnonzero(~vmask), nbr, n_links
+    )
+    v_idx = np.concatenate([vertex_idx, rings])
+    v_kind = np.concatenate(
+        [np.minimum(deg[vmask], _KIND_JUNCTION), np.full(rings.shape[0], _KIND_RING, np.uint8)]
+    ).astype(np.int8)
+    order = np.argsort(v_idx, kind="stable")
+    return v_idx[order], v_kind[order], e_u, e_v, e_off.astype(np.int64), path
 
 
 def _orient(
@@ -369,11 +440,11 @@ def pixel_graph_degree(skeleton: np.ndarray) -> np.ndarray:
         ``L`` diagonals, so 0..8); 0 on background pixels (and on isolated skeleton pixels).
     """
     skel = _as_skeleton(skeleton)
-    h, w = skel.shape
-    flat, idx, masks, width = _padded_links(skel)
-    deg = np.zeros(flat.shape[0], dtype=np.uint8)
-    deg[idx] = _POPCOUNT[masks]
-    return deg.reshape(h + 2, width)[1:-1, 1:-1].copy()
+    keys, stride = _dense_keys(skel)
+    _, masks = _link_table(keys, _DR * stride + _DC)
+    deg = np.zeros(skel.size, dtype=np.uint8)
+    deg[keys - keys // stride] = _POPCOUNT[masks]
+    return deg.reshape(skel.shape)
 
 
 def _empty_graph(shape: tuple[int, int], res: float, merge: bool) -> nx.MultiGraph:
@@ -494,40 +565,21 @@ def skeleton_to_graph(
         return _empty_graph(shape, res, merge)
 
     # --- pixel graph and edge tracing (numba) -----------------------------------------
-    flat, idx, masks, width = _padded_links(skel)
-    npad = flat.shape[0]
-    deg = _POPCOUNT[masks]
-    links = np.zeros(npad, dtype=np.uint8)
-    links[idx] = masks
-    is_vertex = np.zeros(npad, dtype=np.bool_)
-    vmask = deg != 2
-    vertex_idx = idx[vmask]
-    is_vertex[vertex_idx] = True
-    offsets8 = _DR * width + _DC
-    n_links = int(deg.sum(dtype=np.int64)) // 2
-    rings, e_u, e_v, e_off, path_flat = _trace(
-        links, is_vertex, vertex_idx, idx[~vmask], offsets8, n_links
-    )
-
-    # --- vertices ----------------------------------------------------------------------
-    v_flat = np.concatenate([vertex_idx, rings])
-    v_kind = np.concatenate(
-        [np.minimum(deg[vmask], _KIND_JUNCTION), np.full(rings.shape[0], _KIND_RING, np.uint8)]
-    ).astype(np.int8)
-    order = np.argsort(v_flat, kind="stable")
-    v_flat = v_flat[order]
-    v_kind = v_kind[order]
-    n_v = v_flat.shape[0]
-    u_id = np.searchsorted(v_flat, e_u)
-    v_id = np.searchsorted(v_flat, e_v)
+    keys, stride = _dense_keys(skel)
+    v_idx, v_kind, e_u, e_v, e_off, path = _raw_graph(keys, stride)
+    n_v = v_idx.shape[0]
+    u_id = np.searchsorted(v_idx, e_u)
+    v_id = np.searchsorted(v_idx, e_v)
 
     # --- paths: pixel coordinates, oriented so that u <= v --------------------------
     lens = np.diff(e_off)
-    u_id, v_id, path_flat = _orient(u_id, v_id, e_off, lens, path_flat)
-    pr = path_flat // width - 1
-    pc = path_flat % width - 1
-    vr = v_flat // width - 1
-    vc = v_flat % width - 1
+    u_id, v_id, path = _orient(u_id, v_id, e_off, lens, path)
+    path_key = keys[path]
+    pr = path_key // stride
+    pc = path_key % stride
+    v_key = keys[v_idx]
+    vr = v_key // stride
+    vc = v_key % stride
     pixels_rc = np.stack([vr, vc], axis=1).astype(np.int32)
     member_bounds = np.arange(n_v + 1)
 

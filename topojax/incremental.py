@@ -845,6 +845,34 @@ def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
 
 
 @numba.njit(cache=True, nogil=True)
+def _net_changes(rows, cols, grid, g0r, g0c, t, mark, skeleton, graph_id):
+    """Which of the pixels ``(rows, cols)`` differ between the skeleton and the graph.
+
+    The graph covers every pixel of the skeleton it was built from (``graph_id != -1``
+    exactly there), so a pixel whose skeleton value changed and changed back since the
+    last graph update is not a change.  Repeats are dropped too.  ``mark`` (scratch uint8
+    layer) is zero on entry and exit.  Returns a bool mask over the input pixels.
+    """
+    n = rows.shape[0]
+    keep = np.zeros(n, np.bool_)
+    for i in range(n):
+        s = _slot(grid, g0r, g0c, t, rows[i], cols[i])
+        if s < 0:
+            continue
+        lr = rows[i] - (rows[i] // t) * t
+        lc = cols[i] - (cols[i] // t) * t
+        if mark[s, lr, lc]:
+            continue
+        mark[s, lr, lc] = 1
+        keep[i] = skeleton[s, lr, lc] != (graph_id[s, lr, lc] != -1)
+    for i in range(n):
+        s = _slot(grid, g0r, g0c, t, rows[i], cols[i])
+        if s >= 0:
+            mark[s, rows[i] - (rows[i] // t) * t, cols[i] - (cols[i] // t) * t] = 0
+    return keep
+
+
+@numba.njit(cache=True, nogil=True)
 def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     """The changed pixels dilated by one (3 x 3), without repeats, with the ``graph_id`` and
     ``skeleton`` values there.  ``mark`` (scratch uint8 layer) is zero on entry and exit;
@@ -1364,51 +1392,70 @@ def _signatures(paths: np.ndarray, off: np.ndarray) -> list[tuple[int, int, int,
     )
 
 
-def _local_graph(skel: np.ndarray):
-    """Raw topology graph of a skeleton crop, as arrays.
+@numba.njit(cache=True, nogil=True)
+def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skeleton):
+    """The skeleton pixels within one pixel (3 x 3) of the pixels A = ``(ar, ac)``.
 
-    Uses the link-mask and tracing kernels of :mod:`topojax.graph` (the code behind
-    :func:`~topojax.graph.skeleton_to_graph`, so the vertices, kinds and paths are the
-    same) without building a networkx graph or attributes.
-
-    Returns
-    -------
-    v_rc : int64 (n, 2)
-        Vertex pixels (crop coordinates), raster order.
-    v_kind : int8 (n,)
-        0 isolated, 1 end, 2 ring, 3 junction.
-    e_off : int64 (m + 1,)
-        CSR offsets of the edge paths in ``p_rc``.
-    p_rc : int64 (L, 2)
-        Concatenated edge paths (crop coordinates), each from one end to the other.
+    Returns their keys (:func:`_pack`, unsorted, without repeats), whether each lies in A
+    and whether it lies in the region Z = ``(zr, zc)``, and whether each query pixel
+    ``(qr, qc)`` lies in Z.  Work is proportional to the number of pixels, not to their
+    bounding box.  ``mark`` (scratch uint8 layer) is zero on entry and exit; bits: 1
+    collected, 2 in A, 4 in Z.
     """
-    from . import graph as _g
-
-    flat, idx, masks, width = _g._padded_links(skel)
-    deg = _g._POPCOUNT[masks]
-    links = np.zeros(flat.shape[0], dtype=np.uint8)
-    links[idx] = masks
-    is_vertex = np.zeros(flat.shape[0], dtype=np.bool_)
-    vmask = deg != 2
-    vertex_idx = idx[vmask]
-    is_vertex[vertex_idx] = True
-    offsets8 = _g._DR * width + _g._DC
-    n_links = int(deg.sum(dtype=np.int64)) // 2
-    rings, _e_u, _e_v, e_off, path_flat = _g._trace(
-        links, is_vertex, vertex_idx, idx[~vmask], offsets8, n_links
-    )
-    v_flat = np.concatenate([vertex_idx, rings])
-    v_kind = np.concatenate(
-        [
-            np.minimum(deg[vmask], _g._KIND_JUNCTION),
-            np.full(rings.shape[0], _g._KIND_RING, np.uint8),
-        ]
-    ).astype(np.int8)
-    order = np.argsort(v_flat, kind="stable")
-    v_flat = v_flat[order]
-    v_rc = np.stack([v_flat // width - 1, v_flat % width - 1], axis=1)
-    p_rc = np.stack([path_flat // width - 1, path_flat % width - 1], axis=1)
-    return v_rc, v_kind[order], e_off.astype(np.int64), p_rc
+    for i in range(zr.shape[0]):
+        s = _slot(grid, g0r, g0c, t, zr[i], zc[i])
+        if s >= 0:
+            mark[s, zr[i] - (zr[i] // t) * t, zc[i] - (zc[i] // t) * t] |= 4
+    n = ar.shape[0]
+    for i in range(n):
+        s = _slot(grid, g0r, g0c, t, ar[i], ac[i])
+        if s >= 0:
+            mark[s, ar[i] - (ar[i] // t) * t, ac[i] - (ac[i] // t) * t] |= 2
+    keys = np.empty(9 * n, np.int64)
+    in_a = np.empty(9 * n, np.bool_)
+    in_z = np.empty(9 * n, np.bool_)
+    ps = np.empty(9 * n, np.int64)
+    plr = np.empty(9 * n, np.int64)
+    plc = np.empty(9 * n, np.int64)
+    m = 0
+    for i in range(n):
+        s0 = _slot(grid, g0r, g0c, t, ar[i], ac[i])
+        if s0 < 0:
+            continue
+        lr0 = ar[i] - (ar[i] // t) * t
+        lc0 = ac[i] - (ac[i] // t) * t
+        for dr in range(-1, 2):
+            nr, oy = _wrap_into_tile(lr0 + dr, t)
+            for dc in range(-1, 2):
+                nc, ox = _wrap_into_tile(lc0 + dc, t)
+                s = nbr9[s0, 3 * oy + ox]
+                if s < 0 or not skeleton[s, nr, nc] or mark[s, nr, nc] & 1:
+                    continue
+                f = mark[s, nr, nc]
+                mark[s, nr, nc] = f | 1
+                keys[m] = ((ar[i] + dr) << 32) + ac[i] + dc + (1 << 31)
+                in_a[m] = (f & 2) != 0
+                in_z[m] = (f & 4) != 0
+                ps[m] = s
+                plr[m] = nr
+                plc[m] = nc
+                m += 1
+    q_in_z = np.zeros(qr.shape[0], np.bool_)
+    for i in range(qr.shape[0]):
+        s = _slot(grid, g0r, g0c, t, qr[i], qc[i])
+        if s >= 0:
+            q_in_z[i] = (mark[s, qr[i] - (qr[i] // t) * t, qc[i] - (qc[i] // t) * t] & 4) != 0
+    for i in range(m):
+        mark[ps[i], plr[i], plc[i]] = 0
+    for i in range(n):
+        s = _slot(grid, g0r, g0c, t, ar[i], ac[i])
+        if s >= 0:
+            mark[s, ar[i] - (ar[i] // t) * t, ac[i] - (ac[i] // t) * t] = 0
+    for i in range(zr.shape[0]):
+        s = _slot(grid, g0r, g0c, t, zr[i], zc[i])
+        if s >= 0:
+            mark[s, zr[i] - (zr[i] // t) * t, zc[i] - (zc[i] // t) * t] = 0
+    return keys[:m], in_a[:m], in_z[:m], q_in_z
 
 
 def thin_components(
@@ -2346,7 +2393,7 @@ class IncrementalMapper:
             return self._patch_graph()
 
     def _patch_graph(self) -> GraphUpdate:
-        import cv2
+        from .graph import _raw_graph
 
         t0 = time.perf_counter()
         self._since_graph = 0
@@ -2355,10 +2402,23 @@ class IncrementalMapper:
             return GraphUpdate(time_s=time.perf_counter() - t0)
         tiles = self._tiles
         t = self.tile_px
-        changed = np.concatenate(self._skel_changed)
+        changed = np.concatenate(self._skel_changed).astype(np.int64, copy=False)
         self._skel_changed = []
         grid, (g0r, g0c) = tiles.slot_grid
         gl = tiles.layer("graph_id")
+        changed = changed[
+            _net_changes(
+                changed[:, 0],
+                changed[:, 1],
+                grid,
+                g0r,
+                g0c,
+                t,
+                tiles.layer("mark"),
+                tiles.layer("skeleton"),
+                gl,
+            )
+        ]
         # Z: the changed pixels dilated by one (where pixel-graph links can change)
         zr, zc, gid, skz = _region_z(
             changed[:, 0],
@@ -2388,48 +2448,50 @@ class IncrementalMapper:
         )
         a_px = np.concatenate([all_r, np.stack([zr[skz], zc[skz]], axis=1)])
         # A: pixels of the removed edges and new skeleton pixels in Z.  Every new edge that
-        # touches Z lies in A; A's pixels are >= 2 px inside the crop, so their links are
-        # the same in the crop as in the whole map.  The crop also covers Z (a lone vertex
-        # pixel that vanished is in Z but not in A).
-        bbox = tiles.pixel_bbox
-        r0 = max(min(int(a_px[:, 0].min()) if a_px.size else bbox[2], int(zr.min())) - 2, bbox[0])
-        c0 = max(min(int(a_px[:, 1].min()) if a_px.size else bbox[3], int(zc.min())) - 2, bbox[1])
-        r1 = min(max(int(a_px[:, 0].max()) if a_px.size else bbox[0], int(zr.max())) + 3, bbox[2])
-        c1 = min(max(int(a_px[:, 1].max()) if a_px.size else bbox[1], int(zc.max())) + 3, bbox[3])
-        h, w = r1 - r0, c1 - c0
-        amask = np.zeros((h, w), np.uint8)
-        amask[a_px[:, 0] - r0, a_px[:, 1] - c0] = 1
-        zmask = np.zeros((h, w), bool)
-        zin = (zr >= r0) & (zr < r1) & (zc >= c0) & (zc < c1)
-        zmask[zr[zin] - r0, zc[zin] - c0] = True
-        # Only A and its 1-px neighbourhood matter (links of A pixels); the rest of the
-        # crop is cleared so that tracing costs O(|A|).
-        near = cv2.dilate(amask, np.ones((3, 3), np.uint8)).view(bool)
-        sk = tiles.read("skeleton", r0, c0, h, w) & near
-        amask = amask.view(bool)
-        if sk.any():
-            v_rc, v_kind, e_off, p_rc = _local_graph(sk)
+        # touches Z lies in A, so the local graph is traced on the skeleton pixels within
+        # one pixel of A (their links to A are the same as in the whole map).  Pixels are
+        # gathered sparsely: changes spread over a large map cost by their number, not by
+        # their bounding box.
+        touched_l = list(touched)
+        q_px = np.array([self._v_pixel[v] for v in touched_l], np.int64).reshape(-1, 2)
+        keys, in_a, in_z, q_in_z = _near_skeleton(
+            a_px[:, 0],
+            a_px[:, 1],
+            zr,
+            zc,
+            q_px[:, 0],
+            q_px[:, 1],
+            grid,
+            g0r,
+            g0c,
+            tiles.neighbour_slots(),
+            t,
+            tiles.layer("mark"),
+            tiles.layer("skeleton"),
+        )
+        order = np.argsort(keys)
+        keys, in_a, in_z = keys[order], in_a[order], in_z[order]
+        z_of_touched = dict(zip(touched_l, q_in_z.tolist(), strict=True))
+        if keys.size:
+            v_idx, v_kind, _, _, e_off, path = _raw_graph(keys, 1 << 32)
         else:
-            v_rc = np.zeros((0, 2), np.int64)
+            v_idx = np.zeros(0, np.int64)
             v_kind = np.zeros(0, np.int8)
             e_off = np.zeros(1, np.int64)
-            p_rc = np.zeros((0, 2), np.int64)
+            path = np.zeros(0, np.int64)
         n_e = e_off.shape[0] - 1
         kept = np.zeros(0, np.int64)
         new_kind: dict[int, str] = {}
         if n_e:
-            in_a = amask[p_rc[:, 0], p_rc[:, 1]]
-            in_z = zmask[p_rc[:, 0], p_rc[:, 1]]
-            all_a = np.minimum.reduceat(in_a, e_off[:-1])
-            any_z = np.maximum.reduceat(in_z, e_off[:-1])
+            all_a = np.minimum.reduceat(in_a[path], e_off[:-1])
+            any_z = np.maximum.reduceat(in_z[path], e_off[:-1])
             kept = np.flatnonzero(all_a & any_z)
-            for ends in (p_rc[e_off[kept]], p_rc[e_off[kept + 1] - 1]):
-                for pk in (((ends[:, 0] + r0) << 32) + ends[:, 1] + c0 + (1 << 31)).tolist():
+            for ends in (keys[path[e_off[kept]]], keys[path[e_off[kept + 1] - 1]]):
+                for pk in ends.tolist():
                     new_kind[pk] = ""
-        if v_rc.shape[0]:
-            vz = zmask[v_rc[:, 0], v_rc[:, 1]]
-            keys = ((v_rc[:, 0] + r0) << 32) + (v_rc[:, 1] + c0 + (1 << 31))
-            for pk, kc, z in zip(keys.tolist(), v_kind.tolist(), vz.tolist(), strict=True):
+        if v_idx.shape[0]:
+            vz = in_z[v_idx]
+            for pk, kc, z in zip(keys[v_idx].tolist(), v_kind.tolist(), vz.tolist(), strict=True):
                 if z or pk in new_kind:
                     new_kind[pk] = _KIND_NAME[kc]
         # ---- remove the old edges
@@ -2455,7 +2517,7 @@ class IncrementalMapper:
             if _key(pr, pc) in new_kind:
                 continue
             # outside Z a vertex keeps its degree; only a ring vertex can stop being one
-            if zmask[pr - r0, pc - c0] or kind_before[v] == "ring":
+            if z_of_touched[v] or kind_before[v] == "ring":
                 removed_v.append(v)
         if removed_v:
             vr = np.array([self._v_pixel[v][0] for v in removed_v], np.int64)
@@ -2487,13 +2549,13 @@ class IncrementalMapper:
         added_e: list[int] = []
         restored: set[int] = set()
         if kept.size:
-            gp = p_rc + np.array([r0, c0], np.int64)
             lens_k = e_off[kept + 1] - e_off[kept]
             off_k = np.concatenate([[0], np.cumsum(lens_k)])
             sel = np.repeat(e_off[kept] - off_k[:-1], lens_k) + np.arange(int(off_k[-1]))
-            kp = gp[sel]
-            k_first = (kp[off_k[:-1], 0] << 32) + kp[off_k[:-1], 1] + (1 << 31)
-            k_last = (kp[off_k[1:] - 1, 0] << 32) + kp[off_k[1:] - 1, 1] + (1 << 31)
+            kk = keys[path[sel]]
+            kp = np.stack(_unpack(kk), axis=1)
+            k_first = kk[off_k[:-1]]
+            k_last = kk[off_k[1:] - 1]
             va = self._vertex_at
             a_ids = np.array([va[k] for k in k_first.tolist()], np.int64)
             b_ids = np.array([va[k] for k in k_last.tolist()], np.int64)
