@@ -302,8 +302,12 @@ def test_constructor_validation():
         IncrementalMapper(strategy="fast")
     with pytest.raises(ValueError, match="resolution_m"):
         IncrementalMapper(resolution_m=0.0)
-    with pytest.raises(ValueError, match="multiple of block_px"):
+    with pytest.raises(ValueError, match="tile_px must be a power of two.*got 24"):
         IncrementalMapper(tile_px=24, block_px=16)
+    with pytest.raises(ValueError, match="block_px must be a power of two.*got 12"):
+        IncrementalMapper(tile_px=64, block_px=12)
+    with pytest.raises(ValueError, match=r"tile_px \(16\) must be >= block_px \(32\)"):
+        IncrementalMapper(tile_px=16, block_px=32)
     with pytest.raises(ValueError, match="skeleton_every"):
         IncrementalMapper(skeleton_every=-1)
     with pytest.raises(TypeError, match="graph_every"):

@@ -264,10 +264,21 @@ def _gaussian(d2, sigma_px):
 # ======================================================================================
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _log2(n):
+    """``log2(n)`` of a power of two: tile and block coordinates are then shifts and masks
+    (an integer division costs 20-40 cycles, and the per-pixel loops do several)."""
+    s = 0
+    while (1 << s) < n:
+        s += 1
+    return s
+
+
 @numba.njit(cache=True, nogil=True)
-def _slot(grid, g0r, g0c, t, r, c):
-    tr = r // t
-    tc = c // t
+def _slot(grid, g0r, g0c, sh, r, c):
+    """Storage slot of the tile of pixel ``(r, c)`` (tiles of side ``2**sh``), or -1."""
+    tr = r >> sh
+    tc = c >> sh
     gi = tr - g0r
     gj = tc - g0c
     if gi < 0 or gj < 0 or gi >= grid.shape[0] or gj >= grid.shape[1]:
@@ -323,24 +334,25 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
     """Tiles touched by the beams (end cells; ray cells too if ``rays``) that are not
     allocated (with repeats).  Fast path: a ray whose tile rectangle is fully allocated
     needs no walk."""
+    tsh = _log2(t)
     n = er.shape[0]
     out = np.empty((16, 2), np.int64)
     m = 0
     gh = grid.shape[0]
     gw = grid.shape[1]
-    str_ = sr // t
-    stc = sc // t
+    str_ = sr >> tsh
+    stc = sc >> tsh
     for i in range(n):
         r1 = er[i]
         c1 = ec[i]
         if rays:
-            tr0 = min(str_, r1 // t)
-            tr1 = max(str_, r1 // t)
-            tc0 = min(stc, c1 // t)
-            tc1 = max(stc, c1 // t)
+            tr0 = min(str_, (r1 >> tsh))
+            tr1 = max(str_, (r1 >> tsh))
+            tc0 = min(stc, (c1 >> tsh))
+            tc1 = max(stc, (c1 >> tsh))
         else:
-            tr0 = tr1 = r1 // t
-            tc0 = tc1 = c1 // t
+            tr0 = tr1 = r1 >> tsh
+            tc0 = tc1 = c1 >> tsh
         full = True
         for tr in range(tr0, tr1 + 1):
             for tc in range(tc0, tc1 + 1):
@@ -363,12 +375,12 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
         last_r = -(1 << 62)
         last_c = -(1 << 62)
         while True:
-            tr = r // t
-            tc = c // t
+            tr = r >> tsh
+            tc = c >> tsh
             if tr != last_r or tc != last_c:
                 last_r = tr
                 last_c = tc
-                if _slot(grid, g0r, g0c, t, r, c) < 0:
+                if _slot(grid, g0r, g0c, tsh, r, c) < 0:
                     if m == out.shape[0]:
                         out = np.concatenate((out, np.empty_like(out)))
                     out[m, 0] = tr
@@ -383,15 +395,16 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
 @numba.njit(cache=True, nogil=True)
 def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
     """Tiles intersecting the squares ``[p - w, p + w]^2`` that are not allocated."""
+    tsh = _log2(t)
     n = pr.shape[0]
-    span = (2 * w) // t + 2
+    span = ((2 * w) >> tsh) + 2
     out = np.empty((n * span * span + 1, 2), np.int64)
     m = 0
     for i in range(n):
-        tr0 = (pr[i] - w) // t
-        tr1 = (pr[i] + w) // t
-        tc0 = (pc[i] - w) // t
-        tc1 = (pc[i] + w) // t
+        tr0 = (pr[i] - w) >> tsh
+        tr1 = (pr[i] + w) >> tsh
+        tc0 = (pc[i] - w) >> tsh
+        tc1 = (pc[i] + w) >> tsh
         for tr in range(tr0, tr1 + 1):
             for tc in range(tc0, tc1 + 1):
                 gi = tr - g0r
@@ -412,6 +425,8 @@ def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
     ``new_flag[i]`` is set when beam ``i`` hits a pixel for the first time ever.
     Counters saturate at 65535.  Returns the number of new obstacle pixels.
     """
+    tsh = _log2(t)
+    tm = t - 1
     n = er.shape[0]
     n_new = 0
     for i in range(n):
@@ -422,9 +437,9 @@ def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
             c = sc
             dr, dc, stp_r, stp_c, err = _bresenham_start(r, c, r1, c1)
             # tile-local stepping: look the tile up only when the ray leaves it
-            s = _slot(grid, g0r, g0c, t, r, c)
-            lr = r - (r // t) * t
-            lc = c - (c // t) * t
+            s = _slot(grid, g0r, g0c, tsh, r, c)
+            lr = r & tm
+            lc = c & tm
             while True:
                 if misses[s, lr, lc] < _UINT16_MAX:
                     misses[s, lr, lc] += 1
@@ -436,12 +451,12 @@ def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
                 if r == r1 and c == c1:
                     break
                 if moved:
-                    s = _slot(grid, g0r, g0c, t, r, c)
-                    lr = r - (r // t) * t
-                    lc = c - (c // t) * t
-        s = _slot(grid, g0r, g0c, t, r1, c1)
-        lr = r1 - (r1 // t) * t
-        lc = c1 - (c1 // t) * t
+                    s = _slot(grid, g0r, g0c, tsh, r, c)
+                    lr = r & tm
+                    lc = c & tm
+        s = _slot(grid, g0r, g0c, tsh, r1, c1)
+        lr = r1 & tm
+        lc = c1 & tm
         h = hits[s, lr, lc]
         if h == 0:
             new_flag[i] = True
@@ -483,6 +498,8 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
     away), ``row_bidx`` (index of the row's block in ``blocks``) and ``blocks`` (distinct
     flat block ids).
     """
+    tsh = _log2(t)
+    tm = t - 1
     nb = t // b
     n_ids = bmax.shape[0] * nb * nb
     n = pr.shape[0]
@@ -506,8 +523,8 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                     continue
                 qr = p_r + a
                 qc = p_c + c
-                s = _slot(grid, g0r, g0c, t, qr, qc)
-                if s >= 0 and hits[s, qr - (qr // t) * t, qc - (qc // t) * t] > 0:
+                s = _slot(grid, g0r, g0c, tsh, qr, qc)
+                if s >= 0 and hits[s, (qr & tm), (qc & tm)] > 0:
                     nbr[n_q, 0] = a
                     nbr[n_q, 1] = c
                     n_q += 1
@@ -819,28 +836,32 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, ridge, lap_abs):
 
 @numba.njit(cache=True, nogil=True)
 def _gather_px(layer, grid, g0r, g0c, t, rows, cols, fill, out):
+    tsh = _log2(t)
+    tm = t - 1
     for i in range(rows.shape[0]):
         r = rows[i]
         c = cols[i]
-        s = _slot(grid, g0r, g0c, t, r, c)
+        s = _slot(grid, g0r, g0c, tsh, r, c)
         if s < 0:
             out[i] = fill
         else:
-            out[i] = layer[s, r - (r // t) * t, c - (c // t) * t]
+            out[i] = layer[s, (r & tm), (c & tm)]
 
 
 @numba.njit(cache=True, nogil=True)
 def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
     """Write ``values`` at global pixels; returns how many pixels lie in missing tiles."""
+    tsh = _log2(t)
+    tm = t - 1
     missing = 0
     for i in range(rows.shape[0]):
         r = rows[i]
         c = cols[i]
-        s = _slot(grid, g0r, g0c, t, r, c)
+        s = _slot(grid, g0r, g0c, tsh, r, c)
         if s < 0:
             missing += 1
         else:
-            layer[s, r - (r // t) * t, c - (c // t) * t] = values[i]
+            layer[s, (r & tm), (c & tm)] = values[i]
     return missing
 
 
@@ -853,22 +874,24 @@ def _net_changes(rows, cols, grid, g0r, g0c, t, mark, skeleton, graph_id):
     last graph update is not a change.  Repeats are dropped too.  ``mark`` (scratch uint8
     layer) is zero on entry and exit.  Returns a bool mask over the input pixels.
     """
+    tsh = _log2(t)
+    tm = t - 1
     n = rows.shape[0]
     keep = np.zeros(n, np.bool_)
     for i in range(n):
-        s = _slot(grid, g0r, g0c, t, rows[i], cols[i])
+        s = _slot(grid, g0r, g0c, tsh, rows[i], cols[i])
         if s < 0:
             continue
-        lr = rows[i] - (rows[i] // t) * t
-        lc = cols[i] - (cols[i] // t) * t
+        lr = rows[i] & tm
+        lc = cols[i] & tm
         if mark[s, lr, lc]:
             continue
         mark[s, lr, lc] = 1
         keep[i] = skeleton[s, lr, lc] != (graph_id[s, lr, lc] != -1)
     for i in range(n):
-        s = _slot(grid, g0r, g0c, t, rows[i], cols[i])
+        s = _slot(grid, g0r, g0c, tsh, rows[i], cols[i])
         if s >= 0:
-            mark[s, rows[i] - (rows[i] // t) * t, cols[i] - (cols[i] // t) * t] = 0
+            mark[s, (rows[i] & tm), (cols[i] & tm)] = 0
     return keep
 
 
@@ -879,6 +902,8 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     pixels of missing tiles read -1 / False.  Returns ``zr, zc, gid, skz``.  One tile
     lookup per changed pixel; its neighbours are reached through ``nbr9``
     (:meth:`TileManager.neighbour_slots`)."""
+    tsh = _log2(t)
+    tm = t - 1
     n = sr.shape[0]
     zr = np.empty(9 * n, np.int64)
     zc = np.empty(9 * n, np.int64)
@@ -889,9 +914,9 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     zlc = np.empty(9 * n, np.int64)
     m = 0
     for i in range(n):
-        s0 = _slot(grid, g0r, g0c, t, sr[i], sc[i])
-        lr0 = sr[i] - (sr[i] // t) * t
-        lc0 = sc[i] - (sc[i] // t) * t
+        s0 = _slot(grid, g0r, g0c, tsh, sr[i], sc[i])
+        lr0 = sr[i] & tm
+        lc0 = sc[i] & tm
         for dr in range(-1, 2):
             nr, oy = _wrap_into_tile(lr0 + dr, t)
             for dc in range(-1, 2):
@@ -923,14 +948,16 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
 @numba.njit(cache=True, nogil=True)
 def _clear_owned(layer, grid, g0r, g0c, t, rows, cols, owner):
     """Set ``layer`` to -1 at the pixels whose value equals ``owner[i]``."""
+    tsh = _log2(t)
+    tm = t - 1
     for i in range(rows.shape[0]):
         r = rows[i]
         c = cols[i]
-        s = _slot(grid, g0r, g0c, t, r, c)
+        s = _slot(grid, g0r, g0c, tsh, r, c)
         if s < 0:
             continue
-        lr = r - (r // t) * t
-        lc = c - (c // t) * t
+        lr = r & tm
+        lc = c & tm
         if layer[s, lr, lc] == owner[i]:
             layer[s, lr, lc] = -1
 
@@ -949,23 +976,26 @@ def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, act, blk):
     """Flag (``act``) and list (``blk`` rows ``(slot, block_row, block_col)``) the
     allocated blocks containing the pixels or next to a block containing one; returns
     how many were listed."""
+    bsh = _log2(b)
+    nsh = _log2(nb)
+    nm = nb - 1
     n = 0
     pbr = np.int64(-(1 << 62))
     pbc = pbr
     for i in range(rows.shape[0]):
-        gbr = rows[i] // b
-        gbc = cols[i] // b
+        gbr = rows[i] >> bsh
+        gbc = cols[i] >> bsh
         if gbr == pbr and gbc == pbc:
             continue
         pbr = gbr
         pbc = gbc
         for br in range(gbr - 1, gbr + 2):
             for bc in range(gbc - 1, gbc + 2):
-                s = _slot(grid, g0r, g0c, nb, br, bc)  # blocks are the "pixels" of a tile
+                s = _slot(grid, g0r, g0c, nsh, br, bc)  # blocks are the "pixels" of a tile
                 if s < 0:
                     continue
-                lbr = br - (br // nb) * nb
-                lbc = bc - (bc // nb) * nb
+                lbr = br & nm
+                lbc = bc & nm
                 if not act[s, lbr, lbc]:
                     act[s, lbr, lbc] = 1
                     blk[n, 0] = s
@@ -1001,6 +1031,8 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
     state (``tau == _SURVIVOR``) changed, the number of rounds and the size of ``I`` in the
     last round.  ``tau`` is updated in place.
     """
+    tsh = _log2(t)
+    bsh = _log2(b)
     tt = t * t
     n_slots = tau.shape[0]
     tflat = tau.reshape(-1)
@@ -1045,15 +1077,15 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
             f = pix[i]
             s = f // tt
             rem = f - s * tt
-            lr = rem // t
-            lc = rem - lr * t
+            lr = rem >> tsh
+            lc = rem & (t - 1)
             for k in range(8):
                 nr, oy = _wrap_into_tile(lr + dr8[k], t)
                 nc, ox = _wrap_into_tile(lc + dc8[k], t)
                 ns = nbr9[s, 3 * oy + ox]
                 if ns < 0:
                     nbt[i, k] = -1
-                elif act[ns, nr // b, nc // b]:
+                elif act[ns, (nr >> bsh), (nc >> bsh)]:
                     g = ns * tt + nr * t + nc
                     nbt[i, k] = lidx[tile_map[ns], nr, nc] if ridge[g] else -1
                 else:
@@ -1111,16 +1143,16 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
                     if min(tnew[i], tq) != min(told, tq):
                         s = f // tt
                         rem = f - s * tt
-                        lr = rem // t
-                        lc = rem - lr * t
+                        lr = rem >> tsh
+                        lc = rem & (t - 1)
                         nr, oy = _wrap_into_tile(lr + dr8[k], t)
                         nc, ox = _wrap_into_tile(lc + dc8[k], t)
                         ns = nbr9[s, 3 * oy + ox]
-                        if not act[ns, nr // b, nc // b]:
-                            act[ns, nr // b, nc // b] = 1
+                        if not act[ns, (nr >> bsh), (nc >> bsh)]:
+                            act[ns, (nr >> bsh), (nc >> bsh)] = 1
                             blk[n_blk, 0] = ns
-                            blk[n_blk, 1] = nr // b
-                            blk[n_blk, 2] = nc // b
+                            blk[n_blk, 1] = nr >> bsh
+                            blk[n_blk, 2] = nc >> bsh
                             n_blk += 1
                             grown = True
         if not grown:
@@ -1229,6 +1261,8 @@ def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_
     removal never examines (corners, or everything when ``remove_t`` is False) get the
     thinned value directly; those changes go to ``ch_r``, ``ch_c`` (room for every seed)
     and their number is returned too."""
+    tsh = _log2(t)
+    tm = t - 1
     r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
     h = r1 - r0
     w = c1 - c0
@@ -1245,10 +1279,10 @@ def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_
             # never examined: the skeleton is the thinned image here
             r = seed_r[i]
             c = seed_c[i]
-            s = _slot(grid, g0r, g0c, t, r, c)
+            s = _slot(grid, g0r, g0c, tsh, r, c)
             if s >= 0:
-                lr = r - (r // t) * t
-                lc = c - (c // t) * t
+                lr = r & tm
+                lc = c & tm
                 new = tau[s, lr, lc] == _SURVIVOR
                 if new != skel[s, lr, lc]:
                     skel[s, lr, lc] = new
@@ -1288,6 +1322,8 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
     ``ch_c`` after the first ``n_ch``; returns the arrays (possibly reallocated) and the
     new count.
     """
+    tsh = _log2(t)
+    tm = t - 1
     r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
     h = r1 - r0
     w = c1 - c0
@@ -1308,11 +1344,11 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
         rr, cc = _t_decode(o, h, w)
         r = rr + r0
         c = cc + c0
-        s = _slot(grid, g0r, g0c, t, r, c)
+        s = _slot(grid, g0r, g0c, tsh, r, c)
         if s < 0:
             continue
-        lr = r - (r // t) * t
-        lc = c - (c // t) * t
+        lr = r & tm
+        lc = c & tm
         new = tau[s, lr, lc] == _SURVIVOR
         if new:
             cnt = 0
@@ -1402,15 +1438,17 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
     bounding box.  ``mark`` (scratch uint8 layer) is zero on entry and exit; bits: 1
     collected, 2 in A, 4 in Z.
     """
+    tsh = _log2(t)
+    tm = t - 1
     for i in range(zr.shape[0]):
-        s = _slot(grid, g0r, g0c, t, zr[i], zc[i])
+        s = _slot(grid, g0r, g0c, tsh, zr[i], zc[i])
         if s >= 0:
-            mark[s, zr[i] - (zr[i] // t) * t, zc[i] - (zc[i] // t) * t] |= 4
+            mark[s, (zr[i] & tm), (zc[i] & tm)] |= 4
     n = ar.shape[0]
     for i in range(n):
-        s = _slot(grid, g0r, g0c, t, ar[i], ac[i])
+        s = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
         if s >= 0:
-            mark[s, ar[i] - (ar[i] // t) * t, ac[i] - (ac[i] // t) * t] |= 2
+            mark[s, (ar[i] & tm), (ac[i] & tm)] |= 2
     keys = np.empty(9 * n, np.int64)
     in_a = np.empty(9 * n, np.bool_)
     in_z = np.empty(9 * n, np.bool_)
@@ -1419,11 +1457,11 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
     plc = np.empty(9 * n, np.int64)
     m = 0
     for i in range(n):
-        s0 = _slot(grid, g0r, g0c, t, ar[i], ac[i])
+        s0 = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
         if s0 < 0:
             continue
-        lr0 = ar[i] - (ar[i] // t) * t
-        lc0 = ac[i] - (ac[i] // t) * t
+        lr0 = ar[i] & tm
+        lc0 = ac[i] & tm
         for dr in range(-1, 2):
             nr, oy = _wrap_into_tile(lr0 + dr, t)
             for dc in range(-1, 2):
@@ -1442,19 +1480,19 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
                 m += 1
     q_in_z = np.zeros(qr.shape[0], np.bool_)
     for i in range(qr.shape[0]):
-        s = _slot(grid, g0r, g0c, t, qr[i], qc[i])
+        s = _slot(grid, g0r, g0c, tsh, qr[i], qc[i])
         if s >= 0:
-            q_in_z[i] = (mark[s, qr[i] - (qr[i] // t) * t, qc[i] - (qc[i] // t) * t] & 4) != 0
+            q_in_z[i] = (mark[s, (qr[i] & tm), (qc[i] & tm)] & 4) != 0
     for i in range(m):
         mark[ps[i], plr[i], plc[i]] = 0
     for i in range(n):
-        s = _slot(grid, g0r, g0c, t, ar[i], ac[i])
+        s = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
         if s >= 0:
-            mark[s, ar[i] - (ar[i] // t) * t, ac[i] - (ac[i] // t) * t] = 0
+            mark[s, (ar[i] & tm), (ac[i] & tm)] = 0
     for i in range(zr.shape[0]):
-        s = _slot(grid, g0r, g0c, t, zr[i], zc[i])
+        s = _slot(grid, g0r, g0c, tsh, zr[i], zc[i])
         if s >= 0:
-            mark[s, zr[i] - (zr[i] // t) * t, zc[i] - (zc[i] // t) * t] = 0
+            mark[s, (zr[i] & tm), (zc[i] & tm)] = 0
     return keys[:m], in_a[:m], in_z[:m], q_in_z
 
 
@@ -1678,10 +1716,11 @@ class IncrementalMapper:
     distance, ridge, skeleton : configs, optional
         Override the corresponding part of ``config``.
     tile_px : int
-        Side of the storage tiles in pixels (default 128).  Must be a multiple of
+        Side of the storage tiles in pixels (default 128): a power of two, at least
         ``block_px``.
     block_px : int
-        Side of the blocks the splat and ridge kernels work on (default 16).
+        Side of the blocks the splat and ridge kernels work on (default 16): a power of two,
+        at least 4.
     max_pending_points : int
         Splat pending new obstacle pixels once this many are waiting (default 4096; 0 splats
         at every scan).  Reads of the distance map always splat first.
@@ -1760,8 +1799,14 @@ class IncrementalMapper:
         ):
             if isinstance(value, bool) or not isinstance(value, int) or value < lo:
                 raise ValueError(f"{name} must be an int >= {lo}, got {value!r}")
-        if tile_px % block_px:
-            raise ValueError(f"tile_px ({tile_px}) must be a multiple of block_px ({block_px})")
+        for name, value in (("tile_px", tile_px), ("block_px", block_px)):
+            if value & (value - 1):
+                raise ValueError(
+                    f"{name} must be a power of two (tile and block coordinates are bit "
+                    f"shifts), got {value}"
+                )
+        if tile_px < block_px:
+            raise ValueError(f"tile_px ({tile_px}) must be >= block_px ({block_px})")
         if block_px < 2 * HALO_PX:
             raise ValueError(f"block_px must be >= {2 * HALO_PX}, got {block_px}")
         if (
