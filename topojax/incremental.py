@@ -498,9 +498,11 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
     away), ``row_bidx`` (index of the row's block in ``blocks``) and ``blocks`` (distinct
     flat block ids).
     """
+    bsh = _log2(b)
     tsh = _log2(t)
     tm = t - 1
-    nb = t // b
+    nb = t >> bsh
+    nsh = _log2(nb)
     n_ids = bmax.shape[0] * nb * nb
     n = pr.shape[0]
     inner = half - rho
@@ -528,13 +530,13 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                     nbr[n_q, 0] = a
                     nbr[n_q, 1] = c
                     n_q += 1
-        br0 = (p_r - half) // b
-        br1 = (p_r + half) // b
-        bc0 = (p_c - half) // b
-        bc1 = (p_c + half) // b
+        br0 = (p_r - half) >> bsh
+        br1 = (p_r + half) >> bsh
+        bc0 = (p_c - half) >> bsh
+        bc1 = (p_c + half) >> bsh
         # block columns lying inside the inner square |x - p|_inf <= R - rho
-        ib0 = -((inner - p_c) // b)  # ceil((p_c - inner) / b)
-        ib1 = (p_c + inner - b + 1) // b
+        ib0 = -((inner - p_c) >> bsh)  # ceil((p_c - inner) / b)
+        ib1 = (p_c + inner - b + 1) >> bsh
         for gbr in range(br0, br1 + 1):
             lo = gbr * b - p_r  # block rows relative to p
             hi = lo + b - 1
@@ -544,14 +546,14 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                 dr = -hi
             else:
                 dr = 0
-            tr = gbr // nb
+            tr = gbr >> nsh
             gi = tr - g0r
             if gi < 0 or gi >= gh:
                 continue
             lbr = gbr - tr * nb
             # Disk bound: no block of this row can gain if dc^2 >= max bmax - dr^2.
             rmax = 0
-            for tcc in range(bc0 // nb, bc1 // nb + 1):
+            for tcc in range((bc0 >> nsh), (bc1 >> nsh) + 1):
                 gj = tcc - g0c
                 if 0 <= gj < gw:
                     ss = grid[gi, gj]
@@ -561,8 +563,8 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
             if rem <= 0:
                 continue
             e = _isqrt(rem - 1)
-            cb0 = max(bc0, -((e + b - 1 - p_c) // b))
-            cb1 = min(bc1, (p_c + e) // b)
+            cb0 = max(bc0, -((e + b - 1 - p_c) >> bsh))
+            cb1 = min(bc1, ((p_c + e) >> bsh))
             # Allowed interval [al, ar] of inner block columns.
             al = ib0
             ar = ib1
@@ -574,11 +576,11 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                     if qc > 0:
                         # dominated iff lo_c >= ceil(dd / (2 qc))
                         thr = -((-dd) // (2 * qc)) + p_c
-                        ar = min(ar, -((-thr) // b) - 1)
+                        ar = min(ar, -((-thr) >> bsh) - 1)
                     elif qc < 0:
                         # dominated iff hi_c <= floor(dd / (2 qc))
                         thr = dd // (2 * qc) + p_c - b + 1
-                        al = max(al, thr // b + 1)
+                        al = max(al, (thr >> bsh) + 1)
                     elif dd <= 0:
                         al = ib1 + 1
                         ar = ib1
@@ -598,7 +600,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                     c_to = cb1
                 if c_from > c_to:
                     continue
-                for tcc in range(c_from // nb, c_to // nb + 1):
+                for tcc in range((c_from >> nsh), (c_to >> nsh) + 1):
                     gj = tcc - g0c
                     if gj < 0 or gj >= gw:
                         continue
@@ -610,8 +612,8 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                     if remt <= 0:
                         continue
                     et = _isqrt(remt - 1)
-                    t_from = max(c_from, -((et + b - 1 - p_c) // b))
-                    t_to = min(c_to, (p_c + et) // b)
+                    t_from = max(c_from, -((et + b - 1 - p_c) >> bsh))
+                    t_to = min(c_to, ((p_c + et) >> bsh))
                     l0 = max(t_from - tcc * nb, 0)
                     l1 = min(t_to - tcc * nb, nb - 1)
                     for lbc in range(l0, l1 + 1):
@@ -635,7 +637,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                         pair_k[n_pairs] = (s * nb + lbr) * nb + lbc
                         pair_i[n_pairs] = i
                         n_pairs += 1
-            ib0 = -((inner - p_c) // b)
+            ib0 = -((inner - p_c) >> bsh)
     # counting sort of the pairs by block id
     counts = np.zeros(n_ids + 1, np.int64)
     for j in range(n_pairs):
@@ -665,9 +667,9 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
         stop = counts[k]
         if stop == start:
             continue
-        s = k // (nb * nb)
-        lbr = (k // nb) % nb
-        lbc = k % nb
+        s = k >> (2 * nsh)
+        lbr = (k >> nsh) & (nb - 1)
+        lbc = k & (nb - 1)
         org_r = keys[s, 0] * t + lbr * b
         org_c = keys[s, 1] * t + lbc * b
         blocks[j] = k
@@ -694,14 +696,16 @@ def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, 
     """``d2 = min(d2, rows)`` for kernel rows ``start .. start + n_rows`` (one batch, as
     the kernel returned it); widen each block's box of changed pixels (``lo_a`` .. ``hi_c``,
     indexed by the row's distinct block, empty as ``lo = b, hi = -1``)."""
-    nb = t // b
+    bsh = _log2(b)
+    nb = t >> bsh
+    nsh = _log2(nb)
     for ii in range(n_rows):
         i = start + ii
         k = row_block[i]
         j = row_bidx[i]
-        s = k // (nb * nb)
-        r0 = ((k // nb) % nb) * b
-        c0 = (k % nb) * b
+        s = k >> (2 * nsh)
+        r0 = ((k >> nsh) & (nb - 1)) * b
+        c0 = (k & (nb - 1)) * b
         for a in range(b):
             for c in range(b):
                 v = rows[ii, a, c]
@@ -720,7 +724,9 @@ def _merged_masks(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c):
     ``3 * (dy + 1) + (dx + 1)`` for the block at offset ``(dy, dx)``, set when a changed
     pixel lies within ``halo`` pixels of that neighbour (bit 4, the block itself, for any
     change)."""
-    nb = t // b
+    bsh = _log2(b)
+    nb = t >> bsh
+    nsh = _log2(nb)
     masks = np.zeros(blocks.shape[0], np.uint16)
     for j in range(blocks.shape[0]):
         if hi_a[j] < 0:
@@ -735,9 +741,9 @@ def _merged_masks(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c):
                 m |= 1 << (3 * (dy + 1) + dx + 1)
         masks[j] = m
         k = blocks[j]
-        s = k // (nb * nb)
-        lbr = (k // nb) % nb
-        lbc = k % nb
+        s = k >> (2 * nsh)
+        lbr = (k >> nsh) & (nb - 1)
+        lbc = k & (nb - 1)
         mx = 0
         for a in range(b):
             for c in range(b):
