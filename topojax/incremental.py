@@ -1081,8 +1081,8 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
         ring_max = 0
         for i in range(n):
             f = pix[i]
-            s = f // tt
-            rem = f - s * tt
+            s = f >> (2 * tsh)
+            rem = f & (tt - 1)
             lr = rem >> tsh
             lc = rem & (t - 1)
             for k in range(8):
@@ -1147,8 +1147,8 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
                 if v < -1:
                     tq = -1 - v
                     if min(tnew[i], tq) != min(told, tq):
-                        s = f // tt
-                        rem = f - s * tt
+                        s = f >> (2 * tsh)
+                        rem = f & (tt - 1)
                         lr = rem >> tsh
                         lc = rem & (t - 1)
                         nr, oy = _wrap_into_tile(lr + dr8[k], t)
@@ -1189,12 +1189,14 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _t_order(rr, cc, h, w):
-    """Position of bbox pixel ``(rr, cc)`` in T-centre removal's examination order
-    (:func:`topojax.skeleton.remove_t_centres`); -1 for the corners (never examined)."""
-    hw = h * w
+def _t_order(rr, cc, h, w, sh):
+    """Key of bbox pixel ``(rr, cc)`` in T-centre removal's examination order
+    (:func:`topojax.skeleton.remove_t_centres`); -1 for the corners (never examined).
+    Interior pixels are keyed ``rr * 2**sh + cc`` (``2**sh >= w``: raster order, and the
+    decoding is a shift)."""
+    hw = h << sh
     if 0 < rr < h - 1 and 0 < cc < w - 1:
-        return rr * w + cc
+        return (rr << sh) + cc
     if rr == 0 or rr == h - 1:
         if cc == 0 or cc == w - 1:
             return -1
@@ -1240,11 +1242,11 @@ def _heap_pop(heap, n):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _t_decode(o, h, w):
+def _t_decode(o, h, w, sh):
     """Inverse of :func:`_t_order` for ``o >= 0``: the bbox pixel ``(rr, cc)``."""
-    hw = h * w
+    hw = h << sh
     if o < hw:
-        return o // w, o - (o // w) * w
+        return o >> sh, o & ((1 << sh) - 1)
     if o < hw + w:
         return 0, o - hw
     if o < hw + 2 * w:
@@ -1272,6 +1274,7 @@ def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_
     r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
     h = r1 - r0
     w = c1 - c0
+    osh = _log2(w)
     keys = np.empty(5 * seed_r.shape[0], np.int64)
     n_keys = 0
     n_ch = 0
@@ -1280,7 +1283,7 @@ def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_
         cc0 = seed_c[i] - c0
         if not (0 <= rr0 < h and 0 <= cc0 < w):
             continue
-        o0 = _t_order(rr0, cc0, h, w)
+        o0 = _t_order(rr0, cc0, h, w, osh)
         if o0 < 0 or not remove_t:
             # never examined: the skeleton is the thinned image here
             r = seed_r[i]
@@ -1305,7 +1308,7 @@ def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_
             cc = cc0 + _T_DC5[k]
             if not (0 <= rr < h and 0 <= cc < w):
                 continue
-            o = _t_order(rr, cc, h, w)
+            o = _t_order(rr, cc, h, w, osh)
             # a corner seed (o0 < 0) is read as a thinned value by all its neighbours
             if o >= 0 and (i < n_rule or o0 < 0 or o < o0):
                 keys[n_keys] = o
@@ -1333,6 +1336,7 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
     r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
     h = r1 - r0
     w = c1 - c0
+    osh = _log2(w)
     n_todo = todo.shape[0]
     heap = np.empty(16, np.int64)
     n_heap = 0
@@ -1347,7 +1351,7 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
         if o == last:
             continue
         last = o
-        rr, cc = _t_decode(o, h, w)
+        rr, cc = _t_decode(o, h, w, osh)
         r = rr + r0
         c = cc + c0
         s = _slot(grid, g0r, g0c, tsh, r, c)
@@ -1368,7 +1372,7 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
                 qs = nbr9[s, 3 * oy + ox]
                 if qs < 0:
                     continue
-                oq = _t_order(qr, qc, h, w)
+                oq = _t_order(qr, qc, h, w, osh)
                 if 0 <= oq < o:
                     cnt += 1 if skel[qs, nr, nc] else 0
                 else:
@@ -1387,7 +1391,7 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
                 qr = rr + _T_DR5[k]
                 qc = cc + _T_DC5[k]
                 if 0 <= qr < h and 0 <= qc < w:
-                    oq = _t_order(qr, qc, h, w)
+                    oq = _t_order(qr, qc, h, w, osh)
                     if oq > o:
                         heap, n_heap = _heap_push(heap, n_heap, oq)
     return ch_r, ch_c, n_ch
