@@ -699,6 +699,7 @@ def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, 
     bsh = _log2(b)
     nb = t >> bsh
     nsh = _log2(nb)
+    cols = np.empty(b, np.bool_)
     for ii in range(n_rows):
         i = start + ii
         k = row_block[i]
@@ -706,15 +707,24 @@ def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, 
         s = k >> (2 * nsh)
         r0 = ((k >> nsh) & (nb - 1)) * b
         c0 = (k & (nb - 1)) * b
+        # branch-free inner loop (vectorises): store the minimum, OR the "lowered" flags
+        cols[:] = False
         for a in range(b):
+            dst = d2[s, r0 + a, c0 : c0 + b]
+            src = rows[ii, a]
+            row_low = False
             for c in range(b):
-                v = rows[ii, a, c]
-                if v < d2[s, r0 + a, c0 + c]:
-                    d2[s, r0 + a, c0 + c] = v
-                    lo_a[j] = min(lo_a[j], a)
-                    hi_a[j] = max(hi_a[j], a)
-                    lo_c[j] = min(lo_c[j], c)
-                    hi_c[j] = max(hi_c[j], c)
+                low = src[c] < dst[c]
+                dst[c] = min(src[c], dst[c])
+                cols[c] |= low
+                row_low |= low
+            if row_low:
+                lo_a[j] = min(lo_a[j], a)
+                hi_a[j] = max(hi_a[j], a)
+        for c in range(b):
+            if cols[c]:
+                lo_c[j] = min(lo_c[j], c)
+                hi_c[j] = max(hi_c[j], c)
 
 
 @numba.njit(cache=True, nogil=True)
