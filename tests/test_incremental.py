@@ -690,6 +690,51 @@ def test_graph_ids_are_stable_away_from_changes():
     assert_matches_full_map(mapper)
 
 
+def test_graph_update_reports_exactly_what_changed(shared_data):
+    """Each GraphUpdate equals the difference of the graphs before and after it."""
+    log = shared_data / "logs" / "carmen_corrected" / "intel-corrected.log.gz"
+    mapper = IncrementalMapper(skeleton_every=10, graph_every=0)
+    before = mapper.graph_global
+    n_updates = 0
+    for i, scan in enumerate(read_carmen(log)):
+        if i == 240:
+            break
+        mapper.add_scan(scan)
+        if (i + 1) % 40:
+            continue
+        upd = mapper.update_graph()
+        after = mapper.graph_global
+        n_updates += 1
+        v1, v2 = set(before.nodes), set(after.nodes)
+        e1, e2 = set(before.edges(keys=True)), set(after.edges(keys=True))
+        k1, k2 = {k for *_, k in e1}, {k for *_, k in e2}
+        assert set(upd.added_vertices) == v2 - v1
+        assert set(upd.removed_vertices) == v1 - v2
+        assert set(upd.added_edges) == k2 - k1
+        assert set(upd.removed_edges) == k1 - k2
+        for u, v, k in e1 & e2:  # a kept key keeps its ends and its path
+            np.testing.assert_array_equal(
+                before.edges[u, v, k]["path"], after.edges[u, v, k]["path"]
+            )
+        assert {k for *_, k in e1 if k in k2} == {k for *_, k in e2 if k in k1}
+
+        def incident(g, v):
+            return {k for *_, k in g.edges(v, keys=True)}
+
+        changed = {
+            v
+            for v in v1 & v2
+            if before.nodes[v]["kind"] != after.nodes[v]["kind"]
+            or before.nodes[v]["pixel"] != after.nodes[v]["pixel"]
+            or incident(before, v) != incident(after, v)
+        }
+        assert set(upd.changed_vertices) == changed
+        assert all(before.nodes[v]["pixel"] == after.nodes[v]["pixel"] for v in v1 & v2)
+        before = after
+    assert n_updates == 6
+    assert_matches_full_map(mapper)
+
+
 def test_paper_strategy_reports_paper_metrics(shared_data):
     log = shared_data / "logs" / "carmen_corrected" / "intel-corrected.log.gz"
     mapper = IncrementalMapper(strategy="paper")

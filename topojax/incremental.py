@@ -1407,20 +1407,6 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch):
     return ch_r, ch_c, n_ch
 
 
-def _distinct(ids: np.ndarray) -> np.ndarray:
-    """Sorted distinct values of non-negative integer ids (vertex / edge ids): a flag
-    array over ``0 .. max`` (linear; ``np.unique`` sorts, and the graph patch calls this on
-    every pixel of its region)."""
-    if ids.shape[0] == 0:
-        return np.zeros(0, np.int64)
-    top = int(ids.max())
-    if top > 16 * ids.shape[0] + (1 << 20):  # sparse ids: sorting is cheaper
-        return np.unique(ids).astype(np.int64)
-    seen = np.zeros(top + 1, bool)
-    seen[ids] = True
-    return np.flatnonzero(seen)
-
-
 def _interior(off: np.ndarray) -> np.ndarray:
     """Mask of the interior pixels (not first, not last) of CSR paths with offsets ``off``."""
     inner = np.ones(int(off[-1]), bool)
@@ -1685,14 +1671,23 @@ def _check_rate(name: str, value) -> int:
     return int(value)
 
 
+def _grown(a: np.ndarray, cap: int) -> np.ndarray:
+    """``a`` zero-padded along axis 0 to ``cap`` rows."""
+    out = np.zeros((cap,) + a.shape[1:], a.dtype)
+    out[: a.shape[0]] = a
+    return out
+
+
+def _flags(n: int, idx: np.ndarray) -> np.ndarray:
+    """Bool array of length ``n``, True at ``idx``."""
+    out = np.zeros(n, bool)
+    out[idx] = True
+    return out
+
+
 def _pack(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Pixel coordinates -> one int64 key each (order-preserving within a row)."""
     return (np.asarray(rows, np.int64) << 32) + (np.asarray(cols, np.int64) + (1 << 31))
-
-
-def _key(row: int, col: int) -> int:
-    """:func:`_pack` for one pixel, in Python integers."""
-    return (int(row) << 32) + int(col) + (1 << 31)
 
 
 def _unpack(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1884,12 +1879,15 @@ class IncrementalMapper:
         self._since_graph = 0
         # internal graph: vertex id -> pixel (global), kind, incident edge keys;
         # edge key -> (u, v) with u <= v and its global pixel path from u to v
-        self._v_pixel: dict[int, tuple[int, int]] = {}
-        self._v_kind: dict[int, str] = {}
-        self._v_edges: dict[int, set[int]] = {}
-        self._e_ends: dict[int, tuple[int, int]] = {}
+        # The graph, by stable id (ids are never reused): vertex pixel key (_pack), kind
+        # code and liveness; edge ends (u <= v) and liveness; each live edge's pixel path
+        # (int32 (L, 2), from u to v).  The graph_id tile layer maps pixels back to ids.
+        self._v_key = np.zeros(0, np.int64)
+        self._v_code = np.zeros(0, np.int8)
+        self._v_alive = np.zeros(0, bool)
+        self._e_uv = np.zeros((0, 2), np.int64)
+        self._e_alive = np.zeros(0, bool)
         self._e_path: dict[int, np.ndarray] = {}
-        self._vertex_at: dict[int, int] = {}
         self._next_vertex = 0
         self._next_edge = 0
         self._export_cache: dict[str, object] = {}
@@ -2458,7 +2456,7 @@ class IncrementalMapper:
             return self._patch_graph()
 
     def _patch_graph(self) -> GraphUpdate:
-        from .graph import _raw_graph
+        from .graph import _orient, _raw_graph
 
         t0 = time.perf_counter()
         self._since_graph = 0
@@ -2471,209 +2469,182 @@ class IncrementalMapper:
         self._skel_changed = []
         grid, (g0r, g0c) = tiles.slot_grid
         gl = tiles.layer("graph_id")
+        mark = tiles.layer("mark")
+        skel = tiles.layer("skeleton")
+        nbr9 = tiles.neighbour_slots()
         changed = changed[
-            _net_changes(
-                changed[:, 0],
-                changed[:, 1],
-                grid,
-                g0r,
-                g0c,
-                t,
-                tiles.layer("mark"),
-                tiles.layer("skeleton"),
-                gl,
-            )
+            _net_changes(changed[:, 0], changed[:, 1], grid, g0r, g0c, t, mark, skel, gl)
         ]
         # Z: the changed pixels dilated by one (where pixel-graph links can change)
         zr, zc, gid, skz = _region_z(
-            changed[:, 0],
-            changed[:, 1],
-            grid,
-            g0r,
-            g0c,
-            tiles.neighbour_slots(),
-            t,
-            tiles.layer("mark"),
-            gl,
-            tiles.layer("skeleton"),
+            changed[:, 0], changed[:, 1], grid, g0r, g0c, nbr9, t, mark, gl, skel
         )
-        vert_z = set(_distinct(-(gid[gid <= -2].astype(np.int64) + 2)).tolist())
-        removed_e = set(_distinct(gid[gid >= 0]).tolist())
-        for v in vert_z:
-            removed_e |= self._v_edges[v]
-        touched = set(vert_z)
-        for k in removed_e:
-            touched.update(self._e_ends[k])
-        before = {v: set(self._v_edges[v]) for v in touched}
-        kind_before = {v: self._v_kind[v] for v in touched}
-        rem_list = sorted(removed_e)
-        rem_paths = [self._e_path[k] for k in rem_list]
+        nv, ne = self._next_vertex, self._next_edge
+        e_alive = self._e_alive[:ne]
+        e_u, e_v = self._e_uv[:ne, 0], self._e_uv[:ne, 1]
+        # R: edges with a pixel in Z or ending at a vertex in Z
+        in_vz = np.zeros(nv, bool)
+        in_vz[-(gid[gid <= -2].astype(np.int64) + 2)] = True
+        rem_flag = e_alive & (in_vz[e_u] | in_vz[e_v])
+        rem_flag[gid[gid >= 0]] = True
+        rem = np.flatnonzero(rem_flag)
+        touched = np.flatnonzero(in_vz | _flags(nv, e_u[rem]) | _flags(nv, e_v[rem]))
+        rem_paths = [self._e_path[k] for k in rem.tolist()]
         all_r = (
             np.concatenate(rem_paths).astype(np.int64) if rem_paths else np.zeros((0, 2), np.int64)
         )
-        a_px = np.concatenate([all_r, np.stack([zr[skz], zc[skz]], axis=1)])
-        # A: pixels of the removed edges and new skeleton pixels in Z.  Every new edge that
+        lens_r = np.array([p.shape[0] for p in rem_paths], np.int64)
+        off_r = np.concatenate([[0], np.cumsum(lens_r)])
+        # A: pixels of the edges of R and new skeleton pixels in Z.  Every new edge that
         # touches Z lies in A, so the local graph is traced on the skeleton pixels within
         # one pixel of A (their links to A are the same as in the whole map).  Pixels are
         # gathered sparsely: changes spread over a large map cost by their number, not by
         # their bounding box.
-        touched_l = list(touched)
-        q_px = np.array([self._v_pixel[v] for v in touched_l], np.int64).reshape(-1, 2)
-        keys, in_a, in_z, q_in_z = _near_skeleton(
-            a_px[:, 0],
-            a_px[:, 1],
-            zr,
-            zc,
-            q_px[:, 0],
-            q_px[:, 1],
-            grid,
-            g0r,
-            g0c,
-            tiles.neighbour_slots(),
-            t,
-            tiles.layer("mark"),
-            tiles.layer("skeleton"),
+        a_px = np.concatenate([all_r, np.stack([zr[skz], zc[skz]], axis=1)])
+        t_r, t_c = _unpack(self._v_key[touched])
+        keys, in_a, in_z, t_in_z = _near_skeleton(
+            a_px[:, 0], a_px[:, 1], zr, zc, t_r, t_c, grid, g0r, g0c, nbr9, t, mark, skel
         )
         order = np.argsort(keys)
         keys, in_a, in_z = keys[order], in_a[order], in_z[order]
-        z_of_touched = dict(zip(touched_l, q_in_z.tolist(), strict=True))
         if keys.size:
             v_idx, v_kind, _, _, e_off, path = _raw_graph(keys, 1 << 32)
         else:
-            v_idx = np.zeros(0, np.int64)
-            v_kind = np.zeros(0, np.int8)
-            e_off = np.zeros(1, np.int64)
-            path = np.zeros(0, np.int64)
-        n_e = e_off.shape[0] - 1
+            v_idx, v_kind = np.zeros(0, np.int64), np.zeros(0, np.int8)
+            e_off, path = np.zeros(1, np.int64), np.zeros(0, np.int64)
+        # N: the local edges lying in A with a pixel in Z (the new edges around Z)
         kept = np.zeros(0, np.int64)
-        new_kind: dict[int, str] = {}
-        if n_e:
+        is_end = np.zeros(keys.shape[0], bool)
+        if e_off.shape[0] > 1:
             all_a = np.minimum.reduceat(in_a[path], e_off[:-1])
             any_z = np.maximum.reduceat(in_z[path], e_off[:-1])
             kept = np.flatnonzero(all_a & any_z)
-            for ends in (keys[path[e_off[kept]]], keys[path[e_off[kept + 1] - 1]]):
-                for pk in ends.tolist():
-                    new_kind[pk] = ""
-        if v_idx.shape[0]:
-            vz = in_z[v_idx]
-            for pk, kc, z in zip(keys[v_idx].tolist(), v_kind.tolist(), vz.tolist(), strict=True):
-                if z or pk in new_kind:
-                    new_kind[pk] = _KIND_NAME[kc]
-        # ---- remove the old edges
-        removed_by_sig: dict[tuple, list[int]] = {}
-        if rem_list:
-            lens_r = np.array([p.shape[0] for p in rem_paths], np.int64)
-            off_r = np.concatenate([[0], np.cumsum(lens_r)])
-            owner = np.repeat(np.asarray(rem_list, np.int32), lens_r)
-            inner = _interior(off_r)
-            _clear_owned(gl, grid, g0r, g0c, t, all_r[inner, 0], all_r[inner, 1], owner[inner])
-            for k, sig in zip(rem_list, _signatures(all_r, off_r), strict=True):
-                removed_by_sig.setdefault(sig, []).append(k)
-        old_paths = {}
-        for k in rem_list:
-            u, v = self._e_ends.pop(k)
-            old_paths[k] = self._e_path.pop(k)
-            self._v_edges[u].discard(k)
-            self._v_edges[v].discard(k)
-        # ---- vertices
-        removed_v = []
-        for v in touched:
-            pr, pc = self._v_pixel[v]
-            if _key(pr, pc) in new_kind:
-                continue
-            # outside Z a vertex keeps its degree; only a ring vertex can stop being one
-            if z_of_touched[v] or kind_before[v] == "ring":
-                removed_v.append(v)
-        if removed_v:
-            vr = np.array([self._v_pixel[v][0] for v in removed_v], np.int64)
-            vc = np.array([self._v_pixel[v][1] for v in removed_v], np.int64)
-            _clear_owned(gl, grid, g0r, g0c, t, vr, vc, -(np.asarray(removed_v, np.int32) + 2))
-        for v in removed_v:
-            pr, pc = self._v_pixel.pop(v)
-            del self._v_kind[v]
-            del self._v_edges[v]
-            del self._vertex_at[_key(pr, pc)]
-        added_v: list[int] = []
-        changed_v: set[int] = set()
-        for pk, kind in new_kind.items():
-            v = self._vertex_at.get(pk)
-            if v is None:
-                v = self._next_vertex
-                self._next_vertex += 1
-                pr = pk >> 32
-                pc = pk - (pr << 32) - (1 << 31)
-                self._v_pixel[v] = (pr, pc)
-                self._v_kind[v] = kind
-                self._v_edges[v] = set()
-                self._vertex_at[pk] = v
-                added_v.append(v)
-            elif self._v_kind[v] != kind:
-                self._v_kind[v] = kind
-                changed_v.add(v)
-        # ---- add the new edges (an edge whose path is unchanged keeps its key)
-        added_e: list[int] = []
-        restored: set[int] = set()
-        if kept.size:
-            lens_k = e_off[kept + 1] - e_off[kept]
-            off_k = np.concatenate([[0], np.cumsum(lens_k)])
-            sel = np.repeat(e_off[kept] - off_k[:-1], lens_k) + np.arange(int(off_k[-1]))
-            kk = keys[path[sel]]
-            kp = np.stack(_unpack(kk), axis=1)
-            k_first = kk[off_k[:-1]]
-            k_last = kk[off_k[1:] - 1]
-            va = self._vertex_at
-            a_ids = np.array([va[k] for k in k_first.tolist()], np.int64)
-            b_ids = np.array([va[k] for k in k_last.tolist()], np.int64)
-            flip = (a_ids > b_ids).tolist()
+            is_end[path[e_off[kept]]] = True
+            is_end[path[e_off[kept + 1] - 1]] = True
+        # vertices of the patch: local vertices in Z and the ends of N (sorted keys)
+        sel = in_z[v_idx] | is_end[v_idx]
+        nk_keys = keys[v_idx[sel]]
+        nk_code = v_kind[sel].astype(np.int8)
+        lens_k = e_off[kept + 1] - e_off[kept]
+        off_k = np.concatenate([[0], np.cumsum(lens_k)])
+        take = np.repeat(e_off[kept] - off_k[:-1], lens_k) + np.arange(int(off_k[-1]))
+        kk = keys[path[take]]
+        kp = np.stack(_unpack(kk), axis=1)
+        # ---- edges of R whose path comes back unchanged keep their key (and are not
+        # touched); match by orientation-free signature, then verify
+        matched_old = np.zeros(rem.shape[0], bool)
+        matched_new = np.zeros(kept.shape[0], bool)
+        if rem.size and kept.size:
+            by_sig: dict[tuple, list[int]] = {}
+            for j, sig in enumerate(_signatures(all_r, off_r)):
+                by_sig.setdefault(sig, []).append(j)
             kp32 = kp.astype(np.int32)
-            ids = np.empty(kept.size, np.int32)
-            sigs = _signatures(kp, off_k)
-            bounds = off_k.tolist()
-            for i, (a, bq) in enumerate(zip(a_ids.tolist(), b_ids.tolist(), strict=True)):
-                path = kp32[bounds[i] : bounds[i + 1]]
-                if flip[i]:
-                    a, bq = bq, a
-                    path = path[::-1]
-                path = path.copy()
-                k = -1
-                for cand in removed_by_sig.get(sigs[i], ()):
-                    old = old_paths[cand]
-                    if cand not in restored and (
-                        np.array_equal(old, path) or np.array_equal(old, path[::-1])
+            for i, sig in enumerate(_signatures(kp, off_k)):
+                cands = by_sig.get(sig)
+                if not cands:
+                    continue
+                new = kp32[off_k[i] : off_k[i + 1]]
+                for j in cands:
+                    old = rem_paths[j]
+                    if not matched_old[j] and (
+                        np.array_equal(old, new) or np.array_equal(old, new[::-1])
                     ):
-                        k = cand
-                        restored.add(k)
+                        matched_old[j] = matched_new[i] = True
                         break
-                if k < 0:
-                    k = self._next_edge
-                    self._next_edge += 1
-                    added_e.append(k)
-                ids[i] = k
-                self._e_ends[k] = (a, bq)
-                self._e_path[k] = path
-                self._v_edges[a].add(k)
-                self._v_edges[bq].add(k)
-            inner = _interior(off_k)
-            owner = np.repeat(ids, lens_k)
-            _scatter_px(gl, grid, g0r, g0c, t, kp[inner, 0], kp[inner, 1], owner[inner])
-        if new_kind:
-            ids = np.array([self._vertex_at[pk] for pk in new_kind], np.int32)
-            vr, vc = _unpack(np.fromiter(new_kind.keys(), np.int64, len(new_kind)))
-            _scatter_px(gl, grid, g0r, g0c, t, vr, vc, -(ids + 2))
-        removed_set = set(removed_v)
-        for v, ks in before.items():
-            if v not in removed_set and self._v_edges[v] != ks:
-                changed_v.add(v)
-        changed_v -= set(added_v)
+        gone_e = rem[~matched_old]
+        # ---- remove the edges that changed
+        if gone_e.size:
+            keep_px = np.repeat(~matched_old, lens_r)
+            inner = _interior(off_r) & keep_px
+            owner = np.repeat(rem.astype(np.int32), lens_r)
+            _clear_owned(gl, grid, g0r, g0c, t, all_r[inner, 0], all_r[inner, 1], owner[inner])
+            self._e_alive[gone_e] = False
+            for k in gone_e.tolist():
+                del self._e_path[k]
+        # ---- vertices: a touched vertex whose pixel is no vertex of the patch goes (outside
+        # Z a vertex keeps its degree; only a ring vertex can stop being one)
+        t_keys = self._v_key[touched]
+        stays = np.isin(t_keys, nk_keys, assume_unique=True)
+        ring = self._v_code[touched] == _KIND_CODE["ring"]
+        removed_v = touched[~stays & (t_in_z | ring)]
+        if removed_v.size:
+            vr, vc = _unpack(self._v_key[removed_v])
+            _clear_owned(gl, grid, g0r, g0c, t, vr, vc, -(removed_v.astype(np.int32) + 2))
+            self._v_alive[removed_v] = False
+        # existing vertices keep their id (their pixel holds it), the others are new
+        nr, nc = _unpack(nk_keys)
+        at = np.empty(nk_keys.shape[0], np.int32)
+        _gather_px(gl, grid, g0r, g0c, t, nr, nc, -1, at)
+        old_v = at <= -2
+        ids = np.where(old_v, -(at.astype(np.int64) + 2), 0)
+        n_new = int((~old_v).sum())
+        added_v = np.arange(nv, nv + n_new, dtype=np.int64)
+        ids[~old_v] = added_v
+        self._reserve(vertices=nv + n_new)
+        self._next_vertex = nv + n_new
+        self._v_key[added_v] = nk_keys[~old_v]
+        self._v_alive[added_v] = True
+        kind_changed = ids[old_v][self._v_code[ids[old_v]] != nk_code[old_v]]
+        self._v_code[ids] = nk_code
+        _scatter_px(gl, grid, g0r, g0c, t, nr, nc, -(ids.astype(np.int32) + 2))
+        # ---- add the new edges, oriented from the smaller vertex id
+        new_i = np.flatnonzero(~matched_new)
+        added_e = np.arange(ne, ne + new_i.shape[0], dtype=np.int64)
+        if new_i.size:
+            ln = lens_k[new_i]
+            off_n = np.concatenate([[0], np.cumsum(ln)])
+            take = np.repeat(off_k[new_i] - off_n[:-1], ln) + np.arange(int(off_n[-1]))
+            nkk = kk[take]
+            a_ids = ids[np.searchsorted(nk_keys, nkk[off_n[:-1]])]
+            b_ids = ids[np.searchsorted(nk_keys, nkk[off_n[1:] - 1])]
+            a_ids, b_ids, npx = _orient(a_ids, b_ids, off_n, ln, kp[take])
+            npx32 = npx.astype(np.int32)
+            self._reserve(edges=ne + new_i.shape[0])
+            self._next_edge = ne + new_i.shape[0]
+            self._e_uv[added_e, 0] = a_ids
+            self._e_uv[added_e, 1] = b_ids
+            self._e_alive[added_e] = True
+            bounds = off_n.tolist()
+            for i, k in enumerate(added_e.tolist()):
+                self._e_path[k] = npx32[bounds[i] : bounds[i + 1]].copy()
+            inner = _interior(off_n)
+            owner = np.repeat(added_e.astype(np.int32), ln)
+            _scatter_px(gl, grid, g0r, g0c, t, npx[inner, 0], npx[inner, 1], owner[inner])
+        # a vertex changed when its kind or its set of edges did
+        changed_v = np.concatenate(
+            [kind_changed, self._e_uv[gone_e].ravel(), self._e_uv[added_e].ravel()]
+        )
+        changed_v = np.unique(changed_v)
+        changed_v = changed_v[self._v_alive[changed_v] & (changed_v < nv)]
         return GraphUpdate(
-            added_vertices=tuple(sorted(added_v)),
-            removed_vertices=tuple(sorted(removed_v)),
-            changed_vertices=tuple(sorted(changed_v)),
-            added_edges=tuple(sorted(added_e)),
-            removed_edges=tuple(k for k in rem_list if k not in restored),
+            added_vertices=tuple(added_v.tolist()),
+            removed_vertices=tuple(removed_v.tolist()),
+            changed_vertices=tuple(changed_v.tolist()),
+            added_edges=tuple(added_e.tolist()),
+            removed_edges=tuple(gone_e.tolist()),
             region_px=int(zr.shape[0]),
             time_s=time.perf_counter() - t0,
         )
+
+    def _vertex_ids(self) -> np.ndarray:
+        """Ids of the live vertices, increasing."""
+        return np.flatnonzero(self._v_alive[: self._next_vertex])
+
+    def _edge_ids(self) -> np.ndarray:
+        """Keys of the live edges, increasing."""
+        return np.flatnonzero(self._e_alive[: self._next_edge])
+
+    def _reserve(self, *, vertices: int = 0, edges: int = 0) -> None:
+        """Grow the vertex / edge tables (doubling) to hold at least this many ids."""
+        if vertices > self._v_key.shape[0]:
+            cap = max(vertices, 2 * self._v_key.shape[0], 1024)
+            self._v_key = _grown(self._v_key, cap)
+            self._v_code = _grown(self._v_code, cap)
+            self._v_alive = _grown(self._v_alive, cap)
+        if edges > self._e_uv.shape[0]:
+            cap = max(edges, 2 * self._e_uv.shape[0], 1024)
+            self._e_uv = _grown(self._e_uv, cap)
+            self._e_alive = _grown(self._e_alive, cap)
 
     # ------------------------------------------------------------------ exports
     def _bbox_or_raise(self) -> tuple[int, int, int, int]:
@@ -2780,10 +2751,14 @@ class IncrementalMapper:
         """The internal graph: node ``pixel`` and edge ``path`` in global lattice pixels,
         node ``kind``; no other attributes (a new graph)."""
         out = nx.MultiGraph()
-        for v in sorted(self._v_pixel):
-            out.add_node(v, pixel=self._v_pixel[v], kind=self._v_kind[v])
-        for k in sorted(self._e_ends):
-            u, v = self._e_ends[k]
+        ids = self._vertex_ids()
+        rows, cols = _unpack(self._v_key[ids])
+        for v, r, c, code in zip(
+            ids.tolist(), rows.tolist(), cols.tolist(), self._v_code[ids].tolist(), strict=True
+        ):
+            out.add_node(v, pixel=(r, c), kind=_KIND_NAME[code])
+        edges = self._edge_ids()
+        for k, (u, v) in zip(edges.tolist(), self._e_uv[edges].tolist(), strict=True):
             out.add_edge(u, v, key=k, path=self._e_path[k].copy())
         return out
 
@@ -2810,9 +2785,10 @@ class IncrementalMapper:
             origin=tuple(float(v) for v in occ.origin),
             thinning=self.config.skeleton.thinning,
         )
-        nodes = sorted(self._v_pixel)
+        nodes = self._vertex_ids().tolist()
         if nodes:
-            pix = np.array([self._v_pixel[v] for v in nodes], np.int64) - [r0, c0]
+            pix = np.stack(_unpack(self._v_key[nodes]), axis=1) - [r0, c0]
+            kinds = [_KIND_NAME[code] for code in self._v_code[nodes].tolist()]
             wx, wy = occ.pixel_to_world(pix[:, 0], pix[:, 1])
             cl = clearance[pix[:, 0], pix[:, 1]].astype(np.float64) * res
             for i, v in enumerate(nodes):
@@ -2822,11 +2798,12 @@ class IncrementalMapper:
                     pixel=rc,
                     pixels=np.array([rc], np.int32),
                     world=(float(wx[i]), float(wy[i])),
-                    kind=self._v_kind[v],
+                    kind=kinds[i],
                     clearance_m=float(cl[i]),
                 )
-        edges = sorted(self._e_ends)
+        edges = self._edge_ids().tolist()
         if edges:
+            ends = self._e_uv[edges].tolist()
             paths = [self._e_path[k] for k in edges]
             lens = np.array([p.shape[0] for p in paths])
             allp = np.concatenate(paths).astype(np.int64) - [r0, c0]
@@ -2838,7 +2815,7 @@ class IncrementalMapper:
             bounds = np.concatenate([[0], np.cumsum(lens)])
             path32 = allp.astype(np.int32)
             for i, k in enumerate(edges):
-                u, v = self._e_ends[k]
+                u, v = ends[i]
                 a, b = bounds[i], bounds[i + 1]
                 out.add_edge(
                     u,
@@ -2947,18 +2924,17 @@ class IncrementalMapper:
             ],
             np.int64,
         )
-        nodes = sorted(self._v_pixel)
-        arrays["v_id"] = np.asarray(nodes, np.int64)
-        arrays["v_pixel"] = np.asarray([self._v_pixel[v] for v in nodes], np.int64).reshape(-1, 2)
-        arrays["v_kind"] = np.asarray([_KIND_CODE[self._v_kind[v]] for v in nodes], np.int8)
-        edges = sorted(self._e_ends)
-        arrays["e_id"] = np.asarray(edges, np.int64)
-        arrays["e_uv"] = np.asarray([self._e_ends[k] for k in edges], np.int64).reshape(-1, 2)
-        arrays["e_len"] = np.asarray([self._e_path[k].shape[0] for k in edges], np.int64)
+        nodes = self._vertex_ids()
+        arrays["v_id"] = nodes
+        arrays["v_pixel"] = np.stack(_unpack(self._v_key[nodes]), axis=1)
+        arrays["v_kind"] = self._v_code[nodes].copy()
+        edges = self._edge_ids()
+        arrays["e_id"] = edges
+        arrays["e_uv"] = self._e_uv[edges]
+        paths = [self._e_path[k] for k in edges.tolist()]
+        arrays["e_len"] = np.asarray([p.shape[0] for p in paths], np.int64)
         arrays["e_path"] = (
-            np.concatenate([self._e_path[k] for k in edges]).astype(np.int64)
-            if edges
-            else np.zeros((0, 2), np.int64)
+            np.concatenate(paths).astype(np.int64) if paths else np.zeros((0, 2), np.int64)
         )
         buf = _io.BytesIO()
         np.savez_compressed(buf, **arrays)
@@ -3026,29 +3002,33 @@ class IncrementalMapper:
                 mapper._next_edge,
                 mapper._n_ridge,
             ) = (int(v) for v in data["counters"])
-            for v, (pr, pc), kc in zip(
-                data["v_id"].tolist(),
-                data["v_pixel"].tolist(),
-                data["v_kind"].tolist(),
-                strict=True,
-            ):
-                mapper._v_pixel[v] = (pr, pc)
-                mapper._v_kind[v] = _KIND_NAME[kc]
-                mapper._v_edges[v] = set()
-                mapper._vertex_at[_key(pr, pc)] = v
+            v_id = np.asarray(data["v_id"], np.int64)
+            v_px = np.asarray(data["v_pixel"], np.int64).reshape(-1, 2)
+            v_code = np.asarray(data["v_kind"], np.int8)
+            e_id = np.asarray(data["e_id"], np.int64)
+            e_uv = np.asarray(data["e_uv"], np.int64).reshape(-1, 2)
+            nv, ne = mapper._next_vertex, mapper._next_edge
+            for name, ids, n in (("vertex", v_id, nv), ("edge", e_id, ne)):
+                if ids.size and (ids.min() < 0 or ids.max() >= n):
+                    raise ValueError(
+                        f"{name} ids must lie in [0, {n}), got {ids.min()}..{ids.max()}"
+                    )
+            if not set(v_code.tolist()) <= set(_KIND_NAME):
+                raise ValueError(f"unknown vertex kind codes {sorted(set(v_code.tolist()))}")
+            mapper._reserve(vertices=nv, edges=ne)
+            mapper._v_key[v_id] = _pack(v_px[:, 0], v_px[:, 1])
+            mapper._v_code[v_id] = v_code
+            mapper._v_alive[v_id] = True
+            if e_uv.size and not mapper._v_alive[e_uv.ravel()].all():
+                raise ValueError("some edges end at unknown vertices")
             bounds = np.concatenate([[0], np.cumsum(data["e_len"])])
             paths = np.asarray(data["e_path"], np.int64).reshape(-1, 2)
             if bounds[-1] != paths.shape[0]:
                 raise ValueError("edge path lengths do not add up to the stored paths")
-            for i, (k, (u, v)) in enumerate(
-                zip(data["e_id"].tolist(), data["e_uv"].tolist(), strict=True)
-            ):
-                if u not in mapper._v_pixel or v not in mapper._v_pixel:
-                    raise ValueError(f"edge {k} ends at unknown vertices ({u}, {v})")
-                mapper._e_ends[k] = (u, v)
+            mapper._e_uv[e_id] = e_uv
+            mapper._e_alive[e_id] = True
+            for i, k in enumerate(e_id.tolist()):
                 mapper._e_path[k] = paths[bounds[i] : bounds[i + 1]].astype(np.int32)
-                mapper._v_edges[u].add(k)
-                mapper._v_edges[v].add(k)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise ValueError(f"{p}: corrupt or inconsistent mapper state: {exc}") from None
         return mapper
