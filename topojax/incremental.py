@@ -81,12 +81,18 @@ Exactness
   pixels within one pixel of a changed skeleton pixel (the region ``Z``) change.  Old
   edges that do not touch ``Z`` are edges of the new graph; every new edge that touches
   ``Z`` lies in ``A`` = the pixels of the old edges touching ``Z`` plus the new skeleton
-  pixels in ``Z``.  The mapper removes those old edges, traces the skeleton on a crop
-  around ``A`` with the kernels of :mod:`topojax.graph` and keeps the traced edges that lie
-  in ``A`` and touch ``Z``; a vertex keeps its id while a vertex exists at its pixel and an
-  edge keeps its key while its path is unchanged.  With the ``"exact"`` skeleton the graph
-  equals ``build_graph`` on the exported map up to ids (same vertex pixels and kinds, same
-  edge paths).  The tests check all of this after replays of real logs.
+  pixels in ``Z``.  The mapper traces the skeleton pixels within one pixel of ``A``
+  (gathered from the tiles, so the cost follows the number of changed pixels, not their
+  spread) with the kernels of :mod:`topojax.graph`, keeps the traced edges that lie in
+  ``A`` and touch ``Z``, and replaces the old edges by them; an old edge whose path comes
+  back unchanged keeps its key, and a vertex keeps its id while a vertex exists at its
+  pixel.  Vertices and edges live in arrays indexed by id (the ``graph_id`` tile layer
+  maps pixels back to ids), so an update costs no per-object Python containers.  Only
+  net changes count: a pixel that changed and changed back since the last graph update is
+  no change.  With the ``"exact"`` skeleton the graph equals ``build_graph`` on the
+  exported map up to ids (same vertex pixels and kinds, same edge paths).  The tests check
+  all of this after replays of real logs, and that every :class:`GraphUpdate` equals the
+  difference of the graphs before and after it.
 
 Laziness
 --------
@@ -96,6 +102,9 @@ skeleton loop, :attr:`~IncrementalMapper.distance`, :attr:`~IncrementalMapper.sq
 exports).  Results are identical to an eager splat (a minimum does not depend on the
 order); ``max_pending_points=0`` splats at every scan.  :meth:`~IncrementalMapper.save`
 stores pending points as they are.
+
+Tiles and blocks have power-of-two sides (``tile_px``, ``block_px``), so the per-pixel
+loops find a pixel's tile and its place in it with shifts and masks.
 
 Memory: 18 bytes per pixel of an allocated tile (hit / miss counters, squared distance,
 ridge, Laplacian, skeleton, thinning history, graph ids, scratch), about 288 KiB per
