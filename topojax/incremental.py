@@ -859,6 +859,17 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, ridge, lap_abs):
     return added[:na].copy(), removed[:nr].copy()
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _around(nbr9, s0, lr0, lc0, k, t):
+    """Pixel ``k`` (0..8, row-major) of the 3 x 3 neighbourhood of the tile-local pixel
+    ``(lr0, lc0)`` of slot ``s0``: ``(slot, local row, local col)``, slot -1 where that
+    tile (or ``s0``) does not exist."""
+    nr, oy = _wrap_into_tile(lr0 + k // 3 - 1, t)
+    nc, ox = _wrap_into_tile(lc0 + k % 3 - 1, t)
+    s = nbr9[s0, 3 * oy + ox] if s0 >= 0 else -1
+    return s, nr, nc
+
+
 @numba.njit(cache=True, nogil=True)
 def _gather_px(layer, grid, g0r, g0c, t, rows, cols, fill, out):
     tsh = _log2(t)
@@ -942,28 +953,25 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
         s0 = _slot(grid, g0r, g0c, tsh, sr[i], sc[i])
         lr0 = sr[i] & tm
         lc0 = sc[i] & tm
-        for dr in range(-1, 2):
-            nr, oy = _wrap_into_tile(lr0 + dr, t)
-            for dc in range(-1, 2):
-                nc, ox = _wrap_into_tile(lc0 + dc, t)
-                s = nbr9[s0, 3 * oy + ox] if s0 >= 0 else -1
-                if s >= 0:
-                    if mark[s, nr, nc]:
-                        continue
-                    mark[s, nr, nc] = 1
-                    gid[m] = graph_id[s, nr, nc]
-                    skz[m] = skeleton[s, nr, nc]
-                else:
-                    # outside the allocated tiles: only possible one pixel off the bbox;
-                    # repeats there are harmless
-                    gid[m] = -1
-                    skz[m] = False
-                zr[m] = sr[i] + dr
-                zc[m] = sc[i] + dc
-                zs[m] = s
-                zlr[m] = nr
-                zlc[m] = nc
-                m += 1
+        for k in range(9):
+            s, nr, nc = _around(nbr9, s0, lr0, lc0, k, t)
+            if s >= 0:
+                if mark[s, nr, nc]:
+                    continue
+                mark[s, nr, nc] = 1
+                gid[m] = graph_id[s, nr, nc]
+                skz[m] = skeleton[s, nr, nc]
+            else:
+                # outside the allocated tiles: only possible one pixel off the bbox;
+                # repeats there are harmless
+                gid[m] = -1
+                skz[m] = False
+            zr[m] = sr[i] + k // 3 - 1
+            zc[m] = sc[i] + k % 3 - 1
+            zs[m] = s
+            zlr[m] = nr
+            zlc[m] = nc
+            m += 1
     for i in range(m):
         if zs[i] >= 0:
             mark[zs[i], zlr[i], zlc[i]] = 0
@@ -1477,22 +1485,19 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
             continue
         lr0 = ar[i] & tm
         lc0 = ac[i] & tm
-        for dr in range(-1, 2):
-            nr, oy = _wrap_into_tile(lr0 + dr, t)
-            for dc in range(-1, 2):
-                nc, ox = _wrap_into_tile(lc0 + dc, t)
-                s = nbr9[s0, 3 * oy + ox]
-                if s < 0 or not skeleton[s, nr, nc] or mark[s, nr, nc] & 1:
-                    continue
-                f = mark[s, nr, nc]
-                mark[s, nr, nc] = f | 1
-                keys[m] = ((ar[i] + dr) << 32) + ac[i] + dc + (1 << 31)
-                in_a[m] = (f & 2) != 0
-                in_z[m] = (f & 4) != 0
-                ps[m] = s
-                plr[m] = nr
-                plc[m] = nc
-                m += 1
+        for k in range(9):
+            s, nr, nc = _around(nbr9, s0, lr0, lc0, k, t)
+            if s < 0 or not skeleton[s, nr, nc] or mark[s, nr, nc] & 1:
+                continue
+            f = mark[s, nr, nc]
+            mark[s, nr, nc] = f | 1
+            keys[m] = ((ar[i] + k // 3 - 1) << 32) + ac[i] + k % 3 - 1 + (1 << 31)
+            in_a[m] = (f & 2) != 0
+            in_z[m] = (f & 4) != 0
+            ps[m] = s
+            plr[m] = nr
+            plc[m] = nc
+            m += 1
     q_in_z = np.zeros(qr.shape[0], np.bool_)
     for i in range(qr.shape[0]):
         s = _slot(grid, g0r, g0c, tsh, qr[i], qc[i])
