@@ -2069,9 +2069,11 @@ class IncrementalMapper:
         )
 
     def compile(self) -> None:
-        """Compile every kernel variant the mapper uses (two batch sizes each of the splat
-        and ridge kernels), so that no compilation happens later.  Runs automatically
-        before the first splat; calling it again does nothing."""
+        """Compile every JAX kernel variant the mapper uses (two batch sizes each of the
+        splat and ridge kernels), so that no JAX compilation happens later.  Runs
+        automatically before the first splat; calling it again does nothing.  The CPU
+        kernels (numba) are compiled once per installation and loaded from numba's
+        on-disk cache at their first use in a process (milliseconds each)."""
         if self._compiled:
             return
         b, half = self.block_px, self._half
