@@ -902,42 +902,20 @@ def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
 
 
 @numba.njit(cache=True, nogil=True)
-def _net_changes(rows, cols, grid, g0r, g0c, t, mark, skeleton, graph_id):
-    """Which of the pixels ``(rows, cols)`` differ between the skeleton and the graph.
+def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
+    """The region Z: the *net* changed pixels dilated by one (3 x 3), without repeats,
+    with the ``graph_id`` and ``skeleton`` values there.
 
     The graph covers every pixel of the skeleton it was built from (``graph_id != -1``
-    exactly there), so a pixel whose skeleton value changed and changed back since the
-    last graph update is not a change.  Repeats are dropped too.  ``mark`` (scratch uint8
-    layer) is zero on entry and exit.  Returns a bool mask over the input pixels.
+    exactly there), so a listed pixel whose skeleton value changed and changed back since
+    the last graph update is no change and is skipped.  Pixels of missing tiles read -1 /
+    False.  Returns ``zr, zc, gid, skz``.  One tile lookup per changed pixel; its
+    neighbours are reached through ``nbr9`` (:meth:`TileManager.neighbour_slots`).
+
+    ``mark`` (scratch uint8 layer) is zero on entry; on exit bit 4 is set on Z, for
+    :func:`_near_skeleton`, which clears it (or :func:`_clear_region` on an error in
+    between).
     """
-    tsh = _log2(t)
-    tm = t - 1
-    n = rows.shape[0]
-    keep = np.zeros(n, np.bool_)
-    for i in range(n):
-        s = _slot(grid, g0r, g0c, tsh, rows[i], cols[i])
-        if s < 0:
-            continue
-        lr = rows[i] & tm
-        lc = cols[i] & tm
-        if mark[s, lr, lc]:
-            continue
-        mark[s, lr, lc] = 1
-        keep[i] = skeleton[s, lr, lc] != (graph_id[s, lr, lc] != -1)
-    for i in range(n):
-        s = _slot(grid, g0r, g0c, tsh, rows[i], cols[i])
-        if s >= 0:
-            mark[s, (rows[i] & tm), (cols[i] & tm)] = 0
-    return keep
-
-
-@numba.njit(cache=True, nogil=True)
-def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
-    """The changed pixels dilated by one (3 x 3), without repeats, with the ``graph_id`` and
-    ``skeleton`` values there.  ``mark`` (scratch uint8 layer) is zero on entry and exit;
-    pixels of missing tiles read -1 / False.  Returns ``zr, zc, gid, skz``.  One tile
-    lookup per changed pixel; its neighbours are reached through ``nbr9``
-    (:meth:`TileManager.neighbour_slots`)."""
     tsh = _log2(t)
     tm = t - 1
     n = sr.shape[0]
@@ -945,20 +923,19 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     zc = np.empty(9 * n, np.int64)
     gid = np.empty(9 * n, np.int32)
     skz = np.empty(9 * n, np.bool_)
-    zs = np.empty(9 * n, np.int64)
-    zlr = np.empty(9 * n, np.int64)
-    zlc = np.empty(9 * n, np.int64)
     m = 0
     for i in range(n):
         s0 = _slot(grid, g0r, g0c, tsh, sr[i], sc[i])
         lr0 = sr[i] & tm
         lc0 = sc[i] & tm
+        if s0 >= 0 and skeleton[s0, lr0, lc0] == (graph_id[s0, lr0, lc0] != -1):
+            continue
         for k in range(9):
             s, nr, nc = _around(nbr9, s0, lr0, lc0, k, t)
             if s >= 0:
-                if mark[s, nr, nc]:
+                if mark[s, nr, nc] & 4:
                     continue
-                mark[s, nr, nc] = 1
+                mark[s, nr, nc] |= 4
                 gid[m] = graph_id[s, nr, nc]
                 skz[m] = skeleton[s, nr, nc]
             else:
@@ -968,14 +945,19 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
                 skz[m] = False
             zr[m] = sr[i] + k // 3 - 1
             zc[m] = sc[i] + k % 3 - 1
-            zs[m] = s
-            zlr[m] = nr
-            zlc[m] = nc
             m += 1
-    for i in range(m):
-        if zs[i] >= 0:
-            mark[zs[i], zlr[i], zlc[i]] = 0
     return zr[:m], zc[:m], gid[:m], skz[:m]
+
+
+@numba.njit(cache=True, nogil=True)
+def _clear_region(zr, zc, grid, g0r, g0c, t, mark):
+    """Zero ``mark`` at the pixels ``(zr, zc)``."""
+    tsh = _log2(t)
+    tm = t - 1
+    for i in range(zr.shape[0]):
+        s = _slot(grid, g0r, g0c, tsh, zr[i], zc[i])
+        if s >= 0:
+            mark[s, zr[i] & tm, zc[i] & tm] = 0
 
 
 @numba.njit(cache=True, nogil=True)
@@ -1458,15 +1440,11 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
     Returns their keys (:func:`_pack`, unsorted, without repeats), whether each lies in A
     and whether it lies in the region Z = ``(zr, zc)``, and whether each query pixel
     ``(qr, qc)`` lies in Z.  Work is proportional to the number of pixels, not to their
-    bounding box.  ``mark`` (scratch uint8 layer) is zero on entry and exit; bits: 1
-    collected, 2 in A, 4 in Z.
+    bounding box.  ``mark`` (scratch uint8 layer) holds bit 4 on Z on entry (as
+    :func:`_region_z` leaves it) and is zero on exit; bits: 1 collected, 2 in A, 4 in Z.
     """
     tsh = _log2(t)
     tm = t - 1
-    for i in range(zr.shape[0]):
-        s = _slot(grid, g0r, g0c, tsh, zr[i], zc[i])
-        if s >= 0:
-            mark[s, (zr[i] & tm), (zc[i] & tm)] |= 4
     n = ar.shape[0]
     for i in range(n):
         s = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
@@ -1509,10 +1487,7 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
         s = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
         if s >= 0:
             mark[s, (ar[i] & tm), (ac[i] & tm)] = 0
-    for i in range(zr.shape[0]):
-        s = _slot(grid, g0r, g0c, tsh, zr[i], zc[i])
-        if s >= 0:
-            mark[s, (zr[i] & tm), (zc[i] & tm)] = 0
+    _clear_region(zr, zc, grid, g0r, g0c, t, mark)
     return keys[:m], in_a[:m], in_z[:m], q_in_z
 
 
@@ -2488,39 +2463,43 @@ class IncrementalMapper:
         mark = tiles.layer("mark")
         skel = tiles.layer("skeleton")
         nbr9 = tiles.neighbour_slots()
-        changed = changed[
-            _net_changes(changed[:, 0], changed[:, 1], grid, g0r, g0c, t, mark, skel, gl)
-        ]
-        # Z: the changed pixels dilated by one (where pixel-graph links can change)
+        # Z: the changed pixels dilated by one (where pixel-graph links can change); it
+        # stays flagged in ``mark`` until _near_skeleton has read and cleared it
         zr, zc, gid, skz = _region_z(
             changed[:, 0], changed[:, 1], grid, g0r, g0c, nbr9, t, mark, gl, skel
         )
-        nv, ne = self._next_vertex, self._next_edge
-        e_alive = self._e_alive[:ne]
-        e_u, e_v = self._e_uv[:ne, 0], self._e_uv[:ne, 1]
-        # R: edges with a pixel in Z or ending at a vertex in Z
-        in_vz = np.zeros(nv, bool)
-        in_vz[-(gid[gid <= -2].astype(np.int64) + 2)] = True
-        rem_flag = e_alive & (in_vz[e_u] | in_vz[e_v])
-        rem_flag[gid[gid >= 0]] = True
-        rem = np.flatnonzero(rem_flag)
-        touched = np.flatnonzero(in_vz | _flags(nv, e_u[rem]) | _flags(nv, e_v[rem]))
-        rem_paths = [self._e_path[k] for k in rem.tolist()]
-        all_r = (
-            np.concatenate(rem_paths).astype(np.int64) if rem_paths else np.zeros((0, 2), np.int64)
-        )
-        lens_r = np.array([p.shape[0] for p in rem_paths], np.int64)
-        off_r = np.concatenate([[0], np.cumsum(lens_r)])
-        # A: pixels of the edges of R and new skeleton pixels in Z.  Every new edge that
-        # touches Z lies in A, so the local graph is traced on the skeleton pixels within
-        # one pixel of A (their links to A are the same as in the whole map).  Pixels are
-        # gathered sparsely: changes spread over a large map cost by their number, not by
-        # their bounding box.
-        a_px = np.concatenate([all_r, np.stack([zr[skz], zc[skz]], axis=1)])
-        t_r, t_c = _unpack(self._v_key[touched])
-        keys, in_a, in_z, t_in_z = _near_skeleton(
-            a_px[:, 0], a_px[:, 1], zr, zc, t_r, t_c, grid, g0r, g0c, nbr9, t, mark, skel
-        )
+        try:
+            nv, ne = self._next_vertex, self._next_edge
+            e_alive = self._e_alive[:ne]
+            e_u, e_v = self._e_uv[:ne, 0], self._e_uv[:ne, 1]
+            # R: edges with a pixel in Z or ending at a vertex in Z
+            in_vz = np.zeros(nv, bool)
+            in_vz[-(gid[gid <= -2].astype(np.int64) + 2)] = True
+            rem_flag = e_alive & (in_vz[e_u] | in_vz[e_v])
+            rem_flag[gid[gid >= 0]] = True
+            rem = np.flatnonzero(rem_flag)
+            touched = np.flatnonzero(in_vz | _flags(nv, e_u[rem]) | _flags(nv, e_v[rem]))
+            rem_paths = [self._e_path[k] for k in rem.tolist()]
+            all_r = (
+                np.concatenate(rem_paths).astype(np.int64)
+                if rem_paths
+                else np.zeros((0, 2), np.int64)
+            )
+            lens_r = np.array([p.shape[0] for p in rem_paths], np.int64)
+            off_r = np.concatenate([[0], np.cumsum(lens_r)])
+            # A: pixels of the edges of R and new skeleton pixels in Z.  Every new edge that
+            # touches Z lies in A, so the local graph is traced on the skeleton pixels within
+            # one pixel of A (their links to A are the same as in the whole map).  Pixels are
+            # gathered sparsely: changes spread over a large map cost by their number, not by
+            # their bounding box.
+            a_px = np.concatenate([all_r, np.stack([zr[skz], zc[skz]], axis=1)])
+            t_r, t_c = _unpack(self._v_key[touched])
+            keys, in_a, in_z, t_in_z = _near_skeleton(
+                a_px[:, 0], a_px[:, 1], zr, zc, t_r, t_c, grid, g0r, g0c, nbr9, t, mark, skel
+            )
+        except BaseException:
+            _clear_region(zr, zc, grid, g0r, g0c, t, mark)
+            raise
         order = np.argsort(keys)
         keys, in_a, in_z = keys[order], in_a[order], in_z[order]
         if keys.size:
