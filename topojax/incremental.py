@@ -1053,38 +1053,41 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
     tflat = tau.reshape(-1)
     for j in range(n_blk):
         act[blk[j, 0], blk[j, 1], blk[j, 2]] = 1
+    nb = t >> bsh
+    zo = np.empty(0, np.int64)  # survivors cleared from the history (no longer ridge)
+    n_zo = 0
     rounds = 0
     while True:
         rounds += 1
-        # active tiles and a dense local index per active tile
-        tile_map = np.full(n_slots, -1, np.int64)
-        n_at = 0
+        # One pass over the active blocks: list I (their ridge pixels) with a local index
+        # per active block, and clear the history of pixels that are no longer ridge
+        # (recording the survivors among them as changed).  Nothing reads the history of
+        # a non-ridge pixel inside the active blocks, so clearing it now is safe.
+        bid = np.full((n_slots, nb, nb), -1, np.int32)
+        if zo.shape[0] < n_zo + n_blk * b * b:  # room for every pixel of the blocks
+            grown = np.empty(n_zo + n_blk * b * b, np.int64)
+            grown[:n_zo] = zo[:n_zo]
+            zo = grown
         for j in range(n_blk):
-            s = blk[j, 0]
-            if tile_map[s] < 0:
-                tile_map[s] = n_at
-                n_at += 1
-        lidx = np.empty((n_at, t, t), np.int32)  # read only at ridge pixels of I
+            bid[blk[j, 0], blk[j, 1], blk[j, 2]] = j
+        lidx = np.empty((n_blk, b, b), np.int32)  # read only at ridge pixels of I
+        pix = np.empty(n_blk * b * b, np.int64)
         n = 0
         for j in range(n_blk):
             s, br, bc = blk[j, 0], blk[j, 1], blk[j, 2]
-            for a in range(br * b, br * b + b):
-                base = s * tt + a * t
-                for c in range(bc * b, bc * b + b):
-                    if ridge[base + c]:
+            for a in range(b):
+                base = s * tt + (br * b + a) * t + bc * b
+                for c in range(b):
+                    f = base + c
+                    if ridge[f]:
+                        pix[n] = f
+                        lidx[j, a, c] = n
                         n += 1
-        pix = np.empty(n, np.int64)
-        n = 0
-        for j in range(n_blk):
-            s, br, bc = blk[j, 0], blk[j, 1], blk[j, 2]
-            m = tile_map[s]
-            for a in range(br * b, br * b + b):
-                base = s * tt + a * t
-                for c in range(bc * b, bc * b + b):
-                    if ridge[base + c]:
-                        pix[n] = base + c
-                        lidx[m, a, c] = n
-                        n += 1
+                    elif tflat[f] != 0:
+                        if tflat[f] == _SURVIVOR:
+                            zo[n_zo] = f
+                            n_zo += 1
+                        tflat[f] = 0
         # neighbour table: >= 0 local index; < 0: -1 - tau of a pixel outside
         nbt = np.empty((n, 8), np.int64)
         ring_max = 0
@@ -1100,9 +1103,10 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
                 ns = nbr9[s, 3 * oy + ox]
                 if ns < 0:
                     nbt[i, k] = -1
-                elif act[ns, (nr >> bsh), (nc >> bsh)]:
+                elif bid[ns, nr >> bsh, nc >> bsh] >= 0:
                     g = ns * tt + nr * t + nc
-                    nbt[i, k] = lidx[tile_map[ns], nr, nc] if ridge[g] else -1
+                    q = bid[ns, nr >> bsh, nc >> bsh]
+                    nbt[i, k] = lidx[q, nr & (b - 1), nc & (b - 1)] if ridge[g] else -1
                 else:
                     tq = np.int64(tau[ns, nr, nc])
                     nbt[i, k] = -1 - tq
@@ -1173,7 +1177,7 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
         if not grown:
             break
     # write back; collect the pixels whose thinned state changed
-    out = np.empty(n + n_blk * b * b, np.int64)
+    out = np.empty(n + n_zo, np.int64)
     m = 0
     for i in range(n):
         f = pix[i]
@@ -1182,18 +1186,10 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
             out[m] = f
             m += 1
         tflat[f] = tnew[i]
+    out[m : m + n_zo] = zo[:n_zo]
+    m += n_zo
     for j in range(n_blk):
-        s, br, bc = blk[j, 0], blk[j, 1], blk[j, 2]
-        act[s, br, bc] = 0
-        for a in range(br * b, br * b + b):
-            base = s * tt + a * t
-            for c in range(bc * b, bc * b + b):
-                f = base + c
-                if not ridge[f] and tflat[f] != 0:
-                    if tflat[f] == _SURVIVOR:
-                        out[m] = f
-                        m += 1
-                    tflat[f] = 0
+        act[blk[j, 0], blk[j, 1], blk[j, 2]] = 0
     return out[:m], rounds, n
 
 
