@@ -523,7 +523,19 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
     n_pairs = 0
     gh = grid.shape[0]
     gw = grid.shape[1]
+    # every block of a point's window, at most: room for one more point's pairs is made
+    # before the point (growing the arrays inside the per-block loop would make numba
+    # count references at every step)
+    per_point = ((2 * half) // b + 2) ** 2
     for i in range(n):
+        if n_pairs + per_point > cap:
+            cap = max(2 * cap, n_pairs + per_point)
+            nk = np.empty(cap, np.int64)
+            ni = np.empty(cap, np.int64)
+            nk[:n_pairs] = pair_k[:n_pairs]
+            ni[:n_pairs] = pair_i[:n_pairs]
+            pair_k = nk
+            pair_i = ni
         p_r = pr[i]
         p_c = pc[i]
         # obstacles near p, relative to p
@@ -635,14 +647,6 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                             dc = 0
                         if dr * dr + dc * dc >= bmax[s, lbr, lbc]:
                             continue
-                        if n_pairs == cap:
-                            cap *= 2
-                            nk = np.empty(cap, np.int64)
-                            ni = np.empty(cap, np.int64)
-                            nk[:n_pairs] = pair_k[:n_pairs]
-                            ni[:n_pairs] = pair_i[:n_pairs]
-                            pair_k = nk
-                            pair_i = ni
                         pair_k[n_pairs] = (s * nb + lbr) * nb + lbc
                         pair_i[n_pairs] = i
                         n_pairs += 1
