@@ -492,16 +492,16 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t)
         nbr9[ok, k] = grid[tr[ok] + dr, tc[ok] + dc]
     ridge = to_tiles(new, t)
     tau = to_tiles(tau_old.astype(np.uint16), t)
-    act = np.zeros((nr * nc, t // b, t // b), np.uint8)
-    blk = np.empty((act.size, 3), np.int64)
-    n_blk = inc._seed_blocks(edits[:, 0], edits[:, 1], grid, 0, 0, t // b, b, act, blk)
+    bid = np.full((nr * nc, t // b, t // b), -1, np.int32)
+    blk = np.empty((bid.size, 3), np.int64)
+    n_blk = inc._seed_blocks(edits[:, 0], edits[:, 1], grid, 0, 0, t // b, b, bid, blk)
     flat, rounds, _ = inc._rethin(
         ridge.reshape(-1),
         tau,
         nbr9,
         t,
         b,
-        act,
+        bid,
         blk,
         n_blk,
         _TABLES_U8[method],
@@ -509,7 +509,7 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t)
         inc._THIN_DC,
     )
     np.testing.assert_array_equal(from_tiles(tau, shape), tau_new)
-    assert not act.any()
+    assert (bid == -1).all()  # left clean for the next update
     slot, rem = np.divmod(flat, t * t)
     rows = tr[slot] * t + rem // t
     cols = tc[slot] * t + rem % t
@@ -550,17 +550,17 @@ def test_local_rethinning_grows_through_a_thick_blob():
         ok = (tr + dr >= 0) & (tr + dr < 6) & (tc + dc >= 0) & (tc + dc < 6)
         nbr9[ok, k] = grid[tr[ok] + dr, tc[ok] + dc]
     tau = to_tiles(tau_old.astype(np.uint16), t)
-    act = np.zeros((36, 4, 4), np.uint8)
-    blk = np.empty((act.size, 3), np.int64)
+    bid = np.full((36, 4, 4), -1, np.int32)
+    blk = np.empty((bid.size, 3), np.int64)
     rows, cols = np.nonzero(old != new)
-    n_blk = inc._seed_blocks(rows, cols, grid, 0, 0, 4, b, act, blk)
+    n_blk = inc._seed_blocks(rows, cols, grid, 0, 0, 4, b, bid, blk)
     _, rounds, _ = inc._rethin(
         to_tiles(new, t).reshape(-1),
         tau,
         nbr9,
         t,
         b,
-        act,
+        bid,
         blk,
         n_blk,
         _TABLES_U8["guo_hall"],

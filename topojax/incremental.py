@@ -133,6 +133,7 @@ from .config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, Sk
 from .distance import FAR_SQ, gaussian_from_sq_distance
 from .filters import HALO_PX, laplacian_valid, ridge_from_laplacian
 from .scans import Scan
+from .skeleton import _compact
 from .tiling import MAX_GRID_CELLS, TileManager
 
 __all__ = [
@@ -355,10 +356,10 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
         r1 = er[i]
         c1 = ec[i]
         if rays:
-            tr0 = min(str_, (r1 >> tsh))
-            tr1 = max(str_, (r1 >> tsh))
-            tc0 = min(stc, (c1 >> tsh))
-            tc1 = max(stc, (c1 >> tsh))
+            tr0 = min(str_, r1 >> tsh)
+            tr1 = max(str_, r1 >> tsh)
+            tc0 = min(stc, c1 >> tsh)
+            tc1 = max(stc, c1 >> tsh)
         else:
             tr0 = tr1 = r1 >> tsh
             tc0 = tc1 = c1 >> tsh
@@ -547,7 +548,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                 qr = p_r + a
                 qc = p_c + c
                 s = _slot(grid, g0r, g0c, tsh, qr, qc)
-                if s >= 0 and hits[s, (qr & tm), (qc & tm)] > 0:
+                if s >= 0 and hits[s, qr & tm, qc & tm] > 0:
                     nbr[n_q, 0] = a
                     nbr[n_q, 1] = c
                     n_q += 1
@@ -574,7 +575,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
             lbr = gbr - tr * nb
             # Disk bound: no block of this row can gain if dc^2 >= max bmax - dr^2.
             rmax = 0
-            for tcc in range((bc0 >> nsh), (bc1 >> nsh) + 1):
+            for tcc in range(bc0 >> nsh, (bc1 >> nsh) + 1):
                 gj = tcc - g0c
                 if 0 <= gj < gw:
                     ss = grid[gi, gj]
@@ -585,7 +586,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                 continue
             e = _isqrt(rem - 1)
             cb0 = max(bc0, -((e + b - 1 - p_c) >> bsh))
-            cb1 = min(bc1, ((p_c + e) >> bsh))
+            cb1 = min(bc1, (p_c + e) >> bsh)
             # Allowed interval [al, ar] of inner block columns.
             al = ib0
             ar = ib1
@@ -621,7 +622,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                     c_to = cb1
                 if c_from > c_to:
                     continue
-                for tcc in range((c_from >> nsh), (c_to >> nsh) + 1):
+                for tcc in range(c_from >> nsh, (c_to >> nsh) + 1):
                     gj = tcc - g0c
                     if gj < 0 or gj >= gw:
                         continue
@@ -634,7 +635,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                         continue
                     et = _isqrt(remt - 1)
                     t_from = max(c_from, -((et + b - 1 - p_c) >> bsh))
-                    t_to = min(c_to, ((p_c + et) >> bsh))
+                    t_to = min(c_to, (p_c + et) >> bsh)
                     l0 = max(t_from - tcc * nb, 0)
                     l1 = min(t_to - tcc * nb, nb - 1)
                     for lbc in range(l0, l1 + 1):
@@ -885,7 +886,7 @@ def _gather_px(layer, grid, g0r, g0c, t, rows, cols, fill, out):
         if s < 0:
             out[i] = fill
         else:
-            out[i] = layer[s, (r & tm), (c & tm)]
+            out[i] = layer[s, r & tm, c & tm]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -901,7 +902,7 @@ def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
         if s < 0:
             missing += 1
         else:
-            layer[s, (r & tm), (c & tm)] = values[i]
+            layer[s, r & tm, c & tm] = values[i]
     return missing
 
 
@@ -991,10 +992,11 @@ _T_DC5 = np.array([0, 0, 0, -1, 1], np.int64)
 
 
 @numba.njit(cache=True, nogil=True)
-def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, act, blk):
-    """Flag (``act``) and list (``blk`` rows ``(slot, block_row, block_col)``) the
-    allocated blocks containing the pixels or next to a block containing one; returns
-    how many were listed."""
+def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, bid, blk):
+    """List (``blk`` rows ``(slot, block_row, block_col)``) the allocated blocks containing
+    the pixels or next to a block containing one, and store each one's row of ``blk`` in
+    ``bid[slot, block_row, block_col]`` (-1 elsewhere, as on entry); returns how many
+    were listed."""
     bsh = _log2(b)
     nsh = _log2(nb)
     nm = nb - 1
@@ -1015,8 +1017,8 @@ def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, act, blk):
                     continue
                 lbr = br & nm
                 lbc = bc & nm
-                if not act[s, lbr, lbc]:
-                    act[s, lbr, lbc] = 1
+                if bid[s, lbr, lbc] < 0:
+                    bid[s, lbr, lbc] = n
                     blk[n, 0] = s
                     blk[n, 1] = lbr
                     blk[n, 2] = lbc
@@ -1025,7 +1027,7 @@ def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, act, blk):
 
 
 @numba.njit(cache=True, nogil=True)
-def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
+def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
     """Exact local re-thinning around changed ridge pixels (see ``_skeleton_exact``).
 
     ``tau[slot, row, col]`` (uint16) holds every pixel's *deletion time* under the
@@ -1042,9 +1044,9 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
     induction over sub-iterations, nothing outside changes): ``min(tau_new(p), tau(q)) ==
     min(tau_old(p), tau(q))``.  Blocks of ring pixels that fail this are activated and the
     round is repeated; the active set only grows, and once it covers whole components there
-    is no ring, so this ends.  ``act`` (uint8, ``(n_slots, nb, nb)``) flags the active
-    blocks: on entry it may be set at ``blk[:n_blk]`` (as :func:`_seed_blocks` leaves it)
-    and must be zero elsewhere; it is all zero on exit.
+    is no ring, so this ends.  ``bid`` (int32, ``(n_slots, nb, nb)``) holds the row of
+    ``blk`` of every active block and -1 elsewhere (as :func:`_seed_blocks` leaves it);
+    it is all -1 on exit.
 
     Returns the flat indices (``slot * t^2 + row * t + col``) of the pixels whose thinned
     state (``tau == _SURVIVOR``) changed, the number of rounds and the size of ``I`` in the
@@ -1053,11 +1055,7 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
     tsh = _log2(t)
     bsh = _log2(b)
     tt = t * t
-    n_slots = tau.shape[0]
     tflat = tau.reshape(-1)
-    for j in range(n_blk):
-        act[blk[j, 0], blk[j, 1], blk[j, 2]] = 1
-    nb = t >> bsh
     zo = np.empty(0, np.int64)  # survivors cleared from the history (no longer ridge)
     n_zo = 0
     rounds = 0
@@ -1067,13 +1065,10 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
         # per active block, and clear the history of pixels that are no longer ridge
         # (recording the survivors among them as changed).  Nothing reads the history of
         # a non-ridge pixel inside the active blocks, so clearing it now is safe.
-        bid = np.full((n_slots, nb, nb), -1, np.int32)
         if zo.shape[0] < n_zo + n_blk * b * b:  # room for every pixel of the blocks
             grown = np.empty(n_zo + n_blk * b * b, np.int64)
             grown[:n_zo] = zo[:n_zo]
             zo = grown
-        for j in range(n_blk):
-            bid[blk[j, 0], blk[j, 1], blk[j, 2]] = j
         lidx = np.empty((n_blk, b, b), np.int32)  # read only at ridge pixels of I
         pix = np.empty(n_blk * b * b, np.int64)
         n = 0
@@ -1144,12 +1139,7 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
                 alive[dels[jj]] = 0
                 tnew[dels[jj]] = s_it + 1
             if nd:
-                m = 0
-                for ii in range(n_live):
-                    i = live[ii]
-                    live[m] = i
-                    m += alive[i]
-                n_live = m
+                n_live = _compact(live, n_live, alive)
                 quiet = 0
             else:
                 quiet += 1
@@ -1171,8 +1161,9 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
                         nr, oy = _wrap_into_tile(lr + dr8[k], t)
                         nc, ox = _wrap_into_tile(lc + dc8[k], t)
                         ns = nbr9[s, 3 * oy + ox]
-                        if not act[ns, (nr >> bsh), (nc >> bsh)]:
-                            act[ns, (nr >> bsh), (nc >> bsh)] = 1
+                        if bid[ns, nr >> bsh, nc >> bsh] < 0:
+                            # joins the active set from the next round on
+                            bid[ns, nr >> bsh, nc >> bsh] = n_blk
                             blk[n_blk, 0] = ns
                             blk[n_blk, 1] = nr >> bsh
                             blk[n_blk, 2] = nc >> bsh
@@ -1193,7 +1184,7 @@ def _rethin(ridge, tau, nbr9, t, b, act, blk, n_blk, tables, dr8, dc8):
     out[m : m + n_zo] = zo[:n_zo]
     m += n_zo
     for j in range(n_blk):
-        act[blk[j, 0], blk[j, 1], blk[j, 2]] = 0
+        bid[blk[j, 0], blk[j, 1], blk[j, 2]] = -1
     return out[:m], rounds, n
 
 
@@ -1449,7 +1440,7 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
     for i in range(n):
         s = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
         if s >= 0:
-            mark[s, (ar[i] & tm), (ac[i] & tm)] |= 2
+            mark[s, ar[i] & tm, ac[i] & tm] |= 2
     keys = np.empty(9 * n, np.int64)
     in_a = np.empty(9 * n, np.bool_)
     in_z = np.empty(9 * n, np.bool_)
@@ -1480,13 +1471,13 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
     for i in range(qr.shape[0]):
         s = _slot(grid, g0r, g0c, tsh, qr[i], qc[i])
         if s >= 0:
-            q_in_z[i] = (mark[s, (qr[i] & tm), (qc[i] & tm)] & 4) != 0
+            q_in_z[i] = (mark[s, qr[i] & tm, qc[i] & tm] & 4) != 0
     for i in range(m):
         mark[ps[i], plr[i], plc[i]] = 0
     for i in range(n):
         s = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
         if s >= 0:
-            mark[s, (ar[i] & tm), (ac[i] & tm)] = 0
+            mark[s, ar[i] & tm, ac[i] & tm] = 0
     _clear_region(zr, zc, grid, g0r, g0c, t, mark)
     return keys[:m], in_a[:m], in_z[:m], q_in_z
 
@@ -1686,7 +1677,6 @@ def _unpack(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rows, cols
 
 
-_NB8 = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc], np.int64)
 _NB9 = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1)], np.int64)
 
 
@@ -1866,8 +1856,6 @@ class IncrementalMapper:
         self._ridge_bbox: tuple[int, int, int, int] | None = None
         self._since_skeleton = 0
         self._since_graph = 0
-        # internal graph: vertex id -> pixel (global), kind, incident edge keys;
-        # edge key -> (u, v) with u <= v and its global pixel path from u to v
         # The graph, by stable id (ids are never reused): vertex pixel key (_pack), kind
         # code and liveness; edge ends (u <= v) and liveness; each live edge's pixel path
         # (int32 (L, 2), from u to v).  The graph_id tile layer maps pixels back to ids.
@@ -2338,7 +2326,7 @@ class IncrementalMapper:
         seeds = [border]
         changed = np.concatenate([added, removed])
         if changed.shape[0]:
-            act = np.zeros((tau.shape[0], nb, nb), np.uint8)
+            bid = np.full((tau.shape[0], nb, nb), -1, np.int32)
             blk = np.empty((tiles.n_tiles * nb * nb, 3), np.int64)
             n_blk = _seed_blocks(
                 changed[:, 0].astype(np.int64),
@@ -2348,7 +2336,7 @@ class IncrementalMapper:
                 g0c,
                 nb,
                 b,
-                act,
+                bid,
                 blk,
             )
             flat, _rounds, _n = _rethin(
@@ -2357,7 +2345,7 @@ class IncrementalMapper:
                 tiles.neighbour_slots(),
                 t,
                 b,
-                act,
+                bid,
                 blk,
                 n_blk,
                 _TABLES_U8[self.config.skeleton.thinning],

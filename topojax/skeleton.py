@@ -222,6 +222,18 @@ def _as_binary_image(image: Any, name: str) -> np.ndarray:
     return np.ascontiguousarray(arr != 0)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _compact(idx, n, keep):
+    """Keep, in order and in place, the entries ``i`` of ``idx[:n]`` with ``keep[i]``
+    non-zero; return how many there are."""
+    m = 0
+    for ii in range(n):
+        i = idx[ii]
+        idx[m] = i
+        m += keep[i]
+    return m
+
+
 @numba.njit(cache=True, nogil=True)
 def _thin_flat(flat: np.ndarray, n_cols: int, tables: np.ndarray, n_fg: int) -> int:
     """Thin a zero-framed image in place; return the number of deleted pixels.
@@ -298,12 +310,7 @@ def _thin_flat(flat: np.ndarray, n_cols: int, tables: np.ndarray, n_fg: int) -> 
         # Candidates of sub-iteration t + 1.
         changed = n_del + n_prev
         if t == 0 or 4 * changed > n_fg - deleted:
-            m = 0
-            for i in range(n_alive):
-                p = alive[i]
-                alive[m] = p
-                m += flat[p]
-            n_alive = m
+            n_alive = _compact(alive, n_alive, flat)
             use_alive = True
             n_cand = n_alive if (changed > 0 or t == 0) else 0
         else:
