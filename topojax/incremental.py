@@ -118,9 +118,11 @@ from __future__ import annotations
 import io as _io
 import json
 import math
+import os
 import time
 import zipfile
 from collections import Counter
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from functools import partial
 from pathlib import Path
@@ -163,6 +165,9 @@ SPLAT_POINTS = 8
 #: Rows per splat kernel call: a small and a large fixed batch (two compilations serve a
 #: whole replay; they are compiled on the first flush).
 SPLAT_ROWS = (128, 1024)
+#: Splat batches with at least this many new points share the pairing with a worker
+#: thread (on machines with more than one CPU).
+PARALLEL_MIN_POINTS = 64
 #: Radius (Chebyshev, px) searched for obstacles that dominate a new point on a block.
 DOMINANCE_PX = 2
 #: Blocks per ridge kernel call (small and large fixed batch).
@@ -173,6 +178,24 @@ _MAX_ABS_PIXEL = 1 << 30  # packed pixel keys shift rows by 32 bits
 _UINT16_MAX = 65535
 
 _TRACES: Counter[str] = Counter()
+
+
+_POOL: list = []
+
+
+def _n_cpus() -> int:
+    """CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _worker_pool():
+    """One worker thread shared by all mappers (None on a single-CPU machine)."""
+    if not _POOL:
+        _POOL.append(ThreadPoolExecutor(1, thread_name_prefix="topojax") if _n_cpus() > 1 else None)
+    return _POOL[0]
 
 
 def trace_counts() -> dict[str, int]:
@@ -495,11 +518,12 @@ def _isqrt(n):
 
 
 @numba.njit(cache=True, nogil=True)
-def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rho, n_points_row):
-    """Group the (block, point) pairs that can lower a block into kernel rows.
+def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, hits, rho):
+    """The (block, point) pairs that can lower a block, for points ``first, first + step,
+    ...`` (so that threads can share a batch).
 
     A pair is skipped when it provably changes nothing (exact; a third rule, among the
-    batch's own points, is applied when the rows are built, see below):
+    batch's own points, is applied by :func:`_splat_group`):
 
     * ``dist^2(p, block) >= max_block d2``: every pixel already has a nearer obstacle;
     * the block lies in the square ``|x - p|_inf <= R - rho`` and another obstacle ``q``
@@ -509,25 +533,23 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
       (two distinct points cannot be equally near all four corners) and ends at a point
       that is old, or splatted into the block, or skipped by the first or third rule
       (both of which only skip points that cannot lower any pixel), so the block's
-      minimum is unaffected.  For one row of blocks each neighbour ``q``
-      dominates a half-line of block columns, so the allowed blocks form an interval.
+      minimum is unaffected.  For one row of blocks each neighbour ``q`` dominates a
+      half-line of block columns, so the allowed blocks form an interval.
 
-    Returns ``row_block`` (flat block id ``(slot * nb + block_row) * nb + block_col`` per
-    row), ``row_pts`` (rows, P, 2) int32 relative to the block's first pixel (padding far
-    away), ``row_bidx`` (index of the row's block in ``blocks``) and ``blocks`` (distinct
-    flat block ids).
+    Returns ``pair_k`` (flat block id ``(slot * nb + block_row) * nb + block_col``),
+    ``pair_i`` (point index) and the number of pairs (the arrays are longer).
     """
     bsh = _log2(b)
     tsh = _log2(t)
     tm = t - 1
     nb = t >> bsh
     nsh = _log2(nb)
-    n_ids = bmax.shape[0] * nb * nb
     n = pr.shape[0]
+    n_own = max(0, (n - first + step - 1) // step)
     inner = half - rho
     side = 2 * rho + 1
     nbr = np.empty((side * side, 2), np.int64)
-    cap = 1024 + 64 * n
+    cap = 1024 + 64 * n_own
     pair_k = np.empty(cap, np.int64)
     pair_i = np.empty(cap, np.int64)
     n_pairs = 0
@@ -537,7 +559,7 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
     # before the point (growing the arrays inside the per-block loop would make numba
     # count references at every step)
     per_point = ((2 * half) // b + 2) ** 2
-    for i in range(n):
+    for i in range(first, n, step):
         if n_pairs + per_point > cap:
             cap = max(2 * cap, n_pairs + per_point)
             nk = np.empty(cap, np.int64)
@@ -661,6 +683,21 @@ def _splat_rows(pr, pc, grid, g0r, g0c, keys, t, b, half, bmax, rowmax, hits, rh
                         pair_i[n_pairs] = i
                         n_pairs += 1
             ib0 = -((inner - p_c) >> bsh)
+    return pair_k, pair_i, n_pairs
+
+
+@numba.njit(cache=True, nogil=True)
+def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
+    """Group the pairs of :func:`_splat_pairs` into kernel rows by block.
+
+    Returns ``row_block`` (flat block id per row), ``row_pts`` (rows, P, 2) int32 relative
+    to the block's first pixel (padding far away), ``row_bidx`` (index of the row's block
+    in ``blocks``) and ``blocks`` (distinct flat block ids).
+    """
+    bsh = _log2(b)
+    nb = t >> bsh
+    nsh = _log2(nb)
+    n_pairs = pair_k.shape[0]
     # counting sort of the pairs by block id
     counts = np.zeros(n_ids + 1, np.int64)
     for j in range(n_pairs):
@@ -2109,13 +2146,10 @@ class IncrementalMapper:
         nb = t // b
         grid, (g0r, g0c) = tiles.slot_grid
         bmax = tiles.layer("block_max")
-        row_block, row_pts, row_bidx, blocks = _splat_rows(
-            pts[:, 0],
-            pts[:, 1],
+        args = (
             grid,
             g0r,
             g0c,
-            tiles.keys,
             t,
             b,
             half,
@@ -2123,7 +2157,21 @@ class IncrementalMapper:
             bmax[: tiles.n_tiles].max(axis=2),
             tiles.layer("hits"),
             min(DOMINANCE_PX, half - 1),
-            SPLAT_POINTS,
+        )
+        pr, pc = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
+        pool = _worker_pool() if pts.shape[0] >= PARALLEL_MIN_POINTS else None
+        if pool is None:
+            pair_k, pair_i, n_pairs = _splat_pairs(pr, pc, 0, 1, *args)
+            pair_k, pair_i = pair_k[:n_pairs], pair_i[:n_pairs]
+        else:
+            # every other point on the worker thread (numba releases the GIL)
+            other = pool.submit(_splat_pairs, pr, pc, 1, 2, *args)
+            ka, ia, na = _splat_pairs(pr, pc, 0, 2, *args)
+            kb, ib, nb_ = other.result()
+            pair_k = np.concatenate((ka[:na], kb[:nb_]))
+            pair_i = np.concatenate((ia[:na], ib[:nb_]))
+        row_block, row_pts, row_bidx, blocks = _splat_group(
+            pair_k, pair_i, pr, pc, tiles.keys, bmax.shape[0] * nb * nb, t, b, half, SPLAT_POINTS
         )
         n_rows = row_block.shape[0]
         if n_rows == 0:
