@@ -170,6 +170,9 @@ SPLAT_ROWS = (128, 1024)
 PARALLEL_MIN_POINTS = 64
 #: Radius (Chebyshev, px) searched for obstacles that dominate a new point on a block.
 DOMINANCE_PX = 2
+#: Side (px, a power of two) of the blocks the exact re-thinning activates (at most
+#: ``block_px``).
+RETHIN_BLOCK_PX = 8
 #: Blocks per ridge kernel call (small and large fixed batch).
 RIDGE_BLOCKS = (64, 512)
 
@@ -2406,7 +2409,8 @@ class IncrementalMapper:
         from .skeleton import _TABLES_U8
 
         tiles = self._tiles
-        t, b = self.tile_px, self.block_px
+        t = self.tile_px
+        b = min(RETHIN_BLOCK_PX, self.block_px)
         nb = t // b
         keys = tiles.keys
         tau = tiles.layer("thin_time")
