@@ -822,32 +822,36 @@ def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, 
 
 
 @numba.njit(cache=True, nogil=True)
-def _merged_masks(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c):
-    """After :func:`_merge_rows`: update the maxima of the changed blocks and return, per
-    distinct block, a 9-bit mask of the blocks whose ridges must be recomputed: bit
-    ``3 * (dy + 1) + (dx + 1)`` for the block at offset ``(dy, dx)``, set when a changed
-    pixel lies within ``halo`` pixels of that neighbour (bit 4, the block itself, for any
-    change)."""
+def _merged_masks(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, dirty, tile_dirty):
+    """After :func:`_merge_rows`: update the maxima of the changed blocks and mark
+    ridge-dirty (``dirty[slot, block_row, block_col]``, and ``tile_dirty[slot]``) every
+    block whose ridges must be recomputed: a changed block itself, and each neighbouring
+    block (in any tile) that lies within ``halo`` pixels of one of its changed pixels.
+    Returns the number of changed blocks."""
     bsh = _log2(b)
     nb = t >> bsh
     nsh = _log2(nb)
-    masks = np.zeros(blocks.shape[0], np.uint16)
+    n_changed = 0
     for j in range(blocks.shape[0]):
         if hi_a[j] < 0:
             continue
-        dy0 = -1 if lo_a[j] < halo else 0
-        dy1 = 1 if hi_a[j] >= b - halo else 0
-        dx0 = -1 if lo_c[j] < halo else 0
-        dx1 = 1 if hi_c[j] >= b - halo else 0
-        m = 0
-        for dy in range(dy0, dy1 + 1):
-            for dx in range(dx0, dx1 + 1):
-                m |= 1 << (3 * (dy + 1) + dx + 1)
-        masks[j] = m
+        n_changed += 1
         k = blocks[j]
         s = k >> (2 * nsh)
         lbr = (k >> nsh) & (nb - 1)
         lbc = k & (nb - 1)
+        dy0 = -1 if lo_a[j] < halo else 0
+        dy1 = 1 if hi_a[j] >= b - halo else 0
+        dx0 = -1 if lo_c[j] < halo else 0
+        dx1 = 1 if hi_c[j] >= b - halo else 0
+        for dy in range(dy0, dy1 + 1):
+            nbr_r, oy = _wrap_into_tile(lbr + dy, nb)
+            for dx in range(dx0, dx1 + 1):
+                nbr_c, ox = _wrap_into_tile(lbc + dx, nb)
+                ns = nbr9[s, 3 * oy + ox]
+                if ns >= 0:
+                    dirty[ns, nbr_r, nbr_c] = True
+                    tile_dirty[ns] = True
         mx = 0
         for a in range(b):
             for c in range(b):
@@ -855,7 +859,7 @@ def _merged_masks(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c):
                 if v > mx:
                     mx = v
         bmax[s, lbr, lbc] = mx
-    return masks
+    return n_changed
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -1757,9 +1761,6 @@ def _unpack(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return rows, cols
 
 
-_NB9 = np.array([(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1)], np.int64)
-
-
 # ======================================================================================
 # The mapper
 # ======================================================================================
@@ -2211,26 +2212,21 @@ class IncrementalMapper:
                 lo_c,
                 hi_c,
             )
-        masks = _merged_masks(d2, bmax, blocks, t, b, HALO_PX, lo_a, hi_a, lo_c, hi_c)
-        changed = masks != 0
-        if changed.any():
-            s, rem = np.divmod(blocks[changed], nb * nb)
-            br, bc = np.divmod(rem, nb)
-            self._mark_ridge_dirty(s, br, bc, masks[changed])
-        return int(changed.sum())
-
-    def _mark_ridge_dirty(self, slots, brs, bcs, masks) -> None:
-        """Mark blocks ridge-dirty: for each changed block, the neighbours (itself
-        included) selected by its 9-bit mask (see :func:`_merged_masks`)."""
-        nb = self.tile_px // self.block_px
-        keys = self._tiles.keys
-        gbr = keys[slots, 0] * nb + brs
-        gbc = keys[slots, 1] * nb + bcs
-        bits = (masks[:, None].astype(np.int64) >> np.arange(9)[None, :]) & 1
-        sel = bits.astype(bool)
-        gbr = (gbr[:, None] + _NB9[None, :, 0])[sel]
-        gbc = (gbc[:, None] + _NB9[None, :, 1])[sel]
-        self._mark_blocks(gbr, gbc)
+        return _merged_masks(
+            d2,
+            bmax,
+            blocks,
+            t,
+            b,
+            HALO_PX,
+            lo_a,
+            hi_a,
+            lo_c,
+            hi_c,
+            tiles.neighbour_slots(),
+            tiles.layer("ridge_dirty"),
+            tiles.dirty_flags("ridge"),
+        )
 
     def _mark_blocks(self, gbr, gbc) -> None:
         """Mark global blocks ridge-dirty (blocks of unallocated tiles are skipped)."""

@@ -532,6 +532,12 @@ class TileManager:
         s = np.asarray(slots, np.int64).ravel()
         self._dirty[loop][s[s >= 0]] = True
 
+    def dirty_flags(self, loop: str) -> np.ndarray:
+        """The dirty flags of ``loop`` themselves, bool (capacity,), indexed by slot (for
+        compiled kernels that mark tiles; replaced when the capacity grows, like the
+        layers)."""
+        return self._dirty[loop]
+
     def dirty(self, loop: str) -> np.ndarray:
         """Slots of the tiles dirty for ``loop``, int64, ascending."""
         return np.flatnonzero(self._dirty[loop][: self._n])
