@@ -822,7 +822,7 @@ def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, 
 
 
 @numba.njit(cache=True, nogil=True)
-def _merged_masks(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, dirty, tile_dirty):
+def _finish_merge(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, dirty, tile_dirty):
     """After :func:`_merge_rows`: update the maxima of the changed blocks and mark
     ridge-dirty (``dirty[slot, block_row, block_col]``, and ``tile_dirty[slot]``) every
     block whose ridges must be recomputed: a changed block itself, and each neighbouring
@@ -2212,7 +2212,7 @@ class IncrementalMapper:
                 lo_c,
                 hi_c,
             )
-        return _merged_masks(
+        return _finish_merge(
             d2,
             bmax,
             blocks,
