@@ -257,6 +257,66 @@ def test_bad_readings_are_dropped_and_counted():
     assert m2.add_scan(scan).n_valid == 1
 
 
+def test_free_cells_follow_each_beam_and_batching_changes_nothing():
+    # one scan, three beams: every beam marks max(|dr|, |dc|) cells (Bresenham, end
+    # excluded), all within half a pixel diagonal of the beam's centre line
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    ranges = np.full(5, np.inf)
+    ranges[[0, 2, 4]] = [2.3, 1.7, 3.1]
+    scan = Scan.from_arrays(
+        ranges,
+        (0.02, -0.03, 0.0),
+        angle_min=0.3,
+        angle_increment=0.95,
+        range_min=0.1,
+        range_max=5.0,
+    )
+    angles = 0.3 + 0.95 * np.array([0, 2, 4])
+    mapper.add_scan(scan)
+    occ = mapper.occupancy
+    counts = mapper._dense("misses")
+    res = 0.1
+    r0, c0, _, _ = mapper.pixel_bbox
+    sr, sc = math.floor(0.03 / res) - r0, math.floor(0.02 / res) - c0
+    ends = [
+        (
+            math.floor(-(-0.03 + r * math.sin(a)) / res) - r0,
+            math.floor((0.02 + r * math.cos(a)) / res) - c0,
+        )
+        for r, a in zip([2.3, 1.7, 3.1], angles, strict=True)
+    ]
+    assert counts.sum() == sum(max(abs(er - sr), abs(ec - sc)) for er, ec in ends)
+    assert counts[sr, sc] == 3
+    for rr, cc in zip(*np.nonzero(counts), strict=True):
+        near = []
+        for er, ec in ends:
+            d = np.array([er - sr, ec - sc], float)
+            p = np.array([rr - sr, cc - sc], float)
+            u = np.clip(p @ d / (d @ d), 0.0, 1.0)
+            near.append(np.hypot(*(p - u * d)))
+        assert min(near) <= math.sqrt(0.5) + 1e-9
+    assert not (occ.free & occ.occupied).any()
+    # counting the free cells at every scan or in batches (at skeleton updates, on the
+    # worker thread, or when read) gives the same counts
+    scans = list(read_carmen(INTEL_EXCERPT))[:33]
+    every = IncrementalMapper(skeleton_every=1, graph_every=0)
+    batched = IncrementalMapper(skeleton_every=20, graph_every=0)
+    for s in scans:
+        every.add_scan(s)
+        batched.add_scan(s)
+    assert batched._n_rays > 0  # 13 scans not counted yet
+    np.testing.assert_array_equal(
+        every._dense("misses"), batched.tiles.read("misses", *_box(batched))
+    )
+    np.testing.assert_array_equal(every.occupancy.free, batched.occupancy.free)
+    assert batched._n_rays == 0
+
+
+def _box(mapper):
+    r0, c0, r1, c1 = mapper.pixel_bbox
+    return r0, c0, r1 - r0, c1 - c0
+
+
 def test_empty_scan_is_a_counted_no_op():
     mapper = IncrementalMapper(skeleton_every=2, graph_every=0, **SMALL_KW)
     empty = Scan.from_arrays(np.full(5, np.nan), (1.0, 2.0, 0.0), angle_min=0, angle_increment=0.1)

@@ -8,7 +8,10 @@ scans) or on explicit calls:
 1. **Distance loop** (every scan, :meth:`IncrementalMapper.add_scan`).  Beam end points
    become obstacle pixels of an unbounded pixel lattice stored in tiles
    (:class:`~topojax.tiling.TileManager`, allocated on demand in every direction); free
-   cells along each beam (Bresenham) are counted for the occupancy output.  Pixels hit for
+   cells along each beam (Bresenham) are counted for the occupancy output, in batches: at
+   each skeleton update on a worker thread (while the update runs), or when the
+   occupancy, the tiles or the state are read (the counts saturate, so the order does
+   not matter).  Pixels hit for
    the first time are *new obstacles* (obstacles are monotone, like the paper's max-merge);
    they are Gaussian max-splatted into the blocks they can affect.  Because the Gaussian
    decreases with distance, the splat is kept as the integer windowed squared distance
@@ -168,6 +171,9 @@ SPLAT_ROWS = (128, 1024)
 #: Splat batches with at least this many new points share the pairing with a worker
 #: thread (on machines with more than one CPU).
 PARALLEL_MIN_POINTS = 64
+#: Beams whose free cells may wait for the next skeleton update (or an export); more
+#: are counted at once.
+RAY_BATCH_BEAMS = 1 << 16
 #: Radius (Chebyshev, px) searched for obstacles that dominate a new point on a block.
 DOMINANCE_PX = 2
 #: Side (px, a power of two) of the blocks the exact re-thinning activates (at most
@@ -461,23 +467,44 @@ def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
 
 
 @numba.njit(cache=True, nogil=True)
-def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
-    """Count free cells (``misses``, along each beam, end excluded; Bresenham) and hits
-    (end cell).  Every touched tile must exist.
+def _integrate(er, ec, t, grid, g0r, g0c, hits, new_flag):
+    """Count hits (beam end cells); every end cell's tile must exist.
 
-    ``new_flag[i]`` is set when beam ``i`` hits a pixel for the first time ever.
-    Counters saturate at 65535.  Returns the number of new obstacle pixels.
+    ``new_flag[i]`` is set when beam ``i`` hits a pixel for the first time ever.  Counters
+    saturate at 65535.  Returns the number of new obstacle pixels.
     """
     tsh = _log2(t)
     tm = t - 1
-    n = er.shape[0]
     n_new = 0
-    for i in range(n):
-        r1 = er[i]
-        c1 = ec[i]
-        if rays and not (r1 == sr and c1 == sc):
-            r = sr
-            c = sc
+    for i in range(er.shape[0]):
+        s = _slot(grid, g0r, g0c, tsh, er[i], ec[i])
+        lr = er[i] & tm
+        lc = ec[i] & tm
+        h = hits[s, lr, lc]
+        if h == 0:
+            new_flag[i] = True
+            n_new += 1
+        if h < _UINT16_MAX:
+            hits[s, lr, lc] = h + 1
+    return n_new
+
+
+@numba.njit(cache=True, nogil=True)
+def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
+    """Count free cells (``misses``) along beams, end excluded (Bresenham): the beams of
+    scan ``j`` run from ``(sr[j], sc[j])`` to ``(er[i], ec[i])`` for ``off[j] <= i <
+    off[j + 1]``.  Every touched tile must exist; counters saturate at 65535 (so the
+    order of the beams does not matter)."""
+    tsh = _log2(t)
+    tm = t - 1
+    for j in range(sr.shape[0]):
+        for i in range(off[j], off[j + 1]):
+            r1 = er[i]
+            c1 = ec[i]
+            r = sr[j]
+            c = sc[j]
+            if r == r1 and c == c1:
+                continue
             dr, dc, stp_r, stp_c, err = _bresenham_start(r, c, r1, c1)
             # tile-local stepping: look the tile up only when the ray leaves it
             s = _slot(grid, g0r, g0c, tsh, r, c)
@@ -490,23 +517,12 @@ def _integrate(sr, sc, er, ec, t, rays, grid, g0r, g0c, hits, misses, new_flag):
                 lr += r2 - r
                 lc += c2 - c
                 r, c = r2, c2
-                moved = lr < 0 or lr >= t or lc < 0 or lc >= t
                 if r == r1 and c == c1:
                     break
-                if moved:
+                if lr < 0 or lr >= t or lc < 0 or lc >= t:
                     s = _slot(grid, g0r, g0c, tsh, r, c)
                     lr = r & tm
                     lc = c & tm
-        s = _slot(grid, g0r, g0c, tsh, r1, c1)
-        lr = r1 & tm
-        lc = c1 & tm
-        h = hits[s, lr, lc]
-        if h == 0:
-            new_flag[i] = True
-            n_new += 1
-        if h < _UINT16_MAX:
-            hits[s, lr, lc] = h + 1
-    return n_new
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -1932,6 +1948,10 @@ class IncrementalMapper:
         self._n_ridge = 0
         self._compiled = False
         self._pending: list[np.ndarray] = []
+        # beams whose free cells are not counted yet: (sensor row, col, end rows, cols)
+        self._rays: list[tuple[int, int, np.ndarray, np.ndarray]] = []
+        self._n_rays = 0
+        self._ray_job = None
         self._n_pending = 0
         self._skel_changed: list[np.ndarray] = []
         self._ridge_bbox: tuple[int, int, int, int] | None = None
@@ -1968,7 +1988,9 @@ class IncrementalMapper:
 
     @property
     def tiles(self) -> TileManager:
-        """The tile storage (read-only use: do not modify layers)."""
+        """The tile storage (read-only use: do not modify layers); its free-cell counts
+        (``misses``) are brought up to date first."""
+        self._cast_pending_rays()
         return self._tiles
 
     @property
@@ -2053,20 +2075,11 @@ class IncrementalMapper:
                 tiles.ensure(need[:, 0], need[:, 1])
                 grid, (g0r, g0c) = tiles.slot_grid
             flags = np.zeros(n_valid, np.bool_)
-            n_new = _integrate(
-                sr,
-                sc,
-                er,
-                ec,
-                t,
-                rays,
-                grid,
-                g0r,
-                g0c,
-                tiles.layer("hits"),
-                tiles.layer("misses"),
-                flags,
-            )
+            n_new = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), flags)
+            if rays:
+                # free cells are counted later, in batches (see _cast_pending_rays)
+                self._rays.append((sr, sc, er, ec))
+                self._n_rays += n_valid
             if n_new:
                 nr, nc = er[flags], ec[flags]
                 miss = _missing_window_tiles(nr, nc, w, t, grid, g0r, g0c)
@@ -2075,6 +2088,8 @@ class IncrementalMapper:
                 self._pending.append(np.stack([nr, nc], axis=1))
                 self._n_pending += n_new
                 self._export_cache.clear()
+        if self._n_rays >= RAY_BATCH_BEAMS:
+            self._cast_pending_rays()
         loops = ["distance"]
         timings: dict[str, float] = {}
         if self._n_pending and self._n_pending >= self.max_pending_points:
@@ -2367,12 +2382,46 @@ class IncrementalMapper:
             Number of skeleton pixels that changed.
         """
         self._flush_splat()
-        added, removed, border, blocks = self._update_ridges()
-        self._since_skeleton = 0
-        self._export_cache.clear()
-        if self.strategy == "exact":
-            return self._skeleton_exact(added, removed, border)
-        return self._skeleton_paper(blocks)
+        # The free cells of the scans since the last update are counted on the worker
+        # thread meanwhile (nothing below touches them or allocates tiles).
+        self._cast_pending_rays(background=True)
+        try:
+            added, removed, border, blocks = self._update_ridges()
+            self._since_skeleton = 0
+            self._export_cache.clear()
+            if self.strategy == "exact":
+                return self._skeleton_exact(added, removed, border)
+            return self._skeleton_paper(blocks)
+        finally:
+            self._join_rays()
+
+    def _cast_pending_rays(self, *, background: bool = False) -> None:
+        """Count the free cells of the beams added since the last call (on the worker
+        thread if ``background``; :meth:`_join_rays` waits for it)."""
+        self._join_rays()
+        if not self._rays:
+            return
+        rays, self._rays, self._n_rays = self._rays, [], 0
+        sr = np.array([r[0] for r in rays], np.int64)
+        sc = np.array([r[1] for r in rays], np.int64)
+        off = np.zeros(len(rays) + 1, np.int64)
+        np.cumsum([r[2].shape[0] for r in rays], out=off[1:])
+        er = np.concatenate([r[2] for r in rays])
+        ec = np.concatenate([r[3] for r in rays])
+        tiles = self._tiles
+        grid, (g0r, g0c) = tiles.slot_grid
+        args = (sr, sc, off, er, ec, self.tile_px, grid, g0r, g0c, tiles.layer("misses"))
+        pool = _worker_pool() if background else None
+        if pool is None:
+            _cast_rays(*args)
+        else:
+            self._ray_job = pool.submit(_cast_rays, *args)
+
+    def _join_rays(self) -> None:
+        """Wait for the free-cell counting started by :meth:`_cast_pending_rays`."""
+        if self._ray_job is not None:
+            job, self._ray_job = self._ray_job, None
+            job.result()
 
     def _write_skeleton(self, rows, cols, values) -> int:
         """Write skeleton values, record the changed pixels for the graph loop."""
@@ -2771,6 +2820,7 @@ class IncrementalMapper:
         from .maps import OccupancyMap
 
         r0, c0, r1, c1 = self._bbox_or_raise()
+        self._cast_pending_rays()
         occupied = self._dense("hits") > 0
         free = (self._dense("misses") > 0) & ~occupied
         res = self.resolution_m
@@ -2968,6 +3018,7 @@ class IncrementalMapper:
         from .io import atomic_write_bytes
 
         p = Path(path)
+        self._cast_pending_rays()
         arrays: dict[str, np.ndarray] = {
             "format": np.asarray(STATE_FORMAT),
             "version": np.asarray(STATE_VERSION, np.int64),
