@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from topojax.config import DistanceConfig, PipelineConfig
+from topojax.datasets import sample_map
 from topojax.distance import FAR_SQ
 from topojax.incremental import (
     STATE_VERSION,
@@ -204,6 +205,28 @@ def test_tile_manager_extent_limit_changes_nothing():
 # --------------------------------------------------------------------------------------
 # Distance loop
 # --------------------------------------------------------------------------------------
+
+
+def test_gaussian_table_is_the_full_map_gaussian_bit_for_bit():
+    """The ridge kernel reads H from a table by squared distance: every entry equals the
+    full-map pipeline's H, and the ridges equal those computed with the exponential."""
+    from topojax import incremental as inc
+
+    ref = build_graph(sample_map("intel"))
+    dist = ref.config.distance
+    table = np.asarray(inc.gaussian_table(dist.sigma_px, dist.half_width_px))
+    assert table.shape == (2 * dist.half_width_px**2 + 2,) and table[-1] == 0.0
+    d2 = np.asarray(ref.sq_distance_px)
+    np.testing.assert_array_equal(table[np.minimum(d2, table.shape[0] - 1)], ref.distance)
+    rng = np.random.default_rng(5)
+    patches = rng.integers(0, 2 * dist.half_width_px**2 + 1, (64, 20, 20)).astype(np.int32)
+    patches[:8] = rng.integers(0, 3000, (8, 20, 20))
+    patches[rng.random(patches.shape) < 0.05] = FAR_SQ
+    scalars = (np.float32(10.0), np.float32(10.0))
+    by_exp = inc._ridge_blocks(patches, np.float32(dist.sigma_px), *scalars, ksize=5)
+    by_table = inc._ridge_blocks(patches, table, *scalars, ksize=5)
+    for a, b in zip(by_exp, by_table, strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
 
 
 @settings(

@@ -179,6 +179,9 @@ DOMINANCE_PX = 2
 #: Side (px, a power of two) of the blocks the exact re-thinning activates (at most
 #: ``block_px``).
 RETHIN_BLOCK_PX = 8
+#: Largest window half-width (px) whose Gaussian the ridge kernel reads from a table
+#: (2 R^2 + 2 float32 entries: 32 MiB at this bound) instead of computing it.
+TABLE_MAX_HALF_PX = 2047
 #: Blocks per ridge kernel call (small and large fixed batch).
 RIDGE_BLOCKS = (64, 512)
 
@@ -281,7 +284,11 @@ def ridge_block(
     ----------
     d2_patch : int32 array, shape (B + 4, B + 4)
         Squared distances (px^2) of the block and a 2-pixel halo.
-    sigma_px, scale, threshold : float32 scalars
+    sigma_px : float32 scalar or float32 array (n,)
+        Gaussian standard deviation in pixels, or a table of ``H`` by squared distance
+        (:func:`gaussian_table`): squared distances are integers, so a lookup gives the
+        exponential's values (bit for bit) at a third less cost.
+    scale, threshold : float32 scalars
     ksize : int
         Laplacian aperture (static).
 
@@ -290,9 +297,27 @@ def ridge_block(
     lap_abs : uint8 (B, B)
     ridge : bool (B, B)
     """
-    h = gaussian_from_sq_distance(d2_patch, sigma_px)
+    if sigma_px.ndim == 0:
+        h = gaussian_from_sq_distance(d2_patch, sigma_px)
+    else:
+        h = sigma_px[jnp.minimum(d2_patch, sigma_px.shape[0] - 1)]
     lap = laplacian_valid(h, ksize=ksize)
     return ridge_from_laplacian(lap, scale=scale, threshold=threshold)
+
+
+def gaussian_table(sigma_px: float, half_width: int) -> jax.Array:
+    """``H`` for every squared distance a window of half-width ``R`` allows.
+
+    Returns
+    -------
+    float32 array, shape (2 R^2 + 2,)
+        ``table[d2]`` = :func:`~topojax.distance.gaussian_from_sq_distance` ``(d2)`` for
+        ``d2 <= 2 R^2``; the last entry is 0 (:data:`~topojax.distance.FAR_SQ` is looked up
+        there).
+    """
+    d2 = np.arange(2 * half_width * half_width + 2, dtype=np.int32)
+    d2[-1] = FAR_SQ
+    return _gaussian(d2, jnp.float32(sigma_px))
 
 
 @partial(jax.jit, static_argnames=("ksize",))
@@ -2002,6 +2027,8 @@ class IncrementalMapper:
             jnp.float32(config.ridge.scale),
             jnp.float32(config.ridge.threshold),
         )
+        # the ridge kernel's Gaussian: a table (built by compile) up to TABLE_MAX_HALF_PX
+        self._ridge_args = self._scalars
 
     # ------------------------------------------------------------------ properties
     @property
@@ -2165,12 +2192,15 @@ class IncrementalMapper:
             return
         b, half = self.block_px, self._half
         size = b + 2 * HALO_PX
+        if half <= TABLE_MAX_HALF_PX:
+            table = gaussian_table(self.config.distance.sigma_px, half)
+            self._ridge_args = (table, *self._scalars[1:])
         for n in SPLAT_ROWS:
             pts = np.full((n, SPLAT_POINTS, 2), -(half + 2 * b + 1), np.int32)
             _splat_blocks(pts, size=b, half_width=half).block_until_ready()
         for n in RIDGE_BLOCKS:
             patches = np.full((n, size, size), FAR_SQ, np.int32)
-            _ridge_blocks(patches, *self._scalars, ksize=self.config.ridge.ksize)[
+            _ridge_blocks(patches, *self._ridge_args, ksize=self.config.ridge.ksize)[
                 0
             ].block_until_ready()
         self._compiled = True
@@ -2343,7 +2373,7 @@ class IncrementalMapper:
                 stop,
                 _ridge_blocks(
                     _pad_to(patches[start:stop], bsize, FAR_SQ),
-                    *self._scalars,
+                    *self._ridge_args,
                     ksize=self.config.ridge.ksize,
                 ),
             )
