@@ -365,21 +365,33 @@ def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, s
     """End pixels of the valid beams (same arithmetic as :meth:`Scan.endpoints_world`).
 
     A reading is valid when finite, > 0, >= ``range_min`` and < ``range_max``.  Returns
-    rows, cols (int64) of the end pixels, and the count of valid beams.
+    rows, cols (int64) of the end pixels and their extent ``(min row, max row, min col,
+    max col)`` (zeros without valid beams).
     """
     n = ranges.shape[0]
     er = np.empty(n, np.int64)
     ec = np.empty(n, np.int64)
+    ext = np.zeros(4, np.int64)
     m = 0
     for i in range(n):
         r = np.float64(ranges[i])
         if not (math.isfinite(r) and r > 0.0 and r >= range_min and r < range_max):
             continue
         a = (angle_min + i * angle_inc) + syaw
-        er[m] = math.floor(-(sy + r * math.sin(a)) / res)
-        ec[m] = math.floor((sx + r * math.cos(a)) / res)
+        row = math.floor(-(sy + r * math.sin(a)) / res)
+        col = math.floor((sx + r * math.cos(a)) / res)
+        if m == 0 or row < ext[0]:
+            ext[0] = row
+        if m == 0 or row > ext[1]:
+            ext[1] = row
+        if m == 0 or col < ext[2]:
+            ext[2] = col
+        if m == 0 or col > ext[3]:
+            ext[3] = col
+        er[m] = row
+        ec[m] = col
         m += 1
-    return er[:m], ec[:m]
+    return er[:m], ec[:m], ext
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -492,26 +504,31 @@ def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
 
 
 @numba.njit(cache=True, nogil=True)
-def _integrate(er, ec, t, grid, g0r, g0c, hits, new_flag):
+def _integrate(er, ec, t, grid, g0r, g0c, hits, w):
     """Count hits (beam end cells); every end cell's tile must exist.
 
-    ``new_flag[i]`` is set when beam ``i`` hits a pixel for the first time ever.  Counters
-    saturate at 65535.  Returns the number of new obstacle pixels.
+    Counters saturate at 65535.  Returns the pixels hit for the first time ever (new
+    obstacles, (n, 2) int64, in beam order) and the unallocated tiles within ``w`` pixels
+    (Chebyshev) of them (:func:`_missing_window_tiles`).
     """
     tsh = _log2(t)
     tm = t - 1
+    n = er.shape[0]
+    new = np.empty((n, 2), np.int64)
     n_new = 0
-    for i in range(er.shape[0]):
+    for i in range(n):
         s = _slot(grid, g0r, g0c, tsh, er[i], ec[i])
         lr = er[i] & tm
         lc = ec[i] & tm
         h = hits[s, lr, lc]
         if h == 0:
-            new_flag[i] = True
+            new[n_new, 0] = er[i]
+            new[n_new, 1] = ec[i]
             n_new += 1
         if h < _UINT16_MAX:
             hits[s, lr, lc] = h + 1
-    return n_new
+    new = new[:n_new]
+    return new, _missing_window_tiles(new[:, 0], new[:, 1], w, t, grid, g0r, g0c)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -2094,7 +2111,7 @@ class IncrementalMapper:
         sx, sy, syaw = scan.sensor_pose_world()
         rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)
         res = self.resolution_m
-        er, ec = _scan_geometry(
+        er, ec, ext = _scan_geometry(
             scan.ranges,
             scan.angle_min,
             scan.angle_increment,
@@ -2112,10 +2129,11 @@ class IncrementalMapper:
             sr = math.floor(-sy / res)
             sc = math.floor(sx / res)
             w = self._half + HALO_PX
-            lo_r = min(int(er.min()), sr) - w
-            hi_r = max(int(er.max()), sr) + w
-            lo_c = min(int(ec.min()), sc) - w
-            hi_c = max(int(ec.max()), sc) + w
+            e_r0, e_r1, e_c0, e_c1 = ext.tolist()
+            lo_r = min(e_r0, sr) - w
+            hi_r = max(e_r1, sr) + w
+            lo_c = min(e_c0, sc) - w
+            hi_c = max(e_c1, sc) + w
             if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
                 raise ValueError(
                     f"scan: the pose {scan.pose} puts pixels beyond {_MAX_ABS_PIXEL} px from "
@@ -2129,18 +2147,16 @@ class IncrementalMapper:
             if need.shape[0]:
                 tiles.ensure(need[:, 0], need[:, 1])
                 grid, (g0r, g0c) = tiles.slot_grid
-            flags = np.zeros(n_valid, np.bool_)
-            n_new = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), flags)
+            new, miss = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), w)
             if rays:
                 # free cells are counted later, in batches (see _cast_pending_rays)
                 self._rays.append((sr, sc, er, ec))
                 self._n_rays += n_valid
+            n_new = new.shape[0]
             if n_new:
-                nr, nc = er[flags], ec[flags]
-                miss = _missing_window_tiles(nr, nc, w, t, grid, g0r, g0c)
                 if miss.shape[0]:
                     tiles.ensure(miss[:, 0], miss[:, 1])
-                self._pending.append(np.stack([nr, nc], axis=1))
+                self._pending.append(new)
                 self._n_pending += n_new
                 self._export_cache.clear()
         if self._n_rays >= RAY_BATCH_BEAMS:
