@@ -190,6 +190,12 @@ def test_tile_manager_allocates_in_every_direction_and_round_trips():
     (s_new,), _ = tm.ensure(np.array([1]), np.array([0]))
     nb = tm.neighbour_slots()
     assert nb.shape == (4, 9) and nb[slots[0], 7] == s_new and nb[s_new, 1] == slots[0]
+    # new tiles hold each layer's fill, also across capacity growth and after a load
+    for m in (tm, tm2):
+        m.ensure(np.arange(40) // 8 + 10, np.arange(40) % 8)
+        assert m.n_tiles >= 40
+        new = m.lookup(np.arange(40) // 8 + 10, np.arange(40) % 8)
+        assert (m.layer("a")[new] == -1).all() and (m.layer("s")[new] == 0).all()
 
 
 def test_tile_manager_extent_limit_changes_nothing():

@@ -140,6 +140,14 @@ class TileGrid:
 MAX_GRID_CELLS = 1 << 24
 
 
+def _storage(capacity: int, shape, dt: np.dtype, fill, *, filled: bool = True) -> np.ndarray:
+    """Layer storage for ``capacity`` slots: zeros (lazily zeroed pages, so unused slots
+    cost no memory) for a zero ``fill``; otherwise ``fill`` everywhere if ``filled``."""
+    if dt.type(fill) == 0 or not filled:
+        return np.zeros((capacity, *shape), dt)
+    return np.full((capacity, *shape), fill, dt)
+
+
 class TileManager:
     """Square tiles allocated on demand on an unbounded pixel lattice.
 
@@ -222,7 +230,7 @@ class TileManager:
         shape = (self.tile_px, self.tile_px) if shape is None else tuple(int(s) for s in shape)
         dt = np.dtype(dtype)
         self._specs[name] = (dt, fill, shape)
-        self._data[name] = np.full((self._capacity, *shape), fill, dt)
+        self._data[name] = _storage(self._capacity, shape, dt, fill)
 
     @property
     def layer_names(self) -> tuple[str, ...]:
@@ -374,8 +382,9 @@ class TileManager:
         self._grow_grid(packed)
         new_slots = np.arange(self._n, self._n + n_new)
         self._keys[new_slots] = packed
-        for name, (_dt, fill, _shape) in self._specs.items():
-            self._data[name][new_slots] = fill
+        for name, (dt, fill, _shape) in self._specs.items():
+            if dt.type(fill) != 0:  # unused capacity of the other layers is zero already
+                self._data[name][new_slots] = fill
         for flags in self._dirty.values():
             flags[new_slots] = True
         g0 = self._grid_origin
@@ -403,10 +412,11 @@ class TileManager:
         keys = np.zeros((cap, 2), np.int64)
         keys[: self._n] = self._keys[: self._n]
         self._keys = keys
-        for name, (dt, _fill, shape) in self._specs.items():
-            # Copy the tiles only: :meth:`ensure` fills each slot when it allocates it, so
-            # the unused capacity is never written (its pages stay unmapped until used).
-            arr = np.empty((cap, *shape), dt)
+        for name, (dt, fill, shape) in self._specs.items():
+            # Copy the tiles only: the unused capacity is zero and untouched (its pages stay
+            # unmapped until used); :meth:`ensure` writes the fill of nonzero-filled layers
+            # into each slot it allocates.
+            arr = _storage(cap, shape, dt, fill, filled=False)
             arr[: self._n] = self._data[name][: self._n]
             self._data[name] = arr
         for loop, flags in self._dirty.items():
@@ -614,7 +624,7 @@ class TileManager:
         self._keys[:n] = keys
         for name in self._specs:
             dt, fill, shape = self._specs[name]
-            data = np.full((self._capacity, *shape), fill, dt)
+            data = _storage(self._capacity, shape, dt, fill)
             data[:n] = arrays[name]
             self._data[name] = data
         for loop in self._loops:
