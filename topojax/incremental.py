@@ -192,7 +192,7 @@ _UINT16_MAX = 65535
 _TRACES: Counter[str] = Counter()
 
 
-_POOL: list = []
+_POOL: dict = {}  # process id -> the worker pool of that process
 
 
 def _n_cpus() -> int:
@@ -204,10 +204,14 @@ def _n_cpus() -> int:
 
 
 def _worker_pool():
-    """One worker thread shared by all mappers (None on a single-CPU machine)."""
-    if not _POOL:
-        _POOL.append(ThreadPoolExecutor(1, thread_name_prefix="topojax") if _n_cpus() > 1 else None)
-    return _POOL[0]
+    """One worker thread shared by all mappers of this process (None on a single-CPU
+    machine).  Keyed by process id: a child forked after the pool started has the pool
+    object but not its thread, so it makes its own."""
+    pid = os.getpid()
+    if pid not in _POOL:
+        _POOL.clear()
+        _POOL[pid] = ThreadPoolExecutor(1, thread_name_prefix="topojax") if _n_cpus() > 1 else None
+    return _POOL[pid]
 
 
 def trace_counts() -> dict[str, int]:
