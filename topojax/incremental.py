@@ -2204,7 +2204,8 @@ class IncrementalMapper:
 
     def compile(self) -> None:
         """Compile every JAX kernel variant the mapper uses (two batch sizes each of the
-        splat and ridge kernels), so that no JAX compilation happens later.  Runs
+        splat and ridge kernels) and build the ridge kernel's Gaussian table, so that no JAX
+        compilation happens later.  Runs
         automatically before the first splat; calling it again does nothing.  The CPU
         kernels (numba) are compiled once per installation and loaded from numba's
         on-disk cache at their first use in a process (milliseconds each)."""
