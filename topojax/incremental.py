@@ -751,6 +751,16 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
     return pair_k, pair_i, n_pairs
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _block_origin(keys, k, t, b):
+    """Global first pixel (row, col) of the block with flat id ``k``
+    (``(slot * nb + block_row) * nb + block_col``, ``nb = t / b``)."""
+    nsh = _log2(t >> _log2(b))
+    s = k >> (2 * nsh)
+    nm = (1 << nsh) - 1
+    return keys[s, 0] * t + ((k >> nsh) & nm) * b, keys[s, 1] * t + (k & nm) * b
+
+
 @numba.njit(cache=True, nogil=True)
 def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
     """Group the pairs of :func:`_splat_pairs` into kernel rows by block.
@@ -759,9 +769,6 @@ def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
     to the block's first pixel (padding far away), ``row_bidx`` (index of the row's block
     in ``blocks``) and ``blocks`` (distinct flat block ids).
     """
-    bsh = _log2(b)
-    nb = t >> bsh
-    nsh = _log2(nb)
     n_pairs = pair_k.shape[0]
     # counting sort of the pairs by block id
     counts = np.zeros(n_ids + 1, np.int64)
@@ -781,38 +788,12 @@ def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
     # Third rule, among the batch's own points: the member q whose window covers the block
     # with the smallest squared distance U to its farthest block corner is kept (its
     # nearest pixel is nearer than that corner), so every pixel ends at most U; a member
-    # whose squared distance to the block is >= U cannot lower any pixel.  Members that
-    # fail are marked -1; rows are counted on the survivors.
-    n_rows = 0
-    start = 0
-    for k in range(n_ids):
-        stop = counts[k]
-        if stop == start:
-            continue
-        s = k >> (2 * nsh)
-        org_r = keys[s, 0] * t + ((k >> nsh) & (nb - 1)) * b
-        org_c = keys[s, 1] * t + (k & (nb - 1)) * b
-        u = _FAR_BOUND
-        for m in range(start, stop):
-            i = members[m]
-            far_r = max(abs(pr[i] - org_r), abs(pr[i] - org_r - b + 1))
-            far_c = max(abs(pc[i] - org_c), abs(pc[i] - org_c - b + 1))
-            if far_r <= half and far_c <= half:
-                u = min(u, far_r * far_r + far_c * far_c)
-        kept = 0
-        for m in range(start, stop):
-            i = members[m]
-            dr = max(org_r - pr[i], 0, pr[i] - org_r - b + 1)
-            dc = max(org_c - pc[i], 0, pc[i] - org_c - b + 1)
-            if dr * dr + dc * dc >= u:
-                members[m] = -1
-            else:
-                kept += 1
-        n_rows += (kept + n_points_row - 1) // n_points_row
-        start = stop
-    row_block = np.empty(n_rows, np.int64)
-    row_bidx = np.empty(n_rows, np.int64)
-    row_pts = np.full((n_rows, n_points_row, 2), -(half + 2 * b + 1), np.int32)
+    # whose squared distance to the block is >= U cannot lower any pixel.  Rows get the
+    # survivors; every block keeps at least one, so the rows fit in this bound:
+    cap = n_blocks + n_pairs // n_points_row + 1
+    row_block = np.empty(cap, np.int64)
+    row_bidx = np.empty(cap, np.int64)
+    row_pts = np.full((cap, n_points_row, 2), -(half + 2 * b + 1), np.int32)
     blocks = np.empty(n_blocks, np.int64)
     row = 0
     j = 0
@@ -821,16 +802,21 @@ def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
         stop = counts[k]
         if stop == start:
             continue
-        s = k >> (2 * nsh)
-        lbr = (k >> nsh) & (nb - 1)
-        lbc = k & (nb - 1)
-        org_r = keys[s, 0] * t + lbr * b
-        org_c = keys[s, 1] * t + lbc * b
+        org_r, org_c = _block_origin(keys, k, t, b)
+        u = _FAR_BOUND
+        for m in range(start, stop):
+            i = members[m]
+            far_r = max(abs(pr[i] - org_r), abs(pr[i] - org_r - b + 1))
+            far_c = max(abs(pc[i] - org_c), abs(pc[i] - org_c - b + 1))
+            if far_r <= half and far_c <= half:
+                u = min(u, far_r * far_r + far_c * far_c)
         blocks[j] = k
         q = 0
         for m in range(start, stop):
             i = members[m]
-            if i < 0:
+            dr = max(org_r - pr[i], 0, pr[i] - org_r - b + 1)
+            dc = max(org_c - pc[i], 0, pc[i] - org_c - b + 1)
+            if dr * dr + dc * dc >= u:
                 continue
             row_pts[row, q, 0] = pr[i] - org_r
             row_pts[row, q, 1] = pc[i] - org_c
@@ -844,7 +830,7 @@ def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
             row += 1
         j += 1
         start = stop
-    return row_block, row_pts, row_bidx, blocks
+    return row_block[:row], row_pts[:row], row_bidx[:row], blocks
 
 
 @numba.njit(cache=True, nogil=True)
