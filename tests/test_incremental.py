@@ -890,6 +890,54 @@ def test_no_new_traces_during_a_replay():
     assert trace_counts() == before
 
 
+_LAYOUT_CHECK = """
+import sys
+from collections import Counter
+import numba
+import numpy as np
+from topojax import incremental as inc
+from topojax.scans import read_carmen
+mapper = inc.IncrementalMapper(skeleton_every=1, graph_every=2)
+for s in list(read_carmen(sys.argv[1]))[:12]:
+    mapper.add_scan(s)
+# the smallest updates: one dirty block, one changed skeleton pixel (one-element arrays)
+tiles = mapper._tiles
+tiles.layer("ridge_dirty")[0, 1, 1] = True
+tiles.mark_dirty("ridge", [0])
+mapper.update_skeleton()
+r0, c0 = tiles.keys[0] * mapper.tile_px
+mapper._skel_changed.append(np.array([[r0 + 3, c0 + 5]], np.int64))
+mapper.update_graph()
+for name in dir(inc):
+    f = getattr(inc, name)
+    if isinstance(f, numba.core.registry.CPUDispatcher):
+        key = Counter(
+            tuple((a.dtype, a.ndim, a.mutable) if isinstance(a, numba.types.Array) else a
+                  for a in sig)
+            for sig in f.signatures
+        )
+        if max(key.values(), default=0) > 1:
+            print(name, f.signatures)
+"""
+
+
+def test_compiled_kernels_see_one_memory_layout_per_argument():
+    """numba compiles a new variant (0.3-0.9 s) for every new memory layout of an array
+    argument: a strided view that happens to hold one element is contiguous, so a real-time
+    loop must pass contiguous arrays (or always strided ones) to its compiled kernels.  Run
+    in a fresh process (tests here call some kernels with other layouts on purpose)."""
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [sys.executable, "-c", _LAYOUT_CHECK, str(INTEL_EXCERPT)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert out.stdout == "", out.stdout
+
+
 def test_save_load_continue_equals_uninterrupted(tmp_path):
     scans = list(read_carmen(INTEL_EXCERPT))
     kw = {"skeleton_every": 4, "graph_every": 10}

@@ -2347,7 +2347,9 @@ class IncrementalMapper:
         self._ridge_bbox = bbox
         slots = tiles.dirty("ridge")
         flags = tiles.layer("ridge_dirty")
-        sl, lbr, lbc = np.nonzero(flags[slots])
+        # contiguous copies: np.nonzero's arrays are strided views (except when they hold
+        # one element), and numba compiles a new variant for each memory layout
+        sl, lbr, lbc = (np.ascontiguousarray(a) for a in np.nonzero(flags[slots]))
         sl = slots[sl]
         tiles.clear_dirty("ridge")
         flags[sl, lbr, lbc] = False
@@ -2656,7 +2658,16 @@ class IncrementalMapper:
         # Z: the changed pixels dilated by one (where pixel-graph links can change); it
         # stays flagged in ``mark`` until _near_skeleton has read and cleared it
         zr, zc, gid, skz = _region_z(
-            changed[:, 0], changed[:, 1], grid, g0r, g0c, nbr9, t, mark, gl, skel
+            np.ascontiguousarray(changed[:, 0]),
+            np.ascontiguousarray(changed[:, 1]),
+            grid,
+            g0r,
+            g0c,
+            nbr9,
+            t,
+            mark,
+            gl,
+            skel,
         )
         try:
             nv, ne = self._next_vertex, self._next_edge
@@ -2685,7 +2696,19 @@ class IncrementalMapper:
             a_px = np.concatenate([all_r, np.stack([zr[skz], zc[skz]], axis=1)])
             t_r, t_c = _unpack(self._v_key[touched])
             keys, in_a, in_z, t_in_z = _near_skeleton(
-                a_px[:, 0], a_px[:, 1], zr, zc, t_r, t_c, grid, g0r, g0c, nbr9, t, mark, skel
+                np.ascontiguousarray(a_px[:, 0]),
+                np.ascontiguousarray(a_px[:, 1]),
+                zr,
+                zc,
+                t_r,
+                t_c,
+                grid,
+                g0r,
+                g0c,
+                nbr9,
+                t,
+                mark,
+                skel,
             )
         except BaseException:
             _clear_region(zr, zc, grid, g0r, g0c, t, mark)
