@@ -954,6 +954,23 @@ def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out
         tile_c0 = keys[s, 1] * t
         org_r = tile_r0 + lbr[i] * b - halo
         org_c = tile_c0 + lbc[i] * b - halo
+        lr0 = org_r - tile_r0
+        lc0 = org_c - tile_c0
+        if (
+            lr0 >= 0
+            and lc0 >= 0
+            and lr0 + size <= t
+            and lc0 + size <= t
+            and org_r >= r_first
+            and org_c >= c_first
+            and org_r + size - 1 <= r_last
+            and org_c + size - 1 <= c_last
+        ):
+            # the patch lies inside its own tile and inside the box: a plain copy
+            for a in range(size):
+                for cc in range(size):
+                    out[i, a, cc] = d2[s, lr0 + a, lc0 + cc]
+            continue
         for cc in range(size):  # the column mapping is the same for every row
             lcs[cc], oxs[cc] = _reflect_into_tile(org_c + cc, c_first, c_last, tile_c0, t)
         for a in range(size):
