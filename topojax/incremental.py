@@ -2503,9 +2503,15 @@ class IncrementalMapper:
 
     def _join_rays(self) -> None:
         """Wait for the free-cell counting started by :meth:`_cast_pending_rays`."""
-        if self._ray_job is not None:
-            job, self._ray_job = self._ray_job, None
-            job.result()
+        job = self._ray_job
+        if job is not None:
+            try:
+                job.result()
+            finally:
+                # an interrupt while waiting leaves the job running: keep waiting for it
+                # next time (nothing may grow the tiles under it)
+                if job.done():
+                    self._ray_job = None
 
     def _write_skeleton(self, rows, cols, values) -> int:
         """Write skeleton values, record the changed pixels for the graph loop."""
