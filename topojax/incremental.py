@@ -2114,6 +2114,8 @@ class IncrementalMapper:
                 f"scan must be a topojax.Scan (see Scan.from_arrays), got {type(scan).__name__}"
             )
         t0 = time.perf_counter()
+        if self._ray_job is not None:  # only after an interrupted update
+            self._join_rays()
         t = self.tile_px
         sx, sy, syaw = scan.sensor_pose_world()
         rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)
