@@ -46,7 +46,7 @@ pixels to up to 8 points; a numba step merges the rows into the tiles with a min
 Pairs (block, point) that cannot change a block are never formed, exactly: (a) the
 squared distance from the point to the block is not below the block's maximum ``d2``;
 (b) another obstacle within 2 pixels of the point is at least as near to all four block
-corners (a half-plane test; see :func:`_splat_rows` for why chains of such dominations
+corners (a half-plane test; see :func:`_splat_pairs` for why chains of such dominations
 are safe); (c) the point is no nearer to the block than another new point of the same
 batch is to the block's farthest corner (on intel this drops 58 % of the pairs left by
 (a) and (b)).  Everything is integer, so the incremental ``d2`` equals the full-map one bit
@@ -364,6 +364,22 @@ def _slot(grid, g0r, g0c, sh, r, c):
     return grid[gi, gj]
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _unflat(f, sh):
+    """Flat index ``slot * t^2 + row * t + col`` (``t = 2**sh``) -> ``(slot, row, col)``;
+    also a flat block id, with ``t`` blocks per tile side."""
+    m = (1 << sh) - 1
+    return f >> (2 * sh), (f >> sh) & m, f & m
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _locate(grid, g0r, g0c, sh, r, c):
+    """Pixel ``(r, c)`` in tile storage (tiles of side ``2**sh``): ``(slot, local row,
+    local col)``, slot -1 if its tile is not allocated."""
+    m = (1 << sh) - 1
+    return _slot(grid, g0r, g0c, sh, r, c), r & m, c & m
+
+
 @numba.njit(cache=True, nogil=True)
 def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, syaw, res):
     """End pixels of the valid beams (same arithmetic as :meth:`Scan.endpoints_world`).
@@ -516,14 +532,11 @@ def _integrate(er, ec, t, grid, g0r, g0c, hits, w):
     (Chebyshev) of them (:func:`_missing_window_tiles`).
     """
     tsh = _log2(t)
-    tm = t - 1
     n = er.shape[0]
     new = np.empty((n, 2), np.int64)
     n_new = 0
     for i in range(n):
-        s = _slot(grid, g0r, g0c, tsh, er[i], ec[i])
-        lr = er[i] & tm
-        lc = ec[i] & tm
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, er[i], ec[i])
         h = hits[s, lr, lc]
         if h == 0:
             new[n_new, 0] = er[i]
@@ -542,7 +555,6 @@ def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
     off[j + 1]``.  Every touched tile must exist; counters saturate at 65535 (so the
     order of the beams does not matter)."""
     tsh = _log2(t)
-    tm = t - 1
     for j in range(sr.shape[0]):
         for i in range(off[j], off[j + 1]):
             r1 = er[i]
@@ -553,9 +565,7 @@ def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
                 continue
             dr, dc, stp_r, stp_c, err = _bresenham_start(r, c, r1, c1)
             # tile-local stepping: look the tile up only when the ray leaves it
-            s = _slot(grid, g0r, g0c, tsh, r, c)
-            lr = r & tm
-            lc = c & tm
+            s, lr, lc = _locate(grid, g0r, g0c, tsh, r, c)
             while True:
                 if misses[s, lr, lc] < _UINT16_MAX:
                     misses[s, lr, lc] += 1
@@ -566,9 +576,7 @@ def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
                 if r == r1 and c == c1:
                     break
                 if lr < 0 or lr >= t or lc < 0 or lc >= t:
-                    s = _slot(grid, g0r, g0c, tsh, r, c)
-                    lr = r & tm
-                    lc = c & tm
+                    s, lr, lc = _locate(grid, g0r, g0c, tsh, r, c)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -606,7 +614,6 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
     """
     bsh = _log2(b)
     tsh = _log2(t)
-    tm = t - 1
     nb = t >> bsh
     nsh = _log2(nb)
     n = pr.shape[0]
@@ -643,8 +650,8 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
                     continue
                 qr = p_r + a
                 qc = p_c + c
-                s = _slot(grid, g0r, g0c, tsh, qr, qc)
-                if s >= 0 and hits[s, qr & tm, qc & tm] > 0:
+                s, lr, lc = _locate(grid, g0r, g0c, tsh, qr, qc)
+                if s >= 0 and hits[s, lr, lc] > 0:
                     nbr[n_q, 0] = a
                     nbr[n_q, 1] = c
                     n_q += 1
@@ -755,10 +762,8 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
 def _block_origin(keys, k, t, b):
     """Global first pixel (row, col) of the block with flat id ``k``
     (``(slot * nb + block_row) * nb + block_col``, ``nb = t / b``)."""
-    nsh = _log2(t >> _log2(b))
-    s = k >> (2 * nsh)
-    nm = (1 << nsh) - 1
-    return keys[s, 0] * t + ((k >> nsh) & nm) * b, keys[s, 1] * t + (k & nm) * b
+    s, lbr, lbc = _unflat(k, _log2(t >> _log2(b)))
+    return keys[s, 0] * t + lbr * b, keys[s, 1] * t + lbc * b
 
 
 @numba.njit(cache=True, nogil=True)
@@ -846,9 +851,9 @@ def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, 
         i = start + ii
         k = row_block[i]
         j = row_bidx[i]
-        s = k >> (2 * nsh)
-        r0 = ((k >> nsh) & (nb - 1)) * b
-        c0 = (k & (nb - 1)) * b
+        s, lbr, lbc = _unflat(k, nsh)
+        r0 = lbr * b
+        c0 = lbc * b
         # branch-free inner loop (vectorises): store the minimum, OR the "lowered" flags
         cols[:] = False
         for a in range(b):
@@ -884,10 +889,7 @@ def _finish_merge(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, di
         if hi_a[j] < 0:
             continue
         n_changed += 1
-        k = blocks[j]
-        s = k >> (2 * nsh)
-        lbr = (k >> nsh) & (nb - 1)
-        lbc = k & (nb - 1)
+        s, lbr, lbc = _unflat(blocks[j], nsh)
         dy0 = -1 if lo_a[j] < halo else 0
         dy1 = 1 if hi_a[j] >= b - halo else 0
         dx0 = -1 if lo_c[j] < halo else 0
@@ -1027,31 +1029,22 @@ def _around(nbr9, s0, lr0, lc0, k, t):
 @numba.njit(cache=True, nogil=True)
 def _gather_px(layer, grid, g0r, g0c, t, rows, cols, fill, out):
     tsh = _log2(t)
-    tm = t - 1
     for i in range(rows.shape[0]):
-        r = rows[i]
-        c = cols[i]
-        s = _slot(grid, g0r, g0c, tsh, r, c)
-        if s < 0:
-            out[i] = fill
-        else:
-            out[i] = layer[s, r & tm, c & tm]
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, rows[i], cols[i])
+        out[i] = fill if s < 0 else layer[s, lr, lc]
 
 
 @numba.njit(cache=True, nogil=True)
 def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
     """Write ``values`` at global pixels; returns how many pixels lie in missing tiles."""
     tsh = _log2(t)
-    tm = t - 1
     missing = 0
     for i in range(rows.shape[0]):
-        r = rows[i]
-        c = cols[i]
-        s = _slot(grid, g0r, g0c, tsh, r, c)
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, rows[i], cols[i])
         if s < 0:
             missing += 1
         else:
-            layer[s, r & tm, c & tm] = values[i]
+            layer[s, lr, lc] = values[i]
     return missing
 
 
@@ -1071,7 +1064,6 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     between).
     """
     tsh = _log2(t)
-    tm = t - 1
     n = sr.shape[0]
     zr = np.empty(9 * n, np.int64)
     zc = np.empty(9 * n, np.int64)
@@ -1079,9 +1071,7 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     skz = np.empty(9 * n, np.bool_)
     m = 0
     for i in range(n):
-        s0 = _slot(grid, g0r, g0c, tsh, sr[i], sc[i])
-        lr0 = sr[i] & tm
-        lc0 = sc[i] & tm
+        s0, lr0, lc0 = _locate(grid, g0r, g0c, tsh, sr[i], sc[i])
         if s0 >= 0 and skeleton[s0, lr0, lc0] == (graph_id[s0, lr0, lc0] != -1):
             continue
         for k in range(9):
@@ -1107,27 +1097,19 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
 def _clear_region(zr, zc, grid, g0r, g0c, t, mark):
     """Zero ``mark`` at the pixels ``(zr, zc)``."""
     tsh = _log2(t)
-    tm = t - 1
     for i in range(zr.shape[0]):
-        s = _slot(grid, g0r, g0c, tsh, zr[i], zc[i])
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, zr[i], zc[i])
         if s >= 0:
-            mark[s, zr[i] & tm, zc[i] & tm] = 0
+            mark[s, lr, lc] = 0
 
 
 @numba.njit(cache=True, nogil=True)
 def _clear_owned(layer, grid, g0r, g0c, t, rows, cols, owner):
     """Set ``layer`` to -1 at the pixels whose value equals ``owner[i]``."""
     tsh = _log2(t)
-    tm = t - 1
     for i in range(rows.shape[0]):
-        r = rows[i]
-        c = cols[i]
-        s = _slot(grid, g0r, g0c, tsh, r, c)
-        if s < 0:
-            continue
-        lr = r & tm
-        lc = c & tm
-        if layer[s, lr, lc] == owner[i]:
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, rows[i], cols[i])
+        if s >= 0 and layer[s, lr, lc] == owner[i]:
             layer[s, lr, lc] = -1
 
 
@@ -1241,10 +1223,7 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
         ring_max = 0
         for i in range(n):
             f = pix[i]
-            s = f >> (2 * tsh)
-            rem = f & (tt - 1)
-            lr = rem >> tsh
-            lc = rem & (t - 1)
+            s, lr, lc = _unflat(f, tsh)
             for k in range(8):
                 nr, oy = _wrap_into_tile(lr + dr8[k], t)
                 nc, ox = _wrap_into_tile(lc + dc8[k], t)
@@ -1303,10 +1282,7 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
                 if v < -1:
                     tq = -1 - v
                     if min(tnew[i], tq) != min(told, tq):
-                        s = f >> (2 * tsh)
-                        rem = f & (tt - 1)
-                        lr = rem >> tsh
-                        lc = rem & (t - 1)
+                        s, lr, lc = _unflat(f, tsh)
                         nr, oy = _wrap_into_tile(lr + dr8[k], t)
                         nc, ox = _wrap_into_tile(lc + dc8[k], t)
                         ns = nbr9[s, 3 * oy + ox]
@@ -1417,7 +1393,6 @@ def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_
     thinned value directly; those changes go to ``ch_r``, ``ch_c`` (room for every seed)
     and their number is returned too."""
     tsh = _log2(t)
-    tm = t - 1
     r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
     h = r1 - r0
     w = c1 - c0
@@ -1435,10 +1410,8 @@ def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_
             # never examined: the skeleton is the thinned image here
             r = seed_r[i]
             c = seed_c[i]
-            s = _slot(grid, g0r, g0c, tsh, r, c)
+            s, lr, lc = _locate(grid, g0r, g0c, tsh, r, c)
             if s >= 0:
-                lr = r & tm
-                lc = c & tm
                 new = tau[s, lr, lc] == _SURVIVOR
                 if new != skel[s, lr, lc]:
                     skel[s, lr, lc] = new
@@ -1504,7 +1477,6 @@ def _t_run(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, heap, out_r, out_c, s
     last key examined, number of changes), updated in place.  Returns True when it
     stopped early because ``heap`` or ``out_r`` / ``out_c`` might overflow."""
     tsh = _log2(t)
-    tm = t - 1
     r0, c0, r1, c1 = bbox[0], bbox[1], bbox[2], bbox[3]
     h = r1 - r0
     w = c1 - c0
@@ -1530,11 +1502,9 @@ def _t_run(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, heap, out_r, out_c, s
         rr, cc = _t_decode(o, h, w, osh)
         r = rr + r0
         c = cc + c0
-        s = _slot(grid, g0r, g0c, tsh, r, c)
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, r, c)
         if s < 0:
             continue
-        lr = r & tm
-        lc = c & tm
         new = tau[s, lr, lc] == _SURVIVOR
         if new:
             cnt = 0
@@ -1612,25 +1582,19 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
     :func:`_region_z` leaves it) and is zero on exit; bits: 1 collected, 2 in A, 4 in Z.
     """
     tsh = _log2(t)
-    tm = t - 1
     n = ar.shape[0]
     for i in range(n):
-        s = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, ar[i], ac[i])
         if s >= 0:
-            mark[s, ar[i] & tm, ac[i] & tm] |= 2
+            mark[s, lr, lc] |= 2
     keys = np.empty(9 * n, np.int64)
     in_a = np.empty(9 * n, np.bool_)
     in_z = np.empty(9 * n, np.bool_)
-    ps = np.empty(9 * n, np.int64)
-    plr = np.empty(9 * n, np.int64)
-    plc = np.empty(9 * n, np.int64)
     m = 0
     for i in range(n):
-        s0 = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
+        s0, lr0, lc0 = _locate(grid, g0r, g0c, tsh, ar[i], ac[i])
         if s0 < 0:
             continue
-        lr0 = ar[i] & tm
-        lc0 = ac[i] & tm
         for k in range(9):
             s, nr, nc = _around(nbr9, s0, lr0, lc0, k, t)
             if s < 0 or not skeleton[s, nr, nc] or mark[s, nr, nc] & 1:
@@ -1640,21 +1604,15 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
             keys[m] = ((ar[i] + k // 3 - 1) << 32) + ac[i] + k % 3 - 1 + (1 << 31)
             in_a[m] = (f & 2) != 0
             in_z[m] = (f & 4) != 0
-            ps[m] = s
-            plr[m] = nr
-            plc[m] = nc
             m += 1
     q_in_z = np.zeros(qr.shape[0], np.bool_)
     for i in range(qr.shape[0]):
-        s = _slot(grid, g0r, g0c, tsh, qr[i], qc[i])
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, qr[i], qc[i])
         if s >= 0:
-            q_in_z[i] = (mark[s, qr[i] & tm, qc[i] & tm] & 4) != 0
-    for i in range(m):
-        mark[ps[i], plr[i], plc[i]] = 0
-    for i in range(n):
-        s = _slot(grid, g0r, g0c, tsh, ar[i], ac[i])
-        if s >= 0:
-            mark[s, ar[i] & tm, ac[i] & tm] = 0
+            q_in_z[i] = (mark[s, lr, lc] & 4) != 0
+    kr = keys[:m] >> 32  # the collected pixels, from their keys
+    _clear_region(kr, keys[:m] - (kr << 32) - (1 << 31), grid, g0r, g0c, t, mark)
+    _clear_region(ar, ac, grid, g0r, g0c, t, mark)
     _clear_region(zr, zc, grid, g0r, g0c, t, mark)
     return keys[:m], in_a[:m], in_z[:m], q_in_z
 
