@@ -198,6 +198,34 @@ def test_tile_manager_allocates_in_every_direction_and_round_trips():
         assert (m.layer("a")[new] == -1).all() and (m.layer("s")[new] == 0).all()
 
 
+def test_tile_manager_late_layer_fills_existing_and_new_tiles():
+    tm = TileManager(tile_px=8, layers={"a": (np.int32, 0)}, initial_capacity=4)
+    tm.ensure(np.array([0, 1]), np.array([0, 0]))
+    tm.add_layer("late", np.int16, 7)
+    assert (tm.layer("late")[:2] == 7).all()
+    tm.ensure(np.arange(10), np.full(10, 3))  # grows the capacity past 4
+    assert (tm.layer("late")[: tm.n_tiles] == 7).all() and (tm.layer("a")[: tm.n_tiles] == 0).all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(-(1 << 20), 1 << 20), st.integers(-(1 << 20), 1 << 20)),
+        min_size=1,
+        max_size=40,
+    )
+)
+def test_new_tiles_get_slots_in_row_major_order(pairs):
+    from topojax.tiling import _unique_pairs
+
+    rows = np.array([p[0] for p in pairs], np.int64)
+    cols = np.array([p[1] for p in pairs], np.int64)
+    want = np.unique(np.stack([rows, cols], axis=1), axis=0)
+    got = _unique_pairs(rows, cols)
+    assert got.dtype == np.int64
+    np.testing.assert_array_equal(got, want)
+
+
 def test_tile_manager_extent_limit_changes_nothing():
     tm = TileManager(tile_px=8, layers={"a": (np.int32, 0)}, max_grid_cells=100)
     tm.ensure([0], [0])

@@ -184,6 +184,8 @@ RETHIN_BLOCK_PX = 8
 TABLE_MAX_HALF_PX = 2047
 #: Blocks per ridge kernel call (small and large fixed batch).
 RIDGE_BLOCKS = (64, 512)
+#: Tile storage reserved when a mapper starts (virtual: pages are mapped on first use).
+INITIAL_STORAGE_BYTES = 1 << 25
 
 _FAR_BOUND = 1 << 62  # larger than any squared pixel distance in int64 arithmetic
 _MAX_ABS_PIXEL = 1 << 30  # packed pixel keys shift rows by 32 bits
@@ -1961,23 +1963,31 @@ class IncrementalMapper:
         self.paper_layer_px = paper_layer_px
         self._half = config.distance.half_width_px
         nb = tile_px // block_px
+        layers = {
+            "hits": (np.uint16, 0),
+            "misses": (np.uint16, 0),
+            "sq_distance": (np.int32, FAR_SQ),
+            "lap_abs": (np.uint8, 0),
+            "ridge": (np.bool_, False),
+            "skeleton": (np.bool_, False),
+            "graph_id": (np.int32, -1),
+            "mark": (np.uint8, 0),
+            "thin_time": (np.uint16, 0),
+            "block_max": (np.int32, FAR_SQ, (nb, nb)),
+            "ridge_dirty": (np.bool_, False, (nb, nb)),
+        }
+        per_tile = sum(
+            np.dtype(spec[0]).itemsize * (math.prod(spec[2]) if len(spec) > 2 else tile_px**2)
+            for spec in layers.values()
+        )
         self._tiles = TileManager(
             tile_px=tile_px,
-            layers={
-                "hits": (np.uint16, 0),
-                "misses": (np.uint16, 0),
-                "sq_distance": (np.int32, FAR_SQ),
-                "lap_abs": (np.uint8, 0),
-                "ridge": (np.bool_, False),
-                "skeleton": (np.bool_, False),
-                "graph_id": (np.int32, -1),
-                "mark": (np.uint8, 0),
-                "thin_time": (np.uint16, 0),
-                "block_max": (np.int32, FAR_SQ, (nb, nb)),
-                "ridge_dirty": (np.bool_, False, (nb, nb)),
-            },
+            layers=layers,
             loops=("ridge",),
             max_grid_cells=max_grid_cells,
+            # unused capacity is never touched (no memory until a tile lands there), and
+            # a larger start saves the first copies of the storage as the map grows
+            initial_capacity=max(16, INITIAL_STORAGE_BYTES // per_tile),
         )
         self._n_scans = 0
         self._n_ridge = 0
