@@ -773,6 +773,37 @@ def test_log_replay_matches_full_map(shared_data, log_name, n_scans, min_edges):
     assert mapper.graph.number_of_edges() >= min_edges
 
 
+def test_edge_path_pool_survives_holes_and_compaction():
+    m = IncrementalMapper()
+    rng = np.random.default_rng(3)
+    want = {}
+
+    def add(ids):
+        m._reserve(edges=int(ids.max()) + 1)
+        m._next_edge = max(m._next_edge, int(ids.max()) + 1)
+        lens = rng.integers(1, 400, ids.shape[0])
+        paths = rng.integers(-(1 << 20), 1 << 20, (int(lens.sum()), 2)).astype(np.int32)
+        m._e_alive[ids] = True
+        m._add_paths(ids, paths, lens)
+        for k, a, b in zip(ids, np.cumsum(lens) - lens, np.cumsum(lens), strict=True):
+            want[int(k)] = paths[a:b]
+
+    add(np.arange(20))
+    for _step in range(30):  # remove some, add more: holes, compactions and growth
+        gone = rng.choice(sorted(want), size=min(8, len(want)), replace=False)
+        m._e_alive[gone] = False
+        m._drop_paths(gone)
+        for k in gone.tolist():
+            del want[k]
+        add(np.arange(m._next_edge, m._next_edge + 10))
+    live = m._edge_ids()
+    assert sorted(want) == live.tolist()
+    paths, lens = m._paths(live)
+    assert lens.tolist() == [want[k].shape[0] for k in live.tolist()]
+    np.testing.assert_array_equal(paths, np.concatenate([want[k] for k in live.tolist()]))
+    assert m._pool.shape[0] < 8 * (int(lens.sum()) + 4096)  # holes do not pile up
+
+
 def test_graph_ids_are_stable_away_from_changes():
     """Vertices of a region that no later scan touches keep their ids and edges."""
     rng = np.random.default_rng(5)

@@ -2004,13 +2004,18 @@ class IncrementalMapper:
         self._since_graph = 0
         # The graph, by stable id (ids are never reused): vertex pixel key (_pack), kind
         # code and liveness; edge ends (u <= v) and liveness; each live edge's pixel path
-        # (int32 (L, 2), from u to v).  The graph_id tile layer maps pixels back to ids.
+        # (from u to v) as rows [start, start + len) of one int32 (n, 2) pool (removed
+        # paths leave holes until the pool is compacted).  The graph_id tile layer maps
+        # pixels back to ids.
         self._v_key = np.zeros(0, np.int64)
         self._v_code = np.zeros(0, np.int8)
         self._v_alive = np.zeros(0, bool)
         self._e_uv = np.zeros((0, 2), np.int64)
         self._e_alive = np.zeros(0, bool)
-        self._e_path: dict[int, np.ndarray] = {}
+        self._e_start = np.zeros(0, np.int64)
+        self._e_len = np.zeros(0, np.int64)
+        self._pool = np.zeros((0, 2), np.int32)
+        self._pool_used = 0  # rows written (live paths and holes)
         self._next_vertex = 0
         self._next_edge = 0
         self._export_cache: dict[str, object] = {}
@@ -2673,13 +2678,8 @@ class IncrementalMapper:
             rem_flag[gid[gid >= 0]] = True
             rem = np.flatnonzero(rem_flag)
             touched = np.flatnonzero(in_vz | _flags(nv, e_u[rem]) | _flags(nv, e_v[rem]))
-            rem_paths = [self._e_path[k] for k in rem.tolist()]
-            all_r = (
-                np.concatenate(rem_paths).astype(np.int64)
-                if rem_paths
-                else np.zeros((0, 2), np.int64)
-            )
-            lens_r = np.array([p.shape[0] for p in rem_paths], np.int64)
+            all_r, lens_r = self._paths(rem)
+            all_r = all_r.astype(np.int64)
             off_r = np.concatenate([[0], np.cumsum(lens_r)])
             # A: pixels of the edges of R and new skeleton pixels in Z.  Every new edge that
             # touches Z lies in A, so the local graph is traced on the skeleton pixels within
@@ -2746,7 +2746,7 @@ class IncrementalMapper:
                     continue
                 new = kp32[off_k[i] : off_k[i + 1]]
                 for j in cands:
-                    old = rem_paths[j]
+                    old = all_r[off_r[j] : off_r[j + 1]]
                     if not matched_old[j] and (
                         np.array_equal(old, new) or np.array_equal(old, new[::-1])
                     ):
@@ -2760,8 +2760,7 @@ class IncrementalMapper:
             owner = np.repeat(rem.astype(np.int32), lens_r)
             _clear_owned(gl, grid, g0r, g0c, t, all_r[inner, 0], all_r[inner, 1], owner[inner])
             self._e_alive[gone_e] = False
-            for k in gone_e.tolist():
-                del self._e_path[k]
+            self._drop_paths(gone_e)
         # ---- vertices: a touched vertex whose pixel is no vertex of the patch goes (outside
         # Z a vertex keeps its degree; only a ring vertex can stop being one)
         t_keys = self._v_key[touched]
@@ -2805,9 +2804,7 @@ class IncrementalMapper:
             self._e_uv[added_e, 0] = a_ids
             self._e_uv[added_e, 1] = b_ids
             self._e_alive[added_e] = True
-            bounds = off_n.tolist()
-            for i, k in enumerate(added_e.tolist()):
-                self._e_path[k] = npx32[bounds[i] : bounds[i + 1]].copy()
+            self._add_paths(added_e, npx32, ln)
             inner = _interior(off_n)
             owner = np.repeat(added_e.astype(np.int32), ln)
             _scatter_px(gl, grid, g0r, g0c, t, npx[inner, 0], npx[inner, 1], owner[inner])
@@ -2846,6 +2843,46 @@ class IncrementalMapper:
             cap = max(edges, 2 * self._e_uv.shape[0], 1024)
             self._e_uv = _grown(self._e_uv, cap)
             self._e_alive = _grown(self._e_alive, cap)
+            self._e_start = _grown(self._e_start, cap)
+            self._e_len = _grown(self._e_len, cap)
+
+    def _paths(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pixel paths of edges ``ids``: all of them concatenated (int32 (n, 2),
+        global ``(row, col)``) and their lengths (int64)."""
+        lens = self._e_len[ids]
+        off = np.zeros(lens.shape[0] + 1, np.int64)
+        np.cumsum(lens, out=off[1:])
+        rows = np.repeat(self._e_start[ids] - off[:-1], lens) + np.arange(off[-1])
+        return self._pool[rows], lens
+
+    def _add_paths(self, ids: np.ndarray, paths: np.ndarray, lens: np.ndarray) -> None:
+        """Store the paths of new edges ``ids`` (``paths``: concatenated, int (n, 2))."""
+        n = paths.shape[0]
+        if self._pool_used + n > self._pool.shape[0]:
+            self._compact_paths(n)
+        start = self._pool_used
+        self._pool[start : start + n] = paths
+        self._e_start[ids] = start + np.cumsum(lens) - lens
+        self._e_len[ids] = lens
+        self._pool_used += n
+
+    def _drop_paths(self, ids: np.ndarray) -> None:
+        """Forget the paths of edges ``ids`` (their rows become holes)."""
+        self._e_len[ids] = 0
+
+    def _compact_paths(self, extra: int) -> None:
+        """Make room for ``extra`` more rows: drop the holes, and grow the pool (doubling)
+        if the live paths would still fill more than half of it."""
+        live = self._edge_ids()
+        paths, lens = self._paths(live)
+        need = paths.shape[0] + extra
+        cap = self._pool.shape[0]
+        if 2 * need > cap:
+            cap = max(2 * need, 4096)
+        self._pool = np.zeros((cap, 2), np.int32)
+        self._pool[: paths.shape[0]] = paths
+        self._e_start[live] = np.cumsum(lens) - lens
+        self._pool_used = paths.shape[0]
 
     # ------------------------------------------------------------------ exports
     def _bbox_or_raise(self) -> tuple[int, int, int, int]:
@@ -2960,8 +2997,12 @@ class IncrementalMapper:
         ):
             out.add_node(v, pixel=(r, c), kind=_KIND_NAME[code])
         edges = self._edge_ids()
-        for k, (u, v) in zip(edges.tolist(), self._e_uv[edges].tolist(), strict=True):
-            out.add_edge(u, v, key=k, path=self._e_path[k].copy())
+        paths, lens = self._paths(edges)
+        bounds = np.concatenate([[0], np.cumsum(lens)]).tolist()
+        for i, (k, (u, v)) in enumerate(
+            zip(edges.tolist(), self._e_uv[edges].tolist(), strict=True)
+        ):
+            out.add_edge(u, v, key=k, path=paths[bounds[i] : bounds[i + 1]].copy())
         return out
 
     def _clearance(self):
@@ -3006,9 +3047,8 @@ class IncrementalMapper:
         edges = self._edge_ids().tolist()
         if edges:
             ends = self._e_uv[edges].tolist()
-            paths = [self._e_path[k] for k in edges]
-            lens = np.array([p.shape[0] for p in paths])
-            allp = np.concatenate(paths).astype(np.int64) - [r0, c0]
+            allp, lens = self._paths(np.asarray(edges, np.int64))
+            allp = allp.astype(np.int64) - [r0, c0]
             wx, wy = occ.pixel_to_world(allp[:, 0], allp[:, 1])
             world = np.stack([wx, wy], axis=1)
             cl = clearance[allp[:, 0], allp[:, 1]].astype(np.float64) * res
@@ -3134,11 +3174,9 @@ class IncrementalMapper:
         edges = self._edge_ids()
         arrays["e_id"] = edges
         arrays["e_uv"] = self._e_uv[edges]
-        paths = [self._e_path[k] for k in edges.tolist()]
-        arrays["e_len"] = np.asarray([p.shape[0] for p in paths], np.int64)
-        arrays["e_path"] = (
-            np.concatenate(paths).astype(np.int64) if paths else np.zeros((0, 2), np.int64)
-        )
+        paths, lens = self._paths(edges)
+        arrays["e_len"] = lens.astype(np.int64)
+        arrays["e_path"] = paths.astype(np.int64)
         buf = _io.BytesIO()
         np.savez_compressed(buf, **arrays)
         atomic_write_bytes(p, buf.getvalue())
@@ -3224,14 +3262,15 @@ class IncrementalMapper:
             mapper._v_alive[v_id] = True
             if e_uv.size and not mapper._v_alive[e_uv.ravel()].all():
                 raise ValueError("some edges end at unknown vertices")
+            if (np.asarray(data["e_len"]) < 1).any():
+                raise ValueError("edge path lengths must be positive")
             bounds = np.concatenate([[0], np.cumsum(data["e_len"])])
             paths = np.asarray(data["e_path"], np.int64).reshape(-1, 2)
             if bounds[-1] != paths.shape[0]:
                 raise ValueError("edge path lengths do not add up to the stored paths")
             mapper._e_uv[e_id] = e_uv
             mapper._e_alive[e_id] = True
-            for i, k in enumerate(e_id.tolist()):
-                mapper._e_path[k] = paths[bounds[i] : bounds[i + 1]].astype(np.int32)
+            mapper._add_paths(e_id, paths.astype(np.int32), np.asarray(data["e_len"], np.int64))
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise ValueError(f"{p}: corrupt or inconsistent mapper state: {exc}") from None
         return mapper
