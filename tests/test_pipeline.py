@@ -104,6 +104,49 @@ def test_office_beyond_window_clearance(paper_reference):
     np.testing.assert_allclose(res.clearance_px, edt, rtol=0, atol=1e-3)
 
 
+def _windowed_sq_distance(obstacles, r):
+    """Brute-force windowed squared distance in integers (small maps only)."""
+    from topojax.distance import FAR_SQ
+
+    h, w = obstacles.shape
+    out = np.full((h, w), FAR_SQ, np.int64)
+    ys, xs = np.nonzero(obstacles)
+    for y, x in zip(ys.tolist(), xs.tolist(), strict=True):
+        r0, r1, c0, c1 = max(0, y - r), min(h, y + r + 1), max(0, x - r), min(w, x + r + 1)
+        dy = np.arange(r0, r1)[:, None] - y
+        dx = np.arange(c0, c1)[None, :] - x
+        np.minimum(out[r0:r1, c0:c1], dy * dy + dx * dx, out=out[r0:r1, c0:c1])
+    return out.astype(np.int32)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_clearance_beyond_window_at_few_needed_pixels(seed):
+    """A few needed pixels beyond R (some with no obstacle in their window at all) are
+    searched one by one; many take the whole map's transform: both exact."""
+    import cv2
+
+    from topojax.pipeline import _nearest_sq_distance, clearance_from_sq_distance
+
+    rng = np.random.default_rng(seed)
+    obstacles = np.zeros((90, 120), bool)
+    obstacles[rng.integers(0, 90, 6), rng.integers(0, 120, 6)] = True
+    r = 4
+    d2 = _windowed_sq_distance(obstacles, r)
+    edt = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    beyond = np.argwhere(d2 > r * r)
+    for n in (5, 40, 500):  # 500 > SPARSE_CLEARANCE_MAX_PX: whole-map transform
+        pick = beyond[rng.choice(len(beyond), size=min(n, len(beyond)), replace=False)]
+        need = np.zeros_like(obstacles)
+        need[pick[:, 0], pick[:, 1]] = True
+        got = clearance_from_sq_distance(d2, obstacles, r, need)
+        np.testing.assert_allclose(got[need], edt[need], rtol=1e-6, atol=0)
+        within = (d2 <= r * r) & ~need
+        np.testing.assert_array_equal(got[within], np.sqrt(d2[within].astype(np.float32)))
+    # the search gives up (None) when its squares exceed the budget
+    rows, cols = beyond[:3, 0], beyond[:3, 1]
+    assert _nearest_sq_distance(obstacles, rows, cols, d2[rows, cols], 2 * r, 10) is None
+
+
 def test_world_coordinates_follow_map_origin_and_yaw():
     occ = sample_map("intel")
     moved = tj.OccupancyMap(
