@@ -2247,7 +2247,7 @@ class IncrementalMapper:
             pair_k = np.concatenate((ka[:na], kb[:nb_]))
             pair_i = np.concatenate((ia[:na], ib[:nb_]))
         row_block, row_pts, row_bidx, blocks = _splat_group(
-            pair_k, pair_i, pr, pc, tiles.keys, bmax.shape[0] * nb * nb, t, b, half, SPLAT_POINTS
+            pair_k, pair_i, pr, pc, tiles.keys, tiles.n_tiles * nb * nb, t, b, half, SPLAT_POINTS
         )
         n_rows = row_block.shape[0]
         if n_rows == 0:
@@ -2528,7 +2528,7 @@ class IncrementalMapper:
         seeds = [border]
         changed = np.concatenate([added, removed])
         if changed.shape[0]:
-            bid = np.full((tau.shape[0], nb, nb), -1, np.int32)
+            bid = np.full((tiles.n_tiles, nb, nb), -1, np.int32)
             blk = np.empty((tiles.n_tiles * nb * nb, 3), np.int64)
             n_blk = _seed_blocks(
                 changed[:, 0].astype(np.int64),
