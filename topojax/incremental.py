@@ -195,6 +195,7 @@ _TRACES: Counter[str] = Counter()
 
 
 _POOL: dict = {}  # process id -> the worker pool of that process
+_GROWTH_POOL: dict = {}  # process id -> the thread that pages in grown tile storage
 
 
 def _n_cpus() -> int:
@@ -214,6 +215,19 @@ def _worker_pool():
         _POOL.clear()
         _POOL[pid] = ThreadPoolExecutor(1, thread_name_prefix="topojax") if _n_cpus() > 1 else None
     return _POOL[pid]
+
+
+def _growth_pool():
+    """A second thread, shared by all mappers of this process, that pages in the tile
+    storage of the next growth (:meth:`TileManager.prepare_growth`) without holding up
+    the worker thread's short jobs.  None on a single-CPU machine."""
+    pid = os.getpid()
+    if pid not in _GROWTH_POOL:
+        _GROWTH_POOL.clear()
+        _GROWTH_POOL[pid] = (
+            ThreadPoolExecutor(1, thread_name_prefix="topojax-grow") if _n_cpus() > 1 else None
+        )
+    return _GROWTH_POOL[pid]
 
 
 def trace_counts() -> dict[str, int]:
@@ -2106,6 +2120,7 @@ class IncrementalMapper:
         )
         n_valid = int(er.shape[0])
         tiles = self._tiles
+        n_tiles = tiles.n_tiles
         n_new = 0
         if n_valid:
             sr = math.floor(-sy / res)
@@ -2141,6 +2156,9 @@ class IncrementalMapper:
                 self._pending.append(new)
                 self._n_pending += n_new
                 self._export_cache.clear()
+        if tiles.n_tiles != n_tiles and _growth_pool() is not None:
+            # page in the storage of the next growth on another thread (see TileManager)
+            tiles.prepare_growth(_growth_pool().submit)
         if self._n_rays >= RAY_BATCH_BEAMS:
             self._cast_pending_rays()
         loops = ["distance"]
