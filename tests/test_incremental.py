@@ -198,6 +198,40 @@ def test_tile_manager_allocates_in_every_direction_and_round_trips():
         assert (m.layer("a")[new] == -1).all() and (m.layer("s")[new] == 0).all()
 
 
+def test_tile_manager_growth_uses_storage_paged_in_ahead():
+    from concurrent.futures import Future
+
+    from topojax.tiling import GROWTH_FACTOR
+
+    jobs = []
+
+    def submit(fn):  # runs the job at once, as a worker thread eventually would
+        fut = Future()
+        fn()
+        fut.set_result(None)
+        jobs.append(fut)
+        return fut
+
+    tm = TileManager(
+        tile_px=128, layers={"d": (np.int32, 7), "h": (np.uint16, 0)}, initial_capacity=8
+    )
+    tm.ensure(np.arange(5), np.zeros(5))
+    assert not tm.prepare_growth(submit) and not jobs  # 5 of 8: not yet
+    tm.ensure(np.arange(6), np.zeros(6))
+    tm.layer("h")[: tm.n_tiles] = np.arange(tm.n_tiles)[:, None, None]
+    assert tm.prepare_growth(submit) and len(jobs) == 1
+    assert not tm.prepare_growth(submit)  # one spare at a time
+    tm.add_layer("late", np.int8, 3)  # added after the spare: allocated at the growth
+    spare = tm._spare["d"]
+    tm.ensure(np.arange(20), np.ones(20))  # past the capacity: grows into the spare
+    assert tm.layer("d") is spare and tm.layer("d").shape[0] == 8 * GROWTH_FACTOR
+    n = tm.n_tiles
+    assert n == 26 and (tm.layer("d")[:n] == 7).all() and (tm.layer("late")[:n] == 3).all()
+    np.testing.assert_array_equal(tm.layer("h")[:6, 0, 0], np.arange(6))
+    assert (tm.layer("h")[6:n] == 0).all()
+    assert tm.layer("d").flags.c_contiguous and tm.layer("d").flags.writeable
+
+
 def test_tile_manager_late_layer_fills_existing_and_new_tiles():
     tm = TileManager(tile_px=8, layers={"a": (np.int32, 0)}, initial_capacity=4)
     tm.ensure(np.array([0, 1]), np.array([0, 0]))
