@@ -508,10 +508,10 @@ def markdown(results: dict) -> str:
         "- *cold* is a fresh process (imports and log reading excluded): numba's on-disk "
         "cache load and the JAX compilation of the 4 kernel variants fall on the first scan "
         "and the first skeleton update.",
-        "- Memory: *tiles* is the storage of the allocated tiles (18 bytes per pixel); "
-        "*peak traced* is the peak of Python/NumPy allocations during a separate replay "
-        "(`tracemalloc`), including the exports at the end and the storage's reserved "
-        "capacity (at least 32 MiB, untouched until tiles are allocated there).",
+        "- Memory: *tiles* is the storage of the allocated tiles (18 bytes per pixel; it "
+        "lives in memory mappings of its own, whose unused capacity is reserved but never "
+        "touched); *peak traced* is the peak of the other Python/NumPy allocations during a "
+        "separate replay (`tracemalloc`), including the exports at the end.",
     ]
     paper = [r for r in results["logs"] if "paper_strategy" in r]
     if paper:
