@@ -612,11 +612,13 @@ def blob_image(rng, shape, n_blobs, max_side):
     seed=st.integers(0, 2**31 - 1),
     method=st.sampled_from(["guo_hall", "zhang"]),
     remove_t=st.booleans(),
+    margin=st.integers(1, 4),
 )
-def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t):
+def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t, margin):
     """The exact skeleton loop's kernels on tile layers: re-thinning around changed
-    pixels (growing its region where the change reaches the ring, as in thick blobs) and
-    the ordered T-removal update give the whole-image thinning times and skeleton."""
+    pixels (growing its region where the change reaches the ring, as in thick blobs; any
+    seed margin of at least one pixel) and the ordered T-removal update give the
+    whole-image thinning times and skeleton."""
     from topojax import incremental as inc
     from topojax.skeleton import _TABLES_U8, remove_t_centres
 
@@ -645,7 +647,7 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t)
     tau = to_tiles(tau_old.astype(np.uint16), t)
     bid = np.full((nr * nc, t // b, t // b), -1, np.int32)
     blk = np.empty((bid.size, 3), np.int64)
-    n_blk = inc._seed_blocks(edits[:, 0], edits[:, 1], grid, 0, 0, t // b, b, bid, blk)
+    n_blk = inc._seed_blocks(edits[:, 0], edits[:, 1], grid, 0, 0, t // b, b, bid, blk, margin)
     flat, rounds, _ = inc._rethin(
         ridge.reshape(-1),
         tau,
@@ -711,7 +713,7 @@ def test_local_rethinning_grows_through_a_thick_blob():
     bid = np.full((36, 4, 4), -1, np.int32)
     blk = np.empty((bid.size, 3), np.int64)
     rows, cols = np.nonzero(old != new)
-    n_blk = inc._seed_blocks(rows, cols, grid, 0, 0, 4, b, bid, blk)
+    n_blk = inc._seed_blocks(rows, cols, grid, 0, 0, 4, b, bid, blk, inc.SEED_MARGIN_PX)
     _, rounds, _ = inc._rethin(
         to_tiles(new, t).reshape(-1),
         tau,
