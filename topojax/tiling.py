@@ -156,7 +156,7 @@ def _storage(capacity: int, shape, dt: np.dtype) -> np.ndarray:
     Large layers get an anonymous private memory mapping of their own.  ``np.zeros``
     does not guarantee this: once the C allocator has recycled freed memory of that
     size (it raises its mapping threshold after a large free), it hands out heap memory
-    and clears all of it at once (a 100 MB growth then cost 0.14 s and its full size in
+    and clears all of it at once (a 133 MB growth then cost 0.14 s and its full size in
     memory).
     """
     shape = (capacity, *shape)
