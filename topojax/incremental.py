@@ -1198,10 +1198,10 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
     sees, at every sub-iteration while it is alive, the same states of its neighbours in
     ``I`` as before (then, by induction over sub-iterations, nothing outside changes):
     ``min(tau_new(p), tau(q)) == min(tau_old(p), tau(q))``.  Blocks of ring pixels that
-    fail this are activated and the round is repeated; the active set only grows, and once it covers whole components there
-    is no ring, so this ends.  ``bid`` (int32, ``(n_slots, nb, nb)``) holds the row of
-    ``blk`` of every active block and -1 elsewhere (as :func:`_seed_blocks` leaves it);
-    it is all -1 on exit.
+    fail this are activated and the round is repeated; the active set only grows, and
+    once it covers whole components there is no ring, so this ends.  ``bid`` (int32,
+    ``(n_slots, nb, nb)``) holds the row of ``blk`` of every active block and -1
+    elsewhere (as :func:`_seed_blocks` leaves it); it is all -1 on exit.
 
     Returns the flat indices (``slot * t^2 + row * t + col``) of the pixels whose thinned
     state (``tau == _SURVIVOR``) changed, the number of rounds and the size of ``I`` in the
