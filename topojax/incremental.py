@@ -200,8 +200,7 @@ _UINT16_MAX = 65535
 _TRACES: Counter[str] = Counter()
 
 
-_POOL: dict = {}  # process id -> the worker pool of that process
-_GROWTH_POOL: dict = {}  # process id -> the thread that pages in grown tile storage
+_POOLS: dict = {}  # thread name -> (process id, its executor in that process)
 
 
 def _n_cpus() -> int:
@@ -212,28 +211,27 @@ def _n_cpus() -> int:
         return os.cpu_count() or 1
 
 
-def _worker_pool():
-    """One worker thread shared by all mappers of this process (None on a single-CPU
-    machine).  Keyed by process id: a child forked after the pool started has the pool
-    object but not its thread, so it makes its own."""
+def _shared_thread(name: str):
+    """A one-thread executor shared by all mappers of this process (None on a single-CPU
+    machine).  Keyed by process id: a child forked after the thread started has the
+    executor object but not its thread, so it makes its own."""
     pid = os.getpid()
-    if pid not in _POOL:
-        _POOL.clear()
-        _POOL[pid] = ThreadPoolExecutor(1, thread_name_prefix="topojax") if _n_cpus() > 1 else None
-    return _POOL[pid]
+    owner, pool = _POOLS.get(name, (None, None))
+    if owner != pid:
+        pool = ThreadPoolExecutor(1, thread_name_prefix=name) if _n_cpus() > 1 else None
+        _POOLS[name] = (pid, pool)
+    return pool
+
+
+def _worker_pool():
+    """The worker thread: splat pairing and free-cell counting."""
+    return _shared_thread("topojax")
 
 
 def _growth_pool():
-    """A second thread, shared by all mappers of this process, that pages in the tile
-    storage of the next growth (:meth:`TileManager.prepare_growth`) without holding up
-    the worker thread's short jobs.  None on a single-CPU machine."""
-    pid = os.getpid()
-    if pid not in _GROWTH_POOL:
-        _GROWTH_POOL.clear()
-        _GROWTH_POOL[pid] = (
-            ThreadPoolExecutor(1, thread_name_prefix="topojax-grow") if _n_cpus() > 1 else None
-        )
-    return _GROWTH_POOL[pid]
+    """A second thread that pages in the tile storage of the next growth
+    (:meth:`TileManager.prepare_growth`) without holding up the worker's short jobs."""
+    return _shared_thread("topojax-grow")
 
 
 def trace_counts() -> dict[str, int]:
@@ -1155,6 +1153,7 @@ def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, bid, blk, margin):
     nsh = _log2(nb)
     nm = nb - 1
     n = 0
+    prev = (np.int64(0), np.int64(-1), np.int64(0), np.int64(-1))
     for i in range(rows.shape[0]):
         gbr = rows[i] >> bsh
         gbc = cols[i] >> bsh
@@ -1164,6 +1163,9 @@ def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, bid, blk, margin):
         r1 = gbr + 1 if lr >= b - margin else gbr
         c0 = gbc - 1 if lc < margin else gbc
         c1 = gbc + 1 if lc >= b - margin else gbc
+        if (r0, r1, c0, c1) == prev:  # changed pixels come in runs: same blocks again
+            continue
+        prev = (r0, r1, c0, c1)
         for br in range(r0, r1 + 1):
             for bc in range(c0, c1 + 1):
                 s = _slot(grid, g0r, g0c, nsh, br, bc)  # blocks are the "pixels" of a tile
@@ -1985,31 +1987,24 @@ class IncrementalMapper:
         self.paper_layer_px = paper_layer_px
         self._half = config.distance.half_width_px
         nb = tile_px // block_px
-        layers = {
-            "hits": (np.uint16, 0),
-            "misses": (np.uint16, 0),
-            "sq_distance": (np.int32, FAR_SQ),
-            "lap_abs": (np.uint8, 0),
-            "ridge": (np.bool_, False),
-            "skeleton": (np.bool_, False),
-            "graph_id": (np.int32, -1),
-            "mark": (np.uint8, 0),
-            "thin_time": (np.uint16, 0),
-            "block_max": (np.int32, FAR_SQ, (nb, nb)),
-            "ridge_dirty": (np.bool_, False, (nb, nb)),
-        }
-        per_tile = sum(
-            np.dtype(spec[0]).itemsize * (math.prod(spec[2]) if len(spec) > 2 else tile_px**2)
-            for spec in layers.values()
-        )
         self._tiles = TileManager(
             tile_px=tile_px,
-            layers=layers,
+            layers={
+                "hits": (np.uint16, 0),
+                "misses": (np.uint16, 0),
+                "sq_distance": (np.int32, FAR_SQ),
+                "lap_abs": (np.uint8, 0),
+                "ridge": (np.bool_, False),
+                "skeleton": (np.bool_, False),
+                "graph_id": (np.int32, -1),
+                "mark": (np.uint8, 0),
+                "thin_time": (np.uint16, 0),
+                "block_max": (np.int32, FAR_SQ, (nb, nb)),
+                "ridge_dirty": (np.bool_, False, (nb, nb)),
+            },
             loops=("ridge",),
             max_grid_cells=max_grid_cells,
-            # unused capacity is never touched (no memory until a tile lands there), and
-            # a larger start saves the first copies of the storage as the map grows
-            initial_capacity=max(16, INITIAL_STORAGE_BYTES // per_tile),
+            reserve_bytes=INITIAL_STORAGE_BYTES,
         )
         self._n_scans = 0
         self._n_ridge = 0

@@ -215,6 +215,11 @@ class TileManager:
         Upper bound on the cells of the dense tile index (its area in tiles).  Adding a
         tile that would make the bounding box larger raises :class:`ValueError` before
         anything is changed.
+    initial_capacity : int
+        Tiles the storage holds before its first growth.
+    reserve_bytes : int, optional
+        Start with at least as many tiles as fit in this many bytes (reserved: untouched
+        capacity takes no memory, and a larger start saves the first growths' copies).
     """
 
     def __init__(
@@ -225,6 +230,7 @@ class TileManager:
         loops: tuple[str, ...] | list[str] = (),
         max_grid_cells: int = MAX_GRID_CELLS,
         initial_capacity: int = 16,
+        reserve_bytes: int | None = None,
     ) -> None:
         if not isinstance(tile_px, int) or isinstance(tile_px, bool) or tile_px < 4:
             raise ValueError(f"tile_px must be an int >= 4, got {tile_px!r}")
@@ -232,14 +238,20 @@ class TileManager:
             raise ValueError(f"max_grid_cells must be a positive int, got {max_grid_cells!r}")
         self.tile_px = tile_px
         self.max_grid_cells = max_grid_cells
-        self._capacity = max(1, int(initial_capacity))
+        self._capacity = 0
         self._n = 0
         self._nbr9: np.ndarray | None = None
-        self._keys = np.zeros((self._capacity, 2), np.int64)
         self._specs: dict[str, tuple[np.dtype, object, tuple[int, ...]]] = {}
         self._data: dict[str, np.ndarray] = {}
         for name, spec in layers.items():
-            self.add_layer(name, *spec)
+            self.add_layer(name, *spec)  # no storage yet (capacity 0)
+        capacity = max(1, int(initial_capacity))
+        if reserve_bytes is not None:
+            capacity = max(capacity, int(reserve_bytes) // max(1, self.tile_nbytes))
+        self._capacity = capacity
+        self._keys = np.zeros((capacity, 2), np.int64)
+        for name, (dt, _fill, shape) in self._specs.items():
+            self._data[name] = _storage(capacity, shape, dt)
         self._loops = tuple(loops)
         self._dirty = {loop: np.zeros(self._capacity, bool) for loop in self._loops}
         self._grid = np.full((0, 0), -1, np.int32)
@@ -270,6 +282,11 @@ class TileManager:
         self._data[name] = data = _storage(self._capacity, shape, dt)
         if dt.type(fill) != 0:
             data[: self._n] = fill
+
+    @property
+    def tile_nbytes(self) -> int:
+        """Bytes of one tile over all layers."""
+        return sum(dt.itemsize * math.prod(shape) for dt, _fill, shape in self._specs.values())
 
     @property
     def layer_names(self) -> tuple[str, ...]:
