@@ -2677,15 +2677,11 @@ class IncrementalMapper:
         nbr9 = tiles.neighbour_slots()
         # Z: the changed pixels dilated by one (where pixel-graph links can change); it
         # stays flagged in ``mark`` until _near_skeleton has read and cleared it
+        where = (grid, g0r, g0c, nbr9, t, mark)  # tile lookup and the scratch marks
         zr, zc, gid, skz = _region_z(
             np.ascontiguousarray(changed[:, 0]),
             np.ascontiguousarray(changed[:, 1]),
-            grid,
-            g0r,
-            g0c,
-            nbr9,
-            t,
-            mark,
+            *where,
             gl,
             skel,
         )
@@ -2710,21 +2706,8 @@ class IncrementalMapper:
             # their bounding box.
             a_px = np.concatenate([all_r, np.stack([zr[skz], zc[skz]], axis=1)])
             t_r, t_c = _unpack(self._v_key[touched])
-            keys, in_a, in_z, t_in_z = _near_skeleton(
-                np.ascontiguousarray(a_px[:, 0]),
-                np.ascontiguousarray(a_px[:, 1]),
-                zr,
-                zc,
-                t_r,
-                t_c,
-                grid,
-                g0r,
-                g0c,
-                nbr9,
-                t,
-                mark,
-                skel,
-            )
+            ar, ac = np.ascontiguousarray(a_px[:, 0]), np.ascontiguousarray(a_px[:, 1])
+            keys, in_a, in_z, t_in_z = _near_skeleton(ar, ac, zr, zc, t_r, t_c, *where, skel)
         except BaseException:
             _clear_region(zr, zc, grid, g0r, g0c, t, mark)
             raise
