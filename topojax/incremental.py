@@ -196,6 +196,7 @@ INITIAL_STORAGE_BYTES = 1 << 25
 _FAR_BOUND = 1 << 62  # larger than any squared pixel distance in int64 arithmetic
 _MAX_ABS_PIXEL = 1 << 30  # packed pixel keys shift rows by 32 bits
 _UINT16_MAX = 65535
+_U64 = numba.uint64  # unsigned flat offsets (see _gather_ridge_patches)
 
 _TRACES: Counter[str] = Counter()
 
@@ -382,6 +383,13 @@ def _slot(grid, g0r, g0c, sh, r, c):
     if gi < 0 or gj < 0 or gi >= grid.shape[0] or gj >= grid.shape[1]:
         return -1
     return grid[gi, gj]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _flat(a):
+    """1-D view of a C-contiguous array (numba refuses ``reshape`` of any other layout at
+    compile time, where ``ravel`` would silently return a copy and lose writes)."""
+    return a.reshape(a.size)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -905,6 +913,7 @@ def _finish_merge(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, di
     nb = t >> bsh
     nsh = _log2(nb)
     n_changed = 0
+    flat = _flat(d2)
     for j in range(blocks.shape[0]):
         if hi_a[j] < 0:
             continue
@@ -923,11 +932,11 @@ def _finish_merge(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, di
                     dirty[ns, nbr_r, nbr_c] = True
                     tile_dirty[ns] = True
         mx = 0
-        for a in range(b):
+        p = _U64((s * t + lbr * b) * t + lbc * b)
+        for _ in range(b):
             for c in range(b):
-                v = d2[s, lbr * b + a, lbc * b + c]
-                if v > mx:
-                    mx = v
+                mx = max(mx, flat[p + _U64(c)])
+            p += _U64(t)
         bmax[s, lbr, lbc] = mx
     return n_changed
 
@@ -962,14 +971,24 @@ def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out
     ``out[i]`` is the ``(b + 2 halo)^2`` patch around block ``(lbr[i], lbc[i])`` of tile
     ``slots[i]``; rows/cols outside ``bbox = (row0, col0, row1, col1)`` read the
     ``BORDER_REFLECT_101`` mirror pixel (``-1 -> 1``), missing tiles read ``FAR_SQ``.
+
+    The copies index flat views with unsigned offsets: numba wraps negative signed
+    indices, and that test in every element keeps LLVM from vectorising the copy (3x
+    slower on intel's patches).
     """
     r_first = bbox[0]
     c_first = bbox[1]
     r_last = bbox[2] - 1
     c_last = bbox[3] - 1
     size = b + 2 * halo
-    lcs = np.empty(size, np.int64)
+    src = _flat(d2)
+    dst = _flat(out)
+    lcs = np.empty(size, np.uint64)
     oxs = np.empty(size, np.int64)
+    base = np.empty(3, np.int64)
+    # columns of the patch per neighbour tile 0/1/2 along the row: (first, stop, first
+    # tile-local column)
+    seg = np.empty((3, 3), np.int64)
     for i in range(slots.shape[0]):
         s = slots[i]
         tile_r0 = keys[s, 0] * t
@@ -978,28 +997,68 @@ def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out
         org_c = tile_c0 + lbc[i] * b - halo
         lr0 = org_r - tile_r0
         lc0 = org_c - tile_c0
+        o = _U64(i * size * size)
+        cols_inside = org_c >= c_first and org_c + size - 1 <= c_last
         if (
-            lr0 >= 0
+            cols_inside
+            and lr0 >= 0
             and lc0 >= 0
             and lr0 + size <= t
             and lc0 + size <= t
             and org_r >= r_first
-            and org_c >= c_first
             and org_r + size - 1 <= r_last
-            and org_c + size - 1 <= c_last
         ):
             # the patch lies inside its own tile and inside the box: a plain copy
-            for a in range(size):
+            p = _U64((s * t + lr0) * t + lc0)
+            for _ in range(size):
                 for cc in range(size):
-                    out[i, a, cc] = d2[s, lr0 + a, lc0 + cc]
+                    dst[o + _U64(cc)] = src[p + _U64(cc)]
+                p += _U64(t)
+                o += _U64(size)
             continue
-        for cc in range(size):  # the column mapping is the same for every row
-            lcs[cc], oxs[cc] = _reflect_into_tile(org_c + cc, c_first, c_last, tile_c0, t)
+        if cols_inside:
+            # patch column cc is tile-local column lc0 + cc: in the previous tile below 0,
+            # in the next one from t
+            e0 = min(max(-lc0, 0), size)
+            e1 = min(max(t - lc0, 0), size)
+            seg[0, 0] = 0
+            seg[0, 1] = e0
+            seg[0, 2] = lc0 + t
+            seg[1, 0] = e0
+            seg[1, 1] = e1
+            seg[1, 2] = lc0 + e0
+            seg[2, 0] = e1
+            seg[2, 1] = size
+            seg[2, 2] = lc0 + e1 - t
+        else:
+            for cc in range(size):  # reflected: the same column mapping for every row
+                lc, ox = _reflect_into_tile(org_c + cc, c_first, c_last, tile_c0, t)
+                lcs[cc] = _U64(lc)
+                oxs[cc] = ox
         for a in range(size):
             lr, oy = _reflect_into_tile(org_r + a, r_first, r_last, tile_r0, t)
-            for cc in range(size):
-                ss = nbr9[s, 3 * oy + oxs[cc]]
-                out[i, a, cc] = FAR_SQ if ss < 0 else d2[ss, lr, lcs[cc]]
+            if cols_inside:
+                for k in range(3):
+                    n = seg[k, 1] - seg[k, 0]
+                    if n <= 0:
+                        continue
+                    d = o + _U64(seg[k, 0])
+                    ss = nbr9[s, 3 * oy + k]
+                    if ss < 0:
+                        for cc in range(n):
+                            dst[d + _U64(cc)] = FAR_SQ
+                    else:
+                        p = _U64((ss * t + lr) * t + seg[k, 2])
+                        for cc in range(n):
+                            dst[d + _U64(cc)] = src[p + _U64(cc)]
+            else:
+                for k in range(3):
+                    ss = nbr9[s, 3 * oy + k]
+                    base[k] = -1 if ss < 0 else (ss * t + lr) * t
+                for cc in range(size):
+                    bs = base[oxs[cc]]
+                    dst[o + _U64(cc)] = FAR_SQ if bs < 0 else src[_U64(bs) + lcs[cc]]
+            o += _U64(size)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -1012,26 +1071,40 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, ridge, lap_abs):
     removed = np.empty((n * b * b, 2), np.int64)
     na = 0
     nr = 0
+    rl = _flat(ridge_l)
+    ll = _flat(lap_l)
+    rs = _flat(ridge)
+    ls = _flat(lap_abs)
     for i in range(n):
         s = slots[i]
         r0 = lbr[i] * b
         c0 = lbc[i] * b
         gr = keys[s, 0] * t + r0
         gc = keys[s, 1] * t + c0
+        o = _U64(i * b * b)
+        p = _U64((s * t + r0) * t + c0)
         for a in range(b):
+            # branch-free copy and compare (vectorises); most rows do not change
+            diff = False
             for c in range(b):
-                v = ridge[i, a, c]
-                lap_l[s, r0 + a, c0 + c] = lap_abs[i, a, c]
-                if ridge_l[s, r0 + a, c0 + c] != v:
-                    ridge_l[s, r0 + a, c0 + c] = v
-                    if v:
-                        added[na, 0] = gr + a
-                        added[na, 1] = gc + c
-                        na += 1
-                    else:
-                        removed[nr, 0] = gr + a
-                        removed[nr, 1] = gc + c
-                        nr += 1
+                v = rs[o + _U64(c)]
+                diff |= rl[p + _U64(c)] != v
+                ll[p + _U64(c)] = ls[o + _U64(c)]
+            if diff:
+                for c in range(b):
+                    v = rs[o + _U64(c)]
+                    if rl[p + _U64(c)] != v:
+                        rl[p + _U64(c)] = v
+                        if v:
+                            added[na, 0] = gr + a
+                            added[na, 1] = gc + c
+                            na += 1
+                        else:
+                            removed[nr, 0] = gr + a
+                            removed[nr, 1] = gc + c
+                            nr += 1
+            o += _U64(b)
+            p += _U64(t)
     return added[:na].copy(), removed[:nr].copy()
 
 
@@ -1226,7 +1299,7 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
             grown = np.empty(n_zo + n_blk * b * b, np.int64)
             grown[:n_zo] = zo[:n_zo]
             zo = grown
-        lidx = np.empty((n_blk, b, b), np.int32)  # read only at ridge pixels of I
+        lidx = np.empty((n_blk, b, b), np.int32)  # index in I, -1 off the ridge
         pix = np.empty(n_blk * b * b, np.int64)
         n = 0
         for j in range(n_blk):
@@ -1239,7 +1312,9 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
                         pix[n] = f
                         lidx[j, a, c] = n
                         n += 1
-                    elif tflat[f] != 0:
+                        continue
+                    lidx[j, a, c] = -1
+                    if tflat[f] != 0:
                         if tflat[f] == _SURVIVOR:
                             zo[n_zo] = f
                             n_zo += 1
@@ -1247,24 +1322,51 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
         # neighbour table: >= 0 local index; < 0: -1 - tau of a pixel outside
         nbt = np.empty((n, 8), np.int64)
         ring_max = 0
-        for i in range(n):
-            f = pix[i]
-            s, lr, lc = _unflat(f, tsh)
-            for k in range(8):
-                nr, oy = _wrap_into_tile(lr + dr8[k], t)
-                nc, ox = _wrap_into_tile(lc + dc8[k], t)
-                ns = nbr9[s, 3 * oy + ox]
-                if ns < 0:
-                    nbt[i, k] = -1
-                elif bid[ns, nr >> bsh, nc >> bsh] >= 0:
-                    g = ns * tt + nr * t + nc
-                    q = bid[ns, nr >> bsh, nc >> bsh]
-                    nbt[i, k] = lidx[q, nr & (b - 1), nc & (b - 1)] if ridge[g] else -1
-                else:
-                    tq = np.int64(tau[ns, nr, nc])
-                    nbt[i, k] = -1 - tq
-                    if tq != _SURVIVOR and tq > ring_max:
-                        ring_max = tq
+        # the 3 x 3 blocks around each active block: its row of blk (-1: not active) and
+        # the flat index of its first pixel (-1: tile not allocated); a neighbour pixel is
+        # then found with shifts and masks, in the order in which I was listed
+        nact = np.empty((n_blk, 9), np.int64)
+        nbase = np.empty((n_blk, 9), np.int64)
+        n_side = t >> bsh  # blocks per tile side
+        for j in range(n_blk):
+            s, br, bc = blk[j, 0], blk[j, 1], blk[j, 2]
+            for oy in range(3):
+                rr, ty = _wrap_into_tile(br + oy - 1, n_side)
+                for ox in range(3):
+                    cc, tx = _wrap_into_tile(bc + ox - 1, n_side)
+                    ns = nbr9[s, 3 * ty + tx]
+                    if ns < 0:
+                        nact[j, 3 * oy + ox] = -1
+                        nbase[j, 3 * oy + ox] = -1
+                    else:
+                        nact[j, 3 * oy + ox] = bid[ns, rr, cc]
+                        nbase[j, 3 * oy + ox] = ns * tt + (rr * b) * t + cc * b
+        i = 0
+        bm = b - 1
+        for j in range(n_blk):
+            for a in range(b):
+                for c in range(b):
+                    if lidx[j, a, c] < 0:
+                        continue
+                    for k in range(8):
+                        ay = a + dr8[k] + b
+                        ax = c + dc8[k] + b
+                        o = 3 * (ay >> bsh) + (ax >> bsh)
+                        la = ay & bm
+                        lc = ax & bm
+                        q = nact[j, o]
+                        if q >= 0:
+                            nbt[i, k] = lidx[q, la, lc]
+                        else:
+                            base = nbase[j, o]
+                            if base < 0:
+                                nbt[i, k] = -1
+                            else:
+                                tq = np.int64(tflat[base + la * t + lc])
+                                nbt[i, k] = -1 - tq
+                                if tq != _SURVIVOR and tq > ring_max:
+                                    ring_max = tq
+                    i += 1
         # thin I, sub-iteration by sub-iteration, the ring following its old history
         alive = np.ones(n, np.uint8)
         tnew = np.full(n, _SURVIVOR, np.int64)
