@@ -465,6 +465,10 @@ def test_constructor_validation():
         IncrementalMapper(graph_every=2.5)
     with pytest.raises(TypeError, match="config"):
         IncrementalMapper(config="paper")
+    with pytest.raises(ValueError, match="ridge.threshold must be >= 0.*got -0.5"):
+        from topojax.config import RidgeConfig
+
+        IncrementalMapper(ridge=RidgeConfig(threshold=-0.5))
     with pytest.raises(ValueError, match="merge_junction_clusters"):
         from topojax.config import GraphConfig
 
@@ -526,6 +530,25 @@ def test_exact_strategy_equals_full_map_on_random_scans(seed, n, every, thinning
     for scan in synthetic_scans(seed, n):
         mapper.add_scan(scan)
     assert_matches_full_map(mapper, PipelineConfig(distance=SMALL, skeleton=sk))
+
+
+@pytest.mark.parametrize(
+    "scale, threshold", [(255.0, 3.5), (255.0, 0.0), (8000.0, 254.5), (8000.0, 300.0)]
+)
+def test_ridge_thresholds_equal_full_map(scale, threshold):
+    """Below 255 the ridge kernel returns only ``lap_abs`` and the ridge is derived from
+    it (``lap_abs > floor(threshold)``); from 255 on it returns the ridge as well.  Both
+    paths, fractional thresholds included, equal the full-map pipeline."""
+    from topojax.config import RidgeConfig
+
+    ridge = RidgeConfig(scale=scale, threshold=threshold)
+    mapper = IncrementalMapper(skeleton_every=3, graph_every=5, ridge=ridge, **SMALL_KW)
+    for scan in synthetic_scans(11, 8):
+        mapper.add_scan(scan)
+    ref = assert_matches_full_map(mapper, PipelineConfig(distance=SMALL, ridge=ridge))
+    assert 0 < ref.ridges.sum() < ref.ridges.size
+    if threshold >= 255:
+        assert (ref.lap_abs[ref.ridges] == 255).all() and ((ref.lap_abs == 255) & ~ref.ridges).any()
 
 
 @settings(max_examples=60, deadline=None)
@@ -974,6 +997,7 @@ def test_no_new_traces_during_a_replay():
     for s in scans[:6]:
         mapper.add_scan(s)
     assert "skeleton" in mapper.add_scans(scans[6:8])[-1].loops
+    _ = mapper.distance  # the export's kernel compiles at its first use (in any mapper)
     before = trace_counts()
     assert before.get("splat_blocks", 0) >= 1 and before.get("ridge_blocks", 0) >= 1
     for s in scans[8:]:
