@@ -2596,11 +2596,12 @@ class IncrementalMapper:
             Number of skeleton pixels that changed.
         """
         self._flush_splat()
+        added, removed, border, blocks = self._update_ridges()
         # The free cells of the scans since the last update are counted on the worker
-        # thread meanwhile (nothing below touches them or allocates tiles).
+        # thread meanwhile (nothing below touches them or allocates tiles).  Not earlier:
+        # next to the ridge kernel's XLA thread it slowed that kernel by a third.
         self._cast_pending_rays(background=True)
         try:
-            added, removed, border, blocks = self._update_ridges()
             self._since_skeleton = 0
             self._export_cache.clear()
             if self.strategy == "exact":
