@@ -147,11 +147,17 @@ _MAPPED_MIN_BYTES = 1 << 20
 #: on a virtual machine): growing 4x instead of 2x copies a third as much in total;
 #: unused capacity is reserved, not touched.
 GROWTH_FACTOR = 4
+#: Ask for transparent huge pages (2 MiB, where the kernel allows them: Linux ``madvise``
+#: mode) for the mapped layers: a first touch then maps 2 MiB at once instead of 4 KiB,
+#: so an intel replay takes 3.6k page faults instead of 16.5k (aces: 2.4k instead of 21k;
+#: 2-3 % less time).  Resident memory grows in 2 MiB steps per layer.
+HUGE_PAGES = True
 
 
 def _storage(capacity: int, shape, dt: np.dtype) -> np.ndarray:
     """Layer storage for ``capacity`` slots, all zero, whose pages are mapped only when
-    first written: capacity that no tile uses takes no memory.
+    first written (huge pages where allowed, see :data:`HUGE_PAGES`): capacity that no
+    tile uses takes no memory.
 
     Large layers get an anonymous private memory mapping of their own.  ``np.zeros``
     does not guarantee this: once the C allocator has recycled freed memory of that
@@ -166,6 +172,8 @@ def _storage(capacity: int, shape, dt: np.dtype) -> np.ndarray:
     if nbytes < _MAPPED_MIN_BYTES or anonymous is None:  # small, or not on a POSIX system
         return np.zeros(shape, dt)
     buf = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE | anonymous)
+    if HUGE_PAGES and hasattr(mmap, "MADV_HUGEPAGE"):
+        buf.madvise(mmap.MADV_HUGEPAGE)
     return np.frombuffer(buf, dt, count=count).reshape(shape)
 
 
