@@ -168,7 +168,8 @@ def read_log(path: Path, max_scans: int | None):
 
 def mapper_bytes(mapper) -> int:
     """Bytes of the allocated tiles' layers (the storage's unused capacity is reserved
-    but never touched, so it takes no memory)."""
+    but not touched, so it takes no memory beyond the huge page of each layer's last
+    tile)."""
     tiles = mapper.tiles
     return tiles.n_tiles * tiles.tile_nbytes
 
@@ -511,8 +512,9 @@ def markdown(results: dict) -> str:
         "cache load and the JAX compilation of the 4 kernel variants fall on the first scan "
         "and the first skeleton update.",
         "- Memory: *tiles* is the storage of the allocated tiles (18 bytes per pixel; it "
-        "lives in memory mappings of its own, whose unused capacity is reserved but never "
-        "touched); *peak traced* is the peak of the other Python/NumPy allocations during a "
+        "lives in memory mappings of its own, whose unused capacity is reserved but not "
+        "touched, except up to the end of the 2 MiB page holding the last tile of each "
+        "layer); *peak traced* is the peak of the other Python/NumPy allocations during a "
         "separate replay (`tracemalloc`), including the exports at the end.",
     ]
     paper = [r for r in results["logs"] if "paper_strategy" in r]

@@ -144,8 +144,8 @@ MAX_GRID_CELLS = 1 << 24
 _MAPPED_MIN_BYTES = 1 << 20
 #: Capacity growth factor of the tile storage.  Growing copies every tile into new,
 #: lazily zeroed memory, whose first touch costs a page fault per page (about 1 ms per MB
-#: on a virtual machine): growing 4x instead of 2x copies a third as much in total;
-#: unused capacity is reserved, not touched.
+#: on a virtual machine in 4 KiB pages; see :data:`HUGE_PAGES`): growing 4x instead of 2x
+#: copies a third as much in total; unused capacity is reserved, not touched.
 GROWTH_FACTOR = 4
 #: Ask for transparent huge pages (2 MiB, where the kernel allows them: Linux ``madvise``
 #: mode) for the mapped layers: a first touch then maps 2 MiB at once instead of 4 KiB,
