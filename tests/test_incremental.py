@@ -198,6 +198,26 @@ def test_tile_manager_allocates_in_every_direction_and_round_trips():
         assert (m.layer("a")[new] == -1).all() and (m.layer("s")[new] == 0).all()
 
 
+def test_tile_storage_with_and_without_huge_pages(monkeypatch):
+    """Mapped layers are zero and keep what is written, in huge pages or not, and where
+    the kernel refuses huge pages (no transparent huge page support: OSError)."""
+    import mmap
+
+    from topojax import tiling
+
+    class Refusing(mmap.mmap):
+        def madvise(self, *args):
+            raise OSError(22, "Invalid argument")
+
+    for huge, cls in ((True, mmap.mmap), (False, mmap.mmap), (True, Refusing)):
+        monkeypatch.setattr(tiling, "HUGE_PAGES", huge)
+        monkeypatch.setattr(tiling.mmap, "mmap", cls)
+        a = tiling._storage(64, (128, 128), np.dtype(np.int32))  # 4 MiB: its own mapping
+        assert a.shape == (64, 128, 128) and not a.any()
+        a[10] = 5
+        assert (a[10] == 5).all() and not a[11].any() and not a[:10].any()
+
+
 def test_tile_manager_growth_uses_storage_paged_in_ahead():
     from concurrent.futures import Future
 

@@ -173,7 +173,10 @@ def _storage(capacity: int, shape, dt: np.dtype) -> np.ndarray:
         return np.zeros(shape, dt)
     buf = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE | anonymous)
     if HUGE_PAGES and hasattr(mmap, "MADV_HUGEPAGE"):
-        buf.madvise(mmap.MADV_HUGEPAGE)
+        try:
+            buf.madvise(mmap.MADV_HUGEPAGE)
+        except OSError:  # a kernel built without transparent huge pages: 4 KiB pages
+            pass
     return np.frombuffer(buf, dt, count=count).reshape(shape)
 
 
