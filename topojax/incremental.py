@@ -802,12 +802,13 @@ def _block_origin(keys, k, t, b):
 
 
 @numba.njit(cache=True, nogil=True)
-def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
+def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row, slack):
     """Group the pairs of :func:`_splat_pairs` into kernel rows by block.
 
-    Returns ``row_block`` (flat block id per row), ``row_pts`` (rows, P, 2) int32 relative
-    to the block's first pixel (padding far away), ``row_bidx`` (index of the row's block
-    in ``blocks``) and ``blocks`` (distinct flat block ids).
+    Returns ``row_block`` (flat block id per row), ``row_pts`` (m, P, 2) int32 relative
+    to the block's first pixel, ``row_bidx`` (index of the row's block in ``blocks``) and
+    ``blocks`` (distinct flat block ids).  ``row_pts`` has at least ``slack`` rows more than
+    there are rows, all padding (points far away), like the unused slots of a row.
     """
     n_pairs = pair_k.shape[0]
     # counting sort of the pairs by block id
@@ -833,7 +834,7 @@ def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
     cap = n_blocks + n_pairs // n_points_row + 1
     row_block = np.empty(cap, np.int64)
     row_bidx = np.empty(cap, np.int64)
-    row_pts = np.full((cap, n_points_row, 2), -(half + 2 * b + 1), np.int32)
+    row_pts = np.full((cap + slack, n_points_row, 2), -(half + 2 * b + 1), np.int32)
     blocks = np.empty(n_blocks, np.int64)
     row = 0
     j = 0
@@ -870,7 +871,7 @@ def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row):
             row += 1
         j += 1
         start = stop
-    return row_block[:row], row_pts[:row], row_bidx[:row], blocks
+    return row_block[:row], row_pts, row_bidx[:row], blocks
 
 
 @numba.njit(cache=True, nogil=True)
@@ -882,27 +883,31 @@ def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, 
     nb = t >> bsh
     nsh = _log2(nb)
     cols = np.empty(b, np.bool_)
+    dst = _flat(d2)
+    src = _flat(rows)
     for ii in range(n_rows):
         i = start + ii
         k = row_block[i]
         j = row_bidx[i]
         s, lbr, lbc = _unflat(k, nsh)
-        r0 = lbr * b
-        c0 = lbc * b
+        p = _U64((s * t + lbr * b) * t + lbc * b)
+        o = _U64(ii * b * b)
         # branch-free inner loop (vectorises): store the minimum, OR the "lowered" flags
         cols[:] = False
         for a in range(b):
-            dst = d2[s, r0 + a, c0 : c0 + b]
-            src = rows[ii, a]
             row_low = False
             for c in range(b):
-                low = src[c] < dst[c]
-                dst[c] = min(src[c], dst[c])
+                v = src[o + _U64(c)]
+                w = dst[p + _U64(c)]
+                low = v < w
+                dst[p + _U64(c)] = min(v, w)
                 cols[c] |= low
                 row_low |= low
             if row_low:
                 lo_a[j] = min(lo_a[j], a)
                 hi_a[j] = max(hi_a[j], a)
+            p += _U64(t)
+            o += _U64(b)
         for c in range(b):
             if cols[c]:
                 lo_c[j] = min(lo_c[j], c)
@@ -1174,10 +1179,29 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     zc = np.empty(9 * n, np.int64)
     gid = np.empty(9 * n, np.int32)
     skz = np.empty(9 * n, np.bool_)
+    mk = _flat(mark)
+    gi = _flat(graph_id)
+    sk = _flat(skeleton)
     m = 0
     for i in range(n):
         s0, lr0, lc0 = _locate(grid, g0r, g0c, tsh, sr[i], sc[i])
         if s0 >= 0 and skeleton[s0, lr0, lc0] == (graph_id[s0, lr0, lc0] != -1):
+            continue
+        if s0 >= 0 and 0 < lr0 < t - 1 and 0 < lc0 < t - 1:
+            # the 3 x 3 neighbourhood lies in this tile: flat offsets
+            f = _U64((s0 * t + lr0 - 1) * t + lc0 - 1)
+            for dr in range(3):
+                for dc in range(3):
+                    g = f + _U64(dc)
+                    if mk[g] & 4:
+                        continue
+                    mk[g] |= 4
+                    gid[m] = gi[g]
+                    skz[m] = sk[g]
+                    zr[m] = sr[i] + dr - 1
+                    zc[m] = sc[i] + dc - 1
+                    m += 1
+                f += _U64(t)
             continue
         for k in range(9):
             s, nr, nc = _around(nbr9, s0, lr0, lc0, k, t)
@@ -1908,12 +1932,14 @@ def _batches(n: int, sizes: tuple[int, int]):
         start = stop
 
 
-def _pad_to(a: np.ndarray, size: int, fill) -> np.ndarray:
-    """Pad ``a`` along axis 0 to ``size`` rows with ``fill``."""
-    if a.shape[0] == size:
-        return a
-    pad = np.full((size - a.shape[0],) + a.shape[1:], fill, a.dtype)
-    return np.concatenate([a, pad])
+def _batch_view(a: np.ndarray, start: int, size: int, n: int, fill) -> np.ndarray:
+    """Kernel batch ``a[start : start + size]`` of the ``n`` rows of ``a``: a view when
+    ``a`` holds that many rows (the caller keeps the rows past ``n`` at ``fill``), else a
+    copy padded with ``fill``."""
+    if start + size <= a.shape[0]:
+        return a[start : start + size]
+    pad = np.full((start + size - n,) + a.shape[1:], fill, a.dtype)
+    return np.concatenate([a[start:n], pad])
 
 
 def _check_rate(name: str, value) -> int:
@@ -2402,7 +2428,17 @@ class IncrementalMapper:
             pair_k = np.concatenate((ka[:na], kb[:nb_]))
             pair_i = np.concatenate((ia[:na], ib[:nb_]))
         row_block, row_pts, row_bidx, blocks = _splat_group(
-            pair_k, pair_i, pr, pc, tiles.keys, tiles.n_tiles * nb * nb, t, b, half, SPLAT_POINTS
+            pair_k,
+            pair_i,
+            pr,
+            pc,
+            tiles.keys,
+            tiles.n_tiles * nb * nb,
+            t,
+            b,
+            half,
+            SPLAT_POINTS,
+            SPLAT_ROWS[1] // 2,  # the most padding a batch gets (see _batches)
         )
         n_rows = row_block.shape[0]
         if n_rows == 0:
@@ -2420,7 +2456,9 @@ class IncrementalMapper:
             (
                 start,
                 stop,
-                _splat_blocks(_pad_to(row_pts[start:stop], size, pad), size=b, half_width=half),
+                _splat_blocks(
+                    _batch_view(row_pts, start, size, n_rows, pad), size=b, half_width=half
+                ),
             )
             for start, stop, size in _batches(n_rows, SPLAT_ROWS)
         ]
@@ -2508,7 +2546,10 @@ class IncrementalMapper:
         gbc = keys[sl, 1] * nb + lbc
         size = b + 2 * HALO_PX
         n = sl.size
-        patches = np.empty((n, size, size), np.int32)
+        plan = list(_batches(n, RIDGE_BLOCKS))
+        # room for the last batch's padding: every batch is dispatched as a view
+        patches = np.empty((plan[-1][0] + plan[-1][2], size, size), np.int32)
+        patches[n:] = FAR_SQ
         _gather_ridge_patches(
             tiles.layer("sq_distance"),
             tiles.neighbour_slots(),
@@ -2527,9 +2568,9 @@ class IncrementalMapper:
             (
                 start,
                 stop,
-                self._ridge_kernel(_pad_to(patches[start:stop], bsize, FAR_SQ)),
+                self._ridge_kernel(_batch_view(patches, start, bsize, n, FAR_SQ)),
             )
-            for start, stop, bsize in _batches(n, RIDGE_BLOCKS)
+            for start, stop, bsize in plan
         ]
         added, removed = [], []
         cut = self._ridge_cut
