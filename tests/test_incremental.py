@@ -218,6 +218,23 @@ def test_tile_storage_with_and_without_huge_pages(monkeypatch):
         assert (a[10] == 5).all() and not a[11].any() and not a[:10].any()
 
 
+@pytest.mark.parametrize("sizes", [(128, 1024), (64, 512), (3, 7)])
+def test_batches_cover_the_rows_and_pad_at_most_max_padding(sizes):
+    """Kernel batches are dispatched as views of arrays allocated with
+    ``_max_padding`` spare rows: the bound must hold (and be reached)."""
+    from topojax.incremental import _batches, _max_padding
+
+    worst = 0
+    for n in range(1, 3000):
+        plan = list(_batches(n, sizes))
+        assert plan[0][0] == 0 and all(
+            a[1] == b[0] for a, b in zip(plan[:-1], plan[1:], strict=True)
+        )
+        assert plan[-1][1] == n and all(stop - start <= size for start, stop, size in plan)
+        worst = max(worst, plan[-1][0] + plan[-1][2] - n)
+    assert worst == _max_padding(sizes)
+
+
 def test_tile_manager_growth_uses_storage_paged_in_ahead():
     from concurrent.futures import Future
 

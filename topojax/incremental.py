@@ -1935,7 +1935,8 @@ def _batches(n: int, sizes: tuple[int, int]):
 def _aligned_empty(shape, dtype, align: int = 64) -> np.ndarray:
     """``np.empty`` whose data starts on an ``align``-byte boundary: JAX on a CPU then uses
     the array in place as a kernel input instead of copying it (30-45 us less per 512
-    ridge patches here).  The caller must not write to it before the kernel has run."""
+    ridge patches here), so it must not be written to while a kernel dispatched on it may
+    still run."""
     dtype = np.dtype(dtype)
     nbytes = math.prod(shape) * dtype.itemsize
     buf = np.empty(nbytes + align, np.uint8)
@@ -1943,14 +1944,11 @@ def _aligned_empty(shape, dtype, align: int = 64) -> np.ndarray:
     return buf[off : off + nbytes].view(dtype).reshape(shape)
 
 
-def _batch_view(a: np.ndarray, start: int, size: int, n: int, fill) -> np.ndarray:
-    """Kernel batch ``a[start : start + size]`` of the ``n`` rows of ``a``: a view when
-    ``a`` holds that many rows (the caller keeps the rows past ``n`` at ``fill``), else a
-    copy padded with ``fill``."""
-    if start + size <= a.shape[0]:
-        return a[start : start + size]
-    pad = np.full((start + size - n,) + a.shape[1:], fill, a.dtype)
-    return np.concatenate([a[start:n], pad])
+def _max_padding(sizes: tuple[int, int]) -> int:
+    """The most padding rows a batch of :func:`_batches` gets: a large batch starts with at
+    least half of it left, a small one with at least one row."""
+    small, large = sizes
+    return max(large - large // 2, small - 1)
 
 
 def _check_rate(name: str, value) -> int:
@@ -2450,7 +2448,7 @@ class IncrementalMapper:
             b,
             half,
             SPLAT_POINTS,
-            SPLAT_ROWS[1] // 2,  # the most padding a batch gets (see _batches)
+            _max_padding(SPLAT_ROWS),  # so that every batch below is a view
         )
         n_rows = row_block.shape[0]
         if n_rows == 0:
@@ -2461,16 +2459,13 @@ class IncrementalMapper:
         hi_a = np.full(n_blocks, -1, np.int64)
         lo_c = np.full(n_blocks, b, np.int64)
         hi_c = np.full(n_blocks, -1, np.int64)
-        pad = -(half + 2 * b + 1)
         # Dispatch every batch first (JAX runs them asynchronously), then merge each one
         # as it arrives: the merge of one batch overlaps the kernel of the next.
         batches = [
             (
                 start,
                 stop,
-                _splat_blocks(
-                    _batch_view(row_pts, start, size, n_rows, pad), size=b, half_width=half
-                ),
+                _splat_blocks(row_pts[start : start + size], size=b, half_width=half),
             )
             for start, stop, size in _batches(n_rows, SPLAT_ROWS)
         ]
@@ -2580,7 +2575,7 @@ class IncrementalMapper:
             (
                 start,
                 stop,
-                self._ridge_kernel(_batch_view(patches, start, bsize, n, FAR_SQ)),
+                self._ridge_kernel(patches[start : start + bsize]),
             )
             for start, stop, bsize in plan
         ]
