@@ -325,6 +325,41 @@ def test_row_pass_needed_region_is_exact_and_may_stop_early():
     np.testing.assert_array_equal(full, ref)
 
 
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_row_pass_keeps_pixels_reached_exactly_at_the_window_edge(side):
+    """Pixels with an empty window leave a band's exit test; a pixel whose only obstacle
+    lies exactly R columns away must stay in it (else the band stops at once)."""
+    from topojax.distance import row_sq_distance_tile
+
+    r, n, w = 20, 26, 8
+    column = np.full((n, w + 2 * r), np.iinfo(column_dtype(r)).max, column_dtype(r))
+    edge = 0 if side == "left" else w + 2 * r - 1
+    column[:, edge] = 3  # an obstacle 3 rows away in the window's outermost column
+    got = np.asarray(row_sq_distance_tile(jnp.asarray(column), half_width=r))
+    want = np.full((n, w), FAR_SQ, np.int64)
+    want[:, 0 if side == "left" else w - 1] = r * r + 9
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("tile", [16, 40])
+def test_empty_windows_next_to_far_obstacles_are_exact(tile):
+    """Maps with unknown space around small clusters: bands that mix pixels with no
+    obstacle in their window, pixels far from one and pixels next to one."""
+    rng = np.random.default_rng(tile)
+    r = 12
+    for _ in range(4):
+        obstacles = np.zeros((70, 90), bool)
+        k = int(rng.integers(1, 5))
+        obstacles[rng.integers(0, 70, k), rng.integers(0, 90, k)] = True
+        got = dense_fields(
+            obstacles, distance=DistanceConfig(sigma_px=5.0, half_width_px=r), tile_px=tile
+        ).sq_distance_px.astype(np.float64)
+        got[got >= FAR_SQ] = np.inf
+        ref = brute_sq_distance(obstacles, r)
+        assert np.isinf(ref).any() and np.isfinite(ref).any()
+        np.testing.assert_array_equal(got, ref)
+
+
 @pytest.mark.parametrize("tile", [32, 64])
 def test_sq_distances_above_16_bits_are_exact(tile):
     """Squared distances of 2^16 and more (nearest obstacle farther than 255 px: only in a

@@ -20,7 +20,9 @@ exactly into two passes, each a pure kernel on one fixed-size tile:
    k^2``.  Offsets run in increasing ``|k|`` per band of rows and stop as soon as ``k^2``
    reaches the band's largest current best: no larger offset can improve any pixel there.
    The running best only comes from real obstacles, so the early exit is exact, and the
-   cost scales with the band's largest clearance instead of with ``R``.
+   cost scales with the band's largest clearance instead of with ``R``.  Pixels with no
+   obstacle in their window at all (unknown space around a map) are FAR whatever the
+   loop does; a cheap per-band test finds them, so they do not keep a band running.
 
 Every number here is an integer until the final ``exp``, so the tiled result does not
 depend on the tiling.  :func:`window_sq_distance_tile` chains both passes on one square
@@ -153,6 +155,22 @@ def row_sq_distance_tile(
         mask = mask & (cols >= needed[2]) & (cols < needed[3])
     mask = jnp.broadcast_to(mask, (n_pad, w))
 
+    # Pixels with no obstacle anywhere in their window stay at FAR whatever the loop
+    # does, so they must not hold up a band's exit (they would run all R offsets).  A
+    # column "reaches" a band if any of the band's rows has an obstacle within R rows; a
+    # pixel stays in its band's exit test if a reaching column lies in its window (the
+    # union over the band's rows is conservative, so the exit stays exact).  Computed for
+    # all bands at once, by doubling window widths.
+    span = 2 * r + 1
+    near = jnp.pad(column <= r, ((0, n_pad - n), (0, 0)))  # narrow dtype: cheaper
+    reach = jnp.any(near.reshape(n_bands, _BAND_ROWS, size), axis=1)
+    m = 1
+    while 2 * m <= span:  # reach[:, i]: a column in [i, i + m) reaches
+        reach = reach[:, :-m] | reach[:, m:]
+        m *= 2
+    reach = reach[:, :w] | reach[:, span - m : span - m + w]
+    mask = mask.reshape(n_bands, _BAND_ROWS, w) & reach[:, None, :]
+
     def band(args):
         gb, mb = args
 
@@ -178,9 +196,7 @@ def row_sq_distance_tile(
         _, best, _ = lax.while_loop(cond, body, (jnp.int32(1), best0, worst_of(best0)))
         return jnp.minimum(best, far)
 
-    out = lax.map(
-        band, (g.reshape(n_bands, _BAND_ROWS, size), mask.reshape(n_bands, _BAND_ROWS, w))
-    )
+    out = lax.map(band, (g.reshape(n_bands, _BAND_ROWS, size), mask))
     return out.reshape(n_pad, w)[:n]
 
 
