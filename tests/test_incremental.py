@@ -361,6 +361,50 @@ def test_distance_equals_full_map_on_random_scans(seed, n, eager):
     np.testing.assert_array_equal(got, brute)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_batch_bound_holds_after_the_splat(seed):
+    """The bound the batch's own points put on each block's largest squared distance
+    (used to prune the splat's pairs) is never below the block's true maximum after the
+    splat, and it does lower some blocks."""
+    from topojax import incremental as inc
+
+    mapper = IncrementalMapper(
+        skeleton_every=0,
+        graph_every=0,
+        max_pending_points=1 << 20,
+        resolution_m=0.1,
+        distance=DistanceConfig(sigma_px=12.0, half_width_px=40),
+        tile_px=32,
+        block_px=8,
+    )
+    lowered = 0
+    for scan in synthetic_scans(seed, 6, bad=False):
+        mapper.add_scan(scan)
+        if not mapper._pending:
+            continue
+        pts = np.concatenate(mapper._pending)
+        tiles = mapper._tiles
+        grid, (g0r, g0c) = tiles.slot_grid
+        bmax = tiles.layer("block_max")
+        bound = inc._batch_bound(
+            np.ascontiguousarray(pts[:, 0]),
+            np.ascontiguousarray(pts[:, 1]),
+            grid,
+            g0r,
+            g0c,
+            32,
+            8,
+            40,
+            bmax,
+            tiles.n_tiles,
+        )
+        lowered += int((bound < bmax[: tiles.n_tiles]).sum())
+        mapper._flush_splat()
+        after = tiles.layer("block_max")[: tiles.n_tiles]
+        assert (after <= bound).all()
+    assert lowered > 0
+
+
 def test_bad_readings_are_dropped_and_counted():
     mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
     r = np.array([1.0, np.nan, np.inf, -np.inf, -1.0, 0.0, 0.05, 5.0, 7.0, 1.5])

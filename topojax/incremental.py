@@ -793,6 +793,98 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
     return pair_k, pair_i, n_pairs
 
 
+@numba.njit(cache=True, nogil=True)
+def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
+    """Block maxima lowered by what the batch's own points guarantee.
+
+    A new point ``q`` whose window covers a whole block brings every pixel of it to at
+    most ``U(q)``, the squared distance from ``q`` to the block's farthest corner.  So
+    after the batch a block's largest squared distance is at most ``min(bmax, min_q
+    U(q))``, and :func:`_splat_pairs` may use that as its first rule's bound: a point at
+    least that far from the block cannot lower a pixel below what the others give.
+    (Exact: the point that sets the bound is nearer than that to the block, so it is
+    paired, unless the old map or a dominating point already does as well.)  Computed on
+    the block grid around the batch, with each block's points anywhere in it
+    (``U <= (b |d_row| + b - 1)^2 + (b |d_col| + b - 1)^2`` for a block ``d`` blocks
+    away), as two separable passes over at most ``K = (R - b + 1) // b`` blocks.
+
+    Returns a copy of ``bmax[:n_tiles]`` with the bound applied.
+    """
+    bsh = _log2(b)
+    nb = t >> bsh
+    nsh = _log2(nb)
+    out = bmax[:n_tiles].copy()
+    n = pr.shape[0]
+    k_max = (half - b + 1) >> bsh
+    if n == 0 or k_max < 0:
+        return out
+    r0 = pr[0] >> bsh
+    r1 = r0
+    c0 = pc[0] >> bsh
+    c1 = c0
+    for i in range(n):
+        r0 = min(r0, pr[i] >> bsh)
+        r1 = max(r1, pr[i] >> bsh)
+        c0 = min(c0, pc[i] >> bsh)
+        c1 = max(c1, pc[i] >> bsh)
+    r0 -= k_max
+    c0 -= k_max
+    h = r1 + k_max - r0 + 1
+    w = c1 + k_max - c0 + 1
+    occ = np.zeros((h, w), np.bool_)
+    for i in range(n):
+        occ[(pr[i] >> bsh) - r0, (pc[i] >> bsh) - c0] = True
+    cost = np.empty(k_max + 1, np.int64)
+    for d in range(k_max + 1):
+        cost[d] = (b * d + b - 1) * (b * d + b - 1)
+    far = _FAR_BOUND
+    # column pass: nearest occupied block row within K (two running scans)
+    col = np.full((h, w), far, np.int64)
+    for j in range(w):
+        last = -(1 << 30)
+        for i in range(h):
+            if occ[i, j]:
+                last = i
+            if i - last <= k_max:
+                col[i, j] = cost[i - last]
+        nxt = 1 << 30
+        for i in range(h - 1, -1, -1):
+            if occ[i, j]:
+                nxt = i
+            if nxt - i <= k_max and cost[nxt - i] < col[i, j]:
+                col[i, j] = cost[nxt - i]
+    # row pass and write-back into the allocated tiles' blocks
+    gh = grid.shape[0]
+    gw = grid.shape[1]
+    for i in range(h):
+        gbr = r0 + i
+        gi = (gbr >> nsh) - g0r
+        if gi < 0 or gi >= gh:
+            continue
+        for j in range(w):
+            u = far
+            for d in range(max(0, j - k_max), min(w, j + k_max + 1)):
+                v = col[i, d]
+                if v < far:
+                    v += cost[abs(j - d)]
+                    if v < u:
+                        u = v
+            if u >= far:
+                continue
+            gbc = c0 + j
+            gj = (gbc >> nsh) - g0c
+            if gj < 0 or gj >= gw:
+                continue
+            s = grid[gi, gj]
+            if s < 0:
+                continue
+            lbr = gbr - ((gbr >> nsh) << nsh)
+            lbc = gbc - ((gbc >> nsh) << nsh)
+            if u < out[s, lbr, lbc]:
+                out[s, lbr, lbc] = u
+    return out
+
+
 @numba.njit(cache=True, nogil=True, inline="always")
 def _block_origin(keys, k, t, b):
     """Global first pixel (row, col) of the block with flat id ``k``
@@ -2413,6 +2505,8 @@ class IncrementalMapper:
         nb = t // b
         grid, (g0r, g0c) = tiles.slot_grid
         bmax = tiles.layer("block_max")
+        pr, pc = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
+        bound = _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, tiles.n_tiles)
         args = (
             grid,
             g0r,
@@ -2420,12 +2514,11 @@ class IncrementalMapper:
             t,
             b,
             half,
-            bmax,
-            bmax[: tiles.n_tiles].max(axis=2),
+            bound,
+            bound.max(axis=2),
             tiles.layer("hits"),
             min(DOMINANCE_PX, half - 1),
         )
-        pr, pc = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
         pool = _worker_pool() if pts.shape[0] >= PARALLEL_MIN_POINTS else None
         if pool is None:
             pair_k, pair_i, n_pairs = _splat_pairs(pr, pc, 0, 1, *args)
