@@ -174,7 +174,8 @@ PARALLEL_MIN_POINTS = 64
 #: Beams whose free cells may wait for the next skeleton update (or an export); more
 #: are counted at once.
 RAY_BATCH_BEAMS = 1 << 16
-#: Radius (Chebyshev, px) searched for obstacles that dominate a new point on a block.
+#: Radius (Chebyshev, px) searched for obstacles that dominate a new point on a block
+#: (at most 2: the pairing divides by twice a column offset with a shift).
 DOMINANCE_PX = 2
 #: Side (px, a power of two) of the blocks the exact re-thinning activates (at most
 #: ``block_px``).
@@ -644,6 +645,9 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
       minimum is unaffected.  For one row of blocks each neighbour ``q`` dominates a
       half-line of block columns, so the allowed blocks form an interval.
 
+    ``bmax`` (slot, block row, block col) holds the blocks' bounds (:func:`_batch_bound`)
+    and ``rowmax`` (slot, block row) their maxima along block rows.
+
     Returns ``pair_k`` (flat block id ``(slot * nb + block_row) * nb + block_col``),
     ``pair_i`` (point index) and the number of pairs (the arrays are longer).
     """
@@ -653,9 +657,13 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
     nsh = _log2(nb)
     n = pr.shape[0]
     n_own = max(0, (n - first + step - 1) // step)
+    if rho > 2:  # the domination thresholds below divide by 2 |dc| with shifts
+        raise ValueError("rho must be at most 2")
     inner = half - rho
     side = 2 * rho + 1
-    nbr = np.empty((side * side, 2), np.int64)
+    # neighbours by the sign of their column offset: (dd at lo = 0, 2 qa, log2(2 |qc|))
+    nbr = np.empty((3, side * side, 3), np.int64)
+    n_q = np.zeros(3, np.int64)
     cap = 1024 + 64 * n_own
     pair_k = np.empty(cap, np.int64)
     pair_i = np.empty(cap, np.int64)
@@ -677,8 +685,14 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
             pair_i = ni
         p_r = pr[i]
         p_c = pc[i]
-        # obstacles near p, relative to p
-        n_q = 0
+        # Obstacles q near p (offset (a, c)), grouped by the sign of c (0: c > 0, 1: c < 0,
+        # 2: c = 0) so that the per-row loops below have no data-dependent branches.  For
+        # a block row [lo, hi] relative to p, q is at least as near as p to the row's
+        # corners where dd = a^2 + c^2 - 2 a (lo if a > 0 else hi) <= 2 c dc_corner; with
+        # hi = lo + b - 1 that is dd = d0 - 2 a lo, d0 stored per neighbour.
+        n_q[0] = 0
+        n_q[1] = 0
+        n_q[2] = 0
         for a in range(-rho, rho + 1):
             for c in range(-rho, rho + 1):
                 if a == 0 and c == 0:
@@ -687,9 +701,13 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
                 qc = p_c + c
                 s, lr, lc = _locate(grid, g0r, g0c, tsh, qr, qc)
                 if s >= 0 and hits[s, lr, lc] > 0:
-                    nbr[n_q, 0] = a
-                    nbr[n_q, 1] = c
-                    n_q += 1
+                    g = 0 if c > 0 else (1 if c < 0 else 2)
+                    j = n_q[g]
+                    nbr[g, j, 0] = a * a + c * c - (2 * (b - 1) * a if a < 0 else 0)
+                    nbr[g, j, 1] = 2 * a
+                    nbr[g, j, 2] = 1 if abs(c) == 1 else 2  # log2(2 |c|), |c| <= rho <= 2
+                    n_q[g] = j + 1
+        any_q = n_q[0] + n_q[1] + n_q[2] > 0
         br0 = (p_r - half) >> bsh
         br1 = (p_r + half) >> bsh
         bc0 = (p_c - half) >> bsh
@@ -728,20 +746,17 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
             # Allowed interval [al, ar] of inner block columns.
             al = ib0
             ar = ib1
-            if n_q and lo >= -inner and hi <= inner:
-                for j in range(n_q):
-                    qa = nbr[j, 0]
-                    qc = nbr[j, 1]
-                    dd = qa * qa + qc * qc - 2 * (lo if qa > 0 else hi) * qa
-                    if qc > 0:
-                        # dominated iff lo_c >= ceil(dd / (2 qc))
-                        thr = -((-dd) // (2 * qc)) + p_c
-                        ar = min(ar, -((-thr) >> bsh) - 1)
-                    elif qc < 0:
-                        # dominated iff hi_c <= floor(dd / (2 qc))
-                        thr = dd // (2 * qc) + p_c - b + 1
-                        al = max(al, (thr >> bsh) + 1)
-                    elif dd <= 0:
+            if any_q and lo >= -inner and hi <= inner:
+                for j in range(n_q[0]):  # c > 0: dominated iff lo_c >= ceil(dd / (2 c))
+                    dd = nbr[0, j, 0] - nbr[0, j, 1] * lo
+                    thr = -((-dd) >> nbr[0, j, 2]) + p_c  # 2 c is 2 or 4: a shift
+                    ar = min(ar, -((-thr) >> bsh) - 1)
+                for j in range(n_q[1]):  # c < 0: iff hi_c <= floor(dd / (2 c))
+                    dd = nbr[1, j, 0] - nbr[1, j, 1] * lo
+                    thr = ((-dd) >> nbr[1, j, 2]) + p_c - b + 1
+                    al = max(al, (thr >> bsh) + 1)
+                for j in range(n_q[2]):  # c = 0: iff dd <= 0, the whole row
+                    if nbr[2, j, 0] - nbr[2, j, 1] * lo <= 0:
                         al = ib1 + 1
                         ar = ib1
             else:
@@ -771,7 +786,7 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
                     remt = rowmax[s, lbr] - dr * dr
                     if remt <= 0:
                         continue
-                    et = _isqrt(remt - 1)
+                    et = e if remt == rem else _isqrt(remt - 1)
                     t_from = max(c_from, -((et + b - 1 - p_c) >> bsh))
                     t_to = min(c_to, (p_c + et) >> bsh)
                     l0 = max(t_from - tcc * nb, 0)
