@@ -386,7 +386,7 @@ def test_batch_bound_holds_after_the_splat(seed):
         tiles = mapper._tiles
         grid, (g0r, g0c) = tiles.slot_grid
         bmax = tiles.layer("block_max")
-        bound = inc._batch_bound(
+        bound, rowmax = inc._batch_bound(
             np.ascontiguousarray(pts[:, 0]),
             np.ascontiguousarray(pts[:, 1]),
             grid,
@@ -398,6 +398,7 @@ def test_batch_bound_holds_after_the_splat(seed):
             bmax,
             tiles.n_tiles,
         )
+        np.testing.assert_array_equal(rowmax, bound.max(axis=2))
         lowered += int((bound < bmax[: tiles.n_tiles]).sum())
         mapper._flush_splat()
         after = tiles.layer("block_max")[: tiles.n_tiles]

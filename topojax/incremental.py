@@ -809,6 +809,16 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
 
 
 @numba.njit(cache=True, nogil=True)
+def _row_max(bm):
+    """Maxima of ``bm`` (slot, block row, block col) along block rows: (slot, block row)."""
+    out = np.empty(bm.shape[:2], bm.dtype)
+    for s in range(bm.shape[0]):
+        for r in range(bm.shape[1]):
+            out[s, r] = bm[s, r].max()
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
 def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
     """Block maxima lowered by what the batch's own points guarantee.
 
@@ -823,7 +833,8 @@ def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
     (``U <= (b |d_row| + b - 1)^2 + (b |d_col| + b - 1)^2`` for a block ``d`` blocks
     away), as two separable passes over at most ``K = (R - b + 1) // b`` blocks.
 
-    Returns a copy of ``bmax[:n_tiles]`` with the bound applied.
+    Returns a copy of ``bmax[:n_tiles]`` with the bound applied, and its maxima along
+    block rows (``(n_tiles, nb)``, the pairing's row bound).
     """
     bsh = _log2(b)
     nb = t >> bsh
@@ -832,7 +843,7 @@ def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
     n = pr.shape[0]
     k_max = (half - b + 1) >> bsh
     if n == 0 or k_max < 0:
-        return out
+        return out, _row_max(out)
     r0 = pr[0] >> bsh
     r1 = r0
     c0 = pc[0] >> bsh
@@ -877,13 +888,17 @@ def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
         if gi < 0 or gi >= gh:
             continue
         for j in range(w):
+            # outwards from j; every column value is at least cost[0], so the scan stops
+            # once the offset's cost alone cannot improve u
             u = far
-            for d in range(max(0, j - k_max), min(w, j + k_max + 1)):
-                v = col[i, d]
-                if v < far:
-                    v += cost[abs(j - d)]
-                    if v < u:
-                        u = v
+            for x in range(k_max + 1):
+                cx = cost[x]
+                if cx + cost[0] >= u:
+                    break
+                if j - x >= 0 and col[i, j - x] + cx < u:
+                    u = col[i, j - x] + cx
+                if j + x < w and col[i, j + x] + cx < u:
+                    u = col[i, j + x] + cx
             if u >= far:
                 continue
             gbc = c0 + j
@@ -897,7 +912,7 @@ def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
             lbc = gbc - ((gbc >> nsh) << nsh)
             if u < out[s, lbr, lbc]:
                 out[s, lbr, lbc] = u
-    return out
+    return out, _row_max(out)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -2521,7 +2536,7 @@ class IncrementalMapper:
         grid, (g0r, g0c) = tiles.slot_grid
         bmax = tiles.layer("block_max")
         pr, pc = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
-        bound = _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, tiles.n_tiles)
+        bound, rowmax = _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, tiles.n_tiles)
         args = (
             grid,
             g0r,
@@ -2530,7 +2545,7 @@ class IncrementalMapper:
             b,
             half,
             bound,
-            bound.max(axis=2),
+            rowmax,
             tiles.layer("hits"),
             min(DOMINANCE_PX, half - 1),
         )
