@@ -1477,8 +1477,14 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
                             zo[n_zo] = f
                             n_zo += 1
                         tflat[f] = 0
-        # neighbour table: >= 0 local index; < 0: -1 - tau of a pixel outside
+        # Neighbour table, every neighbour as an index into the state array ``alive``:
+        # 0..n-1 the pixels of I; n: always off (no ridge, or no tile); n + 1: always on
+        # (a ring survivor); n + 2 + m: a ring pixel deleted at old time ``ring_tau[m]``
+        # (one slot per reference, switched off at that sub-iteration).  The thinning
+        # loop then reads eight states without a branch.
         nbt = np.empty((n, 8), np.int64)
+        ring_tau = np.empty(8 * n, np.int64)
+        n_ring = 0
         ring_max = 0
         # the 3 x 3 blocks around each active block: its row of blk (-1: not active) and
         # the flat index of its first pixel (-1: tile not allocated); a neighbour pixel is
@@ -1514,19 +1520,24 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
                         lc = ax & bm
                         q = nact[j, o]
                         if q >= 0:
-                            nbt[i, k] = lidx[q, la, lc]
+                            v = lidx[q, la, lc]
+                            nbt[i, k] = v if v >= 0 else n  # -1: off the ridge
                         else:
                             base = nbase[j, o]
-                            if base < 0:
-                                nbt[i, k] = -1
+                            tq = 0 if base < 0 else np.int64(tflat[base + la * t + lc])
+                            if tq == 0:
+                                nbt[i, k] = n
+                            elif tq == _SURVIVOR:
+                                nbt[i, k] = n + 1
                             else:
-                                tq = np.int64(tflat[base + la * t + lc])
-                                nbt[i, k] = -1 - tq
-                                if tq != _SURVIVOR and tq > ring_max:
-                                    ring_max = tq
+                                nbt[i, k] = n + 2 + n_ring
+                                ring_tau[n_ring] = tq
+                                n_ring += 1
+                                ring_max = max(ring_max, tq)
                     i += 1
         # thin I, sub-iteration by sub-iteration, the ring following its old history
-        alive = np.ones(n, np.uint8)
+        alive = np.ones(n + 2 + n_ring, np.uint8)
+        alive[n] = 0
         tnew = np.full(n, _SURVIVOR, np.int64)
         live = np.arange(n)
         n_live = n
@@ -1535,17 +1546,15 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
         quiet = 0
         while not (quiet >= 2 and s_it - 2 >= ring_max):
             lut = tables[s_it & 1]
+            for m in range(n_ring):  # ring pixels deleted at this sub-iteration
+                if ring_tau[m] == s_it:
+                    alive[n + 2 + m] = 0
             nd = 0
             for ii in range(n_live):
                 i = live[ii]
                 code = 0
                 for k in range(8):
-                    v = nbt[i, k]
-                    if v >= 0:
-                        bit = alive[v]
-                    else:
-                        bit = 1 if -1 - v > s_it else 0
-                    code |= bit << k
+                    code |= np.int64(alive[nbt[i, k]]) << k
                 if lut[code]:
                     dels[nd] = i
                     nd += 1
@@ -1565,8 +1574,8 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
             told = np.int64(tflat[f])
             for k in range(8):
                 v = nbt[i, k]
-                if v < -1:
-                    tq = -1 - v
+                if v > n:  # a ring pixel on the ridge
+                    tq = _SURVIVOR if v == n + 1 else ring_tau[v - n - 2]
                     if min(tnew[i], tq) != min(told, tq):
                         s, lr, lc = _unflat(f, tsh)
                         nr, oy = _wrap_into_tile(lr + dr8[k], t)
