@@ -16,6 +16,7 @@ from collections import Counter
 import networkx as nx
 import numpy as np
 import pytest
+from brute_force import brute_sq_distance
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -137,17 +138,6 @@ def synthetic_scans(seed: int, n: int, *, bad: bool = True) -> list[Scan]:
             Scan.from_arrays(r, pose, angle_min=-fov / 2, angle_increment=fov / 89, range_max=8.0)
         )
     return scans
-
-
-def brute_sq_distance(obstacles: np.ndarray, r: int) -> np.ndarray:
-    """Float64 windowed squared distance by brute force (independent of all kernels)."""
-    h, w = obstacles.shape
-    out = np.full((h, w), np.inf)
-    rr, cc = np.mgrid[0:h, 0:w]
-    for y, x in zip(*np.nonzero(obstacles), strict=True):
-        inside = (np.abs(rr - y) <= r) & (np.abs(cc - x) <= r)
-        out = np.where(inside, np.minimum(out, (rr - y) ** 2 + (cc - x) ** 2), out)
-    return out
 
 
 # --------------------------------------------------------------------------------------

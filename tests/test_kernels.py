@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from brute_force import brute_sq_distance
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
@@ -29,19 +30,6 @@ from topojax.distance import (
 from topojax.filters import laplacian_valid, reflect_101_halo, ridge_from_laplacian
 from topojax.pipeline import dense_fields, trace_counts
 from topojax.tiling import TileGrid
-
-
-def brute_sq_distance(obstacles: np.ndarray, r: int) -> np.ndarray:
-    """Float64 brute-force windowed squared distance (independent of the kernel)."""
-    h, w = obstacles.shape
-    out = np.full((h, w), np.inf)
-    ys, xs = np.nonzero(obstacles)
-    rr, cc = np.mgrid[0:h, 0:w]
-    for y, x in zip(ys, xs, strict=True):
-        inside = (np.abs(rr - y) <= r) & (np.abs(cc - x) <= r)
-        d2 = (rr - y) ** 2 + (cc - x) ** 2
-        out = np.where(inside, np.minimum(out, d2), out)
-    return out
 
 
 def test_original_sigma_matches_reference_value():

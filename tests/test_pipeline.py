@@ -6,11 +6,13 @@ import json
 
 import numpy as np
 import pytest
+from brute_force import brute_sq_distance
 from scipy.spatial import cKDTree
 
 import topojax as tj
 from topojax.cli import main as cli_main
 from topojax.datasets import sample_map
+from topojax.distance import FAR_SQ
 
 
 @pytest.fixture(scope="module")
@@ -104,21 +106,6 @@ def test_office_beyond_window_clearance(paper_reference):
     np.testing.assert_allclose(res.clearance_px, edt, rtol=0, atol=1e-3)
 
 
-def _windowed_sq_distance(obstacles, r):
-    """Brute-force windowed squared distance in integers (small maps only)."""
-    from topojax.distance import FAR_SQ
-
-    h, w = obstacles.shape
-    out = np.full((h, w), FAR_SQ, np.int64)
-    ys, xs = np.nonzero(obstacles)
-    for y, x in zip(ys.tolist(), xs.tolist(), strict=True):
-        r0, r1, c0, c1 = max(0, y - r), min(h, y + r + 1), max(0, x - r), min(w, x + r + 1)
-        dy = np.arange(r0, r1)[:, None] - y
-        dx = np.arange(c0, c1)[None, :] - x
-        np.minimum(out[r0:r1, c0:c1], dy * dy + dx * dx, out=out[r0:r1, c0:c1])
-    return out.astype(np.int32)
-
-
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_clearance_beyond_window_at_few_needed_pixels(seed):
     """A few needed pixels beyond R (some with no obstacle in their window at all) are
@@ -131,7 +118,8 @@ def test_clearance_beyond_window_at_few_needed_pixels(seed):
     obstacles = np.zeros((90, 120), bool)
     obstacles[rng.integers(0, 90, 6), rng.integers(0, 120, 6)] = True
     r = 4
-    d2 = _windowed_sq_distance(obstacles, r)
+    d2 = brute_sq_distance(obstacles, r)
+    d2 = np.where(np.isinf(d2), FAR_SQ, d2).astype(np.int32)
     edt = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     beyond = np.argwhere(d2 > r * r)
     for n in (5, 40, 500):  # 500 > SPARSE_CLEARANCE_MAX_PX: whole-map transform
