@@ -908,8 +908,8 @@ def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
             s = grid[gi, gj]
             if s < 0:
                 continue
-            lbr = gbr - ((gbr >> nsh) << nsh)
-            lbc = gbc - ((gbc >> nsh) << nsh)
+            lbr = gbr & (nb - 1)
+            lbc = gbc & (nb - 1)
             if u < out[s, lbr, lbc]:
                 out[s, lbr, lbc] = u
     return out, _row_max(out)
@@ -1195,6 +1195,13 @@ def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out
             o += _U64(size)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _ridge_at(rs, ls, i, cut):
+    """Ridge value of element ``i`` of a kernel batch: read from the kernel's ridge output
+    ``rs`` when ``cut < 0``, else ``lap_abs > cut``."""
+    return rs[i] if cut < 0 else np.int64(ls[i]) > cut
+
+
 @numba.njit(cache=True, nogil=True)
 def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, lap_abs, ridge, cut):
     """Store recomputed blocks; return the global pixels that became ridge pixels and
@@ -1212,7 +1219,6 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, lap_abs, ridge, c
     ll = _flat(lap_l)
     rs = _flat(ridge)
     ls = _flat(lap_abs)
-    from_kernel = cut < 0
     for i in range(n):
         s = slots[i]
         r0 = lbr[i] * b
@@ -1225,13 +1231,11 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, lap_abs, ridge, c
             # branch-free copy and compare (vectorises); most rows do not change
             diff = False
             for c in range(b):
-                la = ls[o + _U64(c)]
-                v = rs[o + _U64(c)] if from_kernel else np.int64(la) > cut
-                diff |= rl[p + _U64(c)] != v
-                ll[p + _U64(c)] = la
+                diff |= rl[p + _U64(c)] != _ridge_at(rs, ls, o + _U64(c), cut)
+                ll[p + _U64(c)] = ls[o + _U64(c)]
             if diff:
                 for c in range(b):
-                    v = rs[o + _U64(c)] if from_kernel else np.int64(ls[o + _U64(c)]) > cut
+                    v = _ridge_at(rs, ls, o + _U64(c), cut)
                     if rl[p + _U64(c)] != v:
                         rl[p + _U64(c)] = v
                         if v:
