@@ -11,6 +11,7 @@ orientation-normalised edge paths).
 from __future__ import annotations
 
 import math
+import os
 from collections import Counter
 
 import networkx as nx
@@ -257,6 +258,70 @@ def test_tile_manager_growth_uses_storage_paged_in_ahead():
     np.testing.assert_array_equal(tm.layer("h")[:6, 0, 0], np.arange(6))
     assert (tm.layer("h")[6:n] == 0).all()
     assert tm.layer("d").flags.c_contiguous and tm.layer("d").flags.writeable
+
+
+def test_tile_storage_reservation_and_its_fallback(monkeypatch):
+    """A reserved capacity holds the tiles without growing; where the system refuses the
+    reservation, the storage starts at ``initial_capacity`` and grows (also on load)."""
+    import topojax.tiling as tiling
+
+    layers = {"d": (np.int32, 7), "h": (np.uint16, 0)}
+    nbytes = 6 * 128 * 128  # one tile of both layers
+    tm = TileManager(tile_px=128, layers=layers, initial_capacity=4, reserve_bytes=64 * nbytes)
+    assert tm.tile_nbytes == nbytes
+    d = tm.layer("d")
+    assert d.shape[0] == 64
+    tm.ensure(np.arange(40), np.zeros(40))
+    assert tm.layer("d") is d and (d[:40] == 7).all()  # no growth, no copy
+
+    real = tiling._storage
+    refused = []
+
+    def storage(capacity, shape, dt):
+        if capacity > 16:
+            refused.append(capacity)
+            raise OSError(12, "Cannot allocate memory")
+        return real(capacity, shape, dt)
+
+    monkeypatch.setattr(tiling, "_storage", storage)
+    tm2 = TileManager(tile_px=128, layers=layers, initial_capacity=4, reserve_bytes=64 * nbytes)
+    assert refused == [64] and tm2.layer("d").shape[0] == 4
+    tm2.ensure(np.arange(3), np.zeros(3))
+    tm2.layer("h")[:3] = 5
+    state = tm2.state()
+    monkeypatch.setattr(tiling, "_storage", real)
+    tm2.ensure(np.arange(10), np.ones(10))  # grows past 4
+    assert tm2.n_tiles == 13 and (tm2.layer("d")[:13] == 7).all()
+    np.testing.assert_array_equal(tm2.layer("h")[:3], 5)
+    tm2.ensure(np.arange(20), np.full(20, 2))
+    state20 = tm2.state()  # 33 tiles: more than a refused storage may hold
+    # loading reserves too, and falls back the same way
+    tm3 = TileManager(tile_px=128, layers=layers, initial_capacity=4, reserve_bytes=64 * nbytes)
+    tm3.load_state(state)
+    assert tm3.layer("d").shape[0] == 64 and tm3.n_tiles == 3
+    monkeypatch.setattr(tiling, "_storage", storage)
+    tm3.load_state(state)
+    assert tm3.layer("d").shape[0] == 4 and tm3.n_tiles == 3
+    np.testing.assert_array_equal(tm3.layer("h")[:3], 5)
+    # a refusal of what is needed is an error, and leaves the tiles as they were
+    with pytest.raises(OSError):
+        tm3.load_state(state20)
+    assert tm3.n_tiles == 3 and tm3.layer("d").shape[0] == 4
+
+
+def test_mapper_storage_does_not_grow_in_a_replay():
+    """The mapper reserves its tile storage (address space only): scans that allocate
+    tiles far and wide never make it copy them into a larger storage."""
+    m = IncrementalMapper()
+    d = m.tiles.layer("sq_distance")
+    if d.shape[0] * m.tiles.tile_nbytes < 1 << 33:
+        pytest.skip("this system refused the storage reservation (strict overcommit?)")
+    ranges = np.full(8, 5.0)
+    for i in range(40):  # a robot jumping 30 m at a time: new tiles with every scan
+        pose = (30.0 * (i % 7), 30.0 * (i // 7), 0.0)
+        m.add_scan(Scan.from_arrays(ranges, angle_min=0.0, angle_increment=0.7, pose=pose))
+    assert m.n_tiles > 100
+    assert m.tiles.layer("sq_distance") is d
 
 
 def test_tile_manager_late_layer_fills_existing_and_new_tiles():
@@ -549,6 +614,15 @@ def test_constructor_validation():
     assert (m.skeleton_every, m.graph_every) == (0, 0)
 
 
+def _resident_bytes() -> int:
+    """Resident memory of this process (Linux ``/proc``; 0 elsewhere)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except OSError:
+        return 0
+
+
 def test_map_grows_in_negative_directions_and_far_jump_allocates_few_tiles():
     mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
     for scan in synthetic_scans(11, 6, bad=False):
@@ -560,6 +634,7 @@ def test_map_grows_in_negative_directions_and_far_jump_allocates_few_tiles():
     jump = Scan.from_arrays(
         np.full(20, 1.0), (1000.0, -1000.0, 0.3), angle_min=-1.0, angle_increment=0.1
     )
+    rss_before = _resident_bytes()
     rep = mapper.add_scan(jump)
     assert rep.n_new_obstacles > 0
     new = mapper.n_tiles - n_before
@@ -567,7 +642,10 @@ def test_map_grows_in_negative_directions_and_far_jump_allocates_few_tiles():
     assert 0 < new <= window_tiles + 40  # ~ the 2 m fan + splat windows, not 10^6 tiles
     r0, c0, r1, c1 = mapper.pixel_bbox
     assert (r1 - r0) * (c1 - c0) > 1e8  # the bounding box is huge, memory is not
-    assert mapper.tiles.layer("sq_distance").nbytes < 50e6
+    # memory: the tiles in use, and what the process really holds (the storage's
+    # reserved capacity is address space only)
+    assert mapper.n_tiles * mapper.tiles.tile_nbytes < 50e6
+    assert _resident_bytes() - rss_before < 200e6
     # distances near the far scan equal a brute force on that neighbourhood
     mapper.update_skeleton()
     occ_rows, occ_cols = mapper.world_to_pixel(1000.0, -1000.0)
