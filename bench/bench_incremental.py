@@ -2,7 +2,8 @@
 
 For every log this replays the scans (``--repeats`` times, see below) through
 :class:`topojax.IncrementalMapper` (distance every scan, skeleton every 20, graph every 80:
-the paper's rates) and, in the same run, alternating in chunks of 80 scans (so load from other processes hits all alike):
+the paper's rates) and, in the same run, alternating in chunks of 80 scans (so load from
+other processes hits all alike):
 
 * **naive** - the paper's implementation of the distance loop (see :class:`NaiveSplat`):
   a 240 x 240 local window around the robot, a 445 x 445 Gaussian kernel max-splatted

@@ -1288,6 +1288,20 @@ def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
     return missing
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _add_to_z(g, r, c, m, mk, gi, sk, zr, zc, gid, skz):
+    """Append the pixel at flat storage offset ``g`` (global ``(r, c)``) to Z unless it is
+    there already (``mk`` bit 4); returns the new length."""
+    if mk[g] & 4:
+        return m
+    mk[g] |= 4
+    gid[m] = gi[g]
+    skz[m] = sk[g]
+    zr[m] = r
+    zc[m] = c
+    return m + 1
+
+
 @numba.njit(cache=True, nogil=True)
 def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     """The region Z: the *net* changed pixels dilated by one (3 x 3), without repeats,
@@ -1323,32 +1337,24 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
             for dr in range(3):
                 for dc in range(3):
                     g = f + _U64(dc)
-                    if mk[g] & 4:
-                        continue
-                    mk[g] |= 4
-                    gid[m] = gi[g]
-                    skz[m] = sk[g]
-                    zr[m] = sr[i] + dr - 1
-                    zc[m] = sc[i] + dc - 1
-                    m += 1
+                    r, c = sr[i] + dr - 1, sc[i] + dc - 1
+                    m = _add_to_z(g, r, c, m, mk, gi, sk, zr, zc, gid, skz)
                 f += _U64(t)
             continue
         for k in range(9):
             s, nr, nc = _around(nbr9, s0, lr0, lc0, k, t)
             if s >= 0:
-                if mark[s, nr, nc] & 4:
-                    continue
-                mark[s, nr, nc] |= 4
-                gid[m] = graph_id[s, nr, nc]
-                skz[m] = skeleton[s, nr, nc]
+                g = _U64((s * t + nr) * t + nc)
+                r, c = sr[i] + k // 3 - 1, sc[i] + k % 3 - 1
+                m = _add_to_z(g, r, c, m, mk, gi, sk, zr, zc, gid, skz)
             else:
                 # outside the allocated tiles: only possible one pixel off the bbox;
                 # repeats there are harmless
                 gid[m] = -1
                 skz[m] = False
-            zr[m] = sr[i] + k // 3 - 1
-            zc[m] = sc[i] + k % 3 - 1
-            m += 1
+                zr[m] = sr[i] + k // 3 - 1
+                zc[m] = sc[i] + k % 3 - 1
+                m += 1
     return zr[:m], zc[:m], gid[:m], skz[:m]
 
 

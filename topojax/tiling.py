@@ -267,9 +267,8 @@ class TileManager:
         self._reserve = 0
         if reserve_bytes is not None:
             self._reserve = int(reserve_bytes) // max(1, self.tile_nbytes)
-        self._allocate(0)
         self._loops = tuple(loops)
-        self._dirty = {loop: np.zeros(self._capacity, bool) for loop in self._loops}
+        self._allocate(0)
         self._grid = np.full((0, 0), -1, np.int32)
         self._grid_origin = (0, 0)
         self._bbox: tuple[int, int, int, int] | None = None
@@ -300,8 +299,9 @@ class TileManager:
             data[: self._n] = fill
 
     def _allocate(self, n: int) -> None:
-        """Fresh storage for at least ``n`` tiles (keys and layers; the caller fills them):
-        the reserved capacity if the system grants it, else just enough."""
+        """Fresh storage for at least ``n`` tiles (keys, layers and clear dirty flags; the
+        caller fills them): the reserved capacity if the system grants it, else just
+        enough."""
         need = max(n, self._min_capacity)
         for capacity in dict.fromkeys((max(need, self._reserve), need)):
             try:
@@ -317,6 +317,7 @@ class TileManager:
         self._capacity = capacity
         self._keys = np.zeros((capacity, 2), np.int64)
         self._data = data
+        self._dirty = {loop: np.zeros(capacity, bool) for loop in self._loops}
 
     @property
     def tile_nbytes(self) -> int:
@@ -758,9 +759,7 @@ class TileManager:
         for name in self._specs:
             self._data[name][:n] = arrays[name]
         for loop in self._loops:
-            flags = np.zeros(self._capacity, bool)
-            flags[:n] = dirty[loop]
-            self._dirty[loop] = flags
+            self._dirty[loop][:n] = dirty[loop]
         self._grid = grid.copy()
         self._grid_origin = (origin[0], origin[1])
         self._n = n
