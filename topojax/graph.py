@@ -294,7 +294,9 @@ def _check_resolution(resolution_m: object) -> float:
     return res
 
 
-def _check_clearance(clearance_px: object, skel: np.ndarray) -> np.ndarray:
+def _check_clearance(clearance_px: object, skel: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """Validate ``clearance_px`` at the skeleton's pixels ``flat`` (flat indices, raster
+    order): only those are read, so only those are checked, not the whole map."""
     arr = np.asarray(clearance_px)
     if arr.dtype.kind not in "iuf" or arr.dtype == np.bool_:
         raise TypeError(
@@ -305,14 +307,13 @@ def _check_clearance(clearance_px: object, skel: np.ndarray) -> np.ndarray:
             f"clearance_px: expected shape {skel.shape} (the skeleton's shape), "
             f"received shape {arr.shape}"
         )
-    # Only skeleton pixels are read: validate (and later convert) just those, not the map.
-    vals = arr[skel].astype(np.float64, copy=False)
+    vals = arr.ravel()[flat].astype(np.float64, copy=False)
     bad = np.isnan(vals) | (vals < 0)
     if bad.any():
-        r, c = np.argwhere(skel)[np.flatnonzero(bad)[0]]
+        r, c = divmod(int(flat[np.flatnonzero(bad)[0]]), skel.shape[1])
         raise ValueError(
             f"clearance_px: expected non-negative, non-NaN values on skeleton pixels, "
-            f"received {vals[bad][0]!r} at (row, col) = ({int(r)}, {int(c)})"
+            f"received {vals[bad][0]!r} at (row, col) = ({r}, {c})"
         )
     return arr
 
@@ -353,12 +354,13 @@ def _world_coords(
 # --------------------------------------------------------------------------------------
 
 
-def _dense_keys(skel: np.ndarray) -> tuple[np.ndarray, int]:
+def _dense_keys(skel: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Keys ``row * stride + col`` of the set pixels of an image (raster order) and the
     stride (``W + 1``: the neighbours of column 0 and W - 1 across the row ends fall on the
-    unused column W)."""
+    unused column W).  ``idx``: the set pixels' flat indices, if already known."""
     w = skel.shape[1]
-    idx = np.flatnonzero(skel.ravel())  # much faster on bool than on uint8
+    if idx is None:
+        idx = np.flatnonzero(skel.ravel())  # much faster on bool than on uint8
     return idx + idx // w, w + 1
 
 
@@ -559,13 +561,14 @@ def skeleton_to_graph(
             f"{type(merge_junction_clusters).__name__}"
         )
     merge = bool(merge_junction_clusters)
-    clear = None if clearance_px is None else _check_clearance(clearance_px, skel)
     shape = (int(skel.shape[0]), int(skel.shape[1]))
-    if not skel.any():
+    flat = np.flatnonzero(skel.ravel())  # skeleton pixels, raster order
+    clear = None if clearance_px is None else _check_clearance(clearance_px, skel, flat)
+    if flat.size == 0:
         return _empty_graph(shape, res, merge)
 
     # --- pixel graph and edge tracing (numba) -----------------------------------------
-    keys, stride = _dense_keys(skel)
+    keys, stride = _dense_keys(skel, flat)
     v_idx, v_kind, e_u, e_v, e_off, path = _raw_graph(keys, stride)
     n_v = v_idx.shape[0]
     u_id = np.searchsorted(v_idx, e_u)
