@@ -273,11 +273,10 @@ def dense_fields_many(
     cells = [divmod(int(k), grids[i].grid_shape[1]) for i, k in zip(owners, local, strict=True)]
     all_origins = np.concatenate([g.origins() for g in grids])
     shapes = np.asarray([m.shape for m in maps], np.int32)
-    # NumPy scalars: jnp.float32 would run a device transfer per value and call.
     scalars = (
-        np.float32(distance.sigma_px),
-        np.float32(ridge.scale),
-        np.float32(ridge.threshold),
+        jnp.float32(distance.sigma_px),
+        jnp.float32(ridge.scale),
+        jnp.float32(ridge.threshold),
     )
     total = len(owners)
     starts = range(0, total, tiles_per_call)
