@@ -17,7 +17,7 @@ import time
 from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from functools import cached_property, partial
+from functools import cached_property, lru_cache, partial
 
 import jax
 import jax.numpy as jnp
@@ -136,6 +136,13 @@ def _forward_tiles(
         lambda args: fn(args[0], args[1], args[2], sigma_px, scale, threshold),
         (columns, origins, map_shapes),
     )
+
+
+@lru_cache(maxsize=16)
+def _kernel_scalars(sigma_px: float, scale: float, threshold: float):
+    """The kernel's float settings as device scalars, made once per setting (creating
+    them costs a device transfer each)."""
+    return jnp.float32(sigma_px), jnp.float32(scale), jnp.float32(threshold)
 
 
 _POOLS: dict[int, ThreadPoolExecutor] = {}
@@ -273,11 +280,7 @@ def dense_fields_many(
     cells = [divmod(int(k), grids[i].grid_shape[1]) for i, k in zip(owners, local, strict=True)]
     all_origins = np.concatenate([g.origins() for g in grids])
     shapes = np.asarray([m.shape for m in maps], np.int32)
-    scalars = (
-        jnp.float32(distance.sigma_px),
-        jnp.float32(ridge.scale),
-        jnp.float32(ridge.threshold),
-    )
+    scalars = _kernel_scalars(distance.sigma_px, ridge.scale, ridge.threshold)
     total = len(owners)
     starts = range(0, total, tiles_per_call)
     n_threads = _dispatch_threads(threads, len(starts))
