@@ -28,7 +28,7 @@ from topojax.distance import (
     window_sq_distance_tile,
 )
 from topojax.filters import laplacian_valid, reflect_101_halo, ridge_from_laplacian
-from topojax.pipeline import dense_fields, trace_counts
+from topojax.pipeline import dense_fields, dense_fields_many, trace_counts
 from topojax.tiling import TileGrid
 
 
@@ -200,6 +200,23 @@ def test_tiled_equals_whole_map(tile):
     np.testing.assert_array_equal(tiled.sq_distance_px, whole.sq_distance_px)
     np.testing.assert_array_equal(tiled.distance, whole.distance)
     np.testing.assert_array_equal(tiled.ridges, whole.ridges)
+
+
+@pytest.mark.parametrize("threads", [2, 3, 16])
+def test_dispatch_threads_do_not_change_results(threads):
+    # 10 chunks of 3 tiles per map: each thread keeps several calls in flight
+    rng = np.random.default_rng(threads)
+    maps = [
+        ndimage.binary_dilation(rng.random(shape) < 0.003, iterations=2)
+        for shape in [(150, 170), (97, 260)]
+    ]
+    cfg = DistanceConfig(sigma_px=12.0, half_width_px=40)
+    kw = {"distance": cfg, "tile_px": 32, "tiles_per_call": 3}
+    one = dense_fields_many(maps, threads=1, **kw)
+    many = dense_fields_many(maps, threads=threads, **kw)
+    for a, b in zip(one, many, strict=True):
+        for name in ("sq_distance_px", "distance", "lap_abs", "ridges"):
+            np.testing.assert_array_equal(getattr(b, name), getattr(a, name))
 
 
 def test_eager_jit_vmap_agree():
