@@ -228,9 +228,9 @@ def dense_fields(
     tiles_per_call : int
         Tiles per kernel call (fixed bucket; the last call is padded with empty tiles).
     threads : int, optional
-        Host threads dispatching kernel calls concurrently (XLA runs each call on its
-        calling thread, so this is how the CPU's cores share the tiles).  Default: the
-        number of CPUs.  Results do not depend on it.
+        Host threads dispatching kernel calls concurrently, each keeping a few calls in
+        flight so that its host work (stacking patches, copying outputs) overlaps the
+        kernels.  Default: the number of CPUs.  Results do not depend on it.
 
     Returns
     -------
