@@ -673,20 +673,18 @@ def skeleton_to_graph(
         nw = node_world.tolist()
         ncl = node_clear.tolist()
         mb = member_bounds.tolist()
-        pixels = [pixels_rc[mb[i] : mb[i + 1]] for i in range(n_v)]
-        g.add_nodes_from(
-            (
-                i,
-                {
-                    "pixel": (vr_l[i], vc_l[i]),
-                    "pixels": pixels[i],
-                    "world": (nw[i][0], nw[i][1]),
-                    "kind": kinds[i],
-                    "clearance_m": ncl[i],
-                },
+        # Nodes first, then their attribute dicts filled in place: (node, dict) pairs would
+        # make add_nodes_from try to hash each pair and catch the TypeError (2x slower).
+        g.add_nodes_from(range(n_v))
+        nodes = g.nodes
+        for i in range(n_v):
+            nodes[i].update(
+                pixel=(vr_l[i], vc_l[i]),
+                pixels=pixels_rc[mb[i] : mb[i + 1]],
+                world=(nw[i][0], nw[i][1]),
+                kind=kinds[i],
+                clearance_m=ncl[i],
             )
-            for i in range(n_v)
-        )
         if n_e:
             order = np.lexsort((np.arange(n_e), v_id, u_id))
             bnd = e_off.tolist()
