@@ -96,7 +96,8 @@ def test_default_is_guo_hall_and_equals_skimage_thin():
 
 def test_office_beyond_window_clearance(paper_reference):
     """office has pixels farther than R = 227 px from any obstacle; clearance stays exact
-    there, on the whole map (the windowed distance alone would be wrong beyond R)."""
+    there, on the whole map (the windowed distance alone would be wrong beyond R).  The
+    graph's clearances (computed at the skeleton's pixels only) equal it too."""
     import cv2
 
     obstacles = paper_reference("office")["obstacle"]
@@ -104,6 +105,13 @@ def test_office_beyond_window_clearance(paper_reference):
     edt = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     assert (res.clearance_px > 227).any()
     np.testing.assert_allclose(res.clearance_px, edt, rtol=0, atol=1e-3)
+    res_m = res.graph.graph["resolution_m"]
+    for _, d in res.graph.nodes(data=True):
+        assert d["clearance_m"] == pytest.approx(edt[d["pixel"]] * res_m, rel=1e-6)
+    for _, _, d in res.graph.edges(data=True):
+        vals = edt[d["path"][:, 0], d["path"][:, 1]].astype(np.float64) * res_m
+        assert d["min_clearance_m"] == pytest.approx(vals.min(), rel=1e-6)
+        assert d["mean_clearance_m"] == pytest.approx(vals.mean(), rel=1e-6)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -133,6 +141,32 @@ def test_clearance_beyond_window_at_few_needed_pixels(seed):
     # the search gives up (None) when its squares exceed the budget
     rows, cols = beyond[:3, 0], beyond[:3, 1]
     assert _nearest_sq_distance(obstacles, rows, cols, d2[rows, cols], 2 * r, 10) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_clearance_at_selected_pixels_is_exact(seed):
+    """clearance_at reads only the pixels asked for: exact within and beyond R (searched
+    one by one when few, from the whole map's transform when many)."""
+    import cv2
+
+    from topojax.pipeline import clearance_at
+
+    rng = np.random.default_rng(seed)
+    obstacles = np.zeros((90, 120), bool)
+    obstacles[rng.integers(0, 90, 6), rng.integers(0, 120, 6)] = True
+    r = 4
+    d2 = brute_sq_distance(obstacles, r)
+    d2 = np.where(np.isinf(d2), FAR_SQ, d2).astype(np.int32)
+    edt = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    assert (d2 <= r * r).any() and (d2 > r * r).any()
+    for n in (0, 7, 60, 3000):  # 3000 pixels hold more than 64 beyond R: whole-map path
+        flat = np.sort(rng.choice(d2.size, size=n, replace=False))
+        got = clearance_at(d2, obstacles, r, flat)
+        assert got.dtype == np.float32 and got.shape == (n,)
+        np.testing.assert_allclose(got, edt.ravel()[flat], rtol=1e-6, atol=0)
+    empty = np.zeros_like(obstacles)
+    got = clearance_at(np.full(d2.shape, FAR_SQ, np.int32), empty, r, np.arange(5))
+    assert np.isinf(got).all()
 
 
 def test_world_coordinates_follow_map_origin_and_yaw():

@@ -772,12 +772,12 @@ def _load_in_worker(path: str, want_free: bool) -> _LoadedBits:
     )
 
 
-def _clearance(fields: Any, obstacles: np.ndarray, half_width_px: int) -> np.ndarray:
-    """Clearance (px) of the map, exact on every ridge pixel (as ``build_graph``)."""
-    from .pipeline import clearance_from_sq_distance
+def _ridge_clearance(fields: Any, obstacles: np.ndarray, half_width_px: int) -> np.ndarray:
+    """Exact clearance (px, float32) at the ridge pixels, in raster order."""
+    from .pipeline import clearance_at
 
-    return clearance_from_sq_distance(
-        fields.sq_distance_px, obstacles, half_width_px, fields.ridges
+    return clearance_at(
+        fields.sq_distance_px, obstacles, half_width_px, np.flatnonzero(fields.ridges)
     )
 
 
@@ -966,7 +966,7 @@ class _BatchRun:
                 f, share = fields[id(g)]
             # Skeleton pixels are a subset of the ridge pixels, so the clearances of the
             # ridge pixels (computed exactly as build_graph does) are all the graph reads.
-            clearance = _clearance(f, occ.occupied, cfg.distance.half_width_px)
+            clearance = _ridge_clearance(f, occ.occupied, cfg.distance.half_width_px)
             masks = None
             if self.plot and self.out_dir is not None:
                 masks = np.packbits(np.stack([occ.occupied, occ.free]))
@@ -977,7 +977,7 @@ class _BatchRun:
                 origin=tuple(occ.origin),
                 source=occ.source,
                 ridges_bits=np.packbits(f.ridges),
-                clearance_values=np.ascontiguousarray(clearance[f.ridges], np.float32),
+                clearance_values=clearance,
                 config=cfg,
                 out_dir=None if self.out_dir is None else os.fspath(self.out_dir),
                 formats=self.formats,

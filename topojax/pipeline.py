@@ -569,31 +569,69 @@ def clearance_from_sq_distance(
     r2 = half_width_px * half_width_px
     if d2.size == 0 or d2.max() <= r2:
         return clearance
+    if not obstacles.any():
+        clearance.fill(np.inf)
+        return clearance
     if need is not None:
         flat = np.flatnonzero(need)  # sparse (ridge pixels): test d2 there only
         flat = flat[d2.ravel()[flat] > r2]
-        if flat.size == 0:
-            return clearance
-        rows, cols = np.divmod(flat, d2.shape[1])
-        if rows.size <= SPARSE_CLEARANCE_MAX_PX and obstacles.any():
-            # searching more than twice the map would cost more than its transform
-            exact = _nearest_sq_distance(
-                obstacles, rows, cols, d2[rows, cols], 2 * half_width_px, 2 * d2.size
-            )
-            if exact is not None:
-                clearance[rows, cols] = np.sqrt(exact.astype(np.float32))
-                return clearance
-    beyond = d2 > r2
-    if obstacles.any():
-        import cv2
-
-        edt = cv2.distanceTransform(
-            (~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE
-        )
-        np.copyto(clearance, edt, where=beyond)
-    else:
-        clearance[beyond] = np.inf
+        if flat.size:
+            clearance.ravel()[flat] = clearance_at(d2, obstacles, half_width_px, flat)
+        return clearance
+    np.copyto(clearance, _unwindowed_clearance(obstacles), where=d2 > r2)
     return clearance
+
+
+def clearance_at(
+    sq_distance_px: np.ndarray, obstacles: np.ndarray, half_width_px: int, flat: np.ndarray
+) -> np.ndarray:
+    """True Euclidean clearance in pixels at some pixels only.
+
+    Same values as :func:`clearance_from_sq_distance` at those pixels, without touching
+    the rest of the map (the graph step needs the skeleton's pixels only).
+
+    Parameters
+    ----------
+    sq_distance_px : int32 (H, W)
+        Windowed squared distance, px^2 (``FAR_SQ`` where the window has no obstacle).
+    obstacles : bool (H, W)
+    half_width_px : int
+        Window half-width ``R``.
+    flat : int array (n,)
+        Flat (raster) indices of the pixels, ``row * W + col``.
+
+    Returns
+    -------
+    float32 (n,): clearance in pixels (``inf`` where the map has no obstacle at all).
+    """
+    flat = np.asarray(flat, np.intp)
+    d2 = sq_distance_px.ravel()[flat]
+    out = np.sqrt(d2.astype(np.float32))
+    far = np.flatnonzero(d2 > half_width_px * half_width_px)
+    if far.size == 0:
+        return out
+    if not obstacles.any():
+        out[far] = np.inf
+        return out
+    rows, cols = np.divmod(flat[far], sq_distance_px.shape[1])
+    exact = None
+    if far.size <= SPARSE_CLEARANCE_MAX_PX:
+        # searching more than twice the map would cost more than its transform
+        exact = _nearest_sq_distance(
+            obstacles, rows, cols, d2[far], 2 * half_width_px, 2 * sq_distance_px.size
+        )
+    if exact is not None:
+        out[far] = np.sqrt(exact.astype(np.float32))
+    else:
+        out[far] = _unwindowed_clearance(obstacles)[rows, cols]
+    return out
+
+
+def _unwindowed_clearance(obstacles: np.ndarray) -> np.ndarray:
+    """OpenCV's exact Euclidean distance transform (float32, px) of a map with obstacles."""
+    import cv2
+
+    return cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
 
 
 def graph_from_ridges(
@@ -612,8 +650,10 @@ def graph_from_ridges(
     ----------
     ridges : bool (H, W)
         Ridge map.
-    clearance_px : float32 (H, W) or None
-        Euclidean clearance in pixels (read at skeleton pixels only).
+    clearance_px : float32 (H, W), callable or None
+        Euclidean clearance in pixels (read at skeleton pixels only), or a function
+        ``f(skeleton) -> (H, W) array`` called once the skeleton is known (so that the
+        clearance need only be exact, or even computed, at the skeleton's pixels).
     resolution_m : float
         Metres per pixel.
     origin : (x, y, yaw)
@@ -639,6 +679,8 @@ def graph_from_ridges(
     if config.skeleton.remove_t:
         skeleton = remove_t_centres(skeleton)
     t2 = time.perf_counter()
+    if callable(clearance_px):
+        clearance_px = clearance_px(skeleton)
     graph = skeleton_to_graph(
         skeleton,
         clearance_px=clearance_px,
@@ -702,13 +744,19 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     t1 = time.perf_counter()
     timings["distance_ridges"] = t1 - t0
 
-    # exact where the graph reads it; the result's whole-map clearance is computed lazily
-    clearance = clearance_from_sq_distance(
-        fields.sq_distance_px, obstacles, config.distance.half_width_px, fields.ridges
-    )
+    def skeleton_clearance(skeleton: np.ndarray) -> np.ndarray:
+        # exact at the skeleton's pixels, the only ones the graph reads (zero elsewhere);
+        # the result's whole-map clearance is computed on first access
+        flat = np.flatnonzero(skeleton)
+        clearance = np.zeros(skeleton.shape, np.float32)
+        clearance.ravel()[flat] = clearance_at(
+            fields.sq_distance_px, obstacles, config.distance.half_width_px, flat
+        )
+        return clearance
+
     skeleton, graph, cpu_timings = graph_from_ridges(
         fields.ridges,
-        clearance_px=clearance,
+        clearance_px=skeleton_clearance,
         resolution_m=occupancy.resolution_m,
         origin=occupancy.origin,
         pixel_to_world=occupancy.pixel_to_world,
@@ -728,8 +776,4 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
         timings_s=timings,
         sq_distance_px=fields.sq_distance_px,
     )
-    r = config.distance.half_width_px
-    if fields.sq_distance_px.size and fields.sq_distance_px.max() <= r * r:
-        # nothing lies beyond the window: the graph's clearance map is exact everywhere
-        result.__dict__["clearance_px"] = clearance
     return result
