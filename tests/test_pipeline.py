@@ -114,13 +114,10 @@ def test_office_beyond_window_clearance(paper_reference):
         assert d["mean_clearance_m"] == pytest.approx(vals.mean(), rel=1e-6)
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_clearance_beyond_window_at_few_needed_pixels(seed):
-    """A few needed pixels beyond R (some with no obstacle in their window at all) are
-    searched one by one; many take the whole map's transform: both exact."""
+def _sparse_map(seed: int):
+    """A 90 x 120 map with 6 obstacle pixels, R = 4: (rng, obstacles, R, exact windowed
+    squared distance, OpenCV's exact unwindowed transform)."""
     import cv2
-
-    from topojax.pipeline import _nearest_sq_distance, clearance_from_sq_distance
 
     rng = np.random.default_rng(seed)
     obstacles = np.zeros((90, 120), bool)
@@ -129,6 +126,16 @@ def test_clearance_beyond_window_at_few_needed_pixels(seed):
     d2 = brute_sq_distance(obstacles, r)
     d2 = np.where(np.isinf(d2), FAR_SQ, d2).astype(np.int32)
     edt = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return rng, obstacles, r, d2, edt
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_clearance_beyond_window_at_few_needed_pixels(seed):
+    """A few needed pixels beyond R (some with no obstacle in their window at all) are
+    searched one by one; many take the whole map's transform: both exact."""
+    from topojax.pipeline import _nearest_sq_distance, clearance_from_sq_distance
+
+    rng, obstacles, r, d2, edt = _sparse_map(seed)
     beyond = np.argwhere(d2 > r * r)
     for n in (5, 40, 500):  # 500 > SPARSE_CLEARANCE_MAX_PX: whole-map transform
         pick = beyond[rng.choice(len(beyond), size=min(n, len(beyond)), replace=False)]
@@ -147,17 +154,9 @@ def test_clearance_beyond_window_at_few_needed_pixels(seed):
 def test_clearance_at_selected_pixels_is_exact(seed):
     """clearance_at reads only the pixels asked for: exact within and beyond R (searched
     one by one when few, from the whole map's transform when many)."""
-    import cv2
-
     from topojax.pipeline import clearance_at
 
-    rng = np.random.default_rng(seed)
-    obstacles = np.zeros((90, 120), bool)
-    obstacles[rng.integers(0, 90, 6), rng.integers(0, 120, 6)] = True
-    r = 4
-    d2 = brute_sq_distance(obstacles, r)
-    d2 = np.where(np.isinf(d2), FAR_SQ, d2).astype(np.int32)
-    edt = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    rng, obstacles, r, d2, edt = _sparse_map(seed)
     assert (d2 <= r * r).any() and (d2 > r * r).any()
     for n in (0, 7, 60, 3000):  # 3000 pixels hold more than 64 beyond R: whole-map path
         flat = np.sort(rng.choice(d2.size, size=n, replace=False))
