@@ -53,6 +53,12 @@ SMALL_KW = {"resolution_m": 0.1, "distance": SMALL, "tile_px": 16, "block_px": 8
 # --------------------------------------------------------------------------------------
 
 
+def path_key(path) -> bytes:
+    """An edge path's key, the same in either direction."""
+    p = np.ascontiguousarray(path, np.int64)
+    return min(p.tobytes(), p[::-1].copy().tobytes())
+
+
 def canon(graph: nx.MultiGraph):
     """Graph up to ids: multiset of (pixel, kind) and of orientation-free edge paths."""
     verts = Counter(
@@ -60,8 +66,7 @@ def canon(graph: nx.MultiGraph):
     )
     edges = Counter()
     for *_, p in graph.edges(data="path"):
-        p = np.ascontiguousarray(p, np.int64)
-        edges[min(p.tobytes(), p[::-1].copy().tobytes())] += 1
+        edges[path_key(p)] += 1
     return verts, edges
 
 
@@ -84,6 +89,15 @@ def assert_matches_full_map(mapper: IncrementalMapper, config: PipelineConfig | 
     rv, re_ = canon(ref.graph)
     assert gv == rv
     assert ge == re_
+    # ... with the same clearances (read at the vertex and path pixels only)
+    ref_v = {tuple(d["pixel"]): d["clearance_m"] for _, d in ref.graph.nodes(data=True)}
+    for _, d in mapper.graph.nodes(data=True):
+        assert d["clearance_m"] == pytest.approx(ref_v[tuple(d["pixel"])], rel=1e-6)
+    ref_e = {path_key(d["path"]): d for *_, d in ref.graph.edges(data=True)}
+    for *_, d in mapper.graph.edges(data=True):
+        r = ref_e[path_key(d["path"])]
+        assert d["min_clearance_m"] == pytest.approx(r["min_clearance_m"], rel=1e-6)
+        assert d["mean_clearance_m"] == pytest.approx(r["mean_clearance_m"], rel=1e-6)
     # The exported result's clearance map is the full-map one everywhere (pixels beyond R
     # come from OpenCV's float32 transform, which differs by 1 ulp from call to call).
     got = mapper.to_result(update=False).clearance_px

@@ -3339,13 +3339,9 @@ class IncrementalMapper:
             out.add_edge(u, v, key=k, path=paths[bounds[i] : bounds[i + 1]].copy())
         return out
 
-    def _clearance(self):
-        from .pipeline import clearance_from_sq_distance
-
-        sk = self.skeleton
-        return clearance_from_sq_distance(self.sq_distance_px, self.obstacles, self._half, sk), sk
-
     def _export_graph(self) -> nx.MultiGraph:
+        from .pipeline import clearance_at
+
         res = self.resolution_m
         out = nx.MultiGraph()
         bbox = self._tiles.pixel_bbox
@@ -3354,7 +3350,13 @@ class IncrementalMapper:
             return out
         r0, c0, r1, c1 = bbox
         occ = self.occupancy
-        clearance, _sk = self._clearance()
+        d2, obstacles = self.sq_distance_px, self.obstacles
+
+        def clearance_m(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+            # exact, read at these pixels only (vertex and path pixels)
+            flat = rows.astype(np.intp) * d2.shape[1] + cols.astype(np.intp)
+            return clearance_at(d2, obstacles, self._half, flat).astype(np.float64) * res
+
         out.graph.update(
             resolution_m=res,
             shape=(r1 - r0, c1 - c0),
@@ -3367,7 +3369,7 @@ class IncrementalMapper:
             pix = np.stack(_unpack(self._v_key[nodes]), axis=1) - [r0, c0]
             kinds = [_KIND_NAME[code] for code in self._v_code[nodes].tolist()]
             wx, wy = occ.pixel_to_world(pix[:, 0], pix[:, 1])
-            cl = clearance[pix[:, 0], pix[:, 1]].astype(np.float64) * res
+            cl = clearance_m(pix[:, 0], pix[:, 1])
             for i, v in enumerate(nodes):
                 rc = (int(pix[i, 0]), int(pix[i, 1]))
                 out.add_node(
@@ -3385,7 +3387,7 @@ class IncrementalMapper:
             allp = allp.astype(np.int64) - [r0, c0]
             wx, wy = occ.pixel_to_world(allp[:, 0], allp[:, 1])
             world = np.stack([wx, wy], axis=1)
-            cl = clearance[allp[:, 0], allp[:, 1]].astype(np.float64) * res
+            cl = clearance_m(allp[:, 0], allp[:, 1])
             step = np.abs(np.diff(allp, axis=0))
             step_len = np.where((step[:, 0] != 0) & (step[:, 1] != 0), math.sqrt(2.0), 1.0)
             bounds = np.concatenate([[0], np.cumsum(lens)])

@@ -592,11 +592,7 @@ def clearance_at(
 
     Parameters
     ----------
-    sq_distance_px : int32 (H, W)
-        Windowed squared distance, px^2 (``FAR_SQ`` where the window has no obstacle).
-    obstacles : bool (H, W)
-    half_width_px : int
-        Window half-width ``R``.
+    sq_distance_px, obstacles, half_width_px : see :func:`clearance_from_sq_distance`
     flat : int array (n,)
         Flat (raster) indices of the pixels, ``row * W + col``.
 
