@@ -643,7 +643,7 @@ def test_pixel_graph_does_not_depend_on_the_key_layout(skel, row0, col0):
     # origin; the full-map path uses row * (W + 1) + col.  Same pixels, same raw graph.
     from topojax.graph import _dense_keys, _raw_graph
 
-    keys, stride = _dense_keys(skel)
+    keys, stride = _dense_keys(skel.shape, np.flatnonzero(skel))
     rows, cols = keys // stride, keys % stride
     packed = ((rows + row0) << 32) + (cols + col0 + (1 << 31))
     assert np.all(np.diff(packed) > 0)

@@ -86,6 +86,47 @@ def test_clearance_is_euclidean_distance(intel_zhang):
     np.testing.assert_allclose(res.clearance_px, edt, rtol=0, atol=1e-3)
 
 
+def test_graph_from_ridges_takes_clearance_as_map_or_function(intel_zhang):
+    """The CPU stages accept the clearance as a whole map or as a function of the
+    skeleton's flat indices (what build_graph and the batch workers pass); both give
+    build_graph's graph, and a function giving the wrong number of values is refused."""
+    from topojax.pipeline import graph_from_ridges
+
+    res = intel_zhang
+    seen = []
+
+    def at_pixels(flat):
+        seen.append(flat)
+        return res.clearance_px.ravel()[flat]
+
+    common = dict(
+        resolution_m=res.map.resolution_m,
+        origin=res.map.origin,
+        pixel_to_world=res.map.pixel_to_world,
+        config=res.config,
+    )
+    expected = edge_table(res.graph)
+    for clearance in (res.clearance_px, at_pixels):
+        skeleton, graph, _ = graph_from_ridges(res.ridges, clearance_px=clearance, **common)
+        np.testing.assert_array_equal(skeleton, res.skeleton)
+        assert edge_table(graph) == expected
+        assert [d["clearance_m"] for _, d in graph.nodes(data=True)] == [
+            d["clearance_m"] for _, d in res.graph.nodes(data=True)
+        ]
+    np.testing.assert_array_equal(seen[0], np.flatnonzero(res.skeleton))
+    with pytest.raises(ValueError, match=r"clearance_px: expected \d+ values"):
+        graph_from_ridges(res.ridges, clearance_px=lambda flat: flat[:-1], **common)
+    _, bare, _ = graph_from_ridges(res.ridges, clearance_px=None, **common)
+    assert all(np.isnan(d["clearance_m"]) for _, d in bare.nodes(data=True))
+
+
+def edge_table(graph):
+    return [
+        (u, v, k, d["path"].tolist(), d["length_m"], d["min_clearance_m"], d["mean_clearance_m"])
+        for u, v, k, d in graph.edges(keys=True, data=True)
+    ]
+
+
 def test_default_is_guo_hall_and_equals_skimage_thin():
     from skimage.morphology import thin
 

@@ -635,8 +635,12 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
     try:
         h, w = job.shape
         ridges = np.unpackbits(job.ridges_bits, count=h * w).reshape(h, w).astype(bool)
-        clearance = np.zeros(job.shape, np.float32)
-        clearance[ridges] = job.clearance_values
+        ridge_flat = np.flatnonzero(ridges.ravel())  # the clearance values' pixels
+
+        def clearance(flat: np.ndarray) -> np.ndarray:
+            # the skeleton's pixels are ridge pixels
+            return job.clearance_values[np.searchsorted(ridge_flat, flat)]
+
         frame = _MapFrame(job.shape, job.resolution_m, job.origin)
         skeleton, graph, cpu_t = graph_from_ridges(
             ridges,

@@ -296,7 +296,8 @@ def _check_resolution(resolution_m: object) -> float:
 
 def _check_clearance(clearance_px: object, skel: np.ndarray, flat: np.ndarray) -> np.ndarray:
     """Validate ``clearance_px`` at the skeleton's pixels ``flat`` (flat indices, raster
-    order): only those are read, so only those are checked, not the whole map."""
+    order) and return its values there as float64 (n,): only those are read, so only those
+    are checked, not the whole map."""
     arr = np.asarray(clearance_px)
     if arr.dtype.kind not in "iuf" or arr.dtype == np.bool_:
         raise TypeError(
@@ -307,15 +308,27 @@ def _check_clearance(clearance_px: object, skel: np.ndarray, flat: np.ndarray) -
             f"clearance_px: expected shape {skel.shape} (the skeleton's shape), "
             f"received shape {arr.shape}"
         )
-    vals = arr.ravel()[flat].astype(np.float64, copy=False)
+    return _check_clearance_values(arr.ravel()[flat], skel.shape, flat)
+
+
+def _check_clearance_values(
+    values: np.ndarray, shape: tuple[int, ...], flat: np.ndarray
+) -> np.ndarray:
+    """Clearances at the pixels ``flat`` as float64 (n,), checked non-negative, not NaN."""
+    vals = np.asarray(values).astype(np.float64, copy=False)
+    if vals.shape != flat.shape:
+        raise ValueError(
+            f"clearance_px: expected {flat.shape[0]} values (one per skeleton pixel), "
+            f"received an array of shape {vals.shape}"
+        )
     bad = np.isnan(vals) | (vals < 0)
     if bad.any():
-        r, c = divmod(int(flat[np.flatnonzero(bad)[0]]), skel.shape[1])
+        r, c = divmod(int(flat[np.flatnonzero(bad)[0]]), shape[1])
         raise ValueError(
             f"clearance_px: expected non-negative, non-NaN values on skeleton pixels, "
             f"received {vals[bad][0]!r} at (row, col) = ({r}, {c})"
         )
-    return arr
+    return vals
 
 
 def _world_coords(
@@ -354,13 +367,11 @@ def _world_coords(
 # --------------------------------------------------------------------------------------
 
 
-def _dense_keys(skel: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-    """Keys ``row * stride + col`` of the set pixels of an image (raster order) and the
-    stride (``W + 1``: the neighbours of column 0 and W - 1 across the row ends fall on the
-    unused column W).  ``idx``: the set pixels' flat indices, if already known."""
-    w = skel.shape[1]
-    if idx is None:
-        idx = np.flatnonzero(skel.ravel())  # much faster on bool than on uint8
+def _dense_keys(shape: tuple[int, ...], idx: np.ndarray) -> tuple[np.ndarray, int]:
+    """Keys ``row * stride + col`` of the pixels with flat indices ``idx`` of an image of
+    ``shape`` and the stride (``W + 1``: the neighbours of column 0 and W - 1 across the row
+    ends fall on the unused column W)."""
+    w = shape[1]
     return idx + idx // w, w + 1
 
 
@@ -442,7 +453,7 @@ def pixel_graph_degree(skeleton: np.ndarray) -> np.ndarray:
         ``L`` diagonals, so 0..8); 0 on background pixels (and on isolated skeleton pixels).
     """
     skel = _as_skeleton(skeleton)
-    keys, stride = _dense_keys(skel)
+    keys, stride = _dense_keys(skel.shape, np.flatnonzero(skel.ravel()))
     _, masks = _link_table(keys, _DR * stride + _DC)
     deg = np.zeros(skel.size, dtype=np.uint8)
     deg[keys - keys // stride] = _POPCOUNT[masks]
@@ -561,25 +572,38 @@ def skeleton_to_graph(
             f"{type(merge_junction_clusters).__name__}"
         )
     merge = bool(merge_junction_clusters)
-    shape = (int(skel.shape[0]), int(skel.shape[1]))
     flat = np.flatnonzero(skel.ravel())  # skeleton pixels, raster order
     clear = None if clearance_px is None else _check_clearance(clearance_px, skel, flat)
+    return _graph_from_skeleton(skel.shape, flat, clear, res, pixel_to_world, merge)
+
+
+def _graph_from_skeleton(
+    shape: tuple[int, ...],
+    flat: np.ndarray,
+    clear: np.ndarray | None,
+    res: float,
+    pixel_to_world: PixelToWorld | None,
+    merge: bool,
+) -> nx.MultiGraph:
+    """:func:`skeleton_to_graph` on checked input: the skeleton's pixels as flat indices
+    ``flat`` (raster order) of an image of ``shape``, and their clearances in pixels
+    (float64 (n,), aligned with ``flat``) or None."""
+    shape = (int(shape[0]), int(shape[1]))
     if flat.size == 0:
         return _empty_graph(shape, res, merge)
 
     # --- pixel graph and edge tracing (numba) -----------------------------------------
-    keys, stride = _dense_keys(skel, flat)
+    # Pixels are numbered 0..n-1 in raster order (their index in ``flat`` and ``keys``);
+    # vertices and paths refer to them by that number until the end.
+    keys, stride = _dense_keys(shape, flat)
     v_idx, v_kind, e_u, e_v, e_off, path = _raw_graph(keys, stride)
     n_v = v_idx.shape[0]
     u_id = np.searchsorted(v_idx, e_u)
     v_id = np.searchsorted(v_idx, e_v)
 
-    # --- paths: pixel coordinates, oriented so that u <= v --------------------------
+    # --- paths oriented so that u <= v ------------------------------------------------
     lens = np.diff(e_off)
     u_id, v_id, path = _orient(u_id, v_id, e_off, lens, path)
-    path_key = keys[path]
-    pr = path_key // stride
-    pc = path_key % stride
     v_key = keys[v_idx]
     vr = v_key // stride
     vc = v_key % stride
@@ -613,20 +637,21 @@ def skeleton_to_graph(
             pixels_rc = pixels_rc[member_order]
             member_bounds = np.searchsorted(new_id[member_order], np.arange(n_lab + 1))
             v_kind = np.where(size[label[rep_sorted]] > 1, _KIND_JUNCTION, v_kind[rep_sorted])
+            v_idx = v_idx[rep_sorted]
             vr = vr[rep_sorted]
             vc = vc[rep_sorted]
             n_v = n_lab
             # Drop the intra-cluster 2-pixel edges, remap and re-orient the others.
             keep = np.flatnonzero(~tiny)
-            take = _edge_pixel_index(e_off, keep)
-            pr, pc = pr[take], pc[take]
+            path = path[_edge_pixel_index(e_off, keep)]
             lens = lens[keep]
             e_off = np.concatenate([[0], np.cumsum(lens)])
             u_id, v_id = new_id[u_id[keep]], new_id[v_id[keep]]
-            rc = np.stack([pr, pc], axis=1)
-            u_id, v_id, rc = _orient(u_id, v_id, e_off, lens, rc)
-            pr, pc = rc[:, 0], rc[:, 1]
+            u_id, v_id, path = _orient(u_id, v_id, e_off, lens, path)
     n_e = u_id.shape[0]
+    path_key = keys[path]
+    pr = path_key // stride
+    pc = path_key % stride
 
     # --- attributes (vectorised) ------------------------------------------------------
     n_path = pr.shape[0]
@@ -651,14 +676,14 @@ def skeleton_to_graph(
         ends = starts + lens - 1
         length_m = (cum[ends] - cum[starts]) * res
         if clear is not None:
-            cval = clear[pr, pc].astype(np.float64) * res
+            cval = clear[path] * res
             min_c = np.minimum.reduceat(cval, starts)
             mean_c = np.add.reduceat(cval, starts) / lens
         else:
             min_c = np.full(n_e, np.nan)
             mean_c = np.full(n_e, np.nan)
     if clear is not None:
-        node_clear = clear[vr, vc].astype(np.float64) * res
+        node_clear = clear[v_idx] * res
     else:
         node_clear = np.full(n_v, np.nan)
 

@@ -648,8 +648,9 @@ def graph_from_ridges(
         Ridge map.
     clearance_px : float32 (H, W), callable or None
         Euclidean clearance in pixels (read at skeleton pixels only), or a function
-        ``f(skeleton) -> (H, W) array`` called once the skeleton is known (so that the
-        clearance need only be exact, or even computed, at the skeleton's pixels).
+        ``f(flat) -> (n,) array`` giving it at the skeleton's pixels, ``flat`` being their
+        flat (raster) indices ``row * W + col``, increasing; it is called once the skeleton
+        is known, so the clearance need only be computed there.
     resolution_m : float
         Metres per pixel.
     origin : (x, y, yaw)
@@ -666,23 +667,35 @@ def graph_from_ridges(
     graph : networkx.MultiGraph
     timings_s : dict with ``thinning``, ``t_removal`` and ``graph`` wall times.
     """
-    from .graph import skeleton_to_graph
-    from .skeleton import remove_t_centres, thin
+    from .graph import (
+        _check_clearance,
+        _check_clearance_values,
+        _check_resolution,
+        _graph_from_skeleton,
+    )
+    from .skeleton import _remove_t_centres_inplace, thin
 
+    res = _check_resolution(resolution_m)
     t0 = time.perf_counter()
     skeleton = thin(ridges, method=config.skeleton.thinning)
     t1 = time.perf_counter()
-    if config.skeleton.remove_t:
-        skeleton = remove_t_centres(skeleton)
+    if config.skeleton.remove_t and skeleton.size:
+        _remove_t_centres_inplace(skeleton.view(np.uint8))  # thin's output is our own
     t2 = time.perf_counter()
+    flat = np.flatnonzero(skeleton.ravel())
     if callable(clearance_px):
-        clearance_px = clearance_px(skeleton)
-    graph = skeleton_to_graph(
-        skeleton,
-        clearance_px=clearance_px,
-        resolution_m=resolution_m,
-        pixel_to_world=pixel_to_world,
-        merge_junction_clusters=config.graph.merge_junction_clusters,
+        clear = _check_clearance_values(clearance_px(flat), skeleton.shape, flat)
+    elif clearance_px is not None:
+        clear = _check_clearance(clearance_px, skeleton, flat)
+    else:
+        clear = None
+    graph = _graph_from_skeleton(
+        skeleton.shape,
+        flat,
+        clear,
+        res,
+        pixel_to_world,
+        config.graph.merge_junction_clusters,
     )
     graph.graph["origin"] = tuple(float(v) for v in origin)
     graph.graph["thinning"] = config.skeleton.thinning
@@ -740,15 +753,10 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     t1 = time.perf_counter()
     timings["distance_ridges"] = t1 - t0
 
-    def skeleton_clearance(skeleton: np.ndarray) -> np.ndarray:
-        # exact at the skeleton's pixels, the only ones the graph reads (zero elsewhere);
-        # the result's whole-map clearance is computed on first access
-        flat = np.flatnonzero(skeleton)
-        clearance = np.zeros(skeleton.shape, np.float32)
-        clearance.ravel()[flat] = clearance_at(
-            fields.sq_distance_px, obstacles, config.distance.half_width_px, flat
-        )
-        return clearance
+    def skeleton_clearance(flat: np.ndarray) -> np.ndarray:
+        # exact at the skeleton's pixels, the only ones the graph reads; the result's
+        # whole-map clearance is computed on first access
+        return clearance_at(fields.sq_distance_px, obstacles, config.distance.half_width_px, flat)
 
     skeleton, graph, cpu_timings = graph_from_ridges(
         fields.ridges,
