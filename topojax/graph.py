@@ -61,8 +61,6 @@ from contextlib import contextmanager
 import networkx as nx
 import numba
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 __all__ = ["graph_summary", "pixel_graph_degree", "skeleton_to_graph"]
 
@@ -615,6 +613,10 @@ def _graph_from_skeleton(
         junction = v_kind == _KIND_JUNCTION
         tiny = (lens == 2) & junction[u_id] & junction[v_id]
         if tiny.any():
+            # imported here: scipy.sparse is a tenth of a second of `import topojax`
+            from scipy.sparse import coo_matrix
+            from scipy.sparse.csgraph import connected_components
+
             adj = coo_matrix(
                 (np.ones(int(tiny.sum()), dtype=np.int8), (u_id[tiny], v_id[tiny])),
                 shape=(n_v, n_v),
