@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+
+# The command keeps JAX's compiled kernels on disk (topojax.cli): tests that call it in
+# this process must neither change JAX's settings for the tests after them nor write to
+# the home directory.  The test of the cache runs the command in a subprocess.
+os.environ.setdefault("TOPOJAX_NO_JAX_CACHE", "1")
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 

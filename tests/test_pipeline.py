@@ -293,6 +293,27 @@ def test_cli_graph_and_demo(tmp_path, capsys, shared_data):
     assert summary["vertices"] > 100
 
 
+def test_cli_keeps_compiled_kernels_between_runs(tmp_path):
+    """The command stores JAX's compiled kernels under $XDG_CACHE_HOME/topojax/jax and a
+    second run, which loads them, writes the same graph."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k not in ("TOPOJAX_NO_JAX_CACHE",)}
+    env.pop("JAX_COMPILATION_CACHE_DIR", None)
+    env["XDG_CACHE_HOME"] = str(tmp_path / "cache")
+    outputs = []
+    for run in range(2):
+        out = tmp_path / f"run{run}"
+        cmd = [sys.executable, "-m", "topojax.cli", "demo", "--map", "a_scan", "-o", str(out)]
+        subprocess.run(cmd, env=env, check=True, capture_output=True, timeout=300)
+        outputs.append((out / "a_scan.json").read_bytes())
+        kernels = sorted(p.name for p in (tmp_path / "cache" / "topojax" / "jax").iterdir())
+        assert any(name.startswith("jit__forward_tiles") for name in kernels), kernels
+    assert outputs[0] == outputs[1]
+
+
 def test_cli_reports_bad_input(tmp_path, capsys):
     assert cli_main(["graph", str(tmp_path / "missing.yaml"), "-o", str(tmp_path)]) == 2
     err = capsys.readouterr().err
