@@ -168,6 +168,28 @@ def test_column_dtype_covers_large_windows():
         column_dtype(70000)
 
 
+@pytest.mark.parametrize("r", [300, 4200])
+def test_column_pass_with_tall_strips(r):
+    """Row indices are int16 while the strip has fewer than 2^13 rows and int32 beyond;
+    both give the brute-force column distances, obstacles at the window's edge included."""
+    rng = np.random.default_rng(r)
+    n = 5
+    strip = rng.random((n + 2 * r, 4)) < 2e-3  # column 3: random obstacles
+    strip[:, :3] = False
+    strip[0, 0] = True  # exactly R rows above output row 0
+    strip[n - 1 + 2 * r, 1] = True  # exactly R rows below the last output row
+    got = np.asarray(column_distance_tile(jnp.asarray(strip), half_width=r))
+    none = np.iinfo(column_dtype(r)).max
+    want = np.full((n, 4), none, np.int64)
+    for i in range(n):
+        for j in range(4):
+            hits = np.nonzero(strip[i : i + 2 * r + 1, j])[0]
+            if hits.size:
+                want[i, j] = np.abs(hits - r).min()
+    np.testing.assert_array_equal(got, want)
+    assert got[0, 0] == r and got[n - 1, 1] == r and (got[:, 2] == none).all()
+
+
 def test_convert_scale_abs_semantics():
     # exactly representable half-way cases: OpenCV rounds half to even
     values = [10.49, 10.5, 10.51, -11.5, 12.5, 300.0, -0.2, 0.5, 1.5]
