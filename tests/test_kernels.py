@@ -402,3 +402,27 @@ def test_sq_distances_above_16_bits_are_exact(tile):
     assert np.isinf(ref).any()
     got[got >= FAR_SQ] = np.inf
     np.testing.assert_array_equal(got, ref)
+
+
+@pytest.mark.parametrize("tile", [32, 128])
+def test_row_pass_lane_width_choice_is_exact(tile):
+    """Bands run in 16-bit lanes unless a needed pixel has no obstacle within R rows in
+    the columns within h = isqrt(2^16 - 2 - R^2) of it (118 for R = 227): exact on both
+    sides of that boundary (d^2 = R^2 + 118^2 stays below 2^16 - 1, R^2 + 119^2 does
+    not), with random obstacles mixing both kinds of band in one map."""
+    r = 227
+    obstacles = np.zeros((260, 420), bool)
+    obstacles[0, 0] = True
+    got = dense_fields(
+        obstacles, distance=DistanceConfig(sigma_px=64.0, half_width_px=r), tile_px=tile
+    ).sq_distance_px
+    assert got[r, 118] == r * r + 118**2 < 65535 <= got[r, 119] == r * r + 119**2
+    rng = np.random.default_rng(tile)
+    obstacles[rng.integers(0, 40, 3), rng.integers(380, 420, 3)] = True
+    got = dense_fields(
+        obstacles, distance=DistanceConfig(sigma_px=64.0, half_width_px=r), tile_px=tile
+    ).sq_distance_px.astype(np.float64)
+    ref = brute_sq_distance(obstacles, r)
+    assert (ref[np.isfinite(ref)] >= 65535).any() and (ref < 65535).any()
+    got[got >= FAR_SQ] = np.inf
+    np.testing.assert_array_equal(got, ref)

@@ -23,6 +23,9 @@ exactly into two passes, each a pure kernel on one fixed-size tile:
    cost scales with the band's largest clearance instead of with ``R``.  Pixels with no
    obstacle in their window at all (unknown space around a map) are FAR whatever the
    loop does; a cheap per-band test finds them, so they do not keep a band running.
+   Bands run in 16-bit lanes (twice the pixels per vector) unless one of their pixels
+   could be 2^16 - 1 px^2 or more from its nearest obstacle, which a test on the column
+   pass rules out for most bands; the others run in int32.
 
 Every number here is an integer until the final ``exp``, so the tiled result does not
 depend on the tiling.  :func:`window_sq_distance_tile` chains both passes on one square
@@ -30,6 +33,8 @@ patch (used by tests and as the single-tile reference).
 """
 
 from __future__ import annotations
+
+import math
 
 import jax
 import jax.numpy as jnp
@@ -52,6 +57,8 @@ FAR_SQ = 1 << 30
 # (the loop's per-iteration cost on the CPU is worth a few offsets of overshoot).
 _BAND_ROWS = 26
 _UNROLL = 16
+# "No candidate" (and saturation) value of the row pass's 16-bit lanes.
+_TOP16 = 65535
 
 
 def column_dtype(half_width: int) -> np.dtype:
@@ -142,12 +149,10 @@ def row_sq_distance_tile(
     if w < 1:
         raise ValueError(f"column must have more than 2 R = {2 * r} columns, got {size}")
     far = jnp.int32(FAR_SQ)
-    v = column.astype(jnp.int32)
-    g = jnp.where(v <= r, v * v, far)
-
     n_bands = -(-n // _BAND_ROWS)
     n_pad = n_bands * _BAND_ROWS
-    g = jnp.pad(g, ((0, n_pad - n), (0, 0)), constant_values=FAR_SQ)
+    none = np.iinfo(column.dtype).max
+    column = jnp.pad(column, ((0, n_pad - n), (0, 0)), constant_values=none)
     rows = jnp.arange(n_pad, dtype=jnp.int32)[:, None]
     cols = jnp.arange(w, dtype=jnp.int32)[None, :]
     if needed is None:
@@ -156,57 +161,122 @@ def row_sq_distance_tile(
         needed = jnp.asarray(needed, jnp.int32)
         mask = (rows >= needed[0]) & (rows < jnp.minimum(needed[1], n))
         mask = mask & (cols >= needed[2]) & (cols < needed[3])
-    mask = jnp.broadcast_to(mask, (n_pad, w))
+    mask = jnp.broadcast_to(mask, (n_pad, w)).reshape(n_bands, _BAND_ROWS, w)
 
     # Pixels with no obstacle anywhere in their window stay at FAR whatever the loop
     # does, so they must not hold up a band's exit (they would run all R offsets).  A
     # column "reaches" a band if any of the band's rows has an obstacle within R rows; a
     # pixel stays in its band's exit test if a reaching column lies in its window (the
-    # union over the band's rows is conservative, so the exit stays exact).  Computed for
-    # all bands at once, by doubling window widths.
-    span = 2 * r + 1
-    near = jnp.pad(column <= r, ((0, n_pad - n), (0, 0)))  # narrow dtype: cheaper
+    # union over the band's rows is conservative, so the exit stays exact).
+    near = column <= r  # (n_pad, size): an obstacle within R rows
     reach = jnp.any(near.reshape(n_bands, _BAND_ROWS, size), axis=1)
-    m = 1
-    while 2 * m <= span:  # reach[:, i]: a column in [i, i + m) reaches
-        reach = reach[:, :-m] | reach[:, m:]
-        m *= 2
-    reach = reach[:, :w] | reach[:, span - m : span - m + w]
-    mask = mask.reshape(n_bands, _BAND_ROWS, w) & reach[:, None, :]
+    mask = mask & _window_any(reach, 2 * r + 1)[:, None, :w]
 
-    def band(args):
-        gb, mb = args
+    # Bands run in 16-bit lanes (twice the pixels per vector) when no needed pixel's
+    # squared distance can reach _TOP16; candidates then saturate there harmlessly.  A
+    # pixel with a near column within h columns of it has d^2 <= R^2 + h^2 < _TOP16, so
+    # only bands with a needed pixel without one ("lonely") run in int32.
+    if r * r >= _TOP16:
+        narrow = np.zeros(n_bands, bool)
+    elif 2 * r * r < _TOP16:  # no windowed squared distance reaches _TOP16
+        narrow = np.ones(n_bands, bool)
+    else:
+        # "near in every row of the band": makes more pixels lonely, never fewer (sound),
+        # and is 26 times less work than row by row
+        h = math.isqrt(_TOP16 - 1 - r * r)  # < R here
+        near_all = jnp.all(near.reshape(n_bands, _BAND_ROWS, size), axis=1)
+        lonely = ~_window_any(near_all, 2 * h + 1)[:, r - h : r - h + w]
+        narrow = ~jnp.any(mask & lonely[:, None, :], axis=(1, 2))
+    narrow = jnp.asarray(narrow)
+    # squared column distances, "none" = the dtype's top; 16-bit where they fit
+    v = column.astype(jnp.int32)
+    if r * r < _TOP16:
+        bands = jnp.where(v <= r, v * v, _TOP16).astype(jnp.uint16)
+    else:
+        bands = jnp.where(v <= r, v * v, far)
+    bands = bands.reshape(n_bands, _BAND_ROWS, size)
 
-        def unfinished(best, k):
-            # Is there a needed pixel that offsets >= k may still improve?  (A pixel whose
-            # best is <= k^2 is final: every candidate from offsets >= k is >= k^2.)  A
-            # boolean any: 15 % faster row pass than comparing the band's largest best,
-            # an int32 max reduction, with k^2.
-            return jnp.any(mb & (best > k * k))
+    def run(selected, dtype, top, out):
+        # the bands of ``selected``, in a loop whose trip count is their number
+        index = jnp.nonzero(selected, size=n_bands, fill_value=0)[0]
 
-        def cond(carry):
-            k, _, more = carry
-            return more & (k <= r)
+        def body(i, out):
+            b = index[i]
+            gb = bands[b]
+            if gb.dtype != dtype:  # 16-bit squares into int32: "none" becomes FAR
+                gb = jnp.where(gb == _TOP16, far, gb.astype(jnp.int32))
+            best = _band_min(gb, mask[b], half_width=r, width=w).astype(jnp.int32)
+            return out.at[b].set(jnp.where(best == top, far, best))
 
-        def body(carry):
-            k, best, _ = carry
-            # Hand-unrolled; offsets past R are clamped to R, which repeats a real
-            # candidate and so cannot change the minimum.
-            for j in range(_UNROLL):
-                kk = jnp.minimum(k + j, r)
-                right = lax.dynamic_slice_in_dim(gb, r + kk, w, axis=1)
-                left = lax.dynamic_slice_in_dim(gb, r - kk, w, axis=1)
-                best = jnp.minimum(best, jnp.minimum(left, right) + kk * kk)
-            k = k + _UNROLL
-            return k, best, unfinished(best, k)
+        return lax.fori_loop(0, jnp.sum(selected, dtype=jnp.int32), body, out)
 
-        best0 = gb[:, r : r + w]
-        k0 = jnp.int32(1)
-        _, best, _ = lax.while_loop(cond, body, (k0, best0, unfinished(best0, k0)))
-        return jnp.minimum(best, far)
-
-    out = lax.map(band, (g.reshape(n_bands, _BAND_ROWS, size), mask))
+    out = jnp.zeros((n_bands, _BAND_ROWS, w), jnp.int32)
+    out = run(narrow, jnp.uint16, _TOP16, out)
+    out = run(~narrow, jnp.int32, FAR_SQ, out)
     return out.reshape(n_pad, w)[:n]
+
+
+def _window_any(x: jax.Array, span: int) -> jax.Array:
+    """``out[..., i] = any(x[..., i : i + span])`` for a bool array (last axis), by
+    doubling window widths; the output has ``span - 1`` fewer columns."""
+    m = 1
+    while 2 * m <= span:  # x[..., i]: any of [i, i + m)
+        x = x[..., :-m] | x[..., m:]
+        m *= 2
+    n = x.shape[-1] - (span - m)
+    return x[..., :n] | x[..., span - m : span - m + n]
+
+
+def _band_min(gb: jax.Array, mb: jax.Array, *, half_width: int, width: int) -> jax.Array:
+    """Row pass of one band: ``min_{|k| <= R} gb[:, R + j + k] + k^2`` at every column
+    ``j`` of the band, offsets in increasing ``|k|``, stopping once no pixel of ``mb`` can
+    improve.
+
+    ``gb`` (rows, width + 2 R) holds squared column distances: int32 with
+    :data:`FAR_SQ` for "none", or uint16 with :data:`_TOP16` for "none", in which case
+    every candidate saturates at ``_TOP16`` (exact below it; needs ``R^2 < _TOP16``).
+    Returns the band's best, same dtype.
+    """
+    r, w = half_width, width
+    narrow = gb.dtype == jnp.uint16
+
+    def square(k):
+        # k^2 in the band's dtype, saturated for the exit test of the last step
+        return jnp.minimum(k * k, _TOP16).astype(jnp.uint16) if narrow else k * k
+
+    def unfinished(best, k):
+        # Is there a needed pixel that offsets >= k may still improve?  (A pixel whose
+        # best is <= k^2 is final: every candidate from offsets >= k is >= k^2.)  A
+        # boolean any: 15 % faster row pass than comparing the band's largest best, an
+        # int32 max reduction, with k^2.
+        return jnp.any(mb & (best > square(k)))
+
+    def cond(carry):
+        k, _, more = carry
+        return more & (k <= r)
+
+    def body(carry):
+        k, best, _ = carry
+        # Hand-unrolled; offsets past R are clamped to R, which repeats a real candidate
+        # and so cannot change the minimum.
+        for j in range(_UNROLL):
+            kk = jnp.minimum(k + j, r)
+            right = lax.dynamic_slice_in_dim(gb, r + kk, w, axis=1)
+            left = lax.dynamic_slice_in_dim(gb, r - kk, w, axis=1)
+            nearer = jnp.minimum(left, right)
+            if narrow:  # min(nearer + k^2, _TOP16) without overflow
+                k2 = kk * kk
+                nearer = jnp.minimum(nearer, (_TOP16 - k2).astype(jnp.uint16))
+                best = jnp.minimum(best, nearer + k2.astype(jnp.uint16))
+            else:
+                best = jnp.minimum(best, nearer + kk * kk)
+        k = k + _UNROLL
+        return k, best, unfinished(best, k)
+
+    best0 = gb[:, r : r + w]
+    k0 = jnp.int32(1)
+    _, best, _ = lax.while_loop(cond, body, (k0, best0, unfinished(best0, k0)))
+    return best
 
 
 def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -> jax.Array:
