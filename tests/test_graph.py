@@ -793,3 +793,55 @@ def test_merged_clusters_on_reference_skeletons(paper_reference, name):
     assert m.number_of_edges() == g.number_of_edges() - tiny
     assert graph_summary(m)["n_ends"] == graph_summary(g)["n_ends"]
     assert graph_summary(m)["n_components"] == graph_summary(g)["n_components"]
+
+
+def test_direct_graph_fill_equals_the_public_networkx_calls():
+    """skeleton_to_graph writes networkx's dict-of-dict-of-dict structure directly; a
+    MultiGraph subclass takes the public add_node / add_edge calls instead.  Both must
+    give the same graph: nodes, edge keys and their order, attributes, and one key dict
+    shared by both ends of every node pair (self-loops, parallel corridors, an isolated
+    pixel and a ring included)."""
+    from topojax.graph import _fill_multigraph
+
+    class Public(nx.MultiGraph):
+        pass
+
+    skel = np.zeros((12, 30), bool)
+    skel[:5, :5] = art("""
+        .#.#.
+        #.#.#
+        .#.#.
+        .....
+        ..#..
+    """)  # figure eight (two self-loops on a junction) and an isolated pixel
+    skel[:5, 10:19] = art("""
+        ...###...
+        ..#...#..
+        ###...###
+        ..#...#..
+        ...###...
+    """)  # parallel corridors
+    skel[6:10, 22:26] = art("""
+        .##.
+        #..#
+        #..#
+        .##.
+    """)  # a ring
+    g = skeleton_to_graph(skel, clearance_px=np.ones(skel.shape))
+    node_attrs = [dict(d) for _, d in g.nodes(data=True)]
+    edges = [(u, v, dict(d)) for u, v, d in g.edges(data=True)]
+    direct = _fill_multigraph(nx.MultiGraph(), [dict(a) for a in node_attrs], edges)
+    public = _fill_multigraph(Public(), [dict(a) for a in node_attrs], edges)
+    assert type(direct) is nx.MultiGraph and type(public) is Public
+    assert nx.number_of_selfloops(direct) == 3 and direct.number_of_edges(2, 3) == 2
+    assert list(direct.nodes(data=True)) == list(public.nodes(data=True))
+    assert list(direct.edges(keys=True, data=True)) == list(public.edges(keys=True, data=True))
+    assert {u: {v: dict(k) for v, k in nb.items()} for u, nb in direct.adj.items()} == {
+        u: {v: dict(k) for v, k in nb.items()} for u, nb in public.adj.items()
+    }
+    for graph in (direct, public):
+        for u, v in graph.edges():
+            assert graph._adj[u][v] is graph._adj[v][u]
+    # and the graph skeleton_to_graph returned is the direct one, equal to both
+    assert list(g.edges(keys=True)) == list(public.edges(keys=True))
+    assert g.degree(0) == public.degree(0) == 4
