@@ -241,6 +241,31 @@ def test_dispatch_threads_do_not_change_results(threads):
             np.testing.assert_array_equal(getattr(b, name), getattr(a, name))
 
 
+def test_reused_scratch_buffers_do_not_leak_between_maps_or_calls():
+    """Padded maps and the column pass live in per-thread scratch buffers reused between
+    calls: maps of one shape in one batch each get their own, and a later call with
+    other maps of the same shapes (obstacles where the earlier ones had none, at the
+    borders too) gives what a fresh process would (brute force).  The pool stays
+    bounded."""
+    from topojax import pipeline
+
+    rng = np.random.default_rng(3)
+    cfg = DistanceConfig(sigma_px=5.0, half_width_px=10)
+    kw = {"distance": cfg, "tile_px": 16}
+    first = [rng.random((40, 50)) < 0.01 for _ in range(2)] + [rng.random((33, 21)) < 0.3]
+    dense_fields_many(first, **kw)
+    second = [~m for m in first[:2]] + [rng.random((33, 21)) < 0.01]
+    second[0][:, 0] = second[0][0, :] = False  # borders differ from the buffers' last use
+    for m, got in zip(second, dense_fields_many(second, **kw), strict=True):
+        d2 = got.sq_distance_px.astype(np.float64)
+        d2[d2 >= FAR_SQ] = np.inf
+        np.testing.assert_array_equal(d2, brute_sq_distance(m, 10))
+    pool = pipeline._SCRATCH_POOL.arrays
+    assert 0 < sum(a.nbytes for a in pool) <= pipeline._SCRATCH_BYTES
+    # three per map (two padded maps and the column pass), all reused by the second call
+    assert len(pool) == 9 and len({id(a) for a in pool}) == 9
+
+
 def test_eager_jit_vmap_agree():
     rng = np.random.default_rng(7)
     r, out = 6, 12
@@ -426,3 +451,17 @@ def test_row_pass_lane_width_choice_is_exact(tile):
     assert (ref[np.isfinite(ref)] >= 65535).any() and (ref < 65535).any()
     got[got >= FAR_SQ] = np.inf
     np.testing.assert_array_equal(got, ref)
+
+
+def test_patch_view_into_a_reused_buffer_equals_a_fresh_one():
+    grid = TileGrid((7, 11), 4)
+    rng = np.random.default_rng(0)
+    a, b = rng.random((7, 11)) < 0.5, rng.random((7, 11)) < 0.5
+    halo = (3, 2)
+    buf = np.ones(grid.padded_shape(halo), bool)  # stale content everywhere
+    grid.patch_view(a, halo, fill=False, out=buf)
+    np.testing.assert_array_equal(
+        grid.patch_view(b, halo, fill=False, out=buf), grid.patch_view(b, halo, fill=False)
+    )
+    with pytest.raises(ValueError, match="out must have shape"):
+        grid.patch_view(b, halo, out=np.zeros((3, 3), bool))

@@ -84,7 +84,19 @@ class TileGrid:
         rows, cols = np.divmod(np.asarray(index, dtype=np.intp), gc)
         return np.ascontiguousarray(view[rows, cols])
 
-    def patch_view(self, array: np.ndarray, halo, *, fill=0) -> np.ndarray:
+    def padded_shape(self, halo) -> tuple[int, int]:
+        """Shape of the padded map behind :meth:`patch_view` for ``halo``."""
+        hr, hc = self._halo(halo)
+        gr, gc = self.grid_shape
+        return (gr * self.tile_px + 2 * hr, gc * self.tile_px + 2 * hc)
+
+    def _halo(self, halo) -> tuple[int, int]:
+        hr, hc = (halo, halo) if np.ndim(halo) == 0 else tuple(halo)
+        if min(hr, hc) < 0:
+            raise ValueError(f"halo must be >= 0, got {halo!r}")
+        return int(hr), int(hc)
+
+    def patch_view(self, array: np.ndarray, halo, *, fill=0, out=None) -> np.ndarray:
         """Haloed patches of every tile as a read-only strided view (no copy per patch).
 
         Parameters
@@ -94,6 +106,9 @@ class TileGrid:
             Halo width on every side (>= 0), or separate (row, column) halo widths.
         fill : scalar
             Value of pixels outside the map.
+        out : array, optional
+            Buffer for the padded map, of shape :meth:`padded_shape` and ``array``'s
+            dtype (e.g. reused between calls; it is overwritten).  Default: a new one.
 
         Returns
         -------
@@ -103,12 +118,23 @@ class TileGrid:
         """
         if array.shape != tuple(self.map_shape):
             raise ValueError(f"array must have shape {self.map_shape}, got {array.shape}")
-        hr, hc = (halo, halo) if np.ndim(halo) == 0 else tuple(halo)
-        if min(hr, hc) < 0:
-            raise ValueError(f"halo must be >= 0, got {halo!r}")
+        hr, hc = self._halo(halo)
         t = self.tile_px
-        gr, gc = self.grid_shape
-        padded = np.full((gr * t + 2 * hr, gc * t + 2 * hc), fill, dtype=array.dtype)
+        shape = self.padded_shape((hr, hc))
+        if out is None:
+            padded = np.full(shape, fill, dtype=array.dtype)
+        else:
+            if out.shape != shape or out.dtype != array.dtype:
+                raise ValueError(
+                    f"out must have shape {shape} and dtype {array.dtype}, "
+                    f"got {out.shape} and {out.dtype}"
+                )
+            padded = out
+            h, w = array.shape  # fill only what the map does not overwrite
+            padded[:hr] = fill
+            padded[hr + h :] = fill
+            padded[hr : hr + h, :hc] = fill
+            padded[hr : hr + h, hc + w :] = fill
         padded[hr : hr + array.shape[0], hc : hc + array.shape[1]] = array
         return sliding_window_view(padded, (t + 2 * hr, t + 2 * hc))[::t, ::t]
 
