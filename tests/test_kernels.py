@@ -249,6 +249,7 @@ def test_reused_scratch_buffers_do_not_leak_between_maps_or_calls():
     bounded."""
     from topojax import pipeline
 
+    pipeline._SCRATCH_POOL.arrays = []  # this thread's pool, as in a fresh thread
     rng = np.random.default_rng(3)
     cfg = DistanceConfig(sigma_px=5.0, half_width_px=10)
     kw = {"distance": cfg, "tile_px": 16}
