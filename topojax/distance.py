@@ -211,8 +211,10 @@ def row_sq_distance_tile(
         return lax.fori_loop(0, jnp.sum(selected, dtype=jnp.int32), body, out)
 
     out = jnp.zeros((n_bands, _BAND_ROWS, w), jnp.int32)
-    out = run(narrow, jnp.uint16, _TOP16, out)
-    out = run(~narrow, jnp.int32, FAR_SQ, out)
+    if r * r < _TOP16:  # (static) a loop that can never run is not compiled
+        out = run(narrow, jnp.uint16, _TOP16, out)
+    if 2 * r * r >= _TOP16:
+        out = run(~narrow, jnp.int32, FAR_SQ, out)
     return out.reshape(n_pad, w)[:n]
 
 
