@@ -170,6 +170,38 @@ def test_thin_matches_skimage_on_small_arrays(img) -> None:
         _assert_same(thin(img, method=method), SKIMAGE[method](img))
 
 
+def test_reused_mark_array_across_calls_sizes_and_threads() -> None:
+    """The kernel's mark array is kept per thread between calls: every call, whatever
+    came before it (other sizes, both methods, marks about to run out, other threads),
+    equals scikit-image."""
+    import threading
+
+    from topojax import skeleton
+
+    rng = np.random.default_rng(5)
+    images = [
+        ndi.binary_dilation(rng.random(shape) < 0.02, iterations=3)
+        for shape in [(90, 120), (30, 40), (90, 120), (200, 170), (31, 41)]
+    ]
+
+    def check(results: list) -> None:
+        for img in images:
+            for method, ref in (("guo_hall", sk_thin), ("zhang", sk_skeletonize)):
+                results.append(np.array_equal(thin(img, method=method), ref(img)))
+
+    ok: list = []
+    check(ok)
+    skeleton._THIN_SCRATCH.base = np.iinfo(np.int32).max - 50  # marks about to run out
+    check(ok)
+    assert skeleton._THIN_SCRATCH.base < 10_000  # started again from zeros
+    workers = [threading.Thread(target=check, args=(ok,)) for _ in range(3)]
+    for t in workers:
+        t.start()
+    for t in workers:
+        t.join()
+    assert len(ok) == 5 * 2 * 5 and all(ok)
+
+
 @settings(max_examples=80, deadline=None)
 @given(
     shape=st.tuples(st.integers(1, 40), st.integers(1, 40)),

@@ -21,6 +21,7 @@ Arrays are indexed ``[row, col]`` with row 0 at the top of the image.
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import numba
@@ -235,8 +236,17 @@ def _compact(idx, n, keep):
 
 
 @numba.njit(cache=True, nogil=True)
-def _thin_flat(flat: np.ndarray, n_cols: int, tables: np.ndarray, n_fg: int) -> int:
-    """Thin a zero-framed image in place; return the number of deleted pixels.
+def _thin_flat(
+    flat: np.ndarray,
+    n_cols: int,
+    tables: np.ndarray,
+    n_fg: int,
+    stamp: np.ndarray,
+    mark_base: int,
+    lists: np.ndarray,
+) -> tuple[int, int]:
+    """Thin a zero-framed image in place; return the number of deleted pixels and of
+    sub-iterations run.
 
     ``flat`` is the raveled uint8 (0/1) image of ``n_cols`` columns whose first and last rows
     and columns are 0 (the frame stands for the background outside the image, and lets every
@@ -253,6 +263,12 @@ def _thin_flat(flat: np.ndarray, n_cols: int, tables: np.ndarray, n_fg: int) -> 
     previous two; examining an unchanged pixel again is harmless, it gives the same decision.
     The loop ends when two consecutive sub-iterations deleted nothing: the image is then a
     fixed point of both, as at the end of the scikit-image loops.
+
+    ``stamp`` (int32, at least ``flat.size`` entries, reused between calls) marks the
+    pixels queued for the next sub-iteration with ``mark_base + t + 1``; its entries must
+    not exceed ``mark_base`` (the caller advances it past the sub-iterations of every
+    call, so old marks never match).  ``lists`` (int64, (4, at least ``n_fg + 8``)) is the
+    work space of the pixel lists (also reused between calls).
     """
     o0 = 1
     o1 = 1 - n_cols
@@ -262,10 +278,13 @@ def _thin_flat(flat: np.ndarray, n_cols: int, tables: np.ndarray, n_fg: int) -> 
     o5 = n_cols - 1
     o6 = n_cols
     o7 = n_cols + 1
-    cap = n_fg + 8  # room for the unconditional (branch-free) stores below
+    # Work lists with room for the unconditional (branch-free) stores below
+    alive = lists[0]
+    cand = lists[1]
+    dels = lists[2]
+    prev = lists[3]
 
     # Foreground pixels in raster order; skip all-zero 8-byte words.
-    alive = np.empty(cap, dtype=np.int64)
     words = flat.view(np.uint64)
     n_alive = 0
     for w in range(words.size):
@@ -275,10 +294,6 @@ def _thin_flat(flat: np.ndarray, n_cols: int, tables: np.ndarray, n_fg: int) -> 
                 alive[n_alive] = base + j
                 n_alive += flat[base + j]
 
-    cand = np.empty(cap, dtype=np.int64)
-    dels = np.empty(cap, dtype=np.int64)
-    prev = np.empty(cap, dtype=np.int64)
-    stamp = np.zeros(flat.size, dtype=np.int32)  # stamp[q] == t + 1: q queued for t + 1
     n_prev = 0
     deleted = 0
     use_alive = True
@@ -315,7 +330,7 @@ def _thin_flat(flat: np.ndarray, n_cols: int, tables: np.ndarray, n_fg: int) -> 
             n_cand = n_alive if (changed > 0 or t == 0) else 0
         else:
             use_alive = False
-            mark = t + 1
+            mark = mark_base + t + 1
             m = 0
             for i in range(changed):
                 p = dels[i] if i < n_del else prev[i - n_del]
@@ -329,18 +344,24 @@ def _thin_flat(flat: np.ndarray, n_cols: int, tables: np.ndarray, n_fg: int) -> 
         dels = tmp
         n_prev = n_del
         t += 1
-    return deleted
+    return deleted, t
 
 
-def _framed_buffer(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _framed_buffer(image: np.ndarray, out: np.ndarray | None = None):
     """Copy a bool (H, W) image into a zero frame; return (flat buffer, (H+2, W+2) view).
 
     The flat uint8 buffer is zero-padded to a multiple of 8 bytes so that the kernels can scan
-    it as 64-bit words.
+    it as 64-bit words.  ``out``: a uint8 buffer to use (its first bytes; at least that
+    many), e.g. one reused between calls; default a new one.
     """
     n_rows, n_cols = image.shape
     n_total = (n_rows + 2) * (n_cols + 2)
-    buf = np.zeros(-(-n_total // 8) * 8, dtype=np.uint8)
+    size = -(-n_total // 8) * 8
+    if out is None:
+        buf = np.zeros(size, dtype=np.uint8)
+    else:
+        buf = out[:size]
+        buf[:] = 0
     framed = buf[:n_total].reshape(n_rows + 2, n_cols + 2)
     framed[1:-1, 1:-1] = image
     return buf, framed
@@ -395,9 +416,37 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
     image = _as_binary_image(ridge, "ridge")
     if image.size == 0:
         return image.copy()
-    buf, framed = _framed_buffer(image)
-    _thin_flat(buf, framed.shape[1], _TABLES_U8[method], int(np.count_nonzero(image)))
+    n_fg = int(np.count_nonzero(image))
+    scratch = _thin_scratch((image.shape[0] + 2) * (image.shape[1] + 2) + 8, n_fg + 8)
+    buf, framed = _framed_buffer(image, out=scratch.flat)
+    _, steps = _thin_flat(
+        buf, framed.shape[1], _TABLES_U8[method], n_fg, scratch.stamp, scratch.base, scratch.lists
+    )
+    scratch.base += steps + 1
     return framed[1:-1, 1:-1].astype(bool)
+
+
+#: Per-thread work space of the thinning kernel, kept between calls: fresh map-sized
+#: arrays cost their page faults at every call (about 2 ms on office for the int32 mark
+#: array alone once other work has returned the memory to the system, against 0.8 ms for
+#: the whole thinning).
+_THIN_SCRATCH = threading.local()
+
+
+def _thin_scratch(size: int, n_list: int):
+    """This thread's work space for an image of ``size`` framed pixels (padding
+    included) and ``n_list`` list entries: ``flat`` (uint8 image buffer), ``stamp``
+    (int32 marks) with its next mark ``base``, and ``lists`` (int64 (4, n))."""
+    scratch = _THIN_SCRATCH
+    stamp = getattr(scratch, "stamp", None)
+    if stamp is None or stamp.size < size or scratch.base + size + 2 >= np.iinfo(np.int32).max:
+        # new, larger, or its marks would run out: start again from zeros
+        scratch.stamp = np.zeros(size, np.int32)
+        scratch.base = 0
+        scratch.flat = np.empty(size, np.uint8)
+    if getattr(scratch, "lists", None) is None or scratch.lists.shape[1] < n_list:
+        scratch.lists = np.empty((4, n_list), np.int64)
+    return scratch
 
 
 @numba.njit(cache=True, nogil=True)
