@@ -200,6 +200,15 @@ def test_reused_mark_array_across_calls_sizes_and_threads() -> None:
     for t in workers:
         t.join()
     assert len(ok) == 5 * 2 * 5 and all(ok)
+    # images above the kept size get a work space of their own, not kept
+    skeleton._THIN_SCRATCH_MAX_PX, keep = 1000, skeleton._THIN_SCRATCH_MAX_PX
+    try:
+        kept = skeleton._THIN_SCRATCH.stamp
+        img = images[3]  # 202 x 172 framed pixels
+        assert np.array_equal(thin(img), sk_thin(img))
+        assert skeleton._THIN_SCRATCH.stamp is kept
+    finally:
+        skeleton._THIN_SCRATCH_MAX_PX = keep
 
 
 @settings(max_examples=80, deadline=None)
