@@ -274,6 +274,11 @@ def dense_fields(
     Returns
     -------
     DenseFields
+
+    Notes
+    -----
+    The calling thread keeps the call's scratch arrays (the padded maps and the column
+    pass, about 4 bytes per pixel; at most 64 MB in all) for its next calls.
     """
     return dense_fields_many(
         [obstacles],
