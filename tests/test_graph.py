@@ -796,16 +796,11 @@ def test_merged_clusters_on_reference_skeletons(paper_reference, name):
 
 
 def test_direct_graph_fill_equals_the_public_networkx_calls():
-    """skeleton_to_graph writes networkx's dict-of-dict-of-dict structure directly; a
-    MultiGraph subclass takes the public add_node / add_edge calls instead.  Both must
-    give the same graph: nodes, edge keys and their order, attributes, and one key dict
-    shared by both ends of every node pair (self-loops, parallel corridors, an isolated
-    pixel and a ring included)."""
-    from topojax.graph import _fill_multigraph
-
-    class Public(nx.MultiGraph):
-        pass
-
+    """skeleton_to_graph writes networkx's dict-of-dict-of-dict structure directly; the
+    public add_node / add_edge calls with the same nodes and edges must give the same
+    graph: nodes, edge keys and their order, attributes, and one key dict shared by both
+    ends of every node pair (self-loops, parallel corridors, an isolated pixel and a ring
+    included)."""
     skel = np.zeros((12, 30), bool)
     skel[:5, :5] = art("""
         .#.#.
@@ -827,12 +822,14 @@ def test_direct_graph_fill_equals_the_public_networkx_calls():
         #..#
         .##.
     """)  # a ring
-    g = skeleton_to_graph(skel, clearance_px=np.ones(skel.shape))
-    node_attrs = [dict(d) for _, d in g.nodes(data=True)]
-    edges = [(u, v, dict(d)) for u, v, d in g.edges(data=True)]
-    direct = _fill_multigraph(nx.MultiGraph(), [dict(a) for a in node_attrs], edges)
-    public = _fill_multigraph(Public(), [dict(a) for a in node_attrs], edges)
-    assert type(direct) is nx.MultiGraph and type(public) is Public
+    direct = skeleton_to_graph(skel, clearance_px=np.ones(skel.shape))
+    public = nx.MultiGraph()
+    public.graph.update(direct.graph)
+    for n, d in direct.nodes(data=True):
+        public.add_node(n, **d)
+    for u, v, d in direct.edges(data=True):
+        public.add_edge(u, v, **d)
+    assert type(direct) is nx.MultiGraph
     assert nx.number_of_selfloops(direct) == 3 and direct.number_of_edges(2, 3) == 2
     assert list(direct.nodes(data=True)) == list(public.nodes(data=True))
     assert list(direct.edges(keys=True, data=True)) == list(public.edges(keys=True, data=True))
@@ -842,6 +839,33 @@ def test_direct_graph_fill_equals_the_public_networkx_calls():
     for graph in (direct, public):
         for u, v in graph.edges():
             assert graph._adj[u][v] is graph._adj[v][u]
-    # and the graph skeleton_to_graph returned is the direct one, equal to both
-    assert list(g.edges(keys=True)) == list(public.edges(keys=True))
-    assert g.degree(0) == public.degree(0) == 4
+    assert direct.degree(0) == public.degree(0) == 4
+    assert nx.utils.graphs_equal(direct, public)
+
+
+def test_clearance_as_a_function_of_the_skeleton_pixels():
+    """clearance_px may be a function of the skeleton's flat indices: it is called once,
+    with those indices in raster order, and gives what the whole-map array gives; a
+    function returning the wrong number of values is refused."""
+    skel = art("""
+        #####
+        ..#..
+        ..#..
+    """)
+    clear = np.arange(15, dtype=np.float64).reshape(3, 5)
+    calls = []
+
+    def at(flat):
+        calls.append(flat)
+        return clear.ravel()[flat]
+
+    a = skeleton_to_graph(skel, clearance_px=clear, resolution_m=0.5)
+    b = skeleton_to_graph(skel, clearance_px=at, resolution_m=0.5)
+    assert len(calls) == 1
+    np.testing.assert_array_equal(calls[0], np.flatnonzero(skel))
+    assert list(a.nodes(data="clearance_m")) == list(b.nodes(data="clearance_m"))
+    assert [d["mean_clearance_m"] for *_, d in a.edges(data=True)] == [
+        d["mean_clearance_m"] for *_, d in b.edges(data=True)
+    ]
+    with pytest.raises(ValueError, match=r"clearance_px: expected 7 values"):
+        skeleton_to_graph(skel, clearance_px=lambda flat: flat[:-1])

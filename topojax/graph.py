@@ -495,10 +495,13 @@ def skeleton_to_graph(
     skeleton : np.ndarray, shape (H, W), bool-like
         Skeleton mask indexed ``[row, col]``, row 0 at the top.  bool, or integers / floats
         holding only 0 and 1.  Any mask is accepted (thick parts simply give many junctions).
-    clearance_px : np.ndarray, shape (H, W), real, optional
+    clearance_px : np.ndarray, shape (H, W), real, or callable, optional
         Clearance (distance to the nearest obstacle) in pixels, e.g. a Euclidean distance
         transform.  Only the values on skeleton pixels are read; they must be >= 0 and not
-        NaN.  If omitted, every clearance attribute is NaN.
+        NaN.  A callable ``f(flat) -> (n,) array`` gives them at the skeleton's pixels
+        only, ``flat`` being their flat (raster) indices ``row * W + col``, increasing
+        (so the clearance need only be computed there).  If omitted, every clearance
+        attribute is NaN.
     resolution_m : float, default 1.0
         Metres per pixel (finite, > 0).  Scales ``length_m`` and the clearances.
     pixel_to_world : callable, optional
@@ -571,7 +574,12 @@ def skeleton_to_graph(
         )
     merge = bool(merge_junction_clusters)
     flat = np.flatnonzero(skel.ravel())  # skeleton pixels, raster order
-    clear = None if clearance_px is None else _check_clearance(clearance_px, skel, flat)
+    if clearance_px is None:
+        clear = None
+    elif callable(clearance_px):
+        clear = _check_clearance_values(clearance_px(flat), skel.shape, flat)
+    else:
+        clear = _check_clearance(clearance_px, skel, flat)
     return _graph_from_skeleton(skel.shape, flat, clear, res, pixel_to_world, merge)
 
 
@@ -733,31 +741,13 @@ def _graph_from_skeleton(
 
 def _fill_multigraph(g: nx.MultiGraph, node_attrs: list[dict], edges: list[tuple]) -> nx.MultiGraph:
     """Add nodes ``0..n-1`` with the attribute dicts ``node_attrs`` and the edges
-    ``(u, v, attrs)`` in order (keys 0, 1, ... per node pair) to an empty MultiGraph.
+    ``(u, v, attrs)`` in order (keys 0, 1, ... per node pair) to an empty, plain
+    :class:`networkx.MultiGraph` (from :func:`_empty_graph`).
 
     Writes networkx's documented dict-of-dict-of-dict structure directly, as
     ``add_node`` / ``add_edge`` would leave it: 4x faster than those calls, which was a
-    third of the graph step on the paper maps.  Graphs whose classes use other dict
-    factories get the public calls.  A test checks both give the same graph.
+    third of the graph step on the paper maps.  A test checks it against those calls.
     """
-    plain = all(
-        getattr(g, name) is dict
-        for name in (
-            "node_dict_factory",
-            "node_attr_dict_factory",
-            "adjlist_outer_dict_factory",
-            "adjlist_inner_dict_factory",
-            "edge_key_dict_factory",
-            "edge_attr_dict_factory",
-        )
-    )
-    if not (plain and type(g) is nx.MultiGraph and len(g) == 0):
-        g.add_nodes_from(range(len(node_attrs)))
-        for i, attrs in enumerate(node_attrs):
-            g.nodes[i].update(attrs)
-        for u, v, attrs in edges:
-            g.add_edge(u, v, **attrs)
-        return g
     node, adj = g._node, g._adj
     for i, attrs in enumerate(node_attrs):
         node[i] = attrs

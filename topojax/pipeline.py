@@ -708,10 +708,9 @@ def graph_from_ridges(
     ridges : bool (H, W)
         Ridge map.
     clearance_px : float32 (H, W), callable or None
-        Euclidean clearance in pixels (read at skeleton pixels only), or a function
-        ``f(flat) -> (n,) array`` giving it at the skeleton's pixels, ``flat`` being their
-        flat (raster) indices ``row * W + col``, increasing; it is called once the skeleton
-        is known, so the clearance need only be computed there.
+        Euclidean clearance in pixels, as ``clearance_px`` of
+        :func:`topojax.graph.skeleton_to_graph` (a callable gets the skeleton's flat
+        indices once the skeleton is known, so it need only be computed there).
     resolution_m : float
         Metres per pixel.
     origin : (x, y, yaw)
@@ -728,35 +727,22 @@ def graph_from_ridges(
     graph : networkx.MultiGraph
     timings_s : dict with ``thinning``, ``t_removal`` and ``graph`` wall times.
     """
-    from .graph import (
-        _check_clearance,
-        _check_clearance_values,
-        _check_resolution,
-        _graph_from_skeleton,
-    )
+    from .graph import skeleton_to_graph
     from .skeleton import _remove_t_centres_inplace, thin
 
-    res = _check_resolution(resolution_m)
     t0 = time.perf_counter()
     skeleton = thin(ridges, method=config.skeleton.thinning)
     t1 = time.perf_counter()
     if config.skeleton.remove_t and skeleton.size:
-        _remove_t_centres_inplace(skeleton.view(np.uint8))  # thin's output is our own
+        # as skeletonize_ridges does, timed apart: thin's output is our own
+        _remove_t_centres_inplace(skeleton.view(np.uint8))
     t2 = time.perf_counter()
-    flat = np.flatnonzero(skeleton.ravel())
-    if callable(clearance_px):
-        clear = _check_clearance_values(clearance_px(flat), skeleton.shape, flat)
-    elif clearance_px is not None:
-        clear = _check_clearance(clearance_px, skeleton, flat)
-    else:
-        clear = None
-    graph = _graph_from_skeleton(
-        skeleton.shape,
-        flat,
-        clear,
-        res,
-        pixel_to_world,
-        config.graph.merge_junction_clusters,
+    graph = skeleton_to_graph(
+        skeleton,
+        clearance_px=clearance_px,
+        resolution_m=resolution_m,
+        pixel_to_world=pixel_to_world,
+        merge_junction_clusters=config.graph.merge_junction_clusters,
     )
     graph.graph["origin"] = tuple(float(v) for v in origin)
     graph.graph["thinning"] = config.skeleton.thinning
