@@ -39,7 +39,7 @@ from .config import (
     SkeletonConfig,
 )
 from .datasets import sample_map
-from .graph import graph_summary, skeleton_to_graph
+from .graph import graph_summary, prune_graph, skeleton_to_graph
 from .io import load_graph, save_graph
 from .maps import OccupancyMap, load_map, save_map
 from .pipeline import (
@@ -99,6 +99,7 @@ __all__ = [
     "load_graph",
     "load_map",
     "plot",
+    "prune_graph",
     "read_bag",
     "read_carmen",
     "read_scans",

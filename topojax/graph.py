@@ -62,7 +62,7 @@ import networkx as nx
 import numba
 import numpy as np
 
-__all__ = ["graph_summary", "pixel_graph_degree", "skeleton_to_graph"]
+__all__ = ["graph_summary", "pixel_graph_degree", "prune_graph", "skeleton_to_graph"]
 
 PixelToWorld = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
@@ -680,11 +680,13 @@ def _graph_from_skeleton(
         starts = e_off[:-1]
         step = np.abs(np.diff(path_rc, axis=0))
         diag = (step[:, 0] != 0) & (step[:, 1] != 0)
-        step_len = np.where(diag, math.sqrt(2.0), 1.0)
-        # Steps from the last pixel of an edge to the first of the next are not steps.
-        cum = np.concatenate([[0.0], np.cumsum(step_len)])
+        # Diagonal steps per edge from an integer running count (steps from the last pixel
+        # of an edge to the first of the next are not steps), so that the length is a
+        # function of the path alone, not of where it sits among the others.
+        cum = np.concatenate([[0], np.cumsum(diag, dtype=np.int64)])
         ends = starts + lens - 1
-        length_m = (cum[ends] - cum[starts]) * res
+        n_diag = cum[ends] - cum[starts]
+        length_m = _steps_length(lens - 1 - n_diag, n_diag, res)
         if clear is not None:
             cval = clear[path] * res
             min_c = np.minimum.reduceat(cval, starts)
@@ -795,3 +797,202 @@ def graph_summary(graph: nx.MultiGraph) -> dict[str, float | int]:
         "n_components": nx.number_connected_components(graph) if kinds else 0,
         "total_length_m": float(sum(d for _, _, d in graph.edges(data="length_m", default=0.0))),
     }
+
+
+def _nonnegative(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected a number of metres >= 0, received {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"{name}: expected a finite number of metres >= 0, received {value!r}")
+    return value
+
+
+def prune_graph(
+    graph: nx.MultiGraph, *, min_spur_m: float = 0.0, min_component_m: float = 0.0
+) -> nx.MultiGraph:
+    """Remove short dead-end branches and small components from a topology graph.
+
+    Route graphs of real maps carry many short *spurs* (a junction to a dead end, from
+    ridges of corners and clutter) and small disconnected pieces (around furniture, in
+    unknown space); the paper keeps them all, which is this function's default.
+
+    1. **Spurs**: every edge between an ``"end"`` vertex and a ``"junction"`` that is
+       shorter than ``min_spur_m`` is removed with its end vertex.  A junction left with two
+       edge ends is contracted: its two edges become one (paths joined at its pixel), as in
+       :func:`skeleton_to_graph`; a junction left with only a self-loop becomes a
+       ``"ring"`` vertex where it is.  This repeats until no such spur is left, so a tree
+       of short branches is eaten from its tips (a component made only of short spurs
+       shrinks to one isolated vertex).
+    2. **Components**: every connected component whose edges total less than
+       ``min_component_m`` (isolated vertices: 0 m) is removed.
+
+    The result has no spur shorter than ``min_spur_m`` and no component shorter than
+    ``min_component_m``.  Vertex and edge attributes keep their meaning: joined edges get
+    the joined ``path`` and ``world``, the summed ``length_m``, and the min / mean
+    clearance over the joined path's pixels; ``kind`` is updated.  Nodes are renumbered
+    ``0..N-1`` in raster order of ``pixel`` with edges ``(u, v)``, ``u <= v``, their paths
+    running from ``u`` to ``v``.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        A topology graph from :func:`skeleton_to_graph` (or :func:`topojax.build_graph`,
+        :class:`topojax.IncrementalMapper`) built with ``merge_junction_clusters=False``
+        (merged clusters join edges at different member pixels). Not modified.
+    min_spur_m : float, default 0.0
+        Spurs shorter than this (``length_m``, metres) are removed; 0 keeps all.
+    min_component_m : float, default 0.0
+        Components whose total edge length is shorter than this are removed; 0 keeps all.
+
+    Returns
+    -------
+    networkx.MultiGraph
+        A new graph; its graph attributes are the input's plus ``pruned_min_spur_m`` and
+        ``pruned_min_component_m``.
+
+    Raises
+    ------
+    TypeError
+        If ``graph`` is not an undirected networkx MultiGraph, or a threshold is not a
+        number.
+    ValueError
+        If a threshold is negative or not finite, the graph was built with merged junction
+        clusters, or a vertex lacks ``pixel`` / an edge lacks ``path``.
+    """
+    if not isinstance(graph, nx.MultiGraph) or graph.is_directed():
+        raise TypeError(
+            f"graph: expected an undirected networkx.MultiGraph from skeleton_to_graph, "
+            f"received {type(graph).__name__}"
+        )
+    spur = _nonnegative("min_spur_m", min_spur_m)
+    component = _nonnegative("min_component_m", min_component_m)
+    if graph.graph.get("merge_junction_clusters"):
+        raise ValueError(
+            "graph: expected a graph built with merge_junction_clusters=False, received one "
+            "with merged junction clusters (their edges end at different member pixels)"
+        )
+    g = nx.MultiGraph()
+    g.graph.update(graph.graph)
+    for v, data in graph.nodes(data=True):
+        if "pixel" not in data:
+            raise ValueError(f"graph: expected every vertex to have a 'pixel', vertex {v} has none")
+        g.add_node(v, **data)
+    for u, v, data in graph.edges(data=True):
+        if "path" not in data:
+            raise ValueError(f"graph: expected every edge to have a 'path', edge {u}-{v} has none")
+        g.add_edge(u, v, **data)
+
+    if spur > 0:
+        while True:
+            # (end, hub) of every spur, from the degrees before this round's removals
+            degree = g.degree
+            spurs = [
+                (u, v) if degree(u) == 1 else (v, u)
+                for u, v, length in g.edges(data="length_m")
+                if u != v
+                and length < spur
+                and min(degree(u), degree(v)) == 1
+                and max(degree(u), degree(v)) >= 3
+            ]
+            if not spurs:
+                break
+            g.remove_nodes_from(end for end, _ in spurs)  # with their one edge each
+            touched = {hub for _, hub in spurs}
+            for hub in sorted(touched):
+                if hub in g and g.degree(hub) == 2 and g.number_of_edges(hub, hub) == 0:
+                    _contract(g, hub)
+    if component > 0:
+        for nodes in list(nx.connected_components(g)):
+            total = sum(d for _, _, d in g.edges(nodes, data="length_m", default=0.0))
+            if total < component:
+                g.remove_nodes_from(nodes)
+    return _renumbered(g, spur, component)
+
+
+def _steps_length(n_straight, n_diagonal, res: float):
+    """Length in metres of a path with these numbers of straight and diagonal steps."""
+    return (n_straight + n_diagonal * math.sqrt(2.0)) * res
+
+
+def _path_length_m(path: np.ndarray, res: float) -> float:
+    """``length_m`` of a ``(K, 2)`` pixel path, exactly as :func:`skeleton_to_graph`."""
+    step = np.abs(np.diff(np.asarray(path, np.int64), axis=0))
+    n_diag = int(np.count_nonzero((step[:, 0] != 0) & (step[:, 1] != 0)))
+    return float(_steps_length(len(path) - 1 - n_diag, n_diag, res))
+
+
+def _ends_at(path: np.ndarray, pixel) -> bool:
+    """Is ``pixel`` the last pixel of ``path``?"""
+    return int(path[-1, 0]) == int(pixel[0]) and int(path[-1, 1]) == int(pixel[1])
+
+
+_JOINED = ("path", "world", "length_m", "min_clearance_m", "mean_clearance_m")
+
+
+def _contract(g: nx.MultiGraph, v) -> None:
+    """Join the two edges of vertex ``v`` (degree 2, no self-loop) into one and drop ``v``.
+
+    The joined path runs through ``v``'s pixel once; its mean clearance is the mean over
+    its pixels, from the two edges' means, pixel counts and ``v``'s clearance."""
+    (_, a, _, ea), (_, b, _, eb) = g.edges(v, keys=True, data=True)
+    pixel = g.nodes[v]["pixel"]
+    p1, w1 = ea["path"], ea.get("world")
+    if not _ends_at(p1, pixel):  # first edge: from a to v
+        p1, w1 = p1[::-1], None if w1 is None else w1[::-1]
+    p2, w2 = eb["path"], eb.get("world")
+    if _ends_at(p2, pixel):  # second edge: from v to b
+        p2, w2 = p2[::-1], None if w2 is None else w2[::-1]
+    n1, n2 = len(p1), len(p2)
+    joined = {key: val for key, val in ea.items() if key not in _JOINED and eb.get(key) == val}
+    joined["path"] = np.concatenate([p1, p2[1:]])
+    if w1 is not None and w2 is not None:
+        joined["world"] = np.concatenate([w1, w2[1:]])
+    res = g.graph.get("resolution_m")
+    if isinstance(res, numbers.Real) and res > 0:
+        joined["length_m"] = _path_length_m(joined["path"], float(res))
+    else:  # not from skeleton_to_graph: add up
+        joined["length_m"] = float(ea.get("length_m", math.nan)) + float(
+            eb.get("length_m", math.nan)
+        )
+    m1, m2 = float(ea.get("min_clearance_m", math.nan)), float(eb.get("min_clearance_m", math.nan))
+    joined["min_clearance_m"] = math.nan if math.isnan(m1) or math.isnan(m2) else min(m1, m2)
+    c = float(g.nodes[v].get("clearance_m", math.nan))
+    mean1 = float(ea.get("mean_clearance_m", math.nan))
+    mean2 = float(eb.get("mean_clearance_m", math.nan))
+    joined["mean_clearance_m"] = (mean1 * n1 + mean2 * n2 - c) / (n1 + n2 - 1)
+    g.remove_node(v)
+    g.add_edge(a, b, **joined)
+
+
+def _renumbered(g: nx.MultiGraph, spur: float, component: float) -> nx.MultiGraph:
+    """``g`` with nodes ``0..N-1`` in raster order of ``pixel``, kinds from the degrees,
+    edges ``(u, v)`` with ``u <= v`` and paths from ``u`` to ``v``."""
+    order = sorted(
+        g.nodes, key=lambda n: (int(g.nodes[n]["pixel"][0]), int(g.nodes[n]["pixel"][1]))
+    )
+    new = {old: i for i, old in enumerate(order)}
+    out = nx.MultiGraph()
+    out.graph.update(g.graph)
+    out.graph["pruned_min_spur_m"] = spur
+    out.graph["pruned_min_component_m"] = component
+    for old in order:
+        data = dict(g.nodes[old])
+        degree = g.degree(old)
+        if degree == 2 and g.number_of_edges(old, old):
+            data["kind"] = "ring"
+        else:
+            data["kind"] = {0: "isolated", 1: "end"}.get(degree, "junction")
+        out.add_node(new[old], **data)
+    edges = []
+    for u, v, data in g.edges(data=True):
+        u, v = sorted((new[u], new[v]))
+        data = dict(data)
+        if u != v and not _ends_at(data["path"], out.nodes[v]["pixel"]):
+            data["path"] = data["path"][::-1].copy()
+            if data.get("world") is not None:
+                data["world"] = data["world"][::-1].copy()
+        edges.append((u, v, data))
+    edges.sort(key=lambda e: (e[0], e[1], e[2]["path"][:2].tolist()))
+    out.add_edges_from(edges)
+    return out

@@ -1,0 +1,383 @@
+"""Tests for topojax.prune_graph (short spurs and small components).
+
+The independent reference prunes *pixels*: it deletes each short spur's pixels (all but
+the junction's) from the skeleton and builds the graph again with skeleton_to_graph,
+round after round, then drops small components.  prune_graph works on the graph alone
+(joining edges where a junction is left with two), so agreeing with the reference checks
+its joins, kinds, lengths and clearances.
+"""
+
+from __future__ import annotations
+
+import math
+
+import networkx as nx
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from skimage.morphology import skeletonize
+
+import topojax as tj
+from topojax.graph import prune_graph, skeleton_to_graph
+from topojax.pipeline import build_graph
+
+SQRT2 = math.sqrt(2.0)
+
+
+def art(text: str) -> np.ndarray:
+    """'#' = skeleton pixel, '.' = background."""
+    rows = [line.strip() for line in text.strip().splitlines()]
+    return np.array([[ch == "#" for ch in r] for r in rows], dtype=bool)
+
+
+def _spurs(g: nx.MultiGraph, min_spur_m: float):
+    return [
+        (u, v, d)
+        for u, v, d in g.edges(data=True)
+        if u != v
+        and d["length_m"] < min_spur_m
+        and min(g.degree(u), g.degree(v)) == 1
+        and max(g.degree(u), g.degree(v)) >= 3
+    ]
+
+
+def reference_prune(skeleton, build, min_spur_m, min_component_m) -> nx.MultiGraph:
+    """Pixel-level pruning: delete short spurs' pixels, rebuild, repeat; then components."""
+    skel = np.array(skeleton, bool)
+    g = build(skel)
+    while spurs := _spurs(g, min_spur_m):
+        for u, v, d in spurs:
+            hub = g.nodes[v if g.degree(u) == 1 else u]["pixel"]
+            for r, c in d["path"].tolist():
+                if (r, c) != tuple(hub):
+                    skel[r, c] = False
+        g = build(skel)
+    for nodes in list(nx.connected_components(g)):
+        if sum(d for _, _, d in g.edges(nodes, data="length_m")) < min_component_m:
+            g.remove_nodes_from(nodes)
+    return g
+
+
+def pixel_set(g) -> set[tuple[int, int]]:
+    out = {tuple(map(int, d["pixel"])) for _, d in g.nodes(data=True)}
+    for _, _, d in g.edges(data=True):
+        out.update(map(tuple, d["path"].tolist()))
+    return out
+
+
+def edges_by_pixels(g) -> dict[frozenset, dict]:
+    """Edges keyed by their pixel sets.  A self-loop's path holds its vertex pixel twice,
+    so its mean clearance depends on where the loop is anchored: ``mean_clearance_m`` is
+    replaced by the mean over its distinct pixels."""
+    out = {}
+    for u, v, d in g.edges(data=True):
+        key = frozenset(map(tuple, d["path"].tolist()))
+        assert key not in out
+        out[key] = dict(d)
+        if u == v:
+            k = len(d["path"])
+            c = g.nodes[u]["clearance_m"]
+            out[key]["mean_clearance_m"] = (d["mean_clearance_m"] * k - c) / (k - 1)
+    return out
+
+
+def assert_same_as_reference(got: nx.MultiGraph, ref: nx.MultiGraph) -> None:
+    assert pixel_set(got) == pixel_set(ref)
+    # vertices (a ring keeps its junction's pixel here; the rebuild anchors it elsewhere)
+    gv = {tuple(d["pixel"]): d for _, d in got.nodes(data=True) if d["kind"] != "ring"}
+    rv = {tuple(d["pixel"]): d for _, d in ref.nodes(data=True) if d["kind"] != "ring"}
+    assert gv.keys() == rv.keys()
+    for p, d in gv.items():
+        assert d["kind"] == rv[p]["kind"]
+        assert d["world"] == pytest.approx(rv[p]["world"])
+        assert d["clearance_m"] == pytest.approx(rv[p]["clearance_m"], nan_ok=True)
+    assert sum(d["kind"] == "ring" for _, d in got.nodes(data=True)) == sum(
+        d["kind"] == "ring" for _, d in ref.nodes(data=True)
+    )
+    ge, re_ = edges_by_pixels(got), edges_by_pixels(ref)
+    assert ge.keys() == re_.keys()
+    for key, d in ge.items():
+        r = re_[key]
+        assert len(d["path"]) == len(r["path"])
+        for name in ("length_m", "min_clearance_m", "mean_clearance_m"):
+            assert d[name] == pytest.approx(r[name], rel=1e-9, abs=1e-12, nan_ok=True)
+    check_structure(got)
+
+
+def check_structure(g: nx.MultiGraph) -> None:
+    """Numbering, kinds, orientation, world polylines and the pixel partition."""
+    pixels = [tuple(g.nodes[n]["pixel"]) for n in range(g.number_of_nodes())]
+    assert sorted(g.nodes) == list(range(len(pixels)))
+    assert pixels == sorted(pixels)
+    seen = set(pixels)
+    for n in g.nodes:
+        deg, loops = g.degree(n), g.number_of_edges(n, n)
+        kind = g.nodes[n]["kind"]
+        expect = "ring" if deg == 2 and loops else {0: "isolated", 1: "end"}.get(deg, "junction")
+        assert kind == expect and deg != 2 or kind == "ring"
+    for u, v, d in g.edges(data=True):
+        assert u <= v
+        path = [tuple(p) for p in d["path"].tolist()]
+        assert path[0] == pixels[u] and path[-1] == pixels[v]
+        steps = np.abs(np.diff(d["path"], axis=0))
+        assert steps.max() <= 1 and (steps.sum(axis=1) > 0).all()  # 8-connected
+        interior = path[1:-1]
+        assert not seen & set(interior) and len(set(interior)) == len(interior)
+        seen.update(interior)
+        res = g.graph["resolution_m"]
+        length = (np.where(steps.sum(axis=1) == 2, SQRT2, 1.0)).sum() * res
+        assert d["length_m"] == pytest.approx(length)
+        if "world" in d:
+            assert d["world"].shape == (len(path), 2)
+
+
+# --------------------------------------------------------------------- literal fixtures
+
+
+def graph_of(text: str, *, clearance=None) -> nx.MultiGraph:
+    skel = art(text)
+    if clearance is None:
+        clearance = np.arange(skel.size, dtype=float).reshape(skel.shape) % 7 + 1
+    return skeleton_to_graph(skel, clearance_px=clearance)
+
+
+def test_short_spur_goes_and_its_junction_is_joined():
+    g = graph_of(
+        """
+        .........
+        ####.####
+        ....#....
+        ....#....
+        """
+    )
+    assert tj.graph_summary(g)["n_junctions"] == 1
+    out = prune_graph(g, min_spur_m=2.5)
+    assert tj.graph_summary(out)["n_vertices"] == 2
+    assert out.number_of_edges() == 1
+    ((u, v, d),) = out.edges(data=True)
+    assert [tuple(p) for p in d["path"].tolist()] == [(1, c) for c in range(4)] + [(2, 4)] + [
+        (1, c) for c in range(5, 9)
+    ]
+    assert {out.nodes[n]["kind"] for n in out} == {"end"}
+    skel = art(
+        """
+        .........
+        ####.####
+        ....#....
+        ....#....
+        """
+    )
+    clearance = np.arange(skel.size, dtype=float).reshape(skel.shape) % 7 + 1
+    want = np.array([clearance[r, c] for r, c in d["path"].tolist()])
+    assert d["mean_clearance_m"] == pytest.approx(want.mean())
+    assert d["min_clearance_m"] == want.min()
+    # the spur is one step (1 m) long: "shorter than" 1 m keeps it; the arms (3 + sqrt 2)
+    # are spurs too but long enough
+    assert prune_graph(g, min_spur_m=1.0).number_of_edges() == 3
+    assert prune_graph(g, min_spur_m=3 + SQRT2).number_of_edges() == 1
+
+
+def test_loop_with_a_short_spur_becomes_a_ring_at_the_junction():
+    g = graph_of(
+        """
+        .......
+        ..###..
+        .#...#.
+        .#...#.
+        ..###..
+        ...#...
+        ...#...
+        """
+    )
+    out = prune_graph(g, min_spur_m=5)
+    assert out.number_of_nodes() == 1 and out.number_of_edges() == 1
+    assert out.nodes[0]["kind"] == "ring" and out.nodes[0]["pixel"] == (4, 3)
+    ((_, _, d),) = out.edges(data=True)
+    assert tuple(d["path"][0]) == tuple(d["path"][-1]) == (4, 3)
+    assert len(d["path"]) == 11  # 10 ring pixels, the start twice
+
+
+def test_tree_of_short_branches_is_eaten_from_the_tips():
+    # a trunk with a side branch that itself forks: the fork's two tips go in the first
+    # round, then the branch (now a spur) in the second
+    g = graph_of(
+        """
+        ###########
+        .....#.....
+        .....#.....
+        .....##....
+        .....#.#...
+        .....#..#..
+        """
+    )
+    ref = reference_prune(
+        art(
+            """
+        ###########
+        .....#.....
+        .....#.....
+        .....##....
+        .....#.#...
+        .....#..#..
+        """
+        ),
+        skeleton_to_graph,
+        4.0,
+        0.0,
+    )
+    out = prune_graph(g, min_spur_m=4.0)
+    assert out.number_of_edges() == 1 and tj.graph_summary(out)["n_ends"] == 2
+    assert pixel_set(out) == pixel_set(ref) == {(0, c) for c in range(11)}
+
+
+def test_star_of_short_spurs_shrinks_to_a_point_then_goes_with_components():
+    text = """
+        #...#
+        .#.#.
+        ..#..
+        ..#..
+        """
+    out = prune_graph(graph_of(text), min_spur_m=5)
+    assert out.number_of_nodes() == 1 and out.number_of_edges() == 0
+    assert out.nodes[0]["kind"] == "isolated"
+    assert prune_graph(graph_of(text), min_spur_m=5, min_component_m=0.1).number_of_nodes() == 0
+
+
+def test_parallel_edges_joined_through_a_junction_become_a_self_loop():
+    # two corridors between the same pair of junctions; a short spur on the left junction
+    text = """
+        ..#####..
+        .#.....#.
+        ##.....##
+        .#.....#.
+        ..#####..
+        """
+    g = graph_of(text)
+    out = prune_graph(g, min_spur_m=1.5)
+    ref = reference_prune(
+        art(text),
+        lambda s: skeleton_to_graph(
+            s, clearance_px=np.arange(s.size, dtype=float).reshape(s.shape) % 7 + 1
+        ),
+        1.5,
+        0.0,
+    )
+    assert_same_as_reference(out, ref)
+
+
+def test_small_components_and_isolated_pixels_go():
+    text = """
+        ##########....
+        ..............
+        .........#....
+        ..##.....#....
+        .........#....
+        #.............
+        """
+    g = graph_of(text)
+    assert nx.number_connected_components(g) == 4
+    out = prune_graph(g, min_component_m=1.5)  # keeps the 9-step line and the 2-step one
+    assert nx.number_connected_components(out) == 2
+    assert sorted(d["length_m"] for _, _, d in out.edges(data=True)) == [2.0, 9.0]
+    assert prune_graph(g, min_component_m=2.0 + 1e-9).number_of_edges() == 1
+
+
+def test_defaults_keep_everything_and_the_input_is_untouched():
+    res = build_graph(tj.sample_map("intel"))
+    before = tj.graph_summary(res.graph)
+    paths = {
+        k: d["path"].copy() for *k, d in res.graph.edges(keys=True, data=True) for k in [tuple(k)]
+    }
+    out = prune_graph(res.graph)
+    assert tj.graph_summary(out) == before
+    assert out.graph["pruned_min_spur_m"] == 0.0 and out.graph["pruned_min_component_m"] == 0.0
+    assert pixel_set(out) == pixel_set(res.graph)
+    prune_graph(res.graph, min_spur_m=2.0, min_component_m=5.0)
+    assert tj.graph_summary(res.graph) == before
+    for u, v, k, d in res.graph.edges(keys=True, data=True):
+        np.testing.assert_array_equal(d["path"], paths[(u, v, k)])
+
+
+# ------------------------------------------------------------------ real maps, property
+
+
+@pytest.mark.parametrize("name", ["intel", "office", "a_scan"])
+@pytest.mark.parametrize("spur, component", [(0.5, 0.0), (3.0, 10.0), (0.0, 5.0)])
+def test_equals_pixel_level_pruning_on_the_paper_maps(name, spur, component):
+    res = build_graph(tj.sample_map(name))
+    m = res.map
+
+    def build(skel):
+        return skeleton_to_graph(
+            skel,
+            clearance_px=res.clearance_px,
+            resolution_m=m.resolution_m,
+            pixel_to_world=m.pixel_to_world,
+        )
+
+    got = prune_graph(res.graph, min_spur_m=spur, min_component_m=component)
+    ref = reference_prune(res.skeleton, build, spur, component)
+    assert_same_as_reference(got, ref)
+    if spur:
+        assert not _spurs(got, spur)
+    for nodes in nx.connected_components(got):
+        assert sum(d for _, _, d in got.edges(nodes, data="length_m")) >= component
+    # world polylines follow the paths
+    for _, _, d in got.edges(data=True):
+        x, y = m.pixel_to_world(d["path"][:, 0].astype(float), d["path"][:, 1].astype(float))
+        np.testing.assert_allclose(d["world"], np.stack([x, y], axis=1))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    seed=st.integers(0, 10_000),
+    spur=st.sampled_from([0.0, 1.5, 3.0, 6.0, 12.0]),
+    component=st.sampled_from([0.0, 2.0, 8.0, 30.0]),
+)
+def test_equals_pixel_level_pruning_on_random_skeletons(seed, spur, component):
+    rng = np.random.default_rng(seed)
+    blobs = rng.random((24, 30)) < 0.55
+    skel = skeletonize(blobs)
+    clearance = rng.random(skel.shape) * 5
+
+    def build(s):
+        return skeleton_to_graph(s, clearance_px=clearance, resolution_m=0.5)
+
+    got = prune_graph(build(skel), min_spur_m=spur, min_component_m=component)
+    assert_same_as_reference(got, reference_prune(skel, build, spur, component))
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize(
+    "kwargs, exc, words",
+    [
+        ({"min_spur_m": -1.0}, ValueError, ["min_spur_m", ">= 0", "-1.0"]),
+        ({"min_spur_m": float("nan")}, ValueError, ["min_spur_m", "nan"]),
+        ({"min_component_m": float("inf")}, ValueError, ["min_component_m", "inf"]),
+        ({"min_spur_m": True}, TypeError, ["min_spur_m", "True"]),
+        ({"min_component_m": "2"}, TypeError, ["min_component_m", "'2'"]),
+    ],
+)
+def test_bad_thresholds_raise_clear_errors(kwargs, exc, words):
+    g = graph_of("###")
+    with pytest.raises(exc) as info:
+        prune_graph(g, **kwargs)
+    for word in words:
+        assert word in str(info.value)
+
+
+def test_bad_graphs_raise_clear_errors():
+    with pytest.raises(TypeError, match="graph: expected an undirected networkx.MultiGraph"):
+        prune_graph(nx.Graph())
+    with pytest.raises(TypeError, match="MultiDiGraph"):
+        prune_graph(nx.MultiDiGraph())
+    merged = skeleton_to_graph(art("###\n.#.\n###"), merge_junction_clusters=True)
+    with pytest.raises(ValueError, match="merge_junction_clusters=False"):
+        prune_graph(merged, min_spur_m=1)
+    g = nx.MultiGraph()
+    g.add_node(0, kind="end")
+    with pytest.raises(ValueError, match="'pixel'"):
+        prune_graph(g)
