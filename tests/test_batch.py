@@ -156,6 +156,21 @@ def test_zhang_thinning_and_options_pass_through():
     assert rec.graph.graph["thinning"] == "zhang"
 
 
+def test_graph_keeping_options_pass_through(shared_data):
+    """free_space_only and pruning run in the workers exactly as in build_graph."""
+    from topojax.config import GraphConfig
+
+    config = PipelineConfig(
+        graph=GraphConfig(free_space_only=True, min_spur_m=0.4, min_component_m=1.5)
+    )
+    occ = load_map(shared_data / "maps/ros/turtlebot3_office/map_office_raw.yaml")
+    assert occ.unknown.any()
+    (rec,) = build_graphs([occ], workers=1, config=config, progress=False)
+    want = build_graph(occ, config=config).graph
+    assert_graphs_equal(rec.graph, want, "turtlebot3_office/pruned")
+    assert want.number_of_nodes() < build_graph(occ).graph.number_of_nodes()
+
+
 def test_mixed_sizes_share_one_compiled_kernel():
     """Maps of very different sizes in one batch: one trace for the bucket, none after."""
     maps = [

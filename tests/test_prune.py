@@ -381,3 +381,106 @@ def test_bad_graphs_raise_clear_errors():
     g.add_node(0, kind="end")
     with pytest.raises(ValueError, match="'pixel'"):
         prune_graph(g)
+
+
+# ------------------------------------------------------------------ in the pipeline
+
+
+def test_graph_config_prunes_in_build_graph_as_prune_graph_does():
+    occ = tj.sample_map("a_scan")
+    plain = build_graph(occ)
+    config = tj.PipelineConfig(graph=tj.GraphConfig(min_spur_m=1.0, min_component_m=4.0))
+    pruned = build_graph(occ, config=config)
+    want = prune_graph(plain.graph, min_spur_m=1.0, min_component_m=4.0)
+    assert tj.graph_summary(pruned.graph) == tj.graph_summary(want)
+    assert_same_as_reference(pruned.graph, want)
+    np.testing.assert_array_equal(pruned.skeleton, plain.skeleton)
+    assert pruned.graph.graph["pruned_min_spur_m"] == 1.0
+    assert pruned.graph.graph["thinning"] == "guo_hall" and "origin" in pruned.graph.graph
+
+
+def test_free_space_only_keeps_the_graph_in_known_free_space(shared_data):
+    from topojax.graph import skeleton_to_graph
+    from topojax.skeleton import remove_t_centres, thin
+
+    occ = tj.load_map(shared_data / "maps/ros/turtlebot3_office/map_office_raw.yaml")
+    plain = build_graph(occ)
+    config = tj.PipelineConfig(graph=tj.GraphConfig(free_space_only=True))
+    res = build_graph(occ, config=config)
+    assert (plain.skeleton & occ.unknown).any()  # the test means something
+    assert not (res.skeleton & ~occ.free).any()
+    assert pixel_set(res.graph) == {tuple(p) for p in np.argwhere(res.skeleton).tolist()}
+    # the same as thinning the ridges in free space by hand
+    skel = remove_t_centres(thin(plain.ridges & occ.free))
+    np.testing.assert_array_equal(res.skeleton, skel)
+    want = skeleton_to_graph(
+        skel,
+        clearance_px=plain.clearance_px,
+        resolution_m=occ.resolution_m,
+        pixel_to_world=occ.pixel_to_world,
+    )
+    assert_same_as_reference(res.graph, want)
+
+
+def test_graph_from_ridges_needs_the_free_mask_for_free_space_only():
+    from topojax.pipeline import graph_from_ridges
+
+    config = tj.PipelineConfig(graph=tj.GraphConfig(free_space_only=True))
+    ridges = np.zeros((6, 7), bool)
+    kw = dict(clearance_px=None, resolution_m=1.0, origin=(0, 0, 0), pixel_to_world=None)
+    with pytest.raises(ValueError, match=r"free: .* bool array of shape \(6, 7\), got None"):
+        graph_from_ridges(ridges, config=config, **kw)
+    with pytest.raises(ValueError, match=r"got uint8 \(6, 7\)"):
+        graph_from_ridges(ridges, config=config, free=np.ones((6, 7), np.uint8), **kw)
+
+
+@pytest.mark.parametrize(
+    "kwargs, exc, words",
+    [
+        ({"min_spur_m": -0.5}, ValueError, ["min_spur_m", ">= 0", "-0.5"]),
+        ({"min_component_m": float("nan")}, ValueError, ["min_component_m", "nan"]),
+        ({"min_spur_m": "1"}, TypeError, ["min_spur_m", "str"]),
+        ({"free_space_only": 1}, TypeError, ["free_space_only", "bool", "1"]),
+        (
+            {"merge_junction_clusters": True, "min_spur_m": 1.0},
+            ValueError,
+            ["min_spur_m > 0", "merge_junction_clusters=False"],
+        ),
+    ],
+)
+def test_graph_config_rejects_bad_values(kwargs, exc, words):
+    with pytest.raises(exc) as info:
+        tj.GraphConfig(**kwargs)
+    for word in words:
+        assert word in str(info.value)
+
+
+def test_components_alone_may_be_pruned_from_merged_cluster_graphs():
+    g = skeleton_to_graph(art("###....\n.#.....\n###...#"), merge_junction_clusters=True)
+    out = prune_graph(g, min_component_m=1.0)
+    assert out.number_of_nodes() == g.number_of_nodes() - 1
+
+
+@pytest.mark.parametrize(
+    "graph", [{"free_space_only": True}, {"min_spur_m": 0.5}, {"min_component_m": 2.0}]
+)
+def test_incremental_mapper_rejects_graph_keeping_options(graph):
+    config = tj.PipelineConfig(graph=tj.GraphConfig(**graph))
+    with pytest.raises(ValueError, match="not supported incrementally.*prune_graph"):
+        tj.IncrementalMapper(resolution_m=0.05, config=config)
+
+
+def test_cli_graph_keeping_options(tmp_path, capsys, shared_data):
+    from topojax.cli import main
+
+    yaml = shared_data / "maps/ros/turtlebot3_office/map_office_raw.yaml"
+    argv = ["graph", str(yaml), "-o", str(tmp_path)]
+    assert main(argv) == 0
+    plain = tj.load_graph(tmp_path / "map_office_raw.json")
+    assert main([*argv, "--free-only", "--min-spur-m", "0.4", "--min-component-m", "1.5"]) == 0
+    pruned = tj.load_graph(tmp_path / "map_office_raw.json")
+    assert pruned.number_of_nodes() < plain.number_of_nodes()
+    assert pruned.graph["pruned_min_spur_m"] == 0.4
+    capsys.readouterr()
+    assert main([*argv, "--min-spur-m", "-1"]) == 2
+    assert "min_spur_m must be finite and >= 0, got -1.0" in capsys.readouterr().err

@@ -576,6 +576,7 @@ class _CpuJob:
     formats: tuple[str, ...]
     masks_bits: np.ndarray | None  # packbits of (occupied, free), only for the picture
     keep_graph: bool
+    free_bits: np.ndarray | None = None  # packbits of free, only for free_space_only
 
 
 @dataclass
@@ -642,6 +643,9 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             return job.clearance_values[np.searchsorted(ridge_flat, flat)]
 
         frame = _MapFrame(job.shape, job.resolution_m, job.origin)
+        free = None
+        if job.free_bits is not None:
+            free = np.unpackbits(job.free_bits, count=h * w).reshape(h, w).astype(bool)
         skeleton, graph, cpu_t = graph_from_ridges(
             ridges,
             clearance_px=clearance,
@@ -650,6 +654,7 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             pixel_to_world=frame.pixel_to_world,
             config=job.config,
             source=job.source,
+            free=free,
         )
         res.t_thinning_s = cpu_t["thinning"] + cpu_t["t_removal"]
         t1 = time.perf_counter()
@@ -736,7 +741,7 @@ class _Loaded:
 
     item: _Item
     occupied: np.ndarray  # bool (H, W)
-    free: np.ndarray | None  # bool (H, W); kept only when a picture is drawn
+    free: np.ndarray | None  # bool (H, W); kept for a picture or free_space_only
     resolution_m: float
     origin: tuple[float, float, float]
     source: str | None
@@ -987,6 +992,7 @@ class _BatchRun:
                 formats=self.formats,
                 masks_bits=masks,
                 keep_graph=self.keep_graphs,
+                free_bits=np.packbits(occ.free) if cfg.graph.free_space_only else None,
             )
             jobs.append((g, job, share + time.perf_counter() - t0, ""))
         return jobs
@@ -1109,7 +1115,8 @@ class _BatchRun:
                 pending.append(item)
 
         tile_px = self.config.tile_px
-        want_free = self.plot and self.out_dir is not None
+        # the free mask: for the picture, and for free_space_only's thinning
+        want_free = (self.plot and self.out_dir is not None) or self.config.graph.free_space_only
         # Map files are read by our own worker processes (same file system, and it keeps
         # decoding off this process's GIL); with a given executor (a cluster may not see
         # the files) or workers=0 they are read by threads here.
@@ -1466,13 +1473,10 @@ def _check_no_overwrite(
 
 
 def _cmd_batch(args: Any) -> int:
-    from .config import SkeletonConfig
+    from .cli import pipeline_config
 
     paths = expand_map_inputs(args.inputs)
-    config = PipelineConfig(
-        skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
-        tile_px=args.tile_px,
-    )
+    config = pipeline_config(args)
     client = None
     executor = None
     if args.scheduler:

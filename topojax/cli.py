@@ -11,17 +11,24 @@ from pathlib import Path
 __all__ = ["main"]
 
 
-def _pipeline_config(args):
-    from .config import PipelineConfig, SkeletonConfig
+def pipeline_config(args):
+    """The :class:`PipelineConfig` of the options of :func:`add_pipeline_options`."""
+    from .config import GraphConfig, PipelineConfig, SkeletonConfig
 
     return PipelineConfig(
         skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
+        graph=GraphConfig(
+            free_space_only=args.free_only,
+            min_spur_m=args.min_spur_m,
+            min_component_m=args.min_component_m,
+        ),
         tile_px=args.tile_px,
     )
 
 
 def add_pipeline_options(p: argparse.ArgumentParser) -> None:
-    """Options shared by every command that runs the pipeline (thinning, T removal, tiles)."""
+    """Options shared by every command that runs the full-map pipeline (thinning, T
+    removal, what to keep of the graph, tiles)."""
     p.add_argument(
         "--thinning",
         choices=("guo_hall", "zhang"),
@@ -29,6 +36,25 @@ def add_pipeline_options(p: argparse.ArgumentParser) -> None:
         help="thinning algorithm (default: guo_hall, the paper's; zhang = the original code's)",
     )
     p.add_argument("--keep-t", action="store_true", help="do not remove T-junction centres")
+    p.add_argument(
+        "--free-only",
+        action="store_true",
+        help="thin only the ridges in known free space (none in unknown space)",
+    )
+    p.add_argument(
+        "--min-spur-m",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="remove dead-end branches shorter than M metres (default 0: keep all)",
+    )
+    p.add_argument(
+        "--min-component-m",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="remove pieces of graph shorter than M metres in all (default 0: keep all)",
+    )
     p.add_argument("--tile-px", type=int, default=256, help="JAX tile side in pixels")
 
 
@@ -91,7 +117,7 @@ def _cmd_graph(args) -> int:
     if args.negate:
         kw["negate"] = True
     occupancy = load_map(args.map, **kw)
-    result = build_graph(occupancy, config=_pipeline_config(args))
+    result = build_graph(occupancy, config=pipeline_config(args))
     stem = Path(args.map).stem
     written = _write_outputs(result, Path(args.out), stem, plot=args.plot, stages=args.stages)
     for line in _summary_lines(str(args.map), result):
@@ -105,7 +131,7 @@ def _cmd_demo(args) -> int:
     from .pipeline import build_graph
 
     occupancy = sample_map(args.map)
-    config = _pipeline_config(args)
+    config = pipeline_config(args)
     t0 = time.perf_counter()
     result = build_graph(occupancy, config=config)  # first call: compiles kernels
     cold = time.perf_counter() - t0

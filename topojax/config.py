@@ -144,18 +144,58 @@ class SkeletonConfig:
             raise ValueError(f"thinning must be one of {_THINNING}, got {self.thinning!r}")
 
 
+def _nonnegative(name: str, value: float) -> None:
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+
+
 @dataclass(frozen=True, kw_only=True)
 class GraphConfig:
-    """Skeleton-to-graph conversion.
+    """Skeleton-to-graph conversion, and what to keep of the graph.
+
+    The defaults are the paper's: every ridge is thinned and every piece of skeleton
+    becomes part of the graph.  Route graphs of real maps usually want less.
 
     Parameters
     ----------
     merge_junction_clusters : bool
         Collapse 8-connected clusters of junction pixels into one vertex.  Default False,
         the paper's semantics (every pixel of degree != 2 is a vertex).
+    free_space_only : bool
+        Thin only the ridges in known free space (``OccupancyMap.free``): ridges in
+        unknown space and on obstacles are dropped first, so the graph stays where the
+        robot can go and ends where the map does.  Default False.
+    min_spur_m : float
+        Remove dead-end branches (end vertex to junction) shorter than this, in metres,
+        round after round (:func:`topojax.prune_graph`).  Default 0: keep all.
+    min_component_m : float
+        Remove connected components whose edges total less than this, in metres
+        (isolated vertices count 0 m).  Default 0: keep all.
     """
 
     merge_junction_clusters: bool = False
+    free_space_only: bool = False
+    min_spur_m: float = 0.0
+    min_component_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("merge_junction_clusters", "free_space_only"):
+            if type(getattr(self, name)).__name__ not in ("bool", "bool_"):  # or NumPy's
+                raise TypeError(f"{name} must be a bool, got {getattr(self, name)!r}")
+        _nonnegative("min_spur_m", self.min_spur_m)
+        _nonnegative("min_component_m", self.min_component_m)
+        if self.merge_junction_clusters and self.min_spur_m > 0:
+            raise ValueError(
+                "min_spur_m > 0 needs merge_junction_clusters=False (a junction left with "
+                "two edges is joined at its pixel; a merged cluster has several)"
+            )
+
+    @property
+    def prunes(self) -> bool:
+        """Whether :func:`topojax.prune_graph` has anything to do."""
+        return self.min_spur_m > 0 or self.min_component_m > 0
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -838,8 +838,9 @@ def prune_graph(
     ----------
     graph : networkx.MultiGraph
         A topology graph from :func:`skeleton_to_graph` (or :func:`topojax.build_graph`,
-        :class:`topojax.IncrementalMapper`) built with ``merge_junction_clusters=False``
-        (merged clusters join edges at different member pixels). Not modified.
+        :class:`topojax.IncrementalMapper`); with ``min_spur_m > 0`` it must have been
+        built with ``merge_junction_clusters=False`` (the edges of a merged cluster end at
+        different member pixels and cannot be joined).  Not modified.
     min_spur_m : float, default 0.0
         Spurs shorter than this (``length_m``, metres) are removed; 0 keeps all.
     min_component_m : float, default 0.0
@@ -857,8 +858,8 @@ def prune_graph(
         If ``graph`` is not an undirected networkx MultiGraph, or a threshold is not a
         number.
     ValueError
-        If a threshold is negative or not finite, the graph was built with merged junction
-        clusters, or a vertex lacks ``pixel`` / an edge lacks ``path``.
+        If a threshold is negative or not finite, spurs are to be pruned from a graph with
+        merged junction clusters, or a vertex lacks ``pixel`` / an edge lacks ``path``.
     """
     if not isinstance(graph, nx.MultiGraph) or graph.is_directed():
         raise TypeError(
@@ -867,10 +868,11 @@ def prune_graph(
         )
     spur = _nonnegative("min_spur_m", min_spur_m)
     component = _nonnegative("min_component_m", min_component_m)
-    if graph.graph.get("merge_junction_clusters"):
+    if spur > 0 and graph.graph.get("merge_junction_clusters"):
         raise ValueError(
-            "graph: expected a graph built with merge_junction_clusters=False, received one "
-            "with merged junction clusters (their edges end at different member pixels)"
+            "graph: min_spur_m > 0 expects a graph built with merge_junction_clusters=False, "
+            "received one with merged junction clusters (their edges end at different "
+            "member pixels, so they cannot be joined)"
         )
     g = nx.MultiGraph()
     g.graph.update(graph.graph)

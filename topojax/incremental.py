@@ -2247,6 +2247,14 @@ class IncrementalMapper:
                 "config.graph.merge_junction_clusters=True is not supported incrementally; "
                 "expected False (merge clusters on the exported graph instead)"
             )
+        if config.graph.free_space_only or config.graph.prunes:
+            raise ValueError(
+                "config.graph: free_space_only, min_spur_m and min_component_m are not "
+                "supported incrementally; expected their defaults (False, 0, 0), got "
+                f"{config.graph.free_space_only}, {config.graph.min_spur_m}, "
+                f"{config.graph.min_component_m} (prune the exported graph with "
+                "topojax.prune_graph instead)"
+            )
         for name, value, lo in (
             ("tile_px", tile_px, 8),
             ("block_px", block_px, 4),

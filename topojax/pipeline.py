@@ -505,9 +505,12 @@ class TopologyResult:
     ridges : bool (H, W)
         Thresholded ridge map.
     skeleton : bool (H, W)
-        Thinned ridges after T-centre removal.
+        Thinned ridges after T-centre removal (of the ridges in free space only with
+        ``GraphConfig.free_space_only``).
     graph : networkx.MultiGraph
-        The topology graph (see :func:`topojax.graph.skeleton_to_graph`).
+        The topology graph (see :func:`topojax.graph.skeleton_to_graph`); it covers the
+        whole skeleton unless ``GraphConfig.min_spur_m`` / ``min_component_m`` pruned it
+        (:func:`topojax.prune_graph`).
     config : PipelineConfig
     timings_s : dict[str, float]
         Wall time of each stage in seconds.
@@ -700,8 +703,10 @@ def graph_from_ridges(
     pixel_to_world,
     config: PipelineConfig,
     source: object = None,
+    free: np.ndarray | None = None,
 ):
-    """The CPU stages: thinning, T-centre removal and the skeleton-to-graph step.
+    """The CPU stages: thinning, T-centre removal, the skeleton-to-graph step and what
+    ``config.graph`` keeps of the graph.
 
     Parameters
     ----------
@@ -720,17 +725,32 @@ def graph_from_ridges(
     config : PipelineConfig
     source : optional
         Where the map came from; stored as the graph attribute ``source``.
+    free : bool (H, W), optional
+        Known free space (``OccupancyMap.free``); needed with
+        ``config.graph.free_space_only``, which thins ``ridges & free`` only.
 
     Returns
     -------
     skeleton : bool (H, W)
+        The thinned ridges after T removal; with ``min_spur_m`` / ``min_component_m`` the
+        graph covers part of it.
     graph : networkx.MultiGraph
-    timings_s : dict with ``thinning``, ``t_removal`` and ``graph`` wall times.
+    timings_s : dict with ``thinning``, ``t_removal`` and ``graph`` wall times (the
+        graph's includes the pruning).
     """
-    from .graph import skeleton_to_graph
+    from .graph import prune_graph, skeleton_to_graph
     from .skeleton import _remove_t_centres_inplace, thin
 
     t0 = time.perf_counter()
+    if config.graph.free_space_only:
+        free = np.asarray(free) if free is not None else None
+        if free is None or free.shape != ridges.shape or free.dtype != bool:
+            raise ValueError(
+                "free: config.graph.free_space_only needs the map's known-free mask, a bool "
+                f"array of shape {ridges.shape}, got "
+                + ("None" if free is None else f"{free.dtype} {free.shape}")
+            )
+        ridges = ridges & free
     skeleton = thin(ridges, method=config.skeleton.thinning)
     t1 = time.perf_counter()
     if config.skeleton.remove_t and skeleton.size:
@@ -744,6 +764,10 @@ def graph_from_ridges(
         pixel_to_world=pixel_to_world,
         merge_junction_clusters=config.graph.merge_junction_clusters,
     )
+    if config.graph.prunes:
+        graph = prune_graph(
+            graph, min_spur_m=config.graph.min_spur_m, min_component_m=config.graph.min_component_m
+        )
     graph.graph["origin"] = tuple(float(v) for v in origin)
     graph.graph["thinning"] = config.skeleton.thinning
     if source is not None:
@@ -813,6 +837,7 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
         pixel_to_world=occupancy.pixel_to_world,
         config=config,
         source=occupancy.source,
+        free=occupancy.free,
     )
     timings.update(cpu_timings)
     timings["total"] = time.perf_counter() - t0
