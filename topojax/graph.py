@@ -45,6 +45,11 @@ Comparison with the original implementation (STAR-Center/IncrementalTopo, refere
   down-left diagonal without the triangle test.  That quirk is not reproduced (the
   triangle rule is applied everywhere); none of the reference skeletons is affected.
 
+:func:`prune_graph` trims a built graph for routing: short dead-end branches (round after
+round, joining the edges of a junction left with two) and small components.  It works on
+the graph alone and gives the vertices and edges that pruning the skeleton's pixels and
+building the graph again would give.
+
 Implementation: the link bit-masks, the tracing of ordered edge paths and the ring search are
 numba kernels (one pass over the skeleton pixels each); attribute arrays (world coordinates,
 lengths, clearances) are computed with vectorised numpy over all paths at once.
