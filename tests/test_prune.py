@@ -484,3 +484,29 @@ def test_cli_graph_keeping_options(tmp_path, capsys, shared_data):
     capsys.readouterr()
     assert main([*argv, "--min-spur-m", "-1"]) == 2
     assert "min_spur_m must be finite and >= 0, got -1.0" in capsys.readouterr().err
+
+
+def test_result_shares_no_arrays_and_keeps_agreeing_extra_attributes():
+    g = graph_of(
+        """
+        ####.####
+        ....#....
+        ....#....
+        """
+    )
+    for u, v, k in g.edges(keys=True):
+        g.edges[u, v, k]["corridor"] = "A"
+        g.edges[u, v, k]["tags"] = np.array([1, 2])
+        g.edges[u, v, k]["uid"] = (u, v)  # differs between the joined edges
+    out = prune_graph(g)
+    for _, _, d in out.edges(data=True):
+        d["path"][:] = -1
+    assert all((d["path"] >= 0).all() for _, _, d in g.edges(data=True))
+    ((_, _, d),) = prune_graph(g, min_spur_m=1.5).edges(data=True)
+    assert d["corridor"] == "A" and d["tags"].tolist() == [1, 2] and "uid" not in d
+    bad = nx.MultiGraph()
+    bad.add_node(0, pixel=(0, 0))
+    bad.add_node(1, pixel=(0, 1))
+    bad.add_edge(0, 1, path=np.array([[0, 0], [0, 1]]))
+    with pytest.raises(ValueError, match="'length_m', edge 0-1 has none"):
+        prune_graph(bad)

@@ -834,8 +834,8 @@ def prune_graph(
 
     The result has no spur shorter than ``min_spur_m`` and no component shorter than
     ``min_component_m``.  Vertex and edge attributes keep their meaning: joined edges get
-    the joined ``path`` and ``world``, the summed ``length_m``, and the min / mean
-    clearance over the joined path's pixels; ``kind`` is updated.  Nodes are renumbered
+    the joined ``path`` and ``world``, its ``length_m``, and the min / mean clearance over
+    its pixels (other edge attributes where both edges agree); ``kind`` is updated.  Nodes are renumbered
     ``0..N-1`` in raster order of ``pixel`` with edges ``(u, v)``, ``u <= v``, their paths
     running from ``u`` to ``v``.
 
@@ -864,7 +864,8 @@ def prune_graph(
         number.
     ValueError
         If a threshold is negative or not finite, spurs are to be pruned from a graph with
-        merged junction clusters, or a vertex lacks ``pixel`` / an edge lacks ``path``.
+        merged junction clusters, or a vertex lacks ``pixel`` / an edge lacks ``path`` or
+        ``length_m``.
     """
     if not isinstance(graph, nx.MultiGraph) or graph.is_directed():
         raise TypeError(
@@ -879,16 +880,19 @@ def prune_graph(
             "received one with merged junction clusters (their edges end at different "
             "member pixels, so they cannot be joined)"
         )
-    g = nx.MultiGraph()
+    g = nx.MultiGraph()  # a copy, arrays included, so the result shares nothing with graph
     g.graph.update(graph.graph)
     for v, data in graph.nodes(data=True):
         if "pixel" not in data:
             raise ValueError(f"graph: expected every vertex to have a 'pixel', vertex {v} has none")
-        g.add_node(v, **data)
+        g.add_node(v, **_copied(data))
     for u, v, data in graph.edges(data=True):
-        if "path" not in data:
-            raise ValueError(f"graph: expected every edge to have a 'path', edge {u}-{v} has none")
-        g.add_edge(u, v, **data)
+        for name in ("path", "length_m"):
+            if name not in data:
+                raise ValueError(
+                    f"graph: expected every edge to have a {name!r}, edge {u}-{v} has none"
+                )
+        g.add_edge(u, v, **_copied(data))
 
     if spur > 0:
         while True:
@@ -915,6 +919,19 @@ def prune_graph(
             if total < component:
                 g.remove_nodes_from(nodes)
     return _renumbered(g, spur, component)
+
+
+def _copied(data: dict) -> dict:
+    return {k: v.copy() if isinstance(v, np.ndarray) else v for k, v in data.items()}
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(np.asarray(a), np.asarray(b))
+    try:
+        return bool(a == b)
+    except (TypeError, ValueError):  # no truth value
+        return a is b
 
 
 def _steps_length(n_straight, n_diagonal, res: float):
@@ -951,7 +968,12 @@ def _contract(g: nx.MultiGraph, v) -> None:
     if _ends_at(p2, pixel):  # second edge: from v to b
         p2, w2 = p2[::-1], None if w2 is None else w2[::-1]
     n1, n2 = len(p1), len(p2)
-    joined = {key: val for key, val in ea.items() if key not in _JOINED and eb.get(key) == val}
+    # other attributes (not skeleton_to_graph's) survive where both edges agree
+    joined = {
+        key: val
+        for key, val in ea.items()
+        if key not in _JOINED and key in eb and _same(val, eb[key])
+    }
     joined["path"] = np.concatenate([p1, p2[1:]])
     if w1 is not None and w2 is not None:
         joined["world"] = np.concatenate([w1, w2[1:]])
