@@ -54,7 +54,7 @@ def reference_prune(skeleton, build, min_spur_m, min_component_m) -> nx.MultiGra
                     skel[r, c] = False
         g = build(skel)
     for nodes in list(nx.connected_components(g)):
-        if sum(d for _, _, d in g.edges(nodes, data="length_m")) < min_component_m:
+        if math.fsum(d for _, _, d in g.edges(nodes, data="length_m")) < min_component_m:
             g.remove_nodes_from(nodes)
     return g
 
@@ -322,7 +322,7 @@ def test_equals_pixel_level_pruning_on_the_paper_maps(name, spur, component):
     if spur:
         assert not _spurs(got, spur)
     for nodes in nx.connected_components(got):
-        assert sum(d for _, _, d in got.edges(nodes, data="length_m")) >= component
+        assert math.fsum(d for _, _, d in got.edges(nodes, data="length_m")) >= component
     # world polylines follow the paths
     for _, _, d in got.edges(data=True):
         x, y = m.pixel_to_world(d["path"][:, 0].astype(float), d["path"][:, 1].astype(float))

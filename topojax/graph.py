@@ -58,6 +58,7 @@ lengths, clearances) are computed with vectorised numpy over all paths at once.
 from __future__ import annotations
 
 import gc
+import itertools
 import math
 import numbers
 from collections.abc import Callable, Iterator
@@ -830,7 +831,8 @@ def prune_graph(
        of short branches is eaten from its tips (a component made only of short spurs
        shrinks to one isolated vertex).
     2. **Components**: every connected component whose edges total less than
-       ``min_component_m`` (isolated vertices: 0 m) is removed.
+       ``min_component_m`` (isolated vertices: 0 m; an exactly rounded sum, so the order
+       of the edges does not matter) is removed.
 
     The result has no spur shorter than ``min_spur_m`` and no component shorter than
     ``min_component_m``.  Vertex and edge attributes keep their meaning: joined edges get
@@ -880,45 +882,84 @@ def prune_graph(
             "received one with merged junction clusters (their edges end at different "
             "member pixels, so they cannot be joined)"
         )
-    g = nx.MultiGraph()  # a copy, arrays included, so the result shares nothing with graph
-    g.graph.update(graph.graph)
+    # A light copy (arrays included, so the result shares nothing with ``graph``): vertex
+    # attributes, edges by id, each vertex's edge ids, and degrees (a self-loop counts 2).
+    nodes: dict = {}
     for v, data in graph.nodes(data=True):
         if "pixel" not in data:
             raise ValueError(f"graph: expected every vertex to have a 'pixel', vertex {v} has none")
-        g.add_node(v, **_copied(data))
-    for u, v, data in graph.edges(data=True):
+        nodes[v] = _copied(data)
+    edges: dict[int, tuple] = {}
+    incident: dict = {v: set() for v in nodes}
+    degree = dict.fromkeys(nodes, 0)
+    for eid, (u, v, data) in enumerate(graph.edges(data=True)):
         for name in ("path", "length_m"):
             if name not in data:
                 raise ValueError(
                     f"graph: expected every edge to have a {name!r}, edge {u}-{v} has none"
                 )
-        g.add_edge(u, v, **_copied(data))
+        edges[eid] = (u, v, _copied(data))
+        incident[u].add(eid)
+        incident[v].add(eid)
+        degree[u] += 1
+        degree[v] += 1
+    res = graph.graph.get("resolution_m")
+    res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
+    new_ids = itertools.count(len(edges))
 
     if spur > 0:
+        candidates = list(edges)  # edges that may be spurs; later only changed ones
         while True:
-            # (end, hub) of every spur, from the degrees before this round's removals
-            degree = g.degree
-            spurs = [
-                (u, v) if degree(u) == 1 else (v, u)
-                for u, v, length in g.edges(data="length_m")
-                if u != v
-                and length < spur
-                and min(degree(u), degree(v)) == 1
-                and max(degree(u), degree(v)) >= 3
-            ]
+            spurs = []  # (end, hub, edge id), from the degrees before this round's removals
+            for eid in candidates:
+                u, v, data = edges[eid]
+                du, dv = degree[u], degree[v]
+                if u != v and data["length_m"] < spur and min(du, dv) == 1 and max(du, dv) >= 3:
+                    spurs.append((u, v, eid) if du == 1 else (v, u, eid))
             if not spurs:
                 break
-            g.remove_nodes_from(end for end, _ in spurs)  # with their one edge each
-            touched = {hub for _, hub in spurs}
-            for hub in sorted(touched):
-                if hub in g and g.degree(hub) == 2 and g.number_of_edges(hub, hub) == 0:
-                    _contract(g, hub)
+            hubs = set()
+            for end, hub, eid in spurs:
+                del edges[eid], nodes[end], incident[end], degree[end]
+                incident[hub].discard(eid)
+                degree[hub] -= 1
+                hubs.add(hub)
+            # only the hubs' degrees changed, and joined edges are new: next round's spurs
+            # touch a hub or a joined edge's ends
+            changed = set()
+            for hub in sorted(hubs):  # hubs are never ends, nor joined away by another
+                if degree[hub] == 2 and len(incident[hub]) == 2:  # two edges, no loop
+                    a, b = _join(hub, nodes, edges, incident, degree, res, new_ids)
+                    changed.update((a, b))
+                else:
+                    changed.add(hub)
+            candidates = sorted({eid for n in changed if n in nodes for eid in incident[n]})
     if component > 0:
-        for nodes in list(nx.connected_components(g)):
-            total = sum(d for _, _, d in g.edges(nodes, data="length_m", default=0.0))
-            if total < component:
-                g.remove_nodes_from(nodes)
-    return _renumbered(g, spur, component)
+        drop = []
+        seen: set = set()
+        for start in nodes:
+            if start in seen:
+                continue
+            seen.add(start)
+            members, stack, lengths = [start], [start], []
+            while stack:
+                n = stack.pop()
+                for eid in incident[n]:
+                    u, v, data = edges[eid]
+                    if n == u:  # count each edge once (from its first end)
+                        lengths.append(data["length_m"])
+                    for m in (u, v):
+                        if m not in seen:
+                            seen.add(m)
+                            members.append(m)
+                            stack.append(m)
+            if math.fsum(lengths) < component:  # exactly rounded: no order dependence
+                drop.extend(members)
+        for n in drop:
+            for eid in incident.pop(n):
+                edges.pop(eid, None)
+            del nodes[n], degree[n]
+    return _renumbered(graph.graph, nodes, edges, degree, spur, component)
 
 
 def _copied(data: dict) -> dict:
@@ -954,13 +995,19 @@ def _ends_at(path: np.ndarray, pixel) -> bool:
 _JOINED = ("path", "world", "length_m", "min_clearance_m", "mean_clearance_m")
 
 
-def _contract(g: nx.MultiGraph, v) -> None:
-    """Join the two edges of vertex ``v`` (degree 2, no self-loop) into one and drop ``v``.
+def _join(v, nodes: dict, edges: dict, incident: dict, degree: dict, res, new_ids) -> tuple:
+    """Join the two edges of vertex ``v`` (degree 2, no self-loop) into one and drop
+    ``v``; returns the joined edge's ends.  ``new_ids`` yields unused edge ids.
 
-    The joined path runs through ``v``'s pixel once; its mean clearance is the mean over
-    its pixels, from the two edges' means, pixel counts and ``v``'s clearance."""
-    (_, a, _, ea), (_, b, _, eb) = g.edges(v, keys=True, data=True)
-    pixel = g.nodes[v]["pixel"]
+    The joined path runs through ``v``'s pixel once; its length is recomputed from it
+    (``res`` = metres per pixel; None: the two lengths are added up), and its mean
+    clearance is the mean over its pixels, from the two edges' means, pixel counts and
+    ``v``'s clearance."""
+    e1, e2 = sorted(incident[v])
+    (u1, v1, ea), (u2, v2, eb) = edges.pop(e1), edges.pop(e2)
+    a = u1 if v1 == v else v1
+    b = u2 if v2 == v else v2
+    pixel = nodes[v]["pixel"]
     p1, w1 = ea["path"], ea.get("world")
     if not _ends_at(p1, pixel):  # first edge: from a to v
         p1, w1 = p1[::-1], None if w1 is None else w1[::-1]
@@ -977,51 +1024,53 @@ def _contract(g: nx.MultiGraph, v) -> None:
     joined["path"] = np.concatenate([p1, p2[1:]])
     if w1 is not None and w2 is not None:
         joined["world"] = np.concatenate([w1, w2[1:]])
-    res = g.graph.get("resolution_m")
-    if isinstance(res, numbers.Real) and res > 0:
-        joined["length_m"] = _path_length_m(joined["path"], float(res))
+    if res is not None:
+        joined["length_m"] = _path_length_m(joined["path"], res)
     else:  # not from skeleton_to_graph: add up
-        joined["length_m"] = float(ea.get("length_m", math.nan)) + float(
-            eb.get("length_m", math.nan)
-        )
+        joined["length_m"] = float(ea["length_m"]) + float(eb["length_m"])
     m1, m2 = float(ea.get("min_clearance_m", math.nan)), float(eb.get("min_clearance_m", math.nan))
     joined["min_clearance_m"] = math.nan if math.isnan(m1) or math.isnan(m2) else min(m1, m2)
-    c = float(g.nodes[v].get("clearance_m", math.nan))
+    c = float(nodes[v].get("clearance_m", math.nan))
     mean1 = float(ea.get("mean_clearance_m", math.nan))
     mean2 = float(eb.get("mean_clearance_m", math.nan))
     joined["mean_clearance_m"] = (mean1 * n1 + mean2 * n2 - c) / (n1 + n2 - 1)
-    g.remove_node(v)
-    g.add_edge(a, b, **joined)
+    del nodes[v], incident[v], degree[v]
+    incident[a].discard(e1)
+    incident[b].discard(e2)
+    eid = next(new_ids)
+    edges[eid] = (a, b, joined)
+    incident[a].add(eid)
+    incident[b].add(eid)
+    return a, b
 
 
-def _renumbered(g: nx.MultiGraph, spur: float, component: float) -> nx.MultiGraph:
-    """``g`` with nodes ``0..N-1`` in raster order of ``pixel``, kinds from the degrees,
-    edges ``(u, v)`` with ``u <= v`` and paths from ``u`` to ``v``."""
-    order = sorted(
-        g.nodes, key=lambda n: (int(g.nodes[n]["pixel"][0]), int(g.nodes[n]["pixel"][1]))
-    )
+def _renumbered(
+    attrs: dict, nodes: dict, edges: dict, degree: dict, spur: float, component: float
+) -> nx.MultiGraph:
+    """The pruned graph: nodes ``0..N-1`` in raster order of ``pixel``, kinds from the
+    degrees, edges ``(u, v)`` with ``u <= v`` and paths from ``u`` to ``v``."""
+    order = sorted(nodes, key=lambda n: (int(nodes[n]["pixel"][0]), int(nodes[n]["pixel"][1])))
     new = {old: i for i, old in enumerate(order)}
-    out = nx.MultiGraph()
-    out.graph.update(g.graph)
-    out.graph["pruned_min_spur_m"] = spur
-    out.graph["pruned_min_component_m"] = component
+    loops = {u for u, v, _ in edges.values() if u == v}
+    node_attrs = []
     for old in order:
-        data = dict(g.nodes[old])
-        degree = g.degree(old)
-        if degree == 2 and g.number_of_edges(old, old):
+        data = nodes[old]
+        if degree[old] == 2 and old in loops:
             data["kind"] = "ring"
         else:
-            data["kind"] = {0: "isolated", 1: "end"}.get(degree, "junction")
-        out.add_node(new[old], **data)
-    edges = []
-    for u, v, data in g.edges(data=True):
+            data["kind"] = {0: "isolated", 1: "end"}.get(degree[old], "junction")
+        node_attrs.append(data)
+    out = []
+    for u, v, data in edges.values():
         u, v = sorted((new[u], new[v]))
-        data = dict(data)
-        if u != v and not _ends_at(data["path"], out.nodes[v]["pixel"]):
+        if u != v and not _ends_at(data["path"], node_attrs[v]["pixel"]):
             data["path"] = data["path"][::-1].copy()
             if data.get("world") is not None:
                 data["world"] = data["world"][::-1].copy()
-        edges.append((u, v, data))
-    edges.sort(key=lambda e: (e[0], e[1], e[2]["path"][:2].tolist()))
-    out.add_edges_from(edges)
-    return out
+        out.append((u, v, data))
+    out.sort(key=lambda e: (e[0], e[1], e[2]["path"][:2].tolist()))
+    g = nx.MultiGraph()
+    g.graph.update(attrs)
+    g.graph["pruned_min_spur_m"] = spur
+    g.graph["pruned_min_component_m"] = component
+    return _fill_multigraph(g, node_attrs, out)
