@@ -882,13 +882,20 @@ def prune_graph(
             "received one with merged junction clusters (their edges end at different "
             "member pixels, so they cannot be joined)"
         )
-    # A light copy (arrays included, so the result shares nothing with ``graph``): vertex
-    # attributes, edges by id, each vertex's edge ids, and degrees (a self-loop counts 2).
+    with paused_gc():  # many small containers, no reference cycles
+        return _prune(graph, spur, component)
+
+
+def _prune(graph: nx.MultiGraph, spur: float, component: float) -> nx.MultiGraph:
+    """:func:`prune_graph` on checked input."""
+    # A light copy: vertex attributes, edges by id, each vertex's edge ids, and degrees (a
+    # self-loop counts 2).  The arrays of what survives are copied at the end, so the
+    # result shares nothing with ``graph``.
     nodes: dict = {}
     for v, data in graph.nodes(data=True):
         if "pixel" not in data:
             raise ValueError(f"graph: expected every vertex to have a 'pixel', vertex {v} has none")
-        nodes[v] = _copied(data)
+        nodes[v] = dict(data)
     edges: dict[int, tuple] = {}
     incident: dict = {v: set() for v in nodes}
     degree = dict.fromkeys(nodes, 0)
@@ -898,7 +905,7 @@ def prune_graph(
                 raise ValueError(
                     f"graph: expected every edge to have a {name!r}, edge {u}-{v} has none"
                 )
-        edges[eid] = (u, v, _copied(data))
+        edges[eid] = (u, v, dict(data))
         incident[u].add(eid)
         incident[v].add(eid)
         degree[u] += 1
@@ -1054,7 +1061,7 @@ def _renumbered(
     loops = {u for u, v, _ in edges.values() if u == v}
     node_attrs = []
     for old in order:
-        data = nodes[old]
+        data = _copied(nodes[old])
         if degree[old] == 2 and old in loops:
             data["kind"] = "ring"
         else:
@@ -1064,10 +1071,10 @@ def _renumbered(
     for u, v, data in edges.values():
         u, v = sorted((new[u], new[v]))
         if u != v and not _ends_at(data["path"], node_attrs[v]["pixel"]):
-            data["path"] = data["path"][::-1].copy()
+            data["path"] = data["path"][::-1]
             if data.get("world") is not None:
-                data["world"] = data["world"][::-1].copy()
-        out.append((u, v, data))
+                data["world"] = data["world"][::-1]
+        out.append((u, v, _copied(data)))
     out.sort(key=lambda e: (e[0], e[1], e[2]["path"][:2].tolist()))
     g = nx.MultiGraph()
     g.graph.update(attrs)
