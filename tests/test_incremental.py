@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 from topojax.config import DistanceConfig, PipelineConfig
 from topojax.datasets import sample_map
 from topojax.distance import FAR_SQ
+from topojax.graph import prune_graph
 from topojax.incremental import (
     STATE_VERSION,
     GraphUpdate,
@@ -968,6 +969,11 @@ def test_intel_excerpt_matches_full_map():
     assert sum("graph" in r.loops for r in reports) == 2
     assert all(isinstance(r.graph_update, GraphUpdate) for r in reports if "graph" in r.loops)
     ref = assert_matches_full_map(mapper)
+    # the exported graph prunes like build_graph's (the mapper itself keeps every piece)
+    pruned = prune_graph(mapper.graph, min_spur_m=0.5, min_component_m=2.0)
+    want = prune_graph(ref.graph, min_spur_m=0.5, min_component_m=2.0)
+    assert canon(pruned) == canon(want)
+    assert pruned.number_of_nodes() < mapper.graph.number_of_nodes()
     # world coordinates agree with build_graph on the exported map
     g = mapper.graph
     by_pixel = {d["pixel"]: d["world"] for _, d in ref.graph.nodes(data=True)}
