@@ -510,3 +510,13 @@ def test_result_shares_no_arrays_and_keeps_agreeing_extra_attributes():
     bad.add_edge(0, 1, path=np.array([[0, 0], [0, 1]]))
     with pytest.raises(ValueError, match="'length_m', edge 0-1 has none"):
         prune_graph(bad)
+
+
+@pytest.mark.parametrize("suffix", [".json", ".graphml", ".geojson"])
+def test_graphs_loaded_from_files_prune_alike(tmp_path, suffix):
+    res = build_graph(tj.sample_map("intel"))
+    loaded = tj.load_graph(tj.save_graph(res.graph, tmp_path / f"g{suffix}"))
+    got = prune_graph(loaded, min_spur_m=0.5, min_component_m=2.0)
+    want = prune_graph(res.graph, min_spur_m=0.5, min_component_m=2.0)
+    assert tj.graph_summary(got) == tj.graph_summary(want)
+    assert edges_by_pixels(got).keys() == edges_by_pixels(want).keys()
