@@ -10,6 +10,7 @@ its joins, kinds, lengths and clearances.
 from __future__ import annotations
 
 import math
+from collections import Counter
 
 import networkx as nx
 import numpy as np
@@ -442,9 +443,9 @@ def test_graph_from_ridges_needs_the_free_mask_for_free_space_only():
         ({"min_spur_m": "1"}, TypeError, ["min_spur_m", "str"]),
         ({"free_space_only": 1}, TypeError, ["free_space_only", "bool", "1"]),
         (
-            {"merge_junction_clusters": True, "min_spur_m": 1.0},
+            {"merge_junction_clusters": True, "min_clearance_m": 0.2},
             ValueError,
-            ["min_spur_m > 0", "merge_junction_clusters=False"],
+            ["min_spur_m and min_clearance_m > 0", "merge_junction_clusters=False"],
         ),
     ],
 )
@@ -462,7 +463,13 @@ def test_components_alone_may_be_pruned_from_merged_cluster_graphs():
 
 
 @pytest.mark.parametrize(
-    "graph", [{"free_space_only": True}, {"min_spur_m": 0.5}, {"min_component_m": 2.0}]
+    "graph",
+    [
+        {"free_space_only": True},
+        {"min_clearance_m": 0.3},
+        {"min_spur_m": 0.5},
+        {"min_component_m": 2.0},
+    ],
 )
 def test_incremental_mapper_rejects_graph_keeping_options(graph):
     config = tj.PipelineConfig(graph=tj.GraphConfig(**graph))
@@ -520,3 +527,116 @@ def test_graphs_loaded_from_files_prune_alike(tmp_path, suffix):
     want = prune_graph(res.graph, min_spur_m=0.5, min_component_m=2.0)
     assert tj.graph_summary(got) == tj.graph_summary(want)
     assert edges_by_pixels(got).keys() == edges_by_pixels(want).keys()
+
+
+# ------------------------------------------------------------------ narrow corridors
+
+
+def expected_after_narrow_edges(g: nx.MultiGraph, min_clearance_m: float):
+    """Independent reference for step 1: the surviving edges (clearance >= threshold),
+    chained through every vertex left with exactly two edge ends and no loop; returns the
+    chains' pixel sets and the pixels of the vertices that stay (rings excluded)."""
+    keep = [
+        (u, v, k)
+        for u, v, k, c in g.edges(keys=True, data="min_clearance_m")
+        if not c < min_clearance_m
+    ]
+    ends = Counter()
+    loops = set()
+    for u, v, _ in keep:
+        ends[u] += 1
+        ends[v] += 1
+        if u == v:
+            loops.add(u)
+    parent = list(range(len(keep)))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    at = {}
+    for i, (u, v, _) in enumerate(keep):
+        for n in {u, v}:
+            at.setdefault(n, []).append(i)
+    for n, ids in at.items():
+        if ends[n] == 2 and n not in loops:
+            a, b = ids
+            parent[find(a)] = find(b)
+    chains = {}
+    for i, (u, v, k) in enumerate(keep):
+        chains.setdefault(find(i), set()).update(map(tuple, g.edges[u, v, k]["path"].tolist()))
+    stay = {
+        tuple(g.nodes[n]["pixel"])
+        for n in g.nodes
+        if not (ends[n] == 2 and n not in loops) and not (ends[n] == 2 and n in loops)
+    }
+    return {frozenset(c) for c in chains.values()}, stay
+
+
+def test_narrow_edge_goes_and_its_ends_are_joined():
+    text = """
+        #########
+        ....#....
+        ....#....
+        """
+    skel = art(text)
+    clearance = np.full(skel.shape, 3.0)
+    clearance[0, 6] = 0.5  # the right arm has a narrow spot
+    g = skeleton_to_graph(skel, clearance_px=clearance)
+    out = prune_graph(g, min_clearance_m=1.0)
+    # the right arm goes (its dead end stays, isolated); the junction, left with the
+    # left arm and the stem, is joined
+    assert out.number_of_edges() == 1 and out.number_of_nodes() == 3
+    kinds = sorted(d["kind"] for _, d in out.nodes(data=True))
+    assert kinds == ["end", "end", "isolated"]
+    assert prune_graph(g, min_clearance_m=1.0, min_component_m=0.1).number_of_nodes() == 2
+    ((_, _, d),) = out.edges(data=True)
+    assert {tuple(p) for p in d["path"].tolist()} == {(0, c) for c in range(5)} | {
+        (1, 4),
+        (2, 4),
+    }
+    assert d["min_clearance_m"] == 3.0
+    # without clearances nothing is narrow
+    assert prune_graph(skeleton_to_graph(skel), min_clearance_m=1.0).number_of_edges() == 3
+
+
+@pytest.mark.parametrize("name", ["intel", "office", "a_scan"])
+@pytest.mark.parametrize("quantile", [0.1, 0.5])
+def test_narrow_edges_on_the_paper_maps(name, quantile):
+    res = build_graph(tj.sample_map(name))
+    widths = np.unique([c for _, _, c in res.graph.edges(data="min_clearance_m")])
+    clearance = float(widths[max(1, int(quantile * len(widths)))])  # some edges are below
+    got = prune_graph(res.graph, min_clearance_m=clearance)
+    chains, stay = expected_after_narrow_edges(res.graph, clearance)
+    assert {frozenset(map(tuple, d["path"].tolist())) for _, _, d in got.edges(data=True)} == (
+        chains
+    )
+    assert {tuple(d["pixel"]) for _, d in got.nodes(data=True) if d["kind"] != "ring"} == stay
+    assert all(c >= clearance for _, _, c in got.edges(data="min_clearance_m"))
+    assert got.number_of_edges() < res.graph.number_of_edges()
+    check_structure(got)
+    # every step together, as GraphConfig runs them
+    both = prune_graph(res.graph, min_clearance_m=clearance, min_spur_m=1.0, min_component_m=3.0)
+    again = prune_graph(got, min_spur_m=1.0, min_component_m=3.0)
+    assert_same_as_reference(both, again)
+    config = tj.PipelineConfig(
+        graph=tj.GraphConfig(min_clearance_m=clearance, min_spur_m=1.0, min_component_m=3.0)
+    )
+    assert_same_as_reference(build_graph(tj.sample_map(name), config=config).graph, both)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), clearance=st.sampled_from([0.5, 1.0, 2.0, 3.0]))
+def test_narrow_edges_on_random_skeletons(seed, clearance):
+    rng = np.random.default_rng(seed)
+    skel = skeletonize(rng.random((24, 30)) < 0.55) if seed % 2 else rng.random((20, 20)) < 0.3
+    g = skeleton_to_graph(skel, clearance_px=rng.random(skel.shape) * 8, resolution_m=0.5)
+    got = prune_graph(g, min_clearance_m=clearance)
+    chains, stay = expected_after_narrow_edges(g, clearance)
+    assert {frozenset(map(tuple, d["path"].tolist())) for _, _, d in got.edges(data=True)} == (
+        chains
+    )
+    assert {tuple(d["pixel"]) for _, d in got.nodes(data=True) if d["kind"] != "ring"} == stay
+    check_structure(got)

@@ -19,6 +19,7 @@ def pipeline_config(args):
         skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
         graph=GraphConfig(
             free_space_only=args.free_only,
+            min_clearance_m=args.min_clearance_m,
             min_spur_m=args.min_spur_m,
             min_component_m=args.min_component_m,
         ),
@@ -40,6 +41,14 @@ def add_pipeline_options(p: argparse.ArgumentParser) -> None:
         "--free-only",
         action="store_true",
         help="thin only the ridges in known free space (none in unknown space)",
+    )
+    p.add_argument(
+        "--min-clearance-m",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="remove corridors narrower than M metres from wall to centre, e.g. the robot's "
+        "radius (default 0: keep all)",
     )
     p.add_argument(
         "--min-spur-m",

@@ -167,6 +167,9 @@ class GraphConfig:
         Thin only the ridges in known free space (``OccupancyMap.free``): ridges in
         unknown space and on obstacles are dropped first, so the graph stays where the
         robot can go and ends where the map does.  Default False.
+    min_clearance_m : float
+        Remove edges whose narrowest clearance is below this, in metres, e.g. the robot's
+        radius plus a margin (:func:`topojax.prune_graph`).  Default 0: keep all.
     min_spur_m : float
         Remove dead-end branches (end vertex to junction) shorter than this, in metres,
         round after round (:func:`topojax.prune_graph`).  Default 0: keep all.
@@ -177,6 +180,7 @@ class GraphConfig:
 
     merge_junction_clusters: bool = False
     free_space_only: bool = False
+    min_clearance_m: float = 0.0
     min_spur_m: float = 0.0
     min_component_m: float = 0.0
 
@@ -184,18 +188,19 @@ class GraphConfig:
         for name in ("merge_junction_clusters", "free_space_only"):
             if type(getattr(self, name)).__name__ not in ("bool", "bool_"):  # or NumPy's
                 raise TypeError(f"{name} must be a bool, got {getattr(self, name)!r}")
-        _nonnegative("min_spur_m", self.min_spur_m)
-        _nonnegative("min_component_m", self.min_component_m)
-        if self.merge_junction_clusters and self.min_spur_m > 0:
+        for name in ("min_clearance_m", "min_spur_m", "min_component_m"):
+            _nonnegative(name, getattr(self, name))
+        if self.merge_junction_clusters and (self.min_spur_m > 0 or self.min_clearance_m > 0):
             raise ValueError(
-                "min_spur_m > 0 needs merge_junction_clusters=False (a junction left with "
-                "two edges is joined at its pixel; a merged cluster has several)"
+                "min_spur_m and min_clearance_m > 0 need merge_junction_clusters=False (a "
+                "vertex left with two edges is joined at its pixel; a merged cluster has "
+                "several)"
             )
 
     @property
     def prunes(self) -> bool:
         """Whether :func:`topojax.prune_graph` has anything to do."""
-        return self.min_spur_m > 0 or self.min_component_m > 0
+        return self.min_clearance_m > 0 or self.min_spur_m > 0 or self.min_component_m > 0
 
 
 @dataclass(frozen=True, kw_only=True)

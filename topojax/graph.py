@@ -45,10 +45,10 @@ Comparison with the original implementation (STAR-Center/IncrementalTopo, refere
   down-left diagonal without the triangle test.  That quirk is not reproduced (the
   triangle rule is applied everywhere); none of the reference skeletons is affected.
 
-:func:`prune_graph` trims a built graph for routing: short dead-end branches (round after
-round, joining the edges of a junction left with two) and small components.  It works on
-the graph alone and gives the vertices and edges that pruning the skeleton's pixels and
-building the graph again would give.
+:func:`prune_graph` trims a built graph for routing: edges narrower than the robot, short
+dead-end branches (round after round, joining the edges of a vertex left with two) and
+small components.  It works on the graph alone; for spurs it gives the vertices and edges
+that pruning the skeleton's pixels and building the graph again would give.
 
 Implementation: the link bit-masks, the tracing of ordered edge paths and the ring search are
 numba kernels (one pass over the skeleton pixels each); attribute arrays (world coordinates,
@@ -815,39 +815,51 @@ def _nonnegative(name: str, value: object) -> float:
 
 
 def prune_graph(
-    graph: nx.MultiGraph, *, min_spur_m: float = 0.0, min_component_m: float = 0.0
+    graph: nx.MultiGraph,
+    *,
+    min_clearance_m: float = 0.0,
+    min_spur_m: float = 0.0,
+    min_component_m: float = 0.0,
 ) -> nx.MultiGraph:
-    """Remove short dead-end branches and small components from a topology graph.
+    """Trim a topology graph for routing: narrow corridors, short spurs, small pieces.
 
-    Route graphs of real maps carry many short *spurs* (a junction to a dead end, from
-    ridges of corners and clutter) and small disconnected pieces (around furniture, in
-    unknown space); the paper keeps them all, which is this function's default.
+    Route graphs of real maps carry corridors too narrow for the robot, many short
+    *spurs* (a junction to a dead end, from ridges of corners and clutter) and small
+    disconnected pieces (around furniture, in unknown space); the paper keeps them all,
+    which is this function's default.  In this order:
 
-    1. **Spurs**: every edge between an ``"end"`` vertex and a ``"junction"`` that is
-       shorter than ``min_spur_m`` is removed with its end vertex.  A junction left with two
-       edge ends is contracted: its two edges become one (paths joined at its pixel), as in
-       :func:`skeleton_to_graph`; a junction left with only a self-loop becomes a
-       ``"ring"`` vertex where it is.  This repeats until no such spur is left, so a tree
-       of short branches is eaten from its tips (a component made only of short spurs
-       shrinks to one isolated vertex).
-    2. **Components**: every connected component whose edges total less than
+    1. **Narrow edges**: every edge whose ``min_clearance_m`` is below ``min_clearance_m``
+       (say, the robot's radius plus a margin) is removed; edges without clearances (NaN)
+       stay.
+    2. **Spurs**: every edge between an ``"end"`` vertex and a ``"junction"`` that is
+       shorter than ``min_spur_m`` is removed with its end vertex.  This repeats until no
+       such spur is left, so a tree of short branches is eaten from its tips (a component
+       made only of short spurs shrinks to one isolated vertex).
+    3. **Components**: every connected component whose edges total less than
        ``min_component_m`` (isolated vertices: 0 m; an exactly rounded sum, so the order
        of the edges does not matter) is removed.
 
-    The result has no spur shorter than ``min_spur_m`` and no component shorter than
-    ``min_component_m``.  Vertex and edge attributes keep their meaning: joined edges get
-    the joined ``path`` and ``world``, its ``length_m``, and the min / mean clearance over
-    its pixels (other edge attributes where both edges agree); ``kind`` is updated.  Nodes are renumbered
-    ``0..N-1`` in raster order of ``pixel`` with edges ``(u, v)``, ``u <= v``, their paths
-    running from ``u`` to ``v``.
+    After steps 1 and 2 a vertex left with two edge ends is contracted: its two edges
+    become one (paths joined at its pixel), as in :func:`skeleton_to_graph`; one left with
+    only a self-loop becomes a ``"ring"`` vertex where it is.  The result has no edge
+    narrower than ``min_clearance_m``, no spur shorter than ``min_spur_m`` and no
+    component shorter than ``min_component_m``.  Vertex and edge attributes keep their
+    meaning: joined edges get the joined ``path`` and ``world``, its ``length_m``, and the
+    min / mean clearance over its pixels (other edge attributes where both edges agree);
+    ``kind`` is updated.  Nodes are renumbered ``0..N-1`` in raster order of ``pixel``
+    with edges ``(u, v)``, ``u <= v``, their paths running from ``u`` to ``v``.
 
     Parameters
     ----------
     graph : networkx.MultiGraph
         A topology graph from :func:`skeleton_to_graph` (or :func:`topojax.build_graph`,
-        :class:`topojax.IncrementalMapper`); with ``min_spur_m > 0`` it must have been
-        built with ``merge_junction_clusters=False`` (the edges of a merged cluster end at
-        different member pixels and cannot be joined).  Not modified.
+        :class:`topojax.IncrementalMapper`, :func:`topojax.load_graph`); to remove edges
+        (``min_clearance_m`` or ``min_spur_m`` > 0) it must have been built with
+        ``merge_junction_clusters=False`` (the edges of a merged cluster end at different
+        member pixels and cannot be joined).  Not modified.
+    min_clearance_m : float, default 0.0
+        Edges whose narrowest point (``min_clearance_m``, metres) is below this are
+        removed; 0 keeps all.
     min_spur_m : float, default 0.0
         Spurs shorter than this (``length_m``, metres) are removed; 0 keeps all.
     min_component_m : float, default 0.0
@@ -856,8 +868,8 @@ def prune_graph(
     Returns
     -------
     networkx.MultiGraph
-        A new graph; its graph attributes are the input's plus ``pruned_min_spur_m`` and
-        ``pruned_min_component_m``.
+        A new graph; its graph attributes are the input's plus ``pruned_min_clearance_m``,
+        ``pruned_min_spur_m`` and ``pruned_min_component_m``.
 
     Raises
     ------
@@ -865,28 +877,29 @@ def prune_graph(
         If ``graph`` is not an undirected networkx MultiGraph, or a threshold is not a
         number.
     ValueError
-        If a threshold is negative or not finite, spurs are to be pruned from a graph with
-        merged junction clusters, or a vertex lacks ``pixel`` / an edge lacks ``path`` or
-        ``length_m``.
+        If a threshold is negative or not finite, edges are to be removed from a graph
+        with merged junction clusters, or a vertex lacks ``pixel`` / an edge lacks
+        ``path`` or ``length_m``.
     """
     if not isinstance(graph, nx.MultiGraph) or graph.is_directed():
         raise TypeError(
             f"graph: expected an undirected networkx.MultiGraph from skeleton_to_graph, "
             f"received {type(graph).__name__}"
         )
+    clearance = _nonnegative("min_clearance_m", min_clearance_m)
     spur = _nonnegative("min_spur_m", min_spur_m)
     component = _nonnegative("min_component_m", min_component_m)
-    if spur > 0 and graph.graph.get("merge_junction_clusters"):
+    if (spur > 0 or clearance > 0) and graph.graph.get("merge_junction_clusters"):
         raise ValueError(
-            "graph: min_spur_m > 0 expects a graph built with merge_junction_clusters=False, "
-            "received one with merged junction clusters (their edges end at different "
-            "member pixels, so they cannot be joined)"
+            "graph: min_clearance_m or min_spur_m > 0 expects a graph built with "
+            "merge_junction_clusters=False, received one with merged junction clusters "
+            "(their edges end at different member pixels, so they cannot be joined)"
         )
     with paused_gc():  # many small containers, no reference cycles
-        return _prune(graph, spur, component)
+        return _prune(graph, clearance, spur, component)
 
 
-def _prune(graph: nx.MultiGraph, spur: float, component: float) -> nx.MultiGraph:
+def _prune(graph: nx.MultiGraph, clearance: float, spur: float, component: float) -> nx.MultiGraph:
     """:func:`prune_graph` on checked input."""
     # A light copy: vertex attributes, edges by id, each vertex's edge ids, and degrees (a
     # self-loop counts 2).  The arrays of what survives are copied at the end, so the
@@ -914,6 +927,29 @@ def _prune(graph: nx.MultiGraph, spur: float, component: float) -> nx.MultiGraph
     res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
     new_ids = itertools.count(len(edges))
 
+    def contract(vertices) -> set:
+        """Join the edges of those of ``vertices`` left with two (no loop); returns the
+        vertices whose edges changed."""
+        changed = set()
+        for n in sorted(vertices):  # such vertices are never removed by another's join
+            if degree[n] == 2 and len(incident[n]) == 2:  # two edges, no loop
+                changed.update(_join(n, nodes, edges, incident, degree, res, new_ids))
+            else:
+                changed.add(n)
+        return {n for n in changed if n in nodes}  # joined ends may be joined away later
+
+    if clearance > 0:
+        narrow = [eid for eid, (_, _, d) in edges.items() if _below(d, clearance)]
+        ends = set()
+        for eid in narrow:
+            u, v, _ = edges.pop(eid)
+            incident[u].discard(eid)
+            incident[v].discard(eid)
+            degree[u] -= 1
+            degree[v] -= 1  # a self-loop loses 2
+            ends.update((u, v))
+        contract(ends)
+
     if spur > 0:
         candidates = list(edges)  # edges that may be spurs; later only changed ones
         while True:
@@ -933,14 +969,8 @@ def _prune(graph: nx.MultiGraph, spur: float, component: float) -> nx.MultiGraph
                 hubs.add(hub)
             # only the hubs' degrees changed, and joined edges are new: next round's spurs
             # touch a hub or a joined edge's ends
-            changed = set()
-            for hub in sorted(hubs):  # hubs are never ends, nor joined away by another
-                if degree[hub] == 2 and len(incident[hub]) == 2:  # two edges, no loop
-                    a, b = _join(hub, nodes, edges, incident, degree, res, new_ids)
-                    changed.update((a, b))
-                else:
-                    changed.add(hub)
-            candidates = sorted({eid for n in changed if n in nodes for eid in incident[n]})
+            changed = contract(hubs)
+            candidates = sorted({eid for n in changed for eid in incident[n]})
     if component > 0:
         drop = []
         seen: set = set()
@@ -966,7 +996,18 @@ def _prune(graph: nx.MultiGraph, spur: float, component: float) -> nx.MultiGraph
             for eid in incident.pop(n):
                 edges.pop(eid, None)
             del nodes[n], degree[n]
-    return _renumbered(graph.graph, nodes, edges, degree, spur, component)
+    thresholds = {
+        "pruned_min_clearance_m": clearance,
+        "pruned_min_spur_m": spur,
+        "pruned_min_component_m": component,
+    }
+    return _renumbered(graph.graph, nodes, edges, degree, thresholds)
+
+
+def _below(data: dict, clearance: float) -> bool:
+    """Is the edge's narrowest clearance known and below ``clearance`` (metres)?"""
+    value = data.get("min_clearance_m")
+    return value is not None and float(value) < clearance  # NaN compares False
 
 
 def _copied(data: dict) -> dict:
@@ -1052,7 +1093,7 @@ def _join(v, nodes: dict, edges: dict, incident: dict, degree: dict, res, new_id
 
 
 def _renumbered(
-    attrs: dict, nodes: dict, edges: dict, degree: dict, spur: float, component: float
+    attrs: dict, nodes: dict, edges: dict, degree: dict, thresholds: dict
 ) -> nx.MultiGraph:
     """The pruned graph: nodes ``0..N-1`` in raster order of ``pixel``, kinds from the
     degrees, edges ``(u, v)`` with ``u <= v`` and paths from ``u`` to ``v``."""
@@ -1078,6 +1119,5 @@ def _renumbered(
     out.sort(key=lambda e: (e[0], e[1], e[2]["path"][:2].tolist()))
     g = nx.MultiGraph()
     g.graph.update(attrs)
-    g.graph["pruned_min_spur_m"] = spur
-    g.graph["pruned_min_component_m"] = component
+    g.graph.update(thresholds)
     return _fill_multigraph(g, node_attrs, out)

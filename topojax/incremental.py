@@ -2249,9 +2249,10 @@ class IncrementalMapper:
             )
         if config.graph.free_space_only or config.graph.prunes:
             raise ValueError(
-                "config.graph: free_space_only, min_spur_m and min_component_m are not "
-                "supported incrementally; expected their defaults (False, 0, 0), got "
-                f"{config.graph.free_space_only}, {config.graph.min_spur_m}, "
+                "config.graph: free_space_only, min_clearance_m, min_spur_m and "
+                "min_component_m are not supported incrementally; expected their defaults "
+                f"(False, 0, 0, 0), got {config.graph.free_space_only}, "
+                f"{config.graph.min_clearance_m}, {config.graph.min_spur_m}, "
                 f"{config.graph.min_component_m} (prune the exported graph with "
                 "topojax.prune_graph instead)"
             )

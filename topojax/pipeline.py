@@ -509,8 +509,8 @@ class TopologyResult:
         ``GraphConfig.free_space_only``).
     graph : networkx.MultiGraph
         The topology graph (see :func:`topojax.graph.skeleton_to_graph`); it covers the
-        whole skeleton unless ``GraphConfig.min_spur_m`` / ``min_component_m`` pruned it
-        (:func:`topojax.prune_graph`).
+        whole skeleton unless ``GraphConfig``'s ``min_clearance_m``, ``min_spur_m`` or
+        ``min_component_m`` pruned it (:func:`topojax.prune_graph`).
     config : PipelineConfig
     timings_s : dict[str, float]
         Wall time of each stage in seconds.
@@ -732,8 +732,8 @@ def graph_from_ridges(
     Returns
     -------
     skeleton : bool (H, W)
-        The thinned ridges after T removal; with ``min_spur_m`` / ``min_component_m`` the
-        graph covers part of it.
+        The thinned ridges after T removal; when ``config.graph`` prunes, the graph covers
+        part of it.
     graph : networkx.MultiGraph
     timings_s : dict with ``thinning``, ``t_removal`` and ``graph`` wall times (the
         graph's includes the pruning).
@@ -766,7 +766,10 @@ def graph_from_ridges(
     )
     if config.graph.prunes:
         graph = prune_graph(
-            graph, min_spur_m=config.graph.min_spur_m, min_component_m=config.graph.min_component_m
+            graph,
+            min_clearance_m=config.graph.min_clearance_m,
+            min_spur_m=config.graph.min_spur_m,
+            min_component_m=config.graph.min_component_m,
         )
     graph.graph["origin"] = tuple(float(v) for v in origin)
     graph.graph["thinning"] = config.skeleton.thinning
