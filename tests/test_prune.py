@@ -490,7 +490,9 @@ def test_cli_graph_keeping_options(tmp_path, capsys, shared_data):
     assert pruned.graph["pruned_min_spur_m"] == 0.4
     capsys.readouterr()
     assert main([*argv, "--min-spur-m", "-1"]) == 2
-    assert "min_spur_m must be finite and >= 0, got -1.0" in capsys.readouterr().err
+    assert "min_spur_m: expected a finite number of metres >= 0, received -1.0" in (
+        capsys.readouterr().err
+    )
 
 
 def test_result_shares_no_arrays_and_keeps_agreeing_extra_attributes():

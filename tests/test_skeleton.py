@@ -191,9 +191,9 @@ def test_reused_mark_array_across_calls_sizes_and_threads() -> None:
 
     ok: list = []
     check(ok)
-    skeleton._THIN_SCRATCH.base = np.iinfo(np.int32).max - 50  # marks about to run out
+    skeleton._THIN_SCRATCH.space.base = np.iinfo(np.int32).max - 50  # marks about to run out
     check(ok)
-    assert skeleton._THIN_SCRATCH.base < 10_000  # started again from zeros
+    assert skeleton._THIN_SCRATCH.space.base < 10_000  # started again from zeros
     workers = [threading.Thread(target=check, args=(ok,)) for _ in range(3)]
     for t in workers:
         t.start()
@@ -203,10 +203,10 @@ def test_reused_mark_array_across_calls_sizes_and_threads() -> None:
     # images above the kept size get a work space of their own, not kept
     skeleton._THIN_SCRATCH_MAX_PX, keep = 1000, skeleton._THIN_SCRATCH_MAX_PX
     try:
-        kept = skeleton._THIN_SCRATCH.stamp
+        kept = skeleton._THIN_SCRATCH.space.stamp
         img = images[3]  # 202 x 172 framed pixels
         assert np.array_equal(thin(img), sk_thin(img))
-        assert skeleton._THIN_SCRATCH.stamp is kept
+        assert skeleton._THIN_SCRATCH.space.stamp is kept
     finally:
         skeleton._THIN_SCRATCH_MAX_PX = keep
 

@@ -7,6 +7,7 @@ keyword-only, so configurations read the same in code, notebooks and the CLI.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 __all__ = [
@@ -144,11 +145,17 @@ class SkeletonConfig:
             raise ValueError(f"thinning must be one of {_THINNING}, got {self.thinning!r}")
 
 
-def _nonnegative(name: str, value: float) -> None:
-    if not isinstance(value, (int, float)) or isinstance(value, bool):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
+def _nonnegative_metres(name: str, value: object) -> float:
+    """``value`` as a float after checking it is a finite number of metres >= 0 (the
+    pruning thresholds of :class:`GraphConfig` and :func:`topojax.prune_graph`)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(
+            f"{name}: expected a number of metres >= 0, received {type(value).__name__} {value!r}"
+        )
+    value = float(value)
     if not math.isfinite(value) or value < 0:
-        raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+        raise ValueError(f"{name}: expected a finite number of metres >= 0, received {value!r}")
+    return value
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -189,7 +196,7 @@ class GraphConfig:
             if type(getattr(self, name)).__name__ not in ("bool", "bool_"):  # or NumPy's
                 raise TypeError(f"{name} must be a bool, got {getattr(self, name)!r}")
         for name in ("min_clearance_m", "min_spur_m", "min_component_m"):
-            _nonnegative(name, getattr(self, name))
+            _nonnegative_metres(name, getattr(self, name))
         if self.merge_junction_clusters and (self.min_spur_m > 0 or self.min_clearance_m > 0):
             raise ValueError(
                 "min_spur_m and min_clearance_m > 0 need merge_junction_clusters=False (a "

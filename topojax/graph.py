@@ -68,6 +68,8 @@ import networkx as nx
 import numba
 import numpy as np
 
+from .config import _nonnegative_metres
+
 __all__ = ["graph_summary", "pixel_graph_degree", "prune_graph", "skeleton_to_graph"]
 
 PixelToWorld = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
@@ -805,15 +807,6 @@ def graph_summary(graph: nx.MultiGraph) -> dict[str, float | int]:
     }
 
 
-def _nonnegative(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a number of metres >= 0, received {value!r}")
-    value = float(value)
-    if not math.isfinite(value) or value < 0:
-        raise ValueError(f"{name}: expected a finite number of metres >= 0, received {value!r}")
-    return value
-
-
 def prune_graph(
     graph: nx.MultiGraph,
     *,
@@ -886,9 +879,9 @@ def prune_graph(
             f"graph: expected an undirected networkx.MultiGraph from skeleton_to_graph, "
             f"received {type(graph).__name__}"
         )
-    clearance = _nonnegative("min_clearance_m", min_clearance_m)
-    spur = _nonnegative("min_spur_m", min_spur_m)
-    component = _nonnegative("min_component_m", min_component_m)
+    clearance = _nonnegative_metres("min_clearance_m", min_clearance_m)
+    spur = _nonnegative_metres("min_spur_m", min_spur_m)
+    component = _nonnegative_metres("min_component_m", min_component_m)
     if (spur > 0 or clearance > 0) and graph.graph.get("merge_junction_clusters"):
         raise ValueError(
             "graph: min_clearance_m or min_spur_m > 0 expects a graph built with "

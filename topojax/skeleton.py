@@ -442,21 +442,26 @@ def _thin_scratch(size: int, n_list: int):
     included) and ``n_list`` list entries: ``flat`` (uint8 image buffer), ``stamp``
     (int32 marks) with its next mark ``base``, and ``lists`` (int64 (4, n))."""
     if size > _THIN_SCRATCH_MAX_PX:  # not kept: 5 bytes a pixel would stay allocated
-        scratch = SimpleNamespace(
-            stamp=np.zeros(size, np.int32), base=0, flat=np.empty(size, np.uint8)
-        )
-        scratch.lists = np.empty((4, n_list), np.int64)
-        return scratch
-    scratch = _THIN_SCRATCH
-    stamp = getattr(scratch, "stamp", None)
-    if stamp is None or stamp.size < size or scratch.base + size + 2 >= np.iinfo(np.int32).max:
+        return _new_thin_scratch(size, n_list)
+    space = getattr(_THIN_SCRATCH, "space", None)
+    if space is None or space.stamp.size < size or space.base + size + 2 >= _INT32_MAX:
         # new, larger, or its marks would run out: start again from zeros
-        scratch.stamp = np.zeros(size, np.int32)
-        scratch.base = 0
-        scratch.flat = np.empty(size, np.uint8)
-    if getattr(scratch, "lists", None) is None or scratch.lists.shape[1] < n_list:
-        scratch.lists = np.empty((4, n_list), np.int64)
-    return scratch
+        space = _THIN_SCRATCH.space = _new_thin_scratch(size, n_list)
+    elif space.lists.shape[1] < n_list:
+        space.lists = np.empty((4, n_list), np.int64)
+    return space
+
+
+def _new_thin_scratch(size: int, n_list: int) -> SimpleNamespace:
+    return SimpleNamespace(
+        stamp=np.zeros(size, np.int32),
+        base=0,
+        flat=np.empty(size, np.uint8),
+        lists=np.empty((4, n_list), np.int64),
+    )
+
+
+_INT32_MAX = int(np.iinfo(np.int32).max)
 
 
 @numba.njit(cache=True, nogil=True)
