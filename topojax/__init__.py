@@ -49,6 +49,7 @@ from .pipeline import (
     distance_map,
     ridge_map,
 )
+from .routing import NoRouteError, Route, RoutePlanner, plan_route
 from .scans import Scan, read_bag, read_carmen, read_scans
 from .skeleton import remove_t_centres, thin
 
@@ -84,9 +85,12 @@ __all__ = [
     "GraphUpdate",
     "IncrementalMapper",
     "MapRecord",
+    "NoRouteError",
     "OccupancyMap",
     "PipelineConfig",
     "RidgeConfig",
+    "Route",
+    "RoutePlanner",
     "Scan",
     "ScanReport",
     "SkeletonConfig",
@@ -98,6 +102,7 @@ __all__ = [
     "graph_summary",
     "load_graph",
     "load_map",
+    "plan_route",
     "plot",
     "prune_graph",
     "read_bag",

@@ -1,4 +1,5 @@
-"""Command line: ``topojax graph``, ``topojax demo``, ``topojax replay``, ``topojax batch``."""
+"""Command line: ``topojax graph``, ``topojax demo``, ``topojax route``, ``topojax replay``,
+``topojax batch``."""
 
 from __future__ import annotations
 
@@ -174,6 +175,32 @@ def _cmd_demo(args) -> int:
     return 0
 
 
+def _cmd_route(args) -> int:
+    from .io import load_graph
+    from .routing import NoRouteError, RoutePlanner
+
+    graph = load_graph(args.graph)
+    frame = "pixel" if args.pixel else "world"
+    try:
+        route = RoutePlanner(graph).route(
+            tuple(args.start), tuple(args.goal), frame=frame, max_snap_m=args.max_snap_m
+        )
+    except NoRouteError as exc:
+        print(f"topojax route: {exc}", file=sys.stderr)
+        return 1
+    print(
+        f"route      {route.length_m:.2f} m along the graph, {len(route.pixels)} pixels, "
+        f"{len(route.vertices)} vertices, {len(route.edges)} edges"
+    )
+    print(f"snapped    start {route.start_snap_m:.3f} m, goal {route.goal_snap_m:.3f} m away")
+    if args.out:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(route.to_geojson()))
+        print(f"wrote      {out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="topojax",
@@ -211,6 +238,34 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
     add_pipeline_options(p)
     p.set_defaults(handler=_cmd_demo)
+
+    p = sub.add_parser(
+        "route",
+        help="shortest route between two points on a saved graph",
+        description="Snap a start and a goal point to a saved topology graph (GraphML, "
+        "JSON or GeoJSON from `topojax graph`) and print the shortest route between them "
+        "along its corridors; optionally write it as a GeoJSON LineString.",
+    )
+    p.add_argument("graph", help="graph file: .graphml, .json or .geojson")
+    p.add_argument(
+        "--start", nargs=2, type=float, required=True, metavar=("X", "Y"), help="start point"
+    )
+    p.add_argument(
+        "--goal", nargs=2, type=float, required=True, metavar=("X", "Y"), help="goal point"
+    )
+    p.add_argument(
+        "--pixel",
+        action="store_true",
+        help="points are (row, col) pixels of the map instead of world (x, y) metres",
+    )
+    p.add_argument(
+        "--max-snap-m",
+        type=float,
+        metavar="M",
+        help="fail if a point is more than M metres from the graph (default: no limit)",
+    )
+    p.add_argument("-o", "--out", help="write the route here as GeoJSON")
+    p.set_defaults(handler=_cmd_route)
 
     for module in ("incremental", "batch"):
         try:

@@ -1,0 +1,360 @@
+"""Routes on topology graphs (topojax.routing).
+
+Reference: the skeleton's own pixel graph, built here independently (8-neighbour links,
+without the diagonal of an L, straight steps 1 and diagonal steps sqrt(2) pixels), with
+networkx's Dijkstra between the snapped pixels, and snapping checked against a brute-force
+nearest skeleton pixel.  A route on the contracted graph must be exactly as long as that.
+"""
+
+from __future__ import annotations
+
+import math
+
+import networkx as nx
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from skimage.morphology import skeletonize
+
+import topojax as tj
+from topojax.graph import prune_graph, skeleton_to_graph
+from topojax.routing import NoRouteError, RoutePlanner, plan_route
+
+SQRT2 = math.sqrt(2.0)
+
+
+def art(text: str) -> np.ndarray:
+    """'#' = skeleton pixel, '.' = background."""
+    rows = [line.strip() for line in text.strip().splitlines()]
+    return np.array([[ch == "#" for ch in r] for r in rows], dtype=bool)
+
+
+def pixel_graph(skeleton: np.ndarray, res: float) -> nx.Graph:
+    """The skeleton's pixel graph: 8-neighbours, a diagonal dropped where a pixel
+    4-adjacent to both of its ends is set; weights in metres."""
+    pts = {tuple(p) for p in np.argwhere(skeleton).tolist()}
+    g = nx.Graph()
+    g.add_nodes_from(pts)
+    for r, c in pts:
+        for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            q = (r + dr, c + dc)
+            if q not in pts:
+                continue
+            diagonal = dr != 0 and dc != 0
+            if diagonal and ((r + dr, c) in pts or (r, c + dc) in pts):
+                continue
+            g.add_edge((r, c), q, w=(SQRT2 if diagonal else 1.0) * res)
+    return g
+
+
+def check_route(route, query_start, query_goal, skeleton, ref: nx.Graph, res: float) -> None:
+    """The route snaps to nearest skeleton pixels, follows the pixel graph's links and is
+    as long as the pixel graph's shortest path between its ends."""
+    pts = np.argwhere(skeleton).astype(float)
+    for q, pixel, snap in (
+        (query_start, route.pixels[0], route.start_snap_m),
+        (query_goal, route.pixels[-1], route.goal_snap_m),
+    ):
+        d = np.hypot(*(pts - np.asarray(q, float)).T)
+        assert skeleton[tuple(pixel)]
+        assert math.hypot(*(pixel - np.asarray(q, float))) == pytest.approx(d.min(), abs=1e-9)
+        assert snap == pytest.approx(d.min() * res, abs=1e-9)
+    nodes = [tuple(p) for p in route.pixels.tolist()]
+    steps = 0.0
+    for a, b in zip(nodes[:-1], nodes[1:], strict=True):
+        assert ref.has_edge(a, b), (a, b)
+        steps += ref.edges[a, b]["w"]
+    want = nx.dijkstra_path_length(ref, nodes[0], nodes[-1], weight="w")
+    assert route.length_m == pytest.approx(want, rel=1e-12, abs=1e-9)
+    assert steps == pytest.approx(want, rel=1e-12, abs=1e-9)
+
+
+def random_queries(skeleton: np.ndarray, n: int, seed: int, spread: float = 4.0):
+    rng = np.random.default_rng(seed)
+    pts = np.argwhere(skeleton)
+    picks = pts[rng.integers(len(pts), size=(n, 2))]
+    return picks + rng.uniform(-spread, spread, size=picks.shape)
+
+
+# ------------------------------------------------------------------ literal fixtures
+
+U_WITH_SHORTCUT = """
+..............
+##############
+..#.........#.
+..#.........#.
+..#.........#.
+..#.........#.
+..##########..
+"""
+
+
+def test_route_takes_the_shortcut_not_the_long_edge_between_the_same_junctions():
+    skel = art(U_WITH_SHORTCUT)
+    g = skeleton_to_graph(skel, resolution_m=1.0)
+    # the goal's and the start's edge is the U; the short way leaves it at both ends
+    r = plan_route(g, (3.0, 2.0), (3.0, 12.0), frame="pixel")
+    assert r.length_m == pytest.approx(2 + 10 + 2)
+    assert len(r.vertices) == 2
+    check_route(r, (3.0, 2.0), (3.0, 12.0), skel, pixel_graph(skel, 1.0), 1.0)
+    # along the top line, the direct way along one edge
+    r = plan_route(g, (0.6, 4.0), (1.0, 9.0), frame="pixel")
+    assert r.length_m == pytest.approx(5.0) and r.vertices == ()
+    assert len(r.edges) == 1
+
+
+RING = """
+.#######.
+#.......#
+#.......#
+#.......#
+.#######.
+"""
+
+
+@pytest.mark.parametrize("start, goal", [((1, 0), (3, 8)), ((0, 2), (0, 6)), ((4, 1), (0, 1))])
+def test_ring_is_left_in_the_shorter_direction(start, goal):
+    skel = art(RING)
+    g = skeleton_to_graph(skel, resolution_m=0.1)
+    assert [d["kind"] for _, d in g.nodes(data=True)] == ["ring"]
+    for a, b in ((start, goal), (goal, start)):
+        r = plan_route(g, a, b, frame="pixel")
+        check_route(r, a, b, skel, pixel_graph(skel, 0.1), 0.1)
+        assert r.length_m <= g.edges[0, 0, 0]["length_m"] / 2 + 1e-12
+
+
+LOOP_ON_A_LINE = """
+...###...
+..#...#..
+..#...#..
+...#.#...
+....#....
+#########
+"""
+
+
+def test_routes_through_a_self_loop_at_a_junction():
+    skel = art(LOOP_ON_A_LINE)
+    g = skeleton_to_graph(skel, resolution_m=1.0)
+    assert any(u == v for u, v in g.edges())
+    ref = pixel_graph(skel, 1.0)
+    for a, b in (((0, 4), (5, 0)), ((5, 8), (1, 2)), ((0, 3), (2, 6)), ((5, 1), (5, 7))):
+        check_route(plan_route(g, a, b, frame="pixel"), a, b, skel, ref, 1.0)
+
+
+def test_disconnected_pieces_and_isolated_pixels():
+    skel = art(
+        """
+        #####....
+        .........
+        ....#....
+        .........
+        ..#######
+        """
+    )
+    g = skeleton_to_graph(skel, resolution_m=0.5)
+    with pytest.raises(NoRouteError, match="different components") as info:
+        plan_route(g, (0, 1), (4, 7), frame="pixel")
+    assert isinstance(info.value, nx.NetworkXNoPath)
+    with pytest.raises(NoRouteError):
+        plan_route(g, (2, 4), (4, 7), frame="pixel")  # from the isolated pixel
+    r = plan_route(g, (2.2, 4.1), (1.9, 3.8), frame="pixel")  # both snap to it
+    assert r.length_m == 0.0 and r.pixels.tolist() == [[2, 4]] and r.edges == ()
+    r = plan_route(g, (0, 2.2), (0, 2.4), frame="pixel")  # one pixel of an edge
+    assert r.length_m == 0.0 and r.pixels.tolist() == [[0, 2]]
+
+
+def test_world_frame_equals_pixel_frame_through_the_map_transform():
+    skel = np.pad(art(U_WITH_SHORTCUT), 3)
+    m = tj.OccupancyMap.from_array(~skel, resolution_m=0.25, origin=(1.0, -2.0, 0.3))
+    g = skeleton_to_graph(skel, resolution_m=0.25, pixel_to_world=m.pixel_to_world)
+    planner = RoutePlanner(g)
+    for a, b in (((6.2, 5.1), (6.4, 15.3)), ((4.0, 3.0), (9.0, 12.0))):
+        rp = planner.route(a, b, frame="pixel")
+        wa, wb = (np.array(m.pixel_to_world(*p), float) for p in (a, b))
+        rw = planner.route(wa, wb)  # world frame is the default
+        np.testing.assert_array_equal(rw.pixels, rp.pixels)
+        assert rw.length_m == rp.length_m
+        assert rw.start_snap_m == pytest.approx(rp.start_snap_m)
+        x, y = m.pixel_to_world(rw.pixels[:, 0], rw.pixels[:, 1])
+        np.testing.assert_allclose(rw.world, np.stack([x, y], axis=1))
+
+
+# ------------------------------------------------------------------ real maps
+
+
+@pytest.mark.parametrize("name", ["intel", "office", "a_scan"])
+def test_routes_on_the_paper_maps_equal_the_pixel_graph(name):
+    res = tj.build_graph(tj.sample_map(name), config=tj.PipelineConfig())
+    skel, g = res.skeleton, res.graph
+    ref = pixel_graph(skel, g.graph["resolution_m"])
+    planner = RoutePlanner(g)
+    found = missing = 0
+    for a, b in random_queries(skel, 60, seed=len(name)):
+        try:
+            route = planner.route(a, b, frame="pixel")
+        except NoRouteError:
+            missing += 1
+            # the reference agrees that the snapped pixels are not connected
+            pts = np.argwhere(skel)
+            sa = tuple(pts[np.argmin(np.hypot(*(pts - a).T))])
+            sb = tuple(pts[np.argmin(np.hypot(*(pts - b).T))])
+            assert not nx.has_path(ref, sa, sb)
+            continue
+        found += 1
+        check_route(route, a, b, skel, ref, g.graph["resolution_m"])
+        assert route.vertices == tuple(v for v in route.vertices if v in g)
+        for u, v, k in route.edges:
+            assert g.has_edge(u, v, k)
+    assert found > 20
+
+
+def test_pruned_and_reloaded_graphs_route_the_same(tmp_path):
+    res = tj.build_graph(tj.sample_map("intel"))
+    g = prune_graph(res.graph, min_spur_m=0.5, min_component_m=2.0)
+    planner = RoutePlanner(g)
+    queries = [((10.0, 20.0), (30.0, 15.0)), ((5.0, 5.0), (33.0, 30.0)), ((20, 4), (12, 30))]
+    routes = []
+    for a, b in queries:
+        try:
+            routes.append(planner.route(a, b))
+        except NoRouteError:
+            routes.append(None)
+    assert any(r is not None for r in routes)
+    for ext in ("json", "graphml", "geojson"):
+        path = tmp_path / f"g.{ext}"
+        tj.save_graph(g, path)
+        loaded = RoutePlanner(tj.load_graph(path))
+        for (a, b), want in zip(queries, routes, strict=True):
+            if want is None:
+                with pytest.raises(NoRouteError):
+                    loaded.route(a, b)
+                continue
+            got = loaded.route(a, b)
+            np.testing.assert_array_equal(got.pixels, want.pixels)
+            np.testing.assert_allclose(got.world, want.world)
+            assert got.length_m == pytest.approx(want.length_m, rel=1e-12)
+
+
+def test_merged_junction_clusters_route_through_the_cluster():
+    res = tj.build_graph(
+        tj.sample_map("a_scan"),
+        config=tj.PipelineConfig(graph=tj.GraphConfig(merge_junction_clusters=True)),
+    )
+    g = res.graph
+    planner = RoutePlanner(g)
+    n = 0
+    for a, b in random_queries(res.skeleton, 40, seed=3):
+        try:
+            r = planner.route(a, b, frame="pixel")
+        except NoRouteError:
+            continue
+        n += 1
+        # every jump in the pixel path is inside one vertex's cluster
+        steps = np.abs(np.diff(r.pixels.astype(int), axis=0)).max(axis=1)
+        for i in np.flatnonzero(steps > 1):
+            owners = [
+                v
+                for v in r.vertices
+                if {tuple(r.pixels[i]), tuple(r.pixels[i + 1])}
+                <= {tuple(p) for p in np.asarray(g.nodes[v]["pixels"]).tolist()}
+            ]
+            assert owners
+        assert r.length_m >= 0
+    assert n > 10
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_routes_on_random_skeletons_equal_the_pixel_graph(seed):
+    rng = np.random.default_rng(seed)
+    skel = skeletonize(rng.random((24, 30)) < 0.55)
+    if not skel.any():
+        return
+    g = skeleton_to_graph(skel, resolution_m=0.5)
+    ref = pixel_graph(skel, 0.5)
+    planner = RoutePlanner(g)
+    for a, b in random_queries(skel, 8, seed=seed, spread=2.0):
+        try:
+            route = planner.route(a, b, frame="pixel")
+        except NoRouteError:
+            pts = np.argwhere(skel)
+            sa = tuple(pts[np.argmin(np.hypot(*(pts - a).T))])
+            sb = tuple(pts[np.argmin(np.hypot(*(pts - b).T))])
+            assert not nx.has_path(ref, sa, sb)
+            continue
+        check_route(route, a, b, skel, ref, 0.5)
+
+
+# ------------------------------------------------------------------ bad input
+
+
+def test_bad_input_gets_clear_errors():
+    g = skeleton_to_graph(art(U_WITH_SHORTCUT), resolution_m=1.0)
+    planner = RoutePlanner(g)
+    with pytest.raises(ValueError, match=r"frame: expected one of .*'grid'"):
+        planner.route((1, 1), (2, 2), frame="grid")
+    with pytest.raises(ValueError, match=r"start: expected two finite numbers \(x, y\)"):
+        planner.route((1.0, float("nan")), (2, 2))
+    with pytest.raises(ValueError, match=r"goal: expected two finite numbers \(row, col\)"):
+        planner.route((1, 1), (1, 2, 3), frame="pixel")
+    with pytest.raises(ValueError, match="start: expected"):
+        planner.route("here", (1, 2))
+    with pytest.raises(ValueError, match=r"goal: the nearest point of the graph is 3\.000 m"):
+        planner.route((1, 4), (9, 7), frame="pixel", max_snap_m=2.5)
+    with pytest.raises(ValueError, match="max_snap_m: expected a finite number"):
+        planner.route((1, 4), (2, 7), frame="pixel", max_snap_m=-1.0)
+    with pytest.raises(TypeError, match="max_snap_m"):
+        planner.route((1, 4), (2, 7), frame="pixel", max_snap_m="1")
+    with pytest.raises(TypeError, match="graph: expected a networkx graph, received dict"):
+        RoutePlanner({})
+    with pytest.raises(ValueError, match="no vertices or edges"):
+        plan_route(nx.MultiGraph(), (0, 0), (1, 1))
+    bare = nx.MultiGraph()
+    bare.add_edge(0, 1, length_m=1.0)
+    with pytest.raises(ValueError, match=r"edge \(0, 1, 0\) has no 'path' attribute"):
+        RoutePlanner(bare)
+    wrong = g.copy()
+    u, v, k = next(iter(wrong.edges(keys=True)))
+    wrong.edges[u, v, k]["path"] = wrong.edges[u, v, k]["path"][1:]
+    wrong.edges[u, v, k]["world"] = wrong.edges[u, v, k]["world"][1:]
+    with pytest.raises(ValueError, match="not the pixels of its vertices"):
+        RoutePlanner(wrong)
+    # the planner read the graph without changing it
+    fresh = skeleton_to_graph(art(U_WITH_SHORTCUT), resolution_m=1.0)
+    assert list(g.edges(keys=True)) == list(fresh.edges(keys=True))
+    for u, v, k, d in g.edges(keys=True, data=True):
+        np.testing.assert_array_equal(d["path"], fresh.edges[u, v, k]["path"])
+
+
+# ------------------------------------------------------------------ command line
+
+
+def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
+    import json
+
+    from topojax.cli import main
+
+    g = prune_graph(tj.build_graph(tj.sample_map("intel")).graph, min_spur_m=0.5)
+    graph_file = tj.save_graph(g, tmp_path / "intel.json")
+    out = tmp_path / "r" / "route.geojson"
+    argv = ["route", str(graph_file), "--start", "5", "30", "--goal", "33", "5"]
+    assert main([*argv, "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    want = plan_route(tj.load_graph(graph_file), (5.0, 30.0), (33.0, 5.0))
+    assert f"{want.length_m:.2f} m along the graph" in printed
+    feature = json.loads(out.read_text())
+    assert feature["geometry"]["type"] == "LineString"
+    np.testing.assert_allclose(feature["geometry"]["coordinates"], want.world)
+    assert feature["properties"]["length_m"] == want.length_m
+    assert feature["properties"]["vertices"] == list(want.vertices)
+    # too far from the graph: a clear error and exit status 2
+    assert main([*argv, "--max-snap-m", "0.01"]) == 2
+    assert "start: the nearest point of the graph is" in capsys.readouterr().err
+    # pixel frame, and no route between two components: exit status 1
+    skel = art("###....###")
+    two = tj.save_graph(skeleton_to_graph(skel, resolution_m=1.0), tmp_path / "two.graphml")
+    argv = ["route", str(two), "--pixel", "--start", "0", "0", "--goal", "0", "9"]
+    assert main(argv) == 1
+    assert "different components" in capsys.readouterr().err

@@ -1,0 +1,504 @@
+"""Routes on a topology graph: from a start point to a goal point along the corridors.
+
+A route graph is only useful once a robot can ask it for a way from where it is to where
+it should go.  The query points rarely lie on the graph, so each is *snapped* to the
+nearest pixel of the graph's corridors (an edge path pixel, or a vertex without edges);
+the route then runs along the partial edge from the snapped start to one of that edge's
+ends, through the graph (shortest by ``length_m``), and along the goal's edge to the
+snapped goal.  A start and goal on the same edge also try the direct way along it; a
+ring is left in whichever direction is shorter.
+
+The route is returned with its skeleton pixels in order, their world coordinates, its
+length and the vertices and edges it passes, so it can be followed as a polyline or
+handed to a local planner.  Lengths add up the same straight and diagonal pixel steps as
+the graph's ``length_m``: a route on the pixel skeleton is exactly as long as the
+shortest path between the two snapped pixels in the skeleton's pixel graph (tested).
+
+Works on graphs from :func:`topojax.build_graph`, :func:`topojax.skeleton_to_graph`,
+:func:`topojax.prune_graph`, the incremental mapper's export and graphs read back with
+:func:`topojax.load_graph`: every edge needs its ``path`` (pixels, ``[row, col]``) and
+``world`` (``x, y`` in metres) arrays, and ``length_m``.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+import numbers
+from dataclasses import dataclass
+
+import networkx as nx
+import numpy as np
+
+from .config import _nonnegative_metres
+
+__all__ = ["NoRouteError", "Route", "RoutePlanner", "plan_route"]
+
+_FRAMES = ("world", "pixel")
+
+
+class NoRouteError(nx.NetworkXNoPath):
+    """The start and goal snap to parts of the graph that no corridor connects."""
+
+
+@dataclass(frozen=True)
+class Route:
+    """A route along a topology graph.
+
+    Attributes
+    ----------
+    length_m : float
+        Length along the graph from the snapped start to the snapped goal, metres.
+    pixels : int32 array, shape (n, 2)
+        The skeleton pixels of the route in order, ``[row, col]``; ``pixels[0]`` is the
+        snapped start, ``pixels[-1]`` the snapped goal.  Consecutive pixels are
+        8-neighbours, except inside a junction cluster merged into one vertex
+        (``merge_junction_clusters=True``), where the route goes from the pixel one
+        edge ends at to the pixel the next starts at.
+    world : float64 array, shape (n, 2)
+        ``x, y`` of those pixels in metres.
+    vertices : tuple of int
+        Graph vertices the route passes through, in order (empty when it stays on one
+        edge).
+    edges : tuple of (u, v, key)
+        Graph edges the route runs along, in order, the first and last possibly in part.
+    start_snap_m, goal_snap_m : float
+        Distance from the start (goal) query point to ``pixels[0]`` (``pixels[-1]``),
+        metres.
+    """
+
+    length_m: float
+    pixels: np.ndarray
+    world: np.ndarray
+    vertices: tuple
+    edges: tuple
+    start_snap_m: float
+    goal_snap_m: float
+
+    def to_geojson(self) -> dict:
+        """The route as a GeoJSON ``Feature``: a ``LineString`` of its world coordinates
+        (``x, y`` in metres, the map's frame, as :func:`topojax.save_graph` writes
+        graphs) with ``length_m``, the snap distances and the vertices as properties."""
+        return {
+            "type": "Feature",
+            "geometry": {"type": "LineString", "coordinates": self.world.tolist()},
+            "properties": {
+                "length_m": self.length_m,
+                "start_snap_m": self.start_snap_m,
+                "goal_snap_m": self.goal_snap_m,
+                "vertices": [_plain(v) for v in self.vertices],
+            },
+        }
+
+
+@dataclass(frozen=True)
+class _Snap:
+    edge: int  # index into the planner's edges, or -1 for a vertex without edges
+    index: int  # position on the edge's path (or 0)
+    vertex: int  # the vertex (node id) for edge == -1
+    distance_m: float
+
+
+class RoutePlanner:
+    """Shortest routes between points on one topology graph.
+
+    Builds the lookup structures once (a k-d tree of the corridor pixels per frame, the
+    edges' cumulative lengths, the vertex adjacency); each :meth:`route` then costs a
+    nearest-neighbour query per point and a Dijkstra search that stops as soon as the
+    goal's edge is settled.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        Topology graph (see the module docstring for what its edges must carry).  It is
+        read, not modified; build a new planner after changing it.
+
+    Raises
+    ------
+    TypeError
+        ``graph`` is not a networkx graph.
+    ValueError
+        An edge lacks ``path``, ``world`` or ``length_m``, or its path does not start and
+        end at its vertices.
+    """
+
+    def __init__(self, graph: nx.Graph) -> None:
+        if not isinstance(graph, nx.Graph):
+            raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
+        self._graph = graph
+        res = graph.graph.get("resolution_m")
+        self._res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
+        self._nodes = list(graph.nodes)
+        # Per edge: node ids at the start and end of its path, key, path, world, the
+        # cumulative length along the path from its start, and its length.
+        self._u: list = []
+        self._v: list = []
+        self._key: list = []
+        self._path: list[np.ndarray] = []
+        self._world: list[np.ndarray] = []
+        self._len: list[float] = []
+        for a, b, key, data in graph.edges(keys=True, data=True):
+            path, world, length = self._edge_arrays(a, b, key, data)
+            a, b = self._oriented(a, b, key, path)
+            self._u.append(a)
+            self._v.append(b)
+            self._key.append(key)
+            self._path.append(path)
+            self._world.append(world)
+            self._len.append(length)
+        self._cum = self._cumulative()
+        # Adjacency by node: neighbour -> (length, edge index), the shortest of parallel
+        # edges (self-loops never shorten a route between two vertices).
+        self._adj: dict = {n: {} for n in self._nodes}
+        for i, (a, b) in enumerate(zip(self._u, self._v, strict=True)):
+            if a == b:
+                continue
+            for x, y in ((a, b), (b, a)):
+                best = self._adj[x].get(y)
+                if best is None or self._len[i] < best[0]:
+                    self._adj[x][y] = (self._len[i], i)
+        # Vertices without edges can still be snapped to (a route of length 0 to itself).
+        self._lonely = [(i, n) for i, n in enumerate(self._nodes) if graph.degree(n) == 0]
+        self._trees: dict = {}
+
+    # ------------------------------------------------------------------ public
+    def route(self, start, goal, *, frame: str = "world", max_snap_m: float | None = None) -> Route:
+        """The shortest route from ``start`` to ``goal`` along the graph.
+
+        Parameters
+        ----------
+        start, goal : pair of float
+            Query points: ``(x, y)`` in metres with ``frame="world"`` (the map's world
+            frame, as the graph's ``world`` attributes), ``(row, col)`` in pixels with
+            ``frame="pixel"``.
+        frame : {"world", "pixel"}
+        max_snap_m : float, optional
+            Largest allowed distance from a query point to the graph, metres; a point
+            farther away raises ``ValueError`` (e.g. a goal in a room the graph does not
+            reach).  Default: no limit.
+
+        Returns
+        -------
+        Route
+
+        Raises
+        ------
+        NoRouteError
+            The snapped start and goal lie in different components of the graph (a
+            subclass of :class:`networkx.NetworkXNoPath`).
+        ValueError
+            Bad ``start``, ``goal``, ``frame`` or ``max_snap_m`` (``TypeError`` for a
+            ``max_snap_m`` that is not a number); a point beyond ``max_snap_m``; a graph
+            without vertices.
+        """
+        if frame not in _FRAMES:
+            raise ValueError(f"frame: expected one of {_FRAMES}, received {frame!r}")
+        if max_snap_m is not None:
+            max_snap_m = _nonnegative_metres("max_snap_m", max_snap_m)
+        s = self._snap(start, frame, "start")
+        g = self._snap(goal, frame, "goal")
+        for name, snap in (("start", s), ("goal", g)):
+            if max_snap_m is not None and snap.distance_m > max_snap_m:
+                raise ValueError(
+                    f"{name}: the nearest point of the graph is {snap.distance_m:.3f} m away, "
+                    f"more than max_snap_m={max_snap_m}"
+                )
+        return self._route(s, g)
+
+    # ------------------------------------------------------------------ internals
+    def _snap(self, point, frame: str, name: str) -> _Snap:
+        """The graph pixel nearest to ``point`` (see :meth:`route` for the frames)."""
+        q = _point(point, name, frame)
+        tree, owners = self._tree(frame)
+        dist, k = tree.query(q)
+        edge, index, vertex = (int(x) for x in owners[k])
+        scale = 1.0 if frame == "world" else self._pixel_size_m()
+        return _Snap(edge, index, self._nodes[vertex] if edge < 0 else None, float(dist) * scale)
+
+    def _edge_arrays(self, a, b, key, data):
+        where = f"edge ({a!r}, {b!r}, {key!r})"
+        try:
+            path = np.asarray(data["path"])
+            world = np.asarray(data["world"], dtype=np.float64)
+            length = float(data["length_m"])
+        except KeyError as exc:
+            raise ValueError(
+                f"graph: {where} has no {exc.args[0]!r} attribute; routes need the edges' "
+                "'path', 'world' and 'length_m' (as skeleton_to_graph writes them)"
+            ) from None
+        if (
+            path.ndim != 2
+            or path.shape[1] != 2
+            or len(path) < 1
+            or world.shape != path.shape
+            or not np.issubdtype(path.dtype, np.integer)
+        ):
+            raise ValueError(
+                f"graph: {where}: expected an integer 'path' of shape (n, 2) and a 'world' of "
+                f"the same shape, received {path.dtype} {path.shape} and {world.shape}"
+            )
+        if not (math.isfinite(length) and length >= 0) or not np.isfinite(world).all():
+            raise ValueError(f"graph: {where}: 'length_m' and 'world' must be finite")
+        return path.astype(np.int64), world, length
+
+    def _oriented(self, a, b, key, path):
+        """``(a, b)`` such that ``path`` runs from vertex ``a`` to vertex ``b``."""
+        first, last = path[0], path[-1]
+        if self._holds(a, first) and self._holds(b, last):
+            return a, b
+        if self._holds(b, first) and self._holds(a, last):
+            return b, a
+        raise ValueError(
+            f"graph: the path of edge ({a!r}, {b!r}, {key!r}) runs from {tuple(first)} to "
+            f"{tuple(last)}, which are not the pixels of its vertices"
+        )
+
+    def _holds(self, node, pixel) -> bool:
+        data = self._graph.nodes[node]
+        own = data.get("pixel")
+        if own is not None and int(own[0]) == pixel[0] and int(own[1]) == pixel[1]:
+            return True
+        members = data.get("pixels")  # the pixels of a merged junction cluster
+        if members is not None and len(members):
+            members = np.asarray(members).reshape(-1, 2)
+            return bool(np.any((members[:, 0] == pixel[0]) & (members[:, 1] == pixel[1])))
+        return False
+
+    def _cumulative(self) -> list[np.ndarray]:
+        """Per edge, the length along its path from its start to each pixel, metres,
+        counting straight and diagonal steps as ``length_m`` does (one pass over all
+        paths); the last entry is the edge's own ``length_m``."""
+        if not self._path:
+            return []
+        sizes = np.array([len(p) for p in self._path])
+        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        pixels = np.concatenate(self._path)
+        step = np.abs(np.diff(pixels, axis=0))
+        diag = (step[:, 0] != 0) & (step[:, 1] != 0)
+        # Steps between the last pixel of one path and the first of the next are not
+        # counted: each pixel subtracts the running counts at its own path's start.
+        n_diag = np.concatenate([[0], np.cumsum(diag)])
+        first = np.repeat(starts, sizes)
+        steps = np.arange(len(pixels)) - first
+        diagonal = n_diag - n_diag[first]
+        res = self._res if self._res is not None else self._pixel_size_m()
+        cum = ((steps - diagonal) + diagonal * math.sqrt(2.0)) * res
+        cum[starts + sizes - 1] = self._len
+        return np.split(cum, starts[1:])
+
+    def _pixel_size_m(self) -> float:
+        if self._res is not None:
+            return self._res
+        for path, world in zip(self._path, self._world, strict=True):
+            if len(path) > 1:
+                return _step_size(path, world)
+        raise ValueError(
+            "graph: frame='pixel' needs the graph attribute 'resolution_m' (metres per "
+            "pixel) to report distances in metres, and this graph has none"
+        )
+
+    def _tree(self, frame: str):
+        if frame not in self._trees:
+            from scipy.spatial import cKDTree
+
+            points = list(self._world if frame == "world" else self._path)
+            sizes = np.array([len(p) for p in points], np.int64)
+            starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+            edge = np.repeat(np.arange(len(points)), sizes)
+            owners = [np.stack([edge, np.arange(len(edge)) - starts[edge], -np.ones_like(edge)], 1)]
+            for i, n in self._lonely:
+                data = self._graph.nodes[n]
+                where = data.get("world") if frame == "world" else data.get("pixel")
+                if where is None:
+                    raise ValueError(
+                        f"graph: vertex {n!r} has no {'world' if frame == 'world' else 'pixel'} "
+                        "attribute"
+                    )
+                points.append(np.asarray(where, np.float64).reshape(1, 2))
+                owners.append(np.array([[-1, 0, i]]))
+            if not points:
+                raise ValueError("graph: it has no vertices or edges to route on")
+            xy = np.concatenate([np.asarray(p, np.float64) for p in points])
+            self._trees[frame] = (cKDTree(xy), np.concatenate(owners).astype(np.int64))
+        return self._trees[frame]
+
+    def _ends(self, snap: _Snap) -> dict:
+        """Graph vertices a route can leave the snapped point through, with the length
+        along the snapped edge to each."""
+        if snap.edge < 0:
+            return {snap.vertex: 0.0}
+        e = snap.edge
+        to_start = float(self._cum[e][snap.index])
+        to_end = self._len[e] - to_start
+        ends = {self._u[e]: to_start}
+        ends[self._v[e]] = min(ends.get(self._v[e], math.inf), to_end)
+        return ends
+
+    def _route(self, s: _Snap, g: _Snap) -> Route:
+        best = math.inf
+        plan = None
+        # The direct way along one edge.
+        if s.edge >= 0 and s.edge == g.edge:
+            best = abs(float(self._cum[s.edge][g.index]) - float(self._cum[s.edge][s.index]))
+            plan = ("direct",)
+        elif s.edge < 0 and g.edge < 0 and s.vertex == g.vertex:
+            best, plan = 0.0, ("vertex",)
+        # Through the graph: Dijkstra from the start's edge ends (with their offsets),
+        # until no unsettled vertex can beat the best route found.  Heap entries carry
+        # how they were reached, so each settled vertex knows its predecessor.
+        sources, targets = self._ends(s), self._ends(g)
+        parent: dict = {}
+        heap = [(d, i, n, None, -1) for i, (n, d) in enumerate(sources.items())]
+        heapq.heapify(heap)
+        tie = len(heap)
+        reached = None
+        while heap:
+            d, _, n, via, e = heapq.heappop(heap)
+            if n in parent:
+                continue
+            if d >= best:
+                break
+            parent[n] = (via, e)
+            if n in targets and d + targets[n] < best:
+                best = d + targets[n]
+                reached = n
+                plan = ("graph",)
+            for m, (w, e2) in self._adj[n].items():
+                if m not in parent and d + w < best:
+                    tie += 1
+                    heapq.heappush(heap, (d + w, tie, m, n, e2))
+        if plan is None:
+            raise NoRouteError(
+                f"no route from the start (snapped to {self._where(s)}) to the goal (snapped to "
+                f"{self._where(g)}): they lie in different components of the graph"
+            )
+        if plan[0] == "vertex":
+            return self._assemble([], [], best, s, g)
+        if plan[0] == "direct":
+            return self._assemble([(s.edge, s.index, g.index)], [], best, s, g)
+        chain, hops = [reached], []
+        while parent[chain[-1]][0] is not None:
+            via, e = parent[chain[-1]]
+            hops.append(e)
+            chain.append(via)
+        chain.reverse()
+        hops.reverse()
+        pieces = []
+        if s.edge >= 0:
+            pieces.append(self._partial(s.edge, s.index, chain[0], sources[chain[0]]))
+        for a, e in zip(chain[:-1], hops, strict=True):
+            pieces.append((e, 0, -1) if self._u[e] == a else (e, -1, 0))
+        if g.edge >= 0:
+            e, index, end_ = self._partial(g.edge, g.index, chain[-1], targets[chain[-1]])
+            pieces.append((e, end_, index))  # from the vertex to the goal
+        return self._assemble(pieces, chain, best, s, g)
+
+    def _partial(self, e: int, index: int, vertex, along: float):
+        """The piece of edge ``e`` from position ``index`` to its end at ``vertex`` (the
+        end ``along`` metres away: the nearer one when both ends are that vertex)."""
+        n = len(self._path[e])
+        to_start = float(self._cum[e][index])
+        if self._u[e] == vertex and (self._v[e] != vertex or to_start == along):
+            return (e, index, 0)
+        return (e, index, n - 1)
+
+    def _assemble(self, pieces, vertices, length, s: _Snap, g: _Snap) -> Route:
+        rows: list[np.ndarray] = []
+        xys: list[np.ndarray] = []
+        edges: list[tuple] = []
+        last = None
+        for e, i, j in pieces:
+            n = len(self._path[e])
+            i, j = i % n, j % n
+            step = 1 if j >= i else -1
+            sl = slice(i, j + step if j + step >= 0 else None, step)
+            p, w = self._path[e][sl], self._world[e][sl]
+            if last is not None and last[0] == p[0, 0] and last[1] == p[0, 1]:
+                p, w = p[1:], w[1:]  # the shared vertex pixel once
+            if len(p):
+                last = p[-1]
+            rows.append(p)
+            xys.append(w)
+            if i != j:  # the piece runs along the edge (not only its end pixel)
+                edges.append((self._u[e], self._v[e], self._key[e]))
+        if not rows:  # start and goal on the same vertex without edges
+            data = self._graph.nodes[s.vertex]
+            pixel = np.asarray(data.get("pixel", (0, 0)), np.int64).reshape(1, 2)
+            world = np.asarray(data.get("world", (np.nan, np.nan)), np.float64).reshape(1, 2)
+            rows, xys = [pixel], [world]
+        pixels = np.concatenate(rows).astype(np.int32)
+        world = np.concatenate(xys).astype(np.float64)
+        return Route(
+            length_m=float(length),
+            pixels=pixels,
+            world=world,
+            vertices=tuple(vertices),
+            edges=tuple(edges),
+            start_snap_m=s.distance_m,
+            goal_snap_m=g.distance_m,
+        )
+
+    def _where(self, snap: _Snap) -> str:
+        if snap.edge < 0:
+            return f"vertex {snap.vertex!r}"
+        e = snap.edge
+        return f"pixel {tuple(int(x) for x in self._path[e][snap.index])} of edge " + repr(
+            (self._u[e], self._v[e], self._key[e])
+        )
+
+
+def plan_route(
+    graph: nx.Graph, start, goal, *, frame: str = "world", max_snap_m: float | None = None
+) -> Route:
+    """The shortest route from ``start`` to ``goal`` along a topology graph.
+
+    One-off form of ``RoutePlanner(graph).route(start, goal, ...)``; build a
+    :class:`RoutePlanner` to ask one graph for many routes.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        Topology graph (e.g. ``build_graph(m).graph``, pruned or not).
+    start, goal : pair of float
+        ``(x, y)`` in metres (``frame="world"``) or ``(row, col)`` in pixels
+        (``frame="pixel"``).
+    frame : {"world", "pixel"}
+    max_snap_m : float, optional
+        Largest allowed distance from a query point to the graph, metres.
+
+    Returns
+    -------
+    Route
+
+    Examples
+    --------
+    >>> import topojax as tj
+    >>> g = tj.build_graph(tj.sample_map("intel")).graph
+    >>> r = tj.plan_route(g, (10.0, 20.0), (30.0, 15.0))
+    >>> r.length_m > 0, r.world.shape[1]
+    (True, 2)
+    """
+    return RoutePlanner(graph).route(start, goal, frame=frame, max_snap_m=max_snap_m)
+
+
+def _point(point, name: str, frame: str) -> np.ndarray:
+    what = "(x, y) in metres" if frame == "world" else "(row, col) in pixels"
+    try:
+        q = np.asarray(point, dtype=np.float64)
+    except (TypeError, ValueError):
+        q = None
+    if q is None or q.shape != (2,) or not np.isfinite(q).all():
+        raise ValueError(f"{name}: expected two finite numbers {what}, received {point!r}")
+    return q
+
+
+def _plain(value):
+    """A vertex id as a JSON value (numpy integers become ints)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _step_size(path: np.ndarray, world: np.ndarray) -> float:
+    """Metres per pixel from the first step of a path and its world polyline."""
+    d_px = math.hypot(*(np.asarray(path[1], float) - path[0]))
+    d_m = math.hypot(*(world[1] - world[0]))
+    return d_m / d_px
