@@ -1,0 +1,200 @@
+"""Benchmark: route queries on topology graphs (``tj.RoutePlanner``, ``tj.plan_route``).
+
+For each map, on its full graph (the paper's) and on a route graph pruned of spurs under
+0.5 m and pieces under 2 m (``tj.prune_graph``):
+
+* **build**: ``RoutePlanner(graph)`` plus its k-d tree (the first query's extra cost),
+  warm median over ``--repeats`` builds;
+* **query**: one ``planner.route(start, goal)`` between two random points near the
+  graph's corridors (up to 1 m off), warm median and 90th percentile over ``--queries``
+  pairs, with the share of pairs that have a route (the others raise ``NoRouteError``,
+  timed too);
+* **cold**: in a fresh process, ``import topojax``, read the graph from JSON, build the
+  planner and answer one query (SciPy's k-d tree module is imported on first use).
+
+Run from the repository root::
+
+    python bench/bench_routing.py                 # paper maps + the larger maps
+    python bench/bench_routing.py --quick         # paper maps only
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # for `common`, however this is run
+
+from common import (  # noqa: E402
+    REPO_ROOT,
+    RESULTS_DIR,
+    machine_info,
+    machine_slug,
+    markdown_table,
+    median,
+    ms,
+    run_cold_worker,
+    use_checkout,
+    write_json,
+)
+
+DEFAULT_DATA = REPO_ROOT.parent / "shared" / "data"
+PAPER_MAPS = {
+    "intel": "maps/paper/intel.png",
+    "office": "maps/paper/office.png",
+    "a_scan": "maps/paper/a_scan.png",
+}
+LARGE_MAPS = {
+    "edmonton_0.06": "maps/slam_pgm/edmonton_0.06.pgm",
+    "pal_office_7th_floor": "maps/ros/pal_office_7th_floor/map.yaml",
+    "warehouse": "maps/simulated/nav2/warehouse.yaml",
+}
+
+
+def query_pairs(graph, n: int, seed: int) -> np.ndarray:
+    """``n`` (start, goal) world points: random corridor pixels moved up to 1 m."""
+    rng = np.random.default_rng(seed)
+    xy = np.concatenate([d["world"] for _, _, d in graph.edges(data=True)])
+    picks = xy[rng.integers(len(xy), size=(n, 2))]
+    return picks + rng.uniform(-1.0, 1.0, size=picks.shape)
+
+
+def bench_graph(graph, *, repeats: int, queries: int) -> dict:
+    import topojax as tj
+
+    builds = []
+    for _ in range(repeats + 1):
+        t0 = time.perf_counter()
+        planner = tj.RoutePlanner(graph)
+        planner._tree("world")  # the k-d tree the first query builds
+        builds.append(time.perf_counter() - t0)
+    routed, missing = [], []
+    for start, goal in query_pairs(graph, queries + 1, seed=graph.number_of_edges()):
+        t0 = time.perf_counter()
+        try:
+            planner.route(start, goal)
+            routed.append(time.perf_counter() - t0)
+        except tj.NoRouteError:
+            missing.append(time.perf_counter() - t0)
+    times = (routed + missing)[1:]  # the first query warms Python's caches
+    return {
+        "vertices": graph.number_of_nodes(),
+        "edges": graph.number_of_edges(),
+        "corridor_px": int(sum(len(d["path"]) for _, _, d in graph.edges(data=True))),
+        "build_ms": ms(median(builds[1:])),
+        "query_median_ms": ms(median(times)),
+        "query_p90_ms": ms(float(np.percentile(times, 90))),
+        "routed_share": round(len(routed) / (len(routed) + len(missing)), 3),
+    }
+
+
+def cold_worker(graph_file: str) -> None:
+    t0 = time.perf_counter()
+    import topojax as tj
+
+    t1 = time.perf_counter()
+    graph = tj.load_graph(graph_file)
+    t2 = time.perf_counter()
+    planner = tj.RoutePlanner(graph)
+    start, goal = query_pairs(graph, 1, seed=0)[0]
+    try:
+        planner.route(start, goal)
+    except tj.NoRouteError:
+        pass
+    t3 = time.perf_counter()
+    print(json.dumps({"import_ms": ms(t1 - t0), "load_ms": ms(t2 - t1), "first_ms": ms(t3 - t2)}))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="paper maps only")
+    parser.add_argument("--repeats", type=int, default=9, help="planner builds per graph")
+    parser.add_argument("--queries", type=int, default=200, help="route queries per graph")
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="shared data folder")
+    parser.add_argument("--out", type=Path, help="JSON path (default bench/results/...)")
+    parser.add_argument("--markdown", type=Path, help="also write the markdown report here")
+    parser.add_argument("--cold-worker", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.cold_worker:
+        cold_worker(args.cold_worker)
+        return 0
+    if args.repeats < 1 or args.queries < 1:
+        parser.error(f"--repeats and --queries must be >= 1, got {args.repeats}, {args.queries}")
+    use_checkout()
+    import topojax as tj
+
+    maps = dict(PAPER_MAPS) if args.quick else {**PAPER_MAPS, **LARGE_MAPS}
+    entries = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, rel in maps.items():
+            full = tj.build_graph(tj.load_map(args.data / rel)).graph
+            pruned = tj.prune_graph(full, min_spur_m=0.5, min_component_m=2.0)
+            entry = {}
+            for label, graph in (("full", full), ("pruned", pruned)):
+                entry[label] = bench_graph(graph, repeats=args.repeats, queries=args.queries)
+                path = tj.save_graph(graph, Path(tmp) / f"{name}_{label}.json")
+                script = Path(__file__).resolve()
+                entry[label]["cold"] = run_cold_worker(script, ["--cold-worker", str(path)])
+                print(name, label, entry[label], flush=True)
+            entries[name] = entry
+    rows = [
+        [
+            name,
+            label,
+            e[label]["vertices"],
+            e[label]["edges"],
+            e[label]["build_ms"],
+            e[label]["query_median_ms"],
+            e[label]["query_p90_ms"],
+            e[label]["routed_share"],
+            e[label]["cold"]["first_ms"],
+        ]
+        for name, e in entries.items()
+        for label in ("full", "pruned")
+    ]
+    info = machine_info()
+    report = "\n".join(
+        [
+            f"Machine: {info.get('cpu_model', '?')}, {info.get('cpu_count', '?')} CPUs; "
+            f"{args.repeats} builds and {args.queries} queries per graph.",
+            "",
+            markdown_table(
+                [
+                    "map",
+                    "graph",
+                    "vertices",
+                    "edges",
+                    "build ms",
+                    "query ms (median)",
+                    "query ms (p90)",
+                    "routed",
+                    "cold: planner + first query ms",
+                ],
+                rows,
+            ),
+        ]
+    )
+    print(report)
+    out = args.out or RESULTS_DIR / f"routing_{machine_slug(info)}.json"
+    write_json(
+        out,
+        {
+            "machine": info,
+            "args": {k: str(v) if isinstance(v, Path) else v for k, v in vars(args).items()},
+            "maps": entries,
+        },
+    )
+    if args.markdown:
+        Path(args.markdown).write_text(report + "\n")
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
