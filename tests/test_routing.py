@@ -287,6 +287,30 @@ def test_routes_on_random_skeletons_equal_the_pixel_graph(seed):
         check_route(route, a, b, skel, ref, 0.5)
 
 
+def test_routes_on_the_incremental_mappers_graph():
+    from pathlib import Path
+
+    from topojax.scans import read_carmen
+
+    mapper = tj.IncrementalMapper(resolution_m=0.05)
+    for scan in read_carmen(Path(__file__).parent / "data" / "intel_first40.log.gz"):
+        mapper.add_scan(scan)
+    mapper.update_graph()
+    g = mapper.graph
+    skel = mapper.skeleton  # the graph's skeleton, over the mapper's bounding box
+    ref = pixel_graph(skel, 0.05)
+    planner = RoutePlanner(g)
+    n = 0
+    for a, b in random_queries(skel, 20, seed=1):
+        try:
+            route = planner.route(a, b, frame="pixel")
+        except NoRouteError:
+            continue
+        n += 1
+        check_route(route, a, b, skel, ref, 0.05)
+    assert n >= 5
+
+
 # ------------------------------------------------------------------ bad input
 
 

@@ -95,7 +95,7 @@ class Route:
 class _Snap:
     edge: int  # index into the planner's edges, or -1 for a vertex without edges
     index: int  # position on the edge's path (or 0)
-    vertex: int  # the vertex (node id) for edge == -1
+    vertex: object  # the vertex (node id) for edge == -1, else None
     distance_m: float
 
 
@@ -104,8 +104,8 @@ class RoutePlanner:
 
     Builds the lookup structures once (a k-d tree of the corridor pixels per frame, the
     edges' cumulative lengths, the vertex adjacency); each :meth:`route` then costs a
-    nearest-neighbour query per point and a Dijkstra search that stops as soon as the
-    goal's edge is settled.
+    nearest-neighbour query per point and a Dijkstra search that stops once no unsettled
+    vertex can beat the best route found.
 
     Parameters
     ----------
