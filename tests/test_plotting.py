@@ -57,3 +57,14 @@ def test_plot_empty_graph():
     ax = tj.plot(res)
     assert "0 vertices" in ax.get_title()
     plt.close(ax.figure)
+
+
+def test_route_overlay_follows_the_route_pixels(result):
+    g = result.graph
+    path = max((d["path"] for _, _, d in g.edges(data=True)), key=len)
+    route = tj.plan_route(g, path[0], path[-1], frame="pixel")
+    assert len(route.pixels) >= 2
+    ax = tj.plot(result, route=route)
+    line = next(ln for ln in ax.lines if ln.get_label() == "route")
+    np.testing.assert_array_equal(line.get_xydata(), route.pixels[:, ::-1].astype(float))
+    plt.close(ax.figure)

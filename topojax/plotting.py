@@ -1,4 +1,4 @@
-"""Matplotlib helpers: the map, distance map, ridges, skeleton and graph overlay.
+"""Matplotlib helpers: the map, distance map, ridges, skeleton, graph and route overlays.
 
 All images are drawn in pixel coordinates (``imshow`` with row 0 at the top), so the
 graph's pixel paths overlay exactly; pass ``ax`` to draw into your own axes.
@@ -15,6 +15,7 @@ __all__ = [
     "plot_ridges",
     "plot_skeleton",
     "plot_graph",
+    "plot_route",
     "plot_stages",
 ]
 
@@ -129,8 +130,36 @@ def plot_graph(
     return ax
 
 
-def plot(result, *, ax=None, skeleton: bool = True, graph: bool = True, title: str | None = None):
-    """Overlay of map, skeleton and graph for a :class:`~topojax.TopologyResult`.
+def plot_route(route, *, ax=None, color="#d62728", linewidth: float = 3.0, title=None):
+    """A route (:class:`topojax.Route`) in pixel coordinates: its pixels as a line, the
+    snapped start as a circle and the snapped goal as a star.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    ax = _axes(ax)
+    px = np.asarray(route.pixels, float)
+    ax.plot(px[:, 1], px[:, 0], color=color, linewidth=linewidth, zorder=4, label="route")
+    ax.scatter(px[:1, 1], px[:1, 0], s=60, c=color, marker="o", zorder=5, label="start")
+    ax.scatter(px[-1:, 1], px[-1:, 0], s=120, c=color, marker="*", zorder=5, label="goal")
+    ax.set_aspect("equal")
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot(
+    result,
+    *,
+    ax=None,
+    skeleton: bool = True,
+    graph: bool = True,
+    route=None,
+    title: str | None = None,
+):
+    """Overlay of map, skeleton and graph for a :class:`~topojax.TopologyResult`, and a
+    :class:`~topojax.Route` on top if given.
 
     Returns the axes; ``ax.figure.savefig(path)`` writes a picture.
     """
@@ -140,6 +169,8 @@ def plot(result, *, ax=None, skeleton: bool = True, graph: bool = True, title: s
         plot_skeleton(result.skeleton, ax=ax, color="#2ca02c")
     if graph:
         plot_graph(result.graph, ax=ax)
+    if route is not None:
+        plot_route(route, ax=ax)
     if title is None:
         g = result.graph
         title = f"{g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
