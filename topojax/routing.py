@@ -57,11 +57,12 @@ class Route:
         edge ends at to the pixel the next starts at.
     world : float64 array, shape (n, 2)
         ``x, y`` of those pixels in metres.
-    vertices : tuple of int
-        Graph vertices the route passes through, in order (empty when it stays on one
-        edge).
+    vertices : tuple
+        Ids of the graph vertices the route passes through, in order (empty when it stays
+        on one edge or at one vertex).
     edges : tuple of (u, v, key)
-        Graph edges the route runs along, in order, the first and last possibly in part.
+        Graph edges the route runs along, in order, the first and last possibly in part;
+        ``u`` is the vertex the edge's ``path`` starts at, whichever way the route runs.
     start_snap_m, goal_snap_m : float
         Distance from the start (goal) query point to ``pixels[0]`` (``pixels[-1]``),
         metres.
