@@ -48,6 +48,9 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # for `common`, however this is run
 
 from common import (  # noqa: E402
+    DEFAULT_DATA,
+    LARGE_MAPS,
+    PAPER_MAPS,
     REPO_ROOT,
     RESULTS_DIR,
     StageSamples,
@@ -67,21 +70,6 @@ LAPLACIAN_SCALE = 255.0
 RIDGE_THRESHOLD = 10
 THINNINGS = ("guo_hall", "zhang")
 
-DEFAULT_DATA = REPO_ROOT.parent / "shared" / "data"
-PAPER_MAPS = {
-    "intel": "maps/paper/intel.png",
-    "office": "maps/paper/office.png",
-    "a_scan": "maps/paper/a_scan.png",
-}
-LARGE_MAPS = {
-    "office_g": "maps/ipa/office_g.png",
-    "office_i": "maps/ipa/office_i.png",
-    "DM_0.11": "maps/slam_pgm/DM_0.11.pgm",
-    "aces_0.10": "maps/slam_pgm/aces_0.10.pgm",
-    "edmonton_0.06": "maps/slam_pgm/edmonton_0.06.pgm",
-    "pal_office_7th_floor": "maps/ros/pal_office_7th_floor/map.yaml",
-    "warehouse": "maps/simulated/nav2/warehouse.yaml",
-}
 TOPOJAX_STAGES = ("distance_ridges", "thinning", "t_removal", "graph", "total")
 OFFSHELF_STAGES = ("distance", "ridges", "thinning", "graph", "total")
 NAIVE_STAGES = ("splat", "ridges", "thinning", "graph", "total")

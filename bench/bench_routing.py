@@ -32,7 +32,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # for `common`, however this is run
 
 from common import (  # noqa: E402
-    REPO_ROOT,
+    DEFAULT_DATA,
+    LARGE_MAPS,
+    PAPER_MAPS,
     RESULTS_DIR,
     machine_info,
     machine_slug,
@@ -44,17 +46,9 @@ from common import (  # noqa: E402
     write_json,
 )
 
-DEFAULT_DATA = REPO_ROOT.parent / "shared" / "data"
-PAPER_MAPS = {
-    "intel": "maps/paper/intel.png",
-    "office": "maps/paper/office.png",
-    "a_scan": "maps/paper/a_scan.png",
-}
-LARGE_MAPS = {
-    "edmonton_0.06": "maps/slam_pgm/edmonton_0.06.pgm",
-    "pal_office_7th_floor": "maps/ros/pal_office_7th_floor/map.yaml",
-    "warehouse": "maps/simulated/nav2/warehouse.yaml",
-}
+#: The larger maps timed here (of the pipeline benchmark's): two large ROS maps, one
+#: simulated warehouse.
+ROUTING_MAPS = ("edmonton_0.06", "pal_office_7th_floor", "warehouse")
 
 
 def query_pairs(graph, n: int, seed: int) -> np.ndarray:
@@ -129,7 +123,9 @@ def main(argv: list[str] | None = None) -> int:
     use_checkout()
     import topojax as tj
 
-    maps = dict(PAPER_MAPS) if args.quick else {**PAPER_MAPS, **LARGE_MAPS}
+    maps = dict(PAPER_MAPS)
+    if not args.quick:
+        maps.update({name: LARGE_MAPS[name] for name in ROUTING_MAPS})
     entries = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name, rel in maps.items():

@@ -35,6 +35,9 @@ from typing import Any
 
 __all__ = [
     "BENCH_DIR",
+    "DEFAULT_DATA",
+    "LARGE_MAPS",
+    "PAPER_MAPS",
     "REPO_ROOT",
     "RESULTS_DIR",
     "StageSamples",
@@ -43,6 +46,7 @@ __all__ = [
     "machine_info",
     "machine_slug",
     "markdown_table",
+    "paper_obstacles",
     "median",
     "ms",
     "run_cold_worker",
@@ -54,6 +58,23 @@ __all__ = [
 BENCH_DIR = Path(__file__).resolve().parent
 REPO_ROOT = BENCH_DIR.parent
 RESULTS_DIR = BENCH_DIR / "results"
+#: The shared data folder beside the repository (``--data`` overrides it).
+DEFAULT_DATA = REPO_ROOT.parent / "shared" / "data"
+#: The paper's three maps and the larger real maps, relative to the data folder.
+PAPER_MAPS = {
+    "intel": "maps/paper/intel.png",
+    "office": "maps/paper/office.png",
+    "a_scan": "maps/paper/a_scan.png",
+}
+LARGE_MAPS = {
+    "office_g": "maps/ipa/office_g.png",
+    "office_i": "maps/ipa/office_i.png",
+    "DM_0.11": "maps/slam_pgm/DM_0.11.pgm",
+    "aces_0.10": "maps/slam_pgm/aces_0.10.pgm",
+    "edmonton_0.06": "maps/slam_pgm/edmonton_0.06.pgm",
+    "pal_office_7th_floor": "maps/ros/pal_office_7th_floor/map.yaml",
+    "warehouse": "maps/simulated/nav2/warehouse.yaml",
+}
 
 _PACKAGES = (
     "topojax",
@@ -164,6 +185,13 @@ def machine_slug(info: Mapping[str, Any] | None = None) -> str:
     model = re.sub(r"\((r|tm)\)|cpu|processor|@.*$|\d+-core", " ", model)
     model = re.sub(r"[^a-z0-9]+", "-", model).strip("-") or "cpu"
     return f"{model}-{info.get('cpu_count', 0)}cpu"
+
+
+def paper_obstacles(data: Path) -> dict[str, Any]:
+    """The paper maps' obstacle masks (bool (H, W) arrays) from the data folder ``data``."""
+    import topojax as tj
+
+    return {name: tj.load_map(data / rel).occupied for name, rel in PAPER_MAPS.items()}
 
 
 def ms(seconds: float) -> float:

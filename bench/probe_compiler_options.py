@@ -28,14 +28,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # for `common`, however this is run
 
-from common import REPO_ROOT, machine_info, use_checkout, write_json  # noqa: E402
+from common import DEFAULT_DATA, machine_info, paper_obstacles, use_checkout, write_json  # noqa: E402
 
-DEFAULT_DATA = REPO_ROOT.parent / "shared" / "data"
-PAPER_MAPS = {
-    "intel": "maps/paper/intel.png",
-    "office": "maps/paper/office.png",
-    "a_scan": "maps/paper/a_scan.png",
-}
 #: Option sets tried (each against the defaults).  Names are XLA's debug options.
 OPTION_SETS = [
     {"xla_cpu_enable_fast_min_max": True},
@@ -127,9 +121,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.repeats < 1:
         parser.error(f"--repeats must be >= 1, got {args.repeats}")
     use_checkout()
-    import topojax as tj
 
-    maps = {name: tj.load_map(args.data / rel).occupied for name, rel in PAPER_MAPS.items()}
+    maps = paper_obstacles(args.data)
     results = []
     for options in args.options or OPTION_SETS:
         r = compare(maps, options, args.repeats)

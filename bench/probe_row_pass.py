@@ -32,21 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # for `common`, however this is run
 
-from common import REPO_ROOT, machine_info, use_checkout, write_json  # noqa: E402
-
-DEFAULT_DATA = REPO_ROOT.parent / "shared" / "data"
-PAPER_MAPS = {
-    "intel": "maps/paper/intel.png",
-    "office": "maps/paper/office.png",
-    "a_scan": "maps/paper/a_scan.png",
-}
-
-
-def load_obstacles(data: Path) -> dict[str, np.ndarray]:
-    import topojax as tj
-
-    return {name: tj.load_map(data / rel).occupied for name, rel in PAPER_MAPS.items()}
-
+from common import DEFAULT_DATA, machine_info, paper_obstacles, use_checkout, write_json  # noqa: E402
 
 # ------------------------------------------------------------------------------- floor
 
@@ -172,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.repeats < 1 or args.rounds < 1:
         parser.error(f"--repeats and --rounds must be >= 1, got {args.repeats}, {args.rounds}")
     use_checkout()
-    maps = load_obstacles(args.data)
+    maps = paper_obstacles(args.data)
     if args.probe == "floor":
         results = floor(maps, args.repeats, args.rounds)
     else:
