@@ -40,7 +40,7 @@ from .config import (
 )
 from .datasets import sample_map
 from .graph import graph_summary, prune_graph, skeleton_to_graph
-from .io import load_graph, save_graph
+from .io import load_graph, save_graph, save_nav2_graph
 from .maps import OccupancyMap, load_map, save_map
 from .pipeline import (
     TopologyResult,
@@ -114,6 +114,7 @@ __all__ = [
     "save_graph",
     "sample_map",
     "save_map",
+    "save_nav2_graph",
     "skeleton_to_graph",
     "thin",
     "vertex_error_metrics",

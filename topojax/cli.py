@@ -130,6 +130,16 @@ def _cmd_graph(args) -> int:
     result = build_graph(occupancy, config=pipeline_config(args))
     stem = Path(args.map).stem
     written = _write_outputs(result, Path(args.out), stem, plot=args.plot, stages=args.stages)
+    if args.nav2:
+        from .io import save_nav2_graph
+
+        written.append(
+            save_nav2_graph(
+                result.graph,
+                Path(args.out) / f"{stem}_nav2.geojson",
+                tolerance_m=args.nav2_tolerance_m,
+            )
+        )
     for line in _summary_lines(str(args.map), result):
         print(line)
     print("wrote      " + ", ".join(str(p) for p in written))
@@ -225,6 +235,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")
     p.add_argument("--negate", action="store_true", help="image values are occupancy")
+    p.add_argument(
+        "--nav2",
+        action="store_true",
+        help="also write STEM_nav2.geojson, a route graph for the ROS 2 Nav2 Route Server",
+    )
+    p.add_argument(
+        "--nav2-tolerance-m",
+        type=float,
+        default=0.1,
+        metavar="M",
+        help="Nav2 waypoints keep every corridor pixel within M metres (default 0.1)",
+    )
     add_pipeline_options(p)
     p.set_defaults(handler=_cmd_graph)
 

@@ -1,4 +1,5 @@
-"""Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON).
+"""Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON), and writing
+them as route graphs for the ROS 2 Nav2 Route Server (:func:`save_nav2_graph`).
 
 Graphs are :class:`networkx.MultiGraph` objects with integer node ids. The topojax
 attribute schema is
@@ -35,7 +36,7 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
-__all__ = ["GRAPH_FORMATS", "atomic_write_bytes", "load_graph", "save_graph"]
+__all__ = ["GRAPH_FORMATS", "atomic_write_bytes", "load_graph", "save_graph", "save_nav2_graph"]
 
 #: Supported formats and their file suffixes.
 GRAPH_FORMATS = {".graphml": "graphml", ".json": "json", ".geojson": "geojson"}
@@ -706,3 +707,160 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     reader: Callable[[Any, Path], nx.MultiGraph]
     reader = _from_node_link if fmt == "json" else _from_geojson
     return reader(doc, p)
+
+
+# ---------------------------------------------------------------------- Nav2 route graph
+
+
+def save_nav2_graph(
+    graph: nx.MultiGraph,
+    path: str | Path,
+    *,
+    tolerance_m: float = 0.1,
+    frame: str = "map",
+) -> Path:
+    """Save a topology graph as a route graph for the ROS 2 Nav2 Route Server.
+
+    Nav2's route server (``nav2_route``) reads a GeoJSON ``FeatureCollection`` of
+    ``Point`` nodes (properties ``id`` and ``frame``) and directed ``MultiLineString``
+    edges (properties ``id``, ``startid``, ``endid``), with ids unique over nodes and
+    edges, and optional ``metadata``.  It drives straight from node to node, so each
+    corridor is written as a chain of waypoints: its world polyline simplified
+    (Douglas–Peucker) until every pixel of the corridor lies within ``tolerance_m`` of
+    the chain.  A segment then stays at least the corridor's clearance minus
+    ``tolerance_m`` from the walls.  Every segment is written in both directions.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        Topology graph (e.g. ``build_graph(m).graph``, best pruned first with
+        :func:`topojax.prune_graph`); nodes need ``world``, edges ``world`` polylines.
+    path : str or Path
+        Output file (``.geojson`` by convention); its folder must exist.
+    tolerance_m : float
+        Largest distance, metres, from a corridor pixel to the waypoint chain (> 0).
+    frame : str
+        The nodes' ``frame`` property: the TF frame of the map (``"map"``).
+
+    Returns
+    -------
+    Path
+        The written path.
+
+    Notes
+    -----
+    Node ids: the graph's vertices are ``0 .. V-1`` in node order (``metadata``:
+    ``vertex``, the topojax node id, ``kind`` and ``clearance_m``), then the waypoints
+    (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
+    topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
+    waypoints) and the corridor's ``min_clearance_m`` / ``mean_clearance_m``.  topojax
+    writes this format but does not read it back (use :func:`save_graph` for that).
+    """
+    if isinstance(tolerance_m, bool) or not isinstance(tolerance_m, (int, float, np.number)):
+        raise TypeError(f"tolerance_m: expected metres > 0, received {tolerance_m!r}")
+    tol = float(tolerance_m)
+    if not np.isfinite(tol) or tol <= 0:
+        raise ValueError(f"tolerance_m: expected a finite number of metres > 0, received {tol!r}")
+    if not isinstance(frame, str) or not frame:
+        raise ValueError(f"frame: expected a non-empty string, received {frame!r}")
+    g = _as_multigraph(graph)
+    node_id = {n: i for i, n in enumerate(g.nodes)}
+    node_xy = {}
+    features: list[dict] = []
+    for n, d in g.nodes(data=True):
+        if "world" not in d:
+            raise ValueError(f"graph: node {n!r} has no 'world' (x, y) attribute")
+        node_xy[n] = _xy(d["world"], f"node {n!r} 'world'")
+        meta = {"vertex": _jsonable(n, "node id"), "kind": d.get("kind")}
+        meta.update(_finite_metres(d, ("clearance_m",)))
+        features.append(_nav2_node(node_id[n], frame, node_xy[n], meta))
+    next_id = len(features)
+    segments: list[tuple[int, int, list[float], list[float], dict]] = []
+    for u, v, k, d in g.edges(keys=True, data=True):
+        where = f"edge ({u!r}, {v!r}, {k!r})"
+        xy = np.asarray(d.get("world", np.empty((0, 2))), dtype=np.float64)
+        if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
+            raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
+        # the polyline runs from the end nearer to u (paths start at u; be tolerant)
+        if u != v and _dist(xy[0], node_xy[v]) < _dist(xy[0], node_xy[u]):
+            u, v = v, u
+        keep = _simplify(xy, tol)
+        if u == v and len(keep) < 4 and len(xy) >= 4:  # a loop needs two waypoints
+            keep = np.unique(np.concatenate([keep, [len(xy) // 3, 2 * len(xy) // 3]]))
+        along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+        chain = [node_id[u]]
+        for i in keep[1:-1]:
+            meta = {"kind": "waypoint"}
+            features.append(_nav2_node(next_id, frame, xy[i].tolist(), meta))
+            chain.append(next_id)
+            next_id += 1
+        chain.append(node_id[v])
+        points = [node_xy[u], *(xy[i].tolist() for i in keep[1:-1]), node_xy[v]]
+        corridor = {"corridor": [_jsonable(x, "edge id") for x in (u, v, k)]}
+        corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
+        for j in range(len(chain) - 1):
+            meta = dict(corridor, length_m=float(along[keep[j + 1]] - along[keep[j]]))
+            segments.append((chain[j], chain[j + 1], points[j], points[j + 1], meta))
+    for a, b, pa, pb, meta in segments:
+        for start, end, p0, p1 in ((a, b, pa, pb), (b, a, pb, pa)):
+            features.append(
+                {
+                    "type": "Feature",
+                    "properties": {"id": next_id, "startid": start, "endid": end, "metadata": meta},
+                    "geometry": {"type": "MultiLineString", "coordinates": [[p0, p1]]},
+                }
+            )
+            next_id += 1
+    doc = {"type": "FeatureCollection", "name": "topojax route graph", "features": features}
+    data = json.dumps(doc, allow_nan=False).encode("utf-8")
+    p = Path(path)
+    atomic_write_bytes(p, data)
+    return p
+
+
+def _nav2_node(i: int, frame: str, xy: list[float], meta: dict) -> dict:
+    return {
+        "type": "Feature",
+        "properties": {"id": i, "frame": frame, "metadata": meta},
+        "geometry": {"type": "Point", "coordinates": [float(xy[0]), float(xy[1])]},
+    }
+
+
+def _finite_metres(d: dict, names: tuple[str, ...]) -> dict:
+    """The attributes ``names`` of ``d`` that are finite numbers (strict JSON has no NaN)."""
+    out = {}
+    for name in names:
+        value = d.get(name)
+        if isinstance(value, (int, float, np.number)) and np.isfinite(value):
+            out[name] = float(value)
+    return out
+
+
+def _dist(a, b) -> float:
+    return float(np.hypot(a[0] - b[0], a[1] - b[1]))
+
+
+def _simplify(xy: np.ndarray, tol: float) -> np.ndarray:
+    """Douglas–Peucker: indices of the points of polyline ``xy`` (K, 2) to keep (first and
+    last included) so that every point lies within ``tol`` of the kept chain's segment
+    between its neighbours."""
+    n = len(xy)
+    keep = np.zeros(n, dtype=bool)
+    keep[[0, n - 1]] = True
+    stack = [(0, n - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = xy[i], xy[j]
+        pts = xy[i + 1 : j]
+        ab = b - a
+        span = float(ab @ ab)
+        t = np.zeros(len(pts)) if span == 0 else np.clip((pts - a) @ ab / span, 0.0, 1.0)
+        dist = np.hypot(*(pts - (a + t[:, None] * ab)).T)
+        m = int(np.argmax(dist))
+        if dist[m] > tol:
+            m += i + 1
+            keep[m] = True
+            stack += [(i, m), (m, j)]
+    return np.flatnonzero(keep)

@@ -1,0 +1,202 @@
+"""Route graphs for the ROS 2 Nav2 Route Server (topojax.save_nav2_graph).
+
+Checked against what nav2_route reads (GeoJSON Point nodes with ``id`` and ``frame``,
+directed MultiLineString edges with ``id``, ``startid``, ``endid``; ids unique over nodes
+and edges) and against the topojax graph it came from: the same vertices and degrees once
+the waypoint chains are contracted, every corridor pixel within the tolerance of its
+chain, and the chains' ``length_m`` adding up to the corridor's.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter, defaultdict
+
+import networkx as nx
+import numpy as np
+import pytest
+
+import topojax as tj
+from topojax.graph import skeleton_to_graph
+
+
+def art(text: str) -> np.ndarray:
+    rows = [line.strip() for line in text.strip().splitlines()]
+    return np.array([[ch == "#" for ch in r] for r in rows], dtype=bool)
+
+
+def read_nav2(path):
+    doc = json.loads(path.read_text())
+    assert doc["type"] == "FeatureCollection"
+    nodes, edges = {}, []
+    for f in doc["features"]:
+        assert f["type"] == "Feature"
+        props, geom = f["properties"], f["geometry"]
+        if geom["type"] == "Point":
+            assert isinstance(props["id"], int) and props["frame"] == "map"
+            nodes[props["id"]] = (tuple(geom["coordinates"]), props["metadata"])
+        else:
+            assert geom["type"] == "MultiLineString"
+            edges.append(props | {"coordinates": geom["coordinates"]})
+    ids = list(nodes) + [e["id"] for e in edges]
+    assert len(ids) == len(set(ids)), "ids must be unique over nodes and edges"
+    return nodes, edges
+
+
+def point_to_chain(points: np.ndarray, chain: np.ndarray) -> np.ndarray:
+    """Distance from each point to the polyline ``chain`` (brute force over segments)."""
+    best = np.full(len(points), np.inf)
+    for a, b in zip(chain[:-1], chain[1:], strict=True):
+        ab = b - a
+        span = float(ab @ ab)
+        t = np.zeros(len(points)) if span == 0 else np.clip((points - a) @ ab / span, 0, 1)
+        best = np.minimum(best, np.hypot(*(points - (a + t[:, None] * ab)).T))
+    return best
+
+
+def check_against_graph(g: nx.MultiGraph, path, tol: float) -> None:
+    nodes, edges = read_nav2(path)
+    # every edge has its reverse, and its geometry joins its two nodes
+    directed = Counter((e["startid"], e["endid"]) for e in edges)
+    for (a, b), n in directed.items():
+        assert directed[(b, a)] == n
+    for e in edges:
+        (p0, p1) = e["coordinates"][0]
+        assert tuple(p0) == nodes[e["startid"]][0] and tuple(p1) == nodes[e["endid"]][0]
+        assert e["startid"] != e["endid"]
+    # vertices: ids 0..V-1 in node order, same positions and degrees once the waypoint
+    # chains are contracted (one undirected edge per pair of directed ones)
+    order = list(g.nodes)
+    und = nx.MultiGraph()
+    und.add_nodes_from(nodes)
+    for e in edges:
+        if e["startid"] < e["endid"]:
+            und.add_edge(e["startid"], e["endid"])
+    for i, n in enumerate(order):
+        assert nodes[i][1]["vertex"] == n and nodes[i][1]["kind"] == g.nodes[n]["kind"]
+        assert nodes[i][0] == pytest.approx(g.nodes[n]["world"])
+        assert und.degree(i) == g.degree(n)
+    for i in range(len(order), len(nodes)):
+        assert nodes[i][1]["kind"] == "waypoint" and und.degree(i) == 2
+    # each corridor: a chain within tol of every pixel, with its whole length
+    chains = defaultdict(list)
+    for e in edges:
+        if e["startid"] < e["endid"]:
+            chains[tuple(e["metadata"]["corridor"])].append(e)
+    assert len(chains) == g.number_of_edges()
+    for (u, v, k), segs in chains.items():
+        d = g.edges[u, v, k]
+        assert sum(s["metadata"]["length_m"] for s in segs) == pytest.approx(d["length_m"])
+        pts = np.array(
+            [nodes[s["startid"]][0] for s in segs] + [nodes[s["endid"]][0] for s in segs]
+        )
+        world = np.asarray(d["world"], float)
+        # the chain's points lie on the corridor, and the corridor lies near the chain
+        on = np.hypot(*(pts[:, None, :] - world[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+        assert on.max() < 1e-9
+        assert point_to_chain(world, chain_of(segs, nodes)).max() <= tol + 1e-12
+
+
+def chain_of(segs, nodes) -> np.ndarray:
+    """The waypoints of one corridor in order (its segments joined end to end)."""
+    nxt = {}
+    for s in segs:
+        nxt.setdefault(s["startid"], []).append(s["endid"])
+        nxt.setdefault(s["endid"], []).append(s["startid"])
+    ends = [n for n, m in nxt.items() if len(m) == 1]
+    start = ends[0] if ends else segs[0]["startid"]  # a loop: any point
+    order, prev, cur = [start], None, start
+    for _ in range(len(segs)):
+        step = [m for m in nxt[cur] if m != prev] or nxt[cur]
+        prev, cur = cur, step[0]
+        order.append(cur)
+    return np.array([nodes[i][0] for i in order], float)
+
+
+@pytest.mark.parametrize("tol", [0.05, 0.1, 0.5])
+def test_intel_route_graph_matches_the_topology_graph(tmp_path, tol):
+    g = tj.prune_graph(tj.build_graph(tj.sample_map("intel")).graph, min_spur_m=0.5)
+    path = tj.save_nav2_graph(g, tmp_path / "intel_nav2.geojson", tolerance_m=tol)
+    check_against_graph(g, path, tol)
+
+
+def test_full_paper_graph_with_rings_and_loops(tmp_path):
+    g = tj.build_graph(tj.sample_map("intel")).graph  # the paper's graph: a ring, specks
+    assert any(u == v for u, v in g.edges())
+    path = tj.save_nav2_graph(g, tmp_path / "intel.geojson")
+    check_against_graph(g, path, 0.1)
+
+
+def test_fixture_ring_and_loop_get_two_waypoints_at_least(tmp_path):
+    skel = art(
+        """
+        .#####..........
+        #.....#.........
+        #.....#.........
+        .#####..###.....
+        ..........#.....
+        .......####.....
+        """
+    )
+    g = skeleton_to_graph(skel, resolution_m=1.0)
+    assert {d["kind"] for _, d in g.nodes(data=True)} >= {"ring"}
+    path = tj.save_nav2_graph(g, tmp_path / "ring.geojson", tolerance_m=50.0)
+    check_against_graph(g, path, 50.0)
+    nodes, edges = read_nav2(path)
+    ring = next(i for i, (_, m) in nodes.items() if m.get("kind") == "ring")
+    loop = [e for e in edges if ring in (e["startid"], e["endid"])]
+    assert len(loop) == 4  # two segments of the loop, both ways
+
+
+def test_smaller_tolerance_means_more_waypoints(tmp_path):
+    g = tj.build_graph(tj.sample_map("intel")).graph
+    counts = []
+    for tol in (1.0, 0.2, 0.05):
+        nodes, _ = read_nav2(tj.save_nav2_graph(g, tmp_path / f"{tol}.geojson", tolerance_m=tol))
+        counts.append(len(nodes))
+    assert counts[0] < counts[1] < counts[2]
+
+
+def test_graphs_without_clearances_write_strict_json(tmp_path):
+    g = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=0.5)
+    path = tj.save_nav2_graph(g, tmp_path / "g.geojson", frame="odom")
+    text = path.read_text()
+    assert "NaN" not in text
+    doc = json.loads(text)
+    assert {
+        f["properties"].get("frame") for f in doc["features"] if "frame" in f["properties"]
+    } == {"odom"}
+
+
+def test_command_writes_the_nav2_graph(tmp_path):
+    from topojax.cli import main
+
+    png = tj.datasets.sample_map_path("intel")
+    argv = ["graph", str(png), "--resolution", "0.05", "-o", str(tmp_path), "--nav2"]
+    assert main([*argv, "--min-spur-m", "0.5", "--nav2-tolerance-m", "0.2"]) == 0
+    out = tmp_path / "intel_nav2.geojson"
+    nodes, edges = read_nav2(out)
+    assert nodes and edges
+
+
+@pytest.mark.parametrize(
+    "kwargs, exc, words",
+    [
+        ({"tolerance_m": 0.0}, ValueError, ["tolerance_m", "> 0", "0.0"]),
+        ({"tolerance_m": float("nan")}, ValueError, ["tolerance_m", "nan"]),
+        ({"tolerance_m": True}, TypeError, ["tolerance_m", "True"]),
+        ({"tolerance_m": "0.1"}, TypeError, ["tolerance_m", "'0.1'"]),
+        ({"frame": ""}, ValueError, ["frame", "non-empty"]),
+    ],
+)
+def test_bad_input(tmp_path, kwargs, exc, words):
+    g = skeleton_to_graph(art("###"), resolution_m=1.0)
+    with pytest.raises(exc) as info:
+        tj.save_nav2_graph(g, tmp_path / "x.geojson", **kwargs)
+    for word in words:
+        assert word in str(info.value)
+    bare = nx.MultiGraph()
+    bare.add_node(0)
+    with pytest.raises(ValueError, match="node 0 has no 'world'"):
+        tj.save_nav2_graph(bare, tmp_path / "y.geojson")
+    assert not (tmp_path / "x.geojson").exists()
