@@ -495,6 +495,35 @@ def test_cli_batch(tmp_path, capsys):
     assert "1 errors" in captured.out and "broken" in captured.err
 
 
+def test_nav2_format_is_written_and_resumed(tmp_path, capsys):
+    from topojax.cli import main
+
+    out = tmp_path / "out"
+    argv = [
+        "batch",
+        str(PAPER_MAPS[0]),
+        "-o",
+        str(out),
+        "--workers",
+        "0",
+        "--no-progress",
+        "--formats",
+        "json,nav2",
+    ]
+    assert main(argv) == 0
+    name = PAPER_MAPS[0].stem
+    doc = json.loads((out / f"{name}_nav2.geojson").read_text())
+    graph = load_graph(out / f"{name}.json")
+    points = [f for f in doc["features"] if f["geometry"]["type"] == "Point"]
+    assert [
+        f["properties"]["metadata"].get("vertex") for f in points[: graph.number_of_nodes()]
+    ] == list(graph.nodes)
+    manifest = json.loads((out / f"{name}.manifest.json").read_text())
+    assert set(manifest["files"]) == {f"{name}.json", f"{name}_nav2.geojson"}
+    assert main([*argv, "--resume"]) == 0
+    assert "1 skipped" in capsys.readouterr().out
+
+
 def test_argument_errors(tmp_path):
     with pytest.raises(ValueError, match="formats"):
         build_graphs([PAPER_MAPS[0]], formats=("graphml", "svg"), workers=0)

@@ -59,8 +59,8 @@ workers compete for the same cores; ``bench/BATCH.md`` has the measured numbers.
 
 Outputs, faults and resume
 --------------------------
-With ``out_dir``, every map gets ``<name>.graphml`` / ``.json`` / ``.geojson`` (as chosen
-by ``formats``), optionally ``<name>_graph.png``, and then, **last**, a manifest
+With ``out_dir``, every map gets ``<name>.graphml`` / ``.json`` / ``.geojson`` /
+``_nav2.geojson`` (as chosen by ``formats``), optionally ``<name>_graph.png``, and then, **last**, a manifest
 ``<name>.manifest.json`` listing the input's SHA-256, the result-relevant settings and
 the name, size and SHA-256 of every output file.  ``out_dir/summary.csv`` (and
 ``summary.parquet`` when pyarrow is installed) holds one row per map (columns
@@ -172,6 +172,8 @@ _MANIFEST_VERSION = 1
 _MANIFEST_SUFFIX = ".manifest.json"
 _PICTURE_SUFFIX = "_graph.png"
 _FORMAT_SUFFIX = {fmt: suffix for suffix, fmt in GRAPH_FORMATS.items()}
+# a route graph for the ROS 2 Nav2 Route Server (topojax.save_nav2_graph, default tolerance)
+_FORMAT_SUFFIX["nav2"] = "_nav2.geojson"
 # Kernel buckets (tile_px, tiles_per_call, half_width_px, ksize) already traced in this
 # process, and the lock that makes the first call of a bucket run alone.
 _COMPILED_BUCKETS: set[tuple[int, ...]] = set()
@@ -629,7 +631,7 @@ def _picture_bytes(job: _CpuJob, skeleton: np.ndarray, graph: Any) -> bytes:
 def _cpu_stage(job: _CpuJob) -> _CpuResult:
     """Thinning, T removal, graph, summary and output files of one map (worker side)."""
     from .graph import graph_summary
-    from .io import save_graph
+    from .io import save_graph, save_nav2_graph
     from .pipeline import graph_from_ridges
 
     res = _CpuResult(name=job.name)
@@ -673,7 +675,11 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             stem.parent.mkdir(parents=True, exist_ok=True)
             written = []
             for fmt in job.formats:
-                written.append(save_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}", format=fmt))
+                target = f"{stem}{_FORMAT_SUFFIX[fmt]}"
+                if fmt == "nav2":
+                    written.append(save_nav2_graph(graph, target))
+                else:
+                    written.append(save_graph(graph, target, format=fmt))
             if job.masks_bits is not None:
                 pic = Path(f"{stem}{_PICTURE_SUFFIX}")
                 atomic_write_bytes(pic, _picture_bytes(job, skeleton, graph))
@@ -1318,8 +1324,9 @@ def build_graphs(
     out_dir : str or path, optional
         Output folder (created).  Without it nothing is written and the graphs are
         returned in the records.
-    formats : sequence of {"graphml", "json", "geojson"} or comma-separated str
-        Graph files per map.
+    formats : sequence of {"graphml", "json", "geojson", "nav2"} or comma-separated str
+        Graph files per map (``nav2``: ``<name>_nav2.geojson``, a route graph for the ROS 2
+        Nav2 Route Server, :func:`topojax.save_nav2_graph` with its default tolerance).
     plot : bool
         Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
     resume : bool
@@ -1568,7 +1575,8 @@ def _add_cli(subparsers: Any) -> Any:
     p.add_argument(
         "--formats",
         default="graphml,json,geojson",
-        help="comma-separated graph formats (default: graphml,json,geojson)",
+        help="comma-separated graph formats: graphml, json, geojson, nav2 (a Nav2 Route "
+        "Server graph, NAME_nav2.geojson) (default: graphml,json,geojson)",
     )
     p.set_defaults(handler=_cmd_batch)
     return p
