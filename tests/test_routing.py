@@ -311,6 +311,42 @@ def test_routes_on_the_incremental_mappers_graph():
     assert n >= 5
 
 
+def distance_to_polyline(points: np.ndarray, chain: np.ndarray) -> np.ndarray:
+    best = np.full(len(points), np.inf)
+    for a, b in zip(chain[:-1], chain[1:], strict=True):
+        ab = b - a
+        span = float(ab @ ab)
+        t = np.zeros(len(points)) if span == 0 else np.clip((points - a) @ ab / span, 0, 1)
+        best = np.minimum(best, np.hypot(*(points - (a + t[:, None] * ab)).T))
+    return best
+
+
+def test_waypoints_keep_the_route_within_the_tolerance():
+    g = tj.build_graph(tj.sample_map("intel")).graph
+    route = plan_route(g, (10.0, 20.0), (30.0, 15.0))
+    counts = []
+    for tol in (0.5, 0.1, 0.02):
+        w = route.waypoints(tol)
+        np.testing.assert_array_equal(w[0], route.world[0])
+        np.testing.assert_array_equal(w[-1], route.world[-1])
+        # waypoints are route points, in order, and the route stays near them
+        idx = [int(np.flatnonzero((route.world == p).all(axis=1))[0]) for p in w]
+        assert idx == sorted(idx)
+        assert distance_to_polyline(route.world, w).max() <= tol + 1e-12
+        counts.append(len(w))
+        feature = route.to_geojson(tolerance_m=tol)
+        np.testing.assert_array_equal(feature["geometry"]["coordinates"], w)
+    assert counts[0] < counts[1] < counts[2] <= len(route.world)
+    for bad, exc in (
+        (0.0, ValueError),
+        (-1.0, ValueError),
+        (float("nan"), ValueError),
+        ("1", TypeError),
+    ):
+        with pytest.raises(exc, match="tolerance_m"):
+            route.waypoints(bad)
+
+
 # ------------------------------------------------------------------ bad input
 
 
@@ -373,6 +409,9 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     np.testing.assert_allclose(feature["geometry"]["coordinates"], want.world)
     assert feature["properties"]["length_m"] == want.length_m
     assert feature["properties"]["vertices"] == list(want.vertices)
+    assert main([*argv, "-o", str(out), "--simplify-m", "0.2"]) == 0
+    thin = json.loads(out.read_text())["geometry"]["coordinates"]
+    np.testing.assert_allclose(thin, want.waypoints(0.2))
     # too far from the graph: a clear error and exit status 2
     assert main([*argv, "--max-snap-m", "0.01"]) == 2
     assert "start: the nearest point of the graph is" in capsys.readouterr().err

@@ -206,7 +206,7 @@ def _cmd_route(args) -> int:
     if args.out:
         out = Path(args.out)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(route.to_geojson()))
+        out.write_text(json.dumps(route.to_geojson(tolerance_m=args.simplify_m)))
         print(f"wrote      {out}")
     return 0
 
@@ -287,6 +287,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="fail if a point is more than M metres from the graph (default: no limit)",
     )
     p.add_argument("-o", "--out", help="write the route here as GeoJSON")
+    p.add_argument(
+        "--simplify-m",
+        type=float,
+        metavar="M",
+        help="write waypoints that keep every route pixel within M metres instead of every "
+        "pixel (default: every pixel)",
+    )
     p.set_defaults(handler=_cmd_route)
 
     for module in ("incremental", "batch"):

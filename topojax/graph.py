@@ -1114,3 +1114,29 @@ def _renumbered(
     g.graph.update(attrs)
     g.graph.update(thresholds)
     return _fill_multigraph(g, node_attrs, out)
+
+
+def _polyline_keep(xy: np.ndarray, tol: float) -> np.ndarray:
+    """Douglas–Peucker: indices of the points of polyline ``xy`` (K, 2) to keep (first and
+    last included) so that every point lies within ``tol`` of the kept chain's segment
+    between its neighbours."""
+    n = len(xy)
+    keep = np.zeros(n, dtype=bool)
+    keep[[0, n - 1]] = True
+    stack = [(0, n - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = xy[i], xy[j]
+        pts = xy[i + 1 : j]
+        ab = b - a
+        span = float(ab @ ab)
+        t = np.zeros(len(pts)) if span == 0 else np.clip((pts - a) @ ab / span, 0.0, 1.0)
+        dist = np.hypot(*(pts - (a + t[:, None] * ab)).T)
+        m = int(np.argmax(dist))
+        if dist[m] > tol:
+            m += i + 1
+            keep[m] = True
+            stack += [(i, m), (m, j)]
+    return np.flatnonzero(keep)

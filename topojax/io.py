@@ -36,6 +36,8 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
+from .graph import _polyline_keep
+
 __all__ = ["GRAPH_FORMATS", "atomic_write_bytes", "load_graph", "save_graph", "save_nav2_graph"]
 
 #: Supported formats and their file suffixes.
@@ -784,7 +786,7 @@ def save_nav2_graph(
         # the polyline runs from the end nearer to u (paths start at u; be tolerant)
         if u != v and _dist(xy[0], node_xy[v]) < _dist(xy[0], node_xy[u]):
             u, v = v, u
-        keep = _simplify(xy, tol)
+        keep = _polyline_keep(xy, tol)
         if u == v and len(keep) < 4 and len(xy) >= 4:  # a loop needs two waypoints
             keep = np.unique(np.concatenate([keep, [len(xy) // 3, 2 * len(xy) // 3]]))
         along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
@@ -838,29 +840,3 @@ def _finite_metres(d: dict, names: tuple[str, ...]) -> dict:
 
 def _dist(a, b) -> float:
     return float(np.hypot(a[0] - b[0], a[1] - b[1]))
-
-
-def _simplify(xy: np.ndarray, tol: float) -> np.ndarray:
-    """Douglas–Peucker: indices of the points of polyline ``xy`` (K, 2) to keep (first and
-    last included) so that every point lies within ``tol`` of the kept chain's segment
-    between its neighbours."""
-    n = len(xy)
-    keep = np.zeros(n, dtype=bool)
-    keep[[0, n - 1]] = True
-    stack = [(0, n - 1)]
-    while stack:
-        i, j = stack.pop()
-        if j - i < 2:
-            continue
-        a, b = xy[i], xy[j]
-        pts = xy[i + 1 : j]
-        ab = b - a
-        span = float(ab @ ab)
-        t = np.zeros(len(pts)) if span == 0 else np.clip((pts - a) @ ab / span, 0.0, 1.0)
-        dist = np.hypot(*(pts - (a + t[:, None] * ab)).T)
-        m = int(np.argmax(dist))
-        if dist[m] > tol:
-            m += i + 1
-            keep[m] = True
-            stack += [(i, m), (m, j)]
-    return np.flatnonzero(keep)

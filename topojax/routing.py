@@ -31,6 +31,7 @@ import networkx as nx
 import numpy as np
 
 from .config import _nonnegative_metres
+from .graph import _polyline_keep
 
 __all__ = ["NoRouteError", "Route", "RoutePlanner", "plan_route"]
 
@@ -76,13 +77,35 @@ class Route:
     start_snap_m: float
     goal_snap_m: float
 
-    def to_geojson(self) -> dict:
+    def waypoints(self, tolerance_m: float = 0.1) -> np.ndarray:
+        """The route's world polyline thinned to waypoints (Douglas–Peucker): every pixel
+        of the route lies within ``tolerance_m`` of the straight segments between them.
+
+        Parameters
+        ----------
+        tolerance_m : float
+            Largest distance from a route pixel to the waypoint polyline, metres (> 0).
+
+        Returns
+        -------
+        float64 array, shape (m, 2)
+            ``x, y`` in metres; the first and last are the route's ends.
+        """
+        tol = _nonnegative_metres("tolerance_m", tolerance_m)
+        if tol == 0:
+            raise ValueError("tolerance_m: expected a number of metres > 0, received 0.0")
+        return self.world[_polyline_keep(self.world, tol)]
+
+    def to_geojson(self, *, tolerance_m: float | None = None) -> dict:
         """The route as a GeoJSON ``Feature``: a ``LineString`` of its world coordinates
         (``x, y`` in metres, the map's frame, as :func:`topojax.save_graph` writes
-        graphs) with ``length_m``, the snap distances and the vertices as properties."""
+        graphs) with ``length_m``, the snap distances and the vertices as properties.
+        With ``tolerance_m``, the line holds the :meth:`waypoints` instead of every
+        pixel."""
+        line = self.world if tolerance_m is None else self.waypoints(tolerance_m)
         return {
             "type": "Feature",
-            "geometry": {"type": "LineString", "coordinates": self.world.tolist()},
+            "geometry": {"type": "LineString", "coordinates": line.tolist()},
             "properties": {
                 "length_m": self.length_m,
                 "start_snap_m": self.start_snap_m,
