@@ -10,6 +10,7 @@ orientation-normalised edge paths).
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from collections import Counter
@@ -1338,11 +1339,20 @@ def test_replay_cli_registers_and_runs(tmp_path, capsys):
             "--graph-every",
             "8",
             "--no-progress",
+            "--nav2",
         ]
     )
     assert args.handler(args) == 0
     text = capsys.readouterr().out
     assert "replayed   12 scans" in text and "skeleton" in text
+    # the Nav2 route graph: the final graph's vertices first, in node order
+    doc = json.loads((tmp_path / "graph_nav2.geojson").read_text())
+    g = load_graph(tmp_path / "graph.json")
+    points = [f for f in doc["features"] if f["geometry"]["type"] == "Point"]
+    assert [p["properties"]["metadata"]["vertex"] for p in points[: g.number_of_nodes()]] == list(
+        g.nodes
+    )
+    assert "graph_nav2.geojson" in text
     assert (tmp_path / "graph.geojson").is_file()
     with pytest.raises(ValueError, match="max_scans"):
         replay(INTEL_EXCERPT, out_dir=tmp_path, max_scans=0, progress=False)

@@ -3817,6 +3817,7 @@ def replay(
     progress: bool = True,
     max_scans: int | None = None,
     reader_kwargs: dict | None = None,
+    nav2_tolerance_m: float | None = None,
     **mapper_kw,
 ) -> dict:
     """Replay a scan log through an :class:`IncrementalMapper` and write the results.
@@ -3841,6 +3842,10 @@ def replay(
         Stop after this many scans.
     reader_kwargs : dict, optional
         Passed to the reader.
+    nav2_tolerance_m : float, optional
+        Also write ``graph_nav2.geojson``, a route graph for the ROS 2 Nav2 Route Server
+        with this waypoint tolerance (:func:`topojax.save_nav2_graph`); with ``map.yaml``
+        it is what Nav2 needs.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ...).
@@ -3854,7 +3859,7 @@ def replay(
     from tqdm import tqdm
 
     from .graph import graph_summary
-    from .io import save_graph
+    from .io import save_graph, save_nav2_graph
     from .maps import save_map
     from .scans import read_scans
 
@@ -3895,6 +3900,10 @@ def replay(
             written.append(save_graph(result.graph, out / f"graph{suffix}"))
         except ValueError as exc:
             messages.append(f"graph{suffix} not written: {exc}")
+    if nav2_tolerance_m is not None:
+        written.append(
+            save_nav2_graph(result.graph, out / "graph_nav2.geojson", tolerance_m=nav2_tolerance_m)
+        )
     written.append(save_map(result.map, out / "map.yaml"))
     written.append(out / "map.yaml")
     timings = timing_summary(reports)
@@ -3979,6 +3988,7 @@ def _cmd_replay(args) -> int:
         animate=args.animate,
         progress=not args.no_progress,
         max_scans=args.max_scans,
+        nav2_tolerance_m=args.nav2_tolerance_m if args.nav2 else None,
         **kw,
     )
     if args.no_progress:
@@ -4008,5 +4018,17 @@ def _add_cli(subparsers):
     p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
     p.add_argument("--max-scans", type=int, help="stop after this many scans")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--nav2",
+        action="store_true",
+        help="also write graph_nav2.geojson, a route graph for the ROS 2 Nav2 Route Server",
+    )
+    p.add_argument(
+        "--nav2-tolerance-m",
+        type=float,
+        default=0.1,
+        metavar="M",
+        help="Nav2 waypoints keep every corridor pixel within M metres (default 0.1)",
+    )
     p.set_defaults(handler=_cmd_replay)
     return p
