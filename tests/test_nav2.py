@@ -25,8 +25,20 @@ def art(text: str) -> np.ndarray:
     return np.array([[ch == "#" for ch in r] for r in rows], dtype=bool)
 
 
+def no_nulls(value, where="") -> None:
+    """nav2_route's loader converts numbers, bools, strings, arrays and objects only."""
+    assert value is not None, f"null at {where}"
+    if isinstance(value, dict):
+        for k, v in value.items():
+            no_nulls(v, f"{where}.{k}")
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            no_nulls(v, f"{where}[{i}]")
+
+
 def read_nav2(path):
     doc = json.loads(path.read_text())
+    no_nulls(doc)
     assert doc["type"] == "FeatureCollection"
     nodes, edges = {}, []
     for f in doc["features"]:
@@ -159,10 +171,13 @@ def test_smaller_tolerance_means_more_waypoints(tmp_path):
 
 def test_graphs_without_clearances_write_strict_json(tmp_path):
     g = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=0.5)
+    del g.nodes[0]["kind"]  # missing attributes are left out, not written as null
     path = tj.save_nav2_graph(g, tmp_path / "g.geojson", frame="odom")
     text = path.read_text()
     assert "NaN" not in text
     doc = json.loads(text)
+    no_nulls(doc)
+    assert "kind" not in doc["features"][0]["properties"]["metadata"]
     assert {
         f["properties"].get("frame") for f in doc["features"] if "frame" in f["properties"]
     } == {"odom"}
@@ -196,7 +211,10 @@ def test_bad_input(tmp_path, kwargs, exc, words):
     for word in words:
         assert word in str(info.value)
     bare = nx.MultiGraph()
-    bare.add_node(0)
+    bare.add_edge(0, 1, world=np.zeros((2, 2)))
     with pytest.raises(ValueError, match="node 0 has no 'world'"):
         tj.save_nav2_graph(bare, tmp_path / "y.geojson")
+    lonely = skeleton_to_graph(art("#.#"), resolution_m=1.0)  # two isolated pixels
+    with pytest.raises(ValueError, match="2 vertices and no edges"):
+        tj.save_nav2_graph(lonely, tmp_path / "z.geojson")
     assert not (tmp_path / "x.geojson").exists()

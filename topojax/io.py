@@ -749,9 +749,16 @@ def save_nav2_graph(
     Path
         The written path.
 
+    Raises
+    ------
+    ValueError
+        A bad ``tolerance_m`` or ``frame``, a node or edge without ``world``, or a graph
+        without edges (nav2_route refuses to load one).
+
     Notes
     -----
-    Node ids: the graph's vertices are ``0 .. V-1`` in node order (``metadata``:
+    Metadata values are numbers, strings and lists of them only (nav2_route's loader
+    accepts no ``null``).  Node ids: the graph's vertices are ``0 .. V-1`` in node order (``metadata``:
     ``vertex``, the topojax node id, ``kind`` and ``clearance_m``), then the waypoints
     (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
     topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
@@ -766,6 +773,11 @@ def save_nav2_graph(
     if not isinstance(frame, str) or not frame:
         raise ValueError(f"frame: expected a non-empty string, received {frame!r}")
     g = _as_multigraph(graph)
+    if g.number_of_edges() == 0:
+        raise ValueError(
+            f"graph: it has {g.number_of_nodes()} vertices and no edges; the Nav2 Route Server "
+            "rejects a graph without edges"
+        )
     node_id = {n: i for i, n in enumerate(g.nodes)}
     node_xy = {}
     features: list[dict] = []
@@ -773,7 +785,9 @@ def save_nav2_graph(
         if "world" not in d:
             raise ValueError(f"graph: node {n!r} has no 'world' (x, y) attribute")
         node_xy[n] = _xy(d["world"], f"node {n!r} 'world'")
-        meta = {"vertex": _jsonable(n, "node id"), "kind": d.get("kind")}
+        meta = {"vertex": _jsonable(n, "node id")}
+        if isinstance(d.get("kind"), str):
+            meta["kind"] = d["kind"]
         meta.update(_finite_metres(d, ("clearance_m",)))
         features.append(_nav2_node(node_id[n], frame, node_xy[n], meta))
     next_id = len(features)
