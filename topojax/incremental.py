@@ -3845,7 +3845,7 @@ def replay(
     nav2_tolerance_m : float, optional
         Also write ``graph_nav2.geojson``, a route graph for the ROS 2 Nav2 Route Server
         with this waypoint tolerance (:func:`topojax.save_nav2_graph`); with ``map.yaml``
-        it is what Nav2 needs.
+        it is what Nav2 needs.  Skipped with a message when the graph has no edges.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ...).
@@ -3901,9 +3901,14 @@ def replay(
         except ValueError as exc:
             messages.append(f"graph{suffix} not written: {exc}")
     if nav2_tolerance_m is not None:
-        written.append(
-            save_nav2_graph(result.graph, out / "graph_nav2.geojson", tolerance_m=nav2_tolerance_m)
-        )
+        try:
+            written.append(
+                save_nav2_graph(
+                    result.graph, out / "graph_nav2.geojson", tolerance_m=nav2_tolerance_m
+                )
+            )
+        except ValueError as exc:  # e.g. a graph without edges, which Nav2 refuses
+            messages.append(f"graph_nav2.geojson not written: {exc}")
     written.append(save_map(result.map, out / "map.yaml"))
     written.append(out / "map.yaml")
     timings = timing_summary(reports)
