@@ -1353,6 +1353,9 @@ def test_replay_cli_registers_and_runs(tmp_path, capsys):
         g.nodes
     )
     assert "graph_nav2.geojson" in text
+    with pytest.raises(ValueError, match="tolerance_m"):  # before any scan is replayed
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "bad", nav2_tolerance_m=-1.0, progress=False)
+    assert not (tmp_path / "bad").exists()
     assert (tmp_path / "graph.geojson").is_file()
     with pytest.raises(ValueError, match="max_scans"):
         replay(INTEL_EXCERPT, out_dir=tmp_path, max_scans=0, progress=False)

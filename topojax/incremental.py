@@ -3867,6 +3867,10 @@ def replay(
         isinstance(max_scans, bool) or not isinstance(max_scans, int) or max_scans < 1
     ):
         raise ValueError(f"max_scans must be a positive int or None, got {max_scans!r}")
+    if nav2_tolerance_m is not None:  # checked now, not after the whole replay
+        from .io import _nav2_tolerance
+
+        nav2_tolerance_m = _nav2_tolerance(nav2_tolerance_m)
     out = Path(out_dir)
     scans = read_scans(source, **(reader_kwargs or {}))
     mapper = IncrementalMapper(**mapper_kw)
