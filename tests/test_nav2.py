@@ -15,6 +15,7 @@ from collections import Counter, defaultdict
 import networkx as nx
 import numpy as np
 import pytest
+from brute_force import distance_to_polyline
 
 import topojax as tj
 from topojax.graph import skeleton_to_graph
@@ -53,17 +54,6 @@ def read_nav2(path):
     ids = list(nodes) + [e["id"] for e in edges]
     assert len(ids) == len(set(ids)), "ids must be unique over nodes and edges"
     return nodes, edges
-
-
-def point_to_chain(points: np.ndarray, chain: np.ndarray) -> np.ndarray:
-    """Distance from each point to the polyline ``chain`` (brute force over segments)."""
-    best = np.full(len(points), np.inf)
-    for a, b in zip(chain[:-1], chain[1:], strict=True):
-        ab = b - a
-        span = float(ab @ ab)
-        t = np.zeros(len(points)) if span == 0 else np.clip((points - a) @ ab / span, 0, 1)
-        best = np.minimum(best, np.hypot(*(points - (a + t[:, None] * ab)).T))
-    return best
 
 
 def check_against_graph(g: nx.MultiGraph, path, tol: float) -> None:
@@ -106,7 +96,7 @@ def check_against_graph(g: nx.MultiGraph, path, tol: float) -> None:
         # the chain's points lie on the corridor, and the corridor lies near the chain
         on = np.hypot(*(pts[:, None, :] - world[None, :, :]).transpose(2, 0, 1)).min(axis=1)
         assert on.max() < 1e-9
-        assert point_to_chain(world, chain_of(segs, nodes)).max() <= tol + 1e-12
+        assert distance_to_polyline(world, chain_of(segs, nodes)).max() <= tol + 1e-12
 
 
 def chain_of(segs, nodes) -> np.ndarray:

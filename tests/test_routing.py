@@ -13,6 +13,7 @@ import math
 import networkx as nx
 import numpy as np
 import pytest
+from brute_force import distance_to_polyline
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from skimage.morphology import skeletonize
@@ -309,16 +310,6 @@ def test_routes_on_the_incremental_mappers_graph():
         n += 1
         check_route(route, a, b, skel, ref, 0.05)
     assert n >= 5
-
-
-def distance_to_polyline(points: np.ndarray, chain: np.ndarray) -> np.ndarray:
-    best = np.full(len(points), np.inf)
-    for a, b in zip(chain[:-1], chain[1:], strict=True):
-        ab = b - a
-        span = float(ab @ ab)
-        t = np.zeros(len(points)) if span == 0 else np.clip((points - a) @ ab / span, 0, 1)
-        best = np.minimum(best, np.hypot(*(points - (a + t[:, None] * ab)).T))
-    return best
 
 
 def test_waypoints_keep_the_route_within_the_tolerance():

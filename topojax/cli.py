@@ -68,6 +68,23 @@ def add_pipeline_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--tile-px", type=int, default=256, help="JAX tile side in pixels")
 
 
+def add_nav2_options(p: argparse.ArgumentParser, name: str) -> None:
+    """``--nav2`` (also write the file ``name``: a Nav2 Route Server graph) and its
+    ``--nav2-tolerance-m``."""
+    p.add_argument(
+        "--nav2",
+        action="store_true",
+        help=f"also write {name}, a route graph for the ROS 2 Nav2 Route Server",
+    )
+    p.add_argument(
+        "--nav2-tolerance-m",
+        type=float,
+        default=0.1,
+        metavar="M",
+        help="Nav2 waypoints keep every corridor pixel within M metres (default 0.1)",
+    )
+
+
 def _write_outputs(result, out_dir: Path, stem: str, *, plot: bool, stages: bool) -> list[Path]:
     from .io import save_graph
 
@@ -235,18 +252,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")
     p.add_argument("--negate", action="store_true", help="image values are occupancy")
-    p.add_argument(
-        "--nav2",
-        action="store_true",
-        help="also write STEM_nav2.geojson, a route graph for the ROS 2 Nav2 Route Server",
-    )
-    p.add_argument(
-        "--nav2-tolerance-m",
-        type=float,
-        default=0.1,
-        metavar="M",
-        help="Nav2 waypoints keep every corridor pixel within M metres (default 0.1)",
-    )
+    add_nav2_options(p, "STEM_nav2.geojson")
     add_pipeline_options(p)
     p.set_defaults(handler=_cmd_graph)
 

@@ -4027,17 +4027,8 @@ def _add_cli(subparsers):
     p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
     p.add_argument("--max-scans", type=int, help="stop after this many scans")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument(
-        "--nav2",
-        action="store_true",
-        help="also write graph_nav2.geojson, a route graph for the ROS 2 Nav2 Route Server",
-    )
-    p.add_argument(
-        "--nav2-tolerance-m",
-        type=float,
-        default=0.1,
-        metavar="M",
-        help="Nav2 waypoints keep every corridor pixel within M metres (default 0.1)",
-    )
+    from .cli import add_nav2_options
+
+    add_nav2_options(p, "graph_nav2.geojson")
     p.set_defaults(handler=_cmd_replay)
     return p
