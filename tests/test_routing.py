@@ -360,6 +360,12 @@ def test_bad_input_gets_clear_errors():
         planner.route((1, 4), (2, 7), frame="pixel", max_snap_m="1")
     with pytest.raises(TypeError, match="graph: expected a networkx graph, received dict"):
         RoutePlanner({})
+    with pytest.raises(TypeError, match="undirected graph .* received MultiDiGraph"):
+        RoutePlanner(nx.MultiDiGraph(g))
+    tee = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=1.0)  # no parallel edges
+    want = RoutePlanner(tee).route((0, 0), (2, 2), frame="pixel")
+    got = RoutePlanner(nx.Graph(tee)).route((0, 0), (2, 2), frame="pixel")  # a plain Graph
+    assert got.length_m == want.length_m and got.edges == want.edges
     with pytest.raises(ValueError, match="no vertices or edges"):
         plan_route(nx.MultiGraph(), (0, 0), (1, 1))
     bare = nx.MultiGraph()

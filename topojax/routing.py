@@ -140,7 +140,8 @@ class RoutePlanner:
     Raises
     ------
     TypeError
-        ``graph`` is not a networkx graph.
+        ``graph`` is not an undirected networkx graph (a plain ``networkx.Graph`` is read
+        as a MultiGraph with edge keys 0).
     ValueError
         An edge lacks ``path``, ``world`` or ``length_m``, or its path does not start and
         end at its vertices.
@@ -149,6 +150,13 @@ class RoutePlanner:
     def __init__(self, graph: nx.Graph) -> None:
         if not isinstance(graph, nx.Graph):
             raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
+        if graph.is_directed():
+            raise TypeError(
+                f"graph: expected an undirected graph (corridors run both ways), received "
+                f"{type(graph).__name__}"
+            )
+        if not graph.is_multigraph():  # a plain Graph: its edges get key 0
+            graph = nx.MultiGraph(graph)
         self._graph = graph
         res = graph.graph.get("resolution_m")
         self._res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
