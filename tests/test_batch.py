@@ -524,6 +524,36 @@ def test_nav2_format_is_written_and_resumed(tmp_path, capsys):
     assert "1 skipped" in capsys.readouterr().out
 
 
+def test_map_mode_classifies_every_file(tmp_path, capsys):
+    """``map_mode`` (``--mode``) loads every file with that pixel convention, exactly as
+    ``load_map(path, mode=...)`` then ``build_graph``; it is part of the resume request."""
+    import cv2
+
+    from topojax.cli import main
+
+    img = np.full((60, 80), 153, np.uint8)  # IPA style: grey outside, white rooms, no walls
+    img[10:50, 10:35] = 255
+    img[10:50, 40:70] = 255
+    img[28:32, 35:40] = 255
+    png = tmp_path / "rooms.png"
+    cv2.imwrite(str(png), img)
+    (rec,) = build_graphs([png], workers=0, progress=False, map_mode="ipa")
+    assert_graphs_equal(rec.graph, build_graph(load_map(png, mode="ipa")).graph)
+    assert rec.edges > 0
+    (plain,) = build_graphs([png], workers=0, progress=False)
+    assert plain.edges == 0  # grey is unknown by default: no obstacle at all
+    with pytest.raises(ValueError, match="map_mode: expected one of"):
+        build_graphs([png], workers=0, progress=False, map_mode="grey")
+    out = tmp_path / "out"
+    argv = ["batch", str(png), "-o", str(out), "--workers", "0", "--no-progress"]
+    assert main([*argv, "--formats", "json", "--mode", "ipa"]) == 0
+    assert main([*argv, "--formats", "json", "--mode", "ipa", "--resume"]) == 0
+    assert "1 skipped" in capsys.readouterr().out
+    assert main([*argv, "--formats", "json", "--resume"]) == 0  # another convention: redone
+    assert "0 skipped" in capsys.readouterr().out
+    assert load_graph(out / "rooms.json").number_of_edges() == 0
+
+
 def test_argument_errors(tmp_path):
     with pytest.raises(ValueError, match="formats"):
         build_graphs([PAPER_MAPS[0]], formats=("graphml", "svg"), workers=0)

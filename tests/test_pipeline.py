@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import cv2
 import numpy as np
 import pytest
 from brute_force import brute_sq_distance
@@ -291,6 +292,33 @@ def test_cli_graph_and_demo(tmp_path, capsys, shared_data):
     assert cli_main(["demo", "--map", "a_scan", "-o", str(tmp_path / "demo")]) == 0
     summary = json.loads((tmp_path / "demo" / "a_scan_summary.json").read_text())
     assert summary["vertices"] > 100
+
+
+def _ipa_style_png(path):
+    """An IPA-benchmark-style image: grey 153 outside, white 255 rooms, no wall pixels."""
+    img = np.full((60, 80), 153, np.uint8)
+    img[10:50, 10:35] = 255
+    img[10:50, 40:70] = 255
+    img[28:32, 35:40] = 255  # a door between the rooms
+    cv2.imwrite(str(path), img)
+    return path
+
+
+def test_cli_graph_mode_and_a_note_for_maps_without_obstacles(tmp_path, capsys):
+    png = _ipa_style_png(tmp_path / "rooms.png")
+    assert cli_main(["graph", str(png), "-o", str(tmp_path / "a")]) == 0
+    out = capsys.readouterr().out
+    assert "note       the map has no occupied pixel" in out and "--mode ipa" in out
+    assert tj.load_graph(tmp_path / "a" / "rooms.json").number_of_edges() == 0
+    assert cli_main(["graph", str(png), "-o", str(tmp_path / "b"), "--mode", "ipa"]) == 0
+    out = capsys.readouterr().out
+    assert "the map has no" not in out
+    got = tj.load_graph(tmp_path / "b" / "rooms.json")
+    want = tj.build_graph(tj.load_map(png, mode="ipa")).graph
+    assert got.number_of_edges() == want.number_of_edges() > 0
+    with pytest.raises(SystemExit):
+        cli_main(["graph", str(png), "--mode", "grey"])
+    assert "invalid choice: 'grey'" in capsys.readouterr().err
 
 
 def test_cli_keeps_compiled_kernels_between_runs(tmp_path):

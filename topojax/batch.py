@@ -772,10 +772,10 @@ class _LoadedBits:
     t_load_s: float
 
 
-def _load_in_worker(path: str, want_free: bool) -> _LoadedBits:
+def _load_in_worker(path: str, want_free: bool, mode: str | None = None) -> _LoadedBits:
     """Worker side: read and classify a map file (PNG/PGM decoding, YAML, thresholds)."""
     t0 = time.perf_counter()
-    occ = load_map(path)
+    occ = load_map(path) if mode is None else load_map(path, mode=mode)
     return _LoadedBits(
         shape=(int(occ.shape[0]), int(occ.shape[1])),
         resolution_m=occ.resolution_m,
@@ -817,10 +817,13 @@ def _loaded_from_bits(item: _Item, bits: _LoadedBits, tile_px: int) -> _Loaded:
     )
 
 
-def _load_here(item: _Item, tile_px: int, want_free: bool) -> _Loaded:
+def _load_here(item: _Item, tile_px: int, want_free: bool, mode: str | None = None) -> _Loaded:
     """Calling-process side: use the given map object, or load the file in this thread."""
     t0 = time.perf_counter()
-    occ = item.occupancy if item.occupancy is not None else load_map(item.path)
+    if item.occupancy is not None:
+        occ = item.occupancy
+    else:
+        occ = load_map(item.path) if mode is None else load_map(item.path, mode=mode)
     return _Loaded(
         item=item,
         occupied=occ.occupied,
@@ -852,8 +855,10 @@ class _BatchRun:
         resume: bool,
         request: dict[str, Any],
         fingerprints: dict[int, dict[str, Any] | None],
+        map_mode: str | None = None,
     ) -> None:
         self.items = items
+        self.map_mode = map_mode
         self.executor = executor
         self.owns_executor = executor is None
         self.workers = workers
@@ -1142,10 +1147,13 @@ class _BatchRun:
                     if item.occupancy is not None:  # nothing to load
                         ready.append(_load_here(item, tile_px, want_free))
                     elif load_in_workers:
-                        fut = self._submit(_load_in_worker, os.fspath(item.path), want_free)
+                        fut = self._submit(
+                            _load_in_worker, os.fspath(item.path), want_free, self.map_mode
+                        )
                         loads[fut] = item
                     else:
-                        loads[load_pool.submit(_load_here, item, tile_px, want_free)] = item
+                        fut = load_pool.submit(_load_here, item, tile_px, want_free, self.map_mode)
+                        loads[fut] = item
                 while ready and len(kernels) < self.kernel_threads and len(cpu) < self.cpu_backlog:
                     # Until the kernel is compiled, send one map at a time: the first call
                     # (tracing + XLA compilation) runs alone, and a small first group lets
@@ -1299,6 +1307,7 @@ def build_graphs(
     kernel_threads: int | None = None,
     batch_tiles: int | None = None,
     keep_graphs: bool | None = None,
+    map_mode: str | None = None,
 ) -> list[MapRecord]:
     """Build the topology graphs of many maps (see the module notes for the design).
 
@@ -1346,6 +1355,11 @@ def build_graphs(
     keep_graphs : bool, optional
         Return each ``networkx.MultiGraph`` in ``MapRecord.graph``.  Default: True
         without ``out_dir``, False with it (graphs are then on disk).
+    map_mode : {"trinary", "scale", "raw", "ipa"}, optional
+        Pixel convention for every map file, as ``mode`` of :func:`topojax.load_map`
+        (e.g. ``"ipa"`` for the IPA benchmark maps, where every pixel below 250 is
+        inaccessible).  Default: each file's own (its YAML's, else trinary).  Maps given
+        as :class:`OccupancyMap` objects are already classified.
 
     Returns
     -------
@@ -1385,6 +1399,11 @@ def build_graphs(
     if not isinstance(config, PipelineConfig):
         raise TypeError(f"config: expected a PipelineConfig, got {type(config).__name__}")
     fmts = _check_formats(formats)
+    if map_mode is not None:
+        from .maps import MODES
+
+        if map_mode not in MODES:
+            raise ValueError(f"map_mode: expected one of {MODES} or None, received {map_mode!r}")
     for name, flag in (("plot", plot), ("resume", resume), ("progress", progress)):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name}: expected a bool, got {flag!r}")
@@ -1430,6 +1449,8 @@ def build_graphs(
             "graph": dataclasses.asdict(config.graph),
             "formats": sorted(fmts),
             "plot": bool(plot),
+            # only when given, so that manifests written without it still match
+            **({"map_mode": map_mode} if map_mode is not None else {}),
         }
     )
     fingerprints = {item.index: _fingerprint(item) for item in items} if out is not None else {}
@@ -1449,6 +1470,7 @@ def build_graphs(
         resume=bool(resume),
         request=request,
         fingerprints=fingerprints,
+        map_mode=map_mode,
     )
     records = runner.run()
     if out is not None:
@@ -1509,6 +1531,7 @@ def _cmd_batch(args: Any) -> int:
             progress=not args.no_progress,
             tiles_per_call=args.tiles_per_call,
             kernel_threads=args.kernel_threads,
+            map_mode=args.mode,
         )
     finally:
         if client is not None:
@@ -1572,6 +1595,12 @@ def _add_cli(subparsers: Any) -> Any:
         "--resume", action="store_true", help="skip maps whose outputs are complete and valid"
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--mode",
+        choices=("trinary", "scale", "raw", "ipa"),
+        help="pixel convention of every map file (default: each file's own; ipa: free if "
+        ">= 250, everything else occupied)",
+    )
     p.add_argument(
         "--formats",
         default="graphml,json,geojson",

@@ -116,6 +116,21 @@ def _write_outputs(result, out_dir: Path, stem: str, *, plot: bool, stages: bool
     return written
 
 
+def _classes_hint(occupancy) -> list[str]:
+    """A note when the map, as classified, cannot give a graph (no obstacle or no free
+    pixel): usually thresholds or a pixel convention that do not fit the file."""
+    n_occ, n_free = int(occupancy.occupied.sum()), int(occupancy.free.sum())
+    if n_occ and n_free:
+        return []
+    what = "no occupied pixel" if not n_occ else "no free pixel"
+    return [
+        f"note       the map has {what} as classified ({n_occ} occupied, {n_free} free, "
+        f"{int(occupancy.unknown.sum())} unknown), so the graph is empty; check the "
+        "thresholds, --negate, or --mode (e.g. --mode ipa for IPA benchmark maps, where "
+        "every pixel below 250 is inaccessible)"
+    ]
+
+
 def _summary_lines(name: str, result) -> list[str]:
     from .graph import graph_summary
 
@@ -138,13 +153,15 @@ def _cmd_graph(args) -> int:
     from .pipeline import build_graph
 
     kw = {}
-    for name in ("resolution_m", "occupied_thresh", "free_thresh"):
+    for name in ("resolution_m", "occupied_thresh", "free_thresh", "mode"):
         if getattr(args, name) is not None:
             kw[name] = getattr(args, name)
     if args.negate:
         kw["negate"] = True
     occupancy = load_map(args.map, **kw)
     result = build_graph(occupancy, config=pipeline_config(args))
+    for line in _classes_hint(occupancy):
+        print(line)
     stem = Path(args.map).stem
     written = _write_outputs(result, Path(args.out), stem, plot=args.plot, stages=args.stages)
     if args.nav2:
@@ -252,6 +269,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")
     p.add_argument("--negate", action="store_true", help="image values are occupancy")
+    p.add_argument(
+        "--mode",
+        choices=("trinary", "scale", "raw", "ipa"),
+        help="pixel convention (default: the YAML's, else trinary; ipa: free if >= 250, "
+        "everything else occupied)",
+    )
     add_nav2_options(p, "STEM_nav2.geojson")
     add_pipeline_options(p)
     p.set_defaults(handler=_cmd_graph)
