@@ -321,6 +321,30 @@ def test_cli_graph_mode_and_a_note_for_maps_without_obstacles(tmp_path, capsys):
     assert "invalid choice: 'grey'" in capsys.readouterr().err
 
 
+def test_cli_graph_sigma_in_metres_or_pixels(tmp_path, capsys):
+    """``--sigma-m`` goes through the map's resolution (support scaled like the original's
+    227 px for 64.19 px); ``--sigma-px`` is the same in pixels; they exclude each other."""
+    png = tj.datasets.sample_map_path("intel")  # 0.05 m/px
+    m = tj.load_map(png)
+    cfg = tj.PipelineConfig(
+        distance=tj.DistanceConfig.from_metres(sigma_m=1.0, resolution_m=m.resolution_m)
+    )
+    assert (cfg.distance.sigma_px, cfg.distance.half_width_px) == (pytest.approx(20.0), 71)
+    want = tj.build_graph(m, config=cfg).graph
+    for option, value in (("--sigma-m", "1.0"), ("--sigma-px", "20")):
+        out = tmp_path / option.strip("-")
+        assert cli_main(["graph", str(png), "-o", str(out), option, value]) == 0
+        got = tj.load_graph(out / "intel.json")
+        assert got.number_of_nodes() == want.number_of_nodes()
+        assert got.number_of_edges() == want.number_of_edges()
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        cli_main(["graph", str(png), "--sigma-m", "1", "--sigma-px", "20"])
+    assert "not allowed with argument" in capsys.readouterr().err
+    assert cli_main(["graph", str(png), "-o", str(tmp_path / "x"), "--sigma-m", "-1"]) == 2
+    assert "sigma_m must be finite and > 0" in capsys.readouterr().err
+
+
 def test_cli_keeps_compiled_kernels_between_runs(tmp_path):
     """The command stores JAX's compiled kernels under $XDG_CACHE_HOME/topojax/jax and a
     second run, which loads them, writes the same graph."""

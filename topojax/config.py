@@ -79,8 +79,8 @@ class DistanceConfig:
         resolution_m : float
             Map resolution in metres per pixel.
         half_width_m : float, optional
-            Support half-width in metres; default ``5 * sigma_m`` rounded like the original
-            (about 3.54 sigma of support on each side for the default kernel).
+            Support half-width in metres; default: the original's ratio, 227 px of
+            support for 64.19 px of sigma (about 3.54 sigma on each side), rounded.
         """
         _finite_positive("sigma_m", sigma_m)
         _finite_positive("resolution_m", resolution_m)
