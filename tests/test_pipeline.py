@@ -330,6 +330,10 @@ def test_cli_graph_sigma_in_metres_or_pixels(tmp_path, capsys):
         distance=tj.DistanceConfig.from_metres(sigma_m=1.0, resolution_m=m.resolution_m)
     )
     assert (cfg.distance.sigma_px, cfg.distance.half_width_px) == (pytest.approx(20.0), 71)
+    assert tj.DistanceConfig.from_pixels(sigma_px=20.0) == cfg.distance
+    assert (
+        tj.DistanceConfig.from_pixels(sigma_px=tj.DistanceConfig().sigma_px) == tj.DistanceConfig()
+    )
     want = tj.build_graph(m, config=cfg).graph
     for option, value in (("--sigma-m", "1.0"), ("--sigma-px", "20")):
         out = tmp_path / option.strip("-")

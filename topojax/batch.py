@@ -60,8 +60,8 @@ workers compete for the same cores; ``bench/BATCH.md`` has the measured numbers.
 Outputs, faults and resume
 --------------------------
 With ``out_dir``, every map gets ``<name>.graphml`` / ``.json`` / ``.geojson`` /
-``_nav2.geojson`` (as chosen by ``formats``), optionally ``<name>_graph.png``, and then, **last**, a manifest
-``<name>.manifest.json`` listing the input's SHA-256, the result-relevant settings and
+``_nav2.geojson`` (as chosen by ``formats``), optionally ``<name>_graph.png``, and then,
+**last**, a manifest ``<name>.manifest.json`` listing the input's SHA-256, the result-relevant settings and
 the name, size and SHA-256 of every output file.  ``out_dir/summary.csv`` (and
 ``summary.parquet`` when pyarrow is installed) holds one row per map (columns
 :data:`SUMMARY_COLUMNS`).  Every file is written to a temporary name in its folder and
@@ -129,7 +129,7 @@ import numpy as np
 
 from .config import PipelineConfig
 from .io import GRAPH_FORMATS, atomic_write_bytes
-from .maps import IMAGE_SUFFIXES, YAML_SUFFIXES, OccupancyMap, load_map
+from .maps import IMAGE_SUFFIXES, MODES, YAML_SUFFIXES, OccupancyMap, load_map
 
 __all__ = [
     "SUMMARY_COLUMNS",
@@ -775,7 +775,7 @@ class _LoadedBits:
 def _load_in_worker(path: str, want_free: bool, mode: str | None = None) -> _LoadedBits:
     """Worker side: read and classify a map file (PNG/PGM decoding, YAML, thresholds)."""
     t0 = time.perf_counter()
-    occ = load_map(path) if mode is None else load_map(path, mode=mode)
+    occ = load_map(path, mode=mode)
     return _LoadedBits(
         shape=(int(occ.shape[0]), int(occ.shape[1])),
         resolution_m=occ.resolution_m,
@@ -820,10 +820,7 @@ def _loaded_from_bits(item: _Item, bits: _LoadedBits, tile_px: int) -> _Loaded:
 def _load_here(item: _Item, tile_px: int, want_free: bool, mode: str | None = None) -> _Loaded:
     """Calling-process side: use the given map object, or load the file in this thread."""
     t0 = time.perf_counter()
-    if item.occupancy is not None:
-        occ = item.occupancy
-    else:
-        occ = load_map(item.path) if mode is None else load_map(item.path, mode=mode)
+    occ = item.occupancy if item.occupancy is not None else load_map(item.path, mode=mode)
     return _Loaded(
         item=item,
         occupied=occ.occupied,
@@ -1399,11 +1396,8 @@ def build_graphs(
     if not isinstance(config, PipelineConfig):
         raise TypeError(f"config: expected a PipelineConfig, got {type(config).__name__}")
     fmts = _check_formats(formats)
-    if map_mode is not None:
-        from .maps import MODES
-
-        if map_mode not in MODES:
-            raise ValueError(f"map_mode: expected one of {MODES} or None, received {map_mode!r}")
+    if map_mode is not None and map_mode not in MODES:
+        raise ValueError(f"map_mode: expected one of {MODES} or None, received {map_mode!r}")
     for name, flag in (("plot", plot), ("resume", resume), ("progress", progress)):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name}: expected a bool, got {flag!r}")
@@ -1597,7 +1591,7 @@ def _add_cli(subparsers: Any) -> Any:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument(
         "--mode",
-        choices=("trinary", "scale", "raw", "ipa"),
+        choices=MODES,
         help="pixel convention of every map file (default: each file's own; ipa: free if "
         ">= 250, everything else occupied)",
     )

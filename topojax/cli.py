@@ -170,7 +170,7 @@ def _cmd_graph(args) -> int:
                 sigma_m=args.sigma_m, resolution_m=occupancy.resolution_m
             )
         else:
-            distance = DistanceConfig.from_metres(sigma_m=args.sigma_px, resolution_m=1.0)
+            distance = DistanceConfig.from_pixels(sigma_px=args.sigma_px)
         config = dataclasses.replace(config, distance=distance)
     result = build_graph(occupancy, config=config)
     for line in _classes_hint(occupancy):
@@ -259,6 +259,8 @@ def _cmd_route(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .maps import MODES
+
     parser = argparse.ArgumentParser(
         prog="topojax",
         description="Topology (route) graphs from 2-D robot maps via Gaussian distance maps.",
@@ -284,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--negate", action="store_true", help="image values are occupancy")
     p.add_argument(
         "--mode",
-        choices=("trinary", "scale", "raw", "ipa"),
+        choices=MODES,
         help="pixel convention (default: the YAML's, else trinary; ipa: free if >= 250, "
         "everything else occupied)",
     )

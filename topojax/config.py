@@ -84,12 +84,18 @@ class DistanceConfig:
         """
         _finite_positive("sigma_m", sigma_m)
         _finite_positive("resolution_m", resolution_m)
-        sigma_px = sigma_m / resolution_m
         if half_width_m is None:
-            half = round(sigma_px * ORIGINAL_HALF_WIDTH_PX / ORIGINAL_SIGMA_PX)
-        else:
-            _finite_positive("half_width_m", half_width_m)
-            half = round(half_width_m / resolution_m)
+            return cls.from_pixels(sigma_px=sigma_m / resolution_m)
+        _finite_positive("half_width_m", half_width_m)
+        half = round(half_width_m / resolution_m)
+        return cls(sigma_px=sigma_m / resolution_m, half_width_px=max(1, int(half)))
+
+    @classmethod
+    def from_pixels(cls, *, sigma_px: float) -> DistanceConfig:
+        """A configuration with this sigma (pixels) and the support scaled with it as in
+        the original (227 px for 64.19 px, about 3.54 sigma on each side, rounded)."""
+        _finite_positive("sigma_px", sigma_px)
+        half = round(sigma_px * ORIGINAL_HALF_WIDTH_PX / ORIGINAL_SIGMA_PX)
         return cls(sigma_px=sigma_px, half_width_px=max(1, int(half)))
 
 
@@ -155,6 +161,19 @@ def _nonnegative_metres(name: str, value: object) -> float:
     value = float(value)
     if not math.isfinite(value) or value < 0:
         raise ValueError(f"{name}: expected a finite number of metres >= 0, received {value!r}")
+    return value
+
+
+def _positive_metres(name: str, value: object) -> float:
+    """``value`` as a float after checking it is a finite number of metres > 0 (the
+    tolerances of the Nav2 export and of :meth:`topojax.Route.waypoints`)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(
+            f"{name}: expected a number of metres > 0, received {type(value).__name__} {value!r}"
+        )
+    value = float(value)
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{name}: expected a finite number of metres > 0, received {value!r}")
     return value
 
 

@@ -3868,9 +3868,9 @@ def replay(
     ):
         raise ValueError(f"max_scans must be a positive int or None, got {max_scans!r}")
     if nav2_tolerance_m is not None:  # checked now, not after the whole replay
-        from .io import _nav2_tolerance
+        from .config import _positive_metres
 
-        nav2_tolerance_m = _nav2_tolerance(nav2_tolerance_m)
+        nav2_tolerance_m = _positive_metres("nav2_tolerance_m", nav2_tolerance_m)
     out = Path(out_dir)
     scans = read_scans(source, **(reader_kwargs or {}))
     mapper = IncrementalMapper(**mapper_kw)

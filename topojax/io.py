@@ -36,6 +36,7 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
+from .config import _positive_metres
 from .graph import _polyline_keep
 
 __all__ = ["GRAPH_FORMATS", "atomic_write_bytes", "load_graph", "save_graph", "save_nav2_graph"]
@@ -765,7 +766,7 @@ def save_nav2_graph(
     waypoints) and the corridor's ``min_clearance_m`` / ``mean_clearance_m``.  topojax
     writes this format but does not read it back (use :func:`save_graph` for that).
     """
-    tol = _nav2_tolerance(tolerance_m)
+    tol = _positive_metres("tolerance_m", tolerance_m)
     if not isinstance(frame, str) or not frame:
         raise ValueError(f"frame: expected a non-empty string, received {frame!r}")
     g = _as_multigraph(graph)
@@ -828,16 +829,6 @@ def save_nav2_graph(
     p = Path(path)
     atomic_write_bytes(p, data)
     return p
-
-
-def _nav2_tolerance(tolerance_m: Any) -> float:
-    """``tolerance_m`` of :func:`save_nav2_graph` as a float, checked (finite, > 0)."""
-    if isinstance(tolerance_m, bool) or not isinstance(tolerance_m, (int, float, np.number)):
-        raise TypeError(f"tolerance_m: expected metres > 0, received {tolerance_m!r}")
-    tol = float(tolerance_m)
-    if not np.isfinite(tol) or tol <= 0:
-        raise ValueError(f"tolerance_m: expected a finite number of metres > 0, received {tol!r}")
-    return tol
 
 
 def _nav2_node(i: int, frame: str, xy: list[float], meta: dict) -> dict:

@@ -30,8 +30,9 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .config import _nonnegative_metres
-from .graph import _polyline_keep
+from .config import _nonnegative_metres, _positive_metres
+from .graph import _polyline_keep, _steps_length
+from .io import _jsonable
 
 __all__ = ["NoRouteError", "Route", "RoutePlanner", "plan_route"]
 
@@ -91,9 +92,7 @@ class Route:
         float64 array, shape (m, 2)
             ``x, y`` in metres; the first and last are the route's ends.
         """
-        tol = _nonnegative_metres("tolerance_m", tolerance_m)
-        if tol == 0:
-            raise ValueError("tolerance_m: expected a number of metres > 0, received 0.0")
+        tol = _positive_metres("tolerance_m", tolerance_m)
         return self.world[_polyline_keep(self.world, tol)]
 
     def to_geojson(self, *, tolerance_m: float | None = None) -> dict:
@@ -110,7 +109,7 @@ class Route:
                 "length_m": self.length_m,
                 "start_snap_m": self.start_snap_m,
                 "goal_snap_m": self.goal_snap_m,
-                "vertices": [_plain(v) for v in self.vertices],
+                "vertices": [_jsonable(v, "vertex id") for v in self.vertices],
             },
         }
 
@@ -314,7 +313,7 @@ class RoutePlanner:
         steps = np.arange(len(pixels)) - first
         diagonal = n_diag - n_diag[first]
         res = self._res if self._res is not None else self._pixel_size_m()
-        cum = ((steps - diagonal) + diagonal * math.sqrt(2.0)) * res
+        cum = _steps_length(steps - diagonal, diagonal, res)
         cum[starts + sizes - 1] = self._len
         return np.split(cum, starts[1:])
 
@@ -522,11 +521,6 @@ def _point(point, name: str, frame: str) -> np.ndarray:
     if q is None or q.shape != (2,) or not np.isfinite(q).all():
         raise ValueError(f"{name}: expected two finite numbers {what}, received {point!r}")
     return q
-
-
-def _plain(value):
-    """A vertex id as a JSON value (numpy integers become ints)."""
-    return value.item() if isinstance(value, np.generic) else value
 
 
 def _step_size(path: np.ndarray, world: np.ndarray) -> float:
