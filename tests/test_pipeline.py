@@ -239,6 +239,19 @@ def test_degenerate_maps_give_empty_graphs(array):
     assert res.skeleton.shape == array.shape
 
 
+def test_build_graph_reads_a_path_with_load_map(tmp_path):
+    """A file name (str or Path) goes through load_map with its defaults."""
+    png = tj.datasets.sample_map_path("a_scan")
+    want = tj.build_graph(tj.load_map(png))
+    for path in (png, str(png)):
+        got = tj.build_graph(path)
+        assert got.map.source == want.map.source
+        np.testing.assert_array_equal(got.skeleton, want.skeleton)
+        assert got.graph.number_of_edges() == want.graph.number_of_edges()
+    with pytest.raises(FileNotFoundError, match="nope.yaml"):
+        tj.build_graph(tmp_path / "nope.yaml")
+
+
 def test_bad_inputs_raise_clear_errors():
     with pytest.raises(ValueError, match="NaN"):
         tj.build_graph(np.full((10, 10), np.nan))

@@ -68,3 +68,28 @@ def test_route_overlay_follows_the_route_pixels(result):
     line = next(ln for ln in ax.lines if ln.get_label() == "route")
     np.testing.assert_array_equal(line.get_xydata(), route.pixels[:, ::-1].astype(float))
     plt.close(ax.figure)
+
+
+def test_plot_takes_an_incremental_mapper_and_rejects_other_objects():
+    mapper = tj.IncrementalMapper(
+        resolution_m=0.1, distance=tj.DistanceConfig(sigma_px=4.0, half_width_px=10), tile_px=16
+    )
+    ranges = np.full(90, 3.0)
+    for x in (0.0, 0.5, 1.0):
+        mapper.add_scan(
+            tj.Scan.from_arrays(ranges, (x, 0.0, 0.0), angle_min=-np.pi, angle_increment=0.07)
+        )
+    expected = mapper.to_result()
+    ax = tj.plot(mapper)
+    assert ax.images[0].get_array().shape == expected.map.shape
+    n_points = sum(
+        len(c.get_offsets()) for c in ax.collections if not isinstance(c, LineCollection)
+    )
+    assert n_points == expected.graph.number_of_nodes() > 0
+    plt.close(ax.figure)
+    plt.close(plot_stages(mapper))
+    for bad in (42, expected.graph, np.zeros((4, 4), bool)):
+        with pytest.raises(TypeError, match="result: expected a TopologyResult"):
+            tj.plot(bad)
+        with pytest.raises(TypeError, match="result: expected a TopologyResult"):
+            plot_stages(bad)

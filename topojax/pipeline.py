@@ -784,9 +784,10 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
 
     Parameters
     ----------
-    occupancy : OccupancyMap or array
+    occupancy : OccupancyMap, array or path
         The map.  Arrays are converted with :meth:`OccupancyMap.from_array` (bool: True =
-        occupied; uint8 image; int8 occupancy grid).
+        occupied; uint8 image; int8 occupancy grid); a path (``str`` or
+        :class:`os.PathLike`) is read with :func:`topojax.load_map` and its defaults.
     config : PipelineConfig, optional
         All stage settings; default reproduces the paper with Guo–Hall thinning.
 
@@ -797,12 +798,14 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
         corridors as edges carrying their pixel paths and world polylines.  A map with no
         obstacles or no free space gives an empty graph.
     """
-    from .maps import OccupancyMap
+    from .maps import OccupancyMap, load_map
 
     config = config or PipelineConfig()
     if not isinstance(config, PipelineConfig):
         raise TypeError(f"config must be a PipelineConfig, got {type(config).__name__}")
-    if not isinstance(occupancy, OccupancyMap):
+    if isinstance(occupancy, (str, os.PathLike)):
+        occupancy = load_map(occupancy)
+    elif not isinstance(occupancy, OccupancyMap):
         occupancy = OccupancyMap.from_array(occupancy)
     timings: dict[str, float] = {}
     obstacles = occupancy.occupied

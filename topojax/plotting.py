@@ -35,6 +35,22 @@ def _axes(ax, figsize=(8, 8)):
     return ax
 
 
+def _as_result(result, name: str = "result"):
+    """A :class:`~topojax.TopologyResult` from one, or from an
+    :class:`~topojax.IncrementalMapper` (its current state, graph brought up to date)."""
+    from .incremental import IncrementalMapper
+    from .pipeline import TopologyResult
+
+    if isinstance(result, TopologyResult):
+        return result
+    if isinstance(result, IncrementalMapper):
+        return result.to_result()
+    raise TypeError(
+        f"{name}: expected a TopologyResult (from build_graph) or an IncrementalMapper, "
+        f"received {type(result).__name__}"
+    )
+
+
 def _map_image(occupancy) -> np.ndarray:
     img = np.full(occupancy.shape, 0.8, np.float32)  # unknown: light grey
     img[occupancy.free] = 1.0
@@ -158,11 +174,13 @@ def plot(
     route=None,
     title: str | None = None,
 ):
-    """Overlay of map, skeleton and graph for a :class:`~topojax.TopologyResult`, and a
-    :class:`~topojax.Route` on top if given.
+    """Overlay of map, skeleton and graph for a :class:`~topojax.TopologyResult` (or an
+    :class:`~topojax.IncrementalMapper`'s current state), and a :class:`~topojax.Route` on
+    top if given.
 
     Returns the axes; ``ax.figure.savefig(path)`` writes a picture.
     """
+    result = _as_result(result)
     ax = _axes(ax, figsize=(9, 9))
     plot_map(result.map, ax=ax)
     if skeleton:
@@ -179,11 +197,14 @@ def plot(
 
 
 def plot_stages(result, *, figsize=(15, 9)):
-    """The paper's Fig. 1: map, distance map, Laplacian, ridges, skeleton, graph.
+    """The paper's Fig. 1: map, distance map, Laplacian, ridges, skeleton, graph, for a
+    :class:`~topojax.TopologyResult` or an :class:`~topojax.IncrementalMapper`.
 
     Returns the figure.
     """
     import matplotlib.pyplot as plt
+
+    result = _as_result(result)
 
     fig, axes = plt.subplots(2, 3, figsize=figsize)
     plot_map(result.map, ax=axes[0, 0], title="occupancy map")
