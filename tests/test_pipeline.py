@@ -261,6 +261,18 @@ def test_bad_inputs_raise_clear_errors():
         tj.build_graph(np.zeros((0, 5), bool))
     with pytest.raises(TypeError, match="PipelineConfig"):
         tj.build_graph(np.zeros((10, 10), bool), config={"tile_px": 5})
+    # the low-level functions take masks: an image or probabilities is not silently
+    # read as "nonzero = obstacle"; 0 / 1 numbers are
+    image = np.full((10, 10), 254, np.uint8)
+    image[4, :] = 0
+    for bad in (image, np.full((10, 10), 0.3)):
+        with pytest.raises(ValueError, match="obstacles: expected a boolean mask"):
+            tj.distance_map(bad)
+        with pytest.raises(ValueError, match="OccupancyMap.from_array"):
+            tj.ridge_map(bad)
+    np.testing.assert_array_equal(
+        tj.distance_map((image == 0).astype(np.uint8)), tj.distance_map(image == 0)
+    )
     with pytest.raises(ValueError, match="thinning"):
         tj.SkeletonConfig(thinning="lee")
     with pytest.raises(ValueError, match="tile_px"):

@@ -240,6 +240,17 @@ def _as_obstacles(obstacles) -> np.ndarray:
             raise TypeError(f"obstacles must be a boolean mask, got dtype {arr.dtype}")
         if np.issubdtype(arr.dtype, np.floating) and np.isnan(arr).any():
             raise ValueError(f"obstacles contains {int(np.isnan(arr).sum())} NaN values")
+        other = (arr != 0) & (arr != 1)
+        if other.any():
+            # e.g. an image (0 = black = wall) or occupancy probabilities: reading them as
+            # "nonzero = obstacle" would silently give the wrong map
+            raise ValueError(
+                "obstacles: expected a boolean mask (or 0 / 1 values), received "
+                f"{arr.dtype} values in [{arr.min()}, {arr.max()}] with "
+                f"{int(other.sum())} pixels neither 0 nor 1; convert images and "
+                "occupancy grids with OccupancyMap.from_array(...) and pass it (or its "
+                ".occupied)"
+            )
         arr = arr != 0
     if min(arr.shape) < 2:
         raise ValueError(f"obstacles must be at least 2 x 2 pixels, got shape {arr.shape}")
@@ -260,7 +271,7 @@ def dense_fields(
     Parameters
     ----------
     obstacles : bool array, shape (H, W)
-        Obstacle mask, ``obstacles[row, col]``.
+        Obstacle mask, ``obstacles[row, col]`` (numeric arrays must hold only 0 and 1).
     distance, ridge : configs, optional
     tile_px : int
         Tile side (shape-setting; every map size uses the same compiled kernel).
