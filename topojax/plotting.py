@@ -35,20 +35,21 @@ def _axes(ax, figsize=(8, 8)):
     return ax
 
 
-def _as_result(result, name: str = "result"):
-    """A :class:`~topojax.TopologyResult` from one, or from an
-    :class:`~topojax.IncrementalMapper` (its current state, graph brought up to date)."""
+def _as_result(result, needs: tuple[str, ...]):
+    """``result`` itself when it has the attributes ``needs`` (a
+    :class:`~topojax.TopologyResult` or alike), or an
+    :class:`~topojax.IncrementalMapper`'s current state (graph brought up to date)."""
     from .incremental import IncrementalMapper
-    from .pipeline import TopologyResult
 
-    if isinstance(result, TopologyResult):
-        return result
     if isinstance(result, IncrementalMapper):
         return result.to_result()
-    raise TypeError(
-        f"{name}: expected a TopologyResult (from build_graph) or an IncrementalMapper, "
-        f"received {type(result).__name__}"
-    )
+    missing = [name for name in needs if not hasattr(result, name)]
+    if missing:
+        raise TypeError(
+            "result: expected a TopologyResult (from build_graph) or an IncrementalMapper, "
+            f"received {type(result).__name__} (no {', '.join(missing)})"
+        )
+    return result
 
 
 def _map_image(occupancy) -> np.ndarray:
@@ -180,7 +181,7 @@ def plot(
 
     Returns the axes; ``ax.figure.savefig(path)`` writes a picture.
     """
-    result = _as_result(result)
+    result = _as_result(result, ("map", "skeleton", "graph"))
     ax = _axes(ax, figsize=(9, 9))
     plot_map(result.map, ax=ax)
     if skeleton:
@@ -204,7 +205,7 @@ def plot_stages(result, *, figsize=(15, 9)):
     """
     import matplotlib.pyplot as plt
 
-    result = _as_result(result)
+    result = _as_result(result, ("map", "distance", "lap_abs", "ridges", "skeleton", "graph"))
 
     fig, axes = plt.subplots(2, 3, figsize=figsize)
     plot_map(result.map, ax=axes[0, 0], title="occupancy map")
