@@ -441,3 +441,74 @@ def test_atomic_write_gives_ordinary_file_permissions(tmp_path):
         assert target.read_bytes() == b"abc"
     finally:
         os.umask(mask)
+
+
+def _feature(geometry_type: str, coordinates, **properties) -> dict:
+    return {
+        "type": "Feature",
+        "geometry": {"type": geometry_type, "coordinates": coordinates},
+        "properties": properties,
+    }
+
+
+_POINT_A = _feature("Point", [0.0, 0.0], id=1)
+_POINT_B = _feature("Point", [1.0, 0.0], id=2)
+
+
+@pytest.mark.parametrize(
+    ("suffix", "doc", "message"),
+    [
+        (".json", {"directed": True, "nodes": []}, "directed graph"),
+        (".json", {"nodes": [{"x": 1}]}, "node entry without 'id'"),
+        (".json", {"nodes": [{"id": 1}], "edges": [{"source": 1}]}, "without source/target"),
+        (".json", {"nodes": [{"id": 1}], "edges": [{"source": 1, "target": 7}]}, "node 7"),
+        (".json", {"nodes": [{"id": True}]}, "bad node id True"),
+        (".geojson", {"type": "FeatureCollection", "features": [42]}, r"features\[0\] is not"),
+        (
+            ".geojson",
+            {"type": "FeatureCollection", "features": [_feature("Point", [0, 0])]},
+            "has no 'id'",
+        ),
+        (
+            ".geojson",
+            {"type": "FeatureCollection", "features": [_feature("Point", ["a", "b"], id=1)]},
+            "2 finite numbers",
+        ),
+        (
+            ".geojson",
+            {"type": "FeatureCollection", "features": [_feature("LineString", [[0, 0]], u=1)]},
+            "lacks 'u'/'v'",
+        ),
+        (
+            ".geojson",
+            {
+                "type": "FeatureCollection",
+                "features": [_POINT_A, _feature("LineString", [[0, 0], [1, 0]], u=1, v=9)],
+            },
+            "joins node 9",
+        ),
+        (
+            ".geojson",
+            {
+                "type": "FeatureCollection",
+                "features": [_POINT_A, _POINT_B, _feature("LineString", "xy", u=1, v=2)],
+            },
+            r"features\[2\] coordinates must be a list of \[x, y\]",
+        ),
+    ],
+)
+def test_load_rejects_damaged_files_naming_the_file_and_the_fault(
+    tmp_path: Path, suffix: str, doc: dict, message: str
+):
+    path = tmp_path / f"damaged{suffix}"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=message) as info:
+        load_graph(path)
+    assert "damaged" in str(info.value)
+
+
+def test_load_rejects_a_directed_graphml_file(tmp_path: Path):
+    path = tmp_path / "directed.graphml"
+    nx.write_graphml(nx.DiGraph([(1, 2)]), path)
+    with pytest.raises(ValueError, match="directed.graphml holds a directed graph"):
+        load_graph(path)

@@ -372,6 +372,7 @@ def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
             raise ValueError(f"graph file {path}: edge entry without source/target: {entry!r}")
         u = _decode_id(entry["source"], schema["node_id"], "node id", path)
         v = _decode_id(entry["target"], schema["node_id"], "node id", path)
+        _check_ends(g, u, v, path, "edge entry")
         attrs = {k: val for k, val in entry.items() if k not in ("source", "target", "key")}
         key = entry.get("key")
         if key is not None:
@@ -475,7 +476,10 @@ _GEO_EDGE_RESERVED = ("u", "v", "key", "feature", "closed_by_writer")
 
 
 def _xy(value: Any, where: str) -> list[float]:
-    arr = np.asarray(value, dtype=np.float64)
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = np.empty(0)
     if arr.shape != (2,) or not np.all(np.isfinite(arr)):
         raise ValueError(f"{where} must be 2 finite numbers (x, y), got {value!r}")
     return [float(arr[0]), float(arr[1])]
@@ -540,6 +544,13 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
     }
 
 
+def _check_ends(g: nx.MultiGraph, u: Any, v: Any, path: Path, where: str) -> None:
+    """An edge must join two listed nodes (networkx would add bare ones silently)."""
+    for end in (u, v):
+        if end not in g:
+            raise ValueError(f"graph file {path}: {where} joins node {end!r}, which is not listed")
+
+
 def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise ValueError(f"graph file {path} is not a GeoJSON FeatureCollection")
@@ -576,12 +587,16 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
     for i, props, coords in edges:
         u = _decode_id(props.pop("u"), schema["node_id"], "node id", path)
         v = _decode_id(props.pop("v"), schema["node_id"], "node id", path)
+        _check_ends(g, u, v, path, f"LineString features[{i}]")
         key = props.pop("key", None)
         if key is not None:
             key = _decode_id(key, schema["edge_key"], "edge key", path)
         appended = int(props.pop("closed_by_writer", 0))
         props.pop("feature", None)
-        world = np.asarray(coords, dtype=np.float64)
+        try:
+            world = np.asarray(coords, dtype=np.float64)
+        except (TypeError, ValueError):
+            world = np.empty(0)
         if world.ndim != 2 or world.shape[1] != 2:
             raise ValueError(
                 f"graph file {path}: features[{i}] coordinates must be a list of [x, y]"
