@@ -629,6 +629,27 @@ def test_image_errors(tmp_path: Path):
     Image.fromarray(np.zeros((4, 4), np.float32), mode="F").save(fl)
     with pytest.raises(ValueError, match="float.tif"):
         load_map(fl)
+    folder = tmp_path / "folder.png"
+    folder.mkdir()
+    with pytest.raises(ValueError, match="path is not a file: .*folder.png"):
+        load_map(folder)
+    above = tmp_path / "above.pgm"
+    above.write_bytes(b"P5\n4 4\n100\n" + bytes([200] * 16))
+    with pytest.raises(ValueError, match="above.pgm has pixel values above its PGM maxval 100"):
+        load_map(above)
+    for maxval in (b"0", b"70000"):
+        odd = tmp_path / f"maxval{maxval.decode()}.pgm"
+        odd.write_bytes(b"P5\n4 4\n" + maxval + b"\n" + bytes(32))
+        with pytest.raises(ValueError, match=f"maxval{maxval.decode()}.pgm"):
+            load_map(odd)
+
+
+def test_unreadable_image_leaves_no_opencv_log_line(tmp_path: Path, capfd):
+    bad = tmp_path / "bad.pgm"
+    bad.write_bytes(b"P5\nnot a header at all")
+    with pytest.raises(ValueError, match="could not decode map image"):
+        load_map(bad)
+    assert "imdecode" not in capfd.readouterr().err
 
 
 # ---------------------------------------------------------------------- YAML files

@@ -650,10 +650,16 @@ def _read_image(path: Path) -> tuple[np.ndarray, int, float | None]:
         raise ValueError(f"map image {path} is empty (0 bytes)")
     maxval, comments = _parse_pnm_header(data)
     pixels: np.ndarray | None
+    log_level = cv2.utils.logging.getLogLevel()
+    # a file OpenCV cannot read gets our error below (or PIL reads it): not also
+    # OpenCV's own log line on stderr
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
     try:
         pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
     except cv2.error:
         pixels = None
+    finally:
+        cv2.utils.logging.setLogLevel(log_level)
     if pixels is None or pixels.size == 0:
         pixels = _decode_with_pil(data)
     if pixels is None or pixels.size == 0:
