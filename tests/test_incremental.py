@@ -601,6 +601,103 @@ def test_bad_input_raises_before_any_change():
     assert_matches_full_map(mapper)
 
 
+def _state(mapper: IncrementalMapper) -> dict[str, np.ndarray]:
+    mapper.update_graph()
+    occ = mapper.occupancy
+    return {
+        "bbox": np.asarray(mapper.pixel_bbox),
+        "occupied": occ.occupied,
+        "free": occ.free,
+        "sq_distance": mapper.sq_distance_px,
+        "skeleton": mapper.skeleton,
+    }
+
+
+@pytest.mark.parametrize("max_range_m", [None, 3.0])
+def test_points_with_their_origin_are_the_scan_they_came_from(max_range_m):
+    """A scan's end points in the map frame, with the sensor position as origin, change
+    the mapper exactly as the scan does: obstacles, free space, distances, skeleton,
+    graph, reports and loop schedule."""
+    scans = synthetic_scans(7, 9)
+    kw = {"skeleton_every": 3, "graph_every": 6, "max_range_m": max_range_m, **SMALL_KW}
+    a, b = IncrementalMapper(**kw), IncrementalMapper(**kw)
+    for scan in scans:
+        ra = a.add_scan(scan)
+        if max_range_m is None:
+            points = scan.endpoints_world()
+        else:  # the scan's readings at max_range_m or beyond are dropped: keep them in
+            # the points too, so the mapper must drop them by their distance to the origin
+            r = np.where(np.isfinite(scan.ranges) & (scan.ranges > 0), scan.ranges, np.nan)
+            sx, sy, syaw = scan.sensor_pose_world()
+            ang = scan.angles() + syaw
+            points = np.stack([sx + r * np.cos(ang), sy + r * np.sin(ang)], axis=1)
+            points = points[np.isfinite(points).all(axis=1) & (r < scan.range_max)]
+        origin = scan.sensor_pose_world()[:2]
+        rb = b.add_points(points, origin_xy=origin)
+        assert (rb.index, rb.n_new_obstacles, rb.loops, rb.n_tiles) == (
+            ra.index,
+            ra.n_new_obstacles,
+            ra.loops,
+            ra.n_tiles,
+        )
+        assert rb.n_valid == ra.n_valid
+    sa, sb = _state(a), _state(b)
+    assert sb["free"].sum() > 3 * sb["occupied"].sum()  # the rays cleared free space
+    for k in sa:
+        np.testing.assert_array_equal(sa[k], sb[k], err_msg=k)
+    assert canon(a.graph) == canon(b.graph)
+    assert_matches_full_map(b)
+
+
+def test_points_without_origin_mark_obstacles_only():
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    # two walls of a corridor, sampled every 5 cm, plus points that are not finite
+    x = np.arange(-2.0, 2.0, 0.05)
+    pts = np.concatenate([np.stack([x, np.full_like(x, y)], 1) for y in (0.5, -0.5)])
+    bad = np.array([[np.nan, 0.0], [0.0, np.inf], [-np.inf, np.nan]])
+    rep = mapper.add_points(np.concatenate([pts, bad]))
+    assert (rep.n_beams, rep.n_valid, rep.n_dropped) == (len(pts) + 3, len(pts), 3)
+    rows, cols = mapper.world_to_pixel(pts[:, 0], pts[:, 1])
+    r0, c0, _, _ = mapper.pixel_bbox
+    occ = mapper.occupancy
+    want = np.zeros(occ.shape, bool)
+    want[rows - r0, cols - c0] = True
+    np.testing.assert_array_equal(occ.occupied, want)
+    assert not occ.free.any()  # no rays without an origin
+    ref = assert_matches_full_map(mapper)
+    # the corridor's centre line is an edge of the graph, 0.5 m from both walls
+    assert ref.graph.number_of_edges() > 0
+    mid = max((d for *_, d in mapper.graph.edges(data=True)), key=lambda d: d["length_m"])
+    assert mid["length_m"] > 2.5
+    np.testing.assert_allclose(mid["world"][:, 1], -0.05, atol=1e-9)  # its pixels' centres
+    # the same points again: nothing new, a counted scan
+    rep = mapper.add_points(pts)
+    assert rep.n_new_obstacles == 0 and rep.index == 1 and mapper.n_scans == 2
+
+
+def test_bad_points_raise_before_any_change():
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, max_grid_cells=400, **SMALL_KW)
+    mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
+    before = {k: v.copy() for k, v in mapper.tiles.state().items()}
+    cases = [
+        (np.ones((4, 3)), "points_xy: expected an .N, 2. array.*shape \\(4, 3\\)"),
+        (np.ones(4), "points_xy: expected an .N, 2. array.*shape \\(4,\\)"),
+        ([["a", "b"]], "points_xy: expected an .N, 2. array"),
+        (np.array([[1e300, 0.0]]), "points_xy: the points put pixels beyond"),
+        (np.array([[500.0, 0.0]]), "max_grid_cells"),
+    ]
+    for points, message in cases:
+        with pytest.raises(ValueError, match=message):
+            mapper.add_points(points)
+    for origin in ((0.0,), (np.nan, 0.0), "here"):
+        with pytest.raises(ValueError, match="origin_xy: expected two finite numbers"):
+            mapper.add_points(np.zeros((1, 2)), origin_xy=origin)
+    after = mapper.tiles.state()
+    for k in before:
+        np.testing.assert_array_equal(before[k], after[k], err_msg=k)
+    assert mapper.n_scans == 1
+
+
 def test_constructor_validation():
     with pytest.raises(ValueError, match="strategy"):
         IncrementalMapper(strategy="fast")

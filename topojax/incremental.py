@@ -2022,16 +2022,18 @@ class GraphUpdate:
 
 @dataclass(frozen=True)
 class ScanReport:
-    """What :meth:`IncrementalMapper.add_scan` did with one scan.
+    """What :meth:`IncrementalMapper.add_scan` (or :meth:`~IncrementalMapper.add_points`)
+    did with one scan (or one frame of points).
 
     Attributes
     ----------
     index : int
         0-based number of the scan in this mapper (empty scans count).
     n_beams : int
-        Beams in the scan.
+        Beams in the scan (points in the frame).
     n_valid : int
-        Beams used (hits): finite, ``range_min <= r < range_max`` (and ``< max_range_m``).
+        Beams used (hits): finite, ``range_min <= r < range_max`` (and ``< max_range_m``);
+        points used: finite (and nearer than ``max_range_m`` to their origin).
     n_dropped : int
         ``n_beams - n_valid``: NaN, inf, non-positive, below ``range_min``, max-range.
     n_new_obstacles : int
@@ -2420,9 +2422,6 @@ class IncrementalMapper:
                 f"scan must be a topojax.Scan (see Scan.from_arrays), got {type(scan).__name__}"
             )
         t0 = time.perf_counter()
-        if self._ray_job is not None:  # only after an interrupted update
-            self._join_rays()
-        t = self.tile_px
         sx, sy, syaw = scan.sensor_pose_world()
         rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)
         res = self.resolution_m
@@ -2437,27 +2436,117 @@ class IncrementalMapper:
             syaw,
             res,
         )
+        sensor = (math.floor(-sy / res), math.floor(sx / res))
+        return self._add_end_pixels(
+            er, ec, ext, sensor, n_beams=scan.n_beams, t0=t0, where=f"scan: the pose {scan.pose}"
+        )
+
+    def add_points(self, points_xy, *, origin_xy=None) -> ScanReport:
+        """Integrate obstacle points in the map frame, e.g. one frame of a depth camera or a
+        3-D lidar projected to the floor plane, then run the loops that are due.
+
+        The points count as one scan: they go where a scan's beam ends go, and the
+        skeleton and graph loops run at the same rates (``skeleton_every``,
+        ``graph_every`` calls).
+
+        Parameters
+        ----------
+        points_xy : array_like, shape (N, 2)
+            World ``(x, y)`` in metres, map frame.  Rows that are not finite (NaN, inf)
+            are dropped and counted in the report.  The pixel of a point is the one whose
+            square holds it (:meth:`world_to_pixel`).
+        origin_xy : (x, y), optional
+            Position of the sensor in the map frame, metres.  With it, the ray from the
+            origin to each point is free space for the exported occupancy map (as a scan's
+            beams are, when ``free_space``), and points at ``max_range_m`` or farther from
+            it are dropped.  Without it the points mark obstacles only.
+
+        Returns
+        -------
+        ScanReport
+            ``n_beams`` is ``N``; ``n_valid`` the points used.
+
+        Raises
+        ------
+        ValueError
+            If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers,
+            or the points lie absurdly far (beyond 2^30 pixels) or would make the map
+            exceed ``max_grid_cells``.  Nothing is changed in that case.
+        """
+        t0 = time.perf_counter()
+        try:
+            pts = np.asarray(points_xy, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(
+                "points_xy: expected an (N, 2) array of (x, y) in metres, received "
+                f"{type(points_xy).__name__}"
+            ) from None
+        if pts.ndim != 2 or pts.shape[1] != 2:
+            raise ValueError(
+                f"points_xy: expected an (N, 2) array of (x, y) in metres, received shape "
+                f"{pts.shape}"
+            )
+        keep = np.isfinite(pts).all(axis=1)
+        sensor = None
+        if origin_xy is not None:
+            try:
+                origin = np.asarray(origin_xy, dtype=np.float64)
+            except (TypeError, ValueError):
+                origin = np.empty(0)
+            if origin.shape != (2,) or not np.isfinite(origin).all():
+                raise ValueError(
+                    f"origin_xy: expected two finite numbers (x, y) in metres, received "
+                    f"{origin_xy!r}"
+                )
+            if self.max_range_m is not None:
+                with np.errstate(invalid="ignore"):
+                    keep &= np.hypot(*(pts - origin).T) < self.max_range_m
+            res = self.resolution_m
+            sensor = (math.floor(-origin[1] / res), math.floor(origin[0] / res))
+        used = pts[keep]
+        if used.shape[0] and np.abs(used).max() / self.resolution_m > _MAX_ABS_PIXEL:
+            raise ValueError(
+                f"points_xy: the points put pixels beyond {_MAX_ABS_PIXEL} px from the origin "
+                f"at resolution {self.resolution_m} m (largest coordinate "
+                f"{np.abs(used).max():g}); expected coordinates in metres"
+            )
+        er, ec = self.world_to_pixel(used[:, 0], used[:, 1])
+        if er.shape[0]:
+            ext = np.array([er.min(), er.max(), ec.min(), ec.max()], np.int64)
+        else:
+            ext = np.zeros(4, np.int64)
+        return self._add_end_pixels(
+            er, ec, ext, sensor, n_beams=pts.shape[0], t0=t0, where="points_xy: the points"
+        )
+
+    def _add_end_pixels(self, er, ec, ext, sensor, *, n_beams: int, t0: float, where: str):
+        """The distance loop for one scan's end pixels ``(er, ec)`` (int64, extent
+        ``ext`` = (min row, max row, min col, max col)), free space along the rays from the
+        ``sensor`` pixel (row, col) when given, then the loops that are due."""
+        if self._ray_job is not None:  # only after an interrupted update
+            self._join_rays()
+        t = self.tile_px
+        res = self.resolution_m
         n_valid = int(er.shape[0])
         tiles = self._tiles
         n_tiles = tiles.n_tiles
         n_new = 0
         if n_valid:
-            sr = math.floor(-sy / res)
-            sc = math.floor(sx / res)
             w = self._half + HALO_PX
             e_r0, e_r1, e_c0, e_c1 = ext.tolist()
+            sr, sc = sensor if sensor is not None else (e_r0, e_c0)
             lo_r = min(e_r0, sr) - w
             hi_r = max(e_r1, sr) + w
             lo_c = min(e_c0, sc) - w
             hi_c = max(e_c1, sc) + w
             if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
                 raise ValueError(
-                    f"scan: the pose {scan.pose} puts pixels beyond {_MAX_ABS_PIXEL} px from "
-                    f"the origin at resolution {res} m; expected poses in metres"
+                    f"{where} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
+                    f"resolution {res} m; expected coordinates in metres"
                 )
             # Validate the whole extent (beams and splat windows) before changing anything.
             tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
-            rays = self.free_space
+            rays = self.free_space and sensor is not None
             grid, (g0r, g0c) = tiles.slot_grid
             need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
             if need.shape[0]:
@@ -2507,9 +2596,9 @@ class IncrementalMapper:
             loops.append("skeleton")
         return ScanReport(
             index=self._n_scans - 1,
-            n_beams=scan.n_beams,
+            n_beams=n_beams,
             n_valid=n_valid,
-            n_dropped=scan.n_beams - n_valid,
+            n_dropped=n_beams - n_valid,
             n_new_obstacles=int(n_new),
             loops=tuple(loops),
             timings_s=timings,
