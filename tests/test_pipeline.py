@@ -399,3 +399,30 @@ def test_cli_reports_bad_input(tmp_path, capsys):
     assert cli_main(["graph", str(tmp_path / "missing.yaml"), "-o", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "missing.yaml" in err
+
+
+def test_concurrent_calls_from_threads_equal_sequential_ones():
+    """build_graph keeps per-thread scratch space (distance stage and thinning): calls from
+    several threads at once, on different maps and thinnings, give the sequential
+    results bit for bit."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    intel = sample_map("intel")
+    # two maps of one size (scratch space of the same shape) and one of another
+    maps = [intel, tj.OccupancyMap.from_array(intel.occupied[::-1]), sample_map("a_scan")]
+    configs = [tj.PipelineConfig(), tj.PipelineConfig(skeleton=tj.SkeletonConfig(thinning="zhang"))]
+    keys = [(i, j) for i in range(3) for j in range(2)]
+    want = {k: tj.build_graph(maps[k[0]], config=configs[k[1]]) for k in keys}
+
+    def run(key):
+        return key, tj.build_graph(maps[key[0]], config=configs[key[1]])
+
+    with ThreadPoolExecutor(3) as pool:
+        results = list(pool.map(run, keys * 4))
+    for key, got in results:
+        ref = want[key]
+        for name in ("sq_distance_px", "distance", "lap_abs", "ridges", "skeleton"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(ref, name), err_msg=name)
+        assert sorted(d["path"].tobytes() for *_, d in got.graph.edges(data=True)) == sorted(
+            d["path"].tobytes() for *_, d in ref.graph.edges(data=True)
+        )
