@@ -698,6 +698,55 @@ def test_bad_points_raise_before_any_change():
     assert mapper.n_scans == 1
 
 
+def test_scans_and_reads_from_two_threads(tmp_path):
+    """A scan callback and a reader (graph, occupancy, result, saved state) on another
+    thread, as in a ROS node: the mapper serialises them, the reader never fails, and
+    the end state is the sequential one."""
+    import threading
+
+    scans = synthetic_scans(11, 40)
+    kw = {"skeleton_every": 4, "graph_every": 8, **SMALL_KW}
+    mapper, sequential = IncrementalMapper(**kw), IncrementalMapper(**kw)
+    for scan in scans:
+        sequential.add_scan(scan)
+    done = threading.Event()
+    errors: list[BaseException] = []
+    reads = [0]
+
+    def reader():
+        try:
+            while not done.is_set():
+                if mapper.n_scans:
+                    g = mapper.graph
+                    assert all("path" in d for *_, d in g.edges(data=True))
+                    occ = mapper.occupancy
+                    assert occ.occupied.shape == occ.free.shape
+                    res = mapper.to_result(update=False)
+                    assert res.skeleton.shape == res.ridges.shape
+                    mapper.save(tmp_path / "state.npz")
+                    reads[0] += 1
+        except BaseException as exc:  # noqa: BLE001 - reported below
+            errors.append(exc)
+
+    thread = threading.Thread(target=reader)
+    thread.start()
+    try:
+        for scan in scans:
+            mapper.add_scan(scan)
+            mapper.add_points(scan.endpoints_world()[:5])  # repeats: no new obstacles
+    finally:
+        done.set()
+        thread.join()
+    assert not errors, errors[0]
+    assert reads[0] > 0
+    loaded = IncrementalMapper.load(tmp_path / "state.npz")
+    assert loaded.n_scans <= mapper.n_scans == 2 * len(scans)
+    for name in ("obstacles", "sq_distance_px"):
+        np.testing.assert_array_equal(getattr(mapper, name), getattr(sequential, name))
+    sequential.update_graph()
+    assert canon(mapper.graph) == canon(sequential.graph)
+
+
 def test_constructor_validation():
     with pytest.raises(ValueError, match="strategy"):
         IncrementalMapper(strategy="fast")

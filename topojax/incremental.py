@@ -118,10 +118,12 @@ ridge, Laplacian, skeleton, thinning history, graph ids, scratch), about 288 KiB
 
 from __future__ import annotations
 
+import functools
 import io as _io
 import json
 import math
 import os
+import threading
 import time
 import zipfile
 from collections import Counter
@@ -2139,6 +2141,19 @@ def _unpack(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # ======================================================================================
 
 
+def _synchronized(method):
+    """Run ``method`` holding the mapper's lock: one scan, update, export or save at a
+    time, whichever threads call them (e.g. a scan callback and a timer that publishes
+    the graph)."""
+
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+
+    return locked
+
+
 class IncrementalMapper:
     """Keep distance map, skeleton and topology graph up to date from laser scans.
 
@@ -2191,6 +2206,11 @@ class IncrementalMapper:
     Obstacles are monotone: a pixel hit once stays an obstacle (like the paper's max-merge
     of distance maps).  The exported occupancy map marks hit pixels occupied, pixels crossed
     by a beam but never hit free, and the rest unknown.
+
+    A mapper may be shared between threads (a scan callback, a timer that publishes the
+    graph or saves the state): scans, updates, exports and :meth:`save` hold its lock, so
+    they run one at a time and each sees a whole scan.  Arrays and graphs it returns are
+    copies or new objects, except :attr:`tiles`.
     """
 
     def __init__(
@@ -2327,6 +2347,7 @@ class IncrementalMapper:
         # beams whose free cells are not counted yet: (sensor row, col, end rows, cols)
         self._rays: list[tuple[int, int, np.ndarray, np.ndarray]] = []
         self._n_rays = 0
+        self._lock = threading.RLock()
         self._ray_job = None
         self._n_pending = 0
         self._skel_changed: list[np.ndarray] = []
@@ -2364,11 +2385,13 @@ class IncrementalMapper:
 
     # ------------------------------------------------------------------ properties
     @property
+    @_synchronized
     def n_scans(self) -> int:
         """Scans added so far (empty ones included)."""
         return self._n_scans
 
     @property
+    @_synchronized
     def n_tiles(self) -> int:
         """Allocated tiles."""
         return self._tiles.n_tiles
@@ -2381,6 +2404,7 @@ class IncrementalMapper:
         return self._tiles
 
     @property
+    @_synchronized
     def pixel_bbox(self) -> tuple[int, int, int, int] | None:
         """``(row0, col0, row1, col1)`` of the exported arrays (end exclusive), global
         pixels, or None before anything was allocated."""
@@ -2394,6 +2418,7 @@ class IncrementalMapper:
         return rows, cols
 
     # ------------------------------------------------------------------ scans
+    @_synchronized
     def add_scan(self, scan: Scan) -> ScanReport:
         """Integrate one scan (distance loop), then run the loops that are due.
 
@@ -2441,6 +2466,7 @@ class IncrementalMapper:
             er, ec, ext, sensor, n_beams=scan.n_beams, t0=t0, where=f"scan: the pose {scan.pose}"
         )
 
+    @_synchronized
     def add_points(self, points_xy, *, origin_xy=None) -> ScanReport:
         """Integrate obstacle points in the map frame, e.g. one frame of a depth camera or a
         3-D lidar projected to the floor plane, then run the loops that are due.
@@ -2606,6 +2632,7 @@ class IncrementalMapper:
             graph_update=update,
         )
 
+    @_synchronized
     def compile(self) -> None:
         """Compile every JAX kernel variant the mapper uses (two batch sizes each of the
         splat and ridge kernels) and build the ridge kernel's Gaussian table, so that no JAX
@@ -2638,6 +2665,7 @@ class IncrementalMapper:
             with_ridge=self._ridge_cut < 0,
         )
 
+    @_synchronized
     def add_scans(self, scans) -> list[ScanReport]:
         """:meth:`add_scan` for every scan of an iterable; returns the reports."""
         return [self.add_scan(s) for s in scans]
@@ -2878,6 +2906,7 @@ class IncrementalMapper:
         return np.concatenate(pix) if pix else np.zeros((0, 2), np.int64)
 
     # ------------------------------------------------------------------ skeleton loop
+    @_synchronized
     def update_skeleton(self) -> int:
         """Run the skeleton loop now: splat pending points, recompute the dirty ridges and
         update the skeleton with the mapper's strategy.
@@ -3068,6 +3097,7 @@ class IncrementalMapper:
         return self._write_skeleton(rr + r0, cc + c0, sk[rr, cc])
 
     # ------------------------------------------------------------------ graph loop
+    @_synchronized
     def update_graph(self) -> GraphUpdate:
         """Bring everything up to date: splat, skeleton loop, then the graph loop.
 
@@ -3330,6 +3360,7 @@ class IncrementalMapper:
         return self._tiles.read(name, r0, c0, r1 - r0, c1 - c0)
 
     @property
+    @_synchronized
     def sq_distance_px(self) -> np.ndarray:
         """Windowed squared distance to the nearest obstacle, int32 (H, W) px^2 over the
         bounding box (``FAR_SQ`` where no obstacle is within the window).  Always current
@@ -3338,6 +3369,7 @@ class IncrementalMapper:
         return self._dense("sq_distance")
 
     @property
+    @_synchronized
     def distance(self) -> np.ndarray:
         """Gaussian distance map ``H``, float32 (H, W) in [0, 1], over the bounding box of
         the allocated tiles (``[row, col]``, row 0 = top = largest y).  Always current."""
@@ -3362,6 +3394,7 @@ class IncrementalMapper:
         return self._export_cache["distance"].copy()
 
     @property
+    @_synchronized
     def occupancy(self):
         """The map as an :class:`~topojax.maps.OccupancyMap` over the bounding box of the
         allocated tiles: hit pixels occupied, pixels crossed by a beam and never hit free,
@@ -3383,26 +3416,31 @@ class IncrementalMapper:
         )
 
     @property
+    @_synchronized
     def obstacles(self) -> np.ndarray:
         """Obstacle mask (pixels ever hit), bool (H, W) over the bounding box."""
         return self._dense("hits") > 0
 
     @property
+    @_synchronized
     def ridges(self) -> np.ndarray:
         """Ridge map as of the last skeleton update, bool (H, W) over the bounding box."""
         return self._dense("ridge")
 
     @property
+    @_synchronized
     def lap_abs(self) -> np.ndarray:
         """``convertScaleAbs(Laplacian(255 H))`` as of the last skeleton update, uint8."""
         return self._dense("lap_abs")
 
     @property
+    @_synchronized
     def skeleton(self) -> np.ndarray:
         """Skeleton as of the last skeleton update, bool (H, W) over the bounding box."""
         return self._dense("skeleton")
 
     @property
+    @_synchronized
     def graph(self) -> nx.MultiGraph:
         """Topology graph as of the last graph update, in the exported map's frame.
 
@@ -3418,6 +3456,7 @@ class IncrementalMapper:
         return self._export_cache["graph"].copy()
 
     @property
+    @_synchronized
     def graph_global(self) -> nx.MultiGraph:
         """The internal graph: node ``pixel`` and edge ``path`` in global lattice pixels,
         node ``kind``; no other attributes (a new graph)."""
@@ -3505,6 +3544,7 @@ class IncrementalMapper:
                 )
         return out
 
+    @_synchronized
     def to_result(self, *, update: bool = True):
         """Everything as a :class:`topojax.pipeline.TopologyResult` (for plotting and I/O).
 
@@ -3552,6 +3592,7 @@ class IncrementalMapper:
             "max_grid_cells": self._tiles.max_grid_cells,
         }
 
+    @_synchronized
     def save(self, path) -> Path:
         """Save the complete state to an ``.npz`` file, atomically.
 
