@@ -22,7 +22,7 @@ from brute_force import brute_sq_distance
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from topojax.config import DistanceConfig, PipelineConfig
+from topojax.config import DistanceConfig, GraphConfig, PipelineConfig
 from topojax.datasets import sample_map
 from topojax.distance import FAR_SQ
 from topojax.graph import prune_graph
@@ -769,8 +769,6 @@ def test_constructor_validation():
 
         IncrementalMapper(ridge=RidgeConfig(threshold=-0.5))
     with pytest.raises(ValueError, match="merge_junction_clusters"):
-        from topojax.config import GraphConfig
-
         IncrementalMapper(config=PipelineConfig(graph=GraphConfig(merge_junction_clusters=True)))
     m = IncrementalMapper(skeleton_every=None, graph_every=None)
     assert (m.skeleton_every, m.graph_every) == (0, 0)
@@ -1505,6 +1503,52 @@ def test_replay_cli_registers_and_runs(tmp_path, capsys):
     assert (tmp_path / "graph.geojson").is_file()
     with pytest.raises(ValueError, match="max_scans"):
         replay(INTEL_EXCERPT, out_dir=tmp_path, max_scans=0, progress=False)
+
+
+@pytest.mark.parametrize(
+    "graph",
+    [
+        GraphConfig(free_space_only=True, min_spur_m=0.5, min_component_m=2.0),
+        GraphConfig(min_clearance_m=0.3),
+    ],
+    ids=["free-only+spurs+components", "clearance"],
+)
+def test_replay_writes_the_graph_that_build_graph_keeps(tmp_path, graph):
+    """With graph_config the written graph is build_graph's on the written map with the
+    same GraphConfig (free-space thinning and pruning), smaller than the whole graph."""
+    whole = replay(INTEL_EXCERPT, out_dir=tmp_path / "whole", progress=False)
+    summary = replay(INTEL_EXCERPT, out_dir=tmp_path / "kept", progress=False, graph_config=graph)
+    got = load_graph(tmp_path / "kept" / "graph.json")
+    want = build_graph(load_map(tmp_path / "kept" / "map.yaml"), config=PipelineConfig(graph=graph))
+    assert canon(got) == canon(want.graph)
+    for _, d in want.graph.nodes(data=True):
+        match = [e for e, f in got.nodes(data=True) if f["pixel"] == d["pixel"]]
+        assert len(match) == 1
+        assert got.nodes[match[0]]["world"] == pytest.approx(d["world"], abs=1e-9)
+        assert got.nodes[match[0]]["clearance_m"] == pytest.approx(d["clearance_m"], rel=1e-6)
+    assert 0 < summary["edges"] == got.number_of_edges() < whole["edges"]
+    with pytest.raises(TypeError, match="graph_config: expected a GraphConfig"):
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "bad", graph_config={"min_spur_m": 1.0})
+
+
+def test_replay_cli_prunes_like_graph(tmp_path, capsys):
+    import argparse
+
+    from topojax.incremental import _add_cli
+
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    _add_cli(sub)
+    options = ["--free-only", "--min-spur-m", "0.5", "--min-clearance-m", "0.2"]
+    args = parser.parse_args(
+        ["replay", str(INTEL_EXCERPT), "-o", str(tmp_path), "--no-progress", "--nav2", *options]
+    )
+    assert args.handler(args) == 0
+    capsys.readouterr()
+    cfg = GraphConfig(free_space_only=True, min_spur_m=0.5, min_clearance_m=0.2)
+    want = build_graph(load_map(tmp_path / "map.yaml"), config=PipelineConfig(graph=cfg))
+    assert canon(load_graph(tmp_path / "graph.json")) == canon(want.graph)
+    assert (tmp_path / "graph_nav2.geojson").is_file()
 
 
 def test_timing_summary_statistics():

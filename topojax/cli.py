@@ -14,17 +14,24 @@ __all__ = ["main"]
 
 def pipeline_config(args):
     """The :class:`PipelineConfig` of the options of :func:`add_pipeline_options`."""
-    from .config import GraphConfig, PipelineConfig, SkeletonConfig
+    from .config import PipelineConfig, SkeletonConfig
 
     return PipelineConfig(
         skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
-        graph=GraphConfig(
-            free_space_only=args.free_only,
-            min_clearance_m=args.min_clearance_m,
-            min_spur_m=args.min_spur_m,
-            min_component_m=args.min_component_m,
-        ),
+        graph=graph_config(args),
         tile_px=args.tile_px,
+    )
+
+
+def graph_config(args):
+    """The :class:`GraphConfig` of the options of :func:`add_graph_options`."""
+    from .config import GraphConfig
+
+    return GraphConfig(
+        free_space_only=args.free_only,
+        min_clearance_m=args.min_clearance_m,
+        min_spur_m=args.min_spur_m,
+        min_component_m=args.min_component_m,
     )
 
 
@@ -38,6 +45,12 @@ def add_pipeline_options(p: argparse.ArgumentParser) -> None:
         help="thinning algorithm (default: guo_hall, the paper's; zhang = the original code's)",
     )
     p.add_argument("--keep-t", action="store_true", help="do not remove T-junction centres")
+    add_graph_options(p)
+    p.add_argument("--tile-px", type=int, default=256, help="JAX tile side in pixels")
+
+
+def add_graph_options(p: argparse.ArgumentParser) -> None:
+    """What to keep of the graph: ``--free-only`` and the ``--min-*-m`` pruning options."""
     p.add_argument(
         "--free-only",
         action="store_true",
@@ -65,7 +78,6 @@ def add_pipeline_options(p: argparse.ArgumentParser) -> None:
         metavar="M",
         help="remove pieces of graph shorter than M metres in all (default 0: keep all)",
     )
-    p.add_argument("--tile-px", type=int, default=256, help="JAX tile side in pixels")
 
 
 def add_nav2_options(p: argparse.ArgumentParser, name: str) -> None:

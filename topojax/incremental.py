@@ -3948,6 +3948,7 @@ def replay(
     max_scans: int | None = None,
     reader_kwargs: dict | None = None,
     nav2_tolerance_m: float | None = None,
+    graph_config: GraphConfig | None = None,
     **mapper_kw,
 ) -> dict:
     """Replay a scan log through an :class:`IncrementalMapper` and write the results.
@@ -3976,6 +3977,13 @@ def replay(
         Also write ``graph_nav2.geojson``, a route graph for the ROS 2 Nav2 Route Server
         with this waypoint tolerance (:func:`topojax.save_nav2_graph`); with ``map.yaml``
         it is what Nav2 needs.  Skipped with a message when the graph has no edges.
+    graph_config : GraphConfig, optional
+        What the written graph (and Nav2 file and pictures) keep of the final graph:
+        ``free_space_only`` and the ``min_*_m`` pruning, as :func:`topojax.build_graph`
+        applies them (thinning, T removal and the graph step are re-run on the final
+        ridge map, which equals the full-map pipeline's, so the written graph is
+        ``build_graph(map, ...)``'s with this ``graph``).  Default: the mapper's whole
+        graph, as the paper keeps it.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ...).
@@ -4001,6 +4009,10 @@ def replay(
         from .config import _positive_metres
 
         nav2_tolerance_m = _positive_metres("nav2_tolerance_m", nav2_tolerance_m)
+    if graph_config is not None and not isinstance(graph_config, GraphConfig):
+        raise TypeError(
+            f"graph_config: expected a GraphConfig, received {type(graph_config).__name__}"
+        )
     out = Path(out_dir)
     scans = read_scans(source, **(reader_kwargs or {}))
     mapper = IncrementalMapper(**mapper_kw)
@@ -4027,6 +4039,8 @@ def replay(
     update = mapper.update_graph()
     final_s = time.perf_counter() - t_final
     result = mapper.to_result(update=False)
+    if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
+        result = _with_graph_config(result, graph_config)
     written: list[Path] = []
     messages: list[str] = []
     for suffix in (".graphml", ".json", ".geojson"):
@@ -4094,6 +4108,35 @@ def replay(
     return summary
 
 
+def _with_graph_config(result, graph_config: GraphConfig):
+    """``result`` with the skeleton and graph that ``graph_config`` keeps: the CPU stages
+    of the full-map pipeline re-run on its ridge map (exact, so the graph is the one
+    ``build_graph(result.map, ...)`` gives with that ``graph``)."""
+    from dataclasses import replace
+
+    from .pipeline import clearance_at, graph_from_ridges
+
+    config = replace(result.config, graph=graph_config)
+    occ = result.map
+
+    def clearance(flat: np.ndarray) -> np.ndarray:
+        return clearance_at(
+            result.sq_distance_px, occ.occupied, config.distance.half_width_px, flat
+        )
+
+    skeleton, graph, _ = graph_from_ridges(
+        result.ridges,
+        clearance_px=clearance,
+        resolution_m=occ.resolution_m,
+        origin=occ.origin,
+        pixel_to_world=occ.pixel_to_world,
+        config=config,
+        source=occ.source,
+        free=occ.free,
+    )
+    return replace(result, skeleton=skeleton, graph=graph, config=config)
+
+
 def _summary_text(summary: dict) -> str:
     lines = [
         f"replayed   {summary['n_scans']} scans of {summary['source']} in "
@@ -4114,6 +4157,8 @@ def _summary_text(summary: dict) -> str:
 
 
 def _cmd_replay(args) -> int:
+    from .cli import graph_config
+
     kw = {
         "resolution_m": args.resolution,
         "skeleton_every": args.skeleton_every,
@@ -4128,6 +4173,7 @@ def _cmd_replay(args) -> int:
         progress=not args.no_progress,
         max_scans=args.max_scans,
         nav2_tolerance_m=args.nav2_tolerance_m if args.nav2 else None,
+        graph_config=graph_config(args),
         **kw,
     )
     if args.no_progress:
@@ -4157,8 +4203,9 @@ def _add_cli(subparsers):
     p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
     p.add_argument("--max-scans", type=int, help="stop after this many scans")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    from .cli import add_nav2_options
+    from .cli import add_graph_options, add_nav2_options
 
+    add_graph_options(p)
     add_nav2_options(p, "graph_nav2.geojson")
     p.set_defaults(handler=_cmd_replay)
     return p
