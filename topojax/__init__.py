@@ -17,6 +17,11 @@ World frame
     the map's own axes (``r`` = ``resolution_m``), rotated by ``yaw`` and shifted by the
     origin.  :meth:`OccupancyMap.pixel_to_world` and :meth:`OccupancyMap.world_to_pixel`
     convert.
+Incremental mapper
+    Scan poses and :meth:`IncrementalMapper.add_points` use the map frame above; the
+    mapper's global pixel ``(row, col)`` is the square ``col r <= x < (col + 1) r``,
+    ``-(row + 1) r < y <= -row r`` (:meth:`IncrementalMapper.world_to_pixel`), and the
+    origin of its exported :class:`OccupancyMap` puts those squares on its pixels.
 Units
     Names carry their unit: ``_px`` pixels, ``_m`` metres, ``_s`` seconds; angles are
     radians.
