@@ -93,3 +93,19 @@ def test_plot_takes_an_incremental_mapper_and_rejects_other_objects():
             tj.plot(bad)
         with pytest.raises(TypeError, match="result: expected a TopologyResult"):
             plot_stages(bad)
+
+
+def test_full_map_plotting_does_not_load_the_incremental_module():
+    """The incremental mapper and the batch runner load on first use only; plotting a
+    full-map result (as batch workers do) must not pull them in."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, matplotlib; matplotlib.use('Agg'); import topojax as tj; "
+        "from topojax.plotting import plot_stages; "
+        "r = tj.build_graph(tj.sample_map('a_scan')); tj.plot(r); plot_stages(r); "
+        "print(sorted(m for m in ('topojax.incremental', 'topojax.batch') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

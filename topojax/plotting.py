@@ -6,6 +6,8 @@ graph's pixel paths overlay exactly; pass ``ax`` to draw into your own axes.
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 __all__ = [
@@ -39,9 +41,9 @@ def _as_result(result, needs: tuple[str, ...]):
     """``result`` itself when it has the attributes ``needs`` (a
     :class:`~topojax.TopologyResult` or alike), or an
     :class:`~topojax.IncrementalMapper`'s current state (graph brought up to date)."""
-    from .incremental import IncrementalMapper
-
-    if isinstance(result, IncrementalMapper):
+    # an IncrementalMapper exists only once its (large) module is loaded: do not load it
+    incremental = sys.modules.get(f"{__package__}.incremental")
+    if incremental is not None and isinstance(result, incremental.IncrementalMapper):
         return result.to_result()
     missing = [name for name in needs if not hasattr(result, name)]
     if missing:
