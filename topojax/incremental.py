@@ -4114,26 +4114,10 @@ def _with_graph_config(result, graph_config: GraphConfig):
     ``build_graph(result.map, ...)`` gives with that ``graph``)."""
     from dataclasses import replace
 
-    from .pipeline import clearance_at, graph_from_ridges
+    from .pipeline import _graph_of_map
 
     config = replace(result.config, graph=graph_config)
-    occ = result.map
-
-    def clearance(flat: np.ndarray) -> np.ndarray:
-        return clearance_at(
-            result.sq_distance_px, occ.occupied, config.distance.half_width_px, flat
-        )
-
-    skeleton, graph, _ = graph_from_ridges(
-        result.ridges,
-        clearance_px=clearance,
-        resolution_m=occ.resolution_m,
-        origin=occ.origin,
-        pixel_to_world=occ.pixel_to_world,
-        config=config,
-        source=occ.source,
-        free=occ.free,
-    )
+    skeleton, graph, _ = _graph_of_map(result.map, result.ridges, result.sq_distance_px, config)
     return replace(result, skeleton=skeleton, graph=graph, config=config)
 
 

@@ -790,6 +790,26 @@ def graph_from_ridges(
     return skeleton, graph, {"thinning": t1 - t0, "t_removal": t2 - t1, "graph": t3 - t2}
 
 
+def _graph_of_map(occupancy, ridges: np.ndarray, sq_distance_px: np.ndarray, config):
+    """:func:`graph_from_ridges` for a map's ridges, with the clearance read from its
+    windowed squared distances (exact, and only at the skeleton's pixels: the only ones
+    the graph reads; a result's whole-map clearance is computed on first access)."""
+
+    def skeleton_clearance(flat: np.ndarray) -> np.ndarray:
+        return clearance_at(sq_distance_px, occupancy.occupied, config.distance.half_width_px, flat)
+
+    return graph_from_ridges(
+        ridges,
+        clearance_px=skeleton_clearance,
+        resolution_m=occupancy.resolution_m,
+        origin=occupancy.origin,
+        pixel_to_world=occupancy.pixel_to_world,
+        config=config,
+        source=occupancy.source,
+        free=occupancy.free,
+    )
+
+
 def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyResult:
     """Build the topology graph of a finished occupancy map (paper §II).
 
@@ -841,20 +861,8 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     t1 = time.perf_counter()
     timings["distance_ridges"] = t1 - t0
 
-    def skeleton_clearance(flat: np.ndarray) -> np.ndarray:
-        # exact at the skeleton's pixels, the only ones the graph reads; the result's
-        # whole-map clearance is computed on first access
-        return clearance_at(fields.sq_distance_px, obstacles, config.distance.half_width_px, flat)
-
-    skeleton, graph, cpu_timings = graph_from_ridges(
-        fields.ridges,
-        clearance_px=skeleton_clearance,
-        resolution_m=occupancy.resolution_m,
-        origin=occupancy.origin,
-        pixel_to_world=occupancy.pixel_to_world,
-        config=config,
-        source=occupancy.source,
-        free=occupancy.free,
+    skeleton, graph, cpu_timings = _graph_of_map(
+        occupancy, fields.ridges, fields.sq_distance_px, config
     )
     timings.update(cpu_timings)
     timings["total"] = time.perf_counter() - t0
