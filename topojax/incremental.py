@@ -2155,7 +2155,8 @@ def _synchronized(method):
 
 
 class IncrementalMapper:
-    """Keep distance map, skeleton and topology graph up to date from laser scans.
+    """Keep distance map, skeleton and topology graph up to date from laser scans (or
+    obstacle points, :meth:`add_points`).
 
     Parameters
     ----------
