@@ -7,6 +7,7 @@ are compared exactly (node ids and order, every attribute, numpy arrays bit for 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 import os
@@ -552,6 +553,63 @@ def test_map_mode_classifies_every_file(tmp_path, capsys):
     assert main([*argv, "--formats", "json", "--resume"]) == 0  # another convention: redone
     assert "0 skipped" in capsys.readouterr().out
     assert load_graph(out / "rooms.json").number_of_edges() == 0
+
+
+def test_sigma_in_metres_goes_through_each_map_resolution(tmp_path, capsys):
+    """``sigma_m`` (``--sigma-m``) gives each map build_graph's result with
+    ``DistanceConfig.from_metres(sigma_m, its resolution)``: maps of two resolutions in
+    one batch run in kernel calls of their own.  A map whose setting is impossible
+    becomes an error row; ``--sigma-px`` sets one pixel sigma for all."""
+    from topojax.cli import main
+    from topojax.config import DistanceConfig
+
+    fine = _synthetic((160, 220), 3)  # 0.07 m/px
+    coarse = dataclasses.replace(_synthetic((120, 150), 4), resolution_m=0.14)
+    fine2 = _synthetic((140, 260), 5)
+    tiny = dataclasses.replace(_synthetic((60, 60), 6), resolution_m=0.0001)  # R > 4096
+    build_graphs([fine, coarse], workers=0, progress=False, sigma_m=0.7)  # compiles both
+    # compiled kernels take groups of many maps: maps of the two settings must not share
+    records = build_graphs([fine, coarse, fine2, tiny], workers=0, progress=False, sigma_m=0.7)
+    assert [r.status for r in records] == ["ok", "ok", "ok", "error"]
+    assert "half_width_px must be in [1, 4096]" in records[3].message
+    for occ, rec in zip((fine, coarse, fine2), records[:3], strict=True):
+        distance = DistanceConfig.from_metres(sigma_m=0.7, resolution_m=occ.resolution_m)
+        want = build_graph(occ, config=PipelineConfig(distance=distance)).graph
+        assert_graphs_equal(rec.graph, want, rec.map)
+    # different pixel settings: 10 px (R 35) on the 0.07 m maps, 5 px (R 18) on the other
+    assert DistanceConfig.from_metres(sigma_m=0.7, resolution_m=0.07).half_width_px == 35
+    with pytest.raises(ValueError, match="sigma_m"):
+        build_graphs([fine], workers=0, progress=False, sigma_m=-1.0)
+
+    import cv2
+
+    folder = tmp_path / "maps"
+    folder.mkdir()
+    for name, occ in (("a", fine), ("b", coarse)):
+        cv2.imwrite(str(folder / f"{name}.pgm"), np.where(occ.occupied, 0, 254).astype(np.uint8))
+        (folder / f"{name}.yaml").write_text(
+            f"image: {name}.pgm\nresolution: {occ.resolution_m}\norigin: [0.0, 0.0, 0.0]\n"
+        )
+    argv = ["batch", f"{folder}/*.yaml", "--workers", "0", "--no-progress", "--formats", "json"]
+    for option, value, distance_of in (
+        ("--sigma-m", "0.7", lambda m: DistanceConfig.from_metres(sigma_m=0.7, resolution_m=m)),
+        ("--sigma-px", "9", lambda m: DistanceConfig.from_pixels(sigma_px=9.0)),
+    ):
+        out = tmp_path / option.strip("-")
+        assert main([*argv, "-o", str(out), option, value]) == 0
+        for name in ("a", "b"):
+            occ = load_map(folder / f"{name}.yaml")
+            config = PipelineConfig(distance=distance_of(occ.resolution_m))
+            want = build_graph(occ, config=config).graph
+            got = load_graph(out / f"{name}.json")
+            assert (got.number_of_nodes(), got.number_of_edges()) == (
+                want.number_of_nodes(),
+                want.number_of_edges(),
+            )
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main([*argv, "--sigma-m", "1", "--sigma-px", "9"])
+    assert "not allowed with argument" in capsys.readouterr().err
 
 
 def test_argument_errors(tmp_path):

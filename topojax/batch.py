@@ -127,7 +127,7 @@ from typing import Any
 
 import numpy as np
 
-from .config import PipelineConfig
+from .config import DistanceConfig, PipelineConfig, _positive_metres
 from .io import GRAPH_FORMATS, atomic_write_bytes
 from .maps import IMAGE_SUFFIXES, MODES, YAML_SUFFIXES, OccupancyMap, load_map
 
@@ -853,9 +853,12 @@ class _BatchRun:
         request: dict[str, Any],
         fingerprints: dict[int, dict[str, Any] | None],
         map_mode: str | None = None,
+        sigma_m: float | None = None,
     ) -> None:
         self.items = items
         self.map_mode = map_mode
+        self.sigma_m = sigma_m
+        self._configs: dict[float, PipelineConfig] = {}
         self.executor = executor
         self.owns_executor = executor is None
         self.workers = workers
@@ -901,11 +904,25 @@ class _BatchRun:
             return self.executor.submit(fn, *args)
 
     # ---------------------------------------------------------------- kernel stage
+    def _config_for(self, g: _Loaded) -> PipelineConfig:
+        """The settings of map ``g``: ``config``, with the Gaussian of ``sigma_m`` metres
+        at the map's resolution when that is given."""
+        if self.sigma_m is None:
+            return self.config
+        cfg = self._configs.get(g.resolution_m)
+        if cfg is None:
+            distance = DistanceConfig.from_metres(sigma_m=self.sigma_m, resolution_m=g.resolution_m)
+            cfg = self._configs[g.resolution_m] = dataclasses.replace(
+                self.config, distance=distance
+            )
+        return cfg
+
     def _dense_fields(self, group: list[_Loaded]) -> tuple[list[Any], float]:
-        """``dense_fields_many`` over the maps of a group; (fields, wall seconds)."""
+        """``dense_fields_many`` over the maps of a group (one distance setting); (fields,
+        wall seconds)."""
         from .pipeline import dense_fields_many
 
-        cfg = self.config
+        cfg = self._config_for(group[0])
 
         def call() -> list[Any]:
             return dense_fields_many(
@@ -917,22 +934,19 @@ class _BatchRun:
             )
 
         t0 = time.perf_counter()
-        if self._compiled:
+        if self._compiled(cfg):
             out = call()
         else:
             with _COMPILE_LOCK:  # the first call of a bucket traces it, alone
                 out = call()
-                _COMPILED_BUCKETS.add(self._bucket)
+                _COMPILED_BUCKETS.add(self._bucket(cfg))
         return out, time.perf_counter() - t0
 
-    @property
-    def _bucket(self) -> tuple[int, ...]:
-        cfg = self.config
+    def _bucket(self, cfg: PipelineConfig) -> tuple[int, ...]:
         return (cfg.tile_px, self.tiles_per_call, cfg.distance.half_width_px, cfg.ridge.ksize)
 
-    @property
-    def _compiled(self) -> bool:
-        return self._bucket in _COMPILED_BUCKETS
+    def _compiled(self, cfg: PipelineConfig) -> bool:
+        return self._bucket(cfg) in _COMPILED_BUCKETS
 
     def _kernels(self, group: list[_Loaded]) -> list[tuple[_Loaded, _CpuJob | None, float, str]]:
         """Run the JAX stage for a group of maps and build their CPU jobs.
@@ -963,9 +977,9 @@ class _BatchRun:
                         fields[id(g)] = (f, wall)
                     except Exception as exc_one:
                         errors[id(g)] = _error_text(exc_one)
-        cfg = self.config
         jobs: list[tuple[_Loaded, _CpuJob | None, float, str]] = []
         for g in group:
+            cfg = self._config_for(g)
             if id(g) in errors:
                 jobs.append((g, None, 0.0, errors[id(g)]))
                 continue
@@ -1005,11 +1019,17 @@ class _BatchRun:
             jobs.append((g, job, share + time.perf_counter() - t0, ""))
         return jobs
 
-    @staticmethod
-    def _take_group(ready: deque[_Loaded], limit: int) -> list[_Loaded]:
+    def _take_group(self, ready: deque[_Loaded], limit: int) -> list[_Loaded]:
+        """The next maps in order, up to ``limit`` tiles (at least one map), all with the
+        first one's distance setting (one kernel call serves one setting)."""
         group = [ready.popleft()]
         tiles = group[0].n_tiles
-        while ready and tiles + ready[0].n_tiles <= limit:
+        distance = self._config_for(group[0]).distance
+        while (
+            ready
+            and tiles + ready[0].n_tiles <= limit
+            and self._config_for(ready[0]).distance == distance
+        ):
             tiles += ready[0].n_tiles
             group.append(ready.popleft())
         return group
@@ -1142,7 +1162,13 @@ class _BatchRun:
                 while pending and len(loads) + len(ready) < self.prefetch:
                     item = pending.popleft()
                     if item.occupancy is not None:  # nothing to load
-                        ready.append(_load_here(item, tile_px, want_free))
+                        loaded = _load_here(item, tile_px, want_free)
+                        try:
+                            self._config_for(loaded)  # e.g. a sigma_m too large here
+                        except ValueError as exc:
+                            finish(item.index, self._base_record(loaded, "error", _error_text(exc)))
+                            continue
+                        ready.append(loaded)
                     elif load_in_workers:
                         fut = self._submit(
                             _load_in_worker, os.fspath(item.path), want_free, self.map_mode
@@ -1155,7 +1181,7 @@ class _BatchRun:
                     # Until the kernel is compiled, send one map at a time: the first call
                     # (tracing + XLA compilation) runs alone, and a small first group lets
                     # the pipeline fill as soon as it is done.
-                    limit = self.batch_tiles if self._compiled else 0
+                    limit = self.batch_tiles if self._compiled(self._config_for(ready[0])) else 0
                     group = self._take_group(ready, limit)
                     kernels[kernel_pool.submit(self._kernels, group)] = group
                 waiting = [*loads, *kernels, *cpu]
@@ -1169,6 +1195,7 @@ class _BatchRun:
                             loaded = fut.result()
                             if isinstance(loaded, _LoadedBits):
                                 loaded = _loaded_from_bits(item, loaded, tile_px)
+                            self._config_for(loaded)  # e.g. a sigma_m too large here
                             ready.append(loaded)
                         except Exception as exc:
                             finish(
@@ -1305,6 +1332,7 @@ def build_graphs(
     batch_tiles: int | None = None,
     keep_graphs: bool | None = None,
     map_mode: str | None = None,
+    sigma_m: float | None = None,
 ) -> list[MapRecord]:
     """Build the topology graphs of many maps (see the module notes for the design).
 
@@ -1357,6 +1385,13 @@ def build_graphs(
         (e.g. ``"ipa"`` for the IPA benchmark maps, where every pixel below 250 is
         inaccessible).  Default: each file's own (its YAML's, else trinary).  Maps given
         as :class:`OccupancyMap` objects are already classified.
+    sigma_m : float, optional
+        The distance map's Gaussian σ in metres for every map, converted with each map's
+        own resolution (:meth:`DistanceConfig.from_metres`; the support scales with it),
+        in place of ``config.distance``.  Maps of different resolutions then get
+        different pixel settings: each setting compiles its own kernel once and runs
+        in kernel calls of its own.  Default: ``config.distance`` (the paper's 64.19 px)
+        for every map.
 
     Returns
     -------
@@ -1401,6 +1436,8 @@ def build_graphs(
     for name, flag in (("plot", plot), ("resume", resume), ("progress", progress)):
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name}: expected a bool, got {flag!r}")
+    if sigma_m is not None:
+        sigma_m = _positive_metres("sigma_m", sigma_m)
     if out_dir is None and (plot or resume):
         raise ValueError("out_dir: needed for plot=True or resume=True, got None")
     tpc = _positive_int(
@@ -1443,8 +1480,9 @@ def build_graphs(
             "graph": dataclasses.asdict(config.graph),
             "formats": sorted(fmts),
             "plot": bool(plot),
-            # only when given, so that manifests written without it still match
+            # only when given, so that manifests written without them still match
             **({"map_mode": map_mode} if map_mode is not None else {}),
+            **({"sigma_m": sigma_m} if sigma_m is not None else {}),
         }
     )
     fingerprints = {item.index: _fingerprint(item) for item in items} if out is not None else {}
@@ -1465,6 +1503,7 @@ def build_graphs(
         request=request,
         fingerprints=fingerprints,
         map_mode=map_mode,
+        sigma_m=sigma_m,
     )
     records = runner.run()
     if out is not None:
@@ -1500,6 +1539,10 @@ def _cmd_batch(args: Any) -> int:
 
     paths = expand_map_inputs(args.inputs)
     config = pipeline_config(args)
+    if args.sigma_px is not None:
+        config = dataclasses.replace(
+            config, distance=DistanceConfig.from_pixels(sigma_px=args.sigma_px)
+        )
     client = None
     executor = None
     if args.scheduler:
@@ -1526,6 +1569,7 @@ def _cmd_batch(args: Any) -> int:
             tiles_per_call=args.tiles_per_call,
             kernel_threads=args.kernel_threads,
             map_mode=args.mode,
+            sigma_m=args.sigma_m,
         )
     finally:
         if client is not None:
@@ -1575,8 +1619,9 @@ def _add_cli(subparsers: Any) -> Any:
     p.add_argument(
         "--connect-timeout", type=float, default=30.0, help="seconds to reach the scheduler"
     )
-    from .cli import add_pipeline_options
+    from .cli import add_pipeline_options, add_sigma_options
 
+    add_sigma_options(p, each_map=" (each map through its own resolution)")
     add_pipeline_options(p)
     p.add_argument(
         "--tiles-per-call", type=int, default=None, help="tiles per kernel call (bucket size)"

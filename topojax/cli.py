@@ -80,6 +80,22 @@ def add_graph_options(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_sigma_options(p: argparse.ArgumentParser, *, each_map: str = "") -> None:
+    """``--sigma-m`` / ``--sigma-px`` (mutually exclusive): the distance map's Gaussian."""
+    scale = p.add_mutually_exclusive_group()
+    scale.add_argument(
+        "--sigma-m",
+        type=float,
+        metavar="M",
+        help=f"Gaussian sigma of the distance map in metres{each_map}, the support scaled "
+        "with it (default: the paper's 64.19 px, 3.2 m at 0.05 m/px; a finer map needs "
+        "more pixels)",
+    )
+    scale.add_argument(
+        "--sigma-px", type=float, metavar="P", help="the same in pixels (default 64.19)"
+    )
+
+
 def add_nav2_options(p: argparse.ArgumentParser, name: str) -> None:
     """``--nav2`` (also write the file ``name``: a Nav2 Route Server graph) and its
     ``--nav2-tolerance-m``."""
@@ -304,17 +320,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="pixel convention (default: the YAML's, else trinary; ipa: free if >= 250, "
         "everything else occupied)",
     )
-    scale = p.add_mutually_exclusive_group()
-    scale.add_argument(
-        "--sigma-m",
-        type=float,
-        metavar="M",
-        help="Gaussian sigma of the distance map in metres, the support scaled with it "
-        "(default: the paper's 64.19 px, 3.2 m at 0.05 m/px; a finer map needs more pixels)",
-    )
-    scale.add_argument(
-        "--sigma-px", type=float, metavar="P", help="the same in pixels (default 64.19)"
-    )
+    add_sigma_options(p)
     add_nav2_options(p, "STEM_nav2.geojson")
     add_pipeline_options(p)
     p.set_defaults(handler=_cmd_graph)
