@@ -3984,7 +3984,8 @@ def replay(
         applies them (thinning, T removal and the graph step are re-run on the final
         ridge map, which equals the full-map pipeline's, so the written graph is
         ``build_graph(map, ...)``'s with this ``graph``).  Default: the mapper's whole
-        graph, as the paper keeps it.
+        graph, as the paper keeps it.  The animation shows the mapper's whole graph as
+        it grew.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ...).
