@@ -37,7 +37,7 @@ from topojax.incremental import (
     vertex_error_metrics,
 )
 from topojax.io import load_graph
-from topojax.maps import load_map
+from topojax.maps import OccupancyMap, load_map
 from topojax.pipeline import build_graph, dense_fields
 from topojax.scans import Scan, read_carmen
 from topojax.tiling import TileManager
@@ -745,6 +745,73 @@ def test_scans_and_reads_from_two_threads(tmp_path):
         np.testing.assert_array_equal(getattr(mapper, name), getattr(sequential, name))
     sequential.update_graph()
     assert canon(mapper.graph) == canon(sequential.graph)
+
+
+def test_a_finished_map_seeds_the_mapper_and_scans_continue_on_it():
+    """add_map puts a map's occupied and free pixels one to one on the mapper's lattice
+    (any origin, here not a multiple of the resolution); the mapper then equals the
+    full-map pipeline on its map, before and after more scans."""
+    rng = np.random.default_rng(4)
+    occupied = np.zeros((70, 90), bool)
+    occupied[[0, -1], :] = occupied[:, [0, -1]] = True
+    occupied[20:50, 40] = True
+    occupied[rng.random(occupied.shape) < 0.01] = True
+    unknown = np.zeros_like(occupied)
+    unknown[:, 70:] = True
+    unknown &= ~occupied
+    prior = OccupancyMap(
+        occupied=occupied,
+        free=~occupied & ~unknown,
+        unknown=unknown,
+        resolution_m=0.1,
+        origin=(-3.03, -2.47, 0.0),
+    )
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    assert mapper.add_map(prior) == occupied.sum()
+    assert mapper.n_scans == 0
+    occ = mapper.occupancy
+    r0, c0 = (int(v) for v in mapper.world_to_pixel(*prior.pixel_to_world(0, 0)))
+    br0, bc0, _, _ = mapper.pixel_bbox
+    inside = (slice(r0 - br0, r0 - br0 + 70), slice(c0 - bc0, c0 - bc0 + 90))
+    np.testing.assert_array_equal(occ.occupied[inside], prior.occupied)
+    np.testing.assert_array_equal(occ.free[inside], prior.free)
+    assert occ.occupied.sum() == prior.occupied.sum() and occ.free.sum() == prior.free.sum()
+    # each pixel went to the mapper pixel that holds its centre: one shift for all,
+    # under half a pixel in each axis
+    rows, cols = np.nonzero(prior.occupied)
+    got = np.stack(occ.pixel_to_world(rows + r0 - br0, cols + c0 - bc0))
+    shift = got - np.stack(prior.pixel_to_world(rows, cols))
+    np.testing.assert_allclose(shift, shift[:, :1] * np.ones_like(shift), atol=1e-9)
+    np.testing.assert_allclose(shift[:, 0], (0.03, -0.03), atol=1e-9)
+    assert_matches_full_map(mapper)
+    assert mapper.add_map(prior) == 0  # nothing new
+    for scan in synthetic_scans(9, 6):
+        mapper.add_scan(scan)
+    assert_matches_full_map(mapper)
+    no_free = IncrementalMapper(free_space=False, **SMALL_KW)
+    no_free.add_map(prior)
+    assert not no_free.occupancy.free.any()
+
+
+def test_add_map_refuses_maps_it_cannot_place_and_changes_nothing():
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, max_grid_cells=400, **SMALL_KW)
+    mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
+    before = {k: v.copy() for k, v in mapper.tiles.state().items()}
+    grid = np.zeros((20, 30), bool)
+    grid[5, 5:25] = True
+    base = OccupancyMap.from_array(grid, resolution_m=0.1)
+    with pytest.raises(TypeError, match="occupancy: expected an OccupancyMap"):
+        mapper.add_map(grid)
+    with pytest.raises(ValueError, match="occupancy: expected the mapper's resolution 0.1 m"):
+        mapper.add_map(OccupancyMap.from_array(grid, resolution_m=0.05))
+    with pytest.raises(ValueError, match="without yaw"):
+        mapper.add_map(OccupancyMap.from_array(grid, resolution_m=0.1, origin=(0, 0, 0.3)))
+    with pytest.raises(ValueError, match="max_grid_cells"):
+        mapper.add_map(OccupancyMap.from_array(grid, resolution_m=0.1, origin=(500.0, 0, 0)))
+    after = mapper.tiles.state()
+    for k in before:
+        np.testing.assert_array_equal(before[k], after[k], err_msg=k)
+    assert mapper.add_map(base) == 20
 
 
 def test_constructor_validation():

@@ -591,6 +591,16 @@ def _integrate(er, ec, t, grid, g0r, g0c, hits, w):
 
 
 @numba.njit(cache=True, nogil=True)
+def _count_cells(rows, cols, t, grid, g0r, g0c, counts):
+    """Add one to ``counts`` (saturating at 65535) at every pixel; its tile must exist."""
+    tsh = _log2(t)
+    for i in range(rows.shape[0]):
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, rows[i], cols[i])
+        if counts[s, lr, lc] < _UINT16_MAX:
+            counts[s, lr, lc] += 1
+
+
+@numba.njit(cache=True, nogil=True)
 def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
     """Count free cells (``misses``) along beams, end excluded (Bresenham): the beams of
     scan ``j`` run from ``(sr[j], sc[j])`` to ``(er[i], ec[i])`` for ``off[j] <= i <
@@ -2546,51 +2556,100 @@ class IncrementalMapper:
             er, ec, ext, sensor, n_beams=pts.shape[0], t0=t0, where="points_xy: the points"
         )
 
+    @_synchronized
+    def add_map(self, occupancy) -> int:
+        """Add a finished occupancy map, e.g. one from another SLAM system to keep mapping
+        on: its occupied pixels become obstacles (as if hit by a beam) and its free pixels
+        free space for the exported occupancy map; unknown pixels add nothing.
+
+        The map must have the mapper's resolution and no yaw; its pixels then fall one to
+        one on the mapper's pixels (each goes to the one that holds its centre,
+        :meth:`world_to_pixel`), so a map whose origin is not on the mapper's lattice
+        (a multiple of the resolution) moves as a whole by under half a pixel.  It does not count as a scan and runs no loop: call
+        :meth:`update_graph` (or keep adding scans) to bring skeleton and graph up to date.
+
+        Parameters
+        ----------
+        occupancy : OccupancyMap
+            In the map frame of the scans that follow.
+
+        Returns
+        -------
+        int
+            Obstacle pixels that are new to the mapper.
+
+        Raises
+        ------
+        TypeError
+            If ``occupancy`` is not an :class:`~topojax.OccupancyMap`.
+        ValueError
+            If its resolution differs from the mapper's, its yaw is not 0, or it would
+            make the map exceed ``max_grid_cells``.  Nothing is changed in that case.
+        """
+        from .maps import OccupancyMap
+
+        if not isinstance(occupancy, OccupancyMap):
+            raise TypeError(
+                f"occupancy: expected an OccupancyMap (see load_map), received "
+                f"{type(occupancy).__name__}"
+            )
+        if not math.isclose(occupancy.resolution_m, self.resolution_m, rel_tol=1e-9):
+            raise ValueError(
+                f"occupancy: expected the mapper's resolution {self.resolution_m} m, "
+                f"received a map of {occupancy.resolution_m} m per pixel; resample it first"
+            )
+        if occupancy.origin[2] != 0.0:
+            raise ValueError(
+                f"occupancy: expected a map without yaw (origin yaw 0), received yaw "
+                f"{occupancy.origin[2]} rad"
+            )
+        # the map's pixel (0, 0) and the shift that takes its pixels onto the mapper's
+        x0, y0 = occupancy.pixel_to_world(0, 0)
+        r0, c0 = (int(v) for v in self.world_to_pixel(x0, y0))
+        h, w = occupancy.shape
+        t = self.tile_px
+        half = self._half + HALO_PX
+        rows, cols = np.nonzero(occupancy.occupied)
+        free_rows, free_cols = np.nonzero(occupancy.free) if self.free_space else ((), ())
+        if rows.shape[0] or len(free_rows):
+            lo_r, hi_r, lo_c, hi_c = r0 - half, r0 + h + half, c0 - half, c0 + w + half
+            if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
+                raise ValueError(
+                    f"occupancy: its origin {occupancy.origin} puts pixels beyond "
+                    f"{_MAX_ABS_PIXEL} px from the mapper's origin; expected metres"
+                )
+            # the whole map and its splat windows, before anything changes
+            self._tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+        er = rows.astype(np.int64) + r0
+        ec = cols.astype(np.int64) + c0
+        ext = (
+            np.array([er.min(), er.max(), ec.min(), ec.max()], np.int64)
+            if er.shape[0]
+            else np.zeros(4, np.int64)
+        )
+        n_new = self._integrate_end_pixels(er, ec, ext, None, where="occupancy: the map")
+        if len(free_rows):
+            fr = free_rows.astype(np.int64) + r0
+            fc = free_cols.astype(np.int64) + c0
+            tsh = _log2(t)
+            keys = np.unique((fr >> tsh) * (1 << 32) + ((fc >> tsh) & 0xFFFFFFFF))
+            tile_rows = keys >> 32
+            tile_cols = ((keys & 0xFFFFFFFF) ^ 0x80000000) - 0x80000000
+            tiles = self._tiles
+            tiles.ensure(tile_rows, tile_cols)
+            grid, (g0r, g0c) = tiles.slot_grid
+            _count_cells(fr, fc, t, grid, g0r, g0c, tiles.layer("misses"))
+            self._export_cache.clear()
+        return n_new
+
     def _add_end_pixels(self, er, ec, ext, sensor, *, n_beams: int, t0: float, where: str):
         """The distance loop for one scan's end pixels ``(er, ec)`` (int64, extent
         ``ext`` = (min row, max row, min col, max col)), free space along the rays from the
         ``sensor`` pixel (row, col) when given, then the loops that are due."""
-        if self._ray_job is not None:  # only after an interrupted update
-            self._join_rays()
-        t = self.tile_px
-        res = self.resolution_m
         n_valid = int(er.shape[0])
         tiles = self._tiles
         n_tiles = tiles.n_tiles
-        n_new = 0
-        if n_valid:
-            w = self._half + HALO_PX
-            e_r0, e_r1, e_c0, e_c1 = ext.tolist()
-            sr, sc = sensor if sensor is not None else (e_r0, e_c0)
-            lo_r = min(e_r0, sr) - w
-            hi_r = max(e_r1, sr) + w
-            lo_c = min(e_c0, sc) - w
-            hi_c = max(e_c1, sc) + w
-            if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
-                raise ValueError(
-                    f"{where} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
-                    f"resolution {res} m; expected coordinates in metres"
-                )
-            # Validate the whole extent (beams and splat windows) before changing anything.
-            tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
-            rays = self.free_space and sensor is not None
-            grid, (g0r, g0c) = tiles.slot_grid
-            need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
-            if need.shape[0]:
-                tiles.ensure(need[:, 0], need[:, 1])
-                grid, (g0r, g0c) = tiles.slot_grid
-            new, miss = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), w)
-            if rays:
-                # free cells are counted later, in batches (see _cast_pending_rays)
-                self._rays.append((sr, sc, er, ec))
-                self._n_rays += n_valid
-            n_new = new.shape[0]
-            if n_new:
-                if miss.shape[0]:
-                    tiles.ensure(miss[:, 0], miss[:, 1])
-                self._pending.append(new)
-                self._n_pending += n_new
-                self._export_cache.clear()
+        n_new = self._integrate_end_pixels(er, ec, ext, sensor, where=where)
         if tiles.n_tiles != n_tiles and _growth_pool() is not None:
             # page in the storage of the next growth on another thread (see TileManager)
             tiles.prepare_growth(_growth_pool().submit)
@@ -2632,6 +2691,54 @@ class IncrementalMapper:
             n_tiles=tiles.n_tiles,
             graph_update=update,
         )
+
+    def _integrate_end_pixels(self, er, ec, ext, sensor, *, where: str) -> int:
+        """Hits at the end pixels ``(er, ec)`` (int64, extent ``ext`` = (min row, max row,
+        min col, max col)): their tiles and those of their splat windows allocated, new
+        obstacles queued for the splat, and the rays from the ``sensor`` pixel (row, col)
+        queued for the free-cell count when given.  Raises before any change if the
+        extent is too large.  Returns the number of new obstacle pixels."""
+        if self._ray_job is not None:  # only after an interrupted update
+            self._join_rays()
+        if not er.shape[0]:
+            return 0
+        t = self.tile_px
+        res = self.resolution_m
+        n_valid = int(er.shape[0])
+        tiles = self._tiles
+        w = self._half + HALO_PX
+        e_r0, e_r1, e_c0, e_c1 = ext.tolist()
+        sr, sc = sensor if sensor is not None else (e_r0, e_c0)
+        lo_r = min(e_r0, sr) - w
+        hi_r = max(e_r1, sr) + w
+        lo_c = min(e_c0, sc) - w
+        hi_c = max(e_c1, sc) + w
+        if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
+            raise ValueError(
+                f"{where} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
+                f"resolution {res} m; expected coordinates in metres"
+            )
+        # Validate the whole extent (beams and splat windows) before changing anything.
+        tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+        rays = self.free_space and sensor is not None
+        grid, (g0r, g0c) = tiles.slot_grid
+        need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
+        if need.shape[0]:
+            tiles.ensure(need[:, 0], need[:, 1])
+            grid, (g0r, g0c) = tiles.slot_grid
+        new, miss = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), w)
+        if rays:
+            # free cells are counted later, in batches (see _cast_pending_rays)
+            self._rays.append((sr, sc, er, ec))
+            self._n_rays += n_valid
+        n_new = new.shape[0]
+        if n_new:
+            if miss.shape[0]:
+                tiles.ensure(miss[:, 0], miss[:, 1])
+            self._pending.append(new)
+            self._n_pending += n_new
+            self._export_cache.clear()
+        return int(n_new)
 
     @_synchronized
     def compile(self) -> None:
