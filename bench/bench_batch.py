@@ -63,7 +63,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # for `common`, however this is run
 
 from common import (  # noqa: E402
-    REPO_ROOT,
+    DEFAULT_DATA,
     RESULTS_DIR,
     load_average,
     machine_info,
@@ -75,7 +75,7 @@ from common import (  # noqa: E402
 )
 
 SCRIPT = Path(__file__).resolve()
-DEFAULT_MAPS = REPO_ROOT.parent / "shared" / "data" / "maps"
+DEFAULT_MAPS = DEFAULT_DATA / "maps"
 MODES = ("sequential", "batch-1", "batch-2", "batch-0", "per-worker-2")
 OUTPUT_MODES = ("sequential+out", "batch-2+out")
 KERNEL_MODES = ("kernels-1thread", "kernels-2threads", "kernels-1core")

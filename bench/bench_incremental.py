@@ -50,7 +50,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import (  # noqa: E402
     BENCH_DIR,
-    REPO_ROOT,
+    DEFAULT_DATA,
     RESULTS_DIR,
     machine_info,
     machine_slug,
@@ -62,7 +62,6 @@ from common import (  # noqa: E402
 
 use_checkout()
 
-DATA_DEFAULT = REPO_ROOT.parent / "shared" / "data"
 LOG_DIR = Path("logs") / "carmen_corrected"
 
 #: The paper implementation's local window (pixels) and kernel size.
@@ -599,7 +598,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--logs", help="comma-separated log names (default: every CARMEN log)")
     p.add_argument("--max-scans", type=int, help="replay at most this many scans per log")
-    p.add_argument("--data", type=Path, default=DATA_DEFAULT, help="shared data folder")
+    p.add_argument("--data", type=Path, default=DEFAULT_DATA, help="shared data folder")
     p.add_argument(
         "--out", type=Path, help="JSON output (default results/incremental_<machine>.json)"
     )

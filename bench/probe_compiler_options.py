@@ -18,17 +18,23 @@ from __future__ import annotations
 import argparse
 import gc
 import json
-import statistics
 import sys
 import time
-from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # for `common`, however this is run
 
-from common import DEFAULT_DATA, machine_info, paper_obstacles, use_checkout, write_json  # noqa: E402
+from common import (  # noqa: E402
+    DEFAULT_DATA,
+    machine_info,
+    median,
+    ms,
+    paper_obstacles,
+    use_checkout,
+    write_json,
+)
 
 #: Option sets tried (each against the defaults).  Names are XLA's debug options.
 OPTION_SETS = [
@@ -43,28 +49,23 @@ OPTION_SETS = [
 ]
 
 
-def kernels(options: dict | None):
-    """The two jitted kernels of ``dense_fields``, compiled with ``options``."""
+def kernels(options: dict):
+    """The two jitted kernels of ``dense_fields`` (the library's own functions, not
+    copies), compiled with ``options``."""
     import jax
-    from jax import lax
 
-    from topojax.distance import column_distance_tile
-    from topojax.pipeline import forward_tile
+    from topojax import pipeline
 
-    @partial(jax.jit, static_argnames=("half_width",), compiler_options=options)
-    def column_tiles(strips, *, half_width):
-        return lax.map(partial(column_distance_tile, half_width=half_width), strips)
-
-    @partial(jax.jit, static_argnames=("tile_px", "half_width", "ksize"), compiler_options=options)
-    def forward_tiles(
-        columns, origins, map_shapes, sigma_px, scale, threshold, *, tile_px, half_width, ksize
-    ):
-        fn = partial(forward_tile, tile_px=tile_px, half_width=half_width, ksize=ksize)
-        return lax.map(
-            lambda a: fn(a[0], a[1], a[2], sigma_px, scale, threshold),
-            (columns, origins, map_shapes),
-        )
-
+    column_tiles = jax.jit(
+        pipeline._column_tiles.__wrapped__,
+        static_argnames=("half_width",),
+        compiler_options=options,
+    )
+    forward_tiles = jax.jit(
+        pipeline._forward_tiles.__wrapped__,
+        static_argnames=("tile_px", "half_width", "ksize"),
+        compiler_options=options,
+    )
     return column_tiles, forward_tiles
 
 
@@ -72,7 +73,7 @@ def compare(maps: dict[str, np.ndarray], options: dict, repeats: int) -> dict:
     from topojax import pipeline
 
     shipped = (pipeline._column_tiles, pipeline._forward_tiles)
-    variants = {"default": kernels(None), "options": kernels(options)}
+    variants = {"default": shipped, "options": kernels(options)}
     out: dict = {"options": options}
     try:
         first = {}
@@ -98,11 +99,9 @@ def compare(maps: dict[str, np.ndarray], options: dict, repeats: int) -> dict:
                     gc.collect()
                     t0 = time.perf_counter()
                     pipeline.dense_fields(obstacles)
-                    samples[label][name].append((time.perf_counter() - t0) * 1e3)
+                    samples[label][name].append(time.perf_counter() - t0)
         for label in variants:
-            out[f"{label}_ms"] = {
-                n: round(statistics.median(v), 2) for n, v in samples[label].items()
-            }
+            out[f"{label}_ms"] = {n: ms(median(v)) for n, v in samples[label].items()}
         out["ratio"] = {n: round(out["options_ms"][n] / out["default_ms"][n], 3) for n in maps}
     finally:
         pipeline._column_tiles, pipeline._forward_tiles = shipped

@@ -98,6 +98,7 @@ def assert_matches_full_map(mapper: IncrementalMapper, config: PipelineConfig | 
     ref_e = {path_key(d["path"]): d for *_, d in ref.graph.edges(data=True)}
     for *_, d in mapper.graph.edges(data=True):
         r = ref_e[path_key(d["path"])]
+        assert d["length_m"] == r["length_m"]  # the same integer step counts, bit for bit
         assert d["min_clearance_m"] == pytest.approx(r["min_clearance_m"], rel=1e-6)
         assert d["mean_clearance_m"] == pytest.approx(r["mean_clearance_m"], rel=1e-6)
     # The exported result's clearance map is the full-map one everywhere (pixels beyond R

@@ -823,3 +823,21 @@ def test_pgm_writer_header_is_standard(tmp_path: Path):
     assert lines[2] == b"4 3" and lines[3] == b"255"
     assert len(lines[4]) == 12
     assert struct.unpack("12B", lines[4])[:4] == (0, 0, 0, 0)
+
+
+def test_opencv_log_level_is_restored_after_overlapping_reads(tmp_path):
+    """Unreadable images read from several threads at once: OpenCV's log level, silenced
+    while they decode, is the caller's again afterwards."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    bad = tmp_path / "bad.pgm"
+    bad.write_bytes(b"P5\nnot a header at all")
+    before = cv2.utils.logging.getLogLevel()
+
+    def read(_):
+        with pytest.raises(ValueError, match="could not decode map image"):
+            load_map(bad)
+
+    with ThreadPoolExecutor(4) as pool:
+        list(pool.map(read, range(40)))
+    assert cv2.utils.logging.getLogLevel() == before != cv2.utils.logging.LOG_LEVEL_SILENT

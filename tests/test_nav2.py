@@ -184,6 +184,25 @@ def test_command_writes_the_nav2_graph(tmp_path):
     assert nodes and edges
 
 
+def test_command_checks_the_tolerance_first_and_notes_a_graph_without_edges(tmp_path, capsys):
+    import cv2
+
+    from topojax.cli import main
+
+    png = tj.datasets.sample_map_path("intel")
+    bad = ["graph", str(png), "-o", str(tmp_path / "bad"), "--nav2", "--nav2-tolerance-m", "0"]
+    assert main(bad) == 2
+    assert "nav2_tolerance_m" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()  # nothing written before the check
+    empty = tmp_path / "empty.png"
+    cv2.imwrite(str(empty), np.full((40, 50), 254, np.uint8))  # free, no obstacle
+    assert main(["graph", str(empty), "-o", str(tmp_path / "e"), "--nav2"]) == 0
+    out = capsys.readouterr().out
+    assert "empty_nav2.geojson not written" in out and "no edges" in out
+    assert (tmp_path / "e" / "empty.json").is_file()
+    assert not (tmp_path / "e" / "empty_nav2.geojson").exists()
+
+
 @pytest.mark.parametrize(
     "kwargs, exc, words",
     [

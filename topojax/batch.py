@@ -1538,11 +1538,7 @@ def _cmd_batch(args: Any) -> int:
     from .cli import pipeline_config
 
     paths = expand_map_inputs(args.inputs)
-    config = pipeline_config(args)
-    if args.sigma_px is not None:
-        config = dataclasses.replace(
-            config, distance=DistanceConfig.from_pixels(sigma_px=args.sigma_px)
-        )
+    config = pipeline_config(args)  # --sigma-m goes to build_graphs: per map
     client = None
     executor = None
     if args.scheduler:

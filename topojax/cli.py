@@ -12,11 +12,20 @@ from pathlib import Path
 __all__ = ["main"]
 
 
-def pipeline_config(args):
-    """The :class:`PipelineConfig` of the options of :func:`add_pipeline_options`."""
-    from .config import PipelineConfig, SkeletonConfig
+def pipeline_config(args, *, resolution_m: float | None = None):
+    """The :class:`PipelineConfig` of the options of :func:`add_pipeline_options`, with
+    the Gaussian of :func:`add_sigma_options` where the command has them: ``--sigma-px``
+    as given, ``--sigma-m`` through ``resolution_m`` (a command that runs many maps
+    passes none and converts per map)."""
+    from .config import DistanceConfig, PipelineConfig, SkeletonConfig
 
+    distance = DistanceConfig()
+    if getattr(args, "sigma_px", None) is not None:
+        distance = DistanceConfig.from_pixels(sigma_px=args.sigma_px)
+    elif getattr(args, "sigma_m", None) is not None and resolution_m is not None:
+        distance = DistanceConfig.from_metres(sigma_m=args.sigma_m, resolution_m=resolution_m)
     return PipelineConfig(
+        distance=distance,
         skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
         graph=graph_config(args),
         tile_px=args.tile_px,
@@ -187,37 +196,33 @@ def _cmd_graph(args) -> int:
             kw[name] = getattr(args, name)
     if args.negate:
         kw["negate"] = True
+    if args.nav2:  # checked before the pipeline runs and writes anything
+        from .config import _positive_metres
+
+        _positive_metres("nav2_tolerance_m", args.nav2_tolerance_m)
     occupancy = load_map(args.map, **kw)
-    config = pipeline_config(args)
-    if args.sigma_m is not None or args.sigma_px is not None:
-        import dataclasses
-
-        from .config import DistanceConfig
-
-        if args.sigma_m is not None:  # metres: through this map's resolution
-            distance = DistanceConfig.from_metres(
-                sigma_m=args.sigma_m, resolution_m=occupancy.resolution_m
-            )
-        else:
-            distance = DistanceConfig.from_pixels(sigma_px=args.sigma_px)
-        config = dataclasses.replace(config, distance=distance)
+    config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
     for line in _classes_hint(occupancy):
         print(line)
     stem = Path(args.map).stem
     written = _write_outputs(result, Path(args.out), stem, plot=args.plot, stages=args.stages)
+    notes = []
     if args.nav2:
         from .io import save_nav2_graph
 
-        written.append(
-            save_nav2_graph(
-                result.graph,
-                Path(args.out) / f"{stem}_nav2.geojson",
-                tolerance_m=args.nav2_tolerance_m,
+        try:
+            written.append(
+                save_nav2_graph(
+                    result.graph,
+                    Path(args.out) / f"{stem}_nav2.geojson",
+                    tolerance_m=args.nav2_tolerance_m,
+                )
             )
-        )
+        except ValueError as exc:  # a graph without edges, which Nav2 refuses (as replay)
+            notes.append(f"note       {stem}_nav2.geojson not written: {exc}")
     first = "the process's first call: it includes loading or compiling the kernels"
-    for line in _summary_lines(str(args.map), result, timing_note=first):
+    for line in [*_summary_lines(str(args.map), result, timing_note=first), *notes]:
         print(line)
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0

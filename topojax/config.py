@@ -151,30 +151,31 @@ class SkeletonConfig:
             raise ValueError(f"thinning must be one of {_THINNING}, got {self.thinning!r}")
 
 
-def _nonnegative_metres(name: str, value: object) -> float:
-    """``value`` as a float after checking it is a finite number of metres >= 0 (the
-    pruning thresholds of :class:`GraphConfig` and :func:`topojax.prune_graph`)."""
+def _metres(name: str, value: object, *, allow_zero: bool) -> float:
+    """``value`` as a float after checking it is a finite number of metres, ``>= 0`` or
+    ``> 0``; the errors name ``name``, what was expected and what was received."""
+    bound = ">= 0" if allow_zero else "> 0"
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(
-            f"{name}: expected a number of metres >= 0, received {type(value).__name__} {value!r}"
+            f"{name}: expected a number of metres {bound}, received "
+            f"{type(value).__name__} {value!r}"
         )
     value = float(value)
-    if not math.isfinite(value) or value < 0:
-        raise ValueError(f"{name}: expected a finite number of metres >= 0, received {value!r}")
+    if not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
+        raise ValueError(f"{name}: expected a finite number of metres {bound}, received {value!r}")
     return value
+
+
+def _nonnegative_metres(name: str, value: object) -> float:
+    """:func:`_metres` ``>= 0`` (the pruning thresholds of :class:`GraphConfig` and
+    :func:`topojax.prune_graph`)."""
+    return _metres(name, value, allow_zero=True)
 
 
 def _positive_metres(name: str, value: object) -> float:
-    """``value`` as a float after checking it is a finite number of metres > 0 (the
-    tolerances of the Nav2 export and of :meth:`topojax.Route.waypoints`)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(
-            f"{name}: expected a number of metres > 0, received {type(value).__name__} {value!r}"
-        )
-    value = float(value)
-    if not math.isfinite(value) or value <= 0:
-        raise ValueError(f"{name}: expected a finite number of metres > 0, received {value!r}")
-    return value
+    """:func:`_metres` ``> 0`` (the tolerances of the Nav2 export and of
+    :meth:`topojax.Route.waypoints`, the batch's ``sigma_m``)."""
+    return _metres(name, value, allow_zero=False)
 
 
 @dataclass(frozen=True, kw_only=True)

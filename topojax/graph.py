@@ -686,15 +686,7 @@ def _graph_from_skeleton(
 
     if n_e:
         starts = e_off[:-1]
-        step = np.abs(np.diff(path_rc, axis=0))
-        diag = (step[:, 0] != 0) & (step[:, 1] != 0)
-        # Diagonal steps per edge from an integer running count (steps from the last pixel
-        # of an edge to the first of the next are not steps), so that the length is a
-        # function of the path alone, not of where it sits among the others.
-        cum = np.concatenate([[0], np.cumsum(diag, dtype=np.int64)])
-        ends = starts + lens - 1
-        n_diag = cum[ends] - cum[starts]
-        length_m = _steps_length(lens - 1 - n_diag, n_diag, res)
+        length_m = _cumulative_length_m(path_rc, starts, lens, res)[starts + lens - 1]
         if clear is not None:
             cval = clear[path] * res
             min_c = np.minimum.reduceat(cval, starts)
@@ -1021,11 +1013,25 @@ def _steps_length(n_straight, n_diagonal, res: float):
     return (n_straight + n_diagonal * math.sqrt(2.0)) * res
 
 
+def _cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
+    """Length in metres from its own path's first pixel to every pixel of paths stored
+    one after another in ``pixels`` (K, 2) (path ``i``: ``sizes[i]`` rows from
+    ``starts[i]``).  Straight and diagonal steps are counted as integers (the step from
+    one path's last pixel to the next one's first is not a step), so a path's length is
+    a function of the path alone, not of where it sits among the others: the length at
+    its last pixel is its ``length_m``."""
+    step = np.abs(np.diff(np.asarray(pixels, np.int64), axis=0))
+    diag = (step[:, 0] != 0) & (step[:, 1] != 0)
+    n_diag = np.concatenate([[0], np.cumsum(diag, dtype=np.int64)])
+    first = np.repeat(np.asarray(starts, np.int64), sizes)
+    steps = np.arange(len(first)) - first
+    diagonal = n_diag - n_diag[first]
+    return _steps_length(steps - diagonal, diagonal, res)
+
+
 def _path_length_m(path: np.ndarray, res: float) -> float:
     """``length_m`` of a ``(K, 2)`` pixel path, exactly as :func:`skeleton_to_graph`."""
-    step = np.abs(np.diff(np.asarray(path, np.int64), axis=0))
-    n_diag = int(np.count_nonzero((step[:, 0] != 0) & (step[:, 1] != 0)))
-    return float(_steps_length(len(path) - 1 - n_diag, n_diag, res))
+    return float(_cumulative_length_m(path, [0], [len(path)], res)[-1])
 
 
 def _ends_at(path: np.ndarray, pixel) -> bool:

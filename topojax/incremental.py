@@ -143,7 +143,7 @@ from .distance import FAR_SQ, gaussian_from_sq_distance
 from .filters import HALO_PX, laplacian_valid, ridge_from_laplacian
 from .scans import Scan
 from .skeleton import _compact
-from .tiling import MAX_GRID_CELLS, TileManager
+from .tiling import MAX_GRID_CELLS, TileManager, _unique_pairs
 
 __all__ = [
     "STATE_FORMAT",
@@ -2474,7 +2474,13 @@ class IncrementalMapper:
         )
         sensor = (math.floor(-sy / res), math.floor(sx / res))
         return self._add_end_pixels(
-            er, ec, ext, sensor, n_beams=scan.n_beams, t0=t0, where=f"scan: the pose {scan.pose}"
+            er,
+            ec,
+            ext,
+            sensor,
+            n_beams=scan.n_beams,
+            t0=t0,
+            where=lambda: f"scan: the pose {scan.pose}",
         )
 
     @_synchronized
@@ -2553,7 +2559,7 @@ class IncrementalMapper:
         else:
             ext = np.zeros(4, np.int64)
         return self._add_end_pixels(
-            er, ec, ext, sensor, n_beams=pts.shape[0], t0=t0, where="points_xy: the points"
+            er, ec, ext, sensor, n_beams=pts.shape[0], t0=t0, where=lambda: "points_xy: the points"
         )
 
     @_synchronized
@@ -2627,22 +2633,20 @@ class IncrementalMapper:
             if er.shape[0]
             else np.zeros(4, np.int64)
         )
-        n_new = self._integrate_end_pixels(er, ec, ext, None, where="occupancy: the map")
+        n_new = self._integrate_end_pixels(er, ec, ext, None, where=lambda: "occupancy: the map")
         if len(free_rows):
             fr = free_rows.astype(np.int64) + r0
             fc = free_cols.astype(np.int64) + c0
             tsh = _log2(t)
-            keys = np.unique((fr >> tsh) * (1 << 32) + ((fc >> tsh) & 0xFFFFFFFF))
-            tile_rows = keys >> 32
-            tile_cols = ((keys & 0xFFFFFFFF) ^ 0x80000000) - 0x80000000
+            tiles_needed = _unique_pairs(fr >> tsh, fc >> tsh)
             tiles = self._tiles
-            tiles.ensure(tile_rows, tile_cols)
+            tiles.ensure(tiles_needed[:, 0], tiles_needed[:, 1])
             grid, (g0r, g0c) = tiles.slot_grid
             _count_cells(fr, fc, t, grid, g0r, g0c, tiles.layer("misses"))
             self._export_cache.clear()
         return n_new
 
-    def _add_end_pixels(self, er, ec, ext, sensor, *, n_beams: int, t0: float, where: str):
+    def _add_end_pixels(self, er, ec, ext, sensor, *, n_beams: int, t0: float, where):
         """The distance loop for one scan's end pixels ``(er, ec)`` (int64, extent
         ``ext`` = (min row, max row, min col, max col)), free space along the rays from the
         ``sensor`` pixel (row, col) when given, then the loops that are due."""
@@ -2692,12 +2696,14 @@ class IncrementalMapper:
             graph_update=update,
         )
 
-    def _integrate_end_pixels(self, er, ec, ext, sensor, *, where: str) -> int:
+    def _integrate_end_pixels(self, er, ec, ext, sensor, *, where) -> int:
         """Hits at the end pixels ``(er, ec)`` (int64, extent ``ext`` = (min row, max row,
         min col, max col)): their tiles and those of their splat windows allocated, new
         obstacles queued for the splat, and the rays from the ``sensor`` pixel (row, col)
         queued for the free-cell count when given.  Raises before any change if the
-        extent is too large.  Returns the number of new obstacle pixels."""
+        extent is too large, its message starting with ``where()`` (a callable: the scan
+        path formats nothing unless it fails).  Returns the number of new obstacle
+        pixels."""
         if self._ray_job is not None:  # only after an interrupted update
             self._join_rays()
         if not er.shape[0]:
@@ -2715,7 +2721,7 @@ class IncrementalMapper:
         hi_c = max(e_c1, sc) + w
         if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
             raise ValueError(
-                f"{where} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
+                f"{where()} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
                 f"resolution {res} m; expected coordinates in metres"
             )
         # Validate the whole extent (beams and splat windows) before changing anything.
@@ -3585,6 +3591,7 @@ class IncrementalMapper:
         return out
 
     def _export_graph(self) -> nx.MultiGraph:
+        from .graph import _cumulative_length_m
         from .pipeline import clearance_at
 
         res = self.resolution_m
@@ -3633,9 +3640,9 @@ class IncrementalMapper:
             wx, wy = occ.pixel_to_world(allp[:, 0], allp[:, 1])
             world = np.stack([wx, wy], axis=1)
             cl = clearance_m(allp[:, 0], allp[:, 1])
-            step = np.abs(np.diff(allp, axis=0))
-            step_len = np.where((step[:, 0] != 0) & (step[:, 1] != 0), math.sqrt(2.0), 1.0)
             bounds = np.concatenate([[0], np.cumsum(lens)])
+            # as the full-map graph counts them (integer steps), bit for bit
+            length_m = _cumulative_length_m(allp, bounds[:-1], lens, res)[bounds[1:] - 1]
             path32 = allp.astype(np.int32)
             for i, k in enumerate(edges):
                 u, v = ends[i]
@@ -3646,7 +3653,7 @@ class IncrementalMapper:
                     key=k,
                     path=path32[a:b],
                     world=world[a:b],
-                    length_m=float(step_len[a : b - 1].sum() * res),
+                    length_m=float(length_m[i]),
                     min_clearance_m=float(cl[a:b].min()),
                     mean_clearance_m=float(cl[a:b].mean()),
                 )

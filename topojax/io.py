@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 import tempfile
 import warnings
@@ -234,10 +235,14 @@ def _id_kind(values: list[Any], what: str) -> str:
 
 
 def _as_multigraph(graph: Any) -> nx.MultiGraph:
+    """``graph`` as an undirected MultiGraph (a plain Graph's edges get key 0)."""
     if not isinstance(graph, nx.Graph):
-        raise TypeError(f"graph must be a networkx graph, got {type(graph).__name__}")
+        raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
     if graph.is_directed():
-        raise TypeError("graph must be undirected (networkx.MultiGraph or Graph), got directed")
+        raise TypeError(
+            f"graph: expected an undirected graph (corridors run both ways), received "
+            f"{type(graph).__name__}"
+        )
     if graph.is_multigraph():
         return graph
     return nx.MultiGraph(graph)
@@ -810,20 +815,20 @@ def save_nav2_graph(
         if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
             raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
         # the polyline runs from the end nearer to u (paths start at u; be tolerant)
-        if u != v and _dist(xy[0], node_xy[v]) < _dist(xy[0], node_xy[u]):
+        if u != v and math.dist(xy[0], node_xy[v]) < math.dist(xy[0], node_xy[u]):
             u, v = v, u
         keep = _polyline_keep(xy, tol)
         if u == v and len(keep) < 4 and len(xy) >= 4:  # a loop needs two waypoints
             keep = np.unique(np.concatenate([keep, [len(xy) // 3, 2 * len(xy) // 3]]))
         along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+        inner = xy[keep[1:-1]].tolist()
         chain = [node_id[u]]
-        for i in keep[1:-1]:
-            meta = {"kind": "waypoint"}
-            features.append(_nav2_node(next_id, frame, xy[i].tolist(), meta))
+        for point in inner:
+            features.append(_nav2_node(next_id, frame, point, {"kind": "waypoint"}))
             chain.append(next_id)
             next_id += 1
         chain.append(node_id[v])
-        points = [node_xy[u], *(xy[i].tolist() for i in keep[1:-1]), node_xy[v]]
+        points = [node_xy[u], *inner, node_xy[v]]
         corridor = {"corridor": [_jsonable(x, "edge id") for x in (u, v, k)]}
         corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
         for j in range(len(chain) - 1):
@@ -862,7 +867,3 @@ def _finite_metres(d: dict, names: tuple[str, ...]) -> dict:
         if isinstance(value, (int, float, np.number)) and np.isfinite(value):
             out[name] = float(value)
     return out
-
-
-def _dist(a, b) -> float:
-    return float(np.hypot(a[0] - b[0], a[1] - b[1]))

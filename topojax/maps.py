@@ -26,8 +26,10 @@ obstacle; with the ``map_server`` thresholds their grey outside area (153 .. 205
 
 from __future__ import annotations
 
+import contextlib
 import math
 import re
+import threading
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -650,16 +652,13 @@ def _read_image(path: Path) -> tuple[np.ndarray, int, float | None]:
         raise ValueError(f"map image {path} is empty (0 bytes)")
     maxval, comments = _parse_pnm_header(data)
     pixels: np.ndarray | None
-    log_level = cv2.utils.logging.getLogLevel()
     # a file OpenCV cannot read gets our error below (or PIL reads it): not also
     # OpenCV's own log line on stderr
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
-    try:
-        pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-    except cv2.error:
-        pixels = None
-    finally:
-        cv2.utils.logging.setLogLevel(log_level)
+    with _opencv_silenced(cv2):
+        try:
+            pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+        except cv2.error:
+            pixels = None
     if pixels is None or pixels.size == 0:
         pixels = _decode_with_pil(data)
     if pixels is None or pixels.size == 0:
@@ -685,6 +684,29 @@ def _read_image(path: Path) -> tuple[np.ndarray, int, float | None]:
 
 
 # ---------------------------------------------------------------------- public loaders
+
+
+_SILENCE_LOCK = threading.Lock()
+_SILENCE = {"depth": 0, "level": None}
+
+
+@contextlib.contextmanager
+def _opencv_silenced(cv2):
+    """OpenCV's (process-wide) log level set to silent while any thread is inside; the
+    first to enter saves the level and the last to leave restores it, so overlapping
+    readers (the batch loads maps on two threads) cannot leave it silent."""
+    with _SILENCE_LOCK:
+        if _SILENCE["depth"] == 0:
+            _SILENCE["level"] = cv2.utils.logging.getLogLevel()
+            cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+        _SILENCE["depth"] += 1
+    try:
+        yield
+    finally:
+        with _SILENCE_LOCK:
+            _SILENCE["depth"] -= 1
+            if _SILENCE["depth"] == 0:
+                cv2.utils.logging.setLogLevel(_SILENCE["level"])
 
 
 def _yaml_error(path: Path, field: str, expected: str, value: Any) -> ValueError:

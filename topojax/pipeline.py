@@ -238,10 +238,11 @@ def _as_obstacles(obstacles) -> np.ndarray:
     if arr.dtype != bool:
         if not np.issubdtype(arr.dtype, np.number):
             raise TypeError(f"obstacles must be a boolean mask, got dtype {arr.dtype}")
-        if np.issubdtype(arr.dtype, np.floating) and np.isnan(arr).any():
-            raise ValueError(f"obstacles contains {int(np.isnan(arr).sum())} NaN values")
-        other = (arr != 0) & (arr != 1)
-        if other.any():
+        nonzero = arr != 0
+        other = nonzero & (arr != 1)
+        if other.any():  # NaN is neither 0 nor 1: only then is it looked for
+            if np.issubdtype(arr.dtype, np.floating) and np.isnan(arr).any():
+                raise ValueError(f"obstacles contains {int(np.isnan(arr).sum())} NaN values")
             # e.g. an image (0 = black = wall) or occupancy probabilities: reading them as
             # "nonzero = obstacle" would silently give the wrong map
             raise ValueError(
@@ -251,7 +252,7 @@ def _as_obstacles(obstacles) -> np.ndarray:
                 "occupancy grids with OccupancyMap.from_array(...) and pass it (or its "
                 ".occupied)"
             )
-        arr = arr != 0
+        arr = nonzero
     if min(arr.shape) < 2:
         raise ValueError(f"obstacles must be at least 2 x 2 pixels, got shape {arr.shape}")
     return arr

@@ -31,8 +31,8 @@ import networkx as nx
 import numpy as np
 
 from .config import _nonnegative_metres, _positive_metres
-from .graph import _polyline_keep, _steps_length
-from .io import _jsonable
+from .graph import _cumulative_length_m, _polyline_keep
+from .io import _as_multigraph, _jsonable
 
 __all__ = ["NoRouteError", "Route", "RoutePlanner", "plan_route"]
 
@@ -147,15 +147,7 @@ class RoutePlanner:
     """
 
     def __init__(self, graph: nx.Graph) -> None:
-        if not isinstance(graph, nx.Graph):
-            raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
-        if graph.is_directed():
-            raise TypeError(
-                f"graph: expected an undirected graph (corridors run both ways), received "
-                f"{type(graph).__name__}"
-            )
-        if not graph.is_multigraph():  # a plain Graph: its edges get key 0
-            graph = nx.MultiGraph(graph)
+        graph = _as_multigraph(graph)  # a plain Graph: its edges get key 0
         self._graph = graph
         res = graph.graph.get("resolution_m")
         self._res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
@@ -177,6 +169,9 @@ class RoutePlanner:
             self._path.append(path)
             self._world.append(world)
             self._len.append(length)
+        # where each edge's pixels start in the edges' paths (or polylines) one after another
+        self._sizes = np.array([len(p) for p in self._path], np.int64)
+        self._starts = np.concatenate([[0], np.cumsum(self._sizes)[:-1]]).astype(np.int64)
         self._cum = self._cumulative()
         # Adjacency by node: neighbour -> (length, edge index), the shortest of parallel
         # edges (self-loops never shorten a route between two vertices).
@@ -301,19 +296,9 @@ class RoutePlanner:
         paths); the last entry is the edge's own ``length_m``."""
         if not self._path:
             return []
-        sizes = np.array([len(p) for p in self._path])
-        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        sizes, starts = self._sizes, self._starts
         pixels = np.concatenate(self._path)
-        step = np.abs(np.diff(pixels, axis=0))
-        diag = (step[:, 0] != 0) & (step[:, 1] != 0)
-        # Steps between the last pixel of one path and the first of the next are not
-        # counted: each pixel subtracts the running counts at its own path's start.
-        n_diag = np.concatenate([[0], np.cumsum(diag)])
-        first = np.repeat(starts, sizes)
-        steps = np.arange(len(pixels)) - first
-        diagonal = n_diag - n_diag[first]
-        res = self._res if self._res is not None else self._pixel_size_m()
-        cum = _steps_length(steps - diagonal, diagonal, res)
+        cum = _cumulative_length_m(pixels, starts, sizes, self._pixel_size_m())
         cum[starts + sizes - 1] = self._len
         return np.split(cum, starts[1:])
 
@@ -333,8 +318,7 @@ class RoutePlanner:
             from scipy.spatial import cKDTree
 
             points = list(self._world if frame == "world" else self._path)
-            sizes = np.array([len(p) for p in points], np.int64)
-            starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+            sizes, starts = self._sizes, self._starts  # polylines as long as the paths
             edge = np.repeat(np.arange(len(points)), sizes)
             owners = [np.stack([edge, np.arange(len(edge)) - starts[edge], -np.ones_like(edge)], 1)]
             for i, n in self._lonely:
