@@ -686,7 +686,7 @@ def _graph_from_skeleton(
 
     if n_e:
         starts = e_off[:-1]
-        length_m = _cumulative_length_m(path_rc, starts, lens, res)[starts + lens - 1]
+        length_m = _path_lengths_m(path_rc, starts, lens, res)
         if clear is not None:
             cval = clear[path] * res
             min_c = np.minimum.reduceat(cval, starts)
@@ -1013,16 +1013,30 @@ def _steps_length(n_straight, n_diagonal, res: float):
     return (n_straight + n_diagonal * math.sqrt(2.0)) * res
 
 
-def _cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
-    """Length in metres from its own path's first pixel to every pixel of paths stored
-    one after another in ``pixels`` (K, 2) (path ``i``: ``sizes[i]`` rows from
-    ``starts[i]``).  Straight and diagonal steps are counted as integers (the step from
-    one path's last pixel to the next one's first is not a step), so a path's length is
-    a function of the path alone, not of where it sits among the others: the length at
-    its last pixel is its ``length_m``."""
+def _running_diagonals(pixels: np.ndarray) -> np.ndarray:
+    """Diagonal steps before each pixel of ``pixels`` (K, 2), an integer running count
+    (length K).  Paths stored one after another subtract the count at their own first
+    pixel, so the step from one path's last pixel to the next one's first is never
+    counted and a path's length is a function of the path alone, not of where it sits
+    among the others."""
     step = np.abs(np.diff(np.asarray(pixels, np.int64), axis=0))
-    diag = (step[:, 0] != 0) & (step[:, 1] != 0)
-    n_diag = np.concatenate([[0], np.cumsum(diag, dtype=np.int64)])
+    return np.concatenate([[0], np.cumsum((step[:, 0] != 0) & (step[:, 1] != 0))])
+
+
+def _path_lengths_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
+    """``length_m`` of each path stored in ``pixels`` (path ``i``: ``sizes[i]`` rows from
+    ``starts[i]``): its straight and diagonal steps, counted as integers."""
+    starts = np.asarray(starts, np.int64)
+    sizes = np.asarray(sizes, np.int64)
+    n_diag = _running_diagonals(pixels)
+    diagonal = n_diag[starts + sizes - 1] - n_diag[starts]
+    return _steps_length(sizes - 1 - diagonal, diagonal, res)
+
+
+def _cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
+    """Length in metres from its own path's first pixel to every pixel, counted as
+    :func:`_path_lengths_m` does (the last pixel of a path has the path's length)."""
+    n_diag = _running_diagonals(pixels)
     first = np.repeat(np.asarray(starts, np.int64), sizes)
     steps = np.arange(len(first)) - first
     diagonal = n_diag - n_diag[first]
@@ -1031,7 +1045,7 @@ def _cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.nd
 
 def _path_length_m(path: np.ndarray, res: float) -> float:
     """``length_m`` of a ``(K, 2)`` pixel path, exactly as :func:`skeleton_to_graph`."""
-    return float(_cumulative_length_m(path, [0], [len(path)], res)[-1])
+    return float(_path_lengths_m(path, [0], [len(path)], res)[0])
 
 
 def _ends_at(path: np.ndarray, pixel) -> bool:

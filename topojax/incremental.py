@@ -3591,7 +3591,7 @@ class IncrementalMapper:
         return out
 
     def _export_graph(self) -> nx.MultiGraph:
-        from .graph import _cumulative_length_m
+        from .graph import _path_lengths_m
         from .pipeline import clearance_at
 
         res = self.resolution_m
@@ -3642,7 +3642,7 @@ class IncrementalMapper:
             cl = clearance_m(allp[:, 0], allp[:, 1])
             bounds = np.concatenate([[0], np.cumsum(lens)])
             # as the full-map graph counts them (integer steps), bit for bit
-            length_m = _cumulative_length_m(allp, bounds[:-1], lens, res)[bounds[1:] - 1]
+            length_m = _path_lengths_m(allp, bounds[:-1], lens, res)
             path32 = allp.astype(np.int32)
             for i, k in enumerate(edges):
                 u, v = ends[i]
