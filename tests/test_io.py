@@ -427,6 +427,18 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path: Path, monkeypatch):
         atomic_write_bytes(tmp_path / "no_dir" / "x.bin", b"x")
 
 
+def test_atomic_write_to_a_folder_says_so_and_leaves_nothing(tmp_path: Path):
+    folder = tmp_path / "out"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError, match=r"out is a folder: expected a file path"):
+        atomic_write_bytes(folder, b"x")
+    with pytest.raises(IsADirectoryError, match="is a folder"):
+        save_graph(make_graph(), folder, format="json")
+    # no temporary file left beside it, and the folder is untouched
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+    assert list(folder.iterdir()) == []
+
+
 def test_atomic_write_gives_ordinary_file_permissions(tmp_path):
     import os
     import stat

@@ -14,6 +14,7 @@ import yaml
 from conftest import SHARED_DATA
 from PIL import Image
 
+import topojax as tj
 from topojax.maps import OccupancyMap, load_map, save_map
 
 MAP_SUFFIXES = {".yaml", ".png", ".pgm"}
@@ -453,6 +454,31 @@ def test_from_array_metadata():
 def test_too_small_maps_raise(arr):
     with pytest.raises(ValueError, match=r"2x2.*" + re.escape(str(arr.shape))):
         OccupancyMap.from_array(arr)
+
+
+@pytest.mark.parametrize("dtype", [np.int8, np.int32, np.int64, np.uint16])
+def test_integer_zero_one_array_is_refused_not_read_as_an_empty_map(dtype):
+    # As OccupancyGrid percentages 0 and 1 are both free: the map would have no obstacle,
+    # while distance_map reads the same array as an obstacle mask.
+    arr = np.zeros((6, 6), dtype)
+    arr[2, :] = 1
+    with pytest.raises(ValueError, match=r"holds only 0 and 1.*astype\(bool\)"):
+        OccupancyMap.from_array(arr)
+    with pytest.raises(ValueError, match="holds only 0 and 1"):
+        tj.build_graph(arr)
+    # the same array as a mask, or as a grid with occupied cells at 100, works
+    assert OccupancyMap.from_array(arr.astype(bool)).occupied[2].all()
+    grid = arr.astype(np.int8) * 100
+    assert OccupancyMap.from_array(grid).occupied[2].all()
+    # grids that are not only 0 and 1 are unaffected: all free, or 0/1 with unknown cells
+    assert OccupancyMap.from_array(np.zeros((6, 6), dtype)).free.all()
+    grid = arr.astype(np.int8)
+    grid[0, 0] = -1
+    m = OccupancyMap.from_array(grid)
+    assert m.unknown[0, 0] and not m.occupied.any()
+    # thresholds under which 1 % counts as occupied make the array a valid grid again
+    m = OccupancyMap.from_array(arr, occupied_thresh=0.005, free_thresh=0.001)
+    assert m.occupied[2].all() and m.free.sum() == 30
 
 
 def test_from_array_errors():

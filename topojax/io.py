@@ -86,6 +86,10 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
         File content.
     """
     dest = Path(path)
+    if dest.is_dir():
+        raise IsADirectoryError(
+            f"output file {dest} is a folder: expected a file path such as {dest / 'name'}"
+        )
     folder = dest.parent if str(dest.parent) else Path(".")
     if not folder.is_dir():
         raise FileNotFoundError(f"folder for output file {dest} does not exist: {folder}")

@@ -521,6 +521,17 @@ def _classify_occupancy_grid(
             f"integer array (dtype {arr.dtype}) must hold OccupancyGrid values -1..100; "
             f"{n_bad} pixels are outside, e.g. {bad_vals} (use uint8 for grey images)"
         )
+    one_is_free = not 0.01 > occupied_thresh
+    if forced is None and one_is_free and arr.size and arr.min() == 0 and arr.max() == 1:
+        # Read as OccupancyGrid percentages, 0 and 1 are both free: a map without a single
+        # obstacle.  Real grids mark occupied cells 100; such an array is nearly always an
+        # obstacle mask with the wrong dtype (distance_map reads it as one).
+        raise ValueError(
+            f"integer array (dtype {arr.dtype}) holds only 0 and 1: as OccupancyGrid values "
+            "(-1 unknown, 0..100 percent) that is a map with no obstacle at all; for an "
+            "obstacle mask pass a bool array (array.astype(bool), True = occupied), for "
+            "OccupancyGrid data mark occupied cells 100"
+        )
     pct = np.arange(-1, 101, dtype=np.float64)
     lut = np.full(pct.shape, _UNK, dtype=np.uint8)
     known = pct >= 0
