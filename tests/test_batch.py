@@ -470,6 +470,52 @@ def test_expand_map_inputs(tmp_path):
         expand_map_inputs([str(tmp_path / "*.yaml")])
 
 
+def test_expand_map_inputs_skips_the_excluded_folder(tmp_path):
+    root = tmp_path / "maps"
+    (root / "out").mkdir(parents=True)
+    png = PAPER_MAPS[2].read_bytes()
+    (root / "a.png").write_bytes(png)
+    (root / "out" / "a_graph.png").write_bytes(png)  # a picture of an earlier run
+    assert expand_map_inputs([root]) == [root / "a.png", root / "out" / "a_graph.png"]
+    assert expand_map_inputs([root], exclude=root / "out") == [root / "a.png"]
+    assert expand_map_inputs([f"{root}/**/*.png"], exclude=root / "out") == [root / "a.png"]
+    # a file named explicitly is kept
+    named = root / "out" / "a_graph.png"
+    assert expand_map_inputs([named], exclude=root / "out") == [named]
+
+
+def test_output_names_never_share_a_file(tmp_path, capsys):
+    """A map ``x_nav2`` beside a map ``x`` would write ``x_nav2.geojson``, the Nav2 graph of
+    ``x``: both maps reported ok while one file replaced the other, and every resume redid
+    one of them.  Each map must get files of its own."""
+    from topojax.batch import _assign_names, _output_files
+    from topojax.cli import main
+
+    names = _assign_names([Path("m/x.png"), Path("m/x_nav2.png"), Path("m/y_graph.png")])
+    names += _assign_names([Path("m/y.png"), Path("m/y.manifest.png")])
+    files = [f for n in names for f in _output_files(n)]
+    assert len(files) == len(set(files)), names
+
+    src = tmp_path / "maps"
+    src.mkdir()
+    (src / "x.png").write_bytes(PAPER_MAPS[0].read_bytes())
+    (src / "x_nav2.png").write_bytes(PAPER_MAPS[2].read_bytes())
+    out = src / "out"  # inside the input folder, with pictures
+    argv = ["batch", str(src), "-o", str(out), "--workers", "0", "--no-progress", "--plot"]
+    argv += ["--formats", "geojson,nav2"]
+    assert main(argv) == 0
+    rows = {r["map"]: r for r in csv.DictReader((out / "summary.csv").open())}
+    assert sorted(rows) == ["x", "x_nav2_2"]
+    nav2 = json.loads((out / "x_nav2.geojson").read_text())
+    assert nav2["features"][0]["properties"].get("frame") is not None  # a Nav2 graph
+    plain = load_graph(out / "x_nav2_2.geojson")
+    assert plain.number_of_nodes() == int(rows["x_nav2_2"]["vertices"])
+    capsys.readouterr()
+    # a second run sees neither its own pictures as maps nor anything to redo
+    assert main([*argv, "--resume"]) == 0
+    assert "2 skipped" in capsys.readouterr().out
+
+
 def test_cli_batch(tmp_path, capsys):
     from topojax.cli import main
 

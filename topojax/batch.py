@@ -78,7 +78,9 @@ Names
 A map's name (``map`` column, output file stem) is its path relative to the deepest folder
 that holds all input files, without the suffix, e.g. ``ipa/office_a`` or
 ``ros/tuw_freihaus_eg/map``; outputs mirror that layout under ``out_dir``.  Names that
-would clash get the suffix (``map_pgm``), then a counter (``_2``).  Maps given as objects
+would clash get the suffix (``map_pgm``), then a counter (``_2``); so does a name whose
+output files would be another map's (a map ``x_nav2`` next to a map ``x``, whose Nav2 graph
+is ``x_nav2.geojson``).  Maps given as objects
 without a ``source`` are called ``map_0000``, ``map_0001``, ... by position.
 
 Clusters (Dask)
@@ -400,7 +402,9 @@ def _yaml_image(path: Path) -> Path | None:
         return None
 
 
-def expand_map_inputs(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
+def expand_map_inputs(
+    inputs: Iterable[str | os.PathLike[str]], *, exclude: str | os.PathLike[str] | None = None
+) -> list[Path]:
     """Turn command-line inputs into a list of map files.
 
     Parameters
@@ -415,6 +419,9 @@ def expand_map_inputs(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
           matched map files are kept, matched folders searched as above;
         * anything else is taken as a file name as is (a missing or unsupported file
           then becomes an error row of the batch, not an exception here).
+    exclude : str or path, optional
+        A folder whose files folder searches and patterns skip, e.g. the batch's output
+        folder when it lies inside an input folder (its pictures are PNG files).
 
     Returns
     -------
@@ -430,21 +437,26 @@ def expand_map_inputs(inputs: Iterable[str | os.PathLike[str]]) -> list[Path]:
     """
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
-    found: list[Path] = []
+    found: list[tuple[Path, bool]] = []  # (path, named explicitly)
     for raw in inputs:
         for pattern in expand_braces(os.fspath(raw)):
             p = Path(pattern)
             if p.is_dir():
-                found.extend(_walk_maps(p))
+                found.extend((m, False) for m in _walk_maps(p))
             elif _glob.has_magic(pattern):
                 for match in sorted(_glob.glob(pattern, recursive=True)):
                     m = Path(match)
                     if m.is_dir():
-                        found.extend(_walk_maps(m))
+                        found.extend((f, False) for f in _walk_maps(m))
                     elif _is_map_file(m):
-                        found.append(m)
+                        found.append((m, False))
             else:
-                found.append(p)
+                found.append((p, True))
+    if exclude is not None:
+        skip = os.path.join(os.path.realpath(exclude), "")
+        found = [p for p, named in found if named or not os.path.realpath(p).startswith(skip)]
+    else:
+        found = [p for p, _ in found]
     unique: list[Path] = []
     seen: set[str] = set()
     for p in found:
@@ -501,15 +513,26 @@ def _assign_names(sources: list[Path | None]) -> list[str]:
         if counts[names[i]] > 1 and p is not None and p.suffix:
             names[i] = f"{names[i]}_{p.suffix[1:].lower()}"
     used: set[str] = set()
+    files: set[str] = set()  # every output file name of the names given so far
     for i, name in enumerate(names):
         if name.endswith(".manifest"):  # would collide with another map's manifest file
             name = name[: -len(".manifest")] + "_manifest"
         candidate, k = name, 2
-        while candidate in used:
+        # A name is taken if any of its possible output files is another name's (``x_nav2``
+        # would write ``x_nav2.geojson``, the Nav2 file of ``x``), whatever the formats, so
+        # that names do not depend on them.
+        while candidate in used or not files.isdisjoint(_output_files(candidate)):
             candidate, k = f"{name}_{k}", k + 1
         used.add(candidate)
+        files.update(_output_files(candidate))
         names[i] = candidate
     return names
+
+
+def _output_files(name: str) -> list[str]:
+    """Every file name a map called ``name`` may write (any formats, picture, manifest)."""
+    suffixes = [*_FORMAT_SUFFIX.values(), _PICTURE_SUFFIX, _MANIFEST_SUFFIX]
+    return [name + suffix for suffix in suffixes]
 
 
 def _sha256_file(path: Path) -> str:
@@ -1537,7 +1560,7 @@ def _check_no_overwrite(
 def _cmd_batch(args: Any) -> int:
     from .cli import pipeline_config
 
-    paths = expand_map_inputs(args.inputs)
+    paths = expand_map_inputs(args.inputs, exclude=args.out)
     config = pipeline_config(args)  # --sigma-m goes to build_graphs: per map
     client = None
     executor = None
