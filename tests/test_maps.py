@@ -574,6 +574,23 @@ def test_pgm_comment_resolution_and_override(tmp_path: Path):
     assert load_map(tmp_path / "b.pgm").resolution_m == 0.05
 
 
+def test_pgm_comment_resolution_is_read_whole_or_refused(tmp_path: Path):
+    img = np.array([[0, 205, 254], [254, 254, 0]], dtype=np.uint8)
+    good = {"1e-2 m/pix": 0.01, "CREATOR: x 0.5 m/pix": 0.5, "res .25m/pix": 0.25}
+    for comment, value in good.items():
+        _write_pgm(tmp_path / "g.pgm", img, comment=comment)
+        assert load_map(tmp_path / "g.pgm").resolution_m == value, comment
+    # a decimal comma, a sign or a word must not be read as some other number
+    for comment in ("CREATOR: x 0,05 m/pix", "-0.05 m/pix", "about m/pix", "0 m/pix"):
+        _write_pgm(tmp_path / "b.pgm", img, comment=comment)
+        with pytest.raises(ValueError, match=r"b\.pgm.*not a positive number.*resolution_m"):
+            load_map(tmp_path / "b.pgm")
+        # ... unless the resolution comes from elsewhere
+        assert load_map(tmp_path / "b.pgm", resolution_m=0.1).resolution_m == 0.1
+    (tmp_path / "b.yaml").write_text("image: b.pgm\nresolution: 0.2\norigin: [0, 0, 0]\n")
+    assert load_map(tmp_path / "b.yaml").resolution_m == 0.2
+
+
 def test_pgm_with_other_maxval(tmp_path: Path):
     img = np.array([[0, 30, 40], [80, 90, 100]], dtype=np.uint8)
     _write_pgm(tmp_path / "m.pgm", img, maxval=100)
@@ -587,6 +604,50 @@ def test_pgm_with_other_maxval(tmp_path: Path):
     p16 = (65535 - img16.astype(float)) / 65535
     assert np.array_equal(m16.occupied, p16 > 0.65)
     assert np.array_equal(m16.free, p16 < 0.196)
+
+
+@pytest.mark.parametrize("maxval", [100, 200, 255, 1000])
+def test_plain_ascii_pgm_classified_like_binary(tmp_path: Path, maxval):
+    # OpenCV and PIL rescale plain (P2) files to 0..255 when maxval != 255, binary (P5)
+    # files not: the two must still give the same map, against the file's own maxval.
+    rng = np.random.default_rng(maxval)
+    img = rng.integers(0, maxval + 1, size=(5, 7))
+    img[0, :4] = [0, maxval, round(0.35 * maxval), round(0.804 * maxval)]  # near thresholds
+    dtype = np.uint8 if maxval < 256 else np.uint16
+    _write_pgm(tmp_path / "b.pgm", img.astype(dtype), maxval=maxval)
+    rows = "\n".join(" ".join(str(v) for v in row) for row in img)
+    (tmp_path / "a.pgm").write_text(f"P2\n# a comment\n7 5\n{maxval}\n{rows}\n")
+    a, b = load_map(tmp_path / "a.pgm"), load_map(tmp_path / "b.pgm")
+    p = (maxval - img.astype(float)) / maxval
+    for m in (a, b):
+        assert np.array_equal(m.occupied, p > 0.65)
+        assert np.array_equal(m.free, p < 0.196)
+    # plain PPM data (P3, here in a .pgm file): the mean of the three channels
+    rgb = np.stack([img, img, img], axis=2)
+    vals = " ".join(str(v) for v in rgb.ravel())
+    (tmp_path / "c.pgm").write_text(f"P3\n7 5\n{maxval}\n{vals}\n")
+    c = load_map(tmp_path / "c.pgm")
+    assert np.array_equal(c.occupied, a.occupied) and np.array_equal(c.free, a.free)
+
+
+def test_plain_pgm_faults_are_named(tmp_path: Path):
+    bad = {
+        "short.pgm": "P2\n3 2\n255\n0 1 2 3 4\n",
+        "word.pgm": "P2\n2 1\n255\n0 x\n",
+        "over.pgm": "P2\n2 1\n100\n0 101\n",
+        "zero.pgm": "P2\n0 1\n255\n",
+    }
+    expect = {
+        "short.pgm": "must hold 6 values, found 5",
+        "word.pgm": "non-numeric",
+        "over.pgm": "above its PGM maxval 100",
+        "zero.pgm": "width, height >= 1",
+    }
+    for name, text in bad.items():
+        (tmp_path / name).write_text(text)
+        with pytest.raises(ValueError, match=expect[name]) as err:
+            load_map(tmp_path / name)
+        assert name in str(err.value)
 
 
 def test_16bit_png_full_precision(tmp_path: Path):

@@ -578,7 +578,8 @@ def _classify_probability(
 
 # ---------------------------------------------------------------------- image reading
 
-_PGM_RES_RE = re.compile(r"(\d+(?:\.\d*)?|\.\d+)\s*m/pix")
+# the whitespace-delimited word before "m/pix" (map_saver writes "0.050 m/pix")
+_PGM_RES_RE = re.compile(r"(?:^|\s)(\S+)\s*m/pix")
 
 
 def _parse_pnm_header(data: bytes) -> tuple[int | None, list[str]]:
@@ -613,15 +614,54 @@ def _parse_pnm_header(data: bytes) -> tuple[int | None, list[str]]:
     return maxval, comments
 
 
-def _resolution_from_pgm_comments(comments: list[str]) -> float | None:
-    """Resolution from a ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment."""
+def _resolution_from_pgm_comments(comments: list[str], path: Path) -> float | None:
+    """Resolution from a ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment; None if
+    there is none.  A resolution that is not a positive number (``0,05``, ``-0.05``) is an
+    error rather than a misread: the map would be scaled wrongly without notice."""
     for line in comments:
         m = _PGM_RES_RE.search(line)
         if m:
-            value = float(m.group(1))
-            if math.isfinite(value) and value > 0:
-                return value
+            word = m.group(1)
+            try:
+                value = float(word)
+            except ValueError:
+                value = math.nan
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(
+                    f"map image {path}: its comment {line!r} gives the resolution as "
+                    f"{word!r}, which is not a positive number of metres per pixel; pass "
+                    "resolution_m (--resolution) to set it"
+                )
+            return value
     return None
+
+
+def _read_plain_pnm(data: bytes, path: Path) -> np.ndarray:
+    """Pixels of a plain (ASCII) PGM ``P2`` or PPM ``P3`` file, exactly as written: uint8
+    if its maxval is below 256, else uint16; (H, W) or (H, W, 3) RGB."""
+    tokens = re.sub(rb"#[^\n]*", b" ", data[2:]).split()
+    channels = 3 if data[:2] == b"P3" else 1
+    try:
+        width, height, maxval = (int(t) for t in tokens[:3])
+        values = np.array([int(t) for t in tokens[3:]], dtype=np.int64)
+    except ValueError:
+        raise ValueError(f"map image {path}: plain PNM file with non-numeric entries") from None
+    if width < 1 or height < 1 or not 0 < maxval < 65536:
+        raise ValueError(
+            f"map image {path}: plain PNM header must give width, height >= 1 and maxval "
+            f"1..65535, got {width} x {height}, maxval {maxval}"
+        )
+    expected = width * height * channels
+    if values.size != expected:
+        raise ValueError(
+            f"map image {path}: plain PNM file of {width} x {height} pixels must hold "
+            f"{expected} values, found {values.size}"
+        )
+    if values.min() < 0 or values.max() > maxval:
+        raise ValueError(f"map image {path} has pixel values above its PGM maxval {maxval}")
+    dtype = np.uint8 if maxval < 256 else np.uint16
+    shape = (height, width) if channels == 1 else (height, width, 3)
+    return values.astype(dtype).reshape(shape)
 
 
 def _decode_with_pil(data: bytes) -> np.ndarray | None:
@@ -641,7 +681,7 @@ def _decode_with_pil(data: bytes) -> np.ndarray | None:
         return None
 
 
-def _read_image(path: Path) -> tuple[np.ndarray, int, float | None]:
+def _read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     """Read an image file.
 
     Returns
@@ -649,8 +689,8 @@ def _read_image(path: Path) -> tuple[np.ndarray, int, float | None]:
     pixels : np.ndarray of uint8 or uint16, (H, W) or (H, W, C)
     full_scale : int
         Intensity of white (255, 65535 or a PGM maxval).
-    header_resolution_m : float or None
-        Resolution found in a PGM ``m/pix`` comment.
+    comments : list of str
+        The PGM/PPM header's comment lines (see :func:`_resolution_from_pgm_comments`).
     """
     import cv2
 
@@ -662,14 +702,20 @@ def _read_image(path: Path) -> tuple[np.ndarray, int, float | None]:
     if not data:
         raise ValueError(f"map image {path} is empty (0 bytes)")
     maxval, comments = _parse_pnm_header(data)
-    pixels: np.ndarray | None
-    # a file OpenCV cannot read gets our error below (or PIL reads it): not also
-    # OpenCV's own log line on stderr
-    with _opencv_silenced(cv2):
-        try:
-            pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-        except cv2.error:
-            pixels = None
+    pixels: np.ndarray | None = None
+    if data[:2] in (b"P2", b"P3"):
+        # Plain (ASCII) PGM / PPM: OpenCV and PIL rescale these to 0..255 when the maxval
+        # is not 255 (with rounding), while binary files keep their values; read them here
+        # so that both are classified against their own maxval.
+        pixels = _read_plain_pnm(data, path)
+    else:
+        # a file OpenCV cannot read gets our error below (or PIL reads it): not also
+        # OpenCV's own log line on stderr
+        with _opencv_silenced(cv2):
+            try:
+                pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+            except cv2.error:
+                pixels = None
     if pixels is None or pixels.size == 0:
         pixels = _decode_with_pil(data)
     if pixels is None or pixels.size == 0:
@@ -691,7 +737,7 @@ def _read_image(path: Path) -> tuple[np.ndarray, int, float | None]:
         full = maxval
     if pixels.ndim == 3 and pixels.shape[2] not in (1, 2, 3, 4):
         raise ValueError(f"map image {path} has {pixels.shape[2]} channels; expected 1 to 4")
-    return pixels, full, _resolution_from_pgm_comments(comments)
+    return pixels, full, comments
 
 
 # ---------------------------------------------------------------------- public loaders
@@ -877,8 +923,9 @@ def load_map(
         _check_thresholds(occupied_thresh, free_thresh, where=where)
         pixels, full, _ = _read_image(image_path)
     else:
-        pixels, full, header_res = _read_image(p)
+        pixels, full, comments = _read_image(p)
         if resolution_m is None:
+            header_res = _resolution_from_pgm_comments(comments, p)
             resolution_m = header_res if header_res is not None else DEFAULT_RESOLUTION_M
         if origin is None:
             origin = (0.0, 0.0, 0.0)
