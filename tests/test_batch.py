@@ -733,3 +733,15 @@ def test_dask_local_cluster_matches_local_run(tmp_path, shared_data):
             assert got[key] == want[key], key
     for rec, inp in zip(in_memory, inputs[:2], strict=True):
         assert_graphs_equal(rec.graph, build_graph(load_map(inp)).graph, rec.map)
+
+
+def test_all_occupied_maps_give_empty_graphs_as_in_build_graph():
+    maps = [OccupancyMap.from_array(np.ones(shape, bool)) for shape in ((2, 2), (2, 9), (40, 30))]
+    maps.append(load_map(PAPER_MAPS[0]))
+    records = build_graphs(maps, keep_graphs=True, progress=False)
+    for m, rec in zip(maps, records, strict=True):
+        assert rec.status == "ok"
+        want = build_graph(m).graph
+        assert rec.vertices == want.number_of_nodes()
+        assert rec.graph.number_of_edges() == want.number_of_edges()
+    assert [r.vertices for r in records[:3]] == [0, 0, 0]

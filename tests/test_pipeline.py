@@ -229,14 +229,43 @@ def test_world_coordinates_follow_map_origin_and_yaw():
 
 @pytest.mark.parametrize(
     "array",
-    [np.zeros((30, 40), bool), np.ones((30, 40), bool)],
-    ids=["no-obstacles", "no-free-space"],
+    [np.zeros((30, 40), bool), np.ones((30, 40), bool), np.ones((2, 2), bool)]
+    + [np.ones((2, 9), bool), np.ones((3, 3), bool), np.ones((5, 2), bool)],
+    ids=["no-obstacles", "no-free-space", "all-occupied-2x2", "2x9", "3x3", "5x2"],
 )
 def test_degenerate_maps_give_empty_graphs(array):
     res = tj.build_graph(array)
     assert res.graph.number_of_nodes() == 0
     assert res.graph.number_of_edges() == 0
     assert res.skeleton.shape == array.shape
+    assert not res.skeleton.any()
+
+
+def test_obstacles_and_unknown_space_keep_the_papers_graph(capsys):
+    """No free pixel but unknown space between walls: the paper's method only looks at
+    obstacles, so the graph runs through the unknown space; free-space-only has none."""
+    from topojax.cli import _classes_hint
+
+    img = np.full((100, 120), 205, np.uint8)  # unknown
+    img[20:80, 30] = img[20:80, 90] = img[20, 30:91] = 0  # three walls
+    m = tj.OccupancyMap.from_array(img)
+    assert not m.free.any()
+    g = tj.build_graph(m).graph
+    assert g.number_of_edges() > 0
+    want = tj.build_graph(tj.OccupancyMap.from_array(m.occupied)).graph  # free elsewhere
+    assert sorted(d["pixel"] for _, d in g.nodes(data=True)) == sorted(
+        d["pixel"] for _, d in want.nodes(data=True)
+    )
+    cfg = tj.PipelineConfig(graph=tj.GraphConfig(free_space_only=True))
+    assert tj.build_graph(m, config=cfg).graph.number_of_nodes() == 0
+    # the command-line note says what happens in each case
+    assert "runs through unknown space" in _classes_hint(m)[0]
+    full = tj.OccupancyMap.from_array(np.ones((4, 4), bool))
+    assert "nothing but occupied pixels" in _classes_hint(full)[0]
+    assert "graph is empty" in _classes_hint(full)[0]
+    none = tj.OccupancyMap.from_array(np.zeros((4, 4), bool))
+    assert "no occupied pixel" in _classes_hint(none)[0]
+    assert _classes_hint(tj.OccupancyMap.from_array(m.occupied)) == []
 
 
 def test_build_graph_reads_a_path_with_load_map(tmp_path):

@@ -979,7 +979,7 @@ class _BatchRun:
         the others of its group.
         """
         from .distance import FAR_SQ
-        from .pipeline import DenseFields
+        from .pipeline import DenseFields, travel_ridges
 
         with_obstacles = [g for g in group if g.occupied.any()]
         empty = {id(g) for g in group} - {id(g) for g in with_obstacles}
@@ -1018,6 +1018,8 @@ class _BatchRun:
                 )
             else:
                 f, share = fields[id(g)]
+            # as build_graph: nothing to thin on a map that is all obstacle
+            f = dataclasses.replace(f, ridges=travel_ridges(f.ridges, occ.occupied))
             # Skeleton pixels are a subset of the ridge pixels, so the clearances of the
             # ridge pixels (computed exactly as build_graph does) are all the graph reads.
             clearance = _ridge_clearance(f, occ.occupied, cfg.distance.half_width_px)

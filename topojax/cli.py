@@ -159,10 +159,19 @@ def _classes_hint(occupancy) -> list[str]:
     n_occ, n_free = int(occupancy.occupied.sum()), int(occupancy.free.sum())
     if n_occ and n_free:
         return []
-    what = "no occupied pixel" if not n_occ else "no free pixel"
+    n_unknown = int(occupancy.unknown.sum())
+    if not n_occ:
+        what = "no occupied pixel"
+        outcome = "so the graph is empty"
+    elif not n_unknown:
+        what = "nothing but occupied pixels"
+        outcome = "so the graph is empty"
+    else:
+        what = "no free pixel"
+        outcome = "so the graph runs through unknown space only (--free-only: none)"
     return [
         f"note       the map has {what} as classified ({n_occ} occupied, {n_free} free, "
-        f"{int(occupancy.unknown.sum())} unknown), so the graph is empty; check the "
+        f"{n_unknown} unknown), {outcome}; check the "
         "thresholds, --negate, or --mode (e.g. --mode ipa for IPA benchmark maps, where "
         "every pixel below 250 is inaccessible)"
     ]

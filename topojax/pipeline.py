@@ -791,6 +791,13 @@ def graph_from_ridges(
     return skeleton, graph, {"thinning": t1 - t0, "t_removal": t2 - t1, "graph": t3 - t2}
 
 
+def travel_ridges(ridges: np.ndarray, occupied: np.ndarray) -> np.ndarray:
+    """The ridges the CPU stages thin: all of them, or none on a map whose every pixel is
+    occupied (no space to travel: an empty graph, as for a map without obstacles; a tiny
+    such map would otherwise keep ridges from the Laplacian's border rule)."""
+    return np.zeros_like(ridges) if occupied.all() else ridges
+
+
 def _graph_of_map(occupancy, ridges: np.ndarray, sq_distance_px: np.ndarray, config):
     """:func:`graph_from_ridges` for a map's ridges, with the clearance read from its
     windowed squared distances (exact, and only at the skeleton's pixels: the only ones
@@ -800,7 +807,7 @@ def _graph_of_map(occupancy, ridges: np.ndarray, sq_distance_px: np.ndarray, con
         return clearance_at(sq_distance_px, occupancy.occupied, config.distance.half_width_px, flat)
 
     return graph_from_ridges(
-        ridges,
+        travel_ridges(ridges, occupancy.occupied),
         clearance_px=skeleton_clearance,
         resolution_m=occupancy.resolution_m,
         origin=occupancy.origin,
@@ -828,7 +835,9 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     TopologyResult
         ``.graph`` is a :class:`networkx.MultiGraph`: junctions and dead ends as vertices,
         corridors as edges carrying their pixel paths and world polylines.  A map with no
-        obstacles or no free space gives an empty graph.
+        obstacle, or with nothing but obstacles, gives an empty skeleton and graph.  A map
+        of obstacles and unknown space (no free pixel) keeps the paper's graph, which runs
+        through unknown space; ``GraphConfig(free_space_only=True)`` keeps free space only.
     """
     from .maps import OccupancyMap, load_map
 
