@@ -617,7 +617,7 @@ def test_sigma_in_metres_goes_through_each_map_resolution(tmp_path, capsys):
     # compiled kernels take groups of many maps: maps of the two settings must not share
     records = build_graphs([fine, coarse, fine2, tiny], workers=0, progress=False, sigma_m=0.7)
     assert [r.status for r in records] == ["ok", "ok", "ok", "error"]
-    assert "half_width_px must be in [1, 4096]" in records[3].message
+    assert "sigma_m: 0.7 m at 0.0001 m/px is 7000 px" in records[3].message
     for occ, rec in zip((fine, coarse, fine2), records[:3], strict=True):
         distance = DistanceConfig.from_metres(sigma_m=0.7, resolution_m=occ.resolution_m)
         want = build_graph(occ, config=PipelineConfig(distance=distance)).graph

@@ -27,6 +27,7 @@ from topojax.datasets import sample_map
 from topojax.distance import FAR_SQ
 from topojax.graph import prune_graph
 from topojax.incremental import (
+    STATE_FORMAT,
     STATE_VERSION,
     GraphUpdate,
     IncrementalMapper,
@@ -1478,6 +1479,18 @@ def test_load_rejects_bad_files(tmp_path):
     np.savez(other, format=np.asarray("something else"), version=np.asarray(1))
     with pytest.raises(ValueError, match="format"):
         IncrementalMapper.load(other)
+    npy = tmp_path / "array.npz"  # np.save writes a bare .npy whatever the name
+    with open(npy, "wb") as fh:
+        np.save(fh, np.arange(3))
+    text = tmp_path / "text.npz"
+    text.write_text("format: topojax\n")
+    for path in (npy, text):
+        with pytest.raises(ValueError, match=r"not a mapper state: a state is an \.npz"):
+            IncrementalMapper.load(path)
+    odd = tmp_path / "odd.npz"
+    np.savez(odd, format=np.asarray(STATE_FORMAT), version=np.asarray("one"))
+    with pytest.raises(ValueError, match=r"odd\.npz: not a mapper state \(format/version"):
+        IncrementalMapper.load(odd)
     mapper = IncrementalMapper(**SMALL_KW)
     mapper.add_scans(synthetic_scans(1, 2))
     good = mapper.save(tmp_path / "good.npz")

@@ -456,26 +456,43 @@ def test_too_small_maps_raise(arr):
         OccupancyMap.from_array(arr)
 
 
-@pytest.mark.parametrize("dtype", [np.int8, np.int32, np.int64, np.uint16])
-def test_integer_zero_one_array_is_refused_not_read_as_an_empty_map(dtype):
-    # As OccupancyGrid percentages 0 and 1 are both free: the map would have no obstacle,
-    # while distance_map reads the same array as an obstacle mask.
+@pytest.mark.parametrize("dtype", [np.int8, np.int32, np.int64, np.uint16, np.uint8])
+def test_zero_one_integer_array_is_refused_not_read_as_a_degenerate_map(dtype):
+    # As OccupancyGrid percentages 0 and 1 are both free (no obstacle at all), as uint8
+    # intensities both are black (occupied everywhere); distance_map reads the same array
+    # as an obstacle mask.
     arr = np.zeros((6, 6), dtype)
     arr[2, :] = 1
-    with pytest.raises(ValueError, match=r"holds only 0 and 1.*astype\(bool\)"):
+    match = "only the values 0 and 1" if dtype == np.uint8 else "no value above 1"
+    with pytest.raises(ValueError, match=rf"{match}.*astype\(bool\)"):
         OccupancyMap.from_array(arr)
-    with pytest.raises(ValueError, match="holds only 0 and 1"):
+    with pytest.raises(ValueError, match=match):
         tj.build_graph(arr)
-    # the same array as a mask, or as a grid with occupied cells at 100, works
+    assert tj.distance_map(arr).max() == 1.0  # read as obstacles there
+    # the same array as a mask works
     assert OccupancyMap.from_array(arr.astype(bool)).occupied[2].all()
+    if dtype == np.uint8:
+        # real images are unaffected, and raw mode reads values as given
+        img = arr * 254
+        assert OccupancyMap.from_array(img).free[2].all()
+        assert OccupancyMap.from_array(arr, mode="raw").free.all()
+        return
     grid = arr.astype(np.int8) * 100
     assert OccupancyMap.from_array(grid).occupied[2].all()
-    # grids that are not only 0 and 1 are unaffected: all free, or 0/1 with unknown cells
+    # all free is a valid grid; so is a grid with higher values
     assert OccupancyMap.from_array(np.zeros((6, 6), dtype)).free.all()
-    grid = arr.astype(np.int8)
-    grid[0, 0] = -1
-    m = OccupancyMap.from_array(grid)
-    assert m.unknown[0, 0] and not m.occupied.any()
+    grid = arr.astype(np.int16)
+    grid[0, 0] = 40
+    assert not OccupancyMap.from_array(grid).occupied.any()
+    # -1 (unknown) does not make 0/1 cells a grid
+    if np.issubdtype(dtype, np.signedinteger):
+        mixed = arr.copy()
+        mixed[0, 0] = -1
+        with pytest.raises(ValueError, match="no value above 1"):
+            OccupancyMap.from_array(mixed)
+        # ... unless declared unknown on purpose
+        m = OccupancyMap.from_array(mixed, unknown_values=[-1])
+        assert m.unknown[0, 0]
     # thresholds under which 1 % counts as occupied make the array a valid grid again
     m = OccupancyMap.from_array(arr, occupied_thresh=0.005, free_thresh=0.001)
     assert m.occupied[2].all() and m.free.sum() == 30
@@ -767,6 +784,23 @@ def test_yaml_defaults_and_overrides(tmp_path: Path):
     _write_pgm(sub / "x.pgm", np.zeros((2, 2), np.uint8))
     (tmp_path / "rel.yml").write_text("image: sub/x.pgm\nresolution: 1\norigin: [0, 0, 0]\n")
     assert load_map(tmp_path / "rel.yml").occupied.all()
+
+
+def test_yaml_numbers_as_map_server_reads_them(tmp_path: Path):
+    # PyYAML (YAML 1.1) reads 5e-2 and quoted numbers as strings; yaml-cpp, which
+    # map_server uses, reads them as numbers
+    _write_pgm(tmp_path / "x.pgm", np.array([[0, 205], [254, 254]], np.uint8))
+    text = (
+        "image: x.pgm\nresolution: 5e-2\norigin: [-1.5E+1, '2', 0]\n"
+        "occupied_thresh: '0.65'\nfree_thresh: 1.96e-1\n"
+    )
+    (tmp_path / "n.yaml").write_text(text)
+    m = load_map(tmp_path / "n.yaml")
+    assert m.resolution_m == 0.05 and m.origin == (-15.0, 2.0, 0.0)
+    assert m.unknown[0, 1] and m.free[1].all()
+    (tmp_path / "w.yaml").write_text("image: x.pgm\nresolution: 'five'\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError, match="'resolution' must be a finite number > 0, got 'five'"):
+        load_map(tmp_path / "w.yaml")
 
 
 def test_yaml_negate_and_raw_mode(tmp_path: Path):

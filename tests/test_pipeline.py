@@ -268,6 +268,68 @@ def test_obstacles_and_unknown_space_keep_the_papers_graph(capsys):
     assert _classes_hint(tj.OccupancyMap.from_array(m.occupied)) == []
 
 
+def test_configs_check_types_and_take_numpy_numbers():
+    # NumPy numbers are numbers: stored as Python ones
+    d = tj.DistanceConfig(sigma_px=np.float32(3.5), half_width_px=np.int64(12))
+    assert (d.sigma_px, d.half_width_px) == (3.5, 12)
+    assert type(d.sigma_px) is float and type(d.half_width_px) is int
+    r = tj.RidgeConfig(scale=np.float64(255), ksize=np.int32(3), threshold=np.int8(7))
+    assert (r.ksize, r.threshold) == (3, 7.0) and type(r.ksize) is int
+    assert tj.SkeletonConfig(remove_t=np.bool_(False)).remove_t is False
+    assert tj.PipelineConfig(tile_px=np.int64(128)).tile_px == 128
+    bad = [
+        (lambda: tj.RidgeConfig(ksize=True), TypeError, "ksize must be an int"),
+        (lambda: tj.RidgeConfig(threshold=True), ValueError, "threshold"),
+        (lambda: tj.SkeletonConfig(remove_t="no"), TypeError, "remove_t must be a bool"),
+        (lambda: tj.SkeletonConfig(thinning=["zhang"]), ValueError, "thinning"),
+        (lambda: tj.DistanceConfig(half_width_px=3.0), TypeError, "half_width_px"),
+        (lambda: tj.PipelineConfig(distance=tj.RidgeConfig()), TypeError, "distance must be a Di"),
+        (lambda: tj.PipelineConfig(graph=None), TypeError, "graph must be a GraphConfig"),
+        (lambda: tj.PipelineConfig(ridge={"threshold": 5}), TypeError, "ridge must be a Ridge"),
+        (
+            lambda: tj.distance_map(np.eye(4, dtype=bool), config=tj.PipelineConfig()),
+            TypeError,
+            "config: expected a DistanceConfig",
+        ),
+        (
+            lambda: tj.ridge_map(np.eye(4, dtype=bool), ridge={"threshold": 5}),
+            TypeError,
+            "ridge: expected a RidgeConfig",
+        ),
+        (
+            lambda: tj.ridge_map(np.eye(4, dtype=bool), distance=tj.RidgeConfig()),
+            TypeError,
+            "distance: expected a DistanceConfig",
+        ),
+        (
+            lambda: tj.distance_map(np.eye(4, dtype=bool), tile_px=2.5),
+            ValueError,
+            "tile_px: expected a positive int",
+        ),
+        (
+            lambda: tj.DistanceConfig.from_metres(sigma_m=1000, resolution_m=0.05),
+            ValueError,
+            "sigma_m: 1000.0 m at 0.05 m/px is 20000 px",
+        ),
+        (
+            lambda: tj.DistanceConfig.from_metres(sigma_m=1, resolution_m=0.05, half_width_m=300),
+            ValueError,
+            "half_width_m: 300.0 m",
+        ),
+        (lambda: tj.DistanceConfig.from_pixels(sigma_px=5000), ValueError, "sigma_px: 5000.0"),
+    ]
+    for make, exc, words in bad:
+        with pytest.raises(exc, match=words):
+            make()
+
+
+def test_distance_and_ridge_maps_read_map_files():
+    png = tj.datasets.sample_map_path("intel")
+    m = tj.load_map(png)
+    np.testing.assert_array_equal(tj.distance_map(png), tj.distance_map(m))
+    np.testing.assert_array_equal(tj.ridge_map(str(png)), tj.ridge_map(m.occupied))
+
+
 def test_build_graph_reads_a_path_with_load_map(tmp_path):
     """A file name (str or Path) goes through load_map with its defaults."""
     png = tj.datasets.sample_map_path("a_scan")

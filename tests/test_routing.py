@@ -338,6 +338,16 @@ def test_waypoints_keep_the_route_within_the_tolerance():
             route.waypoints(bad)
 
 
+def test_route_of_one_pixel_is_valid_geojson():
+    g = tj.build_graph(tj.sample_map("intel")).graph
+    p = next(iter(g.nodes(data=True)))[1]["world"]
+    route = plan_route(g, p, p)
+    assert route.length_m == 0 and len(route.world) == 1
+    for tol in (None, 0.1):
+        line = route.to_geojson(tolerance_m=tol)["geometry"]["coordinates"]
+        assert line == [list(p), list(p)]  # a LineString needs two positions
+
+
 # ------------------------------------------------------------------ bad input
 
 

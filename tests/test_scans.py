@@ -318,6 +318,26 @@ def test_carmen_malformed_lines_raise_with_line_number(tmp_path, line, needle):
     assert "FLASER" in str(info.value)
 
 
+def test_damaged_gzip_logs_raise_value_errors_naming_the_file(tmp_path):
+    good = (DATA / "intel_first40.log.gz").read_bytes()
+    cut = tmp_path / "cut.log.gz"
+    cut.write_bytes(good[: len(good) // 2])
+    flipped = bytearray(good)
+    for i in range(len(good) // 3, len(good) // 3 + 200):
+        flipped[i] ^= 0x5A
+    bad = tmp_path / "flipped.log.gz"
+    bad.write_bytes(bytes(flipped))
+    header = bytearray(good)
+    header[2] = 7  # unknown compression method
+    odd = tmp_path / "header.log.gz"
+    odd.write_bytes(bytes(header))
+    for path in (cut, bad, odd):
+        with pytest.raises(ValueError, match="gzip-compressed data is damaged or cut off") as e:
+            list(read_carmen(path))
+        assert str(path) in str(e.value)
+    assert len(list(read_carmen(DATA / "intel_first40.log.gz"))) == 40
+
+
 def test_carmen_errors_for_bad_arguments(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.log"):
         read_carmen(tmp_path / "nope.log")

@@ -27,13 +27,36 @@ ORIGINAL_SIGMA_PX = math.sqrt(2.0 / ((10.0 + 11.0 / 455.0) / 455.0) ** 2 + 1.0 /
 ORIGINAL_HALF_WIDTH_PX = 227
 
 _THINNING = ("guo_hall", "zhang")
+#: Largest window half-width the distance kernels take (pixels).
+_MAX_HALF_WIDTH_PX = 4096
 
 
-def _finite_positive(name: str, value: float) -> None:
-    if not isinstance(value, (int, float)) or isinstance(value, bool):
+def _finite_positive(name: str, value: object) -> float:
+    """``value`` as a float after checking it is a finite real number > 0 (Python or NumPy,
+    not bool)."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
     if not math.isfinite(value) or value <= 0:
         raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    return float(value)
+
+
+def _integer(name: str, value: object) -> int:
+    """``value`` as an int after checking it is an integer (Python or NumPy, not bool)."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__} {value!r}")
+    return int(value)
+
+
+def _flag(name: str, value: object) -> bool:
+    """``value`` as a bool after checking it is one (Python or NumPy)."""
+    if type(value).__name__ not in ("bool", "bool_"):
+        raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
+    return bool(value)
+
+
+def _canonical(obj: object, name: str, value: object) -> None:
+    object.__setattr__(obj, name, value)  # frozen dataclass: store the checked value
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -58,13 +81,12 @@ class DistanceConfig:
     half_width_px: int = ORIGINAL_HALF_WIDTH_PX
 
     def __post_init__(self) -> None:
-        _finite_positive("sigma_px", self.sigma_px)
-        if not isinstance(self.half_width_px, int) or isinstance(self.half_width_px, bool):
-            raise TypeError(
-                f"half_width_px must be an int, got {type(self.half_width_px).__name__}"
+        _canonical(self, "sigma_px", _finite_positive("sigma_px", self.sigma_px))
+        _canonical(self, "half_width_px", _integer("half_width_px", self.half_width_px))
+        if not 1 <= self.half_width_px <= _MAX_HALF_WIDTH_PX:
+            raise ValueError(
+                f"half_width_px must be in [1, {_MAX_HALF_WIDTH_PX}], got {self.half_width_px}"
             )
-        if not 1 <= self.half_width_px <= 4096:
-            raise ValueError(f"half_width_px must be in [1, 4096], got {self.half_width_px}")
 
     @classmethod
     def from_metres(
@@ -82,21 +104,44 @@ class DistanceConfig:
             Support half-width in metres; default: the original's ratio, 227 px of
             support for 64.19 px of sigma (about 3.54 sigma on each side), rounded.
         """
-        _finite_positive("sigma_m", sigma_m)
-        _finite_positive("resolution_m", resolution_m)
+        sigma_m = _finite_positive("sigma_m", sigma_m)
+        resolution_m = _finite_positive("resolution_m", resolution_m)
+        sigma_px = sigma_m / resolution_m
         if half_width_m is None:
-            return cls.from_pixels(sigma_px=sigma_m / resolution_m)
-        _finite_positive("half_width_m", half_width_m)
-        half = round(half_width_m / resolution_m)
-        return cls(sigma_px=sigma_m / resolution_m, half_width_px=max(1, int(half)))
+            half = _scaled_half_width(sigma_px)
+            if half > _MAX_HALF_WIDTH_PX:
+                raise ValueError(
+                    f"sigma_m: {sigma_m!r} m at {resolution_m!r} m/px is {sigma_px:.6g} px, "
+                    f"whose support (about 3.54 sigma each side: {half} px) exceeds the "
+                    f"largest half-width, {_MAX_HALF_WIDTH_PX} px"
+                )
+            return cls(sigma_px=sigma_px, half_width_px=half)
+        half_width_m = _finite_positive("half_width_m", half_width_m)
+        half = max(1, round(half_width_m / resolution_m))
+        if half > _MAX_HALF_WIDTH_PX:
+            raise ValueError(
+                f"half_width_m: {half_width_m!r} m at {resolution_m!r} m/px is {half} px, "
+                f"more than the largest half-width, {_MAX_HALF_WIDTH_PX} px"
+            )
+        return cls(sigma_px=sigma_px, half_width_px=half)
 
     @classmethod
     def from_pixels(cls, *, sigma_px: float) -> DistanceConfig:
         """A configuration with this sigma (pixels) and the support scaled with it as in
         the original (227 px for 64.19 px, about 3.54 sigma on each side, rounded)."""
-        _finite_positive("sigma_px", sigma_px)
-        half = round(sigma_px * ORIGINAL_HALF_WIDTH_PX / ORIGINAL_SIGMA_PX)
-        return cls(sigma_px=sigma_px, half_width_px=max(1, int(half)))
+        sigma_px = _finite_positive("sigma_px", sigma_px)
+        half = _scaled_half_width(sigma_px)
+        if half > _MAX_HALF_WIDTH_PX:
+            raise ValueError(
+                f"sigma_px: {sigma_px!r} px needs a support of {half} px (about 3.54 sigma "
+                f"each side), more than the largest half-width, {_MAX_HALF_WIDTH_PX} px"
+            )
+        return cls(sigma_px=sigma_px, half_width_px=half)
+
+
+def _scaled_half_width(sigma_px: float) -> int:
+    """The original's support for this sigma: 227 px for 64.19 px, rounded, >= 1."""
+    return max(1, round(sigma_px * ORIGINAL_HALF_WIDTH_PX / ORIGINAL_SIGMA_PX))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -122,11 +167,14 @@ class RidgeConfig:
     threshold: float = 10.0
 
     def __post_init__(self) -> None:
-        _finite_positive("scale", self.scale)
+        _canonical(self, "scale", _finite_positive("scale", self.scale))
+        _canonical(self, "ksize", _integer("ksize", self.ksize))
         if self.ksize not in (1, 3, 5):
             raise ValueError(f"ksize must be 1, 3 or 5 (OpenCV apertures), got {self.ksize!r}")
-        if not isinstance(self.threshold, (int, float)) or not math.isfinite(self.threshold):
-            raise ValueError(f"threshold must be a finite number, got {self.threshold!r}")
+        t = self.threshold
+        if not isinstance(t, numbers.Real) or isinstance(t, bool) or not math.isfinite(t):
+            raise ValueError(f"threshold must be a finite number, got {t!r}")
+        _canonical(self, "threshold", float(t))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -147,8 +195,9 @@ class SkeletonConfig:
     remove_t: bool = True
 
     def __post_init__(self) -> None:
-        if self.thinning not in _THINNING:
+        if not isinstance(self.thinning, str) or self.thinning not in _THINNING:
             raise ValueError(f"thinning must be one of {_THINNING}, got {self.thinning!r}")
+        _canonical(self, "remove_t", _flag("remove_t", self.remove_t))
 
 
 def _metres(name: str, value: object, *, allow_zero: bool) -> float:
@@ -213,10 +262,9 @@ class GraphConfig:
 
     def __post_init__(self) -> None:
         for name in ("merge_junction_clusters", "free_space_only"):
-            if type(getattr(self, name)).__name__ not in ("bool", "bool_"):  # or NumPy's
-                raise TypeError(f"{name} must be a bool, got {getattr(self, name)!r}")
+            _canonical(self, name, _flag(name, getattr(self, name)))
         for name in ("min_clearance_m", "min_spur_m", "min_component_m"):
-            _nonnegative_metres(name, getattr(self, name))
+            _canonical(self, name, _nonnegative_metres(name, getattr(self, name)))
         if self.merge_junction_clusters and (self.min_spur_m > 0 or self.min_clearance_m > 0):
             raise ValueError(
                 "min_spur_m and min_clearance_m > 0 need merge_junction_clusters=False (a "
@@ -254,9 +302,22 @@ class PipelineConfig:
     tiles_per_call: int = 1
 
     def __post_init__(self) -> None:
+        for name, kind in (
+            ("distance", DistanceConfig),
+            ("ridge", RidgeConfig),
+            ("skeleton", SkeletonConfig),
+            ("graph", GraphConfig),
+        ):
+            value = getattr(self, name)
+            if not isinstance(value, kind):
+                raise TypeError(
+                    f"{name} must be a {kind.__name__}, got {type(value).__name__} {value!r}"
+                )
         for name in ("tile_px", "tiles_per_call"):
             value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+                _canonical(self, name, int(value))
+            if not isinstance(getattr(self, name), int) or isinstance(value, bool) or value < 1:
                 raise ValueError(f"{name} must be a positive int, got {value!r}")
         if self.tile_px < 8 or self.tile_px > 4096:
             raise ValueError(f"tile_px must be in [8, 4096], got {self.tile_px}")

@@ -3787,6 +3787,11 @@ class IncrementalMapper:
         p = Path(path)
         if not p.is_file():
             raise FileNotFoundError(f"mapper state file not found: {p}")
+        if not zipfile.is_zipfile(p):  # np.load would read a .npy or ask about pickles
+            raise ValueError(
+                f"{p}: not a mapper state: a state is an .npz (zip) archive written by "
+                "IncrementalMapper.save"
+            )
         try:
             with np.load(p, allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}
@@ -3797,6 +3802,11 @@ class IncrementalMapper:
             version = int(data["version"])
         except KeyError:
             raise ValueError(f"{p}: not a mapper state (no format/version field)") from None
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"{p}: not a mapper state (format/version field of another kind: "
+                f"{data['format']!r}, {data['version']!r})"
+            ) from None
         if fmt != STATE_FORMAT:
             raise ValueError(f"{p}: expected format {STATE_FORMAT!r}, got {fmt!r}")
         if version != STATE_VERSION:

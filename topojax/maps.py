@@ -27,6 +27,7 @@ obstacle; with the ``map_server`` thresholds their grey outside area (153 .. 205
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import re
 import threading
@@ -363,6 +364,15 @@ class OccupancyMap:
         negate = _check_negate(negate)
         arr = np.asarray(array)
         if arr.dtype == np.uint8:
+            if arr.ndim == 2 and mode != "raw" and unknown_values is None and _only_0_and_1(arr):
+                # As image intensities 0 and 1 are both black: every pixel would be occupied
+                # (all free with negate).  Such an array is an obstacle mask in uint8, as
+                # OpenCV makes them, and distance_map reads it as one.
+                raise ValueError(
+                    "uint8 image holds only the values 0 and 1: as intensities that is a map "
+                    "occupied everywhere (0 = black = occupied, 254 = free); for an obstacle "
+                    "mask pass a bool array (array.astype(bool), True = occupied)"
+                )
             codes = _classify_image(
                 arr,
                 full_scale=255,
@@ -502,6 +512,11 @@ def _classify_image(
     return lut[colour]
 
 
+def _only_0_and_1(arr: np.ndarray) -> bool:
+    """Does a uint8 array hold the value 1 and nothing but 0 and 1?"""
+    return arr.size > 0 and int(arr.max()) == 1
+
+
 def _classify_occupancy_grid(
     arr: np.ndarray,
     occupied_thresh: float,
@@ -522,15 +537,17 @@ def _classify_occupancy_grid(
             f"{n_bad} pixels are outside, e.g. {bad_vals} (use uint8 for grey images)"
         )
     one_is_free = not 0.01 > occupied_thresh
-    if forced is None and one_is_free and arr.size and arr.min() == 0 and arr.max() == 1:
+    if forced is None and one_is_free and arr.size and arr.max() == 1:
         # Read as OccupancyGrid percentages, 0 and 1 are both free: a map without a single
-        # obstacle.  Real grids mark occupied cells 100; such an array is nearly always an
-        # obstacle mask with the wrong dtype (distance_map reads it as one).
+        # obstacle.  Real grids mark occupied cells 100; an array of 0 and 1 (and perhaps
+        # -1) is nearly always an obstacle mask with the wrong dtype (distance_map reads it
+        # as one).
         raise ValueError(
-            f"integer array (dtype {arr.dtype}) holds only 0 and 1: as OccupancyGrid values "
-            "(-1 unknown, 0..100 percent) that is a map with no obstacle at all; for an "
-            "obstacle mask pass a bool array (array.astype(bool), True = occupied), for "
-            "OccupancyGrid data mark occupied cells 100"
+            f"integer array (dtype {arr.dtype}) holds no value above 1: as OccupancyGrid "
+            "values (-1 unknown, 0..100 percent) that is a map with no obstacle at all, "
+            "though it has cells at 1; for an obstacle mask pass a bool array "
+            "(array.astype(bool), True = occupied), for OccupancyGrid data mark occupied "
+            "cells 100"
         )
     pct = np.arange(-1, 101, dtype=np.float64)
     lut = np.full(pct.shape, _UNK, dtype=np.uint8)
@@ -778,14 +795,47 @@ def _load_yaml(path: Path) -> dict[str, Any]:
     except UnicodeDecodeError as exc:
         raise ValueError(f"map YAML {path} is not valid UTF-8 text: {exc}") from None
     try:
-        doc = yaml.safe_load(text)
+        doc = yaml.load(text, Loader=_map_yaml_loader())  # noqa: S506 - a SafeLoader
     except yaml.YAMLError as exc:
         raise ValueError(f"map YAML {path} could not be parsed: {exc}") from None
     if not isinstance(doc, dict):
         raise ValueError(
             f"map YAML {path} must contain a mapping (key: value), got {type(doc).__name__}"
         )
+    # map_server reads these with yaml-cpp, which converts quoted numbers too ('0.65')
+    for key in ("resolution", "occupied_thresh", "free_thresh"):
+        if key in doc:
+            doc[key] = _number_text(doc[key])
+    if isinstance(doc.get("origin"), list):
+        doc["origin"] = [_number_text(v) for v in doc["origin"]]
     return doc
+
+
+_NUMBER_RE = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+
+
+def _number_text(value: Any) -> Any:
+    """A string that spells a decimal number as that float; anything else unchanged."""
+    if isinstance(value, str) and _NUMBER_RE.fullmatch(value.strip()):
+        return float(value)
+    return value
+
+
+@functools.cache
+def _map_yaml_loader():
+    """PyYAML's safe loader, also reading ``5e-2`` as a float: YAML 1.1 (PyYAML) wants a
+    dot and a signed exponent, YAML 1.2 and yaml-cpp (map_server) do not."""
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        pass
+
+    Loader.add_implicit_resolver(
+        "tag:yaml.org,2002:float",
+        re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+        list("-+0123456789."),
+    )
+    return Loader
 
 
 def _resolve_image_path(yaml_path: Path, image: Any) -> Path:

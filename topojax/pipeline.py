@@ -13,6 +13,7 @@ assembled ridge map.
 from __future__ import annotations
 
 import itertools
+import numbers
 import os
 import threading
 import time
@@ -302,6 +303,25 @@ def dense_fields(
     )[0]
 
 
+def _obstacles_of(obstacles):
+    """The obstacle mask of a mask, an OccupancyMap (its ``occupied``) or a map file."""
+    if isinstance(obstacles, (str, os.PathLike)):
+        from .maps import load_map
+
+        obstacles = load_map(obstacles)
+    return getattr(obstacles, "occupied", obstacles)
+
+
+def _checked(value, kind: type, name: str):
+    """``value``, or ``kind()`` for None, after checking its type (a TypeError naming
+    ``name`` instead of an AttributeError deep inside)."""
+    if value is None:
+        return kind()
+    if not isinstance(value, kind):
+        raise TypeError(f"{name}: expected a {kind.__name__}, got {type(value).__name__} {value!r}")
+    return value
+
+
 def dense_fields_many(
     obstacle_maps,
     *,
@@ -328,8 +348,12 @@ def dense_fields_many(
     list of DenseFields, one per map, in input order.
     """
     maps = [_as_obstacles(o) for o in obstacle_maps]
-    distance = distance or DistanceConfig()
-    ridge = ridge or RidgeConfig()
+    distance = _checked(distance, DistanceConfig, "distance")
+    ridge = _checked(ridge, RidgeConfig, "ridge")
+    for name, value in (("tile_px", tile_px), ("tiles_per_call", tiles_per_call)):
+        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < 1:
+            raise ValueError(f"{name}: expected a positive int, got {value!r}")
+    tile_px, tiles_per_call = int(tile_px), int(tiles_per_call)
     if not maps:
         return []
     r = distance.half_width_px
@@ -477,7 +501,8 @@ def distance_map(
     ----------
     obstacles : bool array, shape (H, W)
         ``True`` where a pixel is an obstacle (``obstacles[row, col]``), or an
-        :class:`~topojax.maps.OccupancyMap` (its ``occupied`` mask).
+        :class:`~topojax.maps.OccupancyMap` (its ``occupied`` mask), or a map file (read
+        with :func:`topojax.load_map`).
     config : DistanceConfig, optional
     tile_px : int
 
@@ -486,7 +511,8 @@ def distance_map(
     float32 array, shape (H, W), values in [0, 1]: ``max_p exp(-|x - p|^2 / (2 sigma^2))``
     over obstacles ``p`` in the square window.
     """
-    obstacles = getattr(obstacles, "occupied", obstacles)
+    obstacles = _obstacles_of(obstacles)
+    config = _checked(config, DistanceConfig, "config")
     return dense_fields(obstacles, distance=config, tile_px=tile_px).distance
 
 
@@ -497,8 +523,9 @@ def ridge_map(
     ridge: RidgeConfig | None = None,
     tile_px: int = 256,
 ) -> np.ndarray:
-    """Binary ridge map (paper Fig. 1d) of an obstacle mask; bool (H, W)."""
-    obstacles = getattr(obstacles, "occupied", obstacles)
+    """Binary ridge map (paper Fig. 1d) of an obstacle mask, an
+    :class:`~topojax.maps.OccupancyMap` or a map file; bool (H, W)."""
+    obstacles = _obstacles_of(obstacles)
     return dense_fields(obstacles, distance=distance, ridge=ridge, tile_px=tile_px).ridges
 
 

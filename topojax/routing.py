@@ -100,8 +100,11 @@ class Route:
         (``x, y`` in metres, the map's frame, as :func:`topojax.save_graph` writes
         graphs) with ``length_m``, the snap distances and the vertices as properties.
         With ``tolerance_m``, the line holds the :meth:`waypoints` instead of every
-        pixel."""
+        pixel.  A route of one pixel (start and goal snapped together) repeats it: a GeoJSON
+        ``LineString`` needs two positions."""
         line = self.world if tolerance_m is None else self.waypoints(tolerance_m)
+        if len(line) == 1:  # start and goal on one pixel: RFC 7946 wants two positions
+            line = np.concatenate([line, line])
         return {
             "type": "Feature",
             "geometry": {"type": "LineString", "coordinates": line.tolist()},

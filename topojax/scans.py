@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import bz2
 import gzip
+import io
 import math
 import numbers
 import struct
 import warnings
+import zlib
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -409,12 +411,40 @@ def _check_file(path: str | Path, what: str) -> Path:
 
 
 def _open_text(path: Path) -> IO[str]:
-    """Open a text file that may be gzip-compressed (detected by its magic bytes)."""
+    """Open a text file that may be gzip-compressed (detected by its magic bytes).
+
+    Damaged or truncated compressed data raises ValueError naming the file (gzip's own
+    EOFError / zlib.error say neither which file nor that it is the file's fault)."""
     with open(path, "rb") as fh:
         magic = fh.read(2)
     if magic == _GZIP_MAGIC:
-        return gzip.open(path, "rt", encoding="latin-1", newline=None)
+        raw = io.BufferedReader(_CheckedGzip(path))
+        return io.TextIOWrapper(raw, encoding="latin-1", newline=None)
     return open(path, encoding="latin-1", newline=None)
+
+
+class _CheckedGzip(io.RawIOBase):
+    """A gzip file's decompressed bytes, with decompression faults as ValueError."""
+
+    def __init__(self, path: Path) -> None:
+        self._path = path
+        self._file = gzip.open(path, "rb")
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer) -> int:
+        try:
+            return self._file.readinto(buffer)
+        except (EOFError, zlib.error, gzip.BadGzipFile) as exc:
+            raise ValueError(
+                f"{self._path}: the gzip-compressed data is damaged or cut off ({exc}); "
+                "the file cannot be read to its end"
+            ) from None
+
+    def close(self) -> None:
+        self._file.close()
+        super().close()
 
 
 def _carmen_beam_increment(n: int) -> float:
