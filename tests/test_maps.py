@@ -402,6 +402,33 @@ def test_from_array_colour_channels_use_mean():
     assert np.array_equal(OccupancyMap.from_array(grey).unknown, ref.unknown)
 
 
+def test_yaml_maps_average_alpha_in_trinary_mode_as_map_server(tmp_path: Path):
+    # map_server (ROS 1 image_loader, Nav2 map_io) averages alpha in with the colour
+    # channels in trinary mode; plain images and other modes ignore it
+    rng = np.random.default_rng(7)
+    grey = rng.integers(0, 256, size=(20, 30), dtype=np.uint8)
+    grey[0, :3] = [205, 180, 100]
+    alpha = rng.integers(0, 256, size=(20, 30), dtype=np.uint8)
+    alpha[0, :3] = 255
+    rgba = np.stack([grey, grey, grey, alpha], axis=2)
+    assert cv2.imwrite(str(tmp_path / "m.png"), rgba)  # BGRA, same values
+    assert cv2.imwrite(str(tmp_path / "g.png"), grey)
+    (tmp_path / "m.yaml").write_text("image: m.png\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    (tmp_path / "s.yaml").write_text(
+        "image: m.png\nresolution: 0.05\norigin: [0, 0, 0]\nmode: scale\n"
+    )
+    mean = (3.0 * grey + alpha) / 4.0
+    occ, free, unk = reference_classes(mean, 255, 0.65, 0.196)
+    m = load_map(tmp_path / "m.yaml")
+    assert np.array_equal(m.occupied, occ) and np.array_equal(m.free, free)
+    assert m.free[0, 0] and m.unknown[0, 1]  # opaque 205 is free in map_server, 180 not
+    plain = load_map(tmp_path / "g.png")
+    for ignored in (load_map(tmp_path / "m.png"), load_map(tmp_path / "s.yaml")):
+        assert np.array_equal(ignored.occupied, plain.occupied)
+        assert np.array_equal(ignored.free, plain.free)
+    assert load_map(tmp_path / "m.png").unknown[0, 0]
+
+
 def test_from_array_raw_mode():
     v = np.array([[0, 10, 19, 20, 65], [66, 100, 101, 200, 255]], dtype=np.uint8)
     m = OccupancyMap.from_array(v, mode="raw")

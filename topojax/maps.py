@@ -300,7 +300,8 @@ class OccupancyMap:
         * **bool** (H, W): True = occupied, False = free; no unknown pixels.
         * **uint8** (H, W) grey image, or (H, W, C) with C = 1 (grey), 2 (grey + alpha),
           3 (RGB or BGR) or 4 (RGBA/BGRA): an image with ``map_server`` semantics. The
-          intensity ``v`` is the mean of the colour channels (alpha ignored), then
+          intensity ``v`` is the mean of the colour channels (alpha ignored; a map read
+          from a ROS YAML by :func:`load_map` follows ``map_server`` there too), then
           ``mode`` decides:
 
           - ``"trinary"``: ``p = (255 - v) / 255`` (``v / 255`` if ``negate``); occupied if
@@ -466,17 +467,26 @@ def _classify_image(
     negate: bool,
     mode: str,
     unknown_values: Iterable[float] | None,
+    average_alpha: bool = False,
 ) -> np.ndarray:
     """Classify an unsigned-integer image into class codes with a look-up table.
 
     ``arr`` is (H, W) or (H, W, C) with C in 1..4; ``full_scale`` is the intensity of white
-    (255 for 8-bit, 65535 for 16-bit, a PGM's maxval otherwise).
+    (255 for 8-bit, 65535 for 16-bit, a PGM's maxval otherwise).  Alpha is ignored unless
+    ``average_alpha`` (map_server's rule for YAML maps in trinary mode).
     """
     if arr.ndim == 2:
         colour, n = arr, 1
     elif arr.ndim == 3 and arr.shape[2] in (1, 2, 3, 4):
-        n = 1 if arr.shape[2] <= 2 else 3  # grey(+alpha) or colour(+alpha)
+        channels = arr.shape[2]
+        n = 1 if channels <= 2 else 3  # grey(+alpha) or colour(+alpha)
         colour = arr[..., 0] if n == 1 else arr[..., :3].sum(axis=2, dtype=np.uint32)
+        if average_alpha and mode == "trinary" and channels in (2, 4):
+            # map_server (ROS 1 and Nav2) averages alpha in with the colour channels in
+            # trinary mode; a grey + alpha pixel is read as R = G = B = grey, plus alpha
+            grey3 = colour.astype(np.uint32) * (3 if n == 1 else 1)
+            colour = grey3 + arr[..., channels - 1]
+            n = 4
     else:
         raise ValueError(
             "image array must be (H, W) or (H, W, C) with C in 1..4 channels, "
@@ -907,7 +917,10 @@ def load_map(
     Notes
     -----
     16-bit images are classified at full precision, ``p = (65535 - v) / 65535``. PGM files
-    with a maxval other than 255 / 65535 use ``v / maxval``.
+    with a maxval other than 255 / 65535 use ``v / maxval``.  An image with an alpha
+    channel behind a YAML in trinary mode is read as ``map_server`` reads it, with alpha
+    averaged in with the colour channels (so an opaque RGBA grey of 205 is free there, p =
+    0.147); plain images ignore alpha, as the IPA maps' own tools do.
     """
     p = Path(path)
     suffix = p.suffix.lower()
@@ -985,7 +998,15 @@ def load_map(
         mode = "trinary" if mode is None else mode
         where = f"map {p}"
 
-    if full == 255 and pixels.dtype == np.uint8:
+    # map_server averages an alpha channel in with the colour in trinary mode; a YAML map
+    # is read as map_server reads it (plain images and arrays ignore alpha)
+    average_alpha = (
+        suffix in YAML_SUFFIXES
+        and mode == "trinary"
+        and pixels.ndim == 3
+        and pixels.shape[2] in (2, 4)
+    )
+    if full == 255 and pixels.dtype == np.uint8 and not average_alpha:
         return OccupancyMap.from_array(
             pixels,
             resolution_m=resolution_m,
@@ -996,7 +1017,7 @@ def load_map(
             mode=mode,
             source=str(p),
         )
-    # 16-bit or non-standard maxval: classify at the file's own full scale.
+    # 16-bit, non-standard maxval or map_server's alpha rule: classify directly.
     resolution_m = _check_resolution(resolution_m)
     origin_t = _check_origin(origin)
     occ_t, free_t = _check_thresholds(occupied_thresh, free_thresh, where=where)
@@ -1009,6 +1030,7 @@ def load_map(
             negate=_check_negate(negate),
             mode=_check_mode(mode),
             unknown_values=None,
+            average_alpha=average_alpha,
         )
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
