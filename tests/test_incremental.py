@@ -1586,6 +1586,49 @@ def test_replay_cli_registers_and_runs(tmp_path, capsys):
         replay(INTEL_EXCERPT, out_dir=tmp_path, max_scans=0, progress=False)
 
 
+def test_replay_cli_reader_options_and_early_path_checks(tmp_path, capsys):
+    from topojax.cli import main
+
+    bag = DATA / "ccny_demo_first25.bag"
+    base = ["replay", "-o", str(tmp_path / "o"), "--max-scans", "3", "--no-progress"]
+    # a scan-only bag: the error names the command-line option, which then works
+    assert main([*base, str(bag)]) != 0
+    assert "(topojax replay --allow-missing-pose)" in capsys.readouterr().err
+    assert main([*base, str(bag), "--allow-missing-pose"]) == 0
+    # options for another reader are named, not a TypeError
+    assert main([*base, str(bag), "--max-range", "5"]) != 0
+    assert "read_bag, which takes no max_range" in capsys.readouterr().err
+    # --max-range reaches the CARMEN reader: with 1 m nearly every beam is a no-return
+    short = replay(
+        INTEL_EXCERPT,
+        out_dir=tmp_path / "s",
+        max_scans=3,
+        progress=False,
+        reader_kwargs={"max_range": 1.0},
+        skeleton_every=1,
+        graph_every=1,
+    )
+    full = replay(
+        INTEL_EXCERPT,
+        out_dir=tmp_path / "f",
+        max_scans=3,
+        progress=False,
+        skeleton_every=1,
+        graph_every=1,
+    )
+    assert short["n_tiles"] < full["n_tiles"] or short["vertices"] != full["vertices"]
+    # paths that cannot be written are refused before the replay, leaving nothing behind
+    folder = tmp_path / "gif"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError, match="animate: expected a GIF file name"):
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "a", animate=folder, progress=False)
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(NotADirectoryError, match="out_dir: expected a folder to write into"):
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "afile", progress=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "f", "gif", "o", "s"]
+    assert list(folder.iterdir()) == []
+
+
 @pytest.mark.parametrize(
     "graph",
     [

@@ -10,6 +10,7 @@ import networkx as nx
 import numpy as np
 import pytest
 
+import topojax as tj
 from topojax.io import atomic_write_bytes, load_graph, save_graph
 
 FORMATS = (".graphml", ".json", ".geojson")
@@ -425,6 +426,23 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path: Path, monkeypatch):
     assert [p.name for p in tmp_path.iterdir()] == ["g.json"]
     with pytest.raises(FileNotFoundError, match="no_dir"):
         atomic_write_bytes(tmp_path / "no_dir" / "x.bin", b"x")
+
+
+def test_output_folder_on_a_file_names_the_option(tmp_path: Path, capsys):
+    from topojax.cli import main
+    from topojax.io import output_folder
+
+    (tmp_path / "afile").write_text("x")
+    assert output_folder(tmp_path / "new" / "sub") == tmp_path / "new" / "sub"
+    for bad in (tmp_path / "afile", tmp_path / "afile" / "sub"):
+        with pytest.raises(NotADirectoryError, match="out_dir: expected a folder to write"):
+            output_folder(bad)
+    png = str(tj.datasets.sample_map_path("intel"))
+    assert main(["graph", png, "-o", str(tmp_path / "afile")]) != 0
+    assert "--out: expected a folder to write into" in capsys.readouterr().err
+    argv = ["batch", png, "-o", str(tmp_path / "afile"), "--workers", "0", "--no-progress"]
+    assert main(argv) != 0
+    assert "out_dir: expected a folder to write into" in capsys.readouterr().err
 
 
 def test_atomic_write_to_a_folder_says_so_and_leaves_nothing(tmp_path: Path):

@@ -130,7 +130,7 @@ from typing import Any
 import numpy as np
 
 from .config import DistanceConfig, PipelineConfig, _positive_metres
-from .io import GRAPH_FORMATS, atomic_write_bytes
+from .io import GRAPH_FORMATS, atomic_write_bytes, output_folder
 from .maps import IMAGE_SUFFIXES, MODES, YAML_SUFFIXES, OccupancyMap, load_map
 
 __all__ = [
@@ -1489,8 +1489,7 @@ def build_graphs(
 
     out: Path | None = None
     if out_dir is not None:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        out = output_folder(out_dir)
     names = _assign_names(sources)
     items = [
         _Item(index=i, name=names[i], path=p, occupancy=occ) for i, (p, occ) in enumerate(items_raw)

@@ -123,9 +123,9 @@ def add_nav2_options(p: argparse.ArgumentParser, name: str) -> None:
 
 
 def _write_outputs(result, out_dir: Path, stem: str, *, plot: bool, stages: bool) -> list[Path]:
-    from .io import save_graph
+    from .io import output_folder, save_graph
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    output_folder(out_dir, name="--out")
     written = []
     for suffix in (".graphml", ".json", ".geojson"):
         written.append(save_graph(result.graph, out_dir / f"{stem}{suffix}"))

@@ -4058,9 +4058,12 @@ def _write_animation(frames: list[dict], path: Path) -> None:
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
     tmp = path.with_name(f".{path.name}.tmp.gif")
-    anim.save(tmp, writer=PillowWriter(fps=3))
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        anim.save(tmp, writer=PillowWriter(fps=3))
+        tmp.replace(path)
+    finally:
+        plt.close(fig)
+        tmp.unlink(missing_ok=True)
 
 
 def replay(
@@ -4123,7 +4126,7 @@ def replay(
     from tqdm import tqdm
 
     from .graph import graph_summary
-    from .io import save_graph, save_nav2_graph
+    from .io import output_folder, save_graph, save_nav2_graph
     from .maps import save_map
     from .scans import read_scans
 
@@ -4140,9 +4143,18 @@ def replay(
             f"graph_config: expected a GraphConfig, received {type(graph_config).__name__}"
         )
     out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(
+            f"out_dir: expected a folder to write into, but {out} is an existing file"
+        )
+    if animate is not None and Path(animate).is_dir():  # checked now, not after the replay
+        raise IsADirectoryError(
+            f"animate: expected a GIF file name, got the folder {animate}; e.g. "
+            f"{Path(animate) / 'graph.gif'}"
+        )
     scans = read_scans(source, **(reader_kwargs or {}))
     mapper = IncrementalMapper(**mapper_kw)
-    out.mkdir(parents=True, exist_ok=True)
+    output_folder(out)
     reports: list[ScanReport] = []
     frames: list[dict] = []
     bar = tqdm(total=max_scans, unit="scan", disable=not progress, desc="replay")
@@ -4275,6 +4287,12 @@ def _cmd_replay(args) -> int:
         "graph_every": args.graph_every,
         "strategy": args.strategy,
     }
+    reader_kwargs = {}
+    for name in ("max_range", "scan_topic", "pose_topic"):
+        if getattr(args, name) is not None:
+            reader_kwargs[name] = getattr(args, name)
+    if args.allow_missing_pose:
+        reader_kwargs["allow_missing_pose"] = True
     summary = replay(
         args.source,
         out_dir=args.out,
@@ -4282,6 +4300,7 @@ def _cmd_replay(args) -> int:
         animate=args.animate,
         progress=not args.no_progress,
         max_scans=args.max_scans,
+        reader_kwargs=reader_kwargs or None,
         nav2_tolerance_m=args.nav2_tolerance_m if args.nav2 else None,
         graph_config=graph_config(args),
         **kw,
@@ -4313,6 +4332,20 @@ def _add_cli(subparsers):
     p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
     p.add_argument("--max-scans", type=int, help="stop after this many scans")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--max-range",
+        type=float,
+        metavar="M",
+        help="CARMEN logs: readings of M metres or more are no-returns (default: from the "
+        "log's largest reading, or each line's own maximum)",
+    )
+    p.add_argument("--scan-topic", help="bags: the LaserScan topic (default: the only one)")
+    p.add_argument("--pose-topic", help="bags: an Odometry / pose topic (default: tf)")
+    p.add_argument(
+        "--allow-missing-pose",
+        action="store_true",
+        help="bags: without any pose source, map every scan at the origin (scan-only bags)",
+    )
     from .cli import add_graph_options, add_nav2_options
 
     add_graph_options(p)

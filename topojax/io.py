@@ -72,6 +72,22 @@ def _umask() -> int:
     return mask
 
 
+def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
+    """Create the folder ``path`` (and its parents) for outputs and return it.
+
+    Raises NotADirectoryError naming ``name`` when ``path``, or a folder above it, is an
+    existing file (``mkdir`` itself only says "File exists" / "Not a directory")."""
+    folder = Path(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise NotADirectoryError(
+            f"{name}: expected a folder to write into, but {folder} or a folder above it is "
+            "an existing file"
+        ) from None
+    return folder
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically.
 

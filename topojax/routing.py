@@ -50,7 +50,12 @@ class Route:
     Attributes
     ----------
     length_m : float
-        Length along the graph from the snapped start to the snapped goal, metres.
+        Length along the graph from the snapped start to the snapped goal, metres: the
+        sum of the ``length_m`` of the edges (and edge parts) it runs along.  Inside a
+        merged junction cluster (a vertex of several pixels) the step from one edge's
+        end pixel to the next edge's start pixel costs nothing, as the graph's vertex is
+        one point, so there the polyline of ``world`` is a little longer (at most the
+        cluster's extent per cluster passed).
     pixels : int32 array, shape (n, 2)
         The skeleton pixels of the route in order, ``[row, col]``; ``pixels[0]`` is the
         snapped start, ``pixels[-1]`` the snapped goal.  Consecutive pixels are

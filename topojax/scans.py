@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import bz2
 import gzip
+import inspect
 import io
 import math
 import numbers
@@ -1626,8 +1627,9 @@ def read_bag(
     else:
         raise ValueError(
             f"{p} has no pose source (no tf topic and no {', '.join(_POSE_TYPES)} topic); "
-            f"topics: {listing}. Pass allow_missing_pose=True to read the scans with the "
-            f"identity pose (0, 0, 0)."
+            f"topics: {listing}. Pass allow_missing_pose=True (topojax replay "
+            "--allow-missing-pose) to read the scans with the identity pose (0, 0, 0), or "
+            "pose_topic (--pose-topic)."
         )
     return _iter_bag(
         p,
@@ -1853,8 +1855,22 @@ def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"path: file not found: {p}")
+    reader = _reader_for(p)
+    accepted = inspect.signature(reader).parameters
+    unknown = sorted(set(kwargs) - set(accepted))
+    if unknown:
+        options = sorted(k for k, v in accepted.items() if v.kind is v.KEYWORD_ONLY)
+        raise ValueError(
+            f"{p} is read by {reader.__name__}, which takes no {', '.join(unknown)} "
+            f"(its options: {', '.join(options)})"
+        )
+    return reader(p, **kwargs)
+
+
+def _reader_for(p: Path):
+    """The reader of :func:`read_scans` for an existing path."""
     if p.is_dir():
-        return read_bag(p, **kwargs)
+        return read_bag
     with open(p, "rb") as fh:
         magic = fh.read(16)
     if (
@@ -1863,7 +1879,7 @@ def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
         or magic.startswith(b"\x89MCAP")
         or p.suffix.lower() in _BAG_SUFFIXES
     ):
-        return read_bag(p, **kwargs)
+        return read_bag
     if _looks_octave(p):
-        return read_octave_laser(p, **kwargs)
-    return read_carmen(p, **kwargs)
+        return read_octave_laser
+    return read_carmen
