@@ -22,6 +22,7 @@ from brute_force import brute_sq_distance
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import topojax as tj
 from topojax.config import DistanceConfig, GraphConfig, PipelineConfig
 from topojax.datasets import sample_map
 from topojax.distance import FAR_SQ
@@ -677,6 +678,29 @@ def test_points_without_origin_mark_obstacles_only():
     assert rep.n_new_obstacles == 0 and rep.index == 1 and mapper.n_scans == 2
 
 
+def test_numpy_numbers_are_numbers_for_the_mapper():
+    kw = dict(skeleton_every=0, graph_every=0)
+    a = IncrementalMapper(resolution_m=0.05, tile_px=64, block_px=16, max_range_m=20.0, **kw)
+    b = IncrementalMapper(
+        resolution_m=np.float64(0.05),
+        tile_px=np.int64(64),
+        block_px=np.int32(16),
+        max_range_m=np.float32(20.0),
+        max_pending_points=np.int64(4096),
+        **kw,
+    )
+    scan = tj.Scan.from_arrays(
+        np.full(31, 2.0),
+        angle_min=np.array(-0.5),
+        angle_increment=np.float32(1 / 30),
+        pose=(0.0, 0.0, 0.0),
+    )
+    assert type(scan.angle_min) is float and scan.angle_min == -0.5
+    for m in (a, b):
+        m.add_scan(scan)
+    np.testing.assert_array_equal(a.occupancy.occupied, b.occupancy.occupied)
+
+
 def test_bad_points_raise_before_any_change():
     mapper = IncrementalMapper(skeleton_every=0, graph_every=0, max_grid_cells=400, **SMALL_KW)
     mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
@@ -687,6 +711,7 @@ def test_bad_points_raise_before_any_change():
         ([["a", "b"]], "points_xy: expected an .N, 2. array"),
         (np.array([[1e300, 0.0]]), "points_xy: the points put pixels beyond"),
         (np.array([[500.0, 0.0]]), "max_grid_cells"),
+        (np.ones((2, 2), bool), "points_xy: .*received a bool array"),
     ]
     for points, message in cases:
         with pytest.raises(ValueError, match=message):

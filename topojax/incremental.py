@@ -2110,6 +2110,13 @@ def _max_padding(sizes: tuple[int, int]) -> int:
     return max(large - large // 2, small - 1)
 
 
+def _python_number(value):
+    """A NumPy integer or float as the Python int or float; anything else unchanged."""
+    if isinstance(value, (np.integer, np.floating)):
+        return value.item()
+    return value
+
+
 def _check_rate(name: str, value) -> int:
     if value is None:
         return 0
@@ -2243,6 +2250,12 @@ class IncrementalMapper:
         paper_layer_px: int = 2,
         max_grid_cells: int = MAX_GRID_CELLS,
     ) -> None:
+        # NumPy numbers are numbers: checked below as Python ones
+        resolution_m = _python_number(resolution_m)
+        max_range_m = _python_number(max_range_m)
+        tile_px, block_px, paper_layer_px = map(_python_number, (tile_px, block_px, paper_layer_px))
+        max_pending_points = _python_number(max_pending_points)
+        max_grid_cells = _python_number(max_grid_cells)
         if isinstance(resolution_m, bool) or not isinstance(resolution_m, (int, float)):
             raise TypeError(f"resolution_m must be a number, got {type(resolution_m).__name__}")
         if not math.isfinite(resolution_m) or resolution_m <= 0:
@@ -2517,6 +2530,11 @@ class IncrementalMapper:
             exceed ``max_grid_cells``.  Nothing is changed in that case.
         """
         t0 = time.perf_counter()
+        if getattr(points_xy, "dtype", None) == np.bool_:  # a mask, not coordinates
+            raise ValueError(
+                "points_xy: expected an (N, 2) array of (x, y) in metres, received a bool "
+                f"array of shape {np.shape(points_xy)} (for a finished map use add_map)"
+            )
         try:
             pts = np.asarray(points_xy, dtype=np.float64)
         except (TypeError, ValueError):

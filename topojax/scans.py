@@ -53,7 +53,10 @@ def _wrap_angle(a: float) -> float:
 
 
 def _real_scalar(name: str, value: Any, *, allow_inf: bool = False) -> float:
-    """Return ``value`` as a Python float, rejecting booleans, non-numbers and NaN."""
+    """Return ``value`` as a Python float, rejecting booleans, non-numbers and NaN (a
+    0-d NumPy array of a real number counts as that number)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name}: expected a real number, got {type(value).__name__} {value!r}")
     out = float(value)
