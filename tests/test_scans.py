@@ -338,6 +338,24 @@ def test_damaged_gzip_logs_raise_value_errors_naming_the_file(tmp_path):
     assert len(list(read_carmen(DATA / "intel_first40.log.gz"))) == 40
 
 
+def test_log_without_a_no_return_value_warns_when_most_readings_go(tmp_path):
+    rng = np.random.default_rng(3)
+    path = tmp_path / "short.log"
+    path.write_text("".join(_flaser(rng.uniform(3.0, 3.1, 180), (i, 0, 0)) for i in range(3)))
+    with pytest.warns(UserWarning, match=r"dropped: 5\d\d of 540.*pass max_range"):
+        scans = list(read_carmen(path))
+    assert sum(int(s.valid_mask().sum()) for s in scans) < 540 // 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scans = list(read_carmen(path, max_range=10.0))  # no guess: no warning
+        assert all(s.valid_mask().all() for s in scans)
+        # a log with a no-return value (81.91) on a few beams: no warning
+        mixed = tmp_path / "mixed.log"
+        ranges = [np.r_[rng.uniform(1, 5, 170), np.full(10, 81.91)] for _ in range(3)]
+        mixed.write_text("".join(_flaser(r, (0, 0, 0)) for r in ranges))
+        assert all(s.valid_mask().sum() == 170 for s in read_carmen(mixed))
+
+
 def test_carmen_errors_for_bad_arguments(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.log"):
         read_carmen(tmp_path / "nope.log")

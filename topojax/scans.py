@@ -531,7 +531,9 @@ def _survey_carmen(
     """First pass: the laser message to use, its largest finite range, and PARAM values."""
     chosen = None if laser == "auto" else laser
     best = -math.inf
-    params: dict[str, str] = {}
+    tops: list[np.ndarray] = []
+    n_readings = 0
+    params: dict = {}
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
@@ -560,7 +562,35 @@ def _survey_carmen(
             finite = ranges[np.isfinite(ranges)]
             if finite.size:
                 best = max(best, float(finite.max()))
+                tops.append(finite[finite >= best - _TOP_BAND_M])
+                n_readings += finite.size
+    if best > -math.inf:
+        top = np.concatenate(tops)
+        # for _warn_if_no_sentinel: the readings near the largest, and how many there were
+        params[_TOP_READINGS] = (top[top >= best - _TOP_BAND_M], n_readings)
     return chosen, (best if best > -math.inf else None), params
+
+
+# The survey keeps the readings this close to the running maximum (the no-return margin is
+# 0.2 m by default; a larger margin is checked within this band only).
+_TOP_BAND_M = 1.0
+_TOP_READINGS = "\0top readings"
+
+
+def _warn_if_no_sentinel(path: Path, laser: str, top, best: float, margin: float) -> None:
+    """Warn when the range limit inferred from the largest reading drops most readings: a
+    log with a no-return value drops its no-return beams (at most a quarter of the
+    readings in the shared logs, the open campus), one without drops its longest real
+    readings, all of them when the readings lie within the margin of each other."""
+    near, total = top
+    dropped = int(np.count_nonzero(near >= best - margin))
+    if total and dropped > total // 2:
+        warnings.warn(
+            f"{path}: the largest {laser} reading, {best} m, is taken as the no-return value, "
+            f"so readings from {best - margin:.4g} m up are dropped: {dropped} of {total}; "
+            "if the log has no no-return value, pass max_range (topojax replay --max-range)",
+            stacklevel=3,
+        )
 
 
 def read_carmen(
@@ -672,6 +702,7 @@ def _iter_carmen(
         if file_max is None:
             raise ValueError(f"{path}: no finite {chosen} range readings to find the max range")
         range_max_old = file_max - margin
+        _warn_if_no_sentinel(path, chosen, params.pop(_TOP_READINGS), file_max, margin)
         if range_max_old <= 0:
             raise ValueError(
                 f"{path}: largest {chosen} reading {file_max} m minus no_return_margin_m "
