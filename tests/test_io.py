@@ -525,6 +525,22 @@ _POINT_B = _feature("Point", [1.0, 0.0], id=2)
             },
             r"features\[2\] coordinates must be a list of \[x, y\]",
         ),
+        # hand edits the readers do not look for: still a ValueError naming the file
+        (".json", {"nodes": 5}, "not a topojax json graph"),
+        (".json", {"graph": [1, 2], "nodes": []}, "not a topojax json graph"),
+        (
+            ".json",
+            {
+                "nodes": [{"id": 0}, {"id": 1}],
+                "edges": [{"source": 0, "target": 1, "path": [[1, 1], [1]]}],
+            },
+            "not a topojax json graph",
+        ),
+        (
+            ".geojson",
+            {"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": [1]}]},
+            "not a topojax geojson graph",
+        ),
     ],
 )
 def test_load_rejects_damaged_files_naming_the_file_and_the_fault(

@@ -742,14 +742,30 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     if not p.is_file():
         raise FileNotFoundError(f"graph file not found: {p}")
     if fmt == "graphml":
-        return _read_graphml(p)
+        return _structure_checked(_read_graphml, p, fmt)
     try:
         doc = json.loads(p.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ValueError(f"graph file {p} is not valid JSON: {exc}") from None
     reader: Callable[[Any, Path], nx.MultiGraph]
     reader = _from_node_link if fmt == "json" else _from_geojson
-    return reader(doc, p)
+    return _structure_checked(lambda path: reader(doc, path), p, fmt)
+
+
+def _structure_checked(read: Callable[[Path], nx.MultiGraph], p: Path, fmt: str):
+    """``read(p)``, with what a hand-edited or foreign file trips over deep inside (a
+    list where a mapping belongs, a ragged path, ...) reported as a ValueError naming the
+    file; the readers' own errors already do."""
+    try:
+        return read(p)
+    except ValueError as exc:
+        if str(p) in str(exc):
+            raise
+        raise ValueError(f"graph file {p}: not a topojax {fmt} graph: {exc}") from None
+    except (TypeError, AttributeError, KeyError, IndexError) as exc:
+        raise ValueError(
+            f"graph file {p}: not a topojax {fmt} graph ({type(exc).__name__}: {exc})"
+        ) from None
 
 
 # ---------------------------------------------------------------------- Nav2 route graph
