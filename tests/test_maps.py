@@ -960,6 +960,18 @@ def test_save_map_errors(tmp_path: Path):
         save_map(np.zeros((3, 3)), tmp_path / "out.yaml")  # type: ignore[arg-type]
     with pytest.raises(FileNotFoundError):
         save_map(m, tmp_path / "no_such_dir" / "out.yaml")
+    # a folder where a file would go: refused before anything is written
+    (tmp_path / "d.yaml").mkdir()
+    with pytest.raises(IsADirectoryError, match=r"d\.yaml is a folder"):
+        save_map(m, tmp_path / "d.yaml")
+    (tmp_path / "e.pgm").mkdir()
+    with pytest.raises(IsADirectoryError, match=r"e\.pgm is a folder"):
+        save_map(m, tmp_path / "e.yaml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.yaml", "e.pgm"]
+    # a YAML whose image is a folder says so
+    (tmp_path / "f.yaml").write_text("image: e.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError, match="'image' must name an image file, got the folder"):
+        load_map(tmp_path / "f.yaml")
 
 
 def test_pgm_writer_header_is_standard(tmp_path: Path):

@@ -192,7 +192,7 @@ def test_command_checks_the_tolerance_first_and_notes_a_graph_without_edges(tmp_
     png = tj.datasets.sample_map_path("intel")
     bad = ["graph", str(png), "-o", str(tmp_path / "bad"), "--nav2", "--nav2-tolerance-m", "0"]
     assert main(bad) == 2
-    assert "nav2_tolerance_m" in capsys.readouterr().err
+    assert "--nav2-tolerance-m: expected" in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()  # nothing written before the check
     empty = tmp_path / "empty.png"
     cv2.imwrite(str(empty), np.full((40, 50), 254, np.uint8))  # free, no obstacle

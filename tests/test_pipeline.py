@@ -344,6 +344,9 @@ def test_build_graph_reads_a_path_with_load_map(tmp_path):
 
 
 def test_bad_inputs_raise_clear_errors():
+    for bad in (None, b"map.png"):
+        with pytest.raises(TypeError, match="occupancy: expected an OccupancyMap"):
+            tj.build_graph(bad)
     with pytest.raises(ValueError, match="NaN"):
         tj.build_graph(np.full((10, 10), np.nan))
     with pytest.raises(ValueError):

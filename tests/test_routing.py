@@ -419,6 +419,8 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert main([*argv, "-o", str(out), "--simplify-m", "0.2"]) == 0
     thin = json.loads(out.read_text())["geometry"]["coordinates"]
     np.testing.assert_allclose(thin, want.waypoints(0.2))
+    assert main([*argv, "-o", str(out), "--simplify-m", "-1"]) == 2
+    assert "--simplify-m: expected a finite number of metres > 0" in capsys.readouterr().err
     # too far from the graph: a clear error and exit status 2
     assert main([*argv, "--max-snap-m", "0.01"]) == 2
     assert "start: the nearest point of the graph is" in capsys.readouterr().err

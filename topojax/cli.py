@@ -208,7 +208,7 @@ def _cmd_graph(args) -> int:
     if args.nav2:  # checked before the pipeline runs and writes anything
         from .config import _positive_metres
 
-        _positive_metres("nav2_tolerance_m", args.nav2_tolerance_m)
+        _positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)
     occupancy = load_map(args.map, **kw)
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
@@ -280,6 +280,10 @@ def _cmd_route(args) -> int:
     from .io import load_graph
     from .routing import NoRouteError, RoutePlanner
 
+    if args.simplify_m is not None:  # checked before the work, with the option's name
+        from .config import _positive_metres
+
+        _positive_metres("--simplify-m", args.simplify_m)
     graph = load_graph(args.graph)
     frame = "pixel" if args.pixel else "world"
     try:

@@ -4296,6 +4296,12 @@ def _summary_text(summary: dict) -> str:
     return "\n".join(lines)
 
 
+def _cli_tolerance(args) -> float:
+    from .config import _positive_metres
+
+    return _positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)
+
+
 def _cmd_replay(args) -> int:
     from .cli import graph_config
 
@@ -4319,7 +4325,7 @@ def _cmd_replay(args) -> int:
         progress=not args.no_progress,
         max_scans=args.max_scans,
         reader_kwargs=reader_kwargs or None,
-        nav2_tolerance_m=args.nav2_tolerance_m if args.nav2 else None,
+        nav2_tolerance_m=_cli_tolerance(args) if args.nav2 else None,
         graph_config=graph_config(args),
         **kw,
     )

@@ -864,6 +864,11 @@ def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
             "next to the YAML"
         )
     resolved = folder / img
+    if resolved.is_dir():
+        raise ValueError(
+            f"map YAML {yaml_path}: field 'image' must name an image file, got the folder "
+            f"{resolved}"
+        )
     if not resolved.is_file():
         raise FileNotFoundError(
             f"map YAML {yaml_path}: image {image!r} not found (looked for {resolved})"
@@ -1076,6 +1081,12 @@ def save_map(
         image_name = yp.stem + ".pgm"
     if Path(image_name).name != image_name or not image_name.lower().endswith(".pgm"):
         raise ValueError(f"image_name must be a bare file name ending in .pgm, got {image_name!r}")
+    for target in (yp, yp.with_name(image_name)):  # before writing either file
+        if target.is_dir():
+            raise IsADirectoryError(
+                f"yaml_path: {target} is a folder; expected a file to write (e.g. "
+                f"{target / 'map.yaml'} for the YAML)"
+            )
     img = occupancy_map.to_image()
     h, w = img.shape
     header = (

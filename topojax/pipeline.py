@@ -873,6 +873,11 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
         raise TypeError(f"config must be a PipelineConfig, got {type(config).__name__}")
     if isinstance(occupancy, (str, os.PathLike)):
         occupancy = load_map(occupancy)
+    elif occupancy is None or isinstance(occupancy, (bytes, bytearray)):
+        raise TypeError(
+            "occupancy: expected an OccupancyMap, a 2-D array or a map file path (str or "
+            f"Path), got {type(occupancy).__name__}"
+        )
     elif not isinstance(occupancy, OccupancyMap):
         occupancy = OccupancyMap.from_array(occupancy)
     timings: dict[str, float] = {}
