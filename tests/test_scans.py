@@ -356,6 +356,26 @@ def test_log_without_a_no_return_value_warns_when_most_readings_go(tmp_path):
         assert all(s.valid_mask().sum() == 170 for s in read_carmen(mixed))
 
 
+def test_log_cut_off_mid_line_keeps_the_scans_before(tmp_path):
+    text = (DATA / "intel_first40.log.gz").read_bytes()
+    full = gzip.decompress(text).decode("latin-1")
+    lines = full.splitlines(keepends=True)
+    last = max(i for i, line in enumerate(lines) if line.startswith("FLASER"))
+    cut = "".join(lines[:last]) + lines[last][: len(lines[last]) // 3]  # no line end
+    path = tmp_path / "cut.log"
+    path.write_text(cut)
+    with pytest.warns(UserWarning, match=r"cut\.log:\d+: the log ends in the middle"):
+        scans = list(read_carmen(path))
+    assert len(scans) == 39
+    want = list(read_carmen(DATA / "intel_first40.log.gz"))[:39]
+    for a, b in zip(scans, want, strict=True):
+        np.testing.assert_array_equal(a.ranges, b.ranges)
+    # the same damage with a line end is a malformed line, not a cut-off file
+    path.write_text(cut + "\n")
+    with pytest.raises(ValueError, match="malformed FLASER line"):
+        list(read_carmen(path))
+
+
 def test_carmen_errors_for_bad_arguments(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.log"):
         read_carmen(tmp_path / "nope.log")

@@ -451,6 +451,13 @@ class _CheckedGzip(io.RawIOBase):
         super().close()
 
 
+def _cut_off(line: str) -> bool:
+    """Is ``line`` the last, unfinished line of a file (no line end: a logger that
+    stopped while writing it)?  Only such a line is skipped; a malformed line with a line
+    end is an error."""
+    return not line.endswith(("\n", "\r"))
+
+
 def _carmen_beam_increment(n: int) -> float:
     """Beam spacing (rad) of an old-format CARMEN scan of ``n`` beams over a 180° fan."""
     return math.pi / (n - 1) if n % 2 else math.pi / n
@@ -558,6 +565,8 @@ def _survey_carmen(
                 else:
                     ranges = _parse_new_laser_head(tokens)[1]
             except _CarmenLineError as err:
+                if _cut_off(line):  # the logger stopped mid-line: the scans before count
+                    break
                 raise ValueError(f"{path}:{lineno}: malformed {key} line: {err}") from None
             finite = ranges[np.isfinite(ranges)]
             if finite.size:
@@ -799,6 +808,13 @@ def _iter_carmen(
                 except (TypeError, ValueError) as err:
                     raise _CarmenLineError(str(err)) from None
             except _CarmenLineError as err:
+                if _cut_off(line):
+                    warnings.warn(
+                        f"{path}:{lineno}: the log ends in the middle of a {key} line (no "
+                        f"line end; {err}); that line is skipped",
+                        stacklevel=2,
+                    )
+                    break
                 raise ValueError(f"{path}:{lineno}: malformed {key} line: {err}") from None
             yield scan
     if skipped:
