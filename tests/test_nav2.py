@@ -150,6 +150,47 @@ def test_fixture_ring_and_loop_get_two_waypoints_at_least(tmp_path):
     assert len(loop) == 4  # two segments of the loop, both ways
 
 
+@pytest.mark.parametrize("seed", range(8))
+def test_merged_clusters_keep_the_tolerance_and_write_no_degenerate_edges(tmp_path, seed):
+    """With merged junction clusters a path may end at another pixel of its vertex than
+    the vertex's own: the chain runs node to node, so that hop is part of it (corridor
+    pixels once lay outside the tolerance), and a small loop still gets two distinct
+    waypoints or, if it has none to give, is left out (a node-to-itself edge was written)."""
+    from skimage.morphology import skeletonize
+
+    rng = np.random.default_rng(seed)
+    skel = skeletonize(rng.random((40, 40)) < 0.45)
+    if seed == 0:  # the two shapes found by fuzzing
+        skel = np.zeros((5, 5), bool)
+        skel[1:4, 1:4] = True
+        skel[0, 2] = skel[4, 2] = True
+    elif seed == 1:
+        skel = art("..##..\n..##..\n..##..\n.#....")
+    g = skeleton_to_graph(skel, resolution_m=1.0, merge_junction_clusters=True)
+    if g.number_of_edges() == 0:
+        pytest.skip("no edges")
+    for tol in (0.5, 1.0):
+        nodes, edges = read_nav2(tj.save_nav2_graph(g, tmp_path / "m.geojson", tolerance_m=tol))
+        chains = defaultdict(list)
+        for e in edges:
+            assert e["startid"] != e["endid"]
+            (p0, p1) = e["coordinates"][0]
+            assert tuple(p0) == nodes[e["startid"]][0] and tuple(p1) == nodes[e["endid"]][0]
+            if e["startid"] < e["endid"]:
+                chains[tuple(e["metadata"]["corridor"])].append(e)
+        pairs = Counter((e["startid"], e["endid"]) for e in edges)
+        for u, v, k, d in g.edges(keys=True, data=True):
+            segs = chains.get((u, v, k))
+            if segs is None:  # only a loop with no pixel to place two waypoints on
+                assert u == v and len(d["path"]) <= 3
+                continue
+            world = np.asarray(d["world"], float)
+            assert distance_to_polyline(world, chain_of(segs, nodes)).max() <= tol + 1e-12
+            if u == v:  # a loop: at least two waypoints, no segment written twice
+                assert len(segs) >= 3
+                assert all(pairs[(s["startid"], s["endid"])] == 1 for s in segs)
+
+
 def test_smaller_tolerance_means_more_waypoints(tmp_path):
     g = tj.build_graph(tj.sample_map("intel")).graph
     counts = []

@@ -370,6 +370,34 @@ def test_bad_thresholds_raise_clear_errors(kwargs, exc, words):
         assert word in str(info.value)
 
 
+def _members(data: dict) -> set[tuple[int, int]]:
+    pixels = data.get("pixels")
+    pixels = [data["pixel"]] if pixels is None or len(pixels) == 0 else pixels
+    return {(int(r), int(c)) for r, c in np.asarray(pixels).tolist()}
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_paths_run_from_u_to_v_after_pruning_merged_graphs(seed):
+    """Edges stay ``(u, v)`` with ``u <= v`` and the path from a pixel of ``u`` to a pixel
+    of ``v``; with merged junction clusters a path may end at any member pixel (the
+    orientation test once looked at the representative pixel only and reversed them)."""
+    rng = np.random.default_rng(seed)
+    blobs = rng.random((60, 60)) < 0.45
+    skel = skeletonize(blobs)
+    g = skeleton_to_graph(skel, merge_junction_clusters=True)
+    assert any(len(_members(d)) > 1 for _, d in g.nodes(data=True))
+    for pruned in (prune_graph(g), prune_graph(g, min_component_m=5.0)):
+        for u, v, d in pruned.edges(data=True):
+            assert u <= v
+            path = np.asarray(d["path"])
+            assert tuple(path[0]) in _members(pruned.nodes[u])
+            assert tuple(path[-1]) in _members(pruned.nodes[v])
+    s = art("#..#\n.##.\n#..#")  # the smallest case: a path ending off the representative
+    pruned = prune_graph(skeleton_to_graph(s, merge_junction_clusters=True))
+    for u, _v, d in pruned.edges(data=True):
+        assert tuple(d["path"][0]) in _members(pruned.nodes[u])
+
+
 def test_bad_graphs_raise_clear_errors():
     with pytest.raises(TypeError, match="graph: expected an undirected networkx.MultiGraph"):
         prune_graph(nx.Graph())

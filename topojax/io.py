@@ -821,6 +821,9 @@ def save_nav2_graph(
     topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
     waypoints) and the corridor's ``min_clearance_m`` / ``mean_clearance_m``.  topojax
     writes this format but does not read it back (use :func:`save_graph` for that).
+    Where a path ends at another pixel of its vertex than the vertex's own (merged
+    junction clusters), the chain includes the step to the vertex.  A loop with fewer
+    than two points of its own to place waypoints on leads nowhere and is left out.
     """
     tol = _positive_metres("tolerance_m", tolerance_m)
     if not isinstance(frame, str) or not frame:
@@ -850,11 +853,19 @@ def save_nav2_graph(
         xy = np.asarray(d.get("world", np.empty((0, 2))), dtype=np.float64)
         if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
             raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
-        # the polyline runs from the end nearer to u (paths start at u; be tolerant)
-        if u != v and math.dist(xy[0], node_xy[v]) < math.dist(xy[0], node_xy[u]):
+        corridor = {"corridor": [_jsonable(x, "edge id") for x in (u, v, k)]}
+        # the polyline runs from u (topojax's paths do; be tolerant of other graphs)
+        if u != v and not _starts_at(g, u, v, d, xy, node_xy):
             u, v = v, u
+        # The chain runs from node to node: where a path ends at another pixel than its
+        # vertex's (a merged junction cluster), the hop to the vertex is part of it, so the
+        # simplification keeps every corridor pixel within the tolerance of what is written.
+        xy = np.concatenate([[node_xy[u]], xy, [node_xy[v]]])
+        xy = xy[np.r_[True, (np.diff(xy, axis=0) != 0).any(axis=1)]]  # no repeated points
+        if len(xy) < (4 if u == v else 2):
+            continue  # a loop around no pixel but its vertex's, or a path on one point
         keep = _polyline_keep(xy, tol)
-        if u == v and len(keep) < 4 and len(xy) >= 4:  # a loop needs two waypoints
+        if u == v and len(keep) < 4:  # a loop needs two distinct waypoints
             keep = np.unique(np.concatenate([keep, [len(xy) // 3, 2 * len(xy) // 3]]))
         along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
         inner = xy[keep[1:-1]].tolist()
@@ -865,7 +876,6 @@ def save_nav2_graph(
             next_id += 1
         chain.append(node_id[v])
         points = [node_xy[u], *inner, node_xy[v]]
-        corridor = {"corridor": [_jsonable(x, "edge id") for x in (u, v, k)]}
         corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
         for j in range(len(chain) - 1):
             meta = dict(corridor, length_m=float(along[keep[j + 1]] - along[keep[j]]))
@@ -885,6 +895,27 @@ def save_nav2_graph(
     p = Path(path)
     atomic_write_bytes(p, data)
     return p
+
+
+def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
+    """Does edge ``(u, v)``'s polyline ``xy`` start at ``u``?  By the path's first pixel
+    among the vertices' pixels (a merged cluster's path may start at any of them), else by
+    which vertex is nearer."""
+    path = d.get("path")
+    pu, pv = (_pixel_set(g.nodes[n]) for n in (u, v))
+    if path is not None and len(path) and pu and pv:
+        first = (int(path[0][0]), int(path[0][1]))
+        if (first in pu) != (first in pv):
+            return first in pu
+    return math.dist(xy[0], node_xy[u]) <= math.dist(xy[0], node_xy[v])
+
+
+def _pixel_set(node: dict) -> set[tuple[int, int]]:
+    """A vertex's pixels (``pixels``, else ``pixel``) as a set; empty if it has none."""
+    pixels = node.get("pixels")
+    if pixels is None or len(pixels) == 0:
+        pixels = [node["pixel"]] if node.get("pixel") is not None else []
+    return {(int(p[0]), int(p[1])) for p in pixels}
 
 
 def _nav2_node(i: int, frame: str, xy: list[float], meta: dict) -> dict:

@@ -2,8 +2,9 @@
 
 A route graph is only useful once a robot can ask it for a way from where it is to where
 it should go.  The query points rarely lie on the graph, so each is *snapped* to the
-nearest pixel of the graph's corridors (an edge path pixel, or a vertex without edges);
-the route then runs along the partial edge from the snapped start to one of that edge's
+nearest pixel of the graph's corridors (an edge path pixel, or a vertex without edges;
+a merged junction cluster's own pixels need not lie on a path, so a query on one snaps to
+the cluster's nearest path pixel); the route then runs along the partial edge from the snapped start to one of that edge's
 ends, through the graph (shortest by ``length_m``), and along the goal's edge to the
 snapped goal.  A start and goal on the same edge also try the direct way along it; a
 ring is left in whichever direction is shorter.
