@@ -487,6 +487,12 @@ def test_cli_keeps_compiled_kernels_between_runs(tmp_path):
         kernels = sorted(p.name for p in (tmp_path / "cache" / "topojax" / "jax").iterdir())
         assert any(name.startswith("jit__forward_tiles") for name in kernels), kernels
     assert outputs[0] == outputs[1]
+    # JAX_COMPILATION_CACHE_DIR alone moves the cache, and kernels are still kept there
+    env["JAX_COMPILATION_CACHE_DIR"] = str(tmp_path / "own")
+    cmd = [sys.executable, "-m", "topojax.cli", "demo", "--map", "a_scan", "-o", str(out)]
+    subprocess.run(cmd, env=env, check=True, capture_output=True, timeout=300)
+    kernels = sorted(p.name for p in (tmp_path / "own").iterdir())
+    assert any(name.startswith("jit__forward_tiles") for name in kernels), kernels
 
 
 def test_cli_reports_bad_input(tmp_path, capsys):

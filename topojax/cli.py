@@ -328,7 +328,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
     p.add_argument("--plot", action="store_true", help="also write a PNG overlay")
     p.add_argument("--stages", action="store_true", help="also write a PNG of every stage")
-    p.add_argument("--resolution", dest="resolution_m", type=float, help="m/px (images)")
+    p.add_argument(
+        "--resolution",
+        dest="resolution_m",
+        type=float,
+        help="m/px for images (default: a PGM's 'm/pix' comment, else 0.05; YAML: its own)",
+    )
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")
     p.add_argument("--negate", action="store_true", help="image values are occupancy")
@@ -404,23 +409,25 @@ def _use_compilation_cache() -> None:
 
     Each run of the command is a fresh process; without a persistent cache it compiles
     the kernels again (about half a second of a ``topojax graph`` run).  JAX's own
-    setting wins: with ``JAX_COMPILATION_CACHE_DIR`` set, that directory is used as JAX
-    decides; ``TOPOJAX_NO_JAX_CACHE=1`` turns the cache off.  Otherwise the cache lives
-    in ``$XDG_CACHE_HOME/topojax/jax`` (default ``~/.cache/topojax/jax``).  Library calls
-    never change JAX's settings; only the command does.
+    settings win: ``JAX_COMPILATION_CACHE_DIR`` chooses the directory (default
+    ``$XDG_CACHE_HOME/topojax/jax``, i.e. ``~/.cache/topojax/jax``) and
+    ``JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS`` the threshold (default here 0: every
+    kernel is kept); ``TOPOJAX_NO_JAX_CACHE=1`` turns the cache off.  Library calls never
+    change JAX's settings; only the command does.
     """
     import os
 
-    if os.environ.get("JAX_COMPILATION_CACHE_DIR"):
-        return
     if os.environ.get("TOPOJAX_NO_JAX_CACHE", "") not in ("", "0"):
         return
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     import jax
 
-    jax.config.update("jax_compilation_cache_dir", os.path.join(base, "topojax", "jax"))
-    # the kernels compile in well under JAX's default threshold of one second
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    if not os.environ.get("JAX_COMPILATION_CACHE_DIR"):
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        jax.config.update("jax_compilation_cache_dir", os.path.join(base, "topojax", "jax"))
+    if not os.environ.get("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"):
+        # the kernels compile in well under JAX's default threshold of one second, so
+        # without this nothing would be cached
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
 def main(argv: list[str] | None = None) -> int:

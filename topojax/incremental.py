@@ -4352,7 +4352,12 @@ def _add_cli(subparsers):
         "--skeleton-every", type=int, default=20, help="scans per skeleton update (default 20)"
     )
     p.add_argument("--graph-every", type=int, default=80, help="scans per graph update (80)")
-    p.add_argument("--strategy", choices=STRATEGIES, default="exact", help="skeleton update")
+    p.add_argument(
+        "--strategy",
+        choices=STRATEGIES,
+        default="exact",
+        help="skeleton update: exact (equals the full-map result; default) or paper",
+    )
     p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
     p.add_argument("--max-scans", type=int, help="stop after this many scans")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
