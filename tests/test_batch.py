@@ -745,3 +745,42 @@ def test_all_occupied_maps_give_empty_graphs_as_in_build_graph():
         assert rec.vertices == want.number_of_nodes()
         assert rec.graph.number_of_edges() == want.number_of_edges()
     assert [r.vertices for r in records[:3]] == [0, 0, 0]
+
+
+def test_outputs_never_replace_an_input_map_or_its_yaml_image(tmp_path, capsys):
+    from topojax.cli import main
+
+    src = tmp_path / "m"
+    src.mkdir()
+    png = PAPER_MAPS[2].read_bytes()
+    (src / "m_graph.png").write_bytes(png)  # a YAML whose image has a picture's name
+    (src / "m.yaml").write_text("image: m_graph.png\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError, match="would overwrite an input map"):
+        build_graphs([src / "m.yaml"], out_dir=src, plot=True, workers=0, progress=False)
+    # topojax graph with -o the map's own folder: --plot would write <stem>.png
+    (src / "a.png").write_bytes(png)
+    (src / "b.yaml").write_text("image: b.png\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    (src / "b.png").write_bytes(png)
+    for name in ("a.png", "b.yaml"):
+        assert main(["graph", str(src / name), "-o", str(src), "--plot"]) == 2
+        assert "--out: writing" in capsys.readouterr().err
+    assert all((src / f).read_bytes() == png for f in ("m_graph.png", "a.png", "b.png"))
+    assert main(["graph", str(src / "a.png"), "-o", str(src)]) == 0  # no picture: fine
+    # a route written over its own graph file
+    capsys.readouterr()
+    graph = src / "a.json"
+    argv = ["route", str(graph), "--start", "5", "5", "--goal", "20", "20", "-o", str(graph)]
+    assert main(argv) == 2
+    assert "would overwrite the graph file" in capsys.readouterr().err
+
+
+def test_batch_argument_checks_for_flags_formats_and_folders(tmp_path):
+    occ = load_map(PAPER_MAPS[0])
+    with pytest.raises(TypeError, match="keep_graphs: expected a bool"):
+        build_graphs([occ], keep_graphs="no", workers=0, progress=False)
+    for formats in ("", [], ","):
+        with pytest.raises(ValueError, match="formats: expected at least one"):
+            build_graphs([occ], out_dir=tmp_path, formats=formats, workers=0, progress=False)
+    rec = build_graphs([tmp_path], workers=0, progress=False)[0]
+    assert rec.status == "error" and "is a folder" in rec.message
+    assert "expand_map_inputs" in rec.message

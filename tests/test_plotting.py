@@ -43,6 +43,20 @@ def test_edge_segments_follow_pixel_paths(result):
     plt.close(ax.figure)
 
 
+def test_graph_without_map_size_is_drawn_in_image_order(result):
+    g = result.graph.copy()
+    del g.graph["shape"]
+    ax = plot_graph(g)
+    bottom, top = ax.get_ylim()
+    assert bottom > top  # row 0 at the top, as with the map's size
+    rows = [d["pixel"][0] for _, d in g.nodes(data=True)]
+    assert top <= min(rows) and max(rows) <= bottom
+    plt.close(ax.figure)
+    fig = tj.plot_stages(result)  # also at the top level
+    assert len(fig.axes) >= 6
+    plt.close(fig)
+
+
 def test_stage_figure_and_saving(result, tmp_path):
     fig = plot_stages(result)
     assert len(fig.axes) >= 6

@@ -338,6 +338,32 @@ def test_waypoints_keep_the_route_within_the_tolerance():
             route.waypoints(bad)
 
 
+def test_reweighted_edges_charge_partial_traversals_in_proportion():
+    """A user may re-weight an edge's length_m (a slow or preferred corridor): partial
+    traversals then cost their share of it, never a negative or unchanged amount."""
+    g = tj.build_graph(tj.sample_map("intel")).graph
+    u, v, k, d = max(
+        ((a, b, c, e) for a, b, c, e in g.edges(keys=True, data=True) if a != b),
+        key=lambda e: e[3]["length_m"],
+    )
+    w = np.asarray(d["world"])
+    start, goal = w[len(w) // 2], w[-1]
+    before = plan_route(g, start, goal)
+    for factor in (0.5, 3.0):
+        h = g.copy()
+        h.edges[u, v, k]["length_m"] = d["length_m"] * factor
+        after = plan_route(h, start, goal)
+        assert after.length_m >= 0
+        if after.edges == before.edges:  # the same way, along the re-weighted edge
+            assert after.length_m == pytest.approx(before.length_m * factor)
+    ring = next((a, b, c) for a, b, c in g.edges(keys=True) if a == b)
+    h = g.copy()
+    h.edges[ring]["length_m"] *= 0.1
+    rw = np.asarray(h.edges[ring]["world"])
+    r = plan_route(h, rw[len(rw) // 3], rw[2 * len(rw) // 3])
+    assert 0 <= r.length_m <= h.edges[ring]["length_m"]
+
+
 def test_route_of_one_pixel_is_valid_geojson():
     g = tj.build_graph(tj.sample_map("intel")).graph
     p = next(iter(g.nodes(data=True)))[1]["world"]

@@ -109,6 +109,7 @@ __all__ = [
     "load_map",
     "plan_route",
     "plot",
+    "plot_stages",
     "prune_graph",
     "read_bag",
     "read_carmen",
@@ -131,3 +132,11 @@ def plot(result, **kwargs):
     from .plotting import plot as _plot
 
     return _plot(result, **kwargs)
+
+
+def plot_stages(result, **kwargs):
+    """Every stage of a :class:`TopologyResult` side by side; see
+    :func:`topojax.plotting.plot_stages`."""
+    from .plotting import plot_stages as _plot_stages
+
+    return _plot_stages(result, **kwargs)

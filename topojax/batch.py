@@ -385,6 +385,16 @@ def _walk_maps(folder: Path) -> list[Path]:
     return found
 
 
+def _input_files(path: Path) -> list[Path]:
+    """A map's files: the file itself and, for a YAML, the image it refers to."""
+    files = [Path(path)]
+    if Path(path).suffix.lower() in YAML_SUFFIXES:
+        img = _yaml_image(Path(path))
+        if img is not None:
+            files.append(img)
+    return files
+
+
 def _yaml_image(path: Path) -> Path | None:
     """The image a map_server YAML refers to (as :func:`load_map` resolves it), or None."""
     try:
@@ -1323,6 +1333,8 @@ def _check_formats(formats: Any) -> tuple[str, ...]:
     bad = [f for f in items if f not in allowed]
     if bad:
         raise ValueError(f"formats: expected names from {allowed}, got {bad!r}")
+    if not items:
+        raise ValueError(f"formats: expected at least one of {allowed}, got none")
     return tuple(dict.fromkeys(items))
 
 
@@ -1404,7 +1416,9 @@ def build_graphs(
         a group of its own).  Default ``16 * tiles_per_call``.
     keep_graphs : bool, optional
         Return each ``networkx.MultiGraph`` in ``MapRecord.graph``.  Default: True
-        without ``out_dir``, False with it (graphs are then on disk).
+        without ``out_dir``, False with it (graphs are then on disk).  Maps skipped by
+        ``resume`` are not rebuilt, so their records hold no graph (read it from their
+        files with :func:`topojax.load_graph`).
     map_mode : {"trinary", "scale", "raw", "ipa"}, optional
         Pixel convention for every map file, as ``mode`` of :func:`topojax.load_map`
         (e.g. ``"ipa"`` for the IPA benchmark maps, where every pixel below 250 is
@@ -1458,7 +1472,10 @@ def build_graphs(
     fmts = _check_formats(formats)
     if map_mode is not None and map_mode not in MODES:
         raise ValueError(f"map_mode: expected one of {MODES} or None, received {map_mode!r}")
-    for name, flag in (("plot", plot), ("resume", resume), ("progress", progress)):
+    flags = [("plot", plot), ("resume", resume), ("progress", progress)]
+    if keep_graphs is not None:
+        flags.append(("keep_graphs", keep_graphs))
+    for name, flag in flags:
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name}: expected a bool, got {flag!r}")
     if sigma_m is not None:
@@ -1538,8 +1555,12 @@ def build_graphs(
 def _check_no_overwrite(
     items: list[_Item], out: Path, formats: tuple[str, ...], plot: bool
 ) -> None:
-    """Refuse output names that would replace one of the input files."""
-    inputs = {os.path.realpath(it.path) for it in items if it.path is not None}
+    """Refuse output names that would replace one of the input files (a map file, or the
+    image a YAML refers to)."""
+    inputs = set()
+    for it in items:
+        if it.path is not None:
+            inputs.update(os.path.realpath(f) for f in _input_files(it.path))
     suffixes = [_FORMAT_SUFFIX[f] for f in formats] + [_MANIFEST_SUFFIX]
     if plot:
         suffixes.append(_PICTURE_SUFFIX)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -209,12 +210,13 @@ def _cmd_graph(args) -> int:
         from .config import _positive_metres
 
         _positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)
+    stem = Path(args.map).stem
+    _check_outputs_spare_inputs(Path(args.map), Path(args.out), stem, args)
     occupancy = load_map(args.map, **kw)
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
     for line in _classes_hint(occupancy):
         print(line)
-    stem = Path(args.map).stem
     written = _write_outputs(result, Path(args.out), stem, plot=args.plot, stages=args.stages)
     notes = []
     if args.nav2:
@@ -235,6 +237,24 @@ def _cmd_graph(args) -> int:
         print(line)
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _check_outputs_spare_inputs(map_path: Path, out: Path, stem: str, args) -> None:
+    """Refuse, before any work, an output folder where a file written would replace the
+    input map or the image its YAML refers to (``-o`` being the map's own folder, with
+    ``--plot`` writing ``<stem>.png``)."""
+    from .batch import _input_files
+
+    inputs = {os.path.realpath(f) for f in _input_files(map_path)}
+    names = [f"{stem}{s}" for s in (".graphml", ".json", ".geojson")]
+    names += [f"{stem}.png"] * bool(args.plot) + [f"{stem}_stages.png"] * bool(args.stages)
+    names += [f"{stem}_nav2.geojson"] * bool(args.nav2)
+    for name in names:
+        if os.path.realpath(out / name) in inputs:
+            raise ValueError(
+                f"--out: writing {out / name} would overwrite the input map; choose another "
+                "output folder"
+            )
 
 
 def _cmd_demo(args) -> int:
@@ -284,6 +304,8 @@ def _cmd_route(args) -> int:
         from .config import _positive_metres
 
         _positive_metres("--simplify-m", args.simplify_m)
+    if args.out and os.path.realpath(args.out) == os.path.realpath(args.graph):
+        raise ValueError(f"-o: writing the route to {args.out} would overwrite the graph file")
     graph = load_graph(args.graph)
     frame = "pixel" if args.pixel else "world"
     try:

@@ -142,6 +142,10 @@ def plot_graph(
     if shape is not None:
         ax.set_xlim(-0.5, shape[1] - 0.5)
         ax.set_ylim(shape[0] - 0.5, -0.5)
+    else:  # no map size: fit the data, still with row 0 at the top (image order)
+        ax.autoscale_view()
+        if not ax.yaxis_inverted():
+            ax.invert_yaxis()
     ax.set_aspect("equal")
     ax.set_axis_off()
     if title:

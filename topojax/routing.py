@@ -308,7 +308,15 @@ class RoutePlanner:
         sizes, starts = self._sizes, self._starts
         pixels = np.concatenate(self._path)
         cum = _cumulative_length_m(pixels, starts, sizes, self._pixel_size_m())
-        cum[starts + sizes - 1] = self._len
+        # Along each edge, its pixel steps in proportion to its length_m: the same numbers
+        # for a graph as built (length_m is the step sum), and for an edge whose length_m
+        # a user re-weighted, partial traversals cost their share of it (never less than
+        # zero, and the whole edge exactly length_m).
+        ends = starts + sizes - 1
+        steps = cum[ends]
+        scale = np.divide(self._len, steps, out=np.ones_like(steps), where=steps > 0)
+        cum *= np.repeat(scale, sizes)
+        cum[ends] = self._len
         return np.split(cum, starts[1:])
 
     def _pixel_size_m(self) -> float:
