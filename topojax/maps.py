@@ -930,9 +930,9 @@ def load_map(
     p = Path(path)
     suffix = p.suffix.lower()
     if p.is_dir():
-        raise IsADirectoryError(
-            f"map file {p} is a folder; give a map file (topojax batch, and "
-            "topojax.batch.expand_map_inputs, search folders for maps)"
+        raise ValueError(
+            f"map path is not a file: {p} is a folder; give a map file (topojax batch, "
+            "and topojax.batch.expand_map_inputs, search folders for maps)"
         )
     if suffix not in YAML_SUFFIXES + IMAGE_SUFFIXES:
         if not p.exists():
