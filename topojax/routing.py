@@ -235,7 +235,7 @@ class RoutePlanner:
         for name, snap in (("start", s), ("goal", g)):
             if max_snap_m is not None and snap.distance_m > max_snap_m:
                 raise ValueError(
-                    f"{name}: the nearest point of the graph is {snap.distance_m:.3f} m away, "
+                    f"{name}: the nearest point of the graph is {snap.distance_m:.6g} m away, "
                     f"more than max_snap_m={max_snap_m}"
                 )
         return self._route(s, g)
@@ -284,8 +284,9 @@ class RoutePlanner:
         if self._holds(b, first) and self._holds(a, last):
             return b, a
         raise ValueError(
-            f"graph: the path of edge ({a!r}, {b!r}, {key!r}) runs from {tuple(first)} to "
-            f"{tuple(last)}, which are not the pixels of its vertices"
+            f"graph: the path of edge ({a!r}, {b!r}, {key!r}) runs from "
+            f"{tuple(first.tolist())} to {tuple(last.tolist())}, which are not the pixels of "
+            "its vertices"
         )
 
     def _holds(self, node, pixel) -> bool:
