@@ -192,6 +192,15 @@ def test_tile_manager_allocates_in_every_direction_and_round_trips():
     )
     tm2.load_state(state)
     assert tm2.tile_bbox == tm.tile_bbox
+    # a state of another layer or loop set is refused, naming the entry
+    for layers, loops, word in (
+        ({"a": (np.int32, -1)}, ("x",), "extra entry 'layer/s'"),
+        ({"a": (np.int32, -1), "s": (np.uint8, 0, (2, 3)), "t": (bool, 0)}, ("x",), "'layer/t'"),
+        ({"a": (np.int32, -1), "s": (np.uint8, 0, (2, 3))}, ("x", "y"), "lacks 'dirty/y'"),
+    ):
+        other = TileManager(tile_px=8, layers=layers, loops=loops)
+        with pytest.raises(ValueError, match=word):
+            other.load_state(state)
     np.testing.assert_array_equal(tm2.read("a", -30, -60, 90, 90), tm.read("a", -30, -60, 90, 90))
     nb = tm.neighbour_slots()
     assert nb.shape == (3, 9) and (nb[:, 4] == np.arange(3)).all()

@@ -329,8 +329,13 @@ def test_load_foreign_node_link_without_schema(tmp_path: Path):
 def test_unknown_suffix_lists_supported(tmp_path: Path):
     with pytest.raises(ValueError, match=r"\.geojson.*\.graphml.*\.json"):
         save_graph(make_graph(), tmp_path / "g.csv")
+    (tmp_path / "g.xml").write_text("<graph/>")
     with pytest.raises(ValueError, match=r"\.xml"):
         load_graph(tmp_path / "g.xml")
+    with pytest.raises(FileNotFoundError, match="h.xml"):  # missing, whatever the suffix
+        load_graph(tmp_path / "h.xml")
+    with pytest.raises(ValueError, match="not a file"):
+        load_graph(tmp_path)
 
 
 def test_load_errors(tmp_path: Path):

@@ -536,6 +536,9 @@ def test_from_array_errors():
         OccupancyMap.from_array(np.array([[-2, 0], [0, 0]], dtype=np.int8))
     with pytest.raises(TypeError, match="complex"):
         OccupancyMap.from_array(np.zeros((3, 3), dtype=np.complex128))
+    for not_an_array in ("abc", None):
+        with pytest.raises(TypeError, match="array must have dtype bool"):
+            OccupancyMap.from_array(not_an_array)
     with pytest.raises(TypeError, match="object"):
         OccupancyMap.from_array(np.array([[None, None], [None, None]], dtype=object))
     with pytest.raises(ValueError, match="shape"):

@@ -1388,8 +1388,8 @@ def build_graphs(
         files are then read in the calling process.
     workers : int, optional
         Worker processes of the default executor; default ``os.cpu_count()``.  ``0`` runs
-        the CPU stage in the calling thread (:class:`InlineExecutor`).  Ignored when
-        ``executor`` is given.
+        the CPU stage in the calling thread (:class:`InlineExecutor`).  Not used when
+        ``executor`` is given (but still checked).
     config : PipelineConfig, optional
         Stage settings, as for :func:`topojax.build_graph`.
     out_dir : str or path, optional

@@ -866,9 +866,10 @@ def prune_graph(
         If ``graph`` is not an undirected networkx MultiGraph, or a threshold is not a
         number.
     ValueError
-        If a threshold is negative or not finite, edges are to be removed from a graph
-        with merged junction clusters, or a vertex lacks ``pixel`` / an edge lacks
-        ``path`` or ``length_m``.
+        If a threshold is negative or not finite, ``min_spur_m`` or ``min_clearance_m``
+        is above 0 for a graph with merged junction clusters (whether or not an edge
+        would go), or a vertex lacks ``pixel`` / an edge lacks ``path`` or
+        ``length_m``.
     """
     if not isinstance(graph, nx.MultiGraph) or graph.is_directed():
         raise TypeError(

@@ -2180,11 +2180,13 @@ class IncrementalMapper:
     resolution_m : float
         Pixel size in metres (default 0.05, the paper's).
     skeleton_every : int or None
-        Run the skeleton loop after every this many scans (default 20); 0 or None: only
-        when :meth:`update_skeleton` (or :meth:`update_graph`) is called.
+        Run the skeleton loop once this many scans have come since the last skeleton
+        update (default 20); the graph loop and explicit calls update the skeleton too
+        and restart the count.  0 or None: only when :meth:`update_skeleton` (or
+        :meth:`update_graph`) is called.
     graph_every : int or None
-        Run the graph loop after every this many scans (default 80); 0 or None: only when
-        :meth:`update_graph` is called.
+        Run the graph loop once this many scans have come since the last graph update
+        (default 80); 0 or None: only when :meth:`update_graph` is called.
     strategy : {"exact", "paper"}
         Skeleton update: ``"exact"`` re-thins the changed ridge components and equals the
         full-map pipeline; ``"paper"`` thins the new ridges inside the changed blocks plus a

@@ -735,12 +735,15 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        If the file cannot be parsed as the expected format.
+        If it is not a file, its format cannot be told from the suffix, or it cannot be
+        parsed as that format.
     """
     p = Path(path)
-    fmt = _format_for(p, format)
-    if not p.is_file():
+    if not p.exists():
         raise FileNotFoundError(f"graph file not found: {p}")
+    if not p.is_file():
+        raise ValueError(f"graph file {p} is not a file (a folder?)")
+    fmt = _format_for(p, format)
     if fmt == "graphml":
         return _structure_checked(_read_graphml, p, fmt)
     try:
@@ -808,6 +811,8 @@ def save_nav2_graph(
 
     Raises
     ------
+    TypeError
+        A ``tolerance_m`` that is not a number.
     ValueError
         A bad ``tolerance_m`` or ``frame``, a node or edge without ``world``, or a graph
         without edges (nav2_route refuses to load one).

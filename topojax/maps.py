@@ -384,6 +384,13 @@ class OccupancyMap:
                 unknown_values=unknown_values,
             )
         else:
+            numeric = np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
+            if arr.dtype != np.bool_ and not numeric:  # None, a string, complex numbers...
+                raise TypeError(
+                    "array must have dtype bool, uint8 (image), another integer type "
+                    f"(OccupancyGrid -1..100) or float (probability 0..1), got {arr.dtype} "
+                    f"(from {type(array).__name__})"
+                )
             if arr.ndim != 2:
                 raise ValueError(
                     f"array must be 2-D (H, W) for dtype {arr.dtype} (only uint8 images may "

@@ -523,8 +523,21 @@ def ridge_map(
     ridge: RidgeConfig | None = None,
     tile_px: int = 256,
 ) -> np.ndarray:
-    """Binary ridge map (paper Fig. 1d) of an obstacle mask, an
-    :class:`~topojax.maps.OccupancyMap` or a map file; bool (H, W)."""
+    """Binary ridge map (paper Fig. 1d): ``round(|Laplacian(scale * H)|) > threshold``.
+
+    Parameters
+    ----------
+    obstacles : bool array (H, W), OccupancyMap or map file
+        As for :func:`distance_map`.
+    distance : DistanceConfig, optional
+    ridge : RidgeConfig, optional
+    tile_px : int
+        Tile side of the kernels (shape-setting).
+
+    Returns
+    -------
+    bool array, shape (H, W)
+    """
     obstacles = _obstacles_of(obstacles)
     return dense_fields(obstacles, distance=distance, ridge=ridge, tile_px=tile_px).ridges
 

@@ -1,7 +1,11 @@
 """Matplotlib helpers: the map, distance map, ridges, skeleton, graph and route overlays.
 
 All images are drawn in pixel coordinates (``imshow`` with row 0 at the top), so the
-graph's pixel paths overlay exactly; pass ``ax`` to draw into your own axes.
+graph's pixel paths overlay exactly.  Keyword arguments shared by the helpers: ``ax`` (a
+matplotlib Axes to draw into; default: a new figure), ``title`` (a string, or None for
+none / the helper's own), ``color`` / ``edge_color`` (any matplotlib colour) and
+``linewidth`` (points).  Each returns the Axes it drew into (:func:`plot_stages`: the
+figure).
 """
 
 from __future__ import annotations
@@ -119,6 +123,15 @@ def plot_graph(
     ----------
     graph : networkx.MultiGraph
         As returned by :func:`topojax.build_graph` (edges need ``path``, vertices ``pixel``).
+    ax : matplotlib Axes, optional
+        Where to draw; default a new figure.
+    edge_color : matplotlib colour
+        Colour of the edges.
+    linewidth : float
+        Edge line width, points.
+    node_size : float
+        Vertex marker size, points^2 (junction red, end blue, ring purple, isolated grey).
+    title : str, optional
 
     Returns
     -------
@@ -185,7 +198,22 @@ def plot(
     :class:`~topojax.IncrementalMapper`'s current state), and a :class:`~topojax.Route` on
     top if given.
 
-    Returns the axes; ``ax.figure.savefig(path)`` writes a picture.
+    Parameters
+    ----------
+    result : TopologyResult or IncrementalMapper
+    ax : matplotlib Axes, optional
+        Where to draw; default a new 9 x 9 inch figure.
+    skeleton, graph : bool
+        Draw the skeleton pixels (green) and the graph (edges orange, vertices by kind).
+    route : Route, optional
+        Drawn on top (:func:`plot_route`).
+    title : str, optional
+        Default: the vertex and edge counts.
+
+    Returns
+    -------
+    matplotlib Axes
+        ``ax.figure.savefig(path)`` writes a picture.
     """
     result = _as_result(result, ("map", "skeleton", "graph"))
     ax = _axes(ax, figsize=(9, 9))
@@ -207,7 +235,15 @@ def plot_stages(result, *, figsize=(15, 9)):
     """The paper's Fig. 1: map, distance map, Laplacian, ridges, skeleton, graph, for a
     :class:`~topojax.TopologyResult` or an :class:`~topojax.IncrementalMapper`.
 
-    Returns the figure.
+    Parameters
+    ----------
+    result : TopologyResult or IncrementalMapper
+    figsize : (float, float)
+        Figure size in inches.
+
+    Returns
+    -------
+    matplotlib Figure
     """
     import matplotlib.pyplot as plt
 

@@ -97,6 +97,13 @@ class Route:
         -------
         float64 array, shape (m, 2)
             ``x, y`` in metres; the first and last are the route's ends.
+
+        Raises
+        ------
+        TypeError
+            If ``tolerance_m`` is not a number.
+        ValueError
+            If it is not finite and > 0.
         """
         tol = _positive_metres("tolerance_m", tolerance_m)
         return self.world[_polyline_keep(self.world, tol)]

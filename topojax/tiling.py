@@ -743,7 +743,19 @@ class TileManager:
 
     def load_state(self, state: dict[str, np.ndarray]) -> None:
         """Replace the tiles by a :meth:`state` of a manager with the same tile size,
-        layers and loops.  Raises ValueError naming the first inconsistent entry."""
+        layers and loops.  Raises ValueError naming the first inconsistent entry (a
+        missing, extra or mis-shaped one)."""
+        want = {f"layer/{name}" for name in self._specs} | {f"dirty/{loop}" for loop in self._loops}
+        got = {k for k in state if k.startswith(("layer/", "dirty/"))}
+        for key in sorted(want ^ got):
+            which = "lacks" if key in want else "has the extra entry"
+            raise ValueError(
+                f"tile state {which} {key!r} (expected the layers {sorted(self._specs)} and "
+                f"the loops {sorted(self._loops)})"
+            )
+        for key in ("tile_px", "keys", "grid", "grid_origin"):
+            if key not in state:
+                raise ValueError(f"tile state lacks {key!r}")
         if int(state["tile_px"]) != self.tile_px:
             raise ValueError(
                 f"tile state: expected tile_px {self.tile_px}, got {int(state['tile_px'])}"
