@@ -58,6 +58,7 @@ from common import (  # noqa: E402
     run_cold_worker,
     use_checkout,
     write_json,
+    write_text,
 )
 
 use_checkout()
@@ -620,7 +621,7 @@ def main(argv=None) -> int:
         return 0
     if args.render:
         text = markdown(json.loads(args.render.read_text()))
-        args.markdown.write_text(text)
+        write_text(args.markdown, text)
         print(text)
         return 0
     args.paper_logs = {s for s in args.paper_logs.split(",") if s}
@@ -654,7 +655,7 @@ def main(argv=None) -> int:
     out = args.out or RESULTS_DIR / f"incremental_{machine_slug(info)}.json"
     write_json(out, results)
     text = markdown(results)
-    args.markdown.write_text(text)
+    write_text(args.markdown, text)
     print(text)
     print(f"wrote {out} and {args.markdown}")
     return 0

@@ -1,4 +1,5 @@
-"""Benchmark: route queries on topology graphs (``tj.RoutePlanner``, ``tj.plan_route``).
+"""Benchmark: route queries on topology graphs (``tj.RoutePlanner`` and its ``route``, which
+``tj.plan_route`` wraps).
 
 For each map, on its full graph (the paper's) and on a route graph pruned of spurs under
 0.5 m and pieces under 2 m (``tj.prune_graph``):
@@ -44,6 +45,7 @@ from common import (  # noqa: E402
     run_cold_worker,
     use_checkout,
     write_json,
+    write_text,
 )
 
 #: The larger maps timed here (of the pipeline benchmark's): two large ROS maps, one
@@ -190,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
         },
     )
     if args.markdown:
-        Path(args.markdown).write_text(report + "\n")
+        write_text(args.markdown, report + "\n")
     print(f"wrote {out}")
     return 0
 

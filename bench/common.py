@@ -294,6 +294,14 @@ def _one_line(match: re.Match[str]) -> str:
     return re.sub(r"\s*\n\s*", " ", match.group(0))
 
 
+def write_text(path: str | Path, text: str) -> Path:
+    """Write a report (e.g. ``--markdown``), creating its folder."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
 def write_json(path: Path, data: Mapping[str, Any]) -> Path:
     """Write ``data`` as indented JSON; returns the path.
 

@@ -13,7 +13,7 @@ item 27).
 
 Run from the repository root::
 
-    python bench/probe_hugepages.py --repeats 8 --out bench/results/probe_hugepages_<machine>.json
+    python bench/probe_hugepages.py --repeats 10 --out bench/results/probe_hugepages_<machine>.json
 """
 
 from __future__ import annotations
@@ -74,7 +74,9 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--maps", default="office,office_g,pal_office_7th_floor")
     p.add_argument("--synthetic", default="20", help="comma-separated megapixels ('' for none)")
-    p.add_argument("--repeats", type=int, default=8, help="alternations (calls per setting)")
+    p.add_argument(
+        "--repeats", type=int, default=10, help="alternations (calls per setting; default 10)"
+    )
     p.add_argument("--data", type=Path, default=DEFAULT_DATA)
     p.add_argument("--out", type=Path, default=None)
     args = p.parse_args(argv)
