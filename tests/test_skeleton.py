@@ -471,3 +471,81 @@ def test_remove_t_on_thinned_images(shape, density, seed, method) -> None:
     skel = SKIMAGE[method](img)
     _assert_same(remove_t_centres(skel), _remove_t_reference(skel))
     _assert_same(skeletonize_ridges(img, method=method), _remove_t_reference(skel))
+
+
+def test_same_results_with_numba_switched_off(tmp_path) -> None:
+    """With ``NUMBA_DISABLE_JIT=1`` the kernels run as plain Python on NumPy scalars:
+    counts summed from uint8 pixels must not wrap at 256 (they did: wrong skeletons)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    script = """
+import json, sys
+import numpy as np
+from skimage.morphology import skeletonize, thin as sk_thin
+from topojax.skeleton import thin, remove_t_centres
+from topojax.graph import skeleton_to_graph
+rng = np.random.default_rng(4)
+img = rng.random((60, 70)) < 0.6
+img[5:50, 5:65] |= True
+out = {}
+for method, ref in (("zhang", skeletonize), ("guo_hall", sk_thin)):
+    sk = thin(img, method=method)
+    out[method] = bool((sk == ref(img)).all()) and int(sk.sum()) > 256
+    g = skeleton_to_graph(remove_t_centres(sk))
+    out[method + "_graph"] = [g.number_of_nodes(), g.number_of_edges()]
+json.dump(out, sys.stdout)
+"""
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    run = subprocess.run(
+        [sys.executable, "-W", "error::RuntimeWarning", "-c", script],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tmp_path,
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    got = json.loads(run.stdout)
+    assert got["zhang"] and got["guo_hall"]
+    # the graphs equal the compiled kernels' graphs
+    from topojax.graph import skeleton_to_graph
+    from topojax.skeleton import remove_t_centres, thin
+
+    rng = np.random.default_rng(4)
+    img = rng.random((60, 70)) < 0.6
+    img[5:50, 5:65] |= True
+    for method in ("zhang", "guo_hall"):
+        g = skeleton_to_graph(remove_t_centres(thin(img, method=method)))
+        assert got[method + "_graph"] == [g.number_of_nodes(), g.number_of_edges()]
+
+
+def test_kernels_compile_without_numba_cache_where_none_can_be_written(monkeypatch) -> None:
+    """In a read-only install with no writable cache folder numba's ``cache=True`` raises
+    at decoration (import) time; the kernels must then compile uncached, with a warning."""
+    import numba
+
+    from topojax import _jit
+
+    real = numba.njit
+
+    def njit(*args, cache=False, **kwargs):
+        if cache:
+            raise RuntimeError("cannot cache function 'f': no locator available for file 'x'")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(_jit.numba, "njit", njit)
+    monkeypatch.setattr(_jit, "_warned", False)
+
+    def add(a, b):
+        return a + b
+
+    with pytest.warns(RuntimeWarning, match="NUMBA_CACHE_DIR"):
+        fast = _jit.cached_njit(nogil=True)(add)
+    assert fast(2, 3) == 5
+    # other errors are not swallowed
+    monkeypatch.setattr(_jit.numba, "njit", lambda **kw: (_ for _ in ()).throw(RuntimeError("x")))
+    with pytest.raises(RuntimeError, match="x"):
+        _jit.cached_njit()(add)

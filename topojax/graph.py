@@ -69,9 +69,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import networkx as nx
-import numba
 import numpy as np
 
+from ._jit import cached_njit
 from .config import _nonnegative_metres
 
 __all__ = ["graph_summary", "pixel_graph_degree", "prune_graph", "skeleton_to_graph"]
@@ -100,7 +100,7 @@ _KIND_NAMES = {
 # --------------------------------------------------------------------------------------
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _link_table(keys: np.ndarray, offsets8: np.ndarray):
     """Neighbour table and link masks of a set of pixels given by their keys.
 
@@ -166,7 +166,7 @@ def _link_table(keys: np.ndarray, offsets8: np.ndarray):
     return nbr, masks
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _trace(
     links: np.ndarray,
     is_vertex: np.ndarray,

@@ -138,6 +138,7 @@ import networkx as nx
 import numba
 import numpy as np
 
+from ._jit import cached_njit
 from .config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from .distance import FAR_SQ, gaussian_from_sq_distance
 from .filters import HALO_PX, laplacian_valid, ridge_from_laplacian
@@ -377,7 +378,7 @@ def _gaussian(d2, sigma_px):
 # ======================================================================================
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _log2(n):
     """``log2(n)`` of a power of two: tile and block coordinates are then shifts and masks
     (an integer division costs 20-40 cycles, and the per-pixel loops do several)."""
@@ -387,7 +388,7 @@ def _log2(n):
     return s
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _slot(grid, g0r, g0c, sh, r, c):
     """Storage slot of the tile of pixel ``(r, c)`` (tiles of side ``2**sh``), or -1."""
     tr = r >> sh
@@ -399,14 +400,14 @@ def _slot(grid, g0r, g0c, sh, r, c):
     return grid[gi, gj]
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _flat(a):
     """1-D view of a C-contiguous array (numba refuses ``reshape`` of any other layout at
     compile time, where ``ravel`` would silently return a copy and lose writes)."""
     return a.reshape(a.size)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _unflat(f, sh):
     """Flat index ``slot * t^2 + row * t + col`` (``t = 2**sh``) -> ``(slot, row, col)``;
     also a flat block id, with ``t`` blocks per tile side."""
@@ -414,7 +415,7 @@ def _unflat(f, sh):
     return f >> (2 * sh), (f >> sh) & m, f & m
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _locate(grid, g0r, g0c, sh, r, c):
     """Pixel ``(r, c)`` in tile storage (tiles of side ``2**sh``): ``(slot, local row,
     local col)``, slot -1 if its tile is not allocated."""
@@ -422,7 +423,7 @@ def _locate(grid, g0r, g0c, sh, r, c):
     return _slot(grid, g0r, g0c, sh, r, c), r & m, c & m
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, syaw, res):
     """End pixels of the valid beams (same arithmetic as :meth:`Scan.endpoints_world`).
 
@@ -456,7 +457,7 @@ def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, s
     return er[:m], ec[:m], ext
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _bresenham_start(r, c, r1, c1):
     """Bresenham's line walk from (r, c) to (r1, c1): (dr, dc, stp_r, stp_c, err)."""
     dr = abs(r1 - r)
@@ -464,7 +465,7 @@ def _bresenham_start(r, c, r1, c1):
     return dr, dc, (1 if r1 > r else -1), (1 if c1 > c else -1), dc - dr
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _bresenham_step(r, c, err, dr, dc, stp_r, stp_c):
     """One step of Bresenham's line walk; returns the next (row, col, error)."""
     e2 = 2 * err
@@ -477,7 +478,7 @@ def _bresenham_step(r, c, err, dr, dc, stp_r, stp_c):
     return r, c, err
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
     """Tiles touched by the beams (end cells; ray cells too if ``rays``) that are not
     allocated (with repeats).  Fast path: a ray whose tile rectangle is fully allocated
@@ -540,7 +541,7 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
     return out[:m]
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
     """Tiles intersecting the squares ``[p - w, p + w]^2`` that are not allocated."""
     tsh = _log2(t)
@@ -565,7 +566,7 @@ def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
     return out[:m]
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _integrate(er, ec, t, grid, g0r, g0c, hits, w):
     """Count hits (beam end cells); every end cell's tile must exist.
 
@@ -590,7 +591,7 @@ def _integrate(er, ec, t, grid, g0r, g0c, hits, w):
     return new, _missing_window_tiles(new[:, 0], new[:, 1], w, t, grid, g0r, g0c)
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _count_cells(rows, cols, t, grid, g0r, g0c, counts):
     """Add one to ``counts`` (saturating at 65535) at every pixel; its tile must exist."""
     tsh = _log2(t)
@@ -600,7 +601,7 @@ def _count_cells(rows, cols, t, grid, g0r, g0c, counts):
             counts[s, lr, lc] += 1
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
     """Count free cells (``misses``) along beams, end excluded (Bresenham): the beams of
     scan ``j`` run from ``(sr[j], sc[j])`` to ``(er[i], ec[i])`` for ``off[j] <= i <
@@ -631,7 +632,7 @@ def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
                     s, lr, lc = _locate(grid, g0r, g0c, tsh, r, c)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _isqrt(n):
     """Largest integer ``e`` with ``e * e <= n`` (``n >= 0``), exact for any int64."""
     e = int(math.sqrt(float(n)))
@@ -642,7 +643,7 @@ def _isqrt(n):
     return e
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, hits, rho):
     """The (block, point) pairs that can lower a block, for points ``first, first + step,
     ...`` (so that threads can share a batch).
@@ -824,7 +825,7 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
     return pair_k, pair_i, n_pairs
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _row_max(bm):
     """Maxima of ``bm`` (slot, block row, block col) along block rows: (slot, block row)."""
     out = np.empty(bm.shape[:2], bm.dtype)
@@ -834,7 +835,7 @@ def _row_max(bm):
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
     """Block maxima lowered by what the batch's own points guarantee.
 
@@ -931,7 +932,7 @@ def _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, n_tiles):
     return out, _row_max(out)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _block_origin(keys, k, t, b):
     """Global first pixel (row, col) of the block with flat id ``k``
     (``(slot * nb + block_row) * nb + block_col``, ``nb = t / b``)."""
@@ -939,7 +940,7 @@ def _block_origin(keys, k, t, b):
     return keys[s, 0] * t + lbr * b, keys[s, 1] * t + lbc * b
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row, slack):
     """Group the pairs of :func:`_splat_pairs` into kernel rows by block.
 
@@ -1012,7 +1013,7 @@ def _splat_group(pair_k, pair_i, pr, pc, keys, n_ids, t, b, half, n_points_row, 
     return row_block[:row], row_pts, row_bidx[:row], blocks
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, lo_c, hi_c):
     """``d2 = min(d2, rows)`` for kernel rows ``start .. start + n_rows`` (one batch, as
     the kernel returned it); widen each block's box of changed pixels (``lo_a`` .. ``hi_c``,
@@ -1052,7 +1053,7 @@ def _merge_rows(d2, row_block, row_bidx, rows, n_rows, start, t, b, lo_a, hi_a, 
                 hi_c[j] = max(hi_c[j], c)
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _finish_merge(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, dirty, tile_dirty):
     """After :func:`_merge_rows`: update the maxima of the changed blocks and mark
     ridge-dirty (``dirty[slot, block_row, block_col]``, and ``tile_dirty[slot]``) every
@@ -1091,7 +1092,7 @@ def _finish_merge(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, di
     return n_changed
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _reflect_into_tile(g, first, last, tile0, t):
     """Reflect global index ``g`` into ``[first, last]`` (BORDER_REFLECT_101), then
     express it relative to the tile starting at ``tile0``: (local index, neighbour 0/1/2
@@ -1103,7 +1104,7 @@ def _reflect_into_tile(g, first, last, tile0, t):
     return _wrap_into_tile(g - tile0, t)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _wrap_into_tile(local, t):
     """A tile-local index that may lie one tile before or after, as (index in that tile,
     neighbour 0/1/2 for the previous / same / next tile along this axis)."""
@@ -1114,7 +1115,7 @@ def _wrap_into_tile(local, t):
     return local, 1
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out):
     """Haloed squared-distance patches of blocks, reflected at the bounding box.
 
@@ -1211,14 +1212,14 @@ def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out
             o += _U64(size)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _ridge_at(rs, ls, i, cut):
     """Ridge value of element ``i`` of a kernel batch: read from the kernel's ridge output
     ``rs`` when ``cut < 0``, else ``lap_abs > cut``."""
     return rs[i] if cut < 0 else np.int64(ls[i]) > cut
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, lap_abs, ridge, cut):
     """Store recomputed blocks; return the global pixels that became ridge pixels and
     those that stopped being ones, (n, 2) int64 each.
@@ -1267,7 +1268,7 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, lap_abs, ridge, c
     return added[:na].copy(), removed[:nr].copy()
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _around(nbr9, s0, lr0, lc0, k, t):
     """Pixel ``k`` (0..8, row-major) of the 3 x 3 neighbourhood of the tile-local pixel
     ``(lr0, lc0)`` of slot ``s0``: ``(slot, local row, local col)``, slot -1 where that
@@ -1278,7 +1279,7 @@ def _around(nbr9, s0, lr0, lc0, k, t):
     return s, nr, nc
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _gather_px(layer, grid, g0r, g0c, t, rows, cols, fill, out):
     tsh = _log2(t)
     for i in range(rows.shape[0]):
@@ -1286,7 +1287,7 @@ def _gather_px(layer, grid, g0r, g0c, t, rows, cols, fill, out):
         out[i] = fill if s < 0 else layer[s, lr, lc]
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
     """Write ``values`` at global pixels; returns how many pixels lie in missing tiles."""
     tsh = _log2(t)
@@ -1300,7 +1301,7 @@ def _scatter_px(layer, grid, g0r, g0c, t, rows, cols, values):
     return missing
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _add_to_z(g, r, c, m, mk, gi, sk, zr, zc, gid, skz):
     """Append the pixel at flat storage offset ``g`` (global ``(r, c)``) to Z unless it is
     there already (``mk`` bit 4); returns the new length."""
@@ -1314,7 +1315,7 @@ def _add_to_z(g, r, c, m, mk, gi, sk, zr, zc, gid, skz):
     return m + 1
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     """The region Z: the *net* changed pixels dilated by one (3 x 3), without repeats,
     with the ``graph_id`` and ``skeleton`` values there.
@@ -1370,7 +1371,7 @@ def _region_z(sr, sc, grid, g0r, g0c, nbr9, t, mark, graph_id, skeleton):
     return zr[:m], zc[:m], gid[:m], skz[:m]
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _clear_region(zr, zc, grid, g0r, g0c, t, mark):
     """Zero ``mark`` at the pixels ``(zr, zc)``."""
     tsh = _log2(t)
@@ -1380,7 +1381,7 @@ def _clear_region(zr, zc, grid, g0r, g0c, t, mark):
             mark[s, lr, lc] = 0
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _clear_owned(layer, grid, g0r, g0c, t, rows, cols, owner):
     """Set ``layer`` to -1 at the pixels whose value equals ``owner[i]``."""
     tsh = _log2(t)
@@ -1399,7 +1400,7 @@ _T_DR5 = np.array([0, -1, 1, 0, 0], np.int64)
 _T_DC5 = np.array([0, 0, 0, -1, 1], np.int64)
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, bid, blk, margin):
     """List (``blk`` rows ``(slot, block_row, block_col)``) the allocated blocks containing
     the pixels, and the blocks next to them on the sides where a pixel lies within
@@ -1439,7 +1440,7 @@ def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, bid, blk, margin):
     return n
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
     """Exact local re-thinning around changed ridge pixels (see ``_skeleton_exact``).
 
@@ -1634,7 +1635,7 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
     return out[:m], rounds, n
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _t_order(rr, cc, h, w, sh):
     """Key of bbox pixel ``(rr, cc)`` in T-centre removal's examination order
     (:func:`topojax.skeleton.remove_t_centres`); -1 for the corners (never examined).
@@ -1650,7 +1651,7 @@ def _t_order(rr, cc, h, w, sh):
     return hw + 2 * w + rr if cc == 0 else hw + 2 * w + h + rr
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _heap_push(heap, n, key):
     """Push ``key`` on the binary min-heap ``heap[:n]`` (room for it is the caller's
     business); returns the new size."""
@@ -1665,7 +1666,7 @@ def _heap_push(heap, n, key):
     return n + 1
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _heap_pop(heap, n):
     """Pop the smallest key of the binary min-heap ``heap[:n]``; returns it and the new size."""
     top = heap[0]
@@ -1685,7 +1686,7 @@ def _heap_pop(heap, n):
     return top, n
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _t_decode(o, h, w, sh):
     """Inverse of :func:`_t_order` for ``o >= 0``: the bbox pixel ``(rr, cc)``."""
     hw = h << sh
@@ -1700,7 +1701,7 @@ def _t_decode(o, h, w, sh):
     return o - hw - 2 * w - h, w - 1
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _t_seeds(skel, tau, grid, g0r, g0c, t, bbox, seed_r, seed_c, n_rule, remove_t, ch_r, ch_c):
     """First step of :func:`_t_update`: the examination-order keys (:func:`_t_order`) of
     the pixels to re-examine, unsorted, with repeats.
@@ -1792,7 +1793,7 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch, 
     return out_r, out_c, int(state[3])
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _t_run(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, heap, out_r, out_c, state):
     """The loop of :func:`_t_update`, resumable: ``state`` = (next todo entry, heap size,
     last key examined, number of changes), updated in place.  Returns True when it
@@ -1892,7 +1893,7 @@ def _signatures(paths: np.ndarray, off: np.ndarray) -> list[tuple[int, int, int,
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skeleton):
     """The skeleton pixels within one pixel (3 x 3) of the pixels A = ``(ar, ac)``.
 

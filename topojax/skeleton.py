@@ -25,8 +25,9 @@ import threading
 from types import SimpleNamespace
 from typing import Any
 
-import numba
 import numpy as np
+
+from ._jit import cached_njit
 
 __all__ = [
     "THIN_METHODS",
@@ -224,7 +225,7 @@ def _as_binary_image(image: Any, name: str) -> np.ndarray:
     return np.ascontiguousarray(arr != 0)
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def _compact(idx, n, keep):
     """Keep, in order and in place, the entries ``i`` of ``idx[:n]`` with ``keep[i]``
     non-zero; return how many there are."""
@@ -232,11 +233,11 @@ def _compact(idx, n, keep):
     for ii in range(n):
         i = idx[ii]
         idx[m] = i
-        m += keep[i]
+        m += int(keep[i])  # int: a uint8 sum would wrap when numba is off
     return m
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _thin_flat(
     flat: np.ndarray,
     n_cols: int,
@@ -293,7 +294,7 @@ def _thin_flat(
             base = w * 8
             for j in range(8):
                 alive[n_alive] = base + j
-                n_alive += flat[base + j]
+                n_alive += int(flat[base + j])
 
     n_prev = 0
     deleted = 0
@@ -318,7 +319,7 @@ def _thin_flat(
                 | (flat[p + o7] << 7)
             )
             dels[n_del] = p
-            n_del += lut[code]
+            n_del += int(lut[code])
         for i in range(n_del):
             flat[dels[i]] = 0
         deleted += n_del
@@ -337,7 +338,7 @@ def _thin_flat(
                 p = dels[i] if i < n_del else prev[i - n_del]
                 for q in (p + o0, p + o1, p + o2, p + o3, p + o4, p + o5, p + o6, p + o7):
                     cand[m] = q
-                    m += flat[q] & (stamp[q] != mark)
+                    m += int(flat[q] & (stamp[q] != mark))
                     stamp[q] = mark
             n_cand = m
         tmp = prev
@@ -464,7 +465,7 @@ def _new_thin_scratch(size: int, n_list: int) -> SimpleNamespace:
 _INT32_MAX = int(np.iinfo(np.int32).max)
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _n4_set(img: np.ndarray, r: int, c: int) -> int:
     """Number of set 4-neighbours of (r, c); pixels outside the image count as unset."""
     n_rows, n_cols = img.shape
@@ -480,7 +481,7 @@ def _n4_set(img: np.ndarray, r: int, c: int) -> int:
     return count
 
 
-@numba.njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _remove_t_centres_inplace(img: np.ndarray) -> int:
     """In-place T-centre removal on a uint8 (0/1) image; return the number of cleared pixels."""
     n_rows, n_cols = img.shape
