@@ -661,6 +661,30 @@ def test_points_with_their_origin_are_the_scan_they_came_from(max_range_m):
     assert_matches_full_map(b)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_points_at_exactly_max_range_are_dropped_as_the_scan_drops_them(seed):
+    """No-return readings sit exactly at the range limit; their end points, made from the
+    range, come back a rounding step either side of it, and must be dropped as well."""
+    rng = np.random.default_rng(seed)
+    n = 360
+    ranges = np.full(n, 3.0)
+    ranges[rng.random(n) < 0.3] = rng.uniform(0.5, 2.9, size=1)[0]  # some real hits
+    pose = (float(rng.uniform(-50, 50)), float(rng.uniform(-50, 50)), float(rng.uniform(-3, 3)))
+    scan = Scan.from_arrays(
+        ranges, pose, angle_min=-math.pi, angle_increment=2 * math.pi / n, range_max=30.0
+    )
+    kw = dict(resolution_m=0.05, max_range_m=3.0, skeleton_every=0, graph_every=0)
+    a, b = IncrementalMapper(**kw), IncrementalMapper(**kw)
+    ra = a.add_scan(scan)
+    sx, sy, syaw = scan.sensor_pose_world()
+    ang = scan.angles() + syaw
+    points = np.stack([sx + ranges * np.cos(ang), sy + ranges * np.sin(ang)], axis=1)
+    rb = b.add_points(points, origin_xy=(sx, sy))
+    assert (rb.n_valid, rb.n_new_obstacles) == (ra.n_valid, ra.n_new_obstacles)
+    np.testing.assert_array_equal(a.occupancy.occupied, b.occupancy.occupied)
+    np.testing.assert_array_equal(a.occupancy.free, b.occupancy.free)
+
+
 def test_points_without_origin_mark_obstacles_only():
     mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
     # two walls of a corridor, sampled every 5 cm, plus points that are not finite

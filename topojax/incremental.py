@@ -2518,7 +2518,9 @@ class IncrementalMapper:
             Position of the sensor in the map frame, metres.  With it, the ray from the
             origin to each point is free space for the exported occupancy map (as a scan's
             beams are, when ``free_space``), and points at ``max_range_m`` or farther from
-            it are dropped.  Without it the points mark obstacles only.
+            it are dropped (within a few rounding steps of it counts as at it: a scan's
+            end points at its no-return range are dropped as the scan drops them).
+            Without it the points mark obstacles only.
 
         Returns
         -------
@@ -2563,8 +2565,14 @@ class IncrementalMapper:
                     f"{origin_xy!r}"
                 )
             if self.max_range_m is not None:
+                # A scan's reading at exactly max_range_m is dropped; its end point, made
+                # from the range and rounded, lies a rounding step either side of it.
+                # Within a few steps (relative to the coordinates' size) a point counts
+                # as at the limit, so a scan's end points are dropped as the scan is.
+                slack = 16 * np.finfo(np.float64).eps
+                scale = np.abs(pts).sum(axis=1) + np.abs(origin).sum() + self.max_range_m
                 with np.errstate(invalid="ignore"):
-                    keep &= np.hypot(*(pts - origin).T) < self.max_range_m
+                    keep &= np.hypot(*(pts - origin).T) < self.max_range_m - slack * scale
             res = self.resolution_m
             sensor = (math.floor(-origin[1] / res), math.floor(origin[0] / res))
         used = pts[keep]
