@@ -479,9 +479,16 @@ def test_expand_map_inputs_skips_the_excluded_folder(tmp_path):
     assert expand_map_inputs([root]) == [root / "a.png", root / "out" / "a_graph.png"]
     assert expand_map_inputs([root], exclude=root / "out") == [root / "a.png"]
     assert expand_map_inputs([f"{root}/**/*.png"], exclude=root / "out") == [root / "a.png"]
-    # a file named explicitly is kept
+    # a file named explicitly is kept, and so is a search of the excluded folder itself
     named = root / "out" / "a_graph.png"
     assert expand_map_inputs([named], exclude=root / "out") == [named]
+    assert expand_map_inputs([root / "out"], exclude=root / "out") == [named]
+    # an output folder that is the input folder or above it hides nothing (every map of
+    # `topojax batch maps -o .` was lost)
+    both = [root / "a.png", named]
+    for out in (root, tmp_path, tmp_path.parent):
+        assert expand_map_inputs([root], exclude=out) == both
+        assert expand_map_inputs([f"{root}/**/*.png"], exclude=out) == both
 
 
 def test_output_names_never_share_a_file(tmp_path, capsys):

@@ -385,6 +385,16 @@ def _walk_maps(folder: Path) -> list[Path]:
     return found
 
 
+def _static_prefix(pattern: str) -> str:
+    """The folder of a glob pattern before its first wildcard ("." if none)."""
+    fixed = []
+    for part in Path(pattern).parts:
+        if _glob.has_magic(part):
+            break
+        fixed.append(part)
+    return os.path.join(*fixed) if fixed else "."
+
+
 def _input_files(path: Path) -> list[Path]:
     """A map's files: the file itself and, for a YAML, the image it refers to."""
     files = [Path(path)]
@@ -430,8 +440,9 @@ def expand_map_inputs(
         * anything else is taken as a file name as is (a missing or unsupported file
           then becomes an error row of the batch, not an exception here).
     exclude : str or path, optional
-        A folder whose files folder searches and patterns skip, e.g. the batch's output
-        folder when it lies inside an input folder (its pictures are PNG files).
+        A folder that searches of a folder (or pattern) strictly above it skip, e.g. the
+        batch's output folder inside an input folder (its pictures are PNG files).  An
+        input that is that folder, or lies inside it, is searched as usual.
 
     Returns
     -------
@@ -447,26 +458,33 @@ def expand_map_inputs(
     """
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
-    found: list[tuple[Path, bool]] = []  # (path, named explicitly)
+    skip = None if exclude is None else os.path.join(os.path.realpath(exclude), "")
+
+    def searched(root: str, files) -> list[Path]:
+        # files found below ``root``, without those in ``exclude`` if it lies strictly
+        # inside ``root`` (the batch's own outputs)
+        top = os.path.join(os.path.realpath(root), "")
+        if skip is None or not (skip.startswith(top) and skip != top):
+            return list(files)
+        return [f for f in files if not os.path.realpath(f).startswith(skip)]
+
+    found: list[Path] = []
     for raw in inputs:
         for pattern in expand_braces(os.fspath(raw)):
             p = Path(pattern)
             if p.is_dir():
-                found.extend((m, False) for m in _walk_maps(p))
+                found.extend(searched(pattern, _walk_maps(p)))
             elif _glob.has_magic(pattern):
+                matches = []
                 for match in sorted(_glob.glob(pattern, recursive=True)):
                     m = Path(match)
                     if m.is_dir():
-                        found.extend((f, False) for f in _walk_maps(m))
+                        matches.extend(_walk_maps(m))
                     elif _is_map_file(m):
-                        found.append((m, False))
+                        matches.append(m)
+                found.extend(searched(_static_prefix(pattern), matches))
             else:
-                found.append((p, True))
-    if exclude is not None:
-        skip = os.path.join(os.path.realpath(exclude), "")
-        found = [p for p, named in found if named or not os.path.realpath(p).startswith(skip)]
-    else:
-        found = [p for p, _ in found]
+                found.append(p)
     unique: list[Path] = []
     seen: set[str] = set()
     for p in found:
