@@ -496,6 +496,14 @@ def test_zero_one_integer_array_is_refused_not_read_as_a_degenerate_map(dtype):
     with pytest.raises(ValueError, match=match):
         tj.build_graph(arr)
     assert tj.distance_map(arr).max() == 1.0  # read as obstacles there
+    if dtype == np.uint8:  # the same mask saved as an image: the error names the file
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as folder:
+            png = Path(folder) / "mask.png"
+            cv2.imwrite(str(png), arr)
+            with pytest.raises(ValueError, match=r"mask\.png: uint8 image holds only"):
+                load_map(png)
     # the same array as a mask works
     assert OccupancyMap.from_array(arr.astype(bool)).occupied[2].all()
     if dtype == np.uint8:
@@ -627,8 +635,15 @@ def test_pgm_comment_resolution_is_read_whole_or_refused(tmp_path: Path):
     for comment, value in good.items():
         _write_pgm(tmp_path / "g.pgm", img, comment=comment)
         assert load_map(tmp_path / "g.pgm").resolution_m == value, comment
-    # a decimal comma, a sign or a word must not be read as some other number
-    for comment in ("CREATOR: x 0,05 m/pix", "-0.05 m/pix", "about m/pix", "0 m/pix"):
+    # the number may be glued to a word; a comment without a number is not a resolution
+    for comment, value in (("res=0.25 m/pix", 0.25), ("(0.5 m/pix)", 0.5)):
+        _write_pgm(tmp_path / "g.pgm", img, comment=comment)
+        assert load_map(tmp_path / "g.pgm").resolution_m == value, comment
+    for comment in ("units: m/pix", "Resolution in m/pix: 0.05"):
+        _write_pgm(tmp_path / "g.pgm", img, comment=comment)
+        assert load_map(tmp_path / "g.pgm").resolution_m == 0.05, comment  # the default
+    # a decimal comma, a sign or a zero must not be read as some other number
+    for comment in ("CREATOR: x 0,05 m/pix", "-0.05 m/pix", "x=0,05 m/pix", "0 m/pix"):
         _write_pgm(tmp_path / "b.pgm", img, comment=comment)
         with pytest.raises(ValueError, match=r"b\.pgm.*not a positive number.*resolution_m"):
             load_map(tmp_path / "b.pgm")
@@ -965,10 +980,10 @@ def test_save_map_errors(tmp_path: Path):
         save_map(m, tmp_path / "no_such_dir" / "out.yaml")
     # a folder where a file would go: refused before anything is written
     (tmp_path / "d.yaml").mkdir()
-    with pytest.raises(IsADirectoryError, match=r"d\.yaml is a folder"):
+    with pytest.raises(IsADirectoryError, match=r"yaml_path: .*d\.yaml is a folder"):
         save_map(m, tmp_path / "d.yaml")
     (tmp_path / "e.pgm").mkdir()
-    with pytest.raises(IsADirectoryError, match=r"e\.pgm is a folder"):
+    with pytest.raises(IsADirectoryError, match=r"image_name: .*e\.pgm is a folder"):
         save_map(m, tmp_path / "e.yaml")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.yaml", "e.pgm"]
     # a YAML whose image is a folder says so

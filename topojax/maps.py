@@ -371,8 +371,9 @@ class OccupancyMap:
                 # OpenCV makes them, and distance_map reads it as one.
                 raise ValueError(
                     "uint8 image holds only the values 0 and 1: as intensities that is a map "
-                    "occupied everywhere (0 = black = occupied, 254 = free); for an obstacle "
-                    "mask pass a bool array (array.astype(bool), True = occupied)"
+                    "occupied everywhere (free everywhere with negate; 0 = black = occupied, "
+                    "254 = free); for an obstacle mask pass a bool array "
+                    "(array.astype(bool), True = occupied), or save a mask image as 0 / 255"
                 )
             codes = _classify_image(
                 arr,
@@ -614,6 +615,8 @@ def _classify_probability(
 
 # the whitespace-delimited word before "m/pix" (map_saver writes "0.050 m/pix")
 _PGM_RES_RE = re.compile(r"(?:^|\s)(\S+)\s*m/pix")
+# the number-like end of that word: digits with dots, commas, a sign or an exponent
+_PGM_NUMBER_RE = re.compile(r"[-+]?[0-9.,]*[0-9][0-9.,]*(?:[eE][-+]?[0-9]+)?$")
 
 
 def _parse_pnm_header(data: bytes) -> tuple[int | None, list[str]]:
@@ -649,24 +652,29 @@ def _parse_pnm_header(data: bytes) -> tuple[int | None, list[str]]:
 
 
 def _resolution_from_pgm_comments(comments: list[str], path: Path) -> float | None:
-    """Resolution from a ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment; None if
-    there is none.  A resolution that is not a positive number (``0,05``, ``-0.05``) is an
+    """Resolution from a ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment: the number
+    at the end of the word before ``m/pix`` (``0.05``, ``res=0.05``, ``(0.05``).  None if
+    no comment gives one.  A number that is not a positive one (``0,05``, ``-0.05``) is an
     error rather than a misread: the map would be scaled wrongly without notice."""
     for line in comments:
         m = _PGM_RES_RE.search(line)
-        if m:
-            word = m.group(1)
-            try:
-                value = float(word)
-            except ValueError:
-                value = math.nan
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(
-                    f"map image {path}: its comment {line!r} gives the resolution as "
-                    f"{word!r}, which is not a positive number of metres per pixel; pass "
-                    "resolution_m (--resolution) to set it"
-                )
-            return value
+        if not m:
+            continue
+        number = _PGM_NUMBER_RE.search(m.group(1))
+        if number is None:  # no number there ("units: m/pix")
+            continue
+        word = number.group(0)
+        try:
+            value = float(word)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(
+                f"map image {path}: its comment {line!r} gives the resolution as "
+                f"{word!r}, which is not a positive number of metres per pixel; pass "
+                "resolution_m (--resolution) to set it"
+            )
+        return value
     return None
 
 
@@ -677,7 +685,7 @@ def _read_plain_pnm(data: bytes, path: Path) -> np.ndarray:
     channels = 3 if data[:2] == b"P3" else 1
     try:
         width, height, maxval = (int(t) for t in tokens[:3])
-        values = np.array([int(t) for t in tokens[3:]], dtype=np.int64)
+        values = np.array(tokens[3:], dtype=np.bytes_).astype(np.int64)
     except ValueError:
         raise ValueError(f"map image {path}: plain PNM file with non-numeric entries") from None
     if width < 1 or height < 1 or not 0 < maxval < 65536:
@@ -1024,16 +1032,21 @@ def load_map(
         and pixels.shape[2] in (2, 4)
     )
     if full == 255 and pixels.dtype == np.uint8 and not average_alpha:
-        return OccupancyMap.from_array(
-            pixels,
-            resolution_m=resolution_m,
-            origin=origin,
-            occupied_thresh=occupied_thresh,
-            free_thresh=free_thresh,
-            negate=negate,
-            mode=mode,
-            source=str(p),
-        )
+        try:
+            return OccupancyMap.from_array(
+                pixels,
+                resolution_m=resolution_m,
+                origin=origin,
+                occupied_thresh=occupied_thresh,
+                free_thresh=free_thresh,
+                negate=negate,
+                mode=mode,
+                source=str(p),
+            )
+        except ValueError as exc:  # name the file (e.g. a 0/1 mask saved as an image)
+            if str(p) in str(exc):
+                raise
+            raise ValueError(f"{where}: {exc}") from None
     # 16-bit, non-standard maxval or map_server's alpha rule: classify directly.
     resolution_m = _check_resolution(resolution_m)
     origin_t = _check_origin(origin)
@@ -1093,11 +1106,10 @@ def save_map(
         image_name = yp.stem + ".pgm"
     if Path(image_name).name != image_name or not image_name.lower().endswith(".pgm"):
         raise ValueError(f"image_name must be a bare file name ending in .pgm, got {image_name!r}")
-    for target in (yp, yp.with_name(image_name)):  # before writing either file
-        if target.is_dir():
+    for name, target in (("yaml_path", yp), ("image_name", yp.with_name(image_name))):
+        if target.is_dir():  # before writing either file
             raise IsADirectoryError(
-                f"yaml_path: {target} is a folder; expected a file to write (e.g. "
-                f"{target / 'map.yaml'} for the YAML)"
+                f"{name}: {target} is a folder; expected a file name to write there"
             )
     img = occupancy_map.to_image()
     h, w = img.shape
