@@ -201,6 +201,11 @@ def test_tile_manager_allocates_in_every_direction_and_round_trips():
         other = TileManager(tile_px=8, layers=layers, loops=loops)
         with pytest.raises(ValueError, match=word):
             other.load_state(state)
+    for key in ("has_bbox", "bbox", "grid"):
+        partial = {k: v for k, v in state.items() if k != key}
+        with pytest.raises(ValueError, match=f"lacks '{key}'"):
+            tm2.load_state(partial)
+        assert tm2.tile_bbox == tm.tile_bbox  # unchanged
     np.testing.assert_array_equal(tm2.read("a", -30, -60, 90, 90), tm.read("a", -30, -60, 90, 90))
     nb = tm.neighbour_slots()
     assert nb.shape == (3, 9) and (nb[:, 4] == np.arange(3)).all()

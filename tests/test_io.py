@@ -558,6 +558,45 @@ def test_load_rejects_damaged_files_naming_the_file_and_the_fault(
     assert "damaged" in str(info.value)
 
 
+def test_graphml_edges_to_unlisted_nodes_and_foreign_pixels(tmp_path: Path):
+    import re
+
+    g = tj.build_graph(tj.sample_map("intel")).graph
+    path = save_graph(g, tmp_path / "g.graphml")
+    text = path.read_text()
+    node = re.search(r'<node id="14">.*?</node>', text, flags=re.S)
+    (tmp_path / "edited.graphml").write_text(text.replace(node.group(0), ""))
+    with pytest.raises(ValueError, match=r"edited\.graphml: an edge joins node '14', which"):
+        load_graph(tmp_path / "edited.graphml")
+    # a GraphML written by networkx from a topojax graph (arrays as JSON text, no schema):
+    # merged clusters' 'pixels' decode as arrays, as 'path' and 'world' do
+    import json
+
+    h = nx.MultiGraph()
+    for n, d in g.nodes(data=True):
+        h.add_node(
+            n,
+            pixel=json.dumps(list(d["pixel"])),
+            world=json.dumps(list(d["world"])),
+            pixels=json.dumps(np.asarray(d["pixels"]).tolist()),
+            kind=d["kind"],
+        )
+    for u, v, k, d in g.edges(keys=True, data=True):
+        h.add_edge(
+            u,
+            v,
+            key=k,
+            path=json.dumps(d["path"].tolist()),
+            world=json.dumps(d["world"].tolist()),
+            length_m=d["length_m"],
+        )
+    nx.write_graphml(h, tmp_path / "foreign.graphml")
+    back = load_graph(tmp_path / "foreign.graphml")
+    first = next(iter(back.nodes(data=True)))[1]
+    assert isinstance(first["pixels"], np.ndarray) and first["pixels"].shape[1] == 2
+    tj.prune_graph(back, min_spur_m=0.5)  # reads 'pixels'
+
+
 def test_load_rejects_a_directed_graphml_file(tmp_path: Path):
     path = tmp_path / "directed.graphml"
     nx.write_graphml(nx.DiGraph([(1, 2)]), path)

@@ -191,6 +191,15 @@ def test_merged_clusters_keep_the_tolerance_and_write_no_degenerate_edges(tmp_pa
                 assert all(pairs[(s["startid"], s["endid"])] == 1 for s in segs)
 
 
+def test_a_graph_of_point_loops_only_is_refused(tmp_path):
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0), pixel=(0, 0), kind="ring")
+    g.add_edge(0, 0, world=np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 0.0]]), length_m=2.0)
+    with pytest.raises(ValueError, match="rejects a graph without edges"):
+        tj.save_nav2_graph(g, tmp_path / "loop.geojson")
+    assert not (tmp_path / "loop.geojson").exists()
+
+
 def test_smaller_tolerance_means_more_waypoints(tmp_path):
     g = tj.build_graph(tj.sample_map("intel")).graph
     counts = []

@@ -51,6 +51,7 @@ _SCHEMA_VERSION = 1
 # Decoding used for files without a schema (topojax defaults).
 _DEFAULT_NODE_KINDS: dict[str, dict[str, Any]] = {
     "pixel": {"kind": "tuple"},
+    "pixels": {"kind": "ndarray", "dtype": "int64", "trailing": [2]},
     "world": {"kind": "tuple"},
 }
 _DEFAULT_EDGE_KINDS: dict[str, dict[str, Any]] = {
@@ -475,6 +476,13 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
     except json.JSONDecodeError:
         raise ValueError(f"graph file {path}: unreadable {_SCHEMA_KEY!r} attribute") from None
     has_schema = schema_text is not None
+    listed = _graphml_node_ids(path)
+    for u, v in raw.edges():
+        for end in (u, v):
+            if end not in listed:  # networkx adds the node bare; JSON/GeoJSON refuse it
+                raise ValueError(
+                    f"graph file {path}: an edge joins node {end!r}, which is not listed"
+                )
     g = nx.MultiGraph()
     g.graph.update({k: _graphml_decode(v, schema["graph"].get(k)) for k, v in graph_attrs.items()})
     for n, d in raw.nodes(data=True):
@@ -492,6 +500,18 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
             **{name: _graphml_decode(val, schema["edge"].get(name)) for name, val in attrs.items()},
         )
     return g
+
+
+def _graphml_node_ids(path: Path) -> set[str]:
+    """The ids of the ``<node>`` elements of a GraphML file."""
+    import xml.etree.ElementTree as ET
+
+    ids = set()
+    for _, elem in ET.iterparse(path):
+        if elem.tag.rsplit("}", 1)[-1] == "node":
+            ids.add(elem.get("id"))
+        elem.clear()
+    return ids
 
 
 # ---------------------------------------------------------------------- GeoJSON
@@ -885,6 +905,11 @@ def save_nav2_graph(
         for j in range(len(chain) - 1):
             meta = dict(corridor, length_m=float(along[keep[j + 1]] - along[keep[j]]))
             segments.append((chain[j], chain[j + 1], points[j], points[j + 1], meta))
+    if not segments:  # every edge was a loop with no room for waypoints
+        raise ValueError(
+            f"graph: none of its {g.number_of_edges()} edges leads anywhere (loops around a "
+            "single point); the Nav2 Route Server rejects a graph without edges"
+        )
     for a, b, pa, pb, meta in segments:
         for start, end, p0, p1 in ((a, b, pa, pb), (b, a, pb, pa)):
             features.append(

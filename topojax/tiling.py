@@ -753,8 +753,8 @@ class TileManager:
                 f"tile state {which} {key!r} (expected the layers {sorted(self._specs)} and "
                 f"the loops {sorted(self._loops)})"
             )
-        for key in ("tile_px", "keys", "grid", "grid_origin"):
-            if key not in state:
+        for key in ("tile_px", "keys", "grid", "grid_origin", "bbox", "has_bbox"):
+            if key not in state:  # checked before anything changes
                 raise ValueError(f"tile state lacks {key!r}")
         if int(state["tile_px"]) != self.tile_px:
             raise ValueError(
