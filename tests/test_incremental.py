@@ -737,6 +737,9 @@ def test_numpy_numbers_are_numbers_for_the_mapper():
     for m in (a, b):
         m.add_scan(scan)
     np.testing.assert_array_equal(a.occupancy.occupied, b.occupancy.occupied)
+    # a float32 resolution is taken as the Python float of its value (not refused)
+    c = IncrementalMapper(resolution_m=np.float32(0.05), **kw)
+    assert type(c.resolution_m) is float and c.resolution_m == float(np.float32(0.05))
 
 
 def test_bad_points_raise_before_any_change():

@@ -1054,13 +1054,17 @@ def _path_length_m(path: np.ndarray, res: float) -> float:
 
 
 def _holds(node: dict, pixel) -> bool:
-    """Is ``pixel`` one of the vertex's pixels (all of a merged junction cluster's
-    ``pixels``, else its ``pixel``)?"""
+    """Is ``pixel`` one of the vertex's pixels (its ``pixel``, or any of a merged junction
+    cluster's ``pixels``)?  False for a vertex with neither."""
+    r, c = int(pixel[0]), int(pixel[1])
+    own = node.get("pixel")
+    if own is not None and int(own[0]) == r and int(own[1]) == c:
+        return True
     members = node.get("pixels")
     if members is None or len(members) == 0:
-        members = [node["pixel"]]
-    r, c = int(pixel[0]), int(pixel[1])
-    return any(int(m[0]) == r and int(m[1]) == c for m in members)
+        return False
+    members = np.asarray(members).reshape(-1, 2)
+    return bool(np.any((members[:, 0] == r) & (members[:, 1] == c)))
 
 
 def _ends_at(path: np.ndarray, pixel) -> bool:

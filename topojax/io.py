@@ -931,21 +931,14 @@ def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
     """Does edge ``(u, v)``'s polyline ``xy`` start at ``u``?  By the path's first pixel
     among the vertices' pixels (a merged cluster's path may start at any of them), else by
     which vertex is nearer."""
+    from .graph import _holds
+
     path = d.get("path")
-    pu, pv = (_pixel_set(g.nodes[n]) for n in (u, v))
-    if path is not None and len(path) and pu and pv:
-        first = (int(path[0][0]), int(path[0][1]))
-        if (first in pu) != (first in pv):
-            return first in pu
+    if path is not None and len(path):
+        at_u, at_v = _holds(g.nodes[u], path[0]), _holds(g.nodes[v], path[0])
+        if at_u != at_v:
+            return at_u
     return math.dist(xy[0], node_xy[u]) <= math.dist(xy[0], node_xy[v])
-
-
-def _pixel_set(node: dict) -> set[tuple[int, int]]:
-    """A vertex's pixels (``pixels``, else ``pixel``) as a set; empty if it has none."""
-    pixels = node.get("pixels")
-    if pixels is None or len(pixels) == 0:
-        pixels = [node["pixel"]] if node.get("pixel") is not None else []
-    return {(int(p[0]), int(p[1])) for p in pixels}
 
 
 def _nav2_node(i: int, frame: str, xy: list[float], meta: dict) -> dict:

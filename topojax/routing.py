@@ -32,7 +32,7 @@ import networkx as nx
 import numpy as np
 
 from .config import _nonnegative_metres, _positive_metres
-from .graph import _cumulative_length_m, _polyline_keep
+from .graph import _cumulative_length_m, _holds, _polyline_keep
 from .io import _as_multigraph, _jsonable
 
 __all__ = ["NoRouteError", "Route", "RoutePlanner", "plan_route"]
@@ -297,15 +297,7 @@ class RoutePlanner:
         )
 
     def _holds(self, node, pixel) -> bool:
-        data = self._graph.nodes[node]
-        own = data.get("pixel")
-        if own is not None and int(own[0]) == pixel[0] and int(own[1]) == pixel[1]:
-            return True
-        members = data.get("pixels")  # the pixels of a merged junction cluster
-        if members is not None and len(members):
-            members = np.asarray(members).reshape(-1, 2)
-            return bool(np.any((members[:, 0] == pixel[0]) & (members[:, 1] == pixel[1])))
-        return False
+        return _holds(self._graph.nodes[node], pixel)
 
     def _cumulative(self) -> list[np.ndarray]:
         """Per edge, the length along its path from its start to each pixel, metres,
