@@ -1575,21 +1575,26 @@ def _check_no_overwrite(
 ) -> None:
     """Refuse output names that would replace one of the input files (a map file, or the
     image a YAML refers to)."""
-    inputs = set()
-    for it in items:
-        if it.path is not None:
-            inputs.update(os.path.realpath(f) for f in _input_files(it.path))
     suffixes = [_FORMAT_SUFFIX[f] for f in formats] + [_MANIFEST_SUFFIX]
     if plot:
         suffixes.append(_PICTURE_SUFFIX)
-    for it in items:
-        for suffix in suffixes:
-            target = os.path.realpath(out / f"{it.name}{suffix}")
-            if target in inputs:
-                raise ValueError(
-                    f"out_dir: writing {target} would overwrite an input map; choose another "
-                    "output folder"
-                )
+    refuse_overwriting_inputs(
+        [it.path for it in items if it.path is not None],
+        [out / f"{it.name}{suffix}" for it in items for suffix in suffixes],
+        option="out_dir",
+    )
+
+
+def refuse_overwriting_inputs(inputs, targets, *, option: str) -> None:
+    """Raise ValueError naming ``option`` if a file of ``targets`` is one of the map files
+    ``inputs`` or an image one of their YAMLs refers to (checked before any work)."""
+    taken = {os.path.realpath(f) for path in inputs for f in _input_files(Path(path))}
+    for target in targets:
+        if os.path.realpath(target) in taken:
+            raise ValueError(
+                f"{option}: writing {target} would overwrite an input map; choose another "
+                "output folder"
+            )
 
 
 # ======================================================================================

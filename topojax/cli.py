@@ -123,6 +123,16 @@ def add_nav2_options(p: argparse.ArgumentParser, name: str) -> None:
     )
 
 
+def nav2_tolerance(args) -> float | None:
+    """The checked ``--nav2-tolerance-m`` when ``--nav2`` is given (else None); the error
+    names the option (checked before any work)."""
+    if not args.nav2:
+        return None
+    from .config import _positive_metres
+
+    return _positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)
+
+
 def _write_outputs(result, out_dir: Path, stem: str, *, plot: bool, stages: bool) -> list[Path]:
     from .io import output_folder, save_graph
 
@@ -206,10 +216,7 @@ def _cmd_graph(args) -> int:
             kw[name] = getattr(args, name)
     if args.negate:
         kw["negate"] = True
-    if args.nav2:  # checked before the pipeline runs and writes anything
-        from .config import _positive_metres
-
-        _positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)
+    tolerance = nav2_tolerance(args)  # checked before the pipeline runs and writes anything
     stem = Path(args.map).stem
     _check_outputs_spare_inputs(Path(args.map), Path(args.out), stem, args)
     occupancy = load_map(args.map, **kw)
@@ -227,7 +234,7 @@ def _cmd_graph(args) -> int:
                 save_nav2_graph(
                     result.graph,
                     Path(args.out) / f"{stem}_nav2.geojson",
-                    tolerance_m=args.nav2_tolerance_m,
+                    tolerance_m=tolerance,
                 )
             )
         except ValueError as exc:  # a graph without edges, which Nav2 refuses (as replay)
@@ -243,18 +250,12 @@ def _check_outputs_spare_inputs(map_path: Path, out: Path, stem: str, args) -> N
     """Refuse, before any work, an output folder where a file written would replace the
     input map or the image its YAML refers to (``-o`` being the map's own folder, with
     ``--plot`` writing ``<stem>.png``)."""
-    from .batch import _input_files
+    from .batch import refuse_overwriting_inputs
 
-    inputs = {os.path.realpath(f) for f in _input_files(map_path)}
     names = [f"{stem}{s}" for s in (".graphml", ".json", ".geojson")]
     names += [f"{stem}.png"] * bool(args.plot) + [f"{stem}_stages.png"] * bool(args.stages)
     names += [f"{stem}_nav2.geojson"] * bool(args.nav2)
-    for name in names:
-        if os.path.realpath(out / name) in inputs:
-            raise ValueError(
-                f"--out: writing {out / name} would overwrite the input map; choose another "
-                "output folder"
-            )
+    refuse_overwriting_inputs([map_path], [out / n for n in names], option="--out")
 
 
 def _cmd_demo(args) -> int:
@@ -437,8 +438,6 @@ def _use_compilation_cache() -> None:
     kernel is kept); ``TOPOJAX_NO_JAX_CACHE=1`` turns the cache off.  Library calls never
     change JAX's settings; only the command does.
     """
-    import os
-
     if os.environ.get("TOPOJAX_NO_JAX_CACHE", "") not in ("", "0"):
         return
     import jax

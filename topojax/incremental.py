@@ -122,6 +122,7 @@ import functools
 import io as _io
 import json
 import math
+import numbers
 import os
 import threading
 import time
@@ -2111,13 +2112,6 @@ def _max_padding(sizes: tuple[int, int]) -> int:
     return max(large - large // 2, small - 1)
 
 
-def _python_number(value):
-    """A NumPy integer or float as the Python int or float; anything else unchanged."""
-    if isinstance(value, (np.integer, np.floating)):
-        return value.item()
-    return value
-
-
 def _check_rate(name: str, value) -> int:
     if value is None:
         return 0
@@ -2253,14 +2247,10 @@ class IncrementalMapper:
         paper_layer_px: int = 2,
         max_grid_cells: int = MAX_GRID_CELLS,
     ) -> None:
-        # NumPy numbers are numbers: checked below as Python ones
-        resolution_m = _python_number(resolution_m)
-        max_range_m = _python_number(max_range_m)
-        tile_px, block_px, paper_layer_px = map(_python_number, (tile_px, block_px, paper_layer_px))
-        max_pending_points = _python_number(max_pending_points)
-        max_grid_cells = _python_number(max_grid_cells)
-        if isinstance(resolution_m, bool) or not isinstance(resolution_m, (int, float)):
+        # numbers.Real / Integral: NumPy numbers are numbers too (stored as Python ones)
+        if isinstance(resolution_m, bool) or not isinstance(resolution_m, numbers.Real):
             raise TypeError(f"resolution_m must be a number, got {type(resolution_m).__name__}")
+        resolution_m = float(resolution_m)
         if not math.isfinite(resolution_m) or resolution_m <= 0:
             raise ValueError(f"resolution_m must be finite and > 0 (metres), got {resolution_m}")
         if strategy not in STRATEGIES:
@@ -2310,8 +2300,9 @@ class IncrementalMapper:
             ("block_px", block_px, 4),
             ("paper_layer_px", paper_layer_px, 1),
         ):
-            if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < lo:
                 raise ValueError(f"{name} must be an int >= {lo}, got {value!r}")
+        tile_px, block_px, paper_layer_px = int(tile_px), int(block_px), int(paper_layer_px)
         for name, value in (("tile_px", tile_px), ("block_px", block_px)):
             if value & (value - 1):
                 raise ValueError(
@@ -2324,13 +2315,15 @@ class IncrementalMapper:
             raise ValueError(f"block_px must be >= {2 * HALO_PX}, got {block_px}")
         if (
             isinstance(max_pending_points, bool)
-            or not isinstance(max_pending_points, int)
+            or not isinstance(max_pending_points, numbers.Integral)
             or max_pending_points < 0
         ):
             raise ValueError(f"max_pending_points must be an int >= 0, got {max_pending_points!r}")
+        max_pending_points = int(max_pending_points)
         if max_range_m is not None:
-            if isinstance(max_range_m, bool) or not isinstance(max_range_m, (int, float)):
+            if isinstance(max_range_m, bool) or not isinstance(max_range_m, numbers.Real):
                 raise TypeError(f"max_range_m must be a number or None, got {max_range_m!r}")
+            max_range_m = float(max_range_m)
             if not max_range_m > 0:
                 raise ValueError(f"max_range_m must be > 0 (metres), got {max_range_m}")
         if not isinstance(free_space, bool):
@@ -4307,14 +4300,8 @@ def _summary_text(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _cli_tolerance(args) -> float:
-    from .config import _positive_metres
-
-    return _positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)
-
-
 def _cmd_replay(args) -> int:
-    from .cli import graph_config
+    from .cli import graph_config, nav2_tolerance
 
     kw = {
         "resolution_m": args.resolution,
@@ -4336,7 +4323,7 @@ def _cmd_replay(args) -> int:
         progress=not args.no_progress,
         max_scans=args.max_scans,
         reader_kwargs=reader_kwargs or None,
-        nav2_tolerance_m=_cli_tolerance(args) if args.nav2 else None,
+        nav2_tolerance_m=nav2_tolerance(args),
         graph_config=graph_config(args),
         **kw,
     )

@@ -38,7 +38,7 @@ import networkx as nx
 import numpy as np
 
 from .config import _positive_metres
-from .graph import _polyline_keep
+from .graph import _holds, _polyline_keep
 
 __all__ = ["GRAPH_FORMATS", "atomic_write_bytes", "load_graph", "save_graph", "save_nav2_graph"]
 
@@ -476,13 +476,10 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
     except json.JSONDecodeError:
         raise ValueError(f"graph file {path}: unreadable {_SCHEMA_KEY!r} attribute") from None
     has_schema = schema_text is not None
-    listed = _graphml_node_ids(path)
+    # networkx adds a node that only an edge names, bare; JSON and GeoJSON refuse it
+    listed = _graphml_node_ids(path)  # a second parse of the file: only its node ids
     for u, v in raw.edges():
-        for end in (u, v):
-            if end not in listed:  # networkx adds the node bare; JSON/GeoJSON refuse it
-                raise ValueError(
-                    f"graph file {path}: an edge joins node {end!r}, which is not listed"
-                )
+        _check_ends(listed, u, v, path, "an edge")
     g = nx.MultiGraph()
     g.graph.update({k: _graphml_decode(v, schema["graph"].get(k)) for k, v in graph_attrs.items()})
     for n, d in raw.nodes(data=True):
@@ -589,8 +586,9 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
     }
 
 
-def _check_ends(g: nx.MultiGraph, u: Any, v: Any, path: Path, where: str) -> None:
-    """An edge must join two listed nodes (networkx would add bare ones silently)."""
+def _check_ends(g, u: Any, v: Any, path: Path, where: str) -> None:
+    """An edge must join two listed nodes (``g``: the graph, or the set of node ids;
+    networkx would add bare ones silently)."""
     for end in (u, v):
         if end not in g:
             raise ValueError(f"graph file {path}: {where} joins node {end!r}, which is not listed")
@@ -931,8 +929,6 @@ def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
     """Does edge ``(u, v)``'s polyline ``xy`` start at ``u``?  By the path's first pixel
     among the vertices' pixels (a merged cluster's path may start at any of them), else by
     which vertex is nearer."""
-    from .graph import _holds
-
     path = d.get("path")
     if path is not None and len(path):
         at_u, at_v = _holds(g.nodes[u], path[0]), _holds(g.nodes[v], path[0])

@@ -27,7 +27,6 @@ obstacle; with the ``map_server`` thresholds their grey outside area (153 .. 205
 from __future__ import annotations
 
 import contextlib
-import functools
 import math
 import re
 import threading
@@ -412,13 +411,8 @@ class OccupancyMap:
                 codes = np.where(arr, _OCC, _FREE)
             elif np.issubdtype(arr.dtype, np.integer):
                 codes = _classify_occupancy_grid(arr, occ_t, free_t, unknown_values)
-            elif np.issubdtype(arr.dtype, np.floating):
+            else:  # floating (other dtypes were refused above)
                 codes = _classify_probability(arr, occ_t, free_t, unknown_values)
-            else:
-                raise TypeError(
-                    "array must have dtype bool, uint8 (image), another integer type "
-                    f"(OccupancyGrid -1..100) or float (probability 0..1), got {arr.dtype}"
-                )
         return cls._from_codes(codes, resolution_m, origin_t, source)
 
     @classmethod
@@ -489,7 +483,7 @@ def _classify_image(
         channels = arr.shape[2]
         n = 1 if channels <= 2 else 3  # grey(+alpha) or colour(+alpha)
         colour = arr[..., 0] if n == 1 else arr[..., :3].sum(axis=2, dtype=np.uint32)
-        if average_alpha and mode == "trinary" and channels in (2, 4):
+        if average_alpha:  # load_map's decision: trinary mode, 2 or 4 channels
             # map_server (ROS 1 and Nav2) averages alpha in with the colour channels in
             # trinary mode; a grey + alpha pixel is read as R = G = B = grey, plus alpha
             grey3 = colour.astype(np.uint32) * (3 if n == 1 else 1)
@@ -820,14 +814,15 @@ def _load_yaml(path: Path) -> dict[str, Any]:
     except UnicodeDecodeError as exc:
         raise ValueError(f"map YAML {path} is not valid UTF-8 text: {exc}") from None
     try:
-        doc = yaml.load(text, Loader=_map_yaml_loader())  # noqa: S506 - a SafeLoader
+        doc = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ValueError(f"map YAML {path} could not be parsed: {exc}") from None
     if not isinstance(doc, dict):
         raise ValueError(
             f"map YAML {path} must contain a mapping (key: value), got {type(doc).__name__}"
         )
-    # map_server reads these with yaml-cpp, which converts quoted numbers too ('0.65')
+    # map_server reads these with yaml-cpp, which converts 5e-2 and quoted numbers too;
+    # PyYAML (YAML 1.1) leaves them strings
     for key in ("resolution", "occupied_thresh", "free_thresh"):
         if key in doc:
             doc[key] = _number_text(doc[key])
@@ -844,23 +839,6 @@ def _number_text(value: Any) -> Any:
     if isinstance(value, str) and _NUMBER_RE.fullmatch(value.strip()):
         return float(value)
     return value
-
-
-@functools.cache
-def _map_yaml_loader():
-    """PyYAML's safe loader, also reading ``5e-2`` as a float: YAML 1.1 (PyYAML) wants a
-    dot and a signed exponent, YAML 1.2 and yaml-cpp (map_server) do not."""
-    import yaml
-
-    class Loader(yaml.SafeLoader):
-        pass
-
-    Loader.add_implicit_resolver(
-        "tag:yaml.org,2002:float",
-        re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
-        list("-+0123456789."),
-    )
-    return Loader
 
 
 def _resolve_image_path(yaml_path: Path, image: Any) -> Path:

@@ -534,13 +534,15 @@ def _parse_new_laser_head(tokens: list[str]) -> tuple[np.ndarray, np.ndarray, in
 
 def _survey_carmen(
     path: Path, laser: str, need_max: bool
-) -> tuple[str | None, float | None, dict[str, str]]:
-    """First pass: the laser message to use, its largest finite range, and PARAM values."""
+) -> tuple[str | None, float | None, dict[str, str], np.ndarray, int]:
+    """First pass: the laser message to use, its largest finite range, the PARAM values,
+    and (with ``need_max``) the readings within ``_TOP_BAND_M`` of the largest and how
+    many finite readings there were (for :func:`_warn_if_no_sentinel`)."""
     chosen = None if laser == "auto" else laser
     best = -math.inf
     tops: list[np.ndarray] = []
     n_readings = 0
-    params: dict = {}
+    params: dict[str, str] = {}
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
@@ -573,25 +575,24 @@ def _survey_carmen(
                 best = max(best, float(finite.max()))
                 tops.append(finite[finite >= best - _TOP_BAND_M])
                 n_readings += finite.size
-    if best > -math.inf:
-        top = np.concatenate(tops)
-        # for _warn_if_no_sentinel: the readings near the largest, and how many there were
-        params[_TOP_READINGS] = (top[top >= best - _TOP_BAND_M], n_readings)
-    return chosen, (best if best > -math.inf else None), params
+    if best == -math.inf:
+        return chosen, None, params, np.empty(0), 0
+    top = np.concatenate(tops)
+    return chosen, best, params, top[top >= best - _TOP_BAND_M], n_readings
 
 
 # The survey keeps the readings this close to the running maximum (the no-return margin is
 # 0.2 m by default; a larger margin is checked within this band only).
 _TOP_BAND_M = 1.0
-_TOP_READINGS = "\0top readings"
 
 
-def _warn_if_no_sentinel(path: Path, laser: str, top, best: float, margin: float) -> None:
+def _warn_if_no_sentinel(
+    path: Path, laser: str, near: np.ndarray, total: int, best: float, margin: float
+) -> None:
     """Warn when the range limit inferred from the largest reading drops most readings: a
     log with a no-return value drops its no-return beams (at most a quarter of the
     readings in the shared logs, the open campus), one without drops its longest real
     readings, all of them when the readings lie within the margin of each other."""
-    near, total = top
     dropped = int(np.count_nonzero(near >= best - margin))
     if total and dropped > total // 2:
         warnings.warn(
@@ -702,7 +703,7 @@ def _iter_carmen(
     offset_override: tuple[float, float, float] | None,
 ) -> Iterator[Scan]:
     need_max = max_range is None and laser in ("auto", *_OLD_LASERS)
-    chosen, file_max, params = _survey_carmen(path, laser, need_max)
+    chosen, file_max, params, near_max, n_readings = _survey_carmen(path, laser, need_max)
     if chosen is None:
         raise ValueError(f"{path}: no laser lines found (looked for {', '.join(_CARMEN_LASERS)})")
     old = chosen in _OLD_LASERS
@@ -711,7 +712,7 @@ def _iter_carmen(
         if file_max is None:
             raise ValueError(f"{path}: no finite {chosen} range readings to find the max range")
         range_max_old = file_max - margin
-        _warn_if_no_sentinel(path, chosen, params.pop(_TOP_READINGS), file_max, margin)
+        _warn_if_no_sentinel(path, chosen, near_max, n_readings, file_max, margin)
         if range_max_old <= 0:
             raise ValueError(
                 f"{path}: largest {chosen} reading {file_max} m minus no_return_margin_m "

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import mmap
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -278,8 +279,13 @@ class TileManager:
     ) -> None:
         if not isinstance(tile_px, int) or isinstance(tile_px, bool) or tile_px < 4:
             raise ValueError(f"tile_px must be an int >= 4, got {tile_px!r}")
-        if not isinstance(max_grid_cells, int) or max_grid_cells < 1:
+        if (
+            isinstance(max_grid_cells, bool)
+            or not isinstance(max_grid_cells, numbers.Integral)
+            or max_grid_cells < 1
+        ):
             raise ValueError(f"max_grid_cells must be a positive int, got {max_grid_cells!r}")
+        max_grid_cells = int(max_grid_cells)
         self.tile_px = tile_px
         self.max_grid_cells = max_grid_cells
         self._capacity = 0
