@@ -641,14 +641,14 @@ def test_pixel_graph_degree_matches_brute_force():
 def test_pixel_graph_does_not_depend_on_the_key_layout(skel, row0, col0):
     # The incremental mapper traces scattered pixels by key (row << 32) + col + 2^31 at any
     # origin; the full-map path uses row * (W + 1) + col.  Same pixels, same raw graph.
-    from topojax.graph import _dense_keys, _raw_graph
+    from topojax.graph import _dense_keys, raw_graph
 
     keys, stride = _dense_keys(skel.shape, np.flatnonzero(skel))
     rows, cols = keys // stride, keys % stride
     packed = ((rows + row0) << 32) + (cols + col0 + (1 << 31))
     assert np.all(np.diff(packed) > 0)
-    dense = _raw_graph(keys, stride)
-    sparse = _raw_graph(packed, 1 << 32)
+    dense = raw_graph(keys, stride)
+    sparse = raw_graph(packed, 1 << 32)
     for a, b in zip(dense, sparse, strict=True):
         np.testing.assert_array_equal(a, b)
 

@@ -375,12 +375,12 @@ def test_tile_manager_late_layer_fills_existing_and_new_tiles():
     )
 )
 def test_new_tiles_get_slots_in_row_major_order(pairs):
-    from topojax.tiling import _unique_pairs
+    from topojax.tiling import unique_pairs
 
     rows = np.array([p[0] for p in pairs], np.int64)
     cols = np.array([p[1] for p in pairs], np.int64)
     want = np.unique(np.stack([rows, cols], axis=1), axis=0)
-    got = _unique_pairs(rows, cols)
+    got = unique_pairs(rows, cols)
     assert got.dtype == np.int64
     np.testing.assert_array_equal(got, want)
 
@@ -1088,7 +1088,7 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t,
     seed margin of at least one pixel) and the ordered T-removal update give the
     whole-image thinning times and skeleton."""
     from topojax import incremental as inc
-    from topojax.skeleton import _TABLES_U8, remove_t_centres
+    from topojax.skeleton import TABLES_U8, remove_t_centres
 
     rng = np.random.default_rng(seed)
     t, b = 16, 4
@@ -1125,7 +1125,7 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t,
         bid,
         blk,
         n_blk,
-        _TABLES_U8[method],
+        TABLES_U8[method],
         inc._THIN_DR,
         inc._THIN_DC,
     )
@@ -1163,7 +1163,7 @@ def test_local_rethinning_grows_through_a_thick_blob():
     """A change at the centre of a thick blob moves the skeleton far beyond one block:
     the re-thinning region must grow (several rounds) and still be exact."""
     from topojax import incremental as inc
-    from topojax.skeleton import _TABLES_U8
+    from topojax.skeleton import TABLES_U8
 
     t, b = 16, 4
     old = np.zeros((96, 96), bool)
@@ -1191,7 +1191,7 @@ def test_local_rethinning_grows_through_a_thick_blob():
         bid,
         blk,
         n_blk,
-        _TABLES_U8["guo_hall"],
+        TABLES_U8["guo_hall"],
         inc._THIN_DR,
         inc._THIN_DC,
     )
@@ -1612,11 +1612,11 @@ def test_replay_writes_graph_map_timings_and_pictures(tmp_path):
 def test_replay_cli_registers_and_runs(tmp_path, capsys):
     import argparse
 
-    from topojax.incremental import _add_cli
+    from topojax.cli.replay import add_command
 
     parser = argparse.ArgumentParser()
     sub = parser.add_subparsers(dest="command")
-    _add_cli(sub)
+    add_command(sub)
     args = parser.parse_args(
         [
             "replay",
@@ -1724,11 +1724,11 @@ def test_replay_writes_the_graph_that_build_graph_keeps(tmp_path, graph):
 def test_replay_cli_prunes_like_graph(tmp_path, capsys):
     import argparse
 
-    from topojax.incremental import _add_cli
+    from topojax.cli.replay import add_command
 
     parser = argparse.ArgumentParser()
     sub = parser.add_subparsers(dest="command")
-    _add_cli(sub)
+    add_command(sub)
     options = ["--free-only", "--min-spur-m", "0.5", "--min-clearance-m", "0.2"]
     args = parser.parse_args(
         ["replay", str(INTEL_EXCERPT), "-o", str(tmp_path), "--no-progress", "--nav2", *options]

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import topojax as tj
-from topojax.io import atomic_write_bytes, load_graph, save_graph
+from topojax._fs import atomic_write_bytes
+from topojax.io import load_graph, save_graph
 
 FORMATS = (".graphml", ".json", ".geojson")
 
@@ -434,8 +435,8 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path: Path, monkeypatch):
 
 
 def test_output_folder_on_a_file_names_the_option(tmp_path: Path, capsys):
+    from topojax._fs import output_folder
     from topojax.cli import main
-    from topojax.io import output_folder
 
     (tmp_path / "afile").write_text("x")
     assert output_folder(tmp_path / "new" / "sub") == tmp_path / "new" / "sub"
@@ -466,7 +467,7 @@ def test_atomic_write_gives_ordinary_file_permissions(tmp_path):
     import os
     import stat
 
-    from topojax.io import atomic_write_bytes
+    from topojax._fs import atomic_write_bytes
 
     mask = os.umask(0o022)
     try:

@@ -244,7 +244,7 @@ def test_degenerate_maps_give_empty_graphs(array):
 def test_obstacles_and_unknown_space_keep_the_papers_graph(capsys):
     """No free pixel but unknown space between walls: the paper's method only looks at
     obstacles, so the graph runs through the unknown space; free-space-only has none."""
-    from topojax.cli import _classes_hint
+    from topojax.cli.graph import _classes_hint
 
     img = np.full((100, 120), 205, np.uint8)  # unknown
     img[20:80, 30] = img[20:80, 90] = img[20, 30:91] = 0  # three walls

@@ -129,8 +129,10 @@ from typing import Any
 
 import numpy as np
 
-from .config import DistanceConfig, PipelineConfig, _positive_metres
-from .io import GRAPH_FORMATS, atomic_write_bytes, output_folder
+from ._fs import atomic_write_bytes, output_folder, refuse_overwriting_inputs, yaml_image
+from ._validate import positive_metres
+from .config import DistanceConfig, PipelineConfig
+from .io import GRAPH_FORMATS
 from .maps import IMAGE_SUFFIXES, MODES, YAML_SUFFIXES, OccupancyMap, load_map
 
 __all__ = [
@@ -395,33 +397,6 @@ def _static_prefix(pattern: str) -> str:
     return os.path.join(*fixed) if fixed else "."
 
 
-def _input_files(path: Path) -> list[Path]:
-    """A map's files: the file itself and, for a YAML, the image it refers to."""
-    files = [Path(path)]
-    if Path(path).suffix.lower() in YAML_SUFFIXES:
-        img = _yaml_image(Path(path))
-        if img is not None:
-            files.append(img)
-    return files
-
-
-def _yaml_image(path: Path) -> Path | None:
-    """The image a map_server YAML refers to (as :func:`load_map` resolves it), or None."""
-    try:
-        import yaml
-
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-        image = doc.get("image") if isinstance(doc, dict) else None
-        if not isinstance(image, str) or not image.strip():
-            return None
-        img = Path(image.strip())
-        if img.is_absolute():
-            return img if img.is_file() else path.parent / img.name
-        return path.parent / img
-    except Exception:  # an unreadable YAML is reported when the map is loaded
-        return None
-
-
 def expand_map_inputs(
     inputs: Iterable[str | os.PathLike[str]], *, exclude: str | os.PathLike[str] | None = None
 ) -> list[Path]:
@@ -495,7 +470,7 @@ def expand_map_inputs(
     referenced = set()
     for p in unique:
         if p.suffix.lower() in YAML_SUFFIXES and p.is_file():
-            img = _yaml_image(p)
+            img = yaml_image(p)
             if img is not None:
                 referenced.add(os.path.realpath(img))
     result = [
@@ -585,7 +560,7 @@ def _fingerprint(item: _Item) -> dict[str, Any] | None:
     try:
         files = {item.path.name: _sha256_file(item.path)}
         if item.path.suffix.lower() in YAML_SUFFIXES:
-            img = _yaml_image(item.path)
+            img = yaml_image(item.path)
             if img is not None and img.is_file():
                 files["image:" + img.name] = _sha256_file(img)
     except OSError:
@@ -751,12 +726,12 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
 def _warm_worker() -> int:
     """Import the CPU-stage modules and load their numba kernels (one tiny map)."""
     from .graph import skeleton_to_graph
-    from .skeleton import remove_t_centres, thin
+    from .skeleton import skeletonize_ridges
 
     img = np.zeros((8, 8), bool)
     img[2:6, 3] = True
     img[4, 2:6] = True
-    skeleton_to_graph(remove_t_centres(thin(img)), clearance_px=np.ones((8, 8), np.float32))
+    skeleton_to_graph(skeletonize_ridges(img), clearance_px=np.ones((8, 8), np.float32))
     return os.getpid()
 
 
@@ -1497,7 +1472,7 @@ def build_graphs(
         if not isinstance(flag, (bool, np.bool_)):
             raise TypeError(f"{name}: expected a bool, got {flag!r}")
     if sigma_m is not None:
-        sigma_m = _positive_metres("sigma_m", sigma_m)
+        sigma_m = positive_metres("sigma_m", sigma_m)
     if out_dir is None and (plot or resume):
         raise ValueError("out_dir: needed for plot=True or resume=True, got None")
     tpc = _positive_int(
@@ -1583,132 +1558,3 @@ def _check_no_overwrite(
         [out / f"{it.name}{suffix}" for it in items for suffix in suffixes],
         option="out_dir",
     )
-
-
-def refuse_overwriting_inputs(inputs, targets, *, option: str) -> None:
-    """Raise ValueError naming ``option`` if a file of ``targets`` is one of the map files
-    ``inputs`` or an image one of their YAMLs refers to (checked before any work)."""
-    taken = {os.path.realpath(f) for path in inputs for f in _input_files(Path(path))}
-    for target in targets:
-        if os.path.realpath(target) in taken:
-            raise ValueError(
-                f"{option}: writing {target} would overwrite an input map; choose another "
-                "output folder"
-            )
-
-
-# ======================================================================================
-# command line
-# ======================================================================================
-
-
-def _cmd_batch(args: Any) -> int:
-    from .cli import pipeline_config
-
-    paths = expand_map_inputs(args.inputs, exclude=args.out)
-    config = pipeline_config(args)  # --sigma-m goes to build_graphs: per map
-    client = None
-    executor = None
-    if args.scheduler:
-        try:
-            from distributed import Client
-        except ImportError as exc:  # pragma: no cover - optional dependency
-            raise ValueError(
-                "--scheduler needs dask.distributed (pip install 'topojax[dask]')"
-            ) from exc
-        client = Client(args.scheduler, timeout=args.connect_timeout)
-        executor = client.get_executor(pure=False)
-    t0 = time.perf_counter()
-    try:
-        records = build_graphs(
-            paths,
-            executor=executor,
-            workers=args.workers,
-            config=config,
-            out_dir=args.out,
-            formats=args.formats,
-            plot=args.plot,
-            resume=args.resume,
-            progress=not args.no_progress,
-            tiles_per_call=args.tiles_per_call,
-            kernel_threads=args.kernel_threads,
-            map_mode=args.mode,
-            sigma_m=args.sigma_m,
-        )
-    finally:
-        if client is not None:
-            client.close()
-    wall = time.perf_counter() - t0
-    counts = Counter(r.status for r in records)
-    megapixels = sum((r.height or 0) * (r.width or 0) for r in records if r.status == "ok") / 1e6
-    print(
-        f"topojax batch: {len(records)} maps in {wall:.1f} s "
-        f"({counts['ok']} ok, {counts['skipped']} skipped, {counts['error']} errors; "
-        f"{megapixels:.1f} Mpx processed); table: {Path(args.out) / 'summary.csv'}"
-    )
-    for r in records:
-        if r.status == "error":
-            print(f"  error  {r.map}: {r.message}", file=sys.stderr)
-    return 1 if counts["error"] else 0
-
-
-def _add_cli(subparsers: Any) -> Any:
-    """Register the ``batch`` subcommand on an ``argparse`` subparsers object."""
-    p = subparsers.add_parser(
-        "batch",
-        help="build the graphs of many maps (batched kernels, parallel CPU stages)",
-        description="Build the topology graphs of many maps: JAX kernels batched in this "
-        "process, thinning and graph building in parallel worker processes (or on a Dask "
-        "cluster with --scheduler). Writes per map GraphML/JSON/GeoJSON (+ picture with "
-        "--plot) and a manifest, and OUT/summary.csv. Exit status 1 if any map failed.",
-    )
-    p.add_argument(
-        "inputs",
-        nargs="+",
-        help="map files, folders (searched recursively) or glob patterns with ** and "
-        "braces, e.g. 'maps/**/*.{yaml,png,pgm}' (quote it)",
-    )
-    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
-    p.add_argument(
-        "--workers",
-        type=int,
-        default=os.cpu_count() or 1,
-        help="worker processes for the CPU stages (default: number of cores; 0 = in-process)",
-    )
-    p.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="run the CPU stages on a Dask distributed cluster, e.g. tcp://host:8786",
-    )
-    p.add_argument(
-        "--connect-timeout", type=float, default=30.0, help="seconds to reach the scheduler"
-    )
-    from .cli import add_pipeline_options, add_sigma_options
-
-    add_sigma_options(p, each_map=" (each map through its own resolution)")
-    add_pipeline_options(p)
-    p.add_argument(
-        "--tiles-per-call", type=int, default=None, help="tiles per kernel call (bucket size)"
-    )
-    p.add_argument(
-        "--kernel-threads", type=int, default=None, help="threads dispatching kernel calls"
-    )
-    p.add_argument("--plot", action="store_true", help="also write <name>_graph.png per map")
-    p.add_argument(
-        "--resume", action="store_true", help="skip maps whose outputs are complete and valid"
-    )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument(
-        "--mode",
-        choices=MODES,
-        help="pixel convention of every map file (default: each file's own; ipa: free if "
-        ">= 250, everything else occupied)",
-    )
-    p.add_argument(
-        "--formats",
-        default="graphml,json,geojson",
-        help="comma-separated graph formats: graphml, json, geojson, nav2 (a Nav2 Route "
-        "Server graph, NAME_nav2.geojson) (default: graphml,json,geojson)",
-    )
-    p.set_defaults(handler=_cmd_batch)
-    return p

@@ -10,6 +10,8 @@ import math
 import numbers
 from dataclasses import dataclass, field
 
+from ._validate import finite_positive, flag, integer, nonnegative_metres
+
 __all__ = [
     "ORIGINAL_SIGMA_PX",
     "ORIGINAL_HALF_WIDTH_PX",
@@ -29,30 +31,6 @@ ORIGINAL_HALF_WIDTH_PX = 227
 _THINNING = ("guo_hall", "zhang")
 #: Largest window half-width the distance kernels take (pixels).
 _MAX_HALF_WIDTH_PX = 4096
-
-
-def _finite_positive(name: str, value: object) -> float:
-    """``value`` as a float after checking it is a finite real number > 0 (Python or NumPy,
-    not bool)."""
-    if not isinstance(value, numbers.Real) or isinstance(value, bool):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
-    if not math.isfinite(value) or value <= 0:
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return float(value)
-
-
-def _integer(name: str, value: object) -> int:
-    """``value`` as an int after checking it is an integer (Python or NumPy, not bool)."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise TypeError(f"{name} must be an int, got {type(value).__name__} {value!r}")
-    return int(value)
-
-
-def _flag(name: str, value: object) -> bool:
-    """``value`` as a bool after checking it is one (Python or NumPy)."""
-    if type(value).__name__ not in ("bool", "bool_"):
-        raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
-    return bool(value)
 
 
 def _canonical(obj: object, name: str, value: object) -> None:
@@ -81,8 +59,8 @@ class DistanceConfig:
     half_width_px: int = ORIGINAL_HALF_WIDTH_PX
 
     def __post_init__(self) -> None:
-        _canonical(self, "sigma_px", _finite_positive("sigma_px", self.sigma_px))
-        _canonical(self, "half_width_px", _integer("half_width_px", self.half_width_px))
+        _canonical(self, "sigma_px", finite_positive("sigma_px", self.sigma_px))
+        _canonical(self, "half_width_px", integer("half_width_px", self.half_width_px))
         if not 1 <= self.half_width_px <= _MAX_HALF_WIDTH_PX:
             raise ValueError(
                 f"half_width_px must be in [1, {_MAX_HALF_WIDTH_PX}], got {self.half_width_px}"
@@ -104,8 +82,8 @@ class DistanceConfig:
             Support half-width in metres; default: the original's ratio, 227 px of
             support for 64.19 px of sigma (about 3.54 sigma on each side), rounded.
         """
-        sigma_m = _finite_positive("sigma_m", sigma_m)
-        resolution_m = _finite_positive("resolution_m", resolution_m)
+        sigma_m = finite_positive("sigma_m", sigma_m)
+        resolution_m = finite_positive("resolution_m", resolution_m)
         sigma_px = sigma_m / resolution_m
         if half_width_m is None:
             half = _scaled_half_width(sigma_px)
@@ -116,7 +94,7 @@ class DistanceConfig:
                     f"largest half-width, {_MAX_HALF_WIDTH_PX} px"
                 )
             return cls(sigma_px=sigma_px, half_width_px=half)
-        half_width_m = _finite_positive("half_width_m", half_width_m)
+        half_width_m = finite_positive("half_width_m", half_width_m)
         half = max(1, round(half_width_m / resolution_m))
         if half > _MAX_HALF_WIDTH_PX:
             raise ValueError(
@@ -129,7 +107,7 @@ class DistanceConfig:
     def from_pixels(cls, *, sigma_px: float) -> DistanceConfig:
         """A configuration with this sigma (pixels) and the support scaled with it as in
         the original (227 px for 64.19 px, about 3.54 sigma on each side, rounded)."""
-        sigma_px = _finite_positive("sigma_px", sigma_px)
+        sigma_px = finite_positive("sigma_px", sigma_px)
         half = _scaled_half_width(sigma_px)
         if half > _MAX_HALF_WIDTH_PX:
             raise ValueError(
@@ -167,8 +145,8 @@ class RidgeConfig:
     threshold: float = 10.0
 
     def __post_init__(self) -> None:
-        _canonical(self, "scale", _finite_positive("scale", self.scale))
-        _canonical(self, "ksize", _integer("ksize", self.ksize))
+        _canonical(self, "scale", finite_positive("scale", self.scale))
+        _canonical(self, "ksize", integer("ksize", self.ksize))
         if self.ksize not in (1, 3, 5):
             raise ValueError(f"ksize must be 1, 3 or 5 (OpenCV apertures), got {self.ksize!r}")
         t = self.threshold
@@ -197,34 +175,7 @@ class SkeletonConfig:
     def __post_init__(self) -> None:
         if not isinstance(self.thinning, str) or self.thinning not in _THINNING:
             raise ValueError(f"thinning must be one of {_THINNING}, got {self.thinning!r}")
-        _canonical(self, "remove_t", _flag("remove_t", self.remove_t))
-
-
-def _metres(name: str, value: object, *, allow_zero: bool) -> float:
-    """``value`` as a float after checking it is a finite number of metres, ``>= 0`` or
-    ``> 0``; the errors name ``name``, what was expected and what was received."""
-    bound = ">= 0" if allow_zero else "> 0"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(
-            f"{name}: expected a number of metres {bound}, received "
-            f"{type(value).__name__} {value!r}"
-        )
-    value = float(value)
-    if not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
-        raise ValueError(f"{name}: expected a finite number of metres {bound}, received {value!r}")
-    return value
-
-
-def _nonnegative_metres(name: str, value: object) -> float:
-    """:func:`_metres` ``>= 0`` (the pruning thresholds of :class:`GraphConfig` and
-    :func:`topojax.prune_graph`)."""
-    return _metres(name, value, allow_zero=True)
-
-
-def _positive_metres(name: str, value: object) -> float:
-    """:func:`_metres` ``> 0`` (the tolerances of the Nav2 export and of
-    :meth:`topojax.Route.waypoints`, the batch's ``sigma_m``)."""
-    return _metres(name, value, allow_zero=False)
+        _canonical(self, "remove_t", flag("remove_t", self.remove_t))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -262,9 +213,9 @@ class GraphConfig:
 
     def __post_init__(self) -> None:
         for name in ("merge_junction_clusters", "free_space_only"):
-            _canonical(self, name, _flag(name, getattr(self, name)))
+            _canonical(self, name, flag(name, getattr(self, name)))
         for name in ("min_clearance_m", "min_spur_m", "min_component_m"):
-            _canonical(self, name, _nonnegative_metres(name, getattr(self, name)))
+            _canonical(self, name, nonnegative_metres(name, getattr(self, name)))
         if self.merge_junction_clusters and (self.min_spur_m > 0 or self.min_clearance_m > 0):
             raise ValueError(
                 "min_spur_m and min_clearance_m > 0 need merge_junction_clusters=False (a "

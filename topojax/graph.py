@@ -72,7 +72,7 @@ import networkx as nx
 import numpy as np
 
 from ._jit import cached_njit
-from .config import _nonnegative_metres
+from ._validate import nonnegative_metres
 
 __all__ = ["graph_summary", "pixel_graph_degree", "prune_graph", "skeleton_to_graph"]
 
@@ -385,7 +385,7 @@ def _dense_keys(shape: tuple[int, ...], idx: np.ndarray) -> tuple[np.ndarray, in
     return idx + idx // w, w + 1
 
 
-def _raw_graph(keys: np.ndarray, stride: int):
+def raw_graph(keys: np.ndarray, stride: int):
     """Pixel graph and traced edges of the pixels ``keys`` (sorted, unique).
 
     Parameters
@@ -425,7 +425,7 @@ def _raw_graph(keys: np.ndarray, stride: int):
     return v_idx[order], v_kind[order], e_u, e_v, e_off.astype(np.int64), path
 
 
-def _orient(
+def orient(
     u: np.ndarray, v: np.ndarray, off: np.ndarray, lens: np.ndarray, paths: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Swap ``u``/``v`` where ``u > v`` and reverse those edges' paths (CSR ``off``)."""
@@ -614,14 +614,14 @@ def _graph_from_skeleton(
     # Pixels are numbered 0..n-1 in raster order (their index in ``flat`` and ``keys``);
     # vertices and paths refer to them by that number until the end.
     keys, stride = _dense_keys(shape, flat)
-    v_idx, v_kind, e_u, e_v, e_off, path = _raw_graph(keys, stride)
+    v_idx, v_kind, e_u, e_v, e_off, path = raw_graph(keys, stride)
     n_v = v_idx.shape[0]
     u_id = np.searchsorted(v_idx, e_u)
     v_id = np.searchsorted(v_idx, e_v)
 
     # --- paths oriented so that u <= v ------------------------------------------------
     lens = np.diff(e_off)
-    u_id, v_id, path = _orient(u_id, v_id, e_off, lens, path)
+    u_id, v_id, path = orient(u_id, v_id, e_off, lens, path)
     v_key = keys[v_idx]
     vr = v_key // stride
     vc = v_key % stride
@@ -669,7 +669,7 @@ def _graph_from_skeleton(
             lens = lens[keep]
             e_off = np.concatenate([[0], np.cumsum(lens)])
             u_id, v_id = new_id[u_id[keep]], new_id[v_id[keep]]
-            u_id, v_id, path = _orient(u_id, v_id, e_off, lens, path)
+            u_id, v_id, path = orient(u_id, v_id, e_off, lens, path)
     n_e = u_id.shape[0]
     path_key = keys[path]
     pr = path_key // stride
@@ -690,7 +690,7 @@ def _graph_from_skeleton(
 
     if n_e:
         starts = e_off[:-1]
-        length_m = _path_lengths_m(path_rc, starts, lens, res)
+        length_m = path_lengths_m(path_rc, starts, lens, res)
         if clear is not None:
             cval = clear[path] * res
             min_c = np.minimum.reduceat(cval, starts)
@@ -876,9 +876,9 @@ def prune_graph(
             f"graph: expected an undirected networkx.MultiGraph from skeleton_to_graph, "
             f"received {type(graph).__name__}"
         )
-    clearance = _nonnegative_metres("min_clearance_m", min_clearance_m)
-    spur = _nonnegative_metres("min_spur_m", min_spur_m)
-    component = _nonnegative_metres("min_component_m", min_component_m)
+    clearance = nonnegative_metres("min_clearance_m", min_clearance_m)
+    spur = nonnegative_metres("min_spur_m", min_spur_m)
+    component = nonnegative_metres("min_component_m", min_component_m)
     if (spur > 0 or clearance > 0) and graph.graph.get("merge_junction_clusters"):
         raise ValueError(
             "graph: min_clearance_m or min_spur_m > 0 expects a graph built with "
@@ -1028,7 +1028,7 @@ def _running_diagonals(pixels: np.ndarray) -> np.ndarray:
     return np.concatenate([[0], np.cumsum((step[:, 0] != 0) & (step[:, 1] != 0))])
 
 
-def _path_lengths_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
+def path_lengths_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
     """``length_m`` of each path stored in ``pixels`` (path ``i``: ``sizes[i]`` rows from
     ``starts[i]``): its straight and diagonal steps, counted as integers."""
     starts = np.asarray(starts, np.int64)
@@ -1038,9 +1038,9 @@ def _path_lengths_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray
     return _steps_length(sizes - 1 - diagonal, diagonal, res)
 
 
-def _cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
+def cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
     """Length in metres from its own path's first pixel to every pixel, counted as
-    :func:`_path_lengths_m` does (the last pixel of a path has the path's length)."""
+    :func:`path_lengths_m` does (the last pixel of a path has the path's length)."""
     n_diag = _running_diagonals(pixels)
     first = np.repeat(np.asarray(starts, np.int64), sizes)
     steps = np.arange(len(first)) - first
@@ -1050,10 +1050,10 @@ def _cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.nd
 
 def _path_length_m(path: np.ndarray, res: float) -> float:
     """``length_m`` of a ``(K, 2)`` pixel path, exactly as :func:`skeleton_to_graph`."""
-    return float(_path_lengths_m(path, [0], [len(path)], res)[0])
+    return float(path_lengths_m(path, [0], [len(path)], res)[0])
 
 
-def _holds(node: dict, pixel) -> bool:
+def holds(node: dict, pixel) -> bool:
     """Is ``pixel`` one of the vertex's pixels (its ``pixel``, or any of a merged junction
     cluster's ``pixels``)?  False for a vertex with neither."""
     r, c = int(pixel[0]), int(pixel[1])
@@ -1143,7 +1143,7 @@ def _renumbered(
     out = []
     for u, v, data in edges.values():
         u, v = sorted((new[u], new[v]))
-        if u != v and not _holds(node_attrs[v], data["path"][-1]):
+        if u != v and not holds(node_attrs[v], data["path"][-1]):
             data["path"] = data["path"][::-1]
             if data.get("world") is not None:
                 data["world"] = data["world"][::-1]
@@ -1155,7 +1155,7 @@ def _renumbered(
     return _fill_multigraph(g, node_attrs, out)
 
 
-def _polyline_keep(xy: np.ndarray, tol: float) -> np.ndarray:
+def polyline_keep(xy: np.ndarray, tol: float) -> np.ndarray:
     """Douglas–Peucker: indices of the points of polyline ``xy`` (K, 2) to keep (first and
     last included) so that every point lies within ``tol`` of the kept chain's segment
     between its neighbours."""

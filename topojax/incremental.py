@@ -144,8 +144,8 @@ from .config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, Sk
 from .distance import FAR_SQ, gaussian_from_sq_distance
 from .filters import HALO_PX, laplacian_valid, ridge_from_laplacian
 from .scans import Scan
-from .skeleton import _compact
-from .tiling import MAX_GRID_CELLS, TileManager, _unique_pairs
+from .skeleton import compact
+from .tiling import MAX_GRID_CELLS, TileManager, unique_pairs
 
 __all__ = [
     "STATE_FORMAT",
@@ -1590,7 +1590,7 @@ def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
                 alive[dels[jj]] = 0
                 tnew[dels[jj]] = s_it + 1
             if nd:
-                n_live = _compact(live, n_live, alive)
+                n_live = compact(live, n_live, alive)
                 quiet = 0
             else:
                 quiet += 1
@@ -1971,7 +1971,7 @@ def thin_components(
     -------
     bool array (n,): skeleton value of each pixel.
     """
-    from .skeleton import remove_t_centres, thin
+    from .skeleton import skeletonize_ridges
 
     if rows.size == 0:
         return np.zeros(0, bool)
@@ -1981,9 +1981,7 @@ def thin_components(
     c_hi = min(int(cols.max()) + 1, bounds[3] - 1)
     img = np.zeros((r_hi - r_lo + 1, c_hi - c_lo + 1), bool)
     img[rows - r_lo, cols - c_lo] = True
-    sk = thin(img, method=method)
-    if remove_t:
-        sk = remove_t_centres(sk)
+    sk = skeletonize_ridges(img, method=method, remove_t=remove_t)
     return sk[rows - r_lo, cols - c_lo]
 
 
@@ -2660,7 +2658,7 @@ class IncrementalMapper:
             fr = free_rows.astype(np.int64) + r0
             fc = free_cols.astype(np.int64) + c0
             tsh = _log2(t)
-            tiles_needed = _unique_pairs(fr >> tsh, fc >> tsh)
+            tiles_needed = unique_pairs(fr >> tsh, fc >> tsh)
             tiles = self._tiles
             tiles.ensure(tiles_needed[:, 0], tiles_needed[:, 1])
             grid, (g0r, g0c) = tiles.slot_grid
@@ -3116,12 +3114,11 @@ class IncrementalMapper:
         return int(ch.sum())
 
     def _thin(self, image: np.ndarray) -> np.ndarray:
-        from .skeleton import remove_t_centres, thin
+        from .skeleton import skeletonize_ridges
 
-        sk = thin(image, method=self.config.skeleton.thinning)
-        if self.config.skeleton.remove_t:
-            sk = remove_t_centres(sk)
-        return sk
+        return skeletonize_ridges(
+            image, method=self.config.skeleton.thinning, remove_t=self.config.skeleton.remove_t
+        )
 
     def _skeleton_exact(self, added, removed, border) -> int:
         """Exact local update of the skeleton (see the module notes): re-thin around the
@@ -3129,7 +3126,7 @@ class IncrementalMapper:
         changed (:func:`_t_update`)."""
         if added.shape[0] == 0 and removed.shape[0] == 0 and border.shape[0] == 0:
             return 0
-        from .skeleton import _TABLES_U8
+        from .skeleton import TABLES_U8
 
         tiles = self._tiles
         t = self.tile_px
@@ -3164,7 +3161,7 @@ class IncrementalMapper:
                 bid,
                 blk,
                 n_blk,
-                _TABLES_U8[self.config.skeleton.thinning],
+                TABLES_U8[self.config.skeleton.thinning],
                 _THIN_DR,
                 _THIN_DC,
             )
@@ -3252,7 +3249,7 @@ class IncrementalMapper:
             return self._patch_graph()
 
     def _patch_graph(self) -> GraphUpdate:
-        from .graph import _orient, _raw_graph
+        from .graph import orient, raw_graph
 
         t0 = time.perf_counter()
         self._since_graph = 0
@@ -3307,7 +3304,7 @@ class IncrementalMapper:
         order = np.argsort(keys)
         keys, in_a, in_z = keys[order], in_a[order], in_z[order]
         if keys.size:
-            v_idx, v_kind, _, _, e_off, path = _raw_graph(keys, 1 << 32)
+            v_idx, v_kind, _, _, e_off, path = raw_graph(keys, 1 << 32)
         else:
             v_idx, v_kind = np.zeros(0, np.int64), np.zeros(0, np.int8)
             e_off, path = np.zeros(1, np.int64), np.zeros(0, np.int64)
@@ -3395,7 +3392,7 @@ class IncrementalMapper:
             nkk = kk[take]
             a_ids = ids[np.searchsorted(nk_keys, nkk[off_n[:-1]])]
             b_ids = ids[np.searchsorted(nk_keys, nkk[off_n[1:] - 1])]
-            a_ids, b_ids, npx = _orient(a_ids, b_ids, off_n, ln, kp[take])
+            a_ids, b_ids, npx = orient(a_ids, b_ids, off_n, ln, kp[take])
             npx32 = npx.astype(np.int32)
             self._reserve(edges=ne + new_i.shape[0])
             self._next_edge = ne + new_i.shape[0]
@@ -3613,7 +3610,7 @@ class IncrementalMapper:
         return out
 
     def _export_graph(self) -> nx.MultiGraph:
-        from .graph import _path_lengths_m
+        from .graph import path_lengths_m
         from .pipeline import clearance_at
 
         res = self.resolution_m
@@ -3664,7 +3661,7 @@ class IncrementalMapper:
             cl = clearance_m(allp[:, 0], allp[:, 1])
             bounds = np.concatenate([[0], np.cumsum(lens)])
             # as the full-map graph counts them (integer steps), bit for bit
-            length_m = _path_lengths_m(allp, bounds[:-1], lens, res)
+            length_m = path_lengths_m(allp, bounds[:-1], lens, res)
             path32 = allp.astype(np.int32)
             for i, k in enumerate(edges):
                 u, v = ends[i]
@@ -3748,7 +3745,7 @@ class IncrementalMapper:
         -------
         Path
         """
-        from .io import atomic_write_bytes
+        from ._fs import atomic_write_bytes
 
         p = Path(path)
         self._cast_pending_rays()
@@ -4147,8 +4144,9 @@ def replay(
     """
     from tqdm import tqdm
 
+    from ._fs import output_folder
     from .graph import graph_summary
-    from .io import output_folder, save_graph, save_nav2_graph
+    from .io import save_graph, save_nav2_graph
     from .maps import save_map
     from .scans import read_scans
 
@@ -4157,9 +4155,9 @@ def replay(
     ):
         raise ValueError(f"max_scans must be a positive int or None, got {max_scans!r}")
     if nav2_tolerance_m is not None:  # checked now, not after the whole replay
-        from .config import _positive_metres
+        from ._validate import positive_metres
 
-        nav2_tolerance_m = _positive_metres("nav2_tolerance_m", nav2_tolerance_m)
+        nav2_tolerance_m = positive_metres("nav2_tolerance_m", nav2_tolerance_m)
     if graph_config is not None and not isinstance(graph_config, GraphConfig):
         raise TypeError(
             f"graph_config: expected a GraphConfig, received {type(graph_config).__name__}"
@@ -4234,7 +4232,7 @@ def replay(
         "timings": timings,
         "settings": mapper._settings(),
     }
-    from .io import atomic_write_bytes
+    from ._fs import atomic_write_bytes
 
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     written.append(out / "timings.json")
@@ -4264,24 +4262,11 @@ def replay(
     summary["written"] = [str(p) for p in written]
     summary["messages"] = messages
     if progress:
-        print(_summary_text(summary))
+        print(summary_text(summary))
     return summary
 
 
-def _with_graph_config(result, graph_config: GraphConfig):
-    """``result`` with the skeleton and graph that ``graph_config`` keeps: the CPU stages
-    of the full-map pipeline re-run on its ridge map (exact, so the graph is the one
-    ``build_graph(result.map, ...)`` gives with that ``graph``)."""
-    from dataclasses import replace
-
-    from .pipeline import _graph_of_map
-
-    config = replace(result.config, graph=graph_config)
-    skeleton, graph, _ = _graph_of_map(result.map, result.ridges, result.sq_distance_px, config)
-    return replace(result, skeleton=skeleton, graph=graph, config=config)
-
-
-def _summary_text(summary: dict) -> str:
+def summary_text(summary: dict) -> str:
     lines = [
         f"replayed   {summary['n_scans']} scans of {summary['source']} in "
         f"{summary['wall_s']:.2f} s; map {summary['map_shape'][0]} x "
@@ -4300,82 +4285,14 @@ def _summary_text(summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _cmd_replay(args) -> int:
-    from .cli import graph_config, nav2_tolerance
+def _with_graph_config(result, graph_config: GraphConfig):
+    """``result`` with the skeleton and graph that ``graph_config`` keeps: the CPU stages
+    of the full-map pipeline re-run on its ridge map (exact, so the graph is the one
+    ``build_graph(result.map, ...)`` gives with that ``graph``)."""
+    from dataclasses import replace
 
-    kw = {
-        "resolution_m": args.resolution,
-        "skeleton_every": args.skeleton_every,
-        "graph_every": args.graph_every,
-        "strategy": args.strategy,
-    }
-    reader_kwargs = {}
-    for name in ("max_range", "scan_topic", "pose_topic"):
-        if getattr(args, name) is not None:
-            reader_kwargs[name] = getattr(args, name)
-    if args.allow_missing_pose:
-        reader_kwargs["allow_missing_pose"] = True
-    summary = replay(
-        args.source,
-        out_dir=args.out,
-        plot=args.plot,
-        animate=args.animate,
-        progress=not args.no_progress,
-        max_scans=args.max_scans,
-        reader_kwargs=reader_kwargs or None,
-        nav2_tolerance_m=nav2_tolerance(args),
-        graph_config=graph_config(args),
-        **kw,
-    )
-    if args.no_progress:
-        print(_summary_text(summary))
-    print("wrote      " + ", ".join(summary["written"]))
-    return 0
+    from .pipeline import graph_of_map
 
-
-def _add_cli(subparsers):
-    """Register the ``replay`` subcommand on an ``argparse`` subparsers object."""
-    p = subparsers.add_parser(
-        "replay",
-        help="build the topology graph incrementally from a laser log",
-        description="Replay a laser log (CARMEN .log/.gz, ROS 1/2 bag, Octave laser file) "
-        "through the incremental mapper; write the final graph (GraphML, JSON, GeoJSON), "
-        "the occupancy map, per-loop timings and optionally pictures and an animation.",
-    )
-    p.add_argument("source", help="log file or bag")
-    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
-    p.add_argument("--plot", action="store_true", help="also write PNG pictures")
-    p.add_argument("--animate", metavar="PATH", help="write an animated GIF of the graph")
-    p.add_argument(
-        "--skeleton-every", type=int, default=20, help="scans per skeleton update (default 20)"
-    )
-    p.add_argument("--graph-every", type=int, default=80, help="scans per graph update (80)")
-    p.add_argument(
-        "--strategy",
-        choices=STRATEGIES,
-        default="exact",
-        help="skeleton update: exact (equals the full-map result; default) or paper",
-    )
-    p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
-    p.add_argument("--max-scans", type=int, help="stop after this many scans")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument(
-        "--max-range",
-        type=float,
-        metavar="M",
-        help="CARMEN logs: readings of M metres or more are no-returns (default: from the "
-        "log's largest reading, or each line's own maximum)",
-    )
-    p.add_argument("--scan-topic", help="bags: the LaserScan topic (default: the only one)")
-    p.add_argument("--pose-topic", help="bags: an Odometry / pose topic (default: tf)")
-    p.add_argument(
-        "--allow-missing-pose",
-        action="store_true",
-        help="bags: without any pose source, map every scan at the origin (scan-only bags)",
-    )
-    from .cli import add_graph_options, add_nav2_options
-
-    add_graph_options(p)
-    add_nav2_options(p, "graph_nav2.geojson")
-    p.set_defaults(handler=_cmd_replay)
-    return p
+    config = replace(result.config, graph=graph_config)
+    skeleton, graph, _ = graph_of_map(result.map, result.ridges, result.sq_distance_px, config)
+    return replace(result, skeleton=skeleton, graph=graph, config=config)

@@ -27,8 +27,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
-import tempfile
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -37,10 +35,11 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
-from .config import _positive_metres
-from .graph import _holds, _polyline_keep
+from ._fs import atomic_write_bytes
+from ._validate import positive_metres
+from .graph import holds, polyline_keep
 
-__all__ = ["GRAPH_FORMATS", "atomic_write_bytes", "load_graph", "save_graph", "save_nav2_graph"]
+__all__ = ["GRAPH_FORMATS", "load_graph", "save_graph", "save_nav2_graph"]
 
 #: Supported formats and their file suffixes.
 GRAPH_FORMATS = {".graphml": "graphml", ".json": "json", ".geojson": "geojson"}
@@ -64,70 +63,6 @@ _DEFAULT_GRAPH_KINDS: dict[str, dict[str, Any]] = {
 }
 
 
-# ---------------------------------------------------------------------- atomic writing
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
-    """Create the folder ``path`` (and its parents) for outputs and return it.
-
-    Raises NotADirectoryError naming ``name`` when ``path``, or a folder above it, is an
-    existing file (``mkdir`` itself only says "File exists" / "Not a directory")."""
-    folder = Path(path)
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except (FileExistsError, NotADirectoryError):
-        raise NotADirectoryError(
-            f"{name}: expected a folder to write into, but {folder} or a folder above it is "
-            "an existing file"
-        ) from None
-    return folder
-
-
-def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically.
-
-    The bytes go to a temporary file in the same folder, which is flushed, synced and then
-    renamed over ``path`` with :func:`os.replace`; readers never see a partial file.
-
-    Parameters
-    ----------
-    path : str or Path
-        Destination file. Its folder must exist.
-    data : bytes
-        File content.
-    """
-    dest = Path(path)
-    if dest.is_dir():
-        raise IsADirectoryError(
-            f"output file {dest} is a folder: expected a file path such as {dest / 'name'}"
-        )
-    folder = dest.parent if str(dest.parent) else Path(".")
-    if not folder.is_dir():
-        raise FileNotFoundError(f"folder for output file {dest} does not exist: {folder}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=folder)
-    try:
-        # mkstemp creates the file 0600; give the result the permissions any ordinary
-        # new file would get (0666 less the process umask).
-        os.fchmod(fd, 0o666 & ~_umask())
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, dest)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-
-
 # ---------------------------------------------------------------------- value encoding
 
 
@@ -137,7 +72,7 @@ def _to_python_scalar(value: Any) -> Any:
     return value
 
 
-def _jsonable(value: Any, where: str) -> Any:
+def jsonable(value: Any, where: str) -> Any:
     """Convert nested tuples/lists/dicts/numpy values into plain JSON values."""
     value = _to_python_scalar(value)
     if value is None or isinstance(value, (bool, int, float, str)):
@@ -145,13 +80,13 @@ def _jsonable(value: Any, where: str) -> Any:
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, (list, tuple)):
-        return [_jsonable(v, where) for v in value]
+        return [jsonable(v, where) for v in value]
     if isinstance(value, dict):
         out = {}
         for k, v in value.items():
             if not isinstance(k, str):
                 raise TypeError(f"{where}: dict keys must be str to be saved, got {k!r}")
-            out[k] = _jsonable(v, where)
+            out[k] = jsonable(v, where)
         return out
     raise TypeError(
         f"{where}: values of type {type(value).__name__} cannot be saved "
@@ -216,7 +151,7 @@ def _collect_schema(items: list[dict[str, Any]], where: str) -> dict[str, dict[s
 
 
 def _decode_value(value: Any, spec: dict[str, Any] | None) -> Any:
-    """Inverse of :func:`_jsonable` for one attribute value, guided by ``spec``."""
+    """Inverse of :func:`jsonable` for one attribute value, guided by ``spec``."""
     if spec is None:
         return value
     kind = spec["kind"]
@@ -255,7 +190,7 @@ def _id_kind(values: list[Any], what: str) -> str:
     return kinds.pop() if kinds else "int"
 
 
-def _as_multigraph(graph: Any) -> nx.MultiGraph:
+def as_multigraph(graph: Any) -> nx.MultiGraph:
     """``graph`` as an undirected MultiGraph (a plain Graph's edges get key 0)."""
     if not isinstance(graph, nx.Graph):
         raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
@@ -281,7 +216,7 @@ def _graph_attrs_to_save(graph: nx.MultiGraph) -> dict[str, Any]:
         if dataclasses.is_dataclass(value) and not isinstance(value, type):
             value = dataclasses.asdict(value)
         try:
-            _jsonable(value, f"graph attribute {name!r}")
+            jsonable(value, f"graph attribute {name!r}")
         except TypeError as exc:
             warnings.warn(f"graph attribute {name!r} not saved: {exc}", UserWarning, stacklevel=3)
             continue
@@ -343,15 +278,15 @@ def _decode_attrs(attrs: dict[str, Any], specs: dict[str, Any]) -> dict[str, Any
 def _to_node_link(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
     nodes = []
     for n, d in g.nodes(data=True):
-        entry = {k: _jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items()}
+        entry = {k: jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items()}
         if "id" in entry:
             raise ValueError(f"node {n!r} has an attribute named 'id', reserved by node-link")
-        entry["id"] = _jsonable(n, "node id")
+        entry["id"] = jsonable(n, "node id")
         nodes.append(entry)
     edges = []
     for u, v, k, d in g.edges(keys=True, data=True):
         entry = {
-            name: _jsonable(val, f"edge ({u!r}, {v!r}, {k!r}) attribute {name!r}")
+            name: jsonable(val, f"edge ({u!r}, {v!r}, {k!r}) attribute {name!r}")
             for name, val in d.items()
         }
         for reserved in ("source", "target", "key"):
@@ -360,12 +295,12 @@ def _to_node_link(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -
                     f"edge ({u!r}, {v!r}, {k!r}) has an attribute named {reserved!r}, "
                     "reserved by node-link"
                 )
-        entry["source"] = _jsonable(u, "node id")
-        entry["target"] = _jsonable(v, "node id")
-        entry["key"] = _jsonable(k, "edge key")
+        entry["source"] = jsonable(u, "node id")
+        entry["target"] = jsonable(v, "node id")
+        entry["key"] = jsonable(k, "edge key")
         edges.append(entry)
     graph_json = {
-        name: _jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
+        name: jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
     }
     graph_json[_SCHEMA_KEY] = schema
     return {
@@ -418,7 +353,7 @@ def _graphml_value(value: Any, spec: dict[str, Any], where: str) -> Any:
         return float(value)
     if kind in ("bool", "int", "str", "float"):
         return value
-    return json.dumps(_jsonable(value, where), allow_nan=True)
+    return json.dumps(jsonable(value, where), allow_nan=True)
 
 
 def _graphml_decode(value: Any, spec: dict[str, Any] | None) -> Any:
@@ -533,13 +468,13 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
         if "world" not in d:
             raise ValueError(f"GeoJSON needs a 'world' (x, y) attribute on every node; node {n!r}")
         props = {
-            k: _jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items() if k != "world"
+            k: jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items() if k != "world"
         }
         for reserved in _GEO_NODE_RESERVED:
             if reserved in props:
                 raise ValueError(f"node {n!r} has an attribute named {reserved!r}, reserved")
         props["feature"] = "node"
-        props["id"] = _jsonable(n, "node id")
+        props["id"] = jsonable(n, "node id")
         geometry = {"type": "Point", "coordinates": _xy(d["world"], f"node {n!r} 'world'")}
         features.append({"type": "Feature", "geometry": geometry, "properties": props})
     for u, v, k, d in g.edges(keys=True, data=True):
@@ -559,7 +494,7 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
             line.append(list(line[0]))
             appended = 1
         props = {
-            name: _jsonable(val, f"{where} attribute {name!r}")
+            name: jsonable(val, f"{where} attribute {name!r}")
             for name, val in d.items()
             if name != "world"
         }
@@ -567,15 +502,15 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
             if reserved in props:
                 raise ValueError(f"{where} has an attribute named {reserved!r}, reserved")
         props["feature"] = "edge"
-        props["u"] = _jsonable(u, "node id")
-        props["v"] = _jsonable(v, "node id")
-        props["key"] = _jsonable(k, "edge key")
+        props["u"] = jsonable(u, "node id")
+        props["v"] = jsonable(v, "node id")
+        props["key"] = jsonable(k, "edge key")
         if appended:
             props["closed_by_writer"] = appended
         geometry = {"type": "LineString", "coordinates": line}
         features.append({"type": "Feature", "geometry": geometry, "properties": props})
     graph_json = {
-        name: _jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
+        name: jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
     }
     # Foreign members (RFC 7946 section 6.1); coordinates are map-frame metres, not WGS 84.
     return {
@@ -711,7 +646,7 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
     """
     p = Path(path)
     fmt = _format_for(p, format)
-    g = _as_multigraph(graph)
+    g = as_multigraph(graph)
     graph_attrs = _graph_attrs_to_save(g)
     schema = _build_schema(g, graph_attrs)
     if fmt == "graphml":
@@ -848,10 +783,10 @@ def save_nav2_graph(
     junction clusters), the chain includes the step to the vertex.  A loop with fewer
     than two points of its own to place waypoints on leads nowhere and is left out.
     """
-    tol = _positive_metres("tolerance_m", tolerance_m)
+    tol = positive_metres("tolerance_m", tolerance_m)
     if not isinstance(frame, str) or not frame:
         raise ValueError(f"frame: expected a non-empty string, received {frame!r}")
-    g = _as_multigraph(graph)
+    g = as_multigraph(graph)
     if g.number_of_edges() == 0:
         raise ValueError(
             f"graph: it has {g.number_of_nodes()} vertices and no edges; the Nav2 Route Server "
@@ -864,7 +799,7 @@ def save_nav2_graph(
         if "world" not in d:
             raise ValueError(f"graph: node {n!r} has no 'world' (x, y) attribute")
         node_xy[n] = _xy(d["world"], f"node {n!r} 'world'")
-        meta = {"vertex": _jsonable(n, "node id")}
+        meta = {"vertex": jsonable(n, "node id")}
         if isinstance(d.get("kind"), str):
             meta["kind"] = d["kind"]
         meta.update(_finite_metres(d, ("clearance_m",)))
@@ -876,7 +811,7 @@ def save_nav2_graph(
         xy = np.asarray(d.get("world", np.empty((0, 2))), dtype=np.float64)
         if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
             raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
-        corridor = {"corridor": [_jsonable(x, "edge id") for x in (u, v, k)]}
+        corridor = {"corridor": [jsonable(x, "edge id") for x in (u, v, k)]}
         # the polyline runs from u (topojax's paths do; be tolerant of other graphs)
         if u != v and not _starts_at(g, u, v, d, xy, node_xy):
             u, v = v, u
@@ -887,7 +822,7 @@ def save_nav2_graph(
         xy = xy[np.r_[True, (np.diff(xy, axis=0) != 0).any(axis=1)]]  # no repeated points
         if len(xy) < (4 if u == v else 2):
             continue  # a loop around no pixel but its vertex's, or a path on one point
-        keep = _polyline_keep(xy, tol)
+        keep = polyline_keep(xy, tol)
         if u == v and len(keep) < 4:  # a loop needs two distinct waypoints
             keep = np.unique(np.concatenate([keep, [len(xy) // 3, 2 * len(xy) // 3]]))
         along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
@@ -931,7 +866,7 @@ def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
     which vertex is nearer."""
     path = d.get("path")
     if path is not None and len(path):
-        at_u, at_v = _holds(g.nodes[u], path[0]), _holds(g.nodes[v], path[0])
+        at_u, at_v = holds(g.nodes[u], path[0]), holds(g.nodes[v], path[0])
         if at_u != at_v:
             return at_u
     return math.dist(xy[0], node_xy[u]) <= math.dist(xy[0], node_xy[v])

@@ -1071,7 +1071,7 @@ def save_map(
     """
     import yaml
 
-    from topojax.io import atomic_write_bytes
+    from ._fs import atomic_write_bytes
 
     if not isinstance(occupancy_map, OccupancyMap):
         raise TypeError(

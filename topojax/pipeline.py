@@ -791,9 +791,8 @@ def graph_from_ridges(
         graph's includes the pruning).
     """
     from .graph import prune_graph, skeleton_to_graph
-    from .skeleton import _remove_t_centres_inplace, thin
+    from .skeleton import skeletonize_ridges
 
-    t0 = time.perf_counter()
     if config.graph.free_space_only:
         free = np.asarray(free) if free is not None else None
         if free is None or free.shape != ridges.shape or free.dtype != bool:
@@ -803,11 +802,13 @@ def graph_from_ridges(
                 + ("None" if free is None else f"{free.dtype} {free.shape}")
             )
         ridges = ridges & free
-    skeleton = thin(ridges, method=config.skeleton.thinning)
-    t1 = time.perf_counter()
-    if config.skeleton.remove_t and skeleton.size:
-        # as skeletonize_ridges does, timed apart: thin's output is our own
-        _remove_t_centres_inplace(skeleton.view(np.uint8))
+    steps: dict[str, float] = {}
+    skeleton = skeletonize_ridges(
+        ridges,
+        method=config.skeleton.thinning,
+        remove_t=config.skeleton.remove_t,
+        timings_s=steps,
+    )
     t2 = time.perf_counter()
     graph = skeleton_to_graph(
         skeleton,
@@ -828,7 +829,7 @@ def graph_from_ridges(
     if source is not None:
         graph.graph["source"] = str(source)
     t3 = time.perf_counter()
-    return skeleton, graph, {"thinning": t1 - t0, "t_removal": t2 - t1, "graph": t3 - t2}
+    return skeleton, graph, {**steps, "graph": t3 - t2}
 
 
 def travel_ridges(ridges: np.ndarray, occupied: np.ndarray) -> np.ndarray:
@@ -838,7 +839,7 @@ def travel_ridges(ridges: np.ndarray, occupied: np.ndarray) -> np.ndarray:
     return np.zeros_like(ridges) if occupied.all() else ridges
 
 
-def _graph_of_map(occupancy, ridges: np.ndarray, sq_distance_px: np.ndarray, config):
+def graph_of_map(occupancy, ridges: np.ndarray, sq_distance_px: np.ndarray, config):
     """:func:`graph_from_ridges` for a map's ridges, with the clearance read from its
     windowed squared distances (exact, and only at the skeleton's pixels: the only ones
     the graph reads; a result's whole-map clearance is computed on first access)."""
@@ -916,7 +917,7 @@ def build_graph(occupancy, *, config: PipelineConfig | None = None) -> TopologyR
     t1 = time.perf_counter()
     timings["distance_ridges"] = t1 - t0
 
-    skeleton, graph, cpu_timings = _graph_of_map(
+    skeleton, graph, cpu_timings = graph_of_map(
         occupancy, fields.ridges, fields.sq_distance_px, config
     )
     timings.update(cpu_timings)

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .config import _nonnegative_metres, _positive_metres
-from .graph import _cumulative_length_m, _holds, _polyline_keep
-from .io import _as_multigraph, _jsonable
+from ._validate import nonnegative_metres, positive_metres
+from .graph import cumulative_length_m, holds, polyline_keep
+from .io import as_multigraph, jsonable
 
 __all__ = ["NoRouteError", "Route", "RoutePlanner", "plan_route"]
 
@@ -105,8 +105,8 @@ class Route:
         ValueError
             If it is not finite and > 0.
         """
-        tol = _positive_metres("tolerance_m", tolerance_m)
-        return self.world[_polyline_keep(self.world, tol)]
+        tol = positive_metres("tolerance_m", tolerance_m)
+        return self.world[polyline_keep(self.world, tol)]
 
     def to_geojson(self, *, tolerance_m: float | None = None) -> dict:
         """The route as a GeoJSON ``Feature``: a ``LineString`` of its world coordinates
@@ -125,7 +125,7 @@ class Route:
                 "length_m": self.length_m,
                 "start_snap_m": self.start_snap_m,
                 "goal_snap_m": self.goal_snap_m,
-                "vertices": [_jsonable(v, "vertex id") for v in self.vertices],
+                "vertices": [jsonable(v, "vertex id") for v in self.vertices],
             },
         }
 
@@ -163,7 +163,7 @@ class RoutePlanner:
     """
 
     def __init__(self, graph: nx.Graph) -> None:
-        graph = _as_multigraph(graph)  # a plain Graph: its edges get key 0
+        graph = as_multigraph(graph)  # a plain Graph: its edges get key 0
         self._graph = graph
         res = graph.graph.get("resolution_m")
         self._res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
@@ -236,7 +236,7 @@ class RoutePlanner:
         if frame not in _FRAMES:
             raise ValueError(f"frame: expected one of {_FRAMES}, received {frame!r}")
         if max_snap_m is not None:
-            max_snap_m = _nonnegative_metres("max_snap_m", max_snap_m)
+            max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
         s = self._snap(start, frame, "start")
         g = self._snap(goal, frame, "goal")
         for name, snap in (("start", s), ("goal", g)):
@@ -297,7 +297,7 @@ class RoutePlanner:
         )
 
     def _holds(self, node, pixel) -> bool:
-        return _holds(self._graph.nodes[node], pixel)
+        return holds(self._graph.nodes[node], pixel)
 
     def _cumulative(self) -> list[np.ndarray]:
         """Per edge, the length along its path from its start to each pixel, metres,
@@ -307,7 +307,7 @@ class RoutePlanner:
             return []
         sizes, starts = self._sizes, self._starts
         pixels = np.concatenate(self._path)
-        cum = _cumulative_length_m(pixels, starts, sizes, self._pixel_size_m())
+        cum = cumulative_length_m(pixels, starts, sizes, self._pixel_size_m())
         # Along each edge, its pixel steps in proportion to its length_m: the same numbers
         # for a graph as built (length_m is the step sum), and for an edge whose length_m
         # a user re-weighted, partial traversals cost their share of it (never less than

@@ -211,7 +211,7 @@ def _storage(capacity: int, shape, dt: np.dtype) -> np.ndarray:
     return np.frombuffer(buf, dt, count=count).reshape(shape)
 
 
-def _unique_pairs(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+def unique_pairs(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Distinct ``(row, col)`` pairs sorted by row, then column: int64 (n, 2).
 
     Same result as ``np.unique(np.stack([rows, cols], 1), axis=0)``, through one packed
@@ -500,7 +500,7 @@ class TileManager:
         if not missing.any():
             return slots, 0
         self.check_extent(tr[missing], tc[missing])
-        packed = _unique_pairs(tr[missing], tc[missing])
+        packed = unique_pairs(tr[missing], tc[missing])
         n_new = packed.shape[0]
         self._grow_capacity(self._n + n_new)
         self._grow_grid(packed)

@@ -1,0 +1,119 @@
+"""File-system helpers shared by every writer: atomic writes, output folders, and the rule
+that no output replaces an input map."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+__all__ = [
+    "atomic_write_bytes",
+    "input_files",
+    "output_folder",
+    "refuse_overwriting_inputs",
+    "yaml_image",
+]
+
+#: Suffixes of map_server YAML files (the same as :data:`topojax.maps.YAML_SUFFIXES`).
+_YAML_SUFFIXES = (".yaml", ".yml")
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
+    """Create the folder ``path`` (and its parents) for outputs and return it.
+
+    Raises NotADirectoryError naming ``name`` when ``path``, or a folder above it, is an
+    existing file (``mkdir`` itself only says "File exists" / "Not a directory")."""
+    folder = Path(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise NotADirectoryError(
+            f"{name}: expected a folder to write into, but {folder} or a folder above it is "
+            "an existing file"
+        ) from None
+    return folder
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically.
+
+    The bytes go to a temporary file in the same folder, which is flushed, synced and then
+    renamed over ``path`` with :func:`os.replace`; readers never see a partial file.
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination file. Its folder must exist.
+    data : bytes
+        File content.
+    """
+    dest = Path(path)
+    if dest.is_dir():
+        raise IsADirectoryError(
+            f"output file {dest} is a folder: expected a file path such as {dest / 'name'}"
+        )
+    folder = dest.parent if str(dest.parent) else Path(".")
+    if not folder.is_dir():
+        raise FileNotFoundError(f"folder for output file {dest} does not exist: {folder}")
+    fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=folder)
+    try:
+        # mkstemp creates the file 0600; give the result the permissions any ordinary
+        # new file would get (0666 less the process umask).
+        os.fchmod(fd, 0o666 & ~_umask())
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, dest)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def input_files(path: Path) -> list[Path]:
+    """A map's files: the file itself and, for a YAML, the image it refers to."""
+    files = [Path(path)]
+    if Path(path).suffix.lower() in _YAML_SUFFIXES:
+        img = yaml_image(Path(path))
+        if img is not None:
+            files.append(img)
+    return files
+
+
+def yaml_image(path: Path) -> Path | None:
+    """The image a map_server YAML refers to (as :func:`load_map` resolves it), or None."""
+    try:
+        import yaml
+
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+        image = doc.get("image") if isinstance(doc, dict) else None
+        if not isinstance(image, str) or not image.strip():
+            return None
+        img = Path(image.strip())
+        if img.is_absolute():
+            return img if img.is_file() else path.parent / img.name
+        return path.parent / img
+    except Exception:  # an unreadable YAML is reported when the map is loaded
+        return None
+
+
+def refuse_overwriting_inputs(inputs, targets, *, option: str) -> None:
+    """Raise ValueError naming ``option`` if a file of ``targets`` is one of the map files
+    ``inputs`` or an image one of their YAMLs refers to (checked before any work)."""
+    taken = {os.path.realpath(f) for path in inputs for f in input_files(Path(path))}
+    for target in targets:
+        if os.path.realpath(target) in taken:
+            raise ValueError(
+                f"{option}: writing {target} would overwrite an input map; choose another "
+                "output folder"
+            )

@@ -1,0 +1,149 @@
+"""Command line: ``topojax graph``, ``topojax demo``, ``topojax route``, ``topojax replay``,
+``topojax batch``."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+__all__ = ["main"]
+
+
+from . import batch, replay
+from ._options import add_nav2_options, add_pipeline_options, add_sigma_options
+from .graph import _cmd_demo, _cmd_graph
+from .route import _cmd_route
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from ..maps import MODES
+
+    parser = argparse.ArgumentParser(
+        prog="topojax",
+        description="Topology (route) graphs from 2-D robot maps via Gaussian distance maps.",
+        epilog="Compiled JAX kernels are kept in $XDG_CACHE_HOME/topojax/jax (default "
+        "~/.cache/topojax/jax) unless JAX_COMPILATION_CACHE_DIR is set; "
+        "TOPOJAX_NO_JAX_CACHE=1 turns that off.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser(
+        "graph",
+        help="build the topology graph of one map file",
+        description="Build the topology graph of a map (ROS map_server YAML, or a "
+        "PGM/PNG/JPG image) and write GraphML, JSON and GeoJSON.",
+    )
+    p.add_argument("map", help="map file: .yaml/.yml (map_server), .pgm, .png, .jpg, ...")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    p.add_argument("--plot", action="store_true", help="also write a PNG overlay")
+    p.add_argument("--stages", action="store_true", help="also write a PNG of every stage")
+    p.add_argument(
+        "--resolution",
+        dest="resolution_m",
+        type=float,
+        help="m/px for images (default: a PGM's 'm/pix' comment, else 0.05; YAML: its own)",
+    )
+    p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
+    p.add_argument("--free-thresh", type=float, help="override free_thresh")
+    p.add_argument("--negate", action="store_true", help="image values are occupancy")
+    p.add_argument(
+        "--mode",
+        choices=MODES,
+        help="pixel convention (default: the YAML's, else trinary; ipa: free if >= 250, "
+        "everything else occupied)",
+    )
+    add_sigma_options(p)
+    add_nav2_options(p, "STEM_nav2.geojson")
+    add_pipeline_options(p)
+    p.set_defaults(handler=_cmd_graph)
+
+    p = sub.add_parser(
+        "demo",
+        help="run the pipeline on a bundled real map",
+        description="Run the full pipeline on a map bundled with topojax (the paper's maps), "
+        "write the graph and pictures, and print a summary.",
+    )
+    p.add_argument("--map", choices=("intel", "office", "a_scan"), default="intel")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    add_pipeline_options(p)
+    p.set_defaults(handler=_cmd_demo)
+
+    p = sub.add_parser(
+        "route",
+        help="shortest route between two points on a saved graph",
+        description="Snap a start and a goal point to a saved topology graph (GraphML, "
+        "JSON or GeoJSON from `topojax graph`) and print the shortest route between them "
+        "along its corridors; optionally write it as a GeoJSON LineString.",
+    )
+    p.add_argument("graph", help="graph file: .graphml, .json or .geojson")
+    p.add_argument(
+        "--start", nargs=2, type=float, required=True, metavar=("X", "Y"), help="start point"
+    )
+    p.add_argument(
+        "--goal", nargs=2, type=float, required=True, metavar=("X", "Y"), help="goal point"
+    )
+    p.add_argument(
+        "--pixel",
+        action="store_true",
+        help="points are (row, col) pixels of the map instead of world (x, y) metres",
+    )
+    p.add_argument(
+        "--max-snap-m",
+        type=float,
+        metavar="M",
+        help="fail if a point is more than M metres from the graph (default: no limit)",
+    )
+    p.add_argument("-o", "--out", help="write the route here as GeoJSON")
+    p.add_argument(
+        "--simplify-m",
+        type=float,
+        metavar="M",
+        help="write waypoints that keep every route pixel within M metres instead of every "
+        "pixel (default: every pixel)",
+    )
+    p.set_defaults(handler=_cmd_route)
+
+    replay.add_command(sub)
+    batch.add_command(sub)
+    return parser
+
+
+def _use_compilation_cache() -> None:
+    """Keep the compiled JAX kernels on disk between runs of the command.
+
+    Each run of the command is a fresh process; without a persistent cache it compiles
+    the kernels again (about half a second of a ``topojax graph`` run).  JAX's own
+    settings win: ``JAX_COMPILATION_CACHE_DIR`` chooses the directory (default
+    ``$XDG_CACHE_HOME/topojax/jax``, i.e. ``~/.cache/topojax/jax``) and
+    ``JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS`` the threshold (default here 0: every
+    kernel is kept); ``TOPOJAX_NO_JAX_CACHE=1`` turns the cache off.  Library calls never
+    change JAX's settings; only the command does.
+    """
+    if os.environ.get("TOPOJAX_NO_JAX_CACHE", "") not in ("", "0"):
+        return
+    import jax
+
+    if not os.environ.get("JAX_COMPILATION_CACHE_DIR"):
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        jax.config.update("jax_compilation_cache_dir", os.path.join(base, "topojax", "jax"))
+    if not os.environ.get("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"):
+        # the kernels compile in well under JAX's default threshold of one second, so
+        # without this nothing would be cached
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``topojax`` command."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    _use_compilation_cache()
+    try:
+        return int(args.handler(args) or 0)
+    except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
+        print(f"topojax {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

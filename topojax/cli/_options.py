@@ -1,0 +1,125 @@
+"""Options shared by several commands, and the configurations they give."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def pipeline_config(args, *, resolution_m: float | None = None):
+    """The :class:`PipelineConfig` of the options of :func:`add_pipeline_options`, with
+    the Gaussian of :func:`add_sigma_options` where the command has them: ``--sigma-px``
+    as given, ``--sigma-m`` through ``resolution_m`` (a command that runs many maps
+    passes none and converts per map)."""
+    from ..config import DistanceConfig, PipelineConfig, SkeletonConfig
+
+    distance = DistanceConfig()
+    if getattr(args, "sigma_px", None) is not None:
+        distance = DistanceConfig.from_pixels(sigma_px=args.sigma_px)
+    elif getattr(args, "sigma_m", None) is not None and resolution_m is not None:
+        distance = DistanceConfig.from_metres(sigma_m=args.sigma_m, resolution_m=resolution_m)
+    return PipelineConfig(
+        distance=distance,
+        skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
+        graph=graph_config(args),
+        tile_px=args.tile_px,
+    )
+
+
+def graph_config(args):
+    """The :class:`GraphConfig` of the options of :func:`add_graph_options`."""
+    from ..config import GraphConfig
+
+    return GraphConfig(
+        free_space_only=args.free_only,
+        min_clearance_m=args.min_clearance_m,
+        min_spur_m=args.min_spur_m,
+        min_component_m=args.min_component_m,
+    )
+
+
+def add_pipeline_options(p: argparse.ArgumentParser) -> None:
+    """Options shared by every command that runs the full-map pipeline (thinning, T
+    removal, what to keep of the graph, tiles)."""
+    p.add_argument(
+        "--thinning",
+        choices=("guo_hall", "zhang"),
+        default="guo_hall",
+        help="thinning algorithm (default: guo_hall, the paper's; zhang = the original code's)",
+    )
+    p.add_argument("--keep-t", action="store_true", help="do not remove T-junction centres")
+    add_graph_options(p)
+    p.add_argument("--tile-px", type=int, default=256, help="JAX tile side in pixels")
+
+
+def add_graph_options(p: argparse.ArgumentParser) -> None:
+    """What to keep of the graph: ``--free-only`` and the ``--min-*-m`` pruning options."""
+    p.add_argument(
+        "--free-only",
+        action="store_true",
+        help="thin only the ridges in known free space (none in unknown space)",
+    )
+    p.add_argument(
+        "--min-clearance-m",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="remove corridors narrower than M metres from wall to centre, e.g. the robot's "
+        "radius (default 0: keep all)",
+    )
+    p.add_argument(
+        "--min-spur-m",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="remove dead-end branches shorter than M metres (default 0: keep all)",
+    )
+    p.add_argument(
+        "--min-component-m",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="remove pieces of graph shorter than M metres in all (default 0: keep all)",
+    )
+
+
+def add_sigma_options(p: argparse.ArgumentParser, *, each_map: str = "") -> None:
+    """``--sigma-m`` / ``--sigma-px`` (mutually exclusive): the distance map's Gaussian."""
+    scale = p.add_mutually_exclusive_group()
+    scale.add_argument(
+        "--sigma-m",
+        type=float,
+        metavar="M",
+        help=f"Gaussian sigma of the distance map in metres{each_map}, the support scaled "
+        "with it (default: the paper's 64.19 px, 3.2 m at 0.05 m/px; a finer map needs "
+        "more pixels)",
+    )
+    scale.add_argument(
+        "--sigma-px", type=float, metavar="P", help="the same in pixels (default 64.19)"
+    )
+
+
+def add_nav2_options(p: argparse.ArgumentParser, name: str) -> None:
+    """``--nav2`` (also write the file ``name``: a Nav2 Route Server graph) and its
+    ``--nav2-tolerance-m``."""
+    p.add_argument(
+        "--nav2",
+        action="store_true",
+        help=f"also write {name}, a route graph for the ROS 2 Nav2 Route Server",
+    )
+    p.add_argument(
+        "--nav2-tolerance-m",
+        type=float,
+        default=0.1,
+        metavar="M",
+        help="Nav2 waypoints keep every corridor pixel within M metres (default 0.1)",
+    )
+
+
+def nav2_tolerance(args) -> float | None:
+    """The checked ``--nav2-tolerance-m`` when ``--nav2`` is given (else None); the error
+    names the option (checked before any work)."""
+    if not args.nav2:
+        return None
+    from .._validate import positive_metres
+
+    return positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)

@@ -1,0 +1,122 @@
+"""``topojax batch``: the graphs of many maps."""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+from ._options import add_pipeline_options, add_sigma_options, pipeline_config
+
+
+def _cmd_batch(args) -> int:
+    from ..batch import build_graphs, expand_map_inputs
+
+    paths = expand_map_inputs(args.inputs, exclude=args.out)
+    config = pipeline_config(args)  # --sigma-m goes to build_graphs: per map
+    client = None
+    executor = None
+    if args.scheduler:
+        try:
+            from distributed import Client
+        except ImportError as exc:  # pragma: no cover - optional dependency
+            raise ValueError(
+                "--scheduler needs dask.distributed (pip install 'topojax[dask]')"
+            ) from exc
+        client = Client(args.scheduler, timeout=args.connect_timeout)
+        executor = client.get_executor(pure=False)
+    t0 = time.perf_counter()
+    try:
+        records = build_graphs(
+            paths,
+            executor=executor,
+            workers=args.workers,
+            config=config,
+            out_dir=args.out,
+            formats=args.formats,
+            plot=args.plot,
+            resume=args.resume,
+            progress=not args.no_progress,
+            tiles_per_call=args.tiles_per_call,
+            kernel_threads=args.kernel_threads,
+            map_mode=args.mode,
+            sigma_m=args.sigma_m,
+        )
+    finally:
+        if client is not None:
+            client.close()
+    wall = time.perf_counter() - t0
+    counts = Counter(r.status for r in records)
+    megapixels = sum((r.height or 0) * (r.width or 0) for r in records if r.status == "ok") / 1e6
+    print(
+        f"topojax batch: {len(records)} maps in {wall:.1f} s "
+        f"({counts['ok']} ok, {counts['skipped']} skipped, {counts['error']} errors; "
+        f"{megapixels:.1f} Mpx processed); table: {Path(args.out) / 'summary.csv'}"
+    )
+    for r in records:
+        if r.status == "error":
+            print(f"  error  {r.map}: {r.message}", file=sys.stderr)
+    return 1 if counts["error"] else 0
+
+
+def add_command(subparsers) -> None:
+    """Register the ``batch`` subcommand on an ``argparse`` subparsers object."""
+    from ..maps import MODES
+
+    p = subparsers.add_parser(
+        "batch",
+        help="build the graphs of many maps (batched kernels, parallel CPU stages)",
+        description="Build the topology graphs of many maps: JAX kernels batched in this "
+        "process, thinning and graph building in parallel worker processes (or on a Dask "
+        "cluster with --scheduler). Writes per map GraphML/JSON/GeoJSON (+ picture with "
+        "--plot) and a manifest, and OUT/summary.csv. Exit status 1 if any map failed.",
+    )
+    p.add_argument(
+        "inputs",
+        nargs="+",
+        help="map files, folders (searched recursively) or glob patterns with ** and "
+        "braces, e.g. 'maps/**/*.{yaml,png,pgm}' (quote it)",
+    )
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="worker processes for the CPU stages (default: number of cores; 0 = in-process)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the CPU stages on a Dask distributed cluster, e.g. tcp://host:8786",
+    )
+    p.add_argument(
+        "--connect-timeout", type=float, default=30.0, help="seconds to reach the scheduler"
+    )
+    add_sigma_options(p, each_map=" (each map through its own resolution)")
+    add_pipeline_options(p)
+    p.add_argument(
+        "--tiles-per-call", type=int, default=None, help="tiles per kernel call (bucket size)"
+    )
+    p.add_argument(
+        "--kernel-threads", type=int, default=None, help="threads dispatching kernel calls"
+    )
+    p.add_argument("--plot", action="store_true", help="also write <name>_graph.png per map")
+    p.add_argument(
+        "--resume", action="store_true", help="skip maps whose outputs are complete and valid"
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--mode",
+        choices=MODES,
+        help="pixel convention of every map file (default: each file's own; ipa: free if "
+        ">= 250, everything else occupied)",
+    )
+    p.add_argument(
+        "--formats",
+        default="graphml,json,geojson",
+        help="comma-separated graph formats: graphml, json, geojson, nav2 (a Nav2 Route "
+        "Server graph, NAME_nav2.geojson) (default: graphml,json,geojson)",
+    )
+    p.set_defaults(handler=_cmd_batch)

@@ -1,0 +1,86 @@
+"""``topojax replay``: a laser log through the incremental mapper."""
+
+from __future__ import annotations
+
+from ._options import add_graph_options, add_nav2_options, graph_config, nav2_tolerance
+
+
+def _cmd_replay(args) -> int:
+    from ..incremental import replay, summary_text
+
+    kw = {
+        "resolution_m": args.resolution,
+        "skeleton_every": args.skeleton_every,
+        "graph_every": args.graph_every,
+        "strategy": args.strategy,
+    }
+    reader_kwargs = {}
+    for name in ("max_range", "scan_topic", "pose_topic"):
+        if getattr(args, name) is not None:
+            reader_kwargs[name] = getattr(args, name)
+    if args.allow_missing_pose:
+        reader_kwargs["allow_missing_pose"] = True
+    summary = replay(
+        args.source,
+        out_dir=args.out,
+        plot=args.plot,
+        animate=args.animate,
+        progress=not args.no_progress,
+        max_scans=args.max_scans,
+        reader_kwargs=reader_kwargs or None,
+        nav2_tolerance_m=nav2_tolerance(args),
+        graph_config=graph_config(args),
+        **kw,
+    )
+    if args.no_progress:
+        print(summary_text(summary))
+    print("wrote      " + ", ".join(summary["written"]))
+    return 0
+
+
+def add_command(subparsers) -> None:
+    """Register the ``replay`` subcommand on an ``argparse`` subparsers object."""
+    from ..incremental import STRATEGIES
+
+    p = subparsers.add_parser(
+        "replay",
+        help="build the topology graph incrementally from a laser log",
+        description="Replay a laser log (CARMEN .log/.gz, ROS 1/2 bag, Octave laser file) "
+        "through the incremental mapper; write the final graph (GraphML, JSON, GeoJSON), "
+        "the occupancy map, per-loop timings and optionally pictures and an animation.",
+    )
+    p.add_argument("source", help="log file or bag")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    p.add_argument("--plot", action="store_true", help="also write PNG pictures")
+    p.add_argument("--animate", metavar="PATH", help="write an animated GIF of the graph")
+    p.add_argument(
+        "--skeleton-every", type=int, default=20, help="scans per skeleton update (default 20)"
+    )
+    p.add_argument("--graph-every", type=int, default=80, help="scans per graph update (80)")
+    p.add_argument(
+        "--strategy",
+        choices=STRATEGIES,
+        default="exact",
+        help="skeleton update: exact (equals the full-map result; default) or paper",
+    )
+    p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
+    p.add_argument("--max-scans", type=int, help="stop after this many scans")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--max-range",
+        type=float,
+        metavar="M",
+        help="CARMEN logs: readings of M metres or more are no-returns (default: from the "
+        "log's largest reading, or each line's own maximum)",
+    )
+    p.add_argument("--scan-topic", help="bags: the LaserScan topic (default: the only one)")
+    p.add_argument("--pose-topic", help="bags: an Odometry / pose topic (default: tf)")
+    p.add_argument(
+        "--allow-missing-pose",
+        action="store_true",
+        help="bags: without any pose source, map every scan at the origin (scan-only bags)",
+    )
+    add_graph_options(p)
+    add_nav2_options(p, "graph_nav2.geojson")
+    p.set_defaults(handler=_cmd_replay)
+    return p

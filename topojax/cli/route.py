@@ -1,0 +1,40 @@
+"""``topojax route``: the shortest route between two points on a saved graph."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+
+def _cmd_route(args) -> int:
+    from ..io import load_graph
+    from ..routing import NoRouteError, RoutePlanner
+
+    if args.simplify_m is not None:  # checked before the work, with the option's name
+        from .._validate import positive_metres
+
+        positive_metres("--simplify-m", args.simplify_m)
+    if args.out and os.path.realpath(args.out) == os.path.realpath(args.graph):
+        raise ValueError(f"-o: writing the route to {args.out} would overwrite the graph file")
+    graph = load_graph(args.graph)
+    frame = "pixel" if args.pixel else "world"
+    try:
+        route = RoutePlanner(graph).route(
+            tuple(args.start), tuple(args.goal), frame=frame, max_snap_m=args.max_snap_m
+        )
+    except NoRouteError as exc:
+        print(f"topojax route: {exc}", file=sys.stderr)
+        return 1
+    print(
+        f"route      {route.length_m:.2f} m along the graph, {len(route.pixels)} pixels, "
+        f"{len(route.vertices)} vertices, {len(route.edges)} edges"
+    )
+    print(f"snapped    start {route.start_snap_m:.3f} m, goal {route.goal_snap_m:.3f} m away")
+    if args.out:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(route.to_geojson(tolerance_m=args.simplify_m)))
+        print(f"wrote      {out}")
+    return 0
