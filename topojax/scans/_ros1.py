@@ -150,17 +150,21 @@ class _Ros1Sequential:
                     if op == 0x07:
                         self._add_connection(hdr, data)
                     continue
-                data = fh.read(dlen)
-                comp = hdr.get("compression", b"none").decode()
-                if comp == "bz2":
-                    data = bz2.decompress(data)
-                elif comp == "lz4":
-                    import lz4.frame  # type: ignore[import-untyped]
-
-                    data = lz4.frame.decompress(data)
-                elif comp != "none":
-                    raise ValueError(f"{self.path}: unsupported chunk compression {comp!r}")
+                data = self._decompress(fh.read(dlen), hdr)
                 yield from self._chunk_records(data, want_messages)
+
+    def _decompress(self, data: bytes, hdr: dict[str, bytes]) -> bytes:
+        """A CHUNK record's data, decompressed as its header's ``compression`` says."""
+        comp = hdr.get("compression", b"none").decode()
+        if comp == "bz2":
+            return bz2.decompress(data)
+        if comp == "lz4":
+            import lz4.frame  # type: ignore[import-untyped]
+
+            return lz4.frame.decompress(data)
+        if comp != "none":
+            raise ValueError(f"{self.path}: unsupported chunk compression {comp!r}")
+        return data
 
     def _chunk_records(self, data: bytes, want_messages: bool) -> Iterator[tuple[int, int, bytes]]:
         pos = 0

@@ -182,48 +182,11 @@ def read_bag(
     source = _open_bag(p)
     topics = source.topics
     listing = ", ".join(f"{t} [{m}]" for t, m in sorted(topics.items())) or "(none)"
-
-    scan_topics = [t for t, m in topics.items() if m == _LASERSCAN]
-    if scan_topic is None:
-        if len(scan_topics) != 1:
-            raise ValueError(
-                f"scan_topic: expected exactly one {_LASERSCAN} topic in {p} to choose by "
-                f"default, found {len(scan_topics)}; topics: {listing}"
-            )
-        scan_topic = scan_topics[0]
-    elif topics.get(scan_topic) != _LASERSCAN:
-        raise ValueError(
-            f"scan_topic: {scan_topic!r} is not a {_LASERSCAN} topic in {p}; topics: {listing}"
-        )
-
+    scan_topic = _choose_scan_topic(p, topics, scan_topic, listing)
     tf_topics = [t for t, m in topics.items() if m in _TF_TYPES]
-    pose_topics = [t for t, m in topics.items() if m in _POSE_TYPES]
-    mode: str
-    if pose_topic is not None:
-        if topics.get(pose_topic) not in _POSE_TYPES:
-            raise ValueError(
-                f"pose_topic: {pose_topic!r} is not one of {', '.join(_POSE_TYPES)} in {p}; "
-                f"topics: {listing}"
-            )
-        mode = "topic"
-    elif tf_topics:
-        mode = "tf"
-    elif len(pose_topics) == 1:
-        pose_topic, mode = pose_topics[0], "topic"
-    elif pose_topics:
-        raise ValueError(
-            f"pose_topic: {p} has no tf and several pose topics {sorted(pose_topics)}; "
-            f"choose one with pose_topic="
-        )
-    elif allow_missing_pose:
-        mode = "none"
-    else:
-        raise ValueError(
-            f"{p} has no pose source (no tf topic and no {', '.join(_POSE_TYPES)} topic); "
-            f"topics: {listing}. Pass allow_missing_pose=True (topojax replay "
-            "--allow-missing-pose) to read the scans with the identity pose (0, 0, 0), or "
-            "pose_topic (--pose-topic)."
-        )
+    mode, pose_topic = _choose_pose_source(
+        p, topics, tf_topics, pose_topic, allow_missing_pose, listing
+    )
     return _iter_bag(
         p,
         source,
@@ -236,6 +199,63 @@ def read_bag(
         offset_override,
         int(round(tol * 1e9)),
         missing_pose,
+    )
+
+
+def _choose_scan_topic(
+    p: Path, topics: dict[str, str], scan_topic: str | None, listing: str
+) -> str:
+    """``scan_topic`` after checking it is a LaserScan topic of the bag; by default the
+    only one."""
+    scan_topics = [t for t, m in topics.items() if m == _LASERSCAN]
+    if scan_topic is None:
+        if len(scan_topics) != 1:
+            raise ValueError(
+                f"scan_topic: expected exactly one {_LASERSCAN} topic in {p} to choose by "
+                f"default, found {len(scan_topics)}; topics: {listing}"
+            )
+        return scan_topics[0]
+    if topics.get(scan_topic) != _LASERSCAN:
+        raise ValueError(
+            f"scan_topic: {scan_topic!r} is not a {_LASERSCAN} topic in {p}; topics: {listing}"
+        )
+    return scan_topic
+
+
+def _choose_pose_source(
+    p: Path,
+    topics: dict[str, str],
+    tf_topics: list[str],
+    pose_topic: str | None,
+    allow_missing_pose: bool,
+    listing: str,
+) -> tuple[str, str | None]:
+    """Where the scans' poses come from (see :func:`read_bag`): ``("topic", pose_topic)``,
+    ``("tf", None)`` or ``("none", None)``."""
+    pose_topics = [t for t, m in topics.items() if m in _POSE_TYPES]
+    if pose_topic is not None:
+        if topics.get(pose_topic) not in _POSE_TYPES:
+            raise ValueError(
+                f"pose_topic: {pose_topic!r} is not one of {', '.join(_POSE_TYPES)} in {p}; "
+                f"topics: {listing}"
+            )
+        return "topic", pose_topic
+    if tf_topics:
+        return "tf", None
+    if len(pose_topics) == 1:
+        return "topic", pose_topics[0]
+    if pose_topics:
+        raise ValueError(
+            f"pose_topic: {p} has no tf and several pose topics {sorted(pose_topics)}; "
+            f"choose one with pose_topic="
+        )
+    if allow_missing_pose:
+        return "none", None
+    raise ValueError(
+        f"{p} has no pose source (no tf topic and no {', '.join(_POSE_TYPES)} topic); "
+        f"topics: {listing}. Pass allow_missing_pose=True (topojax replay "
+        "--allow-missing-pose) to read the scans with the identity pose (0, 0, 0), or "
+        "pose_topic (--pose-topic)."
     )
 
 
@@ -252,7 +272,54 @@ def _iter_bag(
     tol_ns: int,
     missing_pose: str,
 ) -> Iterator[Scan]:
-    # Pass 1: collect the (small) pose data.
+    tree, body_pose, pose_body = _collect_poses(
+        path, source, mode, pose_topic, tf_topics, base_frame
+    )
+    poses = _ScanPoses(
+        path,
+        mode,
+        tree,
+        body_pose,
+        pose_body,
+        pose_topic,
+        tf_parent,
+        base_frame,
+        offset_override,
+        tol_ns,
+    )
+    skipped = 0
+    for _topic, _typ, t_ns, msg in source.messages([scan_topic]):
+        stamp = _stamp_ns(msg.header.stamp) or t_ns
+        frame = _frame(msg.header.frame_id)
+        robot, offset = poses.at(frame, stamp)
+        if robot is None or offset is None:
+            if missing_pose == "error":
+                raise ValueError(
+                    f"{path}: no pose for the scan at t={stamp / 1e9:.9f} s (frame {frame!r}) "
+                    f"within pose_tolerance_s of the pose data"
+                )
+            skipped += 1
+            continue
+        yield _bag_scan(path, msg, stamp, robot, offset, offset_override)
+    if skipped:
+        warnings.warn(
+            f"{path}: skipped {skipped} scan(s) on {scan_topic} with no pose within "
+            f"pose_tolerance_s of the pose data",
+            stacklevel=2,
+        )
+
+
+def _collect_poses(
+    path: Path,
+    source: _AnyReaderSource | _Ros1Sequential,
+    mode: str,
+    pose_topic: str | None,
+    tf_topics: list[str],
+    base_frame: str | None,
+) -> tuple[_TfTree, _TfSeries, str | None]:
+    """First pass over the bag: the (small) pose data. The tf tree, the pose topic's
+    series and the robot frame it poses (``base_frame`` if given, else its first
+    message's Odometry child frame, else None)."""
     tree = _TfTree()
     body_pose = _TfSeries()
     pose_parent: str | None = None
@@ -263,52 +330,132 @@ def _iter_bag(
     if mode != "none" and wanted:
         for topic, typ, t_ns, msg in source.messages(wanted):
             if typ in _TF_TYPES:
-                static = topic.rstrip("/").endswith("tf_static")
-                for tr in msg.transforms:
-                    stamp = _stamp_ns(tr.header.stamp) or t_ns
-                    try:
-                        tf = _tf_from_msg(tr.transform.translation, tr.transform.rotation)
-                    except ValueError as err:
-                        raise ValueError(f"{path}: topic {topic}: {err}") from None
-                    tree.add(
-                        _frame(tr.header.frame_id), _frame(tr.child_frame_id), stamp, tf, static
-                    )
-            else:
-                try:
-                    parent, body, stamp, tf = _pose_from_msg(typ, msg)
-                except ValueError as err:
-                    raise ValueError(f"{path}: topic {topic}: {err}") from None
-                if pose_parent is None:
-                    pose_parent, pose_body = parent, body
-                body_pose.add(stamp or t_ns, tf, False)
+                _add_transforms(path, tree, topic, t_ns, msg)
+                continue
+            try:
+                parent, body, stamp, tf = _pose_from_msg(typ, msg)
+            except ValueError as err:
+                raise ValueError(f"{path}: topic {topic}: {err}") from None
+            if pose_parent is None:
+                pose_parent, pose_body = parent, body
+            body_pose.add(stamp or t_ns, tf, False)
         if mode == "topic" and not body_pose.t:
             raise ValueError(f"pose_topic: {pose_topic!r} in {path} has no messages")
         if mode == "topic" and base_frame is not None:
             pose_body = base_frame
+    return tree, body_pose, pose_body
 
-    frames = tree.frames
-    parent_frame = tf_parent
-    if mode == "tf" and parent_frame is None:
-        parent_frame = "map" if "map" in frames else "odom"
 
-    skipped = 0
-    resolved: dict[str, str | None] = {}
+def _add_transforms(path: Path, tree: _TfTree, topic: str, t_ns: int, msg: Any) -> None:
+    """Add the transforms of one tf message (received at bag time ``t_ns``) to ``tree``."""
+    static = topic.rstrip("/").endswith("tf_static")
+    for tr in msg.transforms:
+        stamp = _stamp_ns(tr.header.stamp) or t_ns
+        try:
+            tf = _tf_from_msg(tr.transform.translation, tr.transform.rotation)
+        except ValueError as err:
+            raise ValueError(f"{path}: topic {topic}: {err}") from None
+        tree.add(_frame(tr.header.frame_id), _frame(tr.child_frame_id), stamp, tf, static)
 
-    def resolve(frame: str) -> str | None:
+
+class _ScanPoses:
+    """The robot pose and sensor offset of each scan, by the pose source ``mode``:
+    ``"none"`` (identity), ``"tf"`` (the tf chain from the map frame to the scan frame,
+    split at the base frame) or ``"topic"`` (the pose topic, plus tf from its robot frame
+    to the scan frame)."""
+
+    def __init__(
+        self,
+        path: Path,
+        mode: str,
+        tree: _TfTree,
+        body_pose: _TfSeries,
+        pose_body: str | None,
+        pose_topic: str | None,
+        tf_parent: str | None,
+        base_frame: str | None,
+        offset_override: tuple[float, float, float] | None,
+        tol_ns: int,
+    ) -> None:
+        self.path = path
+        self.mode = mode
+        self.tree = tree
+        self.body_pose = body_pose
+        self.pose_body = pose_body
+        self.pose_topic = pose_topic
+        self.base_frame = base_frame
+        self.offset_override = offset_override
+        self.tol_ns = tol_ns
+        self.frames = tree.frames
+        self.parent_frame = tf_parent
+        if mode == "tf" and self.parent_frame is None:
+            self.parent_frame = "map" if "map" in self.frames else "odom"
+        self._resolved: dict[str, str | None] = {}
+
+    def at(self, frame: str, stamp: int) -> tuple[_Tf | None, _Tf | None]:
+        """Robot pose and sensor offset of a scan in ``frame`` at ``stamp`` (ns); None
+        where the pose data do not reach that time."""
+        if self.mode == "none":
+            return _IDENTITY_TF, _IDENTITY_TF
+        if self.mode == "tf":
+            return self._from_tf(frame, stamp)
+        return self._from_topic(frame, stamp)
+
+    def _from_tf(self, frame: str, stamp: int) -> tuple[_Tf | None, _Tf | None]:
+        tree, tol_ns = self.tree, self.tol_ns
+        base = self._base(frame)
+        assert self.parent_frame is not None
+        if base is None:
+            return tree.lookup(self.parent_frame, frame, stamp, tol_ns), _IDENTITY_TF
+        robot = tree.lookup(self.parent_frame, base, stamp, tol_ns)
+        offset = (
+            _IDENTITY_TF
+            if self.offset_override is not None or base == frame
+            else tree.lookup(base, frame, stamp, tol_ns)
+        )
+        return robot, offset
+
+    def _from_topic(self, frame: str, stamp: int) -> tuple[_Tf | None, _Tf | None]:
+        pose_body, pose_topic, path = self.pose_body, self.pose_topic, self.path
+        robot = self.body_pose.at(stamp, self.tol_ns)
+        if self.offset_override is not None or pose_body == frame:
+            offset = _IDENTITY_TF
+        elif pose_body is None:
+            raise ValueError(
+                f"pose_topic: {pose_topic!r} in {path} does not name the robot frame; pass "
+                f"base_frame= (to look the laser mounting up in tf) or sensor_offset="
+            )
+        elif (
+            pose_body in self.frames
+            and frame in self.frames
+            and self.tree.connected(pose_body, frame)
+        ):
+            offset = self.tree.lookup(pose_body, frame, stamp, self.tol_ns)
+        else:
+            raise ValueError(
+                f"sensor_offset: the pose topic {pose_topic!r} gives the pose of frame "
+                f"{pose_body!r} but tf in {path} does not connect it to the scan frame "
+                f"{frame!r}; pass sensor_offset=(x_m, y_m, yaw_rad)"
+            )
+        return robot, offset
+
+    def _base(self, frame: str) -> str | None:
         """For tf mode: the base frame on the chain to split at (None: no split)."""
-        if frame in resolved:
-            return resolved[frame]
+        if frame in self._resolved:
+            return self._resolved[frame]
+        parent_frame, base_frame = self.parent_frame, self.base_frame
+        frames, path = self.frames, self.path
         if (
             parent_frame not in frames
             or frame not in frames
-            or not tree.connected(parent_frame, frame)
+            or not self.tree.connected(parent_frame, frame)
         ):
             raise ValueError(
                 f"tf_parent: no tf chain from {parent_frame!r} to the scan frame {frame!r} in "
                 f"{path}; tf frames: {sorted(frames)} (try tf_parent='odom' or 'map', or "
                 f"pose_topic=)"
             )
-        chain = tree.ancestors(frame)
+        chain = self.tree.ancestors(frame)
         if base_frame is not None:
             if base_frame not in chain or parent_frame not in chain[chain.index(base_frame) :]:
                 raise ValueError(
@@ -320,79 +467,39 @@ def _iter_bag(
             upto = chain[: chain.index(parent_frame)] if parent_frame in chain else chain
             cands = [c for c in _BASE_FRAME_CANDIDATES if c in upto]
             out = cands[0] if cands else None
-        resolved[frame] = out
+        self._resolved[frame] = out
         return out
 
-    for _topic, _typ, t_ns, msg in source.messages([scan_topic]):
-        stamp = _stamp_ns(msg.header.stamp) or t_ns
-        frame = _frame(msg.header.frame_id)
-        angle_min = float(msg.angle_min)
-        inc = float(msg.angle_increment)
-        robot: _Tf | None
-        offset: _Tf | None
-        if mode == "none":
-            robot, offset = _IDENTITY_TF, _IDENTITY_TF
-        elif mode == "tf":
-            base = resolve(frame)
-            assert parent_frame is not None
-            if base is None:
-                robot, offset = tree.lookup(parent_frame, frame, stamp, tol_ns), _IDENTITY_TF
-            else:
-                robot = tree.lookup(parent_frame, base, stamp, tol_ns)
-                offset = (
-                    _IDENTITY_TF
-                    if offset_override is not None or base == frame
-                    else tree.lookup(base, frame, stamp, tol_ns)
-                )
-        else:
-            robot = body_pose.at(stamp, tol_ns)
-            if offset_override is not None or pose_body == frame:
-                offset = _IDENTITY_TF
-            elif pose_body is None:
-                raise ValueError(
-                    f"pose_topic: {pose_topic!r} in {path} does not name the robot frame; pass "
-                    f"base_frame= (to look the laser mounting up in tf) or sensor_offset="
-                )
-            elif pose_body in frames and frame in frames and tree.connected(pose_body, frame):
-                offset = tree.lookup(pose_body, frame, stamp, tol_ns)
-            else:
-                raise ValueError(
-                    f"sensor_offset: the pose topic {pose_topic!r} gives the pose of frame "
-                    f"{pose_body!r} but tf in {path} does not connect it to the scan frame "
-                    f"{frame!r}; pass sensor_offset=(x_m, y_m, yaw_rad)"
-                )
-        if robot is None or offset is None:
-            if missing_pose == "error":
-                raise ValueError(
-                    f"{path}: no pose for the scan at t={stamp / 1e9:.9f} s (frame {frame!r}) "
-                    f"within pose_tolerance_s of the pose data"
-                )
-            skipped += 1
-            continue
-        if robot[3] < 0:
-            raise ValueError(
-                f"{path}: the robot frame is mirrored (upside down) in tf at t={stamp / 1e9} s"
-            )
-        if offset[3] < 0:
-            angle_min, inc = -angle_min, -inc
-        final_offset = offset_override if offset_override is not None else offset[:3]
-        try:
-            scan = Scan(
-                np.asarray(msg.ranges),
-                angle_min,
-                inc,
-                float(msg.range_min),
-                float(msg.range_max),
-                robot[:3],
-                final_offset,
-                stamp / 1e9,
-            )
-        except (TypeError, ValueError) as err:
-            raise ValueError(f"{path}: scan at t={stamp / 1e9:.9f} s: {err}") from None
-        yield scan
-    if skipped:
-        warnings.warn(
-            f"{path}: skipped {skipped} scan(s) on {scan_topic} with no pose within "
-            f"pose_tolerance_s of the pose data",
-            stacklevel=2,
+
+def _bag_scan(
+    path: Path,
+    msg: Any,
+    stamp: int,
+    robot: _Tf,
+    offset: _Tf,
+    offset_override: tuple[float, float, float] | None,
+) -> Scan:
+    """The :class:`Scan` of a LaserScan message at ``stamp`` (ns) with its poses; a mirrored
+    sensor negates the beam angles."""
+    angle_min = float(msg.angle_min)
+    inc = float(msg.angle_increment)
+    if robot[3] < 0:
+        raise ValueError(
+            f"{path}: the robot frame is mirrored (upside down) in tf at t={stamp / 1e9} s"
         )
+    if offset[3] < 0:
+        angle_min, inc = -angle_min, -inc
+    final_offset = offset_override if offset_override is not None else offset[:3]
+    try:
+        return Scan(
+            np.asarray(msg.ranges),
+            angle_min,
+            inc,
+            float(msg.range_min),
+            float(msg.range_max),
+            robot[:3],
+            final_offset,
+            stamp / 1e9,
+        )
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{path}: scan at t={stamp / 1e9:.9f} s: {err}") from None

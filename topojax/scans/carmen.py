@@ -285,43 +285,8 @@ def _iter_carmen(
                 f"{path}: largest {chosen} reading {file_max} m minus no_return_margin_m "
                 f"{margin} m is not positive; pass max_range"
             )
-
-    def odom_offset() -> tuple[float, float, float]:
-        if offset_override is not None:
-            return offset_override
-        if chosen in ("FLASER", "RAWLASER1"):
-            vals = []
-            for name in ("offset", "side_offset", "angular_offset"):
-                txt = params.get(f"robot_frontlaser_{name}", "0")
-                try:
-                    vals.append(float(txt))
-                except ValueError:
-                    raise ValueError(
-                        f"{path}: PARAM robot_frontlaser_{name}: expected a number, got {txt!r}"
-                    ) from None
-            return _pose3("PARAM robot_frontlaser_*", vals)
-        raise ValueError(
-            f"{path}: {chosen} lines carry no pose and the log does not say where this laser "
-            f"is mounted; pass sensor_offset=(x_m, y_m, yaw_rad)"
-        )
-
-    # The latest ODOM line, parsed only when a scan needs it: (line number, tokens).
-    odom_line: tuple[int, list[str]] | None = None
-
-    def odom_pose() -> tuple[float, float, float]:
-        assert odom_line is not None
-        num, toks = odom_line
-        try:
-            _need(toks, 4, "ODOM x y theta")
-            xyz = _floats(toks[1:4], "ODOM pose")
-            if not np.all(np.isfinite(xyz)):
-                raise _CarmenLineError(f"ODOM pose is not finite: {xyz.tolist()}")
-        except _CarmenLineError as err:
-            raise ValueError(f"{path}:{num}: malformed ODOM line: {err}") from None
-        return (float(xyz[0]), float(xyz[1]), float(xyz[2]))
-
+    odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
-    zero = (0.0, 0.0, 0.0)
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
@@ -330,51 +295,17 @@ def _iter_carmen(
             key = tokens[0]
             try:
                 if key == "ODOM":
-                    odom_line = (lineno, tokens)
+                    odom.line = (lineno, tokens)
                     continue
                 if key != chosen:
                     continue
                 if old:
-                    ranges, pose, stamp = _parse_old_laser(tokens)
-                    n = ranges.shape[0]
-                    angle_min, inc = -math.pi / 2.0, _carmen_beam_increment(n)
-                    rmax = range_max_old
-                    if pose is None:
-                        if odom_line is None:
-                            skipped += 1
-                            continue
-                        robot, offset = odom_pose(), odom_offset()
-                    else:
-                        robot = (float(pose[0]), float(pose[1]), float(pose[2]))
-                        offset = zero if offset_override is None else offset_override
+                    scan = _old_laser_scan(tokens, range_max_old, offset_override, odom)
                 else:
-                    cfg, ranges, k = _parse_new_laser_head(tokens)
-                    angle_min, inc = float(cfg[0]), float(cfg[2])
-                    rmax = float(cfg[3]) if max_range is None else max_range
-                    if chosen in _ROBOT_LASERS:
-                        _need(tokens, k + 12, "laser pose, robot pose, 5 fields and timestamp")
-                        nums = _floats(tokens[k : k + 12], "poses / timestamp")
-                        if not np.all(np.isfinite(nums[:6])):
-                            raise _CarmenLineError(f"poses are not finite: {nums[:6].tolist()}")
-                        laser_pose = (float(nums[0]), float(nums[1]), float(nums[2]))
-                        robot = (float(nums[3]), float(nums[4]), float(nums[5]))
-                        offset = (
-                            _relative(robot, laser_pose)
-                            if offset_override is None
-                            else offset_override
-                        )
-                        stamp = float(nums[11])
-                    else:
-                        _need(tokens, k + 1, "the timestamp")
-                        stamp = float(_floats(tokens[k : k + 1], "timestamp")[0])
-                        if odom_line is None:
-                            skipped += 1
-                            continue
-                        robot, offset = odom_pose(), odom_offset()
-                try:
-                    scan = Scan(ranges, angle_min, inc, 0.0, rmax, robot, offset, stamp)
-                except (TypeError, ValueError) as err:
-                    raise _CarmenLineError(str(err)) from None
+                    scan = _new_laser_scan(tokens, chosen, max_range, offset_override, odom)
+                if scan is None:  # posed from ODOM, before the first ODOM line
+                    skipped += 1
+                    continue
             except _CarmenLineError as err:
                 if _cut_off(line):
                     warnings.warn(
@@ -391,3 +322,117 @@ def _iter_carmen(
             f"(they have no pose)",
             stacklevel=2,
         )
+
+
+_ZERO_POSE = (0.0, 0.0, 0.0)
+
+
+class _OdomPoses:
+    """Robot pose and sensor offset for the scans of a log whose laser lines carry no
+    pose: the latest ``ODOM`` line, and the front laser's ``PARAM`` mounting."""
+
+    def __init__(
+        self,
+        path: Path,
+        chosen: str,
+        params: dict[str, str],
+        offset_override: tuple[float, float, float] | None,
+    ) -> None:
+        self.path = path
+        self.chosen = chosen
+        self.params = params
+        self.offset_override = offset_override
+        # The latest ODOM line, parsed only when a scan needs it: (line number, tokens).
+        self.line: tuple[int, list[str]] | None = None
+
+    def offset(self) -> tuple[float, float, float]:
+        """The sensor pose in the robot frame."""
+        if self.offset_override is not None:
+            return self.offset_override
+        if self.chosen in ("FLASER", "RAWLASER1"):
+            vals = []
+            for name in ("offset", "side_offset", "angular_offset"):
+                txt = self.params.get(f"robot_frontlaser_{name}", "0")
+                try:
+                    vals.append(float(txt))
+                except ValueError:
+                    raise ValueError(
+                        f"{self.path}: PARAM robot_frontlaser_{name}: expected a number, "
+                        f"got {txt!r}"
+                    ) from None
+            return _pose3("PARAM robot_frontlaser_*", vals)
+        raise ValueError(
+            f"{self.path}: {self.chosen} lines carry no pose and the log does not say where "
+            f"this laser is mounted; pass sensor_offset=(x_m, y_m, yaw_rad)"
+        )
+
+    def pose(self) -> tuple[float, float, float]:
+        """The robot pose of the latest ODOM line."""
+        assert self.line is not None
+        num, toks = self.line
+        try:
+            _need(toks, 4, "ODOM x y theta")
+            xyz = _floats(toks[1:4], "ODOM pose")
+            if not np.all(np.isfinite(xyz)):
+                raise _CarmenLineError(f"ODOM pose is not finite: {xyz.tolist()}")
+        except _CarmenLineError as err:
+            raise ValueError(f"{self.path}:{num}: malformed ODOM line: {err}") from None
+        return (float(xyz[0]), float(xyz[1]), float(xyz[2]))
+
+
+def _old_laser_scan(
+    tokens: list[str],
+    range_max: float | None,
+    offset_override: tuple[float, float, float] | None,
+    odom: _OdomPoses,
+) -> Scan | None:
+    """The scan of a FLASER/RLASER line; None for a pose-less line before the first ODOM."""
+    ranges, pose, stamp = _parse_old_laser(tokens)
+    n = ranges.shape[0]
+    angle_min, inc = -math.pi / 2.0, _carmen_beam_increment(n)
+    if pose is None:
+        if odom.line is None:
+            return None
+        robot, offset = odom.pose(), odom.offset()
+    else:
+        robot = (float(pose[0]), float(pose[1]), float(pose[2]))
+        offset = _ZERO_POSE if offset_override is None else offset_override
+    return _line_scan(ranges, angle_min, inc, range_max, robot, offset, stamp)
+
+
+def _new_laser_scan(
+    tokens: list[str],
+    chosen: str,
+    max_range: float | None,
+    offset_override: tuple[float, float, float] | None,
+    odom: _OdomPoses,
+) -> Scan | None:
+    """The scan of a ROBOTLASERk/RAWLASERk line; None for a RAWLASER line before the first
+    ODOM."""
+    cfg, ranges, k = _parse_new_laser_head(tokens)
+    angle_min, inc = float(cfg[0]), float(cfg[2])
+    rmax = float(cfg[3]) if max_range is None else max_range
+    if chosen in _ROBOT_LASERS:
+        _need(tokens, k + 12, "laser pose, robot pose, 5 fields and timestamp")
+        nums = _floats(tokens[k : k + 12], "poses / timestamp")
+        if not np.all(np.isfinite(nums[:6])):
+            raise _CarmenLineError(f"poses are not finite: {nums[:6].tolist()}")
+        laser_pose = (float(nums[0]), float(nums[1]), float(nums[2]))
+        robot = (float(nums[3]), float(nums[4]), float(nums[5]))
+        offset = _relative(robot, laser_pose) if offset_override is None else offset_override
+        stamp = float(nums[11])
+    else:
+        _need(tokens, k + 1, "the timestamp")
+        stamp = float(_floats(tokens[k : k + 1], "timestamp")[0])
+        if odom.line is None:
+            return None
+        robot, offset = odom.pose(), odom.offset()
+    return _line_scan(ranges, angle_min, inc, rmax, robot, offset, stamp)
+
+
+def _line_scan(ranges, angle_min, inc, rmax, robot, offset, stamp) -> Scan:
+    """``Scan(...)`` with its complaints as :class:`_CarmenLineError` (they are the line's)."""
+    try:
+        return Scan(ranges, angle_min, inc, 0.0, rmax, robot, offset, stamp)
+    except (TypeError, ValueError) as err:
+        raise _CarmenLineError(str(err)) from None
