@@ -18,6 +18,8 @@ _BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 
 
 def _looks_octave(path: Path) -> bool:
+    """Does the file open with an Octave ``save -text`` header (``# Created by Octave`` or
+    ``# name:`` among its first 20 lines, before any line that is not a comment)?"""
     with _open_text(path) as fh:
         for _ in range(20):
             line = fh.readline()

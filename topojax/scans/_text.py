@@ -13,6 +13,7 @@ _GZIP_MAGIC = b"\x1f\x8b"
 
 
 def _check_file(path: str | Path, what: str) -> Path:
+    """``path`` as a Path after checking it is an existing file (errors name ``what``)."""
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"{what}: file not found: {p}")
