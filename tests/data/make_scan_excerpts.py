@@ -62,7 +62,7 @@ def bag_prefix(src: Path, dst: Path, n_msgs: int) -> None:
     """Copy the first ``n_msgs`` messages: raw bytes, original definition, md5sum, callerid."""
     from rosbags.rosbag1 import Writer
 
-    from topojax.scans import _Ros1Sequential
+    from topojax.scans._ros1 import _Ros1Sequential
 
     reader = _Ros1Sequential(src)
     if dst.exists():

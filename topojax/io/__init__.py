@@ -1,0 +1,36 @@
+"""Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON), and writing
+them as route graphs for the ROS 2 Nav2 Route Server (:func:`save_nav2_graph`).
+
+Graphs are :class:`networkx.MultiGraph` objects with integer node ids. The topojax
+attribute schema is
+
+* nodes: ``pixel`` (tuple (row, col) of int), ``world`` (tuple (x, y) of float, metres),
+  ``kind`` (str), ``clearance_m`` (float);
+* edges: ``path`` (np.ndarray of int, (K, 2), (row, col)), ``world`` (np.ndarray of float,
+  (K, 2), (x, y) metres), ``length_m``, ``min_clearance_m``, ``mean_clearance_m`` (float);
+* graph: ``resolution_m``, ``origin`` (3-tuple), ``shape`` ((H, W)) and any other
+  attributes.
+
+Every file also stores a small *type schema* (``"topojax_schema"``) that records, per
+attribute name, whether values were numpy arrays (with dtype and trailing shape), tuples,
+lists or other JSON values, and the type of node ids and edge keys. :func:`load_graph` uses
+it to give back the same Python/numpy types. Files without a schema (written by other
+tools) are decoded with the topojax defaults above.
+
+Floats are written with Python's shortest round-trip representation, so they come back
+bit-exact. Writes are atomic: a temporary file in the target folder is renamed over the
+destination with :func:`os.replace`.
+
+Modules: ``_schema`` (value encoding and the type schema), ``nodelink``, ``graphml``,
+``geojson`` (one per file format), ``files`` (:func:`save_graph` / :func:`load_graph`),
+``nav2`` (:func:`save_nav2_graph`).
+"""
+
+from __future__ import annotations
+
+from ._schema import as_multigraph as as_multigraph
+from ._schema import jsonable as jsonable
+from .files import GRAPH_FORMATS, load_graph, save_graph
+from .nav2 import save_nav2_graph
+
+__all__ = ["GRAPH_FORMATS", "load_graph", "save_graph", "save_nav2_graph"]

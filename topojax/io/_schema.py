@@ -1,0 +1,266 @@
+"""The type schema of saved graphs: how attribute values are encoded as JSON values and
+decoded back to the same Python/numpy types.
+
+Every file also stores a small *type schema* (``"topojax_schema"``) that records, per
+attribute name, whether values were numpy arrays (with dtype and trailing shape), tuples,
+lists or other JSON values, and the type of node ids and edge keys. :func:`load_graph` uses
+it to give back the same Python/numpy types. Files without a schema (written by other
+tools) are decoded with the topojax defaults (``_DEFAULT_*_KINDS``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+
+_SCHEMA_KEY = "topojax_schema"
+_SCHEMA_VERSION = 1
+
+# Decoding used for files without a schema (topojax defaults).
+_DEFAULT_NODE_KINDS: dict[str, dict[str, Any]] = {
+    "pixel": {"kind": "tuple"},
+    "pixels": {"kind": "ndarray", "dtype": "int64", "trailing": [2]},
+    "world": {"kind": "tuple"},
+}
+_DEFAULT_EDGE_KINDS: dict[str, dict[str, Any]] = {
+    "path": {"kind": "ndarray", "dtype": "int64", "trailing": [2]},
+    "world": {"kind": "ndarray", "dtype": "float64", "trailing": [2]},
+}
+_DEFAULT_GRAPH_KINDS: dict[str, dict[str, Any]] = {
+    "origin": {"kind": "tuple"},
+    "shape": {"kind": "tuple"},
+}
+
+
+# ---------------------------------------------------------------------- value encoding
+
+
+def _to_python_scalar(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def jsonable(value: Any, where: str) -> Any:
+    """Convert nested tuples/lists/dicts/numpy values into plain JSON values."""
+    value = _to_python_scalar(value)
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v, where) for v in value]
+    if isinstance(value, dict):
+        out = {}
+        for k, v in value.items():
+            if not isinstance(k, str):
+                raise TypeError(f"{where}: dict keys must be str to be saved, got {k!r}")
+            out[k] = jsonable(v, where)
+        return out
+    raise TypeError(
+        f"{where}: values of type {type(value).__name__} cannot be saved "
+        "(supported: numbers, str, bool, None, tuple, list, dict, numpy arrays)"
+    )
+
+
+def _value_kind(value: Any) -> dict[str, Any]:
+    """Describe the type of one attribute value for the schema."""
+    if isinstance(value, np.ndarray):
+        return {"kind": "ndarray", "dtype": value.dtype.str, "trailing": list(value.shape[1:])}
+    value = _to_python_scalar(value)
+    if isinstance(value, bool):
+        return {"kind": "bool"}
+    if isinstance(value, int):
+        return {"kind": "int"}
+    if isinstance(value, float):
+        return {"kind": "float"}
+    if isinstance(value, str):
+        return {"kind": "str"}
+    if isinstance(value, tuple):
+        return {"kind": "tuple"}
+    if value is None:
+        return {"kind": "none"}
+    return {"kind": "json"}
+
+
+def _merge_kinds(a: dict[str, Any] | None, b: dict[str, Any], where: str) -> dict[str, Any]:
+    """Combine the kinds of two values of the same attribute."""
+    if a is None or a == b:
+        return b
+    ka, kb = a["kind"], b["kind"]
+    if {ka, kb} == {"int", "float"}:
+        return {"kind": "float"}
+    if ka == kb == "ndarray":
+        merged = dict(a)
+        if a["dtype"] != b["dtype"]:
+            merged["dtype"] = np.result_type(np.dtype(a["dtype"]), np.dtype(b["dtype"])).str
+        if a["trailing"] != b["trailing"]:
+            merged["trailing"] = None
+        return merged
+    # Mixed kinds: keep each value's own JSON form (tuples/arrays come back as lists).
+    warnings.warn(
+        f"{where} mixes values of kinds {ka!r} and {kb!r}; they are saved as plain JSON "
+        "values and may come back as lists",
+        UserWarning,
+        stacklevel=4,
+    )
+    return {"kind": "json"}
+
+
+def _collect_schema(items: list[dict[str, Any]], where: str) -> dict[str, dict[str, Any]]:
+    kinds: dict[str, dict[str, Any] | None] = {}
+    for attrs in items:
+        for name, value in attrs.items():
+            if not isinstance(name, str):
+                raise TypeError(f"{where} attribute names must be str, got {name!r}")
+            kinds[name] = _merge_kinds(
+                kinds.get(name), _value_kind(value), f"{where} attribute {name!r}"
+            )
+    return {k: v for k, v in kinds.items() if v is not None}
+
+
+def _decode_value(value: Any, spec: dict[str, Any] | None) -> Any:
+    """Inverse of :func:`jsonable` for one attribute value, guided by ``spec``."""
+    if spec is None:
+        return value
+    kind = spec["kind"]
+    if kind == "ndarray":
+        if value is None:
+            return None
+        arr = np.asarray(value, dtype=np.dtype(spec["dtype"]))
+        trailing = spec.get("trailing")
+        if trailing is not None and arr.size == 0:
+            arr = arr.reshape((0, *trailing))
+        return arr
+    if kind == "tuple":
+        return _to_tuple(value) if isinstance(value, list) else value
+    if kind == "float" and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    return value
+
+
+def _to_tuple(value: Any) -> Any:
+    if isinstance(value, list):
+        return tuple(_to_tuple(v) for v in value)
+    return value
+
+
+def _check_key_type(value: Any, what: str) -> str:
+    value = _to_python_scalar(value)
+    if isinstance(value, bool) or not isinstance(value, (int, str)):
+        raise TypeError(f"{what} must be int or str to be saved, got {value!r}")
+    return "int" if isinstance(value, int) else "str"
+
+
+def _id_kind(values: list[Any], what: str) -> str:
+    kinds = {_check_key_type(v, what) for v in values}
+    if len(kinds) > 1:
+        raise TypeError(f"{what}s must all be int or all be str, got a mix")
+    return kinds.pop() if kinds else "int"
+
+
+def as_multigraph(graph: Any) -> nx.MultiGraph:
+    """``graph`` as an undirected MultiGraph (a plain Graph's edges get key 0)."""
+    if not isinstance(graph, nx.Graph):
+        raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
+    if graph.is_directed():
+        raise TypeError(
+            f"graph: expected an undirected graph (corridors run both ways), received "
+            f"{type(graph).__name__}"
+        )
+    if graph.is_multigraph():
+        return graph
+    return nx.MultiGraph(graph)
+
+
+def _graph_attrs_to_save(graph: nx.MultiGraph) -> dict[str, Any]:
+    """Graph attributes in a saveable form; unsupported values are skipped with a warning."""
+    out: dict[str, Any] = {}
+    for name, value in graph.graph.items():
+        if name == _SCHEMA_KEY:
+            continue
+        if not isinstance(name, str):
+            warnings.warn(f"graph attribute {name!r} skipped: name is not a str", stacklevel=3)
+            continue
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            value = dataclasses.asdict(value)
+        try:
+            jsonable(value, f"graph attribute {name!r}")
+        except TypeError as exc:
+            warnings.warn(f"graph attribute {name!r} not saved: {exc}", UserWarning, stacklevel=3)
+            continue
+        out[name] = value
+    return out
+
+
+def _build_schema(g: nx.MultiGraph, graph_attrs: dict[str, Any]) -> dict[str, Any]:
+    return {
+        "version": _SCHEMA_VERSION,
+        "node_id": _id_kind(list(g.nodes), "node id"),
+        "edge_key": _id_kind([k for _, _, k in g.edges(keys=True)], "edge key"),
+        "graph": _collect_schema([graph_attrs], "graph"),
+        "node": _collect_schema([d for _, d in g.nodes(data=True)], "node"),
+        "edge": _collect_schema([d for _, _, d in g.edges(data=True)], "edge"),
+    }
+
+
+def _schema_or_default(schema: Any) -> dict[str, Any]:
+    if isinstance(schema, dict) and schema.get("version") == _SCHEMA_VERSION:
+        return schema
+    return {
+        "version": _SCHEMA_VERSION,
+        "node_id": None,
+        "edge_key": None,
+        "graph": _DEFAULT_GRAPH_KINDS,
+        "node": _DEFAULT_NODE_KINDS,
+        "edge": _DEFAULT_EDGE_KINDS,
+    }
+
+
+def _decode_id(value: Any, kind: str | None, what: str, path: Path) -> Any:
+    if kind == "str":
+        return str(value)
+    if kind == "int" or kind is None:
+        if isinstance(value, bool):
+            raise ValueError(f"graph file {path}: bad {what} {value!r}")
+        if isinstance(value, int):
+            return value
+        if isinstance(value, str):
+            try:
+                return int(value)
+            except ValueError:
+                if kind == "int":
+                    raise ValueError(
+                        f"graph file {path}: {what} {value!r} is not an integer"
+                    ) from None
+                return value
+    raise ValueError(f"graph file {path}: bad {what} {value!r}")
+
+
+def _decode_attrs(attrs: dict[str, Any], specs: dict[str, Any]) -> dict[str, Any]:
+    return {k: _decode_value(v, specs.get(k)) for k, v in attrs.items()}
+
+
+def _xy(value: Any, where: str) -> list[float]:
+    """``value`` as ``[x, y]`` floats; ValueError naming ``where`` unless it is 2 finite
+    numbers."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = np.empty(0)
+    if arr.shape != (2,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{where} must be 2 finite numbers (x, y), got {value!r}")
+    return [float(arr[0]), float(arr[1])]
+
+
+def _check_ends(g, u: Any, v: Any, path: Path, where: str) -> None:
+    """An edge must join two listed nodes (``g``: the graph, or the set of node ids;
+    networkx would add bare ones silently)."""
+    for end in (u, v):
+        if end not in g:
+            raise ValueError(f"graph file {path}: {where} joins node {end!r}, which is not listed")

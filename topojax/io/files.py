@@ -1,0 +1,155 @@
+"""Saving and loading topology graphs as GraphML, JSON node-link or GeoJSON files.
+
+Floats are written with Python's shortest round-trip representation, so they come back
+bit-exact. Writes are atomic: a temporary file in the target folder is renamed over the
+destination with :func:`os.replace`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+
+from .._fs import atomic_write_bytes
+from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
+from .geojson import _from_geojson, _to_geojson
+from .graphml import _read_graphml, _write_graphml
+from .nodelink import _from_node_link, _to_node_link
+
+#: Supported formats and their file suffixes.
+GRAPH_FORMATS = {".graphml": "graphml", ".json": "json", ".geojson": "geojson"}
+
+
+def _format_for(path: Path, format: str | None) -> str:
+    supported = sorted(GRAPH_FORMATS)
+    if format is not None:
+        fmt = str(format).lower().lstrip(".")
+        if fmt not in GRAPH_FORMATS.values():
+            raise ValueError(
+                f"format must be one of {sorted(GRAPH_FORMATS.values())}, got {format!r}"
+            )
+        return fmt
+    suffix = path.suffix.lower()
+    if suffix not in GRAPH_FORMATS:
+        raise ValueError(
+            f"cannot infer the graph format of {str(path)!r} from suffix {path.suffix!r}; "
+            f"supported suffixes: {supported} (or pass format=)"
+        )
+    return GRAPH_FORMATS[suffix]
+
+
+def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = None) -> Path:
+    """Save a topology graph.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        Undirected graph (a plain ``networkx.Graph`` is saved with edge keys 0). Node ids
+        and edge keys must be int (or all str). Attribute values may be numbers, str,
+        bool, None, tuples, lists, dicts and numpy arrays. Graph attributes of other
+        types (e.g. objects) are skipped with a warning; dataclass instances are saved as
+        dicts.
+    path : str or Path
+        Output file; its folder must exist.
+    format : {"graphml", "json", "geojson"}, optional
+        Default: from the suffix (``.graphml``, ``.json``, ``.geojson``).
+
+        * ``graphml``: arrays, tuples and lists are stored as JSON strings.
+        * ``json``: networkx node-link data (``"nodes"`` / ``"edges"``, edge ``"key"``),
+          arrays as nested lists.
+        * ``geojson``: a FeatureCollection with one Point per node (properties ``id``,
+          ``feature: "node"`` and the node attributes except ``world``, which is the
+          geometry) and one LineString per edge (properties ``u``, ``v``, ``key``,
+          ``feature: "edge"`` and the edge attributes except ``world``, which gives the
+          coordinates ``[x, y]``). A self-loop whose polyline is not closed is closed by
+          repeating its first point (recorded as ``closed_by_writer`` so that loading
+          removes it). Needs ``world`` on every node and edge. Coordinates are map-frame
+          metres, not WGS 84.
+
+    Returns
+    -------
+    Path
+        The written path.
+    """
+    p = Path(path)
+    fmt = _format_for(p, format)
+    g = as_multigraph(graph)
+    graph_attrs = _graph_attrs_to_save(g)
+    schema = _build_schema(g, graph_attrs)
+    if fmt == "graphml":
+        data = _write_graphml(g, graph_attrs, schema)
+    elif fmt == "json":
+        data = json.dumps(_to_node_link(g, graph_attrs, schema), allow_nan=True).encode("utf-8")
+    else:
+        doc = _to_geojson(g, graph_attrs, schema)
+        try:
+            data = json.dumps(doc, allow_nan=False).encode("utf-8")
+        except ValueError:
+            raise ValueError(
+                f"cannot write {p} as GeoJSON: an attribute holds NaN or infinity, which "
+                "strict JSON cannot represent (use .json or .graphml)"
+            ) from None
+    atomic_write_bytes(p, data)
+    return p
+
+
+def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
+    """Load a graph written by :func:`save_graph`.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.graphml``, ``.json`` or ``.geojson`` file.
+    format : {"graphml", "json", "geojson"}, optional
+        Default: from the suffix.
+
+    Returns
+    -------
+    networkx.MultiGraph
+        Same node ids, edge keys, node/edge order and attribute types as saved: numpy
+        arrays (with their dtype) for array attributes such as edge ``path`` / ``world``,
+        tuples for node ``pixel`` / ``world`` and graph ``origin`` / ``shape``.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If it is not a file, its format cannot be told from the suffix, or it cannot be
+        parsed as that format.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"graph file not found: {p}")
+    if not p.is_file():
+        raise ValueError(f"graph file {p} is not a file (a folder?)")
+    fmt = _format_for(p, format)
+    if fmt == "graphml":
+        return _structure_checked(_read_graphml, p, fmt)
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"graph file {p} is not valid JSON: {exc}") from None
+    reader: Callable[[Any, Path], nx.MultiGraph]
+    reader = _from_node_link if fmt == "json" else _from_geojson
+    return _structure_checked(lambda path: reader(doc, path), p, fmt)
+
+
+def _structure_checked(read: Callable[[Path], nx.MultiGraph], p: Path, fmt: str):
+    """``read(p)``, with what a hand-edited or foreign file trips over deep inside (a
+    list where a mapping belongs, a ragged path, ...) reported as a ValueError naming the
+    file; the readers' own errors already do."""
+    try:
+        return read(p)
+    except ValueError as exc:
+        if str(p) in str(exc):
+            raise
+        raise ValueError(f"graph file {p}: not a topojax {fmt} graph: {exc}") from None
+    except (TypeError, AttributeError, KeyError, IndexError) as exc:
+        raise ValueError(
+            f"graph file {p}: not a topojax {fmt} graph ({type(exc).__name__}: {exc})"
+        ) from None

@@ -1,0 +1,144 @@
+"""GeoJSON files: a FeatureCollection of Point nodes and LineString edges in map-frame
+metres (not WGS 84), with the graph attributes and the type schema as foreign members."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+
+from ._schema import (
+    _SCHEMA_KEY,
+    _check_ends,
+    _decode_attrs,
+    _decode_id,
+    _decode_value,
+    _schema_or_default,
+    _xy,
+    jsonable,
+)
+
+_GEO_NODE_RESERVED = ("id", "feature")
+_GEO_EDGE_RESERVED = ("u", "v", "key", "feature", "closed_by_writer")
+
+
+def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
+    features = []
+    for n, d in g.nodes(data=True):
+        if "world" not in d:
+            raise ValueError(f"GeoJSON needs a 'world' (x, y) attribute on every node; node {n!r}")
+        props = {
+            k: jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items() if k != "world"
+        }
+        for reserved in _GEO_NODE_RESERVED:
+            if reserved in props:
+                raise ValueError(f"node {n!r} has an attribute named {reserved!r}, reserved")
+        props["feature"] = "node"
+        props["id"] = jsonable(n, "node id")
+        geometry = {"type": "Point", "coordinates": _xy(d["world"], f"node {n!r} 'world'")}
+        features.append({"type": "Feature", "geometry": geometry, "properties": props})
+    for u, v, k, d in g.edges(keys=True, data=True):
+        where = f"edge ({u!r}, {v!r}, {k!r})"
+        if "world" in d:
+            coords = np.asarray(d["world"], dtype=np.float64)
+            if coords.ndim != 2 or coords.shape[1] != 2 or coords.shape[0] < 1:
+                raise ValueError(f"{where} 'world' must have shape (K, 2), got {coords.shape}")
+        else:
+            raise ValueError(f"GeoJSON needs a 'world' (K, 2) polyline on every edge; {where}")
+        if not np.all(np.isfinite(coords)):
+            raise ValueError(f"{where} 'world' contains non-finite coordinates")
+        line = coords.tolist()
+        appended = 0
+        # A self-loop is a closed ring; a LineString needs at least 2 positions.
+        if (u == v and line[0] != line[-1]) or len(line) < 2:
+            line.append(list(line[0]))
+            appended = 1
+        props = {
+            name: jsonable(val, f"{where} attribute {name!r}")
+            for name, val in d.items()
+            if name != "world"
+        }
+        for reserved in _GEO_EDGE_RESERVED:
+            if reserved in props:
+                raise ValueError(f"{where} has an attribute named {reserved!r}, reserved")
+        props["feature"] = "edge"
+        props["u"] = jsonable(u, "node id")
+        props["v"] = jsonable(v, "node id")
+        props["key"] = jsonable(k, "edge key")
+        if appended:
+            props["closed_by_writer"] = appended
+        geometry = {"type": "LineString", "coordinates": line}
+        features.append({"type": "Feature", "geometry": geometry, "properties": props})
+    graph_json = {
+        name: jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
+    }
+    # Foreign members (RFC 7946 section 6.1); coordinates are map-frame metres, not WGS 84.
+    return {
+        "type": "FeatureCollection",
+        "features": features,
+        "graph": graph_json,
+        _SCHEMA_KEY: schema,
+    }
+
+
+def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
+    if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
+        raise ValueError(f"graph file {path} is not a GeoJSON FeatureCollection")
+    schema = _schema_or_default(doc.get(_SCHEMA_KEY))
+    g = nx.MultiGraph()
+    g.graph.update(_decode_attrs(dict(doc.get("graph") or {}), schema["graph"]))
+    edges = []
+    for i, feat in enumerate(doc.get("features", [])):
+        if not isinstance(feat, dict) or feat.get("type") != "Feature":
+            raise ValueError(f"graph file {path}: features[{i}] is not a GeoJSON Feature")
+        geom = feat.get("geometry") or {}
+        props = dict(feat.get("properties") or {})
+        gtype = geom.get("type")
+        coords = geom.get("coordinates")
+        if gtype == "Point":
+            if "id" not in props:
+                raise ValueError(f"graph file {path}: Point features[{i}] has no 'id' property")
+            node = _decode_id(props.pop("id"), schema["node_id"], "node id", path)
+            props.pop("feature", None)
+            attrs = _decode_attrs(props, schema["node"])
+            xy = _xy(coords, f"graph file {path}: features[{i}] coordinates")
+            spec = schema["node"].get("world") or {"kind": "tuple"}
+            attrs["world"] = _decode_value(xy, spec)
+            g.add_node(node, **attrs)
+        elif gtype == "LineString":
+            if "u" not in props or "v" not in props:
+                raise ValueError(f"graph file {path}: LineString features[{i}] lacks 'u'/'v'")
+            edges.append((i, props, coords))
+        else:
+            raise ValueError(
+                f"graph file {path}: features[{i}] has geometry type {gtype!r}; "
+                "expected Point or LineString"
+            )
+    for i, props, coords in edges:
+        u = _decode_id(props.pop("u"), schema["node_id"], "node id", path)
+        v = _decode_id(props.pop("v"), schema["node_id"], "node id", path)
+        _check_ends(g, u, v, path, f"LineString features[{i}]")
+        key = props.pop("key", None)
+        if key is not None:
+            key = _decode_id(key, schema["edge_key"], "edge key", path)
+        appended = int(props.pop("closed_by_writer", 0))
+        props.pop("feature", None)
+        try:
+            world = np.asarray(coords, dtype=np.float64)
+        except (TypeError, ValueError):
+            world = np.empty(0)
+        if world.ndim != 2 or world.shape[1] != 2:
+            raise ValueError(
+                f"graph file {path}: features[{i}] coordinates must be a list of [x, y]"
+            )
+        if appended:
+            world = world[:-appended]
+        attrs = _decode_attrs(props, schema["edge"])
+        spec = schema["edge"].get("world")
+        if spec is not None and spec["kind"] == "ndarray":
+            world = world.astype(np.dtype(spec["dtype"]), copy=False)
+        attrs["world"] = world
+        g.add_edge(u, v, key=key, **attrs)
+    return g

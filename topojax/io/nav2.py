@@ -1,0 +1,214 @@
+"""Topology graphs as route graphs for the ROS 2 Nav2 Route Server."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+
+from .._fs import atomic_write_bytes
+from .._validate import positive_metres
+from ..graph import holds, polyline_keep
+from ._schema import _xy, as_multigraph, jsonable
+
+# One directed hop of a waypoint chain: start id, end id, start (x, y), end (x, y), metadata.
+_Segment = tuple[int, int, list[float], list[float], dict]
+
+
+def save_nav2_graph(
+    graph: nx.MultiGraph,
+    path: str | Path,
+    *,
+    tolerance_m: float = 0.1,
+    frame: str = "map",
+) -> Path:
+    """Save a topology graph as a route graph for the ROS 2 Nav2 Route Server.
+
+    Nav2's route server (``nav2_route``) reads a GeoJSON ``FeatureCollection`` of
+    ``Point`` nodes (properties ``id`` and ``frame``) and directed ``MultiLineString``
+    edges (properties ``id``, ``startid``, ``endid``), with ids unique over nodes and
+    edges, and optional ``metadata``.  It drives straight from node to node, so each
+    corridor is written as a chain of waypoints: its world polyline simplified
+    (Douglas–Peucker) until every pixel of the corridor lies within ``tolerance_m`` of
+    the chain.  A segment then stays at least the corridor's clearance minus
+    ``tolerance_m`` from the walls.  Every segment is written in both directions.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        Topology graph (e.g. ``build_graph(m).graph``, best pruned first with
+        :func:`topojax.prune_graph`); nodes need ``world``, edges ``world`` polylines.
+    path : str or Path
+        Output file (``.geojson`` by convention); its folder must exist.
+    tolerance_m : float
+        Largest distance, metres, from a corridor pixel to the waypoint chain (> 0).
+    frame : str
+        The nodes' ``frame`` property: the TF frame of the map (``"map"``).
+
+    Returns
+    -------
+    Path
+        The written path.
+
+    Raises
+    ------
+    TypeError
+        A ``tolerance_m`` that is not a number.
+    ValueError
+        A bad ``tolerance_m`` or ``frame``, a node or edge without ``world``, or a graph
+        without edges (nav2_route refuses to load one).
+
+    Notes
+    -----
+    Metadata values are numbers, strings and lists of them only (nav2_route's loader
+    accepts no ``null``).  Node ids: the graph's vertices are ``0 .. V-1`` in node order (``metadata``:
+    ``vertex``, the topojax node id, ``kind`` and ``clearance_m``), then the waypoints
+    (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
+    topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
+    waypoints) and the corridor's ``min_clearance_m`` / ``mean_clearance_m``.  topojax
+    writes this format but does not read it back (use :func:`save_graph` for that).
+    Where a path ends at another pixel of its vertex than the vertex's own (merged
+    junction clusters), the chain includes the step to the vertex.  A loop with fewer
+    than two points of its own to place waypoints on leads nowhere and is left out.
+    """
+    tol = positive_metres("tolerance_m", tolerance_m)
+    if not isinstance(frame, str) or not frame:
+        raise ValueError(f"frame: expected a non-empty string, received {frame!r}")
+    g = as_multigraph(graph)
+    if g.number_of_edges() == 0:
+        raise ValueError(
+            f"graph: it has {g.number_of_nodes()} vertices and no edges; the Nav2 Route Server "
+            "rejects a graph without edges"
+        )
+    node_id = {n: i for i, n in enumerate(g.nodes)}
+    node_xy, features = _vertex_features(g, node_id, frame)
+    segments: list[_Segment] = []
+    for u, v, k, d in g.edges(keys=True, data=True):
+        segments += _corridor_segments(g, (u, v, k), d, node_id, node_xy, tol, frame, features)
+    if not segments:  # every edge was a loop with no room for waypoints
+        raise ValueError(
+            f"graph: none of its {g.number_of_edges()} edges leads anywhere (loops around a "
+            "single point); the Nav2 Route Server rejects a graph without edges"
+        )
+    features += _segment_features(segments, len(features))
+    doc = {"type": "FeatureCollection", "name": "topojax route graph", "features": features}
+    data = json.dumps(doc, allow_nan=False).encode("utf-8")
+    p = Path(path)
+    atomic_write_bytes(p, data)
+    return p
+
+
+def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str) -> tuple[dict, list[dict]]:
+    """The graph's vertices as Point features (ids ``node_id``), and each vertex's
+    ``[x, y]``."""
+    node_xy = {}
+    features: list[dict] = []
+    for n, d in g.nodes(data=True):
+        if "world" not in d:
+            raise ValueError(f"graph: node {n!r} has no 'world' (x, y) attribute")
+        node_xy[n] = _xy(d["world"], f"node {n!r} 'world'")
+        meta = {"vertex": jsonable(n, "node id")}
+        if isinstance(d.get("kind"), str):
+            meta["kind"] = d["kind"]
+        meta.update(_finite_metres(d, ("clearance_m",)))
+        features.append(_nav2_node(node_id[n], frame, node_xy[n], meta))
+    return node_xy, features
+
+
+def _corridor_segments(
+    g: nx.MultiGraph,
+    edge: tuple,
+    d: dict,
+    node_id: dict,
+    node_xy: dict,
+    tol: float,
+    frame: str,
+    features: list[dict],
+) -> list[_Segment]:
+    """The hops of one corridor's waypoint chain, its polyline simplified within ``tol``
+    metres; the waypoints are appended to ``features`` (their ids: their positions there).
+    Empty for a loop around no pixel but its vertex's or a path on one point."""
+    u, v, k = edge
+    where = f"edge ({u!r}, {v!r}, {k!r})"
+    xy = np.asarray(d.get("world", np.empty((0, 2))), dtype=np.float64)
+    if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
+        raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
+    corridor = {"corridor": [jsonable(x, "edge id") for x in (u, v, k)]}
+    # the polyline runs from u (topojax's paths do; be tolerant of other graphs)
+    if u != v and not _starts_at(g, u, v, d, xy, node_xy):
+        u, v = v, u
+    # The chain runs from node to node: where a path ends at another pixel than its
+    # vertex's (a merged junction cluster), the hop to the vertex is part of it, so the
+    # simplification keeps every corridor pixel within the tolerance of what is written.
+    xy = np.concatenate([[node_xy[u]], xy, [node_xy[v]]])
+    xy = xy[np.r_[True, (np.diff(xy, axis=0) != 0).any(axis=1)]]  # no repeated points
+    if len(xy) < (4 if u == v else 2):
+        return []  # a loop around no pixel but its vertex's, or a path on one point
+    keep = polyline_keep(xy, tol)
+    if u == v and len(keep) < 4:  # a loop needs two distinct waypoints
+        keep = np.unique(np.concatenate([keep, [len(xy) // 3, 2 * len(xy) // 3]]))
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    inner = xy[keep[1:-1]].tolist()
+    chain = [node_id[u]]
+    for point in inner:
+        chain.append(len(features))
+        features.append(_nav2_node(len(features), frame, point, {"kind": "waypoint"}))
+    chain.append(node_id[v])
+    points = [node_xy[u], *inner, node_xy[v]]
+    corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
+    segments = []
+    for j in range(len(chain) - 1):
+        meta = dict(corridor, length_m=float(along[keep[j + 1]] - along[keep[j]]))
+        segments.append((chain[j], chain[j + 1], points[j], points[j + 1], meta))
+    return segments
+
+
+def _segment_features(segments: list[_Segment], first_id: int) -> list[dict]:
+    """Every hop as two MultiLineString features, one per direction, with ids from
+    ``first_id`` on."""
+    features = []
+    next_id = first_id
+    for a, b, pa, pb, meta in segments:
+        for start, end, p0, p1 in ((a, b, pa, pb), (b, a, pb, pa)):
+            features.append(
+                {
+                    "type": "Feature",
+                    "properties": {"id": next_id, "startid": start, "endid": end, "metadata": meta},
+                    "geometry": {"type": "MultiLineString", "coordinates": [[p0, p1]]},
+                }
+            )
+            next_id += 1
+    return features
+
+
+def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
+    """Does edge ``(u, v)``'s polyline ``xy`` start at ``u``?  By the path's first pixel
+    among the vertices' pixels (a merged cluster's path may start at any of them), else by
+    which vertex is nearer."""
+    path = d.get("path")
+    if path is not None and len(path):
+        at_u, at_v = holds(g.nodes[u], path[0]), holds(g.nodes[v], path[0])
+        if at_u != at_v:
+            return at_u
+    return math.dist(xy[0], node_xy[u]) <= math.dist(xy[0], node_xy[v])
+
+
+def _nav2_node(i: int, frame: str, xy: list[float], meta: dict) -> dict:
+    return {
+        "type": "Feature",
+        "properties": {"id": i, "frame": frame, "metadata": meta},
+        "geometry": {"type": "Point", "coordinates": [float(xy[0]), float(xy[1])]},
+    }
+
+
+def _finite_metres(d: dict, names: tuple[str, ...]) -> dict:
+    """The attributes ``names`` of ``d`` that are finite numbers (strict JSON has no NaN)."""
+    out = {}
+    for name in names:
+        value = d.get(name)
+        if isinstance(value, (int, float, np.number)) and np.isfinite(value):
+            out[name] = float(value)
+    return out

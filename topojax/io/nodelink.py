@@ -1,0 +1,84 @@
+"""JSON node-link files (networkx's ``"nodes"`` / ``"edges"`` layout with edge ``"key"``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+
+from ._schema import (
+    _SCHEMA_KEY,
+    _check_ends,
+    _decode_attrs,
+    _decode_id,
+    _schema_or_default,
+    jsonable,
+)
+
+
+def _to_node_link(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
+    nodes = []
+    for n, d in g.nodes(data=True):
+        entry = {k: jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items()}
+        if "id" in entry:
+            raise ValueError(f"node {n!r} has an attribute named 'id', reserved by node-link")
+        entry["id"] = jsonable(n, "node id")
+        nodes.append(entry)
+    edges = []
+    for u, v, k, d in g.edges(keys=True, data=True):
+        entry = {
+            name: jsonable(val, f"edge ({u!r}, {v!r}, {k!r}) attribute {name!r}")
+            for name, val in d.items()
+        }
+        for reserved in ("source", "target", "key"):
+            if reserved in entry:
+                raise ValueError(
+                    f"edge ({u!r}, {v!r}, {k!r}) has an attribute named {reserved!r}, "
+                    "reserved by node-link"
+                )
+        entry["source"] = jsonable(u, "node id")
+        entry["target"] = jsonable(v, "node id")
+        entry["key"] = jsonable(k, "edge key")
+        edges.append(entry)
+    graph_json = {
+        name: jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
+    }
+    graph_json[_SCHEMA_KEY] = schema
+    return {
+        "directed": False,
+        "multigraph": True,
+        "graph": graph_json,
+        "nodes": nodes,
+        "edges": edges,
+    }
+
+
+def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
+    if not isinstance(doc, dict) or "nodes" not in doc:
+        raise ValueError(f"graph file {path} is not a node-link JSON object with 'nodes'")
+    if doc.get("directed", False):
+        raise ValueError(f"graph file {path} holds a directed graph; expected undirected")
+    edge_list_name = "edges" if "edges" in doc else "links"
+    graph_attrs = dict(doc.get("graph") or {})
+    schema = _schema_or_default(graph_attrs.pop(_SCHEMA_KEY, None))
+    g = nx.MultiGraph()
+    g.graph.update(_decode_attrs(graph_attrs, schema["graph"]))
+    for entry in doc["nodes"]:
+        if not isinstance(entry, dict) or "id" not in entry:
+            raise ValueError(f"graph file {path}: node entry without 'id': {entry!r}")
+        attrs = {k: v for k, v in entry.items() if k != "id"}
+        node = _decode_id(entry["id"], schema["node_id"], "node id", path)
+        g.add_node(node, **_decode_attrs(attrs, schema["node"]))
+    for entry in doc.get(edge_list_name, []):
+        if not isinstance(entry, dict) or "source" not in entry or "target" not in entry:
+            raise ValueError(f"graph file {path}: edge entry without source/target: {entry!r}")
+        u = _decode_id(entry["source"], schema["node_id"], "node id", path)
+        v = _decode_id(entry["target"], schema["node_id"], "node id", path)
+        _check_ends(g, u, v, path, "edge entry")
+        attrs = {k: val for k, val in entry.items() if k not in ("source", "target", "key")}
+        key = entry.get("key")
+        if key is not None:
+            key = _decode_id(key, schema["edge_key"], "edge key", path)
+        g.add_edge(u, v, key=key, **_decode_attrs(attrs, schema["edge"]))
+    return g

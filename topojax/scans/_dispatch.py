@@ -1,0 +1,91 @@
+"""Choosing the reader of :func:`read_scans` by a file's content and suffix."""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from ._ros1 import _ROS1_MAGIC
+from ._text import _open_text
+from .bag import read_bag
+from .carmen import read_carmen
+from .octave import read_octave_laser
+from .scan import Scan
+
+_BAG_SUFFIXES = (".bag", ".db3", ".mcap")
+
+
+def _looks_octave(path: Path) -> bool:
+    """Does the file open with an Octave ``save -text`` header (``# Created by Octave`` or
+    ``# name:`` among its first 20 lines, before any line that is not a comment)?"""
+    with _open_text(path) as fh:
+        for _ in range(20):
+            line = fh.readline()
+            if not line:
+                return False
+            s = line.strip()
+            if s.startswith("# Created by Octave") or s.startswith("# name:"):
+                return True
+            if s and not s.startswith("#"):
+                return False
+    return False
+
+
+def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
+    """Read scans from any supported file, choosing the reader by content and suffix.
+
+    * a folder, a ROS 1 bag (``#ROSBAG V2.0`` magic), an SQLite or MCAP file, or the
+      suffixes ``.bag`` / ``.db3`` / ``.mcap`` -> :func:`read_bag`;
+    * an Octave text file (``# Created by Octave`` or ``# name:`` in its first lines, plain
+      or gzip) -> :func:`read_octave_laser`;
+    * anything else (``.log``, ``.clf``, ``.gz``, ...) -> :func:`read_carmen`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file or bag folder.
+    **kwargs
+        Passed to the chosen reader.
+
+    Returns
+    -------
+    iterator of Scan
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"path: file not found: {p}")
+    reader = _reader_for(p)
+    accepted = inspect.signature(reader).parameters
+    unknown = sorted(set(kwargs) - set(accepted))
+    if unknown:
+        options = sorted(k for k, v in accepted.items() if v.kind is v.KEYWORD_ONLY)
+        raise ValueError(
+            f"{p} is read by {reader.__name__}, which takes no {', '.join(unknown)} "
+            f"(its options: {', '.join(options)})"
+        )
+    return reader(p, **kwargs)
+
+
+def _reader_for(p: Path):
+    """The reader of :func:`read_scans` for an existing path."""
+    if p.is_dir():
+        return read_bag
+    with open(p, "rb") as fh:
+        magic = fh.read(16)
+    if (
+        magic.startswith(_ROS1_MAGIC[:9])
+        or magic.startswith(b"SQLite format 3")
+        or magic.startswith(b"\x89MCAP")
+        or p.suffix.lower() in _BAG_SUFFIXES
+    ):
+        return read_bag
+    if _looks_octave(p):
+        return read_octave_laser
+    return read_carmen

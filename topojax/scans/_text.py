@@ -1,0 +1,66 @@
+"""Opening the text logs (CARMEN, Octave): plain or gzip-compressed, decompression faults
+reported as ValueError naming the file."""
+
+from __future__ import annotations
+
+import gzip
+import io
+import zlib
+from pathlib import Path
+from typing import IO
+
+_GZIP_MAGIC = b"\x1f\x8b"
+
+
+def _check_file(path: str | Path, what: str) -> Path:
+    """``path`` as a Path after checking it is an existing file (errors name ``what``)."""
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"{what}: file not found: {p}")
+    if not p.is_file():
+        raise ValueError(f"{what}: expected a file, got a directory or special file: {p}")
+    return p
+
+
+def _open_text(path: Path) -> IO[str]:
+    """Open a text file that may be gzip-compressed (detected by its magic bytes).
+
+    Damaged or truncated compressed data raises ValueError naming the file (gzip's own
+    EOFError / zlib.error say neither which file nor that it is the file's fault)."""
+    with open(path, "rb") as fh:
+        magic = fh.read(2)
+    if magic == _GZIP_MAGIC:
+        raw = io.BufferedReader(_CheckedGzip(path))
+        return io.TextIOWrapper(raw, encoding="latin-1", newline=None)
+    return open(path, encoding="latin-1", newline=None)
+
+
+class _CheckedGzip(io.RawIOBase):
+    """A gzip file's decompressed bytes, with decompression faults as ValueError."""
+
+    def __init__(self, path: Path) -> None:
+        self._path = path
+        self._file = gzip.open(path, "rb")
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer) -> int:
+        try:
+            return self._file.readinto(buffer)
+        except (EOFError, zlib.error, gzip.BadGzipFile) as exc:
+            raise ValueError(
+                f"{self._path}: the gzip-compressed data is damaged or cut off ({exc}); "
+                "the file cannot be read to its end"
+            ) from None
+
+    def close(self) -> None:
+        self._file.close()
+        super().close()
+
+
+def _cut_off(line: str) -> bool:
+    """Is ``line`` the last, unfinished line of a file (no line end: a logger that
+    stopped while writing it)?  Only such a line is skipped; a malformed line with a line
+    end is an error."""
+    return not line.endswith(("\n", "\r"))

@@ -1,0 +1,438 @@
+"""CARMEN log reader (``FLASER`` / ``RLASER``, ``ROBOTLASERk``, ``RAWLASERk`` lines)."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ._text import _check_file, _cut_off, _open_text
+from .scan import PoseLike, Scan, _pose3, _real_scalar, _relative
+
+_OLD_LASERS = ("FLASER", "RLASER")
+_ROBOT_LASERS = ("ROBOTLASER1", "ROBOTLASER2")
+_RAW_LASERS = ("RAWLASER1", "RAWLASER2", "RAWLASER3", "RAWLASER4")
+_CARMEN_LASERS = _OLD_LASERS + _ROBOT_LASERS + _RAW_LASERS
+
+#: Default width (m) of the band below a CARMEN file's largest reading that counts as
+#: "no return". In the 13 corrected logs the no-return values form a cluster up to 0.15 m
+#: wide (acapulco: 51.14-51.25; infinite-corridor: 51.06-51.16; freiburg-campus:
+#: 81.83/81.91; seattle: 81.87/81.91) with at most a handful of readings between 0.2 m and
+#: 1 m below it.
+CARMEN_NO_RETURN_MARGIN_M = 0.2
+
+
+def _carmen_beam_increment(n: int) -> float:
+    """Beam spacing (rad) of an old-format CARMEN scan of ``n`` beams over a 180° fan."""
+    return math.pi / (n - 1) if n % 2 else math.pi / n
+
+
+class _CarmenLineError(ValueError):
+    pass
+
+
+def _floats(tokens: Sequence[str], what: str) -> np.ndarray:
+    try:
+        return np.array([float(v) for v in tokens], dtype=np.float64)
+    except ValueError as err:
+        raise _CarmenLineError(f"{what}: not a number ({err})") from None
+
+
+def _count(token: str, what: str) -> int:
+    try:
+        n = int(token)
+    except ValueError:
+        raise _CarmenLineError(f"{what}: expected an integer, got {token!r}") from None
+    if n < 0:
+        raise _CarmenLineError(f"{what}: expected a count >= 0, got {n}")
+    return n
+
+
+def _need(tokens: Sequence[str], k: int, what: str) -> None:
+    if len(tokens) < k:
+        raise _CarmenLineError(f"expected at least {k} fields for {what}, got {len(tokens)}")
+
+
+def _parse_old_laser(tokens: list[str]) -> tuple[np.ndarray, np.ndarray | None, float | None]:
+    """Parse FLASER/RLASER: ``n r_1..r_n [x y theta odom_x odom_y odom_theta] ts host lts``.
+
+    Returns ranges, the pose (x, y, theta) or None for pose-less lines, and the timestamp.
+    """
+    _need(tokens, 2, "the beam count")
+    n = _count(tokens[1], "number of readings")
+    if n < 2:
+        raise _CarmenLineError(f"number of readings: expected >= 2, got {n}")
+    _need(tokens, 2 + n, f"{n} ranges")
+    ranges = _floats(tokens[2 : 2 + n], "range reading")
+    rest = len(tokens) - 2 - n
+    if rest >= 9:
+        nums = _floats(tokens[2 + n : 9 + n], "pose / odometry / timestamp")
+        if not np.all(np.isfinite(nums[:3])):
+            raise _CarmenLineError(f"pose: expected finite x y theta, got {nums[:3].tolist()}")
+        return ranges, nums[:3], float(nums[6])
+    if rest == 3:  # very old raw format: n ranges ipc_timestamp hostname logger_timestamp
+        return ranges, None, float(_floats(tokens[2 + n : 3 + n], "timestamp")[0])
+    raise _CarmenLineError(
+        f"expected {n} ranges followed by 9 fields (x y theta odom_x odom_y odom_theta "
+        f"timestamp host logger_timestamp) or 3 fields (timestamp host logger_timestamp), "
+        f"got {rest} fields after the ranges"
+    )
+
+
+def _parse_new_laser_head(tokens: list[str]) -> tuple[np.ndarray, np.ndarray, int]:
+    """Parse the common head of ROBOTLASERk / RAWLASERk lines.
+
+    ``laser_type start_angle field_of_view angular_resolution maximum_range accuracy
+    remission_mode num_readings r_1..r_n num_remissions rem_1..rem_m``.
+    Returns ``[start_angle, fov, angular_resolution, maximum_range]``, the ranges and the
+    index of the first token after the remissions.
+    """
+    _need(tokens, 9, "the laser configuration")
+    cfg = _floats(tokens[2:6], "laser configuration")
+    n = _count(tokens[8], "num_readings")
+    _need(tokens, 10 + n, f"{n} ranges and num_remissions")
+    ranges = _floats(tokens[9 : 9 + n], "range reading")
+    m = _count(tokens[9 + n], "num_remissions")
+    return cfg, ranges, 10 + n + m
+
+
+def _survey_carmen(
+    path: Path, laser: str, need_max: bool
+) -> tuple[str | None, float | None, dict[str, str], np.ndarray, int]:
+    """First pass: the laser message to use, its largest finite range, the PARAM values,
+    and (with ``need_max``) the readings within ``_TOP_BAND_M`` of the largest and how
+    many finite readings there were (for :func:`_warn_if_no_sentinel`)."""
+    chosen = None if laser == "auto" else laser
+    best = -math.inf
+    tops: list[np.ndarray] = []
+    n_readings = 0
+    params: dict[str, str] = {}
+    with _open_text(path) as fh:
+        for lineno, line in enumerate(fh, 1):
+            tokens = line.split()
+            if not tokens:
+                continue
+            key = tokens[0]
+            if key == "PARAM" and len(tokens) >= 3:
+                params[tokens[1]] = tokens[2]
+                continue
+            if key not in _CARMEN_LASERS:
+                continue
+            if chosen is None:
+                chosen = key
+            if key != chosen:
+                continue
+            if not need_max:
+                # Keep reading PARAM lines only until the first scan of the chosen kind.
+                break
+            try:
+                if key in _OLD_LASERS:
+                    ranges = _parse_old_laser(tokens)[0]
+                else:
+                    ranges = _parse_new_laser_head(tokens)[1]
+            except _CarmenLineError as err:
+                if _cut_off(line):  # the logger stopped mid-line: the scans before count
+                    break
+                raise ValueError(f"{path}:{lineno}: malformed {key} line: {err}") from None
+            finite = ranges[np.isfinite(ranges)]
+            if finite.size:
+                best = max(best, float(finite.max()))
+                tops.append(finite[finite >= best - _TOP_BAND_M])
+                n_readings += finite.size
+    if best == -math.inf:
+        return chosen, None, params, np.empty(0), 0
+    top = np.concatenate(tops)
+    return chosen, best, params, top[top >= best - _TOP_BAND_M], n_readings
+
+
+# The survey keeps the readings this close to the running maximum (the no-return margin is
+# 0.2 m by default; a larger margin is checked within this band only).
+_TOP_BAND_M = 1.0
+
+
+def _warn_if_no_sentinel(
+    path: Path, laser: str, near: np.ndarray, total: int, best: float, margin: float
+) -> None:
+    """Warn when the range limit inferred from the largest reading drops most readings: a
+    log with a no-return value drops its no-return beams (at most a quarter of the
+    readings in the shared logs, the open campus), one without drops its longest real
+    readings, all of them when the readings lie within the margin of each other."""
+    dropped = int(np.count_nonzero(near >= best - margin))
+    if total and dropped > total // 2:
+        warnings.warn(
+            f"{path}: the largest {laser} reading, {best} m, is taken as the no-return value, "
+            f"so readings from {best - margin:.4g} m up are dropped: {dropped} of {total}; "
+            "if the log has no no-return value, pass max_range (topojax replay --max-range)",
+            stacklevel=3,
+        )
+
+
+def read_carmen(
+    path: str | Path,
+    *,
+    max_range: float | None = None,
+    laser: str = "auto",
+    no_return_margin_m: float = CARMEN_NO_RETURN_MARGIN_M,
+    sensor_offset: PoseLike | None = None,
+) -> Iterator[Scan]:
+    """Read laser scans from a CARMEN log (plain text or gzip, detected by magic bytes).
+
+    Supported laser messages (one kind is read per call, see ``laser``):
+
+    ``FLASER`` / ``RLASER`` (old format)
+        ``n r_1 … r_n x y theta odom_x odom_y odom_theta ipc_timestamp host logger_ts``.
+        ``x y theta`` is the pose the beams are cast from (CARMEN writes the *laser* pose
+        there; in the GMapping "corrected" logs it is the corrected robot pose). It becomes
+        :attr:`Scan.pose` with a zero ``sensor_offset``. Beam angles are not stored: the
+        convention is a 180° fan centred on ``theta``, ``angle_min = -pi/2``, increment
+        ``pi/n`` for even ``n`` (180, 360) and ``pi/(n-1)`` for odd ``n`` (181, 361), so
+        odd fans include both ±90° beams. Very old pose-less lines
+        (``n ranges ipc_timestamp host logger_ts``) take their pose from the last ODOM.
+    ``ROBOTLASER1`` / ``ROBOTLASER2``
+        ``laser_type start_angle fov angular_resolution maximum_range accuracy
+        remission_mode n r_1..r_n m rem_1..rem_m laser_x laser_y laser_theta robot_x
+        robot_y robot_theta tv rv forward_safety_dist side_safety_dist turn_axis
+        ipc_timestamp host logger_ts``. ``pose`` is the robot pose; ``sensor_offset`` is the
+        laser pose expressed in the robot frame.
+    ``RAWLASER1`` … ``RAWLASER4``
+        The same head as ROBOTLASER (no poses): ``… n ranges m remissions ipc_timestamp
+        host logger_ts``. The robot pose is the ``x y theta`` of the latest ``ODOM`` line
+        before the scan (scans before the first ODOM are skipped with a warning).
+
+    Other lines (``ODOM``, ``PARAM``, ``NEFF``, ``TRUEPOS``, comments, other messages) are
+    skipped.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log file.
+    max_range : float, optional
+        Readings ``>= max_range`` (m) are "no return". By default: for FLASER/RLASER, a
+        first pass over the file finds the largest reading ``R`` and
+        ``range_max = R - no_return_margin_m`` (the no-return sentinel, 81.83 / 81.91 / 50.0 /
+        51.x / 32.767 in the shared logs, is not stored in the message; ``PARAM
+        robot_front_laser_max`` is not used because it does not match the data: csail says
+        50 m while its sentinel is 81.91 m, edmonton says 10 m with real readings to 50 m).
+        For ROBOTLASER/RAWLASER lines, the line's ``maximum_range`` field.
+    laser : str, optional
+        Which message to read: ``"auto"`` (default: the kind of the first laser line in
+        the file) or one of ``FLASER``, ``RLASER``, ``ROBOTLASER1``, ``ROBOTLASER2``,
+        ``RAWLASER1`` … ``RAWLASER4``.
+    no_return_margin_m : float, optional
+        Width of the no-return band below the file's largest reading (default 0.2 m; the
+        no-return readings of one log are not all identical, see
+        :data:`CARMEN_NO_RETURN_MARGIN_M`). Ignored when ``max_range`` is given.
+    sensor_offset : array_like, shape (3,), optional
+        Override of the sensor pose in the robot frame. Default: zero for FLASER/RLASER with a
+        pose; computed from the line for ROBOTLASER; for scans posed from ODOM, the
+        ``PARAM robot_frontlaser_offset`` / ``_side_offset`` / ``_angular_offset`` values for
+        the front laser (RAWLASER1 and pose-less FLASER, 0 when absent); other lasers posed
+        from ODOM need it (ValueError otherwise).
+
+    Returns
+    -------
+    iterator of Scan
+        Scans in line order; ``ranges`` are float64; ``range_min = 0``; ``timestamp`` is the
+        line's ``ipc_timestamp`` (unreliable in several logs: use the order).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        For a malformed laser (or needed ODOM) line, with the file name and line number;
+        for bad arguments; if the file has no scan of the requested kind.
+    """
+    p = _check_file(path, "path")
+    if laser != "auto" and laser not in _CARMEN_LASERS:
+        raise ValueError(
+            f"laser: expected 'auto' or one of {', '.join(_CARMEN_LASERS)}, got {laser!r}"
+        )
+    if max_range is not None:
+        max_range = _real_scalar("max_range", max_range, allow_inf=True)
+        if max_range <= 0:
+            raise ValueError(f"max_range: expected a value > 0 m, got {max_range!r}")
+    margin = _real_scalar("no_return_margin_m", no_return_margin_m)
+    if margin < 0:
+        raise ValueError(f"no_return_margin_m: expected a value >= 0 m, got {margin!r}")
+    offset_override = None if sensor_offset is None else _pose3("sensor_offset", sensor_offset)
+    return _iter_carmen(p, max_range, laser, margin, offset_override)
+
+
+def _iter_carmen(
+    path: Path,
+    max_range: float | None,
+    laser: str,
+    margin: float,
+    offset_override: tuple[float, float, float] | None,
+) -> Iterator[Scan]:
+    need_max = max_range is None and laser in ("auto", *_OLD_LASERS)
+    chosen, file_max, params, near_max, n_readings = _survey_carmen(path, laser, need_max)
+    if chosen is None:
+        raise ValueError(f"{path}: no laser lines found (looked for {', '.join(_CARMEN_LASERS)})")
+    old = chosen in _OLD_LASERS
+    range_max_old: float | None = max_range
+    if old and range_max_old is None:
+        if file_max is None:
+            raise ValueError(f"{path}: no finite {chosen} range readings to find the max range")
+        range_max_old = file_max - margin
+        _warn_if_no_sentinel(path, chosen, near_max, n_readings, file_max, margin)
+        if range_max_old <= 0:
+            raise ValueError(
+                f"{path}: largest {chosen} reading {file_max} m minus no_return_margin_m "
+                f"{margin} m is not positive; pass max_range"
+            )
+    odom = _OdomPoses(path, chosen, params, offset_override)
+    skipped = 0
+    with _open_text(path) as fh:
+        for lineno, line in enumerate(fh, 1):
+            tokens = line.split()
+            if not tokens:
+                continue
+            key = tokens[0]
+            try:
+                if key == "ODOM":
+                    odom.line = (lineno, tokens)
+                    continue
+                if key != chosen:
+                    continue
+                if old:
+                    scan = _old_laser_scan(tokens, range_max_old, offset_override, odom)
+                else:
+                    scan = _new_laser_scan(tokens, chosen, max_range, offset_override, odom)
+                if scan is None:  # posed from ODOM, before the first ODOM line
+                    skipped += 1
+                    continue
+            except _CarmenLineError as err:
+                if _cut_off(line):
+                    warnings.warn(
+                        f"{path}:{lineno}: the log ends in the middle of a {key} line (no "
+                        f"line end; {err}); that line is skipped",
+                        stacklevel=2,
+                    )
+                    break
+                raise ValueError(f"{path}:{lineno}: malformed {key} line: {err}") from None
+            yield scan
+    if skipped:
+        warnings.warn(
+            f"{path}: skipped {skipped} {chosen} scan(s) before the first ODOM line "
+            f"(they have no pose)",
+            stacklevel=2,
+        )
+
+
+_ZERO_POSE = (0.0, 0.0, 0.0)
+
+
+class _OdomPoses:
+    """Robot pose and sensor offset for the scans of a log whose laser lines carry no
+    pose: the latest ``ODOM`` line, and the front laser's ``PARAM`` mounting."""
+
+    def __init__(
+        self,
+        path: Path,
+        chosen: str,
+        params: dict[str, str],
+        offset_override: tuple[float, float, float] | None,
+    ) -> None:
+        self.path = path
+        self.chosen = chosen
+        self.params = params
+        self.offset_override = offset_override
+        # The latest ODOM line, parsed only when a scan needs it: (line number, tokens).
+        self.line: tuple[int, list[str]] | None = None
+
+    def offset(self) -> tuple[float, float, float]:
+        """The sensor pose in the robot frame."""
+        if self.offset_override is not None:
+            return self.offset_override
+        if self.chosen in ("FLASER", "RAWLASER1"):
+            vals = []
+            for name in ("offset", "side_offset", "angular_offset"):
+                txt = self.params.get(f"robot_frontlaser_{name}", "0")
+                try:
+                    vals.append(float(txt))
+                except ValueError:
+                    raise ValueError(
+                        f"{self.path}: PARAM robot_frontlaser_{name}: expected a number, "
+                        f"got {txt!r}"
+                    ) from None
+            return _pose3("PARAM robot_frontlaser_*", vals)
+        raise ValueError(
+            f"{self.path}: {self.chosen} lines carry no pose and the log does not say where "
+            f"this laser is mounted; pass sensor_offset=(x_m, y_m, yaw_rad)"
+        )
+
+    def pose(self) -> tuple[float, float, float]:
+        """The robot pose of the latest ODOM line."""
+        assert self.line is not None
+        num, toks = self.line
+        try:
+            _need(toks, 4, "ODOM x y theta")
+            xyz = _floats(toks[1:4], "ODOM pose")
+            if not np.all(np.isfinite(xyz)):
+                raise _CarmenLineError(f"ODOM pose is not finite: {xyz.tolist()}")
+        except _CarmenLineError as err:
+            raise ValueError(f"{self.path}:{num}: malformed ODOM line: {err}") from None
+        return (float(xyz[0]), float(xyz[1]), float(xyz[2]))
+
+
+def _old_laser_scan(
+    tokens: list[str],
+    range_max: float | None,
+    offset_override: tuple[float, float, float] | None,
+    odom: _OdomPoses,
+) -> Scan | None:
+    """The scan of a FLASER/RLASER line; None for a pose-less line before the first ODOM."""
+    ranges, pose, stamp = _parse_old_laser(tokens)
+    n = ranges.shape[0]
+    angle_min, inc = -math.pi / 2.0, _carmen_beam_increment(n)
+    if pose is None:
+        if odom.line is None:
+            return None
+        robot, offset = odom.pose(), odom.offset()
+    else:
+        robot = (float(pose[0]), float(pose[1]), float(pose[2]))
+        offset = _ZERO_POSE if offset_override is None else offset_override
+    return _line_scan(ranges, angle_min, inc, range_max, robot, offset, stamp)
+
+
+def _new_laser_scan(
+    tokens: list[str],
+    chosen: str,
+    max_range: float | None,
+    offset_override: tuple[float, float, float] | None,
+    odom: _OdomPoses,
+) -> Scan | None:
+    """The scan of a ROBOTLASERk/RAWLASERk line; None for a RAWLASER line before the first
+    ODOM."""
+    cfg, ranges, k = _parse_new_laser_head(tokens)
+    angle_min, inc = float(cfg[0]), float(cfg[2])
+    rmax = float(cfg[3]) if max_range is None else max_range
+    if chosen in _ROBOT_LASERS:
+        _need(tokens, k + 12, "laser pose, robot pose, 5 fields and timestamp")
+        nums = _floats(tokens[k : k + 12], "poses / timestamp")
+        if not np.all(np.isfinite(nums[:6])):
+            raise _CarmenLineError(f"poses are not finite: {nums[:6].tolist()}")
+        laser_pose = (float(nums[0]), float(nums[1]), float(nums[2]))
+        robot = (float(nums[3]), float(nums[4]), float(nums[5]))
+        offset = _relative(robot, laser_pose) if offset_override is None else offset_override
+        stamp = float(nums[11])
+    else:
+        _need(tokens, k + 1, "the timestamp")
+        stamp = float(_floats(tokens[k : k + 1], "timestamp")[0])
+        if odom.line is None:
+            return None
+        robot, offset = odom.pose(), odom.offset()
+    return _line_scan(ranges, angle_min, inc, rmax, robot, offset, stamp)
+
+
+def _line_scan(ranges, angle_min, inc, rmax, robot, offset, stamp) -> Scan:
+    """``Scan(...)`` with its complaints as :class:`_CarmenLineError` (they are the line's)."""
+    try:
+        return Scan(ranges, angle_min, inc, 0.0, rmax, robot, offset, stamp)
+    except (TypeError, ValueError) as err:
+        raise _CarmenLineError(str(err)) from None

@@ -1,0 +1,355 @@
+"""The :class:`Scan` type, planar pose helpers, and scans from plain arrays."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+PoseLike = Sequence[float] | np.ndarray
+
+_TWO_PI = 2.0 * math.pi
+
+
+def _wrap_angle(a: float) -> float:
+    """Wrap an angle in radians to ``[-pi, pi)``."""
+    return (a + math.pi) % _TWO_PI - math.pi
+
+
+def _real_scalar(name: str, value: Any, *, allow_inf: bool = False) -> float:
+    """Return ``value`` as a Python float, rejecting booleans, non-numbers and NaN (a
+    0-d NumPy array of a real number counts as that number)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected a real number, got {type(value).__name__} {value!r}")
+    out = float(value)
+    if math.isnan(out) or (math.isinf(out) and not allow_inf):
+        raise ValueError(f"{name}: expected a finite number, got {out!r}")
+    return out
+
+
+def _pose3(name: str, value: Any) -> tuple[float, float, float]:
+    """Validate a planar pose ``(x_m, y_m, yaw_rad)`` and return it as a tuple of floats."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise TypeError(
+            f"{name}: expected 3 numbers (x_m, y_m, yaw_rad), got {value!r} ({err})"
+        ) from None
+    if arr.shape != (3,):
+        raise ValueError(
+            f"{name}: expected 3 numbers (x_m, y_m, yaw_rad), got shape {arr.shape}: {value!r}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected 3 finite numbers, got {tuple(arr.tolist())}")
+    return (float(arr[0]), float(arr[1]), float(arr[2]))
+
+
+def _compose(
+    a: tuple[float, float, float], b: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """Planar pose composition ``a ∘ b`` (``b`` expressed in the frame of ``a``)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (
+        a[0] + c * b[0] - s * b[1],
+        a[1] + s * b[0] + c * b[1],
+        _wrap_angle(a[2] + b[2]),
+    )
+
+
+def _relative(
+    a: tuple[float, float, float], b: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """Planar pose of ``b`` in the frame of ``a`` (``a⁻¹ ∘ b``)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return (c * dx + s * dy, -s * dx + c * dy, _wrap_angle(b[2] - a[2]))
+
+
+# --------------------------------------------------------------------------------------------
+# Scan
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class Scan:
+    """One planar laser scan with the robot's pose in the map frame.
+
+    Parameters
+    ----------
+    ranges : numpy.ndarray, shape (N,), float32 or float64
+        Measured ranges in metres, beam order. Integer input is converted to float64.
+        NaN / inf / non-positive values are allowed and are treated as "no return".
+        The array is copied and made read-only.
+    angle_min : float
+        Angle of beam 0 in radians, counter-clockwise from the sensor's ``x`` axis.
+    angle_increment : float
+        Angle between consecutive beams in radians; finite and non-zero (negative for
+        sensors that sweep clockwise).
+    range_min, range_max : float
+        Readings ``r`` with ``range_min <= r < range_max`` are hits, everything else is
+        "no return". ``range_min >= 0``; ``range_max > range_min`` (``inf`` allowed).
+    pose : tuple of 3 floats
+        ``(x_m, y_m, yaw_rad)`` of the ROBOT in the map frame. Must be finite.
+    sensor_offset : tuple of 3 floats, optional
+        ``(x_m, y_m, yaw_rad)`` of the sensor in the robot frame; default ``(0, 0, 0)``.
+    timestamp : float or None, optional
+        Acquisition time in seconds (as stored in the source), or None.
+
+    Raises
+    ------
+    TypeError, ValueError
+        If a field has the wrong type, shape or value (the message names the field).
+    """
+
+    ranges: np.ndarray
+    angle_min: float
+    angle_increment: float
+    range_min: float
+    range_max: float
+    pose: tuple[float, float, float]
+    sensor_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    timestamp: float | None = None
+
+    def __post_init__(self) -> None:
+        raw = self.ranges
+        try:
+            arr = np.asarray(raw)
+        except (TypeError, ValueError) as err:
+            raise TypeError(f"ranges: expected a 1-D numeric array, got {raw!r} ({err})") from None
+        if arr.dtype.kind not in "iuf":
+            raise TypeError(f"ranges: expected a real numeric array, got dtype {arr.dtype}")
+        if arr.ndim != 1:
+            raise ValueError(f"ranges: expected a 1-D array (N,), got shape {arr.shape}")
+        dtype = arr.dtype if arr.dtype in (np.float32, np.float64) else np.float64
+        arr = np.array(arr, dtype=dtype, copy=True)
+        arr.flags.writeable = False
+        object.__setattr__(self, "ranges", arr)
+
+        object.__setattr__(self, "angle_min", _real_scalar("angle_min", self.angle_min))
+        inc = _real_scalar("angle_increment", self.angle_increment)
+        if inc == 0.0:
+            raise ValueError("angle_increment: expected a non-zero angle in radians, got 0.0")
+        object.__setattr__(self, "angle_increment", inc)
+        rmin = _real_scalar("range_min", self.range_min)
+        if rmin < 0.0:
+            raise ValueError(f"range_min: expected a value >= 0 m, got {rmin!r}")
+        rmax = _real_scalar("range_max", self.range_max, allow_inf=True)
+        if not rmax > rmin:
+            raise ValueError(
+                f"range_max: expected a value > range_min ({rmin!r} m), got {rmax!r} m"
+            )
+        object.__setattr__(self, "range_min", rmin)
+        object.__setattr__(self, "range_max", rmax)
+        object.__setattr__(self, "pose", _pose3("pose", self.pose))
+        object.__setattr__(self, "sensor_offset", _pose3("sensor_offset", self.sensor_offset))
+        if self.timestamp is not None:
+            object.__setattr__(self, "timestamp", _real_scalar("timestamp", self.timestamp))
+
+    def __repr__(self) -> str:
+        return (
+            f"Scan(n_beams={self.n_beams}, ranges.dtype={self.ranges.dtype}, "
+            f"angle_min={self.angle_min!r}, angle_increment={self.angle_increment!r}, "
+            f"range_min={self.range_min!r}, range_max={self.range_max!r}, pose={self.pose!r}, "
+            f"sensor_offset={self.sensor_offset!r}, timestamp={self.timestamp!r})"
+        )
+
+    @classmethod
+    def from_arrays(
+        cls,
+        ranges: Any,
+        pose: PoseLike,
+        *,
+        angle_min: float,
+        angle_increment: float,
+        range_min: float = 0.0,
+        range_max: float = math.inf,
+        sensor_offset: PoseLike = (0.0, 0.0, 0.0),
+        timestamp: float | None = None,
+    ) -> Scan:
+        """Build a scan from array-likes, with keyword-only beam geometry.
+
+        Parameters
+        ----------
+        ranges : array_like, shape (N,)
+            Ranges in metres.
+        pose : array_like, shape (3,)
+            Robot pose ``(x_m, y_m, yaw_rad)`` in the map frame.
+        angle_min, angle_increment : float
+            Beam geometry in radians (see :class:`Scan`).
+        range_min, range_max : float, optional
+            Valid range interval ``[range_min, range_max)`` in metres; default ``[0, inf)``.
+        sensor_offset : array_like, shape (3,), optional
+            Sensor pose in the robot frame.
+        timestamp : float, optional
+            Time in seconds.
+
+        Returns
+        -------
+        Scan
+        """
+        return cls(
+            np.asarray(ranges),
+            angle_min,
+            angle_increment,
+            range_min,
+            range_max,
+            _pose3("pose", pose),
+            _pose3("sensor_offset", sensor_offset),
+            timestamp,
+        )
+
+    @property
+    def n_beams(self) -> int:
+        """Number of beams ``N``."""
+        return int(self.ranges.shape[0])
+
+    @property
+    def angle_max(self) -> float:
+        """Angle of the last beam in radians (sensor frame); ``angle_min`` when ``N <= 1``."""
+        return self.angle_min + max(self.n_beams - 1, 0) * self.angle_increment
+
+    def angles(self) -> np.ndarray:
+        """Beam angles in the sensor frame.
+
+        Returns
+        -------
+        numpy.ndarray, shape (N,), float64
+            ``angle_min + i * angle_increment`` in radians.
+        """
+        return self.angle_min + np.arange(self.n_beams, dtype=np.float64) * self.angle_increment
+
+    def valid_mask(self) -> np.ndarray:
+        """Which beams hit something.
+
+        Returns
+        -------
+        numpy.ndarray, shape (N,), bool
+            True where the range is finite, ``> 0``, ``>= range_min`` and ``< range_max``
+            (strictly: a reading equal to ``range_max`` is a max-range "no return").
+        """
+        r = self.ranges.astype(np.float64)
+        with np.errstate(invalid="ignore"):
+            return np.isfinite(r) & (r > 0.0) & (r >= self.range_min) & (r < self.range_max)
+
+    def sensor_pose_world(self) -> tuple[float, float, float]:
+        """Pose of the sensor in the map frame, ``pose ∘ sensor_offset``.
+
+        Returns
+        -------
+        tuple of 3 floats
+            ``(x_m, y_m, yaw_rad)``, yaw wrapped to ``[-pi, pi)``.
+        """
+        return _compose(self.pose, self.sensor_offset)
+
+    def endpoints_sensor(self) -> np.ndarray:
+        """End points of the valid beams in the sensor frame.
+
+        Returns
+        -------
+        numpy.ndarray, shape (M, 2), float64
+            ``(x, y)`` in metres, sensor frame, for the ``M`` beams of :meth:`valid_mask`
+            in beam order.
+        """
+        mask = self.valid_mask()
+        r = self.ranges[mask].astype(np.float64)
+        a = self.angles()[mask]
+        return np.stack([r * np.cos(a), r * np.sin(a)], axis=1)
+
+    def endpoints_world(self) -> np.ndarray:
+        """End points of the valid beams in the map frame.
+
+        Returns
+        -------
+        numpy.ndarray, shape (M, 2), float64
+            World ``(x, y)`` in metres of the ``M`` beams of :meth:`valid_mask`, in beam
+            order. The sensor pose is ``pose ∘ sensor_offset``.
+        """
+        sx, sy, syaw = self.sensor_pose_world()
+        mask = self.valid_mask()
+        r = self.ranges[mask].astype(np.float64)
+        a = self.angles()[mask] + syaw
+        return np.stack([sx + r * np.cos(a), sy + r * np.sin(a)], axis=1)
+
+
+# --------------------------------------------------------------------------------------------
+# Plain arrays
+# --------------------------------------------------------------------------------------------
+
+
+def scans_from_arrays(
+    ranges: Any,
+    poses: Any,
+    *,
+    angle_min: float,
+    angle_increment: float,
+    range_min: float = 0.0,
+    range_max: float = math.inf,
+    timestamps: Any = None,
+    sensor_offset: PoseLike = (0.0, 0.0, 0.0),
+) -> Iterator[Scan]:
+    """Scans from a ranges matrix and a pose array.
+
+    Parameters
+    ----------
+    ranges : array_like, shape (S, N)
+        Ranges in metres, one row per scan.
+    poses : array_like, shape (S, 3)
+        Robot poses ``(x_m, y_m, yaw_rad)`` in the map frame, one row per scan.
+    angle_min, angle_increment : float
+        Beam geometry in radians, shared by all scans.
+    range_min, range_max : float, optional
+        Valid range interval ``[range_min, range_max)`` in metres.
+    timestamps : array_like, shape (S,), optional
+        Times in seconds.
+    sensor_offset : array_like, shape (3,), optional
+        Sensor pose in the robot frame, shared by all scans.
+
+    Returns
+    -------
+    iterator of Scan
+        The shapes are checked when this function is called; scans are built lazily.
+
+    Raises
+    ------
+    ValueError
+        If the shapes do not match.
+    """
+    r = np.asarray(ranges)
+    p = np.asarray(poses, dtype=np.float64)
+    if r.ndim != 2:
+        raise ValueError(f"ranges: expected a 2-D array (S, N), got shape {r.shape}")
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise ValueError(f"poses: expected an array of shape (S, 3), got shape {p.shape}")
+    if p.shape[0] != r.shape[0]:
+        raise ValueError(
+            f"poses: expected {r.shape[0]} rows (one per row of ranges), got {p.shape[0]}"
+        )
+    t: np.ndarray | None = None
+    if timestamps is not None:
+        t = np.asarray(timestamps, dtype=np.float64)
+        if t.shape != (r.shape[0],):
+            raise ValueError(f"timestamps: expected shape ({r.shape[0]},), got shape {t.shape}")
+    offset = _pose3("sensor_offset", sensor_offset)
+    # Validate the shared geometry once, eagerly, on an empty scan.
+    Scan(np.zeros(0), angle_min, angle_increment, range_min, range_max, (0, 0, 0), offset)
+
+    def generate() -> Iterator[Scan]:
+        for i in range(r.shape[0]):
+            yield Scan(
+                r[i],
+                angle_min,
+                angle_increment,
+                range_min,
+                range_max,
+                (p[i, 0], p[i, 1], p[i, 2]),
+                offset,
+                None if t is None else float(t[i]),
+            )
+
+    return generate()
