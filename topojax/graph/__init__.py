@@ -28,19 +28,24 @@ in raster order).
 
 Modules: :mod:`~topojax.graph.trace` (numba kernels: links, tracing, rings),
 :mod:`~topojax.graph.build` (:func:`skeleton_to_graph`: checks, world coordinates, kinds,
-junction-cluster merge), :mod:`~topojax.graph.prune` (:func:`prune_graph`) and
+junction-cluster merge), :mod:`~topojax.graph.store` (:class:`GraphStore`, the graph as
+arrays, and the vertex kind codes), :mod:`~topojax.graph.prune` (:func:`prune_graph`) and
 :mod:`~topojax.graph.geometry` (path lengths, orientation, vertex pixels, simplification).
 The link bit-masks, the tracing of ordered edge paths and the ring search are numba kernels
 (one pass over the skeleton pixels each); attribute arrays (world coordinates, lengths,
 clearances) are computed with vectorised numpy over all paths at once.
 """
 
-from .build import PixelToWorld, graph_summary, paused_gc, pixel_graph_degree, skeleton_to_graph
+from .build import PixelToWorld, graph_summary, pixel_graph_degree, skeleton_to_graph
 from .geometry import cumulative_length_m, holds, orient, path_lengths_m, polyline_keep
 from .prune import prune_graph
+from .store import KIND_CODES, KIND_NAMES, GraphStore, paused_gc
 from .trace import raw_graph
 
 __all__ = [
+    "KIND_CODES",
+    "KIND_NAMES",
+    "GraphStore",
     "PixelToWorld",
     "cumulative_length_m",
     "graph_summary",

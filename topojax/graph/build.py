@@ -34,21 +34,18 @@ Comparison with the original implementation (STAR-Center/IncrementalTopo, refere
 
 from __future__ import annotations
 
-import gc
 import math
 import numbers
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 
 import networkx as nx
 import numpy as np
 
 from .geometry import _edge_pixel_index, orient, path_lengths_m
+from .store import KIND_JUNCTION, GraphStore
 from .trace import (
     _DC,
     _DR,
-    _KIND_JUNCTION,
-    _KIND_NAMES,
     _POPCOUNT,
     _dense_keys,
     _link_table,
@@ -190,28 +187,6 @@ def pixel_graph_degree(skeleton: np.ndarray) -> np.ndarray:
     return deg.reshape(skel.shape)
 
 
-def _empty_graph(shape: tuple[int, int], res: float, merge: bool) -> nx.MultiGraph:
-    g = nx.MultiGraph()
-    g.graph.update(resolution_m=res, shape=shape, merge_junction_clusters=merge)
-    return g
-
-
-@contextmanager
-def paused_gc() -> Iterator[None]:
-    """Pause Python's cyclic garbage collector (restored on exit, also on error).
-
-    Building a networkx graph allocates many small containers, which triggers collections
-    that scan every live object; the objects built here hold no reference cycles.
-    """
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
-
-
 def skeleton_to_graph(
     skeleton: np.ndarray,
     *,
@@ -312,77 +287,43 @@ def skeleton_to_graph(
         clear = _check_clearance_values(clearance_px(flat), skel.shape, flat)
     else:
         clear = _check_clearance(clearance_px, skel, flat)
-    return _graph_from_skeleton(skel.shape, flat, clear, res, pixel_to_world, merge)
+    return _skeleton_store(skel.shape, flat, clear, res, pixel_to_world, merge).to_networkx()
 
 
-def _graph_from_skeleton(
+def _skeleton_store(
     shape: tuple[int, ...],
     flat: np.ndarray,
     clear: np.ndarray | None,
     res: float,
     pixel_to_world: PixelToWorld | None,
     merge: bool,
-) -> nx.MultiGraph:
-    """:func:`skeleton_to_graph` on checked input: the skeleton's pixels as flat indices
-    ``flat`` (raster order) of an image of ``shape``, and their clearances in pixels
-    (float64 (n,), aligned with ``flat``) or None."""
+) -> GraphStore:
+    """The :class:`GraphStore` of :func:`skeleton_to_graph` on checked input: the
+    skeleton's pixels as flat indices ``flat`` (raster order) of an image of ``shape``,
+    and their clearances in pixels (float64 (n,), aligned with ``flat``) or None."""
     shape = (int(shape[0]), int(shape[1]))
+    attrs = {"resolution_m": res, "shape": shape, "merge_junction_clusters": merge}
     if flat.size == 0:
-        return _empty_graph(shape, res, merge)
+        return _empty_store(attrs)
 
-    # --- pixel graph and edge tracing (numba) -----------------------------------------
     # Pixels are numbered 0..n-1 in raster order (their index in ``flat`` and ``keys``);
     # vertices and paths refer to them by that number until the end.
     keys, stride = _dense_keys(shape, flat)
     v_idx, v_kind, e_u, e_v, e_off, path = raw_graph(keys, stride)
-    n_v = v_idx.shape[0]
     u_id = np.searchsorted(v_idx, e_u)
     v_id = np.searchsorted(v_idx, e_v)
-
-    # --- paths oriented so that u <= v ------------------------------------------------
     lens = np.diff(e_off)
-    u_id, v_id, path = orient(u_id, v_id, e_off, lens, path)
-    v_key = keys[v_idx]
-    vr = v_key // stride
-    vc = v_key % stride
-    pixels_rc = np.stack([vr, vc], axis=1).astype(np.int32)
-    member_bounds = np.arange(n_v + 1)
-
-    # --- optional junction-cluster merge ---------------------------------------------
+    u_id, v_id, path = orient(u_id, v_id, e_off, lens, path)  # paths from u to v, u <= v
+    vr = keys[v_idx] // stride
+    vc = keys[v_idx] % stride
+    members = None
     if merge:
-        junction = v_kind == _KIND_JUNCTION
+        junction = v_kind == KIND_JUNCTION
         tiny = (lens == 2) & junction[u_id] & junction[v_id]
         if tiny.any():
-            # imported here: scipy.sparse is a tenth of a second of `import topojax`
-            from scipy.sparse import coo_matrix
-            from scipy.sparse.csgraph import connected_components
-
-            adj = coo_matrix(
-                (np.ones(int(tiny.sum()), dtype=np.int8), (u_id[tiny], v_id[tiny])),
-                shape=(n_v, n_v),
+            v_idx, v_kind, vr, vc, members, new_id = _merged_vertices(
+                v_idx, v_kind, vr, vc, u_id[tiny], v_id[tiny]
             )
-            n_lab, label = connected_components(adj, directed=False)
-            size = np.bincount(label, minlength=n_lab)
-            cy = np.bincount(label, weights=vr, minlength=n_lab) / size
-            cx = np.bincount(label, weights=vc, minlength=n_lab) / size
-            d2 = (vr - cy[label]) ** 2 + (vc - cx[label]) ** 2
-            # Representative per cluster: nearest to the centroid, then first in raster order.
-            pick = np.lexsort((np.arange(n_v), d2, label))
-            first = np.ones(n_v, dtype=bool)
-            first[1:] = label[pick[1:]] != label[pick[:-1]]
-            rep_of_label = pick[first]  # labels ascending
-            rep_sorted = np.sort(rep_of_label)  # new vertices in raster order
-            new_of_label = np.searchsorted(rep_sorted, rep_of_label)
-            new_id = new_of_label[label]
-            # Members of each new vertex, in raster order.
-            member_order = np.lexsort((np.arange(n_v), new_id))
-            pixels_rc = pixels_rc[member_order]
-            member_bounds = np.searchsorted(new_id[member_order], np.arange(n_lab + 1))
-            v_kind = np.where(size[label[rep_sorted]] > 1, _KIND_JUNCTION, v_kind[rep_sorted])
-            v_idx = v_idx[rep_sorted]
-            vr = vr[rep_sorted]
-            vc = vc[rep_sorted]
-            n_v = n_lab
             # Drop the intra-cluster 2-pixel edges, remap and re-orient the others.
             keep = np.flatnonzero(~tiny)
             path = path[_edge_pixel_index(e_off, keep)]
@@ -390,100 +331,126 @@ def _graph_from_skeleton(
             e_off = np.concatenate([[0], np.cumsum(lens)])
             u_id, v_id = new_id[u_id[keep]], new_id[v_id[keep]]
             u_id, v_id, path = orient(u_id, v_id, e_off, lens, path)
-    n_e = u_id.shape[0]
-    path_key = keys[path]
-    pr = path_key // stride
-    pc = path_key % stride
-
-    # --- attributes (vectorised) ------------------------------------------------------
-    n_path = pr.shape[0]
-    world_all = _world_coords(
+    pr = keys[path] // stride
+    pc = keys[path] % stride
+    world = _world_coords(
         np.concatenate([pr, vr]).astype(np.float64),
         np.concatenate([pc, vc]).astype(np.float64),
         shape,
         res,
         pixel_to_world,
     )
-    path_world = world_all[:n_path]
-    node_world = world_all[n_path:]
-    path_rc = np.stack([pr, pc], axis=1).astype(np.int32)
-
-    if n_e:
-        starts = e_off[:-1]
-        length_m = path_lengths_m(path_rc, starts, lens, res)
-        if clear is not None:
-            cval = clear[path] * res
-            min_c = np.minimum.reduceat(cval, starts)
-            mean_c = np.add.reduceat(cval, starts) / lens
-        else:
-            min_c = np.full(n_e, np.nan)
-            mean_c = np.full(n_e, np.nan)
-    if clear is not None:
-        node_clear = clear[v_idx] * res
-    else:
-        node_clear = np.full(n_v, np.nan)
-
-    # --- assemble the networkx graph --------------------------------------------------
-    # Thousands of small dicts and tuples: a cyclic-GC pass triggered in the middle
-    # would scan every live object of the process (milliseconds, at random calls).
-    with paused_gc():
-        vr_l = vr.tolist()
-        vc_l = vc.tolist()
-        kinds = [_KIND_NAMES[int(k)] for k in v_kind]
-        nw = node_world.tolist()
-        ncl = node_clear.tolist()
-        mb = member_bounds.tolist()
-        node_attrs = [
-            {
-                "pixel": (vr_l[i], vc_l[i]),
-                "pixels": pixels_rc[mb[i] : mb[i + 1]],
-                "world": (nw[i][0], nw[i][1]),
-                "kind": kinds[i],
-                "clearance_m": ncl[i],
-            }
-            for i in range(n_v)
-        ]
-        edges = []
-        if n_e:
-            order = np.lexsort((np.arange(n_e), v_id, u_id))
-            bnd = e_off.tolist()
-            u_l = u_id.tolist()
-            v_l = v_id.tolist()
-            ln = length_m.tolist()
-            mn = min_c.tolist()
-            me = mean_c.tolist()
-            for i in order.tolist():
-                a, b = bnd[i], bnd[i + 1]
-                attrs = {
-                    "path": path_rc[a:b],
-                    "world": path_world[a:b],
-                    "length_m": ln[i],
-                    "min_clearance_m": mn[i],
-                    "mean_clearance_m": me[i],
-                }
-                edges.append((u_l[i], v_l[i], attrs))
-        return _fill_multigraph(_empty_graph(shape, res, merge), node_attrs, edges)
+    n_path = pr.shape[0]
+    path_rc = np.stack([pr, pc], axis=1)
+    length_m, min_c, mean_c = _edge_values(path_rc, path, e_off, lens, clear, res)
+    # Edges sorted by (u, v), then in tracing order; their paths one after another.
+    order = np.lexsort((np.arange(u_id.shape[0]), v_id, u_id))
+    rows = _edge_pixel_index(e_off, order)
+    return GraphStore(
+        node_pixel=np.stack([vr, vc], axis=1),
+        node_kind=v_kind,
+        node_world=world[n_path:],
+        node_clearance_m=np.full(v_idx.shape[0], np.nan) if clear is None else clear[v_idx] * res,
+        edge_u=u_id[order],
+        edge_v=v_id[order],
+        path_offsets=np.concatenate([[0], np.cumsum(lens[order])]),
+        path_pixels=path_rc[rows],
+        path_world=world[:n_path][rows],
+        edge_length_m=length_m[order],
+        edge_min_clearance_m=min_c[order],
+        edge_mean_clearance_m=mean_c[order],
+        attrs=attrs,
+        member_offsets=None if members is None else members[0],
+        member_pixels=None if members is None else members[1],
+    )
 
 
-def _fill_multigraph(g: nx.MultiGraph, node_attrs: list[dict], edges: list[tuple]) -> nx.MultiGraph:
-    """Add nodes ``0..n-1`` with the attribute dicts ``node_attrs`` and the edges
-    ``(u, v, attrs)`` in order (keys 0, 1, ... per node pair) to an empty, plain
-    :class:`networkx.MultiGraph` (from :func:`_empty_graph`).
+def _empty_store(attrs: dict) -> GraphStore:
+    """A store without vertices or edges."""
+    none2 = np.zeros((0, 2), np.int64)
+    none = np.zeros(0, np.int64)
+    return GraphStore(
+        node_pixel=none2,
+        node_kind=none,
+        node_world=none2,
+        node_clearance_m=none,
+        edge_u=none,
+        edge_v=none,
+        path_offsets=np.zeros(1, np.int64),
+        path_pixels=none2,
+        path_world=none2,
+        edge_length_m=none,
+        edge_min_clearance_m=none,
+        edge_mean_clearance_m=none,
+        attrs=attrs,
+    )
 
-    Writes networkx's documented dict-of-dict-of-dict structure directly, as
-    ``add_node`` / ``add_edge`` would leave it: 4x faster than those calls, which was a
-    third of the graph step on the paper maps.  A test checks it against those calls.
+
+def _merged_vertices(
+    v_idx: np.ndarray,
+    v_kind: np.ndarray,
+    vr: np.ndarray,
+    vc: np.ndarray,
+    tiny_u: np.ndarray,
+    tiny_v: np.ndarray,
+) -> tuple:
+    """Vertices after merging the junction clusters joined by the 2-pixel edges
+    ``tiny_u``-``tiny_v`` (vertex numbers).
+
+    Returns the new vertices' ``v_idx``, ``v_kind``, ``vr`` and ``vc`` (each cluster's
+    member nearest to its centroid, then first in raster order; new vertices in raster
+    order), their members as ``(offsets (N + 1,), pixels (M, 2) int64)`` in raster order,
+    and the new vertex number of every old vertex.
     """
-    node, adj = g._node, g._adj
-    for i, attrs in enumerate(node_attrs):
-        node[i] = attrs
-        adj[i] = {}
-    for u, v, attrs in edges:
-        keys = adj[u].get(v)
-        if keys is None:
-            keys = adj[u][v] = adj[v][u] = {}  # one key dict, seen from both ends
-        keys[len(keys)] = attrs
-    return g
+    # imported here: scipy.sparse is a tenth of a second of `import topojax`
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n_v = v_idx.shape[0]
+    adj = coo_matrix((np.ones(tiny_u.shape[0], dtype=np.int8), (tiny_u, tiny_v)), shape=(n_v, n_v))
+    n_lab, label = connected_components(adj, directed=False)
+    size = np.bincount(label, minlength=n_lab)
+    cy = np.bincount(label, weights=vr, minlength=n_lab) / size
+    cx = np.bincount(label, weights=vc, minlength=n_lab) / size
+    d2 = (vr - cy[label]) ** 2 + (vc - cx[label]) ** 2
+    # Representative per cluster: nearest to the centroid, then first in raster order.
+    pick = np.lexsort((np.arange(n_v), d2, label))
+    first = np.ones(n_v, dtype=bool)
+    first[1:] = label[pick[1:]] != label[pick[:-1]]
+    rep_of_label = pick[first]  # labels ascending
+    rep_sorted = np.sort(rep_of_label)  # new vertices in raster order
+    new_of_label = np.searchsorted(rep_sorted, rep_of_label)
+    new_id = new_of_label[label]
+    # Members of each new vertex, in raster order.
+    member_order = np.lexsort((np.arange(n_v), new_id))
+    members = (
+        np.searchsorted(new_id[member_order], np.arange(n_lab + 1)),
+        np.stack([vr, vc], axis=1)[member_order],
+    )
+    kind = np.where(size[label[rep_sorted]] > 1, KIND_JUNCTION, v_kind[rep_sorted])
+    return v_idx[rep_sorted], kind, vr[rep_sorted], vc[rep_sorted], members, new_id
+
+
+def _edge_values(
+    path_rc: np.ndarray,
+    path: np.ndarray,
+    e_off: np.ndarray,
+    lens: np.ndarray,
+    clear: np.ndarray | None,
+    res: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Length, min and mean clearance in metres of each edge (float64 (E,) each; NaN
+    clearances without ``clear``), from the paths' pixels ``path_rc`` (P, 2) and pixel
+    numbers ``path`` (P,) in CSR layout ``e_off`` / ``lens``."""
+    n_e = lens.shape[0]
+    if n_e == 0:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    starts = e_off[:-1]
+    length_m = path_lengths_m(path_rc, starts, lens, res)
+    if clear is None:
+        return length_m, np.full(n_e, np.nan), np.full(n_e, np.nan)
+    cval = clear[path] * res
+    return length_m, np.minimum.reduceat(cval, starts), np.add.reduceat(cval, starts) / lens
 
 
 def graph_summary(graph: nx.MultiGraph) -> dict[str, float | int]:

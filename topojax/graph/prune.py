@@ -12,8 +12,8 @@ import networkx as nx
 import numpy as np
 
 from .._validate import nonnegative_metres
-from .build import _fill_multigraph, paused_gc
 from .geometry import _ends_at, _path_length_m, holds
+from .store import fill_multigraph, paused_gc
 
 
 def prune_graph(
@@ -303,7 +303,4 @@ def _renumbered(
                 data["world"] = data["world"][::-1]
         out.append((u, v, _copied(data)))
     out.sort(key=lambda e: (e[0], e[1], e[2]["path"][:2].tolist()))
-    g = nx.MultiGraph()
-    g.graph.update(attrs)
-    g.graph.update(thresholds)
-    return _fill_multigraph(g, node_attrs, out)
+    return fill_multigraph({**attrs, **thresholds}, range(len(node_attrs)), node_attrs, out)

@@ -11,22 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import cached_njit
+from .store import KIND_JUNCTION, KIND_RING
 
 # Neighbour directions (drow, dcol) in a fixed order; bit ``k`` of a link mask refers to
 # direction ``k``.  4-neighbours first, then diagonals.
 _DR = np.array([-1, 0, 0, 1, -1, -1, 1, 1], dtype=np.int64)
 _DC = np.array([0, -1, 1, 0, -1, 1, -1, 1], dtype=np.int64)
-
-_KIND_ISOLATED = 0
-_KIND_END = 1
-_KIND_JUNCTION = 3
-_KIND_RING = 2
-_KIND_NAMES = {
-    _KIND_ISOLATED: "isolated",
-    _KIND_END: "end",
-    _KIND_RING: "ring",
-    _KIND_JUNCTION: "junction",
-}
 
 
 # --------------------------------------------------------------------------------------
@@ -237,7 +227,7 @@ def raw_graph(keys: np.ndarray, stride: int):
     )
     v_idx = np.concatenate([vertex_idx, rings])
     v_kind = np.concatenate(
-        [np.minimum(deg[vmask], _KIND_JUNCTION), np.full(rings.shape[0], _KIND_RING, np.uint8)]
+        [np.minimum(deg[vmask], KIND_JUNCTION), np.full(rings.shape[0], KIND_RING, np.uint8)]
     ).astype(np.int8)
     order = np.argsort(v_idx, kind="stable")
     return v_idx[order], v_kind[order], e_u, e_v, e_off.astype(np.int64), path
