@@ -641,7 +641,7 @@ def test_pixel_graph_degree_matches_brute_force():
 def test_pixel_graph_does_not_depend_on_the_key_layout(skel, row0, col0):
     # The incremental mapper traces scattered pixels by key (row << 32) + col + 2^31 at any
     # origin; the full-map path uses row * (W + 1) + col.  Same pixels, same raw graph.
-    from topojax.graph import _dense_keys, raw_graph
+    from topojax.graph.trace import _dense_keys, raw_graph
 
     keys, stride = _dense_keys(skel.shape, np.flatnonzero(skel))
     rows, cols = keys // stride, keys % stride

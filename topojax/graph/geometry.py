@@ -1,0 +1,114 @@
+"""Pixel-path geometry shared by the graph builders, pruning, routing and export: path
+lengths counted in integer straight / diagonal steps, cumulative lengths, path
+orientation in CSR layout, vertex-pixel membership and Douglas–Peucker simplification."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def _steps_length(n_straight, n_diagonal, res: float):
+    """Length in metres of a path with these numbers of straight and diagonal steps."""
+    return (n_straight + n_diagonal * math.sqrt(2.0)) * res
+
+
+def _running_diagonals(pixels: np.ndarray) -> np.ndarray:
+    """Diagonal steps before each pixel of ``pixels`` (K, 2), an integer running count
+    (length K).  Paths stored one after another subtract the count at their own first
+    pixel, so the step from one path's last pixel to the next one's first is never
+    counted and a path's length is a function of the path alone, not of where it sits
+    among the others."""
+    step = np.abs(np.diff(np.asarray(pixels, np.int64), axis=0))
+    return np.concatenate([[0], np.cumsum((step[:, 0] != 0) & (step[:, 1] != 0))])
+
+
+def path_lengths_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
+    """``length_m`` of each path stored in ``pixels`` (path ``i``: ``sizes[i]`` rows from
+    ``starts[i]``): its straight and diagonal steps, counted as integers."""
+    starts = np.asarray(starts, np.int64)
+    sizes = np.asarray(sizes, np.int64)
+    n_diag = _running_diagonals(pixels)
+    diagonal = n_diag[starts + sizes - 1] - n_diag[starts]
+    return _steps_length(sizes - 1 - diagonal, diagonal, res)
+
+
+def cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
+    """Length in metres from its own path's first pixel to every pixel, counted as
+    :func:`path_lengths_m` does (the last pixel of a path has the path's length)."""
+    n_diag = _running_diagonals(pixels)
+    first = np.repeat(np.asarray(starts, np.int64), sizes)
+    steps = np.arange(len(first)) - first
+    diagonal = n_diag - n_diag[first]
+    return _steps_length(steps - diagonal, diagonal, res)
+
+
+def _path_length_m(path: np.ndarray, res: float) -> float:
+    """``length_m`` of a ``(K, 2)`` pixel path, exactly as :func:`skeleton_to_graph`."""
+    return float(path_lengths_m(path, [0], [len(path)], res)[0])
+
+
+def holds(node: dict, pixel) -> bool:
+    """Is ``pixel`` one of the vertex's pixels (its ``pixel``, or any of a merged junction
+    cluster's ``pixels``)?  False for a vertex with neither."""
+    r, c = int(pixel[0]), int(pixel[1])
+    own = node.get("pixel")
+    if own is not None and int(own[0]) == r and int(own[1]) == c:
+        return True
+    members = node.get("pixels")
+    if members is None or len(members) == 0:
+        return False
+    members = np.asarray(members).reshape(-1, 2)
+    return bool(np.any((members[:, 0] == r) & (members[:, 1] == c)))
+
+
+def _ends_at(path: np.ndarray, pixel) -> bool:
+    """Is ``pixel`` the last pixel of ``path``?"""
+    return int(path[-1, 0]) == int(pixel[0]) and int(path[-1, 1]) == int(pixel[1])
+
+
+def orient(
+    u: np.ndarray, v: np.ndarray, off: np.ndarray, lens: np.ndarray, paths: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Swap ``u``/``v`` where ``u > v`` and reverse those edges' paths (CSR ``off``)."""
+    flip = u > v
+    if not flip.any():
+        return u, v, paths
+    edge_of = np.repeat(np.arange(u.shape[0]), lens)
+    pos = np.arange(paths.shape[0])
+    rev = np.where(flip[edge_of], 2 * off[edge_of] + lens[edge_of] - 1 - pos, pos)
+    return np.where(flip, v, u), np.where(flip, u, v), paths[rev]
+
+
+def _edge_pixel_index(off: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """Indices into the concatenated paths of the pixels of the edges ``keep``."""
+    lens = off[keep + 1] - off[keep]
+    base = np.concatenate([[0], np.cumsum(lens)[:-1]])
+    return np.repeat(off[keep] - base, lens) + np.arange(int(lens.sum()))
+
+
+def polyline_keep(xy: np.ndarray, tol: float) -> np.ndarray:
+    """Douglas–Peucker: indices of the points of polyline ``xy`` (K, 2) to keep (first and
+    last included) so that every point lies within ``tol`` of the kept chain's segment
+    between its neighbours."""
+    n = len(xy)
+    keep = np.zeros(n, dtype=bool)
+    keep[[0, n - 1]] = True
+    stack = [(0, n - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = xy[i], xy[j]
+        pts = xy[i + 1 : j]
+        ab = b - a
+        span = float(ab @ ab)
+        t = np.zeros(len(pts)) if span == 0 else np.clip((pts - a) @ ab / span, 0.0, 1.0)
+        dist = np.hypot(*(pts - (a + t[:, None] * ab)).T)
+        m = int(np.argmax(dist))
+        if dist[m] > tol:
+            m += i + 1
+            keep[m] = True
+            stack += [(i, m), (m, j)]
+    return np.flatnonzero(keep)

@@ -1,0 +1,474 @@
+"""The arrays of a topology graph (:class:`GraphStore`), the vertex kind codes, and the
+construction of networkx graphs through networkx's public API."""
+
+from __future__ import annotations
+
+import gc
+import numbers
+from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+import networkx as nx
+import numpy as np
+
+__all__ = [
+    "KIND_CODES",
+    "KIND_END",
+    "KIND_ISOLATED",
+    "KIND_JUNCTION",
+    "KIND_NAMES",
+    "KIND_RING",
+    "GraphStore",
+    "fill_multigraph",
+    "paused_gc",
+]
+
+# Vertex kind codes.  The codes of "isolated" and "end" are their pixel-graph degrees and
+# every degree >= 3 is a junction, so ``min(degree, KIND_JUNCTION)`` is the kind of a
+# vertex that is not on a ring.
+KIND_ISOLATED = 0
+KIND_END = 1
+KIND_RING = 2
+KIND_JUNCTION = 3
+KIND_NAMES = {
+    KIND_ISOLATED: "isolated",
+    KIND_END: "end",
+    KIND_RING: "ring",
+    KIND_JUNCTION: "junction",
+}
+KIND_CODES = {name: code for code, name in KIND_NAMES.items()}
+
+_NODE_ATTRS = ("pixel", "pixels", "world", "kind", "clearance_m")
+_EDGE_ATTRS = ("path", "world", "length_m", "min_clearance_m", "mean_clearance_m")
+
+
+@contextmanager
+def paused_gc() -> Iterator[None]:
+    """Pause Python's cyclic garbage collector (restored on exit, also on error).
+
+    Building a networkx graph allocates many small containers, which triggers collections
+    that scan every live object; the objects built here hold no reference cycles.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def fill_multigraph(
+    attrs: Mapping, nodes: Iterable, node_attrs: Iterable[dict], edges: Iterable[tuple]
+) -> nx.MultiGraph:
+    """A new :class:`networkx.MultiGraph` built with networkx's public API.
+
+    Parameters
+    ----------
+    attrs : mapping
+        Graph attributes.
+    nodes : iterable of hashable
+        Nodes, in order (new, distinct).
+    node_attrs : iterable of dict
+        Attributes of each node of ``nodes``, in the same order.
+    edges : iterable of tuple
+        ``(u, v, key, attrs)`` or ``(u, v, attrs)`` (networkx numbers the keys 0, 1, ...
+        per node pair), added in order; ``u`` and ``v`` are nodes of ``nodes``.
+
+    Returns
+    -------
+    networkx.MultiGraph
+        Its nodes, edges, keys and attribute dicts in the order given.
+    """
+    g = nx.MultiGraph()
+    g.graph.update(attrs)
+    nodes = list(nodes)
+    g.add_nodes_from(nodes)  # plain nodes: no per-node (node, dict) unpacking
+    view = g.nodes
+    for n, data in zip(nodes, node_attrs, strict=True):
+        view[n].update(data)
+    g.add_edges_from(edges)
+    return g
+
+
+def _array(name: str, value, dtype, kinds: str, shape: tuple) -> np.ndarray:
+    """``value`` as a read-only array of ``dtype`` after checking its dtype kind and
+    shape (``None`` in ``shape``: any length)."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in kinds or arr.dtype == np.bool_:
+        expected = "integer" if kinds == "iu" else "real"
+        raise TypeError(f"{name}: expected an {expected} array, received dtype {arr.dtype}")
+    if arr.ndim != len(shape) or any(
+        s is not None and s != a for s, a in zip(shape, arr.shape, strict=True)
+    ):
+        want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"{name}: expected shape {want}, received shape {arr.shape}")
+    return _readonly(arr.astype(dtype, copy=False))
+
+
+def _readonly(arr: np.ndarray) -> np.ndarray:
+    """A read-only view of ``arr`` (the flags of ``arr`` itself stay as they are)."""
+    out = arr.view()
+    out.flags.writeable = False
+    return out
+
+
+def _offsets(name: str, value, n: int, total: int) -> np.ndarray:
+    """CSR offsets of ``n`` runs over ``total`` rows: int64 (n + 1,), from 0 to ``total``,
+    non-decreasing."""
+    off = _array(name, value, np.int64, "iu", (n + 1,))
+    if off[0] != 0 or off[-1] != total or np.any(np.diff(off) < 0):
+        raise ValueError(
+            f"{name}: expected non-decreasing offsets from 0 to {total}, received "
+            f"{off[0]} .. {off[-1]}" + (" (decreasing)" if np.any(np.diff(off) < 0) else "")
+        )
+    return off
+
+
+def _pair_keys(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """networkx's own edge keys for edges added in order: 0, 1, ... per node pair."""
+    n = u.shape[0]
+    a, b = np.minimum(u, v), np.maximum(u, v)
+    order = np.lexsort((np.arange(n), b, a))
+    new_pair = np.ones(n, dtype=bool)
+    new_pair[1:] = (a[order][1:] != a[order][:-1]) | (b[order][1:] != b[order][:-1])
+    start = np.maximum.accumulate(np.where(new_pair, np.arange(n), 0))
+    keys = np.empty(n, dtype=np.int64)
+    keys[order] = np.arange(n) - start
+    return keys
+
+
+@dataclass(frozen=True, eq=False, repr=False, kw_only=True)
+class GraphStore:
+    """The topology graph as arrays: vertices, edges with their pixel paths, attributes.
+
+    One row per vertex in the node arrays and one per edge in the edge arrays; edge
+    ``i``'s pixels are the rows ``path_offsets[i]:path_offsets[i + 1]`` of the flat
+    path arrays.  The arrays are converted to the dtypes below and kept read-only;
+    :meth:`to_networkx` gives the networkx graph of :func:`skeleton_to_graph`.
+
+    Parameters
+    ----------
+    node_pixel : int (N, 2)
+        ``(row, col)`` of each vertex's pixel; stored as int64.
+    node_kind : int (N,)
+        Vertex kind codes (:data:`KIND_NAMES`: 0 isolated, 1 end, 2 ring, 3 junction);
+        stored as int8.
+    node_world : real (N, 2)
+        ``(x, y)`` in metres of each vertex pixel's centre; stored as float64.
+    node_clearance_m : real (N,)
+        Clearance at each vertex pixel in metres (NaN: unknown); stored as float64.
+    edge_u, edge_v : int (E,)
+        Ends of each edge as node *indices* (rows of the node arrays, 0..N-1), not node
+        ids; stored as int64.
+    path_offsets : int (E + 1,)
+        CSR offsets of the edge paths: 0, non-decreasing, ending at P; stored as int64.
+    path_pixels : int (P, 2)
+        ``(row, col)`` of the pixels of all edge paths, one path after another, each
+        from a pixel of its ``u`` to a pixel of its ``v``; stored as int64.
+    path_world : real (P, 2)
+        ``(x, y)`` in metres of each path pixel's centre; stored as float64.
+    edge_length_m, edge_min_clearance_m, edge_mean_clearance_m : real (E,)
+        Length of each path in metres and the min / mean clearance over its pixels in
+        metres (NaN: unknown); stored as float64.
+    attrs : mapping, default {}
+        Graph attributes (``resolution_m``, ``shape``, ``merge_junction_clusters``,
+        ``origin``, ...), copied.
+    node_ids : int (N,), optional
+        Node of each vertex in the networkx graph, distinct; default ``0..N-1``.
+    edge_keys : int (E,), optional
+        Key of each edge in the networkx graph, distinct per node pair; default 0, 1,
+        ... per node pair in edge order (the keys networkx assigns).
+    member_offsets : int (N + 1,), optional
+        CSR offsets of each vertex's member pixels in ``member_pixels`` (merged
+        junction clusters).  Given with ``member_pixels`` or not at all; default: each
+        vertex's only member is its own pixel.
+    member_pixels : int (M, 2), optional
+        ``(row, col)`` of the member pixels, vertex after vertex, each in raster order.
+
+    Raises
+    ------
+    TypeError
+        If an array has a non-numeric (or bool) dtype, or a float dtype where integers
+        are expected.
+    ValueError
+        If shapes disagree, offsets do not run from 0 to the row count, an edge end is
+        not a node index, a kind code is unknown, node ids repeat, or two edges of one
+        node pair share a key.
+    """
+
+    node_pixel: np.ndarray
+    node_kind: np.ndarray
+    node_world: np.ndarray
+    node_clearance_m: np.ndarray
+    edge_u: np.ndarray
+    edge_v: np.ndarray
+    path_offsets: np.ndarray
+    path_pixels: np.ndarray
+    path_world: np.ndarray
+    edge_length_m: np.ndarray
+    edge_min_clearance_m: np.ndarray
+    edge_mean_clearance_m: np.ndarray
+    attrs: Mapping = field(default_factory=dict)
+    node_ids: np.ndarray | None = None
+    edge_keys: np.ndarray | None = None
+    member_offsets: np.ndarray | None = None
+    member_pixels: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = np.shape(self.node_pixel)[0] if np.ndim(self.node_pixel) else -1
+        self._put("node_pixel", _array("node_pixel", self.node_pixel, np.int64, "iu", (None, 2)))
+        kind = _array("node_kind", self.node_kind, np.int64, "iu", (n,))
+        known = np.isin(kind, list(KIND_NAMES))
+        if not known.all():
+            raise ValueError(
+                f"node_kind: expected codes in {KIND_NAMES}, received {kind[~known][0]}"
+            )
+        self._put("node_kind", _readonly(kind.astype(np.int8)))
+        self._put("node_world", _array("node_world", self.node_world, np.float64, "iuf", (n, 2)))
+        clear = _array("node_clearance_m", self.node_clearance_m, np.float64, "iuf", (n,))
+        self._put("node_clearance_m", clear)
+        ids = np.arange(n) if self.node_ids is None else self.node_ids
+        self._put("node_ids", _array("node_ids", ids, np.int64, "iu", (n,)))
+        if np.unique(self.node_ids).shape[0] != n:
+            raise ValueError("node_ids: expected distinct ids, received repeated ones")
+        self._check_edges(n)
+        self._check_members(n)
+        self._put("attrs", dict(self.attrs))
+
+    def _put(self, name: str, value) -> None:
+        object.__setattr__(self, name, value)  # frozen: only the checks set fields
+
+    def _check_edges(self, n: int) -> None:
+        e = np.shape(self.edge_u)[0] if np.ndim(self.edge_u) else -1
+        for name in ("edge_u", "edge_v"):
+            ends = _array(name, getattr(self, name), np.int64, "iu", (e,))
+            outside = (ends < 0) | (ends >= n)
+            if outside.any():
+                raise ValueError(
+                    f"{name}: expected node indices in [0, {n}), received {ends[outside][0]}"
+                )
+            self._put(name, ends)
+        p = np.shape(self.path_pixels)[0] if np.ndim(self.path_pixels) else -1
+        self._put("path_pixels", _array("path_pixels", self.path_pixels, np.int64, "iu", (p, 2)))
+        self._put("path_world", _array("path_world", self.path_world, np.float64, "iuf", (p, 2)))
+        self._put("path_offsets", _offsets("path_offsets", self.path_offsets, e, p))
+        for name in ("edge_length_m", "edge_min_clearance_m", "edge_mean_clearance_m"):
+            self._put(name, _array(name, getattr(self, name), np.float64, "iuf", (e,)))
+        keys = _pair_keys(self.edge_u, self.edge_v) if self.edge_keys is None else self.edge_keys
+        self._put("edge_keys", _array("edge_keys", keys, np.int64, "iu", (e,)))
+        a = np.minimum(self.edge_u, self.edge_v)
+        b = np.maximum(self.edge_u, self.edge_v)
+        order = np.lexsort((self.edge_keys, b, a))
+        same = np.diff(a[order]) == 0
+        same &= np.diff(b[order]) == 0
+        same &= np.diff(self.edge_keys[order]) == 0
+        if same.any():
+            raise ValueError("edge_keys: expected distinct keys per node pair, received repeats")
+
+    def _check_members(self, n: int) -> None:
+        if (self.member_offsets is None) != (self.member_pixels is None):
+            raise ValueError(
+                "member_offsets, member_pixels: expected both or neither, received one"
+            )
+        if self.member_pixels is None:
+            return
+        m = np.shape(self.member_pixels)[0] if np.ndim(self.member_pixels) else -1
+        self._put(
+            "member_pixels", _array("member_pixels", self.member_pixels, np.int64, "iu", (m, 2))
+        )
+        self._put("member_offsets", _offsets("member_offsets", self.member_offsets, n, m))
+
+    # ---- views --------------------------------------------------------------------------
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of vertices N."""
+        return int(self.node_pixel.shape[0])
+
+    @property
+    def n_edges(self) -> int:
+        """Number of edges E (self-loops and parallel edges counted individually)."""
+        return int(self.edge_u.shape[0])
+
+    def path(self, i: int) -> np.ndarray:
+        """Edge ``i``'s pixels: a read-only int64 (K, 2) view of ``path_pixels``."""
+        return self.path_pixels[self.path_offsets[i] : self.path_offsets[i + 1]]
+
+    def members(self, i: int) -> np.ndarray:
+        """Vertex ``i``'s member pixels: a read-only int64 (M, 2) view, raster order."""
+        if self.member_pixels is None:
+            return self.node_pixel[i : i + 1]
+        return self.member_pixels[self.member_offsets[i] : self.member_offsets[i + 1]]
+
+    def __repr__(self) -> str:
+        return f"GraphStore(n_nodes={self.n_nodes}, n_edges={self.n_edges}, attrs={self.attrs!r})"
+
+    # ---- networkx -----------------------------------------------------------------------
+
+    def to_networkx(self) -> nx.MultiGraph:
+        """The networkx graph of these arrays, as :func:`skeleton_to_graph` returns it.
+
+        Returns
+        -------
+        networkx.MultiGraph
+            Nodes ``node_ids`` in store order with ``pixel`` ((row, col) tuple of int),
+            ``pixels`` (int32 (M, 2)), ``world`` ((x, y) tuple of float), ``kind`` (name)
+            and ``clearance_m`` (float); edges ``(node_ids[u], node_ids[v], key)`` in store
+            order with ``path`` (int32 (K, 2)), ``world`` (float64 (K, 2)), ``length_m``,
+            ``min_clearance_m`` and ``mean_clearance_m`` (float); graph attributes
+            ``attrs``.  Its arrays are views of new arrays: it shares no memory with the
+            store.
+        """
+        ids = self.node_ids.tolist()
+        pixel = self.node_pixel.tolist()
+        world = self.node_world.tolist()
+        kinds = [KIND_NAMES[k] for k in self.node_kind.tolist()]
+        clear = self.node_clearance_m.tolist()
+        if self.member_pixels is None:
+            members, bounds = self.node_pixel.astype(np.int32), range(self.n_nodes + 1)
+        else:
+            members, bounds = self.member_pixels.astype(np.int32), self.member_offsets.tolist()
+        # Thousands of small dicts and tuples: a cyclic-GC pass triggered in the middle
+        # would scan every live object of the process.
+        with paused_gc():
+            node_attrs = [
+                {
+                    "pixel": (pixel[i][0], pixel[i][1]),
+                    "pixels": members[bounds[i] : bounds[i + 1]],
+                    "world": (world[i][0], world[i][1]),
+                    "kind": kinds[i],
+                    "clearance_m": clear[i],
+                }
+                for i in range(len(ids))
+            ]
+            return fill_multigraph(self.attrs, ids, node_attrs, self._edge_tuples())
+
+    def _edge_tuples(self) -> Iterator[tuple]:
+        """``(u, v, key, attrs)`` of every edge for networkx, in store order."""
+        ids = self.node_ids
+        u = ids[self.edge_u].tolist()
+        v = ids[self.edge_v].tolist()
+        keys = self.edge_keys.tolist()
+        bounds = self.path_offsets.tolist()
+        path = self.path_pixels.astype(np.int32)
+        world = self.path_world.copy()
+        length = self.edge_length_m.tolist()
+        low = self.edge_min_clearance_m.tolist()
+        mean = self.edge_mean_clearance_m.tolist()
+        for i in range(len(u)):
+            a, b = bounds[i], bounds[i + 1]
+            attrs = {
+                "path": path[a:b],
+                "world": world[a:b],
+                "length_m": length[i],
+                "min_clearance_m": low[i],
+                "mean_clearance_m": mean[i],
+            }
+            yield u[i], v[i], keys[i], attrs
+
+    @classmethod
+    def from_networkx(cls, graph: nx.MultiGraph) -> GraphStore:
+        """The store of a topology graph (:func:`skeleton_to_graph`, :func:`prune_graph`,
+        the incremental mapper, :func:`topojax.load_graph`).
+
+        Parameters
+        ----------
+        graph : networkx.MultiGraph
+            Undirected; integer nodes with exactly the attributes ``pixel``, ``pixels``,
+            ``world``, ``kind`` and ``clearance_m``; integer edge keys; edges with exactly
+            ``path``, ``world``, ``length_m``, ``min_clearance_m`` and
+            ``mean_clearance_m``.  Nodes and edges are read in the graph's order.
+
+        Returns
+        -------
+        GraphStore
+            ``to_networkx()`` of it equals ``graph``: the same nodes, edges, keys and
+            attributes in the same order, with paths and member pixels as int32.
+            ``member_pixels`` is None when every vertex's only member is its own pixel.
+
+        Raises
+        ------
+        TypeError
+            If ``graph`` is not an undirected MultiGraph or a node or key is not an int.
+        ValueError
+            If a vertex or edge lacks one of those attributes or has others, or a kind is
+            unknown.
+        """
+        if not isinstance(graph, nx.MultiGraph) or graph.is_directed():
+            raise TypeError(
+                f"graph: expected an undirected networkx.MultiGraph, received "
+                f"{type(graph).__name__}"
+            )
+        ids, index = _node_ids(graph)
+        nodes = [_exact(graph.nodes[n], _NODE_ATTRS, f"vertex {n}") for n in ids]
+        try:
+            kinds = [KIND_CODES[d["kind"]] for d in nodes]
+        except (KeyError, TypeError) as exc:
+            raise ValueError(
+                f"graph: expected vertex kinds in {tuple(KIND_CODES)}, received {exc}"
+            ) from None
+        members = [np.asarray(d["pixels"]).reshape(-1, 2) for d in nodes]
+        pixel = np.array([d["pixel"] for d in nodes], dtype=np.int64).reshape(-1, 2)
+        own = all(m.shape[0] == 1 for m in members) and (
+            not members or np.array_equal(np.concatenate(members), pixel)
+        )
+        edges = list(graph.edges(keys=True, data=True))
+        for u, v, k, d in edges:
+            _exact(d, _EDGE_ATTRS, f"edge {u}-{v} (key {k!r})")
+            if isinstance(k, bool) or not isinstance(k, numbers.Integral):
+                raise TypeError(f"graph: expected integer edge keys, received {k!r}")
+        paths = [np.asarray(d["path"]).reshape(-1, 2) for _, _, _, d in edges]
+        lens = [p.shape[0] for p in paths]
+        return cls(
+            node_pixel=pixel,
+            node_kind=np.array(kinds, dtype=np.int8),
+            node_world=np.array([d["world"] for d in nodes], dtype=np.float64).reshape(-1, 2),
+            node_clearance_m=np.array([d["clearance_m"] for d in nodes], dtype=np.float64),
+            edge_u=np.array([index[u] for u, _, _, _ in edges], dtype=np.int64),
+            edge_v=np.array([index[v] for _, v, _, _ in edges], dtype=np.int64),
+            path_offsets=np.concatenate([[0], np.cumsum(lens, dtype=np.int64)]),
+            path_pixels=_stacked(paths, np.int64),
+            path_world=_stacked([d["world"] for _, _, _, d in edges], np.float64),
+            edge_length_m=_floats(edges, "length_m"),
+            edge_min_clearance_m=_floats(edges, "min_clearance_m"),
+            edge_mean_clearance_m=_floats(edges, "mean_clearance_m"),
+            attrs=dict(graph.graph),
+            node_ids=np.array(ids, dtype=np.int64),
+            edge_keys=np.array([k for _, _, k, _ in edges], dtype=np.int64),
+            member_offsets=None if own else np.cumsum([0] + [m.shape[0] for m in members]),
+            member_pixels=None if own else _stacked(members, np.int64),
+        )
+
+
+def _node_ids(graph: nx.MultiGraph) -> tuple[list, dict]:
+    """The graph's nodes in order (checked to be ints) and each node's index."""
+    ids = list(graph.nodes)
+    for n in ids:
+        if isinstance(n, bool) or not isinstance(n, numbers.Integral):
+            raise TypeError(f"graph: expected integer nodes, received {n!r}")
+    return ids, {n: i for i, n in enumerate(ids)}
+
+
+def _exact(data: dict, names: tuple, where: str) -> dict:
+    """``data`` after checking that it has exactly the attributes ``names``."""
+    if set(data) != set(names):
+        missing = [k for k in names if k not in data]
+        extra = sorted(str(k) for k in data if k not in names)
+        raise ValueError(
+            f"graph: expected {where} to have exactly the attributes {names}; "
+            f"missing {missing}, others {extra}"
+        )
+    return data
+
+
+def _stacked(arrays: list, dtype) -> np.ndarray:
+    """Row-wise concatenation of (K, 2) arrays as ``dtype`` (0, 2) when there are none."""
+    if not arrays:
+        return np.zeros((0, 2), dtype=dtype)
+    return np.concatenate([np.asarray(a, dtype=dtype).reshape(-1, 2) for a in arrays])
+
+
+def _floats(edges: list, name: str) -> np.ndarray:
+    return np.array([d[name] for _, _, _, d in edges], dtype=np.float64)
