@@ -1087,7 +1087,7 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t,
     pixels (growing its region where the change reaches the ring, as in thick blobs; any
     seed margin of at least one pixel) and the ordered T-removal update give the
     whole-image thinning times and skeleton."""
-    from topojax.incremental import mapper as inc
+    from topojax.incremental import _skeleton as inc
     from topojax.skeleton import TABLES_U8, remove_t_centres
 
     rng = np.random.default_rng(seed)
@@ -1162,7 +1162,7 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t,
 def test_local_rethinning_grows_through_a_thick_blob():
     """A change at the centre of a thick blob moves the skeleton far beyond one block:
     the re-thinning region must grow (several rounds) and still be exact."""
-    from topojax.incremental import mapper as inc
+    from topojax.incremental import _skeleton as inc
     from topojax.skeleton import TABLES_U8
 
     t, b = 16, 4

@@ -9,7 +9,9 @@ import math
 import numpy as np
 
 from .._jit import cached_njit
-from ._tiles import _UINT16_MAX, _locate, _log2, _slot
+from ..filters import HALO_PX
+from ..tiling import unique_pairs
+from ._tiles import _MAX_ABS_PIXEL, _UINT16_MAX, _locate, _log2, _slot, _worker_pool
 
 #: Beams whose free cells may wait for the next skeleton update (or an export); more
 #: are counted at once.
@@ -223,3 +225,216 @@ def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
                     break
                 if lr < 0 or lr >= t or lc < 0 or lc >= t:
                     s, lr, lc = _locate(grid, g0r, g0c, tsh, r, c)
+
+
+def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
+    """Hits at the end pixels ``(er, ec)`` (int64, extent ``ext`` = (min row, max row,
+    min col, max col)): their tiles and those of their splat windows allocated, new
+    obstacles queued for the splat, and the rays from the ``sensor`` pixel (row, col)
+    queued for the free-cell count when given.  Raises before any change if the
+    extent is too large, its message starting with ``where()`` (a callable: the scan
+    path formats nothing unless it fails).  Returns the number of new obstacle
+    pixels."""
+    if mapper._ray_job is not None:  # only after an interrupted update
+        join_rays(mapper)
+    if not er.shape[0]:
+        return 0
+    t = mapper.tile_px
+    res = mapper.resolution_m
+    n_valid = int(er.shape[0])
+    tiles = mapper._tiles
+    w = mapper._half + HALO_PX
+    e_r0, e_r1, e_c0, e_c1 = ext.tolist()
+    sr, sc = sensor if sensor is not None else (e_r0, e_c0)
+    lo_r = min(e_r0, sr) - w
+    hi_r = max(e_r1, sr) + w
+    lo_c = min(e_c0, sc) - w
+    hi_c = max(e_c1, sc) + w
+    if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
+        raise ValueError(
+            f"{where()} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
+            f"resolution {res} m; expected coordinates in metres"
+        )
+    # Validate the whole extent (beams and splat windows) before changing anything.
+    tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+    rays = mapper.free_space and sensor is not None
+    grid, (g0r, g0c) = tiles.slot_grid
+    need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
+    if need.shape[0]:
+        tiles.ensure(need[:, 0], need[:, 1])
+        grid, (g0r, g0c) = tiles.slot_grid
+    new, miss = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), w)
+    if rays:
+        # free cells are counted later, in batches (see cast_pending_rays)
+        mapper._rays.append((sr, sc, er, ec))
+        mapper._n_rays += n_valid
+    n_new = new.shape[0]
+    if n_new:
+        if miss.shape[0]:
+            tiles.ensure(miss[:, 0], miss[:, 1])
+        mapper._pending.append(new)
+        mapper._n_pending += n_new
+        mapper._export_cache.clear()
+    return int(n_new)
+
+
+def cast_pending_rays(mapper, *, background: bool = False) -> None:
+    """Count the free cells of the beams added since the last call (on the worker
+    thread if ``background``; :func:`join_rays` waits for it)."""
+    join_rays(mapper)
+    if not mapper._rays:
+        return
+    rays, mapper._rays, mapper._n_rays = mapper._rays, [], 0
+    sr = np.array([r[0] for r in rays], np.int64)
+    sc = np.array([r[1] for r in rays], np.int64)
+    off = np.zeros(len(rays) + 1, np.int64)
+    np.cumsum([r[2].shape[0] for r in rays], out=off[1:])
+    er = np.concatenate([r[2] for r in rays])
+    ec = np.concatenate([r[3] for r in rays])
+    tiles = mapper._tiles
+    grid, (g0r, g0c) = tiles.slot_grid
+    args = (sr, sc, off, er, ec, mapper.tile_px, grid, g0r, g0c, tiles.layer("misses"))
+    pool = _worker_pool() if background else None
+    if pool is None:
+        _cast_rays(*args)
+    else:
+        mapper._ray_job = pool.submit(_cast_rays, *args)
+
+
+def join_rays(mapper) -> None:
+    """Wait for the free-cell counting started by :func:`cast_pending_rays`."""
+    job = mapper._ray_job
+    if job is not None:
+        try:
+            job.result()
+        finally:
+            # an interrupt while waiting leaves the job running: keep waiting for it
+            # next time (nothing may grow the tiles under it)
+            if job.done():
+                mapper._ray_job = None
+
+
+def point_pixels(mapper, points_xy, origin_xy):
+    """End pixels of the obstacle points ``points_xy`` (see
+    :meth:`IncrementalMapper.add_points`): ``(er, ec, ext, sensor, n)`` with the pixels
+    of the finite points (int64; those at ``max_range_m`` or farther from ``origin_xy``
+    dropped), their extent (min row, max row, min col, max col) and the pixel of
+    ``origin_xy`` (None without it), and the number of points given.
+
+    Raises
+    ------
+    ValueError
+        If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers, or
+        the points lie beyond 2^30 pixels.
+    """
+    if getattr(points_xy, "dtype", None) == np.bool_:  # a mask, not coordinates
+        raise ValueError(
+            "points_xy: expected an (N, 2) array of (x, y) in metres, received a bool "
+            f"array of shape {np.shape(points_xy)} (for a finished map use add_map)"
+        )
+    try:
+        pts = np.asarray(points_xy, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(
+            "points_xy: expected an (N, 2) array of (x, y) in metres, received "
+            f"{type(points_xy).__name__}"
+        ) from None
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(
+            f"points_xy: expected an (N, 2) array of (x, y) in metres, received shape {pts.shape}"
+        )
+    keep = np.isfinite(pts).all(axis=1)
+    sensor = None
+    if origin_xy is not None:
+        try:
+            origin = np.asarray(origin_xy, dtype=np.float64)
+        except (TypeError, ValueError):
+            origin = np.empty(0)
+        if origin.shape != (2,) or not np.isfinite(origin).all():
+            raise ValueError(
+                f"origin_xy: expected two finite numbers (x, y) in metres, received {origin_xy!r}"
+            )
+        if mapper.max_range_m is not None:
+            # A scan's reading at exactly max_range_m is dropped; its end point, made
+            # from the range and rounded, lies a rounding step either side of it.
+            # Within a few steps (relative to the coordinates' size) a point counts
+            # as at the limit, so a scan's end points are dropped as the scan is.
+            slack = 16 * np.finfo(np.float64).eps
+            scale = np.abs(pts).sum(axis=1) + np.abs(origin).sum() + mapper.max_range_m
+            with np.errstate(invalid="ignore"):
+                keep &= np.hypot(*(pts - origin).T) < mapper.max_range_m - slack * scale
+        res = mapper.resolution_m
+        sensor = (math.floor(-origin[1] / res), math.floor(origin[0] / res))
+    used = pts[keep]
+    if used.shape[0] and np.abs(used).max() / mapper.resolution_m > _MAX_ABS_PIXEL:
+        raise ValueError(
+            f"points_xy: the points put pixels beyond {_MAX_ABS_PIXEL} px from the origin "
+            f"at resolution {mapper.resolution_m} m (largest coordinate "
+            f"{np.abs(used).max():g}); expected coordinates in metres"
+        )
+    er, ec = mapper.world_to_pixel(used[:, 0], used[:, 1])
+    if er.shape[0]:
+        ext = np.array([er.min(), er.max(), ec.min(), ec.max()], np.int64)
+    else:
+        ext = np.zeros(4, np.int64)
+    return er, ec, ext, sensor, pts.shape[0]
+
+
+def add_occupancy(mapper, occupancy) -> int:
+    """The body of :meth:`IncrementalMapper.add_map`: the occupied pixels of
+    ``occupancy`` as hits, its free pixels as free cells; returns the number of new
+    obstacle pixels.  Raises TypeError / ValueError (before any change) as that method
+    says."""
+    from ..maps import OccupancyMap
+
+    if not isinstance(occupancy, OccupancyMap):
+        raise TypeError(
+            f"occupancy: expected an OccupancyMap (see load_map), received "
+            f"{type(occupancy).__name__}"
+        )
+    if not math.isclose(occupancy.resolution_m, mapper.resolution_m, rel_tol=1e-9):
+        raise ValueError(
+            f"occupancy: expected the mapper's resolution {mapper.resolution_m} m, "
+            f"received a map of {occupancy.resolution_m} m per pixel; resample it first"
+        )
+    if occupancy.origin[2] != 0.0:
+        raise ValueError(
+            f"occupancy: expected a map without yaw (origin yaw 0), received yaw "
+            f"{occupancy.origin[2]} rad"
+        )
+    # the map's pixel (0, 0) and the shift that takes its pixels onto the mapper's
+    x0, y0 = occupancy.pixel_to_world(0, 0)
+    r0, c0 = (int(v) for v in mapper.world_to_pixel(x0, y0))
+    h, w = occupancy.shape
+    t = mapper.tile_px
+    half = mapper._half + HALO_PX
+    rows, cols = np.nonzero(occupancy.occupied)
+    free_rows, free_cols = np.nonzero(occupancy.free) if mapper.free_space else ((), ())
+    if rows.shape[0] or len(free_rows):
+        lo_r, hi_r, lo_c, hi_c = r0 - half, r0 + h + half, c0 - half, c0 + w + half
+        if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
+            raise ValueError(
+                f"occupancy: its origin {occupancy.origin} puts pixels beyond "
+                f"{_MAX_ABS_PIXEL} px from the mapper's origin; expected metres"
+            )
+        # the whole map and its splat windows, before anything changes
+        mapper._tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+    er = rows.astype(np.int64) + r0
+    ec = cols.astype(np.int64) + c0
+    ext = (
+        np.array([er.min(), er.max(), ec.min(), ec.max()], np.int64)
+        if er.shape[0]
+        else np.zeros(4, np.int64)
+    )
+    n_new = integrate_end_pixels(mapper, er, ec, ext, None, where=lambda: "occupancy: the map")
+    if len(free_rows):
+        fr = free_rows.astype(np.int64) + r0
+        fc = free_cols.astype(np.int64) + c0
+        tsh = _log2(t)
+        tiles_needed = unique_pairs(fr >> tsh, fc >> tsh)
+        tiles = mapper._tiles
+        tiles.ensure(tiles_needed[:, 0], tiles_needed[:, 1])
+        grid, (g0r, g0c) = tiles.slot_grid
+        _count_cells(fr, fc, t, grid, g0r, g0c, tiles.layer("misses"))
+        mapper._export_cache.clear()
+    return n_new

@@ -74,7 +74,7 @@ def _seed_blocks(rows, cols, grid, g0r, g0c, nb, b, bid, blk, margin):
 
 @cached_njit(nogil=True)
 def _rethin(ridge, tau, nbr9, t, b, bid, blk, n_blk, tables, dr8, dc8):
-    """Exact local re-thinning around changed ridge pixels (see ``_skeleton_exact``).
+    """Exact local re-thinning around changed ridge pixels (see ``skeleton_exact``).
 
     ``tau[slot, row, col]`` (uint16) holds every pixel's *deletion time* under the
     parallel thinning of the whole current ridge map: 0 off the ridge, ``s + 1`` for a

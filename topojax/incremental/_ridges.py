@@ -12,8 +12,8 @@ import numpy as np
 
 from .._jit import cached_njit
 from ..distance import FAR_SQ, gaussian_from_sq_distance
-from ..filters import laplacian_valid, ridge_from_laplacian
-from ._tiles import _TRACES, _U64, _flat, _wrap_into_tile
+from ..filters import HALO_PX, laplacian_valid, ridge_from_laplacian
+from ._tiles import _TRACES, _U64, _aligned_empty, _batches, _flat, _wrap_into_tile
 
 #: Largest window half-width (px) whose Gaussian the ridge kernel reads from a table
 #: (2 R^2 + 2 float32 entries: 32 MiB at this bound) instead of computing it.
@@ -87,7 +87,7 @@ def _ridge_blocks(patches, sigma_px, scale, threshold, *, ksize, with_ridge=True
 
     The ridge map is ``lap_abs > threshold`` whenever ``threshold < 255`` (the caller's
     test), and XLA computes the fused filter once per output: one output halves the
-    kernel (0.3 instead of 0.6 us per 16 x 16 block).
+    kernel's work.
     """
     _TRACES["ridge_blocks"] += 1
     fn = partial(ridge_block, ksize=ksize)
@@ -122,8 +122,7 @@ def _gather_ridge_patches(d2, nbr9, t, b, halo, slots, lbr, lbc, keys, bbox, out
     ``BORDER_REFLECT_101`` mirror pixel (``-1 -> 1``), missing tiles read ``FAR_SQ``.
 
     The copies index flat views with unsigned offsets: numba wraps negative signed
-    indices, and that test in every element keeps LLVM from vectorising the copy (3x
-    slower on intel's patches).
+    indices, and that test in every element keeps LLVM from vectorising the copy.
     """
     r_first = bbox[0]
     c_first = bbox[1]
@@ -264,3 +263,149 @@ def _write_ridges(ridge_l, lap_l, slots, lbr, lbc, keys, t, b, lap_abs, ridge, c
             o += _U64(b)
             p += _U64(t)
     return added[:na].copy(), removed[:nr].copy()
+
+
+def ridge_kernel(mapper, patches):
+    """Dispatch the ridge kernel on a batch of patches (asynchronous): ``lap_abs``, or
+    ``(lap_abs, ridge)`` when the threshold is 255 or more (see ``_ridge_cut``)."""
+    return _ridge_blocks(
+        patches,
+        *mapper._ridge_args,
+        ksize=mapper.config.ridge.ksize,
+        with_ridge=mapper._ridge_cut < 0,
+    )
+
+
+def mark_blocks(mapper, gbr, gbc) -> None:
+    """Mark global blocks ridge-dirty (blocks of unallocated tiles are skipped)."""
+    tiles = mapper._tiles
+    nb = mapper.tile_px // mapper.block_px
+    tr, lbr = np.divmod(gbr, nb)
+    tc, lbc = np.divmod(gbc, nb)
+    sl = tiles.lookup(tr, tc)
+    ok = sl >= 0
+    tiles.layer("ridge_dirty")[sl[ok], lbr[ok], lbc[ok]] = True
+    tiles.mark_dirty("ridge", sl[ok])
+
+
+def update_ridges(mapper):
+    """Recompute the ridges of the dirty blocks.
+
+    Returns
+    -------
+    added, removed : int64 arrays (n, 2)
+        Global pixels that became / stopped being ridge pixels.
+    border : int64 array (m, 2)
+        Pixels on the lines of the previous bounding box border that is now interior
+        (their T-removal rule changed).
+    blocks : int64 array (k, 2)
+        Global (block row, block col) of the recomputed blocks.
+    """
+    tiles = mapper._tiles
+    t, b = mapper.tile_px, mapper.block_px
+    nb = t // b
+    bbox = tiles.pixel_bbox
+    empty = np.zeros((0, 2), np.int64)
+    if bbox is None:
+        return empty, empty, empty, empty
+    border = empty
+    old = mapper._ridge_bbox
+    if old is not None and old != bbox:
+        border = old_border(mapper, old, bbox)
+    mapper._ridge_bbox = bbox
+    slots = tiles.dirty("ridge")
+    flags = tiles.layer("ridge_dirty")
+    # contiguous copies: np.nonzero's arrays are strided views (except when they hold
+    # one element), and numba compiles a new variant for each memory layout
+    sl, lbr, lbc = (np.ascontiguousarray(a) for a in np.nonzero(flags[slots]))
+    sl = slots[sl]
+    tiles.clear_dirty("ridge")
+    flags[sl, lbr, lbc] = False
+    if sl.size == 0:
+        return empty, empty, border, empty
+    mapper.compile()
+    keys = tiles.keys
+    gbr = keys[sl, 0] * nb + lbr
+    gbc = keys[sl, 1] * nb + lbc
+    size = b + 2 * HALO_PX
+    n = sl.size
+    plan = list(_batches(n, RIDGE_BLOCKS))
+    # room for the last batch's padding: every batch is dispatched as a view
+    patches = _aligned_empty((plan[-1][0] + plan[-1][2], size, size), np.int32)
+    patches[n:] = FAR_SQ
+    _gather_ridge_patches(
+        tiles.layer("sq_distance"),
+        tiles.neighbour_slots(),
+        t,
+        b,
+        HALO_PX,
+        sl,
+        lbr,
+        lbc,
+        keys,
+        np.asarray(bbox, np.int64),
+        patches,
+    )
+    # All batches are dispatched first (asynchronous), then written as they arrive.
+    batches = [
+        (
+            start,
+            stop,
+            ridge_kernel(mapper, patches[start : start + bsize]),
+        )
+        for start, stop, bsize in plan
+    ]
+    added, removed = [], []
+    cut = mapper._ridge_cut
+    no_ridge = np.zeros((0, b, b), bool)
+    for start, stop, res in batches:
+        m = stop - start
+        la, ri = (res, no_ridge) if cut >= 0 else (res[0], np.asarray(res[1])[:m])
+        a, r = _write_ridges(
+            tiles.layer("ridge"),
+            tiles.layer("lap_abs"),
+            sl[start:stop],
+            lbr[start:stop],
+            lbc[start:stop],
+            keys,
+            t,
+            b,
+            np.asarray(la)[:m],
+            ri,
+            cut,
+        )
+        added.append(a)
+        removed.append(r)
+    added = np.concatenate(added)
+    removed = np.concatenate(removed)
+    mapper._n_ridge += added.shape[0] - removed.shape[0]
+    blocks = np.stack([gbr, gbc], axis=1)
+    return added, removed, border, blocks
+
+
+def old_border(mapper, old, new) -> np.ndarray:
+    """Dirty the blocks along the sides of the old bounding box that moved and return
+    the pixels on those old border lines."""
+    r0, c0, r1, c1 = old
+    b = mapper.block_px
+    lines = []
+    if new[0] < r0:
+        lines.append((r0, r0 + 1, c0, c1))
+    if new[2] > r1:
+        lines.append((r1 - 1, r1, c0, c1))
+    if new[1] < c0:
+        lines.append((r0, r1, c0, c0 + 1))
+    if new[3] > c1:
+        lines.append((r0, r1, c1 - 1, c1))
+    pix = []
+    for a0, a1, b0, b1 in lines:
+        rr, cc = np.mgrid[a0:a1, b0:b1]
+        rr = rr.ravel().astype(np.int64)
+        cc = cc.ravel().astype(np.int64)
+        pix.append(np.stack([rr, cc], axis=1))
+        # blocks within the 2-pixel halo of the old border line
+        brs = np.unique(np.concatenate([(rr - HALO_PX) // b, rr // b, (rr + HALO_PX) // b]))
+        bcs = np.unique(np.concatenate([(cc - HALO_PX) // b, cc // b, (cc + HALO_PX) // b]))
+        gbr, gbc = np.meshgrid(brs, bcs, indexing="ij")
+        mark_blocks(mapper, gbr.ravel(), gbc.ravel())
+    return np.concatenate(pix) if pix else np.zeros((0, 2), np.int64)

@@ -14,7 +14,20 @@ import numpy as np
 
 from .._jit import cached_njit
 from ..distance import FAR_SQ
-from ._tiles import _FAR_BOUND, _TRACES, _U64, _flat, _locate, _log2, _unflat, _wrap_into_tile
+from ..filters import HALO_PX
+from ._tiles import (
+    _FAR_BOUND,
+    _TRACES,
+    _U64,
+    _batches,
+    _flat,
+    _locate,
+    _log2,
+    _max_padding,
+    _unflat,
+    _worker_pool,
+    _wrap_into_tile,
+)
 
 #: Points per row of the splat kernel (a row is one block and up to this many points).
 SPLAT_POINTS = 8
@@ -64,7 +77,7 @@ def splat_block(points: jax.Array, *, size: int, half_width: int) -> jax.Array:
     a = jnp.where(jnp.abs(dr) <= half_width, dr * dr, big)
     c = jnp.where(jnp.abs(dc) <= half_width, dc * dc, big)
     # one (B, B) minimum per point: XLA fuses the chain into a single vectorised loop,
-    # where a reduction over a point axis vectorises poorly (1.5x slower on a CPU)
+    # where a reduction over a point axis vectorises poorly on a CPU
     best = a[0][:, None] + c[0][None, :]
     for p in range(1, points.shape[0]):
         best = jnp.minimum(best, a[p][:, None] + c[p][None, :])
@@ -536,3 +549,105 @@ def _finish_merge(d2, bmax, blocks, t, b, halo, lo_a, hi_a, lo_c, hi_c, nbr9, di
             p += _U64(t)
         bmax[s, lbr, lbc] = mx
     return n_changed
+
+
+def flush_splat(mapper) -> int:
+    """Splat all pending new obstacle pixels; returns the number of changed blocks."""
+    if not mapper._pending:
+        return 0
+    mapper.compile()
+    pts = np.concatenate(mapper._pending)
+    mapper._pending = []
+    mapper._n_pending = 0
+    tiles = mapper._tiles
+    t, b, half = mapper.tile_px, mapper.block_px, mapper._half
+    nb = t // b
+    grid, (g0r, g0c) = tiles.slot_grid
+    bmax = tiles.layer("block_max")
+    pr, pc = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
+    bound, rowmax = _batch_bound(pr, pc, grid, g0r, g0c, t, b, half, bmax, tiles.n_tiles)
+    args = (
+        grid,
+        g0r,
+        g0c,
+        t,
+        b,
+        half,
+        bound,
+        rowmax,
+        tiles.layer("hits"),
+        min(DOMINANCE_PX, half - 1),
+    )
+    pool = _worker_pool() if pts.shape[0] >= PARALLEL_MIN_POINTS else None
+    if pool is None:
+        pair_k, pair_i, n_pairs = _splat_pairs(pr, pc, 0, 1, *args)
+        pair_k, pair_i = pair_k[:n_pairs], pair_i[:n_pairs]
+    else:
+        # every other point on the worker thread (numba releases the GIL)
+        other = pool.submit(_splat_pairs, pr, pc, 1, 2, *args)
+        ka, ia, na = _splat_pairs(pr, pc, 0, 2, *args)
+        kb, ib, nb_ = other.result()
+        pair_k = np.concatenate((ka[:na], kb[:nb_]))
+        pair_i = np.concatenate((ia[:na], ib[:nb_]))
+    row_block, row_pts, row_bidx, blocks = _splat_group(
+        pair_k,
+        pair_i,
+        pr,
+        pc,
+        tiles.keys,
+        tiles.n_tiles * nb * nb,
+        t,
+        b,
+        half,
+        SPLAT_POINTS,
+        _max_padding(SPLAT_ROWS),  # so that every batch below is a view
+    )
+    n_rows = row_block.shape[0]
+    if n_rows == 0:
+        return 0
+    d2 = tiles.layer("sq_distance")
+    n_blocks = blocks.shape[0]
+    lo_a = np.full(n_blocks, b, np.int64)
+    hi_a = np.full(n_blocks, -1, np.int64)
+    lo_c = np.full(n_blocks, b, np.int64)
+    hi_c = np.full(n_blocks, -1, np.int64)
+    # Dispatch every batch first (JAX runs them asynchronously), then merge each one
+    # as it arrives: the merge of one batch overlaps the kernel of the next.
+    batches = [
+        (
+            start,
+            stop,
+            _splat_blocks(row_pts[start : start + size], size=b, half_width=half),
+        )
+        for start, stop, size in _batches(n_rows, SPLAT_ROWS)
+    ]
+    for start, stop, res in batches:
+        _merge_rows(
+            d2,
+            row_block,
+            row_bidx,
+            np.asarray(res),
+            stop - start,
+            start,
+            t,
+            b,
+            lo_a,
+            hi_a,
+            lo_c,
+            hi_c,
+        )
+    return _finish_merge(
+        d2,
+        bmax,
+        blocks,
+        t,
+        b,
+        HALO_PX,
+        lo_a,
+        hi_a,
+        lo_c,
+        hi_c,
+        tiles.neighbour_slots(),
+        tiles.layer("ridge_dirty"),
+        tiles.dirty_flags("ridge"),
+    )

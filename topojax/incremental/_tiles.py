@@ -13,6 +13,8 @@ import numba
 import numpy as np
 
 from .._jit import cached_njit
+from ..distance import FAR_SQ
+from ..tiling import TileManager
 
 _FAR_BOUND = 1 << 62  # larger than any squared pixel distance in int64 arithmetic
 
@@ -191,9 +193,8 @@ def _batches(n: int, sizes: tuple[int, int]):
 
 def _aligned_empty(shape, dtype, align: int = 64) -> np.ndarray:
     """``np.empty`` whose data starts on an ``align``-byte boundary: JAX on a CPU then uses
-    the array in place as a kernel input instead of copying it (30-45 us less per 512
-    ridge patches here), so it must not be written to while a kernel dispatched on it may
-    still run."""
+    the array in place as a kernel input instead of copying it, so it must not be written
+    to while a kernel dispatched on it may still run."""
     dtype = np.dtype(dtype)
     nbytes = math.prod(shape) * dtype.itemsize
     buf = np.empty(nbytes + align, np.uint8)
@@ -232,3 +233,36 @@ def _unpack(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rows = keys >> 32  # the column part lies in [0, 2^32)
     cols = keys - (rows << 32) - (1 << 31)
     return rows, cols
+
+
+#: Tile storage reserved when a mapper starts: address space, whose pages are mapped on
+#: first use (64 GiB: about 230,000 tiles of 128 px).  A map within it never grows its
+#: storage, so no scan waits for a copy of every tile.  Where the system refuses the
+#: reservation (strict overcommit, ``ulimit -v``) the storage starts small and grows.
+INITIAL_STORAGE_BYTES = 1 << 36
+
+
+def new_tile_storage(tile_px: int, block_px: int, max_grid_cells: int) -> TileManager:
+    """The mapper's tile storage: one layer per per-pixel quantity (hit / miss counts,
+    squared distance, Laplacian, ridge, skeleton, graph ids, scratch marks, thinning
+    history) and two per block (largest squared distance, ridge-dirty flag)."""
+    nb = tile_px // block_px
+    return TileManager(
+        tile_px=tile_px,
+        layers={
+            "hits": (np.uint16, 0),
+            "misses": (np.uint16, 0),
+            "sq_distance": (np.int32, FAR_SQ),
+            "lap_abs": (np.uint8, 0),
+            "ridge": (np.bool_, False),
+            "skeleton": (np.bool_, False),
+            "graph_id": (np.int32, -1),
+            "mark": (np.uint8, 0),
+            "thin_time": (np.uint16, 0),
+            "block_max": (np.int32, FAR_SQ, (nb, nb)),
+            "ridge_dirty": (np.bool_, False, (nb, nb)),
+        },
+        loops=("ridge",),
+        max_grid_cells=max_grid_cells,
+        reserve_bytes=INITIAL_STORAGE_BYTES,
+    )

@@ -165,7 +165,7 @@ def _t_update(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, ch_r, ch_c, n_ch, 
     state = np.array([0, 0, -1, n_ch], np.int64)  # next todo, heap size, last key, changes
     # The compiled loop stops when an array could overflow; it is grown here and the
     # loop resumes (growing arrays inside the loop would make numba count references at
-    # every step: 2.5-3.5x slower).
+    # every step).
     while _t_run(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, heap, out_r, out_c, state):
         if state[1] + 4 > heap.shape[0]:
             heap = np.concatenate((heap, np.empty(heap.shape[0], np.int64)))

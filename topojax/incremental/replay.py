@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import GraphConfig
+from ._settings import settings_of
 from .mapper import IncrementalMapper
 from .reports import ScanReport, timing_summary
 
@@ -126,14 +127,64 @@ def replay(
         ``n_scans``, ``n_tiles``, ``vertices``, ``edges``, ``timings`` (per loop),
         ``written`` (paths), ``messages``.
     """
-    from tqdm import tqdm
-
-    from .._fs import output_folder
+    from .._fs import atomic_write_bytes, output_folder
     from ..graph import graph_summary
-    from ..io import save_graph, save_nav2_graph
-    from ..maps import save_map
     from ..scans import read_scans
 
+    nav2_tolerance_m = _check_replay_args(
+        max_scans, nav2_tolerance_m, graph_config, out_dir, animate
+    )
+    out = Path(out_dir)
+    scans = read_scans(source, **(reader_kwargs or {}))
+    mapper = IncrementalMapper(**mapper_kw)
+    output_folder(out)
+    reports, frames, wall = _run(mapper, scans, max_scans, animate is not None, progress)
+    if not reports:
+        raise ValueError(f"source {source}: no scans to replay")
+    if mapper.pixel_bbox is None:
+        raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
+    t_final = time.perf_counter()
+    update = mapper.update_graph()
+    final_s = time.perf_counter() - t_final
+    result = mapper.to_result(update=False)
+    if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
+        result = _with_graph_config(result, graph_config)
+    written, messages = _write_graphs_and_map(result, out, nav2_tolerance_m)
+    timings = timing_summary(reports)
+    summary_g = graph_summary(result.graph)
+    summary = {
+        "source": str(source),
+        "n_scans": len(reports),
+        "n_tiles": mapper.n_tiles,
+        "map_shape": list(result.map.shape),
+        "vertices": summary_g["n_vertices"],
+        "edges": summary_g["n_edges"],
+        "wall_s": wall,
+        "final_update_s": final_s,
+        "final_update": asdict(update),
+        "timings": timings,
+        "settings": settings_of(mapper),
+    }
+    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
+    written.append(out / "timings.json")
+    if plot:
+        written += _write_pictures(result, out)
+    if animate is not None:
+        frames.append(_frame(mapper))
+        apath = Path(animate)
+        apath.parent.mkdir(parents=True, exist_ok=True)
+        _write_animation(frames, apath)
+        written.append(apath)
+    summary["written"] = [str(p) for p in written]
+    summary["messages"] = messages
+    if progress:
+        print(summary_text(summary))
+    return summary
+
+
+def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, animate):
+    """Check :func:`replay`'s arguments before the replay starts; returns the Nav2
+    tolerance as a float (or None)."""
     if max_scans is not None and (
         isinstance(max_scans, bool) or not isinstance(max_scans, int) or max_scans < 1
     ):
@@ -156,9 +207,14 @@ def replay(
             f"animate: expected a GIF file name, got the folder {animate}; e.g. "
             f"{Path(animate) / 'graph.gif'}"
         )
-    scans = read_scans(source, **(reader_kwargs or {}))
-    mapper = IncrementalMapper(**mapper_kw)
-    output_folder(out)
+    return nav2_tolerance_m
+
+
+def _run(mapper, scans, max_scans, animate: bool, progress: bool):
+    """Feed ``scans`` (at most ``max_scans``) to ``mapper``; returns the reports, the
+    animation frames (one per graph update when ``animate``) and the wall time (s)."""
+    from tqdm import tqdm
+
     reports: list[ScanReport] = []
     frames: list[dict] = []
     bar = tqdm(total=max_scans, unit="scan", disable=not progress, desc="replay")
@@ -168,21 +224,19 @@ def replay(
             break
         rep = mapper.add_scan(scan)
         reports.append(rep)
-        if animate is not None and rep.graph_update is not None and mapper.pixel_bbox:
+        if animate and rep.graph_update is not None and mapper.pixel_bbox:
             frames.append(_frame(mapper))
         bar.update(1)
     bar.close()
-    wall = time.perf_counter() - t0
-    if not reports:
-        raise ValueError(f"source {source}: no scans to replay")
-    if mapper.pixel_bbox is None:
-        raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
-    t_final = time.perf_counter()
-    update = mapper.update_graph()
-    final_s = time.perf_counter() - t_final
-    result = mapper.to_result(update=False)
-    if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
-        result = _with_graph_config(result, graph_config)
+    return reports, frames, time.perf_counter() - t0
+
+
+def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, list[str]]:
+    """Write the graph files, the Nav2 route graph (with a tolerance) and the map; returns
+    the paths written and messages about files skipped."""
+    from ..io import save_graph, save_nav2_graph
+    from ..maps import save_map
+
     written: list[Path] = []
     messages: list[str] = []
     for suffix in (".graphml", ".json", ".geojson"):
@@ -201,53 +255,26 @@ def replay(
             messages.append(f"graph_nav2.geojson not written: {exc}")
     written.append(save_map(result.map, out / "map.yaml"))
     written.append(out / "map.yaml")
-    timings = timing_summary(reports)
-    summary_g = graph_summary(result.graph)
-    summary = {
-        "source": str(source),
-        "n_scans": len(reports),
-        "n_tiles": mapper.n_tiles,
-        "map_shape": list(result.map.shape),
-        "vertices": summary_g["n_vertices"],
-        "edges": summary_g["n_edges"],
-        "wall_s": wall,
-        "final_update_s": final_s,
-        "final_update": asdict(update),
-        "timings": timings,
-        "settings": mapper._settings(),
-    }
-    from .._fs import atomic_write_bytes
+    return written, messages
 
-    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
-    written.append(out / "timings.json")
-    if plot:
-        import matplotlib
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+def _write_pictures(result, out: Path) -> list[Path]:
+    """Write ``graph.png`` and ``stages.png``; returns their paths."""
+    import matplotlib
 
-        from ..plotting import plot as plot_result
-        from ..plotting import plot_stages
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
 
-        ax = plot_result(result)
-        ax.figure.savefig(out / "graph.png", dpi=150, bbox_inches="tight")
-        plt.close(ax.figure)
-        written.append(out / "graph.png")
-        fig = plot_stages(result)
-        fig.savefig(out / "stages.png", dpi=110, bbox_inches="tight")
-        plt.close(fig)
-        written.append(out / "stages.png")
-    if animate is not None:
-        frames.append(_frame(mapper))
-        apath = Path(animate)
-        apath.parent.mkdir(parents=True, exist_ok=True)
-        _write_animation(frames, apath)
-        written.append(apath)
-    summary["written"] = [str(p) for p in written]
-    summary["messages"] = messages
-    if progress:
-        print(summary_text(summary))
-    return summary
+    from ..plotting import plot as plot_result
+    from ..plotting import plot_stages
+
+    ax = plot_result(result)
+    ax.figure.savefig(out / "graph.png", dpi=150, bbox_inches="tight")
+    plt.close(ax.figure)
+    fig = plot_stages(result)
+    fig.savefig(out / "stages.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return [out / "graph.png", out / "stages.png"]
 
 
 def summary_text(summary: dict) -> str:
