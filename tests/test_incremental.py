@@ -246,7 +246,7 @@ def test_tile_storage_with_and_without_huge_pages(monkeypatch):
 def test_batches_cover_the_rows_and_pad_at_most_max_padding(sizes):
     """Kernel batches are dispatched as views of arrays allocated with
     ``_max_padding`` spare rows: the bound must hold (and be reached)."""
-    from topojax.incremental import _batches, _max_padding
+    from topojax.incremental._tiles import _batches, _max_padding
 
     worst = 0
     for n in range(1, 3000):
@@ -403,7 +403,7 @@ def test_tile_manager_extent_limit_changes_nothing():
 def test_gaussian_table_is_the_full_map_gaussian_bit_for_bit():
     """The ridge kernel reads H from a table by squared distance: every entry equals the
     full-map pipeline's H, and the ridges equal those computed with the exponential."""
-    from topojax import incremental as inc
+    from topojax.incremental import _ridges as inc
 
     ref = build_graph(sample_map("intel"))
     dist = ref.config.distance
@@ -454,7 +454,7 @@ def test_batch_bound_holds_after_the_splat(seed):
     """The bound the batch's own points put on each block's largest squared distance
     (used to prune the splat's pairs) is never below the block's true maximum after the
     splat, and it does lower some blocks."""
-    from topojax import incremental as inc
+    from topojax.incremental import _splat as inc
 
     mapper = IncrementalMapper(
         skeleton_every=0,
@@ -1087,7 +1087,7 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t,
     pixels (growing its region where the change reaches the ring, as in thick blobs; any
     seed margin of at least one pixel) and the ordered T-removal update give the
     whole-image thinning times and skeleton."""
-    from topojax import incremental as inc
+    from topojax.incremental import _skeleton as inc
     from topojax.skeleton import TABLES_U8, remove_t_centres
 
     rng = np.random.default_rng(seed)
@@ -1162,7 +1162,7 @@ def test_local_rethinning_and_t_update_equal_whole_image(seed, method, remove_t,
 def test_local_rethinning_grows_through_a_thick_blob():
     """A change at the centre of a thick blob moves the skeleton far beyond one block:
     the re-thinning region must grow (several rounds) and still be exact."""
-    from topojax import incremental as inc
+    from topojax.incremental import _skeleton as inc
     from topojax.skeleton import TABLES_U8
 
     t, b = 16, 4

@@ -1,0 +1,440 @@
+"""The distance loop's CPU kernels: beam end points from a scan, Bresenham free-cell
+counting, the tiles a scan needs and the integration of hits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import cached_njit
+from ..filters import HALO_PX
+from ..tiling import unique_pairs
+from ._tiles import _MAX_ABS_PIXEL, _UINT16_MAX, _locate, _log2, _slot, _worker_pool
+
+#: Beams whose free cells may wait for the next skeleton update (or an export); more
+#: are counted at once.
+RAY_BATCH_BEAMS = 1 << 16
+
+
+@cached_njit(nogil=True)
+def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, syaw, res):
+    """End pixels of the valid beams (same arithmetic as :meth:`Scan.endpoints_world`).
+
+    A reading is valid when finite, > 0, >= ``range_min`` and < ``range_max``.  Returns
+    rows, cols (int64) of the end pixels and their extent ``(min row, max row, min col,
+    max col)`` (zeros without valid beams).
+    """
+    n = ranges.shape[0]
+    er = np.empty(n, np.int64)
+    ec = np.empty(n, np.int64)
+    ext = np.zeros(4, np.int64)
+    m = 0
+    for i in range(n):
+        r = np.float64(ranges[i])
+        if not (math.isfinite(r) and r > 0.0 and r >= range_min and r < range_max):
+            continue
+        a = (angle_min + i * angle_inc) + syaw
+        row = math.floor(-(sy + r * math.sin(a)) / res)
+        col = math.floor((sx + r * math.cos(a)) / res)
+        if m == 0 or row < ext[0]:
+            ext[0] = row
+        if m == 0 or row > ext[1]:
+            ext[1] = row
+        if m == 0 or col < ext[2]:
+            ext[2] = col
+        if m == 0 or col > ext[3]:
+            ext[3] = col
+        er[m] = row
+        ec[m] = col
+        m += 1
+    return er[:m], ec[:m], ext
+
+
+@cached_njit(nogil=True, inline="always")
+def _bresenham_start(r, c, r1, c1):
+    """Bresenham's line walk from (r, c) to (r1, c1): (dr, dc, stp_r, stp_c, err)."""
+    dr = abs(r1 - r)
+    dc = abs(c1 - c)
+    return dr, dc, (1 if r1 > r else -1), (1 if c1 > c else -1), dc - dr
+
+
+@cached_njit(nogil=True, inline="always")
+def _bresenham_step(r, c, err, dr, dc, stp_r, stp_c):
+    """One step of Bresenham's line walk; returns the next (row, col, error)."""
+    e2 = 2 * err
+    if e2 > -dr:
+        err -= dr
+        c += stp_c
+    if e2 < dc:
+        err += dc
+        r += stp_r
+    return r, c, err
+
+
+@cached_njit(nogil=True)
+def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
+    """Tiles touched by the beams (end cells; ray cells too if ``rays``) that are not
+    allocated (with repeats).  Fast path: a ray whose tile rectangle is fully allocated
+    needs no walk."""
+    tsh = _log2(t)
+    n = er.shape[0]
+    out = np.empty((16, 2), np.int64)
+    m = 0
+    gh = grid.shape[0]
+    gw = grid.shape[1]
+    str_ = sr >> tsh
+    stc = sc >> tsh
+    for i in range(n):
+        r1 = er[i]
+        c1 = ec[i]
+        if rays:
+            tr0 = min(str_, r1 >> tsh)
+            tr1 = max(str_, r1 >> tsh)
+            tc0 = min(stc, c1 >> tsh)
+            tc1 = max(stc, c1 >> tsh)
+        else:
+            tr0 = tr1 = r1 >> tsh
+            tc0 = tc1 = c1 >> tsh
+        full = True
+        for tr in range(tr0, tr1 + 1):
+            for tc in range(tc0, tc1 + 1):
+                gi = tr - g0r
+                gj = tc - g0c
+                if gi < 0 or gj < 0 or gi >= gh or gj >= gw or grid[gi, gj] < 0:
+                    full = False
+        if full:
+            continue
+        if not rays:
+            if m == out.shape[0]:
+                out = np.concatenate((out, np.empty_like(out)))
+            out[m, 0] = tr0
+            out[m, 1] = tc0
+            m += 1
+            continue
+        r = sr
+        c = sc
+        dr, dc, stp_r, stp_c, err = _bresenham_start(r, c, r1, c1)
+        last_r = -(1 << 62)
+        last_c = -(1 << 62)
+        while True:
+            tr = r >> tsh
+            tc = c >> tsh
+            if tr != last_r or tc != last_c:
+                last_r = tr
+                last_c = tc
+                if _slot(grid, g0r, g0c, tsh, r, c) < 0:
+                    if m == out.shape[0]:
+                        out = np.concatenate((out, np.empty_like(out)))
+                    out[m, 0] = tr
+                    out[m, 1] = tc
+                    m += 1
+            if r == r1 and c == c1:
+                break
+            r, c, err = _bresenham_step(r, c, err, dr, dc, stp_r, stp_c)
+    return out[:m]
+
+
+@cached_njit(nogil=True)
+def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
+    """Tiles intersecting the squares ``[p - w, p + w]^2`` that are not allocated."""
+    tsh = _log2(t)
+    n = pr.shape[0]
+    span = ((2 * w) >> tsh) + 2
+    out = np.empty((n * span * span + 1, 2), np.int64)
+    m = 0
+    for i in range(n):
+        tr0 = (pr[i] - w) >> tsh
+        tr1 = (pr[i] + w) >> tsh
+        tc0 = (pc[i] - w) >> tsh
+        tc1 = (pc[i] + w) >> tsh
+        for tr in range(tr0, tr1 + 1):
+            for tc in range(tc0, tc1 + 1):
+                gi = tr - g0r
+                gj = tc - g0c
+                ok = gi >= 0 and gj >= 0 and gi < grid.shape[0] and gj < grid.shape[1]
+                if not ok or grid[gi, gj] < 0:
+                    out[m, 0] = tr
+                    out[m, 1] = tc
+                    m += 1
+    return out[:m]
+
+
+@cached_njit(nogil=True)
+def _integrate(er, ec, t, grid, g0r, g0c, hits, w):
+    """Count hits (beam end cells); every end cell's tile must exist.
+
+    Counters saturate at 65535.  Returns the pixels hit for the first time ever (new
+    obstacles, (n, 2) int64, in beam order) and the unallocated tiles within ``w`` pixels
+    (Chebyshev) of them (:func:`_missing_window_tiles`).
+    """
+    tsh = _log2(t)
+    n = er.shape[0]
+    new = np.empty((n, 2), np.int64)
+    n_new = 0
+    for i in range(n):
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, er[i], ec[i])
+        h = hits[s, lr, lc]
+        if h == 0:
+            new[n_new, 0] = er[i]
+            new[n_new, 1] = ec[i]
+            n_new += 1
+        if h < _UINT16_MAX:
+            hits[s, lr, lc] = h + 1
+    new = new[:n_new]
+    return new, _missing_window_tiles(new[:, 0], new[:, 1], w, t, grid, g0r, g0c)
+
+
+@cached_njit(nogil=True)
+def _count_cells(rows, cols, t, grid, g0r, g0c, counts):
+    """Add one to ``counts`` (saturating at 65535) at every pixel; its tile must exist."""
+    tsh = _log2(t)
+    for i in range(rows.shape[0]):
+        s, lr, lc = _locate(grid, g0r, g0c, tsh, rows[i], cols[i])
+        if counts[s, lr, lc] < _UINT16_MAX:
+            counts[s, lr, lc] += 1
+
+
+@cached_njit(nogil=True)
+def _cast_rays(sr, sc, off, er, ec, t, grid, g0r, g0c, misses):
+    """Count free cells (``misses``) along beams, end excluded (Bresenham): the beams of
+    scan ``j`` run from ``(sr[j], sc[j])`` to ``(er[i], ec[i])`` for ``off[j] <= i <
+    off[j + 1]``.  Every touched tile must exist; counters saturate at 65535 (so the
+    order of the beams does not matter)."""
+    tsh = _log2(t)
+    for j in range(sr.shape[0]):
+        for i in range(off[j], off[j + 1]):
+            r1 = er[i]
+            c1 = ec[i]
+            r = sr[j]
+            c = sc[j]
+            if r == r1 and c == c1:
+                continue
+            dr, dc, stp_r, stp_c, err = _bresenham_start(r, c, r1, c1)
+            # tile-local stepping: look the tile up only when the ray leaves it
+            s, lr, lc = _locate(grid, g0r, g0c, tsh, r, c)
+            while True:
+                if misses[s, lr, lc] < _UINT16_MAX:
+                    misses[s, lr, lc] += 1
+                r2, c2, err = _bresenham_step(r, c, err, dr, dc, stp_r, stp_c)
+                lr += r2 - r
+                lc += c2 - c
+                r, c = r2, c2
+                if r == r1 and c == c1:
+                    break
+                if lr < 0 or lr >= t or lc < 0 or lc >= t:
+                    s, lr, lc = _locate(grid, g0r, g0c, tsh, r, c)
+
+
+def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
+    """Hits at the end pixels ``(er, ec)`` (int64, extent ``ext`` = (min row, max row,
+    min col, max col)): their tiles and those of their splat windows allocated, new
+    obstacles queued for the splat, and the rays from the ``sensor`` pixel (row, col)
+    queued for the free-cell count when given.  Raises before any change if the
+    extent is too large, its message starting with ``where()`` (a callable: the scan
+    path formats nothing unless it fails).  Returns the number of new obstacle
+    pixels."""
+    if mapper._ray_job is not None:  # only after an interrupted update
+        join_rays(mapper)
+    if not er.shape[0]:
+        return 0
+    t = mapper.tile_px
+    res = mapper.resolution_m
+    n_valid = int(er.shape[0])
+    tiles = mapper._tiles
+    w = mapper._half + HALO_PX
+    e_r0, e_r1, e_c0, e_c1 = ext.tolist()
+    sr, sc = sensor if sensor is not None else (e_r0, e_c0)
+    lo_r = min(e_r0, sr) - w
+    hi_r = max(e_r1, sr) + w
+    lo_c = min(e_c0, sc) - w
+    hi_c = max(e_c1, sc) + w
+    if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
+        raise ValueError(
+            f"{where()} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
+            f"resolution {res} m; expected coordinates in metres"
+        )
+    # Validate the whole extent (beams and splat windows) before changing anything.
+    tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+    rays = mapper.free_space and sensor is not None
+    grid, (g0r, g0c) = tiles.slot_grid
+    need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
+    if need.shape[0]:
+        tiles.ensure(need[:, 0], need[:, 1])
+        grid, (g0r, g0c) = tiles.slot_grid
+    new, miss = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), w)
+    if rays:
+        # free cells are counted later, in batches (see cast_pending_rays)
+        mapper._rays.append((sr, sc, er, ec))
+        mapper._n_rays += n_valid
+    n_new = new.shape[0]
+    if n_new:
+        if miss.shape[0]:
+            tiles.ensure(miss[:, 0], miss[:, 1])
+        mapper._pending.append(new)
+        mapper._n_pending += n_new
+        mapper._export_cache.clear()
+    return int(n_new)
+
+
+def cast_pending_rays(mapper, *, background: bool = False) -> None:
+    """Count the free cells of the beams added since the last call (on the worker
+    thread if ``background``; :func:`join_rays` waits for it)."""
+    join_rays(mapper)
+    if not mapper._rays:
+        return
+    rays, mapper._rays, mapper._n_rays = mapper._rays, [], 0
+    sr = np.array([r[0] for r in rays], np.int64)
+    sc = np.array([r[1] for r in rays], np.int64)
+    off = np.zeros(len(rays) + 1, np.int64)
+    np.cumsum([r[2].shape[0] for r in rays], out=off[1:])
+    er = np.concatenate([r[2] for r in rays])
+    ec = np.concatenate([r[3] for r in rays])
+    tiles = mapper._tiles
+    grid, (g0r, g0c) = tiles.slot_grid
+    args = (sr, sc, off, er, ec, mapper.tile_px, grid, g0r, g0c, tiles.layer("misses"))
+    pool = _worker_pool() if background else None
+    if pool is None:
+        _cast_rays(*args)
+    else:
+        mapper._ray_job = pool.submit(_cast_rays, *args)
+
+
+def join_rays(mapper) -> None:
+    """Wait for the free-cell counting started by :func:`cast_pending_rays`."""
+    job = mapper._ray_job
+    if job is not None:
+        try:
+            job.result()
+        finally:
+            # an interrupt while waiting leaves the job running: keep waiting for it
+            # next time (nothing may grow the tiles under it)
+            if job.done():
+                mapper._ray_job = None
+
+
+def point_pixels(mapper, points_xy, origin_xy):
+    """End pixels of the obstacle points ``points_xy`` (see
+    :meth:`IncrementalMapper.add_points`): ``(er, ec, ext, sensor, n)`` with the pixels
+    of the finite points (int64; those at ``max_range_m`` or farther from ``origin_xy``
+    dropped), their extent (min row, max row, min col, max col) and the pixel of
+    ``origin_xy`` (None without it), and the number of points given.
+
+    Raises
+    ------
+    ValueError
+        If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers, or
+        the points lie beyond 2^30 pixels.
+    """
+    if getattr(points_xy, "dtype", None) == np.bool_:  # a mask, not coordinates
+        raise ValueError(
+            "points_xy: expected an (N, 2) array of (x, y) in metres, received a bool "
+            f"array of shape {np.shape(points_xy)} (for a finished map use add_map)"
+        )
+    try:
+        pts = np.asarray(points_xy, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(
+            "points_xy: expected an (N, 2) array of (x, y) in metres, received "
+            f"{type(points_xy).__name__}"
+        ) from None
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(
+            f"points_xy: expected an (N, 2) array of (x, y) in metres, received shape {pts.shape}"
+        )
+    keep = np.isfinite(pts).all(axis=1)
+    sensor = None
+    if origin_xy is not None:
+        try:
+            origin = np.asarray(origin_xy, dtype=np.float64)
+        except (TypeError, ValueError):
+            origin = np.empty(0)
+        if origin.shape != (2,) or not np.isfinite(origin).all():
+            raise ValueError(
+                f"origin_xy: expected two finite numbers (x, y) in metres, received {origin_xy!r}"
+            )
+        if mapper.max_range_m is not None:
+            # A scan's reading at exactly max_range_m is dropped; its end point, made
+            # from the range and rounded, lies a rounding step either side of it.
+            # Within a few steps (relative to the coordinates' size) a point counts
+            # as at the limit, so a scan's end points are dropped as the scan is.
+            slack = 16 * np.finfo(np.float64).eps
+            scale = np.abs(pts).sum(axis=1) + np.abs(origin).sum() + mapper.max_range_m
+            with np.errstate(invalid="ignore"):
+                keep &= np.hypot(*(pts - origin).T) < mapper.max_range_m - slack * scale
+        res = mapper.resolution_m
+        sensor = (math.floor(-origin[1] / res), math.floor(origin[0] / res))
+    used = pts[keep]
+    if used.shape[0] and np.abs(used).max() / mapper.resolution_m > _MAX_ABS_PIXEL:
+        raise ValueError(
+            f"points_xy: the points put pixels beyond {_MAX_ABS_PIXEL} px from the origin "
+            f"at resolution {mapper.resolution_m} m (largest coordinate "
+            f"{np.abs(used).max():g}); expected coordinates in metres"
+        )
+    er, ec = mapper.world_to_pixel(used[:, 0], used[:, 1])
+    if er.shape[0]:
+        ext = np.array([er.min(), er.max(), ec.min(), ec.max()], np.int64)
+    else:
+        ext = np.zeros(4, np.int64)
+    return er, ec, ext, sensor, pts.shape[0]
+
+
+def add_occupancy(mapper, occupancy) -> int:
+    """The body of :meth:`IncrementalMapper.add_map`: the occupied pixels of
+    ``occupancy`` as hits, its free pixels as free cells; returns the number of new
+    obstacle pixels.  Raises TypeError / ValueError (before any change) as that method
+    says."""
+    from ..maps import OccupancyMap
+
+    if not isinstance(occupancy, OccupancyMap):
+        raise TypeError(
+            f"occupancy: expected an OccupancyMap (see load_map), received "
+            f"{type(occupancy).__name__}"
+        )
+    if not math.isclose(occupancy.resolution_m, mapper.resolution_m, rel_tol=1e-9):
+        raise ValueError(
+            f"occupancy: expected the mapper's resolution {mapper.resolution_m} m, "
+            f"received a map of {occupancy.resolution_m} m per pixel; resample it first"
+        )
+    if occupancy.origin[2] != 0.0:
+        raise ValueError(
+            f"occupancy: expected a map without yaw (origin yaw 0), received yaw "
+            f"{occupancy.origin[2]} rad"
+        )
+    # the map's pixel (0, 0) and the shift that takes its pixels onto the mapper's
+    x0, y0 = occupancy.pixel_to_world(0, 0)
+    r0, c0 = (int(v) for v in mapper.world_to_pixel(x0, y0))
+    h, w = occupancy.shape
+    t = mapper.tile_px
+    half = mapper._half + HALO_PX
+    rows, cols = np.nonzero(occupancy.occupied)
+    free_rows, free_cols = np.nonzero(occupancy.free) if mapper.free_space else ((), ())
+    if rows.shape[0] or len(free_rows):
+        lo_r, hi_r, lo_c, hi_c = r0 - half, r0 + h + half, c0 - half, c0 + w + half
+        if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
+            raise ValueError(
+                f"occupancy: its origin {occupancy.origin} puts pixels beyond "
+                f"{_MAX_ABS_PIXEL} px from the mapper's origin; expected metres"
+            )
+        # the whole map and its splat windows, before anything changes
+        mapper._tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+    er = rows.astype(np.int64) + r0
+    ec = cols.astype(np.int64) + c0
+    ext = (
+        np.array([er.min(), er.max(), ec.min(), ec.max()], np.int64)
+        if er.shape[0]
+        else np.zeros(4, np.int64)
+    )
+    n_new = integrate_end_pixels(mapper, er, ec, ext, None, where=lambda: "occupancy: the map")
+    if len(free_rows):
+        fr = free_rows.astype(np.int64) + r0
+        fc = free_cols.astype(np.int64) + c0
+        tsh = _log2(t)
+        tiles_needed = unique_pairs(fr >> tsh, fc >> tsh)
+        tiles = mapper._tiles
+        tiles.ensure(tiles_needed[:, 0], tiles_needed[:, 1])
+        grid, (g0r, g0c) = tiles.slot_grid
+        _count_cells(fr, fc, t, grid, g0r, g0c, tiles.layer("misses"))
+        mapper._export_cache.clear()
+    return n_new

@@ -1,0 +1,182 @@
+"""The mapper's settings: checked and normalised constructor arguments, and the
+JSON-ready dictionary a saved state stores."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import asdict
+
+import numpy as np
+
+from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
+from ..filters import HALO_PX
+
+STRATEGIES = ("exact", "paper")
+
+
+def _check_rate(name: str, value) -> int:
+    if value is None:
+        return 0
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int >= 0 or None, got {type(value).__name__}")
+    if value < 0:
+        raise ValueError(f"{name} must be >= 0 (0 or None: explicit calls only), got {value}")
+    return int(value)
+
+
+def merged_config(config, distance, ridge, skeleton) -> PipelineConfig:
+    """``config`` (default: the paper's) with the given parts replaced, checked for what
+    the mapper supports.
+
+    Raises
+    ------
+    TypeError
+        If an argument is not the config class it names.
+    ValueError
+        If the ridge threshold is negative, or the graph config asks for junction-cluster
+        merging, free-space filtering or pruning.
+    """
+    config = config if config is not None else PipelineConfig()
+    if not isinstance(config, PipelineConfig):
+        raise TypeError(f"config must be a PipelineConfig, got {type(config).__name__}")
+    for name, value, cls in (
+        ("distance", distance, DistanceConfig),
+        ("ridge", ridge, RidgeConfig),
+        ("skeleton", skeleton, SkeletonConfig),
+    ):
+        if value is not None and not isinstance(value, cls):
+            raise TypeError(f"{name} must be a {cls.__name__}, got {type(value).__name__}")
+    config = PipelineConfig(
+        distance=distance or config.distance,
+        ridge=ridge or config.ridge,
+        skeleton=skeleton or config.skeleton,
+        graph=config.graph,
+        tile_px=config.tile_px,
+        tiles_per_call=config.tiles_per_call,
+    )
+    if config.ridge.threshold < 0:
+        # then every pixel is a ridge pixel, also far from any obstacle where no tile
+        # (and no ridge update) exists
+        raise ValueError(
+            "ridge.threshold must be >= 0 for incremental mapping (a negative threshold "
+            f"makes every pixel of the unbounded map a ridge pixel), got "
+            f"{config.ridge.threshold}"
+        )
+    if config.graph.merge_junction_clusters:
+        raise ValueError(
+            "config.graph.merge_junction_clusters=True is not supported incrementally; "
+            "expected False (merge clusters on the exported graph instead)"
+        )
+    if config.graph.free_space_only or config.graph.prunes:
+        raise ValueError(
+            "config.graph: free_space_only, min_clearance_m, min_spur_m and "
+            "min_component_m are not supported incrementally; expected their defaults "
+            f"(False, 0, 0, 0), got {config.graph.free_space_only}, "
+            f"{config.graph.min_clearance_m}, {config.graph.min_spur_m}, "
+            f"{config.graph.min_component_m} (prune the exported graph with "
+            "topojax.prune_graph instead)"
+        )
+    return config
+
+
+def checked_sizes(tile_px, block_px, paper_layer_px) -> tuple[int, int, int]:
+    """``tile_px``, ``block_px`` and ``paper_layer_px`` as ints, checked.
+
+    Raises
+    ------
+    ValueError
+        If one is not an int of at least its minimum (8, 4, 1), a side is not a power of
+        two, or the tile is smaller than the block or the block than two ridge halos.
+    """
+    for name, value, lo in (
+        ("tile_px", tile_px, 8),
+        ("block_px", block_px, 4),
+        ("paper_layer_px", paper_layer_px, 1),
+    ):
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < lo:
+            raise ValueError(f"{name} must be an int >= {lo}, got {value!r}")
+    tile_px, block_px, paper_layer_px = int(tile_px), int(block_px), int(paper_layer_px)
+    for name, value in (("tile_px", tile_px), ("block_px", block_px)):
+        if value & (value - 1):
+            raise ValueError(
+                f"{name} must be a power of two (tile and block coordinates are bit "
+                f"shifts), got {value}"
+            )
+    if tile_px < block_px:
+        raise ValueError(f"tile_px ({tile_px}) must be >= block_px ({block_px})")
+    if block_px < 2 * HALO_PX:
+        raise ValueError(f"block_px must be >= {2 * HALO_PX}, got {block_px}")
+    return tile_px, block_px, paper_layer_px
+
+
+def checked_resolution(resolution_m, strategy) -> float:
+    """``resolution_m`` as a float, checked, and ``strategy`` checked.
+
+    Raises
+    ------
+    TypeError, ValueError
+        If the resolution is not a finite number > 0 or the strategy is unknown.
+    """
+    # numbers.Real / Integral: NumPy numbers are numbers too (stored as Python ones)
+    if isinstance(resolution_m, bool) or not isinstance(resolution_m, numbers.Real):
+        raise TypeError(f"resolution_m must be a number, got {type(resolution_m).__name__}")
+    resolution_m = float(resolution_m)
+    if not math.isfinite(resolution_m) or resolution_m <= 0:
+        raise ValueError(f"resolution_m must be finite and > 0 (metres), got {resolution_m}")
+    if strategy not in STRATEGIES:
+        raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
+    return resolution_m
+
+
+def checked_loop_settings(
+    max_pending_points, free_space, max_range_m, skeleton_every, graph_every
+) -> tuple[int, bool, float | None, int, int]:
+    """The loop settings of :class:`IncrementalMapper`, checked and converted to Python
+    numbers (NumPy numbers are accepted; a rate of None becomes 0).
+
+    Raises
+    ------
+    TypeError, ValueError
+        If an argument has the wrong type or range.
+    """
+    if (
+        isinstance(max_pending_points, bool)
+        or not isinstance(max_pending_points, numbers.Integral)
+        or max_pending_points < 0
+    ):
+        raise ValueError(f"max_pending_points must be an int >= 0, got {max_pending_points!r}")
+    max_pending_points = int(max_pending_points)
+    if max_range_m is not None:
+        if isinstance(max_range_m, bool) or not isinstance(max_range_m, numbers.Real):
+            raise TypeError(f"max_range_m must be a number or None, got {max_range_m!r}")
+        max_range_m = float(max_range_m)
+        if not max_range_m > 0:
+            raise ValueError(f"max_range_m must be > 0 (metres), got {max_range_m}")
+    if not isinstance(free_space, bool):
+        raise TypeError(f"free_space must be a bool, got {type(free_space).__name__}")
+    return (
+        max_pending_points,
+        free_space,
+        max_range_m,
+        _check_rate("skeleton_every", skeleton_every),
+        _check_rate("graph_every", graph_every),
+    )
+
+
+def settings_of(mapper) -> dict:
+    """The settings a mapper was made with, JSON-ready (``config`` as a dict)."""
+    return {
+        "resolution_m": mapper.resolution_m,
+        "skeleton_every": mapper.skeleton_every,
+        "graph_every": mapper.graph_every,
+        "strategy": mapper.strategy,
+        "config": asdict(mapper.config),
+        "tile_px": mapper.tile_px,
+        "block_px": mapper.block_px,
+        "max_pending_points": mapper.max_pending_points,
+        "free_space": mapper.free_space,
+        "max_range_m": mapper.max_range_m,
+        "paper_layer_px": mapper.paper_layer_px,
+        "max_grid_cells": mapper._tiles.max_grid_cells,
+    }

@@ -1,0 +1,707 @@
+"""The incremental mapper."""
+
+from __future__ import annotations
+
+import functools
+import math
+import threading
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import networkx as nx
+import numpy as np
+
+from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
+from ..distance import FAR_SQ
+from ..filters import HALO_PX
+from ..scans import Scan
+from ..tiling import MAX_GRID_CELLS, TileManager
+from ._graph_export import export_graph, global_graph
+from ._graph_patch import patch_graph
+from ._graph_store import add_paths, drop_paths, edge_ids, edge_paths, reserve, vertex_ids
+from ._rays import (
+    RAY_BATCH_BEAMS,
+    _scan_geometry,
+    add_occupancy,
+    cast_pending_rays,
+    integrate_end_pixels,
+    join_rays,
+    point_pixels,
+)
+from ._ridges import (
+    RIDGE_BLOCKS,
+    TABLE_MAX_HALF_PX,
+    _gaussian,
+    gaussian_table,
+    ridge_kernel,
+    update_ridges,
+)
+from ._settings import checked_loop_settings, checked_resolution, checked_sizes, merged_config
+from ._skeleton import skeleton_exact, skeleton_paper
+from ._splat import SPLAT_POINTS, SPLAT_ROWS, _splat_blocks, flush_splat
+from ._tiles import _growth_pool, new_tile_storage
+from .reports import GraphUpdate, ScanReport
+from .state import load_state, save_state
+
+
+def _synchronized(method):
+    """Run ``method`` holding the mapper's lock: one scan, update, export or save at a
+    time, whichever threads call them (e.g. a scan callback and a timer that publishes
+    the graph)."""
+
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+
+    return locked
+
+
+class IncrementalMapper:
+    """Keep distance map, skeleton and topology graph up to date from laser scans (or
+    obstacle points, :meth:`add_points`).
+
+    Parameters
+    ----------
+    resolution_m : float
+        Pixel size in metres (default 0.05, the paper's).
+    skeleton_every : int or None
+        Run the skeleton loop once this many scans have come since the last skeleton
+        update (default 20); the graph loop and explicit calls update the skeleton too
+        and restart the count.  0 or None: only when :meth:`update_skeleton` (or
+        :meth:`update_graph`) is called.
+    graph_every : int or None
+        Run the graph loop once this many scans have come since the last graph update
+        (default 80); 0 or None: only when :meth:`update_graph` is called.
+    strategy : {"exact", "paper"}
+        Skeleton update: ``"exact"`` re-thins the changed ridge components and equals the
+        full-map pipeline; ``"paper"`` thins the new ridges inside the changed blocks plus a
+        ``paper_layer_px`` wide layer of the old skeleton around them and writes back inside
+        the changed blocks only (paper §III-B).
+    config : PipelineConfig, optional
+        Distance, ridge and skeleton settings (default: the paper's).  Its ``tile_px`` and
+        ``tiles_per_call`` are the full-map pipeline's and are not used here.
+        ``config.graph.merge_junction_clusters`` must be False, and the ridge threshold
+        at least 0 (a negative one makes every pixel of the unbounded map a ridge pixel).
+    distance, ridge, skeleton : configs, optional
+        Override the corresponding part of ``config``.
+    tile_px : int
+        Side of the storage tiles in pixels (default 128): a power of two, at least
+        ``block_px``.
+    block_px : int
+        Side of the blocks the splat and ridge kernels work on (default 16): a power of two,
+        at least 4.
+    max_pending_points : int
+        Splat pending new obstacle pixels once this many are waiting (default 4096; 0 splats
+        at every scan).  Reads of the distance map always splat first.
+    free_space : bool
+        Count free cells along each beam (default True); they only feed the occupancy
+        output (``free`` / ``unknown``), not the graph.
+    max_range_m : float, optional
+        Also drop readings at or beyond this range (in addition to the scan's
+        ``range_max``).
+    paper_layer_px : int
+        Width of the old-skeleton layer of the ``"paper"`` strategy (default 2).
+    max_grid_cells : int
+        Bound on the bounding box of the map in tiles (see
+        :class:`~topojax.tiling.TileManager`); a scan that would exceed it is rejected
+        with ValueError before anything changes.
+
+    Notes
+    -----
+    Obstacles are monotone: a pixel hit once stays an obstacle (like the paper's max-merge
+    of distance maps).  The exported occupancy map marks hit pixels occupied, pixels crossed
+    by a beam but never hit free, and the rest unknown.
+
+    A mapper may be shared between threads (a scan callback, a timer that publishes the
+    graph or saves the state): scans, updates, exports and :meth:`save` hold its lock, so
+    they run one at a time and each sees a whole scan.  Arrays and graphs it returns are
+    copies or new objects, except :attr:`tiles`.
+
+    With the ``"exact"`` strategy the distance map, ridges, skeleton and graph equal the
+    full-map pipeline's on the exported map (the graph up to ids); the argument is in
+    ``docs/incremental-exactness.md``.
+    """
+
+    def __init__(
+        self,
+        *,
+        resolution_m: float = 0.05,
+        skeleton_every: int | None = 20,
+        graph_every: int | None = 80,
+        strategy: str = "exact",
+        config: PipelineConfig | None = None,
+        distance: DistanceConfig | None = None,
+        ridge: RidgeConfig | None = None,
+        skeleton: SkeletonConfig | None = None,
+        tile_px: int = 128,
+        block_px: int = 16,
+        max_pending_points: int = 4096,
+        free_space: bool = True,
+        max_range_m: float | None = None,
+        paper_layer_px: int = 2,
+        max_grid_cells: int = MAX_GRID_CELLS,
+    ) -> None:
+        resolution_m = checked_resolution(resolution_m, strategy)
+        config = merged_config(config, distance, ridge, skeleton)
+        tile_px, block_px, paper_layer_px = checked_sizes(tile_px, block_px, paper_layer_px)
+        (
+            self.max_pending_points,
+            self.free_space,
+            self.max_range_m,
+            self.skeleton_every,
+            self.graph_every,
+        ) = checked_loop_settings(
+            max_pending_points, free_space, max_range_m, skeleton_every, graph_every
+        )
+        self.resolution_m = resolution_m
+        self.strategy = strategy
+        self.config = config
+        self.tile_px = tile_px
+        self.block_px = block_px
+        self.paper_layer_px = paper_layer_px
+        self._half = config.distance.half_width_px
+        self._tiles = new_tile_storage(tile_px, block_px, max_grid_cells)
+        self._n_scans = 0
+        self._n_ridge = 0
+        self._compiled = False
+        self._pending: list[np.ndarray] = []
+        # beams whose free cells are not counted yet: (sensor row, col, end rows, cols)
+        self._rays: list[tuple[int, int, np.ndarray, np.ndarray]] = []
+        self._n_rays = 0
+        self._lock = threading.RLock()
+        self._ray_job = None
+        self._n_pending = 0
+        self._skel_changed: list[np.ndarray] = []
+        self._ridge_bbox: tuple[int, int, int, int] | None = None
+        self._since_skeleton = 0
+        self._since_graph = 0
+        # The graph, by stable id (ids are never reused): vertex pixel key (_pack), kind
+        # code and liveness; edge ends (u <= v) and liveness; each live edge's pixel path
+        # (from u to v) as rows [start, start + len) of one int32 (n, 2) pool (removed
+        # paths leave holes until the pool is compacted).  The graph_id tile layer maps
+        # pixels back to ids.
+        self._v_key = np.zeros(0, np.int64)
+        self._v_code = np.zeros(0, np.int8)
+        self._v_alive = np.zeros(0, bool)
+        self._e_uv = np.zeros((0, 2), np.int64)
+        self._e_alive = np.zeros(0, bool)
+        self._e_start = np.zeros(0, np.int64)
+        self._e_len = np.zeros(0, np.int64)
+        self._pool = np.zeros((0, 2), np.int32)
+        self._pool_used = 0  # rows written (live paths and holes)
+        self._next_vertex = 0
+        self._next_edge = 0
+        self._export_cache: dict[str, object] = {}
+        self._scalars = (
+            jnp.float32(config.distance.sigma_px),
+            jnp.float32(config.ridge.scale),
+            jnp.float32(config.ridge.threshold),
+        )
+        # the ridge kernel's Gaussian: a table (built by compile) up to TABLE_MAX_HALF_PX
+        self._ridge_args = self._scalars
+        # below 255 the ridge is lap_abs > floor(threshold) (integers, threshold >= 0) and
+        # the ridge kernel returns lap_abs alone; else it returns the ridge too (cut -1)
+        thr = config.ridge.threshold
+        self._ridge_cut = math.floor(thr) if thr < 255 else -1
+
+    # ------------------------------------------------------------------ properties
+    @property
+    @_synchronized
+    def n_scans(self) -> int:
+        """Scans added so far (empty ones included)."""
+        return self._n_scans
+
+    @property
+    @_synchronized
+    def n_tiles(self) -> int:
+        """Allocated tiles."""
+        return self._tiles.n_tiles
+
+    @property
+    def tiles(self) -> TileManager:
+        """The tile storage (read-only use: do not modify layers); its free-cell counts
+        (``misses``) are brought up to date first."""
+        cast_pending_rays(self)
+        return self._tiles
+
+    @property
+    @_synchronized
+    def pixel_bbox(self) -> tuple[int, int, int, int] | None:
+        """``(row0, col0, row1, col1)`` of the exported arrays (end exclusive), global
+        pixels, or None before anything was allocated."""
+        return self._tiles.pixel_bbox
+
+    def world_to_pixel(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """Global lattice pixel ``(row, col)`` (int64) containing world points ``(x, y)``."""
+        res = self.resolution_m
+        rows = np.floor(-np.asarray(y, np.float64) / res).astype(np.int64)
+        cols = np.floor(np.asarray(x, np.float64) / res).astype(np.int64)
+        return rows, cols
+
+    # ------------------------------------------------------------------ scans
+    @_synchronized
+    def add_scan(self, scan: Scan) -> ScanReport:
+        """Integrate one scan (distance loop), then run the loops that are due.
+
+        Parameters
+        ----------
+        scan : Scan
+            Ranges, beam geometry and the robot pose in the map frame.  Invalid readings
+            (NaN, inf, non-positive, below ``range_min``, at or beyond ``range_max`` or
+            ``max_range_m``) are dropped and counted in the report.  A scan without valid
+            readings changes nothing but the scan counter (and may trigger due loops).
+
+        Returns
+        -------
+        ScanReport
+
+        Raises
+        ------
+        TypeError
+            If ``scan`` is not a :class:`~topojax.scans.Scan`.
+        ValueError
+            If the scan's pixels are absurdly far (beyond 2^30 pixels) or the map would
+            exceed ``max_grid_cells``.  Nothing is changed in that case.
+        """
+        if not isinstance(scan, Scan):
+            raise TypeError(
+                f"scan must be a topojax.Scan (see Scan.from_arrays), got {type(scan).__name__}"
+            )
+        t0 = time.perf_counter()
+        sx, sy, syaw = scan.sensor_pose_world()
+        rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)
+        res = self.resolution_m
+        er, ec, ext = _scan_geometry(
+            scan.ranges,
+            scan.angle_min,
+            scan.angle_increment,
+            scan.range_min,
+            rmax,
+            sx,
+            sy,
+            syaw,
+            res,
+        )
+        sensor = (math.floor(-sy / res), math.floor(sx / res))
+        return self._add_end_pixels(
+            er,
+            ec,
+            ext,
+            sensor,
+            n_beams=scan.n_beams,
+            t0=t0,
+            where=lambda: f"scan: the pose {scan.pose}",
+        )
+
+    @_synchronized
+    def add_points(self, points_xy, *, origin_xy=None) -> ScanReport:
+        """Integrate obstacle points in the map frame, e.g. one frame of a depth camera or a
+        3-D lidar projected to the floor plane, then run the loops that are due.
+
+        The points count as one scan: they go where a scan's beam ends go, and the
+        skeleton and graph loops run at the same rates (``skeleton_every``,
+        ``graph_every`` calls).
+
+        Parameters
+        ----------
+        points_xy : array_like, shape (N, 2)
+            World ``(x, y)`` in metres, map frame.  Rows that are not finite (NaN, inf)
+            are dropped and counted in the report.  The pixel of a point is the one whose
+            square holds it (:meth:`world_to_pixel`).
+        origin_xy : (x, y), optional
+            Position of the sensor in the map frame, metres.  With it, the ray from the
+            origin to each point is free space for the exported occupancy map (as a scan's
+            beams are, when ``free_space``), and points at ``max_range_m`` or farther from
+            it are dropped (within a few rounding steps of it counts as at it: a scan's
+            end points at its no-return range are dropped as the scan drops them).
+            Without it the points mark obstacles only.
+
+        Returns
+        -------
+        ScanReport
+            ``n_beams`` is ``N``; ``n_valid`` the points used.
+
+        Raises
+        ------
+        ValueError
+            If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers,
+            or the points lie absurdly far (beyond 2^30 pixels) or would make the map
+            exceed ``max_grid_cells``.  Nothing is changed in that case.
+        """
+        t0 = time.perf_counter()
+        er, ec, ext, sensor, n_points = point_pixels(self, points_xy, origin_xy)
+        return self._add_end_pixels(
+            er,
+            ec,
+            ext,
+            sensor,
+            n_beams=n_points,
+            t0=t0,
+            where=lambda: "points_xy: the points",
+        )
+
+    @_synchronized
+    def add_map(self, occupancy) -> int:
+        """Add a finished occupancy map, e.g. one from another SLAM system to keep mapping
+        on: its occupied pixels become obstacles (as if hit by a beam) and its free pixels
+        free space for the exported occupancy map; unknown pixels add nothing.
+
+        The map must have the mapper's resolution and no yaw; its pixels then fall one to
+        one on the mapper's pixels (each goes to the one that holds its centre,
+        :meth:`world_to_pixel`), so a map whose origin is not on the mapper's lattice
+        (a multiple of the resolution) moves as a whole by under half a pixel.  It does
+        not count as a scan and runs no loop: call :meth:`update_graph` (or keep adding
+        scans) to bring skeleton and graph up to date.
+
+        Parameters
+        ----------
+        occupancy : OccupancyMap
+            In the map frame of the scans that follow.
+
+        Returns
+        -------
+        int
+            Obstacle pixels that are new to the mapper.
+
+        Raises
+        ------
+        TypeError
+            If ``occupancy`` is not an :class:`~topojax.OccupancyMap`.
+        ValueError
+            If its resolution differs from the mapper's, its yaw is not 0, or it would
+            make the map exceed ``max_grid_cells``.  Nothing is changed in that case.
+        """
+        return add_occupancy(self, occupancy)
+
+    def _add_end_pixels(self, er, ec, ext, sensor, *, n_beams: int, t0: float, where):
+        """The distance loop for one scan's end pixels ``(er, ec)`` (int64, extent
+        ``ext`` = (min row, max row, min col, max col)), free space along the rays from the
+        ``sensor`` pixel (row, col) when given, then the loops that are due."""
+        n_valid = int(er.shape[0])
+        tiles = self._tiles
+        n_tiles = tiles.n_tiles
+        n_new = integrate_end_pixels(self, er, ec, ext, sensor, where=where)
+        if tiles.n_tiles != n_tiles and _growth_pool() is not None:
+            # page in the storage of the next growth on another thread (see TileManager)
+            tiles.prepare_growth(_growth_pool().submit)
+        if self._n_rays >= RAY_BATCH_BEAMS:
+            cast_pending_rays(self)
+        loops = ["distance"]
+        timings: dict[str, float] = {}
+        if self._n_pending and self._n_pending >= self.max_pending_points:
+            ts = time.perf_counter()
+            self._flush_splat()
+            timings["splat"] = time.perf_counter() - ts
+            loops.append("splat")
+        timings["distance"] = time.perf_counter() - t0
+        self._n_scans += 1
+        self._since_skeleton += 1
+        self._since_graph += 1
+        update = None
+        if self.graph_every and self._since_graph >= self.graph_every:
+            ts = time.perf_counter()
+            self.update_skeleton()
+            timings["skeleton"] = time.perf_counter() - ts
+            ts = time.perf_counter()
+            update = self._update_graph()
+            timings["graph"] = time.perf_counter() - ts
+            loops += ["skeleton", "graph"]
+        elif self.skeleton_every and self._since_skeleton >= self.skeleton_every:
+            ts = time.perf_counter()
+            self.update_skeleton()
+            timings["skeleton"] = time.perf_counter() - ts
+            loops.append("skeleton")
+        return ScanReport(
+            index=self._n_scans - 1,
+            n_beams=n_beams,
+            n_valid=n_valid,
+            n_dropped=n_beams - n_valid,
+            n_new_obstacles=int(n_new),
+            loops=tuple(loops),
+            timings_s=timings,
+            n_tiles=tiles.n_tiles,
+            graph_update=update,
+        )
+
+    @_synchronized
+    def compile(self) -> None:
+        """Compile every JAX kernel variant the mapper uses (two batch sizes each of the
+        splat and ridge kernels) and build the ridge kernel's Gaussian table, so that no JAX
+        compilation happens later.  Runs automatically before the first splat; calling it
+        again does nothing.  The CPU kernels (numba) are compiled once per installation
+        and loaded from numba's on-disk cache at their first use in a process."""
+        if self._compiled:
+            return
+        b, half = self.block_px, self._half
+        size = b + 2 * HALO_PX
+        if half <= TABLE_MAX_HALF_PX:
+            table = gaussian_table(self.config.distance.sigma_px, half)
+            self._ridge_args = (table, *self._scalars[1:])
+        for n in SPLAT_ROWS:
+            pts = np.full((n, SPLAT_POINTS, 2), -(half + 2 * b + 1), np.int32)
+            _splat_blocks(pts, size=b, half_width=half).block_until_ready()
+        for n in RIDGE_BLOCKS:
+            patches = np.full((n, size, size), FAR_SQ, np.int32)
+            jax.block_until_ready(ridge_kernel(self, patches))
+        self._compiled = True
+
+    @_synchronized
+    def add_scans(self, scans) -> list[ScanReport]:
+        """:meth:`add_scan` for every scan of an iterable; returns the reports."""
+        return [self.add_scan(s) for s in scans]
+
+    # ------------------------------------------------------------------ distance loop
+    def _flush_splat(self) -> int:
+        """Splat all pending new obstacle pixels; returns the number of changed blocks."""
+        return flush_splat(self)
+
+    # ------------------------------------------------------------------ skeleton loop
+    @_synchronized
+    def update_skeleton(self) -> int:
+        """Run the skeleton loop now: splat pending points, recompute the dirty ridges and
+        update the skeleton with the mapper's strategy.
+
+        Returns
+        -------
+        int
+            Number of skeleton pixels that changed.
+        """
+        self._flush_splat()
+        added, removed, border, blocks = update_ridges(self)
+        # The free cells of the scans since the last update are counted on the worker
+        # thread meanwhile (nothing below touches them or allocates tiles).  Not earlier:
+        # next to the ridge kernel's XLA thread it slows that kernel down.
+        cast_pending_rays(self, background=True)
+        try:
+            self._since_skeleton = 0
+            self._export_cache.clear()
+            if self.strategy == "exact":
+                return skeleton_exact(self, added, removed, border)
+            return skeleton_paper(self, blocks)
+        finally:
+            join_rays(self)
+
+    # ------------------------------------------------------------------ graph loop
+    @_synchronized
+    def update_graph(self) -> GraphUpdate:
+        """Bring everything up to date: splat, skeleton loop, then the graph loop.
+
+        Returns
+        -------
+        GraphUpdate
+            What the graph loop changed (``time_s`` covers the graph loop only).
+        """
+        self.update_skeleton()
+        return self._update_graph()
+
+    def _update_graph(self) -> GraphUpdate:
+        from ..graph import paused_gc
+
+        with paused_gc():
+            return patch_graph(self)
+
+    # ------------------------------------------------------------------ graph tables
+    # (the functions of _graph_store, as methods)
+    def _vertex_ids(self) -> np.ndarray:
+        return vertex_ids(self)
+
+    def _edge_ids(self) -> np.ndarray:
+        return edge_ids(self)
+
+    def _reserve(self, *, vertices: int = 0, edges: int = 0) -> None:
+        reserve(self, vertices=vertices, edges=edges)
+
+    def _paths(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return edge_paths(self, ids)
+
+    def _add_paths(self, ids: np.ndarray, paths: np.ndarray, lens: np.ndarray) -> None:
+        add_paths(self, ids, paths, lens)
+
+    def _drop_paths(self, ids: np.ndarray) -> None:
+        drop_paths(self, ids)
+
+    # ------------------------------------------------------------------ exports
+    def _bbox_or_raise(self) -> tuple[int, int, int, int]:
+        bbox = self._tiles.pixel_bbox
+        if bbox is None:
+            raise ValueError(
+                "the mapper is empty: add scans with valid readings before exporting maps"
+            )
+        return bbox
+
+    def _dense(self, name: str) -> np.ndarray:
+        r0, c0, r1, c1 = self._bbox_or_raise()
+        return self._tiles.read(name, r0, c0, r1 - r0, c1 - c0)
+
+    @property
+    @_synchronized
+    def sq_distance_px(self) -> np.ndarray:
+        """Windowed squared distance to the nearest obstacle, int32 (H, W) px^2 over the
+        bounding box (``FAR_SQ`` where no obstacle is within the window).  Always current
+        (pending splats are applied first)."""
+        self._flush_splat()
+        return self._dense("sq_distance")
+
+    @property
+    @_synchronized
+    def distance(self) -> np.ndarray:
+        """Gaussian distance map ``H``, float32 (H, W) in [0, 1], over the bounding box of
+        the allocated tiles (``[row, col]``, row 0 = top = largest y).  Always current."""
+        self._flush_splat()
+        if "distance" not in self._export_cache:
+            r0, c0, r1, c1 = self._bbox_or_raise()
+            tiles = self._tiles
+            n, t = tiles.n_tiles, self.tile_px
+            d2 = tiles.layer("sq_distance")
+            h = np.empty((n, t, t), np.float32)
+            chunk = 16
+            for s in range(0, n, chunk):
+                block = d2[s : s + chunk]
+                if block.shape[0] < chunk:
+                    pad = np.full((chunk - block.shape[0], t, t), FAR_SQ, np.int32)
+                    block = np.concatenate([block, pad])
+                h[s : s + chunk] = np.asarray(_gaussian(block, self._scalars[0]))[: n - s]
+            out = np.zeros((r1 - r0, c1 - c0), np.float32)
+            for slot, (tr, tc) in enumerate(tiles.keys):
+                out[tr * t - r0 : (tr + 1) * t - r0, tc * t - c0 : (tc + 1) * t - c0] = h[slot]
+            self._export_cache["distance"] = out
+        return self._export_cache["distance"].copy()
+
+    @property
+    @_synchronized
+    def occupancy(self):
+        """The map as an :class:`~topojax.maps.OccupancyMap` over the bounding box of the
+        allocated tiles: hit pixels occupied, pixels crossed by a beam and never hit free,
+        the rest unknown.  Its origin puts pixel centres at the lattice world coordinates,
+        so ``build_graph(mapper.occupancy)`` is in the mapper's world frame."""
+        from ..maps import OccupancyMap
+
+        r0, c0, r1, c1 = self._bbox_or_raise()
+        cast_pending_rays(self)
+        occupied = self._dense("hits") > 0
+        free = (self._dense("misses") > 0) & ~occupied
+        res = self.resolution_m
+        return OccupancyMap(
+            occupied=occupied,
+            free=free,
+            unknown=~(occupied | free),
+            resolution_m=res,
+            origin=(c0 * res, -r1 * res, 0.0),
+        )
+
+    @property
+    @_synchronized
+    def obstacles(self) -> np.ndarray:
+        """Obstacle mask (pixels ever hit), bool (H, W) over the bounding box."""
+        return self._dense("hits") > 0
+
+    @property
+    @_synchronized
+    def ridges(self) -> np.ndarray:
+        """Ridge map as of the last skeleton update, bool (H, W) over the bounding box."""
+        return self._dense("ridge")
+
+    @property
+    @_synchronized
+    def lap_abs(self) -> np.ndarray:
+        """``convertScaleAbs(Laplacian(255 H))`` as of the last skeleton update, uint8."""
+        return self._dense("lap_abs")
+
+    @property
+    @_synchronized
+    def skeleton(self) -> np.ndarray:
+        """Skeleton as of the last skeleton update, bool (H, W) over the bounding box."""
+        return self._dense("skeleton")
+
+    @property
+    @_synchronized
+    def graph(self) -> nx.MultiGraph:
+        """Topology graph as of the last graph update, in the exported map's frame.
+
+        Same attribute schema as :func:`topojax.build_graph`'s graph (node ``pixel``,
+        ``pixels``, ``world``, ``kind``, ``clearance_m``; edge ``path``, ``world``,
+        ``length_m``, ``min_clearance_m``, ``mean_clearance_m``), with pixel coordinates
+        relative to the exported bounding box.  Node ids and edge keys are the mapper's
+        stable ids (see :class:`GraphUpdate`); each edge is stored with ``u <= v`` and its
+        path runs from ``u`` to ``v``.  Clearances use the current distance map.
+        """
+        if "graph" not in self._export_cache:
+            self._export_cache["graph"] = export_graph(self)
+        return self._export_cache["graph"].copy()
+
+    @property
+    @_synchronized
+    def graph_global(self) -> nx.MultiGraph:
+        """The internal graph: node ``pixel`` and edge ``path`` in global lattice pixels,
+        node ``kind``; no other attributes (a new graph)."""
+        return global_graph(self)
+
+    @_synchronized
+    def to_result(self, *, update: bool = True):
+        """Everything as a :class:`topojax.pipeline.TopologyResult` (for plotting and I/O).
+
+        Parameters
+        ----------
+        update : bool
+            Run :meth:`update_graph` first (default) so that ridges, skeleton and graph
+            describe the current map.
+
+        Returns
+        -------
+        TopologyResult
+            ``map`` is :attr:`occupancy`; arrays cover its grid; ``timings_s`` is empty.
+        """
+        from ..pipeline import TopologyResult
+
+        if update:
+            self.update_graph()
+        return TopologyResult(
+            map=self.occupancy,
+            distance=self.distance,
+            lap_abs=self.lap_abs,
+            ridges=self.ridges,
+            skeleton=self.skeleton,
+            graph=self.graph,
+            config=self.config,
+            timings_s={},
+            sq_distance_px=self.sq_distance_px,
+        )
+
+    # ------------------------------------------------------------------ state
+    @_synchronized
+    def save(self, path) -> Path:
+        """Save the complete state to an ``.npz`` file, atomically.
+
+        The file holds a ``format`` and ``version`` field, the settings (JSON), the tiles
+        (keys and every layer, stacked), pending splat points and skeleton changes, the
+        graph (vertex ids, pixels, kinds; edge keys, ends, concatenated paths) and the
+        counters.  It is written to a temporary file in the same folder and renamed over
+        ``path`` (:func:`topojax.io.atomic_write_bytes`).
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file; its folder must exist.
+
+        Returns
+        -------
+        Path
+        """
+        return save_state(self, path)
+
+    @classmethod
+    def load(cls, path) -> IncrementalMapper:
+        """Load a state written by :meth:`save`.
+
+        Raises
+        ------
+        FileNotFoundError
+            If ``path`` does not exist.
+        ValueError
+            If the file is not a mapper state, has another format version, or is corrupt
+            (the message names the file and the problem).
+        """
+        return load_state(cls, path)

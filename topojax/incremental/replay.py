@@ -1,0 +1,309 @@
+"""Replay of a scan log through the mapper (the ``topojax replay`` command)."""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from ..config import GraphConfig
+from ._settings import settings_of
+from .mapper import IncrementalMapper
+from .reports import ScanReport, timing_summary
+
+
+def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
+    """A small snapshot for the animation: downsampled map image, world extent, edges."""
+    occ = mapper.occupancy
+    img = occ.to_image()
+    step = max(1, -(-max(img.shape) // max_px))
+    h, w = occ.shape
+    ox, oy, _ = occ.origin
+    res = occ.resolution_m
+    g = mapper.graph
+    edges = [d for *_, d in g.edges(data="world")]
+    verts = np.array([d for _, d in g.nodes(data="world")], np.float64).reshape(-1, 2)
+    return {
+        "image": img[::step, ::step],
+        "extent": (ox, ox + w * res, oy, oy + h * res),
+        "edges": edges,
+        "vertices": verts,
+        "scan": mapper.n_scans,
+    }
+
+
+def _write_animation(frames: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    last = frames[-1]["extent"]
+    fig, ax = plt.subplots(figsize=(7, 7))
+
+    def draw(i: int):
+        f = frames[i]
+        ax.clear()
+        ax.imshow(f["image"], cmap="gray", vmin=0, vmax=255, extent=f["extent"])
+        for wline in f["edges"]:
+            ax.plot(wline[:, 0], wline[:, 1], color="#d62728", lw=1.0)
+        if f["vertices"].size:
+            ax.plot(f["vertices"][:, 0], f["vertices"][:, 1], ".", color="#1f77b4", ms=2)
+        ax.set_xlim(last[0], last[1])
+        ax.set_ylim(last[2], last[3])
+        ax.set_title(f"scan {f['scan']}: {len(f['edges'])} edges")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        return []
+
+    anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
+    tmp = path.with_name(f".{path.name}.tmp.gif")
+    try:
+        anim.save(tmp, writer=PillowWriter(fps=3))
+        tmp.replace(path)
+    finally:
+        plt.close(fig)
+        tmp.unlink(missing_ok=True)
+
+
+def replay(
+    source,
+    *,
+    out_dir,
+    plot: bool = False,
+    animate=None,
+    progress: bool = True,
+    max_scans: int | None = None,
+    reader_kwargs: dict | None = None,
+    nav2_tolerance_m: float | None = None,
+    graph_config: GraphConfig | None = None,
+    **mapper_kw,
+) -> dict:
+    """Replay a scan log through an :class:`IncrementalMapper` and write the results.
+
+    Parameters
+    ----------
+    source : str or Path
+        A CARMEN log, ROS bag or Octave laser file (see :func:`topojax.scans.read_scans`).
+    out_dir : str or Path
+        Output folder (created).  Written: ``graph.graphml``, ``graph.json``,
+        ``graph.geojson`` (skipped with a message when an attribute is not finite),
+        ``map.yaml`` + ``map.pgm`` (the occupancy map), ``timings.json`` (per-loop
+        statistics, see :func:`timing_summary`) and, with ``plot``, ``graph.png`` and
+        ``stages.png``.
+    plot : bool
+        Write pictures.
+    animate : str or Path, optional
+        Write an animated GIF with one frame per graph update.
+    progress : bool
+        Show a tqdm progress bar.
+    max_scans : int, optional
+        Stop after this many scans.
+    reader_kwargs : dict, optional
+        Passed to the reader.
+    nav2_tolerance_m : float, optional
+        Also write ``graph_nav2.geojson``, a route graph for the ROS 2 Nav2 Route Server
+        with this waypoint tolerance (:func:`topojax.save_nav2_graph`); with ``map.yaml``
+        it is what Nav2 needs.  Skipped with a message when the graph has no edges.
+    graph_config : GraphConfig, optional
+        What the written graph (and Nav2 file and pictures) keep of the final graph:
+        ``free_space_only`` and the ``min_*_m`` pruning, as :func:`topojax.build_graph`
+        applies them (thinning, T removal and the graph step are re-run on the final
+        ridge map, which equals the full-map pipeline's, so the written graph is
+        ``build_graph(map, ...)``'s with this ``graph``).  Default: the mapper's whole
+        graph, as the paper keeps it.  The animation shows the mapper's whole graph as
+        it grew.
+    **mapper_kw
+        Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
+        ``graph_every``, ``strategy``, ...).
+
+    Returns
+    -------
+    dict
+        ``n_scans``, ``n_tiles``, ``vertices``, ``edges``, ``timings`` (per loop),
+        ``written`` (paths), ``messages``.
+    """
+    from .._fs import atomic_write_bytes, output_folder
+    from ..graph import graph_summary
+    from ..scans import read_scans
+
+    nav2_tolerance_m = _check_replay_args(
+        max_scans, nav2_tolerance_m, graph_config, out_dir, animate
+    )
+    out = Path(out_dir)
+    scans = read_scans(source, **(reader_kwargs or {}))
+    mapper = IncrementalMapper(**mapper_kw)
+    output_folder(out)
+    reports, frames, wall = _run(mapper, scans, max_scans, animate is not None, progress)
+    if not reports:
+        raise ValueError(f"source {source}: no scans to replay")
+    if mapper.pixel_bbox is None:
+        raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
+    t_final = time.perf_counter()
+    update = mapper.update_graph()
+    final_s = time.perf_counter() - t_final
+    result = mapper.to_result(update=False)
+    if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
+        result = _with_graph_config(result, graph_config)
+    written, messages = _write_graphs_and_map(result, out, nav2_tolerance_m)
+    timings = timing_summary(reports)
+    summary_g = graph_summary(result.graph)
+    summary = {
+        "source": str(source),
+        "n_scans": len(reports),
+        "n_tiles": mapper.n_tiles,
+        "map_shape": list(result.map.shape),
+        "vertices": summary_g["n_vertices"],
+        "edges": summary_g["n_edges"],
+        "wall_s": wall,
+        "final_update_s": final_s,
+        "final_update": asdict(update),
+        "timings": timings,
+        "settings": settings_of(mapper),
+    }
+    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
+    written.append(out / "timings.json")
+    if plot:
+        written += _write_pictures(result, out)
+    if animate is not None:
+        frames.append(_frame(mapper))
+        apath = Path(animate)
+        apath.parent.mkdir(parents=True, exist_ok=True)
+        _write_animation(frames, apath)
+        written.append(apath)
+    summary["written"] = [str(p) for p in written]
+    summary["messages"] = messages
+    if progress:
+        print(summary_text(summary))
+    return summary
+
+
+def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, animate):
+    """Check :func:`replay`'s arguments before the replay starts; returns the Nav2
+    tolerance as a float (or None)."""
+    if max_scans is not None and (
+        isinstance(max_scans, bool) or not isinstance(max_scans, int) or max_scans < 1
+    ):
+        raise ValueError(f"max_scans must be a positive int or None, got {max_scans!r}")
+    if nav2_tolerance_m is not None:  # checked now, not after the whole replay
+        from .._validate import positive_metres
+
+        nav2_tolerance_m = positive_metres("nav2_tolerance_m", nav2_tolerance_m)
+    if graph_config is not None and not isinstance(graph_config, GraphConfig):
+        raise TypeError(
+            f"graph_config: expected a GraphConfig, received {type(graph_config).__name__}"
+        )
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(
+            f"out_dir: expected a folder to write into, but {out} is an existing file"
+        )
+    if animate is not None and Path(animate).is_dir():  # checked now, not after the replay
+        raise IsADirectoryError(
+            f"animate: expected a GIF file name, got the folder {animate}; e.g. "
+            f"{Path(animate) / 'graph.gif'}"
+        )
+    return nav2_tolerance_m
+
+
+def _run(mapper, scans, max_scans, animate: bool, progress: bool):
+    """Feed ``scans`` (at most ``max_scans``) to ``mapper``; returns the reports, the
+    animation frames (one per graph update when ``animate``) and the wall time (s)."""
+    from tqdm import tqdm
+
+    reports: list[ScanReport] = []
+    frames: list[dict] = []
+    bar = tqdm(total=max_scans, unit="scan", disable=not progress, desc="replay")
+    t0 = time.perf_counter()
+    for i, scan in enumerate(scans):
+        if max_scans is not None and i >= max_scans:
+            break
+        rep = mapper.add_scan(scan)
+        reports.append(rep)
+        if animate and rep.graph_update is not None and mapper.pixel_bbox:
+            frames.append(_frame(mapper))
+        bar.update(1)
+    bar.close()
+    return reports, frames, time.perf_counter() - t0
+
+
+def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, list[str]]:
+    """Write the graph files, the Nav2 route graph (with a tolerance) and the map; returns
+    the paths written and messages about files skipped."""
+    from ..io import save_graph, save_nav2_graph
+    from ..maps import save_map
+
+    written: list[Path] = []
+    messages: list[str] = []
+    for suffix in (".graphml", ".json", ".geojson"):
+        try:
+            written.append(save_graph(result.graph, out / f"graph{suffix}"))
+        except ValueError as exc:
+            messages.append(f"graph{suffix} not written: {exc}")
+    if nav2_tolerance_m is not None:
+        try:
+            written.append(
+                save_nav2_graph(
+                    result.graph, out / "graph_nav2.geojson", tolerance_m=nav2_tolerance_m
+                )
+            )
+        except ValueError as exc:  # e.g. a graph without edges, which Nav2 refuses
+            messages.append(f"graph_nav2.geojson not written: {exc}")
+    written.append(save_map(result.map, out / "map.yaml"))
+    written.append(out / "map.yaml")
+    return written, messages
+
+
+def _write_pictures(result, out: Path) -> list[Path]:
+    """Write ``graph.png`` and ``stages.png``; returns their paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..plotting import plot as plot_result
+    from ..plotting import plot_stages
+
+    ax = plot_result(result)
+    ax.figure.savefig(out / "graph.png", dpi=150, bbox_inches="tight")
+    plt.close(ax.figure)
+    fig = plot_stages(result)
+    fig.savefig(out / "stages.png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return [out / "graph.png", out / "stages.png"]
+
+
+def summary_text(summary: dict) -> str:
+    lines = [
+        f"replayed   {summary['n_scans']} scans of {summary['source']} in "
+        f"{summary['wall_s']:.2f} s; map {summary['map_shape'][0]} x "
+        f"{summary['map_shape'][1]} px in {summary['n_tiles']} tiles",
+        f"graph      {summary['vertices']} vertices, {summary['edges']} edges",
+        "loop        calls    mean ms     p50 ms     p99 ms   amortised ms/scan",
+    ]
+    for k in ("distance", "splat", "skeleton", "graph", "add_scan"):
+        s = summary["timings"].get(k)
+        if s:
+            lines.append(
+                f"{k:10s} {s['count']:6d} {s['mean_ms']:10.3f} {s['p50_ms']:10.3f} "
+                f"{s['p99_ms']:10.3f} {s['per_scan_ms']:12.4f}"
+            )
+    lines.extend(summary.get("messages", []))
+    return "\n".join(lines)
+
+
+def _with_graph_config(result, graph_config: GraphConfig):
+    """``result`` with the skeleton and graph that ``graph_config`` keeps: the CPU stages
+    of the full-map pipeline re-run on its ridge map (exact, so the graph is the one
+    ``build_graph(result.map, ...)`` gives with that ``graph``)."""
+    from dataclasses import replace
+
+    from ..pipeline import graph_of_map
+
+    config = replace(result.config, graph=graph_config)
+    skeleton, graph, _ = graph_of_map(result.map, result.ridges, result.sq_distance_px, config)
+    return replace(result, skeleton=skeleton, graph=graph, config=config)

@@ -1,0 +1,179 @@
+"""Saved mapper states: format name and version."""
+
+from __future__ import annotations
+
+import io as _io
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from ..config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
+from ._graph_patch import _KIND_NAME
+from ._graph_store import add_paths, edge_ids, edge_paths, reserve, vertex_ids
+from ._rays import cast_pending_rays
+from ._settings import settings_of
+from ._tiles import _pack, _unpack
+
+#: ``format`` field of saved mapper states.
+STATE_FORMAT = "topojax.IncrementalMapper"
+
+
+#: Version of the saved-state layout; :meth:`IncrementalMapper.load` accepts only this one.
+STATE_VERSION = 2
+
+
+def save_state(mapper, path) -> Path:
+    """The body of :meth:`IncrementalMapper.save`."""
+    from .._fs import atomic_write_bytes
+
+    p = Path(path)
+    cast_pending_rays(mapper)
+    arrays: dict[str, np.ndarray] = {
+        "format": np.asarray(STATE_FORMAT),
+        "version": np.asarray(STATE_VERSION, np.int64),
+        "settings": np.asarray(json.dumps(settings_of(mapper))),
+    }
+    for key, value in mapper._tiles.state().items():
+        arrays[f"tiles/{key}"] = value
+    pend = np.concatenate(mapper._pending) if mapper._pending else np.zeros((0, 2), np.int64)
+    chg = (
+        np.concatenate(mapper._skel_changed) if mapper._skel_changed else np.zeros((0, 2), np.int64)
+    )
+    arrays["pending"] = pend.astype(np.int64)
+    arrays["skel_changed"] = chg.astype(np.int64)
+    rb = mapper._ridge_bbox
+    arrays["ridge_bbox"] = np.asarray(rb if rb is not None else (0, 0, 0, 0), np.int64)
+    arrays["has_ridge_bbox"] = np.asarray(rb is not None)
+    arrays["counters"] = np.asarray(
+        [
+            mapper._n_scans,
+            mapper._since_skeleton,
+            mapper._since_graph,
+            mapper._next_vertex,
+            mapper._next_edge,
+            mapper._n_ridge,
+        ],
+        np.int64,
+    )
+    nodes = vertex_ids(mapper)
+    arrays["v_id"] = nodes
+    arrays["v_pixel"] = np.stack(_unpack(mapper._v_key[nodes]), axis=1)
+    arrays["v_kind"] = mapper._v_code[nodes].copy()
+    edges = edge_ids(mapper)
+    arrays["e_id"] = edges
+    arrays["e_uv"] = mapper._e_uv[edges]
+    paths, lens = edge_paths(mapper, edges)
+    arrays["e_len"] = lens.astype(np.int64)
+    arrays["e_path"] = paths.astype(np.int64)
+    buf = _io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    atomic_write_bytes(p, buf.getvalue())
+    return p
+
+
+def read_state(path) -> tuple[Path, dict[str, np.ndarray]]:
+    """The arrays of a mapper state file, its format and version checked.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If the file is not a mapper state or has another format version.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"mapper state file not found: {p}")
+    if not zipfile.is_zipfile(p):  # np.load would read a .npy or ask about pickles
+        raise ValueError(
+            f"{p}: not a mapper state: a state is an .npz (zip) archive written by "
+            "IncrementalMapper.save"
+        )
+    try:
+        with np.load(p, allow_pickle=False) as z:
+            data = {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise ValueError(f"{p}: not a readable mapper state (.npz): {exc}") from None
+    try:
+        fmt = str(data["format"])
+        version = int(data["version"])
+    except KeyError:
+        raise ValueError(f"{p}: not a mapper state (no format/version field)") from None
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{p}: not a mapper state (format/version field of another kind: "
+            f"{data['format']!r}, {data['version']!r})"
+        ) from None
+    if fmt != STATE_FORMAT:
+        raise ValueError(f"{p}: expected format {STATE_FORMAT!r}, got {fmt!r}")
+    if version != STATE_VERSION:
+        raise ValueError(
+            f"{p}: mapper state version {version} is not supported; expected "
+            f"{STATE_VERSION} (saved by another topojax version)"
+        )
+    return p, data
+
+
+def load_state(cls, path):
+    """The body of :meth:`IncrementalMapper.load` (``cls``: the mapper class)."""
+    p, data = read_state(path)
+    try:
+        settings = json.loads(str(data["settings"]))
+        cfg = settings.pop("config")
+        config = PipelineConfig(
+            distance=DistanceConfig(**cfg["distance"]),
+            ridge=RidgeConfig(**cfg["ridge"]),
+            skeleton=SkeletonConfig(**cfg["skeleton"]),
+            graph=GraphConfig(**cfg["graph"]),
+            tile_px=cfg["tile_px"],
+            tiles_per_call=cfg["tiles_per_call"],
+        )
+        mapper = cls(config=config, **settings)
+        tile_state = {k[6:]: v for k, v in data.items() if k.startswith("tiles/")}
+        mapper._tiles.load_state(tile_state)
+        pend = np.asarray(data["pending"], np.int64).reshape(-1, 2)
+        mapper._pending = [pend] if pend.shape[0] else []
+        mapper._n_pending = int(pend.shape[0])
+        chg = np.asarray(data["skel_changed"], np.int64).reshape(-1, 2)
+        mapper._skel_changed = [chg] if chg.shape[0] else []
+        if bool(data["has_ridge_bbox"]):
+            mapper._ridge_bbox = tuple(int(v) for v in data["ridge_bbox"])
+        (
+            mapper._n_scans,
+            mapper._since_skeleton,
+            mapper._since_graph,
+            mapper._next_vertex,
+            mapper._next_edge,
+            mapper._n_ridge,
+        ) = (int(v) for v in data["counters"])
+        v_id = np.asarray(data["v_id"], np.int64)
+        v_px = np.asarray(data["v_pixel"], np.int64).reshape(-1, 2)
+        v_code = np.asarray(data["v_kind"], np.int8)
+        e_id = np.asarray(data["e_id"], np.int64)
+        e_uv = np.asarray(data["e_uv"], np.int64).reshape(-1, 2)
+        nv, ne = mapper._next_vertex, mapper._next_edge
+        for name, ids, n in (("vertex", v_id, nv), ("edge", e_id, ne)):
+            if ids.size and (ids.min() < 0 or ids.max() >= n):
+                raise ValueError(f"{name} ids must lie in [0, {n}), got {ids.min()}..{ids.max()}")
+        if not set(v_code.tolist()) <= set(_KIND_NAME):
+            raise ValueError(f"unknown vertex kind codes {sorted(set(v_code.tolist()))}")
+        reserve(mapper, vertices=nv, edges=ne)
+        mapper._v_key[v_id] = _pack(v_px[:, 0], v_px[:, 1])
+        mapper._v_code[v_id] = v_code
+        mapper._v_alive[v_id] = True
+        if e_uv.size and not mapper._v_alive[e_uv.ravel()].all():
+            raise ValueError("some edges end at unknown vertices")
+        if (np.asarray(data["e_len"]) < 1).any():
+            raise ValueError("edge path lengths must be positive")
+        bounds = np.concatenate([[0], np.cumsum(data["e_len"])])
+        paths = np.asarray(data["e_path"], np.int64).reshape(-1, 2)
+        if bounds[-1] != paths.shape[0]:
+            raise ValueError("edge path lengths do not add up to the stored paths")
+        mapper._e_uv[e_id] = e_uv
+        mapper._e_alive[e_id] = True
+        add_paths(mapper, e_id, paths.astype(np.int32), np.asarray(data["e_len"], np.int64))
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise ValueError(f"{p}: corrupt or inconsistent mapper state: {exc}") from None
+    return mapper
