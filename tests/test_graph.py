@@ -796,11 +796,10 @@ def test_merged_clusters_on_reference_skeletons(paper_reference, name):
 
 
 def test_direct_graph_fill_equals_the_public_networkx_calls():
-    """skeleton_to_graph writes networkx's dict-of-dict-of-dict structure directly; the
-    public add_node / add_edge calls with the same nodes and edges must give the same
-    graph: nodes, edge keys and their order, attributes, and one key dict shared by both
-    ends of every node pair (self-loops, parallel corridors, an isolated pixel and a ring
-    included)."""
+    """skeleton_to_graph fills its graph from a GraphStore with bulk networkx calls; one
+    add_node / add_edge call per node and edge must give the same graph: nodes, edge keys
+    and their order, attributes, and one key dict shared by both ends of every node pair
+    (self-loops, parallel corridors, an isolated pixel and a ring included)."""
     skel = np.zeros((12, 30), bool)
     skel[:5, :5] = art("""
         .#.#.
