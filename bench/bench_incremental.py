@@ -31,8 +31,8 @@ Usage (from the repository root)::
     python bench/bench_incremental.py                       # every CARMEN log
     python bench/bench_incremental.py --logs intel,aces --max-scans 300
 
-Results: ``bench/results/incremental_<machine>.json`` and a markdown summary
-(``bench/INCREMENTAL.md`` by default).
+Results: ``bench/results/incremental_<machine>.json``; the markdown tables are printed and,
+with ``--markdown FILE``, also written there.
 """
 
 from __future__ import annotations
@@ -49,7 +49,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import (  # noqa: E402
-    BENCH_DIR,
     DEFAULT_DATA,
     RESULTS_DIR,
     machine_info,
@@ -603,7 +602,7 @@ def main(argv=None) -> int:
     p.add_argument(
         "--out", type=Path, help="JSON output (default results/incremental_<machine>.json)"
     )
-    p.add_argument("--markdown", type=Path, default=BENCH_DIR / "INCREMENTAL.md")
+    p.add_argument("--markdown", type=Path, help="also write the printed tables to this file")
     p.add_argument("--rebuild-samples", type=int, default=3, help="timed full-map rebuilds per log")
     p.add_argument("--cold-scans", type=int, default=40, help="scans replayed by the cold worker")
     p.add_argument("--chunk", type=int, default=80, help="scans per naive/incremental chunk")
@@ -621,7 +620,8 @@ def main(argv=None) -> int:
         return 0
     if args.render:
         text = markdown(json.loads(args.render.read_text()))
-        write_text(args.markdown, text)
+        if args.markdown:
+            write_text(args.markdown, text)
         print(text)
         return 0
     args.paper_logs = {s for s in args.paper_logs.split(",") if s}
@@ -655,9 +655,11 @@ def main(argv=None) -> int:
     out = args.out or RESULTS_DIR / f"incremental_{machine_slug(info)}.json"
     write_json(out, results)
     text = markdown(results)
-    write_text(args.markdown, text)
     print(text)
-    print(f"wrote {out} and {args.markdown}")
+    if args.markdown:
+        write_text(args.markdown, text)
+        print(f"wrote {args.markdown}")
+    print(f"wrote {out}")
     return 0
 
 

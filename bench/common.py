@@ -42,12 +42,14 @@ __all__ = [
     "RESULTS_DIR",
     "StageSamples",
     "cpu_model",
+    "git_describe",
     "load_average",
     "machine_info",
     "machine_slug",
     "markdown_table",
     "paper_obstacles",
     "median",
+    "provenance",
     "ms",
     "run_cold_worker",
     "time_call",
@@ -302,16 +304,41 @@ def write_text(path: str | Path, text: str) -> Path:
     return path
 
 
+def git_describe() -> str | None:
+    """``git describe --always --dirty`` of the checkout being measured, or None."""
+    try:
+        out = subprocess.run(
+            ["git", "-C", str(REPO_ROOT), "describe", "--always", "--dirty"],
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=10,
+        ).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out or None
+
+
+def provenance() -> dict[str, Any]:
+    """``git_describe`` of the checkout and ``date_utc`` (ISO 8601) for a results file."""
+    return {
+        "git_describe": git_describe(),
+        "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+
+
 def write_json(path: Path, data: Mapping[str, Any]) -> Path:
     """Write ``data`` as indented JSON; returns the path.
 
-    Floats keep 7 significant digits, NaN and infinities become null, and innermost
-    objects and lists are written on one line.
+    The file starts with ``git_describe`` and ``date_utc`` (:func:`provenance`) unless
+    ``data`` already has them.  Floats keep 7 significant digits, NaN and infinities become
+    null, and innermost objects and lists are written on one line.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
-    text = json.dumps(_round_floats(dict(data)), indent=1)
+    data = {**provenance(), **dict(data)}
+    text = json.dumps(_round_floats(data), indent=1)
     # innermost objects and lists of numbers on one line each: small and still readable
     text = re.sub(r"[{\[][^{}\[\]\"]*(\"[^\"]*\"[^{}\[\]\"]*)*[}\]]", _one_line, text)
     tmp.write_text(text + "\n")

@@ -6,7 +6,7 @@ library could tune its own kernels without touching its users' other JAX work (u
 compiles the two kernels of :func:`topojax.dense_fields` (the column pass and everything
 after it) with and without the options, checks that all four outputs are identical on
 the paper maps, and times ``dense_fields`` with the two variants alternating in one
-process (medians; ``bench/README.md``, item 26).
+process (medians; ``docs/performance-notes.md``, "XLA compiler options").
 
 Run from the repository root::
 

@@ -8,8 +8,8 @@ array.  This script times :func:`topojax.build_graph` with NumPy's advice on and
 alternating in one process (``numpy._core.multiarray._set_madvise_hugepage``, the switch
 behind the ``NUMPY_MADVISE_HUGEPAGE`` environment variable), on the shared maps named
 with ``--maps`` and on synthetic maps of ``--synthetic`` megapixels (random walls,
-reproducible), and reports the medians and the worst call of each (``bench/README.md``,
-item 27).
+reproducible), and reports the medians and the worst call of each (``docs/performance-notes.md``,
+"Huge pages").
 
 Run from the repository root::
 

@@ -1,6 +1,6 @@
 """Probe: what the distance stage's row pass costs, and what skipping its offsets could save.
 
-Two measurements on the paper maps (``bench/README.md``, item 25):
+Two measurements on the paper maps (``docs/performance-notes.md``, "Row pass"):
 
 ``floor``
     :func:`topojax.dense_fields` as shipped, alternating with the same code whose row pass

@@ -1,0 +1,81 @@
+"""The documentation builds and its links resolve.
+
+``mkdocs build --strict`` fails on a page missing from the nav or a nav entry without a
+page, a broken link between pages, and a docstring that mkdocstrings cannot render; it
+runs offline.  The link check covers README.md as well, whose links point into the
+repository rather than into the built site.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+
+# [text](target) and ![alt](target); the target ends at whitespace or ')'.
+_LINK = re.compile(r"!?\[[^\]]*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
+_FENCE = re.compile(r"^\s*(```|~~~)")
+
+
+def _markdown_files() -> list[Path]:
+    return [ROOT / "README.md", *sorted(DOCS.glob("*.md"))]
+
+
+def _relative_links(path: Path) -> list[tuple[int, str]]:
+    """``(line number, target)`` of every relative link outside fenced code blocks."""
+    links = []
+    in_code = False
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if _FENCE.match(line):
+            in_code = not in_code
+            continue
+        if in_code:
+            continue
+        line = re.sub(r"`[^`]*`", "", line)  # inline code is not a link
+        for target in _LINK.findall(line):
+            if re.match(r"^[a-z][a-z0-9+.-]*:", target, re.I) or target.startswith("#"):
+                continue  # http:, https:, mailto:, in-page anchors
+            links.append((number, target))
+    return links
+
+
+@pytest.mark.parametrize("path", _markdown_files(), ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_relative_links_point_to_files(path: Path) -> None:
+    missing = []
+    for number, target in _relative_links(path):
+        file_part = target.split("#", 1)[0]
+        if not (path.parent / file_part).exists():
+            missing.append(f"{path.name}:{number}: {target}")
+    assert not missing, "links to missing files:\n" + "\n".join(missing)
+
+
+def test_link_pattern_finds_links() -> None:
+    # the check above is only as good as its pattern
+    assert _LINK.findall("see [a](b.md) and ![c](img/d.png) but not `[e](f.md)`") == [
+        "b.md",
+        "img/d.png",
+        "f.md",
+    ]
+
+
+@pytest.mark.skipif(
+    importlib.util.find_spec("mkdocs") is None or importlib.util.find_spec("mkdocstrings") is None,
+    reason="mkdocs and mkdocstrings are not installed",
+)
+def test_mkdocs_build_strict(tmp_path: Path) -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "-d", str(tmp_path / "site")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]
+    assert (tmp_path / "site" / "api.html").is_file()
