@@ -8,6 +8,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from .._constants import MODES
 from ._options import add_pipeline_options, add_sigma_options, pipeline_config
 
 
@@ -63,8 +64,6 @@ def _cmd_batch(args) -> int:
 
 def add_command(subparsers) -> None:
     """Register the ``batch`` subcommand on an ``argparse`` subparsers object."""
-    from ..maps import MODES
-
     p = subparsers.add_parser(
         "batch",
         help="build the graphs of many maps (batched kernels, parallel CPU stages)",

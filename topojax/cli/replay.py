@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .._constants import STRATEGIES
 from ._options import add_graph_options, add_nav2_options, graph_config, nav2_tolerance
 
 
@@ -40,8 +41,6 @@ def _cmd_replay(args) -> int:
 
 def add_command(subparsers) -> None:
     """Register the ``replay`` subcommand on an ``argparse`` subparsers object."""
-    from ..incremental import STRATEGIES
-
     p = subparsers.add_parser(
         "replay",
         help="build the topology graph incrementally from a laser log",
