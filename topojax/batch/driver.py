@@ -20,7 +20,14 @@ from .._fs import output_folder, refuse_overwriting_inputs
 from .._validate import positive_metres
 from ..config import DistanceConfig, PipelineConfig
 from ..maps import MODES, OccupancyMap
-from .inputs import _FORMAT_SUFFIX, _MANIFEST_SUFFIX, _PICTURE_SUFFIX, _assign_names, _Item
+from .inputs import (
+    _FORMAT_SUFFIX,
+    _MANIFEST_SUFFIX,
+    _PICTURE_SUFFIX,
+    _assign_names,
+    _check_formats,
+    _Item,
+)
 from .manifest import _fingerprint, _forget_outputs, _normalise, _resume_record, _write_manifest
 from .records import MapRecord, write_summary
 from .worker import (
@@ -480,24 +487,6 @@ class _BatchRun:
                 return rec
             rec.outputs = (*rec.outputs, manifest)
         return rec
-
-
-def _check_formats(formats: Any) -> tuple[str, ...]:
-    if isinstance(formats, str):
-        formats = [f for f in formats.split(",") if f.strip()]
-    try:
-        items = [str(f).strip().lower().lstrip(".") for f in formats]
-    except TypeError:
-        raise TypeError(
-            f"formats: expected a sequence of format names, got {type(formats).__name__}"
-        ) from None
-    allowed = tuple(_FORMAT_SUFFIX)
-    bad = [f for f in items if f not in allowed]
-    if bad:
-        raise ValueError(f"formats: expected names from {allowed}, got {bad!r}")
-    if not items:
-        raise ValueError(f"formats: expected at least one of {allowed}, got none")
-    return tuple(dict.fromkeys(items))
 
 
 def _positive_int(name: str, value: Any, *, minimum: int = 1) -> int:

@@ -6,15 +6,16 @@ from __future__ import annotations
 import glob as _glob
 import os
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from .._fs import yaml_image
 from ..io import GRAPH_FORMATS
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, OccupancyMap
 
-__all__ = ["expand_braces", "expand_map_inputs"]
+__all__ = ["expand_braces", "expand_map_inputs", "planned_outputs"]
 
 _MAP_SUFFIXES = tuple(YAML_SUFFIXES) + tuple(IMAGE_SUFFIXES)
 _MANIFEST_SUFFIX = ".manifest.json"
@@ -240,3 +241,51 @@ def _output_files(name: str) -> list[str]:
     """Every file name a map called ``name`` may write (any formats, picture, manifest)."""
     suffixes = [*_FORMAT_SUFFIX.values(), _PICTURE_SUFFIX, _MANIFEST_SUFFIX]
     return [name + suffix for suffix in suffixes]
+
+
+def _check_formats(formats: Any) -> tuple[str, ...]:
+    if isinstance(formats, str):
+        formats = [f for f in formats.split(",") if f.strip()]
+    try:
+        items = [str(f).strip().lower().lstrip(".") for f in formats]
+    except TypeError:
+        raise TypeError(
+            f"formats: expected a sequence of format names, got {type(formats).__name__}"
+        ) from None
+    allowed = tuple(_FORMAT_SUFFIX)
+    bad = [f for f in items if f not in allowed]
+    if bad:
+        raise ValueError(f"formats: expected names from {allowed}, got {bad!r}")
+    if not items:
+        raise ValueError(f"formats: expected at least one of {allowed}, got none")
+    return tuple(dict.fromkeys(items))
+
+
+def planned_outputs(
+    paths: Sequence[str | os.PathLike[str]], *, formats: Sequence[str] | str, plot: bool
+) -> dict[str, Path]:
+    """The files a batch of the map files ``paths`` writes for its maps.
+
+    Parameters
+    ----------
+    paths : sequence of str or path
+        The map files, in the order given to :func:`topojax.build_graphs`.
+    formats, plot
+        As for :func:`topojax.build_graphs`.
+
+    Returns
+    -------
+    dict of str to Path
+        Each output file, relative to ``out_dir`` (``/``-separated), and the map file it is
+        made from; the summary table is not included.
+    """
+    fmts = _check_formats(formats)
+    sources = [Path(p) for p in paths]
+    suffixes = [_FORMAT_SUFFIX[f] for f in fmts] + [_MANIFEST_SUFFIX]
+    suffixes += [_PICTURE_SUFFIX] * bool(plot)
+    names = _assign_names(list(sources))
+    return {
+        name + suffix: source
+        for name, source in zip(names, sources, strict=True)
+        for suffix in suffixes
+    }

@@ -6,6 +6,7 @@ from __future__ import annotations
 import glob as _glob
 import hashlib
 import json
+import os
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +16,8 @@ from .._fs import atomic_write_bytes, yaml_image
 from ..maps import YAML_SUFFIXES
 from .inputs import _FORMAT_SUFFIX, _MANIFEST_SUFFIX, _PICTURE_SUFFIX, _Item
 from .records import SUMMARY_COLUMNS, MapRecord
+
+__all__ = ["batch_input"]
 
 _MANIFEST_VERSION = 1
 
@@ -149,3 +152,26 @@ def _forget_outputs(item: _Item, *, out_dir: Path | None, formats: tuple[str, ..
         for suffix in suffixes:  # leftovers of atomic writes killed mid-way
             for tmp in folder.glob(f".{_glob.escape(base + suffix)}.*.tmp"):
                 tmp.unlink(missing_ok=True)
+
+
+def batch_input(target: str | os.PathLike[str]) -> str | None:
+    """The input of the batch map that wrote the file ``target``, as the batch was given
+    it (its manifest's ``path``; ``""`` for a map object without a source), or None when
+    no manifest beside ``target`` lists it."""
+    target = Path(target)
+    name = target.name
+    for suffix in (*_FORMAT_SUFFIX.values(), _PICTURE_SUFFIX, _MANIFEST_SUFFIX):
+        if not name.endswith(suffix):
+            continue
+        manifest = target.with_name(name[: -len(suffix)] + _MANIFEST_SUFFIX)
+        try:
+            doc = json.loads(manifest.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        files = doc.get("files") if isinstance(doc, dict) else None
+        if not isinstance(files, dict):
+            continue
+        if suffix == _MANIFEST_SUFFIX or any(Path(rel).name == name for rel in files):
+            path = doc.get("path")
+            return path if isinstance(path, str) else ""
+    return None
