@@ -605,16 +605,9 @@ def build_graphs(
         sigma_m=sigma_m,
         out_dir=out_dir,
     )
-    tpc = _positive_int(
-        "tiles_per_call",
-        max(config.tiles_per_call, _DEFAULT_TILES_PER_CALL)
-        if tiles_per_call is None
-        else tiles_per_call,
+    tpc, threads, group_tiles = _kernel_settings(
+        config, tiles_per_call, kernel_threads, batch_tiles
     )
-    threads = _positive_int(
-        "kernel_threads", _default_kernel_threads() if kernel_threads is None else kernel_threads
-    )
-    group_tiles = _positive_int("batch_tiles", 16 * tpc if batch_tiles is None else batch_tiles)
     keep = out_dir is None if keep_graphs is None else bool(keep_graphs)
     executor = _as_executor(executor)
     n_workers = (os.cpu_count() or 1) if workers is None else workers
@@ -653,6 +646,27 @@ def build_graphs(
     if out is not None:
         write_summary(records, out)
     return records
+
+
+def _kernel_settings(
+    config: PipelineConfig,
+    tiles_per_call: int | None,
+    kernel_threads: int | None,
+    batch_tiles: int | None,
+) -> tuple[int, int, int]:
+    """The checked ``(tiles_per_call, kernel_threads, batch_tiles)`` of
+    :func:`build_graphs`, defaults filled in."""
+    tpc = _positive_int(
+        "tiles_per_call",
+        max(config.tiles_per_call, _DEFAULT_TILES_PER_CALL)
+        if tiles_per_call is None
+        else tiles_per_call,
+    )
+    threads = _positive_int(
+        "kernel_threads", _default_kernel_threads() if kernel_threads is None else kernel_threads
+    )
+    group_tiles = _positive_int("batch_tiles", 16 * tpc if batch_tiles is None else batch_tiles)
+    return tpc, threads, group_tiles
 
 
 def _map_inputs(
