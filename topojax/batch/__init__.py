@@ -19,7 +19,10 @@ from __future__ import annotations
 from .driver import build_graphs
 from .inputs import expand_braces, expand_map_inputs
 from .records import SUMMARY_COLUMNS, MapRecord, write_summary
-from .worker import InlineExecutor
+from .worker import (
+    InlineExecutor,
+    _worker_context,  # noqa: F401 - bench/bench_batch.py starts workers alike
+)
 
 __all__ = [
     "SUMMARY_COLUMNS",
