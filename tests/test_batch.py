@@ -495,7 +495,7 @@ def test_output_names_never_share_a_file(tmp_path, capsys):
     """A map ``x_nav2`` beside a map ``x`` would write ``x_nav2.geojson``, the Nav2 graph of
     ``x``: both maps reported ok while one file replaced the other, and every resume redid
     one of them.  Each map must get files of its own."""
-    from topojax.batch import _assign_names, _output_files
+    from topojax.batch.inputs import _assign_names, _output_files
     from topojax.cli import main
 
     names = _assign_names([Path("m/x.png"), Path("m/x_nav2.png"), Path("m/y_graph.png")])

@@ -36,53 +36,39 @@ Graphs
 
 from __future__ import annotations
 
-from .config import (
-    DistanceConfig,
-    GraphConfig,
-    PipelineConfig,
-    RidgeConfig,
-    SkeletonConfig,
-)
-from .datasets import sample_map
-from .graph import graph_summary, prune_graph, skeleton_to_graph
-from .io import load_graph, save_graph, save_nav2_graph
-from .maps import OccupancyMap, load_map, save_map
-from .pipeline import (
-    TopologyResult,
-    build_graph,
-    dense_fields,
-    distance_map,
-    ridge_map,
-)
-from .routing import NoRouteError, Route, RoutePlanner, plan_route
-from .scans import Scan, read_bag, read_carmen, read_scans
-from .skeleton import remove_t_centres, thin
+import importlib
+from typing import TYPE_CHECKING
 
-# Imported on first use: the incremental mapper and the batch runner are larger modules
-# that a user of the full-map pipeline (and every batch worker process) need not load.
-_LAZY = {
-    "IncrementalMapper": "incremental",
-    "ScanReport": "incremental",
-    "GraphUpdate": "incremental",
-    "replay": "incremental",
-    "vertex_error_metrics": "incremental",
-    "build_graphs": "batch",
-    "MapRecord": "batch",
-}
-
-
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'topojax' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-__version__ = "0.1.0"
+if TYPE_CHECKING:  # the names for type checkers; at run time they load on first use
+    from .batch import MapRecord, build_graphs
+    from .config import (
+        DistanceConfig,
+        GraphConfig,
+        PipelineConfig,
+        RidgeConfig,
+        SkeletonConfig,
+    )
+    from .datasets import sample_map
+    from .graph import graph_summary, prune_graph, skeleton_to_graph
+    from .incremental import (
+        GraphUpdate,
+        IncrementalMapper,
+        ScanReport,
+        replay,
+        vertex_error_metrics,
+    )
+    from .io import load_graph, save_graph, save_nav2_graph
+    from .maps import OccupancyMap, load_map, save_map
+    from .pipeline import (
+        TopologyResult,
+        build_graph,
+        dense_fields,
+        distance_map,
+        ridge_map,
+    )
+    from .routing import NoRouteError, Route, RoutePlanner, plan_route
+    from .scans import Scan, read_bag, read_carmen, read_scans
+    from .skeleton import remove_t_centres, thin
 
 __all__ = [
     "DistanceConfig",
@@ -125,6 +111,91 @@ __all__ = [
     "thin",
     "vertex_error_metrics",
 ]
+
+#: The same as ``version`` in pyproject.toml.
+__version__ = "0.1.0"
+
+# Every public name and the module that defines it.  ``import topojax`` loads none of
+# them (JAX, numba and the map readers take seconds to import); a name's module is
+# imported on its first use, e.g. ``topojax.build_graph`` or ``from topojax import thin``.
+_LAZY = {
+    "DistanceConfig": "config",
+    "GraphConfig": "config",
+    "PipelineConfig": "config",
+    "RidgeConfig": "config",
+    "SkeletonConfig": "config",
+    "sample_map": "datasets",
+    "graph_summary": "graph",
+    "prune_graph": "graph",
+    "skeleton_to_graph": "graph",
+    "load_graph": "io",
+    "save_graph": "io",
+    "save_nav2_graph": "io",
+    "OccupancyMap": "maps",
+    "load_map": "maps",
+    "save_map": "maps",
+    "TopologyResult": "pipeline",
+    "build_graph": "pipeline",
+    "dense_fields": "pipeline",
+    "distance_map": "pipeline",
+    "ridge_map": "pipeline",
+    "NoRouteError": "routing",
+    "Route": "routing",
+    "RoutePlanner": "routing",
+    "plan_route": "routing",
+    "Scan": "scans",
+    "read_bag": "scans",
+    "read_carmen": "scans",
+    "read_scans": "scans",
+    "remove_t_centres": "skeleton",
+    "thin": "skeleton",
+    "IncrementalMapper": "incremental",
+    "ScanReport": "incremental",
+    "GraphUpdate": "incremental",
+    "replay": "incremental",
+    "vertex_error_metrics": "incremental",
+    "build_graphs": "batch",
+    "MapRecord": "batch",
+}
+
+#: Submodules reachable as attributes (``topojax.pipeline``) before they are imported,
+#: as when ``import topojax`` loaded them.
+_SUBMODULES = frozenset(
+    (
+        "batch",
+        "cli",
+        "config",
+        "datasets",
+        "distance",
+        "filters",
+        "graph",
+        "incremental",
+        "io",
+        "maps",
+        "pipeline",
+        "plotting",
+        "routing",
+        "scans",
+        "skeleton",
+        "tiling",
+    )
+)
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is not None:
+        value = getattr(importlib.import_module(f".{module}", __name__), name)
+    elif name in _SUBMODULES:
+        value = importlib.import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module 'topojax' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__) | _SUBMODULES)
 
 
 def plot(result, **kwargs):

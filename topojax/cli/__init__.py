@@ -7,24 +7,27 @@ import argparse
 import os
 import sys
 
-__all__ = ["main"]
-
-
+from .. import __version__
+from .._constants import MODES
 from . import batch, replay
 from ._options import add_nav2_options, add_pipeline_options, add_sigma_options
 from .graph import _cmd_demo, _cmd_graph
 from .route import _cmd_route
 
+__all__ = ["build_parser", "main"]
+
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..maps import MODES
-
+    """The ``topojax`` argument parser; building it imports no JAX, numba or readers."""
     parser = argparse.ArgumentParser(
         prog="topojax",
         description="Topology (route) graphs from 2-D robot maps via Gaussian distance maps.",
         epilog="Compiled JAX kernels are kept in $XDG_CACHE_HOME/topojax/jax (default "
         "~/.cache/topojax/jax) unless JAX_COMPILATION_CACHE_DIR is set; "
         "TOPOJAX_NO_JAX_CACHE=1 turns that off.",
+    )
+    parser.add_argument(
+        "--version", action="version", version=f"%(prog)s {__version__}", help="print the version"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -102,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="write waypoints that keep every route pixel within M metres instead of every "
         "pixel (default: every pixel)",
     )
-    p.set_defaults(handler=_cmd_route)
+    p.set_defaults(handler=_cmd_route, runs_kernels=False)
 
     replay.add_command(sub)
     batch.add_command(sub)
@@ -137,7 +140,8 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``topojax`` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    _use_compilation_cache()
+    if getattr(args, "runs_kernels", True):  # route only reads a graph: no JAX
+        _use_compilation_cache()
     try:
         return int(args.handler(args) or 0)
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:

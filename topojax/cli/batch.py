@@ -8,13 +8,19 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from .._constants import MODES
 from ._options import add_pipeline_options, add_sigma_options, pipeline_config
+from ._outputs import OUT_OPTION, check_outputs
 
 
 def _cmd_batch(args) -> int:
     from ..batch import build_graphs, expand_map_inputs
+    from ..batch.inputs import planned_outputs
 
     paths = expand_map_inputs(args.inputs, exclude=args.out)
+    planned = planned_outputs(paths, formats=args.formats, plot=args.plot)
+    claims = {Path(args.out) / rel: source for rel, source in planned.items()}
+    check_outputs(claims, command="batch", option=OUT_OPTION)
     config = pipeline_config(args)  # --sigma-m goes to build_graphs: per map
     client = None
     executor = None
@@ -63,8 +69,6 @@ def _cmd_batch(args) -> int:
 
 def add_command(subparsers) -> None:
     """Register the ``batch`` subcommand on an ``argparse`` subparsers object."""
-    from ..maps import MODES
-
     p = subparsers.add_parser(
         "batch",
         help="build the graphs of many maps (batched kernels, parallel CPU stages)",

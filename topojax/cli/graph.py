@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from ._options import nav2_tolerance, pipeline_config
+from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
 def _write_outputs(result, out_dir: Path, stem: str, *, plot: bool, stages: bool) -> list[Path]:
@@ -95,7 +96,9 @@ def _cmd_graph(args) -> int:
         kw["negate"] = True
     tolerance = nav2_tolerance(args)  # checked before the pipeline runs and writes anything
     stem = Path(args.map).stem
-    _check_outputs_spare_inputs(Path(args.map), Path(args.out), stem, args)
+    targets = [Path(args.out) / name for name in _graph_files(stem, args)]
+    _check_outputs_spare_inputs(Path(args.map), targets)
+    check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
     occupancy = load_map(args.map, **kw)
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
@@ -119,26 +122,38 @@ def _cmd_graph(args) -> int:
     first = "the process's first call: it includes loading or compiling the kernels"
     for line in [*_summary_lines(str(args.map), result, timing_note=first), *notes]:
         print(line)
+    record_outputs(planned(written, args.map), command="graph")
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
 
 
-def _check_outputs_spare_inputs(map_path: Path, out: Path, stem: str, args) -> None:
+def _graph_files(stem: str, args) -> list[str]:
+    """The names of the files ``topojax graph`` writes for a map called ``stem``."""
+    names = [f"{stem}{s}" for s in (".graphml", ".json", ".geojson")]
+    names += [f"{stem}.png"] * bool(args.plot) + [f"{stem}_stages.png"] * bool(args.stages)
+    names += [f"{stem}_nav2.geojson"] * bool(args.nav2)
+    return names
+
+
+def _check_outputs_spare_inputs(map_path: Path, targets: list[Path]) -> None:
     """Refuse, before any work, an output folder where a file written would replace the
     input map or the image its YAML refers to (``-o`` being the map's own folder, with
     ``--plot`` writing ``<stem>.png``)."""
     from .._fs import refuse_overwriting_inputs
 
-    names = [f"{stem}{s}" for s in (".graphml", ".json", ".geojson")]
-    names += [f"{stem}.png"] * bool(args.plot) + [f"{stem}_stages.png"] * bool(args.stages)
-    names += [f"{stem}_nav2.geojson"] * bool(args.nav2)
-    refuse_overwriting_inputs([map_path], [out / n for n in names], option="--out")
+    refuse_overwriting_inputs([map_path], targets, option="--out")
 
 
 def _cmd_demo(args) -> int:
     from ..datasets import sample_map, sample_map_path
     from ..pipeline import build_graph
 
+    out = Path(args.out)
+    source = sample_map_path(args.map)
+    names = [f"{args.map}{s}" for s in (".graphml", ".json", ".geojson", ".png", "_stages.png")]
+    summary_path = out / f"{args.map}_summary.json"
+    targets = [*(out / name for name in names), summary_path]
+    check_outputs(planned(targets, source), command="demo", option=OUT_OPTION)
     occupancy = sample_map(args.map)
     config = pipeline_config(args)
     t0 = time.perf_counter()
@@ -149,7 +164,6 @@ def _cmd_demo(args) -> int:
         t0 = time.perf_counter()
         result = build_graph(occupancy, config=config)
         warm.append(time.perf_counter() - t0)
-    out = Path(args.out)
     written = _write_outputs(result, out, f"{args.map}", plot=True, stages=True)
     print(
         f"topojax demo: bundled map '{args.map}' ({sample_map_path(args.map).name}, MIT, "
@@ -170,5 +184,6 @@ def _cmd_demo(args) -> int:
         "warm_s": sorted(warm)[1],
         "timings_s": result.timings_s,
     }
-    (out / f"{args.map}_summary.json").write_text(json.dumps(summary, indent=2))
+    summary_path.write_text(json.dumps(summary, indent=2))
+    record_outputs(planned(targets, source), command="demo")
     return 0

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from .._constants import STRATEGIES
 from ._options import add_graph_options, add_nav2_options, graph_config, nav2_tolerance
+from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
 def _cmd_replay(args) -> int:
@@ -20,6 +24,10 @@ def _cmd_replay(args) -> int:
             reader_kwargs[name] = getattr(args, name)
     if args.allow_missing_pose:
         reader_kwargs["allow_missing_pose"] = True
+    check_outputs(_replay_claims(args), command="replay", option=OUT_OPTION)
+    if args.animate is not None:
+        animation = planned([args.animate], args.source)
+        check_outputs(animation, command="replay", option="--animate")
     summary = replay(
         args.source,
         out_dir=args.out,
@@ -32,16 +40,24 @@ def _cmd_replay(args) -> int:
         graph_config=graph_config(args),
         **kw,
     )
+    record_outputs(planned(summary["written"], args.source), command="replay")
     if args.no_progress:
         print(summary_text(summary))
     print("wrote      " + ", ".join(summary["written"]))
     return 0
 
 
+def _replay_claims(args) -> dict:
+    """The files :func:`topojax.replay` writes into ``--out`` (the names it uses)."""
+    names = ["graph.graphml", "graph.json", "graph.geojson"]
+    names += ["graph_nav2.geojson"] * bool(args.nav2)
+    names += ["map.yaml", "map.pgm", "timings.json"]
+    names += ["graph.png", "stages.png"] * bool(args.plot)
+    return planned([Path(args.out) / name for name in names], args.source)
+
+
 def add_command(subparsers) -> None:
     """Register the ``replay`` subcommand on an ``argparse`` subparsers object."""
-    from ..incremental import STRATEGIES
-
     p = subparsers.add_parser(
         "replay",
         help="build the topology graph incrementally from a laser log",

@@ -7,6 +7,8 @@ import os
 import sys
 from pathlib import Path
 
+from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+
 
 def _cmd_route(args) -> int:
     from ..io import load_graph
@@ -18,6 +20,8 @@ def _cmd_route(args) -> int:
         positive_metres("--simplify-m", args.simplify_m)
     if args.out and os.path.realpath(args.out) == os.path.realpath(args.graph):
         raise ValueError(f"-o: writing the route to {args.out} would overwrite the graph file")
+    if args.out:
+        check_outputs(planned([args.out], args.graph), command="route", option=OUT_OPTION)
     graph = load_graph(args.graph)
     frame = "pixel" if args.pixel else "world"
     try:
@@ -36,5 +40,6 @@ def _cmd_route(args) -> int:
         out = Path(args.out)
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(route.to_geojson(tolerance_m=args.simplify_m)))
+        record_outputs(planned([out], args.graph), command="route")
         print(f"wrote      {out}")
     return 0

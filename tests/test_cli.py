@@ -1,0 +1,176 @@
+"""The command line: start-up cost (what ``import topojax`` and the parser load),
+``--version``, and output folders shared by several commands or inputs."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import topojax
+from topojax.cli import build_parser
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("jax", "numba", "matplotlib", "scipy", "networkx", "PIL", "yaml")
+
+
+def _python(code: str) -> str:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
+    )
+    return out.stdout.strip()
+
+
+def _loaded_after(statement: str) -> list[str]:
+    code = f"import sys; {statement}; print(' '.join(m for m in {HEAVY!r} if m in sys.modules))"
+    return _python(code).split()
+
+
+def test_import_topojax_loads_no_heavy_module():
+    assert _loaded_after("import topojax") == []
+
+
+def test_building_the_parser_loads_no_heavy_module():
+    assert _loaded_after("from topojax.cli import build_parser; build_parser()") == []
+
+
+def test_names_load_on_first_use():
+    code = (
+        "import sys, topojax; from topojax import OccupancyMap, GraphConfig; "
+        "print('jax' in sys.modules, OccupancyMap.__module__, GraphConfig.__module__)"
+    )
+    assert _python(code) == "False topojax.maps topojax.config"
+    assert set(topojax.__all__) <= set(dir(topojax))
+    assert topojax.pipeline.build_graph is topojax.build_graph
+
+
+def test_version():
+    pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    version = re.search(r'^version = "([^"]+)"', pyproject, re.M).group(1)
+    assert topojax.__version__ == version
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run(
+        [sys.executable, "-m", "topojax.cli", "--version"],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=env,
+    )
+    assert out.stdout.strip() == f"topojax {version}"
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args(["--version"])
+    assert exit_.value.code == 0
+
+
+def test_parser_constants_match_their_modules():
+    from topojax._constants import MODES, STRATEGIES
+    from topojax.incremental import STRATEGIES as incremental_strategies
+    from topojax.maps import MODES as maps_modes
+
+    assert MODES == maps_modes
+    assert STRATEGIES == incremental_strategies
+
+
+# ---------------------------------------------------------------------- shared output folders
+
+
+def _ros_map(folder: Path, *, wall_col: int) -> Path:
+    """A small map_server map ``folder/map.yaml`` (+ ``map.pgm``): a room with one wall."""
+    import numpy as np
+
+    from topojax.maps import OccupancyMap, save_map
+
+    occupied = np.zeros((40, 48), bool)
+    occupied[[0, -1], :] = True
+    occupied[:, [0, -1]] = True
+    occupied[5:30, wall_col] = True
+    occ = OccupancyMap(occupied=occupied, free=~occupied, unknown=np.zeros_like(occupied))
+    folder.mkdir(parents=True)
+    save_map(occ, folder / "map.yaml")
+    return folder / "map.yaml"
+
+
+def _bytes(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+def test_outputs_of_another_input_are_not_overwritten(tmp_path, capsys):
+    from topojax.cli import main
+
+    a = _ros_map(tmp_path / "a", wall_col=20)
+    b = _ros_map(tmp_path / "b", wall_col=30)
+    out = tmp_path / "out"
+    assert main(["graph", str(a), "-o", str(out)]) == 0
+    assert main(["graph", str(a), "-o", str(out)]) == 0  # the same command again: fine
+    capsys.readouterr()
+    before = _bytes(out)
+    assert main(["graph", str(b), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "-o/--out" in err and str(out / "map.graphml") in err and str(a.resolve()) in err
+    assert "another folder" in err and str(b.resolve()) in err
+    assert _bytes(out) == before, "nothing was written"
+    # another command on the same input may not overwrite them either
+    argv = ["batch", str(a), "-o", str(out), "--workers", "0", "--no-progress"]
+    assert main(argv) == 2
+    assert "'topojax graph'" in capsys.readouterr().err
+    assert _bytes(out) == before
+    # a folder of its own works
+    assert main(["graph", str(b), "-o", str(out / "b")]) == 0
+
+
+def test_batch_outputs_are_guarded_by_their_manifests(tmp_path, capsys):
+    from topojax.cli import main
+
+    a = _ros_map(tmp_path / "a", wall_col=20)
+    b = _ros_map(tmp_path / "b", wall_col=30)
+    out = tmp_path / "out"
+    base = ["-o", str(out), "--workers", "0", "--no-progress", "--formats", "json"]
+    assert main(["batch", str(a), *base]) == 0
+    assert main(["batch", str(a), *base]) == 0  # rerun: its own outputs
+    capsys.readouterr()
+    before = _bytes(out)
+    assert main(["batch", str(b), *base]) == 2
+    err = capsys.readouterr().err
+    assert str(out / "map.json") in err and str(a.resolve()) in err
+    assert main(["graph", str(a), "-o", str(out)]) == 2
+    assert "'topojax batch'" in capsys.readouterr().err
+    assert _bytes(out) == before
+
+
+def test_route_and_unrecorded_files(tmp_path, capsys):
+    from topojax.cli import main
+
+    a = _ros_map(tmp_path / "a", wall_col=20)
+    out = tmp_path / "out"
+    (out).mkdir()
+    (out / "map.json").write_text("written by hand")  # not recorded: replaced as before
+    assert main(["graph", str(a), "-o", str(out)]) == 0
+    assert (out / "map.json").read_text() != "written by hand"
+    capsys.readouterr()
+    route = ["route", str(out / "map.json"), "--start", "0.3", "0.3", "--goal", "0.3", "1.5"]
+    assert main([*route, "-o", str(out / "map.geojson")]) == 2
+    assert "would overwrite" in capsys.readouterr().err
+    assert main([*route, "-o", str(out / "route.geojson")]) == 0
+    assert main([*route, "-o", str(out / "route.geojson")]) == 0  # its own file again
+
+
+def test_output_record_rules(tmp_path):
+    from topojax.cli._outputs import RECORD_NAME, check_outputs, planned, record_outputs
+
+    files = [tmp_path / "x.json", tmp_path / "sub" / "y.json"]
+    (tmp_path / "sub").mkdir()
+    for f in files:
+        f.write_text("1")
+    record_outputs(planned(files, "in/a.yaml"), command="graph")
+    assert (tmp_path / RECORD_NAME).is_file() and (tmp_path / "sub" / RECORD_NAME).is_file()
+    check_outputs(planned(files, "in/a.yaml"), command="graph", option="-o/--out")
+    for command, source in (("graph", "in/b.yaml"), ("replay", "in/a.yaml")):
+        with pytest.raises(ValueError, match="would overwrite"):
+            check_outputs(planned(files, source), command=command, option="-o/--out")
+    files[0].unlink()  # a recorded file that is gone no longer counts
+    check_outputs(planned(files[:1], "in/b.yaml"), command="graph", option="-o/--out")

@@ -1,0 +1,772 @@
+"""The batch driver: :func:`build_graphs` and the calling-process side of a batch
+(loading, batched JAX kernels, handing maps to the CPU stage, records, manifests)."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import os
+import sys
+import threading
+import time
+from collections import Counter, deque
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fs import output_folder, refuse_overwriting_inputs
+from .._validate import positive_metres
+from ..config import DistanceConfig, PipelineConfig
+from ..maps import MODES, OccupancyMap
+from .inputs import (
+    _FORMAT_SUFFIX,
+    _MANIFEST_SUFFIX,
+    _PICTURE_SUFFIX,
+    _assign_names,
+    _check_formats,
+    _Item,
+)
+from .manifest import _fingerprint, _forget_outputs, _normalise, _resume_record, _write_manifest
+from .records import MapRecord, write_summary
+from .worker import (
+    InlineExecutor,
+    _cpu_stage,
+    _CpuJob,
+    _CpuResult,
+    _error_text,
+    _load_here,
+    _load_in_worker,
+    _Loaded,
+    _loaded_from_bits,
+    _LoadedBits,
+    _warm_worker,
+    _worker_context,
+)
+
+__all__ = ["build_graphs"]
+
+#: Default kernel bucket of a batch: several tiles per call mean fewer dispatches (empty
+#: padding tiles are nearly free).
+_DEFAULT_TILES_PER_CALL = 16
+# Kernel buckets (tile_px, tiles_per_call, half_width_px, ksize) already traced in this
+# process, and the lock that makes the first call of a bucket run alone.
+_COMPILED_BUCKETS: set[tuple[int, ...]] = set()
+_COMPILE_LOCK = threading.Lock()
+
+
+def _ridge_clearance(fields: Any, obstacles: np.ndarray, half_width_px: int) -> np.ndarray:
+    """Exact clearance (px, float32) at the ridge pixels, in raster order."""
+    from ..pipeline import clearance_at
+
+    return clearance_at(
+        fields.sq_distance_px, obstacles, half_width_px, np.flatnonzero(fields.ridges)
+    )
+
+
+class _BatchRun:
+    def __init__(
+        self,
+        items: list[_Item],
+        *,
+        executor: cf.Executor | None,
+        workers: int,
+        config: PipelineConfig,
+        out_dir: Path | None,
+        formats: tuple[str, ...],
+        plot: bool,
+        keep_graphs: bool,
+        tiles_per_call: int,
+        kernel_threads: int,
+        batch_tiles: int,
+        progress: bool,
+        resume: bool,
+        request: dict[str, Any],
+        fingerprints: dict[int, dict[str, Any] | None],
+        map_mode: str | None = None,
+        sigma_m: float | None = None,
+    ) -> None:
+        self.items = items
+        self.map_mode = map_mode
+        self.sigma_m = sigma_m
+        self._configs: dict[float, PipelineConfig] = {}
+        self.executor = executor
+        self.owns_executor = executor is None
+        self.workers = workers
+        self.config = config
+        self.out_dir = out_dir
+        self.formats = formats
+        self.plot = plot
+        self.keep_graphs = keep_graphs
+        self.tiles_per_call = tiles_per_call
+        self.kernel_threads = kernel_threads
+        self.batch_tiles = batch_tiles
+        self.progress = progress
+        self.resume = resume
+        self.request = request
+        self.fingerprints = fingerprints
+        self.prefetch = max(8, 4 * kernel_threads)
+        # CPU jobs queued at most: small for the own pool, whose FIFO also carries the map
+        # reads the kernels wait for; an outside executor's size is unknown.
+        self.cpu_backlog = max(4, 3 * workers) if executor is None else 64
+        self._restarts = 0
+
+    # ---------------------------------------------------------------- executor handling
+    def _new_executor(self) -> cf.Executor:
+        if self.workers == 0:
+            return InlineExecutor()
+        ex = cf.ProcessPoolExecutor(max_workers=self.workers, mp_context=_worker_context())
+        for _ in range(self.workers):  # import + numba cache load while the kernels compile
+            ex.submit(_warm_worker)
+        return ex
+
+    def _submit(self, fn: Any, *args: Any) -> cf.Future:
+        """Submit to the executor; an own process pool that broke is replaced (3 times)."""
+        if self.executor is None:
+            self.executor = self._new_executor()
+        try:
+            return self.executor.submit(fn, *args)
+        except cf.BrokenExecutor:
+            if not self.owns_executor or self._restarts >= 3:
+                raise
+            self._restarts += 1
+            self.executor.shutdown(wait=False, cancel_futures=True)
+            self.executor = self._new_executor()
+            return self.executor.submit(fn, *args)
+
+    # ---------------------------------------------------------------- kernel stage
+    def _config_for(self, g: _Loaded) -> PipelineConfig:
+        """The settings of map ``g``: ``config``, with the Gaussian of ``sigma_m`` metres
+        at the map's resolution when that is given."""
+        if self.sigma_m is None:
+            return self.config
+        cfg = self._configs.get(g.resolution_m)
+        if cfg is None:
+            distance = DistanceConfig.from_metres(sigma_m=self.sigma_m, resolution_m=g.resolution_m)
+            cfg = self._configs[g.resolution_m] = dataclasses.replace(
+                self.config, distance=distance
+            )
+        return cfg
+
+    def _dense_fields(self, group: list[_Loaded]) -> tuple[list[Any], float]:
+        """``dense_fields_many`` over the maps of a group (one distance setting); (fields,
+        wall seconds)."""
+        from ..pipeline import dense_fields_many
+
+        cfg = self._config_for(group[0])
+
+        def call() -> list[Any]:
+            return dense_fields_many(
+                [g.occupied for g in group],
+                distance=cfg.distance,
+                ridge=cfg.ridge,
+                tile_px=cfg.tile_px,
+                tiles_per_call=self.tiles_per_call,
+            )
+
+        t0 = time.perf_counter()
+        if self._compiled(cfg):
+            out = call()
+        else:
+            with _COMPILE_LOCK:  # the first call of a bucket traces it, alone
+                out = call()
+                _COMPILED_BUCKETS.add(self._bucket(cfg))
+        return out, time.perf_counter() - t0
+
+    def _bucket(self, cfg: PipelineConfig) -> tuple[int, ...]:
+        return (cfg.tile_px, self.tiles_per_call, cfg.distance.half_width_px, cfg.ridge.ksize)
+
+    def _compiled(self, cfg: PipelineConfig) -> bool:
+        return self._bucket(cfg) in _COMPILED_BUCKETS
+
+    def _kernels(self, group: list[_Loaded]) -> list[tuple[_Loaded, _CpuJob | None, float, str]]:
+        """Run the JAX stage for a group of maps and build their CPU jobs.
+
+        Returns ``(loaded map, job or None, t_distance_s, error message)`` per map.  If the
+        group's kernel call fails, each map is retried alone, so one bad map cannot fail
+        the others of its group.
+        """
+        from ..distance import FAR_SQ
+        from ..pipeline import DenseFields, travel_ridges
+
+        with_obstacles = [g for g in group if g.occupied.any()]
+        empty = {id(g) for g in group} - {id(g) for g in with_obstacles}
+        fields: dict[int, tuple[Any, float]] = {}
+        errors: dict[int, str] = {}
+        if with_obstacles:
+            try:
+                out, wall = self._dense_fields(with_obstacles)
+                tiles = sum(g.n_tiles for g in with_obstacles)
+                for g, f in zip(with_obstacles, out, strict=True):
+                    fields[id(g)] = (f, wall * g.n_tiles / tiles)
+            except Exception as exc:
+                if len(with_obstacles) == 1:
+                    errors[id(with_obstacles[0])] = _error_text(exc)
+                for g in with_obstacles if len(with_obstacles) > 1 else []:
+                    try:
+                        (f,), wall = self._dense_fields([g])
+                        fields[id(g)] = (f, wall)
+                    except Exception as exc_one:
+                        errors[id(g)] = _error_text(exc_one)
+        jobs: list[tuple[_Loaded, _CpuJob | None, float, str]] = []
+        for g in group:
+            cfg = self._config_for(g)
+            if id(g) in errors:
+                jobs.append((g, None, 0.0, errors[id(g)]))
+                continue
+            t0 = time.perf_counter()
+            occ = g
+            if id(g) in empty:  # no obstacle: H = 0, no ridges (as build_graph)
+                share = 0.0
+                f = DenseFields(
+                    np.full(occ.shape, FAR_SQ, np.int32),
+                    np.zeros(occ.shape, np.float32),
+                    np.zeros(occ.shape, np.uint8),
+                    np.zeros(occ.shape, bool),
+                )
+            else:
+                f, share = fields[id(g)]
+            # as build_graph: nothing to thin on a map that is all obstacle
+            f = dataclasses.replace(f, ridges=travel_ridges(f.ridges, occ.occupied))
+            # Skeleton pixels are a subset of the ridge pixels, so the clearances of the
+            # ridge pixels (computed exactly as build_graph does) are all the graph reads.
+            clearance = _ridge_clearance(f, occ.occupied, cfg.distance.half_width_px)
+            masks = None
+            if self.plot and self.out_dir is not None:
+                masks = np.packbits(np.stack([occ.occupied, occ.free]))
+            job = _CpuJob(
+                name=g.item.name,
+                shape=tuple(occ.shape),
+                resolution_m=occ.resolution_m,
+                origin=tuple(occ.origin),
+                source=occ.source,
+                ridges_bits=np.packbits(f.ridges),
+                clearance_values=clearance,
+                config=cfg,
+                out_dir=None if self.out_dir is None else os.fspath(self.out_dir),
+                formats=self.formats,
+                masks_bits=masks,
+                keep_graph=self.keep_graphs,
+                free_bits=np.packbits(occ.free) if cfg.graph.free_space_only else None,
+            )
+            jobs.append((g, job, share + time.perf_counter() - t0, ""))
+        return jobs
+
+    def _take_group(self, ready: deque[_Loaded], limit: int) -> list[_Loaded]:
+        """The next maps in order, up to ``limit`` tiles (at least one map), all with the
+        first one's distance setting (one kernel call serves one setting)."""
+        group = [ready.popleft()]
+        tiles = group[0].n_tiles
+        distance = self._config_for(group[0]).distance
+        while (
+            ready
+            and tiles + ready[0].n_tiles <= limit
+            and self._config_for(ready[0]).distance == distance
+        ):
+            tiles += ready[0].n_tiles
+            group.append(ready.popleft())
+        return group
+
+    # ---------------------------------------------------------------- manifests
+    def _resume_record(self, item: _Item) -> MapRecord | None:
+        """The recorded result of ``item`` if its outputs are complete and valid."""
+        return _resume_record(
+            item,
+            out_dir=self.out_dir,
+            fingerprint=self.fingerprints.get(item.index),
+            request=self.request,
+            formats=self.formats,
+            plot=self.plot,
+        )
+
+    def _write_manifest(self, item: _Item, rec: MapRecord, files: dict[str, Any]) -> str:
+        assert self.out_dir is not None
+        return _write_manifest(
+            item,
+            rec,
+            files,
+            out_dir=self.out_dir,
+            fingerprint=self.fingerprints.get(item.index),
+            request=self.request,
+        )
+
+    def _forget_outputs(self, item: _Item) -> None:
+        """Before redoing a map: drop its manifest and stale temporary files."""
+        _forget_outputs(item, out_dir=self.out_dir, formats=self.formats)
+
+    # ---------------------------------------------------------------- main loop
+    def run(self) -> list[MapRecord]:
+        """Run every map through loading, kernels and the CPU stage; one record per map,
+        in input order."""
+        from tqdm.auto import tqdm
+
+        self._records: dict[int, MapRecord] = {}
+        self._counts: Counter[str] = Counter()
+        self._bar = tqdm(
+            total=len(self.items),
+            unit="map",
+            desc="topojax batch",
+            disable=not self.progress,
+            file=sys.stderr,
+            dynamic_ncols=True,
+        )
+        self._pending: deque[_Item] = deque()
+        for item in self.items:
+            rec = self._resume_record(item) if self.resume else None
+            if rec is not None:
+                self._finish(item.index, rec)
+            else:
+                self._pending.append(item)
+
+        # the free mask: for the picture, and for free_space_only's thinning
+        self._want_free = (
+            self.plot and self.out_dir is not None
+        ) or self.config.graph.free_space_only
+        # Map files are read by our own worker processes (same file system, and it keeps
+        # decoding off this process's GIL); with a given executor (a cluster may not see
+        # the files) or workers=0 they are read by threads here.
+        self._load_in_workers = self.owns_executor and self.workers > 0
+        self._load_pool = cf.ThreadPoolExecutor(2, thread_name_prefix="topojax-load")
+        self._kernel_pool = cf.ThreadPoolExecutor(
+            self.kernel_threads, thread_name_prefix="topojax-jax"
+        )
+        self._loads: dict[cf.Future, _Item] = {}
+        self._in_kernels: dict[cf.Future, list[_Loaded]] = {}
+        self._cpu: dict[cf.Future, tuple[_Item, MapRecord]] = {}
+        self._ready: deque[_Loaded] = deque()
+        try:
+            if self._pending and self.executor is None:
+                self.executor = self._new_executor()
+            while True:
+                self._start_loads()
+                self._start_kernels()
+                waiting = [*self._loads, *self._in_kernels, *self._cpu]
+                if not waiting:
+                    break
+                done, _ = cf.wait(waiting, return_when=cf.FIRST_COMPLETED)
+                for fut in done:
+                    if fut in self._loads:
+                        self._on_loaded(fut)
+                    elif fut in self._in_kernels:
+                        self._on_kernels_done(fut)
+                    else:
+                        item, rec = self._cpu.pop(fut)
+                        self._finish(item.index, self._complete(item, rec, fut))
+        finally:
+            self._bar.close()
+            self._load_pool.shutdown(wait=True, cancel_futures=True)
+            self._kernel_pool.shutdown(wait=True, cancel_futures=True)
+            if self.owns_executor and self.executor is not None:
+                self.executor.shutdown(wait=True, cancel_futures=True)
+        return [self._records[item.index] for item in self.items]
+
+    def _finish(self, index: int, rec: MapRecord) -> None:
+        """Record the final ``rec`` of map ``index`` and advance the progress bar."""
+        self._records[index] = rec._finish()
+        counts = self._counts
+        counts[rec.status] += 1
+        self._bar.update(1)
+        self._bar.set_postfix({k: counts[k] for k in ("ok", "skipped", "error") if counts[k]})
+
+    def _start_loads(self) -> None:
+        """Start loading pending maps until ``prefetch`` are loading or loaded."""
+        tile_px = self.config.tile_px
+        while self._pending and len(self._loads) + len(self._ready) < self.prefetch:
+            item = self._pending.popleft()
+            if item.occupancy is not None:  # nothing to load
+                loaded = _load_here(item, tile_px, self._want_free)
+                try:
+                    self._config_for(loaded)  # e.g. a sigma_m too large here
+                except ValueError as exc:
+                    self._finish(item.index, self._base_record(loaded, "error", _error_text(exc)))
+                    continue
+                self._ready.append(loaded)
+            elif self._load_in_workers:
+                fut = self._submit(
+                    _load_in_worker, os.fspath(item.path), self._want_free, self.map_mode
+                )
+                self._loads[fut] = item
+            else:
+                fut = self._load_pool.submit(
+                    _load_here, item, tile_px, self._want_free, self.map_mode
+                )
+                self._loads[fut] = item
+
+    def _start_kernels(self) -> None:
+        """Send groups of loaded maps to the kernel threads while threads and CPU backlog
+        allow."""
+        ready = self._ready
+        while (
+            ready
+            and len(self._in_kernels) < self.kernel_threads
+            and len(self._cpu) < self.cpu_backlog
+        ):
+            # Until the kernel is compiled, send one map at a time: the first call
+            # (tracing + XLA compilation) runs alone, and a small first group lets
+            # the pipeline fill as soon as it is done.
+            limit = self.batch_tiles if self._compiled(self._config_for(ready[0])) else 0
+            group = self._take_group(ready, limit)
+            self._in_kernels[self._kernel_pool.submit(self._kernels, group)] = group
+
+    def _on_loaded(self, fut: cf.Future) -> None:
+        """A map finished loading: queue it for the kernels, or record its error."""
+        item = self._loads.pop(fut)
+        try:
+            loaded = fut.result()
+            if isinstance(loaded, _LoadedBits):
+                loaded = _loaded_from_bits(item, loaded, self.config.tile_px)
+            self._config_for(loaded)  # e.g. a sigma_m too large here
+            self._ready.append(loaded)
+        except Exception as exc:
+            self._finish(
+                item.index,
+                MapRecord(item.name, item.label, status="error", message=_error_text(exc)),
+            )
+
+    def _on_kernels_done(self, fut: cf.Future) -> None:
+        """A group's kernels finished: submit each map's CPU job, or record its error."""
+        group = self._in_kernels.pop(fut)
+        try:
+            jobs = fut.result()
+        except Exception as exc:
+            for g in group:
+                self._finish(g.item.index, self._base_record(g, "error", _error_text(exc)))
+            return
+        for g, job, t_distance, error in jobs:
+            rec = self._base_record(g, "error" if error else "ok", error)
+            rec.t_distance_s = t_distance
+            if job is None:
+                self._finish(g.item.index, rec)
+                continue
+            try:
+                self._forget_outputs(g.item)  # its outputs are about to change
+                self._cpu[self._submit(_cpu_stage, job)] = (g.item, rec)
+            except Exception as exc:
+                rec.status, rec.message = "error", _error_text(exc)
+                self._finish(g.item.index, rec)
+
+    def _base_record(self, g: _Loaded, status: str, message: str) -> MapRecord:
+        occ = g
+        rec = MapRecord(
+            map=g.item.name,
+            path=g.item.label,
+            height=int(occ.shape[0]),
+            width=int(occ.shape[1]),
+            resolution_m=float(occ.resolution_m),
+            t_load_s=g.t_load_s,
+            status=status,
+            message=message,
+        )
+        return rec
+
+    def _complete(self, item: _Item, rec: MapRecord, fut: cf.Future) -> MapRecord:
+        try:
+            res: _CpuResult = fut.result()
+        except Exception as exc:  # the worker died or the task could not be run
+            rec.status, rec.message = "error", f"CPU stage failed: {_error_text(exc)}"
+            return rec
+        rec.vertices, rec.edges = res.vertices, res.edges
+        rec.components, rec.total_length_m = res.components, res.total_length_m
+        rec.t_thinning_s, rec.t_graph_s, rec.t_write_s = (
+            res.t_thinning_s,
+            res.t_graph_s,
+            res.t_write_s,
+        )
+        rec.outputs = tuple(res.files)
+        if res.error is not None:
+            rec.status, rec.message = "error", res.error
+            return rec
+        rec.graph = res.graph
+        if self.out_dir is not None:
+            rec._finish()
+            try:
+                manifest = self._write_manifest(item, rec, res.files)
+            except Exception as exc:
+                rec.status, rec.message = "error", f"manifest: {_error_text(exc)}"
+                return rec
+            rec.outputs = (*rec.outputs, manifest)
+        return rec
+
+
+def _positive_int(name: str, value: Any, *, minimum: int = 1) -> int:
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < minimum:
+        raise ValueError(f"{name}: expected an int >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _default_kernel_threads() -> int:
+    import jax
+
+    cores = os.cpu_count() or 1
+    if jax.default_backend() == "cpu":
+        return max(1, min(cores, 8))
+    return 2  # an accelerator: one thread cuts tiles while the other's kernels run
+
+
+def build_graphs(
+    maps: Iterable[str | os.PathLike[str] | OccupancyMap] | str | os.PathLike[str] | OccupancyMap,
+    *,
+    executor: Any = None,
+    workers: int | None = None,
+    config: PipelineConfig | None = None,
+    out_dir: str | os.PathLike[str] | None = None,
+    formats: Sequence[str] | str = ("graphml", "json", "geojson"),
+    plot: bool = False,
+    resume: bool = False,
+    progress: bool = True,
+    tiles_per_call: int | None = None,
+    kernel_threads: int | None = None,
+    batch_tiles: int | None = None,
+    keep_graphs: bool | None = None,
+    map_mode: str | None = None,
+    sigma_m: float | None = None,
+) -> list[MapRecord]:
+    """Build the topology graphs of many maps (design: docs/batch-internals.md).
+
+    Parameters
+    ----------
+    maps : iterable of (str, path or OccupancyMap)
+        Map files in any format :func:`topojax.load_map` reads (YAML, PGM, PNG, ...;
+        expand globs/folders first, e.g. with :func:`expand_map_inputs`) and/or loaded
+        maps.  A single path or map is accepted too.
+    executor : concurrent.futures.Executor or dask.distributed.Client, optional
+        Runs the CPU stages (thinning, T removal, graph, output files).  Default: a
+        :class:`~concurrent.futures.ProcessPoolExecutor` of ``workers`` processes
+        (``forkserver`` start method where available, else ``spawn``), which also reads
+        the map files, shut down at the end.  A Dask ``Client`` is used through
+        ``client.get_executor(pure=False)``.  A given executor is not shut down, and map
+        files are then read in the calling process.
+    workers : int, optional
+        Worker processes of the default executor; default ``os.cpu_count()``.  ``0`` runs
+        the CPU stage in the calling thread (:class:`InlineExecutor`).  Not used when
+        ``executor`` is given (but still checked).
+    config : PipelineConfig, optional
+        Stage settings, as for :func:`topojax.build_graph`.
+    out_dir : str or path, optional
+        Output folder (created).  Without it nothing is written and the graphs are
+        returned in the records.
+    formats : sequence of {"graphml", "json", "geojson", "nav2"} or comma-separated str
+        Graph files per map (``nav2``: ``<name>_nav2.geojson``, a route graph for the ROS 2
+        Nav2 Route Server, :func:`topojax.save_nav2_graph` with its default tolerance).
+    plot : bool
+        Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
+    resume : bool
+        Skip maps whose manifest shows complete, valid outputs for the same input and
+        settings (needs ``out_dir``).
+    progress : bool
+        Show a tqdm progress bar (maps, rate, ETA) on stderr.
+    tiles_per_call : int, optional
+        Tiles per kernel call (the bucket size; one compiled kernel per value).  Default
+        ``max(config.tiles_per_call, 16)``; larger values may suit GPUs.
+    kernel_threads : int, optional
+        Threads dispatching kernel calls concurrently.  Default: the number of cores
+        (at most 8) on the CPU backend, 2 on an accelerator.
+    batch_tiles : int, optional
+        Most tiles per group of maps sent to the kernels together (a larger map forms
+        a group of its own).  Default ``16 * tiles_per_call``.
+    keep_graphs : bool, optional
+        Return each ``networkx.MultiGraph`` in ``MapRecord.graph``.  Default: True
+        without ``out_dir``, False with it (graphs are then on disk).  Maps skipped by
+        ``resume`` are not rebuilt, so their records hold no graph (read it from their
+        files with :func:`topojax.load_graph`).
+    map_mode : {"trinary", "scale", "raw", "ipa"}, optional
+        Pixel convention for every map file, as ``mode`` of :func:`topojax.load_map`
+        (e.g. ``"ipa"`` for the IPA benchmark maps, where every pixel below 250 is
+        inaccessible).  Default: each file's own (its YAML's, else trinary).  Maps given
+        as :class:`OccupancyMap` objects are already classified.
+    sigma_m : float, optional
+        The distance map's Gaussian σ in metres for every map, converted with each map's
+        own resolution (:meth:`DistanceConfig.from_metres`; the support scales with it),
+        in place of ``config.distance``.  Maps of different resolutions then get
+        different pixel settings: each setting compiles its own kernel once and runs
+        in kernel calls of its own.  Default: ``config.distance`` (the paper's 64.19 px)
+        for every map.
+
+    Returns
+    -------
+    list of MapRecord
+        One per input, in input order.  With ``out_dir``, the table is also written to
+        ``out_dir/summary.csv`` (and ``summary.parquet`` with pyarrow).
+
+    Raises
+    ------
+    TypeError, ValueError
+        For invalid arguments (a bad map never raises; it becomes an error record).
+    """
+    items_raw, sources = _map_inputs(maps)
+    config = PipelineConfig() if config is None else config
+    if not isinstance(config, PipelineConfig):
+        raise TypeError(f"config: expected a PipelineConfig, got {type(config).__name__}")
+    fmts = _check_formats(formats)
+    sigma_m = _check_options(
+        map_mode=map_mode,
+        flags={"plot": plot, "resume": resume, "progress": progress, "keep_graphs": keep_graphs},
+        sigma_m=sigma_m,
+        out_dir=out_dir,
+    )
+    tpc, threads, group_tiles = _kernel_settings(
+        config, tiles_per_call, kernel_threads, batch_tiles
+    )
+    keep = out_dir is None if keep_graphs is None else bool(keep_graphs)
+    executor = _as_executor(executor)
+    n_workers = (os.cpu_count() or 1) if workers is None else workers
+    n_workers = _positive_int("workers", n_workers, minimum=0)
+
+    out: Path | None = None
+    if out_dir is not None:
+        out = output_folder(out_dir)
+    names = _assign_names(sources)
+    items = [
+        _Item(index=i, name=names[i], path=p, occupancy=occ) for i, (p, occ) in enumerate(items_raw)
+    ]
+    if out is not None:
+        _check_no_overwrite(items, out, fmts, plot)
+    fingerprints = {item.index: _fingerprint(item) for item in items} if out is not None else {}
+    runner = _BatchRun(
+        items,
+        executor=executor,
+        workers=n_workers,
+        config=config,
+        out_dir=out,
+        formats=fmts,
+        plot=bool(plot),
+        keep_graphs=keep,
+        tiles_per_call=tpc,
+        kernel_threads=threads,
+        batch_tiles=group_tiles,
+        progress=bool(progress),
+        resume=bool(resume),
+        request=_request(config, fmts, plot=plot, map_mode=map_mode, sigma_m=sigma_m),
+        fingerprints=fingerprints,
+        map_mode=map_mode,
+        sigma_m=sigma_m,
+    )
+    records = runner.run()
+    if out is not None:
+        write_summary(records, out)
+    return records
+
+
+def _kernel_settings(
+    config: PipelineConfig,
+    tiles_per_call: int | None,
+    kernel_threads: int | None,
+    batch_tiles: int | None,
+) -> tuple[int, int, int]:
+    """The checked ``(tiles_per_call, kernel_threads, batch_tiles)`` of
+    :func:`build_graphs`, defaults filled in."""
+    tpc = _positive_int(
+        "tiles_per_call",
+        max(config.tiles_per_call, _DEFAULT_TILES_PER_CALL)
+        if tiles_per_call is None
+        else tiles_per_call,
+    )
+    threads = _positive_int(
+        "kernel_threads", _default_kernel_threads() if kernel_threads is None else kernel_threads
+    )
+    group_tiles = _positive_int("batch_tiles", 16 * tpc if batch_tiles is None else batch_tiles)
+    return tpc, threads, group_tiles
+
+
+def _map_inputs(
+    maps: Any,
+) -> tuple[list[tuple[Path | None, OccupancyMap | None]], list[Path | None]]:
+    """``(path, map object)`` per input of :func:`build_graphs`, and the path that names
+    it (a map object's ``source``, if any)."""
+    if isinstance(maps, (str, os.PathLike, OccupancyMap)):
+        maps = [maps]
+    try:
+        inputs = list(maps)
+    except TypeError:
+        raise TypeError(
+            f"maps: expected an iterable of paths or OccupancyMap objects, got "
+            f"{type(maps).__name__}"
+        ) from None
+    sources: list[Path | None] = []
+    items_raw: list[tuple[Path | None, OccupancyMap | None]] = []
+    for i, m in enumerate(inputs):
+        if isinstance(m, OccupancyMap):
+            items_raw.append((None, m))
+            sources.append(Path(m.source) if m.source else None)
+        elif isinstance(m, (str, os.PathLike)):
+            items_raw.append((Path(m), None))
+            sources.append(Path(m))
+        else:
+            raise TypeError(
+                f"maps[{i}]: expected a path (str / os.PathLike) or an OccupancyMap, got "
+                f"{type(m).__name__}"
+            )
+    return items_raw, sources
+
+
+def _check_options(
+    *, map_mode: Any, flags: dict[str, Any], sigma_m: Any, out_dir: Any
+) -> float | None:
+    """Check ``map_mode``, the bool ``flags`` (``keep_graphs`` may be None), ``sigma_m``
+    and that ``plot``/``resume`` have an ``out_dir``; the checked ``sigma_m``."""
+    if map_mode is not None and map_mode not in MODES:
+        raise ValueError(f"map_mode: expected one of {MODES} or None, received {map_mode!r}")
+    for name, flag in flags.items():
+        if name == "keep_graphs" and flag is None:
+            continue
+        if not isinstance(flag, (bool, np.bool_)):
+            raise TypeError(f"{name}: expected a bool, got {flag!r}")
+    if sigma_m is not None:
+        sigma_m = positive_metres("sigma_m", sigma_m)
+    if out_dir is None and (flags["plot"] or flags["resume"]):
+        raise ValueError("out_dir: needed for plot=True or resume=True, got None")
+    return sigma_m
+
+
+def _as_executor(executor: Any) -> cf.Executor | None:
+    """``executor`` itself, or the executor of a Dask ``Client`` (``pure=False``)."""
+    if executor is not None and not isinstance(executor, cf.Executor):
+        get_executor = getattr(executor, "get_executor", None)
+        if get_executor is None:
+            raise TypeError(
+                "executor: expected a concurrent.futures.Executor or a dask.distributed "
+                f"Client, got {type(executor).__name__}"
+            )
+        executor = get_executor(pure=False)
+    return executor
+
+
+def _request(
+    config: PipelineConfig,
+    formats: tuple[str, ...],
+    *,
+    plot: bool,
+    map_mode: str | None,
+    sigma_m: float | None,
+) -> dict[str, Any]:
+    """The result-relevant settings recorded in every manifest (``resume`` compares
+    them)."""
+    return _normalise(
+        {
+            "distance": dataclasses.asdict(config.distance),
+            "ridge": dataclasses.asdict(config.ridge),
+            "skeleton": dataclasses.asdict(config.skeleton),
+            "graph": dataclasses.asdict(config.graph),
+            "formats": sorted(formats),
+            "plot": bool(plot),
+            # only when given, so that manifests written without them still match
+            **({"map_mode": map_mode} if map_mode is not None else {}),
+            **({"sigma_m": sigma_m} if sigma_m is not None else {}),
+        }
+    )
+
+
+def _check_no_overwrite(
+    items: list[_Item], out: Path, formats: tuple[str, ...], plot: bool
+) -> None:
+    """Refuse output names that would replace one of the input files (a map file, or the
+    image a YAML refers to)."""
+    suffixes = [_FORMAT_SUFFIX[f] for f in formats] + [_MANIFEST_SUFFIX]
+    if plot:
+        suffixes.append(_PICTURE_SUFFIX)
+    refuse_overwriting_inputs(
+        [it.path for it in items if it.path is not None],
+        [out / f"{it.name}{suffix}" for it in items for suffix in suffixes],
+        option="out_dir",
+    )

@@ -1,0 +1,291 @@
+"""The inputs of a batch: brace and glob expansion, folder walks, and the unique name
+(output file stem) of every map."""
+
+from __future__ import annotations
+
+import glob as _glob
+import os
+from collections import Counter
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .._fs import yaml_image
+from ..io import GRAPH_FORMATS
+from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, OccupancyMap
+
+__all__ = ["expand_braces", "expand_map_inputs", "planned_outputs"]
+
+_MAP_SUFFIXES = tuple(YAML_SUFFIXES) + tuple(IMAGE_SUFFIXES)
+_MANIFEST_SUFFIX = ".manifest.json"
+_PICTURE_SUFFIX = "_graph.png"
+_FORMAT_SUFFIX = {fmt: suffix for suffix, fmt in GRAPH_FORMATS.items()}
+# a route graph for the ROS 2 Nav2 Route Server (topojax.save_nav2_graph, default tolerance)
+_FORMAT_SUFFIX["nav2"] = "_nav2.geojson"
+
+
+def _matching_brace(text: str, start: int) -> tuple[int, list[int]] | None:
+    """Index of the ``}`` closing the ``{`` at ``start`` and the top-level comma indices."""
+    depth = 0
+    commas: list[int] = []
+    for i in range(start, len(text)):
+        ch = text[i]
+        if ch == "{":
+            depth += 1
+        elif ch == "}":
+            depth -= 1
+            if depth == 0:
+                return i, commas
+        elif ch == "," and depth == 1:
+            commas.append(i)
+    return None
+
+
+def expand_braces(pattern: str) -> list[str]:
+    """Shell-style brace expansion: ``"a/*.{yaml,p{n,g}m}"`` -> ``["a/*.yaml", "a/*.pnm",
+    "a/*.pgm"]``.
+
+    Parameters
+    ----------
+    pattern : str
+        Text with optional ``{x,y,...}`` groups (nestable).  As in bash, a group needs a
+        matching ``}`` and at least one top-level comma; other braces stay literal
+        (``"{a}"``, ``"a{"``).  Numeric ranges (``{1..3}``) and backslash escapes are not
+        supported.
+
+    Returns
+    -------
+    list of str
+        The expansions, left to right in the order of the alternatives (duplicates kept).
+    """
+    if not isinstance(pattern, str):
+        raise TypeError(f"pattern: expected a str, got {type(pattern).__name__}")
+    pos = pattern.find("{")
+    while pos != -1:
+        found = _matching_brace(pattern, pos)
+        if found is not None and found[1]:
+            end, commas = found
+            cuts = [pos, *commas, end]
+            alternatives = [pattern[a + 1 : b] for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+            head, tail = pattern[:pos], pattern[end + 1 :]
+            out: list[str] = []
+            for alt in alternatives:
+                out.extend(expand_braces(head + alt + tail))
+            return out
+        pos = pattern.find("{", pos + 1)
+    return [pattern]
+
+
+def _is_map_file(path: Path) -> bool:
+    return path.suffix.lower() in _MAP_SUFFIXES
+
+
+def _walk_maps(folder: Path) -> list[Path]:
+    found = []
+    for root, dirs, files in os.walk(folder):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        for name in sorted(files):
+            p = Path(root) / name
+            if not name.startswith(".") and _is_map_file(p):
+                found.append(p)
+    return found
+
+
+def _static_prefix(pattern: str) -> str:
+    """The folder of a glob pattern before its first wildcard ("." if none)."""
+    fixed = []
+    for part in Path(pattern).parts:
+        if _glob.has_magic(part):
+            break
+        fixed.append(part)
+    return os.path.join(*fixed) if fixed else "."
+
+
+def expand_map_inputs(
+    inputs: Iterable[str | os.PathLike[str]], *, exclude: str | os.PathLike[str] | None = None
+) -> list[Path]:
+    """Turn command-line inputs into a list of map files.
+
+    Parameters
+    ----------
+    inputs : iterable of str or path
+        Each is brace-expanded (:func:`expand_braces`), then
+
+        * an existing folder is searched recursively (hidden entries skipped) for files
+          with a map suffix (``.yaml``, ``.yml``, ``.pgm``, ``.png``, ``.jpg``, ``.jpeg``,
+          ``.bmp``, ``.tif``, ``.tiff``);
+        * a pattern with ``*``, ``?`` or ``[`` is globbed (``**`` matches any depth);
+          matched map files are kept, matched folders searched as above;
+        * anything else is taken as a file name as is (a missing or unsupported file
+          then becomes an error row of the batch, not an exception here).
+    exclude : str or path, optional
+        A folder that searches of a folder (or pattern) strictly above it skip, e.g. the
+        batch's output folder inside an input folder (its pictures are PNG files).  An
+        input that is that folder, or lies inside it, is searched as usual.
+
+    Returns
+    -------
+    list of Path
+        In order of the inputs (sorted within each folder/pattern), without duplicates.
+        An image referenced by a YAML that is also in the list is dropped: the map is
+        processed once, through its YAML.
+
+    Raises
+    ------
+    ValueError
+        If nothing at all was found.
+    """
+    if isinstance(inputs, (str, os.PathLike)):
+        inputs = [inputs]
+    skip = None if exclude is None else os.path.join(os.path.realpath(exclude), "")
+
+    def searched(root: str, files) -> list[Path]:
+        # files found below ``root``, without those in ``exclude`` if it lies strictly
+        # inside ``root`` (the batch's own outputs)
+        top = os.path.join(os.path.realpath(root), "")
+        if skip is None or not (skip.startswith(top) and skip != top):
+            return list(files)
+        return [f for f in files if not os.path.realpath(f).startswith(skip)]
+
+    found: list[Path] = []
+    for raw in inputs:
+        for pattern in expand_braces(os.fspath(raw)):
+            p = Path(pattern)
+            if p.is_dir():
+                found.extend(searched(pattern, _walk_maps(p)))
+            elif _glob.has_magic(pattern):
+                matches = []
+                for match in sorted(_glob.glob(pattern, recursive=True)):
+                    m = Path(match)
+                    if m.is_dir():
+                        matches.extend(_walk_maps(m))
+                    elif _is_map_file(m):
+                        matches.append(m)
+                found.extend(searched(_static_prefix(pattern), matches))
+            else:
+                found.append(p)
+    unique: list[Path] = []
+    seen: set[str] = set()
+    for p in found:
+        key = os.path.realpath(p)
+        if key not in seen:
+            seen.add(key)
+            unique.append(p)
+    referenced = set()
+    for p in unique:
+        if p.suffix.lower() in YAML_SUFFIXES and p.is_file():
+            img = yaml_image(p)
+            if img is not None:
+                referenced.add(os.path.realpath(img))
+    result = [
+        p
+        for p in unique
+        if p.suffix.lower() in YAML_SUFFIXES or os.path.realpath(p) not in referenced
+    ]
+    if not result:
+        shown = ", ".join(repr(os.fspath(x)) for x in inputs) if inputs else "(none)"
+        raise ValueError(f"inputs: expected map files, folders or patterns; none found in {shown}")
+    return result
+
+
+@dataclass
+class _Item:
+    index: int
+    name: str
+    path: Path | None
+    occupancy: OccupancyMap | None
+
+    @property
+    def label(self) -> str | None:
+        if self.path is not None:
+            return os.fspath(self.path)
+        return None if self.occupancy is None else self.occupancy.source
+
+
+def _assign_names(sources: list[Path | None]) -> list[str]:
+    """Unique output stems (rules: "Names" in docs/batch-internals.md)."""
+    given = [p for p in sources if p is not None]
+    root = None
+    if given:
+        root = os.path.commonpath([os.path.dirname(os.path.abspath(p)) for p in given])
+    names = []
+    for i, p in enumerate(sources):
+        if p is None or root is None:
+            names.append(f"map_{i:04d}")
+            continue
+        rel = Path(os.path.relpath(os.path.abspath(p), root))
+        names.append(rel.with_suffix("").as_posix() if rel.suffix else rel.as_posix())
+    counts = Counter(names)
+    for i, p in enumerate(sources):
+        if counts[names[i]] > 1 and p is not None and p.suffix:
+            names[i] = f"{names[i]}_{p.suffix[1:].lower()}"
+    used: set[str] = set()
+    files: set[str] = set()  # every output file name of the names given so far
+    for i, name in enumerate(names):
+        if name.endswith(".manifest"):  # would collide with another map's manifest file
+            name = name[: -len(".manifest")] + "_manifest"
+        candidate, k = name, 2
+        # A name is taken if any of its possible output files is another name's (``x_nav2``
+        # would write ``x_nav2.geojson``, the Nav2 file of ``x``), whatever the formats, so
+        # that names do not depend on them.
+        while candidate in used or not files.isdisjoint(_output_files(candidate)):
+            candidate, k = f"{name}_{k}", k + 1
+        used.add(candidate)
+        files.update(_output_files(candidate))
+        names[i] = candidate
+    return names
+
+
+def _output_files(name: str) -> list[str]:
+    """Every file name a map called ``name`` may write (any formats, picture, manifest)."""
+    suffixes = [*_FORMAT_SUFFIX.values(), _PICTURE_SUFFIX, _MANIFEST_SUFFIX]
+    return [name + suffix for suffix in suffixes]
+
+
+def _check_formats(formats: Any) -> tuple[str, ...]:
+    if isinstance(formats, str):
+        formats = [f for f in formats.split(",") if f.strip()]
+    try:
+        items = [str(f).strip().lower().lstrip(".") for f in formats]
+    except TypeError:
+        raise TypeError(
+            f"formats: expected a sequence of format names, got {type(formats).__name__}"
+        ) from None
+    allowed = tuple(_FORMAT_SUFFIX)
+    bad = [f for f in items if f not in allowed]
+    if bad:
+        raise ValueError(f"formats: expected names from {allowed}, got {bad!r}")
+    if not items:
+        raise ValueError(f"formats: expected at least one of {allowed}, got none")
+    return tuple(dict.fromkeys(items))
+
+
+def planned_outputs(
+    paths: Sequence[str | os.PathLike[str]], *, formats: Sequence[str] | str, plot: bool
+) -> dict[str, Path]:
+    """The files a batch of the map files ``paths`` writes for its maps.
+
+    Parameters
+    ----------
+    paths : sequence of str or path
+        The map files, in the order given to :func:`topojax.build_graphs`.
+    formats, plot
+        As for :func:`topojax.build_graphs`.
+
+    Returns
+    -------
+    dict of str to Path
+        Each output file, relative to ``out_dir`` (``/``-separated), and the map file it is
+        made from; the summary table is not included.
+    """
+    fmts = _check_formats(formats)
+    sources = [Path(p) for p in paths]
+    suffixes = [_FORMAT_SUFFIX[f] for f in fmts] + [_MANIFEST_SUFFIX]
+    suffixes += [_PICTURE_SUFFIX] * bool(plot)
+    names = _assign_names(list(sources))
+    return {
+        name + suffix: source
+        for name, source in zip(names, sources, strict=True)
+        for suffix in suffixes
+    }

@@ -1,0 +1,177 @@
+"""Per-map manifests: the input's fingerprint, the settings and the output files' hashes,
+written last; ``resume`` skips a map whose manifest still matches."""
+
+from __future__ import annotations
+
+import glob as _glob
+import hashlib
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fs import atomic_write_bytes, yaml_image
+from ..maps import YAML_SUFFIXES
+from .inputs import _FORMAT_SUFFIX, _MANIFEST_SUFFIX, _PICTURE_SUFFIX, _Item
+from .records import SUMMARY_COLUMNS, MapRecord
+
+__all__ = ["batch_input"]
+
+_MANIFEST_VERSION = 1
+
+
+def _sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _fingerprint(item: _Item) -> dict[str, Any] | None:
+    """Identity of a map's input for resume: file hashes, or a hash of the masks."""
+    if item.occupancy is not None:
+        occ = item.occupancy
+        h = hashlib.sha256()
+        h.update(np.asarray(occ.shape, np.int64).tobytes())
+        h.update(np.packbits(occ.occupied).tobytes())
+        h.update(np.packbits(occ.free).tobytes())
+        h.update(repr((occ.resolution_m, occ.origin)).encode())
+        return {"masks_sha256": h.hexdigest()}
+    assert item.path is not None
+    try:
+        files = {item.path.name: _sha256_file(item.path)}
+        if item.path.suffix.lower() in YAML_SUFFIXES:
+            img = yaml_image(item.path)
+            if img is not None and img.is_file():
+                files["image:" + img.name] = _sha256_file(img)
+    except OSError:
+        return None
+    return {"files_sha256": files}
+
+
+def _normalise(value: Any) -> Any:
+    return json.loads(json.dumps(value))
+
+
+def _manifest_path(out_dir: Path, name: str) -> Path:
+    return out_dir / f"{name}{_MANIFEST_SUFFIX}"
+
+
+def _resume_record(
+    item: _Item,
+    *,
+    out_dir: Path | None,
+    fingerprint: dict[str, Any] | None,
+    request: dict[str, Any],
+    formats: tuple[str, ...],
+    plot: bool,
+) -> MapRecord | None:
+    """The recorded result of ``item`` if its outputs under ``out_dir`` are complete and
+    valid for the input ``fingerprint`` and the settings ``request``, else None."""
+    if out_dir is None or fingerprint is None:
+        return None
+    path = _manifest_path(out_dir, item.name)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(doc, dict) or doc.get("version") != _MANIFEST_VERSION:
+        return None
+    if doc.get("map") != item.name or doc.get("input") != _normalise(fingerprint):
+        return None
+    if doc.get("request") != request:
+        return None
+    files = doc.get("files")
+    if not isinstance(files, dict):
+        return None
+    expected = {f"{item.name}{_FORMAT_SUFFIX[f]}" for f in formats}
+    if plot:
+        expected.add(f"{item.name}{_PICTURE_SUFFIX}")
+    if set(files) != expected:
+        return None
+    for rel, meta in files.items():
+        p = out_dir / rel
+        try:
+            if p.stat().st_size != meta["bytes"] or _sha256_file(p) != meta["sha256"]:
+                return None
+        except (OSError, KeyError, TypeError):
+            return None
+    row = doc.get("record")
+    if not isinstance(row, dict):
+        return None
+    rec = MapRecord(map=item.name, path=item.label)
+    for name in SUMMARY_COLUMNS:
+        if name not in ("map", "path", "status", "message") and name in row:
+            setattr(rec, name, row[name])
+    rec.status = "skipped"
+    rec.message = "outputs complete (resume)"
+    rec.outputs = (*sorted(files), path.relative_to(out_dir).as_posix())
+    return rec
+
+
+def _write_manifest(
+    item: _Item,
+    rec: MapRecord,
+    files: dict[str, Any],
+    *,
+    out_dir: Path,
+    fingerprint: dict[str, Any] | None,
+    request: dict[str, Any],
+) -> str:
+    """Write the manifest of ``item`` (last of its files); its path relative to
+    ``out_dir``."""
+    doc = {
+        "version": _MANIFEST_VERSION,
+        "map": item.name,
+        "path": item.label,
+        "input": _normalise(fingerprint),
+        "request": request,
+        "files": files,
+        "record": {k: v for k, v in rec.row().items() if k not in ("status", "message")},
+    }
+    path = _manifest_path(out_dir, item.name)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, json.dumps(doc, indent=1).encode("utf-8"))
+    return path.relative_to(out_dir).as_posix()
+
+
+def _forget_outputs(item: _Item, *, out_dir: Path | None, formats: tuple[str, ...]) -> None:
+    """Before redoing a map: drop its manifest and stale temporary files."""
+    if out_dir is None:
+        return
+    manifest = _manifest_path(out_dir, item.name)
+    manifest.unlink(missing_ok=True)
+    folder = manifest.parent
+    if folder.is_dir():
+        base = Path(item.name).name
+        suffixes = [_FORMAT_SUFFIX[f] for f in formats]
+        suffixes += [_PICTURE_SUFFIX, _MANIFEST_SUFFIX]
+        for suffix in suffixes:  # leftovers of atomic writes killed mid-way
+            for tmp in folder.glob(f".{_glob.escape(base + suffix)}.*.tmp"):
+                tmp.unlink(missing_ok=True)
+
+
+def batch_input(target: str | os.PathLike[str]) -> str | None:
+    """The input of the batch map that wrote the file ``target``, as the batch was given
+    it (its manifest's ``path``; ``""`` for a map object without a source), or None when
+    no manifest beside ``target`` lists it."""
+    target = Path(target)
+    name = target.name
+    for suffix in (*_FORMAT_SUFFIX.values(), _PICTURE_SUFFIX, _MANIFEST_SUFFIX):
+        if not name.endswith(suffix):
+            continue
+        manifest = target.with_name(name[: -len(suffix)] + _MANIFEST_SUFFIX)
+        try:
+            doc = json.loads(manifest.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        files = doc.get("files") if isinstance(doc, dict) else None
+        if not isinstance(files, dict):
+            continue
+        if suffix == _MANIFEST_SUFFIX or any(Path(rel).name == name for rel in files):
+            path = doc.get("path")
+            return path if isinstance(path, str) else ""
+    return None

@@ -1,0 +1,164 @@
+"""One record per map of a batch, and the summary table (CSV, Parquet) of the records."""
+
+from __future__ import annotations
+
+import csv
+import io as _io
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .._fs import atomic_write_bytes
+
+__all__ = ["SUMMARY_COLUMNS", "MapRecord", "write_summary"]
+
+#: Columns of the summary table, in order.  Times are seconds of wall time spent on the map
+#: in each stage; ``t_distance_s`` is the map's share (by tile count) of its group's kernel
+#: wall time plus its own clearance/packing; ``t_write_s`` covers the graph files and picture;
+#: ``t_total_s`` is their sum (not the latency, since stages of different maps overlap).
+SUMMARY_COLUMNS = (
+    "map",
+    "path",
+    "height",
+    "width",
+    "resolution_m",
+    "vertices",
+    "edges",
+    "total_length_m",
+    "components",
+    "t_load_s",
+    "t_distance_s",
+    "t_thinning_s",
+    "t_graph_s",
+    "t_write_s",
+    "t_total_s",
+    "status",
+    "message",
+)
+
+
+@dataclass
+class MapRecord:
+    """What happened to one map of a batch (one row of the summary table).
+
+    Attributes
+    ----------
+    map : str
+        Unique name of the map in the batch; the stem of its output files.
+    path : str or None
+        Input file (or the ``source`` of an :class:`~topojax.maps.OccupancyMap`).
+    height, width : int or None
+        Map size in pixels (None when it could not be loaded).
+    resolution_m : float or None
+        Metres per pixel.
+    vertices, edges, components : int or None
+        Graph counts (:func:`topojax.graph.graph_summary`; isolated vertices count as
+        components).
+    total_length_m : float or None
+        Sum of the edge lengths in metres.
+    t_load_s, t_distance_s, t_thinning_s, t_graph_s, t_write_s, t_total_s : float
+        Seconds per stage (see :data:`SUMMARY_COLUMNS`).
+    status : {"ok", "error", "skipped"}
+        ``"skipped"``: complete outputs found by ``resume``.
+    message : str
+        Error message (``"ExceptionType: text"``) or a note; empty when ok.
+    outputs : tuple of str
+        Files written for this map, relative to ``out_dir`` (manifest last).
+    graph : networkx.MultiGraph or None
+        The graph itself when ``keep_graphs`` (not in the table).
+    """
+
+    map: str
+    path: str | None
+    height: int | None = None
+    width: int | None = None
+    resolution_m: float | None = None
+    vertices: int | None = None
+    edges: int | None = None
+    total_length_m: float | None = None
+    components: int | None = None
+    t_load_s: float = 0.0
+    t_distance_s: float = 0.0
+    t_thinning_s: float = 0.0
+    t_graph_s: float = 0.0
+    t_write_s: float = 0.0
+    t_total_s: float = 0.0
+    status: str = "ok"
+    message: str = ""
+    outputs: tuple[str, ...] = ()
+    graph: Any = field(default=None, repr=False, compare=False)
+
+    def row(self) -> dict[str, Any]:
+        """The record as a summary-table row (keys :data:`SUMMARY_COLUMNS`)."""
+        return {name: getattr(self, name) for name in SUMMARY_COLUMNS}
+
+    def _finish(self) -> MapRecord:
+        self.t_total_s = (
+            self.t_load_s + self.t_distance_s + self.t_thinning_s + self.t_graph_s + self.t_write_s
+        )
+        return self
+
+
+def _csv_value(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else str(value)
+    return str(value)
+
+
+def write_summary(records: Sequence[MapRecord], out_dir: str | Path) -> list[Path]:
+    """Write the summary table of a batch, atomically.
+
+    Parameters
+    ----------
+    records : sequence of MapRecord
+        One per map, in the order the rows should appear.
+    out_dir : str or Path
+        Existing folder; receives ``summary.csv`` and, when ``pyarrow`` is importable,
+        ``summary.parquet``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    folder = Path(out_dir)
+    if not folder.is_dir():
+        raise FileNotFoundError(f"out_dir: expected an existing folder, got {str(folder)!r}")
+    buf = _io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(SUMMARY_COLUMNS)
+    for rec in records:
+        row = rec.row()
+        writer.writerow([_csv_value(row[name]) for name in SUMMARY_COLUMNS])
+    written = [folder / "summary.csv"]
+    atomic_write_bytes(written[0], buf.getvalue().encode("utf-8"))
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        return written
+    table = pa.Table.from_pylist([rec.row() for rec in records], schema=_arrow_schema(pa))
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    written.append(folder / "summary.parquet")
+    atomic_write_bytes(written[1], sink.getvalue().to_pybytes())
+    return written
+
+
+def _arrow_schema(pa: Any) -> Any:
+    types = {
+        "map": pa.string(),
+        "path": pa.string(),
+        "height": pa.int64(),
+        "width": pa.int64(),
+        "vertices": pa.int64(),
+        "edges": pa.int64(),
+        "components": pa.int64(),
+        "status": pa.string(),
+        "message": pa.string(),
+    }
+    return pa.schema([(name, types.get(name, pa.float64())) for name in SUMMARY_COLUMNS])

@@ -1,0 +1,301 @@
+"""The CPU stage of a batch (thinning, T removal, graph, output files), run in the
+executor's workers, and the loading of map files (in a worker or in the calling process);
+nothing here runs a JAX kernel."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import io as _io
+import multiprocessing
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fs import atomic_write_bytes
+from ..config import PipelineConfig
+from ..maps import OccupancyMap, load_map
+from .inputs import _FORMAT_SUFFIX, _PICTURE_SUFFIX, _Item
+from .manifest import _sha256_file
+
+__all__ = ["InlineExecutor"]
+
+#: Modules the fork server imports once for every worker: the CPU stage and what it runs.
+_PRELOAD = (
+    "topojax.batch.worker",
+    "topojax.pipeline",
+    "topojax.graph",
+    "topojax.skeleton",
+    "topojax.io",
+)
+
+
+@dataclass(frozen=True)
+class _MapFrame:
+    """Shape, resolution and origin of a map: all that ``pixel_to_world`` reads."""
+
+    shape: tuple[int, int]
+    resolution_m: float
+    origin: tuple[float, float, float]
+
+    # The very same function as the OccupancyMap method, so world coordinates are
+    # bit-identical to build_graph's without shipping the masks.
+    pixel_to_world = OccupancyMap.pixel_to_world
+
+
+@dataclass(frozen=True)
+class _CpuJob:
+    name: str
+    shape: tuple[int, int]
+    resolution_m: float
+    origin: tuple[float, float, float]
+    source: str | None
+    ridges_bits: np.ndarray  # uint8, np.packbits of the (H, W) ridge map
+    clearance_values: np.ndarray  # float32 (n_ridge,): clearance (px) at the ridge pixels
+    config: PipelineConfig
+    out_dir: str | None
+    formats: tuple[str, ...]
+    masks_bits: np.ndarray | None  # packbits of (occupied, free), only for the picture
+    keep_graph: bool
+    free_bits: np.ndarray | None = None  # packbits of free, only for free_space_only
+
+
+@dataclass
+class _CpuResult:
+    name: str
+    vertices: int | None = None
+    edges: int | None = None
+    total_length_m: float | None = None
+    components: int | None = None
+    t_thinning_s: float = 0.0
+    t_graph_s: float = 0.0
+    t_write_s: float = 0.0
+    files: dict[str, dict[str, Any]] = field(default_factory=dict)
+    graph: Any = None
+    error: str | None = None
+
+
+def _error_text(exc: BaseException) -> str:
+    text = str(exc).strip().replace("\n", " ")
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _picture_bytes(job: _CpuJob, skeleton: np.ndarray, graph: Any) -> bytes:
+    from types import SimpleNamespace
+
+    from matplotlib.figure import Figure
+
+    from ..plotting import plot
+
+    assert job.masks_bits is not None
+    h, w = job.shape
+    masks = np.unpackbits(job.masks_bits, count=2 * h * w).reshape(2, h, w).astype(bool)
+    occupancy = OccupancyMap(
+        occupied=masks[0],
+        free=masks[1],
+        unknown=~(masks[0] | masks[1]),
+        resolution_m=job.resolution_m,
+        origin=job.origin,
+        source=job.source,
+    )
+    side = 9.0
+    fig = Figure(figsize=(side, side * h / w if w else side))
+    ax = fig.add_subplot()
+    plot(SimpleNamespace(map=occupancy, skeleton=skeleton, graph=graph), ax=ax, title=job.name)
+    buf = _io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    return buf.getvalue()
+
+
+def _cpu_stage(job: _CpuJob) -> _CpuResult:
+    """Thinning, T removal, graph, summary and output files of one map (worker side)."""
+    from ..graph import graph_summary
+    from ..io import save_graph, save_nav2_graph
+    from ..pipeline import graph_from_ridges
+
+    res = _CpuResult(name=job.name)
+    try:
+        h, w = job.shape
+        ridges = np.unpackbits(job.ridges_bits, count=h * w).reshape(h, w).astype(bool)
+        ridge_flat = np.flatnonzero(ridges.ravel())  # the clearance values' pixels
+
+        def clearance(flat: np.ndarray) -> np.ndarray:
+            # the skeleton's pixels are ridge pixels
+            return job.clearance_values[np.searchsorted(ridge_flat, flat)]
+
+        frame = _MapFrame(job.shape, job.resolution_m, job.origin)
+        free = None
+        if job.free_bits is not None:
+            free = np.unpackbits(job.free_bits, count=h * w).reshape(h, w).astype(bool)
+        skeleton, graph, cpu_t = graph_from_ridges(
+            ridges,
+            clearance_px=clearance,
+            resolution_m=job.resolution_m,
+            origin=job.origin,
+            pixel_to_world=frame.pixel_to_world,
+            config=job.config,
+            source=job.source,
+            free=free,
+        )
+        res.t_thinning_s = cpu_t["thinning"] + cpu_t["t_removal"]
+        t1 = time.perf_counter()
+        t0_graph = t1 - cpu_t["graph"]  # the graph step ran just before t1
+        summary = graph_summary(graph)
+        res.vertices = int(summary["n_vertices"])
+        res.edges = int(summary["n_edges"])
+        res.components = int(summary["n_components"])
+        res.total_length_m = float(summary["total_length_m"])
+        t2 = time.perf_counter()
+        res.t_graph_s = t2 - t0_graph
+
+        if job.out_dir is not None:
+            out = Path(job.out_dir)
+            stem = out / job.name
+            stem.parent.mkdir(parents=True, exist_ok=True)
+            written = []
+            for fmt in job.formats:
+                target = f"{stem}{_FORMAT_SUFFIX[fmt]}"
+                if fmt == "nav2":
+                    written.append(save_nav2_graph(graph, target))
+                else:
+                    written.append(save_graph(graph, target, format=fmt))
+            if job.masks_bits is not None:
+                pic = Path(f"{stem}{_PICTURE_SUFFIX}")
+                atomic_write_bytes(pic, _picture_bytes(job, skeleton, graph))
+                written.append(pic)
+            for p in written:
+                res.files[Path(p).relative_to(out).as_posix()] = {
+                    "bytes": p.stat().st_size,
+                    "sha256": _sha256_file(p),
+                }
+        res.t_write_s = time.perf_counter() - t2
+        if job.keep_graph:
+            res.graph = graph
+    except Exception as exc:
+        res.error = _error_text(exc)
+    return res
+
+
+def _warm_worker() -> int:
+    """Import the CPU-stage modules and load their numba kernels (one tiny map)."""
+    from ..graph import skeleton_to_graph
+    from ..skeleton import skeletonize_ridges
+
+    img = np.zeros((8, 8), bool)
+    img[2:6, 3] = True
+    img[4, 2:6] = True
+    skeleton_to_graph(skeletonize_ridges(img), clearance_px=np.ones((8, 8), np.float32))
+    return os.getpid()
+
+
+def _worker_context() -> Any:
+    """Start method for the default worker processes.
+
+    ``forkserver`` where available: a fresh, single-threaded server process (never the
+    JAX-threaded caller) imports the CPU-stage modules once, and each worker is a cheap
+    fork of it, so workers neither pay the imports again nor inherit JAX's threads.
+    Elsewhere ``spawn`` (each worker imports everything itself).
+    """
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(list(_PRELOAD))
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
+class InlineExecutor(cf.Executor):
+    """An executor that runs each task at once in the calling thread (``workers=0``)."""
+
+    def submit(self, fn, /, *args, **kwargs):  # noqa: D102 - Executor API
+        future: cf.Future = cf.Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:
+            future.set_exception(exc)
+        return future
+
+
+@dataclass(frozen=True)
+class _LoadedBits:
+    """A map loaded by a worker process, packed to 1 bit per pixel for the trip back."""
+
+    shape: tuple[int, int]
+    resolution_m: float
+    origin: tuple[float, float, float]
+    source: str | None
+    occupied_bits: np.ndarray
+    free_bits: np.ndarray | None
+    t_load_s: float
+
+
+def _load_in_worker(path: str, want_free: bool, mode: str | None = None) -> _LoadedBits:
+    """Worker side: read and classify a map file (PNG/PGM decoding, YAML, thresholds)."""
+    t0 = time.perf_counter()
+    occ = load_map(path, mode=mode)
+    return _LoadedBits(
+        shape=(int(occ.shape[0]), int(occ.shape[1])),
+        resolution_m=occ.resolution_m,
+        origin=tuple(occ.origin),
+        source=occ.source,
+        occupied_bits=np.packbits(occ.occupied),
+        free_bits=np.packbits(occ.free) if want_free else None,
+        t_load_s=time.perf_counter() - t0,
+    )
+
+
+@dataclass
+class _Loaded:
+    """A map ready for the kernel stage (in the calling process)."""
+
+    item: _Item
+    occupied: np.ndarray  # bool (H, W)
+    free: np.ndarray | None  # bool (H, W); kept for a picture or free_space_only
+    resolution_m: float
+    origin: tuple[float, float, float]
+    source: str | None
+    t_load_s: float
+    n_tiles: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (int(self.occupied.shape[0]), int(self.occupied.shape[1]))
+
+
+def _n_tiles(shape: tuple[int, int], tile_px: int) -> int:
+    return -(-shape[0] // tile_px) * -(-shape[1] // tile_px)
+
+
+def _loaded_from_bits(item: _Item, bits: _LoadedBits, tile_px: int) -> _Loaded:
+    h, w = bits.shape
+    free = None
+    if bits.free_bits is not None:
+        free = np.unpackbits(bits.free_bits, count=h * w).reshape(h, w).astype(bool)
+    return _Loaded(
+        item=item,
+        occupied=np.unpackbits(bits.occupied_bits, count=h * w).reshape(h, w).astype(bool),
+        free=free,
+        resolution_m=bits.resolution_m,
+        origin=bits.origin,
+        source=bits.source,
+        t_load_s=bits.t_load_s,
+        n_tiles=_n_tiles(bits.shape, tile_px),
+    )
+
+
+def _load_here(item: _Item, tile_px: int, want_free: bool, mode: str | None = None) -> _Loaded:
+    """Calling-process side: use the given map object, or load the file in this thread."""
+    t0 = time.perf_counter()
+    occ = item.occupancy if item.occupancy is not None else load_map(item.path, mode=mode)
+    return _Loaded(
+        item=item,
+        occupied=occ.occupied,
+        free=occ.free if want_free else None,
+        resolution_m=occ.resolution_m,
+        origin=tuple(occ.origin),
+        source=occ.source,
+        t_load_s=time.perf_counter() - t0,
+        n_tiles=_n_tiles(occ.shape, tile_px),
+    )

@@ -1,0 +1,137 @@
+"""Output folders shared by several commands: no command silently replaces a file that a
+different command, or the same command from a different input, wrote.
+
+Every folder a command writes into gets a small record, ``.topojax-outputs.json``: for
+each file written there, the command and the absolute path of the input it was made from.
+Before any work a command checks its planned files: one that exists and is recorded as
+written by another command or from another input is refused (``ValueError`` naming the
+option, the file and who wrote it).  A file the record does not list (written by hand, or
+by an older topojax) is replaced as before, and so is a file of the same command and
+input: running a command again updates its own outputs.  After the work the files written
+are recorded (the record is replaced atomically).  ``topojax batch`` writes no record:
+the manifest of each of its maps (``<name>.manifest.json``) names the map file it was made
+from, read relative to the current folder when the batch was given a relative path.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+__all__ = ["OUT_OPTION", "RECORD_NAME", "check_outputs", "planned", "record_outputs"]
+
+#: The record's file name, in each folder written into.
+RECORD_NAME = ".topojax-outputs.json"
+#: The option that chooses the output folder (or file), as errors name it.
+OUT_OPTION = "-o/--out"
+_VERSION = 1
+
+
+def planned(files: Iterable[str | os.PathLike[str]], source) -> dict[Path, str | None]:
+    """``{file: source}`` for every file of ``files`` (one input for all of them)."""
+    return {Path(f): source for f in files}
+
+
+def _owner(command: str, source) -> dict[str, str | None]:
+    return {
+        "command": command,
+        "input": None if source is None else os.path.realpath(os.fspath(source)),
+    }
+
+
+def _read(folder: Path) -> dict[str, dict]:
+    """The files recorded in ``folder``; empty when there is no (readable) record."""
+    try:
+        doc = json.loads((folder / RECORD_NAME).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    files = doc.get("files") if isinstance(doc, dict) else None
+    return files if isinstance(files, dict) else {}
+
+
+def _by_folder(claims: Mapping[Path, object]) -> dict[Path, dict[Path, object]]:
+    folders: dict[Path, dict[Path, object]] = {}
+    for target, source in claims.items():
+        target = Path(target)
+        folders.setdefault(target.parent, {})[target] = source
+    return folders
+
+
+def check_outputs(
+    claims: Mapping[Path, str | os.PathLike[str] | None], *, command: str, option: str
+) -> None:
+    """Refuse files another command or input wrote (checked before any work).
+
+    Parameters
+    ----------
+    claims : mapping of Path to (str, path or None)
+        Each file the command is about to write and the input it is made from (None: the
+        command's run as a whole, e.g. a batch's summary table).
+    command : str
+        The command's name, e.g. ``"graph"``.
+    option : str
+        The option that chose the folder, named in the error (e.g. ``"-o/--out"``).
+
+    Raises
+    ------
+    ValueError
+        If a file of ``claims`` exists and its folder's record names another command or
+        another input.
+    """
+    for folder, files in _by_folder(claims).items():
+        recorded = _read(folder)
+        for target, source in files.items():
+            if not target.exists():
+                continue
+            before = _written_by(target, recorded)
+            if before is None or before == _owner(command, source):
+                continue
+            raise ValueError(_conflict(option, target, before, command, source))
+
+
+def _written_by(target: Path, recorded: dict[str, dict]) -> dict | None:
+    """Who wrote ``target``: its entry in the folder's record, else the batch map whose
+    manifest lists it (``topojax batch`` keeps no record: its manifests are one)."""
+    before = recorded.get(target.name)
+    if isinstance(before, dict):
+        return before
+    from ..batch.manifest import batch_input
+
+    label = batch_input(target)
+    if label is None:
+        return None
+    return _owner("batch", label or None)
+
+
+def _conflict(option: str, target: Path, before: dict, command: str, source) -> str:
+    was = f"'topojax {before.get('command')}'"
+    if before.get("input") is not None:
+        was += f" from {before['input']}"
+    now, hint = f"'topojax {command}'", command
+    if source is not None:
+        path = Path(os.path.realpath(os.fspath(source)))
+        now += f" from {path}"
+        hint = path.parent.name or path.stem
+    return (
+        f"{option}: {target} was written by {was}; {now} would overwrite it. Write into "
+        f"another folder (e.g. {option.split('/')[0]} {target.parent / hint}) or remove "
+        "the file first"
+    )
+
+
+def record_outputs(claims: Mapping[Path, str | os.PathLike[str] | None], *, command: str) -> None:
+    """Record the files of ``claims`` that exist as written by ``command`` from their
+    input (in the record of each file's folder)."""
+    from .._fs import atomic_write_bytes
+
+    for folder, files in _by_folder(claims).items():
+        written = {t: s for t, s in files.items() if t.is_file()}
+        if not written:
+            continue
+        recorded = _read(folder)
+        for target, source in written.items():
+            recorded[target.name] = _owner(command, source)
+        doc = {"version": _VERSION, "files": dict(sorted(recorded.items()))}
+        atomic_write_bytes(folder / RECORD_NAME, json.dumps(doc, indent=1).encode("utf-8"))
