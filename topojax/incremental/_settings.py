@@ -9,10 +9,9 @@ from dataclasses import asdict
 
 import numpy as np
 
+from .._constants import STRATEGIES
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..filters import HALO_PX
-
-STRATEGIES = ("exact", "paper")
 
 
 def _check_rate(name: str, value) -> int:
