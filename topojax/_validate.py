@@ -9,13 +9,22 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import Any
+
+import numpy as np
 
 __all__ = [
+    "binary_flag",
+    "choice",
     "finite_positive",
     "flag",
     "integer",
+    "is_real_number",
     "metres",
+    "metres_per_pixel",
     "nonnegative_metres",
+    "occupancy_thresholds",
+    "pose",
     "positive_metres",
 ]
 
@@ -69,3 +78,71 @@ def positive_metres(name: str, value: object) -> float:
     """:func:`metres` ``> 0`` (the tolerances of the Nav2 export and of
     :meth:`topojax.Route.waypoints`, the batch's ``sigma_m``)."""
     return metres(name, value, allow_zero=False)
+
+
+def is_real_number(value: Any) -> bool:
+    """True for int/float (including NumPy scalars) but not bool."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
+def metres_per_pixel(name: str, value: Any) -> float:
+    """``value`` as a float after checking it is a finite map resolution > 0 (m/px); a
+    ``ValueError`` otherwise, also for a non-number."""
+    if not is_real_number(value) or not math.isfinite(float(value)) or float(value) <= 0.0:
+        raise ValueError(f"{name} must be a finite number > 0 (metres per pixel), got {value!r}")
+    return float(value)
+
+
+def pose(name: str, value: Any) -> tuple[float, float, float]:
+    """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
+    finite numbers (a map origin); a ``ValueError`` otherwise."""
+    try:
+        items = list(value)
+    except TypeError:
+        raise ValueError(
+            f"{name} must be a sequence of 3 finite numbers (x_m, y_m, yaw_rad), got {value!r}"
+        ) from None
+    if len(items) != 3 or not all(is_real_number(v) and math.isfinite(float(v)) for v in items):
+        raise ValueError(
+            f"{name} must be a sequence of 3 finite numbers (x_m, y_m, yaw_rad), got {value!r}"
+        )
+    return (float(items[0]), float(items[1]), float(items[2]))
+
+
+def occupancy_thresholds(
+    occupied_thresh: Any, free_thresh: Any, *, where: str = ""
+) -> tuple[float, float]:
+    """``(occupied_thresh, free_thresh)`` as floats after checking
+    ``0 <= free_thresh < occupied_thresh <= 1``; the errors start with ``where: `` when
+    ``where`` is given."""
+    prefix = f"{where}: " if where else ""
+    for name, v in (("occupied_thresh", occupied_thresh), ("free_thresh", free_thresh)):
+        if not is_real_number(v) or not math.isfinite(float(v)):
+            raise ValueError(f"{prefix}{name} must be a finite number in [0, 1], got {v!r}")
+    occ, free = float(occupied_thresh), float(free_thresh)
+    if not (0.0 <= free < occ <= 1.0):
+        raise ValueError(
+            f"{prefix}thresholds must satisfy 0 <= free_thresh < occupied_thresh <= 1, "
+            f"got free_thresh={free!r}, occupied_thresh={occ!r}"
+        )
+    return occ, free
+
+
+def choice(name: str, value: Any, choices: Any) -> str:
+    """``value`` after checking it is a string among ``choices`` (shown as given in the
+    error)."""
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
+def binary_flag(name: str, value: Any) -> bool:
+    """``value`` as a bool after checking it is a bool or the integer 0 or 1 (Python or
+    NumPy), as ``map_server`` YAML files write ``negate``."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)) and int(value) in (0, 1):
+        return bool(value)
+    raise ValueError(f"{name} must be a bool or 0/1, got {value!r}")
