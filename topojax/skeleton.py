@@ -10,8 +10,8 @@ scikit-image 0.26 function that the original IncrementalTopo code used:
   places where scikit-image's lookup table departs from the published conditions.
 
 Both are run by a numba kernel that only re-examines pixels whose 3x3 neighbourhood changed
-since they were last examined by the same kind of sub-iteration (see :func:`thin`), which
-makes them several times faster than scikit-image while giving identical output.
+since they were last examined by the same kind of sub-iteration (see :func:`thin`), with
+output identical to scikit-image's.
 
 :func:`remove_t_centres` reproduces step 5 of the original pipeline (``remove_Tcenter``) and
 :func:`skeletonize_ridges` chains the two.
@@ -413,7 +413,7 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
     pixels are re-examined instead, which is cheaper); the result is identical to re-examining
     every pixel. The cost is one linear scan of the image plus work proportional to the
     number of pixels examined. The first call in a fresh environment compiles the numba kernel
-    (about 1.5 s; cached on disk afterwards). Each thread keeps the kernel's work space
+    (cached on disk afterwards). Each thread keeps the kernel's work space
     (about 5 bytes per pixel, for images up to 4 megapixels) for its next call.
     """
     method = _check_method(method)
@@ -431,9 +431,7 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
 
 
 #: Per-thread work space of the thinning kernel, kept between calls: fresh map-sized
-#: arrays cost their page faults at every call (about 2 ms on office for the int32 mark
-#: array alone once other work has returned the memory to the system, against 0.8 ms for
-#: the whole thinning).
+#: arrays would cost their page faults at every call, more than the thinning itself.
 _THIN_SCRATCH = threading.local()
 #: Largest image (framed pixels) whose work space is kept: 4 Mpx, 20 MB.
 _THIN_SCRATCH_MAX_PX = 1 << 22
