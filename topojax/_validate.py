@@ -15,16 +15,22 @@ import numpy as np
 
 __all__ = [
     "binary_flag",
+    "binary_image",
     "choice",
+    "finite_pair",
     "finite_positive",
+    "finite_real",
     "flag",
+    "instance_or_default",
     "integer",
     "is_real_number",
     "metres",
     "metres_per_pixel",
     "nonnegative_metres",
     "occupancy_thresholds",
+    "one_of",
     "pose",
+    "positive_int",
     "positive_metres",
 ]
 
@@ -146,3 +152,70 @@ def binary_flag(name: str, value: Any) -> bool:
     if isinstance(value, (int, np.integer)) and int(value) in (0, 1):
         return bool(value)
     raise ValueError(f"{name} must be a bool or 0/1, got {value!r}")
+
+
+def finite_real(name: str, value: Any) -> float:
+    """``value`` as a float after checking it is a finite real number (Python or NumPy, not
+    bool); a ``ValueError`` otherwise, also for a non-number."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def positive_int(name: str, value: Any) -> int:
+    """``value`` as an int after checking it is an integer >= 1 (Python or NumPy, not
+    bool); a ``ValueError`` otherwise, also for a non-integer."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < 1:
+        raise ValueError(f"{name}: expected a positive int, got {value!r}")
+    return int(value)
+
+
+def one_of(name: str, value: Any, choices: tuple) -> Any:
+    """``value`` after checking it is among ``choices``; the error reads ``name: expected
+    one of ..., received ...``.  (:func:`choice` words it ``name must be one of ...``.)"""
+    if value not in choices:
+        raise ValueError(f"{name}: expected one of {choices}, received {value!r}")
+    return value
+
+
+def finite_pair(name: str, value: Any, what: str) -> np.ndarray:
+    """``value`` as a float64 array of shape (2,) after checking it holds two finite
+    numbers; ``what`` describes them in the error (e.g. ``"(x, y) in metres"``)."""
+    try:
+        q = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        q = None
+    if q is None or q.shape != (2,) or not np.isfinite(q).all():
+        raise ValueError(f"{name}: expected two finite numbers {what}, received {value!r}")
+    return q
+
+
+def instance_or_default(name: str, value: Any, kind: type) -> Any:
+    """``value``, or ``kind()`` for None, after checking it is a ``kind`` (a ``TypeError``
+    naming ``name`` instead of an ``AttributeError`` deep inside)."""
+    if value is None:
+        return kind()
+    if not isinstance(value, kind):
+        raise TypeError(f"{name}: expected a {kind.__name__}, got {type(value).__name__} {value!r}")
+    return value
+
+
+def binary_image(name: str, image: Any) -> np.ndarray:
+    """``image`` as a C-contiguous bool (H, W) array (nonzero = True) after checking it is a
+    2-D array of bool or numbers without NaN."""
+    arr = np.asarray(image)
+    if arr.dtype == object or arr.dtype.kind in "SUVMm":
+        raise TypeError(
+            f"{name} must be a 2-D array of bool or numbers, got dtype {arr.dtype} "
+            f"(type {type(image).__name__})"
+        )
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D array (H, W), got shape {arr.shape}")
+    if arr.dtype.kind in "fc" and np.isnan(arr).any():
+        raise ValueError(
+            f"{name} contains NaN ({int(np.isnan(arr).sum())} of {arr.size} values); "
+            "cannot convert it to a binary image"
+        )
+    if arr.dtype == np.bool_:
+        return np.ascontiguousarray(arr)
+    return np.ascontiguousarray(arr != 0)

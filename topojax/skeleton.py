@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ._jit import cached_njit
+from ._validate import binary_image, choice, flag
 
 __all__ = [
     "THIN_METHODS",
@@ -197,33 +198,7 @@ def thinning_lookup_tables(method: str = "guo_hall") -> np.ndarray:
         E, NE, N, NW, W, SW, S, SE (k = 0..7), where N is the row above (row - 1) and E the
         column to the right (col + 1).
     """
-    return _TABLES[_check_method(method)]
-
-
-def _check_method(method: Any) -> str:
-    if not isinstance(method, str) or method not in THIN_METHODS:
-        raise ValueError(f"method must be one of {list(THIN_METHODS)}, got {method!r}")
-    return method
-
-
-def _as_binary_image(image: Any, name: str) -> np.ndarray:
-    """Convert ``image`` to a C-contiguous bool (H, W) array, validating it."""
-    arr = np.asarray(image)
-    if arr.dtype == object or arr.dtype.kind in "SUVMm":
-        raise TypeError(
-            f"{name} must be a 2-D array of bool or numbers, got dtype {arr.dtype} "
-            f"(type {type(image).__name__})"
-        )
-    if arr.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D array (H, W), got shape {arr.shape}")
-    if arr.dtype.kind in "fc" and np.isnan(arr).any():
-        raise ValueError(
-            f"{name} contains NaN ({int(np.isnan(arr).sum())} of {arr.size} values); "
-            "cannot convert it to a binary image"
-        )
-    if arr.dtype == np.bool_:
-        return np.ascontiguousarray(arr)
-    return np.ascontiguousarray(arr != 0)
+    return _TABLES[choice("method", method, list(THIN_METHODS))]
 
 
 @cached_njit(nogil=True, inline="always")
@@ -416,8 +391,8 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
     (cached on disk afterwards). Each thread keeps the kernel's work space
     (about 5 bytes per pixel, for images up to 4 megapixels) for its next call.
     """
-    method = _check_method(method)
-    image = _as_binary_image(ridge, "ridge")
+    method = choice("method", method, list(THIN_METHODS))
+    image = binary_image("ridge", ridge)
     if image.size == 0:
         return image.copy()
     n_fg = int(np.count_nonzero(image))
@@ -561,7 +536,7 @@ def remove_t_centres(skeleton: Any) -> np.ndarray:
     acts as OR). For H == 1 or W == 1 nothing is cleared (the original raises IndexError there
     when a pixel is set).
     """
-    image = _as_binary_image(skeleton, "skeleton")
+    image = binary_image("skeleton", skeleton)
     out = image.astype(np.uint8)
     if out.size:
         remove_t_centres_inplace(out)
@@ -599,8 +574,7 @@ def skeletonize_ridges(
     ValueError, TypeError
         As :func:`thin`; also TypeError if ``remove_t`` is not a bool.
     """
-    if not isinstance(remove_t, (bool, np.bool_)):
-        raise TypeError(f"remove_t must be a bool, got {type(remove_t).__name__}")
+    flag("remove_t", remove_t)
     t0 = time.perf_counter()
     skeleton = thin(ridge, method=method)
     t1 = time.perf_counter()

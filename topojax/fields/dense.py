@@ -11,7 +11,6 @@ compilation of each serves every map size (see ``docs/design-fields.md``).
 from __future__ import annotations
 
 import itertools
-import numbers
 import os
 import threading
 from collections import Counter, deque
@@ -24,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from .._validate import instance_or_default, positive_int
 from ..config import DistanceConfig, RidgeConfig
 from .distance import (
     column_distance_tile,
@@ -302,16 +302,6 @@ def _obstacles_of(obstacles):
     return getattr(obstacles, "occupied", obstacles)
 
 
-def _checked(value, kind: type, name: str):
-    """``value``, or ``kind()`` for None, after checking its type (a TypeError naming
-    ``name`` instead of an AttributeError deep inside)."""
-    if value is None:
-        return kind()
-    if not isinstance(value, kind):
-        raise TypeError(f"{name}: expected a {kind.__name__}, got {type(value).__name__} {value!r}")
-    return value
-
-
 def dense_fields_many(
     obstacle_maps,
     *,
@@ -338,12 +328,10 @@ def dense_fields_many(
     list of DenseFields, one per map, in input order.
     """
     maps = [_as_obstacles(o) for o in obstacle_maps]
-    distance = _checked(distance, DistanceConfig, "distance")
-    ridge = _checked(ridge, RidgeConfig, "ridge")
-    for name, value in (("tile_px", tile_px), ("tiles_per_call", tiles_per_call)):
-        if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < 1:
-            raise ValueError(f"{name}: expected a positive int, got {value!r}")
-    tile_px, tiles_per_call = int(tile_px), int(tiles_per_call)
+    distance = instance_or_default("distance", distance, DistanceConfig)
+    ridge = instance_or_default("ridge", ridge, RidgeConfig)
+    tile_px = positive_int("tile_px", tile_px)
+    tiles_per_call = positive_int("tiles_per_call", tiles_per_call)
     if not maps:
         return []
     batch = _TileBatch(maps, tile_px, tiles_per_call)
@@ -535,7 +523,7 @@ def distance_map(
     over obstacles ``p`` in the square window.
     """
     obstacles = _obstacles_of(obstacles)
-    config = _checked(config, DistanceConfig, "config")
+    config = instance_or_default("config", config, DistanceConfig)
     return dense_fields(obstacles, distance=config, tile_px=tile_px).distance
 
 
