@@ -25,7 +25,8 @@ from hypothesis import strategies as st
 import topojax as tj
 from topojax.config import DistanceConfig, GraphConfig, PipelineConfig
 from topojax.datasets import sample_map
-from topojax.distance import FAR_SQ
+from topojax.fields.distance import FAR_SQ
+from topojax.fields.tiling import TileManager
 from topojax.graph import prune_graph
 from topojax.incremental import (
     STATE_FORMAT,
@@ -42,7 +43,6 @@ from topojax.io import load_graph
 from topojax.maps import OccupancyMap, load_map
 from topojax.pipeline import build_graph, dense_fields
 from topojax.scans import Scan, read_carmen
-from topojax.tiling import TileManager
 
 DATA = __import__("pathlib").Path(__file__).parent / "data"
 INTEL_EXCERPT = DATA / "intel_first40.log.gz"
@@ -227,7 +227,7 @@ def test_tile_storage_with_and_without_huge_pages(monkeypatch):
     the kernel refuses huge pages (no transparent huge page support: OSError)."""
     import mmap
 
-    from topojax import tiling
+    from topojax.fields import tiling
 
     class Refusing(mmap.mmap):
         def madvise(self, *args):
@@ -262,7 +262,7 @@ def test_batches_cover_the_rows_and_pad_at_most_max_padding(sizes):
 def test_tile_manager_growth_uses_storage_paged_in_ahead():
     from concurrent.futures import Future
 
-    from topojax.tiling import GROWTH_FACTOR
+    from topojax.fields.tiling import GROWTH_FACTOR
 
     jobs = []
 
@@ -296,7 +296,7 @@ def test_tile_manager_growth_uses_storage_paged_in_ahead():
 def test_tile_storage_reservation_and_its_fallback(monkeypatch):
     """A reserved capacity holds the tiles without growing; where the system refuses the
     reservation, the storage starts at ``initial_capacity`` and grows (also on load)."""
-    import topojax.tiling as tiling
+    import topojax.fields.tiling as tiling
 
     layers = {"d": (np.int32, 7), "h": (np.uint16, 0)}
     nbytes = 6 * 128 * 128  # one tile of both layers
@@ -375,7 +375,7 @@ def test_tile_manager_late_layer_fills_existing_and_new_tiles():
     )
 )
 def test_new_tiles_get_slots_in_row_major_order(pairs):
-    from topojax.tiling import unique_pairs
+    from topojax.fields.tiling import unique_pairs
 
     rows = np.array([p[0] for p in pairs], np.int64)
     cols = np.array([p[1] for p in pairs], np.int64)

@@ -20,16 +20,16 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from topojax.config import ORIGINAL_HALF_WIDTH_PX, ORIGINAL_SIGMA_PX, DistanceConfig, RidgeConfig
-from topojax.distance import (
+from topojax.fields.distance import (
     FAR_SQ,
     brute_force_distance_map,
     column_distance_tile,
     column_dtype,
     window_sq_distance_tile,
 )
-from topojax.filters import laplacian_valid, reflect_101_halo, ridge_from_laplacian
+from topojax.fields.filters import laplacian_valid, reflect_101_halo, ridge_from_laplacian
+from topojax.fields.tiling import TileGrid
 from topojax.pipeline import dense_fields, dense_fields_many, trace_counts
-from topojax.tiling import TileGrid
 
 
 def test_original_sigma_matches_reference_value():
@@ -247,7 +247,7 @@ def test_reused_scratch_buffers_do_not_leak_between_maps_or_calls():
     other maps of the same shapes (obstacles where the earlier ones had none, at the
     borders too) gives what a fresh process would (brute force).  The pool stays
     bounded."""
-    from topojax import pipeline
+    from topojax.fields import dense as pipeline
 
     pipeline._SCRATCH_POOL.arrays = []  # this thread's pool, as in a fresh thread
     rng = np.random.default_rng(3)
@@ -356,7 +356,7 @@ def test_wide_window_uses_uint16_column_pass_end_to_end():
 
 def test_row_pass_needed_region_is_exact_and_may_stop_early():
     """Pixels outside ``needed`` do not hold up a band's exit; needed ones stay exact."""
-    from topojax.distance import row_sq_distance_tile
+    from topojax.fields.distance import row_sq_distance_tile
 
     rng = np.random.default_rng(11)
     r, n, w = 20, 30, 24
@@ -382,7 +382,7 @@ def test_row_pass_needed_region_is_exact_and_may_stop_early():
 def test_row_pass_keeps_pixels_reached_exactly_at_the_window_edge(side):
     """Pixels with an empty window leave a band's exit test; a pixel whose only obstacle
     lies exactly R columns away must stay in it (else the band stops at once)."""
-    from topojax.distance import row_sq_distance_tile
+    from topojax.fields.distance import row_sq_distance_tile
 
     r, n, w = 20, 26, 8
     column = np.full((n, w + 2 * r), np.iinfo(column_dtype(r)).max, column_dtype(r))

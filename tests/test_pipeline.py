@@ -13,7 +13,7 @@ from scipy.spatial import cKDTree
 import topojax as tj
 from topojax.cli import main as cli_main
 from topojax.datasets import sample_map
-from topojax.distance import FAR_SQ
+from topojax.fields.distance import FAR_SQ
 
 
 @pytest.fixture(scope="module")
@@ -175,7 +175,8 @@ def _sparse_map(seed: int):
 def test_clearance_beyond_window_at_few_needed_pixels(seed):
     """A few needed pixels beyond R (some with no obstacle in their window at all) are
     searched one by one; many take the whole map's transform: both exact."""
-    from topojax.pipeline import _nearest_sq_distance, clearance_from_sq_distance
+    from topojax.fields.clearance import clearance_from_sq_distance
+    from topojax.fields.clearance import nearest_sq_distance as _nearest_sq_distance
 
     rng, obstacles, r, d2, edt = _sparse_map(seed)
     beyond = np.argwhere(d2 > r * r)

@@ -9,13 +9,28 @@ from __future__ import annotations
 
 import math
 import numbers
+from typing import Any
+
+import numpy as np
 
 __all__ = [
+    "binary_flag",
+    "binary_image",
+    "choice",
+    "finite_pair",
     "finite_positive",
+    "finite_real",
     "flag",
+    "instance_or_default",
     "integer",
+    "is_real_number",
     "metres",
+    "metres_per_pixel",
     "nonnegative_metres",
+    "occupancy_thresholds",
+    "one_of",
+    "pose",
+    "positive_int",
     "positive_metres",
 ]
 
@@ -69,3 +84,138 @@ def positive_metres(name: str, value: object) -> float:
     """:func:`metres` ``> 0`` (the tolerances of the Nav2 export and of
     :meth:`topojax.Route.waypoints`, the batch's ``sigma_m``)."""
     return metres(name, value, allow_zero=False)
+
+
+def is_real_number(value: Any) -> bool:
+    """True for int/float (including NumPy scalars) but not bool."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
+def metres_per_pixel(name: str, value: Any) -> float:
+    """``value`` as a float after checking it is a finite map resolution > 0 (m/px); a
+    ``ValueError`` otherwise, also for a non-number."""
+    if not is_real_number(value) or not math.isfinite(float(value)) or float(value) <= 0.0:
+        raise ValueError(f"{name} must be a finite number > 0 (metres per pixel), got {value!r}")
+    return float(value)
+
+
+def pose(name: str, value: Any) -> tuple[float, float, float]:
+    """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
+    finite numbers (a map origin); a ``ValueError`` otherwise."""
+    try:
+        items = list(value)
+    except TypeError:
+        raise ValueError(
+            f"{name} must be a sequence of 3 finite numbers (x_m, y_m, yaw_rad), got {value!r}"
+        ) from None
+    if len(items) != 3 or not all(is_real_number(v) and math.isfinite(float(v)) for v in items):
+        raise ValueError(
+            f"{name} must be a sequence of 3 finite numbers (x_m, y_m, yaw_rad), got {value!r}"
+        )
+    return (float(items[0]), float(items[1]), float(items[2]))
+
+
+def occupancy_thresholds(
+    occupied_thresh: Any, free_thresh: Any, *, where: str = ""
+) -> tuple[float, float]:
+    """``(occupied_thresh, free_thresh)`` as floats after checking
+    ``0 <= free_thresh < occupied_thresh <= 1``; the errors start with ``where: `` when
+    ``where`` is given."""
+    prefix = f"{where}: " if where else ""
+    for name, v in (("occupied_thresh", occupied_thresh), ("free_thresh", free_thresh)):
+        if not is_real_number(v) or not math.isfinite(float(v)):
+            raise ValueError(f"{prefix}{name} must be a finite number in [0, 1], got {v!r}")
+    occ, free = float(occupied_thresh), float(free_thresh)
+    if not (0.0 <= free < occ <= 1.0):
+        raise ValueError(
+            f"{prefix}thresholds must satisfy 0 <= free_thresh < occupied_thresh <= 1, "
+            f"got free_thresh={free!r}, occupied_thresh={occ!r}"
+        )
+    return occ, free
+
+
+def choice(name: str, value: Any, choices: Any) -> str:
+    """``value`` after checking it is a string among ``choices`` (shown as given in the
+    error)."""
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
+def binary_flag(name: str, value: Any) -> bool:
+    """``value`` as a bool after checking it is a bool or the integer 0 or 1 (Python or
+    NumPy), as ``map_server`` YAML files write ``negate``."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)) and int(value) in (0, 1):
+        return bool(value)
+    raise ValueError(f"{name} must be a bool or 0/1, got {value!r}")
+
+
+def finite_real(name: str, value: Any) -> float:
+    """``value`` as a float after checking it is a finite real number (Python or NumPy, not
+    bool); a ``ValueError`` otherwise, also for a non-number."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def positive_int(name: str, value: Any) -> int:
+    """``value`` as an int after checking it is an integer >= 1 (Python or NumPy, not
+    bool); a ``ValueError`` otherwise, also for a non-integer."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < 1:
+        raise ValueError(f"{name}: expected a positive int, got {value!r}")
+    return int(value)
+
+
+def one_of(name: str, value: Any, choices: tuple) -> Any:
+    """``value`` after checking it is among ``choices``; the error reads ``name: expected
+    one of ..., received ...``.  (:func:`choice` words it ``name must be one of ...``.)"""
+    if value not in choices:
+        raise ValueError(f"{name}: expected one of {choices}, received {value!r}")
+    return value
+
+
+def finite_pair(name: str, value: Any, what: str) -> np.ndarray:
+    """``value`` as a float64 array of shape (2,) after checking it holds two finite
+    numbers; ``what`` describes them in the error (e.g. ``"(x, y) in metres"``)."""
+    try:
+        q = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        q = None
+    if q is None or q.shape != (2,) or not np.isfinite(q).all():
+        raise ValueError(f"{name}: expected two finite numbers {what}, received {value!r}")
+    return q
+
+
+def instance_or_default(name: str, value: Any, kind: type) -> Any:
+    """``value``, or ``kind()`` for None, after checking it is a ``kind`` (a ``TypeError``
+    naming ``name`` instead of an ``AttributeError`` deep inside)."""
+    if value is None:
+        return kind()
+    if not isinstance(value, kind):
+        raise TypeError(f"{name}: expected a {kind.__name__}, got {type(value).__name__} {value!r}")
+    return value
+
+
+def binary_image(name: str, image: Any) -> np.ndarray:
+    """``image`` as a C-contiguous bool (H, W) array (nonzero = True) after checking it is a
+    2-D array of bool or numbers without NaN."""
+    arr = np.asarray(image)
+    if arr.dtype == object or arr.dtype.kind in "SUVMm":
+        raise TypeError(
+            f"{name} must be a 2-D array of bool or numbers, got dtype {arr.dtype} "
+            f"(type {type(image).__name__})"
+        )
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D array (H, W), got shape {arr.shape}")
+    if arr.dtype.kind in "fc" and np.isnan(arr).any():
+        raise ValueError(
+            f"{name} contains NaN ({int(np.isnan(arr).sum())} of {arr.size} values); "
+            "cannot convert it to a binary image"
+        )
+    if arr.dtype == np.bool_:
+        return np.ascontiguousarray(arr)
+    return np.ascontiguousarray(arr != 0)

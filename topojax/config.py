@@ -7,10 +7,17 @@ keyword-only, so configurations read the same in code, notebooks and the CLI.
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field
 
-from ._validate import finite_positive, flag, integer, nonnegative_metres
+from ._validate import (
+    choice,
+    finite_positive,
+    finite_real,
+    flag,
+    integer,
+    nonnegative_metres,
+    positive_int,
+)
 
 __all__ = [
     "ORIGINAL_SIGMA_PX",
@@ -149,10 +156,7 @@ class RidgeConfig:
         _canonical(self, "ksize", integer("ksize", self.ksize))
         if self.ksize not in (1, 3, 5):
             raise ValueError(f"ksize must be 1, 3 or 5 (OpenCV apertures), got {self.ksize!r}")
-        t = self.threshold
-        if not isinstance(t, numbers.Real) or isinstance(t, bool) or not math.isfinite(t):
-            raise ValueError(f"threshold must be a finite number, got {t!r}")
-        _canonical(self, "threshold", float(t))
+        _canonical(self, "threshold", finite_real("threshold", self.threshold))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -173,8 +177,7 @@ class SkeletonConfig:
     remove_t: bool = True
 
     def __post_init__(self) -> None:
-        if not isinstance(self.thinning, str) or self.thinning not in _THINNING:
-            raise ValueError(f"thinning must be one of {_THINNING}, got {self.thinning!r}")
+        choice("thinning", self.thinning, _THINNING)
         _canonical(self, "remove_t", flag("remove_t", self.remove_t))
 
 
@@ -265,10 +268,6 @@ class PipelineConfig:
                     f"{name} must be a {kind.__name__}, got {type(value).__name__} {value!r}"
                 )
         for name in ("tile_px", "tiles_per_call"):
-            value = getattr(self, name)
-            if isinstance(value, numbers.Integral) and not isinstance(value, bool):
-                _canonical(self, name, int(value))
-            if not isinstance(getattr(self, name), int) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"{name} must be a positive int, got {value!r}")
+            _canonical(self, name, positive_int(name, getattr(self, name)))
         if self.tile_px < 8 or self.tile_px > 4096:
             raise ValueError(f"tile_px must be in [8, 4096], got {self.tile_px}")

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from ._validate import nonnegative_metres, positive_metres
+from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
 from .graph import cumulative_length_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
 
@@ -233,8 +233,7 @@ class RoutePlanner:
             ``max_snap_m`` that is not a number); a point beyond ``max_snap_m``; a graph
             without vertices.
         """
-        if frame not in _FRAMES:
-            raise ValueError(f"frame: expected one of {_FRAMES}, received {frame!r}")
+        one_of("frame", frame, _FRAMES)
         if max_snap_m is not None:
             max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
         s = self._snap(start, frame, "start")
@@ -515,13 +514,7 @@ def plan_route(
 
 def _point(point, name: str, frame: str) -> np.ndarray:
     what = "(x, y) in metres" if frame == "world" else "(row, col) in pixels"
-    try:
-        q = np.asarray(point, dtype=np.float64)
-    except (TypeError, ValueError):
-        q = None
-    if q is None or q.shape != (2,) or not np.isfinite(q).all():
-        raise ValueError(f"{name}: expected two finite numbers {what}, received {point!r}")
-    return q
+    return finite_pair(name, point, what)
 
 
 def _step_size(path: np.ndarray, world: np.ndarray) -> float:

@@ -10,8 +10,8 @@ scikit-image 0.26 function that the original IncrementalTopo code used:
   places where scikit-image's lookup table departs from the published conditions.
 
 Both are run by a numba kernel that only re-examines pixels whose 3x3 neighbourhood changed
-since they were last examined by the same kind of sub-iteration (see :func:`thin`), which
-makes them several times faster than scikit-image while giving identical output.
+since they were last examined by the same kind of sub-iteration (see :func:`thin`), with
+output identical to scikit-image's.
 
 :func:`remove_t_centres` reproduces step 5 of the original pipeline (``remove_Tcenter``) and
 :func:`skeletonize_ridges` chains the two.
@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from ._jit import cached_njit
+from ._validate import binary_image, choice, flag
 
 __all__ = [
     "THIN_METHODS",
@@ -197,33 +198,7 @@ def thinning_lookup_tables(method: str = "guo_hall") -> np.ndarray:
         E, NE, N, NW, W, SW, S, SE (k = 0..7), where N is the row above (row - 1) and E the
         column to the right (col + 1).
     """
-    return _TABLES[_check_method(method)]
-
-
-def _check_method(method: Any) -> str:
-    if not isinstance(method, str) or method not in THIN_METHODS:
-        raise ValueError(f"method must be one of {list(THIN_METHODS)}, got {method!r}")
-    return method
-
-
-def _as_binary_image(image: Any, name: str) -> np.ndarray:
-    """Convert ``image`` to a C-contiguous bool (H, W) array, validating it."""
-    arr = np.asarray(image)
-    if arr.dtype == object or arr.dtype.kind in "SUVMm":
-        raise TypeError(
-            f"{name} must be a 2-D array of bool or numbers, got dtype {arr.dtype} "
-            f"(type {type(image).__name__})"
-        )
-    if arr.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D array (H, W), got shape {arr.shape}")
-    if arr.dtype.kind in "fc" and np.isnan(arr).any():
-        raise ValueError(
-            f"{name} contains NaN ({int(np.isnan(arr).sum())} of {arr.size} values); "
-            "cannot convert it to a binary image"
-        )
-    if arr.dtype == np.bool_:
-        return np.ascontiguousarray(arr)
-    return np.ascontiguousarray(arr != 0)
+    return _TABLES[choice("method", method, list(THIN_METHODS))]
 
 
 @cached_njit(nogil=True, inline="always")
@@ -413,11 +388,11 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
     pixels are re-examined instead, which is cheaper); the result is identical to re-examining
     every pixel. The cost is one linear scan of the image plus work proportional to the
     number of pixels examined. The first call in a fresh environment compiles the numba kernel
-    (about 1.5 s; cached on disk afterwards). Each thread keeps the kernel's work space
+    (cached on disk afterwards). Each thread keeps the kernel's work space
     (about 5 bytes per pixel, for images up to 4 megapixels) for its next call.
     """
-    method = _check_method(method)
-    image = _as_binary_image(ridge, "ridge")
+    method = choice("method", method, list(THIN_METHODS))
+    image = binary_image("ridge", ridge)
     if image.size == 0:
         return image.copy()
     n_fg = int(np.count_nonzero(image))
@@ -431,9 +406,7 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
 
 
 #: Per-thread work space of the thinning kernel, kept between calls: fresh map-sized
-#: arrays cost their page faults at every call (about 2 ms on office for the int32 mark
-#: array alone once other work has returned the memory to the system, against 0.8 ms for
-#: the whole thinning).
+#: arrays would cost their page faults at every call, more than the thinning itself.
 _THIN_SCRATCH = threading.local()
 #: Largest image (framed pixels) whose work space is kept: 4 Mpx, 20 MB.
 _THIN_SCRATCH_MAX_PX = 1 << 22
@@ -563,7 +536,7 @@ def remove_t_centres(skeleton: Any) -> np.ndarray:
     acts as OR). For H == 1 or W == 1 nothing is cleared (the original raises IndexError there
     when a pixel is set).
     """
-    image = _as_binary_image(skeleton, "skeleton")
+    image = binary_image("skeleton", skeleton)
     out = image.astype(np.uint8)
     if out.size:
         remove_t_centres_inplace(out)
@@ -601,8 +574,7 @@ def skeletonize_ridges(
     ValueError, TypeError
         As :func:`thin`; also TypeError if ``remove_t`` is not a bool.
     """
-    if not isinstance(remove_t, (bool, np.bool_)):
-        raise TypeError(f"remove_t must be a bool, got {type(remove_t).__name__}")
+    flag("remove_t", remove_t)
     t0 = time.perf_counter()
     skeleton = thin(ridge, method=method)
     t1 = time.perf_counter()

@@ -1,35 +1,12 @@
 """Gaussian max-splat distance maps as JAX kernels on fixed-size tiles.
 
-The paper's distance map puts a Gaussian on every obstacle pixel and keeps the per-pixel
-maximum::
-
-    H(x) = max_p exp(-|x - p|^2 / (2 sigma^2)),   p obstacle, |x - p|_inf <= R
-
-Because the Gaussian decreases with distance, ``H(x) = exp(-d(x)^2 / (2 sigma^2))`` where
-``d(x)`` is the distance to the nearest obstacle *inside the square window* of half-width
-``R`` around ``x``.  The window is a square, so the windowed squared distance separates
-exactly into two passes, each a pure kernel on one fixed-size tile:
-
-1. :func:`column_distance_tile`, along columns: ``v(r, c)``, the distance to the nearest
-   obstacle of column ``c`` within ``R`` rows, from two running scans (last obstacle above,
-   next obstacle below) over the tile's own rows; the ``R`` halo rows on each side enter
-   through one reduction each.  The result is small (``v <= R``), so it is stored in
-   ``uint8`` (``uint16`` for ``R >= 255``), and the row pass can read the ``R`` halo
-   columns of neighbouring tiles from the assembled map instead of recomputing them.
-2. :func:`row_sq_distance_tile`, along rows: ``d^2(r, c) = min_{|k| <= R} v(r, c + k)^2 +
-   k^2``.  Offsets run in increasing ``|k|`` per band of rows and stop as soon as ``k^2``
-   reaches the band's largest current best: no larger offset can improve any pixel there.
-   The running best only comes from real obstacles, so the early exit is exact, and the
-   cost scales with the band's largest clearance instead of with ``R``.  Pixels with no
-   obstacle in their window at all (unknown space around a map) are FAR whatever the
-   loop does; a cheap per-band test finds them, so they do not keep a band running.
-   Bands run in 16-bit lanes (twice the pixels per vector) unless one of their pixels
-   could be 2^16 - 1 px^2 or more from its nearest obstacle, which a test on the column
-   pass rules out for most bands; the others run in int32.
-
-Every number here is an integer until the final ``exp``, so the tiled result does not
-depend on the tiling.  :func:`window_sq_distance_tile` chains both passes on one square
-patch (used by tests and as the single-tile reference).
+``H(x) = max_p exp(-|x - p|^2 / (2 sigma^2))`` over obstacles ``p`` with
+``|x - p|_inf <= R`` equals ``exp(-d^2 / (2 sigma^2))`` for the squared distance ``d^2``
+to the nearest obstacle in the square window, which separates exactly into a column pass
+(:func:`column_distance_tile`) and a row pass with an exact early exit
+(:func:`row_sq_distance_tile`); :func:`window_sq_distance_tile` chains both on one patch.
+Every number is an integer until the final ``exp``, so the result does not depend on the
+tiling.  The algorithm is described in ``docs/design-fields.md``.
 """
 
 from __future__ import annotations
@@ -48,6 +25,7 @@ __all__ = [
     "row_sq_distance_tile",
     "window_sq_distance_tile",
     "gaussian_from_sq_distance",
+    "brute_force_distance_map",
 ]
 
 #: Squared-distance value of pixels with no obstacle inside their window.
@@ -99,8 +77,8 @@ def column_distance_tile(strip: jax.Array, *, half_width: int) -> jax.Array:
     if n < 1:
         raise ValueError(f"strip must have more than 2 R = {2 * r} rows, got {size}")
     dtype = column_dtype(r)
-    # Row indices in int16 where they fit (30 % faster than int32 on the paper maps'
-    # tiles: twice the lanes per vector); "none" sentinels stay clear of every row.
+    # Row indices in int16 where they fit (twice the lanes per vector of int32); "none"
+    # sentinels stay clear of every row.
     index_dtype = jnp.int16 if size < (1 << 13) else jnp.int32
     big = jnp.array(1 << 14 if index_dtype == jnp.int16 else 1 << 24, index_dtype)
     rows = jnp.arange(size, dtype=index_dtype)[:, None]
@@ -249,8 +227,7 @@ def _band_min(gb: jax.Array, mb: jax.Array, *, half_width: int, width: int) -> j
     def unfinished(best, k):
         # Is there a needed pixel that offsets >= k may still improve?  (A pixel whose
         # best is <= k^2 is final: every candidate from offsets >= k is >= k^2.)  A
-        # boolean any: 15 % faster row pass than comparing the band's largest best, an
-        # int32 max reduction, with k^2.
+        # boolean any rather than an int32 max reduction of the band's best.
         return jnp.any(mb & (best > square(k)))
 
     def cond(carry):

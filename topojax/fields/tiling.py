@@ -5,8 +5,8 @@ once for maps of every size.  A map of shape ``(H, W)`` is covered by
 ``ceil(H / T) x ceil(W / T)`` tiles of side ``T``; tile ``(i, j)`` owns the map pixels
 ``[i T, (i + 1) T) x [j T, (j + 1) T)`` (its *core*).  Kernels that look at neighbours get
 the core plus a *halo* of ``h`` pixels on every side (or ``h_rows`` above and below and
-``h_cols`` left and right), cut from the map padded with a constant.  Pixels of the last row/column of tiles that fall outside the map are padding and
-are dropped when the tiles are assembled.
+``h_cols`` left and right), cut from the map padded with a constant.  Pixels of the last row/column of tiles that fall outside
+the map are padding and are dropped when the tiles are assembled.
 """
 
 from __future__ import annotations
@@ -19,7 +19,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-__all__ = ["TileGrid"]
+__all__ = [
+    "GROWTH_FACTOR",
+    "HUGE_PAGES",
+    "MAX_GRID_CELLS",
+    "TileGrid",
+    "TileManager",
+    "unique_pairs",
+]
 
 
 @dataclass(frozen=True)
@@ -170,14 +177,14 @@ MAX_GRID_CELLS = 1 << 24
 #: Layer storage at least this large gets its own memory mapping (see ``_storage``).
 _MAPPED_MIN_BYTES = 1 << 20
 #: Capacity growth factor of the tile storage.  Growing copies every tile into new,
-#: lazily zeroed memory, whose first touch costs a page fault per page (about 1 ms per MB
-#: on a virtual machine in 4 KiB pages; see :data:`HUGE_PAGES`): growing 4x instead of 2x
+#: lazily zeroed memory, whose first touch costs a page fault per page (see
+#: :data:`HUGE_PAGES`): growing 4x instead of 2x
 #: copies a third as much in total; unused capacity is reserved, not touched.
 GROWTH_FACTOR = 4
 #: Ask for transparent huge pages (2 MiB, where the kernel allows them: Linux ``madvise``
 #: mode) for the mapped layers: a first touch then maps 2 MiB at once instead of 4 KiB,
-#: so an intel replay takes 3.6k page faults instead of 16.5k (aces: 2.4k instead of 21k;
-#: 2-3 % less time).  Resident memory grows in 2 MiB steps per layer.
+#: so a replay takes several times fewer page faults.  Resident memory grows in 2 MiB
+#: steps per layer.
 HUGE_PAGES = True
 
 
@@ -189,8 +196,7 @@ def _storage(capacity: int, shape, dt: np.dtype) -> np.ndarray:
     Large layers get an anonymous private memory mapping of their own.  ``np.zeros``
     does not guarantee this: once the C allocator has recycled freed memory of that
     size (it raises its mapping threshold after a large free), it hands out heap memory
-    and clears all of it at once (a 133 MB growth then cost 0.14 s and its full size in
-    memory).
+    and clears all of it at once (a growth then costs its full size in memory).
     """
     shape = (capacity, *shape)
     count = math.prod(shape)
@@ -215,8 +221,7 @@ def unique_pairs(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Distinct ``(row, col)`` pairs sorted by row, then column: int64 (n, 2).
 
     Same result as ``np.unique(np.stack([rows, cols], 1), axis=0)``, through one packed
-    integer key (``axis=0`` goes through a structured view and is ~10x slower on the small
-    arrays of a scan).
+    integer key (``axis=0`` goes through a structured view).
     """
     r0, c0 = rows.min(), cols.min()
     span = cols.max() - c0 + 1
@@ -262,7 +267,7 @@ class TileManager:
     reserve_bytes : int, optional
         Start with at least as many tiles as fit in this many bytes.  The capacity is
         reserved address space: untouched capacity takes no memory, and every growth it
-        saves is a copy of every tile saved (0.15-0.28 s for 133 MB of tiles here).
+        saves is a copy of every tile saved.
         Where the system refuses the reservation (strict overcommit, an address-space
         limit), the storage starts at ``initial_capacity`` and grows.
     """
@@ -534,8 +539,7 @@ class TileManager:
         thread.
 
         Growing copies every tile into new memory, and on a first touch each page of it
-        costs a page fault (about 1 ms per MB on a virtual machine): a stall of tens to
-        hundreds of milliseconds on large maps.  Once the tiles fill ``fraction`` of the
+        costs a page fault: a stall on large maps.  Once the tiles fill ``fraction`` of the
         capacity, this allocates the next storage and submits a job that writes the part
         the growth will copy into (as much as the current capacity), so that the growth
         only copies.  The job touches nothing else; the growth waits for it.

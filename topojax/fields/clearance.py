@@ -1,0 +1,166 @@
+"""Exact Euclidean clearance (distance to the nearest obstacle) from the windowed squared
+distance, everywhere or at a few pixels."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .distance import FAR_SQ
+
+__all__ = [
+    "SPARSE_CLEARANCE_MAX_PX",
+    "clearance_at",
+    "clearance_from_sq_distance",
+    "nearest_sq_distance",
+]
+
+#: Needed pixels beyond the window that :func:`clearance_from_sq_distance` searches one
+#: by one (a square crop each) before it takes the whole map's distance transform instead.
+SPARSE_CLEARANCE_MAX_PX = 64
+
+
+def nearest_sq_distance(obstacles, rows, cols, upper_sq, start_px, budget_px):
+    """Exact squared distance (px^2, int64) from pixels ``(rows, cols)`` to the nearest
+    obstacle, searching squares around each pixel.
+
+    ``upper_sq`` bounds each answer from above (the windowed value: the nearest obstacle
+    inside the window is a real one); where it is ``FAR_SQ`` the search starts with a
+    square of half-side ``start_px``.  A square of half-side ``s`` holding an obstacle at
+    squared distance ``<= s^2`` holds the nearest one (every pixel outside it is farther
+    than ``s``).  All first squares are searched together (their bounding box, read
+    once); a pixel not settled there doubles its own square.  ``obstacles`` must hold an
+    obstacle.  Returns None (gives up) once the squares read hold more than ``budget_px``
+    pixels.
+    """
+    h, w = obstacles.shape
+    rows = np.asarray(rows, np.int64)
+    cols = np.asarray(cols, np.int64)
+    upper = np.asarray(upper_sq, np.int64)
+    far = upper >= FAR_SQ
+    side = np.where(far, max(1, start_px), np.sqrt(np.where(far, 0, upper)).astype(np.int64) + 2)
+    r0, r1 = max(0, int((rows - side).min())), min(h, int((rows + side).max()) + 1)
+    c0, c1 = max(0, int((cols - side).min())), min(w, int((cols + side).max()) + 1)
+    budget = budget_px - (r1 - r0) * (c1 - c0)
+    if budget < 0:
+        return None
+    ys, xs = np.nonzero(obstacles[r0:r1, c0:c1])
+    ys += r0
+    xs += c0
+    out = np.empty(rows.shape[0], np.int64)
+    for i, (r, c, s) in enumerate(zip(rows.tolist(), cols.tolist(), side.tolist(), strict=True)):
+        best = int(((ys - r) ** 2 + (xs - c) ** 2).min()) if ys.size else FAR_SQ
+        while best > s * s:  # not settled: search a doubled square around this pixel
+            s *= 2
+            q0, q1 = max(0, r - s), min(h, r + s + 1)
+            p0, p1 = max(0, c - s), min(w, c + s + 1)
+            budget -= (q1 - q0) * (p1 - p0)
+            if budget < 0:
+                return None
+            qy, qx = np.nonzero(obstacles[q0:q1, p0:p1])
+            if qy.size:
+                best = int(((qy + (q0 - r)) ** 2 + (qx + (p0 - c)) ** 2).min())
+            if q0 == 0 and p0 == 0 and q1 == h and p1 == w:
+                if not qy.size:
+                    raise ValueError("obstacles holds no obstacle")
+                break
+        out[i] = best
+    return out
+
+
+def clearance_from_sq_distance(
+    sq_distance_px: np.ndarray,
+    obstacles: np.ndarray,
+    half_width_px: int,
+    need: np.ndarray | None = None,
+) -> np.ndarray:
+    """True Euclidean clearance in pixels from the windowed squared distance.
+
+    The windowed distance equals the Euclidean distance transform wherever it is at most
+    the window half-width ``R`` (an obstacle nearer than ``R`` is inside the window).
+    Pixels beyond that (only in open maps) are filled in from an exact unwindowed
+    transform.
+
+    Parameters
+    ----------
+    sq_distance_px : int32 (H, W)
+        Windowed squared distance, px^2 (``FAR_SQ`` where the window has no obstacle).
+    obstacles : bool (H, W)
+    half_width_px : int
+        Window half-width ``R``.
+    need : bool (H, W), optional
+        If given, only these pixels must be exact (other pixels beyond ``R`` then keep the
+        windowed value).  A few of them beyond ``R`` are searched one by one; more take
+        the unwindowed transform of the whole map.  Default: every pixel is exact.
+
+    Returns
+    -------
+    float32 (H, W): clearance in pixels, ``inf`` everywhere when there are no obstacles.
+    Within ``R`` it is the square root of the exact integer distance; beyond ``R`` it is
+    that too at a few needed pixels, otherwise OpenCV's exact transform in float32
+    (which can differ by one ulp between calls).
+    """
+    d2 = sq_distance_px
+    clearance = d2.astype(np.float32)
+    np.sqrt(clearance, out=clearance)
+    r2 = half_width_px * half_width_px
+    if d2.size == 0 or d2.max() <= r2:
+        return clearance
+    if not obstacles.any():
+        clearance.fill(np.inf)
+        return clearance
+    if need is not None:
+        flat = np.flatnonzero(need)  # sparse (ridge pixels): test d2 there only
+        flat = flat[d2.ravel()[flat] > r2]
+        if flat.size:
+            clearance.ravel()[flat] = clearance_at(d2, obstacles, half_width_px, flat)
+        return clearance
+    np.copyto(clearance, _unwindowed_clearance(obstacles), where=d2 > r2)
+    return clearance
+
+
+def clearance_at(
+    sq_distance_px: np.ndarray, obstacles: np.ndarray, half_width_px: int, flat: np.ndarray
+) -> np.ndarray:
+    """True Euclidean clearance in pixels at some pixels only.
+
+    Same values as :func:`clearance_from_sq_distance` at those pixels, without touching
+    the rest of the map (the graph step needs the skeleton's pixels only).
+
+    Parameters
+    ----------
+    sq_distance_px, obstacles, half_width_px : see :func:`clearance_from_sq_distance`
+    flat : int array (n,)
+        Flat (raster) indices of the pixels, ``row * W + col``.
+
+    Returns
+    -------
+    float32 (n,): clearance in pixels (``inf`` where the map has no obstacle at all).
+    """
+    flat = np.asarray(flat, np.intp)
+    d2 = sq_distance_px.ravel()[flat]
+    out = np.sqrt(d2.astype(np.float32))
+    far = np.flatnonzero(d2 > half_width_px * half_width_px)
+    if far.size == 0:
+        return out
+    if not obstacles.any():
+        out[far] = np.inf
+        return out
+    rows, cols = np.divmod(flat[far], sq_distance_px.shape[1])
+    exact = None
+    if far.size <= SPARSE_CLEARANCE_MAX_PX:
+        # searching more than twice the map would cost more than its transform
+        exact = nearest_sq_distance(
+            obstacles, rows, cols, d2[far], 2 * half_width_px, 2 * sq_distance_px.size
+        )
+    if exact is not None:
+        out[far] = np.sqrt(exact.astype(np.float32))
+    else:
+        out[far] = _unwindowed_clearance(obstacles)[rows, cols]
+    return out
+
+
+def _unwindowed_clearance(obstacles: np.ndarray) -> np.ndarray:
+    """OpenCV's exact Euclidean distance transform (float32, px) of a map with obstacles."""
+    import cv2
+
+    return cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)

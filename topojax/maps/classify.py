@@ -1,0 +1,318 @@
+"""Classification of map arrays into free / occupied / unknown pixels.
+
+* Grey images are classified with the ``map_server`` rule. For a pixel intensity ``v``
+  on a scale ``0 .. full`` (``full`` = 255 for 8-bit images), ``p = (full - v) / full``
+  (``p = v / full`` when ``negate``); the pixel is *occupied* if ``p > occupied_thresh``,
+  *free* if ``p < free_thresh`` and *unknown* otherwise. With the usual thresholds
+  0.65 / 0.196, ``v <= 89`` is occupied, ``v >= 206`` is free and ``90 .. 205`` is unknown,
+  so the ``map_saver`` values 0 / 205 / 254 map to occupied / unknown / free.
+* Colour images are reduced to one intensity per pixel with the **mean of the colour
+  channels** (the ROS 1 ``map_server`` rule; it does not depend on the channel order, so
+  RGB and OpenCV's BGR give the same result). An alpha channel is ignored. All colour maps
+  in the project data are grey (R = G = B), for which mean and luma weights agree.
+
+Known data-set conventions this module does *not* reproduce by default: the IPA
+room-segmentation maps treat only grey values >= 250 as free and everything else as
+obstacle; with the ``map_server`` thresholds their grey outside area (153 .. 205) is
+*unknown* instead. Use ``mode="ipa"`` to get the IPA interpretation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from .._validate import is_real_number
+
+__all__ = [
+    "DEFAULT_FREE_THRESH",
+    "DEFAULT_OCCUPIED_THRESH",
+    "MODES",
+    "classify_array",
+    "classify_image",
+]
+
+#: ``map_server`` default occupied threshold.
+DEFAULT_OCCUPIED_THRESH = 0.65
+#: ``map_server`` default free threshold.
+DEFAULT_FREE_THRESH = 0.196
+#: Interpretation modes accepted by :meth:`OccupancyMap.from_array` and :func:`load_map`.
+MODES = ("trinary", "scale", "raw", "ipa")
+
+# Class codes used internally by the classification look-up tables.
+_FREE, _OCC, _UNK = np.uint8(0), np.uint8(1), np.uint8(2)
+
+# IPA convention: grey >= 250 (of 255) is free.
+_IPA_FREE_MIN = 250
+
+
+def classify_array(
+    array: np.ndarray,
+    *,
+    occupied_thresh: float,
+    free_thresh: float,
+    negate: bool,
+    mode: str,
+    unknown_values: Iterable[float] | None,
+    given_type: str,
+) -> np.ndarray:
+    """Class codes (uint8, ``_FREE`` / ``_OCC`` / ``_UNK``) of an array, with the rules of
+    :meth:`OccupancyMap.from_array` for its dtype; the parameters are already checked
+    there.  ``given_type`` names the type the caller passed, for the dtype error."""
+    if array.dtype == np.uint8:
+        return _classify_uint8(
+            array,
+            occupied_thresh=occupied_thresh,
+            free_thresh=free_thresh,
+            negate=negate,
+            mode=mode,
+            unknown_values=unknown_values,
+        )
+    return _classify_values(
+        array,
+        occupied_thresh=occupied_thresh,
+        free_thresh=free_thresh,
+        negate=negate,
+        mode=mode,
+        unknown_values=unknown_values,
+        given_type=given_type,
+    )
+
+
+def _classify_uint8(
+    arr: np.ndarray,
+    *,
+    occupied_thresh: float,
+    free_thresh: float,
+    negate: bool,
+    mode: str,
+    unknown_values: Iterable[float] | None,
+) -> np.ndarray:
+    """Class codes of an 8-bit image, after refusing an obstacle mask of 0 and 1."""
+    if arr.ndim == 2 and mode != "raw" and unknown_values is None and _only_0_and_1(arr):
+        # As image intensities 0 and 1 are both black: every pixel would be occupied
+        # (all free with negate).  Such an array is an obstacle mask in uint8, as
+        # OpenCV makes them, and distance_map reads it as one.
+        raise ValueError(
+            "uint8 image holds only the values 0 and 1: as intensities that is a map "
+            "occupied everywhere (free everywhere with negate; 0 = black = occupied, "
+            "254 = free); for an obstacle mask pass a bool array "
+            "(array.astype(bool), True = occupied), or save a mask image as 0 / 255"
+        )
+    return classify_image(
+        arr,
+        full_scale=255,
+        occupied_thresh=occupied_thresh,
+        free_thresh=free_thresh,
+        negate=negate,
+        mode=mode,
+        unknown_values=unknown_values,
+    )
+
+
+def _classify_values(
+    arr: np.ndarray,
+    *,
+    occupied_thresh: float,
+    free_thresh: float,
+    negate: bool,
+    mode: str,
+    unknown_values: Iterable[float] | None,
+    given_type: str,
+) -> np.ndarray:
+    """Class codes of a bool mask, an OccupancyGrid integer array or a probability array."""
+    numeric = np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
+    if arr.dtype != np.bool_ and not numeric:  # None, a string, complex numbers...
+        raise TypeError(
+            "array must have dtype bool, uint8 (image), another integer type "
+            f"(OccupancyGrid -1..100) or float (probability 0..1), got {arr.dtype} "
+            f"(from {given_type})"
+        )
+    if arr.ndim != 2:
+        raise ValueError(
+            f"array must be 2-D (H, W) for dtype {arr.dtype} (only uint8 images may "
+            f"have a channel axis), got shape {arr.shape}"
+        )
+    if negate:
+        raise ValueError(
+            f"negate=True applies only to uint8 images, got an array of dtype {arr.dtype}"
+        )
+    if mode not in ("trinary", "scale"):
+        raise ValueError(
+            f"mode={mode!r} applies only to uint8 images; arrays of dtype "
+            f"{arr.dtype} accept mode 'trinary' or 'scale'"
+        )
+    if arr.dtype == np.bool_:
+        if unknown_values is not None:
+            raise ValueError("unknown_values cannot be used with a bool array")
+        return np.where(arr, _OCC, _FREE)
+    if np.issubdtype(arr.dtype, np.integer):
+        return _classify_occupancy_grid(arr, occupied_thresh, free_thresh, unknown_values)
+    # floating (other dtypes were refused above)
+    return _classify_probability(arr, occupied_thresh, free_thresh, unknown_values)
+
+
+def _unknown_value_list(unknown_values: Iterable[float] | None) -> list[float]:
+    if unknown_values is None:
+        return []
+    if isinstance(unknown_values, (str, bytes)):
+        raise TypeError(f"unknown_values must be an iterable of numbers, got {unknown_values!r}")
+    try:
+        values = list(np.asarray(list(unknown_values), dtype=object).ravel())
+    except TypeError:
+        raise TypeError(
+            f"unknown_values must be an iterable of numbers, got {unknown_values!r}"
+        ) from None
+    for v in values:
+        if not is_real_number(v):
+            raise TypeError(f"unknown_values must contain only numbers, got {v!r}")
+    return [float(v) for v in values]
+
+
+def classify_image(
+    arr: np.ndarray,
+    *,
+    full_scale: int,
+    occupied_thresh: float,
+    free_thresh: float,
+    negate: bool,
+    mode: str,
+    unknown_values: Iterable[float] | None,
+    average_alpha: bool = False,
+) -> np.ndarray:
+    """Classify an unsigned-integer image into class codes with a look-up table.
+
+    ``arr`` is (H, W) or (H, W, C) with C in 1..4; ``full_scale`` is the intensity of white
+    (255 for 8-bit, 65535 for 16-bit, a PGM's maxval otherwise).  Alpha is ignored unless
+    ``average_alpha`` (map_server's rule for YAML maps in trinary mode).
+    """
+    if arr.ndim == 2:
+        colour, n = arr, 1
+    elif arr.ndim == 3 and arr.shape[2] in (1, 2, 3, 4):
+        channels = arr.shape[2]
+        n = 1 if channels <= 2 else 3  # grey(+alpha) or colour(+alpha)
+        colour = arr[..., 0] if n == 1 else arr[..., :3].sum(axis=2, dtype=np.uint32)
+        if average_alpha:  # load_map's decision: trinary mode, 2 or 4 channels
+            # map_server (ROS 1 and Nav2) averages alpha in with the colour channels in
+            # trinary mode; a grey + alpha pixel is read as R = G = B = grey, plus alpha
+            grey3 = colour.astype(np.uint32) * (3 if n == 1 else 1)
+            colour = grey3 + arr[..., channels - 1]
+            n = 4
+    else:
+        raise ValueError(
+            "image array must be (H, W) or (H, W, C) with C in 1..4 channels, "
+            f"got shape {arr.shape}"
+        )
+    if mode == "raw" and full_scale != 255:
+        raise ValueError(f"mode='raw' needs an 8-bit image, got full scale {full_scale}")
+    # Mean intensity for every possible channel sum.
+    sums = np.arange(n * full_scale + 1, dtype=np.float64)
+    mean = sums / n
+    v = (full_scale - mean) if negate else mean
+    lut = np.full(sums.shape, _UNK, dtype=np.uint8)
+    if mode in ("trinary", "scale"):
+        p = (full_scale - v) / full_scale
+        lut[p < free_thresh] = _FREE
+        lut[p > occupied_thresh] = _OCC
+    elif mode == "raw":
+        pct = v / 100.0
+        valid = v <= 100.0
+        lut[valid & (pct < free_thresh)] = _FREE
+        lut[valid & (pct > occupied_thresh)] = _OCC
+    else:  # ipa
+        lut[:] = _OCC
+        lut[v * 255.0 >= _IPA_FREE_MIN * full_scale] = _FREE
+    for u in _unknown_value_list(unknown_values):
+        if not 0.0 <= u <= full_scale:
+            raise ValueError(
+                f"unknown_values entries must be intensities in [0, {full_scale}], got {u!r}"
+            )
+        idx = u * n
+        if idx == int(idx):  # a mean of integer channels can only equal k / n
+            lut[int(idx)] = _UNK
+    return lut[colour]
+
+
+def _only_0_and_1(arr: np.ndarray) -> bool:
+    """Does a uint8 array hold the value 1 and nothing but 0 and 1?"""
+    return arr.size > 0 and int(arr.max()) == 1
+
+
+def _classify_occupancy_grid(
+    arr: np.ndarray,
+    occupied_thresh: float,
+    free_thresh: float,
+    unknown_values: Iterable[float] | None,
+) -> np.ndarray:
+    """Classify an integer ROS OccupancyGrid array (-1 unknown, 0..100 percent)."""
+    extra = _unknown_value_list(unknown_values)
+    forced = np.isin(arr, extra) if extra else None
+    bad = (arr < -1) | (arr > 100)
+    if forced is not None:
+        bad &= ~forced
+    n_bad = int(np.count_nonzero(bad))
+    if n_bad:
+        bad_vals = np.unique(arr[bad])[:5].tolist()
+        raise ValueError(
+            f"integer array (dtype {arr.dtype}) must hold OccupancyGrid values -1..100; "
+            f"{n_bad} pixels are outside, e.g. {bad_vals} (use uint8 for grey images)"
+        )
+    one_is_free = not 0.01 > occupied_thresh
+    if forced is None and one_is_free and arr.size and arr.max() == 1:
+        # Read as OccupancyGrid percentages, 0 and 1 are both free: a map without a single
+        # obstacle.  Real grids mark occupied cells 100; an array of 0 and 1 (and perhaps
+        # -1) is nearly always an obstacle mask with the wrong dtype (distance_map reads it
+        # as one).
+        raise ValueError(
+            f"integer array (dtype {arr.dtype}) holds no value above 1: as OccupancyGrid "
+            "values (-1 unknown, 0..100 percent) that is a map with no obstacle at all, "
+            "though it has cells at 1; for an obstacle mask pass a bool array "
+            "(array.astype(bool), True = occupied), for OccupancyGrid data mark occupied "
+            "cells 100"
+        )
+    pct = np.arange(-1, 101, dtype=np.float64)
+    lut = np.full(pct.shape, _UNK, dtype=np.uint8)
+    known = pct >= 0
+    lut[known & (pct / 100.0 < free_thresh)] = _FREE
+    lut[known & (pct / 100.0 > occupied_thresh)] = _OCC
+    idx = np.clip(arr, -1, 100).astype(np.intp) + 1
+    codes = lut[idx]
+    if forced is not None:
+        codes[forced] = _UNK
+    return codes
+
+
+def _classify_probability(
+    arr: np.ndarray,
+    occupied_thresh: float,
+    free_thresh: float,
+    unknown_values: Iterable[float] | None,
+) -> np.ndarray:
+    """Classify a float array of occupancy probabilities in [0, 1]."""
+    n_nan = int(np.count_nonzero(np.isnan(arr)))
+    if n_nan:
+        raise ValueError(
+            f"float array must hold occupancy probabilities in [0, 1]; it has {n_nan} NaN values"
+        )
+    extra = _unknown_value_list(unknown_values)
+    forced = np.isin(arr, extra) if extra else None
+    bad = (arr < 0.0) | (arr > 1.0)
+    if forced is not None:
+        bad &= ~forced
+    n_bad = int(np.count_nonzero(bad))
+    if n_bad:
+        raise ValueError(
+            f"float array must hold occupancy probabilities in [0, 1]; {n_bad} values are "
+            f"outside (min {float(arr.min())!r}, max {float(arr.max())!r})"
+        )
+    # np.float64 thresholds make float32 input compare at float64 precision (exact values).
+    codes = np.full(arr.shape, _UNK, dtype=np.uint8)
+    codes[arr < np.float64(free_thresh)] = _FREE
+    codes[arr > np.float64(occupied_thresh)] = _OCC
+    if forced is not None:
+        codes[forced] = _UNK
+    return codes
+
+
+# ---------------------------------------------------------------------- image reading

@@ -1,0 +1,387 @@
+"""Map files: ROS ``map_server`` YAML descriptions and plain images in, YAML + PGM out."""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._validate import (
+    binary_flag,
+    choice,
+    is_real_number,
+    metres_per_pixel,
+    occupancy_thresholds,
+    pose,
+)
+from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES, classify_image
+from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
+from .pnm import read_image, resolution_from_pgm_comments
+
+__all__ = ["IMAGE_SUFFIXES", "YAML_SUFFIXES", "load_map", "save_map"]
+
+#: File suffixes read as plain images by :func:`load_map`.
+IMAGE_SUFFIXES = (".pgm", ".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+#: File suffixes read as ``map_server`` YAML by :func:`load_map`.
+YAML_SUFFIXES = (".yaml", ".yml")
+
+
+def _yaml_error(path: Path, field: str, expected: str, value: Any) -> ValueError:
+    return ValueError(f"map YAML {path}: field {field!r} must be {expected}, got {value!r}")
+
+
+def _load_yaml(path: Path) -> dict[str, Any]:
+    import yaml
+
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"map YAML {path} is not valid UTF-8 text: {exc}") from None
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ValueError(f"map YAML {path} could not be parsed: {exc}") from None
+    if not isinstance(doc, dict):
+        raise ValueError(
+            f"map YAML {path} must contain a mapping (key: value), got {type(doc).__name__}"
+        )
+    # map_server reads these with yaml-cpp, which converts 5e-2 and quoted numbers too;
+    # PyYAML (YAML 1.1) leaves them strings
+    for key in ("resolution", "occupied_thresh", "free_thresh"):
+        if key in doc:
+            doc[key] = _number_text(doc[key])
+    if isinstance(doc.get("origin"), list):
+        doc["origin"] = [_number_text(v) for v in doc["origin"]]
+    return doc
+
+
+_NUMBER_RE = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+
+
+def _number_text(value: Any) -> Any:
+    """A string that spells a decimal number as that float; anything else unchanged."""
+    if isinstance(value, str) and _NUMBER_RE.fullmatch(value.strip()):
+        return float(value)
+    return value
+
+
+def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
+    if not isinstance(image, str) or not image.strip():
+        raise _yaml_error(yaml_path, "image", "a non-empty file name", image)
+    img = Path(image.strip())
+    folder = yaml_path.parent
+    if img.is_absolute():
+        if img.is_file():
+            return img
+        fallback = folder / img.name
+        if fallback.is_file():
+            return fallback
+        raise FileNotFoundError(
+            f"map YAML {yaml_path}: image {str(img)!r} not found, nor {str(fallback)!r} "
+            "next to the YAML"
+        )
+    resolved = folder / img
+    if resolved.is_dir():
+        raise ValueError(
+            f"map YAML {yaml_path}: field 'image' must name an image file, got the folder "
+            f"{resolved}"
+        )
+    if not resolved.is_file():
+        raise FileNotFoundError(
+            f"map YAML {yaml_path}: image {image!r} not found (looked for {resolved})"
+        )
+    return resolved
+
+
+def load_map(
+    path: str | Path,
+    *,
+    resolution_m: float | None = None,
+    origin: Iterable[float] | None = None,
+    occupied_thresh: float | None = None,
+    free_thresh: float | None = None,
+    negate: bool | None = None,
+    mode: str | None = None,
+) -> OccupancyMap:
+    """Load an occupancy map from a ``map_server`` YAML file or a plain image.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.yaml`` / ``.yml``: ROS ``map_server`` map description with the keys ``image``
+        (required; relative to the YAML's folder; an absolute path that does not exist
+        falls back to the file of the same name next to the YAML), ``resolution``
+        (required, m/px), ``origin`` ``[x, y, yaw]`` (required, as in ``map_server``,
+        unless given here), ``negate`` (default 0), ``occupied_thresh`` (default 0.65),
+        ``free_thresh`` (default 0.196) and ``mode`` (default ``trinary``).
+        ``.pgm``, ``.png``, ``.jpg``, ``.jpeg``, ``.bmp``, ``.tif``, ``.tiff``: a plain
+        image (8-bit or 16-bit; grey, grey + alpha, RGB, RGBA or palette). Defaults:
+        resolution from a PGM ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment if
+        present, else 0.05 m/px (the IPA benchmark / paper value); origin (0, 0, 0);
+        thresholds 0.65 / 0.196; trinary mode.
+    resolution_m, origin, occupied_thresh, free_thresh, negate, mode
+        Override the values from the YAML file or the defaults (see
+        :meth:`OccupancyMap.from_array` for their meaning).
+
+    Returns
+    -------
+    OccupancyMap
+        With ``source`` set to ``str(path)``.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file (or the YAML's image) does not exist.
+    ValueError
+        For undecodable images, malformed YAML, missing or invalid fields, or invalid
+        parameters; the message names the file and the field.
+
+    Notes
+    -----
+    16-bit images are classified at full precision, ``p = (65535 - v) / 65535``. PGM files
+    with a maxval other than 255 / 65535 use ``v / maxval``.  An image with an alpha
+    channel behind a YAML in trinary mode is read as ``map_server`` reads it, with alpha
+    averaged in with the colour channels (so an opaque RGBA grey of 205 is free there, p =
+    0.147); plain images ignore alpha, as the IPA maps' own tools do.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    _check_map_path(p, suffix)
+    if suffix in YAML_SUFFIXES:
+        image_path, settings = _yaml_settings(
+            p,
+            resolution_m=resolution_m,
+            origin=origin,
+            occupied_thresh=occupied_thresh,
+            free_thresh=free_thresh,
+            negate=negate,
+            mode=mode,
+        )
+        where = f"map YAML {p}"
+        occupancy_thresholds(settings["occupied_thresh"], settings["free_thresh"], where=where)
+        pixels, full, _ = read_image(image_path)
+    else:
+        pixels, full, comments = read_image(p)
+        if resolution_m is None:
+            header_res = resolution_from_pgm_comments(comments, p)
+            resolution_m = header_res if header_res is not None else DEFAULT_RESOLUTION_M
+        settings = {
+            "resolution_m": resolution_m,
+            "origin": (0.0, 0.0, 0.0) if origin is None else origin,
+            "occupied_thresh": (
+                DEFAULT_OCCUPIED_THRESH if occupied_thresh is None else occupied_thresh
+            ),
+            "free_thresh": DEFAULT_FREE_THRESH if free_thresh is None else free_thresh,
+            "negate": False if negate is None else negate,
+            "mode": "trinary" if mode is None else mode,
+        }
+        where = f"map {p}"
+
+    # map_server averages an alpha channel in with the colour in trinary mode; a YAML map
+    # is read as map_server reads it (plain images and arrays ignore alpha)
+    average_alpha = (
+        suffix in YAML_SUFFIXES
+        and settings["mode"] == "trinary"
+        and pixels.ndim == 3
+        and pixels.shape[2] in (2, 4)
+    )
+    return _classify_pixels(
+        pixels, full, settings, average_alpha=average_alpha, path=p, where=where
+    )
+
+
+def _check_map_path(p: Path, suffix: str) -> None:
+    """Refuse a folder, an unsupported suffix or a missing file (in that order)."""
+    if p.is_dir():
+        raise ValueError(
+            f"map path is not a file: {p} is a folder; give a map file (topojax batch, "
+            "and topojax.batch.expand_map_inputs, search folders for maps)"
+        )
+    if suffix not in YAML_SUFFIXES + IMAGE_SUFFIXES:
+        if not p.exists():
+            raise FileNotFoundError(f"map file not found: {p}")
+        raise ValueError(
+            f"map file {p} has unsupported suffix {p.suffix!r}; expected one of "
+            f"{YAML_SUFFIXES + IMAGE_SUFFIXES}"
+        )
+    if not p.exists():
+        raise FileNotFoundError(f"map file not found: {p}")
+
+
+def _yaml_settings(
+    p: Path,
+    *,
+    resolution_m: float | None,
+    origin: Iterable[float] | None,
+    occupied_thresh: float | None,
+    free_thresh: float | None,
+    negate: bool | None,
+    mode: str | None,
+) -> tuple[Path, dict[str, Any]]:
+    """The image path of a map YAML and the settings for :meth:`OccupancyMap.from_array`:
+    each given argument, else the YAML's field (checked, the error naming the file and
+    the field), else ``map_server``'s default."""
+    doc = _load_yaml(p)
+    for key in ("image", "resolution"):
+        if key not in doc:
+            raise ValueError(f"map YAML {p} is missing the required key {key!r}")
+    if origin is None and "origin" not in doc:
+        raise ValueError(
+            f"map YAML {p} is missing the required key 'origin' (pass origin= to override)"
+        )
+    image_path = _resolve_image_path(p, doc["image"])
+    if resolution_m is None:
+        res = doc["resolution"]
+        if not is_real_number(res) or not math.isfinite(float(res)) or float(res) <= 0:
+            raise _yaml_error(p, "resolution", "a finite number > 0", res)
+        resolution_m = float(res)
+    if origin is None:
+        raw_origin = doc["origin"]
+        try:
+            origin = pose("origin", raw_origin)
+        except ValueError:
+            raise _yaml_error(
+                p, "origin", "a list of 3 finite numbers [x, y, yaw]", raw_origin
+            ) from None
+    if negate is None:
+        raw_neg = doc.get("negate", 0)
+        try:
+            negate = binary_flag("negate", raw_neg)
+        except ValueError:
+            raise _yaml_error(p, "negate", "0, 1, true or false", raw_neg) from None
+    thresholds = {}
+    for key, given, default in (
+        ("occupied_thresh", occupied_thresh, DEFAULT_OCCUPIED_THRESH),
+        ("free_thresh", free_thresh, DEFAULT_FREE_THRESH),
+    ):
+        if given is not None:
+            thresholds[key] = given
+            continue
+        val = doc.get(key, default)
+        if not is_real_number(val) or not 0.0 <= float(val) <= 1.0:
+            raise _yaml_error(p, key, "a number in [0, 1]", val)
+        thresholds[key] = float(val)
+    if mode is None:
+        raw_mode = doc.get("mode", "trinary")
+        if not isinstance(raw_mode, str) or raw_mode not in ("trinary", "scale", "raw"):
+            raise _yaml_error(p, "mode", "'trinary', 'scale' or 'raw'", raw_mode)
+        mode = raw_mode
+    settings = {
+        "resolution_m": resolution_m,
+        "origin": origin,
+        "occupied_thresh": thresholds["occupied_thresh"],
+        "free_thresh": thresholds["free_thresh"],
+        "negate": negate,
+        "mode": mode,
+    }
+    return image_path, settings
+
+
+def _classify_pixels(
+    pixels: np.ndarray,
+    full: int,
+    settings: dict[str, Any],
+    *,
+    average_alpha: bool,
+    path: Path,
+    where: str,
+) -> OccupancyMap:
+    """The map of decoded image pixels whose white is ``full``: 8-bit images through
+    :meth:`OccupancyMap.from_array` (errors prefixed with ``where`` unless they name the
+    file), 16-bit, other maxvals and ``map_server``'s alpha rule classified here."""
+    if full == 255 and pixels.dtype == np.uint8 and not average_alpha:
+        try:
+            return OccupancyMap.from_array(pixels, **settings, source=str(path))
+        except ValueError as exc:  # name the file (e.g. a 0/1 mask saved as an image)
+            if str(path) in str(exc):
+                raise
+            raise ValueError(f"{where}: {exc}") from None
+    # 16-bit, non-standard maxval or map_server's alpha rule: classify directly.
+    resolution_m = metres_per_pixel("resolution_m", settings["resolution_m"])
+    origin_t = pose("origin", settings["origin"])
+    occ_t, free_t = occupancy_thresholds(
+        settings["occupied_thresh"], settings["free_thresh"], where=where
+    )
+    try:
+        codes = classify_image(
+            pixels,
+            full_scale=full,
+            occupied_thresh=occ_t,
+            free_thresh=free_t,
+            negate=binary_flag("negate", settings["negate"]),
+            mode=choice("mode", settings["mode"], MODES),
+            unknown_values=None,
+            average_alpha=average_alpha,
+        )
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    return OccupancyMap._from_codes(codes, resolution_m, origin_t, str(path))
+
+
+def save_map(
+    occupancy_map: OccupancyMap, yaml_path: str | Path, *, image_name: str | None = None
+) -> Path:
+    """Write a ``map_server`` YAML + PGM pair.
+
+    The PGM (binary P5, maxval 255) holds 0 = occupied, 205 = unknown, 254 = free; the
+    YAML stores the resolution, origin, ``negate: 0``, thresholds 0.65 / 0.196 and
+    ``mode: trinary``, so :func:`load_map` restores the same masks. Both files are written
+    atomically (temporary file in the same folder, then ``os.replace``); the image first.
+
+    Parameters
+    ----------
+    occupancy_map : OccupancyMap
+        Map to save.
+    yaml_path : str or Path
+        Output ``.yaml`` / ``.yml`` path.
+    image_name : str, optional
+        File name of the PGM, written next to the YAML; default ``<yaml stem>.pgm``.
+
+    Returns
+    -------
+    Path
+        The path of the written PGM.
+    """
+    import yaml
+
+    from .._fs import atomic_write_bytes
+
+    if not isinstance(occupancy_map, OccupancyMap):
+        raise TypeError(
+            f"occupancy_map must be an OccupancyMap, got {type(occupancy_map).__name__}"
+        )
+    yp = Path(yaml_path)
+    if yp.suffix.lower() not in YAML_SUFFIXES:
+        raise ValueError(f"yaml_path must end in .yaml or .yml, got {str(yp)!r}")
+    if image_name is None:
+        image_name = yp.stem + ".pgm"
+    if Path(image_name).name != image_name or not image_name.lower().endswith(".pgm"):
+        raise ValueError(f"image_name must be a bare file name ending in .pgm, got {image_name!r}")
+    for name, target in (("yaml_path", yp), ("image_name", yp.with_name(image_name))):
+        if target.is_dir():  # before writing either file
+            raise IsADirectoryError(
+                f"{name}: {target} is a folder; expected a file name to write there"
+            )
+    img = occupancy_map.to_image()
+    h, w = img.shape
+    header = (
+        f"P5\n# CREATOR: topojax save_map {occupancy_map.resolution_m!r} m/pix\n{w} {h}\n255\n"
+    ).encode("ascii")
+    image_path = yp.parent / image_name
+    atomic_write_bytes(image_path, header + img.tobytes())
+    doc = {
+        "image": image_name,
+        "mode": "trinary",
+        "resolution": occupancy_map.resolution_m,
+        "origin": list(occupancy_map.origin),
+        "negate": 0,
+        "occupied_thresh": DEFAULT_OCCUPIED_THRESH,
+        "free_thresh": DEFAULT_FREE_THRESH,
+    }
+    text = yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
+    atomic_write_bytes(yp, text.encode("utf-8"))
+    return image_path

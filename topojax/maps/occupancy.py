@@ -1,0 +1,313 @@
+"""The :class:`OccupancyMap` container: three disjoint class masks and the map frame.
+
+Conventions
+-----------
+* Arrays are indexed ``grid[row, col]``; row 0 is the **top** row of the image.
+* World coordinates follow ROS ``map_server``: ``origin = (x, y, yaw)`` is the world pose
+  of the lower-left corner of the lower-left pixel. The centre of pixel ``(row, col)`` in
+  the unrotated map frame is ``x' = (col + 0.5) * res``, ``y' = (H - row - 0.5) * res``;
+  this point is rotated by ``yaw`` about the origin and translated by ``(x, y)``.
+* Arrays and images are classified by :mod:`topojax.maps.classify`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._validate import binary_flag, choice, metres_per_pixel, occupancy_thresholds, pose
+from .classify import (
+    _FREE,
+    _OCC,
+    _UNK,
+    DEFAULT_FREE_THRESH,
+    DEFAULT_OCCUPIED_THRESH,
+    MODES,
+    classify_array,
+)
+
+__all__ = ["DEFAULT_RESOLUTION_M", "OccupancyMap"]
+
+#: Default resolution for plain images (the IPA benchmark and paper maps use 0.05 m/px).
+DEFAULT_RESOLUTION_M = 0.05
+
+# Pixel value written by ``to_image`` / ``save_map`` for each class (map_saver convention).
+_IMAGE_OCCUPIED, _IMAGE_UNKNOWN, _IMAGE_FREE = 0, 205, 254
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class OccupancyMap:
+    """A 2-D occupancy grid split into three disjoint boolean masks.
+
+    Parameters
+    ----------
+    occupied, free, unknown : np.ndarray of bool, shape (H, W)
+        Class masks indexed ``[row, col]`` with row 0 at the top of the image. Exactly one
+        of the three is True at every pixel. ``H`` and ``W`` must both be >= 2. The masks
+        are stored read-only (writeable inputs are copied first).
+    resolution_m : float
+        Edge length of one pixel in metres (> 0).
+    origin : tuple of 3 float
+        ``(x_m, y_m, yaw_rad)``: world pose of the lower-left corner of the lower-left
+        pixel (ROS ``map_server`` convention).
+    source : str or None
+        Where the map came from (a path), used in messages.
+    """
+
+    occupied: np.ndarray
+    free: np.ndarray
+    unknown: np.ndarray
+    resolution_m: float = DEFAULT_RESOLUTION_M
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        masks = {}
+        for name in ("occupied", "free", "unknown"):
+            arr = getattr(self, name)
+            if not isinstance(arr, np.ndarray):
+                raise TypeError(
+                    f"OccupancyMap.{name} must be a numpy bool array, got {type(arr).__name__}"
+                )
+            if arr.dtype != np.bool_:
+                raise TypeError(f"OccupancyMap.{name} must have dtype bool, got {arr.dtype}")
+            if arr.ndim != 2:
+                raise ValueError(f"OccupancyMap.{name} must be 2-D (H, W), got shape {arr.shape}")
+            masks[name] = arr
+        shapes = {name: arr.shape for name, arr in masks.items()}
+        if len(set(shapes.values())) != 1:
+            raise ValueError(f"OccupancyMap masks must have the same shape, got {shapes}")
+        shape = masks["occupied"].shape
+        if shape[0] < 2 or shape[1] < 2:
+            raise ValueError(f"OccupancyMap must be at least 2x2 pixels, got shape {shape}")
+        total = (
+            masks["occupied"].astype(np.uint8)
+            + masks["free"].astype(np.uint8)
+            + masks["unknown"].astype(np.uint8)
+        )
+        bad = int(np.count_nonzero(total != 1))
+        if bad:
+            raise ValueError(
+                "OccupancyMap masks must partition the grid (exactly one of occupied/free/"
+                f"unknown per pixel); {bad} of {total.size} pixels violate this"
+            )
+        for name, arr in masks.items():
+            if arr.flags.writeable:
+                arr = arr.copy()
+                arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(
+            self, "resolution_m", metres_per_pixel("resolution_m", self.resolution_m)
+        )
+        object.__setattr__(self, "origin", pose("origin", self.origin))
+        if self.source is not None and not isinstance(self.source, str):
+            object.__setattr__(self, "source", str(self.source))
+
+    # ------------------------------------------------------------------ basic properties
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Grid shape ``(H, W)`` in pixels."""
+        return self.occupied.shape  # type: ignore[return-value]
+
+    def __repr__(self) -> str:
+        h, w = self.shape
+        return (
+            f"OccupancyMap(shape=({h}, {w}), resolution_m={self.resolution_m!r}, "
+            f"origin={self.origin!r}, occupied={int(self.occupied.sum())}, "
+            f"free={int(self.free.sum())}, unknown={int(self.unknown.sum())}, "
+            f"source={self.source!r})"
+        )
+
+    # ------------------------------------------------------------------ coordinates
+    def pixel_to_world(self, rows: Any, cols: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Convert pixel coordinates to world coordinates.
+
+        Parameters
+        ----------
+        rows, cols : array_like of float or int
+            Pixel coordinates (broadcast together); integer values are pixel centres.
+
+        Returns
+        -------
+        x, y : np.ndarray of float64
+            World coordinates in metres, map frame, with the shape of the broadcast inputs
+            (numpy scalars for scalar inputs).
+        """
+        r = np.asarray(rows, dtype=np.float64)
+        c = np.asarray(cols, dtype=np.float64)
+        res = self.resolution_m
+        ox, oy, yaw = self.origin
+        xm = (c + 0.5) * res
+        ym = (self.shape[0] - r - 0.5) * res
+        cos_t, sin_t = math.cos(yaw), math.sin(yaw)
+        x = ox + cos_t * xm - sin_t * ym
+        y = oy + sin_t * xm + cos_t * ym
+        return x, y
+
+    def world_to_pixel(self, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Convert world coordinates to continuous pixel coordinates.
+
+        Inverse of :meth:`pixel_to_world`.
+
+        Parameters
+        ----------
+        x, y : array_like of float
+            World coordinates in metres (broadcast together).
+
+        Returns
+        -------
+        rows, cols : np.ndarray of float64
+            Continuous pixel coordinates; pixel centres are at integer values. Points
+            outside the grid give values outside ``[-0.5, H - 0.5)`` / ``[-0.5, W - 0.5)``.
+        """
+        dx = np.asarray(x, dtype=np.float64) - self.origin[0]
+        dy = np.asarray(y, dtype=np.float64) - self.origin[1]
+        yaw = self.origin[2]
+        cos_t, sin_t = math.cos(yaw), math.sin(yaw)
+        xm = cos_t * dx + sin_t * dy
+        ym = -sin_t * dx + cos_t * dy
+        res = self.resolution_m
+        cols = xm / res - 0.5
+        rows = self.shape[0] - 0.5 - ym / res
+        return rows, cols
+
+    # ------------------------------------------------------------------ conversions
+    def to_image(self) -> np.ndarray:
+        """Render the map as a ``map_saver``-style grey image.
+
+        Returns
+        -------
+        np.ndarray of uint8, shape (H, W)
+            0 = occupied, 205 = unknown, 254 = free. With the default thresholds
+            (0.65 / 0.196) :meth:`from_array` maps this image back to the same masks.
+        """
+        img = np.full(self.shape, _IMAGE_UNKNOWN, dtype=np.uint8)
+        img[self.occupied] = _IMAGE_OCCUPIED
+        img[self.free] = _IMAGE_FREE
+        return img
+
+    @classmethod
+    def from_array(
+        cls,
+        array: Any,
+        *,
+        resolution_m: float = DEFAULT_RESOLUTION_M,
+        origin: Iterable[float] = (0.0, 0.0, 0.0),
+        occupied_thresh: float = DEFAULT_OCCUPIED_THRESH,
+        free_thresh: float = DEFAULT_FREE_THRESH,
+        negate: bool = False,
+        mode: str = "trinary",
+        unknown_values: Iterable[float] | None = None,
+        source: str | None = None,
+    ) -> OccupancyMap:
+        """Classify an array into an :class:`OccupancyMap`.
+
+        The interpretation depends on the dtype of ``array``:
+
+        * **bool** (H, W): True = occupied, False = free; no unknown pixels.
+        * **uint8** (H, W) grey image, or (H, W, C) with C = 1 (grey), 2 (grey + alpha),
+          3 (RGB or BGR) or 4 (RGBA/BGRA): an image with ``map_server`` semantics. The
+          intensity ``v`` is the mean of the colour channels (alpha ignored; a map read
+          from a ROS YAML by :func:`load_map` follows ``map_server`` there too), then
+          ``mode`` decides:
+
+          - ``"trinary"``: ``p = (255 - v) / 255`` (``v / 255`` if ``negate``); occupied if
+            ``p > occupied_thresh``, free if ``p < free_thresh``, unknown otherwise.
+          - ``"scale"``: identical classification. In ``map_server`` this mode only changes
+            the *values* of the in-between pixels (scaled 1..99 instead of -1); all of them
+            are neither free nor occupied, so they are unknown here as well.
+          - ``"raw"``: the intensity (after ``negate``, as in ROS 1 ``map_server``) is the
+            occupancy in percent: ``v > 100`` is unknown, otherwise occupied if
+            ``v / 100 > occupied_thresh``, free if ``v / 100 < free_thresh``, else unknown.
+          - ``"ipa"``: IPA room-segmentation convention: free if ``v >= 250`` (after
+            ``negate``), occupied otherwise, never unknown; thresholds are not used.
+
+        * **int8 or other integer dtypes** (H, W) (not uint8): ROS ``nav_msgs/OccupancyGrid``
+          values, -1 = unknown, 0..100 = occupancy percent; occupied if
+          ``v / 100 > occupied_thresh``, free if ``v / 100 < free_thresh``, else unknown.
+          Values outside -1..100 raise ValueError.
+        * **float** (H, W): occupancy probabilities in [0, 1]; occupied if
+          ``p > occupied_thresh``, free if ``p < free_thresh``, else unknown. NaN or values
+          outside [0, 1] raise ValueError.
+
+        Parameters
+        ----------
+        array : array_like
+            The map, indexed ``[row, col]`` with row 0 at the top (image order).
+        resolution_m : float
+            Metres per pixel (> 0).
+        origin : sequence of 3 float
+            ``(x_m, y_m, yaw_rad)`` pose of the lower-left corner of the lower-left pixel.
+        occupied_thresh, free_thresh : float
+            Thresholds, ``0 <= free_thresh < occupied_thresh <= 1``.
+        negate : bool
+            Swap the black/white meaning of image intensities (images only).
+        mode : {"trinary", "scale", "raw", "ipa"}
+            Image interpretation (see above). For non-image inputs only "trinary" and
+            "scale" (which classify identically) are accepted.
+        unknown_values : iterable of numbers, optional
+            Input values that are classified unknown whatever the thresholds say, e.g.
+            ``(230,)`` for maps that mark unexplored space with a light grey. For images
+            the values are compared with the intensity before ``negate``. Values listed
+            here are exempt from the range checks of integer and float inputs. Not
+            allowed for bool input.
+        source : str, optional
+            Stored in :attr:`OccupancyMap.source`.
+
+        Returns
+        -------
+        OccupancyMap
+
+        Raises
+        ------
+        TypeError
+            For unsupported dtypes or non-array input.
+        ValueError
+            For bad shapes, out-of-range values, NaN, or invalid parameters.
+        """
+        resolution_m = metres_per_pixel("resolution_m", resolution_m)
+        origin_t = pose("origin", origin)
+        occ_t, free_t = occupancy_thresholds(occupied_thresh, free_thresh)
+        mode = choice("mode", mode, MODES)
+        negate = binary_flag("negate", negate)
+        codes = classify_array(
+            np.asarray(array),
+            occupied_thresh=occ_t,
+            free_thresh=free_t,
+            negate=negate,
+            mode=mode,
+            unknown_values=unknown_values,
+            given_type=type(array).__name__,
+        )
+        return cls._from_codes(codes, resolution_m, origin_t, source)
+
+    @classmethod
+    def _from_codes(
+        cls,
+        codes: np.ndarray,
+        resolution_m: float,
+        origin: tuple[float, float, float],
+        source: str | None,
+    ) -> OccupancyMap:
+        if codes.ndim != 2 or codes.shape[0] < 2 or codes.shape[1] < 2:
+            raise ValueError(f"map must be at least 2x2 pixels, got shape {codes.shape}")
+        occupied = codes == _OCC
+        free = codes == _FREE
+        unknown = codes == _UNK
+        for m in (occupied, free, unknown):
+            m.setflags(write=False)
+        return cls(
+            occupied=occupied,
+            free=free,
+            unknown=unknown,
+            resolution_m=resolution_m,
+            origin=origin,
+            source=source,
+        )
+
+
+# ---------------------------------------------------------------------- classification
