@@ -194,8 +194,8 @@ def topojax_distance_kernel_fn(obstacles) -> Callable[[], Any] | None:
     from jax import lax
 
     try:
-        from topojax.distance import column_distance_tile, column_dtype, row_sq_distance_tile
-        from topojax.tiling import TileGrid
+        from topojax.fields.distance import column_distance_tile, column_dtype, row_sq_distance_tile
+        from topojax.fields.tiling import TileGrid
     except ImportError:
         return None
     tile, r = 256, HALF_WIDTH_PX

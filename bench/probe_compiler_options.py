@@ -54,7 +54,7 @@ def kernels(options: dict):
     copies), compiled with ``options``."""
     import jax
 
-    from topojax import pipeline
+    from topojax.fields import dense as pipeline
 
     column_tiles = jax.jit(
         pipeline._column_tiles.__wrapped__,
@@ -70,7 +70,7 @@ def kernels(options: dict):
 
 
 def compare(maps: dict[str, np.ndarray], options: dict, repeats: int) -> dict:
-    from topojax import pipeline
+    from topojax.fields import dense as pipeline
 
     shipped = (pipeline._column_tiles, pipeline._forward_tiles)
     variants = {"default": shipped, "options": kernels(options)}

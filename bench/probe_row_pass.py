@@ -104,8 +104,8 @@ def offset_step(g, best, k, r, n, unroll):
 
 
 def skip_counts(obstacles: np.ndarray) -> dict[str, int]:
-    from topojax.distance import _BAND_ROWS, _UNROLL
-    from topojax.filters import HALO_PX
+    from topojax.fields.distance import _BAND_ROWS, _UNROLL
+    from topojax.fields.filters import HALO_PX
 
     r, tile = 227, 256
     h, w = obstacles.shape

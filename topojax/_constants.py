@@ -1,8 +1,8 @@
 """Small constants that the command line needs to build its parser, in a module that
 imports nothing (the modules that use them import JAX, numba or the map readers).
 
-:mod:`topojax.maps` and :mod:`topojax.incremental` define the same values under the same
-names; ``tests/test_cli.py`` checks that they agree.
+:mod:`topojax.maps` and :mod:`topojax.incremental` import them from here and export them
+under the same names.
 """
 
 from __future__ import annotations

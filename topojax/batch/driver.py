@@ -187,7 +187,7 @@ class _BatchRun:
         group's kernel call fails, each map is retried alone, so one bad map cannot fail
         the others of its group.
         """
-        from ..distance import FAR_SQ
+        from ..fields.distance import FAR_SQ
         from ..pipeline import DenseFields, travel_ridges
 
         with_obstacles = [g for g in group if g.occupied.any()]

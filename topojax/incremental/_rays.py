@@ -9,8 +9,8 @@ import math
 import numpy as np
 
 from .._jit import cached_njit
-from ..filters import HALO_PX
-from ..tiling import unique_pairs
+from ..fields.filters import HALO_PX
+from ..fields.tiling import unique_pairs
 from ._tiles import _MAX_ABS_PIXEL, _UINT16_MAX, _locate, _log2, _slot, _worker_pool
 
 #: Beams whose free cells may wait for the next skeleton update (or an export); more

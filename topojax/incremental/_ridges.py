@@ -11,8 +11,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._jit import cached_njit
-from ..distance import FAR_SQ, gaussian_from_sq_distance
-from ..filters import HALO_PX, laplacian_valid, ridge_from_laplacian
+from ..fields.distance import FAR_SQ, gaussian_from_sq_distance
+from ..fields.filters import HALO_PX, laplacian_valid, ridge_from_laplacian
 from ._tiles import _TRACES, _U64, _aligned_empty, _batches, _flat, _wrap_into_tile
 
 #: Largest window half-width (px) whose Gaussian the ridge kernel reads from a table
@@ -35,11 +35,11 @@ def ridge_block(
     """Ridges of one block from its haloed squared distances.
 
     The same maths as :func:`topojax.pipeline.forward_tile` after its distance stage
-    (:func:`~topojax.distance.gaussian_from_sq_distance`,
-    :func:`~topojax.filters.laplacian_valid`, :func:`~topojax.filters.ridge_from_laplacian`).
+    (:func:`~topojax.fields.distance.gaussian_from_sq_distance`,
+    :func:`~topojax.fields.filters.laplacian_valid`, :func:`~topojax.fields.filters.ridge_from_laplacian`).
     The halo must already hold the ``BORDER_REFLECT_101`` image of the map where it leaves
     the map (the gather does it: reflecting indices commutes with the elementwise Gaussian,
-    so this equals :func:`~topojax.filters.reflect_101_halo` on ``H``).
+    so this equals :func:`~topojax.fields.filters.reflect_101_halo` on ``H``).
 
     Parameters
     ----------
@@ -72,8 +72,8 @@ def gaussian_table(sigma_px: float, half_width: int) -> jax.Array:
     Returns
     -------
     float32 array, shape (2 R^2 + 2,)
-        ``table[d2]`` = :func:`~topojax.distance.gaussian_from_sq_distance` ``(d2)`` for
-        ``d2 <= 2 R^2``; the last entry is 0 (:data:`~topojax.distance.FAR_SQ` is looked up
+        ``table[d2]`` = :func:`~topojax.fields.distance.gaussian_from_sq_distance` ``(d2)`` for
+        ``d2 <= 2 R^2``; the last entry is 0 (:data:`~topojax.fields.distance.FAR_SQ` is looked up
         there).
     """
     d2 = np.arange(2 * half_width * half_width + 2, dtype=np.int32)

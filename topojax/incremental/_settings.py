@@ -11,7 +11,7 @@ import numpy as np
 
 from .._constants import STRATEGIES
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
-from ..filters import HALO_PX
+from ..fields.filters import HALO_PX
 
 
 def _check_rate(name: str, value) -> int:

@@ -13,8 +13,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._jit import cached_njit
-from ..distance import FAR_SQ
-from ..filters import HALO_PX
+from ..fields.distance import FAR_SQ
+from ..fields.filters import HALO_PX
 from ._tiles import (
     _FAR_BOUND,
     _TRACES,
@@ -68,7 +68,7 @@ def splat_block(points: jax.Array, *, size: int, half_width: int) -> jax.Array:
     Returns
     -------
     int32 array, shape (B, B): ``min_p dr^2 + dc^2`` over the points whose window contains
-    the pixel, :data:`~topojax.distance.FAR_SQ` where there is none.
+    the pixel, :data:`~topojax.fields.distance.FAR_SQ` where there is none.
     """
     idx = jnp.arange(size, dtype=jnp.int32)
     dr = idx[None, :] - points[:, 0:1]  # (P, B)

@@ -13,8 +13,8 @@ import numba
 import numpy as np
 
 from .._jit import cached_njit
-from ..distance import FAR_SQ
-from ..tiling import TileManager
+from ..fields.distance import FAR_SQ
+from ..fields.tiling import TileManager
 
 _FAR_BOUND = 1 << 62  # larger than any squared pixel distance in int64 arithmetic
 

@@ -14,10 +14,10 @@ import networkx as nx
 import numpy as np
 
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
-from ..distance import FAR_SQ
-from ..filters import HALO_PX
+from ..fields.distance import FAR_SQ
+from ..fields.filters import HALO_PX
+from ..fields.tiling import MAX_GRID_CELLS, TileManager
 from ..scans import Scan
-from ..tiling import MAX_GRID_CELLS, TileManager
 from ._graph_export import export_graph, global_graph
 from ._graph_patch import patch_graph
 from ._graph_store import add_paths, drop_paths, edge_ids, edge_paths, reserve, vertex_ids
@@ -106,7 +106,7 @@ class IncrementalMapper:
         Width of the old-skeleton layer of the ``"paper"`` strategy (default 2).
     max_grid_cells : int
         Bound on the bounding box of the map in tiles (see
-        :class:`~topojax.tiling.TileManager`); a scan that would exceed it is rejected
+        :class:`~topojax.fields.tiling.TileManager`); a scan that would exceed it is rejected
         with ValueError before anything changes.
 
     Notes

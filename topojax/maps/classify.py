@@ -23,6 +23,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from .._constants import MODES
 from .._validate import is_real_number
 
 __all__ = [
@@ -37,8 +38,6 @@ __all__ = [
 DEFAULT_OCCUPIED_THRESH = 0.65
 #: ``map_server`` default free threshold.
 DEFAULT_FREE_THRESH = 0.196
-#: Interpretation modes accepted by :meth:`OccupancyMap.from_array` and :func:`load_map`.
-MODES = ("trinary", "scale", "raw", "ipa")
 
 # Class codes used internally by the classification look-up tables.
 _FREE, _OCC, _UNK = np.uint8(0), np.uint8(1), np.uint8(2)
