@@ -1,0 +1,101 @@
+"""Where a round robot of a given radius can be: the feasible space of a map.
+
+A pixel is *feasible* for a robot of radius ``r`` when it is known free and the nearest
+pixel that is not known free (occupied, unknown, or outside the map: the map's border is
+a wall) lies at least ``r`` from it, measured between pixel centres.  Feasible pixels
+split into 8-connected *regions*: the robot can drive between two feasible pixels exactly
+when they lie in one region.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .._validate import nonnegative_metres
+
+__all__ = ["FeasibleSpace", "feasible_space"]
+
+
+@dataclass(frozen=True, eq=False)
+class FeasibleSpace:
+    """The feasible space of one map for one robot radius.
+
+    Attributes
+    ----------
+    free : bool (H, W)
+        Known free pixels.
+    clearance_m : float32 (H, W)
+        Distance from each pixel centre to the nearest centre of a pixel that is not known
+        free, with the map surrounded by such pixels; metres, 0 off the free space.
+    feasible : bool (H, W)
+        ``free & (clearance_m >= robot_radius_m)``.
+    labels : int32 (H, W)
+        Region of each feasible pixel, ``1..n_regions`` (8-connected); 0 elsewhere.
+    area_m2 : float64 (n_regions + 1,)
+        Area of each region in square metres (``area_m2[0]`` is 0).
+    robot_radius_m, resolution_m : float
+    """
+
+    free: np.ndarray
+    clearance_m: np.ndarray
+    feasible: np.ndarray
+    labels: np.ndarray
+    area_m2: np.ndarray
+    robot_radius_m: float
+    resolution_m: float
+
+    @property
+    def n_regions(self) -> int:
+        """Number of feasible regions."""
+        return int(self.area_m2.size - 1)
+
+    def regions_at_least(self, min_area_m2: float) -> np.ndarray:
+        """Ids (int array, ascending) of the regions of at least ``min_area_m2``."""
+        return np.flatnonzero(self.area_m2 >= min_area_m2).astype(np.int32)
+
+
+def clearance_map_m(free: np.ndarray, resolution_m: float) -> np.ndarray:
+    """Distance (metres, float32 (H, W)) from each pixel centre to the nearest pixel centre
+    that is not ``free``, the map's outside counting as not free; 0 off ``free``."""
+    padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.uint8)
+    padded[1:-1, 1:-1] = free
+    dist = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return dist[1:-1, 1:-1] * np.float32(resolution_m)
+
+
+def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
+    """The feasible space of ``occupancy`` for a round robot of radius ``robot_radius_m``.
+
+    Parameters
+    ----------
+    occupancy : OccupancyMap
+        The map; only its known-free pixels can be feasible.
+    robot_radius_m : float
+        Robot radius in metres (>= 0).
+
+    Returns
+    -------
+    FeasibleSpace
+    """
+    radius = nonnegative_metres("robot_radius_m", robot_radius_m)
+    free = np.asarray(occupancy.free, bool)
+    res = float(occupancy.resolution_m)
+    clearance = clearance_map_m(free, res)
+    feasible = free & (clearance >= np.float32(radius))
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(
+        feasible.view(np.uint8), connectivity=8, ltype=cv2.CV_32S
+    )
+    area = stats[:, cv2.CC_STAT_AREA].astype(np.float64) * res * res
+    area[0] = 0.0
+    return FeasibleSpace(
+        free=free,
+        clearance_m=clearance,
+        feasible=feasible,
+        labels=labels.astype(np.int32, copy=False),
+        area_m2=area,
+        robot_radius_m=radius,
+        resolution_m=res,
+    )
