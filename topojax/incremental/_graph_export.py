@@ -7,7 +7,7 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 
-from ._graph_patch import _KIND_NAME
+from ..graph import KIND_NAMES
 from ._graph_store import edge_ids, edge_paths, vertex_ids
 from ._tiles import _unpack
 
@@ -44,7 +44,7 @@ def export_graph(mapper) -> nx.MultiGraph:
     nodes = vertex_ids(mapper).tolist()
     if nodes:
         pix = np.stack(_unpack(mapper._v_key[nodes]), axis=1) - [r0, c0]
-        kinds = [_KIND_NAME[code] for code in mapper._v_code[nodes].tolist()]
+        kinds = [KIND_NAMES[code] for code in mapper._v_code[nodes].tolist()]
         wx, wy = occ.pixel_to_world(pix[:, 0], pix[:, 1])
         cl = clearance_m(pix[:, 0], pix[:, 1])
         for i, v in enumerate(nodes):
@@ -93,7 +93,7 @@ def global_graph(mapper) -> nx.MultiGraph:
     for v, r, c, code in zip(
         ids.tolist(), rows.tolist(), cols.tolist(), mapper._v_code[ids].tolist(), strict=True
     ):
-        out.add_node(v, pixel=(r, c), kind=_KIND_NAME[code])
+        out.add_node(v, pixel=(r, c), kind=KIND_NAMES[code])
     edges = edge_ids(mapper)
     paths, lens = edge_paths(mapper, edges)
     bounds = np.concatenate([[0], np.cumsum(lens)]).tolist()
