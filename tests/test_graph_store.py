@@ -481,3 +481,61 @@ def test_round_trip_on_random_skeletons(skel, merge, with_clearance):
         skel.shape, flat, clearance.ravel()[flat] if with_clearance else None, 0.25, None, merge
     )
     assert_same_store(built, store)
+
+
+# ----------------------------------------------------------------------------------------
+# stores of pixels and kinds only (the incremental mapper's global graph), empty stores
+# ----------------------------------------------------------------------------------------
+
+_METRICS = (
+    "node_world",
+    "node_clearance_m",
+    "path_world",
+    "edge_length_m",
+    "edge_min_clearance_m",
+    "edge_mean_clearance_m",
+)
+
+
+def test_store_without_metric_arrays_gives_pixels_kinds_and_paths_only():
+    full = FIXTURES[1][3]  # the T
+    fields = {k: v for k, v in _fields(full).items() if k not in _METRICS}
+    fields.update(node_ids=[30, 10, 20, 40], edge_keys=[7, 5, 6])
+    store = GraphStore(**fields)
+    assert full.has_metrics and not store.has_metrics
+    assert all(getattr(store, name) is None for name in _METRICS)
+    np.testing.assert_array_equal(store.path(1), full.path(1))
+    g = store.to_networkx()
+    ids, reference = [30, 10, 20, 40], full.to_networkx()
+    want = nx.MultiGraph(**full.attrs)
+    for n, d in zip(ids, reference.nodes.values(), strict=True):
+        want.add_node(n, pixel=d["pixel"], kind=d["kind"])
+    for (u, v, d), key in zip(reference.edges(data=True), [7, 5, 6], strict=True):
+        want.add_edge(ids[u], ids[v], key=key, path=d["path"])
+    assert_same_graph(g, want)
+    for _, _, path in g.edges(data="path"):
+        assert path.dtype == np.int32 and path.flags.writeable
+        assert not np.shares_memory(path, store.path_pixels)
+
+
+@pytest.mark.parametrize("name", _METRICS)
+def test_metric_arrays_come_all_together_or_not_at_all(name):
+    fields = _fields(FIXTURES[1][3])
+    with pytest.raises(ValueError, match=f"expected all or none, received none for \\['{name}'\\]"):
+        GraphStore(**{**fields, name: None})
+
+
+def test_member_pixels_need_the_metric_arrays():
+    fields = {k: v for k, v in _fields(FIXTURES[5][3]).items() if k not in _METRICS}
+    assert fields["member_pixels"] is not None
+    with pytest.raises(ValueError, match="expected only with the metric arrays"):
+        GraphStore(**fields)
+
+
+def test_empty_store_is_the_empty_skeletons_store():
+    g = skeleton_to_graph(np.zeros((3, 4), bool))
+    empty = GraphStore.empty(g.graph)
+    assert empty.has_metrics and (empty.n_nodes, empty.n_edges) == (0, 0)
+    assert_same_store(empty, FIXTURES[-1][3])
+    assert_same_graph(empty.to_networkx(), g)
+    assert GraphStore.empty().attrs == {} and GraphStore.empty().to_networkx().graph == {}

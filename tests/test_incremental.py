@@ -1752,3 +1752,184 @@ def test_timing_summary_statistics():
     assert s["p50_ms"] == pytest.approx(50.5)
     assert s["per_scan_ms"] == pytest.approx(50.5)
     assert s["max_ms"] == pytest.approx(100.0)
+
+
+# --------------------------------------------------------------------------------------
+# graph exports: GraphStore-built graphs equal one networkx call per vertex and edge
+# --------------------------------------------------------------------------------------
+
+
+def _reference_graph(mapper: IncrementalMapper) -> nx.MultiGraph:
+    """``mapper.graph`` as one add_node / add_edge call per vertex and edge gives it, each
+    value computed on its own from the mapper's tables."""
+    from topojax.graph import KIND_NAMES, path_lengths_m
+    from topojax.incremental._graph_store import edge_ids, edge_paths, vertex_ids
+    from topojax.incremental._tiles import _unpack
+    from topojax.pipeline import clearance_at
+
+    res = mapper.resolution_m
+    out = nx.MultiGraph()
+    if mapper.pixel_bbox is None:
+        out.graph.update(resolution_m=res, shape=(0, 0), merge_junction_clusters=False)
+        return out
+    r0, c0, r1, c1 = mapper.pixel_bbox
+    occ = mapper.occupancy
+    d2, obstacles = mapper.sq_distance_px, mapper.obstacles
+
+    def clearance_m(r: int, c: int) -> float:
+        flat = np.array([r * d2.shape[1] + c], np.intp)
+        return float(clearance_at(d2, obstacles, mapper._half, flat)[0]) * res
+
+    def world(r: int, c: int) -> tuple[float, float]:
+        x, y = occ.pixel_to_world(np.array([r]), np.array([c]))
+        return float(x[0]), float(y[0])
+
+    out.graph.update(
+        resolution_m=res,
+        shape=(r1 - r0, c1 - c0),
+        merge_junction_clusters=False,
+        origin=tuple(float(v) for v in occ.origin),
+        thinning=mapper.config.skeleton.thinning,
+    )
+    for v in vertex_ids(mapper).tolist():
+        r, c = (int(x[0]) for x in _unpack(mapper._v_key[[v]]))
+        r, c = r - r0, c - c0
+        out.add_node(
+            v,
+            pixel=(r, c),
+            pixels=np.array([[r, c]], np.int32),
+            world=world(r, c),
+            kind=KIND_NAMES[int(mapper._v_code[v])],
+            clearance_m=clearance_m(r, c),
+        )
+    for k in edge_ids(mapper).tolist():
+        u, v = mapper._e_uv[k].tolist()
+        path = edge_paths(mapper, np.array([k]))[0].astype(np.int64) - [r0, c0]
+        cl = np.array([clearance_m(r, c) for r, c in path.tolist()])
+        length = path_lengths_m(path, np.array([0]), np.array([len(path)]), res)[0]
+        out.add_edge(
+            u,
+            v,
+            key=k,
+            path=path.astype(np.int32),
+            world=np.array([world(r, c) for r, c in path.tolist()]),
+            length_m=float(length),
+            min_clearance_m=float(cl.min()),
+            mean_clearance_m=float(cl.mean()),
+        )
+    return out
+
+
+def _reference_global_graph(mapper: IncrementalMapper) -> nx.MultiGraph:
+    """``mapper.graph_global`` as one add_node / add_edge call per vertex and edge gives it."""
+    from topojax.graph import KIND_NAMES
+    from topojax.incremental._graph_store import edge_ids, edge_paths, vertex_ids
+    from topojax.incremental._tiles import _unpack
+
+    out = nx.MultiGraph()
+    for v in vertex_ids(mapper).tolist():
+        r, c = (int(x[0]) for x in _unpack(mapper._v_key[[v]]))
+        out.add_node(v, pixel=(r, c), kind=KIND_NAMES[int(mapper._v_code[v])])
+    for k in edge_ids(mapper).tolist():
+        u, v = mapper._e_uv[k].tolist()
+        out.add_edge(u, v, key=k, path=edge_paths(mapper, np.array([k]))[0].copy())
+    return out
+
+
+def _assert_same_value(a, b, where: str) -> None:
+    assert type(a) is type(b), f"{where}: {type(a).__name__} != {type(b).__name__}"
+    if isinstance(a, np.ndarray):
+        assert (a.dtype, a.shape) == (b.dtype, b.shape), f"{where}: {a.dtype}{a.shape}"
+        assert a.tobytes() == b.tobytes(), where  # bit for bit
+        assert a.flags.writeable and b.flags.writeable, where
+        assert a.flags.c_contiguous == b.flags.c_contiguous, where
+    elif isinstance(a, tuple):
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _assert_same_value(x, y, f"{where}[{i}]")
+    elif isinstance(a, float):
+        assert a == b or (math.isnan(a) and math.isnan(b)), f"{where}: {a!r} != {b!r}"
+        assert math.copysign(1.0, a) == math.copysign(1.0, b), where
+    else:
+        assert a == b, f"{where}: {a!r} != {b!r}"
+
+
+def _assert_same_dict(a: dict, b: dict, where: str) -> None:
+    assert list(a) == list(b), f"{where}: keys {list(a)} != {list(b)}"
+    for k in a:
+        _assert_same_value(a[k], b[k], f"{where}.{k}")
+
+
+def assert_identical_graphs(a: nx.MultiGraph, b: nx.MultiGraph) -> None:
+    """Node for node and edge for edge: ids, order, neighbour and key order, attribute
+    order, types, dtypes, values (bit for bit) and writability."""
+    assert type(a) is type(b) is nx.MultiGraph
+    _assert_same_dict(a.graph, b.graph, "graph")
+    assert [type(n) for n in a] == [type(n) for n in b] and list(a) == list(b)
+    for n in a:
+        _assert_same_dict(a.nodes[n], b.nodes[n], f"node {n}")
+        assert list(a.adj[n]) == list(b.adj[n]), f"neighbours of {n}"
+        for m in a.adj[n]:
+            assert list(a.adj[n][m]) == list(b.adj[n][m]), f"keys of {n}-{m}"
+    ea = list(a.edges(keys=True, data=True))
+    eb = list(b.edges(keys=True, data=True))
+    assert [(u, v, k, type(k)) for u, v, k, _ in ea] == [(u, v, k, type(k)) for u, v, k, _ in eb]
+    for (u, v, k, da), (_, _, _, db) in zip(ea, eb, strict=True):
+        _assert_same_dict(da, db, f"edge {u}-{v}-{k}")
+
+
+def _assert_exports_match_references(mapper: IncrementalMapper) -> None:
+    from topojax.incremental._graph_export import export_graph
+
+    ref = _reference_graph(mapper)
+    assert_identical_graphs(export_graph(mapper), ref)
+    assert_identical_graphs(mapper.graph, ref.copy())  # the property hands out copies
+    assert_identical_graphs(mapper.graph_global, _reference_global_graph(mapper))
+
+
+def test_graph_exports_equal_one_networkx_call_per_vertex_and_edge():
+    """mapper.graph and graph_global are built from a GraphStore of the mapper's tables;
+    they equal the graphs of one add_node / add_edge per vertex and edge (values computed
+    one by one): on an empty mapper, at every graph update of the intel excerpt, and on
+    the intel map added at once."""
+    empty = IncrementalMapper()
+    _assert_exports_match_references(empty)
+    assert empty.graph.graph == {
+        "resolution_m": 0.05,
+        "shape": (0, 0),
+        "merge_junction_clusters": False,
+    }
+    mapper = IncrementalMapper(skeleton_every=4, graph_every=8)
+    updates = 0
+    for s in read_carmen(INTEL_EXCERPT):
+        if "graph" in mapper.add_scan(s).loops:
+            updates += 1
+            _assert_exports_match_references(mapper)
+    assert updates == 5 and mapper.graph.number_of_edges() > 300
+    whole = sample_map("intel")
+    prior = IncrementalMapper(resolution_m=whole.resolution_m, graph_every=None)
+    prior.add_map(whole)
+    prior.update_graph()
+    assert prior.graph.number_of_nodes() > 200
+    _assert_exports_match_references(prior)
+
+
+def test_run_means_are_ndarray_means_bit_for_bit():
+    """The export's mean clearances: runs of one length averaged as the rows of one array
+    give ``values[a:b].mean()`` bit for bit (np.add.reduceat would not)."""
+    from topojax.incremental._graph_export import _run_means, _run_min
+
+    rng = np.random.default_rng(7)
+    lens = np.concatenate([rng.integers(1, 300, 400), np.full(300, 37), np.full(50, 1)])
+    rng.shuffle(lens)
+    offsets = np.concatenate([[0], np.cumsum(lens)])
+    values = rng.uniform(0.0, 5.0, offsets[-1]) * 0.05
+    values[5] = np.inf
+    want = [values[a:b].mean() for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
+    assert _run_means(values, offsets).tobytes() == np.array(want).tobytes()
+    reduceat = np.add.reduceat(values, offsets[:-1]) / lens
+    assert (reduceat != np.array(want)).any()  # why the rows
+    lows = [values[a:b].min() for a, b in zip(offsets[:-1], offsets[1:], strict=True)]
+    assert _run_min(values, offsets).tolist() == lows
+    none = np.zeros(1, np.int64)
+    assert _run_means(values[:0], none).shape == _run_min(values[:0], none).shape == (0,)

@@ -41,6 +41,15 @@ KIND_CODES = {name: code for code, name in KIND_NAMES.items()}
 
 _NODE_ATTRS = ("pixel", "pixels", "world", "kind", "clearance_m")
 _EDGE_ATTRS = ("path", "world", "length_m", "min_clearance_m", "mean_clearance_m")
+# Given all together or not at all (a store of pixels and kinds only).
+_METRIC_FIELDS = (
+    "node_world",
+    "node_clearance_m",
+    "path_world",
+    "edge_length_m",
+    "edge_min_clearance_m",
+    "edge_mean_clearance_m",
+)
 
 
 @contextmanager
@@ -147,6 +156,9 @@ class GraphStore:
     ``i``'s pixels are the rows ``path_offsets[i]:path_offsets[i + 1]`` of the flat
     path arrays.  The arrays are converted to the dtypes below and kept read-only;
     :meth:`to_networkx` gives the networkx graph of :func:`skeleton_to_graph`.
+    Without the metric arrays (world coordinates, clearances, lengths: all of them or
+    none) the store holds pixels and kinds only, and its networkx graph has only the
+    node attributes ``pixel`` and ``kind`` and the edge attribute ``path``.
 
     Parameters
     ----------
@@ -155,9 +167,9 @@ class GraphStore:
     node_kind : int (N,)
         Vertex kind codes (:data:`KIND_NAMES`: 0 isolated, 1 end, 2 ring, 3 junction);
         stored as int8.
-    node_world : real (N, 2)
+    node_world : real (N, 2), optional
         ``(x, y)`` in metres of each vertex pixel's centre; stored as float64.
-    node_clearance_m : real (N,)
+    node_clearance_m : real (N,), optional
         Clearance at each vertex pixel in metres (NaN: unknown); stored as float64.
     edge_u, edge_v : int (E,)
         Ends of each edge as node *indices* (rows of the node arrays, 0..N-1), not node
@@ -167,9 +179,9 @@ class GraphStore:
     path_pixels : int (P, 2)
         ``(row, col)`` of the pixels of all edge paths, one path after another, each
         from a pixel of its ``u`` to a pixel of its ``v``; stored as int64.
-    path_world : real (P, 2)
+    path_world : real (P, 2), optional
         ``(x, y)`` in metres of each path pixel's centre; stored as float64.
-    edge_length_m, edge_min_clearance_m, edge_mean_clearance_m : real (E,)
+    edge_length_m, edge_min_clearance_m, edge_mean_clearance_m : real (E,), optional
         Length of each path in metres and the min / mean clearance over its pixels in
         metres (NaN: unknown); stored as float64.
     attrs : mapping, default {}
@@ -186,6 +198,7 @@ class GraphStore:
         vertex's only member is its own pixel.
     member_pixels : int (M, 2), optional
         ``(row, col)`` of the member pixels, vertex after vertex, each in raster order.
+        Only with the metric arrays.
 
     Raises
     ------
@@ -194,22 +207,23 @@ class GraphStore:
         are expected.
     ValueError
         If shapes disagree, offsets do not run from 0 to the row count, an edge end is
-        not a node index, a kind code is unknown, node ids repeat, or two edges of one
-        node pair share a key.
+        not a node index, a kind code is unknown, node ids repeat, two edges of one node
+        pair share a key, only some metric arrays are given, or member pixels are given
+        without them.
     """
 
     node_pixel: np.ndarray
     node_kind: np.ndarray
-    node_world: np.ndarray
-    node_clearance_m: np.ndarray
+    node_world: np.ndarray | None = None
+    node_clearance_m: np.ndarray | None = None
     edge_u: np.ndarray
     edge_v: np.ndarray
     path_offsets: np.ndarray
     path_pixels: np.ndarray
-    path_world: np.ndarray
-    edge_length_m: np.ndarray
-    edge_min_clearance_m: np.ndarray
-    edge_mean_clearance_m: np.ndarray
+    path_world: np.ndarray | None = None
+    edge_length_m: np.ndarray | None = None
+    edge_min_clearance_m: np.ndarray | None = None
+    edge_mean_clearance_m: np.ndarray | None = None
     attrs: Mapping = field(default_factory=dict)
     node_ids: np.ndarray | None = None
     edge_keys: np.ndarray | None = None
@@ -226,9 +240,17 @@ class GraphStore:
                 f"node_kind: expected codes in {KIND_NAMES}, received {kind[~known][0]}"
             )
         self._put("node_kind", _readonly(kind.astype(np.int8)))
-        self._put("node_world", _array("node_world", self.node_world, np.float64, "iuf", (n, 2)))
-        clear = _array("node_clearance_m", self.node_clearance_m, np.float64, "iuf", (n,))
-        self._put("node_clearance_m", clear)
+        given = [name for name in _METRIC_FIELDS if getattr(self, name) is not None]
+        if given and len(given) < len(_METRIC_FIELDS):
+            missing = [name for name in _METRIC_FIELDS if name not in given]
+            raise ValueError(
+                f"{', '.join(_METRIC_FIELDS)}: expected all or none, received none for {missing}"
+            )
+        if given:
+            world = _array("node_world", self.node_world, np.float64, "iuf", (n, 2))
+            self._put("node_world", world)
+            clear = _array("node_clearance_m", self.node_clearance_m, np.float64, "iuf", (n,))
+            self._put("node_clearance_m", clear)
         ids = np.arange(n) if self.node_ids is None else self.node_ids
         self._put("node_ids", _array("node_ids", ids, np.int64, "iu", (n,)))
         if np.unique(self.node_ids).shape[0] != n:
@@ -252,10 +274,12 @@ class GraphStore:
             self._put(name, ends)
         p = np.shape(self.path_pixels)[0] if np.ndim(self.path_pixels) else -1
         self._put("path_pixels", _array("path_pixels", self.path_pixels, np.int64, "iu", (p, 2)))
-        self._put("path_world", _array("path_world", self.path_world, np.float64, "iuf", (p, 2)))
         self._put("path_offsets", _offsets("path_offsets", self.path_offsets, e, p))
-        for name in ("edge_length_m", "edge_min_clearance_m", "edge_mean_clearance_m"):
-            self._put(name, _array(name, getattr(self, name), np.float64, "iuf", (e,)))
+        if self.has_metrics:
+            world = _array("path_world", self.path_world, np.float64, "iuf", (p, 2))
+            self._put("path_world", world)
+            for name in ("edge_length_m", "edge_min_clearance_m", "edge_mean_clearance_m"):
+                self._put(name, _array(name, getattr(self, name), np.float64, "iuf", (e,)))
         keys = _pair_keys(self.edge_u, self.edge_v) if self.edge_keys is None else self.edge_keys
         self._put("edge_keys", _array("edge_keys", keys, np.int64, "iu", (e,)))
         a = np.minimum(self.edge_u, self.edge_v)
@@ -274,6 +298,11 @@ class GraphStore:
             )
         if self.member_pixels is None:
             return
+        if not self.has_metrics:
+            raise ValueError(
+                "member_offsets, member_pixels: expected only with the metric arrays "
+                f"({', '.join(_METRIC_FIELDS)}), received them without"
+            )
         m = np.shape(self.member_pixels)[0] if np.ndim(self.member_pixels) else -1
         self._put(
             "member_pixels", _array("member_pixels", self.member_pixels, np.int64, "iu", (m, 2))
@@ -281,6 +310,12 @@ class GraphStore:
         self._put("member_offsets", _offsets("member_offsets", self.member_offsets, n, m))
 
     # ---- views --------------------------------------------------------------------------
+
+    @property
+    def has_metrics(self) -> bool:
+        """Whether the store holds the metric arrays (world coordinates, clearances,
+        lengths); without them it holds pixels and kinds only."""
+        return self.node_world is not None
 
     @property
     def n_nodes(self) -> int:
@@ -318,32 +353,42 @@ class GraphStore:
             and ``clearance_m`` (float); edges ``(node_ids[u], node_ids[v], key)`` in store
             order with ``path`` (int32 (K, 2)), ``world`` (float64 (K, 2)), ``length_m``,
             ``min_clearance_m`` and ``mean_clearance_m`` (float); graph attributes
-            ``attrs``.  Its arrays are views of new arrays: it shares no memory with the
-            store.
+            ``attrs``.  Without the metric arrays (:attr:`has_metrics`), nodes have only
+            ``pixel`` and ``kind`` and edges only ``path``.  Its arrays are views of new
+            arrays: it shares no memory with the store.
         """
         ids = self.node_ids.tolist()
         pixel = self.node_pixel.tolist()
-        world = self.node_world.tolist()
         kinds = [KIND_NAMES[k] for k in self.node_kind.tolist()]
+        # Thousands of small dicts and tuples: a cyclic-GC pass triggered in the middle
+        # would scan every live object of the process.
+        with paused_gc():
+            if self.has_metrics:
+                node_attrs = self._node_attrs(pixel, kinds)
+            else:
+                node_attrs = [
+                    {"pixel": (p[0], p[1]), "kind": k} for p, k in zip(pixel, kinds, strict=True)
+                ]
+            return fill_multigraph(self.attrs, ids, node_attrs, self._edge_tuples())
+
+    def _node_attrs(self, pixel: list, kinds: list) -> list[dict]:
+        """The attribute dicts of the vertices of a store with metric arrays, in order."""
+        world = self.node_world.tolist()
         clear = self.node_clearance_m.tolist()
         if self.member_pixels is None:
             members, bounds = self.node_pixel.astype(np.int32), range(self.n_nodes + 1)
         else:
             members, bounds = self.member_pixels.astype(np.int32), self.member_offsets.tolist()
-        # Thousands of small dicts and tuples: a cyclic-GC pass triggered in the middle
-        # would scan every live object of the process.
-        with paused_gc():
-            node_attrs = [
-                {
-                    "pixel": (pixel[i][0], pixel[i][1]),
-                    "pixels": members[bounds[i] : bounds[i + 1]],
-                    "world": (world[i][0], world[i][1]),
-                    "kind": kinds[i],
-                    "clearance_m": clear[i],
-                }
-                for i in range(len(ids))
-            ]
-            return fill_multigraph(self.attrs, ids, node_attrs, self._edge_tuples())
+        return [
+            {
+                "pixel": (pixel[i][0], pixel[i][1]),
+                "pixels": members[bounds[i] : bounds[i + 1]],
+                "world": (world[i][0], world[i][1]),
+                "kind": kinds[i],
+                "clearance_m": clear[i],
+            }
+            for i in range(len(pixel))
+        ]
 
     def _edge_tuples(self) -> Iterator[tuple]:
         """``(u, v, key, attrs)`` of every edge for networkx, in store order."""
@@ -353,6 +398,10 @@ class GraphStore:
         keys = self.edge_keys.tolist()
         bounds = self.path_offsets.tolist()
         path = self.path_pixels.astype(np.int32)
+        if not self.has_metrics:
+            for i in range(len(u)):
+                yield u[i], v[i], keys[i], {"path": path[bounds[i] : bounds[i + 1]]}
+            return
         world = self.path_world.copy()
         length = self.edge_length_m.tolist()
         low = self.edge_min_clearance_m.tolist()
@@ -367,6 +416,32 @@ class GraphStore:
                 "mean_clearance_m": mean[i],
             }
             yield u[i], v[i], keys[i], attrs
+
+    @classmethod
+    def empty(cls, attrs: Mapping | None = None) -> GraphStore:
+        """A store without vertices or edges (with the metric arrays, all empty).
+
+        Parameters
+        ----------
+        attrs : mapping, optional
+            Graph attributes, copied; default none.
+        """
+        none2, none = np.zeros((0, 2)), np.zeros(0)
+        return cls(
+            node_pixel=none2.astype(np.int64),
+            node_kind=none.astype(np.int64),
+            node_world=none2,
+            node_clearance_m=none,
+            edge_u=none.astype(np.int64),
+            edge_v=none.astype(np.int64),
+            path_offsets=np.zeros(1, np.int64),
+            path_pixels=none2.astype(np.int64),
+            path_world=none2,
+            edge_length_m=none,
+            edge_min_clearance_m=none,
+            edge_mean_clearance_m=none,
+            attrs={} if attrs is None else attrs,
+        )
 
     @classmethod
     def from_networkx(cls, graph: nx.MultiGraph) -> GraphStore:

@@ -1,5 +1,6 @@
-"""Exports of the mapper's graph as networkx graphs: in the exported map's frame with
-the full-map schema, or in global lattice pixels.
+"""Exports of the mapper's graph: a :class:`~topojax.graph.GraphStore` of its vertex and
+edge tables (in the exported map's frame with the full-map schema, or in global lattice
+pixels with pixels and kinds only), and the networkx graph built from it.
 """
 
 from __future__ import annotations
@@ -7,96 +8,116 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 
-from ._graph_patch import _KIND_NAME
+from ..graph import GraphStore, path_lengths_m
+from ..pipeline import clearance_at
 from ._graph_store import edge_ids, edge_paths, vertex_ids
 from ._tiles import _unpack
 
 
-def export_graph(mapper) -> nx.MultiGraph:
-    """The graph of :attr:`IncrementalMapper.graph`: pixels relative to the exported
+def export_store(mapper) -> GraphStore:
+    """The store of :attr:`IncrementalMapper.graph`: pixels relative to the exported
     bounding box, world coordinates, kinds, lengths and clearances as
-    :func:`topojax.build_graph` gives them."""
-    from ..graph import path_lengths_m
-    from ..pipeline import clearance_at
-
+    :func:`topojax.build_graph` gives them; node ids and edge keys are the mapper's ids,
+    in increasing order."""
     res = mapper.resolution_m
-    out = nx.MultiGraph()
     bbox = mapper._tiles.pixel_bbox
     if bbox is None:
-        out.graph.update(resolution_m=res, shape=(0, 0), merge_junction_clusters=False)
-        return out
+        attrs = {"resolution_m": res, "shape": (0, 0), "merge_junction_clusters": False}
+        return GraphStore.empty(attrs)
     r0, c0, r1, c1 = bbox
     occ = mapper.occupancy
     d2, obstacles = mapper.sq_distance_px, mapper.obstacles
 
-    def clearance_m(rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    def clearance_m(pix: np.ndarray) -> np.ndarray:
         # exact, read at these pixels only (vertex and path pixels)
-        flat = rows.astype(np.intp) * d2.shape[1] + cols.astype(np.intp)
+        flat = pix[:, 0].astype(np.intp) * d2.shape[1] + pix[:, 1].astype(np.intp)
         return clearance_at(d2, obstacles, mapper._half, flat).astype(np.float64) * res
 
-    out.graph.update(
-        resolution_m=res,
-        shape=(r1 - r0, c1 - c0),
-        merge_junction_clusters=False,
-        origin=tuple(float(v) for v in occ.origin),
-        thinning=mapper.config.skeleton.thinning,
-    )
-    nodes = vertex_ids(mapper).tolist()
-    if nodes:
-        pix = np.stack(_unpack(mapper._v_key[nodes]), axis=1) - [r0, c0]
-        kinds = [_KIND_NAME[code] for code in mapper._v_code[nodes].tolist()]
+    def world(pix: np.ndarray) -> np.ndarray:
         wx, wy = occ.pixel_to_world(pix[:, 0], pix[:, 1])
-        cl = clearance_m(pix[:, 0], pix[:, 1])
-        for i, v in enumerate(nodes):
-            rc = (int(pix[i, 0]), int(pix[i, 1]))
-            out.add_node(
-                v,
-                pixel=rc,
-                pixels=np.array([rc], np.int32),
-                world=(float(wx[i]), float(wy[i])),
-                kind=kinds[i],
-                clearance_m=float(cl[i]),
-            )
-    edges = edge_ids(mapper).tolist()
-    if edges:
-        ends = mapper._e_uv[edges].tolist()
-        allp, lens = edge_paths(mapper, np.asarray(edges, np.int64))
-        allp = allp.astype(np.int64) - [r0, c0]
-        wx, wy = occ.pixel_to_world(allp[:, 0], allp[:, 1])
-        world = np.stack([wx, wy], axis=1)
-        cl = clearance_m(allp[:, 0], allp[:, 1])
-        bounds = np.concatenate([[0], np.cumsum(lens)])
+        return np.stack([wx, wy], axis=1)
+
+    nodes, edges = vertex_ids(mapper), edge_ids(mapper)
+    node_pixel = np.stack(_unpack(mapper._v_key[nodes]), axis=1) - [r0, c0]
+    paths, lens = edge_paths(mapper, edges)
+    paths = paths.astype(np.int64) - [r0, c0]
+    offsets = np.concatenate([[0], np.cumsum(lens)]).astype(np.int64)
+    path_clearance = clearance_m(paths)
+    ends = np.searchsorted(nodes, mapper._e_uv[edges])
+    return GraphStore(
+        node_pixel=node_pixel,
+        node_kind=mapper._v_code[nodes],
+        node_world=world(node_pixel),
+        node_clearance_m=clearance_m(node_pixel),
+        edge_u=ends[:, 0],
+        edge_v=ends[:, 1],
+        path_offsets=offsets,
+        path_pixels=paths,
+        path_world=world(paths),
         # as the full-map graph counts them (integer steps), bit for bit
-        length_m = path_lengths_m(allp, bounds[:-1], lens, res)
-        path32 = allp.astype(np.int32)
-        for i, k in enumerate(edges):
-            u, v = ends[i]
-            a, b = bounds[i], bounds[i + 1]
-            out.add_edge(
-                u,
-                v,
-                key=k,
-                path=path32[a:b],
-                world=world[a:b],
-                length_m=float(length_m[i]),
-                min_clearance_m=float(cl[a:b].min()),
-                mean_clearance_m=float(cl[a:b].mean()),
-            )
-    return out
+        edge_length_m=path_lengths_m(paths, offsets[:-1], lens, res),
+        edge_min_clearance_m=_run_min(path_clearance, offsets),
+        edge_mean_clearance_m=_run_means(path_clearance, offsets),
+        attrs={
+            "resolution_m": res,
+            "shape": (r1 - r0, c1 - c0),
+            "merge_junction_clusters": False,
+            "origin": tuple(float(v) for v in occ.origin),
+            "thinning": mapper.config.skeleton.thinning,
+        },
+        node_ids=nodes,
+        edge_keys=edges,
+    )
+
+
+def export_graph(mapper) -> nx.MultiGraph:
+    """The graph of :attr:`IncrementalMapper.graph` (see :func:`export_store`)."""
+    return export_store(mapper).to_networkx()
+
+
+def global_store(mapper) -> GraphStore:
+    """The store of :attr:`IncrementalMapper.graph_global`: global lattice pixels and
+    kinds only; node ids and edge keys are the mapper's ids, in increasing order."""
+    nodes, edges = vertex_ids(mapper), edge_ids(mapper)
+    paths, lens = edge_paths(mapper, edges)
+    ends = np.searchsorted(nodes, mapper._e_uv[edges])
+    return GraphStore(
+        node_pixel=np.stack(_unpack(mapper._v_key[nodes]), axis=1),
+        node_kind=mapper._v_code[nodes],
+        edge_u=ends[:, 0],
+        edge_v=ends[:, 1],
+        path_offsets=np.concatenate([[0], np.cumsum(lens)]).astype(np.int64),
+        path_pixels=paths,
+        node_ids=nodes,
+        edge_keys=edges,
+    )
 
 
 def global_graph(mapper) -> nx.MultiGraph:
     """The body of :attr:`IncrementalMapper.graph_global` (global pixels, kinds)."""
-    out = nx.MultiGraph()
-    ids = vertex_ids(mapper)
-    rows, cols = _unpack(mapper._v_key[ids])
-    for v, r, c, code in zip(
-        ids.tolist(), rows.tolist(), cols.tolist(), mapper._v_code[ids].tolist(), strict=True
-    ):
-        out.add_node(v, pixel=(r, c), kind=_KIND_NAME[code])
-    edges = edge_ids(mapper)
-    paths, lens = edge_paths(mapper, edges)
-    bounds = np.concatenate([[0], np.cumsum(lens)]).tolist()
-    for i, (k, (u, v)) in enumerate(zip(edges.tolist(), mapper._e_uv[edges].tolist(), strict=True)):
-        out.add_edge(u, v, key=k, path=paths[bounds[i] : bounds[i + 1]].copy())
+    return global_store(mapper).to_networkx()
+
+
+def _run_min(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Minimum of ``values`` over each run ``offsets[i]:offsets[i + 1]`` (all non-empty)."""
+    if offsets.shape[0] == 1:
+        return np.zeros(0)
+    return np.minimum.reduceat(values, offsets[:-1])
+
+
+def _run_means(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Mean of ``values`` (float64) over each run ``offsets[i]:offsets[i + 1]`` (all
+    non-empty), bit for bit as ``values[a:b].mean()`` gives it.
+
+    Runs of one length are averaged as the rows of one C-contiguous array: numpy sums
+    along the fast axis with the same pairwise summation as for one run alone
+    (``np.add.reduceat`` sums sequentially and can differ in the last bits).
+    """
+    lens = np.diff(offsets)
+    out = np.empty(lens.shape[0])
+    order = np.argsort(lens, kind="stable")
+    for runs in np.split(order, np.flatnonzero(np.diff(lens[order])) + 1):
+        if runs.size:
+            rows = offsets[runs, None] + np.arange(lens[runs[0]])
+            out[runs] = values[rows].mean(axis=1)
     return out

@@ -9,6 +9,7 @@ import time
 import numpy as np
 
 from .._jit import cached_njit
+from ..graph import KIND_CODES
 from ._graph_store import add_paths, drop_paths, edge_paths, reserve
 from ._tiles import (
     _U64,
@@ -167,12 +168,6 @@ def _near_skeleton(ar, ac, zr, zc, qr, qc, grid, g0r, g0c, nbr9, t, mark, skelet
     _clear_region(ar, ac, grid, g0r, g0c, t, mark)
     _clear_region(zr, zc, grid, g0r, g0c, t, mark)
     return keys[:m], in_a[:m], in_z[:m], q_in_z
-
-
-_KIND_CODE = {"isolated": 0, "end": 1, "ring": 2, "junction": 3}
-
-
-_KIND_NAME = {v: k for k, v in _KIND_CODE.items()}
 
 
 def _old_side(mapper, changed, where, gl, skel):
@@ -380,7 +375,7 @@ def patch_graph(mapper) -> GraphUpdate:
     # Z a vertex keeps its degree; only a ring vertex can stop being one)
     t_keys = mapper._v_key[touched]
     stays = np.isin(t_keys, nk_keys, assume_unique=True)
-    ring = mapper._v_code[touched] == _KIND_CODE["ring"]
+    ring = mapper._v_code[touched] == KIND_CODES["ring"]
     removed_v = touched[~stays & (t_in_z | ring)]
     if removed_v.size:
         vr, vc = _unpack(mapper._v_key[removed_v])

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
-from ._graph_patch import _KIND_NAME
+from ..graph import KIND_NAMES
 from ._graph_store import add_paths, edge_ids, edge_paths, reserve, vertex_ids
 from ._rays import cast_pending_rays
 from ._settings import settings_of
@@ -157,7 +157,7 @@ def load_state(cls, path):
         for name, ids, n in (("vertex", v_id, nv), ("edge", e_id, ne)):
             if ids.size and (ids.min() < 0 or ids.max() >= n):
                 raise ValueError(f"{name} ids must lie in [0, {n}), got {ids.min()}..{ids.max()}")
-        if not set(v_code.tolist()) <= set(_KIND_NAME):
+        if not set(v_code.tolist()) <= set(KIND_NAMES):
             raise ValueError(f"unknown vertex kind codes {sorted(set(v_code.tolist()))}")
         reserve(mapper, vertices=nv, edges=ne)
         mapper._v_key[v_id] = _pack(v_px[:, 0], v_px[:, 1])
