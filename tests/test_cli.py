@@ -44,7 +44,7 @@ def test_names_load_on_first_use():
         "import sys, topojax; from topojax import OccupancyMap, GraphConfig; "
         "print('jax' in sys.modules, OccupancyMap.__module__, GraphConfig.__module__)"
     )
-    assert _python(code) == "False topojax.maps topojax.config"
+    assert _python(code) == "False topojax.maps.occupancy topojax.config"
     assert set(topojax.__all__) <= set(dir(topojax))
     assert topojax.pipeline.build_graph is topojax.build_graph
 
