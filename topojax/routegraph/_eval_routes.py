@@ -191,7 +191,8 @@ def _adjacency(n_nodes: int, a: np.ndarray, b: np.ndarray, w: np.ndarray):
     lo, hi, w = np.minimum(a, b)[ok], np.maximum(a, b)[ok], np.maximum(w[ok], 1e-9)
     order = np.lexsort((w, hi, lo))
     lo, hi, w = lo[order], hi[order], w[order]
-    first = np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])]
+    first = np.ones(lo.size, bool)
+    first[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
     lo, hi, w = lo[first], hi[first], w[first]
     m = coo_matrix((np.r_[w, w], (np.r_[lo, hi], np.r_[hi, lo])), shape=(n_nodes, n_nodes))
     return m.tocsr()
