@@ -265,3 +265,22 @@ def test_bad_graphs_are_refused():
         evaluate_route_graph(g, m, RADIUS)
     with pytest.raises(TypeError, match="occupancy"):
         evaluate_route_graph(g, np.zeros((5, 5)), RADIUS)
+
+
+def test_geodesic_matches_skimage_mcp_geometric():
+    from skimage.graph import MCP_Geometric
+
+    from topojax.routegraph._eval_geodesic import geodesic_from
+
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        mask = rng.random((40, 50)) > 0.3
+        src = (int(rng.integers(40)), int(rng.integers(50)))
+        mask[src] = True
+        targets = np.stack([rng.integers(40, size=30), rng.integers(50, size=30)], axis=1)
+        got = geodesic_from(mask, src, targets)
+        costs, _ = MCP_Geometric(np.where(mask, 1.0, np.inf)).find_costs([src])
+        want = costs[targets[:, 0], targets[:, 1]]
+        want[~mask[targets[:, 0], targets[:, 1]]] = np.inf
+        assert np.array_equal(np.isfinite(got), np.isfinite(want))
+        np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=1e-12)

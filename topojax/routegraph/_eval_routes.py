@@ -10,8 +10,8 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
-from skimage.graph import MCP_Geometric
 
+from ._eval_geodesic import geodesic_from
 from ._eval_geometry import GraphGeometry, pixel_lookup
 
 __all__ = ["PairSet", "RouteNetwork", "geodesic_lengths_px", "route_lengths_px", "sample_pairs"]
@@ -85,23 +85,18 @@ def sample_pairs(fs, regions: np.ndarray, n_pairs: int, seed: int) -> PairSet:
 
 def geodesic_lengths_px(fs, pairs: PairSet) -> np.ndarray:
     """Length (pixels) of the shortest 8-connected path inside the feasible region from
-    each pair's source to its target (moves of 1 and sqrt 2), by one
-    :class:`skimage.graph.MCP_Geometric` search per source on the region's bounding box."""
+    each pair's source to its target (moves of 1 and sqrt 2): one search per source on the
+    bounding box of its region, stopped when all its targets are reached."""
     out = np.full(pairs.n_pairs, np.inf)
     slices = ndimage.find_objects(fs.labels)
-    mcp, mcp_region = None, -1
+    mask, mask_region = None, -1
     for i, rid in enumerate(pairs.region.tolist()):
         sl = slices[rid - 1]
         off = np.array([sl[0].start, sl[1].start])
-        if rid != mcp_region:
-            cost = np.where(fs.labels[sl] == rid, 1.0, np.inf)
-            mcp, mcp_region = MCP_Geometric(cost, fully_connected=True), rid
+        if rid != mask_region:
+            mask, mask_region = fs.labels[sl] == rid, rid
         a, b = pairs.start[i], pairs.start[i + 1]
-        ends = pairs.target[a:b] - off
-        costs, _ = mcp.find_costs(
-            [tuple(pairs.source[i] - off)], [tuple(e) for e in ends], find_all_ends=True
-        )
-        out[a:b] = costs[ends[:, 0], ends[:, 1]]
+        out[a:b] = geodesic_from(mask, pairs.source[i] - off, pairs.target[a:b] - off)
     return out
 
 
