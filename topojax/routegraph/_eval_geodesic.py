@@ -35,17 +35,16 @@ def _push(bufs, counts, b, p):
 
 
 @cached_njit(nogil=True)
-def _bucket_search(flat, width, start, ends, out):
-    """Geodesic lengths from flat pixel ``start`` to flat pixels ``ends`` inside ``flat``
-    (bool, a padded mask raveled; its border must be False), written to ``out``."""
-    n = flat.size
+def _bucket_search(state, width, start, ends, out):
+    """Geodesic lengths from flat pixel ``start`` to flat pixels ``ends``, written to
+    ``out``.  ``state`` (uint8, a padded mask raveled, its border 0) is 1 on open pixels
+    and is consumed: settled pixels become 0."""
+    n = state.size
     dist = np.full(n, np.inf)
-    done = np.zeros(n, np.bool_)
-    is_end = np.zeros(n, np.bool_)
     remaining = 0
     for e in ends:
-        if not is_end[e]:
-            is_end[e] = True
+        if state[e] == 1:
+            state[e] = 2  # an open target
             remaining += 1
     offs = np.array([-width - 1, -width, -width + 1, -1, 1, width - 1, width, width + 1], np.int64)
     s2 = math.sqrt(2.0)
@@ -55,25 +54,26 @@ def _bucket_search(flat, width, start, ends, out):
     dist[start] = 0.0
     _push(bufs, counts, 0, start)
     k = 0
-    while remaining > 0 and counts.sum() > 0:
+    while remaining > 0 and counts[0] + counts[1] + counts[2] > 0:
         b = k % 3
+        buf = bufs[b]
         i = 0
         while i < counts[b]:
-            p = bufs[b][i]
+            p = buf[i]
             i += 1
-            if done[p] or math.floor(dist[p]) != k:
-                continue
-            done[p] = True
-            if is_end[p]:
+            if state[p] == 0 or dist[p] >= k + 1:
+                continue  # settled already, or a stale entry of a later bucket
+            if state[p] == 2:
                 remaining -= 1
+            state[p] = 0
             d = dist[p]
             for j in range(8):
                 q = p + offs[j]
-                if flat[q] and not done[q]:
+                if state[q] != 0:
                     nd = d + wts[j]
                     if nd < dist[q]:
                         dist[q] = nd
-                        _push(bufs, counts, int(math.floor(nd)) % 3, q)
+                        _push(bufs, counts, int(nd) % 3, q)
         counts[b] = 0
         k += 1
     for i in range(ends.size):
@@ -85,7 +85,7 @@ def geodesic_from(mask: np.ndarray, source, targets: np.ndarray) -> np.ndarray:
     from pixel ``source`` (row, col) to each of ``targets`` (T, 2) int; ``inf`` where
     unreachable (or where the source is outside the mask)."""
     h, w = mask.shape
-    padded = np.zeros((h + 2, w + 2), np.bool_)
+    padded = np.zeros((h + 2, w + 2), np.uint8)
     padded[1:-1, 1:-1] = mask
     width = w + 2
     targets = np.asarray(targets, np.int64).reshape(-1, 2)
