@@ -1,0 +1,286 @@
+"""evaluate_route_graph against hand-computed cases on small synthetic maps."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import networkx as nx
+import numpy as np
+import pytest
+
+from topojax import OccupancyMap
+from topojax.routegraph.evaluate import RouteGraphReport, evaluate_route_graph
+
+RES = 0.1
+RADIUS = 0.25  # 2.5 px: feasible pixels lie >= 3 px from anything not free
+
+
+def _map(occupied: np.ndarray, origin=(0.0, 0.0, 0.0)) -> OccupancyMap:
+    return OccupancyMap.from_array(occupied, resolution_m=RES, origin=origin)
+
+
+def _corridor(free_rows: int, length: int = 200, origin=(0.0, 0.0, 0.0)) -> OccupancyMap:
+    """A horizontal corridor ``free_rows`` pixels wide, walls all round."""
+    occ = np.ones((free_rows + 2, length + 2), bool)
+    occ[1:-1, 1:-1] = False
+    return _map(occ, origin)
+
+
+def _graph(m: OccupancyMap, polylines, multi: bool = True) -> nx.Graph:
+    """A build_graph-like graph: one edge per pixel polyline [(row, col), ...], vertices at
+    the polyline ends keyed by their pixel."""
+    g = nx.MultiGraph() if multi else nx.Graph()
+    for poly in polylines:
+        path = np.asarray(poly, np.int64)
+        x, y = m.pixel_to_world(path[:, 0], path[:, 1])
+        world = np.stack([x, y], axis=1)
+        for end, w in ((path[0], world[0]), (path[-1], world[-1])):
+            g.add_node(tuple(end.tolist()), pixel=tuple(end.tolist()), world=tuple(w))
+        g.add_edge(tuple(path[0].tolist()), tuple(path[-1].tolist()), path=path, world=world)
+    return g
+
+
+def _row(r: int, c0: int, c1: int):
+    return [(r, c) for c in range(c0, c1 + 1)]
+
+
+def _square(m: OccupancyMap, r0: int, c0: int, side: int, multi: bool = True) -> nx.Graph:
+    corners = [(r0, c0), (r0, c0 + side), (r0 + side, c0 + side), (r0 + side, c0)]
+    return _graph(m, [[corners[i], corners[(i + 1) % 4]] for i in range(4)], multi)
+
+
+def test_single_row_corridor_routes_exactly_along_the_graph():
+    # 5 free rows (1..5): only row 3 is >= 2.5 px from the walls; cols 3..198 feasible.
+    m = _corridor(5)
+    g = _graph(m, [_row(3, 3, 198)])
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=50)
+    assert r.pairs == 50
+    assert r.success_rate == 1.0 and r.success_safe_rate == 1.0
+    assert r.stretch_median == pytest.approx(1.0, abs=1e-9)
+    assert r.stretch_p90 == pytest.approx(1.0, abs=1e-9)
+    assert r.unsafe_share == 0.0
+    assert r.uncovered_share == 0.0
+    assert (r.vertices, r.edges, r.components) == (2, 1, 1)
+    assert (r.feasible_regions, r.regions_missed, r.regions_split) == (1, 0, 0)
+    assert (r.short_loops, r.short_dead_ends) == (0, 0)
+    assert r.graph_length_m == pytest.approx(19.5)
+
+
+def test_wide_corridor_centre_graph_covers_and_routes_everything():
+    # 18 free rows: feasible rows 3..16, at most 7 px (0.7 m < snap 1 m) from row 9.
+    m = _corridor(18, origin=(2.0, -1.0, 0.3))
+    g = _graph(m, [_row(9, 3, 198)])
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=100, seed=3)
+    assert r.success_rate == 1.0 and r.success_safe_rate == 1.0
+    assert r.uncovered_share == 0.0 and r.unsafe_share == 0.0
+    # snap segments across the corridor: a detour of at most 2 x 0.7 m on top of the route
+    assert 1.0 <= r.stretch_median <= r.stretch_p90 < 1.3
+
+
+def test_graph_in_the_wall_is_all_unsafe_and_routes_nothing():
+    m = _corridor(18)
+    g = _graph(m, [_row(0, 0, 201)])
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=20)
+    assert r.unsafe_share == 1.0
+    assert r.success_rate == 0.0 and r.success_safe_rate == 0.0
+    assert math.isnan(r.stretch_median)
+    assert r.regions_missed == 1
+    assert r.as_dict()["stretch_median"] is None
+
+
+def test_graph_partly_in_the_wall_safe_routes_avoid_it():
+    # 5 free rows, feasible row 3; the graph dips into the wall for cols 90..110.
+    m = _corridor(5)
+    poly = _row(3, 3, 89) + [(0, c) for c in range(90, 111)] + _row(3, 111, 198)
+    r = evaluate_route_graph(_graph(m, [poly]), m, RADIUS, n_pairs=200)
+    assert 0.0 < r.unsafe_share < 1.0
+    assert r.success_rate > r.success_safe_rate > 0.0
+
+
+def _two_rooms() -> OccupancyMap:
+    occ = np.ones((22, 44), bool)
+    occ[1:21, 1:21] = False  # room A: cols 1..20
+    occ[1:21, 23:43] = False  # room B: cols 23..42 (wall cols 21, 22)
+    return _map(occ)
+
+
+def test_room_without_graph_is_missed():
+    m = _two_rooms()
+    g = _graph(m, [_row(10, 4, 10), _row(10, 10, 14), [(4, 10), (10, 10)], [(10, 10), (17, 10)]])
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=60)
+    assert r.feasible_regions == 2
+    assert (r.regions_missed, r.regions_split) == (1, 0)
+    # about half of the pairs lie in the room without a graph
+    assert 0.2 < r.success_rate < 0.8
+    # room A is covered (every feasible pixel within 10 px of the cross), room B is not (its
+    # nearest feasible pixels lie 11 px from the cross, through the wall)
+    assert r.uncovered_share == pytest.approx(0.5)
+
+
+def test_tiny_regions_are_ignored():
+    m = _two_rooms()
+    g = _graph(m, [_row(10, 4, 17)])
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=10, min_region_m2=5.0)
+    assert r.feasible_regions == 0 and r.pairs == 0
+    assert math.isnan(r.success_rate) and math.isnan(r.uncovered_share)
+
+
+def test_graph_in_two_pieces_splits_its_region():
+    m = _corridor(5)
+    g = _graph(m, [_row(3, 3, 95), _row(3, 105, 198)])
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=100)
+    assert r.components == 2
+    assert (r.regions_missed, r.regions_split) == (0, 1)
+    assert 0.0 < r.success_rate < 1.0
+
+
+@pytest.mark.parametrize(
+    ("side_px", "expected"),
+    [(9, 1), (20, 0), (100, 0)],  # perimeters 3.6 m (short), 8 m and 40 m (not)
+)
+def test_square_loop_is_short_when_its_perimeter_is_under_4m(side_px, expected):
+    m = _map(np.zeros((110, 110), bool))
+    for multi in (True, False):
+        r = evaluate_route_graph(_square(m, 2, 2, side_px, multi), m, RADIUS, n_pairs=5)
+        assert r.short_loops == expected
+        assert r.short_dead_ends == 0
+
+
+def test_parallel_edges_and_self_loops_are_loops():
+    m = _map(np.zeros((60, 60), bool))
+    g = _graph(m, [[(5, 5), (5, 20)], [(5, 5), (8, 12), (5, 20)]])  # 1.5 m + ~1.6 m
+    g.add_edge(
+        (5, 20), (5, 20), world=np.stack(m.pixel_to_world([5, 5, 15, 5], [20, 30, 25, 20]), 1)
+    )
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=5)
+    assert r.short_loops == 2
+
+
+def test_spur_of_half_a_metre_is_a_short_dead_end():
+    m = _map(np.zeros((80, 80), bool))
+    g = _graph(m, [_row(40, 10, 40), _row(40, 40, 70), [(40, 40), (45, 40)]])
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=5)
+    assert r.short_dead_ends == 1
+    assert r.short_loops == 0
+
+
+def _swagger_like(m: OccupancyMap, pixels) -> nx.Graph:
+    """Straight edges with only a ``weight``; vertices with ``world`` (x, y, z)."""
+    g = nx.Graph()
+    for i, (r, c) in enumerate(pixels):
+        x, y = m.pixel_to_world(r, c)
+        g.add_node(i, world=(float(x), float(y), 0.0), pixel=(r, c))
+    for i in range(len(pixels) - 1):
+        (r0, c0), (r1, c1) = pixels[i], pixels[i + 1]
+        g.add_edge(i, i + 1, weight=math.hypot(r1 - r0, c1 - c0) * RES)
+    return g
+
+
+@pytest.mark.parametrize("coordinates", ["auto", "world", "pixel"])
+def test_straight_edge_graph_without_polylines(coordinates):
+    m = _corridor(5)
+    g = _swagger_like(m, [(3, 3), (3, 30), (3, 70), (3, 198)])
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=50, coordinates=coordinates)
+    ref = evaluate_route_graph(_graph(m, [_row(3, 3, 198)]), m, RADIUS, n_pairs=50)
+    assert r.success_rate == 1.0 and r.uncovered_share == 0.0
+    assert r.stretch_median == pytest.approx(ref.stretch_median)
+    assert r.graph_length_m == pytest.approx(19.5)
+    assert (r.vertices, r.edges) == (4, 3)
+
+
+def test_pixel_only_vertices_are_converted_with_the_map():
+    m = _corridor(5, origin=(-3.0, 4.0, 0.0))
+    g = nx.Graph()
+    g.add_node("a", pixel=(3, 3))
+    g.add_node("b", pixel=(3, 198))
+    g.add_edge("a", "b")
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=30)
+    assert r.success_rate == 1.0 and r.graph_length_m == pytest.approx(19.5)
+
+
+def test_same_seed_same_report_and_json_friendly():
+    m = _two_rooms()
+    g = _graph(m, [_row(10, 4, 17), _row(10, 26, 39)])
+    a = evaluate_route_graph(g, m, RADIUS, n_pairs=40, seed=7, generation_s=1.5).as_dict()
+    b = evaluate_route_graph(g, m, RADIUS, n_pairs=40, seed=7, generation_s=1.5).as_dict()
+    a.pop("evaluation_s"), b.pop("evaluation_s")
+    assert a == b
+    assert a["generation_s"] == 1.5 and a["seed"] == 7
+    json.dumps(a, allow_nan=False)
+
+
+def test_empty_graph():
+    m = _corridor(5)
+    r = evaluate_route_graph(nx.MultiGraph(), m, RADIUS, n_pairs=10)
+    assert isinstance(r, RouteGraphReport)
+    assert (r.vertices, r.edges, r.components) == (0, 0, 0)
+    assert r.success_rate == 0.0 and r.regions_missed == 1 and r.uncovered_share == 1.0
+    assert r.as_dict()["unsafe_share"] is None
+
+
+def test_isolated_vertex_is_a_graph_point():
+    m = _corridor(5)
+    g = nx.Graph()
+    x, y = m.pixel_to_world(3, 50)
+    g.add_node(0, world=(float(x), float(y)))
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=10)
+    assert (r.vertices, r.edges, r.components, r.regions_missed) == (1, 0, 1, 0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "words"),
+    [
+        ({"robot_radius_m": 0.0}, ValueError, "robot_radius_m"),
+        ({"robot_radius_m": "0.3"}, TypeError, "robot_radius_m"),
+        ({"snap_m": -1.0}, ValueError, "snap_m"),
+        ({"n_pairs": 0}, ValueError, "n_pairs"),
+        ({"n_pairs": 2.5}, ValueError, "n_pairs"),
+        ({"seed": 1.5}, TypeError, "seed"),
+        ({"min_region_m2": -1.0}, ValueError, "min_region_m2"),
+        ({"min_region_m2": True}, ValueError, "min_region_m2"),
+        ({"generation_s": -2.0}, ValueError, "generation_s"),
+        ({"generation_s": float("nan")}, ValueError, "generation_s"),
+        ({"coordinates": "polar"}, ValueError, "coordinates"),
+    ],
+)
+def test_bad_arguments_name_the_parameter(kwargs, exc, words):
+    m = _corridor(5)
+    args = {"robot_radius_m": RADIUS, **kwargs}
+    with pytest.raises(exc, match=words):
+        evaluate_route_graph(_graph(m, [_row(3, 3, 198)]), m, **args)
+
+
+def test_bad_graphs_are_refused():
+    m = _corridor(5)
+    with pytest.raises(TypeError, match="graph"):
+        evaluate_route_graph([(0, 1)], m, RADIUS)
+    with pytest.raises(ValueError, match="undirected"):
+        evaluate_route_graph(nx.DiGraph([(0, 1)]), m, RADIUS)
+    with pytest.raises(ValueError, match="vertex 0"):
+        evaluate_route_graph(nx.Graph([(0, 1)]), m, RADIUS)
+    g = _graph(m, [_row(3, 3, 198)])
+    next(iter(g.edges(data=True)))[2]["world"] = np.zeros((3, 1))
+    with pytest.raises(ValueError, match="'world'"):
+        evaluate_route_graph(g, m, RADIUS)
+    with pytest.raises(TypeError, match="occupancy"):
+        evaluate_route_graph(g, np.zeros((5, 5)), RADIUS)
+
+
+def test_geodesic_matches_skimage_mcp_geometric():
+    from skimage.graph import MCP_Geometric
+
+    from topojax.routegraph._eval_geodesic import geodesic_from
+
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        mask = rng.random((40, 50)) > 0.3
+        src = (int(rng.integers(40)), int(rng.integers(50)))
+        mask[src] = True
+        targets = np.stack([rng.integers(40, size=30), rng.integers(50, size=30)], axis=1)
+        got = geodesic_from(mask, src, targets)
+        costs, _ = MCP_Geometric(np.where(mask, 1.0, np.inf)).find_costs([src])
+        want = costs[targets[:, 0], targets[:, 1]]
+        want[~mask[targets[:, 0], targets[:, 1]]] = np.inf
+        assert np.array_equal(np.isfinite(got), np.isfinite(want))
+        np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=1e-12)

@@ -1,0 +1,224 @@
+"""The geometry of an arbitrary route graph as the evaluator sees it.
+
+Every vertex gets a position and every edge a polyline in continuous pixel coordinates of
+the map (pixel centres at integer ``(row, col)``); polylines are densified to points at
+most one pixel apart.  Lengths are in pixels here (a rotation of the map frame keeps
+them); the caller converts to metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import networkx as nx
+import numpy as np
+
+__all__ = ["GraphGeometry", "graph_geometry", "pixel_lookup"]
+
+# Polyline ends closer than this (pixels) to their vertex count as lying on it.
+_END_TOL_PX = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class GraphGeometry:
+    """Vertices, edges and densified points of a graph in pixel coordinates.
+
+    Attributes
+    ----------
+    n_vertices, n_edges : int
+        Vertices and (real) edges of the graph.
+    edge_u, edge_v : int64 (n_edges + n_isolated,)
+        End vertices of each edge; rows ``n_edges..`` are zero-length pseudo edges, one per
+        isolated vertex, so that such a vertex is a graph point too.
+    edge_len_px : float64 (n_edges,)
+        Length of each real edge's polyline.
+    pt_rc : float64 (N, 2)
+        Densified points ``(row, col)``, edge after edge, each edge from ``u`` to ``v``.
+    pt_edge : int64 (N,)
+        Edge (or pseudo edge) of each point.
+    pt_s : float64 (N,)
+        Arc length of each point from the start of its edge.
+    pt_vertex : int64 (N,)
+        Vertex at the point for the first and last point of an edge, else -1.
+    """
+
+    n_vertices: int
+    n_edges: int
+    edge_u: np.ndarray
+    edge_v: np.ndarray
+    edge_len_px: np.ndarray
+    pt_rc: np.ndarray
+    pt_edge: np.ndarray
+    pt_s: np.ndarray
+    pt_vertex: np.ndarray
+
+
+def _position(node, data: dict, occupancy, coordinates: str) -> np.ndarray:
+    """Pixel ``(row, col)`` of one vertex from its ``world`` or ``pixel`` attribute."""
+    use_world = coordinates == "world" or (coordinates == "auto" and "world" in data)
+    key = "world" if use_world else "pixel"
+    if key not in data:
+        raise ValueError(
+            f"graph: expected every vertex to carry a {key!r} attribute "
+            f"({'(x, y) metres' if use_world else '(row, col) pixels'}), vertex {node!r} has "
+            f"attributes {sorted(map(str, data))}"
+        )
+    try:
+        q = np.asarray(data[key], dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        q = np.empty(0)
+    if q.size < 2 or not np.isfinite(q[:2]).all():
+        raise ValueError(
+            f"graph: vertex {node!r} attribute {key!r}: expected two finite numbers, "
+            f"received {data[key]!r}"
+        )
+    if use_world:
+        r, c = occupancy.world_to_pixel(q[0], q[1])
+        return np.array([float(r), float(c)])
+    return q[:2].copy()
+
+
+def _edge_polyline(edge, data: dict, occupancy, coordinates: str) -> np.ndarray | None:
+    """The edge's own polyline (K, 2) in pixels, or None for a straight edge."""
+    key = "path" if coordinates == "pixel" else "world"
+    if key not in data:
+        return None
+    try:
+        arr = np.asarray(data[key], dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = np.empty((0, 0))
+    if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 2 or not np.isfinite(arr[:, :2]).all():
+        raise ValueError(
+            f"graph: edge {edge!r} attribute {key!r}: expected a (K, 2) array of finite "
+            f"numbers, received shape {getattr(arr, 'shape', None)}"
+        )
+    if key == "path":
+        return arr[:, :2].copy()
+    r, c = occupancy.world_to_pixel(arr[:, 0], arr[:, 1])
+    return np.stack([r, c], axis=1)
+
+
+def _oriented(poly: np.ndarray | None, pu: np.ndarray, pv: np.ndarray) -> np.ndarray:
+    """``poly`` running from ``pu`` to ``pv`` (reversed if stored the other way, the
+    vertex positions added where an end does not lie on its vertex)."""
+    if poly is None:
+        return np.stack([pu, pv])
+    if np.hypot(*(poly[-1] - pu)) < np.hypot(*(poly[0] - pu)):
+        poly = poly[::-1]
+    if np.hypot(*(poly[0] - pu)) > _END_TOL_PX:
+        poly = np.vstack([pu, poly])
+    if np.hypot(*(poly[-1] - pv)) > _END_TOL_PX:
+        poly = np.vstack([poly, pv])
+    if poly.shape[0] == 1:
+        poly = np.vstack([poly, poly])
+    return poly
+
+
+def _densify(polys: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Points at most 1 px apart along each polyline, its own vertices kept.
+
+    Returns ``(rc (N, 2), edge (N,), s (N,), is_end (N,) int8: 1 first, 2 last, 3 both)``.
+    """
+    n_poly = len(polys)
+    sizes = np.array([p.shape[0] for p in polys], np.int64)
+    allp = np.concatenate(polys) if polys else np.empty((0, 2))
+    last = np.cumsum(sizes) - 1
+    edge_of_pt = np.repeat(np.arange(n_poly), sizes)
+    seg_start = np.setdiff1d(np.arange(allp.shape[0]), last, assume_unique=True)
+    d = allp[seg_start + 1] - allp[seg_start]
+    n_sub = np.maximum(1, np.ceil(np.hypot(d[:, 0], d[:, 1]) - 1e-9)).astype(np.int64)
+    rep = np.repeat(np.arange(seg_start.size), n_sub)
+    k = np.arange(rep.size) - np.repeat(np.cumsum(n_sub) - n_sub, n_sub)
+    sub_rc = allp[seg_start[rep]] + (k / n_sub[rep])[:, None] * d[rep]
+    sub_edge = edge_of_pt[seg_start[rep]]
+    n_sub_edge = np.bincount(sub_edge, minlength=n_poly).astype(np.int64)
+    out_size = n_sub_edge + 1
+    out_start = np.cumsum(out_size) - out_size
+    sub_first = np.cumsum(n_sub_edge) - n_sub_edge
+    n = int(out_size.sum())
+    rc = np.empty((n, 2))
+    pos = out_start[sub_edge] + np.arange(rep.size) - sub_first[sub_edge]
+    rc[pos] = sub_rc
+    rc[out_start + out_size - 1] = allp[last]
+    edge = np.repeat(np.arange(n_poly, dtype=np.int64), out_size)
+    step = np.zeros(n)
+    if n > 1:
+        step[1:] = np.hypot(*(rc[1:] - rc[:-1]).T)
+    step[out_start] = 0.0
+    cs = np.cumsum(step)
+    s = cs - np.repeat(cs[out_start], out_size) if n else cs
+    is_end = np.zeros(n, np.int8)
+    is_end[out_start] |= 1
+    is_end[out_start + out_size - 1] |= 2
+    return rc, edge, s, is_end
+
+
+def graph_geometry(graph: nx.Graph, occupancy, coordinates: str) -> GraphGeometry:
+    """The :class:`GraphGeometry` of ``graph`` on ``occupancy``.
+
+    Parameters
+    ----------
+    graph : networkx.Graph or MultiGraph
+        Undirected; vertices carry ``world`` (x, y) metres or ``pixel`` (row, col); edges
+        carry a ``world`` (K, 2) polyline in metres (``path`` in pixels with
+        ``coordinates="pixel"``) or are straight segments between their vertices.
+    occupancy : OccupancyMap
+        Supplies the world <-> pixel transform.
+    coordinates : {"auto", "world", "pixel"}
+        ``"auto"``: each vertex's ``world`` if present, else its ``pixel``; edges' ``world``.
+
+    Returns
+    -------
+    GraphGeometry
+    """
+    nodes = list(graph.nodes)
+    index = {n: i for i, n in enumerate(nodes)}
+    pos = np.array(
+        [_position(n, graph.nodes[n], occupancy, coordinates) for n in nodes], np.float64
+    ).reshape(-1, 2)
+    if graph.is_multigraph():
+        items = [((u, v, k), u, v, d) for u, v, k, d in graph.edges(keys=True, data=True)]
+    else:
+        items = [((u, v), u, v, d) for u, v, d in graph.edges(data=True)]
+    us, vs, polys = [], [], []
+    for edge, u, v, data in items:
+        iu, iv = index[u], index[v]
+        poly = _edge_polyline(edge, data, occupancy, coordinates)
+        polys.append(_oriented(poly, pos[iu], pos[iv]))
+        us.append(iu)
+        vs.append(iv)
+    n_edges = len(polys)
+    edge_len = np.array([float(np.hypot(*np.diff(p, axis=0).T).sum()) for p in polys], np.float64)
+    isolated = [index[n] for n in nodes if graph.degree(n) == 0]
+    for i in isolated:
+        polys.append(pos[i][None, :])
+        us.append(i)
+        vs.append(i)
+    rc, edge, s, is_end = _densify(polys)
+    eu, ev = np.array(us, np.int64), np.array(vs, np.int64)
+    vertex = np.full(edge.size, -1, np.int64)
+    first, final = (is_end & 1) > 0, (is_end & 2) > 0
+    vertex[final] = ev[edge[final]]
+    vertex[first] = eu[edge[first]]  # a one-point pseudo edge is its vertex
+    return GraphGeometry(
+        n_vertices=len(nodes),
+        n_edges=n_edges,
+        edge_u=eu,
+        edge_v=ev,
+        edge_len_px=edge_len,
+        pt_rc=rc,
+        pt_edge=edge,
+        pt_s=s,
+        pt_vertex=vertex,
+    )
+
+
+def pixel_lookup(mask: np.ndarray, rc: np.ndarray) -> np.ndarray:
+    """``mask`` at the nearest pixel of each point ``rc`` (N, 2); False off the map."""
+    r = np.rint(rc[..., 0])
+    c = np.rint(rc[..., 1])
+    h, w = mask.shape
+    inside = (r >= 0) & (r < h) & (c >= 0) & (c < w)
+    out = np.zeros(r.shape, bool)
+    out[inside] = mask[r[inside].astype(np.int64), c[inside].astype(np.int64)]
+    return out

@@ -1,0 +1,263 @@
+"""Routes between sampled feasible points: pair sampling, geodesics, snapping, and
+shortest paths along a graph that may start and end part-way along an edge."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
+
+from ._eval_geodesic import geodesic_from
+from ._eval_geometry import GraphGeometry, pixel_lookup
+
+__all__ = ["PairSet", "RouteNetwork", "geodesic_lengths_px", "route_lengths_px", "sample_pairs"]
+
+# Targets drawn per source pixel: one geodesic search serves all of them.
+PAIRS_PER_SOURCE = 10
+# Candidate snap points checked for a collision-free segment per batch (nearest first).
+_SNAP_BATCH = 64
+# Dijkstra rows computed per call (bounds the memory of the distance block).
+_DIJKSTRA_CELLS = 8_000_000
+
+
+@dataclass(frozen=True, eq=False)
+class PairSet:
+    """Sampled pairs, grouped by source: ``source[i]`` (row, col) and its targets
+    ``target[start[i]:start[i + 1]]``, all in region ``region[i]``."""
+
+    source: np.ndarray
+    region: np.ndarray
+    start: np.ndarray
+    target: np.ndarray
+
+    @property
+    def n_pairs(self) -> int:
+        return int(self.target.shape[0])
+
+    def pair_source(self) -> np.ndarray:
+        """Index of the source of each pair."""
+        return np.repeat(np.arange(self.source.shape[0]), np.diff(self.start))
+
+
+def sample_pairs(fs, regions: np.ndarray, n_pairs: int, seed: int) -> PairSet:
+    """``n_pairs`` pairs of distinct feasible pixels in one region each.
+
+    Sources are drawn region by area (among ``regions``, those with at least two pixels),
+    then uniformly in it; each source gets up to :data:`PAIRS_PER_SOURCE` targets drawn
+    uniformly among the other pixels of its region.
+    """
+    rng = np.random.default_rng(seed)
+    slices = ndimage.find_objects(fs.labels)
+    res2 = fs.resolution_m**2
+    regions = np.array([r for r in regions if fs.area_m2[r] >= 2 * res2 - 1e-12], np.int64)
+    empty = np.empty((0, 2), np.int64)
+    if regions.size == 0:
+        return PairSet(empty, np.empty(0, np.int64), np.zeros(1, np.int64), empty)
+    n_src = -(-n_pairs // PAIRS_PER_SOURCE)
+    weights = fs.area_m2[regions] / fs.area_m2[regions].sum()
+    src_region = np.sort(rng.choice(regions, size=n_src, p=weights))
+    counts = np.full(n_src, PAIRS_PER_SOURCE, np.int64)
+    counts[-1] = n_pairs - PAIRS_PER_SOURCE * (n_src - 1)
+    sources, targets = [], []
+    cache: dict[int, np.ndarray] = {}
+    for rid, k in zip(src_region.tolist(), counts.tolist(), strict=True):
+        if rid not in cache:
+            sl = slices[rid - 1]
+            rr, cc = np.nonzero(fs.labels[sl] == rid)
+            cache[rid] = np.stack([rr + sl[0].start, cc + sl[1].start], axis=1)
+        px = cache[rid]
+        i = int(rng.integers(px.shape[0]))
+        j = rng.integers(px.shape[0] - 1, size=k)
+        j = j + (j >= i)
+        sources.append(px[i])
+        targets.append(px[j])
+    return PairSet(
+        source=np.array(sources, np.int64).reshape(-1, 2),
+        region=src_region,
+        start=np.r_[0, np.cumsum(counts)].astype(np.int64),
+        target=np.concatenate(targets).astype(np.int64),
+    )
+
+
+def geodesic_lengths_px(fs, pairs: PairSet) -> np.ndarray:
+    """Length (pixels) of the shortest 8-connected path inside the feasible region from
+    each pair's source to its target (moves of 1 and sqrt 2): one search per source on the
+    bounding box of its region, stopped when all its targets are reached."""
+    out = np.full(pairs.n_pairs, np.inf)
+    slices = ndimage.find_objects(fs.labels)
+    mask, mask_region = None, -1
+    for i, rid in enumerate(pairs.region.tolist()):
+        sl = slices[rid - 1]
+        off = np.array([sl[0].start, sl[1].start])
+        if rid != mask_region:
+            mask, mask_region = fs.labels[sl] == rid, rid
+        a, b = pairs.start[i], pairs.start[i + 1]
+        out[a:b] = geodesic_from(mask, pairs.source[i] - off, pairs.target[a:b] - off)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class RouteNetwork:
+    """A graph cut into *runs* (stretches of one edge between two network nodes) with the
+    snap points that lie on them.
+
+    Attributes
+    ----------
+    n_nodes : int
+    run_a, run_b : int64 (R,)
+        Network nodes at the two ends of each run.
+    run_len : float64 (R,)
+        Length of each run (pixels).
+    pt_rc : float64 (P, 2)
+        Points a pair may snap to.
+    pt_run : int64 (P,)
+        Run of each point.
+    pt_t : float64 (P,)
+        Arc length of each point from its run's ``run_a`` end.
+    tree : cKDTree
+        On ``pt_rc``.
+    matrix : scipy.sparse.csr_matrix
+        Network node adjacency, the shortest run between two nodes as the weight.
+    """
+
+    n_nodes: int
+    run_a: np.ndarray
+    run_b: np.ndarray
+    run_len: np.ndarray
+    pt_rc: np.ndarray
+    pt_run: np.ndarray
+    pt_t: np.ndarray
+    tree: cKDTree
+    matrix: object
+
+
+def route_network(geo: GraphGeometry, piece_ok: np.ndarray, point_ok: np.ndarray) -> RouteNetwork:
+    """The network of the pieces ``piece_ok`` (between densified points ``g`` and ``g + 1``
+    of one edge; length N - 1) and the points ``point_ok`` (length N) of ``geo``.
+
+    Each maximal run of usable pieces along an edge becomes one run between network nodes
+    (the graph's vertices, and the densified points where a run starts or stops inside an
+    edge); a usable point on no usable piece becomes a run of length 0.
+    """
+    n = geo.pt_edge.size
+    same = geo.pt_edge[1:] == geo.pt_edge[:-1]
+    pok = same & piece_ok
+    prev = np.r_[False, pok[:-1]]
+    nxt = np.r_[pok[1:], False]
+    run_first = np.flatnonzero(pok & ~prev)
+    run_last = np.flatnonzero(pok & ~nxt) + 1
+    run_of_piece = np.cumsum(pok & ~prev) - 1
+    pt_run = np.full(n, -1, np.int64)
+    pieces = np.flatnonzero(pok)
+    pt_run[pieces + 1] = run_of_piece[pieces]
+    pt_run[pieces] = run_of_piece[pieces]
+    lone = np.flatnonzero(point_ok & (pt_run < 0))
+    pt_run[lone] = run_first.size + np.arange(lone.size)
+    run_first = np.r_[run_first, lone].astype(np.int64)
+    run_last = np.r_[run_last, lone].astype(np.int64)
+    key = np.where(geo.pt_vertex >= 0, geo.pt_vertex, geo.n_vertices + np.arange(n))
+    used, inverse = np.unique(np.r_[key[run_first], key[run_last]], return_inverse=True)
+    run_a, run_b = inverse[: run_first.size], inverse[run_first.size :]
+    run_len = geo.pt_s[run_last] - geo.pt_s[run_first]
+    keep = np.flatnonzero(pt_run >= 0)
+    matrix = _adjacency(used.size, run_a, run_b, run_len)
+    pt_rc = geo.pt_rc[keep]
+    return RouteNetwork(
+        n_nodes=int(used.size),
+        run_a=run_a.astype(np.int64),
+        run_b=run_b.astype(np.int64),
+        run_len=run_len,
+        pt_rc=pt_rc,
+        pt_run=pt_run[keep],
+        pt_t=geo.pt_s[keep] - geo.pt_s[run_first[pt_run[keep]]],
+        tree=cKDTree(pt_rc) if pt_rc.size else None,
+        matrix=matrix,
+    )
+
+
+def _adjacency(n_nodes: int, a: np.ndarray, b: np.ndarray, w: np.ndarray):
+    """Symmetric CSR adjacency keeping the shortest of parallel runs (zero lengths as a
+    tiny positive weight, since a sparse matrix cannot hold an explicit zero edge)."""
+    ok = a != b
+    lo, hi, w = np.minimum(a, b)[ok], np.maximum(a, b)[ok], np.maximum(w[ok], 1e-9)
+    order = np.lexsort((w, hi, lo))
+    lo, hi, w = lo[order], hi[order], w[order]
+    first = np.ones(lo.size, bool)
+    first[1:] = (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])
+    lo, hi, w = lo[first], hi[first], w[first]
+    m = coo_matrix((np.r_[w, w], (np.r_[lo, hi], np.r_[hi, lo])), shape=(n_nodes, n_nodes))
+    return m.tocsr()
+
+
+def _clear_segments(q: np.ndarray, cand: np.ndarray, feasible: np.ndarray, n_t: int) -> np.ndarray:
+    """For each candidate point, whether the straight segment from ``q`` to it crosses only
+    feasible pixels (pixels under ``n_t`` evenly spaced points, both ends included)."""
+    t = np.linspace(0.0, 1.0, n_t)
+    pts = q[None, None, :] + t[None, :, None] * (cand - q)[:, None, :]
+    return pixel_lookup(feasible, pts).all(axis=1)
+
+
+def snap(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np.ndarray):
+    """Nearest network point within ``snap_px`` of each query pixel whose segment to it is
+    collision-free.  Returns ``(point index or -1 (Q,), distance px (Q,))``."""
+    idx = np.full(queries.shape[0], -1, np.int64)
+    dist = np.full(queries.shape[0], np.inf)
+    if net.tree is None or queries.shape[0] == 0:
+        return idx, dist
+    n_t = int(np.ceil(2.0 * snap_px)) + 2
+    q_all = queries.astype(np.float64)
+    for i, cands in enumerate(net.tree.query_ball_point(q_all, snap_px * (1 + 1e-12))):
+        if not cands:
+            continue
+        cands = np.asarray(cands, np.int64)
+        d = np.hypot(*(net.pt_rc[cands] - q_all[i]).T)
+        order = np.lexsort((cands, d))
+        for b in range(0, order.size, _SNAP_BATCH):
+            sel = order[b : b + _SNAP_BATCH]
+            ok = _clear_segments(q_all[i], net.pt_rc[cands[sel]], feasible, n_t)
+            if ok.any():
+                j = sel[int(np.argmax(ok))]
+                idx[i], dist[i] = cands[j], d[j]
+                break
+    return idx, dist
+
+
+def route_lengths_px(
+    net: RouteNetwork, pairs: PairSet, snap_px: float, feasible: np.ndarray
+) -> np.ndarray:
+    """Route length (pixels) of each pair: snap segment + shortest path along the network
+    + snap segment; ``inf`` where a snap is missing or the snap points are not connected."""
+    out = np.full(pairs.n_pairs, np.inf)
+    if pairs.n_pairs == 0:
+        return out
+    s_idx, s_d = snap(net, pairs.source, snap_px, feasible)
+    t_idx, t_d = snap(net, pairs.target, snap_px, feasible)
+    ps = pairs.pair_source()
+    ok = np.flatnonzero((s_idx[ps] >= 0) & (t_idx >= 0))
+    if ok.size == 0:
+        return out
+    ga, gb = s_idx[ps[ok]], t_idx[ok]
+    ra, rb = net.pt_run[ga], net.pt_run[gb]
+    ends_a = np.stack([net.run_a[ra], net.run_b[ra]], axis=1)
+    off_a = np.stack([net.pt_t[ga], net.run_len[ra] - net.pt_t[ga]], axis=1)
+    ends_b = np.stack([net.run_a[rb], net.run_b[rb]], axis=1)
+    off_b = np.stack([net.pt_t[gb], net.run_len[rb] - net.pt_t[gb]], axis=1)
+    sources, inv = np.unique(ends_a, return_inverse=True)
+    inv = inv.reshape(ends_a.shape)
+    best = np.where(ra == rb, np.abs(net.pt_t[ga] - net.pt_t[gb]), np.inf)
+    rows = max(1, _DIJKSTRA_CELLS // max(1, net.n_nodes))
+    for c0 in range(0, sources.size, rows):
+        block = dijkstra(net.matrix, directed=False, indices=sources[c0 : c0 + rows])
+        for i in range(2):
+            r = inv[:, i] - c0
+            here = (r >= 0) & (r < block.shape[0])
+            for j in range(2):
+                d = np.full(ok.size, np.inf)
+                d[here] = block[r[here], ends_b[here, j]]
+                best = np.minimum(best, off_a[:, i] + d + off_b[:, j])
+    out[ok] = s_d[ps[ok]] + best + t_d[ok]
+    return out

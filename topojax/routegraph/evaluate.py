@@ -1,0 +1,292 @@
+"""Score any route graph on a map for a round robot (definitions:
+``docs/route-graph-metrics.md``)."""
+
+from __future__ import annotations
+
+import math
+import numbers
+import time
+from dataclasses import asdict, dataclass
+
+import cv2
+import networkx as nx
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from .._validate import integer, one_of, positive_int, positive_metres
+from ._eval_geometry import GraphGeometry, graph_geometry, pixel_lookup
+from ._eval_loops import short_dead_ends, short_loops
+from ._eval_routes import (
+    PairSet,
+    geodesic_lengths_px,
+    route_lengths_px,
+    route_network,
+    sample_pairs,
+)
+from .feasible import FeasibleSpace, feasible_space
+
+__all__ = ["RouteGraphReport", "evaluate_route_graph"]
+
+#: Loops shorter than this (metres) count as short.
+SHORT_LOOP_M = 4.0
+#: Dead ends whose edge is shorter than this (metres) count as short.
+SHORT_DEAD_END_M = 1.0
+
+
+@dataclass(frozen=True)
+class RouteGraphReport:
+    """Metrics of one route graph on one map (see ``docs/route-graph-metrics.md``).
+
+    Shares and rates are fractions in [0, 1]; NaN where undefined (no pair, no graph
+    length); lengths in metres, times in seconds.
+    """
+
+    robot_radius_m: float
+    snap_m: float
+    seed: int
+    pairs: int
+    success_rate: float
+    success_safe_rate: float
+    stretch_median: float
+    stretch_p90: float
+    stretch_safe_median: float
+    stretch_safe_p90: float
+    unsafe_share: float
+    graph_length_m: float
+    vertices: int
+    edges: int
+    components: int
+    feasible_regions: int
+    regions_missed: int
+    regions_split: int
+    uncovered_share: float
+    short_loops: int
+    short_dead_ends: int
+    generation_s: float | None
+    evaluation_s: float
+
+    def as_dict(self) -> dict:
+        """The fields as a JSON-friendly dict (plain ints and floats, NaN as None)."""
+        out = {}
+        for k, v in asdict(self).items():
+            if isinstance(v, float) and not math.isfinite(v):
+                v = None
+            out[k] = v
+        return out
+
+
+def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, generation_s):
+    if not isinstance(graph, nx.Graph):
+        raise TypeError(
+            f"graph: expected a networkx Graph or MultiGraph, received {type(graph).__name__}"
+        )
+    if graph.is_directed():
+        raise ValueError(
+            f"graph: expected an undirected graph, received a directed {type(graph).__name__}"
+        )
+    for attr in ("free", "resolution_m", "world_to_pixel"):
+        if not hasattr(occupancy, attr):
+            raise TypeError(
+                f"occupancy: expected an OccupancyMap, received {type(occupancy).__name__}"
+            )
+    radius = positive_metres("robot_radius_m", radius)
+    snap_m = positive_metres("snap_m", snap_m)
+    n_pairs = positive_int("n_pairs", n_pairs)
+    seed = integer("seed", seed)
+    if (
+        isinstance(min_region_m2, bool)
+        or not isinstance(min_region_m2, numbers.Real)
+        or not math.isfinite(min_region_m2)
+        or min_region_m2 < 0
+    ):
+        raise ValueError(
+            f"min_region_m2: expected a finite area in square metres >= 0, received "
+            f"{min_region_m2!r}"
+        )
+    if generation_s is not None and (
+        isinstance(generation_s, bool)
+        or not isinstance(generation_s, numbers.Real)
+        or not math.isfinite(generation_s)
+        or generation_s < 0
+    ):
+        raise ValueError(
+            f"generation_s: expected None or a finite number of seconds >= 0, received "
+            f"{generation_s!r}"
+        )
+    gen = None if generation_s is None else float(generation_s)
+    return radius, snap_m, n_pairs, seed, float(min_region_m2), gen
+
+
+def _stretch(route_px: np.ndarray, geo_px: np.ndarray) -> tuple[float, float, float]:
+    """(success rate, median stretch, p90 stretch) of the pairs."""
+    if route_px.size == 0:
+        return math.nan, math.nan, math.nan
+    ok = np.isfinite(route_px) & np.isfinite(geo_px)
+    rate = float(np.count_nonzero(ok) / route_px.size)
+    good = ok & (geo_px > 0)
+    if not good.any():
+        return rate, math.nan, math.nan
+    s = route_px[good] / geo_px[good]
+    return rate, float(np.median(s)), float(np.percentile(s, 90))
+
+
+def _pieces(geo: GraphGeometry, feasible: np.ndarray):
+    """Per densified piece (between points g and g + 1 of one edge): length (px), its
+    midpoint feasible, and all three of its points feasible; and per point: feasible."""
+    same = geo.pt_edge[1:] == geo.pt_edge[:-1]
+    seg = geo.pt_rc[1:] - geo.pt_rc[:-1]
+    length = np.where(same, np.hypot(seg[:, 0], seg[:, 1]), 0.0)
+    point_ok = pixel_lookup(feasible, geo.pt_rc)
+    mid_ok = pixel_lookup(feasible, 0.5 * (geo.pt_rc[1:] + geo.pt_rc[:-1]))
+    piece_safe = mid_ok & point_ok[1:] & point_ok[:-1]
+    return length, mid_ok, piece_safe, point_ok
+
+
+def _components(geo: GraphGeometry) -> tuple[int, np.ndarray]:
+    """Number of graph components and the component of each vertex."""
+    n = geo.n_vertices
+    m = coo_matrix((np.ones(geo.edge_u.size), (geo.edge_u, geo.edge_v)), shape=(n, n)).tocsr()
+    return connected_components(m, directed=False)
+
+
+def _region_metrics(fs: FeasibleSpace, geo: GraphGeometry, regions, snap_px: float):
+    """(components, regions_missed, regions_split, uncovered_share)."""
+    n_comp, comp = _components(geo)
+    rc = np.rint(geo.pt_rc).astype(np.int64) if geo.pt_rc.size else np.empty((0, 2), np.int64)
+    h, w = fs.labels.shape
+    inside = (rc[:, 0] >= 0) & (rc[:, 0] < h) & (rc[:, 1] >= 0) & (rc[:, 1] < w)
+    rc_in = rc[inside]
+    label = fs.labels[rc_in[:, 0], rc_in[:, 1]]
+    pt_comp = comp[geo.edge_u[geo.pt_edge[inside]]]
+    big = np.zeros(fs.area_m2.size, bool)
+    big[regions] = True
+    sel = big[label]
+    pairs = np.unique(np.stack([label[sel], pt_comp[sel]], axis=1), axis=0)
+    per_region = np.bincount(pairs[:, 0], minlength=fs.area_m2.size)[regions]
+    missed = int(np.count_nonzero(per_region == 0))
+    split = int(np.count_nonzero(per_region > 1))
+    target = big[fs.labels] & fs.feasible
+    n_target = int(np.count_nonzero(target))
+    if n_target == 0:
+        return n_comp, missed, split, math.nan
+    not_graph = np.ones((h, w), np.uint8)
+    not_graph[rc_in[:, 0], rc_in[:, 1]] = 0
+    if rc_in.shape[0] == 0:
+        return n_comp, missed, split, 1.0
+    dist = cv2.distanceTransform(not_graph, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    far = np.count_nonzero(target & (dist > np.float32(snap_px)))
+    return n_comp, missed, split, float(far / n_target)
+
+
+def _routes(fs, geo, pairs: PairSet, pieces, snap_px: float):
+    """(success, median, p90) over all graph points and over the safe ones only."""
+    _, _, piece_safe, point_ok = pieces
+    geod = geodesic_lengths_px(fs, pairs)
+    n = geo.pt_edge.size
+    full = route_network(geo, np.ones(max(n - 1, 0), bool), np.ones(n, bool))
+    safe = route_network(geo, piece_safe, point_ok)
+    all_stats = _stretch(route_lengths_px(full, pairs, snap_px, fs.feasible), geod)
+    safe_stats = _stretch(route_lengths_px(safe, pairs, snap_px, fs.feasible), geod)
+    return all_stats, safe_stats
+
+
+def evaluate_route_graph(
+    graph: nx.Graph,
+    occupancy,
+    robot_radius_m: float,
+    *,
+    snap_m: float = 1.0,
+    n_pairs: int = 300,
+    seed: int = 0,
+    min_region_m2: float = 1.0,
+    generation_s: float | None = None,
+    coordinates: str = "auto",
+) -> RouteGraphReport:
+    """Score a route graph on a map for a round robot.
+
+    Routes between seeded random pairs of feasible pixels (snapped onto the graph, then
+    along it) are compared with the geodesic in the feasible space; coverage, safety and
+    shape of the graph are measured as defined in ``docs/route-graph-metrics.md``.
+
+    Parameters
+    ----------
+    graph : networkx.Graph or networkx.MultiGraph
+        Undirected.  Vertices carry ``world`` ((x, y) metres; further entries ignored) or
+        ``pixel`` ((row, col)); edges carry a ``world`` (K, 2) polyline in metres or are
+        straight segments between their vertices.
+    occupancy : OccupancyMap
+        The map the graph was made for.
+    robot_radius_m : float
+        Robot radius in metres (> 0).
+    snap_m : float
+        Largest distance (metres, > 0) from a point to the graph point it snaps to, and the
+        coverage distance.
+    n_pairs : int
+        Number of pairs (>= 1).
+    seed : int
+        Seed of the pair sampling.
+    min_region_m2 : float
+        Feasible regions smaller than this (square metres, >= 0) are ignored.
+    generation_s : float or None
+        Time taken to make the graph (seconds), echoed in the report.
+    coordinates : {"auto", "world", "pixel"}
+        Which vertex positions to use: ``"auto"`` each vertex's ``world`` if present, else
+        its ``pixel``; ``"pixel"`` uses ``pixel`` and edges' ``path`` ((K, 2) pixels)
+        instead of ``world`` (for graphs whose ``world`` frame differs from the map's).
+
+    Returns
+    -------
+    RouteGraphReport
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a directed graph, a non-graph, a vertex without a position, a malformed edge
+        polyline, or an invalid parameter (the message names it).
+    """
+    t0 = time.perf_counter()
+    radius, snap_m, n_pairs, seed, min_area, gen = _check_args(
+        graph, occupancy, robot_radius_m, snap_m, n_pairs, seed, min_region_m2, generation_s
+    )
+    coordinates = one_of("coordinates", coordinates, ("auto", "world", "pixel"))
+    fs = feasible_space(occupancy, radius)
+    res = fs.resolution_m
+    snap_px = snap_m / res
+    geo = graph_geometry(graph, occupancy, coordinates)
+    regions = fs.regions_at_least(min_area)
+    regions = regions[regions > 0]
+    pieces = _pieces(geo, fs.feasible)
+    length_px, mid_ok, _, _ = pieces
+    total = float(length_px.sum())
+    unsafe = float(length_px[~mid_ok].sum()) / total if total > 0 else math.nan
+    pairs = sample_pairs(fs, regions, n_pairs, seed)
+    (ok, med, p90), (ok_s, med_s, p90_s) = _routes(fs, geo, pairs, pieces, snap_px)
+    n_comp, missed, split, uncovered = _region_metrics(fs, geo, regions, snap_px)
+    u, v = geo.edge_u[: geo.n_edges], geo.edge_v[: geo.n_edges]
+    length_m = geo.edge_len_px * res
+    return RouteGraphReport(
+        robot_radius_m=radius,
+        snap_m=snap_m,
+        seed=seed,
+        pairs=pairs.n_pairs,
+        success_rate=ok,
+        success_safe_rate=ok_s,
+        stretch_median=med,
+        stretch_p90=p90,
+        stretch_safe_median=med_s,
+        stretch_safe_p90=p90_s,
+        unsafe_share=unsafe,
+        graph_length_m=float(length_m.sum()),
+        vertices=geo.n_vertices,
+        edges=geo.n_edges,
+        components=int(n_comp),
+        feasible_regions=int(regions.size),
+        regions_missed=missed,
+        regions_split=split,
+        uncovered_share=uncovered,
+        short_loops=short_loops(geo.n_vertices, u, v, length_m, SHORT_LOOP_M),
+        short_dead_ends=short_dead_ends(geo.n_vertices, u, v, length_m, SHORT_DEAD_END_M),
+        generation_s=gen,
+        evaluation_s=time.perf_counter() - t0,
+    )
