@@ -166,18 +166,17 @@ _SUBMODULES = frozenset(
         "cli",
         "config",
         "datasets",
-        "distance",
-        "filters",
+        "fields",
         "graph",
         "incremental",
         "io",
         "maps",
         "pipeline",
         "plotting",
+        "routegraph",
         "routing",
         "scans",
         "skeleton",
-        "tiling",
     )
 )
 
