@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import real_number
+from .._validate import one_of, real_number
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
 from ._tf import _IDENTITY_TF, _Tf, _tf_from_msg, _TfSeries, _TfTree
 from .scan import PoseLike, Scan, _pose3
@@ -174,8 +174,7 @@ def read_bag(
         Unreadable bag, topic selection problems, missing pose source or tf frames.
     """
     p = Path(path)
-    if missing_pose not in ("skip", "error"):
-        raise ValueError(f"missing_pose: expected 'skip' or 'error', got {missing_pose!r}")
+    one_of("missing_pose", missing_pose, ("skip", "error"))
     tol = real_number("pose_tolerance_s", pose_tolerance_s)
     if tol < 0:
         raise ValueError(f"pose_tolerance_s: expected a value >= 0 s, got {tol!r}")

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import existing_file, real_number
+from .._validate import existing_file, one_of, real_number
 from ._text import _cut_off, _open_text
 from .scan import PoseLike, Scan, _pose3, _relative
 
@@ -248,10 +248,7 @@ def read_carmen(
         for bad arguments; if the file has no scan of the requested kind.
     """
     p = existing_file("path", path)
-    if laser != "auto" and laser not in _CARMEN_LASERS:
-        raise ValueError(
-            f"laser: expected 'auto' or one of {', '.join(_CARMEN_LASERS)}, got {laser!r}"
-        )
+    one_of("laser", laser, ("auto", *_CARMEN_LASERS))
     if max_range is not None:
         max_range = real_number("max_range", max_range, allow_inf=True)
         if max_range <= 0:
