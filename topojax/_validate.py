@@ -1,7 +1,8 @@
 """Argument checks shared by the whole package.
 
 Each check returns the value in its canonical Python type, or raises a ``TypeError`` /
-``ValueError`` whose message names the parameter, what was expected and what was received.
+``ValueError`` (:func:`existing_file`: also ``FileNotFoundError``) whose message names the
+parameter, what was expected and what was received.
 NumPy scalars are accepted wherever the matching Python type is; ``bool`` is never a number.
 """
 
