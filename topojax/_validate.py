@@ -1,7 +1,8 @@
 """Argument checks shared by the whole package.
 
 Each check returns the value in its canonical Python type, or raises a ``TypeError`` /
-``ValueError`` whose message names the parameter, what was expected and what was received.
+``ValueError`` (:func:`existing_file`: also ``FileNotFoundError``) whose message names the
+parameter, what was expected and what was received.
 NumPy scalars are accepted wherever the matching Python type is; ``bool`` is never a number.
 """
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -17,11 +19,13 @@ __all__ = [
     "binary_flag",
     "binary_image",
     "choice",
+    "existing_file",
     "finite_pair",
     "finite_positive",
     "finite_real",
     "flag",
     "instance_or_default",
+    "int_at_least",
     "integer",
     "is_real_number",
     "metres",
@@ -32,6 +36,7 @@ __all__ = [
     "pose",
     "positive_int",
     "positive_metres",
+    "real_number",
 ]
 
 
@@ -50,6 +55,29 @@ def integer(name: str, value: object) -> int:
     if not isinstance(value, numbers.Integral) or isinstance(value, bool):
         raise TypeError(f"{name} must be an int, got {type(value).__name__} {value!r}")
     return int(value)
+
+
+def int_at_least(name: str, value: Any, minimum: int) -> int:
+    """``value`` as an int after checking it is an integer >= ``minimum`` (Python or NumPy,
+    not bool); a ``ValueError`` otherwise, also for a non-integer."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < minimum:
+        raise ValueError(f"{name}: expected an int >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
+    """``value`` as a float after checking it is a real number (Python or NumPy, or a 0-d
+    array of one; not bool), not NaN, and finite unless ``allow_inf``; a ``TypeError`` for
+    a non-number, a ``ValueError`` for NaN or an infinity not allowed."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected a real number, got {type(value).__name__} {value!r}")
+    out = float(value)
+    if math.isnan(out) or (math.isinf(out) and not allow_inf):
+        expected = "a number, not NaN" if allow_inf else "a finite number"
+        raise ValueError(f"{name}: expected {expected}, got {out!r}")
+    return out
 
 
 def flag(name: str, value: object) -> bool:
@@ -188,6 +216,18 @@ def finite_pair(name: str, value: Any, what: str) -> np.ndarray:
     if q is None or q.shape != (2,) or not np.isfinite(q).all():
         raise ValueError(f"{name}: expected two finite numbers {what}, received {value!r}")
     return q
+
+
+def existing_file(name: str, path: Any) -> Path:
+    """``path`` as a :class:`~pathlib.Path` after checking it names an existing regular
+    file: a ``FileNotFoundError`` if nothing is there, a ``ValueError`` for a folder or a
+    special file."""
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"{name}: file not found: {p}")
+    if not p.is_file():
+        raise ValueError(f"{name}: expected a file, got a directory or special file: {p}")
+    return p
 
 
 def instance_or_default(name: str, value: Any, kind: type) -> Any:

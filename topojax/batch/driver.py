@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .._fs import output_folder, refuse_overwriting_inputs
-from .._validate import positive_metres
+from .._validate import instance_or_default, int_at_least, one_of, positive_metres
 from ..config import DistanceConfig, PipelineConfig
 from ..maps import MODES, OccupancyMap
 from .inputs import (
@@ -489,12 +489,6 @@ class _BatchRun:
         return rec
 
 
-def _positive_int(name: str, value: Any, *, minimum: int = 1) -> int:
-    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < minimum:
-        raise ValueError(f"{name}: expected an int >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def _default_kernel_threads() -> int:
     import jax
 
@@ -595,9 +589,7 @@ def build_graphs(
         For invalid arguments (a bad map never raises; it becomes an error record).
     """
     items_raw, sources = _map_inputs(maps)
-    config = PipelineConfig() if config is None else config
-    if not isinstance(config, PipelineConfig):
-        raise TypeError(f"config: expected a PipelineConfig, got {type(config).__name__}")
+    config = instance_or_default("config", config, PipelineConfig)
     fmts = _check_formats(formats)
     sigma_m = _check_options(
         map_mode=map_mode,
@@ -611,7 +603,7 @@ def build_graphs(
     keep = out_dir is None if keep_graphs is None else bool(keep_graphs)
     executor = _as_executor(executor)
     n_workers = (os.cpu_count() or 1) if workers is None else workers
-    n_workers = _positive_int("workers", n_workers, minimum=0)
+    n_workers = int_at_least("workers", n_workers, 0)
 
     out: Path | None = None
     if out_dir is not None:
@@ -656,16 +648,19 @@ def _kernel_settings(
 ) -> tuple[int, int, int]:
     """The checked ``(tiles_per_call, kernel_threads, batch_tiles)`` of
     :func:`build_graphs`, defaults filled in."""
-    tpc = _positive_int(
+    tpc = int_at_least(
         "tiles_per_call",
         max(config.tiles_per_call, _DEFAULT_TILES_PER_CALL)
         if tiles_per_call is None
         else tiles_per_call,
+        1,
     )
-    threads = _positive_int(
-        "kernel_threads", _default_kernel_threads() if kernel_threads is None else kernel_threads
+    threads = int_at_least(
+        "kernel_threads",
+        _default_kernel_threads() if kernel_threads is None else kernel_threads,
+        1,
     )
-    group_tiles = _positive_int("batch_tiles", 16 * tpc if batch_tiles is None else batch_tiles)
+    group_tiles = int_at_least("batch_tiles", 16 * tpc if batch_tiles is None else batch_tiles, 1)
     return tpc, threads, group_tiles
 
 
@@ -705,8 +700,7 @@ def _check_options(
 ) -> float | None:
     """Check ``map_mode``, the bool ``flags`` (``keep_graphs`` may be None), ``sigma_m``
     and that ``plot``/``resume`` have an ``out_dir``; the checked ``sigma_m``."""
-    if map_mode is not None and map_mode not in MODES:
-        raise ValueError(f"map_mode: expected one of {MODES} or None, received {map_mode!r}")
+    one_of("map_mode", map_mode, (*MODES, None))
     for name, flag in flags.items():
         if name == "keep_graphs" and flag is None:
             continue

@@ -34,13 +34,12 @@ Comparison with the original implementation (STAR-Center/IncrementalTopo, refere
 
 from __future__ import annotations
 
-import math
-import numbers
 from collections.abc import Callable
 
 import networkx as nx
 import numpy as np
 
+from .._validate import finite_positive, flag
 from .geometry import _edge_pixel_index, orient, path_lengths_m
 from .store import KIND_JUNCTION, GraphStore
 from .trace import (
@@ -80,21 +79,6 @@ def _as_skeleton(skeleton: object) -> np.ndarray:
             f"(row, col) = {first}"
         )
     return arr != 0
-
-
-def _check_resolution(resolution_m: object) -> float:
-    if isinstance(resolution_m, bool) or not isinstance(resolution_m, numbers.Real):
-        raise TypeError(
-            f"resolution_m: expected a finite real number > 0 (metres per pixel), "
-            f"received {resolution_m!r} of type {type(resolution_m).__name__}"
-        )
-    res = float(resolution_m)
-    if not (math.isfinite(res) and res > 0.0):
-        raise ValueError(
-            f"resolution_m: expected a finite real number > 0 (metres per pixel), "
-            f"received {resolution_m!r}"
-        )
-    return res
 
 
 def _check_clearance(clearance_px: object, skel: np.ndarray, flat: np.ndarray) -> np.ndarray:
@@ -268,18 +252,13 @@ def skeleton_to_graph(
         ``pixel_to_world`` returns arrays of the wrong shape.
     """
     skel = _as_skeleton(skeleton)
-    res = _check_resolution(resolution_m)
+    res = finite_positive("resolution_m", resolution_m)
     if pixel_to_world is not None and not callable(pixel_to_world):
         raise TypeError(
             f"pixel_to_world: expected a callable (rows, cols) -> (x, y) or None, "
             f"received {type(pixel_to_world).__name__}"
         )
-    if not isinstance(merge_junction_clusters, (bool, np.bool_)):
-        raise TypeError(
-            f"merge_junction_clusters: expected a bool, received "
-            f"{type(merge_junction_clusters).__name__}"
-        )
-    merge = bool(merge_junction_clusters)
+    merge = flag("merge_junction_clusters", merge_junction_clusters)
     flat = np.flatnonzero(skel.ravel())  # skeleton pixels, raster order
     if clearance_px is None:
         clear = None

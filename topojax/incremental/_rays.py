@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from .._jit import cached_njit
+from .._validate import finite_pair
 from ..fields.filters import HALO_PX
 from ..fields.tiling import unique_pairs
 from ._tiles import _MAX_ABS_PIXEL, _UINT16_MAX, _locate, _log2, _slot, _worker_pool
@@ -346,14 +347,7 @@ def point_pixels(mapper, points_xy, origin_xy):
     keep = np.isfinite(pts).all(axis=1)
     sensor = None
     if origin_xy is not None:
-        try:
-            origin = np.asarray(origin_xy, dtype=np.float64)
-        except (TypeError, ValueError):
-            origin = np.empty(0)
-        if origin.shape != (2,) or not np.isfinite(origin).all():
-            raise ValueError(
-                f"origin_xy: expected two finite numbers (x, y) in metres, received {origin_xy!r}"
-            )
+        origin = finite_pair("origin_xy", origin_xy, "(x, y) in metres")
         if mapper.max_range_m is not None:
             # A scan's reading at exactly max_range_m is dropped; its end point, made
             # from the range and rounded, lies a rounding step either side of it.

@@ -3,13 +3,18 @@ JSON-ready dictionary a saved state stores."""
 
 from __future__ import annotations
 
-import math
-import numbers
 from dataclasses import asdict
 
-import numpy as np
-
 from .._constants import STRATEGIES
+from .._validate import (
+    choice,
+    finite_positive,
+    flag,
+    instance_or_default,
+    int_at_least,
+    integer,
+    is_real_number,
+)
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..fields.filters import HALO_PX
 
@@ -17,11 +22,10 @@ from ..fields.filters import HALO_PX
 def _check_rate(name: str, value) -> int:
     if value is None:
         return 0
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an int >= 0 or None, got {type(value).__name__}")
+    value = integer(name, value)
     if value < 0:
         raise ValueError(f"{name} must be >= 0 (0 or None: explicit calls only), got {value}")
-    return int(value)
+    return value
 
 
 def merged_config(config, distance, ridge, skeleton) -> PipelineConfig:
@@ -36,16 +40,14 @@ def merged_config(config, distance, ridge, skeleton) -> PipelineConfig:
         If the ridge threshold is negative, or the graph config asks for junction-cluster
         merging, free-space filtering or pruning.
     """
-    config = config if config is not None else PipelineConfig()
-    if not isinstance(config, PipelineConfig):
-        raise TypeError(f"config must be a PipelineConfig, got {type(config).__name__}")
+    config = instance_or_default("config", config, PipelineConfig)
     for name, value, cls in (
         ("distance", distance, DistanceConfig),
         ("ridge", ridge, RidgeConfig),
         ("skeleton", skeleton, SkeletonConfig),
     ):
-        if value is not None and not isinstance(value, cls):
-            raise TypeError(f"{name} must be a {cls.__name__}, got {type(value).__name__}")
+        if value is not None:  # None: the part of ``config``
+            instance_or_default(name, value, cls)
     config = PipelineConfig(
         distance=distance or config.distance,
         ridge=ridge or config.ridge,
@@ -88,14 +90,9 @@ def checked_sizes(tile_px, block_px, paper_layer_px) -> tuple[int, int, int]:
         If one is not an int of at least its minimum (8, 4, 1), a side is not a power of
         two, or the tile is smaller than the block or the block than two ridge halos.
     """
-    for name, value, lo in (
-        ("tile_px", tile_px, 8),
-        ("block_px", block_px, 4),
-        ("paper_layer_px", paper_layer_px, 1),
-    ):
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < lo:
-            raise ValueError(f"{name} must be an int >= {lo}, got {value!r}")
-    tile_px, block_px, paper_layer_px = int(tile_px), int(block_px), int(paper_layer_px)
+    tile_px = int_at_least("tile_px", tile_px, 8)
+    block_px = int_at_least("block_px", block_px, 4)
+    paper_layer_px = int_at_least("paper_layer_px", paper_layer_px, 1)
     for name, value in (("tile_px", tile_px), ("block_px", block_px)):
         if value & (value - 1):
             raise ValueError(
@@ -117,14 +114,9 @@ def checked_resolution(resolution_m, strategy) -> float:
     TypeError, ValueError
         If the resolution is not a finite number > 0 or the strategy is unknown.
     """
-    # numbers.Real / Integral: NumPy numbers are numbers too (stored as Python ones)
-    if isinstance(resolution_m, bool) or not isinstance(resolution_m, numbers.Real):
-        raise TypeError(f"resolution_m must be a number, got {type(resolution_m).__name__}")
-    resolution_m = float(resolution_m)
-    if not math.isfinite(resolution_m) or resolution_m <= 0:
-        raise ValueError(f"resolution_m must be finite and > 0 (metres), got {resolution_m}")
-    if strategy not in STRATEGIES:
-        raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
+    # NumPy numbers are numbers too (stored as Python ones)
+    resolution_m = finite_positive("resolution_m", resolution_m)
+    choice("strategy", strategy, STRATEGIES)
     return resolution_m
 
 
@@ -139,24 +131,16 @@ def checked_loop_settings(
     TypeError, ValueError
         If an argument has the wrong type or range.
     """
-    if (
-        isinstance(max_pending_points, bool)
-        or not isinstance(max_pending_points, numbers.Integral)
-        or max_pending_points < 0
-    ):
-        raise ValueError(f"max_pending_points must be an int >= 0, got {max_pending_points!r}")
-    max_pending_points = int(max_pending_points)
+    max_pending_points = int_at_least("max_pending_points", max_pending_points, 0)
     if max_range_m is not None:
-        if isinstance(max_range_m, bool) or not isinstance(max_range_m, numbers.Real):
+        if not is_real_number(max_range_m):
             raise TypeError(f"max_range_m must be a number or None, got {max_range_m!r}")
         max_range_m = float(max_range_m)
         if not max_range_m > 0:
             raise ValueError(f"max_range_m must be > 0 (metres), got {max_range_m}")
-    if not isinstance(free_space, bool):
-        raise TypeError(f"free_space must be a bool, got {type(free_space).__name__}")
     return (
         max_pending_points,
-        free_space,
+        flag("free_space", free_space),
         max_range_m,
         _check_rate("skeleton_every", skeleton_every),
         _check_rate("graph_every", graph_every),

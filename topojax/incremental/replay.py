@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._validate import instance_or_default, positive_int, positive_metres
 from ..config import GraphConfig
 from ._settings import settings_of
 from .mapper import IncrementalMapper
@@ -185,18 +186,12 @@ def replay(
 def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, animate):
     """Check :func:`replay`'s arguments before the replay starts; returns the Nav2
     tolerance as a float (or None)."""
-    if max_scans is not None and (
-        isinstance(max_scans, bool) or not isinstance(max_scans, int) or max_scans < 1
-    ):
-        raise ValueError(f"max_scans must be a positive int or None, got {max_scans!r}")
+    if max_scans is not None:
+        positive_int("max_scans", max_scans)
     if nav2_tolerance_m is not None:  # checked now, not after the whole replay
-        from .._validate import positive_metres
-
         nav2_tolerance_m = positive_metres("nav2_tolerance_m", nav2_tolerance_m)
-    if graph_config is not None and not isinstance(graph_config, GraphConfig):
-        raise TypeError(
-            f"graph_config: expected a GraphConfig, received {type(graph_config).__name__}"
-        )
+    if graph_config is not None:
+        instance_or_default("graph_config", graph_config, GraphConfig)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(

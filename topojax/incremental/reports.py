@@ -9,6 +9,8 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
+from .._validate import is_real_number
+
 
 @dataclass(frozen=True)
 class GraphUpdate:
@@ -134,7 +136,7 @@ def vertex_error_metrics(
             "graph_a and graph_b must be networkx graphs, got "
             f"{type(graph_a).__name__} and {type(graph_b).__name__}"
         )
-    if not (isinstance(outlier_px, (int, float)) and outlier_px > 0):
+    if not (is_real_number(outlier_px) and outlier_px > 0):  # inf: no outliers
         raise ValueError(f"outlier_px must be a number > 0, got {outlier_px!r}")
 
     def pixels(g: nx.Graph, name: str) -> np.ndarray:

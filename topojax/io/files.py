@@ -15,6 +15,7 @@ from typing import Any
 import networkx as nx
 
 from .._fs import atomic_write_bytes
+from .._validate import choice
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
 from .geojson import _from_geojson, _to_geojson
 from .graphml import _read_graphml, _write_graphml
@@ -27,12 +28,7 @@ GRAPH_FORMATS = {".graphml": "graphml", ".json": "json", ".geojson": "geojson"}
 def _format_for(path: Path, format: str | None) -> str:
     supported = sorted(GRAPH_FORMATS)
     if format is not None:
-        fmt = str(format).lower().lstrip(".")
-        if fmt not in GRAPH_FORMATS.values():
-            raise ValueError(
-                f"format must be one of {sorted(GRAPH_FORMATS.values())}, got {format!r}"
-            )
-        return fmt
+        return choice("format", str(format).lower().lstrip("."), sorted(GRAPH_FORMATS.values()))
     suffix = path.suffix.lower()
     if suffix not in GRAPH_FORMATS:
         raise ValueError(

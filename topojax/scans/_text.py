@@ -12,16 +12,6 @@ from typing import IO
 _GZIP_MAGIC = b"\x1f\x8b"
 
 
-def _check_file(path: str | Path, what: str) -> Path:
-    """``path`` as a Path after checking it is an existing file (errors name ``what``)."""
-    p = Path(path)
-    if not p.exists():
-        raise FileNotFoundError(f"{what}: file not found: {p}")
-    if not p.is_file():
-        raise ValueError(f"{what}: expected a file, got a directory or special file: {p}")
-    return p
-
-
 def _open_text(path: Path) -> IO[str]:
     """Open a text file that may be gzip-compressed (detected by its magic bytes).
 

@@ -10,9 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import one_of, real_number
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
 from ._tf import _IDENTITY_TF, _Tf, _tf_from_msg, _TfSeries, _TfTree
-from .scan import PoseLike, Scan, _pose3, _real_scalar
+from .scan import PoseLike, Scan, _pose3
 
 _LASERSCAN = "sensor_msgs/msg/LaserScan"
 _TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
@@ -173,9 +174,8 @@ def read_bag(
         Unreadable bag, topic selection problems, missing pose source or tf frames.
     """
     p = Path(path)
-    if missing_pose not in ("skip", "error"):
-        raise ValueError(f"missing_pose: expected 'skip' or 'error', got {missing_pose!r}")
-    tol = _real_scalar("pose_tolerance_s", pose_tolerance_s)
+    one_of("missing_pose", missing_pose, ("skip", "error"))
+    tol = real_number("pose_tolerance_s", pose_tolerance_s)
     if tol < 0:
         raise ValueError(f"pose_tolerance_s: expected a value >= 0 s, got {tol!r}")
     offset_override = None if sensor_offset is None else _pose3("sensor_offset", sensor_offset)

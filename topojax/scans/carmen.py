@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ._text import _check_file, _cut_off, _open_text
-from .scan import PoseLike, Scan, _pose3, _real_scalar, _relative
+from .._validate import existing_file, one_of, real_number
+from ._text import _cut_off, _open_text
+from .scan import PoseLike, Scan, _pose3, _relative
 
 _OLD_LASERS = ("FLASER", "RLASER")
 _ROBOT_LASERS = ("ROBOTLASER1", "ROBOTLASER2")
@@ -246,16 +247,13 @@ def read_carmen(
         For a malformed laser (or needed ODOM) line, with the file name and line number;
         for bad arguments; if the file has no scan of the requested kind.
     """
-    p = _check_file(path, "path")
-    if laser != "auto" and laser not in _CARMEN_LASERS:
-        raise ValueError(
-            f"laser: expected 'auto' or one of {', '.join(_CARMEN_LASERS)}, got {laser!r}"
-        )
+    p = existing_file("path", path)
+    one_of("laser", laser, ("auto", *_CARMEN_LASERS))
     if max_range is not None:
-        max_range = _real_scalar("max_range", max_range, allow_inf=True)
+        max_range = real_number("max_range", max_range, allow_inf=True)
         if max_range <= 0:
             raise ValueError(f"max_range: expected a value > 0 m, got {max_range!r}")
-    margin = _real_scalar("no_return_margin_m", no_return_margin_m)
+    margin = real_number("no_return_margin_m", no_return_margin_m)
     if margin < 0:
         raise ValueError(f"no_return_margin_m: expected a value >= 0 m, got {margin!r}")
     offset_override = None if sensor_offset is None else _pose3("sensor_offset", sensor_offset)

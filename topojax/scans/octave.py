@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from ._text import _check_file, _open_text
+from .._validate import existing_file
+from ._text import _open_text
 from .scan import Scan
 
 
@@ -225,7 +226,7 @@ def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Itera
         Missing file; syntax errors (with line number); missing fields or inconsistent cell
         lengths.
     """
-    p = _check_file(path, "path")
+    p = existing_file("path", path)
     return _iter_octave(p, variable)
 
 

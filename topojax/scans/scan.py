@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
-import numbers
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from .._validate import real_number
 
 PoseLike = Sequence[float] | np.ndarray
 
@@ -18,19 +19,6 @@ _TWO_PI = 2.0 * math.pi
 def _wrap_angle(a: float) -> float:
     """Wrap an angle in radians to ``[-pi, pi)``."""
     return (a + math.pi) % _TWO_PI - math.pi
-
-
-def _real_scalar(name: str, value: Any, *, allow_inf: bool = False) -> float:
-    """Return ``value`` as a Python float, rejecting booleans, non-numbers and NaN (a
-    0-d NumPy array of a real number counts as that number)."""
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number, got {type(value).__name__} {value!r}")
-    out = float(value)
-    if math.isnan(out) or (math.isinf(out) and not allow_inf):
-        raise ValueError(f"{name}: expected a finite number, got {out!r}")
-    return out
 
 
 def _pose3(name: str, value: Any) -> tuple[float, float, float]:
@@ -131,15 +119,15 @@ class Scan:
         arr.flags.writeable = False
         object.__setattr__(self, "ranges", arr)
 
-        object.__setattr__(self, "angle_min", _real_scalar("angle_min", self.angle_min))
-        inc = _real_scalar("angle_increment", self.angle_increment)
+        object.__setattr__(self, "angle_min", real_number("angle_min", self.angle_min))
+        inc = real_number("angle_increment", self.angle_increment)
         if inc == 0.0:
             raise ValueError("angle_increment: expected a non-zero angle in radians, got 0.0")
         object.__setattr__(self, "angle_increment", inc)
-        rmin = _real_scalar("range_min", self.range_min)
+        rmin = real_number("range_min", self.range_min)
         if rmin < 0.0:
             raise ValueError(f"range_min: expected a value >= 0 m, got {rmin!r}")
-        rmax = _real_scalar("range_max", self.range_max, allow_inf=True)
+        rmax = real_number("range_max", self.range_max, allow_inf=True)
         if not rmax > rmin:
             raise ValueError(
                 f"range_max: expected a value > range_min ({rmin!r} m), got {rmax!r} m"
@@ -149,7 +137,7 @@ class Scan:
         object.__setattr__(self, "pose", _pose3("pose", self.pose))
         object.__setattr__(self, "sensor_offset", _pose3("sensor_offset", self.sensor_offset))
         if self.timestamp is not None:
-            object.__setattr__(self, "timestamp", _real_scalar("timestamp", self.timestamp))
+            object.__setattr__(self, "timestamp", real_number("timestamp", self.timestamp))
 
     def __repr__(self) -> str:
         return (

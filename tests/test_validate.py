@@ -1,0 +1,302 @@
+"""The shared argument checks of ``topojax._validate``: good values (Python and NumPy),
+bools refused as numbers, NaN / inf, wrong types, and messages that name the parameter."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from topojax import _validate as v
+
+NAN, INF = float("nan"), float("inf")
+
+
+# --------------------------------------------------------------------------------------
+# real numbers
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", [0.5, 2, np.float32(0.5), np.float64(3.0), np.int64(4)])
+def test_finite_positive_accepts_python_and_numpy_numbers(value):
+    out = v.finite_positive("size", value)
+    assert type(out) is float and out == float(value)
+
+
+@pytest.mark.parametrize(
+    ("value", "exc", "words"),
+    [
+        (True, TypeError, ["size", "real number", "bool"]),
+        (np.bool_(True), TypeError, ["size", "real number"]),
+        ("1", TypeError, ["size", "real number", "str"]),
+        (None, TypeError, ["size", "real number", "NoneType"]),
+        (0, ValueError, ["size", "> 0", "0"]),
+        (-1.5, ValueError, ["size", "> 0", "-1.5"]),
+        (NAN, ValueError, ["size", "finite", "nan"]),
+        (INF, ValueError, ["size", "finite", "inf"]),
+        (np.float64(-INF), ValueError, ["size", "finite", "inf"]),
+    ],
+)
+def test_finite_positive_rejects(value, exc, words):
+    with pytest.raises(exc) as info:
+        v.finite_positive("size", value)
+    for word in words:
+        assert word in str(info.value), (word, str(info.value))
+
+
+@pytest.mark.parametrize("value", [-2.5, 0, 7, np.float32(1.25), np.int16(-3)])
+def test_finite_real_accepts_any_finite_number(value):
+    out = v.finite_real("x", value)
+    assert type(out) is float and out == float(value)
+
+
+@pytest.mark.parametrize("value", [True, np.bool_(False), "1", None, NAN, INF, np.float64(NAN)])
+def test_finite_real_rejects_with_value_error_naming_the_parameter(value):
+    with pytest.raises(ValueError, match="^x must be a finite number"):
+        v.finite_real("x", value)
+
+
+@pytest.mark.parametrize("value", [1.5, -3, np.float64(0.0), np.int8(2), np.array(2.5)])
+def test_real_number_accepts_numbers_and_0d_arrays(value):
+    out = v.real_number("angle", value)
+    assert type(out) is float and out == float(value)
+
+
+def test_real_number_infinity_only_when_allowed():
+    assert v.real_number("range_max", INF, allow_inf=True) == INF
+    assert v.real_number("range_max", np.float32(-INF), allow_inf=True) == -INF
+    with pytest.raises(ValueError, match="range_max: expected a finite number, got inf"):
+        v.real_number("range_max", INF)
+    for allow_inf in (False, True):
+        with pytest.raises(ValueError, match="range_max: expected .*got nan"):
+            v.real_number("range_max", NAN, allow_inf=allow_inf)
+
+
+@pytest.mark.parametrize("value", [True, np.bool_(True), "0", None, [1.0], np.array([1.0])])
+def test_real_number_rejects_non_numbers_with_type_error(value):
+    with pytest.raises(TypeError, match="^angle: expected a real number, got "):
+        v.real_number("angle", value)
+
+
+def test_is_real_number():
+    for value in (1, 1.5, np.int32(1), np.float32(1.5), NAN, INF):
+        assert v.is_real_number(value), value
+    for value in (True, np.bool_(True), "1", None, 1j, [1]):
+        assert not v.is_real_number(value), value
+
+
+# --------------------------------------------------------------------------------------
+# metres
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", [0.0, 0, 2.5, np.float32(0.25), np.int64(3)])
+def test_nonnegative_metres_accepts_zero_and_more(value):
+    out = v.nonnegative_metres("min_spur_m", value)
+    assert type(out) is float and out == float(value)
+
+
+def test_positive_metres_refuses_zero():
+    assert v.positive_metres("tolerance_m", np.float64(0.1)) == 0.1
+    with pytest.raises(ValueError, match=r"tolerance_m: expected a finite number of metres > 0"):
+        v.positive_metres("tolerance_m", 0)
+
+
+@pytest.mark.parametrize(
+    ("value", "exc"),
+    [(True, TypeError), ("1", TypeError), (None, TypeError), (-0.5, ValueError)]
+    + [(NAN, ValueError), (INF, ValueError)],
+)
+def test_metres_rejects(value, exc):
+    for check in (v.nonnegative_metres, v.positive_metres):
+        with pytest.raises(exc, match=r"^d_m: expected a .*number of metres .*received"):
+            check("d_m", value)
+
+
+@pytest.mark.parametrize("value", [0.05, 1, np.float32(0.5), np.int64(2)])
+def test_metres_per_pixel_accepts(value):
+    assert v.metres_per_pixel("resolution", value) == float(value)
+
+
+@pytest.mark.parametrize("value", [0, -0.1, NAN, INF, True, np.bool_(True), "0.05", None])
+def test_metres_per_pixel_rejects_with_value_error(value):
+    with pytest.raises(ValueError, match=r"^resolution must be a finite number > 0"):
+        v.metres_per_pixel("resolution", value)
+
+
+# --------------------------------------------------------------------------------------
+# integers
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", [0, -4, 7, np.int8(3), np.uint64(5)])
+def test_integer_accepts_python_and_numpy_ints(value):
+    out = v.integer("count", value)
+    assert type(out) is int and out == int(value)
+
+
+@pytest.mark.parametrize("value", [True, np.bool_(False), 1.0, np.float64(2.0), "3", None])
+def test_integer_rejects_non_ints_with_type_error(value):
+    with pytest.raises(TypeError, match="^count must be an int, got "):
+        v.integer("count", value)
+
+
+@pytest.mark.parametrize("value", [1, 9, np.int32(1), np.uint8(200)])
+def test_positive_int_accepts(value):
+    out = v.positive_int("workers", value)
+    assert type(out) is int and out == int(value)
+
+
+@pytest.mark.parametrize("value", [0, -1, np.int64(0), True, 1.0, "2", None, NAN])
+def test_positive_int_rejects_with_value_error(value):
+    with pytest.raises(ValueError, match="^workers: expected a positive int, got "):
+        v.positive_int("workers", value)
+
+
+def test_int_at_least():
+    assert v.int_at_least("tile_px", 8, 8) == 8
+    assert v.int_at_least("workers", np.int64(0), 0) == 0
+    assert type(v.int_at_least("workers", np.int64(3), 0)) is int
+    for bad in (7, np.int16(-1), True, 8.0, "8", None):
+        with pytest.raises(ValueError, match=r"^tile_px: expected an int >= 8, got "):
+            v.int_at_least("tile_px", bad, 8)
+
+
+# --------------------------------------------------------------------------------------
+# flags and choices
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", [True, False, np.bool_(True), np.bool_(False)])
+def test_flag_accepts_python_and_numpy_bools(value):
+    out = v.flag("plot", value)
+    assert type(out) is bool and out == bool(value)
+
+
+@pytest.mark.parametrize("value", [1, 0, np.int64(1), "yes", None, 1.0])
+def test_flag_rejects_non_bools(value):
+    with pytest.raises(TypeError, match="^plot must be a bool, got "):
+        v.flag("plot", value)
+
+
+@pytest.mark.parametrize("value", [True, False, 0, 1, np.int8(1), np.bool_(False)])
+def test_binary_flag_accepts_bools_and_0_1(value):
+    out = v.binary_flag("negate", value)
+    assert type(out) is bool and out == bool(value)
+
+
+@pytest.mark.parametrize("value", [2, -1, 1.0, "1", None])
+def test_binary_flag_rejects(value):
+    with pytest.raises(ValueError, match="^negate must be a bool or 0/1, got "):
+        v.binary_flag("negate", value)
+
+
+def test_choice_needs_a_listed_string():
+    assert v.choice("method", "zhang", ("zhang", "guo_hall")) == "zhang"
+    assert v.choice("method", np.str_("zhang"), ["zhang"]) == "zhang"
+    for bad in ("Zhang", 1, None, b"zhang"):
+        with pytest.raises(ValueError, match=r"^method must be one of \('zhang',.*got "):
+            v.choice("method", bad, ("zhang", "guo_hall"))
+
+
+def test_one_of_allows_any_listed_value():
+    assert v.one_of("map_mode", None, ("raw", None)) is None
+    assert v.one_of("frame", "grid", ("world", "grid")) == "grid"
+    with pytest.raises(ValueError, match=r"^frame: expected one of \('world', 'grid'\), received"):
+        v.one_of("frame", "map", ("world", "grid"))
+
+
+# --------------------------------------------------------------------------------------
+# pairs, poses, thresholds
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", [(1, 2), [0.5, -1.5], np.array([1.0, 2.0]), (np.int8(1), 2.0)])
+def test_finite_pair_accepts(value):
+    out = v.finite_pair("start", value, "(x, y) in metres")
+    assert out.dtype == np.float64 and out.shape == (2,)
+    np.testing.assert_array_equal(out, np.asarray(value, dtype=np.float64))
+
+
+@pytest.mark.parametrize("value", [(1.0,), (1, 2, 3), (NAN, 0.0), (0.0, INF), "ab", None, [[1, 2]]])
+def test_finite_pair_rejects(value):
+    with pytest.raises(ValueError, match=r"^start: expected two finite numbers \(x, y\) in metres"):
+        v.finite_pair("start", value, "(x, y) in metres")
+
+
+@pytest.mark.parametrize("value", [(1, 2, 0.5), [0.0, 0.0, 0.0], np.array([1.0, 2.0, 3.0])])
+def test_pose_accepts_three_finite_numbers(value):
+    out = v.pose("origin", value)
+    assert out == tuple(float(x) for x in value)
+    assert all(type(x) is float for x in out)
+
+
+@pytest.mark.parametrize(
+    "value", [(1, 2), (1, 2, 3, 4), (0, NAN, 0), (0, 0, INF), (True, 0, 0), ("1", 0, 0), 5, None]
+)
+def test_pose_rejects(value):
+    with pytest.raises(ValueError, match=r"^origin must be a sequence of 3 finite numbers"):
+        v.pose("origin", value)
+
+
+def test_occupancy_thresholds():
+    assert v.occupancy_thresholds(0.65, np.float32(0.25)) == (0.65, 0.25)
+    assert v.occupancy_thresholds(1, 0) == (1.0, 0.0)
+    with pytest.raises(ValueError, match=r"^m\.yaml: thresholds must satisfy"):
+        v.occupancy_thresholds(0.2, 0.3, where="m.yaml")
+    with pytest.raises(ValueError, match=r"^occupied_thresh must be a finite number"):
+        v.occupancy_thresholds(NAN, 0.1)
+    with pytest.raises(ValueError, match=r"^free_thresh must be a finite number"):
+        v.occupancy_thresholds(0.6, True)
+
+
+# --------------------------------------------------------------------------------------
+# objects, images, files
+# --------------------------------------------------------------------------------------
+
+
+def test_instance_or_default():
+    class Settings:
+        pass
+
+    assert isinstance(v.instance_or_default("config", None, Settings), Settings)
+    given = Settings()
+    assert v.instance_or_default("config", given, Settings) is given
+    with pytest.raises(TypeError, match="^config: expected a Settings, got str"):
+        v.instance_or_default("config", "paper", Settings)
+
+
+def test_binary_image():
+    out = v.binary_image("mask", [[0, 2], [0.5, 0]])
+    assert out.dtype == np.bool_ and out.flags.c_contiguous
+    assert out.tolist() == [[False, True], [True, False]]
+    src = np.zeros((3, 4), bool)[:, ::2]
+    assert v.binary_image("mask", src).flags.c_contiguous
+    with pytest.raises(TypeError, match="^mask must be a 2-D array of bool or numbers"):
+        v.binary_image("mask", np.array([["a"]]))
+    with pytest.raises(ValueError, match=r"^mask must be a 2-D array \(H, W\), got shape \(3,\)"):
+        v.binary_image("mask", np.zeros(3))
+    with pytest.raises(ValueError, match="^mask contains NaN"):
+        v.binary_image("mask", np.array([[math.nan, 0.0]]))
+
+
+def test_existing_file(tmp_path):
+    f = tmp_path / "log.txt"
+    f.write_text("x")
+    assert v.existing_file("path", str(f)) == f
+    with pytest.raises(FileNotFoundError, match="^path: file not found: .*nope"):
+        v.existing_file("path", tmp_path / "nope")
+    with pytest.raises(ValueError, match="^path: expected a file, got a directory"):
+        v.existing_file("path", tmp_path)
+
+
+def test_every_exported_check_is_tested():
+    tested = {
+        "binary_flag", "binary_image", "choice", "existing_file", "finite_pair",
+        "finite_positive", "finite_real", "flag", "instance_or_default", "int_at_least",
+        "integer", "is_real_number", "metres", "metres_per_pixel", "nonnegative_metres",
+        "occupancy_thresholds", "one_of", "pose", "positive_int", "positive_metres",
+        "real_number",
+    }  # fmt: skip
+    assert set(v.__all__) == tested
