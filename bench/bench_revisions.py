@@ -158,7 +158,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7, help="warm calls per map and process")
     parser.add_argument(
         "--log",
-        type=Path,
+        type=lambda text: Path(text) if text else None,
         default=DEFAULT_DATA / "logs" / "carmen_corrected" / "intel-corrected.log.gz",
         help="log replayed for the incremental numbers ('' to skip)",
     )
@@ -166,8 +166,6 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="JSON path (default bench/results/...)")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.log is not None and not str(args.log):
-        args.log = None
     if args.worker:
         worker(args)
         return

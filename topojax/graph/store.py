@@ -71,7 +71,7 @@ def paused_gc() -> Iterator[None]:
 def fill_multigraph(
     attrs: Mapping, nodes: Iterable, node_attrs: Iterable[dict], edges: Iterable[tuple]
 ) -> nx.MultiGraph:
-    """A new :class:`networkx.MultiGraph` built with networkx's public API.
+    """A new :class:`networkx.MultiGraph` of the given nodes and edges.
 
     Parameters
     ----------
@@ -80,24 +80,47 @@ def fill_multigraph(
     nodes : iterable of hashable
         Nodes, in order (new, distinct).
     node_attrs : iterable of dict
-        Attributes of each node of ``nodes``, in the same order.
+        Attributes of each node of ``nodes``, in the same order; the dicts are used as
+        given (not copied).
     edges : iterable of tuple
-        ``(u, v, key, attrs)`` or ``(u, v, attrs)`` (networkx numbers the keys 0, 1, ...
-        per node pair), added in order; ``u`` and ``v`` are nodes of ``nodes``.
+        ``(u, v, key, attrs)`` or ``(u, v, attrs)`` (keys numbered as networkx numbers
+        them: the smallest unused int of the node pair), added in order; ``u`` and ``v``
+        are nodes of ``nodes``; the attrs dicts are used as given.
 
     Returns
     -------
     networkx.MultiGraph
-        Its nodes, edges, keys and attribute dicts in the order given.
+        Its nodes, edges, keys and attribute dicts in the order given: the graph that
+        ``add_node(n, **a)`` / ``add_edge(u, v, key, **a)`` calls in this order build.
+
+    Notes
+    -----
+    This is the one place that fills networkx's documented adjacency structure (a dict of
+    node -> neighbour -> key -> attribute dict, one key dict shared by both ends) instead
+    of calling ``add_edge`` per edge, which costs several times the whole graph stage;
+    ``tests/test_graph.py`` checks that both give identical graphs.
     """
     g = nx.MultiGraph()
     g.graph.update(attrs)
-    nodes = list(nodes)
-    g.add_nodes_from(nodes)  # plain nodes: no per-node (node, dict) unpacking
-    view = g.nodes
+    node, adj = g._node, g._adj
     for n, data in zip(nodes, node_attrs, strict=True):
-        view[n].update(data)
-    g.add_edges_from(edges)
+        node[n] = data
+        adj[n] = {}
+    for edge in edges:
+        if len(edge) == 4:
+            u, v, key, data = edge
+        else:
+            u, v, data = edge
+            key = None
+        keys = adj[u].get(v)
+        if keys is None:
+            keys = adj[u][v] = {}
+            adj[v][u] = keys
+        if key is None:
+            key = len(keys)
+            while key in keys:
+                key += 1
+        keys[key] = data
     return g
 
 
