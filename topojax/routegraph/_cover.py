@@ -36,7 +36,7 @@ def covered(raster: np.ndarray, feasible: np.ndarray, snap_px: float) -> np.ndar
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * step + 1, 2 * step + 1))
     out = (raster & feasible).view(np.uint8)
     feas = feasible.view(np.uint8)
-    for _ in range(int(math.floor(snap_px / step))):
+    for _ in range(int(math.ceil(snap_px / step))):
         out = cv2.dilate(out, kernel) & feas
     return out.view(bool)
 
@@ -103,13 +103,11 @@ def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray
     missing = np.flatnonzero(~hit[1:]) + 1
     if len(missing):
         ys, xs = np.nonzero(np.isin(labels, missing))
-        lab = labels[ys, xs]
-        first = np.unique(lab, return_index=True)[1]
-        # the middle pixel (raster order) of each missing component
-        counts = np.bincount(lab)[np.unique(lab)]
-        mid = first + counts // 2
-        order = np.argsort(lab, kind="stable")
-        pts.append(np.stack([ys[order][mid], xs[order][mid]], axis=1))
+        order = np.argsort(labels[ys, xs], kind="stable")
+        ys, xs = ys[order], xs[order]
+        _, first, counts = np.unique(labels[ys, xs], return_index=True, return_counts=True)
+        mid = first + counts // 2  # the middle pixel (raster order) of each component
+        pts.append(np.stack([ys[mid], xs[mid]], axis=1))
     return np.concatenate(pts).astype(np.int64)
 
 
@@ -147,14 +145,12 @@ def add_coverage(
     feasible pixels still uncovered (bool (H, W))."""
     shape = feasible.shape
     spacing = 1.3 * snap_px
-    uncovered = np.zeros(shape, bool)
-    for _ in range(rounds):
-        raster = graph_raster(work, shape)
-        uncovered = feasible & ~covered(raster, feasible, snap_px)
-        if not uncovered.any():
-            break
+    for k in range(rounds + 1):
+        uncovered = feasible & ~covered(graph_raster(work, shape), feasible, snap_px)
+        if k == rounds or not uncovered.any():
+            return uncovered
         pts = _waypoint_candidates(uncovered, spacing)
-        _connect_waypoints(work, pts, raster, feasible, spacing)
+        _connect_waypoints(work, pts, graph_raster(work, shape), feasible, spacing)
         spacing *= 0.7
     return uncovered
 
@@ -255,7 +251,7 @@ def add_shortcuts(
     times the straight line and than the straight line plus ``gain_px``.  Returns the
     number of edges added."""
     alive = [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
-    if len(alive) < 2:
+    if len(alive) < 2 or radius_px <= 0:
         return 0
     pos = np.array([work.pixel[v] for v in alive], np.float64)
     pairs = cKDTree(pos).query_pairs(radius_px, output_type="ndarray")

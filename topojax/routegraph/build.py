@@ -47,7 +47,7 @@ class RouteGraphConfig:
         A straight shortcut joins two vertices when the graph route between them is longer
         than this times their distance (and the straight line is feasible).
     shortcut_radius_m : float, default 6.0
-        Only vertices at most this far apart are considered for shortcuts.
+        Only vertices at most this far apart are considered for shortcuts (0: none).
     shortcut_gain_m : float, default 1.0
         ... and only when the shortcut saves at least this much route length.
     waypoint_tolerance_m : float, default 0.1
@@ -72,7 +72,7 @@ class RouteGraphConfig:
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name in ("snap_m", "waypoint_tolerance_m", "shortcut_radius_m"):
+            if f.name in ("snap_m", "waypoint_tolerance_m"):
                 object.__setattr__(self, f.name, positive_metres(f.name, value))
             else:
                 object.__setattr__(self, f.name, nonnegative_metres(f.name, value))
