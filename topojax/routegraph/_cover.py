@@ -47,32 +47,34 @@ def segment_ok(a, b, feasible: np.ndarray) -> np.ndarray | None:
     return path if feasible[path[:, 0], path[:, 1]].all() else None
 
 
-def _pixel_owners(work: WorkGraph, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """For each pixel of the graph: its vertex (>= 0) or ``-1``, and for an interior edge
-    pixel its edge id and index in the path (``owner_edge``, ``owner_index``)."""
-    vertex = np.full(shape, -1, np.int64)
-    edge = np.full((2, *shape), -1, np.int64)
-    for e, (_, _, path) in work.edges.items():
-        inner = path[1:-1]
-        edge[0, inner[:, 0], inner[:, 1]] = e
-        edge[1, inner[:, 0], inner[:, 1]] = np.arange(1, len(path) - 1)
-    for v, members in enumerate(work.members):
-        if v not in work.dead:
-            vertex[members[:, 0], members[:, 1]] = v
-    return vertex, edge
-
-
 def attach_points(work: WorkGraph, pixels: list, shape: tuple[int, int]) -> list[int]:
     """Vertices at the graph pixels ``pixels`` (each on a vertex or an edge): an edge is
-    split at every requested interior pixel.  Returns one vertex id per pixel."""
-    vertex, edge = _pixel_owners(work, shape)
-    out = [-1] * len(pixels)
-    splits: dict[int, dict[int, list]] = {}
+    split at every requested interior pixel.  Returns one vertex id per pixel (-1 for a
+    pixel that is on neither)."""
+    width = shape[1]
+    want = {int(r) * width + int(c): [] for r, c in pixels}
     for k, (r, c) in enumerate(pixels):
-        if vertex[r, c] >= 0:
-            out[k] = int(vertex[r, c])
-        elif edge[0, r, c] >= 0:
-            splits.setdefault(int(edge[0, r, c]), {}).setdefault(int(edge[1, r, c]), []).append(k)
+        want[int(r) * width + int(c)].append(k)
+    out = [-1] * len(pixels)
+    for v, members in enumerate(work.members):
+        if v in work.dead:
+            continue
+        for key in (members[:, 0].astype(np.int64) * width + members[:, 1]).tolist():
+            for k in want.pop(key, ()):
+                out[k] = v
+    splits: dict[int, dict[int, list]] = {}
+    if want:
+        keys = np.fromiter(want, np.int64)
+        for e, (_, _, path) in list(work.edges.items()):
+            flat = path[1:-1, 0].astype(np.int64) * width + path[1:-1, 1]
+            hit = np.flatnonzero(np.isin(flat, keys))
+            for i in hit.tolist():
+                ks = want.pop(int(flat[i]), None)
+                if ks:
+                    splits.setdefault(e, {})[i + 1] = ks
+            if not want:
+                break
+            keys = np.fromiter(want, np.int64)
     for e, at in splits.items():
         u, v, path = work.edges[e]
         work.remove_edge(e)
@@ -165,13 +167,11 @@ def _connect_waypoints(
     if n == 0:
         return
     shape = feasible.shape
-    _, lab = cv2.distanceTransformWithLabels(
-        (~raster).view(np.uint8), cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL
-    )
-    zero = np.argwhere(raster)  # label k -> k-th zero pixel in raster order (1-based)
+    graph_px = np.argwhere(raster)
+    _, nearest = cKDTree(graph_px).query(pts)
     cands = []
     for i, p in enumerate(pts):
-        g = zero[lab[p[0], p[1]] - 1]
+        g = graph_px[nearest[i]]
         seg = segment_ok(p, g, feasible)
         if seg is not None:
             cands.append((len(seg), i, n, seg))

@@ -46,9 +46,9 @@ class RouteGraphConfig:
     shortcut_stretch : float, default 1.15
         A straight shortcut joins two vertices when the graph route between them is longer
         than this times their distance (and the straight line is feasible).
-    shortcut_radius_m : float, default 6.0
+    shortcut_radius_m : float, default 5.0
         Only vertices at most this far apart are considered for shortcuts (0: none).
-    shortcut_gain_m : float, default 1.0
+    shortcut_gain_m : float, default 0.75
         ... and only when the shortcut saves at least this much route length.
     waypoint_tolerance_m : float, default 0.1
         Each edge's ``waypoints`` polyline keeps every path pixel within this distance.
@@ -63,9 +63,9 @@ class RouteGraphConfig:
     small_obstacle_m: float = 1.0
     spur_m: float = 1.0
     spur_clearance_factor: float = 1.5
-    shortcut_stretch: float = 1.2
-    shortcut_radius_m: float = 3.0
-    shortcut_gain_m: float = 1.0
+    shortcut_stretch: float = 1.15
+    shortcut_radius_m: float = 5.0
+    shortcut_gain_m: float = 0.75
     waypoint_tolerance_m: float = 0.1
     min_region_m2: float = 1.0
 
