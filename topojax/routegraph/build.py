@@ -4,6 +4,8 @@ in ``docs/route-graphs.md``."""
 
 from __future__ import annotations
 
+import math
+import numbers
 import time
 from dataclasses import dataclass, fields
 
@@ -73,13 +75,27 @@ class RouteGraphConfig:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.name in ("snap_m", "waypoint_tolerance_m"):
-                object.__setattr__(self, f.name, positive_metres(f.name, value))
+                value = positive_metres(f.name, value)
+            elif f.name.endswith("_m"):
+                value = nonnegative_metres(f.name, value)
             else:
-                object.__setattr__(self, f.name, nonnegative_metres(f.name, value))
+                value = _nonnegative(f.name, value, "m2" if f.name.endswith("_m2") else "")
+            object.__setattr__(self, f.name, value)
         if self.shortcut_stretch < 1.0:
             raise ValueError(
                 f"shortcut_stretch: expected a number >= 1, received {self.shortcut_stretch!r}"
             )
+
+
+def _nonnegative(name: str, value: object, unit: str) -> float:
+    """``value`` as a float, checked to be a finite real number >= 0 (not bool)."""
+    what = f"a finite number >= 0{' (' + unit + ')' if unit else ''}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected {what}, received {type(value).__name__} {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"{name}: expected {what}, received {value!r}")
+    return value
 
 
 def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) -> nx.MultiGraph:
@@ -234,31 +250,38 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
             }
         )
     tol_px = cfg.waypoint_tolerance_m / res
-    edges = []
-    for e in sorted(work.edges, key=lambda e: tuple(sorted(new_id[x] for x in work.edges[e][:2]))):
+    order, ends, paths = [], [], []
+    for e in work.edges:
         u, v, path = work.edges[e]
         a, b = new_id[u], new_id[v]
         if a > b:
             a, b, path = b, a, path[::-1]
-        path = np.ascontiguousarray(path, np.int32)
-        x, y = occupancy.pixel_to_world(path[:, 0], path[:, 1])
-        world = np.stack([x, y], axis=1)
-        c = space.clearance_m[path[:, 0], path[:, 1]].astype(np.float64)
+        order.append((a, b, len(order)))
+        ends.append(e)
+        paths.append(np.ascontiguousarray(path, np.int32))
+    order.sort()
+    sizes = np.array([len(p) for p in paths], np.int64)
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    every = np.concatenate(paths) if paths else np.zeros((0, 2), np.int32)
+    x, y = occupancy.pixel_to_world(every[:, 0], every[:, 1])
+    world_all = np.stack([x, y], axis=1)
+    clear = space.clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
+    c_min = np.minimum.reduceat(clear, starts) if paths else clear
+    c_mean = np.add.reduceat(clear, starts) / sizes if paths else clear
+    edges = []
+    for a, b, k in order:
+        path = paths[k]
+        world = world_all[starts[k] : starts[k] + sizes[k]].copy()
         keep = _simplify(path, space.feasible, tol_px)
-        edges.append(
-            (
-                a,
-                b,
-                {
-                    "path": path,
-                    "world": world,
-                    "length_m": work.length[e] * res,
-                    "min_clearance_m": float(c.min()),
-                    "mean_clearance_m": float(c.mean()),
-                    "waypoints": world[keep].copy(),
-                },
-            )
-        )
+        attrs = {
+            "path": path,
+            "world": world,
+            "length_m": work.length[ends[k]] * res,
+            "min_clearance_m": float(c_min[k]),
+            "mean_clearance_m": float(c_mean[k]),
+            "waypoints": world[keep].copy(),
+        }
+        edges.append((a, b, attrs))
     attrs = {
         "resolution_m": res,
         "shape": tuple(int(s) for s in space.free.shape),
