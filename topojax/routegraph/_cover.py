@@ -153,7 +153,6 @@ def add_coverage(
             return uncovered
         pts = _waypoint_candidates(uncovered, spacing)
         _connect_waypoints(work, pts, graph_raster(work, shape), feasible, spacing)
-        spacing *= 0.7
     return uncovered
 
 
@@ -244,17 +243,27 @@ def _bounded_distance(nbr: dict, src: int, dst: int, cutoff: float) -> float:
 
 
 def add_shortcuts(
-    work: WorkGraph, feasible: np.ndarray, radius_px: float, stretch: float, gain_px: float
+    work: WorkGraph,
+    feasible: np.ndarray,
+    radius_px: float,
+    stretch: float,
+    gain_px: float,
+    from_dead_ends: bool = True,
 ) -> int:
     """Greedy spanner: for vertex pairs at most ``radius_px`` apart, shortest first, add a
     straight feasible edge when the graph route between them is longer than ``stretch``
-    times the straight line and than the straight line plus ``gain_px``.  Returns the
+    times the straight line and than the straight line plus ``gain_px``; with
+    ``from_dead_ends`` False, only between vertices of two or more edges.  Returns the
     number of edges added."""
+    min_deg = 1 if from_dead_ends else 2
     alive = [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
     if len(alive) < 2 or radius_px <= 0:
         return 0
     pos = np.array([work.pixel[v] for v in alive], np.float64)
     pairs = cKDTree(pos).query_pairs(radius_px, output_type="ndarray")
+    deg = np.array([len(work.adj[v]) for v in alive])
+    if len(pairs):
+        pairs = pairs[(deg[pairs[:, 0]] >= min_deg) & (deg[pairs[:, 1]] >= min_deg)]
     if len(pairs) == 0:
         return 0
     index = {v: k for k, v in enumerate(alive)}

@@ -12,7 +12,7 @@ from dataclasses import dataclass, fields
 import networkx as nx
 import numpy as np
 
-from .._validate import instance_or_default, nonnegative_metres, positive_metres
+from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres
 from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph
 from ..skeleton import thin
@@ -52,6 +52,9 @@ class RouteGraphConfig:
         Only vertices at most this far apart are considered for shortcuts (0: none).
     shortcut_gain_m : float, default 0.75
         ... and only when the shortcut saves at least this much route length.
+    shortcuts_from_dead_ends : bool, default True
+        Whether shortcuts may start at dead ends (coverage waypoints at the rim of open
+        space); False gives markedly fewer edges in rooms and halls, and longer routes.
     waypoint_tolerance_m : float, default 0.1
         Each edge's ``waypoints`` polyline keeps every path pixel within this distance.
     min_region_m2 : float, default 1.0
@@ -68,13 +71,16 @@ class RouteGraphConfig:
     shortcut_stretch: float = 1.15
     shortcut_radius_m: float = 5.0
     shortcut_gain_m: float = 0.75
+    shortcuts_from_dead_ends: bool = True
     waypoint_tolerance_m: float = 0.1
     min_region_m2: float = 1.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name in ("snap_m", "waypoint_tolerance_m"):
+            if f.name == "shortcuts_from_dead_ends":
+                value = flag(f.name, value)
+            elif f.name in ("snap_m", "waypoint_tolerance_m"):
                 value = positive_metres(f.name, value)
             elif f.name.endswith("_m"):
                 value = nonnegative_metres(f.name, value)
@@ -146,7 +152,12 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     snap_px = cfg.snap_m / res
     uncovered = add_coverage(work, feasible, snap_px)
     add_shortcuts(
-        work, feasible, cfg.shortcut_radius_m / res, cfg.shortcut_stretch, cfg.shortcut_gain_m / res
+        work,
+        feasible,
+        cfg.shortcut_radius_m / res,
+        cfg.shortcut_stretch,
+        cfg.shortcut_gain_m / res,
+        cfg.shortcuts_from_dead_ends,
     )
     work.contract_all()
     t4 = time.perf_counter()
