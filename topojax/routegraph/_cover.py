@@ -139,7 +139,7 @@ def _geodesic_path(start, targets: np.ndarray, feasible: np.ndarray) -> np.ndarr
 
 
 def add_coverage(
-    work: WorkGraph, feasible: np.ndarray, snap_px: float, rounds: int = 4
+    work: WorkGraph, feasible: np.ndarray, snap_px: float, rounds: int = 6
 ) -> np.ndarray:
     """Add waypoints joined by straight feasible edges (a shortest spanning tree, or a
     feasible shortest path where no straight edge reaches) until every feasible pixel
@@ -153,6 +153,7 @@ def add_coverage(
             return uncovered
         pts = _waypoint_candidates(uncovered, spacing)
         _connect_waypoints(work, pts, graph_raster(work, shape), feasible, spacing)
+        spacing *= 0.7  # leftovers lie between earlier waypoints
     return uncovered
 
 
