@@ -301,10 +301,17 @@ def add_shortcuts(
     cand = np.flatnonzero(graph_d > need)
     cand = cand[np.argsort(straight[cand], kind="stable")]
     nbr = work.neighbours()
+    # A route from u shorter than ``need`` that uses a new edge reaches one of its ends
+    # within ``need`` in a straight line: without such an end nearby, the distance
+    # computed above still holds and the check on the grown graph is skipped.
+    cell = float(max(1.0, need.max(initial=1.0)))
+    near: dict[tuple[int, int], list] = {}
     added = 0
     for k in cand:
         u, v = alive[pairs[k, 0]], alive[pairs[k, 1]]
-        if added and _bounded_distance(nbr, u, v, need[k]) < math.inf:
+        if _end_within(near, cell, pos[pairs[k, 0]], need[k]) and (
+            _bounded_distance(nbr, u, v, need[k]) < math.inf
+        ):
             continue
         seg = segment_ok(work.pixel[u], work.pixel[v], feasible)
         if seg is None:
@@ -313,5 +320,19 @@ def add_shortcuts(
         w = work.length[e]
         nbr.setdefault(u, []).append((v, w))
         nbr.setdefault(v, []).append((u, w))
+        for p in (pos[pairs[k, 0]], pos[pairs[k, 1]]):
+            near.setdefault((int(p[0] // cell), int(p[1] // cell)), []).append(p)
         added += 1
     return added
+
+
+def _end_within(near: dict, cell: float, p: np.ndarray, dist: float) -> bool:
+    """Is a point of the grid buckets ``near`` (cells of side ``cell`` >= ``dist``)
+    within ``dist`` of ``p``?"""
+    ci, cj = int(p[0] // cell), int(p[1] // cell)
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            for q in near.get((ci + di, cj + dj), ()):
+                if (q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2 <= dist * dist:
+                    return True
+    return False

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 import numbers
 import time
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import networkx as nx
 import numpy as np
@@ -135,12 +135,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     """
     cfg = instance_or_default("config", config, RouteGraphConfig)
     if robot_radius_m is not None:
-        cfg = RouteGraphConfig(
-            **{
-                **{f.name: getattr(cfg, f.name) for f in fields(cfg)},
-                "robot_radius_m": robot_radius_m,
-            }
-        )
+        cfg = replace(cfg, robot_radius_m=robot_radius_m)
     t0 = time.perf_counter()
     space = feasible_space(occupancy, cfg.robot_radius_m)
     feasible = _kept_regions(space, cfg.min_region_m2)
