@@ -45,12 +45,12 @@ class RouteGraphConfig:
     spur_clearance_factor : float, default 1.5
         Dead ends shorter than this times the feasible clearance at their junction (the
         medial axis's branches into room corners) are dropped too.
-    shortcut_stretch : float, default 1.15
+    shortcut_stretch : float, default 1.2
         A straight shortcut joins two vertices when the graph route between them is longer
         than this times their distance (and the straight line is feasible).
     shortcut_radius_m : float, default 5.0
         Only vertices at most this far apart are considered for shortcuts (0: none).
-    shortcut_gain_m : float, default 0.75
+    shortcut_gain_m : float, default 1.0
         ... and only when the shortcut saves at least this much route length.
     shortcuts_from_dead_ends : bool, default True
         Whether shortcuts may start at dead ends (coverage waypoints at the rim of open
@@ -68,9 +68,9 @@ class RouteGraphConfig:
     small_obstacle_m: float = 1.0
     spur_m: float = 1.0
     spur_clearance_factor: float = 1.5
-    shortcut_stretch: float = 1.15
+    shortcut_stretch: float = 1.2
     shortcut_radius_m: float = 5.0
-    shortcut_gain_m: float = 0.75
+    shortcut_gain_m: float = 1.0
     shortcuts_from_dead_ends: bool = True
     waypoint_tolerance_m: float = 0.1
     min_region_m2: float = 1.0
