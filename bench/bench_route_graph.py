@@ -478,6 +478,20 @@ def draw_panel(ax, occupancy, graph, title: str, color: str) -> None:
     ax.set_axis_off()
 
 
+def save_small_png(fig, path: Path, dpi: int) -> None:
+    """Save ``fig`` as a PNG with a 64-colour palette (a third of the size of RGBA)."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=dpi, format="png")
+    buf.seek(0)
+    with Image.open(buf) as img:
+        small = img.convert("RGB").quantize(colors=64, method=Image.Quantize.MEDIANCUT)
+        small.save(path, optimize=True)
+
+
 def write_pictures(graphs: dict, folder: Path, names, radius: float) -> list[Path]:
     """One PNG per map (SWAGGER's graph beside topojax's) under ``folder``, each kept under
     ``PICTURE_MAX_BYTES`` by lowering the resolution."""
@@ -501,12 +515,12 @@ def write_pictures(graphs: dict, folder: Path, names, radius: float) -> list[Pat
             draw_panel(ax, occupancy, g, f"{name}, r = {radius:g} m, {label}", color)
         fig.tight_layout()
         path = folder / f"{name}.png"
-        dpi = 110
+        dpi = 130
         while True:
-            fig.savefig(path, dpi=dpi)
+            save_small_png(fig, path, dpi)
             if path.stat().st_size <= PICTURE_MAX_BYTES or dpi <= 40:
                 break
-            dpi = int(dpi * 0.8)
+            dpi = int(dpi * 0.85)
         plt.close(fig)
         written.append(path)
         print(f"wrote {path} ({path.stat().st_size // 1024} KB, {dpi} dpi)")
