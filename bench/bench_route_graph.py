@@ -337,20 +337,22 @@ def averages(rows: list[dict]) -> dict:
     return out
 
 
-#: Table columns taken from the evaluator's report: label -> (tokens all present, tokens
-#: absent) in the flattened key; the first matching key is used.
+#: Table columns taken from the evaluator's report: label -> (tokens all present in the
+#: flattened key, tokens absent, format); the first matching key is used.
 EVAL_COLUMNS = {
-    "success %": (("success",), ("safe", "n_", "count")),
-    "stretch med": (("median",), ("snap", "time")),
-    "stretch p90": (("p90",), ("snap", "time")),
-    "unsafe": (("unsafe",), ()),
-    "missed": (("missed",), ()),
-    "far %": (("far",), ()),
+    "success %": (("success",), ("safe", "n_", "count"), "{:.1f}"),
+    "stretch med": (("median",), ("snap", "time"), "{:.3f}"),
+    "stretch p90": (("p90",), ("snap", "time"), "{:.3f}"),
+    "unsafe": (("unsafe",), (), "{:.3g}"),
+    "missed": (("missed",), (), "{:g}"),
+    "far": (("far",), (), "{:.3g}"),
 }
+TOOLS = {"swagger": "SWAGGER", "topojax": "topojax"}
 
 
 def eval_key(flat: dict[str, float], label: str) -> str | None:
-    need, avoid = EVAL_COLUMNS[label]
+    """The key of ``flat`` shown in column ``label`` (None if there is none)."""
+    need, avoid, _ = EVAL_COLUMNS[label]
     for key in flat:
         low = key.lower()
         if all(t in low for t in need) and not any(t in low for t in avoid):
@@ -358,69 +360,59 @@ def eval_key(flat: dict[str, float], label: str) -> str | None:
     return None
 
 
-def tool_cells(entry: dict | None, labels: list[str], time_key: str) -> list:
-    if entry is None:
-        return [None] * (len(labels) + 4)
-    flat = flatten(entry.get("eval"))
-    cells = [flat.get(eval_key(flat, lab) or "", math.nan) for lab in labels]
-    return cells + [entry["vertices"], entry["edges"], entry["components"], entry[time_key]]
+def fmt(value, spec: str = "{:,.0f}") -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "–"
+    return spec.format(value)
+
+
+def tool_cells(entry: dict, labels: list[str], *, mean: bool = False) -> list[str]:
+    """Table cells of one tool's row entry (or of its averages with ``mean``)."""
+    flat = entry if mean else flatten(entry.get("eval"))
+    cells = [fmt(flat.get(eval_key(flat, lab) or ""), EVAL_COLUMNS[lab][2]) for lab in labels]
+    cells += [fmt(entry.get(k)) for k in ("vertices", "edges", "components")]
+    warm, cold = ("warm_s", "first_s") if "warm_s" in entry else ("build_warm_s", "build_cold_s")
+    return cells + [fmt(entry.get(warm), "{:.3g}"), fmt(entry.get(cold), "{:.3g}")]
 
 
 def report_markdown(rows: list[dict], avg: dict, info: dict, args) -> str:
-    """Per-map tables (one per radius) and the averages, as markdown."""
-    flat_any = {}
+    """Per-map tables (one per radius, a row per map and graph) and the means, as markdown."""
+    flat_any: dict[str, float] = {}
     for r in rows:
-        for tool in ("topojax", "swagger"):
+        for tool in TOOLS:
             flat_any.update(flatten((r.get(tool) or {}).get("eval")))
     labels = [lab for lab in EVAL_COLUMNS if eval_key(flat_any, lab)]
-    tools = ["swagger"] + ([] if args.peers_only else ["topojax"])
-    header = ["map"]
-    for tool in tools:
-        name = "SWAGGER" if tool == "swagger" else "topojax"
-        header += [f"{name} {lab}" for lab in labels]
-        header += [
-            f"{name} V",
-            f"{name} E",
-            f"{name} C",
-            f"{name} s ({'warm' if tool == 'topojax' else 'warm build'})",
-        ]
-    if "swagger" in tools:
-        header.insert(len(labels) + 5, "SWAGGER cold s")
+    header = ["map", "graph", *labels, "V", "E", "C", "warm s", "cold s"]
     parts = [
-        f"Route graphs, topojax vs SWAGGER ({SWAGGER_COMMIT[:7]}): {len(rows)} runs on "
-        f"{info.get('cpu_model', '?')}, {info.get('cpu_count', '?')} CPUs; "
-        f"{args.pairs} pairs, seed {args.seed}, snap {args.snap} m. "
-        "V vertices, E edges, C connected components; times in seconds.",
+        f"Route graphs, topojax vs SWAGGER ({SWAGGER_COMMIT[:7]}), {info.get('cpu_model', '?')}, "
+        f"{info.get('cpu_count', '?')} CPUs; {args.pairs} pairs, seed {args.seed}, snap "
+        f"{args.snap:g} m. V vertices, E edges, C connected components; warm s: second build "
+        "in the process; cold s: SWAGGER's first build in a fresh process (numba compilation "
+        "included), topojax's first call on the map.",
     ]
     for radius in sorted({r["radius_m"] for r in rows}, reverse=True):
-        table = []
-        for r in (r for r in rows if r["radius_m"] == radius):
-            cells = [r["map"]]
-            for tool in tools:
-                key = "warm_s" if tool == "topojax" else "build_warm_s"
-                cells += tool_cells(r.get(tool), labels, key)
-                if tool == "swagger":
-                    cells.append(r["swagger"]["build_cold_s"])
-            table.append(cells)
-        mean = ["**mean**"]
+        table = [
+            [r["map"], name, *tool_cells(r[tool], labels)]
+            for r in rows
+            if r["radius_m"] == radius
+            for tool, name in TOOLS.items()
+            if tool in r
+        ]
         entry = avg.get(f"{radius:g}", {})
-        for tool in tools:
-            m = entry.get(tool, {})
-            mean += [m.get(eval_key(m, lab) or "", math.nan) for lab in labels]
-            mean += [m.get("vertices"), m.get("edges"), m.get("components")]
-            mean.append(m.get("warm_s" if tool == "topojax" else "build_warm_s"))
-            if tool == "swagger":
-                mean.append(m.get("build_cold_s"))
-        table.append(mean)
+        table += [
+            [f"**mean of {entry['n_maps']}**", name, *tool_cells(entry[tool], labels, mean=True)]
+            for tool, name in TOOLS.items()
+            if tool in entry
+        ]
         parts += ["", f"### robot radius {radius:g} m", "", markdown_table(header, table)]
         ratio = entry.get("ratios")
         if ratio:
             parts += [
                 "",
-                f"topojax / SWAGGER: vertices {ratio['vertices']:.2f} (worst "
+                f"topojax / SWAGGER: vertices {ratio['vertices']:.2f} (worst map "
                 f"{ratio['vertices_worst']:.2f}), edges {ratio['edges']:.2f} (worst "
                 f"{ratio['edges_worst']:.2f}); SWAGGER warm / topojax warm time "
-                f"{ratio['speedup_warm']:.1f}x (worst {ratio['speedup_warm_worst']:.1f}x).",
+                f"{ratio['speedup_warm']:.1f}x (worst map {ratio['speedup_warm_worst']:.1f}x).",
             ]
     return "\n".join(parts) + "\n"
 
