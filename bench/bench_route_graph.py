@@ -147,7 +147,7 @@ def swagger_graph(doc: dict, occupancy):
             kind=doc["node_type"][i] or "waypoint",
         )
     for (u, v, w), kind in zip(doc["edges"], doc["edge_type"], strict=True):
-        u, v = int(u), int(v)
+        u, v = sorted((int(u), int(v)))  # topojax's order: u <= v, path from u to v
         ends = np.stack([world[u], world[v]])
         g.add_edge(
             u,
@@ -163,16 +163,29 @@ def swagger_graph(doc: dict, occupancy):
 
 
 # ---------------------------------------------------------------------------- topojax side
+def as_networkx(result):
+    """The networkx graph of a route-graph result (the graph itself, or its ``.graph``)."""
+    import networkx as nx
+
+    if isinstance(result, nx.Graph):
+        return result
+    graph = getattr(result, "graph", None)
+    if isinstance(graph, nx.Graph):
+        return graph
+    raise TypeError(f"route_graph returned {type(result).__name__}, not a networkx graph")
+
+
 def run_topojax(occupancy, radius_m: float) -> tuple[float, float, Any]:
-    """``route_graph`` twice: (first seconds, warm seconds, graph of the second call)."""
+    """``route_graph`` twice: (first seconds, warm seconds, networkx graph of the second
+    call)."""
     from topojax.routegraph import route_graph
 
     t0 = time.perf_counter()
     route_graph(occupancy, robot_radius_m=radius_m)
     t1 = time.perf_counter()
-    graph = route_graph(occupancy, robot_radius_m=radius_m)
+    result = route_graph(occupancy, robot_radius_m=radius_m)
     t2 = time.perf_counter()
-    return t1 - t0, t2 - t1, graph
+    return t1 - t0, t2 - t1, as_networkx(result)
 
 
 def evaluator():
@@ -260,7 +273,7 @@ def bench_map(spec: MapSpec, args, work: Path, graphs: dict) -> list[dict]:
             row["ratios"] = ratios(row["topojax"], row["swagger"])
         else:
             tg = None
-        if radius == args.radius[0]:
+        if args.pictures and radius == args.radius[0] and spec.name in args.picture_maps:
             graphs[spec.name] = (occupancy, sg, tg)
         rows.append(row)
         print(one_line(row), flush=True)
@@ -375,6 +388,33 @@ def tool_cells(entry: dict, labels: list[str], *, mean: bool = False) -> list[st
     return cells + [fmt(entry.get(warm), "{:.3g}"), fmt(entry.get(cold), "{:.3g}")]
 
 
+def shortfalls(rows: list[dict]) -> str:
+    """The maps that miss the per-map targets: topojax's success below SWAGGER's, more
+    than 1/3 of SWAGGER's vertices or edges, less than 10x faster (warm)."""
+    lists: dict[str, list[str]] = {
+        "success below SWAGGER's": [],
+        "vertices > 1/3 of SWAGGER's": [],
+        "edges > 1/3 of SWAGGER's": [],
+        "less than 10x faster": [],
+    }
+    for r in rows:
+        if "topojax" not in r:
+            continue
+        flats = [flatten(r[t].get("eval")) for t in ("topojax", "swagger")]
+        keys = [eval_key(f, "success %") for f in flats]
+        if all(keys) and flats[0][keys[0]] < flats[1][keys[1]]:
+            lists["success below SWAGGER's"].append(r["map"])
+        rat = r["ratios"]
+        for key, label in (("vertices", "vertices"), ("edges", "edges")):
+            if not rat[key] <= 1 / 3:
+                lists[f"{label} > 1/3 of SWAGGER's"].append(r["map"])
+        if not rat["speedup_warm"] >= 10:
+            lists["less than 10x faster"].append(r["map"])
+    return "Maps off target: " + "; ".join(
+        f"{label}: {', '.join(names) if names else 'none'}" for label, names in lists.items()
+    )
+
+
 def report_markdown(rows: list[dict], avg: dict, info: dict, args) -> str:
     """Per-map tables (one per radius, a row per map and graph) and the means, as markdown."""
     flat_any: dict[str, float] = {}
@@ -407,6 +447,7 @@ def report_markdown(rows: list[dict], avg: dict, info: dict, args) -> str:
         parts += ["", f"### robot radius {radius:g} m", "", markdown_table(header, table)]
         ratio = entry.get("ratios")
         if ratio:
+            parts += ["", shortfalls([r for r in rows if r["radius_m"] == radius])]
             parts += [
                 "",
                 f"topojax / SWAGGER: vertices {ratio['vertices']:.2f} (worst map "
