@@ -230,13 +230,21 @@ def graph_counts(graph) -> dict:
 
 
 # ---------------------------------------------------------------------------- one map
+def relative(path: Path, root: Path) -> str:
+    """``path`` relative to ``root`` where it lies below it, else as given."""
+    try:
+        return str(path.resolve().relative_to(root.resolve()))
+    except ValueError:
+        return str(path)
+
+
 def bench_map(spec: MapSpec, args, work: Path, graphs: dict) -> list[dict]:
     """Rows (one per radius) for one map; keeps the graphs to draw in ``graphs``."""
     occupancy, replay_s = load_spec(spec, replay_dir=args.replay_dir, max_scans=args.max_scans)
     base = {
         "map": spec.name,
         "group": spec.group,
-        "file": str(spec.path),
+        "file": relative(spec.path, args.data),
         "shape": list(occupancy.shape),
         "resolution_m": occupancy.resolution_m,
         "free_m2": float(np.count_nonzero(occupancy.free)) * occupancy.resolution_m**2,
