@@ -202,3 +202,26 @@ def test_map_without_feasible_space_gives_an_empty_graph():
     occ = _map(_room(0.5, 0.5))
     g = route_graph(occ, robot_radius_m=R)
     assert g.number_of_nodes() == 0 and g.number_of_edges() == 0
+
+
+def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
+    import json
+
+    from topojax.cli import main
+    from topojax.io import load_graph
+
+    obstacles = np.zeros((60, 100), bool)
+    obstacles[[0, -1], :] = True
+    obstacles[:, [0, -1]] = True
+    obstacles[20:40, 30:70] = True  # a block: a corridor ring around it
+    path = tmp_path / "ring.png"
+    cv2.imwrite(str(path), np.where(obstacles, 0, 254).astype(np.uint8))
+    out = tmp_path / "out"
+    code = main(["route-graph", str(path), "-o", str(out), "--robot-radius", "0.2", "--evaluate"])
+    assert code == 0
+    graph = load_graph(out / "ring_route.json")
+    assert graph.number_of_edges() > 0 and graph.graph["robot_radius_m"] == 0.2
+    report = json.loads((out / "ring_route_report.json").read_text())
+    assert report["success_rate"] == 1.0 and report["unsafe_share"] == 0.0
+    assert "route graph" in capsys.readouterr().out
+    assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2
