@@ -66,6 +66,12 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
         distance_map,
         ridge_map,
     )
+    from .routegraph import (
+        RouteGraphConfig,
+        RouteGraphReport,
+        evaluate_route_graph,
+        route_graph,
+    )
     from .routing import NoRouteError, Route, RoutePlanner, plan_route
     from .scans import Scan, read_bag, read_carmen, read_scans
     from .skeleton import remove_t_centres, thin
@@ -81,6 +87,8 @@ __all__ = [
     "PipelineConfig",
     "RidgeConfig",
     "Route",
+    "RouteGraphConfig",
+    "RouteGraphReport",
     "RoutePlanner",
     "Scan",
     "ScanReport",
@@ -90,6 +98,7 @@ __all__ = [
     "build_graphs",
     "dense_fields",
     "distance_map",
+    "evaluate_route_graph",
     "graph_summary",
     "load_graph",
     "load_map",
@@ -103,8 +112,9 @@ __all__ = [
     "remove_t_centres",
     "replay",
     "ridge_map",
-    "save_graph",
+    "route_graph",
     "sample_map",
+    "save_graph",
     "save_map",
     "save_nav2_graph",
     "skeleton_to_graph",
@@ -139,6 +149,10 @@ _LAZY = {
     "dense_fields": "pipeline",
     "distance_map": "pipeline",
     "ridge_map": "pipeline",
+    "RouteGraphConfig": "routegraph",
+    "RouteGraphReport": "routegraph",
+    "evaluate_route_graph": "routegraph",
+    "route_graph": "routegraph",
     "NoRouteError": "routing",
     "Route": "routing",
     "RoutePlanner": "routing",

@@ -9,7 +9,7 @@ import sys
 
 from .. import __version__
 from .._constants import MODES
-from . import batch, replay
+from . import batch, replay, route_graph
 from ._options import add_nav2_options, add_pipeline_options, add_sigma_options
 from .graph import _cmd_demo, _cmd_graph
 from .route import _cmd_route
@@ -107,6 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(handler=_cmd_route, runs_kernels=False)
 
+    route_graph.add_command(sub)
     replay.add_command(sub)
     batch.add_command(sub)
     return parser

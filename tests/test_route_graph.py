@@ -1,0 +1,227 @@
+"""Route graphs on synthetic maps with known answers, and properties on random plans."""
+
+from __future__ import annotations
+
+import cv2
+import networkx as nx
+import numpy as np
+import pytest
+
+import topojax as tj
+from topojax.maps.occupancy import OccupancyMap
+from topojax.routegraph.build import RouteGraphConfig, route_graph
+from topojax.routegraph.feasible import feasible_space
+
+RES = 0.05
+R = 0.3
+
+
+def _map(free: np.ndarray) -> OccupancyMap:
+    free = np.asarray(free, bool)
+    return OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=RES)
+
+
+def _px(m: float) -> int:
+    return int(round(m / RES))
+
+
+def _room(h_m: float, w_m: float) -> np.ndarray:
+    """A free rectangle with a one-pixel wall all round."""
+    free = np.zeros((_px(h_m), _px(w_m)), bool)
+    free[1:-1, 1:-1] = True
+    return free
+
+
+def _cycle_rank(g: nx.MultiGraph) -> int:
+    return g.number_of_edges() - g.number_of_nodes() + nx.number_connected_components(g)
+
+
+def _graph_pixels(g: nx.MultiGraph) -> np.ndarray:
+    pix = [np.asarray(d["path"]) for _, _, d in g.edges(data=True)]
+    pix += [np.asarray(d["pixels"]).reshape(-1, 2) for _, d in g.nodes(data=True)]
+    return np.concatenate(pix)
+
+
+def _assert_safe(g: nx.MultiGraph, occ: OccupancyMap) -> None:
+    space = feasible_space(occ, R)
+    for _, _, d in g.edges(data=True):
+        path = np.asarray(d["path"])
+        assert space.clearance_m[path[:, 0], path[:, 1]].min() >= R - 1e-6
+        assert d["min_clearance_m"] >= R - 1e-6
+        step = np.abs(np.diff(path.astype(int), axis=0))
+        assert step.max() <= 1 and (step.sum(axis=1) > 0).all()  # 8-connected
+
+
+def _assert_one_component_per_region(g: nx.MultiGraph, occ: OccupancyMap) -> None:
+    space = feasible_space(occ, R)
+    wanted = set(space.regions_at_least(1.0).tolist())
+    seen = []
+    for comp in nx.connected_components(g):
+        pix = np.concatenate([np.asarray(g.nodes[n]["pixels"]).reshape(-1, 2) for n in comp])
+        regions = set(space.labels[pix[:, 0], pix[:, 1]].tolist())
+        assert len(regions) == 1 and 0 not in regions
+        seen.append(regions.pop())
+    assert sorted(seen) == sorted(wanted)
+
+
+def test_corridor_ring_keeps_its_one_loop():
+    free = _room(10, 10)
+    free[_px(2) : _px(8), _px(2) : _px(8)] = False  # a 6 m block, 2 m corridors round it
+    occ = _map(free)
+    g = route_graph(occ, robot_radius_m=R)
+    assert nx.number_connected_components(g) == 1
+    assert _cycle_rank(g) == 1
+    _assert_safe(g, occ)
+
+
+def test_pillars_make_no_micro_loops():
+    free = _room(12, 12)
+    for r in np.arange(2.0, 11.0, 2.0):
+        for c in np.arange(2.0, 11.0, 2.0):
+            free[_px(r) - 2 : _px(r) + 2, _px(c) - 2 : _px(c) + 2] = False  # 0.2 m pillars
+    occ = _map(free)
+    g = route_graph(occ, config=RouteGraphConfig(shortcut_radius_m=0.0))
+    assert _cycle_rank(g) == 0
+    assert nx.number_connected_components(g) == 1
+    _assert_safe(g, occ)
+    with_shortcuts = route_graph(occ)
+    _assert_safe(with_shortcuts, occ)
+    assert nx.number_connected_components(with_shortcuts) == 1
+
+
+def test_open_hall_is_covered_within_the_snap_distance():
+    free = _room(20, 20)
+    occ = _map(free)
+    g = route_graph(occ, robot_radius_m=R)
+    space = feasible_space(occ, R)
+    off = np.ones(free.shape, np.uint8)
+    pix = _graph_pixels(g)
+    off[pix[:, 0], pix[:, 1]] = 0
+    dist_m = cv2.distanceTransform(off, cv2.DIST_L2, 5) * RES
+    assert dist_m[space.feasible].max() <= g.graph["snap_m"] + 2 * RES
+    assert g.graph["uncovered_share"] == 0.0
+    _assert_safe(g, occ)
+
+
+def _two_rooms(gap_m: float) -> np.ndarray:
+    free = _room(6, 12)
+    wall = slice(_px(6) - 2, _px(6) + 2)
+    free[:, wall] = False
+    mid = _px(3)
+    free[mid - _px(gap_m) // 2 : mid + _px(gap_m) // 2, wall] = True
+    return free
+
+
+def test_door_narrower_than_the_robot_splits_the_graph():
+    occ = _map(_two_rooms(0.4))
+    g = route_graph(occ, robot_radius_m=R)
+    assert nx.number_connected_components(g) == 2
+    cols = _graph_pixels(g)[:, 1]
+    assert not ((cols >= _px(6) - 2) & (cols < _px(6) + 2)).any()  # nothing in the wall
+    _assert_one_component_per_region(g, occ)
+
+
+def test_wide_door_joins_the_rooms():
+    occ = _map(_two_rooms(1.0))
+    g = route_graph(occ, robot_radius_m=R)
+    assert nx.number_connected_components(g) == 1
+    _assert_safe(g, occ)
+
+
+def test_narrow_passage_leaves_two_components():
+    free = _room(6, 14)
+    free[:, _px(5) : _px(9)] = False
+    free[_px(3) - 5 : _px(3) + 5, _px(5) : _px(9)] = True  # 0.5 m x 4 m passage
+    occ = _map(free)
+    g = route_graph(occ, robot_radius_m=R)
+    assert nx.number_connected_components(g) == 2
+    _assert_one_component_per_region(g, occ)
+
+
+def _random_plan(seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    free = _room(15, 15)
+    n = free.shape[0]
+    for _ in range(rng.integers(4, 14)):
+        r, c = rng.integers(0, n, 2)
+        h, w = rng.integers(2, n // 3, 2)
+        if rng.random() < 0.5:
+            h = rng.integers(2, 6)  # a wall
+        else:
+            w = w if rng.random() < 0.5 else rng.integers(2, 6)
+        free[r : r + h, c : c + w] = False
+    return free
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_plans_are_safe_and_reach_each_region_once(seed):
+    occ = _map(_random_plan(seed))
+    g = route_graph(occ, robot_radius_m=R)
+    _assert_safe(g, occ)
+    _assert_one_component_per_region(g, occ)
+    for u, v, d in g.edges(data=True):
+        assert u <= v and d["length_m"] > 0
+        wp = d["waypoints"]
+        assert np.array_equal(wp[0], d["world"][0]) and np.array_equal(wp[-1], d["world"][-1])
+
+
+def test_schema_is_build_graphs_plus_waypoints():
+    occ = tj.sample_map("intel")
+    rg = route_graph(occ)
+    ref_graph = tj.build_graph(occ).graph
+    _, ref_node = next(iter(ref_graph.nodes(data=True)))
+    _, node = next(iter(rg.nodes(data=True)))
+    assert set(node) == set(ref_node)
+    ref_edge = next(iter(ref_graph.edges(data=True)))[2]
+    edge = next(iter(rg.edges(data=True)))[2]
+    assert set(edge) == set(ref_edge) | {"waypoints"}
+    for name in ("path", "world"):
+        assert edge[name].dtype == ref_edge[name].dtype
+    assert edge["waypoints"].dtype == np.float64 and edge["waypoints"].shape[1] == 2
+    assert set(ref_graph.graph) - set(rg.graph) <= {"thinning", "source"}
+    assert rg.graph["kind"] == "route_graph" and rg.graph["robot_radius_m"] == 0.3
+    nodes = sorted(rg.nodes)
+    assert nodes == list(range(rg.number_of_nodes()))
+    assert not any(rg.degree(n) == 2 and rg.nodes[n]["kind"] != "ring" for n in nodes)
+
+
+def test_options_are_checked():
+    with pytest.raises(ValueError, match="snap_m"):
+        RouteGraphConfig(snap_m=-1.0)
+    with pytest.raises(TypeError, match="robot_radius_m"):
+        RouteGraphConfig(robot_radius_m="big")
+    with pytest.raises(ValueError, match="shortcut_stretch"):
+        RouteGraphConfig(shortcut_stretch=0.5)
+    with pytest.raises(TypeError, match="config"):
+        route_graph(_map(_room(3, 3)), config="fast")
+    with pytest.raises(TypeError):
+        RouteGraphConfig(0.3)  # keyword-only
+
+
+def test_map_without_feasible_space_gives_an_empty_graph():
+    occ = _map(_room(0.5, 0.5))
+    g = route_graph(occ, robot_radius_m=R)
+    assert g.number_of_nodes() == 0 and g.number_of_edges() == 0
+
+
+def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
+    import json
+
+    from topojax.cli import main
+    from topojax.io import load_graph
+
+    obstacles = np.zeros((60, 100), bool)
+    obstacles[[0, -1], :] = True
+    obstacles[:, [0, -1]] = True
+    obstacles[20:40, 30:70] = True  # a block: a corridor ring around it
+    path = tmp_path / "ring.png"
+    cv2.imwrite(str(path), np.where(obstacles, 0, 254).astype(np.uint8))
+    out = tmp_path / "out"
+    code = main(["route-graph", str(path), "-o", str(out), "--robot-radius", "0.2", "--evaluate"])
+    assert code == 0
+    graph = load_graph(out / "ring_route.json")
+    assert graph.number_of_edges() > 0 and graph.graph["robot_radius_m"] == 0.2
+    report = json.loads((out / "ring_route_report.json").read_text())
+    assert report["success_rate"] == 1.0 and report["unsafe_share"] == 0.0
+    assert "route graph" in capsys.readouterr().out
+    assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2

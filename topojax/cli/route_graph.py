@@ -1,0 +1,149 @@
+"""``topojax route-graph``: the route graph of one map for a round robot."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from .._constants import MODES
+from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+
+
+def add_command(subparsers) -> None:
+    """Register the ``route-graph`` subcommand on an ``argparse`` subparsers object."""
+    p = subparsers.add_parser(
+        "route-graph",
+        help="a sparse, safe, covering route graph of one map for a round robot",
+        description="Build the route graph of a map (ROS map_server YAML, or a PGM/PNG/JPG "
+        "image) for a round robot: every edge keeps the robot's radius from anything not "
+        "known free, every feasible point lies within --snap-m of the graph, one piece per "
+        "region the robot can reach. Writes STEM_route.{graphml,json,geojson}; no other "
+        "option is needed on a real map.",
+    )
+    p.add_argument("map", help="map file: .yaml/.yml (map_server), .pgm, .png, .jpg, ...")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    p.add_argument(
+        "--robot-radius",
+        dest="robot_radius_m",
+        type=float,
+        default=0.3,
+        metavar="M",
+        help="robot radius in metres (default 0.3)",
+    )
+    p.add_argument(
+        "--snap-m",
+        type=float,
+        default=1.0,
+        metavar="M",
+        help="every feasible point lies within M metres of the graph (default 1.0)",
+    )
+    p.add_argument(
+        "--resolution",
+        dest="resolution_m",
+        type=float,
+        help="m/px for images (default: a PGM's 'm/pix' comment, else 0.05; YAML: its own)",
+    )
+    p.add_argument(
+        "--mode",
+        choices=MODES,
+        help="pixel convention (default: the YAML's, else trinary; ipa: free if >= 250)",
+    )
+    p.add_argument("--plot", action="store_true", help="also write STEM_route.png")
+    p.add_argument(
+        "--nav2", action="store_true", help="also write STEM_route_nav2.geojson (Nav2 Route Server)"
+    )
+    p.add_argument(
+        "--evaluate",
+        action="store_true",
+        help="also score the graph (success, stretch, coverage; see docs) into "
+        "STEM_route_report.json",
+    )
+    p.set_defaults(handler=_cmd_route_graph, runs_kernels=False)
+
+
+def _files(stem: str, args) -> list[str]:
+    names = [f"{stem}_route{s}" for s in (".graphml", ".json", ".geojson")]
+    names += [f"{stem}_route.png"] * bool(args.plot)
+    names += [f"{stem}_route_nav2.geojson"] * bool(args.nav2)
+    names += [f"{stem}_route_report.json"] * bool(args.evaluate)
+    return names
+
+
+def _cmd_route_graph(args) -> int:
+    from .._fs import output_folder, refuse_overwriting_inputs
+    from .._validate import positive_metres
+    from ..io import save_graph
+    from ..maps import load_map
+    from ..routegraph import RouteGraphConfig, route_graph
+
+    radius = positive_metres("--robot-radius", args.robot_radius_m)
+    config = RouteGraphConfig(
+        robot_radius_m=radius, snap_m=positive_metres("--snap-m", args.snap_m)
+    )
+    out = Path(args.out)
+    stem = Path(args.map).stem
+    targets = [out / name for name in _files(stem, args)]
+    refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
+    check_outputs(planned(targets, args.map), command="route-graph", option=OUT_OPTION)
+    kw = {k: getattr(args, k) for k in ("resolution_m", "mode") if getattr(args, k) is not None}
+    occupancy = load_map(args.map, **kw)
+    t0 = time.perf_counter()
+    graph = route_graph(occupancy, config=config)
+    seconds = time.perf_counter() - t0
+    output_folder(out, name="--out")
+    written = [
+        save_graph(graph, out / f"{stem}_route{s}") for s in (".graphml", ".json", ".geojson")
+    ]
+    if args.plot:
+        written.append(_picture(occupancy, graph, out / f"{stem}_route.png"))
+    if args.nav2:
+        from ..io import save_nav2_graph
+
+        written.append(save_nav2_graph(graph, out / f"{stem}_route_nav2.geojson"))
+    components = _components(graph)
+    print(
+        f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
+        f"{occupancy.resolution_m:g} m/px)"
+    )
+    print(
+        f"route graph {graph.number_of_nodes()} vertices, {graph.number_of_edges()} edges, "
+        f"{components} components, robot radius {radius:g} m; {seconds:.2f} s"
+    )
+    if args.evaluate:
+        from ..routegraph import evaluate_route_graph
+
+        report = evaluate_route_graph(graph, occupancy, radius, generation_s=seconds)
+        path = out / f"{stem}_route_report.json"
+        path.write_text(json.dumps(report.as_dict(), indent=1))
+        written.append(path)
+        print(
+            f"evaluation success {100 * report.success_rate:.1f} %, stretch median "
+            f"{report.stretch_median:.3f} (p90 {report.stretch_p90:.3f}), unsafe share "
+            f"{report.unsafe_share:.3f}, uncovered share {report.uncovered_share:.4f}"
+        )
+    record_outputs(planned(written, args.map), command="route-graph")
+    print("wrote      " + ", ".join(str(p) for p in written))
+    return 0
+
+
+def _components(graph) -> int:
+    import networkx as nx
+
+    return nx.number_connected_components(graph) if graph.number_of_nodes() else 0
+
+
+def _picture(occupancy, graph, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..plotting import plot_graph, plot_map
+
+    fig, ax = plt.subplots(figsize=(8, 8 * occupancy.shape[0] / max(occupancy.shape[1], 1)))
+    plot_map(occupancy, ax=ax)
+    plot_graph(graph, ax=ax, title=f"route graph: {graph.number_of_edges()} edges")
+    fig.savefig(path, dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    return path

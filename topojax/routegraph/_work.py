@@ -1,0 +1,295 @@
+"""The mutable graph a route graph is built in: vertices with pixel positions, edges with
+8-connected pixel paths, and the edits the builder makes (remove, split, add a straight
+edge, contract degree-2 vertices), plus the two sparsifying passes: collapsing loops
+around small obstacles and dropping medial-axis spurs."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from skimage.draw import line as _draw_line
+
+SQRT2 = math.sqrt(2.0)
+
+
+def line_pixels(a, b) -> np.ndarray:
+    """8-connected pixels (K, 2) int32 of the digital straight line from ``a`` to ``b``
+    (``(row, col)``, both included)."""
+    rr, cc = _draw_line(int(a[0]), int(a[1]), int(b[0]), int(b[1]))
+    return np.stack([rr, cc], axis=1).astype(np.int32)
+
+
+def path_length_px(path: np.ndarray) -> float:
+    """Length of an 8-connected pixel path in pixels (straight 1, diagonal sqrt 2)."""
+    if len(path) < 2:
+        return 0.0
+    step = np.abs(np.diff(path.astype(np.int64), axis=0))
+    diagonal = int(np.count_nonzero((step[:, 0] != 0) & (step[:, 1] != 0)))
+    return (len(path) - 1 - diagonal) + diagonal * SQRT2
+
+
+def join_paths(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a`` followed by ``b``, bridging a gap between ``a``'s last and ``b``'s first pixel
+    with a straight line (the two ends are pixels of one vertex)."""
+    if a[-1, 0] == b[0, 0] and a[-1, 1] == b[0, 1]:
+        return np.concatenate([a, b[1:]])
+    bridge = line_pixels(a[-1], b[0])
+    return np.concatenate([a, bridge[1:-1], b])
+
+
+class WorkGraph:
+    """Vertices ``0..`` (``pixel`` (row, col), ``members`` (M, 2) int32) and edges (ids in
+    ``edges``: ``[u, v, path]`` with ``path`` (K, 2) int32 from a pixel of ``u`` to a pixel
+    of ``v``) with incidence sets ``adj``."""
+
+    def __init__(self) -> None:
+        self.pixel: list[tuple[int, int]] = []
+        self.members: list[np.ndarray] = []
+        self.edges: dict[int, list] = {}
+        self.length: dict[int, float] = {}
+        self.adj: list[set] = []
+        self.dead: set[int] = set()
+        self._next_edge = 0
+
+    @classmethod
+    def from_networkx(cls, graph) -> WorkGraph:
+        """The vertices and edges of a :func:`topojax.skeleton_to_graph` graph (nodes
+        ``0..N-1``)."""
+        work = cls()
+        for n in range(graph.number_of_nodes()):
+            data = graph.nodes[n]
+            work.add_vertex(data["pixel"], data["pixels"])
+        for u, v, data in graph.edges(data=True):
+            work.add_edge(u, v, np.asarray(data["path"], np.int32))
+        return work
+
+    def add_vertex(self, pixel, members=None) -> int:
+        """A new vertex at ``pixel``; returns its id."""
+        self.pixel.append((int(pixel[0]), int(pixel[1])))
+        if members is None:
+            members = np.array([self.pixel[-1]], np.int32)
+        self.members.append(np.asarray(members, np.int32).reshape(-1, 2))
+        self.adj.append(set())
+        return len(self.pixel) - 1
+
+    def add_edge(self, u: int, v: int, path: np.ndarray) -> int:
+        """A new edge ``u``-``v`` along ``path``; returns its id."""
+        e = self._next_edge
+        self._next_edge += 1
+        self.edges[e] = [u, v, path]
+        self.length[e] = path_length_px(path)
+        self.adj[u].add(e)
+        self.adj[v].add(e)
+        return e
+
+    def remove_edge(self, e: int) -> None:
+        u, v, _ = self.edges.pop(e)
+        del self.length[e]
+        self.adj[u].discard(e)
+        self.adj[v].discard(e)
+
+    def degree(self, v: int) -> int:
+        """Edge ends at ``v`` (a self-loop counts twice)."""
+        return sum(2 if self.edges[e][0] == self.edges[e][1] else 1 for e in self.adj[v])
+
+    def other(self, e: int, v: int) -> int:
+        u, w, _ = self.edges[e]
+        return w if u == v else u
+
+    def oriented_path(self, e: int, start: int) -> np.ndarray:
+        """Edge ``e``'s path starting at vertex ``start``."""
+        u, _, path = self.edges[e]
+        return path if u == start else path[::-1]
+
+    def contract(self, v: int) -> bool:
+        """Replace the two edges of a degree-2 vertex ``v`` (not a self-loop) by one."""
+        if len(self.adj[v]) != 2:
+            return False
+        e1, e2 = self.adj[v]
+        a, b = self.other(e1, v), self.other(e2, v)
+        if a == v or b == v:
+            return False
+        path = join_paths(self.oriented_path(e1, a), self.oriented_path(e2, v))
+        self.remove_edge(e1)
+        self.remove_edge(e2)
+        self.add_edge(a, b, path)
+        self.dead.add(v)
+        return True
+
+    def contract_all(self, vertices=None) -> None:
+        """Contract every degree-2 vertex (of ``vertices``, default all)."""
+        todo = range(len(self.pixel)) if vertices is None else list(vertices)
+        for v in todo:
+            if len(self.adj[v]) == 2:
+                self.contract(v)
+
+    def neighbours(self):
+        """Adjacency ``{u: [(v, length_px), ...]}`` of the current edges."""
+        nbr: dict[int, list] = {}
+        for e, (u, v, _) in self.edges.items():
+            w = self.length[e]
+            nbr.setdefault(u, []).append((v, w))
+            nbr.setdefault(v, []).append((u, w))
+        return nbr
+
+
+# ---------------------------------------------------------------------------------------
+# loops around small obstacles
+# ---------------------------------------------------------------------------------------
+
+
+def face_labels(skeleton: np.ndarray) -> np.ndarray:
+    """Faces of the skeleton's plane graph: 4-connected components of the pixels off the
+    skeleton (int32 (H, W), 0 on the skeleton).  The map's outside is face 1."""
+    h, w = skeleton.shape
+    off = np.ones((h + 2, w + 2), np.uint8)
+    off[1:-1, 1:-1] = ~skeleton
+    _, labels = cv2.connectedComponents(off, connectivity=4, ltype=cv2.CV_32S)
+    return labels[1:-1, 1:-1]
+
+
+def edge_sides(work: WorkGraph, faces: np.ndarray) -> dict[int, tuple[int, int]]:
+    """The faces on the two sides of each edge (``(a, b)``, ``a == b`` for an edge with one
+    face on both sides, i.e. a bridge); edges without interior pixels are left out."""
+    h, w = faces.shape
+    sides = {}
+    for e, (_, _, path) in work.edges.items():
+        inner = path[1:-1]
+        if len(inner) == 0:
+            continue
+        rr = np.concatenate([inner[:, 0] - 1, inner[:, 0] + 1, inner[:, 0], inner[:, 0]])
+        cc = np.concatenate([inner[:, 1], inner[:, 1], inner[:, 1] - 1, inner[:, 1] + 1])
+        ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+        lab = np.unique(faces[rr[ok], cc[ok]])
+        lab = lab[lab > 0]
+        if len(lab) == 1:
+            sides[e] = (int(lab[0]), int(lab[0]))
+        elif len(lab) == 2:
+            sides[e] = (int(lab[0]), int(lab[1]))
+    return sides
+
+
+def obstacle_extent_px(faces: np.ndarray, free: np.ndarray, n_faces: int) -> np.ndarray:
+    """Diagonal (pixels) of the bounding box of the pixels that are not free in each face
+    (0 for a face holding none): the size of the obstacle a face's loop goes around."""
+    rows, cols = np.nonzero(~free)
+    lab = faces[rows, cols]
+    big = np.iinfo(np.int64).max
+    rmin = np.full(n_faces, big, np.int64)
+    cmin = np.full(n_faces, big, np.int64)
+    rmax = np.full(n_faces, -1, np.int64)
+    cmax = np.full(n_faces, -1, np.int64)
+    np.minimum.at(rmin, lab, rows)
+    np.minimum.at(cmin, lab, cols)
+    np.maximum.at(rmax, lab, rows)
+    np.maximum.at(cmax, lab, cols)
+    has = rmax >= 0
+    out = np.zeros(n_faces)
+    out[has] = np.hypot(rmax[has] - rmin[has] + 1, cmax[has] - cmin[has] + 1)
+    return out
+
+
+def collapse_loops(
+    work: WorkGraph,
+    faces: np.ndarray,
+    free: np.ndarray,
+    clearance_px: np.ndarray,
+    loop_px: float,
+    loop_factor: float,
+    obstacle_px: float,
+) -> int:
+    """Open the loops around small obstacles: for each face whose obstacle is at most
+    ``obstacle_px`` across or whose boundary is shorter than
+    ``max(loop_px, loop_factor * clearance)``, remove the narrowest edge between it and
+    another face and merge the two faces.  An edge between two distinct faces lies on a
+    cycle, so no removal disconnects the graph.  Returns the number of edges removed."""
+    n_faces = int(faces.max()) + 1
+    sides = edge_sides(work, faces)
+    extent = obstacle_extent_px(faces, free, n_faces)
+    loop_len = np.zeros(n_faces)
+    clear_sum = np.zeros(n_faces)
+    edges_of: dict[int, list] = {}
+    narrow = {}
+    for e, (a, b) in sides.items():
+        if a == b:
+            continue
+        path = work.edges[e][2]
+        c = clearance_px[path[:, 0], path[:, 1]]
+        narrow[e] = float(c.min())
+        length = work.length[e]
+        for f in (a, b):
+            loop_len[f] += length
+            clear_sum[f] += length * float(c.mean())
+            edges_of.setdefault(f, []).append(e)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_clear = np.where(loop_len > 0, clear_sum / loop_len, 0.0)
+    small = (extent <= obstacle_px) | (loop_len < np.maximum(loop_px, loop_factor * mean_clear))
+    small[1] = False  # the map's outside
+    parent = list(range(n_faces))
+
+    def find(f: int) -> int:
+        while parent[f] != f:
+            parent[f] = parent[parent[f]]
+            f = parent[f]
+        return f
+
+    removed = 0
+    for f in np.flatnonzero(small & (loop_len > 0))[np.argsort(loop_len[small & (loop_len > 0)])]:
+        f = int(f)
+        if find(f) != f:
+            continue
+        best, best_key = None, None
+        for e in edges_of.get(f, ()):
+            if e not in work.edges:
+                continue
+            a, b = sides[e]
+            if find(a) == find(b):
+                continue
+            key = (narrow[e], -work.length[e])
+            if best_key is None or key < best_key:
+                best, best_key = e, key
+        if best is None:
+            continue
+        a, b = sides[best]
+        other = find(b) if find(a) == f else find(a)
+        work.remove_edge(best)
+        removed += 1
+        parent[f] = other
+        edges_of.setdefault(other, []).extend(edges_of.pop(f, []))
+    return removed
+
+
+def drop_spurs(
+    work: WorkGraph, feasible_clearance_px: np.ndarray, spur_px: float, spur_factor: float
+) -> int:
+    """Remove, round after round, every dead-end edge hanging off a junction (degree >= 3)
+    that is shorter than ``max(spur_px, spur_factor * c)``, ``c`` the feasible clearance at
+    the junction (medial-axis branches into corners).  Returns the number removed."""
+    removed = 0
+    changed = True
+    while changed:
+        changed = False
+        drop = []
+        for v in range(len(work.pixel)):
+            if len(work.adj[v]) != 1:
+                continue
+            (e,) = work.adj[v]
+            j = work.other(e, v)
+            if j == v or work.degree(j) < 3:
+                continue
+            r, c = work.pixel[j]
+            limit = max(spur_px, spur_factor * float(feasible_clearance_px[r, c]))
+            if work.length[e] < limit:
+                drop.append((e, j))
+        touched = set()
+        for e, j in drop:
+            if e in work.edges and work.degree(j) >= 3:
+                work.dead.add(work.other(e, j))
+                work.remove_edge(e)
+                touched.add(j)
+                removed += 1
+                changed = True
+        work.contract_all(touched)
+    return removed

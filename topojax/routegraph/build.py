@@ -1,0 +1,300 @@
+"""Route graphs for a round robot: :func:`route_graph` and its options,
+:class:`RouteGraphConfig`.  The method and the meaning of every option, with pictures, are
+in ``docs/route-graphs.md``."""
+
+from __future__ import annotations
+
+import math
+import numbers
+import time
+from dataclasses import dataclass, fields, replace
+
+import networkx as nx
+import numpy as np
+
+from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres
+from ..graph import skeleton_to_graph
+from ..graph.store import fill_multigraph
+from ..skeleton import thin
+from ._cover import add_coverage, add_shortcuts
+from ._work import WorkGraph, collapse_loops, drop_spurs, face_labels, line_pixels
+from .feasible import FeasibleSpace, feasible_space
+
+__all__ = ["RouteGraphConfig", "route_graph"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class RouteGraphConfig:
+    """Options of :func:`route_graph`, in metres (they scale with the map's resolution).
+
+    Attributes
+    ----------
+    robot_radius_m : float, default 0.3
+        Robot radius: every edge keeps at least this clearance from anything not known free.
+    snap_m : float, default 1.0
+        Coverage: every feasible pixel lies within this distance of the graph (through the
+        feasible space); waypoints are added where the medial axis does not reach.
+    loop_m : float, default 2.0
+        Loops shorter than this always collapse to one corridor.
+    loop_clearance_factor : float, default 8.0
+        A loop shorter than this times its mean clearance also collapses.
+    small_obstacle_m : float, default 1.0
+        A loop around an obstacle at most this across (bounding-box diagonal) collapses.
+    spur_m : float, default 1.0
+        Dead ends hanging off a junction shorter than this are dropped.
+    spur_clearance_factor : float, default 1.5
+        Dead ends shorter than this times the feasible clearance at their junction (the
+        medial axis's branches into room corners) are dropped too.
+    shortcut_stretch : float, default 1.2
+        A straight shortcut joins two vertices when the graph route between them is longer
+        than this times their distance (and the straight line is feasible).
+    shortcut_radius_m : float, default 5.0
+        Only vertices at most this far apart are considered for shortcuts (0: none).
+    shortcut_gain_m : float, default 1.0
+        ... and only when the shortcut saves at least this much route length.
+    shortcuts_from_dead_ends : bool, default True
+        Whether shortcuts may start at dead ends (coverage waypoints at the rim of open
+        space); False gives markedly fewer edges in rooms and halls, and longer routes.
+    waypoint_tolerance_m : float, default 0.1
+        Each edge's ``waypoints`` polyline keeps every path pixel within this distance.
+    min_region_m2 : float, default 1.0
+        Feasible regions smaller than this get no vertex.
+    """
+
+    robot_radius_m: float = 0.3
+    snap_m: float = 1.0
+    loop_m: float = 2.0
+    loop_clearance_factor: float = 8.0
+    small_obstacle_m: float = 1.0
+    spur_m: float = 1.0
+    spur_clearance_factor: float = 1.5
+    shortcut_stretch: float = 1.2
+    shortcut_radius_m: float = 5.0
+    shortcut_gain_m: float = 1.0
+    shortcuts_from_dead_ends: bool = True
+    waypoint_tolerance_m: float = 0.1
+    min_region_m2: float = 1.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name == "shortcuts_from_dead_ends":
+                value = flag(f.name, value)
+            elif f.name in ("snap_m", "waypoint_tolerance_m"):
+                value = positive_metres(f.name, value)
+            elif f.name.endswith("_m"):
+                value = nonnegative_metres(f.name, value)
+            else:
+                value = _nonnegative(f.name, value, "m2" if f.name.endswith("_m2") else "")
+            object.__setattr__(self, f.name, value)
+        if self.shortcut_stretch < 1.0:
+            raise ValueError(
+                f"shortcut_stretch: expected a number >= 1, received {self.shortcut_stretch!r}"
+            )
+
+
+def _nonnegative(name: str, value: object, unit: str) -> float:
+    """``value`` as a float, checked to be a finite real number >= 0 (not bool)."""
+    what = f"a finite number >= 0{' (' + unit + ')' if unit else ''}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected {what}, received {type(value).__name__} {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"{name}: expected {what}, received {value!r}")
+    return value
+
+
+def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) -> nx.MultiGraph:
+    """The route graph of a map for a round robot: safe, covering, sparse and direct.
+
+    Parameters
+    ----------
+    occupancy : OccupancyMap
+        The map; only its known-free pixels are used, its border is a wall.
+    robot_radius_m : float, optional
+        Robot radius in metres; overrides ``config.robot_radius_m`` (default 0.3).
+    config : RouteGraphConfig, optional
+        The other options.
+
+    Returns
+    -------
+    networkx.MultiGraph
+        The schema of :func:`topojax.build_graph`'s graph (node ``pixel``, ``pixels``,
+        ``world``, ``kind``, ``clearance_m``; edge ``path``, ``world``, ``length_m``,
+        ``min_clearance_m``, ``mean_clearance_m``) plus, on each edge, ``waypoints``:
+        float64 (K, 2) world polyline from ``u`` to ``v``.  Graph attributes
+        ``resolution_m``, ``shape``, ``origin``, ``merge_junction_clusters`` (True),
+        ``robot_radius_m``, ``snap_m``, ``kind`` (``"route_graph"``), ``uncovered_share``
+        and ``timings_s``.  One component per feasible region of at least
+        ``min_region_m2``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For an option of the wrong type or out of range (the message names it).
+    """
+    cfg = instance_or_default("config", config, RouteGraphConfig)
+    if robot_radius_m is not None:
+        cfg = replace(cfg, robot_radius_m=robot_radius_m)
+    t0 = time.perf_counter()
+    space = feasible_space(occupancy, cfg.robot_radius_m)
+    feasible = _kept_regions(space, cfg.min_region_m2)
+    t1 = time.perf_counter()
+    skeleton = thin(feasible)
+    t2 = time.perf_counter()
+    work, res = _sparse_skeleton_graph(skeleton, space, cfg)
+    t3 = time.perf_counter()
+    snap_px = cfg.snap_m / res
+    uncovered = add_coverage(work, feasible, snap_px)
+    add_shortcuts(
+        work,
+        feasible,
+        cfg.shortcut_radius_m / res,
+        cfg.shortcut_stretch,
+        cfg.shortcut_gain_m / res,
+        cfg.shortcuts_from_dead_ends,
+    )
+    work.contract_all()
+    t4 = time.perf_counter()
+    graph = _assemble(work, occupancy, space, cfg)
+    t5 = time.perf_counter()
+    n_feasible = int(np.count_nonzero(feasible))
+    graph.graph["uncovered_share"] = (
+        float(np.count_nonzero(uncovered)) / n_feasible if n_feasible else 0.0
+    )
+    graph.graph["timings_s"] = {
+        "feasible": t1 - t0,
+        "thin": t2 - t1,
+        "skeleton_graph": t3 - t2,
+        "cover_and_shortcuts": t4 - t3,
+        "assemble": t5 - t4,
+    }
+    return graph
+
+
+def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:
+    """Feasible pixels of the regions of at least ``min_region_m2``."""
+    keep = np.zeros(space.area_m2.size, bool)
+    keep[space.regions_at_least(min_region_m2)] = True
+    keep[0] = False
+    return keep[space.labels]
+
+
+def _sparse_skeleton_graph(skeleton: np.ndarray, space: FeasibleSpace, cfg: RouteGraphConfig):
+    """The skeleton's graph (junction clusters merged) without loops around small
+    obstacles and without medial-axis spurs; returns it and the resolution."""
+    res = space.resolution_m
+    clearance_px = space.clearance_m / np.float32(res)
+    graph = skeleton_to_graph(skeleton, resolution_m=res, merge_junction_clusters=True)
+    work = WorkGraph.from_networkx(graph)
+    collapse_loops(
+        work,
+        face_labels(skeleton),
+        space.free,
+        clearance_px,
+        cfg.loop_m / res,
+        cfg.loop_clearance_factor,
+        cfg.small_obstacle_m / res + 2.0 * cfg.robot_radius_m / res,
+    )
+    work.contract_all()
+    feasible_clear = np.maximum(clearance_px - np.float32(cfg.robot_radius_m / res), 0)
+    drop_spurs(work, feasible_clear, cfg.spur_m / res, cfg.spur_clearance_factor)
+    work.contract_all()
+    return work, res
+
+
+def _simplify(path: np.ndarray, feasible: np.ndarray, tol_px: float) -> np.ndarray:
+    """Indices of the path pixels kept by Douglas-Peucker with tolerance ``tol_px`` whose
+    straight pieces also stay on feasible pixels (a piece that leaves them is split)."""
+    n = len(path)
+    keep = np.zeros(n, bool)
+    keep[[0, n - 1]] = True
+    pts = path.astype(np.float64)
+    stack = [(0, n - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            continue
+        a, b = pts[i], pts[j]
+        ab = b - a
+        span = float(ab @ ab)
+        inner = pts[i + 1 : j]
+        t = np.zeros(len(inner)) if span == 0 else np.clip((inner - a) @ ab / span, 0, 1)
+        dist = np.hypot(*(inner - (a + t[:, None] * ab)).T)
+        m = int(np.argmax(dist))
+        if dist[m] <= tol_px:
+            seg = line_pixels(path[i], path[j])
+            if feasible[seg[:, 0], seg[:, 1]].all():
+                continue
+            m = (j - i) // 2 - 1
+        m += i + 1
+        keep[m] = True
+        stack += [(i, m), (m, j)]
+    return np.flatnonzero(keep)
+
+
+def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphConfig):
+    """The networkx graph of ``work`` with :func:`topojax.build_graph`'s schema."""
+    res = space.resolution_m
+    alive = [v for v in range(len(work.pixel)) if v not in work.dead]
+    alive.sort(key=lambda v: work.pixel[v])
+    new_id = {v: k for k, v in enumerate(alive)}
+    pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2)
+    wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
+    node_attrs = []
+    for k, v in enumerate(alive):
+        deg = work.degree(v)
+        loop_only = deg == 2 and len(work.adj[v]) == 1
+        kind = "ring" if loop_only else ("isolated", "end", "junction", "junction")[min(deg, 3)]
+        node_attrs.append(
+            {
+                "pixel": (int(pix[k, 0]), int(pix[k, 1])),
+                "pixels": np.ascontiguousarray(work.members[v], np.int32),
+                "world": (float(wx[k]), float(wy[k])),
+                "kind": kind,
+                "clearance_m": float(space.clearance_m[pix[k, 0], pix[k, 1]]),
+            }
+        )
+    tol_px = cfg.waypoint_tolerance_m / res
+    order, ends, paths = [], [], []
+    for e in work.edges:
+        u, v, path = work.edges[e]
+        a, b = new_id[u], new_id[v]
+        if a > b:
+            a, b, path = b, a, path[::-1]
+        order.append((a, b, len(order)))
+        ends.append(e)
+        paths.append(np.ascontiguousarray(path, np.int32))
+    order.sort()
+    sizes = np.array([len(p) for p in paths], np.int64)
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    every = np.concatenate(paths) if paths else np.zeros((0, 2), np.int32)
+    x, y = occupancy.pixel_to_world(every[:, 0], every[:, 1])
+    world_all = np.stack([x, y], axis=1)
+    clear = space.clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
+    c_min = np.minimum.reduceat(clear, starts) if paths else clear
+    c_mean = np.add.reduceat(clear, starts) / sizes if paths else clear
+    edges = []
+    for a, b, k in order:
+        path = paths[k]
+        world = world_all[starts[k] : starts[k] + sizes[k]].copy()
+        keep = _simplify(path, space.feasible, tol_px)
+        attrs = {
+            "path": path,
+            "world": world,
+            "length_m": work.length[ends[k]] * res,
+            "min_clearance_m": float(c_min[k]),
+            "mean_clearance_m": float(c_mean[k]),
+            "waypoints": world[keep].copy(),
+        }
+        edges.append((a, b, attrs))
+    attrs = {
+        "resolution_m": res,
+        "shape": tuple(int(s) for s in space.free.shape),
+        "merge_junction_clusters": True,
+        "origin": tuple(float(o) for o in occupancy.origin),
+        "robot_radius_m": cfg.robot_radius_m,
+        "snap_m": cfg.snap_m,
+        "kind": "route_graph",
+    }
+    return fill_multigraph(attrs, range(len(alive)), node_attrs, edges)
