@@ -456,3 +456,23 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     argv = ["route", str(two), "--pixel", "--start", "0", "0", "--goal", "0", "9"]
     assert main(argv) == 1
     assert "different components" in capsys.readouterr().err
+
+
+def test_default_snap_limit_refuses_far_points_and_none_lifts_it():
+    import topojax as tj
+    from topojax.routing import DEFAULT_MAX_SNAP_M
+
+    g = tj.build_graph(tj.sample_map("intel")).graph
+    u, v = max(
+        (e for e in g.edges(keys=True) if e[0] != e[1]), key=lambda e: g.edges[e]["length_m"]
+    )[:2]
+    start, goal = g.nodes[u]["world"], g.nodes[v]["world"]
+    assert tj.plan_route(g, start, goal).length_m > 0
+    far = (start[0] + 1000.0, start[1])  # a kilometre off: a frame mix-up, not a goal
+    with pytest.raises(ValueError, match="max_snap_m=5.0 .*None for no limit"):
+        tj.plan_route(g, start, far)
+    assert DEFAULT_MAX_SNAP_M == 5.0
+    try:  # no limit: snapped however far (to a piece that may be out of reach)
+        tj.plan_route(g, start, far, max_snap_m=None)
+    except tj.NoRouteError:
+        pass

@@ -35,9 +35,15 @@ from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
 from .graph import cumulative_length_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
 
-__all__ = ["NoRouteError", "Route", "RoutePlanner", "plan_route"]
+__all__ = ["DEFAULT_MAX_SNAP_M", "NoRouteError", "Route", "RoutePlanner", "plan_route"]
 
 _FRAMES = ("world", "pixel")
+
+
+#: Default limit of :meth:`RoutePlanner.route` / :func:`plan_route` on the distance from a
+#: query point to the graph, metres: a point farther off (a goal in a room the graph does
+#: not reach, or coordinates in the wrong frame) is an error, not a silent long snap.
+DEFAULT_MAX_SNAP_M = 5.0
 
 
 class NoRouteError(nx.NetworkXNoPath):
@@ -204,7 +210,9 @@ class RoutePlanner:
         self._trees: dict = {}
 
     # ------------------------------------------------------------------ public
-    def route(self, start, goal, *, frame: str = "world", max_snap_m: float | None = None) -> Route:
+    def route(
+        self, start, goal, *, frame: str = "world", max_snap_m: float | None = DEFAULT_MAX_SNAP_M
+    ) -> Route:
         """The shortest route from ``start`` to ``goal`` along the graph.
 
         Parameters
@@ -217,7 +225,7 @@ class RoutePlanner:
         max_snap_m : float, optional
             Largest allowed distance from a query point to the graph, metres; a point
             farther away raises ``ValueError`` (e.g. a goal in a room the graph does not
-            reach).  Default: no limit.
+            reach).  Default :data:`DEFAULT_MAX_SNAP_M` (5 m); ``None``: no limit.
 
         Returns
         -------
@@ -242,7 +250,8 @@ class RoutePlanner:
             if max_snap_m is not None and snap.distance_m > max_snap_m:
                 raise ValueError(
                     f"{name}: the nearest point of the graph is {snap.distance_m:.6g} m away, "
-                    f"more than max_snap_m={max_snap_m}"
+                    f"more than max_snap_m={max_snap_m} (pass a larger max_snap_m, or None for "
+                    "no limit)"
                 )
         return self._route(s, g)
 
@@ -479,7 +488,12 @@ class RoutePlanner:
 
 
 def plan_route(
-    graph: nx.Graph, start, goal, *, frame: str = "world", max_snap_m: float | None = None
+    graph: nx.Graph,
+    start,
+    goal,
+    *,
+    frame: str = "world",
+    max_snap_m: float | None = DEFAULT_MAX_SNAP_M,
 ) -> Route:
     """The shortest route from ``start`` to ``goal`` along a topology graph.
 
@@ -494,8 +508,9 @@ def plan_route(
         ``(x, y)`` in metres (``frame="world"``) or ``(row, col)`` in pixels
         (``frame="pixel"``).
     frame : {"world", "pixel"}
-    max_snap_m : float, optional
-        Largest allowed distance from a query point to the graph, metres.
+    max_snap_m : float or None, optional
+        Largest allowed distance from a query point to the graph, metres (default
+        :data:`DEFAULT_MAX_SNAP_M`, 5 m); ``None``: no limit.
 
     Returns
     -------

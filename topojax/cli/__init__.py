@@ -94,8 +94,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--max-snap-m",
         type=float,
+        default=5.0,
         metavar="M",
-        help="fail if a point is more than M metres from the graph (default: no limit)",
+        help="fail if a point is more than M metres from the graph (default 5)",
     )
     p.add_argument("-o", "--out", help="write the route here as GeoJSON")
     p.add_argument(
