@@ -225,3 +225,30 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     assert report["success_rate"] == 1.0 and report["unsafe_share"] == 0.0
     assert "route graph" in capsys.readouterr().out
     assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2
+
+
+def test_mapper_route_graph_is_the_route_graph_of_its_map():
+    from topojax.scans import read_scans
+
+    mapper = tj.IncrementalMapper(resolution_m=0.05)
+    for scan in read_scans("tests/data/intel_first40.log.gz"):
+        mapper.add_scan(scan)
+    got = mapper.route_graph(robot_radius_m=0.25)
+    want = route_graph(mapper.occupancy, robot_radius_m=0.25)
+    assert got.number_of_nodes() == want.number_of_nodes() > 0
+    assert sorted(map(tuple, (d["pixel"] for _, d in got.nodes(data=True)))) == sorted(
+        map(tuple, (d["pixel"] for _, d in want.nodes(data=True)))
+    )
+    assert got.graph["robot_radius_m"] == 0.25
+
+
+def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
+    from topojax.cli import main
+    from topojax.io import load_graph
+
+    argv = ["replay", "tests/data/intel_first40.log.gz", "-o", str(tmp_path), "--no-progress"]
+    assert main([*argv, "--route-graph", "0.25"]) == 0
+    g = load_graph(tmp_path / "route_graph.json")
+    assert g.graph["robot_radius_m"] == 0.25 and g.number_of_edges() > 0
+    assert "route_graph.geojson" in capsys.readouterr().out
+    assert main([*argv, "--route-graph", "-1"]) == 2  # refused before the replay

@@ -38,6 +38,7 @@ def _cmd_replay(args) -> int:
         reader_kwargs=reader_kwargs or None,
         nav2_tolerance_m=nav2_tolerance(args),
         graph_config=graph_config(args),
+        route_graph_radius_m=args.route_graph,
         **kw,
     )
     record_outputs(planned(summary["written"], args.source), command="replay")
@@ -53,6 +54,8 @@ def _replay_claims(args) -> dict:
     names += ["graph_nav2.geojson"] * bool(args.nav2)
     names += ["map.yaml", "map.pgm", "timings.json"]
     names += ["graph.png", "stages.png"] * bool(args.plot)
+    if args.route_graph is not None:
+        names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")]
     return planned([Path(args.out) / name for name in names], args.source)
 
 
@@ -98,5 +101,12 @@ def add_command(subparsers) -> None:
     )
     add_graph_options(p)
     add_nav2_options(p, "graph_nav2.geojson")
+    p.add_argument(
+        "--route-graph",
+        type=float,
+        metavar="RADIUS_M",
+        help="also write route_graph.{graphml,json,geojson}: the route graph of the final "
+        "map for a round robot of this radius in metres (see topojax route-graph)",
+    )
     p.set_defaults(handler=_cmd_replay)
     return p

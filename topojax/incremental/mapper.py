@@ -640,6 +640,28 @@ class IncrementalMapper:
         return global_graph(self)
 
     @_synchronized
+    def route_graph(self, *, robot_radius_m: float | None = None, config=None) -> nx.MultiGraph:
+        """The route graph of the current map for a round robot (:func:`topojax.route_graph`
+        of :attr:`occupancy`, recomputed whole), in the exported map's frame.
+
+        Parameters
+        ----------
+        robot_radius_m : float, optional
+            Robot radius in metres (default ``config.robot_radius_m``, 0.3).
+        config : RouteGraphConfig, optional
+            The other options.
+
+        Returns
+        -------
+        networkx.MultiGraph
+            As :func:`topojax.route_graph`; pixel coordinates relative to the exported
+            bounding box.
+        """
+        from ..routegraph import route_graph
+
+        return route_graph(self.occupancy, robot_radius_m=robot_radius_m, config=config)
+
+    @_synchronized
     def to_result(self, *, update: bool = True):
         """Everything as a :class:`topojax.pipeline.TopologyResult` (for plotting and I/O).
 

@@ -82,6 +82,7 @@ def replay(
     reader_kwargs: dict | None = None,
     nav2_tolerance_m: float | None = None,
     graph_config: GraphConfig | None = None,
+    route_graph_radius_m: float | None = None,
     **mapper_kw,
 ) -> dict:
     """Replay a scan log through an :class:`IncrementalMapper` and write the results.
@@ -118,6 +119,9 @@ def replay(
         ``build_graph(map, ...)``'s with this ``graph``).  Default: the mapper's whole
         graph, as the paper keeps it.  The animation shows the mapper's whole graph as
         it grew.
+    route_graph_radius_m : float, optional
+        Also write ``route_graph.graphml``, ``.json`` and ``.geojson``: the route graph of
+        the final map for a round robot of this radius (:meth:`IncrementalMapper.route_graph`).
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ...).
@@ -135,6 +139,8 @@ def replay(
     nav2_tolerance_m = _check_replay_args(
         max_scans, nav2_tolerance_m, graph_config, out_dir, animate
     )
+    if route_graph_radius_m is not None:  # checked now, not after the whole replay
+        route_graph_radius_m = positive_metres("route_graph_radius_m", route_graph_radius_m)
     out = Path(out_dir)
     scans = read_scans(source, **(reader_kwargs or {}))
     mapper = IncrementalMapper(**mapper_kw)
@@ -151,6 +157,13 @@ def replay(
     if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
         result = _with_graph_config(result, graph_config)
     written, messages = _write_graphs_and_map(result, out, nav2_tolerance_m)
+    if route_graph_radius_m is not None:
+        from ..io import save_graph
+
+        routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
+        written += [
+            save_graph(routes, out / f"route_graph{s}") for s in (".graphml", ".json", ".geojson")
+        ]
     timings = timing_summary(reports)
     summary_g = graph_summary(result.graph)
     summary = {
