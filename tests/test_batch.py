@@ -126,7 +126,9 @@ def test_identity_with_build_graph_in_worker_processes(shared_data):
     rotated = _synthetic((300, 420), 1, yaw=0.6, source="synthetic/rotated")
     inputs = [*PAPER_MAPS, *_small_shared(shared_data), rotated, empty]
     records = build_graphs(inputs, workers=2, progress=False)
-    assert [r.status for r in records] == ["ok"] * len(inputs), [r.message for r in records]
+    want_status = ["ok"] * (len(inputs) - 1) + ["empty"]  # no obstacle: no corridor
+    assert [r.status for r in records] == want_status, [r.message for r in records]
+    assert "no occupied pixel" in records[-1].message
     for inp, rec in zip(inputs, records, strict=True):
         occ = inp if isinstance(inp, OccupancyMap) else load_map(inp)
         want = build_graph(occ).graph
@@ -747,7 +749,7 @@ def test_all_occupied_maps_give_empty_graphs_as_in_build_graph():
     maps.append(load_map(PAPER_MAPS[0]))
     records = build_graphs(maps, keep_graphs=True, progress=False)
     for m, rec in zip(maps, records, strict=True):
-        assert rec.status == "ok"
+        assert rec.status == ("empty" if rec.vertices == 0 else "ok")
         want = build_graph(m).graph
         assert rec.vertices == want.number_of_nodes()
         assert rec.graph.number_of_edges() == want.number_of_edges()
@@ -791,3 +793,36 @@ def test_batch_argument_checks_for_flags_formats_and_folders(tmp_path):
     rec = build_graphs([tmp_path], workers=0, progress=False)[0]
     assert rec.status == "error" and "is a folder" in rec.message
     assert "expand_map_inputs" in rec.message
+
+
+def test_empty_graphs_are_reported_with_a_reason(tmp_path, capsys):
+    """A map whose graph is empty (here: an IPA-style raw map read without --mode ipa, so
+    nothing counts as an obstacle) is reported ``empty`` with what to check, not ``ok``."""
+    import cv2
+
+    from topojax.cli import main
+
+    raw = np.full((40, 50), 200, np.uint8)  # grey everywhere: unknown in trinary mode
+    raw[10:30, 10:40] = 255
+    cv2.imwrite(str(tmp_path / "raw.png"), raw)
+    records = build_graphs([tmp_path / "raw.png"], progress=False, workers=0)
+    assert records[0].status == "empty" and records[0].vertices == 0
+    assert "no occupied pixel" in records[0].message and "--mode" in records[0].message
+    assert (
+        main(
+            [
+                "batch",
+                str(tmp_path / "raw.png"),
+                "-o",
+                str(tmp_path / "out"),
+                "--no-progress",
+                "--workers",
+                "0",
+            ]
+        )
+        == 0
+    )
+    captured = capsys.readouterr()
+    assert "1 empty" in captured.out and "empty  raw" in captured.err
+    summary = (tmp_path / "out" / "summary.csv").read_text()
+    assert ",empty," in summary

@@ -303,6 +303,7 @@ class _BatchRun:
 
         self._records: dict[int, MapRecord] = {}
         self._counts: Counter[str] = Counter()
+        self._classes: dict[int, tuple[int, int | None]] = {}  # occupied, free pixels
         self._bar = tqdm(
             total=len(self.items),
             unit="map",
@@ -367,7 +368,9 @@ class _BatchRun:
         counts = self._counts
         counts[rec.status] += 1
         self._bar.update(1)
-        self._bar.set_postfix({k: counts[k] for k in ("ok", "skipped", "error") if counts[k]})
+        self._bar.set_postfix(
+            {k: counts[k] for k in ("ok", "empty", "skipped", "error") if counts[k]}
+        )
 
     def _start_loads(self) -> None:
         """Start loading pending maps until ``prefetch`` are loading or loaded."""
@@ -436,6 +439,7 @@ class _BatchRun:
         for g, job, t_distance, error in jobs:
             rec = self._base_record(g, "error" if error else "ok", error)
             rec.t_distance_s = t_distance
+            self._classes[g.item.index] = _class_counts(g)
             if job is None:
                 self._finish(g.item.index, rec)
                 continue
@@ -477,6 +481,9 @@ class _BatchRun:
         if res.error is not None:
             rec.status, rec.message = "error", res.error
             return rec
+        if not res.vertices:
+            rec.status = "empty"
+            rec.message = _empty_reason(*self._classes.pop(item.index, (None, None)))
         rec.graph = res.graph
         if self.out_dir is not None:
             rec._finish()
@@ -487,6 +494,26 @@ class _BatchRun:
                 return rec
             rec.outputs = (*rec.outputs, manifest)
         return rec
+
+
+def _class_counts(g) -> tuple[int, int | None]:
+    """Occupied and free pixels of a loaded map (free: None where it was not kept)."""
+    return int(g.occupied.sum()), None if g.free is None else int(g.free.sum())
+
+
+def _empty_reason(n_occupied: int | None, n_free: int | None) -> str:
+    """Why a map's graph is empty, and what to check (the ``message`` of an empty map)."""
+    if n_occupied == 0:
+        why = "the map has no occupied pixel as classified"
+    elif n_free == 0:
+        why = "the map has no free pixel as classified"
+    else:
+        why = "no corridor was found between the obstacles"
+    return (
+        f"empty graph: {why}; check the thresholds, negate, or the pixel convention "
+        "(--mode, e.g. ipa for IPA benchmark maps, where every pixel below 250 is "
+        "inaccessible)"
+    )
 
 
 def _default_kernel_threads() -> int:

@@ -60,7 +60,8 @@ class MapRecord:
         Sum of the edge lengths in metres.
     t_load_s, t_distance_s, t_thinning_s, t_graph_s, t_write_s, t_total_s : float
         Seconds per stage (see :data:`SUMMARY_COLUMNS`).
-    status : {"ok", "error", "skipped"}
+    status : {"ok", "empty", "error", "skipped"}
+        ``"empty"``: the graph has no vertex (outputs written; ``message`` says why);
         ``"skipped"``: complete outputs found by ``resume``.
     message : str
         Error message (``"ExceptionType: text"``) or a note; empty when ok.

@@ -55,15 +55,17 @@ def _cmd_batch(args) -> int:
             client.close()
     wall = time.perf_counter() - t0
     counts = Counter(r.status for r in records)
-    megapixels = sum((r.height or 0) * (r.width or 0) for r in records if r.status == "ok") / 1e6
+    done = ("ok", "empty")
+    megapixels = sum((r.height or 0) * (r.width or 0) for r in records if r.status in done) / 1e6
     print(
         f"topojax batch: {len(records)} maps in {wall:.1f} s "
-        f"({counts['ok']} ok, {counts['skipped']} skipped, {counts['error']} errors; "
+        f"({counts['ok']} ok, {counts['empty']} empty, {counts['skipped']} skipped, "
+        f"{counts['error']} errors; "
         f"{megapixels:.1f} Mpx processed); table: {Path(args.out) / 'summary.csv'}"
     )
     for r in records:
-        if r.status == "error":
-            print(f"  error  {r.map}: {r.message}", file=sys.stderr)
+        if r.status in ("error", "empty"):
+            print(f"  {r.status:5s}  {r.map}: {r.message}", file=sys.stderr)
     return 1 if counts["error"] else 0
 
 
