@@ -1933,3 +1933,192 @@ def test_run_means_are_ndarray_means_bit_for_bit():
     assert _run_min(values, offsets).tolist() == lows
     none = np.zeros(1, np.int64)
     assert _run_means(values[:0], none).shape == _run_min(values[:0], none).shape == (0,)
+
+
+# --------------------------------------------------------------------------------------
+# guard rails: max_extent_m, max_export_bytes, occupancy_window
+# --------------------------------------------------------------------------------------
+
+_FAR_JUMP = """
+import dataclasses, resource, sys
+import numpy as np
+import topojax as tj
+from topojax.incremental import IncrementalMapper
+scans = list(tj.read_scans(sys.argv[1]))
+mapper = IncrementalMapper(skeleton_every=0, graph_every=0)
+mapper.add_scans(scans)
+before = mapper.occupancy
+last = scans[-1]
+x, y, yaw = last.pose
+far = dataclasses.replace(last, pose=(x + 100_000.0, y, yaw))
+peak0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+try:
+    mapper.add_scan(far)
+    print("accepted")
+except ValueError as exc:
+    print("refused:", exc)
+after = mapper.occupancy
+peak1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+same = all(
+    np.array_equal(getattr(before, k), getattr(after, k)) for k in ("occupied", "free", "unknown")
+)
+print("same:", same, before.origin == after.origin, mapper.n_scans)
+print("growth_kib:", peak1 - peak0)
+"""
+
+
+def test_far_jump_is_refused_with_bounded_memory():
+    """A scan whose pose is 100 km off (a localisation glitch) is refused before anything
+    changes, naming its index, timestamp and pose; the attempt and the next export keep the
+    process's peak resident memory where it was (a fresh process: a clean peak)."""
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [sys.executable, "-c", _FAR_JUMP, str(INTEL_EXCERPT)],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
+    ).stdout
+    lines = dict(line.split(": ", 1) for line in out.strip().splitlines())
+    refused = lines["refused"]
+    assert refused.startswith("scan 40 (timestamp ")
+    assert "100012.7253" in refused and "max_extent_m=2000" in refused
+    assert "nothing was added" in refused
+    assert lines["same"] == "True True 40"
+    assert int(lines["growth_kib"]) < 200 * 1024
+
+
+def test_max_extent_refuses_points_and_maps_before_any_change():
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, max_extent_m=20.0, **SMALL_KW)
+    mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
+    before = {k: v.copy() for k, v in mapper.tiles.state().items()}
+    with pytest.raises(ValueError, match=r"points_xy: the points \(scan 1\).*max_extent_m=20"):
+        mapper.add_points(np.array([[40.0, 0.0]]))
+    far = Scan.from_arrays(np.ones(3), (30.0, 0.0, 0.0), angle_min=0, angle_increment=0.1)
+    with pytest.raises(ValueError, match=r"^scan 1: the pose \(30.0, 0.0, 0.0\).*max_extent_m"):
+        mapper.add_scan(far)
+    occupied = np.zeros((400, 20), bool)
+    occupied[::50, 5] = True
+    big = OccupancyMap(
+        occupied=occupied,
+        free=~occupied,
+        unknown=np.zeros_like(occupied),
+        resolution_m=0.1,
+        origin=(0.0, 0.0, 0.0),
+    )
+    with pytest.raises(ValueError, match="occupancy: the map.*max_extent_m=20"):
+        mapper.add_map(big)
+    after = mapper.tiles.state()
+    assert before.keys() == after.keys()
+    for k in before:
+        np.testing.assert_array_equal(before[k], after[k], err_msg=k)
+    assert mapper.n_scans == 1
+    # within the extent: accepted
+    mapper.add_points(np.array([[3.0, 1.0]]))
+    assert mapper.n_scans == 2
+
+
+def test_export_budget_refuses_and_names_the_window():
+    scans = list(read_carmen(INTEL_EXCERPT))[:10]
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, max_export_bytes=10_000)
+    mapper.add_scans(scans)
+    for name in ("occupancy", "distance", "sq_distance_px", "obstacles", "skeleton", "graph"):
+        with pytest.raises(
+            ValueError,
+            match=rf"mapper.{name}:.*max_export_bytes=10000.*"
+            r"occupancy_window\(\(x_min, y_min, x_max, y_max\)\)",
+        ):
+            getattr(mapper, name)
+    with pytest.raises(ValueError, match="mapper.to_result:.*max_export_bytes"):
+        mapper.to_result()
+    with pytest.raises(ValueError, match="mapper.route_graph:.*max_export_bytes"):
+        mapper.route_graph()
+    with pytest.raises(ValueError, match="mapper.occupancy_window:.*max_export_bytes"):
+        mapper.occupancy_window((-10.0, -10.0, 10.0, 10.0))
+    small = mapper.occupancy_window((0.0, 0.0, 1.0, 1.0))  # 20 x 20 px: within the budget
+    assert small.shape == (20, 20)
+
+
+def test_occupancy_window_equals_the_crop_of_the_full_export():
+    scans = list(read_carmen(INTEL_EXCERPT))
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0)
+    mapper.add_scans(scans)
+    full = mapper.occupancy
+    res = mapper.resolution_m
+    for bbox in ((-3.02, -7.51, 9.0, 4.49), (-100.0, -3.0, -5.0, 80.0), (1.0, 1.0, 1.07, 1.07)):
+        win = mapper.occupancy_window(bbox)
+        # the pixel holding the window's top-left corner, in both maps
+        r0, c0 = (int(v) for v in mapper.world_to_pixel(bbox[0], bbox[3]))
+        fr0, fc0 = r0 - mapper.pixel_bbox[0], c0 - mapper.pixel_bbox[1]
+        h, w = win.shape
+        assert (h, w) == (
+            math.ceil(-bbox[1] / res) - r0,
+            math.ceil(bbox[2] / res) - c0,
+        )
+        np.testing.assert_allclose(win.pixel_to_world(0, 0), full.pixel_to_world(fr0, fc0))
+        np.testing.assert_allclose(
+            win.pixel_to_world(h - 1, w - 1), full.pixel_to_world(fr0 + h - 1, fc0 + w - 1)
+        )
+        # the overlap equals the crop; the rest is unknown
+        a0, b0 = max(fr0, 0), max(fc0, 0)
+        a1, b1 = min(fr0 + h, full.shape[0]), min(fc0 + w, full.shape[1])
+        for k in ("occupied", "free", "unknown"):
+            expect = np.zeros((h, w), bool) if k != "unknown" else np.ones((h, w), bool)
+            if a1 > a0 and b1 > b0:
+                expect[a0 - fr0 : a1 - fr0, b0 - fc0 : b1 - fc0] = getattr(full, k)[a0:a1, b0:b1]
+            np.testing.assert_array_equal(getattr(win, k), expect, err_msg=k)
+    assert mapper.occupancy_window((-100.0, -3.0, -5.0, 80.0)).occupied.any()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"max_extent_m": 0.0}, ValueError, "max_extent_m: expected a finite number of metres"),
+        ({"max_extent_m": -5}, ValueError, "max_extent_m:.*received -5"),
+        ({"max_extent_m": float("inf")}, ValueError, "max_extent_m"),
+        ({"max_extent_m": "2 km"}, TypeError, "max_extent_m:.*received str"),
+        ({"max_export_bytes": 0}, ValueError, "max_export_bytes: expected a positive int"),
+        ({"max_export_bytes": 1.5e9}, ValueError, "max_export_bytes: expected a positive int"),
+        ({"max_export_bytes": True}, ValueError, "max_export_bytes"),
+    ],
+)
+def test_guard_settings_are_checked(kwargs, error, message):
+    with pytest.raises(error, match=message):
+        IncrementalMapper(**kwargs)
+
+
+def test_occupancy_window_bad_bbox_is_refused():
+    mapper = IncrementalMapper(**SMALL_KW)
+    mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
+    for bbox in ((0, 0, 1), (0, 0, 1, "x"), "abcd", None, (1, 0, 0, 1), (0, 1, 1, 1)):
+        with pytest.raises(ValueError, match="bbox: expected"):
+            mapper.occupancy_window(bbox)
+    with pytest.raises(ValueError, match="bbox: expected .* finite"):
+        mapper.occupancy_window((0, 0, np.inf, 1))
+    with pytest.raises(ValueError, match="bbox: .*beyond"):
+        mapper.occupancy_window((0, 0, 1e300, 1))
+    with pytest.raises(ValueError, match=r"bbox: expected a window of at least 2 x 2.*1 x 1 px"):
+        mapper.occupancy_window((0.01, 0.01, 0.02, 0.02))
+    # an empty mapper: a window is all unknown
+    empty = IncrementalMapper(**SMALL_KW).occupancy_window((0.0, 0.0, 1.0, 2.0))
+    assert empty.shape == (20, 10) and empty.unknown.all()
+
+
+def test_guard_settings_are_saved_and_default_for_old_states(tmp_path):
+    mapper = IncrementalMapper(max_extent_m=123.0, max_export_bytes=4567, **SMALL_KW)
+    mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
+    path = mapper.save(tmp_path / "state.npz")
+    loaded = IncrementalMapper.load(path)
+    assert (loaded.max_extent_m, loaded.max_export_bytes) == (123.0, 4567)
+    # a state saved before these settings existed loads with the defaults
+    with np.load(path, allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files}
+    settings = json.loads(str(data["settings"]))
+    del settings["max_extent_m"], settings["max_export_bytes"]
+    data["settings"] = np.asarray(json.dumps(settings))
+    old = tmp_path / "old.npz"
+    np.savez_compressed(old, **data)
+    loaded = IncrementalMapper.load(old)
+    assert (loaded.max_extent_m, loaded.max_export_bytes) == (2000.0, 2**31)

@@ -258,6 +258,7 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
         )
     # Validate the whole extent (beams and splat windows) before changing anything.
     tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+    check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where)
     rays = mapper.free_space and sensor is not None
     grid, (g0r, g0c) = tiles.slot_grid
     need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
@@ -277,6 +278,27 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
         mapper._n_pending += n_new
         mapper._export_cache.clear()
     return int(n_new)
+
+
+def check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
+    """Raise ValueError if allocating the tiles of global pixels ``lo_r..hi_r`` x
+    ``lo_c..hi_c`` (inclusive) would make a side of the allocated tiles' bounding box
+    longer than ``mapper.max_extent_m``; the message starts with ``where()``."""
+    t = mapper.tile_px
+    r0, c0, r1, c1 = (lo_r // t) * t, (lo_c // t) * t, (hi_r // t + 1) * t, (hi_c // t + 1) * t
+    bbox = mapper._tiles.pixel_bbox
+    if bbox is not None:
+        r0, c0 = min(r0, bbox[0]), min(c0, bbox[1])
+        r1, c1 = max(r1, bbox[2]), max(c1, bbox[3])
+    res = mapper.resolution_m
+    height_m, width_m = (r1 - r0) * res, (c1 - c0) * res
+    if max(height_m, width_m) > mapper.max_extent_m:
+        raise ValueError(
+            f"{where()} would grow the mapped area to {width_m:.6g} m x {height_m:.6g} m "
+            f"(x by y, tile-aligned), beyond max_extent_m={mapper.max_extent_m:g} m; "
+            "nothing was added (a localisation glitch? check the pose, or make the "
+            "mapper with a larger max_extent_m)"
+        )
 
 
 def cast_pending_rays(mapper, *, background: bool = False) -> None:
@@ -413,6 +435,9 @@ def add_occupancy(mapper, occupancy) -> int:
             )
         # the whole map and its splat windows, before anything changes
         mapper._tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+        check_max_extent(
+            mapper, lo_r, hi_r, lo_c, hi_c, lambda: f"occupancy: the map at {occupancy.origin}"
+        )
     er = rows.astype(np.int64) + r0
     ec = cols.astype(np.int64) + c0
     ext = (

@@ -14,6 +14,8 @@ from .._validate import (
     int_at_least,
     integer,
     is_real_number,
+    positive_int,
+    positive_metres,
 )
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..fields.filters import HALO_PX
@@ -147,6 +149,33 @@ def checked_loop_settings(
     )
 
 
+#: Default ``max_extent_m`` of :class:`IncrementalMapper`: the largest side, in metres, of
+#: the mapped area's bounding box (a large building or a campus; a pose kilometres off
+#: is a localisation glitch, not a place).
+DEFAULT_MAX_EXTENT_M = 2000.0
+
+
+#: Default ``max_export_bytes`` of :class:`IncrementalMapper` (2 GiB): the most memory
+#: a dense export (occupancy, fields, graph, result) may allocate.
+DEFAULT_MAX_EXPORT_BYTES = 1 << 31
+
+
+def checked_guard_settings(max_extent_m, max_export_bytes) -> tuple[float, int]:
+    """``max_extent_m`` (finite metres > 0) and ``max_export_bytes`` (an int >= 1) as
+    Python numbers.
+
+    Raises
+    ------
+    TypeError, ValueError
+        If one has the wrong type or range (the message names it, what was expected and
+        what was received).
+    """
+    return (
+        positive_metres("max_extent_m", max_extent_m),
+        positive_int("max_export_bytes", max_export_bytes),
+    )
+
+
 def settings_of(mapper) -> dict:
     """The settings a mapper was made with, JSON-ready (``config`` as a dict)."""
     return {
@@ -162,4 +191,6 @@ def settings_of(mapper) -> dict:
         "max_range_m": mapper.max_range_m,
         "paper_layer_px": mapper.paper_layer_px,
         "max_grid_cells": mapper._tiles.max_grid_cells,
+        "max_extent_m": mapper.max_extent_m,
+        "max_export_bytes": mapper.max_export_bytes,
     }

@@ -266,3 +266,92 @@ def new_tile_storage(tile_px: int, block_px: int, max_grid_cells: int) -> TileMa
         max_grid_cells=max_grid_cells,
         reserve_bytes=INITIAL_STORAGE_BYTES,
     )
+
+
+#: Bytes per bounding-box pixel each dense export may hold at its peak (its outputs,
+#: the layers it reads and the temporaries between them), rounded up.
+EXPORT_BYTES_PER_PX = {
+    "obstacles": 3,
+    "ridges": 2,
+    "lap_abs": 2,
+    "skeleton": 2,
+    "sq_distance_px": 8,
+    "occupancy": 10,
+    "occupancy_window": 10,
+    "distance": 12,
+    "graph": 24,
+    "to_result": 40,
+    "route_graph": 48,
+}
+
+
+def check_export_budget(mapper, what: str, box: tuple[int, int, int, int]) -> None:
+    """Raise ValueError if the export ``what`` (a key of :data:`EXPORT_BYTES_PER_PX`) over
+    the global pixel box ``(row0, col0, row1, col1)`` (end exclusive) would allocate more
+    than ``mapper.max_export_bytes``; the message says how to export a window."""
+    r0, c0, r1, c1 = box
+    h, w = max(r1 - r0, 0), max(c1 - c0, 0)
+    per_px = EXPORT_BYTES_PER_PX[what]
+    need = h * w * per_px
+    if need <= mapper.max_export_bytes:
+        return
+    res = mapper.resolution_m
+    span = ""
+    bbox = mapper._tiles.pixel_bbox
+    if bbox is not None:
+        span = (
+            f" (the mapped area spans x {bbox[1] * res:g}..{bbox[3] * res:g} m, "
+            f"y {-bbox[2] * res:g}..{-bbox[0] * res:g} m)"
+        )
+    raise ValueError(
+        f"mapper.{what}: refused to allocate about {need / 2**20:,.0f} MiB for {h} x {w} "
+        f"px ({w * res:g} m x {h * res:g} m, about {per_px} bytes per pixel), more than "
+        f"max_export_bytes={mapper.max_export_bytes}; export a window instead with "
+        f"mapper.occupancy_window((x_min, y_min, x_max, y_max)) in metres{span}, or make "
+        "the mapper with a larger max_export_bytes"
+    )
+
+
+def window_box(mapper, bbox) -> tuple[int, int, int, int]:
+    """Global pixel box ``(row0, col0, row1, col1)`` (end exclusive) of the pixels whose
+    squares meet the world box ``bbox = (x_min, y_min, x_max, y_max)`` in metres.
+
+    Raises
+    ------
+    ValueError
+        If ``bbox`` is not four finite numbers with ``x_min < x_max`` and
+        ``y_min < y_max``, covers less than 2 x 2 pixels or reaches beyond 2^30 pixels.
+    """
+    try:
+        values = [float(v) for v in bbox]
+        if len(values) != 4 or any(isinstance(v, (bool, np.bool_, str)) for v in bbox):
+            raise TypeError
+    except (TypeError, ValueError):
+        raise ValueError(
+            "bbox: expected (x_min, y_min, x_max, y_max), four numbers in metres, "
+            f"received {bbox!r}"
+        ) from None
+    x0, y0, x1, y1 = values
+    if not all(math.isfinite(v) for v in values) or not (x0 < x1 and y0 < y1):
+        raise ValueError(
+            "bbox: expected (x_min, y_min, x_max, y_max) finite metres with x_min < x_max "
+            f"and y_min < y_max, received {tuple(values)}"
+        )
+    res = mapper.resolution_m
+    box = (
+        math.floor(-y1 / res),
+        math.floor(x0 / res),
+        math.ceil(-y0 / res),
+        math.ceil(x1 / res),
+    )
+    if max(abs(v) for v in box) > _MAX_ABS_PIXEL:
+        raise ValueError(
+            f"bbox: {tuple(values)} reaches beyond {_MAX_ABS_PIXEL} px from the origin at "
+            f"resolution {res} m; expected metres"
+        )
+    if box[2] - box[0] < 2 or box[3] - box[1] < 2:
+        raise ValueError(
+            f"bbox: expected a window of at least 2 x 2 pixels ({2 * res:g} m a side), "
+            f"received {tuple(values)}: {box[2] - box[0]} x {box[3] - box[1]} px"
+        )
+    return box

@@ -38,10 +38,18 @@ from ._ridges import (
     ridge_kernel,
     update_ridges,
 )
-from ._settings import checked_loop_settings, checked_resolution, checked_sizes, merged_config
+from ._settings import (
+    DEFAULT_MAX_EXPORT_BYTES,
+    DEFAULT_MAX_EXTENT_M,
+    checked_guard_settings,
+    checked_loop_settings,
+    checked_resolution,
+    checked_sizes,
+    merged_config,
+)
 from ._skeleton import skeleton_exact, skeleton_paper
 from ._splat import SPLAT_POINTS, SPLAT_ROWS, _splat_blocks, flush_splat
-from ._tiles import _growth_pool, new_tile_storage
+from ._tiles import _growth_pool, check_export_budget, new_tile_storage, window_box
 from .reports import GraphUpdate, ScanReport
 from .state import load_state, save_state
 
@@ -108,6 +116,16 @@ class IncrementalMapper:
         Bound on the bounding box of the map in tiles (see
         :class:`~topojax.fields.tiling.TileManager`); a scan that would exceed it is rejected
         with ValueError before anything changes.
+    max_extent_m : float
+        The longest side, in metres, the bounding box of the allocated tiles may reach
+        (default 2000).  A scan, points or map that would grow it further (a pose far
+        off: a localisation glitch) is refused with ValueError before anything changes,
+        naming the scan's index, timestamp and pose.
+    max_export_bytes : int
+        The most memory, in bytes, a dense export (:attr:`occupancy`, the fields,
+        :attr:`graph`, :meth:`to_result`, :meth:`route_graph`, :meth:`occupancy_window`)
+        may allocate, estimated from its pixels before anything is allocated (default
+        2 GiB); a larger one raises ValueError that says how to export a window.
 
     Notes
     -----
@@ -143,8 +161,13 @@ class IncrementalMapper:
         max_range_m: float | None = None,
         paper_layer_px: int = 2,
         max_grid_cells: int = MAX_GRID_CELLS,
+        max_extent_m: float = DEFAULT_MAX_EXTENT_M,
+        max_export_bytes: int = DEFAULT_MAX_EXPORT_BYTES,
     ) -> None:
         resolution_m = checked_resolution(resolution_m, strategy)
+        self.max_extent_m, self.max_export_bytes = checked_guard_settings(
+            max_extent_m, max_export_bytes
+        )
         config = merged_config(config, distance, ridge, skeleton)
         tile_px, block_px, paper_layer_px = checked_sizes(tile_px, block_px, paper_layer_px)
         (
@@ -264,7 +287,7 @@ class IncrementalMapper:
             If ``scan`` is not a :class:`~topojax.scans.Scan`.
         ValueError
             If the scan's pixels are absurdly far (beyond 2^30 pixels) or the map would
-            exceed ``max_grid_cells``.  Nothing is changed in that case.
+            exceed ``max_grid_cells`` or ``max_extent_m``.  Nothing is changed in that case.
         """
         if not isinstance(scan, Scan):
             raise TypeError(
@@ -293,8 +316,13 @@ class IncrementalMapper:
             sensor,
             n_beams=scan.n_beams,
             t0=t0,
-            where=lambda: f"scan: the pose {scan.pose}",
+            where=lambda: self._scan_name(scan),
         )
+
+    def _scan_name(self, scan: Scan) -> str:
+        """``scan <index> (timestamp <t> s): the pose (x, y, yaw)`` for error messages."""
+        stamp = "" if scan.timestamp is None else f" (timestamp {scan.timestamp:.6f} s)"
+        return f"scan {self._n_scans}{stamp}: the pose {scan.pose}"
 
     @_synchronized
     def add_points(self, points_xy, *, origin_xy=None) -> ScanReport:
@@ -329,7 +357,8 @@ class IncrementalMapper:
         ValueError
             If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers,
             or the points lie absurdly far (beyond 2^30 pixels) or would make the map
-            exceed ``max_grid_cells``.  Nothing is changed in that case.
+            exceed ``max_grid_cells`` or ``max_extent_m``.  Nothing is changed in that
+            case.
         """
         t0 = time.perf_counter()
         er, ec, ext, sensor, n_points = point_pixels(self, points_xy, origin_xy)
@@ -340,7 +369,7 @@ class IncrementalMapper:
             sensor,
             n_beams=n_points,
             t0=t0,
-            where=lambda: "points_xy: the points",
+            where=lambda: f"points_xy: the points (scan {self._n_scans})",
         )
 
     @_synchronized
@@ -372,7 +401,8 @@ class IncrementalMapper:
             If ``occupancy`` is not an :class:`~topojax.OccupancyMap`.
         ValueError
             If its resolution differs from the mapper's, its yaw is not 0, or it would
-            make the map exceed ``max_grid_cells``.  Nothing is changed in that case.
+            make the map exceed ``max_grid_cells`` or ``max_extent_m``.  Nothing is
+            changed in that case.
         """
         return add_occupancy(self, occupancy)
 
@@ -524,17 +554,38 @@ class IncrementalMapper:
         drop_paths(self, ids)
 
     # ------------------------------------------------------------------ exports
-    def _bbox_or_raise(self) -> tuple[int, int, int, int]:
+    def _bbox_or_raise(self, what: str | None = None) -> tuple[int, int, int, int]:
+        """The exported bounding box; with ``what``, the export's memory budget checked
+        (:func:`check_export_budget`) first."""
         bbox = self._tiles.pixel_bbox
         if bbox is None:
             raise ValueError(
                 "the mapper is empty: add scans with valid readings before exporting maps"
             )
+        if what is not None:
+            check_export_budget(self, what, bbox)
         return bbox
 
-    def _dense(self, name: str) -> np.ndarray:
-        r0, c0, r1, c1 = self._bbox_or_raise()
+    def _dense(self, name: str, what: str | None = None) -> np.ndarray:
+        r0, c0, r1, c1 = self._bbox_or_raise(what)
         return self._tiles.read(name, r0, c0, r1 - r0, c1 - c0)
+
+    def _occupancy_over(self, r0: int, c0: int, r1: int, c1: int):
+        """The occupancy map of the global pixel box ``[r0, r1) x [c0, c1)``."""
+        from ..maps import OccupancyMap
+
+        cast_pending_rays(self)
+        h, w = r1 - r0, c1 - c0
+        occupied = self._tiles.read("hits", r0, c0, h, w) > 0
+        free = (self._tiles.read("misses", r0, c0, h, w) > 0) & ~occupied
+        res = self.resolution_m
+        return OccupancyMap(
+            occupied=occupied,
+            free=free,
+            unknown=~(occupied | free),
+            resolution_m=res,
+            origin=(c0 * res, -r1 * res, 0.0),
+        )
 
     @property
     @_synchronized
@@ -542,6 +593,7 @@ class IncrementalMapper:
         """Windowed squared distance to the nearest obstacle, int32 (H, W) px^2 over the
         bounding box (``FAR_SQ`` where no obstacle is within the window).  Always current
         (pending splats are applied first)."""
+        self._bbox_or_raise("sq_distance_px")
         self._flush_splat()
         return self._dense("sq_distance")
 
@@ -550,6 +602,7 @@ class IncrementalMapper:
     def distance(self) -> np.ndarray:
         """Gaussian distance map ``H``, float32 (H, W) in [0, 1], over the bounding box of
         the allocated tiles (``[row, col]``, row 0 = top = largest y).  Always current."""
+        self._bbox_or_raise("distance")
         self._flush_splat()
         if "distance" not in self._export_cache:
             r0, c0, r1, c1 = self._bbox_or_raise()
@@ -576,45 +629,59 @@ class IncrementalMapper:
         """The map as an :class:`~topojax.maps.OccupancyMap` over the bounding box of the
         allocated tiles: hit pixels occupied, pixels crossed by a beam and never hit free,
         the rest unknown.  Its origin puts pixel centres at the lattice world coordinates,
-        so ``build_graph(mapper.occupancy)`` is in the mapper's world frame."""
-        from ..maps import OccupancyMap
+        so ``build_graph(mapper.occupancy)`` is in the mapper's world frame.  Raises
+        ValueError if it would exceed ``max_export_bytes`` (see :meth:`occupancy_window`)."""
+        return self._occupancy_over(*self._bbox_or_raise("occupancy"))
 
-        r0, c0, r1, c1 = self._bbox_or_raise()
-        cast_pending_rays(self)
-        occupied = self._dense("hits") > 0
-        free = (self._dense("misses") > 0) & ~occupied
-        res = self.resolution_m
-        return OccupancyMap(
-            occupied=occupied,
-            free=free,
-            unknown=~(occupied | free),
-            resolution_m=res,
-            origin=(c0 * res, -r1 * res, 0.0),
-        )
+    @_synchronized
+    def occupancy_window(self, bbox):
+        """The occupancy map of the pixels whose squares meet ``bbox`` (those outside the
+        allocated tiles unknown), e.g. of a map too large to export whole: on the pixels
+        it shares with :attr:`occupancy` it equals it, ``pixel_to_world`` included.
+
+        Parameters
+        ----------
+        bbox : (x_min, y_min, x_max, y_max)
+            The window in the mapper's world frame, metres.
+
+        Returns
+        -------
+        OccupancyMap
+
+        Raises
+        ------
+        ValueError
+            If ``bbox`` is not four finite numbers with ``x_min < x_max`` and
+            ``y_min < y_max``, covers less than 2 x 2 pixels, or the window would exceed
+            ``max_export_bytes``.
+        """
+        box = window_box(self, bbox)
+        check_export_budget(self, "occupancy_window", box)
+        return self._occupancy_over(*box)
 
     @property
     @_synchronized
     def obstacles(self) -> np.ndarray:
         """Obstacle mask (pixels ever hit), bool (H, W) over the bounding box."""
-        return self._dense("hits") > 0
+        return self._dense("hits", "obstacles") > 0
 
     @property
     @_synchronized
     def ridges(self) -> np.ndarray:
         """Ridge map as of the last skeleton update, bool (H, W) over the bounding box."""
-        return self._dense("ridge")
+        return self._dense("ridge", "ridges")
 
     @property
     @_synchronized
     def lap_abs(self) -> np.ndarray:
         """``convertScaleAbs(Laplacian(255 H))`` as of the last skeleton update, uint8."""
-        return self._dense("lap_abs")
+        return self._dense("lap_abs", "lap_abs")
 
     @property
     @_synchronized
     def skeleton(self) -> np.ndarray:
         """Skeleton as of the last skeleton update, bool (H, W) over the bounding box."""
-        return self._dense("skeleton")
+        return self._dense("skeleton", "skeleton")
 
     @property
     @_synchronized
@@ -629,6 +696,8 @@ class IncrementalMapper:
         path runs from ``u`` to ``v``.  Clearances use the current distance map.
         """
         if "graph" not in self._export_cache:
+            if self._tiles.pixel_bbox is not None:
+                self._bbox_or_raise("graph")
             self._export_cache["graph"] = export_graph(self)
         return self._export_cache["graph"].copy()
 
@@ -659,6 +728,7 @@ class IncrementalMapper:
         """
         from ..routegraph import route_graph
 
+        self._bbox_or_raise("route_graph")
         return route_graph(self.occupancy, robot_radius_m=robot_radius_m, config=config)
 
     @_synchronized
@@ -678,6 +748,7 @@ class IncrementalMapper:
         """
         from ..pipeline import TopologyResult
 
+        self._bbox_or_raise("to_result")
         if update:
             self.update_graph()
         return TopologyResult(
