@@ -269,19 +269,20 @@ def new_tile_storage(tile_px: int, block_px: int, max_grid_cells: int) -> TileMa
 
 
 #: Bytes per bounding-box pixel each dense export may hold at its peak (its outputs,
-#: the layers it reads and the temporaries between them), rounded up.
+#: the layers it reads and the temporaries between them), as traced on a replay's
+#: exports with some margin (:func:`check_export_budget`).
 EXPORT_BYTES_PER_PX = {
-    "obstacles": 3,
+    "obstacles": 4,
     "ridges": 2,
     "lap_abs": 2,
     "skeleton": 2,
     "sq_distance_px": 8,
     "occupancy": 10,
     "occupancy_window": 10,
-    "distance": 12,
+    "distance": 16,
     "graph": 24,
     "to_result": 40,
-    "route_graph": 48,
+    "route_graph": 64,
 }
 
 
