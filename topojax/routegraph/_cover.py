@@ -253,7 +253,8 @@ def add_shortcuts(
 ) -> int:
     """Greedy spanner: for vertex pairs at most ``radius_px`` apart, shortest first, add a
     straight feasible edge when the graph route between them is longer than ``stretch``
-    times the straight line and than the straight line plus ``gain_px``; with
+    times the straight line and than the straight line plus ``gain_px``, and the edge
+    comes no closer than 2 pixels to another edge away from its ends (no crossing); with
     ``from_dead_ends`` False, only between vertices of two or more edges.  Returns the
     number of edges added."""
     min_deg = 1 if from_dead_ends else 2
@@ -301,6 +302,9 @@ def add_shortcuts(
     cand = np.flatnonzero(graph_d > need)
     cand = cand[np.argsort(straight[cand], kind="stable")]
     nbr = work.neighbours()
+    # shortcuts cross no edge: a crossing without a vertex would let a query point snap
+    # onto a long edge that leads away from its goal (and doubles the edges in open rooms)
+    occupied = _grow(graph_raster(work, feasible.shape))
     # A route from u shorter than ``need`` that uses a new edge reaches one of its ends
     # within ``need`` in a straight line: without such an end nearby, the distance
     # computed above still holds and the check on the grown graph is skipped.
@@ -316,6 +320,10 @@ def add_shortcuts(
         seg = segment_ok(work.pixel[u], work.pixel[v], feasible)
         if seg is None:
             continue
+        inner = _away_from_ends(seg, work.members[u], work.members[v])
+        if occupied[inner[:, 0], inner[:, 1]].any():
+            continue
+        _mark(occupied, seg)
         e = work.add_edge(u, v, seg)
         w = work.length[e]
         nbr.setdefault(u, []).append((v, w))
@@ -336,3 +344,24 @@ def _end_within(near: dict, cell: float, p: np.ndarray, dist: float) -> bool:
                 if (q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2 <= dist * dist:
                     return True
     return False
+
+
+def _grow(mask: np.ndarray) -> np.ndarray:
+    """``mask`` (bool (H, W)) dilated by one pixel (3 x 3)."""
+    return cv2.dilate(mask.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+
+
+def _mark(mask: np.ndarray, seg: np.ndarray) -> None:
+    """Set the pixels of ``seg`` (K, 2) and their 8 neighbours in ``mask``."""
+    h, w = mask.shape
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            mask[np.clip(seg[:, 0] + dr, 0, h - 1), np.clip(seg[:, 1] + dc, 0, w - 1)] = True
+
+
+def _away_from_ends(seg: np.ndarray, mu: np.ndarray, mv: np.ndarray) -> np.ndarray:
+    """Pixels of ``seg`` more than 2 pixels (Chebyshev) from its ends and from the pixels
+    ``mu``, ``mv`` (M, 2) of its end vertices: where it must not touch another edge."""
+    ends = np.concatenate([mu, mv, seg[:1], seg[-1:]]).astype(np.int64)
+    d = np.abs(seg[:, None, :].astype(np.int64) - ends[None, :, :]).max(axis=2).min(axis=1)
+    return seg[d > 2]

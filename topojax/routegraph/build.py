@@ -50,8 +50,9 @@ class RouteGraphConfig:
         than this times their distance (and the straight line is feasible).
     shortcut_radius_m : float, default 5.0
         Only vertices at most this far apart are considered for shortcuts (0: none).
-    shortcut_gain_m : float, default 1.0
-        ... and only when the shortcut saves at least this much route length.
+    shortcut_gain_m : float, default 0.3
+        ... and only when the shortcut saves at least this much route length.  Shortcuts
+        never cross an existing edge, so the graph stays plane where it was.
     shortcuts_from_dead_ends : bool, default True
         Whether shortcuts may start at dead ends (coverage waypoints at the rim of open
         space); False gives markedly fewer edges in rooms and halls, and longer routes.
@@ -70,7 +71,7 @@ class RouteGraphConfig:
     spur_clearance_factor: float = 1.5
     shortcut_stretch: float = 1.2
     shortcut_radius_m: float = 5.0
-    shortcut_gain_m: float = 1.0
+    shortcut_gain_m: float = 0.3
     shortcuts_from_dead_ends: bool = True
     waypoint_tolerance_m: float = 0.1
     min_region_m2: float = 1.0
