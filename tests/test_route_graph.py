@@ -255,7 +255,8 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
 
 
 def _crossings(g: nx.MultiGraph) -> int:
-    """Pixels on two different edges' paths, 3 pixels or more from every vertex."""
+    """Pixels on two different edges' paths farther than the robot radius from every
+    vertex."""
     seen: dict[tuple[int, int], int] = {}
     shared = set()
     for k, (_, _, path) in enumerate(g.edges(data="path")):
@@ -263,7 +264,7 @@ def _crossings(g: nx.MultiGraph) -> int:
             if seen.setdefault(p, k) != k:
                 shared.add(p)
     vertices = np.concatenate([np.asarray(d, np.int64) for _, d in g.nodes(data="pixels")])
-    return sum(int(np.abs(vertices - np.array(p)).max(axis=1).min() > 2) for p in shared)
+    return sum(int(np.abs(vertices - np.array(p)).max(axis=1).min() > R / RES) for p in shared)
 
 
 @pytest.mark.parametrize("size_m", [(12, 20), (20, 20)])

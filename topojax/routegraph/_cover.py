@@ -250,11 +250,14 @@ def add_shortcuts(
     stretch: float,
     gain_px: float,
     from_dead_ends: bool = True,
+    end_px: float = 2.0,
+    min_loop_px: float = 0.0,
 ) -> int:
     """Greedy spanner: for vertex pairs at most ``radius_px`` apart, shortest first, add a
     straight feasible edge when the graph route between them is longer than ``stretch``
     times the straight line and than the straight line plus ``gain_px``, and the edge
-    comes no closer than 2 pixels to another edge away from its ends (no crossing); with
+    touches no other edge farther than ``end_px`` from its ends (no crossing) and closes
+    no loop shorter than ``min_loop_px`` (graph route plus straight line); with
     ``from_dead_ends`` False, only between vertices of two or more edges.  Returns the
     number of edges added."""
     min_deg = 1 if from_dead_ends else 2
@@ -299,7 +302,7 @@ def add_shortcuts(
         sel = np.isin(pairs[:, 0], src)
         graph_d[sel] = d[row_of[pairs[sel, 0]], pairs[sel, 1]]
     need = np.maximum(stretch * straight, straight + gain_px)
-    cand = np.flatnonzero(graph_d > need)
+    cand = np.flatnonzero((graph_d > need) & (graph_d + straight >= min_loop_px))
     cand = cand[np.argsort(straight[cand], kind="stable")]
     nbr = work.neighbours()
     # shortcuts cross no edge: a crossing without a vertex would let a query point snap
@@ -320,7 +323,7 @@ def add_shortcuts(
         seg = segment_ok(work.pixel[u], work.pixel[v], feasible)
         if seg is None:
             continue
-        inner = _away_from_ends(seg, work.members[u], work.members[v])
+        inner = _away_from_ends(seg, work.members[u], work.members[v], end_px)
         if occupied[inner[:, 0], inner[:, 1]].any():
             continue
         _mark(occupied, seg)
@@ -359,9 +362,10 @@ def _mark(mask: np.ndarray, seg: np.ndarray) -> None:
             mask[np.clip(seg[:, 0] + dr, 0, h - 1), np.clip(seg[:, 1] + dc, 0, w - 1)] = True
 
 
-def _away_from_ends(seg: np.ndarray, mu: np.ndarray, mv: np.ndarray) -> np.ndarray:
-    """Pixels of ``seg`` more than 2 pixels (Chebyshev) from its ends and from the pixels
-    ``mu``, ``mv`` (M, 2) of its end vertices: where it must not touch another edge."""
+def _away_from_ends(seg: np.ndarray, mu: np.ndarray, mv: np.ndarray, end_px: float):
+    """Pixels of ``seg`` more than ``end_px`` (Chebyshev) from its ends and from the
+    pixels ``mu``, ``mv`` (M, 2) of its end vertices: where it must not touch another
+    edge."""
     ends = np.concatenate([mu, mv, seg[:1], seg[-1:]]).astype(np.int64)
     d = np.abs(seg[:, None, :].astype(np.int64) - ends[None, :, :]).max(axis=2).min(axis=1)
-    return seg[d > 2]
+    return seg[d > end_px]
