@@ -268,9 +268,10 @@ def _crossings(g: nx.MultiGraph) -> int:
 
 
 @pytest.mark.parametrize("size_m", [(12, 20), (20, 20)])
-def test_shortcuts_cross_no_edge_in_an_open_hall(size_m):
+def test_shortcuts_cross_no_edge_and_close_no_short_loop_in_an_open_hall(size_m):
     occ = _map(_room(*size_m))
     g = route_graph(occ, robot_radius_m=R)
     assert _crossings(g) == 0
+    assert tj.evaluate_route_graph(g, occ, robot_radius_m=R, n_pairs=20).short_loops == 0
     _assert_safe(g, occ)
     assert nx.number_connected_components(g) == 1

@@ -320,6 +320,9 @@ def add_shortcuts(
             _bounded_distance(nbr, u, v, need[k]) < math.inf
         ):
             continue
+        short = min_loop_px - straight[k]
+        if short > 0 and _bounded_distance(nbr, u, v, short) < math.inf:
+            continue  # the loop it would close, through earlier shortcuts, is too short
         seg = segment_ok(work.pixel[u], work.pixel[v], feasible)
         if seg is None:
             continue
