@@ -252,3 +252,26 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     assert g.graph["robot_radius_m"] == 0.25 and g.number_of_edges() > 0
     assert "route_graph.geojson" in capsys.readouterr().out
     assert main([*argv, "--route-graph", "-1"]) == 2  # refused before the replay
+
+
+def _crossings(g: nx.MultiGraph) -> int:
+    """Pixels on two different edges' paths farther than the robot radius from every
+    vertex."""
+    seen: dict[tuple[int, int], int] = {}
+    shared = set()
+    for k, (_, _, path) in enumerate(g.edges(data="path")):
+        for p in map(tuple, np.asarray(path).tolist()):
+            if seen.setdefault(p, k) != k:
+                shared.add(p)
+    vertices = np.concatenate([np.asarray(d, np.int64) for _, d in g.nodes(data="pixels")])
+    return sum(int(np.abs(vertices - np.array(p)).max(axis=1).min() > R / RES) for p in shared)
+
+
+@pytest.mark.parametrize("size_m", [(12, 20), (20, 20)])
+def test_shortcuts_cross_no_edge_and_close_no_short_loop_in_an_open_hall(size_m):
+    occ = _map(_room(*size_m))
+    g = route_graph(occ, robot_radius_m=R)
+    assert _crossings(g) == 0
+    assert tj.evaluate_route_graph(g, occ, robot_radius_m=R, n_pairs=20).short_loops == 0
+    _assert_safe(g, occ)
+    assert nx.number_connected_components(g) == 1

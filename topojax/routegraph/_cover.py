@@ -250,10 +250,14 @@ def add_shortcuts(
     stretch: float,
     gain_px: float,
     from_dead_ends: bool = True,
+    end_px: float = 2.0,
+    min_loop_px: float = 0.0,
 ) -> int:
     """Greedy spanner: for vertex pairs at most ``radius_px`` apart, shortest first, add a
     straight feasible edge when the graph route between them is longer than ``stretch``
-    times the straight line and than the straight line plus ``gain_px``; with
+    times the straight line and than the straight line plus ``gain_px``, and the edge
+    touches no other edge farther than ``end_px`` from its ends (no crossing) and closes
+    no loop shorter than ``min_loop_px`` (graph route plus straight line); with
     ``from_dead_ends`` False, only between vertices of two or more edges.  Returns the
     number of edges added."""
     min_deg = 1 if from_dead_ends else 2
@@ -298,9 +302,12 @@ def add_shortcuts(
         sel = np.isin(pairs[:, 0], src)
         graph_d[sel] = d[row_of[pairs[sel, 0]], pairs[sel, 1]]
     need = np.maximum(stretch * straight, straight + gain_px)
-    cand = np.flatnonzero(graph_d > need)
+    cand = np.flatnonzero((graph_d > need) & (graph_d + straight >= min_loop_px))
     cand = cand[np.argsort(straight[cand], kind="stable")]
     nbr = work.neighbours()
+    # shortcuts cross no edge: a crossing without a vertex would let a query point snap
+    # onto a long edge that leads away from its goal (and doubles the edges in open rooms)
+    occupied = _grow(graph_raster(work, feasible.shape))
     # A route from u shorter than ``need`` that uses a new edge reaches one of its ends
     # within ``need`` in a straight line: without such an end nearby, the distance
     # computed above still holds and the check on the grown graph is skipped.
@@ -313,9 +320,16 @@ def add_shortcuts(
             _bounded_distance(nbr, u, v, need[k]) < math.inf
         ):
             continue
+        short = min_loop_px - straight[k]
+        if short > 0 and _bounded_distance(nbr, u, v, short) < math.inf:
+            continue  # the loop it would close, through earlier shortcuts, is too short
         seg = segment_ok(work.pixel[u], work.pixel[v], feasible)
         if seg is None:
             continue
+        inner = _away_from_ends(seg, work.members[u], work.members[v], end_px)
+        if occupied[inner[:, 0], inner[:, 1]].any():
+            continue
+        _mark(occupied, seg)
         e = work.add_edge(u, v, seg)
         w = work.length[e]
         nbr.setdefault(u, []).append((v, w))
@@ -336,3 +350,25 @@ def _end_within(near: dict, cell: float, p: np.ndarray, dist: float) -> bool:
                 if (q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2 <= dist * dist:
                     return True
     return False
+
+
+def _grow(mask: np.ndarray) -> np.ndarray:
+    """``mask`` (bool (H, W)) dilated by one pixel (3 x 3)."""
+    return cv2.dilate(mask.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+
+
+def _mark(mask: np.ndarray, seg: np.ndarray) -> None:
+    """Set the pixels of ``seg`` (K, 2) and their 8 neighbours in ``mask``."""
+    h, w = mask.shape
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            mask[np.clip(seg[:, 0] + dr, 0, h - 1), np.clip(seg[:, 1] + dc, 0, w - 1)] = True
+
+
+def _away_from_ends(seg: np.ndarray, mu: np.ndarray, mv: np.ndarray, end_px: float):
+    """Pixels of ``seg`` more than ``end_px`` (Chebyshev) from its ends and from the
+    pixels ``mu``, ``mv`` (M, 2) of its end vertices: where it must not touch another
+    edge."""
+    ends = np.concatenate([mu, mv, seg[:1], seg[-1:]]).astype(np.int64)
+    d = np.abs(seg[:, None, :].astype(np.int64) - ends[None, :, :]).max(axis=2).min(axis=1)
+    return seg[d > end_px]

@@ -35,7 +35,8 @@ class RouteGraphConfig:
         Coverage: every feasible pixel lies within this distance of the graph (through the
         feasible space); waypoints are added where the medial axis does not reach.
     loop_m : float, default 2.0
-        Loops shorter than this always collapse to one corridor.
+        Loops shorter than this always collapse to one corridor, and no shortcut closes a
+        loop shorter than twice this.
     loop_clearance_factor : float, default 8.0
         A loop shorter than this times its mean clearance also collapses.
     small_obstacle_m : float, default 1.0
@@ -50,8 +51,10 @@ class RouteGraphConfig:
         than this times their distance (and the straight line is feasible).
     shortcut_radius_m : float, default 5.0
         Only vertices at most this far apart are considered for shortcuts (0: none).
-    shortcut_gain_m : float, default 1.0
-        ... and only when the shortcut saves at least this much route length.
+    shortcut_gain_m : float, default 0.3
+        ... and only when the shortcut saves at least this much route length.  Shortcuts
+        cross no edge: farther than the robot radius from its ends a shortcut touches no
+        other edge.
     shortcuts_from_dead_ends : bool, default True
         Whether shortcuts may start at dead ends (coverage waypoints at the rim of open
         space); False gives markedly fewer edges in rooms and halls, and longer routes.
@@ -70,7 +73,7 @@ class RouteGraphConfig:
     spur_clearance_factor: float = 1.5
     shortcut_stretch: float = 1.2
     shortcut_radius_m: float = 5.0
-    shortcut_gain_m: float = 1.0
+    shortcut_gain_m: float = 0.3
     shortcuts_from_dead_ends: bool = True
     waypoint_tolerance_m: float = 0.1
     min_region_m2: float = 1.0
@@ -153,6 +156,8 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         cfg.shortcut_stretch,
         cfg.shortcut_gain_m / res,
         cfg.shortcuts_from_dead_ends,
+        max(2.0, cfg.robot_radius_m / res),
+        2.0 * cfg.loop_m / res,
     )
     work.contract_all()
     t4 = time.perf_counter()
