@@ -291,12 +291,24 @@ def test_existing_file(tmp_path):
         v.existing_file("path", tmp_path)
 
 
+@pytest.mark.parametrize("value", [0, 0.0, 2.5, np.float32(1.5), np.int64(3)])
+def test_nonnegative_quantity_accepts(value):
+    got = v.nonnegative_quantity("area_m2", value, "square metres")
+    assert got == float(value) and type(got) is float
+
+
+@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf"), True, "1", None])
+def test_nonnegative_quantity_refuses_with_value_error_naming_unit(value):
+    with pytest.raises(ValueError, match=r"area_m2: expected a finite number of square metres"):
+        v.nonnegative_quantity("area_m2", value, "square metres")
+
+
 def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "choice", "existing_file", "finite_pair",
         "finite_positive", "finite_real", "flag", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "metres", "metres_per_pixel", "nonnegative_metres",
-        "occupancy_thresholds", "one_of", "pose", "positive_int", "positive_metres",
+        "nonnegative_quantity", "occupancy_thresholds", "one_of", "pose", "positive_int", "positive_metres",
         "real_number",
     }  # fmt: skip
     assert set(v.__all__) == tested

@@ -31,6 +31,7 @@ __all__ = [
     "metres",
     "metres_per_pixel",
     "nonnegative_metres",
+    "nonnegative_quantity",
     "occupancy_thresholds",
     "one_of",
     "pose",
@@ -112,6 +113,14 @@ def positive_metres(name: str, value: object) -> float:
     """:func:`metres` ``> 0`` (the tolerances of the Nav2 export and of
     :meth:`topojax.Route.waypoints`, the batch's ``sigma_m``)."""
     return metres(name, value, allow_zero=False)
+
+
+def nonnegative_quantity(name: str, value: Any, unit: str) -> float:
+    """``value`` as a float after checking it is a finite real number ``>= 0`` (Python or
+    NumPy, not bool); a ``ValueError`` naming ``name`` and ``unit`` otherwise."""
+    if not is_real_number(value) or not math.isfinite(float(value)) or float(value) < 0:
+        raise ValueError(f"{name}: expected a finite number of {unit} >= 0, received {value!r}")
+    return float(value)
 
 
 def is_real_number(value: Any) -> bool:

@@ -381,7 +381,7 @@ def _merged_vertices(
     order), their members as ``(offsets (N + 1,), pixels (M, 2) int64)`` in raster order,
     and the new vertex number of every old vertex.
     """
-    # imported here: scipy.sparse is a tenth of a second of `import topojax`
+    # imported here: scipy.sparse is slow to import and only merging needs it
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import math
-import numbers
 import time
 from dataclasses import asdict, dataclass
 
@@ -14,7 +13,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .._validate import integer, one_of, positive_int, positive_metres
+from .._validate import integer, nonnegative_quantity, one_of, positive_int, positive_metres
 from ._eval_geometry import GraphGeometry, graph_geometry, pixel_lookup
 from ._eval_loops import short_dead_ends, short_loops
 from ._eval_routes import (
@@ -94,28 +93,13 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
     snap_m = positive_metres("snap_m", snap_m)
     n_pairs = positive_int("n_pairs", n_pairs)
     seed = integer("seed", seed)
-    if (
-        isinstance(min_region_m2, bool)
-        or not isinstance(min_region_m2, numbers.Real)
-        or not math.isfinite(min_region_m2)
-        or min_region_m2 < 0
-    ):
-        raise ValueError(
-            f"min_region_m2: expected a finite area in square metres >= 0, received "
-            f"{min_region_m2!r}"
-        )
-    if generation_s is not None and (
-        isinstance(generation_s, bool)
-        or not isinstance(generation_s, numbers.Real)
-        or not math.isfinite(generation_s)
-        or generation_s < 0
-    ):
-        raise ValueError(
-            f"generation_s: expected None or a finite number of seconds >= 0, received "
-            f"{generation_s!r}"
-        )
-    gen = None if generation_s is None else float(generation_s)
-    return radius, snap_m, n_pairs, seed, float(min_region_m2), gen
+    min_region_m2 = nonnegative_quantity("min_region_m2", min_region_m2, "square metres")
+    gen = (
+        None
+        if generation_s is None
+        else nonnegative_quantity("generation_s", generation_s, "seconds")
+    )
+    return radius, snap_m, n_pairs, seed, min_region_m2, gen
 
 
 def _stretch(route_px: np.ndarray, geo_px: np.ndarray) -> tuple[float, float, float]:
