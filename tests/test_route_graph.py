@@ -275,3 +275,16 @@ def test_shortcuts_cross_no_edge_and_close_no_short_loop_in_an_open_hall(size_m)
     assert tj.evaluate_route_graph(g, occ, robot_radius_m=R, n_pairs=20).short_loops == 0
     _assert_safe(g, occ)
     assert nx.number_connected_components(g) == 1
+
+
+@pytest.mark.parametrize("snap_px", [4.0, 7.5, 20.0, 21.0])
+def test_coverage_dilation_never_reaches_past_the_snap_distance(snap_px):
+    from topojax.routegraph._cover import covered
+
+    raster = np.zeros((101, 101), bool)
+    raster[50, 50] = True
+    feasible = np.ones_like(raster)
+    reach = covered(raster, feasible, snap_px)
+    rows, cols = np.nonzero(reach)
+    assert np.hypot(rows - 50, cols - 50).max() <= snap_px + 1e-9
+    assert reach[50, 50 + int(snap_px) - 1]  # and it does reach most of the way

@@ -113,7 +113,14 @@ def _cmd_route_graph(args) -> int:
     if args.evaluate:
         from ..routegraph import evaluate_route_graph
 
-        report = evaluate_route_graph(graph, occupancy, radius, generation_s=seconds)
+        report = evaluate_route_graph(
+            graph,
+            occupancy,
+            radius,
+            snap_m=config.snap_m,
+            min_region_m2=config.min_region_m2,
+            generation_s=seconds,
+        )
         path = out / f"{stem}_route_report.json"
         path.write_text(json.dumps(report.as_dict(), indent=1))
         written.append(path)

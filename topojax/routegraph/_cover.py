@@ -30,15 +30,25 @@ def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
 
 
 def covered(raster: np.ndarray, feasible: np.ndarray, snap_px: float) -> np.ndarray:
-    """Feasible pixels within about ``snap_px`` of the graph through the feasible space
-    (a geodesic dilation of the graph's pixels in steps of a small disc)."""
+    """Feasible pixels within ``snap_px`` of the graph through the feasible space (a
+    geodesic dilation of the graph's pixels in steps of a small disc, cut to the Euclidean
+    ball of radius ``snap_px`` around the graph)."""
     step = int(max(1, min(3, round(snap_px / 4))))
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * step + 1, 2 * step + 1))
     out = (raster & feasible).view(np.uint8)
     feas = feasible.view(np.uint8)
-    for _ in range(int(math.ceil(snap_px / step))):
+    n_steps = int(snap_px // step)
+    for _ in range(n_steps):
         out = cv2.dilate(out, kernel) & feas
-    return out.view(bool)
+    rest = int(math.ceil(snap_px - n_steps * step))
+    if rest >= 1:
+        last = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * rest + 1, 2 * rest + 1))
+        out = cv2.dilate(out, last) & feas
+    # Chained digital discs reach a little past their radii; no pixel farther than snap_px
+    # in a straight line can be within snap_px through the feasible space.
+    far = (~raster).view(np.uint8)
+    within = cv2.distanceTransform(far, cv2.DIST_L2, cv2.DIST_MASK_PRECISE) <= snap_px
+    return out.view(bool) & within
 
 
 def segment_ok(a, b, feasible: np.ndarray) -> np.ndarray | None:
@@ -148,11 +158,12 @@ def add_coverage(
     shape = feasible.shape
     spacing = 1.3 * snap_px
     for k in range(rounds + 1):
-        uncovered = feasible & ~covered(graph_raster(work, shape), feasible, snap_px)
+        raster = graph_raster(work, shape)
+        uncovered = feasible & ~covered(raster, feasible, snap_px)
         if k == rounds or not uncovered.any():
-            return uncovered
+            break
         pts = _waypoint_candidates(uncovered, spacing)
-        _connect_waypoints(work, pts, graph_raster(work, shape), feasible, spacing)
+        _connect_waypoints(work, pts, raster, feasible, spacing)
         spacing *= 0.7  # leftovers lie between earlier waypoints
     return uncovered
 

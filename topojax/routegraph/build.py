@@ -181,7 +181,6 @@ def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:
     """Feasible pixels of the regions of at least ``min_region_m2``."""
     keep = np.zeros(space.area_m2.size, bool)
     keep[space.regions_at_least(min_region_m2)] = True
-    keep[0] = False
     return keep[space.labels]
 
 

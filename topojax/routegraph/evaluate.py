@@ -239,7 +239,6 @@ def evaluate_route_graph(
     snap_px = snap_m / res
     geo = graph_geometry(graph, occupancy, coordinates)
     regions = fs.regions_at_least(min_area)
-    regions = regions[regions > 0]
     pieces = _pieces(geo, fs.feasible)
     length_px, mid_ok, _, _ = pieces
     total = float(length_px.sum())

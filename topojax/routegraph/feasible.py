@@ -53,8 +53,8 @@ class FeasibleSpace:
         return int(self.area_m2.size - 1)
 
     def regions_at_least(self, min_area_m2: float) -> np.ndarray:
-        """Ids (int array, ascending) of the regions of at least ``min_area_m2``."""
-        return np.flatnonzero(self.area_m2 >= min_area_m2).astype(np.int32)
+        """Ids (int array, ascending, from 1) of the regions of at least ``min_area_m2``."""
+        return (np.flatnonzero(self.area_m2[1:] >= min_area_m2) + 1).astype(np.int32)
 
 
 def clearance_map_m(free: np.ndarray, resolution_m: float) -> np.ndarray:
