@@ -283,7 +283,7 @@ def _skeleton_store(
     shape = (int(shape[0]), int(shape[1]))
     attrs = {"resolution_m": res, "shape": shape, "merge_junction_clusters": merge}
     if flat.size == 0:
-        return _empty_store(attrs)
+        return GraphStore.empty(attrs)
 
     # Pixels are numbered 0..n-1 in raster order (their index in ``flat`` and ``keys``);
     # vertices and paths refer to them by that number until the end.
@@ -333,35 +333,14 @@ def _skeleton_store(
         edge_u=u_id[order],
         edge_v=v_id[order],
         path_offsets=np.concatenate([[0], np.cumsum(lens[order])]),
-        path_pixels=path_rc[rows],
-        path_world=world[:n_path][rows],
+        path_pixels=np.take(path_rc, rows, axis=0),  # a row gather; fancy indexing is slower
+        path_world=np.take(world[:n_path], rows, axis=0),
         edge_length_m=length_m[order],
         edge_min_clearance_m=min_c[order],
         edge_mean_clearance_m=mean_c[order],
         attrs=attrs,
         member_offsets=None if members is None else members[0],
         member_pixels=None if members is None else members[1],
-    )
-
-
-def _empty_store(attrs: dict) -> GraphStore:
-    """A store without vertices or edges."""
-    none2 = np.zeros((0, 2), np.int64)
-    none = np.zeros(0, np.int64)
-    return GraphStore(
-        node_pixel=none2,
-        node_kind=none,
-        node_world=none2,
-        node_clearance_m=none,
-        edge_u=none,
-        edge_v=none,
-        path_offsets=np.zeros(1, np.int64),
-        path_pixels=none2,
-        path_world=none2,
-        edge_length_m=none,
-        edge_min_clearance_m=none,
-        edge_mean_clearance_m=none,
-        attrs=attrs,
     )
 
 

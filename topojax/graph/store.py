@@ -274,9 +274,10 @@ class GraphStore:
             self._put("node_world", world)
             clear = _array("node_clearance_m", self.node_clearance_m, np.float64, "iuf", (n,))
             self._put("node_clearance_m", clear)
-        ids = np.arange(n) if self.node_ids is None else self.node_ids
+        given_ids = self.node_ids is not None  # the default 0..n-1 is distinct
+        ids = self.node_ids if given_ids else np.arange(n)
         self._put("node_ids", _array("node_ids", ids, np.int64, "iu", (n,)))
-        if np.unique(self.node_ids).shape[0] != n:
+        if given_ids and np.unique(self.node_ids).shape[0] != n:
             raise ValueError("node_ids: expected distinct ids, received repeated ones")
         self._check_edges(n)
         self._check_members(n)
@@ -303,8 +304,10 @@ class GraphStore:
             self._put("path_world", world)
             for name in ("edge_length_m", "edge_min_clearance_m", "edge_mean_clearance_m"):
                 self._put(name, _array(name, getattr(self, name), np.float64, "iuf", (e,)))
-        keys = _pair_keys(self.edge_u, self.edge_v) if self.edge_keys is None else self.edge_keys
-        self._put("edge_keys", _array("edge_keys", keys, np.int64, "iu", (e,)))
+        if self.edge_keys is None:  # numbered as networkx numbers them: distinct per pair
+            self._put("edge_keys", _readonly(_pair_keys(self.edge_u, self.edge_v)))
+            return
+        self._put("edge_keys", _array("edge_keys", self.edge_keys, np.int64, "iu", (e,)))
         a = np.minimum(self.edge_u, self.edge_v)
         b = np.maximum(self.edge_u, self.edge_v)
         order = np.lexsort((self.edge_keys, b, a))
