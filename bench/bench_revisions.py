@@ -108,8 +108,7 @@ def run_worker(checkout: Path, args: argparse.Namespace) -> dict:
         "--repeats",
         str(args.repeats),
     ]
-    if args.log:
-        cmd += ["--log", str(args.log), "--max-scans", str(args.max_scans)]
+    cmd += ["--log", str(args.log) if args.log else "", "--max-scans", str(args.max_scans)]
     env = dict(os.environ, PYTHONPATH=str(checkout))
     proc = subprocess.run(
         cmd, capture_output=True, text=True, env=env, cwd=str(checkout), timeout=3600
