@@ -284,3 +284,15 @@ def test_geodesic_matches_skimage_mcp_geometric():
         want[~mask[targets[:, 0], targets[:, 1]]] = np.inf
         assert np.array_equal(np.isfinite(got), np.isfinite(want))
         np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=1e-12)
+
+
+def test_waypoints_are_the_edge_geometry_when_present():
+    """A robot follows an edge's ``waypoints``: they set its length, not ``world``."""
+    m = _map(np.zeros((60, 60), bool))
+    g = _graph(m, [[(30, 10), (10, 30), (30, 50)]])  # a detour through row 10
+    plain = evaluate_route_graph(g, m, RADIUS, n_pairs=5)
+    data = next(iter(g.edges(data=True)))[2]
+    data["waypoints"] = np.stack(m.pixel_to_world([30, 30], [10, 50]), axis=1)
+    straight = evaluate_route_graph(g, m, RADIUS, n_pairs=5)
+    assert plain.graph_length_m == pytest.approx(2 * np.hypot(20, 20) * RES, rel=1e-6)
+    assert straight.graph_length_m == pytest.approx(40 * RES, rel=1e-6)

@@ -288,3 +288,23 @@ def test_coverage_dilation_never_reaches_past_the_snap_distance(snap_px):
     rows, cols = np.nonzero(reach)
     assert np.hypot(rows - 50, cols - 50).max() <= snap_px + 1e-9
     assert reach[50, 50 + int(snap_px) - 1]  # and it does reach most of the way
+
+
+def test_shortcuts_from_points_along_edges_shorten_routes_around_pillars():
+    """Between pillars the medial axis leaves long bending edges with few vertices;
+    shortcuts that may start part-way along them (``shortcut_spacing_m``) give more direct
+    routes, and every such shortcut is safe and splits its edge at a vertex."""
+    free = _room(12, 12)
+    for r in np.arange(3.0, 10.0, 3.0):
+        for c in np.arange(3.0, 10.0, 3.0):
+            free[_px(r) - 10 : _px(r) + 10, _px(c) - 10 : _px(c) + 10] = False  # 1 m blocks
+    occ = _map(free)
+    only_vertices = route_graph(occ, config=RouteGraphConfig(shortcut_spacing_m=0.0))
+    along = route_graph(occ)
+    _assert_safe(along, occ)
+    _assert_one_component_per_region(along, occ)
+    a = tj.evaluate_route_graph(only_vertices, occ, robot_radius_m=R, n_pairs=200)
+    b = tj.evaluate_route_graph(along, occ, robot_radius_m=R, n_pairs=200)
+    assert b.success_rate == a.success_rate == 1.0
+    assert b.stretch_p90 < a.stretch_p90
+    assert b.stretch_median <= a.stretch_median

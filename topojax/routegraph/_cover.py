@@ -5,7 +5,6 @@ spanner)."""
 
 from __future__ import annotations
 
-import heapq
 import math
 
 import cv2
@@ -15,7 +14,8 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 from skimage.graph import MCP_Geometric
 
-from ._work import WorkGraph, line_pixels
+from ._spanner import greedy_shortcuts, line_pixels
+from ._work import SQRT2, WorkGraph
 
 
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
@@ -236,22 +236,60 @@ def _connect_waypoints(
             work.dead.add(v)
 
 
-def _bounded_distance(nbr: dict, src: int, dst: int, cutoff: float) -> float:
-    """Graph distance from ``src`` to ``dst`` if at most ``cutoff``, else ``inf``."""
-    dist = {src: 0.0}
-    heap = [(0.0, src)]
-    while heap:
-        d, u = heapq.heappop(heap)
-        if u == dst:
-            return d
-        if d > dist.get(u, math.inf):
+def _anchor_graph(work: WorkGraph, alive: list[int], spacing_px: float, keep_px: float):
+    """The live graph with extra nodes (*anchors*) along its edges, about ``spacing_px``
+    apart and at least ``keep_px`` of path from either end, so that shortcuts may start
+    part-way along an edge.
+
+    Returns ``(pos int64 (N, 2), degree (N,), on_edge (N, 3), u, v (int64 (P,)), w
+    float64 (P,))``: nodes ``0..len(alive) - 1`` are the vertices ``alive``, the rest
+    anchors; ``on_edge`` holds, for an anchor, the nodes at the two ends of its edge and
+    the edge's first anchor (-1 for a vertex); ``u``-``v`` the pieces between consecutive
+    nodes along each edge (no self-loops, the shortest of parallel pieces) and ``w`` their
+    lengths in pixels."""
+    index = {v: k for k, v in enumerate(alive)}
+    pos = [np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2)]
+    deg = [np.array([len(work.adj[v]) for v in alive], np.int64)]
+    on_edge = [np.full((len(alive), 3), -1, np.int64)]
+    n = len(alive)
+    pu, pv, pw = [], [], []
+    for e, (a, b, path) in work.edges.items():
+        ia, ib = index[a], index[b]
+        if len(path) < 2:
+            if ia != ib:
+                pu.append(ia), pv.append(ib), pw.append(work.length[e])
             continue
-        for v, w in nbr.get(u, ()):
-            nd = d + w
-            if nd <= cutoff and nd < dist.get(v, math.inf):
-                dist[v] = nd
-                heapq.heappush(heap, (nd, v))
-    return math.inf
+        step = np.abs(np.diff(path.astype(np.int64), axis=0))
+        arc = np.r_[0.0, np.cumsum(np.where(step.min(axis=1) > 0, SQRT2, 1.0))]
+        total = arc[-1]
+        k = int(total // spacing_px)
+        cut = np.searchsorted(arc, total * np.arange(1, k) / k) if k > 1 else np.empty(0, int)
+        cut = np.unique(cut[(arc[cut] >= keep_px) & (total - arc[cut] >= keep_px)])
+        ids = np.r_[ia, n + np.arange(cut.size), ib]
+        marks = np.r_[0.0, arc[cut], total]
+        pos.append(path[cut].astype(np.int64))
+        deg.append(np.full(cut.size, 2, np.int64))
+        on_edge.append(np.tile(np.array([ia, ib, n], np.int64), (cut.size, 1)))
+        n += cut.size
+        ok = ids[:-1] != ids[1:]
+        pu.append(ids[:-1][ok]), pv.append(ids[1:][ok]), pw.append(np.diff(marks)[ok])
+    u = (
+        np.concatenate([np.atleast_1d(x) for x in pu]).astype(np.int64)
+        if pu
+        else np.empty(0, np.int64)
+    )
+    v = (
+        np.concatenate([np.atleast_1d(x) for x in pv]).astype(np.int64)
+        if pv
+        else np.empty(0, np.int64)
+    )
+    w = np.concatenate([np.atleast_1d(x) for x in pw]).astype(np.float64) if pw else np.empty(0)
+    lo, hi = np.minimum(u, v), np.maximum(u, v)
+    order = np.lexsort((w, hi, lo))
+    lo, hi, w = lo[order], hi[order], w[order]
+    first = np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])] if lo.size else lo.astype(bool)
+    on = np.concatenate(on_edge)
+    return np.concatenate(pos), np.concatenate(deg), on, lo[first], hi[first], w[first]
 
 
 def add_shortcuts(
@@ -263,42 +301,43 @@ def add_shortcuts(
     from_dead_ends: bool = True,
     end_px: float = 2.0,
     min_loop_px: float = 0.0,
+    anchor_px: float = 0.0,
 ) -> int:
-    """Greedy spanner: for vertex pairs at most ``radius_px`` apart, shortest first, add a
+    """Greedy spanner: for node pairs at most ``radius_px`` apart, shortest first, add a
     straight feasible edge when the graph route between them is longer than ``stretch``
     times the straight line and than the straight line plus ``gain_px``, and the edge
     touches no other edge farther than ``end_px`` from its ends (no crossing) and closes
-    no loop shorter than ``min_loop_px`` (graph route plus straight line); with
-    ``from_dead_ends`` False, only between vertices of two or more edges.  Returns the
-    number of edges added."""
+    no loop shorter than ``min_loop_px`` (graph route plus straight line).  The nodes are
+    the vertices (with ``from_dead_ends`` False, only those of two or more edges) and,
+    with ``anchor_px`` > 0, points about that far apart along the edges (an edge is split
+    where a shortcut starts).  Returns the number of edges added."""
     min_deg = 1 if from_dead_ends else 2
     alive = [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
     if len(alive) < 2 or radius_px <= 0:
         return 0
-    pos = np.array([work.pixel[v] for v in alive], np.float64)
+    spacing = anchor_px if anchor_px > 0 else math.inf
+    pos_i, deg, on, ka, kb, kw = _anchor_graph(work, alive, spacing, max(end_px, 1.0))
+    pos = pos_i.astype(np.float64)
+    m = len(pos)
     pairs = cKDTree(pos).query_pairs(radius_px, output_type="ndarray")
-    deg = np.array([len(work.adj[v]) for v in alive])
     if len(pairs):
-        pairs = pairs[(deg[pairs[:, 0]] >= min_deg) & (deg[pairs[:, 1]] >= min_deg)]
+        a, b = pairs[:, 0], pairs[:, 1]
+        # no shortcut along one edge or round one vertex (it would cut a bend or a corner
+        # into a thin loop around nothing)
+        same = np.zeros(len(pairs), bool)
+        index = {v: k for k, v in enumerate(alive)}
+        ends = np.array([(index[u], index[v]) for u, v, _ in work.edges.values()], np.int64)
+        vert_key = np.r_[ends[:, 0] * m + ends[:, 1], ends[:, 1] * m + ends[:, 0]]
+        for x, y in ((a, b), (b, a)):
+            anchor = on[x, 2] >= 0
+            for end in (on[x, 0], on[x, 1]):
+                same |= anchor & (end == y)
+                if (on[y, 2] >= 0).any():
+                    same |= anchor & (on[y, 2] >= 0) & ((end == on[y, 0]) | (end == on[y, 1]))
+                same |= anchor & (on[y, 2] < 0) & np.isin(end * m + y, vert_key)
+        pairs = pairs[(deg[a] >= min_deg) & (deg[b] >= min_deg) & ~same]
     if len(pairs) == 0:
         return 0
-    index = {v: k for k, v in enumerate(alive)}
-    rows, cols, vals = [], [], []
-    for e, (u, v, _) in work.edges.items():
-        if u != v:
-            rows.append(index[u])
-            cols.append(index[v])
-            vals.append(work.length[e])
-    m = len(alive)
-    # parallel edges: keep the shortest (sum_duplicates would add them)
-    best: dict[tuple[int, int], float] = {}
-    for a, b, w in zip(rows, cols, vals, strict=True):
-        key = (min(a, b), max(a, b))
-        if w < best.get(key, math.inf):
-            best[key] = w
-    ka = np.array([k[0] for k in best], np.int64)
-    kb = np.array([k[1] for k in best], np.int64)
-    kw = np.array(list(best.values()))
     mat = coo_matrix((kw, (ka, kb)), shape=(m, m)).tocsr()
     straight = np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T)
     sources = np.unique(pairs[:, 0])
@@ -315,71 +354,41 @@ def add_shortcuts(
     need = np.maximum(stretch * straight, straight + gain_px)
     cand = np.flatnonzero((graph_d > need) & (graph_d + straight >= min_loop_px))
     cand = cand[np.argsort(straight[cand], kind="stable")]
-    nbr = work.neighbours()
+    if cand.size == 0:
+        return 0
     # shortcuts cross no edge: a crossing without a vertex would let a query point snap
     # onto a long edge that leads away from its goal (and doubles the edges in open rooms)
     occupied = _grow(graph_raster(work, feasible.shape))
-    # A route from u shorter than ``need`` that uses a new edge reaches one of its ends
-    # within ``need`` in a straight line: without such an end nearby, the distance
-    # computed above still holds and the check on the grown graph is skipped.
-    cell = float(max(1.0, need.max(initial=1.0)))
-    near: dict[tuple[int, int], list] = {}
-    added = 0
-    for k in cand:
-        u, v = alive[pairs[k, 0]], alive[pairs[k, 1]]
-        if _end_within(near, cell, pos[pairs[k, 0]], need[k]) and (
-            _bounded_distance(nbr, u, v, need[k]) < math.inf
-        ):
-            continue
-        short = min_loop_px - straight[k]
-        if short > 0 and _bounded_distance(nbr, u, v, short) < math.inf:
-            continue  # the loop it would close, through earlier shortcuts, is too short
-        seg = segment_ok(work.pixel[u], work.pixel[v], feasible)
-        if seg is None:
-            continue
-        inner = _away_from_ends(seg, work.members[u], work.members[v], end_px)
-        if occupied[inner[:, 0], inner[:, 1]].any():
-            continue
-        _mark(occupied, seg)
-        e = work.add_edge(u, v, seg)
-        w = work.length[e]
-        nbr.setdefault(u, []).append((v, w))
-        nbr.setdefault(v, []).append((u, w))
-        for p in (pos[pairs[k, 0]], pos[pairs[k, 1]]):
-            near.setdefault((int(p[0] // cell), int(p[1] // cell)), []).append(p)
-        added += 1
-    return added
-
-
-def _end_within(near: dict, cell: float, p: np.ndarray, dist: float) -> bool:
-    """Is a point of the grid buckets ``near`` (cells of side ``cell`` >= ``dist``)
-    within ``dist`` of ``p``?"""
-    ci, cj = int(p[0] // cell), int(p[1] // cell)
-    for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
-            for q in near.get((ci + di, cj + dj), ()):
-                if (q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2 <= dist * dist:
-                    return True
-    return False
+    members = [work.members[v] for v in alive] + [p[None] for p in pos_i[len(alive) :]]
+    mem_start = np.r_[0, np.cumsum([len(x) for x in members])].astype(np.int64)
+    taken = greedy_shortcuts(
+        pos_i,
+        np.concatenate(members).astype(np.int64),
+        mem_start,
+        ka,
+        kb,
+        kw,
+        pairs[cand, 0].astype(np.int64),
+        pairs[cand, 1].astype(np.int64),
+        need[cand],
+        min_loop_px - straight[cand],
+        feasible,
+        occupied,
+        float(end_px),
+    )
+    chosen = pairs[cand[taken]]
+    node = np.full(m, -1, np.int64)
+    node[: len(alive)] = alive
+    anchors = np.unique(chosen[chosen >= len(alive)])
+    if anchors.size:
+        node[anchors] = attach_points(work, [tuple(p) for p in pos_i[anchors]], feasible.shape)
+    for a, b in chosen:
+        u, v = int(node[a]), int(node[b])
+        if u >= 0 and v >= 0:
+            work.add_edge(u, v, line_pixels(work.pixel[u], work.pixel[v]))
+    return int(chosen.shape[0])
 
 
 def _grow(mask: np.ndarray) -> np.ndarray:
     """``mask`` (bool (H, W)) dilated by one pixel (3 x 3)."""
     return cv2.dilate(mask.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
-
-
-def _mark(mask: np.ndarray, seg: np.ndarray) -> None:
-    """Set the pixels of ``seg`` (K, 2) and their 8 neighbours in ``mask``."""
-    h, w = mask.shape
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            mask[np.clip(seg[:, 0] + dr, 0, h - 1), np.clip(seg[:, 1] + dc, 0, w - 1)] = True
-
-
-def _away_from_ends(seg: np.ndarray, mu: np.ndarray, mv: np.ndarray, end_px: float):
-    """Pixels of ``seg`` more than ``end_px`` (Chebyshev) from its ends and from the
-    pixels ``mu``, ``mv`` (M, 2) of its end vertices: where it must not touch another
-    edge."""
-    ends = np.concatenate([mu, mv, seg[:1], seg[-1:]]).astype(np.int64)
-    d = np.abs(seg[:, None, :].astype(np.int64) - ends[None, :, :]).max(axis=2).min(axis=1)
-    return seg[d > end_px]

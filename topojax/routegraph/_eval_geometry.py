@@ -79,8 +79,13 @@ def _position(node, data: dict, occupancy, coordinates: str) -> np.ndarray:
 
 
 def _edge_polyline(edge, data: dict, occupancy, coordinates: str) -> np.ndarray | None:
-    """The edge's own polyline (K, 2) in pixels, or None for a straight edge."""
-    key = "path" if coordinates == "pixel" else "world"
+    """The edge's own polyline (K, 2) in pixels, or None for a straight edge: ``path``
+    with pixel coordinates, else ``waypoints`` (the polyline a robot follows) if present,
+    else ``world``."""
+    if coordinates == "pixel":
+        key = "path"
+    else:
+        key = "waypoints" if "waypoints" in data else "world"
     if key not in data:
         return None
     try:

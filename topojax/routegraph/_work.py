@@ -9,16 +9,10 @@ import math
 
 import cv2
 import numpy as np
-from skimage.draw import line as _draw_line
+
+from ._spanner import line_pixels
 
 SQRT2 = math.sqrt(2.0)
-
-
-def line_pixels(a, b) -> np.ndarray:
-    """8-connected pixels (K, 2) int32 of the digital straight line from ``a`` to ``b``
-    (``(row, col)``, both included)."""
-    rr, cc = _draw_line(int(a[0]), int(a[1]), int(b[0]), int(b[1]))
-    return np.stack([rr, cc], axis=1).astype(np.int32)
 
 
 def path_length_px(path: np.ndarray) -> float:

@@ -55,6 +55,9 @@ class RouteGraphConfig:
         ... and only when the shortcut saves at least this much route length.  Shortcuts
         cross no edge: farther than the robot radius from its ends a shortcut touches no
         other edge.
+    shortcut_spacing_m : float, default 1.0
+        Shortcuts may also start at points about this far apart along the edges (the edge
+        is split there); 0: only at vertices.
     shortcuts_from_dead_ends : bool, default True
         Whether shortcuts may start at dead ends (coverage waypoints at the rim of open
         space); False gives markedly fewer edges in rooms and halls, and longer routes.
@@ -74,6 +77,7 @@ class RouteGraphConfig:
     shortcut_stretch: float = 1.2
     shortcut_radius_m: float = 5.0
     shortcut_gain_m: float = 0.3
+    shortcut_spacing_m: float = 1.0
     shortcuts_from_dead_ends: bool = True
     waypoint_tolerance_m: float = 0.1
     min_region_m2: float = 1.0
@@ -149,6 +153,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     t3 = time.perf_counter()
     snap_px = cfg.snap_m / res
     uncovered = add_coverage(work, feasible, snap_px)
+    work.contract_all()
     add_shortcuts(
         work,
         feasible,
@@ -158,6 +163,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         cfg.shortcuts_from_dead_ends,
         max(2.0, cfg.robot_radius_m / res),
         2.0 * cfg.loop_m / res,
+        cfg.shortcut_spacing_m / res,
     )
     work.contract_all()
     t4 = time.perf_counter()

@@ -1,0 +1,250 @@
+"""The greedy spanner's inner loop as one compiled kernel: candidate shortcuts, shortest
+first, each accepted when the graph (grown by the shortcuts accepted so far) still has no
+route short enough between its ends, its straight pixel line is feasible and it crosses no
+other edge.  The digital straight line used here is the one of every straight route-graph
+edge (:func:`line_pixels`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import cached_njit
+
+__all__ = ["greedy_shortcuts", "line_pixels"]
+
+_SQRT2 = math.sqrt(2.0)
+
+
+@cached_njit(nogil=True)
+def _line_into(r0, c0, r1, c1, out):
+    """Write the 8-connected digital line from ``(r0, c0)`` to ``(r1, c1)`` (both
+    included) into ``out`` (at least ``max(|dr|, |dc|) + 1`` rows); returns its length.
+
+    The major axis steps by one pixel; the minor coordinate is the exact line's, rounded
+    (halves away from the start)."""
+    dr, dc = r1 - r0, c1 - c0
+    n = max(abs(dr), abs(dc))
+    if n == 0:
+        out[0, 0], out[0, 1] = r0, c0
+        return 1
+    for i in range(n + 1):
+        if abs(dr) >= abs(dc):
+            r = r0 + (i if dr > 0 else -i)
+            num = dc * i
+            q = (2 * abs(num) + n) // (2 * n)
+            c = c0 + (q if num >= 0 else -q)
+        else:
+            c = c0 + (i if dc > 0 else -i)
+            num = dr * i
+            q = (2 * abs(num) + n) // (2 * n)
+            r = r0 + (q if num >= 0 else -q)
+        out[i, 0], out[i, 1] = r, c
+    return n + 1
+
+
+def line_pixels(a, b) -> np.ndarray:
+    """8-connected pixels (K, 2) int32 of the digital straight line from ``a`` to ``b``
+    (``(row, col)``, both included)."""
+    r0, c0, r1, c1 = int(a[0]), int(a[1]), int(b[0]), int(b[1])
+    out = np.empty((max(abs(r1 - r0), abs(c1 - c0)) + 1, 2), np.int32)
+    _line_into(r0, c0, r1, c1, out)
+    return out
+
+
+@cached_njit(nogil=True)
+def _line_length(r0, c0, r1, c1):
+    """8-connected length (pixels) of the digital line: one step per major-axis pixel, a
+    diagonal step costing sqrt 2."""
+    n = max(abs(r1 - r0), abs(c1 - c0))
+    diagonal = min(abs(r1 - r0), abs(c1 - c0))
+    # every minor-axis change is one diagonal step of the line
+    return (n - diagonal) + diagonal * _SQRT2
+
+
+@cached_njit(nogil=True)
+def _heap_push(hk, hv, size, key, val):
+    i = size
+    hk[i], hv[i] = key, val
+    while i > 0:
+        p = (i - 1) // 2
+        if hk[p] <= hk[i]:
+            break
+        hk[p], hk[i] = hk[i], hk[p]
+        hv[p], hv[i] = hv[i], hv[p]
+        i = p
+    return size + 1
+
+
+@cached_njit(nogil=True)
+def _heap_pop(hk, hv, size):
+    key, val = hk[0], hv[0]
+    size -= 1
+    hk[0], hv[0] = hk[size], hv[size]
+    i = 0
+    while True:
+        left = 2 * i + 1
+        if left >= size:
+            break
+        small = left
+        if left + 1 < size and hk[left + 1] < hk[left]:
+            small = left + 1
+        if hk[i] <= hk[small]:
+            break
+        hk[i], hk[small] = hk[small], hk[i]
+        hv[i], hv[small] = hv[small], hv[i]
+        i = small
+    return key, val, size
+
+
+@cached_njit(nogil=True)
+def _within(head, nxt, to, wt, src, dst, cutoff, dist, stamp, run, hk, hv):
+    """Whether the graph (linked adjacency ``head``/``nxt``/``to``/``wt``) has a route
+    from ``src`` to ``dst`` of length at most ``cutoff`` (Dijkstra, stopped at it)."""
+    if src == dst:
+        return True
+    size = _heap_push(hk, hv, 0, 0.0, src)
+    stamp[src], dist[src] = run, 0.0
+    while size > 0:
+        d, u, size = _heap_pop(hk, hv, size)
+        if u == dst:
+            return True
+        if d > dist[u]:
+            continue
+        k = head[u]
+        while k >= 0:
+            v = to[k]
+            nd = d + wt[k]
+            if nd <= cutoff and (stamp[v] != run or nd < dist[v]):
+                stamp[v], dist[v] = run, nd
+                if size == hk.size:
+                    return False  # never reached: the heap holds one entry per edge end
+                size = _heap_push(hk, hv, size, nd, v)
+            k = nxt[k]
+    return False
+
+
+@cached_njit(nogil=True)
+def _touches(seg, n, mem, ms, occupied, end_px):
+    """Whether a pixel of ``seg[:n]`` more than ``end_px`` (Chebyshev) from the segment's
+    ends and from the member pixels ``mem[ms[0]:ms[1]]``, ``mem[ms[2]:ms[3]]`` of its end
+    vertices is set in ``occupied``."""
+    for i in range(n):
+        r, c = seg[i, 0], seg[i, 1]
+        if not occupied[r, c]:
+            continue
+        near = max(abs(r - seg[0, 0]), abs(c - seg[0, 1])) <= end_px
+        near = near or max(abs(r - seg[n - 1, 0]), abs(c - seg[n - 1, 1])) <= end_px
+        for part in range(2):
+            if near:
+                break
+            for j in range(ms[2 * part], ms[2 * part + 1]):
+                if max(abs(r - mem[j, 0]), abs(c - mem[j, 1])) <= end_px:
+                    near = True
+                    break
+        if not near:
+            return True
+    return False
+
+
+@cached_njit(nogil=True)
+def greedy_shortcuts(
+    pos,
+    mem,
+    mem_start,
+    edge_u,
+    edge_v,
+    edge_w,
+    cand_a,
+    cand_b,
+    need,
+    short,
+    feasible,
+    occupied,
+    end_px,
+):
+    """Accept candidate shortcuts in the given order (shortest first).
+
+    Parameters
+    ----------
+    pos : int64 (M, 2)
+        Vertex pixels (row, col).
+    mem, mem_start : int64 (P, 2), int64 (M + 1,)
+        Member pixels of each vertex: ``mem[mem_start[v]:mem_start[v + 1]]``.
+    edge_u, edge_v, edge_w : int64 (E,), int64 (E,), float64 (E,)
+        The current edges (no self-loops) and their lengths in pixels.
+    cand_a, cand_b : int64 (C,)
+        Candidate shortcut ends.
+    need : float64 (C,)
+        A candidate is taken only if no route of at most this length joins its ends.
+    short : float64 (C,)
+        ... nor one of at most this length (the loop it would close would be too short;
+        <= 0: no such check).
+    feasible : bool (H, W)
+        Pixels a shortcut may cross.
+    occupied : bool (H, W)
+        Pixels of (or next to) edges, updated in place with the accepted shortcuts.
+    end_px : float
+        Near its ends a shortcut may touch other edges.
+
+    Returns
+    -------
+    bool (C,)
+        Which candidates were accepted.
+    """
+    m = pos.shape[0]
+    n_c = cand_a.size
+    cap = 2 * (edge_u.size + n_c) + 1
+    head = np.full(m, -1, np.int64)
+    nxt = np.empty(cap, np.int64)
+    to = np.empty(cap, np.int64)
+    wt = np.empty(cap, np.float64)
+    k = 0
+    for e in range(edge_u.size):
+        for a, b in ((edge_u[e], edge_v[e]), (edge_v[e], edge_u[e])):
+            to[k], wt[k], nxt[k] = b, edge_w[e], head[a]
+            head[a] = k
+            k += 1
+    dist = np.zeros(m, np.float64)
+    stamp = np.zeros(m, np.int64)
+    hk = np.empty(cap, np.float64)
+    hv = np.empty(cap, np.int64)
+    h, w = feasible.shape
+    seg = np.empty((h + w + 1, 2), np.int64)
+    ms = np.empty(4, np.int64)
+    out = np.zeros(n_c, np.bool_)
+    run = 0
+    for i in range(n_c):
+        a, b = cand_a[i], cand_b[i]
+        run += 1
+        if _within(head, nxt, to, wt, a, b, need[i], dist, stamp, run, hk, hv):
+            continue
+        if short[i] > 0:
+            run += 1
+            if _within(head, nxt, to, wt, a, b, short[i], dist, stamp, run, hk, hv):
+                continue
+        n = _line_into(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], seg)
+        ok = True
+        for j in range(n):
+            if not feasible[seg[j, 0], seg[j, 1]]:
+                ok = False
+                break
+        if not ok:
+            continue
+        ms[0], ms[1], ms[2], ms[3] = mem_start[a], mem_start[a + 1], mem_start[b], mem_start[b + 1]
+        if _touches(seg, n, mem, ms, occupied, end_px):
+            continue
+        for j in range(n):
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    r = min(max(seg[j, 0] + dr, 0), h - 1)
+                    c = min(max(seg[j, 1] + dc, 0), w - 1)
+                    occupied[r, c] = True
+        length = _line_length(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1])
+        for x, y in ((a, b), (b, a)):
+            to[k], wt[k], nxt[k] = y, length, head[x]
+            head[x] = k
+            k += 1
+        out[i] = True
+    return out
