@@ -14,8 +14,8 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 from skimage.graph import MCP_Geometric
 
-from ._spanner import greedy_shortcuts, line_pixels
-from ._work import SQRT2, WorkGraph
+from ..graph.work import SQRT2, WorkGraph, line_pixels
+from ._spanner import greedy_shortcuts
 
 
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:

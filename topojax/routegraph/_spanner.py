@@ -11,46 +11,11 @@ import math
 import numpy as np
 
 from .._jit import cached_njit
+from ..graph.work import line_into
 
-__all__ = ["greedy_shortcuts", "line_pixels"]
+__all__ = ["greedy_shortcuts"]
 
 _SQRT2 = math.sqrt(2.0)
-
-
-@cached_njit(nogil=True)
-def _line_into(r0, c0, r1, c1, out):
-    """Write the 8-connected digital line from ``(r0, c0)`` to ``(r1, c1)`` (both
-    included) into ``out`` (at least ``max(|dr|, |dc|) + 1`` rows); returns its length.
-
-    The major axis steps by one pixel; the minor coordinate is the exact line's, rounded
-    (halves away from the start)."""
-    dr, dc = r1 - r0, c1 - c0
-    n = max(abs(dr), abs(dc))
-    if n == 0:
-        out[0, 0], out[0, 1] = r0, c0
-        return 1
-    for i in range(n + 1):
-        if abs(dr) >= abs(dc):
-            r = r0 + (i if dr > 0 else -i)
-            num = dc * i
-            q = (2 * abs(num) + n) // (2 * n)
-            c = c0 + (q if num >= 0 else -q)
-        else:
-            c = c0 + (i if dc > 0 else -i)
-            num = dr * i
-            q = (2 * abs(num) + n) // (2 * n)
-            r = r0 + (q if num >= 0 else -q)
-        out[i, 0], out[i, 1] = r, c
-    return n + 1
-
-
-def line_pixels(a, b) -> np.ndarray:
-    """8-connected pixels (K, 2) int32 of the digital straight line from ``a`` to ``b``
-    (``(row, col)``, both included)."""
-    r0, c0, r1, c1 = int(a[0]), int(a[1]), int(b[0]), int(b[1])
-    out = np.empty((max(abs(r1 - r0), abs(c1 - c0)) + 1, 2), np.int32)
-    _line_into(r0, c0, r1, c1, out)
-    return out
 
 
 @cached_njit(nogil=True)
@@ -224,7 +189,7 @@ def greedy_shortcuts(
             run += 1
             if _within(head, nxt, to, wt, a, b, short[i], dist, stamp, run, hk, hv):
                 continue
-        n = _line_into(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], seg)
+        n = line_into(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], seg)
         ok = True
         for j in range(n):
             if not feasible[seg[j, 0], seg[j, 1]]:

@@ -15,12 +15,17 @@ import numpy as np
 from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres
 from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph
+from ..graph.work import WorkGraph, collapse_loops, drop_spurs, face_labels, line_pixels
 from ..skeleton import thin
 from ._cover import add_coverage, add_shortcuts
-from ._work import WorkGraph, collapse_loops, drop_spurs, face_labels, line_pixels
 from .feasible import FeasibleSpace, feasible_space
 
 __all__ = ["RouteGraphConfig", "route_graph"]
+
+#: An 8-connected pixel path is up to this much longer than the straight or simplified
+#: line a robot follows (1 / cos 22.5 deg, rounded up): loop lengths measured on pixel
+#: paths are scaled by it so that no loop is short along the waypoints.
+PIXEL_PATH_EXCESS = 1.083
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -162,7 +167,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         cfg.shortcut_gain_m / res,
         cfg.shortcuts_from_dead_ends,
         max(2.0, cfg.robot_radius_m / res),
-        2.0 * cfg.loop_m / res,
+        2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS,
         cfg.shortcut_spacing_m / res,
     )
     work.contract_all()

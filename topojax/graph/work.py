@@ -1,4 +1,4 @@
-"""The mutable graph a route graph is built in: vertices with pixel positions, edges with
+"""An editable graph for the graph-shaping stages (route graphs, rooms): vertices with pixel positions, edges with
 8-connected pixel paths, and the edits the builder makes (remove, split, add a straight
 edge, contract degree-2 vertices), plus the two sparsifying passes: collapsing loops
 around small obstacles and dropping medial-axis spurs."""
@@ -10,9 +10,55 @@ import math
 import cv2
 import numpy as np
 
-from ._spanner import line_pixels
+from .._jit import cached_njit
+
+__all__ = [
+    "SQRT2",
+    "WorkGraph",
+    "collapse_loops",
+    "drop_spurs",
+    "face_labels",
+    "line_into",
+    "line_pixels",
+]
 
 SQRT2 = math.sqrt(2.0)
+
+
+@cached_njit(nogil=True)
+def line_into(r0, c0, r1, c1, out):
+    """Write the 8-connected digital line from ``(r0, c0)`` to ``(r1, c1)`` (both
+    included) into ``out`` (at least ``max(|dr|, |dc|) + 1`` rows); returns its length.
+
+    The major axis steps by one pixel; the minor coordinate is the exact line's, rounded
+    (halves away from the start)."""
+    dr, dc = r1 - r0, c1 - c0
+    n = max(abs(dr), abs(dc))
+    if n == 0:
+        out[0, 0], out[0, 1] = r0, c0
+        return 1
+    for i in range(n + 1):
+        if abs(dr) >= abs(dc):
+            r = r0 + (i if dr > 0 else -i)
+            num = dc * i
+            q = (2 * abs(num) + n) // (2 * n)
+            c = c0 + (q if num >= 0 else -q)
+        else:
+            c = c0 + (i if dc > 0 else -i)
+            num = dr * i
+            q = (2 * abs(num) + n) // (2 * n)
+            r = r0 + (q if num >= 0 else -q)
+        out[i, 0], out[i, 1] = r, c
+    return n + 1
+
+
+def line_pixels(a, b) -> np.ndarray:
+    """8-connected pixels (K, 2) int32 of the digital straight line from ``a`` to ``b``
+    (``(row, col)``, both included)."""
+    r0, c0, r1, c1 = int(a[0]), int(a[1]), int(b[0]), int(b[1])
+    out = np.empty((max(abs(r1 - r0), abs(c1 - c0)) + 1, 2), np.int32)
+    line_into(r0, c0, r1, c1, out)
+    return out
 
 
 def path_length_px(path: np.ndarray) -> float:

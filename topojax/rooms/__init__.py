@@ -1,0 +1,6 @@
+"""Rooms and doorways: a region graph on top of the topology graph."""
+
+from .model import Door, Room, RoomSegmentation
+from .segment import RoomConfig, segment_rooms
+
+__all__ = ["Door", "Room", "RoomConfig", "RoomSegmentation", "segment_rooms"]

@@ -1,0 +1,180 @@
+"""From regions split by doorway cuts to rooms: which cuts are doors, and the merging rules
+for over-segmentation (doors not narrow compared with their rooms, niches whose doors are
+much of their border, tiny regions)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from ._cuts import Cut
+
+__all__ = ["DoorCut", "merge_regions"]
+
+
+@dataclass(frozen=True, eq=False)
+class DoorCut:
+    """A cut kept as a door between final rooms ``rooms`` (ids, ascending)."""
+
+    cut: Cut
+    rooms: tuple[int, int]
+
+
+def _sides(regions: np.ndarray, cut: Cut) -> tuple[int, int] | None:
+    """The two regions a cut separates (the two most frequent 4-neighbours of its pixels),
+    or None if it has fewer than two."""
+    h, w = regions.shape
+    p = cut.pixels
+    near = []
+    for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+        r, c = p[:, 0] + dr, p[:, 1] + dc
+        ok = (r >= 0) & (r < h) & (c >= 0) & (c < w)
+        near.append(regions[r[ok], c[ok]])
+    lab = np.concatenate(near)
+    lab = lab[lab > 0]
+    if lab.size == 0:
+        return None
+    ids, counts = np.unique(lab, return_counts=True)
+    if ids.size < 2:
+        return None
+    top = ids[np.argsort(-counts, kind="stable")[:2]]
+    return int(min(top)), int(max(top))
+
+
+class _Rooms:
+    """Union-find over regions with each group's area, largest clearance and border."""
+
+    def __init__(self, area, clear, border) -> None:
+        self.parent = np.arange(area.size)
+        self.area = area.astype(np.float64)
+        self.clear = clear.astype(np.float64)
+        self.border = border.astype(np.float64)
+
+    def find(self, x: int) -> int:
+        while self.parent[x] != x:
+            self.parent[x] = self.parent[self.parent[x]]
+            x = int(self.parent[x])
+        return int(x)
+
+    def union(self, a: int, b: int, shared_px: float) -> int:
+        a, b = self.find(a), self.find(b)
+        if a == b:
+            return a
+        if self.area[a] < self.area[b]:
+            a, b = b, a
+        self.parent[b] = a
+        self.area[a] += self.area[b]
+        self.clear[a] = max(self.clear[a], self.clear[b])
+        self.border[a] = max(self.border[a] + self.border[b] - 2 * shared_px, 1.0)
+        return a
+
+
+def _region_stats(regions: np.ndarray, n: int, clearance: np.ndarray):
+    """Area (px), largest clearance (px) and boundary length (px) of regions ``0..n-1``."""
+    idx = np.arange(n)
+    area = np.bincount(regions.ravel(), minlength=n).astype(np.float64)
+    clear = np.asarray(ndimage.maximum(clearance, regions, idx), np.float64)
+    inner = cv2.erode(regions.astype(np.float32), np.ones((3, 3), np.uint8), borderValue=0)
+    outer = cv2.dilate(regions.astype(np.float32), np.ones((3, 3), np.uint8), borderValue=0)
+    edge = (inner != regions) | (outer != regions)
+    border = np.bincount(regions[edge], minlength=n).astype(np.float64)
+    return area, clear, border
+
+
+def _merge_pass(rooms: _Rooms, doors: list, cfg, min_area_px: float) -> bool:
+    """One pass of the merging rules; returns whether anything merged."""
+    changed = False
+
+    # doors that are not narrow compared with both rooms, worst first
+    def ratio(d):
+        a, b = rooms.find(d[0]), rooms.find(d[1])
+        return d[2].width_px / max(min(2 * rooms.clear[a], 2 * rooms.clear[b]), 1e-9)
+
+    for d in sorted(doors, key=ratio, reverse=True):
+        a, b = rooms.find(d[0]), rooms.find(d[1])
+        if a != b and ratio(d) > cfg.door_ratio:
+            rooms.union(a, b, len(d[2].pixels))
+            changed = True
+    # niches: the doors between two groups are a large share of the smaller one's border
+    shared: dict[tuple[int, int], float] = {}
+    for a0, b0, cut in doors:
+        a, b = rooms.find(a0), rooms.find(b0)
+        if a != b:
+            key = (min(a, b), max(a, b))
+            shared[key] = shared.get(key, 0.0) + len(cut.pixels)
+    for (a, b), length in sorted(shared.items(), key=lambda kv: -kv[1]):
+        a, b = rooms.find(a), rooms.find(b)
+        if a == b:
+            continue
+        small = a if rooms.area[a] < rooms.area[b] else b
+        if length > cfg.max_border_share * rooms.border[small]:
+            rooms.union(a, b, length)
+            changed = True
+    # tiny groups join the neighbour they share the most door length with
+    best: dict[int, tuple[float, int]] = {}
+    for a0, b0, cut in doors:
+        a, b = rooms.find(a0), rooms.find(b0)
+        if a == b:
+            continue
+        for x, y in ((a, b), (b, a)):
+            if rooms.area[x] < min_area_px:
+                w = len(cut.pixels)
+                if w > best.get(x, (-1.0, -1))[0]:
+                    best[x] = (w, y)
+    for x in sorted(best, key=lambda k: rooms.area[k]):
+        y = best[x][1]
+        if rooms.find(x) != rooms.find(y) and rooms.area[rooms.find(x)] < min_area_px:
+            rooms.union(x, y, best[x][0])
+            changed = True
+    return changed
+
+
+def merge_regions(regions, n, free, clearance, cuts, cfg, resolution_m: float):
+    """Final room labels (int32 (H, W), ``1..k`` in raster order of each room's first
+    pixel, 0 = no room) and the doors between rooms (list of :class:`DoorCut`)."""
+    area, clear, border = _region_stats(regions, n, clearance)
+    area[0] = 0.0
+    doors = []
+    for cut in cuts:
+        sides = _sides(regions, cut)
+        if sides is not None:
+            doors.append((sides[0], sides[1], cut))
+    rooms = _Rooms(area, clear, border)
+    min_area_px = cfg.min_room_m2 / resolution_m**2
+    while _merge_pass(rooms, doors, cfg, min_area_px):
+        pass
+    root = np.array([rooms.find(i) for i in range(n)], np.int64)
+    keep = (rooms.area[root] >= min_area_px) & (np.arange(n) > 0)
+    root = np.where(keep, root, 0)
+    first = np.full(n, np.iinfo(np.int64).max, np.int64)
+    flat = regions.ravel()
+    np.minimum.at(first, flat, np.arange(flat.size, dtype=np.int64))
+    groups = np.unique(root[root > 0])
+    order = groups[np.argsort([first[root == g].min() for g in groups], kind="stable")]
+    new_id = np.zeros(n, np.int32)
+    final = np.zeros(n, np.int32)
+    final[order] = np.arange(1, order.size + 1, dtype=np.int32)
+    new_id[:] = final[root]
+    labels = new_id[regions]
+    labels = _absorb_cut_pixels(labels, free)
+    kept = []
+    for a0, b0, cut in doors:
+        a, b = int(new_id[a0]), int(new_id[b0])
+        if a > 0 and b > 0 and a != b:
+            kept.append(DoorCut(cut=cut, rooms=(min(a, b), max(a, b))))
+    return labels, kept
+
+
+def _absorb_cut_pixels(labels: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """Free pixels without a room next to a room (the cut lines) take a neighbour's id."""
+    out = labels
+    for _ in range(2):
+        gap = free & (out == 0)
+        if not gap.any():
+            break
+        grown = cv2.dilate(out.astype(np.float32), np.ones((3, 3), np.uint8)).astype(np.int32)
+        out = np.where(gap, grown, out)
+    return out

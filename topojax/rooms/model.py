@@ -1,0 +1,196 @@
+"""The result of a room segmentation: :class:`RoomSegmentation`, :class:`Room`,
+:class:`Door`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import networkx as nx
+import numpy as np
+from scipy import ndimage
+
+__all__ = ["Door", "Room", "RoomSegmentation", "build_segmentation"]
+
+
+@dataclass(frozen=True, eq=False)
+class Room:
+    """One room.
+
+    Attributes
+    ----------
+    id : int
+        Its label in :attr:`RoomSegmentation.labels` (from 1).
+    area_m2 : float
+        Area of its pixels (free pixels and the clutter it encloses), square metres.
+    centroid : tuple[float, float]
+        Mean world position (x, y) of its pixels, metres.
+    polygon : float64 (K, 2)
+        Outline in world (x, y) metres, counter-clockwise, through the centres of its
+        boundary pixels (within half a pixel of the walls), first point not repeated.
+    bbox : tuple[int, int, int, int]
+        ``(row_min, col_min, row_max, col_max)`` of its pixels, inclusive.
+    """
+
+    id: int
+    area_m2: float
+    centroid: tuple[float, float]
+    polygon: np.ndarray
+    bbox: tuple[int, int, int, int]
+
+
+@dataclass(frozen=True, eq=False)
+class Door:
+    """One doorway between two rooms.
+
+    Attributes
+    ----------
+    id : int
+        From 1, in the order of the rooms it joins.
+    rooms : tuple[int, int]
+        The two room ids, ascending.
+    ends_px : int64 (2, 2)
+        The two obstacle pixels (row, col) the doorway runs between.
+    ends_world : float64 (2, 2)
+        The same points in world (x, y) metres.
+    width_m : float
+        Free width of the doorway, metres.
+    pixels : int64 (K, 2)
+        Free pixels (row, col) on the doorway line.
+    """
+
+    id: int
+    rooms: tuple[int, int]
+    ends_px: np.ndarray
+    ends_world: np.ndarray
+    width_m: float
+    pixels: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class RoomSegmentation:
+    """Rooms and doorways of one map.
+
+    Attributes
+    ----------
+    labels : int32 (H, W)
+        Room id of each pixel (0 = no room).
+    rooms : tuple[Room, ...]
+        In id order.
+    doors : tuple[Door, ...]
+        In id order.
+    resolution_m : float
+    origin : tuple[float, float, float]
+        The map's origin (x, y, yaw) of pixel (H - 1, 0)'s outer corner, as map_server.
+    timings_s : dict[str, float]
+    """
+
+    labels: np.ndarray
+    rooms: tuple[Room, ...]
+    doors: tuple[Door, ...]
+    resolution_m: float
+    origin: tuple[float, float, float]
+    occupancy: object = field(repr=False)
+    timings_s: dict = field(default_factory=dict)
+
+    @property
+    def n_rooms(self) -> int:
+        return len(self.rooms)
+
+    @property
+    def graph(self) -> nx.Graph:
+        """Rooms as nodes (``area_m2``, ``centroid``), doors as edges (``doors``: their ids,
+        ``width_m``: the widest)."""
+        g = nx.Graph()
+        for room in self.rooms:
+            g.add_node(room.id, area_m2=room.area_m2, centroid=room.centroid)
+        for door in self.doors:
+            a, b = door.rooms
+            if g.has_edge(a, b):
+                g.edges[a, b]["doors"].append(door.id)
+                g.edges[a, b]["width_m"] = max(g.edges[a, b]["width_m"], door.width_m)
+            else:
+                g.add_edge(a, b, doors=[door.id], width_m=door.width_m)
+        return g
+
+    def room_at(self, point) -> int:
+        """Room id at a world point (x, y) in metres (0 outside every room and the map)."""
+        try:
+            x, y = (float(v) for v in point)
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"point: expected a world position (x, y) in metres, received {point!r}"
+            ) from None
+        if not (np.isfinite(x) and np.isfinite(y)):
+            raise ValueError(f"point: expected finite (x, y) metres, received {point!r}")
+        r, c = self.occupancy.world_to_pixel(x, y)
+        r, c = int(np.floor(r + 0.5)), int(np.floor(c + 0.5))
+        h, w = self.labels.shape
+        if 0 <= r < h and 0 <= c < w:
+            return int(self.labels[r, c])
+        return 0
+
+
+def _outline(mask: np.ndarray, r0: int, c0: int) -> np.ndarray:
+    """Outline (K, 2) (row, col) through the centres of the boundary pixels of the largest
+    8-connected part of ``mask``, offset by ``(r0, c0)``."""
+    contours, _ = cv2.findContours(mask.view(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    if not contours:
+        return np.empty((0, 2))
+    best = max(contours, key=lambda c: (cv2.contourArea(c), len(c)))[:, 0, :]
+    return np.stack([best[:, 1] + r0, best[:, 0] + c0], axis=1).astype(np.float64)
+
+
+def build_segmentation(occ, labels: np.ndarray, doors) -> RoomSegmentation:
+    """The :class:`RoomSegmentation` of final ``labels`` and door cuts."""
+    res = float(occ.resolution_m)
+    n = int(labels.max()) if labels.size else 0
+    rooms = []
+    slices = ndimage.find_objects(labels)
+    for rid, sl in enumerate(slices, start=1):
+        if sl is None:
+            continue
+        mask = labels[sl] == rid
+        rr, cc = np.nonzero(mask)
+        rr, cc = rr + sl[0].start, cc + sl[1].start
+        x, y = occ.pixel_to_world(rr, cc)
+        outline = _outline(mask, sl[0].start, sl[1].start)
+        px, py = occ.pixel_to_world(outline[:, 0], outline[:, 1])
+        poly = np.stack([px, py], axis=1)
+        if poly.shape[0] >= 3:
+            signed = 0.5 * np.sum(
+                poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1]
+            )
+            if signed < 0:
+                poly = poly[::-1].copy()
+        rooms.append(
+            Room(
+                id=rid,
+                area_m2=float(rr.size) * res * res,
+                centroid=(float(np.mean(x)), float(np.mean(y))),
+                polygon=poly,
+                bbox=(int(rr.min()), int(cc.min()), int(rr.max()), int(cc.max())),
+            )
+        )
+    assert len(rooms) == n
+    out = []
+    for d in sorted(doors, key=lambda d: (d.rooms, tuple(d.cut.centre))):
+        ex, ey = occ.pixel_to_world(d.cut.ends[:, 0], d.cut.ends[:, 1])
+        out.append(
+            Door(
+                id=len(out) + 1,
+                rooms=d.rooms,
+                ends_px=d.cut.ends.copy(),
+                ends_world=np.stack([ex, ey], axis=1),
+                width_m=float(d.cut.width_px) * res,
+                pixels=d.cut.pixels.copy(),
+            )
+        )
+    return RoomSegmentation(
+        labels=labels.astype(np.int32),
+        rooms=tuple(rooms),
+        doors=tuple(out),
+        resolution_m=res,
+        origin=tuple(float(o) for o in occ.origin),
+        occupancy=occ,
+    )

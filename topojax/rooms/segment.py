@@ -1,0 +1,158 @@
+"""Rooms and doorways of a map: :func:`segment_rooms` and :class:`RoomConfig`.  The method,
+its parameters and what was tried are in ``docs/rooms.md``."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, fields
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from .._validate import instance_or_default, nonnegative_metres, positive_metres
+from ..skeleton import thin
+from ._cuts import door_cuts
+from ._merge import merge_regions
+from .model import RoomSegmentation, build_segmentation
+
+__all__ = ["RoomConfig", "segment_rooms"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class RoomConfig:
+    """Options of :func:`segment_rooms`, in metres (they scale with the map's resolution).
+
+    Attributes
+    ----------
+    min_door_width_m : float, default 0.5
+        Narrower gaps are not doors (gaps between furniture, noise).
+    max_door_width_m : float, default 2.2
+        Wider gaps are not doors (open plan, corridor crossings).
+    door_context_m : float, default 1.0
+        A doorway is the narrowest point of the skeleton within this distance.
+    door_ratio : float, default 0.7
+        A door is kept only when its width is at most this times the width (twice the
+        largest clearance) of each room it joins; otherwise the two rooms merge.
+    min_room_m2 : float, default 4.0
+        Smaller regions merge into the neighbour they share the widest doors with
+        (isolated ones are dropped).
+    max_border_share : float, default 0.25
+        Two regions merge when the doors between them make up more than this share of the
+        smaller one's boundary (a niche, not a room).
+    """
+
+    min_door_width_m: float = 0.5
+    max_door_width_m: float = 2.2
+    door_context_m: float = 1.0
+    door_ratio: float = 0.7
+    min_room_m2: float = 4.0
+    max_border_share: float = 0.25
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name in ("door_ratio", "max_border_share"):
+                value = positive_metres(f.name, value)  # a positive finite number
+            elif f.name in ("max_door_width_m", "door_context_m"):
+                value = positive_metres(f.name, value)
+            else:
+                value = nonnegative_metres(f.name, value)
+            object.__setattr__(self, f.name, value)
+        if self.max_door_width_m < self.min_door_width_m:
+            raise ValueError(
+                "max_door_width_m: expected a width >= min_door_width_m "
+                f"({self.min_door_width_m!r} m), received {self.max_door_width_m!r}"
+            )
+
+
+def _occupancy_of(source):
+    """The OccupancyMap of ``source`` (an OccupancyMap or a TopologyResult)."""
+    from ..maps.occupancy import OccupancyMap
+
+    if isinstance(source, OccupancyMap):
+        return source
+    occ = getattr(source, "map", None)
+    if isinstance(occ, OccupancyMap):
+        return occ
+    raise TypeError(
+        f"source: expected an OccupancyMap or a TopologyResult, received {type(source).__name__}"
+    )
+
+
+def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentation:
+    """Split a map's known free space into rooms joined by doorways.
+
+    Parameters
+    ----------
+    source : OccupancyMap or TopologyResult
+        The map (a TopologyResult's ``map`` is used).
+    config : RoomConfig, optional
+        Options (metres).
+
+    Returns
+    -------
+    RoomSegmentation
+        ``labels`` int32 (H, W) (0 = no room), ``rooms``, ``doors``, ``graph`` and
+        :meth:`RoomSegmentation.room_at`.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For a source or option of the wrong type or out of range (the message names it).
+    """
+    cfg = instance_or_default("config", config, RoomConfig)
+    occ = _occupancy_of(source)
+    t0 = time.perf_counter()
+    free = np.ascontiguousarray(occ.free, bool)
+    res = float(occ.resolution_m)
+    clearance = _clearance_px(free)
+    skeleton = thin(free) if free.any() else np.zeros_like(free)
+    t1 = time.perf_counter()
+    cuts = door_cuts(free, clearance, skeleton, cfg, res)
+    t2 = time.perf_counter()
+    open_ = free.copy()
+    for cut in cuts:
+        open_[cut.pixels[:, 0], cut.pixels[:, 1]] = False
+    n, regions = cv2.connectedComponents(open_.view(np.uint8), connectivity=4, ltype=cv2.CV_32S)
+    labels, doors = merge_regions(regions, n, free, clearance, cuts, cfg, res)
+    labels = _fill_enclosed(labels, free)
+    t3 = time.perf_counter()
+    seg = build_segmentation(occ, labels, doors)
+    seg.timings_s.update(
+        {
+            "fields": t1 - t0,
+            "doors": t2 - t1,
+            "regions": t3 - t2,
+            "output": time.perf_counter() - t3,
+        }
+    )
+    return seg
+
+
+def _clearance_px(free: np.ndarray) -> np.ndarray:
+    """Distance (pixels, float32) from each pixel centre to the nearest pixel that is not
+    free, the map's outside counting as not free; 0 off ``free``."""
+    padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.uint8)
+    padded[1:-1, 1:-1] = free
+    return cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
+
+
+def _fill_enclosed(labels: np.ndarray, free: np.ndarray) -> np.ndarray:
+    """``labels`` with every pixel that is not free and is enclosed by one room alone
+    (furniture, clutter, small unknown patches) given that room's id."""
+    out = labels.copy()
+    slices = ndimage.find_objects(labels)
+    for rid, sl in enumerate(slices, start=1):
+        if sl is None:
+            continue
+        sub = labels[sl]
+        mine = sub == rid
+        holes = ndimage.binary_fill_holes(mine) & ~mine
+        if not holes.any():
+            continue
+        parts, _ = ndimage.label(holes, structure=np.ones((3, 3), bool))
+        other = np.unique(parts[holes & (sub != 0)])  # holes holding another room stay out
+        fill = holes & ~np.isin(parts, other[other > 0])
+        out[sl][fill] = rid
+    return out
