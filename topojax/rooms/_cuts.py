@@ -9,12 +9,16 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..graph import skeleton_to_graph
+from ..graph.work import WorkGraph, drop_spurs
 
 __all__ = ["Cut", "door_cuts", "segment_pixels"]
 
 #: Along the skeleton, the clearance on both sides of a doorway rises to at least this
 #: many times the doorway's (a branch into a corner only falls).
-DOOR_RISE = 1.25
+DOOR_RISE = 1.1
+#: Dead ends shorter than this many times the clearance at their junction are branches of
+#: the medial axis into corners, not places a doorway can lead to.
+SPUR_FACTOR = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,9 +78,11 @@ def _edge_minima(c: np.ndarray, w: int, rise: float) -> np.ndarray:
 def _candidates(clearance, skeleton, lo: float, hi: float, w: int, rise: float):
     """Skeleton pixels where the clearance along the skeleton has a local minimum in
     [lo, hi] with a rise on both sides, one per ``w`` neighbourhood (narrowest first)."""
-    graph = skeleton_to_graph(skeleton)
+    work = WorkGraph.from_networkx(skeleton_to_graph(skeleton))
+    drop_spurs(work, clearance, float(w), SPUR_FACTOR)  # the medial axis's corner branches
+    work.contract_all()
     found = []
-    for _, _, path in graph.edges(data="path"):
+    for _, _, path in work.edges.values():
         path = np.asarray(path, np.int64)
         c = clearance[path[:, 0], path[:, 1]]
         k = _edge_minima(c, w, rise)
@@ -98,9 +104,10 @@ def _candidates(clearance, skeleton, lo: float, hi: float, w: int, rise: float):
     return pts[taken]
 
 
-def _nearest_obstacle(free: np.ndarray, p: np.ndarray, radius: int) -> np.ndarray | None:
-    """The pixel that is not free (the map's outside included) nearest to ``p`` within
-    ``radius`` (Chebyshev window), or None."""
+def _basis_points(free: np.ndarray, p: np.ndarray, radius: int):
+    """The obstacle pixel (not free, the map's outside included) nearest to ``p`` and the
+    nearest one on the opposite side of ``p`` (negative dot product), within ``radius``
+    (Chebyshev window); None where either is missing."""
     h, w = free.shape
     r0, r1 = p[0] - radius, p[0] + radius + 1
     c0, c1 = p[1] - radius, p[1] + radius + 1
@@ -111,22 +118,17 @@ def _nearest_obstacle(free: np.ndarray, p: np.ndarray, radius: int) -> np.ndarra
     rr, cc = np.nonzero(~win)
     if rr.size == 0:
         return None
-    d2 = (rr + r0 - p[0]) ** 2 + (cc + c0 - p[1]) ** 2
+    dr, dc = rr + r0 - p[0], cc + c0 - p[1]
+    d2 = dr * dr + dc * dc
     k = int(np.argmin(d2))
-    return np.array([rr[k] + r0, cc[k] + c0], np.int64)
-
-
-def _march(free: np.ndarray, p: np.ndarray, u: np.ndarray, limit: float) -> np.ndarray | None:
-    """First pixel that is not free (or outside the map) from ``p`` along direction ``u``
-    within ``limit`` pixels, or None."""
-    h, w = free.shape
-    t = np.arange(0.5, limit + 0.5, 0.5)
-    pts = np.floor(p[None, :] + t[:, None] * u[None, :] + 0.5).astype(np.int64)
-    inside = (pts[:, 0] >= 0) & (pts[:, 0] < h) & (pts[:, 1] >= 0) & (pts[:, 1] < w)
-    hit = ~inside
-    hit[inside] = ~free[pts[inside, 0], pts[inside, 1]]
-    k = np.flatnonzero(hit)
-    return pts[k[0]] if k.size else None
+    opposite = np.flatnonzero(dr * dr[k] + dc * dc[k] < 0)
+    if opposite.size == 0:
+        return None
+    j = opposite[int(np.argmin(d2[opposite]))]
+    return (
+        np.array([rr[k] + r0, cc[k] + c0], np.int64),
+        np.array([rr[j] + r0, cc[j] + c0], np.int64),
+    )
 
 
 def door_cuts(free, clearance, skeleton, cfg, resolution_m: float) -> list[Cut]:
@@ -137,16 +139,10 @@ def door_cuts(free, clearance, skeleton, cfg, resolution_m: float) -> list[Cut]:
     cuts = []
     for p in _candidates(clearance, skeleton, lo, hi, w, DOOR_RISE):
         c = float(clearance[p[0], p[1]])
-        q1 = _nearest_obstacle(free, p, int(np.ceil(c)) + 1)
-        if q1 is None:
+        basis = _basis_points(free, p, int(np.ceil(1.6 * c)) + 2)
+        if basis is None:
             continue
-        away = (p - q1).astype(np.float64)
-        norm = float(np.hypot(*away))
-        if norm == 0:
-            continue
-        q2 = _march(free, p, away / norm, 1.5 * c + 2.0)
-        if q2 is None:
-            continue
+        q1, q2 = basis
         width = float(np.hypot(*(q2 - q1))) - 1.0
         if not (2 * lo - 1.0 <= width <= 2 * hi - 1.0):
             continue
