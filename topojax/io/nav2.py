@@ -65,7 +65,8 @@ def save_nav2_graph(
     -----
     Metadata values are numbers, strings and lists of them only (nav2_route's loader
     accepts no ``null``).  Node ids: the graph's vertices are ``0 .. V-1`` in node order (``metadata``:
-    ``vertex``, the topojax node id, ``kind`` and ``clearance_m``), then the waypoints
+    ``vertex``, the topojax node id, ``kind``, ``clearance_m`` and, after
+    :func:`topojax.assign_rooms`, ``room``), then the waypoints
     (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
     topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
     waypoints) and the corridor's ``min_clearance_m`` / ``mean_clearance_m``.  topojax
@@ -114,6 +115,9 @@ def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str) -> tuple[dict,
         if isinstance(d.get("kind"), str):
             meta["kind"] = d["kind"]
         meta.update(_finite_metres(d, ("clearance_m",)))
+        room = d.get("room")
+        if isinstance(room, (int, np.integer)) and not isinstance(room, bool):
+            meta["room"] = int(room)
         features.append(_nav2_node(node_id[n], frame, node_xy[n], meta))
     return node_xy, features
 
