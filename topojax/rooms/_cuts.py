@@ -8,17 +8,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..graph import skeleton_to_graph
-from ..graph.work import WorkGraph, drop_spurs
+from ._kernels import basis_points
 
 __all__ = ["Cut", "door_cuts", "segment_pixels"]
 
 #: Along the skeleton, the clearance on both sides of a doorway rises to at least this
 #: many times the doorway's (a branch into a corner only falls).
 DOOR_RISE = 1.1
-#: Dead ends shorter than this many times the clearance at their junction are branches of
-#: the medial axis into corners, not places a doorway can lead to.
-SPUR_FACTOR = 2.0
+#: The two nearest obstacles of a doorway lie on opposite sides of it: the angle between
+#: them, seen from the doorway, is above 120 deg (a room corner's is about 90).
+OPPOSITE_COS = -0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,79 +55,79 @@ def segment_pixels(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.floor(pts + 0.5).astype(np.int64)
 
 
-def _edge_minima(c: np.ndarray, w: int, rise: float) -> np.ndarray:
-    """Indices along one skeleton path (clearances ``c``) that are the smallest within
-    ``w`` steps and beyond which the clearance rises to ``rise`` times theirs on both sides
-    (the first index of a flat minimum)."""
-    n = c.size
-    if n < 3:
-        return np.empty(0, np.int64)
-    pad = np.pad(c, w, constant_values=np.inf)
-    win = np.lib.stride_tricks.sliding_window_view(pad, 2 * w + 1).min(axis=1)
-    left_max = np.maximum.accumulate(c)
-    right_max = np.maximum.accumulate(c[::-1])[::-1]
-    idx = np.arange(n)
-    ok = (c <= win) & (idx > 0) & (idx < n - 1)
-    ok &= np.r_[-np.inf, left_max[:-1]] >= rise * c
-    ok &= np.r_[right_max[1:], -np.inf] >= rise * c
-    ok &= np.r_[True, c[1:] != c[:-1]]  # the first pixel of a flat minimum
-    return np.flatnonzero(ok)
+def _clearance_at(clearance: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Clearance at points (..., 2) (row, col), rounded to pixels; 0 off the map."""
+    h, w = clearance.shape
+    r = np.floor(pts[..., 0] + 0.5).astype(np.int64)
+    c = np.floor(pts[..., 1] + 0.5).astype(np.int64)
+    ok = (r >= 0) & (r < h) & (c >= 0) & (c < w)
+    out = np.zeros(r.shape, np.float32)
+    out[ok] = clearance[r[ok], c[ok]]
+    return out
 
 
-def _candidates(clearance, skeleton, lo: float, hi: float, w: int, rise: float):
-    """Skeleton pixels where the clearance along the skeleton has a local minimum in
-    [lo, hi] with a rise on both sides, one per ``w`` neighbourhood (narrowest first)."""
-    work = WorkGraph.from_networkx(skeleton_to_graph(skeleton))
-    drop_spurs(work, clearance, float(w), SPUR_FACTOR)  # the medial axis's corner branches
-    work.contract_all()
-    found = []
-    for _, _, path in work.edges.values():
-        path = np.asarray(path, np.int64)
-        c = clearance[path[:, 0], path[:, 1]]
-        k = _edge_minima(c, w, rise)
-        k = k[(c[k] >= lo) & (c[k] <= hi)]
-        found.append(path[k])
-    pts = np.concatenate(found) if found else np.empty((0, 2), np.int64)
-    if pts.size == 0:
-        return pts
-    cv = clearance[pts[:, 0], pts[:, 1]]
-    pts = pts[np.lexsort((pts[:, 1], pts[:, 0], cv))]
-    tree = cKDTree(pts)
-    taken = np.zeros(len(pts), bool)
-    blocked = np.zeros(len(pts), bool)
-    for i in range(len(pts)):
+def _side_rise(clearance, p, normal, c, reach: float) -> np.ndarray:
+    """Largest clearance (N, 2) seen from each candidate ``p`` (N, 2) along a fan of rays
+    on either side of its doorway (``+normal`` and ``-normal``, +-30 deg), out to
+    ``reach`` pixels, each ray stopped at the first pixel of clearance below 1."""
+    steps = np.arange(1, int(np.ceil(reach)) + 1, dtype=np.float64)
+    out = np.zeros((p.shape[0], 2), np.float32)
+    for side, sign in enumerate((1.0, -1.0)):
+        best = np.zeros(p.shape[0], np.float32)
+        for ang in (-0.5236, 0.0, 0.5236):
+            ca, sa = np.cos(ang), np.sin(ang)
+            d = sign * np.stack(
+                [normal[:, 0] * ca - normal[:, 1] * sa, normal[:, 0] * sa + normal[:, 1] * ca],
+                axis=1,
+            )
+            pts = p[:, None, :] + steps[None, :, None] * d[:, None, :]
+            vals = _clearance_at(clearance, pts)
+            vals[steps[None, :] > np.maximum(reach, 2.0 * c[:, None])] = 0
+            blocked = np.cumsum(vals < 1.0, axis=1) > 0
+            vals[blocked] = 0
+            best = np.maximum(best, vals.max(axis=1))
+        out[:, side] = best
+    return out
+
+
+def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: float):
+    """Doorway candidates: skeleton pixels with clearance in [lo, hi] whose two nearest
+    obstacles lie on opposite sides and beyond which the clearance rises to ``rise`` times
+    theirs on both sides; one per ``w`` neighbourhood (narrowest first).  Returns the
+    pixels (N, 2) and their two obstacle pixels (N, 2, 2)."""
+    rr, cc = np.nonzero(skeleton & (clearance >= lo) & (clearance <= hi))
+    empty = np.empty((0, 2), np.int64), np.empty((0, 2, 2), np.int64)
+    if rr.size == 0:
+        return empty
+    p = np.stack([rr, cc], axis=1).astype(np.int64)
+    c = clearance[rr, cc].astype(np.float64)
+    basis, ok = basis_points(free, p, np.ceil(1.3 * c + 1.5).astype(np.int64))
+    p = p.astype(np.float64)
+    q1, q2 = basis[:, 0].astype(np.float64), basis[:, 1].astype(np.float64)
+    v1, v2 = q1 - p, q2 - p
+    n1, n2 = np.hypot(*v1.T), np.hypot(*v2.T)
+    cos = np.einsum("ij,ij->i", v1, v2) / np.maximum(n1 * n2, 1e-9)
+    ok &= (cos < OPPOSITE_COS) & (n2 <= 1.3 * c + 1.5)
+    along = q2 - q1
+    normal = np.stack([-along[:, 1], along[:, 0]], axis=1)
+    normal /= np.maximum(np.hypot(*normal.T), 1e-9)[:, None]
+    sides = _side_rise(clearance, p, normal, c, float(w))
+    ok &= (sides[:, 0] >= rise * c) & (sides[:, 1] >= rise * c)
+    if not ok.any():
+        return empty
+    p, c, q1, q2 = p[ok], c[ok], q1[ok], q2[ok]
+    order = np.lexsort((p[:, 1], p[:, 0], c))
+    p, q1, q2 = p[order], q1[order], q2[order]
+    tree = cKDTree(p)
+    taken = np.zeros(len(p), bool)
+    blocked = np.zeros(len(p), bool)
+    for i in range(len(p)):
         if blocked[i]:
             continue
         taken[i] = True
-        blocked[tree.query_ball_point(pts[i], w / 2, p=np.inf)] = True
-    return pts[taken]
-
-
-def _basis_points(free: np.ndarray, p: np.ndarray, radius: int):
-    """The obstacle pixel (not free, the map's outside included) nearest to ``p`` and the
-    nearest one on the opposite side of ``p`` (negative dot product), within ``radius``
-    (Chebyshev window); None where either is missing."""
-    h, w = free.shape
-    r0, r1 = p[0] - radius, p[0] + radius + 1
-    c0, c1 = p[1] - radius, p[1] + radius + 1
-    win = np.zeros((r1 - r0, c1 - c0), bool)
-    rs, re = max(r0, 0), min(r1, h)
-    cs, ce = max(c0, 0), min(c1, w)
-    win[rs - r0 : re - r0, cs - c0 : ce - c0] = free[rs:re, cs:ce]
-    rr, cc = np.nonzero(~win)
-    if rr.size == 0:
-        return None
-    dr, dc = rr + r0 - p[0], cc + c0 - p[1]
-    d2 = dr * dr + dc * dc
-    k = int(np.argmin(d2))
-    opposite = np.flatnonzero(dr * dr[k] + dc * dc[k] < 0)
-    if opposite.size == 0:
-        return None
-    j = opposite[int(np.argmin(d2[opposite]))]
-    return (
-        np.array([rr[k] + r0, cc[k] + c0], np.int64),
-        np.array([rr[j] + r0, cc[j] + c0], np.int64),
-    )
+        blocked[tree.query_ball_point(p[i], w, p=np.inf)] = True
+    ends = np.stack([q1[taken], q2[taken]], axis=1).astype(np.int64)
+    return p[taken].astype(np.int64), ends
 
 
 def door_cuts(free, clearance, skeleton, cfg, resolution_m: float) -> list[Cut]:
@@ -137,12 +136,8 @@ def door_cuts(free, clearance, skeleton, cfg, resolution_m: float) -> list[Cut]:
     hi = (cfg.max_door_width_m / resolution_m + 1.0) / 2.0
     w = max(1, int(round(cfg.door_context_m / resolution_m)))
     cuts = []
-    for p in _candidates(clearance, skeleton, lo, hi, w, DOOR_RISE):
-        c = float(clearance[p[0], p[1]])
-        basis = _basis_points(free, p, int(np.ceil(1.6 * c)) + 2)
-        if basis is None:
-            continue
-        q1, q2 = basis
+    centres, ends = _candidates(free, clearance, skeleton, lo, hi, w, DOOR_RISE)
+    for p, (q1, q2) in zip(centres, ends, strict=True):
         width = float(np.hypot(*(q2 - q1))) - 1.0
         if not (2 * lo - 1.0 <= width <= 2 * hi - 1.0):
             continue

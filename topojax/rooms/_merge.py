@@ -8,9 +8,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 from ._cuts import Cut
+from ._kernels import region_stats
 
 __all__ = ["DoorCut", "merge_regions"]
 
@@ -72,18 +72,6 @@ class _Rooms:
         return a
 
 
-def _region_stats(regions: np.ndarray, n: int, clearance: np.ndarray):
-    """Area (px), largest clearance (px) and boundary length (px) of regions ``0..n-1``."""
-    idx = np.arange(n)
-    area = np.bincount(regions.ravel(), minlength=n).astype(np.float64)
-    clear = np.asarray(ndimage.maximum(clearance, regions, idx), np.float64)
-    inner = cv2.erode(regions.astype(np.float32), np.ones((3, 3), np.uint8), borderValue=0)
-    outer = cv2.dilate(regions.astype(np.float32), np.ones((3, 3), np.uint8), borderValue=0)
-    edge = (inner != regions) | (outer != regions)
-    border = np.bincount(regions[edge], minlength=n).astype(np.float64)
-    return area, clear, border
-
-
 def _merge_pass(rooms: _Rooms, doors: list, cfg, min_area_px: float) -> bool:
     """One pass of the merging rules; returns whether anything merged."""
     changed = False
@@ -135,7 +123,7 @@ def _merge_pass(rooms: _Rooms, doors: list, cfg, min_area_px: float) -> bool:
 def merge_regions(regions, n, free, clearance, cuts, cfg, resolution_m: float):
     """Final room labels (int32 (H, W), ``1..k`` in raster order of each room's first
     pixel, 0 = no room) and the doors between rooms (list of :class:`DoorCut`)."""
-    area, clear, border = _region_stats(regions, n, clearance)
+    area, clear, border = region_stats(regions, clearance.astype(np.float32), n)
     area[0] = 0.0
     doors = []
     for cut in cuts:

@@ -145,34 +145,35 @@ def build_segmentation(occ, labels: np.ndarray, doors) -> RoomSegmentation:
     """The :class:`RoomSegmentation` of final ``labels`` and door cuts."""
     res = float(occ.resolution_m)
     n = int(labels.max()) if labels.size else 0
+    flat = labels.ravel()
+    count = np.bincount(flat, minlength=n + 1).astype(np.float64)
+    rows, cols = np.indices(labels.shape)
+    sum_r = np.bincount(flat, weights=rows.ravel(), minlength=n + 1)
+    sum_c = np.bincount(flat, weights=cols.ravel(), minlength=n + 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # the map frame is an affine image of the pixel grid: mean of world = world of mean
+        cx, cy = occ.pixel_to_world(sum_r / count, sum_c / count)
     rooms = []
-    slices = ndimage.find_objects(labels)
-    for rid, sl in enumerate(slices, start=1):
+    for rid, sl in enumerate(ndimage.find_objects(labels), start=1):
         if sl is None:
             continue
         mask = labels[sl] == rid
-        rr, cc = np.nonzero(mask)
-        rr, cc = rr + sl[0].start, cc + sl[1].start
-        x, y = occ.pixel_to_world(rr, cc)
         outline = _outline(mask, sl[0].start, sl[1].start)
         px, py = occ.pixel_to_world(outline[:, 0], outline[:, 1])
         poly = np.stack([px, py], axis=1)
         if poly.shape[0] >= 3:
-            signed = 0.5 * np.sum(
-                poly[:, 0] * np.roll(poly[:, 1], -1) - np.roll(poly[:, 0], -1) * poly[:, 1]
-            )
-            if signed < 0:
+            x, y = poly[:, 0], poly[:, 1]
+            if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
                 poly = poly[::-1].copy()
         rooms.append(
             Room(
                 id=rid,
-                area_m2=float(rr.size) * res * res,
-                centroid=(float(np.mean(x)), float(np.mean(y))),
+                area_m2=float(count[rid]) * res * res,
+                centroid=(float(cx[rid]), float(cy[rid])),
                 polygon=poly,
-                bbox=(int(rr.min()), int(cc.min()), int(rr.max()), int(cc.max())),
+                bbox=(sl[0].start, sl[1].start, sl[0].stop - 1, sl[1].stop - 1),
             )
         )
-    assert len(rooms) == n
     out = []
     for d in sorted(doors, key=lambda d: (d.rooms, tuple(d.cut.centre))):
         ex, ey = occ.pixel_to_world(d.cut.ends[:, 0], d.cut.ends[:, 1])

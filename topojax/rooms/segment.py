@@ -8,7 +8,6 @@ from dataclasses import dataclass, fields
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 from .._validate import instance_or_default, nonnegative_metres, positive_metres
 from ..skeleton import thin
@@ -139,20 +138,29 @@ def _clearance_px(free: np.ndarray) -> np.ndarray:
 
 
 def _fill_enclosed(labels: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """``labels`` with every pixel that is not free and is enclosed by one room alone
-    (furniture, clutter, small unknown patches) given that room's id."""
-    out = labels.copy()
-    slices = ndimage.find_objects(labels)
-    for rid, sl in enumerate(slices, start=1):
-        if sl is None:
-            continue
-        sub = labels[sl]
-        mine = sub == rid
-        holes = ndimage.binary_fill_holes(mine) & ~mine
-        if not holes.any():
-            continue
-        parts, _ = ndimage.label(holes, structure=np.ones((3, 3), bool))
-        other = np.unique(parts[holes & (sub != 0)])  # holes holding another room stay out
-        fill = holes & ~np.isin(parts, other[other > 0])
-        out[sl][fill] = rid
-    return out
+    """``labels`` with every part of the pixels without a room that touches one room only
+    and not the map's edge (furniture, clutter, pillars, small unknown patches inside a
+    room) given that room's id."""
+    h, w = labels.shape
+    n, parts = cv2.connectedComponents((labels == 0).view(np.uint8), connectivity=4)
+    if n <= 1:
+        return labels
+    edge = np.zeros(n, bool)
+    edge[parts[0]] = edge[parts[-1]] = edge[parts[:, 0]] = edge[parts[:, -1]] = True
+    pairs = []
+    for a, b in (
+        (parts[1:, :], labels[:-1, :]),
+        (parts[:-1, :], labels[1:, :]),
+        (parts[:, 1:], labels[:, :-1]),
+        (parts[:, :-1], labels[:, 1:]),
+    ):
+        touch = (a > 0) & (b > 0)
+        pairs.append(a[touch].astype(np.int64) * (int(labels.max()) + 1) + b[touch])
+    keys = np.unique(np.concatenate(pairs))
+    part, room = np.divmod(keys, int(labels.max()) + 1)
+    count = np.bincount(part, minlength=n)
+    owner = np.zeros(n, np.int32)
+    owner[part] = room
+    fill = (count == 1) & ~edge
+    fill[0] = False
+    return np.where(fill[parts], owner[parts], labels).astype(np.int32)
