@@ -33,7 +33,7 @@ class RoomConfig:
     door_ratio : float, default 0.7
         A door is kept only when its width is at most this times the width (twice the
         largest clearance) of each room it joins; otherwise the two rooms merge.
-    min_room_m2 : float, default 4.0
+    min_room_m2 : float, default 2.0
         Smaller regions merge into the neighbour they share the widest doors with
         (isolated ones are dropped).
     max_border_share : float, default 0.25
@@ -45,7 +45,7 @@ class RoomConfig:
     max_door_width_m: float = 2.2
     door_context_m: float = 1.0
     door_ratio: float = 0.7
-    min_room_m2: float = 4.0
+    min_room_m2: float = 2.0
     max_border_share: float = 0.25
 
     def __post_init__(self) -> None:

@@ -1,0 +1,253 @@
+"""Room segmentation: synthetic floor plans with known rooms and doors, properties, links
+to the topology graph, bad input, and regressions on IPA maps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+from floorplans import RES, floor_plan
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import topojax as tj
+from topojax.maps.occupancy import OccupancyMap
+
+IPA = Path(__file__).resolve().parents[2] / "shared" / "data" / "maps" / "ipa"
+
+
+def _map(free: np.ndarray, unknown: np.ndarray | None = None) -> OccupancyMap:
+    free = np.asarray(free, bool)
+    unknown = np.zeros_like(free) if unknown is None else np.asarray(unknown, bool)
+    return OccupancyMap(occupied=~free & ~unknown, free=free, unknown=unknown, resolution_m=RES)
+
+
+def _best_iou(seg_labels: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """For each ground-truth room, the IoU with the segment that overlaps it most."""
+    out = []
+    for k in range(1, int(truth.max()) + 1):
+        t = truth == k
+        ids, counts = np.unique(seg_labels[t], return_counts=True)
+        s = seg_labels == ids[np.argmax(counts)]
+        out.append((t & s).sum() / (t | s).sum())
+    return np.array(out)
+
+
+def _two_rooms(door_m: float, wall_px: int = 3) -> np.ndarray:
+    """Two 5 m x 5 m rooms side by side, one door of ``door_m`` in the wall between."""
+    free = np.zeros((104, 207), bool)
+    free[2:102, 2:102] = True
+    free[2:102, 102 + wall_px : 205] = True
+    d = int(round(door_m / RES))
+    free[52 - d // 2 : 52 - d // 2 + d, 102 : 102 + wall_px] = True
+    return free
+
+
+# --- known answers ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("door_m", [0.7, 0.9, 1.2, 1.6])
+def test_two_rooms_and_one_door_of_any_usual_width(door_m):
+    seg = tj.segment_rooms(_map(_two_rooms(door_m)))
+    assert seg.n_rooms == 2
+    assert len(seg.doors) == 1
+    door = seg.doors[0]
+    assert door.rooms == (1, 2)
+    assert door.width_m == pytest.approx(door_m, abs=2.5 * RES)
+    assert nx.is_connected(seg.graph)
+
+
+def test_a_gap_wider_than_max_door_width_joins_one_room():
+    seg = tj.segment_rooms(_map(_two_rooms(1.6)), config=tj.RoomConfig(max_door_width_m=1.2))
+    assert seg.n_rooms == 1 and seg.doors == ()
+
+
+def test_one_room_map_is_one_room_and_its_walls_are_no_room():
+    free = np.zeros((80, 120), bool)
+    free[3:77, 3:117] = True
+    seg = tj.segment_rooms(_map(free))
+    assert seg.n_rooms == 1
+    assert seg.doors == ()
+    assert (seg.labels[free] == 1).all()
+    assert (seg.labels[:3] == 0).all() and (seg.labels[:, :3] == 0).all()
+    room = seg.rooms[0]
+    assert room.area_m2 == pytest.approx(free.sum() * RES**2)
+    assert room.bbox == (3, 3, 76, 116)
+
+
+def test_no_free_space_gives_no_rooms():
+    seg = tj.segment_rooms(_map(np.zeros((40, 40), bool)))
+    assert seg.n_rooms == 0 and seg.doors == () and not seg.labels.any()
+    assert seg.graph.number_of_nodes() == 0
+
+
+def test_unknown_space_outside_the_mapped_area_is_never_a_room():
+    fp = floor_plan(3)
+    seg = tj.segment_rooms(fp.occupancy)
+    assert not seg.labels[fp.occupancy.unknown].any()
+
+
+def test_clutter_inside_a_room_belongs_to_it():
+    free = np.zeros((120, 120), bool)
+    free[2:118, 2:118] = True
+    free[50:60, 40:70] = False  # a table standing free in the room
+    seg = tj.segment_rooms(_map(free))
+    assert seg.n_rooms == 1
+    assert (seg.labels[50:60, 40:70] == 1).all()
+    assert seg.rooms[0].area_m2 == pytest.approx(116 * 116 * RES**2)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_synthetic_floor_plans_give_their_rooms_and_doors(seed):
+    fp = floor_plan(seed)
+    seg = tj.segment_rooms(fp.occupancy)
+    assert seg.n_rooms == fp.n_rooms
+    assert _best_iou(seg.labels, fp.rooms).min() > 0.9
+    assert sorted(d.rooms for d in seg.doors) == sorted(
+        _matched_pairs(seg.labels, fp.rooms, fp.doors)
+    )
+
+
+def _matched_pairs(labels: np.ndarray, truth: np.ndarray, doors) -> list:
+    """The true doors' room pairs in the segmentation's ids."""
+    to_seg = {}
+    for k in range(1, int(truth.max()) + 1):
+        ids, counts = np.unique(labels[truth == k], return_counts=True)
+        to_seg[k] = int(ids[np.argmax(counts)])
+    return [tuple(sorted((to_seg[a], to_seg[b]))) for a, b, _ in doors]
+
+
+# --- properties ------------------------------------------------------------------------
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 10_000))
+def test_properties_on_random_plans(seed):
+    fp = floor_plan(seed, size_m=(12.0, 16.0))
+    occ = fp.occupancy
+    seg = tj.segment_rooms(occ)
+    labels = seg.labels
+    # ids are 1..n, each room's pixels as its record says
+    assert set(np.unique(labels[labels > 0]).tolist()) == set(range(1, seg.n_rooms + 1))
+    for room in seg.rooms:
+        r0, c0, r1, c1 = room.bbox
+        mine = labels == room.id
+        assert mine[r0 : r1 + 1, c0 : c1 + 1].sum() == mine.sum()
+        assert room.area_m2 == pytest.approx(mine.sum() * RES**2)
+        assert seg.room_at(room.centroid) in (0, room.id) or not _convex(mine)
+    # every door joins two distinct rooms that both touch it
+    for door in seg.doors:
+        a, b = door.rooms
+        assert 0 < a < b <= seg.n_rooms
+        near = _around(labels, door.pixels)
+        assert a in near and b in near
+    # the room graph is connected exactly where the free space is
+    g = seg.graph
+    free_parts = _free_components_with_rooms(occ.free, labels)
+    assert nx.number_connected_components(g) == len(free_parts)
+
+
+def _convex(mask: np.ndarray) -> bool:
+    rows, cols = np.nonzero(mask)
+    return mask.sum() == (rows.max() - rows.min() + 1) * (cols.max() - cols.min() + 1)
+
+
+def _around(labels: np.ndarray, pixels: np.ndarray) -> set:
+    h, w = labels.shape
+    out = set()
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            r = np.clip(pixels[:, 0] + dr, 0, h - 1)
+            c = np.clip(pixels[:, 1] + dc, 0, w - 1)
+            out |= set(labels[r, c].tolist())
+    return out - {0}
+
+
+def _free_components_with_rooms(free: np.ndarray, labels: np.ndarray) -> list:
+    import cv2
+
+    n, parts = cv2.connectedComponents(free.view(np.uint8), connectivity=8)
+    return [k for k in range(1, n) if (labels[parts == k] > 0).any()]
+
+
+# --- links to the topology graph -------------------------------------------------------
+
+
+def test_every_vertex_gets_its_room_and_edges_their_rooms_and_doors():
+    free = _two_rooms(0.9)
+    occ = _map(free)
+    res = tj.build_graph(occ)
+    seg = tj.segment_rooms(res)
+    g = tj.assign_rooms(res.graph, seg)
+    assert g.graph["rooms"] == 2
+    for _, d in g.nodes(data=True):
+        r, c = d["pixel"]
+        assert d["room"] == seg.labels[r, c] or seg.labels[r, c] == 0
+    crossing = [d for *_, d in g.edges(data=True) if len(set(d["rooms"])) == 2]
+    assert crossing, "some edge runs from one room into the other"
+    for d in crossing:
+        assert d["doors"] == [seg.doors[0].id]
+    for *_, d in g.edges(data=True):
+        assert len(d["doors"]) == max(0, len(d["rooms"]) - 1)
+
+
+def test_assign_rooms_refuses_another_map():
+    seg = tj.segment_rooms(_map(_two_rooms(0.9)))
+    other = tj.build_graph(_map(np.pad(_two_rooms(0.9), 5)))
+    with pytest.raises(ValueError, match="shape"):
+        tj.assign_rooms(other.graph, seg)
+    with pytest.raises(TypeError, match="seg"):
+        tj.assign_rooms(other.graph, "rooms")
+
+
+def test_room_at_world_points():
+    seg = tj.segment_rooms(_map(_two_rooms(0.9)))
+    for room in seg.rooms:
+        assert seg.room_at(room.centroid) == room.id
+    assert seg.room_at((-100.0, -100.0)) == 0
+    with pytest.raises(TypeError, match="point"):
+        seg.room_at("here")
+    with pytest.raises(ValueError, match="point"):
+        seg.room_at((np.nan, 0.0))
+
+
+# --- bad input -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"min_door_width_m": -1.0}, "min_door_width_m"),
+        ({"max_door_width_m": 0.0}, "max_door_width_m"),
+        ({"max_door_width_m": 0.4, "min_door_width_m": 0.6}, "max_door_width_m"),
+        ({"door_ratio": 0.0}, "door_ratio"),
+        ({"min_room_m2": float("nan")}, "min_room_m2"),
+        ({"door_context_m": "1"}, "door_context_m"),
+    ],
+)
+def test_bad_options_name_themselves(kwargs, match):
+    with pytest.raises((TypeError, ValueError), match=match):
+        tj.RoomConfig(**kwargs)
+
+
+def test_bad_source_and_config_are_refused():
+    with pytest.raises(TypeError, match="source"):
+        tj.segment_rooms(np.zeros((10, 10), bool))
+    with pytest.raises(TypeError, match="config"):
+        tj.segment_rooms(_map(_two_rooms(0.9)), config={"min_room_m2": 1})
+
+
+# --- regressions on the IPA benchmark maps ---------------------------------------------
+
+
+@pytest.mark.skipif(not IPA.exists(), reason="shared IPA maps not present")
+@pytest.mark.parametrize("name, rooms", [("lab_c_scan", (9, 17)), ("lab_intel", (15, 25))])
+def test_ipa_maps_regression(name, rooms):
+    occ = tj.load_map(IPA / f"{name}.png", mode="ipa", resolution_m=0.05)
+    seg = tj.segment_rooms(occ)
+    assert rooms[0] <= seg.n_rooms <= rooms[1]
+    parts = _free_components_with_rooms(occ.free, seg.labels)
+    assert nx.number_connected_components(seg.graph) == len(parts)
+    assert all(0.5 <= d.width_m <= 2.3 for d in seg.doors)
