@@ -166,10 +166,14 @@ def _around(labels: np.ndarray, pixels: np.ndarray) -> set:
 
 
 def _free_components_with_rooms(free: np.ndarray, labels: np.ndarray) -> list:
+    """8-connected parts of the free space big enough to be a room (free specks inside
+    clutter belong to the room around them)."""
     import cv2
 
     n, parts = cv2.connectedComponents(free.view(np.uint8), connectivity=8)
-    return [k for k in range(1, n) if (labels[parts == k] > 0).any()]
+    size = np.bincount(parts.ravel(), minlength=n)
+    small = tj.RoomConfig().min_room_m2 / RES**2
+    return [k for k in range(1, n) if size[k] >= small and (labels[parts == k] > 0).any()]
 
 
 # --- links to the topology graph -------------------------------------------------------
