@@ -107,7 +107,7 @@ def floor_plan(
         else:
             occupied[s : s + span, pos : pos + wall] = False
         doors.append((min(a, b), max(a, b), width))
-    for k, (r0, c0, r1, c1) in enumerate(boxes, start=1):
+    for r0, c0, r1, c1 in boxes:
         for _ in range(clutter):
             bh, bw = _px(rng.uniform(0.4, 1.0)), _px(rng.uniform(0.4, 1.0))
             gap = _px(1.0)

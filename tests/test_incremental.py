@@ -1283,17 +1283,25 @@ def test_log_replay_matches_full_map(shared_data, log_name, n_scans, min_edges):
 
 
 def test_edge_path_pool_survives_holes_and_compaction():
+    from topojax.incremental._graph_store import (
+        add_paths,
+        drop_paths,
+        edge_ids,
+        edge_paths,
+        reserve,
+    )
+
     m = IncrementalMapper()
     rng = np.random.default_rng(3)
     want = {}
 
     def add(ids):
-        m._reserve(edges=int(ids.max()) + 1)
+        reserve(m, edges=int(ids.max()) + 1)
         m._next_edge = max(m._next_edge, int(ids.max()) + 1)
         lens = rng.integers(1, 400, ids.shape[0])
         paths = rng.integers(-(1 << 20), 1 << 20, (int(lens.sum()), 2)).astype(np.int32)
         m._e_alive[ids] = True
-        m._add_paths(ids, paths, lens)
+        add_paths(m, ids, paths, lens)
         for k, a, b in zip(ids, np.cumsum(lens) - lens, np.cumsum(lens), strict=True):
             want[int(k)] = paths[a:b]
 
@@ -1301,13 +1309,13 @@ def test_edge_path_pool_survives_holes_and_compaction():
     for _step in range(30):  # remove some, add more: holes, compactions and growth
         gone = rng.choice(sorted(want), size=min(8, len(want)), replace=False)
         m._e_alive[gone] = False
-        m._drop_paths(gone)
+        drop_paths(m, gone)
         for k in gone.tolist():
             del want[k]
         add(np.arange(m._next_edge, m._next_edge + 10))
-    live = m._edge_ids()
+    live = edge_ids(m)
     assert sorted(want) == live.tolist()
-    paths, lens = m._paths(live)
+    paths, lens = edge_paths(m, live)
     assert lens.tolist() == [want[k].shape[0] for k in live.tolist()]
     np.testing.assert_array_equal(paths, np.concatenate([want[k] for k in live.tolist()]))
     assert m._pool.shape[0] < 8 * (int(lens.sum()) + 4096)  # holes do not pile up

@@ -121,3 +121,23 @@ def _run_means(values: np.ndarray, offsets: np.ndarray) -> np.ndarray:
             rows = offsets[runs, None] + np.arange(lens[runs[0]])
             out[runs] = values[rows].mean(axis=1)
     return out
+
+
+def topology_result(mapper, update: bool):
+    """The body of :meth:`IncrementalMapper.to_result`."""
+    from ..pipeline import TopologyResult
+
+    mapper._bbox_or_raise("to_result")
+    if update:
+        mapper.update_graph()
+    return TopologyResult(
+        map=mapper.occupancy,
+        distance=mapper.distance,
+        lap_abs=mapper.lap_abs,
+        ridges=mapper.ridges,
+        skeleton=mapper.skeleton,
+        graph=mapper.graph,
+        config=mapper.config,
+        timings_s={},
+        sq_distance_px=mapper.sq_distance_px,
+    )

@@ -149,6 +149,16 @@ def checked_loop_settings(
     )
 
 
+def checked_room_settings(rooms_every, room_config):
+    """``rooms_every`` (None, or an int >= 0) and ``room_config`` (a RoomConfig or None,
+    then the default), checked."""
+    from ..rooms import RoomConfig
+
+    if rooms_every is not None:
+        rooms_every = _check_rate("rooms_every", rooms_every)
+    return rooms_every, instance_or_default("room_config", room_config, RoomConfig)
+
+
 #: Default ``max_extent_m`` of :class:`IncrementalMapper`: the largest side, in metres, of
 #: the mapped area's bounding box (a large building or a campus; a pose kilometres off
 #: is a localisation glitch, not a place).
@@ -182,6 +192,8 @@ def settings_of(mapper) -> dict:
         "resolution_m": mapper.resolution_m,
         "skeleton_every": mapper.skeleton_every,
         "graph_every": mapper.graph_every,
+        "rooms_every": mapper.rooms_every,
+        "room_config": asdict(mapper.room_config),
         "strategy": mapper.strategy,
         "config": asdict(mapper.config),
         "tile_px": mapper.tile_px,

@@ -18,9 +18,8 @@ from ..fields.distance import FAR_SQ
 from ..fields.filters import HALO_PX
 from ..fields.tiling import MAX_GRID_CELLS, TileManager
 from ..scans import Scan
-from ._graph_export import export_graph, global_graph
+from ._graph_export import export_graph, global_graph, topology_result
 from ._graph_patch import patch_graph
-from ._graph_store import add_paths, drop_paths, edge_ids, edge_paths, reserve, vertex_ids
 from ._rays import (
     RAY_BATCH_BEAMS,
     _scan_geometry,
@@ -38,12 +37,14 @@ from ._ridges import (
     ridge_kernel,
     update_ridges,
 )
+from ._rooms import RoomKeeper, rooms_due
 from ._settings import (
     DEFAULT_MAX_EXPORT_BYTES,
     DEFAULT_MAX_EXTENT_M,
     checked_guard_settings,
     checked_loop_settings,
     checked_resolution,
+    checked_room_settings,
     checked_sizes,
     merged_config,
 )
@@ -83,6 +84,12 @@ class IncrementalMapper:
     graph_every : int or None
         Run the graph loop once this many scans have come since the last graph update
         (default 80); 0 or None: only when :meth:`update_graph` is called.
+    rooms_every : int or None
+        Update :attr:`rooms` once this many scans have come since the last room update;
+        None (default): with every graph update, once rooms are in use (after the first
+        read of :attr:`rooms` or call of :meth:`update_rooms`); 0: explicit calls only.
+    room_config : RoomConfig, optional
+        Options of the room segmentation.
     strategy : {"exact", "paper"}
         Skeleton update: ``"exact"`` re-thins the changed ridge components and equals the
         full-map pipeline; ``"paper"`` thins the new ridges inside the changed blocks plus a
@@ -149,6 +156,8 @@ class IncrementalMapper:
         resolution_m: float = 0.05,
         skeleton_every: int | None = 20,
         graph_every: int | None = 80,
+        rooms_every: int | None = None,
+        room_config=None,
         strategy: str = "exact",
         config: PipelineConfig | None = None,
         distance: DistanceConfig | None = None,
@@ -179,6 +188,9 @@ class IncrementalMapper:
         ) = checked_loop_settings(
             max_pending_points, free_space, max_range_m, skeleton_every, graph_every
         )
+        self.rooms_every, self.room_config = checked_room_settings(rooms_every, room_config)
+        self._rooms = RoomKeeper()
+        self._since_rooms = 0
         self.resolution_m = resolution_m
         self.strategy = strategy
         self.config = config
@@ -444,6 +456,12 @@ class IncrementalMapper:
             self.update_skeleton()
             timings["skeleton"] = time.perf_counter() - ts
             loops.append("skeleton")
+        self._since_rooms += 1
+        rooms = None
+        if rooms_due(self, graph_ran=update is not None):
+            rooms = self._update_rooms()
+            timings["rooms"] = rooms.time_s
+            loops.append("rooms")
         return ScanReport(
             index=self._n_scans - 1,
             n_beams=n_beams,
@@ -454,6 +472,7 @@ class IncrementalMapper:
             timings_s=timings,
             n_tiles=tiles.n_tiles,
             graph_update=update,
+            rooms_update=rooms,
         )
 
     @_synchronized
@@ -532,26 +551,6 @@ class IncrementalMapper:
 
         with paused_gc():
             return patch_graph(self)
-
-    # ------------------------------------------------------------------ graph tables
-    # (the functions of _graph_store, as methods)
-    def _vertex_ids(self) -> np.ndarray:
-        return vertex_ids(self)
-
-    def _edge_ids(self) -> np.ndarray:
-        return edge_ids(self)
-
-    def _reserve(self, *, vertices: int = 0, edges: int = 0) -> None:
-        reserve(self, vertices=vertices, edges=edges)
-
-    def _paths(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return edge_paths(self, ids)
-
-    def _add_paths(self, ids: np.ndarray, paths: np.ndarray, lens: np.ndarray) -> None:
-        add_paths(self, ids, paths, lens)
-
-    def _drop_paths(self, ids: np.ndarray) -> None:
-        drop_paths(self, ids)
 
     # ------------------------------------------------------------------ exports
     def _bbox_or_raise(self, what: str | None = None) -> tuple[int, int, int, int]:
@@ -746,22 +745,31 @@ class IncrementalMapper:
         TopologyResult
             ``map`` is :attr:`occupancy`; arrays cover its grid; ``timings_s`` is empty.
         """
-        from ..pipeline import TopologyResult
+        return topology_result(self, update)
 
-        self._bbox_or_raise("to_result")
-        if update:
-            self.update_graph()
-        return TopologyResult(
-            map=self.occupancy,
-            distance=self.distance,
-            lap_abs=self.lap_abs,
-            ridges=self.ridges,
-            skeleton=self.skeleton,
-            graph=self.graph,
-            config=self.config,
-            timings_s={},
-            sq_distance_px=self.sq_distance_px,
-        )
+    # ------------------------------------------------------------------ rooms
+    @property
+    @_synchronized
+    def rooms(self):
+        """The rooms of the current map (:class:`topojax.RoomSegmentation` in the frame of
+        :attr:`occupancy`, ids stable across updates); segmented on first read, then kept
+        up to date at ``rooms_every``.  Its labels are those of
+        ``segment_rooms(mapper.occupancy)`` with the ids renamed."""
+        if self._rooms.seg is None:
+            self.update_rooms()
+        return self._rooms.seg
+
+    @_synchronized
+    def update_rooms(self):
+        """Bring the graph and the rooms up to date; returns a ``RoomsUpdate`` (rooms and
+        doors added, removed, changed)."""
+        self.update_graph()
+        return self._update_rooms()
+
+    def _update_rooms(self):
+        self._since_rooms = 0
+        box = self._bbox_or_raise("rooms")
+        return self._rooms.update(self._occupancy_over(*box), box, self.room_config)
 
     # ------------------------------------------------------------------ state
     @_synchronized

@@ -83,6 +83,8 @@ class ScanReport:
         Tiles allocated after this scan.
     graph_update : GraphUpdate or None
         Result of the graph loop if it ran.
+    rooms_update : RoomsUpdate or None
+        Result of the room update if it ran (loop ``"rooms"``).
     """
 
     index: int
@@ -94,6 +96,7 @@ class ScanReport:
     timings_s: dict[str, float]
     n_tiles: int
     graph_update: GraphUpdate | None = None
+    rooms_update: object | None = None
 
 
 def vertex_error_metrics(

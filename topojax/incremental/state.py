@@ -67,6 +67,13 @@ def save_state(mapper, path) -> Path:
     paths, lens = edge_paths(mapper, edges)
     arrays["e_len"] = lens.astype(np.int64)
     arrays["e_path"] = paths.astype(np.int64)
+    keeper = mapper._rooms
+    if keeper.labels is not None:
+        arrays["rooms_labels"] = keeper.labels
+        arrays["rooms_box"] = np.asarray(keeper.box, np.int64)
+    arrays["rooms_counters"] = np.asarray(
+        [keeper.next_id, int(keeper.active), mapper._since_rooms], np.int64
+    )
     buf = _io.BytesIO()
     np.savez_compressed(buf, **arrays)
     atomic_write_bytes(p, buf.getvalue())
@@ -116,12 +123,34 @@ def read_state(path) -> tuple[Path, dict[str, np.ndarray]]:
     return p, data
 
 
+def load_rooms_state(mapper, data) -> None:
+    """Restore the mapper's room keeper: the stored labels and ids; the rooms themselves
+    are segmented again on first use and keep the stored ids (the same map gives the
+    same rooms)."""
+    if "rooms_counters" not in data:
+        return
+    keeper = mapper._rooms
+    keeper.next_id, active, mapper._since_rooms = (int(v) for v in data["rooms_counters"])
+    keeper.active = bool(active)
+    if "rooms_labels" in data:
+        keeper.labels = np.asarray(data["rooms_labels"], np.int32)
+        keeper.box = tuple(int(v) for v in data["rooms_box"])
+        if keeper.labels.shape != (keeper.box[2] - keeper.box[0], keeper.box[3] - keeper.box[1]):
+            raise ValueError("the stored room labels do not match their box")
+        if keeper.labels.size and int(keeper.labels.max()) >= keeper.next_id:
+            raise ValueError("stored room ids reach past the next unused id")
+
+
 def load_state(cls, path):
     """The body of :meth:`IncrementalMapper.load` (``cls``: the mapper class)."""
     p, data = read_state(path)
     try:
         settings = json.loads(str(data["settings"]))
         cfg = settings.pop("config")
+        if "room_config" in settings:
+            from ..rooms import RoomConfig
+
+            settings["room_config"] = RoomConfig(**settings["room_config"])
         config = PipelineConfig(
             distance=DistanceConfig(**cfg["distance"]),
             ridge=RidgeConfig(**cfg["ridge"]),
@@ -174,6 +203,7 @@ def load_state(cls, path):
         mapper._e_uv[e_id] = e_uv
         mapper._e_alive[e_id] = True
         add_paths(mapper, e_id, paths.astype(np.int32), np.asarray(data["e_len"], np.int64))
+        load_rooms_state(mapper, data)
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise ValueError(f"{p}: corrupt or inconsistent mapper state: {exc}") from None
     return mapper

@@ -10,7 +10,7 @@ import networkx as nx
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["Door", "Room", "RoomSegmentation", "build_segmentation"]
+__all__ = ["Door", "Room", "RoomSegmentation", "build_segmentation", "relabel"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,4 +194,49 @@ def build_segmentation(occ, labels: np.ndarray, doors) -> RoomSegmentation:
         resolution_m=res,
         origin=tuple(float(o) for o in occ.origin),
         occupancy=occ,
+    )
+
+
+def relabel(seg: RoomSegmentation, lut: np.ndarray) -> RoomSegmentation:
+    """``seg`` with room ``k`` renamed ``lut[k]`` (``lut[0] == 0``, distinct positive ids
+    otherwise): labels, rooms (sorted by their new id) and the doors' rooms; door ids are
+    renumbered from 1 in the order of the rooms they join."""
+    lut = np.asarray(lut, np.int64)
+    rooms = sorted(
+        (
+            Room(
+                id=int(lut[r.id]),
+                area_m2=r.area_m2,
+                centroid=r.centroid,
+                polygon=r.polygon,
+                bbox=r.bbox,
+            )
+            for r in seg.rooms
+        ),
+        key=lambda r: r.id,
+    )
+    doors = []
+    for d in seg.doors:
+        a, b = int(lut[d.rooms[0]]), int(lut[d.rooms[1]])
+        doors.append((min(a, b), max(a, b), d))
+    doors.sort(key=lambda t: (t[0], t[1], tuple(t[2].ends_px.ravel())))
+    new_doors = tuple(
+        Door(
+            id=k,
+            rooms=(a, b),
+            ends_px=d.ends_px,
+            ends_world=d.ends_world,
+            width_m=d.width_m,
+            pixels=d.pixels,
+        )
+        for k, (a, b, d) in enumerate(doors, start=1)
+    )
+    return RoomSegmentation(
+        labels=lut[seg.labels].astype(np.int32),
+        rooms=tuple(rooms),
+        doors=new_doors,
+        resolution_m=seg.resolution_m,
+        origin=seg.origin,
+        occupancy=seg.occupancy,
+        timings_s=dict(seg.timings_s),
     )

@@ -1,0 +1,184 @@
+"""Rooms of the mapper's map, kept up to date with stable ids.
+
+Each update segments the current map (:func:`topojax.segment_rooms` of the mapper's
+occupancy) and carries ids over from the previous rooms: a new room takes the id of the
+old room it overlaps most when that old room also overlaps it most and their
+intersection over union is at least :data:`SAME_ROOM_IOU`; other rooms get new ids
+(never reused).  The labels are therefore exactly those of segmenting the current map
+from scratch, with the ids renamed; a room whose pixels did not change keeps its id."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["SAME_ROOM_IOU", "RoomKeeper", "RoomsUpdate", "match_ids", "rooms_due"]
+
+#: A new room keeps an old room's id when they are each other's largest overlap and
+#: overlap at least this much (intersection over union).
+SAME_ROOM_IOU = 0.5
+
+
+@dataclass(frozen=True)
+class RoomsUpdate:
+    """What one room update changed.
+
+    Attributes
+    ----------
+    added, removed : tuple of int
+        Room ids.
+    changed : tuple of int
+        Rooms that stay (same id) but whose pixels changed.
+    doors_added, doors_removed : tuple of (int, int)
+        Doors as the pair of room ids they join (one entry per door).
+    n_rooms : int
+        Rooms after the update.
+    time_s : float
+        Wall time of the update in seconds.
+    """
+
+    added: tuple[int, ...] = ()
+    removed: tuple[int, ...] = ()
+    changed: tuple[int, ...] = ()
+    doors_added: tuple[tuple[int, int], ...] = ()
+    doors_removed: tuple[tuple[int, int], ...] = ()
+    n_rooms: int = 0
+    time_s: float = 0.0
+
+
+def _window(labels: np.ndarray, box, inter) -> np.ndarray:
+    """The part of ``labels`` (over global pixel box ``box``) inside box ``inter``."""
+    r0, c0 = inter[0] - box[0], inter[1] - box[1]
+    return labels[r0 : r0 + inter[2] - inter[0], c0 : c0 + inter[3] - inter[1]]
+
+
+def match_ids(old, old_box, new, new_box, next_id: int) -> tuple[np.ndarray, int]:
+    """Stable ids for the rooms ``1..new.max()`` of ``new`` given the previous labels
+    ``old`` (boxes: global ``(r0, c0, r1, c1)``, end exclusive).  Returns the lookup table
+    (int64, index = new label, 0 -> 0) and the next unused id."""
+    n_new = int(new.max()) if new.size else 0
+    lut = np.zeros(n_new + 1, np.int64)
+    if n_new == 0:
+        return lut, next_id
+    if old is not None and old.size and old.max() > 0:
+        inter = (
+            max(old_box[0], new_box[0]),
+            max(old_box[1], new_box[1]),
+            min(old_box[2], new_box[2]),
+            min(old_box[3], new_box[3]),
+        )
+        if inter[0] < inter[2] and inter[1] < inter[3]:
+            a = _window(old, old_box, inter).ravel().astype(np.int64)
+            b = _window(new, new_box, inter).ravel().astype(np.int64)
+            both = (a > 0) & (b > 0)
+            base = int(old.max()) + 1
+            keys, overlap = np.unique(b[both] * base + a[both], return_counts=True)
+            nb, na = np.divmod(keys, base)
+            area_old = np.bincount(old.ravel(), minlength=base).astype(np.int64)
+            area_new = np.bincount(new.ravel(), minlength=n_new + 1).astype(np.int64)
+            best_new = np.zeros(n_new + 1, np.int64)  # best old id of each new room
+            best_new_ov = np.zeros(n_new + 1, np.int64)
+            best_old = np.zeros(base, np.int64)
+            best_old_ov = np.zeros(base, np.int64)
+            for j, i, ov in zip(nb.tolist(), na.tolist(), overlap.tolist(), strict=True):
+                if ov > best_new_ov[j]:
+                    best_new[j], best_new_ov[j] = i, ov
+                if ov > best_old_ov[i]:
+                    best_old[i], best_old_ov[i] = j, ov
+            for j in range(1, n_new + 1):
+                i = int(best_new[j])
+                if i and best_old[i] == j:
+                    iou = best_new_ov[j] / (area_old[i] + area_new[j] - best_new_ov[j])
+                    if iou >= SAME_ROOM_IOU:
+                        lut[j] = i
+    for j in range(1, n_new + 1):
+        if lut[j] == 0:
+            lut[j] = next_id
+            next_id += 1
+    return lut, next_id
+
+
+class RoomKeeper:
+    """The rooms of one mapper: the last segmentation (stable ids), its labels over the
+    global pixel box, and the next unused id."""
+
+    def __init__(self) -> None:
+        self.seg = None
+        self.labels: np.ndarray | None = None
+        self.box: tuple[int, int, int, int] | None = None
+        self.next_id = 1
+        self.active = False
+
+    def update(self, occupancy, box, config=None) -> RoomsUpdate:
+        """Segment ``occupancy`` (the mapper's map over global box ``box``) and carry the
+        ids over; returns what changed."""
+        from ..rooms import segment_rooms
+        from ..rooms.model import relabel
+
+        t0 = time.perf_counter()
+        self.active = True
+        fresh = segment_rooms(occupancy, config=config)
+        lut, self.next_id = match_ids(self.labels, self.box, fresh.labels, box, self.next_id)
+        seg = relabel(fresh, lut)
+        report = self._changes(seg, box)
+        self.seg, self.labels, self.box = seg, seg.labels, tuple(box)
+        return RoomsUpdate(**report, n_rooms=seg.n_rooms, time_s=time.perf_counter() - t0)
+
+    def _changes(self, seg, box) -> dict:
+        """Added, removed and changed rooms and doors between the kept rooms and ``seg``."""
+        old_ids = {r.id for r in self.seg.rooms} if self.seg is not None else set()
+        new_ids = {r.id for r in seg.rooms}
+        changed = []
+        for rid in sorted(old_ids & new_ids):
+            if not np.array_equal(
+                self._pixels(self.labels, self.box, rid), self._pixels(seg.labels, box, rid)
+            ):
+                changed.append(rid)
+        old_doors = _door_keys(self.seg, self.box) if self.seg is not None else []
+        new_doors = _door_keys(seg, box)
+        return {
+            "added": tuple(sorted(new_ids - old_ids)),
+            "removed": tuple(sorted(old_ids - new_ids)),
+            "changed": tuple(changed),
+            "doors_added": tuple(k[0] for k in _minus(new_doors, old_doors)),
+            "doors_removed": tuple(k[0] for k in _minus(old_doors, new_doors)),
+        }
+
+    @staticmethod
+    def _pixels(labels, box, rid) -> np.ndarray:
+        """Global flat keys of the pixels of room ``rid`` (sorted)."""
+        rr, cc = np.nonzero(labels == rid)
+        return np.sort((rr + box[0]).astype(np.int64) * (1 << 32) + (cc + box[1]))
+
+
+def _door_keys(seg, box) -> list:
+    """Each door as ``((a, b), (r0, c0, r1, c1))``: its rooms and its ends in global
+    pixels."""
+    out = []
+    for d in seg.doors:
+        e = d.ends_px + np.array([box[0], box[1]])
+        out.append((d.rooms, tuple(int(v) for v in e.ravel())))
+    return out
+
+
+def _minus(a: list, b: list) -> list:
+    """Entries of ``a`` not in ``b`` (as multisets)."""
+    rest = list(b)
+    out = []
+    for k in a:
+        if k in rest:
+            rest.remove(k)
+        else:
+            out.append(k)
+    return out
+
+
+def rooms_due(mapper, *, graph_ran: bool) -> bool:
+    """Whether the mapper's rooms are due for an update after this scan: every
+    ``rooms_every`` scans, or (``rooms_every`` None) with each graph update once rooms are
+    in use."""
+    if mapper.rooms_every is None:
+        return graph_ran and mapper._rooms.active
+    return bool(mapper.rooms_every) and mapper._since_rooms >= mapper.rooms_every
