@@ -283,6 +283,7 @@ EXPORT_BYTES_PER_PX = {
     "graph": 24,
     "to_result": 40,
     "route_graph": 64,
+    "rooms": 48,
 }
 
 
