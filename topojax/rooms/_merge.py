@@ -135,7 +135,14 @@ def merge_regions(regions, n, free, clearance, cuts, cfg, resolution_m: float):
     while _merge_pass(rooms, doors, cfg, min_area_px):
         pass
     root = np.array([rooms.find(i) for i in range(n)], np.int64)
-    keep = (rooms.area[root] >= min_area_px) & (np.arange(n) > 0)
+    joined = np.zeros(n, bool)  # groups with a door to another group
+    for a0, b0, _ in doors:
+        a, b = rooms.find(a0), rooms.find(b0)
+        if a != b:
+            joined[a] = joined[b] = True
+    big = rooms.area[root] >= min_area_px
+    alone = ~joined[root] & (rooms.area[root] >= cfg.min_isolated_room_m2 / resolution_m**2)
+    keep = (big | alone) & (np.arange(n) > 0)
     root = np.where(keep, root, 0)
     first = np.full(n, np.iinfo(np.int64).max, np.int64)
     flat = regions.ravel()

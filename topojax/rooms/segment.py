@@ -34,8 +34,9 @@ class RoomConfig:
         A door is kept only when its width is at most this times the width (twice the
         largest clearance) of each room it joins; otherwise the two rooms merge.
     min_room_m2 : float, default 2.0
-        Smaller regions merge into the neighbour they share the widest doors with
-        (isolated ones are dropped).
+        Smaller regions merge into the neighbour they share the most doorway with.
+    min_isolated_room_m2 : float, default 0.5
+        A region without doorways (a free area of its own) is a room from this size on.
     max_border_share : float, default 0.25
         Two regions merge when the doors between them make up more than this share of the
         smaller one's boundary (a niche, not a room).
@@ -46,6 +47,7 @@ class RoomConfig:
     door_context_m: float = 1.0
     door_ratio: float = 0.7
     min_room_m2: float = 2.0
+    min_isolated_room_m2: float = 0.5
     max_border_share: float = 0.25
 
     def __post_init__(self) -> None:
