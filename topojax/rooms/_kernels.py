@@ -6,7 +6,7 @@ import numpy as np
 
 from .._jit import cached_njit
 
-__all__ = ["region_stats"]
+__all__ = ["basis_points", "label_moments", "region_stats"]
 
 
 @cached_njit(nogil=True)
@@ -90,3 +90,19 @@ def basis_points(free, pts, radius):
         out[i, 0, 0], out[i, 0, 1], out[i, 1, 0], out[i, 1, 1] = br, bc, sr, sc
         found[i] = True
     return out, found
+
+
+@cached_njit(nogil=True)
+def label_moments(labels, n):
+    """Pixel count, row sum and column sum of labels ``0..n`` (float64 (n + 1,) each)."""
+    count = np.zeros(n + 1, np.float64)
+    sum_r = np.zeros(n + 1, np.float64)
+    sum_c = np.zeros(n + 1, np.float64)
+    h, w = labels.shape
+    for r in range(h):
+        for c in range(w):
+            k = labels[r, c]
+            count[k] += 1.0
+            sum_r[k] += r
+            sum_c[k] += c
+    return count, sum_r, sum_c

@@ -22,6 +22,17 @@ class DoorCut:
     cut: Cut
     rooms: tuple[int, int]
 
+    def shifted(self, offset: np.ndarray) -> DoorCut:
+        """The same door with its pixels moved by ``offset`` (row, col)."""
+        c = self.cut
+        moved = Cut(
+            centre=c.centre + offset,
+            ends=c.ends + offset,
+            pixels=c.pixels + offset,
+            width_px=c.width_px,
+        )
+        return DoorCut(cut=moved, rooms=self.rooms)
+
 
 def _sides(regions: np.ndarray, cut: Cut) -> tuple[int, int] | None:
     """The two regions a cut separates (the two most frequent 4-neighbours of its pixels),

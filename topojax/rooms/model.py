@@ -10,6 +10,8 @@ import networkx as nx
 import numpy as np
 from scipy import ndimage
 
+from ._kernels import label_moments
+
 __all__ = ["Door", "Room", "RoomSegmentation", "build_segmentation", "relabel"]
 
 
@@ -141,24 +143,26 @@ def _outline(mask: np.ndarray, r0: int, c0: int) -> np.ndarray:
     return np.stack([best[:, 1] + r0, best[:, 0] + c0], axis=1).astype(np.float64)
 
 
-def build_segmentation(occ, labels: np.ndarray, doors) -> RoomSegmentation:
-    """The :class:`RoomSegmentation` of final ``labels`` and door cuts."""
+def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmentation:
+    """The :class:`RoomSegmentation` of final ``labels`` and door cuts; ``box`` (a pair of
+    slices), when given, holds every labelled pixel."""
     res = float(occ.resolution_m)
-    n = int(labels.max()) if labels.size else 0
-    flat = labels.ravel()
-    count = np.bincount(flat, minlength=n + 1).astype(np.float64)
-    rows, cols = np.indices(labels.shape)
-    sum_r = np.bincount(flat, weights=rows.ravel(), minlength=n + 1)
-    sum_c = np.bincount(flat, weights=cols.ravel(), minlength=n + 1)
+    if box is None:
+        box = (slice(0, labels.shape[0]), slice(0, labels.shape[1]))
+    part = labels[box]
+    r_off, c_off = box[0].start, box[1].start
+    n = int(part.max()) if part.size else 0
+    count, sum_r, sum_c = label_moments(part, n)
     with np.errstate(invalid="ignore", divide="ignore"):
         # the map frame is an affine image of the pixel grid: mean of world = world of mean
-        cx, cy = occ.pixel_to_world(sum_r / count, sum_c / count)
+        cx, cy = occ.pixel_to_world(sum_r / count + r_off, sum_c / count + c_off)
     rooms = []
-    for rid, sl in enumerate(ndimage.find_objects(labels), start=1):
+    for rid, sl in enumerate(ndimage.find_objects(part), start=1):
         if sl is None:
             continue
-        mask = labels[sl] == rid
-        outline = _outline(mask, sl[0].start, sl[1].start)
+        mask = part[sl] == rid
+        r0, c0 = sl[0].start + r_off, sl[1].start + c_off
+        outline = _outline(mask, r0, c0)
         px, py = occ.pixel_to_world(outline[:, 0], outline[:, 1])
         poly = np.stack([px, py], axis=1)
         if poly.shape[0] >= 3:
@@ -171,7 +175,7 @@ def build_segmentation(occ, labels: np.ndarray, doors) -> RoomSegmentation:
                 area_m2=float(count[rid]) * res * res,
                 centroid=(float(cx[rid]), float(cy[rid])),
                 polygon=poly,
-                bbox=(sl[0].start, sl[1].start, sl[0].stop - 1, sl[1].stop - 1),
+                bbox=(r0, c0, sl[0].stop - 1 + r_off, sl[1].stop - 1 + c_off),
             )
         )
     out = []

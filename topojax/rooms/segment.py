@@ -105,8 +105,12 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     cfg = instance_or_default("config", config, RoomConfig)
     occ = _occupancy_of(source)
     t0 = time.perf_counter()
-    free = np.ascontiguousarray(occ.free, bool)
+    full = np.asarray(occ.free, bool)
     res = float(occ.resolution_m)
+    # everything happens in the free space's bounding box with a one-pixel margin (the
+    # margin is not free, so clearances and skeleton are those of the whole map)
+    box = _free_box(full)
+    free = np.ascontiguousarray(full[box])
     clearance = _clearance_px(free)
     skeleton = thin(free) if free.any() else np.zeros_like(free)
     t1 = time.perf_counter()
@@ -116,10 +120,13 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     for cut in cuts:
         open_[cut.pixels[:, 0], cut.pixels[:, 1]] = False
     n, regions = cv2.connectedComponents(open_.view(np.uint8), connectivity=4, ltype=cv2.CV_32S)
-    labels, doors = merge_regions(regions, n, free, clearance, cuts, cfg, res)
-    labels = _fill_enclosed(labels, free)
+    part, doors = merge_regions(regions, n, free, clearance, cuts, cfg, res)
+    labels = np.zeros(full.shape, np.int32)
+    labels[box] = _fill_enclosed(part, free)
+    offset = np.array([box[0].start, box[1].start], np.int64)
+    doors = [d.shifted(offset) for d in doors]
     t3 = time.perf_counter()
-    seg = build_segmentation(occ, labels, doors)
+    seg = build_segmentation(occ, labels, doors, box)
     seg.timings_s.update(
         {
             "fields": t1 - t0,
@@ -129,6 +136,19 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
         }
     )
     return seg
+
+
+def _free_box(free: np.ndarray) -> tuple[slice, slice]:
+    """The bounding box of ``free`` grown by one pixel (clipped to the map)."""
+    rows = np.flatnonzero(free.any(axis=1))
+    if rows.size == 0:
+        return slice(0, 0), slice(0, 0)
+    cols = np.flatnonzero(free.any(axis=0))
+    h, w = free.shape
+    return (
+        slice(max(rows[0] - 1, 0), min(rows[-1] + 2, h)),
+        slice(max(cols[0] - 1, 0), min(cols[-1] + 2, w)),
+    )
 
 
 def _clearance_px(free: np.ndarray) -> np.ndarray:
