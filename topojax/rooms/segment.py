@@ -110,9 +110,11 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     # everything happens in the free space's bounding box with a one-pixel margin (the
     # margin is not free, so clearances and skeleton are those of the whole map)
     box = _free_box(full)
+    if box[0].stop == box[0].start:
+        return build_segmentation(occ, np.zeros(full.shape, np.int32), [])
     free = np.ascontiguousarray(full[box])
     clearance = _clearance_px(free)
-    skeleton = thin(free) if free.any() else np.zeros_like(free)
+    skeleton = thin(free)
     t1 = time.perf_counter()
     cuts = door_cuts(free, clearance, skeleton, cfg, res)
     t2 = time.perf_counter()
