@@ -11,24 +11,11 @@ import cv2
 import networkx as nx
 import numpy as np
 import pytest
+from room_maps import three_rooms
 
 import topojax as tj
 from topojax.io import ROOM_FILE_SUFFIXES, save_room_files
 from topojax.io.rooms import room_colours
-
-
-def three_rooms(origin=(-1.5, 2.0, 0.3)) -> tj.OccupancyMap:
-    """60 x 150 px at 0.05 m/px: three rooms in a row, 0.8 m doorways between them, the
-    map frame shifted and turned (yaw 0.3 rad)."""
-    occ = np.zeros((60, 150), bool)
-    occ[[0, -1], :] = True
-    occ[:, [0, -1]] = True
-    for c in (50, 100):
-        occ[:, c] = True
-        occ[22:38, c] = False
-    return tj.OccupancyMap(
-        occupied=occ, free=~occ, unknown=np.zeros_like(occ), resolution_m=0.05, origin=origin
-    )
 
 
 @pytest.fixture(scope="module")
