@@ -197,7 +197,8 @@ def _room_segmentation(seg, name: str):
 
 def _draw_rooms(seg, ax, *, doors: bool, labels: bool, alpha: float) -> None:
     """Rooms as a translucent colour layer (:func:`topojax.io.rooms.room_colours`, as the
-    label picture), doorways as lines between their ends, room ids at their centroids."""
+    label picture), doorways as white lines between their ends, room ids at their
+    centroids."""
     from matplotlib.collections import LineCollection
 
     from .io.rooms import room_colours
@@ -211,10 +212,12 @@ def _draw_rooms(seg, ax, *, doors: bool, labels: bool, alpha: float) -> None:
         rgba[inside, 3] = alpha
     ax.imshow(rgba, interpolation="nearest")
     if doors and seg.doors:
+        from matplotlib import patheffects
+
         segments = [np.asarray(d.ends_px, float)[:, ::-1] for d in seg.doors]
-        ax.add_collection(
-            LineCollection(segments, colors="#111111", linewidths=2.0, zorder=3, label="doors")
-        )
+        lines = LineCollection(segments, colors="white", linewidths=2.0, zorder=3, label="doors")
+        lines.set_path_effects([patheffects.withStroke(linewidth=3.5, foreground="#111111")])
+        ax.add_collection(lines)
     if labels:
         for room in seg.rooms:
             r, c = seg.occupancy.world_to_pixel(*room.centroid)
