@@ -27,6 +27,7 @@ from .inputs import (
     _check_formats,
     _format_suffixes,
     _Item,
+    _room_settings,
 )
 from .manifest import _fingerprint, _forget_outputs, _normalise, _resume_record, _write_manifest
 from .records import MapRecord, write_summary
@@ -111,9 +112,9 @@ class _BatchRun:
         # reads the kernels wait for; an outside executor's size is unknown.
         self.cpu_backlog = max(4, 3 * workers) if executor is None else 64
         self._restarts = 0
-        # the rooms format segments each map in its CPU stage (written files only)
+        # the rooms format segments each map in its CPU stage, which rebuilds the map (as
+        # it does for the picture)
         self._rooms = "rooms" in formats and out_dir is not None
-        # the CPU stage rebuilds the map (occupied, free) for the picture and the rooms
         self._needs_map = out_dir is not None and (plot or self._rooms)
 
     # ---------------------------------------------------------------- executor handling
@@ -574,12 +575,9 @@ def build_graphs(
     formats : sequence of {"graphml", "json", "geojson", "nav2", "rooms"} or comma-separated str
         Graph files per map (``nav2``: ``<name>_nav2.geojson``, a route graph for the ROS 2
         Nav2 Route Server, :func:`topojax.save_nav2_graph` with its default tolerance).
-        ``rooms`` segments each map into rooms (:func:`topojax.segment_rooms`, default
-        :class:`~topojax.RoomConfig`) and writes ``<name>_rooms.geojson``,
-        ``<name>_rooms.png``, ``<name>_rooms.graphml`` and ``<name>_rooms.json``
-        (:func:`topojax.io.save_room_files`); the graph files, the picture and the kept
-        graphs then carry each vertex's room and each edge's rooms and doors
-        (:func:`topojax.assign_rooms`).  Without ``out_dir`` nothing is segmented.
+        ``rooms``: ``<name>_rooms.{geojson,png,graphml,json}`` of
+        :func:`topojax.segment_rooms` (default settings); the graph files, picture and
+        kept graphs then carry the rooms (:func:`topojax.assign_rooms`).
     plot : bool
         Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
     resume : bool
@@ -788,13 +786,6 @@ def _request(
             **({"sigma_m": sigma_m} if sigma_m is not None else {}),
         }
     )
-
-
-def _room_settings() -> dict[str, Any]:
-    """The settings of the rooms format (:class:`topojax.RoomConfig`'s defaults)."""
-    from ..rooms import RoomConfig
-
-    return dataclasses.asdict(RoomConfig())
 
 
 def _check_no_overwrite(

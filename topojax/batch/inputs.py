@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import glob as _glob
 import os
 from collections import Counter
@@ -27,6 +28,13 @@ _FORMAT_SUFFIX["nav2"] = "_nav2.geojson"
 # (topojax.io.save_room_files: GeoJSON, label picture, room graph as GraphML and JSON).
 _FORMAT_FILES = {fmt: (suffix,) for fmt, suffix in _FORMAT_SUFFIX.items()}
 _FORMAT_FILES["rooms"] = ROOM_FILE_SUFFIXES
+
+
+def _room_settings() -> dict[str, Any]:
+    """The settings of the ``rooms`` format: :class:`topojax.RoomConfig`'s defaults."""
+    from ..rooms import RoomConfig
+
+    return dataclasses.asdict(RoomConfig())
 
 
 def _format_suffixes(formats: Iterable[str]) -> list[str]:
