@@ -184,6 +184,10 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
             r"features\[3\] pixels: expected integer pixels",
         ),
         (
+            lambda d: d["features"][3]["properties"].update(pixels=[["a", 2]]),
+            r"features\[3\] pixels: expected a list of K \[a, b\] pairs",
+        ),
+        (
             lambda d: d["features"][4]["geometry"].update(type="Point"),
             "a door needs a LineString geometry, got 'Point'",
         ),

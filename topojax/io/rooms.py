@@ -179,7 +179,7 @@ def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.nda
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         arr = np.empty(0)
-    if arr.size == 0 and isinstance(value, list) and count is None:
+    if isinstance(value, list) and not value and count is None:  # no pixels
         arr = arr.reshape(0, 2)
     if arr.ndim != 2 or arr.shape[1] != 2 or (count is not None and arr.shape[0] != count):
         size = "K" if count is None else str(count)
