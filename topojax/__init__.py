@@ -57,7 +57,15 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
         replay,
         vertex_error_metrics,
     )
-    from .io import load_graph, save_graph, save_nav2_graph
+    from .io import (
+        load_graph,
+        load_rooms,
+        save_graph,
+        save_nav2_graph,
+        save_room_graph,
+        save_room_labels,
+        save_rooms,
+    )
     from .maps import OccupancyMap, load_map, save_map
     from .pipeline import (
         TopologyResult,
@@ -115,6 +123,7 @@ __all__ = [
     "graph_summary",
     "load_graph",
     "load_map",
+    "load_rooms",
     "plan_route",
     "plot",
     "plot_stages",
@@ -130,6 +139,9 @@ __all__ = [
     "save_graph",
     "save_map",
     "save_nav2_graph",
+    "save_room_graph",
+    "save_room_labels",
+    "save_rooms",
     "segment_rooms",
     "skeleton_to_graph",
     "thin",
@@ -155,6 +167,10 @@ _LAZY = {
     "load_graph": "io",
     "save_graph": "io",
     "save_nav2_graph": "io",
+    "load_rooms": "io",
+    "save_room_graph": "io",
+    "save_room_labels": "io",
+    "save_rooms": "io",
     "OccupancyMap": "maps",
     "load_map": "maps",
     "save_map": "maps",

@@ -1,4 +1,5 @@
-"""Matplotlib helpers: the map, distance map, ridges, skeleton, graph and route overlays.
+"""Matplotlib helpers: the map, distance map, ridges, skeleton, graph, route and room
+overlays.
 
 All images are drawn in pixel coordinates (``imshow`` with row 0 at the top), so the
 graph's pixel paths overlay exactly.  Keyword arguments shared by the helpers: ``ax`` (a
@@ -22,6 +23,7 @@ __all__ = [
     "plot_skeleton",
     "plot_graph",
     "plot_route",
+    "plot_rooms",
     "plot_stages",
 ]
 
@@ -185,6 +187,88 @@ def plot_route(route, *, ax=None, color="#d62728", linewidth: float = 3.0, title
     return ax
 
 
+def _room_segmentation(seg, name: str):
+    from .rooms import RoomSegmentation
+
+    if not isinstance(seg, RoomSegmentation):
+        raise TypeError(f"{name}: expected a RoomSegmentation, received {type(seg).__name__}")
+    return seg
+
+
+def _draw_rooms(seg, ax, *, doors: bool, labels: bool, alpha: float) -> None:
+    """Rooms as a translucent colour layer (:func:`topojax.io.rooms.room_colours`, as the
+    label picture), doorways as white lines between their ends, room ids at their
+    centroids."""
+    from matplotlib.collections import LineCollection
+
+    from .io.rooms import room_colours
+
+    lab = np.asarray(seg.labels)
+    rgba = np.zeros(lab.shape + (4,), np.float32)
+    if seg.n_rooms:
+        colours = room_colours(int(lab.max())).astype(np.float32) / 255.0
+        inside = lab > 0
+        rgba[inside, :3] = colours[lab[inside] - 1]
+        rgba[inside, 3] = alpha
+    ax.imshow(rgba, interpolation="nearest")
+    if doors and seg.doors:
+        from matplotlib import patheffects
+
+        segments = [np.asarray(d.ends_px, float)[:, ::-1] for d in seg.doors]
+        lines = LineCollection(segments, colors="white", linewidths=2.0, zorder=3, label="doors")
+        lines.set_path_effects([patheffects.withStroke(linewidth=3.5, foreground="#111111")])
+        ax.add_collection(lines)
+    if labels:
+        for room in seg.rooms:
+            r, c = seg.occupancy.world_to_pixel(*room.centroid)
+            ax.text(
+                float(c),
+                float(r),
+                str(room.id),
+                ha="center",
+                va="center",
+                fontsize="small",
+                fontweight="bold",
+                zorder=4,
+                bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8},
+            )
+    h, w = lab.shape
+    ax.set_xlim(-0.5, w - 0.5)
+    ax.set_ylim(h - 0.5, -0.5)
+    ax.set_aspect("equal")
+
+
+def plot_rooms(seg, *, ax=None, title: str | None = None, doors: bool = True, labels: bool = True):
+    """Rooms of a :class:`~topojax.RoomSegmentation` over its map, in pixel coordinates.
+
+    Parameters
+    ----------
+    seg : RoomSegmentation
+        From :func:`topojax.segment_rooms`.
+    ax : matplotlib Axes, optional
+        Where to draw; default a new 9 x 9 inch figure.
+    title : str, optional
+        Default: the room and door counts.
+    doors : bool
+        Draw each doorway as a line between its two obstacle ends.
+    labels : bool
+        Write each room's id at its centroid.
+
+    Returns
+    -------
+    matplotlib Axes
+        Each room in its colour of the label picture (:func:`topojax.save_room_labels`).
+    """
+    seg = _room_segmentation(seg, "seg")
+    ax = _axes(ax, figsize=(9, 9))
+    plot_map(seg.occupancy, ax=ax)
+    _draw_rooms(seg, ax, doors=doors, labels=labels, alpha=0.6)
+    if title is None:
+        title = f"{seg.n_rooms} rooms, {len(seg.doors)} doors"
+    ax.set_title(title)
+    return ax
+
+
 def plot(
     result,
     *,
@@ -192,6 +276,7 @@ def plot(
     skeleton: bool = True,
     graph: bool = True,
     route=None,
+    rooms=None,
     title: str | None = None,
 ):
     """Overlay of map, skeleton and graph for a :class:`~topojax.TopologyResult` (or an
@@ -207,8 +292,11 @@ def plot(
         Draw the skeleton pixels (green) and the graph (edges orange, vertices by kind).
     route : Route, optional
         Drawn on top (:func:`plot_route`).
+    rooms : RoomSegmentation, optional
+        Rooms of the same map, drawn under the skeleton and graph as :func:`plot_rooms`
+        draws them.
     title : str, optional
-        Default: the vertex and edge counts.
+        Default: the vertex and edge counts (and the room count).
 
     Returns
     -------
@@ -216,8 +304,17 @@ def plot(
         ``ax.figure.savefig(path)`` writes a picture.
     """
     result = _as_result(result, ("map", "skeleton", "graph"))
+    if rooms is not None:
+        rooms = _room_segmentation(rooms, "rooms")
+        if rooms.labels.shape != tuple(result.map.shape):
+            raise ValueError(
+                f"rooms: expected the rooms of a map of shape {tuple(result.map.shape)} (the "
+                f"result's), received rooms of shape {rooms.labels.shape}"
+            )
     ax = _axes(ax, figsize=(9, 9))
     plot_map(result.map, ax=ax)
+    if rooms is not None:
+        _draw_rooms(rooms, ax, doors=True, labels=True, alpha=0.45)
     if skeleton:
         plot_skeleton(result.skeleton, ax=ax, color="#2ca02c")
     if graph:
@@ -227,6 +324,8 @@ def plot(
     if title is None:
         g = result.graph
         title = f"{g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
+        if rooms is not None:
+            title += f", {rooms.n_rooms} rooms"
     ax.set_title(title)
     return ax
 

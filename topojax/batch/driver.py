@@ -21,12 +21,13 @@ from .._validate import instance_or_default, int_at_least, one_of, positive_metr
 from ..config import DistanceConfig, PipelineConfig
 from ..maps import MODES, OccupancyMap
 from .inputs import (
-    _FORMAT_SUFFIX,
     _MANIFEST_SUFFIX,
     _PICTURE_SUFFIX,
     _assign_names,
     _check_formats,
+    _format_suffixes,
     _Item,
+    _room_settings,
 )
 from .manifest import _fingerprint, _forget_outputs, _normalise, _resume_record, _write_manifest
 from .records import MapRecord, write_summary
@@ -111,6 +112,10 @@ class _BatchRun:
         # reads the kernels wait for; an outside executor's size is unknown.
         self.cpu_backlog = max(4, 3 * workers) if executor is None else 64
         self._restarts = 0
+        # the rooms format segments each map in its CPU stage, which rebuilds the map (as
+        # it does for the picture)
+        self._rooms = "rooms" in formats and out_dir is not None
+        self._needs_map = out_dir is not None and (plot or self._rooms)
 
     # ---------------------------------------------------------------- executor handling
     def _new_executor(self) -> cf.Executor:
@@ -233,7 +238,7 @@ class _BatchRun:
             # ridge pixels (computed exactly as build_graph does) are all the graph reads.
             clearance = _ridge_clearance(f, occ.occupied, cfg.distance.half_width_px)
             masks = None
-            if self.plot and self.out_dir is not None:
+            if self._needs_map:
                 masks = np.packbits(np.stack([occ.occupied, occ.free]))
             job = _CpuJob(
                 name=g.item.name,
@@ -249,6 +254,8 @@ class _BatchRun:
                 masks_bits=masks,
                 keep_graph=self.keep_graphs,
                 free_bits=np.packbits(occ.free) if cfg.graph.free_space_only else None,
+                plot=self.plot and self.out_dir is not None,
+                rooms=self._rooms,
             )
             jobs.append((g, job, share + time.perf_counter() - t0, ""))
         return jobs
@@ -320,10 +327,8 @@ class _BatchRun:
             else:
                 self._pending.append(item)
 
-        # the free mask: for the picture, and for free_space_only's thinning
-        self._want_free = (
-            self.plot and self.out_dir is not None
-        ) or self.config.graph.free_space_only
+        # the free mask: for the picture and the rooms, and for free_space_only's thinning
+        self._want_free = self._needs_map or self.config.graph.free_space_only
         # Map files are read by our own worker processes (same file system, and it keeps
         # decoding off this process's GIL); with a given executor (a cluster may not see
         # the files) or workers=0 they are read by threads here.
@@ -567,9 +572,12 @@ def build_graphs(
     out_dir : str or path, optional
         Output folder (created).  Without it nothing is written and the graphs are
         returned in the records.
-    formats : sequence of {"graphml", "json", "geojson", "nav2"} or comma-separated str
+    formats : sequence of {"graphml", "json", "geojson", "nav2", "rooms"} or comma-separated str
         Graph files per map (``nav2``: ``<name>_nav2.geojson``, a route graph for the ROS 2
         Nav2 Route Server, :func:`topojax.save_nav2_graph` with its default tolerance).
+        ``rooms``: ``<name>_rooms.{geojson,png,graphml,json}`` of
+        :func:`topojax.segment_rooms` (default settings); the graph files, picture and
+        kept graphs then carry the rooms (:func:`topojax.assign_rooms`).
     plot : bool
         Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
     resume : bool
@@ -771,6 +779,8 @@ def _request(
             "graph": dataclasses.asdict(config.graph),
             "formats": sorted(formats),
             "plot": bool(plot),
+            # only with the rooms format, so that manifests written without it still match
+            **({"rooms": _room_settings()} if "rooms" in formats else {}),
             # only when given, so that manifests written without them still match
             **({"map_mode": map_mode} if map_mode is not None else {}),
             **({"sigma_m": sigma_m} if sigma_m is not None else {}),
@@ -783,7 +793,7 @@ def _check_no_overwrite(
 ) -> None:
     """Refuse output names that would replace one of the input files (a map file, or the
     image a YAML refers to)."""
-    suffixes = [_FORMAT_SUFFIX[f] for f in formats] + [_MANIFEST_SUFFIX]
+    suffixes = _format_suffixes(formats) + [_MANIFEST_SUFFIX]
     if plot:
         suffixes.append(_PICTURE_SUFFIX)
     refuse_overwriting_inputs(

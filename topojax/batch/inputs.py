@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import glob as _glob
 import os
 from collections import Counter
@@ -12,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .._fs import yaml_image
-from ..io import GRAPH_FORMATS
+from ..io import GRAPH_FORMATS, ROOM_FILE_SUFFIXES
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, OccupancyMap
 
 __all__ = ["expand_braces", "expand_map_inputs", "planned_outputs"]
@@ -23,6 +24,22 @@ _PICTURE_SUFFIX = "_graph.png"
 _FORMAT_SUFFIX = {fmt: suffix for suffix, fmt in GRAPH_FORMATS.items()}
 # a route graph for the ROS 2 Nav2 Route Server (topojax.save_nav2_graph, default tolerance)
 _FORMAT_SUFFIX["nav2"] = "_nav2.geojson"
+# Every format and the files it writes: a graph format one, ``rooms`` the room files
+# (topojax.io.save_room_files: GeoJSON, label picture, room graph as GraphML and JSON).
+_FORMAT_FILES = {fmt: (suffix,) for fmt, suffix in _FORMAT_SUFFIX.items()}
+_FORMAT_FILES["rooms"] = ROOM_FILE_SUFFIXES
+
+
+def _room_settings() -> dict[str, Any]:
+    """The settings of the ``rooms`` format: :class:`topojax.RoomConfig`'s defaults."""
+    from ..rooms import RoomConfig
+
+    return dataclasses.asdict(RoomConfig())
+
+
+def _format_suffixes(formats: Iterable[str]) -> list[str]:
+    """What the files of ``formats`` append to a map's name, in order."""
+    return [suffix for fmt in formats for suffix in _FORMAT_FILES[fmt]]
 
 
 def _matching_brace(text: str, start: int) -> tuple[int, list[int]] | None:
@@ -239,7 +256,7 @@ def _assign_names(sources: list[Path | None]) -> list[str]:
 
 def _output_files(name: str) -> list[str]:
     """Every file name a map called ``name`` may write (any formats, picture, manifest)."""
-    suffixes = [*_FORMAT_SUFFIX.values(), _PICTURE_SUFFIX, _MANIFEST_SUFFIX]
+    suffixes = [*_format_suffixes(_FORMAT_FILES), _PICTURE_SUFFIX, _MANIFEST_SUFFIX]
     return [name + suffix for suffix in suffixes]
 
 
@@ -252,7 +269,7 @@ def _check_formats(formats: Any) -> tuple[str, ...]:
         raise TypeError(
             f"formats: expected a sequence of format names, got {type(formats).__name__}"
         ) from None
-    allowed = tuple(_FORMAT_SUFFIX)
+    allowed = tuple(_FORMAT_FILES)
     bad = [f for f in items if f not in allowed]
     if bad:
         raise ValueError(f"formats: expected names from {allowed}, got {bad!r}")
@@ -281,7 +298,7 @@ def planned_outputs(
     """
     fmts = _check_formats(formats)
     sources = [Path(p) for p in paths]
-    suffixes = [_FORMAT_SUFFIX[f] for f in fmts] + [_MANIFEST_SUFFIX]
+    suffixes = _format_suffixes(fmts) + [_MANIFEST_SUFFIX]
     suffixes += [_PICTURE_SUFFIX] * bool(plot)
     names = _assign_names(list(sources))
     return {

@@ -14,7 +14,7 @@ import numpy as np
 
 from .._fs import atomic_write_bytes, yaml_image
 from ..maps import YAML_SUFFIXES
-from .inputs import _FORMAT_SUFFIX, _MANIFEST_SUFFIX, _PICTURE_SUFFIX, _Item
+from .inputs import _FORMAT_FILES, _MANIFEST_SUFFIX, _PICTURE_SUFFIX, _format_suffixes, _Item
 from .records import SUMMARY_COLUMNS, MapRecord
 
 __all__ = ["batch_input"]
@@ -87,7 +87,7 @@ def _resume_record(
     files = doc.get("files")
     if not isinstance(files, dict):
         return None
-    expected = {f"{item.name}{_FORMAT_SUFFIX[f]}" for f in formats}
+    expected = {f"{item.name}{suffix}" for suffix in _format_suffixes(formats)}
     if plot:
         expected.add(f"{item.name}{_PICTURE_SUFFIX}")
     if set(files) != expected:
@@ -147,8 +147,7 @@ def _forget_outputs(item: _Item, *, out_dir: Path | None, formats: tuple[str, ..
     folder = manifest.parent
     if folder.is_dir():
         base = Path(item.name).name
-        suffixes = [_FORMAT_SUFFIX[f] for f in formats]
-        suffixes += [_PICTURE_SUFFIX, _MANIFEST_SUFFIX]
+        suffixes = _format_suffixes(formats) + [_PICTURE_SUFFIX, _MANIFEST_SUFFIX]
         for suffix in suffixes:  # leftovers of atomic writes killed mid-way
             for tmp in folder.glob(f".{_glob.escape(base + suffix)}.*.tmp"):
                 tmp.unlink(missing_ok=True)
@@ -160,7 +159,7 @@ def batch_input(target: str | os.PathLike[str]) -> str | None:
     no manifest beside ``target`` lists it."""
     target = Path(target)
     name = target.name
-    for suffix in (*_FORMAT_SUFFIX.values(), _PICTURE_SUFFIX, _MANIFEST_SUFFIX):
+    for suffix in (*_format_suffixes(_FORMAT_FILES), _PICTURE_SUFFIX, _MANIFEST_SUFFIX):
         if not name.endswith(suffix):
             continue
         manifest = target.with_name(name[: -len(suffix)] + _MANIFEST_SUFFIX)

@@ -16,8 +16,9 @@ __all__ = ["SUMMARY_COLUMNS", "MapRecord", "write_summary"]
 
 #: Columns of the summary table, in order.  Times are seconds of wall time spent on the map
 #: in each stage; ``t_distance_s`` is the map's share (by tile count) of its group's kernel
-#: wall time plus its own clearance/packing; ``t_write_s`` covers the graph files and picture;
-#: ``t_total_s`` is their sum (not the latency, since stages of different maps overlap).
+#: wall time plus its own clearance/packing; ``t_write_s`` covers the graph files and picture
+#: (and, with the ``rooms`` format, the room segmentation and its files); ``t_total_s`` is
+#: their sum (not the latency, since stages of different maps overlap).
 SUMMARY_COLUMNS = (
     "map",
     "path",

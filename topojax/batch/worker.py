@@ -1,4 +1,4 @@
-"""The CPU stage of a batch (thinning, T removal, graph, output files), run in the
+"""The CPU stage of a batch (thinning, T removal, graph, rooms, output files), run in the
 executor's workers, and the loading of map files (in a worker or in the calling process);
 nothing here runs a JAX kernel."""
 
@@ -58,9 +58,11 @@ class _CpuJob:
     config: PipelineConfig
     out_dir: str | None
     formats: tuple[str, ...]
-    masks_bits: np.ndarray | None  # packbits of (occupied, free), only for the picture
+    masks_bits: np.ndarray | None  # packbits of (occupied, free): for the picture, rooms
     keep_graph: bool
     free_bits: np.ndarray | None = None  # packbits of free, only for free_space_only
+    plot: bool = False  # write the picture
+    rooms: bool = False  # segment the map into rooms: the room files, rooms on the graph
 
 
 @dataclass
@@ -83,17 +85,12 @@ def _error_text(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
-def _picture_bytes(job: _CpuJob, skeleton: np.ndarray, graph: Any) -> bytes:
-    from types import SimpleNamespace
-
-    from matplotlib.figure import Figure
-
-    from ..plotting import plot
-
+def _occupancy(job: _CpuJob) -> OccupancyMap:
+    """The map of ``job`` (its occupied and free masks, frame and source)."""
     assert job.masks_bits is not None
     h, w = job.shape
     masks = np.unpackbits(job.masks_bits, count=2 * h * w).reshape(2, h, w).astype(bool)
-    occupancy = OccupancyMap(
+    return OccupancyMap(
         occupied=masks[0],
         free=masks[1],
         unknown=~(masks[0] | masks[1]),
@@ -101,10 +98,23 @@ def _picture_bytes(job: _CpuJob, skeleton: np.ndarray, graph: Any) -> bytes:
         origin=job.origin,
         source=job.source,
     )
+
+
+def _picture_bytes(
+    job: _CpuJob, occupancy: OccupancyMap, skeleton: np.ndarray, graph: Any, rooms: Any
+) -> bytes:
+    from types import SimpleNamespace
+
+    from matplotlib.figure import Figure
+
+    from ..plotting import plot
+
+    h, w = job.shape
     side = 9.0
     fig = Figure(figsize=(side, side * h / w if w else side))
     ax = fig.add_subplot()
-    plot(SimpleNamespace(map=occupancy, skeleton=skeleton, graph=graph), ax=ax, title=job.name)
+    result = SimpleNamespace(map=occupancy, skeleton=skeleton, graph=graph)
+    plot(result, ax=ax, title=job.name, rooms=rooms)
     buf = _io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     return buf.getvalue()
@@ -113,7 +123,7 @@ def _picture_bytes(job: _CpuJob, skeleton: np.ndarray, graph: Any) -> bytes:
 def _cpu_stage(job: _CpuJob) -> _CpuResult:
     """Thinning, T removal, graph, summary and output files of one map (worker side)."""
     from ..graph import graph_summary
-    from ..io import save_graph, save_nav2_graph
+    from ..io import save_graph, save_nav2_graph, save_room_files
     from ..pipeline import graph_from_ridges
 
     res = _CpuResult(name=job.name)
@@ -155,16 +165,19 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             out = Path(job.out_dir)
             stem = out / job.name
             stem.parent.mkdir(parents=True, exist_ok=True)
+            occupancy = _occupancy(job) if job.masks_bits is not None else None
+            rooms = _rooms(occupancy, graph) if job.rooms else None
             written = []
             for fmt in job.formats:
-                target = f"{stem}{_FORMAT_SUFFIX[fmt]}"
-                if fmt == "nav2":
-                    written.append(save_nav2_graph(graph, target))
+                if fmt == "rooms":
+                    written += save_room_files(rooms, stem)
+                elif fmt == "nav2":
+                    written.append(save_nav2_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}"))
                 else:
-                    written.append(save_graph(graph, target, format=fmt))
-            if job.masks_bits is not None:
+                    written.append(save_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}", format=fmt))
+            if job.plot:
                 pic = Path(f"{stem}{_PICTURE_SUFFIX}")
-                atomic_write_bytes(pic, _picture_bytes(job, skeleton, graph))
+                atomic_write_bytes(pic, _picture_bytes(job, occupancy, skeleton, graph, rooms))
                 written.append(pic)
             for p in written:
                 res.files[Path(p).relative_to(out).as_posix()] = {
@@ -177,6 +190,16 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
     except Exception as exc:
         res.error = _error_text(exc)
     return res
+
+
+def _rooms(occupancy: OccupancyMap | None, graph: Any) -> Any:
+    """The rooms of ``occupancy`` (default settings), written onto ``graph``."""
+    from ..rooms import assign_rooms, segment_rooms
+
+    assert occupancy is not None
+    seg = segment_rooms(occupancy)
+    assign_rooms(graph, seg)
+    return seg
 
 
 def _warm_worker() -> int:

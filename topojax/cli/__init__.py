@@ -1,5 +1,5 @@
-"""Command line: ``topojax graph``, ``topojax demo``, ``topojax route``, ``topojax replay``,
-``topojax batch``."""
+"""Command line: ``topojax graph``, ``topojax demo``, ``topojax route``,
+``topojax route-graph``, ``topojax rooms``, ``topojax replay``, ``topojax batch``."""
 
 from __future__ import annotations
 
@@ -8,9 +8,14 @@ import os
 import sys
 
 from .. import __version__
-from .._constants import MODES
-from . import batch, replay, route_graph
-from ._options import add_nav2_options, add_pipeline_options, add_sigma_options
+from . import batch, replay, rooms, route_graph
+from ._options import (
+    add_map_options,
+    add_nav2_options,
+    add_pipeline_options,
+    add_room_options,
+    add_sigma_options,
+)
 from .graph import _cmd_demo, _cmd_graph
 from .route import _cmd_route
 
@@ -41,24 +46,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
     p.add_argument("--plot", action="store_true", help="also write a PNG overlay")
     p.add_argument("--stages", action="store_true", help="also write a PNG of every stage")
-    p.add_argument(
-        "--resolution",
-        dest="resolution_m",
-        type=float,
-        help="m/px for images (default: a PGM's 'm/pix' comment, else 0.05; YAML: its own)",
-    )
-    p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
-    p.add_argument("--free-thresh", type=float, help="override free_thresh")
-    p.add_argument("--negate", action="store_true", help="image values are occupancy")
-    p.add_argument(
-        "--mode",
-        choices=MODES,
-        help="pixel convention (default: the YAML's, else trinary; ipa: free if >= 250, "
-        "everything else occupied)",
-    )
+    add_map_options(p)
     add_sigma_options(p)
     add_nav2_options(p, "STEM_nav2.geojson")
+    p.add_argument(
+        "--rooms",
+        action="store_true",
+        help="also split the map into rooms: write STEM_rooms.{geojson,png,graphml,json} "
+        "and give every vertex its room and every edge the rooms and doors it passes (in "
+        "the graph files and the Nav2 graph); with --plot the rooms are drawn too",
+    )
     add_pipeline_options(p)
+    add_room_options(p, only_with="--rooms")
     p.set_defaults(handler=_cmd_graph)
 
     p = sub.add_parser(
@@ -109,6 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(handler=_cmd_route, runs_kernels=False)
 
     route_graph.add_command(sub)
+    rooms.add_command(sub)
     replay.add_command(sub)
     batch.add_command(sub)
     return parser

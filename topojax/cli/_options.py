@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from .._constants import MODES
+
 
 def pipeline_config(args, *, resolution_m: float | None = None):
     """The :class:`PipelineConfig` of the options of :func:`add_pipeline_options`, with
@@ -123,3 +125,96 @@ def nav2_tolerance(args) -> float | None:
     from .._validate import positive_metres
 
     return positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)
+
+
+def add_map_options(p: argparse.ArgumentParser) -> None:
+    """How a map file is read: ``--resolution``, ``--occupied-thresh``, ``--free-thresh``,
+    ``--negate`` and ``--mode`` (:func:`map_options` gives them to ``load_map``)."""
+    p.add_argument(
+        "--resolution",
+        dest="resolution_m",
+        type=float,
+        help="m/px for images (default: a PGM's 'm/pix' comment, else 0.05; YAML: its own)",
+    )
+    p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
+    p.add_argument("--free-thresh", type=float, help="override free_thresh")
+    p.add_argument("--negate", action="store_true", help="image values are occupancy")
+    p.add_argument(
+        "--mode",
+        choices=MODES,
+        help="pixel convention (default: the YAML's, else trinary; ipa: free if >= 250, "
+        "everything else occupied)",
+    )
+
+
+def map_options(args) -> dict:
+    """The keyword arguments of ``load_map`` that the options of :func:`add_map_options`
+    set (those not given are left to the file and the defaults)."""
+    kw = {}
+    for name in ("resolution_m", "occupied_thresh", "free_thresh", "mode"):
+        if getattr(args, name) is not None:
+            kw[name] = getattr(args, name)
+    if args.negate:
+        kw["negate"] = True
+    return kw
+
+
+#: The room options: (option, RoomConfig field, default, metavar, help).  The defaults are
+#: RoomConfig's (a test holds them equal); building the parser must not import it.
+_ROOM_OPTIONS = (
+    ("--min-door-width-m", "min_door_width_m", 0.5, "M", "narrower gaps are not doors"),
+    ("--max-door-width-m", "max_door_width_m", 2.2, "M", "wider gaps are not doors"),
+    (
+        "--door-context-m",
+        "door_context_m",
+        1.0,
+        "M",
+        "a doorway is the narrowest point of the corridor within M metres",
+    ),
+    (
+        "--door-ratio",
+        "door_ratio",
+        0.7,
+        "R",
+        "keep a door only if at most R times the width of each room it joins",
+    ),
+    ("--min-room-m2", "min_room_m2", 4.0, "A", "smaller regions merge into a neighbour"),
+    (
+        "--max-border-share",
+        "max_border_share",
+        0.25,
+        "S",
+        "merge two regions whose doors are more than S of the smaller one's boundary",
+    ),
+)
+
+
+def add_room_options(p: argparse.ArgumentParser, *, only_with: str = "") -> None:
+    """The options of the room segmentation (:class:`topojax.RoomConfig`), in metres, as
+    an argument group; ``only_with`` names the option they need, if any."""
+    title = "rooms" + (f" (with {only_with})" if only_with else "")
+    group = p.add_argument_group(title, "room segmentation; lengths in metres, areas in m2")
+    for option, field, default, metavar, text in _ROOM_OPTIONS:
+        group.add_argument(
+            option,
+            dest=field,
+            type=float,
+            default=default,
+            metavar=metavar,
+            help=f"{text} (default {default:g})",
+        )
+
+
+def room_config(args):
+    """The :class:`RoomConfig` of the options of :func:`add_room_options`; an error names
+    the option (checked before any work)."""
+    from ..rooms import RoomConfig
+
+    option_of = {field: option for option, field, *_ in _ROOM_OPTIONS}
+    try:
+        return RoomConfig(**{field: getattr(args, field) for field in option_of})
+    except (TypeError, ValueError) as exc:
+        text = str(exc)
+        for field, option in option_of.items():  # the messages name RoomConfig's fields
+            text = text.replace(field, option)
+        raise type(exc)(text) from None

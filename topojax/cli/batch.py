@@ -123,6 +123,8 @@ def add_command(subparsers) -> None:
         "--formats",
         default="graphml,json,geojson",
         help="comma-separated graph formats: graphml, json, geojson, nav2 (a Nav2 Route "
-        "Server graph, NAME_nav2.geojson) (default: graphml,json,geojson)",
+        "Server graph, NAME_nav2.geojson), rooms (the map's rooms and doorways, "
+        "NAME_rooms.{geojson,png,graphml,json}; the graph files then carry each vertex's "
+        "room) (default: graphml,json,geojson)",
     )
     p.set_defaults(handler=_cmd_batch)

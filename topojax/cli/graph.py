@@ -6,11 +6,14 @@ import json
 import time
 from pathlib import Path
 
-from ._options import nav2_tolerance, pipeline_config
+from ._options import map_options, nav2_tolerance, pipeline_config, room_config
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+from .rooms import room_files, room_lines
 
 
-def _write_outputs(result, out_dir: Path, stem: str, *, plot: bool, stages: bool) -> list[Path]:
+def _write_outputs(
+    result, out_dir: Path, stem: str, *, plot: bool, stages: bool, rooms=None
+) -> list[Path]:
     from .._fs import output_folder
     from ..io import save_graph
 
@@ -28,7 +31,7 @@ def _write_outputs(result, out_dir: Path, stem: str, *, plot: bool, stages: bool
         from ..plotting import plot_stages
 
         if plot:
-            ax = plot_result(result)
+            ax = plot_result(result, rooms=rooms)
             path = out_dir / f"{stem}.png"
             ax.figure.savefig(path, dpi=150, bbox_inches="tight")
             plt.close(ax.figure)
@@ -88,24 +91,33 @@ def _cmd_graph(args) -> int:
     from ..maps import load_map
     from ..pipeline import build_graph
 
-    kw = {}
-    for name in ("resolution_m", "occupied_thresh", "free_thresh", "mode"):
-        if getattr(args, name) is not None:
-            kw[name] = getattr(args, name)
-    if args.negate:
-        kw["negate"] = True
     tolerance = nav2_tolerance(args)  # checked before the pipeline runs and writes anything
+    rooms_config = room_config(args) if args.rooms else None
     stem = Path(args.map).stem
     targets = [Path(args.out) / name for name in _graph_files(stem, args)]
     _check_outputs_spare_inputs(Path(args.map), targets)
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
-    occupancy = load_map(args.map, **kw)
+    occupancy = load_map(args.map, **map_options(args))
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
     for line in _classes_hint(occupancy):
         print(line)
-    written = _write_outputs(result, Path(args.out), stem, plot=args.plot, stages=args.stages)
-    notes = []
+    seg, notes = None, []
+    if rooms_config is not None:
+        from ..rooms import assign_rooms, segment_rooms
+
+        t0 = time.perf_counter()
+        seg = segment_rooms(result, config=rooms_config)
+        assign_rooms(result.graph, seg)  # before any graph file is written
+        seconds = time.perf_counter() - t0
+        notes += room_lines(seg, occupancy, seconds=seconds, time_label="rooms (ms)")
+    written = _write_outputs(
+        result, Path(args.out), stem, plot=args.plot, stages=args.stages, rooms=seg
+    )
+    if seg is not None:
+        from ..io import save_room_files
+
+        written += save_room_files(seg, Path(args.out) / stem)
     if args.nav2:
         from ..io import save_nav2_graph
 
@@ -132,6 +144,7 @@ def _graph_files(stem: str, args) -> list[str]:
     names = [f"{stem}{s}" for s in (".graphml", ".json", ".geojson")]
     names += [f"{stem}.png"] * bool(args.plot) + [f"{stem}_stages.png"] * bool(args.stages)
     names += [f"{stem}_nav2.geojson"] * bool(args.nav2)
+    names += room_files(stem) if args.rooms else []
     return names
 
 

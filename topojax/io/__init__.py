@@ -1,5 +1,7 @@
-"""Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON), and writing
-them as route graphs for the ROS 2 Nav2 Route Server (:func:`save_nav2_graph`).
+"""Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON), writing them as
+route graphs for the ROS 2 Nav2 Route Server (:func:`save_nav2_graph`), and the files of a
+room segmentation (:func:`save_rooms` / :func:`load_rooms`, :func:`save_room_labels`,
+:func:`save_room_graph`).
 
 Graphs are :class:`networkx.MultiGraph` objects with integer node ids. The topojax
 attribute schema is
@@ -23,7 +25,7 @@ destination with :func:`os.replace`.
 
 Modules: ``_schema`` (value encoding and the type schema), ``nodelink``, ``graphml``,
 ``geojson`` (one per file format), ``files`` (:func:`save_graph` / :func:`load_graph`),
-``nav2`` (:func:`save_nav2_graph`).
+``nav2`` (:func:`save_nav2_graph`), ``rooms`` (rooms and doorways).
 """
 
 from __future__ import annotations
@@ -32,5 +34,24 @@ from ._schema import as_multigraph as as_multigraph
 from ._schema import jsonable as jsonable
 from .files import GRAPH_FORMATS, load_graph, save_graph
 from .nav2 import save_nav2_graph
+from .rooms import (
+    ROOM_FILE_SUFFIXES,
+    load_rooms,
+    save_room_files,
+    save_room_graph,
+    save_room_labels,
+    save_rooms,
+)
 
-__all__ = ["GRAPH_FORMATS", "load_graph", "save_graph", "save_nav2_graph"]
+__all__ = [
+    "GRAPH_FORMATS",
+    "ROOM_FILE_SUFFIXES",
+    "load_graph",
+    "load_rooms",
+    "save_graph",
+    "save_nav2_graph",
+    "save_room_files",
+    "save_room_graph",
+    "save_room_labels",
+    "save_rooms",
+]

@@ -1,0 +1,304 @@
+"""Files of a room segmentation: the rooms GeoJSON (round trip, RFC 7946 structure, bad
+files), the label picture and the room graph."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import cv2
+import networkx as nx
+import numpy as np
+import pytest
+from room_maps import three_rooms
+
+import topojax as tj
+from topojax.io import ROOM_FILE_SUFFIXES, save_room_files
+from topojax.io.rooms import room_colours
+
+
+@pytest.fixture(scope="module")
+def seg():
+    s = tj.segment_rooms(three_rooms())
+    assert s.n_rooms == 3 and len(s.doors) == 2  # what the tests below rely on
+    return s
+
+
+def _strict(text: str):
+    def refuse(name):
+        raise ValueError(f"non-standard JSON constant {name}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def _area(ring) -> float:
+    a = np.asarray(ring, float)
+    return 0.5 * float(np.sum(a[:, 0] * np.roll(a[:, 1], -1) - np.roll(a[:, 0], -1) * a[:, 1]))
+
+
+def assert_rooms_equal(got, want) -> None:
+    assert len(got) == len(want)
+    for a, b in zip(got, want, strict=True):
+        assert (a.id, a.area_m2, a.centroid, a.bbox) == (b.id, b.area_m2, b.centroid, b.bbox)
+        assert type(a.id) is int and all(type(v) is int for v in a.bbox)
+        assert a.polygon.dtype == np.float64 and a.polygon.shape == b.polygon.shape
+        np.testing.assert_allclose(a.polygon, b.polygon, rtol=0, atol=1e-9)
+
+
+def assert_doors_equal(got, want) -> None:
+    assert len(got) == len(want)
+    for a, b in zip(got, want, strict=True):
+        assert (a.id, a.rooms, a.width_m) == (b.id, b.rooms, b.width_m)
+        assert a.ends_px.dtype == np.int64 and np.array_equal(a.ends_px, b.ends_px)
+        assert a.pixels.dtype == np.int64 and np.array_equal(a.pixels, b.pixels)
+        np.testing.assert_allclose(a.ends_world, b.ends_world, rtol=0, atol=1e-9)
+
+
+# ---------------------------------------------------------------------- GeoJSON
+
+
+def test_rooms_round_trip(seg, tmp_path: Path):
+    path = tj.save_rooms(seg, tmp_path / "r.geojson")
+    assert path == tmp_path / "r.geojson"
+    rooms, doors = tj.load_rooms(path)
+    assert isinstance(rooms, tuple) and isinstance(doors, tuple)
+    assert_rooms_equal(rooms, seg.rooms)
+    assert_doors_equal(doors, seg.doors)
+    assert [p.name for p in tmp_path.iterdir()] == ["r.geojson"], "no temporary file left"
+
+
+def test_rooms_geojson_is_an_rfc7946_feature_collection(seg, tmp_path: Path):
+    doc = _strict(tj.save_rooms(seg, tmp_path / "r.geojson").read_text(encoding="utf-8"))
+    assert doc["type"] == "FeatureCollection"
+    assert doc["topojax_rooms"] == {
+        "version": 1,
+        "resolution_m": 0.05,
+        "origin": [-1.5, 2.0, 0.3],
+        "shape": [60, 150],
+    }
+    rooms = [f for f in doc["features"] if f["properties"]["kind"] == "room"]
+    doors = [f for f in doc["features"] if f["properties"]["kind"] == "door"]
+    assert len(rooms) + len(doors) == len(doc["features"])
+    assert [f["properties"]["id"] for f in rooms] == [1, 2, 3]
+    assert [f["properties"]["id"] for f in doors] == [1, 2]
+    for feat, room in zip(rooms, seg.rooms, strict=True):
+        assert feat["type"] == "Feature" and feat["geometry"]["type"] == "Polygon"
+        (ring,) = feat["geometry"]["coordinates"]
+        assert len(ring) >= 4 and ring[0] == ring[-1], "closed linear ring"
+        assert _area(ring[:-1]) > 0, "exterior ring counter-clockwise"
+        # world metres of the map frame: the room's outline and centroid as they are
+        np.testing.assert_array_equal(np.asarray(ring[:-1]), room.polygon)
+        props = feat["properties"]
+        assert set(props) == {"kind", "id", "area_m2", "centroid", "bbox_px"}
+        assert props["centroid"] == list(room.centroid)
+        assert props["bbox_px"] == list(room.bbox)
+        assert props["area_m2"] == room.area_m2
+    for feat, door in zip(doors, seg.doors, strict=True):
+        assert feat["geometry"]["type"] == "LineString"
+        assert feat["geometry"]["coordinates"] == door.ends_world.tolist()
+        props = feat["properties"]
+        assert props["rooms"] == list(door.rooms) and props["width_m"] == door.width_m
+        assert props["ends_px"] == door.ends_px.tolist()
+        assert props["pixels"] == door.pixels.tolist()
+
+
+def test_an_outline_without_area_keeps_a_valid_ring(seg, tmp_path: Path):
+    first = seg.rooms[0]
+    line = first.polygon[:2].copy()  # a one-pixel-wide room: its outline is a line
+    clockwise = seg.rooms[1].polygon[::-1].copy()
+    odd = dataclasses.replace(
+        seg,
+        rooms=(
+            dataclasses.replace(first, polygon=line),
+            dataclasses.replace(seg.rooms[1], polygon=clockwise),
+            seg.rooms[2],
+        ),
+    )
+    path = tj.save_rooms(odd, tmp_path / "r.geojson")
+    feats = _strict(path.read_text(encoding="utf-8"))["features"]
+    for feat, polygon in zip(feats[:2], (line, clockwise), strict=True):
+        (ring,) = feat["geometry"]["coordinates"]
+        assert len(ring) == 5 and ring[0] == ring[-1] and _area(ring[:-1]) > 0
+        assert feat["properties"]["outline"] == polygon.tolist()
+    r0, c0, r1, c1 = first.bbox  # the geometry is the room's pixel box, map frame
+    (ring,) = feats[0]["geometry"]["coordinates"]
+    rows, cols = seg.occupancy.world_to_pixel(*np.asarray(ring[:-1]).T)
+    got = {(round(r, 6), round(c, 6)) for r, c in zip(rows, cols, strict=True)}
+    assert got == {(r, c) for r in (r0 - 0.5, r1 + 0.5) for c in (c0 - 0.5, c1 + 0.5)}
+    rooms, _ = tj.load_rooms(path)
+    assert_rooms_equal(rooms, odd.rooms)
+
+
+def test_save_rooms_refuses_what_geojson_cannot_hold(seg, tmp_path: Path):
+    with pytest.raises(TypeError, match="seg: expected a RoomSegmentation, received dict"):
+        tj.save_rooms({}, tmp_path / "r.geojson")
+    nan = dataclasses.replace(seg, rooms=(dataclasses.replace(seg.rooms[0], area_m2=np.nan),))
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        tj.save_rooms(nan, tmp_path / "r.geojson")
+    bad = seg.rooms[0].polygon.copy()
+    bad[0, 0] = np.inf
+    inf = dataclasses.replace(seg, rooms=(dataclasses.replace(seg.rooms[0], polygon=bad),))
+    with pytest.raises(ValueError, match="room 1 has a polygon with non-finite"):
+        tj.save_rooms(inf, tmp_path / "r.geojson")
+    assert not list(tmp_path.iterdir()), "nothing written"
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        tj.save_rooms(seg, tmp_path / "missing" / "r.geojson")
+
+
+def _graph_geojson(path: Path) -> Path:
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0), pixel=(1, 1))
+    g.add_node(1, world=(1.0, 0.0), pixel=(1, 21))
+    g.add_edge(0, 1, world=np.array([[0.0, 0.0], [1.0, 0.0]]))
+    return tj.save_graph(g, path)
+
+
+def _rooms_doc(seg, tmp_path: Path) -> dict:
+    return json.loads(tj.save_rooms(seg, tmp_path / "good.geojson").read_text(encoding="utf-8"))
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (lambda d: d.update(type="Feature"), "is not a GeoJSON FeatureCollection"),
+        (lambda d: d.update(features={}), "'features' must be a list"),
+        (lambda d: d.update(features=[], topojax_rooms=None), "empty FeatureCollection"),
+        (lambda d: d["topojax_rooms"].update(version=9), "is not version 1 rooms data"),
+        (lambda d: d["features"][0].pop("geometry"), r"features\[0\] needs 'properties'"),
+        (lambda d: d["features"][0]["properties"].pop("kind"), "kind None; expected 'room'"),
+        (
+            lambda d: d["features"][0]["geometry"]["coordinates"][0].pop(),
+            r"features\[0\]: the exterior ring must be closed",
+        ),
+        (
+            lambda d: d["features"][1]["properties"].update(area_m2="big"),
+            "property 'area_m2' must be a finite number",
+        ),
+        (
+            lambda d: d["features"][2]["properties"].update(bbox_px=[1, 2]),
+            "'bbox_px' must be a list of 4 integers",
+        ),
+        (
+            lambda d: d["features"][3]["properties"].update(pixels=[[1.5, 2]]),
+            r"features\[3\] pixels: expected integer pixels",
+        ),
+        (
+            lambda d: d["features"][3]["properties"].update(pixels=[["a", 2]]),
+            r"features\[3\] pixels: expected a list of K \[a, b\] pairs",
+        ),
+        (
+            lambda d: d["features"][4]["geometry"].update(type="Point"),
+            "a door needs a LineString geometry, got 'Point'",
+        ),
+        (
+            lambda d: d["features"][4]["properties"].update(id=0),
+            "property 'id' must be an integer >= 1",
+        ),
+    ],
+)
+def test_load_rooms_names_the_file_and_the_fault(seg, tmp_path: Path, damage, message):
+    doc = _rooms_doc(seg, tmp_path)
+    damage(doc)
+    path = tmp_path / "bad.geojson"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(ValueError, match=message) as info:
+        tj.load_rooms(path)
+    assert str(path) in str(info.value)
+
+
+def test_load_rooms_missing_unreadable_or_another_kind_of_file(tmp_path: Path):
+    with pytest.raises(FileNotFoundError, match="rooms file not found: .*nothing.geojson"):
+        tj.load_rooms(tmp_path / "nothing.geojson")
+    with pytest.raises(ValueError, match="is not a file"):
+        tj.load_rooms(tmp_path)
+    broken = tmp_path / "broken.geojson"
+    broken.write_text('{"type": "FeatureCollection", ', encoding="utf-8")
+    with pytest.raises(ValueError, match=f"rooms file {broken} is not valid JSON"):
+        tj.load_rooms(broken)
+    graph = _graph_geojson(tmp_path / "graph.geojson")
+    with pytest.raises(ValueError, match="not a rooms GeoJSON .*read it with load_graph"):
+        tj.load_rooms(graph)
+
+
+def test_an_empty_segmentation_round_trips(tmp_path: Path):
+    occ = np.ones((20, 30), bool)  # all obstacle: no room
+    m = tj.OccupancyMap(occupied=occ, free=~occ, unknown=np.zeros_like(occ))
+    empty = tj.segment_rooms(m)
+    assert empty.n_rooms == 0
+    path = tj.save_rooms(empty, tmp_path / "r.geojson")
+    assert tj.load_rooms(path) == ((), ())
+
+
+# ---------------------------------------------------------------------- label picture
+
+
+def test_label_picture(seg, tmp_path: Path):
+    path = tj.save_room_labels(seg, tmp_path / "labels.png")
+    bgr = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    assert bgr.shape == (*seg.labels.shape, 3) and bgr.dtype == np.uint8, "RGB, no alpha"
+    rgb = bgr[..., ::-1]
+    door_px = np.zeros(seg.labels.shape, bool)
+    for door in seg.doors:
+        door_px[door.pixels[:, 0], door.pixels[:, 1]] = True
+    assert (rgb[door_px] == 255).all(), "doors white"
+    colours = room_colours(seg.n_rooms)
+    for room in seg.rooms:
+        here = (seg.labels == room.id) & ~door_px
+        assert (rgb[here] == colours[room.id - 1]).all(), f"room {room.id} in its colour"
+    walls = (seg.labels == 0) & seg.occupancy.occupied & ~door_px
+    assert walls.any() and (rgb[walls] == 0).all(), "walls black"
+    assert len({tuple(c) for c in colours}) == seg.n_rooms
+    again = tj.save_room_labels(seg, tmp_path / "again.png")
+    assert again.read_bytes() == path.read_bytes(), "deterministic"
+
+
+def test_room_colours_are_distinct_and_stable():
+    many = room_colours(300)
+    assert many.shape == (300, 3) and many.dtype == np.uint8
+    assert len({tuple(c) for c in many}) == 300
+    assert not ({(0, 0, 0), (128, 128, 128), (255, 255, 255)} & {tuple(c) for c in many})
+    np.testing.assert_array_equal(room_colours(7), many[:7])
+    assert room_colours(0).shape == (0, 3)
+
+
+# ---------------------------------------------------------------------- room graph
+
+
+def test_room_graph_graphml_and_json_are_read_by_networkx(seg, tmp_path: Path):
+    graphml = tj.save_room_graph(seg, tmp_path / "g.graphml")
+    raw = nx.read_graphml(graphml)
+    assert sorted(raw.nodes) == ["1", "2", "3"]
+    assert json.loads(raw.nodes["2"]["centroid"]) == list(seg.rooms[1].centroid)
+    assert raw.nodes["2"]["area_m2"] == seg.rooms[1].area_m2
+    doors = sorted(json.loads(d["doors"]) for _, _, d in raw.edges(data=True))
+    assert doors == [[1], [2]]
+
+    nodelink = tj.save_room_graph(seg, tmp_path / "g.json")
+    g = nx.node_link_graph(json.loads(nodelink.read_text(encoding="utf-8")), edges="edges")
+    assert sorted(g.nodes) == [1, 2, 3]
+    assert sorted(map(sorted, g.edges())) == [[1, 2], [2, 3]]
+    assert g.graph["n_rooms"] == 3 and g.graph["shape"] == [60, 150]
+
+    for path in (graphml, nodelink):
+        back = tj.load_graph(path)
+        assert back.nodes[1]["centroid"] == seg.rooms[0].centroid
+        assert back.nodes[1]["bbox_px"] == seg.rooms[0].bbox
+        assert back.edges[1, 2, 0]["doors"] == [1]
+        assert back.edges[1, 2, 0]["width_m"] == seg.doors[0].width_m
+        assert back.graph["origin"] == (-1.5, 2.0, 0.3)
+
+
+def test_room_graph_format_from_the_suffix_only(seg, tmp_path: Path):
+    with pytest.raises(ValueError, match=r"path: expected a room-graph file ending in .*g\.txt"):
+        tj.save_room_graph(seg, tmp_path / "g.txt")
+    with pytest.raises(TypeError, match="seg: expected a RoomSegmentation"):
+        tj.save_room_graph(None, tmp_path / "g.json")
+
+
+def test_save_room_files_writes_the_four_outputs(seg, tmp_path: Path):
+    written = save_room_files(seg, tmp_path / "office")
+    assert [p.name for p in written] == [f"office{s}" for s in ROOM_FILE_SUFFIXES]
+    assert all(p.is_file() for p in written)
+    rooms, doors = tj.load_rooms(written[0])
+    assert_rooms_equal(rooms, seg.rooms)

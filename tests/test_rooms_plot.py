@@ -1,0 +1,81 @@
+"""Room pictures: :func:`topojax.plotting.plot_rooms` and ``tj.plot(result, rooms=seg)``."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+from room_maps import three_rooms  # noqa: E402
+
+import topojax as tj  # noqa: E402
+from topojax.io.rooms import room_colours  # noqa: E402
+from topojax.plotting import plot_rooms  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def seg():
+    return tj.segment_rooms(three_rooms())
+
+
+def _door_lines(ax) -> list:
+    return [c for c in ax.collections if isinstance(c, LineCollection) and c.get_label() == "doors"]
+
+
+def test_plot_rooms_colours_doors_and_ids(seg):
+    ax = plot_rooms(seg)
+    base, layer = ax.images
+    assert base.get_array().shape == seg.labels.shape, "the map, in pixel coordinates"
+    rgba = np.asarray(layer.get_array())
+    colours = room_colours(seg.n_rooms) / 255.0
+    for room in seg.rooms:
+        r, c = np.argwhere(seg.labels == room.id)[0]
+        np.testing.assert_allclose(rgba[r, c, :3], colours[room.id - 1], atol=1e-6)
+        assert rgba[r, c, 3] > 0
+    assert (rgba[seg.labels == 0, 3] == 0).all(), "no room: transparent"
+    (doors,) = _door_lines(ax)
+    for line, door in zip(doors.get_segments(), seg.doors, strict=True):
+        np.testing.assert_array_equal(line, door.ends_px[:, ::-1].astype(float))  # (col, row)
+    texts = {t.get_text(): t.get_position() for t in ax.texts}
+    assert set(texts) == {"1", "2", "3"}
+    for room in seg.rooms:
+        r, c = seg.occupancy.world_to_pixel(*room.centroid)
+        assert texts[str(room.id)] == pytest.approx((c, r))
+        assert seg.labels[int(round(float(r))), int(round(float(c)))] == room.id
+    assert ax.get_title() == "3 rooms, 2 doors"
+    plt.close(ax.figure)
+
+
+def test_plot_rooms_without_doors_or_labels(seg):
+    fig, ax = plt.subplots()
+    assert plot_rooms(seg, ax=ax, doors=False, labels=False, title="x") is ax
+    assert not _door_lines(ax) and not ax.texts and ax.get_title() == "x"
+    plt.close(fig)
+    with pytest.raises(TypeError, match="seg: expected a RoomSegmentation, received str"):
+        plot_rooms("rooms.geojson")
+
+
+def test_plot_overlay_takes_the_rooms_of_its_map(seg):
+    result = tj.build_graph(three_rooms())
+    ax = tj.plot(result, rooms=seg)
+    graph_lines = [
+        c for c in ax.collections if isinstance(c, LineCollection) and c.get_label() != "doors"
+    ]
+    assert len(graph_lines) == 1 and len(_door_lines(ax)) == 1
+    assert len(graph_lines[0].get_segments()) == result.graph.number_of_edges()
+    assert len(ax.images) == 3, "map, rooms, skeleton"
+    assert ax.get_title().endswith(", 3 rooms")
+    plt.close(ax.figure)
+    wall = np.ones((10, 10), bool)
+    other = tj.segment_rooms(tj.OccupancyMap(occupied=wall, free=~wall, unknown=~wall))
+    with pytest.raises(
+        ValueError, match=r"rooms: expected the rooms of a map of shape \(60, 150\)"
+    ):
+        tj.plot(result, rooms=other)
+    with pytest.raises(TypeError, match="rooms: expected a RoomSegmentation"):
+        tj.plot(result, rooms=3)
+    plt.close("all")

@@ -1,0 +1,118 @@
+"""``topojax rooms``: the rooms and doorways of one map."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from ._options import add_map_options, add_room_options, map_options, room_config
+from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+
+
+def add_command(subparsers) -> None:
+    """Register the ``rooms`` subcommand on an ``argparse`` subparsers object."""
+    p = subparsers.add_parser(
+        "rooms",
+        help="split one map into rooms joined by doorways",
+        description="Split the known free space of a map (ROS map_server YAML, or a "
+        "PGM/PNG/JPG image) into rooms joined by doorways. Writes STEM_rooms.geojson (room "
+        "polygons and doorway lines in map-frame metres), STEM_rooms.png (the room labels "
+        "in colour), STEM_rooms.graphml and STEM_rooms.json (the room graph), and prints a "
+        "summary.",
+    )
+    p.add_argument("map", help="map file: .yaml/.yml (map_server), .pgm, .png, .jpg, ...")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    p.add_argument(
+        "--plot", action="store_true", help="also write STEM_rooms_plot.png (rooms over the map)"
+    )
+    add_map_options(p)
+    add_room_options(p)
+    p.set_defaults(handler=_cmd_rooms, runs_kernels=False)
+
+
+def room_files(stem: str) -> list[str]:
+    """The names of the room files (``topojax rooms``, ``topojax graph --rooms``) of a map
+    called ``stem``."""
+    from ..io import ROOM_FILE_SUFFIXES
+
+    return [f"{stem}{suffix}" for suffix in ROOM_FILE_SUFFIXES]
+
+
+def _files(stem: str, args) -> list[str]:
+    """The names of the files ``topojax rooms`` writes for a map called ``stem``."""
+    return room_files(stem) + [f"{stem}_rooms_plot.png"] * bool(args.plot)
+
+
+def _cmd_rooms(args) -> int:
+    from .._fs import output_folder, refuse_overwriting_inputs
+    from ..io import save_room_files
+    from ..maps import load_map
+    from ..rooms import segment_rooms
+
+    config = room_config(args)  # checked before any work
+    out = Path(args.out)
+    stem = Path(args.map).stem
+    targets = [out / name for name in _files(stem, args)]
+    refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
+    check_outputs(planned(targets, args.map), command="rooms", option=OUT_OPTION)
+    occupancy = load_map(args.map, **map_options(args))
+    t0 = time.perf_counter()
+    seg = segment_rooms(occupancy, config=config)
+    seconds = time.perf_counter() - t0
+    output_folder(out, name="--out")
+    written = save_room_files(seg, out / stem)
+    if args.plot:
+        written.append(_picture(seg, out / f"{stem}_rooms_plot.png"))
+    print(
+        f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
+        f"{occupancy.resolution_m:g} m/px)"
+    )
+    for line in room_lines(seg, occupancy, seconds=seconds):
+        print(line)
+    record_outputs(planned(written, args.map), command="rooms")
+    print("wrote      " + ", ".join(str(p) for p in written))
+    return 0
+
+
+def room_lines(seg, occupancy, *, seconds: float, time_label: str = "time (ms)") -> list[str]:
+    """The summary of a segmentation: rooms, doors and its stages' time (ms, the line
+    ``time_label``), and a note when the map gave no room."""
+    rooms, doors = seg.rooms, seg.doors
+    line = f"rooms      {len(rooms)} rooms"
+    if rooms:
+        areas = [r.area_m2 for r in rooms]
+        line += f" ({sum(areas):.1f} m2 in all, {min(areas):.1f}-{max(areas):.1f} m2 each)"
+    line += f", {len(doors)} doors"
+    if doors:
+        widths = [d.width_m for d in doors]
+        line += f" ({min(widths):.2f}-{max(widths):.2f} m wide)"
+    lines = [
+        line,
+        f"{time_label:<11}"
+        + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in seg.timings_s.items())
+        + f"; total {1e3 * seconds:.1f}",
+    ]
+    if not rooms:
+        n_free = int(occupancy.free.sum())
+        lines.append(
+            f"note       no room found: the map has {n_free} free pixels as classified; "
+            "check the thresholds, --negate, --mode (e.g. --mode ipa for IPA benchmark "
+            "maps, where every pixel below 250 is inaccessible) or --min-room-m2"
+        )
+    return lines
+
+
+def _picture(seg, path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..plotting import plot_rooms
+
+    h, w = seg.labels.shape
+    fig, ax = plt.subplots(figsize=(9, 9 * h / max(w, 1)))
+    plot_rooms(seg, ax=ax)
+    fig.savefig(path, dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    return path

@@ -1,0 +1,485 @@
+"""Rooms and doorways as files: GeoJSON (:func:`save_rooms` / :func:`load_rooms`), a
+label picture (:func:`save_room_labels`) and the room graph (:func:`save_room_graph`);
+:func:`save_room_files` writes all four beside each other, as the command line does."""
+
+from __future__ import annotations
+
+import colorsys
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fs import atomic_write_bytes
+
+__all__ = [
+    "ROOM_FILE_SUFFIXES",
+    "load_rooms",
+    "room_colours",
+    "room_graph",
+    "room_picture",
+    "save_room_files",
+    "save_room_graph",
+    "save_room_labels",
+    "save_rooms",
+]
+
+#: What :func:`save_room_files` appends to a stem: GeoJSON, label picture, room graph
+#: (GraphML, JSON node-link).
+ROOM_FILE_SUFFIXES = ("_rooms.geojson", "_rooms.png", "_rooms.graphml", "_rooms.json")
+
+#: The foreign member that marks a rooms GeoJSON and holds the map frame.
+_MEMBER = "topojax_rooms"
+_VERSION = 1
+#: Label-picture colours: no room on an obstacle, no room elsewhere, doorways.
+_BLACK, _GREY, _WHITE = (0, 0, 0), (128, 128, 128), (255, 255, 255)
+_GOLDEN = 0.6180339887498949
+
+
+def _check_seg(seg: Any):
+    from ..rooms import RoomSegmentation
+
+    if not isinstance(seg, RoomSegmentation):
+        raise TypeError(f"seg: expected a RoomSegmentation, received {type(seg).__name__}")
+    return seg
+
+
+# ---------------------------------------------------------------------- GeoJSON
+
+
+def _signed_area(ring: np.ndarray) -> float:
+    """Shoelace area of an open ring (K, 2): positive when counter-clockwise."""
+    x, y = ring[:, 0], ring[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _box_ring(seg, bbox) -> np.ndarray:
+    """The outer corners of the pixel squares of ``bbox`` (row0, col0, row1, col1), in
+    world (x, y) metres, counter-clockwise."""
+    r0, c0, r1, c1 = bbox
+    rows = np.array([r0 - 0.5, r1 + 0.5, r1 + 0.5, r0 - 0.5])
+    cols = np.array([c0 - 0.5, c0 - 0.5, c1 + 0.5, c1 + 0.5])
+    x, y = seg.occupancy.pixel_to_world(rows, cols)
+    ring = np.stack([np.asarray(x, np.float64), np.asarray(y, np.float64)], axis=1)
+    return ring if _signed_area(ring) > 0 else ring[::-1].copy()
+
+
+def _room_feature(seg, room) -> dict:
+    where = f"room {room.id}"
+    poly = np.asarray(room.polygon, np.float64).reshape(-1, 2)
+    if not np.isfinite(poly).all():
+        raise ValueError(f"seg: {where} has a polygon with non-finite coordinates")
+    props: dict[str, Any] = {
+        "kind": "room",
+        "id": int(room.id),
+        "area_m2": float(room.area_m2),
+        "centroid": [float(v) for v in room.centroid],
+        "bbox_px": [int(v) for v in room.bbox],
+    }
+    ring = poly
+    if poly.shape[0] < 3 or _signed_area(poly) <= 0:
+        # a line, a point or a clockwise outline is no valid exterior ring: the geometry
+        # is the room's pixel box and the outline itself a property
+        ring = _box_ring(seg, room.bbox)
+        props["outline"] = poly.tolist()
+    coords = [*ring.tolist(), ring[0].tolist()]
+    return {
+        "type": "Feature",
+        "geometry": {"type": "Polygon", "coordinates": [coords]},
+        "properties": props,
+    }
+
+
+def _door_feature(door) -> dict:
+    ends = np.asarray(door.ends_world, np.float64).reshape(-1, 2)
+    if ends.shape != (2, 2) or not np.isfinite(ends).all():
+        raise ValueError(f"seg: door {door.id} needs two finite world ends, got {ends.tolist()}")
+    props = {
+        "kind": "door",
+        "id": int(door.id),
+        "rooms": [int(r) for r in door.rooms],
+        "width_m": float(door.width_m),
+        "ends_px": np.asarray(door.ends_px, np.int64).reshape(2, 2).tolist(),
+        "pixels": np.asarray(door.pixels, np.int64).reshape(-1, 2).tolist(),
+    }
+    return {
+        "type": "Feature",
+        "geometry": {"type": "LineString", "coordinates": ends.tolist()},
+        "properties": props,
+    }
+
+
+def save_rooms(seg, path: str | Path) -> Path:
+    """Write rooms and doorways as a GeoJSON FeatureCollection.
+
+    Coordinates are ``[x, y]`` in metres in the map frame (the frame of the map's
+    ``origin``), not WGS 84 longitude and latitude, as for graphs saved as GeoJSON; a
+    GIS reads them as a local projected frame.
+
+    Parameters
+    ----------
+    seg : RoomSegmentation
+        From :func:`topojax.segment_rooms`.
+    path : str or Path
+        Output file (``.geojson`` by convention); its folder must exist.  Written
+        atomically (a temporary file renamed over it).
+
+    Returns
+    -------
+    Path
+        The written path.
+
+    Notes
+    -----
+    One ``Polygon`` feature per room, in id order: the exterior ring is the room's outline
+    (:attr:`Room.polygon`), counter-clockwise and closed (first position repeated);
+    properties ``kind: "room"``, ``id``, ``area_m2``, ``centroid`` ``[x, y]`` (metres)
+    and ``bbox_px`` ``[row_min, col_min, row_max, col_max]``.  An outline that encloses no
+    area (a room one pixel wide) cannot be a ring: the geometry is then the room's pixel
+    box and the outline is kept in the property ``outline``.
+
+    One ``LineString`` feature per door, in id order, from one obstacle end of the doorway
+    to the other (:attr:`Door.ends_world`); properties ``kind: "door"``, ``id``, ``rooms``
+    ``[a, b]``, ``width_m``, ``ends_px`` and ``pixels`` (``[row, col]`` lists).
+
+    The foreign member ``"topojax_rooms"`` holds ``version``, ``resolution_m``,
+    ``origin`` ``[x, y, yaw]`` and the map ``shape`` ``[H, W]``.  Floats are written with
+    Python's shortest round-trip representation; NaN and infinity are refused.
+    """
+    seg = _check_seg(seg)
+    p = Path(path)
+    features = [_room_feature(seg, room) for room in seg.rooms]
+    features += [_door_feature(door) for door in seg.doors]
+    doc = {
+        "type": "FeatureCollection",
+        _MEMBER: {
+            "version": _VERSION,
+            "resolution_m": float(seg.resolution_m),
+            "origin": [float(v) for v in seg.origin],
+            "shape": [int(v) for v in seg.labels.shape],
+        },
+        "features": features,
+    }
+    try:
+        data = json.dumps(doc, allow_nan=False).encode("utf-8")
+    except ValueError:
+        raise ValueError(
+            f"cannot write {p}: an area, centroid or width is NaN or infinite, which "
+            "GeoJSON cannot hold"
+        ) from None
+    atomic_write_bytes(p, data)
+    return p
+
+
+def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.ndarray:
+    """``value`` as an array (K, 2) of ``dtype``; ValueError naming ``what``."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = np.empty(0)
+    if isinstance(value, list) and not value and count is None:  # no pixels
+        arr = arr.reshape(0, 2)
+    if arr.ndim != 2 or arr.shape[1] != 2 or (count is not None and arr.shape[0] != count):
+        size = "K" if count is None else str(count)
+        raise ValueError(f"{what}: expected a list of {size} [a, b] pairs, got {value!r:.80}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{what}: expected finite numbers")
+    if np.dtype(dtype).kind == "i":
+        if not np.array_equal(arr, np.round(arr)):
+            raise ValueError(f"{what}: expected integer pixels")
+    return arr.astype(dtype)
+
+
+def _number(props: dict, name: str, where: str) -> float:
+    value = props.get(name)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"{where}: property {name!r} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _integers(props: dict, name: str, where: str, count: int) -> tuple[int, ...]:
+    value = props.get(name)
+    if (
+        not isinstance(value, list)
+        or len(value) != count
+        or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+    ):
+        raise ValueError(f"{where}: property {name!r} must be a list of {count} integers")
+    return tuple(value)
+
+
+def _read_room(props: dict, geometry: dict, where: str):
+    from ..rooms import Room
+
+    if geometry.get("type") != "Polygon":
+        raise ValueError(f"{where}: a room needs a Polygon geometry, got {geometry.get('type')!r}")
+    if "outline" in props:
+        polygon = _points(props["outline"], np.float64, f"{where} outline")
+    else:
+        rings = geometry.get("coordinates")
+        if not isinstance(rings, list) or not rings:
+            raise ValueError(f"{where}: a Polygon needs at least one linear ring")
+        ring = _points(rings[0], np.float64, f"{where} exterior ring")
+        if ring.shape[0] < 4 or not np.array_equal(ring[0], ring[-1]):
+            raise ValueError(f"{where}: the exterior ring must be closed (4 or more positions)")
+        polygon = ring[:-1].copy()
+    centroid = props.get("centroid")
+    if not isinstance(centroid, list) or len(centroid) != 2:
+        raise ValueError(f"{where}: property 'centroid' must be [x, y], got {centroid!r:.80}")
+    cx, cy = (_number({"centroid": v}, "centroid", where) for v in centroid)
+    return Room(
+        id=_identifier(props, where),
+        area_m2=_number(props, "area_m2", where),
+        centroid=(cx, cy),
+        polygon=polygon,
+        bbox=_integers(props, "bbox_px", where, 4),
+    )
+
+
+def _identifier(props: dict, where: str) -> int:
+    value = props.get("id")
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"{where}: property 'id' must be an integer >= 1, got {value!r}")
+    return value
+
+
+def _read_door(props: dict, geometry: dict, where: str):
+    from ..rooms import Door
+
+    if geometry.get("type") != "LineString":
+        raise ValueError(
+            f"{where}: a door needs a LineString geometry, got {geometry.get('type')!r}"
+        )
+    return Door(
+        id=_identifier(props, where),
+        rooms=_integers(props, "rooms", where, 2),
+        ends_px=_points(props.get("ends_px"), np.int64, f"{where} ends_px", count=2),
+        ends_world=_points(geometry.get("coordinates"), np.float64, f"{where} line", count=2),
+        width_m=_number(props, "width_m", where),
+        pixels=_points(props.get("pixels"), np.int64, f"{where} pixels"),
+    )
+
+
+def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
+    """Read a file written by :func:`save_rooms`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A rooms GeoJSON file.
+
+    Returns
+    -------
+    rooms : tuple of Room
+        In file order (id order as written), with ``polygon`` float64 (K, 2) world
+        metres (the closing position dropped) and ``bbox`` from ``bbox_px``.
+    doors : tuple of Door
+        In file order, with ``ends_px`` int64 (2, 2), ``ends_world`` float64 (2, 2) (the
+        line's coordinates) and ``pixels`` int64 (K, 2).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If it is not a file, not valid JSON, or not a rooms GeoJSON (the message names the
+        file and the feature at fault).
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"rooms file not found: {p}")
+    if not p.is_file():
+        raise ValueError(f"rooms file {p} is not a file (a folder?)")
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"rooms file {p} is not valid JSON: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
+        raise ValueError(f"rooms file {p} is not a GeoJSON FeatureCollection")
+    features = doc.get("features")
+    if not isinstance(features, list):
+        raise ValueError(f"rooms file {p}: 'features' must be a list")
+    meta = doc.get(_MEMBER)
+    if meta is None and not features:
+        raise ValueError(f"rooms file {p}: an empty FeatureCollection without {_MEMBER!r}")
+    if meta is not None and (not isinstance(meta, dict) or meta.get("version") != _VERSION):
+        raise ValueError(f"rooms file {p}: {_MEMBER!r} is not version {_VERSION} rooms data")
+    rooms, doors = [], []
+    for i, feat in enumerate(features):
+        where = f"rooms file {p}: features[{i}]"
+        if not isinstance(feat, dict) or feat.get("type") != "Feature":
+            raise ValueError(f"{where} is not a GeoJSON Feature")
+        props = feat.get("properties")
+        geometry = feat.get("geometry")
+        if not isinstance(props, dict) or not isinstance(geometry, dict):
+            raise ValueError(f"{where} needs 'properties' and a 'geometry' (objects)")
+        kind = props.get("kind")
+        if kind == "room":
+            rooms.append(_read_room(props, geometry, where))
+        elif kind == "door":
+            doors.append(_read_door(props, geometry, where))
+        else:
+            hint = " (a topojax graph? read it with load_graph)" if "feature" in props else ""
+            raise ValueError(
+                f"{where} has kind {kind!r}; expected 'room' or 'door': not a rooms GeoJSON{hint}"
+            )
+    return tuple(rooms), tuple(doors)
+
+
+# ---------------------------------------------------------------------- picture
+
+
+def room_colours(n: int) -> np.ndarray:
+    """Colours of rooms 1 .. ``n``: uint8 (n, 3) RGB, distinct, the same for every map.
+
+    Hues step by the golden ratio (neighbouring ids far apart on the colour wheel) at
+    three saturations and values; none is a grey, so none is black, grey or white."""
+    out = np.empty((max(int(n), 0), 3), np.uint8)
+    taken = {_BLACK, _GREY, _WHITE}
+    k = 0
+    for i in range(out.shape[0]):
+        while True:
+            hue = (k * _GOLDEN) % 1.0
+            sat = (0.65, 0.9, 0.45)[k % 3]
+            val = (0.95, 0.75, 0.85)[(k // 3) % 3]
+            k += 1
+            rgb = tuple(int(round(255 * c)) for c in colorsys.hsv_to_rgb(hue, sat, val))
+            if rgb not in taken:
+                break
+        taken.add(rgb)
+        out[i] = rgb
+    return out
+
+
+def room_picture(seg) -> np.ndarray:
+    """The label picture of :func:`save_room_labels`: uint8 (H, W, 3) RGB."""
+    seg = _check_seg(seg)
+    labels = np.asarray(seg.labels)
+    palette = np.empty((int(labels.max(initial=0)) + 1, 3), np.uint8)
+    palette[0] = _GREY
+    palette[1:] = room_colours(palette.shape[0] - 1)
+    rgb = palette[labels]
+    occupied = getattr(seg.occupancy, "occupied", None)
+    if occupied is not None:
+        rgb[(labels == 0) & np.asarray(occupied, bool)] = _BLACK
+    for door in seg.doors:
+        pix = np.asarray(door.pixels, np.int64).reshape(-1, 2)
+        rgb[pix[:, 0], pix[:, 1]] = _WHITE
+    return rgb
+
+
+def save_room_labels(seg, path: str | Path) -> Path:
+    """Write the room labels as a colour PNG, one picture pixel per map pixel.
+
+    Parameters
+    ----------
+    seg : RoomSegmentation
+    path : str or Path
+        Output file (PNG whatever its suffix); its folder must exist.  Written atomically.
+
+    Returns
+    -------
+    Path
+        The written path.
+
+    Notes
+    -----
+    RGB, no alpha, row 0 at the top (as the map image): room ``i`` in colour
+    ``room_colours(n)[i - 1]`` (:func:`room_colours`: distinct, the same for every map),
+    pixels of no room black on obstacles and grey (128, 128, 128) elsewhere, door pixels
+    white.
+    """
+    import cv2
+
+    rgb = room_picture(seg)
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[..., ::-1]))
+    if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
+        raise ValueError(f"cannot encode the room labels of {path} as PNG")
+    p = Path(path)
+    atomic_write_bytes(p, buf.tobytes())
+    return p
+
+
+# ---------------------------------------------------------------------- room graph
+
+#: Room-graph formats and their suffixes.
+_GRAPH_SUFFIXES = {".graphml": "graphml", ".json": "json"}
+
+
+def room_graph(seg):
+    """The room graph written by :func:`save_room_graph`: :attr:`RoomSegmentation.graph`
+    with the nodes' ``bbox_px`` and the graph attributes ``resolution_m``, ``origin``,
+    ``shape`` and ``n_rooms``."""
+    seg = _check_seg(seg)
+    g = seg.graph
+    for room in seg.rooms:
+        g.nodes[room.id]["bbox_px"] = tuple(int(v) for v in room.bbox)
+    g.graph.update(
+        resolution_m=float(seg.resolution_m),
+        origin=tuple(float(v) for v in seg.origin),
+        shape=tuple(int(v) for v in seg.labels.shape),
+        n_rooms=seg.n_rooms,
+    )
+    return g
+
+
+def save_room_graph(seg, path: str | Path) -> Path:
+    """Write the room graph: rooms as nodes, doors as edges.
+
+    Parameters
+    ----------
+    seg : RoomSegmentation
+    path : str or Path
+        ``.graphml`` (GraphML) or ``.json`` (networkx node-link, ``"edges"`` layout); its
+        folder must exist.  Written atomically.
+
+    Returns
+    -------
+    Path
+        The written path.
+
+    Notes
+    -----
+    Nodes are the room ids (int) with ``area_m2`` (m²), ``centroid`` ``(x, y)`` metres
+    and ``bbox_px`` ``(row_min, col_min, row_max, col_max)``; one edge per pair of rooms
+    with doors between them, with ``doors`` (their ids, a list) and ``width_m`` (the
+    widest); graph attributes ``resolution_m``, ``origin``, ``shape``, ``n_rooms``.
+    Written by :func:`topojax.save_graph` as a multigraph (edge keys 0): GraphML holds
+    only scalars, so tuples and lists are JSON strings there (``"[1, 4]"``), in JSON
+    they are lists; :func:`topojax.load_graph` gives back the tuples and lists.
+    """
+    from .files import save_graph
+
+    p = Path(path)
+    fmt = _GRAPH_SUFFIXES.get(p.suffix.lower())
+    if fmt is None:
+        raise ValueError(
+            f"path: expected a room-graph file ending in {sorted(_GRAPH_SUFFIXES)}, "
+            f"received {str(p)!r}"
+        )
+    return save_graph(room_graph(seg), p, format=fmt)
+
+
+def save_room_files(seg, stem: str | Path) -> list[Path]:
+    """Write every rooms output beside each other: ``STEM_rooms.geojson``
+    (:func:`save_rooms`), ``STEM_rooms.png`` (:func:`save_room_labels`),
+    ``STEM_rooms.graphml`` and ``STEM_rooms.json`` (:func:`save_room_graph`).
+
+    Returns
+    -------
+    list of Path
+        The written files, in the order of :data:`ROOM_FILE_SUFFIXES`.
+    """
+    seg = _check_seg(seg)
+    base = Path(stem)
+    geojson, png, graphml, nodelink = (
+        base.with_name(base.name + suffix) for suffix in ROOM_FILE_SUFFIXES
+    )
+    return [
+        save_rooms(seg, geojson),
+        save_room_labels(seg, png),
+        save_room_graph(seg, graphml),
+        save_room_graph(seg, nodelink),
+    ]
