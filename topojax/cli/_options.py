@@ -178,7 +178,14 @@ _ROOM_OPTIONS = (
         "R",
         "keep a door only if at most R times the width of each room it joins",
     ),
-    ("--min-room-m2", "min_room_m2", 4.0, "A", "smaller regions merge into a neighbour"),
+    ("--min-room-m2", "min_room_m2", 2.0, "A", "smaller regions merge into a neighbour"),
+    (
+        "--min-isolated-room-m2",
+        "min_isolated_room_m2",
+        0.5,
+        "A",
+        "a free area without doorways is a room from A m2 on",
+    ),
     (
         "--max-border-share",
         "max_border_share",
