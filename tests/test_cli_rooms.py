@@ -212,3 +212,19 @@ def test_build_graphs_rooms_only_and_names(png, tmp_path):
     ]
     with pytest.raises(ValueError, match=r"formats: expected names from \(.*'rooms'\)"):
         build_graphs([png], formats="rooms,svg", workers=0, progress=False)
+
+
+def test_replay_rooms_writes_room_files_and_checks_room_options_first(tmp_path, capsys):
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    out = tmp_path / "rep"
+    assert main(["replay", str(log), "-o", str(out), "--rooms", "--door-ratio", "0"]) == 2
+    assert "--door-ratio" in capsys.readouterr().err
+    assert not out.exists()  # refused before the replay
+    code = main(
+        ["replay", str(log), "-o", str(out), "--rooms", "--no-progress", "--graph-every", "20"]
+    )
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "rooms" in text
+    for name in ("map_rooms.geojson", "map_rooms.png", "map_rooms.graphml", "map_rooms.json"):
+        assert (out / name).is_file()

@@ -126,3 +126,27 @@ def test_bad_room_settings_are_refused():
         tj.IncrementalMapper(rooms_every=-1)
     with pytest.raises(TypeError, match="room_config"):
         tj.IncrementalMapper(room_config={"min_room_m2": 1.0})
+
+
+def test_replay_keeps_rooms_and_writes_them(tmp_path):
+    from pathlib import Path
+
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    summary = tj.replay(
+        log,
+        out_dir=tmp_path,
+        progress=False,
+        graph_every=10,
+        skeleton_every=None,
+        rooms=True,
+        animate=tmp_path / "rooms.gif",
+    )
+    assert summary["rooms"] >= 1
+    assert "rooms" in summary["timings"]
+    for name in ("map_rooms.geojson", "map_rooms.png", "map_rooms.graphml", "rooms.gif"):
+        assert (tmp_path / name).stat().st_size > 0
+    rooms, doors = tj.load_rooms(tmp_path / "map_rooms.geojson")
+    assert len(rooms) == summary["rooms"]
+    graph = tj.load_graph(tmp_path / "graph.graphml")
+    ids = {r.id for r in rooms} | {0}
+    assert all(d["room"] in ids for _, d in graph.nodes(data=True))

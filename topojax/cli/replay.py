@@ -5,8 +5,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from .._constants import STRATEGIES
-from ._options import add_graph_options, add_nav2_options, graph_config, nav2_tolerance
+from ._options import (
+    add_graph_options,
+    add_nav2_options,
+    add_room_options,
+    graph_config,
+    nav2_tolerance,
+    room_config,
+)
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+from .rooms import room_files
 
 
 def _cmd_replay(args) -> int:
@@ -18,6 +26,8 @@ def _cmd_replay(args) -> int:
         "graph_every": args.graph_every,
         "strategy": args.strategy,
     }
+    if args.rooms:
+        kw["room_config"] = room_config(args)  # checked before the replay
     reader_kwargs = {}
     for name in ("max_range", "scan_topic", "pose_topic"):
         if getattr(args, name) is not None:
@@ -39,6 +49,7 @@ def _cmd_replay(args) -> int:
         nav2_tolerance_m=nav2_tolerance(args),
         graph_config=graph_config(args),
         route_graph_radius_m=args.route_graph,
+        rooms=args.rooms,
         **kw,
     )
     record_outputs(planned(summary["written"], args.source), command="replay")
@@ -56,6 +67,8 @@ def _replay_claims(args) -> dict:
     names += ["graph.png", "stages.png"] * bool(args.plot)
     if args.route_graph is not None:
         names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")]
+    if args.rooms:
+        names += room_files("map")
     return planned([Path(args.out) / name for name in names], args.source)
 
 
@@ -108,5 +121,13 @@ def add_command(subparsers) -> None:
         help="also write route_graph.{graphml,json,geojson}: the route graph of the final "
         "map for a round robot of this radius in metres (see topojax route-graph)",
     )
+    p.add_argument(
+        "--rooms",
+        action="store_true",
+        help="also keep rooms as the map grows (with every graph update), give the graph "
+        "files their rooms and write map_rooms.{geojson,png,graphml,json}; --animate "
+        "colours the rooms",
+    )
+    add_room_options(p, only_with="--rooms")
     p.set_defaults(handler=_cmd_replay)
     return p

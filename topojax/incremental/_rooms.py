@@ -179,6 +179,8 @@ def rooms_due(mapper, *, graph_ran: bool) -> bool:
     """Whether the mapper's rooms are due for an update after this scan: every
     ``rooms_every`` scans, or (``rooms_every`` None) with each graph update once rooms are
     in use."""
+    if mapper.pixel_bbox is None:
+        return False
     if mapper.rooms_every is None:
         return graph_ran and mapper._rooms.active
     return bool(mapper.rooms_every) and mapper._since_rooms >= mapper.rooms_every

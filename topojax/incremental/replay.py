@@ -25,6 +25,10 @@ def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
     ox, oy, _ = occ.origin
     res = occ.resolution_m
     g = mapper.graph
+    keeper = mapper._rooms
+    rooms = None
+    if keeper.seg is not None and keeper.box == mapper.pixel_bbox:
+        rooms = keeper.labels[::step, ::step].copy()
     edges = [d for *_, d in g.edges(data="world")]
     verts = np.array([d for _, d in g.nodes(data="world")], np.float64).reshape(-1, 2)
     return {
@@ -33,6 +37,7 @@ def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
         "edges": edges,
         "vertices": verts,
         "scan": mapper.n_scans,
+        "rooms": rooms,
     }
 
 
@@ -50,6 +55,14 @@ def _write_animation(frames: list[dict], path: Path) -> None:
         f = frames[i]
         ax.clear()
         ax.imshow(f["image"], cmap="gray", vmin=0, vmax=255, extent=f["extent"])
+        if f.get("rooms") is not None:
+            from ..io.rooms import room_colours
+
+            lab = f["rooms"]
+            colours = np.zeros((int(lab.max()) + 1, 4))
+            colours[1:, :3] = room_colours(int(lab.max())) / 255.0
+            colours[1:, 3] = 0.45
+            ax.imshow(colours[lab], extent=f["extent"], interpolation="nearest")
         for wline in f["edges"]:
             ax.plot(wline[:, 0], wline[:, 1], color="#d62728", lw=1.0)
         if f["vertices"].size:
@@ -83,6 +96,7 @@ def replay(
     nav2_tolerance_m: float | None = None,
     graph_config: GraphConfig | None = None,
     route_graph_radius_m: float | None = None,
+    rooms: bool = False,
     **mapper_kw,
 ) -> dict:
     """Replay a scan log through an :class:`IncrementalMapper` and write the results.
@@ -122,9 +136,15 @@ def replay(
     route_graph_radius_m : float, optional
         Also write ``route_graph.graphml``, ``.json`` and ``.geojson``: the route graph of
         the final map for a round robot of this radius (:meth:`IncrementalMapper.route_graph`).
+    rooms : bool
+        Keep rooms as the map grows (with every graph update; ``room_config`` in
+        ``mapper_kw`` sets their options), give the written graphs their rooms
+        (:func:`topojax.assign_rooms`) and write ``map_rooms.geojson``, ``map_rooms.png``,
+        ``map_rooms.graphml`` and ``map_rooms.json`` (:func:`topojax.io.save_room_files`);
+        the animation colours the rooms.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
-        ``graph_every``, ``strategy``, ...).
+        ``graph_every``, ``strategy``, ``room_config``, ...).
 
     Returns
     -------
@@ -143,6 +163,8 @@ def replay(
         route_graph_radius_m = positive_metres("route_graph_radius_m", route_graph_radius_m)
     out = Path(out_dir)
     scans = read_scans(source, **(reader_kwargs or {}))
+    if rooms and mapper_kw.get("rooms_every") is None:
+        mapper_kw["rooms_every"] = mapper_kw.get("graph_every", 80) or 0
     mapper = IncrementalMapper(**mapper_kw)
     output_folder(out)
     reports, frames, wall = _run(mapper, scans, max_scans, animate is not None, progress)
@@ -156,7 +178,17 @@ def replay(
     result = mapper.to_result(update=False)
     if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
         result = _with_graph_config(result, graph_config)
+    seg = None
+    if rooms:
+        from ..io import save_room_files
+        from ..rooms import assign_rooms
+
+        mapper._update_rooms()
+        seg = mapper.rooms
+        assign_rooms(result.graph, seg)  # before the graph files are written
     written, messages = _write_graphs_and_map(result, out, nav2_tolerance_m)
+    if seg is not None:
+        written += save_room_files(seg, out / "map")
     if route_graph_radius_m is not None:
         from ..io import save_graph
 
@@ -167,6 +199,7 @@ def replay(
     timings = timing_summary(reports)
     summary_g = graph_summary(result.graph)
     summary = {
+        "rooms": None if seg is None else seg.n_rooms,
         "source": str(source),
         "n_scans": len(reports),
         "n_tiles": mapper.n_tiles,
@@ -232,7 +265,7 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool):
             break
         rep = mapper.add_scan(scan)
         reports.append(rep)
-        if animate and rep.graph_update is not None and mapper.pixel_bbox:
+        if animate and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
             frames.append(_frame(mapper))
         bar.update(1)
     bar.close()
@@ -293,7 +326,9 @@ def summary_text(summary: dict) -> str:
         f"graph      {summary['vertices']} vertices, {summary['edges']} edges",
         "loop        calls    mean ms     p50 ms     p99 ms   amortised ms/scan",
     ]
-    for k in ("distance", "splat", "skeleton", "graph", "add_scan"):
+    if summary.get("rooms") is not None:
+        lines.insert(2, f"rooms      {summary['rooms']} rooms")
+    for k in ("distance", "splat", "skeleton", "graph", "rooms", "add_scan"):
         s = summary["timings"].get(k)
         if s:
             lines.append(
