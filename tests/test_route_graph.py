@@ -50,6 +50,13 @@ def _assert_safe(g: nx.MultiGraph, occ: OccupancyMap) -> None:
         assert d["min_clearance_m"] >= R - 1e-6
         step = np.abs(np.diff(path.astype(int), axis=0))
         assert step.max() <= 1 and (step.sum(axis=1) > 0).all()  # 8-connected
+        # the waypoints a robot follows keep the radius too, between the pixels as well
+        wr, wc = occ.world_to_pixel(d["waypoints"][:, 0], d["waypoints"][:, 1])
+        way = np.stack([wr, wc], axis=1)
+        for a, b in zip(way[:-1], way[1:], strict=True):
+            t = np.linspace(0, 1, int(np.ceil(4 * np.hypot(*(b - a)))) + 2)[:, None]
+            rc = np.floor(a + t * (b - a) + 0.5).astype(int)
+            assert space.feasible[rc[:, 0], rc[:, 1]].all()
 
 
 def _assert_one_component_per_region(g: nx.MultiGraph, occ: OccupancyMap) -> None:

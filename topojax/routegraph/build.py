@@ -15,7 +15,7 @@ import numpy as np
 from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres
 from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph
-from ..graph.work import WorkGraph, collapse_loops, drop_spurs, face_labels, line_pixels
+from ..graph.work import WorkGraph, collapse_loops, drop_spurs, face_labels
 from ..skeleton import thin
 from ._cover import add_coverage, add_shortcuts
 from .feasible import FeasibleSpace, feasible_space
@@ -218,9 +218,27 @@ def _sparse_skeleton_graph(skeleton: np.ndarray, space: FeasibleSpace, cfg: Rout
     return work, res
 
 
+def _straight_is_feasible(a: np.ndarray, b: np.ndarray, feasible: np.ndarray) -> bool:
+    """Whether every pixel the straight segment from ``a`` to ``b`` (row, col; pixel
+    squares centred on integers) passes through is feasible (its supercover): at least as
+    strict as any sampling of the segment, the evaluator's safety test included."""
+    cuts = [np.array([0.0, 1.0])]
+    for k in range(2):
+        lo, hi = sorted((a[k], b[k]))
+        if hi > lo:  # where the segment crosses a pixel border k + 0.5
+            borders = np.arange(np.floor(lo - 0.5) + 0.5, hi, 1.0)
+            borders = borders[(borders > lo) & (borders < hi)]
+            cuts.append((borders - a[k]) / (b[k] - a[k]))
+    t = np.unique(np.concatenate(cuts))
+    mid = (t[:-1] + t[1:]) / 2.0 if t.size > 1 else t
+    rc = np.floor(a[None, :] + mid[:, None] * (b - a)[None, :] + 0.5).astype(np.int64)
+    return bool(feasible[rc[:, 0], rc[:, 1]].all())
+
+
 def _simplify(path: np.ndarray, feasible: np.ndarray, tol_px: float) -> np.ndarray:
     """Indices of the path pixels kept by Douglas-Peucker with tolerance ``tol_px`` whose
-    straight pieces also stay on feasible pixels (a piece that leaves them is split)."""
+    straight pieces also stay on feasible pixels (a piece that leaves them is split, down
+    to single path steps, which are feasible)."""
     n = len(path)
     keep = np.zeros(n, bool)
     keep[[0, n - 1]] = True
@@ -237,10 +255,8 @@ def _simplify(path: np.ndarray, feasible: np.ndarray, tol_px: float) -> np.ndarr
         t = np.zeros(len(inner)) if span == 0 else np.clip((inner - a) @ ab / span, 0, 1)
         dist = np.hypot(*(inner - (a + t[:, None] * ab)).T)
         m = int(np.argmax(dist))
-        if dist[m] <= tol_px:
-            seg = line_pixels(path[i], path[j])
-            if feasible[seg[:, 0], seg[:, 1]].all():
-                continue
+        if dist[m] <= tol_px and _straight_is_feasible(pts[i], pts[j], feasible):
+            continue
             m = (j - i) // 2 - 1
         m += i + 1
         keep[m] = True
