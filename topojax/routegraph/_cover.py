@@ -74,17 +74,20 @@ def attach_points(work: WorkGraph, pixels: list, shape: tuple[int, int]) -> list
                 out[k] = v
     splits: dict[int, dict[int, list]] = {}
     if want:
-        keys = np.fromiter(want, np.int64)
-        for e, (_, _, path) in list(work.edges.items()):
-            flat = path[1:-1, 0].astype(np.int64) * width + path[1:-1, 1]
-            hit = np.flatnonzero(np.isin(flat, keys))
-            for i in hit.tolist():
+        # every interior edge pixel once, with its edge and index: one lookup for all
+        ids = list(work.edges)
+        inner = [work.edges[e][2][1:-1] for e in ids]
+        sizes = np.array([len(p) for p in inner], np.int64)
+        if sizes.sum():
+            every = np.concatenate(inner).astype(np.int64)
+            flat = every[:, 0] * width + every[:, 1]
+            edge_of = np.repeat(np.arange(len(ids)), sizes)
+            index = np.arange(flat.size) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+            hit = np.flatnonzero(np.isin(flat, np.fromiter(want, np.int64)))
+            for i in hit.tolist():  # in edge order, then along each path
                 ks = want.pop(int(flat[i]), None)
                 if ks:
-                    splits.setdefault(e, {})[i + 1] = ks
-            if not want:
-                break
-            keys = np.fromiter(want, np.int64)
+                    splits.setdefault(ids[edge_of[i]], {})[int(index[i]) + 1] = ks
     for e, at in splits.items():
         u, v, path = work.edges[e]
         work.remove_edge(e)

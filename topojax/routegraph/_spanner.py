@@ -13,7 +13,7 @@ import numpy as np
 from .._jit import cached_njit
 from ..graph.work import line_into
 
-__all__ = ["greedy_shortcuts"]
+__all__ = ["greedy_shortcuts", "simplify_path", "straight_is_feasible"]
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -213,3 +213,73 @@ def greedy_shortcuts(
             k += 1
         out[i] = True
     return out
+
+
+@cached_njit(nogil=True)
+def straight_is_feasible(r0, c0, r1, c1, feasible):
+    """Whether every pixel the straight segment between the centres of pixels
+    ``(r0, c0)`` and ``(r1, c1)`` passes through (its supercover; at a pixel corner it
+    steps diagonally) is feasible."""
+    n_r, n_c = abs(r1 - r0), abs(c1 - c0)
+    sr = 1 if r1 > r0 else -1
+    sc = 1 if c1 > c0 else -1
+    r, c, i, j = r0, c0, 0, 0
+    if not feasible[r, c]:
+        return False
+    while i < n_r or j < n_c:
+        # the next border crossings at t = (i + 1/2) / n_r and (j + 1/2) / n_c, compared
+        # exactly in integers
+        if j >= n_c or (i < n_r and (2 * i + 1) * n_c < (2 * j + 1) * n_r):
+            r += sr
+            i += 1
+        elif i >= n_r or (2 * j + 1) * n_r < (2 * i + 1) * n_c:
+            c += sc
+            j += 1
+        else:
+            r += sr
+            c += sc
+            i += 1
+            j += 1
+        if not feasible[r, c]:
+            return False
+    return True
+
+
+@cached_njit(nogil=True)
+def simplify_path(path, feasible, tol):
+    """Douglas-Peucker on an 8-connected pixel path (K, 2) int64 with tolerance ``tol``
+    (pixels) whose straight pieces also stay on feasible pixels (a piece within the
+    tolerance that leaves them is split at its middle, down to single steps).  Returns
+    bool (K,): the kept pixels (both ends always)."""
+    n = path.shape[0]
+    keep = np.zeros(n, np.bool_)
+    keep[0] = True
+    keep[n - 1] = True
+    stack = np.empty((2 * n + 2, 2), np.int64)
+    stack[0, 0], stack[0, 1] = 0, n - 1
+    top = 1
+    while top > 0:
+        top -= 1
+        i, j = stack[top, 0], stack[top, 1]
+        if j - i < 2:
+            continue
+        ar, ac = float(path[i, 0]), float(path[i, 1])
+        br, bc = float(path[j, 0]) - ar, float(path[j, 1]) - ac
+        span = br * br + bc * bc
+        best, m = -1.0, i + 1
+        for k in range(i + 1, j):
+            pr, pc = path[k, 0] - ar, path[k, 1] - ac
+            t = 0.0 if span == 0 else min(max((pr * br + pc * bc) / span, 0.0), 1.0)
+            dr, dc = pr - t * br, pc - t * bc
+            d = (dr * dr + dc * dc) ** 0.5
+            if d > best:
+                best, m = d, k
+        if best <= tol:
+            if straight_is_feasible(path[i, 0], path[i, 1], path[j, 0], path[j, 1], feasible):
+                continue
+            m = i + (j - i) // 2
+        keep[m] = True
+        stack[top, 0], stack[top, 1] = i, m
+        stack[top + 1, 0], stack[top + 1, 1] = m, j
+        top += 2
+    return keep

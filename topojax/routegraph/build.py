@@ -18,6 +18,7 @@ from ..graph.store import fill_multigraph
 from ..graph.work import WorkGraph, collapse_loops, drop_spurs, face_labels
 from ..skeleton import thin
 from ._cover import add_coverage, add_shortcuts
+from ._spanner import simplify_path
 from .feasible import FeasibleSpace, feasible_space
 
 __all__ = ["RouteGraphConfig", "route_graph"]
@@ -218,52 +219,6 @@ def _sparse_skeleton_graph(skeleton: np.ndarray, space: FeasibleSpace, cfg: Rout
     return work, res
 
 
-def _straight_is_feasible(a: np.ndarray, b: np.ndarray, feasible: np.ndarray) -> bool:
-    """Whether every pixel the straight segment from ``a`` to ``b`` (row, col; pixel
-    squares centred on integers) passes through is feasible (its supercover): at least as
-    strict as any sampling of the segment, the evaluator's safety test included."""
-    cuts = [np.array([0.0, 1.0])]
-    for k in range(2):
-        lo, hi = sorted((a[k], b[k]))
-        if hi > lo:  # where the segment crosses a pixel border k + 0.5
-            borders = np.arange(np.floor(lo - 0.5) + 0.5, hi, 1.0)
-            borders = borders[(borders > lo) & (borders < hi)]
-            cuts.append((borders - a[k]) / (b[k] - a[k]))
-    t = np.unique(np.concatenate(cuts))
-    mid = (t[:-1] + t[1:]) / 2.0 if t.size > 1 else t
-    rc = np.floor(a[None, :] + mid[:, None] * (b - a)[None, :] + 0.5).astype(np.int64)
-    return bool(feasible[rc[:, 0], rc[:, 1]].all())
-
-
-def _simplify(path: np.ndarray, feasible: np.ndarray, tol_px: float) -> np.ndarray:
-    """Indices of the path pixels kept by Douglas-Peucker with tolerance ``tol_px`` whose
-    straight pieces also stay on feasible pixels (a piece that leaves them is split, down
-    to single path steps, which are feasible)."""
-    n = len(path)
-    keep = np.zeros(n, bool)
-    keep[[0, n - 1]] = True
-    pts = path.astype(np.float64)
-    stack = [(0, n - 1)]
-    while stack:
-        i, j = stack.pop()
-        if j - i < 2:
-            continue
-        a, b = pts[i], pts[j]
-        ab = b - a
-        span = float(ab @ ab)
-        inner = pts[i + 1 : j]
-        t = np.zeros(len(inner)) if span == 0 else np.clip((inner - a) @ ab / span, 0, 1)
-        dist = np.hypot(*(inner - (a + t[:, None] * ab)).T)
-        m = int(np.argmax(dist))
-        if dist[m] <= tol_px and _straight_is_feasible(pts[i], pts[j], feasible):
-            continue
-            m = (j - i) // 2 - 1
-        m += i + 1
-        keep[m] = True
-        stack += [(i, m), (m, j)]
-    return np.flatnonzero(keep)
-
-
 def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphConfig):
     """The networkx graph of ``work`` with :func:`topojax.build_graph`'s schema."""
     res = space.resolution_m
@@ -309,7 +264,7 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
     for a, b, k in order:
         path = paths[k]
         world = world_all[starts[k] : starts[k] + sizes[k]].copy()
-        keep = _simplify(path, space.feasible, tol_px)
+        keep = np.flatnonzero(simplify_path(path.astype(np.int64), space.feasible, tol_px))
         attrs = {
             "path": path,
             "world": world,
