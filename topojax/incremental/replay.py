@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 from dataclasses import asdict
@@ -97,6 +98,7 @@ def replay(
     graph_config: GraphConfig | None = None,
     route_graph_radius_m: float | None = None,
     rooms: bool = False,
+    mcap=None,
     **mapper_kw,
 ) -> dict:
     """Replay a scan log through an :class:`IncrementalMapper` and write the results.
@@ -142,6 +144,12 @@ def replay(
         (:func:`topojax.assign_rooms`) and write ``map_rooms.geojson``, ``map_rooms.png``,
         ``map_rooms.graphml`` and ``map_rooms.json`` (:func:`topojax.io.save_room_files`);
         the animation colours the rooms.
+    mcap : str or Path, optional
+        Also write a ROS 2 MCAP recording (an ``.mcap`` file, for Foxglove, RViz and
+        ``ros2 bag play``; needs ``rosbags``): ``/tf`` and ``/scan`` for every scan,
+        ``/map`` and ``/topology`` at every graph update, ``/rooms`` at every room
+        update, and the written map, graph (and rooms) once more at the end, stamped
+        with the log's timestamps (see :mod:`topojax.io.mcap`).
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ``room_config``, ...).
@@ -157,7 +165,7 @@ def replay(
     from ..scans import read_scans
 
     nav2_tolerance_m = _check_replay_args(
-        max_scans, nav2_tolerance_m, graph_config, out_dir, animate
+        max_scans, nav2_tolerance_m, graph_config, out_dir, animate, mcap
     )
     if route_graph_radius_m is not None:  # checked now, not after the whole replay
         route_graph_radius_m = positive_metres("route_graph_radius_m", route_graph_radius_m)
@@ -167,27 +175,23 @@ def replay(
         mapper_kw["rooms_every"] = mapper_kw.get("graph_every", 80) or 0
     mapper = IncrementalMapper(**mapper_kw)
     output_folder(out)
-    reports, frames, wall = _run(mapper, scans, max_scans, animate is not None, progress)
-    if not reports:
-        raise ValueError(f"source {source}: no scans to replay")
-    if mapper.pixel_bbox is None:
-        raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
-    t_final = time.perf_counter()
-    update = mapper.update_graph()
-    final_s = time.perf_counter() - t_final
-    result = mapper.to_result(update=False)
-    if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
-        result = _with_graph_config(result, graph_config)
-    seg = None
-    if rooms:
-        from ..io import save_room_files
-        from ..rooms import assign_rooms
-
-        mapper._update_rooms()
-        seg = mapper.rooms
-        assign_rooms(result.graph, seg)  # before the graph files are written
+    with _recorder(mcap) as recorder:
+        reports, frames, wall = _run(
+            mapper, scans, max_scans, animate is not None, progress, recorder
+        )
+        if not reports:
+            raise ValueError(f"source {source}: no scans to replay")
+        if mapper.pixel_bbox is None:
+            raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
+        update, final_s, result, seg = _final(mapper, graph_config, rooms)
+        if recorder is not None:  # the written map, graph and rooms close the recording
+            recorder.add_map(result.map, result.graph)
+            if seg is not None:
+                recorder.add_rooms(seg)
     written, messages = _write_graphs_and_map(result, out, nav2_tolerance_m)
     if seg is not None:
+        from ..io import save_room_files
+
         written += save_room_files(seg, out / "map")
     if route_graph_radius_m is not None:
         from ..io import save_graph
@@ -222,6 +226,8 @@ def replay(
         apath.parent.mkdir(parents=True, exist_ok=True)
         _write_animation(frames, apath)
         written.append(apath)
+    if recorder is not None:
+        written.append(recorder.path)
     summary["written"] = [str(p) for p in written]
     summary["messages"] = messages
     if progress:
@@ -229,7 +235,27 @@ def replay(
     return summary
 
 
-def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, animate):
+def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
+    """The final graph update; returns its report, its time (s), the result to write
+    (with ``graph_config``'s graph) and, with ``rooms``, the final rooms (assigned to the
+    result's graph)."""
+    t_final = time.perf_counter()
+    update = mapper.update_graph()
+    final_s = time.perf_counter() - t_final
+    result = mapper.to_result(update=False)
+    if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
+        result = _with_graph_config(result, graph_config)
+    seg = None
+    if rooms:
+        from ..rooms import assign_rooms
+
+        mapper._update_rooms()
+        seg = mapper.rooms
+        assign_rooms(result.graph, seg)  # before the graph files are written
+    return update, final_s, result, seg
+
+
+def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, animate, mcap):
     """Check :func:`replay`'s arguments before the replay starts; returns the Nav2
     tolerance as a float (or None)."""
     if max_scans is not None:
@@ -248,12 +274,27 @@ def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, anima
             f"animate: expected a GIF file name, got the folder {animate}; e.g. "
             f"{Path(animate) / 'graph.gif'}"
         )
+    if mcap is not None:
+        from ..io.mcap import mcap_path
+
+        mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
     return nav2_tolerance_m
 
 
-def _run(mapper, scans, max_scans, animate: bool, progress: bool):
+def _recorder(mcap):
+    """A :class:`~topojax.io.mcap.McapRecorder` for ``mcap``, or a context of None."""
+    if mcap is None:
+        return contextlib.nullcontext()
+    from ..io.mcap import McapRecorder
+
+    return McapRecorder(mcap)
+
+
+def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None):
     """Feed ``scans`` (at most ``max_scans``) to ``mapper``; returns the reports, the
-    animation frames (one per graph update when ``animate``) and the wall time (s)."""
+    animation frames (one per graph update when ``animate``) and the wall time (s).
+    ``recorder`` (an open :class:`~topojax.io.mcap.McapRecorder`) gets every scan, the
+    map and graph at every graph update and the rooms at every room update."""
     from tqdm import tqdm
 
     reports: list[ScanReport] = []
@@ -265,11 +306,24 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool):
             break
         rep = mapper.add_scan(scan)
         reports.append(rep)
+        if recorder is not None:
+            _record(recorder, mapper, scan, rep)
         if animate and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
             frames.append(_frame(mapper))
         bar.update(1)
     bar.close()
     return reports, frames, time.perf_counter() - t0
+
+
+def _record(recorder, mapper, scan, rep: ScanReport) -> None:
+    """Write one scan and what its report updated into the recording."""
+    recorder.add_scan(scan)
+    if mapper.pixel_bbox is None:
+        return
+    if rep.graph_update is not None:
+        recorder.add_map(mapper.occupancy, mapper.graph)
+    if rep.rooms_update is not None:
+        recorder.add_rooms(mapper.rooms)
 
 
 def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, list[str]]:
