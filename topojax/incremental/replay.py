@@ -16,63 +16,81 @@ from ._settings import settings_of
 from .mapper import IncrementalMapper
 from .reports import ScanReport, timing_summary
 
+#: Suffixes dropped from a log's file name for the pictures' titles.
+_LOG_SUFFIXES = (".gz", ".bz2", ".log", ".bag", ".db3", ".mcap", ".txt", ".dat", ".clf")
+
+
+def _source_name(source) -> str:
+    """A log's name for titles: its file name without log suffixes (``intel.log.gz`` ->
+    ``intel``)."""
+    name = Path(str(source)).name
+    while Path(name).suffix.lower() in _LOG_SUFFIXES:
+        name = Path(name).stem
+    return name
+
 
 def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
-    """A small snapshot for the animation: downsampled map image, world extent, edges."""
+    """A small snapshot for the animation: the map image shrunk to at most ``max_px``
+    pixels a side (walls kept, :func:`topojax.plotting.map_image`), its world extent, the
+    edges' world polylines and the vertices' world positions by kind."""
+    from ..plotting import map_image
+
     occ = mapper.occupancy
-    img = occ.to_image()
-    step = max(1, -(-max(img.shape) // max_px))
     h, w = occ.shape
+    step = max(1, -(-max(h, w) // max_px))
+    img = map_image(occ, step)
     ox, oy, _ = occ.origin
     res = occ.resolution_m
+    top = oy + h * res
     g = mapper.graph
     keeper = mapper._rooms
     rooms = None
     if keeper.seg is not None and keeper.box == mapper.pixel_bbox:
         rooms = keeper.labels[::step, ::step].copy()
-    edges = [d for *_, d in g.edges(data="world")]
-    verts = np.array([d for _, d in g.nodes(data="world")], np.float64).reshape(-1, 2)
+    vertices: dict[str, list] = {}
+    for _, d in g.nodes(data=True):
+        vertices.setdefault(d["kind"], []).append(d["world"])
     return {
-        "image": img[::step, ::step],
-        "extent": (ox, ox + w * res, oy, oy + h * res),
-        "edges": edges,
-        "vertices": verts,
+        "image": img,
+        "extent": (ox, ox + img.shape[1] * step * res, top - img.shape[0] * step * res, top),
+        "edges": [d for *_, d in g.edges(data="world")],
+        "vertices": {k: np.asarray(v, np.float64) for k, v in vertices.items()},
+        "n_vertices": g.number_of_nodes(),
         "scan": mapper.n_scans,
         "rooms": rooms,
     }
 
 
-def _write_animation(frames: list[dict], path: Path) -> None:
+def _write_animation(frames: list[dict], path: Path, name: str | None = None) -> None:
+    """The frames as a GIF in the style of the still pictures (:mod:`topojax.plotting`):
+    map, rooms, graph, a scale bar and the legend under the map, the log's name."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.animation import FuncAnimation, PillowWriter
 
+    from ..plotting import add_legend, add_scale_bar, draw_graph_lines, room_layer
+
     last = frames[-1]["extent"]
-    fig, ax = plt.subplots(figsize=(7, 7))
+    fig, ax = plt.subplots(figsize=(7, 7.5))
+    fig.subplots_adjust(left=0.02, right=0.98, top=0.94, bottom=0.1)
 
     def draw(i: int):
         f = frames[i]
         ax.clear()
-        ax.imshow(f["image"], cmap="gray", vmin=0, vmax=255, extent=f["extent"])
+        ax.imshow(f["image"], cmap="gray", vmin=0, vmax=1, extent=f["extent"])
         if f.get("rooms") is not None:
-            from ..io.rooms import room_colours
-
-            lab = f["rooms"]
-            colours = np.zeros((int(lab.max()) + 1, 4))
-            colours[1:, :3] = room_colours(int(lab.max())) / 255.0
-            colours[1:, 3] = 0.45
-            ax.imshow(colours[lab], extent=f["extent"], interpolation="nearest")
-        for wline in f["edges"]:
-            ax.plot(wline[:, 0], wline[:, 1], color="#d62728", lw=1.0)
-        if f["vertices"].size:
-            ax.plot(f["vertices"][:, 0], f["vertices"][:, 1], ".", color="#1f77b4", ms=2)
+            ax.imshow(room_layer(f["rooms"], 0.45), extent=f["extent"], interpolation="nearest")
+        draw_graph_lines(ax, f["edges"], f["vertices"], linewidth=1.0, node_size=6.0)
         ax.set_xlim(last[0], last[1])
         ax.set_ylim(last[2], last[3])
-        ax.set_title(f"scan {f['scan']}: {len(f['edges'])} edges")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+        add_scale_bar(ax, 1.0)
+        add_legend(ax)
+        text = f"scan {f['scan']}: {f['n_vertices']} vertices, {len(f['edges'])} edges"
+        ax.set_title(f"{name}: {text}" if name else text)
         return []
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
@@ -219,12 +237,12 @@ def replay(
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     written.append(out / "timings.json")
     if plot:
-        written += _write_pictures(result, out)
+        written += _write_pictures(result, out, _source_name(source))
     if animate is not None:
         frames.append(_frame(mapper))
         apath = Path(animate)
         apath.parent.mkdir(parents=True, exist_ok=True)
-        _write_animation(frames, apath)
+        _write_animation(frames, apath, _source_name(source))
         written.append(apath)
     if recorder is not None:
         written.append(recorder.path)
@@ -353,8 +371,9 @@ def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, li
     return written, messages
 
 
-def _write_pictures(result, out: Path) -> list[Path]:
-    """Write ``graph.png`` and ``stages.png``; returns their paths."""
+def _write_pictures(result, out: Path, name: str) -> list[Path]:
+    """Write ``graph.png`` and ``stages.png`` titled with the log's ``name``; returns
+    their paths."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -363,10 +382,13 @@ def _write_pictures(result, out: Path) -> list[Path]:
     from ..plotting import plot as plot_result
     from ..plotting import plot_stages
 
-    ax = plot_result(result)
+    g = result.graph
+    ax = plot_result(
+        result, title=f"{name}: {g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
+    )
     ax.figure.savefig(out / "graph.png", dpi=150, bbox_inches="tight")
     plt.close(ax.figure)
-    fig = plot_stages(result)
+    fig = plot_stages(result, title=name)
     fig.savefig(out / "stages.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     return [out / "graph.png", out / "stages.png"]
