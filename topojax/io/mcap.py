@@ -53,8 +53,13 @@ __all__ = [
     "SCAN_PERIOD_S",
     "TOPICS",
     "McapRecorder",
+    "graph_markers",
     "mcap_path",
+    "occupancy_grid",
+    "room_markers",
     "save_mcap",
+    "scan_message",
+    "tf_message",
 ]
 
 #: The fixed frame of maps, graphs and rooms.
@@ -103,18 +108,13 @@ def _rgba(colour: str, alpha: float = 1.0):
     return t(r=r, g=g, b=b, a=alpha)
 
 
-def _stamp(ns: int):
-    t = _typestore().types
-    return t["std_msgs/msg/Header"](
-        stamp=t["builtin_interfaces/msg/Time"](sec=ns // _NS, nanosec=ns % _NS),
-        frame_id=MAP_FRAME,
-    )
+def _time(ns: int):
+    """``builtin_interfaces/msg/Time`` of ``ns`` nanoseconds."""
+    return _typestore().types["builtin_interfaces/msg/Time"](sec=ns // _NS, nanosec=ns % _NS)
 
 
-def _header(ns: int, frame: str):
-    head = _stamp(ns)
-    head.frame_id = frame
-    return head
+def _header(ns: int, frame: str = MAP_FRAME):
+    return _typestore().types["std_msgs/msg/Header"](stamp=_time(ns), frame_id=frame)
 
 
 def _quaternion(yaw: float):
@@ -147,25 +147,26 @@ def occupancy_grid(occupancy, stamp_ns: int = 0):
     grid[occupancy.occupied] = 100
     ox, oy, yaw = occupancy.origin
     info = t["nav_msgs/msg/MapMetaData"](
-        map_load_time=_stamp(stamp_ns).stamp,
+        map_load_time=_time(stamp_ns),
         resolution=float(occupancy.resolution_m),
         width=w,
         height=h,
         origin=_pose(ox, oy, yaw),
     )
     return t["nav_msgs/msg/OccupancyGrid"](
-        header=_stamp(stamp_ns), info=info, data=np.ascontiguousarray(grid[::-1]).ravel()
+        header=_header(stamp_ns), info=info, data=np.ascontiguousarray(grid[::-1]).ravel()
     )
 
 
 def _marker(stamp_ns: int, ns: str, mid: int, kind: str, *, points=(), colour=None, scale=0.0):
-    """One marker in the map frame; ``kind`` a ``Marker`` constant (``"LINE_STRIP"``)."""
+    """One marker in the map frame: ``kind`` a ``Marker`` type name (``"LINE_STRIP"``),
+    or ``"DELETEALL"`` for the action that clears the topic's earlier markers."""
     t = _typestore().types
     marker = t["visualization_msgs/msg/Marker"]
     vec = t["geometry_msgs/msg/Vector3"]
     empty = np.zeros(0, np.uint8)
     return marker(
-        header=_stamp(stamp_ns),
+        header=_header(stamp_ns),
         ns=ns,
         id=int(mid),
         type=getattr(marker, kind) if kind != "DELETEALL" else marker.ARROW,
@@ -179,7 +180,7 @@ def _marker(stamp_ns: int, ns: str, mid: int, kind: str, *, points=(), colour=No
         colors=[],
         texture_resource="",
         texture=t["sensor_msgs/msg/CompressedImage"](
-            header=_stamp(stamp_ns), format="", data=empty
+            header=_header(stamp_ns), format="", data=empty
         ),
         uv_coordinates=[],
         text="",
@@ -192,9 +193,9 @@ def _marker(stamp_ns: int, ns: str, mid: int, kind: str, *, points=(), colour=No
 def graph_markers(graph, stamp_ns: int = 0):
     """``visualization_msgs/msg/MarkerArray`` of a topology graph: ``DELETEALL``, one
     ``SPHERE_LIST`` per vertex kind (namespace ``vertices``, id 0 junction, 1 end, 2 ring,
-    3 isolated; vertices in node order) and one
-    ``LINE_STRIP`` per edge (namespace ``edges``, id = its place in ``graph.edges``)
-    through the ``world`` (x, y) of its pixel centres."""
+    3 isolated; vertices in node order) and one ``LINE_STRIP`` per edge (namespace
+    ``edges``, id = its place in ``graph.edges``) through the ``world`` (x, y) of its
+    pixel centres."""
     t = _typestore().types
     markers = [_marker(stamp_ns, "", 0, "DELETEALL")]
     for i, (kind, colour) in enumerate(VERTEX_KIND_COLOURS.items()):
