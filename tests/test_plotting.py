@@ -123,3 +123,118 @@ def test_full_map_plotting_does_not_load_the_incremental_module():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+# ---------------------------------------------------------------------- paper style
+
+
+def _components(mask: np.ndarray) -> int:
+    from scipy import ndimage
+
+    return int(ndimage.label(mask, structure=np.ones((3, 3), bool))[1])
+
+
+def _dark_pixels_in(ax) -> np.ndarray:
+    """The rendered pixels of ``ax`` (inside its box) that are dark."""
+    fig = ax.figure
+    fig.canvas.draw()
+    rgba = np.asarray(fig.canvas.buffer_rgba())
+    box = ax.get_window_extent()
+    h = rgba.shape[0]
+    rows = slice(int(h - box.y1) + 1, int(h - box.y0) - 1)
+    cols = slice(int(box.x0) + 1, int(box.x1) - 1)
+    return rgba[rows, cols, :3].max(axis=-1) < 128
+
+
+def _cross(n: int = 1200) -> np.ndarray:
+    """A one-pixel diagonal and a one-pixel row crossing it: one 8-connected line."""
+    skel = np.zeros((n, n), bool)
+    idx = np.arange(100, n - 100)
+    skel[idx, idx] = True
+    skel[n // 2, 100 : n - 100] = True
+    return skel
+
+
+def test_overlay_names_the_map_and_puts_scale_bar_and_legend_under_it(result):
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    ax = tj.plot(result)
+    assert ax.get_title().startswith("a_scan: ")  # the map's file name
+    bars = [a for a in ax.artists if isinstance(a, AnchoredSizeBar)]
+    assert len(bars) == 1
+    label = bars[0].txt_label.get_text()
+    length_m = float(label.removesuffix(" m"))
+    assert label.endswith(" m") and length_m in (1, 2, 5, 10, 20, 50)
+    res = result.map.resolution_m
+    (rect,) = bars[0].size_bar.get_children()
+    assert rect.get_width() == pytest.approx(length_m / res)  # in pixels of the map
+    width_m = result.map.shape[1] * res
+    assert 0.1 * width_m < length_m <= 0.25 * width_m
+    legend = ax.get_legend()
+    texts = [t.get_text() for t in legend.get_texts()]
+    assert {"edges", "junction", "end"} <= set(texts)
+    ax.figure.canvas.draw()
+    renderer = ax.figure.canvas.get_renderer()
+    map_box = ax.get_window_extent()
+    for artist in (legend, bars[0]):  # both cover nothing of the map
+        assert artist.get_window_extent(renderer).y1 <= map_box.y0 + 1
+    plt.close(ax.figure)
+
+
+def test_downscaled_skeleton_keeps_a_one_pixel_line_unbroken():
+    skel = _cross()
+    assert _components(skel) == 1
+    fig, ax = plt.subplots(figsize=(3, 3), dpi=100)  # ~230 screen pixels for 1200
+    tj.plotting.plot_skeleton(skel, ax=ax, color="#000000")
+    shown = ax.images[0].get_array()
+    assert shown.shape[0] < skel.shape[0]  # max-pooled for the axes
+    assert (ax.get_xlim(), ax.get_ylim()) == ((-0.5, 1199.5), (1199.5, -0.5))
+    assert _components(_dark_pixels_in(ax)) == 1
+    plt.close(fig)
+    # the same layer shown whole, shrunk by the renderer, is no unbroken line (pieces of
+    # it or nothing at all)
+    fig, ax = plt.subplots(figsize=(3, 3), dpi=100)
+    ax.imshow(~skel, cmap="gray", interpolation="nearest")
+    ax.set_axis_off()
+    assert _components(_dark_pixels_in(ax)) != 1
+    plt.close(fig)
+
+
+def test_max_pool_and_map_image_keep_thin_lines():
+    from topojax.plotting import map_image, max_pool
+
+    skel = _cross(403)
+    pooled = max_pool(skel, 4)
+    assert pooled.shape == (101, 101) and pooled.dtype == bool
+    assert _components(pooled) == 1 and pooled.sum() >= 2 * 200 // 4
+    assert max_pool(skel, 1) is skel
+    values = np.arange(12.0).reshape(3, 4)
+    np.testing.assert_array_equal(max_pool(values, 2), [[5.0, 7.0], [9.0, 11.0]])
+    # a one-pixel wall stays a whole black line in the shrunk map (occupied wins)
+    occ = np.zeros((400, 400), bool)
+    occ[200, :] = True
+    img = map_image(tj.OccupancyMap.from_array(occ, resolution_m=0.05), 3)
+    assert img.shape == (134, 134)
+    assert np.count_nonzero(img == 0.0) == 134 and (img[66] == 0.0).all()
+
+
+def test_map_name_from_the_source():
+    from topojax.plotting import map_name
+
+    assert map_name("maps/intel.png") == "intel"
+    assert map_name("maps/pal_office/map.yaml") == "pal_office"
+    assert map_name(None) is None
+
+
+def test_stage_panels_are_pooled_under_the_map_name(result):
+    fig = plot_stages(result, figsize=(9, 6))
+    assert fig.get_suptitle() == "a_scan"
+    skeleton_panel = fig.axes[4]
+    assert skeleton_panel.get_title() == "skeleton"
+    shown = skeleton_panel.images[-1].get_array()
+    assert shown.shape[0] < result.skeleton.shape[0]
+    drawn = shown[..., 3] > 0  # the pooled skeleton pixels
+    assert _components(drawn) <= _components(result.skeleton)
+    plt.close(fig)
+    assert plot_stages(result, title="x").get_suptitle() == "x"
+    plt.close("all")

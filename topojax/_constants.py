@@ -1,5 +1,6 @@
-"""Small constants that the command line needs to build its parser, in a module that
-imports nothing (the modules that use them import JAX, numba or the map readers).
+"""Small constants that the command line needs to build its parser, and the colours that
+pictures and ROS markers share, in a module that imports nothing (the modules that use
+them import JAX, numba, matplotlib or the map readers).
 
 :mod:`topojax.maps` and :mod:`topojax.incremental` import them from here and export them
 under the same names.
@@ -7,10 +8,20 @@ under the same names.
 
 from __future__ import annotations
 
-__all__ = ["MODES", "STRATEGIES"]
+__all__ = ["EDGE_COLOUR", "MODES", "STRATEGIES", "VERTEX_KIND_COLOURS"]
 
 #: Pixel conventions of :func:`topojax.load_map` (``mode``); :data:`topojax.maps.MODES`.
 MODES = ("trinary", "scale", "raw", "ipa")
 #: Skeleton update strategies of :class:`topojax.IncrementalMapper`;
 #: :data:`topojax.incremental.STRATEGIES`.
 STRATEGIES = ("exact", "paper")
+#: Colour of each vertex kind in pictures and ROS markers (:mod:`topojax.plotting`,
+#: :mod:`topojax.io.mcap`).
+VERTEX_KIND_COLOURS = {
+    "junction": "#d62728",
+    "end": "#1f77b4",
+    "ring": "#9467bd",
+    "isolated": "#7f7f7f",
+}
+#: Colour of the graph's edges in pictures and ROS markers.
+EDGE_COLOUR = "#ff7f0e"

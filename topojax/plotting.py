@@ -1,5 +1,5 @@
 """Matplotlib helpers: the map, distance map, ridges, skeleton, graph, route and room
-overlays.
+overlays, for papers and READMEs.
 
 All images are drawn in pixel coordinates (``imshow`` with row 0 at the top), so the
 graph's pixel paths overlay exactly.  Keyword arguments shared by the helpers: ``ax`` (a
@@ -7,13 +7,24 @@ matplotlib Axes to draw into; default: a new figure), ``title`` (a string, or No
 none / the helper's own), ``color`` / ``edge_color`` (any matplotlib colour) and
 ``linewidth`` (points).  Each returns the Axes it drew into (:func:`plot_stages`: the
 figure).
+
+Every picture, and the animation of ``topojax replay --animate``, shares one style: the
+map's name in the title (from the map's ``source``, when known), a scale bar in metres
+(:func:`add_scale_bar`) and the legend (:func:`add_legend`) below the map, where they
+cover nothing, and thin pixel layers (ridges, skeleton, walls) max-pooled
+(:func:`max_pool`) when the axes show fewer screen pixels than the layer has, so that a
+one-pixel line stays one unbroken line.
 """
 
 from __future__ import annotations
 
+import math
 import sys
+from pathlib import Path
 
 import numpy as np
+
+from ._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
 
 __all__ = [
     "plot",
@@ -25,14 +36,223 @@ __all__ = [
     "plot_route",
     "plot_rooms",
     "plot_stages",
+    "add_legend",
+    "add_scale_bar",
+    "draw_graph_lines",
+    "map_image",
+    "map_name",
+    "max_pool",
+    "pool_factor",
+    "room_layer",
 ]
 
-_KIND_COLOURS = {
-    "junction": "#d62728",
-    "end": "#1f77b4",
-    "ring": "#9467bd",
-    "isolated": "#7f7f7f",
-}
+_KIND_COLOURS = VERTEX_KIND_COLOURS
+#: Grey levels of the map classes (0 black .. 1 white).
+_OCCUPIED_GREY, _UNKNOWN_GREY, _FREE_GREY = 0.0, 0.8, 1.0
+#: The scale bar's length is the longest 1, 2 or 5 x 10^k metres up to this share of the
+#: axes' width.
+_SCALE_SHARE = 0.25
+
+
+# ---------------------------------------------------------------------- shared style
+
+
+def map_name(source) -> str | None:
+    """A map's name for titles: the file stem of ``source`` (a map's ``source`` path), its
+    folder's name for a file called ``map`` (``pal_office/map.yaml``); None without one."""
+    if not source:
+        return None
+    p = Path(str(source))
+    if p.stem.lower() == "map" and p.parent.name:
+        return p.parent.name
+    return p.stem or None
+
+
+def _titled(name: str | None, text: str) -> str:
+    return f"{name}: {text}" if name else text
+
+
+def max_pool(image: np.ndarray, factor: int) -> np.ndarray:
+    """``image`` (bool or numbers, (H, W)) shrunk ``factor`` times by max-pooling: a pixel
+    of the result is the largest of its ``factor`` x ``factor`` block (for bool: True when
+    any is), the last blocks padded with the image's smallest value.  Shape
+    ``(ceil(H / factor), ceil(W / factor))``; ``factor`` 1 returns ``image``.  True pixels
+    connected in a bool image stay connected."""
+    factor = int(factor)
+    image = np.asarray(image)
+    if factor <= 1 or image.size == 0:
+        return image
+    h, w = image.shape
+    hp, wp = -(-h // factor), -(-w // factor)
+    padded = np.full((hp * factor, wp * factor), image.min(), image.dtype)
+    padded[:h, :w] = image
+    return padded.reshape(hp, factor, wp, factor).max(axis=(1, 3))
+
+
+def pool_factor(shape: tuple[int, int], ax) -> int:
+    """How many layer pixels of an image of ``shape`` (H, W) share one screen pixel of
+    ``ax`` at the figure's dpi (rounded up; 1 when the image is not shrunk)."""
+    box = ax.get_window_extent()
+    if box.width <= 0 or box.height <= 0:
+        return 1
+    ratio = max(shape[0] / box.height, shape[1] / box.width)
+    return max(1, math.ceil(ratio - 1e-9))
+
+
+def _imshow_pooled(ax, image: np.ndarray, shape: tuple[int, int], factor: int, **kwargs):
+    """Show ``image``, an (H, W) layer pooled ``factor`` times, over the pixels of the
+    (H, W) = ``shape`` layer in pixel coordinates; the axes keep the layer's limits."""
+    h, w = shape
+    hp, wp = image.shape[:2]
+    extent = (-0.5, wp * factor - 0.5, hp * factor - 0.5, -0.5)
+    ax.imshow(image, interpolation="nearest", extent=extent, **kwargs)
+    ax.set_xlim(-0.5, w - 0.5)
+    ax.set_ylim(h - 0.5, -0.5)
+
+
+def _show_mask(ax, mask: np.ndarray, colour, *, alpha: float = 1.0):
+    """``mask`` as a colour layer (transparent elsewhere) in pixel coordinates,
+    max-pooled for the axes."""
+    k = pool_factor(mask.shape, ax)
+    small = max_pool(mask.astype(bool), k)
+    rgba = np.zeros(small.shape + (4,), np.float32)
+    rgba[small] = (*_hex_rgb(colour), alpha)
+    _imshow_pooled(ax, rgba, mask.shape, k)
+
+
+def map_image(occupancy, factor: int = 1) -> np.ndarray:
+    """Grey image of an occupancy map, float32: occupied 0 (black), unknown 0.8, free 1
+    (white); with ``factor`` > 1 shrunk by taking each block's darkest class, so that thin
+    walls stay visible.  Shape ``(ceil(H / factor), ceil(W / factor))``."""
+    img = np.full(occupancy.shape, _UNKNOWN_GREY, np.float32)
+    img[occupancy.free] = _FREE_GREY
+    img[occupancy.occupied] = _OCCUPIED_GREY
+    factor = int(factor)
+    if factor <= 1:
+        return img
+    h, w = img.shape
+    hp, wp = -(-h // factor), -(-w // factor)
+    padded = np.full((hp * factor, wp * factor), _UNKNOWN_GREY, np.float32)
+    padded[:h, :w] = img
+    return padded.reshape(hp, factor, wp, factor).min(axis=(1, 3))
+
+
+def _nice_length(limit: float) -> float:
+    """The longest 1, 2 or 5 x 10^k not above ``limit`` (> 0)."""
+    exp = math.floor(math.log10(limit))
+    for mult in (5.0, 2.0, 1.0):
+        if mult * 10.0**exp <= limit:
+            return mult * 10.0**exp
+    return 10.0 ** (exp - 1) * 5.0
+
+
+def add_scale_bar(ax, metres_per_unit: float, *, length_m: float | None = None):
+    """A scale bar under the lower-left corner of ``ax`` (outside the map), labelled in
+    metres.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        With its final x limits.
+    metres_per_unit : float
+        Metres per data unit: the resolution for axes in pixels, 1 for axes in metres.
+    length_m : float, optional
+        Length of the bar; default the longest 1, 2 or 5 x 10^k metres up to a quarter of
+        the axes' width.
+
+    Returns
+    -------
+    AnchoredSizeBar or None
+        The artist (in ``ax.artists``); None when the axes have no width.
+    """
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    width_m = abs(x1 - x0) * float(metres_per_unit)
+    if not width_m > 0 or not math.isfinite(width_m):
+        return None
+    if length_m is None:
+        length_m = _nice_length(_SCALE_SHARE * width_m)
+    bar = AnchoredSizeBar(
+        ax.transData,
+        length_m / metres_per_unit,
+        f"{length_m:g} m",
+        loc="upper left",
+        bbox_to_anchor=(0.0, -0.01),
+        bbox_transform=ax.transAxes,
+        borderpad=0.0,
+        pad=0.1,
+        sep=3,
+        frameon=False,
+        size_vertical=0.012 * abs(y1 - y0),
+        fontproperties={"size": "small"},
+    )
+    bar.set_gid("scale-bar")
+    ax.add_artist(bar)
+    return bar
+
+
+def add_legend(ax, **kwargs):
+    """The legend of ``ax``'s labelled artists under its lower-right corner (outside the
+    map, two columns, no frame); None when nothing is labelled.  ``kwargs`` go to
+    :meth:`matplotlib.axes.Axes.legend`."""
+    handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    options = {
+        "loc": "upper right",
+        "bbox_to_anchor": (1.0, -0.01),
+        "borderaxespad": 0.0,
+        "ncol": 2,
+        "frameon": False,
+        "fontsize": "small",
+        "markerscale": 1.5,
+        "handlelength": 1.2,
+        "columnspacing": 1.0,
+    }
+    options.update(kwargs)
+    return ax.legend(handles, labels, **options)
+
+
+def draw_graph_lines(
+    ax,
+    segments,
+    points_by_kind: dict,
+    *,
+    edge_color=EDGE_COLOUR,
+    linewidth: float = 1.5,
+    node_size: float = 12.0,
+) -> None:
+    """Edges and vertices in any coordinates: ``segments`` a list of (K, 2) (x, y) arrays,
+    ``points_by_kind`` vertex kind -> (N, 2) (x, y), drawn in the kind colours (junction
+    red, end blue, ring purple, isolated grey) and labelled for :func:`add_legend`."""
+    from matplotlib.collections import LineCollection
+
+    if len(segments):
+        ax.add_collection(
+            LineCollection(segments, colors=edge_color, linewidths=linewidth, label="edges")
+        )
+    for kind, colour in _KIND_COLOURS.items():
+        pts = np.asarray(points_by_kind.get(kind, ()), float).reshape(-1, 2)
+        if len(pts):
+            ax.scatter(pts[:, 0], pts[:, 1], s=node_size, c=colour, label=kind, zorder=3)
+
+
+def room_layer(labels: np.ndarray, alpha: float) -> np.ndarray:
+    """RGBA float32 (H, W, 4) of room labels (int (H, W), 0 = no room): each room in its
+    colour of the label picture at opacity ``alpha``, transparent elsewhere."""
+    from .io.rooms import room_colours
+
+    lab = np.asarray(labels)
+    rgba = np.zeros(lab.shape + (4,), np.float32)
+    top = int(lab.max()) if lab.size else 0
+    if top > 0:
+        colours = room_colours(top).astype(np.float32) / 255.0
+        inside = lab > 0
+        rgba[inside, :3] = colours[lab[inside] - 1]
+        rgba[inside, 3] = alpha
+    return rgba
 
 
 def _axes(ax, figsize=(8, 8)):
@@ -60,18 +280,19 @@ def _as_result(result, needs: tuple[str, ...]):
     return result
 
 
-def _map_image(occupancy) -> np.ndarray:
-    img = np.full(occupancy.shape, 0.8, np.float32)  # unknown: light grey
-    img[occupancy.free] = 1.0
-    img[occupancy.occupied] = 0.0
-    return img
-
-
-def plot_map(occupancy, *, ax=None, title: str | None = None):
-    """Occupancy map: occupied black, free white, unknown grey.  Returns the axes."""
+def plot_map(
+    occupancy, *, ax=None, title: str | None = None, scale_bar: bool = True, pool: bool = False
+):
+    """Occupancy map: occupied black, free white, unknown grey, with a scale bar in metres
+    under it (:func:`add_scale_bar`).  With ``pool``, shrunk to the axes' screen pixels by
+    keeping each block's darkest class (:func:`map_image`), so thin walls stay unbroken.
+    Returns the axes."""
     ax = _axes(ax)
-    ax.imshow(_map_image(occupancy), cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+    k = pool_factor(occupancy.shape, ax) if pool else 1
+    _imshow_pooled(ax, map_image(occupancy, k), occupancy.shape, k, cmap="gray", vmin=0, vmax=1)
     ax.set_axis_off()
+    if scale_bar:
+        add_scale_bar(ax, occupancy.resolution_m)
     if title:
         ax.set_title(title)
     return ax
@@ -89,9 +310,15 @@ def plot_distance(distance: np.ndarray, *, ax=None, title: str | None = "distanc
 
 
 def plot_ridges(ridges: np.ndarray, *, ax=None, title: str | None = "ridges"):
-    """Binary ridge map (bool (H, W)).  Returns the axes."""
+    """Binary ridge map (bool (H, W)), black on white; max-pooled when the axes show it
+    smaller than its pixels (:func:`max_pool`), so one-pixel lines stay unbroken.
+    Returns the axes."""
     ax = _axes(ax)
-    ax.imshow(ridges, cmap="gray_r", interpolation="nearest")
+    ridges = np.asarray(ridges, bool)
+    h, w = ridges.shape
+    white = np.ones((1, 1), np.float32)
+    ax.imshow(white, cmap="gray", vmin=0, vmax=1, extent=(-0.5, w - 0.5, h - 0.5, -0.5))
+    _show_mask(ax, ridges, "#000000")
     ax.set_axis_off()
     if title:
         ax.set_title(title)
@@ -99,11 +326,10 @@ def plot_ridges(ridges: np.ndarray, *, ax=None, title: str | None = "ridges"):
 
 
 def plot_skeleton(skeleton: np.ndarray, *, ax=None, color="#2ca02c", title: str | None = None):
-    """Skeleton pixels as an overlay (transparent elsewhere).  Returns the axes."""
+    """Skeleton pixels as an overlay (transparent elsewhere), max-pooled when the axes
+    show it smaller than its pixels (:func:`max_pool`).  Returns the axes."""
     ax = _axes(ax)
-    rgba = np.zeros(skeleton.shape + (4,), np.float32)
-    rgba[skeleton] = (*_hex_rgb(color), 1.0)
-    ax.imshow(rgba, interpolation="nearest")
+    _show_mask(ax, np.asarray(skeleton, bool), color)
     ax.set_axis_off()
     if title:
         ax.set_title(title)
@@ -114,7 +340,7 @@ def plot_graph(
     graph,
     *,
     ax=None,
-    edge_color="#ff7f0e",
+    edge_color=EDGE_COLOUR,
     linewidth: float = 1.5,
     node_size: float = 12.0,
     title: str | None = None,
@@ -138,21 +364,18 @@ def plot_graph(
     Returns
     -------
     matplotlib Axes
+        With the legend of edges and vertex kinds under the graph (:func:`add_legend`).
     """
-    from matplotlib.collections import LineCollection
-
     ax = _axes(ax)
     segments = [np.asarray(data["path"], float)[:, ::-1] for _, _, data in graph.edges(data=True)]
-    if segments:
-        ax.add_collection(LineCollection(segments, colors=edge_color, linewidths=linewidth))
-    for kind, colour in _KIND_COLOURS.items():
-        pts = np.asarray(
-            [d["pixel"] for _, d in graph.nodes(data=True) if d.get("kind") == kind], float
-        )
-        if len(pts):
-            ax.scatter(pts[:, 1], pts[:, 0], s=node_size, c=colour, label=kind, zorder=3)
+    points: dict[str, list] = {}
+    for _, d in graph.nodes(data=True):
+        points.setdefault(d.get("kind"), []).append(d["pixel"][::-1])
+    draw_graph_lines(
+        ax, segments, points, edge_color=edge_color, linewidth=linewidth, node_size=node_size
+    )
     if graph.number_of_nodes():
-        ax.legend(loc="lower right", fontsize="small", markerscale=1.5)
+        add_legend(ax)
     shape = graph.graph.get("shape")
     if shape is not None:
         ax.set_xlim(-0.5, shape[1] - 0.5)
@@ -201,16 +424,8 @@ def _draw_rooms(seg, ax, *, doors: bool, labels: bool, alpha: float) -> None:
     centroids."""
     from matplotlib.collections import LineCollection
 
-    from .io.rooms import room_colours
-
     lab = np.asarray(seg.labels)
-    rgba = np.zeros(lab.shape + (4,), np.float32)
-    if seg.n_rooms:
-        colours = room_colours(int(lab.max())).astype(np.float32) / 255.0
-        inside = lab > 0
-        rgba[inside, :3] = colours[lab[inside] - 1]
-        rgba[inside, 3] = alpha
-    ax.imshow(rgba, interpolation="nearest")
+    ax.imshow(room_layer(lab, alpha), interpolation="nearest")
     if doors and seg.doors:
         from matplotlib import patheffects
 
@@ -248,7 +463,7 @@ def plot_rooms(seg, *, ax=None, title: str | None = None, doors: bool = True, la
     ax : matplotlib Axes, optional
         Where to draw; default a new 9 x 9 inch figure.
     title : str, optional
-        Default: the room and door counts.
+        Default: the map's name and the room and door counts.
     doors : bool
         Draw each doorway as a line between its two obstacle ends.
     labels : bool
@@ -263,8 +478,13 @@ def plot_rooms(seg, *, ax=None, title: str | None = None, doors: bool = True, la
     ax = _axes(ax, figsize=(9, 9))
     plot_map(seg.occupancy, ax=ax)
     _draw_rooms(seg, ax, doors=doors, labels=labels, alpha=0.6)
+    if doors and seg.doors:
+        add_legend(ax)
     if title is None:
-        title = f"{seg.n_rooms} rooms, {len(seg.doors)} doors"
+        title = _titled(
+            map_name(getattr(seg.occupancy, "source", None)),
+            f"{seg.n_rooms} rooms, {len(seg.doors)} doors",
+        )
     ax.set_title(title)
     return ax
 
@@ -296,7 +516,8 @@ def plot(
         Rooms of the same map, drawn under the skeleton and graph as :func:`plot_rooms`
         draws them.
     title : str, optional
-        Default: the vertex and edge counts (and the room count).
+        Default: the map's name (:func:`map_name` of its ``source``) and the vertex and
+        edge counts (and the room count).
 
     Returns
     -------
@@ -321,24 +542,30 @@ def plot(
         plot_graph(result.graph, ax=ax)
     if route is not None:
         plot_route(route, ax=ax)
+        add_legend(ax)
     if title is None:
         g = result.graph
         title = f"{g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
         if rooms is not None:
             title += f", {rooms.n_rooms} rooms"
+        title = _titled(map_name(result.map.source), title)
     ax.set_title(title)
     return ax
 
 
-def plot_stages(result, *, figsize=(15, 9)):
+def plot_stages(result, *, figsize=(15, 9), title: str | None = None):
     """The paper's Fig. 1: map, distance map, Laplacian, ridges, skeleton, graph, for a
-    :class:`~topojax.TopologyResult` or an :class:`~topojax.IncrementalMapper`.
+    :class:`~topojax.TopologyResult` or an :class:`~topojax.IncrementalMapper`, under the
+    map's name; the ridge and skeleton panels are max-pooled to the panel size (one-pixel
+    lines stay unbroken), the map and graph panels carry scale bars.
 
     Parameters
     ----------
     result : TopologyResult or IncrementalMapper
     figsize : (float, float)
         Figure size in inches.
+    title : str, optional
+        The figure's title; default the map's name (:func:`map_name`), if known.
 
     Returns
     -------
@@ -349,14 +576,23 @@ def plot_stages(result, *, figsize=(15, 9)):
     result = _as_result(result, ("map", "distance", "lap_abs", "ridges", "skeleton", "graph"))
 
     fig, axes = plt.subplots(2, 3, figsize=figsize)
-    plot_map(result.map, ax=axes[0, 0], title="occupancy map")
+    title = title if title is not None else map_name(result.map.source)
+    if title:
+        fig.suptitle(title)
+    plot_map(result.map, ax=axes[0, 0], title="occupancy map", pool=True)
     plot_distance(result.distance, ax=axes[0, 1])
-    axes[0, 2].imshow(result.lap_abs, cmap="magma", interpolation="nearest")
+    k = pool_factor(result.lap_abs.shape, axes[0, 2])
+    _imshow_pooled(axes[0, 2], max_pool(result.lap_abs, k), result.lap_abs.shape, k, cmap="magma")
     axes[0, 2].set_title("|Laplacian| (x255)")
     axes[0, 2].set_axis_off()
     plot_ridges(result.ridges, ax=axes[1, 0], title="ridges (> threshold)")
     plot_ridges(result.skeleton, ax=axes[1, 1], title="skeleton")
-    plot(result, ax=axes[1, 2])
+    g = result.graph
+    plot(
+        result,
+        ax=axes[1, 2],
+        title=f"graph ({g.number_of_nodes()} vertices, {g.number_of_edges()} edges)",
+    )
     fig.tight_layout()
     return fig
 

@@ -56,6 +56,13 @@ def build_parser() -> argparse.ArgumentParser:
         "and give every vertex its room and every edge the rooms and doors it passes (in "
         "the graph files and the Nav2 graph); with --plot the rooms are drawn too",
     )
+    p.add_argument(
+        "--mcap",
+        metavar="FILE",
+        help="also write a ROS 2 MCAP recording (FILE.mcap, for Foxglove, RViz and "
+        "ros2 bag play): the map on /map, the graph on /topology, with --rooms the rooms "
+        "on /rooms (needs rosbags: pip install 'topojax[bags]')",
+    )
     add_pipeline_options(p)
     add_room_options(p, only_with="--rooms")
     p.set_defaults(handler=_cmd_graph)

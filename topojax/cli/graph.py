@@ -97,6 +97,11 @@ def _cmd_graph(args) -> int:
     targets = [Path(args.out) / name for name in _graph_files(stem, args)]
     _check_outputs_spare_inputs(Path(args.map), targets)
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
+    if args.mcap is not None:
+        from ..io.mcap import mcap_path
+
+        mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
+        check_outputs(planned([args.mcap], args.map), command="graph", option="--mcap")
     occupancy = load_map(args.map, **map_options(args))
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
@@ -131,6 +136,10 @@ def _cmd_graph(args) -> int:
             )
         except ValueError as exc:  # a graph without edges, which Nav2 refuses (as replay)
             notes.append(f"note       {stem}_nav2.geojson not written: {exc}")
+    if args.mcap is not None:
+        from ..io.mcap import save_mcap
+
+        written.append(save_mcap(result, args.mcap, rooms=seg))
     first = "the process's first call: it includes loading or compiling the kernels"
     for line in [*_summary_lines(str(args.map), result, timing_note=first), *notes]:
         print(line)

@@ -35,9 +35,13 @@ def _cmd_replay(args) -> int:
     if args.allow_missing_pose:
         reader_kwargs["allow_missing_pose"] = True
     check_outputs(_replay_claims(args), command="replay", option=OUT_OPTION)
-    if args.animate is not None:
-        animation = planned([args.animate], args.source)
-        check_outputs(animation, command="replay", option="--animate")
+    if args.mcap is not None:
+        from ..io.mcap import mcap_path
+
+        mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
+    for option, path in (("--animate", args.animate), ("--mcap", args.mcap)):
+        if path is not None:
+            check_outputs(planned([path], args.source), command="replay", option=option)
     summary = replay(
         args.source,
         out_dir=args.out,
@@ -50,6 +54,7 @@ def _cmd_replay(args) -> int:
         graph_config=graph_config(args),
         route_graph_radius_m=args.route_graph,
         rooms=args.rooms,
+        mcap=args.mcap,
         **kw,
     )
     record_outputs(planned(summary["written"], args.source), command="replay")
@@ -85,6 +90,14 @@ def add_command(subparsers) -> None:
     p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
     p.add_argument("--plot", action="store_true", help="also write PNG pictures")
     p.add_argument("--animate", metavar="PATH", help="write an animated GIF of the graph")
+    p.add_argument(
+        "--mcap",
+        metavar="FILE",
+        help="write a ROS 2 MCAP recording (FILE.mcap, for Foxglove, RViz and ros2 bag "
+        "play): /scan and /tf per scan, /map and /topology at every graph update, /rooms "
+        "with --rooms, stamped with the log's times (needs rosbags: pip install "
+        "'topojax[bags]')",
+    )
     p.add_argument(
         "--skeleton-every", type=int, default=20, help="scans per skeleton update (default 20)"
     )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 from dataclasses import asdict
@@ -15,63 +16,81 @@ from ._settings import settings_of
 from .mapper import IncrementalMapper
 from .reports import ScanReport, timing_summary
 
+#: Suffixes dropped from a log's file name for the pictures' titles.
+_LOG_SUFFIXES = (".gz", ".bz2", ".log", ".bag", ".db3", ".mcap", ".txt", ".dat", ".clf")
+
+
+def _source_name(source) -> str:
+    """A log's name for titles: its file name without log suffixes (``intel.log.gz`` ->
+    ``intel``)."""
+    name = Path(str(source)).name
+    while Path(name).suffix.lower() in _LOG_SUFFIXES:
+        name = Path(name).stem
+    return name
+
 
 def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
-    """A small snapshot for the animation: downsampled map image, world extent, edges."""
+    """A small snapshot for the animation: the map image shrunk to at most ``max_px``
+    pixels a side (walls kept, :func:`topojax.plotting.map_image`), its world extent, the
+    edges' world polylines and the vertices' world positions by kind."""
+    from ..plotting import map_image
+
     occ = mapper.occupancy
-    img = occ.to_image()
-    step = max(1, -(-max(img.shape) // max_px))
     h, w = occ.shape
+    step = max(1, -(-max(h, w) // max_px))
+    img = map_image(occ, step)
     ox, oy, _ = occ.origin
     res = occ.resolution_m
+    top = oy + h * res
     g = mapper.graph
     keeper = mapper._rooms
     rooms = None
     if keeper.seg is not None and keeper.box == mapper.pixel_bbox:
         rooms = keeper.labels[::step, ::step].copy()
-    edges = [d for *_, d in g.edges(data="world")]
-    verts = np.array([d for _, d in g.nodes(data="world")], np.float64).reshape(-1, 2)
+    vertices: dict[str, list] = {}
+    for _, d in g.nodes(data=True):
+        vertices.setdefault(d["kind"], []).append(d["world"])
     return {
-        "image": img[::step, ::step],
-        "extent": (ox, ox + w * res, oy, oy + h * res),
-        "edges": edges,
-        "vertices": verts,
+        "image": img,
+        "extent": (ox, ox + img.shape[1] * step * res, top - img.shape[0] * step * res, top),
+        "edges": [d for *_, d in g.edges(data="world")],
+        "vertices": {k: np.asarray(v, np.float64) for k, v in vertices.items()},
+        "n_vertices": g.number_of_nodes(),
         "scan": mapper.n_scans,
         "rooms": rooms,
     }
 
 
-def _write_animation(frames: list[dict], path: Path) -> None:
+def _write_animation(frames: list[dict], path: Path, name: str | None = None) -> None:
+    """The frames as a GIF in the style of the still pictures (:mod:`topojax.plotting`):
+    map, rooms, graph, a scale bar and the legend under the map, the log's name."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.animation import FuncAnimation, PillowWriter
 
+    from ..plotting import add_legend, add_scale_bar, draw_graph_lines, room_layer
+
     last = frames[-1]["extent"]
-    fig, ax = plt.subplots(figsize=(7, 7))
+    fig, ax = plt.subplots(figsize=(7, 7.5))
+    fig.subplots_adjust(left=0.02, right=0.98, top=0.94, bottom=0.1)
 
     def draw(i: int):
         f = frames[i]
         ax.clear()
-        ax.imshow(f["image"], cmap="gray", vmin=0, vmax=255, extent=f["extent"])
+        ax.imshow(f["image"], cmap="gray", vmin=0, vmax=1, extent=f["extent"])
         if f.get("rooms") is not None:
-            from ..io.rooms import room_colours
-
-            lab = f["rooms"]
-            colours = np.zeros((int(lab.max()) + 1, 4))
-            colours[1:, :3] = room_colours(int(lab.max())) / 255.0
-            colours[1:, 3] = 0.45
-            ax.imshow(colours[lab], extent=f["extent"], interpolation="nearest")
-        for wline in f["edges"]:
-            ax.plot(wline[:, 0], wline[:, 1], color="#d62728", lw=1.0)
-        if f["vertices"].size:
-            ax.plot(f["vertices"][:, 0], f["vertices"][:, 1], ".", color="#1f77b4", ms=2)
+            ax.imshow(room_layer(f["rooms"], 0.45), extent=f["extent"], interpolation="nearest")
+        draw_graph_lines(ax, f["edges"], f["vertices"], linewidth=1.0, node_size=6.0)
         ax.set_xlim(last[0], last[1])
         ax.set_ylim(last[2], last[3])
-        ax.set_title(f"scan {f['scan']}: {len(f['edges'])} edges")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+        add_scale_bar(ax, 1.0)
+        add_legend(ax)
+        text = f"scan {f['scan']}: {f['n_vertices']} vertices, {len(f['edges'])} edges"
+        ax.set_title(f"{name}: {text}" if name else text)
         return []
 
     anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
@@ -97,6 +116,7 @@ def replay(
     graph_config: GraphConfig | None = None,
     route_graph_radius_m: float | None = None,
     rooms: bool = False,
+    mcap=None,
     **mapper_kw,
 ) -> dict:
     """Replay a scan log through an :class:`IncrementalMapper` and write the results.
@@ -142,6 +162,12 @@ def replay(
         (:func:`topojax.assign_rooms`) and write ``map_rooms.geojson``, ``map_rooms.png``,
         ``map_rooms.graphml`` and ``map_rooms.json`` (:func:`topojax.io.save_room_files`);
         the animation colours the rooms.
+    mcap : str or Path, optional
+        Also write a ROS 2 MCAP recording (an ``.mcap`` file, for Foxglove, RViz and
+        ``ros2 bag play``; needs ``rosbags``): ``/tf`` and ``/scan`` for every scan,
+        ``/map`` and ``/topology`` at every graph update, ``/rooms`` at every room
+        update, and the written map, graph (and rooms) once more at the end, stamped
+        with the log's timestamps (see :mod:`topojax.io.mcap`).
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ``room_config``, ...).
@@ -157,7 +183,7 @@ def replay(
     from ..scans import read_scans
 
     nav2_tolerance_m = _check_replay_args(
-        max_scans, nav2_tolerance_m, graph_config, out_dir, animate
+        max_scans, nav2_tolerance_m, graph_config, out_dir, animate, mcap
     )
     if route_graph_radius_m is not None:  # checked now, not after the whole replay
         route_graph_radius_m = positive_metres("route_graph_radius_m", route_graph_radius_m)
@@ -167,27 +193,23 @@ def replay(
         mapper_kw["rooms_every"] = mapper_kw.get("graph_every", 80) or 0
     mapper = IncrementalMapper(**mapper_kw)
     output_folder(out)
-    reports, frames, wall = _run(mapper, scans, max_scans, animate is not None, progress)
-    if not reports:
-        raise ValueError(f"source {source}: no scans to replay")
-    if mapper.pixel_bbox is None:
-        raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
-    t_final = time.perf_counter()
-    update = mapper.update_graph()
-    final_s = time.perf_counter() - t_final
-    result = mapper.to_result(update=False)
-    if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
-        result = _with_graph_config(result, graph_config)
-    seg = None
-    if rooms:
-        from ..io import save_room_files
-        from ..rooms import assign_rooms
-
-        mapper._update_rooms()
-        seg = mapper.rooms
-        assign_rooms(result.graph, seg)  # before the graph files are written
+    with _recorder(mcap) as recorder:
+        reports, frames, wall = _run(
+            mapper, scans, max_scans, animate is not None, progress, recorder
+        )
+        if not reports:
+            raise ValueError(f"source {source}: no scans to replay")
+        if mapper.pixel_bbox is None:
+            raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
+        update, final_s, result, seg = _final(mapper, graph_config, rooms)
+        if recorder is not None:  # the written map, graph and rooms close the recording
+            recorder.add_map(result.map, result.graph)
+            if seg is not None:
+                recorder.add_rooms(seg)
     written, messages = _write_graphs_and_map(result, out, nav2_tolerance_m)
     if seg is not None:
+        from ..io import save_room_files
+
         written += save_room_files(seg, out / "map")
     if route_graph_radius_m is not None:
         from ..io import save_graph
@@ -215,13 +237,15 @@ def replay(
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     written.append(out / "timings.json")
     if plot:
-        written += _write_pictures(result, out)
+        written += _write_pictures(result, out, _source_name(source))
     if animate is not None:
         frames.append(_frame(mapper))
         apath = Path(animate)
         apath.parent.mkdir(parents=True, exist_ok=True)
-        _write_animation(frames, apath)
+        _write_animation(frames, apath, _source_name(source))
         written.append(apath)
+    if recorder is not None:
+        written.append(recorder.path)
     summary["written"] = [str(p) for p in written]
     summary["messages"] = messages
     if progress:
@@ -229,7 +253,27 @@ def replay(
     return summary
 
 
-def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, animate):
+def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
+    """The final graph update; returns its report, its time (s), the result to write
+    (with ``graph_config``'s graph) and, with ``rooms``, the final rooms (assigned to the
+    result's graph)."""
+    t_final = time.perf_counter()
+    update = mapper.update_graph()
+    final_s = time.perf_counter() - t_final
+    result = mapper.to_result(update=False)
+    if graph_config is not None and (graph_config.free_space_only or graph_config.prunes):
+        result = _with_graph_config(result, graph_config)
+    seg = None
+    if rooms:
+        from ..rooms import assign_rooms
+
+        mapper._update_rooms()
+        seg = mapper.rooms
+        assign_rooms(result.graph, seg)  # before the graph files are written
+    return update, final_s, result, seg
+
+
+def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, animate, mcap):
     """Check :func:`replay`'s arguments before the replay starts; returns the Nav2
     tolerance as a float (or None)."""
     if max_scans is not None:
@@ -248,12 +292,27 @@ def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, anima
             f"animate: expected a GIF file name, got the folder {animate}; e.g. "
             f"{Path(animate) / 'graph.gif'}"
         )
+    if mcap is not None:
+        from ..io.mcap import mcap_path
+
+        mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
     return nav2_tolerance_m
 
 
-def _run(mapper, scans, max_scans, animate: bool, progress: bool):
+def _recorder(mcap):
+    """A :class:`~topojax.io.mcap.McapRecorder` for ``mcap``, or a context of None."""
+    if mcap is None:
+        return contextlib.nullcontext()
+    from ..io.mcap import McapRecorder
+
+    return McapRecorder(mcap)
+
+
+def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None):
     """Feed ``scans`` (at most ``max_scans``) to ``mapper``; returns the reports, the
-    animation frames (one per graph update when ``animate``) and the wall time (s)."""
+    animation frames (one per graph update when ``animate``) and the wall time (s).
+    ``recorder`` (an open :class:`~topojax.io.mcap.McapRecorder`) gets every scan, the
+    map and graph at every graph update and the rooms at every room update."""
     from tqdm import tqdm
 
     reports: list[ScanReport] = []
@@ -265,11 +324,24 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool):
             break
         rep = mapper.add_scan(scan)
         reports.append(rep)
+        if recorder is not None:
+            _record(recorder, mapper, scan, rep)
         if animate and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
             frames.append(_frame(mapper))
         bar.update(1)
     bar.close()
     return reports, frames, time.perf_counter() - t0
+
+
+def _record(recorder, mapper, scan, rep: ScanReport) -> None:
+    """Write one scan and what its report updated into the recording."""
+    recorder.add_scan(scan)
+    if mapper.pixel_bbox is None:
+        return
+    if rep.graph_update is not None:
+        recorder.add_map(mapper.occupancy, mapper.graph)
+    if rep.rooms_update is not None:
+        recorder.add_rooms(mapper.rooms)
 
 
 def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, list[str]]:
@@ -299,8 +371,9 @@ def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, li
     return written, messages
 
 
-def _write_pictures(result, out: Path) -> list[Path]:
-    """Write ``graph.png`` and ``stages.png``; returns their paths."""
+def _write_pictures(result, out: Path, name: str) -> list[Path]:
+    """Write ``graph.png`` and ``stages.png`` titled with the log's ``name``; returns
+    their paths."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -309,10 +382,13 @@ def _write_pictures(result, out: Path) -> list[Path]:
     from ..plotting import plot as plot_result
     from ..plotting import plot_stages
 
-    ax = plot_result(result)
+    g = result.graph
+    ax = plot_result(
+        result, title=f"{name}: {g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
+    )
     ax.figure.savefig(out / "graph.png", dpi=150, bbox_inches="tight")
     plt.close(ax.figure)
-    fig = plot_stages(result)
+    fig = plot_stages(result, title=name)
     fig.savefig(out / "stages.png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     return [out / "graph.png", out / "stages.png"]

@@ -1,7 +1,8 @@
 """Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON), writing them as
 route graphs for the ROS 2 Nav2 Route Server (:func:`save_nav2_graph`), and the files of a
 room segmentation (:func:`save_rooms` / :func:`load_rooms`, :func:`save_room_labels`,
-:func:`save_room_graph`).
+:func:`save_room_graph`), and ROS 2 MCAP recordings of maps, graphs, rooms and scans for
+Foxglove, RViz and ``ros2 bag play`` (:func:`save_mcap`, :class:`McapRecorder`).
 
 Graphs are :class:`networkx.MultiGraph` objects with integer node ids. The topojax
 attribute schema is
@@ -25,7 +26,8 @@ destination with :func:`os.replace`.
 
 Modules: ``_schema`` (value encoding and the type schema), ``nodelink``, ``graphml``,
 ``geojson`` (one per file format), ``files`` (:func:`save_graph` / :func:`load_graph`),
-``nav2`` (:func:`save_nav2_graph`), ``rooms`` (rooms and doorways).
+``nav2`` (:func:`save_nav2_graph`), ``rooms`` (rooms and doorways), ``mcap`` (ROS 2
+recordings).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from __future__ import annotations
 from ._schema import as_multigraph as as_multigraph
 from ._schema import jsonable as jsonable
 from .files import GRAPH_FORMATS, load_graph, save_graph
+from .mcap import McapRecorder, save_mcap
 from .nav2 import save_nav2_graph
 from .rooms import (
     ROOM_FILE_SUFFIXES,
@@ -46,9 +49,11 @@ from .rooms import (
 __all__ = [
     "GRAPH_FORMATS",
     "ROOM_FILE_SUFFIXES",
+    "McapRecorder",
     "load_graph",
     "load_rooms",
     "save_graph",
+    "save_mcap",
     "save_nav2_graph",
     "save_room_files",
     "save_room_graph",

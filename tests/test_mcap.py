@@ -1,0 +1,289 @@
+"""ROS 2 MCAP recordings (:mod:`topojax.io.mcap`), read back with readers that are not
+the writer: ``rosbags``' AnyReader and, where installed, the ``mcap`` package with its
+ROS 2 decoder (the library Foxglove's tools use)."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import topojax as tj
+from topojax.io.mcap import LASER_FRAME, MAP_FRAME, ROBOT_FRAME, TOPICS, McapRecorder
+
+pytest.importorskip("rosbags")
+from rosbags.highlevel import AnyReader  # noqa: E402
+
+DATA = Path(__file__).parent / "data"
+INTEL_EXCERPT = DATA / "intel_first40.log.gz"
+KIND_IDS = {"junction": 0, "end": 1, "ring": 2, "isolated": 3}
+
+
+def read_messages(path: Path) -> list[tuple[str, str, int, object]]:
+    """``(topic, type, log time ns, message)`` of every message, in file time order."""
+    with AnyReader([Path(path)]) as reader:
+        return [
+            (c.topic, c.msgtype, t, reader.deserialize(raw, c.msgtype))
+            for c, t, raw in reader.messages()
+        ]
+
+
+def last(messages, topic: str):
+    return [m for tp, _, _, m in messages if tp == topic][-1]
+
+
+def stamp_ns(header) -> int:
+    return header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
+
+
+def headers(msg) -> list:
+    """The headers of a message: its own, its transforms' or its markers'."""
+    if hasattr(msg, "transforms"):
+        return [tf.header for tf in msg.transforms]
+    if hasattr(msg, "markers"):
+        return [m.header for m in msg.markers]
+    return [msg.header]
+
+
+def grid_masks(grid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Occupied, free and unknown masks of an OccupancyGrid, row 0 at the top."""
+    h, w = grid.info.height, grid.info.width
+    data = np.asarray(grid.data, np.int8).reshape(h, w)[::-1]
+    assert set(np.unique(data).tolist()) <= {-1, 0, 100}
+    return data == 100, data == 0, data == -1
+
+
+def assert_grid_is_map(grid, occ) -> None:
+    occupied, free, unknown = grid_masks(grid)
+    np.testing.assert_array_equal(occupied, occ.occupied)
+    np.testing.assert_array_equal(free, occ.free)
+    np.testing.assert_array_equal(unknown, occ.unknown)
+    assert grid.info.resolution == pytest.approx(occ.resolution_m, rel=1e-6)  # float32
+    pos = grid.info.origin.position
+    assert (pos.x, pos.y) == pytest.approx(occ.origin[:2], abs=1e-12)
+    assert grid.header.frame_id == MAP_FRAME
+
+
+def assert_markers_are_graph(array, graph) -> None:
+    """The markers hold every vertex (a sphere list per kind) and every edge (a line
+    strip through its ``world`` points), and nothing else after a DELETEALL."""
+    markers = array.markers
+    assert markers[0].action == 3  # DELETEALL: earlier graphs vanish
+    spheres = {m.id: m for m in markers if m.ns == "vertices"}
+    for kind, mid in KIND_IDS.items():
+        want = sorted(tuple(d["world"]) for _, d in graph.nodes(data=True) if d["kind"] == kind)
+        got = sorted((p.x, p.y) for p in spheres[mid].points) if mid in spheres else []
+        assert got == pytest.approx(want, abs=1e-9), kind
+        if mid in spheres:
+            assert spheres[mid].type == 7  # SPHERE_LIST
+    strips = [m for m in markers if m.ns == "edges"]
+    assert all(m.type == 4 for m in strips)  # LINE_STRIP
+    assert all(m.header.frame_id == MAP_FRAME for m in markers)
+    got = sorted(tuple(np.round([(p.x, p.y) for p in m.points], 9).ravel()) for m in strips)
+    want = sorted(
+        tuple(np.round(np.asarray(w, float), 9).ravel()) for *_, w in graph.edges(data="world")
+    )
+    assert got == want
+    assert len(markers) == 1 + len(spheres) + len(strips)
+
+
+@pytest.fixture(scope="module")
+def replayed(tmp_path_factory):
+    out = tmp_path_factory.mktemp("replay")
+    path = out / "run.mcap"
+    summary = tj.replay(
+        INTEL_EXCERPT,
+        out_dir=out,
+        progress=False,
+        graph_every=10,
+        skeleton_every=None,
+        rooms=True,
+        mcap=path,
+    )
+    return out, path, summary, read_messages(path)
+
+
+def test_replay_recording_has_every_topic_with_standard_types_and_counts(replayed):
+    out, path, summary, messages = replayed
+    assert str(path) in summary["written"]
+    assert {tp: ty for tp, ty, _, _ in messages} == TOPICS
+    counts = Counter(tp for tp, *_ in messages)
+    # 40 scans; a graph (and room) update every 10 scans, and the written result at the end
+    assert counts == {"/tf": 40, "/scan": 40, "/map": 5, "/topology": 5, "/rooms": 5}
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary folder
+
+
+def test_replay_recording_uses_the_log_timestamps(replayed):
+    _, _, _, messages = replayed
+    scans = list(tj.read_scans(INTEL_EXCERPT))
+    want = [round(s.timestamp * 1e9) for s in scans]
+    assert [t for tp, _, t, _ in messages if tp == "/scan"] == want
+    times = [t for _, _, t, _ in messages]
+    assert times == sorted(times)
+    for tp, _, t, msg in messages:  # each header carries the message's log time
+        assert all(stamp_ns(h) == t for h in headers(msg)), tp
+    # the maps come with the scans of the graph updates (10, 20, 30, 40) and at the end
+    assert [t for tp, _, t, _ in messages if tp == "/map"] == [
+        want[9],
+        want[19],
+        want[29],
+        want[39],
+        want[39],
+    ]
+
+
+def test_replay_recording_scans_and_poses(replayed):
+    _, _, _, messages = replayed
+    scans = list(tj.read_scans(INTEL_EXCERPT))
+    laser = [m for tp, _, _, m in messages if tp == "/scan"]
+    tfs = [m for tp, _, _, m in messages if tp == "/tf"]
+    for scan, msg, tf in zip(scans, laser, tfs, strict=True):
+        np.testing.assert_array_equal(msg.ranges, scan.ranges.astype(np.float32))
+        assert msg.header.frame_id == LASER_FRAME
+        assert msg.angle_min == pytest.approx(scan.angle_min, abs=1e-6)
+        assert msg.angle_max == pytest.approx(
+            scan.angle_min + (scan.n_beams - 1) * scan.angle_increment, abs=1e-6
+        )
+        robot, sensor = tf.transforms
+        assert (robot.header.frame_id, robot.child_frame_id) == (MAP_FRAME, ROBOT_FRAME)
+        assert (sensor.header.frame_id, sensor.child_frame_id) == (ROBOT_FRAME, LASER_FRAME)
+        x, y, yaw = scan.pose
+        q = robot.transform.rotation
+        assert (robot.transform.translation.x, robot.transform.translation.y) == (x, y)
+        assert math.atan2(2 * q.w * q.z, 1 - 2 * q.z * q.z) == pytest.approx(yaw, abs=1e-12)
+
+
+def test_replay_recording_ends_with_the_written_map_graph_and_rooms(replayed):
+    out, _, summary, messages = replayed
+    assert_grid_is_map(last(messages, "/map"), tj.load_map(out / "map.yaml"))
+    graph = tj.load_graph(out / "graph.json")
+    assert graph.number_of_edges() == summary["edges"] > 0
+    assert_markers_are_graph(last(messages, "/topology"), graph)
+    rooms, doors = tj.load_rooms(out / "map_rooms.geojson")
+    markers = last(messages, "/rooms").markers
+    outlines = {m.id: m for m in markers if m.ns == "rooms"}
+    assert sorted(outlines) == sorted(r.id for r in rooms) and rooms
+    for room in rooms:
+        pts = np.array([(p.x, p.y) for p in outlines[room.id].points])
+        np.testing.assert_allclose(pts[:-1], room.polygon, atol=1e-9)
+        np.testing.assert_array_equal(pts[-1], pts[0])  # closed
+    labels = {m.id: m.text for m in markers if m.ns == "room_ids"}
+    assert labels == {r.id: str(r.id) for r in rooms}
+    door_lines = [m for m in markers if m.ns == "doors"]
+    assert sum(len(m.points) for m in door_lines) == 2 * len(doors)
+
+
+def test_replay_recording_reads_with_the_mcap_package(replayed):
+    """The file is plain MCAP with the ros2 profile, as Foxglove reads it."""
+    pytest.importorskip("mcap_ros2")
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    out, path, _, _ = replayed
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        assert reader.get_header().profile == "ros2"
+        decoded = [
+            (ch.topic, schema.name, msg.log_time, ros)
+            for schema, ch, msg, ros in reader.iter_decoded_messages(log_time_order=True)
+        ]
+    assert {tp: ty for tp, ty, _, _ in decoded} == TOPICS
+    assert Counter(tp for tp, *_ in decoded)["/scan"] == 40
+    grid = [m for tp, _, _, m in decoded if tp == "/map"][-1]
+    occ = tj.load_map(out / "map.yaml")
+    data = np.frombuffer(bytes(np.asarray(grid.data, np.int8)), np.int8)
+    np.testing.assert_array_equal(
+        data.reshape(grid.info.height, grid.info.width)[::-1] == 100, occ.occupied
+    )
+
+
+def test_save_mcap_writes_one_map_graph_and_rooms(tmp_path):
+    result = tj.build_graph(tj.sample_map("a_scan"))
+    seg = tj.segment_rooms(result)
+    path = tj.save_mcap(result, tmp_path / "sub" / "a_scan.mcap", rooms=seg)
+    assert path == tmp_path / "sub" / "a_scan.mcap"
+    messages = read_messages(path)
+    assert [(tp, t) for tp, _, t, _ in messages] == [("/map", 0), ("/topology", 0), ("/rooms", 0)]
+    assert_grid_is_map(last(messages, "/map"), result.map)
+    assert_markers_are_graph(last(messages, "/topology"), result.graph)
+    ids = sorted(m.id for m in last(messages, "/rooms").markers if m.ns == "rooms")
+    assert ids == sorted(r.id for r in seg.rooms)
+    # without rooms there is no /rooms topic; an existing file is replaced
+    tj.save_mcap(result, path)
+    assert [tp for tp, *_ in read_messages(path)] == ["/map", "/topology"]
+    with pytest.raises(TypeError, match="result: expected a TopologyResult"):
+        tj.save_mcap(result.map, tmp_path / "x.mcap")
+
+
+def _scan(t, x=0.0):
+    return tj.Scan.from_arrays(
+        np.full(5, 2.0),
+        (x, 1.0, 0.5),
+        angle_min=-0.2,
+        angle_increment=0.1,
+        range_max=10.0,
+        sensor_offset=(0.2, 0.0, 0.0),
+        timestamp=t,
+    )
+
+
+def test_scans_without_usable_timestamps_keep_the_scan_order(tmp_path):
+    """Missing timestamps and ones that go back are replaced by the previous stamp plus
+    SCAN_PERIOD_S (0.1 s); the first scan without one is at 0 s."""
+    path = tmp_path / "r.mcap"
+    with McapRecorder(path) as rec:
+        stamps = [rec.add_scan(_scan(t)) for t in (None, None, 5.0, 4.0, 6.0)]
+    assert stamps == [0, 100_000_000, 5_000_000_000, 5_100_000_000, 6_000_000_000]
+    messages = read_messages(path)
+    assert [t for tp, _, t, _ in messages if tp == "/scan"] == stamps
+    assert rec.counts == {"/tf": 5, "/scan": 5}
+    sensor = last(messages, "/tf").transforms[1].transform
+    assert (sensor.translation.x, sensor.translation.y, sensor.rotation.w) == (0.2, 0.0, 1.0)
+
+
+def test_recorder_leaves_nothing_behind_on_error_and_checks_its_path(tmp_path):
+    with pytest.raises(RuntimeError, match="boom"):
+        with McapRecorder(tmp_path / "r.mcap") as rec:
+            rec.add_scan(_scan(1.0))
+            raise RuntimeError("boom")
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(ValueError, match=r"path: expected a file name ending in \.mcap"):
+        McapRecorder(tmp_path / "r.bag")
+    (tmp_path / "d.mcap").mkdir()
+    with pytest.raises(IsADirectoryError, match="path: expected an .mcap file name"):
+        McapRecorder(tmp_path / "d.mcap")
+    with pytest.raises(RuntimeError, match="open the recording first"):
+        McapRecorder(tmp_path / "r.mcap").add_scan(_scan(1.0))
+    with McapRecorder(tmp_path / "r.mcap") as rec:
+        with pytest.raises(TypeError, match="scan: expected a topojax.Scan"):
+            rec.add_scan("scan")
+        with pytest.raises(TypeError, match="occupancy: expected an OccupancyMap"):
+            rec.add_map(np.zeros((4, 4)), None)
+    # replay checks the name before it replays anything
+    with pytest.raises(ValueError, match="mcap: expected a file name ending in .mcap"):
+        tj.replay(INTEL_EXCERPT, out_dir=tmp_path / "o", mcap=tmp_path / "r.txt")
+    assert not (tmp_path / "o").exists()
+
+
+def test_command_line_writes_recordings(tmp_path, capsys):
+    from topojax.cli import main
+
+    a_scan = Path(tj.datasets.sample_map_path("a_scan"))
+    assert (
+        main(["graph", str(a_scan), "-o", str(tmp_path), "--mcap", str(tmp_path / "a.mcap")]) == 0
+    )
+    assert [tp for tp, *_ in read_messages(tmp_path / "a.mcap")] == ["/map", "/topology"]
+    assert str(tmp_path / "a.mcap") in capsys.readouterr().out
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(tmp_path / "r"), "--no-progress"]
+    args += ["--max-scans", "12", "--graph-every", "6", "--mcap", str(tmp_path / "r.mcap")]
+    assert main(args) == 0
+    counts = Counter(tp for tp, *_ in read_messages(tmp_path / "r.mcap"))
+    assert counts == {"/tf": 12, "/scan": 12, "/map": 3, "/topology": 3}
+    # a recording written by another command is not replaced
+    other = ["graph", str(a_scan), "-o", str(tmp_path / "g2"), "--mcap", str(tmp_path / "r.mcap")]
+    assert main(other) != 0
+    assert "--mcap" in capsys.readouterr().err
+    assert main(["graph", str(a_scan), "-o", str(tmp_path), "--mcap", str(tmp_path)]) != 0

@@ -1,0 +1,536 @@
+"""ROS 2 recordings (MCAP) of maps, topology graphs, rooms and scans, for Foxglove, RViz
+and ``ros2 bag play``, written with ``rosbags`` (no ROS install needed).
+
+A recording is one self-contained ``.mcap`` file (the ``ros2`` profile, zstd-compressed
+chunks, the rosbag2 metadata inside), not a bag folder: Foxglove opens it as it is and
+``ros2 bag play -s mcap FILE`` plays it (later distributions find the storage plugin
+without ``-s mcap``).  Messages use the standard types of ROS 2 Humble (the same on the
+wire in Jazzy):
+
+* ``/map``, ``nav_msgs/msg/OccupancyGrid``: the map, 100 occupied, 0 free, -1 unknown,
+  row 0 of ``data`` the map's bottom row (as ``map_server``);
+* ``/topology``, ``visualization_msgs/msg/MarkerArray``: a ``DELETEALL`` marker, one
+  ``SPHERE_LIST`` per vertex kind (namespace ``vertices``) and one ``LINE_STRIP`` per
+  edge through its pixel centres (namespace ``edges``);
+* ``/rooms``, ``visualization_msgs/msg/MarkerArray``, only when rooms exist: a
+  ``DELETEALL`` marker, each room's closed outline (``LINE_STRIP``, namespace ``rooms``,
+  id = room id), its id as text (``room_ids``) and the doorways (``LINE_LIST``,
+  ``doors``);
+* ``/scan``, ``sensor_msgs/msg/LaserScan``: each scan, in :data:`LASER_FRAME`;
+* ``/tf``, ``tf2_msgs/msg/TFMessage``: per scan, :data:`MAP_FRAME` -> :data:`ROBOT_FRAME`
+  (the robot's pose) and :data:`ROBOT_FRAME` -> :data:`LASER_FRAME` (the sensor offset).
+
+Markers are in :data:`MAP_FRAME`, in metres, at z = 0, in the colours of the pictures
+(:mod:`topojax.plotting`).  ``/map``, ``/topology`` and
+``/rooms`` are offered as ``transient_local``, depth 1 (as ``map_server`` does), so RViz
+shows the latest map whenever it subscribes.
+
+Time stamps (message log time and header ``stamp`` alike) are the scans' timestamps in
+nanoseconds where they are usable: present, at least 0 and below 2^31 s (a ROS time), and
+not before the previous scan's stamp.  A scan without a usable timestamp is stamped
+:data:`SCAN_PERIOD_S` after the previous one (the first at 0 s), so a log without
+timestamps plays at 10 scans per second in scan order.  Maps, graphs and rooms carry the
+stamp of the scan after which they were made; :func:`save_mcap` stamps its one map at 0 s.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
+
+__all__ = [
+    "LASER_FRAME",
+    "MAP_FRAME",
+    "ROBOT_FRAME",
+    "SCAN_PERIOD_S",
+    "TOPICS",
+    "McapRecorder",
+    "graph_markers",
+    "mcap_path",
+    "occupancy_grid",
+    "room_markers",
+    "save_mcap",
+    "scan_message",
+    "tf_message",
+]
+
+#: The fixed frame of maps, graphs and rooms.
+MAP_FRAME = "map"
+#: The robot's frame: ``/tf`` gives its pose in :data:`MAP_FRAME`.
+ROBOT_FRAME = "base_link"
+#: The frame of ``/scan``: the sensor's pose in :data:`ROBOT_FRAME` (``Scan.sensor_offset``).
+LASER_FRAME = "base_laser"
+#: Seconds between a scan without a usable timestamp and the one before it.
+SCAN_PERIOD_S = 0.1
+#: Each topic and its message type.
+TOPICS = {
+    "/map": "nav_msgs/msg/OccupancyGrid",
+    "/topology": "visualization_msgs/msg/MarkerArray",
+    "/rooms": "visualization_msgs/msg/MarkerArray",
+    "/scan": "sensor_msgs/msg/LaserScan",
+    "/tf": "tf2_msgs/msg/TFMessage",
+}
+#: Topics offered as ``transient_local`` (late subscribers get the last message).
+_LATCHED = ("/map", "/topology", "/rooms")
+_VERTEX_DIAMETER_M = 0.25
+_EDGE_WIDTH_M = 0.05
+_ROOM_LINE_WIDTH_M = 0.08
+_ROOM_TEXT_M = 0.6
+_DOOR_COLOUR = "#ffffff"
+_MAX_STAMP_S = 2**31
+_NS = 1_000_000_000
+
+
+@functools.lru_cache(maxsize=1)
+def _typestore():
+    """The ROS 2 Humble message types of ``rosbags``."""
+    try:
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError:
+        raise ImportError(
+            "MCAP recordings need the rosbags package: pip install 'topojax[bags]'"
+        ) from None
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+def _rgba(colour: str, alpha: float = 1.0):
+    t = _typestore().types["std_msgs/msg/ColorRGBA"]
+    h = colour.lstrip("#")
+    r, g, b = (int(h[i : i + 2], 16) / 255.0 for i in (0, 2, 4))
+    return t(r=r, g=g, b=b, a=alpha)
+
+
+def _time(ns: int):
+    """``builtin_interfaces/msg/Time`` of ``ns`` nanoseconds."""
+    return _typestore().types["builtin_interfaces/msg/Time"](sec=ns // _NS, nanosec=ns % _NS)
+
+
+def _header(ns: int, frame: str = MAP_FRAME):
+    return _typestore().types["std_msgs/msg/Header"](stamp=_time(ns), frame_id=frame)
+
+
+def _quaternion(yaw: float):
+    return _typestore().types["geometry_msgs/msg/Quaternion"](
+        x=0.0, y=0.0, z=math.sin(0.5 * yaw), w=math.cos(0.5 * yaw)
+    )
+
+
+def _pose(x: float, y: float, yaw: float):
+    t = _typestore().types
+    point = t["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0)
+    return t["geometry_msgs/msg/Pose"](position=point, orientation=_quaternion(yaw))
+
+
+def _points(xy) -> list:
+    point = _typestore().types["geometry_msgs/msg/Point"]
+    return [point(x=x, y=y, z=0.0) for x, y in np.asarray(xy, np.float64).reshape(-1, 2).tolist()]
+
+
+# ---------------------------------------------------------------------- messages
+
+
+def occupancy_grid(occupancy, stamp_ns: int = 0):
+    """``nav_msgs/msg/OccupancyGrid`` of an :class:`~topojax.OccupancyMap` (100 occupied,
+    0 free, -1 unknown; ``data`` row-major from the map's bottom row)."""
+    t = _typestore().types
+    h, w = occupancy.shape
+    grid = np.full((h, w), -1, np.int8)
+    grid[occupancy.free] = 0
+    grid[occupancy.occupied] = 100
+    ox, oy, yaw = occupancy.origin
+    info = t["nav_msgs/msg/MapMetaData"](
+        map_load_time=_time(stamp_ns),
+        resolution=float(occupancy.resolution_m),
+        width=w,
+        height=h,
+        origin=_pose(ox, oy, yaw),
+    )
+    return t["nav_msgs/msg/OccupancyGrid"](
+        header=_header(stamp_ns), info=info, data=np.ascontiguousarray(grid[::-1]).ravel()
+    )
+
+
+def _marker(stamp_ns: int, ns: str, mid: int, kind: str, *, points=(), colour=None, scale=0.0):
+    """One marker in the map frame: ``kind`` a ``Marker`` type name (``"LINE_STRIP"``),
+    or ``"DELETEALL"`` for the action that clears the topic's earlier markers."""
+    t = _typestore().types
+    marker = t["visualization_msgs/msg/Marker"]
+    vec = t["geometry_msgs/msg/Vector3"]
+    empty = np.zeros(0, np.uint8)
+    return marker(
+        header=_header(stamp_ns),
+        ns=ns,
+        id=int(mid),
+        type=getattr(marker, kind) if kind != "DELETEALL" else marker.ARROW,
+        action=marker.DELETEALL if kind == "DELETEALL" else marker.ADD,
+        pose=_pose(0.0, 0.0, 0.0),
+        scale=vec(x=scale, y=scale, z=scale),
+        color=colour if colour is not None else _rgba("#000000", 0.0),
+        lifetime=t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+        frame_locked=False,
+        points=list(points),
+        colors=[],
+        texture_resource="",
+        texture=t["sensor_msgs/msg/CompressedImage"](
+            header=_header(stamp_ns), format="", data=empty
+        ),
+        uv_coordinates=[],
+        text="",
+        mesh_resource="",
+        mesh_file=t["visualization_msgs/msg/MeshFile"](filename="", data=empty),
+        mesh_use_embedded_materials=False,
+    )
+
+
+def graph_markers(graph, stamp_ns: int = 0):
+    """``visualization_msgs/msg/MarkerArray`` of a topology graph: ``DELETEALL``, one
+    ``SPHERE_LIST`` per vertex kind (namespace ``vertices``, id 0 junction, 1 end, 2 ring,
+    3 isolated; vertices in node order) and one ``LINE_STRIP`` per edge (namespace
+    ``edges``, id = its place in ``graph.edges``) through the ``world`` (x, y) of its
+    pixel centres."""
+    t = _typestore().types
+    markers = [_marker(stamp_ns, "", 0, "DELETEALL")]
+    for i, (kind, colour) in enumerate(VERTEX_KIND_COLOURS.items()):
+        xy = [d["world"] for _, d in graph.nodes(data=True) if d.get("kind") == kind]
+        if xy:
+            markers.append(
+                _marker(
+                    stamp_ns,
+                    "vertices",
+                    i,
+                    "SPHERE_LIST",
+                    points=_points(xy),
+                    colour=_rgba(colour),
+                    scale=_VERTEX_DIAMETER_M,
+                )
+            )
+    edge_colour = _rgba(EDGE_COLOUR)
+    for i, (_, _, world) in enumerate(graph.edges(data="world")):
+        markers.append(
+            _marker(
+                stamp_ns,
+                "edges",
+                i,
+                "LINE_STRIP",
+                points=_points(world),
+                colour=edge_colour,
+                scale=_EDGE_WIDTH_M,
+            )
+        )
+    return t["visualization_msgs/msg/MarkerArray"](markers=markers)
+
+
+def room_markers(seg, stamp_ns: int = 0):
+    """``visualization_msgs/msg/MarkerArray`` of a :class:`~topojax.RoomSegmentation`:
+    ``DELETEALL``, each room's closed outline (``LINE_STRIP``, namespace ``rooms``, id =
+    room id, in its colour of the label picture), its id as text at its centroid
+    (``TEXT_VIEW_FACING``, namespace ``room_ids``) and the doorways (one ``LINE_LIST``,
+    namespace ``doors``, two points per door)."""
+    from .rooms import room_colours
+
+    t = _typestore().types
+    markers = [_marker(stamp_ns, "", 0, "DELETEALL")]
+    top = max((room.id for room in seg.rooms), default=0)
+    colours = room_colours(top)
+    for room in seg.rooms:
+        ring = np.asarray(room.polygon, np.float64).reshape(-1, 2)
+        closed = np.vstack([ring, ring[:1]])
+        colour = "#" + "".join(f"{int(v):02x}" for v in colours[room.id - 1])
+        markers.append(
+            _marker(
+                stamp_ns,
+                "rooms",
+                room.id,
+                "LINE_STRIP",
+                points=_points(closed),
+                colour=_rgba(colour),
+                scale=_ROOM_LINE_WIDTH_M,
+            )
+        )
+        label = _marker(stamp_ns, "room_ids", room.id, "TEXT_VIEW_FACING", colour=_rgba("#000000"))
+        label.pose = _pose(*room.centroid, 0.0)
+        label.scale.z = _ROOM_TEXT_M
+        label.text = str(room.id)
+        markers.append(label)
+    if seg.doors:
+        ends = np.concatenate([np.asarray(d.ends_world, np.float64) for d in seg.doors])
+        markers.append(
+            _marker(
+                stamp_ns,
+                "doors",
+                0,
+                "LINE_LIST",
+                points=_points(ends),
+                colour=_rgba(_DOOR_COLOUR),
+                scale=_ROOM_LINE_WIDTH_M,
+            )
+        )
+    return t["visualization_msgs/msg/MarkerArray"](markers=markers)
+
+
+def scan_message(scan, stamp_ns: int = 0):
+    """``sensor_msgs/msg/LaserScan`` of a :class:`~topojax.Scan` in :data:`LASER_FRAME`
+    (ranges as float32, no intensities)."""
+    t = _typestore().types
+    n = scan.n_beams
+    return t["sensor_msgs/msg/LaserScan"](
+        header=_header(stamp_ns, LASER_FRAME),
+        angle_min=scan.angle_min,
+        angle_max=scan.angle_min + max(n - 1, 0) * scan.angle_increment,
+        angle_increment=scan.angle_increment,
+        time_increment=0.0,
+        scan_time=0.0,
+        range_min=scan.range_min,
+        range_max=scan.range_max,
+        ranges=np.asarray(scan.ranges, np.float32),
+        intensities=np.zeros(0, np.float32),
+    )
+
+
+def _transform(stamp_ns: int, parent: str, child: str, pose3):
+    t = _typestore().types
+    x, y, yaw = pose3
+    return t["geometry_msgs/msg/TransformStamped"](
+        header=_header(stamp_ns, parent),
+        child_frame_id=child,
+        transform=t["geometry_msgs/msg/Transform"](
+            translation=t["geometry_msgs/msg/Vector3"](x=float(x), y=float(y), z=0.0),
+            rotation=_quaternion(yaw),
+        ),
+    )
+
+
+def tf_message(scan, stamp_ns: int = 0):
+    """``tf2_msgs/msg/TFMessage``: :data:`MAP_FRAME` -> :data:`ROBOT_FRAME` (the scan's
+    ``pose``) and :data:`ROBOT_FRAME` -> :data:`LASER_FRAME` (its ``sensor_offset``)."""
+    return _typestore().types["tf2_msgs/msg/TFMessage"](
+        transforms=[
+            _transform(stamp_ns, MAP_FRAME, ROBOT_FRAME, scan.pose),
+            _transform(stamp_ns, ROBOT_FRAME, LASER_FRAME, scan.sensor_offset),
+        ]
+    )
+
+
+# ---------------------------------------------------------------------- the writer
+
+
+def mcap_path(path, *, name: str = "path") -> Path:
+    """``path`` as a Path, checked: a file name ending in ``.mcap`` that is not a folder
+    (errors name the parameter ``name``)."""
+    try:
+        p = Path(os.fspath(path))
+    except TypeError:
+        raise TypeError(
+            f"{name}: expected a file name ending in .mcap, received {type(path).__name__}"
+        ) from None
+    if p.suffix.lower() != ".mcap":
+        raise ValueError(f"{name}: expected a file name ending in .mcap, received {str(p)!r}")
+    if p.is_dir():
+        raise IsADirectoryError(f"{name}: expected an .mcap file name, received the folder {p}")
+    return p
+
+
+class McapRecorder:
+    """Write a ROS 2 MCAP recording of a mapping run, message by message.
+
+    Use it as a context manager: the file appears, complete, when the ``with`` block ends
+    (an exception leaves no file and no temporary folder behind).  Messages are written as
+    they come; the recording is built in a hidden folder beside ``path`` and moved to
+    ``path`` at the end, replacing a file that was there.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.mcap`` file to write; its folder is created.
+
+    Attributes
+    ----------
+    counts : dict of str to int
+        Messages written per topic.
+    stamp_ns : int
+        Stamp of the last scan in nanoseconds (0 before the first); see the module's notes
+        on time stamps.
+
+    Examples
+    --------
+    >>> with McapRecorder("run.mcap") as rec:  # doctest: +SKIP
+    ...     for scan in scans:
+    ...         report = mapper.add_scan(scan)
+    ...         rec.add_scan(scan)
+    ...         if report.graph_update:
+    ...             rec.add_map(mapper.occupancy, mapper.graph)
+    """
+
+    def __init__(self, path) -> None:
+        self.path = mcap_path(path)
+        self.counts: dict[str, int] = {}
+        self.stamp_ns = 0
+        self._scanned = False
+        self._writer = None
+        self._tmp: Path | None = None
+        self._connections: dict[str, object] = {}
+
+    # ------------------------------------------------------------------ lifetime
+    def open(self) -> McapRecorder:
+        """Start the recording (the ``with`` statement calls it)."""
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+
+        _typestore()  # a missing rosbags fails here, before anything is created
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", dir=self.path.parent))
+        writer = Writer(self._tmp / "recording", version=8, storage_plugin=StoragePlugin.MCAP)
+        writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        writer.open()
+        self._writer = writer
+        return self
+
+    def close(self) -> Path:
+        """Finish the file and move it to :attr:`path`; returns the path."""
+        writer, self._writer = self._writer, None
+        if writer is None:
+            raise RuntimeError("McapRecorder: the recording is not open")
+        try:
+            writer.close()
+            os.replace(self._tmp / "recording" / "recording.mcap", self.path)
+        finally:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+        return self.path
+
+    def abort(self) -> None:
+        """Drop the recording: no file is written."""
+        writer, self._writer = self._writer, None
+        if writer is not None:
+            writer.abort()
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+
+    def __enter__(self) -> McapRecorder:
+        return self.open()
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+    # ------------------------------------------------------------------ messages
+    def _write(self, topic: str, message, stamp_ns: int) -> None:
+        if self._writer is None:
+            raise RuntimeError("McapRecorder: open the recording first (use it in a with block)")
+        store = _typestore()
+        conn = self._connections.get(topic)
+        if conn is None:
+            conn = self._writer.add_connection(
+                topic, TOPICS[topic], typestore=store, offered_qos_profiles=_qos(topic)
+            )
+            self._connections[topic] = conn
+        self._writer.write(conn, stamp_ns, store.serialize_cdr(message, TOPICS[topic]))
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    def _next_stamp(self, timestamp) -> int:
+        """The stamp of the next scan (ns): its timestamp when usable, else one
+        :data:`SCAN_PERIOD_S` after the previous stamp."""
+        if timestamp is not None and 0.0 <= timestamp < _MAX_STAMP_S:
+            ns = int(round(timestamp * _NS))
+            if not self._scanned or ns >= self.stamp_ns:
+                return ns
+        return self.stamp_ns + int(round(SCAN_PERIOD_S * _NS)) if self._scanned else 0
+
+    def add_scan(self, scan) -> int:
+        """Write ``/tf`` and ``/scan`` for a :class:`~topojax.Scan`; returns its stamp (ns)."""
+        from ..scans import Scan
+
+        if not isinstance(scan, Scan):
+            raise TypeError(f"scan: expected a topojax.Scan, received {type(scan).__name__}")
+        self.stamp_ns = self._next_stamp(scan.timestamp)
+        self._scanned = True
+        self._write("/tf", tf_message(scan, self.stamp_ns), self.stamp_ns)
+        self._write("/scan", scan_message(scan, self.stamp_ns), self.stamp_ns)
+        return self.stamp_ns
+
+    def add_map(self, occupancy, graph) -> None:
+        """Write ``/map`` and ``/topology`` (an :class:`~topojax.OccupancyMap` and its
+        topology graph, with ``world`` vertex and edge coordinates) at :attr:`stamp_ns`."""
+        from ..maps import OccupancyMap
+
+        if not isinstance(occupancy, OccupancyMap):
+            raise TypeError(
+                f"occupancy: expected an OccupancyMap, received {type(occupancy).__name__}"
+            )
+        self._write("/map", occupancy_grid(occupancy, self.stamp_ns), self.stamp_ns)
+        self._write("/topology", graph_markers(graph, self.stamp_ns), self.stamp_ns)
+
+    def add_rooms(self, seg) -> None:
+        """Write ``/rooms`` (a :class:`~topojax.RoomSegmentation`) at :attr:`stamp_ns`."""
+        from .rooms import _check_seg
+
+        self._write("/rooms", room_markers(_check_seg(seg), self.stamp_ns), self.stamp_ns)
+
+
+def _qos(topic: str) -> list:
+    """The offered QoS of ``topic``: reliable, transient local, depth 1 for the latched
+    topics; the default (none recorded) for the others."""
+    if topic not in _LATCHED:
+        return []
+    from rosbags.interfaces import (
+        Qos,
+        QosDurability,
+        QosHistory,
+        QosLiveliness,
+        QosReliability,
+        QosTime,
+    )
+
+    zero = QosTime(0, 0)
+    return [
+        Qos(
+            QosHistory.KEEP_LAST,
+            1,
+            QosReliability.RELIABLE,
+            QosDurability.TRANSIENT_LOCAL,
+            zero,
+            zero,
+            QosLiveliness.AUTOMATIC,
+            zero,
+            False,
+        )
+    ]
+
+
+def save_mcap(result, path, *, rooms=None) -> Path:
+    """Write a full-map result as a ROS 2 MCAP recording: one ``/map`` and one
+    ``/topology`` message (and one ``/rooms`` with ``rooms``), all at 0 s.
+
+    Parameters
+    ----------
+    result : TopologyResult
+        From :func:`topojax.build_graph` (its ``map`` and ``graph``).
+    path : str or Path
+        The ``.mcap`` file (replaced if it exists; its folder is created).
+    rooms : RoomSegmentation, optional
+        Rooms of the same map (:func:`topojax.segment_rooms`).
+
+    Returns
+    -------
+    Path
+        ``path``.  See :mod:`topojax.io.mcap` for topics, types and frames.
+    """
+    for name in ("map", "graph"):
+        if not hasattr(result, name):
+            raise TypeError(
+                f"result: expected a TopologyResult (from build_graph), received "
+                f"{type(result).__name__} (no {name})"
+            )
+    with McapRecorder(path) as rec:
+        rec.add_map(result.map, result.graph)
+        if rooms is not None:
+            rec.add_rooms(rooms)
+    return rec.path
