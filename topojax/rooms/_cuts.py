@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ._kernels import basis_points
+from ._kernels import basis_points, disc_offsets, sides_widen
 
 __all__ = ["Cut", "door_cuts", "segment_pixels"]
 
@@ -55,41 +55,6 @@ def segment_pixels(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.floor(pts + 0.5).astype(np.int64)
 
 
-def _clearance_at(clearance: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Clearance at points (..., 2) (row, col), rounded to pixels; 0 off the map."""
-    h, w = clearance.shape
-    r = np.floor(pts[..., 0] + 0.5).astype(np.int64)
-    c = np.floor(pts[..., 1] + 0.5).astype(np.int64)
-    ok = (r >= 0) & (r < h) & (c >= 0) & (c < w)
-    out = np.zeros(r.shape, np.float32)
-    out[ok] = clearance[r[ok], c[ok]]
-    return out
-
-
-def _side_rise(clearance, p, normal, c, reach: float) -> np.ndarray:
-    """Largest clearance (N, 2) seen from each candidate ``p`` (N, 2) along a fan of rays
-    on either side of its doorway (``+normal`` and ``-normal``, +-30 deg), out to
-    ``reach`` pixels, each ray stopped at the first pixel of clearance below 1."""
-    steps = np.arange(1, int(np.ceil(reach)) + 1, dtype=np.float64)
-    out = np.zeros((p.shape[0], 2), np.float32)
-    for side, sign in enumerate((1.0, -1.0)):
-        best = np.zeros(p.shape[0], np.float32)
-        for ang in (-0.5236, 0.0, 0.5236):
-            ca, sa = np.cos(ang), np.sin(ang)
-            d = sign * np.stack(
-                [normal[:, 0] * ca - normal[:, 1] * sa, normal[:, 0] * sa + normal[:, 1] * ca],
-                axis=1,
-            )
-            pts = p[:, None, :] + steps[None, :, None] * d[:, None, :]
-            vals = _clearance_at(clearance, pts)
-            vals[steps[None, :] > np.maximum(reach, 2.0 * c[:, None])] = 0
-            blocked = np.cumsum(vals < 1.0, axis=1) > 0
-            vals[blocked] = 0
-            best = np.maximum(best, vals.max(axis=1))
-        out[:, side] = best
-    return out
-
-
 def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: float):
     """Doorway candidates: skeleton pixels with clearance in [lo, hi] whose two nearest
     obstacles lie on opposite sides and beyond which the clearance rises to ``rise`` times
@@ -101,7 +66,8 @@ def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: f
         return empty
     p = np.stack([rr, cc], axis=1).astype(np.int64)
     c = clearance[rr, cc].astype(np.float64)
-    basis, ok = basis_points(free, p, np.ceil(1.3 * c + 1.5).astype(np.int64))
+    radius = 1.3 * c + 1.5
+    basis, ok = basis_points(free, p, radius, disc_offsets(float(radius.max())))
     p = p.astype(np.float64)
     q1, q2 = basis[:, 0].astype(np.float64), basis[:, 1].astype(np.float64)
     v1, v2 = q1 - p, q2 - p
@@ -111,8 +77,7 @@ def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: f
     along = q2 - q1
     normal = np.stack([-along[:, 1], along[:, 0]], axis=1)
     normal /= np.maximum(np.hypot(*normal.T), 1e-9)[:, None]
-    sides = _side_rise(clearance, p, normal, c, float(w))
-    ok &= (sides[:, 0] >= rise * c) & (sides[:, 1] >= rise * c)
+    ok &= sides_widen(clearance, p, normal, c, float(w), rise)
     if not ok.any():
         return empty
     p, c, q1, q2 = p[ok], c[ok], q1[ok], q2[ok]
