@@ -2130,3 +2130,33 @@ def test_guard_settings_are_saved_and_default_for_old_states(tmp_path):
     np.savez_compressed(old, **data)
     loaded = IncrementalMapper.load(old)
     assert (loaded.max_extent_m, loaded.max_export_bytes) == (2000.0, 2**31)
+
+
+def test_replay_skips_a_scan_far_off_and_goes_on(tmp_path, capsys):
+    """A localisation glitch in a log (one pose 100 km off) does not end the replay: the
+    scan is skipped with the refusal's message, the others are mapped."""
+    import gzip
+
+    from topojax.cli import main
+
+    lines = gzip.open(INTEL_EXCERPT, "rt").read().splitlines()
+    n = 0
+    for k, line in enumerate(lines):
+        if line.startswith("FLASER"):
+            n += 1
+            if n == 20:  # x of the laser pose and of the odometry pose
+                f = line.split()
+                count = int(f[1])
+                for j in (2 + count, 2 + count + 3):
+                    f[j] = str(float(f[j]) + 100_000.0)
+                lines[k] = " ".join(f)
+    log = tmp_path / "glitch.log"
+    log.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    code = main(["replay", str(log), "-o", str(out), "--no-progress", "--graph-every", "20"])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "skipped scan 19" in text and "max_extent_m=2000" in text
+    summary = json.loads((out / "timings.json").read_text())
+    assert summary["n_scans"] == 39
+    assert len(summary["skipped_scans"]) == 1

@@ -26,6 +26,8 @@ def _cmd_replay(args) -> int:
         "graph_every": args.graph_every,
         "strategy": args.strategy,
     }
+    if args.max_extent_m is not None:
+        kw["max_extent_m"] = args.max_extent_m
     if args.rooms:
         kw["room_config"] = room_config(args)  # checked before the replay
     reader_kwargs = {}
@@ -110,6 +112,13 @@ def add_command(subparsers) -> None:
     )
     p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
     p.add_argument("--max-scans", type=int, help="stop after this many scans")
+    p.add_argument(
+        "--max-extent-m",
+        type=float,
+        metavar="M",
+        help="the longest side the mapped area may grow to (default 2000); a scan that "
+        "would grow it further (a pose far off) is skipped with a message",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument(
         "--max-range",

@@ -6,6 +6,7 @@ changed; its results equal the full-map pipeline's on the exported map.  Why, st
 stage: ``docs/incremental-exactness.md``.
 """
 
+from ._rays import ExtentError
 from ._rethin import thin_components
 from ._settings import STRATEGIES
 from ._tiles import trace_counts
@@ -15,6 +16,7 @@ from .reports import GraphUpdate, ScanReport, timing_summary, vertex_error_metri
 from .state import STATE_FORMAT, STATE_VERSION
 
 __all__ = [
+    "ExtentError",
     "STATE_FORMAT",
     "STATE_VERSION",
     "STRATEGIES",

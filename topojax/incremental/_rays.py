@@ -280,6 +280,11 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     return int(n_new)
 
 
+class ExtentError(ValueError):
+    """A scan, points or map refused because it would grow the mapped area beyond the
+    mapper's ``max_extent_m`` (nothing was added)."""
+
+
 def check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
     """Raise ValueError if allocating the tiles of global pixels ``lo_r..hi_r`` x
     ``lo_c..hi_c`` (inclusive) would make a side of the allocated tiles' bounding box
@@ -293,7 +298,7 @@ def check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
     res = mapper.resolution_m
     height_m, width_m = (r1 - r0) * res, (c1 - c0) * res
     if max(height_m, width_m) > mapper.max_extent_m:
-        raise ValueError(
+        raise ExtentError(
             f"{where()} would grow the mapped area to {width_m:.6g} m x {height_m:.6g} m "
             f"(x by y, tile-aligned), beyond max_extent_m={mapper.max_extent_m:g} m; "
             "nothing was added (a localisation glitch? check the pose, or make the "

@@ -12,6 +12,7 @@ import numpy as np
 
 from .._validate import instance_or_default, positive_int, positive_metres
 from ..config import GraphConfig
+from ._rays import ExtentError
 from ._settings import settings_of
 from .mapper import IncrementalMapper
 from .reports import ScanReport, timing_summary
@@ -175,7 +176,9 @@ def replay(
     Returns
     -------
     dict
-        ``n_scans``, ``n_tiles``, ``vertices``, ``edges``, ``timings`` (per loop),
+        ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals of scans that would
+        have grown the map beyond ``max_extent_m``, a localisation glitch: skipped, the
+        replay goes on), ``n_tiles``, ``vertices``, ``edges``, ``timings`` (per loop),
         ``written`` (paths), ``messages``.
     """
     from .._fs import atomic_write_bytes, output_folder
@@ -194,7 +197,7 @@ def replay(
     mapper = IncrementalMapper(**mapper_kw)
     output_folder(out)
     with _recorder(mcap) as recorder:
-        reports, frames, wall = _run(
+        reports, frames, wall, skipped = _run(
             mapper, scans, max_scans, animate is not None, progress, recorder
         )
         if not reports:
@@ -224,6 +227,7 @@ def replay(
         "rooms": None if seg is None else seg.n_rooms,
         "source": str(source),
         "n_scans": len(reports),
+        "skipped_scans": skipped,
         "n_tiles": mapper.n_tiles,
         "map_shape": list(result.map.shape),
         "vertices": summary_g["n_vertices"],
@@ -247,7 +251,7 @@ def replay(
     if recorder is not None:
         written.append(recorder.path)
     summary["written"] = [str(p) for p in written]
-    summary["messages"] = messages
+    summary["messages"] = messages + [f"skipped {m}" for m in skipped]
     if progress:
         print(summary_text(summary))
     return summary
@@ -319,10 +323,16 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None)
     frames: list[dict] = []
     bar = tqdm(total=max_scans, unit="scan", disable=not progress, desc="replay")
     t0 = time.perf_counter()
+    skipped: list[str] = []
     for i, scan in enumerate(scans):
         if max_scans is not None and i >= max_scans:
             break
-        rep = mapper.add_scan(scan)
+        try:
+            rep = mapper.add_scan(scan)
+        except ExtentError as exc:  # a localisation glitch: skip the scan, keep going
+            skipped.append(str(exc))
+            bar.update(1)
+            continue
         reports.append(rep)
         if recorder is not None:
             _record(recorder, mapper, scan, rep)
@@ -330,7 +340,7 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None)
             frames.append(_frame(mapper))
         bar.update(1)
     bar.close()
-    return reports, frames, time.perf_counter() - t0
+    return reports, frames, time.perf_counter() - t0, skipped
 
 
 def _record(recorder, mapper, scan, rep: ScanReport) -> None:
