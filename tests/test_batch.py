@@ -826,3 +826,29 @@ def test_empty_graphs_are_reported_with_a_reason(tmp_path, capsys):
     assert "1 empty" in captured.out and "empty  raw" in captured.err
     summary = (tmp_path / "out" / "summary.csv").read_text()
     assert ",empty," in summary
+
+
+def test_grey_walls_are_flagged_with_a_warning(tmp_path, capsys):
+    """A map whose walls read as unknown (grey) builds, but its row says why the graph
+    may be odd, the summary counts it, and ``topojax graph`` notes it too."""
+    import cv2
+
+    from topojax.cli import main
+    from topojax.maps.classify import wall_share
+
+    img = np.full((120, 160), 205, np.uint8)  # unknown all round
+    img[10:110, 10:150] = 254  # a free hall
+    img[10:110, 78:82] = 205  # a grey wall through it, with a door
+    img[55:65, 78:82] = 254
+    img[8:10, 20:60] = 0  # one stretch of black wall
+    path = tmp_path / "grey.png"
+    cv2.imwrite(str(path), img)
+    occ = load_map(path)
+    assert 0 < wall_share(occ.occupied, occ.free) < 0.1
+    records = build_graphs([path], out_dir=tmp_path / "out", workers=1)
+    assert records[0].status == "ok" and records[0].message.startswith("warning: only ")
+    assert main(["batch", str(path), "-o", str(tmp_path / "cli"), "--workers", "1"]) == 0
+    err = capsys.readouterr()
+    assert "1 with a warning" in err.out and "grey" in err.err
+    assert main(["graph", str(path), "-o", str(tmp_path / "g")]) == 0
+    assert "are the walls drawn in grey?" in capsys.readouterr().out

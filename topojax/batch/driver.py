@@ -20,6 +20,7 @@ from .._fs import output_folder, refuse_overwriting_inputs
 from .._validate import instance_or_default, int_at_least, one_of, positive_metres
 from ..config import DistanceConfig, PipelineConfig
 from ..maps import MODES, OccupancyMap
+from ..maps.classify import wall_warning
 from .inputs import (
     _MANIFEST_SUFFIX,
     _PICTURE_SUFFIX,
@@ -311,6 +312,7 @@ class _BatchRun:
         self._records: dict[int, MapRecord] = {}
         self._counts: Counter[str] = Counter()
         self._classes: dict[int, tuple[int, int | None]] = {}  # occupied, free pixels
+        self._walls: dict[int, float | None] = {}  # wall share (maps.classify.wall_share)
         self._bar = tqdm(
             total=len(self.items),
             unit="map",
@@ -445,6 +447,7 @@ class _BatchRun:
             rec = self._base_record(g, "error" if error else "ok", error)
             rec.t_distance_s = t_distance
             self._classes[g.item.index] = _class_counts(g)
+            self._walls[g.item.index] = g.wall_share
             if job is None:
                 self._finish(g.item.index, rec)
                 continue
@@ -486,9 +489,13 @@ class _BatchRun:
         if res.error is not None:
             rec.status, rec.message = "error", res.error
             return rec
+        warning = wall_warning(self._walls.pop(item.index, None))
         if not res.vertices:
             rec.status = "empty"
             rec.message = _empty_reason(*self._classes.pop(item.index, (None, None)))
+            rec.message += f"; {warning}" if warning else ""
+        elif warning:
+            rec.message = warning  # ok, with a warning
         rec.graph = res.graph
         if self.out_dir is not None:
             rec._finish()

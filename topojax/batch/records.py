@@ -65,7 +65,9 @@ class MapRecord:
         ``"empty"``: the graph has no vertex (outputs written; ``message`` says why);
         ``"skipped"``: complete outputs found by ``resume``.
     message : str
-        Error message (``"ExceptionType: text"``) or a note; empty when ok.
+        Error message (``"ExceptionType: text"``) or a note; on an ok map empty, or a
+        warning (``"warning: ..."``, e.g. walls that read as unknown:
+        :func:`topojax.maps.classify.wall_share`).
     outputs : tuple of str
         Files written for this map, relative to ``out_dir`` (manifest last).
     graph : networkx.MultiGraph or None

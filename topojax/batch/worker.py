@@ -18,6 +18,7 @@ import numpy as np
 from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
 from ..maps import OccupancyMap, load_map
+from ..maps.classify import wall_share
 from .inputs import _FORMAT_SUFFIX, _PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
 
@@ -252,6 +253,7 @@ class _LoadedBits:
     occupied_bits: np.ndarray
     free_bits: np.ndarray | None
     t_load_s: float
+    wall_share: float | None = None
 
 
 def _load_in_worker(path: str, want_free: bool, mode: str | None = None) -> _LoadedBits:
@@ -266,6 +268,7 @@ def _load_in_worker(path: str, want_free: bool, mode: str | None = None) -> _Loa
         occupied_bits=np.packbits(occ.occupied),
         free_bits=np.packbits(occ.free) if want_free else None,
         t_load_s=time.perf_counter() - t0,
+        wall_share=wall_share(occ.occupied, occ.free),
     )
 
 
@@ -281,6 +284,7 @@ class _Loaded:
     source: str | None
     t_load_s: float
     n_tiles: int
+    wall_share: float | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -305,6 +309,7 @@ def _loaded_from_bits(item: _Item, bits: _LoadedBits, tile_px: int) -> _Loaded:
         source=bits.source,
         t_load_s=bits.t_load_s,
         n_tiles=_n_tiles(bits.shape, tile_px),
+        wall_share=bits.wall_share,
     )
 
 
@@ -321,4 +326,5 @@ def _load_here(item: _Item, tile_px: int, want_free: bool, mode: str | None = No
         source=occ.source,
         t_load_s=time.perf_counter() - t0,
         n_tiles=_n_tiles(occ.shape, tile_px),
+        wall_share=wall_share(occ.occupied, occ.free),
     )

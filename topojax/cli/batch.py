@@ -55,16 +55,17 @@ def _cmd_batch(args) -> int:
             client.close()
     wall = time.perf_counter() - t0
     counts = Counter(r.status for r in records)
+    warned = [r for r in records if r.status == "ok" and r.message]
     done = ("ok", "empty")
     megapixels = sum((r.height or 0) * (r.width or 0) for r in records if r.status in done) / 1e6
     print(
         f"topojax batch: {len(records)} maps in {wall:.1f} s "
         f"({counts['ok']} ok, {counts['empty']} empty, {counts['skipped']} skipped, "
-        f"{counts['error']} errors; "
+        f"{counts['error']} errors, {len(warned)} with a warning; "
         f"{megapixels:.1f} Mpx processed); table: {Path(args.out) / 'summary.csv'}"
     )
     for r in records:
-        if r.status in ("error", "empty"):
+        if r.status in ("error", "empty") or r in warned:
             print(f"  {r.status:5s}  {r.map}: {r.message}", file=sys.stderr)
     return 1 if counts["error"] else 0
 

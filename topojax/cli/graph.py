@@ -47,10 +47,14 @@ def _write_outputs(
 
 def _classes_hint(occupancy) -> list[str]:
     """A note when the map, as classified, cannot give a graph (no obstacle or no free
-    pixel): usually thresholds or a pixel convention that do not fit the file."""
+    pixel) or its walls look unknown (grey walls): usually thresholds or a pixel
+    convention that do not fit the file."""
     n_occ, n_free = int(occupancy.occupied.sum()), int(occupancy.free.sum())
     if n_occ and n_free:
-        return []
+        from ..maps.classify import wall_share, wall_warning
+
+        warning = wall_warning(wall_share(occupancy.occupied, occupancy.free))
+        return [f"note       {warning}"] if warning else []
     n_unknown = int(occupancy.unknown.sum())
     if not n_occ:
         what = "no occupied pixel"

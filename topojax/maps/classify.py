@@ -29,9 +29,12 @@ from .._validate import is_real_number
 __all__ = [
     "DEFAULT_FREE_THRESH",
     "DEFAULT_OCCUPIED_THRESH",
+    "LOW_WALL_SHARE",
     "MODES",
     "classify_array",
     "classify_image",
+    "wall_share",
+    "wall_warning",
 ]
 
 #: ``map_server`` default occupied threshold.
@@ -315,3 +318,41 @@ def _classify_probability(
 
 
 # ---------------------------------------------------------------------- image reading
+
+
+#: Below this share of occupied pixels around the free space, the walls are probably
+#: classified unknown (drawn in grey) rather than occupied.
+LOW_WALL_SHARE = 0.2
+
+
+def wall_share(occupied: np.ndarray, free: np.ndarray) -> float | None:
+    """Share of the pixels next to the free space (8-neighbours, not free themselves)
+    that are occupied rather than unknown; None without free space.
+
+    A SLAM map's free space is bounded mostly by walls (occupied) and partly by unexplored
+    space; a share far below :data:`LOW_WALL_SHARE` means the walls were read as unknown
+    (grey walls, a threshold that does not fit the image)."""
+    free = np.asarray(free, bool)
+    if not free.any():
+        return None
+    h, w = free.shape
+    near = np.zeros((h + 2, w + 2), bool)
+    for dr in (0, 1, 2):
+        for dc in (0, 1, 2):
+            near[dr : dr + h, dc : dc + w] |= free
+    rim = near[1:-1, 1:-1] & ~free
+    n_rim = int(np.count_nonzero(rim))
+    if n_rim == 0:
+        return 1.0  # free up to the map's edge: nothing reads as a missing wall
+    return float(np.count_nonzero(rim & np.asarray(occupied, bool))) / n_rim
+
+
+def wall_warning(share: float | None) -> str | None:
+    """The warning for a map whose :func:`wall_share` is low, else None."""
+    if share is None or share >= LOW_WALL_SHARE:
+        return None
+    return (
+        f"warning: only {100 * share:.0f}% of the pixels around the free space are occupied, "
+        "the rest unknown: are the walls drawn in grey? check --occupied-thresh / "
+        "--free-thresh or --mode"
+    )
