@@ -17,6 +17,10 @@ from skimage.graph import MCP_Geometric
 from ..graph.work import SQRT2, WorkGraph, line_pixels
 from ._spanner import greedy_shortcuts
 
+#: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
+#: distance around each grid point covers its cell up to sqrt 2 / 2 of the spacing).
+COVER_SPACING = 1.3
+
 
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
     """Pixels (bool (H, W)) of the graph's live vertices and edge paths."""
@@ -159,7 +163,7 @@ def add_coverage(
     lies within ``snap_px`` of the graph, or ``rounds`` rounds are spent.  Returns the
     feasible pixels still uncovered (bool (H, W))."""
     shape = feasible.shape
-    spacing = 1.3 * snap_px
+    spacing = COVER_SPACING * snap_px
     for k in range(rounds + 1):
         raster = graph_raster(work, shape)
         uncovered = feasible & ~covered(raster, feasible, snap_px)
