@@ -91,6 +91,7 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
     from .routing import NoRouteError, Route, RoutePlanner, plan_route
     from .scans import Scan, read_bag, read_carmen, read_scans
     from .skeleton import remove_t_centres, thin
+    from .view import Timeline, View, show, write_view
 
 __all__ = [
     "DistanceConfig",
@@ -113,7 +114,9 @@ __all__ = [
     "Scan",
     "ScanReport",
     "SkeletonConfig",
+    "Timeline",
     "TopologyResult",
+    "View",
     "assign_rooms",
     "build_graph",
     "build_graphs",
@@ -143,9 +146,11 @@ __all__ = [
     "save_room_labels",
     "save_rooms",
     "segment_rooms",
+    "show",
     "skeleton_to_graph",
     "thin",
     "vertex_error_metrics",
+    "write_view",
 ]
 
 #: The same as ``version`` in pyproject.toml.
@@ -206,6 +211,10 @@ _LAZY = {
     "vertex_error_metrics": "incremental",
     "build_graphs": "batch",
     "MapRecord": "batch",
+    "Timeline": "view",
+    "View": "view",
+    "show": "view",
+    "write_view": "view",
 }
 
 #: Submodules reachable as attributes (``topojax.pipeline``) before they are imported,
@@ -228,6 +237,7 @@ _SUBMODULES = frozenset(
         "routing",
         "scans",
         "skeleton",
+        "view",
     )
 )
 
