@@ -220,7 +220,7 @@ def _rasters(inputs: Inputs) -> list[dict]:
     if not inputs.map.occupied.any() and not inputs.map.free.any():
         inputs.notes.append("the map is all unknown: no free or occupied pixel")
     out.append(
-        {"name": "map", "label": "map", "kind": "grey", "on": True, **pyramid(img, reduce="min")}
+        {"name": "map", "label": "map", "kind": "grey", "on": True, **pyramid(img, reduce="map")}
     )
     shape = img.shape
     specs = (
@@ -298,7 +298,7 @@ def _graph_bounds_frame(graphs) -> Frame:
     xy = [
         np.asarray(d, np.float64).reshape(-1, 2)
         for _, _, g in graphs
-        for _, d in g.edges(data="world")
+        for *_, d in g.edges(data="world")
         if d is not None
     ]
     xy += [

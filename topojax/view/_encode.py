@@ -57,7 +57,8 @@ def _png(image: np.ndarray) -> str:
 
 def _halve(image: np.ndarray, how: str) -> np.ndarray:
     """``image`` at half size (odd sides rounded up), each pixel from its 2 x 2 block:
-    ``"min"``, ``"max"`` or ``"mean"`` of the pixels the block has."""
+    ``"min"``, ``"max"`` or ``"mean"`` of the pixels the block has, or ``"map"``: 0 when
+    the block has a 0 (an obstacle of a map image), else its maximum."""
     h, w = image.shape
     ph, pw = h + h % 2, w + w % 2
     if (ph, pw) != (h, w):
@@ -66,6 +67,9 @@ def _halve(image: np.ndarray, how: str) -> np.ndarray:
     blocks = image.reshape(ph // 2, 2, pw // 2, 2)
     if how == "min":
         return blocks.min(axis=(1, 3))
+    if how == "map":  # an occupied pixel (0) wins, else the lightest: free over unknown
+        low = blocks.min(axis=(1, 3))
+        return np.where(low == 0, low, blocks.max(axis=(1, 3)))
     if how == "max":
         return blocks.max(axis=(1, 3))
     return (blocks.astype(np.uint16).sum(axis=(1, 3)) + 2 >> 2).astype(np.uint8)
@@ -80,10 +84,11 @@ def pyramid(
     ----------
     image : uint8 (H, W)
         The raster, row 0 at the top.
-    reduce : {"min", "max", "mean"}
-        How a level's pixel comes from its 2 x 2 block of the level below: ``"min"`` keeps
-        dark obstacles of a map, ``"max"`` keeps thin lines of a mask, ``"mean"`` suits
-        smooth fields.
+    reduce : {"map", "min", "max", "mean"}
+        How a level's pixel comes from its 2 x 2 block of the level below: ``"map"`` keeps
+        the obstacles (0) of a map image and shows free (lighter) over unknown, ``"min"``
+        keeps dark pixels, ``"max"`` keeps thin lines of a mask, ``"mean"`` suits smooth
+        fields.
     blank : int, optional
         Tiles of this value only are left out (the page draws nothing there), e.g. 0 for a
         mask; default: every tile is kept.

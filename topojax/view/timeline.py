@@ -157,7 +157,7 @@ class Timeline:
         occ = mapper.occupancy
         image = occ.to_image()
         h, w = image.shape
-        levels = pyramid(image, reduce="min", max_side_px=max(self.max_map_px, TILE_PX))
+        levels = pyramid(image, reduce="map", max_side_px=max(self.max_map_px, TILE_PX))
         finest = levels["levels"][0]
         ox, oy, _ = occ.origin
         res = occ.resolution_m
