@@ -663,6 +663,7 @@ TJ.frameNo = 0;
         return viewer.route ? { length_m: viewer.route.length_m } : null;
       },
       clearRoute: function () { viewer.clearRoute(); },
+      routePoints: function () { return viewer.routePoints.map(function (p) { return [p[0], p[1]]; }); },
       worldToScreen: function (x, y) { return viewer.worldToScreen(x, y); },
       screenToWorld: function (sx, sy) { return viewer.screenToWorld(sx, sy); },
       hoverAt: function (sx, sy) { var h = viewer.hoverAt(sx, sy); return h ? h : null; },
