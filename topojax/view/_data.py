@@ -7,6 +7,7 @@ import math
 import numbers
 import sys
 
+import cv2
 import networkx as nx
 import numpy as np
 
@@ -236,9 +237,9 @@ def _rasters(inputs: Inputs) -> list[dict]:
         if layer.shape != shape:
             raise ValueError(f"{name}: shape {layer.shape} is not the map's {shape}")
         if layer.dtype == bool:
-            img8 = layer.astype(np.uint8) * 255
-        else:
-            img8 = np.clip(np.rint(np.nan_to_num(layer, nan=0.0) * 255.0), 0, 255).astype(np.uint8)
+            img8 = layer.view(np.uint8) * np.uint8(255)
+        else:  # a field in [0, 1]: rounded and saturated to 0..255 (NaN: 0)
+            img8 = cv2.convertScaleAbs(np.asarray(layer, np.float32), alpha=255.0)
         out.append(
             {
                 "name": name,
@@ -343,7 +344,10 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
         inputs.notes.append("no map: the graphs are drawn on an empty background")
     if frame is None:
         frame = _graph_bounds_frame(inputs.graphs)
-    graphs = [graph_payload(g, frame, name=n, label=lab) for n, lab, g in inputs.graphs]
+    graphs = [
+        graph_payload(g, frame, name=n, label=lab, raster=bool(rasters))
+        for n, lab, g in inputs.graphs
+    ]
     if not rasters and not any(g["n_vertices"] for g in graphs) and inputs.rooms is None:
         raise ValueError(
             "nothing to show: no map, and the graphs have no vertices (an empty graph "

@@ -10,7 +10,9 @@ shipped as a single 8-bit channel, which PNG compresses best.
 from __future__ import annotations
 
 import base64
+import os
 import zlib
+from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
@@ -64,19 +66,27 @@ def _halve(image: np.ndarray, how: str) -> np.ndarray:
     if (ph, pw) != (h, w):
         # repeat the last row / column: the block's statistic is that of its own pixels
         image = np.pad(image, ((0, ph - h), (0, pw - w)), mode="edge")
-    blocks = image.reshape(ph // 2, 2, pw // 2, 2)
+    a, b = image[0::2, 0::2], image[0::2, 1::2]
+    c, d = image[1::2, 0::2], image[1::2, 1::2]
+    if how == "mean":
+        total = a.astype(np.uint16) + b + c + d
+        return ((total + 2) >> 2).astype(np.uint8)
+    low = np.minimum(np.minimum(a, b), np.minimum(c, d))
     if how == "min":
-        return blocks.min(axis=(1, 3))
-    if how == "map":  # an occupied pixel (0) wins, else the lightest: free over unknown
-        low = blocks.min(axis=(1, 3))
-        return np.where(low == 0, low, blocks.max(axis=(1, 3)))
+        return low
+    high = np.maximum(np.maximum(a, b), np.maximum(c, d))
     if how == "max":
-        return blocks.max(axis=(1, 3))
-    return (blocks.astype(np.uint16).sum(axis=(1, 3)) + 2 >> 2).astype(np.uint8)
+        return high
+    return np.where(low == 0, low, high)  # "map": an obstacle wins, else the lightest
 
 
 def pyramid(
-    image: np.ndarray, *, reduce: str, max_side_px: int | None = None, blank: int | None = None
+    image: np.ndarray,
+    *,
+    reduce: str,
+    max_side_px: int | None = None,
+    blank: int | None = None,
+    min_step: int = 1,
 ) -> dict:
     """An 8-bit raster as PNG tiles at full size and halved again and again.
 
@@ -95,6 +105,9 @@ def pyramid(
     max_side_px : int, optional
         The finest level shipped is the first whose longer side is at most this (a smooth
         field needs no full resolution); default: full size.
+    min_step : int
+        Nor any level finer than this many map pixels per level pixel (a power of two;
+        for layers the page draws otherwise when zoomed in).
 
     Returns
     -------
@@ -109,7 +122,8 @@ def pyramid(
     levels = []
     step, level = 1, image
     while True:
-        if max_side_px is None or max(level.shape) <= max_side_px:
+        fits = max_side_px is None or max(level.shape) <= max_side_px
+        if fits and step >= min_step:
             levels.append(_level_tiles(level, step, blank))
         if max(level.shape) <= TILE_PX:
             break
@@ -120,10 +134,16 @@ def pyramid(
 
 def _level_tiles(level: np.ndarray, step: int, blank: int | None) -> dict:
     lh, lw = level.shape
-    tiles = []
+    keep = []
     for r0 in range(0, lh, TILE_PX):
         for c0 in range(0, lw, TILE_PX):
             tile = level[r0 : r0 + TILE_PX, c0 : c0 + TILE_PX]
             if blank is None or (tile != blank).any():
-                tiles.append([r0 // TILE_PX, c0 // TILE_PX, _png(tile)])
+                keep.append((r0 // TILE_PX, c0 // TILE_PX, tile))
+    if len(keep) > 4:  # OpenCV's encoder releases the GIL: tiles encode side by side
+        with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+            pngs = list(pool.map(_png, [t for *_, t in keep]))
+    else:
+        pngs = [_png(t) for *_, t in keep]
+    tiles = [[r, c, png] for (r, c, _), png in zip(keep, pngs, strict=True)]
     return {"step": step, "width": lw, "height": lh, "tiles": tiles}

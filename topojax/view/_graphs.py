@@ -19,7 +19,7 @@ import numpy as np
 
 from ..graph import holds
 from ..io import as_multigraph, jsonable
-from ._encode import packed
+from ._encode import packed, pyramid
 
 __all__ = ["Frame", "KIND_NAMES", "graph_payload", "graph_frame"]
 
@@ -135,7 +135,9 @@ def _routable_edges(graph, where: str):
     return rows, reason
 
 
-def graph_payload(graph, frame: Frame | None, *, name: str, label: str) -> dict:
+def graph_payload(
+    graph, frame: Frame | None, *, name: str, label: str, raster: bool = False
+) -> dict:
     """The page's description of one graph.
 
     Parameters
@@ -147,6 +149,10 @@ def graph_payload(graph, frame: Frame | None, *, name: str, label: str) -> dict:
         The map's grid; without one, paths go as world polylines.
     name, label : str
         Short id and the text shown for it.
+    raster : bool
+        Also ship the edges as a mask pyramid from half size down (``"raster"``), which
+        the page draws instead of the polylines when zoomed out: tens of thousands of
+        edges then cost a few tiles.  Only for paths on ``frame``'s grid.
 
     Raises
     ------
@@ -182,6 +188,9 @@ def graph_payload(graph, frame: Frame | None, *, name: str, label: str) -> dict:
         "sizes": packed(sizes, np.int32),
     }
     edges.update(_geometry(rows, frame))
+    mask = None
+    if raster and frame is not None and "xy" not in edges and rows:
+        mask = _edge_mask(rows, frame)
     return {
         "name": name,
         "label": label,
@@ -197,7 +206,24 @@ def graph_payload(graph, frame: Frame | None, *, name: str, label: str) -> dict:
         "routable": reason is None,
         "why_not_routable": reason,
         "resolution_m": _finite_or_none(_number(graph.graph, "resolution_m")),
+        "raster": mask,
     }
+
+
+def _edge_mask(rows, frame: Frame) -> dict | None:
+    """The edges' pixels on the map's grid as a mask pyramid (levels of 2 and more map
+    pixels per level pixel; lines kept by the maximum)."""
+    pixels = np.concatenate([r[2] for r in rows])
+    inside = (
+        (pixels[:, 0] >= 0)
+        & (pixels[:, 0] < frame.height)
+        & (pixels[:, 1] >= 0)
+        & (pixels[:, 1] < frame.width)
+    )
+    mask = np.zeros((frame.height, frame.width), np.uint8)
+    mask[pixels[inside, 0], pixels[inside, 1]] = 255
+    levels = pyramid(mask, reduce="max", blank=0, min_step=2)
+    return levels if levels["levels"] else None  # a small map: the lines are few
 
 
 def _geometry(rows, frame: Frame | None) -> dict:

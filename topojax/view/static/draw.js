@@ -19,7 +19,7 @@ var TJ = (window.TJ = window.TJ || {});
   ];
 
   /* 256 RGBA entries for a layer kind */
-  TJ.lut = function (kind, name) {
+  TJ.lut = function (kind, name, colour) {
     var lut = new Uint8ClampedArray(1024);
     for (var v = 0; v < 256; v++) {
       var o = 4 * v;
@@ -36,7 +36,7 @@ var TJ = (window.TJ = window.TJ || {});
         }
         lut[o + 3] = 215;
       } else {
-        var c = MASK_COLOURS[name] || [255, 0, 255];
+        var c = colour || MASK_COLOURS[name] || [255, 0, 255];
         lut[o] = c[0]; lut[o + 1] = c[1]; lut[o + 2] = c[2]; lut[o + 3] = v > 0 ? 255 : 0;
       }
     }
@@ -82,7 +82,9 @@ var TJ = (window.TJ = window.TJ || {});
       l.tiles.forEach(function (t) { tiles.set(t[0] + "," + t[1], t[2]); });
       return { step: l.step, width: l.width, height: l.height, tiles: tiles };
     });
-    this.lut = TJ.lut(spec.kind, spec.name);
+    this.lut = TJ.lut(spec.kind, spec.name, spec.colour);
+    // a level pixel may cover up to this many device pixels (thin lines stay visible)
+    this.boost = spec.boost || 1;
     this.cache = new Map();
     this.onTile = onTile; this.onError = onError;
     this.smooth = spec.kind === "scale";
@@ -143,7 +145,7 @@ var TJ = (window.TJ = window.TJ || {});
     var perPixel = view.z * view.dpr * k; // device pixels per raster pixel
     var li = 0;
     // the coarsest level whose pixels are at most a device pixel (else the finest)
-    for (var i = 0; i < this.levels.length; i++) if (this.levels[i].step * perPixel <= 1) li = i;
+    for (var i = 0; i < this.levels.length; i++) if (this.levels[i].step * perPixel <= this.boost) li = i;
     var L = this.levels[li], T = this.T, span = T * L.step;
     // visible raster pixels
     var c0 = ((view.u0 - u0) / k), c1 = ((view.u1 - u0) / k);
@@ -198,25 +200,49 @@ var TJ = (window.TJ = window.TJ || {});
     }
   };
 
+  /* Vertices as squares coloured by kind.  At most one per square of the screen (the
+   * first kind wins: junctions over ends over the rest); once there are many in sight
+   * they lose their outline and sit on whole pixels, which draws much faster. */
   TJ.drawVertices = function (ctx, view, vu, vv, kind, n) {
     var z = view.z, tx = view.tx, ty = view.ty;
     var size = z > 1 ? 6 : z > 0.25 ? 5 : 4, half = size / 2;
-    for (var c = 0; c < TJ.KIND_COLOURS.length; c++) {
-      ctx.beginPath();
-      var any = false;
+    var cols = Math.ceil(view.w / size) + 2, rows = Math.ceil(view.h / size) + 2;
+    var taken = new Uint8Array(cols * rows), shown = [];
+    for (var c = 0; c < TJ.KIND_COLOURS.length; c++) shown.push([]);
+    var count = 0;
+    for (var c2 = 0; c2 < TJ.KIND_COLOURS.length; c2++) {
       for (var i = 0; i < n; i++) {
-        if (kind[i] !== c) continue;
+        if (kind[i] !== c2) continue;
         var u = vu[i], v = vv[i];
         if (u < view.u0 || u > view.u1 || v < view.v0 || v > view.v1) continue;
-        ctx.rect(u * z + tx - half, v * z + ty - half, size, size);
-        any = true;
-      }
-      if (any) {
-        ctx.fillStyle = TJ.KIND_COLOURS[c];
-        ctx.fill();
-        ctx.lineWidth = 1; ctx.strokeStyle = "rgba(255,255,255,0.85)"; ctx.stroke();
+        var x = u * z + tx, y = v * z + ty;
+        var cell = (Math.floor(y / size) + 1) * cols + Math.floor(x / size) + 1;
+        if (taken[cell]) continue;
+        taken[cell] = 1;
+        shown[c2].push(x, y);
+        count++;
       }
     }
+    var dense = count > 1500;
+    for (var k = 0; k < shown.length; k++) {
+      var xy = shown[k];
+      if (!xy.length) continue;
+      ctx.fillStyle = TJ.KIND_COLOURS[k];
+      if (dense) {
+        var s = size - 1;
+        for (var j = 0; j < xy.length; j += 2) ctx.fillRect(Math.round(xy[j] - s / 2), Math.round(xy[j + 1] - s / 2), s, s);
+        continue;
+      }
+      ctx.beginPath();
+      for (var q = 0; q < xy.length; q += 2) ctx.rect(xy[q] - half, xy[q + 1] - half, size, size);
+      ctx.fill();
+      ctx.lineWidth = 1; ctx.strokeStyle = "rgba(255,255,255,0.85)"; ctx.stroke();
+    }
+  };
+
+  TJ.rgb = function (hex) {
+    var v = parseInt(hex.slice(1), 16);
+    return [(v >> 16) & 255, (v >> 8) & 255, v & 255];
   };
 
   TJ.roomColour = function (id, alpha) {

@@ -64,6 +64,15 @@ TJ.frameNo = 0;
     var path = d.timeline ? TJ.unpackAll(d.timeline.path, ["scan", "x", "y"]) : Promise.resolve(null);
     return Promise.all([graphs, timeline, path]).then(function (parts) {
       self.graphs = parts[0];
+      self.graphs.forEach(function (g, i) {
+        g.colour = TJ.GRAPH_COLOURS[i % TJ.GRAPH_COLOURS.length];
+        var spec = d.graphs[i].raster;
+        if (spec) {
+          g.raster = new TJ.Raster(Object.assign({ name: g.name, label: g.label, kind: "mask", on: true,
+            colour: TJ.rgb(g.colour), boost: 2 }, spec), redraw, failed);
+          g.raster.prefetch();
+        }
+      });
       self.timeline = parts[1];
       self.robot = parts[2] ? self.viewPath(parts[2]) : null;
       self.buildLayers();
@@ -87,7 +96,9 @@ TJ.frameNo = 0;
     var self = this;
     return new Promise(function (resolve) {
       (function poll() {
-        if (self.state === "error" || self.rasters.every(function (r) { return r.ready(); })) resolve();
+        var all = self.rasters.concat(self.graphs.filter(function (g) { return g.raster; })
+          .map(function (g) { return g.raster; }));
+        if (self.state === "error" || all.every(function (r) { return r.ready(); })) resolve();
         else setTimeout(poll, 20);
       })();
     });
@@ -150,10 +161,8 @@ TJ.frameNo = 0;
       var sw = { map: "#9e9e9e", distance: "#b73779", ridges: "#ffb000", skeleton: "#285aff" }[r.name];
       self.addLayer(r.name, r.label, r.on, sw);
     });
-    this.graphs.forEach(function (g, i) {
-      self.addLayer(g.name, g.label + " (" + g.n + " vertices, " + g.ne + " edges)", true,
-        TJ.GRAPH_COLOURS[i % TJ.GRAPH_COLOURS.length]);
-      g.colour = TJ.GRAPH_COLOURS[i % TJ.GRAPH_COLOURS.length];
+    this.graphs.forEach(function (g) {
+      self.addLayer(g.name, g.label + " (" + g.n + " vertices, " + g.ne + " edges)", true, g.colour);
     });
     if (this.graphs.length) this.addLayer("vertices", "vertices (by kind)", true);
     if (d.rooms) {
@@ -336,11 +345,16 @@ TJ.frameNo = 0;
     if (!f && this.data.rooms && this.isOn("doors")) TJ.drawDoors(ctx, this.view, this.frame, this.data.rooms.doors);
   };
 
+  /* Graphs as polylines; zoomed out, a graph's mask tiles instead (when it has them). */
   Viewer.prototype.drawGraphs = function (ctx, f) {
-    var wide = this.view.z > 2 ? 2.5 : 1.5;
+    var wide = this.view.z > 2 ? 2.5 : 1.5, perPixel = this.view.z * this.view.dpr;
     for (var i = 0; i < this.graphs.length; i++) {
       var g = this.graphs[i];
       if (!this.isOn(g.name)) continue;
+      if (g.raster && perPixel < 1 && !(f && i === 0)) {
+        g.raster.draw(ctx, this.view, [0, 0, 1]);
+        continue;
+      }
       if (f && i === 0) {
         TJ.tracePolylines(ctx, this.view, this.timeline.pool, f.edges);
       } else {
