@@ -9,7 +9,7 @@ import re
 import networkx as nx
 import numpy as np
 import pytest
-from view_cases import intel_replay, intel_result, payload_of, unpacked
+from view_cases import intel_replay, intel_result, office_route_graph, payload_of, unpacked
 
 import topojax as tj
 from topojax.cli import main
@@ -87,6 +87,21 @@ def test_a_pruning_result_labels_its_graph(res):
     cfg = tj.PipelineConfig(graph=tj.GraphConfig(min_spur_m=0.5))
     pruned = tj.build_graph(res.map, config=cfg)
     assert payload_of(view_html(pruned))["graphs"][0]["label"] == "pruned graph"
+
+
+def test_rooms_alone_and_a_route_graph_with_its_map():
+    occupancy, routes = office_route_graph()
+    data = payload_of(view_html(routes, map=occupancy))
+    (g,) = data["graphs"]
+    assert g["label"] == "route graph" and g["routable"]
+    assert g["n_edges"] == routes.number_of_edges()
+    assert [r["name"] for r in data["rasters"]] == ["map"]
+    seg = tj.segment_rooms(occupancy)
+    data = payload_of(view_html(seg))
+    assert data["graphs"] == [] and len(data["rooms"]["rooms"]) == seg.n_rooms
+    room = data["rooms"]["rooms"][0]
+    assert room["area_m2"] == seg.rooms[0].area_m2
+    assert np.allclose(np.reshape(room["polygon"], (-1, 2)), seg.rooms[0].polygon, atol=1e-4)
 
 
 def test_a_graph_without_paths_is_drawn_but_not_routed():
@@ -265,3 +280,12 @@ def test_view_command_on_a_map_too_large(tmp_path, capsys):
         main(["view", str(tmp_path), "--max-pixels", "1000000", "--window", "0", "0", "9", "9"])
         == 0
     )
+
+
+def test_view_command_leaves_out_a_map_not_on_the_graphs_grid(tmp_path, capsys):
+    tj.save_graph(intel_result().graph, tmp_path / "intel.json")
+    tj.save_map(tj.sample_map("office"), tmp_path / "intel.yaml")
+    assert main(["view", str(tmp_path)]) == 0
+    assert "is not the graph's" in capsys.readouterr().out
+    data = payload_of((tmp_path / "view.html").read_text())
+    assert data["rasters"] == [] and data["graphs"][0]["n_edges"] > 0

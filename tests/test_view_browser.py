@@ -19,7 +19,7 @@ import time
 import cv2
 import numpy as np
 import pytest
-from view_cases import intel_replay, intel_result
+from view_cases import intel_replay, intel_result, office_route_graph
 
 import topojax as tj
 
@@ -271,6 +271,28 @@ def test_routes_in_the_page_equal_plan_route(browser, res, tmp_path):
     assert checked >= 12 and failed >= 1  # both outcomes agree
     far = _js(browser, "topojaxView.route(-100, -100, 10, 10, 'graph')")
     assert "more than the 5 m a route may snap" in far["error"]
+
+
+def test_routes_on_a_route_graph_equal_plan_route(browser, tmp_path):
+    occupancy, routes = office_route_graph()
+    page = tj.write_view(routes, tmp_path / "route_graph.html", map=occupancy)
+    assert _open(browser, page) == "ready"
+    rng = np.random.default_rng(3)
+    planner = tj.RoutePlanner(routes)
+    points = np.concatenate([np.asarray(w) for *_, w in routes.edges(data="world")])
+    checked = 0
+    for _ in range(10):
+        a, b = points[rng.integers(len(points), size=2)] + rng.uniform(-0.5, 0.5, (2, 2))
+        a, b = tuple(map(float, a)), tuple(map(float, b))
+        got = _js(browser, "topojaxView.route(...arguments)", *a, *b, "graph")
+        try:
+            want = planner.route(a, b)
+        except (ValueError, tj.NoRouteError):
+            assert "error" in got
+            continue
+        assert abs(got["length_m"] - want.length_m) < 1e-3, (a, b)
+        checked += 1
+    assert checked >= 5
 
 
 def test_pan_zoom_and_scale_bar(intel):

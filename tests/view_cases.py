@@ -23,6 +23,13 @@ def intel_result():
 
 
 @lru_cache(maxsize=1)
+def office_route_graph():
+    """The bundled office map and its route graph (straight shortcuts included)."""
+    occupancy = tj.sample_map("office")
+    return occupancy, tj.route_graph(occupancy)
+
+
+@lru_cache(maxsize=1)
 def intel_replay():
     """The first 40 scans of the Intel log through a mapper that updates its graph (and
     rooms) every 10 scans, recorded by a Timeline; with the set of edge keys of the

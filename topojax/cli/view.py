@@ -161,7 +161,6 @@ def _load_map(result: _Result, graph):
     """The result's map when it is there and on the graph's grid; else None (a note
     says why)."""
     from ..maps import load_map
-    from ..view._graphs import graph_frame
 
     if result.map is None:
         result.notes.append("the map it was made from is not recorded: graph only")
@@ -174,19 +173,26 @@ def _load_map(result: _Result, graph):
     except (ValueError, OSError) as exc:
         result.notes.append(f"its map {result.map} cannot be read ({exc}): graph only")
         return None
-    frame = graph_frame(graph) if graph is not None else None
-    if frame is not None and (
-        frame.height,
-        frame.width,
-        frame.resolution_m,
-    ) != (*occupancy.shape, occupancy.resolution_m):
+    grid = _graph_grid(graph)
+    if grid is not None and grid != (*occupancy.shape, occupancy.resolution_m):
         result.notes.append(
             f"its map {result.map} ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
-            f"{occupancy.resolution_m:g} m/px) is not the graph's ({frame.height} x "
-            f"{frame.width} px, {frame.resolution_m:g} m/px): graph only"
+            f"{occupancy.resolution_m:g} m/px) is not the graph's ({grid[0]} x {grid[1]} px, "
+            f"{grid[2]:g} m/px): graph only"
         )
         return None
     return occupancy
+
+
+def _graph_grid(graph) -> tuple[int, int, float] | None:
+    """``(H, W, resolution_m)`` a graph records (``shape``, ``resolution_m``), or None."""
+    if graph is None:
+        return None
+    try:
+        h, w = (int(v) for v in graph.graph["shape"])
+        return h, w, float(graph.graph["resolution_m"])
+    except (KeyError, TypeError, ValueError):
+        return None
 
 
 def _write_one(result: _Result, target: Path, args) -> str:
