@@ -253,6 +253,7 @@ TJ.frameNo = 0;
     v.w = Math.max(1, rect.width); v.h = Math.max(1, rect.height); v.dpr = dpr;
     this.canvas.width = Math.round(v.w * dpr);
     this.canvas.height = Math.round(v.h * dpr);
+    if (!this.moved && this.fitZ !== undefined) { this.fit(); return; } // e.g. shown after a hidden start
     if (cw) { v.tx += (v.w - cw) / 2; v.ty += (v.h - ch) / 2; }
     this.requestDraw();
   };
@@ -263,6 +264,7 @@ TJ.frameNo = 0;
     v.tx = (v.w - f.width * z) / 2;
     v.ty = (v.h - f.height * z) / 2;
     this.fitZ = z;
+    this.moved = false;
     this.requestDraw();
   };
   Viewer.prototype.zoomAt = function (factor, sx, sy) {
@@ -272,10 +274,12 @@ TJ.frameNo = 0;
     v.tx = sx - (sx - v.tx) * k;
     v.ty = sy - (sy - v.ty) * k;
     v.z = z;
+    this.moved = true;
     this.requestDraw();
   };
   Viewer.prototype.panBy = function (dx, dy) {
     this.view.tx += dx; this.view.ty += dy;
+    this.moved = true;
     this.requestDraw();
   };
   Viewer.prototype.worldToScreen = function (x, y) {
