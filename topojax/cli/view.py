@@ -204,7 +204,10 @@ def _write_one(result: _Result, target: Path, args) -> str:
     try:
         write_view(obj, target, window=args.window, max_pixels=args.max_pixels, **kwargs)
     except ValueError as exc:
-        raise ValueError(f"{result.graph or result.rooms}: {exc}") from None
+        hint = ""
+        if "max_pixels=" in str(exc):
+            hint = " (here: --window X_MIN Y_MIN X_MAX Y_MAX, --max-pixels N)"
+        raise ValueError(f"{result.graph or result.rooms}: {exc}{hint}") from None
     parts = [f"{target} ({target.stat().st_size / 1e6:.2f} MB)"]
     if result.graph is not None:
         parts.append(f"graph {result.graph.name}")

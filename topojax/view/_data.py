@@ -207,10 +207,13 @@ def _map_frame(occupancy) -> Frame:
 def _check_size(frame: Frame, max_pixels: int) -> None:
     n = frame.height * frame.width
     if n > max_pixels:
+        h, w = frame.height, frame.width
+        x, y = frame.pixel_to_world([-0.5, -0.5, h - 0.5, h - 0.5], [-0.5, w - 0.5, -0.5, w - 0.5])
         raise ValueError(
-            f"map: {frame.height} x {frame.width} pixels ({n / 1e6:.1f} Mpx) is more than "
-            f"max_pixels={max_pixels} ({max_pixels / 1e6:g} Mpx), the most a view ships to a "
-            "browser; view a window of it (window=(x_min, y_min, x_max, y_max) in metres) "
+            f"map: {h} x {w} pixels ({n / 1e6:.1f} Mpx) is more than max_pixels={max_pixels} "
+            f"({max_pixels / 1e6:g} Mpx), the most a view ships to a browser; view a window "
+            "of it (window=(x_min, y_min, x_max, y_max) in metres; the map spans x "
+            f"{np.min(x):.2f} to {np.max(x):.2f} m, y {np.min(y):.2f} to {np.max(y):.2f} m) "
             "or pass a larger max_pixels"
         )
 
