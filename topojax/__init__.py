@@ -93,6 +93,7 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
     from .routing import NoRouteError, Route, RoutePlanner, plan_route
     from .scans import Scan, read_bag, read_carmen, read_scans
     from .skeleton import remove_t_centres, thin
+    from .view import Timeline, View, show, write_view
 
 __all__ = [
     "DistanceConfig",
@@ -116,7 +117,9 @@ __all__ = [
     "Scan",
     "ScanReport",
     "SkeletonConfig",
+    "Timeline",
     "TopologyResult",
+    "View",
     "assign_rooms",
     "build_graph",
     "build_graphs",
@@ -147,9 +150,11 @@ __all__ = [
     "save_room_labels",
     "save_rooms",
     "segment_rooms",
+    "show",
     "skeleton_to_graph",
     "thin",
     "vertex_error_metrics",
+    "write_view",
 ]
 
 #: The same as ``version`` in pyproject.toml.
@@ -212,6 +217,10 @@ _LAZY = {
     "vertex_error_metrics": "incremental",
     "build_graphs": "batch",
     "MapRecord": "batch",
+    "Timeline": "view",
+    "View": "view",
+    "show": "view",
+    "write_view": "view",
 }
 
 #: Submodules reachable as attributes (``topojax.pipeline``) before they are imported,
@@ -234,6 +243,7 @@ _SUBMODULES = frozenset(
         "routing",
         "scans",
         "skeleton",
+        "view",
     )
 )
 

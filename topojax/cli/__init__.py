@@ -1,5 +1,6 @@
 """Command line: ``topojax graph``, ``topojax demo``, ``topojax route``,
-``topojax route-graph``, ``topojax rooms``, ``topojax replay``, ``topojax batch``."""
+``topojax route-graph``, ``topojax rooms``, ``topojax replay``, ``topojax batch``,
+``topojax view``."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import os
 import sys
 
 from .. import __version__
-from . import batch, replay, rooms, route_graph
+from . import batch, replay, rooms, route_graph, view
 from ._options import (
     add_map_options,
     add_nav2_options,
@@ -118,6 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
     rooms.add_command(sub)
     replay.add_command(sub)
     batch.add_command(sub)
+    view.add_command(sub)
     return parser
 
 

@@ -1,0 +1,291 @@
+"""The viewer page as written (without a browser): what it carries, what it refuses, the
+timeline file and ``topojax view`` on folders of results.  ``test_view_browser.py``
+opens the pages in a real browser."""
+
+from __future__ import annotations
+
+import re
+
+import networkx as nx
+import numpy as np
+import pytest
+from view_cases import intel_replay, intel_result, office_route_graph, payload_of, unpacked
+
+import topojax as tj
+from topojax.cli import main
+from topojax.view import View, view_html
+
+
+@pytest.fixture(scope="module")
+def res():
+    return intel_result()
+
+
+def test_page_is_self_contained(res, tmp_path):
+    path = tj.write_view(res, tmp_path / "v.html")
+    text = path.read_text(encoding="utf-8")
+    assert text.startswith("<!DOCTYPE html>")
+    # nothing is fetched: no external script, style, image or font
+    assert not re.search(r"""(src|href)\s*=\s*["']?(https?:)?//""", text)
+    assert "@import" not in text and "url(http" not in text
+    assert text.count("<script") == 2  # the data and the viewer's own script
+    assert "TJ.Router" in text and "DecompressionStream" in text
+
+
+def test_payload_has_the_layers_and_the_graph(res):
+    data = payload_of(view_html(res))
+    assert [r["name"] for r in data["rasters"]] == ["map", "distance", "ridges", "skeleton"]
+    h, w = res.map.shape
+    assert data["frame"] == {
+        "height": h,
+        "width": w,
+        "res": res.map.resolution_m,
+        "origin": list(res.map.origin),
+    }
+    (g,) = data["graphs"]
+    assert (g["n_vertices"], g["n_edges"]) == (
+        res.graph.number_of_nodes(),
+        res.graph.number_of_edges(),
+    )
+    assert g["routable"] and g["label"] == "graph"
+    nodes = list(res.graph.nodes(data=True))
+    assert np.array_equal(unpacked(g["vx"]), [d["world"][0] for _, d in nodes])
+    clear = unpacked(g["clear"])
+    assert np.allclose(clear, [d["clearance_m"] for _, d in nodes], rtol=1e-6)
+    # the paths as pixel steps: their running sums are the edges' paths
+    steps = unpacked(g["edges"]["rc"]).reshape(-1, 2)
+    pixels = np.cumsum(steps, axis=0)
+    want = np.concatenate([np.asarray(p) for *_, p in res.graph.edges(data="path")])
+    assert np.array_equal(pixels, want)
+    assert "xy" not in g["edges"]  # world = the map's pixel_to_world of the paths
+
+
+def test_map_pyramid_ends_in_one_tile(res):
+    data = payload_of(view_html(res))
+    levels = data["rasters"][0]["levels"]
+    assert levels[0]["step"] == 1 and (levels[0]["width"], levels[0]["height"]) == (
+        res.map.shape[1],
+        res.map.shape[0],
+    )
+    assert [lv["step"] for lv in levels] == [2**k for k in range(len(levels))]
+    assert len(levels[-1]["tiles"]) == 1 and max(levels[-1]["width"], levels[-1]["height"]) <= 512
+
+
+def test_extra_graphs_rooms_and_route(res):
+    pruned = tj.prune_graph(res.graph, min_clearance_m=0.3, min_spur_m=0.5)
+    route = tj.plan_route(pruned, (5.0, 30.0), (33.0, 5.0), max_snap_m=2.0)
+    seg = tj.segment_rooms(res)
+    data = payload_of(view_html(res, graphs={"pruned": pruned}, rooms=seg, route=route))
+    assert [g["label"] for g in data["graphs"]] == ["graph", "pruned"]
+    assert len(data["rooms"]["rooms"]) == seg.n_rooms and len(data["rooms"]["doors"]) == len(
+        seg.doors
+    )
+    assert data["route"]["length_m"] == route.length_m
+
+
+def test_a_pruning_result_labels_its_graph(res):
+    cfg = tj.PipelineConfig(graph=tj.GraphConfig(min_spur_m=0.5))
+    pruned = tj.build_graph(res.map, config=cfg)
+    assert payload_of(view_html(pruned))["graphs"][0]["label"] == "pruned graph"
+
+
+def test_rooms_alone_and_a_route_graph_with_its_map():
+    occupancy, routes = office_route_graph()
+    data = payload_of(view_html(routes, map=occupancy))
+    (g,) = data["graphs"]
+    assert g["label"] == "route graph" and g["routable"]
+    assert g["n_edges"] == routes.number_of_edges()
+    assert [r["name"] for r in data["rasters"]] == ["map"]
+    seg = tj.segment_rooms(occupancy)
+    data = payload_of(view_html(seg))
+    assert data["graphs"] == [] and len(data["rooms"]["rooms"]) == seg.n_rooms
+    room = data["rooms"]["rooms"][0]
+    assert room["area_m2"] == seg.rooms[0].area_m2
+    assert np.allclose(np.reshape(room["polygon"], (-1, 2)), seg.rooms[0].polygon, atol=1e-4)
+
+
+def test_a_graph_without_paths_is_drawn_but_not_routed():
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0), kind="end")
+    g.add_node(1, world=(1.0, 0.0), kind="end")
+    g.add_edge(0, 1, world=np.array([[0.0, 0.0], [1.0, 0.0]]))
+    (payload,) = payload_of(view_html(g))["graphs"]
+    assert not payload["routable"] and "path" in payload["why_not_routable"]
+    assert "no map" in " ".join(payload_of(view_html(g))["notes"])
+
+
+def test_bad_arguments_name_themselves(res, tmp_path):
+    with pytest.raises(TypeError, match="obj: expected a TopologyResult"):
+        tj.write_view(42, tmp_path / "v.html")
+    with pytest.raises(TypeError, match="graphs: expected a dict"):
+        tj.write_view(res, tmp_path / "v.html", graphs=[res.graph])
+    with pytest.raises(TypeError, match="route: expected a topojax.Route"):
+        tj.write_view(res, tmp_path / "v.html", route="a")
+    with pytest.raises(TypeError, match="path: expected a file path"):
+        tj.write_view(res, None)
+    with pytest.raises(ValueError, match="nothing to show"):
+        tj.write_view(nx.MultiGraph(), tmp_path / "v.html")
+    assert not (tmp_path / "v.html").exists()
+
+
+def test_a_map_too_large_is_refused_with_the_limit_and_a_way_out(res, tmp_path):
+    h, w = res.map.shape
+    with pytest.raises(ValueError, match=rf"{h} x {w} pixels .* max_pixels=100000 .*window="):
+        tj.write_view(res, tmp_path / "v.html", max_pixels=100_000)
+    # a window of it fits
+    x0, y0 = res.map.pixel_to_world(h - 1, 0)
+    path = tj.write_view(
+        res, tmp_path / "v.html", max_pixels=100_000, window=(x0, y0, x0 + 10.0, y0 + 8.0)
+    )
+    data = payload_of(path.read_text())
+    assert (data["frame"]["height"], data["frame"]["width"]) == (161, 201)
+    (g,) = data["graphs"]
+    assert 0 < g["n_edges"] < res.graph.number_of_edges()
+    assert g["routable"] and "xy" not in g["edges"]  # still on the (window's) grid
+    assert any("window" in n for n in data["notes"])
+
+
+@pytest.mark.parametrize(
+    ("window", "error", "match"),
+    [
+        ((1, 2, 3), ValueError, "four finite numbers"),
+        ((5, 0, 1, 1), ValueError, "x_min < x_max"),
+        ("abcd", TypeError, "window: expected"),
+        ((-100, -100, -90, -90), ValueError, "less than 2 x 2 pixels"),
+    ],
+)
+def test_bad_windows(res, window, error, match):
+    with pytest.raises(error, match=match):
+        view_html(res, window=window)
+
+
+def test_show_is_an_inline_frame(res):
+    view = tj.show(res, height_px=420)
+    assert isinstance(view, View)
+    out = view._repr_html_()
+    assert out.startswith("<iframe srcdoc=") and "height: 420px" in out
+    assert "<script" not in out  # the page sits escaped inside srcdoc
+    assert view.html.startswith("<!DOCTYPE html>")
+
+
+def test_timeline_keeps_every_update_and_round_trips(tmp_path):
+    mapper, timeline, keys = intel_replay()
+    assert timeline.n_frames == len(keys) == 4
+    data = timeline.payload()
+    frames = data["frames"]
+    sizes = unpacked(data["pool"]["sizes"])
+    assert len(sizes) == len(set().union(*keys))  # each edge once
+    before: set = set()
+    pool_keys = {}
+    for frame, now in zip(frames, keys, strict=True):
+        added, removed = unpacked(frame["added"]), unpacked(frame["removed"])
+        assert len(unpacked(frame["edges"])) == len(now)
+        assert len(added) == len(now - before) and len(removed) == len(before - now)
+        for k, i in zip(sorted(now - before), sorted(added), strict=True):
+            pool_keys[i] = k
+        before = now
+    assert [f["scan"] for f in frames] == [9, 19, 29, 39]
+    assert len(unpacked(data["path"]["x"])) == 40
+    assert frames[-1]["rooms"] >= 0 and data["rooms"][frames[-1]["rooms"]]
+    path = timeline.save(tmp_path / "timeline.json.gz")
+    back = tj.Timeline.load(path)
+    assert back.n_frames == 4 and back.payload() == timeline.payload()
+    with pytest.raises(ValueError, match="loaded from a file"):
+        back.snapshot(mapper)
+
+
+def test_a_corrupt_timeline_file_says_so(tmp_path):
+    bad = tmp_path / "timeline.json.gz"
+    bad.write_bytes(b"not gzip")
+    with pytest.raises(ValueError, match="not a gzip-compressed JSON"):
+        tj.Timeline.load(bad)
+    with pytest.raises(FileNotFoundError):
+        tj.Timeline.load(tmp_path / "missing.json.gz")
+    with pytest.raises(ValueError, match="holds no graph update"):
+        view_html(intel_result(), timeline=tj.Timeline())
+
+
+def test_mapper_view_has_its_rooms_and_timeline():
+    mapper, timeline, _ = intel_replay()
+    data = payload_of(view_html(mapper, timeline=timeline))
+    assert data["rooms"] is not None  # the mapper keeps rooms (rooms_every)
+    assert len(data["timeline"]["frames"]) == 4
+    assert data["graphs"][0]["n_edges"] == mapper.graph.number_of_edges()
+
+
+# ---------------------------------------------------------------------------- the command
+def test_view_command_on_a_graph_folder(tmp_path, capsys):
+    png = tj.datasets.sample_map_path("office")
+    out = tmp_path / "out"
+    assert main(["graph", str(png), "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert f"{out / 'view.html'}" in text and "map " in text and "office.json" in text
+    data = payload_of((out / "view.html").read_text())
+    assert data["rasters"][0]["name"] == "map"
+    assert data["graphs"][0]["n_edges"] > 0
+    assert main(["view", str(out)]) == 0  # again: its own file is replaced
+
+
+def test_view_command_on_a_replay_folder_with_a_timeline(tmp_path, capsys):
+    mapper, timeline, _ = intel_replay()
+    out = tmp_path / "rep"
+    out.mkdir()
+    result = mapper.to_result(update=False)
+    tj.save_graph(result.graph, out / "graph.json")
+    tj.save_map(result.map, out / "map.yaml")
+    tj.save_rooms(mapper.rooms, out / "map_rooms.geojson")
+    timeline.save(out / "timeline.json.gz")
+    assert main(["view", str(out)]) == 0
+    assert "timeline.json.gz" in capsys.readouterr().out
+    data = payload_of((out / "view.html").read_text())
+    assert len(data["timeline"]["frames"]) == 4
+    assert data["rooms"]["rooms"] and data["rasters"][0]["name"] == "map"
+
+
+def test_view_command_with_several_results_writes_an_index(tmp_path, capsys):
+    res = intel_result()
+    for stem in ("a", "b"):
+        tj.save_graph(res.graph, tmp_path / f"{stem}.json")
+    assert main(["view", str(tmp_path)]) == 0
+    index = (tmp_path / "view.html").read_text()
+    assert 'href="a_view.html"' in index and 'href="b_view.html"' in index
+    data = payload_of((tmp_path / "a_view.html").read_text())
+    assert data["rasters"] == [] and any("no map" in n for n in data["notes"])
+    assert "not recorded" in capsys.readouterr().out
+
+
+def test_view_command_errors(tmp_path, capsys):
+    assert main(["view", str(tmp_path / "missing")]) == 2
+    assert "OUT_DIR: expected a folder of results" in capsys.readouterr().err
+    (tmp_path / "notes.txt").write_text("hello")
+    assert main(["view", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "no results in" in err and "notes.txt" in err
+    (tmp_path / "graph.json").write_text('{"directed": false, "nodes": [')
+    assert main(["view", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "graph.json" in err
+    assert not (tmp_path / "view.html").exists()
+
+
+def test_view_command_on_a_map_too_large(tmp_path, capsys):
+    res = intel_result()
+    tj.save_graph(res.graph, tmp_path / "intel.json")
+    tj.save_map(res.map, tmp_path / "intel.yaml")
+    assert main(["view", str(tmp_path), "--max-pixels", "1000"]) == 2
+    assert "max_pixels=1000" in capsys.readouterr().err
+    assert (
+        main(["view", str(tmp_path), "--max-pixels", "1000000", "--window", "0", "0", "9", "9"])
+        == 0
+    )
+
+
+def test_view_command_leaves_out_a_map_not_on_the_graphs_grid(tmp_path, capsys):
+    tj.save_graph(intel_result().graph, tmp_path / "intel.json")
+    tj.save_map(tj.sample_map("office"), tmp_path / "intel.yaml")
+    assert main(["view", str(tmp_path)]) == 0
+    assert "is not the graph's" in capsys.readouterr().out
+    data = payload_of((tmp_path / "view.html").read_text())
+    assert data["rasters"] == [] and data["graphs"][0]["n_edges"] > 0

@@ -1,0 +1,372 @@
+"""The viewer in a real browser: headless Chromium, driven by Selenium, opens the pages
+that :func:`topojax.write_view` wrote, from disk, and the tests look at what it drew
+(pixels of a screenshot), hover and click with the mouse, switch layers and step the
+timeline.  Routes planned in the page must have :func:`topojax.plan_route`'s length to
+1 mm.
+
+Needs ``chromium`` and ``chromedriver`` on the PATH (Debian: ``apt-get install chromium
+chromium-driver``) and ``pip install selenium``; without them the tests are skipped,
+except in CI (``CI=true``), where they fail.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import time
+
+import cv2
+import numpy as np
+import pytest
+from view_cases import intel_replay, intel_result, office_route_graph
+
+import topojax as tj
+
+IN_CI = os.environ.get("CI", "").lower() in ("1", "true", "yes")
+
+ORANGE = (230, 85, 13)  # the first graph
+BLUE_SKELETON = (40, 90, 255)
+BACKGROUND = (236, 239, 241)
+
+
+def _missing() -> str | None:
+    try:
+        import selenium  # noqa: F401
+    except ImportError:
+        return "selenium is not installed (pip install selenium)"
+    if _chromium() is None:
+        return "no chromium / chromium-browser / google-chrome on the PATH"
+    if shutil.which("chromedriver") is None:
+        return "no chromedriver on the PATH (Debian: apt-get install chromium-driver)"
+    return None
+
+
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+@pytest.fixture(scope="module")
+def browser():
+    reason = _missing()
+    if reason is not None:
+        if IN_CI:
+            pytest.fail(f"the browser tests must run in CI: {reason}")
+        pytest.skip(reason)
+    from selenium import webdriver
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    options = Options()
+    options.binary_location = _chromium()
+    for arg in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-dev-shm-usage",
+        "--disable-gpu",
+        "--window-size=1200,800",
+        "--force-device-scale-factor=1",
+    ):
+        options.add_argument(arg)
+    driver = webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=options)
+    driver.set_script_timeout(60)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+def _open(driver, path) -> str:
+    driver.get(path.resolve().as_uri())
+    state = None
+    for _ in range(1200):  # up to a minute on a busy machine
+        state = driver.execute_script("return window.topojaxView && window.topojaxView.state")
+        if state in ("ready", "error"):
+            break
+        time.sleep(0.05)
+    return state
+
+
+def _js(driver, code: str, *args):
+    return driver.execute_script(f"return {code}", *args)
+
+
+def _canvas_rgb(driver) -> np.ndarray:
+    """The canvas as drawn: RGB (H, W, 3) uint8."""
+    rect = _js(driver, "document.getElementById('tj-canvas').getBoundingClientRect().toJSON()")
+    png = np.frombuffer(driver.get_screenshot_as_png(), np.uint8)
+    img = cv2.imdecode(png, cv2.IMREAD_COLOR)[:, :, ::-1]
+    x, y = int(rect["left"]), int(rect["top"])
+    return img[y : y + int(rect["height"]), x : x + int(rect["width"])]
+
+
+def _count(img: np.ndarray, rgb, tol: int = 30) -> int:
+    return int(np.all(np.abs(img.astype(int) - rgb) <= tol, axis=2).sum())
+
+
+def _move(driver, sx: float, sy: float, click: bool = False) -> None:
+    """Move the mouse to canvas point (sx, sy) (CSS pixels from its top-left)."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    canvas = driver.find_element(By.ID, "tj-canvas")
+    w, h = canvas.size["width"], canvas.size["height"]
+    chain = ActionChains(driver).move_to_element_with_offset(
+        canvas, int(round(sx - w / 2)), int(round(sy - h / 2))
+    )
+    if click:
+        chain = chain.click()
+    chain.perform()
+
+
+@pytest.fixture(scope="module")
+def res():
+    return intel_result()
+
+
+@pytest.fixture(scope="module")
+def intel_page(res, tmp_path_factory):
+    return tj.write_view(res, tmp_path_factory.mktemp("view") / "intel.html")
+
+
+@pytest.fixture()
+def intel(browser, intel_page):
+    assert _open(browser, intel_page) == "ready", _js(browser, "topojaxView.error")
+    return browser
+
+
+def test_map_and_graph_are_drawn_without_network(intel):
+    img = _canvas_rgb(intel)
+    assert _count(img, ORANGE) > 2000  # the graph's edges
+    assert _count(img, (0, 0, 0), 40) > 2000  # the map's walls
+    assert _count(img, (254, 254, 254), 2) > 50_000  # its free space
+    fetched = _js(intel, "performance.getEntriesByType('resource').map(e => e.name)")
+    assert all(name.startswith(("data:", "blob:")) for name in fetched), fetched
+    assert _js(intel, "topojaxView.stats.first_draw_ms") > 0
+    assert _js(intel, "document.getElementById('tj-error').hidden")
+
+
+def test_layer_switches(intel):
+    from selenium.webdriver.common.by import By
+
+    before = _canvas_rgb(intel)
+    intel.find_element(By.ID, "tj-layer-graph").click()
+    no_graph = _canvas_rgb(intel)
+    assert _count(no_graph, ORANGE) == 0 < _count(before, ORANGE)
+    assert _count(no_graph, BLUE_SKELETON) < 50
+    intel.find_element(By.ID, "tj-layer-skeleton").click()
+    assert _count(_canvas_rgb(intel), BLUE_SKELETON) > 1000
+    intel.find_element(By.ID, "tj-layer-map").click()
+    no_map = _canvas_rgb(intel)
+    # left: the scale bar, the coordinates and the vertices (white outlines)
+    assert _count(no_map, (0, 0, 0), 40) < 0.1 * _count(before, (0, 0, 0), 40)
+    assert _count(no_map, (254, 254, 254), 2) < 0.05 * _count(before, (254, 254, 254), 2)
+    assert _count(no_map, BACKGROUND, 3) > 0.5 * no_map.shape[0] * no_map.shape[1]
+    layers = {layer["name"]: layer["on"] for layer in _js(intel, "topojaxView.layers()")}
+    assert layers["graph"] is False and layers["skeleton"] is True and layers["map"] is False
+
+
+def _lonely_junction(graph, min_gap_m: float):
+    """A junction whose nearest other vertex is at least ``min_gap_m`` away."""
+    nodes = list(graph.nodes(data=True))
+    xy = np.array([d["world"] for _, d in nodes])
+    for i, (n, d) in enumerate(nodes):
+        gap = np.hypot(*(xy - xy[i]).T)
+        gap[i] = np.inf
+        if d["kind"] == "junction" and gap.min() >= min_gap_m:
+            return n, d
+    raise AssertionError("no lonely junction")
+
+
+def test_hovering_a_vertex_shows_its_clearance(intel, res):
+    from selenium.webdriver.common.by import By
+
+    n, d = _lonely_junction(res.graph, 1.5)
+    sx, sy = _js(intel, "topojaxView.worldToScreen(arguments[0], arguments[1])", *d["world"])
+    _move(intel, sx, sy)
+    tip = intel.find_element(By.ID, "tj-tooltip")
+    assert tip.is_displayed()
+    text = tip.text
+    assert f"vertex {n} · junction" in text
+    assert f"clearance {d['clearance_m']:.3f} m" in text
+    assert f"x {d['world'][0]:.3f} m, y {d['world'][1]:.3f} m" in text
+    coords = intel.find_element(By.ID, "tj-coords").text
+    x, y = (float(v) for v in coords.replace("x", "").replace("m", "").split("y"))
+    assert math.hypot(x - d["world"][0], y - d["world"][1]) < 0.1  # a screen pixel or so
+
+
+def test_hovering_an_edge_and_a_room(browser, res, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    seg = tj.segment_rooms(res)
+    page = tj.write_view(res, tmp_path / "rooms.html", rooms=seg)
+    assert _open(browser, page) == "ready"
+    # the middle pixel of the longest edge
+    u, v, data = max(res.graph.edges(data=True), key=lambda e: e[2]["length_m"])
+    mid = data["world"][len(data["world"]) // 2]
+    _move(browser, *_js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", *mid))
+    text = browser.find_element(By.ID, "tj-tooltip").text
+    assert f"length {data['length_m']:.3f} m" in text
+    assert f"min {data['min_clearance_m']:.3f} m, mean {data['mean_clearance_m']:.3f} m" in text
+    # a room, with the graph off: the largest room at a free pixel of its own
+    browser.find_element(By.ID, "tj-layer-graph").click()
+    room = max(seg.rooms, key=lambda r: r.area_m2)
+    rows, cols = np.nonzero(seg.labels == room.id)
+    k = len(rows) // 2
+    point = res.map.pixel_to_world(rows[k], cols[k])
+    _move(browser, *_js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", *point))
+    text = browser.find_element(By.ID, "tj-tooltip").text
+    assert f"room {room.id}" in text and f"area {room.area_m2:.2f} m²" in text
+
+
+def test_clicking_two_points_shows_the_length_of_plan_route(intel, res):
+    from selenium.webdriver.common.by import By
+
+    for start, goal in (((5.0, 30.0), (33.0, 5.0)), ((12.3, 4.1), (20.7, 28.2))):
+        clicked = []
+        for point in (start, goal):
+            sx, sy = _js(intel, "topojaxView.worldToScreen(arguments[0], arguments[1])", *point)
+            _move(intel, sx, sy, click=True)
+            clicked.append(_js(intel, "topojaxView.routePoints().slice(-1)[0]"))
+        want = tj.plan_route(res.graph, clicked[0], clicked[1])
+        shown = intel.find_element(By.ID, "tj-route-length")
+        assert abs(float(shown.get_attribute("data-length-m")) - want.length_m) < 1e-3
+        assert shown.text == f"{want.length_m:.3f} m"
+        _js(intel, "topojaxView.clearRoute()")
+
+
+def test_routes_in_the_page_equal_plan_route(browser, res, tmp_path):
+    pruned = tj.prune_graph(res.graph, min_clearance_m=0.3, min_spur_m=0.5, min_component_m=2.0)
+    page = tj.write_view(res, tmp_path / "routes.html", graphs={"pruned": pruned})
+    assert _open(browser, page) == "ready"
+    rng = np.random.default_rng(7)
+    h, w = res.map.shape
+    corners = np.array(res.map.pixel_to_world([h - 1, 0], [0, w - 1])).T  # (x, y) lo, hi
+    checked = failed = 0
+    for name, graph in (("graph", res.graph), ("g1", pruned)):
+        planner = tj.RoutePlanner(graph)
+        pixels = np.concatenate([np.asarray(p) for *_, p in graph.edges(data="world")])
+        for i in range(16):
+            if i < 12:  # near the corridors, up to a metre off
+                a, b = pixels[rng.integers(len(pixels), size=2)] + rng.uniform(-1, 1, (2, 2))
+            else:  # anywhere on the map: some are too far from the graph
+                a, b = rng.uniform(corners[0], corners[1], (2, 2))
+            a, b = tuple(map(float, a)), tuple(map(float, b))
+            got = _js(browser, "topojaxView.route(...arguments)", *a, *b, name)
+            try:
+                want = planner.route(a, b)
+            except (ValueError, tj.NoRouteError) as exc:
+                assert "error" in got, (a, b, exc)
+                failed += 1
+                continue
+            assert "error" not in got, (a, b, got)
+            assert abs(got["length_m"] - want.length_m) < 1e-3, (a, b)
+            assert abs(got["start_snap_m"] - want.start_snap_m) < 1e-6
+            assert abs(got["goal_snap_m"] - want.goal_snap_m) < 1e-6
+            checked += 1
+    assert checked >= 12 and failed >= 1  # both outcomes agree
+    far = _js(browser, "topojaxView.route(-100, -100, 10, 10, 'graph')")
+    assert "more than the 5 m a route may snap" in far["error"]
+
+
+def test_routes_on_a_route_graph_equal_plan_route(browser, tmp_path):
+    occupancy, routes = office_route_graph()
+    page = tj.write_view(routes, tmp_path / "route_graph.html", map=occupancy)
+    assert _open(browser, page) == "ready"
+    rng = np.random.default_rng(3)
+    planner = tj.RoutePlanner(routes)
+    points = np.concatenate([np.asarray(w) for *_, w in routes.edges(data="world")])
+    checked = 0
+    for _ in range(10):
+        a, b = points[rng.integers(len(points), size=2)] + rng.uniform(-0.5, 0.5, (2, 2))
+        a, b = tuple(map(float, a)), tuple(map(float, b))
+        got = _js(browser, "topojaxView.route(...arguments)", *a, *b, "graph")
+        try:
+            want = planner.route(a, b)
+        except (ValueError, tj.NoRouteError):
+            assert "error" in got
+            continue
+        assert abs(got["length_m"] - want.length_m) < 1e-3, (a, b)
+        checked += 1
+    assert checked >= 5
+
+
+def test_pan_zoom_and_scale_bar(intel):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+    from selenium.webdriver.common.by import By
+
+    canvas = intel.find_element(By.ID, "tj-canvas")
+    before = _js(intel, "topojaxView.view()")
+    label = intel.find_element(By.ID, "tj-scale-label").text
+    ActionChains(intel).scroll_from_origin(ScrollOrigin.from_element(canvas), 0, -600).perform()
+    time.sleep(0.2)
+    zoomed = _js(intel, "topojaxView.view()")
+    assert zoomed["z"] > 2 * before["z"]
+    assert intel.find_element(By.ID, "tj-scale-label").text != label
+    # the bar's length in pixels is its length in metres at the view's scale
+    scale = zoomed["scale"]
+    assert math.isclose(scale["pixels"], scale["metres"] / (0.05 / zoomed["z"]), rel_tol=1e-9)
+    ActionChains(intel).move_to_element(canvas).click_and_hold().move_by_offset(
+        80, 30
+    ).release().perform()
+    moved = _js(intel, "topojaxView.view()")
+    assert abs(moved["tx"] - zoomed["tx"] - 80) < 6 and abs(moved["ty"] - zoomed["ty"] - 30) < 6
+    assert _js(intel, "topojaxView.routePoints().length") == 0  # a drag is not a click
+
+
+def test_the_timeline_steps(browser, tmp_path):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    mapper, timeline, keys = intel_replay()
+    page = tj.write_view(mapper, tmp_path / "replay.html", timeline=timeline)
+    assert _open(browser, page) == "ready"
+    assert _js(browser, "topojaxView.nFrames()") == 4
+    assert _js(browser, "topojaxView.frameInfo()")["final"]
+    final_img = _canvas_rgb(browser)
+    slider = browser.find_element(By.ID, "tj-slider")
+    label = browser.find_element(By.ID, "tj-frame")
+    seen = []
+    for _ in range(4):
+        slider.send_keys(Keys.ARROW_LEFT)
+        seen.append(_js(browser, "topojaxView.frameInfo()"))
+    assert [f["index"] for f in seen] == [3, 2, 1, 0]
+    first = seen[-1]
+    assert first["edges"] == len(keys[0]) and first["added"] == len(keys[0])
+    assert "update 1 of 4, scan 10" in label.text
+    first_img = _canvas_rgb(browser)
+    assert _count(first_img, ORANGE) < _count(final_img, ORANGE)
+    assert _count(first_img, (27, 158, 62)) > 200  # the edges the update added
+    slider.send_keys(Keys.ARROW_RIGHT)
+    second = _js(browser, "topojaxView.frameInfo()")
+    assert second["added"] == len(keys[1] - keys[0])
+    assert second["removed"] == len(keys[0] - keys[1])
+    assert f"−{second['removed']}" in label.text
+    browser.find_element(By.ID, "tj-play").click()
+    for _ in range(200):
+        if _js(browser, "topojaxView.frameInfo()")["index"] > 1:
+            break
+        time.sleep(0.05)
+    assert _js(browser, "topojaxView.frameInfo()")["index"] > 1
+
+
+def test_a_broken_page_says_so(browser, intel_page, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    text = intel_page.read_text()
+    wrong = tmp_path / "version.html"
+    wrong.write_text(text.replace('{"version":1,', '{"version":99,', 1))
+    assert _open(browser, wrong) == "error"
+    banner = browser.find_element(By.ID, "tj-error")
+    assert banner.is_displayed() and "version 99" in banner.text
+    corrupt = tmp_path / "corrupt.html"
+    start = text.index('"vx":{"t":"f8","n":')
+    z = text.index('"z":"', start) + 5
+    corrupt.write_text(text[:z] + "AAAA" + text[z + 4 :])
+    assert _open(browser, corrupt) == "error"
+    assert "cannot be shown" in browser.find_element(By.ID, "tj-error").text

@@ -1,0 +1,293 @@
+"""``topojax view``: the interactive HTML view of a folder of results.
+
+The folder is one that ``topojax graph``, ``demo``, ``rooms``, ``route-graph``,
+``replay`` or ``batch`` wrote into.  Each result is found by the names those commands
+write: a graph ``STEM.json`` (or ``.graphml``, ``.geojson``), its map (the input the
+folder's ``.topojax-outputs.json`` records, ``map.yaml`` of a replay, the map a batch
+manifest names), rooms ``STEM_rooms.geojson`` (``map_rooms.geojson`` of a replay), a route
+graph ``STEM_route.json`` (``route_graph.json`` of a replay) and a replay's
+``timeline.json.gz``.  One result gives ``view.html``; several give one page each,
+``STEM_view.html``, and ``view.html`` lists them.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ._outputs import RECORD_NAME, check_outputs, planned, record_outputs
+
+__all__ = ["add_command", "find_results"]
+
+#: Graph file suffixes in the order a result's graph is read.
+_GRAPH_SUFFIXES = (".json", ".graphml", ".geojson")
+#: Names (endings) of files that are not topology graphs.
+_NOT_GRAPHS = (
+    ".manifest.json",
+    "_rooms.json",
+    "_rooms.graphml",
+    "_rooms.geojson",
+    "_nav2.geojson",
+    "_summary.json",
+    "_route_report.json",
+    "timings.json",
+    RECORD_NAME,
+)
+_TIMELINE = "timeline.json.gz"
+
+
+@dataclass
+class _Result:
+    """One result of a folder: its graph file and what goes with it."""
+
+    stem: str
+    graph: Path | None = None
+    map: Path | None = None
+    map_kwargs: dict = field(default_factory=dict)
+    rooms: Path | None = None
+    route_graph: Path | None = None
+    timeline: Path | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def _record(folder: Path) -> dict:
+    try:
+        doc = json.loads((folder / RECORD_NAME).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    files = doc.get("files") if isinstance(doc, dict) else None
+    return files if isinstance(files, dict) else {}
+
+
+def _graph_stems(folder: Path) -> dict[str, Path]:
+    """``{stem: graph file}`` for every graph file of the folder (JSON first)."""
+    stems: dict[str, Path] = {}
+    for suffix in reversed(_GRAPH_SUFFIXES):
+        for path in sorted(folder.glob(f"*{suffix}")):
+            if path.is_file() and not path.name.endswith(_NOT_GRAPHS):
+                stems[path.name[: -len(suffix)]] = path
+    return stems
+
+
+def _recorded_input(record: dict, folder: Path, stem: str) -> Path | None:
+    for suffix in _GRAPH_SUFFIXES + ("_rooms.geojson",):
+        entry = record.get(f"{stem}{suffix}")
+        if isinstance(entry, dict) and entry.get("input"):
+            return Path(entry["input"])
+    return None
+
+
+def _manifest_map(folder: Path, stem: str) -> tuple[Path | None, dict]:
+    """The map a batch manifest ``STEM.manifest.json`` names, and its map mode."""
+    try:
+        doc = json.loads((folder / f"{stem}.manifest.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None, {}
+    path = doc.get("path") if isinstance(doc, dict) else None
+    if not isinstance(path, str) or not path:
+        return None, {}
+    request = doc.get("request") if isinstance(doc.get("request"), dict) else {}
+    mode = request.get("map_mode")
+    return Path(path), ({"mode": mode} if isinstance(mode, str) else {})
+
+
+def find_results(folder: Path) -> list[_Result]:
+    """The results in ``folder`` (see the module docstring); empty when there are none."""
+    record = _record(folder)
+    stems = _graph_stems(folder)
+    results: dict[str, _Result] = {}
+    replay = (folder / "map.yaml").is_file() and "graph" in stems
+    for stem, path in stems.items():
+        base = None
+        if stem == "route_graph" and replay:
+            base = "graph"
+        elif stem.endswith("_route") and stem[: -len("_route")] in stems:
+            base = stem[: -len("_route")]
+        if base is not None:
+            results.setdefault(base, _Result(base)).route_graph = path
+            continue
+        results.setdefault(stem, _Result(stem)).graph = path
+    for rooms in sorted(folder.glob("*_rooms.geojson")):
+        stem = rooms.name[: -len("_rooms.geojson")]
+        if stem == "map" and replay:
+            stem = "graph"
+        results.setdefault(stem, _Result(stem)).rooms = rooms
+    for stem, res in results.items():
+        if replay and stem == "graph":
+            res.map = folder / "map.yaml"
+            if (folder / _TIMELINE).is_file():
+                res.timeline = folder / _TIMELINE
+            continue
+        source = _recorded_input(record, folder, stem)
+        kwargs: dict = {}
+        if source is None:
+            source, kwargs = _manifest_map(folder, stem)
+        if source is None:
+            for suffix in (".yaml", ".yml"):
+                if (folder / f"{stem}{suffix}").is_file():
+                    source = folder / f"{stem}{suffix}"
+        res.map, res.map_kwargs = source, kwargs
+    return [results[k] for k in sorted(results)]
+
+
+def _load(result: _Result):
+    """The arguments of :func:`topojax.write_view` for one result."""
+    from ..io import load_graph, load_rooms
+
+    graph = load_graph(result.graph) if result.graph is not None else None
+    occupancy = _load_map(result, graph)
+    kwargs: dict = {"title": result.stem}
+    if result.rooms is not None:
+        kwargs["rooms"] = load_rooms(result.rooms)
+    if result.route_graph is not None:
+        kwargs["graphs"] = {"route graph": load_graph(result.route_graph)}
+    if result.timeline is not None:
+        from ..view import Timeline
+
+        kwargs["timeline"] = Timeline.load(result.timeline)
+    if graph is not None:
+        return graph, occupancy, kwargs
+    if occupancy is None:
+        raise ValueError(
+            f"{result.rooms}: rooms without their map (the map they were made from is not "
+            "recorded or not found)"
+        )
+    return occupancy, None, kwargs
+
+
+def _load_map(result: _Result, graph):
+    """The result's map when it is there and on the graph's grid; else None (a note
+    says why)."""
+    from ..maps import load_map
+
+    if result.map is None:
+        result.notes.append("the map it was made from is not recorded: graph only")
+        return None
+    if not result.map.is_file():
+        result.notes.append(f"its map {result.map} is not there: graph only")
+        return None
+    try:
+        occupancy = load_map(result.map, **result.map_kwargs)
+    except (ValueError, OSError) as exc:
+        result.notes.append(f"its map {result.map} cannot be read ({exc}): graph only")
+        return None
+    grid = _graph_grid(graph)
+    if grid is not None and grid != (*occupancy.shape, occupancy.resolution_m):
+        result.notes.append(
+            f"its map {result.map} ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
+            f"{occupancy.resolution_m:g} m/px) is not the graph's ({grid[0]} x {grid[1]} px, "
+            f"{grid[2]:g} m/px): graph only"
+        )
+        return None
+    return occupancy
+
+
+def _graph_grid(graph) -> tuple[int, int, float] | None:
+    """``(H, W, resolution_m)`` a graph records (``shape``, ``resolution_m``), or None."""
+    if graph is None:
+        return None
+    try:
+        h, w = (int(v) for v in graph.graph["shape"])
+        return h, w, float(graph.graph["resolution_m"])
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def _write_one(result: _Result, target: Path, args) -> str:
+    from ..view import write_view
+
+    obj, occupancy, kwargs = _load(result)
+    if occupancy is not None:
+        kwargs["map"] = occupancy
+    try:
+        write_view(obj, target, window=args.window, max_pixels=args.max_pixels, **kwargs)
+    except ValueError as exc:
+        hint = ""
+        if "max_pixels=" in str(exc):
+            hint = " (here: --window X_MIN Y_MIN X_MAX Y_MAX, --max-pixels N)"
+        raise ValueError(f"{result.graph or result.rooms}: {exc}{hint}") from None
+    parts = [f"{target} ({target.stat().st_size / 1e6:.2f} MB)"]
+    if result.graph is not None:
+        parts.append(f"graph {result.graph.name}")
+    if occupancy is not None:
+        parts.append(f"map {result.map}")
+    parts += [p.name for p in (result.rooms, result.route_graph, result.timeline) if p]
+    return ": ".join([parts[0], ", ".join(parts[1:])]) + "".join(
+        f"\nnote       {n}" for n in result.notes
+    )
+
+
+def _index_page(folder: Path, pages: list[tuple[str, Path]]) -> str:
+    items = "\n".join(
+        f'<li><a href="{html.escape(p.name)}">{html.escape(stem)}</a></li>' for stem, p in pages
+    )
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        f"<title>topojax views: {html.escape(folder.name)}</title></head>\n"
+        f"<body><h1>topojax views of {html.escape(str(folder))}</h1>\n<ul>\n{items}\n</ul>"
+        "</body></html>\n"
+    )
+
+
+def _cmd_view(args) -> int:
+    from .._fs import atomic_write_bytes
+
+    folder = Path(args.folder)
+    if not folder.is_dir():
+        raise NotADirectoryError(
+            f"OUT_DIR: expected a folder of results (from topojax graph, replay or batch), "
+            f"got {folder}, which is {'a file' if folder.exists() else 'not there'}"
+        )
+    results = find_results(folder)
+    if not results:
+        found = sorted(p.name for p in folder.iterdir())[:8]
+        raise ValueError(
+            f"OUT_DIR: no results in {folder}: expected what topojax graph, replay or batch "
+            "write (a graph STEM.json / .graphml / .geojson, map.yaml, STEM_rooms.geojson); "
+            f"found {', '.join(found) if found else 'nothing'}"
+        )
+    index = folder / "view.html"
+    if len(results) == 1:
+        pages = [(results[0].stem, index)]
+    else:
+        pages = [(r.stem, folder / f"{r.stem}_view.html") for r in results]
+    targets = [p for _, p in pages] + ([index] if len(results) > 1 else [])
+    check_outputs(planned(targets, folder), command="view", option="OUT_DIR")
+    for result, (_, target) in zip(results, pages, strict=True):
+        print("wrote      " + _write_one(result, target, args))
+    if len(results) > 1:
+        atomic_write_bytes(index, _index_page(folder, pages).encode("utf-8"))
+        print(f"wrote      {index} (links to the {len(pages)} views)")
+    record_outputs(planned(targets, folder), command="view")
+    return 0
+
+
+def add_command(subparsers) -> None:
+    """Register the ``view`` subcommand on an ``argparse`` subparsers object."""
+    p = subparsers.add_parser(
+        "view",
+        help="write an interactive HTML view of a folder of results",
+        description="Write OUT_DIR/view.html: the map, its graph, rooms, route graph and "
+        "(for a replay with a timeline) the graph at every update, in one HTML file that "
+        "opens in any browser without a server or network. Pan, zoom, switch layers, "
+        "hover for attributes, click two points for a route. With several results in the "
+        "folder, one STEM_view.html each and view.html listing them. Opens nothing.",
+    )
+    p.add_argument("folder", metavar="OUT_DIR", help="a folder written by graph, replay or batch")
+    p.add_argument(
+        "--window",
+        nargs=4,
+        type=float,
+        metavar=("X_MIN", "Y_MIN", "X_MAX", "Y_MAX"),
+        help="show only this world box (metres) of the map: for maps too large to view whole",
+    )
+    p.add_argument(
+        "--max-pixels",
+        type=int,
+        default=64_000_000,
+        metavar="N",
+        help="refuse maps (or windows) of more than N pixels (default 64000000)",
+    )
+    p.set_defaults(handler=_cmd_view, runs_kernels=False)

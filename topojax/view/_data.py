@@ -1,0 +1,374 @@
+"""The viewer's data: what :func:`topojax.write_view` puts into the page, as one
+JSON-able dict (rasters as PNG tile pyramids, graphs and rooms as flat arrays)."""
+
+from __future__ import annotations
+
+import math
+import numbers
+import sys
+
+import cv2
+import networkx as nx
+import numpy as np
+
+from ..routing import DEFAULT_MAX_SNAP_M
+from ._encode import pyramid
+from ._graphs import Frame, graph_frame, graph_payload
+
+__all__ = ["DEFAULT_MAX_PIXELS", "FORMAT_VERSION", "Inputs", "build_payload", "inputs_of"]
+
+#: The most map pixels a view ships to a browser (64 Mpx).  The page itself stays smooth
+#: far beyond it (only the tiles in sight are decoded); the limit keeps the file, and
+#: the memory a browser needs to open it, reasonable.
+DEFAULT_MAX_PIXELS = 64_000_000
+#: Version of the page's data layout.
+FORMAT_VERSION = 1
+#: The finest level of the distance map's pyramid is at most this many pixels across
+#: (a smooth field: finer adds bytes, not detail).
+DISTANCE_MAX_SIDE_PX = 2048
+
+
+class Inputs:
+    """What one view shows, gathered from the object given to :func:`write_view`:
+    ``map`` (an OccupancyMap or None), ``rasters`` (name -> array), ``graphs`` (list of
+    ``(name, label, graph)``), ``rooms`` (RoomSegmentation, ``(rooms, doors)`` or None),
+    ``route``, ``timeline`` and ``title``."""
+
+    def __init__(self) -> None:
+        self.map = None
+        self.rasters: dict[str, np.ndarray] = {}
+        self.graphs: list[tuple[str, str, nx.Graph]] = []
+        self.rooms = None
+        self.route = None
+        self.timeline = None
+        self.title = "topojax view"
+        self.notes: list[str] = []
+
+
+def _result_inputs(result, out: Inputs, *, pruned: bool) -> None:
+    out.map = result.map
+    out.rasters = {
+        "distance": result.distance,
+        "ridges": result.ridges,
+        "skeleton": result.skeleton,
+    }
+    label = "pruned graph" if pruned else "graph"
+    out.graphs.append(("graph", label, result.graph))
+
+
+def _instance(obj, module: str, name: str) -> bool:
+    """``isinstance(obj, module.name)`` without importing ``module`` (JAX, numba) when it
+    is not loaded yet: then ``obj`` cannot be one of its classes."""
+    mod = sys.modules.get(module)
+    return mod is not None and isinstance(obj, getattr(mod, name))
+
+
+def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=None, title=None):
+    """Sort ``obj`` and the keyword arguments of :func:`write_view` into :class:`Inputs`.
+
+    Raises
+    ------
+    TypeError
+        ``obj`` or an argument of a type the viewer does not show.
+    """
+    from ..maps import OccupancyMap
+
+    out = Inputs()
+    if _instance(obj, "topojax.pipeline", "TopologyResult"):
+        _result_inputs(obj, out, pruned=obj.config.graph.prunes)
+        out.title = _title_of(obj.map, "topology graph")
+    elif _instance(obj, "topojax.incremental.mapper", "IncrementalMapper"):
+        if obj.pixel_bbox is None:
+            raise ValueError("obj: the mapper has no map yet (add scans or points first)")
+        _result_inputs(obj.to_result(update=False), out, pruned=False)
+        out.title = f"incremental mapper, {obj.n_scans} scans"
+        if rooms is None and obj.rooms_every:
+            rooms = True
+        if rooms is True:
+            rooms = obj.rooms
+    elif _instance(obj, "topojax.rooms.model", "RoomSegmentation"):
+        out.map = obj.occupancy
+        out.rooms = obj
+        out.title = _title_of(obj.occupancy, "rooms")
+    elif isinstance(obj, nx.Graph):
+        out.graphs.append(("graph", _graph_label(obj), obj))
+        out.title = _graph_label(obj)
+    elif isinstance(obj, OccupancyMap):
+        out.map = obj
+        out.title = _title_of(obj, "map")
+    else:
+        raise TypeError(
+            "obj: expected a TopologyResult, an IncrementalMapper, a RoomSegmentation, a "
+            f"networkx graph or an OccupancyMap, got {type(obj).__name__}"
+        )
+    if map is not None:
+        if not isinstance(map, OccupancyMap):
+            raise TypeError(f"map: expected an OccupancyMap, got {type(map).__name__}")
+        out.map = map
+    if rooms is True:
+        from ..rooms import segment_rooms
+
+        if out.map is None:
+            raise ValueError("rooms=True needs a map to segment; pass map=...")
+        rooms = segment_rooms(out.map)
+    if rooms is not None and rooms is not False:
+        if not (
+            _instance(rooms, "topojax.rooms.model", "RoomSegmentation") or _is_room_pair(rooms)
+        ):
+            raise TypeError(
+                "rooms: expected a RoomSegmentation, the (rooms, doors) pair of "
+                f"topojax.load_rooms, True or False, got {type(rooms).__name__}"
+            )
+        out.rooms = rooms
+    for name, graph in _extra_graphs(graphs):
+        out.graphs.append((f"g{len(out.graphs)}", name, graph))
+    out.route = _checked_route(route)
+    out.timeline = _checked_timeline(timeline)
+    if title is not None:
+        if not isinstance(title, str):
+            raise TypeError(f"title: expected a str, got {type(title).__name__}")
+        out.title = title
+    return out
+
+
+def _title_of(occupancy, what: str) -> str:
+    source = getattr(occupancy, "source", None)
+    if source:
+        from pathlib import Path
+
+        return f"{Path(str(source)).name}: {what}"
+    return what
+
+
+def _graph_label(graph: nx.Graph) -> str:
+    return "route graph" if graph.graph.get("kind") == "route_graph" else "graph"
+
+
+def _is_room_pair(value) -> bool:
+    if not (isinstance(value, tuple) and len(value) == 2):
+        return False
+    from ..rooms import Door, Room
+
+    return (
+        isinstance(value, tuple)
+        and len(value) == 2
+        and all(isinstance(r, Room) for r in value[0])
+        and all(isinstance(d, Door) for d in value[1])
+    )
+
+
+def _extra_graphs(graphs):
+    if graphs is None:
+        return []
+    if not isinstance(graphs, dict):
+        raise TypeError(
+            f"graphs: expected a dict of name -> networkx graph, got {type(graphs).__name__}"
+        )
+    for name, graph in graphs.items():
+        if not isinstance(name, str) or not isinstance(graph, nx.Graph):
+            raise TypeError(
+                "graphs: expected a dict of name (str) -> networkx graph, got "
+                f"{name!r} -> {type(graph).__name__}"
+            )
+    return list(graphs.items())
+
+
+def _checked_route(route):
+    if route is None:
+        return None
+    from ..routing import Route
+
+    if not isinstance(route, Route):
+        raise TypeError(f"route: expected a topojax.Route, got {type(route).__name__}")
+    return route
+
+
+def _checked_timeline(timeline):
+    if timeline is None:
+        return None
+    from .timeline import Timeline
+
+    if not isinstance(timeline, Timeline):
+        raise TypeError(f"timeline: expected a topojax.Timeline, got {type(timeline).__name__}")
+    if timeline.n_frames == 0:
+        raise ValueError(
+            "timeline: it holds no graph update (record() keeps one at each report whose "
+            "graph_update is set)"
+        )
+    return timeline
+
+
+# ---------------------------------------------------------------------------- payload
+def _map_frame(occupancy) -> Frame:
+    h, w = occupancy.shape
+    return Frame(int(h), int(w), float(occupancy.resolution_m), tuple(map(float, occupancy.origin)))
+
+
+def _check_size(frame: Frame, max_pixels: int) -> None:
+    n = frame.height * frame.width
+    if n > max_pixels:
+        h, w = frame.height, frame.width
+        x, y = frame.pixel_to_world([-0.5, -0.5, h - 0.5, h - 0.5], [-0.5, w - 0.5, -0.5, w - 0.5])
+        raise ValueError(
+            f"map: {h} x {w} pixels ({n / 1e6:.1f} Mpx) is more than max_pixels={max_pixels} "
+            f"({max_pixels / 1e6:g} Mpx), the most a view ships to a browser; view a window "
+            "of it (window=(x_min, y_min, x_max, y_max) in metres; the map spans x "
+            f"{np.min(x):.2f} to {np.max(x):.2f} m, y {np.min(y):.2f} to {np.max(y):.2f} m) "
+            "or pass a larger max_pixels"
+        )
+
+
+def _rasters(inputs: Inputs) -> list[dict]:
+    out = []
+    img = inputs.map.to_image()
+    if not inputs.map.occupied.any() and not inputs.map.free.any():
+        inputs.notes.append("the map is all unknown: no free or occupied pixel")
+    out.append(
+        {"name": "map", "label": "map", "kind": "grey", "on": True, **pyramid(img, reduce="map")}
+    )
+    shape = img.shape
+    specs = (
+        ("distance", "distance map", "scale", "mean", DISTANCE_MAX_SIDE_PX, None, False),
+        ("ridges", "ridges", "mask", "max", None, 0, False),
+        ("skeleton", "skeleton", "mask", "max", None, 0, False),
+    )
+    for name, label, kind, reduce, side, blank, on in specs:
+        layer = inputs.rasters.get(name)
+        if layer is None:
+            continue
+        layer = np.asarray(layer)
+        if layer.shape != shape:
+            raise ValueError(f"{name}: shape {layer.shape} is not the map's {shape}")
+        if layer.dtype == bool:
+            img8 = layer.view(np.uint8) * np.uint8(255)
+        else:  # a field in [0, 1]: rounded and saturated to 0..255 (NaN: 0)
+            img8 = cv2.convertScaleAbs(np.asarray(layer, np.float32), alpha=255.0)
+        out.append(
+            {
+                "name": name,
+                "label": label,
+                "kind": kind,
+                "on": on,
+                **pyramid(img8, reduce=reduce, max_side_px=side, blank=blank),
+            }
+        )
+    return out
+
+
+def _round(values, digits: int = 4) -> list:
+    return np.round(np.asarray(values, np.float64), digits).tolist()
+
+
+def rooms_payload(rooms) -> dict:
+    """Rooms (id, area, centroid, outline) and doors (rooms, ends, width) for the page."""
+    if _is_room_pair(rooms):
+        room_list, door_list = rooms
+    else:
+        room_list, door_list = rooms.rooms, rooms.doors
+    return {
+        "rooms": [
+            {
+                "id": int(r.id),
+                "area_m2": float(r.area_m2),
+                "centroid": _round(r.centroid),
+                "polygon": _round(np.asarray(r.polygon, np.float64).reshape(-1, 2).ravel()),
+            }
+            for r in room_list
+        ],
+        "doors": [
+            {
+                "id": int(d.id),
+                "rooms": [int(v) for v in d.rooms],
+                "ends": _round(np.asarray(d.ends_world, np.float64).ravel()),
+                "width_m": float(d.width_m),
+            }
+            for d in door_list
+        ],
+    }
+
+
+def _route_payload(route) -> dict:
+    return {
+        "length_m": float(route.length_m),
+        "xy": _round(route.world.ravel(), 6),
+        "start_snap_m": float(route.start_snap_m),
+        "goal_snap_m": float(route.goal_snap_m),
+    }
+
+
+def _graph_bounds_frame(graphs) -> Frame:
+    """A frame around the graphs' vertices when there is no map (for the page's
+    coordinates only: nothing is drawn on it)."""
+    xy = [
+        np.asarray(d, np.float64).reshape(-1, 2)
+        for _, _, g in graphs
+        for *_, d in g.edges(data="world")
+        if d is not None
+    ]
+    xy += [
+        np.asarray(d, np.float64).reshape(-1, 2)
+        for _, _, g in graphs
+        for _, d in g.nodes(data="world")
+        if d is not None
+    ]
+    if not xy:
+        return Frame(100, 100, 0.05, (0.0, 0.0, 0.0))
+    pts = np.concatenate(xy)
+    res = 0.05
+    for _, _, g in graphs:
+        r = g.graph.get("resolution_m")
+        if isinstance(r, numbers.Real) and math.isfinite(r) and r > 0:
+            res = float(r)
+            break
+    lo, hi = pts.min(axis=0) - 10 * res, pts.max(axis=0) + 10 * res
+    w, h = (max(1, math.ceil((hi[i] - lo[i]) / res)) for i in (0, 1))
+    return Frame(int(h), int(w), res, (float(lo[0]), float(lo[1]), 0.0))
+
+
+def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> dict:
+    """The page's data for ``inputs`` (see :func:`topojax.write_view`).
+
+    Raises
+    ------
+    ValueError
+        The map is larger than ``max_pixels``, or a graph, layer or room is malformed
+        (the message names it).
+    """
+    frame = _map_frame(inputs.map) if inputs.map is not None else None
+    if frame is None:
+        for _, _, g in inputs.graphs:
+            frame = graph_frame(g)
+            if frame is not None:
+                break
+    if frame is not None:
+        _check_size(frame, max_pixels)
+    rasters = _rasters(inputs) if inputs.map is not None else []
+    if inputs.map is None:
+        inputs.notes.append("no map: the graphs are drawn on an empty background")
+    if frame is None:
+        frame = _graph_bounds_frame(inputs.graphs)
+    graphs = [
+        graph_payload(g, frame, name=n, label=lab, raster=bool(rasters))
+        for n, lab, g in inputs.graphs
+    ]
+    if not rasters and not any(g["n_vertices"] for g in graphs) and inputs.rooms is None:
+        raise ValueError(
+            "nothing to show: no map, and the graphs have no vertices (an empty graph "
+            "without its map)"
+        )
+    for g in graphs:
+        if g["n_vertices"] == 0:
+            inputs.notes.append(f"the {g['label']} is empty: no vertex, no edge")
+    payload = {
+        "version": FORMAT_VERSION,
+        "title": inputs.title,
+        "frame": frame.to_json(),
+        "rasters": rasters,
+        "graphs": graphs,
+        "rooms": rooms_payload(inputs.rooms) if inputs.rooms is not None else None,
+        "route": _route_payload(inputs.route) if inputs.route is not None else None,
+        "timeline": inputs.timeline.payload() if inputs.timeline is not None else None,
+        "max_snap_m": DEFAULT_MAX_SNAP_M,
+        "notes": list(inputs.notes),
+    }
+    return payload

@@ -1,0 +1,217 @@
+/* topojax viewer: routes along a graph, the algorithm of topojax.RoutePlanner (MIT
+ * licence, part of topojax).
+ *
+ * A query point snaps to the nearest corridor point: a pixel of an edge path, or a vertex
+ * without edges.  The route runs along the snapped edge to one of its ends, through the
+ * graph (Dijkstra on length_m, parallel edges by their shortest, self-loops never), and
+ * along the goal's edge to the snapped goal; start and goal on one edge also try the
+ * direct way along it.  Lengths along an edge are its straight and diagonal pixel steps
+ * scaled to the edge's length_m, as RoutePlanner counts them. */
+"use strict";
+var TJ = (window.TJ = window.TJ || {});
+
+(function () {
+  /* Binary heap of [distance, tie, vertex, via, edge], smallest (distance, tie) first. */
+  function Heap() { this.a = []; }
+  function less(p, q) { return p[0] < q[0] || (p[0] === q[0] && p[1] < q[1]); }
+  Heap.prototype.push = function (item) {
+    var a = this.a; a.push(item);
+    var i = a.length - 1;
+    while (i > 0) {
+      var parent = (i - 1) >> 1;
+      if (!less(a[i], a[parent])) break;
+      var t = a[i]; a[i] = a[parent]; a[parent] = t; i = parent;
+    }
+  };
+  Heap.prototype.pop = function () {
+    var a = this.a, top = a[0], last = a.pop();
+    if (a.length > 0) {
+      a[0] = last;
+      var i = 0, n = a.length;
+      for (;;) {
+        var l = 2 * i + 1, r = l + 1, m = i;
+        if (l < n && less(a[l], a[m])) m = l;
+        if (r < n && less(a[r], a[m])) m = r;
+        if (m === i) break;
+        var t = a[i]; a[i] = a[m]; a[m] = t; i = m;
+      }
+    }
+    return top;
+  };
+  Heap.prototype.size = function () { return this.a.length; };
+
+  /* The routing structures of one prepared graph (TJ.prepareGraph). */
+  TJ.Router = function (G) {
+    if (!G.routable) throw new Error("this graph cannot be routed on: " + G.whyNot);
+    this.G = G;
+    var ne = G.ne, np = G.np;
+    // cumulative length along each path from its first pixel, scaled to length_m
+    var cum = new Float64Array(np);
+    for (var k = 0; k < ne; k++) {
+      var s = G.starts[k], n = G.sizes[k], straight = 0, diagonal = 0;
+      cum[s] = 0;
+      for (var i = s + 1; i < s + n; i++) {
+        var dr = G.rows[i] - G.rows[i - 1], dc = G.cols[i] - G.cols[i - 1];
+        if (dr !== 0 && dc !== 0) diagonal++; else straight++;
+        cum[i] = straight + diagonal * Math.SQRT2;
+      }
+      var steps = cum[s + n - 1];
+      var scale = steps > 0 ? G.len[k] / steps : 1;
+      for (var j = s; j < s + n; j++) cum[j] *= scale;
+      cum[s + n - 1] = G.len[k];
+    }
+    this.cum = cum;
+    // adjacency: vertex -> Map(neighbour -> [length, edge]), the shortest parallel edge
+    this.adj = [];
+    for (var v = 0; v < G.n; v++) this.adj.push(new Map());
+    for (var e = 0; e < ne; e++) {
+      var a = G.u[e], b = G.v[e];
+      if (a === b) continue;
+      var pairs = [[a, b], [b, a]];
+      for (var p = 0; p < 2; p++) {
+        var x = pairs[p][0], y = pairs[p][1], best = this.adj[x].get(y);
+        if (best === undefined || G.len[e] < best[0]) this.adj[x].set(y, [G.len[e], e]);
+      }
+    }
+    // snap targets: every path point, then every vertex without edges
+    this.lonely = [];
+    for (var q = 0; q < G.n; q++) if (G.degree[q] === 0) this.lonely.push(q);
+    var m = np + this.lonely.length;
+    var sx = new Float64Array(m), sy = new Float64Array(m);
+    sx.set(G.px); sy.set(G.py);
+    for (var t = 0; t < this.lonely.length; t++) {
+      sx[np + t] = G.vx[this.lonely[t]]; sy[np + t] = G.vy[this.lonely[t]];
+    }
+    // the edge (or -1) and position on it of every point
+    this.pointEdge = new Int32Array(np);
+    for (var f = 0; f < ne; f++) this.pointEdge.fill(f, G.starts[f], G.starts[f] + G.sizes[f]);
+    var cell = 8 * (G.resolution || 0.05);
+    this.grid = new TJ.Grid(sx, sy, cell);
+  };
+
+  /* the nearest corridor point: {edge, index, vertex, dist} */
+  TJ.Router.prototype.snap = function (x, y) {
+    var hit = this.grid.nearest(x, y, Infinity);
+    if (hit === null) throw new Error("the graph has no vertices or edges to route on");
+    var np = this.G.np;
+    if (hit.index >= np) {
+      return { edge: -1, index: 0, vertex: this.lonely[hit.index - np], dist: hit.dist };
+    }
+    var e = this.pointEdge[hit.index];
+    return { edge: e, index: hit.index - this.G.starts[e], vertex: -1, dist: hit.dist };
+  };
+
+  TJ.Router.prototype.ends = function (snap) {
+    var out = new Map();
+    if (snap.edge < 0) { out.set(snap.vertex, 0); return out; }
+    var e = snap.edge, G = this.G;
+    var toStart = this.cum[G.starts[e] + snap.index];
+    var toEnd = G.len[e] - toStart;
+    out.set(G.u[e], toStart);
+    var old = out.has(G.v[e]) ? out.get(G.v[e]) : Infinity;
+    out.set(G.v[e], Math.min(old, toEnd));
+    return out;
+  };
+
+  TJ.Router.prototype.where = function (snap) {
+    var G = this.G;
+    if (snap.edge < 0) return "vertex " + G.ids[snap.vertex];
+    return "edge " + G.ids[G.u[snap.edge]] + "-" + G.ids[G.v[snap.edge]];
+  };
+
+  /* The shortest route from (x0, y0) to (x1, y1), world metres:
+   * {length_m, xy: [x, y, x, y, ...], vertices: [...], start_snap_m, goal_snap_m}.
+   * Throws an Error (as plan_route raises) for a point beyond maxSnap metres or when no
+   * corridor joins the two. */
+  TJ.Router.prototype.route = function (x0, y0, x1, y1, maxSnap) {
+    var s = this.snap(x0, y0), g = this.snap(x1, y1);
+    var named = [["start", s], ["goal", g]];
+    for (var i = 0; i < 2; i++) {
+      if (maxSnap !== null && maxSnap !== undefined && named[i][1].dist > maxSnap) {
+        throw new Error(
+          named[i][0] + ": the nearest point of the graph is " + named[i][1].dist.toPrecision(6) +
+            " m away, more than the " + maxSnap + " m a route may snap"
+        );
+      }
+    }
+    var G = this.G, cum = this.cum;
+    var best = Infinity, plan = null;
+    if (s.edge >= 0 && s.edge === g.edge) {
+      best = Math.abs(cum[G.starts[g.edge] + g.index] - cum[G.starts[s.edge] + s.index]);
+      plan = "direct";
+    } else if (s.edge < 0 && g.edge < 0 && s.vertex === g.vertex) {
+      best = 0; plan = "vertex";
+    }
+    var sources = this.ends(s), targets = this.ends(g);
+    var parent = new Map(), heap = new Heap(), tie = 0, reached = -1;
+    sources.forEach(function (d, n) { heap.push([d, tie++, n, -1, -1]); });
+    while (heap.size() > 0) {
+      var item = heap.pop(), d = item[0], n = item[2];
+      if (parent.has(n)) continue;
+      if (d >= best) break;
+      parent.set(n, [item[3], item[4]]);
+      if (targets.has(n) && d + targets.get(n) < best) {
+        best = d + targets.get(n); reached = n; plan = "graph";
+      }
+      for (var entry of this.adj[n]) {
+        var m = entry[0], we = entry[1];
+        if (!parent.has(m) && d + we[0] < best) heap.push([d + we[0], tie++, m, n, we[1]]);
+      }
+    }
+    if (plan === null) {
+      throw new Error(
+        "no route from the start (snapped to " + this.where(s) + ") to the goal (snapped to " +
+          this.where(g) + "): they lie in different components of the graph"
+      );
+    }
+    var pieces = [], chain = [];
+    if (plan === "direct") {
+      pieces.push([s.edge, s.index, g.index]);
+    } else if (plan === "graph") {
+      chain = [reached];
+      var hops = [];
+      while (parent.get(chain[chain.length - 1])[0] !== -1) {
+        var step = parent.get(chain[chain.length - 1]);
+        hops.push(step[1]); chain.push(step[0]);
+      }
+      chain.reverse(); hops.reverse();
+      if (s.edge >= 0) pieces.push(this.partial(s.edge, s.index, chain[0], sources.get(chain[0])));
+      for (var h = 0; h < hops.length; h++) {
+        var e = hops[h];
+        pieces.push(G.u[e] === chain[h] ? [e, 0, G.sizes[e] - 1] : [e, G.sizes[e] - 1, 0]);
+      }
+      if (g.edge >= 0) {
+        var pg = this.partial(g.edge, g.index, chain[chain.length - 1], targets.get(chain[chain.length - 1]));
+        pieces.push([pg[0], pg[2], pg[1]]);
+      }
+    }
+    var xy = this.polyline(pieces, s);
+    return {
+      length_m: best, xy: xy, start_snap_m: s.dist, goal_snap_m: g.dist,
+      vertices: chain.map(function (v) { return G.ids[v]; }),
+    };
+  };
+
+  /* [edge, from index, to index]: the piece of edge e from `index` to its end at
+   * `vertex` (the end `along` metres away when both ends are that vertex) */
+  TJ.Router.prototype.partial = function (e, index, vertex, along) {
+    var G = this.G, toStart = this.cum[G.starts[e] + index];
+    if (G.u[e] === vertex && (G.v[e] !== vertex || toStart === along)) return [e, index, 0];
+    return [e, index, G.sizes[e] - 1];
+  };
+
+  TJ.Router.prototype.polyline = function (pieces, s) {
+    var G = this.G, xy = [];
+    for (var k = 0; k < pieces.length; k++) {
+      var e = pieces[k][0], i = pieces[k][1], j = pieces[k][2], base = G.starts[e];
+      var dir = j >= i ? 1 : -1;
+      for (var p = i; ; p += dir) {
+        var x = G.px[base + p], y = G.py[base + p], n = xy.length;
+        if (!(n >= 2 && xy[n - 2] === x && xy[n - 1] === y)) xy.push(x, y);
+        if (p === j) break;
+      }
+    }
+    if (xy.length === 0 && s.edge < 0) xy.push(G.vx[s.vertex], G.vy[s.vertex]);
+    return xy;
+  };
+})();

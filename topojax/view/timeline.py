@@ -1,0 +1,241 @@
+"""Snapshots of an incremental mapper at every graph update, for the viewer's timeline.
+
+A :class:`Timeline` is fed every scan report of a replay (``record(mapper, report,
+scan)``); at each report with a graph (or room) update it keeps the graph, the rooms and
+a small picture of the map, and with each scan the robot's position.  The viewer plays
+them back: the graph at every update, what the update added and removed, and the path
+driven so far.  Edges are kept once each (the mapper's edge keys are stable and an edge
+never changes in place), so a long replay costs little more than its final graph.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .._validate import int_at_least
+from ._encode import TILE_PX, packed, pyramid
+from ._graphs import KIND_NAMES
+
+__all__ = ["Timeline"]
+
+_FORMAT = "topojax-timeline"
+_VERSION = 1
+
+
+class Timeline:
+    """The graph of an :class:`~topojax.IncrementalMapper` at every graph update.
+
+    Parameters
+    ----------
+    max_map_px : int
+        Longest side, pixels, of the map picture kept with each update (the map
+        downscaled, obstacles kept; default 1024); 0 keeps none (the view then shows the
+        final map under every update).
+
+    Examples
+    --------
+    >>> timeline = tj.Timeline()                                    # doctest: +SKIP
+    >>> for scan in scans:                                          # doctest: +SKIP
+    ...     timeline.record(mapper, mapper.add_scan(scan), scan)
+    >>> tj.write_view(mapper, "view.html", timeline=timeline)       # doctest: +SKIP
+    """
+
+    def __init__(self, *, max_map_px: int = 1024) -> None:
+        self.max_map_px = int_at_least("max_map_px", max_map_px, 0)
+        self._frames: list[dict] = []
+        self._pool_index: dict[int, int] = {}
+        self._pool: list[tuple[np.ndarray, float, float, float]] = []
+        self._path: list[tuple[int, float, float]] = []
+        self._last_keys: set[int] = set()
+        self._rooms: list[list[dict]] = []
+        self._loaded: dict | None = None
+
+    @property
+    def n_frames(self) -> int:
+        """Graph updates recorded."""
+        if self._loaded is not None:
+            return len(self._loaded["frames"])
+        return len(self._frames)
+
+    def record(self, mapper, report, scan=None) -> bool:
+        """Keep what one :meth:`~topojax.IncrementalMapper.add_scan` did.
+
+        Parameters
+        ----------
+        mapper : IncrementalMapper
+            The mapper the report comes from.
+        report : ScanReport
+            Its report; a snapshot is kept when it has a ``graph_update`` or a
+            ``rooms_update``.
+        scan : Scan, optional
+            The scan; its pose extends the robot's path.
+
+        Returns
+        -------
+        bool
+            Whether a snapshot was kept.
+        """
+        self._writable()
+        if scan is not None:
+            x, y, _ = scan.pose
+            self._path.append((int(report.index), float(x), float(y)))
+        if report.graph_update is None and getattr(report, "rooms_update", None) is None:
+            return False
+        rooms = report.rooms_update is not None
+        self.snapshot(mapper, scan_index=int(report.index), rooms=rooms)
+        return True
+
+    def snapshot(self, mapper, *, scan_index: int | None = None, rooms: bool = False) -> None:
+        """Keep the mapper's graph as of its last graph update (e.g. after a final
+        :meth:`~topojax.IncrementalMapper.update_graph`).
+
+        Parameters
+        ----------
+        mapper : IncrementalMapper
+        scan_index : int, optional
+            The scan it belongs to (default: the mapper's last).
+        rooms : bool
+            Also keep the mapper's rooms (otherwise those of the previous snapshot stay).
+        """
+        self._writable()
+        if mapper.pixel_bbox is None:
+            return
+        graph = mapper.graph
+        keys, edges = [], graph.edges(keys=True, data=True)
+        for _, _, key, data in edges:
+            key = int(key)
+            if key not in self._pool_index:
+                self._pool_index[key] = len(self._pool)
+                self._pool.append(
+                    (
+                        np.asarray(data["world"], np.float32).reshape(-1, 2),
+                        float(data.get("length_m", np.nan)),
+                        float(data.get("min_clearance_m", np.nan)),
+                        float(data.get("mean_clearance_m", np.nan)),
+                    )
+                )
+            keys.append(key)
+        now = set(keys)
+        added = sorted(self._pool_index[k] for k in now - self._last_keys)
+        removed = sorted(self._pool_index[k] for k in self._last_keys - now)
+        self._last_keys = now
+        if rooms:
+            from ._data import rooms_payload
+
+            self._rooms.append(rooms_payload(mapper.rooms)["rooms"])
+        nodes = list(graph.nodes(data=True))
+        xy = np.array([d["world"] for _, d in nodes], np.float64).reshape(-1, 2)
+        kind = [
+            KIND_NAMES.index(d.get("kind")) if d.get("kind") in KIND_NAMES[:-1] else 4
+            for _, d in nodes
+        ]
+        self._frames.append(
+            {
+                "scan": mapper.n_scans - 1 if scan_index is None else int(scan_index),
+                "ids": packed([int(n) for n, _ in nodes], np.int32),
+                "x": packed(xy[:, 0], np.float32),
+                "y": packed(xy[:, 1], np.float32),
+                "kind": packed(kind, np.uint8),
+                "clear": packed(
+                    [float(d.get("clearance_m", np.nan)) for _, d in nodes], np.float32
+                ),
+                "edges": packed([self._pool_index[k] for k in keys], np.int32),
+                "added": packed(added, np.int32),
+                "removed": packed(removed, np.int32),
+                "rooms": len(self._rooms) - 1,
+                "map": self._map_picture(mapper),
+            }
+        )
+
+    def _map_picture(self, mapper) -> dict | None:
+        if self.max_map_px == 0:
+            return None
+        occ = mapper.occupancy
+        image = occ.to_image()
+        h, w = image.shape
+        levels = pyramid(image, reduce="map", max_side_px=max(self.max_map_px, TILE_PX))
+        finest = levels["levels"][0]
+        ox, oy, _ = occ.origin
+        res = occ.resolution_m
+        return {
+            "box": [ox, oy, ox + w * res, oy + h * res],
+            "level": finest,
+        }
+
+    def _writable(self) -> None:
+        if self._loaded is not None:
+            raise ValueError("this timeline was loaded from a file: it can be viewed, not extended")
+
+    def payload(self) -> dict:
+        """The timeline as the viewer's page reads it (JSON-able)."""
+        if self._loaded is not None:
+            return self._loaded
+        pool = self._pool
+        sizes = [len(p[0]) for p in pool]
+        xy = np.concatenate([p[0] for p in pool]) if pool else np.zeros((0, 2), np.float32)
+        path = np.array(self._path, np.float64).reshape(-1, 3)
+        return {
+            "frames": self._frames,
+            "pool": {
+                "sizes": packed(sizes, np.int32),
+                "xy": packed(xy.ravel(), np.float32),
+                "len": packed([p[1] for p in pool], np.float32),
+                "cmin": packed([p[2] for p in pool], np.float32),
+                "cmean": packed([p[3] for p in pool], np.float32),
+            },
+            "path": {
+                "scan": packed(path[:, 0], np.int32),
+                "x": packed(path[:, 1], np.float64),
+                "y": packed(path[:, 2], np.float64),
+            },
+            "rooms": self._rooms,
+            "kinds": list(KIND_NAMES),
+        }
+
+    def save(self, path) -> Path:
+        """Write the timeline to a gzip-compressed JSON file (e.g. ``timeline.json.gz``
+        next to a replay's outputs, where ``topojax view`` finds it)."""
+        from .._fs import atomic_write_bytes
+
+        doc = {"format": _FORMAT, "version": _VERSION, "timeline": self.payload()}
+        data = gzip.compress(json.dumps(doc, separators=(",", ":")).encode("utf-8"), mtime=0)
+        atomic_write_bytes(path, data)
+        return Path(path)
+
+    @classmethod
+    def load(cls, path) -> Timeline:
+        """Read a file written by :meth:`save`.
+
+        Raises
+        ------
+        FileNotFoundError
+            If ``path`` does not exist.
+        ValueError
+            If it is not a timeline file or is corrupt (the message names the file).
+        """
+        p = Path(path)
+        if not p.is_file():
+            raise FileNotFoundError(f"timeline file not found: {p}")
+        try:
+            doc = json.loads(gzip.decompress(p.read_bytes()).decode("utf-8"))
+        except (OSError, EOFError, ValueError, UnicodeDecodeError) as exc:
+            raise ValueError(
+                f"timeline file {p} is not a gzip-compressed JSON file: {exc}"
+            ) from None
+        if not isinstance(doc, dict) or doc.get("format") != _FORMAT:
+            raise ValueError(f"timeline file {p} is not a topojax timeline")
+        if doc.get("version") != _VERSION:
+            raise ValueError(
+                f"timeline file {p} has version {doc.get('version')!r}; this topojax reads "
+                f"version {_VERSION}"
+            )
+        body = doc.get("timeline")
+        if not isinstance(body, dict) or not isinstance(body.get("frames"), list):
+            raise ValueError(f"timeline file {p} has no frames")
+        out = cls()
+        out._loaded = body
+        return out
