@@ -289,3 +289,24 @@ def test_view_command_leaves_out_a_map_not_on_the_graphs_grid(tmp_path, capsys):
     assert "is not the graph's" in capsys.readouterr().out
     data = payload_of((tmp_path / "view.html").read_text())
     assert data["rasters"] == [] and data["graphs"][0]["n_edges"] > 0
+
+
+def test_graph_and_replay_write_their_view(tmp_path, capsys):
+    """``topojax graph --view`` and ``topojax replay --view`` write the page beside their
+    other outputs; the replay's page carries a timeline of every graph update."""
+    from pathlib import Path
+
+    from topojax.cli import main
+
+    data = Path(__file__).resolve().parents[1] / "topojax" / "data" / "intel.png"
+    assert main(["graph", str(data), "-o", str(tmp_path / "g"), "--view"]) == 0
+    page = (tmp_path / "g" / "intel_view.html").read_text()
+    assert "<html" in page.lower() and "intel_view.html" in capsys.readouterr().out
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    out = tmp_path / "r"
+    code = main(
+        ["replay", str(log), "-o", str(out), "--view", "--no-progress", "--graph-every", "10"]
+    )
+    assert code == 0
+    assert (out / "view.html").stat().st_size > 0
+    assert "timeline" in (out / "view.html").read_text().lower()

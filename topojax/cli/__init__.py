@@ -64,6 +64,12 @@ def build_parser() -> argparse.ArgumentParser:
         "ros2 bag play): the map on /map, the graph on /topology, with --rooms the rooms "
         "on /rooms (needs rosbags: pip install 'topojax[bags]')",
     )
+    p.add_argument(
+        "--view",
+        action="store_true",
+        help="also write STEM_view.html: the interactive view of the map, its stages and "
+        "graph (with --rooms the rooms; see topojax view)",
+    )
     add_pipeline_options(p)
     add_room_options(p, only_with="--rooms")
     p.set_defaults(handler=_cmd_graph)

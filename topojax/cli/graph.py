@@ -144,6 +144,10 @@ def _cmd_graph(args) -> int:
         from ..io.mcap import save_mcap
 
         written.append(save_mcap(result, args.mcap, rooms=seg))
+    if args.view:
+        from ..view import write_view
+
+        written.append(write_view(result, Path(args.out) / f"{stem}_view.html", rooms=seg))
     first = "the process's first call: it includes loading or compiling the kernels"
     for line in [*_summary_lines(str(args.map), result, timing_note=first), *notes]:
         print(line)
@@ -158,6 +162,7 @@ def _graph_files(stem: str, args) -> list[str]:
     names += [f"{stem}.png"] * bool(args.plot) + [f"{stem}_stages.png"] * bool(args.stages)
     names += [f"{stem}_nav2.geojson"] * bool(args.nav2)
     names += room_files(stem) if args.rooms else []
+    names += [f"{stem}_view.html"] * bool(getattr(args, "view", False))
     return names
 
 

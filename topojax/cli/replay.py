@@ -57,6 +57,7 @@ def _cmd_replay(args) -> int:
         route_graph_radius_m=args.route_graph,
         rooms=args.rooms,
         mcap=args.mcap,
+        view=args.view,
         **kw,
     )
     record_outputs(planned(summary["written"], args.source), command="replay")
@@ -76,6 +77,7 @@ def _replay_claims(args) -> dict:
         names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")]
     if args.rooms:
         names += room_files("map")
+    names += ["view.html"] * bool(args.view)
     return planned([Path(args.out) / name for name in names], args.source)
 
 
@@ -151,5 +153,11 @@ def add_command(subparsers) -> None:
         "colours the rooms",
     )
     add_room_options(p, only_with="--rooms")
+    p.add_argument(
+        "--view",
+        action="store_true",
+        help="also write view.html: the interactive view of the final map and graph with a "
+        "timeline of every graph update (see topojax view)",
+    )
     p.set_defaults(handler=_cmd_replay)
     return p

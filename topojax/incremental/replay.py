@@ -117,6 +117,7 @@ def replay(
     graph_config: GraphConfig | None = None,
     route_graph_radius_m: float | None = None,
     rooms: bool = False,
+    view: bool = False,
     mcap=None,
     **mapper_kw,
 ) -> dict:
@@ -169,6 +170,10 @@ def replay(
         ``/map`` and ``/topology`` at every graph update, ``/rooms`` at every room
         update, and the written map, graph (and rooms) once more at the end, stamped
         with the log's timestamps (see :mod:`topojax.io.mcap`).
+    view : bool
+        Also write ``view.html``, the interactive view of the final map and graph (and
+        rooms, route graph) with a timeline of every graph update and the robot's path
+        (:func:`topojax.write_view`, :class:`topojax.Timeline`).
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ``room_config``, ...).
@@ -196,9 +201,14 @@ def replay(
         mapper_kw["rooms_every"] = mapper_kw.get("graph_every", 80) or 0
     mapper = IncrementalMapper(**mapper_kw)
     output_folder(out)
+    timeline = None
+    if view:
+        from ..view import Timeline
+
+        timeline = Timeline()
     with _recorder(mcap) as recorder:
         reports, frames, wall, skipped = _run(
-            mapper, scans, max_scans, animate is not None, progress, recorder
+            mapper, scans, max_scans, animate is not None, progress, recorder, timeline
         )
         if not reports:
             raise ValueError(f"source {source}: no scans to replay")
@@ -214,6 +224,7 @@ def replay(
         from ..io import save_room_files
 
         written += save_room_files(seg, out / "map")
+    routes = None
     if route_graph_radius_m is not None:
         from ..io import save_graph
 
@@ -221,6 +232,14 @@ def replay(
         written += [
             save_graph(routes, out / f"route_graph{s}") for s in (".graphml", ".json", ".geojson")
         ]
+    if timeline is not None:
+        from ..view import write_view
+
+        timeline.snapshot(mapper, rooms=seg is not None)
+        extra = {"route graph": routes} if routes is not None else None
+        written.append(
+            write_view(result, out / "view.html", rooms=seg, graphs=extra, timeline=timeline)
+        )
     timings = timing_summary(reports)
     summary_g = graph_summary(result.graph)
     summary = {
@@ -312,7 +331,7 @@ def _recorder(mcap):
     return McapRecorder(mcap)
 
 
-def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None):
+def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None, timeline=None):
     """Feed ``scans`` (at most ``max_scans``) to ``mapper``; returns the reports, the
     animation frames (one per graph update when ``animate``) and the wall time (s).
     ``recorder`` (an open :class:`~topojax.io.mcap.McapRecorder`) gets every scan, the
@@ -334,6 +353,8 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None)
             bar.update(1)
             continue
         reports.append(rep)
+        if timeline is not None:
+            timeline.record(mapper, rep, scan)
         if recorder is not None:
             _record(recorder, mapper, scan, rep)
         if animate and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
