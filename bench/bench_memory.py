@@ -402,7 +402,7 @@ def report(results: dict[str, Any]) -> str:
         cases += [c for c in runs[lb]["cases"] if c not in cases]
     header = ["case", "Mpx", "V", "E"]
     for lb in labels:
-        header += [f"{lb} B/px", f"{lb} +nx B/px", f"{lb} traced B/px", f"{lb} s"]
+        header += [f"{lb} B/px", f"{lb} +nx B/px", f"{lb} traced B/px", f"{lb} s", f"{lb} +nx s"]
     rows = []
     for c in cases:
         first = next(
@@ -422,6 +422,7 @@ def report(results: dict[str, Any]) -> str:
                 _num(rss, "with_networkx_peak_b_px"),
                 _num(tm, "build_peak_b_px"),
                 _num(rss, "build_s"),
+                _num(rss, "build_s") + _num(rss, "networkx_s"),
             ]
         rows.append(row)
     text = ["### Peak RSS growth of build_graph per map pixel", ""]
@@ -438,27 +439,9 @@ def report(results: dict[str, Any]) -> str:
             ["class", *labels], [[k, *(d.get(lb) for lb in labels)] for k, d in classes.items()]
         )
     )
-    last = labels[-1] if labels else None
-    if last:
-        text += ["", f"### Peak growth inside each stage ({last}, B/px)", ""]
-        stage_names: list[str] = []
-        for e in runs[last]["cases"].values():
-            for s in (e.get("rss") or {}).get("stages", {}):
-                if s not in stage_names:
-                    stage_names.append(s)
-        srows = []
-        for c, e in runs[last]["cases"].items():
-            st = (e.get("rss") or {}).get("stages", {})
-            nx_peak = _num(e.get("rss"), "with_networkx_peak_b_px")
-            srows.append(
-                [
-                    c,
-                    *(_num(st.get(s), "peak_b_px") for s in stage_names),
-                    nx_peak,
-                    _num(e.get("rss"), "resident_b_px"),
-                ]
-            )
-        text.append(markdown_table(["case", *stage_names, "+ networkx", "resident"], srows))
+    for lb in labels:
+        text += ["", f"### Peak growth inside each stage ({lb}, B/px)", ""]
+        text.append(_stage_table(runs[lb]["cases"]))
     errors = [
         f"- {lb} {c}: {e[k]['error']}"
         for lb in labels
@@ -469,6 +452,22 @@ def report(results: dict[str, Any]) -> str:
     if errors:
         text += ["", "Errors:", *errors]
     return "\n".join(text) + "\n"
+
+
+def _stage_table(cases: dict) -> str:
+    """Peak growth inside each stage of ``timings_s``, then with networkx, and what stays."""
+    names: list[str] = []
+    for e in cases.values():
+        names += [s for s in (e.get("rss") or {}).get("stages", {}) if s not in names]
+    rows = []
+    for c, e in cases.items():
+        rss = e.get("rss") or {}
+        st = rss.get("stages", {})
+        rows.append(
+            [c, *(_num(st.get(s), "peak_b_px") for s in names)]
+            + [_num(rss, "with_networkx_peak_b_px"), _num(rss, "resident_b_px")]
+        )
+    return markdown_table(["case", *names, "+ networkx", "resident"], rows)
 
 
 def main(argv: list[str] | None = None) -> int:
