@@ -388,8 +388,9 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
     pixels are re-examined instead, which is cheaper); the result is identical to re-examining
     every pixel. The cost is one linear scan of the image plus work proportional to the
     number of pixels examined. The first call in a fresh environment compiles the numba kernel
-    (cached on disk afterwards). Each thread keeps the kernel's work space
-    (about 5 bytes per pixel, for images up to 4 megapixels) for its next call.
+    (cached on disk afterwards). The work space is 1 byte per pixel plus 16 per foreground
+    pixel; each thread keeps it for its next call for images up to 4 megapixels, and
+    larger images get their skeleton in the work space's own image buffer.
     """
     method = choice("method", method, list(THIN_METHODS))
     image = binary_image("ridge", ridge)
