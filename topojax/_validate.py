@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -179,6 +180,18 @@ def choice(name: str, value: Any, choices: Any) -> str:
     if not isinstance(value, str) or value not in choices:
         raise ValueError(f"{name} must be one of {choices}, got {value!r}")
     return value
+
+
+def names_subset(name: str, value: Any, choices: tuple[str, ...]) -> tuple[str, ...]:
+    """``value``, an iterable of strings among ``choices`` (not a bare string), as a tuple
+    in the order of ``choices`` without repeats."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
+        raise TypeError(f"{name}: expected an iterable of names from {choices}, received {value!r}")
+    items = list(value)
+    unknown = [v for v in items if not isinstance(v, str) or v not in choices]
+    if unknown:
+        raise ValueError(f"{name}: expected names from {choices}, received {unknown[0]!r}")
+    return tuple(c for c in choices if c in items)
 
 
 def binary_flag(name: str, value: Any) -> bool:

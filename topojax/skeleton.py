@@ -219,8 +219,6 @@ def _thin_flat(
     n_cols: int,
     tables: np.ndarray,
     n_fg: int,
-    stamp: np.ndarray,
-    mark_base: int,
     lists: np.ndarray,
 ) -> tuple[int, int]:
     """Thin a zero-framed image in place; return the number of deleted pixels and of
@@ -242,11 +240,11 @@ def _thin_flat(
     The loop ends when two consecutive sub-iterations deleted nothing: the image is then a
     fixed point of both, as at the end of the scikit-image loops.
 
-    ``stamp`` (int32, at least ``flat.size`` entries, reused between calls) marks the
-    pixels queued for the next sub-iteration with ``mark_base + t + 1``; its entries must
-    not exceed ``mark_base`` (the caller advances it past the sub-iterations of every
-    call, so old marks never match).  ``lists`` (int64, (4, at least ``n_fg + 8``)) is the
-    work space of the pixel lists (also reused between calls).
+    While the candidates of a sub-iteration are gathered, a queued pixel is marked by bit 1
+    of its byte (1 -> 3), so that it is queued once; the marks are cleared before the next
+    sub-iteration reads the image.  ``lists`` (int32 or int64, (4, at least ``n_fg + 8``),
+    holding indices into ``flat``) is the work space of the pixel lists (reused between
+    calls).
     """
     o0 = 1
     o1 = 1 - n_cols
@@ -308,14 +306,16 @@ def _thin_flat(
             n_cand = n_alive if (changed > 0 or t == 0) else 0
         else:
             use_alive = False
-            mark = mark_base + t + 1
             m = 0
             for i in range(changed):
                 p = dels[i] if i < n_del else prev[i - n_del]
                 for q in (p + o0, p + o1, p + o2, p + o3, p + o4, p + o5, p + o6, p + o7):
+                    v = flat[q]
                     cand[m] = q
-                    m += int(flat[q] & (stamp[q] != mark))
-                    stamp[q] = mark
+                    m += int(v == 1)  # set and not queued yet
+                    flat[q] = v | (v << 1)  # 1 -> 3: queued; 0 stays 0
+            for i in range(m):
+                flat[cand[i]] = 1
             n_cand = m
         tmp = prev
         prev = dels
@@ -388,52 +388,64 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
     pixels are re-examined instead, which is cheaper); the result is identical to re-examining
     every pixel. The cost is one linear scan of the image plus work proportional to the
     number of pixels examined. The first call in a fresh environment compiles the numba kernel
-    (cached on disk afterwards). Each thread keeps the kernel's work space
-    (about 5 bytes per pixel, for images up to 4 megapixels) for its next call.
+    (cached on disk afterwards). The work space is 1 byte per pixel plus 16 per foreground
+    pixel; each thread keeps it for its next call for images up to 4 megapixels, and
+    larger images get their skeleton in the work space's own image buffer.
     """
     method = choice("method", method, list(THIN_METHODS))
     image = binary_image("ridge", ridge)
     if image.size == 0:
         return image.copy()
     n_fg = int(np.count_nonzero(image))
-    scratch = _thin_scratch((image.shape[0] + 2) * (image.shape[1] + 2) + 8, n_fg + 8)
+    h, w = image.shape
+    size = -(-((h + 2) * (w + 2)) // 8) * 8
+    kept = size <= _THIN_SCRATCH_MAX_PX
+    scratch = _thin_scratch(size, n_fg + 8) if kept else _new_thin_scratch(size, n_fg + 8)
     buf, framed = _framed_buffer(image, out=scratch.flat)
-    _, steps = _thin_flat(
-        buf, framed.shape[1], TABLES_U8[method], n_fg, scratch.stamp, scratch.base, scratch.lists
-    )
-    scratch.base += steps + 1
-    return framed[1:-1, 1:-1].astype(bool)
+    del image  # a copy of ``ridge`` where it was not bool: not needed any more
+    _thin_flat(buf, framed.shape[1], TABLES_U8[method], n_fg, scratch.lists)
+    if kept:  # the buffer is this thread's, for its next call
+        return framed[1:-1, 1:-1].astype(bool)
+    scratch.lists = None
+    return _unframe(buf, h, w).view(bool)
+
+
+@cached_njit(nogil=True)
+def _unframe(buf: np.ndarray, h: int, w: int) -> np.ndarray:
+    """The (h, w) image framed in ``buf`` (rows of ``w + 2`` after one frame row), moved
+    to the start of ``buf`` row by row (each row moves towards the start, past no row
+    not yet moved); returns that (h, w) view of ``buf``."""
+    for r in range(h):
+        src = (r + 1) * (w + 2) + 1
+        dst = r * w
+        for c in range(w):
+            buf[dst + c] = buf[src + c]
+    return buf[: h * w].reshape(h, w)
 
 
 #: Per-thread work space of the thinning kernel, kept between calls: fresh map-sized
 #: arrays would cost their page faults at every call, more than the thinning itself.
 _THIN_SCRATCH = threading.local()
-#: Largest image (framed pixels) whose work space is kept: 4 Mpx, 20 MB.
+#: Largest image (framed pixels) whose work space is kept: 4 Mpx, 4 MB plus the lists.
 _THIN_SCRATCH_MAX_PX = 1 << 22
 
 
 def _thin_scratch(size: int, n_list: int):
     """This thread's work space for an image of ``size`` framed pixels (padding
-    included) and ``n_list`` list entries: ``flat`` (uint8 image buffer), ``stamp``
-    (int32 marks) with its next mark ``base``, and ``lists`` (int64 (4, n))."""
-    if size > _THIN_SCRATCH_MAX_PX:  # not kept: 5 bytes a pixel would stay allocated
-        return _new_thin_scratch(size, n_list)
+    included, at most _THIN_SCRATCH_MAX_PX) and ``n_list`` list entries: ``flat`` (uint8
+    image buffer) and ``lists`` (int32 (4, n))."""
     space = getattr(_THIN_SCRATCH, "space", None)
-    if space is None or space.stamp.size < size or space.base + size + 2 >= _INT32_MAX:
-        # new, larger, or its marks would run out: start again from zeros
+    if space is None or space.flat.size < size:
         space = _THIN_SCRATCH.space = _new_thin_scratch(size, n_list)
     elif space.lists.shape[1] < n_list:
-        space.lists = np.empty((4, n_list), np.int64)
+        space.lists = np.empty((4, n_list), space.lists.dtype)
     return space
 
 
 def _new_thin_scratch(size: int, n_list: int) -> SimpleNamespace:
-    return SimpleNamespace(
-        stamp=np.zeros(size, np.int32),
-        base=0,
-        flat=np.empty(size, np.uint8),
-        lists=np.empty((4, n_list), np.int64),
-    )
+    # int32 pixel indices where every index of the framed image fits (half the memory)
+    index = np.int32 if size < _INT32_MAX - 16 else np.int64
+    return SimpleNamespace(flat=np.empty(size, np.uint8), lists=np.empty((4, n_list), index))
 
 
 _INT32_MAX = int(np.iinfo(np.int32).max)

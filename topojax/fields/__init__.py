@@ -10,14 +10,17 @@ from .clearance import (
     SPARSE_CLEARANCE_MAX_PX,
     clearance_at,
     clearance_from_sq_distance,
+    clearance_of_values,
     nearest_sq_distance,
 )
 from .dense import (
+    FIELD_NAMES,
     DenseFields,
     dense_fields,
     dense_fields_many,
     distance_map,
     forward_tile,
+    ridge_fields,
     ridge_map,
     trace_counts,
 )
@@ -35,6 +38,7 @@ from .tiling import GROWTH_FACTOR, MAX_GRID_CELLS, TileGrid, TileManager, unique
 
 __all__ = [
     "FAR_SQ",
+    "FIELD_NAMES",
     "GROWTH_FACTOR",
     "HALO_PX",
     "MAX_GRID_CELLS",
@@ -45,6 +49,7 @@ __all__ = [
     "brute_force_distance_map",
     "clearance_at",
     "clearance_from_sq_distance",
+    "clearance_of_values",
     "column_distance_tile",
     "column_dtype",
     "dense_fields",
@@ -55,6 +60,7 @@ __all__ = [
     "laplacian_valid",
     "nearest_sq_distance",
     "reflect_101_halo",
+    "ridge_fields",
     "ridge_from_laplacian",
     "ridge_map",
     "row_sq_distance_tile",

@@ -11,6 +11,7 @@ __all__ = [
     "SPARSE_CLEARANCE_MAX_PX",
     "clearance_at",
     "clearance_from_sq_distance",
+    "clearance_of_values",
     "nearest_sq_distance",
 ]
 
@@ -137,7 +138,30 @@ def clearance_at(
     float32 (n,): clearance in pixels (``inf`` where the map has no obstacle at all).
     """
     flat = np.asarray(flat, np.intp)
-    d2 = sq_distance_px.ravel()[flat]
+    return clearance_of_values(sq_distance_px.ravel()[flat], obstacles, half_width_px, flat)
+
+
+def clearance_of_values(
+    sq_values: np.ndarray, obstacles: np.ndarray, half_width_px: int, flat: np.ndarray
+) -> np.ndarray:
+    """:func:`clearance_at` from the windowed squared distance at those pixels only.
+
+    Parameters
+    ----------
+    sq_values : int (n,)
+        Windowed squared distance at the pixels ``flat``, px^2 (``FAR_SQ``: no obstacle
+        in the window), e.g. kept at the ridge pixels only
+        (:func:`topojax.fields.dense.ridge_fields`).
+    obstacles, half_width_px : see :func:`clearance_from_sq_distance`
+    flat : int array (n,)
+        Flat (raster) indices of the pixels, ``row * W + col``.
+
+    Returns
+    -------
+    float32 (n,): as :func:`clearance_at`.
+    """
+    flat = np.asarray(flat, np.intp)
+    d2 = np.asarray(sq_values)
     out = np.sqrt(d2.astype(np.float32))
     far = np.flatnonzero(d2 > half_width_px * half_width_px)
     if far.size == 0:
@@ -145,12 +169,12 @@ def clearance_at(
     if not obstacles.any():
         out[far] = np.inf
         return out
-    rows, cols = np.divmod(flat[far], sq_distance_px.shape[1])
+    rows, cols = np.divmod(flat[far], obstacles.shape[1])
     exact = None
     if far.size <= SPARSE_CLEARANCE_MAX_PX:
         # searching more than twice the map would cost more than its transform
         exact = nearest_sq_distance(
-            obstacles, rows, cols, d2[far], 2 * half_width_px, 2 * sq_distance_px.size
+            obstacles, rows, cols, d2[far], 2 * half_width_px, 2 * obstacles.size
         )
     if exact is not None:
         out[far] = np.sqrt(exact.astype(np.float32))

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-from .._validate import instance_or_default, positive_int
+from .._validate import instance_or_default, names_subset, positive_int
 from ..config import DistanceConfig, RidgeConfig
 from .distance import (
     column_distance_tile,
@@ -35,11 +35,13 @@ from .filters import HALO_PX, laplacian_valid, reflect_101_halo, ridge_from_lapl
 from .tiling import TileGrid
 
 __all__ = [
+    "FIELD_NAMES",
     "DenseFields",
     "dense_fields",
     "dense_fields_many",
     "distance_map",
     "forward_tile",
+    "ridge_fields",
     "ridge_map",
     "trace_counts",
 ]
@@ -170,38 +172,51 @@ _SCRATCH_POOL = threading.local()
 
 
 class _Scratch:
-    """Scratch arrays of one call, taken from (and given back to) this thread's pool."""
+    """Scratch arrays of one call, carved out of byte buffers taken from (and given back
+    to) this thread's pool.  A buffer given back during the call serves the call's next
+    request that fits in it, so arrays used one after another share their memory."""
 
     def __init__(self) -> None:
         pool = getattr(_SCRATCH_POOL, "arrays", None)
         if pool is None:
             pool = _SCRATCH_POOL.arrays = []
-        self._pool: list[np.ndarray] = pool
-        self._taken: list[np.ndarray] = []
+        self._pool: list[np.ndarray] = pool  # uint8 (n,) buffers, oldest first
+        self._taken: dict[int, np.ndarray] = {}  # id of the array handed out -> buffer
 
-    def take(self, shape: tuple[int, ...], dtype) -> np.ndarray:
-        """An uninitialised array, unused by anything else until :meth:`release`."""
+    def take(self, shape: tuple[int, ...], dtype, min_bytes: int = 0) -> np.ndarray:
+        """An uninitialised array, unused by anything else until it is given back, in a
+        buffer of at least ``min_bytes`` (to serve a larger array after it)."""
         dtype = np.dtype(dtype)
-        for i, a in enumerate(self._pool):
-            if a.shape == tuple(shape) and a.dtype == dtype:
-                self._taken.append(self._pool.pop(i))
-                return self._taken[-1]
-        self._taken.append(np.empty(shape, dtype))
-        return self._taken[-1]
+        need = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+        size = max(need, int(min_bytes))
+        fits = [i for i, b in enumerate(self._pool) if b.size >= size]
+        if fits:  # the smallest buffer that holds it
+            buf = self._pool.pop(min(fits, key=lambda i: self._pool[i].size))
+        else:
+            buf = np.empty(size, np.uint8)
+        arr = buf[:need].view(dtype).reshape(shape)
+        self._taken[id(arr)] = buf
+        return arr
+
+    def give_back(self, arr: np.ndarray) -> None:
+        """Return the buffer of ``arr`` (from :meth:`take`) early; ``arr`` must not be
+        used afterwards."""
+        self._pool.append(self._taken.pop(id(arr)))
 
     def release(self) -> None:
-        """Give the arrays back (most recent last), keeping at most _SCRATCH_BYTES.
+        """Give every buffer back (most recent last), keeping at most _SCRATCH_BYTES.
         Not called when the call fails: a dispatch thread may still be using them."""
-        self._pool.extend(self._taken)
-        self._taken = []
-        total = sum(a.nbytes for a in self._pool)
+        self._pool.extend(self._taken.values())
+        self._taken = {}
+        total = sum(b.size for b in self._pool)
         while self._pool and total > _SCRATCH_BYTES:
-            total -= self._pool.pop(0).nbytes
+            total -= self._pool.pop(0).size
 
 
 @dataclass(frozen=True)
 class DenseFields:
-    """Per-pixel outputs of the JAX stages for a whole map (all ``(H, W)``, ``[row, col]``).
+    """Per-pixel outputs of the JAX stages for a whole map (all ``(H, W)``, ``[row, col]``;
+    None for a field not asked for, see ``outputs`` of :func:`dense_fields`).
 
     Attributes
     ----------
@@ -216,10 +231,14 @@ class DenseFields:
         ``lap_abs > threshold``.
     """
 
-    sq_distance_px: np.ndarray
-    distance: np.ndarray
-    lap_abs: np.ndarray
-    ridges: np.ndarray
+    sq_distance_px: np.ndarray | None
+    distance: np.ndarray | None
+    lap_abs: np.ndarray | None
+    ridges: np.ndarray | None
+
+
+#: The fields of :class:`DenseFields`, in the order the kernel returns them.
+FIELD_NAMES = ("sq_distance_px", "distance", "lap_abs", "ridges")
 
 
 def _as_obstacles(obstacles) -> np.ndarray:
@@ -257,6 +276,7 @@ def dense_fields(
     tile_px: int = 256,
     tiles_per_call: int = 1,
     threads: int | None = None,
+    outputs=FIELD_NAMES,
 ) -> DenseFields:
     """Run the JAX stages (distance map, Laplacian, ridges) over a whole map, tile by tile.
 
@@ -273,6 +293,11 @@ def dense_fields(
         Host threads dispatching kernel calls concurrently, each keeping a few calls in
         flight so that its host work (stacking patches, copying outputs) overlaps the
         kernels.  Default: the number of CPUs.  Results do not depend on it.
+    outputs : iterable of str, default all of :data:`FIELD_NAMES`
+        The fields to assemble (``"sq_distance_px"``, ``"distance"``, ``"lap_abs"``,
+        ``"ridges"``); the others are None.  The kernels compute all four per tile
+        either way, so the fields do not depend on it: only the memory does (4, 4, 1
+        and 1 bytes per pixel).
 
     Returns
     -------
@@ -280,8 +305,9 @@ def dense_fields(
 
     Notes
     -----
-    The calling thread keeps the call's scratch arrays (the padded maps and the column
-    pass, about 4 bytes per pixel; at most 64 MB in all) for its next calls.
+    Besides the outputs, the call needs the padded map and the column pass (about 2 to 3
+    bytes per pixel, one after the other sharing memory); the calling thread keeps them
+    (at most 64 MB in all) for its next calls.
     """
     return dense_fields_many(
         [obstacles],
@@ -290,6 +316,7 @@ def dense_fields(
         tile_px=tile_px,
         tiles_per_call=tiles_per_call,
         threads=threads,
+        outputs=outputs,
     )[0]
 
 
@@ -310,6 +337,7 @@ def dense_fields_many(
     tile_px: int = 256,
     tiles_per_call: int = 1,
     threads: int | None = None,
+    outputs=FIELD_NAMES,
 ) -> list[DenseFields]:
     """:func:`dense_fields` for many maps at once, their tiles sharing kernel calls.
 
@@ -321,28 +349,80 @@ def dense_fields_many(
     Parameters
     ----------
     obstacle_maps : sequence of bool arrays, each (H_i, W_i)
-    distance, ridge, tile_px, tiles_per_call, threads : see :func:`dense_fields`
+    distance, ridge, tile_px, tiles_per_call, threads, outputs : see :func:`dense_fields`
 
     Returns
     -------
     list of DenseFields, one per map, in input order.
     """
+    outputs = names_subset("outputs", outputs, FIELD_NAMES)
+    fields, _ = _run_kernels(
+        obstacle_maps, distance, ridge, tile_px, tiles_per_call, threads, outputs, False
+    )
+    return fields
+
+
+def ridge_fields(
+    obstacles,
+    *,
+    distance: DistanceConfig | None = None,
+    ridge: RidgeConfig | None = None,
+    tile_px: int = 256,
+    tiles_per_call: int = 1,
+    threads: int | None = None,
+    outputs=(),
+) -> tuple[DenseFields, np.ndarray]:
+    """The ridge map, the windowed squared distance at its pixels only, and other dense
+    fields if asked for.
+
+    What the CPU stages need of the JAX stages: 1 byte per pixel plus 4 per ridge pixel,
+    where all of :func:`dense_fields` takes 10 bytes per pixel.
+
+    Parameters
+    ----------
+    obstacles, distance, ridge, tile_px, tiles_per_call, threads
+        As for :func:`dense_fields`.
+    outputs : iterable of str, default none
+        Dense fields to assemble besides the ridges, as for :func:`dense_fields`.
+
+    Returns
+    -------
+    fields : DenseFields
+        ``ridges`` and the fields of ``outputs``; the others None.
+    ridge_sq_distance_px : int32 (n,)
+        ``sq_distance_px`` at the ridge pixels in raster order (those of
+        ``np.flatnonzero(fields.ridges)``); read it at chosen ridge pixels with
+        :func:`topojax.fields.ridge_values.at_ridge_pixels`.
+    """
+    outputs = names_subset("outputs", outputs, FIELD_NAMES)
+    (fields,), (values,) = _run_kernels(
+        [obstacles], distance, ridge, tile_px, tiles_per_call, threads, outputs, True
+    )
+    return fields, values
+
+
+def _run_kernels(
+    obstacle_maps, distance, ridge, tile_px, tiles_per_call, threads, outputs, ridge_values
+):
+    """Both kernel passes over the maps: their DenseFields with ``outputs`` and, with
+    ``ridge_values``, the squared distance at each map's ridge pixels (raster order)."""
     maps = [_as_obstacles(o) for o in obstacle_maps]
     distance = instance_or_default("distance", distance, DistanceConfig)
     ridge = instance_or_default("ridge", ridge, RidgeConfig)
     tile_px = positive_int("tile_px", tile_px)
     tiles_per_call = positive_int("tiles_per_call", tiles_per_call)
     if not maps:
-        return []
+        return [], []
     batch = _TileBatch(maps, tile_px, tiles_per_call)
     scalars = _kernel_scalars(distance.sigma_px, ridge.scale, ridge.threshold)
     n_threads = _dispatch_threads(threads, len(batch.starts))
     scratch = _Scratch()
     r = distance.half_width_px
     columns = _column_pass(batch, r, scratch, n_threads)
-    fields = _forward_pass(batch, columns, r, ridge.ksize, scalars, scratch, n_threads)
+    sinks = _Sinks(batch, outputs, ridge_values)
+    _forward_pass(batch, columns, r, ridge.ksize, scalars, scratch, n_threads, sinks)
     scratch.release()  # only after every kernel call has been collected
-    return fields
+    return sinks.fields, sinks.ridge_values(tile_px)
 
 
 class _TileBatch:
@@ -417,11 +497,20 @@ def _column_pass(batch: _TileBatch, r: int, scratch: _Scratch, n_threads: int) -
     """Kernel 1, the column pass, on each tile's own columns with ``r`` halo rows: one
     array per map (:func:`~topojax.fields.distance.column_dtype`).  Each tile's core goes
     straight into its map's column array (tiles never overlap, so the dispatch threads
-    write disjoint regions)."""
+    write disjoint regions).  The padded maps go back to ``scratch`` at the end."""
     col_dtype = column_dtype(r)
+    # Each padded map's buffer then holds its padded column pass (_forward_pass).
+    padded = [
+        scratch.take(
+            g.padded_shape((r, 0)),
+            bool,
+            min_bytes=np.prod(g.padded_shape((HALO_PX, HALO_PX + r))) * col_dtype.itemsize,
+        )
+        for g in batch.grids
+    ]
     strip_views = [
-        g.patch_view(m, (r, 0), fill=False, out=scratch.take(g.padded_shape((r, 0)), bool))
-        for g, m in zip(batch.grids, batch.maps, strict=True)
+        g.patch_view(m, (r, 0), fill=False, out=out)
+        for g, m, out in zip(batch.grids, batch.maps, padded, strict=True)
     ]
     columns = [scratch.take(m.shape, col_dtype) for m in batch.maps]
 
@@ -435,7 +524,58 @@ def _column_pass(batch: _TileBatch, r: int, scratch: _Scratch, n_threads: int) -
             columns[batch.owners[j]][r0 : r0 + h, c0 : c0 + w] = out[n, :h, :w]
 
     _dispatch(batch.starts, n_threads, launch_columns, finish_columns)
+    for arr in padded:  # the strip views are not read any more
+        scratch.give_back(arr)
     return columns
+
+
+class _Sinks:
+    """Where the forward kernel's tiles go: the DenseFields asked for (``outputs``), and
+    with ``ridge_values`` the squared distance at each tile's ridge pixels."""
+
+    def __init__(self, batch: _TileBatch, outputs: tuple[str, ...], ridge_values: bool) -> None:
+        dtypes = dict(zip(FIELD_NAMES, (np.int32, np.float32, np.uint8, bool), strict=True))
+        if ridge_values and "ridges" not in outputs:
+            outputs = (*outputs, "ridges")
+        self.fields = [
+            DenseFields(
+                **{
+                    name: np.empty(m.shape, dtypes[name]) if name in outputs else None
+                    for name in FIELD_NAMES
+                }
+            )
+            for m in batch.maps
+        ]
+        self.batch = batch
+        self.slots = [i for i, name in enumerate(FIELD_NAMES) if name in outputs]
+        self.tile_values = [None] * batch.total if ridge_values else None
+
+    def put(self, j: int, n: int, tiles: list) -> None:
+        """Tile ``j`` of the batch, slot ``n`` of the kernel call's outputs ``tiles``."""
+        target = self.fields[self.batch.owners[j]]
+        r0, c0, h, w = self.batch.core_box(j)
+        for i in self.slots:
+            getattr(target, FIELD_NAMES[i])[r0 : r0 + h, c0 : c0 + w] = tiles[i][n, :h, :w]
+        if self.tile_values is not None:
+            self.tile_values[j] = tiles[0][n, :h, :w][tiles[3][n, :h, :w]]
+
+    def ridge_values(self, tile_px: int) -> list:
+        """Per map, the squared distance at its ridge pixels in raster order."""
+        if self.tile_values is None:
+            return [None] * len(self.fields)
+        from .ridge_values import tiles_to_raster
+
+        out = []
+        first = 0
+        for f, g in zip(self.fields, self.batch.grids, strict=True):
+            tiles = self.tile_values[first : first + g.n_tiles]
+            first += g.n_tiles
+            offsets = np.concatenate([[0], np.cumsum([t.size for t in tiles])])
+            values = np.concatenate(tiles) if tiles else np.zeros(0, np.int32)
+            del tiles
+            out.append(tiles_to_raster(f.ridges, tile_px, values, offsets))
+        self.tile_values = None
+        return out
 
 
 def _forward_pass(
@@ -446,28 +586,21 @@ def _forward_pass(
     scalars,
     scratch: _Scratch,
     n_threads: int,
-) -> list[DenseFields]:
+    sinks: _Sinks,
+) -> None:
     """Kernel 2, everything after the column pass, on the column pass with the row halo
-    of the Laplacian and the column halo of the Laplacian and the window."""
+    of the Laplacian and the column halo of the Laplacian and the window; its tiles go
+    to ``sinks``.  The column arrays go back to ``scratch`` once padded."""
     col_dtype = column_dtype(r)
     none = np.iinfo(col_dtype).max
     tiles_per_call = batch.tiles_per_call
     column_halo = (HALO_PX, HALO_PX + r)
-    column_views = [
-        g.patch_view(
-            c, column_halo, fill=none, out=scratch.take(g.padded_shape(column_halo), col_dtype)
-        )
-        for g, c in zip(batch.grids, columns, strict=True)
-    ]
-    fields = [
-        DenseFields(
-            np.empty(m.shape, np.int32),
-            np.empty(m.shape, np.float32),
-            np.empty(m.shape, np.uint8),
-            np.empty(m.shape, bool),
-        )
-        for m in batch.maps
-    ]
+    column_views = []
+    for g, c in zip(batch.grids, columns, strict=True):
+        out = scratch.take(g.padded_shape(column_halo), col_dtype)
+        column_views.append(g.patch_view(c, column_halo, fill=none, out=out))
+        scratch.give_back(c)
+    del columns, c
 
     def launch_forward(start: int):
         sel = batch.chunk(start)
@@ -490,17 +623,9 @@ def _forward_pass(
     def finish_forward(start: int, handle) -> None:
         tiles = [np.asarray(a) for a in handle]
         for n, j in enumerate(batch.chunk(start)):
-            target = fields[batch.owners[j]]
-            r0, c0, h, w = batch.core_box(j)
-            for dest, src in zip(
-                (target.sq_distance_px, target.distance, target.lap_abs, target.ridges),
-                tiles,
-                strict=True,
-            ):
-                dest[r0 : r0 + h, c0 : c0 + w] = src[n, :h, :w]
+            sinks.put(j, n, tiles)
 
     _dispatch(batch.starts, n_threads, launch_forward, finish_forward)
-    return fields
 
 
 def distance_map(

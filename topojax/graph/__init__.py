@@ -36,7 +36,13 @@ The link bit-masks, the tracing of ordered edge paths and the ring search are nu
 clearances) are computed with vectorised numpy over all paths at once.
 """
 
-from .build import PixelToWorld, graph_summary, pixel_graph_degree, skeleton_to_graph
+from .build import (
+    PixelToWorld,
+    graph_summary,
+    pixel_graph_degree,
+    skeleton_graph_store,
+    skeleton_to_graph,
+)
 from .geometry import cumulative_length_m, holds, orient, path_lengths_m, polyline_keep
 from .prune import prune_graph
 from .store import KIND_CODES, KIND_NAMES, GraphStore, paused_gc
@@ -57,5 +63,6 @@ __all__ = [
     "polyline_keep",
     "prune_graph",
     "raw_graph",
+    "skeleton_graph_store",
     "skeleton_to_graph",
 ]

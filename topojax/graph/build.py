@@ -149,6 +149,35 @@ def _world_coords(
     return np.stack([x, y], axis=1)
 
 
+#: Pixels converted to world coordinates per call of the conversion (bounds its
+#: temporaries; each pixel's coordinates do not depend on the others).  A graph of fewer
+#: path and vertex pixels takes one call.
+_WORLD_CHUNK_PX = 1 << 13
+
+
+def _world_of(
+    path_rc: np.ndarray,
+    vr: np.ndarray,
+    vc: np.ndarray,
+    shape: tuple[int, int],
+    res: float,
+    pixel_to_world: PixelToWorld | None,
+) -> np.ndarray:
+    """World (x, y) of the path pixels ``path_rc`` (P, 2) and then of the vertex pixels
+    ``(vr, vc)``: float64 (P + V, 2), converted a chunk of pixels at a time."""
+    n_path = path_rc.shape[0]
+    n = n_path + vr.shape[0]
+    out = np.empty((n, 2), np.float64)
+    for a in range(0, n, _WORLD_CHUNK_PX):
+        b = min(a + _WORLD_CHUNK_PX, n)
+        pa, pb = min(a, n_path), min(b, n_path)  # the chunk's path pixels, then vertices
+        va, vb = max(a, n_path) - n_path, max(b, n_path) - n_path
+        r = np.concatenate([path_rc[pa:pb, 0], vr[va:vb]]).astype(np.float64)
+        c = np.concatenate([path_rc[pa:pb, 1], vc[va:vb]]).astype(np.float64)
+        out[a:b] = _world_coords(r, c, shape, res, pixel_to_world)
+    return out
+
+
 def pixel_graph_degree(skeleton: np.ndarray) -> np.ndarray:
     """Degree of every pixel in the skeleton's pixel graph.
 
@@ -251,6 +280,41 @@ def skeleton_to_graph(
         another shape or invalid values, ``resolution_m`` is not finite and > 0, or
         ``pixel_to_world`` returns arrays of the wrong shape.
     """
+    return skeleton_graph_store(
+        skeleton,
+        clearance_px=clearance_px,
+        resolution_m=resolution_m,
+        pixel_to_world=pixel_to_world,
+        merge_junction_clusters=merge_junction_clusters,
+    ).to_networkx()
+
+
+def skeleton_graph_store(
+    skeleton: np.ndarray,
+    *,
+    clearance_px: np.ndarray | None = None,
+    resolution_m: float = 1.0,
+    pixel_to_world: PixelToWorld | None = None,
+    merge_junction_clusters: bool = False,
+) -> GraphStore:
+    """:func:`skeleton_to_graph` as arrays: the graph's vertices, edges and paths in one
+    :class:`GraphStore`, without networkx's per-vertex and per-edge objects.
+
+    Parameters
+    ----------
+    skeleton, clearance_px, resolution_m, pixel_to_world, merge_junction_clusters
+        As for :func:`skeleton_to_graph`.
+
+    Returns
+    -------
+    GraphStore
+        Its :meth:`~GraphStore.to_networkx` is :func:`skeleton_to_graph`'s graph.
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`skeleton_to_graph`.
+    """
     skel = _as_skeleton(skeleton)
     res = finite_positive("resolution_m", resolution_m)
     if pixel_to_world is not None and not callable(pixel_to_world):
@@ -266,7 +330,11 @@ def skeleton_to_graph(
         clear = _check_clearance_values(clearance_px(flat), skel.shape, flat)
     else:
         clear = _check_clearance(clearance_px, skel, flat)
-    return _skeleton_store(skel.shape, flat, clear, res, pixel_to_world, merge).to_networkx()
+    # pixel keys row * (W + 1) + col (see _dense_keys), in place of the flat indices
+    keys = flat // skel.shape[1]
+    keys += flat
+    del flat
+    return _store_of_keys(skel.shape, keys, clear, res, pixel_to_world, merge)
 
 
 def _skeleton_store(
@@ -280,17 +348,35 @@ def _skeleton_store(
     """The :class:`GraphStore` of :func:`skeleton_to_graph` on checked input: the
     skeleton's pixels as flat indices ``flat`` (raster order) of an image of ``shape``,
     and their clearances in pixels (float64 (n,), aligned with ``flat``) or None."""
+    keys, _ = _dense_keys(shape, flat)
+    return _store_of_keys(shape, keys, clear, res, pixel_to_world, merge)
+
+
+def _store_of_keys(
+    shape: tuple[int, ...],
+    keys: np.ndarray,
+    clear: np.ndarray | None,
+    res: float,
+    pixel_to_world: PixelToWorld | None,
+    merge: bool,
+) -> GraphStore:
+    """:func:`_skeleton_store` of the skeleton's pixels given as their keys
+    ``row * (W + 1) + col`` (:func:`_dense_keys`, raster order) of an image of
+    ``shape``, with their clearances in pixels (float64 (n,), aligned with ``keys``) or
+    None."""
     shape = (int(shape[0]), int(shape[1]))
     attrs = {"resolution_m": res, "shape": shape, "merge_junction_clusters": merge}
-    if flat.size == 0:
+    if keys.size == 0:
         return GraphStore.empty(attrs)
 
     # Pixels are numbered 0..n-1 in raster order (their index in ``flat`` and ``keys``);
-    # vertices and paths refer to them by that number until the end.
-    keys, stride = _dense_keys(shape, flat)
+    # vertices and paths refer to them by that number until the end.  Arrays are dropped
+    # as soon as they are used.
+    stride = shape[1] + 1
     v_idx, v_kind, e_u, e_v, e_off, path = raw_graph(keys, stride)
     u_id = np.searchsorted(v_idx, e_u)
     v_id = np.searchsorted(v_idx, e_v)
+    del e_u, e_v
     lens = np.diff(e_off)
     u_id, v_id, path = orient(u_id, v_id, e_off, lens, path)  # paths from u to v, u <= v
     vr = keys[v_idx] // stride
@@ -310,31 +396,28 @@ def _skeleton_store(
             e_off = np.concatenate([[0], np.cumsum(lens)])
             u_id, v_id = new_id[u_id[keep]], new_id[v_id[keep]]
             u_id, v_id, path = orient(u_id, v_id, e_off, lens, path)
-    pr = keys[path] // stride
-    pc = keys[path] % stride
-    world = _world_coords(
-        np.concatenate([pr, vr]).astype(np.float64),
-        np.concatenate([pc, vc]).astype(np.float64),
-        shape,
-        res,
-        pixel_to_world,
-    )
-    n_path = pr.shape[0]
-    path_rc = np.stack([pr, pc], axis=1)
+    path_rc = np.empty((path.shape[0], 2), np.int64)
+    np.floor_divide(keys[path], stride, out=path_rc[:, 0])
+    np.remainder(keys[path], stride, out=path_rc[:, 1])
+    del keys
     length_m, min_c, mean_c = _edge_values(path_rc, path, e_off, lens, clear, res)
+    node_clear = np.full(v_idx.shape[0], np.nan) if clear is None else clear[v_idx] * res
+    del path, clear
     # Edges sorted by (u, v), then in tracing order; their paths one after another.
     order = np.lexsort((np.arange(u_id.shape[0]), v_id, u_id))
-    rows = _edge_pixel_index(e_off, order)
+    path_rc = np.take(path_rc, _edge_pixel_index(e_off, order), axis=0)  # a row gather
+    n_path = path_rc.shape[0]
+    world = _world_of(path_rc, vr, vc, shape, res, pixel_to_world)
     return GraphStore(
         node_pixel=np.stack([vr, vc], axis=1),
         node_kind=v_kind,
         node_world=world[n_path:],
-        node_clearance_m=np.full(v_idx.shape[0], np.nan) if clear is None else clear[v_idx] * res,
+        node_clearance_m=node_clear,
         edge_u=u_id[order],
         edge_v=v_id[order],
         path_offsets=np.concatenate([[0], np.cumsum(lens[order])]),
-        path_pixels=np.take(path_rc, rows, axis=0),  # a row gather; fancy indexing is slower
-        path_world=np.take(world[:n_path], rows, axis=0),
+        path_pixels=path_rc,
+        path_world=world[:n_path],
         edge_length_m=length_m[order],
         edge_min_clearance_m=min_c[order],
         edge_mean_clearance_m=mean_c[order],

@@ -20,8 +20,14 @@ def _running_diagonals(pixels: np.ndarray) -> np.ndarray:
     pixel, so the step from one path's last pixel to the next one's first is never
     counted and a path's length is a function of the path alone, not of where it sits
     among the others."""
-    step = np.abs(np.diff(np.asarray(pixels, np.int64), axis=0))
-    return np.concatenate([[0], np.cumsum((step[:, 0] != 0) & (step[:, 1] != 0))])
+    pixels = np.asarray(pixels, np.int64)
+    if pixels.shape[0] == 0:
+        return np.zeros(1, np.int64)
+    diagonal = np.diff(pixels[:, 0]) != 0
+    diagonal &= np.diff(pixels[:, 1]) != 0
+    out = np.zeros(pixels.shape[0], np.int64)
+    np.cumsum(diagonal, out=out[1:])
+    return out
 
 
 def path_lengths_m(pixels: np.ndarray, starts, sizes, res: float) -> np.ndarray:
@@ -75,10 +81,12 @@ def orient(
     flip = u > v
     if not flip.any():
         return u, v, paths
-    edge_of = np.repeat(np.arange(u.shape[0]), lens)
-    pos = np.arange(paths.shape[0])
-    rev = np.where(flip[edge_of], 2 * off[edge_of] + lens[edge_of] - 1 - pos, pos)
-    return np.where(flip, v, u), np.where(flip, u, v), paths[rev]
+    flipped = np.flatnonzero(flip)
+    pos = _edge_pixel_index(off, flipped)  # the pixels that move, edge by edge
+    edge_of = np.repeat(flipped, lens[flipped])
+    out = paths.copy()
+    out[pos] = paths[2 * off[edge_of] + lens[edge_of] - 1 - pos]
+    return np.where(flip, v, u), np.where(flip, u, v), out
 
 
 def _edge_pixel_index(off: np.ndarray, keep: np.ndarray) -> np.ndarray:

@@ -97,26 +97,36 @@ def _trace(
     vertex_idx: np.ndarray,
     deg2_idx: np.ndarray,
     nbr: np.ndarray,
-    n_links: int,
+    vertex_links: int,
 ):
     """Trace all edge paths.
 
     Pixels are numbered ``0..n-1`` in raster order; ``links`` (uint8 masks),
-    ``is_vertex`` (bool) and ``nbr`` (:func:`_link_table`) are indexed by that number.
+    ``is_vertex`` (bool) and ``nbr`` (:func:`_link_table`) are indexed by that number;
+    ``vertex_links`` is the number of links of the vertex pixels (their degrees summed).
     Returns the ring-vertex numbers, and per edge the start / end pixel number and the
     concatenated paths with CSR offsets.  ``is_vertex`` is updated in place with the ring
     vertices.
+
+    The output arrays are sized by bounds: every degree-2 pixel is on one path, once (a
+    ring's first pixel twice); every other path entry is a vertex pixel at the end of one
+    of its links, each link used by one edge at most; an edge other than a ring uses two
+    such link ends; a ring holds at least 4 pixels (3 pixels cannot form one: the diagonal
+    of a right triangle is not a link).  Writes past a bound raise instead.
     """
     visited = np.zeros(links.shape[0], dtype=np.bool_)
-    max_edges = n_links + 1
+    n_deg2 = deg2_idx.shape[0]
+    max_rings = n_deg2 // 4 + 1
+    max_edges = vertex_links // 2 + max_rings + 1
+    max_path = n_deg2 + vertex_links + max_rings + 1
     e_u = np.empty(max_edges, dtype=np.int64)
     e_v = np.empty(max_edges, dtype=np.int64)
     e_off = np.empty(max_edges + 1, dtype=np.int64)
-    path = np.empty(2 * n_links + 2, dtype=np.int64)
+    path = np.empty(max_path, dtype=np.int64)
     n_e = 0
     n_p = 0
     e_off[0] = 0
-    rings = np.empty(deg2_idx.shape[0], dtype=np.int64)
+    rings = np.empty(max_rings, dtype=np.int64)
     n_r = 0
 
     for phase in range(2):
@@ -136,6 +146,8 @@ def _trace(
                 if visited[v]:
                     continue
                 is_vertex[v] = True
+                if n_r >= max_rings:
+                    raise RuntimeError("_trace: more rings than its bound")
                 rings[n_r] = v
                 n_r += 1
             m = links[v]
@@ -143,6 +155,8 @@ def _trace(
                 if not (m >> k) & 1:
                     continue
                 nb = nbr[v, k]
+                if n_e >= max_edges or n_p + 2 > max_path:
+                    raise RuntimeError("_trace: more edges or path pixels than its bound")
                 if is_vertex[nb]:
                     # Two adjacent vertex pixels: one 2-pixel edge, emitted once.
                     if v < nb:
@@ -161,6 +175,8 @@ def _trace(
                 prev = v
                 cur = nb
                 while True:
+                    if n_p >= max_path:
+                        raise RuntimeError("_trace: more path pixels than its bound")
                     path[n_p] = cur
                     n_p += 1
                     if is_vertex[cur]:
@@ -182,7 +198,11 @@ def _trace(
                 e_off[n_e] = n_p
             if phase == 1:
                 visited[v] = True
-    return rings[:n_r], e_u[:n_e], e_v[:n_e], e_off[: n_e + 1], path[:n_p]
+    # copies: views would keep the arrays at their bounds alive
+    rings = rings[:n_r].copy()
+    e_u = e_u[:n_e].copy()
+    e_v = e_v[:n_e].copy()
+    return rings, e_u, e_v, e_off[: n_e + 1].copy(), path[:n_p].copy()
 
 
 def _dense_keys(shape: tuple[int, ...], idx: np.ndarray) -> tuple[np.ndarray, int]:
@@ -221,10 +241,11 @@ def raw_graph(keys: np.ndarray, stride: int):
     deg = _POPCOUNT[masks]
     vmask = deg != 2
     vertex_idx = np.flatnonzero(vmask)
-    n_links = int(deg.sum(dtype=np.int64)) // 2
+    vertex_links = int(deg[vertex_idx].sum(dtype=np.int64))
     rings, e_u, e_v, e_off, path = _trace(
-        masks, vmask.copy(), vertex_idx, np.flatnonzero(~vmask), nbr, n_links
+        masks, vmask.copy(), vertex_idx, np.flatnonzero(~vmask), nbr, vertex_links
     )
+    del nbr, masks
     v_idx = np.concatenate([vertex_idx, rings])
     v_kind = np.concatenate(
         [np.minimum(deg[vmask], KIND_JUNCTION), np.full(rings.shape[0], KIND_RING, np.uint8)]
