@@ -12,6 +12,7 @@ __all__ = [
     "clearance_at",
     "clearance_from_sq_distance",
     "clearance_of_values",
+    "free_clearance_px",
     "nearest_sq_distance",
 ]
 
@@ -188,3 +189,14 @@ def _unwindowed_clearance(obstacles: np.ndarray) -> np.ndarray:
     import cv2
 
     return cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
+def free_clearance_px(free: np.ndarray) -> np.ndarray:
+    """Distance (pixels, float32 (H, W)) from each pixel centre to the nearest pixel
+    centre that is not ``free``, the map's outside counting as not free; 0 off ``free``
+    (OpenCV's exact Euclidean transform)."""
+    import cv2
+
+    padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.uint8)
+    padded[1:-1, 1:-1] = free
+    return cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]

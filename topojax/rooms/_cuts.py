@@ -8,9 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..graph.work import line_pixels
 from ._kernels import basis_points, disc_offsets, sides_widen
 
-__all__ = ["Cut", "door_cuts", "segment_pixels"]
+__all__ = ["Cut", "door_cuts"]
 
 #: Along the skeleton, the clearance on both sides of a doorway rises to at least this
 #: many times the doorway's (a branch into a corner only falls).
@@ -40,19 +41,6 @@ class Cut:
     ends: np.ndarray
     pixels: np.ndarray
     width_px: float
-
-
-def segment_pixels(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """8-connected pixels (K, 2) int64 of the straight line from ``a`` to ``b`` (row, col),
-    both included."""
-    a = np.asarray(a, np.int64)
-    b = np.asarray(b, np.int64)
-    n = int(np.abs(b - a).max())
-    if n == 0:
-        return a[None].copy()
-    t = np.arange(n + 1) / n
-    pts = a[None, :] + t[:, None] * (b - a)[None, :]
-    return np.floor(pts + 0.5).astype(np.int64)
 
 
 def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: float):
@@ -106,7 +94,7 @@ def door_cuts(free, clearance, skeleton, cfg, resolution_m: float) -> list[Cut]:
         width = float(np.hypot(*(q2 - q1))) - 1.0
         if not (2 * lo - 1.0 <= width <= 2 * hi - 1.0):
             continue
-        line = segment_pixels(q1, q2)
+        line = line_pixels(q1, q2).astype(np.int64)
         inside = (line[:, 0] >= 0) & (line[:, 0] < free.shape[0])
         inside &= (line[:, 1] >= 0) & (line[:, 1] < free.shape[1])
         line = line[inside]

@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 
 from .._validate import instance_or_default, nonnegative_metres, positive_metres
+from ..fields.clearance import free_clearance_px
 from ..skeleton import thin
 from ._cuts import door_cuts
 from ._merge import merge_regions
@@ -113,7 +114,7 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     if box[0].stop == box[0].start:
         return build_segmentation(occ, np.zeros(full.shape, np.int32), [])
     free = np.ascontiguousarray(full[box])
-    clearance = _clearance_px(free)
+    clearance = free_clearance_px(free)
     skeleton = thin(free)
     t1 = time.perf_counter()
     cuts = door_cuts(free, clearance, skeleton, cfg, res)
@@ -151,14 +152,6 @@ def _free_box(free: np.ndarray) -> tuple[slice, slice]:
         slice(max(rows[0] - 1, 0), min(rows[-1] + 2, h)),
         slice(max(cols[0] - 1, 0), min(cols[-1] + 2, w)),
     )
-
-
-def _clearance_px(free: np.ndarray) -> np.ndarray:
-    """Distance (pixels, float32) from each pixel centre to the nearest pixel that is not
-    free, the map's outside counting as not free; 0 off ``free``."""
-    padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.uint8)
-    padded[1:-1, 1:-1] = free
-    return cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
 
 
 def _fill_enclosed(labels: np.ndarray, free: np.ndarray) -> np.ndarray:

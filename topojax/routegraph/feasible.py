@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 from .._validate import nonnegative_metres
+from ..fields.clearance import free_clearance_px
 
 __all__ = ["FeasibleSpace", "feasible_space"]
 
@@ -60,10 +61,7 @@ class FeasibleSpace:
 def clearance_map_m(free: np.ndarray, resolution_m: float) -> np.ndarray:
     """Distance (metres, float32 (H, W)) from each pixel centre to the nearest pixel centre
     that is not ``free``, the map's outside counting as not free; 0 off ``free``."""
-    padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.uint8)
-    padded[1:-1, 1:-1] = free
-    dist = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    return dist[1:-1, 1:-1] * np.float32(resolution_m)
+    return free_clearance_px(free) * np.float32(resolution_m)
 
 
 def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
