@@ -549,6 +549,9 @@ class _Sinks:
         self.batch = batch
         self.slots = [i for i, name in enumerate(FIELD_NAMES) if name in outputs]
         self.tile_values = [None] * batch.total if ridge_values else None
+        # the kernel outputs read back from the device: the kept fields, and the squared
+        # distance and ridges (slots 0 and 3) when the ridge values are kept
+        self.needed = frozenset(self.slots) | (frozenset((0, 3)) if ridge_values else frozenset())
 
     def put(self, j: int, n: int, tiles: list) -> None:
         """Tile ``j`` of the batch, slot ``n`` of the kernel call's outputs ``tiles``."""
@@ -621,7 +624,7 @@ def _forward_pass(
         )
 
     def finish_forward(start: int, handle) -> None:
-        tiles = [np.asarray(a) for a in handle]
+        tiles = [np.asarray(a) if i in sinks.needed else None for i, a in enumerate(handle)]
         for n, j in enumerate(batch.chunk(start)):
             sinks.put(j, n, tiles)
 

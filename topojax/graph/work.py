@@ -165,15 +165,6 @@ class WorkGraph:
             if len(self.adj[v]) == 2:
                 self.contract(v)
 
-    def neighbours(self):
-        """Adjacency ``{u: [(v, length_px), ...]}`` of the current edges."""
-        nbr: dict[int, list] = {}
-        for e, (u, v, _) in self.edges.items():
-            w = self.length[e]
-            nbr.setdefault(u, []).append((v, w))
-            nbr.setdefault(v, []).append((u, w))
-        return nbr
-
 
 # ---------------------------------------------------------------------------------------
 # loops around small obstacles

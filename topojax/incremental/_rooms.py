@@ -131,11 +131,20 @@ class RoomKeeper:
         old_ids = {r.id for r in self.seg.rooms} if self.seg is not None else set()
         new_ids = {r.id for r in seg.rooms}
         changed = []
-        for rid in sorted(old_ids & new_ids):
-            if not np.array_equal(
-                self._pixels(self.labels, self.box, rid), self._pixels(seg.labels, box, rid)
-            ):
-                changed.append(rid)
+        if old_ids & new_ids:
+            # both label images over the union of their boxes: a kept room changed where
+            # the two differ
+            union = (
+                min(self.box[0], box[0]),
+                min(self.box[1], box[1]),
+                max(self.box[2], box[2]),
+                max(self.box[3], box[3]),
+            )
+            a = _pasted(self.labels, self.box, union)
+            b = _pasted(seg.labels, box, union)
+            differ = a != b
+            touched = set(np.unique(a[differ]).tolist()) | set(np.unique(b[differ]).tolist())
+            changed = sorted(touched & old_ids & new_ids)
         old_doors = _door_keys(self.seg, self.box) if self.seg is not None else []
         new_doors = _door_keys(seg, box)
         return {
@@ -146,11 +155,13 @@ class RoomKeeper:
             "doors_removed": tuple(k[0] for k in _minus(old_doors, new_doors)),
         }
 
-    @staticmethod
-    def _pixels(labels, box, rid) -> np.ndarray:
-        """Global flat keys of the pixels of room ``rid`` (sorted)."""
-        rr, cc = np.nonzero(labels == rid)
-        return np.sort((rr + box[0]).astype(np.int64) * (1 << 32) + (cc + box[1]))
+
+def _pasted(labels: np.ndarray, box, union) -> np.ndarray:
+    """``labels`` (over global box ``box``) placed in a zero array over box ``union``."""
+    out = np.zeros((union[2] - union[0], union[3] - union[1]), labels.dtype)
+    r0, c0 = box[0] - union[0], box[1] - union[1]
+    out[r0 : r0 + labels.shape[0], c0 : c0 + labels.shape[1]] = labels
+    return out
 
 
 def _door_keys(seg, box) -> list:

@@ -159,11 +159,12 @@ def merge_regions(regions, n, free, clearance, cuts, cfg, resolution_m: float):
     flat = regions.ravel()
     np.minimum.at(first, flat, np.arange(flat.size, dtype=np.int64))
     groups = np.unique(root[root > 0])
-    order = groups[np.argsort([first[root == g].min() for g in groups], kind="stable")]
-    new_id = np.zeros(n, np.int32)
+    group_first = np.full(n, np.iinfo(np.int64).max, np.int64)
+    np.minimum.at(group_first, root, first)
+    order = groups[np.argsort(group_first[groups], kind="stable")]
     final = np.zeros(n, np.int32)
     final[order] = np.arange(1, order.size + 1, dtype=np.int32)
-    new_id[:] = final[root]
+    new_id = final[root]
     labels = new_id[regions]
     labels = _absorb_cut_pixels(labels, free)
     kept = []

@@ -236,7 +236,7 @@ def relabel(seg: RoomSegmentation, lut: np.ndarray) -> RoomSegmentation:
         for k, (a, b, d) in enumerate(doors, start=1)
     )
     return RoomSegmentation(
-        labels=lut[seg.labels].astype(np.int32),
+        labels=lut.astype(np.int32)[seg.labels],
         rooms=tuple(rooms),
         doors=new_doors,
         resolution_m=seg.resolution_m,

@@ -214,10 +214,13 @@ def _connect_waypoints(
             parent[a] = b
             chosen.append((i, j, seg))
     # groups that reach no graph pixel in a straight line: a feasible shortest path
-    roots = {find(i) for i in range(n)} - {find(n)}
+    first: dict[int, int] = {}  # the first waypoint of each group
+    for k in range(n):
+        first.setdefault(find(k), k)
+    roots = set(first) - {find(n)}
     extra = []
     for root in roots:
-        i = next(k for k in range(n) if find(k) == root)
+        i = first[root]
         path = _geodesic_path(pts[i], raster, feasible)
         if path is not None:
             extra.append((i, path))
