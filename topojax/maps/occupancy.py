@@ -30,13 +30,26 @@ from .classify import (
     classify_array,
 )
 
-__all__ = ["DEFAULT_RESOLUTION_M", "OccupancyMap"]
+__all__ = ["DEFAULT_RESOLUTION_M", "OccupancyMap", "grid_to_world"]
 
 #: Default resolution for plain images (the IPA benchmark and paper maps use 0.05 m/px).
 DEFAULT_RESOLUTION_M = 0.05
 
 # Pixel value written by ``to_image`` / ``save_map`` for each class (map_saver convention).
 _IMAGE_OCCUPIED, _IMAGE_UNKNOWN, _IMAGE_FREE = 0, 205, 254
+
+
+def grid_to_world(rows, cols, *, height: int, resolution_m: float, origin):
+    """World ``x, y`` (metres, float64) of continuous pixel coordinates of a grid of
+    ``height`` rows with ``resolution_m`` metres per pixel whose lower-left corner is at
+    ``origin`` (x, y, yaw); integer values are pixel centres (conventions above)."""
+    r = np.asarray(rows, dtype=np.float64)
+    c = np.asarray(cols, dtype=np.float64)
+    ox, oy, yaw = origin
+    xm = (c + 0.5) * resolution_m
+    ym = (height - r - 0.5) * resolution_m
+    cos_t, sin_t = math.cos(yaw), math.sin(yaw)
+    return ox + cos_t * xm - sin_t * ym, oy + sin_t * xm + cos_t * ym
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -137,16 +150,9 @@ class OccupancyMap:
             World coordinates in metres, map frame, with the shape of the broadcast inputs
             (numpy scalars for scalar inputs).
         """
-        r = np.asarray(rows, dtype=np.float64)
-        c = np.asarray(cols, dtype=np.float64)
-        res = self.resolution_m
-        ox, oy, yaw = self.origin
-        xm = (c + 0.5) * res
-        ym = (self.shape[0] - r - 0.5) * res
-        cos_t, sin_t = math.cos(yaw), math.sin(yaw)
-        x = ox + cos_t * xm - sin_t * ym
-        y = oy + sin_t * xm + cos_t * ym
-        return x, y
+        return grid_to_world(
+            rows, cols, height=self.shape[0], resolution_m=self.resolution_m, origin=self.origin
+        )
 
     def world_to_pixel(self, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
         """Convert world coordinates to continuous pixel coordinates.

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..graph import holds
 from ..io import as_multigraph, jsonable
+from ..maps.occupancy import grid_to_world
 from ._encode import packed, pyramid
 
 __all__ = ["Frame", "KIND_NAMES", "graph_payload", "graph_frame"]
@@ -44,14 +45,9 @@ class Frame:
     def pixel_to_world(self, rows, cols) -> tuple[np.ndarray, np.ndarray]:
         """World ``x, y`` (metres) of pixel centres, the formula of
         :meth:`topojax.OccupancyMap.pixel_to_world`."""
-        r = np.asarray(rows, np.float64)
-        c = np.asarray(cols, np.float64)
-        res = self.resolution_m
-        ox, oy, yaw = self.origin
-        xm = (c + 0.5) * res
-        ym = (self.height - r - 0.5) * res
-        cos_t, sin_t = math.cos(yaw), math.sin(yaw)
-        return ox + cos_t * xm - sin_t * ym, oy + sin_t * xm + cos_t * ym
+        return grid_to_world(
+            rows, cols, height=self.height, resolution_m=self.resolution_m, origin=self.origin
+        )
 
     def to_json(self) -> dict:
         return {
