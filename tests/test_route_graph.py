@@ -50,13 +50,21 @@ def _assert_safe(g: nx.MultiGraph, occ: OccupancyMap) -> None:
         assert d["min_clearance_m"] >= R - 1e-6
         step = np.abs(np.diff(path.astype(int), axis=0))
         assert step.max() <= 1 and (step.sum(axis=1) > 0).all()  # 8-connected
-        # the waypoints a robot follows keep the radius too, between the pixels as well
+        # the waypoints a robot follows keep the radius too, between the pixels as well:
+        # every point lies on a feasible pixel (a point on a pixel border or corner on any
+        # of the pixels it touches, as a diagonal step of a pixel path does)
         wr, wc = occ.world_to_pixel(d["waypoints"][:, 0], d["waypoints"][:, 1])
         way = np.stack([wr, wc], axis=1)
         for a, b in zip(way[:-1], way[1:], strict=True):
             t = np.linspace(0, 1, int(np.ceil(4 * np.hypot(*(b - a)))) + 2)[:, None]
-            rc = np.floor(a + t * (b - a) + 0.5).astype(int)
-            assert space.feasible[rc[:, 0], rc[:, 1]].all()
+            pts = a + t * (b - a)
+            lo = np.ceil(pts - 0.5 - 1e-9).astype(int)
+            hi = np.floor(pts + 0.5 + 1e-9).astype(int)
+            on = np.zeros(len(pts), bool)
+            for r in (lo[:, 0], hi[:, 0]):
+                for c in (lo[:, 1], hi[:, 1]):
+                    on |= space.feasible[r, c]
+            assert on.all()
 
 
 def _assert_one_component_per_region(g: nx.MultiGraph, occ: OccupancyMap) -> None:
@@ -295,6 +303,26 @@ def test_coverage_dilation_never_reaches_past_the_snap_distance(snap_px):
     rows, cols = np.nonzero(reach)
     assert np.hypot(rows - 50, cols - 50).max() <= snap_px + 1e-9
     assert reach[50, 50 + int(snap_px) - 1]  # and it does reach most of the way
+
+
+def test_coverage_counts_a_pixel_only_where_a_straight_snap_reaches_the_graph():
+    """A robot snaps to the graph along a straight line: a pixel around the end of a wall,
+    near the graph through the free space but hidden from it, is not covered."""
+    from topojax.routegraph._cover import covered
+
+    raster = np.zeros((101, 101), bool)
+    raster[50, 50] = True
+    feasible = np.ones_like(raster)
+    feasible[45:56, 53] = False  # a wall 11 px long, 3 px to the right of the graph
+    reach = covered(raster, feasible, 20.0)
+    assert not reach[50, 56]  # 6 px away in a straight line, 13.4 px round the wall's end
+    assert reach[50, 31] and reach[38, 53]  # in plain sight
+    rows, cols = np.nonzero(reach)
+    for r, c in zip(rows.tolist(), cols.tolist(), strict=True):  # every one in sight
+        n = max(abs(r - 50), abs(c - 50)) * 4 + 2
+        t = np.linspace(0.0, 1.0, n)
+        pr, pc = np.rint(50 + t * (r - 50)).astype(int), np.rint(50 + t * (c - 50)).astype(int)
+        assert feasible[pr, pc].all()
 
 
 def test_shortcuts_from_points_along_edges_shorten_routes_around_pillars():

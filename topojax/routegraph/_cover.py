@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 from skimage.graph import MCP_Geometric
 
 from ..graph.work import SQRT2, WorkGraph, line_pixels
-from ._spanner import greedy_shortcuts
+from ._spanner import greedy_shortcuts, see_any, see_nearest
 
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
 #: distance around each grid point covers its cell up to sqrt 2 / 2 of the spacing).
@@ -49,10 +49,28 @@ def covered(raster: np.ndarray, feasible: np.ndarray, snap_px: float) -> np.ndar
         last = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * rest + 1, 2 * rest + 1))
         out = cv2.dilate(out, last) & feas
     # Chained digital discs reach a little past their radii; no pixel farther than snap_px
-    # in a straight line can be within snap_px through the feasible space.
+    # in a straight line can be within snap_px through the feasible space.  A robot snaps
+    # along a straight line, so a pixel counts only when it sees a graph pixel within
+    # snap_px (the one the transform finds nearest, else any other).
     far = (~raster).view(np.uint8)
-    within = cv2.distanceTransform(far, cv2.DIST_L2, cv2.DIST_MASK_PRECISE) <= snap_px
-    return out.view(bool) & within
+    exact = cv2.distanceTransform(far, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    cand = out.view(bool) & (exact <= snap_px)
+    # the labelled transform is approximate: its pixel is a candidate, checked in full
+    _, label = cv2.distanceTransformWithLabels(
+        far, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL
+    )
+    rr, cc = np.nonzero(cand)
+    graph_px = np.argwhere(raster)  # raster order: label k is graph pixel k - 1
+    near = graph_px[label[rr, cc] - 1].astype(np.int64)
+    wall = cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    ok = see_nearest(
+        rr.astype(np.int64), cc.astype(np.int64), near[:, 0], near[:, 1], wall[rr, cc], feasible
+    )
+    ok &= (near[:, 0] - rr) ** 2 + (near[:, 1] - cc) ** 2 <= snap_px * snap_px
+    rr, cc = rr[~ok].astype(np.int64), cc[~ok].astype(np.int64)
+    ok = see_any(rr, cc, raster, feasible, float(snap_px))
+    cand[rr[~ok], cc[~ok]] = False
+    return cand
 
 
 def segment_ok(a, b, feasible: np.ndarray) -> np.ndarray | None:

@@ -53,6 +53,10 @@ class GraphGeometry:
     pt_vertex: np.ndarray
 
 
+# A coordinate this close to halfway between two pixel centres lies on their border.
+_TIE = 1e-9
+
+
 def _position(node, data: dict, occupancy, coordinates: str) -> np.ndarray:
     """Pixel ``(row, col)`` of one vertex from its ``world`` or ``pixel`` attribute."""
     use_world = coordinates == "world" or (coordinates == "auto" and "world" in data)
@@ -219,11 +223,18 @@ def graph_geometry(graph: nx.Graph, occupancy, coordinates: str) -> GraphGeometr
 
 
 def pixel_lookup(mask: np.ndarray, rc: np.ndarray) -> np.ndarray:
-    """``mask`` at the nearest pixel of each point ``rc`` (N, 2); False off the map."""
-    r = np.rint(rc[..., 0])
-    c = np.rint(rc[..., 1])
+    """Whether each point ``rc`` (..., 2) lies on a pixel of ``mask``: the pixel it is
+    inside, or, for a point on a border or corner shared by pixels (a coordinate exactly
+    halfway between two centres), any of the pixels it touches; False off the map."""
+    rc = np.asarray(rc, np.float64)
     h, w = mask.shape
-    inside = (r >= 0) & (r < h) & (c >= 0) & (c < w)
-    out = np.zeros(r.shape, bool)
-    out[inside] = mask[r[inside].astype(np.int64), c[inside].astype(np.int64)]
+    out = np.zeros(rc.shape[:-1], bool)
+    r_lo = np.ceil(rc[..., 0] - 0.5 - _TIE)
+    r_hi = np.floor(rc[..., 0] + 0.5 + _TIE)
+    c_lo = np.ceil(rc[..., 1] - 0.5 - _TIE)
+    c_hi = np.floor(rc[..., 1] + 0.5 + _TIE)
+    for r in (r_lo, r_hi):
+        for c in (c_lo, c_hi):
+            inside = (r >= 0) & (r < h) & (c >= 0) & (c < w) & ~out
+            out[inside] = mask[r[inside].astype(np.int64), c[inside].astype(np.int64)]
     return out

@@ -13,7 +13,13 @@ import numpy as np
 from .._jit import cached_njit
 from ..graph.work import line_into
 
-__all__ = ["greedy_shortcuts", "simplify_path", "straight_is_feasible"]
+__all__ = [
+    "greedy_shortcuts",
+    "see_any",
+    "see_nearest",
+    "simplify_path",
+    "straight_is_feasible",
+]
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -283,3 +289,42 @@ def simplify_path(path, feasible, tol):
         stack[top + 1, 0], stack[top + 1, 1] = m, j
         top += 2
     return keep
+
+
+@cached_njit(nogil=True)
+def see_nearest(rows, cols, near_r, near_c, wall_px, feasible):
+    """For pixels ``(rows[k], cols[k])`` and a graph pixel ``(near_r[k], near_c[k])`` near
+    each, whether the straight segment between them passes over feasible pixels only
+    (bool (K,)).  ``wall_px[k]`` is the pixel's distance to the nearest pixel that is not
+    feasible: a segment shorter than that minus one pixel needs no walk."""
+    n = rows.shape[0]
+    out = np.zeros(n, np.bool_)
+    for k in range(n):
+        r0, c0, r1, c1 = rows[k], cols[k], near_r[k], near_c[k]
+        d = math.sqrt(float((r1 - r0) ** 2 + (c1 - c0) ** 2))
+        if d + 1.0 < wall_px[k]:
+            out[k] = True
+        else:
+            out[k] = straight_is_feasible(r0, c0, r1, c1, feasible)
+    return out
+
+
+@cached_njit(nogil=True)
+def see_any(rows, cols, raster, feasible, snap_px):
+    """For pixels ``(rows[k], cols[k])``, whether any pixel of ``raster`` within
+    ``snap_px`` is reached by a straight segment over feasible pixels only (bool (K,))."""
+    h, w = raster.shape
+    reach = int(math.floor(snap_px))
+    lim = snap_px * snap_px
+    out = np.zeros(rows.shape[0], np.bool_)
+    for k in range(rows.shape[0]):
+        r0, c0 = rows[k], cols[k]
+        for r in range(max(0, r0 - reach), min(h, r0 + reach + 1)):
+            for c in range(max(0, c0 - reach), min(w, c0 + reach + 1)):
+                if raster[r, c] and (r - r0) ** 2 + (c - c0) ** 2 <= lim:
+                    if straight_is_feasible(r0, c0, r, c, feasible):
+                        out[k] = True
+                        break
+            if out[k]:
+                break
+    return out

@@ -157,7 +157,8 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     t2 = time.perf_counter()
     work, res = _sparse_skeleton_graph(skeleton, space, cfg)
     t3 = time.perf_counter()
-    snap_px = cfg.snap_m / res
+    # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
+    snap_px = max(1.0, (cfg.snap_m - cfg.waypoint_tolerance_m) / res)
     uncovered = add_coverage(work, feasible, snap_px)
     work.contract_all()
     add_shortcuts(
