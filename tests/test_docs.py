@@ -79,3 +79,21 @@ def test_mkdocs_build_strict(tmp_path: Path) -> None:
     )
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]
     assert (tmp_path / "site" / "api.html").is_file()
+
+
+def test_no_merge_conflict_markers_are_left_in_tracked_text() -> None:
+    listed = subprocess.run(
+        ["git", "ls-files", "*.md", "*.py", "*.toml", "*.yaml", "*.yml", "*.json", "*.cfg"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    if listed.returncode != 0:
+        pytest.skip("not a git checkout")
+    marker = re.compile(r"^(<{7} |>{7} |={7}$)", re.MULTILINE)
+    found = []
+    for name in listed.stdout.split():
+        path = ROOT / name
+        if path.is_file() and marker.search(path.read_text(encoding="utf-8", errors="replace")):
+            found.append(name)
+    assert found == []
