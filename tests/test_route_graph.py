@@ -343,3 +343,56 @@ def test_shortcuts_from_points_along_edges_shorten_routes_around_pillars():
     assert b.success_rate == a.success_rate == 1.0
     assert b.stretch_p90 < a.stretch_p90
     assert b.stretch_median <= a.stretch_median
+
+
+def _centre_segment_graph(shape, r, c0, c1):
+    from topojax.graph.work import WorkGraph, line_pixels
+
+    work = WorkGraph()
+    a, b = work.add_vertex((r, c0)), work.add_vertex((r, c1))
+    work.add_edge(a, b, line_pixels((r, c0), (r, c1)))
+    return work
+
+
+def test_first_lanes_run_along_the_walls_at_the_inset_and_join_the_graph():
+    """Round the walls of an open room, one lane on the level curve LANE_INSET snap
+    distances from the pixels that are not feasible, joined to the graph in one piece."""
+    from topojax.routegraph._cover import covered, graph_raster
+    from topojax.routegraph._lanes import LANE_INSET, add_lanes
+
+    feasible = np.zeros((120, 240), bool)
+    feasible[10:110, 10:230] = True  # a 5 x 11 m room at 0.05 m
+    snap = 20.0
+    work = _centre_segment_graph(feasible.shape, 60, 60, 180)
+    raster = graph_raster(work, feasible.shape)
+    uncovered = feasible & ~covered(raster, feasible, snap)
+    assert add_lanes(work, uncovered, raster, feasible, snap, along_walls=True)
+    wall = cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    new = [e for e in work.edges if e != 0 and work.length[e] > 5 * snap]
+    assert len(new) >= 1
+    for e in new:  # long lane edges: on the level curve (within a pixel and a half)
+        path = work.edges[e][2]
+        assert np.abs(wall[path[:, 0], path[:, 1]] - LANE_INSET * snap).max() <= 1.5
+    g = nx.MultiGraph()
+    g.add_edges_from((u, v) for u, v, _ in work.edges.values())
+    assert nx.number_connected_components(g) == 1
+    raster = graph_raster(work, feasible.shape)
+    # corners included, the lanes and the centre line leave only specks uncovered
+    assert np.count_nonzero(feasible & ~covered(raster, feasible, snap)) < 0.01 * feasible.sum()
+
+
+def test_no_lanes_for_uncovered_pieces_smaller_than_the_minimum():
+    from topojax.routegraph._cover import covered, graph_raster
+    from topojax.routegraph._lanes import LANE_MIN_AREA, add_lanes
+
+    feasible = np.zeros((60, 120), bool)
+    feasible[10:50, 10:110] = True  # 2 x 5 m: a centre line leaves slivers only
+    snap = 20.0
+    work = _centre_segment_graph(feasible.shape, 30, 20, 100)
+    raster = graph_raster(work, feasible.shape)
+    uncovered = feasible & ~covered(raster, feasible, snap)
+    _, _, stats, _ = cv2.connectedComponentsWithStats(uncovered.view(np.uint8), connectivity=8)
+    assert (stats[1:, cv2.CC_STAT_AREA] < LANE_MIN_AREA * snap**2).all()
+    n_edges = len(work.edges)
+    assert not add_lanes(work, uncovered, raster, feasible, snap, along_walls=True)
+    assert len(work.edges) == n_edges

@@ -12,14 +12,20 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
-from skimage.graph import MCP_Geometric
 
 from ..graph.work import SQRT2, WorkGraph, line_pixels
+from ._joins import attach_points, geodesic_path, segment_ok
+from ._lanes import add_lanes
 from ._spanner import greedy_shortcuts, see_any, see_nearest
 
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
 #: distance around each grid point covers its cell up to sqrt 2 / 2 of the spacing).
 COVER_SPACING = 1.3
+#: Rounds of lanes before waypoints: one along the walls, then skeletons of what is left.
+LANE_ROUNDS = 2
+#: A shortcut between two anchors (points part-way along edges) is added only where the
+#: graph route is longer than this many times the straight line.
+ANCHOR_PAIR_STRETCH = math.inf
 
 
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
@@ -73,57 +79,6 @@ def covered(raster: np.ndarray, feasible: np.ndarray, snap_px: float) -> np.ndar
     return cand
 
 
-def segment_ok(a, b, feasible: np.ndarray) -> np.ndarray | None:
-    """The straight pixel line from ``a`` to ``b`` if all its pixels are feasible."""
-    path = line_pixels(a, b)
-    return path if feasible[path[:, 0], path[:, 1]].all() else None
-
-
-def attach_points(work: WorkGraph, pixels: list, shape: tuple[int, int]) -> list[int]:
-    """Vertices at the graph pixels ``pixels`` (each on a vertex or an edge): an edge is
-    split at every requested interior pixel.  Returns one vertex id per pixel (-1 for a
-    pixel that is on neither)."""
-    width = shape[1]
-    want = {int(r) * width + int(c): [] for r, c in pixels}
-    for k, (r, c) in enumerate(pixels):
-        want[int(r) * width + int(c)].append(k)
-    out = [-1] * len(pixels)
-    for v, members in enumerate(work.members):
-        if v in work.dead:
-            continue
-        for key in (members[:, 0].astype(np.int64) * width + members[:, 1]).tolist():
-            for k in want.pop(key, ()):
-                out[k] = v
-    splits: dict[int, dict[int, list]] = {}
-    if want:
-        # every interior edge pixel once, with its edge and index: one lookup for all
-        ids = list(work.edges)
-        inner = [work.edges[e][2][1:-1] for e in ids]
-        sizes = np.array([len(p) for p in inner], np.int64)
-        if sizes.sum():
-            every = np.concatenate(inner).astype(np.int64)
-            flat = every[:, 0] * width + every[:, 1]
-            edge_of = np.repeat(np.arange(len(ids)), sizes)
-            index = np.arange(flat.size) - np.repeat(np.cumsum(sizes) - sizes, sizes)
-            hit = np.flatnonzero(np.isin(flat, np.fromiter(want, np.int64)))
-            for i in hit.tolist():  # in edge order, then along each path
-                ks = want.pop(int(flat[i]), None)
-                if ks:
-                    splits.setdefault(ids[edge_of[i]], {})[int(index[i]) + 1] = ks
-    for e, at in splits.items():
-        u, v, path = work.edges[e]
-        work.remove_edge(e)
-        prev, prev_i = u, 0
-        for i in sorted(at):
-            w = work.add_vertex(path[i])
-            work.add_edge(prev, w, path[prev_i : i + 1])
-            for k in at[i]:
-                out[k] = w
-            prev, prev_i = w, i
-        work.add_edge(prev, v, path[prev_i:])
-    return out
-
-
 def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray:
     """Uncovered pixels on a square grid of ``spacing_px``, plus one pixel of each
     uncovered component that holds no grid point."""
@@ -148,48 +103,33 @@ def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray
     return np.concatenate(pts).astype(np.int64)
 
 
-def _geodesic_path(start, targets: np.ndarray, feasible: np.ndarray) -> np.ndarray | None:
-    """Shortest 8-connected feasible pixel path from ``start`` to the nearest pixel of
-    ``targets`` (bool mask), or None; searched in windows around ``start`` that double
-    in size until one holds a reachable target."""
-    h, w = feasible.shape
-    half = 64
-    while True:
-        r0, r1 = max(0, start[0] - half), min(h, start[0] + half + 1)
-        c0, c1 = max(0, start[1] - half), min(w, start[1] + half + 1)
-        sub = targets[r0:r1, c0:c1]
-        if sub.any():
-            cost = np.where(feasible[r0:r1, c0:c1], 1.0, np.inf)
-            mcp = MCP_Geometric(cost, fully_connected=True)
-            costs, _ = mcp.find_costs([(start[0] - r0, start[1] - c0)])
-            reached = np.isfinite(costs) & sub
-            if reached.any():
-                cand = np.argwhere(reached)
-                end = cand[np.argmin(costs[reached])]
-                path = np.asarray(mcp.traceback(tuple(end)), np.int32)
-                return path + np.array([r0, c0], np.int32)
-        if r0 == 0 and c0 == 0 and r1 == h and c1 == w:
-            return None
-        half *= 2
-
-
 def add_coverage(
     work: WorkGraph, feasible: np.ndarray, snap_px: float, rounds: int = 6
 ) -> np.ndarray:
-    """Add waypoints joined by straight feasible edges (a shortest spanning tree, or a
-    feasible shortest path where no straight edge reaches) until every feasible pixel
-    lies within ``snap_px`` of the graph, or ``rounds`` rounds are spent.  Returns the
-    feasible pixels still uncovered (bool (H, W))."""
+    """Add lanes (:func:`add_lanes`: first along the walls, then the skeleton of what is
+    left, at most :data:`LANE_ROUNDS` rounds), then waypoints joined by straight feasible
+    edges (a shortest spanning tree, or a feasible shortest path where no straight edge
+    reaches), until every feasible pixel is covered (:func:`covered`) or ``rounds``
+    waypoint rounds are spent.  Returns the feasible pixels still uncovered (bool
+    (H, W))."""
     shape = feasible.shape
     spacing = COVER_SPACING * snap_px
-    for k in range(rounds + 1):
+    lane_round, grid_round = 0, 0
+    while True:
         raster = graph_raster(work, shape)
         uncovered = feasible & ~covered(raster, feasible, snap_px)
-        if k == rounds or not uncovered.any():
+        if grid_round == rounds or not uncovered.any():
             break
+        if lane_round < LANE_ROUNDS and add_lanes(
+            work, uncovered, raster, feasible, snap_px, along_walls=lane_round == 0
+        ):
+            lane_round += 1
+            continue
+        lane_round = LANE_ROUNDS  # pieces too small for lanes: waypoints from now on
         pts = _waypoint_candidates(uncovered, spacing)
         _connect_waypoints(work, pts, raster, feasible, spacing)
         spacing *= 0.7  # leftovers lie between earlier waypoints
+        grid_round += 1
     return uncovered
 
 
@@ -239,7 +179,7 @@ def _connect_waypoints(
     extra = []
     for root in roots:
         i = first[root]
-        path = _geodesic_path(pts[i], raster, feasible)
+        path = geodesic_path(pts[i], raster, feasible)
         if path is not None:
             extra.append((i, path))
             parent[root] = find(n)
@@ -380,6 +320,12 @@ def add_shortcuts(
         sel = np.isin(pairs[:, 0], src)
         graph_d[sel] = d[row_of[pairs[sel, 0]], pairs[sel, 1]]
     need = np.maximum(stretch * straight, straight + gain_px)
+    # a shortcut between two anchors splits two edges; between neighbouring lanes in an
+    # open room such rungs would make a mesh: they must save more
+    both_anchors = (pairs[:, 0] >= len(alive)) & (pairs[:, 1] >= len(alive))
+    need[both_anchors] = np.maximum(
+        need[both_anchors], ANCHOR_PAIR_STRETCH * straight[both_anchors]
+    )
     cand = np.flatnonzero((graph_d > need) & (graph_d + straight >= min_loop_px))
     cand = cand[np.argsort(straight[cand], kind="stable")]
     if cand.size == 0:

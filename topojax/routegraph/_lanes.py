@@ -1,0 +1,140 @@
+"""Coverage lanes: long edges through the feasible space the medial axis leaves farther
+than the snap distance from the graph.
+
+The first round lays a lane along the walls of every such space, on the level curve at
+:data:`LANE_INSET` snap distances from the pixels that are not feasible (close enough that
+a room's corners are within the snap distance); later rounds lay the skeleton of what is
+still uncovered.  Each lane is joined to the graph by the shortest straight feasible
+segment (a feasible shortest path where none exists).  A lane is one edge however long,
+so open rooms get a few long edges instead of a grid of waypoints."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..graph import skeleton_to_graph
+from ..graph.work import WorkGraph, drop_spurs, line_pixels
+from ..skeleton import thin
+from ._joins import attach_points, geodesic_path, segment_ok
+
+__all__ = ["LANE_INSET", "LANE_MIN_AREA", "add_lanes"]
+
+#: The first lanes run this many snap distances from the pixels that are not feasible: a
+#: corner of the feasible space is then sqrt 2 times that, just within one snap distance.
+LANE_INSET = 0.68
+#: Uncovered pieces smaller than this many squared snap distances get waypoints, not lanes.
+LANE_MIN_AREA = 0.5
+# Joins tried per lane: its pixels (every second one) to their nearest graph pixels.
+_JOIN_TRIES = 400
+_NEIGHBOURS = 4
+
+
+def _lane_pixels(uncovered: np.ndarray, feasible: np.ndarray, snap_px: float, along_walls: bool):
+    """The one-pixel-wide lanes (bool (H, W)) through the large pieces of ``uncovered``,
+    or None when no piece is large enough."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(uncovered.view(np.uint8), connectivity=8)
+    big = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= LANE_MIN_AREA * snap_px**2) + 1
+    if big.size == 0:
+        return None
+    keep = np.zeros(n, bool)
+    keep[big] = True
+    mask = keep[labels]
+    if not along_walls:
+        return thin(mask)
+    wall = cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    inner = (wall >= LANE_INSET * snap_px).view(np.uint8)
+    curve = inner.view(bool) & ~cv2.erode(inner, np.ones((3, 3), np.uint8)).view(bool)
+    near = cv2.dilate(mask.view(np.uint8), np.ones((5, 5), np.uint8)).view(bool)
+    return thin(curve & near & feasible)
+
+
+def _merged(work: WorkGraph, lanes: np.ndarray, snap_px: float) -> list[list[int]]:
+    """Add the graph of ``lanes`` (spurs shorter than ``snap_px`` dropped) to ``work``;
+    returns the new vertices grouped by connected piece."""
+    piece = WorkGraph.from_networkx(skeleton_to_graph(lanes, merge_junction_clusters=True))
+    drop_spurs(piece, np.zeros(lanes.shape, np.float32), snap_px, 0.0)
+    piece.contract_all()
+    new_id = {}
+    parent: dict[int, int] = {}
+
+    def find(x: int) -> int:
+        while parent.setdefault(x, x) != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for v in range(len(piece.pixel)):
+        if v not in piece.dead:
+            new_id[v] = work.add_vertex(piece.pixel[v], piece.members[v])
+            find(v)
+    for u, v, path in piece.edges.values():
+        work.add_edge(new_id[u], new_id[v], path)
+        a, b = find(u), find(v)
+        if a != b:
+            parent[a] = b
+    groups: dict[int, list[int]] = {}
+    for v, w in new_id.items():
+        groups.setdefault(find(v), []).append(w)
+    return list(groups.values())
+
+
+def _join(work: WorkGraph, vertices: list[int], tree, graph_px: np.ndarray, feasible):
+    """The shortest straight feasible segment from a pixel of the piece ``vertices`` to a
+    graph pixel, as ``(piece pixel, graph pixel)``, or None."""
+    pix = [work.members[v] for v in vertices]
+    edges = set().union(*(work.adj[v] for v in vertices))
+    pix += [work.edges[e][2] for e in edges]
+    pix = np.concatenate(pix)[::2]
+    k = min(_NEIGHBOURS, len(graph_px))
+    dist, idx = tree.query(pix, k=k)
+    dist, idx = dist.reshape(len(pix), k), idx.reshape(len(pix), k)
+    for flat in np.argsort(dist, axis=None, kind="stable")[:_JOIN_TRIES].tolist():
+        a, j = divmod(flat, k)
+        g = graph_px[idx[a, j]]
+        if segment_ok(pix[a], g, feasible) is not None:
+            return tuple(pix[a]), tuple(g)
+    return None
+
+
+def add_lanes(
+    work: WorkGraph,
+    uncovered: np.ndarray,
+    raster: np.ndarray,
+    feasible: np.ndarray,
+    snap_px: float,
+    along_walls: bool,
+) -> bool:
+    """Add lanes through the large pieces of ``uncovered`` (bool (H, W)) and join each to
+    the graph (pixels ``raster``); ``along_walls``: the level-curve lanes of the first
+    round, else the skeleton.  Returns whether any lane was added."""
+    lanes = _lane_pixels(uncovered, feasible, snap_px, along_walls)
+    if lanes is None or not lanes.any():
+        return False
+    graph_px = np.argwhere(raster)
+    groups = _merged(work, lanes, snap_px)
+    if graph_px.size == 0:
+        return True
+    tree = cKDTree(graph_px)
+    lane_ends, graph_ends, paths = [], [], []
+    for vertices in groups:
+        pair = _join(work, vertices, tree, graph_px, feasible)
+        if pair is not None:
+            lane_ends.append(pair[0])
+            graph_ends.append(pair[1])
+            paths.append(line_pixels(*pair))
+            continue
+        start = work.pixel[vertices[0]]
+        path = geodesic_path(start, raster, feasible)
+        if path is not None:
+            lane_ends.append(start)
+            graph_ends.append(tuple(path[-1]))
+            paths.append(path)
+    ids = attach_points(work, lane_ends + graph_ends, feasible.shape)
+    k = len(lane_ends)
+    for j, path in enumerate(paths):
+        a, b = ids[j], ids[k + j]
+        if a >= 0 and b >= 0 and a != b:
+            work.add_edge(a, b, path)
+    return True
