@@ -23,9 +23,6 @@ from ._spanner import greedy_shortcuts, see_any, see_nearest
 COVER_SPACING = 1.3
 #: Rounds of lanes before waypoints: one along the walls, then skeletons of what is left.
 LANE_ROUNDS = 2
-#: A shortcut between two anchors (points part-way along edges) is added only where the
-#: graph route is longer than this many times the straight line.
-ANCHOR_PAIR_STRETCH = math.inf
 
 
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
@@ -303,7 +300,10 @@ def add_shortcuts(
                 if (on[y, 2] >= 0).any():
                     same |= anchor & (on[y, 2] >= 0) & ((end == on[y, 0]) | (end == on[y, 1]))
                 same |= anchor & (on[y, 2] < 0) & np.isin(end * m + y, vert_key)
-        pairs = pairs[(deg[a] >= min_deg) & (deg[b] >= min_deg) & ~same]
+        # at least one end a vertex: a shortcut between two anchors splits two edges, and
+        # between neighbouring lanes of an open room such rungs would make a mesh
+        vertex_end = (a < len(alive)) | (b < len(alive))
+        pairs = pairs[(deg[a] >= min_deg) & (deg[b] >= min_deg) & ~same & vertex_end]
     if len(pairs) == 0:
         return 0
     mat = coo_matrix((kw, (ka, kb)), shape=(m, m)).tocsr()
@@ -320,12 +320,6 @@ def add_shortcuts(
         sel = np.isin(pairs[:, 0], src)
         graph_d[sel] = d[row_of[pairs[sel, 0]], pairs[sel, 1]]
     need = np.maximum(stretch * straight, straight + gain_px)
-    # a shortcut between two anchors splits two edges; between neighbouring lanes in an
-    # open room such rungs would make a mesh: they must save more
-    both_anchors = (pairs[:, 0] >= len(alive)) & (pairs[:, 1] >= len(alive))
-    need[both_anchors] = np.maximum(
-        need[both_anchors], ANCHOR_PAIR_STRETCH * straight[both_anchors]
-    )
     cand = np.flatnonzero((graph_d > need) & (graph_d + straight >= min_loop_px))
     cand = cand[np.argsort(straight[cand], kind="stable")]
     if cand.size == 0:
