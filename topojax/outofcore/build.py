@@ -1,0 +1,312 @@
+""":func:`build_graph_tiled`: the topology graph of a map read block by block, identical to
+:func:`topojax.build_graph`'s, with a working set bounded by the block size (plus the
+sparse skeleton and the graph themselves)."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from .._validate import instance_or_default, positive_int
+from ..config import PipelineConfig
+from ..fields import FAR_SQ
+from ..maps.occupancy import OccupancyMap
+from ..maps.tiled import TiledMap, open_tiled_map
+from .blocks import BlockPiece, block_piece, fields_halo_px
+
+__all__ = ["BYTES_PER_WINDOW_PX", "TiledResult", "block_px_for_budget", "build_graph_tiled"]
+
+#: Peak bytes one block's stages take per pixel of its kernel window (measured on floor
+#: plans with the default configuration: the classified window, the kernels' padded map
+#: and column pass, the ridges and the thinning's work space).
+BYTES_PER_WINDOW_PX = 24
+#: Largest halo tried for one block before giving up, in multiples of the tile side
+#: beyond the first.
+MAX_HALO_STEPS = 16
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class TiledResult:
+    """What :func:`build_graph_tiled` produced.
+
+    Attributes
+    ----------
+    map : TiledMap
+        The input map.
+    graph_store : GraphStore or None
+        The graph as arrays (None when ``config.graph`` prunes: ``graph`` then holds it).
+    config : PipelineConfig
+    skeleton_flat : int64 (n,)
+        Flat indices ``row * W + col`` of the skeleton's pixels, increasing: the pixels
+        set in :func:`topojax.build_graph`'s ``skeleton``.
+    timings_s : dict[str, float]
+        ``blocks`` (all block stages), ``clearance`` (the exact clearance beyond the
+        window, where needed), ``graph`` and ``total``.
+    blocks : int
+        Number of blocks.
+    halo_px : tuple of int
+        The distinct halos the blocks needed, smallest first.
+    graph : networkx.MultiGraph
+        Built from ``graph_store`` on first access.
+
+    Notes
+    -----
+    The per-pixel fields of :class:`topojax.TopologyResult` (distance, ridges, skeleton
+    image) are not held: they are map-sized.
+    """
+
+    map: TiledMap
+    graph_store: Any
+    config: PipelineConfig
+    skeleton_flat: np.ndarray
+    timings_s: dict[str, float] = field(default_factory=dict)
+    blocks: int = 0
+    halo_px: tuple[int, ...] = ()
+    pruned_graph: Any = None
+
+    @cached_property
+    def graph(self):
+        if self.pruned_graph is not None:
+            return self.pruned_graph
+        return self.graph_store.to_networkx()
+
+    def __repr__(self) -> str:
+        return (
+            f"TiledResult(map shape={self.map.shape}, blocks={self.blocks}, halo_px="
+            f"{self.halo_px}, skeleton_px={self.skeleton_flat.size}, timings_s={self.timings_s})"
+        )
+
+
+def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
+    """The largest block side (a multiple of ``config.tile_px``, at least one tile) whose
+    stages take about ``memory_budget_mb`` (:data:`BYTES_PER_WINDOW_PX` per pixel of the
+    kernels' window, the block plus the first halo on each side)."""
+    budget = float(memory_budget_mb)
+    if not math.isfinite(budget) or budget <= 0:
+        raise ValueError(
+            f"memory_budget_mb: expected a finite number > 0, got {memory_budget_mb!r}"
+        )
+    t = config.tile_px
+    side = math.sqrt(budget * 2**20 / BYTES_PER_WINDOW_PX) - 2 * _first_halo(config)
+    return max(t, int(side // t) * t)
+
+
+def _first_halo(config: PipelineConfig) -> int:
+    """The smallest halo tried: the kernels' reach plus a few pixels to thin, rounded up
+    to the tile side."""
+    t = config.tile_px
+    return -(-(fields_halo_px(config) + 8) // t) * t
+
+
+def _as_tiled(source) -> TiledMap:
+    if isinstance(source, TiledMap):
+        return source
+    if isinstance(source, OccupancyMap):
+        return TiledMap.from_occupancy(source)
+    if isinstance(source, (str, os.PathLike)):
+        return open_tiled_map(source)
+    if isinstance(source, np.ndarray):
+        return TiledMap.from_array(source)
+    raise TypeError(
+        "source: expected a TiledMap, an OccupancyMap, a 2-D array or the path of a tile "
+        f"folder, Zarr array or PGM, got {type(source).__name__}"
+    )
+
+
+def _as_executor(executor):
+    """``executor`` itself, or the executor of a Dask ``Client`` (``pure=False``)."""
+    if executor is None or isinstance(executor, cf.Executor):
+        return executor
+    get_executor = getattr(executor, "get_executor", None)
+    if get_executor is None:
+        raise TypeError(
+            "executor: expected None, a concurrent.futures.Executor or a "
+            f"dask.distributed Client, got {type(executor).__name__}"
+        )
+    return get_executor(pure=False)
+
+
+def _block_task(tiled: TiledMap, box, config: PipelineConfig, halo: int, threads) -> BlockPiece:
+    """One block, its halo grown a tile at a time until its pixels are proved exact."""
+    t = config.tile_px
+    for _ in range(MAX_HALO_STEPS + 1):
+        piece = block_piece(tiled, box, config, halo, threads)
+        if piece.halo_px is not None:
+            return piece
+        halo += t
+    raise RuntimeError(
+        f"block {box}: thinning still reached the block from {halo - t} px away; "
+        "the block's skeleton could not be proved equal to the whole map's"
+    )
+
+
+def build_graph_tiled(
+    source,
+    *,
+    config: PipelineConfig | None = None,
+    block_px: int | None = None,
+    memory_budget_mb: float = 512.0,
+    executor=None,
+    threads: int | None = None,
+) -> TiledResult:
+    """Build the topology graph of a map read block by block (maps larger than memory).
+
+    Parameters
+    ----------
+    source : TiledMap, OccupancyMap, array or path
+        The map: a :class:`TiledMap`, or what :func:`open_tiled_map` opens (a tile
+        folder, a Zarr array, a binary PGM or a YAML naming one), or a map in memory.
+    config : PipelineConfig, optional
+        As for :func:`topojax.build_graph`.
+    block_px : int, optional
+        Block side in pixels, a multiple of ``config.tile_px``; default: the largest
+        whose stages fit ``memory_budget_mb``.
+    memory_budget_mb : float, default 512
+        Memory for one block's stages (per worker), used when ``block_px`` is None.
+    executor : concurrent.futures.Executor or dask.distributed.Client, optional
+        Runs the blocks as tasks (a Dask ``Client``: on its workers, each reading its
+        window from the source); default: one after another in this process.
+    threads : int, optional
+        Kernel dispatch threads per block (as for :func:`topojax.fields.dense_fields`).
+
+    Returns
+    -------
+    TiledResult
+        Its graph equals :func:`topojax.build_graph`'s for the whole map: vertices,
+        edges, paths and attributes.
+
+    Notes
+    -----
+    Every field is local (the distance is windowed), so one block's ridges need a halo
+    of ``half_width_px + 2`` pixels; its thinning is proved exact by tracking which
+    pixels the unseen map could still change, the halo growing a tile at a time where
+    the proof fails (:mod:`topojax.outofcore.exact`).  Clearances beyond the window are
+    searched exactly in the map itself.  The working set is one block's window per
+    worker, plus the skeleton's pixels (12 bytes each) and the graph.
+    """
+    config = instance_or_default("config", config, PipelineConfig)
+    tiled = _as_tiled(source)
+    if block_px is None:
+        block_px = block_px_for_budget(memory_budget_mb, config)
+    block_px = positive_int("block_px", block_px)
+    if block_px % config.tile_px:
+        raise ValueError(
+            f"block_px: expected a multiple of config.tile_px ({config.tile_px}), got {block_px}"
+        )
+    pool = _as_executor(executor)
+    h, w = tiled.shape
+    boxes = [
+        (r, min(h, r + block_px), c, min(w, c + block_px))
+        for r in range(0, h, block_px)
+        for c in range(0, w, block_px)
+    ]
+    halo = _first_halo(config)
+    t0 = time.perf_counter()
+    if pool is None:
+        pieces = [_block_task(tiled, b, config, halo, threads) for b in boxes]
+    else:
+        futures = [pool.submit(_block_task, tiled, b, config, halo, threads) for b in boxes]
+        pieces = [f.result() for f in futures]
+    t1 = time.perf_counter()
+    flat, sq = _assemble(pieces, tiled)
+    n_occupied = sum(p.occupied_px for p in pieces)
+    clearance = _clearance(tiled, flat, sq, config.distance.half_width_px, n_occupied)
+    t2 = time.perf_counter()
+    store, pruned = _graph(tiled, flat, clearance, config)
+    t3 = time.perf_counter()
+    timings = {"blocks": t1 - t0, "clearance": t2 - t1, "graph": t3 - t2, "total": t3 - t0}
+    return TiledResult(
+        map=tiled,
+        graph_store=store,
+        config=config,
+        skeleton_flat=flat,
+        timings_s=timings,
+        blocks=len(boxes),
+        halo_px=tuple(sorted({p.halo_px for p in pieces})),
+        pruned_graph=pruned,
+    )
+
+
+def _assemble(pieces: list[BlockPiece], tiled: TiledMap) -> tuple[np.ndarray, np.ndarray]:
+    """The skeleton pixels of all blocks in raster order, with their squared distances;
+    none on a map occupied everywhere (as :func:`topojax.pipeline.travel_ridges`)."""
+    if sum(p.occupied_px for p in pieces) == tiled.size:
+        return np.zeros(0, np.int64), np.zeros(0, np.int32)
+    flat = np.concatenate([p.flat for p in pieces]) if pieces else np.zeros(0, np.int64)
+    sq = np.concatenate([p.sq_distance_px for p in pieces]) if pieces else np.zeros(0, np.int32)
+    order = np.argsort(flat, kind="stable")
+    return flat[order], sq[order]
+
+
+def _clearance(tiled: TiledMap, flat, sq, half_width: int, n_occupied: int) -> np.ndarray:
+    """Clearance in pixels (float32) at the skeleton's pixels: the square root of the
+    windowed squared distance within ``R``, else of the exact one searched in the map."""
+    out = np.sqrt(sq.astype(np.float32))
+    far = np.flatnonzero(sq > half_width * half_width)
+    if far.size == 0:
+        return out
+    if n_occupied == 0:
+        out[far] = np.inf
+        return out
+    rows, cols = np.divmod(flat[far], tiled.shape[1])
+    exact = [
+        _nearest_sq(tiled, int(r), int(c), int(u), 2 * half_width)
+        for r, c, u in zip(rows, cols, sq[far], strict=True)
+    ]
+    out[far] = np.sqrt(np.asarray(exact, np.int64).astype(np.float32))
+    return out
+
+
+def _nearest_sq(tiled: TiledMap, r: int, c: int, upper: int, start_px: int) -> int:
+    """Exact squared distance from pixel ``(r, c)`` to the nearest obstacle, searching
+    squares around it (read from the map) that double until one settles it."""
+    h, w = tiled.shape
+    side = max(1, start_px) if upper >= FAR_SQ else int(math.isqrt(upper)) + 2
+    while True:
+        q0, q1, p0, p1 = (
+            max(0, r - side),
+            min(h, r + side + 1),
+            max(0, c - side),
+            min(w, c + side + 1),
+        )
+        ys, xs = np.nonzero(tiled.occupied(q0, q1, p0, p1))
+        best = int(((ys + (q0 - r)) ** 2 + (xs + (p0 - c)) ** 2).min()) if ys.size else FAR_SQ
+        if best <= side * side or (q0 == 0 and p0 == 0 and q1 == h and p1 == w):
+            return best
+        side *= 2
+
+
+def _graph(tiled: TiledMap, flat, clearance, config: PipelineConfig):
+    """The graph store (no pruning) or the pruned networkx graph, with the attributes
+    :func:`topojax.build_graph` gives them."""
+    from ..graph import pixels_graph_store, prune_graph
+
+    store = pixels_graph_store(
+        tiled.shape,
+        flat,
+        clearance_px=clearance,
+        resolution_m=tiled.resolution_m,
+        pixel_to_world=tiled.pixel_to_world,
+        merge_junction_clusters=config.graph.merge_junction_clusters,
+    )
+    attrs = {"origin": tuple(float(v) for v in tiled.origin), "thinning": config.skeleton.thinning}
+    if tiled.source is not None:
+        attrs["source"] = str(tiled.source)
+    if not config.graph.prunes:
+        store.attrs.update(attrs)
+        return store, None
+    graph = prune_graph(
+        store.to_networkx(),
+        min_clearance_m=config.graph.min_clearance_m,
+        min_spur_m=config.graph.min_spur_m,
+        min_component_m=config.graph.min_component_m,
+    )
+    graph.graph.update(attrs)
+    return None, graph
