@@ -16,7 +16,6 @@ import numpy as np
 
 from .._validate import instance_or_default, positive_int
 from ..config import PipelineConfig
-from ..fields import FAR_SQ
 from ..maps.occupancy import OccupancyMap
 from ..maps.tiled import TiledMap, open_tiled_map
 from .blocks import BlockPiece, block_piece, fields_halo_px
@@ -217,7 +216,7 @@ def build_graph_tiled(
     t1 = time.perf_counter()
     flat, sq = _assemble(pieces, tiled)
     n_occupied = sum(p.occupied_px for p in pieces)
-    clearance = _clearance(tiled, flat, sq, config.distance.half_width_px, n_occupied)
+    clearance = _clearance(tiled, flat, sq, config.distance.half_width_px, n_occupied, block_px)
     t2 = time.perf_counter()
     store, pruned = _graph(tiled, flat, clearance, config)
     t3 = time.perf_counter()
@@ -245,9 +244,11 @@ def _assemble(pieces: list[BlockPiece], tiled: TiledMap) -> tuple[np.ndarray, np
     return flat[order], sq[order]
 
 
-def _clearance(tiled: TiledMap, flat, sq, half_width: int, n_occupied: int) -> np.ndarray:
+def _clearance(
+    tiled: TiledMap, flat, sq, half_width: int, n_occupied: int, block_px: int
+) -> np.ndarray:
     """Clearance in pixels (float32) at the skeleton's pixels: the square root of the
-    windowed squared distance within ``R``, else of the exact one searched in the map."""
+    windowed squared distance within ``R``, else of the exact one found in the map."""
     out = np.sqrt(sq.astype(np.float32))
     far = np.flatnonzero(sq > half_width * half_width)
     if far.size == 0:
@@ -256,31 +257,52 @@ def _clearance(tiled: TiledMap, flat, sq, half_width: int, n_occupied: int) -> n
         out[far] = np.inf
         return out
     rows, cols = np.divmod(flat[far], tiled.shape[1])
-    exact = [
-        _nearest_sq(tiled, int(r), int(c), int(u), 2 * half_width)
-        for r, c, u in zip(rows, cols, sq[far], strict=True)
-    ]
-    out[far] = np.sqrt(np.asarray(exact, np.int64).astype(np.float32))
+    group = (rows // block_px) * (-(-tiled.shape[1] // block_px)) + cols // block_px
+    exact = np.empty(far.size, np.int64)
+    for g in np.unique(group):
+        sel = np.flatnonzero(group == g)
+        exact[sel] = _nearest_sq(tiled, rows[sel], cols[sel], 2 * half_width)
+    out[far] = np.sqrt(exact.astype(np.float32))
     return out
 
 
-def _nearest_sq(tiled: TiledMap, r: int, c: int, upper: int, start_px: int) -> int:
-    """Exact squared distance from pixel ``(r, c)`` to the nearest obstacle, searching
-    squares around it (read from the map) that double until one settles it."""
+def _nearest_sq(tiled: TiledMap, rows, cols, start_px: int) -> np.ndarray:
+    """Exact squared distance (int64) from pixels ``(rows, cols)`` to the nearest
+    obstacle: the Euclidean distance transform of a window around them, read from the map,
+    whose margin doubles until it holds every pixel's nearest obstacle (an obstacle at
+    distance ``d`` with at least ``d`` of window, or the map's edge, on every side)."""
+    from scipy.ndimage import distance_transform_edt
+
     h, w = tiled.shape
-    side = max(1, start_px) if upper >= FAR_SQ else int(math.isqrt(upper)) + 2
-    while True:
-        q0, q1, p0, p1 = (
-            max(0, r - side),
-            min(h, r + side + 1),
-            max(0, c - side),
-            min(w, c + side + 1),
+    out = np.empty(rows.size, np.int64)
+    todo = np.arange(rows.size)
+    pad = max(1, start_px)
+    while todo.size:
+        r, c = rows[todo], cols[todo]
+        q0, q1 = max(0, int(r.min()) - pad), min(h, int(r.max()) + pad + 1)
+        p0, p1 = max(0, int(c.min()) - pad), min(w, int(c.max()) + pad + 1)
+        whole = q0 == 0 and p0 == 0 and q1 == h and p1 == w
+        free = ~tiled.occupied(q0, q1, p0, p1)
+        if free.all():  # no obstacle in the window: look farther
+            pad *= 2
+            continue
+        dist = distance_transform_edt(free)[r - q0, c - p0]
+        del free
+        d2 = np.rint(dist * dist).astype(np.int64)
+        inf = np.iinfo(np.int64).max
+        margin = np.minimum.reduce(
+            [
+                np.where(q0 > 0, r - q0, inf),
+                np.where(q1 < h, q1 - 1 - r, inf),
+                np.where(p0 > 0, c - p0, inf),
+                np.where(p1 < w, p1 - 1 - c, inf),
+            ]
         )
-        ys, xs = np.nonzero(tiled.occupied(q0, q1, p0, p1))
-        best = int(((ys + (q0 - r)) ** 2 + (xs + (p0 - c)) ** 2).min()) if ys.size else FAR_SQ
-        if best <= side * side or (q0 == 0 and p0 == 0 and q1 == h and p1 == w):
-            return best
-        side *= 2
+        settled = whole | (d2 <= margin.astype(np.float64) ** 2)
+        out[todo[settled]] = d2[settled]
+        todo = todo[~settled]
+        pad *= 2
+    return out
 
 
 def _graph(tiled: TiledMap, flat, clearance, config: PipelineConfig):
