@@ -56,7 +56,7 @@ def assert_same_graph(tiled, result) -> None:
         assert x.shape == y.shape, name
         assert np.array_equal(x, y, equal_nan=True), name
     assert a.attrs == b.attrs
-    assert np.array_equal(tiled.skeleton_flat, np.flatnonzero(result.skeleton))
+    assert np.array_equal(tiled.skeleton_flat(), np.flatnonzero(result.skeleton))
 
 
 def assert_same_networkx(g1, g2) -> None:

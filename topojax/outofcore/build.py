@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .._fs import output_folder
 from .._validate import instance_or_default, positive_int
 from ..config import PipelineConfig
 from ..maps.occupancy import OccupancyMap
@@ -42,12 +43,14 @@ class TiledResult:
     graph_store : GraphStore or None
         The graph as arrays (None when ``config.graph`` prunes: ``graph`` then holds it).
     config : PipelineConfig
-    skeleton_flat : int64 (n,)
-        Flat indices ``row * W + col`` of the skeleton's pixels, increasing: the pixels
-        set in :func:`topojax.build_graph`'s ``skeleton``.
+    row_start : int64 (H + 1,)
+        The skeleton row by row: row ``r``'s pixels are
+        ``cols[row_start[r]:row_start[r + 1]]``.
+    cols : int32 (n,)
+        Columns of the skeleton's pixels (the pixels set in :func:`topojax.build_graph`'s
+        ``skeleton``), increasing within each row.
     timings_s : dict[str, float]
-        ``blocks`` (all block stages), ``clearance`` (the exact clearance beyond the
-        window, where needed), ``graph`` and ``total``.
+        ``blocks`` (all block stages, with the clearances), ``graph`` and ``total``.
     blocks : int
         Number of blocks.
     halo_px : tuple of int
@@ -64,11 +67,17 @@ class TiledResult:
     map: TiledMap
     graph_store: Any
     config: PipelineConfig
-    skeleton_flat: np.ndarray
+    row_start: np.ndarray
+    cols: np.ndarray
     timings_s: dict[str, float] = field(default_factory=dict)
     blocks: int = 0
     halo_px: tuple[int, ...] = ()
     pruned_graph: Any = None
+
+    def skeleton_flat(self) -> np.ndarray:
+        """Flat indices ``row * W + col`` (int64, increasing) of the skeleton's pixels."""
+        rows = np.repeat(np.arange(self.row_start.size - 1), np.diff(self.row_start))
+        return rows * self.map.shape[1] + self.cols
 
     @cached_property
     def graph(self):
@@ -79,7 +88,7 @@ class TiledResult:
     def __repr__(self) -> str:
         return (
             f"TiledResult(map shape={self.map.shape}, blocks={self.blocks}, halo_px="
-            f"{self.halo_px}, skeleton_px={self.skeleton_flat.size}, timings_s={self.timings_s})"
+            f"{self.halo_px}, skeleton_px={self.cols.size}, timings_s={self.timings_s})"
         )
 
 
@@ -154,6 +163,7 @@ def build_graph_tiled(
     memory_budget_mb: float = 512.0,
     executor=None,
     threads: int | None = None,
+    out_dir=None,
 ) -> TiledResult:
     """Build the topology graph of a map read block by block (maps larger than memory).
 
@@ -174,6 +184,10 @@ def build_graph_tiled(
         window from the source); default: one after another in this process.
     threads : int, optional
         Kernel dispatch threads per block (as for :func:`topojax.fields.dense_fields`).
+    out_dir : str or Path, optional
+        Folder (created) for the graph's two skeleton-sized arrays, ``path_pixels.npy``
+        and ``path_world.npy``: written a block of edges at a time and given to the
+        store memory-mapped, so they need not fit in memory.  Default: in memory.
 
     Returns
     -------
@@ -188,7 +202,11 @@ def build_graph_tiled(
     pixels the unseen map could still change, the halo growing a tile at a time where
     the proof fails (:mod:`topojax.outofcore.exact`).  Clearances beyond the window are
     searched exactly in the map itself.  The working set is one block's window per
-    worker, plus the skeleton's pixels (12 bytes each) and the graph.
+    worker, plus about 10 bytes per skeleton pixel (its column, clearance, link mask and
+    state; :func:`topojax.graph.sparse.row_skeleton_graph_store`), the graph's vertex and
+    edge arrays, and its paths (32 bytes per skeleton pixel; on disk with ``out_dir``).
+    With ``merge_junction_clusters`` the graph is built from the whole pixel graph
+    (:func:`topojax.graph.pixels_graph_store`, about 100 bytes per skeleton pixel).
     """
     config = instance_or_default("config", config, PipelineConfig)
     tiled = _as_tiled(source)
@@ -200,6 +218,8 @@ def build_graph_tiled(
             f"block_px: expected a multiple of config.tile_px ({config.tile_px}), got {block_px}"
         )
     pool = _as_executor(executor)
+    if out_dir is not None:
+        out_dir = output_folder(out_dir, name="out_dir")
     h, w = tiled.shape
     boxes = [
         (r, min(h, r + block_px), c, min(w, c + block_px))
@@ -209,68 +229,97 @@ def build_graph_tiled(
     halo = _first_halo(config)
     t0 = time.perf_counter()
     if pool is None:
-        pieces = [_block_task(tiled, b, config, halo, threads) for b in boxes]
+        pieces = (_block_task(tiled, b, config, halo, threads) for b in boxes)
     else:
         futures = [pool.submit(_block_task, tiled, b, config, halo, threads) for b in boxes]
-        pieces = [f.result() for f in futures]
+        pieces = (f.result() for f in futures)
+    skeleton = _Skeleton(tiled, config.distance.half_width_px)
+    for piece in pieces:
+        skeleton.add(piece)
+    row_start, cols, clearance = skeleton.finish()
     t1 = time.perf_counter()
-    flat, sq = _assemble(pieces, tiled)
-    n_occupied = sum(p.occupied_px for p in pieces)
-    clearance = _clearance(tiled, flat, sq, config.distance.half_width_px, n_occupied, block_px)
+    store, pruned = _graph(tiled, row_start, cols, clearance, config, out_dir)
     t2 = time.perf_counter()
-    store, pruned = _graph(tiled, flat, clearance, config)
-    t3 = time.perf_counter()
-    timings = {"blocks": t1 - t0, "clearance": t2 - t1, "graph": t3 - t2, "total": t3 - t0}
     return TiledResult(
         map=tiled,
         graph_store=store,
         config=config,
-        skeleton_flat=flat,
-        timings_s=timings,
+        row_start=row_start,
+        cols=cols,
+        timings_s={"blocks": t1 - t0, "graph": t2 - t1, "total": t2 - t0},
         blocks=len(boxes),
-        halo_px=tuple(sorted({p.halo_px for p in pieces})),
+        halo_px=tuple(sorted(skeleton.halos)),
         pruned_graph=pruned,
     )
 
 
-def _assemble(pieces: list[BlockPiece], tiled: TiledMap) -> tuple[np.ndarray, np.ndarray]:
-    """The skeleton pixels of all blocks in raster order, with their squared distances;
-    none on a map occupied everywhere (as :func:`topojax.pipeline.travel_ridges`)."""
-    if sum(p.occupied_px for p in pieces) == tiled.size:
-        return np.zeros(0, np.int64), np.zeros(0, np.int32)
-    flat = np.concatenate([p.flat for p in pieces]) if pieces else np.zeros(0, np.int64)
-    sq = np.concatenate([p.sq_distance_px for p in pieces]) if pieces else np.zeros(0, np.int32)
-    order = np.argsort(flat, kind="stable")
-    return flat[order], sq[order]
+class _Skeleton:
+    """The skeleton's pixels row by row, gathered from the blocks (given in block order,
+    a band of blocks at a time) with their clearances."""
+
+    def __init__(self, tiled: TiledMap, half_width: int) -> None:
+        self.tiled, self.half_width = tiled, half_width
+        self.band: list[BlockPiece] = []
+        self.counts: list[np.ndarray] = []  # pixels per row, band after band
+        self.cols: list[np.ndarray] = []
+        self.clearance: list[np.ndarray] = []
+        self.occupied = 0
+        self.halos: set[int] = set()
+
+    def add(self, piece: BlockPiece) -> None:
+        if self.band and piece.box[0] != self.band[0].box[0]:
+            self._close_band()
+        self.band.append(piece)
+        self.occupied += piece.occupied_px
+        self.halos.add(piece.halo_px)
+
+    def _close_band(self) -> None:
+        band, self.band = self.band, []
+        r0, r1 = band[0].box[:2]
+        w = self.tiled.shape[1]
+        flat = np.concatenate([p.flat for p in band])
+        sq = np.concatenate([p.sq_distance_px for p in band])
+        del band
+        order = np.argsort(flat, kind="stable")
+        flat, sq = flat[order], sq[order]
+        rows, cols = np.divmod(flat, w)
+        self.counts.append(np.bincount(rows - r0, minlength=r1 - r0))
+        self.cols.append(cols.astype(np.int32))
+        self.clearance.append(_clearance(self.tiled, rows, cols, sq, self.half_width))
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self.band:
+            self._close_band()
+        h = self.tiled.shape[0]
+        if self.occupied == self.tiled.size:  # no space to travel (travel_ridges)
+            return np.zeros(h + 1, np.int64), np.zeros(0, np.int32), np.zeros(0, np.float32)
+        row_start = np.zeros(h + 1, np.int64)
+        np.cumsum(np.concatenate(self.counts), out=row_start[1:])
+        cols = np.concatenate(self.cols)
+        self.cols = []
+        clearance = np.concatenate(self.clearance)
+        self.clearance = []
+        return row_start, cols, clearance
 
 
-def _clearance(
-    tiled: TiledMap, flat, sq, half_width: int, n_occupied: int, block_px: int
-) -> np.ndarray:
-    """Clearance in pixels (float32) at the skeleton's pixels: the square root of the
-    windowed squared distance within ``R``, else of the exact one found in the map."""
+def _clearance(tiled: TiledMap, rows, cols, sq, half_width: int) -> np.ndarray:
+    """Clearance in pixels (float32) at pixels ``(rows, cols)``: the square root of the
+    windowed squared distance ``sq`` within ``R``, else of the exact one found in the map
+    (``inf`` on a map without obstacles)."""
     out = np.sqrt(sq.astype(np.float32))
     far = np.flatnonzero(sq > half_width * half_width)
-    if far.size == 0:
-        return out
-    if n_occupied == 0:
-        out[far] = np.inf
-        return out
-    rows, cols = np.divmod(flat[far], tiled.shape[1])
-    group = (rows // block_px) * (-(-tiled.shape[1] // block_px)) + cols // block_px
-    exact = np.empty(far.size, np.int64)
-    for g in np.unique(group):
-        sel = np.flatnonzero(group == g)
-        exact[sel] = _nearest_sq(tiled, rows[sel], cols[sel], 2 * half_width)
-    out[far] = np.sqrt(exact.astype(np.float32))
+    if far.size:
+        exact = _nearest_sq(tiled, rows[far], cols[far], 2 * half_width)
+        out[far] = np.where(exact < 0, np.inf, np.sqrt(exact.astype(np.float32)))
     return out
 
 
 def _nearest_sq(tiled: TiledMap, rows, cols, start_px: int) -> np.ndarray:
     """Exact squared distance (int64) from pixels ``(rows, cols)`` to the nearest
-    obstacle: the Euclidean distance transform of a window around them, read from the map,
-    whose margin doubles until it holds every pixel's nearest obstacle (an obstacle at
-    distance ``d`` with at least ``d`` of window, or the map's edge, on every side)."""
+    obstacle (-1 where the map has none): the Euclidean distance transform of a window
+    around them, read from the map, whose margin doubles until it holds every pixel's
+    nearest obstacle (at distance ``d`` with ``d`` of window, or the map's edge, on every
+    side)."""
     from scipy.ndimage import distance_transform_edt
 
     h, w = tiled.shape
@@ -284,6 +333,9 @@ def _nearest_sq(tiled: TiledMap, rows, cols, start_px: int) -> np.ndarray:
         whole = q0 == 0 and p0 == 0 and q1 == h and p1 == w
         free = ~tiled.occupied(q0, q1, p0, p1)
         if free.all():  # no obstacle in the window: look farther
+            if whole:  # none in the map
+                out[todo] = -1
+                return out
             pad *= 2
             continue
         dist = distance_transform_edt(free)[r - q0, c - p0]
@@ -305,19 +357,32 @@ def _nearest_sq(tiled: TiledMap, rows, cols, start_px: int) -> np.ndarray:
     return out
 
 
-def _graph(tiled: TiledMap, flat, clearance, config: PipelineConfig):
+def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, out_dir):
     """The graph store (no pruning) or the pruned networkx graph, with the attributes
     :func:`topojax.build_graph` gives them."""
     from ..graph import pixels_graph_store, prune_graph
+    from ..graph.sparse import row_skeleton_graph_store
 
-    store = pixels_graph_store(
-        tiled.shape,
-        flat,
-        clearance_px=clearance,
-        resolution_m=tiled.resolution_m,
-        pixel_to_world=tiled.pixel_to_world,
-        merge_junction_clusters=config.graph.merge_junction_clusters,
-    )
+    if config.graph.merge_junction_clusters:  # merging needs the whole pixel graph
+        rows = np.repeat(np.arange(row_start.size - 1), np.diff(row_start))
+        store = pixels_graph_store(
+            tiled.shape,
+            rows * tiled.shape[1] + cols,
+            clearance_px=clearance,
+            resolution_m=tiled.resolution_m,
+            pixel_to_world=tiled.pixel_to_world,
+            merge_junction_clusters=True,
+        )
+    else:
+        store = row_skeleton_graph_store(
+            tiled.shape,
+            row_start,
+            cols,
+            clearance_px=clearance,
+            resolution_m=tiled.resolution_m,
+            pixel_to_world=tiled.pixel_to_world,
+            out_dir=out_dir,
+        )
     attrs = {"origin": tuple(float(v) for v in tiled.origin), "thinning": config.skeleton.thinning}
     if tiled.source is not None:
         attrs["source"] = str(tiled.source)
