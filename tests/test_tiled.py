@@ -12,6 +12,8 @@ from floorplans import floor_plan
 
 import topojax as tj
 from topojax.config import DistanceConfig, GraphConfig, PipelineConfig, SkeletonConfig
+from topojax.graph import skeleton_graph_store
+from topojax.graph.sparse import row_skeleton_graph_store
 from topojax.maps.tiled import TILE_INDEX, TiledMap
 from topojax.outofcore import (
     block_piece,
@@ -144,6 +146,28 @@ def test_a_halo_too_small_to_prove_the_block_gives_no_pixels():
     assert refused > 0
 
 
+def test_row_skeleton_graph_store_is_skeleton_graph_store(tmp_path):
+    """Thinned blobs (rings, 2 x 2 blocks, crossings) and random pixel sets."""
+    rng = np.random.default_rng(7)
+    for seed in range(60):
+        skel = thin(blobs(seed, (30, 44))) if seed % 2 else rng.random((24, 30)) < 0.3
+        clear = (rng.random(skel.shape) * 9).astype(np.float32) if seed % 3 else None
+        want = skeleton_graph_store(skel, clearance_px=clear, resolution_m=0.05)
+        flat = np.flatnonzero(skel)
+        row_start = np.searchsorted(flat, np.arange(skel.shape[0] + 1) * skel.shape[1])
+        got = row_skeleton_graph_store(
+            skel.shape,
+            row_start,
+            (flat % skel.shape[1]).astype(np.int32),
+            clearance_px=None if clear is None else clear.ravel()[flat],
+            resolution_m=0.05,
+            out_dir=tmp_path / str(seed) if seed % 4 == 0 else None,
+        )
+        for name in STORE_FIELDS:
+            assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=True), name
+        assert got.attrs == want.attrs
+
+
 # ----------------------------------------------------------------------- real maps
 
 
@@ -155,9 +179,14 @@ def test_paper_maps_in_small_blocks_give_build_graphs_graph(name):
     assert_same_graph(tiled, tj.build_graph(m, config=SMALL))
 
 
-def test_default_config_in_blocks_of_one_tile():
+def test_default_config_in_blocks_of_one_tile_paths_on_disk(tmp_path):
     m = paper_map("office")
-    tiled = tj.build_graph_tiled(m, block_px=256)
+    tiled = tj.build_graph_tiled(m, block_px=256, out_dir=tmp_path / "graph")
+    assert (tmp_path / "graph" / "path_pixels.npy").is_file()
+    base = tiled.graph_store.path_world
+    while base.base is not None and not isinstance(base, np.memmap):
+        base = base.base
+    assert isinstance(base, np.memmap)
     assert_same_graph(tiled, tj.build_graph(m))
 
 

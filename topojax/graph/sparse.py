@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._fs import output_folder
 from .._jit import cached_njit
 from .build import _edge_values, _world_of
 from .store import KIND_JUNCTION, KIND_RING, GraphStore
@@ -28,7 +29,7 @@ from .trace import _DC, _DR, _POPCOUNT
 __all__ = ["row_skeleton_graph_store"]
 
 #: Path pixels written per block of edges.
-_CHUNK_PX = 1 << 20
+_CHUNK_PX = 1 << 18
 
 
 @cached_njit(nogil=True)
@@ -331,7 +332,7 @@ def row_skeleton_graph_store(
     vr = _rows_of(row_start, v_pix)
     vc = cols[v_pix].astype(np.int64)
     offsets = np.concatenate([[0], np.cumsum(el)])
-    out = _Output(int(offsets[-1]), None if out_dir is None else Path(out_dir))
+    out = _Output(int(offsets[-1]), None if out_dir is None else output_folder(out_dir))
     lengths, min_c, mean_c = (np.empty(eu.size) for _ in range(3))
     first = 0
     while first < eu.size:

@@ -295,11 +295,20 @@ class _Skeleton:
             return np.zeros(h + 1, np.int64), np.zeros(0, np.int32), np.zeros(0, np.float32)
         row_start = np.zeros(h + 1, np.int64)
         np.cumsum(np.concatenate(self.counts), out=row_start[1:])
-        cols = np.concatenate(self.cols)
-        self.cols = []
-        clearance = np.concatenate(self.clearance)
-        self.clearance = []
-        return row_start, cols, clearance
+        return row_start, _joined(self.cols, np.int32), _joined(self.clearance, np.float32)
+
+
+def _joined(parts: list[np.ndarray], dtype) -> np.ndarray:
+    """The parts one after another, each dropped from ``parts`` once copied (the peak is
+    the result and one part, not twice the result)."""
+    out = np.empty(sum(p.size for p in parts), dtype)
+    at = 0
+    parts.reverse()
+    while parts:
+        part = parts.pop()
+        out[at : at + part.size] = part
+        at += part.size
+    return out
 
 
 def _clearance(tiled: TiledMap, rows, cols, sq, half_width: int) -> np.ndarray:
