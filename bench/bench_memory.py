@@ -17,6 +17,13 @@ map is made; the resident set size (RSS) at that point is the baseline.  Then:
 Cases: the paper maps (``topojax/data``), the largest shared maps, synthetic floor plans (a
 grid of rooms of 6 to 10 m, walls of 0.15 m, one door of 0.9 m in every wall between two
 rooms; :func:`floor_plan`) and maps of 1 % random obstacle pixels (:func:`noise_map`).
+Tiled cases (``--tiled``, ``--huge``): :func:`topojax.build_graph_tiled` on a map stored as
+a tile folder under ``--tiles-dir`` (written once by the driver: a real map cut into
+tiles of 256 px, or a floor plan drawn band by band, :class:`FloorPlanLayout`), the
+graph's paths written to disk; the peak RSS growth as above (in MB and per map pixel),
+the time, and whether :func:`topojax.build_graph` of the whole map gives the same graph
+(maps up to 100 Mpx).  They go under ``tiled`` in the JSON.
+
 Results go to ``bench/results/memory_<machine>.json`` under a label (``--label``, default
 ``after``), so the numbers of another checkout (``--root``, e.g. the base revision exported
 with ``git archive``) sit beside them as ``before``; a markdown report is printed (and
@@ -29,6 +36,7 @@ Run from the repository root::
     python bench/bench_memory.py --large                    # + floor plans of 12000..20000 px
     python bench/bench_memory.py --cases floor_20000 --no-tracemalloc
     python bench/bench_memory.py --root /tmp/base --label before   # another checkout
+    python bench/bench_memory.py --cases tiled_floor_40000 --budget-mb 256  # 1.6 GB on disk
 """
 
 from __future__ import annotations
@@ -713,6 +721,7 @@ def main(argv: list[str] | None = None) -> int:
                 tiled["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
                 log(f"tiled {name}")
                 e = run_case(name, args, traced=False, timeout_s=args.timeout)
+                e["git_describe"] = tiled["git_describe"]
                 tiled["cases"][name] = e
                 log(
                     f"  {e.get('build_peak_mb', float('nan')):.0f} MB, "

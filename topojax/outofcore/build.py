@@ -233,7 +233,7 @@ def build_graph_tiled(
     else:
         futures = [pool.submit(_block_task, tiled, b, config, halo, threads) for b in boxes]
         pieces = (f.result() for f in futures)
-    skeleton = _Skeleton(tiled, config.distance.half_width_px)
+    skeleton = _Skeleton(tiled, config.distance.half_width_px, config.tile_px)
     for piece in pieces:
         skeleton.add(piece)
     row_start, cols, clearance = skeleton.finish()
@@ -257,8 +257,8 @@ class _Skeleton:
     """The skeleton's pixels row by row, gathered from the blocks (given in block order,
     a band of blocks at a time) with their clearances."""
 
-    def __init__(self, tiled: TiledMap, half_width: int) -> None:
-        self.tiled, self.half_width = tiled, half_width
+    def __init__(self, tiled: TiledMap, half_width: int, group_px: int) -> None:
+        self.tiled, self.half_width, self.group_px = tiled, half_width, group_px
         self.band: list[BlockPiece] = []
         self.counts: list[np.ndarray] = []  # pixels per row, band after band
         self.cols: list[np.ndarray] = []
@@ -285,7 +285,9 @@ class _Skeleton:
         rows, cols = np.divmod(flat, w)
         self.counts.append(np.bincount(rows - r0, minlength=r1 - r0))
         self.cols.append(cols.astype(np.int32))
-        self.clearance.append(_clearance(self.tiled, rows, cols, sq, self.half_width))
+        self.clearance.append(
+            _clearance(self.tiled, rows, cols, sq, self.half_width, self.group_px)
+        )
 
     def finish(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self.band:
@@ -311,15 +313,22 @@ def _joined(parts: list[np.ndarray], dtype) -> np.ndarray:
     return out
 
 
-def _clearance(tiled: TiledMap, rows, cols, sq, half_width: int) -> np.ndarray:
+def _clearance(tiled: TiledMap, rows, cols, sq, half_width: int, group_px: int) -> np.ndarray:
     """Clearance in pixels (float32) at pixels ``(rows, cols)``: the square root of the
     windowed squared distance ``sq`` within ``R``, else of the exact one found in the map
     (``inf`` on a map without obstacles)."""
     out = np.sqrt(sq.astype(np.float32))
     far = np.flatnonzero(sq > half_width * half_width)
-    if far.size:
-        exact = _nearest_sq(tiled, rows[far], cols[far], 2 * half_width)
-        out[far] = np.where(exact < 0, np.inf, np.sqrt(exact.astype(np.float32)))
+    if far.size == 0:
+        return out
+    rows, cols = rows[far], cols[far]
+    # one search per square of `group_px`: a window of that square and its margin
+    group = (rows // group_px) * (-(-tiled.shape[1] // group_px)) + cols // group_px
+    exact = np.empty(far.size, np.int64)
+    for g in np.unique(group):
+        sel = np.flatnonzero(group == g)
+        exact[sel] = _nearest_sq(tiled, rows[sel], cols[sel], 2 * half_width)
+    out[far] = np.where(exact < 0, np.inf, np.sqrt(exact.astype(np.float32)))
     return out
 
 
