@@ -254,6 +254,16 @@ def test_stored_maps_give_the_loaded_maps_graph(tmp_path, form):
     assert_same_graph(tiled, result)
 
 
+def test_load_map_maps_a_binary_pgm_instead_of_reading_it(tmp_path):
+    from topojax.maps.files import _read_pixels
+    from topojax.maps.pnm import read_image
+
+    tj.save_map(paper_map("office"), tmp_path / "m.yaml")
+    pixels, full, _ = _read_pixels(tmp_path / "m.pgm")
+    assert isinstance(pixels, np.memmap) and full == 255
+    assert np.array_equal(pixels, read_image(tmp_path / "m.pgm")[0])
+
+
 def test_tile_folder_layout_and_windows(tmp_path):
     grid = np.full((300, 500), -1, np.int8)
     grid[100:200, 50:450] = 0

@@ -50,9 +50,9 @@ from .classify import (
     _classify_occupancy_grid,
     classify_image,
 )
-from .files import YAML_SUFFIXES, _yaml_settings
+from .files import YAML_SUFFIXES, _pgm_header, _yaml_settings
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
-from .pnm import _parse_pnm_header, resolution_from_pgm_comments
+from .pnm import resolution_from_pgm_comments
 
 __all__ = ["TILE_INDEX", "TiledMap", "open_tiled_map", "save_tiled_map"]
 
@@ -429,34 +429,6 @@ def _open_folder(p: Path, overrides: dict) -> TiledMap:
     shape = tuple(int(v) for v in index["shape"])
     reader = _FolderReader(p, shape, int(index["tile_px"]), index["dtype"])
     return TiledMap(reader, **_metadata(index, overrides), source=str(p))
-
-
-def _pgm_header(path: Path) -> tuple[int, int, int, int, list[str]]:
-    """``(width, height, maxval, data offset, comments)`` of a binary PGM."""
-    with open(path, "rb") as f:
-        head = f.read(1 << 16)
-    if head[:2] != b"P5":
-        raise ValueError(f"path: {path} is not a binary PGM (P5); read other images with load_map")
-    maxval, comments = _parse_pnm_header(head)
-    if maxval is None:
-        raise ValueError(f"path: {path} has an incomplete PGM header")
-    tokens: list[bytes] = []
-    pos = 2
-    while len(tokens) < 3:
-        ch = head[pos : pos + 1]
-        if ch == b"#":
-            pos = head.index(b"\n", pos) + 1
-        elif ch.isspace():
-            pos += 1
-        else:
-            start = pos
-            while not head[pos : pos + 1].isspace() and head[pos : pos + 1] != b"#":
-                pos += 1
-            tokens.append(head[start:pos])
-    width, height = int(tokens[0]), int(tokens[1])
-    if not 0 < maxval < 65536:
-        raise ValueError(f"path: {path} has invalid PGM maxval {maxval}")
-    return width, height, maxval, pos + 1, comments  # one whitespace byte after maxval
 
 
 def _open_pgm(image: Path, settings: dict, *, source: Path) -> TiledMap:

@@ -23,9 +23,10 @@ from .blocks import BlockPiece, block_piece, fields_halo_px
 
 __all__ = ["BYTES_PER_WINDOW_PX", "TiledResult", "block_px_for_budget", "build_graph_tiled"]
 
-#: Peak bytes one block's stages take per pixel of its kernel window (measured on floor
-#: plans with the default configuration: the classified window, the kernels' padded map
-#: and column pass, the ridges and the thinning's work space).
+#: Bytes one block's stages take per pixel of its kernel window, an upper estimate (the
+#: classified window, the kernels' padded map and column pass, the ridges, the thinning's
+#: work space): an 8000 px floor plan in blocks sized for 256 MB peaks at 190 MB in all
+#: (``bench/bench_memory.py``).
 BYTES_PER_WINDOW_PX = 24
 #: Largest halo tried for one block before giving up, in multiples of the tile side
 #: beyond the first.
@@ -55,8 +56,10 @@ class TiledResult:
         Number of blocks.
     halo_px : tuple of int
         The distinct halos the blocks needed, smallest first.
+    pruned_graph : networkx.MultiGraph or None
+        The graph when ``config.graph`` prunes (pruning works on networkx), else None.
     graph : networkx.MultiGraph
-        Built from ``graph_store`` on first access.
+        ``pruned_graph``, or built from ``graph_store`` on first access.
 
     Notes
     -----
@@ -231,7 +234,10 @@ def build_graph_tiled(
     if pool is None:
         pieces = (_block_task(tiled, b, config, halo, threads) for b in boxes)
     else:
-        futures = [pool.submit(_block_task, tiled, b, config, halo, threads) for b in boxes]
+        shared = tiled
+        if not isinstance(executor, cf.Executor) and hasattr(executor, "scatter"):
+            shared = executor.scatter(tiled, broadcast=True)  # once, not once per block
+        futures = [pool.submit(_block_task, shared, b, config, halo, threads) for b in boxes]
         pieces = (f.result() for f in futures)
     skeleton = _Skeleton(tiled, config.distance.half_width_px, config.tile_px)
     for piece in pieces:
