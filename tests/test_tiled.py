@@ -278,6 +278,11 @@ def test_tile_folder_layout_and_windows(tmp_path):
     assert np.array_equal(source.values(120, 140, 0, 500), grid[120:140])
 
 
+def test_a_png_path_is_read_whole():
+    tiled = tj.build_graph_tiled("topojax/data/a_scan.png", config=SMALL, block_px=256)
+    assert_same_graph(tiled, tj.build_graph("topojax/data/a_scan.png", config=SMALL))
+
+
 def test_dask_client_runs_the_blocks():
     distributed = pytest.importorskip("dask.distributed")
     m = paper_map("office")

@@ -10,13 +10,15 @@ import os
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .._fs import output_folder
-from .._validate import instance_or_default, positive_int
+from .._validate import finite_positive, instance_or_default, positive_int
 from ..config import PipelineConfig
+from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map
 from ..maps.occupancy import OccupancyMap
 from ..maps.tiled import TiledMap, open_tiled_map
 from .blocks import BlockPiece, block_piece, fields_halo_px
@@ -99,11 +101,7 @@ def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
     """The largest block side (a multiple of ``config.tile_px``, at least one tile) whose
     stages take about ``memory_budget_mb`` (:data:`BYTES_PER_WINDOW_PX` per pixel of the
     kernels' window, the block plus the first halo on each side)."""
-    budget = float(memory_budget_mb)
-    if not math.isfinite(budget) or budget <= 0:
-        raise ValueError(
-            f"memory_budget_mb: expected a finite number > 0, got {memory_budget_mb!r}"
-        )
+    budget = finite_positive("memory_budget_mb", memory_budget_mb)
     t = config.tile_px
     side = math.sqrt(budget * 2**20 / BYTES_PER_WINDOW_PX) - 2 * _first_halo(config)
     return max(t, int(side // t) * t)
@@ -122,7 +120,13 @@ def _as_tiled(source) -> TiledMap:
     if isinstance(source, OccupancyMap):
         return TiledMap.from_occupancy(source)
     if isinstance(source, (str, os.PathLike)):
-        return open_tiled_map(source)
+        try:
+            return open_tiled_map(source)
+        except ValueError:
+            if Path(source).suffix.lower() not in IMAGE_SUFFIXES + YAML_SUFFIXES:
+                raise
+            # an image that cannot be read a window at a time (PNG, ASCII PGM...): whole
+            return TiledMap.from_occupancy(load_map(source))
     if isinstance(source, np.ndarray):
         return TiledMap.from_array(source)
     raise TypeError(
@@ -175,6 +179,7 @@ def build_graph_tiled(
     source : TiledMap, OccupancyMap, array or path
         The map: a :class:`TiledMap`, or what :func:`open_tiled_map` opens (a tile
         folder, a Zarr array, a binary PGM or a YAML naming one), or a map in memory.
+        Another map file :func:`topojax.load_map` reads (PNG, ...) is read whole.
     config : PipelineConfig, optional
         As for :func:`topojax.build_graph`.
     block_px : int, optional
