@@ -17,6 +17,13 @@ map is made; the resident set size (RSS) at that point is the baseline.  Then:
 Cases: the paper maps (``topojax/data``), the largest shared maps, synthetic floor plans (a
 grid of rooms of 6 to 10 m, walls of 0.15 m, one door of 0.9 m in every wall between two
 rooms; :func:`floor_plan`) and maps of 1 % random obstacle pixels (:func:`noise_map`).
+Tiled cases (``--tiled``, ``--huge``): :func:`topojax.build_graph_tiled` on a map stored as
+a tile folder under ``--tiles-dir`` (written once by the driver: a real map cut into
+tiles of 256 px, or a floor plan drawn band by band, :class:`FloorPlanLayout`), the
+graph's paths written to disk; the peak RSS growth as above (in MB and per map pixel),
+the time, and whether :func:`topojax.build_graph` of the whole map gives the same graph
+(maps up to 100 Mpx).  They go under ``tiled`` in the JSON.
+
 Results go to ``bench/results/memory_<machine>.json`` under a label (``--label``, default
 ``after``), so the numbers of another checkout (``--root``, e.g. the base revision exported
 with ``git archive``) sit beside them as ``before``; a markdown report is printed (and
@@ -29,6 +36,7 @@ Run from the repository root::
     python bench/bench_memory.py --large                    # + floor plans of 12000..20000 px
     python bench/bench_memory.py --cases floor_20000 --no-tracemalloc
     python bench/bench_memory.py --root /tmp/base --label before   # another checkout
+    python bench/bench_memory.py --cases tiled_floor_40000 --budget-mb 256  # 1.6 GB on disk
 """
 
 from __future__ import annotations
@@ -70,6 +78,13 @@ SHARED = {
 FLOOR_SIDES = (2000, 4000, 8000)
 FLOOR_SIDES_LARGE = (12000, 16000, 20000)
 NOISE_SIDES = (2000, 4000, 8000)
+#: Maps read block by block from tile folders (``--tiled``): real maps cut into tiles of
+#: 256 px and read in blocks of 256 px (compared with build_graph's graph), and floor plans
+#: (``--huge``: also the 40000 px one, 1.6 GB as uint8).
+TILED_CASES = ("tiled_intel", "tiled_edmonton_0.06", "tiled_floor_8000")
+TILED_HUGE = ("tiled_floor_40000",)
+#: Pixel count up to which a tiled case is also run in memory and compared.
+COMPARE_MAX_PX = 100_000_000
 NOISE_FRACTION = 0.01
 #: Side of the warm-up floor plan (more than one 256 px tile each way).
 WARMUP_SIDE_PX = 600
@@ -79,6 +94,70 @@ SAMPLE_S = 0.001
 # --------------------------------------------------------------------------- synthetic maps
 
 
+class FloorPlanLayout:
+    """The walls and doors of :func:`floor_plan`, drawn a window at a time (a plan larger
+    than memory is written to disk band by band); also a reader of
+    :class:`topojax.TiledMap` (``shape``, ``dtype``, ``read``) giving its grey image (0
+    occupied, 254 free)."""
+
+    def __init__(self, side_px: int, *, seed: int = 0, res_m: float = 0.05) -> None:
+        import numpy as np
+
+        rng = np.random.default_rng(seed)
+        self.wall = wall = max(1, round(0.15 / res_m))
+        door = max(2, round(0.9 / res_m))
+        lo, hi = round(6.0 / res_m), round(10.0 / res_m)
+
+        def lines() -> list[int]:
+            pos, out = 0, [0]
+            while True:
+                pos += int(rng.integers(lo, hi + 1))
+                if pos > side_px - lo:
+                    return out + [side_px - wall]
+                out.append(pos)
+
+        self.rows, self.cols = rows, cols = lines(), lines()
+        # (wall row, first door col) for every wall between two rooms, then (col, row)
+        self.row_doors = [
+            (r, int(rng.integers(a + wall + 2, b - door - 1)))
+            for r in rows[1:-1]
+            for a, b in zip(cols[:-1], cols[1:], strict=True)
+        ]
+        self.col_doors = [
+            (c, int(rng.integers(a + wall + 2, b - door - 1)))
+            for c in cols[1:-1]
+            for a, b in zip(rows[:-1], rows[1:], strict=True)
+        ]
+        self.door = door
+        self.shape = (side_px, side_px)
+        self.dtype = np.dtype(np.uint8)
+
+    def occupied(self, r0: int, r1: int, c0: int, c1: int):
+        """Obstacle mask (bool) of the window ``[r0:r1, c0:c1]``."""
+        import numpy as np
+
+        occ = np.zeros((r1 - r0, c1 - c0), bool)
+        wall, door = self.wall, self.door
+
+        def span(a: int, n: int, lo: int, hi: int) -> slice:
+            return slice(max(a, lo) - lo, max(lo, min(a + n, hi)) - lo)
+
+        for r in self.rows:
+            occ[span(r, wall, r0, r1), :] = True
+        for c in self.cols:
+            occ[:, span(c, wall, c0, c1)] = True
+        for r, s in self.row_doors:
+            occ[span(r, wall, r0, r1), span(s, door, c0, c1)] = False
+        for c, s in self.col_doors:
+            occ[span(s, door, r0, r1), span(c, wall, c0, c1)] = False
+        return occ
+
+    def read(self, r0: int, r1: int, c0: int, c1: int):
+        import numpy as np
+
+        return np.where(self.occupied(r0, r1, c0, c1), np.uint8(0), np.uint8(254))
+
+
 def floor_plan(side_px: int, *, seed: int = 0, res_m: float = 0.05):
     """Obstacle mask (bool (side, side)) of a synthetic floor plan.
 
@@ -86,36 +165,7 @@ def floor_plan(side_px: int, *, seed: int = 0, res_m: float = 0.05):
     outer wall; walls 0.15 m thick; every wall between two rooms has one door 0.9 m wide
     at a random place along it.  Deterministic for a given ``seed``.
     """
-    import numpy as np
-
-    rng = np.random.default_rng(seed)
-    wall = max(1, round(0.15 / res_m))
-    door = max(2, round(0.9 / res_m))
-    lo, hi = round(6.0 / res_m), round(10.0 / res_m)
-
-    def lines() -> list[int]:
-        pos, out = 0, [0]
-        while True:
-            pos += int(rng.integers(lo, hi + 1))
-            if pos > side_px - lo:
-                return out + [side_px - wall]
-            out.append(pos)
-
-    rows, cols = lines(), lines()
-    occ = np.zeros((side_px, side_px), bool)
-    for r in rows:
-        occ[r : r + wall, :] = True
-    for c in cols:
-        occ[:, c : c + wall] = True
-    for r in rows[1:-1]:  # one door in every wall between two rooms
-        for a, b in zip(cols[:-1], cols[1:], strict=True):
-            s = int(rng.integers(a + wall + 2, b - door - 1))
-            occ[r : r + wall, s : s + door] = False
-    for c in cols[1:-1]:
-        for a, b in zip(rows[:-1], rows[1:], strict=True):
-            s = int(rng.integers(a + wall + 2, b - door - 1))
-            occ[s : s + door, c : c + wall] = False
-    return occ
+    return FloorPlanLayout(side_px, seed=seed, res_m=res_m).occupied(0, side_px, 0, side_px)
 
 
 def noise_map(side_px: int, *, fraction: float = NOISE_FRACTION, seed: int = 0):
@@ -136,12 +186,15 @@ def case_names(args: argparse.Namespace) -> list[str]:
     """The cases a run measures, in order."""
     if args.cases:
         return [c for item in args.cases for c in item.split(",") if c]
+    tiled = list(TILED_CASES if args.tiled or args.huge else ()) + list(
+        TILED_HUGE if args.huge else ()
+    )
     names = list(PAPER)
     if args.quick:
-        return names + ["floor_2000", "noise_2000"]
+        return names + ["floor_2000", "noise_2000"] + tiled
     names += list(SHARED)
     names += [f"floor_{s}" for s in FLOOR_SIDES + (FLOOR_SIDES_LARGE if args.large else ())]
-    return names + [f"noise_{s}" for s in NOISE_SIDES]
+    return names + [f"noise_{s}" for s in NOISE_SIDES] + tiled
 
 
 def case_class(name: str) -> str:
@@ -336,6 +389,142 @@ def worker(args: argparse.Namespace) -> None:
     print(json.dumps(payload))
 
 
+# --------------------------------------------------------------------------- tiled cases
+
+
+def tiled_folder(name: str, args: argparse.Namespace) -> Path:
+    """The tile folder of a tiled case, written (once) under ``--tiles-dir``: a floor plan
+    drawn band by band, or a real map's grey image cut into 256 px tiles."""
+    from topojax.maps.tiled import TILE_INDEX, TiledMap, save_tiled_map
+
+    folder = Path(args.tiles_dir) / name
+    if (folder / TILE_INDEX).is_file():
+        return folder
+    inner = name.removeprefix("tiled_")
+    root = Path(args.root).resolve() if args.root else REPO_ROOT
+    if inner.startswith("floor_"):
+        source = TiledMap(FloorPlanLayout(int(inner.split("_")[1])))
+        save_tiled_map(source, folder, tile_px=2048)
+    else:
+        save_tiled_map(make_case_map(inner, root, Path(args.data)), folder, tile_px=256)
+    return folder
+
+
+def tiled_worker(args: argparse.Namespace) -> None:
+    """One tiled case in this fresh process: build_graph_tiled from its tile folder, the
+    graph's paths written to disk; prints one JSON line."""
+    import shutil
+    import tempfile
+
+    root = Path(args.root).resolve() if args.root else REPO_ROOT
+    sys.path.insert(0, str(root))
+    import numpy as np
+
+    import topojax
+    from topojax.maps.tiled import TiledMap
+    from topojax.outofcore import build_graph_tiled
+
+    warm = FloorPlanLayout(WARMUP_SIDE_PX, seed=1)
+    build_graph_tiled(TiledMap(warm), block_px=256)
+    del warm
+    real = not args.worker.startswith("tiled_floor_")
+    block_px = args.block_px or (256 if real else None)
+    graph_dir = Path(tempfile.mkdtemp(prefix="topojax_graph_", dir=args.tiles_dir))
+    gc.collect()
+    base = rss_bytes()
+    hwm_ok = reset_hwm()
+    sampler = Sampler(rss_bytes, args.limit_gb * 2**30)
+    sampler.start()
+    t0 = time.perf_counter()
+    result = build_graph_tiled(
+        args.tiles, memory_budget_mb=args.budget_mb, block_px=block_px, out_dir=graph_dir
+    )
+    t1 = time.perf_counter()
+    peak = max(sampler.peak(t0, t1), hwm_bytes() if hwm_ok else 0)
+    sampler.running = False
+    sampler.join()
+    store = result.graph_store
+    h, w = result.map.shape
+    payload: dict[str, Any] = {
+        "case": args.worker,
+        "class": "tiled",
+        "shape": [h, w],
+        "pixels": h * w,
+        "dense_uint8_mb": h * w / 2**20,
+        "vertices": int(store.node_pixel.shape[0]),
+        "edges": int(store.edge_u.shape[0]),
+        "skeleton_px": int(result.cols.size),
+        "blocks": result.blocks,
+        "block_px": block_px,
+        "halo_px": list(result.halo_px),
+        "budget_mb": None if block_px else args.budget_mb,
+        "baseline_mb": round(base / 2**20, 1),
+        "build_peak_mb": (peak - base) / 2**20,
+        "build_peak_b_px": (peak - base) / (h * w),
+        "build_s": t1 - t0,
+        "timings_ms": {k: ms(v) for k, v in result.timings_s.items()},
+        "graph_on_disk_mb": sum(f.stat().st_size for f in graph_dir.iterdir()) / 2**20,
+        "hwm_reset": hwm_ok,
+        "topojax_file": topojax.__file__,
+    }
+    if h * w <= COMPARE_MAX_PX:
+        payload["equal_in_memory"] = _same_as_in_memory(result, args, root, np)
+    shutil.rmtree(graph_dir, ignore_errors=True)
+    print(json.dumps(payload))
+
+
+def _same_as_in_memory(result, args: argparse.Namespace, root: Path, np) -> bool:
+    """Whether build_graph of the whole map (as the tiles hold it) gives the same graph."""
+    from topojax.pipeline import build_graph
+
+    inner = args.worker.removeprefix("tiled_")
+    if inner.startswith("floor_"):
+        occ = floor_plan(int(inner.split("_")[1]))
+        from topojax.maps import OccupancyMap
+
+        whole = OccupancyMap(occupied=occ, free=~occ, unknown=_readonly_zeros(occ.shape))
+        del occ
+    else:
+        whole = result.map.occupancy()
+    a, b = result.graph_store, build_graph(whole).graph_store
+    fields = ("node_pixel", "node_kind", "node_world", "node_clearance_m", "edge_u", "edge_v")
+    fields += ("path_offsets", "path_pixels", "path_world", "edge_length_m")
+    fields += ("edge_min_clearance_m", "edge_mean_clearance_m")
+    return all(np.array_equal(getattr(a, f), getattr(b, f), equal_nan=True) for f in fields) and {
+        k: v for k, v in a.attrs.items() if k != "source"
+    } == {k: v for k, v in b.attrs.items() if k != "source"}
+
+
+def tiled_report(results: dict[str, Any]) -> str:
+    """Markdown table of the tiled cases."""
+    cases = results.get("tiled", {}).get("cases", {})
+    header = ["case", "Mpx", "uint8 map MB", "V", "E", "blocks", "block px", "halo px"]
+    header += ["peak MB", "peak B/px", "s", "= build_graph"]
+    rows = []
+    for c, e in cases.items():
+        if "error" in e:
+            rows.append([c, e["error"]] + [""] * (len(header) - 2))
+            continue
+        eq = e.get("equal_in_memory")
+        rows.append(
+            [
+                c,
+                e["pixels"] / 1e6,
+                e["dense_uint8_mb"],
+                e["vertices"],
+                e["edges"],
+                e["blocks"],
+                e["block_px"] or f"budget {e['budget_mb']:g} MB",
+                ", ".join(str(v) for v in e["halo_px"]),
+                e["build_peak_mb"],
+                e["build_peak_b_px"],
+                e["build_s"],
+                "not run" if eq is None else ("yes" if eq else "NO"),
+            ]
+        )
+    return markdown_table(header, rows)
+
+
 # --------------------------------------------------------------------------- driver
 
 
@@ -349,6 +538,11 @@ def run_case(
         cmd += ["--root", str(args.root)]
     if traced:
         cmd.append("--tracemalloc-run")
+    if name.startswith("tiled_"):
+        cmd += ["--tiles", str(tiled_folder(name, args)), "--tiles-dir", str(args.tiles_dir)]
+        cmd += ["--budget-mb", str(args.budget_mb)]
+        if args.block_px:
+            cmd += ["--block-px", str(args.block_px)]
     env = dict(os.environ)
     root = str(Path(args.root).resolve()) if args.root else str(REPO_ROOT)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))
@@ -487,11 +681,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--render", action="store_true", help="print the report of --out; run nothing"
     )
+    parser.add_argument(
+        "--tiled", action="store_true", help="add the tiled cases (real maps, 8000 px plan)"
+    )
+    parser.add_argument("--huge", action="store_true", help="--tiled and the 40000 px plan")
+    parser.add_argument(
+        "--tiles-dir", type=Path, default=Path("/tmp/topojax_bench_tiles"), help="tile folders"
+    )
+    parser.add_argument(
+        "--budget-mb", type=float, default=256.0, help="memory budget of the tiled floor plans"
+    )
+    parser.add_argument("--block-px", type=int, help="block side of the tiled cases")
+    parser.add_argument("--tiles", help=argparse.SUPPRESS)
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--tracemalloc-run", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        worker(args)
+        tiled_worker(args) if args.worker.startswith("tiled_") else worker(args)
         return 0
     out = args.out or RESULTS_DIR / f"memory_{machine_slug()}.json"
     results: dict[str, Any] = json.loads(out.read_text()) if out.is_file() else {}
@@ -509,6 +715,20 @@ def main(argv: list[str] | None = None) -> int:
         run["root"] = str(root)
         run["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
         for name in case_names(args):
+            if name.startswith("tiled_"):
+                tiled = results.setdefault("tiled", {"cases": {}})
+                tiled["git_describe"] = describe(root)
+                tiled["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+                log(f"tiled {name}")
+                e = run_case(name, args, traced=False, timeout_s=args.timeout)
+                e["git_describe"] = tiled["git_describe"]
+                tiled["cases"][name] = e
+                log(
+                    f"  {e.get('build_peak_mb', float('nan')):.0f} MB, "
+                    f"{e.get('build_s', float('nan')):.1f} s {e.get('error', '')}"
+                )
+                write_json(out, results)
+                continue
             entry: dict[str, Any] = {}
             log(f"{args.label} {name}: rss")
             entry["rss"] = run_case(name, args, traced=False, timeout_s=args.timeout)
@@ -527,6 +747,8 @@ def main(argv: list[str] | None = None) -> int:
             write_json(out, results)  # after every case: a long run keeps what it measured
         log(f"wrote {out}")
     text = report(results)
+    if results.get("tiled"):
+        text += "\n### Maps read block by block (build_graph_tiled)\n\n" + tiled_report(results)
     print(text)
     if args.markdown:
         write_text(args.markdown, text)

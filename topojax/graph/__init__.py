@@ -40,6 +40,7 @@ from .build import (
     PixelToWorld,
     graph_summary,
     pixel_graph_degree,
+    pixels_graph_store,
     skeleton_graph_store,
     skeleton_to_graph,
 )
@@ -60,6 +61,7 @@ __all__ = [
     "path_lengths_m",
     "paused_gc",
     "pixel_graph_degree",
+    "pixels_graph_store",
     "polyline_keep",
     "prune_graph",
     "raw_graph",

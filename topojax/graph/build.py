@@ -337,6 +337,59 @@ def skeleton_graph_store(
     return _store_of_keys(skel.shape, keys, clear, res, pixel_to_world, merge)
 
 
+def pixels_graph_store(
+    shape: tuple[int, int],
+    flat: np.ndarray,
+    *,
+    clearance_px: np.ndarray | None = None,
+    resolution_m: float = 1.0,
+    pixel_to_world: PixelToWorld | None = None,
+    merge_junction_clusters: bool = False,
+) -> GraphStore:
+    """:func:`skeleton_graph_store` of a skeleton given by its pixels instead of an image.
+
+    Parameters
+    ----------
+    shape : (H, W)
+        The skeleton image's shape.
+    flat : int (n,)
+        Flat indices ``row * W + col`` of the skeleton's pixels, strictly increasing
+        (raster order); the graph needs no image-sized array.
+    clearance_px : real (n,), optional
+        Clearance in pixels at those pixels (>= 0, not NaN).
+    resolution_m, pixel_to_world, merge_junction_clusters
+        As for :func:`skeleton_to_graph`.
+
+    Returns
+    -------
+    GraphStore
+        The store :func:`skeleton_graph_store` gives for the image holding these pixels.
+    """
+    if len(shape) != 2 or min(int(v) for v in shape) < 1:
+        raise ValueError(f"shape: expected (H, W) with H, W >= 1, received {shape!r}")
+    shape = (int(shape[0]), int(shape[1]))
+    idx = np.asarray(flat)
+    if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
+        raise TypeError(
+            f"flat: expected a 1-D integer array, received dtype {idx.dtype} shape {idx.shape}"
+        )
+    idx = idx.astype(np.int64, copy=False)
+    if idx.size and (idx[0] < 0 or idx[-1] >= shape[0] * shape[1] or np.any(np.diff(idx) <= 0)):
+        raise ValueError(
+            f"flat: expected strictly increasing indices in [0, {shape[0] * shape[1]}), "
+            f"received {idx.size} indices from {idx.min()} to {idx.max()}"
+        )
+    res = finite_positive("resolution_m", resolution_m)
+    if pixel_to_world is not None and not callable(pixel_to_world):
+        raise TypeError(
+            f"pixel_to_world: expected a callable (rows, cols) -> (x, y) or None, "
+            f"received {type(pixel_to_world).__name__}"
+        )
+    merge = flag("merge_junction_clusters", merge_junction_clusters)
+    clear = None if clearance_px is None else _check_clearance_values(clearance_px, shape, idx)
+    return _skeleton_store(shape, idx, clear, res, pixel_to_world, merge)
+
+
 def _skeleton_store(
     shape: tuple[int, ...],
     flat: np.ndarray,

@@ -20,7 +20,7 @@ from .._validate import (
 )
 from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES, classify_image
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
-from .pnm import read_image, resolution_from_pgm_comments
+from .pnm import _parse_pnm_header, read_image, resolution_from_pgm_comments
 
 __all__ = ["IMAGE_SUFFIXES", "YAML_SUFFIXES", "load_map", "save_map"]
 
@@ -163,9 +163,9 @@ def load_map(
         )
         where = f"map YAML {p}"
         occupancy_thresholds(settings["occupied_thresh"], settings["free_thresh"], where=where)
-        pixels, full, _ = read_image(image_path)
+        pixels, full, _ = _read_pixels(image_path)
     else:
-        pixels, full, comments = read_image(p)
+        pixels, full, comments = _read_pixels(p)
         if resolution_m is None:
             header_res = resolution_from_pgm_comments(comments, p)
             resolution_m = header_res if header_res is not None else DEFAULT_RESOLUTION_M
@@ -192,6 +192,53 @@ def load_map(
     return _classify_pixels(
         pixels, full, settings, average_alpha=average_alpha, path=p, where=where
     )
+
+
+def _pgm_header(path: Path) -> tuple[int, int, int, int, list[str]]:
+    """``(width, height, maxval, data offset, comments)`` of a binary PGM."""
+    with open(path, "rb") as f:
+        head = f.read(1 << 16)
+    if head[:2] != b"P5":
+        raise ValueError(f"path: {path} is not a binary PGM (P5); read other images with load_map")
+    maxval, comments = _parse_pnm_header(head)
+    if maxval is None:
+        raise ValueError(f"path: {path} has an incomplete PGM header")
+    tokens: list[bytes] = []
+    pos = 2
+    while len(tokens) < 3 and pos < len(head):
+        ch = head[pos : pos + 1]
+        if ch == b"#":
+            pos = head.index(b"\n", pos) + 1
+        elif ch.isspace():
+            pos += 1
+        else:
+            start = pos
+            while pos < len(head) and not head[pos : pos + 1].isspace() and head[pos] != 35:
+                pos += 1  # 35: "#"
+            tokens.append(head[start:pos])
+    if len(tokens) < 3:
+        raise ValueError(f"path: {path} has an incomplete PGM header")
+    width, height = int(tokens[0]), int(tokens[1])
+    if width < 1 or height < 1 or not 0 < maxval < 65536:
+        raise ValueError(
+            f"path: {path} has an invalid PGM header ({width} x {height}, maxval {maxval})"
+        )
+    return width, height, maxval, pos + 1, comments  # one whitespace byte after maxval
+
+
+def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
+    """:func:`read_image`, except that a binary 8-bit PGM (``P5``, maxval 255) is
+    memory-mapped at its data offset instead of read whole and decoded: a map of any size
+    is then classified straight from the file (the same pixels)."""
+    if path.suffix.lower() == ".pgm" and path.is_file():
+        try:
+            width, height, maxval, offset, comments = _pgm_header(path)
+        except (OSError, ValueError):
+            return read_image(path)
+        if maxval == 255 and path.stat().st_size >= offset + width * height:
+            pixels = np.memmap(path, np.uint8, mode="r", offset=offset, shape=(height, width))
+            return pixels, 255, comments
+    return read_image(path)
 
 
 def _check_map_path(p: Path, suffix: str) -> None:

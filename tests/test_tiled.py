@@ -1,0 +1,345 @@
+"""Maps larger than memory: a map read block by block gives build_graph's graph exactly.
+
+The blocks are small (a few kernel tiles) so that many block borders cross corridors and
+junctions; every comparison is exact (vertices, edges, paths, world coordinates,
+clearances, attributes)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from floorplans import floor_plan
+
+import topojax as tj
+from topojax.config import DistanceConfig, GraphConfig, PipelineConfig, SkeletonConfig
+from topojax.graph import skeleton_graph_store
+from topojax.graph.sparse import row_skeleton_graph_store
+from topojax.maps.tiled import TILE_INDEX, TiledMap
+from topojax.outofcore import (
+    block_piece,
+    block_px_for_budget,
+    exact_after_t_removal,
+    fields_halo_px,
+    remove_t_in_map_order,
+    thin_window,
+)
+from topojax.skeleton import remove_t_centres, thin
+
+PAPER = ("intel", "office", "a_scan")
+#: A small Gaussian (R = 35 px) and tiles of 64 px: blocks of 64 px with halos of 64 px.
+SMALL = PipelineConfig(distance=DistanceConfig.from_pixels(sigma_px=10.0), tile_px=64)
+STORE_FIELDS = (
+    "node_pixel",
+    "node_kind",
+    "node_world",
+    "node_clearance_m",
+    "edge_u",
+    "edge_v",
+    "edge_keys",
+    "path_offsets",
+    "path_pixels",
+    "path_world",
+    "edge_length_m",
+    "edge_min_clearance_m",
+    "edge_mean_clearance_m",
+)
+
+
+def paper_map(name: str):
+    return tj.load_map(f"topojax/data/{name}.png")
+
+
+def assert_same_graph(tiled, result) -> None:
+    """The tiled result's graph is the in-memory result's, array for array."""
+    a, b = tiled.graph_store, result.graph_store
+    assert a is not None and b is not None
+    for name in STORE_FIELDS:
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.shape == y.shape, name
+        assert np.array_equal(x, y, equal_nan=True), name
+    assert a.attrs == b.attrs
+    assert np.array_equal(tiled.skeleton_flat(), np.flatnonzero(result.skeleton))
+
+
+def assert_same_networkx(g1, g2) -> None:
+    assert list(g1.nodes) == list(g2.nodes)
+    assert list(g1.edges(keys=True)) == list(g2.edges(keys=True))
+    for (_, a), (_, b) in zip(g1.nodes(data=True), g2.nodes(data=True), strict=True):
+        assert a["pixel"] == b["pixel"] and a["kind"] == b["kind"]
+    for (*_, a), (*_, b) in zip(g1.edges(data=True), g2.edges(data=True), strict=True):
+        assert np.array_equal(a["path"], b["path"])
+        assert a["length_m"] == b["length_m"]
+    assert g1.graph == g2.graph
+
+
+# ----------------------------------------------------------------------- the proof
+
+
+def blobs(seed: int, shape=(48, 56)) -> np.ndarray:
+    """Thick random shapes: what makes thinning take many sub-iterations."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(seed)
+    return ndimage.uniform_filter(rng.random(shape), 7) > 0.5
+
+
+@pytest.mark.parametrize("method", ["guo_hall", "zhang"])
+def test_window_thinning_is_the_whole_images_where_it_says_so(method):
+    checked = 0
+    for seed in range(12):
+        image = blobs(seed)
+        whole = thin(image, method=method)
+        rng = np.random.default_rng(100 + seed)
+        for _ in range(6):
+            r0, c0 = rng.integers(0, 20, 2)
+            r1, c1 = r0 + rng.integers(8, 28), c0 + rng.integers(8, 36)
+            beyond = (r0 > 0, r1 < image.shape[0], c0 > 0, c1 < image.shape[1])
+            skel, unsure, _ = thin_window(image[r0:r1, c0:c1], beyond, method)
+            sure = ~unsure[1:-1, 1:-1]
+            assert np.array_equal(skel[sure].astype(bool), whole[r0:r1, c0:c1][sure])
+            checked += int(sure.sum())
+    assert checked > 0
+
+
+def test_window_thinning_of_the_whole_image_is_sure_and_exact():
+    image = blobs(3)
+    skel, unsure, _ = thin_window(image, (False,) * 4, "guo_hall")
+    assert not unsure.any()
+    assert np.array_equal(skel.astype(bool), thin(image))
+
+
+def test_t_removal_in_map_order_of_the_whole_image_is_remove_t_centres():
+    for seed in range(6):
+        skel = thin(blobs(seed, (40, 40)) | blobs(seed + 50, (40, 40)))
+        mine = skel.astype(np.uint8)
+        remove_t_in_map_order(mine, 0, 0, *skel.shape)
+        assert np.array_equal(mine.astype(bool), remove_t_centres(skel))
+
+
+def test_t_removal_of_a_window_is_exact_where_it_says_so():
+    settled = 0
+    for seed in range(10):
+        image = blobs(seed) | blobs(seed + 20)
+        whole = remove_t_centres(thin(image))
+        r0, r1, c0, c1 = 6, 40, 9, 47
+        beyond = (True, True, True, True)
+        skel, unsure, _ = thin_window(image[r0:r1, c0:c1], beyond, "guo_hall")
+        core = (8, 26, 8, 30)
+        if exact_after_t_removal(skel, unsure, core):
+            remove_t_in_map_order(skel, r0, c0, *image.shape)
+            got = skel[core[0] : core[1], core[2] : core[3]].astype(bool)
+            want = whole[r0 + core[0] : r0 + core[1], c0 + core[2] : c0 + core[3]]
+            assert np.array_equal(got, want)
+            settled += 1
+    assert settled > 0
+
+
+def test_a_halo_too_small_to_prove_the_block_gives_no_pixels():
+    m = TiledMap.from_occupancy(paper_map("intel"))
+    refused = 0
+    reach = fields_halo_px(SMALL)
+    for r in range(0, 704, 64):
+        piece = block_piece(m, (r, r + 64, 320, 384), SMALL, reach + 1)
+        if piece.halo_px is None:
+            assert piece.flat.size == 0
+            refused += 1
+    assert refused > 0
+
+
+def test_row_skeleton_graph_store_is_skeleton_graph_store(tmp_path):
+    """Thinned blobs (rings, 2 x 2 blocks, crossings) and random pixel sets."""
+    rng = np.random.default_rng(7)
+    for seed in range(60):
+        skel = thin(blobs(seed, (30, 44))) if seed % 2 else rng.random((24, 30)) < 0.3
+        clear = (rng.random(skel.shape) * 9).astype(np.float32) if seed % 3 else None
+        want = skeleton_graph_store(skel, clearance_px=clear, resolution_m=0.05)
+        flat = np.flatnonzero(skel)
+        row_start = np.searchsorted(flat, np.arange(skel.shape[0] + 1) * skel.shape[1])
+        got = row_skeleton_graph_store(
+            skel.shape,
+            row_start,
+            (flat % skel.shape[1]).astype(np.int32),
+            clearance_px=None if clear is None else clear.ravel()[flat],
+            resolution_m=0.05,
+            out_dir=tmp_path / str(seed) if seed % 4 == 0 else None,
+        )
+        for name in STORE_FIELDS:
+            assert np.array_equal(getattr(got, name), getattr(want, name), equal_nan=True), name
+        assert got.attrs == want.attrs
+
+
+# ----------------------------------------------------------------------- real maps
+
+
+@pytest.mark.parametrize("name", PAPER)
+def test_paper_maps_in_small_blocks_give_build_graphs_graph(name):
+    m = paper_map(name)
+    tiled = tj.build_graph_tiled(m, config=SMALL, block_px=64)
+    assert tiled.blocks > 100
+    assert_same_graph(tiled, tj.build_graph(m, config=SMALL))
+
+
+def test_default_config_in_blocks_of_one_tile_paths_on_disk(tmp_path):
+    m = paper_map("office")
+    tiled = tj.build_graph_tiled(m, block_px=256, out_dir=tmp_path / "graph")
+    assert (tmp_path / "graph" / "path_pixels.npy").is_file()
+    base = tiled.graph_store.path_world
+    while base.base is not None and not isinstance(base, np.memmap):
+        base = base.base
+    assert isinstance(base, np.memmap)
+    assert_same_graph(tiled, tj.build_graph(m))
+
+
+@pytest.mark.parametrize(
+    "graph",
+    [
+        GraphConfig(free_space_only=True, merge_junction_clusters=True),
+        GraphConfig(min_spur_m=0.5, min_component_m=1.0),
+    ],
+)
+def test_graph_options(graph):
+    config = PipelineConfig(
+        distance=DistanceConfig.from_pixels(sigma_px=6.0),
+        tile_px=32,
+        skeleton=SkeletonConfig(thinning="zhang"),
+        graph=graph,
+    )
+    m = paper_map("a_scan")
+    tiled = tj.build_graph_tiled(m, config=config, block_px=64)
+    result = tj.build_graph(m, config=config)
+    if graph.prunes:
+        assert tiled.graph_store is None
+        assert_same_networkx(tiled.graph, result.graph)
+    else:
+        assert_same_graph(tiled, result)
+
+
+def test_shared_slam_map_streamed_from_its_pgm(shared_data):
+    path = shared_data / "maps" / "slam_pgm" / "edmonton_0.06.pgm"
+    source = tj.open_tiled_map(path)
+    assert type(source.reader).__name__ == "_PgmReader"
+    tiled = tj.build_graph_tiled(source, config=SMALL, block_px=256)
+    assert_same_graph(tiled, tj.build_graph(tj.load_map(path), config=SMALL))
+
+
+def test_synthetic_floor_plan():
+    plan = floor_plan(4, size_m=(90.0, 110.0)).occupancy
+    tiled = tj.build_graph_tiled(plan, block_px=512)
+    assert tiled.blocks == 20
+    assert_same_graph(tiled, tj.build_graph(plan))
+
+
+# ----------------------------------------------------------------------- sources
+
+
+@pytest.mark.parametrize("form", ["folder", "zarr", "pgm", "yaml"])
+def test_stored_maps_give_the_loaded_maps_graph(tmp_path, form):
+    m = paper_map("intel")
+    if form in ("pgm", "yaml"):
+        tj.save_map(m, tmp_path / "m.yaml")
+        path = tmp_path / ("m.pgm" if form == "pgm" else "m.yaml")
+    else:
+        pytest.importorskip("zarr") if form == "zarr" else None
+        path = tj.save_tiled_map(m, tmp_path / "m", tile_px=100, format=form)
+    source = tj.open_tiled_map(path)
+    loaded = tj.load_map(tmp_path / "m.yaml") if form in ("pgm", "yaml") else m
+    whole = source.occupancy()
+    for name in ("occupied", "free", "unknown"):
+        assert np.array_equal(getattr(whole, name), getattr(loaded, name)), name
+    tiled = tj.build_graph_tiled(source, config=SMALL, block_px=128)
+    result = tj.build_graph(loaded, config=SMALL)
+    store = tiled.graph_store
+    assert store.attrs["source"] == str(path)
+    store.attrs["source"] = result.graph_store.attrs.get("source")
+    assert_same_graph(tiled, result)
+
+
+def test_load_map_maps_a_binary_pgm_instead_of_reading_it(tmp_path):
+    from topojax.maps.files import _read_pixels
+    from topojax.maps.pnm import read_image
+
+    tj.save_map(paper_map("office"), tmp_path / "m.yaml")
+    pixels, full, _ = _read_pixels(tmp_path / "m.pgm")
+    assert isinstance(pixels, np.memmap) and full == 255
+    assert np.array_equal(pixels, read_image(tmp_path / "m.pgm")[0])
+
+
+def test_tile_folder_layout_and_windows(tmp_path):
+    grid = np.full((300, 500), -1, np.int8)
+    grid[100:200, 50:450] = 0
+    grid[140:160, 60:440] = 100
+    path = tj.save_tiled_map(grid, tmp_path / "g", tile_px=128)
+    assert (path / TILE_INDEX).is_file()
+    assert (path / "r00002_c00003.npy").is_file()
+    source = tj.open_tiled_map(path, resolution_m=0.1)
+    assert source.kind == "grid" and source.resolution_m == 0.1
+    want = tj.OccupancyMap.from_array(grid, resolution_m=0.1)
+    assert np.array_equal(source.occupied(90, 290, 100, 400), want.occupied[90:290, 100:400])
+    assert np.array_equal(source.values(120, 140, 0, 500), grid[120:140])
+
+
+def test_a_png_path_is_read_whole():
+    tiled = tj.build_graph_tiled("topojax/data/a_scan.png", config=SMALL, block_px=256)
+    assert_same_graph(tiled, tj.build_graph("topojax/data/a_scan.png", config=SMALL))
+
+
+def test_dask_client_runs_the_blocks():
+    distributed = pytest.importorskip("dask.distributed")
+    m = paper_map("office")
+    with distributed.Client(processes=False, n_workers=2, threads_per_worker=1) as client:
+        tiled = tj.build_graph_tiled(m, config=SMALL, block_px=128, executor=client)
+    assert_same_graph(tiled, tj.build_graph(m, config=SMALL))
+
+
+def test_memory_budget_sets_the_block_side():
+    small, large = (
+        block_px_for_budget(64, PipelineConfig()),
+        block_px_for_budget(1024, PipelineConfig()),
+    )
+    assert small % 256 == 0 and large % 256 == 0
+    assert 256 <= small < large
+
+
+# ----------------------------------------------------------------------- bad arguments
+
+
+def test_bad_arguments_name_the_parameter(tmp_path):
+    m = paper_map("intel")
+    with pytest.raises(ValueError, match="block_px: expected a multiple of config.tile_px"):
+        tj.build_graph_tiled(m, block_px=300)
+    with pytest.raises(ValueError, match="block_px"):
+        tj.build_graph_tiled(m, block_px=0)
+    with pytest.raises(ValueError, match="memory_budget_mb"):
+        tj.build_graph_tiled(m, memory_budget_mb=0)
+    with pytest.raises(TypeError, match="executor"):
+        tj.build_graph_tiled(m, executor="threads")
+    with pytest.raises(TypeError, match="source"):
+        tj.build_graph_tiled([[0, 1], [1, 0]])
+    with pytest.raises(TypeError, match="config"):
+        tj.build_graph_tiled(m, config=SMALL.distance)
+    with pytest.raises(FileNotFoundError, match="path"):
+        tj.open_tiled_map(tmp_path / "missing")
+    (tmp_path / "m.png").write_bytes(b"")
+    with pytest.raises(ValueError, match="path: expected a tile folder"):
+        tj.open_tiled_map(tmp_path / "m.png")
+    with pytest.raises(ValueError, match="window"):
+        TiledMap.from_occupancy(m).codes(0, 800, 0, 10)
+    with pytest.raises(TypeError, match="reader"):
+        TiledMap.from_array(np.zeros((4, 4), np.float32))
+    with pytest.raises(ValueError, match="format"):
+        tj.save_tiled_map(m, tmp_path / "x", format="tiff")
+
+
+def test_zarr_missing_names_the_extra(tmp_path, monkeypatch):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_zarr(name, *args, **kwargs):
+        if name == "zarr":
+            raise ImportError("no zarr here")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_zarr)
+    with pytest.raises(ImportError, match=r"topojax\[zarr\]"):
+        tj.save_tiled_map(np.zeros((4, 4), np.uint8) + 254, tmp_path / "z", format="zarr")

@@ -1,0 +1,503 @@
+"""Maps read a window at a time: a Zarr array, a folder of tiles or a binary PGM on disk.
+
+A :class:`TiledMap` holds a map's metadata (shape, resolution, origin, classification
+settings) and a reader of its raw values; :meth:`TiledMap.codes` classifies any window
+``[r0:r1, c0:c1]`` with the rules :func:`topojax.load_map` and
+:meth:`OccupancyMap.from_array` apply to the whole array, pixel by pixel, so a window's
+classes are those of the same pixels in the loaded map.  Only the window is read.
+
+Stored forms (:func:`open_tiled_map` opens each, :func:`save_tiled_map` writes the first
+two):
+
+* a **tile folder**: ``tiles.json`` (shape, tile side, dtype and the map metadata) and one
+  ``.npy`` file per tile, ``r<tile row>_c<tile col>.npy``;
+* a **Zarr array** (version 3, optional dependency: ``pip install topojax[zarr]``) whose
+  attribute ``topojax`` holds the metadata;
+* a **binary PGM** (``P5``, maxval up to 65535), or a ``map_server`` YAML naming one, read
+  through ``numpy.memmap`` at its data offset.
+
+The stored values are those of the map types :meth:`OccupancyMap.from_array` takes: a
+grey image (uint8, or uint16 from a 16-bit PGM), an ``OccupancyGrid`` array (int8, -1
+unknown, 0..100 percent) or an obstacle mask (bool, True = occupied).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fs import output_folder
+from .._validate import (
+    binary_flag,
+    choice,
+    metres_per_pixel,
+    occupancy_thresholds,
+    pose,
+    positive_int,
+)
+from .classify import (
+    _FREE,
+    _OCC,
+    _UNK,
+    DEFAULT_FREE_THRESH,
+    DEFAULT_OCCUPIED_THRESH,
+    MODES,
+    _classify_occupancy_grid,
+    classify_image,
+)
+from .files import YAML_SUFFIXES, _pgm_header, _yaml_settings
+from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
+from .pnm import resolution_from_pgm_comments
+
+__all__ = ["TILE_INDEX", "TiledMap", "open_tiled_map", "save_tiled_map"]
+
+#: Name of a tile folder's index file.
+TILE_INDEX = "tiles.json"
+_FOLDER_FORMAT = "topojax-tiles"
+_KINDS = ("image", "grid", "mask")
+_DTYPE_KIND = {"uint8": "image", "uint16": "image", "int8": "grid", "bool": "mask"}
+
+
+class TiledMap:
+    """A 2-D map whose pixels are read a window at a time.
+
+    Parameters
+    ----------
+    reader : object
+        Has ``shape`` ((H, W)), ``dtype`` and ``read(r0, r1, c0, c1) -> (r1-r0, c1-c0)``
+        array of the stored values; e.g. a NumPy array wrapper (:meth:`from_array`).
+    resolution_m : float
+        Metres per pixel.
+    origin : (x, y, yaw)
+        World pose of the lower-left corner (``map_server`` convention).
+    occupied_thresh, free_thresh, negate, mode
+        Classification, as for :meth:`OccupancyMap.from_array` (``negate`` and the modes
+        other than ``"trinary"`` / ``"scale"`` apply to images only).
+    full_scale : int, optional
+        Intensity of white for images (255 for uint8, 65535 for uint16, a PGM's maxval).
+    source : str, optional
+        Where the map is stored, kept as the graph attribute ``source``.
+    """
+
+    def __init__(
+        self,
+        reader: Any,
+        *,
+        resolution_m: float = DEFAULT_RESOLUTION_M,
+        origin=(0.0, 0.0, 0.0),
+        occupied_thresh: float = DEFAULT_OCCUPIED_THRESH,
+        free_thresh: float = DEFAULT_FREE_THRESH,
+        negate: bool = False,
+        mode: str = "trinary",
+        full_scale: int | None = None,
+        source: str | None = None,
+    ) -> None:
+        shape = tuple(int(v) for v in reader.shape)
+        if len(shape) != 2 or min(shape) < 2:
+            raise ValueError(f"reader: expected a 2-D map of at least 2 x 2 pixels, got {shape}")
+        dtype = np.dtype(reader.dtype)
+        kind = _DTYPE_KIND.get(dtype.name)
+        if kind is None:
+            raise TypeError(
+                "reader: expected stored values of dtype uint8 or uint16 (image), int8 "
+                f"(OccupancyGrid) or bool (obstacle mask), got {dtype}"
+            )
+        self.reader = reader
+        self.shape: tuple[int, int] = (shape[0], shape[1])
+        self.kind = kind
+        self.resolution_m = metres_per_pixel("resolution_m", resolution_m)
+        self.origin = pose("origin", origin)
+        self.occupied_thresh, self.free_thresh = occupancy_thresholds(occupied_thresh, free_thresh)
+        self.negate = binary_flag("negate", negate)
+        self.mode = choice("mode", mode, MODES)
+        if kind != "image" and (self.negate or self.mode not in ("trinary", "scale")):
+            raise ValueError(
+                f"negate, mode: apply to images only; a {dtype} map takes negate=False and "
+                f"mode 'trinary' or 'scale', got negate={negate!r}, mode={mode!r}"
+            )
+        if full_scale is None:
+            full_scale = 65535 if dtype == np.uint16 else 255
+        self.full_scale = positive_int("full_scale", full_scale)
+        self.source = None if source is None else str(source)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_array(cls, array, **metadata) -> TiledMap:
+        """A TiledMap of an array in memory (or a ``numpy.memmap``): the stored values of
+        an image, an OccupancyGrid or an obstacle mask; ``metadata`` as for the class."""
+        return cls(_ArrayReader(np.asarray(array)), **metadata)
+
+    @classmethod
+    def from_occupancy(cls, occupancy: OccupancyMap) -> TiledMap:
+        """A TiledMap of an :class:`OccupancyMap`'s classes (read from its masks)."""
+        return cls(
+            _MapReader(occupancy),
+            resolution_m=occupancy.resolution_m,
+            origin=occupancy.origin,
+            source=occupancy.source,
+        )
+
+    # ------------------------------------------------------------------ reading
+    @property
+    def size(self) -> int:
+        """Number of pixels, ``H * W``."""
+        return self.shape[0] * self.shape[1]
+
+    def _box(self, r0: int, r1: int, c0: int, c1: int) -> tuple[int, int, int, int]:
+        h, w = self.shape
+        if not (0 <= r0 <= r1 <= h and 0 <= c0 <= c1 <= w):
+            raise ValueError(
+                f"window: expected 0 <= r0 <= r1 <= {h} and 0 <= c0 <= c1 <= {w}, got "
+                f"rows {r0}:{r1}, cols {c0}:{c1}"
+            )
+        return int(r0), int(r1), int(c0), int(c1)
+
+    def values(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        """The stored values of the window ``[r0:r1, c0:c1]`` (a new array)."""
+        box = self._box(r0, r1, c0, c1)
+        return np.array(self.reader.read(*box))
+
+    def codes(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        """Class codes (uint8 (r1-r0, c1-c0)) of a window: those of the loaded map's
+        pixels (:meth:`occupancy`)."""
+        box = self._box(r0, r1, c0, c1)
+        if isinstance(self.reader, _MapReader):
+            return self.reader.codes(*box)
+        raw = np.asarray(self.reader.read(*box))
+        if self.kind == "mask":
+            return np.where(raw, _OCC, _FREE)
+        if self.kind == "grid":
+            return _classify_occupancy_grid(raw, self.occupied_thresh, self.free_thresh, None)
+        return classify_image(
+            raw,
+            full_scale=self.full_scale,
+            occupied_thresh=self.occupied_thresh,
+            free_thresh=self.free_thresh,
+            negate=self.negate,
+            mode=self.mode,
+            unknown_values=None,
+        )
+
+    def occupied(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        """Obstacle mask (bool) of a window."""
+        return self.codes(r0, r1, c0, c1) == _OCC
+
+    def occupancy(self, r0: int = 0, r1: int | None = None, c0: int = 0, c1: int | None = None):
+        """An :class:`OccupancyMap` of a window (by default the whole map, held in
+        memory: for maps that fit).  A window's map keeps this map's resolution and the
+        origin of the whole map's frame only when it is the whole map."""
+        r1 = self.shape[0] if r1 is None else r1
+        c1 = self.shape[1] if c1 is None else c1
+        codes = self.codes(r0, r1, c0, c1)
+        masks = {"occupied": codes == _OCC, "free": codes == _FREE, "unknown": codes == _UNK}
+        del codes
+        for m in masks.values():
+            m.setflags(write=False)
+        return OccupancyMap(
+            **masks, resolution_m=self.resolution_m, origin=self.origin, source=self.source
+        )
+
+    def pixel_to_world(self, rows, cols) -> tuple[np.ndarray, np.ndarray]:
+        """World ``(x, y)`` in metres of pixel ``(rows, cols)``, as
+        :meth:`OccupancyMap.pixel_to_world` of the loaded map."""
+        r = np.asarray(rows, dtype=np.float64)
+        c = np.asarray(cols, dtype=np.float64)
+        res = self.resolution_m
+        ox, oy, yaw = self.origin
+        xm = (c + 0.5) * res
+        ym = (self.shape[0] - r - 0.5) * res
+        cos_t, sin_t = math.cos(yaw), math.sin(yaw)
+        return ox + cos_t * xm - sin_t * ym, oy + sin_t * xm + cos_t * ym
+
+    def metadata(self) -> dict[str, Any]:
+        """The map's metadata as JSON-ready values (what a tile folder's index and a Zarr
+        array's ``topojax`` attribute hold)."""
+        return {
+            "resolution_m": self.resolution_m,
+            "origin": list(self.origin),
+            "occupied_thresh": self.occupied_thresh,
+            "free_thresh": self.free_thresh,
+            "negate": self.negate,
+            "mode": self.mode,
+            "full_scale": self.full_scale,
+        }
+
+    def __repr__(self) -> str:
+        h, w = self.shape
+        return (
+            f"TiledMap(shape=({h}, {w}), kind={self.kind!r}, resolution_m="
+            f"{self.resolution_m!r}, reader={type(self.reader).__name__}, "
+            f"source={self.source!r})"
+        )
+
+
+# --------------------------------------------------------------------------- readers
+
+
+class _ArrayReader:
+    """Windows of an array in memory or memory-mapped."""
+
+    def __init__(self, array: np.ndarray) -> None:
+        if array.ndim != 2:
+            raise ValueError(f"array: expected a 2-D (H, W) array, got shape {array.shape}")
+        self.array = array
+        self.shape = array.shape
+        self.dtype = array.dtype
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        return self.array[r0:r1, c0:c1]
+
+
+class _MapReader:
+    """Windows of an OccupancyMap's classes."""
+
+    def __init__(self, occupancy: OccupancyMap) -> None:
+        self.occupancy = occupancy
+        self.shape = occupancy.shape
+        self.dtype = np.dtype(bool)
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        return self.occupancy.occupied[r0:r1, c0:c1]
+
+    def codes(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        m = self.occupancy
+        out = np.full((r1 - r0, c1 - c0), _UNK, np.uint8)
+        out[m.free[r0:r1, c0:c1]] = _FREE
+        out[m.occupied[r0:r1, c0:c1]] = _OCC
+        return out
+
+
+class _PgmReader:
+    """Windows of a binary PGM, memory-mapped at its data offset; the map is opened again
+    after pickling (in a Dask worker) instead of copying its pixels."""
+
+    def __init__(self, path: Path, offset: int, shape: tuple[int, int], file_dtype) -> None:
+        self.path, self.offset = path, offset
+        self.file_dtype = np.dtype(file_dtype)  # big-endian for 16-bit samples
+        self.shape, self.dtype = shape, self.file_dtype.newbyteorder("=")
+        self._data: np.memmap | None = None
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        if self._data is None:
+            self._data = np.memmap(
+                self.path, dtype=self.file_dtype, mode="r", offset=self.offset, shape=self.shape
+            )
+        return self._data[r0:r1, c0:c1].astype(self.dtype)
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_data": None}
+
+
+class _FolderReader:
+    """Windows of a folder of ``.npy`` tiles (each opened memory-mapped when read)."""
+
+    def __init__(self, folder: Path, shape, tile_px: int, dtype) -> None:
+        self.folder, self.tile_px = folder, tile_px
+        self.shape, self.dtype = shape, np.dtype(dtype)
+
+    def tile_path(self, tr: int, tc: int) -> Path:
+        return self.folder / f"r{tr:05d}_c{tc:05d}.npy"
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        t = self.tile_px
+        out = np.empty((r1 - r0, c1 - c0), self.dtype)
+        for tr in range(r0 // t, -(-r1 // t)):
+            for tc in range(c0 // t, -(-c1 // t)):
+                tile = np.load(self.tile_path(tr, tc), mmap_mode="r")
+                a0, a1 = max(r0, tr * t), min(r1, tr * t + tile.shape[0])
+                b0, b1 = max(c0, tc * t), min(c1, tc * t + tile.shape[1])
+                out[a0 - r0 : a1 - r0, b0 - c0 : b1 - c0] = tile[
+                    a0 - tr * t : a1 - tr * t, b0 - tc * t : b1 - tc * t
+                ]
+        return out
+
+
+class _ZarrReader:
+    """Windows of a Zarr array (opened again after pickling)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        arr = self._open()
+        self.shape, self.dtype = tuple(arr.shape), np.dtype(arr.dtype)
+        self._array = arr
+
+    def _open(self):
+        zarr = _zarr()
+        return zarr.open_array(str(self.path), mode="r")
+
+    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
+        if self._array is None:
+            self._array = self._open()
+        return np.asarray(self._array[r0:r1, c0:c1])
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_array": None}
+
+
+def _zarr():
+    try:
+        import zarr
+    except ImportError:
+        raise ImportError(
+            "Zarr maps need the optional dependency zarr (>= 3): pip install 'topojax[zarr]'"
+        ) from None
+    return zarr
+
+
+# --------------------------------------------------------------------------- open / save
+
+
+def open_tiled_map(path, **overrides) -> TiledMap:
+    """Open a map stored on disk for reading a window at a time.
+
+    Parameters
+    ----------
+    path : str or Path
+        A tile folder (holding ``tiles.json``), a Zarr array (a folder holding
+        ``zarr.json``), a binary PGM (``P5``) or a ``map_server`` YAML naming one.
+    **overrides
+        ``resolution_m``, ``origin``, ``occupied_thresh``, ``free_thresh``, ``negate``,
+        ``mode``: replace the stored metadata (for a PGM or YAML, as :func:`load_map`'s
+        arguments of the same names).
+
+    Returns
+    -------
+    TiledMap
+        Its windows classify as the map :func:`load_map` (or, for a tile folder or a Zarr
+        array, :meth:`OccupancyMap.from_array` of the whole array) gives.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        For a missing path, an unknown form, or a PGM that is not binary single-channel.
+    ImportError
+        For a Zarr array without the ``zarr`` package.
+    """
+    p = Path(path)
+    unknown = set(overrides) - {
+        "resolution_m",
+        "origin",
+        "occupied_thresh",
+        "free_thresh",
+        "negate",
+        "mode",
+    }
+    if unknown:
+        raise TypeError(f"open_tiled_map: unexpected keyword arguments {sorted(unknown)}")
+    if not p.exists():
+        raise FileNotFoundError(f"path: map not found: {p}")
+    if p.is_dir() and (p / TILE_INDEX).is_file():
+        return _open_folder(p, overrides)
+    if p.is_dir() and (p / "zarr.json").is_file():
+        reader = _ZarrReader(p)
+        meta = dict(_zarr().open_array(str(p), mode="r").attrs.get("topojax", {}))
+        return TiledMap(reader, **_metadata(meta, overrides), source=str(p))
+    suffix = p.suffix.lower()
+    if suffix in YAML_SUFFIXES:
+        image, settings = _yaml_settings(p, **{k: overrides.get(k) for k in _OVERRIDABLE})
+        return _open_pgm(image, settings, source=p)
+    if suffix == ".pgm":
+        return _open_pgm(p, dict(overrides), source=p)
+    raise ValueError(
+        f"path: expected a tile folder (with {TILE_INDEX}), a Zarr array, a binary .pgm or a "
+        f"map YAML naming one, got {p}"
+    )
+
+
+_OVERRIDABLE = ("resolution_m", "origin", "occupied_thresh", "free_thresh", "negate", "mode")
+
+
+def _metadata(stored: dict, overrides: dict) -> dict:
+    keys = (*_OVERRIDABLE, "full_scale")
+    out = {k: stored[k] for k in keys if k in stored}
+    out.update({k: v for k, v in overrides.items() if v is not None})
+    return out
+
+
+def _open_folder(p: Path, overrides: dict) -> TiledMap:
+    index = json.loads((p / TILE_INDEX).read_text())
+    if index.get("format") != _FOLDER_FORMAT:
+        raise ValueError(
+            f"path: {p / TILE_INDEX} is not a tile index (format {index.get('format')!r}, "
+            f"expected {_FOLDER_FORMAT!r})"
+        )
+    shape = tuple(int(v) for v in index["shape"])
+    reader = _FolderReader(p, shape, int(index["tile_px"]), index["dtype"])
+    return TiledMap(reader, **_metadata(index, overrides), source=str(p))
+
+
+def _open_pgm(image: Path, settings: dict, *, source: Path) -> TiledMap:
+    width, height, maxval, offset, comments = _pgm_header(image)
+    dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
+    need = offset + width * height * dtype.itemsize
+    if os.path.getsize(image) < need:
+        raise ValueError(f"path: {image} is shorter than its PGM header says ({need} bytes)")
+    if settings.get("resolution_m") is None:
+        res = resolution_from_pgm_comments(comments, image)
+        settings["resolution_m"] = DEFAULT_RESOLUTION_M if res is None else res
+    reader = _PgmReader(image, offset, (height, width), dtype)
+    meta = {k: v for k, v in settings.items() if v is not None}
+    return TiledMap(reader, **meta, full_scale=maxval, source=str(source))
+
+
+def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") -> Path:
+    """Write a map as a tile folder or a Zarr array, a block of rows at a time.
+
+    Parameters
+    ----------
+    tiled : TiledMap, OccupancyMap or array
+        The map (an array: the stored values of an image, OccupancyGrid or mask, read by
+        :meth:`TiledMap.from_array` with default metadata).  An OccupancyMap is written as
+        its grey image (0 occupied, 205 unknown, 254 free).
+    path : str or Path
+        The folder to create (for a tile folder: empty or new).
+    tile_px : int
+        Tile (Zarr chunk) side in pixels.
+    format : {"folder", "zarr"}
+
+    Returns
+    -------
+    Path
+        ``path``; :func:`open_tiled_map` reads it back.
+    """
+    tile_px = positive_int("tile_px", tile_px)
+    format = choice("format", format, ("folder", "zarr"))
+    if isinstance(tiled, OccupancyMap):
+        tiled = TiledMap.from_array(
+            tiled.to_image(),
+            resolution_m=tiled.resolution_m,
+            origin=tiled.origin,
+            source=tiled.source,
+        )
+    elif not isinstance(tiled, TiledMap):
+        tiled = TiledMap.from_array(tiled)
+    p = Path(path)
+    h, w = tiled.shape
+    dtype = np.dtype(tiled.reader.dtype)
+    meta = tiled.metadata()
+    if format == "zarr":
+        zarr = _zarr()
+        arr = zarr.create_array(
+            str(p), shape=(h, w), chunks=(tile_px, tile_px), dtype=dtype, overwrite=True
+        )
+        arr.attrs["topojax"] = meta
+        for r0 in range(0, h, tile_px):
+            arr[r0 : min(h, r0 + tile_px), :] = tiled.values(r0, min(h, r0 + tile_px), 0, w)
+        return p
+    folder = output_folder(p, name="path")
+    if any(folder.iterdir()):
+        raise ValueError(f"path: expected an empty or new folder for the tiles, got {folder}")
+    for tr, r0 in enumerate(range(0, h, tile_px)):
+        band = tiled.values(r0, min(h, r0 + tile_px), 0, w)
+        for tc, c0 in enumerate(range(0, w, tile_px)):
+            np.save(folder / f"r{tr:05d}_c{tc:05d}.npy", band[:, c0 : c0 + tile_px])
+    index = {"format": _FOLDER_FORMAT, "version": 1, "shape": [h, w], "tile_px": tile_px}
+    index["dtype"] = dtype.name
+    index.update(meta)
+    (folder / TILE_INDEX).write_text(json.dumps(index, indent=1) + "\n")
+    return p

@@ -1,0 +1,428 @@
+""":func:`build_graph_tiled`: the topology graph of a map read block by block, identical to
+:func:`topojax.build_graph`'s, with a working set bounded by the block size (plus the
+sparse skeleton and the graph themselves)."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fs import output_folder
+from .._validate import finite_positive, instance_or_default, positive_int
+from ..config import PipelineConfig
+from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map
+from ..maps.occupancy import OccupancyMap
+from ..maps.tiled import TiledMap, open_tiled_map
+from .blocks import BlockPiece, block_piece, fields_halo_px
+
+__all__ = ["BYTES_PER_WINDOW_PX", "TiledResult", "block_px_for_budget", "build_graph_tiled"]
+
+#: Bytes one block's stages take per pixel of its kernel window, an upper estimate (the
+#: classified window, the kernels' padded map and column pass, the ridges, the thinning's
+#: work space): an 8000 px floor plan in blocks sized for 256 MB peaks at 190 MB in all
+#: (``bench/bench_memory.py``).
+BYTES_PER_WINDOW_PX = 24
+#: Largest halo tried for one block before giving up, in multiples of the tile side
+#: beyond the first.
+MAX_HALO_STEPS = 16
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class TiledResult:
+    """What :func:`build_graph_tiled` produced.
+
+    Attributes
+    ----------
+    map : TiledMap
+        The input map.
+    graph_store : GraphStore or None
+        The graph as arrays (None when ``config.graph`` prunes: ``graph`` then holds it).
+    config : PipelineConfig
+    row_start : int64 (H + 1,)
+        The skeleton row by row: row ``r``'s pixels are
+        ``cols[row_start[r]:row_start[r + 1]]``.
+    cols : int32 (n,)
+        Columns of the skeleton's pixels (the pixels set in :func:`topojax.build_graph`'s
+        ``skeleton``), increasing within each row.
+    timings_s : dict[str, float]
+        ``blocks`` (all block stages, with the clearances), ``graph`` and ``total``.
+    blocks : int
+        Number of blocks.
+    halo_px : tuple of int
+        The distinct halos the blocks needed, smallest first.
+    pruned_graph : networkx.MultiGraph or None
+        The graph when ``config.graph`` prunes (pruning works on networkx), else None.
+    graph : networkx.MultiGraph
+        ``pruned_graph``, or built from ``graph_store`` on first access.
+
+    Notes
+    -----
+    The per-pixel fields of :class:`topojax.TopologyResult` (distance, ridges, skeleton
+    image) are not held: they are map-sized.
+    """
+
+    map: TiledMap
+    graph_store: Any
+    config: PipelineConfig
+    row_start: np.ndarray
+    cols: np.ndarray
+    timings_s: dict[str, float] = field(default_factory=dict)
+    blocks: int = 0
+    halo_px: tuple[int, ...] = ()
+    pruned_graph: Any = None
+
+    def skeleton_flat(self) -> np.ndarray:
+        """Flat indices ``row * W + col`` (int64, increasing) of the skeleton's pixels."""
+        rows = np.repeat(np.arange(self.row_start.size - 1), np.diff(self.row_start))
+        return rows * self.map.shape[1] + self.cols
+
+    @cached_property
+    def graph(self):
+        if self.pruned_graph is not None:
+            return self.pruned_graph
+        return self.graph_store.to_networkx()
+
+    def __repr__(self) -> str:
+        return (
+            f"TiledResult(map shape={self.map.shape}, blocks={self.blocks}, halo_px="
+            f"{self.halo_px}, skeleton_px={self.cols.size}, timings_s={self.timings_s})"
+        )
+
+
+def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
+    """The largest block side (a multiple of ``config.tile_px``, at least one tile) whose
+    stages take about ``memory_budget_mb`` (:data:`BYTES_PER_WINDOW_PX` per pixel of the
+    kernels' window, the block plus the first halo on each side)."""
+    budget = finite_positive("memory_budget_mb", memory_budget_mb)
+    t = config.tile_px
+    side = math.sqrt(budget * 2**20 / BYTES_PER_WINDOW_PX) - 2 * _first_halo(config)
+    return max(t, int(side // t) * t)
+
+
+def _first_halo(config: PipelineConfig) -> int:
+    """The smallest halo tried: the kernels' reach plus a few pixels to thin, rounded up
+    to the tile side."""
+    t = config.tile_px
+    return -(-(fields_halo_px(config) + 8) // t) * t
+
+
+def _as_tiled(source) -> TiledMap:
+    if isinstance(source, TiledMap):
+        return source
+    if isinstance(source, OccupancyMap):
+        return TiledMap.from_occupancy(source)
+    if isinstance(source, (str, os.PathLike)):
+        try:
+            return open_tiled_map(source)
+        except ValueError:
+            if Path(source).suffix.lower() not in IMAGE_SUFFIXES + YAML_SUFFIXES:
+                raise
+            # an image that cannot be read a window at a time (PNG, ASCII PGM...): whole
+            return TiledMap.from_occupancy(load_map(source))
+    if isinstance(source, np.ndarray):
+        return TiledMap.from_array(source)
+    raise TypeError(
+        "source: expected a TiledMap, an OccupancyMap, a 2-D array or the path of a tile "
+        f"folder, Zarr array or PGM, got {type(source).__name__}"
+    )
+
+
+def _as_executor(executor):
+    """``executor`` itself, or the executor of a Dask ``Client`` (``pure=False``)."""
+    if executor is None or isinstance(executor, cf.Executor):
+        return executor
+    get_executor = getattr(executor, "get_executor", None)
+    if get_executor is None:
+        raise TypeError(
+            "executor: expected None, a concurrent.futures.Executor or a "
+            f"dask.distributed Client, got {type(executor).__name__}"
+        )
+    return get_executor(pure=False)
+
+
+def _block_task(tiled: TiledMap, box, config: PipelineConfig, halo: int, threads) -> BlockPiece:
+    """One block, its halo grown a tile at a time until its pixels are proved exact."""
+    t = config.tile_px
+    for _ in range(MAX_HALO_STEPS + 1):
+        piece = block_piece(tiled, box, config, halo, threads)
+        if piece.halo_px is not None:
+            return piece
+        halo += t
+    raise RuntimeError(
+        f"block {box}: thinning still reached the block from {halo - t} px away; "
+        "the block's skeleton could not be proved equal to the whole map's"
+    )
+
+
+def build_graph_tiled(
+    source,
+    *,
+    config: PipelineConfig | None = None,
+    block_px: int | None = None,
+    memory_budget_mb: float = 512.0,
+    executor=None,
+    threads: int | None = None,
+    out_dir=None,
+) -> TiledResult:
+    """Build the topology graph of a map read block by block (maps larger than memory).
+
+    Parameters
+    ----------
+    source : TiledMap, OccupancyMap, array or path
+        The map: a :class:`TiledMap`, or what :func:`open_tiled_map` opens (a tile
+        folder, a Zarr array, a binary PGM or a YAML naming one), or a map in memory.
+        Another map file :func:`topojax.load_map` reads (PNG, ...) is read whole.
+    config : PipelineConfig, optional
+        As for :func:`topojax.build_graph`.
+    block_px : int, optional
+        Block side in pixels, a multiple of ``config.tile_px``; default: the largest
+        whose stages fit ``memory_budget_mb``.
+    memory_budget_mb : float, default 512
+        Memory for one block's stages (per worker), used when ``block_px`` is None.
+    executor : concurrent.futures.Executor or dask.distributed.Client, optional
+        Runs the blocks as tasks (a Dask ``Client``: on its workers, each reading its
+        window from the source); default: one after another in this process.
+    threads : int, optional
+        Kernel dispatch threads per block (as for :func:`topojax.fields.dense_fields`).
+    out_dir : str or Path, optional
+        Folder (created) for the graph's two skeleton-sized arrays, ``path_pixels.npy``
+        and ``path_world.npy``: written a block of edges at a time and given to the
+        store memory-mapped, so they need not fit in memory.  Default: in memory.
+
+    Returns
+    -------
+    TiledResult
+        Its graph equals :func:`topojax.build_graph`'s for the whole map: vertices,
+        edges, paths and attributes.
+
+    Notes
+    -----
+    Every field is local (the distance is windowed), so one block's ridges need a halo
+    of ``half_width_px + 2`` pixels; its thinning is proved exact by tracking which
+    pixels the unseen map could still change, the halo growing a tile at a time where
+    the proof fails (:mod:`topojax.outofcore.exact`).  Clearances beyond the window are
+    searched exactly in the map itself.  The working set is one block's window per
+    worker, plus about 10 bytes per skeleton pixel (its column, clearance, link mask and
+    state; :func:`topojax.graph.sparse.row_skeleton_graph_store`), the graph's vertex and
+    edge arrays, and its paths (32 bytes per skeleton pixel; on disk with ``out_dir``).
+    With ``merge_junction_clusters`` the graph is built from the whole pixel graph
+    (:func:`topojax.graph.pixels_graph_store`, about 100 bytes per skeleton pixel).
+    """
+    config = instance_or_default("config", config, PipelineConfig)
+    tiled = _as_tiled(source)
+    if block_px is None:
+        block_px = block_px_for_budget(memory_budget_mb, config)
+    block_px = positive_int("block_px", block_px)
+    if block_px % config.tile_px:
+        raise ValueError(
+            f"block_px: expected a multiple of config.tile_px ({config.tile_px}), got {block_px}"
+        )
+    pool = _as_executor(executor)
+    if out_dir is not None:
+        out_dir = output_folder(out_dir, name="out_dir")
+    h, w = tiled.shape
+    boxes = [
+        (r, min(h, r + block_px), c, min(w, c + block_px))
+        for r in range(0, h, block_px)
+        for c in range(0, w, block_px)
+    ]
+    halo = _first_halo(config)
+    t0 = time.perf_counter()
+    if pool is None:
+        pieces = (_block_task(tiled, b, config, halo, threads) for b in boxes)
+    else:
+        shared = tiled
+        if not isinstance(executor, cf.Executor) and hasattr(executor, "scatter"):
+            shared = executor.scatter(tiled, broadcast=True)  # once, not once per block
+        futures = [pool.submit(_block_task, shared, b, config, halo, threads) for b in boxes]
+        pieces = (f.result() for f in futures)
+    skeleton = _Skeleton(tiled, config.distance.half_width_px, config.tile_px)
+    for piece in pieces:
+        skeleton.add(piece)
+    row_start, cols, clearance = skeleton.finish()
+    t1 = time.perf_counter()
+    store, pruned = _graph(tiled, row_start, cols, clearance, config, out_dir)
+    t2 = time.perf_counter()
+    return TiledResult(
+        map=tiled,
+        graph_store=store,
+        config=config,
+        row_start=row_start,
+        cols=cols,
+        timings_s={"blocks": t1 - t0, "graph": t2 - t1, "total": t2 - t0},
+        blocks=len(boxes),
+        halo_px=tuple(sorted(skeleton.halos)),
+        pruned_graph=pruned,
+    )
+
+
+class _Skeleton:
+    """The skeleton's pixels row by row, gathered from the blocks (given in block order,
+    a band of blocks at a time) with their clearances."""
+
+    def __init__(self, tiled: TiledMap, half_width: int, group_px: int) -> None:
+        self.tiled, self.half_width, self.group_px = tiled, half_width, group_px
+        self.band: list[BlockPiece] = []
+        self.counts: list[np.ndarray] = []  # pixels per row, band after band
+        self.cols: list[np.ndarray] = []
+        self.clearance: list[np.ndarray] = []
+        self.occupied = 0
+        self.halos: set[int] = set()
+
+    def add(self, piece: BlockPiece) -> None:
+        if self.band and piece.box[0] != self.band[0].box[0]:
+            self._close_band()
+        self.band.append(piece)
+        self.occupied += piece.occupied_px
+        self.halos.add(piece.halo_px)
+
+    def _close_band(self) -> None:
+        band, self.band = self.band, []
+        r0, r1 = band[0].box[:2]
+        w = self.tiled.shape[1]
+        flat = np.concatenate([p.flat for p in band])
+        sq = np.concatenate([p.sq_distance_px for p in band])
+        del band
+        order = np.argsort(flat, kind="stable")
+        flat, sq = flat[order], sq[order]
+        rows, cols = np.divmod(flat, w)
+        self.counts.append(np.bincount(rows - r0, minlength=r1 - r0))
+        self.cols.append(cols.astype(np.int32))
+        self.clearance.append(
+            _clearance(self.tiled, rows, cols, sq, self.half_width, self.group_px)
+        )
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self.band:
+            self._close_band()
+        h = self.tiled.shape[0]
+        if self.occupied == self.tiled.size:  # no space to travel (travel_ridges)
+            return np.zeros(h + 1, np.int64), np.zeros(0, np.int32), np.zeros(0, np.float32)
+        row_start = np.zeros(h + 1, np.int64)
+        np.cumsum(np.concatenate(self.counts), out=row_start[1:])
+        return row_start, _joined(self.cols, np.int32), _joined(self.clearance, np.float32)
+
+
+def _joined(parts: list[np.ndarray], dtype) -> np.ndarray:
+    """The parts one after another, each dropped from ``parts`` once copied (the peak is
+    the result and one part, not twice the result)."""
+    out = np.empty(sum(p.size for p in parts), dtype)
+    at = 0
+    parts.reverse()
+    while parts:
+        part = parts.pop()
+        out[at : at + part.size] = part
+        at += part.size
+    return out
+
+
+def _clearance(tiled: TiledMap, rows, cols, sq, half_width: int, group_px: int) -> np.ndarray:
+    """Clearance in pixels (float32) at pixels ``(rows, cols)``: the square root of the
+    windowed squared distance ``sq`` within ``R``, else of the exact one found in the map
+    (``inf`` on a map without obstacles)."""
+    out = np.sqrt(sq.astype(np.float32))
+    far = np.flatnonzero(sq > half_width * half_width)
+    if far.size == 0:
+        return out
+    rows, cols = rows[far], cols[far]
+    # one search per square of `group_px`: a window of that square and its margin
+    group = (rows // group_px) * (-(-tiled.shape[1] // group_px)) + cols // group_px
+    exact = np.empty(far.size, np.int64)
+    for g in np.unique(group):
+        sel = np.flatnonzero(group == g)
+        exact[sel] = _nearest_sq(tiled, rows[sel], cols[sel], 2 * half_width)
+    out[far] = np.where(exact < 0, np.inf, np.sqrt(exact.astype(np.float32)))
+    return out
+
+
+def _nearest_sq(tiled: TiledMap, rows, cols, start_px: int) -> np.ndarray:
+    """Exact squared distance (int64) from pixels ``(rows, cols)`` to the nearest
+    obstacle (-1 where the map has none): the Euclidean distance transform of a window
+    around them, read from the map, whose margin doubles until it holds every pixel's
+    nearest obstacle (at distance ``d`` with ``d`` of window, or the map's edge, on every
+    side)."""
+    from scipy.ndimage import distance_transform_edt
+
+    h, w = tiled.shape
+    out = np.empty(rows.size, np.int64)
+    todo = np.arange(rows.size)
+    pad = max(1, start_px)
+    while todo.size:
+        r, c = rows[todo], cols[todo]
+        q0, q1 = max(0, int(r.min()) - pad), min(h, int(r.max()) + pad + 1)
+        p0, p1 = max(0, int(c.min()) - pad), min(w, int(c.max()) + pad + 1)
+        whole = q0 == 0 and p0 == 0 and q1 == h and p1 == w
+        free = ~tiled.occupied(q0, q1, p0, p1)
+        if free.all():  # no obstacle in the window: look farther
+            if whole:  # none in the map
+                out[todo] = -1
+                return out
+            pad *= 2
+            continue
+        dist = distance_transform_edt(free)[r - q0, c - p0]
+        del free
+        d2 = np.rint(dist * dist).astype(np.int64)
+        inf = np.iinfo(np.int64).max
+        margin = np.minimum.reduce(
+            [
+                np.where(q0 > 0, r - q0, inf),
+                np.where(q1 < h, q1 - 1 - r, inf),
+                np.where(p0 > 0, c - p0, inf),
+                np.where(p1 < w, p1 - 1 - c, inf),
+            ]
+        )
+        settled = whole | (d2 <= margin.astype(np.float64) ** 2)
+        out[todo[settled]] = d2[settled]
+        todo = todo[~settled]
+        pad *= 2
+    return out
+
+
+def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, out_dir):
+    """The graph store (no pruning) or the pruned networkx graph, with the attributes
+    :func:`topojax.build_graph` gives them."""
+    from ..graph import pixels_graph_store, prune_graph
+    from ..graph.sparse import row_skeleton_graph_store
+
+    if config.graph.merge_junction_clusters:  # merging needs the whole pixel graph
+        rows = np.repeat(np.arange(row_start.size - 1), np.diff(row_start))
+        store = pixels_graph_store(
+            tiled.shape,
+            rows * tiled.shape[1] + cols,
+            clearance_px=clearance,
+            resolution_m=tiled.resolution_m,
+            pixel_to_world=tiled.pixel_to_world,
+            merge_junction_clusters=True,
+        )
+    else:
+        store = row_skeleton_graph_store(
+            tiled.shape,
+            row_start,
+            cols,
+            clearance_px=clearance,
+            resolution_m=tiled.resolution_m,
+            pixel_to_world=tiled.pixel_to_world,
+            out_dir=out_dir,
+        )
+    attrs = {"origin": tuple(float(v) for v in tiled.origin), "thinning": config.skeleton.thinning}
+    if tiled.source is not None:
+        attrs["source"] = str(tiled.source)
+    if not config.graph.prunes:
+        store.attrs.update(attrs)
+        return store, None
+    graph = prune_graph(
+        store.to_networkx(),
+        min_clearance_m=config.graph.min_clearance_m,
+        min_spur_m=config.graph.min_spur_m,
+        min_component_m=config.graph.min_component_m,
+    )
+    graph.graph.update(attrs)
+    return None, graph
