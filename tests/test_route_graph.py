@@ -293,7 +293,7 @@ def test_shortcuts_cross_no_edge_and_close_no_short_loop_in_an_open_hall(size_m)
 
 
 @pytest.mark.parametrize("snap_px", [4.0, 7.5, 20.0, 21.0])
-def test_coverage_dilation_never_reaches_past_the_snap_distance(snap_px):
+def test_coverage_never_reaches_past_the_snap_distance(snap_px):
     from topojax.routegraph._cover import covered
 
     raster = np.zeros((101, 101), bool)

@@ -23,6 +23,11 @@ from ._spanner import greedy_shortcuts, see_any, see_nearest
 COVER_SPACING = 1.3
 #: Rounds of lanes before waypoints: one along the walls, then skeletons of what is left.
 LANE_ROUNDS = 2
+# The 5 x 5 labelled distance transform names a graph pixel at most this factor (plus a
+# pixel) farther than the nearest one.
+_LABEL_SLACK = 1.05
+# Up to this many pixels to test, their nearest graph pixels come from a k-d tree instead.
+_FEW_PIXELS = 200_000
 
 
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
@@ -36,44 +41,57 @@ def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
     return mask
 
 
-def covered(raster: np.ndarray, feasible: np.ndarray, snap_px: float) -> np.ndarray:
-    """Feasible pixels within ``snap_px`` of the graph through the feasible space (a
-    geodesic dilation of the graph's pixels in steps of a small disc, cut to the Euclidean
-    ball of radius ``snap_px`` around the graph)."""
-    step = int(max(1, min(3, round(snap_px / 4))))
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * step + 1, 2 * step + 1))
-    out = (raster & feasible).view(np.uint8)
-    feas = feasible.view(np.uint8)
-    n_steps = int(snap_px // step)
-    for _ in range(n_steps):
-        out = cv2.dilate(out, kernel) & feas
-    rest = int(math.ceil(snap_px - n_steps * step))
-    if rest >= 1:
-        last = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * rest + 1, 2 * rest + 1))
-        out = cv2.dilate(out, last) & feas
-    # Chained digital discs reach a little past their radii; no pixel farther than snap_px
-    # in a straight line can be within snap_px through the feasible space.  A robot snaps
-    # along a straight line, so a pixel counts only when it sees a graph pixel within
-    # snap_px (the one the transform finds nearest, else any other).
-    far = (~raster).view(np.uint8)
-    exact = cv2.distanceTransform(far, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    cand = out.view(bool) & (exact <= snap_px)
-    # the labelled transform is approximate: its pixel is a candidate, checked in full
-    _, label = cv2.distanceTransformWithLabels(
-        far, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL
+def covered(
+    raster: np.ndarray,
+    feasible: np.ndarray,
+    snap_px: float,
+    wall: np.ndarray | None = None,
+    among: np.ndarray | None = None,
+) -> np.ndarray:
+    """Feasible pixels that see a pixel of the graph (``raster``) within ``snap_px`` along
+    a straight segment over feasible pixels (a robot snaps along a straight line; such a
+    pixel is within ``snap_px`` of the graph through the feasible space too).
+
+    ``wall``: each pixel's distance to the nearest pixel that is not feasible (float32
+    (H, W), :func:`wall_distance`), computed when not given.  ``among``: only these
+    pixels (bool (H, W)) are tested, the others are returned False."""
+    if wall is None:
+        wall = wall_distance(feasible)
+    test = feasible if among is None else among & feasible
+    rr, cc = np.nonzero(test)
+    rr, cc = rr.astype(np.int64), cc.astype(np.int64)
+    out = np.zeros(feasible.shape, bool)
+    graph_px = np.argwhere(raster)
+    if rr.size == 0 or graph_px.size == 0:
+        return out
+    if rr.size > _FEW_PIXELS:
+        # the labelled transform names a graph pixel near each pixel, at most
+        # _LABEL_SLACK times (plus a pixel) farther than the nearest one
+        _, label = cv2.distanceTransformWithLabels(
+            (~raster).view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL
+        )
+        near = graph_px[label[rr, cc] - 1].astype(np.int64)  # raster order: label k - 1
+        d2 = (near[:, 0] - rr) ** 2 + (near[:, 1] - cc) ** 2
+        reach = (_LABEL_SLACK * snap_px + 1.0) ** 2
+    else:
+        dist, idx = cKDTree(graph_px).query(np.stack([rr, cc], axis=1))
+        near = graph_px[idx].astype(np.int64)
+        d2 = dist**2
+        reach = snap_px * snap_px
+    ok = (d2 <= snap_px * snap_px) & see_nearest(
+        rr, cc, near[:, 0], near[:, 1], wall[rr, cc], feasible
     )
-    rr, cc = np.nonzero(cand)
-    graph_px = np.argwhere(raster)  # raster order: label k is graph pixel k - 1
-    near = graph_px[label[rr, cc] - 1].astype(np.int64)
-    wall = cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    ok = see_nearest(
-        rr.astype(np.int64), cc.astype(np.int64), near[:, 0], near[:, 1], wall[rr, cc], feasible
-    )
-    ok &= (near[:, 0] - rr) ** 2 + (near[:, 1] - cc) ** 2 <= snap_px * snap_px
-    rr, cc = rr[~ok].astype(np.int64), cc[~ok].astype(np.int64)
-    ok = see_any(rr, cc, raster, feasible, float(snap_px))
-    cand[rr[~ok], cc[~ok]] = False
-    return cand
+    # the named pixel hidden or out of reach: another within reach may still be seen
+    maybe = ~ok & (d2 <= reach)
+    ok[maybe] = see_any(rr[maybe], cc[maybe], raster, feasible, float(snap_px))
+    out[rr[ok], cc[ok]] = True
+    return out
+
+
+def wall_distance(feasible: np.ndarray) -> np.ndarray:
+    """Distance (pixels, float32 (H, W)) of each pixel to the nearest pixel that is not
+    feasible (exact Euclidean)."""
+    return cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
 
 
 def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray:
@@ -112,9 +130,12 @@ def add_coverage(
     shape = feasible.shape
     spacing = COVER_SPACING * snap_px
     lane_round, grid_round = 0, 0
+    wall = wall_distance(feasible)
+    uncovered = feasible
     while True:
+        # the graph only grows: what was covered stays covered
         raster = graph_raster(work, shape)
-        uncovered = feasible & ~covered(raster, feasible, snap_px)
+        uncovered = uncovered & ~covered(raster, feasible, snap_px, wall, among=uncovered)
         if grid_round == rounds or not uncovered.any():
             break
         if lane_round < LANE_ROUNDS and add_lanes(
