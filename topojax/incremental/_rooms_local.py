@@ -37,7 +37,7 @@ __all__ = ["LOCAL_MARGIN", "LOCAL_MAX_SHARE", "local_update"]
 
 #: A local update's window reaches this many times ``max_door_width_m + door_context_m``
 #: (RoomConfig) past the changes and the rooms it re-segments.
-LOCAL_MARGIN = 1.5
+LOCAL_MARGIN = 1.0
 #: A local update whose windows would cover more than this share of the map segments the
 #: whole map instead.
 LOCAL_MAX_SHARE = 0.5
@@ -93,12 +93,22 @@ def local_update(keeper, occ, box, cfg):
     if changed.any():
         st.bounds = _box_of(free | before, free.shape)
         st.budget = LOCAL_MAX_SHARE * _area(st.bounds)
-        for rr, cc in _groups(changed, _margin_px(cfg, st.res_m)):
+        margin = _margin_px(cfg, st.res_m)
+        groups = _groups(changed, margin)
+        first = [_grow(_box_of_pixels(rr, cc), margin, st.bounds) for rr, cc in groups]
+        if sum(_area(b) for b in first) > st.budget:  # the first windows alone
+            return None, 0, keeper.next_id
+        for rr, cc in groups:
             n = _local_step(st, occ, rr, cc, cfg)
             if n is None:
                 return None, 0, keeper.next_id
             segmented += n
     return _assembled(st, occ), segmented, st.next_id
+
+
+def _box_of_pixels(rr, cc) -> tuple[int, int, int, int]:
+    """The bounding box (end exclusive) of pixels ``rr, cc``."""
+    return (int(rr.min()), int(cc.min()), int(rr.max()) + 1, int(cc.max()) + 1)
 
 
 def _box_of(mask: np.ndarray, shape) -> tuple[int, int, int, int]:
@@ -178,7 +188,7 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
     margin = _margin_px(cfg, st.res_m)
     band = max(1, int(round(cfg.door_context_m / st.res_m)))
     link_px = 3.0 * (cfg.max_door_width_m / st.res_m + 1.0)
-    need = (int(rr.min()), int(cc.min()), int(rr.max()) + 1, int(cc.max()) + 1)
+    need = _box_of_pixels(rr, cc)
     win, replaced, segmented = _grow(need, margin, bounds), set(), 0
     while True:
         st.budget -= _area(win)
@@ -199,7 +209,7 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
             s = spans[j - 1]
             want = _union(want, _moved(s, win))
             is_open |= _reaches_band(s, win, band, bounds)
-        pad = max(margin, (win[2] - win[0] + win[3] - win[1]) // 4) if is_open else margin
+        pad = 2 * margin if is_open else margin
         bigger = _union(win, _grow(want, pad, bounds))
         if bigger == win:
             break
@@ -209,7 +219,7 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
     touched = _patch(st, rr, cc, old_at, seg.labels[rr - win[0], cc - win[1]], rel)
     _rebuild(st, occ, touched - rel.replaced, (rr, cc))
     reach = int(math.ceil((cfg.max_door_width_m + cfg.door_context_m) / st.res_m))
-    zone = _grow((int(rr.min()), int(cc.min()), int(rr.max()) + 1, int(cc.max()) + 1), reach, win)
+    zone = _grow(_box_of_pixels(rr, cc), reach, win)
     inner = _interior(win, band, bounds)
     zone = _intersection(
         zone,
@@ -428,8 +438,7 @@ def _rebuild(st: _Rooms, occ, ids: set, changed) -> None:
     ids = {i for i in ids if i in st.rooms}
     if not ids:
         return
-    rr, cc = changed
-    box = (int(rr.min()), int(cc.min()), int(rr.max()) + 1, int(cc.max()) + 1)
+    box = _box_of_pixels(*changed)
     for i in ids:
         box = _union(box, _bbox_end(st.rooms[i].bbox))
     lab = st.labels[box[0] : box[2], box[1] : box[3]]
