@@ -163,10 +163,25 @@ def run_log(path: Path, graph_every: int, rooms_every: int, max_scans: int | Non
             "kept_share_median": float(np.median(kept)) if kept else None,
         }
     rows = [u["local"] for u in updates]
+    later = updates[1:]  # the first update of both is the whole map
+    done = [u for u in later if u["local"]["segmented_share"] < 1.0]
+    back = [u for u in later if u["local"]["segmented_share"] >= 1.0]
+
+    def med(us, mode):
+        return float(np.median([u[mode]["time_ms"] for u in us])) if us else None
+
     out["local"].update(
         {
-            "whole_map_updates": sum(r["segmented_share"] >= 1.0 for r in rows),
-            "segmented_share_median": float(np.median([r["segmented_share"] for r in rows])),
+            "local_updates": len(done),
+            "window_share_median": float(np.median([u["local"]["segmented_share"] for u in done]))
+            if done
+            else None,
+            "time_ms_median_local": med(done, "local"),
+            "whole_time_ms_median_local": med(done, "whole"),
+            "time_ms_median_fallback": med(back, "local"),
+            "whole_time_ms_median_fallback": med(back, "whole"),
+            "total_s": sum(u["local"]["time_ms"] for u in later) / 1e3,
+            "whole_total_s": sum(u["whole"]["time_ms"] for u in later) / 1e3,
             "differing_px_share_mean": float(np.mean([r["differing_px_share"] for r in rows])),
             "differing_px_share_max": float(np.max([r["differing_px_share"] for r in rows])),
             "rooms_minus_scratch_max_abs": int(
@@ -187,28 +202,29 @@ def _row(name: str, res: dict) -> list:
     w, loc = res["whole"], res["local"]
     u = res["updates"]
 
-    def times(m):
-        return f"{m['time_ms_median']:.0f} / {m['time_ms_max']:.0f}"
+    def ms(a, b):
+        return "-" if a is None else f"{a:.0f} ({b:.0f})"
 
     def kept(m):
-        return "-" if m["kept_share_median"] is None else f"{100 * m['kept_share_median']:.0f} %"
+        return "-" if m["kept_share_median"] is None else f"{100 * m['kept_share_median']:.0f}"
 
     return [
         name,
         res["rooms_every"],
-        res["scans"],
+        f"{res['scans']:,}",
         u,
         f"{res['final_map_px'] / 1e6:.2f}",
         f"{w['identical_updates']} / {u}",
-        times(w),
-        kept(w),
+        f"{w['time_ms_median']:.0f} / {w['time_ms_max']:.0f}",
+        f"{loc['local_updates']} / {u - 1}",
+        ms(loc["time_ms_median_local"], loc["whole_time_ms_median_local"]),
+        ms(loc["time_ms_median_fallback"], loc["whole_time_ms_median_fallback"]),
+        f"{loc['total_s']:.1f} ({loc['whole_total_s']:.1f})",
         f"{loc['identical_updates']} / {u}",
-        f"{100 * loc['differing_px_share_mean']:.2f} / {100 * loc['differing_px_share_max']:.2f} %",
+        f"{100 * loc['differing_px_share_mean']:.3f} / {100 * loc['differing_px_share_max']:.2f} %",
         loc["rooms_minus_scratch_max_abs"],
-        f"{100 * loc['recall_mean']:.1f} / {100 * loc['precision_mean']:.1f}",
-        f"{100 * loc['segmented_share_median']:.0f} % ({loc['whole_map_updates']} whole)",
-        times(loc),
-        kept(loc),
+        f"{100 * loc['recall_min']:.1f} / {100 * loc['precision_min']:.1f}",
+        f"{kept(w)} / {kept(loc)} %",
     ]
 
 
@@ -217,17 +233,18 @@ HEADER = [
     "rooms every",
     "scans",
     "room updates",
-    "map Mpx (end)",
-    "whole: = scratch",
-    "whole: ms p50 / max",
-    "whole: ids kept",
-    "local: = scratch",
-    "local: px differing mean / max",
-    "local: rooms off (max)",
-    "local: recall / precision",
-    "local: map segmented (median)",
-    "local: ms p50 / max",
-    "local: ids kept",
+    "map Mpx",
+    "whole = scratch",
+    "whole ms p50 / max",
+    "local: done locally",
+    "local ms p50 there (whole)",
+    "local ms p50 on fall-back (whole)",
+    "local total s (whole)",
+    "local = scratch",
+    "local px differing mean / max",
+    "local rooms off",
+    "local recall / precision, min",
+    "ids kept whole / local",
 ]
 
 

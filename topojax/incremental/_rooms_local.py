@@ -220,16 +220,7 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
     _rebuild(st, occ, touched - rel.replaced, (rr, cc))
     reach = int(math.ceil((cfg.max_door_width_m + cfg.door_context_m) / st.res_m))
     zone = _grow(_box_of_pixels(rr, cc), reach, win)
-    inner = _interior(win, band, bounds)
-    zone = _intersection(
-        zone,
-        (
-            inner[0].start + win[0],
-            inner[1].start + win[1],
-            inner[0].stop + win[0],
-            inner[1].stop + win[1],
-        ),
-    )
+    zone = _intersection(zone, _moved(_interior(win, band, bounds), win))
     _refresh_doors(st, win, seg, rel, final_of, zone)
     return segmented
 
