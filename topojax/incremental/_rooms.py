@@ -9,7 +9,7 @@ scratch, with the ids renamed; a room whose pixels did not change keeps its id.
 
 A *local* update (``IncrementalMapper(rooms_local=True)``) segments only windows around
 the pixels whose free state changed since the last update (``_rooms_local``); rooms the
-changes do not reach keep their ids, pixels and doors exactly."""
+changes do not reach keep their ids and pixels exactly, doors away from the changes stay."""
 
 from __future__ import annotations
 

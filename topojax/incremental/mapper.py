@@ -91,9 +91,9 @@ class IncrementalMapper:
     room_config : RoomConfig, optional
         Options of the room segmentation.
     rooms_local : bool
-        Re-segment only around the free space changed since the last room update, and
-        keep the other rooms' ids, pixels and doors (default False: segment the whole
-        map each time, exactly as from scratch up to the ids); see ``docs/rooms.md``.
+        Re-segment only around the free space changed since the last room update (rooms
+        the changes do not reach keep ids and pixels; a few pixels differ from scratch);
+        default False: the whole map each time, as from scratch (``docs/rooms.md``).
     strategy : {"exact", "paper"}
         Skeleton update: ``"exact"`` re-thins the changed ridge components and equals the
         full-map pipeline; ``"paper"`` thins the new ridges inside the changed blocks plus a
