@@ -1,11 +1,15 @@
 """Rooms of the mapper's map, kept up to date with stable ids.
 
-Each update segments the current map (:func:`topojax.segment_rooms` of the mapper's
+A *whole* update segments the current map (:func:`topojax.segment_rooms` of the mapper's
 occupancy) and carries ids over from the previous rooms: a new room takes the id of the
 old room it overlaps most when that old room also overlaps it most and their
 intersection over union is at least :data:`SAME_ROOM_IOU`; other rooms get new ids
-(never reused).  The labels are therefore exactly those of segmenting the current map
-from scratch, with the ids renamed; a room whose pixels did not change keeps its id."""
+(never reused).  Its labels are exactly those of segmenting the current map from
+scratch, with the ids renamed; a room whose pixels did not change keeps its id.
+
+A *local* update (``IncrementalMapper(rooms_local=True)``) segments only windows around
+the pixels whose free state changed since the last update (``_rooms_local``); rooms the
+changes do not reach keep their ids and pixels exactly, doors away from the changes stay."""
 
 from __future__ import annotations
 
@@ -14,7 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SAME_ROOM_IOU", "RoomKeeper", "RoomsUpdate", "match_ids", "rooms_due"]
+__all__ = [
+    "SAME_ROOM_IOU",
+    "RoomKeeper",
+    "RoomsUpdate",
+    "match_ids",
+    "rooms_due",
+]
 
 #: A new room keeps an old room's id when they are each other's largest overlap and
 #: overlap at least this much (intersection over union).
@@ -37,6 +47,9 @@ class RoomsUpdate:
         Rooms after the update.
     time_s : float
         Wall time of the update in seconds.
+    segmented_px : int
+        Pixels segmented: the whole map, or the windows of a local update (0 when the
+        free space did not change).
     """
 
     added: tuple[int, ...] = ()
@@ -46,6 +59,7 @@ class RoomsUpdate:
     doors_removed: tuple[tuple[int, int], ...] = ()
     n_rooms: int = 0
     time_s: float = 0.0
+    segmented_px: int = 0
 
 
 def _window(labels: np.ndarray, box, inter) -> np.ndarray:
@@ -101,30 +115,45 @@ def match_ids(old, old_box, new, new_box, next_id: int) -> tuple[np.ndarray, int
 
 
 class RoomKeeper:
-    """The rooms of one mapper: the last segmentation (stable ids), its labels over the
-    global pixel box, and the next unused id."""
+    """The rooms of one mapper: the last segmentation (stable ids), its labels and the
+    free space it was made from over the global pixel box, and the next unused id."""
 
     def __init__(self) -> None:
         self.seg = None
         self.labels: np.ndarray | None = None
         self.box: tuple[int, int, int, int] | None = None
+        self.free: np.ndarray | None = None
         self.next_id = 1
         self.active = False
 
-    def update(self, occupancy, box, config=None) -> RoomsUpdate:
-        """Segment ``occupancy`` (the mapper's map over global box ``box``) and carry the
-        ids over; returns what changed."""
-        from ..rooms import segment_rooms
+    def update(self, occupancy, box, config=None, *, local: bool = False) -> RoomsUpdate:
+        """Segment ``occupancy`` (the mapper's map over global box ``box``), whole or, with
+        ``local``, around what changed since the last update, and carry the ids over;
+        returns what changed."""
+        from ..rooms import RoomConfig, segment_rooms
         from ..rooms.model import relabel
+        from ._rooms_local import local_update
 
         t0 = time.perf_counter()
+        cfg = RoomConfig() if config is None else config
         self.active = True
-        fresh = segment_rooms(occupancy, config=config)
-        lut, self.next_id = match_ids(self.labels, self.box, fresh.labels, box, self.next_id)
-        seg = relabel(fresh, lut)
+        free = np.asarray(occupancy.free, bool)
+        seg = None
+        if local and self.seg is not None and self.free is not None and _within(self.box, box):
+            seg, segmented, self.next_id = local_update(self, occupancy, box, cfg)
+        if seg is None:
+            fresh = segment_rooms(occupancy, config=cfg)
+            lut, self.next_id = match_ids(self.labels, self.box, fresh.labels, box, self.next_id)
+            seg = relabel(fresh, lut)
+            segmented = free.size
         report = self._changes(seg, box)
-        self.seg, self.labels, self.box = seg, seg.labels, tuple(box)
-        return RoomsUpdate(**report, n_rooms=seg.n_rooms, time_s=time.perf_counter() - t0)
+        self.seg, self.labels, self.box, self.free = seg, seg.labels, tuple(box), free
+        return RoomsUpdate(
+            **report,
+            n_rooms=seg.n_rooms,
+            time_s=time.perf_counter() - t0,
+            segmented_px=int(segmented),
+        )
 
     def _changes(self, seg, box) -> dict:
         """Added, removed and changed rooms and doors between the kept rooms and ``seg``."""
@@ -154,6 +183,16 @@ class RoomKeeper:
             "doors_added": tuple(k[0] for k in _minus(new_doors, old_doors)),
             "doors_removed": tuple(k[0] for k in _minus(old_doors, new_doors)),
         }
+
+
+def _within(inner, outer) -> bool:
+    """Whether global box ``inner`` lies inside ``outer``."""
+    return (
+        inner[0] >= outer[0]
+        and inner[1] >= outer[1]
+        and inner[2] <= outer[2]
+        and inner[3] <= outer[3]
+    )
 
 
 def _pasted(labels: np.ndarray, box, union) -> np.ndarray:

@@ -149,14 +149,18 @@ def checked_loop_settings(
     )
 
 
-def checked_room_settings(rooms_every, room_config):
-    """``rooms_every`` (None, or an int >= 0) and ``room_config`` (a RoomConfig or None,
-    then the default), checked."""
+def checked_room_settings(rooms_every, room_config, rooms_local=False):
+    """``rooms_every`` (None, or an int >= 0), ``room_config`` (a RoomConfig or None,
+    then the default) and ``rooms_local`` (a bool), checked."""
     from ..rooms import RoomConfig
 
     if rooms_every is not None:
         rooms_every = _check_rate("rooms_every", rooms_every)
-    return rooms_every, instance_or_default("room_config", room_config, RoomConfig)
+    return (
+        rooms_every,
+        instance_or_default("room_config", room_config, RoomConfig),
+        flag("rooms_local", rooms_local),
+    )
 
 
 #: Default ``max_extent_m`` of :class:`IncrementalMapper`: the largest side, in metres, of
@@ -194,6 +198,7 @@ def settings_of(mapper) -> dict:
         "graph_every": mapper.graph_every,
         "rooms_every": mapper.rooms_every,
         "room_config": asdict(mapper.room_config),
+        "rooms_local": mapper.rooms_local,
         "strategy": mapper.strategy,
         "config": asdict(mapper.config),
         "tile_px": mapper.tile_px,

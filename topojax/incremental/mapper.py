@@ -90,6 +90,10 @@ class IncrementalMapper:
         read of :attr:`rooms` or call of :meth:`update_rooms`); 0: explicit calls only.
     room_config : RoomConfig, optional
         Options of the room segmentation.
+    rooms_local : bool
+        Re-segment only around the free space changed since the last room update (rooms
+        the changes do not reach keep ids and pixels; a few pixels differ from scratch);
+        default False: the whole map each time, as from scratch (``docs/rooms.md``).
     strategy : {"exact", "paper"}
         Skeleton update: ``"exact"`` re-thins the changed ridge components and equals the
         full-map pipeline; ``"paper"`` thins the new ridges inside the changed blocks plus a
@@ -158,6 +162,7 @@ class IncrementalMapper:
         graph_every: int | None = 80,
         rooms_every: int | None = None,
         room_config=None,
+        rooms_local: bool = False,
         strategy: str = "exact",
         config: PipelineConfig | None = None,
         distance: DistanceConfig | None = None,
@@ -188,7 +193,9 @@ class IncrementalMapper:
         ) = checked_loop_settings(
             max_pending_points, free_space, max_range_m, skeleton_every, graph_every
         )
-        self.rooms_every, self.room_config = checked_room_settings(rooms_every, room_config)
+        self.rooms_every, self.room_config, self.rooms_local = checked_room_settings(
+            rooms_every, room_config, rooms_local
+        )
         self._rooms = RoomKeeper()
         self._since_rooms = 0
         self.resolution_m = resolution_m
@@ -754,7 +761,8 @@ class IncrementalMapper:
         """The rooms of the current map (:class:`topojax.RoomSegmentation` in the frame of
         :attr:`occupancy`, ids stable across updates); segmented on first read, then kept
         up to date at ``rooms_every``.  Its labels are those of
-        ``segment_rooms(mapper.occupancy)`` with the ids renamed."""
+        ``segment_rooms(mapper.occupancy)`` with the ids renamed (with ``rooms_local``:
+        re-segmented around the changes only, see ``docs/rooms.md``)."""
         if self._rooms.seg is None:
             self.update_rooms()
         return self._rooms.seg
@@ -769,7 +777,9 @@ class IncrementalMapper:
     def _update_rooms(self):
         self._since_rooms = 0
         box = self._bbox_or_raise("rooms")
-        return self._rooms.update(self._occupancy_over(*box), box, self.room_config)
+        return self._rooms.update(
+            self._occupancy_over(*box), box, self.room_config, local=self.rooms_local
+        )
 
     # ------------------------------------------------------------------ state
     @_synchronized

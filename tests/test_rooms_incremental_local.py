@@ -1,0 +1,226 @@
+"""Local room updates (``IncrementalMapper(rooms_local=True)``): only windows around the
+changed free space are segmented again; rooms the changes do not reach keep their ids,
+pixels and doors; the update reports what changed; saved state carries on."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import cv2
+import numpy as np
+import pytest
+from floorplans import RES, floor_plan
+
+import topojax as tj
+from topojax.maps.occupancy import OccupancyMap
+
+#: Rooms whose pixels are all farther than this from every changed pixel must keep
+#: their id, pixels and doors (metres).
+FAR_M = 5.0
+
+
+def _same_up_to_ids(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two label images are equal up to a one-to-one renaming of positive ids."""
+    if a.shape != b.shape or not np.array_equal(a > 0, b > 0):
+        return False
+    pairs = np.unique(np.stack([a[a > 0], b[b > 0]], axis=1), axis=0)
+    return len(np.unique(pairs[:, 0])) == len(pairs) == len(np.unique(pairs[:, 1]))
+
+
+def _mapper(**kw) -> tj.IncrementalMapper:
+    return tj.IncrementalMapper(resolution_m=RES, graph_every=None, skeleton_every=None, **kw)
+
+
+def _shown(plan, rooms) -> OccupancyMap:
+    """The plan with only the rooms ``rooms`` (ground-truth ids) and their walls known."""
+    inside = np.isin(plan.rooms, list(rooms)).astype(np.uint8)
+    keep = cv2.dilate(inside, np.ones((9, 9), np.uint8)).astype(bool)
+    occ = plan.occupancy
+    return OccupancyMap(
+        occupied=occ.occupied & keep,
+        free=occ.free & keep,
+        unknown=occ.unknown | ~keep,
+        resolution_m=occ.resolution_m,
+        origin=occ.origin,
+    )
+
+
+def _exploration_order(plan) -> list[int]:
+    """The plan's rooms in the order a robot walking through the doors meets them."""
+    nbrs: dict[int, set] = {}
+    for a, b, _ in plan.doors:
+        nbrs.setdefault(a, set()).add(b)
+        nbrs.setdefault(b, set()).add(a)
+    order, todo = [], [1]
+    while todo:
+        r = todo.pop(0)
+        if r not in order:
+            order.append(r)
+            todo += sorted(nbrs.get(r, ()))
+    return order
+
+
+def _on(array: np.ndarray, box, union) -> np.ndarray:
+    """``array`` (over global pixel box ``box``) placed in a zero array over ``union``."""
+    out = np.zeros((union[2] - union[0], union[3] - union[1]), array.dtype)
+    r0, c0 = box[0] - union[0], box[1] - union[1]
+    out[r0 : r0 + array.shape[0], c0 : c0 + array.shape[1]] = array
+    return out
+
+
+def _union(a, b) -> tuple:
+    return (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+
+
+def _same_pixels(seg0, box0, seg1, box1, rid) -> bool:
+    """Whether room ``rid`` covers the same global pixels in both segmentations."""
+    u = _union(box0, box1)
+    return np.array_equal(_on(seg0.labels == rid, box0, u), _on(seg1.labels == rid, box1, u))
+
+
+def _door_keys(seg, box) -> list:
+    return [
+        (d.rooms, tuple((d.ends_px + np.array([box[0], box[1]])).ravel().tolist()))
+        for d in seg.doors
+    ]
+
+
+def _check_report(before, box0, after, box1, update) -> None:
+    """The update names exactly the rooms and doors that differ between ``before`` and
+    ``after`` (each over its global pixel box)."""
+    old = {r.id for r in before.rooms}
+    new = {r.id for r in after.rooms}
+    assert set(update.added) == new - old
+    assert set(update.removed) == old - new
+    for rid in old & new:
+        moved = not _same_pixels(before, box0, after, box1, rid)
+        assert (rid in update.changed) == moved, rid
+    k0, k1 = Counter(_door_keys(before, box0)), Counter(_door_keys(after, box1))
+    assert Counter(update.doors_added) == Counter(k[0] for k in (k1 - k0).elements())
+    assert Counter(update.doors_removed) == Counter(k[0] for k in (k0 - k1).elements())
+    assert update.n_rooms == after.n_rooms
+
+
+def _far_rooms(labels: np.ndarray, changed: np.ndarray, far_px: float) -> list[int]:
+    """Rooms of ``labels`` whose pixels all lie farther than ``far_px`` from every pixel
+    of ``changed`` (bool, same shape)."""
+    dist = cv2.distanceTransform((~changed).view(np.uint8), cv2.DIST_L2, 5)
+    low = np.full(int(labels.max()) + 1, np.inf)
+    np.minimum.at(low, labels.ravel(), dist.ravel())
+    return [int(i) for i in np.flatnonzero(np.isfinite(low) & (low > far_px)) if i > 0]
+
+
+def test_rooms_found_room_by_room_keep_everything_away_from_the_new_room():
+    plan = floor_plan(5, size_m=(16.0, 48.0))
+    mapper = _mapper(rooms_local=True)
+    shown, n_local = [], 0
+    before = box0 = free0 = None
+    for room in _exploration_order(plan):
+        shown.append(room)
+        mapper.add_map(_shown(plan, shown))
+        free1 = mapper.occupancy.free
+        update = mapper.update_rooms()
+        after, box1 = mapper.rooms, mapper.pixel_bbox
+        if before is not None:
+            _check_report(before, box0, after, box1, update)
+            assert update.added, "the newly explored room appears as a new room"
+            if update.segmented_px < after.labels.size:  # a local update
+                n_local += 1
+                changed = _on(free0, box0, box1) != free1
+                far = _far_rooms(_on(before.labels, box0, box1), changed, FAR_M / RES)
+                for rid in far:
+                    assert rid in {r.id for r in after.rooms}
+                    assert _same_pixels(before, box0, after, box1, rid)
+                doors = [k for k in _door_keys(before, box0) if set(k[0]) <= set(far)]
+                assert Counter(doors) <= Counter(_door_keys(after, box1))
+        before, box0, free0 = after, box1, free1
+    assert n_local >= 3, "later updates segment only a window"
+    scratch = tj.segment_rooms(mapper.occupancy)
+    assert mapper.rooms.n_rooms == scratch.n_rooms == plan.n_rooms
+    assert len(mapper.rooms.doors) == len(scratch.doors)
+    a, b = mapper.rooms.labels, scratch.labels
+    assert np.count_nonzero((a > 0) != (b > 0)) < 1e-3 * np.count_nonzero(b)
+
+
+def _split_wall(plan) -> tuple[np.ndarray, int]:
+    """A wall across the middle of the plan's largest room, with a 0.9 m doorway in its
+    middle, as an obstacle mask; and that room's ground-truth id."""
+    ids, area = np.unique(plan.rooms[plan.rooms > 0], return_counts=True)
+    rid = int(ids[np.argmax(area)])
+    rr, cc = np.nonzero(plan.rooms == rid)
+    r0, r1, c0, c1 = rr.min(), rr.max() + 1, cc.min(), cc.max() + 1
+    wall = np.zeros(plan.rooms.shape, bool)
+    gap = int(round(0.9 / RES))
+    if c1 - c0 >= r1 - r0:  # split the longer side
+        mid, centre = (c0 + c1) // 2, (r0 + r1) // 2
+        wall[r0:r1, mid : mid + 3] = True
+        wall[centre - gap // 2 : centre - gap // 2 + gap, mid : mid + 3] = False
+    else:
+        mid, centre = (r0 + r1) // 2, (c0 + c1) // 2
+        wall[mid : mid + 3, c0:c1] = True
+        wall[mid : mid + 3, centre - gap // 2 : centre - gap // 2 + gap] = False
+    return wall, rid
+
+
+def _obstacles(plan, mask: np.ndarray) -> OccupancyMap:
+    """A map of the plan's frame whose only known pixels are obstacles at ``mask``."""
+    occ = plan.occupancy
+    return OccupancyMap(
+        occupied=mask,
+        free=np.zeros_like(mask),
+        unknown=~mask,
+        resolution_m=occ.resolution_m,
+        origin=occ.origin,
+    )
+
+
+def test_local_and_whole_agree_when_the_change_stays_in_one_room():
+    plan = floor_plan(2, size_m=(16.0, 48.0))
+    wall, _ = _split_wall(plan)
+    occ, extra = plan.occupancy, _obstacles(plan, wall)
+    local, whole = _mapper(rooms_local=True), _mapper()
+    for m in (local, whole):
+        m.add_map(occ)
+        _ = m.rooms
+    before = local.rooms
+    for m in (local, whole):
+        m.add_map(extra)
+    update = local.update_rooms()
+    whole.update_rooms()
+    after = local.rooms
+    assert update.segmented_px < after.labels.size, "only a window was segmented"
+    assert _same_up_to_ids(after.labels, whole.rooms.labels)
+    assert after.n_rooms == before.n_rooms + 1 == whole.rooms.n_rooms
+    assert len(after.doors) == len(before.doors) + 1 == len(whole.rooms.doors)
+    # the split room: one id goes or changes, one or two come; every other room stays
+    assert len(update.removed) + len(update.changed) == 1
+    assert len(update.added) == 1 + len(update.removed)
+    new_pair = tuple(sorted(update.added + update.changed))
+    assert update.doors_added == (new_pair,) and not update.doors_removed
+    box = local.pixel_bbox
+    for room in before.rooms:
+        if room.id not in update.removed + update.changed:
+            assert _same_pixels(before, box, after, box, room.id)
+
+
+def test_local_rooms_carry_on_after_save_and_load(tmp_path):
+    plan = floor_plan(2, size_m=(16.0, 48.0))
+    wall, _ = _split_wall(plan)
+    mapper = _mapper(rooms_local=True)
+    mapper.add_map(plan.occupancy)
+    ids = [r.id for r in mapper.rooms.rooms]
+    loaded = tj.IncrementalMapper.load(mapper.save(tmp_path / "state.npz"))
+    assert loaded.rooms_local is True
+    assert [r.id for r in loaded.rooms.rooms] == ids
+    for m in (mapper, loaded):
+        m.add_map(_obstacles(plan, wall))
+    a, b = mapper.update_rooms(), loaded.update_rooms()
+    assert b.segmented_px < loaded.rooms.labels.size, "the loaded mapper updates locally"
+    assert (a.added, a.removed, a.changed) == (b.added, b.removed, b.changed)
+    assert (a.doors_added, a.doors_removed) == (b.doors_added, b.doors_removed)
+    np.testing.assert_array_equal(loaded.rooms.labels, mapper.rooms.labels)
+
+
+def test_rooms_local_must_be_a_bool():
+    with pytest.raises(TypeError, match="rooms_local"):
+        tj.IncrementalMapper(rooms_local="yes")

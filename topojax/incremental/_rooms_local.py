@@ -1,0 +1,499 @@
+"""Local room updates: re-segment only windows around the free space that changed since
+the last room update, and splice the result into the rooms kept from before.
+
+The changed pixels (free before and not now, or the reverse) are grouped; each group is
+handled by :func:`_local_step`:
+
+1. The window is the group's bounding box grown by a margin (:data:`LOCAL_MARGIN` times
+   ``max_door_width_m + door_context_m``); it is segmented with
+   :func:`topojax.segment_rooms` as a map of its own (space past its sides counts as not
+   free).  Its *interior* is the window less a band of ``door_context_m`` along each side
+   that is not the map's; only the interior is compared with the old rooms.
+2. In the interior, a new room and an old room are *linked* when they overlap by more
+   than half the smaller one or three door widths (a doorway line's pixels may go to
+   either side).  A new room linked to exactly one old room that is linked to it alone,
+   and that differs from it only at changed pixels (up to a doorway line), is the same
+   room: the change moved its outline (new free space at its frontier, a new obstacle
+   in it).
+3. The other new rooms at changed pixels are *affected*, the other old rooms at changed
+   pixels *replaced*; both sets grow along links until closed.  While an affected room
+   comes within the band of a side that is not the map's, or a replaced or affected
+   room comes closer than the margin to one, the window grows and is segmented again.
+4. Affected rooms replace the replaced ones (:func:`_splice`): rooms that are neither
+   keep their pixels, doors between them their doors; changed pixels of a same room
+   take its id (:func:`_patch`).  More than :data:`LOCAL_MAX_SHARE` of the map in
+   windows: the caller segments the whole map instead."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._rooms import _pasted, match_ids
+
+__all__ = ["LOCAL_MARGIN", "LOCAL_MAX_SHARE", "local_update"]
+
+#: A local update's window reaches this many times ``max_door_width_m + door_context_m``
+#: (RoomConfig) past the changes and the rooms it re-segments.
+LOCAL_MARGIN = 1.0
+#: A local update whose windows would cover more than this share of the map segments the
+#: whole map instead.
+LOCAL_MAX_SHARE = 0.5
+_CLUSTER_PX = 32  # changed pixels are grouped on a grid of this many pixels
+
+
+@dataclass
+class _Rooms:
+    """Rooms being updated in place over the map box: labels int32 (H, W), rooms by id
+    and doors (pixel coordinates in the box), the next unused id, the pixel size."""
+
+    labels: np.ndarray
+    rooms: dict
+    doors: list
+    next_id: int
+    res_m: float
+    bounds: tuple = (0, 0, 0, 0)
+    budget: float = 0.0
+
+
+@dataclass
+class _Relation:
+    """How the rooms of a window's segmentation relate to the old ones: ``same`` (new id
+    -> old id), ``replaced`` old ids, ``affected`` new ids, and the significant overlaps
+    in the interior as arrays (new ids, old ids, pixels)."""
+
+    same: dict
+    replaced: set
+    affected: set
+    links: tuple
+
+
+def local_update(keeper, occ, box, cfg):
+    """The keeper's rooms brought up to ``occ`` (the map over global box ``box``, which
+    holds the keeper's box) by re-segmenting windows around the changed free space.
+
+    Returns the new :class:`~topojax.RoomSegmentation`, the pixels segmented and the next
+    unused id; or ``(None, 0, keeper.next_id)`` when the windows would cover more than
+    :data:`LOCAL_MAX_SHARE` of the bounding box of the free space (now and before: the
+    part of the map a segmentation works on)."""
+    dr, dc = keeper.box[0] - box[0], keeper.box[1] - box[1]
+    free = np.asarray(occ.free, bool)
+    st = _Rooms(
+        labels=_pasted(keeper.labels, keeper.box, box),
+        rooms={r.id: _shift_room(r, dr, dc) for r in keeper.seg.rooms},
+        doors=[_shift_door(d, dr, dc) for d in keeper.seg.doors],
+        next_id=keeper.next_id,
+        res_m=float(occ.resolution_m),
+    )
+    before = _pasted(keeper.free, keeper.box, box)
+    changed = before != free
+    segmented = 0
+    if changed.any():
+        st.bounds = _box_of(free | before, free.shape)
+        st.budget = LOCAL_MAX_SHARE * _area(st.bounds)
+        margin = _margin_px(cfg, st.res_m)
+        groups = _groups(changed, margin)
+        first = [_grow(_box_of_pixels(rr, cc), margin, st.bounds) for rr, cc in groups]
+        if sum(_area(b) for b in first) > st.budget:  # the first windows alone
+            return None, 0, keeper.next_id
+        for rr, cc in groups:
+            n = _local_step(st, occ, rr, cc, cfg)
+            if n is None:
+                return None, 0, keeper.next_id
+            segmented += n
+    return _assembled(st, occ), segmented, st.next_id
+
+
+def _box_of_pixels(rr, cc) -> tuple[int, int, int, int]:
+    """The bounding box (end exclusive) of pixels ``rr, cc``."""
+    return (int(rr.min()), int(cc.min()), int(rr.max()) + 1, int(cc.max()) + 1)
+
+
+def _box_of(mask: np.ndarray, shape) -> tuple[int, int, int, int]:
+    """The bounding box (end exclusive) of ``mask`` grown by one pixel, clipped to
+    ``shape``."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    cols = np.flatnonzero(mask.any(axis=0))
+    return _grow((rows[0], cols[0], rows[-1] + 1, cols[-1] + 1), 1, shape)
+
+
+def _margin_px(cfg, res: float) -> int:
+    return int(math.ceil(LOCAL_MARGIN * (cfg.max_door_width_m + cfg.door_context_m) / res))
+
+
+def _groups(changed: np.ndarray, reach_px: int) -> list:
+    """The changed pixels as ``(rows, cols)`` int64 per group: cells of a coarse grid
+    with a changed pixel, joined when closer than ``reach_px``."""
+    import cv2
+
+    b = _CLUSTER_PX
+    h, w = changed.shape
+    hb, wb = -(-h // b), -(-w // b)
+    pad = np.zeros((hb * b, wb * b), bool)
+    pad[:h, :w] = changed
+    coarse = pad.reshape(hb, b, wb, b).any(axis=(1, 3))
+    k = 2 * -(-reach_px // b) + 1
+    grown = cv2.dilate(coarse.view(np.uint8), np.ones((k, k), np.uint8))
+    _, comp = cv2.connectedComponents(grown, connectivity=8, ltype=cv2.CV_32S)
+    rr, cc = np.nonzero(changed)
+    which = comp[rr // b, cc // b]
+    order = np.argsort(which, kind="stable")
+    rr, cc, which = rr[order], cc[order], which[order]
+    cuts = np.flatnonzero(np.diff(which)) + 1
+    return list(zip(np.split(rr, cuts), np.split(cc, cuts), strict=True))
+
+
+def _grow(need, pad: int, bounds) -> tuple[int, int, int, int]:
+    """Box ``need`` (end exclusive) grown by ``pad`` pixels, clipped to ``bounds`` (a
+    box, or a shape ``(h, w)``)."""
+    b = (0, 0, *bounds) if len(bounds) == 2 else bounds
+    return (
+        int(max(need[0] - pad, b[0])),
+        int(max(need[1] - pad, b[1])),
+        int(min(need[2] + pad, b[2])),
+        int(min(need[3] + pad, b[3])),
+    )
+
+
+def _intersection(a, b) -> tuple[int, int, int, int]:
+    """The intersection of boxes ``a`` and ``b`` (may be empty)."""
+    return (max(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), min(a[3], b[3]))
+
+
+def _union(a, b) -> tuple[int, int, int, int]:
+    return (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3]))
+
+
+def _area(box) -> int:
+    return (box[2] - box[0]) * (box[3] - box[1])
+
+
+def _bbox_end(bbox) -> tuple[int, int, int, int]:
+    """A Room's inclusive bbox as an end-exclusive box."""
+    return (bbox[0], bbox[1], bbox[2] + 1, bbox[3] + 1)
+
+
+def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
+    """Re-segment around the changed pixels ``rr, cc`` (box coordinates) and splice the
+    result into ``st`` (steps 1-4 of the module's description); returns the pixels
+    segmented, or None when the windows would exceed the budget (``st.budget`` pixels
+    for all steps)."""
+    from scipy import ndimage
+
+    from ..rooms import segment_rooms
+
+    bounds = st.bounds
+    margin = _margin_px(cfg, st.res_m)
+    band = max(1, int(round(cfg.door_context_m / st.res_m)))
+    link_px = 3.0 * (cfg.max_door_width_m / st.res_m + 1.0)
+    need = _box_of_pixels(rr, cc)
+    win, replaced, segmented = _grow(need, margin, bounds), set(), 0
+    while True:
+        st.budget -= _area(win)
+        if st.budget < 0:
+            return None
+        sub = _crop(occ, win)
+        seg = segment_rooms(sub, config=cfg)
+        segmented += _area(win)
+        old = st.labels[win[0] : win[2], win[1] : win[3]]
+        inner = _interior(win, band, bounds)
+        rel = _relate(st, seg.labels, old, inner, rr - win[0], cc - win[1], replaced, link_px)
+        replaced = rel.replaced
+        spans = ndimage.find_objects(seg.labels)
+        want, is_open = need, False
+        for i in rel.replaced:
+            want = _union(want, _bbox_end(st.rooms[i].bbox))
+        for j in rel.affected:
+            s = spans[j - 1]
+            want = _union(want, _moved(s, win))
+            is_open |= _reaches_band(s, win, band, bounds)
+        pad = 2 * margin if is_open else margin
+        bigger = _union(win, _grow(want, pad, bounds))
+        if bigger == win:
+            break
+        need, win = want, bigger
+    old_at = st.labels[rr, cc].copy()
+    final_of = _splice(st, sub, win, seg, rel) if rel.replaced or rel.affected else {}
+    touched = _patch(st, rr, cc, old_at, seg.labels[rr - win[0], cc - win[1]], rel)
+    _rebuild(st, occ, touched - rel.replaced, (rr, cc))
+    reach = int(math.ceil((cfg.max_door_width_m + cfg.door_context_m) / st.res_m))
+    zone = _grow(_box_of_pixels(rr, cc), reach, win)
+    zone = _intersection(zone, _moved(_interior(win, band, bounds), win))
+    _refresh_doors(st, win, seg, rel, final_of, zone)
+    return segmented
+
+
+def _moved(s, win) -> tuple[int, int, int, int]:
+    """Window slices ``s`` as an end-exclusive box in the coordinates of the map box."""
+    return (s[0].start + win[0], s[1].start + win[1], s[0].stop + win[0], s[1].stop + win[1])
+
+
+def _interior(win, band: int, bounds) -> tuple[slice, slice]:
+    """The window less ``band`` pixels along each side that is not a side of ``bounds``
+    (window coordinates; nothing past those is free)."""
+    hw, ww = win[2] - win[0], win[3] - win[1]
+    return (
+        slice(band if win[0] > bounds[0] else 0, hw - band if win[2] < bounds[2] else hw),
+        slice(band if win[1] > bounds[1] else 0, ww - band if win[3] < bounds[3] else ww),
+    )
+
+
+def _reaches_band(s, win, band: int, bounds) -> bool:
+    """Whether window slices ``s`` come within ``band`` pixels of a side of ``win`` that
+    is not a side of ``bounds`` (space may continue past it)."""
+    hw, ww = win[2] - win[0], win[3] - win[1]
+    return (
+        (win[0] > bounds[0] and s[0].start < band)
+        or (win[1] > bounds[1] and s[1].start < band)
+        or (win[2] < bounds[2] and s[0].stop > hw - band)
+        or (win[3] < bounds[3] and s[1].stop > ww - band)
+    )
+
+
+def _crop(occ, win):
+    """The OccupancyMap of the pixels ``win`` (end exclusive) of ``occ``, in the same
+    world frame."""
+    from ..maps import OccupancyMap
+
+    r0, c0, r1, c1 = win
+    res = occ.resolution_m
+    x0, y0, yaw = occ.origin
+    dx, dy = c0 * res, (occ.shape[0] - r1) * res
+    cos, sin = math.cos(yaw), math.sin(yaw)
+    sl = np.s_[r0:r1, c0:c1]
+    return OccupancyMap(
+        occupied=occ.occupied[sl],
+        free=occ.free[sl],
+        unknown=occ.unknown[sl],
+        resolution_m=res,
+        origin=(x0 + cos * dx - sin * dy, y0 + sin * dx + cos * dy, yaw),
+    )
+
+
+def _pair_counts(new: np.ndarray, old: np.ndarray, base: int):
+    """Overlaps of the positive labels of ``new`` and ``old`` (same shape): new ids, old
+    ids and pixel counts."""
+    both = (new > 0) & (old > 0)
+    keys, ov = np.unique(new[both].astype(np.int64) * base + old[both], return_counts=True)
+    nb, na = np.divmod(keys, base)
+    return nb, na, ov
+
+
+def _relate(st: _Rooms, new, old, inner, cr, cc, replaced, link_px: float) -> _Relation:
+    """Steps 2 and 3 of the module's description on the window labels ``new`` and the
+    old labels ``old`` under it, ``inner`` its interior, ``cr, cc`` the changed pixels
+    (window coordinates) and ``replaced`` old rooms already replaced."""
+    ch = np.zeros(new.shape, bool)
+    ch[cr, cc] = True
+    ni, oi, chi = new[inner], old[inner], ch[inner]
+    base = int(max(old.max(), 0)) + 1
+    nb, na, ov = _pair_counts(ni, oi, base)
+    area_new = np.bincount(new.ravel(), minlength=int(new.max()) + 1).astype(np.float64)
+    area_old = np.array([st.rooms[i].area_m2 / st.res_m**2 for i in na.tolist()], np.float64)
+    sig = ov > np.minimum(0.5 * np.minimum(area_new[nb], area_old), link_px)
+    nb, na, ov = nb[sig], na[sig], ov[sig]
+    of_new: dict[int, set] = {}
+    of_old: dict[int, set] = {}
+    for j, i in zip(nb.tolist(), na.tolist(), strict=True):
+        of_new.setdefault(j, set()).add(i)
+        of_old.setdefault(i, set()).add(j)
+    # same rooms: one link each way, equal outside the changed pixels (up to a doorway)
+    keep = ~chi
+    cnt_new = np.bincount(ni[keep].ravel(), minlength=int(new.max()) + 1)
+    cnt_old = np.bincount(oi[keep].ravel(), minlength=base)
+    ub, ua, uo = _pair_counts(ni[keep], oi[keep], base)
+    unchanged = dict(zip(zip(ub.tolist(), ua.tolist(), strict=True), uo.tolist(), strict=True))
+    same = {}
+    for j, olds in of_new.items():
+        (i,) = olds if len(olds) == 1 else (None,)
+        if i is None or of_old[i] != {j}:
+            continue
+        if cnt_new[j] + cnt_old[i] - 2 * unchanged.get((j, i), 0) <= link_px:
+            same[j] = i
+    same_old = set(same.values())
+    y = set(np.unique(new[cr, cc]).tolist()) - {0} - set(same)
+    x = set(replaced) | (set(np.unique(old[cr, cc]).tolist()) - {0} - same_old)
+    links = list(zip(nb.tolist(), na.tolist(), strict=True))
+    while True:
+        ny = y | {j for j, i in links if i in x}
+        nx_ = x | {i for j, i in links if j in ny}
+        if ny == y and nx_ == x:
+            break
+        x, y = nx_, ny
+    same = {j: i for j, i in same.items() if j not in y and i not in x}
+    return _Relation(same=same, replaced=x, affected=y, links=(nb, na, ov))
+
+
+def _splice(st: _Rooms, sub, win, seg, rel: _Relation) -> dict:
+    """Put the affected rooms of the window segmentation ``seg`` (of ``sub``, the map
+    over ``win``) in place of the replaced old rooms.
+
+    Old rooms not replaced keep their pixels (a few pixels of a doorway line the window
+    gave an affected room stay theirs); pixels of replaced or affected rooms take the
+    affected room's id, or 0; pixels the window gave to a room that is not affected (a
+    doorway line) go to an affected neighbour, as :func:`segment_rooms` fills its cut
+    lines.  Ids by :func:`match_ids` against the replaced rooms.  Returns the final id
+    of each affected room (window id -> id)."""
+    import cv2
+
+    from ..rooms.model import build_segmentation
+
+    x, y = rel.replaced, rel.affected
+    r0, c0 = win[0], win[1]
+    old = st.labels[win[0] : win[2], win[1] : win[3]]
+    new = seg.labels
+    n_new = int(new.max()) if new.size else 0
+    in_y = np.zeros(n_new + 1, bool)
+    in_y[sorted(y)] = True
+    old_x = np.isin(old, np.array(sorted(x), np.int64))
+    kept = (old > 0) & ~old_x
+    new_y = in_y[new] & ~kept
+    take = (old_x | new_y) & ~kept
+    yl = np.where(new_y, new, 0).astype(np.int32)
+    gap = take & (new > 0) & ~in_y[new]
+    for _ in range(2):
+        if not (gap & (yl == 0)).any():
+            break
+        grown = cv2.dilate(yl.astype(np.float32), np.ones((3, 3), np.uint8)).astype(np.int32)
+        yl = np.where(gap & (yl == 0), grown, yl)
+    ys = sorted(y)
+    compact = np.zeros(n_new + 1, np.int64)
+    compact[ys] = np.arange(1, len(ys) + 1)
+    yc = compact[yl]
+    lut, st.next_id = match_ids(np.where(old_x, old, 0), win, yc, win, st.next_id)
+    final = lut[yc].astype(np.int32)
+    old[take] = final[take]  # a view of st.labels
+    for i in x:
+        st.rooms.pop(i, None)
+    for room in build_segmentation(sub, final, []).rooms:
+        st.rooms[room.id] = _shift_room(room, r0, c0)
+    return {j: int(lut[compact[j]]) for j in ys}
+
+
+def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone) -> None:
+    """Doors after a local step: the old doors, less those of replaced rooms and those
+    in ``zone`` (a box near the changes, inside the window's interior: a doorway there
+    may have moved, appeared or gone); plus the window's doors of affected rooms and
+    those in ``zone``, each side named by its final id (affected rooms), the old room it
+    is the same as, or the old room it overlaps most."""
+    x, y = rel.replaced, rel.affected
+    owner = dict(rel.same)
+    best: dict[int, int] = {}
+    for j, i, o in zip(*(a.tolist() for a in rel.links), strict=True):
+        if i not in x and j not in y and j not in rel.same and o > best.get(j, 0):
+            owner[j], best[j] = i, o
+    owner.update(final_of)
+
+    def in_zone(pixels) -> bool:
+        r, c = pixels[:, 0], pixels[:, 1]
+        inside = (r >= zone[0]) & (r < zone[2]) & (c >= zone[1]) & (c < zone[3])
+        return bool(inside.any())
+
+    st.doors = [
+        d for d in st.doors if d.rooms[0] not in x and d.rooms[1] not in x and not in_zone(d.pixels)
+    ]
+    for d in seg.doors:
+        moved = _shift_door(d, win[0], win[1])
+        a, b = d.rooms
+        if a not in y and b not in y and not in_zone(moved.pixels):
+            continue
+        fa, fb = owner.get(a, 0), owner.get(b, 0)
+        if fa and fb and fa != fb and fa in st.rooms and fb in st.rooms:
+            st.doors.append(_shift_door(moved, 0, 0, rooms=(min(fa, fb), max(fa, fb))))
+
+
+def _patch(st: _Rooms, rr, cc, old_at, new_at, rel: _Relation) -> set:
+    """Changed pixels whose new room is the same as an old one take its id; changed
+    pixels in no new room leave the old room they were in (unless it was replaced).
+    Returns the ids of the rooms that gained or lost pixels."""
+    n = int(max(new_at.max(), max(rel.same, default=0))) + 1
+    lut = np.full(n, -1, np.int64)
+    for j, i in rel.same.items():
+        lut[j] = i
+    target = lut[new_at]
+    gone = (new_at == 0) & (old_at > 0) & ~np.isin(old_at, np.array(sorted(rel.replaced)))
+    target[gone] = 0
+    sel = (target >= 0) & (target != old_at)
+    st.labels[rr[sel], cc[sel]] = target[sel]
+    return (set(target[sel].tolist()) | set(old_at[sel].tolist())) - {0}
+
+
+def _rebuild(st: _Rooms, occ, ids: set, changed) -> None:
+    """Recompute the outline, area and centroid of rooms ``ids`` (kept rooms whose pixels
+    changed at ``changed`` = (rows, cols)); a room left without pixels goes, with its
+    doors."""
+    from ..rooms.model import build_segmentation
+
+    ids = {i for i in ids if i in st.rooms}
+    if not ids:
+        return
+    box = _box_of_pixels(*changed)
+    for i in ids:
+        box = _union(box, _bbox_end(st.rooms[i].bbox))
+    lab = st.labels[box[0] : box[2], box[1] : box[3]]
+    part = np.where(np.isin(lab, np.array(sorted(ids), np.int64)), lab, 0)
+    for room in build_segmentation(_crop(occ, box), part, []).rooms:
+        st.rooms[room.id] = _shift_room(room, box[0], box[1])
+        ids.discard(room.id)
+    for i in ids:  # no pixels left
+        del st.rooms[i]
+    st.doors = [d for d in st.doors if d.rooms[0] not in ids and d.rooms[1] not in ids]
+
+
+def _shift_room(room, dr: int, dc: int):
+    """``room`` with its pixel bbox moved by ``(dr, dc)`` (its world geometry stays)."""
+    from ..rooms.model import Room
+
+    if dr == 0 and dc == 0:
+        return room
+    b = room.bbox
+    return Room(
+        id=room.id,
+        area_m2=room.area_m2,
+        centroid=room.centroid,
+        polygon=room.polygon,
+        bbox=(b[0] + dr, b[1] + dc, b[2] + dr, b[3] + dc),
+    )
+
+
+def _shift_door(door, dr: int, dc: int, *, rooms=None):
+    """``door`` with its pixels moved by ``(dr, dc)`` (and joining ``rooms``, if given)."""
+    from ..rooms.model import Door
+
+    off = np.array([dr, dc], np.int64)
+    return Door(
+        id=door.id,
+        rooms=door.rooms if rooms is None else rooms,
+        ends_px=door.ends_px + off,
+        ends_world=door.ends_world,
+        width_m=door.width_m,
+        pixels=door.pixels + off,
+    )
+
+
+def _assembled(st: _Rooms, occ):
+    """The RoomSegmentation of ``st`` over the map ``occ``: rooms in id order, doors in
+    the order of the rooms they join (then their ends), numbered from 1."""
+    from ..rooms.model import Door, RoomSegmentation
+
+    doors = sorted(st.doors, key=lambda d: (d.rooms, tuple(d.ends_px.ravel().tolist())))
+    return RoomSegmentation(
+        labels=st.labels,
+        rooms=tuple(st.rooms[k] for k in sorted(st.rooms)),
+        doors=tuple(
+            Door(
+                id=k,
+                rooms=d.rooms,
+                ends_px=d.ends_px,
+                ends_world=d.ends_world,
+                width_m=d.width_m,
+                pixels=d.pixels,
+            )
+            for k, d in enumerate(doors, start=1)
+        ),
+        resolution_m=float(occ.resolution_m),
+        origin=tuple(float(o) for o in occ.origin),
+        occupancy=occ,
+    )
