@@ -38,6 +38,8 @@ def plan():
 
 
 def _mapper(**kw) -> tj.IncrementalMapper:
+    """A mapper whose room updates segment the whole map (exactly as from scratch)."""
+    kw.setdefault("rooms_local", False)
     return tj.IncrementalMapper(resolution_m=RES, graph_every=None, skeleton_every=None, **kw)
 
 

@@ -178,7 +178,7 @@ def test_local_and_whole_agree_when_the_change_stays_in_one_room():
     plan = floor_plan(2, size_m=(16.0, 48.0))
     wall, _ = _split_wall(plan)
     occ, extra = plan.occupancy, _obstacles(plan, wall)
-    local, whole = _mapper(rooms_local=True), _mapper()
+    local, whole = _mapper(rooms_local=True), _mapper(rooms_local=False)
     for m in (local, whole):
         m.add_map(occ)
         _ = m.rooms
@@ -219,6 +219,10 @@ def test_local_rooms_carry_on_after_save_and_load(tmp_path):
     assert (a.added, a.removed, a.changed) == (b.added, b.removed, b.changed)
     assert (a.doors_added, a.doors_removed) == (b.doors_added, b.doors_removed)
     np.testing.assert_array_equal(loaded.rooms.labels, mapper.rooms.labels)
+
+
+def test_room_updates_are_local_by_default():
+    assert tj.IncrementalMapper().rooms_local is True
 
 
 def test_rooms_local_must_be_a_bool():

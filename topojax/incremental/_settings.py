@@ -149,7 +149,7 @@ def checked_loop_settings(
     )
 
 
-def checked_room_settings(rooms_every, room_config, rooms_local=False):
+def checked_room_settings(rooms_every, room_config, rooms_local=True):
     """``rooms_every`` (None, or an int >= 0), ``room_config`` (a RoomConfig or None,
     then the default) and ``rooms_local`` (a bool), checked."""
     from ..rooms import RoomConfig

@@ -91,9 +91,10 @@ class IncrementalMapper:
     room_config : RoomConfig, optional
         Options of the room segmentation.
     rooms_local : bool
-        Re-segment only around the free space changed since the last room update (rooms
-        the changes do not reach keep ids and pixels; a few pixels differ from scratch);
-        default False: the whole map each time, as from scratch (``docs/rooms.md``).
+        Default True: re-segment only around the free space changed since the last room
+        update (rooms the changes do not reach keep ids and pixels; a few pixels differ
+        from segmenting the map from scratch); False: the whole map each time, exactly as
+        from scratch up to ids (``docs/rooms.md``).
     strategy : {"exact", "paper"}
         Skeleton update: ``"exact"`` re-thins the changed ridge components and equals the
         full-map pipeline; ``"paper"`` thins the new ridges inside the changed blocks plus a
@@ -162,7 +163,7 @@ class IncrementalMapper:
         graph_every: int | None = 80,
         rooms_every: int | None = None,
         room_config=None,
-        rooms_local: bool = False,
+        rooms_local: bool = True,
         strategy: str = "exact",
         config: PipelineConfig | None = None,
         distance: DistanceConfig | None = None,
