@@ -6,12 +6,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from ..graph.work import line_pixels
-from ._kernels import basis_points, disc_offsets, sides_widen
+from ._kernels import basis_points, disc_offsets, draw_lines, sides_widen, spaced_out
 
-__all__ = ["Cut", "door_cuts"]
+__all__ = ["Cut", "clearance_range_px", "door_candidates", "make_cuts"]
 
 #: Along the skeleton, the clearance on both sides of a doorway rises to at least this
 #: many times the doorway's (a branch into a corner only falls).
@@ -55,7 +53,11 @@ def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: f
     p = np.stack([rr, cc], axis=1).astype(np.int64)
     c = clearance[rr, cc].astype(np.float64)
     radius = 1.3 * c + 1.5
-    basis, ok = basis_points(free, p, radius, disc_offsets(float(radius.max())))
+    offsets = disc_offsets(float(radius.max()))
+    # every pixel nearer than a point's clearance is free: the search starts beyond
+    d2 = (offsets * offsets).sum(axis=1)
+    start = np.searchsorted(d2, c * c - 0.5)
+    basis, ok = basis_points(free, p, radius, offsets, start)
     p = p.astype(np.float64)
     q1, q2 = basis[:, 0].astype(np.float64), basis[:, 1].astype(np.float64)
     v1, v2 = q1 - p, q2 - p
@@ -70,36 +72,46 @@ def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: f
         return empty
     p, c, q1, q2 = p[ok], c[ok], q1[ok], q2[ok]
     order = np.lexsort((p[:, 1], p[:, 0], c))
-    p, q1, q2 = p[order], q1[order], q2[order]
-    tree = cKDTree(p)
-    taken = np.zeros(len(p), bool)
-    blocked = np.zeros(len(p), bool)
-    for i in range(len(p)):
-        if blocked[i]:
-            continue
-        taken[i] = True
-        blocked[tree.query_ball_point(p[i], w, p=np.inf)] = True
-    ends = np.stack([q1[taken], q2[taken]], axis=1).astype(np.int64)
-    return p[taken].astype(np.int64), ends
+    p = p[order].astype(np.int64)
+    keep = spaced_out(p, w, free.shape)
+    ends = np.stack([q1[order][keep], q2[order][keep]], axis=1).astype(np.int64)
+    return p[keep], ends
 
 
-def door_cuts(free, clearance, skeleton, cfg, resolution_m: float) -> list[Cut]:
-    """Doorway candidates of a map (see :class:`Cut`)."""
+def clearance_range_px(cfg, resolution_m: float) -> tuple[float, float]:
+    """The clearances (pixels) of a doorway of ``cfg``'s smallest and largest width: a gap
+    of width ``d`` has clearance ``(d + 1) / 2`` at its middle."""
     lo = max(cfg.min_door_width_m / resolution_m + 1.0, 1.0) / 2.0
     hi = (cfg.max_door_width_m / resolution_m + 1.0) / 2.0
+    return lo, hi
+
+
+def door_candidates(free, clearance, skeleton, cfg, resolution_m: float, slack_px=0.0):
+    """Doorway candidates of a map: centres int64 (N, 2) and ends int64 (N, 2, 2) (see
+    :class:`Cut`), widths float64 (N,) within ``cfg``'s range; ``slack_px`` widens the
+    range by that many pixels of clearance on both sides."""
+    lo, hi = clearance_range_px(cfg, resolution_m)
+    lo, hi = lo - slack_px, hi + slack_px
     w = max(1, int(round(cfg.door_context_m / resolution_m)))
-    cuts = []
     centres, ends = _candidates(free, clearance, skeleton, lo, hi, w, DOOR_RISE)
-    for p, (q1, q2) in zip(centres, ends, strict=True):
-        width = float(np.hypot(*(q2 - q1))) - 1.0
-        if not (2 * lo - 1.0 <= width <= 2 * hi - 1.0):
-            continue
-        line = line_pixels(q1, q2).astype(np.int64)
-        inside = (line[:, 0] >= 0) & (line[:, 0] < free.shape[0])
-        inside &= (line[:, 1] >= 0) & (line[:, 1] < free.shape[1])
-        line = line[inside]
-        line = line[free[line[:, 0], line[:, 1]]]
-        if line.size == 0:
-            continue
-        cuts.append(Cut(centre=p, ends=np.stack([q1, q2]), pixels=line, width_px=width))
-    return cuts
+    width = np.hypot(*(ends[:, 1] - ends[:, 0]).T) - 1.0
+    ok = (2 * lo - 1.0 <= width) & (width <= 2 * hi - 1.0)
+    return centres[ok], ends[ok], width[ok]
+
+
+def make_cuts(centres, ends, widths, free) -> list[Cut]:
+    """The cuts of doorway candidates: the free pixels of the line between the two ends
+    of each; those without a free pixel are dropped."""
+    pixels, starts = draw_lines(ends[:, 0].copy(), ends[:, 1].copy(), free)
+    out = []
+    for i in range(len(centres)):
+        if starts[i + 1] > starts[i]:
+            out.append(
+                Cut(
+                    centre=centres[i],
+                    ends=ends[i],
+                    pixels=pixels[starts[i] : starts[i + 1]],
+                    width_px=float(widths[i]),
+                )
+            )
+    return out

@@ -12,11 +12,18 @@ import numpy as np
 from .._validate import instance_or_default, nonnegative_metres, positive_metres
 from ..fields.clearance import free_clearance_px
 from ..skeleton import thin
-from ._cuts import door_cuts
-from ._merge import merge_regions
+from ._cuts import clearance_range_px, door_candidates, make_cuts
+from ._grid import coarse_free, fine_cuts, grid_factor
+from ._kernels import enclosed_owner
+from ._merge import absorb_cut_pixels, merge_regions
 from .model import RoomSegmentation, build_segmentation
 
 __all__ = ["RoomConfig", "segment_rooms"]
+
+#: Doorway candidates on cells of ``f`` x ``f`` pixels may be this many cells narrower or
+#: wider than the range of ``RoomConfig`` (their width on the pixels, found once they are
+#: moved back, must lie in it).
+GRID_SLACK = 1.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -114,28 +121,43 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     if box[0].stop == box[0].start:
         return build_segmentation(occ, np.zeros(full.shape, np.int32), [])
     free = np.ascontiguousarray(full[box])
-    clearance = free_clearance_px(free)
-    skeleton = thin(free)
+    f = grid_factor(res)
+    # the doorways are searched on cells of f x f pixels, the regions made on the pixels
+    cells = coarse_free(free, f) if f > 1 else free
+    clearance = free_clearance_px(cells)
+    skeleton = thin(cells)
     t1 = time.perf_counter()
-    cuts = door_cuts(free, clearance, skeleton, cfg, res)
+    if f == 1:
+        cuts = make_cuts(*door_candidates(free, clearance, skeleton, cfg, res), free)
+    else:
+        # a gap's width on the cells is that on the pixels to within a cell or so
+        centres, ends, _ = door_candidates(
+            cells, clearance, skeleton, cfg, res * f, slack_px=GRID_SLACK
+        )
+        lo, hi = clearance_range_px(cfg, res)
+        cuts = fine_cuts(centres, ends, free, f, (2 * lo - 1.0, 2 * hi - 1.0))
     t2 = time.perf_counter()
     open_ = free.copy()
     for cut in cuts:
         open_[cut.pixels[:, 0], cut.pixels[:, 1]] = False
     n, regions = cv2.connectedComponents(open_.view(np.uint8), connectivity=4, ltype=cv2.CV_32S)
-    part, doors = merge_regions(regions, n, free, clearance, cuts, cfg, res)
+    t3 = time.perf_counter()
+    part, doors = merge_regions(regions, n, clearance, f, cuts, cfg, res)
+    t4 = time.perf_counter()
     labels = np.zeros(full.shape, np.int32)
-    labels[box] = _fill_enclosed(part, free)
+    labels[box] = _fill_enclosed(absorb_cut_pixels(part, free))
     offset = np.array([box[0].start, box[1].start], np.int64)
     doors = [d.shifted(offset) for d in doors]
-    t3 = time.perf_counter()
+    t5 = time.perf_counter()
     seg = build_segmentation(occ, labels, doors, box)
     seg.timings_s.update(
         {
             "fields": t1 - t0,
             "doors": t2 - t1,
             "regions": t3 - t2,
-            "output": time.perf_counter() - t3,
+            "merge": t4 - t3,
+            "fill": t5 - t4,
+            "output": time.perf_counter() - t5,
         }
     )
     return seg
@@ -154,30 +176,16 @@ def _free_box(free: np.ndarray) -> tuple[slice, slice]:
     )
 
 
-def _fill_enclosed(labels: np.ndarray, free: np.ndarray) -> np.ndarray:
+def _fill_enclosed(labels: np.ndarray) -> np.ndarray:
     """``labels`` with every part of the pixels without a room that touches one room only
     and not the map's edge (furniture, clutter, pillars, small unknown patches inside a
     room) given that room's id."""
-    h, w = labels.shape
     n, parts = cv2.connectedComponents((labels == 0).view(np.uint8), connectivity=4)
     if n <= 1:
         return labels
-    edge = np.zeros(n, bool)
-    edge[parts[0]] = edge[parts[-1]] = edge[parts[:, 0]] = edge[parts[:, -1]] = True
-    pairs = []
-    for a, b in (
-        (parts[1:, :], labels[:-1, :]),
-        (parts[:-1, :], labels[1:, :]),
-        (parts[:, 1:], labels[:, :-1]),
-        (parts[:, :-1], labels[:, 1:]),
-    ):
-        touch = (a > 0) & (b > 0)
-        pairs.append(a[touch].astype(np.int64) * (int(labels.max()) + 1) + b[touch])
-    keys = np.unique(np.concatenate(pairs))
-    part, room = np.divmod(keys, int(labels.max()) + 1)
-    count = np.bincount(part, minlength=n)
-    owner = np.zeros(n, np.int32)
-    owner[part] = room
-    fill = (count == 1) & ~edge
-    fill[0] = False
-    return np.where(fill[parts], owner[parts], labels).astype(np.int32)
+    owner = enclosed_owner(parts, labels, n)
+    if not owner.any():
+        return labels
+    owner[0] = 0
+    fill = owner[parts]
+    return np.where(fill > 0, fill, labels).astype(np.int32)
