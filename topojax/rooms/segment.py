@@ -12,18 +12,13 @@ import numpy as np
 from .._validate import instance_or_default, nonnegative_metres, positive_metres
 from ..fields.clearance import free_clearance_px
 from ..skeleton import thin
-from ._cuts import clearance_range_px, door_candidates, make_cuts
-from ._grid import coarse_free, fine_cuts, grid_factor
+from ._cuts import door_candidates, make_cuts
+from ._grid import coarse_free, grid_factor
 from ._kernels import enclosed_owner
 from ._merge import absorb_cut_pixels, merge_regions
 from .model import RoomSegmentation, build_segmentation
 
 __all__ = ["RoomConfig", "segment_rooms"]
-
-#: Doorway candidates on cells of ``f`` x ``f`` pixels may be this many cells narrower or
-#: wider than the range of ``RoomConfig`` (their width on the pixels, found once they are
-#: moved back, must lie in it).
-GRID_SLACK = 1.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -127,15 +122,7 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     clearance = free_clearance_px(cells)
     skeleton = thin(cells)
     t1 = time.perf_counter()
-    if f == 1:
-        cuts = make_cuts(*door_candidates(free, clearance, skeleton, cfg, res), free)
-    else:
-        # a gap's width on the cells is that on the pixels to within a cell or so
-        centres, ends, _ = door_candidates(
-            cells, clearance, skeleton, cfg, res * f, slack_px=GRID_SLACK
-        )
-        lo, hi = clearance_range_px(cfg, res)
-        cuts = fine_cuts(centres, ends, free, f, (2 * lo - 1.0, 2 * hi - 1.0))
+    cuts = make_cuts(*door_candidates(free, cells, clearance, skeleton, f, cfg, res), free)
     t2 = time.perf_counter()
     open_ = free.copy()
     for cut in cuts:
