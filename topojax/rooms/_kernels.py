@@ -8,14 +8,15 @@ from .._jit import cached_njit
 from ..graph.work import line_into
 
 __all__ = [
-    "absorb",
     "basis_points",
     "cut_sides",
     "disc_offsets",
     "enclosed_owner",
+    "fill_parts",
     "label_stats",
     "draw_lines",
     "region_stats",
+    "room_pixels",
     "sides_widen",
     "spaced_out",
 ]
@@ -270,44 +271,61 @@ def enclosed_owner(parts, labels, n):
 
 
 @cached_njit(nogil=True)
-def absorb(labels, free, rounds):
-    """In place: ``rounds`` times, every pixel of ``free`` without a room (0) next to a
-    room takes the largest id among its 8 neighbours, all decided from the ids of the
-    round before.  Returns ``labels``."""
-    h, w = labels.shape
+def room_pixels(regions, room_of, free, rounds, out, empty):
+    """Room id of every pixel: ``out = room_of[regions]`` (int32, written in place), then
+    ``rounds`` times every pixel of ``free`` without a room (0) next to a room (the cut
+    lines) takes the largest id among its 8 neighbours, all decided from the ids of the
+    round before; ``empty`` (uint8, in place) is 1 where ``out`` is 0 at the end."""
+    h, w = regions.shape
     n = 0
     for r in range(h):
+        orow = out[r]
+        erow = empty[r]
         for c in range(w):
-            if labels[r, c] == 0 and free[r, c]:
-                n += 1
+            v = room_of[regions[r, c]]
+            orow[c] = v
+            erow[c] = v == 0
+            n += v == 0 and free[r, c]
     todo = np.empty((n, 2), np.int64)
     n = 0
     for r in range(h):
         for c in range(w):
-            if labels[r, c] == 0 and free[r, c]:
+            if empty[r, c] and free[r, c]:
                 todo[n, 0], todo[n, 1] = r, c
                 n += 1
-    got = np.zeros(n, labels.dtype)
+    got = np.zeros(n, np.int32)
     for _ in range(rounds):
         for i in range(n):
             r, c = todo[i, 0], todo[i, 1]
             best = 0
             for rr in range(max(r - 1, 0), min(r + 2, h)):
                 for cc in range(max(c - 1, 0), min(c + 2, w)):
-                    if labels[rr, cc] > best:
-                        best = labels[rr, cc]
+                    if out[rr, cc] > best:
+                        best = out[rr, cc]
             got[i] = best
         m = 0
         for i in range(n):
             if got[i] > 0:
-                labels[todo[i, 0], todo[i, 1]] = got[i]
+                out[todo[i, 0], todo[i, 1]] = got[i]
+                empty[todo[i, 0], todo[i, 1]] = 0
             else:
                 todo[m] = todo[i]
                 m += 1
         if m == 0 or m == n:
             break
         n = m
-    return labels
+
+
+@cached_njit(nogil=True)
+def fill_parts(labels, parts, owner):
+    """In place: every pixel of a part ``k > 0`` of ``parts`` with ``owner[k] > 0`` takes
+    that id in ``labels``."""
+    h, w = labels.shape
+    for r in range(h):
+        for c in range(w):
+            k = parts[r, c]
+            if k > 0 and owner[k] > 0:
+                labels[r, c] = owner[k]
 
 
 @cached_njit(nogil=True)

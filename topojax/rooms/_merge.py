@@ -9,9 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._cuts import Cut
-from ._kernels import absorb, cut_sides, region_stats
+from ._kernels import cut_sides, region_stats
 
-__all__ = ["DoorCut", "absorb_cut_pixels", "merge_regions"]
+__all__ = ["DoorCut", "merge_regions"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,9 +110,9 @@ def _merge_pass(rooms: _Rooms, doors: list, cfg, min_area_px: float) -> bool:
 
 
 def merge_regions(regions, n, clearance, f, cuts, cfg, resolution_m: float):
-    """Final room labels (int32 (H, W), ``1..k`` in raster order of each room's first
-    pixel, 0 = no room and on the cuts) and the doors between rooms (list of
-    :class:`DoorCut`); ``clearance``: that of the cells of ``f`` x ``f`` pixels."""
+    """The final room of each region (int32 (n,), ``1..k`` in raster order of each room's
+    first pixel, 0 = no room) and the doors between rooms (list of :class:`DoorCut`);
+    ``clearance``: that of the cells of ``f`` x ``f`` pixels."""
     area, clear, border, first = region_stats(regions, clearance.astype(np.float32), f, n)
     area[0] = 0.0
     doors = []
@@ -143,16 +143,9 @@ def merge_regions(regions, n, clearance, f, cuts, cfg, resolution_m: float):
     final = np.zeros(n, np.int32)
     final[order] = np.arange(1, order.size + 1, dtype=np.int32)
     new_id = final[root]
-    labels = new_id[regions]
     kept = []
     for a0, b0, cut in doors:
         a, b = int(new_id[a0]), int(new_id[b0])
         if a > 0 and b > 0 and a != b:
             kept.append(DoorCut(cut=cut, rooms=(min(a, b), max(a, b))))
-    return labels, kept
-
-
-def absorb_cut_pixels(labels: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """Pixels of ``free`` without a room next to a room (the cut lines) take a neighbour's
-    id (in place; returned)."""
-    return absorb(labels, free, 2)
+    return new_id, kept

@@ -167,7 +167,8 @@ def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmenta
         poly = np.stack([px, py], axis=1)
         if poly.shape[0] >= 3:
             x, y = poly[:, 0], poly[:, 1]
-            if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
+            twice_area = x[:-1] @ y[1:] - x[1:] @ y[:-1] + x[-1] * y[0] - x[0] * y[-1]
+            if twice_area < 0:
                 poly = poly[::-1].copy()
         rooms.append(
             Room(

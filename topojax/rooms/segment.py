@@ -14,8 +14,8 @@ from ..fields.clearance import free_clearance_px
 from ..skeleton import thin
 from ._cuts import door_candidates, make_cuts
 from ._grid import coarse_free, grid_factor
-from ._kernels import enclosed_owner
-from ._merge import absorb_cut_pixels, merge_regions
+from ._kernels import enclosed_owner, fill_parts, room_pixels
+from ._merge import merge_regions
 from .model import RoomSegmentation, build_segmentation
 
 __all__ = ["RoomConfig", "segment_rooms"]
@@ -129,10 +129,12 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
         open_[cut.pixels[:, 0], cut.pixels[:, 1]] = False
     n, regions = cv2.connectedComponents(open_.view(np.uint8), connectivity=4, ltype=cv2.CV_32S)
     t3 = time.perf_counter()
-    part, doors = merge_regions(regions, n, clearance, f, cuts, cfg, res)
+    room_of, doors = merge_regions(regions, n, clearance, f, cuts, cfg, res)
     t4 = time.perf_counter()
     labels = np.zeros(full.shape, np.int32)
-    labels[box] = _fill_enclosed(absorb_cut_pixels(part, free))
+    empty = np.empty(free.shape, np.uint8)
+    room_pixels(regions, room_of, free, 2, labels[box], empty)
+    _fill_enclosed(labels[box], empty)
     offset = np.array([box[0].start, box[1].start], np.int64)
     doors = [d.shifted(offset) for d in doors]
     t5 = time.perf_counter()
@@ -163,16 +165,10 @@ def _free_box(free: np.ndarray) -> tuple[slice, slice]:
     )
 
 
-def _fill_enclosed(labels: np.ndarray) -> np.ndarray:
-    """``labels`` with every part of the pixels without a room that touches one room only
-    and not the map's edge (furniture, clutter, pillars, small unknown patches inside a
-    room) given that room's id."""
-    n, parts = cv2.connectedComponents((labels == 0).view(np.uint8), connectivity=4)
-    if n <= 1:
-        return labels
-    owner = enclosed_owner(parts, labels, n)
-    if not owner.any():
-        return labels
-    owner[0] = 0
-    fill = owner[parts]
-    return np.where(fill > 0, fill, labels).astype(np.int32)
+def _fill_enclosed(labels: np.ndarray, empty: np.ndarray) -> None:
+    """In place: every part of the pixels without a room (``empty``, uint8) that touches
+    one room only and not the map's edge (furniture, clutter, pillars, small unknown
+    patches inside a room) takes that room's id in ``labels``."""
+    n, parts = cv2.connectedComponents(empty, connectivity=4, ltype=cv2.CV_32S)
+    if n > 1:
+        fill_parts(labels, parts, enclosed_owner(parts, labels, n))
