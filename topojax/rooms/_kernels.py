@@ -26,7 +26,8 @@ __all__ = [
 def region_stats(regions, clearance, f, n):
     """Area (pixels), largest clearance (pixels), boundary length (pixels with a
     4-neighbour of another label, the map's outside included) and first pixel (raster
-    index) of regions ``0..n-1``.
+    index) of regions ``1..n-1`` (region 0, the pixels off the free space, is skipped:
+    zeros).
 
     Parameters
     ----------
@@ -46,25 +47,33 @@ def region_stats(regions, clearance, f, n):
     border = np.zeros(n, np.float64)
     first = np.full(n, h * w, np.int64)
     for r in range(h):
+        row = regions[r]
         crow = clearance[r // f]
-        for c in range(w):
-            k = regions[r, c]
-            if area[k] == 0.0:
-                first[k] = r * w + c
-            area[k] += 1.0
-            v = crow[c // f]
-            if v > clear[k]:
-                clear[k] = v
-            edge = r == 0 or r == h - 1 or c == 0 or c == w - 1
-            if not edge:
-                edge = (
-                    regions[r - 1, c] != k
-                    or regions[r + 1, c] != k
-                    or regions[r, c - 1] != k
-                    or regions[r, c + 1] != k
-                )
-            if edge:
-                border[k] += 1.0
+        c0 = 0
+        while c0 < w:  # one run of equal labels at a time
+            k = row[c0]
+            c1 = c0 + 1
+            while c1 < w and row[c1] == k:
+                c1 += 1
+            if k != 0:
+                if area[k] == 0.0:
+                    first[k] = r * w + c0
+                area[k] += c1 - c0
+                best = clear[k]
+                for cc in range(c0 // f, (c1 - 1) // f + 1):
+                    if crow[cc] > best:
+                        best = crow[cc]
+                clear[k] = best
+                if r == 0 or r == h - 1:
+                    edge = c1 - c0
+                else:
+                    up = regions[r - 1]
+                    down = regions[r + 1]
+                    edge = 2 if c1 - c0 > 1 else 1  # the run's two ends
+                    for c in range(c0 + 1, c1 - 1):
+                        edge += up[c] != k or down[c] != k
+                border[k] += edge
+            c0 = c1
     return area, clear * f, border, first
 
 
