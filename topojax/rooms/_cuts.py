@@ -17,8 +17,10 @@ DOOR_RISE = 1.1
 #: The two nearest obstacles of a doorway lie on opposite sides of it: the angle between
 #: them, seen from the doorway, is above 120 deg (a room corner's is about 90).
 OPPOSITE_COS = -0.5
-#: On cells, doorway candidates are looked for in a clearance range this many cells wider
-#: on both sides than ``RoomConfig``'s (their width on the pixels must lie in it).
+#: On cells, a clearance is known to within about half a cell: doorway candidates are
+#: looked for in a clearance range this many cells wider on both sides than
+#: ``RoomConfig``'s (their width on the pixels must lie in it), and the clearance beyond
+#: them need only rise to ``DOOR_RISE`` times theirs less this many cells.
 CELL_SLACK = 0.5
 
 
@@ -44,12 +46,13 @@ class Cut:
     width_px: float
 
 
-def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: float):
-    """Doorway candidates: skeleton pixels with clearance in [lo, hi] whose two nearest
-    obstacles lie on opposite sides and beyond which the clearance rises to ``rise`` times
-    theirs on both sides (looked for out to ``w`` pixels).  Returns the pixels int64
+def _candidates(free, clearance, skeleton, lo, hi, w: int, rise: float, slack: float = 0.0):
+    """Doorway candidates: skeleton pixels with clearance in [lo - slack, hi + slack]
+    whose two nearest obstacles lie on opposite sides and beyond which the clearance rises
+    to ``rise`` times theirs, less ``slack``, on both sides (looked for out to ``w``
+    pixels).  Returns the pixels int64
     (N, 2), their clearances float64 (N,) and their two obstacle pixels int64 (N, 2, 2)."""
-    rr, cc = np.nonzero(skeleton & (clearance >= lo) & (clearance <= hi))
+    rr, cc = np.nonzero(skeleton & (clearance >= lo - slack) & (clearance <= hi + slack))
     p = np.stack([rr, cc], axis=1).astype(np.int64)
     c = clearance[rr, cc].astype(np.float64)
     if rr.size == 0:
@@ -69,7 +72,7 @@ def _candidates(free, clearance, skeleton, lo: float, hi: float, w: int, rise: f
     along = q2 - q1
     normal = np.stack([-along[:, 1], along[:, 0]], axis=1)
     normal /= np.maximum(np.hypot(*normal.T), 1e-9)[:, None]
-    ok &= sides_widen(clearance, pf, normal, c, float(w), rise)
+    ok &= sides_widen(clearance, pf, normal, rise * c - slack, float(w))
     return p[ok], c[ok], basis[ok]
 
 
@@ -106,8 +109,9 @@ def door_candidates(free, cells, clearance, skeleton, f: int, cfg, resolution_m:
     ``cells``, ``clearance`` and ``skeleton`` are those of the free space on cells of
     ``f`` x ``f`` pixels (``cells`` is ``free`` when ``f`` is 1).  On cells, a gap's width
     is the pixels' to within a cell or so: candidates are looked for in a range widened by
-    :data:`CELL_SLACK` cells, then moved to the pixels (each end the pixel of its end cell
-    that is not free nearest to the centre) and held to the range there.
+    :data:`CELL_SLACK` cells, with the rise on both sides lowered by as much, then moved to
+    the pixels (each end the pixel of its end cell that is not free nearest to the centre)
+    and held to the width range there.
     """
     lo, hi = clearance_range_px(cfg, resolution_m)
     w = max(1, int(round(cfg.door_context_m / resolution_m)))
@@ -116,9 +120,7 @@ def door_candidates(free, cells, clearance, skeleton, f: int, cfg, resolution_m:
     else:
         clo, chi = clearance_range_px(cfg, resolution_m * f)
         wc = max(1, int(round(cfg.door_context_m / (resolution_m * f))))
-        p, c, ends = _candidates(
-            cells, clearance, skeleton, clo - CELL_SLACK, chi + CELL_SLACK, wc, DOOR_RISE
-        )
+        p, c, ends = _candidates(cells, clearance, skeleton, clo, chi, wc, DOOR_RISE, CELL_SLACK)
         centre = p * f + (f - 1) / 2.0
         a = _end_pixels(ends[:, 0], free, f, centre)
         b = _end_pixels(ends[:, 1], free, f, centre)

@@ -124,9 +124,9 @@ def basis_points(free, pts, radius, offsets, start):
 
 
 @cached_njit(nogil=True)
-def sides_widen(clearance, pts, normal, c, reach, rise):
+def sides_widen(clearance, pts, normal, need, reach):
     """Whether, seen from each point ``pts[i]`` (float64 (N, 2)), the clearance reaches
-    ``rise * c[i]`` on both sides of the line through it across ``normal[i]``: along a fan
+    ``need[i]`` on both sides of the line through it across ``normal[i]``: along a fan
     of rays (+-30 deg about ``+normal`` and ``-normal``) out to ``reach`` pixels, each ray
     stopped at the first pixel of clearance below 1 (or off the map)."""
     h, w = clearance.shape
@@ -135,7 +135,6 @@ def sides_widen(clearance, pts, normal, c, reach, rise):
     cos30, sin30 = 0.8660254037844387, 0.5
     steps = int(np.ceil(reach))
     for i in range(n):
-        need = rise * c[i]
         both = True
         for sign in (1.0, -1.0):
             seen = False
@@ -152,7 +151,7 @@ def sides_widen(clearance, pts, normal, c, reach, rise):
                     v = clearance[r, cc]
                     if v < 1.0:
                         break
-                    if v >= need:
+                    if v >= need[i]:
                         seen = True
                         break
                 if seen:
