@@ -31,7 +31,8 @@ class Cut:
     Attributes
     ----------
     centre : int64 (2,)
-        Skeleton pixel (row, col) where the clearance is locally smallest.
+        Skeleton pixel (row, col) where the clearance is locally smallest (found on
+        cells: the pixel nearest to that cell's centre).
     ends : int64 (2, 2)
         The two obstacle pixels the cut runs between (row, col).
     pixels : int64 (K, 2)
