@@ -99,6 +99,46 @@ def test_clutter_inside_a_room_belongs_to_it():
     assert seg.rooms[0].area_m2 == pytest.approx(116 * 116 * RES**2)
 
 
+def test_a_gap_narrower_than_the_door_search_cells_still_joins_the_room():
+    # a cupboard one pixel (0.05 m) off the wall: closed on the 0.1 m cells the doorways
+    # are searched on, open on the map's pixels, where the regions are made
+    free = np.zeros((120, 120), bool)
+    free[2:118, 2:118] = True
+    free[3:117, 60:64] = False  # the cupboard, a 0.05 m gap at both ends
+    seg = tj.segment_rooms(_map(free))
+    assert seg.n_rooms == 1 and seg.doors == ()
+    assert (seg.labels[free] == 1).all()
+
+
+@pytest.mark.parametrize("door_px", [13, 14, 15, 17])
+def test_door_width_is_measured_on_the_map_pixels(door_px):
+    seg = tj.segment_rooms(_map(_two_rooms(door_px * RES)))
+    assert len(seg.doors) == 1
+    assert seg.doors[0].width_m == pytest.approx(door_px * RES, abs=1.01 * RES)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_finer_map_of_the_same_plan_gives_the_same_rooms_and_doors(seed):
+    fp = floor_plan(seed)
+    occ = fp.occupancy
+
+    def up(a):
+        return np.repeat(np.repeat(a, 2, axis=0), 2, axis=1)
+
+    fine = OccupancyMap(
+        occupied=up(occ.occupied),
+        free=up(occ.free),
+        unknown=up(occ.unknown),
+        resolution_m=RES / 2,
+    )
+    seg = tj.segment_rooms(fine)
+    assert seg.n_rooms == fp.n_rooms
+    assert _best_iou(seg.labels, up(fp.rooms)).min() > 0.9
+    assert sorted(d.rooms for d in seg.doors) == sorted(
+        _matched_pairs(seg.labels, up(fp.rooms), fp.doors)
+    )
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_synthetic_floor_plans_give_their_rooms_and_doors(seed):
     fp = floor_plan(seed)

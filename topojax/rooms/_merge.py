@@ -6,11 +6,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from ._cuts import Cut
-from ._kernels import region_stats
+from ._kernels import cut_sides, region_stats
 
 __all__ = ["DoorCut", "merge_regions"]
 
@@ -32,27 +31,6 @@ class DoorCut:
             width_px=c.width_px,
         )
         return DoorCut(cut=moved, rooms=self.rooms)
-
-
-def _sides(regions: np.ndarray, cut: Cut) -> tuple[int, int] | None:
-    """The two regions a cut separates (the two most frequent 4-neighbours of its pixels),
-    or None if it has fewer than two."""
-    h, w = regions.shape
-    p = cut.pixels
-    near = []
-    for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-        r, c = p[:, 0] + dr, p[:, 1] + dc
-        ok = (r >= 0) & (r < h) & (c >= 0) & (c < w)
-        near.append(regions[r[ok], c[ok]])
-    lab = np.concatenate(near)
-    lab = lab[lab > 0]
-    if lab.size == 0:
-        return None
-    ids, counts = np.unique(lab, return_counts=True)
-    if ids.size < 2:
-        return None
-    top = ids[np.argsort(-counts, kind="stable")[:2]]
-    return int(min(top)), int(max(top))
 
 
 class _Rooms:
@@ -131,16 +109,19 @@ def _merge_pass(rooms: _Rooms, doors: list, cfg, min_area_px: float) -> bool:
     return changed
 
 
-def merge_regions(regions, n, free, clearance, cuts, cfg, resolution_m: float):
-    """Final room labels (int32 (H, W), ``1..k`` in raster order of each room's first
-    pixel, 0 = no room) and the doors between rooms (list of :class:`DoorCut`)."""
-    area, clear, border = region_stats(regions, clearance.astype(np.float32), n)
+def merge_regions(regions, n, clearance, f, cuts, cfg, resolution_m: float):
+    """The final room of each region (int32 (n,), ``1..k`` in raster order of each room's
+    first pixel, 0 = no room) and the doors between rooms (list of :class:`DoorCut`);
+    ``clearance``: that of the cells of ``f`` x ``f`` pixels."""
+    area, clear, border, first = region_stats(regions, clearance.astype(np.float32), f, n)
     area[0] = 0.0
     doors = []
-    for cut in cuts:
-        sides = _sides(regions, cut)
-        if sides is not None:
-            doors.append((sides[0], sides[1], cut))
+    if cuts:
+        starts = np.cumsum([0] + [len(c.pixels) for c in cuts])
+        sides = cut_sides(regions, np.concatenate([c.pixels for c in cuts]), starts)
+        for (a, b), cut in zip(sides.tolist(), cuts, strict=True):
+            if a >= 0:
+                doors.append((a, b, cut))
     rooms = _Rooms(area, clear, border)
     min_area_px = cfg.min_room_m2 / resolution_m**2
     while _merge_pass(rooms, doors, cfg, min_area_px):
@@ -155,9 +136,6 @@ def merge_regions(regions, n, free, clearance, cuts, cfg, resolution_m: float):
     alone = ~joined[root] & (rooms.area[root] >= cfg.min_isolated_room_m2 / resolution_m**2)
     keep = (big | alone) & (np.arange(n) > 0)
     root = np.where(keep, root, 0)
-    first = np.full(n, np.iinfo(np.int64).max, np.int64)
-    flat = regions.ravel()
-    np.minimum.at(first, flat, np.arange(flat.size, dtype=np.int64))
     groups = np.unique(root[root > 0])
     group_first = np.full(n, np.iinfo(np.int64).max, np.int64)
     np.minimum.at(group_first, root, first)
@@ -165,23 +143,9 @@ def merge_regions(regions, n, free, clearance, cuts, cfg, resolution_m: float):
     final = np.zeros(n, np.int32)
     final[order] = np.arange(1, order.size + 1, dtype=np.int32)
     new_id = final[root]
-    labels = new_id[regions]
-    labels = _absorb_cut_pixels(labels, free)
     kept = []
     for a0, b0, cut in doors:
         a, b = int(new_id[a0]), int(new_id[b0])
         if a > 0 and b > 0 and a != b:
             kept.append(DoorCut(cut=cut, rooms=(min(a, b), max(a, b))))
-    return labels, kept
-
-
-def _absorb_cut_pixels(labels: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """Free pixels without a room next to a room (the cut lines) take a neighbour's id."""
-    out = labels
-    for _ in range(2):
-        gap = free & (out == 0)
-        if not gap.any():
-            break
-        grown = cv2.dilate(out.astype(np.float32), np.ones((3, 3), np.uint8)).astype(np.int32)
-        out = np.where(gap, grown, out)
-    return out
+    return new_id, kept

@@ -8,9 +8,8 @@ from dataclasses import dataclass, field
 import cv2
 import networkx as nx
 import numpy as np
-from scipy import ndimage
 
-from ._kernels import label_moments
+from ._kernels import label_stats
 
 __all__ = ["Door", "Room", "RoomSegmentation", "build_segmentation", "relabel"]
 
@@ -152,22 +151,24 @@ def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmenta
     part = labels[box]
     r_off, c_off = box[0].start, box[1].start
     n = int(part.max()) if part.size else 0
-    count, sum_r, sum_c = label_moments(part, n)
+    count, sum_r, sum_c, boxes = label_stats(part, n)
     with np.errstate(invalid="ignore", divide="ignore"):
         # the map frame is an affine image of the pixel grid: mean of world = world of mean
         cx, cy = occ.pixel_to_world(sum_r / count + r_off, sum_c / count + c_off)
     rooms = []
-    for rid, sl in enumerate(ndimage.find_objects(part), start=1):
-        if sl is None:
+    for rid in range(1, n + 1):
+        if count[rid] == 0:
             continue
-        mask = part[sl] == rid
-        r0, c0 = sl[0].start + r_off, sl[1].start + c_off
+        q0, p0, q1, p1 = (int(v) for v in boxes[rid])
+        mask = part[q0 : q1 + 1, p0 : p1 + 1] == rid
+        r0, c0 = q0 + r_off, p0 + c_off
         outline = _outline(mask, r0, c0)
         px, py = occ.pixel_to_world(outline[:, 0], outline[:, 1])
         poly = np.stack([px, py], axis=1)
         if poly.shape[0] >= 3:
             x, y = poly[:, 0], poly[:, 1]
-            if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
+            twice_area = x[:-1] @ y[1:] - x[1:] @ y[:-1] + x[-1] * y[0] - x[0] * y[-1]
+            if twice_area < 0:
                 poly = poly[::-1].copy()
         rooms.append(
             Room(
@@ -175,7 +176,7 @@ def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmenta
                 area_m2=float(count[rid]) * res * res,
                 centroid=(float(cx[rid]), float(cy[rid])),
                 polygon=poly,
-                bbox=(r0, c0, sl[0].stop - 1 + r_off, sl[1].stop - 1 + c_off),
+                bbox=(r0, c0, q1 + r_off, p1 + c_off),
             )
         )
     out = []

@@ -12,7 +12,9 @@ import numpy as np
 from .._validate import instance_or_default, nonnegative_metres, positive_metres
 from ..fields.clearance import free_clearance_px
 from ..skeleton import thin
-from ._cuts import door_cuts
+from ._cuts import door_candidates, make_cuts
+from ._grid import coarse_free, grid_factor
+from ._kernels import enclosed_owner, fill_parts, room_pixels
 from ._merge import merge_regions
 from .model import RoomSegmentation, build_segmentation
 
@@ -114,28 +116,37 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     if box[0].stop == box[0].start:
         return build_segmentation(occ, np.zeros(full.shape, np.int32), [])
     free = np.ascontiguousarray(full[box])
-    clearance = free_clearance_px(free)
-    skeleton = thin(free)
+    f = grid_factor(res)
+    # the doorways are searched on cells of f x f pixels, the regions made on the pixels
+    cells = coarse_free(free, f) if f > 1 else free
+    clearance = free_clearance_px(cells)
+    skeleton = thin(cells)
     t1 = time.perf_counter()
-    cuts = door_cuts(free, clearance, skeleton, cfg, res)
+    cuts = make_cuts(*door_candidates(free, cells, clearance, skeleton, f, cfg, res), free)
     t2 = time.perf_counter()
     open_ = free.copy()
     for cut in cuts:
         open_[cut.pixels[:, 0], cut.pixels[:, 1]] = False
     n, regions = cv2.connectedComponents(open_.view(np.uint8), connectivity=4, ltype=cv2.CV_32S)
-    part, doors = merge_regions(regions, n, free, clearance, cuts, cfg, res)
+    t3 = time.perf_counter()
+    room_of, doors = merge_regions(regions, n, clearance, f, cuts, cfg, res)
+    t4 = time.perf_counter()
     labels = np.zeros(full.shape, np.int32)
-    labels[box] = _fill_enclosed(part, free)
+    empty = np.empty(free.shape, np.uint8)
+    room_pixels(regions, room_of, free, 2, labels[box], empty)
+    _fill_enclosed(labels[box], empty)
     offset = np.array([box[0].start, box[1].start], np.int64)
     doors = [d.shifted(offset) for d in doors]
-    t3 = time.perf_counter()
+    t5 = time.perf_counter()
     seg = build_segmentation(occ, labels, doors, box)
     seg.timings_s.update(
         {
             "fields": t1 - t0,
             "doors": t2 - t1,
             "regions": t3 - t2,
-            "output": time.perf_counter() - t3,
+            "merge": t4 - t3,
+            "fill": t5 - t4,
+            "output": time.perf_counter() - t5,
         }
     )
     return seg
@@ -154,30 +165,10 @@ def _free_box(free: np.ndarray) -> tuple[slice, slice]:
     )
 
 
-def _fill_enclosed(labels: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """``labels`` with every part of the pixels without a room that touches one room only
-    and not the map's edge (furniture, clutter, pillars, small unknown patches inside a
-    room) given that room's id."""
-    h, w = labels.shape
-    n, parts = cv2.connectedComponents((labels == 0).view(np.uint8), connectivity=4)
-    if n <= 1:
-        return labels
-    edge = np.zeros(n, bool)
-    edge[parts[0]] = edge[parts[-1]] = edge[parts[:, 0]] = edge[parts[:, -1]] = True
-    pairs = []
-    for a, b in (
-        (parts[1:, :], labels[:-1, :]),
-        (parts[:-1, :], labels[1:, :]),
-        (parts[:, 1:], labels[:, :-1]),
-        (parts[:, :-1], labels[:, 1:]),
-    ):
-        touch = (a > 0) & (b > 0)
-        pairs.append(a[touch].astype(np.int64) * (int(labels.max()) + 1) + b[touch])
-    keys = np.unique(np.concatenate(pairs))
-    part, room = np.divmod(keys, int(labels.max()) + 1)
-    count = np.bincount(part, minlength=n)
-    owner = np.zeros(n, np.int32)
-    owner[part] = room
-    fill = (count == 1) & ~edge
-    fill[0] = False
-    return np.where(fill[parts], owner[parts], labels).astype(np.int32)
+def _fill_enclosed(labels: np.ndarray, empty: np.ndarray) -> None:
+    """In place: every part of the pixels without a room (``empty``, uint8) that touches
+    one room only and not the map's edge (furniture, clutter, pillars, small unknown
+    patches inside a room) takes that room's id in ``labels``."""
+    n, parts = cv2.connectedComponents(empty, connectivity=4, ltype=cv2.CV_32S)
+    if n > 1:
+        fill_parts(labels, parts, enclosed_owner(parts, labels, n))
