@@ -223,6 +223,31 @@ def test_hovering_an_edge_and_a_room(browser, res, tmp_path):
     assert f"room {room.id}" in text and f"area {room.area_m2:.2f} m²" in text
 
 
+def test_hovering_a_room_inside_another_names_the_inner_one(browser, res, tmp_path):
+    """Rooms are drawn by their outer outline: where a room surrounds another (a ring of
+    corridor round a courtyard room), the point belongs to the smaller room."""
+    from selenium.webdriver.common.by import By
+
+    from topojax.rooms import Room
+
+    def square(x0, y0, side):
+        return np.array([[x0, y0], [x0 + side, y0], [x0 + side, y0 + side], [x0, y0 + side]])
+
+    ring = Room(1, 300.0, (20.0, 20.0), square(5.0, 5.0, 30.0), (0, 0, 1, 1))
+    inner = Room(2, 64.0, (20.0, 20.0), square(16.0, 16.0, 8.0), (0, 0, 1, 1))
+    for rooms in ((ring, inner), (inner, ring)):  # whatever their order
+        page = tj.write_view(res, tmp_path / "nested.html", rooms=(rooms, ()))
+        assert _open(browser, page) == "ready"
+        browser.find_element(By.ID, "tj-layer-graph").click()
+        for point, room in (((20.0, 20.0), inner), ((8.0, 8.0), ring)):
+            _move(
+                browser,
+                *_js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", *point),
+            )
+            text = browser.find_element(By.ID, "tj-tooltip").text
+            assert f"room {room.id}" in text and f"area {room.area_m2:.2f} m²" in text
+
+
 def test_clicking_two_points_shows_the_length_of_plan_route(intel, res):
     from selenium.webdriver.common.by import By
 

@@ -479,12 +479,17 @@ TJ.frameNo = 0;
     }
     var rooms = f ? f.rooms : this.data.rooms ? this.data.rooms.rooms : null;
     if (rooms && this.isOn("rooms")) {
+      // rooms are drawn by their outer outline: of the outlines holding the point (a
+      // room round a courtyard holds the rooms inside it), the smallest room's
+      var best = -1;
       for (var r = 0; r < rooms.length; r++) {
-        if (TJ.inside(rooms[r].polygon, world[0], world[1])) {
-          return { kind: "room", id: rooms[r].id, lines: [
-            "room " + rooms[r].id, "area " + fmt(rooms[r].area_m2, 2) + " m²", where,
-          ] };
-        }
+        if ((best < 0 || rooms[r].area_m2 < rooms[best].area_m2) &&
+            TJ.inside(rooms[r].polygon, world[0], world[1])) best = r;
+      }
+      if (best >= 0) {
+        return { kind: "room", id: rooms[best].id, lines: [
+          "room " + rooms[best].id, "area " + fmt(rooms[best].area_m2, 2) + " m²", where,
+        ] };
       }
     }
     return null;
