@@ -139,6 +139,31 @@ def test_a_finer_map_of_the_same_plan_gives_the_same_rooms_and_doors(seed):
     )
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_padding_the_map_with_unknown_space_changes_no_room(seed):
+    """The doorway search runs on cells of 2 x 2 pixels here; they are laid from the free
+    space, not from the map's edge, so a map cut tight round its free space and the same
+    map padded by one to three pixels of unknown space give the same rooms and doors."""
+    occ = floor_plan(seed).occupancy
+    rows = np.flatnonzero(occ.free.any(axis=1))
+    cols = np.flatnonzero(occ.free.any(axis=0))
+    tight = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+    free, unknown = occ.free[tight], occ.unknown[tight]
+    base = tj.segment_rooms(_map(free, unknown))
+    for top, left in ((1, 0), (0, 1), (1, 1), (2, 3)):
+        padded = [
+            np.pad(a, ((top, 1), (left, 2)), constant_values=v)
+            for a, v in ((free, False), (unknown, True))
+        ]
+        seg = tj.segment_rooms(_map(*padded))
+        inner = seg.labels[top : top + free.shape[0], left : left + free.shape[1]]
+        np.testing.assert_array_equal(inner, base.labels)
+        assert sorted(d.rooms for d in seg.doors) == sorted(d.rooms for d in base.doors)
+        shift = np.array([top, left])
+        for a, b in zip(seg.doors, base.doors, strict=True):
+            np.testing.assert_array_equal(np.asarray(a.pixels) - shift, b.pixels)
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_synthetic_floor_plans_give_their_rooms_and_doors(seed):
     fp = floor_plan(seed)

@@ -112,10 +112,21 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     res = float(occ.resolution_m)
     # everything happens in the free space's bounding box with a one-pixel margin (the
     # margin is not free, so clearances and skeleton are those of the whole map)
-    box = _free_box(full)
+    box, pad = _free_box(full)
     if box[0].stop == box[0].start:
         return build_segmentation(occ, np.zeros(full.shape, np.int32), [])
-    free = np.ascontiguousarray(full[box])
+    # the margin is there even where the map's edge cuts it off, so that the cells below
+    # fall on the same pixels wherever the map's edges are (segmenting a map padded with
+    # unknown space gives the same rooms)
+    free = np.zeros(
+        (
+            box[0].stop - box[0].start + pad[0] + pad[1],
+            box[1].stop - box[1].start + pad[2] + pad[3],
+        ),
+        bool,
+    )
+    inner = (slice(pad[0], free.shape[0] - pad[1]), slice(pad[2], free.shape[1] - pad[3]))
+    free[inner] = full[box]
     f = grid_factor(res)
     # the doorways are searched on cells of f x f pixels, the regions made on the pixels
     cells = coarse_free(free, f) if f > 1 else free
@@ -131,11 +142,13 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     t3 = time.perf_counter()
     room_of, doors = merge_regions(regions, n, clearance, f, cuts, cfg, res)
     t4 = time.perf_counter()
-    labels = np.zeros(full.shape, np.int32)
+    local = np.zeros(free.shape, np.int32)
     empty = np.empty(free.shape, np.uint8)
-    room_pixels(regions, room_of, free, 2, labels[box], empty)
-    _fill_enclosed(labels[box], empty)
-    offset = np.array([box[0].start, box[1].start], np.int64)
+    room_pixels(regions, room_of, free, 2, local, empty)
+    _fill_enclosed(local, empty)
+    labels = np.zeros(full.shape, np.int32)
+    labels[box] = local[inner]
+    offset = np.array([box[0].start - pad[0], box[1].start - pad[2]], np.int64)
     doors = [d.shifted(offset) for d in doors]
     t5 = time.perf_counter()
     seg = build_segmentation(occ, labels, doors, box)
@@ -152,17 +165,17 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     return seg
 
 
-def _free_box(free: np.ndarray) -> tuple[slice, slice]:
-    """The bounding box of ``free`` grown by one pixel (clipped to the map)."""
+def _free_box(free: np.ndarray) -> tuple[tuple[slice, slice], tuple[int, int, int, int]]:
+    """The bounding box of ``free`` grown by one pixel, clipped to the map, and the
+    margin the map's edges cut off: ``(top, bottom, left, right)``, each 0 or 1."""
     rows = np.flatnonzero(free.any(axis=1))
     if rows.size == 0:
-        return slice(0, 0), slice(0, 0)
+        return (slice(0, 0), slice(0, 0)), (0, 0, 0, 0)
     cols = np.flatnonzero(free.any(axis=0))
     h, w = free.shape
-    return (
-        slice(max(rows[0] - 1, 0), min(rows[-1] + 2, h)),
-        slice(max(cols[0] - 1, 0), min(cols[-1] + 2, w)),
-    )
+    r0, r1, c0, c1 = rows[0] - 1, rows[-1] + 2, cols[0] - 1, cols[-1] + 2
+    box = (slice(max(r0, 0), min(r1, h)), slice(max(c0, 0), min(c1, w)))
+    return box, (int(r0 < 0), int(r1 > h), int(c0 < 0), int(c1 > w))
 
 
 def _fill_enclosed(labels: np.ndarray, empty: np.ndarray) -> None:
