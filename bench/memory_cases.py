@@ -314,10 +314,11 @@ def replay_worker(args) -> None:
 
 def _warm_batch(root: Path, folder: Path) -> None:
     """A batch of the small warm-up map in this process (kernels compile, numba caches
-    load, the file writers import)."""
+    load, the file writers import), and ``build_graph`` of it (for the comparison)."""
     import topojax as tj
 
     tj.build_graphs([root / BATCH_WARMUP], workers=0, out_dir=folder / "warm", progress=False)
+    tj.build_graph(tj.load_map(root / BATCH_WARMUP)).graph.number_of_nodes()
     release_freed()
 
 
@@ -366,6 +367,7 @@ def batch_map_worker(args, root: Path) -> None:
         del records
         m["retained_mb"] = measure.retained(m)
         m["retained_b_px"] = m["retained_mb"] * MB / facts["pixels"]
+        compare = _batch_stages_alone(Path(args.data) / rel, mode, measure)
         measure.stop()
         payload = {
             "case": args.worker,
@@ -377,12 +379,34 @@ def batch_map_worker(args, root: Path) -> None:
             **_per_px(m, facts["pixels"]),
             "files_mb": sum(f.stat().st_size for f in out.iterdir()) / MB,
             "kernel_traced": trace_counts() != traces,
+            "alone": compare,
             "hwm_reset": measure.hwm_ok,
             "topojax_file": tj.__file__,
         }
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     print(json.dumps(payload))
+
+
+def _batch_stages_alone(path: Path, mode: str | None, measure: Measure) -> dict[str, Any]:
+    """After the batch, in the same process: peak growth per pixel of the batch's kernel
+    stage alone (``dense_fields_many`` of the map, as the batch calls it) and of
+    ``build_graph`` of the same map (its ``.graph`` read)."""
+    import topojax as tj
+    from topojax.pipeline import dense_fields_many
+
+    occ = tj.load_map(path, mode=mode) if mode else tj.load_map(path)
+    px = int(occ.occupied.size)
+    cfg = tj.PipelineConfig()
+    kw = {"distance": cfg.distance, "ridge": cfg.ridge, "tile_px": cfg.tile_px}
+    kw["tiles_per_call"] = max(cfg.tiles_per_call, 16)  # the batch's default
+    fields, m = measure(lambda: dense_fields_many([occ.occupied], **kw))
+    out_b = _array_bytes(fields[0])
+    kernels = {**_per_px(m, px), "result_b_px": out_b / px}
+    del fields
+    graph, m = measure(lambda: tj.build_graph(occ).graph)
+    del graph
+    return {"dense_fields_many": kernels, "build_graph": _per_px(m, px)}
 
 
 class ChildPeaks(threading.Thread):
@@ -516,20 +540,22 @@ def batch_report(results: dict[str, Any]) -> str:
     rows = []
     for c, e in cases.items():
         if "error" in e:
-            rows.append([c, e["error"]] + [""] * 7)
+            rows.append([c, e["error"]] + [""] * 9)
         elif e["workers"] == 0:
+            alone = e.get("alone", {})
             rows.append(
                 [c, 0, e["pixels"] / 1e6, e["vertices"], e["edges"], e["peak_mb"]]
                 + [e["peak_b_px"], e.get("retained_b_px"), e["s"]]
+                + [alone.get(k, {}).get("peak_b_px") for k in ("dense_fields_many", "build_graph")]
             )
         else:
             p = e["parent"]
             rows.append(
                 [f"{c} (parent)", e["workers"], e["pixels"] / 1e6, None, None, p["peak_mb"]]
-                + [p["peak_b_px"], p.get("retained_b_px"), p["s"]]
+                + [p["peak_b_px"], p.get("retained_b_px"), p["s"], None, None]
             )
     header = ["case", "workers", "Mpx", "V", "E", "peak MB", "peak B/px", "kept after B/px"]
-    header += ["s"]
+    header += ["s", "kernel stage alone B/px", "build_graph B/px"]
     text = [markdown_table(header, rows)]
     for c, e in cases.items():
         if "processes" in e:
