@@ -24,6 +24,14 @@ graph's paths written to disk; the peak RSS growth as above (in MB and per map p
 the time, and whether :func:`topojax.build_graph` of the whole map gives the same graph
 (maps up to 100 Mpx).  They go under ``tiled`` in the JSON.
 
+Replay cases (``--replay``, ``replay_<log>``): a CARMEN log replayed into an
+:class:`topojax.IncrementalMapper` with its defaults, then each of the mapper's dense
+exports (``occupancy``, ``occupancy_window``, the fields, ``graph``, ``to_result``,
+``route_graph``, ``save``) one at a time; batch cases (``--batch``, ``batch_<map>``,
+``batch_pool2``): :func:`topojax.build_graphs` of one shared map in the process, and of all
+of them with two worker processes.  Both are described in ``memory_cases.py``; they go
+under ``replay`` and ``batch`` in the JSON.
+
 Results go to ``bench/results/memory_<machine>.json`` under a label (``--label``, default
 ``after``), so the numbers of another checkout (``--root``, e.g. the base revision exported
 with ``git archive``) sit beside them as ``before``; a markdown report is printed (and
@@ -37,6 +45,8 @@ Run from the repository root::
     python bench/bench_memory.py --cases floor_20000 --no-tracemalloc
     python bench/bench_memory.py --root /tmp/base --label before   # another checkout
     python bench/bench_memory.py --cases tiled_floor_40000 --budget-mb 256  # 1.6 GB on disk
+    python bench/bench_memory.py --replay --batch            # replays and batches, ~2 min
+    python bench/bench_memory.py --cases replay_intel batch_office_g
 """
 
 from __future__ import annotations
@@ -64,6 +74,18 @@ from common import (  # noqa: E402
     ms,
     write_json,
     write_text,
+)
+from memory_cases import (  # noqa: E402
+    BATCH_CASES,
+    REPLAY_CASES,
+    batch_map_worker,
+    batch_pool_worker,
+    batch_report,
+    hwm_bytes,
+    replay_report,
+    replay_worker,
+    reset_hwm,
+    rss_bytes,
 )
 
 PAPER = {name: f"topojax/data/{name}.png" for name in ("intel", "office", "a_scan")}
@@ -186,6 +208,8 @@ def case_names(args: argparse.Namespace) -> list[str]:
     """The cases a run measures, in order."""
     if args.cases:
         return [c for item in args.cases for c in item.split(",") if c]
+    if args.replay or args.batch:
+        return list(REPLAY_CASES if args.replay else ()) + list(BATCH_CASES if args.batch else ())
     tiled = list(TILED_CASES if args.tiled or args.huge else ()) + list(
         TILED_HUGE if args.huge else ()
     )
@@ -234,34 +258,6 @@ def _readonly_zeros(shape):
 
 
 # --------------------------------------------------------------------------- worker
-
-
-def rss_bytes() -> int:
-    """Resident set size of this process (bytes), from ``/proc/self/statm``."""
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-
-
-def hwm_bytes() -> int | None:
-    """The kernel's peak RSS of this process (``VmHWM``, bytes), or None."""
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return None
-
-
-def reset_hwm() -> bool:
-    """Reset ``VmHWM`` to the current RSS (Linux >= 4.0); False where it cannot be."""
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-        return True
-    except OSError:
-        return False
 
 
 class Sampler(threading.Thread):
@@ -664,6 +660,32 @@ def _stage_table(cases: dict) -> str:
     return markdown_table(["case", *names, "+ networkx", "resident"], rows)
 
 
+def section_of(name: str) -> str:
+    """The key of the JSON a case's results go under (``runs``: the build cases)."""
+    for prefix in ("tiled", "replay", "batch"):
+        if name.startswith(prefix + "_"):
+            return prefix
+    return "runs"
+
+
+def run_in_section(results: dict[str, Any], name: str, args: argparse.Namespace, root, log):
+    """Run a tiled, replay or batch case and put its JSON under its section (the other
+    sections and cases are kept)."""
+    key = section_of(name)
+    section = results.setdefault(key, {"cases": {}})
+    section["git_describe"] = describe(root)
+    section["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    if key != "tiled":
+        section["machine"] = machine_info(with_jax=False)
+    log(f"{key} {name}")
+    e = run_case(name, args, traced=False, timeout_s=args.timeout)
+    e["git_describe"] = section["git_describe"]
+    section["cases"][name] = e
+    peak = e.get("build_peak_mb") or e.get("peak_mb") or e.get("replay", e.get("parent", {}))
+    peak = peak.get("peak_mb") if isinstance(peak, dict) else peak
+    log(f"  {peak if peak is not None else float('nan'):.0f} MB {e.get('error', '')}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="paper maps and 2000 px plans only")
@@ -692,12 +714,29 @@ def main(argv: list[str] | None = None) -> int:
         "--budget-mb", type=float, default=256.0, help="memory budget of the tiled floor plans"
     )
     parser.add_argument("--block-px", type=int, help="block side of the tiled cases")
+    parser.add_argument(
+        "--replay", action="store_true", help="the replay cases only (with --batch: both)"
+    )
+    parser.add_argument(
+        "--batch", action="store_true", help="the batch cases only (with --replay: both)"
+    )
     parser.add_argument("--tiles", help=argparse.SUPPRESS)
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--tracemalloc-run", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        tiled_worker(args) if args.worker.startswith("tiled_") else worker(args)
+        root = Path(args.root).resolve() if args.root else REPO_ROOT
+        sys.path.insert(0, str(root))
+        if args.worker.startswith("tiled_"):
+            tiled_worker(args)
+        elif args.worker.startswith("replay_"):
+            replay_worker(args)
+        elif args.worker == "batch_pool2":
+            batch_pool_worker(args, root)
+        elif args.worker.startswith("batch_"):
+            batch_map_worker(args, root)
+        else:
+            worker(args)
         return 0
     out = args.out or RESULTS_DIR / f"memory_{machine_slug()}.json"
     results: dict[str, Any] = json.loads(out.read_text()) if out.is_file() else {}
@@ -709,24 +748,16 @@ def main(argv: list[str] | None = None) -> int:
 
         root = Path(args.root).resolve() if args.root else REPO_ROOT
         results.setdefault("benchmark", "memory")
-        results["machine"] = machine_info(with_jax=False)
-        run = results.setdefault("runs", {}).setdefault(args.label, {"cases": {}})
-        run["git_describe"] = describe(root)
-        run["root"] = str(root)
-        run["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-        for name in case_names(args):
-            if name.startswith("tiled_"):
-                tiled = results.setdefault("tiled", {"cases": {}})
-                tiled["git_describe"] = describe(root)
-                tiled["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-                log(f"tiled {name}")
-                e = run_case(name, args, traced=False, timeout_s=args.timeout)
-                e["git_describe"] = tiled["git_describe"]
-                tiled["cases"][name] = e
-                log(
-                    f"  {e.get('build_peak_mb', float('nan')):.0f} MB, "
-                    f"{e.get('build_s', float('nan')):.1f} s {e.get('error', '')}"
-                )
+        names = case_names(args)
+        if any(section_of(n) == "runs" for n in names):
+            results["machine"] = machine_info(with_jax=False)
+            run = results.setdefault("runs", {}).setdefault(args.label, {"cases": {}})
+            run["git_describe"] = describe(root)
+            run["root"] = str(root)
+            run["date_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+        for name in names:
+            if section_of(name) != "runs":
+                run_in_section(results, name, args, root, log)
                 write_json(out, results)
                 continue
             entry: dict[str, Any] = {}
@@ -746,9 +777,13 @@ def main(argv: list[str] | None = None) -> int:
             )
             write_json(out, results)  # after every case: a long run keeps what it measured
         log(f"wrote {out}")
-    text = report(results)
+    text = report(results) if results.get("runs") else ""
     if results.get("tiled"):
         text += "\n### Maps read block by block (build_graph_tiled)\n\n" + tiled_report(results)
+    if results.get("replay"):
+        text += "\n### Replays and the mapper's exports\n\n" + replay_report(results)
+    if results.get("batch"):
+        text += "\n### Batch (build_graphs)\n\n" + batch_report(results)
     print(text)
     if args.markdown:
         write_text(args.markdown, text)
