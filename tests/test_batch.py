@@ -254,9 +254,9 @@ def test_corrupt_and_missing_maps_become_error_rows(tmp_path, shared_data, worke
 
 def test_kernel_failure_of_one_map_spares_its_group(monkeypatch):
     """A kernel call that fails for one map: that map errors, its group-mates finish."""
-    import topojax.pipeline
+    import topojax.fields
 
-    real = topojax.pipeline.dense_fields_many
+    real = topojax.fields.ridge_fields_many
     bad_shape = (131, 257)
 
     calls = []
@@ -267,7 +267,7 @@ def test_kernel_failure_of_one_map_spares_its_group(monkeypatch):
             raise MemoryError("kernel out of memory (injected)")
         return real(obstacle_maps, **kwargs)
 
-    monkeypatch.setattr(topojax.pipeline, "dense_fields_many", flaky)
+    monkeypatch.setattr(topojax.fields, "ridge_fields_many", flaky)
     maps = [_synthetic((90, 200), 7), _synthetic(bad_shape, 8), _synthetic((200, 90), 9)]
     before = build_graphs(maps[:1], workers=0, progress=False)  # compile outside the group
     assert before[0].status == "ok"

@@ -241,6 +241,26 @@ def test_dispatch_threads_do_not_change_results(threads):
             np.testing.assert_array_equal(getattr(b, name), getattr(a, name))
 
 
+def test_ridge_fields_many_equals_ridge_fields_of_each_map_alone():
+    """Tiles of several maps of different sizes share kernel calls; each map still gets
+    the ridges and the squared distance at its ridge pixels of a call on it alone."""
+    from topojax.fields import ridge_fields, ridge_fields_many
+
+    rng = np.random.default_rng(11)
+    maps = [
+        ndimage.binary_dilation(rng.random(shape) < 0.004, iterations=2)
+        for shape in [(150, 170), (97, 260), (40, 33)]
+    ]
+    kw = {"distance": DistanceConfig(sigma_px=6.0, half_width_px=20), "tile_px": 32}
+    many = ridge_fields_many(maps, tiles_per_call=4, **kw)
+    assert len(many) == len(maps)
+    for m, (fields, values) in zip(maps, many, strict=True):
+        alone, alone_values = ridge_fields(m, **kw)
+        np.testing.assert_array_equal(fields.ridges, alone.ridges)
+        np.testing.assert_array_equal(values, alone_values)
+        assert fields.sq_distance_px is None and fields.distance is None
+
+
 def test_reused_scratch_buffers_do_not_leak_between_maps_or_calls():
     """Padded maps and the column pass live in per-thread scratch buffers reused between
     calls: maps of one shape in one batch each get their own, and a later call with

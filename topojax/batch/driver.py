@@ -58,13 +58,14 @@ _COMPILED_BUCKETS: set[tuple[int, ...]] = set()
 _COMPILE_LOCK = threading.Lock()
 
 
-def _ridge_clearance(fields: Any, obstacles: np.ndarray, half_width_px: int) -> np.ndarray:
-    """Exact clearance (px, float32) at the ridge pixels, in raster order."""
-    from ..pipeline import clearance_at
+def _ridge_clearance(
+    ridges: np.ndarray, ridge_sq: np.ndarray, obstacles: np.ndarray, half_width_px: int
+) -> np.ndarray:
+    """Exact clearance (px, float32) at the ridge pixels, in raster order, from the
+    windowed squared distance there (as :func:`topojax.build_graph` computes it)."""
+    from ..fields import clearance_of_values
 
-    return clearance_at(
-        fields.sq_distance_px, obstacles, half_width_px, np.flatnonzero(fields.ridges)
-    )
+    return clearance_of_values(ridge_sq, obstacles, half_width_px, np.flatnonzero(ridges))
 
 
 class _BatchRun:
@@ -156,14 +157,14 @@ class _BatchRun:
         return cfg
 
     def _dense_fields(self, group: list[_Loaded]) -> tuple[list[Any], float]:
-        """``dense_fields_many`` over the maps of a group (one distance setting); (fields,
-        wall seconds)."""
-        from ..pipeline import dense_fields_many
+        """``ridge_fields_many`` over the maps of a group (one distance setting): per map
+        the ridges and the squared distance at the ridge pixels; (those, wall seconds)."""
+        from ..fields import ridge_fields_many
 
         cfg = self._config_for(group[0])
 
         def call() -> list[Any]:
-            return dense_fields_many(
+            return ridge_fields_many(
                 [g.occupied for g in group],
                 distance=cfg.distance,
                 ridge=cfg.ridge,
@@ -193,8 +194,7 @@ class _BatchRun:
         group's kernel call fails, each map is retried alone, so one bad map cannot fail
         the others of its group.
         """
-        from ..fields.distance import FAR_SQ
-        from ..pipeline import DenseFields, travel_ridges
+        from ..pipeline import travel_ridges
 
         with_obstacles = [g for g in group if g.occupied.any()]
         empty = {id(g) for g in group} - {id(g) for g in with_obstacles}
@@ -225,19 +225,17 @@ class _BatchRun:
             occ = g
             if id(g) in empty:  # no obstacle: H = 0, no ridges (as build_graph)
                 share = 0.0
-                f = DenseFields(
-                    np.full(occ.shape, FAR_SQ, np.int32),
-                    np.zeros(occ.shape, np.float32),
-                    np.zeros(occ.shape, np.uint8),
-                    np.zeros(occ.shape, bool),
-                )
+                ridges, ridge_sq = np.zeros(occ.shape, bool), np.zeros(0, np.int32)
             else:
-                f, share = fields[id(g)]
+                (f, ridge_sq), share = fields[id(g)]
+                ridges = f.ridges
             # as build_graph: nothing to thin on a map that is all obstacle
-            f = dataclasses.replace(f, ridges=travel_ridges(f.ridges, occ.occupied))
+            ridges = travel_ridges(ridges, occ.occupied)
+            if not ridges.any():
+                ridge_sq = np.zeros(0, np.int32)
             # Skeleton pixels are a subset of the ridge pixels, so the clearances of the
             # ridge pixels (computed exactly as build_graph does) are all the graph reads.
-            clearance = _ridge_clearance(f, occ.occupied, cfg.distance.half_width_px)
+            clearance = _ridge_clearance(ridges, ridge_sq, occ.occupied, cfg.distance.half_width_px)
             masks = None
             if self._needs_map:
                 masks = np.packbits(np.stack([occ.occupied, occ.free]))
@@ -247,7 +245,7 @@ class _BatchRun:
                 resolution_m=occ.resolution_m,
                 origin=tuple(occ.origin),
                 source=occ.source,
-                ridges_bits=np.packbits(f.ridges),
+                ridges_bits=np.packbits(ridges),
                 clearance_values=clearance,
                 config=cfg,
                 out_dir=None if self.out_dir is None else os.fspath(self.out_dir),

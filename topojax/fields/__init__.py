@@ -21,6 +21,7 @@ from .dense import (
     distance_map,
     forward_tile,
     ridge_fields,
+    ridge_fields_many,
     ridge_map,
     trace_counts,
 )
@@ -61,6 +62,7 @@ __all__ = [
     "nearest_sq_distance",
     "reflect_101_halo",
     "ridge_fields",
+    "ridge_fields_many",
     "ridge_from_laplacian",
     "ridge_map",
     "row_sq_distance_tile",
