@@ -96,7 +96,7 @@ def run_log(path: Path, graph_every: int, rooms_every: int, max_scans: int | Non
     import topojax as tj
 
     kw = {"graph_every": graph_every, "rooms_every": rooms_every}
-    whole = tj.IncrementalMapper(**kw)
+    whole = tj.IncrementalMapper(**kw, rooms_local=False)
     local = tj.IncrementalMapper(**kw, rooms_local=True)
     updates = []
     t0 = time.perf_counter()
