@@ -390,23 +390,23 @@ def batch_map_worker(args, root: Path) -> None:
 
 def _batch_stages_alone(path: Path, mode: str | None, measure: Measure) -> dict[str, Any]:
     """After the batch, in the same process: peak growth per pixel of the batch's kernel
-    stage alone (``dense_fields_many`` of the map, as the batch calls it) and of
+    stage alone (``ridge_fields_many`` of the map, as the batch calls it) and of
     ``build_graph`` of the same map (its ``.graph`` read)."""
     import topojax as tj
-    from topojax.pipeline import dense_fields_many
+    from topojax.fields import ridge_fields_many
 
     occ = tj.load_map(path, mode=mode) if mode else tj.load_map(path)
     px = int(occ.occupied.size)
     cfg = tj.PipelineConfig()
     kw = {"distance": cfg.distance, "ridge": cfg.ridge, "tile_px": cfg.tile_px}
     kw["tiles_per_call"] = max(cfg.tiles_per_call, 16)  # the batch's default
-    fields, m = measure(lambda: dense_fields_many([occ.occupied], **kw))
-    out_b = _array_bytes(fields[0])
+    fields, m = measure(lambda: ridge_fields_many([occ.occupied], **kw))
+    out_b = _array_bytes(fields[0][0]) + fields[0][1].nbytes
     kernels = {**_per_px(m, px), "result_b_px": out_b / px}
     del fields
     graph, m = measure(lambda: tj.build_graph(occ).graph)
     del graph
-    return {"dense_fields_many": kernels, "build_graph": _per_px(m, px)}
+    return {"kernel_stage": kernels, "build_graph": _per_px(m, px)}
 
 
 class ChildPeaks(threading.Thread):
@@ -546,7 +546,7 @@ def batch_report(results: dict[str, Any]) -> str:
             rows.append(
                 [c, 0, e["pixels"] / 1e6, e["vertices"], e["edges"], e["peak_mb"]]
                 + [e["peak_b_px"], e.get("retained_b_px"), e["s"]]
-                + [alone.get(k, {}).get("peak_b_px") for k in ("dense_fields_many", "build_graph")]
+                + [alone.get(k, {}).get("peak_b_px") for k in ("kernel_stage", "build_graph")]
             )
         else:
             p = e["parent"]
