@@ -357,7 +357,7 @@ def _centre_segment_graph(shape, r, c0, c1):
 def test_first_lanes_run_along_the_walls_at_the_inset_and_join_the_graph():
     """Round the walls of an open room, one lane on the level curve LANE_INSET snap
     distances from the pixels that are not feasible, joined to the graph in one piece."""
-    from topojax.routegraph._cover import covered, graph_raster
+    from topojax.routegraph._cover import covered, graph_raster, wall_distance
     from topojax.routegraph._lanes import LANE_INSET, add_lanes
 
     feasible = np.zeros((120, 240), bool)
@@ -366,7 +366,9 @@ def test_first_lanes_run_along_the_walls_at_the_inset_and_join_the_graph():
     work = _centre_segment_graph(feasible.shape, 60, 60, 180)
     raster = graph_raster(work, feasible.shape)
     uncovered = feasible & ~covered(raster, feasible, snap)
-    assert add_lanes(work, uncovered, raster, feasible, snap, along_walls=True)
+    assert add_lanes(
+        work, uncovered, raster, feasible, wall_distance(feasible), snap, along_walls=True
+    )
     wall = cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     new = [e for e in work.edges if e != 0 and work.length[e] > 5 * snap]
     assert len(new) >= 1
@@ -382,7 +384,7 @@ def test_first_lanes_run_along_the_walls_at_the_inset_and_join_the_graph():
 
 
 def test_no_lanes_for_uncovered_pieces_smaller_than_the_minimum():
-    from topojax.routegraph._cover import covered, graph_raster
+    from topojax.routegraph._cover import covered, graph_raster, wall_distance
     from topojax.routegraph._lanes import LANE_MIN_AREA, add_lanes
 
     feasible = np.zeros((60, 120), bool)
@@ -394,5 +396,7 @@ def test_no_lanes_for_uncovered_pieces_smaller_than_the_minimum():
     _, _, stats, _ = cv2.connectedComponentsWithStats(uncovered.view(np.uint8), connectivity=8)
     assert (stats[1:, cv2.CC_STAT_AREA] < LANE_MIN_AREA * snap**2).all()
     n_edges = len(work.edges)
-    assert not add_lanes(work, uncovered, raster, feasible, snap, along_walls=True)
+    assert not add_lanes(
+        work, uncovered, raster, feasible, wall_distance(feasible), snap, along_walls=True
+    )
     assert len(work.edges) == n_edges

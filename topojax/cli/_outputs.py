@@ -41,7 +41,7 @@ def _owner(command: str, source) -> dict[str, str | None]:
     }
 
 
-def _read(folder: Path) -> dict[str, dict]:
+def read_record(folder: Path) -> dict[str, dict]:
     """The files recorded in ``folder``; empty when there is no (readable) record."""
     try:
         doc = json.loads((folder / RECORD_NAME).read_text(encoding="utf-8"))
@@ -81,7 +81,7 @@ def check_outputs(
         another input.
     """
     for folder, files in _by_folder(claims).items():
-        recorded = _read(folder)
+        recorded = read_record(folder)
         for target, source in files.items():
             if not target.exists():
                 continue
@@ -130,7 +130,7 @@ def record_outputs(claims: Mapping[Path, str | os.PathLike[str] | None], *, comm
         written = {t: s for t, s in files.items() if t.is_file()}
         if not written:
             continue
-        recorded = _read(folder)
+        recorded = read_record(folder)
         for target, source in written.items():
             recorded[target.name] = _owner(command, source)
         doc = {"version": _VERSION, "files": dict(sorted(recorded.items()))}

@@ -17,7 +17,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ._outputs import RECORD_NAME, check_outputs, planned, record_outputs
+from ._outputs import RECORD_NAME, check_outputs, planned, read_record, record_outputs
 
 __all__ = ["add_command", "find_results"]
 
@@ -50,15 +50,6 @@ class _Result:
     route_graph: Path | None = None
     timeline: Path | None = None
     notes: list[str] = field(default_factory=list)
-
-
-def _record(folder: Path) -> dict:
-    try:
-        doc = json.loads((folder / RECORD_NAME).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    files = doc.get("files") if isinstance(doc, dict) else None
-    return files if isinstance(files, dict) else {}
 
 
 def _graph_stems(folder: Path) -> dict[str, Path]:
@@ -95,7 +86,7 @@ def _manifest_map(folder: Path, stem: str) -> tuple[Path | None, dict]:
 
 def find_results(folder: Path) -> list[_Result]:
     """The results in ``folder`` (see the module docstring); empty when there are none."""
-    record = _record(folder)
+    record = read_record(folder)
     stems = _graph_stems(folder)
     results: dict[str, _Result] = {}
     replay = (folder / "map.yaml").is_file() and "graph" in stems

@@ -24,7 +24,7 @@ from .._fs import output_folder
 from .._jit import cached_njit
 from .build import _edge_values, _world_of
 from .store import KIND_JUNCTION, KIND_RING, GraphStore
-from .trace import _DC, _DR, _POPCOUNT
+from .trace import _DC, _DR, _POPCOUNT, link_mask
 
 __all__ = ["row_skeleton_graph_store"]
 
@@ -72,28 +72,16 @@ def _link_masks(row_start, cols, h, w):
     for r in range(h):
         for i in range(row_start[r], row_start[r + 1]):
             c = cols[i]
-            up = _neighbour(row_start, cols, h, w, r, c, i, 0) >= 0
-            left = _neighbour(row_start, cols, h, w, r, c, i, 1) >= 0
-            right = _neighbour(row_start, cols, h, w, r, c, i, 2) >= 0
-            down = _neighbour(row_start, cols, h, w, r, c, i, 3) >= 0
-            m = 0
-            if up:
-                m |= 1
-            if left:
-                m |= 2
-            if right:
-                m |= 4
-            if down:
-                m |= 8
-            if not up and not left and _neighbour(row_start, cols, h, w, r, c, i, 4) >= 0:
-                m |= 16
-            if not up and not right and _neighbour(row_start, cols, h, w, r, c, i, 5) >= 0:
-                m |= 32
-            if not down and not left and _neighbour(row_start, cols, h, w, r, c, i, 6) >= 0:
-                m |= 64
-            if not down and not right and _neighbour(row_start, cols, h, w, r, c, i, 7) >= 0:
-                m |= 128
-            masks[i] = m
+            masks[i] = link_mask(
+                _neighbour(row_start, cols, h, w, r, c, i, 0) >= 0,
+                _neighbour(row_start, cols, h, w, r, c, i, 1) >= 0,
+                _neighbour(row_start, cols, h, w, r, c, i, 2) >= 0,
+                _neighbour(row_start, cols, h, w, r, c, i, 3) >= 0,
+                _neighbour(row_start, cols, h, w, r, c, i, 4) >= 0,
+                _neighbour(row_start, cols, h, w, r, c, i, 5) >= 0,
+                _neighbour(row_start, cols, h, w, r, c, i, 6) >= 0,
+                _neighbour(row_start, cols, h, w, r, c, i, 7) >= 0,
+            )
     return masks
 
 

@@ -24,6 +24,31 @@ _DC = np.array([0, -1, 1, 0, -1, 1, -1, 1], dtype=np.int64)
 # --------------------------------------------------------------------------------------
 
 
+@cached_njit(nogil=True, inline="always")
+def link_mask(up, left, right, down, up_left, up_right, down_left, down_right):
+    """The link mask of a skeleton pixel (bit ``k`` set: linked in direction ``k``) from
+    which of its 8 neighbours are set: every 4-neighbour, and a diagonal only if neither
+    pixel 4-adjacent to both ends is set."""
+    m = 0
+    if up:
+        m |= 1
+    if left:
+        m |= 2
+    if right:
+        m |= 4
+    if down:
+        m |= 8
+    if up_left and not up and not left:
+        m |= 16
+    if up_right and not up and not right:
+        m |= 32
+    if down_left and not down and not left:
+        m |= 64
+    if down_right and not down and not right:
+        m |= 128
+    return m
+
+
 @cached_njit(nogil=True)
 def _link_table(keys: np.ndarray, offsets8: np.ndarray):
     """Neighbour table and link masks of a set of pixels given by their keys.
@@ -64,29 +89,16 @@ def _link_table(keys: np.ndarray, offsets8: np.ndarray):
                     nbr[i, d] = jj
     masks = np.zeros(n, dtype=np.uint8)
     for i in range(n):
-        up = nbr[i, 0] >= 0
-        left = nbr[i, 1] >= 0
-        right = nbr[i, 2] >= 0
-        down = nbr[i, 3] >= 0
-        m = 0
-        if up:
-            m |= 1
-        if left:
-            m |= 2
-        if right:
-            m |= 4
-        if down:
-            m |= 8
-        # A diagonal is linked only if neither pixel 4-adjacent to both ends is set.
-        if nbr[i, 4] >= 0 and not up and not left:
-            m |= 16
-        if nbr[i, 5] >= 0 and not up and not right:
-            m |= 32
-        if nbr[i, 6] >= 0 and not down and not left:
-            m |= 64
-        if nbr[i, 7] >= 0 and not down and not right:
-            m |= 128
-        masks[i] = m
+        masks[i] = link_mask(
+            nbr[i, 0] >= 0,
+            nbr[i, 1] >= 0,
+            nbr[i, 2] >= 0,
+            nbr[i, 3] >= 0,
+            nbr[i, 4] >= 0,
+            nbr[i, 5] >= 0,
+            nbr[i, 6] >= 0,
+            nbr[i, 7] >= 0,
+        )
     return nbr, masks
 
 

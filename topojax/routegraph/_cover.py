@@ -139,7 +139,7 @@ def add_coverage(
         if grid_round == rounds or not uncovered.any():
             break
         if lane_round < LANE_ROUNDS and add_lanes(
-            work, uncovered, raster, feasible, snap_px, along_walls=lane_round == 0
+            work, uncovered, raster, feasible, wall, snap_px, along_walls=lane_round == 0
         ):
             lane_round += 1
             continue

@@ -31,7 +31,7 @@ _JOIN_TRIES = 400
 _NEIGHBOURS = 4
 
 
-def _lane_pixels(uncovered: np.ndarray, feasible: np.ndarray, snap_px: float, along_walls: bool):
+def _lane_pixels(uncovered, feasible, wall, snap_px: float, along_walls: bool):
     """The one-pixel-wide lanes (bool (H, W)) through the large pieces of ``uncovered``,
     or None when no piece is large enough."""
     n, labels, stats, _ = cv2.connectedComponentsWithStats(uncovered.view(np.uint8), connectivity=8)
@@ -43,7 +43,6 @@ def _lane_pixels(uncovered: np.ndarray, feasible: np.ndarray, snap_px: float, al
     mask = keep[labels]
     if not along_walls:
         return thin(mask)
-    wall = cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     inner = (wall >= LANE_INSET * snap_px).view(np.uint8)
     curve = inner.view(bool) & ~cv2.erode(inner, np.ones((3, 3), np.uint8)).view(bool)
     near = cv2.dilate(mask.view(np.uint8), np.ones((5, 5), np.uint8)).view(bool)
@@ -103,13 +102,15 @@ def add_lanes(
     uncovered: np.ndarray,
     raster: np.ndarray,
     feasible: np.ndarray,
+    wall: np.ndarray,
     snap_px: float,
     along_walls: bool,
 ) -> bool:
     """Add lanes through the large pieces of ``uncovered`` (bool (H, W)) and join each to
-    the graph (pixels ``raster``); ``along_walls``: the level-curve lanes of the first
-    round, else the skeleton.  Returns whether any lane was added."""
-    lanes = _lane_pixels(uncovered, feasible, snap_px, along_walls)
+    the graph (pixels ``raster``); ``wall``: each pixel's distance to the nearest pixel
+    that is not feasible (float32 (H, W)); ``along_walls``: the level-curve lanes of the
+    first round, else the skeleton.  Returns whether any lane was added."""
+    lanes = _lane_pixels(uncovered, feasible, wall, snap_px, along_walls)
     if lanes is None or not lanes.any():
         return False
     graph_px = np.argwhere(raster)
