@@ -400,3 +400,49 @@ def test_no_lanes_for_uncovered_pieces_smaller_than_the_minimum():
         work, uncovered, raster, feasible, wall_distance(feasible), snap, along_walls=True
     )
     assert len(work.edges) == n_edges
+
+
+def _brute_covered(raster, feasible, snap_px):
+    """Reference: every feasible pixel against every graph pixel within ``snap_px``, the
+    straight segment's pixels (its supercover, sampled densely) all feasible."""
+    out = np.zeros_like(feasible)
+    graph = np.argwhere(raster)
+    for r, c in np.argwhere(feasible):
+        d = np.hypot(graph[:, 0] - r, graph[:, 1] - c)
+        for gr, gc in graph[d <= snap_px]:
+            n = int(max(abs(gr - r), abs(gc - c))) * 8 + 2
+            t = np.linspace(0.0, 1.0, n)
+            pr, pc = r + t * (gr - r), c + t * (gc - c)
+            # a point on a pixel border lies on both pixels: all must be feasible
+            lo_r, hi_r = np.floor(pr + 0.5 - 1e-9), np.ceil(pr - 0.5 + 1e-9)
+            lo_c, hi_c = np.floor(pc + 0.5 - 1e-9), np.ceil(pc - 0.5 + 1e-9)
+            ok = True
+            for rr in (lo_r, hi_r):
+                for cc in (lo_c, hi_c):
+                    ok &= bool(feasible[rr.astype(int), cc.astype(int)].all())
+            if ok:
+                out[r, c] = True
+                break
+    return out
+
+
+@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("few", [True, False])
+def test_coverage_equals_a_brute_force_reference(seed, few, monkeypatch):
+    """Both ways of naming a near graph pixel (k-d tree for few pixels, labelled distance
+    transform with the exact-distance filter for many) give the reference's answer."""
+    from topojax.routegraph import _cover
+
+    monkeypatch.setattr(_cover, "_FEW_PIXELS", 10**9 if few else 0)
+    rng = np.random.default_rng(seed)
+    feasible = np.ones((48, 56), bool)
+    for _ in range(14):  # walls and pillars
+        r, c = rng.integers(0, 44), rng.integers(0, 52)
+        feasible[r : r + rng.integers(1, 4), c : c + rng.integers(1, 12)] = False
+    raster = np.zeros_like(feasible)
+    raster[rng.integers(0, 48, 6), rng.integers(0, 56, 6)] = True
+    raster[24, 5:50] = True
+    raster &= feasible
+    snap = 7.5
+    got = _cover.covered(raster, feasible, snap)
+    assert np.array_equal(got, _brute_covered(raster, feasible, snap))

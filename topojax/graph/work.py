@@ -61,13 +61,20 @@ def line_pixels(a, b) -> np.ndarray:
     return out
 
 
+@cached_njit(nogil=True)
+def _path_length(path):
+    diagonal = 0
+    for i in range(path.shape[0] - 1):
+        if path[i + 1, 0] != path[i, 0] and path[i + 1, 1] != path[i, 1]:
+            diagonal += 1
+    return (path.shape[0] - 1 - diagonal) + diagonal * SQRT2
+
+
 def path_length_px(path: np.ndarray) -> float:
     """Length of an 8-connected pixel path in pixels (straight 1, diagonal sqrt 2)."""
     if len(path) < 2:
         return 0.0
-    step = np.abs(np.diff(path.astype(np.int64), axis=0))
-    diagonal = int(np.count_nonzero((step[:, 0] != 0) & (step[:, 1] != 0)))
-    return (len(path) - 1 - diagonal) + diagonal * SQRT2
+    return float(_path_length(np.asarray(path)))
 
 
 def join_paths(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -202,23 +209,29 @@ def edge_sides(work: WorkGraph, faces: np.ndarray) -> dict[int, tuple[int, int]]
     return sides
 
 
+@cached_njit(nogil=True)
+def _obstacle_boxes(faces, free, n_faces):
+    box = np.empty((n_faces, 4), np.int64)  # row min, col min, row max, col max
+    box[:, :2] = np.iinfo(np.int64).max
+    box[:, 2:] = -1
+    for r in range(free.shape[0]):
+        for c in range(free.shape[1]):
+            if not free[r, c]:
+                f = faces[r, c]
+                box[f, 0] = min(box[f, 0], r)
+                box[f, 1] = min(box[f, 1], c)
+                box[f, 2] = max(box[f, 2], r)
+                box[f, 3] = max(box[f, 3], c)
+    return box
+
+
 def obstacle_extent_px(faces: np.ndarray, free: np.ndarray, n_faces: int) -> np.ndarray:
     """Diagonal (pixels) of the bounding box of the pixels that are not free in each face
     (0 for a face holding none): the size of the obstacle a face's loop goes around."""
-    rows, cols = np.nonzero(~free)
-    lab = faces[rows, cols]
-    big = np.iinfo(np.int64).max
-    rmin = np.full(n_faces, big, np.int64)
-    cmin = np.full(n_faces, big, np.int64)
-    rmax = np.full(n_faces, -1, np.int64)
-    cmax = np.full(n_faces, -1, np.int64)
-    np.minimum.at(rmin, lab, rows)
-    np.minimum.at(cmin, lab, cols)
-    np.maximum.at(rmax, lab, rows)
-    np.maximum.at(cmax, lab, cols)
-    has = rmax >= 0
+    box = _obstacle_boxes(faces, free, n_faces)
+    has = box[:, 2] >= 0
     out = np.zeros(n_faces)
-    out[has] = np.hypot(rmax[has] - rmin[has] + 1, cmax[has] - cmin[has] + 1)
+    out[has] = np.hypot(box[has, 2] - box[has, 0] + 1, box[has, 3] - box[has, 1] + 1)
     return out
 
 

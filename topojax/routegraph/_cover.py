@@ -13,10 +13,10 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from ..graph.work import SQRT2, WorkGraph, line_pixels
-from ._joins import attach_points, geodesic_path, segment_ok
+from ..graph.work import WorkGraph, line_pixels
+from ._joins import attach_points, geodesic_path, mask_pixels, segment_ok
 from ._lanes import add_lanes
-from ._spanner import greedy_shortcuts, see_any, see_nearest
+from ._spanner import anchor_pieces, greedy_shortcuts, see_any, see_named, see_nearest
 
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
 #: distance around each grid point covers its cell up to sqrt 2 / 2 of the spacing).
@@ -33,11 +33,11 @@ _FEW_PIXELS = 200_000
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
     """Pixels (bool (H, W)) of the graph's live vertices and edge paths."""
     mask = np.zeros(shape, bool)
-    for _, _, path in work.edges.values():
-        mask[path[:, 0], path[:, 1]] = True
-    for v, members in enumerate(work.members):
-        if v not in work.dead:
-            mask[members[:, 0], members[:, 1]] = True
+    parts = [path for _, _, path in work.edges.values()]
+    parts += [m for v, m in enumerate(work.members) if v not in work.dead]
+    if parts:
+        every = np.concatenate(parts)
+        mask[every[:, 0], every[:, 1]] = True
     return mask
 
 
@@ -58,33 +58,43 @@ def covered(
     if wall is None:
         wall = wall_distance(feasible)
     test = feasible if among is None else among & feasible
-    rr, cc = np.nonzero(test)
-    rr, cc = rr.astype(np.int64), cc.astype(np.int64)
-    out = np.zeros(feasible.shape, bool)
-    graph_px = np.argwhere(raster)
-    if rr.size == 0 or graph_px.size == 0:
-        return out
-    if rr.size > _FEW_PIXELS:
+    if not raster.any() or not test.any():
+        return np.zeros(feasible.shape, bool)
+    graph_px = mask_pixels(raster)
+    if np.count_nonzero(test) > _FEW_PIXELS:
         # the labelled transform names a graph pixel near each pixel, at most
-        # _LABEL_SLACK times (plus a pixel) farther than the nearest one
+        # _LABEL_SLACK times (plus a pixel) farther than the nearest one; where the named
+        # pixel is hidden or out of reach, another within reach may still be seen, but
+        # only where the exact distance to the graph is within reach
+        free = (~raster).view(np.uint8)
         _, label = cv2.distanceTransformWithLabels(
-            (~raster).view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL
+            free, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL
         )
-        near = graph_px[label[rr, cc] - 1].astype(np.int64)  # raster order: label k - 1
-        d2 = (near[:, 0] - rr) ** 2 + (near[:, 1] - cc) ** 2
-        reach = (_LABEL_SLACK * snap_px + 1.0) ** 2
+        exact = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        out, rr, cc = see_named(
+            test,
+            label,
+            graph_px.astype(np.int64),
+            wall,
+            feasible,
+            float(snap_px),
+            _LABEL_SLACK * snap_px + 1.0,
+            exact,
+        )
     else:
+        rr, cc = np.nonzero(test)
+        rr, cc = rr.astype(np.int64), cc.astype(np.int64)
         dist, idx = cKDTree(graph_px).query(np.stack([rr, cc], axis=1))
         near = graph_px[idx].astype(np.int64)
-        d2 = dist**2
-        reach = snap_px * snap_px
-    ok = (d2 <= snap_px * snap_px) & see_nearest(
-        rr, cc, near[:, 0], near[:, 1], wall[rr, cc], feasible
-    )
-    # the named pixel hidden or out of reach: another within reach may still be seen
-    maybe = ~ok & (d2 <= reach)
-    ok[maybe] = see_any(rr[maybe], cc[maybe], raster, feasible, float(snap_px))
-    out[rr[ok], cc[ok]] = True
+        ok = (dist**2 <= snap_px * snap_px) & see_nearest(
+            rr, cc, near[:, 0], near[:, 1], wall[rr, cc], feasible
+        )
+        out = np.zeros(feasible.shape, bool)
+        out[rr[ok], cc[ok]] = True
+        # the nearest pixel hidden: another within reach may still be seen
+        maybe = ~ok & (dist**2 <= snap_px * snap_px)
+        rr, cc = rr[maybe], cc[maybe]
+    out[rr, cc] = see_any(rr, cc, raster, feasible, float(snap_px))
     return out
 
 
@@ -94,13 +104,16 @@ def wall_distance(feasible: np.ndarray) -> np.ndarray:
     return cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
 
 
-def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray:
-    """Uncovered pixels on a square grid of ``spacing_px``, plus one pixel of each
-    uncovered component that holds no grid point."""
+def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float, origin=(0, 0)) -> np.ndarray:
+    """Uncovered pixels on a square grid of ``spacing_px`` (laid from the map's corner,
+    ``uncovered`` being the window of the map from pixel ``origin``), plus one pixel of
+    each uncovered component that holds no grid point."""
     h, w = uncovered.shape
     s = max(1.0, spacing_px)
-    rows = np.arange(s / 2, h, s).astype(np.int64)
-    cols = np.arange(s / 2, w, s).astype(np.int64)
+    r0, c0 = int(origin[0]), int(origin[1])
+    rows = np.arange(s / 2, r0 + h, s).astype(np.int64) - r0
+    cols = np.arange(s / 2, c0 + w, s).astype(np.int64) - c0
+    rows, cols = rows[rows >= 0], cols[cols >= 0]
     rr, cc = np.meshgrid(rows, cols, indexing="ij")
     on = uncovered[rr, cc]
     pts = [np.stack([rr[on], cc[on]], axis=1)]
@@ -119,14 +132,15 @@ def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray
 
 
 def add_coverage(
-    work: WorkGraph, feasible: np.ndarray, snap_px: float, rounds: int = 6
+    work: WorkGraph, feasible: np.ndarray, snap_px: float, rounds: int = 6, origin=(0, 0)
 ) -> np.ndarray:
     """Add lanes (:func:`add_lanes`: first along the walls, then the skeleton of what is
     left, at most :data:`LANE_ROUNDS` rounds), then waypoints joined by straight feasible
     edges (a shortest spanning tree, or a feasible shortest path where no straight edge
     reaches), until every feasible pixel is covered (:func:`covered`) or ``rounds``
-    waypoint rounds are spent.  Returns the feasible pixels still uncovered (bool
-    (H, W))."""
+    waypoint rounds are spent; ``feasible`` is the window of the map from pixel
+    ``origin`` (the waypoint grid is laid from the map's corner).  Returns the feasible
+    pixels still uncovered (bool (H, W))."""
     shape = feasible.shape
     spacing = COVER_SPACING * snap_px
     lane_round, grid_round = 0, 0
@@ -144,7 +158,7 @@ def add_coverage(
             lane_round += 1
             continue
         lane_round = LANE_ROUNDS  # pieces too small for lanes: waypoints from now on
-        pts = _waypoint_candidates(uncovered, spacing)
+        pts = _waypoint_candidates(uncovered, spacing, origin)
         _connect_waypoints(work, pts, raster, feasible, spacing)
         spacing *= 0.7  # leftovers lie between earlier waypoints
         grid_round += 1
@@ -161,7 +175,7 @@ def _connect_waypoints(
     if n == 0:
         return
     shape = feasible.shape
-    graph_px = np.argwhere(raster)
+    graph_px = mask_pixels(raster)
     _, nearest = cKDTree(graph_px).query(pts)
     cands = []
     for i, p in enumerate(pts):
@@ -234,48 +248,40 @@ def _anchor_graph(work: WorkGraph, alive: list[int], spacing_px: float, keep_px:
     nodes along each edge (no self-loops, the shortest of parallel pieces) and ``w`` their
     lengths in pixels."""
     index = {v: k for k, v in enumerate(alive)}
-    pos = [np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2)]
-    deg = [np.array([len(work.adj[v]) for v in alive], np.int64)]
-    on_edge = [np.full((len(alive), 3), -1, np.int64)]
-    n = len(alive)
-    pu, pv, pw = [], [], []
-    for e, (a, b, path) in work.edges.items():
-        ia, ib = index[a], index[b]
-        if len(path) < 2:
-            if ia != ib:
-                pu.append(ia), pv.append(ib), pw.append(work.length[e])
-            continue
-        step = np.abs(np.diff(path.astype(np.int64), axis=0))
-        arc = np.r_[0.0, np.cumsum(np.where(step.min(axis=1) > 0, SQRT2, 1.0))]
-        total = arc[-1]
-        k = int(total // spacing_px)
-        cut = np.searchsorted(arc, total * np.arange(1, k) / k) if k > 1 else np.empty(0, int)
-        cut = np.unique(cut[(arc[cut] >= keep_px) & (total - arc[cut] >= keep_px)])
-        ids = np.r_[ia, n + np.arange(cut.size), ib]
-        marks = np.r_[0.0, arc[cut], total]
-        pos.append(path[cut].astype(np.int64))
-        deg.append(np.full(cut.size, 2, np.int64))
-        on_edge.append(np.tile(np.array([ia, ib, n], np.int64), (cut.size, 1)))
-        n += cut.size
-        ok = ids[:-1] != ids[1:]
-        pu.append(ids[:-1][ok]), pv.append(ids[1:][ok]), pw.append(np.diff(marks)[ok])
-    u = (
-        np.concatenate([np.atleast_1d(x) for x in pu]).astype(np.int64)
-        if pu
-        else np.empty(0, np.int64)
+    n0 = len(alive)
+    vpos = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2)
+    vdeg = np.array([len(work.adj[v]) for v in alive], np.int64)
+    ends = np.array([(index[a], index[b]) for a, b, _ in work.edges.values()], np.int64)
+    ends = ends.reshape(-1, 2)
+    paths = [path for _, _, path in work.edges.values()]
+    sizes = np.array([len(p) for p in paths], np.int64)
+    lengths = np.array([work.length[e] for e in work.edges], np.float64)
+    # a one-pixel edge has no anchor: one piece of its recorded length
+    single = (sizes < 2) & (ends[:, 0] != ends[:, 1])
+    long = sizes >= 2
+    every = (
+        np.concatenate([p for p, ok in zip(paths, long, strict=True) if ok]).astype(np.int64)
+        if long.any()
+        else np.zeros((0, 2), np.int64)
     )
-    v = (
-        np.concatenate([np.atleast_1d(x) for x in pv]).astype(np.int64)
-        if pv
-        else np.empty(0, np.int64)
+    starts = np.r_[0, np.cumsum(sizes[long])[:-1]].astype(np.int64)
+    at, first, owner, pu, pv, pw = anchor_pieces(
+        every, starts, sizes[long], ends[long, 0], ends[long, 1], n0, spacing_px, keep_px
     )
-    w = np.concatenate([np.atleast_1d(x) for x in pw]).astype(np.float64) if pw else np.empty(0)
+    on = np.full((n0 + at.size, 3), -1, np.int64)
+    on[n0:, 0] = ends[long, 0][owner]
+    on[n0:, 1] = ends[long, 1][owner]
+    on[n0:, 2] = first
+    pos = np.concatenate([vpos, every[at]])
+    deg = np.concatenate([vdeg, np.full(at.size, 2, np.int64)])
+    u = np.r_[ends[single, 0], pu].astype(np.int64)
+    v = np.r_[ends[single, 1], pv].astype(np.int64)
+    w = np.r_[lengths[single], pw].astype(np.float64)
     lo, hi = np.minimum(u, v), np.maximum(u, v)
     order = np.lexsort((w, hi, lo))
     lo, hi, w = lo[order], hi[order], w[order]
-    first = np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])] if lo.size else lo.astype(bool)
-    on = np.concatenate(on_edge)
-    return np.concatenate(pos), np.concatenate(deg), on, lo[first], hi[first], w[first]
+    keep = np.r_[True, (lo[1:] != lo[:-1]) | (hi[1:] != hi[:-1])] if lo.size else lo.astype(bool)
+    return pos, deg, on, lo[keep], hi[keep], w[keep]
 
 
 def add_shortcuts(

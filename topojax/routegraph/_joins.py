@@ -3,18 +3,39 @@ feasible shortest paths, and vertices at given graph pixels (edges split there).
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from skimage.graph import MCP_Geometric
 
-from ..graph.work import WorkGraph, line_pixels
+from .._jit import cached_njit
+from ..graph.work import WorkGraph, line_into
 
-__all__ = ["attach_points", "geodesic_path", "segment_ok"]
+__all__ = ["attach_points", "geodesic_path", "mask_pixels", "segment_ok"]
+
+
+def mask_pixels(mask: np.ndarray) -> np.ndarray:
+    """``(row, col)`` of the set pixels of ``mask`` (bool (H, W)) in raster order, int64
+    (N, 2): ``np.argwhere(mask)``, faster."""
+    found = cv2.findNonZero(mask.view(np.uint8))
+    if found is None:
+        return np.zeros((0, 2), np.int64)
+    return found.reshape(-1, 2)[:, ::-1].astype(np.int64)
+
+
+@cached_njit(nogil=True)
+def _line_if_feasible(r0, c0, r1, c1, feasible, out):
+    n = line_into(r0, c0, r1, c1, out)
+    for i in range(n):
+        if not feasible[out[i, 0], out[i, 1]]:
+            return False
+    return True
 
 
 def segment_ok(a, b, feasible: np.ndarray) -> np.ndarray | None:
     """The straight pixel line from ``a`` to ``b`` if all its pixels are feasible."""
-    path = line_pixels(a, b)
-    return path if feasible[path[:, 0], path[:, 1]].all() else None
+    r0, c0, r1, c1 = int(a[0]), int(a[1]), int(b[0]), int(b[1])
+    out = np.empty((max(abs(r1 - r0), abs(c1 - c0)) + 1, 2), np.int32)
+    return out if _line_if_feasible(r0, c0, r1, c1, feasible, out) else None
 
 
 def attach_points(work: WorkGraph, pixels: list, shape: tuple[int, int]) -> list[int]:
@@ -26,11 +47,16 @@ def attach_points(work: WorkGraph, pixels: list, shape: tuple[int, int]) -> list
     for k, (r, c) in enumerate(pixels):
         want[int(r) * width + int(c)].append(k)
     out = [-1] * len(pixels)
-    for v, members in enumerate(work.members):
-        if v in work.dead:
-            continue
-        for key in (members[:, 0].astype(np.int64) * width + members[:, 1]).tolist():
-            for k in want.pop(key, ()):
+    alive = [v for v in range(len(work.members)) if v not in work.dead]
+    if alive and want:
+        mem = np.concatenate([work.members[v] for v in alive]).astype(np.int64)
+        owner = np.repeat(alive, [len(work.members[v]) for v in alive])
+        keys = mem[:, 0] * width + mem[:, 1]
+        sel = np.flatnonzero(np.isin(keys, np.fromiter(want, np.int64)))
+        # the vertex of lowest id holding a pixel takes it
+        hit_keys, first = np.unique(keys[sel], return_index=True)
+        for key, v in zip(hit_keys.tolist(), owner[sel[first]].tolist(), strict=True):
+            for k in want.pop(key):
                 out[k] = v
     splits: dict[int, dict[int, list]] = {}
     if want:

@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 from ..graph import skeleton_to_graph
 from ..graph.work import WorkGraph, drop_spurs, line_pixels
 from ..skeleton import thin
-from ._joins import attach_points, geodesic_path, segment_ok
+from ._joins import attach_points, geodesic_path, mask_pixels, segment_ok
 
 __all__ = ["LANE_INSET", "LANE_MIN_AREA", "add_lanes"]
 
@@ -113,7 +113,7 @@ def add_lanes(
     lanes = _lane_pixels(uncovered, feasible, wall, snap_px, along_walls)
     if lanes is None or not lanes.any():
         return False
-    graph_px = np.argwhere(raster)
+    graph_px = mask_pixels(raster)
     groups = _merged(work, lanes, snap_px)
     if graph_px.size == 0:
         return True

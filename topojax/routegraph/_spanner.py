@@ -14,10 +14,13 @@ from .._jit import cached_njit
 from ..graph.work import line_into
 
 __all__ = [
+    "anchor_pieces",
     "greedy_shortcuts",
     "see_any",
+    "see_named",
     "see_nearest",
     "simplify_path",
+    "simplify_paths",
     "straight_is_feasible",
 ]
 
@@ -328,3 +331,103 @@ def see_any(rows, cols, raster, feasible, snap_px):
             if out[k]:
                 break
     return out
+
+
+@cached_njit(nogil=True)
+def anchor_pieces(every, starts, sizes, ia, ib, n0, spacing, keep):
+    """Anchors along the edges (paths ``every[starts[e]:starts[e] + sizes[e]]``, each of
+    at least two pixels, between nodes ``ia[e]`` and ``ib[e]``): ``k - 1`` cuts splitting
+    an edge of arc length ``L`` into ``k = floor(L / spacing)`` equal parts, moved to the
+    first pixel at or past each cut and kept at least ``keep`` from both ends.  Anchors
+    are numbered from ``n0`` in edge order.
+
+    Returns ``(at (A,), first (A,), edge (A,), u, v (P,), w (P,))``: each anchor's index
+    into ``every``, the number of the first anchor of its edge, its edge, and the pieces
+    between consecutive nodes along every edge (no self-loops) with their lengths."""
+    total_px = every.shape[0]
+    at = np.empty(total_px, np.int64)
+    first = np.empty(total_px, np.int64)
+    owner = np.empty(total_px, np.int64)
+    pu = np.empty(total_px + sizes.shape[0], np.int64)
+    pv = np.empty(total_px + sizes.shape[0], np.int64)
+    pw = np.empty(total_px + sizes.shape[0], np.float64)
+    arc = np.empty(sizes.max() if sizes.shape[0] else 1, np.float64)
+    n_at, n_p, n = 0, 0, n0
+    for e in range(sizes.shape[0]):
+        s0, m = starts[e], sizes[e]
+        arc[0] = 0.0
+        for j in range(1, m):
+            diagonal = every[s0 + j, 0] != every[s0 + j - 1, 0] and (
+                every[s0 + j, 1] != every[s0 + j - 1, 1]
+            )
+            arc[j] = arc[j - 1] + (_SQRT2 if diagonal else 1.0)
+        total = arc[m - 1]
+        k = 0 if math.isinf(spacing) else int(total // spacing)
+        prev_node, prev_mark, first_here, last_cut = ia[e], 0.0, n, -1
+        for i in range(1, k):
+            x = total * i / k
+            c = 0
+            while arc[c] < x:
+                c += 1
+            if c == last_cut or arc[c] < keep or total - arc[c] < keep:
+                continue
+            last_cut = c
+            at[n_at], first[n_at], owner[n_at] = s0 + c, first_here, e
+            n_at += 1
+            if prev_node != n:
+                pu[n_p], pv[n_p], pw[n_p] = prev_node, n, arc[c] - prev_mark
+                n_p += 1
+            prev_node, prev_mark = n, arc[c]
+            n += 1
+        if prev_node != ib[e]:
+            pu[n_p], pv[n_p], pw[n_p] = prev_node, ib[e], total - prev_mark
+            n_p += 1
+    return at[:n_at], first[:n_at], owner[:n_at], pu[:n_p], pv[:n_p], pw[:n_p]
+
+
+@cached_njit(nogil=True)
+def simplify_paths(every, starts, sizes, feasible, tol):
+    """:func:`simplify_path` of each path ``every[starts[e]:starts[e] + sizes[e]]``;
+    returns the kept pixels of all of them (bool, the length of ``every``)."""
+    keep = np.zeros(every.shape[0], np.bool_)
+    for e in range(sizes.shape[0]):
+        s0 = starts[e]
+        keep[s0 : s0 + sizes[e]] = simplify_path(every[s0 : s0 + sizes[e]], feasible, tol)
+    return keep
+
+
+@cached_njit(nogil=True)
+def see_named(test, label, graph_px, wall, feasible, snap_px, reach_px, exact):
+    """One pass over the pixels ``test`` (bool (H, W)): a pixel is covered when the graph
+    pixel its ``label`` names (``graph_px[label - 1]``) is within ``snap_px`` and seen
+    along a straight feasible segment (no walk needed when the segment is shorter than
+    the pixel's ``wall`` distance minus one).  Returns ``(covered bool (H, W), rows,
+    cols)``: the pixels not covered so whose named pixel is within ``reach_px`` and
+    whose ``exact`` distance to the graph is within ``snap_px`` (another graph pixel may
+    be seen)."""
+    h, w = test.shape
+    out = np.zeros((h, w), np.bool_)
+    snap2 = snap_px * snap_px
+    reach2 = reach_px * reach_px
+    rows = np.empty(16, np.int64)
+    cols = np.empty(16, np.int64)
+    n = 0
+    for r in range(h):
+        for c in range(w):
+            if not test[r, c]:
+                continue
+            k = label[r, c] - 1
+            nr, nc = graph_px[k, 0], graph_px[k, 1]
+            d2 = (nr - r) * (nr - r) + (nc - c) * (nc - c)
+            if d2 <= snap2:
+                d = math.sqrt(float(d2))
+                if d + 1.0 < wall[r, c] or straight_is_feasible(r, c, nr, nc, feasible):
+                    out[r, c] = True
+                    continue
+            if d2 <= reach2 and exact[r, c] <= snap_px + 1e-3:
+                if n == rows.shape[0]:
+                    rows = np.concatenate((rows, np.empty(n, np.int64)))
+                    cols = np.concatenate((cols, np.empty(n, np.int64)))
+                rows[n], cols[n] = r, c
+                n += 1
+    return out, rows[:n], cols[:n]

@@ -18,7 +18,7 @@ from ..graph.store import fill_multigraph
 from ..graph.work import WorkGraph, collapse_loops, drop_spurs, face_labels
 from ..skeleton import thin
 from ._cover import add_coverage, add_shortcuts
-from ._spanner import simplify_path
+from ._spanner import simplify_paths
 from .feasible import FeasibleSpace, feasible_space
 
 __all__ = ["RouteGraphConfig", "route_graph"]
@@ -151,15 +151,20 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         cfg = replace(cfg, robot_radius_m=robot_radius_m)
     t0 = time.perf_counter()
     space = feasible_space(occupancy, cfg.robot_radius_m)
-    feasible = _kept_regions(space, cfg.min_region_m2)
+    # the graph is built in the window round the kept regions (with a margin of pixels
+    # that are not feasible), in the window's pixel coordinates
+    window = _window(_kept_regions(space, cfg.min_region_m2), margin=2)
+    feasible = np.ascontiguousarray(_kept_regions(space, cfg.min_region_m2)[window])
+    origin = (window[0].start, window[1].start)
     t1 = time.perf_counter()
     skeleton = thin(feasible)
     t2 = time.perf_counter()
-    work, res = _sparse_skeleton_graph(skeleton, space, cfg)
+    work = _sparse_skeleton_graph(skeleton, space, window, cfg)
+    res = space.resolution_m
     t3 = time.perf_counter()
     # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
     snap_px = max(1.0, (cfg.snap_m - cfg.waypoint_tolerance_m) / res)
-    uncovered = add_coverage(work, feasible, snap_px)
+    uncovered = add_coverage(work, feasible, snap_px, origin=origin)
     work.contract_all()
     add_shortcuts(
         work,
@@ -174,7 +179,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     )
     work.contract_all()
     t4 = time.perf_counter()
-    graph = _assemble(work, occupancy, space, cfg)
+    graph = _assemble(work, occupancy, space, cfg, origin)
     t5 = time.perf_counter()
     n_feasible = int(np.count_nonzero(feasible))
     graph.graph["uncovered_share"] = (
@@ -197,17 +202,36 @@ def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:
     return keep[space.labels]
 
 
-def _sparse_skeleton_graph(skeleton: np.ndarray, space: FeasibleSpace, cfg: RouteGraphConfig):
-    """The skeleton's graph (junction clusters merged) without loops around small
-    obstacles and without medial-axis spurs; returns it and the resolution."""
+def _window(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
+    """The bounding box of ``mask``'s set pixels grown by ``margin`` pixels (clipped to
+    the map), starting at an even row and column (so that halves round to even the
+    same way in the window as in the map); the whole map when none is set."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    cols = np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
+        return slice(0, mask.shape[0]), slice(0, mask.shape[1])
+    h, w = mask.shape
+    r0 = max(0, int(rows[0]) - margin) // 2 * 2
+    c0 = max(0, int(cols[0]) - margin) // 2 * 2
+    return (
+        slice(r0, min(h, int(rows[-1]) + margin + 1)),
+        slice(c0, min(w, int(cols[-1]) + margin + 1)),
+    )
+
+
+def _sparse_skeleton_graph(
+    skeleton: np.ndarray, space: FeasibleSpace, window: tuple[slice, slice], cfg: RouteGraphConfig
+) -> WorkGraph:
+    """The graph of the ``skeleton`` of the ``window`` of the map (junction clusters
+    merged) without loops around small obstacles and without medial-axis spurs."""
     res = space.resolution_m
-    clearance_px = space.clearance_m / np.float32(res)
+    clearance_px = space.clearance_m[window] / np.float32(res)
     graph = skeleton_to_graph(skeleton, resolution_m=res, merge_junction_clusters=True)
     work = WorkGraph.from_networkx(graph)
     collapse_loops(
         work,
         face_labels(skeleton),
-        space.free,
+        space.free[window],
         clearance_px,
         cfg.loop_m / res,
         cfg.loop_clearance_factor,
@@ -217,16 +241,18 @@ def _sparse_skeleton_graph(skeleton: np.ndarray, space: FeasibleSpace, cfg: Rout
     feasible_clear = np.maximum(clearance_px - np.float32(cfg.robot_radius_m / res), 0)
     drop_spurs(work, feasible_clear, cfg.spur_m / res, cfg.spur_clearance_factor)
     work.contract_all()
-    return work, res
+    return work
 
 
-def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphConfig):
-    """The networkx graph of ``work`` with :func:`topojax.build_graph`'s schema."""
+def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphConfig, origin):
+    """The networkx graph of ``work`` (in the pixels of the window of the map from pixel
+    ``origin``) with :func:`topojax.build_graph`'s schema, in the map's pixels."""
     res = space.resolution_m
+    shift = np.array(origin, np.int32)
     alive = [v for v in range(len(work.pixel)) if v not in work.dead]
     alive.sort(key=lambda v: work.pixel[v])
     new_id = {v: k for k, v in enumerate(alive)}
-    pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2)
+    pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2) + shift
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
     node_attrs = []
     for k, v in enumerate(alive):
@@ -236,7 +262,7 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
         node_attrs.append(
             {
                 "pixel": (int(pix[k, 0]), int(pix[k, 1])),
-                "pixels": np.ascontiguousarray(work.members[v], np.int32),
+                "pixels": np.ascontiguousarray(work.members[v] + shift, np.int32),
                 "world": (float(wx[k]), float(wy[k])),
                 "kind": kind,
                 "clearance_m": float(space.clearance_m[pix[k, 0], pix[k, 1]]),
@@ -251,7 +277,7 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
             a, b, path = b, a, path[::-1]
         order.append((a, b, len(order)))
         ends.append(e)
-        paths.append(np.ascontiguousarray(path, np.int32))
+        paths.append(np.ascontiguousarray(path + shift, np.int32))
     order.sort()
     sizes = np.array([len(p) for p in paths], np.int64)
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
@@ -261,11 +287,12 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
     clear = space.clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
     c_min = np.minimum.reduceat(clear, starts) if paths else clear
     c_mean = np.add.reduceat(clear, starts) / sizes if paths else clear
+    kept = simplify_paths(every.astype(np.int64), starts, sizes, space.feasible, tol_px)
     edges = []
     for a, b, k in order:
         path = paths[k]
         world = world_all[starts[k] : starts[k] + sizes[k]].copy()
-        keep = np.flatnonzero(simplify_path(path.astype(np.int64), space.feasible, tol_px))
+        keep = kept[starts[k] : starts[k] + sizes[k]]
         attrs = {
             "path": path,
             "world": world,
