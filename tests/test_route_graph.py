@@ -446,3 +446,30 @@ def test_coverage_equals_a_brute_force_reference(seed, few, monkeypatch):
     snap = 7.5
     got = _cover.covered(raster, feasible, snap)
     assert np.array_equal(got, _brute_covered(raster, feasible, snap))
+
+
+def test_route_graph_moves_with_the_map():
+    """Unknown space added round a map (by odd and even numbers of pixels) moves the
+    graph by as many pixels and changes nothing else."""
+    free = _random_plan(3)
+    g0 = route_graph(_map(free), robot_radius_m=R)
+    for top, left in ((3, 0), (0, 5), (7, 2)):
+        padded = np.pad(free, ((top, 4), (left, 1)))
+        occ = OccupancyMap(
+            occupied=np.zeros_like(padded),
+            free=padded,
+            unknown=~padded,
+            resolution_m=RES,
+        )
+        g = route_graph(occ, robot_radius_m=R)
+        assert g.number_of_nodes() == g0.number_of_nodes()
+        assert g.number_of_edges() == g0.number_of_edges()
+        shift = np.array([top, left])
+        for n in g0.nodes:
+            assert tuple(np.add(g0.nodes[n]["pixel"], shift)) == g.nodes[n]["pixel"]
+        e0 = sorted((u, v, np.asarray(d["path"]).tobytes()) for u, v, d in g0.edges(data=True))
+        e1 = sorted(
+            (u, v, (np.asarray(d["path"]) - shift).astype(np.int32).tobytes())
+            for u, v, d in g.edges(data=True)
+        )
+        assert e0 == e1

@@ -104,16 +104,13 @@ def wall_distance(feasible: np.ndarray) -> np.ndarray:
     return cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
 
 
-def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float, origin=(0, 0)) -> np.ndarray:
-    """Uncovered pixels on a square grid of ``spacing_px`` (laid from the map's corner,
-    ``uncovered`` being the window of the map from pixel ``origin``), plus one pixel of
-    each uncovered component that holds no grid point."""
+def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray:
+    """Uncovered pixels on a square grid of ``spacing_px``, plus one pixel of each
+    uncovered component that holds no grid point."""
     h, w = uncovered.shape
     s = max(1.0, spacing_px)
-    r0, c0 = int(origin[0]), int(origin[1])
-    rows = np.arange(s / 2, r0 + h, s).astype(np.int64) - r0
-    cols = np.arange(s / 2, c0 + w, s).astype(np.int64) - c0
-    rows, cols = rows[rows >= 0], cols[cols >= 0]
+    rows = np.arange(s / 2, h, s).astype(np.int64)
+    cols = np.arange(s / 2, w, s).astype(np.int64)
     rr, cc = np.meshgrid(rows, cols, indexing="ij")
     on = uncovered[rr, cc]
     pts = [np.stack([rr[on], cc[on]], axis=1)]
@@ -132,15 +129,14 @@ def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float, origin=(0, 0)
 
 
 def add_coverage(
-    work: WorkGraph, feasible: np.ndarray, snap_px: float, rounds: int = 6, origin=(0, 0)
+    work: WorkGraph, feasible: np.ndarray, snap_px: float, rounds: int = 6
 ) -> np.ndarray:
     """Add lanes (:func:`add_lanes`: first along the walls, then the skeleton of what is
     left, at most :data:`LANE_ROUNDS` rounds), then waypoints joined by straight feasible
     edges (a shortest spanning tree, or a feasible shortest path where no straight edge
     reaches), until every feasible pixel is covered (:func:`covered`) or ``rounds``
-    waypoint rounds are spent; ``feasible`` is the window of the map from pixel
-    ``origin`` (the waypoint grid is laid from the map's corner).  Returns the feasible
-    pixels still uncovered (bool (H, W))."""
+    waypoint rounds are spent.  Returns the feasible pixels still uncovered (bool
+    (H, W))."""
     shape = feasible.shape
     spacing = COVER_SPACING * snap_px
     lane_round, grid_round = 0, 0
@@ -158,7 +154,7 @@ def add_coverage(
             lane_round += 1
             continue
         lane_round = LANE_ROUNDS  # pieces too small for lanes: waypoints from now on
-        pts = _waypoint_candidates(uncovered, spacing, origin)
+        pts = _waypoint_candidates(uncovered, spacing)
         _connect_waypoints(work, pts, raster, feasible, spacing)
         spacing *= 0.7  # leftovers lie between earlier waypoints
         grid_round += 1

@@ -152,19 +152,22 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     t0 = time.perf_counter()
     space = feasible_space(occupancy, cfg.robot_radius_m)
     # the graph is built in the window round the kept regions (with a margin of pixels
-    # that are not feasible), in the window's pixel coordinates
-    window = _window(_kept_regions(space, cfg.min_region_m2), margin=2)
-    feasible = np.ascontiguousarray(_kept_regions(space, cfg.min_region_m2)[window])
-    origin = (window[0].start, window[1].start)
+    # that are not feasible), in the window's pixel coordinates: the same graph wherever
+    # the regions lie in the map
+    kept = _kept_regions(space, cfg.min_region_m2)
+    origin, size = _window(kept, margin=2)
+    feasible, free, clearance_m = (
+        _crop(a, origin, size) for a in (kept, space.free, space.clearance_m)
+    )
     t1 = time.perf_counter()
     skeleton = thin(feasible)
     t2 = time.perf_counter()
-    work = _sparse_skeleton_graph(skeleton, space, window, cfg)
     res = space.resolution_m
+    work = _sparse_skeleton_graph(skeleton, free, clearance_m, res, cfg)
     t3 = time.perf_counter()
     # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
     snap_px = max(1.0, (cfg.snap_m - cfg.waypoint_tolerance_m) / res)
-    uncovered = add_coverage(work, feasible, snap_px, origin=origin)
+    uncovered = add_coverage(work, feasible, snap_px)
     work.contract_all()
     add_shortcuts(
         work,
@@ -202,36 +205,45 @@ def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:
     return keep[space.labels]
 
 
-def _window(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
-    """The bounding box of ``mask``'s set pixels grown by ``margin`` pixels (clipped to
-    the map), starting at an even row and column (so that halves round to even the
-    same way in the window as in the map); the whole map when none is set."""
+def _window(mask: np.ndarray, margin: int) -> tuple[tuple[int, int], tuple[int, int]]:
+    """``(origin, size)``: the bounding box of ``mask``'s set pixels grown by ``margin``
+    pixels (it may reach past the map); the whole map when none is set."""
     rows = np.flatnonzero(mask.any(axis=1))
     cols = np.flatnonzero(mask.any(axis=0))
     if rows.size == 0:
-        return slice(0, mask.shape[0]), slice(0, mask.shape[1])
-    h, w = mask.shape
-    r0 = max(0, int(rows[0]) - margin) // 2 * 2
-    c0 = max(0, int(cols[0]) - margin) // 2 * 2
-    return (
-        slice(r0, min(h, int(rows[-1]) + margin + 1)),
-        slice(c0, min(w, int(cols[-1]) + margin + 1)),
-    )
+        return (0, 0), mask.shape
+    r0, c0 = int(rows[0]) - margin, int(cols[0]) - margin
+    return (r0, c0), (int(rows[-1]) + margin + 1 - r0, int(cols[-1]) + margin + 1 - c0)
+
+
+def _crop(a: np.ndarray, origin: tuple[int, int], size: tuple[int, int]) -> np.ndarray:
+    """The window ``size`` of ``a`` from pixel ``origin``, zero (False) past the map."""
+    out = np.zeros(size, a.dtype)
+    r0, c0 = origin
+    h, w = a.shape
+    rs, cs = max(r0, 0), max(c0, 0)
+    re, ce = min(r0 + size[0], h), min(c0 + size[1], w)
+    out[rs - r0 : re - r0, cs - c0 : ce - c0] = a[rs:re, cs:ce]
+    return out
 
 
 def _sparse_skeleton_graph(
-    skeleton: np.ndarray, space: FeasibleSpace, window: tuple[slice, slice], cfg: RouteGraphConfig
+    skeleton: np.ndarray,
+    free: np.ndarray,
+    clearance_m: np.ndarray,
+    res: float,
+    cfg: RouteGraphConfig,
 ) -> WorkGraph:
-    """The graph of the ``skeleton`` of the ``window`` of the map (junction clusters
-    merged) without loops around small obstacles and without medial-axis spurs."""
-    res = space.resolution_m
-    clearance_px = space.clearance_m[window] / np.float32(res)
+    """The graph of ``skeleton`` (junction clusters merged) without loops around small
+    obstacles and without medial-axis spurs; ``free`` and ``clearance_m`` (metres) of the
+    same pixels, ``res`` metres per pixel."""
+    clearance_px = clearance_m / np.float32(res)
     graph = skeleton_to_graph(skeleton, resolution_m=res, merge_junction_clusters=True)
     work = WorkGraph.from_networkx(graph)
     collapse_loops(
         work,
         face_labels(skeleton),
-        space.free[window],
+        free,
         clearance_px,
         cfg.loop_m / res,
         cfg.loop_clearance_factor,
