@@ -473,3 +473,60 @@ def test_route_graph_moves_with_the_map():
             for u, v, d in g.edges(data=True)
         )
         assert e0 == e1
+
+
+def _wall_end_room() -> np.ndarray:
+    """A 10 m x 10 m room split by a wall from its top edge down to 6 m: the free space
+    is a U round the wall's end."""
+    free = _room(10, 10)
+    free[: _px(6), _px(4.9) : _px(5.1)] = False
+    return free
+
+
+def test_reflex_corners_are_where_the_free_space_turns_round_an_obstacle():
+    from topojax.routegraph._corners import reflex_corners
+
+    occ = _map(_wall_end_room())
+    feasible = feasible_space(occ, R).feasible
+    corners = reflex_corners(feasible)
+    assert len(corners) >= 1 and feasible[corners[:, 0], corners[:, 1]].all()
+    # the wall's end (row 6 m, col 5 m) has corners near it; the room's own corners
+    # (where the free space is convex) have none
+    end = np.array([_px(6), _px(5)])
+    d = np.hypot(*(corners - end).T)
+    assert (d < _px(0.6)).any()
+    for corner in ([0, 0], [0, _px(10)], [_px(10), 0], [_px(10), _px(10)]):
+        assert np.hypot(*(corners - np.array(corner)).T).min() > _px(1.0)
+
+
+def test_shortcuts_bend_round_a_wall_end():
+    """Routes from one side of the wall to the other hug its end: with
+    ``shortcuts_round_corners`` an edge passes close by it and routes are shorter."""
+    occ = _map(_wall_end_room())
+    on = route_graph(occ, robot_radius_m=R)
+    off = route_graph(occ, config=RouteGraphConfig(shortcuts_round_corners=False))
+    end = np.array([_px(6), _px(5)])
+
+    def nearest_px(g):
+        return min(np.hypot(*(np.asarray(d["path"]) - end).T).min() for *_, d in g.edges(data=True))
+
+    assert nearest_px(on) < _px(R + 0.25) < nearest_px(off)
+    _assert_safe(on, occ)
+    _assert_one_component_per_region(on, occ)
+    e_on = tj.evaluate_route_graph(on, occ, robot_radius_m=R, n_pairs=200)
+    e_off = tj.evaluate_route_graph(off, occ, robot_radius_m=R, n_pairs=200)
+    assert e_on.stretch_median < e_off.stretch_median
+    assert e_on.short_loops == 0
+
+
+def test_bent_shortcuts_close_no_short_loop_through_a_shared_corner():
+    """Pillars in a hall: many routes bend round each pillar's corners; no loop shorter
+    than twice ``loop_m`` appears, through a corner used twice or otherwise."""
+    free = _room(12, 12)
+    for r in (3, 6, 9):
+        for c in (3, 6, 9):
+            free[_px(r) - 6 : _px(r) + 6, _px(c) - 6 : _px(c) + 6] = False
+    occ = _map(free)
+    g = route_graph(occ, robot_radius_m=R)
+    assert tj.evaluate_route_graph(g, occ, robot_radius_m=R, n_pairs=50).short_loops == 0
+    _assert_safe(g, occ)

@@ -14,6 +14,7 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from ..graph.work import WorkGraph, line_pixels
+from ._corners import bent_candidates, reflex_corners
 from ._joins import attach_points, geodesic_path, mask_pixels, segment_ok
 from ._lanes import add_lanes
 from ._spanner import anchor_pieces, greedy_shortcuts, see_any, see_named, see_nearest
@@ -280,6 +281,39 @@ def _anchor_graph(work: WorkGraph, alive: list[int], spacing_px: float, keep_px:
     return pos, deg, on, lo[keep], hi[keep], w[keep]
 
 
+def _same_edge(a, b, on, vert_key, m) -> np.ndarray:
+    """Pairs of nodes (vertex or anchor ids ``a``, ``b``) that are no shortcut pair: two
+    anchors of one edge, an anchor and its edge's end vertices or their neighbours, two
+    anchors of edges with a common end."""
+    same = np.zeros(len(a), bool)
+    for x, y in ((a, b), (b, a)):
+        anchor = on[x, 2] >= 0
+        for end in (on[x, 0], on[x, 1]):
+            same |= anchor & (end == y)
+            if (on[y, 2] >= 0).any():
+                same |= anchor & (on[y, 2] >= 0) & ((end == on[y, 0]) | (end == on[y, 1]))
+            same |= anchor & (on[y, 2] < 0) & np.isin(end * m + y, vert_key)
+    return same
+
+
+def _route_lengths(mat, a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
+    """Graph distance from each node ``a`` to ``b`` (inf past ``limit``)."""
+    m = mat.shape[0]
+    out = np.empty(len(a))
+    order = np.argsort(a, kind="stable")
+    a_s = a[order]
+    sources = np.unique(a_s)
+    chunk = max(1, 4_000_000 // m)
+    for s in range(0, len(sources), chunk):
+        src = sources[s : s + chunk]
+        d = dijkstra(mat, directed=False, indices=src, limit=limit)
+        lo = np.searchsorted(a_s, src[0], "left")
+        hi = np.searchsorted(a_s, src[-1], "right")
+        sel = order[lo:hi]
+        out[sel] = d[np.searchsorted(src, a_s[lo:hi]), b[sel]]
+    return out
+
+
 def add_shortcuts(
     work: WorkGraph,
     feasible: np.ndarray,
@@ -290,6 +324,7 @@ def add_shortcuts(
     end_px: float = 2.0,
     min_loop_px: float = 0.0,
     anchor_px: float = 0.0,
+    round_corners: bool = False,
 ) -> int:
     """Greedy spanner: for node pairs at most ``radius_px`` apart, shortest first, add a
     straight feasible edge when the graph route between them is longer than ``stretch``
@@ -298,7 +333,12 @@ def add_shortcuts(
     no loop shorter than ``min_loop_px`` (graph route plus straight line).  The nodes are
     the vertices (with ``from_dead_ends`` False, only those of two or more edges) and,
     with ``anchor_px`` > 0, points about that far apart along the edges (an edge is split
-    where a shortcut starts).  Returns the number of edges added."""
+    where a shortcut starts).  With ``round_corners``, candidates also bend once, at a
+    reflex corner of the feasible space (:mod:`._corners`): two straight lines through
+    the corner joining two nodes that do not see each other, by the same rules except
+    that both ends may be anchors and that the two lines may cross other edges (no
+    vertex is made there); neither line may close a loop shorter than ``min_loop_px``
+    through a corner already in the graph.  Returns the number of shortcuts added."""
     min_deg = 1 if from_dead_ends else 2
     alive = [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
     if len(alive) < 2 or radius_px <= 0:
@@ -307,77 +347,87 @@ def add_shortcuts(
     pos_i, deg, on, ka, kb, kw = _anchor_graph(work, alive, spacing, max(end_px, 1.0))
     pos = pos_i.astype(np.float64)
     m = len(pos)
-    pairs = cKDTree(pos).query_pairs(radius_px, output_type="ndarray")
-    if len(pairs):
-        a, b = pairs[:, 0], pairs[:, 1]
-        # no shortcut along one edge or round one vertex (it would cut a bend or a corner
-        # into a thin loop around nothing)
-        same = np.zeros(len(pairs), bool)
-        index = {v: k for k, v in enumerate(alive)}
-        ends = np.array([(index[u], index[v]) for u, v, _ in work.edges.values()], np.int64)
-        vert_key = np.r_[ends[:, 0] * m + ends[:, 1], ends[:, 1] * m + ends[:, 0]]
-        for x, y in ((a, b), (b, a)):
-            anchor = on[x, 2] >= 0
-            for end in (on[x, 0], on[x, 1]):
-                same |= anchor & (end == y)
-                if (on[y, 2] >= 0).any():
-                    same |= anchor & (on[y, 2] >= 0) & ((end == on[y, 0]) | (end == on[y, 1]))
-                same |= anchor & (on[y, 2] < 0) & np.isin(end * m + y, vert_key)
-        # at least one end a vertex: a shortcut between two anchors splits two edges, and
-        # between neighbouring lanes of an open room such rungs would make a mesh
-        vertex_end = (a < len(alive)) | (b < len(alive))
-        pairs = pairs[(deg[a] >= min_deg) & (deg[b] >= min_deg) & ~same & vertex_end]
-    if len(pairs) == 0:
+    index = {v: k for k, v in enumerate(alive)}
+    ends = np.array([(index[u], index[v]) for u, v, _ in work.edges.values()], np.int64)
+    vert_key = np.r_[ends[:, 0] * m + ends[:, 1], ends[:, 1] * m + ends[:, 0]]
+    pairs = cKDTree(pos).query_pairs(radius_px, output_type="ndarray").reshape(-1, 2)
+    a, b = pairs[:, 0], pairs[:, 1]
+    # no shortcut along one edge or round one vertex (it would cut a bend or a corner into
+    # a thin loop around nothing); at least one end a vertex: a shortcut between two
+    # anchors splits two edges, and between neighbouring lanes of an open room such rungs
+    # would make a mesh
+    vertex_end = (a < len(alive)) | (b < len(alive))
+    pairs = pairs[(deg[a] >= min_deg) & (deg[b] >= min_deg) & vertex_end]
+    pairs = pairs[~_same_edge(pairs[:, 0], pairs[:, 1], on, vert_key, m)]
+    corners = reflex_corners(feasible) if round_corners else np.zeros((0, 2), np.int64)
+    bent = bent_candidates(corners, pos_i, deg >= min_deg, feasible, radius_px, end_px)
+    bent = bent[~_same_edge(bent[:, 0], bent[:, 1], on, vert_key, m)]
+    via = pos[bent[:, 0]] - corners[bent[:, 2]], corners[bent[:, 2]] - pos[bent[:, 1]]
+    length = np.r_[
+        np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T),
+        np.hypot(*via[0].T) + np.hypot(*via[1].T),
+    ]
+    cand_a = np.r_[pairs[:, 0], bent[:, 0]].astype(np.int64)
+    cand_b = np.r_[pairs[:, 1], bent[:, 1]].astype(np.int64)
+    cand_c = np.r_[np.full(len(pairs), -1), m + bent[:, 2]].astype(np.int64)
+    if cand_a.size == 0:
         return 0
     mat = coo_matrix((kw, (ka, kb)), shape=(m, m)).tocsr()
-    straight = np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T)
-    sources = np.unique(pairs[:, 0])
-    graph_d = np.empty(len(pairs))
-    limit = stretch * radius_px
-    chunk = max(1, 4_000_000 // m)
-    for s in range(0, len(sources), chunk):
-        src = sources[s : s + chunk]
-        d = dijkstra(mat, directed=False, indices=src, limit=limit)
-        row_of = np.full(m, -1, np.int64)
-        row_of[src] = np.arange(len(src))
-        sel = np.isin(pairs[:, 0], src)
-        graph_d[sel] = d[row_of[pairs[sel, 0]], pairs[sel, 1]]
-    need = np.maximum(stretch * straight, straight + gain_px)
-    cand = np.flatnonzero((graph_d > need) & (graph_d + straight >= min_loop_px))
-    cand = cand[np.argsort(straight[cand], kind="stable")]
+    graph_d = _route_lengths(mat, cand_a, cand_b, stretch * 2.0 * radius_px)
+    need = np.maximum(stretch * length, length + gain_px)
+    cand = np.flatnonzero((graph_d > need) & (graph_d + length >= min_loop_px))
+    cand = cand[np.argsort(length[cand], kind="stable")]
     if cand.size == 0:
         return 0
     # shortcuts cross no edge: a crossing without a vertex would let a query point snap
     # onto a long edge that leads away from its goal (and doubles the edges in open rooms)
     occupied = _grow(graph_raster(work, feasible.shape))
-    members = [work.members[v] for v in alive] + [p[None] for p in pos_i[len(alive) :]]
+    nodes = np.concatenate([pos_i, corners]).astype(np.int64)
+    members = [work.members[v] for v in alive] + [p[None] for p in nodes[len(alive) :]]
     mem_start = np.r_[0, np.cumsum([len(x) for x in members])].astype(np.int64)
     taken = greedy_shortcuts(
-        pos_i,
+        nodes,
         np.concatenate(members).astype(np.int64),
         mem_start,
         ka,
         kb,
         kw,
-        pairs[cand, 0].astype(np.int64),
-        pairs[cand, 1].astype(np.int64),
+        cand_a[cand],
+        cand_b[cand],
+        cand_c[cand],
         need[cand],
-        min_loop_px - straight[cand],
+        min_loop_px - length[cand],
         feasible,
         occupied,
         float(end_px),
+        float(min_loop_px),
     )
-    chosen = pairs[cand[taken]]
-    node = np.full(m, -1, np.int64)
-    node[: len(alive)] = alive
-    anchors = np.unique(chosen[chosen >= len(alive)])
-    if anchors.size:
-        node[anchors] = attach_points(work, [tuple(p) for p in pos_i[anchors]], feasible.shape)
-    for a, b in chosen:
-        u, v = int(node[a]), int(node[b])
-        if u >= 0 and v >= 0:
-            work.add_edge(u, v, line_pixels(work.pixel[u], work.pixel[v]))
+    chosen = np.stack([cand_a[cand[taken]], cand_b[cand[taken]], cand_c[cand[taken]]], axis=1)
+    _add_chosen(work, chosen, nodes, alive, m, feasible.shape)
     return int(chosen.shape[0])
+
+
+def _add_chosen(work: WorkGraph, chosen, nodes, alive, m, shape) -> None:
+    """Add the accepted shortcuts ``chosen`` ((a, b, c) node ids, c -1 or a corner) to
+    ``work``: anchors become vertices (their edges split), used corners new vertices."""
+    node = np.full(len(nodes), -1, np.int64)
+    node[: len(alive)] = alive
+    ends = chosen[:, :2].ravel()
+    anchors = np.unique(ends[ends >= len(alive)])
+    if anchors.size:
+        node[anchors] = attach_points(work, [tuple(p) for p in nodes[anchors]], shape)
+    for c in np.unique(chosen[chosen[:, 2] >= m, 2]).tolist():
+        node[c] = work.add_vertex(nodes[c])
+    for a, b, c in chosen.tolist():
+        u, v = int(node[a]), int(node[b])
+        if u < 0 or v < 0:
+            continue
+        if c < 0:
+            work.add_edge(u, v, line_pixels(work.pixel[u], work.pixel[v]))
+        else:
+            w = int(node[c])
+            work.add_edge(u, w, line_pixels(work.pixel[u], work.pixel[w]))
+            work.add_edge(w, v, line_pixels(work.pixel[w], work.pixel[v]))
 
 
 def _grow(mask: np.ndarray) -> np.ndarray:

@@ -123,6 +123,46 @@ def _touches(seg, n, mem, ms, occupied, end_px):
 
 
 @cached_njit(nogil=True)
+def _clear_line(a, b, pos, mem, mem_start, feasible, occupied, end_px, seg, ms, cross):
+    """Draw the straight line between nodes ``a`` and ``b`` into ``seg``; its length in
+    pixels, or 0 when it leaves the feasible pixels or (unless ``cross``) touches an edge
+    away from its ends."""
+    n = line_into(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], seg)
+    for j in range(n):
+        if not feasible[seg[j, 0], seg[j, 1]]:
+            return 0
+    if cross:
+        return n
+    ms[0], ms[1], ms[2], ms[3] = mem_start[a], mem_start[a + 1], mem_start[b], mem_start[b + 1]
+    if _touches(seg, n, mem, ms, occupied, end_px):
+        return 0
+    return n
+
+
+@cached_njit(nogil=True)
+def _link(a, b, pos, head, nxt, to, wt, k):
+    """Add the straight edge ``a``-``b`` to the linked adjacency; returns the next free
+    slot."""
+    length = _line_length(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1])
+    for x, y in ((a, b), (b, a)):
+        to[k], wt[k], nxt[k] = y, length, head[x]
+        head[x] = k
+        k += 1
+    return k
+
+
+@cached_njit(nogil=True)
+def _occupy(seg, n, occupied):
+    h, w = occupied.shape
+    for j in range(n):
+        for dr in range(-1, 2):
+            for dc in range(-1, 2):
+                r = min(max(seg[j, 0] + dr, 0), h - 1)
+                c = min(max(seg[j, 1] + dc, 0), w - 1)
+                occupied[r, c] = True
+
+
+@cached_njit(nogil=True)
 def greedy_shortcuts(
     pos,
     mem,
@@ -132,24 +172,29 @@ def greedy_shortcuts(
     edge_w,
     cand_a,
     cand_b,
+    cand_c,
     need,
     short,
     feasible,
     occupied,
     end_px,
+    min_loop,
 ):
     """Accept candidate shortcuts in the given order (shortest first).
 
     Parameters
     ----------
     pos : int64 (M, 2)
-        Vertex pixels (row, col).
+        Node pixels (row, col).
     mem, mem_start : int64 (P, 2), int64 (M + 1,)
-        Member pixels of each vertex: ``mem[mem_start[v]:mem_start[v + 1]]``.
+        Member pixels of each node: ``mem[mem_start[v]:mem_start[v + 1]]``.
     edge_u, edge_v, edge_w : int64 (E,), int64 (E,), float64 (E,)
         The current edges (no self-loops) and their lengths in pixels.
     cand_a, cand_b : int64 (C,)
         Candidate shortcut ends.
+    cand_c : int64 (C,)
+        -1 for a straight shortcut; else the node it bends at (two straight lines,
+        ``a``-``c`` and ``c``-``b``).
     need : float64 (C,)
         A candidate is taken only if no route of at most this length joins its ends.
     short : float64 (C,)
@@ -161,6 +206,9 @@ def greedy_shortcuts(
         Pixels of (or next to) edges, updated in place with the accepted shortcuts.
     end_px : float
         Near its ends a shortcut may touch other edges.
+    min_loop : float
+        Through a corner already in the graph, neither leg of a bent shortcut may close
+        a loop shorter than this (<= 0: no such check).
 
     Returns
     -------
@@ -169,7 +217,7 @@ def greedy_shortcuts(
     """
     m = pos.shape[0]
     n_c = cand_a.size
-    cap = 2 * (edge_u.size + n_c) + 1
+    cap = 2 * (edge_u.size + 2 * n_c) + 1
     head = np.full(m, -1, np.int64)
     nxt = np.empty(cap, np.int64)
     to = np.empty(cap, np.int64)
@@ -186,11 +234,12 @@ def greedy_shortcuts(
     hv = np.empty(cap, np.int64)
     h, w = feasible.shape
     seg = np.empty((h + w + 1, 2), np.int64)
+    seg2 = np.empty((h + w + 1, 2), np.int64)
     ms = np.empty(4, np.int64)
     out = np.zeros(n_c, np.bool_)
     run = 0
     for i in range(n_c):
-        a, b = cand_a[i], cand_b[i]
+        a, b, c = cand_a[i], cand_b[i], cand_c[i]
         run += 1
         if _within(head, nxt, to, wt, a, b, need[i], dist, stamp, run, hk, hv):
             continue
@@ -198,28 +247,30 @@ def greedy_shortcuts(
             run += 1
             if _within(head, nxt, to, wt, a, b, short[i], dist, stamp, run, hk, hv):
                 continue
-        n = line_into(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], seg)
-        ok = True
-        for j in range(n):
-            if not feasible[seg[j, 0], seg[j, 1]]:
-                ok = False
-                break
-        if not ok:
+        mid = b if c < 0 else c
+        if c >= 0 and head[c] >= 0 and min_loop > 0:
+            # a corner already in the graph: neither leg may close a short loop through it
+            run += 1
+            leg = _line_length(pos[a, 0], pos[a, 1], pos[c, 0], pos[c, 1])
+            if _within(head, nxt, to, wt, a, c, min_loop - leg, dist, stamp, run, hk, hv):
+                continue
+            run += 1
+            leg = _line_length(pos[c, 0], pos[c, 1], pos[b, 0], pos[b, 1])
+            if _within(head, nxt, to, wt, c, b, min_loop - leg, dist, stamp, run, hk, hv):
+                continue
+        n = _clear_line(a, mid, pos, mem, mem_start, feasible, occupied, end_px, seg, ms, c >= 0)
+        if n == 0:
             continue
-        ms[0], ms[1], ms[2], ms[3] = mem_start[a], mem_start[a + 1], mem_start[b], mem_start[b + 1]
-        if _touches(seg, n, mem, ms, occupied, end_px):
-            continue
-        for j in range(n):
-            for dr in range(-1, 2):
-                for dc in range(-1, 2):
-                    r = min(max(seg[j, 0] + dr, 0), h - 1)
-                    c = min(max(seg[j, 1] + dc, 0), w - 1)
-                    occupied[r, c] = True
-        length = _line_length(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1])
-        for x, y in ((a, b), (b, a)):
-            to[k], wt[k], nxt[k] = y, length, head[x]
-            head[x] = k
-            k += 1
+        n2 = 0
+        if c >= 0:
+            n2 = _clear_line(c, b, pos, mem, mem_start, feasible, occupied, end_px, seg2, ms, True)
+            if n2 == 0:
+                continue
+            _occupy(seg2, n2, occupied)
+        _occupy(seg, n, occupied)
+        k = _link(a, mid, pos, head, nxt, to, wt, k)
+        if c >= 0:
+            k = _link(c, b, pos, head, nxt, to, wt, k)
         out[i] = True
     return out
 

@@ -67,6 +67,10 @@ class RouteGraphConfig:
     shortcuts_from_dead_ends : bool, default True
         Whether shortcuts may start at dead ends (coverage waypoints at the rim of open
         space); False gives markedly fewer edges in rooms and halls, and longer routes.
+    shortcuts_round_corners : bool, default True
+        Whether a shortcut may also bend once, round a corner the free space turns round
+        (a wall's end, a piece of furniture): the shortest routes hug such corners, which
+        no straight line between points of the medial axis follows.
     waypoint_tolerance_m : float, default 0.1
         Each edge's ``waypoints`` polyline keeps every path pixel within this distance.
     min_region_m2 : float, default 1.0
@@ -85,13 +89,14 @@ class RouteGraphConfig:
     shortcut_gain_m: float = 0.3
     shortcut_spacing_m: float = 1.0
     shortcuts_from_dead_ends: bool = True
+    shortcuts_round_corners: bool = True
     waypoint_tolerance_m: float = 0.1
     min_region_m2: float = 1.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name == "shortcuts_from_dead_ends":
+            if f.name in ("shortcuts_from_dead_ends", "shortcuts_round_corners"):
                 value = flag(f.name, value)
             elif f.name in ("snap_m", "waypoint_tolerance_m"):
                 value = positive_metres(f.name, value)
@@ -179,6 +184,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         max(2.0, cfg.robot_radius_m / res),
         2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS,
         cfg.shortcut_spacing_m / res,
+        cfg.shortcuts_round_corners,
     )
     work.contract_all()
     t4 = time.perf_counter()
