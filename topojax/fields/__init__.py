@@ -35,7 +35,8 @@ from .distance import (
     window_sq_distance_tile,
 )
 from .filters import HALO_PX, laplacian_valid, reflect_101_halo, ridge_from_laplacian
-from .tiling import GROWTH_FACTOR, MAX_GRID_CELLS, TileGrid, TileManager, unique_pairs
+from .tile_grid import TileGrid
+from .tiling import GROWTH_FACTOR, MAX_GRID_CELLS, TileManager, unique_pairs
 
 __all__ = [
     "FAR_SQ",

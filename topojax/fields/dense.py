@@ -32,7 +32,7 @@ from .distance import (
     row_sq_distance_tile,
 )
 from .filters import HALO_PX, laplacian_valid, reflect_101_halo, ridge_from_laplacian
-from .tiling import TileGrid
+from .tile_grid import TileGrid
 
 __all__ = [
     "FIELD_NAMES",

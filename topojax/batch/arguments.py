@@ -1,0 +1,258 @@
+"""The arguments of :func:`~topojax.batch.build_graphs`: checks, defaults, the batch's
+items and the settings its manifests record."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fs import refuse_overwriting_inputs
+from .._validate import instance_or_default, int_at_least, one_of, positive_metres
+from ..config import PipelineConfig
+from ..maps import MODES, OccupancyMap
+from .inputs import (
+    _MANIFEST_SUFFIX,
+    _PICTURE_SUFFIX,
+    _assign_names,
+    _check_formats,
+    _format_suffixes,
+    _Item,
+    _room_settings,
+)
+from .manifest import _fingerprint, _normalise
+
+#: Default kernel bucket of a batch: several tiles per call mean fewer dispatches (empty
+#: padding tiles are nearly free).
+DEFAULT_TILES_PER_CALL = 16
+
+
+def checked_options(
+    *,
+    executor: Any,
+    workers: int | None,
+    config: PipelineConfig | None,
+    formats: Any,
+    flags: dict[str, Any],
+    out_dir: Any,
+    tiles_per_call: int | None,
+    kernel_threads: int | None,
+    batch_tiles: int | None,
+    map_mode: Any,
+    sigma_m: Any,
+) -> dict[str, Any]:
+    """Check the options of :func:`build_graphs` and fill in their defaults.
+
+    ``flags`` holds ``plot``, ``resume``, ``progress`` and ``keep_graphs`` (bool;
+    ``keep_graphs`` may be None).  Returns the keyword arguments of the batch run other
+    than its items, output folder and fingerprints: ``config``, ``formats``,
+    ``executor``, ``workers``, the flags as bools, the kernel settings, ``map_mode``,
+    ``sigma_m`` and the ``request`` its manifests record.  Raises TypeError or
+    ValueError naming the argument.
+    """
+    config = instance_or_default("config", config, PipelineConfig)
+    fmts = _check_formats(formats)
+    sigma_m = check_options(map_mode=map_mode, flags=flags, sigma_m=sigma_m, out_dir=out_dir)
+    tpc, threads, group_tiles = kernel_settings(config, tiles_per_call, kernel_threads, batch_tiles)
+    keep_graphs = flags["keep_graphs"]
+    keep = out_dir is None if keep_graphs is None else bool(keep_graphs)
+    executor = as_executor(executor)
+    n_workers = (os.cpu_count() or 1) if workers is None else workers
+    n_workers = int_at_least("workers", n_workers, 0)
+    return {
+        "executor": executor,
+        "workers": n_workers,
+        "config": config,
+        "formats": fmts,
+        "plot": bool(flags["plot"]),
+        "keep_graphs": keep,
+        "tiles_per_call": tpc,
+        "kernel_threads": threads,
+        "batch_tiles": group_tiles,
+        "progress": bool(flags["progress"]),
+        "resume": bool(flags["resume"]),
+        "map_mode": map_mode,
+        "sigma_m": sigma_m,
+        "request": request_settings(
+            config, fmts, plot=flags["plot"], map_mode=map_mode, sigma_m=sigma_m
+        ),
+    }
+
+
+def batch_items(
+    items_raw: list[tuple[Path | None, OccupancyMap | None]],
+    sources: list[Path | None],
+    *,
+    out: Path | None,
+    formats: tuple[str, ...],
+    plot: bool,
+) -> tuple[list[_Item], dict[int, dict[str, Any] | None]]:
+    """The named items of a batch and their input fingerprints.
+
+    Parameters
+    ----------
+    items_raw, sources : list
+        As returned by :func:`map_inputs`.
+    out : Path, optional
+        The output folder (created); with it, output names that would replace an input
+        are refused (ValueError) and every item is fingerprinted for ``resume``.
+    formats : tuple of str
+        The checked output formats.
+    plot : bool
+        Whether the picture is written.
+
+    Returns
+    -------
+    items : list of _Item
+        One per input, in input order.
+    fingerprints : dict
+        Item index to its fingerprint (empty without ``out``).
+    """
+    names = _assign_names(sources)
+    items = [
+        _Item(index=i, name=names[i], path=p, occupancy=occ) for i, (p, occ) in enumerate(items_raw)
+    ]
+    if out is None:
+        return items, {}
+    check_no_overwrite(items, out, formats, plot)
+    return items, {item.index: _fingerprint(item) for item in items}
+
+
+def default_kernel_threads() -> int:
+    """Kernel threads of a batch: the cores (at most 8) on the CPU backend, else 2."""
+    import jax
+
+    cores = os.cpu_count() or 1
+    if jax.default_backend() == "cpu":
+        return max(1, min(cores, 8))
+    return 2  # an accelerator: one thread cuts tiles while the other's kernels run
+
+
+def kernel_settings(
+    config: PipelineConfig,
+    tiles_per_call: int | None,
+    kernel_threads: int | None,
+    batch_tiles: int | None,
+) -> tuple[int, int, int]:
+    """The checked ``(tiles_per_call, kernel_threads, batch_tiles)`` of
+    :func:`build_graphs`, defaults filled in."""
+    tpc = int_at_least(
+        "tiles_per_call",
+        max(config.tiles_per_call, DEFAULT_TILES_PER_CALL)
+        if tiles_per_call is None
+        else tiles_per_call,
+        1,
+    )
+    threads = int_at_least(
+        "kernel_threads",
+        default_kernel_threads() if kernel_threads is None else kernel_threads,
+        1,
+    )
+    group_tiles = int_at_least("batch_tiles", 16 * tpc if batch_tiles is None else batch_tiles, 1)
+    return tpc, threads, group_tiles
+
+
+def map_inputs(
+    maps: Any,
+) -> tuple[list[tuple[Path | None, OccupancyMap | None]], list[Path | None]]:
+    """``(path, map object)`` per input of :func:`build_graphs`, and the path that names
+    it (a map object's ``source``, if any)."""
+    if isinstance(maps, (str, os.PathLike, OccupancyMap)):
+        maps = [maps]
+    try:
+        inputs = list(maps)
+    except TypeError:
+        raise TypeError(
+            f"maps: expected an iterable of paths or OccupancyMap objects, got "
+            f"{type(maps).__name__}"
+        ) from None
+    sources: list[Path | None] = []
+    items_raw: list[tuple[Path | None, OccupancyMap | None]] = []
+    for i, m in enumerate(inputs):
+        if isinstance(m, OccupancyMap):
+            items_raw.append((None, m))
+            sources.append(Path(m.source) if m.source else None)
+        elif isinstance(m, (str, os.PathLike)):
+            items_raw.append((Path(m), None))
+            sources.append(Path(m))
+        else:
+            raise TypeError(
+                f"maps[{i}]: expected a path (str / os.PathLike) or an OccupancyMap, got "
+                f"{type(m).__name__}"
+            )
+    return items_raw, sources
+
+
+def check_options(
+    *, map_mode: Any, flags: dict[str, Any], sigma_m: Any, out_dir: Any
+) -> float | None:
+    """Check ``map_mode``, the bool ``flags`` (``keep_graphs`` may be None), ``sigma_m``
+    and that ``plot``/``resume`` have an ``out_dir``; the checked ``sigma_m``."""
+    one_of("map_mode", map_mode, (*MODES, None))
+    for name, flag in flags.items():
+        if name == "keep_graphs" and flag is None:
+            continue
+        if not isinstance(flag, (bool, np.bool_)):
+            raise TypeError(f"{name}: expected a bool, got {flag!r}")
+    if sigma_m is not None:
+        sigma_m = positive_metres("sigma_m", sigma_m)
+    if out_dir is None and (flags["plot"] or flags["resume"]):
+        raise ValueError("out_dir: needed for plot=True or resume=True, got None")
+    return sigma_m
+
+
+def as_executor(executor: Any) -> cf.Executor | None:
+    """``executor`` itself, or the executor of a Dask ``Client`` (``pure=False``)."""
+    if executor is not None and not isinstance(executor, cf.Executor):
+        get_executor = getattr(executor, "get_executor", None)
+        if get_executor is None:
+            raise TypeError(
+                "executor: expected a concurrent.futures.Executor or a dask.distributed "
+                f"Client, got {type(executor).__name__}"
+            )
+        executor = get_executor(pure=False)
+    return executor
+
+
+def request_settings(
+    config: PipelineConfig,
+    formats: tuple[str, ...],
+    *,
+    plot: bool,
+    map_mode: str | None,
+    sigma_m: float | None,
+) -> dict[str, Any]:
+    """The result-relevant settings recorded in every manifest (``resume`` compares
+    them)."""
+    return _normalise(
+        {
+            "distance": dataclasses.asdict(config.distance),
+            "ridge": dataclasses.asdict(config.ridge),
+            "skeleton": dataclasses.asdict(config.skeleton),
+            "graph": dataclasses.asdict(config.graph),
+            "formats": sorted(formats),
+            "plot": bool(plot),
+            # only with the rooms format, so that manifests written without it still match
+            **({"rooms": _room_settings()} if "rooms" in formats else {}),
+            # only when given, so that manifests written without them still match
+            **({"map_mode": map_mode} if map_mode is not None else {}),
+            **({"sigma_m": sigma_m} if sigma_m is not None else {}),
+        }
+    )
+
+
+def check_no_overwrite(items: list[_Item], out: Path, formats: tuple[str, ...], plot: bool) -> None:
+    """Refuse output names that would replace one of the input files (a map file, or the
+    image a YAML refers to)."""
+    suffixes = _format_suffixes(formats) + [_MANIFEST_SUFFIX]
+    if plot:
+        suffixes.append(_PICTURE_SUFFIX)
+    refuse_overwriting_inputs(
+        [it.path for it in items if it.path is not None],
+        [out / f"{it.name}{suffix}" for it in items for suffix in suffixes],
+        option="out_dir",
+    )
