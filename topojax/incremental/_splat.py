@@ -102,6 +102,188 @@ def _isqrt(n):
     return e
 
 
+@cached_njit(nogil=True, inline="always")
+def _near_obstacles(p_r, p_c, rho, b, grid, g0r, g0c, tsh, hits, nbr, n_q):
+    """Fill ``nbr`` and ``n_q`` with the obstacles ``q`` (old or new) at offsets ``(a, c)``
+    ``!= (0, 0)`` with ``|a|, |c| <= rho`` from the point ``(p_r, p_c)``; returns whether
+    there is any.
+
+    They are grouped by the sign of ``c`` (group 0: ``c > 0``, 1: ``c < 0``, 2: ``c = 0``)
+    so that the per-row loops of the pairing have no data-dependent branches.  For a
+    block row ``[lo, hi]`` relative to ``p``, ``q`` is at least as near as ``p`` to the
+    row's corners where ``dd = a^2 + c^2 - 2 a (lo if a > 0 else hi) <= 2 c dc_corner``;
+    with ``hi = lo + b - 1`` that is ``dd = d0 - 2 a lo``.  Row ``j`` of group ``g`` is
+    ``nbr[g, j] = (d0, 2 a, log2(2 |c|))``; ``n_q[g]`` counts the rows.
+    """
+    n_q[0] = 0
+    n_q[1] = 0
+    n_q[2] = 0
+    for a in range(-rho, rho + 1):
+        for c in range(-rho, rho + 1):
+            if a == 0 and c == 0:
+                continue
+            s, lr, lc = _locate(grid, g0r, g0c, tsh, p_r + a, p_c + c)
+            if s >= 0 and hits[s, lr, lc] > 0:
+                g = 0 if c > 0 else (1 if c < 0 else 2)
+                j = n_q[g]
+                nbr[g, j, 0] = a * a + c * c - (2 * (b - 1) * a if a < 0 else 0)
+                nbr[g, j, 1] = 2 * a
+                nbr[g, j, 2] = 1 if abs(c) == 1 else 2  # log2(2 |c|), |c| <= rho <= 2
+                n_q[g] = j + 1
+    return n_q[0] + n_q[1] + n_q[2] > 0
+
+
+@cached_njit(nogil=True, inline="always")
+def _row_bound(grid, gi, gc0, gc1, lbr, rowmax):
+    """Largest block maximum along block row ``lbr`` of the allocated tiles in columns
+    ``gc0 .. gc1`` (clipped to the grid) of tile-grid row ``gi``; 0 if there is none."""
+    rmax = 0
+    for gj in range(max(gc0, 0), min(gc1, grid.shape[1] - 1) + 1):
+        ss = grid[gi, gj]
+        if ss >= 0 and rowmax[ss, lbr] > rmax:
+            rmax = rowmax[ss, lbr]
+    return rmax
+
+
+@cached_njit(nogil=True, inline="always")
+def _undominated_columns(nbr, n_q, lo, p_c, ib0, ib1, bsh):
+    """The interval ``[al, ar]`` of the inner block columns ``ib0 .. ib1`` of a block row
+    (first pixel row ``lo`` relative to the point) whose blocks no neighbour obstacle of
+    :func:`_near_obstacles` dominates (empty as ``al > ar``); blocks of side
+    ``2**bsh``."""
+    b = 1 << bsh
+    al = ib0
+    ar = ib1
+    for j in range(n_q[0]):  # c > 0: dominated iff lo_c >= ceil(dd / (2 c))
+        dd = nbr[0, j, 0] - nbr[0, j, 1] * lo
+        thr = -((-dd) >> nbr[0, j, 2]) + p_c  # 2 c is 2 or 4: a shift
+        ar = min(ar, -((-thr) >> bsh) - 1)
+    for j in range(n_q[1]):  # c < 0: iff hi_c <= floor(dd / (2 c))
+        dd = nbr[1, j, 0] - nbr[1, j, 1] * lo
+        thr = ((-dd) >> nbr[1, j, 2]) + p_c - b + 1
+        al = max(al, (thr >> bsh) + 1)
+    for j in range(n_q[2]):  # c = 0: iff dd <= 0, the whole row
+        if nbr[2, j, 0] - nbr[2, j, 1] * lo <= 0:
+            al = ib1 + 1
+            ar = ib1
+    return al, ar
+
+
+@cached_njit(nogil=True, inline="always")
+def _pair_columns(i, p_c, dr, e, rem, c_from, c_to, row, bsh, nsh, bmax, rowmax, pairs, n):
+    """Append to ``pairs = (pair_k, pair_i)`` (from ``n``) the pairs of point ``i``
+    (column ``p_c``) with the blocks of global block columns ``c_from .. c_to`` in one
+    block row, ``dr`` pixel rows from the point, that pass the disk bound.
+
+    ``row = (grid, gi, g0c, lbr)``: the tile grid, its row holding the block row and
+    first column, and the block row in its tiles.  ``e`` is ``isqrt(rem - 1)`` for the
+    row's bound ``rem``; blocks have side ``2**bsh``, tiles ``2**nsh`` blocks.  Returns
+    the new number of pairs.
+    """
+    grid, gi, g0c, lbr = row
+    pair_k, pair_i = pairs
+    b = 1 << bsh
+    nb = 1 << nsh
+    gw = grid.shape[1]
+    for tcc in range(c_from >> nsh, (c_to >> nsh) + 1):
+        gj = tcc - g0c
+        if gj < 0 or gj >= gw:
+            continue
+        s = grid[gi, gj]
+        if s < 0:
+            continue
+        # this tile's own disk bound (the row's bound used the largest maximum)
+        remt = rowmax[s, lbr] - dr * dr
+        if remt <= 0:
+            continue
+        et = e if remt == rem else _isqrt(remt - 1)
+        t_from = max(c_from, -((et + b - 1 - p_c) >> bsh))
+        t_to = min(c_to, (p_c + et) >> bsh)
+        l0 = max(t_from - tcc * nb, 0)
+        l1 = min(t_to - tcc * nb, nb - 1)
+        for lbc in range(l0, l1 + 1):
+            lo_c = (tcc * nb + lbc) * b - p_c
+            if lo_c > 0:
+                dc = lo_c
+            elif lo_c + b - 1 < 0:
+                dc = -(lo_c + b - 1)
+            else:
+                dc = 0
+            if dr * dr + dc * dc >= bmax[s, lbr, lbc]:
+                continue
+            pair_k[n] = (s * nb + lbr) * nb + lbc
+            pair_i[n] = i
+            n += 1
+    return n
+
+
+@cached_njit(nogil=True, inline="always")
+def _point_pairs(i, p_r, p_c, near, grid, g0r, g0c, bsh, nsh, half, rho, bmax, rowmax, pairs, n):
+    """Append the pairs of point ``i`` at ``(p_r, p_c)`` to ``pairs = (pair_k, pair_i)``
+    (from ``n``; room for every block of its window), by block rows of its window.
+
+    The disk bound limits each row's columns; on rows inside the inner square the
+    columns that a neighbour obstacle dominates (``near = (nbr, n_q, any_q)``,
+    :func:`_near_obstacles`) are left out.  Returns the new number of pairs.
+    """
+    nbr, n_q, any_q = near
+    b = 1 << bsh
+    nb = 1 << nsh
+    inner = half - rho
+    br0 = (p_r - half) >> bsh
+    br1 = (p_r + half) >> bsh
+    bc0 = (p_c - half) >> bsh
+    bc1 = (p_c + half) >> bsh
+    # block columns lying inside the inner square |x - p|_inf <= R - rho
+    ib0 = -((inner - p_c) >> bsh)  # ceil((p_c - inner) / b)
+    ib1 = (p_c + inner - b + 1) >> bsh
+    for gbr in range(br0, br1 + 1):
+        lo = gbr * b - p_r  # block rows relative to p
+        hi = lo + b - 1
+        if lo > 0:
+            dr = lo
+        elif hi < 0:
+            dr = -hi
+        else:
+            dr = 0
+        tr = gbr >> nsh
+        gi = tr - g0r
+        if gi < 0 or gi >= grid.shape[0]:
+            continue
+        lbr = gbr - tr * nb
+        # Disk bound: no block of this row can gain if dc^2 >= max bmax - dr^2.
+        rmax = _row_bound(grid, gi, (bc0 >> nsh) - g0c, (bc1 >> nsh) - g0c, lbr, rowmax)
+        rem = rmax - dr * dr
+        if rem <= 0:
+            continue
+        e = _isqrt(rem - 1)
+        cb0 = max(bc0, -((e + b - 1 - p_c) >> bsh))
+        cb1 = min(bc1, (p_c + e) >> bsh)
+        if any_q and lo >= -inner and hi <= inner:
+            jb0 = ib0
+            al, ar = _undominated_columns(nbr, n_q, lo, p_c, ib0, ib1, bsh)
+        else:  # no inner part in this row: every column is tested
+            jb0 = ib1 + 1
+            al = ib1 + 1
+            ar = ib1
+        row = (grid, gi, g0c, lbr)
+        for part in range(3):
+            if part == 0:  # the columns left of the inner ones
+                c_from = cb0
+                c_to = min(cb1, jb0 - 1)
+            elif part == 1:  # the undominated inner ones
+                c_from = max(al, jb0, cb0)
+                c_to = min(ar, ib1, cb1)
+            else:  # those right of the inner ones
+                c_from = max(ib1 + 1, cb0, jb0)
+                c_to = cb1
+            if c_from <= c_to:
+                n = _pair_columns(
+                    i, p_c, dr, e, rem, c_from, c_to, row, bsh, nsh, bmax, rowmax, pairs, n
+                )
+    return n
+
+
 @cached_njit(nogil=True)
 def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, hits, rho):
     """The (block, point) pairs that can lower a block, for points ``first, first + step,
@@ -122,165 +304,58 @@ def _splat_pairs(pr, pc, first, step, grid, g0r, g0c, t, b, half, bmax, rowmax, 
       half-line of block columns, so the allowed blocks form an interval.
 
     ``bmax`` (slot, block row, block col) holds the blocks' bounds (:func:`_batch_bound`)
-    and ``rowmax`` (slot, block row) their maxima along block rows.
+    and ``rowmax`` (slot, block row) their maxima along block rows.  Per point: its
+    neighbour obstacles (:func:`_near_obstacles`), then its window's block rows
+    (:func:`_point_pairs`); the helpers are inlined (a numba call per block row would
+    pass every array again).
 
     Returns ``pair_k`` (flat block id ``(slot * nb + block_row) * nb + block_col``),
     ``pair_i`` (point index) and the number of pairs (the arrays are longer).
     """
-    bsh = _log2(b)
+    if rho > 2:  # the domination thresholds divide by 2 |dc| with shifts
+        raise ValueError("rho must be at most 2")
     tsh = _log2(t)
-    nb = t >> bsh
-    nsh = _log2(nb)
+    bsh = _log2(b)
+    nsh = _log2(t >> bsh)
     n = pr.shape[0]
     n_own = max(0, (n - first + step - 1) // step)
-    if rho > 2:  # the domination thresholds below divide by 2 |dc| with shifts
-        raise ValueError("rho must be at most 2")
-    inner = half - rho
     side = 2 * rho + 1
-    # neighbours by the sign of their column offset: (dd at lo = 0, 2 qa, log2(2 |qc|))
-    nbr = np.empty((3, side * side, 3), np.int64)
+    nbr = np.empty((3, side * side, 3), np.int64)  # see _near_obstacles
     n_q = np.zeros(3, np.int64)
-    cap = 1024 + 64 * n_own
-    pair_k = np.empty(cap, np.int64)
-    pair_i = np.empty(cap, np.int64)
+    pair_k = np.empty(1024 + 64 * n_own, np.int64)
+    pair_i = np.empty(pair_k.shape[0], np.int64)
     n_pairs = 0
-    gh = grid.shape[0]
-    gw = grid.shape[1]
     # every block of a point's window, at most: room for one more point's pairs is made
     # before the point (growing the arrays inside the per-block loop would make numba
     # count references at every step)
     per_point = ((2 * half) // b + 2) ** 2
     for i in range(first, n, step):
-        if n_pairs + per_point > cap:
-            cap = max(2 * cap, n_pairs + per_point)
+        if n_pairs + per_point > pair_k.shape[0]:
+            cap = max(2 * pair_k.shape[0], n_pairs + per_point)
             nk = np.empty(cap, np.int64)
             ni = np.empty(cap, np.int64)
             nk[:n_pairs] = pair_k[:n_pairs]
             ni[:n_pairs] = pair_i[:n_pairs]
             pair_k = nk
             pair_i = ni
-        p_r = pr[i]
-        p_c = pc[i]
-        # Obstacles q near p (offset (a, c)), grouped by the sign of c (0: c > 0, 1: c < 0,
-        # 2: c = 0) so that the per-row loops below have no data-dependent branches.  For
-        # a block row [lo, hi] relative to p, q is at least as near as p to the row's
-        # corners where dd = a^2 + c^2 - 2 a (lo if a > 0 else hi) <= 2 c dc_corner; with
-        # hi = lo + b - 1 that is dd = d0 - 2 a lo, d0 stored per neighbour.
-        n_q[0] = 0
-        n_q[1] = 0
-        n_q[2] = 0
-        for a in range(-rho, rho + 1):
-            for c in range(-rho, rho + 1):
-                if a == 0 and c == 0:
-                    continue
-                qr = p_r + a
-                qc = p_c + c
-                s, lr, lc = _locate(grid, g0r, g0c, tsh, qr, qc)
-                if s >= 0 and hits[s, lr, lc] > 0:
-                    g = 0 if c > 0 else (1 if c < 0 else 2)
-                    j = n_q[g]
-                    nbr[g, j, 0] = a * a + c * c - (2 * (b - 1) * a if a < 0 else 0)
-                    nbr[g, j, 1] = 2 * a
-                    nbr[g, j, 2] = 1 if abs(c) == 1 else 2  # log2(2 |c|), |c| <= rho <= 2
-                    n_q[g] = j + 1
-        any_q = n_q[0] + n_q[1] + n_q[2] > 0
-        br0 = (p_r - half) >> bsh
-        br1 = (p_r + half) >> bsh
-        bc0 = (p_c - half) >> bsh
-        bc1 = (p_c + half) >> bsh
-        # block columns lying inside the inner square |x - p|_inf <= R - rho
-        ib0 = -((inner - p_c) >> bsh)  # ceil((p_c - inner) / b)
-        ib1 = (p_c + inner - b + 1) >> bsh
-        for gbr in range(br0, br1 + 1):
-            lo = gbr * b - p_r  # block rows relative to p
-            hi = lo + b - 1
-            if lo > 0:
-                dr = lo
-            elif hi < 0:
-                dr = -hi
-            else:
-                dr = 0
-            tr = gbr >> nsh
-            gi = tr - g0r
-            if gi < 0 or gi >= gh:
-                continue
-            lbr = gbr - tr * nb
-            # Disk bound: no block of this row can gain if dc^2 >= max bmax - dr^2.
-            rmax = 0
-            for tcc in range(bc0 >> nsh, (bc1 >> nsh) + 1):
-                gj = tcc - g0c
-                if 0 <= gj < gw:
-                    ss = grid[gi, gj]
-                    if ss >= 0 and rowmax[ss, lbr] > rmax:
-                        rmax = rowmax[ss, lbr]
-            rem = rmax - dr * dr
-            if rem <= 0:
-                continue
-            e = _isqrt(rem - 1)
-            cb0 = max(bc0, -((e + b - 1 - p_c) >> bsh))
-            cb1 = min(bc1, (p_c + e) >> bsh)
-            # Allowed interval [al, ar] of inner block columns.
-            al = ib0
-            ar = ib1
-            if any_q and lo >= -inner and hi <= inner:
-                for j in range(n_q[0]):  # c > 0: dominated iff lo_c >= ceil(dd / (2 c))
-                    dd = nbr[0, j, 0] - nbr[0, j, 1] * lo
-                    thr = -((-dd) >> nbr[0, j, 2]) + p_c  # 2 c is 2 or 4: a shift
-                    ar = min(ar, -((-thr) >> bsh) - 1)
-                for j in range(n_q[1]):  # c < 0: iff hi_c <= floor(dd / (2 c))
-                    dd = nbr[1, j, 0] - nbr[1, j, 1] * lo
-                    thr = ((-dd) >> nbr[1, j, 2]) + p_c - b + 1
-                    al = max(al, (thr >> bsh) + 1)
-                for j in range(n_q[2]):  # c = 0: iff dd <= 0, the whole row
-                    if nbr[2, j, 0] - nbr[2, j, 1] * lo <= 0:
-                        al = ib1 + 1
-                        ar = ib1
-            else:
-                al = ib1 + 1  # no inner part in this row: every column is tested
-                ar = ib1
-                ib0 = ib1 + 1
-            for part in range(3):
-                if part == 0:
-                    c_from = cb0
-                    c_to = min(cb1, ib0 - 1)
-                elif part == 1:
-                    c_from = max(al, ib0, cb0)
-                    c_to = min(ar, ib1, cb1)
-                else:
-                    c_from = max(ib1 + 1, cb0, ib0)
-                    c_to = cb1
-                if c_from > c_to:
-                    continue
-                for tcc in range(c_from >> nsh, (c_to >> nsh) + 1):
-                    gj = tcc - g0c
-                    if gj < 0 or gj >= gw:
-                        continue
-                    s = grid[gi, gj]
-                    if s < 0:
-                        continue
-                    # this tile's own disk bound (the row's bound used the largest maximum)
-                    remt = rowmax[s, lbr] - dr * dr
-                    if remt <= 0:
-                        continue
-                    et = e if remt == rem else _isqrt(remt - 1)
-                    t_from = max(c_from, -((et + b - 1 - p_c) >> bsh))
-                    t_to = min(c_to, (p_c + et) >> bsh)
-                    l0 = max(t_from - tcc * nb, 0)
-                    l1 = min(t_to - tcc * nb, nb - 1)
-                    for lbc in range(l0, l1 + 1):
-                        lo_c = (tcc * nb + lbc) * b - p_c
-                        if lo_c > 0:
-                            dc = lo_c
-                        elif lo_c + b - 1 < 0:
-                            dc = -(lo_c + b - 1)
-                        else:
-                            dc = 0
-                        if dr * dr + dc * dc >= bmax[s, lbr, lbc]:
-                            continue
-                        pair_k[n_pairs] = (s * nb + lbr) * nb + lbc
-                        pair_i[n_pairs] = i
-                        n_pairs += 1
-            ib0 = -((inner - p_c) >> bsh)
+        any_q = _near_obstacles(pr[i], pc[i], rho, b, grid, g0r, g0c, tsh, hits, nbr, n_q)
+        n_pairs = _point_pairs(
+            i,
+            pr[i],
+            pc[i],
+            (nbr, n_q, any_q),
+            grid,
+            g0r,
+            g0c,
+            bsh,
+            nsh,
+            half,
+            rho,
+            bmax,
+            rowmax,
+            (pair_k, pair_i),
+            n_pairs,
+        )
     return pair_k, pair_i, n_pairs
 
 

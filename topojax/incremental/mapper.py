@@ -18,6 +18,7 @@ from ..fields.distance import FAR_SQ
 from ..fields.filters import HALO_PX
 from ..fields.tiling import MAX_GRID_CELLS, TileManager
 from ..scans import Scan
+from ._dense_export import dense_layer, distance_map, export_bbox, occupancy_over
 from ._graph_export import export_graph, global_graph, topology_result
 from ._graph_patch import patch_graph
 from ._rays import (
@@ -32,7 +33,6 @@ from ._rays import (
 from ._ridges import (
     RIDGE_BLOCKS,
     TABLE_MAX_HALF_PX,
-    _gaussian,
     gaussian_table,
     ridge_kernel,
     update_ridges,
@@ -564,35 +564,14 @@ class IncrementalMapper:
     def _bbox_or_raise(self, what: str | None = None) -> tuple[int, int, int, int]:
         """The exported bounding box; with ``what``, the export's memory budget checked
         (:func:`check_export_budget`) first."""
-        bbox = self._tiles.pixel_bbox
-        if bbox is None:
-            raise ValueError(
-                "the mapper is empty: add scans with valid readings before exporting maps"
-            )
-        if what is not None:
-            check_export_budget(self, what, bbox)
-        return bbox
+        return export_bbox(self, what)
 
     def _dense(self, name: str, what: str | None = None) -> np.ndarray:
-        r0, c0, r1, c1 = self._bbox_or_raise(what)
-        return self._tiles.read(name, r0, c0, r1 - r0, c1 - c0)
+        return dense_layer(self, name, what)
 
     def _occupancy_over(self, r0: int, c0: int, r1: int, c1: int):
         """The occupancy map of the global pixel box ``[r0, r1) x [c0, c1)``."""
-        from ..maps import OccupancyMap
-
-        cast_pending_rays(self)
-        h, w = r1 - r0, c1 - c0
-        occupied = self._tiles.read("hits", r0, c0, h, w) > 0
-        free = (self._tiles.read("misses", r0, c0, h, w) > 0) & ~occupied
-        res = self.resolution_m
-        return OccupancyMap(
-            occupied=occupied,
-            free=free,
-            unknown=~(occupied | free),
-            resolution_m=res,
-            origin=(c0 * res, -r1 * res, 0.0),
-        )
+        return occupancy_over(self, r0, c0, r1, c1)
 
     @property
     @_synchronized
@@ -612,22 +591,7 @@ class IncrementalMapper:
         self._bbox_or_raise("distance")
         self._flush_splat()
         if "distance" not in self._export_cache:
-            r0, c0, r1, c1 = self._bbox_or_raise()
-            tiles = self._tiles
-            n, t = tiles.n_tiles, self.tile_px
-            d2 = tiles.layer("sq_distance")
-            h = np.empty((n, t, t), np.float32)
-            chunk = 16
-            for s in range(0, n, chunk):
-                block = d2[s : s + chunk]
-                if block.shape[0] < chunk:
-                    pad = np.full((chunk - block.shape[0], t, t), FAR_SQ, np.int32)
-                    block = np.concatenate([block, pad])
-                h[s : s + chunk] = np.asarray(_gaussian(block, self._scalars[0]))[: n - s]
-            out = np.zeros((r1 - r0, c1 - c0), np.float32)
-            for slot, (tr, tc) in enumerate(tiles.keys):
-                out[tr * t - r0 : (tr + 1) * t - r0, tc * t - c0 : (tc + 1) * t - c0] = h[slot]
-            self._export_cache["distance"] = out
+            self._export_cache["distance"] = distance_map(self)
         return self._export_cache["distance"].copy()
 
     @property

@@ -7,6 +7,7 @@ import json
 import time
 from dataclasses import asdict
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -186,16 +187,63 @@ def replay(
         replay goes on), ``n_tiles``, ``vertices``, ``edges``, ``timings`` (per loop),
         ``written`` (paths), ``messages``.
     """
-    from .._fs import atomic_write_bytes, output_folder
-    from ..graph import graph_summary
+    from .._fs import atomic_write_bytes
+
+    nav2_tolerance_m, route_graph_radius_m = _check_replay_args(
+        max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
+    )
+    out = Path(out_dir)
+    scans, mapper, timeline = _start(source, out, reader_kwargs, rooms, view, mapper_kw)
+    with _recorder(mcap) as recorder:
+        done = _map_scans(
+            mapper,
+            scans,
+            source,
+            recorder,
+            timeline,
+            max_scans=max_scans,
+            animate=animate is not None,
+            progress=progress,
+            graph_config=graph_config,
+            rooms=rooms,
+        )
+    written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
+    written += _write_rooms_routes_view(mapper, done, out, route_graph_radius_m, timeline)
+    summary = _summary(source, mapper, done)
+    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
+    written.append(out / "timings.json")
+    written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
+    if recorder is not None:
+        written.append(recorder.path)
+    summary["written"] = [str(p) for p in written]
+    summary["messages"] = messages + [f"skipped {m}" for m in done.skipped]
+    if progress:
+        print(summary_text(summary))
+    return summary
+
+
+class _Replayed(NamedTuple):
+    """What mapping a log gave: the scans' reports, the animation frames, the wall time
+    of the scans (s), the refusals of skipped scans, the final graph update and its time
+    (s), the result to write and the final rooms (or None)."""
+
+    reports: list
+    frames: list
+    wall_s: float
+    skipped: list
+    update: object
+    final_s: float
+    result: object
+    seg: object
+
+
+def _start(source, out: Path, reader_kwargs, rooms: bool, view: bool, mapper_kw: dict):
+    """Open the log, make the mapper (with ``rooms``, rooms at every graph update unless
+    ``rooms_every`` is given), create the output folder and, with ``view``, a timeline;
+    returns the scans, the mapper and the timeline (or None)."""
+    from .._fs import output_folder
     from ..scans import read_scans
 
-    nav2_tolerance_m = _check_replay_args(
-        max_scans, nav2_tolerance_m, graph_config, out_dir, animate, mcap
-    )
-    if route_graph_radius_m is not None:  # checked now, not after the whole replay
-        route_graph_radius_m = positive_metres("route_graph_radius_m", route_graph_radius_m)
-    out = Path(out_dir)
     scans = read_scans(source, **(reader_kwargs or {}))
     if rooms and mapper_kw.get("rooms_every") is None:
         mapper_kw["rooms_every"] = mapper_kw.get("graph_every", 80) or 0
@@ -206,20 +254,38 @@ def replay(
         from ..view import Timeline
 
         timeline = Timeline()
-    with _recorder(mcap) as recorder:
-        reports, frames, wall, skipped = _run(
-            mapper, scans, max_scans, animate is not None, progress, recorder, timeline
-        )
-        if not reports:
-            raise ValueError(f"source {source}: no scans to replay")
-        if mapper.pixel_bbox is None:
-            raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
-        update, final_s, result, seg = _final(mapper, graph_config, rooms)
-        if recorder is not None:  # the written map, graph and rooms close the recording
-            recorder.add_map(result.map, result.graph)
-            if seg is not None:
-                recorder.add_rooms(seg)
-    written, messages = _write_graphs_and_map(result, out, nav2_tolerance_m)
+    return scans, mapper, timeline
+
+
+def _map_scans(
+    mapper, scans, source, recorder, timeline, *, max_scans, animate, progress, graph_config, rooms
+) -> _Replayed:
+    """Feed the scans to the mapper (:func:`_run`), check that they mapped something,
+    run the final update (:func:`_final`) and close the recording (if any) with the
+    written map, graph and rooms."""
+    reports, frames, wall, skipped = _run(
+        mapper, scans, max_scans, animate, progress, recorder, timeline
+    )
+    if not reports:
+        raise ValueError(f"source {source}: no scans to replay")
+    if mapper.pixel_bbox is None:
+        raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
+    update, final_s, result, seg = _final(mapper, graph_config, rooms)
+    if recorder is not None:
+        recorder.add_map(result.map, result.graph)
+        if seg is not None:
+            recorder.add_rooms(seg)
+    return _Replayed(reports, frames, wall, skipped, update, final_s, result, seg)
+
+
+def _write_rooms_routes_view(
+    mapper: IncrementalMapper, done: _Replayed, out: Path, route_graph_radius_m, timeline
+) -> list[Path]:
+    """Write what the replay's options add to the graph and map files: the room files
+    (with rooms), the route graph files (with a robot radius) and the interactive view
+    (with a ``timeline``); returns the paths written."""
+    written: list[Path] = []
+    seg = done.seg
     if seg is not None:
         from ..io import save_room_files
 
@@ -238,42 +304,49 @@ def replay(
         timeline.snapshot(mapper, rooms=seg is not None)
         extra = {"route graph": routes} if routes is not None else None
         written.append(
-            write_view(result, out / "view.html", rooms=seg, graphs=extra, timeline=timeline)
+            write_view(done.result, out / "view.html", rooms=seg, graphs=extra, timeline=timeline)
         )
-    timings = timing_summary(reports)
-    summary_g = graph_summary(result.graph)
-    summary = {
-        "rooms": None if seg is None else seg.n_rooms,
-        "source": str(source),
-        "n_scans": len(reports),
-        "skipped_scans": skipped,
-        "n_tiles": mapper.n_tiles,
-        "map_shape": list(result.map.shape),
-        "vertices": summary_g["n_vertices"],
-        "edges": summary_g["n_edges"],
-        "wall_s": wall,
-        "final_update_s": final_s,
-        "final_update": asdict(update),
-        "timings": timings,
-        "settings": settings_of(mapper),
-    }
-    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
-    written.append(out / "timings.json")
+    return written
+
+
+def _write_pictures_and_animation(
+    mapper: IncrementalMapper, done: _Replayed, out: Path, plot: bool, animate, source
+) -> list[Path]:
+    """With ``plot``, write the still pictures; with ``animate`` (a GIF path), the
+    animation, its last frame the final map.  Returns the paths written."""
+    written: list[Path] = []
+    name = _source_name(source)
     if plot:
-        written += _write_pictures(result, out, _source_name(source))
+        written += _write_pictures(done.result, out, name)
     if animate is not None:
-        frames.append(_frame(mapper))
+        done.frames.append(_frame(mapper))
         apath = Path(animate)
         apath.parent.mkdir(parents=True, exist_ok=True)
-        _write_animation(frames, apath, _source_name(source))
+        _write_animation(done.frames, apath, name)
         written.append(apath)
-    if recorder is not None:
-        written.append(recorder.path)
-    summary["written"] = [str(p) for p in written]
-    summary["messages"] = messages + [f"skipped {m}" for m in skipped]
-    if progress:
-        print(summary_text(summary))
-    return summary
+    return written
+
+
+def _summary(source, mapper: IncrementalMapper, done: _Replayed) -> dict:
+    """The replay's record (``timings.json``, without ``written`` and ``messages``)."""
+    from ..graph import graph_summary
+
+    summary_g = graph_summary(done.result.graph)
+    return {
+        "rooms": None if done.seg is None else done.seg.n_rooms,
+        "source": str(source),
+        "n_scans": len(done.reports),
+        "skipped_scans": done.skipped,
+        "n_tiles": mapper.n_tiles,
+        "map_shape": list(done.result.map.shape),
+        "vertices": summary_g["n_vertices"],
+        "edges": summary_g["n_edges"],
+        "wall_s": done.wall_s,
+        "final_update_s": done.final_s,
+        "final_update": asdict(done.update),
+        "timings": timing_summary(done.reports),
+        "settings": settings_of(mapper),
+    }
 
 
 def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
@@ -296,9 +369,11 @@ def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
     return update, final_s, result, seg
 
 
-def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, animate, mcap):
-    """Check :func:`replay`'s arguments before the replay starts; returns the Nav2
-    tolerance as a float (or None)."""
+def _check_replay_args(
+    max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
+):
+    """Check :func:`replay`'s arguments before the replay starts (not after it); returns
+    the Nav2 tolerance and the route graph's robot radius as floats (or None)."""
     if max_scans is not None:
         positive_int("max_scans", max_scans)
     if nav2_tolerance_m is not None:  # checked now, not after the whole replay
@@ -319,7 +394,9 @@ def _check_replay_args(max_scans, nav2_tolerance_m, graph_config, out_dir, anima
         from ..io.mcap import mcap_path
 
         mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
-    return nav2_tolerance_m
+    if route_graph_radius_m is not None:
+        route_graph_radius_m = positive_metres("route_graph_radius_m", route_graph_radius_m)
+    return nav2_tolerance_m, route_graph_radius_m
 
 
 def _recorder(mcap):
