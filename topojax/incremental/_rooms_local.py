@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._rooms import _pasted, match_ids
+from ._room_ids import match_ids, pasted
 
 __all__ = ["LOCAL_MARGIN", "LOCAL_MAX_SHARE", "local_update"]
 
@@ -81,13 +81,13 @@ def local_update(keeper, occ, box, cfg):
     dr, dc = keeper.box[0] - box[0], keeper.box[1] - box[1]
     free = np.asarray(occ.free, bool)
     st = _Rooms(
-        labels=_pasted(keeper.labels, keeper.box, box),
+        labels=pasted(keeper.labels, keeper.box, box),
         rooms={r.id: _shift_room(r, dr, dc) for r in keeper.seg.rooms},
         doors=[_shift_door(d, dr, dc) for d in keeper.seg.doors],
         next_id=keeper.next_id,
         res_m=float(occ.resolution_m),
     )
-    before = _pasted(keeper.free, keeper.box, box)
+    before = pasted(keeper.free, keeper.box, box)
     changed = before != free
     segmented = 0
     if changed.any():

@@ -14,6 +14,7 @@ import numpy as np
 from ..routing import DEFAULT_MAX_SNAP_M
 from ._encode import pyramid
 from ._graphs import Frame, graph_frame, graph_payload
+from ._rooms_data import is_room_pair, rooms_payload, rounded
 
 __all__ = ["DEFAULT_MAX_PIXELS", "FORMAT_VERSION", "Inputs", "build_payload", "inputs_of"]
 
@@ -112,9 +113,7 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
             raise ValueError("rooms=True needs a map to segment; pass map=...")
         rooms = segment_rooms(out.map)
     if rooms is not None and rooms is not False:
-        if not (
-            _instance(rooms, "topojax.rooms.model", "RoomSegmentation") or _is_room_pair(rooms)
-        ):
+        if not (_instance(rooms, "topojax.rooms.model", "RoomSegmentation") or is_room_pair(rooms)):
             raise TypeError(
                 "rooms: expected a RoomSegmentation, the (rooms, doors) pair of "
                 f"topojax.load_rooms, True or False, got {type(rooms).__name__}"
@@ -142,19 +141,6 @@ def _title_of(occupancy, what: str) -> str:
 
 def _graph_label(graph: nx.Graph) -> str:
     return "route graph" if graph.graph.get("kind") == "route_graph" else "graph"
-
-
-def _is_room_pair(value) -> bool:
-    if not (isinstance(value, tuple) and len(value) == 2):
-        return False
-    from ..rooms import Door, Room
-
-    return (
-        isinstance(value, tuple)
-        and len(value) == 2
-        and all(isinstance(r, Room) for r in value[0])
-        and all(isinstance(d, Door) for d in value[1])
-    )
 
 
 def _extra_graphs(graphs):
@@ -255,42 +241,10 @@ def _rasters(inputs: Inputs) -> list[dict]:
     return out
 
 
-def _round(values, digits: int = 4) -> list:
-    return np.round(np.asarray(values, np.float64), digits).tolist()
-
-
-def rooms_payload(rooms) -> dict:
-    """Rooms (id, area, centroid, outline) and doors (rooms, ends, width) for the page."""
-    if _is_room_pair(rooms):
-        room_list, door_list = rooms
-    else:
-        room_list, door_list = rooms.rooms, rooms.doors
-    return {
-        "rooms": [
-            {
-                "id": int(r.id),
-                "area_m2": float(r.area_m2),
-                "centroid": _round(r.centroid),
-                "polygon": _round(np.asarray(r.polygon, np.float64).reshape(-1, 2).ravel()),
-            }
-            for r in room_list
-        ],
-        "doors": [
-            {
-                "id": int(d.id),
-                "rooms": [int(v) for v in d.rooms],
-                "ends": _round(np.asarray(d.ends_world, np.float64).ravel()),
-                "width_m": float(d.width_m),
-            }
-            for d in door_list
-        ],
-    }
-
-
 def _route_payload(route) -> dict:
     return {
         "length_m": float(route.length_m),
-        "xy": _round(route.world.ravel(), 6),
+        "xy": rounded(route.world.ravel(), 6),
         "start_snap_m": float(route.start_snap_m),
         "goal_snap_m": float(route.goal_snap_m),
     }

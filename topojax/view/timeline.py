@@ -19,6 +19,7 @@ import numpy as np
 from .._validate import int_at_least
 from ._encode import TILE_PX, packed, pyramid
 from ._graphs import KIND_NAMES
+from ._rooms_data import rooms_payload
 
 __all__ = ["Timeline"]
 
@@ -124,8 +125,6 @@ class Timeline:
         removed = sorted(self._pool_index[k] for k in self._last_keys - now)
         self._last_keys = now
         if rooms:
-            from ._data import rooms_payload
-
             self._rooms.append(rooms_payload(mapper.rooms)["rooms"])
         nodes = list(graph.nodes(data=True))
         xy = np.array([d["world"] for _, d in nodes], np.float64).reshape(-1, 2)
