@@ -530,3 +530,57 @@ def test_bent_shortcuts_close_no_short_loop_through_a_shared_corner():
     g = route_graph(occ, robot_radius_m=R)
     assert tj.evaluate_route_graph(g, occ, robot_radius_m=R, n_pairs=50).short_loops == 0
     _assert_safe(g, occ)
+
+
+def test_compiled_helpers_match_plain_numpy():
+    """The compiled helpers of the builder against plain NumPy references: pixels of a
+    mask, simplification of many paths at once, and anchors along edges."""
+    from topojax.graph.work import SQRT2
+    from topojax.routegraph._joins import mask_pixels
+    from topojax.routegraph._spanner import anchor_pieces, simplify_path, simplify_paths
+
+    rng = np.random.default_rng(5)
+    for density in (0.0, 0.01, 0.5):
+        mask = rng.random((37, 53)) < density
+        assert np.array_equal(mask_pixels(mask), np.argwhere(mask))
+
+    # random 8-connected walks as edge paths
+    paths = []
+    for n in (1, 2, 9, 40, 75):
+        steps = rng.integers(-1, 2, size=(n - 1, 2))
+        steps[(steps == 0).all(axis=1)] = (0, 1)
+        paths.append(np.cumsum(np.r_[[[50, 50]], steps], axis=0).astype(np.int64))
+    feasible = np.ones((200, 200), bool)
+    every = np.concatenate(paths)
+    sizes = np.array([len(p) for p in paths], np.int64)
+    starts = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int64)
+    kept = simplify_paths(every, starts, sizes, feasible, 1.5)
+    for p, s0 in zip(paths, starts, strict=True):
+        assert np.array_equal(kept[s0 : s0 + len(p)], simplify_path(p, feasible, 1.5))
+
+    long = [p for p in paths if len(p) >= 2]
+    every = np.concatenate(long)
+    sizes = np.array([len(p) for p in long], np.int64)
+    starts = np.r_[0, np.cumsum(sizes)[:-1]].astype(np.int64)
+    ia = np.arange(len(long), dtype=np.int64)
+    ib = ia + 1
+    spacing, keep = 3.0, 2.0
+    at, first, owner, pu, pv, pw = anchor_pieces(every, starts, sizes, ia, ib, 10, spacing, keep)
+    ref_at, ref_pieces, n = [], [], 10
+    for e, p in enumerate(long):  # reference: equal parts, the first pixel at or past each
+        step = np.abs(np.diff(p, axis=0))
+        arc = np.r_[0.0, np.cumsum(np.where(step.min(axis=1) > 0, SQRT2, 1.0))]
+        k = int(arc[-1] // spacing)
+        cut = np.searchsorted(arc, arc[-1] * np.arange(1, k) / k) if k > 1 else np.zeros(0, int)
+        cut = np.unique(cut[(arc[cut] >= keep) & (arc[-1] - arc[cut] >= keep)])
+        ids = np.r_[ia[e], n + np.arange(cut.size), ib[e]]
+        marks = np.r_[0.0, arc[cut], arc[-1]]
+        ref_at += (starts[e] + cut).tolist()
+        ref_pieces += list(
+            zip(ids[:-1].tolist(), ids[1:].tolist(), np.diff(marks).tolist(), strict=True)
+        )
+        n += cut.size
+    assert at.tolist() == ref_at and len(ref_at) > 0
+    assert list(zip(pu.tolist(), pv.tolist(), pw.tolist(), strict=True)) == ref_pieces
+    assert np.array_equal(every[at], every[np.array(ref_at)])
+    assert (owner >= 0).all() and (first <= np.arange(10, 10 + at.size)).all()
