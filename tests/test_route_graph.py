@@ -488,7 +488,7 @@ def test_reflex_corners_are_where_the_free_space_turns_round_an_obstacle():
 
     occ = _map(_wall_end_room())
     feasible = feasible_space(occ, R).feasible
-    corners = reflex_corners(feasible)
+    corners = reflex_corners(feasible, 0.15 / RES)
     assert len(corners) >= 1 and feasible[corners[:, 0], corners[:, 1]].all()
     # the wall's end (row 6 m, col 5 m) has corners near it; the room's own corners
     # (where the free space is convex) have none

@@ -13,10 +13,11 @@ from scipy.spatial import cKDTree
 from .._jit import cached_njit
 from ._spanner import straight_is_feasible
 
-__all__ = ["bent_candidates", "reflex_corners"]
+__all__ = ["CORNER_TOLERANCE_M", "bent_candidates", "reflex_corners"]
 
-# Outline pixels are simplified to this tolerance (pixels) before corners are taken.
-_OUTLINE_TOLERANCE_PX = 3.0
+#: The outline of the feasible space is simplified to this tolerance (metres) before its
+#: corners are taken.
+CORNER_TOLERANCE_M = 0.15
 # A corner point sits this far (pixels) from the outline, inside the feasible space.
 _INSET_PX = 2.0
 # A vertex is a reflex corner when more than this share of the window round it is
@@ -27,10 +28,10 @@ _WINDOW = 3
 _PER_CORNER = 16
 
 
-def reflex_corners(feasible: np.ndarray) -> np.ndarray:
+def reflex_corners(feasible: np.ndarray, tolerance_px: float) -> np.ndarray:
     """Points (int64 (K, 2), ``(row, col)``, feasible pixels) just inside the reflex
-    corners of the outline of ``feasible`` (bool (H, W)): where the feasible space turns
-    round an obstacle."""
+    corners of the outline of ``feasible`` (bool (H, W)), simplified to ``tolerance_px``:
+    where the feasible space turns round an obstacle."""
     contours, _ = cv2.findContours(feasible.view(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
     h, w = feasible.shape
     share = cv2.boxFilter(
@@ -43,7 +44,7 @@ def reflex_corners(feasible: np.ndarray) -> np.ndarray:
     for contour in contours:
         if len(contour) < 8:
             continue
-        poly = cv2.approxPolyDP(contour, _OUTLINE_TOLERANCE_PX, True).reshape(-1, 2)
+        poly = cv2.approxPolyDP(contour, float(tolerance_px), True).reshape(-1, 2)
         if len(poly) < 3:
             continue
         xy = poly.astype(np.float64)

@@ -324,7 +324,7 @@ def add_shortcuts(
     end_px: float = 2.0,
     min_loop_px: float = 0.0,
     anchor_px: float = 0.0,
-    round_corners: bool = False,
+    corner_tolerance_px: float = 0.0,
 ) -> int:
     """Greedy spanner: for node pairs at most ``radius_px`` apart, shortest first, add a
     straight feasible edge when the graph route between them is longer than ``stretch``
@@ -333,8 +333,9 @@ def add_shortcuts(
     no loop shorter than ``min_loop_px`` (graph route plus straight line).  The nodes are
     the vertices (with ``from_dead_ends`` False, only those of two or more edges) and,
     with ``anchor_px`` > 0, points about that far apart along the edges (an edge is split
-    where a shortcut starts).  With ``round_corners``, candidates also bend once, at a
-    reflex corner of the feasible space (:mod:`._corners`): two straight lines through
+    where a shortcut starts).  With ``corner_tolerance_px`` > 0, candidates also bend
+    once, at a reflex corner of the feasible space's outline simplified to that
+    tolerance (:mod:`._corners`): two straight lines through
     the corner joining two nodes that do not see each other, by the same rules except
     that both ends may be anchors and that the two lines may cross other edges (no
     vertex is made there); neither line may close a loop shorter than ``min_loop_px``
@@ -359,7 +360,11 @@ def add_shortcuts(
     vertex_end = (a < len(alive)) | (b < len(alive))
     pairs = pairs[(deg[a] >= min_deg) & (deg[b] >= min_deg) & vertex_end]
     pairs = pairs[~_same_edge(pairs[:, 0], pairs[:, 1], on, vert_key, m)]
-    corners = reflex_corners(feasible) if round_corners else np.zeros((0, 2), np.int64)
+    corners = (
+        reflex_corners(feasible, corner_tolerance_px)
+        if corner_tolerance_px > 0
+        else np.zeros((0, 2), np.int64)
+    )
     bent = bent_candidates(corners, pos_i, deg >= min_deg, feasible, radius_px, end_px)
     bent = bent[~_same_edge(bent[:, 0], bent[:, 1], on, vert_key, m)]
     via = pos[bent[:, 0]] - corners[bent[:, 2]], corners[bent[:, 2]] - pos[bent[:, 1]]

@@ -17,6 +17,7 @@ from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph
 from ..graph.work import WorkGraph, collapse_loops, drop_spurs, face_labels
 from ..skeleton import thin
+from ._corners import CORNER_TOLERANCE_M
 from ._cover import add_coverage, add_shortcuts
 from ._spanner import simplify_paths
 from .feasible import FeasibleSpace, feasible_space
@@ -184,7 +185,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         max(2.0, cfg.robot_radius_m / res),
         2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS,
         cfg.shortcut_spacing_m / res,
-        cfg.shortcuts_round_corners,
+        CORNER_TOLERANCE_M / res if cfg.shortcuts_round_corners else 0.0,
     )
     work.contract_all()
     t4 = time.perf_counter()
