@@ -207,6 +207,8 @@ def test_options_are_checked():
         RouteGraphConfig(robot_radius_m="big")
     with pytest.raises(ValueError, match="shortcut_stretch"):
         RouteGraphConfig(shortcut_stretch=0.5)
+    with pytest.raises(TypeError, match="shortcuts_round_corners"):
+        RouteGraphConfig(shortcuts_round_corners="yes")
     with pytest.raises(TypeError, match="config"):
         route_graph(_map(_room(3, 3)), config="fast")
     with pytest.raises(TypeError):
