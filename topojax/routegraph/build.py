@@ -59,9 +59,9 @@ class RouteGraphConfig:
     shortcut_radius_m : float, default 5.0
         Only vertices at most this far apart are considered for shortcuts (0: none).
     shortcut_gain_m : float, default 0.3
-        ... and only when the shortcut saves at least this much route length.  Shortcuts
-        cross no edge: farther than the robot radius from its ends a shortcut touches no
-        other edge.
+        ... and only when the shortcut saves at least this much route length.  Straight
+        shortcuts cross no edge: farther than the robot radius from its ends a shortcut
+        touches no other edge.
     shortcut_spacing_m : float, default 1.0
         Shortcuts may also start at points about this far apart along the edges (the edge
         is split there); 0: only at vertices.
@@ -70,8 +70,9 @@ class RouteGraphConfig:
         space); False gives markedly fewer edges in rooms and halls, and longer routes.
     shortcuts_round_corners : bool, default True
         Whether a shortcut may also bend once, round a corner the free space turns round
-        (a wall's end, a piece of furniture): the shortest routes hug such corners, which
-        no straight line between points of the medial axis follows.
+        (a wall's end, a door's frame, a piece of furniture): the shortest routes hug
+        such corners, which no straight line between points of the medial axis follows.
+        Bent shortcuts may cross other edges.
     waypoint_tolerance_m : float, default 0.1
         Each edge's ``waypoints`` polyline keeps every path pixel within this distance.
     min_region_m2 : float, default 1.0
