@@ -1,8 +1,10 @@
-"""The greedy spanner's inner loop as one compiled kernel: candidate shortcuts, shortest
-first, each accepted when the graph (grown by the shortcuts accepted so far) still has no
-route short enough between its ends, its straight pixel line is feasible and it crosses no
-other edge.  The digital straight line used here is the one of every straight route-graph
-edge (:func:`line_pixels`)."""
+"""The route graph builder's compiled loops.  The greedy spanner's inner loop: candidate
+shortcuts, shortest first, each accepted when the graph (grown by the shortcuts accepted
+so far) still has no route short enough between its ends, its straight pixel line (or,
+for a shortcut bent at a corner, its two lines) is feasible, and a straight one crosses
+no other edge.  The digital straight line used here is the one of every straight
+route-graph edge (:func:`line_pixels`).  Also: the coverage tests (which pixels see the
+graph), anchors along edges and the simplification of edge paths."""
 
 from __future__ import annotations
 
