@@ -27,8 +27,11 @@ LANE_ROUNDS = 2
 # The 5 x 5 labelled distance transform names a graph pixel at most this factor (plus a
 # pixel) farther than the nearest one.
 _LABEL_SLACK = 1.05
-# Up to this many pixels to test, their nearest graph pixels come from a k-d tree instead.
+# Up to this many pixels to test (and up to one in _TRANSFORM_SHARE of the window's
+# pixels: a k-d tree query costs about as much per pixel as the two whole-window
+# transforms per twenty pixels), their nearest graph pixels come from a k-d tree instead.
 _FEW_PIXELS = 200_000
+_TRANSFORM_SHARE = 20
 
 
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
@@ -62,7 +65,7 @@ def covered(
     if not raster.any() or not test.any():
         return np.zeros(feasible.shape, bool)
     graph_px = mask_pixels(raster)
-    if np.count_nonzero(test) > _FEW_PIXELS:
+    if np.count_nonzero(test) > min(_FEW_PIXELS, test.size // _TRANSFORM_SHARE):
         # the labelled transform names a graph pixel near each pixel, at most
         # _LABEL_SLACK times (plus a pixel) farther than the nearest one; where the named
         # pixel is hidden or out of reach, another within reach may still be seen, but
@@ -281,10 +284,10 @@ def _anchor_graph(work: WorkGraph, alive: list[int], spacing_px: float, keep_px:
     return pos, deg, on, lo[keep], hi[keep], w[keep]
 
 
-def _same_edge(a, b, on, vert_key, m) -> np.ndarray:
+def _same_edge(a, b, on, vert_key, m, neighbours: bool = True) -> np.ndarray:
     """Pairs of nodes (vertex or anchor ids ``a``, ``b``) that are no shortcut pair: two
-    anchors of one edge, an anchor and its edge's end vertices or their neighbours, two
-    anchors of edges with a common end."""
+    anchors of one edge, an anchor and its edge's end vertices (or, with ``neighbours``,
+    their neighbours), two anchors of edges with a common end."""
     same = np.zeros(len(a), bool)
     for x, y in ((a, b), (b, a)):
         anchor = on[x, 2] >= 0
@@ -292,7 +295,8 @@ def _same_edge(a, b, on, vert_key, m) -> np.ndarray:
             same |= anchor & (end == y)
             if (on[y, 2] >= 0).any():
                 same |= anchor & (on[y, 2] >= 0) & ((end == on[y, 0]) | (end == on[y, 1]))
-            same |= anchor & (on[y, 2] < 0) & np.isin(end * m + y, vert_key)
+            if neighbours:
+                same |= anchor & (on[y, 2] < 0) & np.isin(end * m + y, vert_key)
     return same
 
 
@@ -337,8 +341,8 @@ def add_shortcuts(
     once, at a reflex corner of the feasible space's outline simplified to that
     tolerance (:mod:`._corners`): two straight lines through
     the corner joining two nodes that do not see each other, by the same rules except
-    that both ends may be anchors and that the two lines may cross other edges (no
-    vertex is made there); neither line may close a loop shorter than ``min_loop_px``
+    that both ends may be anchors, that a vertex may pair with an anchor of an edge next
+    to it, and that the two lines may cross other edges (no vertex is made there); neither line may close a loop shorter than ``min_loop_px``
     through a corner already in the graph.  Returns the number of shortcuts added."""
     min_deg = 1 if from_dead_ends else 2
     alive = [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
@@ -366,7 +370,9 @@ def add_shortcuts(
         else np.zeros((0, 2), np.int64)
     )
     bent = bent_candidates(corners, pos_i, deg >= min_deg, feasible, radius_px, end_px)
-    bent = bent[~_same_edge(bent[:, 0], bent[:, 1], on, vert_key, m)]
+    # a bent shortcut may join a vertex to an anchor next to it (a room's vertex to the
+    # corridor past its door, round the door's frame)
+    bent = bent[~_same_edge(bent[:, 0], bent[:, 1], on, vert_key, m, neighbours=False)]
     via = pos[bent[:, 0]] - corners[bent[:, 2]], corners[bent[:, 2]] - pos[bent[:, 1]]
     length = np.r_[
         np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T),
