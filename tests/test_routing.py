@@ -17,6 +17,7 @@ from brute_force import distance_to_polyline
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from skimage.morphology import skeletonize
+from view_cases import crossing_graph
 
 import topojax as tj
 from topojax.graph import prune_graph, skeleton_to_graph
@@ -103,6 +104,21 @@ def test_route_takes_the_shortcut_not_the_long_edge_between_the_same_junctions()
     r = plan_route(g, (0.6, 4.0), (1.0, 9.0), frame="pixel")
     assert r.length_m == pytest.approx(5.0) and r.vertices == ()
     assert len(r.edges) == 1
+
+
+@pytest.mark.parametrize("end", [(0, 5), (5, 0), (10, 5), (5, 10), (2, 5), (5, 8)])
+def test_a_point_where_edges_cross_may_leave_along_either(end):
+    # (5, 5) lies on edge a-b and on edge c-d, as near to a query there as can be: the
+    # route takes whichever is shorter, from the crossing and to it
+    _, g = crossing_graph()
+    planner = RoutePlanner(g)
+    want = abs(end[0] - 5) + abs(end[1] - 5)
+    for a, b in (((5, 5), end), (end, (5, 5))):
+        r = planner.route(a, b, frame="pixel")
+        assert r.length_m == pytest.approx(want)
+        assert r.vertices == () and len(r.edges) == 1
+        assert r.pixels[0].tolist() == list(a) and r.pixels[-1].tolist() == list(b)
+        assert r.start_snap_m == r.goal_snap_m == 0.0
 
 
 RING = """

@@ -19,7 +19,7 @@ import time
 import cv2
 import numpy as np
 import pytest
-from view_cases import intel_replay, intel_result, office_route_graph
+from view_cases import crossing_graph, intel_replay, intel_result, office_route_graph
 
 import topojax as tj
 
@@ -320,6 +320,20 @@ def test_routes_on_a_route_graph_equal_plan_route(browser, tmp_path):
         assert abs(got["length_m"] - want.length_m) < 1e-3, (a, b)
         checked += 1
     assert checked >= 5
+
+
+def test_routes_from_where_edges_cross_equal_plan_route(browser, tmp_path):
+    occupancy, g = crossing_graph()
+    page = tj.write_view(g, tmp_path / "crossing.html", map=occupancy)
+    assert _open(browser, page) == "ready"
+    planner = tj.RoutePlanner(g)
+    crossing = occupancy.pixel_to_world(5, 5)
+    for end in ((0, 5), (5, 0), (10, 5), (5, 10), (2, 5), (5, 8), (9, 10)):
+        end = occupancy.pixel_to_world(*end)
+        for a, b in ((crossing, end), (end, crossing)):
+            a, b = tuple(map(float, a)), tuple(map(float, b))
+            got = _js(browser, "topojaxView.route(...arguments)", *a, *b, "graph")
+            assert abs(got["length_m"] - planner.route(a, b).length_m) < 1e-9, (a, b)
 
 
 def test_pan_zoom_and_scale_bar(intel):

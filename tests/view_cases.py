@@ -56,3 +56,27 @@ def unpacked(packed: dict) -> np.ndarray:
     types = {"i1": "<i1", "u1": "u1", "i2": "<i2", "i4": "<i4", "u4": "<u4", "f4": "<f4"}
     dtype = np.dtype(types.get(packed["t"], "<f8"))
     return np.frombuffer(zlib.decompress(b64decode(packed["z"])), dtype=dtype)
+
+
+def crossing_graph():
+    """Two straight edges that cross at pixel (5, 5), which is no vertex of either:
+    a-b along row 5, c-d along column 5, and b-d round the corner (10, 10); on a free
+    11 x 11 map of 1 m pixels.  A query at the crossing may leave along either edge."""
+    import networkx as nx
+
+    free = np.ones((11, 11), bool)
+    occupancy = tj.OccupancyMap(~free, free, np.zeros_like(free), resolution_m=1.0)
+    g = nx.MultiGraph(resolution_m=1.0)
+    corners = {"a": (5, 0), "b": (5, 10), "c": (0, 5), "d": (10, 5)}
+    for name, pixel in corners.items():
+        g.add_node(name, pixel=pixel, world=tuple(occupancy.pixel_to_world(*pixel)))
+    lines = {
+        ("a", "b"): [(5, c) for c in range(11)],
+        ("c", "d"): [(r, 5) for r in range(11)],
+        ("b", "d"): [(r, 10) for r in range(5, 11)] + [(10, c) for c in range(9, 4, -1)],
+    }
+    for (u, v), path in lines.items():
+        path = np.array(path, np.int64)
+        world = np.array([occupancy.pixel_to_world(r, c) for r, c in path], np.float64)
+        g.add_edge(u, v, path=path, world=world, length_m=float(len(path) - 1))
+    return occupancy, g

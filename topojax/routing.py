@@ -4,8 +4,9 @@ A route graph is only useful once a robot can ask it for a way from where it is 
 it should go.  The query points rarely lie on the graph, so each is *snapped* to the
 nearest pixel of the graph's corridors (an edge path pixel, or a vertex without edges;
 a merged junction cluster's own pixels need not lie on a path, so a query on one snaps to
-the cluster's nearest path pixel); the route then runs along the partial edge from the snapped start to one of that edge's
-ends, through the graph (shortest by ``length_m``), and along the goal's edge to the
+the cluster's nearest path pixel).  Where edges cross or touch, that pixel lies on each
+of them, and the route may leave it along any of them.  The route then runs along the
+partial edge from the snapped start to one of that edge's ends, through the graph (shortest by ``length_m``), and along the goal's edge to the
 snapped goal.  A start and goal on the same edge also try the direct way along it; a
 ring is left in whichever direction is shorter.
 
@@ -36,6 +37,10 @@ from .graph import cumulative_length_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
 
 __all__ = ["DEFAULT_MAX_SNAP_M", "NoRouteError", "Route", "RoutePlanner", "plan_route"]
+
+#: Corridor points at most this much farther from a query point than the nearest one
+#: (metres, or pixels in the pixel frame) are as near: the same pixel on edges that cross.
+_TIE = 1e-9
 
 _FRAMES = ("world", "pixel")
 
@@ -244,26 +249,32 @@ class RoutePlanner:
         one_of("frame", frame, _FRAMES)
         if max_snap_m is not None:
             max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
-        s = self._snap(start, frame, "start")
-        g = self._snap(goal, frame, "goal")
-        for name, snap in (("start", s), ("goal", g)):
-            if max_snap_m is not None and snap.distance_m > max_snap_m:
+        s = self._snaps(start, frame, "start")
+        g = self._snaps(goal, frame, "goal")
+        for name, snaps in (("start", s), ("goal", g)):
+            if max_snap_m is not None and snaps[0].distance_m > max_snap_m:
                 raise ValueError(
-                    f"{name}: the nearest point of the graph is {snap.distance_m:.6g} m away, "
+                    f"{name}: the nearest point of the graph is {snaps[0].distance_m:.6g} m away, "
                     f"more than max_snap_m={max_snap_m} (pass a larger max_snap_m, or None for "
                     "no limit)"
                 )
         return self._route(s, g)
 
     # ------------------------------------------------------------------ internals
-    def _snap(self, point, frame: str, name: str) -> _Snap:
-        """The graph pixel nearest to ``point`` (see :meth:`route` for the frames)."""
+    def _snaps(self, point, frame: str, name: str) -> list[_Snap]:
+        """The graph pixels nearest to ``point``, one per edge (or vertex without edges)
+        through it: several where edges cross (see :meth:`route` for the frames)."""
         q = _point(point, name, frame)
         tree, owners = self._tree(frame)
         dist, k = tree.query(q)
-        edge, index, vertex = (int(x) for x in owners[k])
+        near = sorted(set(tree.query_ball_point(q, float(dist) + _TIE)) | {int(k)})
         scale = 1.0 if frame == "world" else self._pixel_size_m()
-        return _Snap(edge, index, self._nodes[vertex] if edge < 0 else None, float(dist) * scale)
+        out = []
+        for i in near:
+            edge, index, vertex = (int(x) for x in owners[i])
+            node = self._nodes[vertex] if edge < 0 else None
+            out.append(_Snap(edge, index, node, float(dist) * scale))
+        return out
 
     def _edge_arrays(self, a, b, key, data):
         where = f"edge ({a!r}, {b!r}, {key!r})"
@@ -362,33 +373,46 @@ class RoutePlanner:
             self._trees[frame] = (cKDTree(xy), np.concatenate(owners).astype(np.int64))
         return self._trees[frame]
 
-    def _ends(self, snap: _Snap) -> dict:
-        """Graph vertices a route can leave the snapped point through, with the length
-        along the snapped edge to each."""
-        if snap.edge < 0:
-            return {snap.vertex: 0.0}
-        e = snap.edge
-        to_start = float(self._cum[e][snap.index])
-        to_end = self._len[e] - to_start
-        ends = {self._u[e]: to_start}
-        ends[self._v[e]] = min(ends.get(self._v[e], math.inf), to_end)
+    def _ends(self, snaps: list[_Snap]) -> dict:
+        """Graph vertices a route can leave the snapped point through: vertex -> (length
+        along the snapped edge to it, the snap on that edge), the shortest over ``snaps``."""
+        ends: dict = {}
+        for snap in snaps:
+            if snap.edge < 0:
+                reach = {snap.vertex: 0.0}
+            else:
+                e = snap.edge
+                to_start = float(self._cum[e][snap.index])
+                reach = {self._u[e]: to_start}
+                reach[self._v[e]] = min(reach.get(self._v[e], math.inf), self._len[e] - to_start)
+            for n, d in reach.items():
+                if n not in ends or d < ends[n][0]:
+                    ends[n] = (d, snap)
         return ends
 
-    def _route(self, s: _Snap, g: _Snap) -> Route:
-        best = math.inf
-        plan = None
+    def _direct(self, ss: list[_Snap], gs: list[_Snap]):
+        """The shortest way between a start and a goal snap without passing a vertex:
+        ``(length, plan)`` or ``(inf, None)``."""
+        best, plan = math.inf, None
+        for s in ss:
+            for g in gs:
+                if s.edge >= 0 and s.edge == g.edge:
+                    d = abs(float(self._cum[s.edge][g.index]) - float(self._cum[s.edge][s.index]))
+                    if d < best:
+                        best, plan = d, ("direct", s, g)
+                elif s.edge < 0 and g.edge < 0 and s.vertex == g.vertex:
+                    best, plan = 0.0, ("vertex", s, g)
+        return best, plan
+
+    def _route(self, ss: list[_Snap], gs: list[_Snap]) -> Route:
         # The direct way along one edge.
-        if s.edge >= 0 and s.edge == g.edge:
-            best = abs(float(self._cum[s.edge][g.index]) - float(self._cum[s.edge][s.index]))
-            plan = ("direct",)
-        elif s.edge < 0 and g.edge < 0 and s.vertex == g.vertex:
-            best, plan = 0.0, ("vertex",)
+        best, plan = self._direct(ss, gs)
         # Through the graph: Dijkstra from the start's edge ends (with their offsets),
         # until no unsettled vertex can beat the best route found.  Heap entries carry
         # how they were reached, so each settled vertex knows its predecessor.
-        sources, targets = self._ends(s), self._ends(g)
+        sources, targets = self._ends(ss), self._ends(gs)
         parent: dict = {}
-        heap = [(d, i, n, None, -1) for i, (n, d) in enumerate(sources.items())]
+        heap = [(d, i, n, None, -1) for i, (n, (d, _)) in enumerate(sources.items())]
         heapq.heapify(heap)
         tie = len(heap)
         reached = None
@@ -399,8 +423,8 @@ class RoutePlanner:
             if d >= best:
                 break
             parent[n] = (via, e)
-            if n in targets and d + targets[n] < best:
-                best = d + targets[n]
+            if n in targets and d + targets[n][0] < best:
+                best = d + targets[n][0]
                 reached = n
                 plan = ("graph",)
             for m, (w, e2) in self._adj[n].items():
@@ -409,12 +433,14 @@ class RoutePlanner:
                     heapq.heappush(heap, (d + w, tie, m, n, e2))
         if plan is None:
             raise NoRouteError(
-                f"no route from the start (snapped to {self._where(s)}) to the goal (snapped to "
-                f"{self._where(g)}): they lie in different components of the graph"
+                f"no route from the start (snapped to {self._where(ss[0])}) to the goal "
+                f"(snapped to {self._where(gs[0])}): they lie in different components of the "
+                "graph"
             )
         if plan[0] == "vertex":
-            return self._assemble([], [], best, s, g)
+            return self._assemble([], [], best, plan[1], plan[2])
         if plan[0] == "direct":
+            s, g = plan[1], plan[2]
             return self._assemble([(s.edge, s.index, g.index)], [], best, s, g)
         chain, hops = [reached], []
         while parent[chain[-1]][0] is not None:
@@ -423,13 +449,14 @@ class RoutePlanner:
             chain.append(via)
         chain.reverse()
         hops.reverse()
+        (d0, s), (d1, g) = sources[chain[0]], targets[chain[-1]]
         pieces = []
         if s.edge >= 0:
-            pieces.append(self._partial(s.edge, s.index, chain[0], sources[chain[0]]))
+            pieces.append(self._partial(s.edge, s.index, chain[0], d0))
         for a, e in zip(chain[:-1], hops, strict=True):
             pieces.append((e, 0, -1) if self._u[e] == a else (e, -1, 0))
         if g.edge >= 0:
-            e, index, end_ = self._partial(g.edge, g.index, chain[-1], targets[chain[-1]])
+            e, index, end_ = self._partial(g.edge, g.index, chain[-1], d1)
             pieces.append((e, end_, index))  # from the vertex to the goal
         return self._assemble(pieces, chain, best, s, g)
 

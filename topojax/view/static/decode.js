@@ -231,4 +231,24 @@ var TJ = (window.TJ = window.TJ || {});
     }
     return best < 0 ? null : { index: best, dist: Math.sqrt(bestD2) };
   };
+  /* every point within r of (qx, qy), by index */
+  TJ.Grid.prototype.within = function (qx, qy, r) {
+    var out = [];
+    if (this.n === 0) return out;
+    var cell = this.cell, r2 = r * r;
+    var gx0 = Math.max(0, Math.floor((qx - r - this.x0) / cell));
+    var gx1 = Math.min(this.nx - 1, Math.floor((qx + r - this.x0) / cell));
+    var gy0 = Math.max(0, Math.floor((qy - r - this.y0) / cell));
+    var gy1 = Math.min(this.ny - 1, Math.floor((qy + r - this.y0) / cell));
+    for (var gy = gy0; gy <= gy1; gy++) {
+      for (var gx = gx0; gx <= gx1; gx++) {
+        var c = gy * this.nx + gx;
+        for (var t = this.offsets[c], end = this.offsets[c + 1]; t < end; t++) {
+          var i = this.items[t], dx = this.x[i] - qx, dy = this.y[i] - qy;
+          if (dx * dx + dy * dy <= r2) out.push(i);
+        }
+      }
+    }
+    return out.sort(function (a, b) { return a - b; });
+  };
 })();

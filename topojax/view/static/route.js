@@ -2,7 +2,8 @@
  * licence, part of topojax).
  *
  * A query point snaps to the nearest corridor point: a pixel of an edge path, or a vertex
- * without edges.  The route runs along the snapped edge to one of its ends, through the
+ * without edges; where edges cross, that point lies on each and the route may leave along
+ * any of them.  The route runs along the snapped edge to one of its ends, through the
  * graph (Dijkstra on length_m, parallel edges by their shortest, self-loops never), and
  * along the goal's edge to the snapped goal; start and goal on one edge also try the
  * direct way along it.  Lengths along an edge are its straight and diagonal pixel steps
@@ -89,32 +90,47 @@ var TJ = (window.TJ = window.TJ || {});
     this.grid = new TJ.Grid(sx, sy, cell);
   };
 
-  /* the nearest corridor point: {edge, index, vertex, dist} */
+  /* The nearest corridor points, {dist, at: [{edge, index, vertex}, ...]}: one, or one per
+   * edge through it where edges cross (points at most TIE metres farther count as near). */
+  var TIE = 1e-9;
   TJ.Router.prototype.snap = function (x, y) {
     var hit = this.grid.nearest(x, y, Infinity);
     if (hit === null) throw new Error("the graph has no vertices or edges to route on");
-    var np = this.G.np;
-    if (hit.index >= np) {
-      return { edge: -1, index: 0, vertex: this.lonely[hit.index - np], dist: hit.dist };
+    var np = this.G.np, near = this.grid.within(x, y, hit.dist + TIE), at = [];
+    if (near.indexOf(hit.index) < 0) near.push(hit.index);
+    for (var k = 0; k < near.length; k++) {
+      var i = near[k];
+      if (i >= np) {
+        at.push({ edge: -1, index: 0, vertex: this.lonely[i - np] });
+      } else {
+        var e = this.pointEdge[i];
+        at.push({ edge: e, index: i - this.G.starts[e], vertex: -1 });
+      }
     }
-    var e = this.pointEdge[hit.index];
-    return { edge: e, index: hit.index - this.G.starts[e], vertex: -1, dist: hit.dist };
+    return { dist: hit.dist, at: at };
   };
 
+  /* vertex -> [length along the snapped edge to it, the point of `snap.at` it is left from],
+   * the shortest over the snap's points */
   TJ.Router.prototype.ends = function (snap) {
-    var out = new Map();
-    if (snap.edge < 0) { out.set(snap.vertex, 0); return out; }
-    var e = snap.edge, G = this.G;
-    var toStart = this.cum[G.starts[e] + snap.index];
-    var toEnd = G.len[e] - toStart;
-    out.set(G.u[e], toStart);
-    var old = out.has(G.v[e]) ? out.get(G.v[e]) : Infinity;
-    out.set(G.v[e], Math.min(old, toEnd));
+    var out = new Map(), G = this.G;
+    function offer(n, d, p) {
+      var old = out.get(n);
+      if (old === undefined || d < old[0]) out.set(n, [d, p]);
+    }
+    for (var k = 0; k < snap.at.length; k++) {
+      var p = snap.at[k];
+      if (p.edge < 0) { offer(p.vertex, 0, p); continue; }
+      var toStart = this.cum[G.starts[p.edge] + p.index];
+      offer(G.u[p.edge], toStart, p);
+      offer(G.v[p.edge], G.len[p.edge] - toStart, p);
+    }
     return out;
   };
 
   TJ.Router.prototype.where = function (snap) {
     var G = this.G;
+    snap = snap.at[0];
     if (snap.edge < 0) return "vertex " + G.ids[snap.vertex];
     return "edge " + G.ids[G.u[snap.edge]] + "-" + G.ids[G.v[snap.edge]];
   };
@@ -135,23 +151,28 @@ var TJ = (window.TJ = window.TJ || {});
       }
     }
     var G = this.G, cum = this.cum;
-    var best = Infinity, plan = null;
-    if (s.edge >= 0 && s.edge === g.edge) {
-      best = Math.abs(cum[G.starts[g.edge] + g.index] - cum[G.starts[s.edge] + s.index]);
-      plan = "direct";
-    } else if (s.edge < 0 && g.edge < 0 && s.vertex === g.vertex) {
-      best = 0; plan = "vertex";
+    var best = Infinity, plan = null, ps = null, pg = null;
+    for (var a = 0; a < s.at.length; a++) {
+      for (var b = 0; b < g.at.length; b++) {
+        var sa = s.at[a], gb = g.at[b];
+        if (sa.edge >= 0 && sa.edge === gb.edge) {
+          var direct = Math.abs(cum[G.starts[gb.edge] + gb.index] - cum[G.starts[sa.edge] + sa.index]);
+          if (direct < best) { best = direct; plan = "direct"; ps = sa; pg = gb; }
+        } else if (sa.edge < 0 && gb.edge < 0 && sa.vertex === gb.vertex) {
+          best = 0; plan = "vertex"; ps = sa; pg = gb;
+        }
+      }
     }
     var sources = this.ends(s), targets = this.ends(g);
     var parent = new Map(), heap = new Heap(), tie = 0, reached = -1;
-    sources.forEach(function (d, n) { heap.push([d, tie++, n, -1, -1]); });
+    sources.forEach(function (d, n) { heap.push([d[0], tie++, n, -1, -1]); });
     while (heap.size() > 0) {
       var item = heap.pop(), d = item[0], n = item[2];
       if (parent.has(n)) continue;
       if (d >= best) break;
       parent.set(n, [item[3], item[4]]);
-      if (targets.has(n) && d + targets.get(n) < best) {
-        best = d + targets.get(n); reached = n; plan = "graph";
+      if (targets.has(n) && d + targets.get(n)[0] < best) {
+        best = d + targets.get(n)[0]; reached = n; plan = "graph";
       }
       for (var entry of this.adj[n]) {
         var m = entry[0], we = entry[1];
@@ -166,7 +187,7 @@ var TJ = (window.TJ = window.TJ || {});
     }
     var pieces = [], chain = [];
     if (plan === "direct") {
-      pieces.push([s.edge, s.index, g.index]);
+      pieces.push([ps.edge, ps.index, pg.index]);
     } else if (plan === "graph") {
       chain = [reached];
       var hops = [];
@@ -175,17 +196,19 @@ var TJ = (window.TJ = window.TJ || {});
         hops.push(step[1]); chain.push(step[0]);
       }
       chain.reverse(); hops.reverse();
-      if (s.edge >= 0) pieces.push(this.partial(s.edge, s.index, chain[0], sources.get(chain[0])));
+      var from = sources.get(chain[0]), to = targets.get(chain[chain.length - 1]);
+      ps = from[1]; pg = to[1];
+      if (ps.edge >= 0) pieces.push(this.partial(ps.edge, ps.index, chain[0], from[0]));
       for (var h = 0; h < hops.length; h++) {
         var e = hops[h];
         pieces.push(G.u[e] === chain[h] ? [e, 0, G.sizes[e] - 1] : [e, G.sizes[e] - 1, 0]);
       }
-      if (g.edge >= 0) {
-        var pg = this.partial(g.edge, g.index, chain[chain.length - 1], targets.get(chain[chain.length - 1]));
-        pieces.push([pg[0], pg[2], pg[1]]);
+      if (pg.edge >= 0) {
+        var last = this.partial(pg.edge, pg.index, chain[chain.length - 1], to[0]);
+        pieces.push([last[0], last[2], last[1]]);
       }
     }
-    var xy = this.polyline(pieces, s);
+    var xy = this.polyline(pieces, ps);
     return {
       length_m: best, xy: xy, start_snap_m: s.dist, goal_snap_m: g.dist,
       vertices: chain.map(function (v) { return G.ids[v]; }),
