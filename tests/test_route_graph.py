@@ -450,10 +450,11 @@ def test_coverage_equals_a_brute_force_reference(seed, few, monkeypatch):
     assert np.array_equal(got, _brute_covered(raster, feasible, snap))
 
 
-def test_route_graph_moves_with_the_map():
+@pytest.mark.parametrize("plan", ["random", "hall"])
+def test_route_graph_moves_with_the_map(plan):
     """Unknown space added round a map (by odd and even numbers of pixels) moves the
-    graph by as many pixels and changes nothing else."""
-    free = _random_plan(3)
+    graph by as many pixels and changes nothing else (the hall's mesh included)."""
+    free = _random_plan(3) if plan == "random" else _room(12, 14)
     g0 = route_graph(_map(free), robot_radius_m=R)
     for top, left in ((3, 0), (0, 5), (7, 2)):
         padded = np.pad(free, ((top, 4), (left, 1)))
@@ -586,3 +587,79 @@ def test_compiled_helpers_match_plain_numpy():
     assert list(zip(pu.tolist(), pv.tolist(), pw.tolist(), strict=True)) == ref_pieces
     assert np.array_equal(every[at], every[np.array(ref_at)])
     assert (owner >= 0).all() and (first <= np.arange(10, 10 + at.size)).all()
+
+
+def _without_mesh(monkeypatch):
+    """Route graphs as if open pieces were too small for a mesh (skeleton lanes)."""
+    from topojax.routegraph import _cover
+
+    monkeypatch.setattr(_cover, "mesh_pieces", lambda uncovered, snap_px: np.zeros_like(uncovered))
+
+
+def test_open_hall_gets_a_mesh_with_fewer_vertices_and_shorter_routes(monkeypatch):
+    occ = _map(_room(20, 24))
+    g = route_graph(occ, robot_radius_m=R)
+    report = tj.evaluate_route_graph(g, occ, robot_radius_m=R, n_pairs=150)
+    _without_mesh(monkeypatch)
+    lanes = route_graph(occ, robot_radius_m=R)
+    lanes_report = tj.evaluate_route_graph(lanes, occ, robot_radius_m=R, n_pairs=150)
+    assert g.number_of_nodes() < 0.75 * lanes.number_of_nodes()
+    assert report.stretch_median < lanes_report.stretch_median - 0.03
+    assert report.stretch_p90 < lanes_report.stretch_p90
+    assert report.success_rate == 1.0 and report.uncovered_share == 0.0
+    assert report.short_loops == 0 and _crossings(g) == 0
+    _assert_safe(g, occ)
+
+
+def test_mesh_sites_edges_and_joins():
+    """Through an open piece round which a lane runs: sites on the jittered lattice inside
+    the piece, straight feasible edges that touch the lane only at their ends, one piece
+    with the lane, and no loop shorter than the limit."""
+    from topojax.graph.work import WorkGraph, line_pixels
+    from topojax.routegraph._cover import covered, graph_raster
+    from topojax.routegraph._eval_loops import short_loops
+    from topojax.routegraph._mesh import MESH_JITTER, MESH_SPACING, add_mesh, mesh_pieces
+
+    feasible = np.zeros((300, 360), bool)
+    feasible[10:290, 10:350] = True
+    snap, min_loop = 18.0, 84.0
+    work = WorkGraph()  # a rectangular lane 12 pixels inside the feasible space
+    corners = [(22, 22), (22, 337), (277, 337), (277, 22)]
+    ids = [work.add_vertex(p) for p in corners]
+    for k in range(4):
+        a, b = corners[k], corners[(k + 1) % 4]
+        work.add_edge(ids[k], ids[(k + 1) % 4], line_pixels(a, b))
+    lane = graph_raster(work, feasible.shape)
+    uncovered = feasible & ~covered(lane, feasible, snap)
+    pieces = mesh_pieces(uncovered, snap)
+    assert pieces.any() and not (pieces & ~uncovered).any()
+    n_old = len(work.pixel)
+    assert add_mesh(work, pieces, lane, feasible, snap, min_loop)
+    spacing = MESH_SPACING * snap
+    rows = {int(round(spacing * np.sqrt(3) / 2 * (k + 0.5))) for k in range(40)}
+    new = [v for v in range(n_old, len(work.pixel)) if v not in work.dead]
+    inside = [work.pixel[v] for v in new if pieces[work.pixel[v]]]
+    assert len(inside) > 20
+    for r, _ in inside:  # within the jitter of a lattice row
+        assert min(abs(r - q) for q in rows) <= MESH_JITTER * spacing + 1
+    pos = np.array(inside)
+    d = np.hypot(*(pos[:, None] - pos[None]).transpose(2, 0, 1))
+    assert d[np.triu_indices(len(pos), 1)].min() >= (1 - 2 * np.sqrt(2) * MESH_JITTER) * spacing - 2
+    g = nx.MultiGraph()
+    n_mesh = 0
+    for u, v, path in work.edges.values():
+        g.add_edge(u, v)
+        assert feasible[path[:, 0], path[:, 1]].all()
+        if lane[path[:, 0], path[:, 1]].all():
+            continue  # a piece of the lane, split where mesh edges start
+        n_mesh += 1
+        assert np.array_equal(path, line_pixels(work.pixel[u], work.pixel[v]))
+        far = np.hypot(*(path - path[0]).T) > 3
+        far &= np.hypot(*(path - path[-1]).T) > 3
+        assert not lane[path[far, 0], path[far, 1]].any()  # the lane at its ends only
+    assert n_mesh > 2 * len(inside)
+    assert nx.number_connected_components(g) == 1
+    u = np.array([work.edges[e][0] for e in work.edges])
+    v = np.array([work.edges[e][1] for e in work.edges])
+    length = np.array([work.length[e] for e in work.edges])
+    assert short_loops(len(work.pixel), u, v, length, min_loop) == 0

@@ -1,5 +1,5 @@
-"""Coverage and directness of a route graph: waypoints where feasible space lies farther
-than the snap distance from the graph, and straight shortcut edges where the graph's route
+"""Coverage and directness of a route graph: lanes, meshes and waypoints where feasible
+space lies farther than the snap distance from the graph, and straight shortcut edges where the graph's route
 between two nearby vertices is materially longer than the straight line (a greedy
 spanner)."""
 
@@ -17,13 +17,12 @@ from ..graph.work import WorkGraph, line_pixels
 from ._corners import bent_candidates, reflex_corners
 from ._joins import attach_points, geodesic_path, mask_pixels, segment_ok
 from ._lanes import add_lanes
+from ._mesh import add_mesh, mesh_pieces
 from ._spanner import anchor_pieces, greedy_shortcuts, see_any, see_named, see_nearest
 
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
 #: distance around each grid point covers its cell up to sqrt 2 / 2 of the spacing).
 COVER_SPACING = 1.3
-#: Rounds of lanes before waypoints: one along the walls, then skeletons of what is left.
-LANE_ROUNDS = 2
 # The 5 x 5 labelled distance transform names a graph pixel at most this factor (plus a
 # pixel) farther than the nearest one.
 _LABEL_SLACK = 1.05
@@ -133,17 +132,21 @@ def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray
 
 
 def add_coverage(
-    work: WorkGraph, feasible: np.ndarray, snap_px: float, rounds: int = 6
+    work: WorkGraph,
+    feasible: np.ndarray,
+    snap_px: float,
+    rounds: int = 6,
+    min_loop_px: float = 0.0,
 ) -> np.ndarray:
-    """Add lanes (:func:`add_lanes`: first along the walls, then the skeleton of what is
-    left, at most :data:`LANE_ROUNDS` rounds), then waypoints joined by straight feasible
-    edges (a shortest spanning tree, or a feasible shortest path where no straight edge
+    """Add lanes along the walls (:func:`add_lanes`), then a triangulated mesh through the
+    large open pieces left (:func:`add_mesh`) and lanes along the skeleton of the smaller
+    ones, then waypoints joined by straight feasible edges (a shortest spanning tree, or a feasible shortest path where no straight edge
     reaches), until every feasible pixel is covered (:func:`covered`) or ``rounds``
     waypoint rounds are spent.  Returns the feasible pixels still uncovered (bool
-    (H, W))."""
+    (H, W)).  The mesh closes no loop shorter than ``min_loop_px``."""
     shape = feasible.shape
     spacing = COVER_SPACING * snap_px
-    lane_round, grid_round = 0, 0
+    lane_round, grid_round = 0, 0  # lane rounds: along the walls, then mesh and skeleton
     wall = wall_distance(feasible)
     uncovered = feasible
     while True:
@@ -152,12 +155,20 @@ def add_coverage(
         uncovered = uncovered & ~covered(raster, feasible, snap_px, wall, among=uncovered)
         if grid_round == rounds or not uncovered.any():
             break
-        if lane_round < LANE_ROUNDS and add_lanes(
-            work, uncovered, raster, feasible, wall, snap_px, along_walls=lane_round == 0
-        ):
-            lane_round += 1
-            continue
-        lane_round = LANE_ROUNDS  # pieces too small for lanes: waypoints from now on
+        if lane_round == 0:
+            lane_round = 1
+            if add_lanes(work, uncovered, raster, feasible, wall, snap_px, along_walls=True):
+                continue
+        if lane_round == 1:
+            lane_round = 2
+            open_ = mesh_pieces(uncovered, snap_px)
+            meshed = add_mesh(work, uncovered & open_, raster, feasible, snap_px, min_loop_px)
+            laned = add_lanes(
+                work, uncovered & ~open_, raster, feasible, wall, snap_px, along_walls=False
+            )
+            if meshed or laned:
+                continue
+        # pieces too small for lanes: waypoints from now on
         pts = _waypoint_candidates(uncovered, spacing)
         _connect_waypoints(work, pts, raster, feasible, spacing)
         spacing *= 0.7  # leftovers lie between earlier waypoints

@@ -174,7 +174,8 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     t3 = time.perf_counter()
     # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
     snap_px = max(1.0, (cfg.snap_m - cfg.waypoint_tolerance_m) / res)
-    uncovered = add_coverage(work, feasible, snap_px)
+    min_loop_px = 2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS
+    uncovered = add_coverage(work, feasible, snap_px, min_loop_px=min_loop_px)
     work.contract_all()
     add_shortcuts(
         work,
@@ -184,7 +185,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         cfg.shortcut_gain_m / res,
         cfg.shortcuts_from_dead_ends,
         max(2.0, cfg.robot_radius_m / res),
-        2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS,
+        min_loop_px,
         cfg.shortcut_spacing_m / res,
         CORNER_TOLERANCE_M / res if cfg.shortcuts_round_corners else 0.0,
     )

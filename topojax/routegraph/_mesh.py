@@ -1,0 +1,259 @@
+"""Coverage meshes: a triangulated net of straight edges through the open space the lanes
+along the walls leave uncovered.
+
+Sites lie on a triangular lattice, each moved by a fixed pseudo-random offset (an
+irregular net offers routes in more directions than a regular one), inside the
+uncovered pieces; the graph's own pixels near a piece, spaced along its edges, are sites
+too, so the net starts on the lanes round it.  The Delaunay triangulation of all sites
+gives the candidate edges; those that leave the feasible space, touch the graph away
+from their ends, or run far along the outside of the net are dropped, and groups of
+sites that reach no graph pixel are joined to it like lanes."""
+
+from __future__ import annotations
+
+import heapq
+import math
+
+import cv2
+import numpy as np
+from scipy.spatial import Delaunay, QhullError, cKDTree
+
+from .._jit import cached_njit
+from ..graph.work import WorkGraph, line_into, line_pixels
+from ._joins import attach_points, geodesic_path, mask_pixels, segment_ok
+
+__all__ = ["MESH_JITTER", "MESH_MIN_AREA", "MESH_SPACING", "add_mesh", "mesh_pieces"]
+
+#: Mesh sites lie about this many snap distances apart.
+MESH_SPACING = 2.0
+#: Each site moves up to this share of the spacing from its lattice point, along each
+#: axis: neighbours stay at least 0.77 spacings apart, so no triangle of the net is a loop
+#: shorter than twice ``loop_m`` at the default spacing.
+MESH_JITTER = 0.08
+#: Uncovered pieces of at least this many squared snap distances get a mesh (smaller ones
+#: a lane along their skeleton, which needs fewer vertices there).
+MESH_MIN_AREA = 10.0
+#: Graph pixels next to a piece are sites at least this many spacings apart.
+BORDER_STEP = 1.0
+# Triangulation edges longer than this many spacings (along the net's outside) are dropped.
+_LONGEST = 1.8
+_SEED = 7
+
+
+def _lattice(mask: np.ndarray, spacing: float) -> np.ndarray:
+    """Sites (int64 (n, 2), ``(row, col)``) of the jittered triangular lattice of
+    ``spacing`` pixels laid from the corner of ``mask`` that fall on its set pixels."""
+    h, w = mask.shape
+    dy = spacing * math.sqrt(3.0) / 2.0
+    rows = np.arange(dy / 2.0, h, dy)
+    cols = np.arange(0.0, w + spacing, spacing)
+    r = np.repeat(rows[:, None], cols.size, axis=1)
+    c = cols[None, :] + np.where(np.arange(rows.size) % 2 == 1, spacing / 2.0, 0.0)[:, None]
+    shake = np.random.default_rng(_SEED).uniform(-MESH_JITTER, MESH_JITTER, (*r.shape, 2))
+    rr = np.rint(r + shake[..., 0] * spacing).astype(np.int64).ravel()
+    cc = np.rint(c + shake[..., 1] * spacing).astype(np.int64).ravel()
+    inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+    rr, cc = rr[inside], cc[inside]
+    on = mask[rr, cc]
+    return np.stack([rr[on], cc[on]], axis=1)
+
+
+def _border_sites(work: WorkGraph, near: np.ndarray, step: float) -> np.ndarray:
+    """Graph pixels inside ``near`` (bool (H, W)) at least ``step`` pixels apart: the
+    live vertices first, then points along the edges (greedily, in order)."""
+    pts = [np.array([work.pixel[v] for v in range(len(work.pixel)) if v not in work.dead])]
+    k = max(1, int(step // 4))
+    pts += [np.asarray(path[k:-1:k]) for _, _, path in work.edges.values()]
+    every = np.concatenate([p.reshape(-1, 2) for p in pts]).astype(np.int64)
+    every = every[near[every[:, 0], every[:, 1]]]
+    if len(every) == 0:
+        return every
+    keep = np.ones(len(every), bool)
+    tree = cKDTree(every)
+    for i in range(len(every)):
+        if keep[i]:
+            close = np.asarray(tree.query_ball_point(every[i], step), np.int64)
+            keep[close[close > i]] = False
+    return every[keep]
+
+
+@cached_njit(nogil=True)
+def _clear_lines(pos, ea, eb, inner, feasible, occupied, end_px):
+    """Per candidate edge ``ea[k]``-``eb[k]``: whether its straight line stays on feasible
+    pixels and away from ``occupied`` ones, except within ``end_px`` of an end that is a
+    graph pixel (``inner`` False)."""
+    n_max = 1
+    for k in range(ea.size):
+        a, b = ea[k], eb[k]
+        n_max = max(n_max, abs(pos[a, 0] - pos[b, 0]) + 1, abs(pos[a, 1] - pos[b, 1]) + 1)
+    seg = np.empty((n_max, 2), np.int64)
+    ok = np.zeros(ea.size, np.bool_)
+    lim = end_px * end_px
+    for k in range(ea.size):
+        a, b = ea[k], eb[k]
+        n = line_into(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], seg)
+        good = True
+        for j in range(n):
+            r, c = seg[j, 0], seg[j, 1]
+            if not feasible[r, c]:
+                good = False
+                break
+            if occupied[r, c]:
+                da = (r - pos[a, 0]) ** 2 + (c - pos[a, 1]) ** 2
+                db = (r - pos[b, 0]) ** 2 + (c - pos[b, 1]) ** 2
+                if not ((not inner[a] and da <= lim) or (not inner[b] and db <= lim)):
+                    good = False
+                    break
+        ok[k] = good
+    return ok
+
+
+def _triangulated_pairs(pts: np.ndarray) -> np.ndarray:
+    """The edges (int64 (m, 2), i < j) of the Delaunay triangulation of ``pts``."""
+    try:
+        tri = Delaunay(pts.astype(np.float64))
+    except (QhullError, ValueError):  # fewer than three sites, or all on one line
+        return np.zeros((0, 2), np.int64)
+    s = tri.simplices
+    pairs = np.concatenate([s[:, [0, 1]], s[:, [1, 2]], s[:, [0, 2]]])
+    pairs.sort(axis=1)
+    return np.unique(pairs, axis=0).astype(np.int64)
+
+
+def mesh_pieces(uncovered: np.ndarray, snap_px: float) -> np.ndarray:
+    """The pieces of ``uncovered`` (bool (H, W), 8-connected) of at least
+    :data:`MESH_MIN_AREA` squared snap distances, as a mask."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(uncovered.view(np.uint8), connectivity=8)
+    keep = np.zeros(n, bool)
+    keep[1:] = stats[1:, cv2.CC_STAT_AREA] >= MESH_MIN_AREA * snap_px**2
+    return keep[labels]
+
+
+def add_mesh(
+    work: WorkGraph,
+    pieces: np.ndarray,
+    raster: np.ndarray,
+    feasible: np.ndarray,
+    snap_px: float,
+    min_loop_px: float,
+) -> bool:
+    """Add a triangulated net through ``pieces`` (bool (H, W)), joined to the graph
+    (pixels ``raster``), without loops shorter than ``min_loop_px`` (the longer edges of
+    such loops are left out).  Returns whether any site was added."""
+    spacing = MESH_SPACING * snap_px
+    inner = _lattice(pieces, spacing)
+    if len(inner) == 0:
+        return False
+    reach = int(math.ceil(spacing))
+    near = cv2.dilate(pieces.view(np.uint8), np.ones((2 * reach + 1,) * 2, np.uint8)).view(bool)
+    border = _border_sites(work, near, BORDER_STEP * spacing) if raster.any() else np.zeros((0, 2))
+    pos = np.concatenate([inner, border.reshape(-1, 2)]).astype(np.int64)
+    is_inner = np.arange(len(pos)) < len(inner)
+    pairs = _triangulated_pairs(pos)
+    pairs = pairs[is_inner[pairs[:, 0]] | is_inner[pairs[:, 1]]]
+    length = np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T)
+    pairs = pairs[length <= _LONGEST * spacing]
+    occupied = cv2.dilate(raster.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+    ok = _clear_lines(pos, pairs[:, 0], pairs[:, 1], is_inner, feasible, occupied, 3.0)
+    pairs = pairs[ok]
+    # vertices: every site with an edge; graph pixels become vertices where edges start
+    used = np.unique(pairs)
+    ids = np.full(len(pos), -1, np.int64)
+    on_graph = used[~is_inner[used]]
+    ids[on_graph] = attach_points(work, [tuple(p) for p in pos[on_graph]], feasible.shape)
+    for i in used[is_inner[used]].tolist():
+        ids[i] = work.add_vertex(pos[i])
+    added = []
+    for i, j in pairs.tolist():
+        if ids[i] >= 0 and ids[j] >= 0 and ids[i] != ids[j]:
+            added.append(
+                (work.add_edge(int(ids[i]), int(ids[j]), line_pixels(pos[i], pos[j])), i, j)
+            )
+    # longest first: the edge closing a short loop goes, unless the loop is already open
+    kept = []
+    for e, i, j in sorted(added, key=lambda t: -work.length[t[0]]):
+        u, v, _ = work.edges[e]
+        if _reach(work, u, v, e, min_loop_px - work.length[e]):
+            work.remove_edge(e)
+        else:
+            kept.append((i, j))
+    for i in np.flatnonzero(is_inner & (ids >= 0)).tolist():
+        if not work.adj[ids[i]]:
+            work.dead.add(int(ids[i]))
+            ids[i] = -1
+    pairs = np.array(kept, np.int64).reshape(-1, 2)
+    _join_groups(work, pos, pairs, ids, is_inner, raster, feasible)
+    return bool(used.size)
+
+
+def _reach(work: WorkGraph, src: int, dst: int, skip: int, limit: float) -> bool:
+    """Whether ``dst`` is less than ``limit`` pixels from ``src`` along the graph without
+    edge ``skip``."""
+    if limit <= 0:
+        return False
+    best = {src: 0.0}
+    heap = [(0.0, src)]
+    while heap:
+        d, x = heapq.heappop(heap)
+        if x == dst:
+            return True
+        if d > best.get(x, math.inf):
+            continue
+        for e in work.adj[x]:
+            if e == skip:
+                continue
+            a, b, _ = work.edges[e]
+            y = b if a == x else a
+            nd = d + work.length[e]
+            if nd < limit and nd < best.get(y, math.inf):
+                best[y] = nd
+                heapq.heappush(heap, (nd, y))
+    return False
+
+
+def _join_groups(work, pos, pairs, ids, is_inner, raster, feasible) -> None:
+    """Join each group of mesh sites that reaches no graph pixel to the graph: by the
+    shortest straight feasible segment from one of its sites to a graph pixel, else by a
+    feasible shortest path."""
+    parent = list(range(len(pos) + 1))
+    root = len(pos)  # the graph
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for i in np.flatnonzero(~is_inner).tolist():
+        parent[find(i)] = root
+    for i, j in pairs.tolist():
+        parent[find(i)] = find(j)
+    groups: dict[int, list[int]] = {}
+    for i in np.flatnonzero(is_inner & (ids >= 0)).tolist():
+        if find(i) != find(root):
+            groups.setdefault(find(i), []).append(i)
+    if not groups or not raster.any():
+        return
+    graph_px = mask_pixels(raster)
+    tree = cKDTree(graph_px)
+    starts, ends, paths = [], [], []
+    for members in groups.values():
+        dist, idx = tree.query(pos[members])
+        link = None
+        for k in np.argsort(dist, kind="stable")[:50].tolist():
+            seg = segment_ok(pos[members[k]], graph_px[idx[k]], feasible)
+            if seg is not None:
+                link = (members[k], tuple(graph_px[idx[k]]), seg)
+                break
+        if link is None:
+            path = geodesic_path(tuple(pos[members[0]]), raster, feasible)
+            if path is None:
+                continue
+            link = (members[0], tuple(path[-1]), path)
+        starts.append(link[0])
+        ends.append(link[1])
+        paths.append(link[2])
+    at = attach_points(work, ends, feasible.shape)
+    for i, v, path in zip(starts, at, paths, strict=True):
+        if v >= 0 and ids[i] != v:
+            work.add_edge(int(ids[i]), v, np.asarray(path, np.int32))
