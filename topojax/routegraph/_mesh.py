@@ -6,8 +6,9 @@ irregular net offers routes in more directions than a regular one), inside the
 uncovered pieces; the graph's own pixels near a piece, spaced along its edges, are sites
 too, so the net starts on the lanes round it.  The Delaunay triangulation of all sites
 gives the candidate edges; those that leave the feasible space, touch the graph away
-from their ends, or run far along the outside of the net are dropped, and groups of
-sites that reach no graph pixel are joined to it like lanes."""
+from their ends, or run far along the outside of the net are dropped, and so is, longest
+first, each edge that would close a short loop; groups of sites that reach no graph pixel
+are joined to it like lanes."""
 
 from __future__ import annotations
 
@@ -27,8 +28,7 @@ __all__ = ["MESH_JITTER", "MESH_MIN_AREA", "MESH_SPACING", "add_mesh", "mesh_pie
 #: Mesh sites lie about this many snap distances apart.
 MESH_SPACING = 2.0
 #: Each site moves up to this share of the spacing from its lattice point, along each
-#: axis: neighbours stay at least 0.77 spacings apart, so no triangle of the net is a loop
-#: shorter than twice ``loop_m`` at the default spacing.
+#: axis (neighbouring sites stay at least 0.77 spacings apart).
 MESH_JITTER = 0.08
 #: Uncovered pieces of at least this many squared snap distances get a mesh (smaller ones
 #: a lane along their skeleton, which needs fewer vertices there).
