@@ -8,10 +8,10 @@ final maps of three CARMEN replays) and every robot radius (0.3 m and 0.2 m):
   free mask: 255 where the map is known free, 0 elsewhere (occupied and unknown), so both
   tools see the same free space and SWAGGER, like topojax, treats the map border as a
   wall.  Its build is timed inside the worker: *cold* (first build in the process, numba
-  compilation included) and *warm* (a second build).
+  compilation included) and *warm* (the median of ``--warm-runs`` more builds, default 3).
 * **topojax**: ``topojax.routegraph.route_graph(map, robot_radius_m=r)`` timed in this
   process: *first* (first call for this map; the first map also pays JIT compilation)
-  and *warm* (a second call).
+  and *warm* (the median of ``--warm-runs`` more calls).
 * Both graphs are scored by ``topojax.routegraph.evaluate.evaluate_route_graph`` with the
   same seed, so both are asked the same start/goal pairs; ``generation_s`` is the warm
   time.
@@ -83,9 +83,17 @@ def free_image(occupancy) -> np.ndarray:
 
 
 def run_swagger(
-    occupancy, radius_m: float, work: Path, *, venv: Path, peers: Path, timeout_s: float
+    occupancy,
+    radius_m: float,
+    work: Path,
+    *,
+    venv: Path,
+    peers: Path,
+    timeout_s: float,
+    warm_runs: int = 1,
 ) -> dict:
-    """Build SWAGGER's graph of ``occupancy`` in its venv; returns the worker's document."""
+    """Build SWAGGER's graph of ``occupancy`` in its venv (once, then ``warm_runs`` more
+    times); returns the worker's document."""
     stem = work / f"swagger_{radius_m:g}"
     npz, out = stem.with_suffix(".npz"), stem.with_suffix(".json")
     np.savez(
@@ -94,6 +102,7 @@ def run_swagger(
         resolution_m=float(occupancy.resolution_m),
         robot_radius_m=float(radius_m),
         origin=np.asarray(occupancy.origin, np.float64),
+        warm_runs=int(warm_runs),
     )
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(peers / "swagger-cpu-shims"), str(peers / "swagger")])
@@ -175,17 +184,20 @@ def as_networkx(result):
     raise TypeError(f"route_graph returned {type(result).__name__}, not a networkx graph")
 
 
-def run_topojax(occupancy, radius_m: float) -> tuple[float, float, Any]:
-    """``route_graph`` twice: (first seconds, warm seconds, networkx graph of the second
-    call)."""
+def run_topojax(occupancy, radius_m: float, warm_runs: int) -> tuple[float, list, Any]:
+    """``route_graph``, once and then ``warm_runs`` more times: (first seconds, the warm
+    calls' seconds, networkx graph of the last call)."""
     from topojax.routegraph import route_graph
 
     t0 = time.perf_counter()
-    route_graph(occupancy, robot_radius_m=radius_m)
-    t1 = time.perf_counter()
     result = route_graph(occupancy, robot_radius_m=radius_m)
-    t2 = time.perf_counter()
-    return t1 - t0, t2 - t1, as_networkx(result)
+    first_s = time.perf_counter() - t0
+    warm = []
+    for _ in range(max(1, warm_runs)):
+        t0 = time.perf_counter()
+        result = route_graph(occupancy, robot_radius_m=radius_m)
+        warm.append(time.perf_counter() - t0)
+    return first_s, warm, as_networkx(result)
 
 
 def evaluator():
@@ -261,6 +273,7 @@ def bench_map(spec: MapSpec, args, work: Path, graphs: dict) -> list[dict]:
             venv=args.swagger_venv,
             peers=args.peers,
             timeout_s=args.timeout,
+            warm_runs=args.warm_runs,
         )
         sg = swagger_graph(doc, occupancy)
         timing = doc["timing"]
@@ -271,11 +284,13 @@ def bench_map(spec: MapSpec, args, work: Path, graphs: dict) -> list[dict]:
             "eval": score(sg, occupancy, radius, args, timing["build_warm_s"]),
         }
         if not args.peers_only:
-            first_s, warm_s, tg = run_topojax(occupancy, radius)
+            first_s, warm, tg = run_topojax(occupancy, radius, args.warm_runs)
+            warm_s = float(np.median(warm))
             row["topojax"] = {
                 **graph_counts(tg),
                 "first_s": first_s,
                 "warm_s": warm_s,
+                "warm_runs_s": warm,
                 "eval": score(tg, occupancy, radius, args, warm_s),
             }
             row["ratios"] = ratios(row["topojax"], row["swagger"])
@@ -434,8 +449,8 @@ def report_markdown(rows: list[dict], avg: dict, info: dict, args) -> str:
     parts = [
         f"Route graphs, topojax vs SWAGGER ({SWAGGER_COMMIT[:7]}), {info.get('cpu_model', '?')}, "
         f"{info.get('cpu_count', '?')} CPUs; {args.pairs} pairs, seed {args.seed}, snap "
-        f"{args.snap:g} m. V vertices, E edges, C connected components; warm s: second build "
-        "in the process; cold s: SWAGGER's first build in a fresh process (numba compilation "
+        f"{args.snap:g} m. V vertices, E edges, C connected components; warm s: median of "
+        f"{args.warm_runs} builds after the first in the process; cold s: SWAGGER's first build in a fresh process (numba compilation "
         "included), topojax's first call on the map.",
     ]
     for radius in sorted({r["radius_m"] for r in rows}, reverse=True):
@@ -664,6 +679,9 @@ def parse_args(argv):
         help="robot radii in metres (default 0.3 0.2); pictures use the first",
     )
     p.add_argument("--pairs", type=int, default=300, help="start/goal pairs per graph")
+    p.add_argument(
+        "--warm-runs", type=int, default=3, help="warm builds per tool, map and radius (median)"
+    )
     p.add_argument("--seed", type=int, default=0, help="evaluator seed (same for both tools)")
     p.add_argument("--snap", type=float, default=1.0, help="evaluator snap limit (m)")
     p.add_argument("--peers-only", action="store_true", help="skip topojax's route graph")
