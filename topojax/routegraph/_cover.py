@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 
 from ..graph.work import WorkGraph, line_pixels
 from ._corners import bent_candidates, reflex_corners
-from ._joins import attach_points, geodesic_path, mask_pixels, segment_ok
+from ._joins import attach_points, geodesic_path, grow, mask_pixels, segment_ok
 from ._lanes import add_lanes
 from ._mesh import add_mesh, mesh_pieces
 from ._spanner import anchor_pieces, greedy_shortcuts, see_any, see_named, see_nearest
@@ -162,7 +162,7 @@ def add_coverage(
         if lane_round == 1:
             lane_round = 2
             open_ = mesh_pieces(uncovered, snap_px)
-            meshed = add_mesh(work, uncovered & open_, raster, feasible, snap_px, min_loop_px)
+            meshed = add_mesh(work, open_, raster, feasible, snap_px, min_loop_px)
             laned = add_lanes(
                 work, uncovered & ~open_, raster, feasible, wall, snap_px, along_walls=False
             )
@@ -403,7 +403,7 @@ def add_shortcuts(
         return 0
     # shortcuts cross no edge: a crossing without a vertex would let a query point snap
     # onto a long edge that leads away from its goal (and doubles the edges in open rooms)
-    occupied = _grow(graph_raster(work, feasible.shape))
+    occupied = grow(graph_raster(work, feasible.shape))
     nodes = np.concatenate([pos_i, corners]).astype(np.int64)
     members = [work.members[v] for v in alive] + [p[None] for p in nodes[len(alive) :]]
     mem_start = np.r_[0, np.cumsum([len(x) for x in members])].astype(np.int64)
@@ -450,8 +450,3 @@ def _add_chosen(work: WorkGraph, chosen, nodes, alive, m, shape) -> None:
             w = int(node[c])
             work.add_edge(u, w, line_pixels(work.pixel[u], work.pixel[w]))
             work.add_edge(w, v, line_pixels(work.pixel[w], work.pixel[v]))
-
-
-def _grow(mask: np.ndarray) -> np.ndarray:
-    """``mask`` (bool (H, W)) dilated by one pixel (3 x 3)."""
-    return cv2.dilate(mask.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)

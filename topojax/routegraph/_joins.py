@@ -1,16 +1,30 @@
 """Joining new pieces to a route graph under construction: straight feasible segments,
-feasible shortest paths, and vertices at given graph pixels (edges split there)."""
+feasible shortest paths, and vertices at given graph pixels (edges split there); and the
+masks the coverage steps share."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
+from scipy.spatial import cKDTree
 from skimage.graph import MCP_Geometric
 
 from .._jit import cached_njit
-from ..graph.work import WorkGraph, line_into
+from ..graph.work import WorkGraph, line_into, line_pixels
 
-__all__ = ["attach_points", "geodesic_path", "mask_pixels", "segment_ok"]
+__all__ = [
+    "attach_points",
+    "geodesic_path",
+    "grow",
+    "join_groups",
+    "large_pieces",
+    "mask_pixels",
+    "segment_ok",
+]
+
+# Joins tried per group: its pixels (every second one) to their nearest graph pixels.
+_JOIN_TRIES = 400
+_NEIGHBOURS = 4
 
 
 def mask_pixels(mask: np.ndarray) -> np.ndarray:
@@ -20,6 +34,20 @@ def mask_pixels(mask: np.ndarray) -> np.ndarray:
     if found is None:
         return np.zeros((0, 2), np.int64)
     return found.reshape(-1, 2)[:, ::-1].astype(np.int64)
+
+
+def grow(mask: np.ndarray) -> np.ndarray:
+    """``mask`` (bool (H, W)) dilated by one pixel (3 x 3)."""
+    return cv2.dilate(mask.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+
+
+def large_pieces(mask: np.ndarray, min_area_px: float) -> np.ndarray:
+    """The 8-connected pieces of ``mask`` (bool (H, W)) of at least ``min_area_px``
+    pixels, as a mask."""
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
+    keep = np.zeros(n, bool)
+    keep[1:] = stats[1:, cv2.CC_STAT_AREA] >= min_area_px
+    return keep[labels]
 
 
 @cached_njit(nogil=True)
@@ -111,3 +139,55 @@ def geodesic_path(start, targets: np.ndarray, feasible: np.ndarray) -> np.ndarra
         if r0 == 0 and c0 == 0 and r1 == h and c1 == w:
             return None
         half *= 2
+
+
+def _nearest_link(work: WorkGraph, vertices: list[int], tree, graph_px, feasible):
+    """The shortest straight feasible segment from a pixel of the piece ``vertices`` (their
+    pixels and those of their edges) to a graph pixel, as ``(piece pixel, graph pixel)``,
+    or None."""
+    pix = [work.members[v] for v in vertices]
+    edges = set().union(*(work.adj[v] for v in vertices))
+    pix += [work.edges[e][2] for e in edges]
+    pix = np.concatenate(pix)[::2]
+    k = min(_NEIGHBOURS, len(graph_px))
+    dist, idx = tree.query(pix, k=k)
+    dist, idx = dist.reshape(len(pix), k), idx.reshape(len(pix), k)
+    for flat in np.argsort(dist, axis=None, kind="stable")[:_JOIN_TRIES].tolist():
+        a, j = divmod(flat, k)
+        g = graph_px[idx[a, j]]
+        if segment_ok(pix[a], g, feasible) is not None:
+            return tuple(pix[a]), tuple(g)
+    return None
+
+
+def join_groups(
+    work: WorkGraph, groups: list[list[int]], raster: np.ndarray, feasible: np.ndarray
+) -> None:
+    """Join each group of new vertices (a piece of ``work`` not yet joined) to the graph
+    pixels ``raster`` (bool (H, W)): by the shortest straight feasible segment from one of
+    its pixels, else by a feasible shortest path from its first vertex (no join where
+    neither exists)."""
+    graph_px = mask_pixels(raster)
+    if not groups or graph_px.size == 0:
+        return
+    tree = cKDTree(graph_px)
+    piece_ends, graph_ends, paths = [], [], []
+    for vertices in groups:
+        pair = _nearest_link(work, vertices, tree, graph_px, feasible)
+        if pair is not None:
+            piece_ends.append(pair[0])
+            graph_ends.append(pair[1])
+            paths.append(line_pixels(*pair))
+            continue
+        start = work.pixel[vertices[0]]
+        path = geodesic_path(start, raster, feasible)
+        if path is not None:
+            piece_ends.append(start)
+            graph_ends.append(tuple(path[-1]))
+            paths.append(path)
+    ids = attach_points(work, piece_ends + graph_ends, feasible.shape)
+    k = len(piece_ends)
+    for j, path in enumerate(paths):
+        a, b = ids[j], ids[k + j]
+        if a >= 0 and b >= 0 and a != b:
+            work.add_edge(a, b, path)

@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..graph import skeleton_to_graph
-from ..graph.work import WorkGraph, drop_spurs, line_pixels
+from ..graph.work import WorkGraph, drop_spurs
 from ..skeleton import thin
-from ._joins import attach_points, geodesic_path, mask_pixels, segment_ok
+from ._joins import join_groups, large_pieces
 
 __all__ = ["LANE_INSET", "LANE_MIN_AREA", "add_lanes"]
 
@@ -26,21 +25,14 @@ __all__ = ["LANE_INSET", "LANE_MIN_AREA", "add_lanes"]
 LANE_INSET = 0.68
 #: Uncovered pieces smaller than this many squared snap distances get waypoints, not lanes.
 LANE_MIN_AREA = 0.5
-# Joins tried per lane: its pixels (every second one) to their nearest graph pixels.
-_JOIN_TRIES = 400
-_NEIGHBOURS = 4
 
 
 def _lane_pixels(uncovered, feasible, wall, snap_px: float, along_walls: bool):
     """The one-pixel-wide lanes (bool (H, W)) through the large pieces of ``uncovered``,
     or None when no piece is large enough."""
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(uncovered.view(np.uint8), connectivity=8)
-    big = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= LANE_MIN_AREA * snap_px**2) + 1
-    if big.size == 0:
+    mask = large_pieces(uncovered, LANE_MIN_AREA * snap_px**2)
+    if not mask.any():
         return None
-    keep = np.zeros(n, bool)
-    keep[big] = True
-    mask = keep[labels]
     if not along_walls:
         return thin(mask)
     inner = (wall >= LANE_INSET * snap_px).view(np.uint8)
@@ -79,24 +71,6 @@ def _merged(work: WorkGraph, lanes: np.ndarray, snap_px: float) -> list[list[int
     return list(groups.values())
 
 
-def _join(work: WorkGraph, vertices: list[int], tree, graph_px: np.ndarray, feasible):
-    """The shortest straight feasible segment from a pixel of the piece ``vertices`` to a
-    graph pixel, as ``(piece pixel, graph pixel)``, or None."""
-    pix = [work.members[v] for v in vertices]
-    edges = set().union(*(work.adj[v] for v in vertices))
-    pix += [work.edges[e][2] for e in edges]
-    pix = np.concatenate(pix)[::2]
-    k = min(_NEIGHBOURS, len(graph_px))
-    dist, idx = tree.query(pix, k=k)
-    dist, idx = dist.reshape(len(pix), k), idx.reshape(len(pix), k)
-    for flat in np.argsort(dist, axis=None, kind="stable")[:_JOIN_TRIES].tolist():
-        a, j = divmod(flat, k)
-        g = graph_px[idx[a, j]]
-        if segment_ok(pix[a], g, feasible) is not None:
-            return tuple(pix[a]), tuple(g)
-    return None
-
-
 def add_lanes(
     work: WorkGraph,
     uncovered: np.ndarray,
@@ -113,29 +87,5 @@ def add_lanes(
     lanes = _lane_pixels(uncovered, feasible, wall, snap_px, along_walls)
     if lanes is None or not lanes.any():
         return False
-    graph_px = mask_pixels(raster)
-    groups = _merged(work, lanes, snap_px)
-    if graph_px.size == 0:
-        return True
-    tree = cKDTree(graph_px)
-    lane_ends, graph_ends, paths = [], [], []
-    for vertices in groups:
-        pair = _join(work, vertices, tree, graph_px, feasible)
-        if pair is not None:
-            lane_ends.append(pair[0])
-            graph_ends.append(pair[1])
-            paths.append(line_pixels(*pair))
-            continue
-        start = work.pixel[vertices[0]]
-        path = geodesic_path(start, raster, feasible)
-        if path is not None:
-            lane_ends.append(start)
-            graph_ends.append(tuple(path[-1]))
-            paths.append(path)
-    ids = attach_points(work, lane_ends + graph_ends, feasible.shape)
-    k = len(lane_ends)
-    for j, path in enumerate(paths):
-        a, b = ids[j], ids[k + j]
-        if a >= 0 and b >= 0 and a != b:
-            work.add_edge(a, b, path)
+    join_groups(work, _merged(work, lanes, snap_px), raster, feasible)
     return True

@@ -17,11 +17,13 @@ import math
 
 import cv2
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from .._jit import cached_njit
 from ..graph.work import WorkGraph, line_into, line_pixels
-from ._joins import attach_points, geodesic_path, mask_pixels, segment_ok
+from ._joins import attach_points, grow, join_groups, large_pieces
 
 __all__ = ["MESH_JITTER", "MESH_MIN_AREA", "MESH_SPACING", "add_mesh", "mesh_pieces"]
 
@@ -123,10 +125,7 @@ def _triangulated_pairs(pts: np.ndarray) -> np.ndarray:
 def mesh_pieces(uncovered: np.ndarray, snap_px: float) -> np.ndarray:
     """The pieces of ``uncovered`` (bool (H, W), 8-connected) of at least
     :data:`MESH_MIN_AREA` squared snap distances, as a mask."""
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(uncovered.view(np.uint8), connectivity=8)
-    keep = np.zeros(n, bool)
-    keep[1:] = stats[1:, cv2.CC_STAT_AREA] >= MESH_MIN_AREA * snap_px**2
-    return keep[labels]
+    return large_pieces(uncovered, MESH_MIN_AREA * snap_px**2)
 
 
 def add_mesh(
@@ -153,8 +152,7 @@ def add_mesh(
     pairs = pairs[is_inner[pairs[:, 0]] | is_inner[pairs[:, 1]]]
     length = np.hypot(*(pos[pairs[:, 0]] - pos[pairs[:, 1]]).T)
     pairs = pairs[length <= _LONGEST * spacing]
-    occupied = cv2.dilate(raster.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
-    ok = _clear_lines(pos, pairs[:, 0], pairs[:, 1], is_inner, feasible, occupied, 3.0)
+    ok = _clear_lines(pos, pairs[:, 0], pairs[:, 1], is_inner, feasible, grow(raster), 3.0)
     pairs = pairs[ok]
     # vertices: every site with an edge; graph pixels become vertices where edges start
     used = np.unique(pairs)
@@ -182,7 +180,7 @@ def add_mesh(
             work.dead.add(int(ids[i]))
             ids[i] = -1
     pairs = np.array(kept, np.int64).reshape(-1, 2)
-    _join_groups(work, pos, pairs, ids, is_inner, raster, feasible)
+    join_groups(work, _unjoined(pairs, ids, is_inner), raster, feasible)
     return bool(used.size)
 
 
@@ -211,49 +209,14 @@ def _reach(work: WorkGraph, src: int, dst: int, skip: int, limit: float) -> bool
     return False
 
 
-def _join_groups(work, pos, pairs, ids, is_inner, raster, feasible) -> None:
-    """Join each group of mesh sites that reaches no graph pixel to the graph: by the
-    shortest straight feasible segment from one of its sites to a graph pixel, else by a
-    feasible shortest path."""
-    parent = list(range(len(pos) + 1))
-    root = len(pos)  # the graph
-
-    def find(x: int) -> int:
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
-    for i in np.flatnonzero(~is_inner).tolist():
-        parent[find(i)] = root
-    for i, j in pairs.tolist():
-        parent[find(i)] = find(j)
+def _unjoined(pairs: np.ndarray, ids: np.ndarray, is_inner: np.ndarray) -> list[list[int]]:
+    """The vertex ids of the inner sites, grouped by piece of the mesh (site pairs
+    ``pairs``), for the pieces that reach no graph site."""
+    n = len(ids)
+    ends = np.where(is_inner[pairs], pairs, n)  # every graph site is node n
+    links = coo_matrix((np.ones(len(ends)), (ends[:, 0], ends[:, 1])), shape=(n + 1, n + 1))
+    _, label = connected_components(links, directed=False)
     groups: dict[int, list[int]] = {}
-    for i in np.flatnonzero(is_inner & (ids >= 0)).tolist():
-        if find(i) != find(root):
-            groups.setdefault(find(i), []).append(i)
-    if not groups or not raster.any():
-        return
-    graph_px = mask_pixels(raster)
-    tree = cKDTree(graph_px)
-    starts, ends, paths = [], [], []
-    for members in groups.values():
-        dist, idx = tree.query(pos[members])
-        link = None
-        for k in np.argsort(dist, kind="stable")[:50].tolist():
-            seg = segment_ok(pos[members[k]], graph_px[idx[k]], feasible)
-            if seg is not None:
-                link = (members[k], tuple(graph_px[idx[k]]), seg)
-                break
-        if link is None:
-            path = geodesic_path(tuple(pos[members[0]]), raster, feasible)
-            if path is None:
-                continue
-            link = (members[0], tuple(path[-1]), path)
-        starts.append(link[0])
-        ends.append(link[1])
-        paths.append(link[2])
-    at = attach_points(work, ends, feasible.shape)
-    for i, v, path in zip(starts, at, paths, strict=True):
-        if v >= 0 and ids[i] != v:
-            work.add_edge(int(ids[i]), v, np.asarray(path, np.int32))
+    for i in np.flatnonzero(is_inner & (ids >= 0) & (label[:n] != label[n])).tolist():
+        groups.setdefault(int(label[i]), []).append(int(ids[i]))
+    return list(groups.values())
