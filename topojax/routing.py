@@ -262,8 +262,9 @@ class RoutePlanner:
 
     # ------------------------------------------------------------------ internals
     def _snaps(self, point, frame: str, name: str) -> list[_Snap]:
-        """The graph pixels nearest to ``point``, one per edge (or vertex without edges)
-        through it: several where edges cross (see :meth:`route` for the frames)."""
+        """Every corridor point as near to ``point`` as the nearest one (within
+        :data:`_TIE`): one, or one per edge through the pixel where edges cross (see
+        :meth:`route` for the frames)."""
         q = _point(point, name, frame)
         tree, owners = self._tree(frame)
         dist, k = tree.query(q)
@@ -377,17 +378,19 @@ class RoutePlanner:
         """Graph vertices a route can leave the snapped point through: vertex -> (length
         along the snapped edge to it, the snap on that edge), the shortest over ``snaps``."""
         ends: dict = {}
+
+        def offer(n, d: float, snap: _Snap) -> None:
+            if n not in ends or d < ends[n][0]:
+                ends[n] = (d, snap)
+
         for snap in snaps:
             if snap.edge < 0:
-                reach = {snap.vertex: 0.0}
-            else:
-                e = snap.edge
-                to_start = float(self._cum[e][snap.index])
-                reach = {self._u[e]: to_start}
-                reach[self._v[e]] = min(reach.get(self._v[e], math.inf), self._len[e] - to_start)
-            for n, d in reach.items():
-                if n not in ends or d < ends[n][0]:
-                    ends[n] = (d, snap)
+                offer(snap.vertex, 0.0, snap)
+                continue
+            e = snap.edge
+            to_start = float(self._cum[e][snap.index])
+            offer(self._u[e], to_start, snap)
+            offer(self._v[e], self._len[e] - to_start, snap)
         return ends
 
     def _direct(self, ss: list[_Snap], gs: list[_Snap]):
