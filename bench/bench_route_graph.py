@@ -90,7 +90,7 @@ def run_swagger(
     venv: Path,
     peers: Path,
     timeout_s: float,
-    warm_runs: int = 1,
+    warm_runs: int,
 ) -> dict:
     """Build SWAGGER's graph of ``occupancy`` in its venv (once, then ``warm_runs`` more
     times); returns the worker's document."""
@@ -193,7 +193,7 @@ def run_topojax(occupancy, radius_m: float, warm_runs: int) -> tuple[float, list
     result = route_graph(occupancy, robot_radius_m=radius_m)
     first_s = time.perf_counter() - t0
     warm = []
-    for _ in range(max(1, warm_runs)):
+    for _ in range(warm_runs):
         t0 = time.perf_counter()
         result = route_graph(occupancy, robot_radius_m=radius_m)
         warm.append(time.perf_counter() - t0)
@@ -609,7 +609,13 @@ def self_check(args) -> int:
     radius = 0.3
     with tempfile.TemporaryDirectory() as tmp:
         doc = run_swagger(
-            occ, radius, Path(tmp), venv=args.swagger_venv, peers=args.peers, timeout_s=args.timeout
+            occ,
+            radius,
+            Path(tmp),
+            venv=args.swagger_venv,
+            peers=args.peers,
+            timeout_s=args.timeout,
+            warm_runs=1,
         )
     g = swagger_graph(doc, occ)
     fs = feasible_space(occ, radius)
@@ -665,6 +671,13 @@ def select_maps(args) -> list[MapSpec]:
     return specs
 
 
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, received {text!r}")
+    return value
+
+
 def parse_args(argv):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--maps", nargs="+", help="map names (see --list); default: all")
@@ -680,7 +693,10 @@ def parse_args(argv):
     )
     p.add_argument("--pairs", type=int, default=300, help="start/goal pairs per graph")
     p.add_argument(
-        "--warm-runs", type=int, default=3, help="warm builds per tool, map and radius (median)"
+        "--warm-runs",
+        type=_positive_int,
+        default=3,
+        help="warm builds per tool, map and radius (median)",
     )
     p.add_argument("--seed", type=int, default=0, help="evaluator seed (same for both tools)")
     p.add_argument("--snap", type=float, default=1.0, help="evaluator snap limit (m)")
