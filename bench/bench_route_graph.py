@@ -219,6 +219,7 @@ def score(graph, occupancy, radius_m: float, args, generation_s: float) -> dict 
         occupancy,
         radius_m,
         snap_m=args.snap,
+        entry=args.entry,
         n_pairs=args.pairs,
         seed=args.seed,
         generation_s=generation_s,
@@ -449,7 +450,7 @@ def report_markdown(rows: list[dict], avg: dict, info: dict, args) -> str:
     parts = [
         f"Route graphs, topojax vs SWAGGER ({SWAGGER_COMMIT[:7]}), {info.get('cpu_model', '?')}, "
         f"{info.get('cpu_count', '?')} CPUs; {args.pairs} pairs, seed {args.seed}, snap "
-        f"{args.snap:g} m. V vertices, E edges, C connected components; warm s: median of "
+        f"{args.snap:g} m, routes join each graph at the {args.entry} point. V vertices, E edges, C connected components; warm s: median of "
         f"{args.warm_runs} builds after the first in the process; cold s: SWAGGER's first build in a fresh process (numba compilation "
         "included), topojax's first call on the map.",
     ]
@@ -700,6 +701,12 @@ def parse_args(argv):
     )
     p.add_argument("--seed", type=int, default=0, help="evaluator seed (same for both tools)")
     p.add_argument("--snap", type=float, default=1.0, help="evaluator snap limit (m)")
+    p.add_argument(
+        "--entry",
+        choices=("nearest", "best"),
+        default="nearest",
+        help="where routes join each graph (evaluate_route_graph's entry; default nearest)",
+    )
     p.add_argument("--peers-only", action="store_true", help="skip topojax's route graph")
     p.add_argument("--max-scans", type=int, help="shorten the CARMEN replays to N scans")
     p.add_argument(

@@ -242,6 +242,7 @@ def test_isolated_vertex_is_a_graph_point():
         ({"generation_s": -2.0}, ValueError, "generation_s"),
         ({"generation_s": float("nan")}, ValueError, "generation_s"),
         ({"coordinates": "polar"}, ValueError, "coordinates"),
+        ({"entry": "any"}, ValueError, "entry"),
     ],
 )
 def test_bad_arguments_name_the_parameter(kwargs, exc, words):
@@ -296,3 +297,58 @@ def test_waypoints_are_the_edge_geometry_when_present():
     straight = evaluate_route_graph(g, m, RADIUS, n_pairs=5)
     assert plain.graph_length_m == pytest.approx(2 * np.hypot(20, 20) * RES, rel=1e-6)
     assert straight.graph_length_m == pytest.approx(40 * RES, rel=1e-6)
+
+
+def _fork():
+    """A free 32 x 34 room (walls all round) with a fork from vertex (10, 3): one edge along
+    row 10 to (10, 28), one down column 3 and along row 20 to (20, 28)."""
+    occ = np.ones((32, 34), bool)
+    occ[1:-1, 1:-1] = False
+    m = _map(occ)
+    return m, _graph(m, [[(10, 3), (10, 28)], [(10, 3), (20, 3), (20, 28)]])
+
+
+@pytest.mark.parametrize(
+    ("best_entry", "expected_px"),
+    [
+        # nearest: 3 px up to row 10, 17 along it to the fork, 10 + 23 along the other
+        # edge to (20, 26), 3 px up to the goal
+        (False, 3 + 17 + 33 + 3),
+        # best entry: 7 px down to row 20, 6 along it, 3 px up (or the mirror of it)
+        (True, 7 + 6 + 3),
+    ],
+)
+def test_a_route_joins_the_graph_at_the_nearest_or_the_best_point(best_entry, expected_px):
+    from topojax.routegraph._eval_geometry import graph_geometry
+    from topojax.routegraph._eval_routes import PairSet, route_lengths_px, route_network
+    from topojax.routegraph.feasible import feasible_space
+
+    m, g = _fork()
+    geo = graph_geometry(g, m, "auto")
+    n = geo.pt_edge.size
+    net = route_network(geo, np.ones(n - 1, bool), np.ones(n, bool))
+    pairs = PairSet(
+        source=np.array([[13, 20]]),
+        region=np.array([1]),
+        start=np.array([0, 1]),
+        target=np.array([[17, 26]]),
+    )
+    feasible = feasible_space(m, RADIUS).feasible
+    got = route_lengths_px(net, pairs, 1.0 / RES, feasible, best_entry)
+    assert got[0] == pytest.approx(expected_px, abs=1e-9)
+
+
+def test_best_entry_routes_are_never_longer_and_shorter_here():
+    m, g = _fork()
+    near = evaluate_route_graph(g, m, RADIUS, n_pairs=200, seed=5)
+    best = evaluate_route_graph(g, m, RADIUS, n_pairs=200, seed=5, entry="best")
+    assert (near.entry, best.entry) == ("nearest", "best")
+    assert best.success_rate == near.success_rate == 1.0
+    assert best.stretch_median < near.stretch_median
+    assert best.stretch_p90 < near.stretch_p90
+    # a corridor with one run: its nearest point is the only entry
+    m = _corridor(18)
+    g = _graph(m, [_row(9, 3, 198)])
+    a = evaluate_route_graph(g, m, RADIUS, n_pairs=100, seed=3)
+    b = evaluate_route_graph(g, m, RADIUS, n_pairs=100, seed=3, entry="best")
+    assert (a.stretch_median, a.stretch_p90) == (b.stretch_median, b.stretch_p90)

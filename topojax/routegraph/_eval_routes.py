@@ -14,7 +14,15 @@ from scipy.spatial import cKDTree
 from ._eval_geodesic import geodesic_from
 from ._eval_geometry import GraphGeometry, pixel_lookup
 
-__all__ = ["PairSet", "RouteNetwork", "geodesic_lengths_px", "route_lengths_px", "sample_pairs"]
+__all__ = [
+    "PairSet",
+    "RouteNetwork",
+    "entries",
+    "geodesic_lengths_px",
+    "route_lengths_px",
+    "sample_pairs",
+    "snap",
+]
 
 # Targets drawn per source pixel: one geodesic search serves all of them.
 PAIRS_PER_SOURCE = 10
@@ -226,21 +234,82 @@ def snap(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np.nd
     return idx, dist
 
 
+def entries(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np.ndarray):
+    """Every run's nearest network point within ``snap_px`` of each query pixel whose
+    segment to it is collision-free: the points a route may join the network at when it
+    takes the best entry.  Returns ``(query (K,), point (K,), distance px (K,))``, by
+    query."""
+    q_of, pts, dists = [], [], []
+    if net.tree is None or queries.shape[0] == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    n_t = int(np.ceil(2.0 * snap_px)) + 2
+    q_all = queries.astype(np.float64)
+    for i, cands in enumerate(net.tree.query_ball_point(q_all, snap_px * (1 + 1e-12))):
+        if not cands:
+            continue
+        cands = np.asarray(cands, np.int64)
+        d = np.hypot(*(net.pt_rc[cands] - q_all[i]).T)
+        ok = _clear_segments(q_all[i], net.pt_rc[cands], feasible, n_t)
+        cands, d = cands[ok], d[ok]
+        run = net.pt_run[cands]
+        order = np.lexsort((cands, d, run))
+        first = np.r_[True, run[order][1:] != run[order][:-1]] if order.size else order
+        keep = order[first.astype(bool)]
+        q_of.append(np.full(keep.size, i, np.int64))
+        pts.append(cands[keep])
+        dists.append(d[keep])
+    if not q_of:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(q_of), np.concatenate(pts), np.concatenate(dists)
+
+
+def _joins(net, queries, snap_px, feasible, best_entry: bool):
+    """``(query, point, distance)`` arrays of the points each query may join at (one per
+    query with a snap, or one per run with ``best_entry``), by query."""
+    if best_entry:
+        return entries(net, queries, snap_px, feasible)
+    idx, dist = snap(net, queries, snap_px, feasible)
+    have = np.flatnonzero(idx >= 0)
+    return have, idx[have], dist[have]
+
+
+def _combos(pair_src, n_src, s_q, t_q):
+    """For every pair (of source ``pair_src``, one of ``n_src``), each (start join, goal
+    join) combination: ``(pair, start join index, goal join index)`` (joins by query, as
+    :func:`_joins` gives them)."""
+    n_pairs = pair_src.size
+    s_start = np.searchsorted(s_q, np.arange(n_src + 1))
+    t_start = np.searchsorted(t_q, np.arange(n_pairs + 1))
+    t_count = np.diff(t_start)
+    per_pair = np.diff(s_start)[pair_src] * t_count
+    pair = np.repeat(np.arange(n_pairs), per_pair)
+    k = np.arange(pair.size) - np.repeat(np.cumsum(per_pair) - per_pair, per_pair)
+    ct = t_count[pair]
+    ja = s_start[pair_src[pair]] + k // np.maximum(ct, 1)
+    jb = t_start[pair] + k % np.maximum(ct, 1)
+    return pair, ja, jb
+
+
 def route_lengths_px(
-    net: RouteNetwork, pairs: PairSet, snap_px: float, feasible: np.ndarray
+    net: RouteNetwork,
+    pairs: PairSet,
+    snap_px: float,
+    feasible: np.ndarray,
+    best_entry: bool = False,
 ) -> np.ndarray:
     """Route length (pixels) of each pair: snap segment + shortest path along the network
-    + snap segment; ``inf`` where a snap is missing or the snap points are not connected."""
+    + snap segment; ``inf`` where a snap is missing or the snap points are not connected.
+    Each end snaps to its nearest collision-free network point, or with ``best_entry``
+    to whichever point of :func:`entries` gives the shortest route."""
     out = np.full(pairs.n_pairs, np.inf)
     if pairs.n_pairs == 0:
         return out
-    s_idx, s_d = snap(net, pairs.source, snap_px, feasible)
-    t_idx, t_d = snap(net, pairs.target, snap_px, feasible)
-    ps = pairs.pair_source()
-    ok = np.flatnonzero((s_idx[ps] >= 0) & (t_idx >= 0))
-    if ok.size == 0:
+    s_q, s_pt, s_d = _joins(net, pairs.source, snap_px, feasible, best_entry)
+    t_q, t_pt, t_d = _joins(net, pairs.target, snap_px, feasible, best_entry)
+    pair, ja, jb = _combos(pairs.pair_source(), pairs.source.shape[0], s_q, t_q)
+    if pair.size == 0:
         return out
-    ga, gb = s_idx[ps[ok]], t_idx[ok]
+    ga, gb = s_pt[ja], t_pt[jb]
     ra, rb = net.pt_run[ga], net.pt_run[gb]
     ends_a = np.stack([net.run_a[ra], net.run_b[ra]], axis=1)
     off_a = np.stack([net.pt_t[ga], net.run_len[ra] - net.pt_t[ga]], axis=1)
@@ -256,8 +325,8 @@ def route_lengths_px(
             r = inv[:, i] - c0
             here = (r >= 0) & (r < block.shape[0])
             for j in range(2):
-                d = np.full(ok.size, np.inf)
+                d = np.full(pair.size, np.inf)
                 d[here] = block[r[here], ends_b[here, j]]
                 best = np.minimum(best, off_a[:, i] + d + off_b[:, j])
-    out[ok] = s_d[ps[ok]] + best + t_d[ok]
+    np.minimum.at(out, pair, s_d[ja] + best + t_d[jb])
     return out

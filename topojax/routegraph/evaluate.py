@@ -43,6 +43,7 @@ class RouteGraphReport:
 
     robot_radius_m: float
     snap_m: float
+    entry: str
     seed: int
     pairs: int
     success_rate: float
@@ -163,15 +164,15 @@ def _region_metrics(fs: FeasibleSpace, geo: GraphGeometry, regions, snap_px: flo
     return n_comp, missed, split, float(far / n_target)
 
 
-def _routes(fs, geo, pairs: PairSet, pieces, snap_px: float):
+def _routes(fs, geo, pairs: PairSet, pieces, snap_px: float, best_entry: bool):
     """(success, median, p90) over all graph points and over the safe ones only."""
     _, _, piece_safe, point_ok = pieces
     geod = geodesic_lengths_px(fs, pairs)
     n = geo.pt_edge.size
     full = route_network(geo, np.ones(max(n - 1, 0), bool), np.ones(n, bool))
     safe = route_network(geo, piece_safe, point_ok)
-    all_stats = _stretch(route_lengths_px(full, pairs, snap_px, fs.feasible), geod)
-    safe_stats = _stretch(route_lengths_px(safe, pairs, snap_px, fs.feasible), geod)
+    all_stats = _stretch(route_lengths_px(full, pairs, snap_px, fs.feasible, best_entry), geod)
+    safe_stats = _stretch(route_lengths_px(safe, pairs, snap_px, fs.feasible, best_entry), geod)
     return all_stats, safe_stats
 
 
@@ -181,6 +182,7 @@ def evaluate_route_graph(
     robot_radius_m: float,
     *,
     snap_m: float = 1.0,
+    entry: str = "nearest",
     n_pairs: int = 300,
     seed: int = 0,
     min_region_m2: float = 1.0,
@@ -206,6 +208,11 @@ def evaluate_route_graph(
     snap_m : float
         Largest distance (metres, > 0) from a point to the graph point it snaps to, and the
         coverage distance.
+    entry : {"nearest", "best"}
+        Where a route joins the graph: ``"nearest"``, at the nearest graph point each end
+        sees within ``snap_m``; ``"best"``, at the nearest point it sees of whichever
+        edge within ``snap_m`` gives the shortest route (as
+        ``RoutePlanner(graph, occupancy=map)`` does).
     n_pairs : int
         Number of pairs (>= 1).
     seed : int
@@ -234,6 +241,7 @@ def evaluate_route_graph(
         graph, occupancy, robot_radius_m, snap_m, n_pairs, seed, min_region_m2, generation_s
     )
     coordinates = one_of("coordinates", coordinates, ("auto", "world", "pixel"))
+    entry = one_of("entry", entry, ("nearest", "best"))
     fs = feasible_space(occupancy, radius)
     res = fs.resolution_m
     snap_px = snap_m / res
@@ -244,13 +252,14 @@ def evaluate_route_graph(
     total = float(length_px.sum())
     unsafe = float(length_px[~mid_ok].sum()) / total if total > 0 else math.nan
     pairs = sample_pairs(fs, regions, n_pairs, seed)
-    (ok, med, p90), (ok_s, med_s, p90_s) = _routes(fs, geo, pairs, pieces, snap_px)
+    (ok, med, p90), (ok_s, med_s, p90_s) = _routes(fs, geo, pairs, pieces, snap_px, entry == "best")
     n_comp, missed, split, uncovered = _region_metrics(fs, geo, regions, snap_px)
     u, v = geo.edge_u[: geo.n_edges], geo.edge_v[: geo.n_edges]
     length_m = geo.edge_len_px * res
     return RouteGraphReport(
         robot_radius_m=radius,
         snap_m=snap_m,
+        entry=entry,
         seed=seed,
         pairs=pairs.n_pairs,
         success_rate=ok,
