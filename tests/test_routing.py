@@ -474,6 +474,30 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert "different components" in capsys.readouterr().err
 
 
+def test_route_command_with_the_map_joins_the_graph_where_the_route_is_shortest(tmp_path, capsys):
+    from topojax.cli import main
+
+    m = tj.sample_map("intel")
+    graph_file = tj.save_graph(tj.route_graph(m), tmp_path / "rg.json")
+    start, goal = (150, 300), (170, 330)
+    argv = ["route", str(graph_file), "--pixel", "--start", "150", "300", "--goal", "170", "330"]
+    from topojax.datasets import sample_map_path
+
+    map_file = str(sample_map_path("intel"))
+    assert main([*argv, "--map", map_file, "--resolution", "0.05"]) == 0
+    printed = capsys.readouterr().out
+    want = RoutePlanner(tj.load_graph(graph_file), occupancy=m).route(start, goal, frame="pixel")
+    assert f"{want.length_m:.2f} m along the graph" in printed
+    assert f"start {want.start_snap_m:.3f} m" in printed
+    # a map of another size is refused, naming the option's parameter
+    small = tmp_path / "small.png"
+    import cv2
+
+    cv2.imwrite(str(small), np.full((20, 20), 255, np.uint8))
+    assert main([*argv, "--map", str(small)]) == 2
+    assert "occupancy: expected the graph's map of shape" in capsys.readouterr().err
+
+
 def test_default_snap_limit_refuses_far_points_and_none_lifts_it():
     import topojax as tj
     from topojax.routing import DEFAULT_MAX_SNAP_M
@@ -492,3 +516,118 @@ def test_default_snap_limit_refuses_far_points_and_none_lifts_it():
         tj.plan_route(g, start, far, max_snap_m=None)
     except tj.NoRouteError:
         pass
+
+
+def _fork(wall: bool = False, radius: float | None = 0.25):
+    """A free 32 x 34 map of 0.1 m pixels (walls all round) with a fork from vertex "j" at
+    (10, 3): edge j-a along row 10 to (10, 28), edge j-b down column 3 and along row 20 to
+    (20, 28); with ``wall``, a wall along row 16 from column 15 on."""
+    occupied = np.ones((32, 34), bool)
+    occupied[1:-1, 1:-1] = False
+    if wall:
+        occupied[16, 15:] = True
+    m = tj.OccupancyMap.from_array(occupied, resolution_m=0.1)
+    attrs = {"resolution_m": 0.1, "shape": (32, 34)}
+    if radius is not None:
+        attrs["robot_radius_m"] = radius
+    g = nx.MultiGraph(**attrs)
+    for name, pixel in {"j": (10, 3), "a": (10, 28), "b": (20, 28)}.items():
+        g.add_node(name, pixel=pixel, world=tuple(float(x) for x in m.pixel_to_world(*pixel)))
+    paths = {
+        "a": [(10, c) for c in range(3, 29)],
+        "b": [(r, 3) for r in range(10, 21)] + [(20, c) for c in range(4, 29)],
+    }
+    for end, path in paths.items():
+        path = np.array(path, np.int64)
+        x, y = m.pixel_to_world(path[:, 0], path[:, 1])
+        g.add_edge("j", end, path=path, world=np.stack([x, y], 1), length_m=0.1 * (len(path) - 1))
+    return m, g
+
+
+def test_with_the_map_a_route_joins_the_edge_that_gives_the_shortest_route():
+    m, g = _fork()
+    start, goal = (13, 20), (18, 26)
+    # nearest points (10, 20) and (20, 26): 17 px to the fork, 10 + 23 px to the goal's
+    near = RoutePlanner(g).route(start, goal, frame="pixel")
+    assert near.length_m == pytest.approx(5.0)
+    assert (near.start_snap_m, near.goal_snap_m) == pytest.approx((0.3, 0.2))
+    # with the map: 0.7 m straight down to (20, 20), 0.6 m along row 20, 0.2 m to the goal
+    # (the mirror, along row 10, costs 0.3 + 0.6 + 0.8)
+    best = RoutePlanner(g, occupancy=m).route(start, goal, frame="pixel")
+    assert best.length_m == pytest.approx(0.6)
+    assert (best.start_snap_m, best.goal_snap_m) == pytest.approx((0.7, 0.2))
+    assert best.pixels[0].tolist() == [20, 20] and best.pixels[-1].tolist() == [20, 26]
+    assert best.edges == (("j", "b", 0),) and best.vertices == ()
+    # the same in the world frame, and through plan_route
+    ws, wg = (m.pixel_to_world(*start), m.pixel_to_world(*goal))
+    for r in (RoutePlanner(g, occupancy=m).route(ws, wg), plan_route(g, ws, wg, occupancy=m)):
+        assert r.length_m == pytest.approx(0.6)
+        np.testing.assert_array_equal(r.pixels, best.pixels)
+
+
+def test_with_the_map_a_route_does_not_join_through_a_wall_or_beyond_reach():
+    m, g = _fork(wall=True)
+    start, goal = (12, 20), (19, 26)  # row 20 lies 0.8 m below the start, behind the wall
+    r = RoutePlanner(g, occupancy=m).route(start, goal, frame="pixel")
+    assert r.pixels[0].tolist() == [10, 20] and r.length_m == pytest.approx(5.0)
+    m, g = _fork()
+    r = RoutePlanner(g, occupancy=m).route(start, goal, frame="pixel")
+    assert r.pixels[0].tolist() == [20, 20] and r.length_m == pytest.approx(0.6)
+    r = RoutePlanner(g, occupancy=m, entry_m=0.5).route(start, goal, frame="pixel")
+    assert r.pixels[0].tolist() == [10, 20] and r.length_m == pytest.approx(5.0)
+
+
+def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight():
+    from topojax.routegraph.feasible import feasible_space
+
+    m = tj.sample_map("intel")
+    rg = tj.route_graph(m, robot_radius_m=0.3)
+    feasible = feasible_space(m, 0.3).feasible
+    plain, planner = RoutePlanner(rg), RoutePlanner(rg, occupancy=m)
+    pts = np.argwhere(feasible)
+    rng = np.random.default_rng(3)
+    shorter = 0
+    for _ in range(40):
+        a, b = (tuple(int(x) for x in pts[i]) for i in rng.choice(len(pts), 2, replace=False))
+        try:
+            r0 = plain.route(a, b, frame="pixel")
+        except NoRouteError:
+            continue
+        r1 = planner.route(a, b, frame="pixel")
+        total0 = r0.start_snap_m + r0.length_m + r0.goal_snap_m
+        total1 = r1.start_snap_m + r1.length_m + r1.goal_snap_m
+        assert total1 <= total0 + 1e-9
+        shorter += total1 < total0 - 1e-9
+        ends = (
+            (a, r1.pixels[0], r1.start_snap_m, r0.start_snap_m),
+            (b, r1.pixels[-1], r1.goal_snap_m, r0.goal_snap_m),
+        )
+        for q, end, leg, nearest in ends:
+            assert leg == pytest.approx(0.05 * math.dist(q, end))
+            assert leg >= nearest - 1e-9
+            if leg > nearest + 1e-9:  # not the nearest point: in sight, within reach
+                assert leg <= rg.graph["snap_m"] + 1e-9
+                line = np.rint(np.linspace(q, end, 64)).astype(int)
+                assert feasible[line[:, 0], line[:, 1]].all()
+    assert shorter > 0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "graph_radius", "exc", "words"),
+    [
+        ({"robot_radius_m": 0.3}, 0.25, ValueError, "robot_radius_m: only used with occupancy"),
+        ({"entry_m": 1.0}, 0.25, ValueError, "entry_m: only used with occupancy"),
+        ({"occupancy": "map"}, 0.25, TypeError, "occupancy: expected an OccupancyMap"),
+        ({"occupancy": "small"}, 0.25, ValueError, "occupancy: expected the graph's map"),
+        ({"occupancy": "fork"}, None, ValueError, "robot_radius_m: expected the robot radius"),
+        ({"occupancy": "fork", "entry_m": -1.0}, 0.25, ValueError, "entry_m"),
+    ],
+)
+def test_planner_map_options_are_checked(kwargs, graph_radius, exc, words):
+    m, g = _fork(radius=graph_radius)
+    small = tj.OccupancyMap.from_array(np.zeros((5, 5), bool), resolution_m=0.1)
+    kwargs = {**kwargs}
+    if "occupancy" in kwargs:
+        kwargs["occupancy"] = {"fork": m, "small": small}.get(kwargs["occupancy"], "map")
+    with pytest.raises(exc, match=words):
+        RoutePlanner(g, **kwargs)

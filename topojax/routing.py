@@ -35,6 +35,7 @@ import numpy as np
 from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
 from .graph import cumulative_length_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
+from .routegraph.feasible import feasible_space
 
 __all__ = ["DEFAULT_MAX_SNAP_M", "NoRouteError", "Route", "RoutePlanner", "plan_route"]
 
@@ -49,6 +50,10 @@ _FRAMES = ("world", "pixel")
 #: query point to the graph, metres: a point farther off (a goal in a room the graph does
 #: not reach, or coordinates in the wrong frame) is an error, not a silent long snap.
 DEFAULT_MAX_SNAP_M = 5.0
+
+#: Default reach (metres) of a route joining the graph away from the nearest point, for a
+#: planner given the map and a graph without a ``snap_m`` attribute.
+DEFAULT_ENTRY_M = 1.0
 
 
 class NoRouteError(nx.NetworkXNoPath):
@@ -162,22 +167,45 @@ class RoutePlanner:
     graph : networkx.MultiGraph
         Topology graph (see the module docstring for what its edges must carry).  It is
         read, not modified; build a new planner after changing it.
+    occupancy : OccupancyMap, optional
+        The graph's map.  With it, each end of a route may also join the graph at the
+        nearest point of any edge it sees within ``entry_m`` (along a straight line over
+        pixels where the robot fits), whichever gives the shortest route in all (the
+        straight legs included); without it, each end joins at the nearest corridor
+        point.
+    robot_radius_m : float, optional
+        Robot radius for those straight legs, metres; default the graph's
+        ``robot_radius_m`` attribute (a route graph's).
+    entry_m : float, optional
+        Reach of those legs, metres; default the graph's ``snap_m`` attribute, else
+        :data:`DEFAULT_ENTRY_M`.
 
     Raises
     ------
     TypeError
         ``graph`` is not an undirected networkx graph (a plain ``networkx.Graph`` is read
-        as a MultiGraph with edge keys 0).
+        as a MultiGraph with edge keys 0), or ``occupancy`` is not an OccupancyMap.
     ValueError
         An edge lacks ``path``, ``world`` or ``length_m``, or its path does not start and
-        end at its vertices.
+        end at its vertices; ``occupancy`` is not the graph's map (shape, resolution);
+        no robot radius is given or known; ``robot_radius_m`` or ``entry_m`` without
+        ``occupancy``.
     """
 
-    def __init__(self, graph: nx.Graph) -> None:
+    def __init__(
+        self,
+        graph: nx.Graph,
+        *,
+        occupancy=None,
+        robot_radius_m: float | None = None,
+        entry_m: float | None = None,
+    ) -> None:
         graph = as_multigraph(graph)  # a plain Graph: its edges get key 0
         self._graph = graph
         res = graph.graph.get("resolution_m")
         self._res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
+        self._occupancy = occupancy
+        self._feasible, self._entry_m = self._entry_space(occupancy, robot_radius_m, entry_m)
         self._nodes = list(graph.nodes)
         # Per edge: node ids at the start and end of its path, key, path, world, the
         # cumulative length along the path from its start, and its length.
@@ -251,6 +279,7 @@ class RoutePlanner:
             max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
         s = self._snaps(start, frame, "start")
         g = self._snaps(goal, frame, "goal")
+        # snaps[0] is the nearest point
         for name, snaps in (("start", s), ("goal", g)):
             if max_snap_m is not None and snaps[0].distance_m > max_snap_m:
                 raise ValueError(
@@ -261,21 +290,84 @@ class RoutePlanner:
         return self._route(s, g)
 
     # ------------------------------------------------------------------ internals
+    def _entry_space(self, occupancy, radius, entry_m):
+        """The feasible pixels (bool (H, W)) a route may cross to join the graph away from
+        its nearest point, and how far (metres) it may go to do so; ``(None, 0.0)``
+        without a map."""
+        if occupancy is None:
+            for name, value in (("robot_radius_m", radius), ("entry_m", entry_m)):
+                if value is not None:
+                    raise ValueError(f"{name}: only used with occupancy=, which was not given")
+            return None, 0.0
+        if not all(hasattr(occupancy, a) for a in ("free", "resolution_m", "world_to_pixel")):
+            raise TypeError(
+                f"occupancy: expected an OccupancyMap, received {type(occupancy).__name__}"
+            )
+        attrs = self._graph.graph
+        shape = attrs.get("shape")
+        if shape is not None and tuple(shape) != tuple(occupancy.free.shape):
+            raise ValueError(
+                f"occupancy: expected the graph's map of shape {tuple(shape)}, received a "
+                f"map of shape {tuple(occupancy.free.shape)}"
+            )
+        if self._res is not None and not math.isclose(self._res, occupancy.resolution_m):
+            raise ValueError(
+                f"occupancy: expected the graph's map at {self._res} m/px, received a map "
+                f"at {occupancy.resolution_m} m/px"
+            )
+        if radius is None:
+            radius = attrs.get("robot_radius_m")
+            if radius is None:
+                raise ValueError(
+                    "robot_radius_m: expected the robot radius in metres with occupancy= "
+                    "(the graph has no 'robot_radius_m' attribute), received None"
+                )
+        radius = nonnegative_metres("robot_radius_m", radius)
+        entry_m = nonnegative_metres(
+            "entry_m", attrs.get("snap_m", DEFAULT_ENTRY_M) if entry_m is None else entry_m
+        )
+        return feasible_space(occupancy, radius).feasible, entry_m
+
     def _snaps(self, point, frame: str, name: str) -> list[_Snap]:
-        """Every corridor point as near to ``point`` as the nearest one (within
-        :data:`_TIE`): one, or one per edge through the pixel where edges cross (see
-        :meth:`route` for the frames)."""
+        """The points where a route from ``point`` may join the graph: first every corridor
+        point as near as the nearest one (within :data:`_TIE`: one, or one per edge
+        through the pixel where edges cross), then, with the map, each edge's nearest
+        point that ``point`` sees within the entry reach (see :meth:`route` for the
+        frames)."""
         q = _point(point, name, frame)
         tree, owners = self._tree(frame)
         dist, k = tree.query(q)
         near = sorted(set(tree.query_ball_point(q, float(dist) + _TIE)) | {int(k)})
         scale = 1.0 if frame == "world" else self._pixel_size_m()
-        out = []
-        for i in near:
-            edge, index, vertex = (int(x) for x in owners[i])
-            node = self._nodes[vertex] if edge < 0 else None
-            out.append(_Snap(edge, index, node, float(dist) * scale))
+        out = [self._snap(owners[i], float(dist) * scale) for i in near]
+        if self._feasible is not None and self._entry_m > 0:
+            out += [self._snap(owners[i], d) for i, d in self._entries(q, frame, scale)]
         return out
+
+    def _snap(self, owner, distance_m: float) -> _Snap:
+        edge, index, vertex = (int(x) for x in owner)
+        return _Snap(edge, index, self._nodes[vertex] if edge < 0 else None, distance_m)
+
+    def _entries(self, q: np.ndarray, frame: str, scale: float) -> list[tuple[int, float]]:
+        """``(tree point, distance m)`` of each edge's (or edgeless vertex's) nearest
+        corridor point within the entry reach of query ``q`` that the robot reaches along
+        a straight line over feasible pixels."""
+        tree, owners = self._tree(frame)
+        cand = np.asarray(tree.query_ball_point(q, self._entry_m / scale), np.int64)
+        if cand.size == 0:
+            return []
+        pts = tree.data[cand]
+        dist = np.hypot(*(pts - q).T) * scale
+        if frame == "world":
+            q = np.array(self._occupancy.world_to_pixel(q[0], q[1]), np.float64)
+            pts = np.stack(self._occupancy.world_to_pixel(pts[:, 0], pts[:, 1]), axis=1)
+        seen = _sees(self._feasible, q, pts)
+        cand, dist = cand[seen], dist[seen]
+        key = np.where(owners[cand, 0] >= 0, owners[cand, 0], len(self._u) + owners[cand, 2])
+        order = np.lexsort((cand, dist, key))
+        first = np.ones(order.size, bool)
+        first[1:] = key[order][1:] != key[order][:-1]
+        return [(int(cand[i]), float(dist[i])) for i in order[first]]
 
     def _edge_arrays(self, a, b, key, data):
         where = f"edge ({a!r}, {b!r}, {key!r})"
@@ -375,13 +467,15 @@ class RoutePlanner:
         return self._trees[frame]
 
     def _ends(self, snaps: list[_Snap]) -> dict:
-        """Graph vertices a route can leave the snapped point through: vertex -> (length
-        along the snapped edge to it, the snap on that edge), the shortest over ``snaps``."""
+        """Graph vertices a route can leave the snapped point through: vertex -> (cost,
+        length along the snapped edge to it, the snap), the cheapest over ``snaps``; the
+        cost is the straight leg to the snap plus that length."""
         ends: dict = {}
 
-        def offer(n, d: float, snap: _Snap) -> None:
-            if n not in ends or d < ends[n][0]:
-                ends[n] = (d, snap)
+        def offer(n, along: float, snap: _Snap) -> None:
+            cost = snap.distance_m + along
+            if n not in ends or cost < ends[n][0]:
+                ends[n] = (cost, along, snap)
 
         for snap in snaps:
             if snap.edge < 0:
@@ -394,17 +488,18 @@ class RoutePlanner:
         return ends
 
     def _direct(self, ss: list[_Snap], gs: list[_Snap]):
-        """The shortest way between a start and a goal snap without passing a vertex:
-        ``(length, plan)`` or ``(inf, None)``."""
+        """The cheapest way between a start and a goal snap without passing a vertex:
+        ``(cost, plan)`` or ``(inf, None)``; the cost counts both straight legs."""
         best, plan = math.inf, None
         for s in ss:
             for g in gs:
+                legs = s.distance_m + g.distance_m
                 if s.edge >= 0 and s.edge == g.edge:
                     d = abs(float(self._cum[s.edge][g.index]) - float(self._cum[s.edge][s.index]))
-                    if d < best:
-                        best, plan = d, ("direct", s, g)
-                elif s.edge < 0 and g.edge < 0 and s.vertex == g.vertex:
-                    best, plan = 0.0, ("vertex", s, g)
+                    if legs + d < best:
+                        best, plan = legs + d, ("direct", s, g, d)
+                elif s.edge < 0 and g.edge < 0 and s.vertex == g.vertex and legs < best:
+                    best, plan = legs, ("vertex", s, g, 0.0)
         return best, plan
 
     def _route(self, ss: list[_Snap], gs: list[_Snap]) -> Route:
@@ -415,12 +510,12 @@ class RoutePlanner:
         # how they were reached, so each settled vertex knows its predecessor.
         sources, targets = self._ends(ss), self._ends(gs)
         parent: dict = {}
-        heap = [(d, i, n, None, -1) for i, (n, (d, _)) in enumerate(sources.items())]
+        heap = [(d, i, n, None, -1, a) for i, (n, (d, a, _)) in enumerate(sources.items())]
         heapq.heapify(heap)
         tie = len(heap)
-        reached = None
+        reached, length = None, 0.0
         while heap:
-            d, _, n, via, e = heapq.heappop(heap)
+            d, _, n, via, e, along = heapq.heappop(heap)  # along: length on the graph
             if n in parent:
                 continue
             if d >= best:
@@ -428,12 +523,12 @@ class RoutePlanner:
             parent[n] = (via, e)
             if n in targets and d + targets[n][0] < best:
                 best = d + targets[n][0]
-                reached = n
+                reached, length = n, along + targets[n][1]
                 plan = ("graph",)
             for m, (w, e2) in self._adj[n].items():
                 if m not in parent and d + w < best:
                     tie += 1
-                    heapq.heappush(heap, (d + w, tie, m, n, e2))
+                    heapq.heappush(heap, (d + w, tie, m, n, e2, along + w))
         if plan is None:
             raise NoRouteError(
                 f"no route from the start (snapped to {self._where(ss[0])}) to the goal "
@@ -441,10 +536,10 @@ class RoutePlanner:
                 "graph"
             )
         if plan[0] == "vertex":
-            return self._assemble([], [], best, plan[1], plan[2])
+            return self._assemble([], [], 0.0, plan[1], plan[2])
         if plan[0] == "direct":
             s, g = plan[1], plan[2]
-            return self._assemble([(s.edge, s.index, g.index)], [], best, s, g)
+            return self._assemble([(s.edge, s.index, g.index)], [], plan[3], s, g)
         chain, hops = [reached], []
         while parent[chain[-1]][0] is not None:
             via, e = parent[chain[-1]]
@@ -452,7 +547,7 @@ class RoutePlanner:
             chain.append(via)
         chain.reverse()
         hops.reverse()
-        (d0, s), (d1, g) = sources[chain[0]], targets[chain[-1]]
+        (_, d0, s), (_, d1, g) = sources[chain[0]], targets[chain[-1]]
         pieces = []
         if s.edge >= 0:
             pieces.append(self._partial(s.edge, s.index, chain[0], d0))
@@ -461,7 +556,7 @@ class RoutePlanner:
         if g.edge >= 0:
             e, index, end_ = self._partial(g.edge, g.index, chain[-1], d1)
             pieces.append((e, end_, index))  # from the vertex to the goal
-        return self._assemble(pieces, chain, best, s, g)
+        return self._assemble(pieces, chain, length, s, g)
 
     def _partial(self, e: int, index: int, vertex, along: float):
         """The piece of edge ``e`` from position ``index`` to its end at ``vertex`` (the
@@ -524,6 +619,7 @@ def plan_route(
     *,
     frame: str = "world",
     max_snap_m: float | None = DEFAULT_MAX_SNAP_M,
+    occupancy=None,
 ) -> Route:
     """The shortest route from ``start`` to ``goal`` along a topology graph.
 
@@ -541,6 +637,10 @@ def plan_route(
     max_snap_m : float or None, optional
         Largest allowed distance from a query point to the graph, metres (default
         :data:`DEFAULT_MAX_SNAP_M`, 5 m); ``None``: no limit.
+    occupancy : OccupancyMap, optional
+        The graph's map: each end may then join the graph at the nearest point of any
+        edge it sees within reach, whichever gives the shortest route (see
+        :class:`RoutePlanner`).
 
     Returns
     -------
@@ -554,7 +654,9 @@ def plan_route(
     >>> r.length_m > 0, r.world.shape[1]
     (True, 2)
     """
-    return RoutePlanner(graph).route(start, goal, frame=frame, max_snap_m=max_snap_m)
+    return RoutePlanner(graph, occupancy=occupancy).route(
+        start, goal, frame=frame, max_snap_m=max_snap_m
+    )
 
 
 def _point(point, name: str, frame: str) -> np.ndarray:
@@ -567,3 +669,16 @@ def _step_size(path: np.ndarray, world: np.ndarray) -> float:
     d_px = math.hypot(*(np.asarray(path[1], float) - path[0]))
     d_m = math.hypot(*(world[1] - world[0]))
     return d_m / d_px
+
+
+def _sees(feasible: np.ndarray, q: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Whether each straight line from pixel ``q`` (float (2,), ``(row, col)``) to the
+    pixels ``pts`` (float (K, 2)) stays on set pixels of ``feasible`` (sampled at most
+    half a pixel apart, both ends included)."""
+    n_t = int(np.ceil(2.0 * float(np.max(np.hypot(*(pts - q).T), initial=0.0)))) + 2
+    t = np.linspace(0.0, 1.0, n_t)[:, None, None]
+    rc = np.rint(q + t * (pts - q)).astype(np.int64)
+    h, w = feasible.shape
+    inside = (rc[..., 0] >= 0) & (rc[..., 0] < h) & (rc[..., 1] >= 0) & (rc[..., 1] < w)
+    ok = inside & feasible[np.clip(rc[..., 0], 0, h - 1), np.clip(rc[..., 1], 0, w - 1)]
+    return ok.all(axis=0)

@@ -111,6 +111,15 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="M",
         help="fail if a point is more than M metres from the graph (default 5)",
     )
+    p.add_argument(
+        "--map",
+        metavar="MAP",
+        help="the graph's map (as `topojax graph` reads it): each end may then join the "
+        "graph at the nearest point of any edge it sees within the graph's snap distance "
+        "(1 m if it has none), whichever gives the shortest route; the robot radius is the "
+        "graph's (a route graph's); the map options below say how it is read",
+    )
+    add_map_options(p)
     p.add_argument("-o", "--out", help="write the route here as GeoJSON")
     p.add_argument(
         "--simplify-m",

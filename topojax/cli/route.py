@@ -23,9 +23,16 @@ def _cmd_route(args) -> int:
     if args.out:
         check_outputs(planned([args.out], args.graph), command="route", option=OUT_OPTION)
     graph = load_graph(args.graph)
+    occupancy = None
+    if args.map:
+        from ..maps import load_map
+        from ._options import map_options
+
+        occupancy = load_map(args.map, **map_options(args))
     frame = "pixel" if args.pixel else "world"
+    planner = RoutePlanner(graph, occupancy=occupancy)
     try:
-        route = RoutePlanner(graph).route(
+        route = planner.route(
             tuple(args.start), tuple(args.goal), frame=frame, max_snap_m=args.max_snap_m
         )
     except NoRouteError as exc:
