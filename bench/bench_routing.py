@@ -1,15 +1,19 @@
 """Benchmark: route queries on topology graphs (``tj.RoutePlanner`` and its ``route``, which
 ``tj.plan_route`` wraps).
 
-For each map, on its full graph (the paper's) and on a route graph pruned of spurs under
-0.5 m and pieces under 2 m (``tj.prune_graph``):
+For each map, on its full graph (the paper's), on that graph pruned of spurs under 0.5 m
+and pieces under 2 m (``tj.prune_graph``), and on its route graph for a robot of radius
+0.3 m (``tj.route_graph``) with a planner that knows only the graph and one given the map
+(``RoutePlanner(graph, occupancy=map)``: each end may join the graph at the nearest point
+of any edge in sight within 1 m):
 
 * **build**: ``RoutePlanner(graph)`` plus its k-d tree (the first query's extra cost),
   warm median over ``--repeats`` builds;
 * **query**: one ``planner.route(start, goal)`` between two random points near the
   graph's corridors (up to 1 m off), warm median and 90th percentile over ``--queries``
   pairs, with the share of pairs that have a route (the others raise ``NoRouteError``,
-  timed too);
+  timed too), and the median length of the routes (straight legs to and from the graph
+  included);
 * **cold**: in a fresh process, ``import topojax``, read the graph from JSON, build the
   planner and answer one query (SciPy's k-d tree module is imported on first use).
 
@@ -51,6 +55,13 @@ from common import (  # noqa: E402
 #: The larger maps timed here (of the pipeline benchmark's): two large ROS maps, one
 #: simulated warehouse.
 ROUTING_MAPS = ("edmonton_0.06", "pal_office_7th_floor", "warehouse")
+#: The graphs timed per map, in table order.
+LABELS = ("full", "pruned", "route graph", "route graph + map")
+
+
+def graph_rows(full, pruned, rg):
+    """``(label, graph, planner given the map)`` per row of :data:`LABELS`."""
+    return zip(LABELS, (full, pruned, rg, rg), (False, False, False, True), strict=True)
 
 
 def query_pairs(graph, n: int, seed: int) -> np.ndarray:
@@ -61,24 +72,25 @@ def query_pairs(graph, n: int, seed: int) -> np.ndarray:
     return picks + rng.uniform(-1.0, 1.0, size=picks.shape)
 
 
-def bench_graph(graph, *, repeats: int, queries: int) -> dict:
+def bench_graph(graph, *, repeats: int, queries: int, occupancy=None) -> dict:
     import topojax as tj
 
     builds = []
     for _ in range(repeats + 1):
         t0 = time.perf_counter()
-        planner = tj.RoutePlanner(graph)
+        planner = tj.RoutePlanner(graph, occupancy=occupancy)
         planner._tree("world")  # the k-d tree the first query builds
         builds.append(time.perf_counter() - t0)
-    times, n_routed = [], 0
+    times, lengths = [], []
     for start, goal in query_pairs(graph, queries + 1, seed=graph.number_of_edges()):
         t0 = time.perf_counter()
         try:
-            planner.route(start, goal)
-            n_routed += 1
+            r = planner.route(start, goal)
+            lengths.append(r.start_snap_m + r.length_m + r.goal_snap_m)
         except tj.NoRouteError:
             pass
         times.append(time.perf_counter() - t0)
+    n_routed = len(lengths)
     n_all = len(times)
     times = times[1:]  # the first query warms Python's caches
     return {
@@ -89,19 +101,21 @@ def bench_graph(graph, *, repeats: int, queries: int) -> dict:
         "query_median_ms": ms(median(times)),
         "query_p90_ms": ms(float(np.percentile(times, 90))),
         "routed_share": round(n_routed / n_all, 3),
+        "route_median_m": round(median(lengths), 3) if lengths else None,
     }
 
 
-def cold_worker(graph_file: str) -> None:
+def cold_worker(graph_file: str, map_file: str | None) -> None:
     t0 = time.perf_counter()
     import topojax as tj
 
     t1 = time.perf_counter()
     graph = tj.load_graph(graph_file)
+    occupancy = tj.load_map(map_file) if map_file else None
     load = time.perf_counter() - t1
     start, goal = query_pairs(graph, 1, seed=0)[0]  # not timed: not the planner's work
     t2 = time.perf_counter()
-    planner = tj.RoutePlanner(graph)
+    planner = tj.RoutePlanner(graph, occupancy=occupancy)
     try:
         planner.route(start, goal)
     except tj.NoRouteError:
@@ -119,9 +133,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, help="JSON path (default bench/results/...)")
     parser.add_argument("--markdown", type=Path, help="also write the markdown report here")
     parser.add_argument("--cold-worker", help=argparse.SUPPRESS)
+    parser.add_argument("--cold-map", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.cold_worker:
-        cold_worker(args.cold_worker)
+        cold_worker(args.cold_worker, args.cold_map)
         return 0
     if args.repeats < 1 or args.queries < 1:
         parser.error(f"--repeats and --queries must be >= 1, got {args.repeats}, {args.queries}")
@@ -134,14 +149,22 @@ def main(argv: list[str] | None = None) -> int:
     entries = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name, rel in maps.items():
-            full = tj.build_graph(tj.load_map(args.data / rel)).graph
+            occupancy = tj.load_map(args.data / rel)
+            full = tj.build_graph(occupancy).graph
             pruned = tj.prune_graph(full, min_spur_m=0.5, min_component_m=2.0)
+            rg = tj.route_graph(occupancy, robot_radius_m=0.3)
             entry = {}
-            for label, graph in (("full", full), ("pruned", pruned)):
-                entry[label] = bench_graph(graph, repeats=args.repeats, queries=args.queries)
+            for label, graph, with_map in graph_rows(full, pruned, rg):
+                entry[label] = bench_graph(
+                    graph,
+                    repeats=args.repeats,
+                    queries=args.queries,
+                    occupancy=occupancy if with_map else None,
+                )
                 path = tj.save_graph(graph, Path(tmp) / f"{name}_{label}.json")
                 script = Path(__file__).resolve()
-                entry[label]["cold"] = run_cold_worker(script, ["--cold-worker", str(path)])
+                extra = ["--cold-map", str(args.data / rel)] if with_map else []
+                entry[label]["cold"] = run_cold_worker(script, ["--cold-worker", str(path), *extra])
                 print(name, label, entry[label], flush=True)
             entries[name] = entry
     rows = [
@@ -154,10 +177,11 @@ def main(argv: list[str] | None = None) -> int:
             e[label]["query_median_ms"],
             e[label]["query_p90_ms"],
             e[label]["routed_share"],
+            e[label]["route_median_m"],
             e[label]["cold"]["first_ms"],
         ]
         for name, e in entries.items()
-        for label in ("full", "pruned")
+        for label in LABELS
     ]
     info = machine_info()
     report = "\n".join(
@@ -175,6 +199,7 @@ def main(argv: list[str] | None = None) -> int:
                     "query ms (median)",
                     "query ms (p90)",
                     "routed",
+                    "route m (median)",
                     "cold: planner + first query ms",
                 ],
                 rows,

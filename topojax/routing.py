@@ -8,7 +8,9 @@ the cluster's nearest path pixel).  Where edges cross or touch, that pixel lies 
 of them, and the route may leave it along any of them.  The route then runs along the
 partial edge from the snapped start to one of that edge's ends, through the graph (shortest by ``length_m``), and along the goal's edge to the
 snapped goal.  A start and goal on the same edge also try the direct way along it; a
-ring is left in whichever direction is shorter.
+ring is left in whichever direction is shorter.  A planner given the map may also join
+the graph at the nearest point of any edge in sight within reach, whichever gives the
+shortest route (:class:`RoutePlanner`).
 
 The route is returned with its skeleton pixels in order, their world coordinates, its
 length and the vertices and edges it passes, so it can be followed as a polyline or
