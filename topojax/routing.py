@@ -37,7 +37,6 @@ import numpy as np
 from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
 from .graph import cumulative_length_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
-from .routegraph.feasible import feasible_space
 
 __all__ = ["DEFAULT_MAX_SNAP_M", "NoRouteError", "Route", "RoutePlanner", "plan_route"]
 
@@ -324,6 +323,8 @@ class RoutePlanner:
                     "robot_radius_m: expected the robot radius in metres with occupancy= "
                     "(the graph has no 'robot_radius_m' attribute), received None"
                 )
+        from .routegraph.feasible import feasible_space  # the route-graph stack, on demand
+
         radius = nonnegative_metres("robot_radius_m", radius)
         entry_m = nonnegative_metres(
             "entry_m", attrs.get("snap_m", DEFAULT_ENTRY_M) if entry_m is None else entry_m
