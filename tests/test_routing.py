@@ -619,6 +619,7 @@ def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight
         ({"entry_m": 1.0}, 0.25, ValueError, "entry_m: only used with occupancy"),
         ({"occupancy": "map"}, 0.25, TypeError, "occupancy: expected an OccupancyMap"),
         ({"occupancy": "small"}, 0.25, ValueError, "occupancy: expected the graph's map"),
+        ({"occupancy": "moved"}, 0.25, ValueError, "occupancy: expected the graph's map with"),
         ({"occupancy": "fork"}, None, ValueError, "robot_radius_m: expected the robot radius"),
         ({"occupancy": "fork", "entry_m": -1.0}, 0.25, ValueError, "entry_m"),
     ],
@@ -626,8 +627,11 @@ def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight
 def test_planner_map_options_are_checked(kwargs, graph_radius, exc, words):
     m, g = _fork(radius=graph_radius)
     small = tj.OccupancyMap.from_array(np.zeros((5, 5), bool), resolution_m=0.1)
+    moved = tj.OccupancyMap.from_array(m.occupied, resolution_m=0.1, origin=(1.0, 0.0, 0.0))
+    g.graph["origin"] = tuple(m.origin)
     kwargs = {**kwargs}
     if "occupancy" in kwargs:
-        kwargs["occupancy"] = {"fork": m, "small": small}.get(kwargs["occupancy"], "map")
+        maps = {"fork": m, "small": small, "moved": moved}
+        kwargs["occupancy"] = maps.get(kwargs["occupancy"], "map")
     with pytest.raises(exc, match=words):
         RoutePlanner(g, **kwargs)

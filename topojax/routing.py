@@ -188,7 +188,8 @@ class RoutePlanner:
         as a MultiGraph with edge keys 0), or ``occupancy`` is not an OccupancyMap.
     ValueError
         An edge lacks ``path``, ``world`` or ``length_m``, or its path does not start and
-        end at its vertices; ``occupancy`` is not the graph's map (shape, resolution);
+        end at its vertices; ``occupancy`` is not the graph's map (shape, resolution,
+        origin);
         no robot radius is given or known; ``robot_radius_m`` or ``entry_m`` without
         ``occupancy``.
     """
@@ -315,6 +316,12 @@ class RoutePlanner:
             raise ValueError(
                 f"occupancy: expected the graph's map at {self._res} m/px, received a map "
                 f"at {occupancy.resolution_m} m/px"
+            )
+        origin = attrs.get("origin")
+        if origin is not None and not np.allclose(origin, occupancy.origin):
+            raise ValueError(
+                f"occupancy: expected the graph's map with origin {tuple(origin)}, received "
+                f"a map with origin {tuple(occupancy.origin)}"
             )
         if radius is None:
             radius = attrs.get("robot_radius_m")
