@@ -8,7 +8,7 @@ and pieces under 2 m (``tj.prune_graph``), and on its route graph for a robot of
 of any edge in sight within 1 m):
 
 * **build**: ``RoutePlanner(graph)`` plus its k-d tree (the first query's extra cost),
-  warm median over ``--repeats`` builds;
+  and with the map the robot's feasible space, warm median over ``--repeats`` builds;
 * **query**: one ``planner.route(start, goal)`` between two random points near the
   graph's corridors (up to 1 m off), warm median and 90th percentile over ``--queries``
   pairs, with the share of pairs that have a route (the others raise ``NoRouteError``,

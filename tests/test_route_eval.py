@@ -339,7 +339,20 @@ def test_a_route_joins_the_graph_at_the_nearest_or_the_best_point(best_entry, ex
 
 
 def test_best_entry_routes_are_never_longer_and_shorter_here():
+    from topojax.routegraph._eval_geometry import graph_geometry
+    from topojax.routegraph._eval_routes import route_lengths_px, route_network, sample_pairs
+    from topojax.routegraph.feasible import feasible_space
+
     m, g = _fork()
+    fs = feasible_space(m, RADIUS)
+    geo = graph_geometry(g, m, "auto")
+    n = geo.pt_edge.size
+    net = route_network(geo, np.ones(n - 1, bool), np.ones(n, bool))
+    pairs = sample_pairs(fs, fs.regions_at_least(0.0), 300, seed=2)
+    near = route_lengths_px(net, pairs, 1.0 / RES, fs.feasible)
+    best = route_lengths_px(net, pairs, 1.0 / RES, fs.feasible, best_entry=True)
+    assert np.isfinite(near).all() and np.isfinite(best).all()
+    assert (best <= near + 1e-9).all() and (best < near - 1.0).any()
     near = evaluate_route_graph(g, m, RADIUS, n_pairs=200, seed=5)
     best = evaluate_route_graph(g, m, RADIUS, n_pairs=200, seed=5, entry="best")
     assert (near.entry, best.entry) == ("nearest", "best")

@@ -496,6 +496,10 @@ def test_route_command_with_the_map_joins_the_graph_where_the_route_is_shortest(
     cv2.imwrite(str(small), np.full((20, 20), 255, np.uint8))
     assert main([*argv, "--map", str(small)]) == 2
     assert "occupancy: expected the graph's map of shape" in capsys.readouterr().err
+    # options that only matter with the map are refused without it
+    assert main([*argv, "--resolution", "0.05", "--entry-m", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "--resolution, --entry-m: only used with --map, which was not given" in err
 
 
 def test_default_snap_limit_refuses_far_points_and_none_lifts_it():
@@ -563,6 +567,14 @@ def test_with_the_map_a_route_joins_the_edge_that_gives_the_shortest_route():
     for r in (RoutePlanner(g, occupancy=m).route(ws, wg), plan_route(g, ws, wg, occupancy=m)):
         assert r.length_m == pytest.approx(0.6)
         np.testing.assert_array_equal(r.pixels, best.pixels)
+    # a graph without a robot radius needs one; max_snap_m bounds the legs taken too
+    m, g = _fork(radius=None)
+    r = plan_route(g, start, goal, frame="pixel", occupancy=m, robot_radius_m=0.25)
+    assert r.length_m == pytest.approx(0.6)
+    r = plan_route(
+        g, start, goal, frame="pixel", occupancy=m, robot_radius_m=0.25, max_snap_m=0.5
+    )
+    assert r.start_snap_m == pytest.approx(0.3) and r.length_m == pytest.approx(5.0)
 
 
 def test_with_the_map_a_route_does_not_join_through_a_wall_or_beyond_reach():
@@ -620,6 +632,7 @@ def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight
         ({"occupancy": "map"}, 0.25, TypeError, "occupancy: expected an OccupancyMap"),
         ({"occupancy": "small"}, 0.25, ValueError, "occupancy: expected the graph's map"),
         ({"occupancy": "moved"}, 0.25, ValueError, "occupancy: expected the graph's map with"),
+        ({"occupancy": "coarse"}, 0.25, ValueError, "occupancy: expected the graph's map at"),
         ({"occupancy": "fork"}, None, ValueError, "robot_radius_m: expected the robot radius"),
         ({"occupancy": "fork", "entry_m": -1.0}, 0.25, ValueError, "entry_m"),
     ],
@@ -631,7 +644,8 @@ def test_planner_map_options_are_checked(kwargs, graph_radius, exc, words):
     g.graph["origin"] = tuple(m.origin)
     kwargs = {**kwargs}
     if "occupancy" in kwargs:
-        maps = {"fork": m, "small": small, "moved": moved}
+        coarse = tj.OccupancyMap.from_array(m.occupied, resolution_m=0.2)
+        maps = {"fork": m, "small": small, "moved": moved, "coarse": coarse}
         kwargs["occupancy"] = maps.get(kwargs["occupancy"], "map")
     with pytest.raises(exc, match=words):
         RoutePlanner(g, **kwargs)

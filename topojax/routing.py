@@ -56,6 +56,9 @@ DEFAULT_MAX_SNAP_M = 5.0
 #: planner given the map and a graph without a ``snap_m`` attribute.
 DEFAULT_ENTRY_M = 1.0
 
+# Candidate entry points whose sight lines are drawn at once.
+_ENTRY_BATCH = 256
+
 
 class NoRouteError(nx.NetworkXNoPath):
     """The start and goal snap to parts of the graph that no corridor connects."""
@@ -160,7 +163,8 @@ class RoutePlanner:
 
     Builds the lookup structures once (a k-d tree of the corridor pixels per frame, the
     edges' cumulative lengths, the vertex adjacency); each :meth:`route` then costs a
-    nearest-neighbour query per point and a Dijkstra search that stops once no unsettled
+    nearest-neighbour query per point (with the map, also a range query and the sight
+    lines to each edge in reach) and a Dijkstra search that stops once no unsettled
     vertex can beat the best route found.
 
     Parameters
@@ -281,7 +285,7 @@ class RoutePlanner:
             max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
         s = self._snaps(start, frame, "start")
         g = self._snaps(goal, frame, "goal")
-        # snaps[0] is the nearest point
+        # snaps[0] is the nearest point; with the map, farther ones beyond the limit go
         for name, snaps in (("start", s), ("goal", g)):
             if max_snap_m is not None and snaps[0].distance_m > max_snap_m:
                 raise ValueError(
@@ -289,6 +293,9 @@ class RoutePlanner:
                     f"more than max_snap_m={max_snap_m} (pass a larger max_snap_m, or None for "
                     "no limit)"
                 )
+        if max_snap_m is not None:
+            s = [x for x in s if x.distance_m <= max_snap_m]
+            g = [x for x in g if x.distance_m <= max_snap_m]
         return self._route(s, g)
 
     # ------------------------------------------------------------------ internals
@@ -301,7 +308,9 @@ class RoutePlanner:
                 if value is not None:
                     raise ValueError(f"{name}: only used with occupancy=, which was not given")
             return None, 0.0
-        if not all(hasattr(occupancy, a) for a in ("free", "resolution_m", "world_to_pixel")):
+        if not all(
+            hasattr(occupancy, a) for a in ("free", "resolution_m", "origin", "world_to_pixel")
+        ):
             raise TypeError(
                 f"occupancy: expected an OccupancyMap, received {type(occupancy).__name__}"
             )
@@ -318,7 +327,10 @@ class RoutePlanner:
                 f"at {occupancy.resolution_m} m/px"
             )
         origin = attrs.get("origin")
-        if origin is not None and not np.allclose(origin, occupancy.origin):
+        if origin is not None and (
+            np.shape(origin) != np.shape(occupancy.origin)
+            or not np.allclose(origin, occupancy.origin)
+        ):
             raise ValueError(
                 f"occupancy: expected the graph's map with origin {tuple(origin)}, received "
                 f"a map with origin {tuple(occupancy.origin)}"
@@ -333,9 +345,11 @@ class RoutePlanner:
         from .routegraph.feasible import feasible_space  # the route-graph stack, on demand
 
         radius = nonnegative_metres("robot_radius_m", radius)
-        entry_m = nonnegative_metres(
-            "entry_m", attrs.get("snap_m", DEFAULT_ENTRY_M) if entry_m is None else entry_m
-        )
+        if entry_m is None:
+            entry_m = attrs.get("snap_m")
+            entry_m = DEFAULT_ENTRY_M if entry_m is None else entry_m
+            entry_m = nonnegative_metres("entry_m (the graph's 'snap_m' attribute)", entry_m)
+        entry_m = nonnegative_metres("entry_m", entry_m)
         return feasible_space(occupancy, radius).feasible, entry_m
 
     def _snaps(self, point, frame: str, name: str) -> list[_Snap]:
@@ -361,23 +375,35 @@ class RoutePlanner:
     def _entries(self, q: np.ndarray, frame: str, scale: float) -> list[tuple[int, float]]:
         """``(tree point, distance m)`` of each edge's (or edgeless vertex's) nearest
         corridor point within the entry reach of query ``q`` that the robot reaches along
-        a straight line over feasible pixels."""
+        a straight line over feasible pixels.  Candidates are tried nearest first, a
+        batch at a time, skipping edges already joined (bounded memory for any reach)."""
         tree, owners = self._tree(frame)
         cand = np.asarray(tree.query_ball_point(q, self._entry_m / scale), np.int64)
         if cand.size == 0:
             return []
-        pts = tree.data[cand]
-        dist = np.hypot(*(pts - q).T) * scale
-        if frame == "world":
-            q = np.array(self._occupancy.world_to_pixel(q[0], q[1]), np.float64)
-            pts = np.stack(self._occupancy.world_to_pixel(pts[:, 0], pts[:, 1]), axis=1)
-        seen = _sees(self._feasible, q, pts)
-        cand, dist = cand[seen], dist[seen]
+        dist = np.hypot(*(tree.data[cand] - q).T) * scale
+        order = np.lexsort((cand, dist))
+        cand, dist = cand[order], dist[order]
         key = np.where(owners[cand, 0] >= 0, owners[cand, 0], len(self._u) + owners[cand, 2])
-        order = np.lexsort((cand, dist, key))
-        first = np.ones(order.size, bool)
-        first[1:] = key[order][1:] != key[order][:-1]
-        return [(int(cand[i]), float(dist[i])) for i in order[first]]
+        qp = q
+        if frame == "world":
+            qp = np.array(self._occupancy.world_to_pixel(q[0], q[1]), np.float64)
+        out: list[tuple[int, float]] = []
+        joined: set[int] = set()
+        for b in range(0, cand.size, _ENTRY_BATCH):
+            sel = np.arange(b, min(b + _ENTRY_BATCH, cand.size))
+            if joined:  # edges already joined need no farther point
+                sel = sel[~np.isin(key[sel], np.fromiter(joined, np.int64))]
+            if sel.size == 0:
+                continue
+            pts = tree.data[cand[sel]]
+            if frame == "world":
+                pts = np.stack(self._occupancy.world_to_pixel(pts[:, 0], pts[:, 1]), axis=1)
+            for i in sel[_sees(self._feasible, qp, pts)].tolist():  # nearest first
+                if int(key[i]) not in joined:
+                    joined.add(int(key[i]))
+                    out.append((int(cand[i]), float(dist[i])))
+        return out
 
     def _edge_arrays(self, a, b, key, data):
         where = f"edge ({a!r}, {b!r}, {key!r})"
@@ -479,11 +505,14 @@ class RoutePlanner:
     def _ends(self, snaps: list[_Snap]) -> dict:
         """Graph vertices a route can leave the snapped point through: vertex -> (cost,
         length along the snapped edge to it, the snap), the cheapest over ``snaps``; the
-        cost is the straight leg to the snap plus that length."""
+        cost is that length plus how much longer the straight leg to the snap is than the
+        one to the nearest point (exactly 0 without the map: the same sums as routes on
+        the graph alone)."""
         ends: dict = {}
+        nearest = snaps[0].distance_m
 
         def offer(n, along: float, snap: _Snap) -> None:
-            cost = snap.distance_m + along
+            cost = (snap.distance_m - nearest) + along
             if n not in ends or cost < ends[n][0]:
                 ends[n] = (cost, along, snap)
 
@@ -499,11 +528,12 @@ class RoutePlanner:
 
     def _direct(self, ss: list[_Snap], gs: list[_Snap]):
         """The cheapest way between a start and a goal snap without passing a vertex:
-        ``(cost, plan)`` or ``(inf, None)``; the cost counts both straight legs."""
+        ``(cost, plan)`` or ``(inf, None)``; the cost counts both straight legs beyond the
+        nearest ones (as :meth:`_ends`)."""
         best, plan = math.inf, None
         for s in ss:
             for g in gs:
-                legs = s.distance_m + g.distance_m
+                legs = (s.distance_m - ss[0].distance_m) + (g.distance_m - gs[0].distance_m)
                 if s.edge >= 0 and s.edge == g.edge:
                     d = abs(float(self._cum[s.edge][g.index]) - float(self._cum[s.edge][s.index]))
                     if legs + d < best:
@@ -630,11 +660,14 @@ def plan_route(
     frame: str = "world",
     max_snap_m: float | None = DEFAULT_MAX_SNAP_M,
     occupancy=None,
+    robot_radius_m: float | None = None,
+    entry_m: float | None = None,
 ) -> Route:
     """The shortest route from ``start`` to ``goal`` along a topology graph.
 
-    One-off form of ``RoutePlanner(graph).route(start, goal, ...)``; build a
-    :class:`RoutePlanner` to ask one graph for many routes.
+    One-off form of ``RoutePlanner(graph, occupancy=..., robot_radius_m=...,
+    entry_m=...).route(start, goal, ...)``; build a :class:`RoutePlanner` to ask one graph
+    for many routes.
 
     Parameters
     ----------
@@ -651,10 +684,18 @@ def plan_route(
         The graph's map: each end may then join the graph at the nearest point of any
         edge it sees within reach, whichever gives the shortest route (see
         :class:`RoutePlanner`).
+    robot_radius_m, entry_m : float, optional
+        With ``occupancy``: the robot radius (default the graph's ``robot_radius_m``) and
+        the reach (default the graph's ``snap_m``, else 1 m), metres.
 
     Returns
     -------
     Route
+
+    Raises
+    ------
+    NoRouteError, ValueError, TypeError
+        As :class:`RoutePlanner` and :meth:`RoutePlanner.route`.
 
     Examples
     --------
@@ -664,9 +705,10 @@ def plan_route(
     >>> r.length_m > 0, r.world.shape[1]
     (True, 2)
     """
-    return RoutePlanner(graph, occupancy=occupancy).route(
-        start, goal, frame=frame, max_snap_m=max_snap_m
+    planner = RoutePlanner(
+        graph, occupancy=occupancy, robot_radius_m=robot_radius_m, entry_m=entry_m
     )
+    return planner.route(start, goal, frame=frame, max_snap_m=max_snap_m)
 
 
 def _point(point, name: str, frame: str) -> np.ndarray:

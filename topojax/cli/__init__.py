@@ -117,7 +117,21 @@ def build_parser() -> argparse.ArgumentParser:
         help="the graph's map (as `topojax graph` reads it): each end may then join the "
         "graph at the nearest point of any edge it sees within the graph's snap distance "
         "(1 m if it has none), whichever gives the shortest route; the robot radius is the "
-        "graph's (a route graph's); the map options below say how it is read",
+        "graph's (a route graph's) or --robot-radius; the map options below say how it is "
+        "read",
+    )
+    p.add_argument(
+        "--robot-radius",
+        type=float,
+        metavar="M",
+        help="with --map: the robot radius in metres (default: the graph's)",
+    )
+    p.add_argument(
+        "--entry-m",
+        type=float,
+        metavar="M",
+        help="with --map: how far a route may go to join the graph (default: the graph's "
+        "snap distance, else 1)",
     )
     add_map_options(p)
     p.add_argument("-o", "--out", help="write the route here as GeoJSON")

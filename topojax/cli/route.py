@@ -7,7 +7,18 @@ import os
 import sys
 from pathlib import Path
 
+from ._options import map_options
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+
+
+def _map_options_given(args) -> list[str]:
+    """The options that only matter with ``--map`` and were given."""
+    given = [
+        "--resolution" if k == "resolution_m" else "--" + k.replace("_", "-")
+        for k in map_options(args)
+    ]
+    extra = (("--robot-radius", args.robot_radius), ("--entry-m", args.entry_m))
+    return given + [option for option, value in extra if value is not None]
 
 
 def _cmd_route(args) -> int:
@@ -22,15 +33,20 @@ def _cmd_route(args) -> int:
         raise ValueError(f"-o: writing the route to {args.out} would overwrite the graph file")
     if args.out:
         check_outputs(planned([args.out], args.graph), command="route", option=OUT_OPTION)
+    if not args.map and _map_options_given(args):
+        raise ValueError(
+            f"{', '.join(_map_options_given(args))}: only used with --map, which was not given"
+        )
     graph = load_graph(args.graph)
     occupancy = None
     if args.map:
         from ..maps import load_map
-        from ._options import map_options
 
         occupancy = load_map(args.map, **map_options(args))
     frame = "pixel" if args.pixel else "world"
-    planner = RoutePlanner(graph, occupancy=occupancy)
+    planner = RoutePlanner(
+        graph, occupancy=occupancy, robot_radius_m=args.robot_radius, entry_m=args.entry_m
+    )
     try:
         route = planner.route(
             tuple(args.start), tuple(args.goal), frame=frame, max_snap_m=args.max_snap_m

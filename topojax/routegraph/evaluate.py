@@ -43,7 +43,6 @@ class RouteGraphReport:
 
     robot_radius_m: float
     snap_m: float
-    entry: str
     seed: int
     pairs: int
     success_rate: float
@@ -65,6 +64,7 @@ class RouteGraphReport:
     short_dead_ends: int
     generation_s: float | None
     evaluation_s: float
+    entry: str = "nearest"
 
     def as_dict(self) -> dict:
         """The fields as a JSON-friendly dict (plain ints and floats, NaN as None)."""
@@ -211,8 +211,9 @@ def evaluate_route_graph(
     entry : {"nearest", "best"}
         Where a route joins the graph: ``"nearest"``, at the nearest graph point each end
         sees within ``snap_m``; ``"best"``, at the nearest point it sees of whichever
-        edge within ``snap_m`` gives the shortest route (as
-        ``RoutePlanner(graph, occupancy=map)`` does).
+        edge stretch within ``snap_m`` gives the shortest route (the rule of
+        ``RoutePlanner(graph, occupancy=map)`` on a route graph, which also keeps the
+        nearest point when it is out of sight).
     n_pairs : int
         Number of pairs (>= 1).
     seed : int
