@@ -104,6 +104,24 @@ def test_rooms_alone_and_a_route_graph_with_its_map():
     assert np.allclose(np.reshape(room["polygon"], (-1, 2)), seg.rooms[0].polygon, atol=1e-4)
 
 
+def test_a_route_graph_with_its_map_carries_the_robots_feasible_pixels():
+    from topojax.routegraph.feasible import feasible_space
+
+    occupancy, routes = office_route_graph()
+    (g,) = payload_of(view_html(routes, map=occupancy))["graphs"]
+    assert g["entry"]["reach_m"] == routes.graph["snap_m"] == 1.0
+    assert g["entry"]["radius_m"] == routes.graph["robot_radius_m"] == 0.3
+    bits = np.unpackbits(unpacked(g["entry"]["feasible"]))[: occupancy.free.size]
+    want = feasible_space(occupancy, 0.3).feasible
+    np.testing.assert_array_equal(bits.reshape(occupancy.free.shape), want)
+    # without its map, with another map, or for a graph without a robot radius: none
+    assert payload_of(view_html(routes))["graphs"][0]["entry"] is None
+    other = tj.sample_map("intel")
+    assert payload_of(view_html(routes, map=other))["graphs"][0]["entry"] is None
+    paper = tj.build_graph(occupancy).graph
+    assert payload_of(view_html(paper, map=occupancy))["graphs"][0]["entry"] is None
+
+
 def test_a_graph_without_paths_is_drawn_but_not_routed():
     g = nx.MultiGraph()
     g.add_node(0, world=(0.0, 0.0), kind="end")

@@ -303,11 +303,14 @@ def test_routes_on_a_route_graph_equal_plan_route(browser, tmp_path):
     page = tj.write_view(routes, tmp_path / "route_graph.html", map=occupancy)
     assert _open(browser, page) == "ready"
     rng = np.random.default_rng(3)
-    planner = tj.RoutePlanner(routes)
+    # shown with its map, the page joins routes to a route graph in sight, as the planner
+    # given the map does
+    planner = tj.RoutePlanner(routes, occupancy=occupancy)
+    plain = tj.RoutePlanner(routes)
     points = np.concatenate([np.asarray(w) for *_, w in routes.edges(data="world")])
-    checked = 0
-    for _ in range(40):  # pairs in two of the graph's pieces have no route: draw on
-        if checked == 8:
+    checked = shorter = 0
+    for _ in range(80):  # pairs in two of the graph's pieces have no route: draw on
+        if checked == 24:
             break
         a, b = points[rng.integers(len(points), size=2)] + rng.uniform(-0.5, 0.5, (2, 2))
         a, b = tuple(map(float, a)), tuple(map(float, b))
@@ -318,8 +321,13 @@ def test_routes_on_a_route_graph_equal_plan_route(browser, tmp_path):
             assert "error" in got
             continue
         assert abs(got["length_m"] - want.length_m) < 1e-3, (a, b)
+        assert abs(got["start_snap_m"] - want.start_snap_m) < 1e-6, (a, b)
+        assert abs(got["goal_snap_m"] - want.goal_snap_m) < 1e-6, (a, b)
+        base = plain.route(a, b)
+        total = want.start_snap_m + want.length_m + want.goal_snap_m
+        shorter += total < base.start_snap_m + base.length_m + base.goal_snap_m - 1e-6
         checked += 1
-    assert checked >= 5
+    assert checked >= 12 and shorter >= 1
 
 
 def test_routes_from_where_edges_cross_equal_plan_route(browser, tmp_path):

@@ -38,7 +38,14 @@ from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
 from .graph import cumulative_length_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
 
-__all__ = ["DEFAULT_MAX_SNAP_M", "NoRouteError", "Route", "RoutePlanner", "plan_route"]
+__all__ = [
+    "DEFAULT_ENTRY_M",
+    "DEFAULT_MAX_SNAP_M",
+    "NoRouteError",
+    "Route",
+    "RoutePlanner",
+    "plan_route",
+]
 
 #: Corridor points at most this much farther from a query point than the nearest one
 #: (metres, or pixels in the pixel frame) are as near: the same pixel on edges that cross.
@@ -375,19 +382,19 @@ class RoutePlanner:
     def _entries(self, q: np.ndarray, frame: str, scale: float) -> list[tuple[int, float]]:
         """``(tree point, distance m)`` of each edge's (or edgeless vertex's) nearest
         corridor point within the entry reach of query ``q`` that the robot reaches along
-        a straight line over feasible pixels.  Candidates are tried nearest first, a
-        batch at a time, skipping edges already joined (bounded memory for any reach)."""
+        a straight line over feasible pixels (:func:`_sees`).  Candidates are tried nearest
+        first, a batch at a time, skipping edges already joined (bounded memory for any
+        reach)."""
         tree, owners = self._tree(frame)
         cand = np.asarray(tree.query_ball_point(q, self._entry_m / scale), np.int64)
         if cand.size == 0:
             return []
-        dist = np.hypot(*(tree.data[cand] - q).T) * scale
+        delta = tree.data[cand] - q
+        dist = np.sqrt(delta[:, 0] * delta[:, 0] + delta[:, 1] * delta[:, 1]) * scale
         order = np.lexsort((cand, dist))
         cand, dist = cand[order], dist[order]
         key = np.where(owners[cand, 0] >= 0, owners[cand, 0], len(self._u) + owners[cand, 2])
-        qp = q
-        if frame == "world":
-            qp = np.array(self._occupancy.world_to_pixel(q[0], q[1]), np.float64)
+        qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
         out: list[tuple[int, float]] = []
         joined: set[int] = set()
         for b in range(0, cand.size, _ENTRY_BATCH):
@@ -396,13 +403,28 @@ class RoutePlanner:
                 sel = sel[~np.isin(key[sel], np.fromiter(joined, np.int64))]
             if sel.size == 0:
                 continue
-            pts = tree.data[cand[sel]]
-            if frame == "world":
-                pts = np.stack(self._occupancy.world_to_pixel(pts[:, 0], pts[:, 1]), axis=1)
-            for i in sel[_sees(self._feasible, qp, pts)].tolist():  # nearest first
+            seen = _sees(self._feasible, qp, self._pixels_of(cand[sel], frame))
+            for i in sel[seen].tolist():  # nearest first
                 if int(key[i]) not in joined:
                     joined.add(int(key[i]))
                     out.append((int(cand[i]), float(dist[i])))
+        return out
+
+    def _pixels_of(self, points: np.ndarray, frame: str) -> np.ndarray:
+        """Pixel coordinates (float64 (K, 2)) of tree points: an edge's path pixel, or an
+        edgeless vertex's position (its world position mapped onto the map's grid)."""
+        _, owners = self._tree(frame)
+        out = np.empty((len(points), 2))
+        for k, i in enumerate(points.tolist()):
+            edge, index, vertex = (int(x) for x in owners[i])
+            if edge >= 0:
+                out[k] = self._path[edge][index]
+            else:
+                data = self._graph.nodes[self._nodes[vertex]]
+                if frame == "pixel":
+                    out[k] = np.asarray(data["pixel"], np.float64)
+                else:
+                    out[k] = self._occupancy.world_to_pixel(*data["world"][:2])
         return out
 
     def _edge_arrays(self, a, b, key, data):
@@ -725,12 +747,18 @@ def _step_size(path: np.ndarray, world: np.ndarray) -> float:
 
 def _sees(feasible: np.ndarray, q: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """Whether each straight line from pixel ``q`` (float (2,), ``(row, col)``) to the
-    pixels ``pts`` (float (K, 2)) stays on set pixels of ``feasible`` (sampled at most
-    half a pixel apart, both ends included)."""
-    n_t = int(np.ceil(2.0 * float(np.max(np.hypot(*(pts - q).T), initial=0.0)))) + 2
-    t = np.linspace(0.0, 1.0, n_t)[:, None, None]
-    rc = np.rint(q + t * (pts - q)).astype(np.int64)
+    pixels ``pts`` (float (K, 2)) stays on set pixels of ``feasible``.
+
+    Each line is sampled at ``n = ceil(2 d) + 2`` points ``q + (j / (n - 1)) (p - q)``,
+    ``d`` its length in pixels, each rounded half up to a pixel: the viewer's router
+    samples the same points."""
+    d0, d1 = pts[:, 0] - q[0], pts[:, 1] - q[1]
+    n = np.ceil(2.0 * np.sqrt(d0 * d0 + d1 * d1)).astype(np.int64) + 2
+    j = np.arange(int(n.max(initial=2)))[:, None]
+    t = np.minimum(j, n - 1) / (n - 1)
+    rr = np.floor(q[0] + t * d0 + 0.5).astype(np.int64)
+    cc = np.floor(q[1] + t * d1 + 0.5).astype(np.int64)
     h, w = feasible.shape
-    inside = (rc[..., 0] >= 0) & (rc[..., 0] < h) & (rc[..., 1] >= 0) & (rc[..., 1] < w)
-    ok = inside & feasible[np.clip(rc[..., 0], 0, h - 1), np.clip(rc[..., 1], 0, w - 1)]
+    inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+    ok = inside & feasible[np.clip(rr, 0, h - 1), np.clip(cc, 0, w - 1)]
     return ok.all(axis=0)

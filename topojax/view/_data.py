@@ -11,8 +11,8 @@ import cv2
 import networkx as nx
 import numpy as np
 
-from ..routing import DEFAULT_MAX_SNAP_M
-from ._encode import pyramid
+from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
+from ._encode import packed, pyramid
 from ._graphs import Frame, graph_frame, graph_payload
 from ._rooms_data import is_room_pair, rooms_payload, rounded
 
@@ -279,6 +279,28 @@ def _graph_bounds_frame(graphs) -> Frame:
     return Frame(int(h), int(w), res, (float(lo[0]), float(lo[1]), 0.0))
 
 
+def _entry_payload(graph: nx.Graph, occupancy) -> dict | None:
+    """For a route graph (one with a ``robot_radius_m``) shown with its own map: the
+    robot's feasible pixels (bits, row-major, big-endian within each byte) and the reach
+    (the graph's ``snap_m``), so that the page joins routes to it in sight as
+    ``RoutePlanner(graph, occupancy=map)`` does; None otherwise."""
+    radius = graph.graph.get("robot_radius_m")
+    frame = graph_frame(graph)
+    if occupancy is None or not isinstance(radius, numbers.Real) or frame is None:
+        return None
+    if frame != _map_frame(occupancy):
+        return None
+    from ..routegraph.feasible import feasible_space
+
+    feasible = feasible_space(occupancy, float(radius)).feasible
+    reach = graph.graph.get("snap_m")
+    return {
+        "reach_m": float(DEFAULT_ENTRY_M if reach is None else reach),
+        "radius_m": float(radius),
+        "feasible": packed(np.packbits(feasible.ravel()), np.uint8),
+    }
+
+
 def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> dict:
     """The page's data for ``inputs`` (see :func:`topojax.write_view`).
 
@@ -305,6 +327,8 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
         graph_payload(g, frame, name=n, label=lab, raster=bool(rasters))
         for n, lab, g in inputs.graphs
     ]
+    for (_, _, g), shown in zip(inputs.graphs, graphs, strict=True):
+        shown["entry"] = _entry_payload(g, inputs.map) if shown["routable"] else None
     if not rasters and not any(g["n_vertices"] for g in graphs) and inputs.rooms is None:
         raise ValueError(
             "nothing to show: no map, and the graphs have no vertices (an empty graph "

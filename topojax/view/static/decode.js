@@ -88,6 +88,14 @@ var TJ = (window.TJ = window.TJ || {});
     var ym = (this.height - r - 0.5) * this.res;
     return [this.ox + this.cos * xm - this.sin * ym, this.oy + this.sin * xm + this.cos * ym];
   };
+  /* continuous pixel [row, col] of a world point, the formula of
+   * OccupancyMap.world_to_pixel (same operations, same rounding) */
+  TJ.Frame.prototype.worldToPixel = function (x, y) {
+    var dx = x - this.ox, dy = y - this.oy;
+    var xm = this.cos * dx + this.sin * dy;
+    var ym = -this.sin * dx + this.cos * dy;
+    return [this.height - 0.5 - ym / this.res, xm / this.res - 0.5];
+  };
   TJ.Frame.prototype.worldToView = function (x, y) {
     var dx = x - this.ox, dy = y - this.oy;
     var xm = this.cos * dx + this.sin * dy;
@@ -103,14 +111,17 @@ var TJ = (window.TJ = window.TJ || {});
    *   n, vx, vy (world), vu, vv (view), kind, clear, ids, degree;
    *   ne, u, v, len, cmin, cmean, sizes, starts (per edge);
    *   px, py (world), pu, pv (view) of every path point, edges one after another;
-   *   rows, cols (pixels) when the paths are on the grid; box (per edge view bbox). */
+   *   rows, cols (pixels) when the paths are on the grid; box (per edge view bbox);
+   *   entry (a route graph shown with its map): {reach, h, w, bits, frame}, the robot's
+   *   feasible pixels (bits, big-endian within each byte) for joining it in sight. */
   TJ.prepareGraph = function (g, frame) {
     var e = g.edges;
     return Promise.all([
       TJ.unpackAll(g, ["vx", "vy", "kind", "clear"]),
       TJ.unpackAll(e, ["u", "v", "len", "cmin", "cmean", "sizes", "rc", "xy"]),
+      g.entry ? TJ.unpackAll(g.entry, ["feasible"]) : Promise.resolve(null),
     ]).then(function (parts) {
-      var V = parts[0], E = parts[1];
+      var V = parts[0], E = parts[1], F = parts[2];
       var G = {
         name: g.name, label: g.label, routable: g.routable, whyNot: g.why_not_routable,
         resolution: g.resolution_m || frame.res,
@@ -148,6 +159,9 @@ var TJ = (window.TJ = window.TJ || {});
       }
       for (var m = 0; m < ne; m++) { G.degree[G.u[m]]++; G.degree[G.v[m]]++; }
       G.box = TJ.edgeBoxes(G.pu, G.pv, G.starts, G.sizes);
+      G.entry = F && G.rows ? {
+        reach: g.entry.reach_m, h: frame.height, w: frame.width, bits: F.feasible, frame: frame,
+      } : null;
       return G;
     });
   };

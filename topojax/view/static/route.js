@@ -7,7 +7,10 @@
  * graph (Dijkstra on length_m, parallel edges by their shortest, self-loops never), and
  * along the goal's edge to the snapped goal; start and goal on one edge also try the
  * direct way along it.  Lengths along an edge are its straight and diagonal pixel steps
- * scaled to the edge's length_m, as RoutePlanner counts them. */
+ * scaled to the edge's length_m, as RoutePlanner counts them.  A route graph shown with
+ * its map carries the robot's feasible pixels: each end may then also join the graph at
+ * the nearest point of any edge it sees within reach, whichever gives the shortest route,
+ * as RoutePlanner(graph, occupancy=map) does. */
 "use strict";
 var TJ = (window.TJ = window.TJ || {});
 
@@ -88,12 +91,29 @@ var TJ = (window.TJ = window.TJ || {});
     for (var f = 0; f < ne; f++) this.pointEdge.fill(f, G.starts[f], G.starts[f] + G.sizes[f]);
     var cell = 8 * (G.resolution || 0.05);
     this.grid = new TJ.Grid(sx, sy, cell);
+    this.entry = G.entry;
   };
 
-  /* The nearest corridor points, {dist, at: [{edge, index, vertex}, ...]}: one, or one per
-   * edge through it where edges cross (points at most TIE metres farther count as near). */
+  /* Whether the straight line from pixel (q0, q1) to pixel (c0, c1) stays on feasible
+   * pixels: n = ceil(2 d) + 2 samples, rounded half up, as RoutePlanner's _sees. */
+  function sees(F, q0, q1, c0, c1) {
+    var d0 = c0 - q0, d1 = c1 - q1, n = Math.ceil(2 * Math.sqrt(d0 * d0 + d1 * d1)) + 2;
+    for (var j = 0; j < n; j++) {
+      var t = j / (n - 1);
+      var r = Math.floor(q0 + t * (c0 - q0) + 0.5), c = Math.floor(q1 + t * (c1 - q1) + 0.5);
+      if (r < 0 || r >= F.h || c < 0 || c >= F.w) return false;
+      var i = r * F.w + c;
+      if (((F.bits[i >> 3] >> (7 - (i & 7))) & 1) === 0) return false;
+    }
+    return true;
+  }
+
+  /* Where a route from (x, y) may join the graph, {dist, at: [{edge, index, vertex, dist},
+   * ...]}: the nearest corridor points (one, or one per edge through it where edges cross;
+   * points at most TIE metres farther count as near), then, with the feasible pixels,
+   * each edge's nearest point in sight within reach and maxSnap. */
   var TIE = 1e-9;
-  TJ.Router.prototype.snap = function (x, y) {
+  TJ.Router.prototype.snap = function (x, y, maxSnap) {
     var hit = this.grid.nearest(x, y, Infinity);
     if (hit === null) throw new Error("the graph has no vertices or edges to route on");
     var np = this.G.np, near = this.grid.within(x, y, hit.dist + TIE), at = [];
@@ -103,23 +123,51 @@ var TJ = (window.TJ = window.TJ || {});
     }
     for (var k = 0; k < near.length; k++) {
       var i = near[k];
-      if (i >= np) {
-        at.push({ edge: -1, index: 0, vertex: this.lonely[i - np] });
-      } else {
-        var e = this.pointEdge[i];
-        at.push({ edge: e, index: i - this.G.starts[e], vertex: -1 });
-      }
+      at.push(this.point(i, hit.dist));
     }
+    if (this.entry) this.entries(x, y, maxSnap, at);
     return { dist: hit.dist, at: at };
   };
 
-  /* vertex -> [length along the snapped edge to it, the point of `snap.at` it is left from],
-   * the shortest over the snap's points */
+  /* the join point of snap target i at `dist` metres */
+  TJ.Router.prototype.point = function (i, dist) {
+    var np = this.G.np;
+    if (i >= np) return { edge: -1, index: 0, vertex: this.lonely[i - np], dist: dist };
+    var e = this.pointEdge[i];
+    return { edge: e, index: i - this.G.starts[e], vertex: -1, dist: dist };
+  };
+
+  /* append to `at` each edge's (or edgeless vertex's) nearest point within reach (and
+   * maxSnap) that (x, y) sees, nearest first */
+  TJ.Router.prototype.entries = function (x, y, maxSnap, at) {
+    var F = this.entry, G = this.G, np = G.np, grid = this.grid;
+    var reach = F.reach;
+    var cand = grid.within(x, y, reach).map(function (i) {
+      var dx = grid.x[i] - x, dy = grid.y[i] - y;
+      return [Math.sqrt(dx * dx + dy * dy), i];
+    });
+    cand.sort(function (a, b) { return a[0] - b[0] || a[1] - b[1]; });
+    var q = F.frame.worldToPixel(x, y), joined = new Set();
+    for (var k = 0; k < cand.length; k++) {
+      var d = cand[k][0], i = cand[k][1];
+      if (maxSnap !== null && maxSnap !== undefined && d > maxSnap) break;
+      var key = i >= np ? G.ne + this.lonely[i - np] : this.pointEdge[i];
+      if (joined.has(key)) continue;
+      var c = i >= np ? F.frame.worldToPixel(grid.x[i], grid.y[i]) : [G.rows[i], G.cols[i]];
+      if (!sees(F, q[0], q[1], c[0], c[1])) continue;
+      joined.add(key);
+      at.push(this.point(i, d));
+    }
+  };
+
+  /* vertex -> [cost, length along the snapped edge to it, the point of `snap.at` it is
+   * left from], the cheapest over the snap's points; the cost is that length plus how much
+   * longer the leg to the point is than the nearest one's (0 without the map) */
   TJ.Router.prototype.ends = function (snap) {
     var out = new Map(), G = this.G;
     function offer(n, d, p) {
-      var old = out.get(n);
-      if (old === undefined || d < old[0]) out.set(n, [d, p]);
+      var cost = (p.dist - snap.dist) + d, old = out.get(n);
+      if (old === undefined || cost < old[0]) out.set(n, [cost, d, p]);
     }
     for (var k = 0; k < snap.at.length; k++) {
       var p = snap.at[k];
@@ -143,7 +191,7 @@ var TJ = (window.TJ = window.TJ || {});
    * Throws an Error (as plan_route raises) for a point beyond maxSnap metres or when no
    * corridor joins the two. */
   TJ.Router.prototype.route = function (x0, y0, x1, y1, maxSnap) {
-    var s = this.snap(x0, y0), g = this.snap(x1, y1);
+    var s = this.snap(x0, y0, maxSnap), g = this.snap(x1, y1, maxSnap);
     var named = [["start", s], ["goal", g]];
     for (var i = 0; i < 2; i++) {
       if (maxSnap !== null && maxSnap !== undefined && named[i][1].dist > maxSnap) {
@@ -154,32 +202,39 @@ var TJ = (window.TJ = window.TJ || {});
       }
     }
     var G = this.G, cum = this.cum;
-    var best = Infinity, plan = null, ps = null, pg = null;
+    // costs count the legs beyond the nearest ones (as RoutePlanner); `length` is along
+    // the graph
+    var best = Infinity, length = 0, plan = null, ps = null, pg = null;
     for (var a = 0; a < s.at.length; a++) {
       for (var b = 0; b < g.at.length; b++) {
-        var sa = s.at[a], gb = g.at[b];
+        var sa = s.at[a], gb = g.at[b], legs = (sa.dist - s.dist) + (gb.dist - g.dist);
         if (sa.edge >= 0 && sa.edge === gb.edge) {
           var direct = Math.abs(cum[G.starts[gb.edge] + gb.index] - cum[G.starts[sa.edge] + sa.index]);
-          if (direct < best) { best = direct; plan = "direct"; ps = sa; pg = gb; }
-        } else if (sa.edge < 0 && gb.edge < 0 && sa.vertex === gb.vertex) {
-          best = 0; plan = "vertex"; ps = sa; pg = gb;
+          if (legs + direct < best) {
+            best = legs + direct; length = direct; plan = "direct"; ps = sa; pg = gb;
+          }
+        } else if (sa.edge < 0 && gb.edge < 0 && sa.vertex === gb.vertex && legs < best) {
+          best = legs; length = 0; plan = "vertex"; ps = sa; pg = gb;
         }
       }
     }
     var sources = this.ends(s), targets = this.ends(g);
     var parent = new Map(), heap = new Heap(), tie = 0, reached = -1;
-    sources.forEach(function (d, n) { heap.push([d[0], tie++, n, -1, -1]); });
+    sources.forEach(function (d, n) { heap.push([d[0], tie++, n, -1, -1, d[1]]); });
     while (heap.size() > 0) {
-      var item = heap.pop(), d = item[0], n = item[2];
+      var item = heap.pop(), d = item[0], n = item[2], along = item[5];
       if (parent.has(n)) continue;
       if (d >= best) break;
       parent.set(n, [item[3], item[4]]);
       if (targets.has(n) && d + targets.get(n)[0] < best) {
-        best = d + targets.get(n)[0]; reached = n; plan = "graph";
+        best = d + targets.get(n)[0]; length = along + targets.get(n)[1];
+        reached = n; plan = "graph";
       }
       for (var entry of this.adj[n]) {
         var m = entry[0], we = entry[1];
-        if (!parent.has(m) && d + we[0] < best) heap.push([d + we[0], tie++, m, n, we[1]]);
+        if (!parent.has(m) && d + we[0] < best) {
+          heap.push([d + we[0], tie++, m, n, we[1], along + we[0]]);
+        }
       }
     }
     if (plan === null) {
@@ -200,20 +255,20 @@ var TJ = (window.TJ = window.TJ || {});
       }
       chain.reverse(); hops.reverse();
       var from = sources.get(chain[0]), to = targets.get(chain[chain.length - 1]);
-      ps = from[1]; pg = to[1];
-      if (ps.edge >= 0) pieces.push(this.partial(ps.edge, ps.index, chain[0], from[0]));
+      ps = from[2]; pg = to[2];
+      if (ps.edge >= 0) pieces.push(this.partial(ps.edge, ps.index, chain[0], from[1]));
       for (var h = 0; h < hops.length; h++) {
         var e = hops[h];
         pieces.push(G.u[e] === chain[h] ? [e, 0, G.sizes[e] - 1] : [e, G.sizes[e] - 1, 0]);
       }
       if (pg.edge >= 0) {
-        var last = this.partial(pg.edge, pg.index, chain[chain.length - 1], to[0]);
+        var last = this.partial(pg.edge, pg.index, chain[chain.length - 1], to[1]);
         pieces.push([last[0], last[2], last[1]]);
       }
     }
     var xy = this.polyline(pieces, ps);
     return {
-      length_m: best, xy: xy, start_snap_m: s.dist, goal_snap_m: g.dist,
+      length_m: length, xy: xy, start_snap_m: ps.dist, goal_snap_m: pg.dist,
       vertices: chain.map(function (v) { return G.ids[v]; }),
     };
   };
