@@ -571,9 +571,7 @@ def test_with_the_map_a_route_joins_the_edge_that_gives_the_shortest_route():
     m, g = _fork(radius=None)
     r = plan_route(g, start, goal, frame="pixel", occupancy=m, robot_radius_m=0.25)
     assert r.length_m == pytest.approx(0.6)
-    r = plan_route(
-        g, start, goal, frame="pixel", occupancy=m, robot_radius_m=0.25, max_snap_m=0.5
-    )
+    r = plan_route(g, start, goal, frame="pixel", occupancy=m, robot_radius_m=0.25, max_snap_m=0.5)
     assert r.start_snap_m == pytest.approx(0.3) and r.length_m == pytest.approx(5.0)
 
 
