@@ -254,6 +254,7 @@ class RoutePlanner:
         # Vertices without edges can still be snapped to (a route of length 0 to itself).
         self._lonely = [(i, n) for i, n in enumerate(self._nodes) if graph.degree(n) == 0]
         self._trees: dict = {}
+        self._tree_px: dict = {}  # per frame, the tree points' pixels (with the map)
 
     # ------------------------------------------------------------------ public
     def route(
@@ -412,20 +413,19 @@ class RoutePlanner:
 
     def _pixels_of(self, points: np.ndarray, frame: str) -> np.ndarray:
         """Pixel coordinates (float64 (K, 2)) of tree points: an edge's path pixel, or an
-        edgeless vertex's position (its world position mapped onto the map's grid)."""
-        _, owners = self._tree(frame)
-        out = np.empty((len(points), 2))
-        for k, i in enumerate(points.tolist()):
-            edge, index, vertex = (int(x) for x in owners[i])
-            if edge >= 0:
-                out[k] = self._path[edge][index]
-            else:
-                data = self._graph.nodes[self._nodes[vertex]]
+        edgeless vertex's position (in the world frame, its world position mapped onto
+        the map's grid)."""
+        if frame not in self._tree_px:
+            parts = [np.concatenate(self._path).astype(np.float64)] if self._path else []
+            for _, n in self._lonely:
+                data = self._graph.nodes[n]
                 if frame == "pixel":
-                    out[k] = np.asarray(data["pixel"], np.float64)
+                    parts.append(np.asarray(data["pixel"], np.float64).reshape(1, 2))
                 else:
-                    out[k] = self._occupancy.world_to_pixel(*data["world"][:2])
-        return out
+                    x, y = data["world"][:2]
+                    parts.append(np.array(self._occupancy.world_to_pixel(x, y)).reshape(1, 2))
+            self._tree_px[frame] = np.concatenate(parts) if parts else np.zeros((0, 2))
+        return self._tree_px[frame][points]
 
     def _edge_arrays(self, a, b, key, data):
         where = f"edge ({a!r}, {b!r}, {key!r})"
