@@ -110,7 +110,6 @@ def test_a_route_graph_with_its_map_carries_the_robots_feasible_pixels():
     occupancy, routes = office_route_graph()
     (g,) = payload_of(view_html(routes, map=occupancy))["graphs"]
     assert g["entry"]["reach_m"] == routes.graph["snap_m"] == 1.0
-    assert g["entry"]["radius_m"] == routes.graph["robot_radius_m"] == 0.3
     bits = np.unpackbits(unpacked(g["entry"]["feasible"]))[: occupancy.free.size]
     want = feasible_space(occupancy, 0.3).feasible
     np.testing.assert_array_equal(bits.reshape(occupancy.free.shape), want)
@@ -120,6 +119,17 @@ def test_a_route_graph_with_its_map_carries_the_robots_feasible_pixels():
     assert payload_of(view_html(routes, map=other))["graphs"][0]["entry"] is None
     paper = tj.build_graph(occupancy).graph
     assert payload_of(view_html(paper, map=occupancy))["graphs"][0]["entry"] is None
+    # a window of the map, or a robot radius that is no number of metres: none, and the
+    # page's notes say why (the view is still written)
+    x, y = occupancy.pixel_to_world(300, 300)
+    data = payload_of(view_html(routes, map=occupancy, window=(x - 5, y - 5, x + 5, y + 5)))
+    assert data["graphs"][0]["entry"] is None
+    assert any("join it at the nearest point: a window" in n for n in data["notes"])
+    bad = routes.copy()
+    bad.graph["robot_radius_m"] = float("nan")
+    data = payload_of(view_html(bad, map=occupancy))
+    assert data["graphs"][0]["entry"] is None
+    assert any("is not a number of metres" in n for n in data["notes"])
 
 
 def test_a_graph_without_paths_is_drawn_but_not_routed():

@@ -298,8 +298,14 @@ def test_routes_in_the_page_equal_plan_route(browser, res, tmp_path):
     assert "more than the 5 m a route may snap" in far["error"]
 
 
-def test_routes_on_a_route_graph_equal_plan_route(browser, tmp_path):
+@pytest.mark.parametrize("origin", [None, (3.7, -12.3, 0.4)])
+def test_routes_on_a_route_graph_equal_plan_route(browser, tmp_path, origin):
     occupancy, routes = office_route_graph()
+    if origin is not None:  # the same map turned and moved in the world
+        occupancy = tj.OccupancyMap(
+            occupancy.occupied, occupancy.free, occupancy.unknown, resolution_m=0.05, origin=origin
+        )
+        routes = tj.route_graph(occupancy)
     page = tj.write_view(routes, tmp_path / "route_graph.html", map=occupancy)
     assert _open(browser, page) == "ready"
     rng = np.random.default_rng(3)

@@ -11,7 +11,7 @@ import cv2
 import networkx as nx
 import numpy as np
 
-from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
+from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M, map_mismatch
 from ._encode import packed, pyramid
 from ._graphs import Frame, graph_frame, graph_payload
 from ._rooms_data import is_room_pair, rooms_payload, rounded
@@ -33,7 +33,7 @@ class Inputs:
     """What one view shows, gathered from the object given to :func:`write_view`:
     ``map`` (an OccupancyMap or None), ``rasters`` (name -> array), ``graphs`` (list of
     ``(name, label, graph)``), ``rooms`` (RoomSegmentation, ``(rooms, doors)`` or None),
-    ``route``, ``timeline`` and ``title``."""
+    ``route``, ``timeline``, ``title`` and ``window``."""
 
     def __init__(self) -> None:
         self.map = None
@@ -43,6 +43,7 @@ class Inputs:
         self.route = None
         self.timeline = None
         self.title = "topojax view"
+        self.window = None  # the world box a window cut the inputs to
         self.notes: list[str] = []
 
 
@@ -279,26 +280,45 @@ def _graph_bounds_frame(graphs) -> Frame:
     return Frame(int(h), int(w), res, (float(lo[0]), float(lo[1]), 0.0))
 
 
-def _entry_payload(graph: nx.Graph, occupancy) -> dict | None:
-    """For a route graph (one with a ``robot_radius_m``) shown with its own map: the
+def _entry_payload(graph: nx.Graph, shown: dict, inputs: Inputs) -> dict | None:
+    """For a route graph (one with a ``robot_radius_m``) shown whole with its own map: the
     robot's feasible pixels (bits, row-major, big-endian within each byte) and the reach
     (the graph's ``snap_m``), so that the page joins routes to it in sight as
-    ``RoutePlanner(graph, occupancy=map)`` does; None otherwise."""
+    ``RoutePlanner(graph, occupancy=map)`` does.  None otherwise, with a note saying why
+    where a route graph has a map but cannot get them."""
     radius = graph.graph.get("robot_radius_m")
-    frame = graph_frame(graph)
-    if occupancy is None or not isinstance(radius, numbers.Real) or frame is None:
+    occupancy = inputs.map
+    if occupancy is None or radius is None or not shown["routable"]:
         return None
-    if frame != _map_frame(occupancy):
+    reach = graph.graph.get("snap_m", DEFAULT_ENTRY_M)
+    why = None
+    if inputs.window is not None:
+        why = "a window shows part of the map only"
+    elif "rc" not in shown["edges"]:
+        why = "its paths are not on the map's grid"
+    elif not all(_metres_ok(v) for v in (radius, reach)):
+        why = f"its robot_radius_m {radius!r} or snap_m {reach!r} is not a number of metres"
+    else:
+        why = map_mismatch(graph, occupancy)
+    if why is not None:
+        inputs.notes.append(f"routes on the {shown['label']} join it at the nearest point: {why}")
         return None
     from ..routegraph.feasible import feasible_space
 
     feasible = feasible_space(occupancy, float(radius)).feasible
-    reach = graph.graph.get("snap_m")
     return {
-        "reach_m": float(DEFAULT_ENTRY_M if reach is None else reach),
-        "radius_m": float(radius),
+        "reach_m": float(reach),
         "feasible": packed(np.packbits(feasible.ravel()), np.uint8),
     }
+
+
+def _metres_ok(value) -> bool:
+    return (
+        isinstance(value, numbers.Real)
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        and value >= 0
+    )
 
 
 def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> dict:
@@ -328,7 +348,7 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
         for n, lab, g in inputs.graphs
     ]
     for (_, _, g), shown in zip(inputs.graphs, graphs, strict=True):
-        shown["entry"] = _entry_payload(g, inputs.map) if shown["routable"] else None
+        shown["entry"] = _entry_payload(g, shown, inputs)
     if not rasters and not any(g["n_vertices"] for g in graphs) and inputs.rooms is None:
         raise ValueError(
             "nothing to show: no map, and the graphs have no vertices (an empty graph "

@@ -158,8 +158,11 @@ def apply_window(inputs, window) -> None:
     pixel_box = _pixel_box(inputs.map, box)
     r0, r1, c0, c1 = pixel_box
     inputs.map = _cropped_map(inputs.map, r0, r1, c0, c1)
+    inputs.window = box
     inputs.rasters = {k: np.asarray(v)[r0:r1, c0:c1] for k, v in inputs.rasters.items()}
     inputs.graphs = [(n, lab, _cropped_graph(g, box, pixel_box)) for n, lab, g in inputs.graphs]
+    for _, _, g in inputs.graphs:  # the window's grid: its shape (set) and origin
+        g.graph["origin"] = tuple(float(v) for v in inputs.map.origin)
     if inputs.rooms is not None:
         inputs.rooms = _cropped_rooms(inputs.rooms, box)
     inputs.notes.append(

@@ -57,7 +57,7 @@ var TJ = (window.TJ = window.TJ || {});
       for (var i = s + 1; i < s + n; i++) {
         var dr = G.rows[i] - G.rows[i - 1], dc = G.cols[i] - G.cols[i - 1];
         if (dr !== 0 && dc !== 0) diagonal++; else straight++;
-        cum[i] = straight + diagonal * Math.SQRT2;
+        cum[i] = (straight + diagonal * Math.SQRT2) * G.resolution;  // metres, as Python
       }
       var steps = cum[s + n - 1];
       var scale = steps > 0 ? G.len[k] / steps : 1;
