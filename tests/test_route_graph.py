@@ -663,3 +663,23 @@ def test_mesh_sites_edges_and_joins():
     v = np.array([work.edges[e][1] for e in work.edges])
     length = np.array([work.length[e] for e in work.edges])
     assert short_loops(len(work.pixel), u, v, length, min_loop) == 0
+
+
+@pytest.mark.parametrize(
+    ("limits", "dropped"),
+    [
+        # the square's other three sides are 30 px: a limit over that drops the side, and
+        # then the next side has no other way round
+        ((35.0, 35.0), (True, False)),
+        ((30.0, 35.0), (False, True)),  # exactly 30 is no shorter loop
+        ((0.0, -1.0), (False, False)),  # no limit: kept
+    ],
+)
+def test_drop_short_loops_on_a_square(limits, dropped):
+    from topojax.routegraph._spanner import drop_short_loops
+
+    u = np.array([0, 1, 2, 3], np.int64)
+    v = np.array([1, 2, 3, 0], np.int64)
+    w = np.full(4, 10.0)
+    got = drop_short_loops(4, u, v, w, np.array([0, 1], np.int64), np.array(limits))
+    assert tuple(got.tolist()) == dropped

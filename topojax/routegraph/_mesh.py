@@ -12,7 +12,6 @@ are joined to it like lanes."""
 
 from __future__ import annotations
 
-import heapq
 import math
 
 import cv2
@@ -24,6 +23,7 @@ from scipy.spatial import Delaunay, QhullError, cKDTree
 from .._jit import cached_njit
 from ..graph.work import WorkGraph, line_into, line_pixels
 from ._joins import attach_points, grow, join_groups, large_pieces
+from ._spanner import drop_short_loops
 
 __all__ = ["MESH_JITTER", "MESH_MIN_AREA", "MESH_SPACING", "add_mesh", "mesh_pieces"]
 
@@ -168,10 +168,20 @@ def add_mesh(
                 (work.add_edge(int(ids[i]), int(ids[j]), line_pixels(pos[i], pos[j])), i, j)
             )
     # longest first: the edge closing a short loop goes, unless the loop is already open
+    order = sorted(added, key=lambda t: -work.length[t[0]])
+    live = list(work.edges)
+    slot = {e: k for k, e in enumerate(live)}
+    dropped = drop_short_loops(
+        len(work.pixel),
+        np.array([work.edges[e][0] for e in live], np.int64),
+        np.array([work.edges[e][1] for e in live], np.int64),
+        np.array([work.length[e] for e in live], np.float64),
+        np.array([slot[e] for e, _, _ in order], np.int64),
+        np.array([min_loop_px - work.length[e] for e, _, _ in order], np.float64),
+    )
     kept = []
-    for e, i, j in sorted(added, key=lambda t: -work.length[t[0]]):
-        u, v, _ = work.edges[e]
-        if _reach(work, u, v, e, min_loop_px - work.length[e]):
+    for (e, i, j), drop in zip(order, dropped.tolist(), strict=True):
+        if drop:
             work.remove_edge(e)
         else:
             kept.append((i, j))
@@ -182,31 +192,6 @@ def add_mesh(
     pairs = np.array(kept, np.int64).reshape(-1, 2)
     join_groups(work, _unjoined(pairs, ids, is_inner), raster, feasible)
     return bool(used.size)
-
-
-def _reach(work: WorkGraph, src: int, dst: int, skip: int, limit: float) -> bool:
-    """Whether ``dst`` is less than ``limit`` pixels from ``src`` along the graph without
-    edge ``skip``."""
-    if limit <= 0:
-        return False
-    best = {src: 0.0}
-    heap = [(0.0, src)]
-    while heap:
-        d, x = heapq.heappop(heap)
-        if x == dst:
-            return True
-        if d > best.get(x, math.inf):
-            continue
-        for e in work.adj[x]:
-            if e == skip:
-                continue
-            a, b, _ = work.edges[e]
-            y = b if a == x else a
-            nd = d + work.length[e]
-            if nd < limit and nd < best.get(y, math.inf):
-                best[y] = nd
-                heapq.heappush(heap, (nd, y))
-    return False
 
 
 def _unjoined(pairs: np.ndarray, ids: np.ndarray, is_inner: np.ndarray) -> list[list[int]]:

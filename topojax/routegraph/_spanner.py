@@ -17,6 +17,7 @@ from ..graph.work import line_into
 
 __all__ = [
     "anchor_pieces",
+    "drop_short_loops",
     "greedy_shortcuts",
     "see_any",
     "see_named",
@@ -99,6 +100,59 @@ def _within(head, nxt, to, wt, src, dst, cutoff, dist, stamp, run, hk, hv):
                 size = _heap_push(hk, hv, size, nd, v)
             k = nxt[k]
     return False
+
+
+@cached_njit(nogil=True)
+def drop_short_loops(n_nodes, edge_u, edge_v, edge_w, order, limit):
+    """Visit the edges ``order`` in turn and drop each whose ends are joined, without it,
+    by a route shorter than its ``limit`` (the edges dropped before gone too): the edge
+    would close a loop that short.
+
+    Parameters
+    ----------
+    n_nodes : int
+    edge_u, edge_v, edge_w : int64 (E,), int64 (E,), float64 (E,)
+        The graph's edges (no self-loops) and their lengths in pixels.
+    order : int64 (K,)
+        Indices of the edges to visit, in turn.
+    limit : float64 (K,)
+        Per visited edge, the route length it must not be joined by (<= 0: kept).
+
+    Returns
+    -------
+    bool (K,)
+        Which visited edges were dropped.
+    """
+    cap = 2 * edge_u.size + 1
+    head = np.full(n_nodes, -1, np.int64)
+    nxt = np.empty(cap, np.int64)
+    to = np.empty(cap, np.int64)
+    wt = np.empty(cap, np.float64)
+    k = 0
+    for e in range(edge_u.size):
+        for a, b in ((edge_u[e], edge_v[e]), (edge_v[e], edge_u[e])):
+            to[k], wt[k], nxt[k] = b, edge_w[e], head[a]
+            head[a] = k
+            k += 1
+    dist = np.zeros(n_nodes, np.float64)
+    stamp = np.zeros(n_nodes, np.int64)
+    hk = np.empty(cap, np.float64)
+    hv = np.empty(cap, np.int64)
+    dropped = np.zeros(order.size, np.bool_)
+    for i in range(order.size):
+        if limit[i] <= 0:
+            continue
+        e = order[i]
+        wt[2 * e] = np.inf  # the route may not use the edge itself
+        wt[2 * e + 1] = np.inf
+        # strictly shorter than the limit
+        cutoff = np.nextafter(limit[i], -np.inf)
+        if _within(head, nxt, to, wt, edge_u[e], edge_v[e], cutoff, dist, stamp, i + 1, hk, hv):
+            dropped[i] = True
+        else:
+            wt[2 * e] = edge_w[e]
+            wt[2 * e + 1] = edge_w[e]
+    return dropped
 
 
 @cached_njit(nogil=True)
