@@ -129,7 +129,7 @@ def test_a_route_graph_with_its_map_carries_the_robots_feasible_pixels():
     bad.graph["robot_radius_m"] = float("nan")
     data = payload_of(view_html(bad, map=occupancy))
     assert data["graphs"][0]["entry"] is None
-    assert any("is not a number of metres" in n for n in data["notes"])
+    assert any("its robot_radius_m: expected a finite number of metres" in n for n in data["notes"])
 
 
 def test_a_graph_without_paths_is_drawn_but_not_routed():

@@ -209,6 +209,15 @@ def _clear_segments(q: np.ndarray, cand: np.ndarray, feasible: np.ndarray, n_t: 
     return pixel_lookup(feasible, pts).all(axis=1)
 
 
+def _in_reach(net: RouteNetwork, q_all: np.ndarray, snap_px: float):
+    """Per query (float64 (Q, 2)) with network points within ``snap_px``: ``(query index,
+    point indices int64, their distances px)``."""
+    for i, cands in enumerate(net.tree.query_ball_point(q_all, snap_px * (1 + 1e-12))):
+        if cands:
+            cands = np.asarray(cands, np.int64)
+            yield i, cands, np.hypot(*(net.pt_rc[cands] - q_all[i]).T)
+
+
 def snap(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np.ndarray):
     """Nearest network point within ``snap_px`` of each query pixel whose segment to it is
     collision-free.  Returns ``(point index or -1 (Q,), distance px (Q,))``."""
@@ -218,11 +227,7 @@ def snap(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np.nd
         return idx, dist
     n_t = int(np.ceil(2.0 * snap_px)) + 2
     q_all = queries.astype(np.float64)
-    for i, cands in enumerate(net.tree.query_ball_point(q_all, snap_px * (1 + 1e-12))):
-        if not cands:
-            continue
-        cands = np.asarray(cands, np.int64)
-        d = np.hypot(*(net.pt_rc[cands] - q_all[i]).T)
+    for i, cands, d in _in_reach(net, q_all, snap_px):
         order = np.lexsort((cands, d))
         for b in range(0, order.size, _SNAP_BATCH):
             sel = order[b : b + _SNAP_BATCH]
@@ -244,11 +249,7 @@ def entries(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     n_t = int(np.ceil(2.0 * snap_px)) + 2
     q_all = queries.astype(np.float64)
-    for i, cands in enumerate(net.tree.query_ball_point(q_all, snap_px * (1 + 1e-12))):
-        if not cands:
-            continue
-        cands = np.asarray(cands, np.int64)
-        d = np.hypot(*(net.pt_rc[cands] - q_all[i]).T)
+    for i, cands, d in _in_reach(net, q_all, snap_px):
         ok = _clear_segments(q_all[i], net.pt_rc[cands], feasible, n_t)
         cands, d = cands[ok], d[ok]
         run = net.pt_run[cands]

@@ -103,6 +103,24 @@ def _within(head, nxt, to, wt, src, dst, cutoff, dist, stamp, run, hk, hv):
 
 
 @cached_njit(nogil=True)
+def _linked(n_nodes, edge_u, edge_v, edge_w, cap):
+    """The edges as a linked adjacency with room for ``cap`` edge ends: ``(head, nxt, to,
+    wt, k)``, ``head[v]`` the first slot of node ``v``, ``nxt``/``to``/``wt`` per slot,
+    ``k`` the first free slot (two slots per edge, one per direction)."""
+    head = np.full(n_nodes, -1, np.int64)
+    nxt = np.empty(cap, np.int64)
+    to = np.empty(cap, np.int64)
+    wt = np.empty(cap, np.float64)
+    k = 0
+    for e in range(edge_u.size):
+        for a, b in ((edge_u[e], edge_v[e]), (edge_v[e], edge_u[e])):
+            to[k], wt[k], nxt[k] = b, edge_w[e], head[a]
+            head[a] = k
+            k += 1
+    return head, nxt, to, wt, k
+
+
+@cached_njit(nogil=True)
 def drop_short_loops(n_nodes, edge_u, edge_v, edge_w, order, limit):
     """Visit the edges ``order`` in turn and drop each whose ends are joined, without it,
     by a route shorter than its ``limit`` (the edges dropped before gone too): the edge
@@ -124,16 +142,7 @@ def drop_short_loops(n_nodes, edge_u, edge_v, edge_w, order, limit):
         Which visited edges were dropped.
     """
     cap = 2 * edge_u.size + 1
-    head = np.full(n_nodes, -1, np.int64)
-    nxt = np.empty(cap, np.int64)
-    to = np.empty(cap, np.int64)
-    wt = np.empty(cap, np.float64)
-    k = 0
-    for e in range(edge_u.size):
-        for a, b in ((edge_u[e], edge_v[e]), (edge_v[e], edge_u[e])):
-            to[k], wt[k], nxt[k] = b, edge_w[e], head[a]
-            head[a] = k
-            k += 1
+    head, nxt, to, wt, _ = _linked(n_nodes, edge_u, edge_v, edge_w, cap)
     dist = np.zeros(n_nodes, np.float64)
     stamp = np.zeros(n_nodes, np.int64)
     hk = np.empty(cap, np.float64)
@@ -274,16 +283,7 @@ def greedy_shortcuts(
     m = pos.shape[0]
     n_c = cand_a.size
     cap = 2 * (edge_u.size + 2 * n_c) + 1
-    head = np.full(m, -1, np.int64)
-    nxt = np.empty(cap, np.int64)
-    to = np.empty(cap, np.int64)
-    wt = np.empty(cap, np.float64)
-    k = 0
-    for e in range(edge_u.size):
-        for a, b in ((edge_u[e], edge_v[e]), (edge_v[e], edge_u[e])):
-            to[k], wt[k], nxt[k] = b, edge_w[e], head[a]
-            head[a] = k
-            k += 1
+    head, nxt, to, wt, k = _linked(m, edge_u, edge_v, edge_w, cap)
     dist = np.zeros(m, np.float64)
     stamp = np.zeros(m, np.int64)
     hk = np.empty(cap, np.float64)

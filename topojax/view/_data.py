@@ -11,6 +11,7 @@ import cv2
 import networkx as nx
 import numpy as np
 
+from .._validate import nonnegative_metres
 from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M, map_mismatch
 from ._encode import packed, pyramid
 from ._graphs import Frame, graph_frame, graph_payload
@@ -290,16 +291,20 @@ def _entry_payload(graph: nx.Graph, shown: dict, inputs: Inputs) -> dict | None:
     occupancy = inputs.map
     if occupancy is None or radius is None or not shown["routable"]:
         return None
-    reach = graph.graph.get("snap_m", DEFAULT_ENTRY_M)
+    reach = graph.graph.get("snap_m")
+    reach = DEFAULT_ENTRY_M if reach is None else reach  # as RoutePlanner reads it
     why = None
     if inputs.window is not None:
         why = "a window shows part of the map only"
     elif "rc" not in shown["edges"]:
         why = "its paths are not on the map's grid"
-    elif not all(_metres_ok(v) for v in (radius, reach)):
-        why = f"its robot_radius_m {radius!r} or snap_m {reach!r} is not a number of metres"
     else:
-        why = map_mismatch(graph, occupancy)
+        try:
+            nonnegative_metres("robot_radius_m", radius)
+            nonnegative_metres("snap_m", reach)
+            why = map_mismatch(graph, occupancy)
+        except (TypeError, ValueError) as exc:
+            why = f"its {exc}"
     if why is not None:
         inputs.notes.append(f"routes on the {shown['label']} join it at the nearest point: {why}")
         return None
@@ -310,15 +315,6 @@ def _entry_payload(graph: nx.Graph, shown: dict, inputs: Inputs) -> dict | None:
         "reach_m": float(reach),
         "feasible": packed(np.packbits(feasible.ravel()), np.uint8),
     }
-
-
-def _metres_ok(value) -> bool:
-    return (
-        isinstance(value, numbers.Real)
-        and not isinstance(value, bool)
-        and math.isfinite(value)
-        and value >= 0
-    )
 
 
 def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> dict:
