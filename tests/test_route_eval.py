@@ -271,7 +271,7 @@ def test_bad_graphs_are_refused():
 def test_geodesic_matches_skimage_mcp_geometric():
     from skimage.graph import MCP_Geometric
 
-    from topojax.routegraph._eval_geodesic import geodesic_from
+    from topojax.routegraph._geodesic import geodesic_from
 
     rng = np.random.default_rng(1)
     for _ in range(5):
@@ -285,6 +285,38 @@ def test_geodesic_matches_skimage_mcp_geometric():
         want[~mask[targets[:, 0], targets[:, 1]]] = np.inf
         assert np.array_equal(np.isfinite(got), np.isfinite(want))
         np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=1e-12)
+
+
+def test_nearest_path_is_a_shortest_path_to_the_nearest_target():
+    """Against skimage's MCP_Geometric: the same length, to a nearest target (the first
+    in raster order among equally near ones), along feasible 8-connected steps."""
+    from skimage.graph import MCP_Geometric
+
+    from topojax.routegraph._geodesic import nearest_path
+
+    rng = np.random.default_rng(2)
+    for _ in range(60):
+        h, w = (int(x) for x in rng.integers(5, 50, 2))
+        mask = rng.random((h, w)) > rng.uniform(0.0, 0.4)
+        targets = rng.random((h, w)) < rng.uniform(0.002, 0.05)
+        start = (int(rng.integers(h)), int(rng.integers(w)))
+        mask[start] = True
+        got = nearest_path(mask, start, targets)
+        costs, _ = MCP_Geometric(np.where(mask, 1.0, np.inf), fully_connected=True).find_costs(
+            [start]
+        )
+        reached = np.isfinite(costs) & targets & mask
+        if not reached.any():
+            assert got is None
+            continue
+        steps = np.abs(np.diff(got, axis=0))
+        assert got.dtype == np.int32 and tuple(got[0]) == start
+        assert (steps.max(axis=1) == 1).all() and mask[got[:, 0], got[:, 1]].all()
+        length = np.where(steps.sum(axis=1) == 2, np.sqrt(2.0), 1.0).sum()
+        assert length == pytest.approx(costs[reached].min(), rel=1e-12)
+        first = np.argwhere(reached)[np.argmin(costs[reached])]
+        assert tuple(got[-1]) == tuple(first)
+    assert nearest_path(np.zeros((4, 4), bool), (1, 1), np.ones((4, 4), bool)) is None
 
 
 def test_waypoints_are_the_edge_geometry_when_present():

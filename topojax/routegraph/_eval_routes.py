@@ -11,8 +11,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from ._eval_geodesic import geodesic_from
 from ._eval_geometry import GraphGeometry, pixel_lookup
+from ._geodesic import geodesic_from
 
 __all__ = [
     "PairSet",

@@ -7,10 +7,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from scipy.spatial import cKDTree
-from skimage.graph import MCP_Geometric
 
 from .._jit import cached_njit
 from ..graph.work import WorkGraph, line_into, line_pixels
+from ._geodesic import nearest_path
 
 __all__ = [
     "attach_points",
@@ -127,14 +127,8 @@ def geodesic_path(start, targets: np.ndarray, feasible: np.ndarray) -> np.ndarra
         c0, c1 = max(0, start[1] - half), min(w, start[1] + half + 1)
         sub = targets[r0:r1, c0:c1]
         if sub.any():
-            cost = np.where(feasible[r0:r1, c0:c1], 1.0, np.inf)
-            mcp = MCP_Geometric(cost, fully_connected=True)
-            costs, _ = mcp.find_costs([(start[0] - r0, start[1] - c0)])
-            reached = np.isfinite(costs) & sub
-            if reached.any():
-                cand = np.argwhere(reached)
-                end = cand[np.argmin(costs[reached])]
-                path = np.asarray(mcp.traceback(tuple(end)), np.int32)
+            path = nearest_path(feasible[r0:r1, c0:c1], (start[0] - r0, start[1] - c0), sub)
+            if path is not None:
                 return path + np.array([r0, c0], np.int32)
         if r0 == 0 and c0 == 0 and r1 == h and c1 == w:
             return None

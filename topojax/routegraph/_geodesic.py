@@ -1,4 +1,6 @@
-"""Exact 8-connected geodesics inside a pixel mask (moves of 1 and sqrt 2 pixels).
+"""Exact 8-connected geodesics inside a pixel mask (moves of 1 and sqrt 2 pixels): lengths
+from one pixel to many (the route-graph evaluator) and the shortest path from one pixel to
+the nearest of a set (joining coverage waypoints to the graph).
 
 The search is Dijkstra's with unit-width distance buckets: every move is at least 1 pixel
 long, so once the pixels of bucket ``[k, k + 1)`` are reached, none of them can be improved
@@ -16,7 +18,7 @@ import numpy as np
 
 from .._jit import cached_njit
 
-__all__ = ["geodesic_from"]
+__all__ = ["geodesic_from", "nearest_path"]
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -96,3 +98,88 @@ def geodesic_from(mask: np.ndarray, source, targets: np.ndarray) -> np.ndarray:
     ends = (targets[:, 0] + 1) * width + targets[:, 1] + 1
     _bucket_search(padded.ravel(), width, (r + 1) * width + c + 1, ends, out)
     return out
+
+
+@cached_njit(nogil=True)
+def _nearest_search(state, width, start, pred):
+    """Flat pixel of the open target (``state`` 2) nearest to flat pixel ``start``, the
+    smallest such index among equally near ones, or -1; ``pred`` (int64, the size of
+    ``state``) receives each reached pixel's predecessor.  ``state`` as in
+    :func:`_bucket_search` (consumed)."""
+    n = state.size
+    dist = np.full(n, np.inf)
+    offs = np.array([-width - 1, -width, -width + 1, -1, 1, width - 1, width, width + 1], np.int64)
+    s2 = math.sqrt(2.0)
+    wts = np.array([s2, 1.0, s2, 1.0, 1.0, s2, 1.0, s2])
+    bufs = [np.empty(1024, np.int64), np.empty(1024, np.int64), np.empty(1024, np.int64)]
+    counts = np.zeros(3, np.int64)
+    dist[start] = 0.0
+    pred[start] = -1
+    _push(bufs, counts, 0, start)
+    k = 0
+    best = -1
+    while counts[0] + counts[1] + counts[2] > 0:
+        b = k % 3
+        buf = bufs[b]
+        i = 0
+        while i < counts[b]:
+            p = buf[i]
+            i += 1
+            if state[p] == 0 or dist[p] >= k + 1:
+                continue
+            if state[p] == 2 and (
+                best < 0 or dist[p] < dist[best] or (dist[p] == dist[best] and p < best)
+            ):
+                best = p
+            state[p] = 0
+            d = dist[p]
+            for j in range(8):
+                q = p + offs[j]
+                if state[q] != 0:
+                    nd = d + wts[j]
+                    if nd < dist[q]:
+                        dist[q] = nd
+                        pred[q] = p
+                        _push(bufs, counts, int(nd) % 3, q)
+        counts[b] = 0
+        if best >= 0:
+            # every pixel less than k + 1 away is settled: no target is nearer
+            return best
+        k += 1
+    return -1
+
+
+@cached_njit(nogil=True)
+def _trace(pred, end):
+    """The flat pixels from the search's start to ``end`` along ``pred``."""
+    n = 1
+    p = end
+    while pred[p] >= 0:
+        p = pred[p]
+        n += 1
+    out = np.empty(n, np.int64)
+    p = end
+    for i in range(n - 1, -1, -1):
+        out[i] = p
+        p = pred[p]
+    return out
+
+
+def nearest_path(mask: np.ndarray, start, targets: np.ndarray) -> np.ndarray | None:
+    """Shortest 8-connected path inside ``mask`` (bool (H, W)) from pixel ``start`` (row,
+    col) to the nearest pixel of ``targets`` (bool (H, W)) in ``mask``: int32 (K, 2) from
+    ``start`` to that pixel, or None when none is reachable."""
+    h, w = mask.shape
+    r, c = int(start[0]), int(start[1])
+    if not mask[r, c]:
+        return None
+    padded = np.zeros((h + 2, w + 2), np.uint8)
+    padded[1:-1, 1:-1] = mask
+    padded[1:-1, 1:-1][mask & targets] = 2
+    width = w + 2
+    pred = np.empty(padded.size, np.int64)
+    end = _nearest_search(padded.ravel(), width, (r + 1) * width + c + 1, pred)
+    if end < 0:
+        return None
+    flat = _trace(pred, end)
+    return np.stack([flat // width - 1, flat % width - 1], axis=1).astype(np.int32)
