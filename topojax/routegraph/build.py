@@ -275,54 +275,66 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
     new_id = {v: k for k, v in enumerate(alive)}
     pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2) + shift
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
+    clear_at = space.clearance_m[pix[:, 0], pix[:, 1]].astype(np.float64).tolist()
     node_attrs = []
-    for k, v in enumerate(alive):
+    for v, p, x, y, c in zip(alive, pix.tolist(), wx.tolist(), wy.tolist(), clear_at, strict=True):
         deg = work.degree(v)
         loop_only = deg == 2 and len(work.adj[v]) == 1
         kind = "ring" if loop_only else ("isolated", "end", "junction", "junction")[min(deg, 3)]
         node_attrs.append(
             {
-                "pixel": (int(pix[k, 0]), int(pix[k, 1])),
-                "pixels": np.ascontiguousarray(work.members[v] + shift, np.int32),
-                "world": (float(wx[k]), float(wy[k])),
+                "pixel": (p[0], p[1]),
+                "pixels": (work.members[v] + shift).astype(np.int32, copy=False),
+                "world": (x, y),
                 "kind": kind,
-                "clearance_m": float(space.clearance_m[pix[k, 0], pix[k, 1]]),
+                "clearance_m": c,
             }
         )
     tol_px = cfg.waypoint_tolerance_m / res
     order, ends, paths = [], [], []
-    for e in work.edges:
-        u, v, path = work.edges[e]
+    for e, (u, v, path) in work.edges.items():
         a, b = new_id[u], new_id[v]
         if a > b:
             a, b, path = b, a, path[::-1]
         order.append((a, b, len(order)))
         ends.append(e)
-        paths.append(np.ascontiguousarray(path + shift, np.int32))
+        paths.append(path)
     order.sort()
     sizes = np.array([len(p) for p in paths], np.int64)
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
-    every = np.concatenate(paths) if paths else np.zeros((0, 2), np.int32)
+    every = (np.concatenate(paths) if paths else np.zeros((0, 2), np.int32)).astype(np.int32)
+    every += shift.astype(np.int32)
     x, y = occupancy.pixel_to_world(every[:, 0], every[:, 1])
     world_all = np.stack([x, y], axis=1)
     clear = space.clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
-    c_min = np.minimum.reduceat(clear, starts) if paths else clear
-    c_mean = np.add.reduceat(clear, starts) / sizes if paths else clear
+    c_min = (np.minimum.reduceat(clear, starts) if paths else clear).tolist()
+    c_mean = (np.add.reduceat(clear, starts) / sizes if paths else clear).tolist()
     kept = simplify_paths(every.astype(np.int64), starts, sizes, space.feasible, tol_px)
-    edges = []
-    for a, b, k in order:
-        path = paths[k]
-        world = world_all[starts[k] : starts[k] + sizes[k]].copy()
-        keep = kept[starts[k] : starts[k] + sizes[k]]
-        attrs = {
-            "path": path,
-            "world": world,
-            "length_m": work.length[ends[k]] * res,
-            "min_clearance_m": float(c_min[k]),
-            "mean_clearance_m": float(c_mean[k]),
-            "waypoints": world[keep].copy(),
-        }
-        edges.append((a, b, attrs))
+    # each edge's arrays are consecutive pieces of the arrays of all edges
+    lo, hi = starts.tolist(), (starts + sizes).tolist()
+    n_kept = np.add.reduceat(kept.astype(np.int64), starts) if paths else starts
+    wp_hi = np.cumsum(n_kept)
+    wp_lo, wp_hi = (wp_hi - n_kept).tolist(), wp_hi.tolist()
+    waypoints_all = world_all[kept]
+    path_of = [every[i:j] for i, j in zip(lo, hi, strict=True)]
+    world_of = [world_all[i:j] for i, j in zip(lo, hi, strict=True)]
+    waypoints_of = [waypoints_all[i:j] for i, j in zip(wp_lo, wp_hi, strict=True)]
+    length_of = [work.length[e] * res for e in ends]
+    edges = [
+        (
+            a,
+            b,
+            {
+                "path": path_of[k],
+                "world": world_of[k],
+                "length_m": length_of[k],
+                "min_clearance_m": c_min[k],
+                "mean_clearance_m": c_mean[k],
+                "waypoints": waypoints_of[k],
+            },
+        )
+        for a, b, k in order
+    ]
     attrs = {
         "resolution_m": res,
         "shape": tuple(int(s) for s in space.free.shape),
