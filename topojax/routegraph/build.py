@@ -301,7 +301,7 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
         paths.append(path)
     order.sort()
     sizes = np.array([len(p) for p in paths], np.int64)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    starts = np.cumsum(sizes) - sizes
     every = (np.concatenate(paths) if paths else np.zeros((0, 2), np.int32)).astype(np.int32)
     every += shift.astype(np.int32)
     x, y = occupancy.pixel_to_world(every[:, 0], every[:, 1])
