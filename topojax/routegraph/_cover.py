@@ -87,6 +87,9 @@ def covered(
     else:
         rr, cc = np.nonzero(test)
         rr, cc = rr.astype(np.int64), cc.astype(np.int64)
+        graph_px = _near_cells(graph_px, rr, cc, snap_px)
+        if graph_px.size == 0:
+            return np.zeros(feasible.shape, bool)
         dist, idx = cKDTree(graph_px).query(np.stack([rr, cc], axis=1))
         near = graph_px[idx].astype(np.int64)
         ok = (dist**2 <= snap_px * snap_px) & see_nearest(
@@ -99,6 +102,22 @@ def covered(
         rr, cc = rr[maybe], cc[maybe]
     out[rr, cc] = see_any(rr, cc, raster, feasible, float(snap_px))
     return out
+
+
+def _near_cells(points: np.ndarray, rr: np.ndarray, cc: np.ndarray, reach: float) -> np.ndarray:
+    """The ``points`` (N, 2) that may lie within ``reach`` of a pixel ``(rr, cc)``: those
+    in the square cells (side ``reach`` + 1) holding such a pixel or next to one."""
+    side = int(math.ceil(reach)) + 1
+    ncol = int(max(points[:, 1].max(), cc.max())) // side + 3
+    cell = np.zeros((int(max(points[:, 0].max(), rr.max())) // side + 3) * ncol, bool)
+    cell[(rr // side + 1) * ncol + cc // side + 1] = True
+    grid = cell.reshape(-1, ncol)
+    near = grid.copy()
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            near[1:-1, 1:-1] |= grid[1 + dr : grid.shape[0] - 1 + dr, 1 + dc : ncol - 1 + dc]
+    keep = near.ravel()[(points[:, 0] // side + 1) * ncol + points[:, 1] // side + 1]
+    return points[keep]
 
 
 def wall_distance(feasible: np.ndarray) -> np.ndarray:
