@@ -447,7 +447,29 @@ def test_coverage_equals_a_brute_force_reference(seed, few, monkeypatch):
     raster &= feasible
     snap = 7.5
     got = _cover.covered(raster, feasible, snap)
-    assert np.array_equal(got, _brute_covered(raster, feasible, snap))
+    want = _brute_covered(raster, feasible, snap)
+    assert np.array_equal(got, want)
+    # only some pixels tested (later rounds): the same answer there, False elsewhere
+    among = np.zeros_like(feasible)
+    among[30:, :20] = True
+    among[rng.integers(0, 48, 40), rng.integers(0, 56, 40)] = True
+    assert np.array_equal(_cover.covered(raster, feasible, snap, among=among), want & among)
+
+
+def test_straight_segments_are_tested_pixel_by_pixel():
+    from topojax.graph.work import line_pixels
+    from topojax.routegraph._joins import first_feasible_segment
+
+    rng = np.random.default_rng(5)
+    feasible = rng.random((30, 40)) > 0.08
+    a = np.stack([rng.integers(0, 30, 200), rng.integers(0, 40, 200)], axis=1)
+    b = np.stack([rng.integers(0, 30, 200), rng.integers(0, 40, 200)], axis=1)
+    want = np.array([feasible[tuple(line_pixels(p, q).T)].all() for p, q in zip(a, b, strict=True)])
+    assert 0 < want.sum() < len(want)
+    assert np.array_equal(first_feasible_segment(a, b, feasible, False), want)
+    first = np.zeros_like(want)
+    first[np.argmax(want)] = True
+    assert np.array_equal(first_feasible_segment(a, b, feasible, True), first)
 
 
 @pytest.mark.parametrize("plan", ["random", "hall"])

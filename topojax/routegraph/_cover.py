@@ -15,7 +15,13 @@ from scipy.spatial import cKDTree
 
 from ..graph.work import WorkGraph, line_pixels
 from ._corners import bent_candidates, reflex_corners
-from ._joins import attach_points, geodesic_path, grow, mask_pixels, segment_ok
+from ._joins import (
+    attach_points,
+    first_feasible_segment,
+    geodesic_path,
+    grow,
+    mask_pixels,
+)
 from ._lanes import add_lanes
 from ._mesh import add_mesh, mesh_pieces
 from ._spanner import anchor_pieces, greedy_shortcuts, see_any, see_named, see_nearest
@@ -207,17 +213,17 @@ def _connect_waypoints(
     shape = feasible.shape
     graph_px = mask_pixels(raster)
     _, nearest = cKDTree(graph_px).query(pts)
-    cands = []
-    for i, p in enumerate(pts):
-        g = graph_px[nearest[i]]
-        seg = segment_ok(p, g, feasible)
-        if seg is not None:
-            cands.append((len(seg), i, n, seg))
-    tree = cKDTree(pts)
-    for i, j in tree.query_pairs(2.0 * spacing, output_type="ndarray"):
-        seg = segment_ok(pts[i], pts[j], feasible)
-        if seg is not None:
-            cands.append((len(seg), int(i), int(j), seg))
+    pairs = cKDTree(pts).query_pairs(2.0 * spacing, output_type="ndarray").astype(np.int64)
+    # candidates: each waypoint to its nearest graph pixel, then pairs of waypoints
+    ends_i = np.concatenate([np.arange(n, dtype=np.int64), pairs[:, 0]])
+    ends_j = np.concatenate([np.full(n, n, np.int64), pairs[:, 1]])
+    a = pts[ends_i].astype(np.int64)
+    b = np.concatenate([graph_px[nearest], pts[pairs[:, 1]]]).astype(np.int64)
+    ok = np.flatnonzero(first_feasible_segment(a, b, feasible, False))
+    size = np.abs(a[ok] - b[ok]).max(axis=1) + 1
+    cands = list(
+        zip(size.tolist(), ends_i[ok].tolist(), ends_j[ok].tolist(), ok.tolist(), strict=True)
+    )
     cands.sort(key=lambda t: t[0])
     parent = list(range(n + 1))
 
@@ -228,11 +234,11 @@ def _connect_waypoints(
         return x
 
     chosen = []
-    for _, i, j, seg in cands:
-        a, b = find(i), find(j)
-        if a != b:
-            parent[a] = b
-            chosen.append((i, j, seg))
+    for _, i, j, k in cands:
+        ri, rj = find(i), find(j)
+        if ri != rj:
+            parent[ri] = rj
+            chosen.append((i, j, line_pixels(a[k], b[k])))
     # groups that reach no graph pixel in a straight line: a feasible shortest path
     first: dict[int, int] = {}  # the first waypoint of each group
     for k in range(n):

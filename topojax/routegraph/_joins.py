@@ -14,12 +14,12 @@ from ._geodesic import nearest_path
 
 __all__ = [
     "attach_points",
+    "first_feasible_segment",
     "geodesic_path",
     "grow",
     "join_groups",
     "large_pieces",
     "mask_pixels",
-    "segment_ok",
 ]
 
 # Joins tried per group: its pixels (every second one) to their nearest graph pixels.
@@ -59,11 +59,22 @@ def _line_if_feasible(r0, c0, r1, c1, feasible, out):
     return True
 
 
-def segment_ok(a, b, feasible: np.ndarray) -> np.ndarray | None:
-    """The straight pixel line from ``a`` to ``b`` if all its pixels are feasible."""
-    r0, c0, r1, c1 = int(a[0]), int(a[1]), int(b[0]), int(b[1])
-    out = np.empty((max(abs(r1 - r0), abs(c1 - c0)) + 1, 2), np.int32)
-    return out if _line_if_feasible(r0, c0, r1, c1, feasible, out) else None
+@cached_njit(nogil=True)
+def first_feasible_segment(a, b, feasible, stop_at_first):
+    """For segments ``a[k]``-``b[k]`` (int64 (K, 2) pixels each): whether the straight pixel
+    line is feasible (bool (K,)); with ``stop_at_first``, the segments after the first
+    feasible one are not tested (False)."""
+    n = a.shape[0]
+    ok = np.zeros(n, np.bool_)
+    longest = 1
+    for k in range(n):
+        longest = max(longest, abs(a[k, 0] - b[k, 0]) + 1, abs(a[k, 1] - b[k, 1]) + 1)
+    out = np.empty((longest, 2), np.int32)
+    for k in range(n):
+        ok[k] = _line_if_feasible(a[k, 0], a[k, 1], b[k, 0], b[k, 1], feasible, out)
+        if ok[k] and stop_at_first:
+            break
+    return ok
 
 
 def attach_points(work: WorkGraph, pixels: list, shape: tuple[int, int]) -> list[int]:
@@ -146,12 +157,14 @@ def _nearest_link(work: WorkGraph, vertices: list[int], tree, graph_px, feasible
     k = min(_NEIGHBOURS, len(graph_px))
     dist, idx = tree.query(pix, k=k)
     dist, idx = dist.reshape(len(pix), k), idx.reshape(len(pix), k)
-    for flat in np.argsort(dist, axis=None, kind="stable")[:_JOIN_TRIES].tolist():
-        a, j = divmod(flat, k)
-        g = graph_px[idx[a, j]]
-        if segment_ok(pix[a], g, feasible) is not None:
-            return tuple(pix[a]), tuple(g)
-    return None
+    flat = np.argsort(dist, axis=None, kind="stable")[:_JOIN_TRIES]
+    a = pix[flat // k].astype(np.int64)
+    g = graph_px[idx.ravel()[flat]].astype(np.int64)
+    hit = np.flatnonzero(first_feasible_segment(a, g, feasible, True))
+    if hit.size == 0:
+        return None
+    j = flat[hit[0]]
+    return tuple(pix[j // k]), tuple(graph_px[idx.ravel()[j]])
 
 
 def join_groups(
