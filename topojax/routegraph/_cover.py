@@ -74,12 +74,12 @@ def covered(
         # the labelled transform names a graph pixel near each pixel, at most
         # _LABEL_SLACK times (plus a pixel) farther than the nearest one; where the named
         # pixel is hidden or out of reach, another within reach may still be seen, but
-        # only where the exact distance to the graph is within reach
+        # only where the exact distance to the graph (a k-d tree of the graph pixels
+        # near them) is within reach
         free = (~raster).view(np.uint8)
         _, label = cv2.distanceTransformWithLabels(
             free, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL
         )
-        exact = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
         out, rr, cc = see_named(
             test,
             label,
@@ -88,8 +88,13 @@ def covered(
             feasible,
             float(snap_px),
             _LABEL_SLACK * snap_px + 1.0,
-            exact,
         )
+        near = _near_cells(graph_px, rr, cc, snap_px) if rr.size else graph_px[:0]
+        if near.size:
+            dist, _ = cKDTree(near).query(np.stack([rr, cc], axis=1))
+            rr, cc = rr[dist <= snap_px], cc[dist <= snap_px]
+        else:
+            rr, cc = rr[:0], cc[:0]
     else:
         rr, cc = np.nonzero(test)
         rr, cc = rr.astype(np.int64), cc.astype(np.int64)

@@ -504,14 +504,13 @@ def simplify_paths(every, starts, sizes, feasible, tol):
 
 
 @cached_njit(nogil=True)
-def see_named(test, label, graph_px, wall, feasible, snap_px, reach_px, exact):
+def see_named(test, label, graph_px, wall, feasible, snap_px, reach_px):
     """One pass over the pixels ``test`` (bool (H, W)): a pixel is covered when the graph
     pixel its ``label`` names (``graph_px[label - 1]``) is within ``snap_px`` and seen
     along a straight feasible segment (no walk needed when the segment is shorter than
     the pixel's ``wall`` distance minus one).  Returns ``(covered bool (H, W), rows,
-    cols)``: the pixels not covered so whose named pixel is within ``reach_px`` and
-    whose ``exact`` distance to the graph is within ``snap_px`` (another graph pixel may
-    be seen)."""
+    cols)``: the pixels not covered so whose named pixel is within ``reach_px`` (another
+    graph pixel may be seen)."""
     h, w = test.shape
     out = np.zeros((h, w), np.bool_)
     snap2 = snap_px * snap_px
@@ -531,7 +530,7 @@ def see_named(test, label, graph_px, wall, feasible, snap_px, reach_px, exact):
                 if d + 1.0 < wall[r, c] or straight_is_feasible(r, c, nr, nc, feasible):
                     out[r, c] = True
                     continue
-            if d2 <= reach2 and exact[r, c] <= snap_px + 1e-3:
+            if d2 <= reach2:
                 if n == rows.shape[0]:
                     rows = np.concatenate((rows, np.empty(n, np.int64)))
                     cols = np.concatenate((cols, np.empty(n, np.int64)))
