@@ -18,6 +18,7 @@ __all__ = [
     "collapse_loops",
     "drop_spurs",
     "face_labels",
+    "line_in_mask",
     "line_into",
     "line_pixels",
 ]
@@ -50,6 +51,17 @@ def line_into(r0, c0, r1, c1, out):
             r = r0 + (q if num >= 0 else -q)
         out[i, 0], out[i, 1] = r, c
     return n + 1
+
+
+@cached_njit(nogil=True)
+def line_in_mask(r0, c0, r1, c1, mask, out):
+    """:func:`line_into`, returning 0 instead of the length when a pixel of the line is
+    not set in ``mask`` (bool (H, W))."""
+    n = line_into(r0, c0, r1, c1, out)
+    for i in range(n):
+        if not mask[out[i, 0], out[i, 1]]:
+            return 0
+    return n
 
 
 def line_pixels(a, b) -> np.ndarray:

@@ -9,7 +9,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._jit import cached_njit
-from ..graph.work import WorkGraph, line_into, line_pixels
+from ..graph.work import WorkGraph, line_in_mask, line_pixels
 from ._geodesic import nearest_path
 
 __all__ = [
@@ -51,15 +51,6 @@ def large_pieces(mask: np.ndarray, min_area_px: float) -> np.ndarray:
 
 
 @cached_njit(nogil=True)
-def _line_if_feasible(r0, c0, r1, c1, feasible, out):
-    n = line_into(r0, c0, r1, c1, out)
-    for i in range(n):
-        if not feasible[out[i, 0], out[i, 1]]:
-            return False
-    return True
-
-
-@cached_njit(nogil=True)
 def first_feasible_segment(a, b, feasible, stop_at_first):
     """For segments ``a[k]``-``b[k]`` (int64 (K, 2) pixels each): whether the straight pixel
     line is feasible (bool (K,)); with ``stop_at_first``, the segments after the first
@@ -71,7 +62,7 @@ def first_feasible_segment(a, b, feasible, stop_at_first):
         longest = max(longest, abs(a[k, 0] - b[k, 0]) + 1, abs(a[k, 1] - b[k, 1]) + 1)
     out = np.empty((longest, 2), np.int32)
     for k in range(n):
-        ok[k] = _line_if_feasible(a[k, 0], a[k, 1], b[k, 0], b[k, 1], feasible, out)
+        ok[k] = line_in_mask(a[k, 0], a[k, 1], b[k, 0], b[k, 1], feasible, out) > 0
         if ok[k] and stop_at_first:
             break
     return ok

@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from .._jit import cached_njit
-from ..graph.work import WorkGraph, line_into, line_pixels
+from ..graph.work import WorkGraph, line_in_mask, line_pixels
 from ._joins import attach_points, grow, join_groups, large_pieces
 from ._spanner import drop_short_loops
 
@@ -93,13 +93,10 @@ def _clear_lines(pos, ea, eb, inner, feasible, occupied, end_px):
     lim = end_px * end_px
     for k in range(ea.size):
         a, b = ea[k], eb[k]
-        n = line_into(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], seg)
-        good = True
+        n = line_in_mask(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], feasible, seg)
+        good = n > 0
         for j in range(n):
             r, c = seg[j, 0], seg[j, 1]
-            if not feasible[r, c]:
-                good = False
-                break
             if occupied[r, c]:
                 da = (r - pos[a, 0]) ** 2 + (c - pos[a, 1]) ** 2
                 db = (r - pos[b, 0]) ** 2 + (c - pos[b, 1]) ** 2

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from .._jit import cached_njit
-from ..graph.work import line_into
+from ..graph.work import line_in_mask
 
 __all__ = [
     "anchor_pieces",
@@ -192,11 +192,8 @@ def _clear_line(a, b, pos, mem, mem_start, feasible, occupied, end_px, seg, ms, 
     """Draw the straight line between nodes ``a`` and ``b`` into ``seg``; its length in
     pixels, or 0 when it leaves the feasible pixels or (unless ``cross``) touches an edge
     away from its ends."""
-    n = line_into(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], seg)
-    for j in range(n):
-        if not feasible[seg[j, 0], seg[j, 1]]:
-            return 0
-    if cross:
+    n = line_in_mask(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], feasible, seg)
+    if n == 0 or cross:
         return n
     ms[0], ms[1], ms[2], ms[3] = mem_start[a], mem_start[a + 1], mem_start[b], mem_start[b + 1]
     if _touches(seg, n, mem, ms, occupied, end_px):
