@@ -294,12 +294,10 @@ def greedy_shortcuts(
     for i in range(n_c):
         a, b, c = cand_a[i], cand_b[i], cand_c[i]
         run += 1
-        if _within(head, nxt, to, wt, a, b, need[i], dist, stamp, run, hk, hv):
+        # a route of at most ``need`` makes the shortcut useless, one of at most ``short``
+        # makes its loop too short: one search to the longer of the two
+        if _within(head, nxt, to, wt, a, b, max(need[i], short[i]), dist, stamp, run, hk, hv):
             continue
-        if short[i] > 0:
-            run += 1
-            if _within(head, nxt, to, wt, a, b, short[i], dist, stamp, run, hk, hv):
-                continue
         mid = b if c < 0 else c
         if c >= 0 and head[c] >= 0 and min_loop > 0:
             # a corner already in the graph: neither leg may close a short loop through it
