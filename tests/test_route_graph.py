@@ -458,7 +458,7 @@ def test_coverage_equals_a_brute_force_reference(seed, few, monkeypatch):
 
 def test_straight_segments_are_tested_pixel_by_pixel():
     from topojax.graph.work import line_pixels
-    from topojax.routegraph._joins import first_feasible_segment
+    from topojax.routegraph._joins import feasible_segments
 
     rng = np.random.default_rng(5)
     feasible = rng.random((30, 40)) > 0.08
@@ -466,10 +466,10 @@ def test_straight_segments_are_tested_pixel_by_pixel():
     b = np.stack([rng.integers(0, 30, 200), rng.integers(0, 40, 200)], axis=1)
     want = np.array([feasible[tuple(line_pixels(p, q).T)].all() for p, q in zip(a, b, strict=True)])
     assert 0 < want.sum() < len(want)
-    assert np.array_equal(first_feasible_segment(a, b, feasible, False), want)
+    assert np.array_equal(feasible_segments(a, b, feasible, False), want)
     first = np.zeros_like(want)
     first[np.argmax(want)] = True
-    assert np.array_equal(first_feasible_segment(a, b, feasible, True), first)
+    assert np.array_equal(feasible_segments(a, b, feasible, True), first)
 
 
 @pytest.mark.parametrize("plan", ["random", "hall"])

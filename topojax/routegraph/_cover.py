@@ -17,7 +17,7 @@ from ..graph.work import WorkGraph, line_pixels
 from ._corners import bent_candidates, reflex_corners
 from ._joins import (
     attach_points,
-    first_feasible_segment,
+    feasible_segments,
     geodesic_path,
     grow,
     mask_pixels,
@@ -224,7 +224,7 @@ def _connect_waypoints(
     ends_j = np.concatenate([np.full(n, n, np.int64), pairs[:, 1]])
     a = pts[ends_i].astype(np.int64)
     b = np.concatenate([graph_px[nearest], pts[pairs[:, 1]]]).astype(np.int64)
-    ok = np.flatnonzero(first_feasible_segment(a, b, feasible, False))
+    ok = np.flatnonzero(feasible_segments(a, b, feasible, False))
     size = np.abs(a[ok] - b[ok]).max(axis=1) + 1
     cands = list(
         zip(size.tolist(), ends_i[ok].tolist(), ends_j[ok].tolist(), ok.tolist(), strict=True)

@@ -14,7 +14,7 @@ from ._geodesic import nearest_path
 
 __all__ = [
     "attach_points",
-    "first_feasible_segment",
+    "feasible_segments",
     "geodesic_path",
     "grow",
     "join_groups",
@@ -51,7 +51,7 @@ def large_pieces(mask: np.ndarray, min_area_px: float) -> np.ndarray:
 
 
 @cached_njit(nogil=True)
-def first_feasible_segment(a, b, feasible, stop_at_first):
+def feasible_segments(a, b, feasible, stop_at_first):
     """For segments ``a[k]``-``b[k]`` (int64 (K, 2) pixels each): whether the straight pixel
     line is feasible (bool (K,)); with ``stop_at_first``, the segments after the first
     feasible one are not tested (False)."""
@@ -151,7 +151,7 @@ def _nearest_link(work: WorkGraph, vertices: list[int], tree, graph_px, feasible
     flat = np.argsort(dist, axis=None, kind="stable")[:_JOIN_TRIES]
     a = pix[flat // k].astype(np.int64)
     g = graph_px[idx.ravel()[flat]].astype(np.int64)
-    hit = np.flatnonzero(first_feasible_segment(a, g, feasible, True))
+    hit = np.flatnonzero(feasible_segments(a, g, feasible, True))
     if hit.size == 0:
         return None
     j = flat[hit[0]]
