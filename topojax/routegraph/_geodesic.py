@@ -20,8 +20,6 @@ from .._jit import cached_njit
 
 __all__ = ["geodesic_from", "nearest_path"]
 
-_SQRT2 = math.sqrt(2.0)
-
 
 @cached_njit(nogil=True)
 def _push(bufs, counts, b, p):
@@ -37,25 +35,31 @@ def _push(bufs, counts, b, p):
 
 
 @cached_njit(nogil=True)
-def _bucket_search(state, width, start, ends, out):
-    """Geodesic lengths from flat pixel ``start`` to flat pixels ``ends``, written to
-    ``out``.  ``state`` (uint8, a padded mask raveled, its border 0) is 1 on open pixels
-    and is consumed: settled pixels become 0."""
-    n = state.size
-    dist = np.full(n, np.inf)
+def _bucket_search(state, width, start, ends, nearest_only, dist, pred):
+    """Settle pixels from flat pixel ``start`` in unit-width distance buckets until every
+    open pixel of ``ends`` (flat pixels) is settled or, with ``nearest_only``, until the
+    bucket holding the nearest of them is.  ``state`` (uint8, a padded mask raveled, its
+    border 0) is 1 on open pixels and is consumed (settled pixels become 0); ``dist``
+    (float64, the size of ``state``, inf) receives the lengths; ``pred`` (int64, the size
+    of ``state``, or empty) each reached pixel's predecessor.  Returns the nearest open
+    pixel of ``ends`` (the smallest flat index among equally near ones), or -1."""
     remaining = 0
     for e in ends:
         if state[e] == 1:
             state[e] = 2  # an open target
             remaining += 1
+    paths = pred.size == state.size
     offs = np.array([-width - 1, -width, -width + 1, -1, 1, width - 1, width, width + 1], np.int64)
     s2 = math.sqrt(2.0)
     wts = np.array([s2, 1.0, s2, 1.0, 1.0, s2, 1.0, s2])
     bufs = [np.empty(1024, np.int64), np.empty(1024, np.int64), np.empty(1024, np.int64)]
     counts = np.zeros(3, np.int64)
     dist[start] = 0.0
+    if paths:
+        pred[start] = -1
     _push(bufs, counts, 0, start)
     k = 0
+    best = -1
     while remaining > 0 and counts[0] + counts[1] + counts[2] > 0:
         b = k % 3
         buf = bufs[b]
@@ -67,6 +71,8 @@ def _bucket_search(state, width, start, ends, out):
                 continue  # settled already, or a stale entry of a later bucket
             if state[p] == 2:
                 remaining -= 1
+                if best < 0 or dist[p] < dist[best] or (dist[p] == dist[best] and p < best):
+                    best = p
             state[p] = 0
             d = dist[p]
             for j in range(8):
@@ -75,11 +81,15 @@ def _bucket_search(state, width, start, ends, out):
                     nd = d + wts[j]
                     if nd < dist[q]:
                         dist[q] = nd
+                        if paths:
+                            pred[q] = p
                         _push(bufs, counts, int(nd) % 3, q)
         counts[b] = 0
+        if nearest_only and best >= 0:
+            # every pixel less than k + 1 away is settled: no target is nearer
+            break
         k += 1
-    for i in range(ends.size):
-        out[i] = dist[ends[i]]
+    return best
 
 
 def geodesic_from(mask: np.ndarray, source, targets: np.ndarray) -> np.ndarray:
@@ -96,57 +106,10 @@ def geodesic_from(mask: np.ndarray, source, targets: np.ndarray) -> np.ndarray:
     if not mask[r, c] or targets.shape[0] == 0:
         return out
     ends = (targets[:, 0] + 1) * width + targets[:, 1] + 1
-    _bucket_search(padded.ravel(), width, (r + 1) * width + c + 1, ends, out)
-    return out
-
-
-@cached_njit(nogil=True)
-def _nearest_search(state, width, start, pred):
-    """Flat pixel of the open target (``state`` 2) nearest to flat pixel ``start``, the
-    smallest such index among equally near ones, or -1; ``pred`` (int64, the size of
-    ``state``) receives each reached pixel's predecessor.  ``state`` as in
-    :func:`_bucket_search` (consumed)."""
-    n = state.size
-    dist = np.full(n, np.inf)
-    offs = np.array([-width - 1, -width, -width + 1, -1, 1, width - 1, width, width + 1], np.int64)
-    s2 = math.sqrt(2.0)
-    wts = np.array([s2, 1.0, s2, 1.0, 1.0, s2, 1.0, s2])
-    bufs = [np.empty(1024, np.int64), np.empty(1024, np.int64), np.empty(1024, np.int64)]
-    counts = np.zeros(3, np.int64)
-    dist[start] = 0.0
-    pred[start] = -1
-    _push(bufs, counts, 0, start)
-    k = 0
-    best = -1
-    while counts[0] + counts[1] + counts[2] > 0:
-        b = k % 3
-        buf = bufs[b]
-        i = 0
-        while i < counts[b]:
-            p = buf[i]
-            i += 1
-            if state[p] == 0 or dist[p] >= k + 1:
-                continue
-            if state[p] == 2 and (
-                best < 0 or dist[p] < dist[best] or (dist[p] == dist[best] and p < best)
-            ):
-                best = p
-            state[p] = 0
-            d = dist[p]
-            for j in range(8):
-                q = p + offs[j]
-                if state[q] != 0:
-                    nd = d + wts[j]
-                    if nd < dist[q]:
-                        dist[q] = nd
-                        pred[q] = p
-                        _push(bufs, counts, int(nd) % 3, q)
-        counts[b] = 0
-        if best >= 0:
-            # every pixel less than k + 1 away is settled: no target is nearer
-            return best
-        k += 1
-    return -1
+    dist = np.full(padded.size, np.inf)
+    start = (r + 1) * width + c + 1
+    _bucket_search(padded.ravel(), width, start, ends, False, dist, np.empty(0, np.int64))
+    return dist[ends]
 
 
 @cached_njit(nogil=True)
@@ -175,10 +138,13 @@ def nearest_path(mask: np.ndarray, start, targets: np.ndarray) -> np.ndarray | N
         return None
     padded = np.zeros((h + 2, w + 2), np.uint8)
     padded[1:-1, 1:-1] = mask
-    padded[1:-1, 1:-1][mask & targets] = 2
     width = w + 2
+    rows, cols = np.nonzero(mask & targets)
+    ends = (rows.astype(np.int64) + 1) * width + cols + 1
+    dist = np.full(padded.size, np.inf)
     pred = np.empty(padded.size, np.int64)
-    end = _nearest_search(padded.ravel(), width, (r + 1) * width + c + 1, pred)
+    start = (r + 1) * width + c + 1
+    end = _bucket_search(padded.ravel(), width, start, ends, True, dist, pred)
     if end < 0:
         return None
     flat = _trace(pred, end)
