@@ -238,3 +238,31 @@ def test_stage_panels_are_pooled_under_the_map_name(result):
     plt.close(fig)
     assert plot_stages(result, title="x").get_suptitle() == "x"
     plt.close("all")
+
+
+def test_route_graph_picture_shows_the_feasible_space_and_the_waypoints():
+    from topojax.maps.occupancy import OccupancyMap
+    from topojax.plotting import plot_route_graph
+
+    free = np.zeros((60, 100), bool)
+    free[1:-1, 1:-1] = True
+    occ = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05)
+    g = tj.route_graph(occ, robot_radius_m=0.3)
+    ax = plot_route_graph(g, occ)
+    lines = [c for c in ax.collections if isinstance(c, LineCollection)]
+    assert len(lines[0].get_segments()) == g.number_of_edges()
+    _, _, first = next(iter(g.edges(data=True)))
+    rows, cols = occ.world_to_pixel(first["waypoints"][:, 0], first["waypoints"][:, 1])
+    np.testing.assert_allclose(lines[0].get_segments()[0], np.stack([cols, rows], 1))
+    # the margin layer: tan on free pixels closer than the radius (6 px), clear elsewhere
+    margin = ax.images[1].get_array()
+    assert margin.shape == (60, 100, 4)
+    assert margin[3, 50, 3] == 255 and margin[30, 50, 3] == 0 and margin[0, 50, 3] == 0
+    assert "r = 0.3 m" in ax.get_title()
+    plt.close(ax.figure)
+    with pytest.raises(ValueError, match="occupancy: expected the map"):
+        plot_route_graph(g, tj.sample_map("intel"))
+    g.graph.pop("robot_radius_m")
+    with pytest.raises(ValueError, match="robot_radius_m"):
+        plot_route_graph(g, occ)
+    plt.close("all")

@@ -78,6 +78,7 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
         distance_map,
         ridge_map,
     )
+    from .plotting import plot_route_graph
     from .rooms import (
         Door,
         Room,
@@ -138,6 +139,7 @@ __all__ = [
     "open_tiled_map",
     "plan_route",
     "plot",
+    "plot_route_graph",
     "plot_stages",
     "prune_graph",
     "read_bag",
@@ -207,6 +209,7 @@ _LAZY = {
     "RouteGraphReport": "routegraph",
     "evaluate_route_graph": "routegraph",
     "route_graph": "routegraph",
+    "plot_route_graph": "plotting",
     "NoRouteError": "routing",
     "Route": "routing",
     "RoutePlanner": "routing",

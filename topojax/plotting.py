@@ -34,6 +34,7 @@ __all__ = [
     "plot_skeleton",
     "plot_graph",
     "plot_route",
+    "plot_route_graph",
     "plot_rooms",
     "plot_stages",
     "add_legend",
@@ -49,6 +50,8 @@ __all__ = [
 _KIND_COLOURS = VERTEX_KIND_COLOURS
 #: Grey levels of the map classes (0 black .. 1 white).
 _OCCUPIED_GREY, _UNKNOWN_GREY, _FREE_GREY = 0.0, 0.8, 1.0
+#: Free pixels closer to an obstacle than the robot's radius, in route-graph pictures.
+_MARGIN_COLOUR = "#e6d3b8"
 #: The scale bar's length is the longest 1, 2 or 5 x 10^k metres up to this share of the
 #: axes' width.
 _SCALE_SHARE = 0.25
@@ -407,6 +410,102 @@ def plot_route(route, *, ax=None, color="#d62728", linewidth: float = 3.0, title
     ax.set_aspect("equal")
     if title:
         ax.set_title(title)
+    return ax
+
+
+def route_graph_lines(graph, occupancy) -> list[np.ndarray]:
+    """Each edge of ``graph`` as a (K, 2) float array of ``(col, row)`` pixel coordinates of
+    ``occupancy``: its ``waypoints`` (world, metres) where it has them, else its ``path``."""
+    lines = []
+    for _, _, d in graph.edges(data=True):
+        pts = d.get("waypoints")
+        if pts is None:
+            lines.append(np.asarray(d["path"], float).reshape(-1, 2)[:, ::-1])
+            continue
+        xy = np.asarray(pts, np.float64).reshape(-1, 2)
+        rows, cols = occupancy.world_to_pixel(xy[:, 0], xy[:, 1])
+        lines.append(np.stack([cols, rows], axis=1))
+    return lines
+
+
+def plot_route_graph(
+    graph,
+    occupancy,
+    *,
+    ax=None,
+    robot_radius_m: float | None = None,
+    edge_color=EDGE_COLOUR,
+    linewidth: float = 1.5,
+    node_size: float = 12.0,
+    title: str | None = None,
+):
+    """A route graph over its map: the feasible space white, free pixels closer than the
+    robot's radius to an obstacle tan, unknown grey, occupied black; edges along their
+    simplified ``waypoints`` (the line a robot follows), vertices by kind.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        From :func:`topojax.route_graph` (or any graph with vertex ``pixel`` and edge
+        ``waypoints`` in metres or ``path`` in pixels).
+    occupancy : OccupancyMap
+        The map the graph was built on.
+    ax : matplotlib Axes, optional
+        Where to draw; default a new 9 x 9 inch figure.
+    robot_radius_m : float, optional
+        Radius that sets the feasible space; default the graph's ``robot_radius_m``.
+    edge_color, linewidth, node_size
+        As :func:`plot_graph`.
+    title : str, optional
+        Default: the map's name, the radius and the vertex and edge counts.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    from .routegraph.feasible import feasible_space
+
+    shape = graph.graph.get("shape")
+    if shape is not None and tuple(shape) != tuple(occupancy.shape):
+        raise ValueError(
+            f"occupancy: expected the map the graph was built on, of shape {tuple(shape)}, "
+            f"received a map of shape {tuple(occupancy.shape)}"
+        )
+    if robot_radius_m is None:
+        robot_radius_m = graph.graph.get("robot_radius_m")
+        if robot_radius_m is None:
+            raise ValueError(
+                "robot_radius_m: expected a radius in metres (the graph has no "
+                "'robot_radius_m' attribute), received None"
+            )
+    space = feasible_space(occupancy, robot_radius_m)
+    ax = _axes(ax, figsize=(9, 9))
+    plot_map(occupancy, ax=ax)
+    margin = space.free & ~space.feasible  # not pooled: a feasible band stays visible
+    rgba = np.zeros(margin.shape + (4,), np.uint8)
+    rgba[margin] = (*(round(255 * c) for c in _hex_rgb(_MARGIN_COLOUR)), 255)
+    _imshow_pooled(ax, rgba, margin.shape, 1)
+    points: dict[str, list] = {}
+    for _, d in graph.nodes(data=True):
+        points.setdefault(d.get("kind"), []).append(d["pixel"][::-1])
+    draw_graph_lines(
+        ax,
+        route_graph_lines(graph, occupancy),
+        points,
+        edge_color=edge_color,
+        linewidth=linewidth,
+        node_size=node_size,
+    )
+    if graph.number_of_nodes():
+        add_legend(ax)
+    ax.set_aspect("equal")
+    if title is None:
+        title = _titled(
+            map_name(occupancy.source),
+            f"r = {float(robot_radius_m):g} m: {graph.number_of_nodes()} vertices, "
+            f"{graph.number_of_edges()} edges",
+        )
+    ax.set_title(title)
     return ax
 
 

@@ -146,11 +146,10 @@ def _picture(occupancy, graph, path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..plotting import plot_graph, plot_map
+    from ..plotting import plot_route_graph
 
     fig, ax = plt.subplots(figsize=(8, 8 * occupancy.shape[0] / max(occupancy.shape[1], 1)))
-    plot_map(occupancy, ax=ax)
-    plot_graph(graph, ax=ax, title=f"route graph: {graph.number_of_edges()} edges")
+    plot_route_graph(graph, occupancy, ax=ax)
     fig.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(fig)
     return path
