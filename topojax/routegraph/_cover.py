@@ -29,6 +29,12 @@ from ._spanner import anchor_pieces, greedy_shortcuts, see_any, see_named, see_n
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
 #: distance around each grid point covers its cell up to sqrt 2 / 2 of the spacing).
 COVER_SPACING = 1.3
+#: Two points along edges (anchors) get a shortcut, a *rung*, only where the graph route
+#: between them is longer than this many times their distance ...
+RUNG_STRETCH = 3.0
+#: ... and than their distance plus this many metres: lanes joined to the rest far away
+#: (along both walls of a corridor 2.5-4 m wide) get a rung every few metres.
+RUNG_GAIN_M = 6.0
 # The 5 x 5 labelled distance transform names a graph pixel at most this factor (plus a
 # pixel) farther than the nearest one.
 _LABEL_SLACK = 1.05
@@ -370,6 +376,7 @@ def add_shortcuts(
     min_loop_px: float = 0.0,
     anchor_px: float = 0.0,
     corner_tolerance_px: float = 0.0,
+    rung_gain_px: float = 0.0,
 ) -> int:
     """Greedy spanner: for node pairs at most ``radius_px`` apart, shortest first, add a
     straight feasible edge when the graph route between them is longer than ``stretch``
@@ -384,7 +391,9 @@ def add_shortcuts(
     the corner joining two nodes that do not see each other, by the same rules except
     that both ends may be anchors, that a vertex may pair with an anchor of an edge next
     to it, and that the two lines may cross other edges (no vertex is made there); neither line may close a loop shorter than ``min_loop_px``
-    through a corner already in the graph.  Returns the number of shortcuts added."""
+    through a corner already in the graph.  Two anchors pair only with ``rung_gain_px`` >
+    0, where the route is longer than ``RUNG_STRETCH`` times the line and than the line
+    plus ``rung_gain_px``.  Returns the number of shortcuts added."""
     min_deg = 1 if from_dead_ends else 2
     alive = [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
     if len(alive) < 2 or radius_px <= 0:
@@ -401,10 +410,15 @@ def add_shortcuts(
     # no shortcut along one edge or round one vertex (it would cut a bend or a corner into
     # a thin loop around nothing); at least one end a vertex: a shortcut between two
     # anchors splits two edges, and between neighbouring lanes of an open room such rungs
-    # would make a mesh
+    # would make a mesh; but two anchors whose route is very long get a rung (whose loop
+    # is long too, so it may join two anchors of one edge)
     vertex_end = (a < len(alive)) | (b < len(alive))
-    pairs = pairs[(deg[a] >= min_deg) & (deg[b] >= min_deg) & vertex_end]
+    usable = (deg[a] >= min_deg) & (deg[b] >= min_deg)
+    rungs = pairs[usable & ~vertex_end] if rung_gain_px > 0 else pairs[:0]
+    pairs = pairs[usable & vertex_end]
     pairs = pairs[~_same_edge(pairs[:, 0], pairs[:, 1], on, vert_key, m)]
+    n_plain = len(pairs)
+    pairs = np.concatenate([pairs, rungs])
     corners = (
         reflex_corners(feasible, corner_tolerance_px)
         if corner_tolerance_px > 0
@@ -427,6 +441,8 @@ def add_shortcuts(
     mat = coo_matrix((kw, (ka, kb)), shape=(m, m)).tocsr()
     graph_d = _route_lengths(mat, cand_a, cand_b, stretch * 2.0 * radius_px)
     need = np.maximum(stretch * length, length + gain_px)
+    rung = slice(n_plain, len(pairs))
+    need[rung] = np.maximum(RUNG_STRETCH * length[rung], length[rung] + rung_gain_px)
     cand = np.flatnonzero((graph_d > need) & (graph_d + length >= min_loop_px))
     cand = cand[np.argsort(length[cand], kind="stable")]
     if cand.size == 0:

@@ -18,7 +18,7 @@ from ..graph.store import fill_multigraph
 from ..graph.work import WorkGraph, collapse_loops, drop_spurs, face_labels
 from ..skeleton import thin
 from ._corners import CORNER_TOLERANCE_M
-from ._cover import add_coverage, add_shortcuts
+from ._cover import RUNG_GAIN_M, add_coverage, add_shortcuts
 from ._spanner import simplify_paths
 from .feasible import FeasibleSpace, feasible_space
 
@@ -188,6 +188,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         min_loop_px,
         cfg.shortcut_spacing_m / res,
         CORNER_TOLERANCE_M / res if cfg.shortcuts_round_corners else 0.0,
+        RUNG_GAIN_M / res,
     )
     work.contract_all()
     t4 = time.perf_counter()
