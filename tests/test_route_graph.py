@@ -190,6 +190,7 @@ def test_random_plans_are_safe_and_reach_each_region_once(seed):
     _assert_one_component_per_region(g, occ)
     for u, v, d in g.edges(data=True):
         assert u <= v and d["length_m"] > 0
+        assert u == v or len(d["path"]) > 2  # no one-pixel edges
         wp = d["waypoints"]
         assert np.array_equal(wp[0], d["world"][0]) and np.array_equal(wp[-1], d["world"][-1])
 

@@ -21,6 +21,7 @@ __all__ = [
     "line_in_mask",
     "line_into",
     "line_pixels",
+    "merge_close_vertices",
 ]
 
 SQRT2 = math.sqrt(2.0)
@@ -349,3 +350,63 @@ def drop_spurs(
                 changed = True
         work.contract_all(touched)
     return removed
+
+
+# ---------------------------------------------------------------------------------------
+# close vertices
+# ---------------------------------------------------------------------------------------
+
+
+def _rerouted(work: WorkGraph, gone: int, keep: int, skip: int, feasible: np.ndarray):
+    """The edges of ``gone`` but ``skip`` as ``(edge, other end, path from keep's pixel)``,
+    each path led from ``keep``'s pixel to where it met ``gone`` by a straight line; None
+    where such a line leaves ``feasible`` or ``gone`` has a self-loop."""
+    out = []
+    for f in work.adj[gone]:
+        if f == skip:
+            continue
+        a, b, _ = work.edges[f]
+        if a == b:
+            return None
+        path = work.oriented_path(f, gone)
+        lead = line_pixels(work.pixel[keep], path[0])
+        if not feasible[lead[:, 0], lead[:, 1]].all():
+            return None
+        out.append((f, work.other(f, gone), np.concatenate([lead[:-1], path])))
+    return out
+
+
+def merge_close_vertices(
+    work: WorkGraph, feasible: np.ndarray, max_px: float, dead_end_px: float, min_loop_px: float
+) -> int:
+    """Merge the two ends of every edge shorter than ``max_px`` (``dead_end_px`` for an edge
+    to a dead end), shortest first: the end with more edges stays, the other's edges are
+    led to it by straight feasible lines and its pixels become its member pixels.  A loop
+    that the merge leaves shorter than ``min_loop_px`` at the vertex is dropped.  Returns
+    the number of vertices merged."""
+    merged = 0
+    for e in sorted(work.edges, key=work.length.__getitem__):
+        if e not in work.edges:
+            continue
+        u, v, _ = work.edges[e]
+        if u == v:
+            continue
+        keep, gone = (u, v) if len(work.adj[u]) >= len(work.adj[v]) else (v, u)
+        limit = dead_end_px if len(work.adj[gone]) == 1 else max_px
+        if work.length[e] > limit:
+            continue
+        moved = _rerouted(work, gone, keep, e, feasible)
+        if moved is None:
+            continue
+        work.remove_edge(e)
+        for f, other, path in moved:
+            work.remove_edge(f)
+            end = keep if other == gone else other
+            if end == keep and path_length_px(path) < min_loop_px:
+                continue
+            work.add_edge(keep, end, path)
+        work.members[keep] = np.concatenate([work.members[keep], work.members[gone]])
+        work.dead.add(gone)
+        merged += 1
+    work.contract_all()
+    return merged

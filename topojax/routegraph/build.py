@@ -15,7 +15,13 @@ import numpy as np
 from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres
 from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph
-from ..graph.work import WorkGraph, collapse_loops, drop_spurs, face_labels
+from ..graph.work import (
+    WorkGraph,
+    collapse_loops,
+    drop_spurs,
+    face_labels,
+    merge_close_vertices,
+)
 from ..skeleton import thin
 from ._corners import CORNER_TOLERANCE_M
 from ._cover import RUNG_GAIN_M, add_coverage, add_shortcuts
@@ -191,6 +197,9 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         RUNG_GAIN_M / res,
     )
     work.contract_all()
+    # vertices closer than the robot's radius are one place for it; a dead end one pixel
+    # off its junction is a one-pixel edge
+    merge_close_vertices(work, feasible, max(1.5, cfg.robot_radius_m / res), 1.5, min_loop_px)
     t4 = time.perf_counter()
     graph = _assemble(work, occupancy, space, cfg, origin)
     t5 = time.perf_counter()

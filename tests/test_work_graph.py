@@ -1,0 +1,99 @@
+"""The work graph's merge of close vertices, on literal graphs."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from topojax.graph.work import WorkGraph, line_pixels, merge_close_vertices
+
+FEASIBLE = np.ones((30, 30), bool)
+
+
+def _graph(vertices, edges) -> WorkGraph:
+    """``vertices``: (row, col) pixels; ``edges``: (u, v) joined by straight pixel lines."""
+    work = WorkGraph()
+    for p in vertices:
+        work.add_vertex(p)
+    for u, v in edges:
+        work.add_edge(u, v, line_pixels(work.pixel[u], work.pixel[v]))
+    return work
+
+
+def _live(work: WorkGraph) -> list[int]:
+    return [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
+
+
+def test_two_junctions_one_pixel_apart_become_one():
+    # 0 and 1 are neighbours; each has two more edges
+    work = _graph(
+        [(10, 10), (10, 11), (2, 10), (18, 10), (2, 20), (18, 20)],
+        [(0, 1), (0, 2), (0, 3), (1, 4), (1, 5)],
+    )
+    assert merge_close_vertices(work, FEASIBLE, 1.5, 1.5, 0.0) == 1
+    assert _live(work) == [0, 2, 3, 4, 5]
+    assert len(work.adj[0]) == 4 and len(work.edges) == 4
+    assert {tuple(p) for p in work.members[0]} == {(10, 10), (10, 11)}
+    for e in work.adj[0]:
+        u, v, path = work.edges[e]
+        end = work.oriented_path(e, 0)
+        assert tuple(end[0]) == (10, 10)  # every edge starts at the kept pixel
+        assert np.abs(np.diff(path, axis=0)).max() <= 1  # still 8-connected
+
+
+def test_dead_end_one_pixel_off_a_junction_goes():
+    work = _graph(
+        [(10, 10), (10, 11), (2, 10), (18, 10), (10, 2)], [(0, 1), (0, 2), (0, 3), (0, 4)]
+    )
+    assert merge_close_vertices(work, FEASIBLE, 1.5, 1.5, 0.0) == 1
+    assert 1 in work.dead and len(work.adj[0]) == 3
+    assert (10, 11) in {tuple(p) for p in work.members[0]}
+
+
+def test_dead_end_longer_than_its_limit_stays():
+    work = _graph(
+        [(10, 10), (10, 13), (2, 10), (18, 10), (10, 2)], [(0, 1), (0, 2), (0, 3), (0, 4)]
+    )
+    assert merge_close_vertices(work, FEASIBLE, 5.0, 1.5, 0.0) == 0
+    assert len(work.edges) == 4
+
+
+def test_no_merge_where_the_lead_would_leave_the_feasible_pixels():
+    feasible = FEASIBLE.copy()
+    # 1's other edge meets it from below; the lead from 0 to that pixel is the line
+    # (10, 10)-(10, 12): block its middle pixel, and the edge 0-1 runs round it
+    feasible[10, 11] = False
+    work = WorkGraph()
+    for p in [(10, 10), (10, 12), (2, 10), (18, 10), (18, 12), (2, 12)]:
+        work.add_vertex(p)
+    work.add_edge(0, 1, np.array([(10, 10), (9, 11), (10, 12)], np.int32))
+    work.add_edge(0, 2, line_pixels((10, 10), (2, 10)))
+    work.add_edge(0, 3, line_pixels((10, 10), (18, 10)))
+    work.add_edge(1, 4, line_pixels((10, 12), (18, 12)))
+    work.add_edge(1, 5, line_pixels((10, 12), (2, 12)))
+    assert merge_close_vertices(work, feasible, 3.0, 1.5, 0.0) == 0
+    assert merge_close_vertices(work, FEASIBLE, 3.0, 1.5, 0.0) == 1
+
+
+def test_a_loop_left_short_by_a_merge_is_dropped_a_long_one_kept():
+    # 0-1 directly (one pixel) and by a U of 9 pixels: after the merge a loop of 9 pixels
+    u_path = np.array(
+        [
+            (10, 10),
+            (9, 10),
+            (8, 10),
+            (7, 10),
+            (6, 10),
+            (6, 11),
+            (7, 11),
+            (8, 11),
+            (9, 11),
+            (10, 11),
+        ],
+        np.int32,
+    )
+    for loop_px, kept in ((20.0, False), (5.0, True)):
+        work = _graph([(10, 10), (10, 11), (18, 10), (18, 11)], [(0, 1), (0, 2), (1, 3)])
+        work.add_edge(0, 1, u_path)
+        assert merge_close_vertices(work, FEASIBLE, 1.5, 1.5, loop_px) == 1
+        loops = [e for e, (u, v, _) in work.edges.items() if u == v]
+        assert bool(loops) == kept
