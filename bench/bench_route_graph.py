@@ -483,23 +483,6 @@ def report_markdown(rows: list[dict], avg: dict, info: dict, args) -> str:
 
 
 # ---------------------------------------------------------------------------- pictures
-def edge_lines(graph, occupancy) -> list[np.ndarray]:
-    """Each edge as (K, 2) ``(col, row)`` float image coordinates, from its ``waypoints``,
-    ``world`` or ``path`` (the first present)."""
-    lines = []
-    for _, _, d in graph.edges(data=True):
-        pts = d.get("waypoints")
-        pts = d.get("world") if pts is None else pts
-        if pts is not None:
-            xy = np.asarray(pts, np.float64).reshape(-1, 2)
-            rows, cols = occupancy.world_to_pixel(xy[:, 0], xy[:, 1])
-        else:
-            rc = np.asarray(d["path"], np.float64).reshape(-1, 2)
-            rows, cols = rc[:, 0], rc[:, 1]
-        lines.append(np.stack([cols, rows], axis=1))
-    return lines
-
-
 def map_background(occupancy, max_px: int = 900) -> tuple[np.ndarray, int]:
     """Grey picture of the map (free white, unknown grey, occupied black), downscaled by an
     integer step so its longer side is at most ``max_px``; returns (image, step)."""
@@ -513,6 +496,8 @@ def map_background(occupancy, max_px: int = 900) -> tuple[np.ndarray, int]:
 def draw_panel(ax, occupancy, graph, title: str, color: str) -> None:
     from matplotlib.collections import LineCollection
 
+    from topojax.plotting import route_graph_lines
+
     img, _ = map_background(occupancy)
     h, w = occupancy.shape
     ax.imshow(
@@ -525,7 +510,7 @@ def draw_panel(ax, occupancy, graph, title: str, color: str) -> None:
     )
     if graph is not None:
         ax.add_collection(
-            LineCollection(edge_lines(graph, occupancy), colors=color, linewidths=0.6)
+            LineCollection(route_graph_lines(graph, occupancy), colors=color, linewidths=0.6)
         )
         pix = np.array([d["pixel"] for _, d in graph.nodes(data=True)], float).reshape(-1, 2)
         ax.scatter(pix[:, 1], pix[:, 0], s=1.5, c="k", linewidths=0)

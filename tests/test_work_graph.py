@@ -57,10 +57,11 @@ def test_dead_end_longer_than_its_limit_stays():
     assert len(work.edges) == 4
 
 
-def test_no_merge_where_the_lead_would_leave_the_feasible_pixels():
+def test_no_merge_where_a_connector_would_leave_the_feasible_pixels():
     feasible = FEASIBLE.copy()
-    # 1's other edge meets it from below; the lead from 0 to that pixel is the line
-    # (10, 10)-(10, 12): block its middle pixel, and the edge 0-1 runs round it
+    # vertex 1's other edges meet it at (10, 12); the connector from vertex 0 to that pixel
+    # is the line (10, 10)-(10, 12): its middle pixel is blocked, and the edge 0-1 runs
+    # round it
     feasible[10, 11] = False
     work = WorkGraph()
     for p in [(10, 10), (10, 12), (2, 10), (18, 10), (18, 12), (2, 12)]:

@@ -36,6 +36,7 @@ __all__ = [
     "plot_route",
     "plot_route_graph",
     "plot_rooms",
+    "route_graph_lines",
     "plot_stages",
     "add_legend",
     "add_scale_bar",
@@ -339,6 +340,14 @@ def plot_skeleton(skeleton: np.ndarray, *, ax=None, color="#2ca02c", title: str 
     return ax
 
 
+def _vertices_by_kind(graph) -> dict[str, list]:
+    """Vertex kind -> list of the vertices' ``(col, row)`` pixels."""
+    points: dict[str, list] = {}
+    for _, d in graph.nodes(data=True):
+        points.setdefault(d.get("kind"), []).append(d["pixel"][::-1])
+    return points
+
+
 def plot_graph(
     graph,
     *,
@@ -371,9 +380,7 @@ def plot_graph(
     """
     ax = _axes(ax)
     segments = [np.asarray(data["path"], float)[:, ::-1] for _, _, data in graph.edges(data=True)]
-    points: dict[str, list] = {}
-    for _, d in graph.nodes(data=True):
-        points.setdefault(d.get("kind"), []).append(d["pixel"][::-1])
+    points = _vertices_by_kind(graph)
     draw_graph_lines(
         ax, segments, points, edge_color=edge_color, linewidth=linewidth, node_size=node_size
     )
@@ -485,9 +492,7 @@ def plot_route_graph(
     rgba = np.zeros(margin.shape + (4,), np.uint8)
     rgba[margin] = (*(round(255 * c) for c in _hex_rgb(_MARGIN_COLOUR)), 255)
     _imshow_pooled(ax, rgba, margin.shape, 1)
-    points: dict[str, list] = {}
-    for _, d in graph.nodes(data=True):
-        points.setdefault(d.get("kind"), []).append(d["pixel"][::-1])
+    points = _vertices_by_kind(graph)
     draw_graph_lines(
         ax,
         route_graph_lines(graph, occupancy),

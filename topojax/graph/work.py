@@ -359,8 +359,8 @@ def drop_spurs(
 
 def _rerouted(work: WorkGraph, gone: int, keep: int, skip: int, feasible: np.ndarray):
     """The edges of ``gone`` but ``skip`` as ``(edge, other end, path from keep's pixel)``,
-    each path led from ``keep``'s pixel to where it met ``gone`` by a straight line; None
-    where such a line leaves ``feasible`` or ``gone`` has a self-loop."""
+    each path joined to ``keep``'s pixel by a straight connector from where it met
+    ``gone``; None where a connector leaves ``feasible`` or ``gone`` has a self-loop."""
     out = []
     for f in work.adj[gone]:
         if f == skip:
@@ -369,10 +369,10 @@ def _rerouted(work: WorkGraph, gone: int, keep: int, skip: int, feasible: np.nda
         if a == b:
             return None
         path = work.oriented_path(f, gone)
-        lead = line_pixels(work.pixel[keep], path[0])
-        if not feasible[lead[:, 0], lead[:, 1]].all():
+        connector = line_pixels(work.pixel[keep], path[0])
+        if not feasible[connector[:, 0], connector[:, 1]].all():
             return None
-        out.append((f, work.other(f, gone), np.concatenate([lead[:-1], path])))
+        out.append((f, work.other(f, gone), np.concatenate([connector[:-1], path])))
     return out
 
 
@@ -381,11 +381,13 @@ def merge_close_vertices(
 ) -> int:
     """Merge the two ends of every edge shorter than ``max_px`` (``dead_end_px`` for an edge
     to a dead end), shortest first: the end with more edges stays, the other's edges are
-    led to it by straight feasible lines and its pixels become its member pixels.  A loop
+    joined to it by straight feasible connectors and its pixels become its member pixels.  A loop
     that the merge leaves shorter than ``min_loop_px`` at the vertex is dropped.  Returns
     the number of vertices merged."""
     merged = 0
-    for e in sorted(work.edges, key=work.length.__getitem__):
+    reach = max(max_px, dead_end_px)
+    short = [e for e, length in work.length.items() if length <= reach]
+    for e in sorted(short, key=work.length.__getitem__):
         if e not in work.edges:
             continue
         u, v, _ = work.edges[e]

@@ -30,6 +30,9 @@ from .feasible import FeasibleSpace, feasible_space
 
 __all__ = ["RouteGraphConfig", "route_graph"]
 
+#: Edges at most this long (pixels) join two neighbouring pixels: one-pixel edges.
+_ONE_PIXEL = 1.5
+
 #: An 8-connected pixel path is up to this much longer than the straight or simplified
 #: line a robot follows (1 / cos 22.5 deg, rounded up): loop lengths measured on pixel
 #: paths are scaled by it so that no loop is short along the waypoints.
@@ -199,7 +202,9 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     work.contract_all()
     # vertices closer than the robot's radius are one place for it; a dead end one pixel
     # off its junction is a one-pixel edge
-    merge_close_vertices(work, feasible, max(1.5, cfg.robot_radius_m / res), 1.5, min_loop_px)
+    merge_close_vertices(
+        work, feasible, max(_ONE_PIXEL, cfg.robot_radius_m / res), _ONE_PIXEL, min_loop_px
+    )
     t4 = time.perf_counter()
     graph = _assemble(work, occupancy, space, cfg, origin)
     t5 = time.perf_counter()
