@@ -293,12 +293,22 @@ def greedy_shortcuts(
     run = 0
     for i in range(n_c):
         a, b, c = cand_a[i], cand_b[i], cand_c[i]
+        mid = b if c < 0 else c
+        # the lines first: most candidates leave the feasible space or touch an edge, and
+        # a line is cheaper to draw than a route search
+        n = _clear_line(a, mid, pos, mem, mem_start, feasible, occupied, end_px, seg, ms, c >= 0)
+        if n == 0:
+            continue
+        n2 = 0
+        if c >= 0:
+            n2 = _clear_line(c, b, pos, mem, mem_start, feasible, occupied, end_px, seg2, ms, True)
+            if n2 == 0:
+                continue
         run += 1
         # a route of at most ``need`` makes the shortcut useless, one of at most ``short``
         # makes its loop too short: one search to the longer of the two
         if _within(head, nxt, to, wt, a, b, max(need[i], short[i]), dist, stamp, run, hk, hv):
             continue
-        mid = b if c < 0 else c
         if c >= 0 and head[c] >= 0 and min_loop > 0:
             # a corner already in the graph: neither leg may close a short loop through it
             run += 1
@@ -309,14 +319,7 @@ def greedy_shortcuts(
             leg = _line_length(pos[c, 0], pos[c, 1], pos[b, 0], pos[b, 1])
             if _within(head, nxt, to, wt, c, b, min_loop - leg, dist, stamp, run, hk, hv):
                 continue
-        n = _clear_line(a, mid, pos, mem, mem_start, feasible, occupied, end_px, seg, ms, c >= 0)
-        if n == 0:
-            continue
-        n2 = 0
         if c >= 0:
-            n2 = _clear_line(c, b, pos, mem, mem_start, feasible, occupied, end_px, seg2, ms, True)
-            if n2 == 0:
-                continue
             _occupy(seg2, n2, occupied)
         _occupy(seg, n, occupied)
         k = _link(a, mid, pos, head, nxt, to, wt, k)
