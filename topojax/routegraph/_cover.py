@@ -9,8 +9,6 @@ import math
 
 import cv2
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from ..graph.work import WorkGraph, line_pixels
@@ -347,24 +345,6 @@ def _same_edge(a, b, on, vert_key, m, neighbours: bool = True) -> np.ndarray:
     return same
 
 
-def _route_lengths(mat, a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
-    """Graph distance from each node ``a`` to ``b`` (inf past ``limit``)."""
-    m = mat.shape[0]
-    out = np.empty(len(a))
-    order = np.argsort(a, kind="stable")
-    a_s = a[order]
-    sources = np.unique(a_s)
-    chunk = max(1, 4_000_000 // m)
-    for s in range(0, len(sources), chunk):
-        src = sources[s : s + chunk]
-        d = dijkstra(mat, directed=False, indices=src, limit=limit)
-        lo = np.searchsorted(a_s, src[0], "left")
-        hi = np.searchsorted(a_s, src[-1], "right")
-        sel = order[lo:hi]
-        out[sel] = d[np.searchsorted(src, a_s[lo:hi]), b[sel]]
-    return out
-
-
 def add_shortcuts(
     work: WorkGraph,
     feasible: np.ndarray,
@@ -438,15 +418,13 @@ def add_shortcuts(
     cand_c = np.r_[np.full(len(pairs), -1), m + bent[:, 2]].astype(np.int64)
     if cand_a.size == 0:
         return 0
-    mat = coo_matrix((kw, (ka, kb)), shape=(m, m)).tocsr()
-    graph_d = _route_lengths(mat, cand_a, cand_b, stretch * 2.0 * radius_px)
     need = np.maximum(stretch * length, length + gain_px)
     rung = slice(n_plain, len(pairs))
     need[rung] = np.maximum(RUNG_STRETCH * length[rung], length[rung] + rung_gain_px)
-    cand = np.flatnonzero((graph_d > need) & (graph_d + length >= min_loop_px))
-    cand = cand[np.argsort(length[cand], kind="stable")]
-    if cand.size == 0:
-        return 0
+    # every candidate goes to the greedy pass, which draws its lines before it searches
+    # the graph for a route: a route search per candidate with a clear line costs less
+    # than the routes of all candidates up front
+    cand = np.argsort(length, kind="stable")
     # shortcuts cross no edge: a crossing without a vertex would let a query point snap
     # onto a long edge that leads away from its goal (and doubles the edges in open rooms)
     occupied = grow(graph_raster(work, feasible.shape))
