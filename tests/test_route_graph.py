@@ -720,3 +720,39 @@ def test_drop_short_loops_on_a_square(limits, dropped):
     w = np.full(4, 10.0)
     got = drop_short_loops(4, u, v, w, np.array([0, 1], np.int64), np.array(limits))
     assert tuple(got.tolist()) == dropped
+
+
+def test_greedy_shortcuts_take_many_disjoint_lines_and_then_route_along_them():
+    """More accepted shortcuts than the pass first has room for: its adjacency grows, and
+    every accepted line is then a route (the same candidates again are useless)."""
+    from topojax.routegraph._spanner import greedy_shortcuts
+
+    feasible = np.ones((210, 100), bool)
+    # 50 rows x 12 columns of short horizontal segments, 4 rows and 8 columns apart: no
+    # two touch, none joined by a route
+    rc = np.array([(r, c) for r in range(4, 204, 4) for c in range(2, 98, 8)], np.int64)
+    n = len(rc)
+    pos = np.concatenate([rc, rc + [0, 3]])
+    mem = pos.copy()
+    mem_start = np.arange(2 * n + 1, dtype=np.int64)
+    a = np.r_[np.arange(n), np.arange(n)].astype(np.int64)
+    b = a + n
+    taken = greedy_shortcuts(
+        pos,
+        mem,
+        mem_start,
+        np.zeros(0, np.int64),
+        np.zeros(0, np.int64),
+        np.zeros(0, np.float64),
+        a,
+        b,
+        np.full(2 * n, -1, np.int64),
+        np.full(2 * n, 3.5),
+        np.zeros(2 * n),
+        feasible,
+        np.zeros_like(feasible),
+        1.0,
+        0.0,
+    )
+    assert taken[:n].all()
+    assert not taken[n:].any()

@@ -214,6 +214,14 @@ def _link(a, b, pos, head, nxt, to, wt, k):
 
 
 @cached_njit(nogil=True)
+def _doubled(a, used):
+    """``a`` in an array twice its size (the first ``used`` entries copied)."""
+    out = np.empty(2 * a.size, a.dtype)
+    out[:used] = a[:used]
+    return out
+
+
+@cached_njit(nogil=True)
 def _occupy(seg, n, occupied):
     h, w = occupied.shape
     for j in range(n):
@@ -279,7 +287,8 @@ def greedy_shortcuts(
     """
     m = pos.shape[0]
     n_c = cand_a.size
-    cap = 2 * (edge_u.size + 2 * n_c) + 1
+    # room for the edges and some shortcuts; grown (doubled) when the accepted ones fill it
+    cap = 2 * edge_u.size + 4 * max(64, n_c // 16) + 1
     head, nxt, to, wt, k = _linked(m, edge_u, edge_v, edge_w, cap)
     dist = np.zeros(m, np.float64)
     stamp = np.zeros(m, np.int64)
@@ -322,6 +331,9 @@ def greedy_shortcuts(
         if c >= 0:
             _occupy(seg2, n2, occupied)
         _occupy(seg, n, occupied)
+        if k + 4 > nxt.size:
+            nxt, to, wt = _doubled(nxt, k), _doubled(to, k), _doubled(wt, k)
+            hk, hv = np.empty(nxt.size, np.float64), np.empty(nxt.size, np.int64)
         k = _link(a, mid, pos, head, nxt, to, wt, k)
         if c >= 0:
             k = _link(c, b, pos, head, nxt, to, wt, k)
