@@ -26,7 +26,7 @@ from .build import _edge_values, _world_of
 from .store import KIND_JUNCTION, KIND_RING, GraphStore
 from .trace import _DC, _DR, _POPCOUNT, link_mask
 
-__all__ = ["row_skeleton_graph_store"]
+__all__ = ["grown", "row_skeleton_graph_store"]
 
 #: Path pixels written per block of edges.
 _CHUNK_PX = 1 << 18
@@ -132,7 +132,9 @@ def _walk(row_start, cols, masks, state, h, w, start, r, c, k, mark, out_idx, ou
 
 
 @cached_njit(nogil=True)
-def _grown(arr, n):
+def grown(arr, n):
+    """``arr`` if index ``n`` fits in it, else a copy in an array about twice its size
+    (the entries past the old end uninitialised)."""
     if n < arr.shape[0]:
         return arr
     out = np.empty(2 * arr.shape[0] + 16, arr.dtype)
@@ -167,7 +169,7 @@ def _trace_edges(row_start, cols, masks, state, h, w):
                     if _POPCOUNT[masks[i]] != 2 or state[i] & 1:
                         continue
                     state[i] |= 2
-                    rings = _grown(rings, n_r)
+                    rings = grown(rings, n_r)
                     rings[n_r] = i
                     n_r += 1
                 c = cols[i]
@@ -187,10 +189,10 @@ def _trace_edges(row_start, cols, masks, state, h, w):
                             row_start, cols, masks, state, h, w, i, r, c, k, True,
                             none, none, none, -1,
                         )  # fmt: skip
-                    eu = _grown(eu, n_e)
-                    ek = _grown(ek, n_e)
-                    ev = _grown(ev, n_e)
-                    el = _grown(el, n_e)
+                    eu = grown(eu, n_e)
+                    ek = grown(ek, n_e)
+                    ev = grown(ev, n_e)
+                    el = grown(el, n_e)
                     eu[n_e], ek[n_e], ev[n_e], el[n_e] = i, k, end, length
                     n_e += 1
                 if phase == 1:

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from .._jit import cached_njit
+from ..graph.sparse import grown
 from ..graph.work import line_in_mask
 
 __all__ = [
@@ -214,14 +215,6 @@ def _link(a, b, pos, head, nxt, to, wt, k):
 
 
 @cached_njit(nogil=True)
-def _doubled(a, used):
-    """``a`` in an array twice its size (the first ``used`` entries copied)."""
-    out = np.empty(2 * a.size, a.dtype)
-    out[:used] = a[:used]
-    return out
-
-
-@cached_njit(nogil=True)
 def _occupy(seg, n, occupied):
     h, w = occupied.shape
     for j in range(n):
@@ -331,8 +324,9 @@ def greedy_shortcuts(
         if c >= 0:
             _occupy(seg2, n2, occupied)
         _occupy(seg, n, occupied)
-        if k + 4 > nxt.size:
-            nxt, to, wt = _doubled(nxt, k), _doubled(to, k), _doubled(wt, k)
+        # room for four more edge ends (slots k..k+3)
+        nxt, to, wt = grown(nxt, k + 3), grown(to, k + 3), grown(wt, k + 3)
+        if hk.size < nxt.size:
             hk, hv = np.empty(nxt.size, np.float64), np.empty(nxt.size, np.int64)
         k = _link(a, mid, pos, head, nxt, to, wt, k)
         if c >= 0:
