@@ -9,16 +9,7 @@ import os
 import sys
 
 from .. import __version__
-from . import batch, replay, rooms, route_graph, view
-from ._options import (
-    add_map_options,
-    add_nav2_options,
-    add_pipeline_options,
-    add_room_options,
-    add_sigma_options,
-)
-from .graph import _cmd_demo, _cmd_graph
-from .route import _cmd_route
+from . import batch, graph, replay, rooms, route, route_graph, view
 
 __all__ = ["build_parser", "main"]
 
@@ -37,113 +28,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    p = sub.add_parser(
-        "graph",
-        help="build the topology graph of one map file",
-        description="Build the topology graph of a map (ROS map_server YAML, or a "
-        "PGM/PNG/JPG image) and write GraphML, JSON and GeoJSON.",
-    )
-    p.add_argument("map", help="map file: .yaml/.yml (map_server), .pgm, .png, .jpg, ...")
-    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
-    p.add_argument("--plot", action="store_true", help="also write a PNG overlay")
-    p.add_argument("--stages", action="store_true", help="also write a PNG of every stage")
-    add_map_options(p)
-    add_sigma_options(p)
-    add_nav2_options(p, "STEM_nav2.geojson")
-    p.add_argument(
-        "--rooms",
-        action="store_true",
-        help="also split the map into rooms: write STEM_rooms.{geojson,png,graphml,json} "
-        "and give every vertex its room and every edge the rooms and doors it passes (in "
-        "the graph files and the Nav2 graph); with --plot the rooms are drawn too",
-    )
-    p.add_argument(
-        "--mcap",
-        metavar="FILE",
-        help="also write a ROS 2 MCAP recording (FILE.mcap, for Foxglove, RViz and "
-        "ros2 bag play): the map on /map, the graph on /topology, with --rooms the rooms "
-        "on /rooms (needs rosbags: pip install 'topojax[bags]')",
-    )
-    p.add_argument(
-        "--view",
-        action="store_true",
-        help="also write STEM_view.html: the interactive view of the map, its stages and "
-        "graph (with --rooms the rooms; see topojax view)",
-    )
-    add_pipeline_options(p)
-    add_room_options(p, only_with="--rooms")
-    p.set_defaults(handler=_cmd_graph)
-
-    p = sub.add_parser(
-        "demo",
-        help="run the pipeline on a bundled real map",
-        description="Run the full pipeline on a map bundled with topojax (the paper's maps), "
-        "write the graph and pictures, and print a summary.",
-    )
-    p.add_argument("--map", choices=("intel", "office", "a_scan"), default="intel")
-    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
-    add_pipeline_options(p)
-    p.set_defaults(handler=_cmd_demo)
-
-    p = sub.add_parser(
-        "route",
-        help="shortest route between two points on a saved graph",
-        description="Snap a start and a goal point to a saved topology graph (GraphML, "
-        "JSON or GeoJSON from `topojax graph`) and print the shortest route between them "
-        "along its corridors; optionally write it as a GeoJSON LineString.",
-    )
-    p.add_argument("graph", help="graph file: .graphml, .json or .geojson")
-    p.add_argument(
-        "--start", nargs=2, type=float, required=True, metavar=("X", "Y"), help="start point"
-    )
-    p.add_argument(
-        "--goal", nargs=2, type=float, required=True, metavar=("X", "Y"), help="goal point"
-    )
-    p.add_argument(
-        "--pixel",
-        action="store_true",
-        help="points are (row, col) pixels of the map instead of world (x, y) metres",
-    )
-    p.add_argument(
-        "--max-snap-m",
-        type=float,
-        default=5.0,
-        metavar="M",
-        help="fail if a point is more than M metres from the graph (default 5)",
-    )
-    p.add_argument(
-        "--map",
-        metavar="MAP",
-        help="the graph's map (as `topojax graph` reads it): each end may then join the "
-        "graph at the nearest point of any edge it sees within the graph's snap distance "
-        "(1 m if it has none), whichever gives the shortest route; the robot radius is the "
-        "graph's (a route graph's) or --robot-radius; the map options below say how it is "
-        "read",
-    )
-    p.add_argument(
-        "--robot-radius",
-        type=float,
-        metavar="M",
-        help="with --map: the robot radius in metres (default: the graph's)",
-    )
-    p.add_argument(
-        "--entry-m",
-        type=float,
-        metavar="M",
-        help="with --map: how far a route may go to join the graph (default: the graph's "
-        "snap distance, else 1)",
-    )
-    add_map_options(p)
-    p.add_argument("-o", "--out", help="write the route here as GeoJSON")
-    p.add_argument(
-        "--simplify-m",
-        type=float,
-        metavar="M",
-        help="write waypoints that keep every route pixel within M metres instead of every "
-        "pixel (default: every pixel)",
-    )
-    p.set_defaults(handler=_cmd_route, runs_kernels=False)
-
+    graph.add_commands(sub)
+    route.add_command(sub)
     route_graph.add_command(sub)
     rooms.add_command(sub)
     replay.add_command(sub)

@@ -6,9 +6,71 @@ import json
 import time
 from pathlib import Path
 
-from ._options import map_options, nav2_tolerance, pipeline_config, room_config
+from ._options import (
+    add_map_options,
+    add_nav2_options,
+    add_pipeline_options,
+    add_room_options,
+    add_sigma_options,
+    map_options,
+    nav2_tolerance,
+    pipeline_config,
+    room_config,
+)
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 from .rooms import room_files, room_lines
+
+
+def add_commands(subparsers) -> None:
+    """Register the ``graph`` and ``demo`` subcommands on an ``argparse`` subparsers
+    object."""
+    p = subparsers.add_parser(
+        "graph",
+        help="build the topology graph of one map file",
+        description="Build the topology graph of a map (ROS map_server YAML, or a "
+        "PGM/PNG/JPG image) and write GraphML, JSON and GeoJSON.",
+    )
+    p.add_argument("map", help="map file: .yaml/.yml (map_server), .pgm, .png, .jpg, ...")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    p.add_argument("--plot", action="store_true", help="also write a PNG overlay")
+    p.add_argument("--stages", action="store_true", help="also write a PNG of every stage")
+    add_map_options(p)
+    add_sigma_options(p)
+    add_nav2_options(p, "STEM_nav2.geojson")
+    p.add_argument(
+        "--rooms",
+        action="store_true",
+        help="also split the map into rooms: write STEM_rooms.{geojson,png,graphml,json} "
+        "and give every vertex its room and every edge the rooms and doors it passes (in "
+        "the graph files and the Nav2 graph); with --plot the rooms are drawn too",
+    )
+    p.add_argument(
+        "--mcap",
+        metavar="FILE",
+        help="also write a ROS 2 MCAP recording (FILE.mcap, for Foxglove, RViz and "
+        "ros2 bag play): the map on /map, the graph on /topology, with --rooms the rooms "
+        "on /rooms (needs rosbags: pip install 'topojax[bags]')",
+    )
+    p.add_argument(
+        "--view",
+        action="store_true",
+        help="also write STEM_view.html: the interactive view of the map, its stages and "
+        "graph (with --rooms the rooms; see topojax view)",
+    )
+    add_pipeline_options(p)
+    add_room_options(p, only_with="--rooms")
+    p.set_defaults(handler=_cmd_graph)
+
+    p = subparsers.add_parser(
+        "demo",
+        help="run the pipeline on a bundled real map",
+        description="Run the full pipeline on a map bundled with topojax (the paper's maps), "
+        "write the graph and pictures, and print a summary.",
+    )
+    p.add_argument("--map", choices=("intel", "office", "a_scan"), default="intel")
+    p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
+    add_pipeline_options(p)
+    p.set_defaults(handler=_cmd_demo)
 
 
 def _write_outputs(

@@ -7,8 +7,70 @@ import os
 import sys
 from pathlib import Path
 
-from ._options import map_options
+from ._options import add_map_options, map_options
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+
+
+def add_command(subparsers) -> None:
+    """Register the ``route`` subcommand on an ``argparse`` subparsers object."""
+    p = subparsers.add_parser(
+        "route",
+        help="shortest route between two points on a saved graph",
+        description="Snap a start and a goal point to a saved topology graph (GraphML, "
+        "JSON or GeoJSON from `topojax graph`) and print the shortest route between them "
+        "along its corridors; optionally write it as a GeoJSON LineString.",
+    )
+    p.add_argument("graph", help="graph file: .graphml, .json or .geojson")
+    p.add_argument(
+        "--start", nargs=2, type=float, required=True, metavar=("X", "Y"), help="start point"
+    )
+    p.add_argument(
+        "--goal", nargs=2, type=float, required=True, metavar=("X", "Y"), help="goal point"
+    )
+    p.add_argument(
+        "--pixel",
+        action="store_true",
+        help="points are (row, col) pixels of the map instead of world (x, y) metres",
+    )
+    p.add_argument(
+        "--max-snap-m",
+        type=float,
+        default=5.0,
+        metavar="M",
+        help="fail if a point is more than M metres from the graph (default 5)",
+    )
+    p.add_argument(
+        "--map",
+        metavar="MAP",
+        help="the graph's map (as `topojax graph` reads it): each end may then join the "
+        "graph at the nearest point of any edge it sees within the graph's snap distance "
+        "(1 m if it has none), whichever gives the shortest route; the robot radius is the "
+        "graph's (a route graph's) or --robot-radius; the map options below say how it is "
+        "read",
+    )
+    p.add_argument(
+        "--robot-radius",
+        type=float,
+        metavar="M",
+        help="with --map: the robot radius in metres (default: the graph's)",
+    )
+    p.add_argument(
+        "--entry-m",
+        type=float,
+        metavar="M",
+        help="with --map: how far a route may go to join the graph (default: the graph's "
+        "snap distance, else 1)",
+    )
+    add_map_options(p)
+    p.add_argument("-o", "--out", help="write the route here as GeoJSON")
+    p.add_argument(
+        "--simplify-m",
+        type=float,
+        metavar="M",
+        help="write waypoints that keep every route pixel within M metres instead of every "
+        "pixel (default: every pixel)",
+    )
+    p.set_defaults(handler=_cmd_route, runs_kernels=False)
 
 
 def _map_options_given(args) -> list[str]:
