@@ -469,6 +469,14 @@ def test_coverage_equals_a_brute_force_reference(seed, few, monkeypatch):
     among[30:, :20] = True
     among[rng.integers(0, 48, 40), rng.integers(0, 56, 40)] = True
     assert np.array_equal(_cover.covered(raster, feasible, snap, among=among), want & among)
+    # a graph grown in two steps: testing what the first left uncovered against only the
+    # pixels added gives the whole graph's answer (what add_coverage relies on)
+    first = raster.copy()
+    first[24, 30:] = False
+    seen = _cover.covered(first, feasible, snap)
+    added = raster & ~first
+    rest = _cover.covered(added, feasible, snap, among=feasible & ~seen)
+    assert np.array_equal(seen | rest, want)
 
 
 def test_straight_segments_are_tested_pixel_by_pixel():

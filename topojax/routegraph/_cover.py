@@ -183,10 +183,14 @@ def add_coverage(
     lane_round, grid_round = 0, 0  # lane rounds: along the walls, then mesh and skeleton
     wall = wall_distance(feasible)
     uncovered = feasible
+    before = np.zeros(shape, bool)
     while True:
-        # the graph only grows: what was covered stays covered
+        # the graph only grows: what was covered stays covered, and a pixel still
+        # uncovered can only see a graph pixel added since the last test
         raster = graph_raster(work, shape)
-        uncovered = uncovered & ~covered(raster, feasible, snap_px, wall, among=uncovered)
+        added = raster & ~before
+        uncovered = uncovered & ~covered(added, feasible, snap_px, wall, among=uncovered)
+        before = raster
         if grid_round == rounds or not uncovered.any():
             break
         if lane_round == 0:
