@@ -443,14 +443,15 @@ def _brute_covered(raster, feasible, snap_px):
     return out
 
 
-@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize("few", [True, False])
 def test_coverage_equals_a_brute_force_reference(seed, few, monkeypatch):
-    """Both ways of naming a near graph pixel (k-d tree for few pixels, labelled distance
-    transform with the exact-distance filter for many) give the reference's answer."""
+    """Both ways of naming a near graph pixel (the nearest, searched row by row, for few
+    pixels; the labelled distance transform's for many, then the row search where that
+    one is hidden or out of reach) give the reference's answer."""
     from topojax.routegraph import _cover
 
-    monkeypatch.setattr(_cover, "_FEW_PIXELS", 10**9 if few else 0)
+    monkeypatch.setattr(_cover, "_ROWS_PER_PIXEL", 10**9 if few else 0)
     rng = np.random.default_rng(seed)
     feasible = np.ones((48, 56), bool)
     for _ in range(14):  # walls and pillars
@@ -764,3 +765,23 @@ def test_greedy_shortcuts_take_many_disjoint_lines_and_then_route_along_them():
     )
     assert taken[:n].all()
     assert not taken[n:].any()
+
+
+@pytest.mark.parametrize("in_boxes", [True, False])
+def test_large_pieces_keeps_the_8_connected_pieces_of_at_least_the_area(in_boxes, monkeypatch):
+    """Small pieces cleared in their bounding boxes or by a lookup over the whole mask:
+    both give scikit-image's labelling filtered by area, as a new array."""
+    from skimage.measure import label
+
+    from topojax.routegraph import _joins
+
+    monkeypatch.setattr(_joins, "_PIECE_COST_PX", 0 if in_boxes else 10**9)
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        mask = rng.random((int(rng.integers(1, 60)), int(rng.integers(1, 60)))) < rng.random()
+        area = int(rng.integers(0, 25))
+        labels = label(mask, connectivity=2)
+        sizes = np.bincount(labels.ravel())
+        want = mask & (sizes[labels] >= area)
+        got = _joins.large_pieces(mask, area)
+        assert got is not mask and np.array_equal(got, want)

@@ -1,10 +1,16 @@
-"""The work graph's merge of close vertices, on literal graphs."""
+"""The work graph on literal graphs: the merge of close vertices, the faces beside edges."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from topojax.graph.work import WorkGraph, line_pixels, merge_close_vertices
+from topojax.graph.work import (
+    WorkGraph,
+    edge_sides,
+    face_labels,
+    line_pixels,
+    merge_close_vertices,
+)
 
 FEASIBLE = np.ones((30, 30), bool)
 
@@ -98,3 +104,32 @@ def test_a_loop_left_short_by_a_merge_is_dropped_a_long_one_kept():
         assert merge_close_vertices(work, FEASIBLE, 1.5, 1.5, loop_px) == 1
         loops = [e for e, (u, v, _) in work.edges.items() if u == v]
         assert bool(loops) == kept
+
+
+def test_edge_sides_names_the_faces_each_side_of_an_edge():
+    """A ring round a block and a spur into its outside: the ring's edge has the inside
+    and the outside as its two faces, the spur the outside on both sides (a bridge), and
+    an edge without interior pixels has none."""
+    skeleton = np.zeros((9, 12), bool)
+    skeleton[2, 2:9] = skeleton[6, 2:9] = True
+    skeleton[2:7, 2] = skeleton[2:7, 8] = True
+    faces = face_labels(skeleton)
+    work = WorkGraph()
+    a = work.add_vertex((2, 8))
+    b = work.add_vertex((4, 11))
+    c = work.add_vertex((4, 9))
+    ring = np.array(
+        [(2, x) for x in range(8, 1, -1)]
+        + [(y, 2) for y in range(3, 7)]
+        + [(6, x) for x in range(3, 9)]
+        + [(y, 8) for y in range(5, 1, -1)],
+        np.int32,
+    )
+    e_ring = work.add_edge(a, a, ring)
+    e_spur = work.add_edge(c, b, np.array([(4, 9), (4, 10), (4, 11)], np.int32))
+    e_short = work.add_edge(a, c, np.array([(2, 8), (3, 9)], np.int32))
+    inside, outside = faces[4, 5], faces[0, 0]
+    sides = edge_sides(work, faces)
+    assert sides[e_ring] == tuple(sorted((int(inside), int(outside))))
+    assert sides[e_spur] == (int(outside), int(outside))
+    assert e_short not in sides

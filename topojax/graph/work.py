@@ -205,20 +205,29 @@ def edge_sides(work: WorkGraph, faces: np.ndarray) -> dict[int, tuple[int, int]]
     """The faces on the two sides of each edge (``(a, b)``, ``a == b`` for an edge with one
     face on both sides, i.e. a bridge); edges without interior pixels are left out."""
     h, w = faces.shape
+    ids = list(work.edges)
+    inner = [work.edges[e][2][1:-1] for e in ids]
+    sizes = np.array([len(p) for p in inner], np.int64)
+    if sizes.sum() == 0:
+        return {}
+    every = np.concatenate(inner).astype(np.int64)
+    owner = np.repeat(np.arange(len(ids)), sizes)
+    # the 4-neighbours of every interior pixel, with the edge they belong to
+    rr = np.concatenate([every[:, 0] - 1, every[:, 0] + 1, every[:, 0], every[:, 0]])
+    cc = np.concatenate([every[:, 1], every[:, 1], every[:, 1] - 1, every[:, 1] + 1])
+    owner = np.tile(owner, 4)
+    ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+    lab = faces[rr[ok], cc[ok]].astype(np.int64)
+    owner = owner[ok]
+    pos = lab > 0
+    key = np.unique(owner[pos] * (int(faces.max()) + 1) + lab[pos])
+    edge, face = np.divmod(key, int(faces.max()) + 1)
+    count = np.bincount(edge, minlength=len(ids))
+    first = np.searchsorted(edge, np.arange(len(ids)))
     sides = {}
-    for e, (_, _, path) in work.edges.items():
-        inner = path[1:-1]
-        if len(inner) == 0:
-            continue
-        rr = np.concatenate([inner[:, 0] - 1, inner[:, 0] + 1, inner[:, 0], inner[:, 0]])
-        cc = np.concatenate([inner[:, 1], inner[:, 1], inner[:, 1] - 1, inner[:, 1] + 1])
-        ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-        lab = np.unique(faces[rr[ok], cc[ok]])
-        lab = lab[lab > 0]
-        if len(lab) == 1:
-            sides[e] = (int(lab[0]), int(lab[0]))
-        elif len(lab) == 2:
-            sides[e] = (int(lab[0]), int(lab[1]))
+    for k in np.flatnonzero((count == 1) | (count == 2)).tolist():
+        a = int(face[first[k]])
+        sides[ids[k]] = (a, a) if count[k] == 1 else (a, int(face[first[k] + 1]))
     return sides
 
 

@@ -22,7 +22,7 @@ from ._joins import (
 )
 from ._lanes import add_lanes
 from ._mesh import add_mesh, mesh_pieces
-from ._spanner import anchor_pieces, greedy_shortcuts, see_any, see_named, see_nearest
+from ._spanner import anchor_pieces, greedy_shortcuts, see_named, see_within
 
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
 #: distance around each grid point covers its cell up to sqrt 2 / 2 of the spacing).
@@ -36,11 +36,10 @@ RUNG_GAIN_M = 6.0
 # The 5 x 5 labelled distance transform names a graph pixel at most this factor (plus a
 # pixel) farther than the nearest one.
 _LABEL_SLACK = 1.05
-# Up to this many pixels to test (and up to one in _TRANSFORM_SHARE of the window's
-# pixels: a k-d tree query costs about as much per pixel as the two whole-window
-# transforms per twenty pixels), their nearest graph pixels come from a k-d tree instead.
-_FEW_PIXELS = 200_000
-_TRANSFORM_SHARE = 20
+# The labelled transform (its cost goes with the window's pixels) names each tested pixel's
+# graph pixel when the row-by-row search (:func:`see_within`, 2 x snap + 1 rows per tested
+# pixel) would read more than this many rows per pixel of the window.
+_ROWS_PER_PIXEL = 4
 
 
 def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
@@ -73,13 +72,11 @@ def covered(
     test = feasible if among is None else among & feasible
     if not raster.any() or not test.any():
         return np.zeros(feasible.shape, bool)
-    graph_px = mask_pixels(raster)
-    if np.count_nonzero(test) > min(_FEW_PIXELS, test.size // _TRANSFORM_SHARE):
+    rows_read = np.count_nonzero(test) * (2 * math.floor(snap_px) + 1)
+    if rows_read > _ROWS_PER_PIXEL * test.size:
         # the labelled transform names a graph pixel near each pixel, at most
         # _LABEL_SLACK times (plus a pixel) farther than the nearest one; where the named
-        # pixel is hidden or out of reach, another within reach may still be seen, but
-        # only where the exact distance to the graph (a k-d tree of the graph pixels
-        # near them) is within reach
+        # pixel is hidden or out of reach, another within reach may still be seen
         free = (~raster).view(np.uint8)
         _, label = cv2.distanceTransformWithLabels(
             free, cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL
@@ -87,52 +84,18 @@ def covered(
         out, rr, cc = see_named(
             test,
             label,
-            graph_px.astype(np.int64),
+            mask_pixels(raster),
             wall,
             feasible,
             float(snap_px),
             _LABEL_SLACK * snap_px + 1.0,
         )
-        near = _near_cells(graph_px, rr, cc, snap_px) if rr.size else graph_px[:0]
-        if near.size:
-            dist, _ = cKDTree(near).query(np.stack([rr, cc], axis=1))
-            rr, cc = rr[dist <= snap_px], cc[dist <= snap_px]
-        else:
-            rr, cc = rr[:0], cc[:0]
     else:
-        rr, cc = np.nonzero(test)
-        rr, cc = rr.astype(np.int64), cc.astype(np.int64)
-        graph_px = _near_cells(graph_px, rr, cc, snap_px)
-        if graph_px.size == 0:
-            return np.zeros(feasible.shape, bool)
-        dist, idx = cKDTree(graph_px).query(np.stack([rr, cc], axis=1))
-        near = graph_px[idx].astype(np.int64)
-        ok = (dist**2 <= snap_px * snap_px) & see_nearest(
-            rr, cc, near[:, 0], near[:, 1], wall[rr, cc], feasible
-        )
         out = np.zeros(feasible.shape, bool)
-        out[rr[ok], cc[ok]] = True
-        # the nearest pixel hidden: another within reach may still be seen
-        maybe = ~ok & (dist**2 <= snap_px * snap_px)
-        rr, cc = rr[maybe], cc[maybe]
-    out[rr, cc] = see_any(rr, cc, raster, feasible, float(snap_px))
+        pts = mask_pixels(test)
+        rr, cc = pts[:, 0], pts[:, 1]
+    out[rr, cc] = see_within(rr, cc, raster, wall, feasible, float(snap_px))
     return out
-
-
-def _near_cells(points: np.ndarray, rr: np.ndarray, cc: np.ndarray, reach: float) -> np.ndarray:
-    """The ``points`` (N, 2) that may lie within ``reach`` of a pixel ``(rr, cc)``: those
-    in the square cells (side ``reach`` + 1) holding such a pixel or next to one."""
-    side = int(math.ceil(reach)) + 1
-    ncol = int(max(points[:, 1].max(), cc.max())) // side + 3
-    cell = np.zeros((int(max(points[:, 0].max(), rr.max())) // side + 3) * ncol, bool)
-    cell[(rr // side + 1) * ncol + cc // side + 1] = True
-    grid = cell.reshape(-1, ncol)
-    near = grid.copy()
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            near[1:-1, 1:-1] |= grid[1 + dr : grid.shape[0] - 1 + dr, 1 + dc : ncol - 1 + dc]
-    keep = near.ravel()[(points[:, 0] // side + 1) * ncol + points[:, 1] // side + 1]
-    return points[keep]
 
 
 def wall_distance(feasible: np.ndarray) -> np.ndarray:
@@ -156,7 +119,9 @@ def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray
     hit[labels[rr[on], cc[on]]] = True
     missing = np.flatnonzero(~hit[1:]) + 1
     if len(missing):
-        ys, xs = np.nonzero(np.isin(labels, missing))
+        lookup = np.zeros(n, bool)
+        lookup[missing] = True
+        ys, xs = mask_pixels(lookup[labels]).T
         order = np.argsort(labels[ys, xs], kind="stable")
         ys, xs = ys[order], xs[order]
         _, first, counts = np.unique(labels[ys, xs], return_index=True, return_counts=True)
@@ -336,7 +301,8 @@ def _anchor_graph(work: WorkGraph, alive: list[int], spacing_px: float, keep_px:
 def _same_edge(a, b, on, vert_key, m, neighbours: bool = True) -> np.ndarray:
     """Pairs of nodes (vertex or anchor ids ``a``, ``b``) that are no shortcut pair: two
     anchors of one edge, an anchor and its edge's end vertices (or, with ``neighbours``,
-    their neighbours), two anchors of edges with a common end."""
+    their neighbours), two anchors of edges with a common end.  ``vert_key``: ``u * m +
+    v`` for the two ends of every edge, both ways round, sorted."""
     same = np.zeros(len(a), bool)
     for x, y in ((a, b), (b, a)):
         anchor = on[x, 2] >= 0
@@ -345,8 +311,18 @@ def _same_edge(a, b, on, vert_key, m, neighbours: bool = True) -> np.ndarray:
             if (on[y, 2] >= 0).any():
                 same |= anchor & (on[y, 2] >= 0) & ((end == on[y, 0]) | (end == on[y, 1]))
             if neighbours:
-                same |= anchor & (on[y, 2] < 0) & np.isin(end * m + y, vert_key)
+                sel = np.flatnonzero(anchor & (on[y, 2] < 0))
+                same[sel] |= _in_sorted(end[sel] * m + y[sel], vert_key)
     return same
+
+
+def _in_sorted(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
+    """Whether each of ``keys`` is in ``sorted_keys`` (ascending): ``np.isin``, for a
+    set sorted once."""
+    if sorted_keys.size == 0:
+        return np.zeros(keys.shape, bool)
+    at = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
+    return sorted_keys[at] == keys
 
 
 def add_shortcuts(
@@ -388,7 +364,7 @@ def add_shortcuts(
     m = len(pos)
     index = {v: k for k, v in enumerate(alive)}
     ends = np.array([(index[u], index[v]) for u, v, _ in work.edges.values()], np.int64)
-    vert_key = np.r_[ends[:, 0] * m + ends[:, 1], ends[:, 1] * m + ends[:, 0]]
+    vert_key = np.sort(np.r_[ends[:, 0] * m + ends[:, 1], ends[:, 1] * m + ends[:, 0]])
     pairs = cKDTree(pos).query_pairs(radius_px, output_type="ndarray").reshape(-1, 2)
     a, b = pairs[:, 0], pairs[:, 1]
     # no shortcut along one edge or round one vertex (it would cut a bend or a corner into

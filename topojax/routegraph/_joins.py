@@ -25,6 +25,9 @@ __all__ = [
 # Joins tried per group: its pixels (every second one) to their nearest graph pixels.
 _JOIN_TRIES = 400
 _NEIGHBOURS = 4
+# Clearing a small piece in its bounding box costs about as much as this many pixels of
+# a whole-mask lookup, besides the box.
+_PIECE_COST_PX = 1000
 
 
 def mask_pixels(mask: np.ndarray) -> np.ndarray:
@@ -43,11 +46,21 @@ def grow(mask: np.ndarray) -> np.ndarray:
 
 def large_pieces(mask: np.ndarray, min_area_px: float) -> np.ndarray:
     """The 8-connected pieces of ``mask`` (bool (H, W)) of at least ``min_area_px``
-    pixels, as a mask."""
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
-    keep = np.zeros(n, bool)
-    keep[1:] = stats[1:, cv2.CC_STAT_AREA] >= min_area_px
-    return keep[labels]
+    pixels, as a new mask."""
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
+    small = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] < min_area_px) + 1
+    x, y, w, h = (stats[small, k] for k in range(4))
+    if len(small) * _PIECE_COST_PX + int(np.dot(w, h)) > mask.size:
+        keep = np.ones(len(stats), bool)
+        keep[0] = False
+        keep[small] = False
+        return keep[labels]
+    # few small pieces: each cleared in its bounding box
+    out = mask.copy()
+    for i, x0, y0, x1, y1 in zip(small, x, y, x + w, y + h, strict=True):
+        box = out[y0:y1, x0:x1]
+        box[labels[y0:y1, x0:x1] == i] = False
+    return out
 
 
 @cached_njit(nogil=True)

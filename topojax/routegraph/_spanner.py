@@ -20,9 +20,8 @@ __all__ = [
     "anchor_pieces",
     "drop_short_loops",
     "greedy_shortcuts",
-    "see_any",
     "see_named",
-    "see_nearest",
+    "see_within",
     "simplify_path",
     "simplify_paths",
     "straight_is_feasible",
@@ -406,42 +405,80 @@ def simplify_path(path, feasible, tol):
 
 
 @cached_njit(nogil=True)
-def see_nearest(rows, cols, near_r, near_c, wall_px, feasible):
-    """For pixels ``(rows[k], cols[k])`` and a graph pixel ``(near_r[k], near_c[k])`` near
-    each, whether the straight segment between them passes over feasible pixels only
-    (bool (K,)).  ``wall_px[k]`` is the pixel's distance to the nearest pixel that is not
-    feasible: a segment shorter than that minus one pixel needs no walk."""
-    n = rows.shape[0]
-    out = np.zeros(n, np.bool_)
-    for k in range(n):
-        r0, c0, r1, c1 = rows[k], cols[k], near_r[k], near_c[k]
-        d = math.sqrt(float((r1 - r0) ** 2 + (c1 - c0) ** 2))
-        if d + 1.0 < wall_px[k]:
-            out[k] = True
-        else:
-            out[k] = straight_is_feasible(r0, c0, r1, c1, feasible)
+def _row_nearest(raster, r_lo, r_hi):
+    """For the rows ``r_lo``..``r_hi - 1`` of ``raster`` (bool (H, W)): the column of the
+    nearest set pixel at or left of each pixel, and at or right of it (int32 (2, n, W);
+    far outside the image where the row has none on that side)."""
+    w = raster.shape[1]
+    far = np.int32(-4 * w - 4)
+    out = np.empty((2, r_hi - r_lo, w), np.int32)
+    for i in range(r_hi - r_lo):
+        last = far
+        for c in range(w):
+            if raster[r_lo + i, c]:
+                last = c
+            out[0, i, c] = last
+        last = np.int32(5 * w + 4)
+        for c in range(w - 1, -1, -1):
+            if raster[r_lo + i, c]:
+                last = c
+            out[1, i, c] = last
     return out
 
 
 @cached_njit(nogil=True)
-def see_any(rows, cols, raster, feasible, snap_px):
-    """For pixels ``(rows[k], cols[k])``, whether any pixel of ``raster`` within
-    ``snap_px`` is reached by a straight segment over feasible pixels only (bool (K,))."""
+def see_within(rows, cols, raster, wall, feasible, snap_px):
+    """For pixels ``(rows[k], cols[k])``, whether a pixel of ``raster`` within
+    ``snap_px`` is reached by a straight segment over feasible pixels only (bool (K,)).
+    The nearest pixel (found row by row) is tried first, with no walk when the
+    segment is shorter than the pixel's ``wall`` distance minus one; then every other
+    one in reach."""
+    h = raster.shape[0]
+    n = rows.shape[0]
+    out = np.zeros(n, np.bool_)
+    if n == 0:
+        return out
+    reach = int(math.floor(snap_px))
+    snap2 = snap_px * snap_px
+    r_lo, r_hi = max(0, rows.min() - reach), min(h, rows.max() + reach + 1)
+    side = _row_nearest(raster, r_lo, r_hi)
+    for k in range(n):
+        r0, c0 = rows[k], cols[k]
+        # rows outward from the pixel's own, until a row's offset alone is too far
+        best, nr, nc = snap2 + 1.0, -1, -1
+        for dr in range(reach + 1):
+            if dr * dr > best:
+                break
+            for r in (r0 - dr, r0 + dr):
+                if r < r_lo or r >= r_hi:
+                    continue
+                for s in range(2):
+                    c = side[s, r - r_lo, c0]
+                    d2 = float(dr * dr + (c - c0) * (c - c0))
+                    if d2 < best:
+                        best, nr, nc = d2, r, c
+        if best > snap2:
+            continue
+        if math.sqrt(best) + 1.0 < wall[r0, c0] or straight_is_feasible(r0, c0, nr, nc, feasible):
+            out[k] = True
+            continue
+        out[k] = _sees_any(r0, c0, raster, feasible, snap_px)
+    return out
+
+
+@cached_njit(nogil=True)
+def _sees_any(r0, c0, raster, feasible, snap_px):
+    """Whether any pixel of ``raster`` within ``snap_px`` of pixel ``(r0, c0)`` is
+    reached by a straight segment over feasible pixels only."""
     h, w = raster.shape
     reach = int(math.floor(snap_px))
     lim = snap_px * snap_px
-    out = np.zeros(rows.shape[0], np.bool_)
-    for k in range(rows.shape[0]):
-        r0, c0 = rows[k], cols[k]
-        for r in range(max(0, r0 - reach), min(h, r0 + reach + 1)):
-            for c in range(max(0, c0 - reach), min(w, c0 + reach + 1)):
-                if raster[r, c] and (r - r0) ** 2 + (c - c0) ** 2 <= lim:
-                    if straight_is_feasible(r0, c0, r, c, feasible):
-                        out[k] = True
-                        break
-            if out[k]:
-                break
-    return out
+    for r in range(max(0, r0 - reach), min(h, r0 + reach + 1)):
+        for c in range(max(0, c0 - reach), min(w, c0 + reach + 1)):
+            if raster[r, c] and (r - r0) ** 2 + (c - c0) ** 2 <= lim:
+                if straight_is_feasible(r0, c0, r, c, feasible):
+                    return True
+    return False
 
 
 @cached_njit(nogil=True)
