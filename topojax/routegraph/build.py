@@ -224,8 +224,11 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
 
 def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:
     """Feasible pixels of the regions of at least ``min_region_m2``."""
+    kept = space.regions_at_least(min_region_m2)
+    if kept.size == space.n_regions:
+        return space.feasible.copy()
     keep = np.zeros(space.area_m2.size, bool)
-    keep[space.regions_at_least(min_region_m2)] = True
+    keep[kept] = True
     return keep[space.labels]
 
 
