@@ -8,6 +8,8 @@ from topojax.graph.work import (
     WorkGraph,
     edge_sides,
     face_labels,
+    line_in_mask,
+    line_into,
     line_pixels,
     merge_close_vertices,
 )
@@ -133,3 +135,21 @@ def test_edge_sides_names_the_faces_each_side_of_an_edge():
     assert sides[e_ring] == tuple(sorted((int(inside), int(outside))))
     assert sides[e_spur] == (int(outside), int(outside))
     assert e_short not in sides
+
+
+def test_line_in_mask_is_the_digital_line_where_every_pixel_is_set():
+    """Against the line drawn whole and tested pixel by pixel: the same length where every
+    pixel is set (and the same pixels), 0 where one is not."""
+    rng = np.random.default_rng(7)
+    for _ in range(3000):
+        h, w = (int(x) for x in rng.integers(1, 30, 2))
+        mask = rng.random((h, w)) < rng.choice([0.9, 0.99, 1.0])
+        r0, r1 = (int(x) for x in rng.integers(0, h, 2))
+        c0, c1 = (int(x) for x in rng.integers(0, w, 2))
+        whole = np.zeros((h + w, 2), np.int64)
+        n = line_into(r0, c0, r1, c1, whole)
+        want = n if mask[whole[:n, 0], whole[:n, 1]].all() else 0
+        out = np.zeros((h + w, 2), np.int64)
+        assert line_in_mask(r0, c0, r1, c1, mask, out) == want
+        if want:
+            assert np.array_equal(out[:n], whole[:n])

@@ -57,12 +57,27 @@ def line_into(r0, c0, r1, c1, out):
 @cached_njit(nogil=True)
 def line_in_mask(r0, c0, r1, c1, mask, out):
     """:func:`line_into`, returning 0 instead of the length when a pixel of the line is
-    not set in ``mask`` (bool (H, W))."""
-    n = line_into(r0, c0, r1, c1, out)
-    for i in range(n):
-        if not mask[out[i, 0], out[i, 1]]:
+    not set in ``mask`` (bool (H, W)); then ``out`` holds the line up to that pixel."""
+    dr, dc = r1 - r0, c1 - c0
+    n = max(abs(dr), abs(dc))
+    out[0, 0], out[0, 1] = r0, c0
+    if not mask[r0, c0]:
+        return 0
+    major_r = abs(dr) >= abs(dc)
+    step = 1 if (dr if major_r else dc) > 0 else -1
+    minor = dc if major_r else dr
+    for i in range(1, n + 1):
+        num = minor * i
+        q = (2 * abs(num) + n) // (2 * n)
+        off = q if num >= 0 else -q
+        if major_r:
+            r, c = r0 + step * i, c0 + off
+        else:
+            r, c = r0 + off, c0 + step * i
+        if not mask[r, c]:
             return 0
-    return n
+        out[i, 0], out[i, 1] = r, c
+    return n + 1
 
 
 def line_pixels(a, b) -> np.ndarray:

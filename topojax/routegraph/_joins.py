@@ -95,7 +95,7 @@ def attach_points(work: WorkGraph, pixels: list, shape: tuple[int, int]) -> list
         mem = np.concatenate([work.members[v] for v in alive]).astype(np.int64)
         owner = np.repeat(alive, [len(work.members[v]) for v in alive])
         keys = mem[:, 0] * width + mem[:, 1]
-        sel = np.flatnonzero(np.isin(keys, np.fromiter(want, np.int64)))
+        sel = np.flatnonzero(np.isin(keys, np.fromiter(want, np.int64), kind="table"))
         # the vertex of lowest id holding a pixel takes it
         hit_keys, first = np.unique(keys[sel], return_index=True)
         for key, v in zip(hit_keys.tolist(), owner[sel[first]].tolist(), strict=True):
@@ -112,7 +112,7 @@ def attach_points(work: WorkGraph, pixels: list, shape: tuple[int, int]) -> list
             flat = every[:, 0] * width + every[:, 1]
             edge_of = np.repeat(np.arange(len(ids)), sizes)
             index = np.arange(flat.size) - np.repeat(np.cumsum(sizes) - sizes, sizes)
-            hit = np.flatnonzero(np.isin(flat, np.fromiter(want, np.int64)))
+            hit = np.flatnonzero(np.isin(flat, np.fromiter(want, np.int64), kind="table"))
             for i in hit.tolist():  # in edge order, then along each path
                 ks = want.pop(int(flat[i]), None)
                 if ks:
