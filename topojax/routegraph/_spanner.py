@@ -405,24 +405,25 @@ def simplify_path(path, feasible, tol):
 
 
 @cached_njit(nogil=True)
-def _row_nearest(raster, r_lo, r_hi):
-    """For the rows ``r_lo``..``r_hi - 1`` of ``raster`` (bool (H, W)): the column of the
-    nearest set pixel at or left of each pixel, and at or right of it (int32 (2, n, W);
-    far outside the image where the row has none on that side)."""
+def _row_nearest(raster, rows, c_lo, c_hi):
+    """For the rows ``rows`` (bool (H,)) of ``raster`` (bool (H, W)), within the columns
+    ``c_lo``..``c_hi - 1``: the column of the nearest set pixel at or left of each pixel,
+    and at or right of it (int32 (2, H, c_hi - c_lo), indexed by column - ``c_lo``; far
+    outside the image where the row has none on that side in the columns; other rows
+    not filled)."""
     w = raster.shape[1]
-    far = np.int32(-4 * w - 4)
-    out = np.empty((2, r_hi - r_lo, w), np.int32)
-    for i in range(r_hi - r_lo):
-        last = far
-        for c in range(w):
-            if raster[r_lo + i, c]:
+    out = np.empty((2, raster.shape[0], c_hi - c_lo), np.int32)
+    for r in np.flatnonzero(rows):
+        last = np.int32(-4 * w - 4)
+        for c in range(c_lo, c_hi):
+            if raster[r, c]:
                 last = c
-            out[0, i, c] = last
+            out[0, r, c - c_lo] = last
         last = np.int32(5 * w + 4)
-        for c in range(w - 1, -1, -1):
-            if raster[r_lo + i, c]:
+        for c in range(c_hi - 1, c_lo - 1, -1):
+            if raster[r, c]:
                 last = c
-            out[1, i, c] = last
+            out[1, r, c - c_lo] = last
     return out
 
 
@@ -433,15 +434,22 @@ def see_within(rows, cols, raster, wall, feasible, snap_px):
     The nearest pixel (found row by row) is tried first, with no walk when the
     segment is shorter than the pixel's ``wall`` distance minus one; then every other
     one in reach."""
-    h = raster.shape[0]
+    h, w = raster.shape
     n = rows.shape[0]
     out = np.zeros(n, np.bool_)
     if n == 0:
         return out
     reach = int(math.floor(snap_px))
     snap2 = snap_px * snap_px
-    r_lo, r_hi = max(0, rows.min() - reach), min(h, rows.max() + reach + 1)
-    side = _row_nearest(raster, r_lo, r_hi)
+    # only the rows within reach of a pixel's, and the columns within reach of any
+    # pixel's, can hold a graph pixel in reach
+    near = np.zeros(h + 1, np.int64)
+    for k in range(n):
+        near[max(0, rows[k] - reach)] += 1
+        near[min(h, rows[k] + reach + 1)] -= 1
+    used = np.cumsum(near[:h]) > 0
+    c_lo, c_hi = max(0, cols.min() - reach), min(w, cols.max() + reach + 1)
+    side = _row_nearest(raster, used, c_lo, c_hi)
     for k in range(n):
         r0, c0 = rows[k], cols[k]
         # rows outward from the pixel's own, until a row's offset alone is too far
@@ -450,10 +458,10 @@ def see_within(rows, cols, raster, wall, feasible, snap_px):
             if dr * dr > best:
                 break
             for r in (r0 - dr, r0 + dr):
-                if r < r_lo or r >= r_hi:
+                if r < 0 or r >= h:
                     continue
                 for s in range(2):
-                    c = side[s, r - r_lo, c0]
+                    c = side[s, r, c0 - c_lo]
                     d2 = float(dr * dr + (c - c0) * (c - c0))
                     if d2 < best:
                         best, nr, nc = d2, r, c

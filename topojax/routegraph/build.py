@@ -14,7 +14,7 @@ import numpy as np
 
 from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres
 from ..graph import skeleton_to_graph
-from ..graph.store import fill_multigraph
+from ..graph.store import fill_multigraph, paused_gc
 from ..graph.work import (
     WorkGraph,
     collapse_loops,
@@ -165,6 +165,12 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     cfg = instance_or_default("config", config, RouteGraphConfig)
     if robot_radius_m is not None:
         cfg = replace(cfg, robot_radius_m=robot_radius_m)
+    with paused_gc():  # many small containers, no reference cycles
+        return _route_graph(occupancy, cfg)
+
+
+def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
+    """:func:`route_graph` with its options checked."""
     t0 = time.perf_counter()
     space = feasible_space(occupancy, cfg.robot_radius_m)
     # the graph is built in the window round the kept regions (with a margin of pixels
