@@ -480,6 +480,21 @@ def test_coverage_equals_a_brute_force_reference(seed, few, monkeypatch):
     assert np.array_equal(seen | rest, want)
 
 
+@pytest.mark.parametrize("few", [True, False])
+def test_coverage_of_a_strip_narrower_than_the_reach(few, monkeypatch):
+    """A strip a few pixels wide with one graph pixel and a reach several times its width:
+    rows without a graph pixel count as having none in reach, whatever the width."""
+    from topojax.routegraph import _cover
+
+    monkeypatch.setattr(_cover, "_ROWS_PER_PIXEL", 10**9 if few else 0)
+    feasible = np.ones((200, 8), bool)
+    raster = np.zeros_like(feasible)
+    raster[0, 4] = True
+    got = _cover.covered(raster, feasible, 40.0)
+    assert np.array_equal(got, _brute_covered(raster, feasible, 40.0))
+    assert got[:30].all() and not got[45:].any()
+
+
 def test_straight_segments_are_tested_pixel_by_pixel():
     from topojax.graph.work import line_pixels
     from topojax.routegraph._joins import feasible_segments

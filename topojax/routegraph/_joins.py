@@ -50,7 +50,7 @@ def large_pieces(mask: np.ndarray, min_area_px: float) -> np.ndarray:
     _, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
     small = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] < min_area_px) + 1
     x, y, w, h = (stats[small, k] for k in range(4))
-    if len(small) * _PIECE_COST_PX + int(np.dot(w, h)) > mask.size:
+    if len(small) * _PIECE_COST_PX + int(np.dot(w.astype(np.int64), h)) > mask.size:
         keep = np.ones(len(stats), bool)
         keep[0] = False
         keep[small] = False

@@ -405,26 +405,21 @@ def simplify_path(path, feasible, tol):
 
 
 @cached_njit(nogil=True)
-def _row_nearest(raster, rows, c_lo, c_hi):
-    """For the rows ``rows`` (bool (H,)) of ``raster`` (bool (H, W)), within the columns
-    ``c_lo``..``c_hi - 1``: the column of the nearest set pixel at or left of each pixel,
-    and at or right of it (int32 (2, H, c_hi - c_lo), indexed by column - ``c_lo``; far
-    outside the image where the row has none on that side in the columns; other rows
-    not filled)."""
-    w = raster.shape[1]
-    out = np.empty((2, raster.shape[0], c_hi - c_lo), np.int32)
-    for r in np.flatnonzero(rows):
-        last = np.int32(-4 * w - 4)
-        for c in range(c_lo, c_hi):
-            if raster[r, c]:
-                last = c
-            out[0, r, c - c_lo] = last
-        last = np.int32(5 * w + 4)
-        for c in range(c_hi - 1, c_lo - 1, -1):
-            if raster[r, c]:
-                last = c
-            out[1, r, c - c_lo] = last
-    return out
+def _fill_row(raster, r, c_lo, c_hi, none_left, none_right, side, slot):
+    """Into ``side[:, slot]`` (int32 (2, S, c_hi - c_lo)): for row ``r`` of ``raster``
+    within the columns ``c_lo``..``c_hi - 1``, the column of the nearest set pixel at or
+    left of each pixel, and at or right of it (``none_left`` / ``none_right`` where the
+    row has none on that side in those columns)."""
+    last = none_left
+    for c in range(c_lo, c_hi):
+        if raster[r, c]:
+            last = c
+        side[0, slot, c - c_lo] = last
+    last = none_right
+    for c in range(c_hi - 1, c_lo - 1, -1):
+        if raster[r, c]:
+            last = c
+        side[1, slot, c - c_lo] = last
 
 
 @cached_njit(nogil=True)
@@ -441,17 +436,20 @@ def see_within(rows, cols, raster, wall, feasible, snap_px):
         return out
     reach = int(math.floor(snap_px))
     snap2 = snap_px * snap_px
-    # only the rows within reach of a pixel's, and the columns within reach of any
-    # pixel's, can hold a graph pixel in reach
-    near = np.zeros(h + 1, np.int64)
-    for k in range(n):
-        near[max(0, rows[k] - reach)] += 1
-        near[min(h, rows[k] + reach + 1)] -= 1
-    used = np.cumsum(near[:h]) > 0
+    # only the columns within reach of a pixel's can hold a graph pixel in reach; a
+    # column past these bounds stands for none (it is farther than the reach)
     c_lo, c_hi = max(0, cols.min() - reach), min(w, cols.max() + reach + 1)
-    side = _row_nearest(raster, used, c_lo, c_hi)
-    for k in range(n):
+    none_left, none_right = c_lo - reach - 1, c_hi + reach
+    # the nearest columns of the rows within reach, in a ring of 2 x reach + 1 rows
+    # filled as the pixels are taken in row order
+    span = 2 * reach + 1
+    side = np.empty((2, span, c_hi - c_lo), np.int32)
+    done = -1  # the last row filled
+    for k in np.argsort(rows, kind="mergesort"):
         r0, c0 = rows[k], cols[k]
+        for r in range(max(done + 1, r0 - reach), min(h, r0 + reach + 1)):
+            _fill_row(raster, r, c_lo, c_hi, none_left, none_right, side, r % span)
+            done = r
         # rows outward from the pixel's own, until a row's offset alone is too far
         best, nr, nc = snap2 + 1.0, -1, -1
         for dr in range(reach + 1):
@@ -461,7 +459,7 @@ def see_within(rows, cols, raster, wall, feasible, snap_px):
                 if r < 0 or r >= h:
                     continue
                 for s in range(2):
-                    c = side[s, r, c0 - c_lo]
+                    c = side[s, r % span, c0 - c_lo]
                     d2 = float(dr * dr + (c - c0) * (c - c0))
                     if d2 < best:
                         best, nr, nc = d2, r, c
