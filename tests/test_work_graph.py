@@ -153,3 +153,28 @@ def test_line_in_mask_is_the_digital_line_where_every_pixel_is_set():
         assert line_in_mask(r0, c0, r1, c1, mask, out) == want
         if want:
             assert np.array_equal(out[:n], whole[:n])
+
+
+def test_line_into_rounds_the_exact_line_halves_away_from_the_start():
+    """Against exact rational arithmetic: one pixel per step along the major axis, the
+    minor coordinate of the exact line rounded to the nearest pixel (halves away from the
+    start), and a single pixel for a line of no length."""
+    from fractions import Fraction
+
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        r0, c0, r1, c1 = (int(x) for x in rng.integers(-20, 20, 4))
+        dr, dc = r1 - r0, c1 - c0
+        n = max(abs(dr), abs(dc))
+        want = []
+        for i in range(n + 1):
+            t = Fraction(i, n) if n else Fraction(0)
+            exact_r, exact_c = dr * t, dc * t
+            rounded = [
+                int(x + Fraction(1, 2)) if x >= 0 else -int(-x + Fraction(1, 2))
+                for x in (exact_r, exact_c)
+            ]
+            want.append((r0 + rounded[0], c0 + rounded[1]))
+        out = np.zeros((n + 1, 2), np.int64)
+        assert line_into(r0, c0, r1, c1, out) == n + 1
+        assert [tuple(p) for p in out.tolist()] == want

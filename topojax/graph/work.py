@@ -27,6 +27,21 @@ __all__ = [
 SQRT2 = math.sqrt(2.0)
 
 
+@cached_njit(nogil=True, inline="always")
+def _line_step(r0, c0, dr, dc, n, i):
+    """Pixel ``i`` (0..``n``) of the digital line from ``(r0, c0)`` by ``(dr, dc)``,
+    ``n = max(|dr|, |dc|) > 0``: the major axis steps by one pixel, the minor coordinate
+    is the exact line's, rounded (halves away from the start)."""
+    major_r = abs(dr) >= abs(dc)
+    num = (dc if major_r else dr) * i
+    q = (2 * abs(num) + n) // (2 * n)
+    off = q if num >= 0 else -q
+    along = i if (dr if major_r else dc) > 0 else -i
+    if major_r:
+        return r0 + along, c0 + off
+    return r0 + off, c0 + along
+
+
 @cached_njit(nogil=True)
 def line_into(r0, c0, r1, c1, out):
     """Write the 8-connected digital line from ``(r0, c0)`` to ``(r1, c1)`` (both
@@ -36,21 +51,9 @@ def line_into(r0, c0, r1, c1, out):
     (halves away from the start)."""
     dr, dc = r1 - r0, c1 - c0
     n = max(abs(dr), abs(dc))
-    if n == 0:
-        out[0, 0], out[0, 1] = r0, c0
-        return 1
-    for i in range(n + 1):
-        if abs(dr) >= abs(dc):
-            r = r0 + (i if dr > 0 else -i)
-            num = dc * i
-            q = (2 * abs(num) + n) // (2 * n)
-            c = c0 + (q if num >= 0 else -q)
-        else:
-            c = c0 + (i if dc > 0 else -i)
-            num = dr * i
-            q = (2 * abs(num) + n) // (2 * n)
-            r = r0 + (q if num >= 0 else -q)
-        out[i, 0], out[i, 1] = r, c
+    out[0, 0], out[0, 1] = r0, c0
+    for i in range(1, n + 1):
+        out[i, 0], out[i, 1] = _line_step(r0, c0, dr, dc, n, i)
     return n + 1
 
 
@@ -63,17 +66,8 @@ def line_in_mask(r0, c0, r1, c1, mask, out):
     out[0, 0], out[0, 1] = r0, c0
     if not mask[r0, c0]:
         return 0
-    major_r = abs(dr) >= abs(dc)
-    step = 1 if (dr if major_r else dc) > 0 else -1
-    minor = dc if major_r else dr
     for i in range(1, n + 1):
-        num = minor * i
-        q = (2 * abs(num) + n) // (2 * n)
-        off = q if num >= 0 else -q
-        if major_r:
-            r, c = r0 + step * i, c0 + off
-        else:
-            r, c = r0 + off, c0 + step * i
+        r, c = _line_step(r0, c0, dr, dc, n, i)
         if not mask[r, c]:
             return 0
         out[i, 0], out[i, 1] = r, c
@@ -169,6 +163,11 @@ class WorkGraph:
         """Edge ends at ``v`` (a self-loop counts twice)."""
         return sum(2 if self.edges[e][0] == self.edges[e][1] else 1 for e in self.adj[v])
 
+    def degrees(self) -> list[int]:
+        """:meth:`degree` of every vertex, by id."""
+        ends = [x for u, v, _ in self.edges.values() for x in (u, v)]
+        return np.bincount(np.array(ends, np.int64), minlength=len(self.pixel)).tolist()
+
     def other(self, e: int, v: int) -> int:
         u, w, _ = self.edges[e]
         return w if u == v else u
@@ -235,8 +234,9 @@ def edge_sides(work: WorkGraph, faces: np.ndarray) -> dict[int, tuple[int, int]]
     lab = faces[rr[ok], cc[ok]].astype(np.int64)
     owner = owner[ok]
     pos = lab > 0
-    key = np.unique(owner[pos] * (int(faces.max()) + 1) + lab[pos])
-    edge, face = np.divmod(key, int(faces.max()) + 1)
+    n_faces = int(faces.max()) + 1
+    key = np.unique(owner[pos] * n_faces + lab[pos])
+    edge, face = np.divmod(key, n_faces)
     count = np.bincount(edge, minlength=len(ids))
     first = np.searchsorted(edge, np.arange(len(ids)))
     sides = {}

@@ -300,9 +300,7 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
     pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2) + shift
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
     clear_at = space.clearance_m[pix[:, 0], pix[:, 1]].astype(np.float64).tolist()
-    # edge ends at each vertex, a self-loop counting twice
-    edge_ends = [x for u, v, _ in work.edges.values() for x in (u, v)]
-    degree = np.bincount(np.array(edge_ends, np.int64), minlength=len(work.pixel)).tolist()
+    degree = work.degrees()
     node_attrs = []
     for v, p, x, y, c in zip(alive, pix.tolist(), wx.tolist(), wy.tolist(), clear_at, strict=True):
         deg = degree[v]
