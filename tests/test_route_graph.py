@@ -230,6 +230,20 @@ def test_options_are_checked():
         RouteGraphConfig(0.3)  # keyword-only
 
 
+def test_map_is_a_map_or_its_file(tmp_path):
+    occ = _map(_room(3, 3))
+    with pytest.raises(TypeError, match=r"occupancy: .* received ndarray .*from_array"):
+        route_graph(np.asarray(occ.free), robot_radius_m=R)
+    with pytest.raises(TypeError, match="occupancy: .* received NoneType"):
+        route_graph(None, robot_radius_m=R)
+    tj.save_map(occ, tmp_path / "room.yaml")
+    from_file = route_graph(tmp_path / "room.yaml", robot_radius_m=R)
+    direct = route_graph(occ, robot_radius_m=R)
+    assert sorted(from_file.edges()) == sorted(direct.edges()) != []
+    for a, b in zip(sorted(from_file.edges(data="path")), sorted(direct.edges(data="path"))):
+        np.testing.assert_array_equal(a[2], b[2])
+
+
 def test_map_without_feasible_space_gives_an_empty_graph():
     occ = _map(_room(0.5, 0.5))
     g = route_graph(occ, robot_radius_m=R)

@@ -406,13 +406,9 @@ def add_occupancy(mapper, occupancy) -> int:
     ``occupancy`` as hits, its free pixels as free cells; returns the number of new
     obstacle pixels.  Raises TypeError / ValueError (before any change) as that method
     says."""
-    from ..maps import OccupancyMap
+    from ..maps import map_argument
 
-    if not isinstance(occupancy, OccupancyMap):
-        raise TypeError(
-            f"occupancy: expected an OccupancyMap (see load_map), received "
-            f"{type(occupancy).__name__}"
-        )
+    occupancy = map_argument("occupancy", occupancy)
     if not math.isclose(occupancy.resolution_m, mapper.resolution_m, rel_tol=1e-9):
         raise ValueError(
             f"occupancy: expected the mapper's resolution {mapper.resolution_m} m, "

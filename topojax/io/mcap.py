@@ -459,12 +459,9 @@ class McapRecorder:
     def add_map(self, occupancy, graph) -> None:
         """Write ``/map`` and ``/topology`` (an :class:`~topojax.OccupancyMap` and its
         topology graph, with ``world`` vertex and edge coordinates) at :attr:`stamp_ns`."""
-        from ..maps import OccupancyMap
+        from ..maps import map_argument
 
-        if not isinstance(occupancy, OccupancyMap):
-            raise TypeError(
-                f"occupancy: expected an OccupancyMap, received {type(occupancy).__name__}"
-            )
+        occupancy = map_argument("occupancy", occupancy)
         self._write("/map", occupancy_grid(occupancy, self.stamp_ns), self.stamp_ns)
         self._write("/topology", graph_markers(graph, self.stamp_ns), self.stamp_ns)
 

@@ -4,7 +4,7 @@ classification rules and map file I/O."""
 from __future__ import annotations
 
 from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES
-from .files import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map, save_map
+from .files import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map, map_argument, save_map
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
 
 __all__ = [
@@ -16,5 +16,6 @@ __all__ = [
     "YAML_SUFFIXES",
     "OccupancyMap",
     "load_map",
+    "map_argument",
     "save_map",
 ]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import re
 from collections.abc import Iterable
 from pathlib import Path
@@ -369,6 +370,22 @@ def _classify_pixels(
     return OccupancyMap._from_codes(codes, resolution_m, origin_t, str(path))
 
 
+def map_argument(name: str, value: Any, *, files: bool = False) -> OccupancyMap:
+    """``value`` as an :class:`OccupancyMap`: itself, or (``files``) the map
+    :func:`load_map` reads from a path; a TypeError naming ``name`` for anything else."""
+    if isinstance(value, OccupancyMap):
+        return value
+    if files and isinstance(value, (str, os.PathLike)):
+        return load_map(value)
+    what = "an OccupancyMap or a map file path (str or Path)" if files else "an OccupancyMap"
+    hint = (
+        " (an array has no resolution: see OccupancyMap.from_array)"
+        if isinstance(value, np.ndarray)
+        else " (see load_map)"
+    )
+    raise TypeError(f"{name}: expected {what}, received {type(value).__name__}{hint}")
+
+
 def save_map(
     occupancy_map: OccupancyMap, yaml_path: str | Path, *, image_name: str | None = None
 ) -> Path:
@@ -397,10 +414,7 @@ def save_map(
 
     from .._fs import atomic_write_bytes
 
-    if not isinstance(occupancy_map, OccupancyMap):
-        raise TypeError(
-            f"occupancy_map must be an OccupancyMap, got {type(occupancy_map).__name__}"
-        )
+    occupancy_map = map_argument("occupancy_map", occupancy_map)
     yp = Path(yaml_path)
     if yp.suffix.lower() not in YAML_SUFFIXES:
         raise ValueError(f"yaml_path must end in .yaml or .yml, got {str(yp)!r}")

@@ -22,6 +22,7 @@ from ..graph.work import (
     face_labels,
     merge_close_vertices,
 )
+from ..maps import map_argument
 from ..skeleton import thin
 from ._corners import CORNER_TOLERANCE_M
 from ._cover import RUNG_GAIN_M, add_coverage, add_shortcuts
@@ -138,8 +139,9 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
 
     Parameters
     ----------
-    occupancy : OccupancyMap
-        The map; only its known-free pixels are used, its border is a wall.
+    occupancy : OccupancyMap or str or Path
+        The map, or its file (read by :func:`topojax.load_map`); only its known-free
+        pixels are used, its border is a wall.
     robot_radius_m : float, optional
         Robot radius in metres; overrides ``config.robot_radius_m`` (default 0.3).
     config : RouteGraphConfig, optional
@@ -162,6 +164,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     TypeError, ValueError
         For an option of the wrong type or out of range (the message names it).
     """
+    occupancy = map_argument("occupancy", occupancy, files=True)
     cfg = instance_or_default("config", config, RouteGraphConfig)
     if robot_radius_m is not None:
         cfg = replace(cfg, robot_radius_m=robot_radius_m)
