@@ -239,9 +239,9 @@ def test_map_is_a_map_or_its_file(tmp_path):
     tj.save_map(occ, tmp_path / "room.yaml")
     from_file = route_graph(tmp_path / "room.yaml", robot_radius_m=R)
     direct = route_graph(occ, robot_radius_m=R)
-    assert sorted(from_file.edges()) == sorted(direct.edges()) != []
-    for a, b in zip(sorted(from_file.edges(data="path")), sorted(direct.edges(data="path"))):
-        np.testing.assert_array_equal(a[2], b[2])
+    assert sorted(from_file.edges(keys=True)) == sorted(direct.edges(keys=True)) != []
+    for u, v, k, path in direct.edges(keys=True, data="path"):
+        np.testing.assert_array_equal(from_file.edges[u, v, k]["path"], path)
 
 
 def test_map_without_feasible_space_gives_an_empty_graph():
