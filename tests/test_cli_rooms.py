@@ -210,7 +210,9 @@ def test_build_graphs_rooms_only_and_names(png, tmp_path):
         "m_rooms_2.json",
         "m_rooms_2.manifest.json",
     ]
-    with pytest.raises(ValueError, match=r"formats: expected names from \(.*'rooms'\)"):
+    with pytest.raises(
+        ValueError, match=r"formats: expected names from \(.*'rooms', 'route', 'route_nav2'\)"
+    ):
         build_graphs([png], formats="rooms,svg", workers=0, progress=False)
 
 

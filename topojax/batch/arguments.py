@@ -15,9 +15,11 @@ from .._fs import refuse_overwriting_inputs
 from .._validate import instance_or_default, int_at_least, one_of, positive_metres
 from ..config import PipelineConfig
 from ..maps import MODES, OccupancyMap
+from ..routegraph import RouteGraphConfig
 from .inputs import (
     _MANIFEST_SUFFIX,
     _PICTURE_SUFFIX,
+    ROUTE_FORMATS,
     _assign_names,
     _check_formats,
     _format_suffixes,
@@ -44,6 +46,7 @@ def checked_options(
     batch_tiles: int | None,
     map_mode: Any,
     sigma_m: Any,
+    route_config: Any = None,
 ) -> dict[str, Any]:
     """Check the options of :func:`build_graphs` and fill in their defaults.
 
@@ -51,11 +54,15 @@ def checked_options(
     ``keep_graphs`` may be None).  Returns the keyword arguments of the batch run other
     than its items, output folder and fingerprints: ``config``, ``formats``,
     ``executor``, ``workers``, the flags as bools, the kernel settings, ``map_mode``,
-    ``sigma_m`` and the ``request`` its manifests record.  Raises TypeError or
+    ``sigma_m``, ``route_config`` (None without a route format) and the ``request`` its
+    manifests record.  Raises TypeError or
     ValueError naming the argument.
     """
     config = instance_or_default("config", config, PipelineConfig)
     fmts = _check_formats(formats)
+    route_config = instance_or_default("route_config", route_config, RouteGraphConfig)
+    if not set(fmts) & set(ROUTE_FORMATS):
+        route_config = None
     sigma_m = check_options(map_mode=map_mode, flags=flags, sigma_m=sigma_m, out_dir=out_dir)
     tpc, threads, group_tiles = kernel_settings(config, tiles_per_call, kernel_threads, batch_tiles)
     keep_graphs = flags["keep_graphs"]
@@ -77,8 +84,14 @@ def checked_options(
         "resume": bool(flags["resume"]),
         "map_mode": map_mode,
         "sigma_m": sigma_m,
+        "route_config": route_config,
         "request": request_settings(
-            config, fmts, plot=flags["plot"], map_mode=map_mode, sigma_m=sigma_m
+            config,
+            fmts,
+            plot=flags["plot"],
+            map_mode=map_mode,
+            sigma_m=sigma_m,
+            route_config=route_config,
         ),
     }
 
@@ -225,6 +238,7 @@ def request_settings(
     plot: bool,
     map_mode: str | None,
     sigma_m: float | None,
+    route_config: RouteGraphConfig | None = None,
 ) -> dict[str, Any]:
     """The result-relevant settings recorded in every manifest (``resume`` compares
     them)."""
@@ -238,6 +252,8 @@ def request_settings(
             "plot": bool(plot),
             # only with the rooms format, so that manifests written without it still match
             **({"rooms": _room_settings()} if "rooms" in formats else {}),
+            # likewise only with a route format
+            **({"route": dataclasses.asdict(route_config)} if route_config else {}),
             # only when given, so that manifests written without them still match
             **({"map_mode": map_mode} if map_mode is not None else {}),
             **({"sigma_m": sigma_m} if sigma_m is not None else {}),

@@ -20,6 +20,7 @@ from .._fs import output_folder
 from ..config import DistanceConfig, PipelineConfig
 from ..maps import OccupancyMap
 from ..maps.classify import wall_warning
+from ..routegraph import RouteGraphConfig
 from .arguments import batch_items, checked_options, map_inputs
 from .inputs import _Item
 from .manifest import _forget_outputs, _resume_record, _write_manifest
@@ -78,6 +79,7 @@ class _BatchRun:
         fingerprints: dict[int, dict[str, Any] | None],
         map_mode: str | None = None,
         sigma_m: float | None = None,
+        route_config: Any = None,
     ) -> None:
         self.items = items
         self.map_mode = map_mode
@@ -106,7 +108,9 @@ class _BatchRun:
         # the rooms format segments each map in its CPU stage, which rebuilds the map (as
         # it does for the picture)
         self._rooms = "rooms" in formats and out_dir is not None
-        self._needs_map = out_dir is not None and (plot or self._rooms)
+        # so does a route format, for the route graph (a RouteGraphConfig, else None)
+        self._route = route_config if out_dir is not None else None
+        self._needs_map = out_dir is not None and (plot or self._rooms or bool(self._route))
 
     # ---------------------------------------------------------------- executor handling
     def _new_executor(self) -> cf.Executor:
@@ -244,6 +248,7 @@ class _BatchRun:
                 free_bits=np.packbits(occ.free) if cfg.graph.free_space_only else None,
                 plot=self.plot and self.out_dir is not None,
                 rooms=self._rooms,
+                route=self._route,
             )
             jobs.append((g, job, share + time.perf_counter() - t0, ""))
         return jobs
@@ -467,6 +472,8 @@ class _BatchRun:
             return rec
         rec.vertices, rec.edges = res.vertices, res.edges
         rec.components, rec.total_length_m = res.components, res.total_length_m
+        rec.route_vertices, rec.route_edges = res.route_vertices, res.route_edges
+        rec.route_components = res.route_components
         rec.t_thinning_s, rec.t_graph_s, rec.t_write_s = (
             res.t_thinning_s,
             res.t_graph_s,
@@ -477,12 +484,15 @@ class _BatchRun:
             rec.status, rec.message = "error", res.error
             return rec
         warning = wall_warning(self._walls.pop(item.index, None))
-        if not res.vertices:
+        classes = self._classes.pop(item.index, (None, None))
+        notes = [] if res.vertices else [_empty_reason(*classes)]
+        notes += [res.route_note] if res.route_note else []
+        notes += [warning] if warning else []
+        if not res.vertices or res.route_vertices == 0:
             rec.status = "empty"
-            rec.message = _empty_reason(*self._classes.pop(item.index, (None, None)))
-            rec.message += f"; {warning}" if warning else ""
-        elif warning:
-            rec.message = warning  # ok, with a warning
+            rec.message = "; ".join(notes)
+        else:
+            rec.message = "; ".join(notes)  # ok, perhaps with a warning
         rec.graph = res.graph
         if self.out_dir is not None:
             rec._finish()
@@ -532,6 +542,7 @@ def build_graphs(
     keep_graphs: bool | None = None,
     map_mode: str | None = None,
     sigma_m: float | None = None,
+    route_config: RouteGraphConfig | None = None,
 ) -> list[MapRecord]:
     """Build the topology graphs of many maps (design: docs/batch-internals.md).
 
@@ -557,12 +568,17 @@ def build_graphs(
     out_dir : str or path, optional
         Output folder (created).  Without it nothing is written and the graphs are
         returned in the records.
-    formats : sequence of {"graphml", "json", "geojson", "nav2", "rooms"} or comma-separated str
+    formats : sequence of {"graphml", "json", "geojson", "nav2", "rooms", "route", "route_nav2"} or comma-separated str
         Graph files per map (``nav2``: ``<name>_nav2.geojson``, a route graph for the ROS 2
         Nav2 Route Server, :func:`topojax.save_nav2_graph` with its default tolerance).
         ``rooms``: ``<name>_rooms.{geojson,png,graphml,json}`` of
         :func:`topojax.segment_rooms` (default settings); the graph files, picture and
         kept graphs then carry the rooms (:func:`topojax.assign_rooms`).
+        ``route``: ``<name>_route.{graphml,json,geojson}``, the map's route graph for a
+        round robot (:func:`topojax.route_graph` with ``route_config``);
+        ``route_nav2``: ``<name>_route_nav2.geojson``, that graph for the Nav2 Route
+        Server.  A map whose route graph is empty (the robot fits in no region) gets
+        ``status="empty"`` and the reason.
     plot : bool
         Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
     resume : bool
@@ -596,6 +612,9 @@ def build_graphs(
         different pixel settings: each setting compiles its own kernel once and runs
         in kernel calls of its own.  Default: ``config.distance`` (the paper's 64.19 px)
         for every map.
+    route_config : RouteGraphConfig, optional
+        Options of the route graph of the ``route`` formats (default: its defaults, a
+        robot radius of 0.3 m).
 
     Returns
     -------
@@ -621,6 +640,7 @@ def build_graphs(
         batch_tiles=batch_tiles,
         map_mode=map_mode,
         sigma_m=sigma_m,
+        route_config=route_config,
     )
     out = None if out_dir is None else output_folder(out_dir)
     items, fingerprints = batch_items(

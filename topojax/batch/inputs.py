@@ -16,7 +16,7 @@ from .._fs import yaml_image
 from ..io import GRAPH_FORMATS, ROOM_FILE_SUFFIXES
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, OccupancyMap
 
-__all__ = ["expand_braces", "expand_map_inputs", "planned_outputs"]
+__all__ = ["ROUTE_FORMATS", "expand_braces", "expand_map_inputs", "planned_outputs"]
 
 _MAP_SUFFIXES = tuple(YAML_SUFFIXES) + tuple(IMAGE_SUFFIXES)
 _MANIFEST_SUFFIX = ".manifest.json"
@@ -28,6 +28,13 @@ _FORMAT_SUFFIX["nav2"] = "_nav2.geojson"
 # (topojax.io.save_room_files: GeoJSON, label picture, room graph as GraphML and JSON).
 _FORMAT_FILES = {fmt: (suffix,) for fmt, suffix in _FORMAT_SUFFIX.items()}
 _FORMAT_FILES["rooms"] = ROOM_FILE_SUFFIXES
+# ``route``: the route graph of the map for a round robot (topojax.route_graph) as
+# GraphML, JSON and GeoJSON, the files of ``topojax route-graph``; ``route_nav2``: that
+# graph for the Nav2 Route Server.
+_FORMAT_FILES["route"] = ("_route.graphml", "_route.json", "_route.geojson")
+_FORMAT_FILES["route_nav2"] = ("_route_nav2.geojson",)
+#: The formats that need the route graph.
+ROUTE_FORMATS = ("route", "route_nav2")
 
 
 def _room_settings() -> dict[str, Any]:

@@ -87,7 +87,17 @@ def _resume_record(
     files = doc.get("files")
     if not isinstance(files, dict):
         return None
-    expected = {f"{item.name}{suffix}" for suffix in _format_suffixes(formats)}
+    row = doc.get("record")
+    if not isinstance(row, dict):
+        return None
+    # a route graph without an edge has no Nav2 file
+    nav2_less = row.get("route_edges") == 0
+    expected = {
+        f"{item.name}{suffix}"
+        for fmt in formats
+        if not (fmt == "route_nav2" and nav2_less)
+        for suffix in _format_suffixes([fmt])
+    }
     if plot:
         expected.add(f"{item.name}{_PICTURE_SUFFIX}")
     if set(files) != expected:
@@ -99,9 +109,6 @@ def _resume_record(
                 return None
         except (OSError, KeyError, TypeError):
             return None
-    row = doc.get("record")
-    if not isinstance(row, dict):
-        return None
     rec = MapRecord(map=item.name, path=item.label)
     for name in SUMMARY_COLUMNS:
         if name not in ("map", "path", "status", "message") and name in row:

@@ -17,7 +17,8 @@ __all__ = ["SUMMARY_COLUMNS", "MapRecord", "write_summary"]
 #: Columns of the summary table, in order.  Times are seconds of wall time spent on the map
 #: in each stage; ``t_distance_s`` is the map's share (by tile count) of its group's kernel
 #: wall time plus its own clearance/packing; ``t_write_s`` covers the graph files and picture
-#: (and, with the ``rooms`` format, the room segmentation and its files); ``t_total_s`` is
+#: (and, with the ``rooms`` format, the room segmentation and its files, with the ``route``
+#: formats, the route graph and its files); ``t_total_s`` is
 #: their sum (not the latency, since stages of different maps overlap).
 SUMMARY_COLUMNS = (
     "map",
@@ -29,6 +30,9 @@ SUMMARY_COLUMNS = (
     "edges",
     "total_length_m",
     "components",
+    "route_vertices",
+    "route_edges",
+    "route_components",
     "t_load_s",
     "t_distance_s",
     "t_thinning_s",
@@ -59,10 +63,14 @@ class MapRecord:
         components).
     total_length_m : float or None
         Sum of the edge lengths in metres.
+    route_vertices, route_edges, route_components : int or None
+        Counts of the route graph (:func:`topojax.route_graph`) with the ``route`` or
+        ``route_nav2`` format, else None.
     t_load_s, t_distance_s, t_thinning_s, t_graph_s, t_write_s, t_total_s : float
         Seconds per stage (see :data:`SUMMARY_COLUMNS`).
     status : {"ok", "empty", "error", "skipped"}
-        ``"empty"``: the graph has no vertex (outputs written; ``message`` says why);
+        ``"empty"``: the graph, or the route graph of a ``route`` format, has no vertex
+        (outputs written; ``message`` says why);
         ``"skipped"``: complete outputs found by ``resume``.
     message : str
         Error message (``"ExceptionType: text"``) or a note; on an ok map empty, or a
@@ -83,6 +91,9 @@ class MapRecord:
     edges: int | None = None
     total_length_m: float | None = None
     components: int | None = None
+    route_vertices: int | None = None
+    route_edges: int | None = None
+    route_components: int | None = None
     t_load_s: float = 0.0
     t_distance_s: float = 0.0
     t_thinning_s: float = 0.0

@@ -19,7 +19,7 @@ from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
-from .inputs import _FORMAT_SUFFIX, _PICTURE_SUFFIX, _Item
+from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
 
 __all__ = ["InlineExecutor"]
@@ -64,6 +64,7 @@ class _CpuJob:
     free_bits: np.ndarray | None = None  # packbits of free, only for free_space_only
     plot: bool = False  # write the picture
     rooms: bool = False  # segment the map into rooms: the room files, rooms on the graph
+    route: Any = None  # RouteGraphConfig of the route formats, else None
 
 
 @dataclass
@@ -73,6 +74,10 @@ class _CpuResult:
     edges: int | None = None
     total_length_m: float | None = None
     components: int | None = None
+    route_vertices: int | None = None
+    route_edges: int | None = None
+    route_components: int | None = None
+    route_note: str = ""  # why the route graph is empty or has no edge, where it is
     t_thinning_s: float = 0.0
     t_graph_s: float = 0.0
     t_write_s: float = 0.0
@@ -168,10 +173,16 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             stem.parent.mkdir(parents=True, exist_ok=True)
             occupancy = _occupancy(job) if job.masks_bits is not None else None
             rooms = _rooms(occupancy, graph) if job.rooms else None
+            routes = _route_graph(job, occupancy, res) if job.route is not None else None
             written = []
             for fmt in job.formats:
                 if fmt == "rooms":
                     written += save_room_files(rooms, stem)
+                elif fmt == "route":
+                    written += [save_graph(routes, f"{stem}{s}") for s in _FORMAT_FILES[fmt]]
+                elif fmt == "route_nav2":
+                    if res.route_edges:  # the Route Server needs an edge
+                        written.append(save_nav2_graph(routes, f"{stem}{_FORMAT_FILES[fmt][0]}"))
                 elif fmt == "nav2":
                     written.append(save_nav2_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}"))
                 else:
@@ -191,6 +202,44 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
     except Exception as exc:
         res.error = _error_text(exc)
     return res
+
+
+def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) -> Any:
+    """The route graph of ``occupancy`` for ``job.route``; its counts, and why it is
+    empty where it is, go into ``res``."""
+    import networkx as nx
+
+    from ..routegraph import route_graph
+
+    assert occupancy is not None
+    routes = route_graph(occupancy, config=job.route)
+    res.route_vertices = routes.number_of_nodes()
+    res.route_edges = routes.number_of_edges()
+    res.route_components = nx.number_connected_components(routes)
+    if not res.route_vertices:
+        res.route_note = _route_empty_reason(occupancy, job.route)
+    elif not res.route_edges:
+        res.route_note = f"warning: the route graph has {res.route_vertices} vertices, no edge"
+    if res.route_note and "route_nav2" in job.formats:
+        res.route_note += "; no Nav2 file (the Route Server needs an edge)"
+    return routes
+
+
+def _route_empty_reason(occupancy: OccupancyMap, config: Any) -> str:
+    """Why the route graph of ``occupancy`` for ``config`` is empty."""
+    from ..routegraph.feasible import clearance_map_m
+
+    free = np.asarray(occupancy.free, bool)
+    if not free.any():
+        why = "the map has no free pixel as classified"
+    else:
+        most = float(clearance_map_m(free, occupancy.resolution_m).max())
+        why = (
+            f"no known-free region of at least {config.min_region_m2:g} m2 where a robot of "
+            f"radius {config.robot_radius_m:g} m fits (the most clearance from anything not "
+            f"known free is {most:.2f} m)"
+        )
+    return f"empty route graph: {why}"
 
 
 def _rooms(occupancy: OccupancyMap | None, graph: Any) -> Any:

@@ -14,8 +14,10 @@ from ._outputs import OUT_OPTION, check_outputs
 
 
 def _cmd_batch(args) -> int:
+    from .._validate import positive_metres
     from ..batch import build_graphs, expand_map_inputs
     from ..batch.inputs import planned_outputs
+    from ..routegraph import RouteGraphConfig
 
     paths = expand_map_inputs(args.inputs, exclude=args.out)
     planned = planned_outputs(paths, formats=args.formats, plot=args.plot)
@@ -49,6 +51,9 @@ def _cmd_batch(args) -> int:
             kernel_threads=args.kernel_threads,
             map_mode=args.mode,
             sigma_m=args.sigma_m,
+            route_config=RouteGraphConfig(
+                robot_radius_m=positive_metres("--robot-radius", args.robot_radius_m)
+            ),
         )
     finally:
         if client is not None:
@@ -126,6 +131,16 @@ def add_command(subparsers) -> None:
         help="comma-separated graph formats: graphml, json, geojson, nav2 (a Nav2 Route "
         "Server graph, NAME_nav2.geojson), rooms (the map's rooms and doorways, "
         "NAME_rooms.{geojson,png,graphml,json}; the graph files then carry each vertex's "
-        "room) (default: graphml,json,geojson)",
+        "room), route (the route graph for a round robot of --robot-radius, "
+        "NAME_route.{graphml,json,geojson}), route_nav2 (that graph for the Nav2 Route "
+        "Server, NAME_route_nav2.geojson) (default: graphml,json,geojson)",
+    )
+    p.add_argument(
+        "--robot-radius",
+        dest="robot_radius_m",
+        type=float,
+        default=0.3,
+        metavar="M",
+        help="robot radius in metres of the route formats (default 0.3)",
     )
     p.set_defaults(handler=_cmd_batch)

@@ -1,0 +1,125 @@
+"""Route graphs in batches: the ``route`` and ``route_nav2`` formats of
+:func:`topojax.build_graphs` and ``topojax batch``."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import topojax as tj
+from topojax.batch import build_graphs
+from topojax.io import load_graph
+from topojax.routegraph import RouteGraphConfig
+
+
+def _walled(free: np.ndarray, name: str) -> tj.OccupancyMap:
+    """A map of ``free`` (bool) with everything else occupied, 0.05 m per pixel."""
+    return tj.OccupancyMap(
+        occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05, source=name
+    )
+
+
+def _two_rooms() -> tj.OccupancyMap:
+    """Two 3 x 3 m rooms joined by a 1.2 m door."""
+    free = np.zeros((80, 140), bool)
+    free[10:70, 10:70] = True
+    free[10:70, 76:136] = True
+    free[28:52, 70:76] = True
+    return _walled(free, "two_rooms")
+
+
+def _narrow() -> tj.OccupancyMap:
+    """A corridor 0.5 m wide: a robot of radius 0.3 m fits nowhere."""
+    free = np.zeros((40, 200), bool)
+    free[15:25, 10:190] = True
+    return _walled(free, "narrow")
+
+
+def _edges_by_path(graph) -> list[bytes]:
+    out = []
+    for *_, p in graph.edges(data="path"):
+        p = np.ascontiguousarray(p, np.int64)
+        out.append(min(p.tobytes(), p[::-1].copy().tobytes()))
+    return sorted(out)
+
+
+def test_route_formats_write_each_maps_route_graph(tmp_path):
+    maps = [_two_rooms(), _narrow()]
+    out = tmp_path / "out"
+    records = build_graphs(  # in worker processes
+        maps, workers=2, progress=False, out_dir=out, formats="json,route,route_nav2"
+    )
+    rooms, narrow = records
+    want = tj.route_graph(maps[0], robot_radius_m=0.3)
+    assert want.number_of_edges() > 0
+    assert rooms.status == "ok" and rooms.message == ""
+    assert (rooms.route_vertices, rooms.route_edges, rooms.route_components) == (
+        want.number_of_nodes(),
+        want.number_of_edges(),
+        1,
+    )
+    for suffix in ("_route.graphml", "_route.json", "_route.geojson", "_route_nav2.geojson"):
+        assert f"two_rooms{suffix}" in rooms.outputs
+    got = load_graph(out / "two_rooms_route.json")
+    assert _edges_by_path(got) == _edges_by_path(want)
+    nav2 = json.loads((out / "two_rooms_route_nav2.geojson").read_text())
+    assert nav2["type"] == "FeatureCollection" and nav2["features"]
+
+    # the paper's graph of the corridor has an edge, its route graph none: empty, and why
+    assert narrow.edges > 0
+    assert (narrow.route_vertices, narrow.route_edges, narrow.route_components) == (0, 0, 0)
+    assert narrow.status == "empty"
+    assert "empty route graph" in narrow.message and "radius 0.3 m" in narrow.message
+    assert "0.25 m" in narrow.message  # the most clearance in the 0.5 m corridor
+    assert load_graph(out / "narrow_route.json").number_of_nodes() == 0
+
+    with open(out / "summary.csv", newline="") as fh:
+        rows = {r["map"]: r for r in csv.DictReader(fh)}
+    assert rows["two_rooms"]["route_edges"] == str(want.number_of_edges())
+    assert rows["narrow"]["status"] == "empty"
+
+
+def test_without_a_route_format_there_is_no_route_graph(tmp_path):
+    (rec,) = build_graphs([_two_rooms()], workers=0, progress=False, out_dir=tmp_path)
+    assert rec.status == "ok" and rec.edges > 0
+    assert (rec.route_vertices, rec.route_edges, rec.route_components) == (None, None, None)
+    assert not list(tmp_path.glob("*route*"))
+
+
+def test_resume_redoes_a_map_for_another_robot(tmp_path):
+    maps = [_two_rooms(), _narrow()]
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path, "formats": "route,route_nav2"}
+    first = build_graphs(maps, **kw)
+    assert [r.status for r in first] == ["ok", "empty"]
+    again = build_graphs(maps, resume=True, **kw)  # the corridor has no Nav2 file: complete
+    assert [r.status for r in again] == ["skipped", "skipped"]
+    assert [r.route_edges for r in again] == [r.route_edges for r in first]
+    small = RouteGraphConfig(robot_radius_m=0.1)
+    other, narrow = build_graphs(maps, resume=True, route_config=small, **kw)
+    assert other.status == narrow.status == "ok" and narrow.route_edges > 0
+    want = tj.route_graph(maps[0], robot_radius_m=0.1)
+    assert other.route_edges == want.number_of_edges()
+    assert _edges_by_path(load_graph(tmp_path / "two_rooms_route.json")) == _edges_by_path(want)
+
+
+def test_route_config_is_checked():
+    with pytest.raises(TypeError, match="route_config: expected a RouteGraphConfig"):
+        build_graphs([_two_rooms()], workers=0, progress=False, route_config=0.3)
+
+
+def test_batch_command_writes_route_graphs_for_the_robot_radius(tmp_path, capsys):
+    from topojax.cli import main
+
+    yaml = tmp_path / "maps" / "rooms.yaml"
+    yaml.parent.mkdir()
+    tj.save_map(_two_rooms(), yaml)
+    out = tmp_path / "out"
+    argv = ["batch", str(yaml), "-o", str(out), "--workers", "0", "--no-progress"]
+    assert main([*argv, "--formats", "route", "--robot-radius", "0.2"]) == 0
+    want = tj.route_graph(tj.load_map(yaml), robot_radius_m=0.2)
+    assert _edges_by_path(load_graph(out / "rooms_route.json")) == _edges_by_path(want)
+    assert main([*argv, "--formats", "route", "--robot-radius", "-1"]) == 2
+    assert "--robot-radius" in capsys.readouterr().err
