@@ -105,9 +105,58 @@ def test_resume_redoes_a_map_for_another_robot(tmp_path):
     assert _edges_by_path(load_graph(tmp_path / "two_rooms_route.json")) == _edges_by_path(want)
 
 
-def test_route_config_is_checked():
+def test_route_options_are_checked(tmp_path):
+    kw = {"workers": 0, "progress": False}
     with pytest.raises(TypeError, match="route_config: expected a RouteGraphConfig"):
-        build_graphs([_two_rooms()], workers=0, progress=False, route_config=0.3)
+        build_graphs([_two_rooms()], out_dir=tmp_path, formats="route", route_config=0.3, **kw)
+    with pytest.raises(ValueError, match="route_config: only used with the formats"):
+        build_graphs([_two_rooms()], out_dir=tmp_path, route_config=RouteGraphConfig(), **kw)
+    with pytest.raises(ValueError, match=r"out_dir: needed for the formats \['route'\]"):
+        build_graphs([_two_rooms()], formats="json,route", **kw)
+
+
+def test_a_robot_that_no_longer_fits_leaves_no_nav2_file(tmp_path):
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path, "formats": "route,route_nav2"}
+    nav2 = tmp_path / "narrow_route_nav2.geojson"
+    (small,) = build_graphs([_narrow()], route_config=RouteGraphConfig(robot_radius_m=0.1), **kw)
+    assert small.status == "ok" and nav2.is_file()
+    (large,) = build_graphs([_narrow()], **kw)
+    assert large.status == "empty" and "no Nav2 file" in large.message
+    assert not nav2.exists()
+
+
+def test_a_route_graph_without_an_edge_is_a_warning(tmp_path):
+    free = np.zeros((40, 40), bool)
+    free[5:21, 5:21] = True  # 0.8 m square: room for the robot at its centre only
+    config = RouteGraphConfig(robot_radius_m=0.3, min_region_m2=0.0)
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path, "route_config": config}
+    (rec,) = build_graphs([_walled(free, "square")], formats="route,route_nav2", **kw)
+    assert (rec.route_vertices, rec.route_edges) == (1, 0)
+    assert rec.status == "ok" and rec.message.startswith("warning: the route graph has 1 vertex")
+    assert not (tmp_path / "square_route_nav2.geojson").exists()
+
+
+def test_only_route_graphs_asked_for_ignore_the_papers_graph(tmp_path):
+    free = np.ones((60, 60), bool)  # no obstacle: the paper's graph is empty
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path}
+    (route_only,) = build_graphs([_walled(free, "hall")], formats="route", **kw)
+    assert route_only.vertices == 0 and route_only.route_edges > 0
+    assert route_only.status == "ok" and route_only.message == ""
+    (both,) = build_graphs([_walled(free, "hall")], formats="json,route", **kw)
+    assert both.status == "empty" and "no occupied pixel" in both.message
+
+
+def test_summary_parquet_types_route_counts_as_integers():
+    from types import SimpleNamespace
+
+    from topojax.batch.records import _arrow_schema
+
+    pa = SimpleNamespace(string=lambda: "str", int64=lambda: "int", float64=lambda: "float")
+    pa.schema = dict
+    types = _arrow_schema(pa)
+    assert {
+        types[c] for c in ("vertices", "route_vertices", "route_edges", "route_components")
+    } == {"int"}
 
 
 def test_batch_command_writes_route_graphs_for_the_robot_radius(tmp_path, capsys):
@@ -121,5 +170,8 @@ def test_batch_command_writes_route_graphs_for_the_robot_radius(tmp_path, capsys
     assert main([*argv, "--formats", "route", "--robot-radius", "0.2"]) == 0
     want = tj.route_graph(tj.load_map(yaml), robot_radius_m=0.2)
     assert _edges_by_path(load_graph(out / "rooms_route.json")) == _edges_by_path(want)
+    capsys.readouterr()
     assert main([*argv, "--formats", "route", "--robot-radius", "-1"]) == 2
     assert "--robot-radius" in capsys.readouterr().err
+    assert main([*argv, "--formats", "json", "--robot-radius", "0.2"]) == 2
+    assert "--robot-radius: only used with the formats" in capsys.readouterr().err

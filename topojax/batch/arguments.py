@@ -60,9 +60,7 @@ def checked_options(
     """
     config = instance_or_default("config", config, PipelineConfig)
     fmts = _check_formats(formats)
-    route_config = instance_or_default("route_config", route_config, RouteGraphConfig)
-    if not set(fmts) & set(ROUTE_FORMATS):
-        route_config = None
+    route_config = route_options(route_config, fmts, out_dir)
     sigma_m = check_options(map_mode=map_mode, flags=flags, sigma_m=sigma_m, out_dir=out_dir)
     tpc, threads, group_tiles = kernel_settings(config, tiles_per_call, kernel_threads, batch_tiles)
     keep_graphs = flags["keep_graphs"]
@@ -216,6 +214,24 @@ def check_options(
     if out_dir is None and (flags["plot"] or flags["resume"]):
         raise ValueError("out_dir: needed for plot=True or resume=True, got None")
     return sigma_m
+
+
+def route_options(route_config: Any, formats: tuple[str, ...], out_dir: Any):
+    """The checked ``route_config`` (its default where None) when ``formats`` name a
+    route format, else None; those formats need ``out_dir``."""
+    routes = sorted(set(formats) & set(ROUTE_FORMATS))
+    if route_config is not None:
+        instance_or_default("route_config", route_config, RouteGraphConfig)
+        if not routes:
+            raise ValueError(
+                f"route_config: only used with the formats {ROUTE_FORMATS}, which formats "
+                f"does not name (got {formats})"
+            )
+    if not routes:
+        return None
+    if out_dir is None:
+        raise ValueError(f"out_dir: needed for the formats {routes}, got None")
+    return instance_or_default("route_config", route_config, RouteGraphConfig)
 
 
 def as_executor(executor: Any) -> cf.Executor | None:

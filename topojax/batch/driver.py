@@ -22,7 +22,7 @@ from ..maps import OccupancyMap
 from ..maps.classify import wall_warning
 from ..routegraph import RouteGraphConfig
 from .arguments import batch_items, checked_options, map_inputs
-from .inputs import _Item
+from .inputs import ROUTE_FORMATS, _Item
 from .manifest import _forget_outputs, _resume_record, _write_manifest
 from .records import MapRecord, write_summary
 from .worker import (
@@ -485,10 +485,12 @@ class _BatchRun:
             return rec
         warning = wall_warning(self._walls.pop(item.index, None))
         classes = self._classes.pop(item.index, (None, None))
-        notes = [] if res.vertices else [_empty_reason(*classes)]
+        # the paper's graph counts unless only route graphs were asked for
+        paper = self.out_dir is None or not set(self.formats) <= set(ROUTE_FORMATS)
+        notes = [] if res.vertices or not paper else [_empty_reason(*classes)]
         notes += [res.route_note] if res.route_note else []
         notes += [warning] if warning else []
-        if not res.vertices or res.route_vertices == 0:
+        if (paper and not res.vertices) or res.route_vertices == 0:
             rec.status = "empty"
             rec.message = "; ".join(notes)
         else:

@@ -173,6 +173,9 @@ def _arrow_schema(pa: Any) -> Any:
         "vertices": pa.int64(),
         "edges": pa.int64(),
         "components": pa.int64(),
+        "route_vertices": pa.int64(),
+        "route_edges": pa.int64(),
+        "route_components": pa.int64(),
         "status": pa.string(),
         "message": pa.string(),
     }

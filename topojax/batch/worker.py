@@ -181,8 +181,11 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
                 elif fmt == "route":
                     written += [save_graph(routes, f"{stem}{s}") for s in _FORMAT_FILES[fmt]]
                 elif fmt == "route_nav2":
-                    if res.route_edges:  # the Route Server needs an edge
-                        written.append(save_nav2_graph(routes, f"{stem}{_FORMAT_FILES[fmt][0]}"))
+                    nav2 = Path(f"{stem}{_FORMAT_FILES[fmt][0]}")
+                    if res.route_edges:
+                        written.append(save_nav2_graph(routes, nav2))
+                    else:  # the Route Server needs an edge; no file of an earlier run either
+                        nav2.unlink(missing_ok=True)
                 elif fmt == "nav2":
                     written.append(save_nav2_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}"))
                 else:
@@ -219,7 +222,10 @@ def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) 
     if not res.route_vertices:
         res.route_note = _route_empty_reason(occupancy, job.route)
     elif not res.route_edges:
-        res.route_note = f"warning: the route graph has {res.route_vertices} vertices, no edge"
+        n = res.route_vertices
+        res.route_note = (
+            f"warning: the route graph has {n} vert{'ex' if n == 1 else 'ices'}, no edge"
+        )
     if res.route_note and "route_nav2" in job.formats:
         res.route_note += "; no Nav2 file (the Route Server needs an edge)"
     return routes

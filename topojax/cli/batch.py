@@ -14,11 +14,10 @@ from ._outputs import OUT_OPTION, check_outputs
 
 
 def _cmd_batch(args) -> int:
-    from .._validate import positive_metres
     from ..batch import build_graphs, expand_map_inputs
     from ..batch.inputs import planned_outputs
-    from ..routegraph import RouteGraphConfig
 
+    route_config = _route_config(args)
     paths = expand_map_inputs(args.inputs, exclude=args.out)
     planned = planned_outputs(paths, formats=args.formats, plot=args.plot)
     claims = {Path(args.out) / rel: source for rel, source in planned.items()}
@@ -51,9 +50,7 @@ def _cmd_batch(args) -> int:
             kernel_threads=args.kernel_threads,
             map_mode=args.mode,
             sigma_m=args.sigma_m,
-            route_config=RouteGraphConfig(
-                robot_radius_m=positive_metres("--robot-radius", args.robot_radius_m)
-            ),
+            route_config=route_config,
         )
     finally:
         if client is not None:
@@ -73,6 +70,24 @@ def _cmd_batch(args) -> int:
         if r.status in ("error", "empty") or r in warned:
             print(f"  {r.status:5s}  {r.map}: {r.message}", file=sys.stderr)
     return 1 if counts["error"] else 0
+
+
+def _route_config(args):
+    """The route graph options of ``--robot-radius``: None without a route format."""
+    from .._validate import positive_metres
+    from ..batch.inputs import ROUTE_FORMATS
+    from ..routegraph import RouteGraphConfig
+
+    names = {f.strip().lower().lstrip(".") for f in str(args.formats).split(",")}
+    if not names & set(ROUTE_FORMATS):
+        if args.robot_radius_m is not None:
+            raise ValueError(
+                f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}, "
+                f"which --formats does not name (got {args.formats!r})"
+            )
+        return None
+    radius = 0.3 if args.robot_radius_m is None else args.robot_radius_m
+    return RouteGraphConfig(robot_radius_m=positive_metres("--robot-radius", radius))
 
 
 def add_command(subparsers) -> None:
@@ -139,7 +154,6 @@ def add_command(subparsers) -> None:
         "--robot-radius",
         dest="robot_radius_m",
         type=float,
-        default=0.3,
         metavar="M",
         help="robot radius in metres of the route formats (default 0.3)",
     )
