@@ -175,3 +175,22 @@ def test_batch_command_writes_route_graphs_for_the_robot_radius(tmp_path, capsys
     assert "--robot-radius" in capsys.readouterr().err
     assert main([*argv, "--formats", "json", "--robot-radius", "0.2"]) == 2
     assert "--robot-radius: only used with the formats" in capsys.readouterr().err
+
+
+def test_view_of_a_route_only_batch_draws_the_route_graph_over_its_map(tmp_path, capsys):
+    from view_cases import payload_of
+
+    from topojax.cli import main
+
+    yaml = tmp_path / "maps" / "rooms.yaml"
+    yaml.parent.mkdir()
+    tj.save_map(_two_rooms(), yaml)
+    out = tmp_path / "out"
+    argv = ["batch", str(yaml), "-o", str(out), "--workers", "0", "--no-progress"]
+    assert main([*argv, "--formats", "route"]) == 0
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "rooms_route.json" in text and f"map {yaml}" in text
+    data = payload_of((out / "view.html").read_text())
+    assert data["rasters"][0]["name"] == "map" and data["graphs"][0]["n_edges"] > 0

@@ -5,7 +5,8 @@ The folder is one that ``topojax graph``, ``demo``, ``rooms``, ``route-graph``,
 write: a graph ``STEM.json`` (or ``.graphml``, ``.geojson``), its map (the input the
 folder's ``.topojax-outputs.json`` records, ``map.yaml`` of a replay, the map a batch
 manifest names), rooms ``STEM_rooms.geojson`` (``map_rooms.geojson`` of a replay), a route
-graph ``STEM_route.json`` (``route_graph.json`` of a replay) and a replay's
+graph ``STEM_route.json`` (``route_graph.json`` of a replay; a batch's route graph
+without its graph is drawn over the map of its manifest) and a replay's
 ``timeline.json.gz``.  One result gives ``view.html``; several give one page each,
 ``STEM_view.html``, and ``view.html`` lists them.
 """
@@ -115,6 +116,8 @@ def find_results(folder: Path) -> list[_Result]:
         kwargs: dict = {}
         if source is None:
             source, kwargs = _manifest_map(folder, stem)
+        if source is None and stem.endswith("_route"):  # a batch's route graph alone
+            source, kwargs = _manifest_map(folder, stem[: -len("_route")])
         if source is None:
             for suffix in (".yaml", ".yml"):
                 if (folder / f"{stem}{suffix}").is_file():
