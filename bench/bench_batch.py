@@ -39,12 +39,21 @@ With ``--outputs`` the job also writes the graph files (GraphML, JSON, GeoJSON) 
 to a temporary folder: ``sequential+out`` (``save_graph`` x 3 after each ``build_graph``) vs
 ``batch-2+out``.
 
-Results go to ``bench/results/batch_<machine>.json``; a markdown summary is printed.
+With ``--route`` the job is the route graphs of every map for a robot of radius 0.3 m
+(:func:`topojax.route_graph`), written as GraphML, JSON and GeoJSON, instead:
+``sequential+route`` (``route_graph(load_map(p))`` and ``save_graph`` x 3 per map) vs
+``batch-2+route`` (``build_graphs(paths, workers=2, formats="route")``, which builds the
+paper's graph of every map too).  Every map's route-graph vertex and edge counts must
+match.
+
+Results go to ``bench/results/batch_<machine>.json`` (``batch_route_<machine>.json``
+with ``--route``); a markdown summary is printed.
 
 Run from the repository root::
 
     python bench/bench_batch.py --quick      # 30 maps, cold+warm, no outputs; ~2 min
     python bench/bench_batch.py              # >= 100 maps, all modes + outputs; < 10 min
+    python bench/bench_batch.py --route      # >= 100 maps, route graphs; ~5 min
 """
 
 from __future__ import annotations
@@ -78,6 +87,9 @@ SCRIPT = Path(__file__).resolve()
 DEFAULT_MAPS = DEFAULT_DATA / "maps"
 MODES = ("sequential", "batch-1", "batch-2", "batch-0", "per-worker-2")
 OUTPUT_MODES = ("sequential+out", "batch-2+out")
+ROUTE_MODES = ("sequential+route", "batch-2+route")
+#: Robot radius of the route modes (m).
+ROUTE_RADIUS_M = 0.3
 KERNEL_MODES = ("kernels-1thread", "kernels-2threads", "kernels-1core")
 
 
@@ -182,6 +194,8 @@ def _run_job(
     """Run one mode over all paths; return per-map [vertices, edges, total_length_m]."""
     if mode.startswith("kernels-"):
         return _kernel_job(mode, paths, tiles_per_call or 16)
+    if mode in ROUTE_MODES:
+        return _route_job(mode, paths, out_dir, tiles_per_call)
     base = mode.removesuffix("+out")
     if base == "sequential":
         from topojax.graph import graph_summary
@@ -225,6 +239,43 @@ def _run_job(
     raise ValueError(f"unknown mode {mode!r}")
 
 
+def _route_job(
+    mode: str, paths: list[str], out_dir: str | None, tiles_per_call: int | None
+) -> list[list[Any]]:
+    """The route graphs of all paths, written to ``out_dir``; per-map [vertices, edges]."""
+    assert out_dir is not None
+    if mode == "sequential+route":
+        from topojax.io import save_graph
+        from topojax.maps import load_map
+        from topojax.routegraph import route_graph
+
+        rows = []
+        for i, p in enumerate(paths):
+            graph = route_graph(load_map(p), robot_radius_m=ROUTE_RADIUS_M)
+            stem = Path(out_dir) / f"{i:04d}_{Path(p).stem}_route"
+            for suffix in (".graphml", ".json", ".geojson"):
+                save_graph(graph, f"{stem}{suffix}")
+            rows.append([graph.number_of_nodes(), graph.number_of_edges()])
+        return rows
+    from topojax.batch import build_graphs
+    from topojax.routegraph import RouteGraphConfig
+
+    records = build_graphs(
+        paths,
+        workers=2,
+        out_dir=out_dir,
+        formats="route",
+        route_config=RouteGraphConfig(robot_radius_m=ROUTE_RADIUS_M),
+        progress=False,
+        keep_graphs=False,
+        tiles_per_call=tiles_per_call,
+    )
+    bad = [f"{r.map}: {r.message}" for r in records if r.status not in ("ok", "empty")]
+    if bad:
+        raise RuntimeError(f"batch mode {mode} had failures: {bad[:5]}")
+    return [[r.route_vertices, r.route_edges] for r in records]
+
+
 def _worker_main(args: argparse.Namespace) -> None:
     """Subprocess side: run the job cold, then warm; print one JSON line."""
     if args.mode == "kernels-1core":
@@ -240,7 +291,8 @@ def _worker_main(args: argparse.Namespace) -> None:
     runs = []
     rows = None
     for label in ("cold", "warm")[: args.runs]:
-        out_dir = tempfile.mkdtemp(prefix="topojax-bench-") if args.mode.endswith("+out") else None
+        writes = args.mode.endswith(("+out", "+route"))
+        out_dir = tempfile.mkdtemp(prefix="topojax-bench-") if writes else None
         before = trace_counts()
         stop, thread = tree.running()
         cpu0 = tree.total()
@@ -304,8 +356,12 @@ def main() -> None:
     parser.add_argument("--min-maps", type=int, default=None, help="pad with paper maps")
     parser.add_argument("--outputs", action=argparse.BooleanOptionalAction, default=None)
     parser.add_argument(
-        "--modes", nargs="+", default=None, choices=MODES + OUTPUT_MODES + KERNEL_MODES
+        "--modes",
+        nargs="+",
+        default=None,
+        choices=MODES + OUTPUT_MODES + KERNEL_MODES + ROUTE_MODES,
     )
+    parser.add_argument("--route", action="store_true", help="route graphs (ROUTE_MODES)")
     parser.add_argument("--runs", type=int, default=2, choices=(1, 2), help="cold [+ warm]")
     parser.add_argument("--json", type=Path, default=None, help="results file")
     parser.add_argument(
@@ -339,6 +395,8 @@ def main() -> None:
     paths, failed, megapixels = _probe(all_paths)
     if args.modes:
         modes = list(args.modes)
+    elif args.route:
+        modes = list(ROUTE_MODES)
     else:
         modes = list(MODES[:3] if args.quick else MODES)
         if args.outputs if args.outputs is not None else not args.quick:
@@ -373,6 +431,8 @@ def main() -> None:
     def family(mode: str) -> str:
         if mode in KERNEL_MODES:
             return "kernels-1thread"
+        if mode in ROUTE_MODES:
+            return "sequential+route"
         return "sequential+out" if mode.endswith("+out") else "sequential"
 
     # correctness: every mode equals its family's reference, map by map
@@ -447,7 +507,8 @@ def main() -> None:
     }
     out = (
         args.json
-        or RESULTS_DIR / f"batch_{machine_slug(info)}{'_quick' if args.quick else ''}.json"
+        or RESULTS_DIR
+        / f"batch{'_route' if args.route else ''}_{machine_slug(info)}{'_quick' if args.quick else ''}.json"
     )
     write_json(out, data)
     print(
