@@ -814,3 +814,14 @@ def test_large_pieces_keeps_the_8_connected_pieces_of_at_least_the_area(in_boxes
         want = mask & (sizes[labels] >= area)
         got = _joins.large_pieces(mask, area)
         assert got is not mask and np.array_equal(got, want)
+
+
+def test_route_graphs_and_rooms_load_without_jax():
+    """Neither needs the JAX kernels: a robot or a command line that builds them does
+    not pay JAX's import."""
+    import subprocess
+    import sys
+
+    code = "import sys, topojax.routegraph, topojax.rooms; print('jax' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

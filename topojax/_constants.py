@@ -1,14 +1,15 @@
-"""Small constants that the command line needs to build its parser, and the colours that
-pictures and ROS markers share, in a module that imports nothing (the modules that use
-them import JAX, numba, matplotlib or the map readers).
+"""Small constants that the command line needs to build its parser, the colours that
+pictures and ROS markers share, and the distance kernels' "no obstacle" value, in a module
+that imports nothing (the modules that use them import JAX, numba, matplotlib or the map
+readers).
 
-:mod:`topojax.maps` and :mod:`topojax.incremental` import them from here and export them
-under the same names.
+:mod:`topojax.maps`, :mod:`topojax.incremental` and :mod:`topojax.fields` import them from
+here and export them under the same names.
 """
 
 from __future__ import annotations
 
-__all__ = ["EDGE_COLOUR", "MODES", "STRATEGIES", "VERTEX_KIND_COLOURS"]
+__all__ = ["EDGE_COLOUR", "FAR_SQ", "MODES", "STRATEGIES", "VERTEX_KIND_COLOURS"]
 
 #: Pixel conventions of :func:`topojax.load_map` (``mode``); :data:`topojax.maps.MODES`.
 MODES = ("trinary", "scale", "raw", "ipa")
@@ -25,3 +26,6 @@ VERTEX_KIND_COLOURS = {
 }
 #: Colour of the graph's edges in pictures and ROS markers.
 EDGE_COLOUR = "#ff7f0e"
+#: Squared-distance value (px^2) of pixels with no obstacle inside their window
+#: (:data:`topojax.fields.FAR_SQ`).
+FAR_SQ = 1 << 30

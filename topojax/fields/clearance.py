@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .distance import FAR_SQ
+from .._constants import FAR_SQ
 
 __all__ = [
     "SPARSE_CLEARANCE_MAX_PX",

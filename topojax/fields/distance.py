@@ -18,6 +18,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from .._constants import FAR_SQ
+
 __all__ = [
     "FAR_SQ",
     "column_dtype",
@@ -28,8 +30,6 @@ __all__ = [
     "brute_force_distance_map",
 ]
 
-#: Squared-distance value of pixels with no obstacle inside their window.
-FAR_SQ = 1 << 30
 
 # Row pass: rows per band (each band has its own early exit) and offsets per loop step
 # (the loop's per-iteration cost on the CPU is worth a few offsets of overshoot).
