@@ -55,8 +55,7 @@ def checked_options(
     than its items, output folder and fingerprints: ``config``, ``formats``,
     ``executor``, ``workers``, the flags as bools, the kernel settings, ``map_mode``,
     ``sigma_m``, ``route_config`` (None without a route format) and the ``request`` its
-    manifests record.  Raises TypeError or
-    ValueError naming the argument.
+    manifests record.  Raises TypeError or ValueError naming the argument.
     """
     config = instance_or_default("config", config, PipelineConfig)
     fmts = _check_formats(formats)

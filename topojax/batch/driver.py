@@ -79,7 +79,7 @@ class _BatchRun:
         fingerprints: dict[int, dict[str, Any] | None],
         map_mode: str | None = None,
         sigma_m: float | None = None,
-        route_config: Any = None,
+        route_config: RouteGraphConfig | None = None,
     ) -> None:
         self.items = items
         self.map_mode = map_mode
@@ -490,11 +490,9 @@ class _BatchRun:
         notes = [] if res.vertices or not paper else [_empty_reason(*classes)]
         notes += [res.route_note] if res.route_note else []
         notes += [warning] if warning else []
+        rec.message = "; ".join(notes)  # why it is empty, and any warning
         if (paper and not res.vertices) or res.route_vertices == 0:
             rec.status = "empty"
-            rec.message = "; ".join(notes)
-        else:
-            rec.message = "; ".join(notes)  # ok, perhaps with a warning
         rec.graph = res.graph
         if self.out_dir is not None:
             rec._finish()
@@ -570,9 +568,11 @@ def build_graphs(
     out_dir : str or path, optional
         Output folder (created).  Without it nothing is written and the graphs are
         returned in the records.
-    formats : sequence of {"graphml", "json", "geojson", "nav2", "rooms", "route", "route_nav2"} or comma-separated str
-        Graph files per map (``nav2``: ``<name>_nav2.geojson``, a route graph for the ROS 2
-        Nav2 Route Server, :func:`topojax.save_nav2_graph` with its default tolerance).
+    formats : sequence of str, or a comma-separated str
+        Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2``, ``rooms``,
+        ``route`` and ``route_nav2``.  ``nav2``: ``<name>_nav2.geojson``, the graph for
+        the ROS 2 Nav2 Route Server (:func:`topojax.save_nav2_graph`, its default
+        tolerance).
         ``rooms``: ``<name>_rooms.{geojson,png,graphml,json}`` of
         :func:`topojax.segment_rooms` (default settings); the graph files, picture and
         kept graphs then carry the rooms (:func:`topojax.assign_rooms`).

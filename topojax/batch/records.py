@@ -18,8 +18,8 @@ __all__ = ["SUMMARY_COLUMNS", "MapRecord", "write_summary"]
 #: in each stage; ``t_distance_s`` is the map's share (by tile count) of its group's kernel
 #: wall time plus its own clearance/packing; ``t_write_s`` covers the graph files and picture
 #: (and, with the ``rooms`` format, the room segmentation and its files, with the ``route``
-#: formats, the route graph and its files); ``t_total_s`` is
-#: their sum (not the latency, since stages of different maps overlap).
+#: formats, the route graph and its files); ``t_total_s`` is their sum (not the latency,
+#: since stages of different maps overlap).
 SUMMARY_COLUMNS = (
     "map",
     "path",
