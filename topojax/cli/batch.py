@@ -86,8 +86,9 @@ def _route_config(args):
                 f"which --formats does not name (got {args.formats!r})"
             )
         return None
-    radius = 0.3 if args.robot_radius_m is None else args.robot_radius_m
-    return RouteGraphConfig(robot_radius_m=positive_metres("--robot-radius", radius))
+    if args.robot_radius_m is None:
+        return RouteGraphConfig()
+    return RouteGraphConfig(robot_radius_m=positive_metres("--robot-radius", args.robot_radius_m))
 
 
 def add_command(subparsers) -> None:
