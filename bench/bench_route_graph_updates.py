@@ -44,15 +44,12 @@ from common import (  # noqa: E402
     write_json,
     write_text,
 )
+from maps_route_graph import CARMEN_LOGS  # noqa: E402
 
 use_checkout()
 
-#: Log name -> file in ``logs/carmen_corrected`` (the replays of the route-graph benchmark).
-LOGS = {
-    "intel": "intel-corrected.log.gz",
-    "aces": "aces-corrected.log.gz",
-    "fr079": "freiburg-079-corrected.log.gz",
-}
+#: Log name -> file in ``logs/carmen_corrected``: the replays of the route-graph benchmark.
+LOGS = {name.removeprefix("carmen_"): file for name, file in CARMEN_LOGS.items()}
 
 
 def replay_with_updates(path: Path, radius_m: float, every_s: float) -> list[dict]:

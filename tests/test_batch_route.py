@@ -159,14 +159,20 @@ def test_summary_parquet_types_route_counts_as_integers():
     } == {"int"}
 
 
-def test_batch_command_writes_route_graphs_for_the_robot_radius(tmp_path, capsys):
-    from topojax.cli import main
-
+def _batch_of_two_rooms(tmp_path):
+    """The two rooms saved as ``maps/rooms.yaml`` under ``tmp_path``; that file, the
+    output folder and the arguments of ``topojax batch`` for them, formats to add."""
     yaml = tmp_path / "maps" / "rooms.yaml"
     yaml.parent.mkdir()
     tj.save_map(_two_rooms(), yaml)
     out = tmp_path / "out"
-    argv = ["batch", str(yaml), "-o", str(out), "--workers", "0", "--no-progress"]
+    return yaml, out, ["batch", str(yaml), "-o", str(out), "--workers", "0", "--no-progress"]
+
+
+def test_batch_command_writes_route_graphs_for_the_robot_radius(tmp_path, capsys):
+    from topojax.cli import main
+
+    yaml, out, argv = _batch_of_two_rooms(tmp_path)
     assert main([*argv, "--formats", "route", "--robot-radius", "0.2"]) == 0
     want = tj.route_graph(tj.load_map(yaml), robot_radius_m=0.2)
     assert _edges_by_path(load_graph(out / "rooms_route.json")) == _edges_by_path(want)
@@ -182,11 +188,7 @@ def test_view_of_a_route_only_batch_draws_the_route_graph_over_its_map(tmp_path,
 
     from topojax.cli import main
 
-    yaml = tmp_path / "maps" / "rooms.yaml"
-    yaml.parent.mkdir()
-    tj.save_map(_two_rooms(), yaml)
-    out = tmp_path / "out"
-    argv = ["batch", str(yaml), "-o", str(out), "--workers", "0", "--no-progress"]
+    yaml, out, argv = _batch_of_two_rooms(tmp_path)
     assert main([*argv, "--formats", "route"]) == 0
     capsys.readouterr()
     assert main(["view", str(out)]) == 0

@@ -21,10 +21,10 @@ from .inputs import (
     _PICTURE_SUFFIX,
     ROUTE_FORMATS,
     _assign_names,
-    _check_formats,
     _format_suffixes,
     _Item,
     _room_settings,
+    check_formats,
 )
 from .manifest import _fingerprint, _normalise
 
@@ -58,7 +58,7 @@ def checked_options(
     manifests record.  Raises TypeError or ValueError naming the argument.
     """
     config = instance_or_default("config", config, PipelineConfig)
-    fmts = _check_formats(formats)
+    fmts = check_formats(formats)
     route_config = route_options(route_config, fmts, out_dir)
     sigma_m = check_options(map_mode=map_mode, flags=flags, sigma_m=sigma_m, out_dir=out_dir)
     tpc, threads, group_tiles = kernel_settings(config, tiles_per_call, kernel_threads, batch_tiles)

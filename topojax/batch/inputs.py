@@ -16,7 +16,13 @@ from .._fs import yaml_image
 from ..io import GRAPH_FORMATS, ROOM_FILE_SUFFIXES
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, OccupancyMap
 
-__all__ = ["ROUTE_FORMATS", "expand_braces", "expand_map_inputs", "planned_outputs"]
+__all__ = [
+    "ROUTE_FORMATS",
+    "check_formats",
+    "expand_braces",
+    "expand_map_inputs",
+    "planned_outputs",
+]
 
 _MAP_SUFFIXES = tuple(YAML_SUFFIXES) + tuple(IMAGE_SUFFIXES)
 _MANIFEST_SUFFIX = ".manifest.json"
@@ -267,7 +273,9 @@ def _output_files(name: str) -> list[str]:
     return [name + suffix for suffix in suffixes]
 
 
-def _check_formats(formats: Any) -> tuple[str, ...]:
+def check_formats(formats: Any) -> tuple[str, ...]:
+    """The format names of ``formats`` (a sequence, or a comma-separated str), lower case,
+    without leading dots and duplicates; ValueError naming ``formats`` for unknown ones."""
     if isinstance(formats, str):
         formats = [f for f in formats.split(",") if f.strip()]
     try:
@@ -303,7 +311,7 @@ def planned_outputs(
         Each output file, relative to ``out_dir`` (``/``-separated), and the map file it is
         made from; the summary table is not included.
     """
-    fmts = _check_formats(formats)
+    fmts = check_formats(formats)
     sources = [Path(p) for p in paths]
     suffixes = _format_suffixes(fmts) + [_MANIFEST_SUFFIX]
     suffixes += [_PICTURE_SUFFIX] * bool(plot)

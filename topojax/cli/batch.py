@@ -75,11 +75,10 @@ def _cmd_batch(args) -> int:
 def _route_config(args):
     """The route graph options of ``--robot-radius``: None without a route format."""
     from .._validate import positive_metres
-    from ..batch.inputs import ROUTE_FORMATS
+    from ..batch.inputs import ROUTE_FORMATS, check_formats
     from ..routegraph import RouteGraphConfig
 
-    names = {f.strip().lower().lstrip(".") for f in str(args.formats).split(",")}
-    if not names & set(ROUTE_FORMATS):
+    if not set(check_formats(args.formats)) & set(ROUTE_FORMATS):
         if args.robot_radius_m is not None:
             raise ValueError(
                 f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}, "
