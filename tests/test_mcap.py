@@ -8,6 +8,7 @@ import math
 from collections import Counter
 from pathlib import Path
 
+import networkx as nx
 import numpy as np
 import pytest
 
@@ -69,7 +70,8 @@ def assert_grid_is_map(grid, occ) -> None:
 
 def assert_markers_are_graph(array, graph) -> None:
     """The markers hold every vertex (a sphere list per kind) and every edge (a line
-    strip through its ``world`` points), and nothing else after a DELETEALL."""
+    strip through its ``waypoints`` where it has them, else its ``world`` points), and
+    nothing else after a DELETEALL."""
     markers = array.markers
     assert markers[0].action == 3  # DELETEALL: earlier graphs vanish
     spheres = {m.id: m for m in markers if m.ns == "vertices"}
@@ -84,7 +86,8 @@ def assert_markers_are_graph(array, graph) -> None:
     assert all(m.header.frame_id == MAP_FRAME for m in markers)
     got = sorted(tuple(np.round([(p.x, p.y) for p in m.points], 9).ravel()) for m in strips)
     want = sorted(
-        tuple(np.round(np.asarray(w, float), 9).ravel()) for *_, w in graph.edges(data="world")
+        tuple(np.round(np.asarray(d.get("waypoints", d["world"]), float), 9).ravel())
+        for *_, d in graph.edges(data=True)
     )
     assert got == want
     assert len(markers) == 1 + len(spheres) + len(strips)
@@ -101,6 +104,7 @@ def replayed(tmp_path_factory):
         graph_every=10,
         skeleton_every=None,
         rooms=True,
+        route_graph_radius_m=0.2,
         mcap=path,
     )
     return out, path, summary, read_messages(path)
@@ -111,8 +115,16 @@ def test_replay_recording_has_every_topic_with_standard_types_and_counts(replaye
     assert str(path) in summary["written"]
     assert {tp: ty for tp, ty, _, _ in messages} == TOPICS
     counts = Counter(tp for tp, *_ in messages)
-    # 40 scans; a graph (and room) update every 10 scans, and the written result at the end
-    assert counts == {"/tf": 40, "/scan": 40, "/map": 5, "/topology": 5, "/rooms": 5}
+    # 40 scans; a graph (room, route graph) update every 10 scans, and the written result
+    # at the end
+    assert counts == {
+        "/tf": 40,
+        "/scan": 40,
+        "/map": 5,
+        "/topology": 5,
+        "/route_graph": 5,
+        "/rooms": 5,
+    }
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary folder
 
 
@@ -176,6 +188,30 @@ def test_replay_recording_ends_with_the_written_map_graph_and_rooms(replayed):
     assert sum(len(m.points) for m in door_lines) == 2 * len(doors)
 
 
+def test_replay_recording_has_the_route_graph_of_every_graph_update(replayed):
+    """/route_graph comes with each /map: the route graph of that map, edges through
+    their waypoints; the last one is the written route graph."""
+    out, _, _, messages = replayed
+    maps = [t for tp, _, t, _ in messages if tp == "/map"]
+    assert [t for tp, _, t, _ in messages if tp == "/route_graph"] == maps
+    routes = tj.load_graph(out / "route_graph.json")
+    assert routes.graph["kind"] == "route_graph" and routes.number_of_edges() > 0
+    assert_markers_are_graph(last(messages, "/route_graph"), routes)
+    # the first one is the route graph of the first recorded map
+    grid = next(m for tp, _, _, m in messages if tp == "/map")
+    occupied, free, unknown = grid_masks(grid)
+    first_map = tj.OccupancyMap(
+        occupied=occupied,
+        free=free,
+        unknown=unknown,
+        resolution_m=tj.load_map(out / "map.yaml").resolution_m,
+        origin=(grid.info.origin.position.x, grid.info.origin.position.y, 0.0),
+    )
+    first = tj.route_graph(first_map, robot_radius_m=0.2)
+    assert first.number_of_edges() > 0
+    assert_markers_are_graph(next(m for tp, _, _, m in messages if tp == "/route_graph"), first)
+
+
 def test_replay_recording_reads_with_the_mcap_package(replayed):
     """The file is plain MCAP with the ros2 profile, as Foxglove reads it."""
     pytest.importorskip("mcap_ros2")
@@ -216,6 +252,15 @@ def test_save_mcap_writes_one_map_graph_and_rooms(tmp_path):
     assert [tp for tp, *_ in read_messages(path)] == ["/map", "/topology"]
     with pytest.raises(TypeError, match="result: expected a TopologyResult"):
         tj.save_mcap(result.map, tmp_path / "x.mcap")
+    # a route graph goes to /route_graph, its edges through their waypoints
+    routes = tj.route_graph(result.map, robot_radius_m=0.3)
+    tj.save_mcap(result, path, route_graph=routes)
+    messages = read_messages(path)
+    assert [tp for tp, *_ in messages] == ["/map", "/topology", "/route_graph"]
+    assert_markers_are_graph(last(messages, "/route_graph"), routes)
+    with pytest.raises(TypeError, match="route_graph: expected a networkx graph"):
+        tj.save_mcap(result, tmp_path / "y.mcap", route_graph=result)
+    assert not (tmp_path / "y.mcap").exists()
 
 
 def _scan(t, x=0.0):
@@ -262,6 +307,18 @@ def test_recorder_leaves_nothing_behind_on_error_and_checks_its_path(tmp_path):
             rec.add_scan("scan")
         with pytest.raises(TypeError, match="occupancy: expected an OccupancyMap"):
             rec.add_map(np.zeros((4, 4)), None)
+        g = nx.MultiGraph()
+        g.add_node(0, pixel=(0, 0))
+        with pytest.raises(ValueError, match="graph: expected a 'world'"):
+            rec.add_route_graph(g)
+        g.nodes[0]["world"] = (0.0, 0.0)
+        g.add_node(1, world=(1.0, 0.0))
+        g.add_edge(0, 1, path=np.zeros((2, 2), np.int32))
+        with pytest.raises(ValueError, match="graph: expected 'waypoints' or 'world'"):
+            rec.add_route_graph(g)
+        with pytest.raises(TypeError, match="graph: expected a networkx graph"):
+            rec.add_map(tj.sample_map("a_scan"), {"nodes": []})
+    assert rec.counts == {}
     # replay checks the name before it replays anything
     with pytest.raises(ValueError, match="mcap: expected a file name ending in .mcap"):
         tj.replay(INTEL_EXCERPT, out_dir=tmp_path / "o", mcap=tmp_path / "r.txt")
@@ -287,3 +344,14 @@ def test_command_line_writes_recordings(tmp_path, capsys):
     assert main(other) != 0
     assert "--mcap" in capsys.readouterr().err
     assert main(["graph", str(a_scan), "-o", str(tmp_path), "--mcap", str(tmp_path)]) != 0
+    # the route graph command records the map and its route graph
+    rg = ["route-graph", str(a_scan), "-o", str(tmp_path / "rg"), "--mcap"]
+    assert main([*rg, str(tmp_path / "rg.mcap")]) == 0
+    messages = read_messages(tmp_path / "rg.mcap")
+    assert [tp for tp, *_ in messages] == ["/map", "/route_graph"]
+    assert_markers_are_graph(
+        last(messages, "/route_graph"), tj.load_graph(tmp_path / "rg" / "a_scan_route.json")
+    )
+    assert str(tmp_path / "rg.mcap") in capsys.readouterr().out
+    assert main([*rg, str(tmp_path / "rg.bag")]) != 0
+    assert "--mcap: expected a file name ending in .mcap" in capsys.readouterr().err

@@ -98,9 +98,9 @@ def add_command(subparsers) -> None:
         "--mcap",
         metavar="FILE",
         help="write a ROS 2 MCAP recording (FILE.mcap, for Foxglove, RViz and ros2 bag "
-        "play): /scan and /tf per scan, /map and /topology at every graph update, /rooms "
-        "with --rooms, stamped with the log's times (needs rosbags: pip install "
-        "'topojax[bags]')",
+        "play): /scan and /tf per scan, /map and /topology at every graph update, "
+        "/route_graph with --route-graph, /rooms with --rooms, stamped with the log's "
+        "times (needs rosbags: pip install 'topojax[bags]')",
     )
     p.add_argument(
         "--skeleton-every", type=int, default=20, help="scans per skeleton update (default 20)"
@@ -143,7 +143,8 @@ def add_command(subparsers) -> None:
         type=float,
         metavar="RADIUS_M",
         help="also write route_graph.{graphml,json,geojson}: the route graph of the final "
-        "map for a round robot of this radius in metres (see topojax route-graph)",
+        "map for a round robot of this radius in metres (see topojax route-graph); with "
+        "--mcap, also the route graph of the map at every graph update",
     )
     p.add_argument(
         "--rooms",

@@ -54,6 +54,13 @@ def add_command(subparsers) -> None:
         "--nav2", action="store_true", help="also write STEM_route_nav2.geojson (Nav2 Route Server)"
     )
     p.add_argument(
+        "--mcap",
+        metavar="FILE",
+        help="also write a ROS 2 MCAP recording (FILE.mcap, for Foxglove, RViz and ros2 bag "
+        "play): the map on /map, the route graph on /route_graph (needs rosbags: pip "
+        "install 'topojax[bags]')",
+    )
+    p.add_argument(
         "--evaluate",
         action="store_true",
         help="also score the graph (success, stretch, coverage; see docs) into "
@@ -86,6 +93,11 @@ def _cmd_route_graph(args) -> int:
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="route-graph", option=OUT_OPTION)
+    if args.mcap is not None:
+        from ..io.mcap import mcap_path
+
+        mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
+        check_outputs(planned([args.mcap], args.map), command="route-graph", option="--mcap")
     kw = {k: getattr(args, k) for k in ("resolution_m", "mode") if getattr(args, k) is not None}
     occupancy = load_map(args.map, **kw)
     t0 = time.perf_counter()
@@ -101,6 +113,8 @@ def _cmd_route_graph(args) -> int:
         from ..io import save_nav2_graph
 
         written.append(save_nav2_graph(graph, out / f"{stem}_route_nav2.geojson"))
+    if args.mcap is not None:
+        written.append(_recording(occupancy, graph, args.mcap))
     components = _components(graph)
     print(
         f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
@@ -153,3 +167,13 @@ def _picture(occupancy, graph, path: Path) -> Path:
     fig.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(fig)
     return path
+
+
+def _recording(occupancy, graph, path) -> Path:
+    """Write the MCAP recording of the map and its route graph; returns its path."""
+    from ..io.mcap import McapRecorder
+
+    with McapRecorder(path) as rec:
+        rec.add_map(occupancy)
+        rec.add_route_graph(graph)
+    return rec.path

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import time
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import NamedTuple
 
@@ -158,7 +158,8 @@ def replay(
         it grew.
     route_graph_radius_m : float, optional
         Also write ``route_graph.graphml``, ``.json`` and ``.geojson``: the route graph of
-        the final map for a round robot of this radius (:meth:`IncrementalMapper.route_graph`).
+        the final map for a round robot of this radius (:meth:`IncrementalMapper.route_graph`);
+        with ``mcap``, the route graph of the map at every graph update too.
     rooms : bool
         Keep rooms as the map grows (with every graph update; ``room_config`` in
         ``mapper_kw`` sets their options), give the written graphs their rooms
@@ -168,9 +169,10 @@ def replay(
     mcap : str or Path, optional
         Also write a ROS 2 MCAP recording (an ``.mcap`` file, for Foxglove, RViz and
         ``ros2 bag play``; needs ``rosbags``): ``/tf`` and ``/scan`` for every scan,
-        ``/map`` and ``/topology`` at every graph update, ``/rooms`` at every room
-        update, and the written map, graph (and rooms) once more at the end, stamped
-        with the log's timestamps (see :mod:`topojax.io.mcap`).
+        ``/map`` and ``/topology`` (and, with ``route_graph_radius_m``, ``/route_graph``)
+        at every graph update, ``/rooms`` at every room update, and the written map,
+        graph (rooms, route graph) once more at the end, stamped with the log's
+        timestamps (see :mod:`topojax.io.mcap`).
     view : bool
         Also write ``view.html``, the interactive view of the final map and graph (and
         rooms, route graph) with a timeline of every graph update and the robot's path
@@ -206,9 +208,10 @@ def replay(
             progress=progress,
             graph_config=graph_config,
             rooms=rooms,
+            route_graph_radius_m=route_graph_radius_m,
         )
     written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
-    written += _write_rooms_routes_view(mapper, done, out, route_graph_radius_m, timeline)
+    written += _write_rooms_routes_view(mapper, done, out, timeline)
     summary = _summary(source, mapper, done)
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     written.append(out / "timings.json")
@@ -225,7 +228,7 @@ def replay(
 class _Replayed(NamedTuple):
     """What mapping a log gave: the scans' reports, the animation frames, the wall time
     of the scans (s), the refusals of skipped scans, the final graph update and its time
-    (s), the result to write and the final rooms (or None)."""
+    (s), the result to write, the final rooms and the final route graph (or None)."""
 
     reports: list
     frames: list
@@ -235,6 +238,7 @@ class _Replayed(NamedTuple):
     final_s: float
     result: object
     seg: object
+    routes: object
 
 
 def _start(source, out: Path, reader_kwargs, rooms: bool, view: bool, mapper_kw: dict):
@@ -258,28 +262,46 @@ def _start(source, out: Path, reader_kwargs, rooms: bool, view: bool, mapper_kw:
 
 
 def _map_scans(
-    mapper, scans, source, recorder, timeline, *, max_scans, animate, progress, graph_config, rooms
+    mapper,
+    scans,
+    source,
+    recorder,
+    timeline,
+    *,
+    max_scans,
+    animate,
+    progress,
+    graph_config,
+    rooms,
+    route_graph_radius_m,
 ) -> _Replayed:
     """Feed the scans to the mapper (:func:`_run`), check that they mapped something,
-    run the final update (:func:`_final`) and close the recording (if any) with the
-    written map, graph and rooms."""
+    run the final update (:func:`_final`), make the final route graph (with a radius)
+    and close the recording (if any) with the written map, graph, rooms and route
+    graph."""
+    record = None if recorder is None else _Recording(recorder, route_graph_radius_m)
     reports, frames, wall, skipped = _run(
-        mapper, scans, max_scans, animate, progress, recorder, timeline
+        mapper, scans, max_scans, animate, progress, record, timeline
     )
     if not reports:
         raise ValueError(f"source {source}: no scans to replay")
     if mapper.pixel_bbox is None:
         raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
     update, final_s, result, seg = _final(mapper, graph_config, rooms)
+    routes = None
+    if route_graph_radius_m is not None:
+        routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
     if recorder is not None:
         recorder.add_map(result.map, result.graph)
         if seg is not None:
             recorder.add_rooms(seg)
-    return _Replayed(reports, frames, wall, skipped, update, final_s, result, seg)
+        if routes is not None:
+            recorder.add_route_graph(routes)
+    return _Replayed(reports, frames, wall, skipped, update, final_s, result, seg, routes)
 
 
 def _write_rooms_routes_view(
-    mapper: IncrementalMapper, done: _Replayed, out: Path, route_graph_radius_m, timeline
+    mapper: IncrementalMapper, done: _Replayed, out: Path, timeline
 ) -> list[Path]:
     """Write what the replay's options add to the graph and map files: the room files
     (with rooms), the route graph files (with a robot radius) and the interactive view
@@ -290,11 +312,10 @@ def _write_rooms_routes_view(
         from ..io import save_room_files
 
         written += save_room_files(seg, out / "map")
-    routes = None
-    if route_graph_radius_m is not None:
+    routes = done.routes
+    if routes is not None:
         from ..io import save_graph
 
-        routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
         written += [
             save_graph(routes, out / f"route_graph{s}") for s in (".graphml", ".json", ".geojson")
         ]
@@ -408,11 +429,10 @@ def _recorder(mcap):
     return McapRecorder(mcap)
 
 
-def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None, timeline=None):
+def _run(mapper, scans, max_scans, animate: bool, progress: bool, record=None, timeline=None):
     """Feed ``scans`` (at most ``max_scans``) to ``mapper``; returns the reports, the
     animation frames (one per graph update when ``animate``) and the wall time (s).
-    ``recorder`` (an open :class:`~topojax.io.mcap.McapRecorder`) gets every scan, the
-    map and graph at every graph update and the rooms at every room update."""
+    ``record`` (a :class:`_Recording`) writes every scan and what its report updated."""
     from tqdm import tqdm
 
     reports: list[ScanReport] = []
@@ -432,8 +452,8 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None,
         reports.append(rep)
         if timeline is not None:
             timeline.record(mapper, rep, scan)
-        if recorder is not None:
-            _record(recorder, mapper, scan, rep)
+        if record is not None:
+            record(mapper, scan, rep)
         if animate and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
             frames.append(_frame(mapper))
         bar.update(1)
@@ -441,15 +461,26 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool, recorder=None,
     return reports, frames, time.perf_counter() - t0, skipped
 
 
-def _record(recorder, mapper, scan, rep: ScanReport) -> None:
-    """Write one scan and what its report updated into the recording."""
-    recorder.add_scan(scan)
-    if mapper.pixel_bbox is None:
-        return
-    if rep.graph_update is not None:
-        recorder.add_map(mapper.occupancy, mapper.graph)
-    if rep.rooms_update is not None:
-        recorder.add_rooms(mapper.rooms)
+@dataclass(frozen=True)
+class _Recording:
+    """Writes each scan into an open :class:`~topojax.io.mcap.McapRecorder`, and what the
+    scan's report updated: the map and graph at a graph update (and the route graph of
+    the map, for a robot of ``route_graph_radius_m``), the rooms at a rooms update."""
+
+    recorder: object
+    route_graph_radius_m: float | None
+
+    def __call__(self, mapper, scan, rep: ScanReport) -> None:
+        self.recorder.add_scan(scan)
+        if mapper.pixel_bbox is None:
+            return
+        if rep.graph_update is not None:
+            self.recorder.add_map(mapper.occupancy, mapper.graph)
+            if self.route_graph_radius_m is not None:
+                routes = mapper.route_graph(robot_radius_m=self.route_graph_radius_m)
+                self.recorder.add_route_graph(routes)
+        if rep.rooms_update is not None:
+            self.recorder.add_rooms(mapper.rooms)
 
 
 def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, list[str]]:

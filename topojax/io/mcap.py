@@ -12,6 +12,9 @@ wire in Jazzy):
 * ``/topology``, ``visualization_msgs/msg/MarkerArray``: a ``DELETEALL`` marker, one
   ``SPHERE_LIST`` per vertex kind (namespace ``vertices``) and one ``LINE_STRIP`` per
   edge through its pixel centres (namespace ``edges``);
+* ``/route_graph``, ``visualization_msgs/msg/MarkerArray``, only when a route graph is
+  recorded (:func:`topojax.route_graph`): the markers of ``/topology``, each edge's
+  ``LINE_STRIP`` through its ``waypoints`` (the polyline a robot follows);
 * ``/rooms``, ``visualization_msgs/msg/MarkerArray``, only when rooms exist: a
   ``DELETEALL`` marker, each room's closed outline (``LINE_STRIP``, namespace ``rooms``,
   id = room id), its id as text (``room_ids``) and the doorways (``LINE_LIST``,
@@ -21,9 +24,9 @@ wire in Jazzy):
   (the robot's pose) and :data:`ROBOT_FRAME` -> :data:`LASER_FRAME` (the sensor offset).
 
 Markers are in :data:`MAP_FRAME`, in metres, at z = 0, in the colours of the pictures
-(:mod:`topojax.plotting`).  ``/map``, ``/topology`` and
-``/rooms`` are offered as ``transient_local``, depth 1 (as ``map_server`` does), so RViz
-shows the latest map whenever it subscribes.
+(:mod:`topojax.plotting`).  ``/map``, ``/topology``, ``/route_graph`` and ``/rooms`` are
+offered as ``transient_local``, depth 1 (as ``map_server`` does), so RViz shows the latest
+map whenever it subscribes.
 
 Time stamps (message log time and header ``stamp`` alike) are the scans' timestamps in
 nanoseconds where they are usable: present, at least 0 and below 2^31 s (a ROS time), and
@@ -74,12 +77,13 @@ SCAN_PERIOD_S = 0.1
 TOPICS = {
     "/map": "nav_msgs/msg/OccupancyGrid",
     "/topology": "visualization_msgs/msg/MarkerArray",
+    "/route_graph": "visualization_msgs/msg/MarkerArray",
     "/rooms": "visualization_msgs/msg/MarkerArray",
     "/scan": "sensor_msgs/msg/LaserScan",
     "/tf": "tf2_msgs/msg/TFMessage",
 }
 #: Topics offered as ``transient_local`` (late subscribers get the last message).
-_LATCHED = ("/map", "/topology", "/rooms")
+_LATCHED = ("/map", "/topology", "/route_graph", "/rooms")
 _VERTEX_DIAMETER_M = 0.25
 _EDGE_WIDTH_M = 0.05
 _ROOM_LINE_WIDTH_M = 0.08
@@ -191,11 +195,12 @@ def _marker(stamp_ns: int, ns: str, mid: int, kind: str, *, points=(), colour=No
 
 
 def graph_markers(graph, stamp_ns: int = 0):
-    """``visualization_msgs/msg/MarkerArray`` of a topology graph: ``DELETEALL``, one
-    ``SPHERE_LIST`` per vertex kind (namespace ``vertices``, id 0 junction, 1 end, 2 ring,
-    3 isolated; vertices in node order) and one ``LINE_STRIP`` per edge (namespace
-    ``edges``, id = its place in ``graph.edges``) through the ``world`` (x, y) of its
-    pixel centres."""
+    """``visualization_msgs/msg/MarkerArray`` of a topology or route graph: ``DELETEALL``,
+    one ``SPHERE_LIST`` per vertex kind (namespace ``vertices``, id 0 junction, 1 end, 2
+    ring, 3 isolated; vertices in node order) and one ``LINE_STRIP`` per edge (namespace
+    ``edges``, id = its place in ``graph.edges``) through its ``waypoints`` where the edge
+    has them (route graphs), else the ``world`` (x, y) of its pixel centres."""
+    _check_graph("graph", graph)
     t = _typestore().types
     markers = [_marker(stamp_ns, "", 0, "DELETEALL")]
     for i, (kind, colour) in enumerate(VERTEX_KIND_COLOURS.items()):
@@ -213,19 +218,37 @@ def graph_markers(graph, stamp_ns: int = 0):
                 )
             )
     edge_colour = _rgba(EDGE_COLOUR)
-    for i, (_, _, world) in enumerate(graph.edges(data="world")):
+    for i, (_, _, d) in enumerate(graph.edges(data=True)):
         markers.append(
             _marker(
                 stamp_ns,
                 "edges",
                 i,
                 "LINE_STRIP",
-                points=_points(world),
+                points=_points(d["waypoints"] if "waypoints" in d else d["world"]),
                 colour=edge_colour,
                 scale=_EDGE_WIDTH_M,
             )
         )
     return t["visualization_msgs/msg/MarkerArray"](markers=markers)
+
+
+def _check_graph(name: str, graph) -> None:
+    """Raise a TypeError or ValueError naming ``name`` unless ``graph`` is a networkx
+    graph whose vertices have ``world`` and whose edges ``waypoints`` or ``world``."""
+    import networkx as nx
+
+    if not isinstance(graph, nx.Graph):
+        raise TypeError(
+            f"{name}: expected a networkx graph (build_graph's or route_graph's), received "
+            f"{type(graph).__name__}"
+        )
+    if any("world" not in d for _, d in graph.nodes(data=True)):
+        raise ValueError(f"{name}: expected a 'world' (x, y) on every vertex, one has none")
+    if any("world" not in d and "waypoints" not in d for *_, d in graph.edges(data=True)):
+        raise ValueError(
+            f"{name}: expected 'waypoints' or 'world' points on every edge, one has neither"
+        )
 
 
 def room_markers(seg, stamp_ns: int = 0):
@@ -367,6 +390,7 @@ class McapRecorder:
     ...         rec.add_scan(scan)
     ...         if report.graph_update:
     ...             rec.add_map(mapper.occupancy, mapper.graph)
+    ...             rec.add_route_graph(mapper.route_graph(robot_radius_m=0.3))
     """
 
     def __init__(self, path) -> None:
@@ -456,14 +480,22 @@ class McapRecorder:
         self._write("/scan", scan_message(scan, self.stamp_ns), self.stamp_ns)
         return self.stamp_ns
 
-    def add_map(self, occupancy, graph) -> None:
-        """Write ``/map`` and ``/topology`` (an :class:`~topojax.OccupancyMap` and its
-        topology graph, with ``world`` vertex and edge coordinates) at :attr:`stamp_ns`."""
+    def add_map(self, occupancy, graph=None) -> None:
+        """Write ``/map`` (an :class:`~topojax.OccupancyMap`) and, given its topology
+        ``graph`` (with ``world`` vertex and edge coordinates), ``/topology``, at
+        :attr:`stamp_ns`."""
         from ..maps import map_argument
 
         occupancy = map_argument("occupancy", occupancy)
+        topology = None if graph is None else graph_markers(graph, self.stamp_ns)
         self._write("/map", occupancy_grid(occupancy, self.stamp_ns), self.stamp_ns)
-        self._write("/topology", graph_markers(graph, self.stamp_ns), self.stamp_ns)
+        if topology is not None:
+            self._write("/topology", topology, self.stamp_ns)
+
+    def add_route_graph(self, graph) -> None:
+        """Write ``/route_graph`` (a :func:`topojax.route_graph`, edges drawn through their
+        ``waypoints``) at :attr:`stamp_ns`."""
+        self._write("/route_graph", graph_markers(graph, self.stamp_ns), self.stamp_ns)
 
     def add_rooms(self, seg) -> None:
         """Write ``/rooms`` (a :class:`~topojax.RoomSegmentation`) at :attr:`stamp_ns`."""
@@ -502,9 +534,10 @@ def _qos(topic: str) -> list:
     ]
 
 
-def save_mcap(result, path, *, rooms=None) -> Path:
+def save_mcap(result, path, *, rooms=None, route_graph=None) -> Path:
     """Write a full-map result as a ROS 2 MCAP recording: one ``/map`` and one
-    ``/topology`` message (and one ``/rooms`` with ``rooms``), all at 0 s.
+    ``/topology`` message (and one ``/rooms`` with ``rooms``, one ``/route_graph`` with
+    ``route_graph``), all at 0 s.
 
     Parameters
     ----------
@@ -514,6 +547,8 @@ def save_mcap(result, path, *, rooms=None) -> Path:
         The ``.mcap`` file (replaced if it exists; its folder is created).
     rooms : RoomSegmentation, optional
         Rooms of the same map (:func:`topojax.segment_rooms`).
+    route_graph : networkx.MultiGraph, optional
+        A route graph of the same map (:func:`topojax.route_graph`).
 
     Returns
     -------
@@ -526,8 +561,12 @@ def save_mcap(result, path, *, rooms=None) -> Path:
                 f"result: expected a TopologyResult (from build_graph), received "
                 f"{type(result).__name__} (no {name})"
             )
+    if route_graph is not None:
+        _check_graph("route_graph", route_graph)
     with McapRecorder(path) as rec:
         rec.add_map(result.map, result.graph)
         if rooms is not None:
             rec.add_rooms(rooms)
+        if route_graph is not None:
+            rec.add_route_graph(route_graph)
     return rec.path
