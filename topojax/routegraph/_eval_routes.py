@@ -3,6 +3,8 @@ shortest paths along a graph that may start and end part-way along an edge."""
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +28,9 @@ __all__ = [
 
 # Targets drawn per source pixel: one geodesic search serves all of them.
 PAIRS_PER_SOURCE = 10
+#: Geodesic searches run at once at most (each holds a float64 distance and a uint8 copy
+#: of its region's bounding box).
+GEODESIC_THREADS = 4
 # Candidate snap points checked for a collision-free segment per batch (nearest first).
 _SNAP_BATCH = 64
 # Dijkstra rows computed per call (bounds the memory of the distance block).
@@ -94,17 +99,27 @@ def sample_pairs(fs, regions: np.ndarray, n_pairs: int, seed: int) -> PairSet:
 def geodesic_lengths_px(fs, pairs: PairSet) -> np.ndarray:
     """Length (pixels) of the shortest 8-connected path inside the feasible region from
     each pair's source to its target (moves of 1 and sqrt 2): one search per source on the
-    bounding box of its region, stopped when all its targets are reached."""
+    bounding box of its region, stopped when all its targets are reached; the searches
+    run in up to :data:`GEODESIC_THREADS` threads (they release the GIL)."""
     out = np.full(pairs.n_pairs, np.inf)
     slices = ndimage.find_objects(fs.labels)
-    mask, mask_region = None, -1
-    for i, rid in enumerate(pairs.region.tolist()):
+    masks = {rid: fs.labels[slices[rid - 1]] == rid for rid in set(pairs.region.tolist())}
+
+    def search(i: int) -> None:
+        rid = int(pairs.region[i])
         sl = slices[rid - 1]
         off = np.array([sl[0].start, sl[1].start])
-        if rid != mask_region:
-            mask, mask_region = fs.labels[sl] == rid, rid
         a, b = pairs.start[i], pairs.start[i + 1]
-        out[a:b] = geodesic_from(mask, pairs.source[i] - off, pairs.target[a:b] - off)
+        out[a:b] = geodesic_from(masks[rid], pairs.source[i] - off, pairs.target[a:b] - off)
+
+    n = pairs.source.shape[0]
+    threads = min(GEODESIC_THREADS, os.cpu_count() or 1, n)
+    if threads > 1:
+        with ThreadPoolExecutor(threads, thread_name_prefix="geodesic") as pool:
+            list(pool.map(search, range(n)))
+    else:
+        for i in range(n):
+            search(i)
     return out
 
 
