@@ -210,6 +210,22 @@ def test_same_seed_same_report_and_json_friendly():
     json.dumps(a, allow_nan=False)
 
 
+def test_geodesic_searches_in_threads_give_the_one_thread_report(monkeypatch):
+    """The geodesic searches run in threads, each into its own slice of the lengths."""
+    import topojax.routegraph._eval_routes as routes
+
+    m = _two_rooms()
+    g = _graph(m, [_row(10, 4, 17), _row(10, 26, 39)])
+    reports = []
+    for threads in (1, 4):
+        monkeypatch.setattr(routes, "GEODESIC_THREADS", threads)
+        r = evaluate_route_graph(g, m, RADIUS, n_pairs=120, seed=3).as_dict()
+        r.pop("evaluation_s")
+        reports.append(r)
+    assert reports[0] == reports[1]
+    assert reports[0]["pairs"] == 120 and reports[0]["feasible_regions"] == 2
+
+
 def test_empty_graph():
     m = _corridor(5)
     r = evaluate_route_graph(nx.MultiGraph(), m, RADIUS, n_pairs=10)
