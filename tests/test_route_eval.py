@@ -347,6 +347,24 @@ def test_waypoints_are_the_edge_geometry_when_present():
     assert straight.graph_length_m == pytest.approx(40 * RES, rel=1e-6)
 
 
+@pytest.mark.parametrize("reverse", [False, True])
+def test_polylines_are_joined_to_their_vertices_either_way_round(reverse):
+    """An edge's polyline that stops short of its vertices is joined to them by straight
+    pieces, whichever way round it is stored; a one-point polyline too."""
+    m = _corridor(5)
+    g = nx.MultiGraph()
+    ends = {"a": (3, 3), "b": (3, 198), "c": (3, 100)}
+    for name, (r, c) in ends.items():
+        g.add_node(name, world=tuple(np.ravel(m.pixel_to_world(r, c))))
+    poly = np.stack(m.pixel_to_world([3, 3], [20, 90]), axis=1)
+    g.add_edge("a", "c", world=poly[::-1] if reverse else poly)
+    g.add_edge("c", "b", world=np.stack(m.pixel_to_world([3], [150]), axis=1))
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=40)
+    assert r.graph_length_m == pytest.approx(19.5, rel=1e-9)
+    assert r.success_rate == 1.0 and r.uncovered_share == 0.0
+    assert r.stretch_median == pytest.approx(1.0, abs=0.05)
+
+
 def _fork():
     """A free 32 x 34 room (walls all round) with a fork from vertex (10, 3): one edge along
     row 10 to (10, 28), one down column 3 and along row 20 to (20, 28)."""

@@ -57,8 +57,9 @@ class GraphGeometry:
 _TIE = 1e-9
 
 
-def _position(node, data: dict, occupancy, coordinates: str) -> np.ndarray:
-    """Pixel ``(row, col)`` of one vertex from its ``world`` or ``pixel`` attribute."""
+def _vertex_point(node, data: dict, coordinates: str) -> tuple[np.ndarray, bool]:
+    """One vertex's ``world`` (x, y) or ``pixel`` (row, col) attribute, checked, and
+    whether it is ``world``."""
     use_world = coordinates == "world" or (coordinates == "auto" and "world" in data)
     key = "world" if use_world else "pixel"
     if key not in data:
@@ -76,22 +77,38 @@ def _position(node, data: dict, occupancy, coordinates: str) -> np.ndarray:
             f"graph: vertex {node!r} attribute {key!r}: expected two finite numbers, "
             f"received {data[key]!r}"
         )
-    if use_world:
-        r, c = occupancy.world_to_pixel(q[0], q[1])
-        return np.array([float(r), float(c)])
-    return q[:2].copy()
+    return q[:2], use_world
 
 
-def _edge_polyline(edge, data: dict, occupancy, coordinates: str) -> np.ndarray | None:
-    """The edge's own polyline (K, 2) in pixels, or None for a straight edge: ``path``
-    with pixel coordinates, else ``waypoints`` (the polyline a robot follows) if present,
-    else ``world``."""
+def _positions(graph: nx.Graph, nodes: list, occupancy, coordinates: str) -> np.ndarray:
+    """Pixel ``(row, col)`` (float64 (V, 2)) of each of ``nodes``; world positions are
+    converted with the map, all at once."""
+    pos = np.empty((len(nodes), 2), np.float64)
+    world_at, world = [], []
+    for i, n in enumerate(nodes):
+        q, use_world = _vertex_point(n, graph.nodes[n], coordinates)
+        if use_world:
+            world_at.append(i)
+            world.append(q)
+        else:
+            pos[i] = q
+    if world_at:
+        xy = np.array(world, np.float64)
+        r, c = occupancy.world_to_pixel(xy[:, 0], xy[:, 1])
+        pos[world_at, 0], pos[world_at, 1] = r, c
+    return pos
+
+
+def _edge_points(edge, data: dict, coordinates: str) -> tuple[np.ndarray | None, bool]:
+    """The edge's own polyline (float64 (K, 2)), checked, and whether it is in world
+    coordinates: ``path`` with pixel coordinates, else ``waypoints`` (the polyline a
+    robot follows) if present, else ``world``; None for a straight edge."""
     if coordinates == "pixel":
         key = "path"
     else:
         key = "waypoints" if "waypoints" in data else "world"
     if key not in data:
-        return None
+        return None, False
     try:
         arr = np.asarray(data[key], dtype=np.float64)
     except (TypeError, ValueError):
@@ -101,26 +118,63 @@ def _edge_polyline(edge, data: dict, occupancy, coordinates: str) -> np.ndarray 
             f"graph: edge {edge!r} attribute {key!r}: expected a (K, 2) array of finite "
             f"numbers, received shape {getattr(arr, 'shape', None)}"
         )
-    if key == "path":
-        return arr[:, :2].copy()
-    r, c = occupancy.world_to_pixel(arr[:, 0], arr[:, 1])
-    return np.stack([r, c], axis=1)
+    return arr[:, :2], key != "path"
 
 
-def _oriented(poly: np.ndarray | None, pu: np.ndarray, pv: np.ndarray) -> np.ndarray:
-    """``poly`` running from ``pu`` to ``pv`` (reversed if stored the other way, the
-    vertex positions added where an end does not lie on its vertex)."""
-    if poly is None:
-        return np.stack([pu, pv])
-    if np.hypot(*(poly[-1] - pu)) < np.hypot(*(poly[0] - pu)):
-        poly = poly[::-1]
-    if np.hypot(*(poly[0] - pu)) > _END_TOL_PX:
-        poly = np.vstack([pu, poly])
-    if np.hypot(*(poly[-1] - pv)) > _END_TOL_PX:
-        poly = np.vstack([poly, pv])
-    if poly.shape[0] == 1:
-        poly = np.vstack([poly, poly])
-    return poly
+def _edge_polylines(items: list, occupancy, coordinates: str) -> list:
+    """Each edge's own polyline (float64 (K, 2)) in pixels, or None for a straight edge;
+    world polylines are converted with the map, all at once."""
+    polys, world_at = [], []
+    for edge, _, _, data in items:
+        arr, is_world = _edge_points(edge, data, coordinates)
+        if is_world:
+            world_at.append(len(polys))
+        polys.append(arr)
+    if world_at:
+        sizes = [polys[i].shape[0] for i in world_at]
+        xy = np.concatenate([polys[i] for i in world_at])
+        r, c = occupancy.world_to_pixel(xy[:, 0], xy[:, 1])
+        rc = np.split(np.stack([r, c], axis=1), np.cumsum(sizes)[:-1])
+        for i, p in zip(world_at, rc, strict=True):
+            polys[i] = p
+    return polys
+
+
+def _oriented(polys: list, pu: np.ndarray, pv: np.ndarray) -> list[np.ndarray]:
+    """Each of ``polys`` running from its ``pu`` to its ``pv`` (float64 (E, 2)): reversed
+    if stored the other way, the vertex positions added where an end does not lie on its
+    vertex, a straight segment for None, a one-point polyline doubled."""
+    straight = np.array([p is None for p in polys], bool)
+    first = np.array([pu[i] if p is None else p[0] for i, p in enumerate(polys)]).reshape(-1, 2)
+    last = np.array([pv[i] if p is None else p[-1] for i, p in enumerate(polys)]).reshape(-1, 2)
+    flip = np.hypot(*(last - pu).T) < np.hypot(*(first - pu).T)
+    start, end = np.where(flip[:, None], last, first), np.where(flip[:, None], first, last)
+    add_u = (np.hypot(*(start - pu).T) > _END_TOL_PX).tolist()
+    add_v = (np.hypot(*(end - pv).T) > _END_TOL_PX).tolist()
+    straight, flip = straight.tolist(), flip.tolist()
+    out = []
+    for i, p in enumerate(polys):
+        if straight[i]:
+            out.append(np.stack([pu[i], pv[i]]))
+            continue
+        if flip[i]:
+            p = p[::-1]
+        if add_u[i] or add_v[i]:
+            p = np.vstack([pu[i][None]] * add_u[i] + [p] + [pv[i][None]] * add_v[i])
+        out.append(p if p.shape[0] > 1 else np.vstack([p, p]))
+    return out
+
+
+def _lengths(polys: list[np.ndarray]) -> np.ndarray:
+    """Length (float64 (len(polys),)) of each polyline (K >= 1, 2)."""
+    if not polys:
+        return np.zeros(0, np.float64)
+    sizes = np.array([p.shape[0] for p in polys], np.int64)
+    allp = np.concatenate(polys)
+    owner = np.repeat(np.arange(len(polys)), sizes)
+    same = owner[1:] == owner[:-1]
+    step = np.hypot(*np.diff(allp, axis=0).T)
+    return np.bincount(owner[1:][same], weights=step[same], minlength=len(polys))
 
 
 def _densify(polys: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -182,22 +236,20 @@ def graph_geometry(graph: nx.Graph, occupancy, coordinates: str) -> GraphGeometr
     """
     nodes = list(graph.nodes)
     index = {n: i for i, n in enumerate(nodes)}
-    pos = np.array(
-        [_position(n, graph.nodes[n], occupancy, coordinates) for n in nodes], np.float64
-    ).reshape(-1, 2)
+    pos = _positions(graph, nodes, occupancy, coordinates)
     if graph.is_multigraph():
         items = [((u, v, k), u, v, d) for u, v, k, d in graph.edges(keys=True, data=True)]
     else:
         items = [((u, v), u, v, d) for u, v, d in graph.edges(data=True)]
-    us, vs, polys = [], [], []
-    for edge, u, v, data in items:
-        iu, iv = index[u], index[v]
-        poly = _edge_polyline(edge, data, occupancy, coordinates)
-        polys.append(_oriented(poly, pos[iu], pos[iv]))
-        us.append(iu)
-        vs.append(iv)
+    us = [index[u] for _, u, _, _ in items]
+    vs = [index[v] for _, _, v, _ in items]
+    polys = _oriented(
+        _edge_polylines(items, occupancy, coordinates),
+        pos[np.array(us, np.int64)].reshape(-1, 2),
+        pos[np.array(vs, np.int64)].reshape(-1, 2),
+    )
     n_edges = len(polys)
-    edge_len = np.array([float(np.hypot(*np.diff(p, axis=0).T).sum()) for p in polys], np.float64)
+    edge_len = _lengths(polys)
     isolated = [index[n] for n in nodes if graph.degree(n) == 0]
     for i in isolated:
         polys.append(pos[i][None, :])
