@@ -118,6 +118,23 @@ def test_open_hall_is_covered_within_the_snap_distance():
     _assert_safe(g, occ)
 
 
+@pytest.mark.parametrize("radius_m", [1.5, 2.5])
+def test_a_large_robot_keeps_the_hall_mesh_without_hubs(radius_m):
+    """Vertices closer than the robot's radius merge only up to half the snap distance:
+    a large robot's hall keeps its net of edges (merging at the radius folded it into a
+    few hubs joined by hundreds of parallel edges and self-loops)."""
+    free = _room(30, 30)
+    occ = _map(free)
+    g = route_graph(occ, robot_radius_m=radius_m)
+    pairs = [tuple(sorted((u, v))) for u, v in g.edges()]
+    assert sum(u == v for u, v in pairs) == 0
+    assert len(pairs) - len(set(pairs)) <= 0.01 * len(pairs)
+    assert g.graph["uncovered_share"] == 0.0
+    assert g.number_of_nodes() > g.number_of_edges() / 5
+    report = tj.evaluate_route_graph(g, occ, robot_radius_m=radius_m, n_pairs=100)
+    assert report.success_rate == 1.0 and report.stretch_p90 < 1.25
+
+
 @pytest.mark.parametrize("width_m", [2.6, 3.0, 3.6])
 def test_wide_corridor_is_crossed_where_it_is_not_walked_round(width_m):
     """A corridor too wide for its centre line to cover gets lanes along both walls; they

@@ -34,6 +34,10 @@ __all__ = ["RouteGraphConfig", "route_graph"]
 #: Edges at most this long (pixels) join two neighbouring pixels: one-pixel edges.
 _ONE_PIXEL = 1.5
 
+#: Vertices closer than the robot's radius, but at most this share of the snap distance,
+#: merge into one.
+MERGE_SNAP_SHARE = 0.5
+
 #: An 8-connected pixel path is up to this much longer than the straight or simplified
 #: line a robot follows (1 / cos 22.5 deg, rounded up): loop lengths measured on pixel
 #: paths are scaled by it so that no loop is short along the waypoints.
@@ -209,11 +213,12 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
         RUNG_GAIN_M / res,
     )
     work.contract_all()
-    # vertices closer than the robot's radius are one place for it; a dead end one pixel
-    # off its junction is a one-pixel edge
-    merge_close_vertices(
-        work, feasible, max(_ONE_PIXEL, cfg.robot_radius_m / res), _ONE_PIXEL, min_loop_px
-    )
+    # vertices closer than the robot's radius are one place for it (up to a share of the
+    # snap distance: the coverage lanes and meshes are spaced by it, and a large robot's
+    # merges would fold them into hubs of parallel edges); a dead end one pixel off its
+    # junction is a one-pixel edge
+    merge_px = min(cfg.robot_radius_m, MERGE_SNAP_SHARE * cfg.snap_m) / res
+    merge_close_vertices(work, feasible, max(_ONE_PIXEL, merge_px), _ONE_PIXEL, min_loop_px)
     t4 = time.perf_counter()
     graph = _assemble(work, occupancy, space, cfg, origin)
     t5 = time.perf_counter()
