@@ -244,10 +244,20 @@ def test_isolated_vertex_is_a_graph_point():
     assert (r.vertices, r.edges, r.components, r.regions_missed) == (1, 0, 1, 0)
 
 
+def test_a_point_robot_is_scored_on_the_free_space():
+    """Radius 0, as route_graph accepts it: every free pixel is feasible, a graph along
+    the wall is safe."""
+    m = _corridor(5)
+    g = _graph(m, [_row(1, 1, 200)])
+    point = evaluate_route_graph(g, m, 0.0, n_pairs=30)
+    assert point.unsafe_share == 0.0 and point.success_rate == 1.0
+    assert evaluate_route_graph(g, m, RADIUS, n_pairs=30).unsafe_share == 1.0
+
+
 @pytest.mark.parametrize(
     ("kwargs", "exc", "words"),
     [
-        ({"robot_radius_m": 0.0}, ValueError, "robot_radius_m"),
+        ({"robot_radius_m": -0.1}, ValueError, "robot_radius_m"),
         ({"robot_radius_m": "0.3"}, TypeError, "robot_radius_m"),
         ({"snap_m": -1.0}, ValueError, "snap_m"),
         ({"n_pairs": 0}, ValueError, "n_pairs"),

@@ -74,7 +74,7 @@ def _cmd_batch(args) -> int:
 
 def _route_config(args):
     """The route graph options of ``--robot-radius``: None without a route format."""
-    from .._validate import positive_metres
+    from .._validate import nonnegative_metres
     from ..batch.inputs import ROUTE_FORMATS, check_formats
     from ..routegraph import RouteGraphConfig
 
@@ -87,7 +87,9 @@ def _route_config(args):
         return None
     if args.robot_radius_m is None:
         return RouteGraphConfig()
-    return RouteGraphConfig(robot_radius_m=positive_metres("--robot-radius", args.robot_radius_m))
+    return RouteGraphConfig(
+        robot_radius_m=nonnegative_metres("--robot-radius", args.robot_radius_m)
+    )
 
 
 def add_command(subparsers) -> None:

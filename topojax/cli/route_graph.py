@@ -79,12 +79,12 @@ def _files(stem: str, args) -> list[str]:
 
 def _cmd_route_graph(args) -> int:
     from .._fs import output_folder, refuse_overwriting_inputs
-    from .._validate import positive_metres
+    from .._validate import nonnegative_metres, positive_metres
     from ..io import save_graph
     from ..maps import load_map
     from ..routegraph import RouteGraphConfig, route_graph
 
-    radius = positive_metres("--robot-radius", args.robot_radius_m)
+    radius = nonnegative_metres("--robot-radius", args.robot_radius_m)
     config = RouteGraphConfig(
         robot_radius_m=radius, snap_m=positive_metres("--snap-m", args.snap_m)
     )

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._validate import instance_or_default, positive_int, positive_metres
+from .._validate import instance_or_default, nonnegative_metres, positive_int, positive_metres
 from ..config import GraphConfig
 from ._rays import ExtentError
 from ._settings import settings_of
@@ -416,7 +416,7 @@ def _check_replay_args(
 
         mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
     if route_graph_radius_m is not None:
-        route_graph_radius_m = positive_metres("route_graph_radius_m", route_graph_radius_m)
+        route_graph_radius_m = nonnegative_metres("route_graph_radius_m", route_graph_radius_m)
     return nav2_tolerance_m, route_graph_radius_m
 
 

@@ -13,7 +13,14 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .._validate import integer, nonnegative_quantity, one_of, positive_int, positive_metres
+from .._validate import (
+    integer,
+    nonnegative_metres,
+    nonnegative_quantity,
+    one_of,
+    positive_int,
+    positive_metres,
+)
 from ._eval_geometry import GraphGeometry, graph_geometry, pixel_lookup
 from ._eval_loops import short_dead_ends, short_loops
 from ._eval_routes import (
@@ -90,7 +97,7 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
             raise TypeError(
                 f"occupancy: expected an OccupancyMap, received {type(occupancy).__name__}"
             )
-    radius = positive_metres("robot_radius_m", radius)
+    radius = nonnegative_metres("robot_radius_m", radius)
     snap_m = positive_metres("snap_m", snap_m)
     n_pairs = positive_int("n_pairs", n_pairs)
     seed = integer("seed", seed)
@@ -205,7 +212,7 @@ def evaluate_route_graph(
     occupancy : OccupancyMap
         The map the graph was made for.
     robot_radius_m : float
-        Robot radius in metres (> 0).
+        Robot radius in metres (>= 0; 0: a point robot, the free space is feasible).
     snap_m : float
         Largest distance (metres, > 0) from a point to the graph point it snaps to, and the
         coverage distance.
