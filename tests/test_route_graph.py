@@ -415,7 +415,7 @@ def test_first_lanes_run_along_the_walls_at_the_inset_and_join_the_graph():
     raster = graph_raster(work, feasible.shape)
     uncovered = feasible & ~covered(raster, feasible, snap)
     assert add_lanes(
-        work, uncovered, raster, feasible, wall_distance(feasible), snap, along_walls=True
+        work, uncovered, raster, feasible, wall_distance(feasible), snap, 0.0, along_walls=True
     )
     wall = cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     new = [e for e in work.edges if e != 0 and work.length[e] > 5 * snap]
@@ -445,7 +445,7 @@ def test_no_lanes_for_uncovered_pieces_smaller_than_the_minimum():
     assert (stats[1:, cv2.CC_STAT_AREA] < LANE_MIN_AREA * snap**2).all()
     n_edges = len(work.edges)
     assert not add_lanes(
-        work, uncovered, raster, feasible, wall_distance(feasible), snap, along_walls=True
+        work, uncovered, raster, feasible, wall_distance(feasible), snap, 0.0, along_walls=True
     )
     assert len(work.edges) == n_edges
 
@@ -811,6 +811,57 @@ def test_greedy_shortcuts_take_many_disjoint_lines_and_then_route_along_them():
     )
     assert taken[:n].all()
     assert not taken[n:].any()
+
+
+def test_open_short_loops_removes_the_longest_edge_of_each_short_loop():
+    """A ring round one pixel, two parallel edges of 4 and 5 pixels and a square of 40
+    pixels: under a 12-pixel limit the ring and the longer parallel edge go, the square
+    stays."""
+    from topojax.graph.work import WorkGraph, line_pixels
+    from topojax.routegraph._spanner import open_short_loops
+
+    work = WorkGraph()
+    a, b, c = (work.add_vertex(p) for p in ((10, 10), (10, 14), (30, 30)))
+    work.add_edge(a, a, np.array([(10, 10), (9, 11), (10, 12), (11, 11), (10, 10)], np.int32))
+    straight = work.add_edge(a, b, line_pixels((10, 10), (10, 14)))
+    work.add_edge(a, b, np.array([(10, 10), (11, 11), (11, 12), (11, 13), (10, 14)], np.int32))
+    tail = work.add_edge(b, c, line_pixels((10, 14), (30, 30)))
+    corners = [(40, 10), (40, 20), (50, 20), (50, 10)]
+    ids = [work.add_vertex(p) for p in corners]
+    square = [
+        work.add_edge(ids[k], ids[(k + 1) % 4], line_pixels(corners[k], corners[(k + 1) % 4]))
+        for k in range(4)
+    ]
+    removed = open_short_loops(work, 12.0)
+    assert sorted((u == v, len(path)) for u, v, path in removed) == [(False, 5), (True, 5)]
+    # b is left between two edges and contracted: a runs straight on to c
+    (rest,) = set(work.edges) - set(square)
+    assert sorted(work.edges[rest][:2]) == [a, c] and straight not in work.edges
+    assert tail not in work.edges and b in work.dead
+    assert open_short_loops(work, 12.0) == []
+    assert len(open_short_loops(work, 41.0)) == 1  # the square is shorter than that
+
+
+@pytest.mark.parametrize(("seed", "snap_m"), [(55, 2.0), (3, 1.0)])
+def test_no_loop_shorter_than_loop_m(seed, snap_m):
+    """Random plans, including one whose lanes once closed a ring round one pixel."""
+    occ = _map(_random_plan(seed))
+    config = RouteGraphConfig(snap_m=snap_m)
+    g = route_graph(occ, config=config)
+    assert g.graph["uncovered_share"] == 0.0
+    simple = nx.Graph()
+    for u, v, d in g.edges(data=True):
+        assert u != v or d["length_m"] >= config.loop_m
+        if u != v and (not simple.has_edge(u, v) or simple[u][v]["w"] > d["length_m"]):
+            simple.add_edge(u, v, w=d["length_m"])
+    for u, v, d in g.edges(data=True):
+        if u == v:
+            continue
+        w = simple[u][v]["w"]
+        simple.remove_edge(u, v)
+        around = nx.single_source_dijkstra_path_length(simple, u, weight="w")
+        simple.add_edge(u, v, w=w)
+        assert around.get(v, np.inf) + d["length_m"] >= config.loop_m
 
 
 @pytest.mark.parametrize("in_boxes", [True, False])

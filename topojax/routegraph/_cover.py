@@ -160,15 +160,14 @@ def add_coverage(
             break
         if lane_round == 0:
             lane_round = 1
-            if add_lanes(work, uncovered, raster, feasible, wall, snap_px, along_walls=True):
+            if add_lanes(work, uncovered, raster, feasible, wall, snap_px, min_loop_px, True):
                 continue
         if lane_round == 1:
             lane_round = 2
             open_ = mesh_pieces(uncovered, snap_px)
             meshed = add_mesh(work, open_, raster, feasible, snap_px, min_loop_px)
-            laned = add_lanes(
-                work, uncovered & ~open_, raster, feasible, wall, snap_px, along_walls=False
-            )
+            rest = uncovered & ~open_
+            laned = add_lanes(work, rest, raster, feasible, wall, snap_px, min_loop_px, False)
             if meshed or laned:
                 continue
         # pieces too small for lanes: waypoints from now on

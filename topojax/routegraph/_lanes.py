@@ -17,6 +17,7 @@ from ..graph import skeleton_to_graph
 from ..graph.work import WorkGraph, drop_spurs
 from ..skeleton import thin
 from ._joins import join_groups, large_pieces
+from ._spanner import open_short_loops
 
 __all__ = ["LANE_INSET", "LANE_MIN_AREA", "add_lanes"]
 
@@ -41,12 +42,16 @@ def _lane_pixels(uncovered, feasible, wall, snap_px: float, along_walls: bool):
     return thin(curve & near & feasible)
 
 
-def _merged(work: WorkGraph, lanes: np.ndarray, snap_px: float) -> list[list[int]]:
-    """Add the graph of ``lanes`` (spurs shorter than ``snap_px`` dropped) to ``work``;
-    returns the new vertices grouped by connected piece."""
+def _merged(
+    work: WorkGraph, lanes: np.ndarray, snap_px: float, min_loop_px: float
+) -> list[list[int]]:
+    """Add the graph of ``lanes`` (spurs shorter than ``snap_px`` and loops shorter than
+    ``min_loop_px`` dropped) to ``work``; returns the new vertices grouped by connected
+    piece."""
     piece = WorkGraph.from_networkx(skeleton_to_graph(lanes, merge_junction_clusters=True))
     drop_spurs(piece, np.zeros(lanes.shape, np.float32), snap_px, 0.0)
     piece.contract_all()
+    open_short_loops(piece, min_loop_px)
     new_id = {}
     parent: dict[int, int] = {}
 
@@ -78,14 +83,16 @@ def add_lanes(
     feasible: np.ndarray,
     wall: np.ndarray,
     snap_px: float,
+    min_loop_px: float,
     along_walls: bool,
 ) -> bool:
     """Add lanes through the large pieces of ``uncovered`` (bool (H, W)) and join each to
     the graph (pixels ``raster``); ``wall``: each pixel's distance to the nearest pixel
     that is not feasible (float32 (H, W)); ``along_walls``: the level-curve lanes of the
-    first round, else the skeleton.  Returns whether any lane was added."""
+    first round, else the skeleton; lanes close no loop shorter than ``min_loop_px``.
+    Returns whether any lane was added."""
     lanes = _lane_pixels(uncovered, feasible, wall, snap_px, along_walls)
     if lanes is None or not lanes.any():
         return False
-    join_groups(work, _merged(work, lanes, snap_px), raster, feasible)
+    join_groups(work, _merged(work, lanes, snap_px, min_loop_px), raster, feasible)
     return True

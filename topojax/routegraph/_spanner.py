@@ -14,12 +14,13 @@ import numpy as np
 
 from .._jit import cached_njit
 from ..graph.sparse import grown
-from ..graph.work import line_in_mask
+from ..graph.work import WorkGraph, line_in_mask
 
 __all__ = [
     "anchor_pieces",
     "drop_short_loops",
     "greedy_shortcuts",
+    "open_short_loops",
     "see_named",
     "see_within",
     "simplify_path",
@@ -162,6 +163,38 @@ def drop_short_loops(n_nodes, edge_u, edge_v, edge_w, order, limit):
             wt[2 * e] = edge_w[e]
             wt[2 * e + 1] = edge_w[e]
     return dropped
+
+
+def open_short_loops(
+    work: WorkGraph, min_loop_px: float, contract: bool = True
+) -> list[tuple[int, int, np.ndarray]]:
+    """Remove the loops of ``work`` shorter than ``min_loop_px``: such self-loops, then,
+    longest first, each edge that closes such a loop (:func:`drop_short_loops`); with
+    ``contract``, the vertices left with two edges are contracted.  Returns the removed
+    edges ``(u, v, path)``."""
+    removed = []
+    for e, (u, v, path) in list(work.edges.items()):
+        if u == v and work.length[e] < min_loop_px:
+            removed.append((u, v, path))
+            work.remove_edge(e)
+    live = [e for e, (u, v, _) in work.edges.items() if u != v]
+    if live:
+        length = np.array([work.length[e] for e in live], np.float64)
+        order = np.argsort(-length, kind="stable").astype(np.int64)
+        dropped = drop_short_loops(
+            len(work.pixel),
+            np.array([work.edges[e][0] for e in live], np.int64),
+            np.array([work.edges[e][1] for e in live], np.int64),
+            length,
+            order,
+            min_loop_px - length[order],
+        )
+        for k in order[dropped].tolist():
+            removed.append(work.edges[live[k]])
+            work.remove_edge(live[k])
+    if removed and contract:
+        work.contract_all({x for u, v, _ in removed for x in (u, v)})
+    return removed
 
 
 @cached_njit(nogil=True)

@@ -9,6 +9,7 @@ import numbers
 import time
 from dataclasses import dataclass, fields, replace
 
+import cv2
 import networkx as nx
 import numpy as np
 
@@ -25,8 +26,8 @@ from ..graph.work import (
 from ..maps import map_argument
 from ..skeleton import thin
 from ._corners import CORNER_TOLERANCE_M
-from ._cover import RUNG_GAIN_M, add_coverage, add_shortcuts
-from ._spanner import simplify_paths
+from ._cover import RUNG_GAIN_M, add_coverage, add_shortcuts, covered, graph_raster
+from ._spanner import open_short_loops, simplify_paths
 from .feasible import FeasibleSpace, feasible_space
 
 __all__ = ["RouteGraphConfig", "route_graph"]
@@ -219,6 +220,8 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     # junction is a one-pixel edge
     merge_px = min(cfg.robot_radius_m, MERGE_SNAP_SHARE * cfg.snap_m) / res
     merge_close_vertices(work, feasible, max(_ONE_PIXEL, merge_px), _ONE_PIXEL, min_loop_px)
+    # loops shorter than loop_m collapse, wherever the passes left one
+    _open_short_loops(work, feasible, uncovered, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS)
     t4 = time.perf_counter()
     graph = _assemble(work, occupancy, space, cfg, origin)
     t5 = time.perf_counter()
@@ -234,6 +237,29 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
         "assemble": t5 - t4,
     }
     return graph
+
+
+def _open_short_loops(
+    work: WorkGraph, feasible: np.ndarray, uncovered: np.ndarray, snap_px: float, loop_px: float
+) -> None:
+    """Remove the edges that close loops shorter than ``loop_px`` (:func:`open_short_loops`;
+    a shortcut's bend beside an edge, two splits of one edge), unless a feasible pixel
+    then loses its graph pixel within ``snap_px`` (``uncovered``: those that had none):
+    then the graph stays as it was."""
+    removed = open_short_loops(work, loop_px, contract=False)
+    if not removed:
+        return
+    near = np.zeros(feasible.shape, np.uint8)
+    for _, _, path in removed:
+        near[path[:, 0], path[:, 1]] = 1
+    reach = 2 * math.ceil(snap_px) + 1
+    near = cv2.dilate(near, np.ones((reach, reach), np.uint8)).view(bool) & ~uncovered
+    still = covered(graph_raster(work, feasible.shape), feasible, snap_px, among=near)
+    if not np.array_equal(still, near & feasible):
+        for u, v, path in removed:
+            work.add_edge(u, v, path)
+        return
+    work.contract_all({x for u, v, _ in removed for x in (u, v)})
 
 
 def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:
