@@ -834,12 +834,42 @@ def test_open_short_loops_removes_the_longest_edge_of_each_short_loop():
     ]
     removed = open_short_loops(work, 12.0)
     assert sorted((u == v, len(path)) for u, v, path in removed) == [(False, 5), (True, 5)]
-    # b is left between two edges and contracted: a runs straight on to c
+    # b is left between two edges and contracted: a runs straight on to c, the bent edge
+    # (through (11, 12)) gone
     (rest,) = set(work.edges) - set(square)
     assert sorted(work.edges[rest][:2]) == [a, c] and straight not in work.edges
     assert tail not in work.edges and b in work.dead
+    path = work.edges[rest][2]
+    assert (path == (10, 12)).all(axis=1).any() and not (path == (11, 12)).all(axis=1).any()
     assert open_short_loops(work, 12.0) == []
     assert len(open_short_loops(work, 41.0)) == 1  # the square is shorter than that
+
+
+def test_last_loop_pass_keeps_an_edge_that_coverage_needs():
+    """Two 16-pixel loops on a line, each of a straight edge and one that bulges 4 pixels
+    off it: with a 2-pixel snap distance the bulge over feasible pixels stays (they depend
+    on it), the bulge over pixels that are not feasible goes."""
+    from topojax.graph.work import WorkGraph, line_pixels
+    from topojax.routegraph.build import _open_short_loops
+
+    work = WorkGraph()
+    ids = [work.add_vertex((10, c)) for c in (2, 10, 16, 30, 36, 45)]
+    for k, (c0, c1) in enumerate([(2, 10), (10, 16), (16, 30), (30, 36), (36, 45)]):
+        work.add_edge(ids[k], ids[k + 1], line_pixels((10, c0), (10, c1)))
+    for k, (c0, r_mid) in ((1, (10, 14)), (3, (30, 6))):
+        mid = (r_mid, c0 + 3)
+        bulge = np.concatenate([line_pixels((10, c0), mid), line_pixels(mid, (10, c0 + 6))[1:]])
+        work.add_edge(ids[k], ids[k + 1], bulge)
+    feasible = np.zeros((30, 50), bool)
+    feasible[9:20, :] = True  # the first bulge runs over feasible pixels, the second not
+    _open_short_loops(work, feasible, 2.0, 20.0)
+
+    def through(pixel) -> bool:
+        return any((p == pixel).all(axis=1).any() for *_, p in work.edges.values())
+
+    assert through((14, 13)) and not through((6, 33))
+    assert all(through((10, c)) for c in range(2, 46))
+    assert work.degrees()[ids[3]] == 0 and work.degrees()[ids[1]] == 3
 
 
 @pytest.mark.parametrize(("seed", "snap_m"), [(55, 2.0), (3, 1.0)])
@@ -849,19 +879,22 @@ def test_no_loop_shorter_than_loop_m(seed, snap_m):
     config = RouteGraphConfig(snap_m=snap_m)
     g = route_graph(occ, config=config)
     assert g.graph["uncovered_share"] == 0.0
-    simple = nx.Graph()
-    for u, v, d in g.edges(data=True):
+    # the shortest loop through each edge: back along a parallel edge, or round by others
+    lengths: dict = {}
+    for u, v, k, d in g.edges(keys=True, data=True):
         assert u != v or d["length_m"] >= config.loop_m
-        if u != v and (not simple.has_edge(u, v) or simple[u][v]["w"] > d["length_m"]):
-            simple.add_edge(u, v, w=d["length_m"])
-    for u, v, d in g.edges(data=True):
-        if u == v:
-            continue
-        w = simple[u][v]["w"]
+        if u != v:
+            lengths.setdefault(frozenset((u, v)), []).append((d["length_m"], k))
+    simple = nx.Graph()
+    simple.add_weighted_edges_from((*pair, min(ls)[0]) for pair, ls in lengths.items())
+    for pair, ls in lengths.items():
+        u, v = pair
         simple.remove_edge(u, v)
-        around = nx.single_source_dijkstra_path_length(simple, u, weight="w")
-        simple.add_edge(u, v, w=w)
-        assert around.get(v, np.inf) + d["length_m"] >= config.loop_m
+        around = nx.single_source_dijkstra_path_length(simple, u).get(v, np.inf)
+        simple.add_edge(u, v, weight=min(ls)[0])
+        for length, k in ls:
+            back = min([x for x, j in ls if j != k], default=np.inf)
+            assert min(back, around) + length >= config.loop_m
 
 
 @pytest.mark.parametrize("in_boxes", [True, False])

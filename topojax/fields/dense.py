@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from .._cpus import usable_cpus
 from .._validate import instance_or_default, names_subset, positive_int
 from ..config import DistanceConfig, RidgeConfig
 from .distance import (
@@ -153,7 +154,7 @@ _POOLS: dict[int, ThreadPoolExecutor] = {}
 
 def _dispatch_threads(threads: int | None, n_chunks: int) -> int:
     if threads is None:
-        threads = os.cpu_count() or 1
+        threads = usable_cpus()
     if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
         raise ValueError(f"threads must be a positive int or None, got {threads!r}")
     return max(1, min(threads, n_chunks))

@@ -12,6 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
+from .._cpus import usable_cpus
 from .._jit import cached_njit
 from ..fields.distance import FAR_SQ
 from ..fields.tiling import TileManager
@@ -34,14 +35,6 @@ _TRACES: Counter[str] = Counter()
 _POOLS: dict = {}  # thread name -> (process id, its executor in that process)
 
 
-def _n_cpus() -> int:
-    """CPUs this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
 def _shared_thread(name: str):
     """A one-thread executor shared by all mappers of this process (None on a single-CPU
     machine).  Keyed by process id: a child forked after the thread started has the
@@ -49,7 +42,7 @@ def _shared_thread(name: str):
     pid = os.getpid()
     owner, pool = _POOLS.get(name, (None, None))
     if owner != pid:
-        pool = ThreadPoolExecutor(1, thread_name_prefix=name) if _n_cpus() > 1 else None
+        pool = ThreadPoolExecutor(1, thread_name_prefix=name) if usable_cpus() > 1 else None
         _POOLS[name] = (pid, pool)
     return pool
 

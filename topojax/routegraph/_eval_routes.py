@@ -3,7 +3,6 @@ shortest paths along a graph that may start and end part-way along an edge."""
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -13,6 +12,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from .._cpus import usable_cpus
 from ._eval_geometry import GraphGeometry, pixel_lookup
 from ._geodesic import geodesic_from
 
@@ -113,7 +113,7 @@ def geodesic_lengths_px(fs, pairs: PairSet) -> np.ndarray:
         out[a:b] = geodesic_from(masks[rid], pairs.source[i] - off, pairs.target[a:b] - off)
 
     n = pairs.source.shape[0]
-    threads = min(GEODESIC_THREADS, os.cpu_count() or 1, n)
+    threads = min(GEODESIC_THREADS, usable_cpus(), n)
     if threads > 1:
         with ThreadPoolExecutor(threads, thread_name_prefix="geodesic") as pool:
             list(pool.map(search, range(n)))

@@ -165,13 +165,24 @@ def drop_short_loops(n_nodes, edge_u, edge_v, edge_w, order, limit):
     return dropped
 
 
-def open_short_loops(
-    work: WorkGraph, min_loop_px: float, contract: bool = True
-) -> list[tuple[int, int, np.ndarray]]:
+def open_short_loops(work: WorkGraph, min_loop_px: float, contract: bool = True) -> list:
     """Remove the loops of ``work`` shorter than ``min_loop_px``: such self-loops, then,
-    longest first, each edge that closes such a loop (:func:`drop_short_loops`); with
-    ``contract``, the vertices left with two edges are contracted.  Returns the removed
-    edges ``(u, v, path)``."""
+    longest first, each edge that closes such a loop (:func:`drop_short_loops`).
+
+    Parameters
+    ----------
+    work : WorkGraph
+        Changed in place.
+    min_loop_px : float
+        Loop length (pixels, along the edges' paths) below which a loop is opened.
+    contract : bool
+        Contract the vertices left with two edges.
+
+    Returns
+    -------
+    list
+        The removed edges, each ``(u, v, path)`` (path int32 (K, 2) from ``u`` to ``v``).
+    """
     removed = []
     for e, (u, v, path) in list(work.edges.items()):
         if u == v and work.length[e] < min_loop_px:
@@ -190,7 +201,8 @@ def open_short_loops(
             min_loop_px - length[order],
         )
         for k in order[dropped].tolist():
-            removed.append(work.edges[live[k]])
+            u, v, path = work.edges[live[k]]
+            removed.append((u, v, path))
             work.remove_edge(live[k])
     if removed and contract:
         work.contract_all({x for u, v, _ in removed for x in (u, v)})

@@ -221,7 +221,7 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     merge_px = min(cfg.robot_radius_m, MERGE_SNAP_SHARE * cfg.snap_m) / res
     merge_close_vertices(work, feasible, max(_ONE_PIXEL, merge_px), _ONE_PIXEL, min_loop_px)
     # loops shorter than loop_m collapse, wherever the passes left one
-    _open_short_loops(work, feasible, uncovered, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS)
+    _open_short_loops(work, feasible, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS)
     t4 = time.perf_counter()
     graph = _assemble(work, occupancy, space, cfg, origin)
     t5 = time.perf_counter()
@@ -240,25 +240,29 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
 
 
 def _open_short_loops(
-    work: WorkGraph, feasible: np.ndarray, uncovered: np.ndarray, snap_px: float, loop_px: float
+    work: WorkGraph, feasible: np.ndarray, snap_px: float, loop_px: float
 ) -> None:
     """Remove the edges that close loops shorter than ``loop_px`` (:func:`open_short_loops`;
-    a shortcut's bend beside an edge, two splits of one edge), unless a feasible pixel
-    then loses its graph pixel within ``snap_px`` (``uncovered``: those that had none):
-    then the graph stays as it was."""
+    a shortcut's bend beside an edge, two splits of one edge), and put back each removed
+    edge within reach of a feasible pixel that lost its last graph pixel within
+    ``snap_px``."""
     removed = open_short_loops(work, loop_px, contract=False)
     if not removed:
         return
-    near = np.zeros(feasible.shape, np.uint8)
+    after = graph_raster(work, feasible.shape)
+    before = after.copy()
     for _, _, path in removed:
-        near[path[:, 0], path[:, 1]] = 1
-    reach = 2 * math.ceil(snap_px) + 1
-    near = cv2.dilate(near, np.ones((reach, reach), np.uint8)).view(bool) & ~uncovered
-    still = covered(graph_raster(work, feasible.shape), feasible, snap_px, among=near)
-    if not np.array_equal(still, near & feasible):
+        before[path[:, 0], path[:, 1]] = True
+    reach = np.ones((2 * math.ceil(snap_px) + 1,) * 2, np.uint8)
+    near = cv2.dilate((before & ~after).view(np.uint8), reach).view(bool)
+    had = covered(before, feasible, snap_px, among=near)
+    lost = had & ~covered(after, feasible, snap_px, among=had)
+    if lost.any():
+        # a lost pixel saw a pixel of a removed edge within snap_px: within the square
+        back = cv2.dilate(lost.view(np.uint8), reach).view(bool)
         for u, v, path in removed:
-            work.add_edge(u, v, path)
-        return
+            if back[path[:, 0], path[:, 1]].any():
+                work.add_edge(u, v, path)
     work.contract_all({x for u, v, _ in removed for x in (u, v)})
 
 

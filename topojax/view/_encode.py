@@ -10,12 +10,13 @@ shipped as a single 8-bit channel, which PNG compresses best.
 from __future__ import annotations
 
 import base64
-import os
 import zlib
 from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
+
+from .._cpus import usable_cpus
 
 __all__ = ["TILE_PX", "packed", "pyramid"]
 
@@ -141,7 +142,7 @@ def _level_tiles(level: np.ndarray, step: int, blank: int | None) -> dict:
             if blank is None or (tile != blank).any():
                 keep.append((r0 // TILE_PX, c0 // TILE_PX, tile))
     if len(keep) > 4:  # OpenCV's encoder releases the GIL: tiles encode side by side
-        with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        with ThreadPoolExecutor(max_workers=min(4, usable_cpus())) as pool:
             pngs = list(pool.map(_png, [t for *_, t in keep]))
     else:
         pngs = [_png(t) for *_, t in keep]
