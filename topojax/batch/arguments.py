@@ -218,19 +218,18 @@ def check_options(
 def route_options(route_config: Any, formats: tuple[str, ...], out_dir: Any):
     """The checked ``route_config`` (its default where None) when ``formats`` name a
     route format, else None; those formats need ``out_dir``."""
+    config = instance_or_default("route_config", route_config, RouteGraphConfig)
     routes = sorted(set(formats) & set(ROUTE_FORMATS))
-    if route_config is not None:
-        instance_or_default("route_config", route_config, RouteGraphConfig)
-        if not routes:
+    if not routes:
+        if route_config is not None:
             raise ValueError(
                 f"route_config: only used with the formats {ROUTE_FORMATS}, which formats "
                 f"does not name (got {formats})"
             )
-    if not routes:
         return None
     if out_dir is None:
         raise ValueError(f"out_dir: needed for the formats {routes}, got None")
-    return instance_or_default("route_config", route_config, RouteGraphConfig)
+    return config
 
 
 def as_executor(executor: Any) -> cf.Executor | None:

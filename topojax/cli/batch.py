@@ -73,20 +73,19 @@ def _cmd_batch(args) -> int:
 
 
 def _route_config(args):
-    """The route graph options of ``--robot-radius``: None without a route format."""
+    """The route graph options of ``--robot-radius``, or None without it (the route
+    formats then use :class:`RouteGraphConfig`'s defaults)."""
     from .._validate import nonnegative_metres
     from ..batch.inputs import ROUTE_FORMATS, check_formats
     from ..routegraph import RouteGraphConfig
 
-    if not set(check_formats(args.formats)) & set(ROUTE_FORMATS):
-        if args.robot_radius_m is not None:
-            raise ValueError(
-                f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}, "
-                f"which --formats does not name (got {args.formats!r})"
-            )
-        return None
     if args.robot_radius_m is None:
-        return RouteGraphConfig()
+        return None
+    if not set(check_formats(args.formats)) & set(ROUTE_FORMATS):
+        raise ValueError(
+            f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}, "
+            f"which --formats does not name (got {args.formats!r})"
+        )
     return RouteGraphConfig(
         robot_radius_m=nonnegative_metres("--robot-radius", args.robot_radius_m)
     )
