@@ -282,6 +282,34 @@ def test_carmen_max_range_sentinel(tmp_path):
         read_carmen(path, max_range=-1.0)
 
 
+def test_one_faulty_reading_does_not_set_the_no_return_value(tmp_path):
+    """A reading far above the no-return value in one scan (a corrupt line) is dropped
+    with a warning; it does not lift the range limit, which would turn every real
+    no-return beam into a wall."""
+    rng = np.random.default_rng(5)
+    ranges = [np.r_[rng.uniform(1, 5, 170), np.full(10, 81.83)] for _ in range(20)]
+    clean = tmp_path / "clean.log"
+    clean.write_text("".join(_flaser(r, (0, 0, 0)) for r in ranges))
+    ranges[7] = ranges[7].copy()
+    ranges[7][3] = 1000.0
+    faulty = tmp_path / "faulty.log"
+    faulty.write_text("".join(_flaser(r, (0, 0, 0)) for r in ranges))
+    with pytest.warns(UserWarning, match=r"above the log's no-return value 81.83 m \(up to 1000 m\)"):
+        got = list(read_carmen(faulty))
+    want = list(read_carmen(clean))
+    assert [s.range_max for s in got] == [s.range_max for s in want] == [81.83 - 0.2] * 20
+    for k, (a, b) in enumerate(zip(got, want, strict=True)):
+        expect = b.valid_mask().copy()
+        if k == 7:
+            expect[3] = False
+        np.testing.assert_array_equal(a.valid_mask(), expect)
+    # the same reading in two scans out of 20 is no longer a fault: it sets the value
+    ranges[12] = ranges[12].copy()
+    ranges[12][5] = 1000.0
+    faulty.write_text("".join(_flaser(r, (0, 0, 0)) for r in ranges))
+    assert {s.range_max for s in read_carmen(faulty)} == {1000.0 - 0.2}
+
+
 def test_carmen_gzip_detected_by_magic_not_suffix(tmp_path):
     text = _flaser([1.0, 2.0, 3.0, 4.0], (0.5, 0.25, 1.0)) + _flaser([2.0] * 4, (1, 1, 1))
     gz_named_txt = tmp_path / "log.txt"

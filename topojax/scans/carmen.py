@@ -6,6 +6,7 @@ import math
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -100,14 +101,22 @@ def _parse_new_laser_head(tokens: list[str]) -> tuple[np.ndarray, np.ndarray, in
     return cfg, ranges, 10 + n + m
 
 
-def _survey_carmen(
-    path: Path, laser: str, need_max: bool
-) -> tuple[str | None, float | None, dict[str, str], np.ndarray, int]:
-    """First pass: the laser message to use, its largest finite range, the PARAM values,
-    and (with ``need_max``) the readings within ``_TOP_BAND_M`` of the largest and how
-    many finite readings there were (for :func:`_warn_if_no_sentinel`)."""
+class _Survey(NamedTuple):
+    """What the first pass over a log found: the laser message to use, the PARAM values,
+    and (when the range limit is to be inferred) each scan's largest finite reading, the
+    readings within ``_TOP_BAND_M`` of it, and how many finite readings there were."""
+
+    chosen: str | None
+    params: dict[str, str]
+    scan_max: np.ndarray
+    tops: np.ndarray
+    n_readings: int
+
+
+def _survey_carmen(path: Path, laser: str, need_max: bool) -> _Survey:
+    """First pass over the log (see :class:`_Survey`)."""
     chosen = None if laser == "auto" else laser
-    best = -math.inf
+    scan_max: list[float] = []
     tops: list[np.ndarray] = []
     n_readings = 0
     params: dict[str, str] = {}
@@ -140,18 +149,39 @@ def _survey_carmen(
                 raise ValueError(f"{path}:{lineno}: malformed {key} line: {err}") from None
             finite = ranges[np.isfinite(ranges)]
             if finite.size:
-                best = max(best, float(finite.max()))
-                tops.append(finite[finite >= best - _TOP_BAND_M])
+                top = float(finite.max())
+                scan_max.append(top)
+                tops.append(finite[finite >= top - _TOP_BAND_M])
                 n_readings += finite.size
-    if best == -math.inf:
-        return chosen, None, params, np.empty(0), 0
-    top = np.concatenate(tops)
-    return chosen, best, params, top[top >= best - _TOP_BAND_M], n_readings
+    return _Survey(
+        chosen,
+        params,
+        np.asarray(scan_max, np.float64),
+        np.concatenate(tops) if tops else np.empty(0),
+        n_readings,
+    )
 
 
-# The survey keeps the readings this close to the running maximum (the no-return margin is
+# The survey keeps the readings this close to each scan's maximum (the no-return margin is
 # 0.2 m by default; a larger margin is checked within this band only).
 _TOP_BAND_M = 1.0
+# The no-return value is the largest of the scans' maxima shared (within the margin) by at
+# least this share of the scans, and by at least two: one faulty reading far above the
+# rest does not set the range limit.
+_SENTINEL_SCAN_SHARE = 0.01
+
+
+def _no_return_value(scan_max: np.ndarray, margin: float) -> tuple[float, np.ndarray]:
+    """The log's no-return value (see ``_SENTINEL_SCAN_SHARE``) from each scan's largest
+    reading, and the maxima of the scans above it (faulty readings); a log whose maxima
+    are all different gets its largest reading."""
+    order = np.sort(scan_max)[::-1]
+    need = max(2, math.ceil(_SENTINEL_SCAN_SHARE * order.size))
+    # scans whose maximum lies within the margin below each candidate, candidates down
+    within = np.searchsorted(-order, -(order - margin), side="right") - np.arange(order.size)
+    hits = np.flatnonzero(within >= need)
+    k = int(hits[0]) if hits.size else 0
+    return float(order[k]), order[:k]
 
 
 def _warn_if_no_sentinel(
@@ -161,12 +191,24 @@ def _warn_if_no_sentinel(
     log with a no-return value drops its no-return beams (at most a quarter of the
     readings in the shared logs, the open campus), one without drops its longest real
     readings, all of them when the readings lie within the margin of each other."""
-    dropped = int(np.count_nonzero(near >= best - margin))
+    dropped = int(np.count_nonzero((near >= best - margin) & (near <= best)))
     if total and dropped > total // 2:
         warnings.warn(
             f"{path}: the largest {laser} reading, {best} m, is taken as the no-return value, "
             f"so readings from {best - margin:.4g} m up are dropped: {dropped} of {total}; "
             "if the log has no no-return value, pass max_range (topojax replay --max-range)",
+            stacklevel=3,
+        )
+
+
+def _warn_if_faulty(path: Path, laser: str, faulty: np.ndarray, sentinel: float) -> None:
+    """Warn that the readings of the scans in ``faulty`` (their maxima) above the
+    no-return value ``sentinel`` are dropped as faulty."""
+    if faulty.size:
+        warnings.warn(
+            f"{path}: readings above the log's no-return value {sentinel} m (up to "
+            f"{faulty.max():.6g} m) in {faulty.size} {laser} scan(s) are taken as faulty and "
+            "dropped (pass max_range, topojax replay --max-range, to keep them)",
             stacklevel=3,
         )
 
@@ -212,7 +254,9 @@ def read_carmen(
         The log file.
     max_range : float, optional
         Readings ``>= max_range`` (m) are "no return". By default: for FLASER/RLASER, a
-        first pass over the file finds the largest reading ``R`` and
+        first pass over the file finds the no-return value ``R``, the largest reading that
+        is (within the margin) the largest of at least 1 % of the scans, and at least two
+        (a faulty reading far above every other is dropped, with a warning), and
         ``range_max = R - no_return_margin_m`` (the no-return sentinel, 81.83 / 81.91 / 50.0 /
         51.x / 32.767 in the shared logs, is not stored in the message; ``PARAM
         robot_front_laser_max`` is not used because it does not match the data: csail says
@@ -268,16 +312,19 @@ def _iter_carmen(
     offset_override: tuple[float, float, float] | None,
 ) -> Iterator[Scan]:
     need_max = max_range is None and laser in ("auto", *_OLD_LASERS)
-    chosen, file_max, params, near_max, n_readings = _survey_carmen(path, laser, need_max)
+    survey = _survey_carmen(path, laser, need_max)
+    chosen, params = survey.chosen, survey.params
     if chosen is None:
         raise ValueError(f"{path}: no laser lines found (looked for {', '.join(_CARMEN_LASERS)})")
     old = chosen in _OLD_LASERS
     range_max_old: float | None = max_range
     if old and range_max_old is None:
-        if file_max is None:
+        if not survey.scan_max.size:
             raise ValueError(f"{path}: no finite {chosen} range readings to find the max range")
+        file_max, faulty = _no_return_value(survey.scan_max, margin)
         range_max_old = file_max - margin
-        _warn_if_no_sentinel(path, chosen, near_max, n_readings, file_max, margin)
+        _warn_if_faulty(path, chosen, faulty, file_max)
+        _warn_if_no_sentinel(path, chosen, survey.tops, survey.n_readings, file_max, margin)
         if range_max_old <= 0:
             raise ValueError(
                 f"{path}: largest {chosen} reading {file_max} m minus no_return_margin_m "
