@@ -31,6 +31,7 @@ from topojax.graph import prune_graph
 from topojax.incremental import (
     STATE_FORMAT,
     STATE_VERSION,
+    ExtentError,
     GraphUpdate,
     IncrementalMapper,
     ScanReport,
@@ -2090,6 +2091,8 @@ def test_occupancy_window_equals_the_crop_of_the_full_export():
         ({"max_export_bytes": 0}, ValueError, "max_export_bytes: expected a positive int"),
         ({"max_export_bytes": 1.5e9}, ValueError, "max_export_bytes: expected a positive int"),
         ({"max_export_bytes": True}, ValueError, "max_export_bytes"),
+        ({"max_tile_bytes": 0}, ValueError, "max_tile_bytes: expected a positive int"),
+        ({"max_tile_bytes": "2 GiB"}, ValueError, "max_tile_bytes"),
     ],
 )
 def test_guard_settings_are_checked(kwargs, error, message):
@@ -2115,26 +2118,109 @@ def test_occupancy_window_bad_bbox_is_refused():
 
 
 def test_guard_settings_are_saved_and_default_for_old_states(tmp_path):
-    mapper = IncrementalMapper(max_extent_m=123.0, max_export_bytes=4567, **SMALL_KW)
+    mapper = IncrementalMapper(
+        max_extent_m=123.0, max_export_bytes=4567, max_tile_bytes=10**8, **SMALL_KW
+    )
     mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
     path = mapper.save(tmp_path / "state.npz")
     loaded = IncrementalMapper.load(path)
     assert (loaded.max_extent_m, loaded.max_export_bytes) == (123.0, 4567)
+    assert loaded.max_tile_bytes == 10**8
     # a state saved before these settings existed loads with the defaults
     with np.load(path, allow_pickle=False) as z:
         data = {k: z[k] for k in z.files}
     settings = json.loads(str(data["settings"]))
-    del settings["max_extent_m"], settings["max_export_bytes"]
+    del settings["max_extent_m"], settings["max_export_bytes"], settings["max_tile_bytes"]
     data["settings"] = np.asarray(json.dumps(settings))
     old = tmp_path / "old.npz"
     np.savez_compressed(old, **data)
     loaded = IncrementalMapper.load(old)
     assert (loaded.max_extent_m, loaded.max_export_bytes) == (2000.0, 2**31)
+    assert loaded.max_tile_bytes == 2**31
 
 
-def test_replay_skips_a_scan_far_off_and_goes_on(tmp_path, capsys):
-    """A localisation glitch in a log (one pose 100 km off) does not end the replay: the
-    scan is skipped with the refusal's message, the others are mapped."""
+def _state_of(mapper) -> dict:
+    return {k: v.copy() for k, v in mapper.tiles.state().items()}
+
+
+def _assert_same_state(before: dict, mapper) -> None:
+    after = mapper.tiles.state()
+    assert before.keys() == after.keys()
+    for k in before:
+        np.testing.assert_array_equal(before[k], after[k], err_msg=k)
+
+
+def test_far_readings_and_poses_are_extent_errors_naming_the_scan():
+    """Readings or poses so far off that the map could not hold them are refused as
+    ExtentError (what a replay skips), naming the scan, its pose and its farthest reading;
+    nothing changes."""
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
+    before = _state_of(mapper)
+    cases = [
+        (np.full(5, 1e6), (0.0, 0.0, 0.0), r"readings up to 1e\+06 m.*max_extent_m=2000"),
+        (np.ones(5), (1e8, 0.0, 0.0), r"\(100000000.0, 0.0, 0.0\).*max_extent_m"),
+        (np.full(5, 1e30), (0.0, 0.0, 0.0), r"readings up to 1e\+30 m.*beyond 1073741824 px"),
+        (np.ones(5), (1e300, 0.0, 0.0), r"beyond 1073741824 px"),
+    ]
+    for ranges, pose, message in cases:
+        scan = Scan.from_arrays(ranges, pose, angle_min=0.0, angle_increment=0.3)
+        with pytest.raises(ExtentError, match=r"^scan 1: the pose .*" + message):
+            mapper.add_scan(scan)
+    # beyond max_grid_cells (a smaller bound than the extent here)
+    tight = IncrementalMapper(skeleton_every=0, graph_every=0, max_grid_cells=50, **SMALL_KW)
+    with pytest.raises(ExtentError, match=r"^scan 0: .*max_grid_cells.*nothing was added"):
+        tight.add_scan(Scan.from_arrays(np.full(5, 50.0), (0, 0, 0), angle_min=0, angle_increment=1))
+    _assert_same_state(before, mapper)
+    assert mapper.n_scans == 1 and tight.n_scans == 0
+
+
+def test_tile_budget_refuses_scans_points_and_maps_before_any_change():
+    """``max_tile_bytes`` bounds the memory the tiles may take: a scan whose beams would
+    allocate more tiles (a reading far beyond the sensor's range) is refused before
+    anything changes; scans within the budget go on being mapped."""
+    probe = IncrementalMapper(**SMALL_KW)
+    tile_bytes = probe.tiles.tile_nbytes
+    mapper = IncrementalMapper(
+        skeleton_every=0, graph_every=0, max_tile_bytes=60 * tile_bytes, **SMALL_KW
+    )
+    mapper.add_scan(synthetic_scans(3, 1, bad=False)[0])
+    before = _state_of(mapper)
+    n_tiles = mapper.tiles.n_tiles
+    assert n_tiles < 60
+    long = Scan.from_arrays(np.full(40, 80.0), (0, 0, 0), angle_min=0.0, angle_increment=0.15)
+    with pytest.raises(ExtentError, match=r"^scan 1: .*readings up to 80 m.*max_tile_bytes="):
+        mapper.add_scan(long)
+    with pytest.raises(ExtentError, match=r"points_xy: .*max_tile_bytes"):
+        mapper.add_points(np.stack([np.linspace(-60, 60, 200), np.full(200, 30.0)], 1))
+    free = np.ones((600, 600), bool)
+    big = OccupancyMap(
+        occupied=np.zeros_like(free),
+        free=free,
+        unknown=~free,
+        resolution_m=0.1,
+        origin=(-30.0, -30.0, 0.0),
+    )
+    with pytest.raises(ExtentError, match=r"occupancy: the map .*max_tile_bytes"):
+        mapper.add_map(big)
+    _assert_same_state(before, mapper)
+    assert mapper.n_scans == 1
+    mapper.add_scan(Scan.from_arrays(np.full(40, 2.0), (0, 0, 0), angle_min=0, angle_increment=0.15))
+    assert mapper.n_scans == 2 and mapper.tiles.n_tiles * tile_bytes <= 60 * tile_bytes
+
+
+@pytest.mark.parametrize(
+    ("glitch", "message"),
+    [
+        ("pose", "max_extent_m=2000"),
+        ("pose_1e8", "beyond 1073741824 px"),
+        ("readings", "readings up to 1e+06 m"),
+    ],
+)
+def test_replay_skips_a_scan_far_off_and_goes_on(tmp_path, capsys, glitch, message):
+    """A localisation glitch in a log (one pose 100 km or 100,000 km off, or readings
+    of 1000 km) does not end the replay: the scan is skipped with the refusal's message,
+    the others are mapped."""
     import gzip
 
     from topojax.cli import main
@@ -2144,19 +2230,39 @@ def test_replay_skips_a_scan_far_off_and_goes_on(tmp_path, capsys):
     for k, line in enumerate(lines):
         if line.startswith("FLASER"):
             n += 1
-            if n == 20:  # x of the laser pose and of the odometry pose
+            if n == 20:
                 f = line.split()
                 count = int(f[1])
-                for j in (2 + count, 2 + count + 3):
-                    f[j] = str(float(f[j]) + 100_000.0)
+                if glitch == "readings":
+                    f[2 : 2 + count // 2] = ["1000000.0"] * (count // 2)
+                else:  # x of the laser pose and of the odometry pose
+                    shift = 100_000.0 if glitch == "pose" else 1e8
+                    for j in (2 + count, 2 + count + 3):
+                        f[j] = str(float(f[j]) + shift)
                 lines[k] = " ".join(f)
     log = tmp_path / "glitch.log"
     log.write_text("\n".join(lines) + "\n")
     out = tmp_path / "out"
-    code = main(["replay", str(log), "-o", str(out), "--no-progress", "--graph-every", "20"])
+    # readings of 1000 km are kept (else the reader drops them as faulty, test_scans.py)
+    keep = ["--max-range", "2e6"] if glitch == "readings" else []
+    args = ["replay", str(log), "-o", str(out), "--no-progress", "--graph-every", "20", *keep]
+    code = main(args)
     assert code == 0
     text = capsys.readouterr().out
-    assert "skipped scan 19" in text and "max_extent_m=2000" in text
+    assert "skipped scan 19" in text and message in text
     summary = json.loads((out / "timings.json").read_text())
     assert summary["n_scans"] == 39
     assert len(summary["skipped_scans"]) == 1
+
+
+def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
+    """A log whose final map is beyond ``max_export_bytes`` is not lost: the replay saves
+    the mapper's state, and its error says where and how to skip the scans that grew
+    the map."""
+    out = tmp_path / "out"
+    with pytest.raises(ValueError, match=r"max_export_bytes=20000\b.*saved to .*--max-extent-m"):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, max_export_bytes=20_000)
+    state = out / "mapper_state.npz"
+    loaded = IncrementalMapper.load(state)
+    assert loaded.n_scans == 40
+    assert loaded.occupancy_window((0.0, 0.0, 1.0, 1.0)).shape == (20, 20)

@@ -241,7 +241,6 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     if not er.shape[0]:
         return 0
     t = mapper.tile_px
-    res = mapper.resolution_m
     n_valid = int(er.shape[0])
     tiles = mapper._tiles
     w = mapper._half + HALO_PX
@@ -251,18 +250,14 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     hi_r = max(e_r1, sr) + w
     lo_c = min(e_c0, sc) - w
     hi_c = max(e_c1, sc) + w
-    if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
-        raise ValueError(
-            f"{where()} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
-            f"resolution {res} m; expected coordinates in metres"
-        )
     # Validate the whole extent (beams and splat windows) before changing anything.
-    tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
-    check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where)
+    check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where)
     rays = mapper.free_space and sensor is not None
     grid, (g0r, g0c) = tiles.slot_grid
     need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
     if need.shape[0]:
+        new_tiles = unique_pairs(need[:, 0], need[:, 1]).shape[0]
+        check_tile_budget(mapper, new_tiles, where)
         tiles.ensure(need[:, 0], need[:, 1])
         grid, (g0r, g0c) = tiles.slot_grid
     new, miss = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), w)
@@ -282,12 +277,46 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
 
 class ExtentError(ValueError):
     """A scan, points or map refused because it would grow the mapped area beyond the
-    mapper's ``max_extent_m`` (nothing was added)."""
+    mapper's ``max_extent_m``, ``max_grid_cells`` or ``max_tile_bytes``, or put pixels
+    beyond 2^30 pixels from the origin (nothing was added)."""
+
+
+def check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
+    """Raise :class:`ExtentError` if the tiles of global pixels ``lo_r..hi_r`` x
+    ``lo_c..hi_c`` (inclusive) lie beyond 2^30 pixels, or would make the allocated
+    tiles' bounding box longer than ``max_extent_m`` or larger than ``max_grid_cells``;
+    the message starts with ``where()``."""
+    if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
+        raise ExtentError(
+            f"{where()} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
+            f"resolution {mapper.resolution_m} m; nothing was added (expected coordinates "
+            "in metres; a localisation glitch?)"
+        )
+    check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where)
+    t = mapper.tile_px
+    try:
+        mapper._tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
+    except ValueError as exc:
+        raise ExtentError(f"{where()}: {exc}; nothing was added") from None
+
+
+def check_tile_budget(mapper, new_tiles: int, where) -> None:
+    """Raise :class:`ExtentError` if ``new_tiles`` more tiles would make the mapper's
+    tiles hold more than ``mapper.max_tile_bytes``; the message starts with ``where()``."""
+    tiles = mapper._tiles
+    need = (tiles.n_tiles + int(new_tiles)) * tiles.tile_nbytes
+    if need > mapper.max_tile_bytes:
+        raise ExtentError(
+            f"{where()} would allocate {new_tiles} more tiles, {need / 2**20:,.0f} MiB in "
+            f"all, beyond max_tile_bytes={mapper.max_tile_bytes}; nothing was added (a "
+            "reading far beyond the sensor's range? set the scan's range_max or the "
+            "mapper's max_range_m, or make the mapper with a larger max_tile_bytes)"
+        )
 
 
 def check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
-    """Raise ValueError if allocating the tiles of global pixels ``lo_r..hi_r`` x
-    ``lo_c..hi_c`` (inclusive) would make a side of the allocated tiles' bounding box
+    """Raise :class:`ExtentError` if allocating the tiles of global pixels ``lo_r..hi_r``
+    x ``lo_c..hi_c`` (inclusive) would make a side of the allocated tiles' bounding box
     longer than ``mapper.max_extent_m``; the message starts with ``where()``."""
     t = mapper.tile_px
     r0, c0, r1, c1 = (lo_r // t) * t, (lo_c // t) * t, (hi_r // t + 1) * t, (hi_c // t + 1) * t
@@ -429,16 +458,15 @@ def add_occupancy(mapper, occupancy) -> int:
     free_rows, free_cols = np.nonzero(occupancy.free) if mapper.free_space else ((), ())
     if rows.shape[0] or len(free_rows):
         lo_r, hi_r, lo_c, hi_c = r0 - half, r0 + h + half, c0 - half, c0 + w + half
-        if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
-            raise ValueError(
-                f"occupancy: its origin {occupancy.origin} puts pixels beyond "
-                f"{_MAX_ABS_PIXEL} px from the mapper's origin; expected metres"
-            )
         # the whole map and its splat windows, before anything changes
-        mapper._tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
-        check_max_extent(
-            mapper, lo_r, hi_r, lo_c, hi_c, lambda: f"occupancy: the map at {occupancy.origin}"
+        where = lambda: f"occupancy: the map at {occupancy.origin}"  # noqa: E731
+        check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where)
+        known = unique_pairs(
+            (np.concatenate([rows, np.asarray(free_rows, np.int64)]) + r0) // t,
+            (np.concatenate([cols, np.asarray(free_cols, np.int64)]) + c0) // t,
         )
+        new_tiles = int((mapper._tiles.lookup(known[:, 0], known[:, 1]) < 0).sum())
+        check_tile_budget(mapper, new_tiles, where)
     er = rows.astype(np.int64) + r0
     ec = cols.astype(np.int64) + c0
     ext = (

@@ -173,10 +173,16 @@ DEFAULT_MAX_EXTENT_M = 2000.0
 #: a dense export (occupancy, fields, graph, result) may allocate.
 DEFAULT_MAX_EXPORT_BYTES = 1 << 31
 
+#: Default ``max_tile_bytes`` of :class:`IncrementalMapper` (2 GiB): the most memory the
+#: mapper's tiles may hold.
+DEFAULT_MAX_TILE_BYTES = 1 << 31
 
-def checked_guard_settings(max_extent_m, max_export_bytes) -> tuple[float, int]:
-    """``max_extent_m`` (finite metres > 0) and ``max_export_bytes`` (an int >= 1) as
-    Python numbers.
+
+def checked_guard_settings(
+    max_extent_m, max_export_bytes, max_tile_bytes
+) -> tuple[float, int, int]:
+    """``max_extent_m`` (finite metres > 0), ``max_export_bytes`` and ``max_tile_bytes``
+    (ints >= 1) as Python numbers.
 
     Raises
     ------
@@ -187,6 +193,7 @@ def checked_guard_settings(max_extent_m, max_export_bytes) -> tuple[float, int]:
     return (
         positive_metres("max_extent_m", max_extent_m),
         positive_int("max_export_bytes", max_export_bytes),
+        positive_int("max_tile_bytes", max_tile_bytes),
     )
 
 
@@ -210,4 +217,5 @@ def settings_of(mapper) -> dict:
         "max_grid_cells": mapper._tiles.max_grid_cells,
         "max_extent_m": mapper.max_extent_m,
         "max_export_bytes": mapper.max_export_bytes,
+        "max_tile_bytes": mapper.max_tile_bytes,
     }

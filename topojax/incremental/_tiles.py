@@ -280,8 +280,13 @@ EXPORT_BYTES_PER_PX = {
 }
 
 
+class ExportBudgetError(ValueError):
+    """A dense export refused because it would allocate more than the mapper's
+    ``max_export_bytes``."""
+
+
 def check_export_budget(mapper, what: str, box: tuple[int, int, int, int]) -> None:
-    """Raise ValueError if the export ``what`` (a key of :data:`EXPORT_BYTES_PER_PX`) over
+    """Raise :class:`ExportBudgetError` if the export ``what`` (a key of :data:`EXPORT_BYTES_PER_PX`) over
     the global pixel box ``(row0, col0, row1, col1)`` (end exclusive) would allocate more
     than ``mapper.max_export_bytes``; the message says how to export a window."""
     r0, c0, r1, c1 = box
@@ -298,7 +303,7 @@ def check_export_budget(mapper, what: str, box: tuple[int, int, int, int]) -> No
             f" (the mapped area spans x {bbox[1] * res:g}..{bbox[3] * res:g} m, "
             f"y {-bbox[2] * res:g}..{-bbox[0] * res:g} m)"
         )
-    raise ValueError(
+    raise ExportBudgetError(
         f"mapper.{what}: refused to allocate about {need / 2**20:,.0f} MiB for {h} x {w} "
         f"px ({w * res:g} m x {h * res:g} m, about {per_px} bytes per pixel), more than "
         f"max_export_bytes={mapper.max_export_bytes}; export a window instead with "

@@ -41,6 +41,7 @@ from ._rooms import RoomKeeper, rooms_due
 from ._settings import (
     DEFAULT_MAX_EXPORT_BYTES,
     DEFAULT_MAX_EXTENT_M,
+    DEFAULT_MAX_TILE_BYTES,
     checked_guard_settings,
     checked_loop_settings,
     checked_resolution,
@@ -127,17 +128,22 @@ class IncrementalMapper:
     max_grid_cells : int
         Bound on the bounding box of the map in tiles (see
         :class:`~topojax.fields.tiling.TileManager`); a scan that would exceed it is rejected
-        with ValueError before anything changes.
+        with :class:`ExtentError` before anything changes.
     max_extent_m : float
         The longest side, in metres, the bounding box of the allocated tiles may reach
         (default 2000).  A scan, points or map that would grow it further (a pose far
-        off: a localisation glitch) is refused with ValueError before anything changes,
-        naming the scan's index, timestamp and pose.
+        off: a localisation glitch) is refused with :class:`ExtentError` (a ValueError)
+        before anything changes, naming the scan's index, timestamp and pose.
     max_export_bytes : int
         The most memory, in bytes, a dense export (:attr:`occupancy`, the fields,
         :attr:`graph`, :meth:`to_result`, :meth:`route_graph`, :meth:`occupancy_window`)
         may allocate, estimated from its pixels before anything is allocated (default
         2 GiB); a larger one raises ValueError that says how to export a window.
+    max_tile_bytes : int
+        The most memory, in bytes, the mapper's tiles may hold (default 2 GiB: about
+        7,000 tiles of 128 px, each about 0.3 MB).  A scan, points or map that would
+        allocate more is refused with :class:`ExtentError` before anything changes
+        (readings far beyond the sensor's range: set ``range_max`` or ``max_range_m``).
 
     Notes
     -----
@@ -178,10 +184,11 @@ class IncrementalMapper:
         max_grid_cells: int = MAX_GRID_CELLS,
         max_extent_m: float = DEFAULT_MAX_EXTENT_M,
         max_export_bytes: int = DEFAULT_MAX_EXPORT_BYTES,
+        max_tile_bytes: int = DEFAULT_MAX_TILE_BYTES,
     ) -> None:
         resolution_m = checked_resolution(resolution_m, strategy)
-        self.max_extent_m, self.max_export_bytes = checked_guard_settings(
-            max_extent_m, max_export_bytes
+        self.max_extent_m, self.max_export_bytes, self.max_tile_bytes = checked_guard_settings(
+            max_extent_m, max_export_bytes, max_tile_bytes
         )
         config = merged_config(config, distance, ridge, skeleton)
         tile_px, block_px, paper_layer_px = checked_sizes(tile_px, block_px, paper_layer_px)
@@ -307,7 +314,8 @@ class IncrementalMapper:
             If ``scan`` is not a :class:`~topojax.scans.Scan`.
         ValueError
             If the scan's pixels are absurdly far (beyond 2^30 pixels) or the map would
-            exceed ``max_grid_cells`` or ``max_extent_m``.  Nothing is changed in that case.
+            exceed ``max_grid_cells``, ``max_extent_m`` or ``max_tile_bytes``
+            (:class:`ExtentError`).  Nothing is changed in that case.
         """
         if not isinstance(scan, Scan):
             raise TypeError(
@@ -340,9 +348,12 @@ class IncrementalMapper:
         )
 
     def _scan_name(self, scan: Scan) -> str:
-        """``scan <index> (timestamp <t> s): the pose (x, y, yaw)`` for error messages."""
+        """``scan <index> (timestamp <t> s): the pose (x, y, yaw) with readings up to <r>
+        m`` for error messages."""
         stamp = "" if scan.timestamp is None else f" (timestamp {scan.timestamp:.6f} s)"
-        return f"scan {self._n_scans}{stamp}: the pose {scan.pose}"
+        r = np.asarray(scan.ranges, np.float64)[scan.valid_mask()]
+        far = f" with readings up to {r.max():.6g} m" if r.size else ""
+        return f"scan {self._n_scans}{stamp}: the pose {scan.pose}{far}"
 
     @_synchronized
     def add_points(self, points_xy, *, origin_xy=None) -> ScanReport:
@@ -377,8 +388,8 @@ class IncrementalMapper:
         ValueError
             If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers,
             or the points lie absurdly far (beyond 2^30 pixels) or would make the map
-            exceed ``max_grid_cells`` or ``max_extent_m``.  Nothing is changed in that
-            case.
+            exceed ``max_grid_cells``, ``max_extent_m`` or ``max_tile_bytes``
+            (:class:`ExtentError`).  Nothing is changed in that case.
         """
         t0 = time.perf_counter()
         er, ec, ext, sensor, n_points = point_pixels(self, points_xy, origin_xy)
@@ -421,8 +432,8 @@ class IncrementalMapper:
             If ``occupancy`` is not an :class:`~topojax.OccupancyMap`.
         ValueError
             If its resolution differs from the mapper's, its yaw is not 0, or it would
-            make the map exceed ``max_grid_cells`` or ``max_extent_m``.  Nothing is
-            changed in that case.
+            make the map exceed ``max_grid_cells``, ``max_extent_m`` or ``max_tile_bytes``
+            (:class:`ExtentError`).  Nothing is changed in that case.
         """
         return add_occupancy(self, occupancy)
 

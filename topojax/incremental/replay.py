@@ -15,6 +15,7 @@ from .._validate import instance_or_default, nonnegative_metres, positive_int, p
 from ..config import GraphConfig
 from ._rays import ExtentError
 from ._settings import settings_of
+from ._tiles import ExportBudgetError
 from .mapper import IncrementalMapper
 from .reports import ScanReport, timing_summary
 
@@ -209,6 +210,7 @@ def replay(
             graph_config=graph_config,
             rooms=rooms,
             route_graph_radius_m=route_graph_radius_m,
+            out=out,
         )
     written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
     written += _write_rooms_routes_view(mapper, done, out, timeline)
@@ -274,9 +276,11 @@ def _map_scans(
     graph_config,
     rooms,
     route_graph_radius_m,
+    out: Path,
 ) -> _Replayed:
     """Feed the scans to the mapper (:func:`_run`), check that they mapped something,
-    run the final update (:func:`_final`), make the final route graph (with a radius)
+    run the final update (:func:`_final`; a map too large to write leaves the mapper's
+    state in ``out``), make the final route graph (with a radius)
     and close the recording (if any) with the written map, graph, rooms and route
     graph."""
     record = None if recorder is None else _Recording(recorder, route_graph_radius_m)
@@ -287,7 +291,10 @@ def _map_scans(
         raise ValueError(f"source {source}: no scans to replay")
     if mapper.pixel_bbox is None:
         raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
-    update, final_s, result, seg = _final(mapper, graph_config, rooms)
+    try:
+        update, final_s, result, seg = _final(mapper, graph_config, rooms)
+    except ExportBudgetError as exc:
+        raise _unwritable(mapper, exc, out) from None
     routes = None
     if route_graph_radius_m is not None:
         routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
@@ -388,6 +395,18 @@ def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
         seg = mapper.rooms
         assign_rooms(result.graph, seg)  # before the graph files are written
     return update, final_s, result, seg
+
+
+def _unwritable(mapper: IncrementalMapper, exc: ExportBudgetError, out: Path) -> ValueError:
+    """Save the mapper's state to ``out`` (nothing mapped is lost) and return the error
+    for a map too large to write whole."""
+    path = mapper.save(out / "mapper_state.npz")
+    return ValueError(
+        f"{exc}. The log is mapped, but its map is too large to write whole; the mapper's "
+        f"state is saved to {path} (IncrementalMapper.load; export windows of it with "
+        "occupancy_window). A pose far off (a localisation glitch)? Replay with a smaller "
+        f"max_extent_m (--max-extent-m; now {mapper.max_extent_m:g} m) to skip such scans."
+    )
 
 
 def _check_replay_args(
