@@ -2170,7 +2170,9 @@ def test_far_readings_and_poses_are_extent_errors_naming_the_scan():
     # beyond max_grid_cells (a smaller bound than the extent here)
     tight = IncrementalMapper(skeleton_every=0, graph_every=0, max_grid_cells=50, **SMALL_KW)
     with pytest.raises(ExtentError, match=r"^scan 0: .*max_grid_cells.*nothing was added"):
-        tight.add_scan(Scan.from_arrays(np.full(5, 50.0), (0, 0, 0), angle_min=0, angle_increment=1))
+        tight.add_scan(
+            Scan.from_arrays(np.full(5, 50.0), (0, 0, 0), angle_min=0, angle_increment=1)
+        )
     _assert_same_state(before, mapper)
     assert mapper.n_scans == 1 and tight.n_scans == 0
 
@@ -2205,7 +2207,9 @@ def test_tile_budget_refuses_scans_points_and_maps_before_any_change():
         mapper.add_map(big)
     _assert_same_state(before, mapper)
     assert mapper.n_scans == 1
-    mapper.add_scan(Scan.from_arrays(np.full(40, 2.0), (0, 0, 0), angle_min=0, angle_increment=0.15))
+    mapper.add_scan(
+        Scan.from_arrays(np.full(40, 2.0), (0, 0, 0), angle_min=0, angle_increment=0.15)
+    )
     assert mapper.n_scans == 2 and mapper.tiles.n_tiles * tile_bytes <= 60 * tile_bytes
 
 
@@ -2266,3 +2270,21 @@ def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
     loaded = IncrementalMapper.load(state)
     assert loaded.n_scans == 40
     assert loaded.occupancy_window((0.0, 0.0, 1.0, 1.0)).shape == (20, 20)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"rooms": "no"}, "rooms must be a bool, got str 'no'"),
+        ({"plot": 1}, "plot must be a bool"),
+        ({"view": None}, "view must be a bool"),
+        ({"out_dir": None}, r"out_dir: expected a path \(str or os.PathLike\), received NoneType"),
+        ({"animate": 5}, r"animate: expected a path .*received int"),
+        ({"reader_kwargs": [1]}, "reader_kwargs: expected a dict .*received list"),
+    ],
+)
+def test_replay_checks_its_options_before_mapping(tmp_path, kwargs, message):
+    args = {"out_dir": tmp_path / "out", "progress": False, **kwargs}
+    with pytest.raises(TypeError, match=message):
+        replay(INTEL_EXCERPT, **args)
+    assert not (tmp_path / "out").exists()

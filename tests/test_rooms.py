@@ -291,8 +291,9 @@ def test_room_at_world_points():
         ({"min_door_width_m": -1.0}, "min_door_width_m"),
         ({"max_door_width_m": 0.0}, "max_door_width_m"),
         ({"max_door_width_m": 0.4, "min_door_width_m": 0.6}, "max_door_width_m"),
-        ({"door_ratio": 0.0}, "door_ratio"),
-        ({"min_room_m2": float("nan")}, "min_room_m2"),
+        ({"door_ratio": 0.0}, r"^door_ratio: expected a finite number > 0, received 0.0"),
+        ({"max_border_share": 2}, r"^max_border_share: expected a share .* in \(0, 1\]"),
+        ({"min_room_m2": float("nan")}, r"^min_room_m2: expected a finite number of m2 >= 0"),
         ({"door_context_m": "1"}, "door_context_m"),
     ],
 )

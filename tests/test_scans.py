@@ -294,7 +294,9 @@ def test_one_faulty_reading_does_not_set_the_no_return_value(tmp_path):
     ranges[7][3] = 1000.0
     faulty = tmp_path / "faulty.log"
     faulty.write_text("".join(_flaser(r, (0, 0, 0)) for r in ranges))
-    with pytest.warns(UserWarning, match=r"above the log's no-return value 81.83 m \(up to 1000 m\)"):
+    with pytest.warns(
+        UserWarning, match=r"above the log's no-return value 81.83 m \(up to 1000 m\)"
+    ):
         got = list(read_carmen(faulty))
     want = list(read_carmen(clean))
     assert [s.range_max for s in got] == [s.range_max for s in want] == [81.83 - 0.2] * 20

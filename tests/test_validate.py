@@ -303,12 +303,35 @@ def test_nonnegative_quantity_refuses_with_value_error_naming_unit(value):
         v.nonnegative_quantity("area_m2", value, "square metres")
 
 
+@pytest.mark.parametrize(
+    ("unit", "allow_zero", "value", "exc", "message"),
+    [
+        (
+            "m2",
+            True,
+            -1.0,
+            ValueError,
+            r"^area_m2: expected a finite number of m2 >= 0, received -1.0$",
+        ),
+        ("", False, 0.0, ValueError, r"^area_m2: expected a finite number > 0, received 0.0$"),
+        ("", False, float("inf"), ValueError, r"^area_m2: expected a finite number > 0"),
+        ("m2", True, "1", TypeError, r"^area_m2: expected a number of m2 >= 0, received str '1'$"),
+        ("", True, True, TypeError, r"^area_m2: expected a number >= 0, received bool True$"),
+    ],
+)
+def test_quantity_names_the_unit_or_none(unit, allow_zero, value, exc, message):
+    assert v.quantity("area_m2", np.float32(2.5), unit=unit, allow_zero=allow_zero) == 2.5
+    assert v.quantity("area_m2", 0, unit=unit, allow_zero=True) == 0.0
+    with pytest.raises(exc, match=message):
+        v.quantity("area_m2", value, unit=unit, allow_zero=allow_zero)
+
+
 def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "choice", "existing_file", "finite_pair",
         "finite_positive", "finite_real", "flag", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "metres", "metres_per_pixel", "nonnegative_metres",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "pose", "positive_int", "positive_metres",
-        "real_number",
+        "quantity", "real_number",
     }  # fmt: skip
     assert set(v.__all__) == tested

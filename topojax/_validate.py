@@ -38,6 +38,7 @@ __all__ = [
     "pose",
     "positive_int",
     "positive_metres",
+    "quantity",
     "real_number",
 ]
 
@@ -89,19 +90,26 @@ def flag(name: str, value: object) -> bool:
     return bool(value)
 
 
-def metres(name: str, value: object, *, allow_zero: bool) -> float:
-    """``value`` as a float after checking it is a finite number of metres, ``>= 0`` or
-    ``> 0``; the errors name ``name``, what was expected and what was received."""
+def quantity(name: str, value: object, *, unit: str, allow_zero: bool) -> float:
+    """``value`` as a float after checking it is a finite number (of ``unit``, e.g.
+    ``"metres"``, ``"m2"``; ``""`` for a ratio), ``>= 0`` or ``> 0``; a TypeError for a
+    non-number (or bool), a ValueError otherwise, naming ``name``, what was expected and
+    what was received."""
     bound = ">= 0" if allow_zero else "> 0"
+    of = f" of {unit}" if unit else ""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(
-            f"{name}: expected a number of metres {bound}, received "
-            f"{type(value).__name__} {value!r}"
+            f"{name}: expected a number{of} {bound}, received {type(value).__name__} {value!r}"
         )
     value = float(value)
     if not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
-        raise ValueError(f"{name}: expected a finite number of metres {bound}, received {value!r}")
+        raise ValueError(f"{name}: expected a finite number{of} {bound}, received {value!r}")
     return value
+
+
+def metres(name: str, value: object, *, allow_zero: bool) -> float:
+    """:func:`quantity` in metres."""
+    return quantity(name, value, unit="metres", allow_zero=allow_zero)
 
 
 def nonnegative_metres(name: str, value: object) -> float:

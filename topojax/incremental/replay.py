@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -11,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._validate import instance_or_default, nonnegative_metres, positive_int, positive_metres
+from .._validate import flag, instance_or_default, nonnegative_metres, positive_int, positive_metres
 from ..config import GraphConfig
 from ._rays import ExtentError
 from ._settings import settings_of
@@ -192,9 +193,16 @@ def replay(
     """
     from .._fs import atomic_write_bytes
 
+    for name, value in (("plot", plot), ("progress", progress), ("rooms", rooms), ("view", view)):
+        flag(name, value)
     nav2_tolerance_m, route_graph_radius_m = _check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
     )
+    if reader_kwargs is not None and not isinstance(reader_kwargs, dict):
+        raise TypeError(
+            "reader_kwargs: expected a dict of keyword arguments of read_scans, received "
+            f"{type(reader_kwargs).__name__}"
+        )
     out = Path(out_dir)
     scans, mapper, timeline = _start(source, out, reader_kwargs, rooms, view, mapper_kw)
     with _recorder(mcap) as recorder:
@@ -420,6 +428,11 @@ def _check_replay_args(
         nav2_tolerance_m = positive_metres("nav2_tolerance_m", nav2_tolerance_m)
     if graph_config is not None:
         instance_or_default("graph_config", graph_config, GraphConfig)
+    for name, value in (("out_dir", out_dir), ("animate", animate)):
+        if not isinstance(value, str | os.PathLike) and (name == "out_dir" or value is not None):
+            raise TypeError(
+                f"{name}: expected a path (str or os.PathLike), received {type(value).__name__}"
+            )
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(

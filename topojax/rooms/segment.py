@@ -9,7 +9,7 @@ from dataclasses import dataclass, fields
 import cv2
 import numpy as np
 
-from .._validate import instance_or_default, nonnegative_metres, positive_metres
+from .._validate import instance_or_default, nonnegative_metres, positive_metres, quantity
 from ..fields.clearance import free_clearance_px
 from ..skeleton import thin
 from ._cuts import door_candidates, make_cuts
@@ -57,12 +57,19 @@ class RoomConfig:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.name in ("door_ratio", "max_border_share"):
-                value = positive_metres(f.name, value)  # a positive finite number
+                value = quantity(f.name, value, unit="", allow_zero=False)
             elif f.name in ("max_door_width_m", "door_context_m"):
                 value = positive_metres(f.name, value)
+            elif f.name.endswith("_m2"):
+                value = quantity(f.name, value, unit="m2", allow_zero=True)
             else:
                 value = nonnegative_metres(f.name, value)
             object.__setattr__(self, f.name, value)
+        if self.max_border_share > 1:
+            raise ValueError(
+                "max_border_share: expected a share of the boundary in (0, 1], received "
+                f"{self.max_border_share!r}"
+            )
         if self.max_door_width_m < self.min_door_width_m:
             raise ValueError(
                 "max_door_width_m: expected a width >= min_door_width_m "

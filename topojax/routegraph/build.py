@@ -5,7 +5,6 @@ in ``docs/route-graphs.md``."""
 from __future__ import annotations
 
 import math
-import numbers
 import time
 from dataclasses import dataclass, fields, replace
 
@@ -13,7 +12,7 @@ import cv2
 import networkx as nx
 import numpy as np
 
-from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres
+from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres, quantity
 from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph, paused_gc
 from ..graph.work import (
@@ -120,23 +119,13 @@ class RouteGraphConfig:
             elif f.name.endswith("_m"):
                 value = nonnegative_metres(f.name, value)
             else:
-                value = _nonnegative(f.name, value, "m2" if f.name.endswith("_m2") else "")
+                unit = "m2" if f.name.endswith("_m2") else ""
+                value = quantity(f.name, value, unit=unit, allow_zero=True)
             object.__setattr__(self, f.name, value)
         if self.shortcut_stretch < 1.0:
             raise ValueError(
                 f"shortcut_stretch: expected a number >= 1, received {self.shortcut_stretch!r}"
             )
-
-
-def _nonnegative(name: str, value: object, unit: str) -> float:
-    """``value`` as a float, checked to be a finite real number >= 0 (not bool)."""
-    what = f"a finite number >= 0{' (' + unit + ')' if unit else ''}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected {what}, received {type(value).__name__} {value!r}")
-    value = float(value)
-    if not math.isfinite(value) or value < 0:
-        raise ValueError(f"{name}: expected {what}, received {value!r}")
-    return value
 
 
 def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) -> nx.MultiGraph:
