@@ -256,6 +256,24 @@ def test_view_command_on_a_graph_folder(tmp_path, capsys):
     assert main(["view", str(out)]) == 0  # again: its own file is replaced
 
 
+def test_view_command_reads_the_map_as_the_graph_command_did(tmp_path, capsys):
+    """A graph built from a map read with options (``--mode ipa``) is shown over the map
+    read with the same options, which the folder's record keeps."""
+    from topojax.cli.view import find_results
+
+    png = tj.datasets.sample_map_path("office")
+    out = tmp_path / "out"
+    assert main(["graph", str(png), "--mode", "ipa", "-o", str(out)]) == 0
+    (result,) = find_results(out)
+    assert result.map == png.resolve() and result.map_kwargs == {"mode": "ipa"}
+    plain = tmp_path / "plain"
+    assert main(["graph", str(png), "-o", str(plain)]) == 0
+    assert find_results(plain)[0].map_kwargs == {}
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    assert "graph only" not in capsys.readouterr().out
+
+
 def test_view_command_on_a_replay_folder_with_a_timeline(tmp_path, capsys):
     mapper, timeline, _ = intel_replay()
     out = tmp_path / "rep"

@@ -2,7 +2,8 @@
 different command, or the same command from a different input, wrote.
 
 Every folder a command writes into gets a small record, ``.topojax-outputs.json``: for
-each file written there, the command and the absolute path of the input it was made from.
+each file written there, the command and the absolute path of the input it was made from
+(and the options a map input was read with).
 Before any work a command checks its planned files: one that exists and is recorded as
 written by another command or from another input is refused (``ValueError`` naming the
 option, the file and who wrote it).  A file the record does not list (written by hand, or
@@ -86,7 +87,8 @@ def check_outputs(
             if not target.exists():
                 continue
             before = _written_by(target, recorded)
-            if before is None or before == _owner(command, source):
+            owner = _owner(command, source)
+            if before is None or all(before.get(k) == v for k, v in owner.items()):
                 continue
             raise ValueError(_conflict(option, target, before, command, source))
 
@@ -121,9 +123,16 @@ def _conflict(option: str, target: Path, before: dict, command: str, source) -> 
     )
 
 
-def record_outputs(claims: Mapping[Path, str | os.PathLike[str] | None], *, command: str) -> None:
+def record_outputs(
+    claims: Mapping[Path, str | os.PathLike[str] | None],
+    *,
+    command: str,
+    map_options: Mapping[str, object] | None = None,
+) -> None:
     """Record the files of ``claims`` that exist as written by ``command`` from their
-    input (in the record of each file's folder)."""
+    input (in the record of each file's folder), with the ``load_map`` options the input
+    was read with (``map_options``, JSON values), so that ``topojax view`` reads it the
+    same way."""
     from .._fs import atomic_write_bytes
 
     for folder, files in _by_folder(claims).items():
@@ -133,5 +142,7 @@ def record_outputs(claims: Mapping[Path, str | os.PathLike[str] | None], *, comm
         recorded = read_record(folder)
         for target, source in written.items():
             recorded[target.name] = _owner(command, source)
+            if map_options:
+                recorded[target.name]["map_options"] = dict(map_options)
         doc = {"version": _VERSION, "files": dict(sorted(recorded.items()))}
         atomic_write_bytes(folder / RECORD_NAME, json.dumps(doc, indent=1).encode("utf-8"))

@@ -213,7 +213,7 @@ def _cmd_graph(args) -> int:
     first = "the process's first call: it includes loading or compiling the kernels"
     for line in [*_summary_lines(str(args.map), result, timing_note=first), *notes]:
         print(line)
-    record_outputs(planned(written, args.map), command="graph")
+    record_outputs(planned(written, args.map), command="graph", map_options=map_options(args))
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
 

@@ -69,7 +69,7 @@ def _cmd_rooms(args) -> int:
     )
     for line in room_lines(seg, occupancy, seconds=seconds):
         print(line)
-    record_outputs(planned(written, args.map), command="rooms")
+    record_outputs(planned(written, args.map), command="rooms", map_options=map_options(args))
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
 

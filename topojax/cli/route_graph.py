@@ -143,7 +143,7 @@ def _cmd_route_graph(args) -> int:
             f"{report.stretch_median:.3f} (p90 {report.stretch_p90:.3f}), unsafe share "
             f"{report.unsafe_share:.3f}, uncovered share {report.uncovered_share:.4f}"
         )
-    record_outputs(planned(written, args.map), command="route-graph")
+    record_outputs(planned(written, args.map), command="route-graph", map_options=kw)
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
 

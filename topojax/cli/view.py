@@ -63,12 +63,15 @@ def _graph_stems(folder: Path) -> dict[str, Path]:
     return stems
 
 
-def _recorded_input(record: dict, folder: Path, stem: str) -> Path | None:
+def _recorded_input(record: dict, folder: Path, stem: str) -> tuple[Path | None, dict]:
+    """The input a result's files were made from, and the ``load_map`` options it was
+    read with (none recorded: the file's own)."""
     for suffix in _GRAPH_SUFFIXES + ("_rooms.geojson",):
         entry = record.get(f"{stem}{suffix}")
         if isinstance(entry, dict) and entry.get("input"):
-            return Path(entry["input"])
-    return None
+            options = entry.get("map_options")
+            return Path(entry["input"]), dict(options) if isinstance(options, dict) else {}
+    return None, {}
 
 
 def _manifest_map(folder: Path, stem: str) -> tuple[Path | None, dict]:
@@ -112,8 +115,7 @@ def find_results(folder: Path) -> list[_Result]:
             if (folder / _TIMELINE).is_file():
                 res.timeline = folder / _TIMELINE
             continue
-        source = _recorded_input(record, folder, stem)
-        kwargs: dict = {}
+        source, kwargs = _recorded_input(record, folder, stem)
         if source is None:
             source, kwargs = _manifest_map(folder, stem)
         if source is None and stem.endswith("_route"):  # a batch's route graph alone
