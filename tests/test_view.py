@@ -356,3 +356,20 @@ def test_graph_and_replay_write_their_view(tmp_path, capsys):
     assert code == 0
     assert (out / "view.html").stat().st_size > 0
     assert "timeline" in (out / "view.html").read_text().lower()
+
+
+def test_view_command_on_a_replay_view_folder_keeps_the_timeline(tmp_path, capsys):
+    """``replay --view`` leaves the timeline beside its page; ``topojax view`` on that
+    folder makes the page again, timeline and all (a view page is no one's to guard)."""
+    from view_cases import INTEL_EXCERPT
+
+    out = tmp_path / "rep"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress", "--view"]
+    assert main([*args, "--graph-every", "10"]) == 0
+    assert (out / "timeline.json.gz").is_file()
+    frames = len(payload_of((out / "view.html").read_text())["timeline"]["frames"])
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    assert "timeline.json.gz" in capsys.readouterr().out
+    assert len(payload_of((out / "view.html").read_text())["timeline"]["frames"]) == frames
+    assert main([*args, "--graph-every", "10"]) == 0  # and the replay may write it again

@@ -8,7 +8,9 @@ Before any work a command checks its planned files: one that exists and is recor
 written by another command or from another input is refused (``ValueError`` naming the
 option, the file and who wrote it).  A file the record does not list (written by hand, or
 by an older topojax) is replaced as before, and so is a file of the same command and
-input: running a command again updates its own outputs.  After the work the files written
+input: running a command again updates its own outputs.  A view page (``view.html``,
+``STEM_view.html``) that ``topojax view`` wrote, or that it is asked to write over, is
+replaced too: it is made from the folder's results and can be made again.  After the work the files written
 are recorded (the record is replaced atomically).  ``topojax batch`` writes no record:
 the manifest of each of its maps (``<name>.manifest.json``) names the map file it was made
 from, read relative to the current folder when the batch was given a relative path.
@@ -90,6 +92,8 @@ def check_outputs(
             owner = _owner(command, source)
             if before is None or all(before.get(k) == v for k, v in owner.items()):
                 continue
+            if target.name.endswith("view.html") and "view" in (command, before.get("command")):
+                continue  # a view page: made again from the folder's results at any time
             raise ValueError(_conflict(option, target, before, command, source))
 
 

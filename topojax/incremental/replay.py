@@ -342,6 +342,7 @@ def _write_rooms_routes_view(
         written.append(
             write_view(done.result, out / "view.html", rooms=seg, graphs=extra, timeline=timeline)
         )
+        written.append(timeline.save(out / "timeline.json.gz"))  # for topojax view
     return written
 
 
