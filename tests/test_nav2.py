@@ -277,3 +277,23 @@ def test_bad_input(tmp_path, kwargs, exc, words):
     with pytest.raises(ValueError, match="2 vertices and no edges"):
         tj.save_nav2_graph(lonely, tmp_path / "z.geojson")
     assert not (tmp_path / "x.geojson").exists()
+
+
+def test_a_route_graph_is_written_along_its_waypoints_and_stays_safe(tmp_path):
+    """A route graph's edges go out as their ``waypoints`` (not re-simplified pixel
+    paths), so every straight hop a robot drives keeps the radius from the walls."""
+    m = tj.load_map(tj.datasets.sample_map_path("office"))
+    rg = tj.route_graph(m, robot_radius_m=0.3)
+    path = tj.save_nav2_graph(rg, tmp_path / "route.geojson", tolerance_m=0.5)
+    nodes, edges = read_nav2(path)
+    n_inner = sum(len(d["waypoints"]) - 2 for _, _, d in rg.edges(data=True))
+    assert len(nodes) == rg.number_of_nodes() + n_inner
+    assert len(edges) == 2 * sum(len(d["waypoints"]) - 1 for _, _, d in rg.edges(data=True))
+    hops = nx.Graph()
+    for e in edges:
+        a, b = e["startid"], e["endid"]
+        hops.add_node(a, world=nodes[a][0][:2])
+        hops.add_node(b, world=nodes[b][0][:2])
+        hops.add_edge(a, b)
+    report = tj.evaluate_route_graph(hops, m, robot_radius_m=0.3)
+    assert report.unsafe_share == 0.0 and report.success_rate == 1.0

@@ -34,7 +34,9 @@ def save_nav2_graph(
     corridor is written as a chain of waypoints: its world polyline simplified
     (Douglas–Peucker) until every pixel of the corridor lies within ``tolerance_m`` of
     the chain.  A segment then stays at least the corridor's clearance minus
-    ``tolerance_m`` from the walls.  Every segment is written in both directions.
+    ``tolerance_m`` from the walls.  An edge with ``waypoints`` (a route graph's, whose
+    straight pieces keep the robot's radius from the walls) is written along them
+    instead, as they are.  Every segment is written in both directions.
 
     Parameters
     ----------
@@ -141,6 +143,9 @@ def _corridor_segments(
     if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
         raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
     corridor = {"corridor": [jsonable(x, "edge id") for x in (u, v, k)]}
+    planned = _waypoints(d, where)
+    if planned is not None:  # a route graph's own chain, safe as it stands
+        return _chain_segments(planned, u, v, node_id, node_xy, frame, features, corridor, d)
     # the polyline runs from u (topojax's paths do; be tolerant of other graphs)
     if u != v and not _starts_at(g, u, v, d, xy, node_xy):
         u, v = v, u
@@ -168,6 +173,41 @@ def _corridor_segments(
         meta = dict(corridor, length_m=float(along[keep[j + 1]] - along[keep[j]]))
         segments.append((chain[j], chain[j + 1], points[j], points[j + 1], meta))
     return segments
+
+
+def _waypoints(d: dict, where: str) -> np.ndarray | None:
+    """An edge's ``waypoints`` (a route graph's simplified polyline), float64 (K, 2),
+    or None when it has none."""
+    w = d.get("waypoints")
+    if w is None:
+        return None
+    w = np.asarray(w, dtype=np.float64)
+    if w.ndim != 2 or w.shape[1:] != (2,) or len(w) < 2 or not np.isfinite(w).all():
+        raise ValueError(f"graph: {where} has 'waypoints' that are not finite (K >= 2, 2)")
+    return w
+
+
+def _chain_segments(
+    w: np.ndarray, u, v, node_id: dict, node_xy: dict, frame: str, features: list, corridor, d
+) -> list[_Segment]:
+    """The hops along an edge's ``waypoints`` ``w`` (its ends at the vertices), the
+    inner points appended to ``features`` as waypoints."""
+    if u != v and math.dist(w[0], node_xy[u]) > math.dist(w[0], node_xy[v]):
+        u, v = v, u
+    inner = w[1:-1].tolist()
+    if u == v and len(inner) < 2:
+        return []  # a loop needs two distinct waypoints
+    chain = [node_id[u]]
+    for point in inner:
+        chain.append(len(features))
+        features.append(_nav2_node(len(features), frame, point, {"kind": "waypoint"}))
+    chain.append(node_id[v])
+    points = [node_xy[u], *inner, node_xy[v]]
+    corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
+    return [
+        (a, b, pa, pb, dict(corridor, length_m=math.dist(pa, pb)))
+        for a, b, pa, pb in zip(chain[:-1], chain[1:], points[:-1], points[1:], strict=True)
+    ]
 
 
 def _segment_features(segments: list[_Segment], first_id: int) -> list[dict]:
