@@ -926,3 +926,22 @@ def test_route_graphs_and_rooms_load_without_jax():
     code = "import sys, topojax.routegraph, topojax.rooms; print('jax' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_snap_and_tolerance_that_leave_no_reach_are_refused():
+    """The pixel paths are covered to ``snap_m - waypoint_tolerance_m``: a tolerance over
+    half the snap distance, or a reach under 1.5 pixels of the map, is refused before any
+    work (it would mesh the free space a pixel apart)."""
+    with pytest.raises(
+        ValueError,
+        match=r"^waypoint_tolerance_m: expected at most half of snap_m \(0.5 m\), received 2.0",
+    ):
+        tj.RouteGraphConfig(waypoint_tolerance_m=2.0)
+    tj.RouteGraphConfig(snap_m=0.2, waypoint_tolerance_m=0.1)  # exactly half: fine
+    m = tj.load_map(tj.datasets.sample_map_path("office"))
+    res = m.resolution_m
+    tight = tj.RouteGraphConfig(snap_m=0.05 + res, waypoint_tolerance_m=0.05)  # 1 px
+    with pytest.raises(
+        ValueError, match=r"^snap_m: expected at least waypoint_tolerance_m \+ 1.5 pixels"
+    ):
+        tj.route_graph(m, config=tight)

@@ -88,7 +88,9 @@ class RouteGraphConfig:
         such corners, which no straight line between points of the medial axis follows.
         Bent shortcuts may cross other edges.
     waypoint_tolerance_m : float, default 0.1
-        Each edge's ``waypoints`` polyline keeps every path pixel within this distance.
+        Each edge's ``waypoints`` polyline keeps every path pixel within this distance
+        (at most half ``snap_m``; the pixel paths are covered to ``snap_m`` less this,
+        which must be at least 1.5 pixels of the map).
     min_region_m2 : float, default 1.0
         Feasible regions smaller than this get no vertex.
     """
@@ -125,6 +127,11 @@ class RouteGraphConfig:
         if self.shortcut_stretch < 1.0:
             raise ValueError(
                 f"shortcut_stretch: expected a number >= 1, received {self.shortcut_stretch!r}"
+            )
+        if self.waypoint_tolerance_m > 0.5 * self.snap_m:
+            raise ValueError(
+                "waypoint_tolerance_m: expected at most half of snap_m "
+                f"({0.5 * self.snap_m:g} m), received {self.waypoint_tolerance_m!r}"
             )
 
 
@@ -168,6 +175,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
 
 def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     """:func:`route_graph` with its options checked."""
+    _check_reach(cfg, occupancy.resolution_m)
     t0 = time.perf_counter()
     space = feasible_space(occupancy, cfg.robot_radius_m)
     # the graph is built in the window round the kept regions (with a margin of pixels
@@ -185,7 +193,7 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     work = _sparse_skeleton_graph(skeleton, free, clearance_m, res, cfg)
     t3 = time.perf_counter()
     # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
-    snap_px = max(1.0, (cfg.snap_m - cfg.waypoint_tolerance_m) / res)
+    snap_px = (cfg.snap_m - cfg.waypoint_tolerance_m) / res
     min_loop_px = 2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS
     uncovered = add_coverage(work, feasible, snap_px, min_loop_px=min_loop_px)
     work.contract_all()
@@ -226,6 +234,21 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
         "assemble": t5 - t4,
     }
     return graph
+
+
+#: The least coverage reach, ``snap_m - waypoint_tolerance_m``, in pixels of the map: a
+#: reach of about a pixel covers the free space with a mesh of edges a pixel apart.
+MIN_REACH_PX = 1.5
+
+
+def _check_reach(cfg: RouteGraphConfig, res: float) -> None:
+    """Refuse a ``snap_m`` too small for the map's resolution (see MIN_REACH_PX)."""
+    if (cfg.snap_m - cfg.waypoint_tolerance_m) / res < MIN_REACH_PX:
+        least = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
+        raise ValueError(
+            f"snap_m: expected at least waypoint_tolerance_m + {MIN_REACH_PX:g} pixels of the "
+            f"map ({least:g} m at {res:g} m per pixel), received {cfg.snap_m!r}"
+        )
 
 
 def _open_short_loops(
