@@ -290,6 +290,32 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2
 
 
+def test_route_graph_command_explains_an_empty_graph_and_writes_no_nav2_file(tmp_path, capsys):
+    """A robot that fits nowhere gets an empty graph, a note saying why, the other files
+    and no Nav2 file (the Route Server needs an edge), not an error after half the files."""
+    from topojax.cli import main
+
+    obstacles = np.zeros((40, 40), bool)
+    obstacles[[0, -1], :] = True
+    obstacles[:, [0, -1]] = True
+    path = tmp_path / "closet.png"
+    cv2.imwrite(str(path), np.where(obstacles, 0, 254).astype(np.uint8))
+    out = tmp_path / "out"
+    argv = ["route-graph", str(path), "-o", str(out), "--nav2", "--evaluate"]
+    assert main([*argv, "--robot-radius", "0.2"]) == 0
+    assert (out / "closet_route_nav2.geojson").is_file()
+    capsys.readouterr()
+    assert main([*argv, "--robot-radius", "5"]) == 0
+    text = capsys.readouterr().out
+    assert "note       empty route graph: no known-free region" in text
+    assert "robot of radius 5 m fits" in text and "no Nav2 file" in text
+    assert not (out / "closet_route_nav2.geojson").exists()  # nor the earlier run's
+    assert (out / "closet_route.json").is_file() and (out / "closet_route_report.json").is_file()
+    # an .mcap path under a file is refused before any work
+    assert main([*argv, "--mcap", str(path / "x.mcap")]) == 2
+    assert "is a file, not a folder" in capsys.readouterr().err
+
+
 def test_mapper_route_graph_is_the_route_graph_of_its_map():
     from topojax.scans import read_scans
 

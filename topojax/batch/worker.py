@@ -213,39 +213,25 @@ def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) 
     import networkx as nx
 
     from ..routegraph import route_graph
+    from ..routegraph.feasible import route_graph_note
 
     assert occupancy is not None
     routes = route_graph(occupancy, config=job.route)
     res.route_vertices = routes.number_of_nodes()
     res.route_edges = routes.number_of_edges()
     res.route_components = nx.number_connected_components(routes)
-    if not res.route_vertices:
-        res.route_note = _route_empty_reason(occupancy, job.route)
-    elif not res.route_edges:
-        n = res.route_vertices
-        res.route_note = (
-            f"warning: the route graph has {n} vert{'ex' if n == 1 else 'ices'}, no edge"
+    res.route_note = (
+        route_graph_note(
+            routes,
+            occupancy,
+            robot_radius_m=job.route.robot_radius_m,
+            min_region_m2=job.route.min_region_m2,
         )
+        or ""
+    )
     if res.route_note and "route_nav2" in job.formats:
         res.route_note += "; no Nav2 file (the Route Server needs an edge)"
     return routes
-
-
-def _route_empty_reason(occupancy: OccupancyMap, config: Any) -> str:
-    """Why the route graph of ``occupancy`` for ``config`` is empty."""
-    from ..routegraph.feasible import clearance_map_m
-
-    free = np.asarray(occupancy.free, bool)
-    if not free.any():
-        why = "the map has no free pixel as classified"
-    else:
-        most = float(clearance_map_m(free, occupancy.resolution_m).max())
-        why = (
-            f"no known-free region of at least {config.min_region_m2:g} m2 where a robot of "
-            f"radius {config.robot_radius_m:g} m fits (the most clearance from anything not "
-            f"known free is {most:.2f} m)"
-        )
-    return f"empty route graph: {why}"
 
 
 def _rooms(occupancy: OccupancyMap | None, graph: Any) -> Any:

@@ -83,6 +83,7 @@ def _cmd_route_graph(args) -> int:
     from ..io import save_graph
     from ..maps import load_map
     from ..routegraph import RouteGraphConfig, route_graph
+    from ..routegraph.feasible import route_graph_note
 
     radius = nonnegative_metres("--robot-radius", args.robot_radius_m)
     config = RouteGraphConfig(
@@ -109,10 +110,16 @@ def _cmd_route_graph(args) -> int:
     ]
     if args.plot:
         written.append(_picture(occupancy, graph, out / f"{stem}_route.png"))
-    if args.nav2:
+    note = route_graph_note(
+        graph, occupancy, robot_radius_m=radius, min_region_m2=config.min_region_m2
+    )
+    if args.nav2 and graph.number_of_edges():
         from ..io import save_nav2_graph
 
         written.append(save_nav2_graph(graph, out / f"{stem}_route_nav2.geojson"))
+    elif args.nav2:  # no file of an earlier run either
+        (out / f"{stem}_route_nav2.geojson").unlink(missing_ok=True)
+        note += "; no Nav2 file (the Route Server needs an edge)"
     if args.mcap is not None:
         written.append(_recording(occupancy, graph, args.mcap))
     components = _components(graph)
@@ -124,6 +131,8 @@ def _cmd_route_graph(args) -> int:
         f"route graph {graph.number_of_nodes()} vertices, {graph.number_of_edges()} edges, "
         f"{components} components, robot radius {radius:g} m; {seconds:.2f} s"
     )
+    if note:
+        print(f"note       {note}")
     if args.evaluate:
         from ..routegraph import evaluate_route_graph
 

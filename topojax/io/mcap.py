@@ -358,6 +358,9 @@ def mcap_path(path, *, name: str = "path") -> Path:
         raise ValueError(f"{name}: expected a file name ending in .mcap, received {str(p)!r}")
     if p.is_dir():
         raise IsADirectoryError(f"{name}: expected an .mcap file name, received the folder {p}")
+    for parent in p.parents:
+        if parent.exists() and not parent.is_dir():
+            raise NotADirectoryError(f"{name}: {parent} in {str(p)!r} is a file, not a folder")
     return p
 
 

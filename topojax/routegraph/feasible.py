@@ -97,3 +97,34 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
         robot_radius_m=radius,
         resolution_m=res,
     )
+
+
+def route_graph_note(graph, occupancy, *, robot_radius_m: float, min_region_m2: float):
+    """Why a route graph of ``occupancy`` has no vertex or no edge, as one line; None for
+    a graph with edges.
+
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        The route graph.
+    occupancy : OccupancyMap
+        Its map.
+    robot_radius_m, min_region_m2 : float
+        The options it was built with (m, m²).
+    """
+    n = graph.number_of_nodes()
+    if graph.number_of_edges():
+        return None
+    if n:
+        return f"warning: the route graph has {n} vert{'ex' if n == 1 else 'ices'}, no edge"
+    free = np.asarray(occupancy.free, bool)
+    if not free.any():
+        why = "the map has no free pixel as classified"
+    else:
+        most = float(clearance_map_m(free, occupancy.resolution_m).max())
+        why = (
+            f"no known-free region of at least {min_region_m2:g} m2 where a robot of "
+            f"radius {robot_radius_m:g} m fits (the most clearance from anything not "
+            f"known free is {most:.2f} m)"
+        )
+    return f"empty route graph: {why}"
