@@ -442,3 +442,38 @@ def test_best_entry_routes_are_never_longer_and_shorter_here():
     a = evaluate_route_graph(g, m, RADIUS, n_pairs=100, seed=3)
     b = evaluate_route_graph(g, m, RADIUS, n_pairs=100, seed=3, entry="best")
     assert (a.stretch_median, a.stretch_p90) == (b.stretch_median, b.stretch_p90)
+
+
+def test_a_route_graph_is_scored_only_on_its_own_map(tmp_path):
+    """A graph that records its map (shape, resolution, origin) scored on another map
+    would give a silent nonsense report: refused, naming what differs.  A map file is
+    read as route_graph reads one."""
+    import topojax as tj
+
+    m = tj.load_map(tj.datasets.sample_map_path("office"))
+    rg = tj.route_graph(m, robot_radius_m=0.3)
+    coarse = tj.OccupancyMap(
+        occupied=m.occupied, free=m.free, unknown=m.unknown, resolution_m=0.1, origin=m.origin
+    )
+    moved = tj.OccupancyMap(
+        occupied=m.occupied,
+        free=m.free,
+        unknown=m.unknown,
+        resolution_m=m.resolution_m,
+        origin=(10.0, 10.0, 0.0),
+    )
+    cropped = tj.OccupancyMap(
+        occupied=m.occupied[1:],
+        free=m.free[1:],
+        unknown=m.unknown[1:],
+        resolution_m=m.resolution_m,
+        origin=m.origin,
+    )
+    for other, words in ((coarse, "m/px"), (moved, "origin"), (cropped, "shape")):
+        with pytest.raises(ValueError, match=f"^occupancy: expected the graph's map .*{words}"):
+            tj.evaluate_route_graph(rg, other, robot_radius_m=0.3, n_pairs=20)
+    path = tj.datasets.sample_map_path("office")
+    by_file = tj.evaluate_route_graph(rg, path, robot_radius_m=0.3, n_pairs=20)
+    by_map = tj.evaluate_route_graph(rg, m, robot_radius_m=0.3, n_pairs=20)
+    same = ("success_rate", "stretch_median", "stretch_p90", "unsafe_share", "uncovered_share")
+    assert [getattr(by_file, k) for k in same] == [getattr(by_map, k) for k in same]

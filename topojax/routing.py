@@ -37,6 +37,7 @@ import numpy as np
 from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
 from .graph import cumulative_length_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
+from .maps.occupancy import map_mismatch
 
 __all__ = [
     "DEFAULT_ENTRY_M",
@@ -44,7 +45,6 @@ __all__ = [
     "NoRouteError",
     "Route",
     "RoutePlanner",
-    "map_mismatch",
     "plan_route",
 ]
 
@@ -67,7 +67,6 @@ DEFAULT_ENTRY_M = 1.0
 # Candidate entry points whose sight lines are drawn at once.
 _ENTRY_BATCH = 256
 # A graph's recorded map origin matches a map's to within this (metres).
-_GRID_TOL_M = 1e-9
 
 
 class NoRouteError(nx.NetworkXNoPath):
@@ -658,35 +657,6 @@ class RoutePlanner:
         return f"pixel {tuple(int(x) for x in self._path[e][snap.index])} of edge " + repr(
             (self._u[e], self._v[e], self._key[e])
         )
-
-
-def map_mismatch(graph: nx.Graph, occupancy) -> str | None:
-    """Why ``occupancy`` is not the map that ``graph`` records in its ``shape``,
-    ``resolution_m`` and ``origin`` attributes (those it has), or None when it is: the
-    same shape, the resolution to a relative 1e-9, the origin to :data:`_GRID_TOL_M`."""
-    attrs = graph.graph
-    shape = attrs.get("shape")
-    if shape is not None and tuple(shape) != tuple(occupancy.free.shape):
-        return (
-            f"expected the graph's map of shape {tuple(shape)}, received a map of shape "
-            f"{tuple(occupancy.free.shape)}"
-        )
-    res = attrs.get("resolution_m")
-    if isinstance(res, numbers.Real) and not math.isclose(res, occupancy.resolution_m):
-        return (
-            f"expected the graph's map at {res} m/px, received a map at "
-            f"{occupancy.resolution_m} m/px"
-        )
-    origin = attrs.get("origin")
-    if origin is not None and (
-        np.shape(origin) != np.shape(occupancy.origin)
-        or not np.allclose(origin, occupancy.origin, rtol=0.0, atol=_GRID_TOL_M)
-    ):
-        return (
-            f"expected the graph's map with origin {tuple(origin)}, received a map with "
-            f"origin {tuple(occupancy.origin)}"
-        )
-    return None
 
 
 def plan_route(

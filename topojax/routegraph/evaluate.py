@@ -21,6 +21,8 @@ from .._validate import (
     positive_int,
     positive_metres,
 )
+from ..maps import map_argument
+from ..maps.occupancy import map_mismatch
 from ._eval_geometry import GraphGeometry, graph_geometry, pixel_lookup
 from ._eval_loops import short_dead_ends, short_loops
 from ._eval_routes import (
@@ -92,11 +94,9 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
         raise ValueError(
             f"graph: expected an undirected graph, received a directed {type(graph).__name__}"
         )
-    for attr in ("free", "resolution_m", "world_to_pixel"):
-        if not hasattr(occupancy, attr):
-            raise TypeError(
-                f"occupancy: expected an OccupancyMap, received {type(occupancy).__name__}"
-            )
+    why = map_mismatch(graph, occupancy)
+    if why is not None:  # a graph that records its map (a route graph) scored on another
+        raise ValueError(f"occupancy: {why}")
     radius = nonnegative_metres("robot_radius_m", radius)
     snap_m = positive_metres("snap_m", snap_m)
     n_pairs = positive_int("n_pairs", n_pairs)
@@ -209,8 +209,10 @@ def evaluate_route_graph(
         Undirected.  Vertices carry ``world`` ((x, y) metres; further entries ignored) or
         ``pixel`` ((row, col)); edges carry a ``world`` (K, 2) polyline in metres or are
         straight segments between their vertices.
-    occupancy : OccupancyMap
-        The map the graph was made for.
+    occupancy : OccupancyMap, str or Path
+        The map the graph was made for (or its file).  A graph that records its map's
+        ``shape``, ``resolution_m`` and ``origin`` (a route graph) must be scored on that
+        map.
     robot_radius_m : float
         Robot radius in metres (>= 0; 0: a point robot, the free space is feasible).
     snap_m : float
@@ -243,9 +245,11 @@ def evaluate_route_graph(
     ------
     TypeError, ValueError
         For a directed graph, a non-graph, a vertex without a position, a malformed edge
-        polyline, or an invalid parameter (the message names it).
+        polyline, a map that is not the one the graph records, or an invalid parameter
+        (the message names it).
     """
     t0 = time.perf_counter()
+    occupancy = map_argument("occupancy", occupancy, files=True)
     radius, snap_m, n_pairs, seed, min_area, gen = _check_args(
         graph, occupancy, robot_radius_m, snap_m, n_pairs, seed, min_region_m2, generation_s
     )

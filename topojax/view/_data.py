@@ -12,7 +12,8 @@ import networkx as nx
 import numpy as np
 
 from .._validate import nonnegative_metres
-from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M, map_mismatch
+from ..maps.occupancy import map_mismatch
+from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
 from ._encode import packed, pyramid
 from ._graphs import Frame, graph_frame, graph_payload
 from ._rooms_data import is_room_pair, rooms_payload, rounded
