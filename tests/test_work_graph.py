@@ -48,6 +48,20 @@ def test_two_junctions_one_pixel_apart_become_one():
         assert np.abs(np.diff(path, axis=0)).max() <= 1  # still 8-connected
 
 
+def test_a_short_edge_that_a_merge_makes_is_merged_too():
+    """Three junctions three pixels apart in a row: merging the first pair joins the third
+    to the kept vertex by an edge of six pixels, still within the limit; it merges too."""
+    work = _graph(
+        [(10, 10), (10, 13), (10, 16), (2, 10), (18, 10), (2, 2), (2, 13), (18, 13)]
+        + [(2, 16), (18, 16), (18, 25)],
+        [(0, 1), (1, 2), (0, 3), (0, 4), (0, 5), (1, 6), (1, 7), (2, 8), (2, 9), (2, 10)],
+    )
+    assert merge_close_vertices(work, FEASIBLE, 6.5, 1.5, 0.0) == 2
+    (hub,) = [v for v in _live(work) if len(work.adj[v]) > 1]
+    assert len(work.adj[hub]) == 8
+    assert {tuple(p) for p in work.members[hub]} == {(10, 10), (10, 13), (10, 16)}
+
+
 def test_dead_end_one_pixel_off_a_junction_goes():
     work = _graph(
         [(10, 10), (10, 11), (2, 10), (18, 10), (10, 2)], [(0, 1), (0, 2), (0, 3), (0, 4)]

@@ -408,31 +408,47 @@ def merge_close_vertices(
     joined to it by straight feasible connectors and its pixels become its member pixels.  A loop
     that the merge leaves shorter than ``min_loop_px`` at the vertex is dropped.  Returns
     the number of vertices merged."""
-    merged = 0
+    merged, before = 0, -1
     reach = max(max_px, dead_end_px)
-    short = [e for e, length in work.length.items() if length <= reach]
-    for e in sorted(short, key=work.length.__getitem__):
-        if e not in work.edges:
-            continue
-        u, v, _ = work.edges[e]
-        if u == v:
-            continue
-        keep, gone = (u, v) if len(work.adj[u]) >= len(work.adj[v]) else (v, u)
-        limit = dead_end_px if len(work.adj[gone]) == 1 else max_px
-        if work.length[e] > limit:
-            continue
-        moved = _rerouted(work, gone, keep, e, feasible)
-        if moved is None:
-            continue
-        work.remove_edge(e)
-        for f, other, path in moved:
-            work.remove_edge(f)
-            end = keep if other == gone else other
-            if end == keep and path_length_px(path) < min_loop_px:
-                continue
-            work.add_edge(keep, end, path)
-        work.members[keep] = np.concatenate([work.members[keep], work.members[gone]])
-        work.dead.add(gone)
-        merged += 1
-    work.contract_all()
+    while merged > before:  # a merge's connectors may make new short edges: another round
+        before = merged
+        short = [e for e, length in work.length.items() if length <= reach]
+        for e in sorted(short, key=work.length.__getitem__):
+            merged += _merge_ends(work, e, feasible, max_px, dead_end_px, min_loop_px)
+        work.contract_all()
     return merged
+
+
+def _has_self_loop(work: WorkGraph, vertex: int) -> bool:
+    return any(work.edges[f][0] == work.edges[f][1] for f in work.adj[vertex])
+
+
+def _merge_ends(
+    work: WorkGraph, e: int, feasible: np.ndarray, max_px: float, dead_end_px: float, min_loop_px
+) -> int:
+    """Merge the two ends of edge ``e`` as :func:`merge_close_vertices` says; 1 if merged,
+    else 0."""
+    if e not in work.edges:
+        return 0
+    u, v, _ = work.edges[e]
+    if u == v:
+        return 0
+    keep, gone = (u, v) if len(work.adj[u]) >= len(work.adj[v]) else (v, u)
+    if _has_self_loop(work, gone) and not _has_self_loop(work, keep):
+        keep, gone = gone, keep  # a ring's vertex stays where its ring is
+    limit = dead_end_px if len(work.adj[gone]) == 1 else max_px
+    if work.length[e] > limit:
+        return 0
+    moved = _rerouted(work, gone, keep, e, feasible)
+    if moved is None:
+        return 0
+    work.remove_edge(e)
+    for f, other, path in moved:
+        work.remove_edge(f)
+        end = keep if other == gone else other
+        if end == keep and path_length_px(path) < min_loop_px:
+            continue
+        work.add_edge(keep, end, path)
+    work.members[keep] = np.concatenate([work.members[keep], work.members[gone]])
+    work.dead.add(gone)
+    return 1
