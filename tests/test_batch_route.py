@@ -196,3 +196,22 @@ def test_view_of_a_route_only_batch_draws_the_route_graph_over_its_map(tmp_path,
     assert "rooms_route.json" in text and f"map {yaml}" in text
     data = payload_of((out / "view.html").read_text())
     assert data["rasters"][0]["name"] == "map" and data["graphs"][0]["n_edges"] > 0
+
+
+def test_plot_with_a_route_format_draws_the_route_graph_too(tmp_path):
+    """``--plot`` with a route format also writes the route graph's picture, the one
+    ``topojax route-graph --plot`` draws, and ``resume`` expects it."""
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path, "plot": True}
+    (rec,) = build_graphs([_two_rooms()], formats="json,route", **kw)
+    assert rec.status == "ok"
+    for name in ("two_rooms_graph.png", "two_rooms_route.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    (again,) = build_graphs([_two_rooms()], formats="json,route", resume=True, **kw)
+    assert again.status == "skipped"
+    (tmp_path / "two_rooms_route.png").unlink()
+    (redo,) = build_graphs([_two_rooms()], formats="json,route", resume=True, **kw)
+    assert redo.status == "ok" and (tmp_path / "two_rooms_route.png").is_file()
+    (plain,) = build_graphs(
+        [_two_rooms()], formats="json", out_dir=tmp_path / "p", plot=True, workers=0, progress=False
+    )
+    assert not (tmp_path / "p" / "two_rooms_route.png").exists()

@@ -18,6 +18,7 @@ one-pixel line stays one unbroken line.
 
 from __future__ import annotations
 
+import io
 import math
 import sys
 from pathlib import Path
@@ -512,6 +513,20 @@ def plot_route_graph(
         )
     ax.set_title(title)
     return ax
+
+
+def route_graph_png(graph, occupancy, *, title: str | None = None, dpi: int = 150) -> bytes:
+    """The picture of :func:`plot_route_graph` as PNG bytes (no pyplot state: safe in
+    worker processes and threads)."""
+    from matplotlib.figure import Figure
+
+    h, w = occupancy.shape
+    fig = Figure(figsize=(8, 8 * h / max(w, 1)))
+    ax = fig.add_subplot()
+    plot_route_graph(graph, occupancy, ax=ax, title=title)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    return buf.getvalue()
 
 
 def _room_segmentation(seg, name: str):

@@ -18,13 +18,13 @@ from ..maps import MODES, OccupancyMap
 from ..routegraph import RouteGraphConfig
 from .inputs import (
     _MANIFEST_SUFFIX,
-    _PICTURE_SUFFIX,
     ROUTE_FORMATS,
     _assign_names,
     _format_suffixes,
     _Item,
     _room_settings,
     check_formats,
+    picture_suffixes,
 )
 from .manifest import _fingerprint, _normalise
 
@@ -278,9 +278,7 @@ def request_settings(
 def check_no_overwrite(items: list[_Item], out: Path, formats: tuple[str, ...], plot: bool) -> None:
     """Refuse output names that would replace one of the input files (a map file, or the
     image a YAML refers to)."""
-    suffixes = _format_suffixes(formats) + [_MANIFEST_SUFFIX]
-    if plot:
-        suffixes.append(_PICTURE_SUFFIX)
+    suffixes = _format_suffixes(formats) + [_MANIFEST_SUFFIX] + picture_suffixes(formats, plot)
     refuse_overwriting_inputs(
         [it.path for it in items if it.path is not None],
         [out / f"{it.name}{suffix}" for it in items for suffix in suffixes],

@@ -27,6 +27,9 @@ __all__ = [
 _MAP_SUFFIXES = tuple(YAML_SUFFIXES) + tuple(IMAGE_SUFFIXES)
 _MANIFEST_SUFFIX = ".manifest.json"
 _PICTURE_SUFFIX = "_graph.png"
+# with a route format, --plot also draws the route graph (as topojax route-graph --plot)
+_ROUTE_PICTURE_SUFFIX = "_route.png"
+_PICTURES = (_PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX)
 _FORMAT_SUFFIX = {fmt: suffix for suffix, fmt in GRAPH_FORMATS.items()}
 # a route graph for the ROS 2 Nav2 Route Server (topojax.save_nav2_graph, default tolerance)
 _FORMAT_SUFFIX["nav2"] = "_nav2.geojson"
@@ -269,8 +272,17 @@ def _assign_names(sources: list[Path | None]) -> list[str]:
 
 def _output_files(name: str) -> list[str]:
     """Every file name a map called ``name`` may write (any formats, picture, manifest)."""
-    suffixes = [*_format_suffixes(_FORMAT_FILES), _PICTURE_SUFFIX, _MANIFEST_SUFFIX]
+    suffixes = [*_format_suffixes(_FORMAT_FILES), *_PICTURES, _MANIFEST_SUFFIX]
     return [name + suffix for suffix in suffixes]
+
+
+def picture_suffixes(formats, plot: bool) -> list[str]:
+    """The pictures ``plot`` adds for ``formats``: the graph's, and with a route format
+    the route graph's."""
+    if not plot:
+        return []
+    route = any(fmt in ("route", "route_nav2") for fmt in formats)
+    return [_PICTURE_SUFFIX] + [_ROUTE_PICTURE_SUFFIX] * route
 
 
 def check_formats(formats: Any) -> tuple[str, ...]:
@@ -314,7 +326,7 @@ def planned_outputs(
     fmts = check_formats(formats)
     sources = [Path(p) for p in paths]
     suffixes = _format_suffixes(fmts) + [_MANIFEST_SUFFIX]
-    suffixes += [_PICTURE_SUFFIX] * bool(plot)
+    suffixes += picture_suffixes(fmts, plot)
     names = _assign_names(list(sources))
     return {
         name + suffix: source

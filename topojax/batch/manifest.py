@@ -14,7 +14,14 @@ import numpy as np
 
 from .._fs import atomic_write_bytes, yaml_image
 from ..maps import YAML_SUFFIXES
-from .inputs import _FORMAT_FILES, _MANIFEST_SUFFIX, _PICTURE_SUFFIX, _format_suffixes, _Item
+from .inputs import (
+    _FORMAT_FILES,
+    _MANIFEST_SUFFIX,
+    _PICTURES,
+    _format_suffixes,
+    _Item,
+    picture_suffixes,
+)
 from .records import SUMMARY_COLUMNS, MapRecord
 
 __all__ = ["batch_input"]
@@ -98,8 +105,7 @@ def _resume_record(
         if not (fmt == "route_nav2" and nav2_less)
         for suffix in _format_suffixes([fmt])
     }
-    if plot:
-        expected.add(f"{item.name}{_PICTURE_SUFFIX}")
+    expected.update(f"{item.name}{suffix}" for suffix in picture_suffixes(formats, plot))
     if set(files) != expected:
         return None
     for rel, meta in files.items():
@@ -154,7 +160,7 @@ def _forget_outputs(item: _Item, *, out_dir: Path | None, formats: tuple[str, ..
     folder = manifest.parent
     if folder.is_dir():
         base = Path(item.name).name
-        suffixes = _format_suffixes(formats) + [_PICTURE_SUFFIX, _MANIFEST_SUFFIX]
+        suffixes = _format_suffixes(formats) + [*_PICTURES, _MANIFEST_SUFFIX]
         for suffix in suffixes:  # leftovers of atomic writes killed mid-way
             for tmp in folder.glob(f".{_glob.escape(base + suffix)}.*.tmp"):
                 tmp.unlink(missing_ok=True)
@@ -166,7 +172,7 @@ def batch_input(target: str | os.PathLike[str]) -> str | None:
     no manifest beside ``target`` lists it."""
     target = Path(target)
     name = target.name
-    for suffix in (*_format_suffixes(_FORMAT_FILES), _PICTURE_SUFFIX, _MANIFEST_SUFFIX):
+    for suffix in (*_format_suffixes(_FORMAT_FILES), *_PICTURES, _MANIFEST_SUFFIX):
         if not name.endswith(suffix):
             continue
         manifest = target.with_name(name[: -len(suffix)] + _MANIFEST_SUFFIX)

@@ -19,7 +19,7 @@ from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
-from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _Item
+from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
 
 __all__ = ["InlineExecutor"]
@@ -131,6 +131,7 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
     from ..graph import graph_summary
     from ..io import save_graph, save_nav2_graph, save_room_files
     from ..pipeline import graph_from_ridges
+    from ..plotting import route_graph_png
 
     res = _CpuResult(name=job.name)
     try:
@@ -193,6 +194,10 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             if job.plot:
                 pic = Path(f"{stem}{_PICTURE_SUFFIX}")
                 atomic_write_bytes(pic, _picture_bytes(job, occupancy, skeleton, graph, rooms))
+                written.append(pic)
+            if job.plot and routes is not None:
+                pic = Path(f"{stem}{_ROUTE_PICTURE_SUFFIX}")
+                atomic_write_bytes(pic, route_graph_png(routes, occupancy, title=job.name))
                 written.append(pic)
             for p in written:
                 res.files[Path(p).relative_to(out).as_posix()] = {

@@ -164,17 +164,10 @@ def _components(graph) -> int:
 
 
 def _picture(occupancy, graph, path: Path) -> Path:
-    import matplotlib
+    from .._fs import atomic_write_bytes
+    from ..plotting import route_graph_png
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..plotting import plot_route_graph
-
-    fig, ax = plt.subplots(figsize=(8, 8 * occupancy.shape[0] / max(occupancy.shape[1], 1)))
-    plot_route_graph(graph, occupancy, ax=ax)
-    fig.savefig(path, dpi=150, bbox_inches="tight")
-    plt.close(fig)
+    atomic_write_bytes(path, route_graph_png(graph, occupancy))
     return path
 
 
