@@ -2281,10 +2281,11 @@ def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
         ({"out_dir": None}, r"out_dir: expected a path \(str or os.PathLike\), received NoneType"),
         ({"animate": 5}, r"animate: expected a path .*received int"),
         ({"reader_kwargs": [1]}, "reader_kwargs: expected a dict .*received list"),
+        ({"animate": "a.png"}, r"animate: expected a GIF file name ending in .gif, .*a.png"),
     ],
 )
 def test_replay_checks_its_options_before_mapping(tmp_path, kwargs, message):
     args = {"out_dir": tmp_path / "out", "progress": False, **kwargs}
-    with pytest.raises(TypeError, match=message):
+    with pytest.raises((TypeError, ValueError), match=message):
         replay(INTEL_EXCERPT, **args)
     assert not (tmp_path / "out").exists()

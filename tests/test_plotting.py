@@ -260,8 +260,17 @@ def test_route_graph_picture_shows_the_feasible_space_and_the_waypoints():
     assert margin[3, 50, 3] == 255 and margin[30, 50, 3] == 0 and margin[0, 50, 3] == 0
     assert "r = 0.3 m" in ax.get_title()
     plt.close(ax.figure)
-    with pytest.raises(ValueError, match="occupancy: expected the map"):
+    with pytest.raises(ValueError, match="occupancy: expected the graph's map of shape"):
         plot_route_graph(g, tj.sample_map("intel"))
+    moved = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.1)
+    with pytest.raises(ValueError, match="occupancy: expected the graph's map at 0.05 m/px"):
+        plot_route_graph(g, moved)
+    with pytest.raises(TypeError, match="occupancy: expected an OccupancyMap"):
+        plot_route_graph(g, None)
+    with pytest.raises(TypeError, match="graph: expected a networkx graph, received NoneType"):
+        plot_route_graph(None, occ)
+    with pytest.raises(TypeError, match="ax: expected matplotlib Axes or None, received int"):
+        plot_route_graph(g, occ, ax=5)
     g.graph.pop("robot_radius_m")
     with pytest.raises(ValueError, match="robot_radius_m"):
         plot_route_graph(g, occ)

@@ -339,8 +339,11 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     assert main([*argv, "--route-graph", "0.25"]) == 0
     g = load_graph(tmp_path / "route_graph.json")
     assert g.graph["robot_radius_m"] == 0.25 and g.number_of_edges() > 0
-    assert "route_graph.geojson" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "route_graph.geojson" in text and "empty route graph" not in text
     assert main([*argv, "--route-graph", "-1"]) == 2  # refused before the replay
+    assert main([*argv, "--route-graph", "100"]) == 0  # a robot too large: said so
+    assert "empty route graph: no known-free region" in capsys.readouterr().out
 
 
 def _crossings(g: nx.MultiGraph) -> int:

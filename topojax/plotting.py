@@ -265,6 +265,8 @@ def _axes(ax, figsize=(8, 8)):
 
     if ax is None:
         _, ax = plt.subplots(figsize=figsize)
+    elif not hasattr(ax, "imshow"):
+        raise TypeError(f"ax: expected matplotlib Axes or None, received {type(ax).__name__}")
     return ax
 
 
@@ -456,8 +458,9 @@ def plot_route_graph(
     graph : networkx.MultiGraph
         From :func:`topojax.route_graph` (or any graph with vertex ``pixel`` and edge
         ``waypoints`` in metres or ``path`` in pixels).
-    occupancy : OccupancyMap
-        The map the graph was built on.
+    occupancy : OccupancyMap, str or Path
+        The map the graph was built on (or its file): the one whose shape, resolution and
+        origin the graph records.
     ax : matplotlib Axes, optional
         Where to draw; default a new 9 x 9 inch figure.
     robot_radius_m : float, optional
@@ -471,14 +474,18 @@ def plot_route_graph(
     -------
     matplotlib Axes
     """
+    import networkx as nx
+
+    from .maps import map_argument
+    from .maps.occupancy import map_mismatch
     from .routegraph.feasible import feasible_space
 
-    shape = graph.graph.get("shape")
-    if shape is not None and tuple(shape) != tuple(occupancy.shape):
-        raise ValueError(
-            f"occupancy: expected the map the graph was built on, of shape {tuple(shape)}, "
-            f"received a map of shape {tuple(occupancy.shape)}"
-        )
+    if not isinstance(graph, nx.Graph):
+        raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
+    occupancy = map_argument("occupancy", occupancy, files=True)
+    why = map_mismatch(graph, occupancy)
+    if why is not None:
+        raise ValueError(f"occupancy: {why}")
     if robot_radius_m is None:
         robot_radius_m = graph.graph.get("robot_radius_m")
         if robot_radius_m is None:

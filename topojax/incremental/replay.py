@@ -221,6 +221,17 @@ def replay(
             out=out,
         )
     written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
+    if done.routes is not None:
+        from ..routegraph import RouteGraphConfig
+        from ..routegraph.feasible import route_graph_note
+
+        note = route_graph_note(
+            done.routes,
+            done.result.map,
+            robot_radius_m=route_graph_radius_m,
+            min_region_m2=RouteGraphConfig().min_region_m2,  # mapper.route_graph's
+        )
+        messages += [note] if note else []
     written += _write_rooms_routes_view(mapper, done, out, timeline)
     summary = _summary(source, mapper, done)
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
@@ -438,6 +449,14 @@ def _check_replay_args(
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(
             f"out_dir: expected a folder to write into, but {out} is an existing file"
+        )
+    if (
+        animate is not None
+        and Path(animate).suffix.lower() != ".gif"
+        and not Path(animate).is_dir()
+    ):
+        raise ValueError(
+            f"animate: expected a GIF file name ending in .gif, received {str(animate)!r}"
         )
     if animate is not None and Path(animate).is_dir():  # checked now, not after the replay
         raise IsADirectoryError(
