@@ -3,33 +3,8 @@ coordinates, vertex kinds, the optional junction-cluster merge, and the assembly
 networkx graph.  The definitions (pixel graph, vertices, edges, rings) are in
 :mod:`topojax.graph`.
 
-Comparison with the original implementation (STAR-Center/IncrementalTopo, reference arrays in
-``shared/data/reference``), with ``merge_junction_clusters=False``:
-
-* Its vertices are the end pixels of its edges, so a lone skeleton pixel (pixel-graph degree
-  0) never appears there; here it is a vertex of kind ``"isolated"`` with no edge (intel 10,
-  office 9, a_scan 4 such pixels).  Ignoring those, the vertex sets are identical on all
-  three reference maps (258 / 305 / 344) and so are the edge counts (235 / 328 / 350).
-* Its ring handling merges the last two parallel edges of a ring into a self-loop and then
-  merges that self-loop with itself, so its single ring edge on intel lists the ring twice
-  (``edge_npix`` = 2 n + 1 = 5863 for the 2931-pixel ring); here the ring's path has
-  n + 1 = 2932 pixels (it starts and ends at the ring vertex).  Every other edge has the
-  same pixel count as in the original.
-* At a four-way crossing with a one-pixel hole (four skeleton pixels N, E, S, W around an
-  empty pixel, found four times on a_scan), the four pixels are linked diagonally to each
-  other (no common 4-neighbour is set), so each has degree 3: four junction vertices joined
-  in a 4-cycle of 2-pixel edges plus the four arms.  This is what the original does.
-  ``skan`` (0.13) links all 8 neighbours and then keeps only a minimum spanning tree of
-  each cluster of junction pixels; on the diamond that drops one of the four equal-weight
-  diagonal links, leaving two junctions and two path pixels (8 fewer vertices and 12 fewer
-  edges on a_scan).  Elsewhere on the three paper maps skan finds the same vertices and
-  per-edge pixel counts as this module (it only starts the intel ring at another pixel);
-  on arbitrary skeletons its spanning trees also differ at L corners, 2 x 2 blocks and
-  other small holes (about a third of random thinned blobs).
-  ``merge_junction_clusters=True`` collapses each such diamond into one vertex.
-* Its pixel-link construction has a border quirk: on the last image column it adds the
-  down-left diagonal without the triangle test.  That quirk is not reproduced (the
-  triangle rule is applied everywhere); none of the reference skeletons is affected.
+How the graph compares with the original implementation and with skan:
+``docs/graph-semantics.md``.
 """
 
 from __future__ import annotations

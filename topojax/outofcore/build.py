@@ -27,8 +27,7 @@ __all__ = ["BYTES_PER_WINDOW_PX", "TiledResult", "block_px_for_budget", "build_g
 
 #: Bytes one block's stages take per pixel of its kernel window, an upper estimate (the
 #: classified window, the kernels' padded map and column pass, the ridges, the thinning's
-#: work space): an 8000 px floor plan in blocks sized for 256 MB peaks at 190 MB in all
-#: (``bench/bench_memory.py``).
+#: work space; measured in ``bench/bench_memory.py``).
 BYTES_PER_WINDOW_PX = 24
 #: Largest halo tried for one block before giving up, in multiples of the tile side
 #: beyond the first.

@@ -206,7 +206,7 @@ def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Itera
     81.91 for no return with ``maximum_range = 80``).
 
     The format stores each field for all scans together, so the whole file is parsed before
-    the first scan is yielded (1.6 MB for the 686-scan CSAIL file).
+    the first scan is yielded.
 
     Parameters
     ----------
