@@ -229,11 +229,11 @@ def _run_job(
     if base.startswith("per-worker-"):
         import concurrent.futures as cf
 
-        from topojax.batch import _worker_context
+        from topojax.batch import worker_context
 
         workers = int(base.split("-")[2])
         # same start method as the batch workers (fork server that has imported topojax)
-        with cf.ProcessPoolExecutor(workers, mp_context=_worker_context()) as ex:
+        with cf.ProcessPoolExecutor(workers, mp_context=worker_context()) as ex:
             futures = [ex.submit(_per_worker_task, i, p, out_dir) for i, p in enumerate(paths)]
             return [list(f.result()) for f in futures]
     raise ValueError(f"unknown mode {mode!r}")

@@ -20,10 +20,7 @@ from __future__ import annotations
 from .driver import build_graphs
 from .inputs import expand_braces, expand_map_inputs
 from .records import SUMMARY_COLUMNS, MapRecord, write_summary
-from .worker import (
-    InlineExecutor,
-    _worker_context,  # noqa: F401 - bench/bench_batch.py starts workers alike
-)
+from .worker import InlineExecutor, worker_context
 
 __all__ = [
     "SUMMARY_COLUMNS",
@@ -32,5 +29,6 @@ __all__ = [
     "build_graphs",
     "expand_braces",
     "expand_map_inputs",
+    "worker_context",
     "write_summary",
 ]

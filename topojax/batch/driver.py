@@ -37,7 +37,7 @@ from .worker import (
     _loaded_from_bits,
     _LoadedBits,
     _warm_worker,
-    _worker_context,
+    worker_context,
 )
 
 __all__ = ["build_graphs"]
@@ -116,7 +116,7 @@ class _BatchRun:
     def _new_executor(self) -> cf.Executor:
         if self.workers == 0:
             return InlineExecutor()
-        ex = cf.ProcessPoolExecutor(max_workers=self.workers, mp_context=_worker_context())
+        ex = cf.ProcessPoolExecutor(max_workers=self.workers, mp_context=worker_context())
         for _ in range(self.workers):  # import + numba cache load while the kernels compile
             ex.submit(_warm_worker)
         return ex

@@ -261,7 +261,7 @@ def _warm_worker() -> int:
     return os.getpid()
 
 
-def _worker_context() -> Any:
+def worker_context() -> Any:
     """Start method for the default worker processes.
 
     ``forkserver`` where available: a fresh, single-threaded server process (never the
