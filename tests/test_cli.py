@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 import topojax
-from topojax.cli import build_parser
+from topojax.cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("jax", "numba", "matplotlib", "scipy", "networkx", "PIL", "yaml")
@@ -174,3 +174,20 @@ def test_output_record_rules(tmp_path):
             check_outputs(planned(files, source), command=command, option="-o/--out")
     files[0].unlink()  # a recorded file that is gone no longer counts
     check_outputs(planned(files[:1], "in/b.yaml"), command="graph", option="-o/--out")
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--route-graph", "-1"], "--route-graph: expected a finite number of metres >= 0"),
+        (["--max-scans", "-5"], "--max-scans: expected a positive int"),
+        (["--graph-every", "-1"], "--graph-every: expected an int >= 0"),
+        (["--resolution", "0"], "--resolution: expected a finite number of metres > 0"),
+        (["--max-extent-m", "-3"], "--max-extent-m: expected a finite number of metres > 0"),
+    ],
+)
+def test_replay_names_its_options_in_errors(tmp_path, capsys, argv, message):
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    assert main(["replay", str(log), "-o", str(tmp_path / "out"), *argv]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

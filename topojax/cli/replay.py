@@ -17,9 +17,30 @@ from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 from .rooms import room_files
 
 
+def _check_numbers(args) -> None:
+    """The numeric options, checked under their own names before the replay (the
+    library's messages name its parameters)."""
+    from .._validate import int_at_least, nonnegative_metres, positive_int, positive_metres
+
+    positive_metres("--resolution", args.resolution)
+    for option, value in (
+        ("--skeleton-every", args.skeleton_every),
+        ("--graph-every", args.graph_every),
+    ):
+        if value is not None:
+            int_at_least(option, value, 0)
+    if args.max_scans is not None:
+        positive_int("--max-scans", args.max_scans)
+    if args.max_extent_m is not None:
+        positive_metres("--max-extent-m", args.max_extent_m)
+    if args.route_graph is not None:
+        nonnegative_metres("--route-graph", args.route_graph)
+
+
 def _cmd_replay(args) -> int:
     from ..incremental import replay, summary_text
 
+    _check_numbers(args)
     kw = {
         "resolution_m": args.resolution,
         "skeleton_every": args.skeleton_every,
