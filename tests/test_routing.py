@@ -465,7 +465,12 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert "--simplify-m: expected a finite number of metres > 0" in capsys.readouterr().err
     # too far from the graph: a clear error and exit status 2
     assert main([*argv, "--max-snap-m", "0.01"]) == 2
-    assert "start: the nearest point of the graph is" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "start: the nearest point of the graph is" in err and "--max-snap-m M" in err
+    assert main([*argv, "--max-snap-m", "-1"]) == 2
+    assert "--max-snap-m: expected a finite number of metres >= 0" in capsys.readouterr().err
+    assert main([*argv, "--map", "x.yaml", "--robot-radius", "-1"]) == 2
+    assert "--robot-radius: expected" in capsys.readouterr().err
     # pixel frame, and no route between two components: exit status 1
     skel = art("###....###")
     two = tj.save_graph(skeleton_to_graph(skel, resolution_m=1.0), tmp_path / "two.graphml")

@@ -84,13 +84,19 @@ def _map_options_given(args) -> list[str]:
 
 
 def _cmd_route(args) -> int:
+    from .._validate import nonnegative_metres, positive_metres
     from ..io import load_graph
     from ..routing import NoRouteError, RoutePlanner
 
-    if args.simplify_m is not None:  # checked before the work, with the option's name
-        from .._validate import positive_metres
-
-        positive_metres("--simplify-m", args.simplify_m)
+    # checked before the work, under the options' names
+    for option, value, check in (
+        ("--simplify-m", args.simplify_m, positive_metres),
+        ("--robot-radius", args.robot_radius, nonnegative_metres),
+        ("--entry-m", args.entry_m, nonnegative_metres),
+        ("--max-snap-m", args.max_snap_m, nonnegative_metres),
+    ):
+        if value is not None:
+            check(option, value)
     if args.out and os.path.realpath(args.out) == os.path.realpath(args.graph):
         raise ValueError(f"-o: writing the route to {args.out} would overwrite the graph file")
     if args.out:
@@ -116,6 +122,10 @@ def _cmd_route(args) -> int:
     except NoRouteError as exc:
         print(f"topojax route: {exc}", file=sys.stderr)
         return 1
+    except ValueError as exc:
+        if "max_snap_m=" not in str(exc):
+            raise
+        raise ValueError(f"{exc}; on the command line: --max-snap-m M") from None
     print(
         f"route      {route.length_m:.2f} m along the graph, {len(route.pixels)} pixels, "
         f"{len(route.vertices)} vertices, {len(route.edges)} edges"
