@@ -59,6 +59,14 @@ def test_two_rooms_and_one_door_of_any_usual_width(door_m):
     assert nx.is_connected(seg.graph)
 
 
+def test_reprs_are_short_summaries():
+    """A segmentation's repr is one line, not every pixel of every door and outline."""
+    seg = tj.segment_rooms(_map(_two_rooms(0.9)))
+    w = seg.labels.shape[1]
+    assert repr(seg) == f"RoomSegmentation(2 rooms, 1 door, 104 x {w} px at {RES:g} m/px)"
+    assert "polygon" not in repr(seg.rooms[0]) and "pixels" not in repr(seg.doors[0])
+
+
 def test_a_gap_wider_than_max_door_width_joins_one_room():
     seg = tj.segment_rooms(_map(_two_rooms(1.6)), config=tj.RoomConfig(max_door_width_m=1.2))
     assert seg.n_rooms == 1 and seg.doors == ()

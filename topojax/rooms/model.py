@@ -36,7 +36,7 @@ class Room:
     id: int
     area_m2: float
     centroid: tuple[float, float]
-    polygon: np.ndarray
+    polygon: np.ndarray = field(repr=False)
     bbox: tuple[int, int, int, int]
 
 
@@ -65,7 +65,7 @@ class Door:
     ends_px: np.ndarray
     ends_world: np.ndarray
     width_m: float
-    pixels: np.ndarray
+    pixels: np.ndarray = field(repr=False)
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,6 +97,14 @@ class RoomSegmentation:
     @property
     def n_rooms(self) -> int:
         return len(self.rooms)
+
+    def __repr__(self) -> str:
+        h, w = self.labels.shape
+        rooms, doors = self.n_rooms, len(self.doors)
+        return (
+            f"RoomSegmentation({rooms} room{'s' * (rooms != 1)}, {doors} door"
+            f"{'s' * (doors != 1)}, {h} x {w} px at {self.resolution_m:g} m/px)"
+        )
 
     @property
     def graph(self) -> nx.Graph:
