@@ -2289,3 +2289,15 @@ def test_replay_checks_its_options_before_mapping(tmp_path, kwargs, message):
     with pytest.raises((TypeError, ValueError), match=message):
         replay(INTEL_EXCERPT, **args)
     assert not (tmp_path / "out").exists()
+
+
+def test_add_scans_and_save_name_a_bad_argument(tmp_path):
+    mapper = IncrementalMapper(**SMALL_KW)
+    scan = synthetic_scans(3, 1, bad=False)[0]
+    with pytest.raises(TypeError, match=r"scans: expected an iterable of Scan .*received int"):
+        mapper.add_scans(5)
+    with pytest.raises(TypeError, match=r"scans: .*received Scan; add one scan with add_scan"):
+        mapper.add_scans(scan)
+    with pytest.raises(TypeError, match=r"path: expected a file path .*received int"):
+        mapper.save(5)
+    assert mapper.n_scans == 0 and not list(tmp_path.iterdir())

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import threading
 import time
 from pathlib import Path
@@ -519,6 +520,11 @@ class IncrementalMapper:
     @_synchronized
     def add_scans(self, scans) -> list[ScanReport]:
         """:meth:`add_scan` for every scan of an iterable; returns the reports."""
+        if isinstance(scans, Scan) or not hasattr(scans, "__iter__"):
+            raise TypeError(
+                f"scans: expected an iterable of Scan (e.g. read_scans(path)), received "
+                f"{type(scans).__name__}; add one scan with add_scan"
+            )
         return [self.add_scan(s) for s in scans]
 
     # ------------------------------------------------------------------ distance loop
@@ -777,6 +783,10 @@ class IncrementalMapper:
         -------
         Path
         """
+        if not isinstance(path, str | os.PathLike):
+            raise TypeError(
+                f"path: expected a file path (str or os.PathLike), received {type(path).__name__}"
+            )
         return save_state(self, path)
 
     @classmethod
