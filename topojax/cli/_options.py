@@ -134,7 +134,7 @@ def add_map_options(p: argparse.ArgumentParser) -> None:
         "--resolution",
         dest="resolution_m",
         type=float,
-        help="m/px for images (default: a PGM's 'm/pix' comment, else 0.05; YAML: its own)",
+        help="m/px of the map (default: a YAML's own, a PGM's 'm/pix' comment, else 0.05; given, it replaces a YAML's)",
     )
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")

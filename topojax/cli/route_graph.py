@@ -42,7 +42,7 @@ def add_command(subparsers) -> None:
         "--resolution",
         dest="resolution_m",
         type=float,
-        help="m/px for images (default: a PGM's 'm/pix' comment, else 0.05; YAML: its own)",
+        help="m/px of the map (default: a YAML's own, a PGM's 'm/pix' comment, else 0.05; given, it replaces a YAML's)",
     )
     p.add_argument(
         "--mode",
