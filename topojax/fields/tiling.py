@@ -220,11 +220,6 @@ class TileManager:
         """Bytes of one tile over all layers."""
         return sum(dt.itemsize * math.prod(shape) for dt, _fill, shape in self._specs.values())
 
-    @property
-    def layer_names(self) -> tuple[str, ...]:
-        """Names of the layers, in creation order."""
-        return tuple(self._specs)
-
     def layer(self, name: str) -> np.ndarray:
         """Storage of a layer, shape ``(capacity, *shape)``, indexed by slot.
 

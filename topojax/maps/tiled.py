@@ -24,7 +24,6 @@ unknown, 0..100 percent) or an obstacle mask (bool, True = occupied).
 from __future__ import annotations
 
 import json
-import math
 import os
 from pathlib import Path
 from typing import Any
@@ -51,7 +50,7 @@ from .classify import (
     classify_image,
 )
 from .files import YAML_SUFFIXES, _pgm_header, _yaml_settings
-from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
+from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap, grid_to_world
 from .pnm import resolution_from_pgm_comments
 
 __all__ = ["TILE_INDEX", "TiledMap", "open_tiled_map", "save_tiled_map"]
@@ -205,14 +204,9 @@ class TiledMap:
     def pixel_to_world(self, rows, cols) -> tuple[np.ndarray, np.ndarray]:
         """World ``(x, y)`` in metres of pixel ``(rows, cols)``, as
         :meth:`OccupancyMap.pixel_to_world` of the loaded map."""
-        r = np.asarray(rows, dtype=np.float64)
-        c = np.asarray(cols, dtype=np.float64)
-        res = self.resolution_m
-        ox, oy, yaw = self.origin
-        xm = (c + 0.5) * res
-        ym = (self.shape[0] - r - 0.5) * res
-        cos_t, sin_t = math.cos(yaw), math.sin(yaw)
-        return ox + cos_t * xm - sin_t * ym, oy + sin_t * xm + cos_t * ym
+        return grid_to_world(
+            rows, cols, height=self.shape[0], resolution_m=self.resolution_m, origin=self.origin
+        )
 
     def metadata(self) -> dict[str, Any]:
         """The map's metadata as JSON-ready values (what a tile folder's index and a Zarr
