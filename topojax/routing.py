@@ -28,14 +28,13 @@ from __future__ import annotations
 
 import heapq
 import math
-import numbers
 from dataclasses import dataclass
 
 import networkx as nx
 import numpy as np
 
 from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
-from .graph import cumulative_length_m, holds, polyline_keep
+from .graph import cumulative_length_m, graph_resolution_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
 from .maps.occupancy import map_mismatch
 
@@ -217,8 +216,7 @@ class RoutePlanner:
     ) -> None:
         graph = as_multigraph(graph)  # a plain Graph: its edges get key 0
         self._graph = graph
-        res = graph.graph.get("resolution_m")
-        self._res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
+        self._res = graph_resolution_m(graph)
         self._occupancy = occupancy
         self._feasible, self._entry_m = self._entry_space(occupancy, robot_radius_m, entry_m)
         self._nodes = list(graph.nodes)

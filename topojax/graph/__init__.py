@@ -44,7 +44,14 @@ from .build import (
     skeleton_graph_store,
     skeleton_to_graph,
 )
-from .geometry import cumulative_length_m, holds, orient, path_lengths_m, polyline_keep
+from .geometry import (
+    cumulative_length_m,
+    graph_resolution_m,
+    holds,
+    orient,
+    path_lengths_m,
+    polyline_keep,
+)
 from .prune import prune_graph
 from .store import KIND_CODES, KIND_NAMES, GraphStore, paused_gc
 from .trace import raw_graph
@@ -55,6 +62,7 @@ __all__ = [
     "GraphStore",
     "PixelToWorld",
     "cumulative_length_m",
+    "graph_resolution_m",
     "graph_summary",
     "holds",
     "orient",

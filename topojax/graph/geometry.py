@@ -5,6 +5,7 @@ orientation in CSR layout, vertex-pixel membership and Douglas–Peucker simplif
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
@@ -120,3 +121,11 @@ def polyline_keep(xy: np.ndarray, tol: float) -> np.ndarray:
             keep[m] = True
             stack += [(i, m), (m, j)]
     return np.flatnonzero(keep)
+
+
+def graph_resolution_m(graph) -> float | None:
+    """The ``resolution_m`` a graph records (metres per pixel), or None where it records
+    none that is a finite number > 0."""
+    res = graph.graph.get("resolution_m")
+    ok = isinstance(res, numbers.Real) and not isinstance(res, bool)
+    return float(res) if ok and math.isfinite(res) and res > 0 else None

@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import itertools
 import math
-import numbers
 
 import networkx as nx
 import numpy as np
 
 from .._validate import nonnegative_metres
-from .geometry import _ends_at, _path_length_m, holds
+from .geometry import _ends_at, _path_length_m, graph_resolution_m, holds
 from .store import fill_multigraph, paused_gc
 
 
@@ -126,8 +125,7 @@ def _prune(graph: nx.MultiGraph, clearance: float, spur: float, component: float
         incident[v].add(eid)
         degree[u] += 1
         degree[v] += 1
-    res = graph.graph.get("resolution_m")
-    res = float(res) if isinstance(res, numbers.Real) and res > 0 else None
+    res = graph_resolution_m(graph)
     new_ids = itertools.count(len(edges))
 
     def contract(vertices) -> set:

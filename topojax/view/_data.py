@@ -4,7 +4,6 @@ JSON-able dict (rasters as PNG tile pyramids, graphs and rooms as flat arrays)."
 from __future__ import annotations
 
 import math
-import numbers
 import sys
 
 import cv2
@@ -12,6 +11,7 @@ import networkx as nx
 import numpy as np
 
 from .._validate import nonnegative_metres
+from ..graph import graph_resolution_m
 from ..maps.occupancy import map_mismatch
 from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
 from ._encode import packed, pyramid
@@ -271,12 +271,8 @@ def _graph_bounds_frame(graphs) -> Frame:
     if not xy:
         return Frame(100, 100, 0.05, (0.0, 0.0, 0.0))
     pts = np.concatenate(xy)
-    res = 0.05
-    for _, _, g in graphs:
-        r = g.graph.get("resolution_m")
-        if isinstance(r, numbers.Real) and math.isfinite(r) and r > 0:
-            res = float(r)
-            break
+    known = [r for _, _, g in graphs if (r := graph_resolution_m(g)) is not None]
+    res = known[0] if known else 0.05
     lo, hi = pts.min(axis=0) - 10 * res, pts.max(axis=0) + 10 * res
     w, h = (max(1, math.ceil((hi[i] - lo[i]) / res)) for i in (0, 1))
     return Frame(int(h), int(w), res, (float(lo[0]), float(lo[1]), 0.0))
