@@ -2167,6 +2167,8 @@ def test_far_readings_and_poses_are_extent_errors_naming_the_scan():
         scan = Scan.from_arrays(ranges, pose, angle_min=0.0, angle_increment=0.3)
         with pytest.raises(ExtentError, match=r"^scan 1: the pose .*" + message):
             mapper.add_scan(scan)
+    with pytest.raises(ExtentError, match=r"^points_xy: the points put pixels beyond"):
+        mapper.add_points(np.array([[1e12, 0.0]]))
     # beyond max_grid_cells (a smaller bound than the extent here)
     tight = IncrementalMapper(skeleton_every=0, graph_every=0, max_grid_cells=50, **SMALL_KW)
     with pytest.raises(ExtentError, match=r"^scan 0: .*max_grid_cells.*nothing was added"):
@@ -2211,6 +2213,19 @@ def test_tile_budget_refuses_scans_points_and_maps_before_any_change():
         Scan.from_arrays(np.full(40, 2.0), (0, 0, 0), angle_min=0, angle_increment=0.15)
     )
     assert mapper.n_scans == 2 and mapper.tiles.n_tiles * tile_bytes <= 60 * tile_bytes
+    # the splat windows round new obstacles count too: a few points far apart each need
+    # the tiles of a window, not one tile
+    corners = np.array([[0.0, 0.0], [30.0, 0.0], [0.0, 30.0], [30.0, 30.0]])
+    for budget in range(4, 400):
+        fresh = IncrementalMapper(max_tile_bytes=budget * tile_bytes, **SMALL_KW)
+        try:
+            fresh.add_points(corners)
+        except ExtentError:
+            assert fresh.tiles.n_tiles == 0
+            continue
+        assert fresh.tiles.n_tiles <= budget
+        break
+    assert budget > 4 * 4  # every point's window spans several tiles
 
 
 @pytest.mark.parametrize(
@@ -2270,6 +2285,19 @@ def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
     loaded = IncrementalMapper.load(state)
     assert loaded.n_scans == 40
     assert loaded.occupancy_window((0.0, 0.0, 1.0, 1.0)).shape == (20, 20)
+    # the route graph's export (64 bytes per pixel) over the budget, the result's (40) not
+    r0, c0, r1, c1 = loaded.pixel_bbox
+    h, w = r1 - r0, c1 - c0
+    state.unlink()
+    with pytest.raises(ValueError, match=r"mapper.route_graph: .*saved to"):
+        replay(
+            INTEL_EXCERPT,
+            out_dir=out,
+            progress=False,
+            route_graph_radius_m=0.3,
+            max_export_bytes=50 * h * w,
+        )
+    assert IncrementalMapper.load(state).n_scans == 40
 
 
 @pytest.mark.parametrize(

@@ -305,11 +305,25 @@ def test_one_faulty_reading_does_not_set_the_no_return_value(tmp_path):
         if k == 7:
             expect[3] = False
         np.testing.assert_array_equal(a.valid_mask(), expect)
-    # the same reading in two scans out of 20 is no longer a fault: it sets the value
-    ranges[12] = ranges[12].copy()
-    ranges[12][5] = 1000.0
+    # the same reading in three scans out of 20 is no longer a fault: it sets the value
+    for k in (12, 15):
+        ranges[k] = ranges[k].copy()
+        ranges[k][5] = 1000.0
     faulty.write_text("".join(_flaser(r, (0, 0, 0)) for r in ranges))
     assert {s.range_max for s in read_carmen(faulty)} == {1000.0 - 0.2}
+
+
+def test_a_log_without_a_no_return_value_keeps_its_long_readings(tmp_path):
+    """Scan maxima that form no cluster (no no-return value) leave the largest reading
+    the limit: two scans whose maxima happen to agree do not make one."""
+    path = tmp_path / "plain.log"
+    ranges = [np.r_[np.full(5, 3.0), m] for m in (30.1, 12.0, 12.05)]
+    path.write_text("".join(_flaser(r, (0, 0, 0)) for r in ranges))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # most readings are near no maximum: no warning due
+        scans = list(read_carmen(path))
+    assert {s.range_max for s in scans} == {30.1 - 0.2}
+    assert int(scans[0].valid_mask().sum()) == 5  # 30.1 itself is taken as no-return
 
 
 def test_carmen_gzip_detected_by_magic_not_suffix(tmp_path):

@@ -527,6 +527,9 @@ def route_graph_png(graph, occupancy, *, title: str | None = None, dpi: int = 15
     worker processes and threads)."""
     from matplotlib.figure import Figure
 
+    from .maps import map_argument
+
+    occupancy = map_argument("occupancy", occupancy, files=True)
     h, w = occupancy.shape
     fig = Figure(figsize=(8, 8 * h / max(w, 1)))
     ax = fig.add_subplot()

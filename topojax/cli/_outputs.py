@@ -92,7 +92,8 @@ def check_outputs(
             owner = _owner(command, source)
             if before is None or all(before.get(k) == v for k, v in owner.items()):
                 continue
-            if target.name.endswith("view.html") and "view" in (command, before.get("command")):
+            page = target.name == "view.html" or target.name.endswith("_view.html")
+            if page and "view" in (command, before.get("command")):
                 continue  # a view page: made again from the folder's results at any time
             raise ValueError(_conflict(option, target, before, command, source))
 

@@ -98,7 +98,7 @@ def _replay_claims(args) -> dict:
         names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")]
     if args.rooms:
         names += room_files("map")
-    names += ["view.html"] * bool(args.view)
+    names += ["view.html", "timeline.json.gz"] * bool(args.view)
     return planned([Path(args.out) / name for name in names], args.source)
 
 
@@ -148,7 +148,7 @@ def add_command(subparsers) -> None:
         type=float,
         metavar="M",
         help="CARMEN logs: readings of M metres or more are no-returns (default: from the "
-        "log's largest reading, or each line's own maximum)",
+        "log's no-return value, or each line's own maximum)",
     )
     p.add_argument("--scan-topic", help="bags: the LaserScan topic (default: the only one)")
     p.add_argument("--pose-topic", help="bags: an Odometry / pose topic (default: tf)")

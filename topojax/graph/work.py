@@ -404,10 +404,12 @@ def merge_close_vertices(
     work: WorkGraph, feasible: np.ndarray, max_px: float, dead_end_px: float, min_loop_px: float
 ) -> int:
     """Merge the two ends of every edge shorter than ``max_px`` (``dead_end_px`` for an edge
-    to a dead end), shortest first: the end with more edges stays, the other's edges are
-    joined to it by straight feasible connectors and its pixels become its member pixels.  A loop
-    that the merge leaves shorter than ``min_loop_px`` at the vertex is dropped.  Returns
-    the number of vertices merged."""
+    to a dead end), shortest first and round after round until none merges: the end with
+    more edges stays (a vertex with a self-loop, a ring's, always does), the other's edges
+    are joined to it by straight feasible connectors (no merge where one would leave
+    ``feasible``) and its pixels become its member pixels.  A loop that the merge leaves
+    shorter than ``min_loop_px`` at the vertex is dropped.  Returns the number of vertices
+    merged."""
     merged, before = 0, -1
     reach = max(max_px, dead_end_px)
     while merged > before:  # a merge's connectors may make new short edges: another round
@@ -426,8 +428,8 @@ def _has_self_loop(work: WorkGraph, vertex: int) -> bool:
 def _merge_ends(
     work: WorkGraph, e: int, feasible: np.ndarray, max_px: float, dead_end_px: float, min_loop_px
 ) -> int:
-    """Merge the two ends of edge ``e`` as :func:`merge_close_vertices` says; 1 if merged,
-    else 0."""
+    """Merge the two ends of edge ``e`` as :func:`merge_close_vertices` says (the end
+    with more edges, or with a self-loop, stays); 1 if merged, else 0."""
     if e not in work.edges:
         return 0
     u, v, _ = work.edges[e]

@@ -255,9 +255,16 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     rays = mapper.free_space and sensor is not None
     grid, (g0r, g0c) = tiles.slot_grid
     need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
+    # the tiles of the beams, and of the splat windows round new obstacles (a subset of
+    # the end pixels), counted exactly only where a rough bound could exceed the budget
+    span = ((2 * w) // t) + 2
+    if (tiles.n_tiles + need.shape[0] + n_valid * span * span) * tiles.tile_nbytes > (
+        mapper.max_tile_bytes
+    ):
+        both = np.concatenate([need, _missing_window_tiles(er, ec, w, t, grid, g0r, g0c)])
+        if both.shape[0]:
+            check_tile_budget(mapper, unique_pairs(both[:, 0], both[:, 1]).shape[0], where)
     if need.shape[0]:
-        new_tiles = unique_pairs(need[:, 0], need[:, 1]).shape[0]
-        check_tile_budget(mapper, new_tiles, where)
         tiles.ensure(need[:, 0], need[:, 1])
         grid, (g0r, g0c) = tiles.slot_grid
     new, miss = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), w)
@@ -417,10 +424,10 @@ def point_pixels(mapper, points_xy, origin_xy):
         sensor = (math.floor(-origin[1] / res), math.floor(origin[0] / res))
     used = pts[keep]
     if used.shape[0] and np.abs(used).max() / mapper.resolution_m > _MAX_ABS_PIXEL:
-        raise ValueError(
+        raise ExtentError(
             f"points_xy: the points put pixels beyond {_MAX_ABS_PIXEL} px from the origin "
             f"at resolution {mapper.resolution_m} m (largest coordinate "
-            f"{np.abs(used).max():g}); expected coordinates in metres"
+            f"{np.abs(used).max():g}); nothing was added (expected coordinates in metres)"
         )
     er, ec = mapper.world_to_pixel(used[:, 0], used[:, 1])
     if er.shape[0]:
@@ -428,6 +435,20 @@ def point_pixels(mapper, points_xy, origin_xy):
     else:
         ext = np.zeros(4, np.int64)
     return er, ec, ext, sensor, pts.shape[0]
+
+
+def _map_tiles(mapper, er, ec, free_rows, free_cols, r0: int, c0: int) -> int:
+    """How many tiles an imported map allocates: those of its known pixels and those the
+    splat windows round its occupied pixels (global ``er``, ``ec``) reach."""
+    t = mapper.tile_px
+    k = -(-(mapper._half + HALO_PX) // t)  # tiles a window reaches beyond its pixel's
+    occupied = unique_pairs(er // t, ec // t) if er.shape[0] else np.empty((0, 2), np.int64)
+    near = np.arange(-k, k + 1)
+    dr, dc = np.repeat(near, near.size), np.tile(near, near.size)
+    rows = [(occupied[:, :1] + dr).ravel(), (np.asarray(free_rows, np.int64) + r0) // t]
+    cols = [(occupied[:, 1:] + dc).ravel(), (np.asarray(free_cols, np.int64) + c0) // t]
+    known = unique_pairs(np.concatenate(rows), np.concatenate(cols))
+    return int((mapper._tiles.lookup(known[:, 0], known[:, 1]) < 0).sum())
 
 
 def add_occupancy(mapper, occupancy) -> int:
@@ -461,12 +482,9 @@ def add_occupancy(mapper, occupancy) -> int:
         # the whole map and its splat windows, before anything changes
         where = lambda: f"occupancy: the map at {occupancy.origin}"  # noqa: E731
         check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where)
-        known = unique_pairs(
-            (np.concatenate([rows, np.asarray(free_rows, np.int64)]) + r0) // t,
-            (np.concatenate([cols, np.asarray(free_cols, np.int64)]) + c0) // t,
+        check_tile_budget(
+            mapper, _map_tiles(mapper, rows + r0, cols + c0, free_rows, free_cols, r0, c0), where
         )
-        new_tiles = int((mapper._tiles.lookup(known[:, 0], known[:, 1]) < 0).sum())
-        check_tile_budget(mapper, new_tiles, where)
     er = rows.astype(np.int64) + r0
     ec = cols.astype(np.int64) + c0
     ext = (

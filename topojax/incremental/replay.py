@@ -156,8 +156,7 @@ def replay(
         applies them (thinning, T removal and the graph step are re-run on the final
         ridge map, which equals the full-map pipeline's, so the written graph is
         ``build_graph(map, ...)``'s with this ``graph``).  Default: the mapper's whole
-        graph, as the paper keeps it.  The animation shows the mapper's whole graph as
-        it grew.
+        graph, as the paper keeps it (and as the animation shows it).
     route_graph_radius_m : float, optional
         Also write ``route_graph.graphml``, ``.json`` and ``.geojson``: the route graph of
         the final map for a round robot of this radius (:meth:`IncrementalMapper.route_graph`);
@@ -178,7 +177,7 @@ def replay(
     view : bool
         Also write ``view.html``, the interactive view of the final map and graph (and
         rooms, route graph) with a timeline of every graph update and the robot's path
-        (:func:`topojax.write_view`, :class:`topojax.Timeline`).
+        (:func:`topojax.write_view`), and the timeline, ``timeline.json.gz``.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ``room_config``, ...).
@@ -186,23 +185,20 @@ def replay(
     Returns
     -------
     dict
-        ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals of scans that would
-        have grown the map beyond ``max_extent_m``, a localisation glitch: skipped, the
-        replay goes on), ``n_tiles``, ``vertices``, ``edges``, ``timings`` (per loop),
-        ``written`` (paths), ``messages``.
+        ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals, :class:`ExtentError`,
+        of scans that would have grown the map out of the mapper's bounds, a localisation
+        glitch: skipped, the replay goes on), ``n_tiles``, ``vertices``, ``edges``,
+        ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
+        to export leaves the mapper's state in ``out_dir/mapper_state.npz`` and raises.
     """
     from .._fs import atomic_write_bytes
 
-    for name, value in (("plot", plot), ("progress", progress), ("rooms", rooms), ("view", view)):
-        flag(name, value)
     nav2_tolerance_m, route_graph_radius_m = _check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
     )
-    if reader_kwargs is not None and not isinstance(reader_kwargs, dict):
-        raise TypeError(
-            "reader_kwargs: expected a dict of keyword arguments of read_scans, received "
-            f"{type(reader_kwargs).__name__}"
-        )
+    _check_flags_and_reader(
+        dict(plot=plot, progress=progress, rooms=rooms, view=view), reader_kwargs
+    )
     out = Path(out_dir)
     scans, mapper, timeline = _start(source, out, reader_kwargs, rooms, view, mapper_kw)
     with _recorder(mcap) as recorder:
@@ -221,17 +217,7 @@ def replay(
             out=out,
         )
     written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
-    if done.routes is not None:
-        from ..routegraph import RouteGraphConfig
-        from ..routegraph.feasible import route_graph_note
-
-        note = route_graph_note(
-            done.routes,
-            done.result.map,
-            robot_radius_m=route_graph_radius_m,
-            min_region_m2=RouteGraphConfig().min_region_m2,  # mapper.route_graph's
-        )
-        messages += [note] if note else []
+    messages += _route_note(done, route_graph_radius_m)
     written += _write_rooms_routes_view(mapper, done, out, timeline)
     summary = _summary(source, mapper, done)
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
@@ -303,20 +289,20 @@ def _map_scans(
     and close the recording (if any) with the written map, graph, rooms and route
     graph."""
     record = None if recorder is None else _Recording(recorder, route_graph_radius_m)
-    reports, frames, wall, skipped = _run(
-        mapper, scans, max_scans, animate, progress, record, timeline
-    )
-    if not reports:
-        raise ValueError(f"source {source}: no scans to replay")
-    if mapper.pixel_bbox is None:
-        raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
-    try:
+    try:  # a map grown too large to export (the recording's, the final) is kept
+        reports, frames, wall, skipped = _run(
+            mapper, scans, max_scans, animate, progress, record, timeline
+        )
+        if not reports:
+            raise ValueError(f"source {source}: no scans to replay")
+        if mapper.pixel_bbox is None:
+            raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
         update, final_s, result, seg = _final(mapper, graph_config, rooms)
+        routes = None
+        if route_graph_radius_m is not None:
+            routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
     except ExportBudgetError as exc:
         raise _unwritable(mapper, exc, out) from None
-    routes = None
-    if route_graph_radius_m is not None:
-        routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
     if recorder is not None:
         recorder.add_map(result.map, result.graph)
         if seg is not None:
@@ -422,11 +408,39 @@ def _unwritable(mapper: IncrementalMapper, exc: ExportBudgetError, out: Path) ->
     for a map too large to write whole."""
     path = mapper.save(out / "mapper_state.npz")
     return ValueError(
-        f"{exc}. The log is mapped, but its map is too large to write whole; the mapper's "
-        f"state is saved to {path} (IncrementalMapper.load; export windows of it with "
-        "occupancy_window). A pose far off (a localisation glitch)? Replay with a smaller "
-        f"max_extent_m (--max-extent-m; now {mapper.max_extent_m:g} m) to skip such scans."
+        f"{exc}. The map of the {mapper.n_scans} scans mapped is too large to export "
+        f"whole; the mapper's state is saved to {path} (IncrementalMapper.load; export "
+        "windows of it with occupancy_window). A pose far off (a localisation glitch)? "
+        f"Replay with a smaller max_extent_m (--max-extent-m; now {mapper.max_extent_m:g} m) "
+        "to skip such scans."
     )
+
+
+def _check_flags_and_reader(flags: dict, reader_kwargs) -> None:
+    """Check :func:`replay`'s bool options and ``reader_kwargs`` (a dict or None)."""
+    for name, value in flags.items():
+        flag(name, value)
+    if reader_kwargs is not None and not isinstance(reader_kwargs, dict):
+        raise TypeError(
+            "reader_kwargs: expected a dict of keyword arguments of read_scans, received "
+            f"{type(reader_kwargs).__name__}"
+        )
+
+
+def _route_note(done: _Replayed, radius_m) -> list[str]:
+    """Why the final route graph (if any) has no edge, as a message; else none."""
+    if done.routes is None:
+        return []
+    from ..routegraph import RouteGraphConfig
+    from ..routegraph.feasible import route_graph_note
+
+    note = route_graph_note(
+        done.routes,
+        done.result.map,
+        robot_radius_m=radius_m,
+        min_region_m2=RouteGraphConfig().min_region_m2,  # mapper.route_graph's
+    )
+    return [note] if note else []
 
 
 def _check_replay_args(

@@ -19,7 +19,7 @@ _ROBOT_LASERS = ("ROBOTLASER1", "ROBOTLASER2")
 _RAW_LASERS = ("RAWLASER1", "RAWLASER2", "RAWLASER3", "RAWLASER4")
 _CARMEN_LASERS = _OLD_LASERS + _ROBOT_LASERS + _RAW_LASERS
 
-#: Default width (m) of the band below a CARMEN file's largest reading that counts as
+#: Default width (m) of the band below a CARMEN file's no-return value that counts as
 #: "no return". In the 13 corrected logs the no-return values form a cluster up to 0.15 m
 #: wide (acapulco: 51.14-51.25; infinite-corridor: 51.06-51.16; freiburg-campus:
 #: 81.83/81.91; seattle: 81.87/81.91) with at most a handful of readings between 0.2 m and
@@ -166,17 +166,19 @@ def _survey_carmen(path: Path, laser: str, need_max: bool) -> _Survey:
 # 0.2 m by default; a larger margin is checked within this band only).
 _TOP_BAND_M = 1.0
 # The no-return value is the largest of the scans' maxima shared (within the margin) by at
-# least this share of the scans, and by at least two: one faulty reading far above the
-# rest does not set the range limit.
-_SENTINEL_SCAN_SHARE = 0.01
+# least this percentage of the scans, and by at least three: a faulty reading far above
+# the rest does not set the range limit.  In the 13 shared logs the no-return value is
+# the maximum of 24-99 % of the scans; a log without one has no such cluster and keeps
+# its largest reading.
+_SENTINEL_SCAN_PERCENT = 5
 
 
 def _no_return_value(scan_max: np.ndarray, margin: float) -> tuple[float, np.ndarray]:
-    """The log's no-return value (see ``_SENTINEL_SCAN_SHARE``) from each scan's largest
+    """The log's no-return value (see ``_SENTINEL_SCAN_PERCENT``) from each scan's largest
     reading, and the maxima of the scans above it (faulty readings); a log whose maxima
-    are all different gets its largest reading."""
+    form no such cluster gets its largest reading."""
     order = np.sort(scan_max)[::-1]
-    need = max(2, math.ceil(_SENTINEL_SCAN_SHARE * order.size))
+    need = max(3, -(-_SENTINEL_SCAN_PERCENT * order.size // 100))
     # scans whose maximum lies within the margin below each candidate, candidates down
     within = np.searchsorted(-order, -(order - margin), side="right") - np.arange(order.size)
     hits = np.flatnonzero(within >= need)
@@ -187,14 +189,14 @@ def _no_return_value(scan_max: np.ndarray, margin: float) -> tuple[float, np.nda
 def _warn_if_no_sentinel(
     path: Path, laser: str, near: np.ndarray, total: int, best: float, margin: float
 ) -> None:
-    """Warn when the range limit inferred from the largest reading drops most readings: a
+    """Warn when the range limit inferred from the no-return value drops most readings: a
     log with a no-return value drops its no-return beams (at most a quarter of the
     readings in the shared logs, the open campus), one without drops its longest real
     readings, all of them when the readings lie within the margin of each other."""
     dropped = int(np.count_nonzero((near >= best - margin) & (near <= best)))
     if total and dropped > total // 2:
         warnings.warn(
-            f"{path}: the largest {laser} reading, {best} m, is taken as the no-return value, "
+            f"{path}: {best} m is taken as the {laser} no-return value, "
             f"so readings from {best - margin:.4g} m up are dropped: {dropped} of {total}; "
             "if the log has no no-return value, pass max_range (topojax replay --max-range)",
             stacklevel=3,
@@ -255,8 +257,9 @@ def read_carmen(
     max_range : float, optional
         Readings ``>= max_range`` (m) are "no return". By default: for FLASER/RLASER, a
         first pass over the file finds the no-return value ``R``, the largest reading that
-        is (within the margin) the largest of at least 1 % of the scans, and at least two
-        (a faulty reading far above every other is dropped, with a warning), and
+        is (within the margin) the largest of at least 5 % of the scans, and at least three
+        (readings far above it in a few scans are faulty: dropped, with a warning; with no
+        such value, the largest reading), and
         ``range_max = R - no_return_margin_m`` (the no-return sentinel, 81.83 / 81.91 / 50.0 /
         51.x / 32.767 in the shared logs, is not stored in the message; ``PARAM
         robot_front_laser_max`` is not used because it does not match the data: csail says
@@ -267,7 +270,7 @@ def read_carmen(
         the file) or one of ``FLASER``, ``RLASER``, ``ROBOTLASER1``, ``ROBOTLASER2``,
         ``RAWLASER1`` … ``RAWLASER4``.
     no_return_margin_m : float, optional
-        Width of the no-return band below the file's largest reading (default 0.2 m; the
+        Width of the no-return band below the no-return value (default 0.2 m; the
         no-return readings of one log are not all identical, see
         :data:`CARMEN_NO_RETURN_MARGIN_M`). Ignored when ``max_range`` is given.
     sensor_offset : array_like, shape (3,), optional
@@ -327,7 +330,7 @@ def _iter_carmen(
         _warn_if_no_sentinel(path, chosen, survey.tops, survey.n_readings, file_max, margin)
         if range_max_old <= 0:
             raise ValueError(
-                f"{path}: largest {chosen} reading {file_max} m minus no_return_margin_m "
+                f"{path}: {chosen} no-return value {file_max} m minus no_return_margin_m "
                 f"{margin} m is not positive; pass max_range"
             )
     odom = _OdomPoses(path, chosen, params, offset_override)
