@@ -353,6 +353,7 @@ class IncrementalMapper:
         m`` for error messages."""
         stamp = "" if scan.timestamp is None else f" (timestamp {scan.timestamp:.6f} s)"
         r = np.asarray(scan.ranges, np.float64)[scan.valid_mask()]
+        r = r if self.max_range_m is None else r[r < self.max_range_m]
         far = f" with readings up to {r.max():.6g} m" if r.size else ""
         return f"scan {self._n_scans}{stamp}: the pose {scan.pose}{far}"
 
