@@ -2326,6 +2326,6 @@ def test_add_scans_and_save_name_a_bad_argument(tmp_path):
         mapper.add_scans(5)
     with pytest.raises(TypeError, match=r"scans: .*received Scan; add one scan with add_scan"):
         mapper.add_scans(scan)
-    with pytest.raises(TypeError, match=r"path: expected a file path .*received int"):
+    with pytest.raises(TypeError, match=r"path: expected a path .*received int"):
         mapper.save(5)
     assert mapper.n_scans == 0 and not list(tmp_path.iterdir())

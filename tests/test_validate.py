@@ -326,12 +326,22 @@ def test_quantity_names_the_unit_or_none(unit, allow_zero, value, exc, message):
         v.quantity("area_m2", value, unit=unit, allow_zero=allow_zero)
 
 
+def test_path_like(tmp_path):
+    assert v.path_like("out_dir", str(tmp_path)) == tmp_path
+    assert v.path_like("out_dir", tmp_path / "x") == tmp_path / "x"
+    for bad in (None, 5, ["a"]):
+        with pytest.raises(
+            TypeError, match=r"^out_dir: expected a path \(str or os.PathLike\), received"
+        ):
+            v.path_like("out_dir", bad)
+
+
 def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "choice", "existing_file", "finite_pair",
         "finite_positive", "finite_real", "flag", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "metres", "metres_per_pixel", "nonnegative_metres",
-        "nonnegative_quantity", "occupancy_thresholds", "one_of", "pose", "positive_int", "positive_metres",
+        "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pose", "positive_int", "positive_metres",
         "quantity", "real_number",
     }  # fmt: skip
     assert set(v.__all__) == tested

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,7 @@ __all__ = [
     "nonnegative_quantity",
     "occupancy_thresholds",
     "one_of",
+    "path_like",
     "pose",
     "positive_int",
     "positive_metres",
@@ -246,6 +248,16 @@ def finite_pair(name: str, value: Any, what: str) -> np.ndarray:
     if q is None or q.shape != (2,) or not np.isfinite(q).all():
         raise ValueError(f"{name}: expected two finite numbers {what}, received {value!r}")
     return q
+
+
+def path_like(name: str, value: Any) -> Path:
+    """``value`` as a :class:`~pathlib.Path` after checking it is a ``str`` or
+    ``os.PathLike``; a ``TypeError`` naming ``name`` otherwise."""
+    if not isinstance(value, str | os.PathLike):
+        raise TypeError(
+            f"{name}: expected a path (str or os.PathLike), received {type(value).__name__}"
+        )
+    return Path(value)
 
 
 def existing_file(name: str, path: Any) -> Path:

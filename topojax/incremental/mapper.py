@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import functools
 import math
-import os
 import threading
 import time
 from pathlib import Path
@@ -14,6 +13,7 @@ import jax.numpy as jnp
 import networkx as nx
 import numpy as np
 
+from .._validate import path_like
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..fields.distance import FAR_SQ
 from ..fields.filters import HALO_PX
@@ -784,11 +784,7 @@ class IncrementalMapper:
         -------
         Path
         """
-        if not isinstance(path, str | os.PathLike):
-            raise TypeError(
-                f"path: expected a file path (str or os.PathLike), received {type(path).__name__}"
-            )
-        return save_state(self, path)
+        return save_state(self, path_like("path", path))
 
     @classmethod
     def load(cls, path) -> IncrementalMapper:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -12,7 +11,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._validate import flag, instance_or_default, nonnegative_metres, positive_int, positive_metres
+from .._validate import (
+    flag,
+    instance_or_default,
+    nonnegative_metres,
+    path_like,
+    positive_int,
+    positive_metres,
+)
 from ..config import GraphConfig
 from ._rays import ExtentError
 from ._settings import settings_of
@@ -454,12 +460,9 @@ def _check_replay_args(
         nav2_tolerance_m = positive_metres("nav2_tolerance_m", nav2_tolerance_m)
     if graph_config is not None:
         instance_or_default("graph_config", graph_config, GraphConfig)
-    for name, value in (("out_dir", out_dir), ("animate", animate)):
-        if not isinstance(value, str | os.PathLike) and (name == "out_dir" or value is not None):
-            raise TypeError(
-                f"{name}: expected a path (str or os.PathLike), received {type(value).__name__}"
-            )
-    out = Path(out_dir)
+    out = path_like("out_dir", out_dir)
+    if animate is not None:
+        path_like("animate", animate)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(
             f"out_dir: expected a folder to write into, but {out} is an existing file"

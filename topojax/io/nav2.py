@@ -71,7 +71,8 @@ def save_nav2_graph(
     :func:`topojax.assign_rooms`, ``room``), then the waypoints
     (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
     topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
-    waypoints) and the corridor's ``min_clearance_m`` / ``mean_clearance_m``.  topojax
+    waypoints; the straight hop along a route graph's ``waypoints``) and the corridor's
+    ``min_clearance_m`` / ``mean_clearance_m``.  topojax
     writes this format but does not read it back (use :func:`save_graph` for that).
     Where a path ends at another pixel of its vertex than the vertex's own (merged
     junction clusters), the chain includes the step to the vertex.  A loop with fewer
@@ -143,12 +144,18 @@ def _corridor_segments(
     if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
         raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
     corridor = {"corridor": [jsonable(x, "edge id") for x in (u, v, k)]}
+    corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
     planned = _waypoints(d, where)
-    if planned is not None:  # a route graph's own chain, safe as it stands
-        return _chain_segments(planned, u, v, node_id, node_xy, frame, features, corridor, d)
     # the polyline runs from u (topojax's paths do; be tolerant of other graphs)
-    if u != v and not _starts_at(g, u, v, d, xy, node_xy):
+    if u != v and not _starts_at(g, u, v, d, xy if planned is None else planned, node_xy):
         u, v = v, u
+    if planned is not None:  # a route graph's own chain, safe as it stands: straight hops
+        inner = planned[1:-1].tolist()
+        if u == v and len(inner) < 2:
+            return []  # a loop needs two distinct waypoints
+        points = [node_xy[u], *inner, node_xy[v]]
+        lengths = [math.dist(a, b) for a, b in zip(points[:-1], points[1:], strict=True)]
+        return _hops(u, v, inner, lengths, node_id, node_xy, frame, features, corridor)
     # The chain runs from node to node: where a path ends at another pixel than its
     # vertex's (a merged junction cluster), the hop to the vertex is part of it, so the
     # simplification keeps every corridor pixel within the tolerance of what is written.
@@ -160,19 +167,26 @@ def _corridor_segments(
     if u == v and len(keep) < 4:  # a loop needs two distinct waypoints
         keep = np.unique(np.concatenate([keep, [len(xy) // 3, 2 * len(xy) // 3]]))
     along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    lengths = np.diff(along[keep]).tolist()  # along the corridor between the waypoints
     inner = xy[keep[1:-1]].tolist()
+    return _hops(u, v, inner, lengths, node_id, node_xy, frame, features, corridor)
+
+
+def _hops(
+    u, v, inner: list, lengths: list, node_id, node_xy, frame, features, corridor
+) -> list[_Segment]:
+    """The hops from vertex ``u`` through the waypoints ``inner`` (``[x, y]`` each,
+    appended to ``features``) to vertex ``v``, hop ``j`` of ``lengths[j]`` metres."""
     chain = [node_id[u]]
     for point in inner:
         chain.append(len(features))
         features.append(_nav2_node(len(features), frame, point, {"kind": "waypoint"}))
     chain.append(node_id[v])
     points = [node_xy[u], *inner, node_xy[v]]
-    corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
-    segments = []
-    for j in range(len(chain) - 1):
-        meta = dict(corridor, length_m=float(along[keep[j + 1]] - along[keep[j]]))
-        segments.append((chain[j], chain[j + 1], points[j], points[j + 1], meta))
-    return segments
+    return [
+        (chain[j], chain[j + 1], points[j], points[j + 1], dict(corridor, length_m=lengths[j]))
+        for j in range(len(chain) - 1)
+    ]
 
 
 def _waypoints(d: dict, where: str) -> np.ndarray | None:
@@ -183,31 +197,11 @@ def _waypoints(d: dict, where: str) -> np.ndarray | None:
         return None
     w = np.asarray(w, dtype=np.float64)
     if w.ndim != 2 or w.shape[1:] != (2,) or len(w) < 2 or not np.isfinite(w).all():
-        raise ValueError(f"graph: {where} has 'waypoints' that are not finite (K >= 2, 2)")
+        raise ValueError(
+            f"graph: {where} needs finite 'waypoints' of shape (K >= 2, 2), received shape "
+            f"{w.shape}"
+        )
     return w
-
-
-def _chain_segments(
-    w: np.ndarray, u, v, node_id: dict, node_xy: dict, frame: str, features: list, corridor, d
-) -> list[_Segment]:
-    """The hops along an edge's ``waypoints`` ``w`` (its ends at the vertices), the
-    inner points appended to ``features`` as waypoints."""
-    if u != v and math.dist(w[0], node_xy[u]) > math.dist(w[0], node_xy[v]):
-        u, v = v, u
-    inner = w[1:-1].tolist()
-    if u == v and len(inner) < 2:
-        return []  # a loop needs two distinct waypoints
-    chain = [node_id[u]]
-    for point in inner:
-        chain.append(len(features))
-        features.append(_nav2_node(len(features), frame, point, {"kind": "waypoint"}))
-    chain.append(node_id[v])
-    points = [node_xy[u], *inner, node_xy[v]]
-    corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
-    return [
-        (a, b, pa, pb, dict(corridor, length_m=math.dist(pa, pb)))
-        for a, b, pa, pb in zip(chain[:-1], chain[1:], points[:-1], points[1:], strict=True)
-    ]
 
 
 def _segment_features(segments: list[_Segment], first_id: int) -> list[dict]:
