@@ -280,7 +280,7 @@ def test_configs_check_types_and_take_numpy_numbers():
     assert tj.PipelineConfig(tile_px=np.int64(128)).tile_px == 128
     bad = [
         (lambda: tj.RidgeConfig(ksize=True), TypeError, "ksize must be an int"),
-        (lambda: tj.RidgeConfig(threshold=True), ValueError, "threshold"),
+        (lambda: tj.RidgeConfig(threshold=True), TypeError, "threshold: expected a real number"),
         (lambda: tj.SkeletonConfig(remove_t="no"), TypeError, "remove_t must be a bool"),
         (lambda: tj.SkeletonConfig(thinning=["zhang"]), ValueError, "thinning"),
         (lambda: tj.DistanceConfig(half_width_px=3.0), TypeError, "half_width_px"),
@@ -304,7 +304,7 @@ def test_configs_check_types_and_take_numpy_numbers():
         ),
         (
             lambda: tj.distance_map(np.eye(4, dtype=bool), tile_px=2.5),
-            ValueError,
+            TypeError,
             "tile_px: expected a positive int",
         ),
         (
@@ -466,7 +466,7 @@ def test_cli_graph_sigma_in_metres_or_pixels(tmp_path, capsys):
         cli_main(["graph", str(png), "--sigma-m", "1", "--sigma-px", "20"])
     assert "not allowed with argument" in capsys.readouterr().err
     assert cli_main(["graph", str(png), "-o", str(tmp_path / "x"), "--sigma-m", "-1"]) == 2
-    assert "sigma_m must be finite and > 0" in capsys.readouterr().err
+    assert "sigma_m: expected a finite number of metres > 0" in capsys.readouterr().err
 
 
 def test_cli_keeps_compiled_kernels_between_runs(tmp_path):

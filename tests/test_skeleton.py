@@ -289,7 +289,9 @@ def test_empty_image_shape_is_kept() -> None:
 
 def test_thin_rejects_bad_input() -> None:
     img = np.zeros((4, 4), dtype=bool)
-    with pytest.raises(ValueError, match=r"method must be one of \['guo_hall', 'zhang'\]"):
+    with pytest.raises(
+        ValueError, match=r"method: expected one of \['guo_hall', 'zhang'\], received 'lee'"
+    ):
         thin(img, method="lee")
     with pytest.raises(ValueError, match="method"):
         thin(img, method=None)  # type: ignore[arg-type]
@@ -314,7 +316,7 @@ def test_remove_t_and_pipeline_reject_bad_input() -> None:
         remove_t_centres(np.full((3, 3), np.nan))
     with pytest.raises(TypeError, match="remove_t must be a bool"):
         skeletonize_ridges(np.zeros((3, 3), dtype=bool), remove_t="yes")  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="method must be one of"):
+    with pytest.raises(ValueError, match="method: expected one of"):
         skeletonize_ridges(np.zeros((3, 3), dtype=bool), method="zhang_suen")
 
 

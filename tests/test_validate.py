@@ -45,18 +45,6 @@ def test_finite_positive_rejects(value, exc, words):
         assert word in str(info.value), (word, str(info.value))
 
 
-@pytest.mark.parametrize("value", [-2.5, 0, 7, np.float32(1.25), np.int16(-3)])
-def test_finite_real_accepts_any_finite_number(value):
-    out = v.finite_real("x", value)
-    assert type(out) is float and out == float(value)
-
-
-@pytest.mark.parametrize("value", [True, np.bool_(False), "1", None, NAN, INF, np.float64(NAN)])
-def test_finite_real_rejects_with_value_error_naming_the_parameter(value):
-    with pytest.raises(ValueError, match="^x must be a finite number"):
-        v.finite_real("x", value)
-
-
 @pytest.mark.parametrize("value", [1.5, -3, np.float64(0.0), np.int8(2), np.array(2.5)])
 def test_real_number_accepts_numbers_and_0d_arrays(value):
     out = v.real_number("angle", value)
@@ -119,9 +107,21 @@ def test_metres_per_pixel_accepts(value):
     assert v.metres_per_pixel("resolution", value) == float(value)
 
 
-@pytest.mark.parametrize("value", [0, -0.1, NAN, INF, True, np.bool_(True), "0.05", None])
-def test_metres_per_pixel_rejects_with_value_error(value):
-    with pytest.raises(ValueError, match=r"^resolution must be a finite number > 0"):
+@pytest.mark.parametrize(
+    ("value", "exc"),
+    [
+        (0, ValueError),
+        (-0.1, ValueError),
+        (NAN, ValueError),
+        (INF, ValueError),
+        (True, TypeError),
+        (np.bool_(True), TypeError),
+        ("0.05", TypeError),
+        (None, TypeError),
+    ],
+)
+def test_metres_per_pixel_rejects(value, exc):
+    with pytest.raises(exc, match=r"^resolution: expected a (finite|real) number of metres per"):
         v.metres_per_pixel("resolution", value)
 
 
@@ -148,9 +148,21 @@ def test_positive_int_accepts(value):
     assert type(out) is int and out == int(value)
 
 
-@pytest.mark.parametrize("value", [0, -1, np.int64(0), True, 1.0, "2", None, NAN])
-def test_positive_int_rejects_with_value_error(value):
-    with pytest.raises(ValueError, match="^workers: expected a positive int, got "):
+@pytest.mark.parametrize(
+    ("value", "exc"),
+    [
+        (0, ValueError),
+        (-1, ValueError),
+        (np.int64(0), ValueError),
+        (True, TypeError),
+        (1.0, TypeError),
+        ("2", TypeError),
+        (None, TypeError),
+        (NAN, TypeError),
+    ],
+)
+def test_positive_int_rejects(value, exc):
+    with pytest.raises(exc, match="^workers: expected a positive int, received "):
         v.positive_int("workers", value)
 
 
@@ -158,8 +170,11 @@ def test_int_at_least():
     assert v.int_at_least("tile_px", 8, 8) == 8
     assert v.int_at_least("workers", np.int64(0), 0) == 0
     assert type(v.int_at_least("workers", np.int64(3), 0)) is int
-    for bad in (7, np.int16(-1), True, 8.0, "8", None):
-        with pytest.raises(ValueError, match=r"^tile_px: expected an int >= 8, got "):
+    for bad in (7, np.int16(-1)):
+        with pytest.raises(ValueError, match=r"^tile_px: expected an int >= 8, received -?\d"):
+            v.int_at_least("tile_px", bad, 8)
+    for bad in (True, 8.0, "8", None):
+        with pytest.raises(TypeError, match=r"^tile_px: expected an int >= 8, received [a-zA-Z]"):
             v.int_at_least("tile_px", bad, 8)
 
 
@@ -192,12 +207,14 @@ def test_binary_flag_rejects(value):
         v.binary_flag("negate", value)
 
 
-def test_choice_needs_a_listed_string():
-    assert v.choice("method", "zhang", ("zhang", "guo_hall")) == "zhang"
-    assert v.choice("method", np.str_("zhang"), ["zhang"]) == "zhang"
-    for bad in ("Zhang", 1, None, b"zhang"):
-        with pytest.raises(ValueError, match=r"^method must be one of \('zhang',.*got "):
-            v.choice("method", bad, ("zhang", "guo_hall"))
+def test_one_of_needs_a_listed_value():
+    assert v.one_of("method", "zhang", ("zhang", "guo_hall")) == "zhang"
+    assert v.one_of("method", np.str_("zhang"), ["zhang"]) == "zhang"
+    for bad in ("Zhang", 1, None, b"zhang", ["zhang"], np.array(["zhang"])):
+        with pytest.raises(ValueError, match=r"^method: expected one of \('zhang',.*received "):
+            v.one_of("method", bad, ("zhang", "guo_hall"))
+    with pytest.raises(ValueError, match=r"^method: expected one of \{'zhang'\}, received \["):
+        v.one_of("method", ["zhang"], {"zhang"})
 
 
 def test_one_of_allows_any_listed_value():
@@ -297,9 +314,19 @@ def test_nonnegative_quantity_accepts(value):
     assert got == float(value) and type(got) is float
 
 
-@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf"), True, "1", None])
-def test_nonnegative_quantity_refuses_with_value_error_naming_unit(value):
-    with pytest.raises(ValueError, match=r"area_m2: expected a finite number of square metres"):
+@pytest.mark.parametrize(
+    ("value", "exc"),
+    [
+        (-1.0, ValueError),
+        (float("nan"), ValueError),
+        (float("inf"), ValueError),
+        (True, TypeError),
+        ("1", TypeError),
+        (None, TypeError),
+    ],
+)
+def test_nonnegative_quantity_refuses_naming_the_unit(value, exc):
+    with pytest.raises(exc, match=r"^area_m2: expected a (finite|real) number of square metres"):
         v.nonnegative_quantity("area_m2", value, "square metres")
 
 
@@ -315,8 +342,14 @@ def test_nonnegative_quantity_refuses_with_value_error_naming_unit(value):
         ),
         ("", False, 0.0, ValueError, r"^area_m2: expected a finite number > 0, received 0.0$"),
         ("", False, float("inf"), ValueError, r"^area_m2: expected a finite number > 0"),
-        ("m2", True, "1", TypeError, r"^area_m2: expected a number of m2 >= 0, received str '1'$"),
-        ("", True, True, TypeError, r"^area_m2: expected a number >= 0, received bool True$"),
+        (
+            "m2",
+            True,
+            "1",
+            TypeError,
+            r"^area_m2: expected a real number of m2 >= 0, received str '1'$",
+        ),
+        ("", True, True, TypeError, r"^area_m2: expected a real number >= 0, received bool True$"),
     ],
 )
 def test_quantity_names_the_unit_or_none(unit, allow_zero, value, exc, message):
@@ -338,8 +371,8 @@ def test_path_like(tmp_path):
 
 def test_every_exported_check_is_tested():
     tested = {
-        "binary_flag", "binary_image", "choice", "existing_file", "finite_pair",
-        "finite_positive", "finite_real", "flag", "instance_or_default", "int_at_least",
+        "binary_flag", "binary_image", "existing_file", "finite_pair",
+        "finite_positive", "flag", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "metres", "metres_per_pixel", "nonnegative_metres",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pose", "positive_int", "positive_metres",
         "quantity", "real_number",

@@ -20,11 +20,9 @@ import numpy as np
 __all__ = [
     "binary_flag",
     "binary_image",
-    "choice",
     "existing_file",
     "finite_pair",
     "finite_positive",
-    "finite_real",
     "flag",
     "instance_or_default",
     "int_at_least",
@@ -46,13 +44,8 @@ __all__ = [
 
 
 def finite_positive(name: str, value: object) -> float:
-    """``value`` as a float after checking it is a finite real number > 0 (Python or NumPy,
-    not bool)."""
-    if not isinstance(value, numbers.Real) or isinstance(value, bool):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
-    if not math.isfinite(value) or value <= 0:
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return float(value)
+    """:func:`quantity` without a unit, ``> 0``."""
+    return quantity(name, value, unit="", allow_zero=False)
 
 
 def integer(name: str, value: object) -> int:
@@ -63,10 +56,14 @@ def integer(name: str, value: object) -> int:
 
 
 def int_at_least(name: str, value: Any, minimum: int) -> int:
-    """``value`` as an int after checking it is an integer >= ``minimum`` (Python or NumPy,
-    not bool); a ``ValueError`` otherwise, also for a non-integer."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < minimum:
-        raise ValueError(f"{name}: expected an int >= {minimum}, got {value!r}")
+    """``value`` as an int after checking it is an integer (Python or NumPy, not bool),
+    a ``TypeError`` otherwise, and ``>= minimum``, a ``ValueError`` otherwise."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise TypeError(
+            f"{name}: expected an int >= {minimum}, received {type(value).__name__} {value!r}"
+        )
+    if value < minimum:
+        raise ValueError(f"{name}: expected an int >= {minimum}, received {int(value)}")
     return int(value)
 
 
@@ -101,7 +98,7 @@ def quantity(name: str, value: object, *, unit: str, allow_zero: bool) -> float:
     of = f" of {unit}" if unit else ""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(
-            f"{name}: expected a number{of} {bound}, received {type(value).__name__} {value!r}"
+            f"{name}: expected a real number{of} {bound}, received {type(value).__name__} {value!r}"
         )
     value = float(value)
     if not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
@@ -127,11 +124,8 @@ def positive_metres(name: str, value: object) -> float:
 
 
 def nonnegative_quantity(name: str, value: Any, unit: str) -> float:
-    """``value`` as a float after checking it is a finite real number ``>= 0`` (Python or
-    NumPy, not bool); a ``ValueError`` naming ``name`` and ``unit`` otherwise."""
-    if not is_real_number(value) or not math.isfinite(float(value)) or float(value) < 0:
-        raise ValueError(f"{name}: expected a finite number of {unit} >= 0, received {value!r}")
-    return float(value)
+    """:func:`quantity` of ``unit``, ``>= 0``."""
+    return quantity(name, value, unit=unit, allow_zero=True)
 
 
 def is_real_number(value: Any) -> bool:
@@ -142,11 +136,8 @@ def is_real_number(value: Any) -> bool:
 
 
 def metres_per_pixel(name: str, value: Any) -> float:
-    """``value`` as a float after checking it is a finite map resolution > 0 (m/px); a
-    ``ValueError`` otherwise, also for a non-number."""
-    if not is_real_number(value) or not math.isfinite(float(value)) or float(value) <= 0.0:
-        raise ValueError(f"{name} must be a finite number > 0 (metres per pixel), got {value!r}")
-    return float(value)
+    """:func:`quantity` in metres per pixel, ``> 0`` (a map resolution)."""
+    return quantity(name, value, unit="metres per pixel", allow_zero=False)
 
 
 def pose(name: str, value: Any) -> tuple[float, float, float]:
@@ -184,14 +175,6 @@ def occupancy_thresholds(
     return occ, free
 
 
-def choice(name: str, value: Any, choices: Any) -> str:
-    """``value`` after checking it is a string among ``choices`` (shown as given in the
-    error)."""
-    if not isinstance(value, str) or value not in choices:
-        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
-    return value
-
-
 def names_subset(name: str, value: Any, choices: tuple[str, ...]) -> tuple[str, ...]:
     """``value``, an iterable of strings among ``choices`` (not a bare string), as a tuple
     in the order of ``choices`` without repeats."""
@@ -214,26 +197,25 @@ def binary_flag(name: str, value: Any) -> bool:
     raise ValueError(f"{name} must be a bool or 0/1, got {value!r}")
 
 
-def finite_real(name: str, value: Any) -> float:
-    """``value`` as a float after checking it is a finite real number (Python or NumPy, not
-    bool); a ``ValueError`` otherwise, also for a non-number."""
-    if not isinstance(value, numbers.Real) or isinstance(value, bool) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number, got {value!r}")
-    return float(value)
-
-
 def positive_int(name: str, value: Any) -> int:
-    """``value`` as an int after checking it is an integer >= 1 (Python or NumPy, not
-    bool); a ``ValueError`` otherwise, also for a non-integer."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < 1:
-        raise ValueError(f"{name}: expected a positive int, got {value!r}")
+    """``value`` as an int after checking it is an integer (Python or NumPy, not bool),
+    a ``TypeError`` otherwise, and ``>= 1``, a ``ValueError`` otherwise."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise TypeError(
+            f"{name}: expected a positive int, received {type(value).__name__} {value!r}"
+        )
+    if value < 1:
+        raise ValueError(f"{name}: expected a positive int, received {int(value)}")
     return int(value)
 
 
-def one_of(name: str, value: Any, choices: tuple) -> Any:
-    """``value`` after checking it is among ``choices``; the error reads ``name: expected
-    one of ..., received ...``.  (:func:`choice` words it ``name must be one of ...``.)"""
-    if value not in choices:
+def one_of(name: str, value: Any, choices: Any) -> Any:
+    """``value`` after checking it is among ``choices`` (shown as given in the error)."""
+    try:
+        known = not isinstance(value, np.ndarray) and value in choices
+    except TypeError:  # an unhashable value against a set or dict of choices
+        known = False
+    if not known:
         raise ValueError(f"{name}: expected one of {choices}, received {value!r}")
     return value
 

@@ -10,13 +10,16 @@ import math
 from dataclasses import dataclass, field
 
 from ._validate import (
-    choice,
     finite_positive,
-    finite_real,
     flag,
     integer,
+    metres_per_pixel,
     nonnegative_metres,
+    one_of,
     positive_int,
+    positive_metres,
+    quantity,
+    real_number,
 )
 
 __all__ = [
@@ -66,7 +69,9 @@ class DistanceConfig:
     half_width_px: int = ORIGINAL_HALF_WIDTH_PX
 
     def __post_init__(self) -> None:
-        _canonical(self, "sigma_px", finite_positive("sigma_px", self.sigma_px))
+        _canonical(
+            self, "sigma_px", quantity("sigma_px", self.sigma_px, unit="pixels", allow_zero=False)
+        )
         _canonical(self, "half_width_px", integer("half_width_px", self.half_width_px))
         if not 1 <= self.half_width_px <= _MAX_HALF_WIDTH_PX:
             raise ValueError(
@@ -89,8 +94,8 @@ class DistanceConfig:
             Support half-width in metres; default: the original's ratio, 227 px of
             support for 64.19 px of sigma (about 3.54 sigma on each side), rounded.
         """
-        sigma_m = finite_positive("sigma_m", sigma_m)
-        resolution_m = finite_positive("resolution_m", resolution_m)
+        sigma_m = positive_metres("sigma_m", sigma_m)
+        resolution_m = metres_per_pixel("resolution_m", resolution_m)
         sigma_px = sigma_m / resolution_m
         if half_width_m is None:
             half = _scaled_half_width(sigma_px)
@@ -101,7 +106,7 @@ class DistanceConfig:
                     f"largest half-width, {_MAX_HALF_WIDTH_PX} px"
                 )
             return cls(sigma_px=sigma_px, half_width_px=half)
-        half_width_m = finite_positive("half_width_m", half_width_m)
+        half_width_m = positive_metres("half_width_m", half_width_m)
         half = max(1, round(half_width_m / resolution_m))
         if half > _MAX_HALF_WIDTH_PX:
             raise ValueError(
@@ -114,7 +119,7 @@ class DistanceConfig:
     def from_pixels(cls, *, sigma_px: float) -> DistanceConfig:
         """A configuration with this sigma (pixels) and the support scaled with it as in
         the original (227 px for 64.19 px, about 3.54 sigma on each side, rounded)."""
-        sigma_px = finite_positive("sigma_px", sigma_px)
+        sigma_px = quantity("sigma_px", sigma_px, unit="pixels", allow_zero=False)
         half = _scaled_half_width(sigma_px)
         if half > _MAX_HALF_WIDTH_PX:
             raise ValueError(
@@ -156,7 +161,7 @@ class RidgeConfig:
         _canonical(self, "ksize", integer("ksize", self.ksize))
         if self.ksize not in (1, 3, 5):
             raise ValueError(f"ksize must be 1, 3 or 5 (OpenCV apertures), got {self.ksize!r}")
-        _canonical(self, "threshold", finite_real("threshold", self.threshold))
+        _canonical(self, "threshold", real_number("threshold", self.threshold))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -177,7 +182,7 @@ class SkeletonConfig:
     remove_t: bool = True
 
     def __post_init__(self) -> None:
-        choice("thinning", self.thinning, _THINNING)
+        one_of("thinning", self.thinning, _THINNING)
         _canonical(self, "remove_t", flag("remove_t", self.remove_t))
 
 

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from ._jit import cached_njit
-from ._validate import binary_image, choice, flag
+from ._validate import binary_image, flag, one_of
 
 __all__ = [
     "THIN_METHODS",
@@ -198,7 +198,7 @@ def thinning_lookup_tables(method: str = "guo_hall") -> np.ndarray:
         E, NE, N, NW, W, SW, S, SE (k = 0..7), where N is the row above (row - 1) and E the
         column to the right (col + 1).
     """
-    return _TABLES[choice("method", method, list(THIN_METHODS))]
+    return _TABLES[one_of("method", method, list(THIN_METHODS))]
 
 
 @cached_njit(nogil=True, inline="always")
@@ -392,7 +392,7 @@ def thin(ridge: Any, *, method: str = "guo_hall") -> np.ndarray:
     pixel; each thread keeps it for its next call for images up to 4 megapixels, and
     larger images get their skeleton in the work space's own image buffer.
     """
-    method = choice("method", method, list(THIN_METHODS))
+    method = one_of("method", method, list(THIN_METHODS))
     image = binary_image("ridge", ridge)
     if image.size == 0:
         return image.copy()

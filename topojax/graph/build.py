@@ -14,7 +14,7 @@ from collections.abc import Callable
 import networkx as nx
 import numpy as np
 
-from .._validate import finite_positive, flag
+from .._validate import flag, metres_per_pixel
 from .geometry import _edge_pixel_index, orient, path_lengths_m
 from .store import KIND_JUNCTION, GraphStore
 from .trace import (
@@ -291,7 +291,7 @@ def skeleton_graph_store(
         As :func:`skeleton_to_graph`.
     """
     skel = _as_skeleton(skeleton)
-    res = finite_positive("resolution_m", resolution_m)
+    res = metres_per_pixel("resolution_m", resolution_m)
     if pixel_to_world is not None and not callable(pixel_to_world):
         raise TypeError(
             f"pixel_to_world: expected a callable (rows, cols) -> (x, y) or None, "
@@ -354,7 +354,7 @@ def pixels_graph_store(
             f"flat: expected strictly increasing indices in [0, {shape[0] * shape[1]}), "
             f"received {idx.size} indices from {idx.min()} to {idx.max()}"
         )
-    res = finite_positive("resolution_m", resolution_m)
+    res = metres_per_pixel("resolution_m", resolution_m)
     if pixel_to_world is not None and not callable(pixel_to_world):
         raise TypeError(
             f"pixel_to_world: expected a callable (rows, cols) -> (x, y) or None, "

@@ -7,13 +7,13 @@ from dataclasses import asdict
 
 from .._constants import STRATEGIES
 from .._validate import (
-    choice,
-    finite_positive,
     flag,
     instance_or_default,
     int_at_least,
     integer,
     is_real_number,
+    metres_per_pixel,
+    one_of,
     positive_int,
     positive_metres,
 )
@@ -117,8 +117,8 @@ def checked_resolution(resolution_m, strategy) -> float:
         If the resolution is not a finite number > 0 or the strategy is unknown.
     """
     # NumPy numbers are numbers too (stored as Python ones)
-    resolution_m = finite_positive("resolution_m", resolution_m)
-    choice("strategy", strategy, STRATEGIES)
+    resolution_m = metres_per_pixel("resolution_m", resolution_m)
+    one_of("strategy", strategy, STRATEGIES)
     return resolution_m
 
 

@@ -15,7 +15,7 @@ from typing import Any
 import networkx as nx
 
 from .._fs import atomic_write_bytes
-from .._validate import choice
+from .._validate import one_of
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
 from .geojson import _from_geojson, _to_geojson
 from .graphml import _read_graphml, _write_graphml
@@ -28,7 +28,7 @@ GRAPH_FORMATS = {".graphml": "graphml", ".json": "json", ".geojson": "geojson"}
 def _format_for(path: Path, format: str | None) -> str:
     supported = sorted(GRAPH_FORMATS)
     if format is not None:
-        return choice("format", str(format).lower().lstrip("."), sorted(GRAPH_FORMATS.values()))
+        return one_of("format", str(format).lower().lstrip("."), sorted(GRAPH_FORMATS.values()))
     suffix = path.suffix.lower()
     if suffix not in GRAPH_FORMATS:
         raise ValueError(

@@ -13,10 +13,10 @@ import numpy as np
 
 from .._validate import (
     binary_flag,
-    choice,
     is_real_number,
     metres_per_pixel,
     occupancy_thresholds,
+    one_of,
     pose,
 )
 from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES, classify_image
@@ -361,7 +361,7 @@ def _classify_pixels(
             occupied_thresh=occ_t,
             free_thresh=free_t,
             negate=binary_flag("negate", settings["negate"]),
-            mode=choice("mode", settings["mode"], MODES),
+            mode=one_of("mode", settings["mode"], MODES),
             unknown_values=None,
             average_alpha=average_alpha,
         )

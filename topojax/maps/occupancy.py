@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import binary_flag, choice, metres_per_pixel, occupancy_thresholds, pose
+from .._validate import binary_flag, metres_per_pixel, occupancy_thresholds, one_of, pose
 from .classify import (
     _FREE,
     _OCC,
@@ -279,7 +279,7 @@ class OccupancyMap:
         resolution_m = metres_per_pixel("resolution_m", resolution_m)
         origin_t = pose("origin", origin)
         occ_t, free_t = occupancy_thresholds(occupied_thresh, free_thresh)
-        mode = choice("mode", mode, MODES)
+        mode = one_of("mode", mode, MODES)
         negate = binary_flag("negate", negate)
         codes = classify_array(
             np.asarray(array),

@@ -33,9 +33,9 @@ import numpy as np
 from .._fs import output_folder
 from .._validate import (
     binary_flag,
-    choice,
     metres_per_pixel,
     occupancy_thresholds,
+    one_of,
     pose,
     positive_int,
 )
@@ -113,7 +113,7 @@ class TiledMap:
         self.origin = pose("origin", origin)
         self.occupied_thresh, self.free_thresh = occupancy_thresholds(occupied_thresh, free_thresh)
         self.negate = binary_flag("negate", negate)
-        self.mode = choice("mode", mode, MODES)
+        self.mode = one_of("mode", mode, MODES)
         if kind != "image" and (self.negate or self.mode not in ("trinary", "scale")):
             raise ValueError(
                 f"negate, mode: apply to images only; a {dtype} map takes negate=False and "
@@ -460,7 +460,7 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
         ``path``; :func:`open_tiled_map` reads it back.
     """
     tile_px = positive_int("tile_px", tile_px)
-    format = choice("format", format, ("folder", "zarr"))
+    format = one_of("format", format, ("folder", "zarr"))
     if isinstance(tiled, OccupancyMap):
         tiled = TiledMap.from_array(
             tiled.to_image(),

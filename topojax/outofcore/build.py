@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from .._fs import output_folder
-from .._validate import finite_positive, instance_or_default, positive_int
+from .._validate import instance_or_default, positive_int, quantity
 from ..config import PipelineConfig
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map
 from ..maps.occupancy import OccupancyMap
@@ -100,7 +100,7 @@ def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
     """The largest block side (a multiple of ``config.tile_px``, at least one tile) whose
     stages take about ``memory_budget_mb`` (:data:`BYTES_PER_WINDOW_PX` per pixel of the
     kernels' window, the block plus the first halo on each side)."""
-    budget = finite_positive("memory_budget_mb", memory_budget_mb)
+    budget = quantity("memory_budget_mb", memory_budget_mb, unit="megabytes", allow_zero=False)
     t = config.tile_px
     side = math.sqrt(budget * 2**20 / BYTES_PER_WINDOW_PX) - 2 * _first_halo(config)
     return max(t, int(side // t) * t)
