@@ -4,7 +4,9 @@ opens the pages in a real browser."""
 
 from __future__ import annotations
 
+import json
 import re
+from pathlib import Path
 
 import networkx as nx
 import numpy as np
@@ -256,6 +258,24 @@ def test_view_command_on_a_graph_folder(tmp_path, capsys):
     assert main(["view", str(out)]) == 0  # again: its own file is replaced
 
 
+def test_view_command_leaves_out_a_route_written_beside_the_graph(tmp_path, capsys):
+    """The README's order: ``topojax route`` writes its route GeoJSON into the graph's
+    folder, and ``topojax view`` still shows that folder's graph."""
+    out = tmp_path / "out"
+    assert main(["graph", str(tj.datasets.sample_map_path("office")), "-o", str(out)]) == 0
+    g = tj.io.load_graph(out / "office.json")
+    a, *_, b = sorted(max(nx.connected_components(g), key=len))
+    (ra, ca), (rb, cb) = g.nodes[a]["pixel"], g.nodes[b]["pixel"]
+    route = ["route", str(out / "office.json"), "-o", str(out / "route.geojson")]
+    route += ["--start", str(ra), str(ca), "--goal", str(rb), str(cb), "--pixel"]
+    assert main(route) == 0
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "office.json" in text and "route" not in text.replace(str(tmp_path), "")
+    assert not (out / "route_view.html").exists()
+
+
 def test_view_command_reads_the_map_as_the_graph_command_did(tmp_path, capsys):
     """A graph built from a map read with options (``--mode ipa``) is shown over the map
     read with the same options, which the folder's record keeps."""
@@ -373,3 +393,22 @@ def test_view_command_on_a_replay_view_folder_keeps_the_timeline(tmp_path, capsy
     assert "timeline.json.gz" in capsys.readouterr().out
     assert len(payload_of((out / "view.html").read_text())["timeline"]["frames"]) == frames
     assert main([*args, "--graph-every", "10"]) == 0  # and the replay may write it again
+
+
+def test_a_replay_removes_what_the_last_replay_wrote_and_it_does_not(tmp_path, capsys):
+    """A replay without ``--view`` into the folder of one with it leaves no page or
+    timeline of the other map for ``topojax view`` to show; files it did not write stay."""
+    from view_cases import INTEL_EXCERPT
+
+    out = tmp_path / "rep"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress", "--graph-every", "10"]
+    assert main([*args, "--view", "--max-scans", "30"]) == 0
+    (out / "notes.txt").write_text("mine")
+    assert main([*args, "--max-scans", "20"]) == 0
+    assert not (out / "view.html").exists() and not (out / "timeline.json.gz").exists()
+    assert (out / "notes.txt").read_text() == "mine" and (out / "graph.json").is_file()
+    written = json.loads((out / "timings.json").read_text())["written"]
+    assert {Path(p).name for p in written} >= {"graph.json", "map.yaml", "timings.json"}
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    assert "timeline" not in capsys.readouterr().out

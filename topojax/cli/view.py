@@ -7,8 +7,9 @@ folder's ``.topojax-outputs.json`` records, ``map.yaml`` of a replay, the map a 
 manifest names), rooms ``STEM_rooms.geojson`` (``map_rooms.geojson`` of a replay), a route
 graph ``STEM_route.json`` (``route_graph.json`` of a replay; a batch's route graph
 without its graph is drawn over the map of its manifest) and a replay's
-``timeline.json.gz``.  One result gives ``view.html``; several give one page each,
-``STEM_view.html``, and ``view.html`` lists them.
+``timeline.json.gz``; the routes ``topojax route`` wrote there are left out.  One
+result gives ``view.html``; several give one page each, ``STEM_view.html``, and
+``view.html`` lists them.
 """
 
 from __future__ import annotations
@@ -37,6 +38,8 @@ _NOT_GRAPHS = (
     RECORD_NAME,
 )
 _TIMELINE = "timeline.json.gz"
+#: The commands whose output folders ``topojax view`` reads.
+_WRITERS = "graph, demo, rooms, route-graph, replay or batch"
 
 
 @dataclass
@@ -53,11 +56,15 @@ class _Result:
     notes: list[str] = field(default_factory=list)
 
 
-def _graph_stems(folder: Path) -> dict[str, Path]:
-    """``{stem: graph file}`` for every graph file of the folder (JSON first)."""
+def _graph_stems(folder: Path, record: dict) -> dict[str, Path]:
+    """``{stem: graph file}`` for every graph file of the folder (JSON first; not the
+    routes ``topojax route`` wrote)."""
     stems: dict[str, Path] = {}
     for suffix in reversed(_GRAPH_SUFFIXES):
         for path in sorted(folder.glob(f"*{suffix}")):
+            entry = record.get(path.name)
+            if isinstance(entry, dict) and entry.get("command") == "route":
+                continue
             if path.is_file() and not path.name.endswith(_NOT_GRAPHS):
                 stems[path.name[: -len(suffix)]] = path
     return stems
@@ -91,7 +98,7 @@ def _manifest_map(folder: Path, stem: str) -> tuple[Path | None, dict]:
 def find_results(folder: Path) -> list[_Result]:
     """The results in ``folder`` (see the module docstring); empty when there are none."""
     record = read_record(folder)
-    stems = _graph_stems(folder)
+    stems = _graph_stems(folder, record)
     results: dict[str, _Result] = {}
     replay = (folder / "map.yaml").is_file() and "graph" in stems
     for stem, path in stems.items():
@@ -233,15 +240,15 @@ def _cmd_view(args) -> int:
     folder = Path(args.folder)
     if not folder.is_dir():
         raise NotADirectoryError(
-            f"OUT_DIR: expected a folder of results (from topojax graph, replay or batch), "
-            f"got {folder}, which is {'a file' if folder.exists() else 'not there'}"
+            f"OUT_DIR: expected a folder of results (from topojax {_WRITERS}), got "
+            f"{folder}, which is {'a file' if folder.exists() else 'not there'}"
         )
     results = find_results(folder)
     if not results:
         found = sorted(p.name for p in folder.iterdir())[:8]
         raise ValueError(
-            f"OUT_DIR: no results in {folder}: expected what topojax graph, replay or batch "
-            "write (a graph STEM.json / .graphml / .geojson, map.yaml, STEM_rooms.geojson); "
+            f"OUT_DIR: no results in {folder}: expected what topojax {_WRITERS} write "
+            "(a graph STEM.json / .graphml / .geojson, map.yaml, STEM_rooms.geojson); "
             f"found {', '.join(found) if found else 'nothing'}"
         )
     index = folder / "view.html"
@@ -271,7 +278,7 @@ def add_command(subparsers) -> None:
         "hover for attributes, click two points for a route. With several results in the "
         "folder, one STEM_view.html each and view.html listing them. Opens nothing.",
     )
-    p.add_argument("folder", metavar="OUT_DIR", help="a folder written by graph, replay or batch")
+    p.add_argument("folder", metavar="OUT_DIR", help=f"a folder written by {_WRITERS}")
     p.add_argument(
         "--window",
         nargs=4,

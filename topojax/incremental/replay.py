@@ -196,6 +196,8 @@ def replay(
         glitch: skipped, the replay goes on), ``n_tiles``, ``vertices``, ``edges``,
         ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
         to export leaves the mapper's state in ``out_dir/mapper_state.npz`` and raises.
+        The files that the last replay into ``out_dir`` wrote and this one does not
+        (:func:`optional_outputs`: route graph, rooms, pictures, view) are removed.
     """
     from .._fs import atomic_write_bytes
 
@@ -225,13 +227,14 @@ def replay(
     written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
     messages += _route_note(done, route_graph_radius_m)
     written += _write_rooms_routes_view(mapper, done, out, timeline)
-    summary = _summary(source, mapper, done)
-    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
-    written.append(out / "timings.json")
     written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
     if recorder is not None:
         written.append(recorder.path)
+    written.append(out / "timings.json")
+    messages += _remove_stale(out, written)
+    summary = _summary(source, mapper, done)
     summary["written"] = [str(p) for p in written]
+    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     summary["messages"] = messages + [f"skipped {m}" for m in done.skipped]
     if progress:
         print(summary_text(summary))
@@ -368,7 +371,7 @@ def _write_pictures_and_animation(
 
 
 def _summary(source, mapper: IncrementalMapper, done: _Replayed) -> dict:
-    """The replay's record (``timings.json``, without ``written`` and ``messages``)."""
+    """The replay's record (``timings.json``, to which :func:`replay` adds ``written``)."""
     from ..graph import graph_summary
 
     summary_g = graph_summary(done.result.graph)
@@ -577,6 +580,36 @@ def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, li
     written.append(save_map(result.map, out / "map.yaml"))
     written.append(out / "map.yaml")
     return written, messages
+
+
+def optional_outputs() -> list[str]:
+    """The names of the files a replay writes into its folder only with some option
+    (``nav2_tolerance_m``, ``plot``, ``route_graph_radius_m``, ``rooms``, ``view``)."""
+    from ..io import ROOM_FILE_SUFFIXES
+
+    names = ["graph_nav2.geojson", "graph.png", "stages.png"]
+    names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")]
+    names += [f"map{suffix}" for suffix in ROOM_FILE_SUFFIXES]
+    return names + ["view.html", "timeline.json.gz"]
+
+
+def _remove_stale(out: Path, written: list[Path]) -> list[str]:
+    """Remove the optional outputs that the last replay into ``out`` wrote (as its
+    ``timings.json`` lists them) and this one did not: they belong to another map, and
+    ``topojax view`` would show them with this one.  Returns a message per file removed."""
+    try:
+        before = json.loads((out / "timings.json").read_text(encoding="utf-8"))["written"]
+        before = {Path(p).name for p in before if isinstance(p, str)}
+    except (OSError, ValueError, KeyError, TypeError):  # none, or not a replay's
+        return []
+    now = {Path(p).resolve() for p in written}
+    messages = []
+    for name in optional_outputs():
+        path = out / name
+        if name in before and path.is_file() and path.resolve() not in now:
+            path.unlink()
+            messages.append(f"removed {path}, written by an earlier replay")
+    return messages
 
 
 def _write_pictures(result, out: Path, name: str) -> list[Path]:
