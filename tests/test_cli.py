@@ -191,3 +191,35 @@ def test_replay_names_its_options_in_errors(tmp_path, capsys, argv, message):
     assert main(["replay", str(log), "-o", str(tmp_path / "out"), *argv]) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_python_m_topojax_is_the_command():
+    done = subprocess.run(
+        [sys.executable, "-m", "topojax", "--version"], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0 and topojax.__version__ in done.stdout + done.stderr
+
+
+def test_library_modules_do_not_import_the_command_line():
+    """Only the command line (``topojax.cli``, ``python -m topojax``) imports it."""
+    import ast
+
+    root = Path(topojax.__file__).parent
+    offenders = []
+    for path in root.rglob("*.py"):
+        rel = path.relative_to(root)
+        if rel.parts[0] == "cli" or rel.name == "__main__.py":
+            continue
+        package = ["topojax", *rel.parts[:-1]]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                base = package[: len(package) - node.level + 1] if node.level else []
+                names = [".".join([*base, node.module or ""]).strip(".")]
+                names += [f"{names[0]}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            else:
+                continue
+            if any(n == "topojax.cli" or n.startswith("topojax.cli.") for n in names):
+                offenders.append(str(rel))
+    assert offenders == []

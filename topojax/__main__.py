@@ -1,0 +1,7 @@
+"""``python -m topojax``: the ``topojax`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())
