@@ -222,10 +222,11 @@ def _run_job(
             keep_graphs=False,
             tiles_per_call=tiles_per_call,
         )
-        bad = [f"{r.map}: {r.message}" for r in records if r.status != "ok"]
+        # a map without an occupied pixel has an empty graph (status "empty"), in every mode
+        bad = [f"{r.map}: {r.message}" for r in records if r.status not in ("ok", "empty")]
         if bad:
             raise RuntimeError(f"batch mode {mode} had failures: {bad[:5]}")
-        return [[r.vertices, r.edges, r.total_length_m] for r in records]
+        return [[r.vertices or 0, r.edges or 0, r.total_length_m or 0.0] for r in records]
     if base.startswith("per-worker-"):
         import concurrent.futures as cf
 
