@@ -1672,14 +1672,14 @@ def test_replay_cli_reader_options_and_early_path_checks(tmp_path, capsys):
     assert main([*base, str(bag), "--allow-missing-pose"]) == 0
     # options for another reader are named, not a TypeError
     assert main([*base, str(bag), "--max-range", "5"]) != 0
-    assert "read_bag, which takes no max_range" in capsys.readouterr().err
+    assert "read_bag, which takes no max_range_m" in capsys.readouterr().err
     # --max-range reaches the CARMEN reader: with 1 m nearly every beam is a no-return
     short = replay(
         INTEL_EXCERPT,
         out_dir=tmp_path / "s",
         max_scans=3,
         progress=False,
-        reader_kwargs={"max_range": 1.0},
+        reader_kwargs={"max_range_m": 1.0},
         skeleton_every=1,
         graph_every=1,
     )

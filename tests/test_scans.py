@@ -248,7 +248,7 @@ def test_carmen_beam_angle_convention(tmp_path, n, inc):
     with open(path, "a") as fh:
         fh.write(_flaser(np.full(n, 2.0), (1.0, 2.0, 0.25)))
         fh.write("NEFF 12.5\nODOM 0 0 0 0 0 0 0 host 0\n")
-    (scan,) = list(read_carmen(path, max_range=50.0))
+    (scan,) = list(read_carmen(path, max_range_m=50.0))
     assert scan.n_beams == n
     assert scan.angle_min == -math.pi / 2
     assert scan.angle_increment == pytest.approx(inc, rel=1e-15)
@@ -273,13 +273,13 @@ def test_carmen_max_range_sentinel(tmp_path):
     np.testing.assert_array_equal(a.valid_mask(), [True, False, True, False, True])
     np.testing.assert_array_equal(b.valid_mask(), [False, True, False, False, False])
     # An explicit max range replaces the file maximum (and keeps 81.7).
-    a2, _ = list(read_carmen(path, max_range=81.8))
+    a2, _ = list(read_carmen(path, max_range_m=81.8))
     assert a2.range_max == 81.8
     np.testing.assert_array_equal(a2.valid_mask(), [True, False, True, True, True])
     a3, _ = list(read_carmen(path, no_return_margin_m=0.0))
     np.testing.assert_array_equal(a3.valid_mask(), [True, False, True, True, True])
-    with pytest.raises(ValueError, match="max_range"):
-        read_carmen(path, max_range=-1.0)
+    with pytest.raises(ValueError, match="max_range_m"):
+        read_carmen(path, max_range_m=-1.0)
 
 
 def test_one_faulty_reading_does_not_set_the_no_return_value(tmp_path):
@@ -333,8 +333,8 @@ def test_carmen_gzip_detected_by_magic_not_suffix(tmp_path):
         fh.write(text)
     plain_named_gz = tmp_path / "log.gz"
     plain_named_gz.write_text(text)
-    a = list(read_carmen(gz_named_txt, max_range=10.0))
-    b = list(read_carmen(plain_named_gz, max_range=10.0))
+    a = list(read_carmen(gz_named_txt, max_range_m=10.0))
+    b = list(read_carmen(plain_named_gz, max_range_m=10.0))
     assert len(a) == len(b) == 2
     np.testing.assert_array_equal(a[0].ranges, b[0].ranges)
     assert a[0].pose == b[0].pose == (0.5, 0.25, 1.0)
@@ -391,7 +391,7 @@ def test_log_without_a_no_return_value_warns_when_most_readings_go(tmp_path):
     assert sum(int(s.valid_mask().sum()) for s in scans) < 540 // 2
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        scans = list(read_carmen(path, max_range=10.0))  # no guess: no warning
+        scans = list(read_carmen(path, max_range_m=10.0))  # no guess: no warning
         assert all(s.valid_mask().all() for s in scans)
         # a log with a no-return value (81.91) on a few beams: no warning
         mixed = tmp_path / "mixed.log"
@@ -506,7 +506,7 @@ def test_carmen_laser_selection(tmp_path):
     path = tmp_path / "two.log"
     path.write_text(text)
     assert len(list(read_carmen(path))) == 2  # auto = kind of the first laser line
-    (rear,) = list(read_carmen(path, laser="RLASER", max_range=10.0))
+    (rear,) = list(read_carmen(path, laser="RLASER", max_range_m=10.0))
     assert rear.pose == (1.0, 1.0, 3.1) and rear.ranges.tolist() == [5.0] * 4
 
 

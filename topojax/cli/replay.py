@@ -52,9 +52,13 @@ def _cmd_replay(args) -> int:
     if args.rooms:
         kw["room_config"] = room_config(args)  # checked before the replay
     reader_kwargs = {}
-    for name in ("max_range", "scan_topic", "pose_topic"):
+    for name, key in (
+        ("max_range", "max_range_m"),
+        ("scan_topic", "scan_topic"),
+        ("pose_topic", "pose_topic"),
+    ):
         if getattr(args, name) is not None:
-            reader_kwargs[name] = getattr(args, name)
+            reader_kwargs[key] = getattr(args, name)
     if args.allow_missing_pose:
         reader_kwargs["allow_missing_pose"] = True
     check_outputs(_replay_claims(args), command="replay", option=OUT_OPTION)

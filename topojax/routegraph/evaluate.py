@@ -207,8 +207,8 @@ def evaluate_route_graph(
     ----------
     graph : networkx.Graph or networkx.MultiGraph
         Undirected.  Vertices carry ``world`` ((x, y) metres; further entries ignored) or
-        ``pixel`` ((row, col)); edges carry a ``world`` (K, 2) polyline in metres or are
-        straight segments between their vertices.
+        ``pixel`` ((row, col)); edges carry a ``waypoints`` or else a ``world`` (K, 2)
+        polyline in metres, or are straight segments between their vertices.
     occupancy : OccupancyMap, str or Path
         The map the graph was made for (or its file).  A graph that records its map's
         ``shape``, ``resolution_m`` and ``origin`` (a route graph) must be scored on that

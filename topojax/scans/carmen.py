@@ -198,7 +198,7 @@ def _warn_if_no_sentinel(
         warnings.warn(
             f"{path}: {best} m is taken as the {laser} no-return value, "
             f"so readings from {best - margin:.4g} m up are dropped: {dropped} of {total}; "
-            "if the log has no no-return value, pass max_range (topojax replay --max-range)",
+            "if the log has no no-return value, pass max_range_m (topojax replay --max-range)",
             stacklevel=3,
         )
 
@@ -210,7 +210,7 @@ def _warn_if_faulty(path: Path, laser: str, faulty: np.ndarray, sentinel: float)
         warnings.warn(
             f"{path}: readings above the log's no-return value {sentinel} m (up to "
             f"{faulty.max():.6g} m) in {faulty.size} {laser} scan(s) are taken as faulty and "
-            "dropped (pass max_range, topojax replay --max-range, to keep them)",
+            "dropped (pass max_range_m, topojax replay --max-range, to keep them)",
             stacklevel=3,
         )
 
@@ -218,7 +218,7 @@ def _warn_if_faulty(path: Path, laser: str, faulty: np.ndarray, sentinel: float)
 def read_carmen(
     path: str | Path,
     *,
-    max_range: float | None = None,
+    max_range_m: float | None = None,
     laser: str = "auto",
     no_return_margin_m: float = CARMEN_NO_RETURN_MARGIN_M,
     sensor_offset: PoseLike | None = None,
@@ -254,8 +254,8 @@ def read_carmen(
     ----------
     path : str or Path
         The log file.
-    max_range : float, optional
-        Readings ``>= max_range`` (m) are "no return". By default: for FLASER/RLASER, a
+    max_range_m : float, optional
+        Readings ``>= max_range_m`` (m) are "no return". By default: for FLASER/RLASER, a
         first pass over the file finds the no-return value ``R``, the largest reading that
         is (within the margin) the largest of at least 5 % of the scans, and at least three
         (readings far above it in a few scans are faulty: dropped, with a warning; with no
@@ -272,7 +272,7 @@ def read_carmen(
     no_return_margin_m : float, optional
         Width of the no-return band below the no-return value (default 0.2 m; the
         no-return readings of one log are not all identical, see
-        :data:`CARMEN_NO_RETURN_MARGIN_M`). Ignored when ``max_range`` is given.
+        :data:`CARMEN_NO_RETURN_MARGIN_M`). Ignored when ``max_range_m`` is given.
     sensor_offset : array_like, shape (3,), optional
         Override of the sensor pose in the robot frame. Default: zero for FLASER/RLASER with a
         pose; computed from the line for ROBOTLASER; for scans posed from ODOM, the
@@ -296,31 +296,31 @@ def read_carmen(
     """
     p = existing_file("path", path)
     one_of("laser", laser, ("auto", *_CARMEN_LASERS))
-    if max_range is not None:
-        max_range = real_number("max_range", max_range, allow_inf=True)
-        if max_range <= 0:
-            raise ValueError(f"max_range: expected a value > 0 m, got {max_range!r}")
+    if max_range_m is not None:
+        max_range_m = real_number("max_range_m", max_range_m, allow_inf=True)
+        if max_range_m <= 0:
+            raise ValueError(f"max_range_m: expected a value > 0 m, received {max_range_m!r}")
     margin = real_number("no_return_margin_m", no_return_margin_m)
     if margin < 0:
         raise ValueError(f"no_return_margin_m: expected a value >= 0 m, got {margin!r}")
     offset_override = None if sensor_offset is None else _pose3("sensor_offset", sensor_offset)
-    return _iter_carmen(p, max_range, laser, margin, offset_override)
+    return _iter_carmen(p, max_range_m, laser, margin, offset_override)
 
 
 def _iter_carmen(
     path: Path,
-    max_range: float | None,
+    max_range_m: float | None,
     laser: str,
     margin: float,
     offset_override: tuple[float, float, float] | None,
 ) -> Iterator[Scan]:
-    need_max = max_range is None and laser in ("auto", *_OLD_LASERS)
+    need_max = max_range_m is None and laser in ("auto", *_OLD_LASERS)
     survey = _survey_carmen(path, laser, need_max)
     chosen, params = survey.chosen, survey.params
     if chosen is None:
         raise ValueError(f"{path}: no laser lines found (looked for {', '.join(_CARMEN_LASERS)})")
     old = chosen in _OLD_LASERS
-    range_max_old: float | None = max_range
+    range_max_old: float | None = max_range_m
     if old and range_max_old is None:
         if not survey.scan_max.size:
             raise ValueError(f"{path}: no finite {chosen} range readings to find the max range")
@@ -331,7 +331,7 @@ def _iter_carmen(
         if range_max_old <= 0:
             raise ValueError(
                 f"{path}: {chosen} no-return value {file_max} m minus no_return_margin_m "
-                f"{margin} m is not positive; pass max_range"
+                f"{margin} m is not positive; pass max_range_m"
             )
     odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
@@ -350,7 +350,7 @@ def _iter_carmen(
                 if old:
                     scan = _old_laser_scan(tokens, range_max_old, offset_override, odom)
                 else:
-                    scan = _new_laser_scan(tokens, chosen, max_range, offset_override, odom)
+                    scan = _new_laser_scan(tokens, chosen, max_range_m, offset_override, odom)
                 if scan is None:  # posed from ODOM, before the first ODOM line
                     skipped += 1
                     continue
@@ -451,7 +451,7 @@ def _old_laser_scan(
 def _new_laser_scan(
     tokens: list[str],
     chosen: str,
-    max_range: float | None,
+    max_range_m: float | None,
     offset_override: tuple[float, float, float] | None,
     odom: _OdomPoses,
 ) -> Scan | None:
@@ -459,7 +459,7 @@ def _new_laser_scan(
     ODOM."""
     cfg, ranges, k = _parse_new_laser_head(tokens)
     angle_min, inc = float(cfg[0]), float(cfg[2])
-    rmax = float(cfg[3]) if max_range is None else max_range
+    rmax = float(cfg[3]) if max_range_m is None else max_range_m
     if chosen in _ROBOT_LASERS:
         _need(tokens, k + 12, "laser pose, robot pose, 5 fields and timestamp")
         nums = _floats(tokens[k : k + 12], "poses / timestamp")
