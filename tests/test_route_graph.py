@@ -974,3 +974,17 @@ def test_snap_and_tolerance_that_leave_no_reach_are_refused():
         ValueError, match=r"^snap_m: expected at least waypoint_tolerance_m \+ 1.5 pixels"
     ):
         tj.route_graph(m, config=tight)
+
+
+def test_a_radius_under_one_and_a_half_pixels_is_refused():
+    """Closer to the obstacles than 1.5 pixels a path squeezes between the corners of
+    single obstacle pixels (a map's speckle), where no waypoint segment is safe."""
+    m = tj.load_map(tj.datasets.sample_map_path("office"))
+    res = m.resolution_m
+    for radius in (0.0, res, 1.4 * res):
+        with pytest.raises(
+            ValueError, match=r"^robot_radius_m: expected at least 1.5 pixels of the map"
+        ):
+            route_graph(m, robot_radius_m=radius)
+    g = route_graph(m, robot_radius_m=1.5 * res)
+    assert tj.evaluate_route_graph(g, m, 1.5 * res, n_pairs=50).unsafe_share == 0.0

@@ -192,3 +192,31 @@ def test_line_into_rounds_the_exact_line_halves_away_from_the_start():
         out = np.zeros((n + 1, 2), np.int64)
         assert line_into(r0, c0, r1, c1, out) == n + 1
         assert [tuple(p) for p in out.tolist()] == want
+
+
+def test_contracting_a_merged_cluster_goes_round_the_pixel_it_rings():
+    """A junction cluster's members ring the obstacle pixel (5, 5); the two edges that
+    met it at (5, 4) and (5, 6) join through the ring, never across (5, 5)."""
+    ring = [(4, 4), (4, 5), (4, 6), (5, 6), (6, 6), (6, 5), (6, 4), (5, 4)]
+    work = WorkGraph()
+    work.add_vertex((5, 4), np.array(ring))
+    work.add_vertex((5, 0))
+    work.add_vertex((5, 10))
+    work.add_edge(1, 0, line_pixels((5, 0), (5, 4)))
+    work.add_edge(0, 2, line_pixels((5, 6), (5, 10)))
+    work.contract(0)
+    ((u, v, path),) = work.edges.values()
+    assert {u, v} == {1, 2}
+    cells = {tuple(p) for p in path}
+    assert (5, 5) not in cells and cells <= {(5, c) for c in range(11)} | set(ring)
+    assert np.abs(np.diff(path.astype(int), axis=0)).max() <= 1  # 8-connected
+    assert len(path) == 11  # (5, 0)..(5, 4), (4, 5) or (6, 5), (5, 6)..(5, 10)
+
+
+def test_member_bridge_stays_on_the_members_or_gives_none():
+    from topojax.graph.work import member_bridge
+
+    ring = np.array([(0, 0), (0, 1), (0, 2), (1, 2), (2, 2)])
+    assert member_bridge((0, 0), (2, 2), ring).tolist() == [[0, 0], [0, 1], [1, 2], [2, 2]]
+    assert member_bridge((0, 0), (5, 5), ring) is None  # the end is no member
+    assert member_bridge((0, 0), (2, 2), ring[[0, 4]]) is None  # not joined

@@ -99,12 +99,47 @@ def path_length_px(path: np.ndarray) -> float:
     return float(_path_length(np.asarray(path)))
 
 
-def join_paths(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def member_bridge(start, end, members: np.ndarray) -> np.ndarray | None:
+    """The shortest 8-connected path (K, 2) int32 from pixel ``start`` to pixel ``end``
+    through the pixels of ``members`` (both ends included), or None where there is none.
+    A merged junction cluster's members may ring a pixel that is not free: a straight
+    line between two of them could cross it, a path through them cannot."""
+    inside = {(int(r), int(c)) for r, c in np.asarray(members).reshape(-1, 2)}
+    start, end = (int(start[0]), int(start[1])), (int(end[0]), int(end[1]))
+    if start not in inside or end not in inside:
+        return None
+    came = {start: start}
+    frontier = [start]
+    while frontier and end not in came:
+        nxt = []
+        for r, c in frontier:
+            for dr, dc in _STEPS:
+                q = (r + dr, c + dc)
+                if q in inside and q not in came:
+                    came[q] = (r, c)
+                    nxt.append(q)
+        frontier = nxt
+    if end not in came:
+        return None
+    out = [end]
+    while out[-1] != start:
+        out.append(came[out[-1]])
+    return np.array(out[::-1], np.int32)
+
+
+#: 8-neighbour steps, the straight ones first (a shortest path prefers them).
+_STEPS = ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1))
+
+
+def join_paths(a: np.ndarray, b: np.ndarray, members: np.ndarray | None = None) -> np.ndarray:
     """``a`` followed by ``b``, bridging a gap between ``a``'s last and ``b``'s first pixel
-    with a straight line (the two ends are pixels of one vertex)."""
+    (two pixels of one vertex) through the vertex's ``members`` where they join them,
+    else with a straight line."""
     if a[-1, 0] == b[0, 0] and a[-1, 1] == b[0, 1]:
         return np.concatenate([a, b[1:]])
-    bridge = line_pixels(a[-1], b[0])
+    bridge = None if members is None else member_bridge(a[-1], b[0], members)
+    if bridge is None:
+        bridge = line_pixels(a[-1], b[0])
     return np.concatenate([a, bridge[1:-1], b])
 
 
@@ -185,7 +220,7 @@ class WorkGraph:
         a, b = self.other(e1, v), self.other(e2, v)
         if a == v or b == v:
             return False
-        path = join_paths(self.oriented_path(e1, a), self.oriented_path(e2, v))
+        path = join_paths(self.oriented_path(e1, a), self.oriented_path(e2, v), self.members[v])
         self.remove_edge(e1)
         self.remove_edge(e2)
         self.add_edge(a, b, path)

@@ -241,8 +241,21 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
 MIN_REACH_PX = 1.5
 
 
+#: The least robot radius in pixels of the map: a smaller robot's paths squeeze between
+#: the corners of single obstacle pixels, which a waypoint polyline cannot follow safely.
+MIN_RADIUS_PX = 1.5
+
+
 def _check_reach(cfg: RouteGraphConfig, res: float) -> None:
-    """Refuse a ``snap_m`` too small for the map's resolution (see MIN_REACH_PX)."""
+    """Refuse a robot radius or a ``snap_m`` too small for the map's resolution (see
+    MIN_RADIUS_PX and MIN_REACH_PX)."""
+    if cfg.robot_radius_m / res < MIN_RADIUS_PX:
+        raise ValueError(
+            f"robot_radius_m: expected at least {MIN_RADIUS_PX:g} pixels of the map "
+            f"({MIN_RADIUS_PX * res:g} m at {res:g} m per pixel), received "
+            f"{cfg.robot_radius_m!r}; below that the graph's paths would squeeze between "
+            "single obstacle pixels"
+        )
     if (cfg.snap_m - cfg.waypoint_tolerance_m) / res < MIN_REACH_PX:
         least = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
         raise ValueError(
