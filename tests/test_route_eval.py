@@ -274,6 +274,8 @@ def test_a_point_robot_is_scored_on_the_free_space():
         ({"generation_s": float("nan")}, ValueError, "generation_s"),
         ({"coordinates": "polar"}, ValueError, "coordinates"),
         ({"entry": "any"}, ValueError, "entry"),
+        ({"snap_m": 1e9}, ValueError, "snap_m: expected at most 5 m"),
+        ({"n_pairs": 10**9}, ValueError, "n_pairs: expected at most 100,000"),
     ],
 )
 def test_bad_arguments_name_the_parameter(kwargs, exc, words):
@@ -481,3 +483,26 @@ def test_a_route_graph_is_scored_only_on_its_own_map(tmp_path):
     by_map = tj.evaluate_route_graph(rg, m, robot_radius_m=0.3, n_pairs=20)
     same = ("success_rate", "stretch_median", "stretch_p90", "unsafe_share", "uncovered_share")
     assert [getattr(by_file, k) for k in same] == [getattr(by_map, k) for k in same]
+
+
+def test_a_graph_far_outside_its_map_is_refused_by_name():
+    """A vertex or waypoint in another frame or unit (kilometres off) would be densified
+    pixel by pixel; it is named instead."""
+    m = _map(np.zeros((40, 40), bool))
+    far = nx.Graph()
+    far.add_node("a", world=(1.0, 1.0))
+    far.add_node("b", world=(1e12, 1.0))
+    far.add_edge("a", "b")
+    with pytest.raises(ValueError, match=r"^graph: vertex 'b' lies at pixel .*map's own size"):
+        evaluate_route_graph(far, m, RADIUS)
+    bent = nx.Graph()
+    bent.add_node(0, world=(0.5, 0.5))
+    bent.add_node(1, world=(1.5, 0.5))
+    bent.add_edge(0, 1, waypoints=np.array([[0.5, 0.5], [1e6, 1e6], [1.5, 0.5]]))
+    with pytest.raises(ValueError, match=r"^graph: edge \(0, 1\) runs to pixel"):
+        evaluate_route_graph(bent, m, RADIUS)
+    near = nx.Graph()  # up to the map's size beyond its border is fine
+    near.add_node(0, world=(0.5, 0.5))
+    near.add_node(1, world=(1.5, 0.5))
+    near.add_edge(0, 1, waypoints=np.array([[0.5, 0.5], [-1.0, 0.5], [1.5, 0.5]]))
+    assert evaluate_route_graph(near, m, RADIUS, n_pairs=5).vertices == 2

@@ -988,3 +988,15 @@ def test_a_radius_under_one_and_a_half_pixels_is_refused():
             route_graph(m, robot_radius_m=radius)
     g = route_graph(m, robot_radius_m=1.5 * res)
     assert tj.evaluate_route_graph(g, m, 1.5 * res, n_pairs=50).unsafe_share == 0.0
+
+
+def test_too_many_shortcut_candidates_are_refused_before_they_fill_memory(monkeypatch):
+    """A small ``snap_m`` on a large map makes a dense graph whose node pairs within the
+    shortcut radius would take gigabytes: counted first, and refused over the limit."""
+    import topojax.routegraph._cover as cover
+
+    m = tj.load_map(tj.datasets.sample_map_path("office"))
+    monkeypatch.setattr(cover, "MAX_SHORTCUT_PAIRS", 1000)
+    with pytest.raises(ValueError, match=r"^shortcut_radius_m: [\d,]+ pairs of the graph's"):
+        route_graph(m, robot_radius_m=0.3)
+    assert route_graph(m, robot_radius_m=0.3, config=RouteGraphConfig(shortcut_radius_m=0.0))

@@ -324,6 +324,11 @@ def _in_sorted(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
     return sorted_keys[at] == keys
 
 
+#: The most shortcut candidate pairs (node pairs within the shortcut radius) a graph may
+#: have: about 100 bytes each on their way through the filters, some 3 GB in all.
+MAX_SHORTCUT_PAIRS = 30_000_000
+
+
 def add_shortcuts(
     work: WorkGraph,
     feasible: np.ndarray,
@@ -364,7 +369,16 @@ def add_shortcuts(
     index = {v: k for k, v in enumerate(alive)}
     ends = np.array([(index[u], index[v]) for u, v, _ in work.edges.values()], np.int64)
     vert_key = np.sort(np.r_[ends[:, 0] * m + ends[:, 1], ends[:, 1] * m + ends[:, 0]])
-    pairs = cKDTree(pos).query_pairs(radius_px, output_type="ndarray").reshape(-1, 2)
+    tree = cKDTree(pos)
+    n_pairs = (int(tree.count_neighbors(tree, radius_px)) - m) // 2
+    if n_pairs > MAX_SHORTCUT_PAIRS:
+        raise ValueError(
+            f"shortcut_radius_m: {n_pairs:,} pairs of the graph's {m:,} vertices and anchors "
+            f"lie within it, expected at most {MAX_SHORTCUT_PAIRS:,} (each takes about 100 "
+            "bytes); use a smaller shortcut_radius_m, or a larger snap_m or "
+            "shortcut_spacing_m (fewer vertices and anchors)"
+        )
+    pairs = tree.query_pairs(radius_px, output_type="ndarray").reshape(-1, 2)
     a, b = pairs[:, 0], pairs[:, 1]
     # no shortcut along one edge or round one vertex (it would cut a bend or a corner into
     # a thin loop around nothing); at least one end a vertex: a shortcut between two

@@ -216,6 +216,35 @@ def _densify(polys: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return rc, edge, s, is_end
 
 
+def _rc(point: np.ndarray) -> str:
+    return f"({float(point[0]):.6g}, {float(point[1]):.6g})"
+
+
+def _check_near_map(polys, pos, nodes, keys, shape) -> None:
+    """Refuse a vertex or polyline point farther outside the map than the map's own size
+    (a graph in another frame or unit; it would be densified pixel by pixel)."""
+    h, w = shape
+    lo, hi = np.array([-h, -w], float), np.array([2 * h, 2 * w], float)
+
+    def far(rc: np.ndarray) -> np.ndarray:
+        return ~np.all((rc >= lo) & (rc <= hi), axis=-1)
+
+    where = None
+    bad = np.flatnonzero(far(pos))
+    if bad.size:
+        where = f"vertex {nodes[bad[0]]!r} lies at pixel {_rc(pos[bad[0]])}"
+    else:
+        for key, poly in zip(keys, polys, strict=True):
+            if far(poly).any():
+                where = f"edge {key!r} runs to pixel {_rc(poly[far(poly)][0])}"
+                break
+    if where is not None:
+        raise ValueError(
+            f"graph: {where}, expected within the map's own size of the map ({h} x {w} "
+            "pixels): is the graph in the map's frame and in metres?"
+        )
+
+
 def graph_geometry(graph: nx.Graph, occupancy, coordinates: str) -> GraphGeometry:
     """The :class:`GraphGeometry` of ``graph`` on ``occupancy``.
 
@@ -248,6 +277,7 @@ def graph_geometry(graph: nx.Graph, occupancy, coordinates: str) -> GraphGeometr
         pos[np.array(us, np.int64)].reshape(-1, 2),
         pos[np.array(vs, np.int64)].reshape(-1, 2),
     )
+    _check_near_map(polys, pos, nodes, [key for key, *_ in items], occupancy.shape)
     n_edges = len(polys)
     edge_len = _lengths(polys)
     isolated = [index[n] for n in nodes if graph.degree(n) == 0]

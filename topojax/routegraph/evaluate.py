@@ -40,6 +40,10 @@ __all__ = ["RouteGraphReport", "evaluate_route_graph"]
 SHORT_LOOP_M = 4.0
 #: Dead ends whose edge is shorter than this (metres) count as short.
 SHORT_DEAD_END_M = 1.0
+#: The largest ``snap_m`` (metres): every route end checks the graph points within it.
+MAX_SNAP_M = 5.0
+#: The most pairs (each source's geodesic search covers its region).
+MAX_PAIRS = 100_000
 
 
 @dataclass(frozen=True)
@@ -99,7 +103,14 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
         raise ValueError(f"occupancy: {why}")
     radius = nonnegative_metres("robot_radius_m", radius)
     snap_m = positive_metres("snap_m", snap_m)
+    if snap_m > MAX_SNAP_M:
+        raise ValueError(
+            f"snap_m: expected at most {MAX_SNAP_M:g} m (how far a route may run off the "
+            f"graph to join it; the work grows with its square), received {snap_m!r}"
+        )
     n_pairs = positive_int("n_pairs", n_pairs)
+    if n_pairs > MAX_PAIRS:
+        raise ValueError(f"n_pairs: expected at most {MAX_PAIRS:,}, received {n_pairs:,}")
     seed = integer("seed", seed)
     min_region_m2 = nonnegative_quantity("min_region_m2", min_region_m2, "square metres")
     gen = (
@@ -216,8 +227,8 @@ def evaluate_route_graph(
     robot_radius_m : float
         Robot radius in metres (>= 0; 0: a point robot, the free space is feasible).
     snap_m : float
-        Largest distance (metres, > 0) from a point to the graph point it snaps to, and the
-        coverage distance.
+        Largest distance (metres, > 0, at most :data:`MAX_SNAP_M`) from a point to the
+        graph point it snaps to, and the coverage distance.
     entry : {"nearest", "best"}
         Where a route joins the graph: ``"nearest"``, at the nearest graph point each end
         sees within ``snap_m``; ``"best"``, at the nearest point it sees of whichever
@@ -225,7 +236,7 @@ def evaluate_route_graph(
         ``RoutePlanner(graph, occupancy=map)`` on a route graph, which also keeps the
         nearest point when it is out of sight).
     n_pairs : int
-        Number of pairs (>= 1).
+        Number of pairs (>= 1, at most :data:`MAX_PAIRS`).
     seed : int
         Seed of the pair sampling.
     min_region_m2 : float
