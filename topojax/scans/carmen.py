@@ -70,7 +70,7 @@ def _parse_old_laser(tokens: list[str]) -> tuple[np.ndarray, np.ndarray | None, 
     _need(tokens, 2 + n, f"{n} ranges")
     ranges = _floats(tokens[2 : 2 + n], "range reading")
     rest = len(tokens) - 2 - n
-    if rest >= 9:
+    if rest == 9:  # more would shift every field: a wrong beam count
         nums = _floats(tokens[2 + n : 9 + n], "pose / odometry / timestamp")
         if not np.all(np.isfinite(nums[:3])):
             raise _CarmenLineError(f"pose: expected finite x y theta, got {nums[:3].tolist()}")
