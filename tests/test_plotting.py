@@ -275,3 +275,29 @@ def test_route_graph_picture_shows_the_feasible_space_and_the_waypoints():
     with pytest.raises(ValueError, match="robot_radius_m"):
         plot_route_graph(g, occ)
     plt.close("all")
+
+
+def test_route_graph_picture_of_any_graph_the_evaluator_scores():
+    """A graph of another generator (SWAGGER's: world vertices, bare edges) is drawn as the
+    evaluator reads it: straight segments between the vertices' world positions."""
+    import networkx as nx
+
+    from topojax.plotting import plot_route_graph
+
+    occ = tj.sample_map("intel")
+    g = nx.Graph()
+    g.add_node("a", world=(5.0, 5.0))
+    g.add_node("b", world=(10.0, 6.0))
+    g.add_node("c", pixel=(100, 100))
+    g.add_edge("a", "b")
+    g.add_edge("b", "c", world=np.array([[10.0, 6.0], [8.0, 20.0]]))
+    ax = plot_route_graph(g, occ, robot_radius_m=0.3)
+    segments = [c for c in ax.collections if isinstance(c, LineCollection)][0].get_segments()
+    rows, cols = occ.world_to_pixel(np.array([5.0, 10.0]), np.array([5.0, 6.0]))
+    np.testing.assert_allclose(segments[0], np.stack([cols, rows], 1))
+    assert len(segments[1]) == 2
+    plt.close(ax.figure)
+    g.add_node("d")
+    with pytest.raises(ValueError, match=r"^graph: expected a 'pixel' \(row, col\) or 'world'"):
+        plot_route_graph(g, occ, robot_radius_m=0.3)
+    plt.close("all")

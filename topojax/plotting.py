@@ -423,14 +423,32 @@ def plot_route(route, *, ax=None, color="#d62728", linewidth: float = 3.0, title
     return ax
 
 
+def _vertex_col_row(node, d: dict, occupancy) -> tuple[float, float]:
+    """A vertex's ``(col, row)``: its ``pixel``, else its ``world`` (x, y) on ``occupancy``."""
+    if "pixel" in d:
+        return float(d["pixel"][1]), float(d["pixel"][0])
+    if "world" in d:
+        rows, cols = occupancy.world_to_pixel(float(d["world"][0]), float(d["world"][1]))
+        return float(cols), float(rows)
+    raise ValueError(
+        f"graph: expected a 'pixel' (row, col) or 'world' (x, y) position on every vertex, "
+        f"received vertex {node!r} with {sorted(d) or 'no attributes'}"
+    )
+
+
 def route_graph_lines(graph, occupancy) -> list[np.ndarray]:
     """Each edge of ``graph`` as a (K, 2) float array of ``(col, row)`` pixel coordinates of
-    ``occupancy``: its ``waypoints`` (world, metres) where it has them, else its ``path``."""
+    ``occupancy``: its ``waypoints`` (world, metres) where it has them, else its ``path``
+    (pixels), else its ``world`` polyline, else the segment between its vertices."""
     lines = []
-    for _, _, d in graph.edges(data=True):
-        pts = d.get("waypoints")
-        if pts is None:
+    for u, v, d in graph.edges(data=True):
+        if d.get("waypoints") is None and d.get("world") is None and d.get("path") is not None:
             lines.append(np.asarray(d["path"], float).reshape(-1, 2)[:, ::-1])
+            continue
+        pts = d.get("waypoints") if d.get("waypoints") is not None else d.get("world")
+        if pts is None:
+            ends = [_vertex_col_row(n, graph.nodes[n], occupancy) for n in (u, v)]
+            lines.append(np.array(ends, float))
             continue
         xy = np.asarray(pts, np.float64).reshape(-1, 2)
         rows, cols = occupancy.world_to_pixel(xy[:, 0], xy[:, 1])
@@ -456,8 +474,9 @@ def plot_route_graph(
     Parameters
     ----------
     graph : networkx.MultiGraph
-        From :func:`topojax.route_graph` (or any graph with vertex ``pixel`` and edge
-        ``waypoints`` in metres or ``path`` in pixels).
+        From :func:`topojax.route_graph`, or any graph :func:`topojax.evaluate_route_graph`
+        scores: vertex ``pixel`` or ``world``; edge ``waypoints`` or ``world`` in metres,
+        ``path`` in pixels, or none (a straight segment).
     occupancy : OccupancyMap, str or Path
         The map the graph was built on (or its file): the one whose shape, resolution and
         origin the graph records.
@@ -500,7 +519,9 @@ def plot_route_graph(
     rgba = np.zeros(margin.shape + (4,), np.uint8)
     rgba[margin] = (*(round(255 * c) for c in _hex_rgb(_MARGIN_COLOUR)), 255)
     _imshow_pooled(ax, rgba, margin.shape, 1)
-    points = _vertices_by_kind(graph)
+    points: dict[str, list] = {}
+    for node, d in graph.nodes(data=True):
+        points.setdefault(d.get("kind"), []).append(_vertex_col_row(node, d, occupancy))
     draw_graph_lines(
         ax,
         route_graph_lines(graph, occupancy),
