@@ -54,16 +54,16 @@ def test_real_number_accepts_numbers_and_0d_arrays(value):
 def test_real_number_infinity_only_when_allowed():
     assert v.real_number("range_max", INF, allow_inf=True) == INF
     assert v.real_number("range_max", np.float32(-INF), allow_inf=True) == -INF
-    with pytest.raises(ValueError, match="range_max: expected a finite number, got inf"):
+    with pytest.raises(ValueError, match="range_max: expected a finite number, received inf"):
         v.real_number("range_max", INF)
     for allow_inf in (False, True):
-        with pytest.raises(ValueError, match="range_max: expected .*got nan"):
+        with pytest.raises(ValueError, match="range_max: expected .*received nan"):
             v.real_number("range_max", NAN, allow_inf=allow_inf)
 
 
 @pytest.mark.parametrize("value", [True, np.bool_(True), "0", None, [1.0], np.array([1.0])])
 def test_real_number_rejects_non_numbers_with_type_error(value):
-    with pytest.raises(TypeError, match="^angle: expected a real number, got "):
+    with pytest.raises(TypeError, match="^angle: expected a real number, received "):
         v.real_number("angle", value)
 
 

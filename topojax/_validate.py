@@ -74,11 +74,13 @@ def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name}: expected a real number, got {type(value).__name__} {value!r}")
+        raise TypeError(
+            f"{name}: expected a real number, received {type(value).__name__} {value!r}"
+        )
     out = float(value)
     if math.isnan(out) or (math.isinf(out) and not allow_inf):
         expected = "a number, not NaN" if allow_inf else "a finite number"
-        raise ValueError(f"{name}: expected {expected}, got {out!r}")
+        raise ValueError(f"{name}: expected {expected}, received {out!r}")
     return out
 
 

@@ -12,7 +12,14 @@ import cv2
 import networkx as nx
 import numpy as np
 
-from .._validate import flag, instance_or_default, nonnegative_metres, positive_metres, quantity
+from .._validate import (
+    flag,
+    instance_or_default,
+    nonnegative_metres,
+    positive_metres,
+    quantity,
+    real_number,
+)
 from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph, paused_gc
 from ..graph.work import (
@@ -114,7 +121,9 @@ class RouteGraphConfig:
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name in ("shortcuts_from_dead_ends", "shortcuts_round_corners"):
+            if f.name == "shortcut_stretch":
+                value = real_number(f.name, value)  # >= 1, checked below
+            elif f.name in ("shortcuts_from_dead_ends", "shortcuts_round_corners"):
                 value = flag(f.name, value)
             elif f.name in ("snap_m", "waypoint_tolerance_m"):
                 value = positive_metres(f.name, value)
@@ -126,7 +135,8 @@ class RouteGraphConfig:
             object.__setattr__(self, f.name, value)
         if self.shortcut_stretch < 1.0:
             raise ValueError(
-                f"shortcut_stretch: expected a number >= 1, received {self.shortcut_stretch!r}"
+                f"shortcut_stretch: expected a finite number >= 1, received "
+                f"{self.shortcut_stretch!r}"
             )
         if self.waypoint_tolerance_m > 0.5 * self.snap_m:
             raise ValueError(
