@@ -257,6 +257,13 @@ def test_pose_rejects(value):
         v.pose("origin", value)
 
 
+def test_pose_refuses_an_origin_where_metres_no_longer_resolve():
+    assert v.pose("origin", (-1e9, 6.1e6, 0.5)) == (-1e9, 6.1e6, 0.5)  # UTM-like: fine
+    for value in ((1e300, 0, 0), (0, -2e9, 0)):
+        with pytest.raises(ValueError, match=r"^origin must .* within 1e\+09 m of 0"):
+            v.pose("origin", value)
+
+
 def test_occupancy_thresholds():
     assert v.occupancy_thresholds(0.65, np.float32(0.25)) == (0.65, 0.25)
     assert v.occupancy_thresholds(1, 0) == (1.0, 0.0)

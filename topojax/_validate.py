@@ -142,20 +142,29 @@ def metres_per_pixel(name: str, value: Any) -> float:
     return quantity(name, value, unit="metres per pixel", allow_zero=False)
 
 
+#: The largest map origin coordinate (metres): beyond it a float64 world coordinate no
+#: longer resolves a millimetre.
+MAX_ORIGIN_M = 1e9
+
+
 def pose(name: str, value: Any) -> tuple[float, float, float]:
     """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
-    finite numbers (a map origin); a ``ValueError`` otherwise."""
+    finite numbers (a map origin), ``x`` and ``y`` at most :data:`MAX_ORIGIN_M` from 0; a
+    ``ValueError`` otherwise."""
+    expected = f"{name} must be a sequence of 3 finite numbers (x_m, y_m, yaw_rad)"
     try:
         items = list(value)
     except TypeError:
-        raise ValueError(
-            f"{name} must be a sequence of 3 finite numbers (x_m, y_m, yaw_rad), got {value!r}"
-        ) from None
+        raise ValueError(f"{expected}, got {value!r}") from None
     if len(items) != 3 or not all(is_real_number(v) and math.isfinite(float(v)) for v in items):
+        raise ValueError(f"{expected}, got {value!r}")
+    x, y, yaw = (float(v) for v in items)
+    if max(abs(x), abs(y)) > MAX_ORIGIN_M:
         raise ValueError(
-            f"{name} must be a sequence of 3 finite numbers (x_m, y_m, yaw_rad), got {value!r}"
+            f"{expected} with x and y within {MAX_ORIGIN_M:g} m of 0 (where a world "
+            f"coordinate still resolves a millimetre), got {value!r}"
         )
-    return (float(items[0]), float(items[1]), float(items[2]))
+    return (x, y, yaw)
 
 
 def occupancy_thresholds(
