@@ -603,3 +603,14 @@ def test_load_rejects_a_directed_graphml_file(tmp_path: Path):
     nx.write_graphml(nx.DiGraph([(1, 2)]), path)
     with pytest.raises(ValueError, match="directed.graphml holds a directed graph"):
         load_graph(path)
+
+
+def test_output_folder_that_cannot_be_made_names_the_option(tmp_path, monkeypatch):
+    from topojax._fs import output_folder
+
+    def refuse(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(Path, "mkdir", refuse)
+    with pytest.raises(PermissionError, match=r"^\[Errno 13\] --out: cannot make the folder"):
+        output_folder(tmp_path / "x", name="--out")

@@ -29,7 +29,9 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
     """Create the folder ``path`` (and its parents) for outputs and return it.
 
     Raises NotADirectoryError naming ``name`` when ``path``, or a folder above it, is an
-    existing file (``mkdir`` itself only says "File exists" / "Not a directory")."""
+    existing file (``mkdir`` itself only says "File exists" / "Not a directory"), and an
+    OSError naming it when the folder cannot be made (no permission, a read-only or full
+    file system)."""
     folder = Path(path)
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -37,6 +39,10 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
         raise NotADirectoryError(
             f"{name}: expected a folder to write into, but {folder} or a folder above it is "
             "an existing file"
+        ) from None
+    except OSError as exc:
+        raise OSError(
+            exc.errno, f"{name}: cannot make the folder {folder} ({exc.strerror})"
         ) from None
     return folder
 

@@ -141,7 +141,8 @@ class RouteGraphConfig:
         if self.waypoint_tolerance_m > 0.5 * self.snap_m:
             raise ValueError(
                 "waypoint_tolerance_m: expected at most half of snap_m "
-                f"({0.5 * self.snap_m:g} m), received {self.waypoint_tolerance_m!r}"
+                f"({0.5 * self.snap_m:g} m), received {self.waypoint_tolerance_m!r} (or "
+                f"snap_m: at least {2 * self.waypoint_tolerance_m:g} m)"
             )
 
 
