@@ -346,6 +346,24 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     assert "empty route graph: no known-free region" in capsys.readouterr().out
 
 
+def test_replay_refuses_a_route_graph_radius_too_small_for_its_grid_before_mapping(
+    tmp_path, monkeypatch
+):
+    from topojax.cli import main
+
+    def no_scan(self, scan):
+        raise AssertionError("a scan was mapped before the radius was checked")
+
+    monkeypatch.setattr(tj.IncrementalMapper, "add_scan", no_scan)
+
+    log = "tests/data/intel_first40.log.gz"
+    argv = ["replay", log, "-o", str(tmp_path / "cli"), "--no-progress"]
+    assert main([*argv, "--route-graph", "0.3", "--resolution", "0.25"]) == 2
+    assert not (tmp_path / "cli").exists()  # checked before the folder and the scans
+    with pytest.raises(ValueError, match=r"^route_graph_radius_m: expected at least 1.5 pix"):
+        tj.replay(log, out_dir=tmp_path / "api", route_graph_radius_m=0.3, resolution_m=0.25)
+
+
 def _crossings(g: nx.MultiGraph) -> int:
     """Pixels on two different edges' paths farther than the robot radius from every
     vertex."""

@@ -34,7 +34,10 @@ def _check_numbers(args) -> None:
     if args.max_extent_m is not None:
         positive_metres("--max-extent-m", args.max_extent_m)
     if args.route_graph is not None:
-        nonnegative_metres("--route-graph", args.route_graph)
+        from ..routegraph.build import RouteGraphConfig, check_scale
+
+        radius = nonnegative_metres("--route-graph", args.route_graph)
+        check_scale(RouteGraphConfig(robot_radius_m=radius), args.resolution, "--route-graph")
 
 
 def _cmd_replay(args) -> int:

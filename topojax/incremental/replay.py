@@ -209,6 +209,11 @@ def replay(
     )
     out = Path(out_dir)
     scans, mapper, timeline = _start(source, out, reader_kwargs, rooms, view, mapper_kw)
+    if route_graph_radius_m is not None:  # now, not after the whole replay
+        from ..routegraph.build import RouteGraphConfig, check_scale
+
+        config = RouteGraphConfig(robot_radius_m=route_graph_radius_m)
+        check_scale(config, mapper.resolution_m, "route_graph_radius_m")
     with _recorder(mcap) as recorder:
         done = _map_scans(
             mapper,

@@ -186,7 +186,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
 
 def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     """:func:`route_graph` with its options checked."""
-    _check_reach(cfg, occupancy.resolution_m)
+    check_scale(cfg, occupancy.resolution_m)
     t0 = time.perf_counter()
     space = feasible_space(occupancy, cfg.robot_radius_m)
     # the graph is built in the window round the kept regions (with a margin of pixels
@@ -257,12 +257,12 @@ MIN_REACH_PX = 1.5
 MIN_RADIUS_PX = 1.5
 
 
-def _check_reach(cfg: RouteGraphConfig, res: float) -> None:
-    """Refuse a robot radius or a ``snap_m`` too small for the map's resolution (see
-    MIN_RADIUS_PX and MIN_REACH_PX)."""
+def check_scale(cfg: RouteGraphConfig, res: float, radius_name: str = "robot_radius_m") -> None:
+    """Refuse a robot radius or a ``snap_m`` too small for a map of ``res`` metres per
+    pixel (see MIN_RADIUS_PX and MIN_REACH_PX); the radius's error names ``radius_name``."""
     if cfg.robot_radius_m / res < MIN_RADIUS_PX:
         raise ValueError(
-            f"robot_radius_m: expected at least {MIN_RADIUS_PX:g} pixels of the map "
+            f"{radius_name}: expected at least {MIN_RADIUS_PX:g} pixels of the map "
             f"({MIN_RADIUS_PX * res:g} m at {res:g} m per pixel), received "
             f"{cfg.robot_radius_m!r}; below that the graph's paths would squeeze between "
             "single obstacle pixels"
