@@ -9,7 +9,8 @@ CARMEN log replays:
 ``simulated``
     every ``maps/simulated/**/*.yaml`` (Nav2 depot, warehouse, tb3_sandbox; PAL hospital).
 ``slam_pgm``
-    every ``maps/slam_pgm/*.pgm`` (resolution from the file name's PGM comment).
+    every ``maps/slam_pgm/*.pgm`` at the resolution its name ends in (``edmonton_0.06``:
+    0.06 m/px; the data set's README gives the same, and that file's header gives none).
 ``ipa``
     the 20 IPA room-segmentation maps, their 20 ``*_furnitures`` variants (the same
     building with furniture drawn in) and the 9 raw maps, read with ``mode="ipa"`` (grey
@@ -81,6 +82,14 @@ def _ipa(maps: Path) -> list[MapSpec]:
     return specs
 
 
+def _named_resolution(path: Path) -> float:
+    """The resolution (m/px) a map's file name ends in: ``aces_0.10.pgm`` -> 0.1."""
+    try:
+        return float(path.stem.rsplit("_", 1)[1])
+    except (IndexError, ValueError):
+        raise ValueError(f"{path}: expected a name ending in _<metres per pixel>") from None
+
+
 def benchmark_maps(data: Path) -> list[MapSpec]:
     """All benchmark maps found under the shared data folder ``data``, by group then name.
 
@@ -92,7 +101,10 @@ def benchmark_maps(data: Path) -> list[MapSpec]:
         MapSpec(y.stem if y.stem != "map" else y.parent.name, "simulated", y)
         for y in sorted((maps / "simulated").rglob("*.yaml"))
     ]
-    specs += [MapSpec(p.stem, "slam_pgm", p) for p in sorted((maps / "slam_pgm").glob("*.pgm"))]
+    specs += [
+        MapSpec(p.stem, "slam_pgm", p, {"resolution_m": _named_resolution(p)})
+        for p in sorted((maps / "slam_pgm").glob("*.pgm"))
+    ]
     specs += _ipa(maps)
     specs += [MapSpec(p.stem, "paper", p) for p in sorted((maps / "paper").glob("*.png"))]
     logs = data / "logs" / "carmen_corrected"

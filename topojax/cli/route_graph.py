@@ -82,6 +82,7 @@ def _cmd_route_graph(args) -> int:
     from .._validate import nonnegative_metres, positive_metres
     from ..io import save_graph
     from ..maps import load_map
+    from ..maps.files import default_resolution_used
     from ..routegraph import RouteGraphConfig, route_graph
     from ..routegraph.feasible import route_graph_note
 
@@ -123,9 +124,12 @@ def _cmd_route_graph(args) -> int:
     if args.mcap is not None:
         written.append(_recording(occupancy, graph, args.mcap))
     components = _components(graph)
+    assumed = ""
+    if args.resolution_m is None and default_resolution_used(args.map):
+        assumed = ", assumed: the file states none; --resolution sets it"
     print(
         f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
-        f"{occupancy.resolution_m:g} m/px)"
+        f"{occupancy.resolution_m:g} m/px{assumed})"
     )
     print(
         f"route graph {graph.number_of_nodes()} vertices, {graph.number_of_edges()} edges, "

@@ -195,6 +195,21 @@ def load_map(
     )
 
 
+def default_resolution_used(path: str | Path) -> bool:
+    """Whether :func:`load_map` of ``path`` without ``resolution_m`` falls back to
+    ``DEFAULT_RESOLUTION_M``: a plain image (not YAML) whose header states none."""
+    p = Path(path)
+    if p.suffix.lower() in YAML_SUFFIXES:
+        return False
+    if p.suffix.lower() != ".pgm":
+        return True
+    try:
+        comments = _pgm_header(p)[4]
+        return resolution_from_pgm_comments(comments, p) is None
+    except (OSError, ValueError):
+        return True
+
+
 def _pgm_header(path: Path) -> tuple[int, int, int, int, list[str]]:
     """``(width, height, maxval, data offset, comments)`` of a binary PGM."""
     with open(path, "rb") as f:
