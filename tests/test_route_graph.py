@@ -286,8 +286,26 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     assert graph.number_of_edges() > 0 and graph.graph["robot_radius_m"] == 0.2
     report = json.loads((out / "ring_route_report.json").read_text())
     assert report["success_rate"] == 1.0 and report["unsafe_share"] == 0.0
-    assert "route graph" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "route graph" in text
+    # a PNG states no resolution: the line says the 0.05 m/px is assumed, until it is given
+    assert "0.05 m/px, assumed: the file states none; --resolution sets it" in text
+    argv = ["route-graph", str(path), "-o", str(out), "--robot-radius", "0.2"]
+    assert main([*argv, "--resolution", "0.05"]) == 0
+    assert "assumed" not in capsys.readouterr().out
     assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2
+
+
+def test_which_map_files_state_their_resolution(tmp_path):
+    from topojax.maps.files import default_resolution_used
+
+    m = tj.OccupancyMap.from_array(np.zeros((8, 8), bool), resolution_m=0.1)
+    tj.save_map(m, tmp_path / "m.yaml")  # a YAML and a PGM whose comment gives 0.1
+    assert not default_resolution_used(tmp_path / "m.yaml")
+    assert not default_resolution_used(tmp_path / "m.pgm")
+    cv2.imwrite(str(tmp_path / "bare.pgm"), np.full((8, 8), 254, np.uint8))
+    assert default_resolution_used(tmp_path / "bare.pgm")
+    assert default_resolution_used(tmp_path / "bare.png")
 
 
 def test_route_graph_command_explains_an_empty_graph_and_writes_no_nav2_file(tmp_path, capsys):
