@@ -304,7 +304,7 @@ def test_bad_graphs_are_refused():
 def test_geodesic_matches_skimage_mcp_geometric():
     from skimage.graph import MCP_Geometric
 
-    from topojax.routegraph._geodesic import geodesic_from
+    from topojax.graph.geodesic import geodesic_from
 
     rng = np.random.default_rng(1)
     for _ in range(5):
@@ -325,7 +325,7 @@ def test_nearest_path_is_a_shortest_path_to_the_nearest_target():
     in raster order among equally near ones), along feasible 8-connected steps."""
     from skimage.graph import MCP_Geometric
 
-    from topojax.routegraph._geodesic import nearest_path
+    from topojax.graph.geodesic import nearest_path
 
     rng = np.random.default_rng(2)
     for _ in range(60):

@@ -11,6 +11,7 @@ import cv2
 import numpy as np
 
 from .._jit import cached_njit
+from .geodesic import nearest_path
 
 __all__ = [
     "SQRT2",
@@ -101,34 +102,20 @@ def path_length_px(path: np.ndarray) -> float:
 
 def member_bridge(start, end, members: np.ndarray) -> np.ndarray | None:
     """The shortest 8-connected path (K, 2) int32 from pixel ``start`` to pixel ``end``
-    through the pixels of ``members`` (both ends included), or None where there is none.
-    A merged junction cluster's members may ring a pixel that is not free: a straight
-    line between two of them could cross it, a path through them cannot."""
-    inside = {(int(r), int(c)) for r, c in np.asarray(members).reshape(-1, 2)}
-    start, end = (int(start[0]), int(start[1])), (int(end[0]), int(end[1]))
-    if start not in inside or end not in inside:
+    through the pixels of ``members`` (both ends included; :func:`nearest_path`), or None
+    where there is none.  A merged junction cluster's members may ring a pixel that is not
+    free: a straight line between two of them could cross it, a path through them cannot."""
+    rc = np.asarray(members, np.int64).reshape(-1, 2)
+    lo = rc.min(axis=0)
+    mask = np.zeros(tuple(rc.max(axis=0) - lo + 1), bool)
+    mask[rc[:, 0] - lo[0], rc[:, 1] - lo[1]] = True
+    a, b = np.asarray(start, np.int64) - lo, np.asarray(end, np.int64) - lo
+    if not all(0 <= x[k] < mask.shape[k] for x in (a, b) for k in (0, 1)) or not mask[b[0], b[1]]:
         return None
-    came = {start: start}
-    frontier = [start]
-    while frontier and end not in came:
-        nxt = []
-        for r, c in frontier:
-            for dr, dc in _STEPS:
-                q = (r + dr, c + dc)
-                if q in inside and q not in came:
-                    came[q] = (r, c)
-                    nxt.append(q)
-        frontier = nxt
-    if end not in came:
-        return None
-    out = [end]
-    while out[-1] != start:
-        out.append(came[out[-1]])
-    return np.array(out[::-1], np.int32)
-
-
-#: 8-neighbour steps, the straight ones first (a shortest path prefers them).
-_STEPS = ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1))
+    target = np.zeros_like(mask)
+    target[b[0], b[1]] = True
+    path = nearest_path(mask, a, target)
+    return None if path is None else (path + lo).astype(np.int32)
 
 
 def join_paths(a: np.ndarray, b: np.ndarray, members: np.ndarray | None = None) -> np.ndarray:

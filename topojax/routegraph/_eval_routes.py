@@ -13,8 +13,8 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from .._cpus import usable_cpus
+from ..graph.geodesic import geodesic_from
 from ._eval_geometry import GraphGeometry, pixel_lookup
-from ._geodesic import geodesic_from
 
 __all__ = [
     "PairSet",

@@ -9,8 +9,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .._jit import cached_njit
+from ..graph.geodesic import nearest_path
 from ..graph.work import WorkGraph, line_in_mask, line_pixels
-from ._geodesic import nearest_path
 
 __all__ = [
     "attach_points",

@@ -1,6 +1,7 @@
 """Exact 8-connected geodesics inside a pixel mask (moves of 1 and sqrt 2 pixels): lengths
 from one pixel to many (the route-graph evaluator) and the shortest path from one pixel to
-the nearest of a set (joining coverage waypoints to the graph).
+the nearest of a set (joining coverage waypoints to the graph, and the edge ends of a
+merged junction through its pixels).
 
 The search is Dijkstra's with unit-width distance buckets: every move is at least 1 pixel
 long, so once the pixels of bucket ``[k, k + 1)`` are reached, none of them can be improved
