@@ -14,7 +14,6 @@ from ._options import (
     room_config,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
-from .rooms import room_files
 
 
 def _check_numbers(args) -> None:
@@ -97,15 +96,15 @@ def _cmd_replay(args) -> int:
 
 def _replay_claims(args) -> dict:
     """The files :func:`topojax.replay` writes into ``--out`` (the names it uses)."""
-    names = ["graph.graphml", "graph.json", "graph.geojson"]
-    names += ["graph_nav2.geojson"] * bool(args.nav2)
-    names += ["map.yaml", "map.pgm", "timings.json"]
-    names += ["graph.png", "stages.png"] * bool(args.plot)
-    if args.route_graph is not None:
-        names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")]
-    if args.rooms:
-        names += room_files("map")
-    names += ["view.html", "timeline.json.gz"] * bool(args.view)
+    from ..incremental.replay import output_names
+
+    names = output_names(
+        nav2=bool(args.nav2),
+        plot=bool(args.plot),
+        route_graph=args.route_graph is not None,
+        rooms=bool(args.rooms),
+        view=bool(args.view),
+    )
     return planned([Path(args.out) / name for name in names], args.source)
 
 

@@ -587,15 +587,32 @@ def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, li
     return written, messages
 
 
-def optional_outputs() -> list[str]:
-    """The names of the files a replay writes into its folder only with some option
+def output_names(
+    *,
+    nav2: bool = False,
+    plot: bool = False,
+    route_graph: bool = False,
+    rooms: bool = False,
+    view: bool = False,
+) -> list[str]:
+    """The names of the files a replay writes into its folder, with these options on
     (``nav2_tolerance_m``, ``plot``, ``route_graph_radius_m``, ``rooms``, ``view``)."""
     from ..io import ROOM_FILE_SUFFIXES
 
-    names = ["graph_nav2.geojson", "graph.png", "stages.png"]
-    names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")]
-    names += [f"map{suffix}" for suffix in ROOM_FILE_SUFFIXES]
-    return names + ["view.html", "timeline.json.gz"]
+    names = ["graph.graphml", "graph.json", "graph.geojson"]
+    names += ["graph_nav2.geojson"] * nav2
+    names += ["map.yaml", "map.pgm", "timings.json"]
+    names += ["graph.png", "stages.png"] * plot
+    names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")] * route_graph
+    names += [f"map{suffix}" for suffix in ROOM_FILE_SUFFIXES] * rooms
+    return names + ["view.html", "timeline.json.gz"] * view
+
+
+def optional_outputs() -> list[str]:
+    """The names of the files a replay writes only with some option."""
+    always = set(output_names())
+    every = output_names(nav2=True, plot=True, route_graph=True, rooms=True, view=True)
+    return [n for n in every if n not in always]
 
 
 def _remove_stale(out: Path, written: list[Path]) -> list[str]:
