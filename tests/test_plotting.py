@@ -298,6 +298,8 @@ def test_route_graph_picture_of_any_graph_the_evaluator_scores():
     assert len(segments[1]) == 2
     plt.close(ax.figure)
     g.add_node("d")
-    with pytest.raises(ValueError, match=r"^graph: expected a 'pixel' \(row, col\) or 'world'"):
+    with pytest.raises(
+        ValueError, match=r"^graph: expected every vertex to carry a 'world' .* or 'pixel'"
+    ):
         plot_route_graph(g, occ, robot_radius_m=0.3)
     plt.close("all")

@@ -423,23 +423,12 @@ def plot_route(route, *, ax=None, color="#d62728", linewidth: float = 3.0, title
     return ax
 
 
-def _vertex_col_row(node, d: dict, occupancy) -> tuple[float, float]:
-    """A vertex's ``(col, row)``: its ``pixel``, else its ``world`` (x, y) on ``occupancy``."""
-    if "pixel" in d:
-        return float(d["pixel"][1]), float(d["pixel"][0])
-    if "world" in d:
-        rows, cols = occupancy.world_to_pixel(float(d["world"][0]), float(d["world"][1]))
-        return float(cols), float(rows)
-    raise ValueError(
-        f"graph: expected a 'pixel' (row, col) or 'world' (x, y) position on every vertex, "
-        f"received vertex {node!r} with {sorted(d) or 'no attributes'}"
-    )
-
-
 def route_graph_lines(graph, occupancy) -> list[np.ndarray]:
     """Each edge of ``graph`` as a (K, 2) float array of ``(col, row)`` pixel coordinates of
     ``occupancy``: its ``waypoints`` (world, metres) where it has them, else its ``path``
     (pixels), else its ``world`` polyline, else the segment between its vertices."""
+    from .routegraph import vertex_pixels
+
     lines = []
     for u, v, d in graph.edges(data=True):
         if d.get("waypoints") is None and d.get("world") is None and d.get("path") is not None:
@@ -447,8 +436,8 @@ def route_graph_lines(graph, occupancy) -> list[np.ndarray]:
             continue
         pts = d.get("waypoints") if d.get("waypoints") is not None else d.get("world")
         if pts is None:
-            ends = [_vertex_col_row(n, graph.nodes[n], occupancy) for n in (u, v)]
-            lines.append(np.array(ends, float))
+            rows_cols = vertex_pixels(graph, [u, v], occupancy, "auto")
+            lines.append(rows_cols[:, ::-1])
             continue
         xy = np.asarray(pts, np.float64).reshape(-1, 2)
         rows, cols = occupancy.world_to_pixel(xy[:, 0], xy[:, 1])
@@ -497,6 +486,7 @@ def plot_route_graph(
 
     from .maps import map_argument
     from .maps.occupancy import map_mismatch
+    from .routegraph import vertex_pixels
     from .routegraph.feasible import feasible_space
 
     if not isinstance(graph, nx.Graph):
@@ -519,9 +509,10 @@ def plot_route_graph(
     rgba = np.zeros(margin.shape + (4,), np.uint8)
     rgba[margin] = (*(round(255 * c) for c in _hex_rgb(_MARGIN_COLOUR)), 255)
     _imshow_pooled(ax, rgba, margin.shape, 1)
+    nodes = list(graph.nodes)
     points: dict[str, list] = {}
-    for node, d in graph.nodes(data=True):
-        points.setdefault(d.get("kind"), []).append(_vertex_col_row(node, d, occupancy))
+    for node, rc in zip(nodes, vertex_pixels(graph, nodes, occupancy, "auto"), strict=True):
+        points.setdefault(graph.nodes[node].get("kind"), []).append((rc[1], rc[0]))
     draw_graph_lines(
         ax,
         route_graph_lines(graph, occupancy),

@@ -4,6 +4,7 @@ space of a map (:func:`route_graph`), and the metrics that score any route graph
 
 from __future__ import annotations
 
+from ._eval_geometry import vertex_pixels
 from .build import RouteGraphConfig, route_graph
 from .evaluate import RouteGraphReport, evaluate_route_graph
 from .feasible import FeasibleSpace, feasible_space
@@ -15,4 +16,5 @@ __all__ = [
     "evaluate_route_graph",
     "feasible_space",
     "route_graph",
+    "vertex_pixels",
 ]

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-__all__ = ["GraphGeometry", "graph_geometry", "pixel_lookup"]
+__all__ = ["GraphGeometry", "graph_geometry", "pixel_lookup", "vertex_pixels"]
 
 # Polyline ends closer than this (pixels) to their vertex count as lying on it.
 _END_TOL_PX = 1e-6
@@ -63,9 +63,13 @@ def _vertex_point(node, data: dict, coordinates: str) -> tuple[np.ndarray, bool]
     use_world = coordinates == "world" or (coordinates == "auto" and "world" in data)
     key = "world" if use_world else "pixel"
     if key not in data:
+        wanted = {
+            "world": "a 'world' attribute ((x, y) metres)",
+            "pixel": "a 'pixel' attribute ((row, col) pixels)",
+            "auto": "a 'world' ((x, y) metres) or 'pixel' ((row, col) pixels) attribute",
+        }[coordinates]
         raise ValueError(
-            f"graph: expected every vertex to carry a {key!r} attribute "
-            f"({'(x, y) metres' if use_world else '(row, col) pixels'}), vertex {node!r} has "
+            f"graph: expected every vertex to carry {wanted}, vertex {node!r} has "
             f"attributes {sorted(map(str, data))}"
         )
     try:
@@ -80,7 +84,7 @@ def _vertex_point(node, data: dict, coordinates: str) -> tuple[np.ndarray, bool]
     return q[:2], use_world
 
 
-def _positions(graph: nx.Graph, nodes: list, occupancy, coordinates: str) -> np.ndarray:
+def vertex_pixels(graph: nx.Graph, nodes: list, occupancy, coordinates: str) -> np.ndarray:
     """Pixel ``(row, col)`` (float64 (V, 2)) of each of ``nodes``; world positions are
     converted with the map, all at once."""
     pos = np.empty((len(nodes), 2), np.float64)
@@ -265,7 +269,7 @@ def graph_geometry(graph: nx.Graph, occupancy, coordinates: str) -> GraphGeometr
     """
     nodes = list(graph.nodes)
     index = {n: i for i, n in enumerate(nodes)}
-    pos = _positions(graph, nodes, occupancy, coordinates)
+    pos = vertex_pixels(graph, nodes, occupancy, coordinates)
     if graph.is_multigraph():
         items = [((u, v, k), u, v, d) for u, v, k, d in graph.edges(keys=True, data=True)]
     else:
