@@ -9,6 +9,24 @@ import numpy as np
 from ._tiles import _grown
 
 
+def empty_graph_tables(mapper) -> None:
+    """Give ``mapper`` an empty graph, by stable id (ids are never reused): vertex pixel
+    key (``_tiles._pack``), kind code and liveness; edge ends (u <= v) and liveness; each live
+    edge's pixel path (from u to v) as rows [start, start + len) of one int32 (n, 2)
+    pool.  The graph_id tile layer maps pixels back to ids."""
+    mapper._v_key = np.zeros(0, np.int64)
+    mapper._v_code = np.zeros(0, np.int8)
+    mapper._v_alive = np.zeros(0, bool)
+    mapper._e_uv = np.zeros((0, 2), np.int64)
+    mapper._e_alive = np.zeros(0, bool)
+    mapper._e_start = np.zeros(0, np.int64)
+    mapper._e_len = np.zeros(0, np.int64)
+    mapper._pool = np.zeros((0, 2), np.int32)
+    mapper._pool_used = 0  # rows written (live paths and holes)
+    mapper._next_vertex = 0
+    mapper._next_edge = 0
+
+
 def vertex_ids(mapper) -> np.ndarray:
     """Ids of the live vertices, increasing."""
     return np.flatnonzero(mapper._v_alive[: mapper._next_vertex])

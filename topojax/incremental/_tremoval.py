@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._heap import heap_pop, heap_push
 from .._jit import cached_njit
 from ._rethin import _SURVIVOR
 from ._tiles import _locate, _log2, _wrap_into_tile
@@ -31,41 +32,6 @@ def _t_order(rr, cc, h, w, sh):
             return -1
         return hw + cc if rr == 0 else hw + w + cc
     return hw + 2 * w + rr if cc == 0 else hw + 2 * w + h + rr
-
-
-@cached_njit(nogil=True, inline="always")
-def _heap_push(heap, n, key):
-    """Push ``key`` on the binary min-heap ``heap[:n]`` (room for it is the caller's
-    business); returns the new size."""
-    i = n
-    heap[i] = key
-    while i > 0:
-        p = (i - 1) >> 1
-        if heap[p] <= heap[i]:
-            break
-        heap[p], heap[i] = heap[i], heap[p]
-        i = p
-    return n + 1
-
-
-@cached_njit(nogil=True, inline="always")
-def _heap_pop(heap, n):
-    """Pop the smallest key of the binary min-heap ``heap[:n]``; returns it and the new size."""
-    top = heap[0]
-    n -= 1
-    heap[0] = heap[n]
-    i = 0
-    while True:
-        a = 2 * i + 1
-        if a >= n:
-            break
-        if a + 1 < n and heap[a + 1] < heap[a]:
-            a += 1
-        if heap[i] <= heap[a]:
-            break
-        heap[a], heap[i] = heap[i], heap[a]
-        i = a
-    return top, n
 
 
 @cached_njit(nogil=True, inline="always")
@@ -196,7 +162,7 @@ def _t_run(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, heap, out_r, out_c, s
             full = True
             break
         if n_heap and (j == n_todo or heap[0] < todo[j]):
-            o, n_heap = _heap_pop(heap, n_heap)
+            o, n_heap = heap_pop(heap, None, n_heap)
         else:
             o = todo[j]
             j += 1
@@ -240,7 +206,7 @@ def _t_run(skel, tau, grid, g0r, g0c, nbr9, t, bbox, todo, heap, out_r, out_c, s
                 if 0 <= qr < h and 0 <= qc < w:
                     oq = _t_order(qr, qc, h, w, osh)
                     if oq > o:
-                        n_heap = _heap_push(heap, n_heap, oq)
+                        n_heap = heap_push(heap, None, n_heap, oq, 0)
     state[0] = j
     state[1] = n_heap
     state[2] = last

@@ -22,6 +22,7 @@ from ..scans import Scan
 from ._dense_export import dense_layer, distance_map, export_bbox, occupancy_over
 from ._graph_export import export_graph, global_graph, topology_result
 from ._graph_patch import patch_graph
+from ._graph_store import empty_graph_tables
 from ._rays import (
     RAY_BATCH_BEAMS,
     _scan_geometry,
@@ -229,22 +230,7 @@ class IncrementalMapper:
         self._ridge_bbox: tuple[int, int, int, int] | None = None
         self._since_skeleton = 0
         self._since_graph = 0
-        # The graph, by stable id (ids are never reused): vertex pixel key (_pack), kind
-        # code and liveness; edge ends (u <= v) and liveness; each live edge's pixel path
-        # (from u to v) as rows [start, start + len) of one int32 (n, 2) pool (removed
-        # paths leave holes until the pool is compacted).  The graph_id tile layer maps
-        # pixels back to ids.
-        self._v_key = np.zeros(0, np.int64)
-        self._v_code = np.zeros(0, np.int8)
-        self._v_alive = np.zeros(0, bool)
-        self._e_uv = np.zeros((0, 2), np.int64)
-        self._e_alive = np.zeros(0, bool)
-        self._e_start = np.zeros(0, np.int64)
-        self._e_len = np.zeros(0, np.int64)
-        self._pool = np.zeros((0, 2), np.int32)
-        self._pool_used = 0  # rows written (live paths and holes)
-        self._next_vertex = 0
-        self._next_edge = 0
+        empty_graph_tables(self)
         self._export_cache: dict[str, object] = {}
         self._scalars = (
             jnp.float32(config.distance.sigma_px),

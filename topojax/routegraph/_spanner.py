@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from .._heap import heap_pop, heap_push
 from .._jit import cached_njit
 from ..graph.sparse import grown
 from ..graph.work import WorkGraph, line_in_mask
@@ -42,50 +43,16 @@ def _line_length(r0, c0, r1, c1):
 
 
 @cached_njit(nogil=True)
-def _heap_push(hk, hv, size, key, val):
-    i = size
-    hk[i], hv[i] = key, val
-    while i > 0:
-        p = (i - 1) // 2
-        if hk[p] <= hk[i]:
-            break
-        hk[p], hk[i] = hk[i], hk[p]
-        hv[p], hv[i] = hv[i], hv[p]
-        i = p
-    return size + 1
-
-
-@cached_njit(nogil=True)
-def _heap_pop(hk, hv, size):
-    key, val = hk[0], hv[0]
-    size -= 1
-    hk[0], hv[0] = hk[size], hv[size]
-    i = 0
-    while True:
-        left = 2 * i + 1
-        if left >= size:
-            break
-        small = left
-        if left + 1 < size and hk[left + 1] < hk[left]:
-            small = left + 1
-        if hk[i] <= hk[small]:
-            break
-        hk[i], hk[small] = hk[small], hk[i]
-        hv[i], hv[small] = hv[small], hv[i]
-        i = small
-    return key, val, size
-
-
-@cached_njit(nogil=True)
 def _within(head, nxt, to, wt, src, dst, cutoff, dist, stamp, run, hk, hv):
     """Whether the graph (linked adjacency ``head``/``nxt``/``to``/``wt``) has a route
     from ``src`` to ``dst`` of length at most ``cutoff`` (Dijkstra, stopped at it)."""
     if src == dst:
         return True
-    size = _heap_push(hk, hv, 0, 0.0, src)
+    size = heap_push(hk, hv, 0, 0.0, src)
     stamp[src], dist[src] = run, 0.0
     while size > 0:
-        d, u, size = _heap_pop(hk, hv, size)
+        u = hv[0]
+        d, size = heap_pop(hk, hv, size)
         if u == dst:
             return True
         if d > dist[u]:
@@ -98,7 +65,7 @@ def _within(head, nxt, to, wt, src, dst, cutoff, dist, stamp, run, hk, hv):
                 stamp[v], dist[v] = run, nd
                 if size == hk.size:
                     return False  # never reached: the heap holds one entry per edge end
-                size = _heap_push(hk, hv, size, nd, v)
+                size = heap_push(hk, hv, size, nd, v)
             k = nxt[k]
     return False
 
