@@ -209,7 +209,9 @@ _LAZY = {
     "RouteGraphReport": "routegraph",
     "evaluate_route_graph": "routegraph",
     "route_graph": "routegraph",
+    "plot": "plotting",
     "plot_route_graph": "plotting",
+    "plot_stages": "plotting",
     "NoRouteError": "routing",
     "Route": "routing",
     "RoutePlanner": "routing",
@@ -278,18 +280,3 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__) | _SUBMODULES)
-
-
-def plot(result, **kwargs):
-    """Matplotlib overlay of a :class:`TopologyResult`; see :func:`topojax.plotting.plot`."""
-    from .plotting import plot as _plot
-
-    return _plot(result, **kwargs)
-
-
-def plot_stages(result, **kwargs):
-    """Every stage of a :class:`TopologyResult` side by side; see
-    :func:`topojax.plotting.plot_stages`."""
-    from .plotting import plot_stages as _plot_stages
-
-    return _plot_stages(result, **kwargs)

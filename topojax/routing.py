@@ -1,27 +1,7 @@
-"""Routes on a topology graph: from a start point to a goal point along the corridors.
-
-A route graph is only useful once a robot can ask it for a way from where it is to where
-it should go.  The query points rarely lie on the graph, so each is *snapped* to the
-nearest pixel of the graph's corridors (an edge path pixel, or a vertex without edges;
-a merged junction cluster's own pixels need not lie on a path, so a query on one snaps to
-the cluster's nearest path pixel).  Where edges cross or touch, that pixel lies on each
-of them, and the route may leave it along any of them.  The route then runs along the
-partial edge from the snapped start to one of that edge's ends, through the graph (shortest by ``length_m``), and along the goal's edge to the
-snapped goal.  A start and goal on the same edge also try the direct way along it; a
-ring is left in whichever direction is shorter.  A planner given the map may also join
-the graph at the nearest point of any edge in sight within reach, whichever gives the
-shortest route (:class:`RoutePlanner`).
-
-The route is returned with its skeleton pixels in order, their world coordinates, its
-length and the vertices and edges it passes, so it can be followed as a polyline or
-handed to a local planner.  Lengths add up the same straight and diagonal pixel steps as
-the graph's ``length_m``: a route on the pixel skeleton is exactly as long as the
-shortest path between the two snapped pixels in the skeleton's pixel graph (tested).
-
-Works on graphs from :func:`topojax.build_graph`, :func:`topojax.skeleton_to_graph`,
-:func:`topojax.prune_graph`, the incremental mapper's export and graphs read back with
-:func:`topojax.load_graph`: every edge needs its ``path`` (pixels, ``[row, col]``) and
-``world`` (``x, y`` in metres) arrays, and ``length_m``.
+"""Routes on a topology graph from a start point to a goal point: each is snapped to the
+nearest pixel of the graph's corridors (or, with the map, to the best point in sight),
+then the route runs along the graph, shortest by ``length_m``.  Works on any graph with
+edge ``path``, ``world`` and ``length_m`` (``docs/routing-and-nav2.md``).
 """
 
 from __future__ import annotations

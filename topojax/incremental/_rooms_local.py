@@ -1,28 +1,6 @@
 """Local room updates: re-segment only windows around the free space that changed since
-the last room update, and splice the result into the rooms kept from before.
-
-The changed pixels (free before and not now, or the reverse) are grouped; each group is
-handled by :func:`_local_step`:
-
-1. The window is the group's bounding box grown by a margin (:data:`LOCAL_MARGIN` times
-   ``max_door_width_m + door_context_m``); it is segmented with
-   :func:`topojax.segment_rooms` as a map of its own (space past its sides counts as not
-   free).  Its *interior* is the window less a band of ``door_context_m`` along each side
-   that is not the map's; only the interior is compared with the old rooms.
-2. In the interior, a new room and an old room are *linked* when they overlap by more
-   than half the smaller one or three door widths (a doorway line's pixels may go to
-   either side).  A new room linked to exactly one old room that is linked to it alone,
-   and that differs from it only at changed pixels (up to a doorway line), is the same
-   room: the change moved its outline (new free space at its frontier, a new obstacle
-   in it).
-3. The other new rooms at changed pixels are *affected*, the other old rooms at changed
-   pixels *replaced*; both sets grow along links until closed.  While an affected room
-   comes within the band of a side that is not the map's, or a replaced or affected
-   room comes closer than the margin to one, the window grows and is segmented again.
-4. Affected rooms replace the replaced ones (:func:`_splice`): rooms that are neither
-   keep their pixels, doors between them their doors; changed pixels of a same room
-   take its id (:func:`_patch`).  More than :data:`LOCAL_MAX_SHARE` of the map in
-   windows: the caller segments the whole map instead."""
+the last room update, and splice the result into the rooms kept from before (the steps
+are in ``docs/rooms.md``, "Incremental")."""
 
 from __future__ import annotations
 

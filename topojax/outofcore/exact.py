@@ -1,31 +1,6 @@
-"""Thinning and T-centre removal of one window of a larger ridge map, with a proof of which
-of its pixels come out exactly as in the whole map's skeleton.
-
-Thinning (:func:`topojax.thin`) runs sub-iterations whose decision at a pixel reads its 3 x 3
-neighbourhood only, so what lies outside a window reaches into it at most one pixel per
-sub-iteration; but the whole map may need more sub-iterations than the window does, so a
-fixed halo proves nothing by itself.  :func:`thin_window` therefore thins the window's ridges
-while it tracks the set ``U`` of pixels whose value may differ from the whole map's at the
-same sub-iteration:
-
-* at the start ``U`` is every pixel outside the window but inside the map (the window does
-  not know them); pixels outside the map are background in both;
-* a pixel not in ``U`` that is background stays background (thinning only deletes);
-* a foreground pixel not in ``U`` with neighbours in ``U`` stays out of ``U`` when the
-  deletion table gives the same decision for every value those neighbours could take
-  (then the whole map decides as the window does); otherwise it joins ``U``.
-
-By induction every pixel outside ``U`` has the whole map's value after every sub-iteration.
-The window runs until it is a fixed point of both sub-iterations *and* ``U`` has stopped
-growing over two of them: from then on neither changes, whatever the whole map still does,
-so the pixels outside ``U`` hold the whole map's final skeleton.
-
-T-centre removal (:func:`topojax.remove_t_centres`) clears, one pixel at a time in a fixed
-order, each set pixel with at least three set 4-neighbours.  Only such *candidates* can be
-cleared, and a candidate's outcome depends on the thinned values around the 4-connected
-group of candidates it belongs to.  :func:`exact_after_t_removal` runs the removal in the
-whole map's order on the window and reports whether every pixel of a core box is settled:
-known after thinning and, if a candidate, in a group that touches no pixel of ``U``.
+"""Thinning and T-centre removal of one window of a larger ridge map, and which of its
+pixels provably come out as in the whole map's skeleton (the set ``U`` of pixels that may
+differ is tracked; the argument is in ``docs/large-maps.md``).
 """
 
 from __future__ import annotations
