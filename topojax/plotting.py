@@ -42,11 +42,16 @@ __all__ = [
     "add_legend",
     "add_scale_bar",
     "draw_graph_lines",
+    "figure_png",
     "map_image",
     "map_name",
     "max_pool",
     "pool_factor",
+    "result_png",
     "room_layer",
+    "rooms_png",
+    "route_graph_png",
+    "stages_png",
 ]
 
 _KIND_COLOURS = VERTEX_KIND_COLOURS
@@ -534,21 +539,55 @@ def plot_route_graph(
     return ax
 
 
+def figure_png(fig, *, dpi: int = 150) -> bytes:
+    """``fig`` as PNG bytes, cropped to what is drawn; a pyplot figure is closed."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    if fig.canvas.manager is not None:  # made by pyplot, which keeps it until closed
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return buf.getvalue()
+
+
+def _map_figure(shape: tuple[int, int], side_in: float):
+    """A figure (no pyplot state: safe in worker processes and threads) with one axes,
+    ``side_in`` inches wide and as tall as the map's aspect ratio asks."""
+    from matplotlib.figure import Figure
+
+    h, w = shape
+    fig = Figure(figsize=(side_in, side_in * h / max(w, 1)))
+    return fig, fig.add_subplot()
+
+
+def result_png(result, *, title: str | None = None, rooms=None, dpi: int = 150) -> bytes:
+    """The picture of :func:`plot` as PNG bytes (no pyplot state)."""
+    fig, ax = _map_figure(result.map.shape, 9.0)
+    plot(result, ax=ax, title=title, rooms=rooms)
+    return figure_png(fig, dpi=dpi)
+
+
+def stages_png(result, *, title: str | None = None, dpi: int = 110) -> bytes:
+    """The picture of :func:`plot_stages` as PNG bytes."""
+    return figure_png(plot_stages(result, title=title), dpi=dpi)
+
+
+def rooms_png(seg, *, dpi: int = 150) -> bytes:
+    """The picture of :func:`plot_rooms` as PNG bytes (no pyplot state)."""
+    fig, ax = _map_figure(seg.labels.shape, 9.0)
+    plot_rooms(seg, ax=ax)
+    return figure_png(fig, dpi=dpi)
+
+
 def route_graph_png(graph, occupancy, *, title: str | None = None, dpi: int = 150) -> bytes:
     """The picture of :func:`plot_route_graph` as PNG bytes (no pyplot state: safe in
     worker processes and threads)."""
-    from matplotlib.figure import Figure
-
     from .maps import map_argument
 
     occupancy = map_argument("occupancy", occupancy, files=True)
-    h, w = occupancy.shape
-    fig = Figure(figsize=(8, 8 * h / max(w, 1)))
-    ax = fig.add_subplot()
+    fig, ax = _map_figure(occupancy.shape, 8.0)
     plot_route_graph(graph, occupancy, ax=ax, title=title)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
-    return buf.getvalue()
+    return figure_png(fig, dpi=dpi)
 
 
 def _room_segmentation(seg, name: str):

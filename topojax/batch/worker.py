@@ -5,7 +5,6 @@ nothing here runs a JAX kernel."""
 from __future__ import annotations
 
 import concurrent.futures as cf
-import io as _io
 import multiprocessing
 import os
 import time
@@ -111,19 +110,10 @@ def _picture_bytes(
 ) -> bytes:
     from types import SimpleNamespace
 
-    from matplotlib.figure import Figure
+    from ..plotting import result_png
 
-    from ..plotting import plot
-
-    h, w = job.shape
-    side = 9.0
-    fig = Figure(figsize=(side, side * h / w if w else side))
-    ax = fig.add_subplot()
     result = SimpleNamespace(map=occupancy, skeleton=skeleton, graph=graph)
-    plot(result, ax=ax, title=job.name, rooms=rooms)
-    buf = _io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    return buf.getvalue()
+    return result_png(result, title=job.name, rooms=rooms, dpi=110)
 
 
 def _cpu_stage(job: _CpuJob) -> _CpuResult:

@@ -87,23 +87,15 @@ def _write_outputs(
         import matplotlib
 
         matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        from ..plotting import plot as plot_result
-        from ..plotting import plot_stages
+        from .._fs import atomic_write_bytes
+        from ..plotting import result_png, stages_png
 
         if plot:
-            ax = plot_result(result, rooms=rooms)
-            path = out_dir / f"{stem}.png"
-            ax.figure.savefig(path, dpi=150, bbox_inches="tight")
-            plt.close(ax.figure)
-            written.append(path)
+            atomic_write_bytes(out_dir / f"{stem}.png", result_png(result, rooms=rooms))
+            written.append(out_dir / f"{stem}.png")
         if stages:
-            fig = plot_stages(result)
-            path = out_dir / f"{stem}_stages.png"
-            fig.savefig(path, dpi=110, bbox_inches="tight")
-            plt.close(fig)
-            written.append(path)
+            atomic_write_bytes(out_dir / f"{stem}_stages.png", stages_png(result))
+            written.append(out_dir / f"{stem}_stages.png")
     return written
 
 

@@ -103,16 +103,8 @@ def room_lines(seg, occupancy, *, seconds: float, time_label: str = "time (ms)")
 
 
 def _picture(seg, path: Path) -> Path:
-    import matplotlib
+    from .._fs import atomic_write_bytes
+    from ..plotting import rooms_png
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..plotting import plot_rooms
-
-    h, w = seg.labels.shape
-    fig, ax = plt.subplots(figsize=(9, 9 * h / max(w, 1)))
-    plot_rooms(seg, ax=ax)
-    fig.savefig(path, dpi=150, bbox_inches="tight")
-    plt.close(fig)
+    atomic_write_bytes(path, rooms_png(seg))
     return path

@@ -639,21 +639,14 @@ def _write_pictures(result, out: Path, name: str) -> list[Path]:
     their paths."""
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..plotting import plot as plot_result
-    from ..plotting import plot_stages
+    matplotlib.use("Agg")  # plot_stages draws with pyplot; no window
+    from .._fs import atomic_write_bytes
+    from ..plotting import result_png, stages_png
 
     g = result.graph
-    ax = plot_result(
-        result, title=f"{name}: {g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
-    )
-    ax.figure.savefig(out / "graph.png", dpi=150, bbox_inches="tight")
-    plt.close(ax.figure)
-    fig = plot_stages(result, title=name)
-    fig.savefig(out / "stages.png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    title = f"{name}: {g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
+    atomic_write_bytes(out / "graph.png", result_png(result, title=title))
+    atomic_write_bytes(out / "stages.png", stages_png(result, title=name))
     return [out / "graph.png", out / "stages.png"]
 
 
