@@ -111,7 +111,9 @@ def test_route_options_are_checked(tmp_path):
         build_graphs([_two_rooms()], out_dir=tmp_path, formats="route", route_config=0.3, **kw)
     with pytest.raises(ValueError, match="route_config: only used with the formats"):
         build_graphs([_two_rooms()], out_dir=tmp_path, route_config=RouteGraphConfig(), **kw)
-    with pytest.raises(ValueError, match=r"out_dir: needed for the formats \['route'\]"):
+    with pytest.raises(
+        ValueError, match=r"out_dir: expected a folder \(the formats \['route'\] need one\)"
+    ):
         build_graphs([_two_rooms()], formats="json,route", **kw)
 
 

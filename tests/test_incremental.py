@@ -888,11 +888,13 @@ def test_constructor_validation():
         IncrementalMapper(strategy="fast")
     with pytest.raises(ValueError, match="resolution_m"):
         IncrementalMapper(resolution_m=0.0)
-    with pytest.raises(ValueError, match="tile_px must be a power of two.*got 24"):
+    with pytest.raises(ValueError, match="tile_px: expected a power of two.*received 24"):
         IncrementalMapper(tile_px=24, block_px=16)
-    with pytest.raises(ValueError, match="block_px must be a power of two.*got 12"):
+    with pytest.raises(ValueError, match="block_px: expected a power of two.*received 12"):
         IncrementalMapper(tile_px=64, block_px=12)
-    with pytest.raises(ValueError, match=r"tile_px \(16\) must be >= block_px \(32\)"):
+    with pytest.raises(
+        ValueError, match=r"tile_px: expected a value >= block_px \(32\), received 16"
+    ):
         IncrementalMapper(tile_px=16, block_px=32)
     with pytest.raises(ValueError, match="skeleton_every"):
         IncrementalMapper(skeleton_every=-1)
@@ -900,7 +902,7 @@ def test_constructor_validation():
         IncrementalMapper(graph_every=2.5)
     with pytest.raises(TypeError, match="config"):
         IncrementalMapper(config="paper")
-    with pytest.raises(ValueError, match="ridge.threshold must be >= 0.*got -0.5"):
+    with pytest.raises(ValueError, match="ridge.threshold: expected a value >= 0.*received -0.5"):
         from topojax.config import RidgeConfig
 
         IncrementalMapper(ridge=RidgeConfig(threshold=-0.5))
@@ -2303,9 +2305,9 @@ def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"rooms": "no"}, "rooms must be a bool, got str 'no'"),
-        ({"plot": 1}, "plot must be a bool"),
-        ({"view": None}, "view must be a bool"),
+        ({"rooms": "no"}, "rooms: expected a bool, received str 'no'"),
+        ({"plot": 1}, "plot: expected a bool"),
+        ({"view": None}, "view: expected a bool"),
         ({"out_dir": None}, r"out_dir: expected a path \(str or os.PathLike\), received NoneType"),
         ({"animate": 5}, r"animate: expected a path .*received int"),
         ({"reader_kwargs": [1]}, "reader_kwargs: expected a dict .*received list"),

@@ -485,5 +485,5 @@ def test_patch_view_into_a_reused_buffer_equals_a_fresh_one():
     np.testing.assert_array_equal(
         grid.patch_view(b, halo, fill=False, out=buf), grid.patch_view(b, halo, fill=False)
     )
-    with pytest.raises(ValueError, match="out must have shape"):
+    with pytest.raises(ValueError, match="out: expected shape"):
         grid.patch_view(b, halo, out=np.zeros((3, 3), bool))

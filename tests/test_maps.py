@@ -545,7 +545,7 @@ def test_from_array_errors():
     with pytest.raises(TypeError, match="complex"):
         OccupancyMap.from_array(np.zeros((3, 3), dtype=np.complex128))
     for not_an_array in ("abc", None):
-        with pytest.raises(TypeError, match="array must have dtype bool"):
+        with pytest.raises(TypeError, match="array: expected dtype bool"):
             OccupancyMap.from_array(not_an_array)
     with pytest.raises(TypeError, match="object"):
         OccupancyMap.from_array(np.array([[None, None], [None, None]], dtype=object))
@@ -844,7 +844,9 @@ def test_yaml_numbers_as_map_server_reads_them(tmp_path: Path):
     assert m.resolution_m == 0.05 and m.origin == (-15.0, 2.0, 0.0)
     assert m.unknown[0, 1] and m.free[1].all()
     (tmp_path / "w.yaml").write_text("image: x.pgm\nresolution: 'five'\norigin: [0, 0, 0]\n")
-    with pytest.raises(ValueError, match="'resolution' must be a finite number > 0, got 'five'"):
+    with pytest.raises(
+        ValueError, match="'resolution': expected a finite number > 0, received 'five'"
+    ):
         load_map(tmp_path / "w.yaml")
 
 
@@ -988,7 +990,7 @@ def test_save_map_errors(tmp_path: Path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.yaml", "e.pgm"]
     # a YAML whose image is a folder says so
     (tmp_path / "f.yaml").write_text("image: e.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
-    with pytest.raises(ValueError, match="'image' must name an image file, got the folder"):
+    with pytest.raises(ValueError, match="'image': expected an image file, received the folder"):
         load_map(tmp_path / "f.yaml")
 
 

@@ -279,14 +279,18 @@ def test_configs_check_types_and_take_numpy_numbers():
     assert tj.SkeletonConfig(remove_t=np.bool_(False)).remove_t is False
     assert tj.PipelineConfig(tile_px=np.int64(128)).tile_px == 128
     bad = [
-        (lambda: tj.RidgeConfig(ksize=True), TypeError, "ksize must be an int"),
+        (lambda: tj.RidgeConfig(ksize=True), TypeError, "ksize: expected an int"),
         (lambda: tj.RidgeConfig(threshold=True), TypeError, "threshold: expected a real number"),
-        (lambda: tj.SkeletonConfig(remove_t="no"), TypeError, "remove_t must be a bool"),
+        (lambda: tj.SkeletonConfig(remove_t="no"), TypeError, "remove_t: expected a bool"),
         (lambda: tj.SkeletonConfig(thinning=["zhang"]), ValueError, "thinning"),
         (lambda: tj.DistanceConfig(half_width_px=3.0), TypeError, "half_width_px"),
-        (lambda: tj.PipelineConfig(distance=tj.RidgeConfig()), TypeError, "distance must be a Di"),
-        (lambda: tj.PipelineConfig(graph=None), TypeError, "graph must be a GraphConfig"),
-        (lambda: tj.PipelineConfig(ridge={"threshold": 5}), TypeError, "ridge must be a Ridge"),
+        (
+            lambda: tj.PipelineConfig(distance=tj.RidgeConfig()),
+            TypeError,
+            "distance: expected a Di",
+        ),
+        (lambda: tj.PipelineConfig(graph=None), TypeError, "graph: expected a GraphConfig"),
+        (lambda: tj.PipelineConfig(ridge={"threshold": 5}), TypeError, "ridge: expected a Ridge"),
         (
             lambda: tj.distance_map(np.eye(4, dtype=bool), config=tj.PipelineConfig()),
             TypeError,

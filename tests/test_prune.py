@@ -457,9 +457,9 @@ def test_graph_from_ridges_needs_the_free_mask_for_free_space_only():
     config = tj.PipelineConfig(graph=tj.GraphConfig(free_space_only=True))
     ridges = np.zeros((6, 7), bool)
     kw = dict(clearance_px=None, resolution_m=1.0, origin=(0, 0, 0), pixel_to_world=None)
-    with pytest.raises(ValueError, match=r"free: .* bool array of shape \(6, 7\), got None"):
+    with pytest.raises(ValueError, match=r"free: .* bool array of shape \(6, 7\), received None"):
         graph_from_ridges(ridges, config=config, **kw)
-    with pytest.raises(ValueError, match=r"got uint8 \(6, 7\)"):
+    with pytest.raises(ValueError, match=r"received uint8 \(6, 7\)"):
         graph_from_ridges(ridges, config=config, free=np.ones((6, 7), np.uint8), **kw)
 
 

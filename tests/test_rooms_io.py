@@ -173,11 +173,11 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
         ),
         (
             lambda d: d["features"][1]["properties"].update(area_m2="big"),
-            "property 'area_m2' must be a finite number",
+            "property 'area_m2': expected a finite number",
         ),
         (
             lambda d: d["features"][2]["properties"].update(bbox_px=[1, 2]),
-            "'bbox_px' must be a list of 4 integers",
+            "'bbox_px': expected a list of 4 integers",
         ),
         (
             lambda d: d["features"][3]["properties"].update(pixels=[[1.5, 2]]),
@@ -189,11 +189,11 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
         ),
         (
             lambda d: d["features"][4]["geometry"].update(type="Point"),
-            "a door needs a LineString geometry, got 'Point'",
+            "geometry: expected a LineString for a door, received 'Point'",
         ),
         (
             lambda d: d["features"][4]["properties"].update(id=0),
-            "property 'id' must be an integer >= 1",
+            "property 'id': expected an integer >= 1",
         ),
     ],
 )

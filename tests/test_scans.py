@@ -348,7 +348,7 @@ def test_carmen_gzip_detected_by_magic_not_suffix(tmp_path):
         ("FLASER 4 1 2 abc 4 0 0 0 0 0 0 1 h 1\n", "not a number"),
         ("FLASER 4 1 2 3 4 0 0 0 0 0 1 h 1\n", "fields after the ranges"),
         # a beam count one short: the fifth range would be read as x, every field shifted
-        ("FLASER 4 1 2 3 4 5 0 0 0 0 0 0 1 h 1\n", "got 10 fields after the ranges"),
+        ("FLASER 4 1 2 3 4 5 0 0 0 0 0 0 1 h 1\n", "received 10 fields after the ranges"),
         ("FLASER 4 1 2 3 4 0 nan 0 0 0 0 1 h 1\n", "finite"),
         ("FLASER 1 1 0 0 0 0 0 0 1 h 1\n", ">= 2"),
     ],

@@ -295,26 +295,26 @@ def test_thin_rejects_bad_input() -> None:
         thin(img, method="lee")
     with pytest.raises(ValueError, match="method"):
         thin(img, method=None)  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match=r"ridge must be a 2-D array.*\(2, 2, 2\)"):
+    with pytest.raises(ValueError, match=r"ridge: expected a 2-D array.*\(2, 2, 2\)"):
         thin(np.zeros((2, 2, 2)))
-    with pytest.raises(ValueError, match="ridge must be a 2-D array"):
+    with pytest.raises(ValueError, match="ridge: expected a 2-D array"):
         thin(np.zeros(5))
     bad = np.zeros((3, 3))
     bad[1, 1] = np.nan
     with pytest.raises(ValueError, match="ridge contains NaN"):
         thin(bad)
-    with pytest.raises(TypeError, match="ridge must be a 2-D array of bool or numbers"):
+    with pytest.raises(TypeError, match="ridge: expected a 2-D array of bool or numbers"):
         thin(np.array([["a", "b"], ["c", "d"]]))
     with pytest.raises(TypeError, match="dtype object"):
         thin(np.array([[None, 1], [1, 1]], dtype=object))
 
 
 def test_remove_t_and_pipeline_reject_bad_input() -> None:
-    with pytest.raises(ValueError, match="skeleton must be a 2-D array"):
+    with pytest.raises(ValueError, match="skeleton: expected a 2-D array"):
         remove_t_centres(np.zeros((2, 2, 2), dtype=bool))
     with pytest.raises(ValueError, match="skeleton contains NaN"):
         remove_t_centres(np.full((3, 3), np.nan))
-    with pytest.raises(TypeError, match="remove_t must be a bool"):
+    with pytest.raises(TypeError, match="remove_t: expected a bool"):
         skeletonize_ridges(np.zeros((3, 3), dtype=bool), remove_t="yes")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="method: expected one of"):
         skeletonize_ridges(np.zeros((3, 3), dtype=bool), method="zhang_suen")

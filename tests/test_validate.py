@@ -138,7 +138,7 @@ def test_integer_accepts_python_and_numpy_ints(value):
 
 @pytest.mark.parametrize("value", [True, np.bool_(False), 1.0, np.float64(2.0), "3", None])
 def test_integer_rejects_non_ints_with_type_error(value):
-    with pytest.raises(TypeError, match="^count must be an int, got "):
+    with pytest.raises(TypeError, match="^count: expected an int, received "):
         v.integer("count", value)
 
 
@@ -191,7 +191,7 @@ def test_flag_accepts_python_and_numpy_bools(value):
 
 @pytest.mark.parametrize("value", [1, 0, np.int64(1), "yes", None, 1.0])
 def test_flag_rejects_non_bools(value):
-    with pytest.raises(TypeError, match="^plot must be a bool, got "):
+    with pytest.raises(TypeError, match="^plot: expected a bool, received "):
         v.flag("plot", value)
 
 
@@ -203,7 +203,7 @@ def test_binary_flag_accepts_bools_and_0_1(value):
 
 @pytest.mark.parametrize("value", [2, -1, 1.0, "1", None])
 def test_binary_flag_rejects(value):
-    with pytest.raises(ValueError, match="^negate must be a bool or 0/1, got "):
+    with pytest.raises(ValueError, match="^negate: expected a bool or 0/1, received "):
         v.binary_flag("negate", value)
 
 
@@ -253,25 +253,27 @@ def test_pose_accepts_three_finite_numbers(value):
     "value", [(1, 2), (1, 2, 3, 4), (0, NAN, 0), (0, 0, INF), (True, 0, 0), ("1", 0, 0), 5, None]
 )
 def test_pose_rejects(value):
-    with pytest.raises(ValueError, match=r"^origin must be a sequence of 3 finite numbers"):
+    with pytest.raises(ValueError, match=r"^origin: expected a sequence of 3 finite numbers"):
         v.pose("origin", value)
 
 
 def test_pose_refuses_an_origin_where_metres_no_longer_resolve():
     assert v.pose("origin", (-1e9, 6.1e6, 0.5)) == (-1e9, 6.1e6, 0.5)  # UTM-like: fine
     for value in ((1e300, 0, 0), (0, -2e9, 0)):
-        with pytest.raises(ValueError, match=r"^origin must .* within 1e\+09 m of 0"):
+        with pytest.raises(ValueError, match=r"^origin: expected .* within 1e\+09 m of 0"):
             v.pose("origin", value)
 
 
 def test_occupancy_thresholds():
     assert v.occupancy_thresholds(0.65, np.float32(0.25)) == (0.65, 0.25)
     assert v.occupancy_thresholds(1, 0) == (1.0, 0.0)
-    with pytest.raises(ValueError, match=r"^m\.yaml: thresholds must satisfy"):
+    with pytest.raises(
+        ValueError, match=r"^m\.yaml: free_thresh, occupied_thresh: expected 0 <= free_thresh"
+    ):
         v.occupancy_thresholds(0.2, 0.3, where="m.yaml")
-    with pytest.raises(ValueError, match=r"^occupied_thresh must be a finite number"):
+    with pytest.raises(ValueError, match=r"^occupied_thresh: expected a finite number"):
         v.occupancy_thresholds(NAN, 0.1)
-    with pytest.raises(ValueError, match=r"^free_thresh must be a finite number"):
+    with pytest.raises(ValueError, match=r"^free_thresh: expected a finite number"):
         v.occupancy_thresholds(0.6, True)
 
 
@@ -287,7 +289,7 @@ def test_instance_or_default():
     assert isinstance(v.instance_or_default("config", None, Settings), Settings)
     given = Settings()
     assert v.instance_or_default("config", given, Settings) is given
-    with pytest.raises(TypeError, match="^config: expected a Settings, got str"):
+    with pytest.raises(TypeError, match="^config: expected a Settings, received str"):
         v.instance_or_default("config", "paper", Settings)
 
 
@@ -297,9 +299,11 @@ def test_binary_image():
     assert out.tolist() == [[False, True], [True, False]]
     src = np.zeros((3, 4), bool)[:, ::2]
     assert v.binary_image("mask", src).flags.c_contiguous
-    with pytest.raises(TypeError, match="^mask must be a 2-D array of bool or numbers"):
+    with pytest.raises(TypeError, match="^mask: expected a 2-D array of bool or numbers"):
         v.binary_image("mask", np.array([["a"]]))
-    with pytest.raises(ValueError, match=r"^mask must be a 2-D array \(H, W\), got shape \(3,\)"):
+    with pytest.raises(
+        ValueError, match=r"^mask: expected a 2-D array \(H, W\), received shape \(3,\)"
+    ):
         v.binary_image("mask", np.zeros(3))
     with pytest.raises(ValueError, match="^mask contains NaN"):
         v.binary_image("mask", np.array([[math.nan, 0.0]]))
@@ -311,7 +315,7 @@ def test_existing_file(tmp_path):
     assert v.existing_file("path", str(f)) == f
     with pytest.raises(FileNotFoundError, match="^path: file not found: .*nope"):
         v.existing_file("path", tmp_path / "nope")
-    with pytest.raises(ValueError, match="^path: expected a file, got a directory"):
+    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
         v.existing_file("path", tmp_path)
 
 

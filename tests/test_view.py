@@ -151,7 +151,7 @@ def test_bad_arguments_name_themselves(res, tmp_path):
         tj.write_view(res, tmp_path / "v.html", graphs=[res.graph])
     with pytest.raises(TypeError, match="route: expected a topojax.Route"):
         tj.write_view(res, tmp_path / "v.html", route="a")
-    with pytest.raises(TypeError, match="path: expected a file path"):
+    with pytest.raises(TypeError, match=r"path: expected a path \(str or os.PathLike\)"):
         tj.write_view(res, None)
     with pytest.raises(ValueError, match="nothing to show"):
         tj.write_view(nx.MultiGraph(), tmp_path / "v.html")

@@ -51,7 +51,7 @@ def finite_positive(name: str, value: object) -> float:
 def integer(name: str, value: object) -> int:
     """``value`` as an int after checking it is an integer (Python or NumPy, not bool)."""
     if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise TypeError(f"{name} must be an int, got {type(value).__name__} {value!r}")
+        raise TypeError(f"{name}: expected an int, received {type(value).__name__} {value!r}")
     return int(value)
 
 
@@ -87,7 +87,7 @@ def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
 def flag(name: str, value: object) -> bool:
     """``value`` as a bool after checking it is one (Python or NumPy)."""
     if type(value).__name__ not in ("bool", "bool_"):
-        raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
+        raise TypeError(f"{name}: expected a bool, received {type(value).__name__} {value!r}")
     return bool(value)
 
 
@@ -151,18 +151,18 @@ def pose(name: str, value: Any) -> tuple[float, float, float]:
     """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
     finite numbers (a map origin), ``x`` and ``y`` at most :data:`MAX_ORIGIN_M` from 0; a
     ``ValueError`` otherwise."""
-    expected = f"{name} must be a sequence of 3 finite numbers (x_m, y_m, yaw_rad)"
+    expected = f"{name}: expected a sequence of 3 finite numbers (x_m, y_m, yaw_rad)"
     try:
         items = list(value)
     except TypeError:
-        raise ValueError(f"{expected}, got {value!r}") from None
+        raise ValueError(f"{expected}, received {value!r}") from None
     if len(items) != 3 or not all(is_real_number(v) and math.isfinite(float(v)) for v in items):
-        raise ValueError(f"{expected}, got {value!r}")
+        raise ValueError(f"{expected}, received {value!r}")
     x, y, yaw = (float(v) for v in items)
     if max(abs(x), abs(y)) > MAX_ORIGIN_M:
         raise ValueError(
             f"{expected} with x and y within {MAX_ORIGIN_M:g} m of 0 (where a world "
-            f"coordinate still resolves a millimetre), got {value!r}"
+            f"coordinate still resolves a millimetre), received {value!r}"
         )
     return (x, y, yaw)
 
@@ -176,12 +176,12 @@ def occupancy_thresholds(
     prefix = f"{where}: " if where else ""
     for name, v in (("occupied_thresh", occupied_thresh), ("free_thresh", free_thresh)):
         if not is_real_number(v) or not math.isfinite(float(v)):
-            raise ValueError(f"{prefix}{name} must be a finite number in [0, 1], got {v!r}")
+            raise ValueError(f"{prefix}{name}: expected a finite number in [0, 1], received {v!r}")
     occ, free = float(occupied_thresh), float(free_thresh)
     if not (0.0 <= free < occ <= 1.0):
         raise ValueError(
-            f"{prefix}thresholds must satisfy 0 <= free_thresh < occupied_thresh <= 1, "
-            f"got free_thresh={free!r}, occupied_thresh={occ!r}"
+            f"{prefix}free_thresh, occupied_thresh: expected 0 <= free_thresh < "
+            f"occupied_thresh <= 1, received free_thresh={free!r}, occupied_thresh={occ!r}"
         )
     return occ, free
 
@@ -205,7 +205,7 @@ def binary_flag(name: str, value: Any) -> bool:
         return bool(value)
     if isinstance(value, (int, np.integer)) and int(value) in (0, 1):
         return bool(value)
-    raise ValueError(f"{name} must be a bool or 0/1, got {value!r}")
+    raise ValueError(f"{name}: expected a bool or 0/1, received {value!r}")
 
 
 def positive_int(name: str, value: Any) -> int:
@@ -261,7 +261,7 @@ def existing_file(name: str, path: Any) -> Path:
     if not p.exists():
         raise FileNotFoundError(f"{name}: file not found: {p}")
     if not p.is_file():
-        raise ValueError(f"{name}: expected a file, got a directory or special file: {p}")
+        raise ValueError(f"{name}: expected a file, received a directory or special file: {p}")
     return p
 
 
@@ -271,7 +271,9 @@ def instance_or_default(name: str, value: Any, kind: type) -> Any:
     if value is None:
         return kind()
     if not isinstance(value, kind):
-        raise TypeError(f"{name}: expected a {kind.__name__}, got {type(value).__name__} {value!r}")
+        raise TypeError(
+            f"{name}: expected a {kind.__name__}, received {type(value).__name__} {value!r}"
+        )
     return value
 
 
@@ -281,11 +283,11 @@ def binary_image(name: str, image: Any) -> np.ndarray:
     arr = np.asarray(image)
     if arr.dtype == object or arr.dtype.kind in "SUVMm":
         raise TypeError(
-            f"{name} must be a 2-D array of bool or numbers, got dtype {arr.dtype} "
+            f"{name}: expected a 2-D array of bool or numbers, received dtype {arr.dtype} "
             f"(type {type(image).__name__})"
         )
     if arr.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D array (H, W), got shape {arr.shape}")
+        raise ValueError(f"{name}: expected a 2-D array (H, W), received shape {arr.shape}")
     if arr.dtype.kind in "fc" and np.isnan(arr).any():
         raise ValueError(
             f"{name} contains NaN ({int(np.isnan(arr).sum())} of {arr.size} values); "

@@ -75,7 +75,8 @@ class DistanceConfig:
         _canonical(self, "half_width_px", integer("half_width_px", self.half_width_px))
         if not 1 <= self.half_width_px <= _MAX_HALF_WIDTH_PX:
             raise ValueError(
-                f"half_width_px must be in [1, {_MAX_HALF_WIDTH_PX}], got {self.half_width_px}"
+                f"half_width_px: expected an int in [1, {_MAX_HALF_WIDTH_PX}], "
+                f"received {self.half_width_px}"
             )
 
     @classmethod
@@ -160,7 +161,9 @@ class RidgeConfig:
         _canonical(self, "scale", finite_positive("scale", self.scale))
         _canonical(self, "ksize", integer("ksize", self.ksize))
         if self.ksize not in (1, 3, 5):
-            raise ValueError(f"ksize must be 1, 3 or 5 (OpenCV apertures), got {self.ksize!r}")
+            raise ValueError(
+                f"ksize: expected 1, 3 or 5 (OpenCV apertures), received {self.ksize!r}"
+            )
         _canonical(self, "threshold", real_number("threshold", self.threshold))
 
 
@@ -270,9 +273,9 @@ class PipelineConfig:
             value = getattr(self, name)
             if not isinstance(value, kind):
                 raise TypeError(
-                    f"{name} must be a {kind.__name__}, got {type(value).__name__} {value!r}"
+                    f"{name}: expected a {kind.__name__}, received {type(value).__name__} {value!r}"
                 )
         for name in ("tile_px", "tiles_per_call"):
             _canonical(self, name, positive_int(name, getattr(self, name)))
         if self.tile_px < 8 or self.tile_px > 4096:
-            raise ValueError(f"tile_px must be in [8, 4096], got {self.tile_px}")
+            raise ValueError(f"tile_px: expected an int in [8, 4096], received {self.tile_px}")

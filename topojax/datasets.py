@@ -12,6 +12,8 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
+from ._validate import one_of
+
 __all__ = ["SAMPLE_MAPS", "sample_map", "sample_map_path"]
 
 SAMPLE_MAPS = ("intel", "office", "a_scan")
@@ -19,8 +21,7 @@ SAMPLE_MAPS = ("intel", "office", "a_scan")
 
 def sample_map_path(name: str = "intel") -> Path:
     """Path of a bundled sample map image (``intel``, ``office`` or ``a_scan``)."""
-    if name not in SAMPLE_MAPS:
-        raise ValueError(f"name must be one of {SAMPLE_MAPS}, got {name!r}")
+    one_of("name", name, SAMPLE_MAPS)
     return Path(str(resources.files("topojax") / "data" / f"{name}.png"))
 
 

@@ -321,8 +321,8 @@ def _thinned(ridges: np.ndarray, free, config: PipelineConfig, steps=None) -> np
         free = np.asarray(free) if free is not None else None
         if free is None or free.shape != ridges.shape or free.dtype != bool:
             raise ValueError(
-                "free: config.graph.free_space_only needs the map's known-free mask, a bool "
-                f"array of shape {ridges.shape}, got "
+                "free: expected the map's known-free mask (config.graph.free_space_only needs "
+                f"it), a bool array of shape {ridges.shape}, received "
                 + ("None" if free is None else f"{free.dtype} {free.shape}")
             )
         ridges = ridges & free
@@ -406,14 +406,14 @@ def build_graph(
 
     config = config or PipelineConfig()
     if not isinstance(config, PipelineConfig):
-        raise TypeError(f"config must be a PipelineConfig, got {type(config).__name__}")
+        raise TypeError(f"config: expected a PipelineConfig, received {type(config).__name__}")
     keep = _keep_names(keep)
     if isinstance(occupancy, (str, os.PathLike)):
         occupancy = load_map(occupancy)
     elif occupancy is None or isinstance(occupancy, (bytes, bytearray)):
         raise TypeError(
             "occupancy: expected an OccupancyMap, a 2-D array or a map file path (str or "
-            f"Path), got {type(occupancy).__name__}"
+            f"Path), received {type(occupancy).__name__}"
         )
     elif not isinstance(occupancy, OccupancyMap):
         occupancy = OccupancyMap.from_array(occupancy)

@@ -177,7 +177,7 @@ def map_inputs(
         inputs = list(maps)
     except TypeError:
         raise TypeError(
-            f"maps: expected an iterable of paths or OccupancyMap objects, got "
+            f"maps: expected an iterable of paths or OccupancyMap objects, received "
             f"{type(maps).__name__}"
         ) from None
     sources: list[Path | None] = []
@@ -191,7 +191,7 @@ def map_inputs(
             sources.append(Path(m))
         else:
             raise TypeError(
-                f"maps[{i}]: expected a path (str / os.PathLike) or an OccupancyMap, got "
+                f"maps[{i}]: expected a path (str / os.PathLike) or an OccupancyMap, received "
                 f"{type(m).__name__}"
             )
     return items_raw, sources
@@ -207,11 +207,13 @@ def check_options(
         if name == "keep_graphs" and flag is None:
             continue
         if not isinstance(flag, (bool, np.bool_)):
-            raise TypeError(f"{name}: expected a bool, got {flag!r}")
+            raise TypeError(f"{name}: expected a bool, received {flag!r}")
     if sigma_m is not None:
         sigma_m = positive_metres("sigma_m", sigma_m)
     if out_dir is None and (flags["plot"] or flags["resume"]):
-        raise ValueError("out_dir: needed for plot=True or resume=True, got None")
+        raise ValueError(
+            "out_dir: expected a folder (plot=True and resume=True need one), received None"
+        )
     return sigma_m
 
 
@@ -223,12 +225,14 @@ def route_options(route_config: Any, formats: tuple[str, ...], out_dir: Any):
     if not routes:
         if route_config is not None:
             raise ValueError(
-                f"route_config: only used with the formats {ROUTE_FORMATS}, which formats "
-                f"does not name (got {formats})"
+                f"route_config: only used with the formats {ROUTE_FORMATS}; expected formats "
+                f"to name one, received {formats}"
             )
         return None
     if out_dir is None:
-        raise ValueError(f"out_dir: needed for the formats {routes}, got None")
+        raise ValueError(
+            f"out_dir: expected a folder (the formats {routes} need one), received None"
+        )
     return config
 
 
@@ -239,7 +243,7 @@ def as_executor(executor: Any) -> cf.Executor | None:
         if get_executor is None:
             raise TypeError(
                 "executor: expected a concurrent.futures.Executor or a dask.distributed "
-                f"Client, got {type(executor).__name__}"
+                f"Client, received {type(executor).__name__}"
             )
         executor = get_executor(pure=False)
     return executor

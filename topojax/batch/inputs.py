@@ -93,7 +93,7 @@ def expand_braces(pattern: str) -> list[str]:
         The expansions, left to right in the order of the alternatives (duplicates kept).
     """
     if not isinstance(pattern, str):
-        raise TypeError(f"pattern: expected a str, got {type(pattern).__name__}")
+        raise TypeError(f"pattern: expected a str, received {type(pattern).__name__}")
     pos = pattern.find("{")
     while pos != -1:
         found = _matching_brace(pattern, pos)
@@ -294,14 +294,14 @@ def check_formats(formats: Any) -> tuple[str, ...]:
         items = [str(f).strip().lower().lstrip(".") for f in formats]
     except TypeError:
         raise TypeError(
-            f"formats: expected a sequence of format names, got {type(formats).__name__}"
+            f"formats: expected a sequence of format names, received {type(formats).__name__}"
         ) from None
     allowed = tuple(_FORMAT_FILES)
     bad = [f for f in items if f not in allowed]
     if bad:
-        raise ValueError(f"formats: expected names from {allowed}, got {bad!r}")
+        raise ValueError(f"formats: expected names from {allowed}, received {bad!r}")
     if not items:
-        raise ValueError(f"formats: expected at least one of {allowed}, got none")
+        raise ValueError(f"formats: expected at least one of {allowed}, received none")
     return tuple(dict.fromkeys(items))
 
 

@@ -142,7 +142,7 @@ def write_summary(records: Sequence[MapRecord], out_dir: str | Path) -> list[Pat
     """
     folder = Path(out_dir)
     if not folder.is_dir():
-        raise FileNotFoundError(f"out_dir: expected an existing folder, got {str(folder)!r}")
+        raise FileNotFoundError(f"out_dir: expected an existing folder, received {str(folder)!r}")
     buf = _io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(SUMMARY_COLUMNS)

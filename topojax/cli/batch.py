@@ -83,8 +83,8 @@ def _route_config(args):
         return None
     if not set(check_formats(args.formats)) & set(ROUTE_FORMATS):
         raise ValueError(
-            f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}, "
-            f"which --formats does not name (got {args.formats!r})"
+            f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}; "
+            f"expected --formats to name one, received {args.formats!r}"
         )
     return RouteGraphConfig(
         robot_radius_m=nonnegative_metres("--robot-radius", args.robot_radius_m)

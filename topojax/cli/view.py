@@ -240,7 +240,7 @@ def _cmd_view(args) -> int:
     folder = Path(args.folder)
     if not folder.is_dir():
         raise NotADirectoryError(
-            f"OUT_DIR: expected a folder of results (from topojax {_WRITERS}), got "
+            f"OUT_DIR: expected a folder of results (from topojax {_WRITERS}), received "
             f"{folder}, which is {'a file' if folder.exists() else 'not there'}"
         )
     results = find_results(folder)

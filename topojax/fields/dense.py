@@ -156,7 +156,7 @@ def _dispatch_threads(threads: int | None, n_chunks: int) -> int:
     if threads is None:
         threads = usable_cpus()
     if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
-        raise ValueError(f"threads must be a positive int or None, got {threads!r}")
+        raise ValueError(f"threads: expected a positive int or None, received {threads!r}")
     return max(1, min(threads, n_chunks))
 
 
@@ -246,10 +246,10 @@ FIELD_NAMES = ("sq_distance_px", "distance", "lap_abs", "ridges")
 def _as_obstacles(obstacles) -> np.ndarray:
     arr = np.asarray(obstacles)
     if arr.ndim != 2:
-        raise ValueError(f"obstacles must be a 2-D (rows, cols) mask, got shape {arr.shape}")
+        raise ValueError(f"obstacles: expected a 2-D (rows, cols) mask, received shape {arr.shape}")
     if arr.dtype != bool:
         if not np.issubdtype(arr.dtype, np.number):
-            raise TypeError(f"obstacles must be a boolean mask, got dtype {arr.dtype}")
+            raise TypeError(f"obstacles: expected a boolean mask, received dtype {arr.dtype}")
         nonzero = arr != 0
         other = nonzero & (arr != 1)
         if other.any():  # NaN is neither 0 nor 1: only then is it looked for
@@ -266,7 +266,7 @@ def _as_obstacles(obstacles) -> np.ndarray:
             )
         arr = nonzero
     if min(arr.shape) < 2:
-        raise ValueError(f"obstacles must be at least 2 x 2 pixels, got shape {arr.shape}")
+        raise ValueError(f"obstacles: expected at least 2 x 2 pixels, received shape {arr.shape}")
     return arr
 
 

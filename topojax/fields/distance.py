@@ -49,7 +49,7 @@ def column_dtype(half_width: int) -> np.dtype:
         return np.dtype(np.uint8)
     if half_width < 65535:
         return np.dtype(np.uint16)
-    raise ValueError(f"half_width must be < 65535 px, got {half_width}")
+    raise ValueError(f"half_width: expected a value < 65535 px, received {half_width}")
 
 
 def column_distance_tile(strip: jax.Array, *, half_width: int) -> jax.Array:
@@ -75,7 +75,7 @@ def column_distance_tile(strip: jax.Array, *, half_width: int) -> jax.Array:
     size, width = strip.shape
     n = size - 2 * r
     if n < 1:
-        raise ValueError(f"strip must have more than 2 R = {2 * r} rows, got {size}")
+        raise ValueError(f"strip: expected more than 2 R = {2 * r} rows, received {size}")
     dtype = column_dtype(r)
     # Row indices in int16 where they fit (twice the lanes per vector of int32); "none"
     # sentinels stay clear of every row.
@@ -125,7 +125,7 @@ def row_sq_distance_tile(
     n, size = column.shape
     w = size - 2 * r
     if w < 1:
-        raise ValueError(f"column must have more than 2 R = {2 * r} columns, got {size}")
+        raise ValueError(f"column: expected more than 2 R = {2 * r} columns, received {size}")
     far = jnp.int32(FAR_SQ)
     n_bands = -(-n // _BAND_ROWS)
     n_pad = n_bands * _BAND_ROWS
@@ -282,7 +282,7 @@ def window_sq_distance_tile(patch: jax.Array, *, out_px: int, half_width: int) -
     """
     size = out_px + 2 * half_width
     if patch.shape != (size, size):
-        raise ValueError(f"patch must have shape {(size, size)}, got {patch.shape}")
+        raise ValueError(f"patch: expected shape {(size, size)}, received {patch.shape}")
     column = column_distance_tile(patch, half_width=half_width)
     return row_sq_distance_tile(column, half_width=half_width)
 

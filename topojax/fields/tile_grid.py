@@ -37,9 +37,9 @@ class TileGrid:
 
     def __post_init__(self) -> None:
         if len(self.map_shape) != 2 or min(self.map_shape) < 1:
-            raise ValueError(f"map_shape must be two positive ints, got {self.map_shape!r}")
+            raise ValueError(f"map_shape: expected two positive ints, received {self.map_shape!r}")
         if self.tile_px < 1:
-            raise ValueError(f"tile_px must be >= 1, got {self.tile_px!r}")
+            raise ValueError(f"tile_px: expected a value >= 1, received {self.tile_px!r}")
 
     @property
     def grid_shape(self) -> tuple[int, int]:
@@ -92,7 +92,7 @@ class TileGrid:
     def _halo(self, halo) -> tuple[int, int]:
         hr, hc = (halo, halo) if np.ndim(halo) == 0 else tuple(halo)
         if min(hr, hc) < 0:
-            raise ValueError(f"halo must be >= 0, got {halo!r}")
+            raise ValueError(f"halo: expected values >= 0, received {halo!r}")
         return int(hr), int(hc)
 
     def patch_view(self, array: np.ndarray, halo, *, fill=0, out=None) -> np.ndarray:
@@ -116,7 +116,7 @@ class TileGrid:
         indexing a patch copies nothing until it is stacked.
         """
         if array.shape != tuple(self.map_shape):
-            raise ValueError(f"array must have shape {self.map_shape}, got {array.shape}")
+            raise ValueError(f"array: expected shape {self.map_shape}, received {array.shape}")
         hr, hc = self._halo(halo)
         t = self.tile_px
         shape = self.padded_shape((hr, hc))
@@ -125,8 +125,8 @@ class TileGrid:
         else:
             if out.shape != shape or out.dtype != array.dtype:
                 raise ValueError(
-                    f"out must have shape {shape} and dtype {array.dtype}, "
-                    f"got {out.shape} and {out.dtype}"
+                    f"out: expected shape {shape} and dtype {array.dtype}, "
+                    f"received {out.shape} and {out.dtype}"
                 )
             padded = out
             h, w = array.shape  # fill only what the map does not overwrite
@@ -152,7 +152,7 @@ class TileGrid:
         t = self.tile_px
         gr, gc = self.grid_shape
         if tiles.shape[:3] != (gr * gc, t, t):
-            raise ValueError(f"tiles must have shape {(gr * gc, t, t)}+..., got {tiles.shape}")
+            raise ValueError(f"tiles: expected shape {(gr * gc, t, t)}+..., received {tiles.shape}")
         rest = tiles.shape[3:]
         full = tiles.reshape(gr, gc, t, t, *rest).swapaxes(1, 2).reshape(gr * t, gc * t, *rest)
         return full[: self.map_shape[0], : self.map_shape[1]]

@@ -142,13 +142,15 @@ class TileManager:
         reserve_bytes: int | None = None,
     ) -> None:
         if not isinstance(tile_px, int) or isinstance(tile_px, bool) or tile_px < 4:
-            raise ValueError(f"tile_px must be an int >= 4, got {tile_px!r}")
+            raise ValueError(f"tile_px: expected an int >= 4, received {tile_px!r}")
         if (
             isinstance(max_grid_cells, bool)
             or not isinstance(max_grid_cells, numbers.Integral)
             or max_grid_cells < 1
         ):
-            raise ValueError(f"max_grid_cells must be a positive int, got {max_grid_cells!r}")
+            raise ValueError(
+                f"max_grid_cells: expected a positive int, received {max_grid_cells!r}"
+            )
         max_grid_cells = int(max_grid_cells)
         self.tile_px = tile_px
         self.max_grid_cells = max_grid_cells
@@ -622,19 +624,19 @@ class TileManager:
                 raise ValueError(f"tile state lacks {key!r}")
         if int(state["tile_px"]) != self.tile_px:
             raise ValueError(
-                f"tile state: expected tile_px {self.tile_px}, got {int(state['tile_px'])}"
+                f"tile state: tile_px: expected {self.tile_px}, received {int(state['tile_px'])}"
             )
         keys = np.asarray(state["keys"], np.int64)
         if keys.ndim != 2 or keys.shape[1] != 2:
-            raise ValueError(f"tile state: keys must have shape (n, 2), got {keys.shape}")
+            raise ValueError(f"tile state: keys: expected shape (n, 2), received {keys.shape}")
         n = keys.shape[0]
         arrays = {}
         for name, (dt, _fill, shape) in self._specs.items():
             arr = np.asarray(state[f"layer/{name}"])
             if arr.shape != (n, *shape) or arr.dtype != dt:
                 raise ValueError(
-                    f"tile state: layer {name!r} expected {(n, *shape)} {dt}, "
-                    f"got {arr.shape} {arr.dtype}"
+                    f"tile state: layer {name!r}: expected {(n, *shape)} {dt}, "
+                    f"received {arr.shape} {arr.dtype}"
                 )
             arrays[name] = arr
         dirty = {}

@@ -26,7 +26,9 @@ def _check_rate(name: str, value) -> int:
         return 0
     value = integer(name, value)
     if value < 0:
-        raise ValueError(f"{name} must be >= 0 (0 or None: explicit calls only), got {value}")
+        raise ValueError(
+            f"{name}: expected an int >= 0 (0 or None: explicit calls only), received {value}"
+        )
     return value
 
 
@@ -62,8 +64,8 @@ def merged_config(config, distance, ridge, skeleton) -> PipelineConfig:
         # then every pixel is a ridge pixel, also far from any obstacle where no tile
         # (and no ridge update) exists
         raise ValueError(
-            "ridge.threshold must be >= 0 for incremental mapping (a negative threshold "
-            f"makes every pixel of the unbounded map a ridge pixel), got "
+            "ridge.threshold: expected a value >= 0 for incremental mapping (a negative "
+            "threshold makes every pixel of the unbounded map a ridge pixel), received "
             f"{config.ridge.threshold}"
         )
     if config.graph.merge_junction_clusters:
@@ -75,7 +77,7 @@ def merged_config(config, distance, ridge, skeleton) -> PipelineConfig:
         raise ValueError(
             "config.graph: free_space_only, min_clearance_m, min_spur_m and "
             "min_component_m are not supported incrementally; expected their defaults "
-            f"(False, 0, 0, 0), got {config.graph.free_space_only}, "
+            f"(False, 0, 0, 0), received {config.graph.free_space_only}, "
             f"{config.graph.min_clearance_m}, {config.graph.min_spur_m}, "
             f"{config.graph.min_component_m} (prune the exported graph with "
             "topojax.prune_graph instead)"
@@ -98,13 +100,13 @@ def checked_sizes(tile_px, block_px, paper_layer_px) -> tuple[int, int, int]:
     for name, value in (("tile_px", tile_px), ("block_px", block_px)):
         if value & (value - 1):
             raise ValueError(
-                f"{name} must be a power of two (tile and block coordinates are bit "
-                f"shifts), got {value}"
+                f"{name}: expected a power of two (tile and block coordinates are bit "
+                f"shifts), received {value}"
             )
     if tile_px < block_px:
-        raise ValueError(f"tile_px ({tile_px}) must be >= block_px ({block_px})")
+        raise ValueError(f"tile_px: expected a value >= block_px ({block_px}), received {tile_px}")
     if block_px < 2 * HALO_PX:
-        raise ValueError(f"block_px must be >= {2 * HALO_PX}, got {block_px}")
+        raise ValueError(f"block_px: expected a value >= {2 * HALO_PX}, received {block_px}")
     return tile_px, block_px, paper_layer_px
 
 
@@ -136,10 +138,10 @@ def checked_loop_settings(
     max_pending_points = int_at_least("max_pending_points", max_pending_points, 0)
     if max_range_m is not None:
         if not is_real_number(max_range_m):
-            raise TypeError(f"max_range_m must be a number or None, got {max_range_m!r}")
+            raise TypeError(f"max_range_m: expected a number or None, received {max_range_m!r}")
         max_range_m = float(max_range_m)
         if not max_range_m > 0:
-            raise ValueError(f"max_range_m must be > 0 (metres), got {max_range_m}")
+            raise ValueError(f"max_range_m: expected a value > 0 (metres), received {max_range_m}")
     return (
         max_pending_points,
         flag("free_space", free_space),

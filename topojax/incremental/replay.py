@@ -485,7 +485,7 @@ def _check_replay_args(
         )
     if animate is not None and Path(animate).is_dir():  # checked now, not after the replay
         raise IsADirectoryError(
-            f"animate: expected a GIF file name, got the folder {animate}; e.g. "
+            f"animate: expected a GIF file name, received the folder {animate}; e.g. "
             f"{Path(animate) / 'graph.gif'}"
         )
     if mcap is not None:

@@ -136,11 +136,11 @@ def vertex_error_metrics(
 
     if not (isinstance(graph_a, nx.Graph) and isinstance(graph_b, nx.Graph)):
         raise TypeError(
-            "graph_a and graph_b must be networkx graphs, got "
+            "graph_a, graph_b: expected networkx graphs, received "
             f"{type(graph_a).__name__} and {type(graph_b).__name__}"
         )
     if not (is_real_number(outlier_px) and outlier_px > 0):  # inf: no outliers
-        raise ValueError(f"outlier_px must be a number > 0, got {outlier_px!r}")
+        raise ValueError(f"outlier_px: expected a number > 0, received {outlier_px!r}")
 
     def pixels(g: nx.Graph, name: str) -> np.ndarray:
         pts = []

@@ -114,7 +114,7 @@ def read_state(path) -> tuple[Path, dict[str, np.ndarray]]:
             f"{data['format']!r}, {data['version']!r})"
         ) from None
     if fmt != STATE_FORMAT:
-        raise ValueError(f"{p}: expected format {STATE_FORMAT!r}, got {fmt!r}")
+        raise ValueError(f"{p}: format: expected {STATE_FORMAT!r}, received {fmt!r}")
     if version != STATE_VERSION:
         raise ValueError(
             f"{p}: mapper state version {version} is not supported; expected "
@@ -185,7 +185,9 @@ def load_state(cls, path):
         nv, ne = mapper._next_vertex, mapper._next_edge
         for name, ids, n in (("vertex", v_id, nv), ("edge", e_id, ne)):
             if ids.size and (ids.min() < 0 or ids.max() >= n):
-                raise ValueError(f"{name} ids must lie in [0, {n}), got {ids.min()}..{ids.max()}")
+                raise ValueError(
+                    f"{name} ids: expected values in [0, {n}), received {ids.min()}..{ids.max()}"
+                )
         if not set(v_code.tolist()) <= set(KIND_NAMES):
             raise ValueError(f"unknown vertex kind codes {sorted(set(v_code.tolist()))}")
         reserve(mapper, vertices=nv, edges=ne)

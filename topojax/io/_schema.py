@@ -59,7 +59,7 @@ def jsonable(value: Any, where: str) -> Any:
         out = {}
         for k, v in value.items():
             if not isinstance(k, str):
-                raise TypeError(f"{where}: dict keys must be str to be saved, got {k!r}")
+                raise TypeError(f"{where}: dict keys: expected str (to be saved), received {k!r}")
             out[k] = jsonable(v, where)
         return out
     raise TypeError(
@@ -117,7 +117,7 @@ def _collect_schema(items: list[dict[str, Any]], where: str) -> dict[str, dict[s
     for attrs in items:
         for name, value in attrs.items():
             if not isinstance(name, str):
-                raise TypeError(f"{where} attribute names must be str, got {name!r}")
+                raise TypeError(f"{where} attribute names: expected str, received {name!r}")
             kinds[name] = _merge_kinds(
                 kinds.get(name), _value_kind(value), f"{where} attribute {name!r}"
             )
@@ -153,14 +153,14 @@ def _to_tuple(value: Any) -> Any:
 def _check_key_type(value: Any, what: str) -> str:
     value = _to_python_scalar(value)
     if isinstance(value, bool) or not isinstance(value, (int, str)):
-        raise TypeError(f"{what} must be int or str to be saved, got {value!r}")
+        raise TypeError(f"{what}: expected int or str (to be saved), received {value!r}")
     return "int" if isinstance(value, int) else "str"
 
 
 def _id_kind(values: list[Any], what: str) -> str:
     kinds = {_check_key_type(v, what) for v in values}
     if len(kinds) > 1:
-        raise TypeError(f"{what}s must all be int or all be str, got a mix")
+        raise TypeError(f"{what}s: expected all int or all str, received a mix")
     return kinds.pop() if kinds else "int"
 
 
@@ -254,7 +254,7 @@ def _xy(value: Any, where: str) -> list[float]:
     except (TypeError, ValueError):
         arr = np.empty(0)
     if arr.shape != (2,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{where} must be 2 finite numbers (x, y), got {value!r}")
+        raise ValueError(f"{where}: expected 2 finite numbers (x, y), received {value!r}")
     return [float(arr[0]), float(arr[1])]
 
 

@@ -44,7 +44,7 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
         if "world" in d:
             coords = np.asarray(d["world"], dtype=np.float64)
             if coords.ndim != 2 or coords.shape[1] != 2 or coords.shape[0] < 1:
-                raise ValueError(f"{where} 'world' must have shape (K, 2), got {coords.shape}")
+                raise ValueError(f"{where} 'world': expected shape (K, 2), received {coords.shape}")
         else:
             raise ValueError(f"GeoJSON needs a 'world' (K, 2) polyline on every edge; {where}")
         if not np.all(np.isfinite(coords)):

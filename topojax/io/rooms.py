@@ -95,7 +95,9 @@ def _room_feature(seg, room) -> dict:
 def _door_feature(door) -> dict:
     ends = np.asarray(door.ends_world, np.float64).reshape(-1, 2)
     if ends.shape != (2, 2) or not np.isfinite(ends).all():
-        raise ValueError(f"seg: door {door.id} needs two finite world ends, got {ends.tolist()}")
+        raise ValueError(
+            f"seg: door {door.id}: expected two finite world ends, received {ends.tolist()}"
+        )
     props = {
         "kind": "door",
         "id": int(door.id),
@@ -183,7 +185,7 @@ def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.nda
         arr = arr.reshape(0, 2)
     if arr.ndim != 2 or arr.shape[1] != 2 or (count is not None and arr.shape[0] != count):
         size = "K" if count is None else str(count)
-        raise ValueError(f"{what}: expected a list of {size} [a, b] pairs, got {value!r:.80}")
+        raise ValueError(f"{what}: expected a list of {size} [a, b] pairs, received {value!r:.80}")
     if not np.isfinite(arr).all():
         raise ValueError(f"{what}: expected finite numbers")
     if np.dtype(dtype).kind == "i":
@@ -195,7 +197,9 @@ def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.nda
 def _number(props: dict, name: str, where: str) -> float:
     value = props.get(name)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"{where}: property {name!r} must be a finite number, got {value!r}")
+        raise ValueError(
+            f"{where}: property {name!r}: expected a finite number, received {value!r}"
+        )
     return float(value)
 
 
@@ -206,7 +210,10 @@ def _integers(props: dict, name: str, where: str, count: int) -> tuple[int, ...]
         or len(value) != count
         or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)
     ):
-        raise ValueError(f"{where}: property {name!r} must be a list of {count} integers")
+        raise ValueError(
+            f"{where}: property {name!r}: expected a list of {count} integers, "
+            f"received {value!r:.80}"
+        )
     return tuple(value)
 
 
@@ -214,7 +221,9 @@ def _read_room(props: dict, geometry: dict, where: str):
     from ..rooms import Room
 
     if geometry.get("type") != "Polygon":
-        raise ValueError(f"{where}: a room needs a Polygon geometry, got {geometry.get('type')!r}")
+        raise ValueError(
+            f"{where}: geometry: expected a Polygon for a room, received {geometry.get('type')!r}"
+        )
     if "outline" in props:
         polygon = _points(props["outline"], np.float64, f"{where} outline")
     else:
@@ -227,7 +236,9 @@ def _read_room(props: dict, geometry: dict, where: str):
         polygon = ring[:-1].copy()
     centroid = props.get("centroid")
     if not isinstance(centroid, list) or len(centroid) != 2:
-        raise ValueError(f"{where}: property 'centroid' must be [x, y], got {centroid!r:.80}")
+        raise ValueError(
+            f"{where}: property 'centroid': expected [x, y], received {centroid!r:.80}"
+        )
     cx, cy = (_number({"centroid": v}, "centroid", where) for v in centroid)
     return Room(
         id=_identifier(props, where),
@@ -241,7 +252,7 @@ def _read_room(props: dict, geometry: dict, where: str):
 def _identifier(props: dict, where: str) -> int:
     value = props.get("id")
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise ValueError(f"{where}: property 'id' must be an integer >= 1, got {value!r}")
+        raise ValueError(f"{where}: property 'id': expected an integer >= 1, received {value!r}")
     return value
 
 
@@ -250,7 +261,8 @@ def _read_door(props: dict, geometry: dict, where: str):
 
     if geometry.get("type") != "LineString":
         raise ValueError(
-            f"{where}: a door needs a LineString geometry, got {geometry.get('type')!r}"
+            f"{where}: geometry: expected a LineString for a door, received "
+            f"{geometry.get('type')!r}"
         )
     return Door(
         id=_identifier(props, where),

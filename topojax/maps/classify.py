@@ -127,23 +127,24 @@ def _classify_values(
     numeric = np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
     if arr.dtype != np.bool_ and not numeric:  # None, a string, complex numbers...
         raise TypeError(
-            "array must have dtype bool, uint8 (image), another integer type "
-            f"(OccupancyGrid -1..100) or float (probability 0..1), got {arr.dtype} "
+            "array: expected dtype bool, uint8 (image), another integer type "
+            f"(OccupancyGrid -1..100) or float (probability 0..1), received {arr.dtype} "
             f"(from {given_type})"
         )
     if arr.ndim != 2:
         raise ValueError(
-            f"array must be 2-D (H, W) for dtype {arr.dtype} (only uint8 images may "
-            f"have a channel axis), got shape {arr.shape}"
+            f"array: expected a 2-D (H, W) array for dtype {arr.dtype} (only uint8 images "
+            f"may have a channel axis), received shape {arr.shape}"
         )
     if negate:
         raise ValueError(
-            f"negate=True applies only to uint8 images, got an array of dtype {arr.dtype}"
+            "negate: expected False (negate=True applies only to uint8 images), received "
+            f"{negate!r} for an array of dtype {arr.dtype}"
         )
     if mode not in ("trinary", "scale"):
         raise ValueError(
-            f"mode={mode!r} applies only to uint8 images; arrays of dtype "
-            f"{arr.dtype} accept mode 'trinary' or 'scale'"
+            f"mode: expected 'trinary' or 'scale' for an array of dtype {arr.dtype} (the "
+            f"other modes apply only to uint8 images), received {mode!r}"
         )
     if arr.dtype == np.bool_:
         if unknown_values is not None:
@@ -159,16 +160,18 @@ def _unknown_value_list(unknown_values: Iterable[float] | None) -> list[float]:
     if unknown_values is None:
         return []
     if isinstance(unknown_values, (str, bytes)):
-        raise TypeError(f"unknown_values must be an iterable of numbers, got {unknown_values!r}")
+        raise TypeError(
+            f"unknown_values: expected an iterable of numbers, received {unknown_values!r}"
+        )
     try:
         values = list(np.asarray(list(unknown_values), dtype=object).ravel())
     except TypeError:
         raise TypeError(
-            f"unknown_values must be an iterable of numbers, got {unknown_values!r}"
+            f"unknown_values: expected an iterable of numbers, received {unknown_values!r}"
         ) from None
     for v in values:
         if not is_real_number(v):
-            raise TypeError(f"unknown_values must contain only numbers, got {v!r}")
+            raise TypeError(f"unknown_values: expected only numbers, received {v!r}")
     return [float(v) for v in values]
 
 
@@ -203,11 +206,14 @@ def classify_image(
             n = 4
     else:
         raise ValueError(
-            "image array must be (H, W) or (H, W, C) with C in 1..4 channels, "
-            f"got shape {arr.shape}"
+            "image array: expected shape (H, W) or (H, W, C) with C in 1..4 channels, "
+            f"received shape {arr.shape}"
         )
     if mode == "raw" and full_scale != 255:
-        raise ValueError(f"mode='raw' needs an 8-bit image, got full scale {full_scale}")
+        raise ValueError(
+            f"mode='raw': expected an 8-bit image (full scale 255), received full scale "
+            f"{full_scale}"
+        )
     # Mean intensity for every possible channel sum.
     sums = np.arange(n * full_scale + 1, dtype=np.float64)
     mean = sums / n
@@ -228,7 +234,7 @@ def classify_image(
     for u in _unknown_value_list(unknown_values):
         if not 0.0 <= u <= full_scale:
             raise ValueError(
-                f"unknown_values entries must be intensities in [0, {full_scale}], got {u!r}"
+                f"unknown_values: expected intensities in [0, {full_scale}], received {u!r}"
             )
         idx = u * n
         if idx == int(idx):  # a mean of integer channels can only equal k / n

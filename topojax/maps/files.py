@@ -32,7 +32,7 @@ YAML_SUFFIXES = (".yaml", ".yml")
 
 
 def _yaml_error(path: Path, field: str, expected: str, value: Any) -> ValueError:
-    return ValueError(f"map YAML {path}: field {field!r} must be {expected}, got {value!r}")
+    return ValueError(f"map YAML {path}: field {field!r}: expected {expected}, received {value!r}")
 
 
 def _load_yaml(path: Path) -> dict[str, Any]:
@@ -48,7 +48,7 @@ def _load_yaml(path: Path) -> dict[str, Any]:
         raise ValueError(f"map YAML {path} could not be parsed: {exc}") from None
     if not isinstance(doc, dict):
         raise ValueError(
-            f"map YAML {path} must contain a mapping (key: value), got {type(doc).__name__}"
+            f"map YAML {path}: expected a mapping (key: value), received {type(doc).__name__}"
         )
     # map_server reads these with yaml-cpp, which converts 5e-2 and quoted numbers too;
     # PyYAML (YAML 1.1) leaves them strings
@@ -88,7 +88,7 @@ def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
     resolved = folder / img
     if resolved.is_dir():
         raise ValueError(
-            f"map YAML {yaml_path}: field 'image' must name an image file, got the folder "
+            f"map YAML {yaml_path}: field 'image': expected an image file, received the folder "
             f"{resolved}"
         )
     if not resolved.is_file():
@@ -432,11 +432,15 @@ def save_map(
     occupancy_map = map_argument("occupancy_map", occupancy_map)
     yp = Path(yaml_path)
     if yp.suffix.lower() not in YAML_SUFFIXES:
-        raise ValueError(f"yaml_path must end in .yaml or .yml, got {str(yp)!r}")
+        raise ValueError(
+            f"yaml_path: expected a name ending in .yaml or .yml, received {str(yp)!r}"
+        )
     if image_name is None:
         image_name = yp.stem + ".pgm"
     if Path(image_name).name != image_name or not image_name.lower().endswith(".pgm"):
-        raise ValueError(f"image_name must be a bare file name ending in .pgm, got {image_name!r}")
+        raise ValueError(
+            f"image_name: expected a bare file name ending in .pgm, received {image_name!r}"
+        )
     for name, target in (("yaml_path", yp), ("image_name", yp.with_name(image_name))):
         if target.is_dir():  # before writing either file
             raise IsADirectoryError(

@@ -85,19 +85,21 @@ class OccupancyMap:
             arr = getattr(self, name)
             if not isinstance(arr, np.ndarray):
                 raise TypeError(
-                    f"OccupancyMap.{name} must be a numpy bool array, got {type(arr).__name__}"
+                    f"OccupancyMap.{name}: expected a numpy bool array, received {type(arr).__name__}"
                 )
             if arr.dtype != np.bool_:
-                raise TypeError(f"OccupancyMap.{name} must have dtype bool, got {arr.dtype}")
+                raise TypeError(f"OccupancyMap.{name}: expected dtype bool, received {arr.dtype}")
             if arr.ndim != 2:
-                raise ValueError(f"OccupancyMap.{name} must be 2-D (H, W), got shape {arr.shape}")
+                raise ValueError(
+                    f"OccupancyMap.{name}: expected a 2-D array (H, W), received shape {arr.shape}"
+                )
             masks[name] = arr
         shapes = {name: arr.shape for name, arr in masks.items()}
         if len(set(shapes.values())) != 1:
-            raise ValueError(f"OccupancyMap masks must have the same shape, got {shapes}")
+            raise ValueError(f"OccupancyMap masks: expected the same shape, received {shapes}")
         shape = masks["occupied"].shape
         if shape[0] < 2 or shape[1] < 2:
-            raise ValueError(f"OccupancyMap must be at least 2x2 pixels, got shape {shape}")
+            raise ValueError(f"OccupancyMap: expected at least 2x2 pixels, received shape {shape}")
         total = (
             masks["occupied"].astype(np.uint8)
             + masks["free"].astype(np.uint8)
@@ -301,7 +303,7 @@ class OccupancyMap:
         source: str | None,
     ) -> OccupancyMap:
         if codes.ndim != 2 or codes.shape[0] < 2 or codes.shape[1] < 2:
-            raise ValueError(f"map must be at least 2x2 pixels, got shape {codes.shape}")
+            raise ValueError(f"map: expected at least 2x2 pixels, received shape {codes.shape}")
         occupied = codes == _OCC
         free = codes == _FREE
         unknown = codes == _UNK

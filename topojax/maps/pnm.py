@@ -113,8 +113,8 @@ def _read_plain_pnm(data: bytes, path: Path) -> np.ndarray:
         raise ValueError(f"map image {path}: plain PNM file with non-numeric entries") from None
     if width < 1 or height < 1 or not 0 < maxval < 65536:
         raise ValueError(
-            f"map image {path}: plain PNM header must give width, height >= 1 and maxval "
-            f"1..65535, got {width} x {height}, maxval {maxval}"
+            f"map image {path}: plain PNM header: expected width, height >= 1 and maxval "
+            f"1..65535, received {width} x {height}, maxval {maxval}"
         )
     expected = width * height * channels
     if values.size != expected:

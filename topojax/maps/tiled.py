@@ -98,13 +98,15 @@ class TiledMap:
     ) -> None:
         shape = tuple(int(v) for v in reader.shape)
         if len(shape) != 2 or min(shape) < 2:
-            raise ValueError(f"reader: expected a 2-D map of at least 2 x 2 pixels, got {shape}")
+            raise ValueError(
+                f"reader: expected a 2-D map of at least 2 x 2 pixels, received {shape}"
+            )
         dtype = np.dtype(reader.dtype)
         kind = _DTYPE_KIND.get(dtype.name)
         if kind is None:
             raise TypeError(
                 "reader: expected stored values of dtype uint8 or uint16 (image), int8 "
-                f"(OccupancyGrid) or bool (obstacle mask), got {dtype}"
+                f"(OccupancyGrid) or bool (obstacle mask), received {dtype}"
             )
         self.reader = reader
         self.shape: tuple[int, int] = (shape[0], shape[1])
@@ -116,8 +118,9 @@ class TiledMap:
         self.mode = one_of("mode", mode, MODES)
         if kind != "image" and (self.negate or self.mode not in ("trinary", "scale")):
             raise ValueError(
-                f"negate, mode: apply to images only; a {dtype} map takes negate=False and "
-                f"mode 'trinary' or 'scale', got negate={negate!r}, mode={mode!r}"
+                f"negate, mode: expected negate=False and mode 'trinary' or 'scale' for a "
+                f"{dtype} map (the others apply to images only), received negate={negate!r}, "
+                f"mode={mode!r}"
             )
         if full_scale is None:
             full_scale = 65535 if dtype == np.uint16 else 255
@@ -151,7 +154,7 @@ class TiledMap:
         h, w = self.shape
         if not (0 <= r0 <= r1 <= h and 0 <= c0 <= c1 <= w):
             raise ValueError(
-                f"window: expected 0 <= r0 <= r1 <= {h} and 0 <= c0 <= c1 <= {w}, got "
+                f"window: expected 0 <= r0 <= r1 <= {h} and 0 <= c0 <= c1 <= {w}, received "
                 f"rows {r0}:{r1}, cols {c0}:{c1}"
             )
         return int(r0), int(r1), int(c0), int(c1)
@@ -238,7 +241,7 @@ class _ArrayReader:
 
     def __init__(self, array: np.ndarray) -> None:
         if array.ndim != 2:
-            raise ValueError(f"array: expected a 2-D (H, W) array, got shape {array.shape}")
+            raise ValueError(f"array: expected a 2-D (H, W) array, received shape {array.shape}")
         self.array = array
         self.shape = array.shape
         self.dtype = array.dtype
@@ -399,7 +402,7 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         return _open_pgm(p, dict(overrides), source=p)
     raise ValueError(
         f"path: expected a tile folder (with {TILE_INDEX}), a Zarr array, a binary .pgm or a "
-        f"map YAML naming one, got {p}"
+        f"map YAML naming one, received {p}"
     )
 
 
@@ -485,7 +488,7 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
         return p
     folder = output_folder(p, name="path")
     if any(folder.iterdir()):
-        raise ValueError(f"path: expected an empty or new folder for the tiles, got {folder}")
+        raise ValueError(f"path: expected an empty or new folder for the tiles, received {folder}")
     for tr, r0 in enumerate(range(0, h, tile_px)):
         band = tiled.values(r0, min(h, r0 + tile_px), 0, w)
         for tc, c0 in enumerate(range(0, w, tile_px)):

@@ -130,7 +130,7 @@ def _as_tiled(source) -> TiledMap:
         return TiledMap.from_array(source)
     raise TypeError(
         "source: expected a TiledMap, an OccupancyMap, a 2-D array or the path of a tile "
-        f"folder, Zarr array or PGM, got {type(source).__name__}"
+        f"folder, Zarr array or PGM, received {type(source).__name__}"
     )
 
 
@@ -142,7 +142,7 @@ def _as_executor(executor):
     if get_executor is None:
         raise TypeError(
             "executor: expected None, a concurrent.futures.Executor or a "
-            f"dask.distributed Client, got {type(executor).__name__}"
+            f"dask.distributed Client, received {type(executor).__name__}"
         )
     return get_executor(pure=False)
 
@@ -222,7 +222,8 @@ def build_graph_tiled(
     block_px = positive_int("block_px", block_px)
     if block_px % config.tile_px:
         raise ValueError(
-            f"block_px: expected a multiple of config.tile_px ({config.tile_px}), got {block_px}"
+            f"block_px: expected a multiple of config.tile_px ({config.tile_px}), "
+            f"received {block_px}"
         )
     pool = _as_executor(executor)
     if out_dir is not None:

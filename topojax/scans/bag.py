@@ -177,7 +177,7 @@ def read_bag(
     one_of("missing_pose", missing_pose, ("skip", "error"))
     tol = real_number("pose_tolerance_s", pose_tolerance_s)
     if tol < 0:
-        raise ValueError(f"pose_tolerance_s: expected a value >= 0 s, got {tol!r}")
+        raise ValueError(f"pose_tolerance_s: expected a value >= 0 s, received {tol!r}")
     offset_override = None if sensor_offset is None else _pose3("sensor_offset", sensor_offset)
     source = _open_bag(p)
     topics = source.topics

@@ -47,15 +47,15 @@ def _count(token: str, what: str) -> int:
     try:
         n = int(token)
     except ValueError:
-        raise _CarmenLineError(f"{what}: expected an integer, got {token!r}") from None
+        raise _CarmenLineError(f"{what}: expected an integer, received {token!r}") from None
     if n < 0:
-        raise _CarmenLineError(f"{what}: expected a count >= 0, got {n}")
+        raise _CarmenLineError(f"{what}: expected a count >= 0, received {n}")
     return n
 
 
 def _need(tokens: Sequence[str], k: int, what: str) -> None:
     if len(tokens) < k:
-        raise _CarmenLineError(f"expected at least {k} fields for {what}, got {len(tokens)}")
+        raise _CarmenLineError(f"{what}: expected at least {k} fields, received {len(tokens)}")
 
 
 def _parse_old_laser(tokens: list[str]) -> tuple[np.ndarray, np.ndarray | None, float | None]:
@@ -66,21 +66,21 @@ def _parse_old_laser(tokens: list[str]) -> tuple[np.ndarray, np.ndarray | None, 
     _need(tokens, 2, "the beam count")
     n = _count(tokens[1], "number of readings")
     if n < 2:
-        raise _CarmenLineError(f"number of readings: expected >= 2, got {n}")
+        raise _CarmenLineError(f"number of readings: expected >= 2, received {n}")
     _need(tokens, 2 + n, f"{n} ranges")
     ranges = _floats(tokens[2 : 2 + n], "range reading")
     rest = len(tokens) - 2 - n
     if rest == 9:  # more would shift every field: a wrong beam count
         nums = _floats(tokens[2 + n : 9 + n], "pose / odometry / timestamp")
         if not np.all(np.isfinite(nums[:3])):
-            raise _CarmenLineError(f"pose: expected finite x y theta, got {nums[:3].tolist()}")
+            raise _CarmenLineError(f"pose: expected finite x y theta, received {nums[:3].tolist()}")
         return ranges, nums[:3], float(nums[6])
     if rest == 3:  # very old raw format: n ranges ipc_timestamp hostname logger_timestamp
         return ranges, None, float(_floats(tokens[2 + n : 3 + n], "timestamp")[0])
     raise _CarmenLineError(
-        f"expected {n} ranges followed by 9 fields (x y theta odom_x odom_y odom_theta "
-        f"timestamp host logger_timestamp) or 3 fields (timestamp host logger_timestamp), "
-        f"got {rest} fields after the ranges"
+        f"fields after the {n} ranges: expected 9 (x y theta odom_x odom_y odom_theta "
+        f"timestamp host logger_timestamp) or 3 (timestamp host logger_timestamp), "
+        f"received {rest} fields after the ranges"
     )
 
 
@@ -302,7 +302,7 @@ def read_carmen(
             raise ValueError(f"max_range_m: expected a value > 0 m, received {max_range_m!r}")
     margin = real_number("no_return_margin_m", no_return_margin_m)
     if margin < 0:
-        raise ValueError(f"no_return_margin_m: expected a value >= 0 m, got {margin!r}")
+        raise ValueError(f"no_return_margin_m: expected a value >= 0 m, received {margin!r}")
     offset_override = None if sensor_offset is None else _pose3("sensor_offset", sensor_offset)
     return _iter_carmen(p, max_range_m, laser, margin, offset_override)
 
@@ -406,7 +406,7 @@ class _OdomPoses:
                 except ValueError:
                     raise ValueError(
                         f"{self.path}: PARAM robot_frontlaser_{name}: expected a number, "
-                        f"got {txt!r}"
+                        f"received {txt!r}"
                     ) from None
             return _pose3("PARAM robot_frontlaser_*", vals)
         raise ValueError(

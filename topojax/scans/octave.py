@@ -71,9 +71,9 @@ class _OctaveReader:
         try:
             v = int(txt)
         except ValueError:
-            raise self.error(f"'# {key}:' expected an integer, got {txt!r}") from None
+            raise self.error(f"'# {key}:' expected an integer, received {txt!r}") from None
         if v < 0:
-            raise self.error(f"'# {key}:' expected a value >= 0, got {v}")
+            raise self.error(f"'# {key}:' expected a value >= 0, received {v}")
         return v
 
     def data_line(self) -> list[str]:
@@ -89,7 +89,8 @@ class _OctaveReader:
     def numbers(self, line: list[str], expected: int) -> list[float]:
         if len(line) != expected:
             raise ValueError(
-                f"{self.path}:{self.i}: expected {expected} numbers on this line, got {len(line)}"
+                f"{self.path}:{self.i}: expected {expected} numbers on this line, "
+                f"received {len(line)}"
             )
         try:
             return [_octave_number(v) for v in line]
@@ -272,14 +273,16 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
     def scalar(name: str, i: int) -> float:
         v = np.asarray(columns[name][i], dtype=np.float64)
         if v.size != 1:
-            raise ValueError(f"{path}: {variable}({i + 1}).{name}: expected a scalar, got {v!r}")
+            raise ValueError(
+                f"{path}: {variable}({i + 1}).{name}: expected a scalar, received {v!r}"
+            )
         return float(v.reshape(()))
 
     def triple(name: str, i: int) -> np.ndarray:
         v = np.asarray(columns[name][i], dtype=np.float64).ravel()
         if v.size != 3:
             raise ValueError(
-                f"{path}: {variable}({i + 1}).{name}: expected 3 values, got shape "
+                f"{path}: {variable}({i + 1}).{name}: expected 3 values, received shape "
                 f"{np.shape(columns[name][i])}"
             )
         return v

@@ -27,14 +27,14 @@ def _pose3(name: str, value: Any) -> tuple[float, float, float]:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise TypeError(
-            f"{name}: expected 3 numbers (x_m, y_m, yaw_rad), got {value!r} ({err})"
+            f"{name}: expected 3 numbers (x_m, y_m, yaw_rad), received {value!r} ({err})"
         ) from None
     if arr.shape != (3,):
         raise ValueError(
-            f"{name}: expected 3 numbers (x_m, y_m, yaw_rad), got shape {arr.shape}: {value!r}"
+            f"{name}: expected 3 numbers (x_m, y_m, yaw_rad), received shape {arr.shape}: {value!r}"
         )
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected 3 finite numbers, got {tuple(arr.tolist())}")
+        raise ValueError(f"{name}: expected 3 finite numbers, received {tuple(arr.tolist())}")
     return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
@@ -109,11 +109,13 @@ class Scan:
         try:
             arr = np.asarray(raw)
         except (TypeError, ValueError) as err:
-            raise TypeError(f"ranges: expected a 1-D numeric array, got {raw!r} ({err})") from None
+            raise TypeError(
+                f"ranges: expected a 1-D numeric array, received {raw!r} ({err})"
+            ) from None
         if arr.dtype.kind not in "iuf":
-            raise TypeError(f"ranges: expected a real numeric array, got dtype {arr.dtype}")
+            raise TypeError(f"ranges: expected a real numeric array, received dtype {arr.dtype}")
         if arr.ndim != 1:
-            raise ValueError(f"ranges: expected a 1-D array (N,), got shape {arr.shape}")
+            raise ValueError(f"ranges: expected a 1-D array (N,), received shape {arr.shape}")
         dtype = arr.dtype if arr.dtype in (np.float32, np.float64) else np.float64
         arr = np.array(arr, dtype=dtype, copy=True)
         arr.flags.writeable = False
@@ -122,15 +124,15 @@ class Scan:
         object.__setattr__(self, "angle_min", real_number("angle_min", self.angle_min))
         inc = real_number("angle_increment", self.angle_increment)
         if inc == 0.0:
-            raise ValueError("angle_increment: expected a non-zero angle in radians, got 0.0")
+            raise ValueError("angle_increment: expected a non-zero angle in radians, received 0.0")
         object.__setattr__(self, "angle_increment", inc)
         rmin = real_number("range_min", self.range_min)
         if rmin < 0.0:
-            raise ValueError(f"range_min: expected a value >= 0 m, got {rmin!r}")
+            raise ValueError(f"range_min: expected a value >= 0 m, received {rmin!r}")
         rmax = real_number("range_max", self.range_max, allow_inf=True)
         if not rmax > rmin:
             raise ValueError(
-                f"range_max: expected a value > range_min ({rmin!r} m), got {rmax!r} m"
+                f"range_max: expected a value > range_min ({rmin!r} m), received {rmax!r} m"
             )
         object.__setattr__(self, "range_min", rmin)
         object.__setattr__(self, "range_max", rmax)
@@ -311,18 +313,20 @@ def scans_from_arrays(
     r = np.asarray(ranges)
     p = np.asarray(poses, dtype=np.float64)
     if r.ndim != 2:
-        raise ValueError(f"ranges: expected a 2-D array (S, N), got shape {r.shape}")
+        raise ValueError(f"ranges: expected a 2-D array (S, N), received shape {r.shape}")
     if p.ndim != 2 or p.shape[1] != 3:
-        raise ValueError(f"poses: expected an array of shape (S, 3), got shape {p.shape}")
+        raise ValueError(f"poses: expected an array of shape (S, 3), received shape {p.shape}")
     if p.shape[0] != r.shape[0]:
         raise ValueError(
-            f"poses: expected {r.shape[0]} rows (one per row of ranges), got {p.shape[0]}"
+            f"poses: expected {r.shape[0]} rows (one per row of ranges), received {p.shape[0]}"
         )
     t: np.ndarray | None = None
     if timestamps is not None:
         t = np.asarray(timestamps, dtype=np.float64)
         if t.shape != (r.shape[0],):
-            raise ValueError(f"timestamps: expected shape ({r.shape[0]},), got shape {t.shape}")
+            raise ValueError(
+                f"timestamps: expected shape ({r.shape[0]},), received shape {t.shape}"
+            )
     offset = _pose3("sensor_offset", sensor_offset)
     # Validate the shared geometry once, eagerly, on an empty scan.
     Scan(np.zeros(0), angle_min, angle_increment, range_min, range_max, (0, 0, 0), offset)

@@ -11,10 +11,9 @@ the view of a folder of results.  The page's script and style are part of the pa
 from __future__ import annotations
 
 import html
-import os
 from pathlib import Path
 
-from .._validate import positive_int
+from .._validate import path_like, positive_int
 from ._data import DEFAULT_MAX_PIXELS, build_payload, inputs_of
 from ._html import page
 from ._window import apply_window
@@ -123,8 +122,7 @@ def write_view(
     """
     from .._fs import atomic_write_bytes
 
-    if not isinstance(path, (str, os.PathLike)):
-        raise TypeError(f"path: expected a file path (str or Path), got {type(path).__name__}")
+    path_like("path", path)
     text = view_html(
         obj,
         title=title,

@@ -103,11 +103,11 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
     else:
         raise TypeError(
             "obj: expected a TopologyResult, an IncrementalMapper, a RoomSegmentation, a "
-            f"networkx graph or an OccupancyMap, got {type(obj).__name__}"
+            f"networkx graph or an OccupancyMap, received {type(obj).__name__}"
         )
     if map is not None:
         if not isinstance(map, OccupancyMap):
-            raise TypeError(f"map: expected an OccupancyMap, got {type(map).__name__}")
+            raise TypeError(f"map: expected an OccupancyMap, received {type(map).__name__}")
         out.map = map
     if rooms is True:
         from ..rooms import segment_rooms
@@ -119,7 +119,7 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
         if not (_instance(rooms, "topojax.rooms.model", "RoomSegmentation") or is_room_pair(rooms)):
             raise TypeError(
                 "rooms: expected a RoomSegmentation, the (rooms, doors) pair of "
-                f"topojax.load_rooms, True or False, got {type(rooms).__name__}"
+                f"topojax.load_rooms, True or False, received {type(rooms).__name__}"
             )
         out.rooms = rooms
     for name, graph in _extra_graphs(graphs):
@@ -128,7 +128,7 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
     out.timeline = _checked_timeline(timeline)
     if title is not None:
         if not isinstance(title, str):
-            raise TypeError(f"title: expected a str, got {type(title).__name__}")
+            raise TypeError(f"title: expected a str, received {type(title).__name__}")
         out.title = title
     return out
 
@@ -151,12 +151,12 @@ def _extra_graphs(graphs):
         return []
     if not isinstance(graphs, dict):
         raise TypeError(
-            f"graphs: expected a dict of name -> networkx graph, got {type(graphs).__name__}"
+            f"graphs: expected a dict of name -> networkx graph, received {type(graphs).__name__}"
         )
     for name, graph in graphs.items():
         if not isinstance(name, str) or not isinstance(graph, nx.Graph):
             raise TypeError(
-                "graphs: expected a dict of name (str) -> networkx graph, got "
+                "graphs: expected a dict of name (str) -> networkx graph, received "
                 f"{name!r} -> {type(graph).__name__}"
             )
     return list(graphs.items())
@@ -168,7 +168,7 @@ def _checked_route(route):
     from ..routing import Route
 
     if not isinstance(route, Route):
-        raise TypeError(f"route: expected a topojax.Route, got {type(route).__name__}")
+        raise TypeError(f"route: expected a topojax.Route, received {type(route).__name__}")
     return route
 
 
@@ -178,7 +178,9 @@ def _checked_timeline(timeline):
     from .timeline import Timeline
 
     if not isinstance(timeline, Timeline):
-        raise TypeError(f"timeline: expected a topojax.Timeline, got {type(timeline).__name__}")
+        raise TypeError(
+            f"timeline: expected a topojax.Timeline, received {type(timeline).__name__}"
+        )
     if timeline.n_frames == 0:
         raise ValueError(
             "timeline: it holds no graph update (record() keeps one at each report whose "

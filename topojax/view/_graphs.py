@@ -160,7 +160,7 @@ def graph_payload(
     """
     if not isinstance(graph, nx.Graph) or graph.is_directed():
         raise TypeError(
-            f"{name}: expected an undirected networkx graph, got {type(graph).__name__}"
+            f"{name}: expected an undirected networkx graph, received {type(graph).__name__}"
         )
     graph = as_multigraph(graph)
     where = f"{label}"
