@@ -306,7 +306,7 @@ class IncrementalMapper:
         """
         if not isinstance(scan, Scan):
             raise TypeError(
-                f"scan must be a topojax.Scan (see Scan.from_arrays), got {type(scan).__name__}"
+                f"scan: expected a topojax.Scan (see Scan.from_arrays), received {type(scan).__name__}"
             )
         t0 = time.perf_counter()
         sx, sy, syaw = scan.sensor_pose_world()

@@ -80,7 +80,7 @@ def _parse_old_laser(tokens: list[str]) -> tuple[np.ndarray, np.ndarray | None, 
     raise _CarmenLineError(
         f"fields after the {n} ranges: expected 9 (x y theta odom_x odom_y odom_theta "
         f"timestamp host logger_timestamp) or 3 (timestamp host logger_timestamp), "
-        f"received {rest} fields after the ranges"
+        f"received {rest}"
     )
 
 
