@@ -1,4 +1,5 @@
-"""numba's ``njit`` with its on-disk cache, kept in step with the package's sources.
+"""numba's ``njit`` with its on-disk cache, kept in step with the package's sources; and
+the count of JAX traces that tests use to guard against recompiles.
 
 numba keeps compiled kernels next to the package (``__pycache__``) or in
 ``NUMBA_CACHE_DIR``, and checks a cached kernel only against the file that defines it.  A
@@ -14,14 +15,19 @@ from __future__ import annotations
 import hashlib
 import os
 import warnings
+from collections import Counter
 from pathlib import Path
 
 import numba
 from numba.core.caching import UserProvidedCacheLocator
 
-__all__ = ["cached_njit", "purge_stale_kernels"]
+__all__ = ["TRACES", "cached_njit", "purge_stale_kernels", "trace_counts"]
 
 _warned = False
+
+#: Traces (compilations) of each jitted JAX kernel in this process, by kernel name; each
+#: kernel counts itself while it is traced.
+TRACES: Counter[str] = Counter()
 _STAMP = "topojax-sources.sha1"
 
 
@@ -91,3 +97,9 @@ def cached_njit(**options):
 
 
 purge_stale_kernels(Path(__file__).resolve().parent)
+
+
+def trace_counts() -> dict[str, int]:
+    """How many times each jitted JAX kernel has been traced (compiled) in this process,
+    by kernel name."""
+    return dict(TRACES)

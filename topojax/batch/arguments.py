@@ -3,7 +3,6 @@ items and the settings its manifests record."""
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
 import os
 from pathlib import Path
@@ -11,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from .._cpus import as_executor
 from .._fs import refuse_overwriting_inputs
 from .._validate import instance_or_default, int_at_least, one_of, positive_metres
 from ..config import PipelineConfig
@@ -234,19 +234,6 @@ def route_options(route_config: Any, formats: tuple[str, ...], out_dir: Any):
             f"out_dir: expected a folder (the formats {routes} need one), received None"
         )
     return config
-
-
-def as_executor(executor: Any) -> cf.Executor | None:
-    """``executor`` itself, or the executor of a Dask ``Client`` (``pure=False``)."""
-    if executor is not None and not isinstance(executor, cf.Executor):
-        get_executor = getattr(executor, "get_executor", None)
-        if get_executor is None:
-            raise TypeError(
-                "executor: expected a concurrent.futures.Executor or a dask.distributed "
-                f"Client, received {type(executor).__name__}"
-            )
-        executor = get_executor(pure=False)
-    return executor
 
 
 def request_settings(

@@ -13,7 +13,7 @@ from __future__ import annotations
 import itertools
 import os
 import threading
-from collections import Counter, deque
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache, partial
@@ -24,6 +24,7 @@ import numpy as np
 from jax import lax
 
 from .._cpus import usable_cpus
+from .._jit import TRACES, trace_counts
 from .._validate import instance_or_default, names_subset, positive_int
 from ..config import DistanceConfig, RidgeConfig
 from .distance import (
@@ -47,13 +48,6 @@ __all__ = [
     "ridge_map",
     "trace_counts",
 ]
-
-_TRACES: Counter[str] = Counter()
-
-
-def trace_counts() -> dict[str, int]:
-    """How many times each jitted kernel has been traced (compiled) in this process."""
-    return dict(_TRACES)
 
 
 def forward_tile(
@@ -118,7 +112,7 @@ def forward_tile(
 
 @partial(jax.jit, static_argnames=("half_width",))
 def _column_tiles(strips, *, half_width):
-    _TRACES["column_tiles"] += 1
+    TRACES["column_tiles"] += 1
     # lax.map rather than vmap: the scans stay narrow; same results.
     return lax.map(partial(column_distance_tile, half_width=half_width), strips)
 
@@ -127,7 +121,7 @@ def _column_tiles(strips, *, half_width):
 def _forward_tiles(
     columns, origins, map_shapes, sigma_px, scale, threshold, *, tile_px, half_width, ksize
 ):
-    _TRACES["forward_tiles"] += 1
+    TRACES["forward_tiles"] += 1
     # lax.map, not vmap: each tile (and each band of rows inside it) runs its own exact
     # number of distance offsets; under vmap every tile would run the slowest one's count.
     fn = partial(forward_tile, tile_px=tile_px, half_width=half_width, ksize=ksize)

@@ -6,10 +6,10 @@ changed; its results equal the full-map pipeline's on the exported map.  Why, st
 stage: ``docs/incremental-exactness.md``.
 """
 
+from .._jit import trace_counts
 from ._rays import ExtentError
 from ._rethin import thin_components
 from ._settings import STRATEGIES
-from ._tiles import trace_counts
 from .mapper import IncrementalMapper
 from .replay import replay, summary_text
 from .reports import GraphUpdate, ScanReport, timing_summary, vertex_error_metrics

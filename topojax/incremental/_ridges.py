@@ -10,10 +10,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._jit import cached_njit
+from .._jit import TRACES, cached_njit
 from ..fields.distance import FAR_SQ, gaussian_from_sq_distance
 from ..fields.filters import HALO_PX, laplacian_valid, ridge_from_laplacian
-from ._tiles import _TRACES, _U64, _aligned_empty, _batches, _flat, _wrap_into_tile
+from ._tiles import _U64, _aligned_empty, _batches, _flat, _wrap_into_tile
 
 #: Largest window half-width (px) whose Gaussian the ridge kernel reads from a table
 #: (2 R^2 + 2 float32 entries: 32 MiB at this bound) instead of computing it.
@@ -89,7 +89,7 @@ def _ridge_blocks(patches, sigma_px, scale, threshold, *, ksize, with_ridge=True
     test), and XLA computes the fused filter once per output: one output halves the
     kernel's work.
     """
-    _TRACES["ridge_blocks"] += 1
+    TRACES["ridge_blocks"] += 1
     fn = partial(ridge_block, ksize=ksize)
     out = jax.vmap(fn, in_axes=(0, None, None, None))(patches, sigma_px, scale, threshold)
     return out if with_ridge else out[0]
@@ -97,7 +97,7 @@ def _ridge_blocks(patches, sigma_px, scale, threshold, *, ksize, with_ridge=True
 
 @jax.jit
 def _gaussian(d2, sigma_px):
-    _TRACES["gaussian"] += 1
+    TRACES["gaussian"] += 1
     return gaussian_from_sq_distance(d2, sigma_px)
 
 

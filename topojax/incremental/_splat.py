@@ -12,12 +12,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._jit import cached_njit
+from .._jit import TRACES, cached_njit
 from ..fields.distance import FAR_SQ
 from ..fields.filters import HALO_PX
 from ._tiles import (
     _FAR_BOUND,
-    _TRACES,
     _U64,
     _batches,
     _flat,
@@ -87,7 +86,7 @@ def splat_block(points: jax.Array, *, size: int, half_width: int) -> jax.Array:
 
 @partial(jax.jit, static_argnames=("size", "half_width"))
 def _splat_blocks(points, *, size, half_width):
-    _TRACES["splat_blocks"] += 1
+    TRACES["splat_blocks"] += 1
     return jax.vmap(partial(splat_block, size=size, half_width=half_width))(points)
 
 

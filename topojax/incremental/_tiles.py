@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import os
-from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 
 import numba
@@ -27,9 +26,6 @@ _UINT16_MAX = 65535
 
 
 _U64 = numba.uint64  # unsigned flat offsets (see _gather_ridge_patches)
-
-
-_TRACES: Counter[str] = Counter()
 
 
 _POOLS: dict = {}  # thread name -> (process id, its executor in that process)
@@ -56,11 +52,6 @@ def _growth_pool():
     """A second thread that pages in the tile storage of the next growth
     (:meth:`TileManager.prepare_growth`) without holding up the worker's short jobs."""
     return _shared_thread("topojax-grow")
-
-
-def trace_counts() -> dict[str, int]:
-    """How many times each jitted kernel of this module has been traced (compiled)."""
-    return dict(_TRACES)
 
 
 @cached_njit(nogil=True, inline="always")

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from .._cpus import as_executor
 from .._fs import output_folder
 from .._validate import instance_or_default, positive_int, quantity
 from ..config import PipelineConfig
@@ -134,19 +135,6 @@ def _as_tiled(source) -> TiledMap:
     )
 
 
-def _as_executor(executor):
-    """``executor`` itself, or the executor of a Dask ``Client`` (``pure=False``)."""
-    if executor is None or isinstance(executor, cf.Executor):
-        return executor
-    get_executor = getattr(executor, "get_executor", None)
-    if get_executor is None:
-        raise TypeError(
-            "executor: expected None, a concurrent.futures.Executor or a "
-            f"dask.distributed Client, received {type(executor).__name__}"
-        )
-    return get_executor(pure=False)
-
-
 def _block_task(tiled: TiledMap, box, config: PipelineConfig, halo: int, threads) -> BlockPiece:
     """One block, its halo grown a tile at a time until its pixels are proved exact."""
     t = config.tile_px
@@ -225,7 +213,7 @@ def build_graph_tiled(
             f"block_px: expected a multiple of config.tile_px ({config.tile_px}), "
             f"received {block_px}"
         )
-    pool = _as_executor(executor)
+    pool = as_executor(executor)
     if out_dir is not None:
         out_dir = output_folder(out_dir, name="out_dir")
     h, w = tiled.shape
