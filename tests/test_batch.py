@@ -694,6 +694,17 @@ def test_record_row_has_summary_columns():
     assert tuple(rec.row()) == SUMMARY_COLUMNS
 
 
+def test_records_are_frozen_and_named():
+    """A returned record cannot drift from the summary table written beside it."""
+    import dataclasses
+
+    rec = MapRecord(map="m", path=None)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        rec.status = "error"
+    with pytest.raises(TypeError):
+        MapRecord("m", None)
+
+
 def test_parquet_summary_when_pyarrow_is_installed(tmp_path):
     pq = pytest.importorskip("pyarrow.parquet")
     out = tmp_path / "out"

@@ -4,13 +4,13 @@
 from __future__ import annotations
 
 import concurrent.futures as cf
-import dataclasses
 import os
 import sys
 import threading
 import time
 from collections import Counter, deque
 from collections.abc import Iterable, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,7 @@ from ..routegraph import RouteGraphConfig
 from .arguments import batch_items, checked_options, map_inputs
 from .inputs import ROUTE_FORMATS, _Item
 from .manifest import _forget_outputs, _resume_record, _write_manifest
-from .records import MapRecord, write_summary
+from .records import MapRecord, totalled, write_summary
 from .worker import (
     InlineExecutor,
     _cpu_stage,
@@ -144,9 +144,7 @@ class _BatchRun:
         cfg = self._configs.get(g.resolution_m)
         if cfg is None:
             distance = DistanceConfig.from_metres(sigma_m=self.sigma_m, resolution_m=g.resolution_m)
-            cfg = self._configs[g.resolution_m] = dataclasses.replace(
-                self.config, distance=distance
-            )
+            cfg = self._configs[g.resolution_m] = replace(self.config, distance=distance)
         return cfg
 
     def _dense_fields(self, group: list[_Loaded]) -> tuple[list[Any], float]:
@@ -363,7 +361,7 @@ class _BatchRun:
 
     def _finish(self, index: int, rec: MapRecord) -> None:
         """Record the final ``rec`` of map ``index`` and advance the progress bar."""
-        self._records[index] = rec._finish()
+        self._records[index] = rec = totalled(rec)
         counts = self._counts
         counts[rec.status] += 1
         self._bar.update(1)
@@ -423,7 +421,7 @@ class _BatchRun:
         except Exception as exc:
             self._finish(
                 item.index,
-                MapRecord(item.name, item.label, status="error", message=_error_text(exc)),
+                MapRecord(map=item.name, path=item.label, status="error", message=_error_text(exc)),
             )
 
     def _on_kernels_done(self, fut: cf.Future) -> None:
@@ -436,8 +434,9 @@ class _BatchRun:
                 self._finish(g.item.index, self._base_record(g, "error", _error_text(exc)))
             return
         for g, job, t_distance, error in jobs:
-            rec = self._base_record(g, "error" if error else "ok", error)
-            rec.t_distance_s = t_distance
+            rec = replace(
+                self._base_record(g, "error" if error else "ok", error), t_distance_s=t_distance
+            )
             self._classes[g.item.index] = _class_counts(g)
             self._walls[g.item.index] = g.wall_share
             if job is None:
@@ -447,42 +446,41 @@ class _BatchRun:
                 self._forget_outputs(g.item)  # its outputs are about to change
                 self._cpu[self._submit(_cpu_stage, job)] = (g.item, rec)
             except Exception as exc:
-                rec.status, rec.message = "error", _error_text(exc)
-                self._finish(g.item.index, rec)
+                self._finish(g.item.index, replace(rec, status="error", message=_error_text(exc)))
 
     def _base_record(self, g: _Loaded, status: str, message: str) -> MapRecord:
-        occ = g
-        rec = MapRecord(
+        return MapRecord(
             map=g.item.name,
             path=g.item.label,
-            height=int(occ.shape[0]),
-            width=int(occ.shape[1]),
-            resolution_m=float(occ.resolution_m),
+            height=int(g.shape[0]),
+            width=int(g.shape[1]),
+            resolution_m=float(g.resolution_m),
             t_load_s=g.t_load_s,
             status=status,
             message=message,
         )
-        return rec
 
     def _complete(self, item: _Item, rec: MapRecord, fut: cf.Future) -> MapRecord:
         try:
             res: _CpuResult = fut.result()
         except Exception as exc:  # the worker died or the task could not be run
-            rec.status, rec.message = "error", f"CPU stage failed: {_error_text(exc)}"
-            return rec
-        rec.vertices, rec.edges = res.vertices, res.edges
-        rec.components, rec.total_length_m = res.components, res.total_length_m
-        rec.route_vertices, rec.route_edges = res.route_vertices, res.route_edges
-        rec.route_components = res.route_components
-        rec.t_thinning_s, rec.t_graph_s, rec.t_write_s = (
-            res.t_thinning_s,
-            res.t_graph_s,
-            res.t_write_s,
+            return replace(rec, status="error", message=f"CPU stage failed: {_error_text(exc)}")
+        rec = replace(
+            rec,
+            vertices=res.vertices,
+            edges=res.edges,
+            components=res.components,
+            total_length_m=res.total_length_m,
+            route_vertices=res.route_vertices,
+            route_edges=res.route_edges,
+            route_components=res.route_components,
+            t_thinning_s=res.t_thinning_s,
+            t_graph_s=res.t_graph_s,
+            t_write_s=res.t_write_s,
+            outputs=tuple(res.files),
         )
-        rec.outputs = tuple(res.files)
         if res.error is not None:
-            rec.status, rec.message = "error", res.error
-            return rec
+            return replace(rec, status="error", message=res.error)
         warning = wall_warning(self._walls.pop(item.index, None))
         classes = self._classes.pop(item.index, (None, None))
         # the paper's graph counts unless only route graphs were asked for
@@ -490,18 +488,20 @@ class _BatchRun:
         notes = [] if res.vertices or not paper else [_empty_reason(*classes)]
         notes += [res.route_note] if res.route_note else []
         notes += [warning] if warning else []
-        rec.message = "; ".join(notes)  # why it is empty, and any warning
-        if (paper and not res.vertices) or res.route_vertices == 0:
-            rec.status = "empty"
-        rec.graph = res.graph
+        empty = (paper and not res.vertices) or res.route_vertices == 0
+        rec = replace(
+            rec,
+            status="empty" if empty else rec.status,
+            message="; ".join(notes),  # why it is empty, and any warning
+            graph=res.graph,
+        )
         if self.out_dir is not None:
-            rec._finish()
+            rec = totalled(rec)
             try:
                 manifest = self._write_manifest(item, rec, res.files)
             except Exception as exc:
-                rec.status, rec.message = "error", f"manifest: {_error_text(exc)}"
-                return rec
-            rec.outputs = (*rec.outputs, manifest)
+                return replace(rec, status="error", message=f"manifest: {_error_text(exc)}")
+            rec = replace(rec, outputs=(*rec.outputs, manifest))
         return rec
 
 

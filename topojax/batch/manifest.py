@@ -115,14 +115,18 @@ def _resume_record(
                 return None
         except (OSError, KeyError, TypeError):
             return None
-    rec = MapRecord(map=item.name, path=item.label)
-    for name in SUMMARY_COLUMNS:
-        if name not in ("map", "path", "status", "message") and name in row:
-            setattr(rec, name, row[name])
-    rec.status = "skipped"
-    rec.message = "outputs complete (resume)"
-    rec.outputs = (*sorted(files), path.relative_to(out_dir).as_posix())
-    return rec
+    return MapRecord(
+        map=item.name,
+        path=item.label,
+        **{
+            name: row[name]
+            for name in SUMMARY_COLUMNS
+            if name not in ("map", "path", "status", "message") and name in row
+        },
+        status="skipped",
+        message="outputs complete (resume)",
+        outputs=(*sorted(files), path.relative_to(out_dir).as_posix()),
+    )
 
 
 def _write_manifest(

@@ -6,7 +6,7 @@ import csv
 import io as _io
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -44,7 +44,7 @@ SUMMARY_COLUMNS = (
 )
 
 
-@dataclass
+@dataclass(frozen=True, kw_only=True)
 class MapRecord:
     """What happened to one map of a batch (one row of the summary table).
 
@@ -109,11 +109,11 @@ class MapRecord:
         """The record as a summary-table row (keys :data:`SUMMARY_COLUMNS`)."""
         return {name: getattr(self, name) for name in SUMMARY_COLUMNS}
 
-    def _finish(self) -> MapRecord:
-        self.t_total_s = (
-            self.t_load_s + self.t_distance_s + self.t_thinning_s + self.t_graph_s + self.t_write_s
-        )
-        return self
+
+def totalled(rec: MapRecord) -> MapRecord:
+    """A copy of ``rec`` whose ``t_total_s`` is the sum of its stage times."""
+    stages = rec.t_load_s + rec.t_distance_s + rec.t_thinning_s + rec.t_graph_s
+    return replace(rec, t_total_s=stages + rec.t_write_s)
 
 
 def _csv_value(value: Any) -> str:
