@@ -569,18 +569,11 @@ def build_graphs(
         Output folder (created).  Without it nothing is written and the graphs are
         returned in the records.
     formats : sequence of str, or a comma-separated str
-        Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2``, ``rooms``,
-        ``route`` and ``route_nav2``.  ``nav2``: ``<name>_nav2.geojson``, the graph for
-        the ROS 2 Nav2 Route Server (:func:`topojax.save_nav2_graph`, its default
-        tolerance).
-        ``rooms``: ``<name>_rooms.{geojson,png,graphml,json}`` of
-        :func:`topojax.segment_rooms` (default settings); the graph files, picture and
-        kept graphs then carry the rooms (:func:`topojax.assign_rooms`).
-        ``route``: ``<name>_route.{graphml,json,geojson}``, the map's route graph for a
-        round robot (:func:`topojax.route_graph` with ``route_config``);
-        ``route_nav2``: ``<name>_route_nav2.geojson``, that graph for the Nav2 Route
-        Server.  A map whose route graph is empty (the robot fits in no region) gets
-        ``status="empty"`` and the reason.
+        Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2`` (the graph for
+        the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms`; the graph files
+        then carry the rooms), ``route`` and ``route_nav2`` (the route graph of
+        ``route_config``, as graph files and for Nav2; a map where it is empty gets
+        ``status="empty"``).  File names: ``docs/batch-and-dask.md``.
     plot : bool
         Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
     resume : bool
@@ -609,11 +602,8 @@ def build_graphs(
         as :class:`OccupancyMap` objects are already classified.
     sigma_m : float, optional
         The distance map's Gaussian σ in metres for every map, converted with each map's
-        own resolution (:meth:`DistanceConfig.from_metres`; the support scales with it),
-        in place of ``config.distance``.  Maps of different resolutions then get
-        different pixel settings: each setting compiles its own kernel once and runs
-        in kernel calls of its own.  Default: ``config.distance`` (the paper's 64.19 px)
-        for every map.
+        own resolution (:meth:`DistanceConfig.from_metres`), in place of
+        ``config.distance`` (default: the paper's 64.19 px for every map).
     route_config : RouteGraphConfig, optional
         Options of the route graph of the ``route`` formats (default: its defaults, a
         robot radius of 0.3 m).
