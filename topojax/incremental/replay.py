@@ -153,37 +153,26 @@ def replay(
     reader_kwargs : dict, optional
         Passed to the reader.
     nav2_tolerance_m : float, optional
-        Also write ``graph_nav2.geojson``, a route graph for the ROS 2 Nav2 Route Server
-        with this waypoint tolerance (:func:`topojax.save_nav2_graph`); with ``map.yaml``
-        it is what Nav2 needs.  Skipped with a message when the graph has no edges.
+        Also write ``graph_nav2.geojson`` for the ROS 2 Nav2 Route Server with this
+        waypoint tolerance (:func:`topojax.save_nav2_graph`; none when it has no edge).
     graph_config : GraphConfig, optional
-        What the written graph (and Nav2 file and pictures) keep of the final graph:
-        ``free_space_only`` and the ``min_*_m`` pruning, as :func:`topojax.build_graph`
-        applies them (thinning, T removal and the graph step are re-run on the final
-        ridge map, which equals the full-map pipeline's, so the written graph is
-        ``build_graph(map, ...)``'s with this ``graph``).  Default: the mapper's whole
-        graph, as the paper keeps it (and as the animation shows it).
+        What the written graph (and Nav2 file and pictures) keep of the final graph
+        (``free_space_only``, the ``min_*_m`` pruning): the written graph is then
+        ``build_graph(map, ...)``'s with this ``graph``.  Default: the mapper's whole
+        graph, as the paper keeps it.
     route_graph_radius_m : float, optional
-        Also write ``route_graph.graphml``, ``.json`` and ``.geojson``: the route graph of
-        the final map for a round robot of this radius (:meth:`IncrementalMapper.route_graph`);
-        with ``mcap``, the route graph of the map at every graph update too.
+        Also write ``route_graph.{graphml,json,geojson}``, the final map's route graph for
+        a round robot of this radius (and, with ``mcap``, record it at every update).
     rooms : bool
-        Keep rooms as the map grows (with every graph update; ``room_config`` in
-        ``mapper_kw`` sets their options), give the written graphs their rooms
-        (:func:`topojax.assign_rooms`) and write ``map_rooms.geojson``, ``map_rooms.png``,
-        ``map_rooms.graphml`` and ``map_rooms.json`` (:func:`topojax.io.save_room_files`);
-        the animation colours the rooms.
+        Keep rooms as the map grows (``room_config`` in ``mapper_kw``), give the written
+        graphs their rooms and write ``map_rooms.{geojson,png,graphml,json}``.
     mcap : str or Path, optional
-        Also write a ROS 2 MCAP recording (an ``.mcap`` file, for Foxglove, RViz and
-        ``ros2 bag play``; needs ``rosbags``): ``/tf`` and ``/scan`` for every scan,
-        ``/map`` and ``/topology`` (and, with ``route_graph_radius_m``, ``/route_graph``)
-        at every graph update, ``/rooms`` at every room update, and the written map,
-        graph (rooms, route graph) once more at the end, stamped with the log's
-        timestamps (see :mod:`topojax.io.mcap`).
+        Also write a ROS 2 MCAP recording (needs ``rosbags``): scans, map, graph (route
+        graph, rooms) at every update, stamped with the log's timestamps
+        (:mod:`topojax.io.mcap`).
     view : bool
-        Also write ``view.html``, the interactive view of the final map and graph (and
-        rooms, route graph) with a timeline of every graph update and the robot's path
-        (:func:`topojax.write_view`), and the timeline, ``timeline.json.gz``.
+        Also write ``view.html`` (:func:`topojax.write_view`), the final map and graph
+        with a timeline of every graph update, and ``timeline.json.gz``.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ``room_config``, ...).
