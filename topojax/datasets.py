@@ -20,13 +20,35 @@ SAMPLE_MAPS = ("intel", "office", "a_scan")
 
 
 def sample_map_path(name: str = "intel") -> Path:
-    """Path of a bundled sample map image (``intel``, ``office`` or ``a_scan``)."""
+    """Path of a bundled sample map image.
+
+    Parameters
+    ----------
+    name : {"intel", "office", "a_scan"}
+        One of :data:`SAMPLE_MAPS`.
+
+    Returns
+    -------
+    Path
+        A PNG, black walls on white.
+    """
     one_of("name", name, SAMPLE_MAPS)
     return Path(str(resources.files("topojax") / "data" / f"{name}.png"))
 
 
 def sample_map(name: str = "intel"):
-    """Load a bundled sample map as an :class:`~topojax.maps.OccupancyMap` (0.05 m/px)."""
+    """Load a bundled sample map.
+
+    Parameters
+    ----------
+    name : {"intel", "office", "a_scan"}
+        One of :data:`SAMPLE_MAPS`.
+
+    Returns
+    -------
+    OccupancyMap
+        At the paper's 0.05 m per pixel, origin (0, 0).
+    """
     from .maps import load_map
 
     return load_map(sample_map_path(name), resolution_m=0.05)

@@ -176,10 +176,6 @@ class View:
 def show(obj, *, height_px: int = 600, **kwargs) -> View:
     """The interactive view of ``obj`` inline in a notebook.
 
-    Returns a :class:`View`, which Jupyter and VS Code display as the page of
-    :func:`write_view` in a frame (no extension needed); the keyword arguments are
-    :func:`write_view`'s.
-
     Parameters
     ----------
     obj
@@ -189,7 +185,13 @@ def show(obj, *, height_px: int = 600, **kwargs) -> View:
         Height of the frame, CSS pixels (default 600).
     **kwargs
         ``title``, ``map``, ``rooms``, ``graphs``, ``route``, ``timeline``,
-        ``window``, ``max_pixels``.
+        ``window``, ``max_pixels`` (:func:`write_view`'s).
+
+    Returns
+    -------
+    View
+        Jupyter and VS Code display it as the page of :func:`write_view` in a frame (no
+        extension needed).
 
     Examples
     --------
