@@ -343,3 +343,67 @@ def test_zarr_missing_names_the_extra(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_zarr)
     with pytest.raises(ImportError, match=r"topojax\[zarr\]"):
         tj.save_tiled_map(np.zeros((4, 4), np.uint8) + 254, tmp_path / "z", format="zarr")
+
+
+def _tile_folder(tmp_path):
+    grid = np.full((300, 280), 254, np.uint8)
+    grid[100:110, :] = 0
+    return tj.save_tiled_map(grid, tmp_path / "g", tile_px=128)  # 3 x 3 tiles
+
+
+@pytest.mark.parametrize(
+    ("damage", "error", "needle"),
+    [
+        # a tile of the wrong size would leave uninitialised memory in the window
+        (
+            lambda p: np.save(p / "r00001_c00001.npy", np.zeros((10, 10), np.uint8)),
+            ValueError,
+            r"r00001_c00001.npy: expected a uint8 array of 128 x 128 .* \(10, 10\)",
+        ),
+        # a float tile would be cast silently
+        (
+            lambda p: np.save(p / "r00002_c00000.npy", np.full((44, 128), 0.7)),
+            ValueError,
+            "expected a uint8 array of 44 x 128 pixels .* received a float64",
+        ),
+        (
+            lambda p: (p / "r00000_c00002.npy").write_bytes(b"not an array"),
+            ValueError,
+            "r00000_c00002.npy is not a .npy array",
+        ),
+    ],
+)
+def test_a_damaged_tile_is_named_when_read(tmp_path, damage, error, needle):
+    path = _tile_folder(tmp_path)
+    damage(path)
+    source = tj.open_tiled_map(path)
+    with pytest.raises(error, match=needle):
+        source.values(0, 300, 0, 280)
+    with pytest.raises(error, match=needle):
+        tj.build_graph_tiled(source)
+
+
+def test_a_tile_index_that_disagrees_with_its_tiles_is_refused_on_opening(tmp_path):
+    import json
+
+    path = _tile_folder(tmp_path)
+    index = json.loads((path / TILE_INDEX).read_text())
+    # a shape far larger than the tiles present (it had planned blocks until memory ran out)
+    (path / TILE_INDEX).write_text(json.dumps({**index, "shape": [10**9, 10**9]}))
+    with pytest.raises(ValueError, match="expected 61035156250000 tile files, found 9"):
+        tj.open_tiled_map(path)
+    for bad, needle in (
+        ({"shape": [300]}, "shape: expected two positive integers"),
+        ({"tile_px": 0}, "tile_px: expected a positive integer"),
+        ({"dtype": "float32"}, "dtype: expected an integer or bool type name"),
+    ):
+        (path / TILE_INDEX).write_text(json.dumps({**index, **bad}))
+        with pytest.raises(ValueError, match=needle):
+            tj.open_tiled_map(path)
+    (path / TILE_INDEX).write_text(json.dumps(index))
+    (path / "r00001_c00002.npy").rename(path / "r00003_c00000.npy")
+    with pytest.raises(ValueError, match="tile r00001_c00002.npy of the 3 x 3 tiles is missing"):
+        tj.open_tiled_map(path)
+    (path / TILE_INDEX).write_text("{not json")
+    with pytest.raises(ValueError, match="is not JSON"):
+        tj.open_tiled_map(path)

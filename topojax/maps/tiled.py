@@ -305,13 +305,37 @@ class _FolderReader:
         out = np.empty((r1 - r0, c1 - c0), self.dtype)
         for tr in range(r0 // t, -(-r1 // t)):
             for tc in range(c0 // t, -(-c1 // t)):
-                tile = np.load(self.tile_path(tr, tc), mmap_mode="r")
+                tile = self._tile(tr, tc)
                 a0, a1 = max(r0, tr * t), min(r1, tr * t + tile.shape[0])
                 b0, b1 = max(c0, tc * t), min(c1, tc * t + tile.shape[1])
                 out[a0 - r0 : a1 - r0, b0 - c0 : b1 - c0] = tile[
                     a0 - tr * t : a1 - tr * t, b0 - tc * t : b1 - tc * t
                 ]
         return out
+
+    def _tile(self, tr: int, tc: int) -> np.ndarray:
+        """Tile ``(tr, tc)``, memory-mapped, after checking it has the shape and dtype
+        that ``tiles.json`` gives it (a tile at the map's last row or column is cut)."""
+        path = self.tile_path(tr, tc)
+        t = self.tile_px
+        want = (min(t, self.shape[0] - tr * t), min(t, self.shape[1] - tc * t))
+        try:
+            tile = np.load(path, mmap_mode="r", allow_pickle=False)
+        except FileNotFoundError:
+            raise FileNotFoundError(
+                f"tile folder {self.folder}: tile {path.name} is missing"
+            ) from None
+        except (OSError, ValueError) as exc:
+            raise ValueError(
+                f"tile folder {self.folder}: {path.name} is not a .npy array ({exc})"
+            ) from None
+        if tile.shape != want or tile.dtype != self.dtype:
+            raise ValueError(
+                f"tile folder {self.folder}: {path.name}: expected a {self.dtype} array of "
+                f"{want[0]} x {want[1]} pixels (from {TILE_INDEX}), received a {tile.dtype} "
+                f"array of shape {tile.shape}"
+            )
+        return tile
 
 
 class _ZarrReader:
@@ -417,15 +441,66 @@ def _metadata(stored: dict, overrides: dict) -> dict:
 
 
 def _open_folder(p: Path, overrides: dict) -> TiledMap:
-    index = json.loads((p / TILE_INDEX).read_text())
-    if index.get("format") != _FOLDER_FORMAT:
+    index_path = p / TILE_INDEX
+    try:
+        index = json.loads(index_path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise ValueError(f"path: {index_path} is not JSON ({exc})") from None
+    if not isinstance(index, dict) or index.get("format") != _FOLDER_FORMAT:
+        found = index.get("format") if isinstance(index, dict) else type(index).__name__
         raise ValueError(
-            f"path: {p / TILE_INDEX} is not a tile index (format {index.get('format')!r}, "
+            f"path: {index_path} is not a tile index (format {found!r}, "
             f"expected {_FOLDER_FORMAT!r})"
         )
-    shape = tuple(int(v) for v in index["shape"])
-    reader = _FolderReader(p, shape, int(index["tile_px"]), index["dtype"])
+    shape, tile_px, dtype = _folder_layout(index, index_path)
+    _check_tile_files(p, shape, tile_px)
+    reader = _FolderReader(p, shape, tile_px, dtype)
     return TiledMap(reader, **_metadata(index, overrides), source=str(p))
+
+
+def _folder_layout(index: dict, index_path: Path) -> tuple[tuple[int, int], int, np.dtype]:
+    """``shape``, ``tile_px`` and ``dtype`` of a tile index, checked."""
+    shape, tile_px, dtype = index.get("shape"), index.get("tile_px"), index.get("dtype")
+    if (
+        not isinstance(shape, list)
+        or len(shape) != 2
+        or not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in shape)
+    ):
+        raise ValueError(
+            f"path: {index_path}: shape: expected two positive integers, received {shape!r}"
+        )
+    if not isinstance(tile_px, int) or isinstance(tile_px, bool) or tile_px < 1:
+        raise ValueError(
+            f"path: {index_path}: tile_px: expected a positive integer, received {tile_px!r}"
+        )
+    try:
+        dt = np.dtype(dtype)
+    except TypeError:
+        dt = None
+    if dt is None or dt.kind not in "biu":
+        raise ValueError(
+            f"path: {index_path}: dtype: expected an integer or bool type name, received {dtype!r}"
+        )
+    return (shape[0], shape[1]), tile_px, dt
+
+
+def _check_tile_files(folder: Path, shape: tuple[int, int], tile_px: int) -> None:
+    """The folder holds exactly the tiles its index's shape asks for (checked before any
+    block is planned, so a wrong shape cannot make a map of absurd size)."""
+    rows, cols = -(-shape[0] // tile_px), -(-shape[1] // tile_px)
+    names = {f.name for f in folder.glob("r*_c*.npy")}
+    if len(names) != rows * cols:
+        raise ValueError(
+            f"path: {folder / TILE_INDEX} gives a map of {shape[0]} x {shape[1]} pixels in "
+            f"tiles of {tile_px}: expected {rows * cols} tile files, found {len(names)}"
+        )
+    for tr in range(rows):
+        for tc in range(cols):
+            if f"r{tr:05d}_c{tc:05d}.npy" not in names:
+                raise ValueError(
+                    f"path: {folder}: tile r{tr:05d}_c{tc:05d}.npy of the "
+                    f"{rows} x {cols} tiles is missing"
+                )
 
 
 def _open_pgm(image: Path, settings: dict, *, source: Path) -> TiledMap:
