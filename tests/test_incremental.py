@@ -2276,6 +2276,18 @@ def test_replay_skips_a_scan_far_off_and_goes_on(tmp_path, capsys, glitch, messa
     assert len(summary["skipped_scans"]) == 1
 
 
+def test_replay_whose_every_scan_is_refused_says_why(tmp_path):
+    """At 5 m per pixel the default tiles and distance window alone are wider than
+    ``max_extent_m``: every scan is refused, and the error says so with the first
+    refusal and what to change, not that the log holds no scans."""
+    with pytest.raises(
+        ValueError,
+        match=r"all 40 scans were refused; the first: scan 0 .*tiles of 128 px .* "
+        r"at 5 m per pixel: make the mapper with a smaller tile_px or sigma",
+    ):
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "out", progress=False, resolution_m=5.0)
+
+
 def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
     """A log whose final map is beyond ``max_export_bytes`` is not lost: the replay saves
     the mapper's state, and its error says where and how to skip the scans that grew

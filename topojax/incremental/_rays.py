@@ -334,11 +334,19 @@ def check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
     res = mapper.resolution_m
     height_m, width_m = (r1 - r0) * res, (c1 - c0) * res
     if max(height_m, width_m) > mapper.max_extent_m:
+        if bbox is None:  # the first pixels alone: the tiles and window are too large
+            why = (
+                f"the first pixels' tiles of {t} px and distance window of "
+                f"{mapper._half} px are {t * res:g} m and {mapper._half * res:g} m at "
+                f"{res:g} m per pixel: make the mapper with a smaller tile_px or sigma, "
+                "or a larger max_extent_m"
+            )
+        else:
+            why = "a localisation glitch? check the pose, or make the mapper with a larger max_extent_m"
         raise ExtentError(
             f"{where()} would grow the mapped area to {width_m:.6g} m x {height_m:.6g} m "
             f"(x by y, tile-aligned), beyond max_extent_m={mapper.max_extent_m:g} m; "
-            "nothing was added (a localisation glitch? check the pose, or make the "
-            "mapper with a larger max_extent_m)"
+            f"nothing was added ({why})"
         )
 
 

@@ -296,6 +296,10 @@ def _map_scans(
         reports, frames, wall, skipped = _run(
             mapper, scans, max_scans, animate, progress, record, timeline
         )
+        if not reports and skipped:
+            raise ValueError(
+                f"source {source}: all {len(skipped)} scans were refused; the first: {skipped[0]}"
+            )
         if not reports:
             raise ValueError(f"source {source}: no scans to replay")
         if mapper.pixel_bbox is None:
