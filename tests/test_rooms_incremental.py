@@ -112,6 +112,20 @@ def test_rooms_follow_the_graph_loop_once_in_use(plan):
     assert "rooms" not in report.loops
 
 
+def test_rooms_read_before_the_first_scan_are_kept_from_then_on(plan):
+    """Reading rooms at start-up, before any scan, says the mapper is empty and puts
+    rooms in use: the first graph update after scans brings them."""
+    occ = plan.occupancy
+    mapper = tj.IncrementalMapper(resolution_m=RES, graph_every=1, skeleton_every=None)
+    with pytest.raises(ValueError, match="rooms: the mapper is empty; they are kept"):
+        _ = mapper.rooms
+    mapper.add_map(_part(occ, slice(0, 200)))
+    points = np.argwhere(occ.occupied)[:50]
+    x, y = occ.pixel_to_world(points[:, 0], points[:, 1])
+    report = mapper.add_points(np.stack([x, y], axis=1))
+    assert "rooms" in report.loops and mapper.rooms.n_rooms > 0
+
+
 def test_rooms_survive_save_and_load(plan, tmp_path):
     mapper = _mapper(room_config=tj.RoomConfig(min_room_m2=3.0))
     mapper.add_map(plan.occupancy)

@@ -731,7 +731,8 @@ class IncrementalMapper:
         :attr:`occupancy`, ids stable across updates); segmented on first read, then kept
         up to date at ``rooms_every``.  Its labels are those of
         ``segment_rooms(mapper.occupancy)`` with the ids renamed (with ``rooms_local``:
-        re-segmented around the changes only, see ``docs/rooms.md``)."""
+        re-segmented around the changes only, see ``docs/rooms.md``).  Read on an empty
+        mapper, it raises ValueError, and rooms are kept from the first scan on."""
         if self._rooms.seg is None:
             self.update_rooms()
         return self._rooms.seg
@@ -740,11 +741,17 @@ class IncrementalMapper:
     def update_rooms(self):
         """Bring the graph and the rooms up to date; returns a ``RoomsUpdate`` (rooms and
         doors added, removed, changed)."""
+        self._rooms.active = True  # in use from now on, even if the mapper is empty yet
         self.update_graph()
         return self._update_rooms()
 
     def _update_rooms(self):
         self._since_rooms = 0
+        if self._tiles.pixel_bbox is None:
+            raise ValueError(
+                "rooms: the mapper is empty; they are kept up to date from the first scan "
+                "with valid readings on"
+            )
         box = self._bbox_or_raise("rooms")
         return self._rooms.update(
             self._occupancy_over(*box), box, self.room_config, local=self.rooms_local
