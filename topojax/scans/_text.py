@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import gzip
 import io
+import warnings
 import zlib
 from pathlib import Path
 from typing import IO
@@ -15,8 +16,9 @@ _GZIP_MAGIC = b"\x1f\x8b"
 def _open_text(path: Path) -> IO[str]:
     """Open a text file that may be gzip-compressed (detected by its magic bytes).
 
-    Damaged or truncated compressed data raises ValueError naming the file (gzip's own
-    EOFError / zlib.error say neither which file nor that it is the file's fault)."""
+    Compressed data cut off (a logger that stopped while writing) reads up to the cut,
+    with a warning, as a plain file cut off does; damaged compressed data raises
+    ValueError naming the file (gzip's own errors name neither)."""
     with open(path, "rb") as fh:
         magic = fh.read(2)
     if magic == _GZIP_MAGIC:
@@ -26,7 +28,8 @@ def _open_text(path: Path) -> IO[str]:
 
 
 class _CheckedGzip(io.RawIOBase):
-    """A gzip file's decompressed bytes, with decompression faults as ValueError."""
+    """A gzip file's decompressed bytes: up to the cut where it is cut off, and
+    decompression faults as ValueError."""
 
     def __init__(self, path: Path) -> None:
         self._path = path
@@ -38,10 +41,17 @@ class _CheckedGzip(io.RawIOBase):
     def readinto(self, buffer) -> int:
         try:
             return self._file.readinto(buffer)
-        except (EOFError, zlib.error, gzip.BadGzipFile) as exc:
+        except EOFError:
+            warnings.warn(
+                f"{self._path}: the gzip-compressed data is cut off; read up to the cut",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            return 0
+        except (zlib.error, gzip.BadGzipFile) as exc:
             raise ValueError(
-                f"{self._path}: the gzip-compressed data is damaged or cut off ({exc}); "
-                "the file cannot be read to its end"
+                f"{self._path}: the gzip-compressed data is damaged ({exc}); the file "
+                "cannot be read to its end"
             ) from None
 
     def close(self) -> None:
