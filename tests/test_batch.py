@@ -472,6 +472,17 @@ def test_expand_map_inputs(tmp_path):
         expand_map_inputs([str(tmp_path / "*.yaml")])
 
 
+def test_an_empty_input_is_refused_not_taken_for_the_working_folder(tmp_path, monkeypatch):
+    """``topojax batch "$MAPS"`` with MAPS unset must not batch the folder it runs in."""
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "m.png").write_bytes(PAPER_MAPS[0].read_bytes())
+    monkeypatch.chdir(tmp_path)
+    for inputs in ("", [" "], ["sub", ""]):
+        with pytest.raises(ValueError, match="inputs: .* received an empty string"):
+            expand_map_inputs(inputs)
+    assert expand_map_inputs(["sub"]) == [Path("sub/m.png")]
+
+
 def test_expand_map_inputs_skips_the_excluded_folder(tmp_path):
     root = tmp_path / "maps"
     (root / "out").mkdir(parents=True)

@@ -167,10 +167,11 @@ def expand_map_inputs(
     Raises
     ------
     ValueError
-        If nothing at all was found.
+        If an input is an empty string, or nothing at all was found.
     """
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
+    inputs = list(inputs)
     skip = None if exclude is None else os.path.join(os.path.realpath(exclude), "")
 
     def searched(root: str, files) -> list[Path]:
@@ -183,6 +184,11 @@ def expand_map_inputs(
 
     found: list[Path] = []
     for raw in inputs:
+        if not os.fspath(raw).strip():  # Path("") is ".": an unset $MAPS would batch it
+            raise ValueError(
+                "inputs: expected map files, folders or patterns, received an empty string "
+                f"among {list(inputs)!r}"
+            )
         for pattern in expand_braces(os.fspath(raw)):
             p = Path(pattern)
             if p.is_dir():
