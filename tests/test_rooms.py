@@ -329,3 +329,22 @@ def test_ipa_maps_regression(name, rooms):
     parts = _free_components_with_rooms(occ.free, seg.labels)
     assert nx.number_connected_components(seg.graph) == len(parts)
     assert all(0.5 <= d.width_m <= 2.3 for d in seg.doors)
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    st.integers(1, 30),
+    st.integers(1, 30),
+    st.integers(1, 8),
+    st.floats(0.5, 1.0),
+    st.integers(0, 2**31),
+)
+def test_coarse_cells_are_free_only_when_every_pixel_is(h, w, f, p_free, seed):
+    from topojax.rooms._grid import coarse_free
+
+    free = np.random.default_rng(seed).random((h, w)) < p_free
+    want = np.zeros((-(-h // f), -(-w // f)), bool)  # cells past the map stay closed
+    for r in range(h // f):
+        for c in range(w // f):
+            want[r, c] = all(free[r * f + i, c * f + j] for i in range(f) for j in range(f))
+    np.testing.assert_array_equal(coarse_free(free, f), want)

@@ -23,10 +23,5 @@ def coarse_free(free: np.ndarray, f: int) -> np.ndarray:
     h, w = free.shape
     hf, wf = h // f, w // f
     out = np.zeros((-(-h // f), -(-w // f)), bool)
-    whole = out[:hf, :wf]
-    whole[:] = free[0 : hf * f : f, 0 : wf * f : f]
-    for i in range(f):
-        for j in range(f):
-            if i or j:
-                whole &= free[i : hf * f : f, j : wf * f : f]
+    out[:hf, :wf] = free[: hf * f, : wf * f].reshape(hf, f, wf, f).all(axis=(1, 3))
     return out
