@@ -228,3 +228,43 @@ def test_room_updates_are_local_by_default():
 def test_rooms_local_must_be_a_bool():
     with pytest.raises(TypeError, match="rooms_local"):
         tj.IncrementalMapper(rooms_local="yes")
+
+
+def _two_buildings(gap_px: int) -> tuple[OccupancyMap, OccupancyMap]:
+    """A small building without clutter and, ``gap_px`` pixels to its right, a larger one
+    with clutter: the map of the first alone, and of both (same frame)."""
+    a = floor_plan(109, size_m=(8.0, 8.0)).occupancy
+    b = floor_plan(9, size_m=(12.0, 16.0), clutter=3).occupancy
+    c = a.shape[1] + gap_px
+    shape = (max(a.shape[0], b.shape[0]), c + b.shape[1])
+    maps = []
+    for parts in ([(a, 0)], [(a, 0), (b, c)]):
+        occupied, free = np.zeros(shape, bool), np.zeros(shape, bool)
+        for m, c0 in parts:
+            occupied[: m.shape[0], c0 : c0 + m.shape[1]] = m.occupied
+            free[: m.shape[0], c0 : c0 + m.shape[1]] = m.free
+        maps.append(
+            OccupancyMap(
+                occupied=occupied,
+                free=free,
+                unknown=~(occupied | free),
+                resolution_m=RES,
+                origin=(0.0, 0.0, 0.0),
+            )
+        )
+    return maps[0], maps[1]
+
+
+def test_a_window_over_a_new_area_finds_the_doorways_the_whole_map_finds():
+    # The doorway search works on cells of two pixels a side (at 5 cm) whose corners
+    # are set by the free space's bounding box; a window segmented with its own corners
+    # found other doorways in this building than the whole map, which starts an odd
+    # number of pixels further left, and merged two of its rooms.
+    first, both = _two_buildings(gap_px=601)
+    mapper = _mapper(rooms_local=True)
+    mapper.add_map(first)
+    _ = mapper.rooms
+    mapper.add_map(both)
+    update = mapper.update_rooms()
+    assert update.segmented_px < mapper.rooms.labels.size, "only a window was segmented"
+    assert _same_up_to_ids(mapper.rooms.labels, tj.segment_rooms(mapper.occupancy).labels)

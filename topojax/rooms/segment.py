@@ -113,7 +113,18 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
         For a source or option of the wrong type or out of range (the message names it).
     """
     cfg = instance_or_default("config", config, RoomConfig)
-    occ = _occupancy_of(source)
+    return segment_aligned(_occupancy_of(source), cfg)
+
+
+def segment_aligned(occ, cfg: RoomConfig, anchor=None) -> RoomSegmentation:
+    """:func:`segment_rooms` of ``occ`` with its doorway-search cells (``grid_factor``
+    pixels a side) starting on the rows and columns ``anchor = (row, col)`` of ``occ``
+    modulo the factor; by default (None) one pixel before the free space's bounding box.
+
+    The cells decide where doorways are found, so the rooms depend on where the cells
+    fall: a part of a map segmented on its own gets the rooms of the whole map only
+    when its cells fall on the same pixels (a local room update passes the whole map's
+    anchor)."""
     t0 = time.perf_counter()
     full = np.asarray(occ.free, bool)
     res = float(occ.resolution_m)
@@ -124,7 +135,16 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
         return build_segmentation(occ, np.zeros(full.shape, np.int32), [])
     # the margin is there even where the map's edge cuts it off, so that the cells below
     # fall on the same pixels wherever the map's edges are (segmenting a map padded with
-    # unknown space gives the same rooms)
+    # unknown space gives the same rooms); more of it (not free) on the top and left puts
+    # the cells' corners on the anchor
+    f = grid_factor(res)
+    if anchor is not None:
+        pad = (
+            pad[0] + (box[0].start - pad[0] - int(anchor[0])) % f,
+            pad[1],
+            pad[2] + (box[1].start - pad[2] - int(anchor[1])) % f,
+            pad[3],
+        )
     free = np.zeros(
         (
             box[0].stop - box[0].start + pad[0] + pad[1],
@@ -134,7 +154,6 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     )
     inner = (slice(pad[0], free.shape[0] - pad[1]), slice(pad[2], free.shape[1] - pad[3]))
     free[inner] = full[box]
-    f = grid_factor(res)
     # the doorways are searched on cells of f x f pixels, the regions made on the pixels
     cells = coarse_free(free, f) if f > 1 else free
     clearance = free_clearance_px(cells)
