@@ -2090,10 +2090,10 @@ def test_occupancy_window_equals_the_crop_of_the_full_export():
         ({"max_extent_m": -5}, ValueError, "max_extent_m:.*received -5"),
         ({"max_extent_m": float("inf")}, ValueError, "max_extent_m"),
         ({"max_extent_m": "2 km"}, TypeError, "max_extent_m:.*received str"),
-        ({"max_export_bytes": 0}, ValueError, "max_export_bytes: expected a positive int"),
-        ({"max_export_bytes": 1.5e9}, TypeError, "max_export_bytes: expected a positive int"),
+        ({"max_export_bytes": 0}, ValueError, "max_export_bytes: expected an int >= 1"),
+        ({"max_export_bytes": 1.5e9}, TypeError, "max_export_bytes: expected an int >= 1"),
         ({"max_export_bytes": True}, TypeError, "max_export_bytes"),
-        ({"max_tile_bytes": 0}, ValueError, "max_tile_bytes: expected a positive int"),
+        ({"max_tile_bytes": 0}, ValueError, "max_tile_bytes: expected an int >= 1"),
         ({"max_tile_bytes": "2 GiB"}, TypeError, "max_tile_bytes"),
     ],
 )

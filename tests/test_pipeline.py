@@ -309,7 +309,7 @@ def test_configs_check_types_and_take_numpy_numbers():
         (
             lambda: tj.distance_map(np.eye(4, dtype=bool), tile_px=2.5),
             TypeError,
-            "tile_px: expected a positive int",
+            "tile_px: expected an int >= 1",
         ),
         (
             lambda: tj.DistanceConfig.from_metres(sigma_m=1000, resolution_m=0.05),

@@ -262,7 +262,7 @@ def test_a_point_robot_is_scored_on_the_free_space():
         ({"robot_radius_m": "0.3"}, TypeError, "robot_radius_m"),
         ({"snap_m": -1.0}, ValueError, "snap_m"),
         ({"n_pairs": 0}, ValueError, "n_pairs"),
-        ({"n_pairs": 2.5}, TypeError, "n_pairs: expected a positive int, received float"),
+        ({"n_pairs": 2.5}, TypeError, "n_pairs: expected an int >= 1, received float"),
         ({"seed": 1.5}, TypeError, "seed"),
         ({"min_region_m2": -1.0}, ValueError, "min_region_m2"),
         (

@@ -68,10 +68,32 @@ def test_real_number_rejects_non_numbers_with_type_error(value):
 
 
 def test_is_real_number():
-    for value in (1, 1.5, np.int32(1), np.float32(1.5), NAN, INF):
+    for value in (1, 1.5, np.int32(1), np.float32(1.5), NAN, INF, np.array(2.5), np.array(3)):
         assert v.is_real_number(value), value
-    for value in (True, np.bool_(True), "1", None, 1j, [1]):
+    for value in (True, np.bool_(True), np.array(True), "1", None, 1j, [1], np.array([1.0])):
         assert not v.is_real_number(value), value
+
+
+@pytest.mark.parametrize("value", [2, 1.5, np.float32(1.5), np.int64(2), np.array(1.5)])
+def test_the_three_real_number_checks_agree_on_numbers(value):
+    assert v.is_real_number(value)
+    assert v.real_number("size", value) == float(value)
+    assert v.quantity("size", value, unit="", allow_zero=False) == float(value)
+
+
+def test_a_jax_scalar_is_a_real_number():
+    jnp = pytest.importorskip("jax.numpy")
+    assert v.is_real_number(jnp.float32(1.5)) and v.real_number("x", jnp.float32(1.5)) == 1.5
+    assert not v.is_real_number(jnp.array([1.5])) and not v.is_real_number(jnp.bool_(True))
+
+
+@pytest.mark.parametrize("value", [True, np.bool_(False), np.array(True), "1", None, [1.0], 1j])
+def test_the_three_real_number_checks_agree_on_non_numbers(value):
+    assert not v.is_real_number(value)
+    with pytest.raises(TypeError, match="^size: expected a real number, received "):
+        v.real_number("size", value)
+    with pytest.raises(TypeError, match="^size: expected a real number > 0, received "):
+        v.quantity("size", value, unit="", allow_zero=False)
 
 
 # --------------------------------------------------------------------------------------
@@ -162,7 +184,7 @@ def test_positive_int_accepts(value):
     ],
 )
 def test_positive_int_rejects(value, exc):
-    with pytest.raises(exc, match="^workers: expected a positive int, received "):
+    with pytest.raises(exc, match="^workers: expected an int >= 1, received "):
         v.positive_int("workers", value)
 
 
@@ -189,7 +211,9 @@ def test_flag_accepts_python_and_numpy_bools(value):
     assert type(out) is bool and out == bool(value)
 
 
-@pytest.mark.parametrize("value", [1, 0, np.int64(1), "yes", None, 1.0])
+@pytest.mark.parametrize(
+    "value", [1, 0, np.int64(1), "yes", None, 1.0, np.array(True), type("bool_", (), {})()]
+)
 def test_flag_rejects_non_bools(value):
     with pytest.raises(TypeError, match="^plot: expected a bool, received "):
         v.flag("plot", value)
@@ -280,6 +304,18 @@ def test_occupancy_thresholds():
 # --------------------------------------------------------------------------------------
 # objects, images, files
 # --------------------------------------------------------------------------------------
+
+
+def test_names_subset():
+    choices = ("a", "b", "c")
+    assert v.names_subset("keep", ["c", "a", "c"], choices) == ("a", "c")
+    assert v.names_subset("keep", (), choices) == ()
+    for bad in ("ab", None, 3):
+        with pytest.raises(TypeError, match=r"^keep: expected an iterable of names from \('a'"):
+            v.names_subset("keep", bad, choices)
+    for bad in (["a", "d"], [1]):
+        with pytest.raises(ValueError, match=r"^keep: expected names from \('a'.*received"):
+            v.names_subset("keep", bad, choices)
 
 
 def test_instance_or_default():
@@ -384,7 +420,7 @@ def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "existing_file", "finite_pair",
         "finite_positive", "flag", "instance_or_default", "int_at_least",
-        "integer", "is_real_number", "metres", "metres_per_pixel", "nonnegative_metres",
+        "integer", "is_real_number", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pose", "positive_int", "positive_metres",
         "quantity", "real_number",
     }  # fmt: skip

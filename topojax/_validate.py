@@ -30,6 +30,7 @@ __all__ = [
     "is_real_number",
     "metres",
     "metres_per_pixel",
+    "names_subset",
     "nonnegative_metres",
     "nonnegative_quantity",
     "occupancy_thresholds",
@@ -67,17 +68,34 @@ def int_at_least(name: str, value: Any, minimum: int) -> int:
     return int(value)
 
 
-def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
-    """``value`` as a float after checking it is a real number (Python or NumPy, or a 0-d
-    array of one; not bool), not NaN, and finite unless ``allow_inf``; a ``TypeError`` for
-    a non-number, a ``ValueError`` for NaN or an infinity not allowed."""
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value[()]
+def _real(value: Any) -> Any:
+    """``value`` if it is a real number: a Python or NumPy int or float, not a bool (the
+    number inside a 0-d array, NumPy's or any other with ``__array__`` such as a JAX
+    scalar); None for anything else. The one test behind :func:`is_real_number`,
+    :func:`real_number` and :func:`quantity`."""
+    if type(value) is float or type(value) is int:
+        return value
+    if (
+        not isinstance(value, numbers.Number)
+        and hasattr(value, "__array__")
+        and getattr(value, "shape", None) == ()
+    ):
+        value = np.asarray(value)[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        return None
+    return value
+
+
+def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
+    """``value`` as a float after checking it is a real number (see :func:`is_real_number`),
+    not NaN, and finite unless ``allow_inf``; a ``TypeError`` for a non-number, a
+    ``ValueError`` for NaN or an infinity not allowed."""
+    number = _real(value)
+    if number is None:
         raise TypeError(
             f"{name}: expected a real number, received {type(value).__name__} {value!r}"
         )
-    out = float(value)
+    out = float(number)
     if math.isnan(out) or (math.isinf(out) and not allow_inf):
         expected = "a number, not NaN" if allow_inf else "a finite number"
         raise ValueError(f"{name}: expected {expected}, received {out!r}")
@@ -86,7 +104,7 @@ def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
 
 def flag(name: str, value: object) -> bool:
     """``value`` as a bool after checking it is one (Python or NumPy)."""
-    if type(value).__name__ not in ("bool", "bool_"):
+    if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name}: expected a bool, received {type(value).__name__} {value!r}")
     return bool(value)
 
@@ -94,18 +112,19 @@ def flag(name: str, value: object) -> bool:
 def quantity(name: str, value: object, *, unit: str, allow_zero: bool) -> float:
     """``value`` as a float after checking it is a finite number (of ``unit``, e.g.
     ``"metres"``, ``"m2"``; ``""`` for a ratio), ``>= 0`` or ``> 0``; a TypeError for a
-    non-number (or bool), a ValueError otherwise, naming ``name``, what was expected and
-    what was received."""
+    non-number (see :func:`is_real_number`), a ValueError otherwise, naming ``name``, what
+    was expected and what was received."""
     bound = ">= 0" if allow_zero else "> 0"
     of = f" of {unit}" if unit else ""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    number = _real(value)
+    if number is None:
         raise TypeError(
             f"{name}: expected a real number{of} {bound}, received {type(value).__name__} {value!r}"
         )
-    value = float(value)
-    if not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
-        raise ValueError(f"{name}: expected a finite number{of} {bound}, received {value!r}")
-    return value
+    out = float(number)
+    if not math.isfinite(out) or out < 0 or (out == 0 and not allow_zero):
+        raise ValueError(f"{name}: expected a finite number{of} {bound}, received {out!r}")
+    return out
 
 
 def metres(name: str, value: object, *, allow_zero: bool) -> float:
@@ -131,10 +150,9 @@ def nonnegative_quantity(name: str, value: Any, unit: str) -> float:
 
 
 def is_real_number(value: Any) -> bool:
-    """True for int/float (including NumPy scalars) but not bool."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_)
-    )
+    """True for a real number: a Python or NumPy int or float (NaN and infinities included)
+    or a 0-d array of one; False for anything else, bools included."""
+    return _real(value) is not None
 
 
 def metres_per_pixel(name: str, value: Any) -> float:
@@ -209,15 +227,8 @@ def binary_flag(name: str, value: Any) -> bool:
 
 
 def positive_int(name: str, value: Any) -> int:
-    """``value`` as an int after checking it is an integer (Python or NumPy, not bool),
-    a ``TypeError`` otherwise, and ``>= 1``, a ``ValueError`` otherwise."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise TypeError(
-            f"{name}: expected a positive int, received {type(value).__name__} {value!r}"
-        )
-    if value < 1:
-        raise ValueError(f"{name}: expected a positive int, received {int(value)}")
-    return int(value)
+    """:func:`int_at_least` 1."""
+    return int_at_least(name, value, 1)
 
 
 def one_of(name: str, value: Any, choices: Any) -> Any:
