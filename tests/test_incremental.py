@@ -392,8 +392,12 @@ def test_tile_manager_extent_limit_changes_nothing():
     with pytest.raises(ValueError, match="max_grid_cells"):
         tm.ensure([0, 50], [0, 50])
     assert tm.n_tiles == 1 and tm.tile_bbox == (0, 0, 1, 1)
-    with pytest.raises(ValueError, match="tile_px"):
+    with pytest.raises(ValueError, match="tile_px: expected an int >= 4, received 2"):
         TileManager(tile_px=2, layers={})
+    for kwargs in ({"tile_px": 8.0}, {"tile_px": True}, {"tile_px": 8, "max_grid_cells": 1e6}):
+        with pytest.raises(TypeError, match="^(tile_px|max_grid_cells): expected an int >= "):
+            TileManager(layers={}, **kwargs)
+    assert TileManager(tile_px=np.int64(8), layers={}, max_grid_cells=np.int32(9)).tile_px == 8
 
 
 # --------------------------------------------------------------------------------------
@@ -758,9 +762,11 @@ def test_bad_points_raise_before_any_change():
     for points, message in cases:
         with pytest.raises(ValueError, match=message):
             mapper.add_points(points)
-    for origin in ((0.0,), (np.nan, 0.0), "here"):
+    for origin in ((0.0,), (np.nan, 0.0)):
         with pytest.raises(ValueError, match="origin_xy: expected two finite numbers"):
             mapper.add_points(np.zeros((1, 2)), origin_xy=origin)
+    with pytest.raises(TypeError, match="origin_xy: expected two finite numbers"):
+        mapper.add_points(np.zeros((1, 2)), origin_xy="here")
     after = mapper.tiles.state()
     for k in before:
         np.testing.assert_array_equal(before[k], after[k], err_msg=k)
@@ -1445,6 +1451,12 @@ def test_vertex_error_metrics_on_known_graphs():
     with pytest.raises(ValueError, match="pixel"):
         vertex_error_metrics(a, nx.Graph([(0, 1)]))
     assert vertex_error_metrics(a, nx.Graph())["n_outliers"] == 4
+    assert vertex_error_metrics(a, b, outlier_px=np.float32(np.inf))["n_outliers"] == 0
+    with pytest.raises(TypeError, match="^outlier_px: expected a real number, received str"):
+        vertex_error_metrics(a, b, outlier_px="20")
+    for bad in (0, -1.0, np.nan):
+        with pytest.raises(ValueError, match="^outlier_px: expected a"):
+            vertex_error_metrics(a, b, outlier_px=bad)
 
 
 # --------------------------------------------------------------------------------------

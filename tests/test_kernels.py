@@ -241,6 +241,16 @@ def test_dispatch_threads_do_not_change_results(threads):
             np.testing.assert_array_equal(getattr(b, name), getattr(a, name))
 
 
+def test_dispatch_threads_are_checked():
+    obstacles = np.zeros((8, 8), bool)
+    assert dense_fields(obstacles, threads=np.int64(2)).distance.shape == (8, 8)
+    with pytest.raises(ValueError, match="^threads: expected an int >= 1, received 0"):
+        dense_fields(obstacles, threads=0)
+    for bad in (2.0, True, "2"):
+        with pytest.raises(TypeError, match="^threads: expected an int >= 1, received "):
+            dense_fields(obstacles, threads=bad)
+
+
 def test_ridge_fields_many_equals_ridge_fields_of_each_map_alone():
     """Tiles of several maps of different sizes share kernel calls; each map still gets
     the ridges and the squared distance at its ridge pixels of a call on it alone."""

@@ -906,6 +906,8 @@ def test_yaml_absolute_image_path(tmp_path: Path):
         (GOOD + "free_thresh: high\n", "'free_thresh'.*high"),
         (GOOD + "mode: fancy\n", "'mode'.*fancy"),
         (GOOD + "negate: 7\n", "'negate'.*7"),
+        (GOOD + "negate: 0.5\n", r"'negate'.*0\.5"),  # a wrong type in a file: ValueError
+        ("image: m.pgm\nresolution: 0.1\norigin: [0, zero, 0]\n", "'origin'.*zero"),
         ("image: 12\nresolution: 0.1\norigin: [0, 0, 0]\n", "'image'"),
     ],
 )

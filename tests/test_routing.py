@@ -402,7 +402,7 @@ def test_bad_input_gets_clear_errors():
         planner.route((1.0, float("nan")), (2, 2))
     with pytest.raises(ValueError, match=r"goal: expected two finite numbers \(row, col\)"):
         planner.route((1, 1), (1, 2, 3), frame="pixel")
-    with pytest.raises(ValueError, match="start: expected"):
+    with pytest.raises(TypeError, match=r"start: expected two finite numbers .* str 'here'"):
         planner.route("here", (1, 2))
     with pytest.raises(ValueError, match=r"goal: the nearest point of the graph is 3 m away"):
         planner.route((1, 4), (9, 7), frame="pixel", max_snap_m=2.5)

@@ -225,9 +225,13 @@ def test_binary_flag_accepts_bools_and_0_1(value):
     assert type(out) is bool and out == bool(value)
 
 
-@pytest.mark.parametrize("value", [2, -1, 1.0, "1", None])
-def test_binary_flag_rejects(value):
-    with pytest.raises(ValueError, match="^negate: expected a bool or 0/1, received "):
+@pytest.mark.parametrize(
+    ("value", "exc"),
+    [(2, ValueError), (-1, ValueError), (np.uint8(2), ValueError), (1.0, TypeError)]
+    + [(np.float64(0.0), TypeError), ("1", TypeError), (None, TypeError)],
+)
+def test_binary_flag_rejects(value, exc):
+    with pytest.raises(exc, match="^negate: expected a bool or 0/1, received "):
         v.binary_flag("negate", value)
 
 
@@ -260,13 +264,24 @@ def test_finite_pair_accepts(value):
     np.testing.assert_array_equal(out, np.asarray(value, dtype=np.float64))
 
 
-@pytest.mark.parametrize("value", [(1.0,), (1, 2, 3), (NAN, 0.0), (0.0, INF), "ab", None, [[1, 2]]])
-def test_finite_pair_rejects(value):
-    with pytest.raises(ValueError, match=r"^start: expected two finite numbers \(x, y\) in metres"):
+@pytest.mark.parametrize(
+    ("value", "exc"),
+    [((1.0,), ValueError), ((1, 2, 3), ValueError), ((NAN, 0.0), ValueError)]
+    + [((0.0, INF), ValueError), (np.zeros(3), ValueError)]
+    + [("ab", TypeError), (None, TypeError), (5, TypeError), (np.array(5.0), TypeError)]
+    + [((True, 1.0), TypeError), (("1", 2), TypeError), ([[1, 2]], TypeError)]
+    + [(np.zeros((1, 2)), TypeError), (np.array([True, False]), TypeError)],
+)
+def test_finite_pair_rejects(value, exc):
+    with pytest.raises(exc, match=r"^start: expected two finite numbers \(x, y\) in metres"):
         v.finite_pair("start", value, "(x, y) in metres")
 
 
-@pytest.mark.parametrize("value", [(1, 2, 0.5), [0.0, 0.0, 0.0], np.array([1.0, 2.0, 3.0])])
+@pytest.mark.parametrize(
+    "value",
+    [(1, 2, 0.5), [0.0, 0.0, 0.0], np.array([1.0, 2.0, 3.0]), (np.float32(1), np.int8(2), 3)]
+    + [np.arange(3)],
+)
 def test_pose_accepts_three_finite_numbers(value):
     out = v.pose("origin", value)
     assert out == tuple(float(x) for x in value)
@@ -274,10 +289,14 @@ def test_pose_accepts_three_finite_numbers(value):
 
 
 @pytest.mark.parametrize(
-    "value", [(1, 2), (1, 2, 3, 4), (0, NAN, 0), (0, 0, INF), (True, 0, 0), ("1", 0, 0), 5, None]
+    ("value", "exc"),
+    [((1, 2), ValueError), ((1, 2, 3, 4), ValueError), ((0, NAN, 0), ValueError)]
+    + [((0, 0, INF), ValueError), ((True, 0, 0), TypeError), ((np.bool_(True), 0, 0), TypeError)]
+    + [(("1", 0, 0), TypeError), ("123", TypeError), (5, TypeError), (None, TypeError)]
+    + [(np.array(1.0), TypeError), (np.zeros((3, 1)), TypeError)],
 )
-def test_pose_rejects(value):
-    with pytest.raises(ValueError, match=r"^origin: expected a sequence of 3 finite numbers"):
+def test_pose_rejects(value, exc):
+    with pytest.raises(exc, match=r"^origin: expected a sequence of 3 finite numbers"):
         v.pose("origin", value)
 
 
@@ -297,8 +316,11 @@ def test_occupancy_thresholds():
         v.occupancy_thresholds(0.2, 0.3, where="m.yaml")
     with pytest.raises(ValueError, match=r"^occupied_thresh: expected a finite number"):
         v.occupancy_thresholds(NAN, 0.1)
-    with pytest.raises(ValueError, match=r"^free_thresh: expected a finite number"):
+    with pytest.raises(TypeError, match=r"^free_thresh: expected a finite number .*bool True"):
         v.occupancy_thresholds(0.6, True)
+    with pytest.raises(TypeError, match=r"^m\.yaml: occupied_thresh: expected .*str '0\.6'"):
+        v.occupancy_thresholds("0.6", 0.2, where="m.yaml")
+    assert v.occupancy_thresholds(np.array(0.5), np.int64(0)) == (0.5, 0.0)
 
 
 # --------------------------------------------------------------------------------------

@@ -165,18 +165,42 @@ def metres_per_pixel(name: str, value: Any) -> float:
 MAX_ORIGIN_M = 1e9
 
 
-def pose(name: str, value: Any) -> tuple[float, float, float]:
-    """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
-    finite numbers (a map origin), ``x`` and ``y`` at most :data:`MAX_ORIGIN_M` from 0; a
-    ``ValueError`` otherwise."""
-    expected = f"{name}: expected a sequence of 3 finite numbers (x_m, y_m, yaw_rad)"
+def _real_items(value: Any) -> list[float] | None:
+    """The items of ``value`` as floats if it is an iterable of real numbers (see
+    :func:`is_real_number`; not a str or bytes, not a 0-d array), else None. NumPy and JAX
+    arrays are iterated along their first axis, so a 2-D one holds arrays, not numbers."""
+    if isinstance(value, (str, bytes)):
+        return None
+    if (
+        not isinstance(value, np.ndarray)
+        and hasattr(value, "__array__")
+        and hasattr(value, "shape")
+    ):
+        value = np.asarray(value)  # a JAX array: iterate NumPy numbers
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return None
     try:
         items = list(value)
     except TypeError:
-        raise ValueError(f"{expected}, received {value!r}") from None
-    if len(items) != 3 or not all(is_real_number(v) and math.isfinite(float(v)) for v in items):
+        return None
+    reals = [_real(v) for v in items]
+    if any(n is None for n in reals):
+        return None
+    return [float(n) for n in reals]
+
+
+def pose(name: str, value: Any) -> tuple[float, float, float]:
+    """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
+    finite numbers (a map origin), ``x`` and ``y`` at most :data:`MAX_ORIGIN_M` from 0; a
+    ``TypeError`` unless it is an iterable of numbers (bools are not), a ``ValueError``
+    otherwise."""
+    expected = f"{name}: expected a sequence of 3 finite numbers (x_m, y_m, yaw_rad)"
+    items = _real_items(value)
+    if items is None:
+        raise TypeError(f"{expected}, received {type(value).__name__} {value!r}")
+    if len(items) != 3 or not all(math.isfinite(v) for v in items):
         raise ValueError(f"{expected}, received {value!r}")
-    x, y, yaw = (float(v) for v in items)
+    x, y, yaw = items
     if max(abs(x), abs(y)) > MAX_ORIGIN_M:
         raise ValueError(
             f"{expected} with x and y within {MAX_ORIGIN_M:g} m of 0 (where a world "
@@ -188,14 +212,22 @@ def pose(name: str, value: Any) -> tuple[float, float, float]:
 def occupancy_thresholds(
     occupied_thresh: Any, free_thresh: Any, *, where: str = ""
 ) -> tuple[float, float]:
-    """``(occupied_thresh, free_thresh)`` as floats after checking
-    ``0 <= free_thresh < occupied_thresh <= 1``; the errors start with ``where: `` when
-    ``where`` is given."""
+    """``(occupied_thresh, free_thresh)`` as floats after checking they are numbers (a
+    ``TypeError`` otherwise) with ``0 <= free_thresh < occupied_thresh <= 1`` (a
+    ``ValueError`` otherwise); the errors start with ``where: `` when ``where`` is given."""
     prefix = f"{where}: " if where else ""
+    checked = []
     for name, v in (("occupied_thresh", occupied_thresh), ("free_thresh", free_thresh)):
-        if not is_real_number(v) or not math.isfinite(float(v)):
+        number = _real(v)
+        if number is None:
+            raise TypeError(
+                f"{prefix}{name}: expected a finite number in [0, 1], received "
+                f"{type(v).__name__} {v!r}"
+            )
+        if not math.isfinite(float(number)):
             raise ValueError(f"{prefix}{name}: expected a finite number in [0, 1], received {v!r}")
-    occ, free = float(occupied_thresh), float(free_thresh)
+        checked.append(float(number))
+    occ, free = checked
     if not (0.0 <= free < occ <= 1.0):
         raise ValueError(
             f"{prefix}free_thresh, occupied_thresh: expected 0 <= free_thresh < "
@@ -218,12 +250,16 @@ def names_subset(name: str, value: Any, choices: tuple[str, ...]) -> tuple[str, 
 
 def binary_flag(name: str, value: Any) -> bool:
     """``value`` as a bool after checking it is a bool or the integer 0 or 1 (Python or
-    NumPy), as ``map_server`` YAML files write ``negate``."""
+    NumPy), as ``map_server`` YAML files write ``negate``: a ``TypeError`` for another
+    type (a float, a str), a ``ValueError`` for another integer."""
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
-    if isinstance(value, (int, np.integer)) and int(value) in (0, 1):
-        return bool(value)
-    raise ValueError(f"{name}: expected a bool or 0/1, received {value!r}")
+    expected = f"{name}: expected a bool or 0/1, received"
+    if not isinstance(value, numbers.Integral):
+        raise TypeError(f"{expected} {type(value).__name__} {value!r}")
+    if int(value) not in (0, 1):
+        raise ValueError(f"{expected} {value!r}")
+    return bool(value)
 
 
 def positive_int(name: str, value: Any) -> int:
@@ -244,14 +280,16 @@ def one_of(name: str, value: Any, choices: Any) -> Any:
 
 def finite_pair(name: str, value: Any, what: str) -> np.ndarray:
     """``value`` as a float64 array of shape (2,) after checking it holds two finite
-    numbers; ``what`` describes them in the error (e.g. ``"(x, y) in metres"``)."""
-    try:
-        q = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        q = None
-    if q is None or q.shape != (2,) or not np.isfinite(q).all():
-        raise ValueError(f"{name}: expected two finite numbers {what}, received {value!r}")
-    return q
+    numbers: a ``TypeError`` unless it is an iterable of numbers (bools are not), a
+    ``ValueError`` for another count or a non-finite one; ``what`` describes them in the
+    error (e.g. ``"(x, y) in metres"``)."""
+    expected = f"{name}: expected two finite numbers {what}"
+    items = _real_items(value)
+    if items is None:
+        raise TypeError(f"{expected}, received {type(value).__name__} {value!r}")
+    if len(items) != 2 or not all(math.isfinite(v) for v in items):
+        raise ValueError(f"{expected}, received {value!r}")
+    return np.array(items, dtype=np.float64)
 
 
 def path_like(name: str, value: Any) -> Path:

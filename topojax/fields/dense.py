@@ -147,10 +147,7 @@ _POOLS: dict[int, ThreadPoolExecutor] = {}
 
 
 def _dispatch_threads(threads: int | None, n_chunks: int) -> int:
-    if threads is None:
-        threads = usable_cpus()
-    if not isinstance(threads, int) or isinstance(threads, bool) or threads < 1:
-        raise ValueError(f"threads: expected a positive int or None, received {threads!r}")
+    threads = usable_cpus() if threads is None else positive_int("threads", threads)
     return max(1, min(threads, n_chunks))
 
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import math
 import mmap
-import numbers
 
 import numpy as np
 
+from .._validate import int_at_least, positive_int
 from .tile_grid import TileGrid
 
 __all__ = [
@@ -141,17 +141,8 @@ class TileManager:
         initial_capacity: int = 16,
         reserve_bytes: int | None = None,
     ) -> None:
-        if not isinstance(tile_px, int) or isinstance(tile_px, bool) or tile_px < 4:
-            raise ValueError(f"tile_px: expected an int >= 4, received {tile_px!r}")
-        if (
-            isinstance(max_grid_cells, bool)
-            or not isinstance(max_grid_cells, numbers.Integral)
-            or max_grid_cells < 1
-        ):
-            raise ValueError(
-                f"max_grid_cells: expected a positive int, received {max_grid_cells!r}"
-            )
-        max_grid_cells = int(max_grid_cells)
+        tile_px = int_at_least("tile_px", tile_px, 4)
+        max_grid_cells = positive_int("max_grid_cells", max_grid_cells)
         self.tile_px = tile_px
         self.max_grid_cells = max_grid_cells
         self._capacity = 0

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .._validate import is_real_number
+from .._validate import real_number
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,8 @@ def vertex_error_metrics(
             "graph_a, graph_b: expected networkx graphs, received "
             f"{type(graph_a).__name__} and {type(graph_b).__name__}"
         )
-    if not (is_real_number(outlier_px) and outlier_px > 0):  # inf: no outliers
+    outlier_px = real_number("outlier_px", outlier_px, allow_inf=True)
+    if not outlier_px > 0:  # inf: no outliers
         raise ValueError(f"outlier_px: expected a number > 0, received {outlier_px!r}")
 
     def pixels(g: nx.Graph, name: str) -> np.ndarray:

@@ -306,7 +306,7 @@ def _yaml_settings(
         raw_origin = doc["origin"]
         try:
             origin = pose("origin", raw_origin)
-        except ValueError:
+        except (TypeError, ValueError):  # a bad field is a bad file: ValueError
             raise _yaml_error(
                 p, "origin", "a list of 3 finite numbers [x, y, yaw]", raw_origin
             ) from None
@@ -314,7 +314,7 @@ def _yaml_settings(
         raw_neg = doc.get("negate", 0)
         try:
             negate = binary_flag("negate", raw_neg)
-        except ValueError:
+        except (TypeError, ValueError):
             raise _yaml_error(p, "negate", "0, 1, true or false", raw_neg) from None
     thresholds = {}
     for key, given, default in (
