@@ -1558,8 +1558,10 @@ def test_save_load_continue_equals_uninterrupted(tmp_path):
 
 
 def test_load_rejects_bad_files(tmp_path):
-    with pytest.raises(FileNotFoundError, match="not found"):
+    with pytest.raises(FileNotFoundError, match="^path: file not found: .*missing.npz"):
         IncrementalMapper.load(tmp_path / "missing.npz")
+    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
+        IncrementalMapper.load(tmp_path)
     bad = tmp_path / "bad.npz"
     bad.write_bytes(b"this is not a zip file")
     with pytest.raises(ValueError, match="bad.npz"):

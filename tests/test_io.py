@@ -335,7 +335,7 @@ def test_unknown_suffix_lists_supported(tmp_path: Path):
         load_graph(tmp_path / "g.xml")
     with pytest.raises(FileNotFoundError, match="h.xml"):  # missing, whatever the suffix
         load_graph(tmp_path / "h.xml")
-    with pytest.raises(ValueError, match="not a file"):
+    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
         load_graph(tmp_path)
 
 

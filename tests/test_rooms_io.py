@@ -208,9 +208,9 @@ def test_load_rooms_names_the_file_and_the_fault(seg, tmp_path: Path, damage, me
 
 
 def test_load_rooms_missing_unreadable_or_another_kind_of_file(tmp_path: Path):
-    with pytest.raises(FileNotFoundError, match="rooms file not found: .*nothing.geojson"):
+    with pytest.raises(FileNotFoundError, match="^path: file not found: .*nothing.geojson"):
         tj.load_rooms(tmp_path / "nothing.geojson")
-    with pytest.raises(ValueError, match="is not a file"):
+    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
         tj.load_rooms(tmp_path)
     broken = tmp_path / "broken.geojson"
     broken.write_text('{"type": "FeatureCollection", ', encoding="utf-8")

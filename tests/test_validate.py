@@ -375,6 +375,9 @@ def test_existing_file(tmp_path):
         v.existing_file("path", tmp_path / "nope")
     with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
         v.existing_file("path", tmp_path)
+    for bad in (None, 5, b"log.txt"):
+        with pytest.raises(TypeError, match=r"^path: expected a path \(str or os.PathLike\)"):
+            v.existing_file("path", bad)
 
 
 @pytest.mark.parametrize("value", [0, 0.0, 2.5, np.float32(1.5), np.int64(3)])

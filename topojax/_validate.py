@@ -303,10 +303,10 @@ def path_like(name: str, value: Any) -> Path:
 
 
 def existing_file(name: str, path: Any) -> Path:
-    """``path`` as a :class:`~pathlib.Path` after checking it names an existing regular
-    file: a ``FileNotFoundError`` if nothing is there, a ``ValueError`` for a folder or a
-    special file."""
-    p = Path(path)
+    """``path`` as a :class:`~pathlib.Path` after checking it is one (:func:`path_like`,
+    a ``TypeError`` otherwise) naming an existing regular file: a ``FileNotFoundError`` if
+    nothing is there, a ``ValueError`` for a folder or a special file."""
+    p = path_like(name, path)
     if not p.exists():
         raise FileNotFoundError(f"{name}: file not found: {p}")
     if not p.is_file():

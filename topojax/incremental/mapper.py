@@ -788,7 +788,7 @@ class IncrementalMapper:
         FileNotFoundError
             If ``path`` does not exist.
         ValueError
-            If the file is not a mapper state, has another format version, or is corrupt
-            (the message names the file and the problem).
+            If it is not a file (a folder), the file is not a mapper state, has another
+            format version, or is corrupt (the message names the file and the problem).
         """
         return load_state(cls, path)

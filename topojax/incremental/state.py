@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._validate import existing_file
 from ..config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..graph import KIND_NAMES
 from ._graph_store import add_paths, edge_ids, edge_paths, reserve, vertex_ids
@@ -88,11 +89,10 @@ def read_state(path) -> tuple[Path, dict[str, np.ndarray]]:
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        If the file is not a mapper state or has another format version.
+        If it is not a file (a folder), or the file is not a mapper state or has another
+        format version.
     """
-    p = Path(path)
-    if not p.is_file():
-        raise FileNotFoundError(f"mapper state file not found: {p}")
+    p = existing_file("path", path)
     if not zipfile.is_zipfile(p):  # np.load would read a .npy or ask about pickles
         raise ValueError(
             f"{p}: not a mapper state: a state is an .npz (zip) archive written by "

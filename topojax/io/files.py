@@ -15,7 +15,7 @@ from typing import Any
 import networkx as nx
 
 from .._fs import atomic_write_bytes
-from .._validate import one_of
+from .._validate import existing_file, one_of
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
 from .geojson import _from_geojson, _to_geojson
 from .graphml import _read_graphml, _write_graphml
@@ -118,11 +118,7 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
         If it is not a file, its format cannot be told from the suffix, or it cannot be
         parsed as that format.
     """
-    p = Path(path)
-    if not p.exists():
-        raise FileNotFoundError(f"graph file not found: {p}")
-    if not p.is_file():
-        raise ValueError(f"graph file {p} is not a file (a folder?)")
+    p = existing_file("path", path)
     fmt = _format_for(p, format)
     if fmt == "graphml":
         return _structure_checked(_read_graphml, p, fmt)

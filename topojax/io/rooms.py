@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from .._fs import atomic_write_bytes
+from .._validate import existing_file
 
 __all__ = [
     "ROOM_FILE_SUFFIXES",
@@ -299,11 +300,7 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
         If it is not a file, not valid JSON, or not a rooms GeoJSON (the message names the
         file and the feature at fault).
     """
-    p = Path(path)
-    if not p.exists():
-        raise FileNotFoundError(f"rooms file not found: {p}")
-    if not p.is_file():
-        raise ValueError(f"rooms file {p} is not a file (a folder?)")
+    p = existing_file("path", path)
     try:
         doc = json.loads(p.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._validate import existing_file
+
 __all__ = ["read_image", "resolution_from_pgm_comments"]
 
 _SILENCE_LOCK = threading.Lock()
@@ -159,10 +161,7 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     """
     import cv2
 
-    if not path.exists():
-        raise FileNotFoundError(f"map image not found: {path}")
-    if not path.is_file():
-        raise ValueError(f"map image path is not a file: {path}")
+    path = existing_file("path", path)
     data = path.read_bytes()
     if not data:
         raise ValueError(f"map image {path} is empty (0 bytes)")

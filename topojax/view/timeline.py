@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import int_at_least
+from .._validate import existing_file, int_at_least
 from ._encode import TILE_PX, packed, pyramid
 from ._graphs import KIND_NAMES
 from ._rooms_data import rooms_payload
@@ -214,11 +214,10 @@ class Timeline:
         FileNotFoundError
             If ``path`` does not exist.
         ValueError
-            If it is not a timeline file or is corrupt (the message names the file).
+            If it is not a file (a folder), not a timeline file or is corrupt (the message
+            names the file).
         """
-        p = Path(path)
-        if not p.is_file():
-            raise FileNotFoundError(f"timeline file not found: {p}")
+        p = existing_file("path", path)
         try:
             doc = json.loads(gzip.decompress(p.read_bytes()).decode("utf-8"))
         except (OSError, EOFError, ValueError, UnicodeDecodeError) as exc:
