@@ -76,6 +76,8 @@ def test_scan_fields_validated_and_read_only():
         s.ranges[1] = 0.0
     assert Scan(np.array([1, 2], dtype=np.int32), 0, 1, 0, 5, (0, 0, 0)).ranges.dtype == np.float64
     assert Scan(np.ones(2, np.float32), 0, 1, 0, 5, (0, 0, 0)).ranges.dtype == np.float32
+    far = Scan(np.ones(2), 0, 1, 0, 5, np.array([2e9, -3e9, 0.5]))  # no map-origin bound
+    assert far.pose == (2e9, -3e9, 0.5)
 
 
 @pytest.mark.parametrize(
@@ -96,6 +98,9 @@ def test_scan_fields_validated_and_read_only():
         ({"sensor_offset": (math.nan, 0.0, 0.0)}, ValueError, "sensor_offset"),
         ({"timestamp": math.nan}, ValueError, "timestamp"),
         ({"angle_min": "0"}, TypeError, "angle_min"),
+        ({"pose": None}, TypeError, "pose"),
+        ({"pose": ("1", "2", "0")}, TypeError, "pose"),
+        ({"sensor_offset": (True, 0.0, 0.0)}, TypeError, "sensor_offset"),
     ],
 )
 def test_scan_rejects_bad_fields(kwargs, exc, word):

@@ -305,6 +305,11 @@ def test_pose_refuses_an_origin_where_metres_no_longer_resolve():
     for value in ((1e300, 0, 0), (0, -2e9, 0)):
         with pytest.raises(ValueError, match=r"^origin: expected .* within 1e\+09 m of 0"):
             v.pose("origin", value)
+        assert v.pose("pose", value, bounded=False) == tuple(float(x) for x in value)
+    with pytest.raises(ValueError, match=r"^pose: expected a sequence of 3 finite numbers"):
+        v.pose("pose", (0, 0, INF), bounded=False)
+    with pytest.raises(TypeError, match=r"^pose: expected a sequence of 3 finite numbers"):
+        v.pose("pose", (0, 0, "1"), bounded=False)
 
 
 def test_occupancy_thresholds():

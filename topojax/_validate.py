@@ -189,11 +189,11 @@ def _real_items(value: Any) -> list[float] | None:
     return [float(n) for n in reals]
 
 
-def pose(name: str, value: Any) -> tuple[float, float, float]:
+def pose(name: str, value: Any, *, bounded: bool = True) -> tuple[float, float, float]:
     """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
-    finite numbers (a map origin), ``x`` and ``y`` at most :data:`MAX_ORIGIN_M` from 0; a
-    ``TypeError`` unless it is an iterable of numbers (bools are not), a ``ValueError``
-    otherwise."""
+    finite numbers (a map origin), ``x`` and ``y`` at most :data:`MAX_ORIGIN_M` from 0
+    unless not ``bounded`` (a robot or sensor pose); a ``TypeError`` unless it is an
+    iterable of numbers (bools are not), a ``ValueError`` otherwise."""
     expected = f"{name}: expected a sequence of 3 finite numbers (x_m, y_m, yaw_rad)"
     items = _real_items(value)
     if items is None:
@@ -201,7 +201,7 @@ def pose(name: str, value: Any) -> tuple[float, float, float]:
     if len(items) != 3 or not all(math.isfinite(v) for v in items):
         raise ValueError(f"{expected}, received {value!r}")
     x, y, yaw = items
-    if max(abs(x), abs(y)) > MAX_ORIGIN_M:
+    if bounded and max(abs(x), abs(y)) > MAX_ORIGIN_M:
         raise ValueError(
             f"{expected} with x and y within {MAX_ORIGIN_M:g} m of 0 (where a world "
             f"coordinate still resolves a millimetre), received {value!r}"

@@ -11,9 +11,10 @@ from typing import Any
 import numpy as np
 
 from .._validate import one_of, real_number
+from .._validate import pose as checked_pose
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
 from ._tf import _IDENTITY_TF, _Tf, _tf_from_msg, _TfSeries, _TfTree
-from .scan import PoseLike, Scan, _pose3
+from .scan import PoseLike, Scan
 
 _LASERSCAN = "sensor_msgs/msg/LaserScan"
 _TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
@@ -178,7 +179,11 @@ def read_bag(
     tol = real_number("pose_tolerance_s", pose_tolerance_s)
     if tol < 0:
         raise ValueError(f"pose_tolerance_s: expected a value >= 0 s, received {tol!r}")
-    offset_override = None if sensor_offset is None else _pose3("sensor_offset", sensor_offset)
+    offset_override = (
+        None
+        if sensor_offset is None
+        else checked_pose("sensor_offset", sensor_offset, bounded=False)
+    )
     source = _open_bag(p)
     topics = source.topics
     listing = ", ".join(f"{t} [{m}]" for t, m in sorted(topics.items())) or "(none)"

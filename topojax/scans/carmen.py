@@ -11,8 +11,9 @@ from typing import NamedTuple
 import numpy as np
 
 from .._validate import existing_file, one_of, real_number
+from .._validate import pose as checked_pose
 from ._text import _cut_off, _open_text
-from .scan import PoseLike, Scan, _pose3, _relative
+from .scan import PoseLike, Scan, _relative
 
 _OLD_LASERS = ("FLASER", "RLASER")
 _ROBOT_LASERS = ("ROBOTLASER1", "ROBOTLASER2")
@@ -303,7 +304,11 @@ def read_carmen(
     margin = real_number("no_return_margin_m", no_return_margin_m)
     if margin < 0:
         raise ValueError(f"no_return_margin_m: expected a value >= 0 m, received {margin!r}")
-    offset_override = None if sensor_offset is None else _pose3("sensor_offset", sensor_offset)
+    offset_override = (
+        None
+        if sensor_offset is None
+        else checked_pose("sensor_offset", sensor_offset, bounded=False)
+    )
     return _iter_carmen(p, max_range_m, laser, margin, offset_override)
 
 
@@ -408,7 +413,7 @@ class _OdomPoses:
                         f"{self.path}: PARAM robot_frontlaser_{name}: expected a number, "
                         f"received {txt!r}"
                     ) from None
-            return _pose3("PARAM robot_frontlaser_*", vals)
+            return checked_pose("PARAM robot_frontlaser_*", vals, bounded=False)
         raise ValueError(
             f"{self.path}: {self.chosen} lines carry no pose and the log does not say where "
             f"this laser is mounted; pass sensor_offset=(x_m, y_m, yaw_rad)"

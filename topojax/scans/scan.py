@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .._validate import pose as checked_pose
 from .._validate import real_number
 
 PoseLike = Sequence[float] | np.ndarray
@@ -19,23 +20,6 @@ _TWO_PI = 2.0 * math.pi
 def _wrap_angle(a: float) -> float:
     """Wrap an angle in radians to ``[-pi, pi)``."""
     return (a + math.pi) % _TWO_PI - math.pi
-
-
-def _pose3(name: str, value: Any) -> tuple[float, float, float]:
-    """Validate a planar pose ``(x_m, y_m, yaw_rad)`` and return it as a tuple of floats."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        raise TypeError(
-            f"{name}: expected 3 numbers (x_m, y_m, yaw_rad), received {value!r} ({err})"
-        ) from None
-    if arr.shape != (3,):
-        raise ValueError(
-            f"{name}: expected 3 numbers (x_m, y_m, yaw_rad), received shape {arr.shape}: {value!r}"
-        )
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected 3 finite numbers, received {tuple(arr.tolist())}")
-    return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
 def _compose(
@@ -136,8 +120,10 @@ class Scan:
             )
         object.__setattr__(self, "range_min", rmin)
         object.__setattr__(self, "range_max", rmax)
-        object.__setattr__(self, "pose", _pose3("pose", self.pose))
-        object.__setattr__(self, "sensor_offset", _pose3("sensor_offset", self.sensor_offset))
+        object.__setattr__(self, "pose", checked_pose("pose", self.pose, bounded=False))
+        object.__setattr__(
+            self, "sensor_offset", checked_pose("sensor_offset", self.sensor_offset, bounded=False)
+        )
         if self.timestamp is not None:
             object.__setattr__(self, "timestamp", real_number("timestamp", self.timestamp))
 
@@ -189,8 +175,8 @@ class Scan:
             angle_increment,
             range_min,
             range_max,
-            _pose3("pose", pose),
-            _pose3("sensor_offset", sensor_offset),
+            checked_pose("pose", pose, bounded=False),
+            checked_pose("sensor_offset", sensor_offset, bounded=False),
             timestamp,
         )
 
@@ -327,7 +313,7 @@ def scans_from_arrays(
             raise ValueError(
                 f"timestamps: expected shape ({r.shape[0]},), received shape {t.shape}"
             )
-    offset = _pose3("sensor_offset", sensor_offset)
+    offset = checked_pose("sensor_offset", sensor_offset, bounded=False)
     # Validate the shared geometry once, eagerly, on an empty scan.
     Scan(np.zeros(0), angle_min, angle_increment, range_min, range_max, (0, 0, 0), offset)
 
