@@ -290,6 +290,11 @@ def test_configs_check_types_and_take_numpy_numbers():
             "distance: expected a Di",
         ),
         (lambda: tj.PipelineConfig(graph=None), TypeError, "graph: expected a GraphConfig"),
+        (
+            lambda: tj.build_graph(np.zeros((4, 4), bool), config=0),  # falsy: not the default
+            TypeError,
+            "config: expected a PipelineConfig, received int",
+        ),
         (lambda: tj.PipelineConfig(ridge={"threshold": 5}), TypeError, "ridge: expected a Ridge"),
         (
             lambda: tj.distance_map(np.eye(4, dtype=bool), config=tj.PipelineConfig()),

@@ -16,7 +16,7 @@ from functools import cached_property
 import networkx as nx
 import numpy as np
 
-from ._validate import names_subset
+from ._validate import instance_or_default, names_subset
 from .config import PipelineConfig
 from .fields import (
     FAR_SQ,
@@ -404,9 +404,7 @@ def build_graph(
     """
     from .maps import OccupancyMap, load_map
 
-    config = config or PipelineConfig()
-    if not isinstance(config, PipelineConfig):
-        raise TypeError(f"config: expected a PipelineConfig, received {type(config).__name__}")
+    config = instance_or_default("config", config, PipelineConfig)
     keep = _keep_names(keep)
     if isinstance(occupancy, (str, os.PathLike)):
         occupancy = load_map(occupancy)

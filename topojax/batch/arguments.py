@@ -8,11 +8,9 @@ import os
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .._cpus import as_executor
 from .._fs import refuse_overwriting_inputs
-from .._validate import instance_or_default, int_at_least, one_of, positive_metres
+from .._validate import flag, instance_or_default, int_at_least, one_of, positive_metres
 from ..config import PipelineConfig
 from ..maps import MODES, OccupancyMap
 from ..routegraph import RouteGraphConfig
@@ -203,11 +201,9 @@ def check_options(
     """Check ``map_mode``, the bool ``flags`` (``keep_graphs`` may be None), ``sigma_m``
     and that ``plot``/``resume`` have an ``out_dir``; the checked ``sigma_m``."""
     one_of("map_mode", map_mode, (*MODES, None))
-    for name, flag in flags.items():
-        if name == "keep_graphs" and flag is None:
-            continue
-        if not isinstance(flag, (bool, np.bool_)):
-            raise TypeError(f"{name}: expected a bool, received {flag!r}")
+    for name, value in flags.items():
+        if not (name == "keep_graphs" and value is None):
+            flag(name, value)
     if sigma_m is not None:
         sigma_m = positive_metres("sigma_m", sigma_m)
     if out_dir is None and (flags["plot"] or flags["resume"]):

@@ -10,7 +10,6 @@ from .._validate import (
     flag,
     instance_or_default,
     int_at_least,
-    integer,
     is_real_number,
     metres_per_pixel,
     one_of,
@@ -22,14 +21,8 @@ from ..fields.filters import HALO_PX
 
 
 def _check_rate(name: str, value) -> int:
-    if value is None:
-        return 0
-    value = integer(name, value)
-    if value < 0:
-        raise ValueError(
-            f"{name}: expected an int >= 0 (0 or None: explicit calls only), received {value}"
-        )
-    return value
+    """A loop's rate: None (explicit calls only) as 0, else an int >= 0."""
+    return 0 if value is None else int_at_least(name, value, 0)
 
 
 def merged_config(config, distance, ridge, skeleton) -> PipelineConfig:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from collections.abc import Iterable
@@ -299,9 +298,10 @@ def _yaml_settings(
     image_path = _resolve_image_path(p, doc["image"])
     if resolution_m is None:
         res = doc["resolution"]
-        if not is_real_number(res) or not math.isfinite(float(res)) or float(res) <= 0:
-            raise _yaml_error(p, "resolution", "a finite number > 0", res)
-        resolution_m = float(res)
+        try:
+            resolution_m = metres_per_pixel("resolution", res)
+        except (TypeError, ValueError):  # a bad field is a bad file: ValueError
+            raise _yaml_error(p, "resolution", "a finite number > 0", res) from None
     if origin is None:
         raw_origin = doc["origin"]
         try:
