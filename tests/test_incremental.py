@@ -1452,6 +1452,9 @@ def test_vertex_error_metrics_on_known_graphs():
         vertex_error_metrics(a, nx.Graph([(0, 1)]))
     assert vertex_error_metrics(a, nx.Graph())["n_outliers"] == 4
     assert vertex_error_metrics(a, b, outlier_px=np.float32(np.inf))["n_outliers"] == 0
+    with pytest.raises(TypeError, match="^graph_b: expected a networkx graph, received dict"):
+        vertex_error_metrics(a, {})
+    assert vertex_error_metrics(a.to_directed(), b)["n_vertices"] == 4  # direction unread
     with pytest.raises(TypeError, match="^outlier_px: expected a real number, received str"):
         vertex_error_metrics(a, b, outlier_px="20")
     for bad in (0, -1.0, np.nan):

@@ -378,7 +378,7 @@ def test_load_errors(tmp_path: Path):
 
 
 def test_save_errors(tmp_path: Path):
-    with pytest.raises(TypeError, match="directed"):
+    with pytest.raises(TypeError, match="^graph: expected an undirected networkx graph, rec"):
         save_graph(nx.MultiDiGraph(), tmp_path / "g.json")
     with pytest.raises(TypeError, match="networkx"):
         save_graph({"nodes": []}, tmp_path / "g.json")  # type: ignore[arg-type]

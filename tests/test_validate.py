@@ -345,6 +345,40 @@ def test_names_subset():
             v.names_subset("keep", bad, choices)
 
 
+def test_instance_of():
+    class Settings:
+        pass
+
+    given = Settings()
+    assert v.instance_of("config", given, Settings) is given
+    assert v.instance_of("n", np.int64(3), (int, np.integer)) == 3
+    with pytest.raises(TypeError, match="^config: expected a Settings, received str$"):
+        v.instance_of("config", "paper", Settings)
+    with pytest.raises(TypeError, match="^n: expected an int or integer, received float$"):
+        v.instance_of("n", 1.5, (int, np.integer))
+    with pytest.raises(TypeError, match="^map: expected an occupancy map, received NoneType$"):
+        v.instance_of("map", None, Settings, "occupancy map")
+
+
+def test_nx_graph():
+    import networkx as nx
+
+    for g in (nx.Graph(), nx.MultiGraph()):
+        assert v.nx_graph("graph", g) is g
+    for g in (nx.DiGraph(), nx.MultiDiGraph()):
+        assert v.nx_graph("graph", g, undirected=False) is g
+        message = f"^graph: expected an undirected networkx graph, received {type(g).__name__}$"
+        with pytest.raises(TypeError, match=message):
+            v.nx_graph("graph", g)
+    for bad in (None, {}, [(0, 1)]):
+        with pytest.raises(TypeError, match="^g: expected a networkx graph, received "):
+            v.nx_graph("g", bad, undirected=False)
+    assert isinstance(v.nx_graph("graph", nx.MultiGraph(), multigraph=True), nx.MultiGraph)
+    for bad in (nx.Graph(), nx.MultiDiGraph(), "g"):
+        with pytest.raises(TypeError, match="^graph: expected an undirected networkx.MultiGraph"):
+            v.nx_graph("graph", bad, multigraph=True)
+
+
 def test_instance_or_default():
     class Settings:
         pass
@@ -449,8 +483,8 @@ def test_path_like(tmp_path):
 def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "existing_file", "finite_pair",
-        "finite_positive", "flag", "instance_or_default", "int_at_least",
-        "integer", "is_real_number", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres",
+        "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
+        "integer", "is_real_number", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pose", "positive_int", "positive_metres",
         "quantity", "real_number",
     }  # fmt: skip

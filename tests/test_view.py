@@ -149,6 +149,10 @@ def test_bad_arguments_name_themselves(res, tmp_path):
         tj.write_view(42, tmp_path / "v.html")
     with pytest.raises(TypeError, match="graphs: expected a dict"):
         tj.write_view(res, tmp_path / "v.html", graphs=[res.graph])
+    with pytest.raises(TypeError, match=r"^graphs\['r'\]: expected an undirected networkx graph"):
+        tj.write_view(res, tmp_path / "v.html", graphs={"r": res.graph.to_directed()})
+    with pytest.raises(TypeError, match=r"^graphs: expected a dict of name \(str\) .* key 1 \(int"):
+        tj.write_view(res, tmp_path / "v.html", graphs={1: res.graph})
     with pytest.raises(TypeError, match="route: expected a topojax.Route"):
         tj.write_view(res, tmp_path / "v.html", route="a")
     with pytest.raises(TypeError, match=r"path: expected a path \(str or os.PathLike\)"):

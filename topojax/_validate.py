@@ -1,8 +1,9 @@
 """Argument checks shared by the whole package.
 
-Each check returns the value in its canonical Python type, or raises a ``TypeError`` /
-``ValueError`` (:func:`existing_file`: also ``FileNotFoundError``) whose message names the
-parameter, what was expected and what was received.
+Each check returns the value in its canonical Python type, or raises a ``TypeError`` for a
+wrong type / a ``ValueError`` for a wrong value (:func:`existing_file`: also
+``FileNotFoundError``) whose message reads ``"<name>: expected <what>, received <what was
+given>"``.
 NumPy scalars are accepted wherever the matching Python type is; ``bool`` is never a number.
 """
 
@@ -24,6 +25,7 @@ __all__ = [
     "finite_pair",
     "finite_positive",
     "flag",
+    "instance_of",
     "instance_or_default",
     "int_at_least",
     "integer",
@@ -33,6 +35,7 @@ __all__ = [
     "names_subset",
     "nonnegative_metres",
     "nonnegative_quantity",
+    "nx_graph",
     "occupancy_thresholds",
     "one_of",
     "path_like",
@@ -314,16 +317,46 @@ def existing_file(name: str, path: Any) -> Path:
     return p
 
 
-def instance_or_default(name: str, value: Any, kind: type) -> Any:
-    """``value``, or ``kind()`` for None, after checking it is a ``kind`` (a ``TypeError``
-    naming ``name`` instead of an ``AttributeError`` deep inside)."""
-    if value is None:
-        return kind()
+def _a(noun: str) -> str:
+    """``noun`` after its indefinite article."""
+    return f"{'an' if noun[:1].lower() in 'aeiou' else 'a'} {noun}"
+
+
+def instance_of(name: str, value: Any, kind: type | tuple[type, ...], what: str | None = None):
+    """``value`` after checking it is a ``kind`` (a class or a tuple of classes); otherwise a
+    ``TypeError`` naming ``name``, ``what`` was expected (default: the class name, e.g.
+    ``"RoomSegmentation"``) and the type received, instead of an ``AttributeError`` deep
+    inside."""
     if not isinstance(value, kind):
-        raise TypeError(
-            f"{name}: expected a {kind.__name__}, received {type(value).__name__} {value!r}"
-        )
+        if what is None:
+            kinds = kind if isinstance(kind, tuple) else (kind,)
+            what = " or ".join(k.__name__ for k in kinds)
+        raise TypeError(f"{name}: expected {_a(what)}, received {type(value).__name__}")
     return value
+
+
+def instance_or_default(name: str, value: Any, kind: type) -> Any:
+    """``value``, or ``kind()`` for None, after checking it is a ``kind``
+    (:func:`instance_of`)."""
+    return kind() if value is None else instance_of(name, value, kind)
+
+
+def nx_graph(name: str, graph: Any, *, undirected: bool = True, multigraph: bool = False):
+    """``graph`` after checking it is a networkx graph: a ``TypeError`` naming ``name``
+    otherwise. A directed graph where an ``undirected`` one is needed is a wrong type too,
+    and so is a simple graph where a ``multigraph`` (an undirected ``nx.MultiGraph``, as
+    :func:`topojax.skeleton_to_graph` builds) is needed."""
+    import networkx as nx
+
+    if multigraph:
+        ok = isinstance(graph, nx.MultiGraph) and not graph.is_directed()
+        what = "undirected networkx.MultiGraph"
+    else:
+        ok = isinstance(graph, nx.Graph) and not (undirected and graph.is_directed())
+        what = "undirected networkx graph" if undirected else "networkx graph"
+    if not ok:
+        raise TypeError(f"{name}: expected {_a(what)}, received {type(graph).__name__}")
+    return graph
 
 
 def binary_image(name: str, image: Any) -> np.ndarray:

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
+from ._validate import instance_of, nx_graph
 
 __all__ = [
     "plot",
@@ -487,15 +488,13 @@ def plot_route_graph(
     -------
     matplotlib Axes
     """
-    import networkx as nx
 
     from .maps import map_argument
     from .maps.occupancy import map_mismatch
     from .routegraph import vertex_pixels
     from .routegraph.feasible import feasible_space
 
-    if not isinstance(graph, nx.Graph):
-        raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
+    nx_graph("graph", graph, undirected=False)
     occupancy = map_argument("occupancy", occupancy, files=True)
     why = map_mismatch(graph, occupancy)
     if why is not None:
@@ -593,9 +592,7 @@ def route_graph_png(graph, occupancy, *, title: str | None = None, dpi: int = 15
 def _room_segmentation(seg, name: str):
     from .rooms import RoomSegmentation
 
-    if not isinstance(seg, RoomSegmentation):
-        raise TypeError(f"{name}: expected a RoomSegmentation, received {type(seg).__name__}")
-    return seg
+    return instance_of(name, seg, RoomSegmentation)
 
 
 def _draw_rooms(seg, ax, *, doors: bool, labels: bool, alpha: float) -> None:

@@ -14,7 +14,7 @@ from collections.abc import Callable
 import networkx as nx
 import numpy as np
 
-from .._validate import flag, metres_per_pixel
+from .._validate import flag, metres_per_pixel, nx_graph
 from .geometry import _edge_pixel_index, orient, path_lengths_m
 from .store import KIND_JUNCTION, GraphStore
 from .trace import (
@@ -538,11 +538,7 @@ def graph_summary(graph: nx.MultiGraph) -> dict[str, float | int]:
         ``n_components`` (connected components, isolated vertices included) and
         ``total_length_m`` (sum of ``length_m`` over the edges, metres).
     """
-    if not isinstance(graph, nx.Graph):
-        raise TypeError(
-            f"graph: expected a networkx graph from skeleton_to_graph, "
-            f"received {type(graph).__name__}"
-        )
+    nx_graph("graph", graph)  # undirected: its components are counted
     kinds = [k for _, k in graph.nodes(data="kind")]
     if any(k is None for k in kinds):
         raise ValueError("graph: expected every node to have a 'kind' attribute, some have none")

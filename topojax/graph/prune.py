@@ -10,7 +10,7 @@ import math
 import networkx as nx
 import numpy as np
 
-from .._validate import nonnegative_metres
+from .._validate import nonnegative_metres, nx_graph
 from .geometry import _ends_at, _path_length_m, graph_resolution_m, holds
 from .store import fill_multigraph, paused_gc
 
@@ -83,11 +83,7 @@ def prune_graph(
         would go), or a vertex lacks ``pixel`` / an edge lacks ``path`` or
         ``length_m``.
     """
-    if not isinstance(graph, nx.MultiGraph) or graph.is_directed():
-        raise TypeError(
-            f"graph: expected an undirected networkx.MultiGraph from skeleton_to_graph, "
-            f"received {type(graph).__name__}"
-        )
+    nx_graph("graph", graph, multigraph=True)
     clearance = nonnegative_metres("min_clearance_m", min_clearance_m)
     spur = nonnegative_metres("min_spur_m", min_spur_m)
     component = nonnegative_metres("min_component_m", min_component_m)

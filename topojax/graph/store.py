@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
+from .._validate import nx_graph
+
 __all__ = [
     "KIND_CODES",
     "KIND_END",
@@ -497,11 +499,7 @@ class GraphStore:
             If a vertex or edge lacks one of those attributes or has others, or a kind is
             unknown.
         """
-        if not isinstance(graph, nx.MultiGraph) or graph.is_directed():
-            raise TypeError(
-                f"graph: expected an undirected networkx.MultiGraph, received "
-                f"{type(graph).__name__}"
-            )
+        nx_graph("graph", graph, multigraph=True)
         ids, index = _node_ids(graph)
         nodes = [_exact(graph.nodes[n], _NODE_ATTRS, f"vertex {n}") for n in ids]
         try:

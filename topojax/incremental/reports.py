@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .._validate import real_number
+from .._validate import nx_graph, real_number
 
 
 @dataclass(frozen=True)
@@ -134,11 +134,8 @@ def vertex_error_metrics(
     """
     from scipy.spatial import cKDTree
 
-    if not (isinstance(graph_a, nx.Graph) and isinstance(graph_b, nx.Graph)):
-        raise TypeError(
-            "graph_a, graph_b: expected networkx graphs, received "
-            f"{type(graph_a).__name__} and {type(graph_b).__name__}"
-        )
+    nx_graph("graph_a", graph_a, undirected=False)
+    nx_graph("graph_b", graph_b, undirected=False)
     outlier_px = real_number("outlier_px", outlier_px, allow_inf=True)
     if not outlier_px > 0:  # inf: no outliers
         raise ValueError(f"outlier_px: expected a number > 0, received {outlier_px!r}")

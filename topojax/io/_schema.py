@@ -18,6 +18,8 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
+from .._validate import nx_graph
+
 _SCHEMA_KEY = "topojax_schema"
 _SCHEMA_VERSION = 1
 
@@ -166,13 +168,7 @@ def _id_kind(values: list[Any], what: str) -> str:
 
 def as_multigraph(graph: Any) -> nx.MultiGraph:
     """``graph`` as an undirected MultiGraph (a plain Graph's edges get key 0)."""
-    if not isinstance(graph, nx.Graph):
-        raise TypeError(f"graph: expected a networkx graph, received {type(graph).__name__}")
-    if graph.is_directed():
-        raise TypeError(
-            f"graph: expected an undirected graph (corridors run both ways), received "
-            f"{type(graph).__name__}"
-        )
+    nx_graph("graph", graph)  # undirected: corridors run both ways
     if graph.is_multigraph():
         return graph
     return nx.MultiGraph(graph)

@@ -236,13 +236,9 @@ def graph_markers(graph, stamp_ns: int = 0):
 def _check_graph(name: str, graph) -> None:
     """Raise a TypeError or ValueError naming ``name`` unless ``graph`` is a networkx
     graph whose vertices have ``world`` and whose edges ``waypoints`` or ``world``."""
-    import networkx as nx
+    from .._validate import nx_graph
 
-    if not isinstance(graph, nx.Graph):
-        raise TypeError(
-            f"{name}: expected a networkx graph (build_graph's or route_graph's), received "
-            f"{type(graph).__name__}"
-        )
+    nx_graph(name, graph, undirected=False)
     if any("world" not in d for _, d in graph.nodes(data=True)):
         raise ValueError(f"{name}: expected a 'world' (x, y) on every vertex, one has none")
     if any("world" not in d and "waypoints" not in d for *_, d in graph.edges(data=True)):

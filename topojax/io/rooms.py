@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from .._fs import atomic_write_bytes
-from .._validate import existing_file
+from .._validate import existing_file, instance_of
 
 __all__ = [
     "ROOM_FILE_SUFFIXES",
@@ -42,9 +42,7 @@ _GOLDEN = 0.6180339887498949
 def _check_seg(seg: Any):
     from ..rooms import RoomSegmentation
 
-    if not isinstance(seg, RoomSegmentation):
-        raise TypeError(f"seg: expected a RoomSegmentation, received {type(seg).__name__}")
-    return seg
+    return instance_of("seg", seg, RoomSegmentation)
 
 
 # ---------------------------------------------------------------------- GeoJSON

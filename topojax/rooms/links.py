@@ -6,6 +6,7 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 
+from .._validate import instance_of
 from .model import RoomSegmentation
 
 __all__ = ["assign_rooms"]
@@ -96,8 +97,7 @@ def assign_rooms(graph: nx.Graph, seg: RoomSegmentation) -> nx.Graph:
     TypeError, ValueError
         For a ``seg`` that is not a RoomSegmentation, or a graph of another map shape.
     """
-    if not isinstance(seg, RoomSegmentation):
-        raise TypeError(f"seg: expected a RoomSegmentation, received {type(seg).__name__}")
+    instance_of("seg", seg, RoomSegmentation)
     shape = graph.graph.get("shape")
     if shape is not None and tuple(shape) != seg.labels.shape:
         raise ValueError(

@@ -17,6 +17,7 @@ from .._validate import (
     integer,
     nonnegative_metres,
     nonnegative_quantity,
+    nx_graph,
     one_of,
     positive_int,
     positive_metres,
@@ -90,14 +91,7 @@ class RouteGraphReport:
 
 
 def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, generation_s):
-    if not isinstance(graph, nx.Graph):
-        raise TypeError(
-            f"graph: expected a networkx Graph or MultiGraph, received {type(graph).__name__}"
-        )
-    if graph.is_directed():
-        raise ValueError(
-            f"graph: expected an undirected graph, received a directed {type(graph).__name__}"
-        )
+    nx_graph("graph", graph)
     why = map_mismatch(graph, occupancy)
     if why is not None:  # a graph that records its map (a route graph) scored on another
         raise ValueError(f"occupancy: {why}")

@@ -10,7 +10,7 @@ import cv2
 import networkx as nx
 import numpy as np
 
-from .._validate import nonnegative_metres
+from .._validate import nonnegative_metres, nx_graph
 from ..graph import graph_resolution_m
 from ..maps.occupancy import map_mismatch
 from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
@@ -154,11 +154,12 @@ def _extra_graphs(graphs):
             f"graphs: expected a dict of name -> networkx graph, received {type(graphs).__name__}"
         )
     for name, graph in graphs.items():
-        if not isinstance(name, str) or not isinstance(graph, nx.Graph):
+        if not isinstance(name, str):
             raise TypeError(
-                "graphs: expected a dict of name (str) -> networkx graph, received "
-                f"{name!r} -> {type(graph).__name__}"
+                f"graphs: expected a dict of name (str) -> networkx graph, received a key "
+                f"{name!r} ({type(name).__name__})"
             )
+        nx_graph(f"graphs[{name!r}]", graph)
     return list(graphs.items())
 
 

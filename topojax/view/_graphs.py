@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
+from .._validate import nx_graph
 from ..graph import holds
 from ..io import as_multigraph, jsonable
 from ..maps.occupancy import grid_to_world
@@ -158,10 +159,7 @@ def graph_payload(
         A vertex without a position, an edge without a ``world`` polyline, or values that
         are not finite.
     """
-    if not isinstance(graph, nx.Graph) or graph.is_directed():
-        raise TypeError(
-            f"{name}: expected an undirected networkx graph, received {type(graph).__name__}"
-        )
+    nx_graph(name, graph)
     graph = as_multigraph(graph)
     where = f"{label}"
     index = {n: i for i, n in enumerate(graph.nodes)}
