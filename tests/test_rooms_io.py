@@ -251,6 +251,10 @@ def test_label_picture(seg, tmp_path: Path):
     assert len({tuple(c) for c in colours}) == seg.n_rooms
     again = tj.save_room_labels(seg, tmp_path / "again.png")
     assert again.read_bytes() == path.read_bytes(), "deterministic"
+    for name in ("labels.jpg", "labels"):  # PNG bytes under another name would mislead
+        with pytest.raises(ValueError, match=r"path: expected a \.png file name"):
+            tj.save_room_labels(seg, tmp_path / name)
+        assert not (tmp_path / name).exists()
 
 
 def test_room_colours_are_distinct_and_stable():

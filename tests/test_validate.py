@@ -489,3 +489,44 @@ def test_every_exported_check_is_tested():
         "quantity", "real_number",
     }  # fmt: skip
     assert set(v.__all__) == tested
+
+
+def test_metres_per_pixel_refuses_resolutions_whose_squares_overflow():
+    assert v.metres_per_pixel("resolution", v.MAX_RESOLUTION_M) == v.MAX_RESOLUTION_M
+    with pytest.raises(ValueError, match="resolution: expected at most 10000 metres per pixel"):
+        v.metres_per_pixel("resolution", 1e308)
+
+
+@pytest.mark.parametrize(
+    ("call", "exc", "message"),
+    [
+        (lambda tj: tj.load_map(5), TypeError, "path: expected a path"),
+        (lambda tj: list(tj.read_scans(None)), TypeError, "path: expected a path"),
+        (
+            lambda tj: tj.assign_rooms(None, None),
+            TypeError,
+            "graph: expected a networkx graph, received NoneType",
+        ),
+        (
+            lambda tj: tj.Timeline().record(None, None),
+            TypeError,
+            "mapper: expected an IncrementalMapper, received NoneType",
+        ),
+        # a tile of 2^20 px a side would ask for a terabyte before anything is mapped
+        (
+            lambda tj: tj.IncrementalMapper(tile_px=2**20),
+            ValueError,
+            "tile_px: expected a value <= 4096",
+        ),
+        (
+            lambda tj: tj.OccupancyMap.from_array(np.zeros((4, 4), bool), resolution_m=1e308),
+            ValueError,
+            "resolution_m: expected at most",
+        ),
+    ],
+)
+def test_public_functions_name_a_bad_argument(call, exc, message):
+    import topojax as tj
+
+    with pytest.raises(exc, match=message):
+        call(tj)

@@ -158,9 +158,20 @@ def is_real_number(value: Any) -> bool:
     return _real(value) is not None
 
 
+#: The coarsest map resolution (metres per pixel): a map's extent and its square stay
+#: finite in float64 far beyond any map's size.
+MAX_RESOLUTION_M = 1e4
+
+
 def metres_per_pixel(name: str, value: Any) -> float:
-    """:func:`quantity` in metres per pixel, ``> 0`` (a map resolution)."""
-    return quantity(name, value, unit="metres per pixel", allow_zero=False)
+    """:func:`quantity` in metres per pixel, ``> 0`` and at most
+    :data:`MAX_RESOLUTION_M` (a map resolution)."""
+    res = quantity(name, value, unit="metres per pixel", allow_zero=False)
+    if res > MAX_RESOLUTION_M:
+        raise ValueError(
+            f"{name}: expected at most {MAX_RESOLUTION_M:g} metres per pixel, received {res!r}"
+        )
+    return res
 
 
 #: The largest map origin coordinate (metres): beyond it a float64 world coordinate no

@@ -85,7 +85,8 @@ def checked_sizes(tile_px, block_px, paper_layer_px) -> tuple[int, int, int]:
     ------
     ValueError
         If one is not an int of at least its minimum (8, 4, 1), a side is not a power of
-        two, or the tile is smaller than the block or the block than two ridge halos.
+        two, the tile is larger than 4096 px or smaller than the block, or the block
+        smaller than two ridge halos.
     """
     tile_px = int_at_least("tile_px", tile_px, 8)
     block_px = int_at_least("block_px", block_px, 4)
@@ -96,6 +97,8 @@ def checked_sizes(tile_px, block_px, paper_layer_px) -> tuple[int, int, int]:
                 f"{name}: expected a power of two (tile and block coordinates are bit "
                 f"shifts), received {value}"
             )
+    if tile_px > 4096:  # as the full-map pipeline's tiles; one tile is tile_px**2 pixels
+        raise ValueError(f"tile_px: expected a value <= 4096, received {tile_px}")
     if tile_px < block_px:
         raise ValueError(f"tile_px: expected a value >= block_px ({block_px}), received {tile_px}")
     if block_px < 2 * HALO_PX:

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from .._fs import atomic_write_bytes
-from .._validate import existing_file, instance_of
+from .._validate import existing_file, instance_of, path_like
 
 __all__ = [
     "ROOM_FILE_SUFFIXES",
@@ -384,12 +384,17 @@ def save_room_labels(seg, path: str | Path) -> Path:
     ----------
     seg : RoomSegmentation
     path : str or Path
-        Output file (PNG whatever its suffix); its folder must exist.  Written atomically.
+        Output ``.png`` file; its folder must exist.  Written atomically.
 
     Returns
     -------
     Path
         The written path.
+
+    Raises
+    ------
+    ValueError
+        If ``path`` does not end in ``.png`` (the bytes are PNG whatever it is named).
 
     Notes
     -----
@@ -400,11 +405,13 @@ def save_room_labels(seg, path: str | Path) -> Path:
     """
     import cv2
 
+    p = path_like("path", path)
+    if p.suffix.lower() != ".png":
+        raise ValueError(f"path: expected a .png file name, received {p}")
     rgb = room_picture(seg)
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[..., ::-1]))
     if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
         raise ValueError(f"cannot encode the room labels of {path} as PNG")
-    p = Path(path)
     atomic_write_bytes(p, buf.tobytes())
     return p
 

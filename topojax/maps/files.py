@@ -16,6 +16,7 @@ from .._validate import (
     metres_per_pixel,
     occupancy_thresholds,
     one_of,
+    path_like,
     pose,
 )
 from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES, classify_image
@@ -148,7 +149,7 @@ def load_map(
     averaged in with the colour channels (so an opaque RGBA grey of 205 is free there, p =
     0.147); plain images ignore alpha, as the IPA maps' own tools do.
     """
-    p = Path(path)
+    p = path_like("path", path)
     suffix = p.suffix.lower()
     _check_map_path(p, suffix)
     if suffix in YAML_SUFFIXES:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 
-from .._validate import instance_of
+from .._validate import instance_of, nx_graph
 from .model import RoomSegmentation
 
 __all__ = ["assign_rooms"]
@@ -97,6 +97,7 @@ def assign_rooms(graph: nx.Graph, seg: RoomSegmentation) -> nx.Graph:
     TypeError, ValueError
         For a ``seg`` that is not a RoomSegmentation, or a graph of another map shape.
     """
+    nx_graph("graph", graph, undirected=False)
     instance_of("seg", seg, RoomSegmentation)
     shape = graph.graph.get("shape")
     if shape is not None and tuple(shape) != seg.labels.shape:

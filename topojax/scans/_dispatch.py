@@ -7,6 +7,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from .._validate import path_like
 from ._ros1 import _ROS1_MAGIC
 from ._text import _open_text
 from .bag import read_bag
@@ -58,7 +59,7 @@ def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
     FileNotFoundError
         If ``path`` does not exist.
     """
-    p = Path(path)
+    p = path_like("path", path)
     if not p.exists():
         raise FileNotFoundError(f"path: file not found: {p}")
     reader = _reader_for(p)

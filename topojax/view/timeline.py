@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import existing_file, int_at_least
+from .._validate import existing_file, instance_of, int_at_least
 from ._encode import TILE_PX, packed, pyramid
 from ._graphs import KIND_NAMES
 from ._rooms_data import rooms_payload
@@ -80,6 +80,13 @@ class Timeline:
         bool
             Whether a snapshot was kept.
         """
+        from ..incremental import IncrementalMapper, ScanReport
+        from ..scans import Scan
+
+        instance_of("mapper", mapper, IncrementalMapper)
+        instance_of("report", report, ScanReport)
+        if scan is not None:
+            instance_of("scan", scan, Scan)
         self._writable()
         if scan is not None:
             x, y, _ = scan.pose
