@@ -18,10 +18,14 @@ from topojax.maps.occupancy import OccupancyMap
 IPA = Path(__file__).resolve().parents[2] / "shared" / "data" / "maps" / "ipa"
 
 
-def _map(free: np.ndarray, unknown: np.ndarray | None = None) -> OccupancyMap:
+def _map(
+    free: np.ndarray, unknown: np.ndarray | None = None, origin=(0.0, 0.0, 0.0)
+) -> OccupancyMap:
     free = np.asarray(free, bool)
     unknown = np.zeros_like(free) if unknown is None else np.asarray(unknown, bool)
-    return OccupancyMap(occupied=~free & ~unknown, free=free, unknown=unknown, resolution_m=RES)
+    return OccupancyMap(
+        occupied=~free & ~unknown, free=free, unknown=unknown, resolution_m=RES, origin=origin
+    )
 
 
 def _best_iou(seg_labels: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -149,9 +153,10 @@ def test_a_finer_map_of_the_same_plan_gives_the_same_rooms_and_doors(seed):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_padding_the_map_with_unknown_space_changes_no_room(seed):
-    """The doorway search runs on cells of 2 x 2 pixels here; they are laid from the free
-    space, not from the map's edge, so a map cut tight round its free space and the same
-    map padded by one to three pixels of unknown space give the same rooms and doors."""
+    """The doorway search runs on cells of 2 x 2 pixels here; they lie on the map frame's
+    lattice, not on the map's edge, so a map cut tight round its free space and the same
+    map padded in its frame by one to three pixels of unknown space give the same rooms
+    and doors (as a mapper's growing map, or a window of it, must)."""
     occ = floor_plan(seed).occupancy
     rows = np.flatnonzero(occ.free.any(axis=1))
     cols = np.flatnonzero(occ.free.any(axis=0))
@@ -163,13 +168,32 @@ def test_padding_the_map_with_unknown_space_changes_no_room(seed):
             np.pad(a, ((top, 1), (left, 2)), constant_values=v)
             for a, v in ((free, False), (unknown, True))
         ]
-        seg = tj.segment_rooms(_map(*padded))
+        # the origin is the lower left corner: one row below, ``left`` columns left
+        seg = tj.segment_rooms(_map(*padded, origin=(-left * RES, -RES, 0.0)))
         inner = seg.labels[top : top + free.shape[0], left : left + free.shape[1]]
         np.testing.assert_array_equal(inner, base.labels)
         assert sorted(d.rooms for d in seg.doors) == sorted(d.rooms for d in base.doors)
         shift = np.array([top, left])
         for a, b in zip(seg.doors, base.doors, strict=True):
             np.testing.assert_array_equal(np.asarray(a.pixels) - shift, b.pixels)
+
+
+def test_rooms_follow_the_map_frame_not_the_array():
+    """The same pixels placed a pixel apart in the world may find other doorways (the
+    cells fall elsewhere on them), but the same map moved by whole cells finds the same."""
+    occ = floor_plan(1).occupancy
+    base = tj.segment_rooms(occ)
+    x0, y0, _ = occ.origin
+    moved = tj.segment_rooms(
+        OccupancyMap(
+            occupied=occ.occupied,
+            free=occ.free,
+            unknown=occ.unknown,
+            resolution_m=RES,
+            origin=(x0 + 20 * RES, y0 - 6 * RES, 0.0),  # 10 and 3 cells of 2 x 2 pixels
+        )
+    )
+    np.testing.assert_array_equal(moved.labels, base.labels)
 
 
 @pytest.mark.parametrize("seed", range(6))

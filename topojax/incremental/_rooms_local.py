@@ -25,9 +25,7 @@ _CLUSTER_PX = 32  # changed pixels are grouped on a grid of this many pixels
 @dataclass
 class _Rooms:
     """Rooms being updated in place over the map box: labels int32 (H, W), rooms by id
-    and doors (pixel coordinates in the box), the next unused id, the pixel size, the
-    box of the free space (now and before), the pixels the windows may still cover and
-    the pixel on which the whole map's doorway-search cells start (box coordinates)."""
+    and doors (pixel coordinates in the box), the next unused id, the pixel size."""
 
     labels: np.ndarray
     rooms: dict
@@ -36,7 +34,6 @@ class _Rooms:
     res_m: float
     bounds: tuple = (0, 0, 0, 0)
     budget: float = 0.0
-    anchor: tuple = (0, 0)
 
 
 @dataclass
@@ -74,13 +71,6 @@ def local_update(keeper, occ, box, cfg):
     if changed.any():
         st.bounds = _box_of(free | before, free.shape)
         st.budget = LOCAL_MAX_SHARE * _area(st.bounds)
-        # segmenting the whole map puts its cells' corners one pixel before the box of
-        # the free space; every window puts them there too, or it finds other doorways
-        if free.any():
-            st.anchor = (
-                int(np.argmax(free.any(axis=1))) - 1,
-                int(np.argmax(free.any(axis=0))) - 1,
-            )
         margin = _margin_px(cfg, st.res_m)
         groups = _groups(changed, margin)
         first = [_grow(_box_of_pixels(rr, cc), margin, st.bounds) for rr, cc in groups]
@@ -170,7 +160,7 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
     for all steps)."""
     from scipy import ndimage
 
-    from ..rooms.segment import segment_aligned
+    from ..rooms import segment_rooms
 
     bounds = st.bounds
     margin = _margin_px(cfg, st.res_m)
@@ -183,7 +173,7 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
         if st.budget < 0:
             return None
         sub = _crop(occ, win)
-        seg = segment_aligned(sub, cfg, (st.anchor[0] - win[0], st.anchor[1] - win[1]))
+        seg = segment_rooms(sub, config=cfg)
         segmented += _area(win)
         old = st.labels[win[0] : win[2], win[1] : win[3]]
         inner = _interior(win, band, bounds)

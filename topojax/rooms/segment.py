@@ -3,6 +3,7 @@ its parameters and what was tried are in ``docs/rooms.md``."""
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, fields
 
@@ -113,18 +114,11 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
         For a source or option of the wrong type or out of range (the message names it).
     """
     cfg = instance_or_default("config", config, RoomConfig)
-    return segment_aligned(_occupancy_of(source), cfg)
+    return _segment(_occupancy_of(source), cfg)
 
 
-def segment_aligned(occ, cfg: RoomConfig, anchor=None) -> RoomSegmentation:
-    """:func:`segment_rooms` of ``occ`` with its doorway-search cells (``grid_factor``
-    pixels a side) starting on the rows and columns ``anchor = (row, col)`` of ``occ``
-    modulo the factor; by default (None) one pixel before the free space's bounding box.
-
-    The cells decide where doorways are found, so the rooms depend on where the cells
-    fall: a part of a map segmented on its own gets the rooms of the whole map only
-    when its cells fall on the same pixels (a local room update passes the whole map's
-    anchor)."""
+def _segment(occ, cfg: RoomConfig) -> RoomSegmentation:
+    """:func:`segment_rooms` of an OccupancyMap."""
     t0 = time.perf_counter()
     full = np.asarray(occ.free, bool)
     res = float(occ.resolution_m)
@@ -133,12 +127,15 @@ def segment_aligned(occ, cfg: RoomConfig, anchor=None) -> RoomSegmentation:
     box, pad = _free_box(full)
     if box[0].stop == box[0].start:
         return build_segmentation(occ, np.zeros(full.shape, np.int32), [])
-    # the margin is there even where the map's edge cuts it off, so that the cells below
-    # fall on the same pixels wherever the map's edges are (segmenting a map padded with
-    # unknown space gives the same rooms); more of it (not free) on the top and left puts
-    # the cells' corners on the anchor
+    # The doorways are searched on cells of f x f pixels, and where they fall decides
+    # which doorways are found.  They fall on the map frame's lattice of f-pixel cells,
+    # whatever the map's extent: a part of a map (a window of a local update, the map of
+    # a robot still exploring) gets the cells, and so the rooms, of the whole map.  The
+    # margin (not free) is there even where the map's edge cuts it off, and grows on the
+    # top and left to put the cells' corners on the lattice.
     f = grid_factor(res)
-    if anchor is not None:
+    anchor = _lattice_anchor(occ, f)
+    if f > 1:
         pad = (
             pad[0] + (box[0].start - pad[0] - int(anchor[0])) % f,
             pad[1],
@@ -189,6 +186,18 @@ def segment_aligned(occ, cfg: RoomConfig, anchor=None) -> RoomSegmentation:
         }
     )
     return seg
+
+
+def _lattice_anchor(occ, f: int) -> tuple[int, int]:
+    """The row and column of ``occ`` (modulo ``f``) whose pixels are multiples of ``f``
+    in the map frame's pixel lattice (the frame of ``origin``, rotated by its yaw; row
+    indices run down from the top)."""
+    res = float(occ.resolution_m)
+    x0, y0, yaw = (float(v) for v in occ.origin)
+    cos, sin = math.cos(yaw), math.sin(yaw)
+    col0 = round((cos * x0 + sin * y0) / res)  # lattice column of column 0
+    row0 = round(-(-sin * x0 + cos * y0) / res) - occ.shape[0]  # lattice row of row 0
+    return (-row0) % f, (-col0) % f
 
 
 def _free_box(free: np.ndarray) -> tuple[tuple[slice, slice], tuple[int, int, int, int]]:
