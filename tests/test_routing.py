@@ -50,10 +50,18 @@ def pixel_graph(skeleton: np.ndarray, res: float) -> nx.Graph:
     return g
 
 
+def snap_targets(skeleton: np.ndarray, ref: nx.Graph) -> np.ndarray:
+    """The skeleton pixels a query may snap to: those with a link (lone pixels lead
+    nowhere), or every pixel of a skeleton without links."""
+    pts = np.argwhere(skeleton)
+    linked = np.array([ref.degree(tuple(p)) > 0 for p in pts.tolist()], bool)
+    return pts[linked] if linked.any() else pts
+
+
 def check_route(route, query_start, query_goal, skeleton, ref: nx.Graph, res: float) -> None:
     """The route snaps to nearest skeleton pixels, follows the pixel graph's links and is
     as long as the pixel graph's shortest path between its ends."""
-    pts = np.argwhere(skeleton).astype(float)
+    pts = snap_targets(skeleton, ref).astype(float)
     for q, pixel, snap in (
         (query_start, route.pixels[0], route.start_snap_m),
         (query_goal, route.pixels[-1], route.goal_snap_m),
@@ -174,12 +182,18 @@ def test_disconnected_pieces_and_isolated_pixels():
     with pytest.raises(NoRouteError, match="different components") as info:
         plan_route(g, (0, 1), (4, 7), frame="pixel")
     assert isinstance(info.value, nx.NetworkXNoPath)
-    with pytest.raises(NoRouteError):
-        plan_route(g, (2, 4), (4, 7), frame="pixel")  # from the isolated pixel
-    r = plan_route(g, (2.2, 4.1), (1.9, 3.8), frame="pixel")  # both snap to it
-    assert r.length_m == 0.0 and r.pixels.tolist() == [[2, 4]] and r.edges == ()
+    # a vertex without edges leads nowhere (pruning leaves them where a corridor was too
+    # narrow): a point beside one snaps to the nearest corridor
+    r = plan_route(g, (2.6, 4), (4, 7), frame="pixel")
+    assert r.pixels.tolist() == [[4, 4], [4, 5], [4, 6], [4, 7]] and r.length_m == 1.5
     r = plan_route(g, (0, 2.2), (0, 2.4), frame="pixel")  # one pixel of an edge
     assert r.length_m == 0.0 and r.pixels.tolist() == [[0, 2]]
+    # in a graph without edges, its vertices are all there is to snap to
+    specks = skeleton_to_graph(art("#...#"), resolution_m=0.5)
+    r = plan_route(specks, (0.2, 0.1), (-0.1, -0.2), frame="pixel")  # both snap to one
+    assert r.length_m == 0.0 and r.pixels.tolist() == [[0, 0]] and r.edges == ()
+    with pytest.raises(NoRouteError, match="different components"):
+        plan_route(specks, (0, 0), (0, 4), frame="pixel")
 
 
 def test_world_frame_equals_pixel_frame_through_the_map_transform():
@@ -214,7 +228,7 @@ def test_routes_on_the_paper_maps_equal_the_pixel_graph(name):
         except NoRouteError:
             missing += 1
             # the reference agrees that the snapped pixels are not connected
-            pts = np.argwhere(skel)
+            pts = snap_targets(skel, ref)
             sa = tuple(pts[np.argmin(np.hypot(*(pts - a).T))])
             sb = tuple(pts[np.argmin(np.hypot(*(pts - b).T))])
             assert not nx.has_path(ref, sa, sb)
@@ -296,7 +310,7 @@ def test_routes_on_random_skeletons_equal_the_pixel_graph(seed):
         try:
             route = planner.route(a, b, frame="pixel")
         except NoRouteError:
-            pts = np.argwhere(skel)
+            pts = snap_targets(skel, ref)
             sa = tuple(pts[np.argmin(np.hypot(*(pts - a).T))])
             sb = tuple(pts[np.argmin(np.hypot(*(pts - b).T))])
             assert not nx.has_path(ref, sa, sb)

@@ -231,8 +231,14 @@ class RoutePlanner:
                 best = self._adj[x].get(y)
                 if best is None or self._len[i] < best[0]:
                     self._adj[x][y] = (self._len[i], i)
-        # Vertices without edges can still be snapped to (a route of length 0 to itself).
-        self._lonely = [(i, n) for i, n in enumerate(self._nodes) if graph.degree(n) == 0]
+        # Vertices without edges lead nowhere (pruning leaves them where a corridor was too
+        # narrow): points snap to the corridors; only a graph without edges is snapped to
+        # its vertices (a route of length 0 to itself).
+        self._lonely = (
+            []
+            if self._path
+            else [(i, n) for i, n in enumerate(self._nodes) if graph.degree(n) == 0]
+        )
         self._trees: dict = {}
         self._tree_px: dict = {}  # per frame, the tree points' pixels (with the map)
 
