@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import cv2
+import networkx as nx
 import numpy as np
 import pytest
 from brute_force import brute_sq_distance
@@ -260,13 +261,19 @@ def test_obstacles_and_unknown_space_keep_the_papers_graph(capsys):
     cfg = tj.PipelineConfig(graph=tj.GraphConfig(free_space_only=True))
     assert tj.build_graph(m, config=cfg).graph.number_of_nodes() == 0
     # the command-line note says what happens in each case
-    assert "runs through unknown space" in _classes_hint(m)[0]
+    some = nx.MultiGraph([(0, 1)])
+    assert "runs through unknown space" in _classes_hint(m, some)[0]
     full = tj.OccupancyMap.from_array(np.ones((4, 4), bool))
-    assert "nothing but occupied pixels" in _classes_hint(full)[0]
-    assert "graph is empty" in _classes_hint(full)[0]
+    assert "nothing but occupied pixels" in _classes_hint(full, nx.MultiGraph())[0]
+    assert "graph is empty" in _classes_hint(full, nx.MultiGraph())[0]
     none = tj.OccupancyMap.from_array(np.zeros((4, 4), bool))
-    assert "no occupied pixel" in _classes_hint(none)[0]
-    assert _classes_hint(tj.OccupancyMap.from_array(m.occupied)) == []
+    assert "no occupied pixel" in _classes_hint(none, nx.MultiGraph())[0]
+    walls = tj.OccupancyMap.from_array(m.occupied)
+    assert _classes_hint(walls, some) == []
+    # obstacles and free space, yet no corridor (e.g. a map read with its colours
+    # swapped): the note says so, as the batch's status does
+    (note,) = _classes_hint(walls, nx.MultiGraph())
+    assert "the graph is empty: no corridor was found" in note and "--negate" in note
 
 
 def test_configs_check_types_and_take_numpy_numbers():

@@ -99,16 +99,24 @@ def _write_outputs(
     return written
 
 
-def _classes_hint(occupancy) -> list[str]:
+def _classes_hint(occupancy, graph) -> list[str]:
     """A note when the map, as classified, cannot give a graph (no obstacle or no free
-    pixel) or its walls look unknown (grey walls): usually thresholds or a pixel
-    convention that do not fit the file."""
+    pixel), gave none, or its walls look unknown (grey walls): usually thresholds or a
+    pixel convention that do not fit the file."""
     n_occ, n_free = int(occupancy.occupied.sum()), int(occupancy.free.sum())
     if n_occ and n_free:
         from ..maps.classify import wall_share, wall_warning
 
         warning = wall_warning(wall_share(occupancy.occupied, occupancy.free))
-        return [f"note       {warning}"] if warning else []
+        notes = [f"note       {warning}"] if warning else []
+        if graph.number_of_nodes() == 0:
+            notes.append(
+                f"note       the graph is empty: no corridor was found between the "
+                f"obstacles ({n_occ} occupied, {n_free} free pixels as classified); check "
+                "the thresholds, --negate, or --mode (e.g. --mode ipa for IPA benchmark "
+                "maps, where every pixel below 250 is inaccessible)"
+            )
+        return notes
     n_unknown = int(occupancy.unknown.sum())
     if not n_occ:
         what = "no occupied pixel"
@@ -163,7 +171,7 @@ def _cmd_graph(args) -> int:
     occupancy = load_map(args.map, **map_options(args))
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
-    for line in _classes_hint(occupancy):
+    for line in _classes_hint(occupancy, result.graph):
         print(line)
     seg, notes = None, []
     if rooms_config is not None:
