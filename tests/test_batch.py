@@ -28,7 +28,7 @@ from topojax.batch import (
     expand_braces,
     expand_map_inputs,
 )
-from topojax.config import PipelineConfig, SkeletonConfig
+from topojax.config import GraphConfig, PipelineConfig, SkeletonConfig
 from topojax.graph import graph_summary
 from topojax.io import load_graph
 from topojax.maps import OccupancyMap, load_map
@@ -310,6 +310,27 @@ def test_write_failure_leaves_no_manifest_and_resume_redoes(tmp_path, monkeypatc
     assert load_graph(out / "a_scan.json").number_of_edges() == second[1].edges
 
 
+def test_a_map_redone_with_fewer_outputs_leaves_none_of_the_earlier_ones(tmp_path):
+    """Files of formats (or pictures) a map's earlier run wrote and this one does not are
+    removed with its manifest: left, ``topojax view`` showed the earlier settings' graph
+    beside this run's manifest."""
+    out = tmp_path / "out"
+    src = PAPER_MAPS[2]
+    stem = src.stem
+    build_graphs([src], out_dir=out, formats="graphml,json,nav2", plot=True, workers=0)
+    assert {f"{stem}.json", f"{stem}_nav2.geojson", f"{stem}_graph.png"} <= {
+        p.name for p in out.iterdir()
+    }
+    (out / "notes.txt").write_text("mine")
+    cfg = PipelineConfig(graph=GraphConfig(min_spur_m=0.5))
+    for resume in (True, False):
+        build_graphs([src], out_dir=out, formats="graphml", workers=0, config=cfg, resume=resume)
+        names = {p.name for p in out.iterdir()}
+        assert f"{stem}.graphml" in names and "notes.txt" in names
+        assert not names & {f"{stem}.json", f"{stem}_nav2.geojson", f"{stem}_graph.png"}
+        cfg = PipelineConfig()
+
+
 def test_resume_skips_complete_and_redoes_damaged(tmp_path, shared_data):
     src = tmp_path / "maps"
     src.mkdir()
@@ -582,9 +603,8 @@ def test_nav2_format_is_written_and_resumed(tmp_path, capsys):
     doc = json.loads((out / f"{name}_nav2.geojson").read_text())
     graph = load_graph(out / f"{name}.json")
     points = [f for f in doc["features"] if f["geometry"]["type"] == "Point"]
-    assert [
-        f["properties"]["metadata"].get("vertex") for f in points[: graph.number_of_nodes()]
-    ] == list(graph.nodes)
+    linked = [n for n in graph.nodes if graph.degree(n)]  # vertices without edges: none
+    assert [f["properties"]["metadata"].get("vertex") for f in points[: len(linked)]] == linked
     manifest = json.loads((out / f"{name}.manifest.json").read_text())
     assert set(manifest["files"]) == {f"{name}.json", f"{name}_nav2.geojson"}
     assert main([*argv, "--resume"]) == 0

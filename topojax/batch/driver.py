@@ -290,8 +290,9 @@ class _BatchRun:
         )
 
     def _forget_outputs(self, item: _Item) -> None:
-        """Before redoing a map: drop its manifest and stale temporary files."""
-        _forget_outputs(item, out_dir=self.out_dir, formats=self.formats)
+        """Before redoing a map: drop its manifest, outputs it will not write again and
+        stale temporary files."""
+        _forget_outputs(item, out_dir=self.out_dir, formats=self.formats, plot=self.plot)
 
     # ---------------------------------------------------------------- main loop
     def run(self) -> list[MapRecord]:

@@ -155,12 +155,29 @@ def _write_manifest(
     return path.relative_to(out_dir).as_posix()
 
 
-def _forget_outputs(item: _Item, *, out_dir: Path | None, formats: tuple[str, ...]) -> None:
-    """Before redoing a map: drop its manifest and stale temporary files."""
+def _forget_outputs(
+    item: _Item, *, out_dir: Path | None, formats: tuple[str, ...], plot: bool
+) -> None:
+    """Before redoing a map: drop its manifest, the files it listed that this run will
+    not write again (formats or pictures no longer asked for: left, they would be taken
+    for this run's), and stale temporary files."""
     if out_dir is None:
         return
     manifest = _manifest_path(out_dir, item.name)
+    try:
+        listed = json.loads(manifest.read_text(encoding="utf-8")).get("files")
+    except (OSError, ValueError, AttributeError):
+        listed = None
     manifest.unlink(missing_ok=True)
+    if isinstance(listed, dict):
+        own = {f"{item.name}{s}" for s in (*_format_suffixes(_FORMAT_FILES), *_PICTURES)}
+        again = {
+            f"{item.name}{s}"
+            for s in (*_format_suffixes(formats), *picture_suffixes(formats, plot))
+        }
+        for rel in listed:  # only names this map's outputs can have
+            if rel in own and rel not in again:
+                (out_dir / rel).unlink(missing_ok=True)
     folder = manifest.parent
     if folder.is_dir():
         base = Path(item.name).name
