@@ -608,6 +608,22 @@ def test_with_the_map_a_route_does_not_join_through_a_wall_or_beyond_reach():
     assert r.pixels[0].tolist() == [10, 20] and r.length_m == pytest.approx(5.0)
 
 
+def test_with_the_map_a_point_on_an_obstacle_is_refused():
+    """A robot inside a wall (a localisation fault) or a goal picked on one: with the map
+    given, an error naming the point, not a route from the nearest corridor."""
+    m, g = _fork(wall=True)
+    wall = tuple(int(v) for v in np.argwhere(m.occupied)[0])
+    planner = RoutePlanner(g, occupancy=m)
+    with pytest.raises(
+        ValueError,
+        match=rf"start: expected a point off the map's obstacles.*\({wall[0]}, {wall[1]}\)",
+    ):
+        planner.route(wall, (18, 26), frame="pixel")
+    with pytest.raises(ValueError, match="goal: expected a point off the map's obstacles"):
+        planner.route((18, 26), m.pixel_to_world(*wall))
+    RoutePlanner(g).route(wall, (18, 26), frame="pixel")  # without the map: nearest corridor
+
+
 def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight():
     from topojax.routegraph.feasible import feasible_space
 

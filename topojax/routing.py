@@ -271,8 +271,8 @@ class RoutePlanner:
             subclass of :class:`networkx.NetworkXNoPath`).
         ValueError
             Bad ``start``, ``goal``, ``frame`` or ``max_snap_m`` (``TypeError`` for a
-            ``max_snap_m`` that is not a number); a point beyond ``max_snap_m``; a graph
-            without vertices.
+            ``max_snap_m`` that is not a number); a point beyond ``max_snap_m``; with the
+            map, a point on an occupied pixel; a graph without vertices.
         """
         one_of("frame", frame, _FRAMES)
         if max_snap_m is not None:
@@ -336,6 +336,8 @@ class RoutePlanner:
         point that ``point`` sees within the entry reach (see :meth:`route` for the
         frames)."""
         q = _point(point, name, frame)
+        if self._occupancy is not None:
+            self._check_off_obstacles(q, frame, name)
         tree, owners = self._tree(frame)
         dist, k = tree.query(q)
         near = sorted(set(tree.query_ball_point(q, float(dist) + _TIE)) | {int(k)})
@@ -344,6 +346,20 @@ class RoutePlanner:
         if self._feasible is not None and self._entry_m > 0:
             out += [self._snap(owners[i], d) for i, d in self._entries(q, frame, scale)]
         return out
+
+    def _check_off_obstacles(self, q: np.ndarray, frame: str, name: str) -> None:
+        """With the map, a query point on an occupied pixel is an error (a robot inside a
+        wall: a localisation fault, or a goal picked on a wall), not a route from the
+        nearest corridor."""
+        qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
+        r, c = (int(v) for v in np.floor(qp + 0.5))
+        occupied = self._occupancy.occupied
+        if 0 <= r < occupied.shape[0] and 0 <= c < occupied.shape[1] and occupied[r, c]:
+            raise ValueError(
+                f"{name}: expected a point off the map's obstacles, received "
+                f"{tuple(float(v) for v in q)} ({frame} frame), on the occupied pixel "
+                f"({r}, {c})"
+            )
 
     def _snap(self, owner, distance_m: float) -> _Snap:
         edge, index, vertex = (int(x) for x in owner)
