@@ -246,6 +246,10 @@ def test_command_checks_the_tolerance_first_and_notes_a_graph_without_edges(tmp_
     assert main(bad) == 2
     assert "--nav2-tolerance-m: expected" in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()  # nothing written before the check
+    # a tolerance without --nav2 would be ignored: refused
+    assert main([*bad[:-3], "--nav2-tolerance-m", "0.5"]) == 2
+    assert "--nav2-tolerance-m: only used with --nav2" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
     empty = tmp_path / "empty.png"
     cv2.imwrite(str(empty), np.full((40, 50), 254, np.uint8))  # free, no obstacle
     assert main(["graph", str(empty), "-o", str(tmp_path / "e"), "--nav2"]) == 0

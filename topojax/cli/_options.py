@@ -111,7 +111,7 @@ def add_nav2_options(p: argparse.ArgumentParser, name: str) -> None:
     p.add_argument(
         "--nav2-tolerance-m",
         type=float,
-        default=0.1,
+        default=None,
         metavar="M",
         help="Nav2 waypoints keep every corridor pixel within M metres (default 0.1)",
     )
@@ -121,10 +121,13 @@ def nav2_tolerance(args) -> float | None:
     """The checked ``--nav2-tolerance-m`` when ``--nav2`` is given (else None); the error
     names the option (checked before any work)."""
     if not args.nav2:
+        if args.nav2_tolerance_m is not None:
+            raise ValueError("--nav2-tolerance-m: only used with --nav2, which was not given")
         return None
     from .._validate import positive_metres
 
-    return positive_metres("--nav2-tolerance-m", args.nav2_tolerance_m)
+    tolerance = 0.1 if args.nav2_tolerance_m is None else args.nav2_tolerance_m
+    return positive_metres("--nav2-tolerance-m", tolerance)
 
 
 def add_map_options(p: argparse.ArgumentParser) -> None:
