@@ -521,6 +521,12 @@ def test_route_command_with_the_map_joins_the_graph_where_the_route_is_shortest(
     assert main([*argv, "--resolution", "0.05", "--entry-m", "2"]) == 2
     err = capsys.readouterr().err
     assert "--resolution, --entry-m: only used with --map, which was not given" in err
+    # a topology graph records no robot radius: the option is named, not the parameter
+    paper = tj.save_graph(tj.build_graph(m).graph, tmp_path / "paper.json")
+    assert main(["route", str(paper), *argv[2:], "--map", map_file]) == 2
+    assert "--robot-radius: expected the robot radius in metres with --map" in (
+        capsys.readouterr().err
+    )
 
 
 def test_default_snap_limit_refuses_far_points_and_none_lifts_it():

@@ -111,6 +111,11 @@ def _cmd_route(args) -> int:
         from ..maps import load_map
 
         occupancy = load_map(args.map, **map_options(args))
+        if args.robot_radius is None and graph.graph.get("robot_radius_m") is None:
+            raise ValueError(
+                "--robot-radius: expected the robot radius in metres with --map (the graph "
+                "is not a route graph: it records none), received none"
+            )
     frame = "pixel" if args.pixel else "world"
     planner = RoutePlanner(
         graph, occupancy=occupancy, robot_radius_m=args.robot_radius, entry_m=args.entry_m
