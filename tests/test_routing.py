@@ -485,6 +485,10 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert "start: the nearest point of the graph is" in err and "--max-snap-m M" in err
     assert main([*argv, "--max-snap-m", "-1"]) == 2
     assert "--max-snap-m: expected a finite number of metres >= 0" in capsys.readouterr().err
+    assert main([*argv, "--max-snap-m", "none"]) == 0  # no limit (the start is 0.55 m off)
+    capsys.readouterr()
+    assert main([*argv, "--max-snap-m", "x"]) == 2
+    assert "--max-snap-m: expected a number of metres or none" in capsys.readouterr().err
     assert main([*argv, "--map", "x.yaml", "--robot-radius", "-1"]) == 2
     assert "--robot-radius: expected" in capsys.readouterr().err
     # pixel frame, and no route between two components: exit status 1

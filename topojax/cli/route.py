@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import sys
@@ -9,6 +10,18 @@ from pathlib import Path
 
 from ._options import add_map_options, map_options
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+
+
+def _snap_limit(text: str) -> float | None:
+    """``--max-snap-m``: a number of metres, or ``none`` for no limit."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a number of metres or none, received {text!r}"
+        ) from None
 
 
 def add_command(subparsers) -> None:
@@ -34,10 +47,10 @@ def add_command(subparsers) -> None:
     )
     p.add_argument(
         "--max-snap-m",
-        type=float,
+        type=_snap_limit,
         default=5.0,
         metavar="M",
-        help="fail if a point is more than M metres from the graph (default 5)",
+        help="fail if a point is more than M metres from the graph (default 5; none: no limit)",
     )
     p.add_argument(
         "--map",
@@ -130,7 +143,7 @@ def _cmd_route(args) -> int:
     except ValueError as exc:
         if "max_snap_m=" not in str(exc):
             raise
-        raise ValueError(f"{exc}; on the command line: --max-snap-m M") from None
+        raise ValueError(f"{exc}; on the command line: --max-snap-m M, or none") from None
     print(
         f"route      {route.length_m:.2f} m along the graph, {len(route.pixels)} pixels, "
         f"{len(route.vertices)} vertices, {len(route.edges)} edges"
