@@ -487,7 +487,9 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert "--max-snap-m: expected a finite number of metres >= 0" in capsys.readouterr().err
     assert main([*argv, "--max-snap-m", "none"]) == 0  # no limit (the start is 0.55 m off)
     capsys.readouterr()
-    assert main([*argv, "--max-snap-m", "x"]) == 2
+    with pytest.raises(SystemExit) as info:  # argparse's own exit
+        main([*argv, "--max-snap-m", "x"])
+    assert info.value.code == 2
     assert "--max-snap-m: expected a number of metres or none" in capsys.readouterr().err
     assert main([*argv, "--map", "x.yaml", "--robot-radius", "-1"]) == 2
     assert "--robot-radius: expected" in capsys.readouterr().err
