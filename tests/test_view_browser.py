@@ -293,6 +293,16 @@ def test_routes_in_the_page_equal_plan_route(browser, res, tmp_path):
             assert abs(got["start_snap_m"] - want.start_snap_m) < 1e-6
             assert abs(got["goal_snap_m"] - want.goal_snap_m) < 1e-6
             checked += 1
+        # beside a vertex without edges (pruning leaves them): both snap to a corridor
+        lonely = [d["world"] for n, d in graph.nodes(data=True) if graph.degree(n) == 0]
+        for a in lonely[:3]:
+            a = (float(a[0]) + 0.05, float(a[1]))
+            b = tuple(map(float, pixels[len(pixels) // 2]))
+            got = _js(browser, "topojaxView.route(...arguments)", *a, *b, name)
+            want = planner.route(a, b)
+            assert "error" not in got and abs(got["length_m"] - want.length_m) < 1e-3, (a, b)
+            assert abs(got["start_snap_m"] - want.start_snap_m) < 1e-6
+            checked += 1
     assert checked >= 12 and failed >= 1  # both outcomes agree
     far = _js(browser, "topojaxView.route(-100, -100, 10, 10, 'graph')")
     assert "more than the 5 m a route may snap" in far["error"]

@@ -1,9 +1,9 @@
 /* topojax viewer: routes along a graph, the algorithm of topojax.RoutePlanner (MIT
  * licence, part of topojax).
  *
- * A query point snaps to the nearest corridor point: a pixel of an edge path, or a vertex
- * without edges; where edges cross, that point lies on each and the route may leave along
- * any of them.  The route runs along the snapped edge to one of its ends, through the
+ * A query point snaps to the nearest corridor point: a pixel of an edge path (a vertex
+ * without edges, which leads nowhere, only in a graph with no edge at all); where edges
+ * cross, that point lies on each and the route may leave along any of them.  The route runs along the snapped edge to one of its ends, through the
  * graph (Dijkstra on length_m, parallel edges by their shortest, self-loops never), and
  * along the goal's edge to the snapped goal; start and goal on one edge also try the
  * direct way along it.  Lengths along an edge are its straight and diagonal pixel steps
@@ -77,9 +77,10 @@ var TJ = (window.TJ = window.TJ || {});
         if (best === undefined || G.len[e] < best[0]) this.adj[x].set(y, [G.len[e], e]);
       }
     }
-    // snap targets: every path point, then every vertex without edges
+    // snap targets: every path point; the vertices without edges only where there is no
+    // edge at all (they lead nowhere)
     this.lonely = [];
-    for (var q = 0; q < G.n; q++) if (G.degree[q] === 0) this.lonely.push(q);
+    if (ne === 0) for (var q = 0; q < G.n; q++) if (G.degree[q] === 0) this.lonely.push(q);
     var m = np + this.lonely.length;
     var sx = new Float64Array(m), sy = new Float64Array(m);
     sx.set(G.px); sy.set(G.py);
