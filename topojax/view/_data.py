@@ -283,7 +283,8 @@ def _graph_bounds_frame(graphs) -> Frame:
 
 def _entry_payload(graph: nx.Graph, shown: dict, inputs: Inputs) -> dict | None:
     """For a route graph (one with a ``robot_radius_m``) shown whole with its own map: the
-    robot's feasible pixels (bits, row-major, big-endian within each byte) and the reach
+    robot's feasible pixels and the map's occupied ones (bits, row-major, big-endian
+    within each byte) and the reach
     (the graph's ``snap_m``), so that the page joins routes to it in sight as
     ``RoutePlanner(graph, occupancy=map)`` does.  None otherwise, with a note saying why
     where a route graph has a map but cannot get them."""
@@ -314,6 +315,8 @@ def _entry_payload(graph: nx.Graph, shown: dict, inputs: Inputs) -> dict | None:
     return {
         "reach_m": float(reach),
         "feasible": packed(np.packbits(feasible.ravel()), np.uint8),
+        # a route from an occupied pixel is refused, as the planner given the map does
+        "occupied": packed(np.packbits(np.asarray(occupancy.occupied, bool).ravel()), np.uint8),
     }
 
 

@@ -112,14 +112,15 @@ var TJ = (window.TJ = window.TJ || {});
    *   ne, u, v, len, cmin, cmean, sizes, starts (per edge);
    *   px, py (world), pu, pv (view) of every path point, edges one after another;
    *   rows, cols (pixels) when the paths are on the grid; box (per edge view bbox);
-   *   entry (a route graph shown with its map): {reach, h, w, bits, frame}, the robot's
-   *   feasible pixels (bits, big-endian within each byte) for joining it in sight. */
+   *   entry (a route graph shown with its map): {reach, h, w, bits, occupied, frame}, the
+   *   robot's feasible pixels and the map's occupied ones (bits, big-endian within each
+   *   byte) for joining it in sight and refusing points on obstacles. */
   TJ.prepareGraph = function (g, frame) {
     var e = g.edges;
     return Promise.all([
       TJ.unpackAll(g, ["vx", "vy", "kind", "clear"]),
       TJ.unpackAll(e, ["u", "v", "len", "cmin", "cmean", "sizes", "rc", "xy"]),
-      g.entry ? TJ.unpackAll(g.entry, ["feasible"]) : Promise.resolve(null),
+      g.entry ? TJ.unpackAll(g.entry, ["feasible", "occupied"]) : Promise.resolve(null),
     ]).then(function (parts) {
       var V = parts[0], E = parts[1], F = parts[2];
       var G = {
@@ -160,7 +161,8 @@ var TJ = (window.TJ = window.TJ || {});
       for (var m = 0; m < ne; m++) { G.degree[G.u[m]]++; G.degree[G.v[m]]++; }
       G.box = TJ.edgeBoxes(G.pu, G.pv, G.starts, G.sizes);
       G.entry = F && G.rows ? {
-        reach: g.entry.reach_m, h: frame.height, w: frame.width, bits: F.feasible, frame: frame,
+        reach: g.entry.reach_m, h: frame.height, w: frame.width, bits: F.feasible,
+        occupied: F.occupied, frame: frame,
       } : null;
       return G;
     });

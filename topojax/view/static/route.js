@@ -191,7 +191,22 @@ var TJ = (window.TJ = window.TJ || {});
    * {length_m, xy: [x, y, x, y, ...], vertices: [...], start_snap_m, goal_snap_m}.
    * Throws an Error (as plan_route raises) for a point beyond maxSnap metres or when no
    * corridor joins the two. */
+  /* With the map, a point on an occupied pixel is an error, as RoutePlanner's. */
+  TJ.Router.prototype.offObstacles = function (name, x, y) {
+    var F = this.entry;
+    if (!F || !F.occupied) return;
+    var q = F.frame.worldToPixel(x, y);
+    var r = Math.floor(q[0] + 0.5), c = Math.floor(q[1] + 0.5);
+    if (r < 0 || r >= F.h || c < 0 || c >= F.w) return;
+    var i = r * F.w + c;
+    if ((F.occupied[i >> 3] >> (7 - (i & 7))) & 1) {
+      throw new Error(name + ": a point on an obstacle of the map (pixel " + r + ", " + c + ")");
+    }
+  };
+
   TJ.Router.prototype.route = function (x0, y0, x1, y1, maxSnap) {
+    this.offObstacles("start", x0, y0);
+    this.offObstacles("goal", x1, y1);
     var s = this.snap(x0, y0, maxSnap), g = this.snap(x1, y1, maxSnap);
     var named = [["start", s], ["goal", g]];
     for (var i = 0; i < 2; i++) {
