@@ -203,18 +203,25 @@ def _real_items(value: Any) -> list[float] | None:
     return [float(n) for n in reals]
 
 
+def _finite_items(value: Any, n: int, expected: str) -> list[float]:
+    """The ``n`` items of ``value`` as floats (see :func:`_real_items`): a ``TypeError``
+    unless it is an iterable of numbers, a ``ValueError`` for another count or a
+    non-finite item, each message ``expected`` followed by what was received."""
+    items = _real_items(value)
+    if items is None:
+        raise TypeError(f"{expected}, received {type(value).__name__} {value!r}")
+    if len(items) != n or not all(math.isfinite(v) for v in items):
+        raise ValueError(f"{expected}, received {value!r}")
+    return items
+
+
 def pose(name: str, value: Any, *, bounded: bool = True) -> tuple[float, float, float]:
     """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
     finite numbers (a map origin), ``x`` and ``y`` at most :data:`MAX_ORIGIN_M` from 0
     unless not ``bounded`` (a robot or sensor pose); a ``TypeError`` unless it is an
     iterable of numbers (bools are not), a ``ValueError`` otherwise."""
     expected = f"{name}: expected a sequence of 3 finite numbers (x_m, y_m, yaw_rad)"
-    items = _real_items(value)
-    if items is None:
-        raise TypeError(f"{expected}, received {type(value).__name__} {value!r}")
-    if len(items) != 3 or not all(math.isfinite(v) for v in items):
-        raise ValueError(f"{expected}, received {value!r}")
-    x, y, yaw = items
+    x, y, yaw = _finite_items(value, 3, expected)
     if bounded and max(abs(x), abs(y)) > MAX_ORIGIN_M:
         raise ValueError(
             f"{expected} with x and y within {MAX_ORIGIN_M:g} m of 0 (where a world "
@@ -298,12 +305,7 @@ def finite_pair(name: str, value: Any, what: str) -> np.ndarray:
     ``ValueError`` for another count or a non-finite one; ``what`` describes them in the
     error (e.g. ``"(x, y) in metres"``)."""
     expected = f"{name}: expected two finite numbers {what}"
-    items = _real_items(value)
-    if items is None:
-        raise TypeError(f"{expected}, received {type(value).__name__} {value!r}")
-    if len(items) != 2 or not all(math.isfinite(v) for v in items):
-        raise ValueError(f"{expected}, received {value!r}")
-    return np.array(items, dtype=np.float64)
+    return np.array(_finite_items(value, 2, expected), dtype=np.float64)
 
 
 def path_like(name: str, value: Any) -> Path:

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import networkx as nx
 import numpy as np
 
-from .._validate import path_like
+from .._validate import instance_of, path_like
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..fields.distance import FAR_SQ
 from ..fields.filters import HALO_PX
@@ -304,10 +304,7 @@ class IncrementalMapper:
             exceed ``max_grid_cells``, ``max_extent_m`` or ``max_tile_bytes``
             (:class:`ExtentError`).  Nothing is changed in that case.
         """
-        if not isinstance(scan, Scan):
-            raise TypeError(
-                f"scan: expected a topojax.Scan (see Scan.from_arrays), received {type(scan).__name__}"
-            )
+        instance_of("scan", scan, Scan, "topojax.Scan (see Scan.from_arrays)")
         t0 = time.perf_counter()
         sx, sy, syaw = scan.sensor_pose_world()
         rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)

@@ -151,7 +151,7 @@ def _segment(occ, cfg: RoomConfig) -> RoomSegmentation:
     )
     inner = (slice(pad[0], free.shape[0] - pad[1]), slice(pad[2], free.shape[1] - pad[3]))
     free[inner] = full[box]
-    # the doorways are searched on cells of f x f pixels, the regions made on the pixels
+    # the doorways are searched on the cells, the regions made on the pixels
     cells = coarse_free(free, f) if f > 1 else free
     clearance = free_clearance_px(cells)
     skeleton = thin(cells)
