@@ -50,7 +50,7 @@ def test_sq_distance_matches_brute_force(h, w, density, r, tile, seed):
     rng = np.random.default_rng(seed)
     obstacles = rng.random((h, w)) < density
     fields = dense_fields(
-        obstacles, distance=DistanceConfig(sigma_px=3.0, half_width_px=r), tile_px=tile
+        obstacles, distance=DistanceConfig(sigma_px=min(3.0, r), half_width_px=r), tile_px=tile
     )
     ref = brute_sq_distance(obstacles, r)
     got = fields.sq_distance_px.astype(np.float64)
@@ -370,6 +370,22 @@ def test_distance_config_from_metres():
     assert (cfg.sigma_px, cfg.half_width_px) == (pytest.approx(10.0), 20)
     with pytest.raises(ValueError, match="resolution_m"):
         DistanceConfig.from_metres(sigma_m=1.0, resolution_m=0.0)
+    with pytest.raises(ValueError, match="half_width_m: expected at least sigma_m"):
+        DistanceConfig.from_metres(sigma_m=1.0, resolution_m=0.1, half_width_m=0.5)
+
+
+def test_distance_config_window_follows_sigma_unless_given():
+    """Given sigma alone, the window scales with it as in the original (the same as
+    ``from_pixels``); a window narrower than one sigma (which flattens the ridges away:
+    the Intel map's graph went empty at sigma 1000 px in a 227 px window) is refused."""
+    assert DistanceConfig().half_width_px == 227
+    assert DistanceConfig(sigma_px=10.0) == DistanceConfig.from_pixels(sigma_px=10.0)
+    assert DistanceConfig(sigma_px=10.0).half_width_px == 35
+    assert DistanceConfig(sigma_px=10.0, half_width_px=10).half_width_px == 10
+    with pytest.raises(ValueError, match=r"half_width_px: expected at least sigma_px"):
+        DistanceConfig(sigma_px=1000.0, half_width_px=227)
+    with pytest.raises(ValueError, match=r"sigma_px: 2000.0 px needs a support"):
+        DistanceConfig(sigma_px=2000.0)
 
 
 def test_wide_window_uses_uint16_column_pass_end_to_end():

@@ -60,23 +60,41 @@ class DistanceConfig:
     sigma_px : float
         Gaussian standard deviation in pixels.  Default: the original's effective
         64.19283 px.
-    half_width_px : int
-        Half-width ``R`` of the square support in pixels (kernel size ``2R + 1``).
-        Default 227.  Shape-setting: a new value compiles a new kernel.
+    half_width_px : int, optional
+        Half-width ``R`` of the square support in pixels (kernel size ``2R + 1``), at
+        least ``sigma_px`` (a narrower window cuts the Gaussian off inside one sigma and
+        flattens the map's ridges away).  Default: scaled with ``sigma_px`` as in the
+        original, 227 px for 64.19 px (about 3.54 sigma each side), rounded.
+        Shape-setting: a new value compiles a new kernel.
     """
 
     sigma_px: float = ORIGINAL_SIGMA_PX
-    half_width_px: int = ORIGINAL_HALF_WIDTH_PX
+    half_width_px: int | None = None
 
     def __post_init__(self) -> None:
-        _canonical(
-            self, "sigma_px", quantity("sigma_px", self.sigma_px, unit="pixels", allow_zero=False)
-        )
-        _canonical(self, "half_width_px", integer("half_width_px", self.half_width_px))
-        if not 1 <= self.half_width_px <= _MAX_HALF_WIDTH_PX:
+        sigma_px = quantity("sigma_px", self.sigma_px, unit="pixels", allow_zero=False)
+        _canonical(self, "sigma_px", sigma_px)
+        if self.half_width_px is None:
+            half = _scaled_half_width(sigma_px)
+            if half > _MAX_HALF_WIDTH_PX:
+                raise ValueError(
+                    f"sigma_px: {sigma_px!r} px needs a support of {half} px (about 3.54 "
+                    f"sigma each side), more than the largest half-width, "
+                    f"{_MAX_HALF_WIDTH_PX} px"
+                )
+            _canonical(self, "half_width_px", half)
+            return
+        half = integer("half_width_px", self.half_width_px)
+        _canonical(self, "half_width_px", half)
+        if not 1 <= half <= _MAX_HALF_WIDTH_PX:
             raise ValueError(
-                f"half_width_px: expected an int in [1, {_MAX_HALF_WIDTH_PX}], "
-                f"received {self.half_width_px}"
+                f"half_width_px: expected an int in [1, {_MAX_HALF_WIDTH_PX}], received {half}"
+            )
+        if half < sigma_px:
+            raise ValueError(
+                f"half_width_px: expected at least sigma_px ({sigma_px:.6g} px), so that the "
+                f"window holds the Gaussian out to one sigma; received {half} (leave it "
+                "unset to scale it with sigma_px)"
             )
 
     @classmethod
@@ -114,20 +132,18 @@ class DistanceConfig:
                 f"half_width_m: {half_width_m!r} m at {resolution_m!r} m/px is {half} px, "
                 f"more than the largest half-width, {_MAX_HALF_WIDTH_PX} px"
             )
+        if half < sigma_px:
+            raise ValueError(
+                f"half_width_m: expected at least sigma_m ({sigma_m!r} m); received "
+                f"{half_width_m!r} m ({half} px at {resolution_m!r} m/px)"
+            )
         return cls(sigma_px=sigma_px, half_width_px=half)
 
     @classmethod
     def from_pixels(cls, *, sigma_px: float) -> DistanceConfig:
         """A configuration with this sigma (pixels) and the support scaled with it as in
-        the original (227 px for 64.19 px, about 3.54 sigma on each side, rounded)."""
-        sigma_px = quantity("sigma_px", sigma_px, unit="pixels", allow_zero=False)
-        half = _scaled_half_width(sigma_px)
-        if half > _MAX_HALF_WIDTH_PX:
-            raise ValueError(
-                f"sigma_px: {sigma_px!r} px needs a support of {half} px (about 3.54 sigma "
-                f"each side), more than the largest half-width, {_MAX_HALF_WIDTH_PX} px"
-            )
-        return cls(sigma_px=sigma_px, half_width_px=half)
+        the original: the same as ``DistanceConfig(sigma_px=sigma_px)``."""
+        return cls(sigma_px=sigma_px)
 
 
 def _scaled_half_width(sigma_px: float) -> int:
