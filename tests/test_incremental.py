@@ -35,7 +35,6 @@ from topojax.incremental import (
     GraphUpdate,
     IncrementalMapper,
     ScanReport,
-    replay,
     timing_summary,
     trace_counts,
     vertex_error_metrics,
@@ -43,6 +42,7 @@ from topojax.incremental import (
 from topojax.io import load_graph
 from topojax.maps import OccupancyMap, load_map
 from topojax.pipeline import build_graph, dense_fields
+from topojax.playback import replay
 from topojax.scans import Scan, read_carmen
 
 DATA = __import__("pathlib").Path(__file__).parent / "data"

@@ -54,7 +54,6 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
         GraphUpdate,
         IncrementalMapper,
         ScanReport,
-        replay,
         vertex_error_metrics,
     )
     from .io import (
@@ -78,6 +77,7 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
         distance_map,
         ridge_map,
     )
+    from .playback import replay
     from .plotting import plot_route_graph
     from .rooms import (
         Door,
@@ -225,7 +225,7 @@ _LAZY = {
     "IncrementalMapper": "incremental",
     "ScanReport": "incremental",
     "GraphUpdate": "incremental",
-    "replay": "incremental",
+    "replay": "playback",
     "vertex_error_metrics": "incremental",
     "build_graphs": "batch",
     "MapRecord": "batch",

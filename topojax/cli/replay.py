@@ -40,7 +40,7 @@ def _check_numbers(args) -> None:
 
 
 def _cmd_replay(args) -> int:
-    from ..incremental import replay, summary_text
+    from ..playback import replay, summary_text
 
     _check_numbers(args)
     kw = {
@@ -96,7 +96,7 @@ def _cmd_replay(args) -> int:
 
 def _replay_claims(args) -> dict:
     """The files :func:`topojax.replay` writes into ``--out`` (the names it uses)."""
-    from ..incremental.replay import output_names
+    from ..playback import output_names
 
     names = output_names(
         nav2=bool(args.nav2),

@@ -9,13 +9,14 @@ stage: ``docs/incremental-exactness.md``.
 from .._jit import trace_counts
 from ._rays import ExtentError
 from ._rethin import thin_components
-from ._settings import STRATEGIES
+from ._settings import STRATEGIES, settings_of
+from ._tiles import ExportBudgetError
 from .mapper import IncrementalMapper
-from .replay import replay, summary_text
 from .reports import GraphUpdate, ScanReport, timing_summary, vertex_error_metrics
 from .state import STATE_FORMAT, STATE_VERSION
 
 __all__ = [
+    "ExportBudgetError",
     "ExtentError",
     "STATE_FORMAT",
     "STATE_VERSION",
@@ -23,8 +24,7 @@ __all__ = [
     "GraphUpdate",
     "IncrementalMapper",
     "ScanReport",
-    "replay",
-    "summary_text",
+    "settings_of",
     "thin_components",
     "timing_summary",
     "trace_counts",

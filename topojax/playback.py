@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._validate import (
+from ._validate import (
     flag,
     instance_or_default,
     nonnegative_metres,
@@ -19,12 +19,15 @@ from .._validate import (
     positive_int,
     positive_metres,
 )
-from ..config import GraphConfig
-from ._rays import ExtentError
-from ._settings import settings_of
-from ._tiles import ExportBudgetError
-from .mapper import IncrementalMapper
-from .reports import ScanReport, timing_summary
+from .config import GraphConfig
+from .incremental import (
+    ExportBudgetError,
+    ExtentError,
+    IncrementalMapper,
+    ScanReport,
+    settings_of,
+    timing_summary,
+)
 
 #: Suffixes dropped from a log's file name for the pictures' titles.
 _LOG_SUFFIXES = (".gz", ".bz2", ".log", ".bag", ".db3", ".mcap", ".txt", ".dat", ".clf")
@@ -43,7 +46,7 @@ def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
     """A small snapshot for the animation: the map image shrunk to at most ``max_px``
     pixels a side (walls kept, :func:`topojax.plotting.map_image`), its world extent, the
     edges' world polylines and the vertices' world positions by kind."""
-    from ..plotting import map_image
+    from .plotting import map_image
 
     occ = mapper.occupancy
     h, w = occ.shape
@@ -80,7 +83,7 @@ def _write_animation(frames: list[dict], path: Path, name: str | None = None) ->
     import matplotlib.pyplot as plt
     from matplotlib.animation import FuncAnimation, PillowWriter
 
-    from ..plotting import add_legend, add_scale_bar, draw_graph_lines, room_layer
+    from .plotting import add_legend, add_scale_bar, draw_graph_lines, room_layer
 
     last = frames[-1]["extent"]
     fig, ax = plt.subplots(figsize=(7, 7.5))
@@ -188,7 +191,7 @@ def replay(
         The files that the last replay into ``out_dir`` wrote and this one does not
         (:func:`optional_outputs`: route graph, rooms, pictures, view) are removed.
     """
-    from .._fs import atomic_write_bytes
+    from ._fs import atomic_write_bytes
 
     nav2_tolerance_m, route_graph_radius_m = _check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
@@ -199,7 +202,7 @@ def replay(
     out = Path(out_dir)
     scans, mapper, timeline = _start(source, out, reader_kwargs, rooms, view, mapper_kw)
     if route_graph_radius_m is not None:  # now, not after the whole replay
-        from ..routegraph.build import RouteGraphConfig, check_scale
+        from .routegraph.build import RouteGraphConfig, check_scale
 
         config = RouteGraphConfig(robot_radius_m=route_graph_radius_m)
         check_scale(config, mapper.resolution_m, "route_graph_radius_m")
@@ -255,8 +258,8 @@ def _start(source, out: Path, reader_kwargs, rooms: bool, view: bool, mapper_kw:
     """Open the log, make the mapper (with ``rooms``, rooms at every graph update unless
     ``rooms_every`` is given), create the output folder and, with ``view``, a timeline;
     returns the scans, the mapper and the timeline (or None)."""
-    from .._fs import output_folder
-    from ..scans import read_scans
+    from ._fs import output_folder
+    from .scans import read_scans
 
     scans = read_scans(source, **(reader_kwargs or {}))
     if rooms and mapper_kw.get("rooms_every") is None:
@@ -265,7 +268,7 @@ def _start(source, out: Path, reader_kwargs, rooms: bool, view: bool, mapper_kw:
     output_folder(out)
     timeline = None
     if view:
-        from ..view import Timeline
+        from .view import Timeline
 
         timeline = Timeline()
     return scans, mapper, timeline
@@ -328,18 +331,18 @@ def _write_rooms_routes_view(
     written: list[Path] = []
     seg = done.seg
     if seg is not None:
-        from ..io import save_room_files
+        from .io import save_room_files
 
         written += save_room_files(seg, out / "map")
     routes = done.routes
     if routes is not None:
-        from ..io import save_graph
+        from .io import save_graph
 
         written += [
             save_graph(routes, out / f"route_graph{s}") for s in (".graphml", ".json", ".geojson")
         ]
     if timeline is not None:
-        from ..view import write_view
+        from .view import write_view
 
         timeline.snapshot(mapper, rooms=seg is not None)
         extra = {"route graph": routes} if routes is not None else None
@@ -370,7 +373,7 @@ def _write_pictures_and_animation(
 
 def _summary(source, mapper: IncrementalMapper, done: _Replayed) -> dict:
     """The replay's record (``timings.json``, to which :func:`replay` adds ``written``)."""
-    from ..graph import graph_summary
+    from .graph import graph_summary
 
     summary_g = graph_summary(done.result.graph)
     return {
@@ -402,7 +405,7 @@ def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
         result = _with_graph_config(result, graph_config)
     seg = None
     if rooms:
-        from ..rooms import assign_rooms
+        from .rooms import assign_rooms
 
         mapper._update_rooms()
         seg = mapper.rooms
@@ -438,8 +441,8 @@ def _route_note(done: _Replayed, radius_m) -> list[str]:
     """Why the final route graph (if any) has no edge, as a message; else none."""
     if done.routes is None:
         return []
-    from ..routegraph import RouteGraphConfig
-    from ..routegraph.feasible import route_graph_note
+    from .routegraph import RouteGraphConfig
+    from .routegraph.feasible import route_graph_note
 
     note = route_graph_note(
         done.routes,
@@ -482,7 +485,7 @@ def _check_replay_args(
             f"{Path(animate) / 'graph.gif'}"
         )
     if mcap is not None:
-        from ..io.mcap import mcap_path
+        from .io.mcap import mcap_path
 
         mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
     if route_graph_radius_m is not None:
@@ -494,7 +497,7 @@ def _recorder(mcap):
     """A :class:`~topojax.io.mcap.McapRecorder` for ``mcap``, or a context of None."""
     if mcap is None:
         return contextlib.nullcontext()
-    from ..io.mcap import McapRecorder
+    from .io.mcap import McapRecorder
 
     return McapRecorder(mcap)
 
@@ -556,8 +559,8 @@ class _Recording:
 def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, list[str]]:
     """Write the graph files, the Nav2 route graph (with a tolerance) and the map; returns
     the paths written and messages about files skipped."""
-    from ..io import save_graph, save_nav2_graph
-    from ..maps import save_map
+    from .io import save_graph, save_nav2_graph
+    from .maps import save_map
 
     written: list[Path] = []
     messages: list[str] = []
@@ -590,7 +593,7 @@ def output_names(
 ) -> list[str]:
     """The names of the files a replay writes into its folder, with these options on
     (``nav2_tolerance_m``, ``plot``, ``route_graph_radius_m``, ``rooms``, ``view``)."""
-    from ..io import ROOM_FILE_SUFFIXES
+    from .io import ROOM_FILE_SUFFIXES
 
     names = ["graph.graphml", "graph.json", "graph.geojson"]
     names += ["graph_nav2.geojson"] * nav2
@@ -633,8 +636,8 @@ def _write_pictures(result, out: Path, name: str) -> list[Path]:
     import matplotlib
 
     matplotlib.use("Agg")  # plot_stages draws with pyplot; no window
-    from .._fs import atomic_write_bytes
-    from ..plotting import result_png, stages_png
+    from ._fs import atomic_write_bytes
+    from .plotting import result_png, stages_png
 
     g = result.graph
     title = f"{name}: {g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
@@ -670,7 +673,7 @@ def _with_graph_config(result, graph_config: GraphConfig):
     ``build_graph(result.map, ...)`` gives with that ``graph``)."""
     from dataclasses import replace
 
-    from ..pipeline import graph_of_map
+    from .pipeline import graph_of_map
 
     config = replace(result.config, graph=graph_config)
     skeleton, graph, _ = graph_of_map(result.map, result.ridges, result.sq_distance_px, config)
