@@ -1718,6 +1718,9 @@ def test_replay_cli_reader_options_and_early_path_checks(tmp_path, capsys):
     (tmp_path / "afile").write_text("x")
     with pytest.raises(NotADirectoryError, match="out_dir: expected a folder to write into"):
         replay(INTEL_EXCERPT, out_dir=tmp_path / "afile", progress=False)
+    # a GIF below a file: refused now, not with "File exists" after the whole replay
+    with pytest.raises(NotADirectoryError, match=r"animate: .*afile in .* is a file, not a"):
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "b", animate=tmp_path / "afile" / "x.gif")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "f", "gif", "o", "s"]
     assert list(folder.iterdir()) == []
 

@@ -318,6 +318,16 @@ def path_like(name: str, value: Any) -> Path:
     return Path(value)
 
 
+def no_file_above(name: str, path: Path) -> Path:
+    """``path`` after checking that no folder above it is an existing file (it could
+    not be written; ``mkdir`` would only say "File exists"); a ``NotADirectoryError``
+    naming ``name`` otherwise."""
+    for parent in path.parents:
+        if parent.exists() and not parent.is_dir():
+            raise NotADirectoryError(f"{name}: {parent} in {str(path)!r} is a file, not a folder")
+    return path
+
+
 def existing_file(name: str, path: Any) -> Path:
     """``path`` as a :class:`~pathlib.Path` after checking it is one (:func:`path_like`,
     a ``TypeError`` otherwise) naming an existing regular file: a ``FileNotFoundError`` if

@@ -14,6 +14,7 @@ import numpy as np
 from ._validate import (
     flag,
     instance_or_default,
+    no_file_above,
     nonnegative_metres,
     path_like,
     positive_int,
@@ -465,8 +466,8 @@ def _check_replay_args(
     if graph_config is not None:
         instance_or_default("graph_config", graph_config, GraphConfig)
     out = path_like("out_dir", out_dir)
-    if animate is not None:
-        path_like("animate", animate)
+    if animate is not None:  # written last, after the whole replay
+        no_file_above("animate", path_like("animate", animate))
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(
             f"out_dir: expected a folder to write into, but {out} is an existing file"

@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from .._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
+from .._validate import no_file_above
 
 __all__ = [
     "LASER_FRAME",
@@ -354,10 +355,7 @@ def mcap_path(path, *, name: str = "path") -> Path:
         raise ValueError(f"{name}: expected a file name ending in .mcap, received {str(p)!r}")
     if p.is_dir():
         raise IsADirectoryError(f"{name}: expected an .mcap file name, received the folder {p}")
-    for parent in p.parents:
-        if parent.exists() and not parent.is_dir():
-            raise NotADirectoryError(f"{name}: {parent} in {str(p)!r} is a file, not a folder")
-    return p
+    return no_file_above(name, p)
 
 
 class McapRecorder:
