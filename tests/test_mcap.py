@@ -289,6 +289,17 @@ def test_scans_without_usable_timestamps_keep_the_scan_order(tmp_path):
     assert (sensor.translation.x, sensor.translation.y, sensor.rotation.w) == (0.2, 0.0, 1.0)
 
 
+def test_repeated_timestamps_get_distinct_stamps(tmp_path):
+    """A timestamp equal to the previous one (all 0 in some CARMEN logs) is not used:
+    every scan would land at one instant and tf would drop the repeated transforms."""
+    with McapRecorder(tmp_path / "r.mcap") as rec:
+        zeros = [rec.add_scan(_scan(0.0)) for _ in range(3)]
+    assert zeros == [0, 100_000_000, 200_000_000]
+    with McapRecorder(tmp_path / "s.mcap") as rec:
+        stamps = [rec.add_scan(_scan(t)) for t in (5.0, 5.0, 5.3)]
+    assert stamps == [5_000_000_000, 5_100_000_000, 5_300_000_000]
+
+
 def test_recorder_leaves_nothing_behind_on_error_and_checks_its_path(tmp_path):
     with pytest.raises(RuntimeError, match="boom"):
         with McapRecorder(tmp_path / "r.mcap") as rec:

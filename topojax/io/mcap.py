@@ -30,9 +30,11 @@ map whenever it subscribes.
 
 Time stamps (message log time and header ``stamp`` alike) are the scans' timestamps in
 nanoseconds where they are usable: present, at least 0 and below 2^31 s (a ROS time), and
-not before the previous scan's stamp.  A scan without a usable timestamp is stamped
+after the previous scan's stamp.  A scan without a usable timestamp is stamped
 :data:`SCAN_PERIOD_S` after the previous one (the first at 0 s), so a log without
-timestamps plays at 10 scans per second in scan order.  Maps, graphs and rooms carry the
+timestamps, or with one timestamp for many scans (all 0 in some CARMEN logs), plays at 10
+scans per second in scan order, and no two scans' ``/tf`` share a stamp (tf drops such
+repeats).  Maps, graphs and rooms carry the
 stamp of the scan after which they were made; :func:`save_mcap` stamps its one map at 0 s.
 """
 
@@ -457,11 +459,11 @@ class McapRecorder:
         self.counts[topic] = self.counts.get(topic, 0) + 1
 
     def _next_stamp(self, timestamp) -> int:
-        """The stamp of the next scan (ns): its timestamp when usable, else one
-        :data:`SCAN_PERIOD_S` after the previous stamp."""
+        """The stamp of the next scan (ns): its timestamp when usable (after the previous
+        stamp), else one :data:`SCAN_PERIOD_S` after the previous stamp."""
         if timestamp is not None and 0.0 <= timestamp < _MAX_STAMP_S:
             ns = int(round(timestamp * _NS))
-            if not self._scanned or ns >= self.stamp_ns:
+            if not self._scanned or ns > self.stamp_ns:
                 return ns
         return self.stamp_ns + int(round(SCAN_PERIOD_S * _NS)) if self._scanned else 0
 
