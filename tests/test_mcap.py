@@ -128,6 +128,18 @@ def test_replay_recording_has_every_topic_with_standard_types_and_counts(replaye
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary folder
 
 
+def test_replaying_a_recording_does_not_record_over_it(replayed, tmp_path):
+    """A recording replayed with ``mcap`` naming it is refused before anything is read or
+    written: the new recording replaced the log (and any topic it had besides scans)."""
+    source = tmp_path / "run.mcap"
+    source.write_bytes(replayed[1].read_bytes())
+    before = source.read_bytes()
+    with pytest.raises(ValueError, match=r"mcap: writing .*run.mcap would overwrite the repl"):
+        tj.replay(source, out_dir=tmp_path / "out", progress=False, mcap=tmp_path / "run.mcap")
+    assert source.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]
+
+
 def test_replay_recording_uses_the_log_timestamps(replayed):
     _, _, _, messages = replayed
     scans = list(tj.read_scans(INTEL_EXCERPT))

@@ -113,13 +113,15 @@ def yaml_image(path: Path) -> Path | None:
         return None
 
 
-def refuse_overwriting_inputs(inputs, targets, *, option: str) -> None:
+def refuse_overwriting_inputs(
+    inputs, targets, *, option: str, what: str = "an input map", instead: str = "output folder"
+) -> None:
     """Raise ValueError naming ``option`` if a file of ``targets`` is one of the map files
-    ``inputs`` or an image one of their YAMLs refers to (checked before any work)."""
+    ``inputs`` or an image one of their YAMLs refers to (checked before any work); the
+    message calls the input ``what`` and asks for another ``instead``."""
     taken = {os.path.realpath(f) for path in inputs for f in input_files(Path(path))}
     for target in targets:
         if os.path.realpath(target) in taken:
             raise ValueError(
-                f"{option}: writing {target} would overwrite an input map; choose another "
-                "output folder"
+                f"{option}: writing {target} would overwrite {what}; choose another {instead}"
             )

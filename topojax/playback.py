@@ -197,6 +197,7 @@ def replay(
     nav2_tolerance_m, route_graph_radius_m = _check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
     )
+    _refuse_overwriting_source(source, Path(out_dir), animate, mcap)
     _check_flags_and_reader(
         dict(plot=plot, progress=progress, rooms=rooms, view=view), reader_kwargs
     )
@@ -492,6 +493,28 @@ def _check_replay_args(
     if route_graph_radius_m is not None:
         route_graph_radius_m = nonnegative_metres("route_graph_radius_m", route_graph_radius_m)
     return nav2_tolerance_m, route_graph_radius_m
+
+
+def _refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
+    """Refuse (ValueError) output paths that are the log itself or, for a bag folder (or
+    a file in one), a file of that folder: e.g. ``mcap`` the recording being replayed
+    (it was replaced by the new recording)."""
+    from .._fs import refuse_overwriting_inputs
+
+    src = path_like("source", source)
+    folder = (
+        src if src.is_dir() else src.parent if (src.parent / "metadata.yaml").is_file() else None
+    )
+    inputs = [src] if folder is None else [p for p in folder.iterdir() if p.is_file()]
+    names = output_names(nav2=True, plot=True, route_graph=True, rooms=True, view=True)
+    for option, targets in (
+        ("out_dir", [out / name for name in [*names, "mapper_state.npz"]]),
+        ("animate", [] if animate is None else [Path(animate)]),
+        ("mcap", [] if mcap is None else [Path(mcap)]),
+    ):
+        refuse_overwriting_inputs(
+            inputs, targets, option=option, what="the replayed log", instead="path"
+        )
 
 
 def _recorder(mcap):
