@@ -1165,6 +1165,21 @@ def test_ccny_excerpt_bag():
     assert scans[0].timestamp == pytest.approx(1282836370.9708765, abs=1e-6)
 
 
+def test_a_ros1_bag_cut_off_reads_its_scans_up_to_the_cut(tmp_path):
+    """A recording that stopped while writing (no index, its last chunk cut short) reads
+    the scans before the cut with a warning, as a cut-off log does; it failed with the
+    deserializer's 'Invalid sequence length' naming no file."""
+    pytest.importorskip("rosbags")
+    whole = list(read_bag(CCNY_EXCERPT, allow_missing_pose=True))
+    cut = tmp_path / "cut.bag"
+    cut.write_bytes(CCNY_EXCERPT.read_bytes()[:60000])
+    with pytest.warns(RuntimeWarning, match=r"cut\.bag: the bag ends in the middle of the rec"):
+        scans = list(read_bag(cut, allow_missing_pose=True))
+    assert 0 < len(scans) < len(whole)
+    for a, b in zip(scans, whole, strict=False):
+        assert np.array_equal(a.ranges, b.ranges) and a.timestamp == b.timestamp
+
+
 def test_ccny_shared_bag(shared_data):
     pytest.importorskip("rosbags")
     path = shared_data / "logs" / "rosbag" / "ccny_laser_scan_matcher_demo.bag"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import bz2
 import struct
+import warnings
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -119,6 +120,16 @@ class _Ros1Sequential:
             info.get("callerid", b"").decode("utf-8", "replace") or None,
         )
 
+    def _cut_off(self, pos: int) -> None:
+        """Warn that the bag ends inside the record at byte ``pos`` (a recording that
+        stopped while writing: its messages up to the cut are read)."""
+        warnings.warn(
+            f"{self.path}: the bag ends in the middle of the record at byte {pos} (a "
+            "recording cut off); read up to the cut",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+
     def _records(self, want_messages: bool) -> Iterator[tuple[int, int, bytes]]:
         with open(self.path, "rb") as fh:
             if fh.read(len(_ROS1_MAGIC)) != _ROS1_MAGIC:
@@ -128,13 +139,12 @@ class _Ros1Sequential:
                 head = fh.read(4)
                 if not head:
                     return
-                if len(head) < 4:
-                    raise ValueError(f"{self.path}: truncated record at byte {pos}")
-                (hlen,) = struct.unpack("<I", head)
+                (hlen,) = struct.unpack("<I", head.ljust(4, b"\0"))
                 hbuf = fh.read(hlen)
                 dbuf = fh.read(4)
-                if len(hbuf) != hlen or len(dbuf) != 4:
-                    raise ValueError(f"{self.path}: truncated record at byte {pos}")
+                if len(head) < 4 or len(hbuf) != hlen or len(dbuf) != 4:
+                    self._cut_off(pos)
+                    return
                 hdr = self._header(hbuf, f"record at byte {pos} of {self.path}")
                 (dlen,) = struct.unpack("<I", dbuf)
                 op = hdr.get("op", b"\xff")[0]
@@ -145,33 +155,49 @@ class _Ros1Sequential:
                         dlen = 12 * count
                     fh.seek(dlen, 1)
                     continue
-                if op != 0x05:  # BAG_HEADER, CONNECTION, CHUNK_INFO, ...: skip or record
-                    data = fh.read(dlen)
-                    if op == 0x07:
-                        self._add_connection(hdr, data)
-                    continue
-                data = self._decompress(fh.read(dlen), hdr)
-                yield from self._chunk_records(data, want_messages)
+                data = fh.read(dlen)
+                cut = len(data) < dlen
+                if op == 0x07 and not cut:
+                    self._add_connection(hdr, data)
+                elif op == 0x05:  # a CHUNK (BAG_HEADER, CHUNK_INFO, ...: skipped)
+                    data = self._decompress(data, hdr, cut)
+                    yield from self._chunk_records(data, want_messages, cut)
+                if cut:
+                    self._cut_off(pos)
+                    return
 
-    def _decompress(self, data: bytes, hdr: dict[str, bytes]) -> bytes:
-        """A CHUNK record's data, decompressed as its header's ``compression`` says."""
+    def _decompress(self, data: bytes, hdr: dict[str, bytes], cut: bool = False) -> bytes:
+        """A CHUNK record's data, decompressed as its header's ``compression`` says (of
+        a chunk ``cut`` off, as much as its data hold)."""
         comp = hdr.get("compression", b"none").decode()
         if comp == "bz2":
-            return bz2.decompress(data)
+            return bz2.BZ2Decompressor().decompress(data) if cut else bz2.decompress(data)
         if comp == "lz4":
             import lz4.frame  # type: ignore[import-untyped]
 
-            return lz4.frame.decompress(data)
+            return (
+                lz4.frame.LZ4FrameDecompressor().decompress(data)
+                if cut
+                else (lz4.frame.decompress(data))
+            )
         if comp != "none":
             raise ValueError(f"{self.path}: unsupported chunk compression {comp!r}")
         return data
 
-    def _chunk_records(self, data: bytes, want_messages: bool) -> Iterator[tuple[int, int, bytes]]:
+    def _chunk_records(
+        self, data: bytes, want_messages: bool, cut: bool = False
+    ) -> Iterator[tuple[int, int, bytes]]:
+        """The records of a chunk's (decompressed) ``data``; of a chunk ``cut`` off, those
+        before the cut."""
         pos = 0
         while pos < len(data):
             try:
                 hdr, start, dlen, _ = self._read_record(data, pos)
+                if start + dlen > len(data):
+                    raise ValueError("truncated record")
             except ValueError as err:
+                if cut:
+                    return
                 raise ValueError(f"{self.path}: corrupt chunk: {err}") from None
             op = hdr.get("op", b"\xff")[0]
             payload = data[start : start + dlen]

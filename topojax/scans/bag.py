@@ -112,7 +112,8 @@ def read_bag(
     Bags are read with ``rosbags.highlevel.AnyReader`` (no ROS install needed): a ROS 1
     ``.bag`` file, or a ROS 2 bag folder (or a ``.db3`` / ``.mcap`` file inside one). ROS 1
     bags that ``rosbags`` refuses because of inconsistent index records are read by a small
-    sequential reader instead (message definitions come from the bag itself).
+    sequential reader instead (message definitions come from the bag itself); so is one
+    cut off while recording (no index), up to the cut, with a warning.
 
     Poses are planar: for each transform only ``x``, ``y`` and the heading of the rotated
     ``x`` axis are used; a frame whose ``z`` axis points down (an upside-down laser) mirrors
