@@ -499,7 +499,7 @@ def _refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
     """Refuse (ValueError) output paths that are the log itself or, for a bag folder (or
     a file in one), a file of that folder: e.g. ``mcap`` the recording being replayed
     (it was replaced by the new recording)."""
-    from .._fs import refuse_overwriting_inputs
+    from ._fs import refuse_overwriting_inputs
 
     src = path_like("source", source)
     folder = (
