@@ -10,6 +10,7 @@ orientation-normalised edge paths).
 
 from __future__ import annotations
 
+import gzip
 import json
 import math
 import os
@@ -2331,6 +2332,33 @@ def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
             max_export_bytes=50 * h * w,
         )
     assert IncrementalMapper.load(state).n_scans == 40
+
+
+def test_replay_stopped_part_way_keeps_the_mapper_state(tmp_path):
+    """A log with an unreadable line part way through raises the reader's error, and the
+    scans mapped before it are not lost: their state is saved, with a warning saying
+    where; a log unreadable from its first scan leaves no state."""
+    lines = gzip.open(INTEL_EXCERPT, "rt").read().splitlines()
+    laser = [i for i, line in enumerate(lines) if line.startswith("FLASER")]
+    bad = lines[laser[35]].split()
+    bad[5] = "abc"  # a range that is not a number
+    lines[laser[35]] = " ".join(bad)
+    log = tmp_path / "bad.log"
+    log.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    given_range = {"max_range_m": 50.0}  # no survey of the whole log before the first scan
+    with (
+        pytest.warns(RuntimeWarning, match=r"stopped after 35 scans; .* saved to .*mapper_state"),
+        pytest.raises(ValueError, match=r"bad.log:\d+: malformed FLASER line"),
+    ):
+        replay(log, out_dir=out, progress=False, reader_kwargs=given_range)
+    assert IncrementalMapper.load(out / "mapper_state.npz").n_scans == 35
+    lines[laser[0]] = lines[laser[35]]
+    log.write_text("\n".join(lines) + "\n")
+    (out / "mapper_state.npz").unlink()
+    with pytest.raises(ValueError, match="malformed FLASER line"):
+        replay(log, out_dir=out, progress=False, reader_kwargs=given_range)
+    assert not (out / "mapper_state.npz").exists()
 
 
 @pytest.mark.parametrize(

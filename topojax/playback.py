@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import json
 import time
+import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -188,7 +189,9 @@ def replay(
         of scans that would have grown the map out of the mapper's bounds, a localisation
         glitch: skipped, the replay goes on), ``n_tiles``, ``vertices``, ``edges``,
         ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
-        to export leaves the mapper's state in ``out_dir/mapper_state.npz`` and raises.
+        to export, an unreadable scan part way through the log, or an interrupt leaves
+        the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
+        raises.
         The files that the last replay into ``out_dir`` wrote and this one does not
         (:func:`optional_outputs`: route graph, rooms, pictures, view) are removed.
     """
@@ -315,6 +318,9 @@ def _map_scans(
             routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
     except ExportBudgetError as exc:
         raise _unwritable(mapper, exc, out) from None
+    except (Exception, KeyboardInterrupt):  # a bad line mid-log, Ctrl-C: keep the scans
+        _keep_state(mapper, out)
+        raise
     if recorder is not None:
         recorder.add_map(result.map, result.graph)
         if seg is not None:
@@ -413,6 +419,30 @@ def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
         seg = mapper.rooms
         assign_rooms(result.graph, seg)  # before the graph files are written
     return update, final_s, result, seg
+
+
+def _keep_state(mapper: IncrementalMapper, out: Path) -> None:
+    """After a failure part way through a log, save the mapper's state to ``out`` (if it
+    mapped a scan) and say so in a RuntimeWarning; a failing save does not hide the
+    failure."""
+    if mapper.n_scans == 0 or mapper.pixel_bbox is None:
+        return
+    try:
+        path = mapper.save(out / "mapper_state.npz")
+    except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
+        warnings.warn(
+            f"replay stopped after {mapper.n_scans} scans; saving the mapper's state "
+            f"failed too ({exc})",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return
+    warnings.warn(
+        f"replay stopped after {mapper.n_scans} scans; the mapper's state is saved to "
+        f"{path} (IncrementalMapper.load continues from it)",
+        RuntimeWarning,
+        stacklevel=3,
+    )
 
 
 def _unwritable(mapper: IncrementalMapper, exc: ExportBudgetError, out: Path) -> ValueError:

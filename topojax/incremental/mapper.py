@@ -258,6 +258,7 @@ class IncrementalMapper:
         return self._tiles.n_tiles
 
     @property
+    @_synchronized
     def tiles(self) -> TileManager:
         """The tile storage (read-only use: do not modify layers); its free-cell counts
         (``misses``) are brought up to date first."""
