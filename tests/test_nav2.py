@@ -267,6 +267,7 @@ def test_command_checks_the_tolerance_first_and_notes_a_graph_without_edges(tmp_
         ({"tolerance_m": True}, TypeError, ["tolerance_m", "True"]),
         ({"tolerance_m": "0.1"}, TypeError, ["tolerance_m", "'0.1'"]),
         ({"frame": ""}, ValueError, ["frame", "non-empty"]),
+        ({"frame": 3}, TypeError, ["frame", "non-empty string", "int"]),
     ],
 )
 def test_bad_input(tmp_path, kwargs, exc, words):

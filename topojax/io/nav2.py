@@ -10,7 +10,7 @@ import networkx as nx
 import numpy as np
 
 from .._fs import atomic_write_bytes
-from .._validate import positive_metres
+from .._validate import instance_of, positive_metres
 from ..graph import holds, polyline_keep
 from ._schema import _xy, as_multigraph, jsonable
 
@@ -58,9 +58,9 @@ def save_nav2_graph(
         Raises
         ------
         TypeError
-            A ``tolerance_m`` that is not a number.
+            A ``tolerance_m`` that is not a number, a ``frame`` that is not a string.
         ValueError
-            A bad ``tolerance_m`` or ``frame``, a node or edge without ``world``, or a graph
+            A bad ``tolerance_m``, an empty ``frame``, a node or edge without ``world``, or a graph
             without edges (nav2_route refuses to load one).
 
         Notes
@@ -80,7 +80,8 @@ def save_nav2_graph(
         than two points of its own to place waypoints on leads nowhere and is left out.
     """
     tol = positive_metres("tolerance_m", tolerance_m)
-    if not isinstance(frame, str) or not frame:
+    instance_of("frame", frame, str, "non-empty string")
+    if not frame:
         raise ValueError(f"frame: expected a non-empty string, received {frame!r}")
     g = as_multigraph(graph)
     if g.number_of_edges() == 0:
