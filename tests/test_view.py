@@ -202,6 +202,13 @@ def test_show_is_an_inline_frame(res):
     assert view.html.startswith("<!DOCTYPE html>")
 
 
+@pytest.mark.parametrize("text", [None, 5, b"<html></html>"])
+def test_a_view_of_no_page_is_refused(text):
+    # not later, in the notebook's display or in save(), with an error about len() or encode
+    with pytest.raises(TypeError, match=r"text: expected a str \(the page's HTML\), received"):
+        View(text)
+
+
 def test_timeline_keeps_every_update_and_round_trips(tmp_path):
     mapper, timeline, keys = intel_replay()
     assert timeline.n_frames == len(keys) == 4

@@ -13,7 +13,7 @@ from __future__ import annotations
 import html
 from pathlib import Path
 
-from .._validate import path_like, positive_int
+from .._validate import instance_of, path_like, positive_int
 from ._data import DEFAULT_MAX_PIXELS, build_payload, inputs_of
 from ._html import page
 from ._window import apply_window
@@ -150,7 +150,7 @@ class View:
     """
 
     def __init__(self, text: str, *, height_px: int = 600) -> None:
-        self.html = text
+        self.html = instance_of("text", text, str, "str (the page's HTML)")
         self.height_px = positive_int("height_px", height_px)
 
     def _repr_html_(self) -> str:
