@@ -425,3 +425,25 @@ def test_a_replay_removes_what_the_last_replay_wrote_and_it_does_not(tmp_path, c
     capsys.readouterr()
     assert main(["view", str(out)]) == 0
     assert "timeline" not in capsys.readouterr().out
+
+
+def test_view_command_finds_a_batch_map_given_by_a_relative_path(tmp_path, capsys, monkeypatch):
+    """A batch run on ``maps/office.png`` from one folder is viewed from another: the
+    manifest names the map by its absolute path, so the view still draws it."""
+    import shutil
+
+    from topojax.cli.view import find_results
+
+    (tmp_path / "maps").mkdir()
+    shutil.copy(tj.datasets.sample_map_path("office"), tmp_path / "maps" / "office.png")
+    monkeypatch.chdir(tmp_path)
+    argv = ["batch", "maps/office.png", "-o", "out", "--workers", "0", "--no-progress"]
+    assert main([*argv, "--formats", "json"]) == 0
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    (result,) = find_results(tmp_path / "out")
+    assert result.map == tmp_path / "maps" / "office.png"
+    capsys.readouterr()
+    assert main(["view", str(tmp_path / "out")]) == 0
+    assert "graph only" not in capsys.readouterr().out

@@ -143,7 +143,8 @@ def _write_manifest(
     doc = {
         "version": _MANIFEST_VERSION,
         "map": item.name,
-        "path": item.label,
+        # absolute, so that the map is found again from any working directory
+        "path": os.path.abspath(item.path) if item.path is not None else item.label,
         "input": _normalise(fingerprint),
         "request": request,
         "files": files,
@@ -188,9 +189,9 @@ def _forget_outputs(
 
 
 def batch_input(target: str | os.PathLike[str]) -> str | None:
-    """The input of the batch map that wrote the file ``target``, as the batch was given
-    it (its manifest's ``path``; ``""`` for a map object without a source), or None when
-    no manifest beside ``target`` lists it."""
+    """The input of the batch map that wrote the file ``target`` (its manifest's ``path``:
+    the map file's absolute path, a map object's ``source``, ``""`` for one without), or
+    None when no manifest beside ``target`` lists it."""
     target = Path(target)
     name = target.name
     for suffix in (*_format_suffixes(_FORMAT_FILES), *_PICTURES, _MANIFEST_SUFFIX):
