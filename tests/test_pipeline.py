@@ -428,6 +428,8 @@ def test_cli_graph_and_demo(tmp_path, capsys, shared_data):
     assert cli_main(["demo", "--map", "a_scan", "-o", str(tmp_path / "demo")]) == 0
     summary = json.loads((tmp_path / "demo" / "a_scan_summary.json").read_text())
     assert summary["vertices"] > 100
+    (wrote,) = [line for line in capsys.readouterr().out.splitlines() if line.startswith("wrote")]
+    assert "a_scan_summary.json" in wrote  # every file the demo writes is listed
 
 
 def _ipa_style_png(path):

@@ -268,7 +268,6 @@ def _cmd_demo(args) -> int:
         f"end-to-end first call {1e3 * cold:.0f} ms (includes compilation), "
         f"warm {1e3 * sorted(warm)[1]:.1f} ms (median of 3)"
     )
-    print("wrote      " + ", ".join(str(p) for p in written))
     summary = {
         "map": args.map,
         "vertices": result.graph.number_of_nodes(),
@@ -277,6 +276,9 @@ def _cmd_demo(args) -> int:
         "warm_s": sorted(warm)[1],
         "timings_s": result.timings_s,
     }
-    summary_path.write_text(json.dumps(summary, indent=2))
+    from .._fs import atomic_write_bytes
+
+    atomic_write_bytes(summary_path, json.dumps(summary, indent=2).encode("utf-8"))
+    print("wrote      " + ", ".join(str(p) for p in [*written, summary_path]))
     record_outputs(planned(targets, source), command="demo")
     return 0
