@@ -157,6 +157,11 @@ def test_route_and_unrecorded_files(tmp_path, capsys):
     assert "would overwrite" in capsys.readouterr().err
     assert main([*route, "-o", str(out / "route.geojson")]) == 0
     assert main([*route, "-o", str(out / "route.geojson")]) == 0  # its own file again
+    (out / "folder.geojson").mkdir()
+    capsys.readouterr()
+    assert main([*route, "-o", str(out / "folder.geojson")]) == 2
+    assert "is a folder: expected a file path" in capsys.readouterr().err
+    assert not list(out.glob(".*.tmp"))
 
 
 def test_output_record_rules(tmp_path):

@@ -150,9 +150,12 @@ def _cmd_route(args) -> int:
     )
     print(f"snapped    start {route.start_snap_m:.3f} m, goal {route.goal_snap_m:.3f} m away")
     if args.out:
+        from .._fs import atomic_write_bytes
+
         out = Path(args.out)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(route.to_geojson(tolerance_m=args.simplify_m)))
+        text = json.dumps(route.to_geojson(tolerance_m=args.simplify_m))
+        atomic_write_bytes(out, text.encode("utf-8"))
         record_outputs(planned([out], args.graph), command="route")
         print(f"wrote      {out}")
     return 0

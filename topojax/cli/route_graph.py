@@ -149,7 +149,9 @@ def _cmd_route_graph(args) -> int:
             generation_s=seconds,
         )
         path = out / f"{stem}_route_report.json"
-        path.write_text(json.dumps(report.as_dict(), indent=1))
+        from .._fs import atomic_write_bytes
+
+        atomic_write_bytes(path, json.dumps(report.as_dict(), indent=1).encode("utf-8"))
         written.append(path)
         print(
             f"evaluation success {100 * report.success_rate:.1f} %, stretch median "
