@@ -97,3 +97,45 @@ def test_no_merge_conflict_markers_are_left_in_tracked_text() -> None:
         if path.is_file() and marker.search(path.read_text(encoding="utf-8", errors="replace")):
             found.append(name)
     assert found == []
+
+
+def _command_options() -> dict[str, set[str]]:
+    """``{command: its --options}`` from the command line's own parser."""
+    import argparse
+
+    from topojax.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return {
+        name: {s for action in parser._actions for s in action.option_strings}
+        for name, parser in sub.choices.items()
+    }
+
+
+def test_command_line_options_named_in_the_docs_exist() -> None:
+    """Every ``--option`` the pages name is an option of some command, and every one in a
+    ``## `topojax COMMAND` `` section of the command-line page is one of that command's
+    (a renamed or removed flag otherwise stays in the docs)."""
+    options = _command_options()
+    known = set().union(*options.values())
+    flag = re.compile(r"(?<![\w-])(--[a-z][a-z0-9]*(?:-[a-z0-9]+)*)(?![\w*-])")  # not --min-*-m
+    tools = {"--check", "--huge", "--strict"}  # ruff's, the benchmarks', mkdocs'
+    unknown = []
+    for path in _markdown_files():
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            for name in flag.findall(line):
+                if name not in known and name not in tools:
+                    unknown.append(f"{path.name}:{number}: {name}")
+    assert not unknown, "options no command has:\n" + "\n".join(unknown)
+    page = (DOCS / "command-line.md").read_text(encoding="utf-8")
+    for section in re.split(r"^## ", page, flags=re.M):
+        command = re.match(r"`topojax ([\w-]+)`", section)
+        if command is None:
+            continue
+        own = options[command.group(1)]
+        # another command's options are named with it: "as `graph --rooms`", and
+        # example command lines of the commands that wrote a folder
+        text = re.sub(r"`(?:topojax )?[\w-]+ --[^`]*`", "", section)
+        text = re.sub(rf"^topojax (?!{command.group(1)} ).*$", "", text, flags=re.M)
+        missing = sorted({name for name in flag.findall(text) if name not in own})
+        assert not missing, f"topojax {command.group(1)} has no {missing}"
