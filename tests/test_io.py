@@ -614,3 +614,39 @@ def test_output_folder_that_cannot_be_made_names_the_option(tmp_path, monkeypatc
     monkeypatch.setattr(Path, "mkdir", refuse)
     with pytest.raises(PermissionError, match=r"^\[Errno 13\] --out: cannot make the folder"):
         output_folder(tmp_path / "x", name="--out")
+
+
+def _writers():
+    """Every public function that writes a file, called with the path given."""
+    from skimage.draw import rectangle
+
+    img = np.zeros((40, 50), np.uint8)
+    rr, cc = rectangle((5, 5), end=(34, 44))
+    img[rr, cc] = 254
+    occupancy = tj.OccupancyMap.from_array(img, resolution_m=0.1)
+    seg = tj.segment_rooms(occupancy)
+    graph = nx.MultiGraph()
+    graph.add_edge(0, 1, world=np.array([[0.0, 0.0], [1.0, 0.0]]))
+    graph.nodes[0]["world"], graph.nodes[1]["world"] = (0.0, 0.0), (1.0, 0.0)
+    return {
+        "save_graph": lambda p: tj.save_graph(graph, p),
+        "save_nav2_graph": lambda p: tj.save_nav2_graph(graph, p),
+        "save_rooms": lambda p: tj.save_rooms(seg, p),
+        "save_room_graph": lambda p: tj.save_room_graph(seg, p),
+        "save_room_labels": lambda p: tj.save_room_labels(seg, p),
+        "save_map": lambda p: tj.save_map(occupancy, p),
+        "save_tiled_map": lambda p: tj.save_tiled_map(occupancy, p),
+        "open_tiled_map": lambda p: tj.open_tiled_map(p),
+        "View.save": lambda p: tj.View("<html></html>").save(p),
+        "Timeline.save": lambda p: tj.Timeline().save(p),
+        "write_view": lambda p: tj.write_view(occupancy, p),
+    }
+
+
+def test_a_path_that_is_not_one_is_named_in_the_error():
+    # the same message everywhere, not Python's "expected str, bytes or os.PathLike object"
+    for call in _writers().values():
+        with pytest.raises(TypeError, match=r"path: expected a path \(str or os\.PathLike\)"):
+            call(3)
+        with pytest.raises(TypeError, match="received NoneType"):
+            call(None)

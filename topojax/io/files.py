@@ -15,7 +15,7 @@ from typing import Any
 import networkx as nx
 
 from .._fs import atomic_write_bytes
-from .._validate import existing_file, one_of
+from .._validate import existing_file, one_of, path_like
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
 from .geojson import _from_geojson, _to_geojson
 from .graphml import _read_graphml, _write_graphml
@@ -71,7 +71,7 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
     Path
         The written path.
     """
-    p = Path(path)
+    p = path_like("path", path)
     fmt = _format_for(p, format)
     g = as_multigraph(graph)
     graph_attrs = _graph_attrs_to_save(g)

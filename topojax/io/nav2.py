@@ -10,7 +10,7 @@ import networkx as nx
 import numpy as np
 
 from .._fs import atomic_write_bytes
-from .._validate import instance_of, positive_metres
+from .._validate import instance_of, path_like, positive_metres
 from ..graph import holds, polyline_keep
 from ._schema import _xy, as_multigraph, jsonable
 
@@ -79,6 +79,7 @@ def save_nav2_graph(
         junction clusters), the chain includes the step to the vertex.  A loop with fewer
         than two points of its own to place waypoints on leads nowhere and is left out.
     """
+    p = path_like("path", path)
     tol = positive_metres("tolerance_m", tolerance_m)
     instance_of("frame", frame, str, "non-empty string")
     if not frame:
@@ -104,7 +105,6 @@ def save_nav2_graph(
     features += _segment_features(segments, len(features))
     doc = {"type": "FeatureCollection", "name": "topojax route graph", "features": features}
     data = json.dumps(doc, allow_nan=False).encode("utf-8")
-    p = Path(path)
     atomic_write_bytes(p, data)
     return p
 

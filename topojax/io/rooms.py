@@ -150,7 +150,7 @@ def save_rooms(seg, path: str | Path) -> Path:
     Python's shortest round-trip representation; NaN and infinity are refused.
     """
     seg = _check_seg(seg)
-    p = Path(path)
+    p = path_like("path", path)
     features = [_room_feature(seg, room) for room in seg.rooms]
     features += [_door_feature(door) for door in seg.doors]
     doc = {
@@ -466,7 +466,7 @@ def save_room_graph(seg, path: str | Path) -> Path:
     """
     from .files import save_graph
 
-    p = Path(path)
+    p = path_like("path", path)
     fmt = _GRAPH_SUFFIXES.get(p.suffix.lower())
     if fmt is None:
         raise ValueError(

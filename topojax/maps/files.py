@@ -431,7 +431,7 @@ def save_map(
     from .._fs import atomic_write_bytes
 
     occupancy_map = map_argument("occupancy_map", occupancy_map)
-    yp = Path(yaml_path)
+    yp = path_like("yaml_path", yaml_path)
     if yp.suffix.lower() not in YAML_SUFFIXES:
         raise ValueError(
             f"yaml_path: expected a name ending in .yaml or .yml, received {str(yp)!r}"

@@ -36,6 +36,7 @@ from .._validate import (
     metres_per_pixel,
     occupancy_thresholds,
     one_of,
+    path_like,
     pose,
     positive_int,
 )
@@ -399,7 +400,7 @@ def open_tiled_map(path, **overrides) -> TiledMap:
     ImportError
         For a Zarr array without the ``zarr`` package.
     """
-    p = Path(path)
+    p = path_like("path", path)
     unknown = set(overrides) - {
         "resolution_m",
         "origin",
@@ -548,7 +549,7 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
         )
     elif not isinstance(tiled, TiledMap):
         tiled = TiledMap.from_array(tiled)
-    p = Path(path)
+    p = path_like("path", path)
     h, w = tiled.shape
     dtype = np.dtype(tiled.reader.dtype)
     meta = tiled.metadata()

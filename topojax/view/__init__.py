@@ -166,8 +166,9 @@ class View:
         """Write the page to ``path`` (an HTML file)."""
         from .._fs import atomic_write_bytes
 
-        atomic_write_bytes(path, self.html.encode("utf-8"))
-        return Path(path)
+        p = path_like("path", path)
+        atomic_write_bytes(p, self.html.encode("utf-8"))
+        return p
 
     def __repr__(self) -> str:
         return f"View({len(self.html) / 1e6:.2f} MB of HTML)"

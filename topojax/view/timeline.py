@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import existing_file, instance_of, int_at_least
+from .._validate import existing_file, instance_of, int_at_least, path_like
 from ._encode import TILE_PX, packed, pyramid
 from ._graphs import KIND_NAMES
 from ._rooms_data import rooms_payload
@@ -207,10 +207,11 @@ class Timeline:
         next to a replay's outputs, where ``topojax view`` finds it)."""
         from .._fs import atomic_write_bytes
 
+        p = path_like("path", path)
         doc = {"format": _FORMAT, "version": _VERSION, "timeline": self.payload()}
         data = gzip.compress(json.dumps(doc, separators=(",", ":")).encode("utf-8"), mtime=0)
-        atomic_write_bytes(path, data)
-        return Path(path)
+        atomic_write_bytes(p, data)
+        return p
 
     @classmethod
     def load(cls, path) -> Timeline:
