@@ -4,6 +4,7 @@ opens the pages in a real browser."""
 
 from __future__ import annotations
 
+import inspect
 import json
 import re
 from pathlib import Path
@@ -200,6 +201,17 @@ def test_show_is_an_inline_frame(res):
     assert out.startswith("<iframe srcdoc=") and "height: 420px" in out
     assert "<script" not in out  # the page sits escaped inside srcdoc
     assert view.html.startswith("<!DOCTYPE html>")
+
+
+def test_show_names_an_option_it_does_not_take():
+    # write_view's path is no option of show: named as such, not as an internal function's
+    with pytest.raises(TypeError, match=r"path: expected one of write_view's options \(title,"):
+        tj.show(tj.OccupancyMap.from_array(np.zeros((8, 8), np.uint8)), path="x.html")
+    with pytest.raises(ValueError, match="height_px: expected an int >= 1"):
+        tj.show(tj.OccupancyMap.from_array(np.zeros((8, 8), np.uint8)), height_px=0)
+    from topojax.view import _SHOW_OPTIONS
+
+    assert set(_SHOW_OPTIONS) == set(inspect.signature(tj.write_view).parameters) - {"obj", "path"}
 
 
 @pytest.mark.parametrize("text", [None, 5, b"<html></html>"])

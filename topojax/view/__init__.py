@@ -174,6 +174,10 @@ class View:
         return f"View({len(self.html) / 1e6:.2f} MB of HTML)"
 
 
+#: the keyword arguments :func:`show` passes on to the page (:func:`write_view`'s)
+_SHOW_OPTIONS = ("title", "map", "rooms", "graphs", "route", "timeline", "window", "max_pixels")
+
+
 def show(obj, *, height_px: int = 600, **kwargs) -> View:
     """The interactive view of ``obj`` inline in a notebook.
 
@@ -198,4 +202,11 @@ def show(obj, *, height_px: int = 600, **kwargs) -> View:
     --------
     >>> tj.show(tj.build_graph(tj.sample_map("intel")))           # doctest: +SKIP
     """
+    height_px = positive_int("height_px", height_px)
+    for name in kwargs:
+        if name not in _SHOW_OPTIONS:
+            raise TypeError(
+                f"{name}: expected one of write_view's options ({', '.join(_SHOW_OPTIONS)}) "
+                "or height_px, received an unknown keyword argument"
+            )
     return View(view_html(obj, **kwargs), height_px=height_px)
