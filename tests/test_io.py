@@ -650,3 +650,18 @@ def test_a_path_that_is_not_one_is_named_in_the_error():
             call(3)
         with pytest.raises(TypeError, match="received NoneType"):
             call(None)
+
+
+def test_loading_a_nav2_or_rooms_geojson_as_a_graph_says_what_it_is(tmp_path):
+    g = nx.MultiGraph()
+    g.add_edge(0, 1, world=np.array([[0.0, 0.0], [1.0, 0.0]]))
+    g.nodes[0]["world"], g.nodes[1]["world"] = (0.0, 0.0), (1.0, 0.0)
+    nav2 = tj.save_nav2_graph(g, tmp_path / "nav2.geojson")
+    with pytest.raises(ValueError, match="a Nav2 route graph .save_nav2_graph."):
+        load_graph(nav2)
+    img = np.zeros((40, 50), np.uint8)
+    img[5:35, 5:45] = 254
+    seg = tj.segment_rooms(tj.OccupancyMap.from_array(img, resolution_m=0.1))
+    rooms = tj.save_rooms(seg, tmp_path / "rooms.geojson")
+    with pytest.raises(ValueError, match="a rooms GeoJSON; read it with load_rooms"):
+        load_graph(rooms)

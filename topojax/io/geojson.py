@@ -83,6 +83,15 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
     }
 
 
+def _hint(props: dict) -> str:
+    """What a GeoJSON file that is not a graph is, when its feature says so."""
+    if "startid" in props or "endid" in props:
+        return ": a Nav2 route graph (save_nav2_graph), which topojax does not read back"
+    if props.get("kind") in ("room", "door"):
+        return ": a rooms GeoJSON; read it with load_rooms"
+    return ""
+
+
 def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise ValueError(f"graph file {path} is not a GeoJSON FeatureCollection")
@@ -109,12 +118,14 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
             g.add_node(node, **attrs)
         elif gtype == "LineString":
             if "u" not in props or "v" not in props:
-                raise ValueError(f"graph file {path}: LineString features[{i}] lacks 'u'/'v'")
+                raise ValueError(
+                    f"graph file {path}: LineString features[{i}] lacks 'u'/'v'{_hint(props)}"
+                )
             edges.append((i, props, coords))
         else:
             raise ValueError(
                 f"graph file {path}: features[{i}] has geometry type {gtype!r}; "
-                "expected Point or LineString"
+                f"expected Point or LineString{_hint(props)}"
             )
     for i, props, coords in edges:
         u = _decode_id(props.pop("u"), schema["node_id"], "node id", path)
