@@ -459,3 +459,16 @@ def test_view_command_finds_a_batch_map_given_by_a_relative_path(tmp_path, capsy
     capsys.readouterr()
     assert main(["view", str(tmp_path / "out")]) == 0
     assert "graph only" not in capsys.readouterr().out
+
+
+def test_the_index_page_links_views_whose_names_hold_url_characters():
+    # '#' starts a fragment and '%20' is read as a space: both are percent-encoded
+    from urllib.parse import unquote
+
+    from topojax.cli.view import _index_page
+
+    names = ["r#1_view.html", "p%20q_view.html", "ä b?_view.html"]
+    page = _index_page(Path("out"), [(n[: -len("_view.html")], Path("out") / n) for n in names])
+    hrefs = re.findall(r'href="([^"]*)"', page)
+    assert [unquote(h) for h in hrefs] == names
+    assert not any(c in h for h in hrefs for c in "#? ")

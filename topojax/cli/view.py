@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import html
 import json
+import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -224,7 +225,8 @@ def _write_one(result: _Result, target: Path, args) -> str:
 
 def _index_page(folder: Path, pages: list[tuple[str, Path]]) -> str:
     items = "\n".join(
-        f'<li><a href="{html.escape(p.name)}">{html.escape(stem)}</a></li>' for stem, p in pages
+        f'<li><a href="{html.escape(urllib.parse.quote(p.name))}">{html.escape(stem)}</a></li>'
+        for stem, p in pages
     )
     return (
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
