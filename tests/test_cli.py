@@ -123,6 +123,25 @@ def test_outputs_of_another_input_are_not_overwritten(tmp_path, capsys):
     assert main(["graph", str(b), "-o", str(out / "b")]) == 0
 
 
+def test_graph_says_when_the_resolution_is_assumed(tmp_path, capsys):
+    """A PNG states no resolution: the map line says the 0.05 m/px is assumed (the graph's
+    lengths and world points rest on it) until --resolution gives one; a YAML map's own
+    resolution gets no remark."""
+    from topojax.datasets import sample_map_path
+
+    png = tmp_path / "office.png"
+    png.write_bytes(sample_map_path("office").read_bytes())
+    assert main(["graph", str(png), "-o", str(tmp_path / "a")]) == 0
+    assert "0.05 m/px, assumed: the file states none" in capsys.readouterr().out
+    assert main(["graph", str(png), "-o", str(tmp_path / "b"), "--resolution", "0.1"]) == 0
+    out = capsys.readouterr().out
+    assert "0.1 m/px)" in out and "assumed" not in out
+    assert (
+        main(["graph", str(_ros_map(tmp_path / "c", wall_col=20)), "-o", str(tmp_path / "c")]) == 0
+    )
+    assert "assumed" not in capsys.readouterr().out
+
+
 def test_batch_outputs_are_guarded_by_their_manifests(tmp_path, capsys):
     from topojax.cli import main
 

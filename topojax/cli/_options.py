@@ -162,6 +162,16 @@ def map_options(args) -> dict:
     return kw
 
 
+def assumed_resolution_note(args) -> str:
+    """``", assumed: ..."`` where the map file (``args.map``) states no resolution and
+    ``--resolution`` did not give one, else ``""``: for the line that prints it."""
+    from ..maps.files import default_resolution_used
+
+    if args.resolution_m is None and default_resolution_used(args.map):
+        return ", assumed: the file states none; --resolution sets it"
+    return ""
+
+
 #: The room options: (option, RoomConfig field, default, metavar, help).  The defaults are
 #: RoomConfig's (a test holds them equal); building the parser must not import it.
 _ROOM_OPTIONS = (

@@ -12,6 +12,7 @@ from ._options import (
     add_pipeline_options,
     add_room_options,
     add_sigma_options,
+    assumed_resolution_note,
     map_options,
     nav2_tolerance,
     pipeline_config,
@@ -135,14 +136,14 @@ def _classes_hint(occupancy, graph) -> list[str]:
     ]
 
 
-def _summary_lines(name: str, result, *, timing_note: str = "") -> list[str]:
+def _summary_lines(name: str, result, *, timing_note: str = "", assumed: str = "") -> list[str]:
     from ..graph import graph_summary
 
     s = graph_summary(result.graph)
     h, w = result.map.shape
     t = result.timings_s
     return [
-        f"map        {name}  ({h} x {w} px, {result.map.resolution_m:g} m/px)",
+        f"map        {name}  ({h} x {w} px, {result.map.resolution_m:g} m/px{assumed})",
         f"graph      {s['n_vertices']} vertices ({s['n_junctions']} junctions, "
         f"{s['n_ends']} ends), {s['n_edges']} edges, "
         f"{s['total_length_m']:.1f} m of corridors, {s['n_components']} components",
@@ -211,7 +212,12 @@ def _cmd_graph(args) -> int:
 
         written.append(write_view(result, Path(args.out) / f"{stem}_view.html", rooms=seg))
     first = "the process's first call: it includes loading or compiling the kernels"
-    for line in [*_summary_lines(str(args.map), result, timing_note=first), *notes]:
+    for line in [
+        *_summary_lines(
+            str(args.map), result, timing_note=first, assumed=assumed_resolution_note(args)
+        ),
+        *notes,
+    ]:
         print(line)
     record_outputs(planned(written, args.map), command="graph", map_options=map_options(args))
     print("wrote      " + ", ".join(str(p) for p in written))

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from .._constants import MODES
+from ._options import assumed_resolution_note
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
@@ -82,7 +83,6 @@ def _cmd_route_graph(args) -> int:
     from .._validate import nonnegative_metres, positive_metres
     from ..io import save_graph
     from ..maps import load_map
-    from ..maps.files import default_resolution_used
     from ..routegraph import RouteGraphConfig, route_graph
     from ..routegraph.feasible import route_graph_note
 
@@ -124,9 +124,7 @@ def _cmd_route_graph(args) -> int:
     if args.mcap is not None:
         written.append(_recording(occupancy, graph, args.mcap))
     components = _components(graph)
-    assumed = ""
-    if args.resolution_m is None and default_resolution_used(args.map):
-        assumed = ", assumed: the file states none; --resolution sets it"
+    assumed = assumed_resolution_note(args)
     print(
         f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
         f"{occupancy.resolution_m:g} m/px{assumed})"
