@@ -330,6 +330,23 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tj.save_tiled_map(m, tmp_path / "x", format="tiff")
 
 
+def test_a_zarr_save_leaves_a_folder_of_other_files_alone(tmp_path):
+    pytest.importorskip("zarr")
+    folder = tmp_path / "maps"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("keep me")
+    img = np.full((8, 8), 254, np.uint8)
+    with pytest.raises(ValueError, match="empty or new folder or a Zarr array"):
+        tj.save_tiled_map(img, folder, format="zarr")
+    assert (folder / "notes.txt").read_text() == "keep me"
+    tj.save_tiled_map(img, tmp_path / "z", format="zarr")
+    tj.save_tiled_map(img[:4], tmp_path / "z", format="zarr")  # a Zarr array is replaced
+    assert tj.open_tiled_map(tmp_path / "z").shape == (4, 8)
+    (tmp_path / "f").touch()
+    with pytest.raises(NotADirectoryError, match="path: "):
+        tj.save_tiled_map(img, tmp_path / "f", format="zarr")
+
+
 def test_zarr_missing_names_the_extra(tmp_path, monkeypatch):
     import builtins
 

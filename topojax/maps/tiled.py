@@ -528,7 +528,8 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
         :meth:`TiledMap.from_array` with default metadata).  An OccupancyMap is written as
         its grey image (0 occupied, 205 unknown, 254 free).
     path : str or Path
-        The folder to create (for a tile folder: empty or new).
+        The folder to create: empty or new (for Zarr, also an existing Zarr array,
+        which is replaced).
     tile_px : int
         Tile (Zarr chunk) side in pixels.
     format : {"folder", "zarr"}
@@ -555,6 +556,11 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
     meta = tiled.metadata()
     if format == "zarr":
         zarr = _zarr()
+        output_folder(p, name="path")
+        if not (p / "zarr.json").is_file() and any(p.iterdir()):
+            raise ValueError(  # overwriting would delete the folder's files
+                f"path: expected an empty or new folder or a Zarr array, received {p}"
+            )
         arr = zarr.create_array(
             str(p), shape=(h, w), chunks=(tile_px, tile_px), dtype=dtype, overwrite=True
         )
