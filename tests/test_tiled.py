@@ -190,6 +190,27 @@ def test_default_config_in_blocks_of_one_tile_paths_on_disk(tmp_path):
     assert_same_graph(tiled, tj.build_graph(m))
 
 
+def test_paths_on_disk_replace_an_earlier_graphs_files(tmp_path, monkeypatch):
+    import topojax.graph.sparse as sparse
+
+    out = tmp_path / "graph"
+    first = tj.build_graph_tiled(paper_map("office"), config=SMALL, block_px=128, out_dir=out)
+    kept = np.array(first.graph_store.path_pixels)
+    # a second graph in the same folder: the first one's mapped paths are not rewritten
+    second = tj.build_graph_tiled(paper_map("intel"), config=SMALL, block_px=128, out_dir=out)
+    assert np.array_equal(first.graph_store.path_pixels, kept)
+    assert second.graph_store.path_pixels.shape != kept.shape
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("interrupted")
+
+    monkeypatch.setattr(sparse, "_edge_values", fail)
+    with pytest.raises(RuntimeError, match="interrupted"):
+        tj.build_graph_tiled(paper_map("office"), config=SMALL, block_px=128, out_dir=out)
+    assert sorted(p.name for p in out.iterdir()) == ["path_pixels.npy", "path_world.npy"]
+    assert np.array_equal(np.load(out / "path_pixels.npy"), second.graph_store.path_pixels)
+
+
 @pytest.mark.parametrize(
     "graph",
     [

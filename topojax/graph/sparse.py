@@ -16,6 +16,8 @@ time, into memory or into ``.npy`` files.
 
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -232,13 +234,18 @@ class _Output:
                 "path_world": np.empty((n_path, 2), np.float64),
             }
             return
-        self.files = {}
+        # written under temporary names and renamed when complete: the files of an
+        # earlier store in the same folder, which may still be memory-mapped, are
+        # replaced, never rewritten in place (a mapped file cut short crashes its reader)
+        self.files, self.tmp = {}, {}
         for name, dtype in (("path_pixels", np.int64), ("path_world", np.float64)):
-            path = out_dir / f"{name}.npy"
-            mm = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=(n_path, 2))
+            fd, tmp = tempfile.mkstemp(suffix=".tmp", prefix=f".{name}.npy.", dir=out_dir)
+            os.close(fd)
+            self.tmp[name] = tmp
+            mm = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=(n_path, 2))
             offset = mm.offset
             del mm
-            f = open(path, "r+b")  # noqa: SIM115 - closed in finish()
+            f = open(tmp, "r+b")  # noqa: SIM115 - closed in finish() or discard()
             f.seek(offset)
             self.files[name] = f
 
@@ -254,9 +261,18 @@ class _Output:
     def finish(self) -> dict[str, np.ndarray]:
         if self.out_dir is None:
             return self.arrays
-        for f in self.files.values():
+        for name, f in self.files.items():
             f.close()
+            os.replace(self.tmp[name], self.out_dir / f"{name}.npy")
         return {n: np.load(self.out_dir / f"{n}.npy", mmap_mode="r") for n in self.files}
+
+    def discard(self) -> None:
+        """Close and remove the unfinished files (the folder's earlier ones stay)."""
+        if self.out_dir is None:
+            return
+        for name, f in self.files.items():
+            f.close()
+            Path(self.tmp[name]).unlink(missing_ok=True)
 
 
 def _rows_of(row_start: np.ndarray, idx: np.ndarray) -> np.ndarray:
@@ -324,29 +340,33 @@ def row_skeleton_graph_store(
     offsets = np.concatenate([[0], np.cumsum(el)])
     out = _Output(int(offsets[-1]), None if out_dir is None else output_folder(out_dir))
     lengths, min_c, mean_c = (np.empty(eu.size) for _ in range(3))
-    first = 0
-    while first < eu.size:
-        last = int(np.searchsorted(offsets, offsets[first] + _CHUNK_PX, side="right")) - 1
-        last = max(last, first + 1)
-        sel = slice(first, last)
-        n_px = int(offsets[last] - offsets[first])
-        idx, rr, cc = np.empty(n_px, np.int64), np.empty(n_px, np.int64), np.empty(n_px, np.int64)
-        _write_paths(
-            row_start, cols, masks, state, h, w, eu[sel], ek[sel], _rows_of(row_start, eu[sel]),
-            el[sel], idx, rr, cc,
-        )  # fmt: skip
-        path_rc = np.stack([rr, cc], axis=1)
-        del rr, cc
-        local = offsets[first : last + 1] - offsets[first]
-        part = None if clear is None else clear[idx].astype(np.float64)
-        lengths[sel], min_c[sel], mean_c[sel] = _edge_values(
-            path_rc, np.arange(n_px), local, el[sel], part, res
-        )
-        world = _world_of(path_rc, vr[:0], vc[:0], (h, w), res, pixel_to_world)
-        out.write("path_pixels", path_rc)
-        out.write("path_world", world)
-        out.advance(n_px)
-        first = last
+    try:
+        first = 0
+        while first < eu.size:
+            last = int(np.searchsorted(offsets, offsets[first] + _CHUNK_PX, side="right")) - 1
+            last = max(last, first + 1)
+            sel = slice(first, last)
+            n_px = int(offsets[last] - offsets[first])
+            idx, rr, cc = (np.empty(n_px, np.int64) for _ in range(3))
+            _write_paths(
+                row_start, cols, masks, state, h, w, eu[sel], ek[sel],
+                _rows_of(row_start, eu[sel]), el[sel], idx, rr, cc,
+            )  # fmt: skip
+            path_rc = np.stack([rr, cc], axis=1)
+            del rr, cc
+            local = offsets[first : last + 1] - offsets[first]
+            part = None if clear is None else clear[idx].astype(np.float64)
+            lengths[sel], min_c[sel], mean_c[sel] = _edge_values(
+                path_rc, np.arange(n_px), local, el[sel], part, res
+            )
+            world = _world_of(path_rc, vr[:0], vc[:0], (h, w), res, pixel_to_world)
+            out.write("path_pixels", path_rc)
+            out.write("path_world", world)
+            out.advance(n_px)
+            first = last
+    except BaseException:
+        out.discard()
+        raise
     node_clear = (
         np.full(v_pix.size, np.nan) if clear is None else clear[v_pix].astype(np.float64) * res
     )
