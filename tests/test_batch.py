@@ -449,6 +449,52 @@ def test_killed_run_leaves_only_complete_files(tmp_path):
         assert r.edges == build_graph(load_map(inp)).graph.number_of_edges()
 
 
+def _session_processes(sid: int) -> list[int]:
+    """Live processes of session ``sid`` (from /proc; zombies excluded)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z":  # fields: state ppid pgrp session
+            found.append(int(stat.parent.name))
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="needs /proc")
+def test_sigterm_stops_the_worker_processes(tmp_path):
+    """``kill`` (SIGTERM) of a batch with workers ends it without leaving them behind."""
+    src = tmp_path / "in"
+    src.mkdir()
+    for i in range(12):
+        (src / f"m{i:02d}.png").write_bytes(PAPER_MAPS[i % 3].read_bytes())
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "topojax", "batch", str(src), "-o", str(out)]
+    proc = subprocess.Popen(
+        [*cmd, "--workers", "2", "--no-progress"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if any(out.glob("*.manifest.json")):
+            break
+        time.sleep(0.01)
+    assert proc.poll() is None, "the batch ended before it could be stopped"
+    proc.send_signal(signal.SIGTERM)
+    proc.wait(timeout=60)
+    deadline = time.monotonic() + 10
+    while _session_processes(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    left = _session_processes(proc.pid)
+    for pid in left:  # do not leave them to the next test
+        os.kill(pid, signal.SIGKILL)
+    assert not left, "worker processes outlived the batch"
+    assert proc.returncode == 128 + signal.SIGTERM
+
+
 # ---------------------------------------------------------------------- inputs and CLI
 
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 import time
 from collections import Counter
 from pathlib import Path
@@ -35,6 +37,7 @@ def _cmd_batch(args) -> int:
         client = Client(args.scheduler, timeout=args.connect_timeout)
         executor = client.get_executor(pure=False)
     t0 = time.perf_counter()
+    previous = _exit_on_sigterm()
     try:
         records = build_graphs(
             paths,
@@ -53,6 +56,8 @@ def _cmd_batch(args) -> int:
             route_config=route_config,
         )
     finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
         if client is not None:
             client.close()
     wall = time.perf_counter() - t0
@@ -70,6 +75,20 @@ def _cmd_batch(args) -> int:
         if r.status in ("error", "empty") or r in warned:
             print(f"  {r.status:5s}  {r.map}: {r.message}", file=sys.stderr)
     return 1 if counts["error"] else 0
+
+
+def _exit_on_sigterm():
+    """Make SIGTERM (``kill``, ``timeout``, a job scheduler) end the batch as Ctrl-C does,
+    through its clean-up, which stops the worker processes: killed by the default action,
+    the command left them running with nothing to do.  The previous handler, or None
+    outside the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def terminate(signum, frame):
+        raise SystemExit(128 + signum)
+
+    return signal.signal(signal.SIGTERM, terminate)
 
 
 def _route_config(args):
