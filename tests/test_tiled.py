@@ -351,6 +351,17 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tj.save_tiled_map(m, tmp_path / "x", format="tiff")
 
 
+def test_a_tiled_map_of_an_occupancy_map_is_saved_with_its_unknown_pixels(tmp_path):
+    img = np.full((40, 50), 254, np.uint8)
+    img[:, :3], img[10:20, 10:30] = 0, 205
+    m = tj.OccupancyMap.from_array(img, resolution_m=0.1, origin=(1.0, 2.0, 0.0))
+    tj.save_tiled_map(TiledMap.from_occupancy(m), tmp_path / "t", tile_px=16)
+    back = tj.open_tiled_map(tmp_path / "t").occupancy()
+    for name in ("occupied", "free", "unknown"):
+        assert np.array_equal(getattr(back, name), getattr(m, name)), name
+    assert (back.resolution_m, back.origin) == (m.resolution_m, m.origin)
+
+
 def test_a_zarr_save_leaves_a_folder_of_other_files_alone(tmp_path):
     pytest.importorskip("zarr")
     folder = tmp_path / "maps"

@@ -525,8 +525,8 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
     ----------
     tiled : TiledMap, OccupancyMap or array
         The map (an array: the stored values of an image, OccupancyGrid or mask, read by
-        :meth:`TiledMap.from_array` with default metadata).  An OccupancyMap is written as
-        its grey image (0 occupied, 205 unknown, 254 free).
+        :meth:`TiledMap.from_array` with default metadata).  An OccupancyMap, or a
+        TiledMap of one, is written as its grey image (0 occupied, 205 unknown, 254 free).
     path : str or Path
         The folder to create: empty or new (for Zarr, also an existing Zarr array,
         which is replaced).
@@ -541,6 +541,8 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
     """
     tile_px = positive_int("tile_px", tile_px)
     format = one_of("format", format, ("folder", "zarr"))
+    if isinstance(tiled, TiledMap) and isinstance(tiled.reader, _MapReader):
+        tiled = tiled.reader.occupancy  # its values are the obstacle mask only
     if isinstance(tiled, OccupancyMap):
         tiled = TiledMap.from_array(
             tiled.to_image(),
