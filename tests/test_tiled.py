@@ -304,6 +304,35 @@ def test_a_png_path_is_read_whole():
     assert_same_graph(tiled, tj.build_graph("topojax/data/a_scan.png", config=SMALL))
 
 
+def test_an_executors_blocks_are_released_once_gathered(monkeypatch):
+    import concurrent.futures as cf
+    import gc
+    import weakref
+
+    from topojax.outofcore import build
+
+    seen, alive = [], []
+    add, finish = build._Skeleton.add, build._Skeleton.finish
+
+    def tracked_add(self, piece):
+        seen.append(weakref.ref(piece))
+        add(self, piece)
+
+    def counted_finish(self):
+        gc.collect()
+        alive.append(sum(ref() is not None for ref in seen))
+        return finish(self)
+
+    monkeypatch.setattr(build._Skeleton, "add", tracked_add)
+    monkeypatch.setattr(build._Skeleton, "finish", counted_finish)
+    m = paper_map("intel")
+    with cf.ThreadPoolExecutor(2) as pool:
+        result = tj.build_graph_tiled(m, config=SMALL, block_px=128, executor=pool)
+    band = -(-m.shape[1] // 128)
+    assert len(seen) == result.blocks > band
+    assert alive == [band]  # only the last band of blocks, not every block
+
+
 def test_dask_client_runs_the_blocks():
     distributed = pytest.importorskip("dask.distributed")
     m = paper_map("office")

@@ -8,6 +8,7 @@ import concurrent.futures as cf
 import math
 import os
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -230,8 +231,8 @@ def build_graph_tiled(
         shared = tiled
         if not isinstance(executor, cf.Executor) and hasattr(executor, "scatter"):
             shared = executor.scatter(tiled, broadcast=True)  # once, not once per block
-        futures = [pool.submit(_block_task, shared, b, config, halo, threads) for b in boxes]
-        pieces = (f.result() for f in futures)
+        futures = deque(pool.submit(_block_task, shared, b, config, halo, threads) for b in boxes)
+        pieces = _results(futures)
     skeleton = _Skeleton(tiled, config.distance.half_width_px, config.tile_px)
     for piece in pieces:
         skeleton.add(piece)
@@ -250,6 +251,13 @@ def build_graph_tiled(
         halo_px=tuple(sorted(skeleton.halos)),
         pruned_graph=pruned,
     )
+
+
+def _results(futures: deque):
+    """The futures' results in order, each future dropped once read (a kept future keeps
+    its block's pixels in memory, or on a Dask worker, to the end)."""
+    while futures:
+        yield futures.popleft().result()
 
 
 class _Skeleton:
