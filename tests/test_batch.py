@@ -408,6 +408,24 @@ build_graphs(paths, out_dir=sys.argv[1], workers=0, progress=False)
 """
 
 
+def test_a_run_cut_short_leaves_no_earlier_summary(tmp_path, monkeypatch):
+    from topojax.batch import driver
+
+    out = tmp_path / "out"
+    build_graphs(PAPER_MAPS[:1], out_dir=out, workers=0, progress=False)
+    assert (out / "summary.csv").is_file()
+    (out / "summary.parquet").write_bytes(b"an earlier run's")
+
+    def interrupted(self):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(driver._BatchRun, "run", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        build_graphs(PAPER_MAPS[:1], out_dir=out, workers=0, progress=False)
+    assert not (out / "summary.csv").exists()
+    assert not (out / "summary.parquet").exists()
+
+
 def test_killed_run_leaves_only_complete_files(tmp_path):
     """SIGKILL a run mid-way: every file under a final name is complete, resume finishes."""
     src = tmp_path / "in"

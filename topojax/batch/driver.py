@@ -640,6 +640,9 @@ def build_graphs(
         items_raw, sources, out=out, formats=options["formats"], plot=options["plot"]
     )
     runner = _BatchRun(items, out_dir=out, fingerprints=fingerprints, **options)
+    if out is not None:  # an earlier run's table: wrong once a map is redone, and a run
+        for name in ("summary.csv", "summary.parquet"):  # cut short writes none
+            (out / name).unlink(missing_ok=True)
     records = runner.run()
     if out is not None:
         write_summary(records, out)
