@@ -513,6 +513,80 @@ def test_sigterm_stops_the_worker_processes(tmp_path):
     assert proc.returncode == 128 + signal.SIGTERM
 
 
+def test_a_task_cancelled_with_a_broken_pool_runs_again(tmp_path, monkeypatch):
+    """A pool shut down after it broke cancels the tasks it had not failed yet: they are
+    lost as the failed ones are, and run again."""
+    import concurrent.futures as cf
+
+    from topojax.batch import driver
+
+    submit = driver._BatchRun._submit
+    cancelled = []
+
+    def cancel_first_cpu_stage(self, fn, *args):
+        if fn is driver._cpu_stage and not cancelled:
+            fut = cf.Future()
+            fut.cancel()
+            fut.set_running_or_notify_cancel()
+            cancelled.append(fut)
+            return fut
+        return submit(self, fn, *args)
+
+    monkeypatch.setattr(driver._BatchRun, "_submit", cancel_first_cpu_stage)
+    records = build_graphs(PAPER_MAPS[:2], out_dir=tmp_path, workers=0, progress=False)
+    assert cancelled
+    assert [r.status for r in records] == ["ok", "ok"]
+
+
+def _children(pid: int) -> list[int]:
+    """Live child processes of ``pid`` (from /proc)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid and fields[0] != "Z":
+            found.append(int(stat.parent.name))
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="needs /proc")
+def test_a_worker_that_dies_costs_no_other_map(tmp_path):
+    """A worker process killed (e.g. for memory) breaks the whole pool: the maps queued
+    on it are run again on a new one, not recorded as errors."""
+    import threading
+
+    src = tmp_path / "in"
+    src.mkdir()
+    inputs = []
+    for i in range(12):
+        dest = src / f"m{i:02d}.png"
+        dest.write_bytes(PAPER_MAPS[i % 3].read_bytes())
+        inputs.append(str(dest))
+    out = tmp_path / "out"
+    killed: list[int] = []
+
+    def kill_a_worker() -> None:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and not any(out.glob("*.manifest.json")):
+            time.sleep(0.01)
+        # the pool's processes are the children of the forkserver, a child of this one
+        workers = [w for c in _children(os.getpid()) for w in _children(c)]
+        if workers:
+            os.kill(workers[0], signal.SIGKILL)
+            killed.append(workers[0])
+
+    watcher = threading.Thread(target=kill_a_worker)
+    watcher.start()
+    try:
+        records = build_graphs(inputs, out_dir=out, workers=2, progress=False)
+    finally:
+        watcher.join()
+    assert killed, "no worker was running to be killed"
+    assert [r.status for r in records] == ["ok"] * len(inputs), [r.message for r in records]
+
+
 # ---------------------------------------------------------------------- inputs and CLI
 
 

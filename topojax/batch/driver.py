@@ -105,6 +105,7 @@ class _BatchRun:
         # reads the kernels wait for; an outside executor's size is unknown.
         self.cpu_backlog = max(4, 3 * workers) if executor is None else 64
         self._restarts = 0
+        self._retried: set[int] = set()  # maps whose task a broken pool lost once
         # the rooms format segments each map in its CPU stage, which rebuilds the map (as
         # it does for the picture)
         self._rooms = "rooms" in formats and out_dir is not None
@@ -332,7 +333,7 @@ class _BatchRun:
         )
         self._loads: dict[cf.Future, _Item] = {}
         self._in_kernels: dict[cf.Future, list[_Loaded]] = {}
-        self._cpu: dict[cf.Future, tuple[_Item, MapRecord]] = {}
+        self._cpu: dict[cf.Future, tuple[_Item, MapRecord, _CpuJob]] = {}
         self._ready: deque[_Loaded] = deque()
         try:
             if self._pending and self.executor is None:
@@ -350,8 +351,7 @@ class _BatchRun:
                     elif fut in self._in_kernels:
                         self._on_kernels_done(fut)
                     else:
-                        item, rec = self._cpu.pop(fut)
-                        self._finish(item.index, self._complete(item, rec, fut))
+                        self._on_cpu_done(fut)
         finally:
             self._bar.close()
             self._load_pool.shutdown(wait=True, cancel_futures=True)
@@ -413,6 +413,9 @@ class _BatchRun:
     def _on_loaded(self, fut: cf.Future) -> None:
         """A map finished loading: queue it for the kernels, or record its error."""
         item = self._loads.pop(fut)
+        if self._retry(item, fut):
+            self._pending.appendleft(item)
+            return
         try:
             loaded = fut.result()
             if isinstance(loaded, _LoadedBits):
@@ -445,9 +448,37 @@ class _BatchRun:
                 continue
             try:
                 self._forget_outputs(g.item)  # its outputs are about to change
-                self._cpu[self._submit(_cpu_stage, job)] = (g.item, rec)
+                self._cpu[self._submit(_cpu_stage, job)] = (g.item, rec, job)
             except Exception as exc:
                 self._finish(g.item.index, replace(rec, status="error", message=_error_text(exc)))
+
+    def _on_cpu_done(self, fut: cf.Future) -> None:
+        """A map's CPU stage ended: record it, or run it again on a new pool."""
+        item, rec, job = self._cpu.pop(fut)
+        if self._retry(item, fut):
+            try:
+                self._cpu[self._submit(_cpu_stage, job)] = (item, rec, job)
+                return
+            except Exception as exc:
+                rec = replace(rec, status="error", message=_error_text(exc))
+                self._finish(item.index, rec)
+                return
+        self._finish(item.index, self._complete(item, rec, fut))
+
+    def _retry(self, item: _Item, fut: cf.Future) -> bool:
+        """Whether ``item``'s task, lost when a process of the own pool died, runs once
+        more: every task queued on a pool that breaks is lost, not only the one whose
+        process died (e.g. killed for memory)."""
+        if not self.owns_executor:
+            return False
+        # a task of a broken pool fails with BrokenProcessPool, or is cancelled when the
+        # pool is shut down before it could fail it
+        if not (fut.cancelled() or isinstance(fut.exception(), cf.BrokenExecutor)):
+            return False
+        if item.index in self._retried:
+            return False
+        self._retried.add(item.index)
+        return True
 
     def _base_record(self, g: _Loaded, status: str, message: str) -> MapRecord:
         return MapRecord(
