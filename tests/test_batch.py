@@ -538,6 +538,25 @@ def test_a_task_cancelled_with_a_broken_pool_runs_again(tmp_path, monkeypatch):
     assert [r.status for r in records] == ["ok", "ok"]
 
 
+def test_no_more_worker_processes_than_maps_to_run(tmp_path, monkeypatch):
+    import concurrent.futures as cf
+
+    sizes = []
+    pool = cf.ProcessPoolExecutor
+
+    def counted(max_workers=None, **kwargs):
+        sizes.append(max_workers)
+        return pool(max_workers=max_workers, **kwargs)
+
+    monkeypatch.setattr(cf, "ProcessPoolExecutor", counted)
+    out = tmp_path / "out"
+    first = build_graphs(PAPER_MAPS[:1], out_dir=out, workers=4, progress=False)
+    assert [r.status for r in first] == ["ok"]
+    again = build_graphs(PAPER_MAPS[:2], out_dir=out, workers=4, progress=False, resume=True)
+    assert [r.status for r in again] == ["skipped", "ok"]
+    assert sizes == [1, 1]  # one map to run each time: one process, not four
+
+
 def _children(pid: int) -> list[int]:
     """Live child processes of ``pid`` (from /proc)."""
     found = []

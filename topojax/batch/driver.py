@@ -105,6 +105,7 @@ class _BatchRun:
         # reads the kernels wait for; an outside executor's size is unknown.
         self.cpu_backlog = max(4, 3 * workers) if executor is None else 64
         self._restarts = 0
+        self._pool_size = workers  # no more processes than maps to run (set by run())
         self._retried: set[int] = set()  # maps whose task a broken pool lost once
         # the rooms format segments each map in its CPU stage, which rebuilds the map (as
         # it does for the picture)
@@ -117,8 +118,8 @@ class _BatchRun:
     def _new_executor(self) -> cf.Executor:
         if self.workers == 0:
             return InlineExecutor()
-        ex = cf.ProcessPoolExecutor(max_workers=self.workers, mp_context=worker_context())
-        for _ in range(self.workers):  # import + numba cache load while the kernels compile
+        ex = cf.ProcessPoolExecutor(max_workers=self._pool_size, mp_context=worker_context())
+        for _ in range(self._pool_size):  # import + numba cache load while kernels compile
             ex.submit(_warm_worker)
         return ex
 
@@ -320,6 +321,8 @@ class _BatchRun:
                 self._finish(item.index, rec)
             else:
                 self._pending.append(item)
+        # each process costs a few hundred MB: none for a map that is not there
+        self._pool_size = max(1, min(self.workers, len(self._pending)))
 
         # the free mask: for the picture and the rooms, and for free_space_only's thinning
         self._want_free = self._needs_map or self.config.graph.free_space_only
@@ -592,9 +595,10 @@ def build_graphs(
         ``client.get_executor(pure=False)``.  A given executor is not shut down, and map
         files are then read in the calling process.
     workers : int, optional
-        Worker processes of the default executor; default ``os.cpu_count()``.  ``0`` runs
-        the CPU stage in the calling thread (:class:`InlineExecutor`).  Not used when
-        ``executor`` is given (but still checked).
+        Worker processes of the default executor, at most one per map to run; default
+        ``os.cpu_count()``.  ``0`` runs the CPU stage in the calling thread
+        (:class:`InlineExecutor`).  Not used when ``executor`` is given (but still
+        checked).
     config : PipelineConfig, optional
         Stage settings, as for :func:`topojax.build_graph`.
     out_dir : str or path, optional

@@ -131,7 +131,8 @@ def add_command(subparsers) -> None:
         "--workers",
         type=int,
         default=os.cpu_count() or 1,
-        help="worker processes for the CPU stages (default: number of cores; 0 = in-process)",
+        help="worker processes for the CPU stages, at most one per map (default: number of "
+        "cores; 0 = in-process)",
     )
     p.add_argument(
         "--scheduler",
