@@ -353,6 +353,21 @@ def test_memory_budget_sets_the_block_side():
 # ----------------------------------------------------------------------- bad arguments
 
 
+def test_a_bad_map_yaml_is_named_when_opened(tmp_path):
+    img = np.full((6, 8), 254, np.uint16)
+    header = b"P5\n8 6\n65535\n"
+    (tmp_path / "m.pgm").write_bytes(header + (img * 257).astype(">u2").tobytes())
+    common = "image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
+    (tmp_path / "raw.yaml").write_text(common + "mode: raw\n")
+    (tmp_path / "swap.yaml").write_text(common + "occupied_thresh: 0.1\nfree_thresh: 0.9\n")
+    for name, needle in (("raw", "mode='raw'"), ("swap", "free_thresh, occupied_thresh")):
+        path = tmp_path / f"{name}.yaml"
+        with pytest.raises(ValueError, match=f"map YAML {path}: {needle}"):
+            tj.open_tiled_map(path)
+        with pytest.raises(ValueError, match=f"map YAML {path}: {needle}"):
+            tj.build_graph_tiled(path)
+
+
 def test_bad_arguments_name_the_parameter(tmp_path):
     m = paper_map("intel")
     with pytest.raises(ValueError, match="block_px: expected a multiple of config.tile_px"):

@@ -126,6 +126,11 @@ class TiledMap:
         if full_scale is None:
             full_scale = 65535 if dtype == np.uint16 else 255
         self.full_scale = positive_int("full_scale", full_scale)
+        if kind == "image" and self.mode == "raw" and self.full_scale != 255:
+            raise ValueError(  # found here, not when the first window is classified
+                f"mode='raw': expected an 8-bit image (full scale 255), received full scale "
+                f"{self.full_scale}"
+            )
         self.source = None if source is None else str(source)
 
     # ------------------------------------------------------------------ construction
@@ -515,7 +520,11 @@ def _open_pgm(image: Path, settings: dict, *, source: Path) -> TiledMap:
         settings["resolution_m"] = DEFAULT_RESOLUTION_M if res is None else res
     reader = _PgmReader(image, offset, (height, width), dtype)
     meta = {k: v for k, v in settings.items() if v is not None}
-    return TiledMap(reader, **meta, full_scale=maxval, source=str(source))
+    try:
+        return TiledMap(reader, **meta, full_scale=maxval, source=str(source))
+    except ValueError as exc:  # name the file, as load_map does
+        what = "map YAML" if source.suffix.lower() in YAML_SUFFIXES else "map"
+        raise ValueError(f"{what} {source}: {exc}") from None
 
 
 def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") -> Path:
