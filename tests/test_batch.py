@@ -650,6 +650,23 @@ def test_expand_map_inputs(tmp_path):
         expand_map_inputs([str(tmp_path / "*.yaml")])
 
 
+def test_pictures_of_a_batch_into_its_input_folder_are_not_maps(tmp_path):
+    """``topojax batch maps/ -o maps/ --plot`` run again: its pictures are not inputs."""
+    root = tmp_path / "maps"
+    root.mkdir()
+    (root / "m.png").write_bytes(PAPER_MAPS[2].read_bytes())
+    first = build_graphs(
+        [root / "m.png"], out_dir=root, workers=0, progress=False, plot=True, formats="json,rooms"
+    )
+    assert first[0].status == "ok"
+    assert {"m_graph.png", "m_rooms.png"} <= {p.name for p in root.iterdir()}
+    assert expand_map_inputs([root]) == [root / "m.png"]
+    assert expand_map_inputs([f"{root}/*.png"]) == [root / "m.png"]
+    (root / "other_graph.png").write_bytes(PAPER_MAPS[0].read_bytes())  # no manifest
+    assert expand_map_inputs([root]) == [root / "m.png", root / "other_graph.png"]
+    assert expand_map_inputs([root / "m_graph.png"]) == [root / "m_graph.png"]  # named
+
+
 def test_an_empty_input_is_refused_not_taken_for_the_working_folder(tmp_path, monkeypatch):
     """``topojax batch "$MAPS"`` with MAPS unset must not batch the folder it runs in."""
     (tmp_path / "sub").mkdir()

@@ -44,6 +44,12 @@ _FORMAT_FILES["route"] = ("_route.graphml", "_route.json", "_route.geojson")
 _FORMAT_FILES["route_nav2"] = ("_route_nav2.geojson",)
 #: The formats that need the route graph.
 ROUTE_FORMATS = ("route", "route_nav2")
+# the images among a map's outputs: read as maps if found in a search
+_IMAGES_OUT = tuple(
+    s
+    for s in (*(x for v in _FORMAT_FILES.values() for x in v), *_PICTURES)
+    if s.lower().endswith(_MAP_SUFFIXES)
+)
 
 
 def _room_settings() -> dict[str, Any]:
@@ -150,6 +156,9 @@ def expand_map_inputs(
           ``.bmp``, ``.tif``, ``.tiff``);
         * a pattern with ``*``, ``?`` or ``[`` is globbed (``**`` matches any depth);
           matched map files are kept, matched folders searched as above;
+        * a picture that a batch wrote (``NAME_graph.png``, ``NAME_route.png``,
+          ``NAME_rooms.png``, listed by ``NAME.manifest.json`` beside it) is not a map to
+          these searches;
         * anything else is taken as a file name as is (a missing or unsupported file
           then becomes an error row of the batch, not an exception here).
     exclude : str or path, optional
@@ -176,10 +185,14 @@ def expand_map_inputs(
 
     def searched(root: str, files) -> list[Path]:
         # files found below ``root``, without those in ``exclude`` if it lies strictly
-        # inside ``root`` (the batch's own outputs)
+        # inside ``root`` (the batch's own outputs), nor pictures a batch manifest beside
+        # them lists (an output folder that is the input folder)
+        from .manifest import batch_input
+
+        files = [f for f in files if not f.name.endswith(_IMAGES_OUT) or batch_input(f) is None]
         top = os.path.join(os.path.realpath(root), "")
         if skip is None or not (skip.startswith(top) and skip != top):
-            return list(files)
+            return files
         return [f for f in files if not os.path.realpath(f).startswith(skip)]
 
     found: list[Path] = []
