@@ -331,6 +331,24 @@ def test_a_map_redone_with_fewer_outputs_leaves_none_of_the_earlier_ones(tmp_pat
         cfg = PipelineConfig()
 
 
+def test_a_map_that_fails_when_redone_keeps_no_earlier_files(tmp_path):
+    """A map that fails this run (here: its file was damaged since) loses the manifest and
+    files of its earlier run: left, they were attributed to a map whose input is no
+    longer theirs (``topojax view`` showed them as its graph); other files stay."""
+    out = tmp_path / "out"
+    src = tmp_path / "m.png"
+    src.write_bytes(PAPER_MAPS[2].read_bytes())
+    first = build_graphs([src], out_dir=out, formats="graphml,json", plot=True, workers=0)
+    assert [r.status for r in first] == ["ok"]
+    (out / "notes.txt").write_text("mine")
+    src.write_bytes(b"not an image")
+    for resume in (True, False):
+        again = build_graphs([src], out_dir=out, formats="graphml", workers=0, resume=resume)
+        assert [r.status for r in again] == ["error"]
+        assert {p.name for p in out.iterdir()} <= {"notes.txt", "summary.csv", "summary.parquet"}
+        assert "notes.txt" in {p.name for p in out.iterdir()}
+
+
 def test_resume_skips_complete_and_redoes_damaged(tmp_path, shared_data):
     src = tmp_path / "maps"
     src.mkdir()

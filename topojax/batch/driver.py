@@ -315,6 +315,7 @@ class _BatchRun:
             dynamic_ncols=True,
         )
         self._pending: deque[_Item] = deque()
+        self._by_index = {item.index: item for item in self.items}
         for item in self.items:
             rec = self._resume_record(item) if self.resume else None
             if rec is not None:
@@ -364,8 +365,13 @@ class _BatchRun:
         return [self._records[item.index] for item in self.items]
 
     def _finish(self, index: int, rec: MapRecord) -> None:
-        """Record the final ``rec`` of map ``index`` and advance the progress bar."""
+        """Record the final ``rec`` of map ``index`` and advance the progress bar; a map
+        that failed loses the manifest and files of an earlier run (their input or
+        settings are not this run's)."""
         self._records[index] = rec = totalled(rec)
+        if rec.status == "error" and self.out_dir is not None:
+            item = self._by_index[index]
+            _forget_outputs(item, out_dir=self.out_dir, formats=(), plot=False)
         counts = self._counts
         counts[rec.status] += 1
         self._bar.update(1)
