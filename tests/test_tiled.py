@@ -211,6 +211,26 @@ def test_paths_on_disk_replace_an_earlier_graphs_files(tmp_path, monkeypatch):
     assert np.array_equal(np.load(out / "path_pixels.npy"), second.graph_store.path_pixels)
 
 
+def test_the_paths_folder_always_holds_the_returned_graphs_arrays(tmp_path):
+    """With ``out_dir`` the folder's two arrays are the returned graph's, also for an empty
+    graph (an all-free map) and with junction clusters merged (built in memory): an
+    earlier graph's files were left there."""
+    out = tmp_path / "graph"
+    tj.build_graph_tiled(paper_map("office"), config=SMALL, block_px=128, out_dir=out)
+    empty = tj.build_graph_tiled(np.zeros((40, 50), bool), config=SMALL, out_dir=out)
+    assert empty.graph_store.n_edges == 0
+    assert np.load(out / "path_pixels.npy").shape == (0, 2)
+    assert np.load(out / "path_world.npy").shape == (0, 2)
+    merged = PipelineConfig(
+        distance=SMALL.distance, graph=GraphConfig(merge_junction_clusters=True), tile_px=64
+    )
+    res = tj.build_graph_tiled(paper_map("intel"), config=merged, block_px=128, out_dir=out)
+    assert np.array_equal(np.load(out / "path_pixels.npy"), res.graph_store.path_pixels)
+    assert np.array_equal(np.load(out / "path_world.npy"), res.graph_store.path_world)
+    assert_same_graph(res, tj.build_graph(paper_map("intel"), config=merged))
+    assert sorted(p.name for p in out.iterdir()) == ["path_pixels.npy", "path_world.npy"]
+
+
 @pytest.mark.parametrize(
     "graph",
     [

@@ -275,6 +275,20 @@ class _Output:
             Path(self.tmp[name]).unlink(missing_ok=True)
 
 
+def write_path_files(out_dir, path_pixels: np.ndarray, path_world: np.ndarray) -> dict:
+    """Write a store's ``path_pixels`` (int64 (n, 2)) and ``path_world`` (float64 (n, 2))
+    to ``out_dir`` as ``.npy`` files, replacing earlier ones whole; returns them
+    memory-mapped by name."""
+    out = _Output(path_pixels.shape[0], output_folder(out_dir))
+    try:
+        out.write("path_pixels", np.asarray(path_pixels, np.int64))
+        out.write("path_world", np.asarray(path_world, np.float64))
+    except BaseException:
+        out.discard()
+        raise
+    return out.finish()
+
+
 def _rows_of(row_start: np.ndarray, idx: np.ndarray) -> np.ndarray:
     return np.searchsorted(row_start, idx, side="right") - 1
 
@@ -317,6 +331,8 @@ def row_skeleton_graph_store(
     row_start = np.ascontiguousarray(row_start, np.int64)
     cols = np.ascontiguousarray(cols, np.int32)
     if cols.size == 0:
+        if out_dir is not None:  # the folder's arrays are this store's: empty
+            write_path_files(out_dir, np.empty((0, 2), np.int64), np.empty((0, 2)))
         return GraphStore.empty(attrs)
     masks = _link_masks(row_start, cols, h, w)
     state = np.zeros(cols.shape[0], np.uint8)

@@ -9,7 +9,7 @@ import math
 import os
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -183,7 +183,9 @@ def build_graph_tiled(
     out_dir : str or Path, optional
         Folder (created) for the graph's two skeleton-sized arrays, ``path_pixels.npy``
         and ``path_world.npy``: written a block of edges at a time and given to the
-        store memory-mapped, so they need not fit in memory.  Default: in memory.
+        store memory-mapped, so they need not fit in memory (with junction clusters
+        merged the graph is built in memory and its arrays written there after).
+        Default: in memory.
 
     Returns
     -------
@@ -386,7 +388,7 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
     """The graph store (no pruning) or the pruned networkx graph, with the attributes
     :func:`topojax.build_graph` gives them."""
     from ..graph import pixels_graph_store, prune_graph
-    from ..graph.sparse import row_skeleton_graph_store
+    from ..graph.sparse import row_skeleton_graph_store, write_path_files
 
     if config.graph.merge_junction_clusters:  # merging needs the whole pixel graph
         rows = np.repeat(np.arange(row_start.size - 1), np.diff(row_start))
@@ -398,6 +400,9 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
             pixel_to_world=tiled.pixel_to_world,
             merge_junction_clusters=True,
         )
+        if out_dir is not None:  # built in memory; the folder holds its arrays all the same
+            files = write_path_files(out_dir, store.path_pixels, store.path_world)
+            store = replace(store, **files)
     else:
         store = row_skeleton_graph_store(
             tiled.shape,
