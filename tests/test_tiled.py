@@ -368,6 +368,15 @@ def test_memory_budget_sets_the_block_side():
     )
     assert small % 256 == 0 and large % 256 == 0
     assert 256 <= small < large
+    # below one tile's window the budget cannot be kept: refused (it was exceeded)
+    wide = PipelineConfig(distance=DistanceConfig(sigma_px=280.0))
+    assert block_px_for_budget(122, wide) == 256
+    with pytest.raises(
+        ValueError,
+        match=r"memory_budget_mb: expected at least 121.5 MB.*"
+        r"256 px tile with a halo of 1024 px.*received 64",
+    ):
+        block_px_for_budget(64, wide)
 
 
 # ----------------------------------------------------------------------- bad arguments

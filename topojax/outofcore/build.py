@@ -101,10 +101,19 @@ class TiledResult:
 def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
     """The largest block side (a multiple of ``config.tile_px``, at least one tile) whose
     stages take about ``memory_budget_mb`` (:data:`BYTES_PER_WINDOW_PX` per pixel of the
-    kernels' window, the block plus the first halo on each side)."""
+    kernels' window, the block plus the first halo on each side); a budget below one
+    tile's window is refused."""
     budget = quantity("memory_budget_mb", memory_budget_mb, unit="megabytes", allow_zero=False)
     t = config.tile_px
-    side = math.sqrt(budget * 2**20 / BYTES_PER_WINDOW_PX) - 2 * _first_halo(config)
+    halo = _first_halo(config)
+    least_mb = BYTES_PER_WINDOW_PX * (t + 2 * halo) ** 2 / 2**20
+    if budget < least_mb:
+        raise ValueError(
+            f"memory_budget_mb: expected at least {math.ceil(least_mb * 10) / 10:g} MB, what "
+            f"the smallest block takes (one {t} px tile with a halo of {halo} px on each "
+            f"side, the distance window's reach), received {budget:g}"
+        )
+    side = math.sqrt(budget * 2**20 / BYTES_PER_WINDOW_PX) - 2 * halo
     return max(t, int(side // t) * t)
 
 
