@@ -10,7 +10,7 @@ of any edge in sight within 1 m):
 * **build**: ``RoutePlanner(graph)`` plus its k-d tree (the first query's extra cost),
   and with the map the robot's feasible space, warm median over ``--repeats`` builds;
 * **query**: one ``planner.route(start, goal)`` between two random points near the
-  graph's corridors (up to 1 m off), warm median and 90th percentile over ``--queries``
+  graph's corridors (up to 1 m off, off the map's obstacles), warm median and 90th percentile over ``--queries``
   pairs, with the share of pairs that have a route (the others raise ``NoRouteError``,
   timed too), and the median length of the routes (straight legs to and from the graph
   included);
@@ -64,25 +64,38 @@ def graph_rows(full, pruned, rg):
     return zip(LABELS, (full, pruned, rg, rg), (False, False, False, True), strict=True)
 
 
-def query_pairs(graph, n: int, seed: int) -> np.ndarray:
-    """``n`` (start, goal) world points: random corridor pixels moved up to 1 m."""
+def query_pairs(graph, n: int, seed: int, occupancy) -> np.ndarray:
+    """``n`` (start, goal) world points: random corridor pixels moved up to 1 m, off the
+    map's obstacles (a planner given the map refuses a point on one)."""
     rng = np.random.default_rng(seed)
     xy = np.concatenate([d["world"] for _, _, d in graph.edges(data=True)])
-    picks = xy[rng.integers(len(xy), size=(n, 2))]
-    return picks + rng.uniform(-1.0, 1.0, size=picks.shape)
+    occupied = occupancy.occupied
+    out = np.empty((0, 2, 2))
+    while len(out) < n:
+        picks = xy[rng.integers(len(xy), size=(n, 2))]
+        picks = picks + rng.uniform(-1.0, 1.0, size=picks.shape)
+        r, c = (
+            np.floor(v + 0.5).astype(np.int64)
+            for v in occupancy.world_to_pixel(picks[..., 0], picks[..., 1])
+        )
+        inside = (r >= 0) & (r < occupied.shape[0]) & (c >= 0) & (c < occupied.shape[1])
+        on_wall = np.zeros(r.shape, bool)
+        on_wall[inside] = occupied[r[inside], c[inside]]
+        out = np.concatenate([out, picks[~on_wall.any(axis=1)]])
+    return out[:n]
 
 
-def bench_graph(graph, *, repeats: int, queries: int, occupancy=None) -> dict:
+def bench_graph(graph, occupancy, *, repeats: int, queries: int, with_map: bool) -> dict:
     import topojax as tj
 
     builds = []
     for _ in range(repeats + 1):
         t0 = time.perf_counter()
-        planner = tj.RoutePlanner(graph, occupancy=occupancy)
+        planner = tj.RoutePlanner(graph, occupancy=occupancy if with_map else None)
         planner._tree("world")  # the k-d tree the first query builds
         builds.append(time.perf_counter() - t0)
     times, lengths = [], []
-    for start, goal in query_pairs(graph, queries + 1, seed=graph.number_of_edges()):
+    for start, goal in query_pairs(graph, queries + 1, graph.number_of_edges(), occupancy):
         t0 = time.perf_counter()
         try:
             r = planner.route(start, goal)
@@ -105,15 +118,16 @@ def bench_graph(graph, *, repeats: int, queries: int, occupancy=None) -> dict:
     }
 
 
-def cold_worker(graph_file: str, map_file: str | None) -> None:
+def cold_worker(graph_file: str, map_file: str, with_map: bool) -> None:
     t0 = time.perf_counter()
     import topojax as tj
 
     t1 = time.perf_counter()
     graph = tj.load_graph(graph_file)
-    occupancy = tj.load_map(map_file) if map_file else None
+    occupancy = tj.load_map(map_file) if with_map else None
     load = time.perf_counter() - t1
-    start, goal = query_pairs(graph, 1, seed=0)[0]  # not timed: not the planner's work
+    pairs = query_pairs(graph, 1, 0, occupancy or tj.load_map(map_file))  # not timed
+    start, goal = pairs[0]
     t2 = time.perf_counter()
     planner = tj.RoutePlanner(graph, occupancy=occupancy)
     try:
@@ -134,9 +148,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--markdown", type=Path, help="also write the markdown report here")
     parser.add_argument("--cold-worker", help=argparse.SUPPRESS)
     parser.add_argument("--cold-map", help=argparse.SUPPRESS)
+    parser.add_argument("--cold-with-map", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.cold_worker:
-        cold_worker(args.cold_worker, args.cold_map)
+        cold_worker(args.cold_worker, args.cold_map, args.cold_with_map)
         return 0
     if args.repeats < 1 or args.queries < 1:
         parser.error(f"--repeats and --queries must be >= 1, got {args.repeats}, {args.queries}")
@@ -156,14 +171,11 @@ def main(argv: list[str] | None = None) -> int:
             entry = {}
             for label, graph, with_map in graph_rows(full, pruned, rg):
                 entry[label] = bench_graph(
-                    graph,
-                    repeats=args.repeats,
-                    queries=args.queries,
-                    occupancy=occupancy if with_map else None,
+                    graph, occupancy, repeats=args.repeats, queries=args.queries, with_map=with_map
                 )
                 path = tj.save_graph(graph, Path(tmp) / f"{name}_{label}.json")
                 script = Path(__file__).resolve()
-                extra = ["--cold-map", str(args.data / rel)] if with_map else []
+                extra = ["--cold-map", str(args.data / rel)] + ["--cold-with-map"] * with_map
                 entry[label]["cold"] = run_cold_worker(script, ["--cold-worker", str(path), *extra])
                 print(name, label, entry[label], flush=True)
             entries[name] = entry
