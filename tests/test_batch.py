@@ -485,17 +485,23 @@ def test_killed_run_leaves_only_complete_files(tmp_path):
         assert r.edges == build_graph(load_map(inp)).graph.number_of_edges()
 
 
-def _session_processes(sid: int) -> list[int]:
-    """Live processes of session ``sid`` (from /proc; zombies excluded)."""
+def _live_processes(field: int, value: int) -> list[int]:
+    """Live processes (zombies excluded) whose /proc stat ``field`` (after the name: 0
+    state, 1 ppid, 2 pgrp, 3 session) is ``value``."""
     found = []
     for stat in Path("/proc").glob("[0-9]*/stat"):
         try:
             fields = stat.read_text().rsplit(")", 1)[1].split()
         except OSError:
             continue
-        if int(fields[3]) == sid and fields[0] != "Z":  # fields: state ppid pgrp session
+        if int(fields[field]) == value and fields[0] != "Z":
             found.append(int(stat.parent.name))
     return found
+
+
+def _session_processes(sid: int) -> list[int]:
+    """Live processes of session ``sid``."""
+    return _live_processes(3, sid)
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="needs /proc")
@@ -576,16 +582,8 @@ def test_no_more_worker_processes_than_maps_to_run(tmp_path, monkeypatch):
 
 
 def _children(pid: int) -> list[int]:
-    """Live child processes of ``pid`` (from /proc)."""
-    found = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid and fields[0] != "Z":
-            found.append(int(stat.parent.name))
-    return found
+    """Live child processes of ``pid``."""
+    return _live_processes(1, pid)
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="needs /proc")
