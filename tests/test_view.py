@@ -145,6 +145,19 @@ def test_a_graph_without_paths_is_drawn_but_not_routed():
     assert "no map" in " ".join(payload_of(view_html(g))["notes"])
 
 
+def test_a_map_given_beside_a_graph_of_another_map_is_noted(res):
+    """``map=`` may draw another map under a graph, but the page says when the graph was
+    not built on it (shape, resolution or origin differ), instead of nothing."""
+    own = payload_of(view_html(res.graph, map=res.map))["notes"]
+    assert not any("not built on the map shown" in n for n in own)
+    other = tj.sample_map("office")
+    notes = payload_of(view_html(res.graph, map=other))["notes"]
+    assert any(
+        "graph was not built on the map shown: expected the graph's map of shape" in n
+        for n in notes
+    )
+
+
 def test_bad_arguments_name_themselves(res, tmp_path):
     with pytest.raises(TypeError, match="obj: expected a TopologyResult"):
         tj.write_view(42, tmp_path / "v.html")

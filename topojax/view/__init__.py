@@ -81,7 +81,8 @@ def write_view(
     title : str, optional
         Shown on the page (default: from the map's file name).
     map : OccupancyMap, optional
-        The map under a graph given alone (or another map to draw).
+        The map under a graph given alone (or another map to draw; the page notes a
+        graph whose recorded shape, resolution or origin is not this map's).
     rooms : RoomSegmentation, (rooms, doors), bool or None
         Rooms to draw: a segmentation, the pair :func:`topojax.load_rooms` returns, True
         (segment the map now; a mapper's own rooms), False (none).  Default: a mapper's

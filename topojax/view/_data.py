@@ -130,6 +130,11 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
         if not isinstance(title, str):
             raise TypeError(f"title: expected a str, received {type(title).__name__}")
         out.title = title
+    if map is not None:  # a map given beside graphs of another: drawn, but said so
+        for _, label, graph in out.graphs:
+            why = map_mismatch(graph, out.map)
+            if why is not None:
+                out.notes.append(f"the {label} was not built on the map shown: {why}")
     return out
 
 
