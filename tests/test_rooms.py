@@ -3,6 +3,7 @@ to the topology graph, bad input, and regressions on IPA maps."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import networkx as nx
@@ -332,6 +333,24 @@ def test_room_at_world_points():
 def test_bad_options_name_themselves(kwargs, match):
     with pytest.raises((TypeError, ValueError), match=match):
         tj.RoomConfig(**kwargs)
+
+
+@pytest.mark.parametrize("res", [RES, 0.1])
+@pytest.mark.parametrize("field", ["door_context_m", "max_door_width_m", "min_door_width_m"])
+def test_lengths_beyond_the_map_act_as_the_whole_map(field, res):
+    """A length of 1e300 m segments as one of 1e4 m (both past the map), with no
+    overflow of the kernels' integers or of the float32 clearances."""
+    free = _two_rooms(0.9)
+    occ = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=res)
+    segs = []
+    for value in (1e4, 1e300):
+        extra = {"max_door_width_m": value} if field == "min_door_width_m" else {}
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            seg = tj.segment_rooms(occ, config=tj.RoomConfig(**{field: value}, **extra))
+        segs.append(seg)
+    assert np.array_equal(segs[0].labels, segs[1].labels)
+    assert len(segs[0].doors) == len(segs[1].doors)
 
 
 def test_bad_source_and_config_are_refused():

@@ -114,13 +114,16 @@ def door_candidates(free, cells, clearance, skeleton, f: int, cfg, resolution_m:
     the pixels (each end the pixel of its end cell that is not free nearest to the centre)
     and held to the width range there.
     """
-    lo, hi = clearance_range_px(cfg, resolution_m)
-    w = max(1, int(round(cfg.door_context_m / resolution_m)))
+    # lengths beyond the map's extent (pixels) mean the whole map; capped, they stay
+    # within the integers and floats the kernels take
+    extent = float(sum(free.shape))
+    lo, hi = (min(v, extent) for v in clearance_range_px(cfg, resolution_m))
+    w = max(1, int(round(min(cfg.door_context_m / resolution_m, extent))))
     if f == 1:
         p, c, ends = _candidates(free, clearance, skeleton, lo, hi, w, DOOR_RISE)
     else:
-        clo, chi = clearance_range_px(cfg, resolution_m * f)
-        wc = max(1, int(round(cfg.door_context_m / (resolution_m * f))))
+        clo, chi = (min(v, extent) for v in clearance_range_px(cfg, resolution_m * f))
+        wc = max(1, int(round(min(cfg.door_context_m / (resolution_m * f), extent))))
         p, c, ends = _candidates(cells, clearance, skeleton, clo, chi, wc, DOOR_RISE, CELL_SLACK)
         centre = p * f + (f - 1) / 2.0
         a = _end_pixels(ends[:, 0], free, f, centre)
