@@ -125,6 +125,7 @@ def test_a_map_without_free_space_says_why(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "rooms      0 rooms, 0 doors" in printed
     assert "note       no room found: the map has 0 free pixels as classified" in printed
+    assert "inaccessible) or --min-isolated-room-m2\n" in printed
     assert tj.load_rooms(tmp_path / "out" / "dark_rooms.geojson") == ((), ())
 
 

@@ -90,6 +90,17 @@ def test_one_room_map_is_one_room_and_its_walls_are_no_room():
     assert room.bbox == (3, 3, 76, 116)
 
 
+@pytest.mark.parametrize("min_room_m2", [0.0, 2.0, 20.0])
+def test_a_free_area_without_doorways_is_a_room_from_min_isolated_room_m2_on(min_room_m2):
+    """A closed 6.25 m2 room is a room at min_isolated_room_m2 6 and none at 7, whatever
+    min_room_m2 (which merges regions that have doorways) says."""
+    free = np.zeros((60, 60), bool)
+    free[5:55, 5:55] = True
+    for iso, rooms in ((6.0, 1), (7.0, 0)):
+        cfg = tj.RoomConfig(min_isolated_room_m2=iso, min_room_m2=min_room_m2)
+        assert tj.segment_rooms(_map(free), config=cfg).n_rooms == rooms
+
+
 def test_no_free_space_gives_no_rooms():
     seg = tj.segment_rooms(_map(np.zeros((40, 40), bool)))
     assert seg.n_rooms == 0 and seg.doors == () and not seg.labels.any()

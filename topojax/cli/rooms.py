@@ -97,7 +97,7 @@ def room_lines(seg, occupancy, *, seconds: float, time_label: str = "time (ms)")
         lines.append(
             f"note       no room found: the map has {n_free} free pixels as classified; "
             "check the thresholds, --negate, --mode (e.g. --mode ipa for IPA benchmark "
-            "maps, where every pixel below 250 is inaccessible) or --min-room-m2"
+            "maps, where every pixel below 250 is inaccessible) or --min-isolated-room-m2"
         )
     return lines
 

@@ -132,7 +132,9 @@ def merge_regions(regions, n, clearance, f, cuts, cfg, resolution_m: float):
         a, b = rooms.find(a0), rooms.find(b0)
         if a != b:
             joined[a] = joined[b] = True
-    big = rooms.area[root] >= min_area_px
+    # a group with doors is a room from min_room_m2 on, one without from
+    # min_isolated_room_m2 on (whichever is larger)
+    big = joined[root] & (rooms.area[root] >= min_area_px)
     alone = ~joined[root] & (rooms.area[root] >= cfg.min_isolated_room_m2 / resolution_m**2)
     keep = (big | alone) & (np.arange(n) > 0)
     root = np.where(keep, root, 0)
