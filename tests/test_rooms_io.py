@@ -195,6 +195,22 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
             lambda d: d["features"][4]["properties"].update(id=0),
             "property 'id': expected an integer >= 1",
         ),
+        (
+            lambda d: d["features"][1]["properties"].update(id=1),
+            r"features\[1\]: property 'id': room 1 appears twice",
+        ),
+        (
+            lambda d: d["features"][4]["properties"].update(id=1),
+            r"features\[4\]: property 'id': door 1 appears twice",
+        ),
+        *(
+            (
+                lambda d, pair=pair: d["features"][3]["properties"].update(rooms=pair),
+                r"features\[3\]: property 'rooms': expected two ascending ids of rooms in "
+                rf"the file, received \[{pair[0]}, {pair[1]}\]",
+            )
+            for pair in ([1, 99], [2, 2], [2, 1])
+        ),
     ],
 )
 def test_load_rooms_names_the_file_and_the_fault(seg, tmp_path: Path, damage, message):

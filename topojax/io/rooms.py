@@ -295,8 +295,9 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        If it is not a file, not valid JSON, or not a rooms GeoJSON (the message names the
-        file and the feature at fault).
+        If it is not a file, not valid JSON, or not a rooms GeoJSON, or if room or door
+        ids repeat or a door does not join two distinct rooms of the file (the message
+        names the file and the feature at fault).
     """
     p = existing_file("path", path)
     try:
@@ -324,15 +325,37 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
             raise ValueError(f"{where} needs 'properties' and a 'geometry' (objects)")
         kind = props.get("kind")
         if kind == "room":
-            rooms.append(_read_room(props, geometry, where))
+            rooms.append((where, _read_room(props, geometry, where)))
         elif kind == "door":
-            doors.append(_read_door(props, geometry, where))
+            doors.append((where, _read_door(props, geometry, where)))
         else:
             hint = " (a topojax graph? read it with load_graph)" if "feature" in props else ""
             raise ValueError(
                 f"{where} has kind {kind!r}; expected 'room' or 'door': not a rooms GeoJSON{hint}"
             )
-    return tuple(rooms), tuple(doors)
+    _check_links(rooms, doors)
+    return tuple(r for _, r in rooms), tuple(d for _, d in doors)
+
+
+def _check_links(rooms: list, doors: list) -> None:
+    """Room and door ids unique, and each door between two distinct rooms of the file,
+    ascending (as :func:`save_rooms` writes them); ValueError naming the feature."""
+    ids: set[int] = set()
+    for where, room in rooms:
+        if room.id in ids:
+            raise ValueError(f"{where}: property 'id': room {room.id} appears twice")
+        ids.add(room.id)
+    door_ids: set[int] = set()
+    for where, door in doors:
+        if door.id in door_ids:
+            raise ValueError(f"{where}: property 'id': door {door.id} appears twice")
+        door_ids.add(door.id)
+        a, b = door.rooms
+        if not (a < b and a in ids and b in ids):
+            raise ValueError(
+                f"{where}: property 'rooms': expected two ascending ids of rooms in the "
+                f"file, received {[a, b]}"
+            )
 
 
 # ---------------------------------------------------------------------- picture
