@@ -307,12 +307,23 @@ def test_every_vertex_gets_its_room_and_edges_their_rooms_and_doors():
 
 
 def test_assign_rooms_refuses_another_map():
+    """A graph of another map (shape, or the same pixels at another origin) is refused
+    before anything is written; so is a graph with an edge without its path."""
     seg = tj.segment_rooms(_map(_two_rooms(0.9)))
     other = tj.build_graph(_map(np.pad(_two_rooms(0.9), 5)))
     with pytest.raises(ValueError, match="shape"):
         tj.assign_rooms(other.graph, seg)
     with pytest.raises(TypeError, match="seg"):
         tj.assign_rooms(other.graph, "rooms")
+    moved = tj.build_graph(_map(_two_rooms(0.9), origin=(3.0, -2.0, 0.7))).graph
+    with pytest.raises(ValueError, match=r"graph: a graph of the segmentation's map .*origin"):
+        tj.assign_rooms(moved, seg)
+    own = tj.build_graph(_map(_two_rooms(0.9))).graph
+    u, v, k = next(iter(own.edges(keys=True)))
+    del own.edges[u, v, k]["path"]
+    with pytest.raises(ValueError, match="every edge to carry its pixel 'path'"):
+        tj.assign_rooms(own, seg)
+    assert not any("room" in d for _, d in own.nodes(data=True)), "nothing written"
 
 
 def test_room_at_world_points():

@@ -7,6 +7,7 @@ import networkx as nx
 import numpy as np
 
 from .._validate import instance_of, nx_graph
+from ..maps.occupancy import map_mismatch
 from .model import RoomSegmentation
 
 __all__ = ["assign_rooms"]
@@ -82,7 +83,7 @@ def assign_rooms(graph: nx.Graph, seg: RoomSegmentation) -> nx.Graph:
         A :func:`topojax.build_graph` (or route) graph: vertices with ``pixels`` or
         ``pixel`` (row, col), edges with ``path`` (K, 2) pixels.
     seg : RoomSegmentation
-        Rooms of the same map (same shape).
+        Rooms of the same map.
 
     Returns
     -------
@@ -95,26 +96,24 @@ def assign_rooms(graph: nx.Graph, seg: RoomSegmentation) -> nx.Graph:
     Raises
     ------
     TypeError, ValueError
-        For a ``seg`` that is not a RoomSegmentation, or a graph of another map shape.
+        For a ``seg`` that is not a RoomSegmentation, or a graph of another map (its
+        recorded shape, resolution or origin); nothing is written then.
     """
     nx_graph("graph", graph, undirected=False)
     instance_of("seg", seg, RoomSegmentation)
-    shape = graph.graph.get("shape")
-    if shape is not None and tuple(shape) != seg.labels.shape:
-        raise ValueError(
-            f"graph: expected a graph of a map of shape {seg.labels.shape} (the "
-            f"segmentation's), received one of shape {tuple(shape)}"
-        )
+    why = map_mismatch(graph, seg.occupancy)
+    if why is not None:
+        raise ValueError(f"graph: a graph of the segmentation's map is needed: {why}")
     labels = seg.labels
-    for n, d in graph.nodes(data=True):
-        pix = d.get("pixels", d.get("pixel"))
-        if pix is None:
+    for n, d in graph.nodes(data=True):  # checked whole before anything is written
+        if d.get("pixels", d.get("pixel")) is None:
             raise ValueError(f"graph: node {n!r} has neither 'pixels' nor 'pixel'")
-        d["room"] = _nearest_room(labels, pix)
+    if not all("path" in d for *_, d in graph.edges(data=True)):
+        raise ValueError("graph: expected every edge to carry its pixel 'path'")
+    for _, d in graph.nodes(data=True):
+        d["room"] = _nearest_room(labels, d.get("pixels", d.get("pixel")))
     doors = _door_lookup(seg)
     for *_, d in graph.edges(data=True):
-        if "path" not in d:
-            raise ValueError("graph: expected every edge to carry its pixel 'path'")
         d["rooms"], d["doors"] = _edge_links(labels, d["path"], doors)
     graph.graph["rooms"] = seg.n_rooms
     return graph
