@@ -203,6 +203,30 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
             lambda d: d["features"][4]["properties"].update(id=1),
             r"features\[4\]: property 'id': door 1 appears twice",
         ),
+        (
+            lambda d: d["features"][1]["properties"].update(area_m2=-2.0),
+            r"features\[1\]: property 'area_m2': expected >= 0, received -2.0",
+        ),
+        (
+            lambda d: d["features"][2]["properties"].update(bbox_px=[10, 10, 5, 5]),
+            r"features\[2\]: property 'bbox_px': expected .*inclusive, >= 0\), inside the map",
+        ),
+        (
+            lambda d: d["topojax_rooms"].update(shape=[1, 1]),
+            r"'bbox_px': expected .* inside the map's 1 x 1 pixels",
+        ),
+        (
+            lambda d: d["topojax_rooms"].update(shape="big"),
+            r"topojax_rooms: 'shape': expected \[H, W\]",
+        ),
+        (
+            lambda d: d["features"][3]["properties"].update(pixels=[[-1, 2]]),
+            r"features\[3\]: property 'pixels': expected pixels \(row, col\) >= 0",
+        ),
+        (
+            lambda d: d["features"][4]["properties"].update(width_m=-0.5),
+            r"features\[4\]: property 'width_m': expected >= 0",
+        ),
         *(
             (
                 lambda d, pair=pair: d["features"][3]["properties"].update(rooms=pair),

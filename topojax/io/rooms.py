@@ -296,8 +296,9 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
         If ``path`` does not exist.
     ValueError
         If it is not a file, not valid JSON, or not a rooms GeoJSON, or if room or door
-        ids repeat or a door does not join two distinct rooms of the file (the message
-        names the file and the feature at fault).
+        ids repeat, a door does not join two distinct rooms of the file, or a value is
+        one no segmentation has (a negative area or width, a room's bounding box or a
+        door's pixels outside the map); the message names the file and the feature.
     """
     p = existing_file("path", path)
     try:
@@ -333,8 +334,44 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
             raise ValueError(
                 f"{where} has kind {kind!r}; expected 'room' or 'door': not a rooms GeoJSON{hint}"
             )
+    shape = meta.get("shape") if isinstance(meta, dict) else None
+    _check_pixels(rooms, doors, shape, f"rooms file {p}: {_MEMBER}")
     _check_links(rooms, doors)
     return tuple(r for _, r in rooms), tuple(d for _, d in doors)
+
+
+def _check_pixels(rooms: list, doors: list, shape, where: str) -> None:
+    """Areas and widths >= 0, room bounding boxes and door pixels >= 0 and inside the map
+    ``shape`` ([H, W], where the file states it)."""
+    if shape is not None:
+        if not (
+            isinstance(shape, list)
+            and len(shape) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in shape)
+        ):
+            raise ValueError(
+                f"{where}: 'shape': expected [H, W] (two positive integers), received {shape!r:.80}"
+            )
+    h, w = shape if shape is not None else (math.inf, math.inf)
+    inside = "" if shape is None else f", inside the map's {h} x {w} pixels"
+    for at, room in rooms:
+        r0, c0, r1, c1 = room.bbox
+        if room.area_m2 < 0:
+            raise ValueError(f"{at}: property 'area_m2': expected >= 0, received {room.area_m2}")
+        if not (0 <= r0 <= r1 < h and 0 <= c0 <= c1 < w):
+            raise ValueError(
+                f"{at}: property 'bbox_px': expected [row_min, col_min, row_max, col_max] "
+                f"(inclusive, >= 0){inside}, received {list(room.bbox)}"
+            )
+    for at, door in doors:
+        if door.width_m < 0:
+            raise ValueError(f"{at}: property 'width_m': expected >= 0, received {door.width_m}")
+        px = door.pixels  # (its ends_px may lie just past the map's edge)
+        if px.size and not ((px >= 0).all() and (px[:, 0] < h).all() and (px[:, 1] < w).all()):
+            raise ValueError(
+                f"{at}: property 'pixels': expected pixels (row, col) >= 0{inside}, "
+                f"received {px.tolist()!r:.80}"
+            )
 
 
 def _check_links(rooms: list, doors: list) -> None:
