@@ -27,6 +27,7 @@ from .incremental import (
     ExtentError,
     IncrementalMapper,
     ScanReport,
+    current_room_labels,
     settings_of,
     timing_summary,
 )
@@ -58,10 +59,8 @@ def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
     res = occ.resolution_m
     top = oy + h * res
     g = mapper.graph
-    keeper = mapper._rooms
-    rooms = None
-    if keeper.seg is not None and keeper.box == mapper.pixel_bbox:
-        rooms = keeper.labels[::step, ::step].copy()
+    labels = current_room_labels(mapper)
+    rooms = None if labels is None else labels[::step, ::step].copy()
     vertices: dict[str, list] = {}
     for _, d in g.nodes(data=True):
         vertices.setdefault(d["kind"], []).append(d["world"])
@@ -415,7 +414,7 @@ def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
     if rooms:
         from .rooms import assign_rooms
 
-        mapper._update_rooms()
+        mapper.update_rooms()
         seg = mapper.rooms
         assign_rooms(result.graph, seg)  # before the graph files are written
     return update, final_s, result, seg

@@ -172,3 +172,12 @@ def rooms_due(mapper, *, graph_ran: bool) -> bool:
     if mapper.rooms_every is None:
         return graph_ran and mapper._rooms.active
     return bool(mapper.rooms_every) and mapper._since_rooms >= mapper.rooms_every
+
+
+def current_room_labels(mapper) -> np.ndarray | None:
+    """The room labels of ``mapper`` (int32 (H, W), the frame of its current map) when its
+    last room update covers the map as it is now, else None; segments nothing."""
+    keeper = mapper._rooms
+    if keeper.seg is None or keeper.box != mapper.pixel_bbox:
+        return None
+    return keeper.labels
