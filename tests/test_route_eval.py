@@ -264,6 +264,7 @@ def test_a_point_robot_is_scored_on_the_free_space():
         ({"n_pairs": 0}, ValueError, "n_pairs"),
         ({"n_pairs": 2.5}, TypeError, "n_pairs: expected an int >= 1, received float"),
         ({"seed": 1.5}, TypeError, "seed"),
+        ({"seed": -1}, ValueError, "seed: expected an int >= 0, received -1"),
         ({"min_region_m2": -1.0}, ValueError, "min_region_m2"),
         (
             {"min_region_m2": True},

@@ -14,7 +14,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .._validate import (
-    integer,
+    int_at_least,
     nonnegative_metres,
     nonnegative_quantity,
     nx_graph,
@@ -105,7 +105,7 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
     n_pairs = positive_int("n_pairs", n_pairs)
     if n_pairs > MAX_PAIRS:
         raise ValueError(f"n_pairs: expected at most {MAX_PAIRS:,}, received {n_pairs:,}")
-    seed = integer("seed", seed)
+    seed = int_at_least("seed", seed, 0)  # numpy's generators take no negative seed
     min_region_m2 = nonnegative_quantity("min_region_m2", min_region_m2, "square metres")
     gen = (
         None
@@ -232,7 +232,7 @@ def evaluate_route_graph(
     n_pairs : int
         Number of pairs (>= 1, at most :data:`MAX_PAIRS`).
     seed : int
-        Seed of the pair sampling.
+        Seed of the pair sampling (>= 0).
     min_region_m2 : float
         Feasible regions smaller than this (square metres, >= 0) are ignored.
     generation_s : float or None
