@@ -304,6 +304,17 @@ def test_bad_graphs_are_refused():
         evaluate_route_graph(g, np.zeros((5, 5)), RADIUS)
 
 
+def test_a_non_finite_polyline_point_is_named():
+    """A NaN in a well-shaped polyline is reported as such, not as a wrong shape."""
+    m = _corridor(5)
+    g = _graph(m, [_row(3, 3, 198)])
+    data = next(iter(g.edges(data=True)))[2]
+    data["world"] = np.array(data["world"], np.float64)
+    data["world"][1, 0] = np.nan
+    with pytest.raises(ValueError, match=r"received shape \(\d+, 2\) with a non-finite point"):
+        evaluate_route_graph(g, m, RADIUS)
+
+
 def test_geodesic_matches_skimage_mcp_geometric():
     from skimage.graph import MCP_Geometric
 

@@ -118,9 +118,13 @@ def _edge_points(edge, data: dict, coordinates: str) -> tuple[np.ndarray | None,
     except (TypeError, ValueError):
         arr = np.empty((0, 0))
     if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 2 or not np.isfinite(arr[:, :2]).all():
+        got = f"shape {getattr(arr, 'shape', None)}"
+        if arr.ndim == 2 and arr.shape[0] >= 1 and arr.shape[1] >= 2:  # the shape is right
+            row = int(np.flatnonzero(~np.isfinite(arr[:, :2]).all(axis=1))[0])
+            got += f" with a non-finite point {arr[row, :2].tolist()} at row {row}"
         raise ValueError(
             f"graph: edge {edge!r} attribute {key!r}: expected a (K, 2) array of finite "
-            f"numbers, received shape {getattr(arr, 'shape', None)}"
+            f"numbers, received {got}"
         )
     return arr[:, :2], key != "path"
 
