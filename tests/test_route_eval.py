@@ -507,7 +507,10 @@ def test_a_graph_far_outside_its_map_is_refused_by_name():
     far.add_node("a", world=(1.0, 1.0))
     far.add_node("b", world=(1e12, 1.0))
     far.add_edge("a", "b")
-    with pytest.raises(ValueError, match=r"^graph: vertex 'b' lies at pixel .*map's own size"):
+    with pytest.raises(
+        ValueError,
+        match=r"^graph: vertex 'b' lies at pixel .*at most the map's own size \(40 x 40 pixels\) outside the map",
+    ):
         evaluate_route_graph(far, m, RADIUS)
     bent = nx.Graph()
     bent.add_node(0, world=(0.5, 0.5))

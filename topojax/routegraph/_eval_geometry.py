@@ -248,8 +248,8 @@ def _check_near_map(polys, pos, nodes, keys, shape) -> None:
                 break
     if where is not None:
         raise ValueError(
-            f"graph: {where}, expected within the map's own size of the map ({h} x {w} "
-            "pixels): is the graph in the map's frame and in metres?"
+            f"graph: {where}, expected at most the map's own size ({h} x {w} pixels) "
+            "outside the map: is the graph in the map's frame and in metres?"
         )
 
 

@@ -250,8 +250,9 @@ def evaluate_route_graph(
     ------
     TypeError, ValueError
         For a directed graph, a non-graph, a vertex without a position, a malformed edge
-        polyline, a map that is not the one the graph records, or an invalid parameter
-        (the message names it).
+        polyline, a vertex or polyline point farther outside the map than the map's own
+        size (a graph in another frame or unit), a map that is not the one the graph
+        records, or an invalid parameter (the message names it).
     """
     t0 = time.perf_counter()
     occupancy = map_argument("occupancy", occupancy, files=True)
