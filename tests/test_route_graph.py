@@ -746,6 +746,22 @@ def test_compiled_helpers_match_plain_numpy():
     assert (owner >= 0).all() and (first <= np.arange(10, 10 + at.size)).all()
 
 
+def test_a_spacing_below_a_pixel_anchors_every_pixel_however_small():
+    """Cuts less than a pixel apart put an anchor on every pixel of an edge (but its
+    ends); a spacing of 1e-300 pixels does the same, promptly, rather than ask for more
+    cuts than an int holds (none were made) or loop over billions of them."""
+    from topojax.routegraph._spanner import anchor_pieces
+
+    every = np.array([[5, c] for c in range(12)] + [[5 + r, 11 + r] for r in range(1, 9)])
+    starts, sizes = np.array([0], np.int64), np.array([len(every)], np.int64)
+    ends = (np.array([0], np.int64), np.array([1], np.int64))
+    want = anchor_pieces(every, starts, sizes, *ends, 2, 0.5, 1.0)
+    assert want[0].tolist() == list(range(1, len(every) - 1))
+    for spacing in (1e-6, 1e-300):
+        got = anchor_pieces(every, starts, sizes, *ends, 2, spacing, 1.0)
+        assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+
+
 def _without_mesh(monkeypatch):
     """Route graphs as if open pieces were too small for a mesh (skeleton lanes)."""
     from topojax.routegraph import _cover

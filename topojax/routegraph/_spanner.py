@@ -528,7 +528,9 @@ def anchor_pieces(every, starts, sizes, ia, ib, n0, spacing, keep):
             )
             arc[j] = arc[j - 1] + (_SQRT2 if diagonal else 1.0)
         total = arc[m - 1]
-        k = 0 if math.isinf(spacing) else int(total // spacing)
+        k = 0 if math.isinf(spacing) else int(min(total // spacing, total + 1.0))
+        # (cuts less than a pixel apart put an anchor on every pixel: so do k = total + 1,
+        # without the loop over ever more cuts of a tiny spacing)
         prev_node, prev_mark, first_here, last_cut = ia[e], 0.0, n, -1
         for i in range(1, k):
             x = total * i / k
