@@ -681,6 +681,12 @@ def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight
         ({"occupancy": "moved"}, 0.25, ValueError, "occupancy: expected the graph's map with"),
         ({"occupancy": "coarse"}, 0.25, ValueError, "occupancy: expected the graph's map at"),
         ({"occupancy": "fork"}, None, ValueError, "robot_radius_m: expected the robot radius"),
+        (
+            {"occupancy": "fork"},
+            float("nan"),
+            ValueError,
+            r"^robot_radius_m \(the graph's 'robot_radius_m' attribute\): expected a finite",
+        ),
         ({"occupancy": "fork", "entry_m": -1.0}, 0.25, ValueError, "entry_m"),
     ],
 )

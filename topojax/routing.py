@@ -312,6 +312,7 @@ class RoutePlanner:
         why = map_mismatch(self._graph, occupancy)
         if why is not None:
             raise ValueError(f"occupancy: {why}")
+        radius_name = "robot_radius_m"
         if radius is None:
             radius = attrs.get("robot_radius_m")
             if radius is None:
@@ -319,9 +320,10 @@ class RoutePlanner:
                     "robot_radius_m: expected the robot radius in metres with occupancy= "
                     "(the graph has no 'robot_radius_m' attribute), received None"
                 )
+            radius_name = "robot_radius_m (the graph's 'robot_radius_m' attribute)"
         from .routegraph.feasible import feasible_space  # the route-graph stack, on demand
 
-        radius = nonnegative_metres("robot_radius_m", radius)
+        radius = nonnegative_metres(radius_name, radius)
         if entry_m is None:
             entry_m = attrs.get("snap_m")
             entry_m = DEFAULT_ENTRY_M if entry_m is None else entry_m
