@@ -258,8 +258,9 @@ MIN_RADIUS_PX = 1.5
 
 
 def check_scale(cfg: RouteGraphConfig, res: float, radius_name: str = "robot_radius_m") -> None:
-    """Refuse a robot radius or a ``snap_m`` too small for a map of ``res`` metres per
-    pixel (see MIN_RADIUS_PX and MIN_REACH_PX); the radius's error names ``radius_name``."""
+    """Refuse a robot radius, a ``snap_m`` or a ``shortcut_spacing_m`` too small for a map
+    of ``res`` metres per pixel (see MIN_RADIUS_PX and MIN_REACH_PX; a spacing between 0
+    and one pixel); the radius's error names ``radius_name``."""
     if cfg.robot_radius_m / res < MIN_RADIUS_PX:
         raise ValueError(
             f"{radius_name}: expected at least {MIN_RADIUS_PX:g} pixels of the map "
@@ -272,6 +273,12 @@ def check_scale(cfg: RouteGraphConfig, res: float, radius_name: str = "robot_rad
         raise ValueError(
             f"snap_m: expected at least waypoint_tolerance_m + {MIN_REACH_PX:g} pixels of the "
             f"map ({least:g} m at {res:g} m per pixel), received {cfg.snap_m!r}"
+        )
+    if 0 < cfg.shortcut_spacing_m < res:
+        raise ValueError(
+            f"shortcut_spacing_m: expected 0 (shortcuts from vertices only) or at least one "
+            f"pixel of the map ({res:g} m), received {cfg.shortcut_spacing_m!r}; anchors closer than a pixel are the "
+            "same anchors, at many times the time and memory"
         )
 
 

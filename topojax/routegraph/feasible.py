@@ -82,7 +82,7 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     free = np.asarray(occupancy.free, bool)
     res = float(occupancy.resolution_m)
     clearance = clearance_map_m(free, res)
-    feasible = free & (clearance >= np.float32(radius))
+    feasible = free & (clearance >= min(radius, float(np.finfo(np.float32).max)))
     n, labels, stats, _ = cv2.connectedComponentsWithStats(
         feasible.view(np.uint8), connectivity=8, ltype=cv2.CV_32S
     )
