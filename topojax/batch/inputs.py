@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import glob as _glob
+import json
 import os
 from collections import Counter
 from collections.abc import Iterable, Sequence
@@ -187,8 +188,6 @@ def expand_map_inputs(
         # files found below ``root``, without those in ``exclude`` if it lies strictly
         # inside ``root`` (the batch's own outputs), nor pictures a batch manifest beside
         # them lists (an output folder that is the input folder)
-        from .manifest import batch_input
-
         files = [f for f in files if not f.name.endswith(_IMAGES_OUT) or batch_input(f) is None]
         top = os.path.join(os.path.realpath(root), "")
         if skip is None or not (skip.startswith(top) and skip != top):
@@ -352,3 +351,26 @@ def planned_outputs(
         for name, source in zip(names, sources, strict=True)
         for suffix in suffixes
     }
+
+
+def batch_input(target: str | os.PathLike[str]) -> str | None:
+    """The input of the batch map that wrote the file ``target`` (its manifest's ``path``:
+    the map file's absolute path, a map object's ``source``, ``""`` for one without), or
+    None when no manifest beside ``target`` lists it."""
+    target = Path(target)
+    name = target.name
+    for suffix in (*_format_suffixes(_FORMAT_FILES), *_PICTURES, _MANIFEST_SUFFIX):
+        if not name.endswith(suffix):
+            continue
+        manifest = target.with_name(name[: -len(suffix)] + _MANIFEST_SUFFIX)
+        try:
+            doc = json.loads(manifest.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        files = doc.get("files") if isinstance(doc, dict) else None
+        if not isinstance(files, dict):
+            continue
+        if suffix == _MANIFEST_SUFFIX or any(Path(rel).name == name for rel in files):
+            path = doc.get("path")
+            return path if isinstance(path, str) else ""
+    return None

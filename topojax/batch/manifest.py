@@ -20,6 +20,7 @@ from .inputs import (
     _PICTURES,
     _format_suffixes,
     _Item,
+    batch_input,
     picture_suffixes,
 )
 from .records import SUMMARY_COLUMNS, MapRecord
@@ -186,26 +187,3 @@ def _forget_outputs(
         for suffix in suffixes:  # leftovers of atomic writes killed mid-way
             for tmp in folder.glob(f".{_glob.escape(base + suffix)}.*.tmp"):
                 tmp.unlink(missing_ok=True)
-
-
-def batch_input(target: str | os.PathLike[str]) -> str | None:
-    """The input of the batch map that wrote the file ``target`` (its manifest's ``path``:
-    the map file's absolute path, a map object's ``source``, ``""`` for one without), or
-    None when no manifest beside ``target`` lists it."""
-    target = Path(target)
-    name = target.name
-    for suffix in (*_format_suffixes(_FORMAT_FILES), *_PICTURES, _MANIFEST_SUFFIX):
-        if not name.endswith(suffix):
-            continue
-        manifest = target.with_name(name[: -len(suffix)] + _MANIFEST_SUFFIX)
-        try:
-            doc = json.loads(manifest.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            continue
-        files = doc.get("files") if isinstance(doc, dict) else None
-        if not isinstance(files, dict):
-            continue
-        if suffix == _MANIFEST_SUFFIX or any(Path(rel).name == name for rel in files):
-            path = doc.get("path")
-            return path if isinstance(path, str) else ""
-    return None
