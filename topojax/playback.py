@@ -32,6 +32,8 @@ from .incremental import (
     timing_summary,
 )
 
+#: Where a replay that stops part way keeps the mapper's state, in its output folder.
+STATE_FILE = "mapper_state.npz"
 #: Suffixes dropped from a log's file name for the pictures' titles.
 _LOG_SUFFIXES = (".gz", ".bz2", ".log", ".bag", ".db3", ".mcap", ".txt", ".dat", ".clf")
 
@@ -427,7 +429,7 @@ def _keep_state(mapper: IncrementalMapper, out: Path) -> None:
     if mapper.n_scans == 0 or mapper.pixel_bbox is None:
         return
     try:
-        path = mapper.save(out / "mapper_state.npz")
+        path = mapper.save(out / STATE_FILE)
     except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
         warnings.warn(
             f"replay stopped after {mapper.n_scans} scans; saving the mapper's state "
@@ -447,7 +449,7 @@ def _keep_state(mapper: IncrementalMapper, out: Path) -> None:
 def _unwritable(mapper: IncrementalMapper, exc: ExportBudgetError, out: Path) -> ValueError:
     """Save the mapper's state to ``out`` (nothing mapped is lost) and return the error
     for a map too large to write whole."""
-    path = mapper.save(out / "mapper_state.npz")
+    path = mapper.save(out / STATE_FILE)
     return ValueError(
         f"{exc}. The map of the {mapper.n_scans} scans mapped is too large to export "
         f"whole; the mapper's state is saved to {path} (IncrementalMapper.load; export "
@@ -537,7 +539,7 @@ def _refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
     inputs = [src] if folder is None else [p for p in folder.iterdir() if p.is_file()]
     names = output_names(nav2=True, plot=True, route_graph=True, rooms=True, view=True)
     for option, targets in (
-        ("out_dir", [out / name for name in [*names, "mapper_state.npz"]]),
+        ("out_dir", [out / name for name in [*names, STATE_FILE]]),
         ("animate", [] if animate is None else [Path(animate)]),
         ("mcap", [] if mcap is None else [Path(mcap)]),
     ):

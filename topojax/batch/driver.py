@@ -315,7 +315,6 @@ class _BatchRun:
             dynamic_ncols=True,
         )
         self._pending: deque[_Item] = deque()
-        self._by_index = {item.index: item for item in self.items}
         for item in self.items:
             rec = self._resume_record(item) if self.resume else None
             if rec is not None:
@@ -370,8 +369,7 @@ class _BatchRun:
         settings are not this run's)."""
         self._records[index] = rec = totalled(rec)
         if rec.status == "error" and self.out_dir is not None:
-            item = self._by_index[index]
-            _forget_outputs(item, out_dir=self.out_dir, formats=(), plot=False)
+            _forget_outputs(self.items[index], out_dir=self.out_dir, formats=(), plot=False)
         counts = self._counts
         counts[rec.status] += 1
         self._bar.update(1)
