@@ -209,7 +209,25 @@ def test_random_plans_are_safe_and_reach_each_region_once(seed):
         assert u <= v and d["length_m"] > 0
         assert u == v or len(d["path"]) > 2  # no one-pixel edges
         wp = d["waypoints"]
-        assert np.array_equal(wp[0], d["world"][0]) and np.array_equal(wp[-1], d["world"][-1])
+        assert np.array_equal(wp[0], g.nodes[u]["world"]) and np.array_equal(
+            wp[-1], g.nodes[v]["world"]
+        )
+
+
+def test_waypoints_run_from_vertex_to_vertex_at_merged_clusters():
+    # a_scan's route graph has paths that end on another pixel of a merged junction
+    # cluster than the vertex's: the waypoints still start and end on the vertices
+    occ = tj.sample_map("a_scan")
+    g = route_graph(occ, robot_radius_m=R)
+    off = 0
+    for u, v, d in g.edges(data=True):
+        path, wp = np.asarray(d["path"]), d["waypoints"]
+        off += tuple(path[0]) != g.nodes[u]["pixel"]
+        off += tuple(path[-1]) != g.nodes[v]["pixel"]
+        assert np.array_equal(wp[0], g.nodes[u]["world"])
+        assert np.array_equal(wp[-1], g.nodes[v]["world"])
+    assert off > 0  # the case is there
+    _assert_safe(g, occ)
 
 
 def test_schema_is_build_graphs_plus_waypoints():

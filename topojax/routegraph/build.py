@@ -165,7 +165,7 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         The schema of :func:`topojax.build_graph`'s graph (node ``pixel``, ``pixels``,
         ``world``, ``kind``, ``clearance_m``; edge ``path``, ``world``, ``length_m``,
         ``min_clearance_m``, ``mean_clearance_m``) plus, on each edge, ``waypoints``:
-        float64 (K, 2) world polyline from ``u`` to ``v``.  Graph attributes
+        float64 (K, 2) world polyline from ``u``'s ``world`` position to ``v``'s.  Graph attributes
         ``resolution_m``, ``shape``, ``origin``, ``merge_junction_clusters`` (True),
         ``robot_radius_m``, ``snap_m``, ``kind`` (``"route_graph"``), ``uncovered_share``
         and ``timings_s``.  One component per feasible region of at least
@@ -397,12 +397,13 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
             }
         )
     tol_px = cfg.waypoint_tolerance_m / res
-    order, ends, paths = [], [], []
+    order, ends, paths, ab = [], [], [], []
     for e, (u, v, path) in work.edges.items():
         a, b = new_id[u], new_id[v]
         if a > b:
             a, b, path = b, a, path[::-1]
         order.append((a, b, len(order)))
+        ab.append((a, b))
         ends.append(e)
         paths.append(path)
     order.sort()
@@ -425,6 +426,7 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
     path_of = [every[i:j] for i, j in zip(lo, hi, strict=True)]
     world_of = [world_all[i:j] for i, j in zip(lo, hi, strict=True)]
     waypoints_of = [waypoints_all[i:j] for i, j in zip(wp_lo, wp_hi, strict=True)]
+    _from_vertex_to_vertex(waypoints_of, every, starts, sizes, ab, pix, np.stack([wx, wy], 1))
     length_of = [work.length[e] * res for e in ends]
     edges = [
         (
@@ -451,3 +453,18 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
         "kind": "route_graph",
     }
     return fill_multigraph(attrs, range(len(alive)), node_attrs, edges)
+
+
+def _from_vertex_to_vertex(waypoints_of, every, starts, sizes, ab, pix, vertex_xy) -> None:
+    """Make each edge's waypoints start at its ``u``'s world position and end at its
+    ``v``'s, in place: a path ending at another pixel of a merged junction cluster than
+    the vertex's gets the hop to the vertex (two pixels of one cluster, both feasible)."""
+    if not waypoints_of:
+        return
+    ab = np.asarray(ab, np.int64).reshape(-1, 2)
+    off_u = (every[starts] != pix[ab[:, 0]]).any(axis=1)
+    off_v = (every[starts + sizes - 1] != pix[ab[:, 1]]).any(axis=1)
+    for k in np.flatnonzero(off_u | off_v).tolist():
+        head = [vertex_xy[ab[k, 0]][None]] if off_u[k] else []
+        tail = [vertex_xy[ab[k, 1]][None]] if off_v[k] else []
+        waypoints_of[k] = np.concatenate([*head, waypoints_of[k], *tail])
