@@ -413,3 +413,24 @@ def test_coarse_cells_are_free_only_when_every_pixel_is(h, w, f, p_free, seed):
         for c in range(w // f):
             want[r, c] = all(free[r * f + i, c * f + j] for i in range(f) for j in range(f))
     np.testing.assert_array_equal(coarse_free(free, f), want)
+
+
+def test_a_cut_pixel_joins_the_room_it_shares_a_side_with():
+    # the free pixel at (1, 1) lies on a cut (no region's room): room 1 is beside it,
+    # room 2 only touches its corner, so it joins room 1 though 2 is the larger id
+    from topojax.rooms._kernels import room_pixels
+
+    regions = np.array([[1, 0, 0], [0, 0, 2], [0, 2, 2]], np.int32)
+    free = np.array([[1, 0, 0], [0, 1, 1], [0, 1, 1]], bool)
+    room_of = np.array([0, 2, 1], np.int32)  # region 1 is room 2, region 2 is room 1
+    out = np.zeros((3, 3), np.int32)
+    empty = np.zeros((3, 3), np.uint8)
+    room_pixels(regions, room_of, free, 2, out, empty)
+    assert out[1, 1] == 1
+    assert out.tolist() == [[2, 0, 0], [0, 1, 1], [0, 1, 1]]
+    # with no room beside it, the corner decides
+    free[1, 2] = free[2, 1] = False
+    regions[1, 2] = regions[2, 1] = 0
+    out[:] = 0
+    room_pixels(regions, room_of, free, 2, out, empty)
+    assert out[1, 1] == 2

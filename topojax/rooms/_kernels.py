@@ -282,8 +282,9 @@ def enclosed_owner(parts, labels, n):
 def room_pixels(regions, room_of, free, rounds, out, empty):
     """Room id of every pixel: ``out = room_of[regions]`` (int32, written in place), then
     ``rounds`` times every pixel of ``free`` without a room (0) next to a room (the cut
-    lines) takes the largest id among its 8 neighbours, all decided from the ids of the
-    round before; ``empty`` (uint8, in place) is 1 where ``out`` is 0 at the end."""
+    lines) takes the largest id among its 4 neighbours, or, if they have none, among its
+    diagonal ones (a pixel joins the room it shares a side with when it can), all decided
+    from the ids of the round before; ``empty`` (uint8, in place) is 1 where ``out`` is 0 at the end."""
     h, w = regions.shape
     n = 0
     for r in range(h):
@@ -305,10 +306,13 @@ def room_pixels(regions, room_of, free, rounds, out, empty):
     for _ in range(rounds):
         for i in range(n):
             r, c = todo[i, 0], todo[i, 1]
-            best = 0
-            for rr in range(max(r - 1, 0), min(r + 2, h)):
-                for cc in range(max(c - 1, 0), min(c + 2, w)):
-                    if out[rr, cc] > best:
+            best = 0  # the largest id of a 4-neighbour, else of a diagonal one
+            for rr, cc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+                if 0 <= rr < h and 0 <= cc < w and out[rr, cc] > best:
+                    best = out[rr, cc]
+            if best == 0:
+                for rr, cc in ((r - 1, c - 1), (r - 1, c + 1), (r + 1, c - 1), (r + 1, c + 1)):
+                    if 0 <= rr < h and 0 <= cc < w and out[rr, cc] > best:
                         best = out[rr, cc]
             got[i] = best
         m = 0
