@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 
@@ -28,3 +30,27 @@ def distance_to_polyline(points: np.ndarray, chain: np.ndarray) -> np.ndarray:
         t = np.zeros(len(points)) if span == 0 else np.clip((points - a) @ ab / span, 0, 1)
         best = np.minimum(best, np.hypot(*(points - (a + t[:, None] * ab)).T))
     return best
+
+
+def segment_pixels_exact(q, p) -> set[tuple[int, int]]:
+    """The pixels ``(row, col)`` the segment ``q``-``p`` passes through, in exact rational
+    arithmetic: the pixel each of its points rounds to (halves up), found at its ends,
+    where it crosses a pixel border and halfway between consecutive crossings."""
+    from fractions import Fraction
+
+    half = Fraction(1, 2)
+    q = [Fraction(float(x)) for x in q]
+    p = [Fraction(float(x)) for x in p]
+    ts = {Fraction(0), Fraction(1)}
+    for k in range(2):
+        d = p[k] - q[k]
+        if d == 0:
+            continue
+        lo, hi = sorted((q[k], p[k]))
+        for m in range(math.floor(lo) - 1, math.ceil(hi) + 1):
+            t = (m + half - q[k]) / d  # where it crosses the border at m + 1/2
+            if 0 <= t <= 1:
+                ts.add(t)
+    ts = sorted(ts)
+    at = ts + [(a + b) / 2 for a, b in zip(ts[:-1], ts[1:], strict=True)]
+    return {tuple(math.floor(q[k] + t * (p[k] - q[k]) + half) for k in range(2)) for t in at}

@@ -13,13 +13,14 @@ import math
 import networkx as nx
 import numpy as np
 import pytest
-from brute_force import distance_to_polyline
+from brute_force import distance_to_polyline, segment_pixels_exact
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from skimage.morphology import skeletonize
 from view_cases import crossing_graph
 
 import topojax as tj
+from topojax._sight import sees
 from topojax.graph import prune_graph, skeleton_to_graph
 from topojax.routing import NoRouteError, RoutePlanner, plan_route
 
@@ -666,9 +667,77 @@ def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight
             assert leg >= nearest - 1e-9
             if leg > nearest + 1e-9:  # not the nearest point: in sight, within reach
                 assert leg <= rg.graph["snap_m"] + 1e-9
-                line = np.rint(np.linspace(q, end, 64)).astype(int)
+                line = np.array(sorted(segment_pixels_exact(q, end)))
                 assert feasible[line[:, 0], line[:, 1]].all()
     assert shorter > 0
+
+
+def _half_pixel_samples(q, p) -> set[tuple[int, int]]:
+    """The pixels of ``n = ceil(2 d) + 2`` points evenly spaced along ``q``-``p``, rounded
+    half up: the sight test that sampled lines every half pixel."""
+    q, p = np.asarray(q, float), np.asarray(p, float)
+    n = math.ceil(2 * math.dist(q, p)) + 2
+    t = np.arange(n)[:, None] / (n - 1)
+    return {tuple(x) for x in np.floor(q + t * (p - q) + 0.5).astype(int).tolist()}
+
+
+def test_a_line_that_clips_an_obstacle_pixel_at_its_corner_is_not_in_sight():
+    feasible = ~art(
+        """
+        ......
+        ...#..
+        ......
+        ......
+        """
+    )
+    q, p = np.array([0.0, 0.7]), np.array([3.0, 5.0])
+    # the line crosses pixel (1, 3) from (1.26, 2.5) to (1.5, 2.85), 0.43 px; samples
+    # half a pixel apart step over it
+    assert (1, 3) in segment_pixels_exact(q, p)
+    assert (1, 3) not in _half_pixel_samples(q, p)
+    assert not sees(feasible, q, p[None])[0]
+    feasible[1, 3] = True
+    assert sees(feasible, q, p[None])[0]
+
+
+def test_a_line_through_a_pixel_corner_passes_the_pixel_the_corner_rounds_to():
+    # (0, 0)-(2, 2) meets the corners (0.5, 0.5) and (1.5, 1.5): pixels (1, 1), (2, 2)
+    feasible = ~art(
+        """
+        .##
+        #.#
+        ##.
+        """
+    )
+    assert sees(feasible, np.array([0.0, 0.0]), np.array([[2.0, 2.0]])).tolist() == [True]
+    # (0, 2)-(2, 0) meets (0.5, 1.5) and (1.5, 0.5): pixels (1, 2) and (2, 1) as well
+    feasible = art(
+        """
+        ..#
+        .#.
+        #..
+        """
+    )
+    assert segment_pixels_exact((0, 2), (2, 0)) == {(0, 2), (1, 2), (1, 1), (2, 1), (2, 0)}
+    assert sees(feasible, np.array([0.0, 2.0]), np.array([[2.0, 0.0]])).tolist() == [False]
+    feasible[1, 2] = feasible[2, 1] = True
+    assert sees(feasible, np.array([0.0, 2.0]), np.array([[2.0, 0.0]])).tolist() == [True]
+
+
+@settings(max_examples=120, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), quarters=st.booleans())
+def test_in_sight_exactly_when_every_pixel_the_line_passes_through_is_feasible(seed, quarters):
+    rng = np.random.default_rng(seed)
+    feasible = rng.random((9, 11)) < 0.85
+    q, ends = rng.uniform(-1.0, 11.0, 2), rng.uniform(-1.0, 11.0, (8, 2))
+    if quarters:  # ends on pixel borders and corners
+        q, ends = np.round(q * 4) / 4, np.round(ends * 4) / 4
+    ends[:4] = np.round(ends[:4])  # graph pixels
+    seen = sees(feasible, q, ends)
+    for p, ok in zip(ends, seen.tolist(), strict=True):
+        cells = segment_pixels_exact(q, p)
+        want = all(0 <= r < 9 and 0 <= c < 11 and feasible[r, c] for r, c in cells)
+        assert ok == want, (q.tolist(), p.tolist(), sorted(cells))
 
 
 @pytest.mark.parametrize(

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
+from ._sight import sees as _sees
 from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
 from .graph import cumulative_length_m, graph_resolution_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
@@ -370,9 +371,9 @@ class RoutePlanner:
     def _entries(self, q: np.ndarray, frame: str, scale: float) -> list[tuple[int, float]]:
         """``(tree point, distance m)`` of each edge's (or edgeless vertex's) nearest
         corridor point within the entry reach of query ``q`` that the robot reaches along
-        a straight line over feasible pixels (:func:`_sees`).  Candidates are tried nearest
-        first, a batch at a time, skipping edges already joined (bounded memory for any
-        reach)."""
+        a straight line over feasible pixels: every pixel the line passes through
+        (:func:`topojax._sight.sees`).  Candidates are tried nearest first, a batch at a
+        time, skipping edges already joined (bounded memory for any reach)."""
         tree, owners = self._tree(frame)
         cand = np.asarray(tree.query_ball_point(q, self._entry_m / scale), np.int64)
         if cand.size == 0:
@@ -730,22 +731,3 @@ def _step_size(path: np.ndarray, world: np.ndarray) -> float:
     d_px = math.hypot(*(np.asarray(path[1], float) - path[0]))
     d_m = math.hypot(*(world[1] - world[0]))
     return d_m / d_px
-
-
-def _sees(feasible: np.ndarray, q: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Whether each straight line from pixel ``q`` (float (2,), ``(row, col)``) to the
-    pixels ``pts`` (float (K, 2)) stays on set pixels of ``feasible``.
-
-    Each line is sampled at ``n = ceil(2 d) + 2`` points ``q + (j / (n - 1)) (p - q)``,
-    ``d`` its length in pixels, each rounded half up to a pixel: the viewer's router
-    samples the same points."""
-    d0, d1 = pts[:, 0] - q[0], pts[:, 1] - q[1]
-    n = np.ceil(2.0 * np.sqrt(d0 * d0 + d1 * d1)).astype(np.int64) + 2
-    j = np.arange(int(n.max(initial=2)))[:, None]
-    t = np.minimum(j, n - 1) / (n - 1)
-    rr = np.floor(q[0] + t * d0 + 0.5).astype(np.int64)
-    cc = np.floor(q[1] + t * d1 + 0.5).astype(np.int64)
-    h, w = feasible.shape
-    inside = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-    ok = inside & feasible[np.clip(rr, 0, h - 1), np.clip(cc, 0, w - 1)]
-    return ok.all(axis=0)
