@@ -19,6 +19,7 @@ import time
 import cv2
 import numpy as np
 import pytest
+from brute_force import segment_pixels_exact
 from view_cases import crossing_graph, intel_replay, intel_result, office_route_graph
 
 import topojax as tj
@@ -358,6 +359,39 @@ def test_routes_from_where_edges_cross_equal_plan_route(browser, tmp_path):
             a, b = tuple(map(float, a)), tuple(map(float, b))
             got = _js(browser, "topojaxView.route(...arguments)", *a, *b, "graph")
             assert abs(got["length_m"] - planner.route(a, b).length_m) < 1e-9, (a, b)
+
+
+def test_sight_lines_in_the_page_pass_the_planners_pixels(intel):
+    """The page's router and RoutePlanner see along the same lines: random ones on a
+    random grid, from anywhere to pixel centres, borders, corners and off the grid."""
+    from topojax._sight import sees
+
+    rng = np.random.default_rng(11)
+    h, w = 23, 31
+    feasible = rng.random((h, w)) < 0.92
+    # (0, 0.7)-(3, 5) clips pixel (1, 3) at a corner, between samples half a pixel apart
+    for r, c in segment_pixels_exact((0.0, 0.7), (3.0, 5.0)):
+        feasible[r, c] = (r, c) != (1, 3)
+    q = rng.uniform(-2.0, 33.0, (600, 2))
+    p = q + rng.uniform(-6.0, 6.0, (600, 2))
+    p[:400] = np.round(p[:400])  # graph pixels
+    q[200:400] = np.round(q[200:400] * 2) / 2  # queries on pixel borders and corners
+    q[400:], p[400:] = np.round(q[400:] * 4) / 4, np.round(p[400:] * 4) / 4
+    q[0], p[0] = (0.0, 0.7), (3.0, 5.0)
+    want = [bool(sees(feasible, a, b[None])[0]) for a, b in zip(q, p, strict=True)]
+    got = _js(
+        intel,
+        "(function (h, w, bits, lines) {"
+        " var F = {h: h, w: w, bits: Uint8Array.from(bits)};"
+        " return lines.map(function (l) { return TJ.sees(F, l[0], l[1], l[2], l[3]); });"
+        "})(...arguments)",
+        h,
+        w,
+        np.packbits(feasible.ravel()).tolist(),
+        np.concatenate([q, p], axis=1).tolist(),
+    )
+    assert not want[0] and 100 < sum(want) < len(want) - 100
+    assert got == want
 
 
 def test_pan_zoom_and_scale_bar(intel):

@@ -95,19 +95,30 @@ var TJ = (window.TJ = window.TJ || {});
     this.entry = G.entry;
   };
 
-  /* Whether the straight line from pixel (q0, q1) to pixel (c0, c1) stays on feasible
-   * pixels: n = ceil(2 d) + 2 samples, rounded half up, as RoutePlanner's _sees. */
+  /* Whether the straight line from pixel (q0, q1) to pixel (c0, c1) passes through
+   * feasible pixels only: every pixel one of its points rounds to (halves up), walked row
+   * by row with the arithmetic of RoutePlanner's (topojax/_sight.py), so both find the
+   * same pixels. */
   function sees(F, q0, q1, c0, c1) {
-    var d0 = c0 - q0, d1 = c1 - q1, n = Math.ceil(2 * Math.sqrt(d0 * d0 + d1 * d1)) + 2;
-    for (var j = 0; j < n; j++) {
-      var t = j / (n - 1);
-      var r = Math.floor(q0 + t * (c0 - q0) + 0.5), c = Math.floor(q1 + t * (c1 - q1) + 0.5);
-      if (r < 0 || r >= F.h || c < 0 || c >= F.w) return false;
-      var i = r * F.w + c;
-      if (((F.bits[i >> 3] >> (7 - (i & 7))) & 1) === 0) return false;
+    var a0 = q0 + 0.5, a1 = q1 + 0.5, b0 = c0 + 0.5, b1 = c1 + 0.5, t;
+    if (b0 < a0) { t = a0; a0 = b0; b0 = t; t = a1; a1 = b1; b1 = t; }
+    var d0 = b0 - a0 > 0 ? b0 - a0 : 1, d1 = b1 - a1;
+    var rLo = Math.floor(a0), n = Math.floor(b0) - rLo, x = a1;
+    for (var j = 0; j <= n; j++) {
+      // row rLo + j runs from column x to column y, the point at y in the next row
+      var y = j === n ? b1 : a1 + ((rLo + j + 1 - a0) * d1) / d0, r = rLo + j;
+      var f = Math.floor(x), g = Math.floor(y);
+      var lo = Math.min(f, g), hi = Math.max(f, d1 >= 0 && j < n ? Math.ceil(y) - 1 : g);
+      if (r < 0 || r >= F.h || lo < 0 || hi >= F.w) return false;
+      for (var c = lo; c <= hi; c++) {
+        var i = r * F.w + c;
+        if (((F.bits[i >> 3] >> (7 - (i & 7))) & 1) === 0) return false;
+      }
+      x = y;
     }
     return true;
   }
+  TJ.sees = sees;
 
   /* Where a route from (x, y) may join the graph, {dist, at: [{edge, index, vertex, dist},
    * ...]}: the nearest corridor points (one, or one per edge through it where edges cross;
