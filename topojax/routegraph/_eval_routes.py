@@ -13,8 +13,9 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from .._cpus import usable_cpus
+from .._sight import sees
 from ..graph.geodesic import geodesic_from
-from ._eval_geometry import GraphGeometry, pixel_lookup
+from ._eval_geometry import GraphGeometry
 
 __all__ = [
     "PairSet",
@@ -216,12 +217,11 @@ def _adjacency(n_nodes: int, a: np.ndarray, b: np.ndarray, w: np.ndarray):
     return m.tocsr()
 
 
-def _clear_segments(q: np.ndarray, cand: np.ndarray, feasible: np.ndarray, n_t: int) -> np.ndarray:
-    """For each candidate point, whether the straight segment from ``q`` to it crosses only
-    feasible pixels (pixels under ``n_t`` evenly spaced points, both ends included)."""
-    t = np.linspace(0.0, 1.0, n_t)
-    pts = q[None, None, :] + t[None, :, None] * (cand - q)[:, None, :]
-    return pixel_lookup(feasible, pts).all(axis=1)
+def _clear_segments(q: np.ndarray, cand: np.ndarray, feasible: np.ndarray) -> np.ndarray:
+    """For each candidate point, whether the straight segment from ``q`` to it passes
+    through feasible pixels only: every pixel it passes through, the rule of
+    :class:`topojax.RoutePlanner`'s entry legs (:func:`topojax._sight.sees`)."""
+    return sees(feasible, q, cand)
 
 
 def _in_reach(net: RouteNetwork, q_all: np.ndarray, snap_px: float):
@@ -240,13 +240,12 @@ def snap(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np.nd
     dist = np.full(queries.shape[0], np.inf)
     if net.tree is None or queries.shape[0] == 0:
         return idx, dist
-    n_t = int(np.ceil(2.0 * snap_px)) + 2
     q_all = queries.astype(np.float64)
     for i, cands, d in _in_reach(net, q_all, snap_px):
         order = np.lexsort((cands, d))
         for b in range(0, order.size, _SNAP_BATCH):
             sel = order[b : b + _SNAP_BATCH]
-            ok = _clear_segments(q_all[i], net.pt_rc[cands[sel]], feasible, n_t)
+            ok = _clear_segments(q_all[i], net.pt_rc[cands[sel]], feasible)
             if ok.any():
                 j = sel[int(np.argmax(ok))]
                 idx[i], dist[i] = cands[j], d[j]
@@ -262,10 +261,9 @@ def entries(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np
     q_of, pts, dists = [], [], []
     if net.tree is None or queries.shape[0] == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    n_t = int(np.ceil(2.0 * snap_px)) + 2
     q_all = queries.astype(np.float64)
     for i, cands, d in _in_reach(net, q_all, snap_px):
-        ok = _clear_segments(q_all[i], net.pt_rc[cands], feasible, n_t)
+        ok = _clear_segments(q_all[i], net.pt_rc[cands], feasible)
         cands, d = cands[ok], d[ok]
         run = net.pt_run[cands]
         order = np.lexsort((cands, d, run))
