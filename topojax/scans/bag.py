@@ -12,6 +12,7 @@ import numpy as np
 
 from .._validate import one_of, real_number
 from .._validate import pose as checked_pose
+from ._mcap import _MCAP_MAGIC, _McapSequential
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
 from ._tf import _IDENTITY_TF, _Tf, _tf_from_msg, _TfSeries, _TfTree
 from .scan import PoseLike, Scan
@@ -58,13 +59,14 @@ class _AnyReaderSource:
                 yield conn.topic, conn.msgtype, t_ns, reader.deserialize(raw, conn.msgtype)
 
 
-def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential:
+def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequential:
     if not path.exists():
         raise FileNotFoundError(f"path: bag not found: {path}")
-    ros1 = False
+    magic = b""
     if path.is_file():
         with open(path, "rb") as fh:
-            ros1 = fh.read(len(_ROS1_MAGIC)) == _ROS1_MAGIC
+            magic = fh.read(len(_ROS1_MAGIC))
+    ros1 = magic == _ROS1_MAGIC
     if ros1 and path.suffix != ".bag":
         return _Ros1Sequential(path)
     target = path
@@ -80,7 +82,32 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential:
                 raise ValueError(
                     f"path: cannot read ROS 1 bag {path}: rosbags: {err!r}; fallback: {err2}"
                 ) from None
+        mcap = _lone_mcap(path) if path.is_dir() else path
+        if magic.startswith(_MCAP_MAGIC[:5]) or (mcap is not None and mcap.suffix == ".mcap"):
+            return _mcap_fallback(mcap, err)
         raise ValueError(f"path: cannot read bag {target} with rosbags: {err!r}") from None
+
+
+def _lone_mcap(folder: Path) -> Path | None:
+    """The only ``.mcap`` file of a bag folder (one cut off while recording has no
+    ``metadata.yaml``), else None."""
+    files = sorted(folder.glob("*.mcap"))
+    return files[0] if len(files) == 1 else None
+
+
+def _mcap_fallback(path: Path, err: Exception) -> _McapSequential:
+    """Read an MCAP file that ``rosbags`` refused (``err``) record by record: one cut off
+    while recording (no summary, no end magic) is read up to the cut, with a warning."""
+    with open(path, "rb") as fh:
+        if fh.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
+            raise ValueError(
+                f"path: {path} is not an MCAP file: it does not begin with the MCAP magic "
+                f"{_MCAP_MAGIC!r} (rosbags: {err})"
+            ) from None
+    try:
+        return _McapSequential(path)
+    except ValueError as err2:
+        raise ValueError(f"path: cannot read MCAP file {path}: {err2} (rosbags: {err})") from None
 
 
 def _pose_from_msg(typ: str, msg: Any) -> tuple[str, str | None, int, _Tf]:
@@ -113,7 +140,10 @@ def read_bag(
     ``.bag`` file, or a ROS 2 bag folder (or a ``.db3`` / ``.mcap`` file inside one). ROS 1
     bags that ``rosbags`` refuses because of inconsistent index records are read by a small
     sequential reader instead (message definitions come from the bag itself); so is one
-    cut off while recording (no index), up to the cut, with a warning.
+    cut off while recording (no index), up to the cut, with a warning.  Likewise an MCAP
+    file cut off while recording (no summary or end magic; the robot powered down) is
+    read record by record up to its last whole message (of a chunk cut short, the
+    messages before the cut), with a warning giving the count.
 
     Poses are planar: for each transform only ``x``, ``y`` and the heading of the rotated
     ``x`` axis are used; a frame whose ``z`` axis points down (an upside-down laser) mirrors

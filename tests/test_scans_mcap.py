@@ -1,0 +1,142 @@
+"""ROS 2 MCAP files cut off while recording (the robot powered down): read up to the
+cut with a warning, as a cut-off ROS 1 bag is; files that are not MCAP, or hold no whole
+message, are refused naming the file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import topojax as tj
+from topojax.scans import read_bag
+
+pytest.importorskip("rosbags")
+
+DATA = Path(__file__).parent / "data"
+INTEL_EXCERPT = DATA / "intel_first40.log.gz"
+
+
+def same_scans(a, b) -> bool:
+    return (
+        np.array_equal(a.ranges, b.ranges)
+        and a.pose == b.pose
+        and a.sensor_offset == b.sensor_offset
+        and a.timestamp == b.timestamp
+    )
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    """A recording of the 40 intel scans as topojax writes one (rosbags' writer, one
+    zstd chunk, then the summary) and the scans read from it whole."""
+    from topojax.io.mcap import McapRecorder
+
+    path = tmp_path_factory.mktemp("rec") / "run.mcap"
+    with McapRecorder(path) as rec:
+        for scan in tj.read_scans(INTEL_EXCERPT):
+            rec.add_scan(scan)
+    return path, list(read_bag(path))
+
+
+def write_chunked(path: Path, compression: str, chunk_size: int = 3000) -> Path:
+    """The 40 intel scans (``/scan`` and ``/tf``) in an MCAP file of small chunks with
+    ``compression`` ("", "lz4" or "zstd"), written with the ``mcap`` package."""
+    mcap_writer = pytest.importorskip("mcap.writer")
+    from topojax.io.mcap import TOPICS, _typestore, scan_message, tf_message
+
+    store = _typestore()
+    kinds = {"": "NONE", "lz4": "LZ4", "zstd": "ZSTD"}
+    with open(path, "wb") as fh:
+        writer = mcap_writer.Writer(
+            fh,
+            chunk_size=chunk_size,
+            compression=getattr(mcap_writer.CompressionType, kinds[compression]),
+        )
+        writer.start(profile="ros2", library="test")
+        channels = {}
+        for topic in ("/scan", "/tf"):
+            text = store.generate_msgdef(TOPICS[topic], ros_version=2)[0]
+            sid = writer.register_schema(TOPICS[topic], "ros2msg", text.encode())
+            channels[topic] = writer.register_channel(topic, "cdr", sid)
+        for i, scan in enumerate(tj.read_scans(INTEL_EXCERPT)):
+            ns = (i + 1) * 100_000_000
+            for topic, msg in (("/tf", tf_message(scan, ns)), ("/scan", scan_message(scan, ns))):
+                data = store.serialize_cdr(msg, TOPICS[topic])
+                writer.add_message(channels[topic], log_time=ns, data=data, publish_time=ns)
+        writer.finish()
+    return path
+
+
+def test_a_recording_cut_after_its_chunk_reads_every_scan(recording, tmp_path):
+    """Cut in the message indexes, the summary or the footer: rosbags refused it ("File
+    end magic is invalid"); every scan is there, with a warning naming the file and the
+    count of messages read."""
+    path, whole = recording
+    data = path.read_bytes()
+    end_of_chunk = 43 + 9 + int.from_bytes(data[44:52], "little")  # header, then the chunk
+    cut = tmp_path / "cut.mcap"
+    for size in (end_of_chunk, end_of_chunk + 100, len(data) - 200, len(data) - 30):
+        cut.write_bytes(data[:size])
+        match = r"cut\.mcap: the MCAP file is cut off at byte \d+ .* read 80 messages up to"
+        with pytest.warns(RuntimeWarning, match=match):
+            scans = list(read_bag(cut))
+        assert len(scans) == len(whole) == 40
+        assert all(same_scans(a, b) for a, b in zip(scans, whole, strict=True))
+
+
+@pytest.mark.parametrize("compression", ["", "lz4", "zstd"])
+def test_a_chunked_recording_cut_anywhere_reads_the_scans_before_the_cut(tmp_path, compression):
+    path = write_chunked(tmp_path / "whole.mcap", compression)
+    whole = list(read_bag(path))
+    assert len(whole) == 40
+    data = path.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    counts = []
+    for size in np.linspace(len(data) // 8, len(data) - 40, 9).astype(int):
+        cut.write_bytes(data[:size])
+        with pytest.warns(RuntimeWarning, match=r"cut\.mcap: .* read \d+ messages up to"):
+            scans = list(read_bag(cut))
+        assert all(same_scans(a, b) for a, b in zip(scans, whole, strict=False))
+        counts.append(len(scans))
+    assert counts == sorted(counts) and 0 < counts[0] and counts[len(counts) // 2] < 40
+    assert counts[-1] == 40
+
+
+def test_a_cut_inside_a_chunk_keeps_the_messages_before_it(tmp_path):
+    """Uncompressed or block by block, the part of a chunk before the cut is read."""
+    path = write_chunked(tmp_path / "whole.mcap", "", chunk_size=1 << 20)  # one chunk
+    whole = list(read_bag(path))
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    with pytest.warns(RuntimeWarning, match="cut off"):
+        scans = list(read_bag(cut))
+    assert 5 < len(scans) < 40
+    assert all(same_scans(a, b) for a, b in zip(scans, whole, strict=False))
+
+
+def test_an_mcap_cut_before_its_first_message_is_refused(recording, tmp_path):
+    path, _ = recording
+    cut = tmp_path / "early.mcap"
+    for size in (10, 60, 2000):
+        cut.write_bytes(path.read_bytes()[:size])
+        with pytest.raises(ValueError, match=r"early\.mcap: the MCAP file holds no whole message"):
+            read_bag(cut)
+
+
+def test_a_file_that_is_not_mcap_is_refused_naming_it(tmp_path):
+    fake = tmp_path / "fake.mcap"
+    fake.write_bytes(b"this is not a recording\n" * 10)
+    with pytest.raises(ValueError, match=r"fake\.mcap is not an MCAP file"):
+        read_bag(fake)
+
+
+def test_read_scans_reads_a_cut_recording(recording, tmp_path):
+    """The suffix-free path through read_scans: the MCAP magic picks the bag reader."""
+    path, whole = recording
+    cut = tmp_path / "cut_recording"
+    cut.write_bytes(path.read_bytes()[:-30])
+    with pytest.warns(RuntimeWarning, match="cut off"):
+        scans = list(tj.read_scans(cut))
+    assert len(scans) == len(whole)
