@@ -140,3 +140,25 @@ def test_read_scans_reads_a_cut_recording(recording, tmp_path):
     with pytest.warns(RuntimeWarning, match="cut off"):
         scans = list(tj.read_scans(cut))
     assert len(scans) == len(whole)
+
+
+@pytest.mark.parametrize("compression", ["", "lz4", "zstd"])
+def test_the_record_reader_gives_the_messages_rosbags_gives(tmp_path, compression, recording):
+    """On whole files (which rosbags reads), the reader of cut-off files yields the same
+    messages in the same order, decoded alike."""
+    from topojax.scans._mcap import _McapSequential
+    from topojax.scans.bag import _AnyReaderSource
+
+    for path in (write_chunked(tmp_path / "whole.mcap", compression), recording[0]):
+        ours = list(_McapSequential(path).messages(["/scan", "/tf"]))
+        theirs = list(_AnyReaderSource(path).messages(["/scan", "/tf"]))
+        assert [m[:3] for m in ours] == [m[:3] for m in theirs] and len(ours) == 80
+        for (topic, *_, a), (*_, b) in zip(ours, theirs, strict=True):
+            if topic == "/scan":
+                np.testing.assert_array_equal(a.ranges, b.ranges)
+            else:  # classes of two typestores: compare the fields
+                for ta, tb in zip(a.transforms, b.transforms, strict=True):
+                    ra, rb = ta.transform.rotation, tb.transform.rotation
+                    assert ta.child_frame_id == tb.child_frame_id
+                    assert (ra.x, ra.y, ra.z, ra.w) == (rb.x, rb.y, rb.z, rb.w)
+                    assert ta.transform.translation.x == tb.transform.translation.x
