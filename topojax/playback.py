@@ -5,13 +5,20 @@ from __future__ import annotations
 import contextlib
 import json
 import time
-import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from ._replay_state import (
+    STATE_FILE,
+    ReplayProgress,
+    keep_state,
+    replay_record,
+    resumed_mapper,
+    save_replay_state,
+)
 from ._validate import (
     flag,
     instance_or_default,
@@ -32,8 +39,6 @@ from .incremental import (
     timing_summary,
 )
 
-#: Where a replay that stops part way keeps the mapper's state, in its output folder.
-STATE_FILE = "mapper_state.npz"
 #: Suffixes dropped from a log's file name for the pictures' titles.
 _LOG_SUFFIXES = (".gz", ".bz2", ".log", ".bag", ".db3", ".mcap", ".txt", ".dat", ".clf")
 
@@ -134,6 +139,7 @@ def replay(
     rooms: bool = False,
     view: bool = False,
     mcap=None,
+    resume: bool = False,
     **mapper_kw,
 ) -> dict:
     """Replay a scan log through an :class:`IncrementalMapper` and write the results.
@@ -179,6 +185,14 @@ def replay(
     view : bool
         Also write ``view.html`` (:func:`topojax.write_view`), the final map and graph
         with a timeline of every graph update, and ``timeline.json.gz``.
+    resume : bool
+        Continue the replay of ``source`` into ``out_dir`` that stopped part way (an
+        error or an interrupt) from the state it saved, ``out_dir/mapper_state.npz``:
+        the scans it took from the log are skipped, and the map and graph written are
+        those of a replay that did not stop.  Refused (ValueError, FileNotFoundError)
+        without a saved state, or when it was saved replaying another log or with other
+        ``reader_kwargs`` or mapper settings.  The animation, view timeline and MCAP
+        recording hold only the scans replayed now.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ``room_config``, ...).
@@ -192,7 +206,8 @@ def replay(
         ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
         to export, an unreadable scan part way through the log, or an interrupt leaves
         the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
-        raises.
+        raises; ``resume`` continues from it.  ``n_scans`` and ``skipped_scans`` count
+        from the log's start, ``resumed_after`` the scans taken before this call.
         The files that the last replay into ``out_dir`` wrote and this one does not
         (:func:`optional_outputs`: route graph, rooms, pictures, view) are removed.
     """
@@ -203,10 +218,13 @@ def replay(
     )
     _refuse_overwriting_source(source, Path(out_dir), animate, mcap)
     _check_flags_and_reader(
-        dict(plot=plot, progress=progress, rooms=rooms, view=view), reader_kwargs
+        dict(plot=plot, progress=progress, rooms=rooms, view=view, resume=resume),
+        reader_kwargs,
     )
     out = Path(out_dir)
-    scans, mapper, timeline = _start(source, out, reader_kwargs, rooms, view, mapper_kw)
+    scans, mapper, timeline, progress_at = _start(
+        source, out, reader_kwargs, rooms, view, mapper_kw, resume=resume, max_scans=max_scans
+    )
     if route_graph_radius_m is not None:  # now, not after the whole replay
         from .routegraph.build import RouteGraphConfig, check_scale
 
@@ -226,6 +244,8 @@ def replay(
             rooms=rooms,
             route_graph_radius_m=route_graph_radius_m,
             out=out,
+            progress_at=progress_at,
+            reader_kwargs=reader_kwargs,
         )
     written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
     messages += _route_note(done, route_graph_radius_m)
@@ -235,7 +255,7 @@ def replay(
         written.append(recorder.path)
     written.append(out / "timings.json")
     messages += _remove_stale(out, written)
-    summary = _summary(source, mapper, done)
+    summary = _summary(source, mapper, done, progress_at)
     summary["written"] = [str(p) for p in written]
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     summary["messages"] = messages + [f"skipped {m}" for m in done.skipped]
@@ -260,24 +280,36 @@ class _Replayed(NamedTuple):
     routes: object
 
 
-def _start(source, out: Path, reader_kwargs, rooms: bool, view: bool, mapper_kw: dict):
+def _start(
+    source, out: Path, reader_kwargs, rooms: bool, view: bool, mapper_kw: dict, *, resume, max_scans
+):
     """Open the log, make the mapper (with ``rooms``, rooms at every graph update unless
-    ``rooms_every`` is given), create the output folder and, with ``view``, a timeline;
-    returns the scans, the mapper and the timeline (or None)."""
+    ``rooms_every`` is given; with ``resume``, the one saved in ``out``, checked against
+    these settings), create the output folder and, with ``view``, a timeline; returns
+    the scans (with ``resume``, from the first one not yet taken), the mapper, the
+    timeline (or None) and the replay's progress so far."""
+    import itertools
+
     from ._fs import output_folder
     from .scans import read_scans
 
-    scans = read_scans(source, **(reader_kwargs or {}))
     if rooms and mapper_kw.get("rooms_every") is None:
         mapper_kw["rooms_every"] = mapper_kw.get("graph_every", 80) or 0
     mapper = IncrementalMapper(**mapper_kw)
+    progress_at = ReplayProgress()
+    if resume:
+        mapper, record = resumed_mapper(out, source, reader_kwargs, settings_of(mapper), max_scans)
+        progress_at = ReplayProgress(record["consumed"], record["skipped"])
+    scans = read_scans(source, **(reader_kwargs or {}))
+    if progress_at.consumed:
+        scans = itertools.islice(scans, progress_at.consumed, None)
     output_folder(out)
     timeline = None
     if view:
         from .view import Timeline
 
         timeline = Timeline()
-    return scans, mapper, timeline
+    return scans, mapper, timeline, progress_at
 
 
 def _map_scans(
@@ -294,33 +326,41 @@ def _map_scans(
     rooms,
     route_graph_radius_m,
     out: Path,
+    progress_at: ReplayProgress,
+    reader_kwargs,
 ) -> _Replayed:
     """Feed the scans to the mapper (:func:`_run`), check that they mapped something,
     run the final update (:func:`_final`; a map too large to write leaves the mapper's
     state in ``out``), make the final route graph (with a radius)
     and close the recording (if any) with the written map, graph, rooms and route
-    graph."""
+    graph.  ``progress_at`` (where the replay starts in the log) follows the scans
+    taken, for the state saved on a failure."""
     record = None if recorder is None else _Recording(recorder, route_graph_radius_m)
+
+    def state_record():
+        return replay_record(source, reader_kwargs, progress_at, mapper)
+
     try:  # a map grown too large to export (the recording's, the final) is kept
-        reports, frames, wall, skipped = _run(
-            mapper, scans, max_scans, animate, progress, record, timeline
+        reports, frames, wall = _run(
+            mapper, scans, max_scans, animate, progress, record, timeline, progress_at
         )
-        if not reports and skipped:
+        skipped = progress_at.skipped  # from the log's start
+        if not mapper.n_scans and skipped:
             raise ValueError(
                 f"source {source}: all {len(skipped)} scans were refused; the first: {skipped[0]}"
             )
-        if not reports:
+        if not mapper.n_scans:
             raise ValueError(f"source {source}: no scans to replay")
         if mapper.pixel_bbox is None:
-            raise ValueError(f"source {source}: no valid laser readings in {len(reports)} scans")
+            raise ValueError(f"source {source}: no valid laser readings in {mapper.n_scans} scans")
         update, final_s, result, seg = _final(mapper, graph_config, rooms)
         routes = None
         if route_graph_radius_m is not None:
             routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
     except ExportBudgetError as exc:
-        raise _unwritable(mapper, exc, out) from None
+        raise _unwritable(mapper, exc, out, state_record()) from None
     except (Exception, KeyboardInterrupt):  # a bad line mid-log, Ctrl-C: keep the scans
-        _keep_state(mapper, out)
+        keep_state(mapper, out, state_record)
         raise
     if recorder is not None:
         recorder.add_map(result.map, result.graph)
@@ -380,7 +420,7 @@ def _write_pictures_and_animation(
     return written
 
 
-def _summary(source, mapper: IncrementalMapper, done: _Replayed) -> dict:
+def _summary(source, mapper: IncrementalMapper, done: _Replayed, progress_at) -> dict:
     """The replay's record (``timings.json``, to which :func:`replay` adds ``written``)."""
     from .graph import graph_summary
 
@@ -388,7 +428,7 @@ def _summary(source, mapper: IncrementalMapper, done: _Replayed) -> dict:
     return {
         "rooms": None if done.seg is None else done.seg.n_rooms,
         "source": str(source),
-        "n_scans": len(done.reports),
+        "n_scans": mapper.n_scans,
         "skipped_scans": done.skipped,
         "n_tiles": mapper.n_tiles,
         "map_shape": list(done.result.map.shape),
@@ -399,6 +439,7 @@ def _summary(source, mapper: IncrementalMapper, done: _Replayed) -> dict:
         "final_update": asdict(done.update),
         "timings": timing_summary(done.reports),
         "settings": settings_of(mapper),
+        "resumed_after": progress_at.resumed_after,
     }
 
 
@@ -422,34 +463,12 @@ def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
     return update, final_s, result, seg
 
 
-def _keep_state(mapper: IncrementalMapper, out: Path) -> None:
-    """After a failure part way through a log, save the mapper's state to ``out`` (if it
-    mapped a scan) and say so in a RuntimeWarning; a failing save does not hide the
-    failure."""
-    if mapper.n_scans == 0 or mapper.pixel_bbox is None:
-        return
-    try:
-        path = mapper.save(out / STATE_FILE)
-    except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
-        warnings.warn(
-            f"replay stopped after {mapper.n_scans} scans; saving the mapper's state "
-            f"failed too ({exc})",
-            RuntimeWarning,
-            stacklevel=3,
-        )
-        return
-    warnings.warn(
-        f"replay stopped after {mapper.n_scans} scans; the mapper's state is saved to "
-        f"{path} (IncrementalMapper.load continues from it)",
-        RuntimeWarning,
-        stacklevel=3,
-    )
-
-
-def _unwritable(mapper: IncrementalMapper, exc: ExportBudgetError, out: Path) -> ValueError:
-    """Save the mapper's state to ``out`` (nothing mapped is lost) and return the error
-    for a map too large to write whole."""
-    path = mapper.save(out / STATE_FILE)
+def _unwritable(
+    mapper: IncrementalMapper, exc: ExportBudgetError, out: Path, record: dict
+) -> ValueError:
+    """Save the mapper's state with the replay ``record`` to ``out`` (nothing mapped is
+    lost) and return the error for a map too large to write whole."""
+    path = save_replay_state(mapper, out / STATE_FILE, record)
     return ValueError(
         f"{exc}. The map of the {mapper.n_scans} scans mapped is too large to export "
         f"whole; the mapper's state is saved to {path} (IncrementalMapper.load; export "
@@ -557,26 +576,41 @@ def _recorder(mcap):
     return McapRecorder(mcap)
 
 
-def _run(mapper, scans, max_scans, animate: bool, progress: bool, record=None, timeline=None):
-    """Feed ``scans`` (at most ``max_scans``) to ``mapper``; returns the reports, the
-    animation frames (one per graph update when ``animate``) and the wall time (s).
-    ``record`` (a :class:`_Recording`) writes every scan and what its report updated."""
+def _run(
+    mapper,
+    scans,
+    max_scans,
+    animate: bool,
+    progress: bool,
+    record=None,
+    timeline=None,
+    progress_at: ReplayProgress | None = None,
+):
+    """Feed ``scans`` to ``mapper`` until the log's scan ``max_scans``; returns the
+    reports, the animation frames (one per graph update when ``animate``) and the wall
+    time (s).  ``record`` (a :class:`_Recording`) writes every scan and what its report
+    updated.  ``progress_at`` gives where ``scans`` start in the log, and follows each
+    scan taken (mapped, or skipped with its refusal)."""
     from tqdm import tqdm
 
+    at = ReplayProgress() if progress_at is None else progress_at
     reports: list[ScanReport] = []
     frames: list[dict] = []
-    bar = tqdm(total=max_scans, unit="scan", disable=not progress, desc="replay")
+    bar = tqdm(
+        total=max_scans, initial=at.consumed, unit="scan", disable=not progress, desc="replay"
+    )
     t0 = time.perf_counter()
-    skipped: list[str] = []
-    for i, scan in enumerate(scans):
+    for i, scan in enumerate(scans, start=at.consumed):
         if max_scans is not None and i >= max_scans:
             break
         try:
             rep = mapper.add_scan(scan)
         except ExtentError as exc:  # a localisation glitch: skip the scan, keep going
-            skipped.append(str(exc))
+            at.skipped.append(str(exc))
+            at.consumed = i + 1
             bar.update(1)
             continue
+        at.consumed = i + 1
         reports.append(rep)
         if timeline is not None:
             timeline.record(mapper, rep, scan)
@@ -586,7 +620,7 @@ def _run(mapper, scans, max_scans, animate: bool, progress: bool, record=None, t
             frames.append(_frame(mapper))
         bar.update(1)
     bar.close()
-    return reports, frames, time.perf_counter() - t0, skipped
+    return reports, frames, time.perf_counter() - t0
 
 
 @dataclass(frozen=True)

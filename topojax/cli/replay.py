@@ -85,6 +85,7 @@ def _cmd_replay(args) -> int:
         rooms=args.rooms,
         mcap=args.mcap,
         view=args.view,
+        resume=args.resume,
         **kw,
     )
     record_outputs(planned(summary["written"], args.source), command="replay")
@@ -149,6 +150,13 @@ def add_command(subparsers) -> None:
         "would grow it further (a pose far off) is skipped with a message",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue a replay of this log into --out that stopped part way (an error or "
+        "Ctrl-C) from the mapper_state.npz it saved there, skipping the scans it took; the "
+        "same mapper and reader options are needed (refused otherwise)",
+    )
     p.add_argument(
         "--max-range",
         type=float,

@@ -25,8 +25,10 @@ STATE_FORMAT = "topojax.IncrementalMapper"
 STATE_VERSION = 2
 
 
-def save_state(mapper, path) -> Path:
-    """The body of :meth:`IncrementalMapper.save`."""
+def save_state(mapper, path, *, replay: dict | None = None) -> Path:
+    """The body of :meth:`IncrementalMapper.save`; with ``replay`` (a JSON-ready dict),
+    also the record of the replay that stopped part way (:mod:`topojax._replay_state`),
+    which :meth:`IncrementalMapper.load` ignores."""
     from .._fs import atomic_write_bytes
 
     p = Path(path)
@@ -36,6 +38,8 @@ def save_state(mapper, path) -> Path:
         "version": np.asarray(STATE_VERSION, np.int64),
         "settings": np.asarray(json.dumps(settings_of(mapper))),
     }
+    if replay is not None:
+        arrays["replay"] = np.asarray(json.dumps(replay))
     for key, value in mapper._tiles.state().items():
         arrays[f"tiles/{key}"] = value
     pend = np.concatenate(mapper._pending) if mapper._pending else np.zeros((0, 2), np.int64)

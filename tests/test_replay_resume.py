@@ -1,0 +1,171 @@
+"""Resuming a replay that stopped part way (``replay(..., resume=True)``, ``topojax
+replay --resume``) from the state it saved: the scans already taken are skipped and the
+written map and graph are those of a replay that did not stop."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import topojax as tj
+import topojax.scans
+from topojax.cli import main
+from topojax.incremental import IncrementalMapper
+from topojax.playback import STATE_FILE, replay
+
+INTEL_EXCERPT = Path(__file__).parent / "data" / "intel_first40.log.gz"
+SETTINGS = {"graph_every": 7, "skeleton_every": 3}
+
+
+def interrupted_reader(monkeypatch, after: int, error=KeyboardInterrupt):
+    """Make replay's reader raise ``error`` after ``after`` scans, once (as Ctrl-C or a
+    log unreadable part way would)."""
+    real = topojax.scans.read_scans
+    calls = []
+
+    def reader(source, **kw):
+        calls.append(source)
+        scans = real(source, **kw)
+        if len(calls) > 1:
+            return scans
+
+        def stopping():
+            for i, scan in enumerate(scans):
+                if i == after:
+                    raise error()
+                yield scan
+
+        return stopping()
+
+    monkeypatch.setattr(topojax.scans, "read_scans", reader)
+
+
+def assert_same_outputs(a: Path, b: Path) -> None:
+    """The graph files and the map of two replays hold the same bytes."""
+    assert tj.load_graph(a / "graph.json").number_of_edges() > 10
+    for name in ("graph.json", "graph.graphml", "graph.geojson", "map.pgm", "map.yaml"):
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+
+
+@pytest.fixture(scope="module")
+def full_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("full")
+    return out, replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
+
+
+@pytest.mark.parametrize("after", [1, 13, 39])
+def test_a_resumed_replay_writes_what_an_uninterrupted_one_does(
+    tmp_path, monkeypatch, full_run, after
+):
+    full_out, full = full_run
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, after)
+    with (
+        pytest.warns(RuntimeWarning, match=rf"stopped after {after} scans; .*resume"),
+        pytest.raises(KeyboardInterrupt),
+    ):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
+    assert IncrementalMapper.load(out / STATE_FILE).n_scans == after  # old loader reads it
+    summary = replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
+    assert_same_outputs(full_out, out)
+    assert summary["n_scans"] == full["n_scans"] == 40
+    assert summary["resumed_after"] == after and full["resumed_after"] == 0
+    assert (summary["vertices"], summary["edges"]) == (full["vertices"], full["edges"])
+
+
+def test_a_resumed_replay_that_stops_again_resumes_again(tmp_path, monkeypatch, full_run):
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 10, error=RuntimeError)
+    with pytest.warns(RuntimeWarning, match="stopped after 10 scans"), pytest.raises(RuntimeError):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
+    monkeypatch.undo()
+    interrupted_reader(monkeypatch, 25)  # the log's scan 25: 15 after the first 10
+    with pytest.warns(RuntimeWarning, match="stopped after 25 scans"):
+        with pytest.raises(KeyboardInterrupt):
+            replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
+    monkeypatch.undo()
+    summary = replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
+    assert summary["resumed_after"] == 25 and summary["n_scans"] == 40
+    assert_same_outputs(full_run[0], out)
+
+
+def test_resume_keeps_max_scans_counted_from_the_log_start(tmp_path, monkeypatch):
+    whole = tmp_path / "whole"
+    replay(INTEL_EXCERPT, out_dir=whole, progress=False, max_scans=30, **SETTINGS)
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 12)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=30, **SETTINGS)
+    summary = replay(
+        INTEL_EXCERPT, out_dir=out, progress=False, max_scans=30, resume=True, **SETTINGS
+    )
+    assert summary["n_scans"] == 30
+    assert_same_outputs(whole, out)
+    with pytest.raises(ValueError, match=r"already taken 12 scans .* max_scans=5"):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=5, resume=True, **SETTINGS)
+
+
+@pytest.fixture
+def stopped(tmp_path, monkeypatch):
+    """An output folder with the state of a replay stopped after 12 scans."""
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 12)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
+    monkeypatch.undo()
+    return out
+
+
+def test_resume_without_a_saved_state_is_refused(tmp_path):
+    with pytest.raises(FileNotFoundError, match=rf"resume: no saved state .*{STATE_FILE}"):
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "new", progress=False, resume=True)
+
+
+def test_resume_with_other_settings_is_refused(stopped):
+    with pytest.raises(ValueError, match=r"other settings \(graph_every: saved 7, now 8\)"):
+        replay(
+            INTEL_EXCERPT,
+            out_dir=stopped,
+            progress=False,
+            resume=True,
+            graph_every=8,
+            skeleton_every=3,
+        )
+    with pytest.raises(ValueError, match=r"other reader options \(max_range_m: saved None"):
+        replay(
+            INTEL_EXCERPT,
+            out_dir=stopped,
+            progress=False,
+            resume=True,
+            reader_kwargs={"max_range_m": 40.0},
+            **SETTINGS,
+        )
+
+
+def test_resume_from_another_log_is_refused(stopped, tmp_path):
+    other = tmp_path / "other.log.gz"
+    data = bytearray(INTEL_EXCERPT.read_bytes())
+    other.write_bytes(bytes(data[:-100]))  # the same log cut short is another log
+    with pytest.raises(ValueError, match=r"saved replaying .*intel_first40.*different log"):
+        replay(other, out_dir=stopped, progress=False, resume=True, **SETTINGS)
+
+
+def test_resume_from_a_state_that_records_no_replay_is_refused(stopped):
+    """A state saved by IncrementalMapper.save (or before replays recorded their
+    progress) loads as before but cannot be resumed: how far it got is unknown."""
+    mapper = IncrementalMapper.load(stopped / STATE_FILE)
+    mapper.save(stopped / STATE_FILE)
+    with pytest.raises(ValueError, match="does not record which log it mapped nor how far"):
+        replay(INTEL_EXCERPT, out_dir=stopped, progress=False, resume=True, **SETTINGS)
+
+
+def test_replay_cli_resume(stopped, tmp_path, full_run, capsys):
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(stopped), "--no-progress"]
+    args += ["--graph-every", "7", "--skeleton-every", "3", "--resume"]
+    assert main(args) == 0
+    assert "replayed   40 scans" in capsys.readouterr().out
+    assert_same_outputs(full_run[0], stopped)
+    assert main(["replay", str(INTEL_EXCERPT), "-o", str(tmp_path / "empty"), "--resume"]) != 0
+    assert "error: resume: no saved state" in capsys.readouterr().err
+    assert not (tmp_path / "empty").exists()

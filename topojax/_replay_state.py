@@ -1,0 +1,168 @@
+"""The state a replay that stops part way leaves in its output folder, and resuming from
+it (``topojax replay --resume``): the mapper's state plus a record of the log, the
+reader's options and how far into the log the replay got."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import warnings
+from pathlib import Path
+
+#: Where a replay that stops part way keeps the mapper's state, in its output folder.
+STATE_FILE = "mapper_state.npz"
+_HASHED_BYTES = 1 << 20  # of each end of a log file, for its fingerprint
+
+
+class ReplayProgress:
+    """How far a replay got: ``consumed`` scans taken from the log (mapped or skipped),
+    the refusals of the ``skipped`` ones; updated after every scan."""
+
+    __slots__ = ("consumed", "resumed_after", "skipped")
+
+    def __init__(self, consumed: int = 0, skipped: list[str] | None = None) -> None:
+        self.consumed = consumed
+        self.resumed_after = consumed
+        self.skipped = list(skipped or [])
+
+
+def _file_digest(path: Path, digest) -> None:
+    """Feed ``path``'s size and its first and last MiB to ``digest``."""
+    size = path.stat().st_size
+    digest.update(f"{size}:".encode())
+    with open(path, "rb") as fh:
+        digest.update(fh.read(_HASHED_BYTES))
+        if size > 2 * _HASHED_BYTES:
+            fh.seek(size - _HASHED_BYTES)
+        digest.update(fh.read(_HASHED_BYTES))
+
+
+def log_fingerprint(source) -> str:
+    """A hex digest of a log (a file, or a bag folder's files): sizes and the first and
+    last MiB of each file, so that the same log moved elsewhere still matches."""
+    src = Path(source)
+    digest = hashlib.sha256()
+    files = sorted(p for p in src.rglob("*") if p.is_file()) if src.is_dir() else [src]
+    for p in files:
+        digest.update(str(p.relative_to(src) if src.is_dir() else "").encode() + b"\0")
+        _file_digest(p, digest)
+    return digest.hexdigest()
+
+
+def _plain(value):
+    """``value`` as JSON gives it back (tuples as lists), for comparing."""
+    return json.loads(json.dumps(value, sort_keys=True, default=str))
+
+
+def replay_record(source, reader_kwargs, progress: ReplayProgress, mapper) -> dict:
+    """What a saved state records of its replay: the log (path and fingerprint), the
+    reader's options, the scans taken from the log and mapped, and the refusals."""
+    return {
+        "source": str(Path(source).resolve()),
+        "fingerprint": log_fingerprint(source),
+        "reader_kwargs": _plain(reader_kwargs or {}),
+        "consumed": int(progress.consumed),
+        "mapped": int(mapper.n_scans),
+        "skipped": list(progress.skipped),
+    }
+
+
+def save_replay_state(mapper, path: Path, record: dict) -> Path:
+    """Save ``mapper``'s state to ``path`` (as :meth:`IncrementalMapper.save`) with the
+    replay ``record``; returns the path."""
+    from .incremental.state import save_state
+
+    with mapper._lock:
+        return save_state(mapper, path, replay=record)
+
+
+def keep_state(mapper, out: Path, record) -> None:
+    """After a failure part way through a log, save the mapper's state with the replay
+    ``record`` (a callable giving it) to ``out`` (if it mapped a scan) and say so in a
+    RuntimeWarning; a failing save does not hide the failure."""
+    if mapper.n_scans == 0 or mapper.pixel_bbox is None:
+        return
+    try:
+        path = save_replay_state(mapper, out / STATE_FILE, record())
+    except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
+        warnings.warn(
+            f"replay stopped after {mapper.n_scans} scans; saving the mapper's state "
+            f"failed too ({exc})",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+        return
+    warnings.warn(
+        f"replay stopped after {mapper.n_scans} scans; the mapper's state is saved to "
+        f"{path} (replay with resume=True, topojax replay --resume, continues from it)",
+        RuntimeWarning,
+        stacklevel=4,
+    )
+
+
+def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
+    """The mapper saved in ``out`` by a replay of ``source`` that stopped part way, and
+    that replay's record (``consumed``, ``mapped``, ``skipped``).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``out`` has no saved state.
+    ValueError
+        If the state is unreadable, records no replay (saved by
+        :meth:`IncrementalMapper.save` or an older topojax), was made from another log,
+        with other reader options or mapper ``settings``, or took more scans than
+        ``max_scans``.
+    """
+    from .incremental import IncrementalMapper
+    from .incremental.state import read_state
+
+    path = out / STATE_FILE
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"resume: no saved state {path} to continue from: a replay that stops part way "
+            "(an error or an interrupt) saves one there; replay without resume to start "
+            "from the first scan"
+        )
+    path, data = read_state(path)
+    if "replay" not in data:
+        raise ValueError(
+            f"resume: {path} does not record which log it mapped nor how far (saved by "
+            "IncrementalMapper.save or an older topojax); replay without resume"
+        )
+    try:
+        record = json.loads(str(data["replay"]))
+        for key in ("source", "fingerprint", "reader_kwargs", "consumed", "skipped"):
+            record[key]
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"resume: {path}: corrupt record of its replay ({exc!r})") from None
+    if record["fingerprint"] != log_fingerprint(source):
+        raise ValueError(
+            f"resume: {path} was saved replaying {record['source']}, a different log from "
+            f"{source}; replay without resume, or into another folder"
+        )
+    _check_same(path, "reader options", record["reader_kwargs"], _plain(reader_kwargs or {}))
+    _check_same(path, "settings", _plain(json.loads(str(data["settings"]))), _plain(settings))
+    if max_scans is not None and record["consumed"] > max_scans:
+        raise ValueError(
+            f"resume: {path} has already taken {record['consumed']} scans from the log, "
+            f"more than max_scans={max_scans}"
+        )
+    return IncrementalMapper.load(path), record
+
+
+def _check_same(path: Path, what: str, saved: dict, now: dict) -> None:
+    """Refuse (ValueError) resuming when the ``saved`` and ``now`` dicts differ, naming
+    the keys that differ."""
+    if saved == now:
+        return
+    keys = sorted(set(saved) | set(now), key=str)
+    diff = "; ".join(
+        f"{k}: saved {saved.get(k)!r}, now {now.get(k)!r}"
+        for k in keys
+        if saved.get(k) != now.get(k)
+    )
+    raise ValueError(
+        f"resume: {path} was made with other {what} ({diff}); resume with the same "
+        "options, or replay without resume"
+    )
