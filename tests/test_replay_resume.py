@@ -169,3 +169,44 @@ def test_replay_cli_resume(stopped, tmp_path, full_run, capsys):
     assert main(["replay", str(INTEL_EXCERPT), "-o", str(tmp_path / "empty"), "--resume"]) != 0
     assert "error: resume: no saved state" in capsys.readouterr().err
     assert not (tmp_path / "empty").exists()
+
+
+class SlowMapper:
+    """Counts scans as IncrementalMapper does; a Ctrl-C arrives while it maps scan
+    ``interrupted`` (after it has counted it), and twice while it maps ``twice``."""
+
+    def __init__(self, interrupted: int, twice: int = -1) -> None:
+        self.n_scans = self.finished = 0
+        self.interrupted, self.twice = interrupted, twice
+
+    def add_scan(self, scan):
+        import os
+        import signal
+
+        self.n_scans += 1
+        if scan in (self.interrupted, self.twice):
+            os.kill(os.getpid(), signal.SIGINT)
+        if scan == self.twice:
+            os.kill(os.getpid(), signal.SIGINT)
+        self.finished += 1
+        return scan
+
+
+def test_an_interrupt_while_a_scan_is_mapped_waits_for_it_to_be_counted():
+    """Ctrl-C part way through a scan stopped the replay with the scan mapped but not
+    counted, and a resumed replay mapped it twice; it now stops after the scan, counted."""
+    from topojax._replay_state import ReplayProgress, WholeScans
+
+    mapper, progress = SlowMapper(interrupted=3), ReplayProgress()
+    with pytest.raises(KeyboardInterrupt), WholeScans() as whole:
+        for i in range(10):
+            assert whole.add(mapper, i, i, progress) == i
+    assert progress.consumed == mapper.n_scans == mapper.finished == 4
+    mapper, progress = SlowMapper(interrupted=-1, twice=2), ReplayProgress()
+    with pytest.raises(KeyboardInterrupt), WholeScans() as whole:  # the second: at once
+        for i in range(10):
+            whole.add(mapper, i, i, progress)
+    assert progress.consumed == mapper.n_scans == 3 and mapper.finished == 2
+    import signal
+
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored

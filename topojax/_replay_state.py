@@ -26,6 +26,65 @@ class ReplayProgress:
         self.skipped = list(skipped or [])
 
 
+class WholeScans:
+    """Maps scans so that an interrupt falls between them: within ``with``, a Ctrl-C
+    (SIGINT) that arrives while :meth:`add` maps a scan is held until the scan is mapped
+    and counted, then raised; a second one while it is held, or one between scans,
+    interrupts at once.  Outside the main thread, or where SIGINT has a handler other
+    than Python's default, interrupts are left as they are."""
+
+    def __init__(self) -> None:
+        self._busy = False
+        self._pending = False
+        self._old = None
+
+    def __enter__(self) -> WholeScans:
+        import signal
+        import threading
+
+        if (
+            threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        ):
+            self._old = signal.signal(signal.SIGINT, self._interrupt)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import signal
+
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+            self._old = None
+
+    def _interrupt(self, signum, frame) -> None:
+        if self._busy and not self._pending:
+            self._pending = True
+            return
+        raise KeyboardInterrupt
+
+    def add(self, mapper, scan, index: int, progress: ReplayProgress):
+        """``mapper.add_scan(scan)`` of the log's scan ``index`` (from 0), counted in
+        ``progress`` once the mapper took it (also when it raised part way); None for
+        a scan refused with :class:`ExtentError` (its refusal is kept in ``progress``)."""
+        from .incremental import ExtentError
+
+        before = mapper.n_scans
+        self._busy = True
+        try:
+            return mapper.add_scan(scan)
+        except ExtentError as exc:  # a localisation glitch: skipped, the replay goes on
+            progress.skipped.append(str(exc))
+            progress.consumed = index + 1
+            return None
+        finally:
+            if mapper.n_scans != before:
+                progress.consumed = index + 1
+            self._busy = False
+            if self._pending:  # the held Ctrl-C, now that the scan is counted
+                self._pending = False
+                raise KeyboardInterrupt  # noqa: B012
+
+
 def _file_digest(path: Path, digest) -> None:
     """Feed ``path``'s size and its first and last MiB to ``digest``."""
     size = path.stat().st_size

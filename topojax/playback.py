@@ -14,6 +14,7 @@ import numpy as np
 from ._replay_state import (
     STATE_FILE,
     ReplayProgress,
+    WholeScans,
     keep_state,
     replay_record,
     resumed_mapper,
@@ -31,7 +32,6 @@ from ._validate import (
 from .config import GraphConfig
 from .incremental import (
     ExportBudgetError,
-    ExtentError,
     IncrementalMapper,
     ScanReport,
     current_room_labels,
@@ -600,25 +600,21 @@ def _run(
         total=max_scans, initial=at.consumed, unit="scan", disable=not progress, desc="replay"
     )
     t0 = time.perf_counter()
-    for i, scan in enumerate(scans, start=at.consumed):
-        if max_scans is not None and i >= max_scans:
-            break
-        try:
-            rep = mapper.add_scan(scan)
-        except ExtentError as exc:  # a localisation glitch: skip the scan, keep going
-            at.skipped.append(str(exc))
-            at.consumed = i + 1
+    with WholeScans() as whole:  # a Ctrl-C waits for the scan being mapped
+        for i, scan in enumerate(scans, start=at.consumed):
+            if max_scans is not None and i >= max_scans:
+                break
+            rep = whole.add(mapper, scan, i, at)
             bar.update(1)
-            continue
-        at.consumed = i + 1
-        reports.append(rep)
-        if timeline is not None:
-            timeline.record(mapper, rep, scan)
-        if record is not None:
-            record(mapper, scan, rep)
-        if animate and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
-            frames.append(_frame(mapper))
-        bar.update(1)
+            if rep is None:  # skipped
+                continue
+            reports.append(rep)
+            if timeline is not None:
+                timeline.record(mapper, rep, scan)
+            if record is not None:
+                record(mapper, scan, rep)
+            if animate and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
+                frames.append(_frame(mapper))
     bar.close()
     return reports, frames, time.perf_counter() - t0
 
