@@ -79,7 +79,7 @@ def test_a_recording_cut_after_its_chunk_reads_every_scan(recording, tmp_path):
     cut = tmp_path / "cut.mcap"
     for size in (end_of_chunk, end_of_chunk + 100, len(data) - 200, len(data) - 30):
         cut.write_bytes(data[:size])
-        match = r"cut\.mcap: the MCAP file is cut off at byte \d+ .* read 80 messages up to"
+        match = r"cut\.mcap: the MCAP file is cut off at the record at byte \d+ .* read 80 messages"
         with pytest.warns(RuntimeWarning, match=match):
             scans = list(read_bag(cut))
         assert len(scans) == len(whole) == 40

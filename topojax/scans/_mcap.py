@@ -87,8 +87,8 @@ class _McapSequential:
             )
         if self.cut_at is not None:
             warnings.warn(
-                f"{path}: the MCAP file is cut off at byte {self.cut_at} (no footer follows "
-                f"its last whole record: a recording that stopped while writing); read "
+                f"{path}: the MCAP file is cut off at the record at byte {self.cut_at} (no "
+                "footer: a recording that stopped while writing); read "
                 f"{n_messages} messages up to the cut",
                 RuntimeWarning,
                 stacklevel=4,
