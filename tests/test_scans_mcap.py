@@ -162,3 +162,15 @@ def test_the_record_reader_gives_the_messages_rosbags_gives(tmp_path, compressio
                     assert ta.child_frame_id == tb.child_frame_id
                     assert (ra.x, ra.y, ra.z, ra.w) == (rb.x, rb.y, rb.z, rb.w)
                     assert ta.transform.translation.x == tb.transform.translation.x
+
+
+def test_a_bag_folder_of_one_cut_mcap_reads_it(recording, tmp_path):
+    """A ROS 2 bag folder whose recording stopped has no metadata.yaml (written at the
+    end), only its .mcap file: the folder reads as that file."""
+    path, whole = recording
+    folder = tmp_path / "rosbag2_run"
+    folder.mkdir()
+    (folder / "rosbag2_run_0.mcap").write_bytes(path.read_bytes()[:-30])
+    with pytest.warns(RuntimeWarning, match=r"rosbag2_run_0\.mcap: the MCAP file is cut off"):
+        scans = list(read_bag(folder))
+    assert len(scans) == len(whole)
