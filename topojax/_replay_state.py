@@ -131,8 +131,7 @@ def save_replay_state(mapper, path: Path, record: dict) -> Path:
     replay ``record``; returns the path."""
     from .incremental.state import save_state
 
-    with mapper._lock:
-        return save_state(mapper, path, replay=record)
+    return save_state(mapper, path, replay=record)
 
 
 def keep_state(mapper, out: Path, record) -> None:
