@@ -42,12 +42,12 @@ def _graph_pixels(g: nx.MultiGraph) -> np.ndarray:
     return np.concatenate(pix)
 
 
-def _assert_safe(g: nx.MultiGraph, occ: OccupancyMap) -> None:
-    space = feasible_space(occ, R)
+def _assert_safe(g: nx.MultiGraph, occ: OccupancyMap, radius_m: float = R) -> None:
+    space = feasible_space(occ, radius_m)
     for _, _, d in g.edges(data=True):
         path = np.asarray(d["path"])
-        assert space.clearance_m[path[:, 0], path[:, 1]].min() >= R - 1e-6
-        assert d["min_clearance_m"] >= R - 1e-6
+        assert space.clearance_m[path[:, 0], path[:, 1]].min() >= radius_m - 1e-6
+        assert d["min_clearance_m"] >= radius_m - 1e-6
         step = np.abs(np.diff(path.astype(int), axis=0))
         assert step.max() <= 1 and (step.sum(axis=1) > 0).all()  # 8-connected
         # the waypoints a robot follows keep the radius too, between the pixels as well:
@@ -400,9 +400,9 @@ def test_replay_refuses_a_route_graph_radius_too_small_for_its_grid_before_mappi
         tj.replay(log, out_dir=tmp_path / "api", route_graph_radius_m=0.3, resolution_m=0.25)
 
 
-def _crossings(g: nx.MultiGraph) -> int:
-    """Pixels on two different edges' paths farther than the robot radius from every
-    vertex."""
+def _crossings(g: nx.MultiGraph, near_px: float = R / RES) -> int:
+    """Pixels on two different edges' paths farther than ``near_px`` (the robot radius)
+    from every vertex."""
     seen: dict[tuple[int, int], int] = {}
     shared = set()
     for k, (_, _, path) in enumerate(g.edges(data="path")):
@@ -410,7 +410,7 @@ def _crossings(g: nx.MultiGraph) -> int:
             if seen.setdefault(p, k) != k:
                 shared.add(p)
     vertices = np.concatenate([np.asarray(d, np.int64) for _, d in g.nodes(data="pixels")])
-    return sum(int(np.abs(vertices - np.array(p)).max(axis=1).min() > R / RES) for p in shared)
+    return sum(int(np.abs(vertices - np.array(p)).max(axis=1).min() > near_px) for p in shared)
 
 
 @pytest.mark.parametrize("size_m", [(12, 20), (20, 20)])
@@ -421,6 +421,53 @@ def test_shortcuts_cross_no_edge_and_close_no_short_loop_in_an_open_hall(size_m)
     assert tj.evaluate_route_graph(g, occ, robot_radius_m=R, n_pairs=20).short_loops == 0
     _assert_safe(g, occ)
     assert nx.number_connected_components(g) == 1
+
+
+def _hall_with_pillars() -> OccupancyMap:
+    """A 20 x 20 m hall with four 1 m pillars 3 m off its walls."""
+    free = _room(20, 20)
+    for r, c in [(3, 3), (3, 15), (16, 4), (15, 15)]:
+        free[_px(r) : _px(r + 1), _px(c) : _px(c + 1)] = False
+    return _map(free)
+
+
+@pytest.mark.parametrize("radius_m", [2.0, 4.0])
+def test_a_large_robot_gets_shortcuts_that_cross_no_edge(radius_m):
+    """A shortcut may touch other edges only near its ends, where close vertices merge
+    (the robot's radius, up to half the snap distance): a zone of the full radius of a
+    robot of 2-4 m spanned whole shortcuts, which crossed the edges of the hall."""
+    occ = _hall_with_pillars()
+    cfg = RouteGraphConfig(robot_radius_m=radius_m, shortcuts_round_corners=False)
+    g = route_graph(occ, config=cfg)
+    merge_px = min(radius_m, 0.5 * cfg.snap_m) / RES
+    assert g.number_of_edges() > g.number_of_nodes()  # shortcuts were taken
+    assert _crossings(g, merge_px) == 0
+    _assert_safe(g, occ, radius_m)
+    assert g.graph["uncovered_share"] == 0.0
+    assert nx.number_connected_components(g) == 1
+
+
+def test_a_large_robot_with_a_small_snap_searches_few_routes(monkeypatch):
+    """With a snap distance of 0.2 m the hall has a dense net of vertices, and a robot of
+    5 m the whole shortcut radius: still most candidate shortcuts end at the line test
+    (they cross an edge), and only a few per node get a route search."""
+    import topojax.routegraph._cover as cover
+
+    calls = []
+    original = cover.greedy_shortcuts
+
+    def counted(pos, *args):
+        taken, searched = original(pos, *args)
+        calls.append((pos.shape[0], args[6].size, searched, int(taken.sum())))
+        return taken, searched
+
+    monkeypatch.setattr(cover, "greedy_shortcuts", counted)
+    cfg = RouteGraphConfig(robot_radius_m=5.0, snap_m=0.2)
+    g = route_graph(_hall_with_pillars(), config=cfg)
+    ((nodes, candidates, searched, taken),) = calls
+    assert candidates > 100 * nodes  # the radius holds many candidates per node
+    assert 0 < taken <= searched <= 10 * nodes
+    assert g.graph["uncovered_share"] == 0.0
 
 
 @pytest.mark.parametrize("snap_px", [4.0, 7.5, 20.0, 21.0])
@@ -891,7 +938,7 @@ def test_greedy_shortcuts_take_many_disjoint_lines_and_then_route_along_them():
     mem_start = np.arange(2 * n + 1, dtype=np.int64)
     a = np.r_[np.arange(n), np.arange(n)].astype(np.int64)
     b = a + n
-    taken = greedy_shortcuts(
+    taken, searched = greedy_shortcuts(
         pos,
         mem,
         mem_start,
@@ -910,6 +957,7 @@ def test_greedy_shortcuts_take_many_disjoint_lines_and_then_route_along_them():
     )
     assert taken[:n].all()
     assert not taken[n:].any()
+    assert searched == 2 * n  # every line is clear: each candidate's route is searched
 
 
 def test_open_short_loops_removes_the_longest_edge_of_each_short_loop():

@@ -424,7 +424,7 @@ def add_shortcuts(
     nodes = np.concatenate([pos_i, corners]).astype(np.int64)
     members = [work.members[v] for v in alive] + [p[None] for p in nodes[len(alive) :]]
     mem_start = np.r_[0, np.cumsum([len(x) for x in members])].astype(np.int64)
-    taken = greedy_shortcuts(
+    taken, _ = greedy_shortcuts(
         nodes,
         np.concatenate(members).astype(np.int64),
         mem_start,

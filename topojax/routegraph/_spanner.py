@@ -286,8 +286,10 @@ def greedy_shortcuts(
 
     Returns
     -------
-    bool (C,)
+    taken : bool (C,)
         Which candidates were accepted.
+    searched : int
+        How many candidates had clear lines and so got a route search (the pass's work).
     """
     m = pos.shape[0]
     n_c = cand_a.size
@@ -303,7 +305,7 @@ def greedy_shortcuts(
     seg2 = np.empty((h + w + 1, 2), np.int64)
     ms = np.empty(4, np.int64)
     out = np.zeros(n_c, np.bool_)
-    run = 0
+    run, searched = 0, 0
     for i in range(n_c):
         a, b, c = cand_a[i], cand_b[i], cand_c[i]
         mid = b if c < 0 else c
@@ -318,6 +320,7 @@ def greedy_shortcuts(
             if n2 == 0:
                 continue
         run += 1
+        searched += 1
         # a route of at most ``need`` makes the shortcut useless, one of at most ``short``
         # makes its loop too short: one search to the longer of the two
         if _within(head, nxt, to, wt, a, b, max(need[i], short[i]), dist, stamp, run, hk, hv):
@@ -343,7 +346,7 @@ def greedy_shortcuts(
         if c >= 0:
             k = _link(c, b, pos, head, nxt, to, wt, k)
         out[i] = True
-    return out
+    return out, searched
 
 
 @cached_njit(nogil=True)

@@ -81,8 +81,8 @@ class RouteGraphConfig:
         Only vertices at most this far apart are considered for shortcuts (0: none).
     shortcut_gain_m : float, default 0.3
         ... and only when the shortcut saves at least this much route length.  Straight
-        shortcuts cross no edge: farther than the robot radius from its ends a shortcut
-        touches no other edge.
+        shortcuts cross no edge: farther than the robot radius (at most half ``snap_m``)
+        from its ends a shortcut touches no other edge.
     shortcut_spacing_m : float, default 1.0
         Shortcuts may also start at points about this far apart along the edges (the edge
         is split there); 0: only at vertices.
@@ -208,6 +208,10 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     min_loop_px = 2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS
     uncovered = add_coverage(work, feasible, snap_px, min_loop_px=min_loop_px)
     work.contract_all()
+    # vertices closer than the robot's radius are one place for it (up to a share of the
+    # snap distance: the coverage lanes and meshes are spaced by it, and a large robot's
+    # merges would fold them into hubs of parallel edges)
+    merge_px = min(cfg.robot_radius_m, MERGE_SNAP_SHARE * cfg.snap_m) / res
     add_shortcuts(
         work,
         feasible,
@@ -215,18 +219,16 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
         cfg.shortcut_stretch,
         cfg.shortcut_gain_m / res,
         cfg.shortcuts_from_dead_ends,
-        max(2.0, cfg.robot_radius_m / res),
+        # a shortcut may touch other edges only where it would merge into its ends: a
+        # zone of the full radius of a large robot spans the whole shortcut
+        max(2.0, merge_px),
         min_loop_px,
         cfg.shortcut_spacing_m / res,
         CORNER_TOLERANCE_M / res if cfg.shortcuts_round_corners else 0.0,
         RUNG_GAIN_M / res,
     )
     work.contract_all()
-    # vertices closer than the robot's radius are one place for it (up to a share of the
-    # snap distance: the coverage lanes and meshes are spaced by it, and a large robot's
-    # merges would fold them into hubs of parallel edges); a dead end one pixel off its
-    # junction is a one-pixel edge
-    merge_px = min(cfg.robot_radius_m, MERGE_SNAP_SHARE * cfg.snap_m) / res
+    # close vertices merge; a dead end one pixel off its junction is a one-pixel edge
     merge_close_vertices(work, feasible, max(_ONE_PIXEL, merge_px), _ONE_PIXEL, min_loop_px)
     # loops shorter than loop_m collapse, wherever the passes left one
     _open_short_loops(work, feasible, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS)
