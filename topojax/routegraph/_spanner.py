@@ -15,7 +15,7 @@ import numpy as np
 from .._heap import heap_pop, heap_push
 from .._jit import cached_njit
 from ..graph.sparse import grown
-from ..graph.work import WorkGraph, line_in_mask
+from ..graph.work import WorkGraph, _line_step, line_in_mask
 
 __all__ = [
     "anchor_pieces",
@@ -177,25 +177,16 @@ def open_short_loops(work: WorkGraph, min_loop_px: float, contract: bool = True)
 
 
 @cached_njit(nogil=True)
-def _touches(seg, n, mem, ms, occupied, end_px):
-    """Whether a pixel of ``seg[:n]`` more than ``end_px`` (Chebyshev) from the segment's
-    ends and from the member pixels ``mem[ms[0]:ms[1]]``, ``mem[ms[2]:ms[3]]`` of its end
-    vertices is set in ``occupied``."""
-    for i in range(n):
-        r, c = seg[i, 0], seg[i, 1]
-        if not occupied[r, c]:
-            continue
-        near = max(abs(r - seg[0, 0]), abs(c - seg[0, 1])) <= end_px
-        near = near or max(abs(r - seg[n - 1, 0]), abs(c - seg[n - 1, 1])) <= end_px
-        for part in range(2):
-            if near:
-                break
-            for j in range(ms[2 * part], ms[2 * part + 1]):
-                if max(abs(r - mem[j, 0]), abs(c - mem[j, 1])) <= end_px:
-                    near = True
-                    break
-        if not near:
-            return True
+def _near_ends(r, c, r0, c0, r1, c1, mem, ms, end_px):
+    """Whether pixel ``(r, c)`` lies within ``end_px`` (Chebyshev) of a segment's ends
+    ``(r0, c0)``, ``(r1, c1)`` or of the member pixels ``mem[ms[0]:ms[1]]``,
+    ``mem[ms[2]:ms[3]]`` of its end vertices."""
+    if max(abs(r - r0), abs(c - c0)) <= end_px or max(abs(r - r1), abs(c - c1)) <= end_px:
+        return True
+    for part in range(2):
+        for j in range(ms[2 * part], ms[2 * part + 1]):
+            if max(abs(r - mem[j, 0]), abs(c - mem[j, 1])) <= end_px:
+                return True
     return False
 
 
@@ -203,14 +194,24 @@ def _touches(seg, n, mem, ms, occupied, end_px):
 def _clear_line(a, b, pos, mem, mem_start, feasible, occupied, end_px, seg, ms, cross):
     """Draw the straight line between nodes ``a`` and ``b`` into ``seg``; its length in
     pixels, or 0 when it leaves the feasible pixels or (unless ``cross``) touches an edge
-    away from its ends."""
-    n = line_in_mask(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], feasible, seg)
-    if n == 0 or cross:
-        return n
+    away from its ends.  The line is given up at its first such pixel: in a dense graph
+    most lines touch an edge a few pixels from their start."""
+    r0, c0, r1, c1 = pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1]
+    if cross:
+        return line_in_mask(r0, c0, r1, c1, feasible, seg)
     ms[0], ms[1], ms[2], ms[3] = mem_start[a], mem_start[a + 1], mem_start[b], mem_start[b + 1]
-    if _touches(seg, n, mem, ms, occupied, end_px):
-        return 0
-    return n
+    dr, dc = r1 - r0, c1 - c0
+    n = max(abs(dr), abs(dc))
+    r, c = r0, c0
+    for i in range(n + 1):
+        if i > 0:
+            r, c = _line_step(r0, c0, dr, dc, n, i)
+        if not feasible[r, c]:
+            return 0
+        if occupied[r, c] and not _near_ends(r, c, r0, c0, r1, c1, mem, ms, end_px):
+            return 0
+        seg[i, 0], seg[i, 1] = r, c
+    return n + 1
 
 
 @cached_njit(nogil=True)
