@@ -34,8 +34,9 @@ def distance_to_polyline(points: np.ndarray, chain: np.ndarray) -> np.ndarray:
 
 def segment_pixels_exact(q, p) -> set[tuple[int, int]]:
     """The pixels ``(row, col)`` the segment ``q``-``p`` passes through, in exact rational
-    arithmetic: the pixel each of its points rounds to (halves up), found at its ends,
-    where it crosses a pixel border and halfway between consecutive crossings."""
+    arithmetic: the pixels its ends round to (halves up) and, between consecutive
+    crossings of pixel borders, the pixel the piece's midpoint rounds to (inside a pixel,
+    or on the border it runs along); a crossing point alone adds no pixel."""
     from fractions import Fraction
 
     half = Fraction(1, 2)
@@ -52,5 +53,5 @@ def segment_pixels_exact(q, p) -> set[tuple[int, int]]:
             if 0 <= t <= 1:
                 ts.add(t)
     ts = sorted(ts)
-    at = ts + [(a + b) / 2 for a, b in zip(ts[:-1], ts[1:], strict=True)]
+    at = [ts[0], ts[-1]] + [(a + b) / 2 for a, b in zip(ts[:-1], ts[1:], strict=True)]
     return {tuple(math.floor(q[k] + t * (p[k] - q[k]) + half) for k in range(2)) for t in at}

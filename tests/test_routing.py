@@ -700,8 +700,9 @@ def test_a_line_that_clips_an_obstacle_pixel_at_its_corner_is_not_in_sight():
     assert sees(feasible, q, p[None])[0]
 
 
-def test_a_line_through_a_pixel_corner_passes_the_pixel_the_corner_rounds_to():
-    # (0, 0)-(2, 2) meets the corners (0.5, 0.5) and (1.5, 1.5): pixels (1, 1), (2, 2)
+def test_a_line_through_a_pixel_corner_passes_between_the_pixels_beside_it():
+    # (0, 0)-(2, 2) meets the corners (0.5, 0.5) and (1.5, 1.5), as 8-connected diagonal
+    # steps do: it passes through (0, 0), (1, 1), (2, 2) only, either way round
     feasible = ~art(
         """
         .##
@@ -709,19 +710,19 @@ def test_a_line_through_a_pixel_corner_passes_the_pixel_the_corner_rounds_to():
         ##.
         """
     )
-    assert sees(feasible, np.array([0.0, 0.0]), np.array([[2.0, 2.0]])).tolist() == [True]
-    # (0, 2)-(2, 0) meets (0.5, 1.5) and (1.5, 0.5): pixels (1, 2) and (2, 1) as well
-    feasible = art(
-        """
-        ..#
-        .#.
-        #..
-        """
-    )
-    assert segment_pixels_exact((0, 2), (2, 0)) == {(0, 2), (1, 2), (1, 1), (2, 1), (2, 0)}
-    assert sees(feasible, np.array([0.0, 2.0]), np.array([[2.0, 0.0]])).tolist() == [False]
-    feasible[1, 2] = feasible[2, 1] = True
-    assert sees(feasible, np.array([0.0, 2.0]), np.array([[2.0, 0.0]])).tolist() == [True]
+    for q, p in (((0, 0), (2, 2)), ((2, 2), (0, 0))):
+        assert segment_pixels_exact(q, p) == {(0, 0), (1, 1), (2, 2)}
+        assert sees(feasible, np.array(q, float), np.array([p], float)).tolist() == [True]
+    # the other diagonal, (0, 2)-(2, 0), likewise
+    feasible = np.fliplr(feasible).copy()
+    for q, p in (((0, 2), (2, 0)), ((2, 0), (0, 2))):
+        assert segment_pixels_exact(q, p) == {(0, 2), (1, 1), (2, 0)}
+        assert sees(feasible, np.array(q, float), np.array([p], float)).tolist() == [True]
+    # a line just off the corner cuts the pixel beside it
+    assert not sees(feasible, np.array([0.0, 2.0]), np.array([[2.0, 0.1]]))[0]
+    # an end on a corner is on the pixel it rounds to
+    assert segment_pixels_exact((0.5, 0.5), (0.5, 0.5)) == {(1, 1)}
+    assert not sees(~feasible, np.array([0.5, 0.5]), np.array([[0.5, 0.5]]))[0]
 
 
 @settings(max_examples=120, deadline=None)

@@ -1,15 +1,12 @@
 """Sight lines over a pixel grid: every pixel a straight segment passes through.
 
-Pixel ``(r, c)`` is the square ``[r - 1/2, r + 1/2) x [c - 1/2, c + 1/2)``: a point
-belongs to the pixel its coordinates round to, halves rounded up (as a query point's
-pixel is found).  A segment *passes through* a pixel when one of its points, ends
-included, belongs to it.  A segment that only touches a pixel's corner or border passes
-through it exactly when the touching point rounds to it: of the four pixels around the
-corner ``(r + 1/2, c + 1/2)``, a segment through it counts ``(r + 1, c + 1)``, so one
-from ``(r, c)`` to ``(r + 1, c + 1)`` passes through those two pixels only, one from
-``(r, c + 1)`` to ``(r + 1, c)`` through ``(r + 1, c + 1)`` as well.  Every point of the
-segment thus lies on a pixel passed (points sampled along it can step over a pixel it
-clips at a corner).  The viewer's router (``view/static/route.js``) walks the same
+Pixel ``(r, c)`` is the square ``[r - 1/2, r + 1/2) x [c - 1/2, c + 1/2)``.  A segment
+*passes through* a pixel when a piece of it of positive length lies inside the square,
+or, for a piece along a pixel border, on the pixel its points round to (halves up); its
+two ends pass through the pixels they round to (as a query point's pixel is found).  A
+segment through a pixel corner thus passes through the two pixels it runs between, not
+the two beside the corner: the rule of an 8-connected diagonal step, symmetric in the
+segment's direction.  The viewer's router (``view/static/route.js``) walks the same
 pixels with the same arithmetic.
 """
 
@@ -56,18 +53,21 @@ def segment_pixels(q: np.ndarray, pts: np.ndarray) -> tuple[np.ndarray, np.ndarr
     x = a1[seg_x] + ((r_lo[seg_x] + j - a0[seg_x]) * d1[seg_x]) / d0[seg_x]
     x[first] = a1
     x[first + n_rows] = b1
-    fx = np.floor(x)
-    # row j of a segment runs from x[j] to x[j + 1]; the point at x[j + 1] belongs to the
-    # next row, except at the end
     at = np.flatnonzero(j < n_rows[seg_x])
-    seg = seg_x[at]
-    up_inner = (d1[seg] >= 0) & (j[at] + 1 < n_rows[seg])
-    lo = np.minimum(fx[at], fx[at + 1]).astype(np.int64)
-    hi = np.maximum(fx[at], np.where(up_inner, np.ceil(x[at + 1]) - 1, fx[at + 1]))
+    seg, row = seg_x[at], j[at]
+    # row j of a segment runs from x[j] to x[j + 1]: the pixels whose open column range
+    # it meets, or the one its column rounds to where it runs along a border
+    lo_x, hi_x = np.minimum(x[at], x[at + 1]), np.maximum(x[at], x[at + 1])
+    lo = np.floor(lo_x)
+    hi = np.where(hi_x > lo_x, np.ceil(hi_x) - 1, np.floor(hi_x))
+    for here, end in ((row == 0, a1), (row == n_rows[seg] - 1, b1)):  # the ends' pixels
+        fe = np.floor(end[seg])
+        lo, hi = np.where(here, np.minimum(lo, fe), lo), np.where(here, np.maximum(hi, fe), hi)
+    lo = lo.astype(np.int64)
     n_cols = hi.astype(np.int64) - lo + 1
     k = np.repeat(np.arange(at.size), n_cols)
     cols = lo[k] + np.arange(k.size) - np.repeat(np.cumsum(n_cols) - n_cols, n_cols)
-    return seg[k], (r_lo[seg] + j[at]).astype(np.int64)[k], cols
+    return seg[k], (r_lo[seg] + row).astype(np.int64)[k], cols
 
 
 def sees(feasible: np.ndarray, q: np.ndarray, pts: np.ndarray) -> np.ndarray:

@@ -96,19 +96,21 @@ var TJ = (window.TJ = window.TJ || {});
   };
 
   /* Whether the straight line from pixel (q0, q1) to pixel (c0, c1) passes through
-   * feasible pixels only: every pixel one of its points rounds to (halves up), walked row
-   * by row with the arithmetic of RoutePlanner's (topojax/_sight.py), so both find the
-   * same pixels. */
+   * feasible pixels only: the pixels its ends round to (halves up) and those a piece of it
+   * runs inside (or along a border of, the one it rounds to), walked row by row with the
+   * arithmetic of RoutePlanner's (topojax/_sight.py), so both find the same pixels. */
   function sees(F, q0, q1, c0, c1) {
     var a0 = q0 + 0.5, a1 = q1 + 0.5, b0 = c0 + 0.5, b1 = c1 + 0.5, t;
     if (b0 < a0) { t = a0; a0 = b0; b0 = t; t = a1; a1 = b1; b1 = t; }
     var d0 = b0 - a0 > 0 ? b0 - a0 : 1, d1 = b1 - a1;
     var rLo = Math.floor(a0), n = Math.floor(b0) - rLo, x = a1;
     for (var j = 0; j <= n; j++) {
-      // row rLo + j runs from column x to column y, the point at y in the next row
+      // row rLo + j runs from column x to column y
       var y = j === n ? b1 : a1 + ((rLo + j + 1 - a0) * d1) / d0, r = rLo + j;
-      var f = Math.floor(x), g = Math.floor(y);
-      var lo = Math.min(f, g), hi = Math.max(f, d1 >= 0 && j < n ? Math.ceil(y) - 1 : g);
+      var lx = Math.min(x, y), hx = Math.max(x, y);
+      var lo = Math.floor(lx), hi = hx > lx ? Math.ceil(hx) - 1 : Math.floor(hx);
+      if (j === 0) { lo = Math.min(lo, Math.floor(a1)); hi = Math.max(hi, Math.floor(a1)); }
+      if (j === n) { lo = Math.min(lo, Math.floor(b1)); hi = Math.max(hi, Math.floor(b1)); }
       if (r < 0 || r >= F.h || lo < 0 || hi >= F.w) return false;
       for (var c = lo; c <= hi; c++) {
         var i = r * F.w + c;
