@@ -284,7 +284,8 @@ def room_pixels(regions, room_of, free, rounds, out, empty):
     ``rounds`` times every pixel of ``free`` without a room (0) next to a room (the cut
     lines) takes the largest id among its 4 neighbours, or, if they have none, among its
     diagonal ones (a pixel joins the room it shares a side with when it can), all decided
-    from the ids of the round before; ``empty`` (uint8, in place) is 1 where ``out`` is 0 at the end."""
+    from the ids of the round before; ``empty`` (uint8, in place) is 1 where ``out`` is 0
+    at the end."""
     h, w = regions.shape
     n = 0
     for r in range(h):

@@ -165,10 +165,10 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         The schema of :func:`topojax.build_graph`'s graph (node ``pixel``, ``pixels``,
         ``world``, ``kind``, ``clearance_m``; edge ``path``, ``world``, ``length_m``,
         ``min_clearance_m``, ``mean_clearance_m``) plus, on each edge, ``waypoints``:
-        float64 (K, 2) world polyline from ``u``'s ``world`` position to ``v``'s.  Graph attributes
-        ``resolution_m``, ``shape``, ``origin``, ``merge_junction_clusters`` (True),
-        ``robot_radius_m``, ``snap_m``, ``kind`` (``"route_graph"``), ``uncovered_share``
-        and ``timings_s``.  One component per feasible region of at least
+        float64 (K, 2) world polyline from ``u``'s ``world`` position to ``v``'s.  Graph
+        attributes ``resolution_m``, ``shape``, ``origin``, ``merge_junction_clusters``
+        (True), ``robot_radius_m``, ``snap_m``, ``kind`` (``"route_graph"``),
+        ``uncovered_share`` and ``timings_s``.  One component per feasible region of at least
         ``min_region_m2``.
 
     Raises
