@@ -125,6 +125,17 @@ def test_an_mcap_cut_before_its_first_message_is_refused(recording, tmp_path):
             read_bag(cut)
 
 
+def test_a_record_length_past_the_end_of_the_file_is_a_cut_not_a_huge_read(recording, tmp_path):
+    # garbage after the magic: a record head claiming 2**62 bytes reads what is there
+    path, _ = recording
+    bad = tmp_path / "garbage.mcap"
+    bad.write_bytes(
+        path.read_bytes()[:8] + bytes([0x05]) + (2**62).to_bytes(8, "little") + b"x" * 50
+    )
+    with pytest.raises(ValueError, match=r"garbage\.mcap: the MCAP file holds no whole message"):
+        read_bag(bad)
+
+
 def test_a_file_that_is_not_mcap_is_refused_naming_it(tmp_path):
     fake = tmp_path / "fake.mcap"
     fake.write_bytes(b"this is not a recording\n" * 10)

@@ -101,6 +101,7 @@ class _McapSequential:
     def _records(self) -> Iterator[tuple[int, int, bytes]]:
         """``(channel id, log time ns, CDR data)`` of every whole message; sets
         ``cut_at`` to the byte where the file is cut (None: it ends with a footer)."""
+        size = self.path.stat().st_size
         with open(self.path, "rb") as fh:
             if fh.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
                 raise ValueError(
@@ -114,7 +115,8 @@ class _McapSequential:
                     self.cut_at = pos
                     return
                 op, length = head[0], struct.unpack_from("<Q", head, 1)[0]
-                body = fh.read(length)
+                # a length past the file's end (cut, or garbage) reads only what is there
+                body = fh.read(min(length, size - pos - _RECORD_HEAD))
                 cut = len(body) < length
                 if op == _FOOTER and not cut:
                     return
