@@ -97,13 +97,18 @@ def test_resume_keeps_max_scans_counted_from_the_log_start(tmp_path, monkeypatch
     interrupted_reader(monkeypatch, 12)
     with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
         replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=30, **SETTINGS)
+    with pytest.raises(ValueError, match=r"already taken 12 scans .* max_scans=5"):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=5, resume=True, **SETTINGS)
     summary = replay(
         INTEL_EXCERPT, out_dir=out, progress=False, max_scans=30, resume=True, **SETTINGS
     )
     assert summary["n_scans"] == 30
     assert_same_outputs(whole, out)
-    with pytest.raises(ValueError, match=r"already taken 12 scans .* max_scans=5"):
-        replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=5, resume=True, **SETTINGS)
+    # the finished replay removed the state it continued: nothing is left to resume
+    assert not (out / STATE_FILE).exists()
+    assert any("mapper_state.npz: the replay has finished" in m for m in summary["messages"])
+    with pytest.raises(FileNotFoundError, match="resume: no saved state"):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=30, resume=True, **SETTINGS)
 
 
 @pytest.fixture

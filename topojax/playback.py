@@ -206,7 +206,8 @@ def replay(
         ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
         to export, an unreadable scan part way through the log, or an interrupt leaves
         the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
-        raises; ``resume`` continues from it.  ``n_scans`` and ``skipped_scans`` count
+        raises; ``resume`` continues from it.  A replay that finishes removes the state
+        file an earlier one left in ``out_dir``.  ``n_scans`` and ``skipped_scans`` count
         from the log's start, ``resumed_after`` the scans taken before this call.
         The files that the last replay into ``out_dir`` wrote and this one does not
         (:func:`optional_outputs`: route graph, rooms, pictures, view) are removed.
@@ -255,6 +256,10 @@ def replay(
         written.append(recorder.path)
     written.append(out / "timings.json")
     messages += _remove_stale(out, written)
+    state = out / STATE_FILE
+    if state.is_file():  # a stopped replay's state, superseded by this finished one
+        state.unlink()
+        messages.append(f"removed {state}: the replay has finished")
     summary = _summary(source, mapper, done, progress_at)
     summary["written"] = [str(p) for p in written]
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
