@@ -127,25 +127,22 @@ def test_resume_without_a_saved_state_is_refused(tmp_path):
         replay(INTEL_EXCERPT, out_dir=tmp_path / "new", progress=False, resume=True)
 
 
-def test_resume_with_other_settings_is_refused(stopped):
-    with pytest.raises(ValueError, match=r"other settings \(graph_every: saved 7, now 8\)"):
-        replay(
-            INTEL_EXCERPT,
-            out_dir=stopped,
-            progress=False,
-            resume=True,
-            graph_every=8,
-            skeleton_every=3,
-        )
-    with pytest.raises(ValueError, match=r"other reader options \(max_range_m: saved None"):
-        replay(
-            INTEL_EXCERPT,
-            out_dir=stopped,
-            progress=False,
-            resume=True,
-            reader_kwargs={"max_range_m": 40.0},
-            **SETTINGS,
-        )
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (
+            {"graph_every": 8, "skeleton_every": 3},
+            r"other settings \(graph_every: saved 7, now 8\)",
+        ),
+        (
+            {"reader_kwargs": {"max_range_m": 40.0}, **SETTINGS},
+            r"other reader options \(max_range_m: saved None",
+        ),
+    ],
+)
+def test_resume_with_other_settings_is_refused(stopped, options, message):
+    with pytest.raises(ValueError, match=message):
+        replay(INTEL_EXCERPT, out_dir=stopped, progress=False, resume=True, **options)
 
 
 def test_resume_from_another_log_is_refused(stopped, tmp_path):

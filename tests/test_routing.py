@@ -772,3 +772,16 @@ def test_planner_map_options_are_checked(kwargs, graph_radius, exc, words):
         kwargs["occupancy"] = maps.get(kwargs["occupancy"], "map")
     with pytest.raises(exc, match=words):
         RoutePlanner(g, **kwargs)
+
+
+def test_the_route_graphs_straight_line_test_walks_the_planners_pixels():
+    # between pixel centres the build's own test (its coverage and simplified waypoints)
+    # and the planner's sight lines pass through the same pixels
+    from topojax.routegraph._spanner import straight_is_feasible
+
+    rng = np.random.default_rng(5)
+    feasible = rng.random((15, 17)) < 0.8
+    for _ in range(400):
+        q, p = rng.integers(0, (15, 17)), rng.integers(0, (15, 17))
+        want = bool(sees(feasible, q.astype(float), p[None].astype(float))[0])
+        assert straight_is_feasible(*q.tolist(), *p.tolist(), feasible) == want, (q, p)

@@ -587,9 +587,9 @@ def _run(
     max_scans,
     animate: bool,
     progress: bool,
-    record=None,
-    timeline=None,
-    progress_at: ReplayProgress | None = None,
+    record,
+    timeline,
+    progress_at: ReplayProgress,
 ):
     """Feed ``scans`` to ``mapper`` until the log's scan ``max_scans``; returns the
     reports, the animation frames (one per graph update when ``animate``) and the wall
@@ -598,18 +598,21 @@ def _run(
     scan taken (mapped, or skipped with its refusal)."""
     from tqdm import tqdm
 
-    at = ReplayProgress() if progress_at is None else progress_at
     reports: list[ScanReport] = []
     frames: list[dict] = []
     bar = tqdm(
-        total=max_scans, initial=at.consumed, unit="scan", disable=not progress, desc="replay"
+        total=max_scans,
+        initial=progress_at.consumed,
+        unit="scan",
+        disable=not progress,
+        desc="replay",
     )
     t0 = time.perf_counter()
     with WholeScans() as whole:  # a Ctrl-C waits for the scan being mapped
-        for i, scan in enumerate(scans, start=at.consumed):
+        for i, scan in enumerate(scans, start=progress_at.consumed):
             if max_scans is not None and i >= max_scans:
                 break
-            rep = whole.add(mapper, scan, i, at)
+            rep = whole.add(mapper, scan, i, progress_at)
             bar.update(1)
             if rep is None:  # skipped
                 continue

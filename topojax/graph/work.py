@@ -20,6 +20,7 @@ __all__ = [
     "drop_spurs",
     "face_labels",
     "line_in_mask",
+    "line_step",
     "line_into",
     "line_pixels",
     "merge_close_vertices",
@@ -29,7 +30,7 @@ SQRT2 = math.sqrt(2.0)
 
 
 @cached_njit(nogil=True, inline="always")
-def _line_step(r0, c0, dr, dc, n, i):
+def line_step(r0, c0, dr, dc, n, i):
     """Pixel ``i`` (0..``n``) of the digital line from ``(r0, c0)`` by ``(dr, dc)``,
     ``n = max(|dr|, |dc|) > 0``: the major axis steps by one pixel, the minor coordinate
     is the exact line's, rounded (halves away from the start)."""
@@ -54,7 +55,7 @@ def line_into(r0, c0, r1, c1, out):
     n = max(abs(dr), abs(dc))
     out[0, 0], out[0, 1] = r0, c0
     for i in range(1, n + 1):
-        out[i, 0], out[i, 1] = _line_step(r0, c0, dr, dc, n, i)
+        out[i, 0], out[i, 1] = line_step(r0, c0, dr, dc, n, i)
     return n + 1
 
 
@@ -68,7 +69,7 @@ def line_in_mask(r0, c0, r1, c1, mask, out):
     if not mask[r0, c0]:
         return 0
     for i in range(1, n + 1):
-        r, c = _line_step(r0, c0, dr, dc, n, i)
+        r, c = line_step(r0, c0, dr, dc, n, i)
         if not mask[r, c]:
             return 0
         out[i, 0], out[i, 1] = r, c

@@ -217,13 +217,6 @@ def _adjacency(n_nodes: int, a: np.ndarray, b: np.ndarray, w: np.ndarray):
     return m.tocsr()
 
 
-def _clear_segments(q: np.ndarray, cand: np.ndarray, feasible: np.ndarray) -> np.ndarray:
-    """For each candidate point, whether the straight segment from ``q`` to it passes
-    through feasible pixels only: every pixel it passes through, the rule of
-    :class:`topojax.RoutePlanner`'s entry legs (:func:`topojax._sight.sees`)."""
-    return sees(feasible, q, cand)
-
-
 def _in_reach(net: RouteNetwork, q_all: np.ndarray, snap_px: float):
     """Per query (float64 (Q, 2)) with network points within ``snap_px``: ``(query index,
     point indices int64, their distances px)``."""
@@ -245,7 +238,7 @@ def snap(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np.nd
         order = np.lexsort((cands, d))
         for b in range(0, order.size, _SNAP_BATCH):
             sel = order[b : b + _SNAP_BATCH]
-            ok = _clear_segments(q_all[i], net.pt_rc[cands[sel]], feasible)
+            ok = sees(feasible, q_all[i], net.pt_rc[cands[sel]])
             if ok.any():
                 j = sel[int(np.argmax(ok))]
                 idx[i], dist[i] = cands[j], d[j]
@@ -263,7 +256,7 @@ def entries(net: RouteNetwork, queries: np.ndarray, snap_px: float, feasible: np
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     q_all = queries.astype(np.float64)
     for i, cands, d in _in_reach(net, q_all, snap_px):
-        ok = _clear_segments(q_all[i], net.pt_rc[cands], feasible)
+        ok = sees(feasible, q_all[i], net.pt_rc[cands])
         cands, d = cands[ok], d[ok]
         run = net.pt_run[cands]
         order = np.lexsort((cands, d, run))

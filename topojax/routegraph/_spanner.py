@@ -15,7 +15,7 @@ import numpy as np
 from .._heap import heap_pop, heap_push
 from .._jit import cached_njit
 from ..graph.sparse import grown
-from ..graph.work import WorkGraph, _line_step, line_in_mask
+from ..graph.work import WorkGraph, line_step
 
 __all__ = [
     "anchor_pieces",
@@ -197,18 +197,16 @@ def _clear_line(a, b, pos, mem, mem_start, feasible, occupied, end_px, seg, ms, 
     away from its ends.  The line is given up at its first such pixel: in a dense graph
     most lines touch an edge a few pixels from their start."""
     r0, c0, r1, c1 = pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1]
-    if cross:
-        return line_in_mask(r0, c0, r1, c1, feasible, seg)
     ms[0], ms[1], ms[2], ms[3] = mem_start[a], mem_start[a + 1], mem_start[b], mem_start[b + 1]
     dr, dc = r1 - r0, c1 - c0
     n = max(abs(dr), abs(dc))
     r, c = r0, c0
     for i in range(n + 1):
         if i > 0:
-            r, c = _line_step(r0, c0, dr, dc, n, i)
+            r, c = line_step(r0, c0, dr, dc, n, i)
         if not feasible[r, c]:
             return 0
-        if occupied[r, c] and not _near_ends(r, c, r0, c0, r1, c1, mem, ms, end_px):
+        if not cross and occupied[r, c] and not _near_ends(r, c, r0, c0, r1, c1, mem, ms, end_px):
             return 0
         seg[i, 0], seg[i, 1] = r, c
     return n + 1

@@ -399,15 +399,15 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
             }
         )
     tol_px = cfg.waypoint_tolerance_m / res
-    order, ends, paths, ab = [], [], [], []
+    order, ends, paths = [], [], []
     for e, (u, v, path) in work.edges.items():
         a, b = new_id[u], new_id[v]
         if a > b:
             a, b, path = b, a, path[::-1]
         order.append((a, b, len(order)))
-        ab.append((a, b))
         ends.append(e)
         paths.append(path)
+    ab = [(a, b) for a, b, _ in order]  # by edge, before the sort
     order.sort()
     sizes = np.array([len(p) for p in paths], np.int64)
     starts = np.cumsum(sizes) - sizes

@@ -11,6 +11,7 @@ the view of a folder of results.  The page's script and style are part of the pa
 from __future__ import annotations
 
 import html
+import inspect
 from pathlib import Path
 
 from .._validate import instance_of, path_like, positive_int
@@ -175,10 +176,6 @@ class View:
         return f"View({len(self.html) / 1e6:.2f} MB of HTML)"
 
 
-#: the keyword arguments :func:`show` passes on to the page (:func:`write_view`'s)
-_SHOW_OPTIONS = ("title", "map", "rooms", "graphs", "route", "timeline", "window", "max_pixels")
-
-
 def show(obj, *, height_px: int = 600, **kwargs) -> View:
     """The interactive view of ``obj`` inline in a notebook.
 
@@ -204,10 +201,13 @@ def show(obj, *, height_px: int = 600, **kwargs) -> View:
     >>> tj.show(tj.build_graph(tj.sample_map("intel")))           # doctest: +SKIP
     """
     height_px = positive_int("height_px", height_px)
+    options = [
+        p.name for p in inspect.signature(view_html).parameters.values() if p.kind == p.KEYWORD_ONLY
+    ]
     for name in kwargs:
-        if name not in _SHOW_OPTIONS:
+        if name not in options:
             raise TypeError(
-                f"{name}: expected one of write_view's options ({', '.join(_SHOW_OPTIONS)}) "
+                f"{name}: expected one of write_view's options ({', '.join(options)}) "
                 "or height_px, received an unknown keyword argument"
             )
     return View(view_html(obj, **kwargs), height_px=height_px)
