@@ -312,6 +312,36 @@ def test_repeated_timestamps_get_distinct_stamps(tmp_path):
     assert stamps == [5_000_000_000, 5_100_000_000, 5_300_000_000]
 
 
+def raw_messages(path: Path) -> list[tuple[str, int, bytes]]:
+    with AnyReader([Path(path)]) as reader:
+        return sorted((c.topic, t, bytes(raw)) for c, t, raw in reader.messages())
+
+
+def test_a_recording_continues_one_closed_part_way(tmp_path):
+    """A replay stopped part way closes its recording aside; the resumed replay's
+    recording starts with its messages and stamps on from its last scan."""
+    stamps = (1.0, None, 2.0, 2.0, 3.0)
+    with McapRecorder(tmp_path / "whole.mcap") as rec:
+        for t in stamps:
+            rec.add_scan(_scan(t))
+    rec = McapRecorder(tmp_path / "r.mcap").open()
+    for t in stamps[:3]:
+        rec.add_scan(_scan(t))
+    part = rec.close(tmp_path / "part" / "part.mcap")
+    assert part == tmp_path / "part" / "part.mcap" and not (tmp_path / "r.mcap").exists()
+    with McapRecorder(tmp_path / "r.mcap", continue_from=part) as rec:
+        assert rec.stamp_ns == 2_000_000_000 and rec.counts == {"/tf": 3, "/scan": 3}
+        for t in stamps[3:]:
+            rec.add_scan(_scan(t))
+    assert raw_messages(tmp_path / "r.mcap") == raw_messages(tmp_path / "whole.mcap")
+    with pytest.raises(FileNotFoundError, match="continue_from: no recording .*none.mcap"):
+        with McapRecorder(tmp_path / "s.mcap", continue_from=tmp_path / "none.mcap"):
+            pass
+    assert not (tmp_path / "s.mcap").exists()
+    with pytest.raises(ValueError, match=r"continue_from: expected a file name ending in \.mcap"):
+        McapRecorder(tmp_path / "s.mcap", continue_from=tmp_path / "r.bag")
+
+
 def test_recorder_leaves_nothing_behind_on_error_and_checks_its_path(tmp_path):
     with pytest.raises(RuntimeError, match="boom"):
         with McapRecorder(tmp_path / "r.mcap") as rec:

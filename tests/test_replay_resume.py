@@ -4,6 +4,9 @@ written map and graph are those of a replay that did not stop."""
 
 from __future__ import annotations
 
+import gzip
+import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -72,6 +75,86 @@ def test_a_resumed_replay_writes_what_an_uninterrupted_one_does(
     assert summary["n_scans"] == full["n_scans"] == 40
     assert summary["resumed_after"] == after and full["resumed_after"] == 0
     assert (summary["vertices"], summary["edges"]) == (full["vertices"], full["edges"])
+
+
+RECORDINGS = ("animation.gif", "view.html")
+
+
+def recorded_replay(out: Path, **kw) -> dict:
+    """A replay of the excerpt with every recording: animation, view timeline, MCAP."""
+    return replay(
+        INTEL_EXCERPT,
+        out_dir=out,
+        progress=False,
+        animate=out / "animation.gif",
+        mcap=out / "run.mcap",
+        view=True,
+        **SETTINGS,
+        **kw,
+    )
+
+
+def mcap_messages(path: Path) -> list:
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([path]) as reader:
+        return sorted((c.topic, t, bytes(raw)) for c, t, raw in reader.messages())
+
+
+@pytest.fixture(scope="module")
+def full_recorded(tmp_path_factory):
+    out = tmp_path_factory.mktemp("full_recorded")
+    recorded_replay(out)
+    return out
+
+
+def test_a_resumed_replay_continues_the_recordings_of_the_stopped_one(
+    tmp_path, monkeypatch, full_recorded
+):
+    """The animation, the view timeline and the MCAP recording of a replay stopped after
+    17 scans and resumed are those of a replay that did not stop (they held only the
+    scans after the stop)."""
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 17)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        recorded_replay(out)
+    assert not (out / "run.mcap").exists() and (out / ".replay_partial").is_dir()
+    summary = recorded_replay(out, resume=True)
+    for name in RECORDINGS:
+        assert (out / name).read_bytes() == (full_recorded / name).read_bytes(), name
+    timelines = [
+        gzip.decompress((d / "timeline.json.gz").read_bytes()) for d in (out, full_recorded)
+    ]
+    assert timelines[0] == timelines[1]
+    messages = mcap_messages(out / "run.mcap")
+    assert len(messages) > 80 and messages == mcap_messages(full_recorded / "run.mcap")
+    assert not (out / ".replay_partial").exists()
+    assert any(".replay_partial: the replay has finished" in m for m in summary["messages"])
+
+
+def test_a_resumed_replay_without_the_stopped_ones_recordings_says_so(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 17)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)  # no recordings
+    summary = recorded_replay(out, resume=True)
+    said = [m for m in summary["messages"] if "after the log's first 17" in m]
+    assert len(said) == 3, summary["messages"]  # animation, timeline, MCAP
+    scans = [m for m in mcap_messages(out / "run.mcap") if m[0] == "/scan"]
+    assert len(scans) == 40 - 17
+
+
+def test_recordings_of_fewer_scans_than_the_state_are_not_continued(tmp_path, monkeypatch):
+    """A stop while a scan's update was being recorded leaves recordings one scan short
+    of the mapper's state: a resumed replay starts its recordings afresh and says so."""
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 20)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        recorded_replay(out)
+    (out / ".replay_partial" / "recorded.json").write_text('{"recorded": 19}')
+    summary = recorded_replay(out, resume=True)
+    assert sum("after the log's first 20" in m for m in summary["messages"]) == 3
+    assert len([m for m in mcap_messages(out / "run.mcap") if m[0] == "/scan"]) == 20
 
 
 def test_a_resumed_replay_that_stops_again_resumes_again(tmp_path, monkeypatch, full_run):
@@ -182,9 +265,6 @@ class SlowMapper:
         self.interrupted, self.twice = interrupted, twice
 
     def add_scan(self, scan):
-        import os
-        import signal
-
         self.n_scans += 1
         if scan in (self.interrupted, self.twice):
             os.kill(os.getpid(), signal.SIGINT)
@@ -209,6 +289,30 @@ def test_an_interrupt_while_a_scan_is_mapped_waits_for_it_to_be_counted():
         for i in range(10):
             whole.add(mapper, i, i, progress)
     assert progress.consumed == mapper.n_scans == 3 and mapper.finished == 2
-    import signal
+    # a Ctrl-C while the replay records a scan's update waits for the recording too
+    mapper, progress, seen = SlowMapper(interrupted=-1), ReplayProgress(), []
 
+    def record(scan, report):
+        if scan == 5:
+            os.kill(os.getpid(), signal.SIGINT)
+        seen.append(scan)
+
+    with pytest.raises(KeyboardInterrupt), WholeScans() as whole:
+        for i in range(10):
+            whole.add(mapper, i, i, progress, then=record)
+    assert seen == list(range(6)) and progress.consumed == progress.recorded == 6
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+
+
+def test_a_failing_recording_leaves_the_scan_counted_but_not_recorded():
+    from topojax._replay_state import ReplayProgress, WholeScans
+
+    def record(scan, report):
+        if scan == 2:
+            raise OSError("disk full")
+
+    mapper, progress = SlowMapper(interrupted=-1), ReplayProgress()
+    with pytest.raises(OSError, match="disk full"), WholeScans() as whole:
+        for i in range(10):
+            whole.add(mapper, i, i, progress, then=record)
+    assert (progress.consumed, progress.recorded) == (3, 2)

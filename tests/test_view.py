@@ -4,6 +4,8 @@ opens the pages in a real browser."""
 
 from __future__ import annotations
 
+import copy
+import gzip
 import inspect
 import json
 import re
@@ -258,8 +260,17 @@ def test_timeline_keeps_every_update_and_round_trips(tmp_path):
     path = timeline.save(tmp_path / "timeline.json.gz")
     back = tj.Timeline.load(path)
     assert back.n_frames == 4 and back.payload() == timeline.payload()
+    # a timeline saved while recording records on as the one it was saved from
+    going_on = copy.deepcopy(timeline)  # (intel_replay's is shared)
+    going_on.snapshot(mapper, rooms=True)
+    back.snapshot(mapper, rooms=True)
+    assert back.n_frames == 5 and back.payload() == going_on.payload()
+    # one saved without what recording on needs (an older file) is to view only
+    doc = json.loads(gzip.decompress(path.read_bytes()))
+    del doc["continue"]
+    path.write_bytes(gzip.compress(json.dumps(doc).encode()))
     with pytest.raises(ValueError, match="loaded from a file"):
-        back.snapshot(mapper)
+        tj.Timeline.load(path).snapshot(mapper)
 
 
 def test_a_corrupt_timeline_file_says_so(tmp_path):

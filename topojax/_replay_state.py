@@ -6,8 +6,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import warnings
 from pathlib import Path
+from typing import Any, NamedTuple
+
+from ._animation import load_frames, save_frames
 
 #: Where a replay that stops part way keeps the mapper's state, in its output folder.
 STATE_FILE = "mapper_state.npz"
@@ -16,12 +20,14 @@ _HASHED_BYTES = 1 << 20  # of each end of a log file, for its fingerprint
 
 class ReplayProgress:
     """How far a replay got: ``consumed`` scans taken from the log (mapped or skipped),
-    the refusals of the ``skipped`` ones; updated after every scan."""
+    the refusals of the ``skipped`` ones, and ``recorded``: the scans whose updates the
+    replay's recordings (animation, view timeline, MCAP) hold; updated after every scan."""
 
-    __slots__ = ("consumed", "resumed_after", "skipped")
+    __slots__ = ("consumed", "recorded", "resumed_after", "skipped")
 
     def __init__(self, consumed: int = 0, skipped: list[str] | None = None) -> None:
         self.consumed = consumed
+        self.recorded = consumed
         self.resumed_after = consumed
         self.skipped = list(skipped or [])
 
@@ -62,19 +68,25 @@ class WholeScans:
             return
         raise KeyboardInterrupt
 
-    def add(self, mapper, scan, index: int, progress: ReplayProgress):
+    def add(self, mapper, scan, index: int, progress: ReplayProgress, then=None):
         """``mapper.add_scan(scan)`` of the log's scan ``index`` (from 0), counted in
-        ``progress`` once the mapper took it (also when it raised part way); None for
-        a scan refused with :class:`ExtentError` (its refusal is kept in ``progress``)."""
+        ``progress`` once the mapper took it (also when it raised part way), then
+        ``then(scan, report)`` (what the replay records of it; a held Ctrl-C waits for it too,
+        and ``progress.recorded`` counts the scan once it returned); None for a scan
+        refused with :class:`ExtentError` (its refusal is kept in ``progress``)."""
         from .incremental import ExtentError
 
         before = mapper.n_scans
         self._busy = True
         try:
-            return mapper.add_scan(scan)
+            report = mapper.add_scan(scan)
+            if then is not None:
+                then(scan, report)
+            progress.recorded = index + 1
+            return report
         except ExtentError as exc:  # a localisation glitch: skipped, the replay goes on
             progress.skipped.append(str(exc))
-            progress.consumed = index + 1
+            progress.consumed = progress.recorded = index + 1
             return None
         finally:
             if mapper.n_scans != before:
@@ -134,12 +146,13 @@ def save_replay_state(mapper, path: Path, record: dict) -> Path:
     return save_state(mapper, path, replay=record)
 
 
-def keep_state(mapper, out: Path, record) -> None:
+def keep_state(mapper, out: Path, record) -> bool:
     """After a failure part way through a log, save the mapper's state with the replay
     ``record`` (a callable giving it) to ``out`` (if it mapped a scan) and say so in a
-    RuntimeWarning; a failing save does not hide the failure."""
+    RuntimeWarning; a failing save does not hide the failure.  Returns whether the
+    state was saved."""
     if mapper.n_scans == 0 or mapper.pixel_bbox is None:
-        return
+        return False
     try:
         path = save_replay_state(mapper, out / STATE_FILE, record())
     except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
@@ -149,13 +162,14 @@ def keep_state(mapper, out: Path, record) -> None:
             RuntimeWarning,
             stacklevel=4,
         )
-        return
+        return False
     warnings.warn(
         f"replay stopped after {mapper.n_scans} scans; the mapper's state is saved to "
         f"{path} (replay with resume=True, topojax replay --resume, continues from it)",
         RuntimeWarning,
         stacklevel=4,
     )
+    return True
 
 
 def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
@@ -224,3 +238,93 @@ def _check_same(path: Path, what: str, saved: dict, now: dict) -> None:
         f"resume: {path} was made with other {what} ({diff}); resume with the same "
         "options, or replay without resume"
     )
+
+
+#: Where a replay that stops part way keeps its recordings so far (animation frames, view
+#: timeline, MCAP recording), in its output folder, for a resumed replay to continue.
+PARTIAL_DIR = ".replay_partial"
+
+
+def keep_recordings(out: Path, recorded: int, recorder, timeline, frames) -> None:
+    """After a failure part way through a log, keep what the replay recorded of its
+    first ``recorded`` scans in ``out/.replay_partial``: the open MCAP ``recorder``
+    finished there, the view ``timeline`` and the animation ``frames`` (each None when
+    not recorded).  A failing save is said in a RuntimeWarning."""
+    folder = out / PARTIAL_DIR
+    try:
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir(parents=True)
+        if recorder is not None:
+            recorder.close(folder / "recording.mcap")
+        if timeline is not None:
+            timeline.save(folder / "timeline.json.gz")
+        if frames is not None:
+            save_frames(frames, folder / "frames.npz")
+        (folder / "recorded.json").write_text(json.dumps({"recorded": recorded}))
+    except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
+        shutil.rmtree(folder, ignore_errors=True)
+        warnings.warn(
+            f"replay stopped; keeping its recordings so far failed ({exc}): a resumed "
+            "replay's animation, view timeline and MCAP recording will hold only the "
+            "scans after the stop",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+
+
+class KeptRecordings(NamedTuple):
+    """What a stopped replay recorded (:func:`keep_recordings`), for the resumed one to
+    continue: the MCAP recording's path, the view timeline and the animation frames
+    (None where not kept or not wanted now), and a message per recording that holds
+    only the scans after the stop."""
+
+    mcap: Path | None
+    timeline: Any
+    frames: list | None
+    messages: list[str]
+
+
+def kept_recordings(out: Path, consumed: int, *, mcap: bool, view: bool, animate: bool):
+    """The recordings kept in ``out`` by the replay that stopped after taking
+    ``consumed`` scans, those wanted now (:class:`KeptRecordings`); recordings of
+    another number of scans are not used."""
+    from .view import Timeline
+
+    folder = out / PARTIAL_DIR
+    try:
+        recorded = json.loads((folder / "recorded.json").read_text())["recorded"]
+    except (OSError, ValueError, KeyError, TypeError):
+        recorded = None
+    usable = recorded == consumed
+    found: dict[str, Any] = {}
+    messages = []
+    for name, file, wanted, load in (
+        ("MCAP recording", "recording.mcap", mcap, lambda p: p),
+        ("view timeline", "timeline.json.gz", view, Timeline.load),
+        ("animation", "frames.npz", animate, load_frames),
+    ):
+        path = folder / file
+        if not wanted:
+            continue
+        if usable and path.is_file():
+            found[file] = load(path)
+        else:
+            messages.append(
+                f"the {name} holds the scans after the log's first {consumed}: the "
+                "stopped replay kept none of its own"
+            )
+    return KeptRecordings(
+        found.get("recording.mcap"),
+        found.get("timeline.json.gz"),
+        found.get("frames.npz"),
+        messages,
+    )
+
+
+def drop_recordings(out: Path) -> list[str]:
+    """Remove the recordings a stopped replay kept in ``out``; returns a message if any."""
+    folder = out / PARTIAL_DIR
+    if not folder.exists():
+        return []
+    shutil.rmtree(folder, ignore_errors=True)
+    return [f"removed {folder}: the replay has finished"]

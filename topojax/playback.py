@@ -9,13 +9,16 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import NamedTuple
 
-import numpy as np
-
+from ._animation import animation_frame, write_animation
 from ._replay_state import (
     STATE_FILE,
+    KeptRecordings,
     ReplayProgress,
     WholeScans,
+    drop_recordings,
+    keep_recordings,
     keep_state,
+    kept_recordings,
     replay_record,
     resumed_mapper,
     save_replay_state,
@@ -34,7 +37,6 @@ from .incremental import (
     ExportBudgetError,
     IncrementalMapper,
     ScanReport,
-    current_room_labels,
     settings_of,
     timing_summary,
 )
@@ -50,78 +52,6 @@ def _source_name(source) -> str:
     while Path(name).suffix.lower() in _LOG_SUFFIXES:
         name = Path(name).stem
     return name
-
-
-def _frame(mapper: IncrementalMapper, max_px: int = 500) -> dict:
-    """A small snapshot for the animation: the map image shrunk to at most ``max_px``
-    pixels a side (walls kept, :func:`topojax.plotting.map_image`), its world extent, the
-    edges' world polylines and the vertices' world positions by kind."""
-    from .plotting import map_image
-
-    occ = mapper.occupancy
-    h, w = occ.shape
-    step = max(1, -(-max(h, w) // max_px))
-    img = map_image(occ, step)
-    ox, oy, _ = occ.origin
-    res = occ.resolution_m
-    top = oy + h * res
-    g = mapper.graph
-    labels = current_room_labels(mapper)
-    rooms = None if labels is None else labels[::step, ::step].copy()
-    vertices: dict[str, list] = {}
-    for _, d in g.nodes(data=True):
-        vertices.setdefault(d["kind"], []).append(d["world"])
-    return {
-        "image": img,
-        "extent": (ox, ox + img.shape[1] * step * res, top - img.shape[0] * step * res, top),
-        "edges": [d for *_, d in g.edges(data="world")],
-        "vertices": {k: np.asarray(v, np.float64) for k, v in vertices.items()},
-        "n_vertices": g.number_of_nodes(),
-        "scan": mapper.n_scans,
-        "rooms": rooms,
-    }
-
-
-def _write_animation(frames: list[dict], path: Path, name: str | None = None) -> None:
-    """The frames as a GIF in the style of the still pictures (:mod:`topojax.plotting`):
-    map, rooms, graph, a scale bar and the legend under the map, the log's name."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.animation import FuncAnimation, PillowWriter
-
-    from .plotting import add_legend, add_scale_bar, draw_graph_lines, room_layer
-
-    last = frames[-1]["extent"]
-    fig, ax = plt.subplots(figsize=(7, 7.5))
-    fig.subplots_adjust(left=0.02, right=0.98, top=0.94, bottom=0.1)
-
-    def draw(i: int):
-        f = frames[i]
-        ax.clear()
-        ax.imshow(f["image"], cmap="gray", vmin=0, vmax=1, extent=f["extent"])
-        if f.get("rooms") is not None:
-            ax.imshow(room_layer(f["rooms"], 0.45), extent=f["extent"], interpolation="nearest")
-        draw_graph_lines(ax, f["edges"], f["vertices"], linewidth=1.0, node_size=6.0)
-        ax.set_xlim(last[0], last[1])
-        ax.set_ylim(last[2], last[3])
-        ax.set_aspect("equal")
-        ax.set_axis_off()
-        add_scale_bar(ax, 1.0)
-        add_legend(ax)
-        text = f"scan {f['scan']}: {f['n_vertices']} vertices, {len(f['edges'])} edges"
-        ax.set_title(f"{name}: {text}" if name else text)
-        return []
-
-    anim = FuncAnimation(fig, draw, frames=len(frames), blit=False)
-    tmp = path.with_name(f".{path.name}.tmp.gif")
-    try:
-        anim.save(tmp, writer=PillowWriter(fps=3))
-        tmp.replace(path)
-    finally:
-        plt.close(fig)
-        tmp.unlink(missing_ok=True)
 
 
 def replay(
@@ -192,7 +122,9 @@ def replay(
         those of a replay that did not stop.  Refused (ValueError, FileNotFoundError)
         without a saved state, or when it was saved replaying another log or with other
         ``reader_kwargs`` or mapper settings.  The animation, view timeline and MCAP
-        recording hold only the scans replayed now.
+        recording go on from those the stopped replay kept (``out_dir/.replay_partial``);
+        one it did not keep holds only the scans replayed now (the summary's
+        ``messages`` say so).
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ``room_config``, ...).
@@ -223,15 +155,25 @@ def replay(
         reader_kwargs,
     )
     out = Path(out_dir)
-    scans, mapper, timeline, progress_at = _start(
-        source, out, reader_kwargs, rooms, view, mapper_kw, resume=resume, max_scans=max_scans
+    scans, mapper, progress_at, kept = _start(
+        source,
+        out,
+        reader_kwargs,
+        rooms,
+        view,
+        mapper_kw,
+        resume=resume,
+        max_scans=max_scans,
+        mcap=mcap is not None,
+        animate=animate is not None,
     )
+    timeline = kept.timeline
     if route_graph_radius_m is not None:  # now, not after the whole replay
         from .routegraph.build import RouteGraphConfig, check_scale
 
         config = RouteGraphConfig(robot_radius_m=route_graph_radius_m)
         check_scale(config, mapper.resolution_m, "route_graph_radius_m")
-    with _recorder(mcap) as recorder:
+    with _recorder(mcap, kept.mcap) as recorder:
         done = _map_scans(
             mapper,
             scans,
@@ -239,7 +181,7 @@ def replay(
             recorder,
             timeline,
             max_scans=max_scans,
-            animate=animate is not None,
+            frames=kept.frames,
             progress=progress,
             graph_config=graph_config,
             rooms=rooms,
@@ -255,11 +197,12 @@ def replay(
     if recorder is not None:
         written.append(recorder.path)
     written.append(out / "timings.json")
-    messages += _remove_stale(out, written)
+    messages += _remove_stale(out, written) + kept.messages
     state = out / STATE_FILE
     if state.is_file():  # a stopped replay's state, superseded by this finished one
         state.unlink()
         messages.append(f"removed {state}: the replay has finished")
+    messages += drop_recordings(out)
     summary = _summary(source, mapper, done, progress_at)
     summary["written"] = [str(p) for p in written]
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
@@ -286,13 +229,24 @@ class _Replayed(NamedTuple):
 
 
 def _start(
-    source, out: Path, reader_kwargs, rooms: bool, view: bool, mapper_kw: dict, *, resume, max_scans
+    source,
+    out: Path,
+    reader_kwargs,
+    rooms: bool,
+    view: bool,
+    mapper_kw: dict,
+    *,
+    resume,
+    max_scans,
+    mcap: bool,
+    animate: bool,
 ):
     """Open the log, make the mapper (with ``rooms``, rooms at every graph update unless
     ``rooms_every`` is given; with ``resume``, the one saved in ``out``, checked against
-    these settings), create the output folder and, with ``view``, a timeline; returns
-    the scans (with ``resume``, from the first one not yet taken), the mapper, the
-    timeline (or None) and the replay's progress so far."""
+    these settings) and create the output folder; returns the scans (with ``resume``,
+    from the first one not yet taken), the mapper, the replay's progress so far and the
+    recordings to continue (:class:`KeptRecordings`: with ``view`` a timeline, with
+    ``animate`` the frames, with ``mcap`` the stopped replay's recording)."""
     import itertools
 
     from ._fs import output_folder
@@ -309,12 +263,16 @@ def _start(
     if progress_at.consumed:
         scans = itertools.islice(scans, progress_at.consumed, None)
     output_folder(out)
-    timeline = None
-    if view:
+    kept = KeptRecordings(None, None, None, [])
+    if resume:
+        kept = kept_recordings(out, progress_at.consumed, mcap=mcap, view=view, animate=animate)
+    if view and kept.timeline is None:
         from .view import Timeline
 
-        timeline = Timeline()
-    return scans, mapper, timeline, progress_at
+        kept = kept._replace(timeline=Timeline())
+    if animate and kept.frames is None:
+        kept = kept._replace(frames=[])
+    return scans, mapper, progress_at, kept
 
 
 def _map_scans(
@@ -325,7 +283,7 @@ def _map_scans(
     timeline,
     *,
     max_scans,
-    animate,
+    frames,
     progress,
     graph_config,
     rooms,
@@ -338,16 +296,17 @@ def _map_scans(
     run the final update (:func:`_final`; a map too large to write leaves the mapper's
     state in ``out``), make the final route graph (with a radius)
     and close the recording (if any) with the written map, graph, rooms and route
-    graph.  ``progress_at`` (where the replay starts in the log) follows the scans
-    taken, for the state saved on a failure."""
+    graph.  ``frames`` (animation frames so far, or None) grows by a frame at every
+    update.  ``progress_at`` (where the replay starts in the log) follows the scans
+    taken, for the state (and the recordings) saved on a failure."""
     record = None if recorder is None else _Recording(recorder, route_graph_radius_m)
 
     def state_record():
         return replay_record(source, reader_kwargs, progress_at, mapper)
 
     try:  # a map grown too large to export (the recording's, the final) is kept
-        reports, frames, wall = _run(
-            mapper, scans, max_scans, animate, progress, record, timeline, progress_at
+        reports, wall = _run(
+            mapper, scans, max_scans, frames, progress, record, timeline, progress_at
         )
         skipped = progress_at.skipped  # from the log's start
         if not mapper.n_scans and skipped:
@@ -363,9 +322,11 @@ def _map_scans(
         if route_graph_radius_m is not None:
             routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
     except ExportBudgetError as exc:
+        keep_recordings(out, progress_at.recorded, recorder, timeline, frames)
         raise _unwritable(mapper, exc, out, state_record()) from None
     except (Exception, KeyboardInterrupt):  # a bad line mid-log, Ctrl-C: keep the scans
-        keep_state(mapper, out, state_record)
+        if keep_state(mapper, out, state_record):
+            keep_recordings(out, progress_at.recorded, recorder, timeline, frames)
         raise
     if recorder is not None:
         recorder.add_map(result.map, result.graph)
@@ -417,10 +378,10 @@ def _write_pictures_and_animation(
     if plot:
         written += _write_pictures(done.result, out, name)
     if animate is not None:
-        done.frames.append(_frame(mapper))
+        done.frames.append(animation_frame(mapper))
         apath = Path(animate)
         apath.parent.mkdir(parents=True, exist_ok=True)
-        _write_animation(done.frames, apath, name)
+        write_animation(done.frames, apath, name)
         written.append(apath)
     return written
 
@@ -572,34 +533,44 @@ def _refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
         )
 
 
-def _recorder(mcap):
-    """A :class:`~topojax.io.mcap.McapRecorder` for ``mcap``, or a context of None."""
+def _recorder(mcap, continue_from):
+    """A :class:`~topojax.io.mcap.McapRecorder` for ``mcap`` (continuing the recording
+    ``continue_from``, if not None), or a context of None."""
     if mcap is None:
         return contextlib.nullcontext()
     from .io.mcap import McapRecorder
 
-    return McapRecorder(mcap)
+    return McapRecorder(mcap, continue_from=continue_from)
 
 
 def _run(
     mapper,
     scans,
     max_scans,
-    animate: bool,
+    frames: list | None,
     progress: bool,
     record,
     timeline,
     progress_at: ReplayProgress,
 ):
     """Feed ``scans`` to ``mapper`` until the log's scan ``max_scans``; returns the
-    reports, the animation frames (one per graph update when ``animate``) and the wall
-    time (s).  ``record`` (a :class:`_Recording`) writes every scan and what its report
-    updated.  ``progress_at`` gives where ``scans`` start in the log, and follows each
-    scan taken (mapped, or skipped with its refusal)."""
+    reports and the wall time (s).  Each scan mapped is recorded: ``record`` (a
+    :class:`_Recording`) writes it and what its report updated, ``timeline`` takes its
+    update, ``frames`` (a list, or None) gets a frame at each graph or rooms update.
+    ``progress_at`` gives where ``scans`` start in the log, and follows each scan taken
+    (mapped, or skipped with its refusal) and recorded."""
     from tqdm import tqdm
 
     reports: list[ScanReport] = []
-    frames: list[dict] = []
+
+    def recorded(scan, rep: ScanReport) -> None:  # inside the scan: a Ctrl-C waits for it
+        if timeline is not None:
+            timeline.record(mapper, rep, scan)
+        if record is not None:
+            record(mapper, scan, rep)
+        if frames is not None and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
+            frames.append(animation_frame(mapper))
+
     bar = tqdm(
         total=max_scans,
         initial=progress_at.consumed,
@@ -612,19 +583,12 @@ def _run(
         for i, scan in enumerate(scans, start=progress_at.consumed):
             if max_scans is not None and i >= max_scans:
                 break
-            rep = whole.add(mapper, scan, i, progress_at)
+            rep = whole.add(mapper, scan, i, progress_at, then=recorded)
             bar.update(1)
-            if rep is None:  # skipped
-                continue
-            reports.append(rep)
-            if timeline is not None:
-                timeline.record(mapper, rep, scan)
-            if record is not None:
-                record(mapper, scan, rep)
-            if animate and (rep.graph_update or rep.rooms_update) and mapper.pixel_bbox:
-                frames.append(_frame(mapper))
+            if rep is not None:  # else skipped
+                reports.append(rep)
     bar.close()
-    return reports, frames, time.perf_counter() - t0
+    return reports, time.perf_counter() - t0
 
 
 @dataclass(frozen=True)

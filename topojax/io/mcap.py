@@ -372,6 +372,10 @@ class McapRecorder:
     ----------
     path : str or Path
         The ``.mcap`` file to write; its folder is created.
+    continue_from : str or Path, optional
+        A recording this one continues (one written by :meth:`close` when a replay
+        stopped part way): its messages are copied first, and the next scan is stamped
+        after its last one.
 
     Attributes
     ----------
@@ -392,7 +396,7 @@ class McapRecorder:
     ...             rec.add_route_graph(mapper.route_graph(robot_radius_m=0.3))
     """
 
-    def __init__(self, path) -> None:
+    def __init__(self, path, *, continue_from=None) -> None:
         self.path = mcap_path(path)
         self.counts: dict[str, int] = {}
         self.stamp_ns = 0
@@ -400,6 +404,9 @@ class McapRecorder:
         self._writer = None
         self._tmp: Path | None = None
         self._connections: dict[str, object] = {}
+        self._earlier = (
+            None if continue_from is None else mcap_path(continue_from, name="continue_from")
+        )
 
     # ------------------------------------------------------------------ lifetime
     def open(self) -> McapRecorder:
@@ -413,19 +420,50 @@ class McapRecorder:
         writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         writer.open()
         self._writer = writer
+        if self._earlier is not None:
+            try:
+                self._copy(self._earlier)
+            except BaseException:
+                self.abort()
+                raise
         return self
 
-    def close(self) -> Path:
-        """Finish the file and move it to :attr:`path`; returns the path."""
+    def _copy(self, earlier: Path) -> None:
+        """Write the messages of the recording ``earlier``, in time order, and take its
+        last scan's stamp as the latest."""
+        from rosbags.highlevel import AnyReader
+
+        if not earlier.is_file():
+            raise FileNotFoundError(f"continue_from: no recording {earlier}")
+        with AnyReader([earlier]) as reader:
+            for conn, stamp_ns, raw in reader.messages():
+                if conn.topic not in TOPICS:
+                    raise ValueError(
+                        f"continue_from: expected a recording of McapRecorder's topics "
+                        f"{sorted(TOPICS)}, {earlier} has {conn.topic!r}"
+                    )
+                self._write_raw(conn.topic, raw, stamp_ns)
+                if conn.topic == "/scan":
+                    self.stamp_ns, self._scanned = max(self.stamp_ns, stamp_ns), True
+
+    def close(self, path=None) -> Path:
+        """Finish the file and move it to :attr:`path` (or to ``path``, e.g. a stopped
+        replay's part, which a later recording continues); returns where it is."""
         writer, self._writer = self._writer, None
         if writer is None:
             raise RuntimeError("McapRecorder: the recording is not open")
+        target = self.path if path is None else mcap_path(path)
         try:
             writer.close()
-            os.replace(self._tmp / "recording" / "recording.mcap", self.path)
+            done = self._tmp / "recording" / "recording.mcap"
+            if path is None:
+                os.replace(done, target)
+            else:  # its folder, maybe on another file system
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.move(done, target)
         finally:
             shutil.rmtree(self._tmp, ignore_errors=True)
-        return self.path
+        return target
 
     def abort(self) -> None:
         """Drop the recording: no file is written."""
@@ -446,16 +484,19 @@ class McapRecorder:
 
     # ------------------------------------------------------------------ messages
     def _write(self, topic: str, message, stamp_ns: int) -> None:
+        self._write_raw(topic, _typestore().serialize_cdr(message, TOPICS[topic]), stamp_ns)
+
+    def _write_raw(self, topic: str, raw, stamp_ns: int) -> None:
+        """Write one CDR-serialised message of ``topic``."""
         if self._writer is None:
             raise RuntimeError("McapRecorder: open the recording first (use it in a with block)")
-        store = _typestore()
         conn = self._connections.get(topic)
         if conn is None:
             conn = self._writer.add_connection(
-                topic, TOPICS[topic], typestore=store, offered_qos_profiles=_qos(topic)
+                topic, TOPICS[topic], typestore=_typestore(), offered_qos_profiles=_qos(topic)
             )
             self._connections[topic] = conn
-        self._writer.write(conn, stamp_ns, store.serialize_cdr(message, TOPICS[topic]))
+        self._writer.write(conn, stamp_ns, raw)
         self.counts[topic] = self.counts.get(topic, 0) + 1
 
     def _next_stamp(self, timestamp) -> int:

@@ -18,7 +18,7 @@ import numpy as np
 
 from .._cpus import usable_cpus
 
-__all__ = ["TILE_PX", "packed", "pyramid"]
+__all__ = ["TILE_PX", "packed", "pyramid", "unpacked"]
 
 #: Side of the PNG tiles, pixels of their pyramid level.
 TILE_PX = 512
@@ -49,6 +49,27 @@ def packed(values, dtype) -> dict:
     a = np.ascontiguousarray(np.asarray(values).ravel(), dtype=dt.newbyteorder("<"))
     raw = zlib.compress(a.tobytes(), 6)
     return {"t": _TYPES[dt], "n": int(a.size), "z": base64.b64encode(raw).decode("ascii")}
+
+
+def unpacked(doc: dict) -> np.ndarray:
+    """The flat array (native byte order) of a :func:`packed` ``doc``.
+
+    Raises
+    ------
+    ValueError
+        If ``doc`` is not such a dict or its bytes do not decode to its count.
+    """
+    names = {name: dt for dt, name in _TYPES.items()}
+    try:
+        dt = names[doc["t"]]
+        raw = zlib.decompress(base64.b64decode(doc["z"], validate=True))
+        a = np.frombuffer(raw, dt.newbyteorder("<")).astype(dt)
+        ok = a.size == int(doc["n"])
+    except (KeyError, TypeError, ValueError, zlib.error) as exc:
+        raise ValueError(f"not a packed array ({exc!r})") from None
+    if not ok:
+        raise ValueError(f"packed array: expected {doc['n']} values, decoded {a.size}")
+    return a
 
 
 def _png(image: np.ndarray) -> str:

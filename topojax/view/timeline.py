@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .._validate import existing_file, instance_of, int_at_least, path_like
-from ._encode import TILE_PX, packed, pyramid
+from ._encode import TILE_PX, packed, pyramid, unpacked
 from ._graphs import KIND_NAMES
 from ._rooms_data import rooms_payload
 
@@ -61,6 +61,34 @@ class Timeline:
         if self._loaded is not None:
             return len(self._loaded["frames"])
         return len(self._frames)
+
+    def _continuation(self) -> dict:
+        """What :meth:`load` needs to extend a saved timeline: the mapper's edge key of
+        each pooled edge, the keys of the last snapshot and ``max_map_px``."""
+        return {
+            "keys": list(self._pool_index),
+            "last": sorted(self._last_keys),
+            "max_map_px": self.max_map_px,
+        }
+
+    def _continue(self, body: dict, cont: dict) -> None:
+        """Take up a saved ``body`` (:meth:`payload`) with its :meth:`_continuation`."""
+        keys = [int(k) for k in cont["keys"]]
+        pool = body["pool"]
+        sizes = unpacked(pool["sizes"])
+        xy = unpacked(pool["xy"]).reshape(-1, 2)
+        if len(keys) != sizes.size or int(sizes.sum()) != xy.shape[0]:
+            raise ValueError("the edge pool and its keys disagree")
+        pieces = np.split(xy, np.cumsum(sizes)[:-1]) if sizes.size else []
+        stats = zip(*(unpacked(pool[k]).tolist() for k in ("len", "cmin", "cmean")), strict=True)
+        self._pool = [(xy_k, *st) for xy_k, st in zip(pieces, stats, strict=True)]
+        self._pool_index = {k: i for i, k in enumerate(keys)}
+        self._last_keys = {int(k) for k in cont["last"]}
+        path = body["path"]
+        scans, px, py = (unpacked(path[k]).tolist() for k in ("scan", "x", "y"))
+        self._path = list(zip(scans, px, py, strict=True))
+        self._frames = body["frames"]
+        self._rooms = body["rooms"]
 
     def record(self, mapper, report, scan=None) -> bool:
         """Keep what one :meth:`~topojax.IncrementalMapper.add_scan` did.
@@ -209,13 +237,17 @@ class Timeline:
 
         p = path_like("path", path)
         doc = {"format": _FORMAT, "version": _VERSION, "timeline": self.payload()}
+        if self._loaded is None:
+            doc["continue"] = self._continuation()
         data = gzip.compress(json.dumps(doc, separators=(",", ":")).encode("utf-8"), mtime=0)
         atomic_write_bytes(p, data)
         return p
 
     @classmethod
     def load(cls, path) -> Timeline:
-        """Read a file written by :meth:`save`.
+        """Read a file written by :meth:`save`.  A timeline saved while recording (not
+        one loaded from a file) records on where it stopped: :meth:`record` extends it as
+        if it had not been saved.
 
         Raises
         ------
@@ -242,6 +274,14 @@ class Timeline:
         body = doc.get("timeline")
         if not isinstance(body, dict) or not isinstance(body.get("frames"), list):
             raise ValueError(f"timeline file {p} has no frames")
-        out = cls()
-        out._loaded = body
+        cont = doc.get("continue")
+        if cont is None:  # saved from a loaded timeline: to view only
+            out = cls()
+            out._loaded = body
+            return out
+        try:
+            out = cls(max_map_px=cont["max_map_px"])
+            out._continue(body, cont)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"timeline file {p} is corrupt: {exc}") from None
         return out
