@@ -187,7 +187,7 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
         ``max_scans``.
     """
     from .incremental import IncrementalMapper
-    from .incremental.state import read_state
+    from .incremental.state import mapper_from_state, read_state
 
     path = out / STATE_FILE
     if not path.is_file():
@@ -220,7 +220,7 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
             f"resume: {path} has already taken {record['consumed']} scans from the log, "
             f"more than max_scans={max_scans}"
         )
-    return IncrementalMapper.load(path), record
+    return mapper_from_state(IncrementalMapper, path, data), record
 
 
 def _check_same(path: Path, what: str, saved: dict, now: dict) -> None:

@@ -147,7 +147,12 @@ def load_rooms_state(mapper, data) -> None:
 
 def load_state(cls, path):
     """The body of :meth:`IncrementalMapper.load` (``cls``: the mapper class)."""
-    p, data = read_state(path)
+    return mapper_from_state(cls, *read_state(path))
+
+
+def mapper_from_state(cls, p: Path, data: dict[str, np.ndarray]):
+    """The mapper (of class ``cls``) of the state ``data`` read from ``p``
+    (:func:`read_state`); a corrupt or inconsistent state raises ValueError naming ``p``."""
     try:
         settings = json.loads(str(data["settings"]))
         cfg = settings.pop("config")
