@@ -265,6 +265,20 @@ def test_options_are_checked():
         RouteGraphConfig(0.3)  # keyword-only
 
 
+@pytest.mark.parametrize("snap_m", [5.01, 50.0, 1e9])
+def test_a_snap_distance_past_the_evaluators_limit_is_refused(snap_m):
+    """The coverage test's work grows with the square of the snap distance: 1e9 m ran
+    out of memory deep inside the coverage pass, and a graph built past 5 m could not be
+    scored (``evaluate_route_graph``) or routed to by default (``max_snap_m``) at its
+    own snap distance."""
+    from topojax.routegraph.evaluate import MAX_SNAP_M
+
+    assert MAX_SNAP_M == 5.0
+    RouteGraphConfig(snap_m=MAX_SNAP_M)  # the limit itself is fine
+    with pytest.raises(ValueError, match=r"^snap_m: expected at most 5 m .* received "):
+        RouteGraphConfig(snap_m=snap_m)
+
+
 def test_map_is_a_map_or_its_file(tmp_path):
     occ = _map(_room(3, 3))
     with pytest.raises(TypeError, match=r"occupancy: .* received ndarray .*from_array"):
@@ -312,6 +326,31 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     assert main([*argv, "--resolution", "0.05"]) == 0
     assert "assumed" not in capsys.readouterr().out
     assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        (["--robot-radius", "0.01"], "--robot-radius: expected at least 1.5 pixels of the map"),
+        (["--snap-m", "6"], "--snap-m: expected 0.2 to 5 m"),
+        (["--snap-m", "0.15"], "--snap-m: expected 0.2 to 5 m"),
+    ],
+)
+def test_route_graph_command_names_its_own_options_before_any_file(
+    tmp_path, capsys, option, message
+):
+    """A value out of range is refused under the command's option name (not the Python
+    option's) before anything is written: ``--snap-m 6 --evaluate`` wrote the graph and
+    then failed in the evaluation, and ``--snap-m 0.15`` blamed ``waypoint_tolerance_m``,
+    which the command does not take."""
+    from topojax.cli import main
+
+    path = tmp_path / "room.png"
+    cv2.imwrite(str(path), np.where(_room(3, 4), 254, 0).astype(np.uint8))
+    out = tmp_path / "out"
+    assert main(["route-graph", str(path), "-o", str(out), "--evaluate", *option]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_which_map_files_state_their_resolution(tmp_path):

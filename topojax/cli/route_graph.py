@@ -37,7 +37,7 @@ def add_command(subparsers) -> None:
         type=float,
         default=1.0,
         metavar="M",
-        help="every feasible point lies within M metres of the graph (default 1.0)",
+        help="every feasible point lies within M metres of the graph (0.2 to 5; default 1.0)",
     )
     p.add_argument(
         "--resolution",
@@ -84,12 +84,18 @@ def _cmd_route_graph(args) -> int:
     from ..io import save_graph
     from ..maps import load_map
     from ..routegraph import RouteGraphConfig, route_graph
+    from ..routegraph.build import MAX_SNAP_M, check_scale
     from ..routegraph.feasible import route_graph_note
 
     radius = nonnegative_metres("--robot-radius", args.robot_radius_m)
-    config = RouteGraphConfig(
-        robot_radius_m=radius, snap_m=positive_metres("--snap-m", args.snap_m)
-    )
+    snap_m = positive_metres("--snap-m", args.snap_m)
+    least = 2 * RouteGraphConfig.waypoint_tolerance_m  # the class default: a float
+    if not least <= snap_m <= MAX_SNAP_M:
+        raise ValueError(
+            f"--snap-m: expected {least:g} to {MAX_SNAP_M:g} m (twice the waypoint "
+            f"tolerance at least), received {snap_m!r}"
+        )
+    config = RouteGraphConfig(robot_radius_m=radius, snap_m=snap_m)
     out = Path(args.out)
     stem = Path(args.map).stem
     targets = [out / name for name in _files(stem, args)]
@@ -102,6 +108,7 @@ def _cmd_route_graph(args) -> int:
         check_outputs(planned([args.mcap], args.map), command="route-graph", option="--mcap")
     kw = {k: getattr(args, k) for k in ("resolution_m", "mode") if getattr(args, k) is not None}
     occupancy = load_map(args.map, **kw)
+    check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")
     t0 = time.perf_counter()
     graph = route_graph(occupancy, config=config)
     seconds = time.perf_counter() - t0

@@ -45,6 +45,12 @@ _ONE_PIXEL = 1.5
 #: merge into one.
 MERGE_SNAP_SHARE = 0.5
 
+#: The largest ``snap_m`` (metres), of the route graphs and of their scores
+#: (:func:`topojax.evaluate_route_graph`): the coverage test of a pixel scans the graph
+#: pixels within the snap distance, work that grows with its square, and routes join a
+#: graph within 5 m by default (:data:`topojax.routing.DEFAULT_MAX_SNAP_M`).
+MAX_SNAP_M = 5.0
+
 #: An 8-connected pixel path is up to this much longer than the straight or simplified
 #: line a robot follows (1 / cos 22.5 deg, rounded up): loop lengths measured on pixel
 #: paths are scaled by it so that no loop is short along the waypoints.
@@ -61,7 +67,8 @@ class RouteGraphConfig:
         Robot radius: every edge keeps at least this clearance from anything not known free.
     snap_m : float, default 1.0
         Coverage: every feasible pixel lies within this distance of the graph (through the
-        feasible space); waypoints are added where the medial axis does not reach.
+        feasible space); waypoints are added where the medial axis does not reach.  At
+        most :data:`MAX_SNAP_M` (5 m).
     loop_m : float, default 2.0
         Loops shorter than this always collapse to one corridor, and no shortcut closes a
         loop shorter than twice this.
@@ -137,6 +144,12 @@ class RouteGraphConfig:
             raise ValueError(
                 f"shortcut_stretch: expected a finite number >= 1, received "
                 f"{self.shortcut_stretch!r}"
+            )
+        if self.snap_m > MAX_SNAP_M:
+            raise ValueError(
+                f"snap_m: expected at most {MAX_SNAP_M:g} m (the coverage test's work grows "
+                f"with its square; routes join within {MAX_SNAP_M:g} m), received "
+                f"{self.snap_m!r}"
             )
         if self.waypoint_tolerance_m > 0.5 * self.snap_m:
             raise ValueError(
@@ -259,10 +272,15 @@ MIN_REACH_PX = 1.5
 MIN_RADIUS_PX = 1.5
 
 
-def check_scale(cfg: RouteGraphConfig, res: float, radius_name: str = "robot_radius_m") -> None:
+def check_scale(
+    cfg: RouteGraphConfig,
+    res: float,
+    radius_name: str = "robot_radius_m",
+    snap_name: str = "snap_m",
+) -> None:
     """Refuse a robot radius, a ``snap_m`` or a ``shortcut_spacing_m`` too small for a map
     of ``res`` metres per pixel (see MIN_RADIUS_PX and MIN_REACH_PX; a spacing between 0
-    and one pixel); the radius's error names ``radius_name``."""
+    and one pixel); the radius's error names ``radius_name``, the snap's ``snap_name``."""
     if cfg.robot_radius_m / res < MIN_RADIUS_PX:
         raise ValueError(
             f"{radius_name}: expected at least {MIN_RADIUS_PX:g} pixels of the map "
@@ -273,7 +291,7 @@ def check_scale(cfg: RouteGraphConfig, res: float, radius_name: str = "robot_rad
     if (cfg.snap_m - cfg.waypoint_tolerance_m) / res < MIN_REACH_PX:
         least = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
         raise ValueError(
-            f"snap_m: expected at least waypoint_tolerance_m + {MIN_REACH_PX:g} pixels of the "
+            f"{snap_name}: expected at least waypoint_tolerance_m + {MIN_REACH_PX:g} pixels of the "
             f"map ({least:g} m at {res:g} m per pixel), received {cfg.snap_m!r}"
         )
     if 0 < cfg.shortcut_spacing_m < res:

@@ -33,6 +33,7 @@ from ._eval_routes import (
     route_network,
     sample_pairs,
 )
+from .build import MAX_SNAP_M  # every route end checks the graph points within it
 from .feasible import FeasibleSpace, feasible_space
 
 __all__ = ["RouteGraphReport", "evaluate_route_graph"]
@@ -41,8 +42,6 @@ __all__ = ["RouteGraphReport", "evaluate_route_graph"]
 SHORT_LOOP_M = 4.0
 #: Dead ends whose edge is shorter than this (metres) count as short.
 SHORT_DEAD_END_M = 1.0
-#: The largest ``snap_m`` (metres): every route end checks the graph points within it.
-MAX_SNAP_M = 5.0
 #: The most pairs (each source's geodesic search covers its region).
 MAX_PAIRS = 100_000
 
