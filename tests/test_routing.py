@@ -556,6 +556,20 @@ def test_default_snap_limit_refuses_far_points_and_none_lifts_it():
         pass
 
 
+@pytest.mark.parametrize("max_snap_m", [5.0, None])
+@pytest.mark.parametrize("far", [(1e200, 0.0), (-1e300, 5.0), (1e160, 1e160)])
+def test_a_point_too_far_for_any_distance_gets_the_planners_error(far, max_snap_m):
+    """A finite point so far off that its squared distance overflows (a unit or frame
+    mix-up) failed inside SciPy's k-d tree ("The value of p too large for this
+    dataset"), naming neither the point nor the graph; it is refused as far off."""
+    g = tj.build_graph(tj.sample_map("intel")).graph
+    start = g.nodes[0]["world"]
+    with pytest.raises(ValueError, match=r"^goal: the nearest point of the graph is more than"):
+        tj.plan_route(g, start, far, max_snap_m=max_snap_m)
+    with pytest.raises(ValueError, match=r"^start: the nearest point of the graph is more than"):
+        tj.plan_route(g, far, start, frame="pixel", max_snap_m=max_snap_m)
+
+
 def _fork(wall: bool = False, radius: float | None = 0.25):
     """A free 32 x 34 map of 0.1 m pixels (walls all round) with a fork from vertex "j" at
     (10, 3): edge j-a along row 10 to (10, 28), edge j-b down column 3 and along row 20 to

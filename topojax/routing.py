@@ -34,6 +34,11 @@ _TIE = 1e-9
 
 _FRAMES = ("world", "pixel")
 
+#: A query point farther than this from the box round the graph's points (metres, or
+#: pixels in the pixel frame) is refused before the k-d tree's search, whose squared
+#: distances would overflow (a float's square root of its largest value is about 1.3e154).
+_FAR = 1e150
+
 
 #: Default limit of :meth:`RoutePlanner.route` / :func:`plan_route` on the distance from a
 #: query point to the graph, metres: a point farther off (a goal in a room the graph does
@@ -342,9 +347,16 @@ class RoutePlanner:
         if self._occupancy is not None:
             self._check_off_obstacles(q, frame, name)
         tree, owners = self._tree(frame)
+        scale = 1.0 if frame == "world" else self._pixel_size_m()
+        box_gap = float(np.hypot(*np.maximum(np.maximum(tree.mins - q, q - tree.maxes), 0.0)))
+        if box_gap > _FAR:
+            raise ValueError(
+                f"{name}: the nearest point of the graph is more than {box_gap * scale:.6g} m "
+                f"away; expected a point near the graph, received {tuple(q.tolist())} "
+                f"({frame} frame): is it in the graph's frame and units?"
+            )
         dist, k = tree.query(q)
         near = sorted(set(tree.query_ball_point(q, float(dist) + _TIE)) | {int(k)})
-        scale = 1.0 if frame == "world" else self._pixel_size_m()
         out = [self._snap(owners[i], float(dist) * scale) for i in near]
         if self._feasible is not None and self._entry_m > 0:
             out += [self._snap(owners[i], d) for i, d in self._entries(q, frame, scale)]
