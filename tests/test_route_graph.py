@@ -279,6 +279,21 @@ def test_a_snap_distance_past_the_evaluators_limit_is_refused(snap_m):
         RouteGraphConfig(snap_m=snap_m)
 
 
+@pytest.mark.parametrize("value", [np.zeros((8, 8), bool), None, 3.0])
+def test_feasible_space_names_a_map_that_is_not_one(value):
+    """``feasible_space`` is public: a non-map got an AttributeError ('no attribute
+    free') from inside it, as ``route_graph`` and the evaluator do not."""
+    with pytest.raises(TypeError, match=r"^occupancy: expected an OccupancyMap or a map file"):
+        feasible_space(value, R)
+
+
+def test_feasible_space_reads_a_map_file(tmp_path):
+    occ = _map(_room(3, 3))
+    tj.save_map(occ, tmp_path / "room.yaml")
+    from_file = feasible_space(tmp_path / "room.yaml", R)
+    assert np.array_equal(from_file.feasible, feasible_space(occ, R).feasible)
+
+
 def test_map_is_a_map_or_its_file(tmp_path):
     occ = _map(_room(3, 3))
     with pytest.raises(TypeError, match=r"occupancy: .* received ndarray .*from_array"):

@@ -16,6 +16,7 @@ import numpy as np
 
 from .._validate import nonnegative_metres
 from ..fields.clearance import free_clearance_px
+from ..maps import map_argument
 
 __all__ = ["FeasibleSpace", "feasible_space"]
 
@@ -69,8 +70,9 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
 
     Parameters
     ----------
-    occupancy : OccupancyMap
-        The map; only its known-free pixels can be feasible.
+    occupancy : OccupancyMap or str or Path
+        The map, or its file (read by :func:`topojax.load_map`); only its known-free
+        pixels can be feasible.
     robot_radius_m : float
         Robot radius in metres (>= 0).
 
@@ -78,6 +80,7 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     -------
     FeasibleSpace
     """
+    occupancy = map_argument("occupancy", occupancy, files=True)
     radius = nonnegative_metres("robot_radius_m", robot_radius_m)
     free = np.asarray(occupancy.free, bool)
     res = float(occupancy.resolution_m)
