@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -197,6 +198,27 @@ def test_pixel_only_vertices_are_converted_with_the_map():
     g.add_edge("a", "b")
     r = evaluate_route_graph(g, m, RADIUS, n_pairs=30)
     assert r.success_rate == 1.0 and r.graph_length_m == pytest.approx(19.5)
+
+
+def test_a_pixel_only_graph_is_read_whole_without_coordinates():
+    """A graph in pixels only (vertex ``pixel``, edge ``path``): "auto" took the vertices'
+    ``pixel`` but ignored the edges' ``path``, scoring each bent edge as the straight
+    line between its ends (through the wall here: an unsafe share, failed routes),
+    where ``coordinates="pixel"`` gave the graph's real score."""
+    occ = np.ones((40, 40), bool)
+    occ[5:10, 5:35] = False  # an L: along row 7, then down column 32
+    occ[5:35, 30:35] = False
+    m = _map(occ)
+    g = _graph(m, [_row(7, 7, 32) + [(r, 32) for r in range(8, 33)]])
+    for _, data in g.nodes(data=True):
+        del data["world"]
+    for *_, data in g.edges(data=True):
+        del data["world"]
+    auto = evaluate_route_graph(g, m, RADIUS, n_pairs=50, min_region_m2=0.0)
+    pixel = evaluate_route_graph(g, m, RADIUS, n_pairs=50, min_region_m2=0.0, coordinates="pixel")
+    assert auto == dataclasses.replace(pixel, evaluation_s=auto.evaluation_s)
+    assert auto.unsafe_share == 0.0 and auto.success_rate == 1.0
+    assert auto.graph_length_m == pytest.approx(50 * RES)
 
 
 def test_same_seed_same_report_and_json_friendly():

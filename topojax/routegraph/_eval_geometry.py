@@ -106,11 +106,14 @@ def vertex_pixels(graph: nx.Graph, nodes: list, occupancy, coordinates: str) -> 
 def _edge_points(edge, data: dict, coordinates: str) -> tuple[np.ndarray | None, bool]:
     """The edge's own polyline (float64 (K, 2)), checked, and whether it is in world
     coordinates: ``path`` with pixel coordinates, else ``waypoints`` (the polyline a
-    robot follows) if present, else ``world``; None for a straight edge."""
+    robot follows) if present, else ``world``, else (with ``"auto"``) ``path``; None for
+    a straight edge."""
     if coordinates == "pixel":
         key = "path"
     else:
-        key = "waypoints" if "waypoints" in data else "world"
+        key = next((k for k in ("waypoints", "world") if k in data), "world")
+        if key not in data and coordinates == "auto" and "path" in data:
+            key = "path"  # a graph in pixels: its vertices' pixel, its edges' path
     if key not in data:
         return None, False
     try:
@@ -261,11 +264,13 @@ def graph_geometry(graph: nx.Graph, occupancy, coordinates: str) -> GraphGeometr
     graph : networkx.Graph or MultiGraph
         Undirected; vertices carry ``world`` (x, y) metres or ``pixel`` (row, col); edges
         carry a ``world`` (K, 2) polyline in metres (``path`` in pixels with
-        ``coordinates="pixel"``) or are straight segments between their vertices.
+        ``coordinates="pixel"``, or with ``"auto"`` where there is no ``world``) or are
+        straight segments between their vertices.
     occupancy : OccupancyMap
         Supplies the world <-> pixel transform.
     coordinates : {"auto", "world", "pixel"}
-        ``"auto"``: each vertex's ``world`` if present, else its ``pixel``; edges' ``world``.
+        ``"auto"``: each vertex's ``world`` if present, else its ``pixel``; each edge's
+        ``world`` if present, else its ``path``.
 
     Returns
     -------

@@ -238,7 +238,8 @@ def evaluate_route_graph(
         Time taken to make the graph (seconds), echoed in the report.
     coordinates : {"auto", "world", "pixel"}
         Which vertex positions to use: ``"auto"`` each vertex's ``world`` if present, else
-        its ``pixel``; ``"pixel"`` uses ``pixel`` and edges' ``path`` ((K, 2) pixels)
+        its ``pixel``, and each edge's ``waypoints`` or ``world`` if present, else its
+        ``path``; ``"pixel"`` uses ``pixel`` and edges' ``path`` ((K, 2) pixels)
         instead of ``world`` (for graphs whose ``world`` frame differs from the map's).
 
     Returns
