@@ -596,6 +596,30 @@ def _fork(wall: bool = False, radius: float | None = 0.25):
     return m, g
 
 
+def test_no_sight_line_is_drawn_past_max_snap_m(monkeypatch):
+    """Joins farther than ``max_snap_m`` are dropped, so none is tested: with a long
+    ``entry_m`` every corridor point of the map had its sight line drawn first (38.7 s a
+    query on the DM_0.11 route graph with entry_m=1e6, for the route of entry_m=5)."""
+    import topojax.routing as routing
+
+    m, g = _fork()
+    start, goal = (13, 20), (18, 26)
+    want = RoutePlanner(g, occupancy=m, entry_m=0.5).route(start, goal, frame="pixel")
+    drawn = []
+
+    def counting(feasible, q, points):
+        drawn.append(float(np.hypot(*(points - q).T).max()))
+        return sees(feasible, q, points)
+
+    monkeypatch.setattr(routing, "_sees", counting)
+    got = RoutePlanner(g, occupancy=m, entry_m=1e6).route(
+        start, goal, frame="pixel", max_snap_m=0.5
+    )
+    assert drawn and max(drawn) <= 5.0 + 1e-9  # 0.5 m: 5 pixels
+    assert got.length_m == want.length_m and got.start_snap_m == want.start_snap_m
+    assert np.array_equal(got.pixels, want.pixels)
+
+
 def test_with_the_map_a_route_joins_the_edge_that_gives_the_shortest_route():
     m, g = _fork()
     start, goal = (13, 20), (18, 26)

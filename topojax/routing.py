@@ -283,8 +283,10 @@ class RoutePlanner:
         one_of("frame", frame, _FRAMES)
         if max_snap_m is not None:
             max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
-        s = self._snaps(start, frame, "start")
-        g = self._snaps(goal, frame, "goal")
+        # a join farther than max_snap_m would be dropped: none is looked for
+        reach = self._entry_m if max_snap_m is None else min(self._entry_m, max_snap_m)
+        s = self._snaps(start, frame, "start", reach)
+        g = self._snaps(goal, frame, "goal", reach)
         # snaps[0] is the nearest point; with the map, farther ones beyond the limit go
         for name, snaps in (("start", s), ("goal", g)):
             if max_snap_m is not None and snaps[0].distance_m > max_snap_m:
@@ -337,11 +339,11 @@ class RoutePlanner:
         entry_m = nonnegative_metres("entry_m", entry_m)
         return feasible_space(occupancy, radius).feasible, entry_m
 
-    def _snaps(self, point, frame: str, name: str) -> list[_Snap]:
+    def _snaps(self, point, frame: str, name: str, reach_m: float) -> list[_Snap]:
         """The points where a route from ``point`` may join the graph: first every corridor
         point as near as the nearest one (within :data:`_TIE`: one, or one per edge
         through the pixel where edges cross), then, with the map, each edge's nearest
-        point that ``point`` sees within the entry reach (see :meth:`route` for the
+        point that ``point`` sees within ``reach_m`` (metres; see :meth:`route` for the
         frames)."""
         q = _point(point, name, frame)
         if self._occupancy is not None:
@@ -358,8 +360,8 @@ class RoutePlanner:
         dist, k = tree.query(q)
         near = sorted(set(tree.query_ball_point(q, float(dist) + _TIE)) | {int(k)})
         out = [self._snap(owners[i], float(dist) * scale) for i in near]
-        if self._feasible is not None and self._entry_m > 0:
-            out += [self._snap(owners[i], d) for i, d in self._entries(q, frame, scale)]
+        if self._feasible is not None and reach_m > 0:
+            out += [self._snap(owners[i], d) for i, d in self._entries(q, frame, scale, reach_m)]
         return out
 
     def _check_off_obstacles(self, q: np.ndarray, frame: str, name: str) -> None:
@@ -380,14 +382,16 @@ class RoutePlanner:
         edge, index, vertex = (int(x) for x in owner)
         return _Snap(edge, index, self._nodes[vertex] if edge < 0 else None, distance_m)
 
-    def _entries(self, q: np.ndarray, frame: str, scale: float) -> list[tuple[int, float]]:
+    def _entries(
+        self, q: np.ndarray, frame: str, scale: float, reach_m: float
+    ) -> list[tuple[int, float]]:
         """``(tree point, distance m)`` of each edge's (or edgeless vertex's) nearest
-        corridor point within the entry reach of query ``q`` that the robot reaches along
+        corridor point within ``reach_m`` of query ``q`` that the robot reaches along
         a straight line over feasible pixels: every pixel the line passes through
         (:func:`topojax._sight.sees`).  Candidates are tried nearest first, a batch at a
         time, skipping edges already joined (bounded memory for any reach)."""
         tree, owners = self._tree(frame)
-        cand = np.asarray(tree.query_ball_point(q, self._entry_m / scale), np.int64)
+        cand = np.asarray(tree.query_ball_point(q, reach_m / scale), np.int64)
         if cand.size == 0:
             return []
         delta = tree.data[cand] - q
