@@ -1181,6 +1181,22 @@ def test_a_radius_under_one_and_a_half_pixels_is_refused():
     assert tj.evaluate_route_graph(g, m, 1.5 * res, n_pairs=50).unsafe_share == 0.0
 
 
+@pytest.mark.parametrize(
+    ("res", "radius", "snap", "tolerance"), [(0.05, 0.075, 0.125, 0.05), (0.1, 0.15, 0.25, 0.1)]
+)
+def test_exactly_one_and_a_half_pixels_is_enough(res, radius, snap, tolerance):
+    """The limits are "at least 1.5 pixels": a radius or a reach of exactly that, as
+    typed in metres, was refused as under it (0.075 / 0.05 is 1.4999999999999998 in
+    floating point), by an error that said it expected 0.075 m and received 0.075."""
+    free = np.zeros((60, 60), bool)
+    free[1:-1, 1:-1] = True
+    m = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=res)
+    only_radius = RouteGraphConfig(robot_radius_m=radius)
+    assert route_graph(m, config=only_radius).number_of_nodes() > 0
+    reach = RouteGraphConfig(robot_radius_m=2 * res, snap_m=snap, waypoint_tolerance_m=tolerance)
+    assert route_graph(m, config=reach).number_of_nodes() > 0
+
+
 def test_too_many_shortcut_candidates_are_refused_before_they_fill_memory(monkeypatch):
     """A small ``snap_m`` on a large map makes a dense graph whose node pairs within the
     shortcut radius would take gigabytes: counted first, and refused over the limit."""

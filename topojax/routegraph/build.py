@@ -271,6 +271,10 @@ MIN_REACH_PX = 1.5
 #: the corners of single obstacle pixels, which a waypoint polyline cannot follow safely.
 MIN_RADIUS_PX = 1.5
 
+# A length in metres that is one of the limits above to rounding (0.075 m / 0.05 m is
+# 1.4999999999999998) is at the limit: the comparisons in pixels allow this much.
+_ROUNDING_PX = 1e-9
+
 
 def check_scale(
     cfg: RouteGraphConfig,
@@ -281,14 +285,14 @@ def check_scale(
     """Refuse a robot radius, a ``snap_m`` or a ``shortcut_spacing_m`` too small for a map
     of ``res`` metres per pixel (see MIN_RADIUS_PX and MIN_REACH_PX; a spacing between 0
     and one pixel); the radius's error names ``radius_name``, the snap's ``snap_name``."""
-    if cfg.robot_radius_m / res < MIN_RADIUS_PX:
+    if cfg.robot_radius_m / res < MIN_RADIUS_PX - _ROUNDING_PX:
         raise ValueError(
             f"{radius_name}: expected at least {MIN_RADIUS_PX:g} pixels of the map "
             f"({MIN_RADIUS_PX * res:g} m at {res:g} m per pixel), received "
             f"{cfg.robot_radius_m!r}; below that the graph's paths would squeeze between "
             "single obstacle pixels"
         )
-    if (cfg.snap_m - cfg.waypoint_tolerance_m) / res < MIN_REACH_PX:
+    if (cfg.snap_m - cfg.waypoint_tolerance_m) / res < MIN_REACH_PX - _ROUNDING_PX:
         least = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
         raise ValueError(
             f"{snap_name}: expected at least waypoint_tolerance_m + {MIN_REACH_PX:g} pixels of the "
