@@ -659,6 +659,47 @@ def test_with_the_map_a_route_does_not_join_through_a_wall_or_beyond_reach():
     assert r.pixels[0].tolist() == [10, 20] and r.length_m == pytest.approx(5.0)
 
 
+def _wall_between():
+    """A free 40 x 40 map of 0.1 m pixels (walls all round) split by a wall down column 20
+    from the top to row 30; a graph (robot radius 0.25 m) of two edges down its sides,
+    "l" along column 10 and "r" along column 22, each from row 2 to row 35, joined along
+    row 35."""
+    occupied = np.ones((40, 40), bool)
+    occupied[1:-1, 1:-1] = False
+    occupied[1:31, 20] = True
+    m = tj.OccupancyMap.from_array(occupied, resolution_m=0.1)
+    g = nx.MultiGraph(resolution_m=0.1, shape=(40, 40), robot_radius_m=0.25, snap_m=1.0)
+    corners = {"l0": (2, 10), "l1": (35, 10), "r0": (2, 22), "r1": (35, 22)}
+    for name, pixel in corners.items():
+        g.add_node(name, pixel=pixel, world=tuple(float(x) for x in m.pixel_to_world(*pixel)))
+    for u, v in (("l0", "l1"), ("l1", "r1"), ("r1", "r0")):
+        (r0, c0), (r1, c1) = corners[u], corners[v]
+        n = max(abs(r1 - r0), abs(c1 - c0)) + 1
+        path = np.stack([np.linspace(r0, r1, n), np.linspace(c0, c1, n)], 1).astype(np.int64)
+        x, y = m.pixel_to_world(path[:, 0], path[:, 1])
+        g.add_edge(u, v, path=path, world=np.stack([x, y], 1), length_m=0.1 * (n - 1))
+    return m, g
+
+
+def test_with_the_map_a_route_does_not_join_a_nearer_point_behind_a_wall():
+    """The start (5, 17), left of the wall, is 0.5 m from the right edge's (5, 22) behind
+    the wall and 0.7 m from the left edge's (5, 10) in sight.  With the map, the route
+    joined the nearer point through the wall whenever that made it shortest (here: the
+    goal is right of the wall, 0.3 m from (5, 22)); it now joins only points in sight,
+    and goes round the wall."""
+    m, g = _wall_between()
+    start, goal = (5, 17), (5, 25)
+    plain = RoutePlanner(g).route(start, goal, frame="pixel")
+    assert plain.pixels[0].tolist() == [5, 22] and plain.length_m == pytest.approx(0.0)
+    r = RoutePlanner(g, occupancy=m).route(start, goal, frame="pixel")
+    assert r.pixels[0].tolist() == [5, 10] and r.pixels[-1].tolist() == [5, 22]
+    assert (r.start_snap_m, r.goal_snap_m) == pytest.approx((0.7, 0.3))
+    assert r.length_m == pytest.approx(3.0 + 1.2 + 3.0)
+    # an end that sees no graph point within reach still joins at the nearest
+    r = RoutePlanner(g, occupancy=m, entry_m=0.6).route(start, goal, frame="pixel")
+    assert r.pixels[0].tolist() == [5, 22] and r.length_m == pytest.approx(0.0)
+
+
 def test_with_the_map_a_point_on_an_obstacle_is_refused():
     """A robot inside a wall (a localisation fault) or a goal picked on one: with the map
     given, an error naming the point, not a route from the nearest corridor."""
@@ -675,7 +716,7 @@ def test_with_the_map_a_point_on_an_obstacle_is_refused():
     RoutePlanner(g).route(wall, (18, 26), frame="pixel")  # without the map: nearest corridor
 
 
-def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight():
+def test_with_the_map_routes_on_a_route_graph_join_in_sight_and_are_never_longer():
     from topojax.routegraph.feasible import feasible_space
 
     m = tj.sample_map("intel")
@@ -694,19 +735,22 @@ def test_with_the_map_routes_on_a_route_graph_are_never_longer_and_join_in_sight
         r1 = planner.route(a, b, frame="pixel")
         total0 = r0.start_snap_m + r0.length_m + r0.goal_snap_m
         total1 = r1.start_snap_m + r1.length_m + r1.goal_snap_m
-        assert total1 <= total0 + 1e-9
+        plain_in_sight = all(
+            feasible[tuple(np.array(sorted(segment_pixels_exact(q, end))).T)].all()
+            for q, end in ((a, r0.pixels[0]), (b, r0.pixels[-1]))
+        )
+        if plain_in_sight:  # the nearest points are among the joins in sight
+            assert total1 <= total0 + 1e-9
         shorter += total1 < total0 - 1e-9
         ends = (
             (a, r1.pixels[0], r1.start_snap_m, r0.start_snap_m),
             (b, r1.pixels[-1], r1.goal_snap_m, r0.goal_snap_m),
         )
-        for q, end, leg, nearest in ends:
+        for q, end, leg, nearest in ends:  # every point sees the graph within snap_m
             assert leg == pytest.approx(0.05 * math.dist(q, end))
-            assert leg >= nearest - 1e-9
-            if leg > nearest + 1e-9:  # not the nearest point: in sight, within reach
-                assert leg <= rg.graph["snap_m"] + 1e-9
-                line = np.array(sorted(segment_pixels_exact(q, end)))
-                assert feasible[line[:, 0], line[:, 1]].all()
+            assert nearest - 1e-9 <= leg <= rg.graph["snap_m"] + 1e-9
+            line = np.array(sorted(segment_pixels_exact(q, end)))
+            assert feasible[line[:, 0], line[:, 1]].all()
     assert shorter > 0
 
 

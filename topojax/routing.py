@@ -167,11 +167,12 @@ class RoutePlanner:
         Topology graph (see the module docstring for what its edges must carry).  It is
         read, not modified; build a new planner after changing it.
     occupancy : OccupancyMap, optional
-        The graph's map.  With it, each end of a route may also join the graph at the
-        nearest point of any edge it sees within ``entry_m`` (along a straight line over
-        pixels where the robot fits), whichever gives the shortest route in all (the
-        straight legs included); without it, each end joins at the nearest corridor
-        point.
+        The graph's map.  With it, each end of a route joins the graph at the nearest
+        point of any edge it sees within ``entry_m`` (along a straight line over pixels
+        where the robot fits), whichever gives the shortest route in all (the straight
+        legs included); an end that sees no edge within ``entry_m`` (a robot closer to a
+        wall than its radius, a goal beyond the graph's reach) and every end without the
+        map join at the nearest corridor point, in sight or not.
     robot_radius_m : float, optional
         Robot radius for those straight legs, metres; default the graph's
         ``robot_radius_m`` attribute (a route graph's).
@@ -287,7 +288,7 @@ class RoutePlanner:
         reach = self._entry_m if max_snap_m is None else min(self._entry_m, max_snap_m)
         s = self._snaps(start, frame, "start", reach)
         g = self._snaps(goal, frame, "goal", reach)
-        # snaps[0] is the nearest point; with the map, farther ones beyond the limit go
+        # joins in sight lie within the reach; the nearest points are all as far as the first
         for name, snaps in (("start", s), ("goal", g)):
             if max_snap_m is not None and snaps[0].distance_m > max_snap_m:
                 raise ValueError(
@@ -295,9 +296,6 @@ class RoutePlanner:
                     f"more than max_snap_m={max_snap_m} (pass a larger max_snap_m, or None for "
                     "no limit)"
                 )
-        if max_snap_m is not None:
-            s = [x for x in s if x.distance_m <= max_snap_m]
-            g = [x for x in g if x.distance_m <= max_snap_m]
         return self._route(s, g)
 
     # ------------------------------------------------------------------ internals
@@ -340,11 +338,11 @@ class RoutePlanner:
         return feasible_space(occupancy, radius).feasible, entry_m
 
     def _snaps(self, point, frame: str, name: str, reach_m: float) -> list[_Snap]:
-        """The points where a route from ``point`` may join the graph: first every corridor
-        point as near as the nearest one (within :data:`_TIE`: one, or one per edge
-        through the pixel where edges cross), then, with the map, each edge's nearest
-        point that ``point`` sees within ``reach_m`` (metres; see :meth:`route` for the
-        frames)."""
+        """The points where a route from ``point`` may join the graph, nearest first: with
+        the map, each edge's nearest point that ``point`` sees within ``reach_m`` (metres;
+        see :meth:`route` for the frames); without it, or where it sees none, every
+        corridor point as near as the nearest one (within :data:`_TIE`: one, or one per
+        edge through the pixel where edges cross)."""
         q = _point(point, name, frame)
         if self._occupancy is not None:
             self._check_off_obstacles(q, frame, name)
@@ -359,10 +357,11 @@ class RoutePlanner:
             )
         dist, k = tree.query(q)
         near = sorted(set(tree.query_ball_point(q, float(dist) + _TIE)) | {int(k)})
-        out = [self._snap(owners[i], float(dist) * scale) for i in near]
         if self._feasible is not None and reach_m > 0:
-            out += [self._snap(owners[i], d) for i, d in self._entries(q, frame, scale, reach_m)]
-        return out
+            seen = [self._snap(owners[i], d) for i, d in self._entries(q, frame, scale, reach_m)]
+            if seen:  # a clear leg exists: none through a wall to a nearer point
+                return seen
+        return [self._snap(owners[i], float(dist) * scale) for i in near]
 
     def _check_off_obstacles(self, q: np.ndarray, frame: str, name: str) -> None:
         """With the map, a query point on an occupied pixel is an error (a robot inside a

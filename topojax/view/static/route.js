@@ -8,9 +8,9 @@
  * along the goal's edge to the snapped goal; start and goal on one edge also try the
  * direct way along it.  Lengths along an edge are its straight and diagonal pixel steps
  * scaled to the edge's length_m, as RoutePlanner counts them.  A route graph shown with
- * its map carries the robot's feasible pixels: each end may then also join the graph at
- * the nearest point of any edge it sees within reach, whichever gives the shortest route,
- * as RoutePlanner(graph, occupancy=map) does. */
+ * its map carries the robot's feasible pixels: each end then joins the graph at the
+ * nearest point of any edge it sees within reach, whichever gives the shortest route (at
+ * the nearest point only where it sees none), as RoutePlanner(graph, occupancy=map) does. */
 "use strict";
 var TJ = (window.TJ = window.TJ || {});
 
@@ -122,10 +122,11 @@ var TJ = (window.TJ = window.TJ || {});
   }
   TJ.sees = sees;
 
-  /* Where a route from (x, y) may join the graph, {dist, at: [{edge, index, vertex, dist},
-   * ...]}: the nearest corridor points (one, or one per edge through it where edges cross;
-   * points at most TIE metres farther count as near), then, with the feasible pixels,
-   * each edge's nearest point in sight within reach and maxSnap. */
+  /* Where a route from (x, y) may join the graph, {dist: the nearest point's distance,
+   * at: [{edge, index, vertex, dist}, ...]}: with the feasible pixels, each edge's nearest
+   * point in sight within reach and maxSnap; without them, or where none is in sight, the
+   * nearest corridor points (one, or one per edge through it where edges cross; points at
+   * most TIE metres farther count as near). */
   var TIE = 1e-9;
   TJ.Router.prototype.snap = function (x, y, maxSnap) {
     var hit = this.grid.nearest(x, y, Infinity);
@@ -135,11 +136,11 @@ var TJ = (window.TJ = window.TJ || {});
       near.push(hit.index);
       near.sort(function (a, b) { return a - b; });
     }
-    for (var k = 0; k < near.length; k++) {
-      var i = near[k];
-      at.push(this.point(i, hit.dist));
-    }
     if (this.entry) this.entries(x, y, maxSnap, at);
+    // with the feasible pixels, the points in sight; where none is, the nearest ones
+    if (at.length === 0) {
+      for (var k = 0; k < near.length; k++) at.push(this.point(near[k], hit.dist));
+    }
     return { dist: hit.dist, at: at };
   };
 
