@@ -194,6 +194,29 @@ def test_resume_keeps_max_scans_counted_from_the_log_start(tmp_path, monkeypatch
         replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=30, resume=True, **SETTINGS)
 
 
+@pytest.mark.parametrize("error", [KeyboardInterrupt, OSError])
+def test_a_replay_stopped_while_writing_its_files_keeps_its_scans(
+    tmp_path, monkeypatch, full_run, error
+):
+    # every scan is mapped; Ctrl-C (or a full disk) while the map is written must not
+    # lose them: the state is saved and a resume writes the uninterrupted replay's files
+    import topojax.maps
+
+    def failing_save_map(*args, **kwargs):
+        raise error("while writing")
+
+    out = tmp_path / "out"
+    monkeypatch.setattr(topojax.maps, "save_map", failing_save_map)
+    with pytest.warns(RuntimeWarning, match="stopped after 40 scans"), pytest.raises(error):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
+    monkeypatch.undo()
+    assert IncrementalMapper.load(out / STATE_FILE).n_scans == 40
+    summary = replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
+    assert summary["n_scans"] == 40 and summary["resumed_after"] == 40
+    assert_same_outputs(full_run[0], out)
+    assert not (out / STATE_FILE).exists()
+
+
 @pytest.fixture
 def stopped(tmp_path, monkeypatch):
     """An output folder with the state of a replay stopped after 12 scans."""

@@ -136,7 +136,8 @@ def replay(
         of scans that would have grown the map out of the mapper's bounds, a localisation
         glitch: skipped, the replay goes on), ``n_tiles``, ``vertices``, ``edges``,
         ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
-        to export, an unreadable scan part way through the log, or an interrupt leaves
+        to export, an unreadable scan part way through the log, or an interrupt or error
+        (also while the files are written) leaves
         the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
         raises; ``resume`` continues from it.  A replay that finishes removes the state
         file an earlier one left in ``out_dir``.  ``n_scans`` and ``skipped_scans`` count
@@ -190,10 +191,14 @@ def replay(
             progress_at=progress_at,
             reader_kwargs=reader_kwargs,
         )
-    written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
-    messages += _route_note(done, route_graph_radius_m)
-    written += _write_rooms_routes_view(mapper, done, out, timeline)
-    written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
+    try:  # Ctrl-C or a failure while writing: the mapped scans are kept for a resume
+        written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
+        messages += _route_note(done, route_graph_radius_m)
+        written += _write_rooms_routes_view(mapper, done, out, timeline)
+        written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
+    except (Exception, KeyboardInterrupt):
+        keep_state(mapper, out, lambda: replay_record(source, reader_kwargs, progress_at, mapper))
+        raise
     if recorder is not None:
         written.append(recorder.path)
     written.append(out / "timings.json")
@@ -321,6 +326,12 @@ def _map_scans(
         routes = None
         if route_graph_radius_m is not None:
             routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
+        if recorder is not None:
+            recorder.add_map(result.map, result.graph)
+            if seg is not None:
+                recorder.add_rooms(seg)
+            if routes is not None:
+                recorder.add_route_graph(routes)
     except ExportBudgetError as exc:
         keep_recordings(out, progress_at.recorded, recorder, timeline, frames)
         raise _unwritable(mapper, exc, out, state_record()) from None
@@ -328,12 +339,6 @@ def _map_scans(
         if keep_state(mapper, out, state_record):
             keep_recordings(out, progress_at.recorded, recorder, timeline, frames)
         raise
-    if recorder is not None:
-        recorder.add_map(result.map, result.graph)
-        if seg is not None:
-            recorder.add_rooms(seg)
-        if routes is not None:
-            recorder.add_route_graph(routes)
     return _Replayed(reports, frames, wall, skipped, update, final_s, result, seg, routes)
 
 
