@@ -132,6 +132,51 @@ def test_a_resumed_replay_continues_the_recordings_of_the_stopped_one(
     assert any(".replay_partial: the replay has finished" in m for m in summary["messages"])
 
 
+def test_a_replay_stopped_while_writing_its_files_keeps_its_recordings_as_they_were(
+    tmp_path, monkeypatch, full_recorded
+):
+    """Stopped while the animation is written (after the view, whose timeline has the
+    final snapshot), the replay keeps the recordings of its scans, not that snapshot: the
+    resumed replay's recordings are those of one that did not stop."""
+    import topojax.playback
+
+    def stopping(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    out = tmp_path / "out"
+    monkeypatch.setattr(topojax.playback, "write_animation", stopping)
+    with pytest.warns(RuntimeWarning, match="stopped after 40 scans"):
+        with pytest.raises(KeyboardInterrupt):
+            recorded_replay(out)
+    monkeypatch.undo()
+    summary = recorded_replay(out, resume=True)
+    assert summary["resumed_after"] == 40
+    for name in RECORDINGS:
+        assert (out / name).read_bytes() == (full_recorded / name).read_bytes(), name
+    assert mcap_messages(out / "run.mcap") == mcap_messages(full_recorded / "run.mcap")
+
+
+def test_a_replay_stopped_while_ending_its_recording_keeps_only_its_scans(tmp_path, monkeypatch):
+    """Stopped part way through the recording's last messages, the replay keeps the
+    mapper's state but not a recording that holds some of them; the resumed replay says
+    its recordings start after the log's 40 scans."""
+    import topojax.playback
+
+    def stopping(recorder, done):
+        recorder.add_map(done.result.map, done.result.graph)
+        raise KeyboardInterrupt
+
+    out = tmp_path / "out"
+    monkeypatch.setattr(topojax.playback, "_record_final", stopping)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        recorded_replay(out)
+    monkeypatch.undo()
+    assert (out / STATE_FILE).is_file() and not (out / ".replay_partial").exists()
+    summary = recorded_replay(out, resume=True)
+    assert sum("after the log's first 40" in m for m in summary["messages"]) == 3
+    assert {t for t, *_ in mcap_messages(out / "run.mcap")} == {"/map", "/topology"}
+
+
 def test_a_resumed_replay_without_the_stopped_ones_recordings_says_so(tmp_path, monkeypatch):
     out = tmp_path / "out"
     interrupted_reader(monkeypatch, 17)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import contextlib
+import copy
+import functools
 import json
 import time
 from dataclasses import asdict, dataclass
@@ -191,14 +193,20 @@ def replay(
             progress_at=progress_at,
             reader_kwargs=reader_kwargs,
         )
-    try:  # Ctrl-C or a failure while writing: the mapped scans are kept for a resume
-        written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
-        messages += _route_note(done, route_graph_radius_m)
-        written += _write_rooms_routes_view(mapper, done, out, timeline)
-        written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
-    except (Exception, KeyboardInterrupt):
-        keep_state(mapper, out, lambda: replay_record(source, reader_kwargs, progress_at, mapper))
-        raise
+        written, messages = _write_and_close(
+            mapper,
+            done,
+            out,
+            recorder,
+            timeline,
+            progress_at,
+            functools.partial(replay_record, source, reader_kwargs, progress_at, mapper),
+            nav2_tolerance_m=nav2_tolerance_m,
+            route_graph_radius_m=route_graph_radius_m,
+            plot=plot,
+            animate=animate,
+            source=source,
+        )
     if recorder is not None:
         written.append(recorder.path)
     written.append(out / "timings.json")
@@ -299,9 +307,7 @@ def _map_scans(
 ) -> _Replayed:
     """Feed the scans to the mapper (:func:`_run`), check that they mapped something,
     run the final update (:func:`_final`; a map too large to write leaves the mapper's
-    state in ``out``), make the final route graph (with a radius)
-    and close the recording (if any) with the written map, graph, rooms and route
-    graph.  ``frames`` (animation frames so far, or None) grows by a frame at every
+    state in ``out``) and make the final route graph (with a radius).  ``frames`` (animation frames so far, or None) grows by a frame at every
     update.  ``progress_at`` (where the replay starts in the log) follows the scans
     taken, for the state (and the recordings) saved on a failure."""
     record = None if recorder is None else _Recording(recorder, route_graph_radius_m)
@@ -326,12 +332,6 @@ def _map_scans(
         routes = None
         if route_graph_radius_m is not None:
             routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
-        if recorder is not None:
-            recorder.add_map(result.map, result.graph)
-            if seg is not None:
-                recorder.add_rooms(seg)
-            if routes is not None:
-                recorder.add_route_graph(routes)
     except ExportBudgetError as exc:
         keep_recordings(out, progress_at.recorded, recorder, timeline, frames)
         raise _unwritable(mapper, exc, out, state_record()) from None
@@ -340,6 +340,50 @@ def _map_scans(
             keep_recordings(out, progress_at.recorded, recorder, timeline, frames)
         raise
     return _Replayed(reports, frames, wall, skipped, update, final_s, result, seg, routes)
+
+
+def _write_and_close(
+    mapper,
+    done: _Replayed,
+    out: Path,
+    recorder,
+    timeline,
+    progress_at: ReplayProgress,
+    record,
+    *,
+    nav2_tolerance_m,
+    route_graph_radius_m,
+    plot,
+    animate,
+    source,
+) -> tuple[list[Path], list[str]]:
+    """Write the replay's files, then end the recording (if any) with the final map,
+    graph, rooms and route graph; returns the paths written and messages.  A Ctrl-C or a
+    failure keeps the mapper's state (``record()``: its replay record) and, before the
+    recording's last messages, the recordings for a resume."""
+    final = False  # whether the recording's last messages are being written
+    try:
+        written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
+        messages += _route_note(done, route_graph_radius_m)
+        written += _write_rooms_routes_view(mapper, done, out, timeline)
+        written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
+        final = True
+        if recorder is not None:
+            _record_final(recorder, done)
+    except (Exception, KeyboardInterrupt):
+        if keep_state(mapper, out, record) and not final:
+            keep_recordings(out, progress_at.recorded, recorder, timeline, done.frames)
+        raise
+    return written, messages
+
+
+def _record_final(recorder, done: _Replayed) -> None:
+    """End the recording with the written map, graph, rooms and route graph."""
+    recorder.add_map(done.result.map, done.result.graph)
+    if done.seg is not None:
+        recorder.add_rooms(done.seg)
+    if done.routes is not None:
+        recorder.add_route_graph(done.routes)
 
 
 def _write_rooms_routes_view(
@@ -364,6 +408,7 @@ def _write_rooms_routes_view(
     if timeline is not None:
         from .view import write_view
 
+        timeline = copy.deepcopy(timeline)  # the replay's stays as recorded, for a resume
         timeline.snapshot(mapper, rooms=seg is not None)
         extra = {"route graph": routes} if routes is not None else None
         written.append(
@@ -383,10 +428,10 @@ def _write_pictures_and_animation(
     if plot:
         written += _write_pictures(done.result, out, name)
     if animate is not None:
-        done.frames.append(animation_frame(mapper))
+        frames = [*done.frames, animation_frame(mapper)]  # done's stay as recorded
         apath = Path(animate)
         apath.parent.mkdir(parents=True, exist_ok=True)
-        write_animation(done.frames, apath, name)
+        write_animation(frames, apath, name)
         written.append(apath)
     return written
 
