@@ -324,6 +324,45 @@ def test_replay_cli_resume(stopped, tmp_path, full_run, capsys):
     assert not (tmp_path / "empty").exists()
 
 
+@pytest.mark.parametrize(("signum", "status"), [("SIGTERM", 143), ("SIGINT", 130)])
+def test_replay_cli_stopped_by_a_signal_keeps_its_scans(
+    tmp_path, monkeypatch, full_run, capsys, signum, status
+):
+    # kill, timeout or a service manager's stop (SIGTERM) ended the command at once and
+    # lost every mapped scan; it now stops as Ctrl-C does: the scans are kept for
+    # --resume, and the command ends with one line, not a traceback
+    import os
+    import signal
+
+    real = topojax.scans.read_scans
+
+    def reader(source, **kw):
+        for i, scan in enumerate(real(source, **kw)):
+            if i == 15:
+                os.kill(os.getpid(), getattr(signal, signum))
+            yield scan
+
+    def ignored(signum, frame):  # what SIGTERM does outside the command
+        pass
+
+    monkeypatch.setattr(topojax.scans, "read_scans", reader)
+    previous = signal.signal(signal.SIGTERM, ignored)
+    out = tmp_path / "out"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]
+    args += ["--graph-every", "7", "--skeleton-every", "3"]
+    try:
+        with pytest.warns(RuntimeWarning, match="stopped after 15 scans"):
+            assert main(args) == status
+        assert signal.getsignal(signal.SIGTERM) is ignored  # the command's is undone
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert f"topojax replay: stopped by {signum}" in capsys.readouterr().err
+    assert IncrementalMapper.load(out / STATE_FILE).n_scans == 15
+    monkeypatch.undo()
+    assert main([*args, "--resume"]) == 0
+    assert_same_outputs(full_run[0], out)
+
+
 class SlowMapper:
     """Counts scans as IncrementalMapper does; a Ctrl-C arrives while it maps scan
     ``interrupted`` (after it has counted it), and twice while it maps ``twice``."""

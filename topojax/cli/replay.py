@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import sys
+import threading
 from pathlib import Path
 
 from .._constants import STRATEGIES
@@ -71,28 +75,60 @@ def _cmd_replay(args) -> int:
     for option, path in (("--animate", args.animate), ("--mcap", args.mcap)):
         if path is not None:
             check_outputs(planned([path], args.source), command="replay", option=option)
-    summary = replay(
-        args.source,
-        out_dir=args.out,
-        plot=args.plot,
-        animate=args.animate,
-        progress=not args.no_progress,
-        max_scans=args.max_scans,
-        reader_kwargs=reader_kwargs or None,
-        nav2_tolerance_m=nav2_tolerance(args),
-        graph_config=graph_config(args),
-        route_graph_radius_m=args.route_graph,
-        rooms=args.rooms,
-        mcap=args.mcap,
-        view=args.view,
-        resume=args.resume,
-        **kw,
-    )
+    with _stops_on_signals() as stopped:
+        summary = replay(
+            args.source,
+            out_dir=args.out,
+            plot=args.plot,
+            animate=args.animate,
+            progress=not args.no_progress,
+            max_scans=args.max_scans,
+            reader_kwargs=reader_kwargs or None,
+            nav2_tolerance_m=nav2_tolerance(args),
+            graph_config=graph_config(args),
+            route_graph_radius_m=args.route_graph,
+            rooms=args.rooms,
+            mcap=args.mcap,
+            view=args.view,
+            resume=args.resume,
+            **kw,
+        )
+    if stopped:
+        print(f"topojax replay: stopped by {stopped[0].name}", file=sys.stderr)
+        return 128 + stopped[0]
     record_outputs(planned(summary["written"], args.source), command="replay")
     if args.no_progress:
         print(summary_text(summary))
     print("wrote      " + ", ".join(summary["written"]))
     return 0
+
+
+@contextlib.contextmanager
+def _stops_on_signals():
+    """Within ``with``, Ctrl-C (SIGINT) and SIGTERM (``kill``, ``timeout``, a service
+    manager's stop) stop the replay as Ctrl-C stops :func:`topojax.replay`, which keeps
+    the mapped scans for ``--resume``; the list it yields then holds the signal.  SIGTERM
+    goes through the SIGINT handler in force when it arrives, the replay's, which lets
+    the scan being mapped finish.  Outside the main thread, SIGTERM is left as it is."""
+    stopped: list[signal.Signals] = []
+
+    def terminate(signum, frame):
+        stopped[:] = [signal.SIGTERM]
+        handler = signal.getsignal(signal.SIGINT)
+        if not callable(handler):
+            raise KeyboardInterrupt
+        handler(signal.SIGINT, frame)
+
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield stopped
+    except KeyboardInterrupt:
+        stopped[:] = stopped or [signal.SIGINT]
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _replay_claims(args) -> dict:
