@@ -109,7 +109,9 @@ def _stops_on_signals():
     manager's stop) stop the replay as Ctrl-C stops :func:`topojax.replay`, which keeps
     the mapped scans for ``--resume``; the list it yields then holds the signal.  SIGTERM
     goes through the SIGINT handler in force when it arrives, the replay's, which lets
-    the scan being mapped finish.  Outside the main thread, SIGTERM is left as it is."""
+    the scan being mapped finish.  Outside the main thread, or where SIGINT is not
+    Python's default (ignored in a background job, say: the replay then cannot hold an
+    interrupt until a scan is mapped), SIGTERM is left as it is."""
     stopped: list[signal.Signals] = []
 
     def terminate(signum, frame):
@@ -120,7 +122,10 @@ def _stops_on_signals():
         handler(signal.SIGINT, frame)
 
     previous = None
-    if threading.current_thread() is threading.main_thread():
+    if (
+        threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    ):
         previous = signal.signal(signal.SIGTERM, terminate)
     try:
         yield stopped
