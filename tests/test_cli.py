@@ -247,3 +247,17 @@ def test_library_modules_do_not_import_the_command_line():
             if any(n == "topojax.cli" or n.startswith("topojax.cli.") for n in names):
                 offenders.append(str(rel))
     assert offenders == []
+
+
+def test_ctrl_c_ends_a_command_with_one_line_not_a_traceback(tmp_path, monkeypatch, capsys):
+    """Ctrl-C of ``topojax batch`` printed a traceback through concurrent.futures and
+    threading; a command stopped by Ctrl-C now says so in one line, with status 130."""
+    import topojax.batch
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(topojax.batch, "build_graphs", interrupted)
+    src = Path(topojax.__file__).parent / "data" / "office.png"
+    assert main(["batch", str(src), "-o", str(tmp_path / "out"), "--no-progress"]) == 130
+    assert capsys.readouterr().err.strip() == "topojax batch: interrupted (Ctrl-C)"

@@ -73,3 +73,6 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
         print(f"topojax {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # the command's clean-up has run; no traceback
+        print(f"topojax {args.command}: interrupted (Ctrl-C)", file=sys.stderr)
+        return 130
