@@ -1084,3 +1084,27 @@ def test_grey_walls_are_flagged_with_a_warning(tmp_path, capsys):
     assert "1 with a warning" in err.out and "grey" in err.err
     assert main(["graph", str(path), "-o", str(tmp_path / "g")]) == 0
     assert "are the walls drawn in grey?" in capsys.readouterr().out
+
+
+def test_an_empty_graph_with_the_nav2_format_is_empty_not_an_error(tmp_path):
+    """With ``--formats ...,nav2``, a map whose graph has no edge (all unknown, all
+    occupied) was ``status=error`` ("the Nav2 Route Server rejects a graph without
+    edges") with its other files missing; it is ``empty`` with its reason, and, as for
+    the route graph's Nav2 file, gets no Nav2 file; the other maps' are written."""
+    import cv2
+
+    cv2.imwrite(str(tmp_path / "unknown.png"), np.full((60, 60), 205, np.uint8))
+    cv2.imwrite(str(tmp_path / "walls.png"), np.zeros((60, 60), np.uint8))
+    (tmp_path / "office.png").write_bytes(PAPER_MAPS[1].read_bytes())
+    maps = [tmp_path / "unknown.png", tmp_path / "walls.png", tmp_path / "office.png"]
+    out = tmp_path / "out"
+    kw = {"workers": 0, "progress": False, "out_dir": out, "formats": "json,nav2"}
+    unknown, walls, office = build_graphs(maps, **kw)
+    assert (unknown.status, walls.status, office.status) == ("empty", "empty", "ok")
+    assert "no occupied pixel" in unknown.message and "empty graph" in walls.message
+    assert "no Nav2 file" in unknown.message and "no Nav2 file" in walls.message
+    assert (out / "unknown.json").is_file() and (out / "walls.json").is_file()
+    assert not (out / "unknown_nav2.geojson").exists()
+    assert (out / "office_nav2.geojson").is_file()
+    again = build_graphs(maps, resume=True, **kw)  # complete without a Nav2 file
+    assert [r.status for r in again] == ["skipped"] * 3

@@ -525,6 +525,7 @@ class _BatchRun:
         # the paper's graph counts unless only route graphs were asked for
         paper = self.out_dir is None or not set(self.formats) <= set(ROUTE_FORMATS)
         notes = [] if res.vertices or not paper else [_empty_reason(*classes)]
+        notes += [res.nav2_note] if res.nav2_note else []
         notes += [res.route_note] if res.route_note else []
         notes += [warning] if warning else []
         empty = (paper and not res.vertices) or res.route_vertices == 0

@@ -98,12 +98,12 @@ def _resume_record(
     row = doc.get("record")
     if not isinstance(row, dict):
         return None
-    # a route graph without an edge has no Nav2 file
-    nav2_less = row.get("route_edges") == 0
+    # a graph (route graph) without an edge has no Nav2 file
+    nav2_less = {"nav2": row.get("edges") == 0, "route_nav2": row.get("route_edges") == 0}
     expected = {
         f"{item.name}{suffix}"
         for fmt in formats
-        if not (fmt == "route_nav2" and nav2_less)
+        if not nav2_less.get(fmt)
         for suffix in _format_suffixes([fmt])
     }
     expected.update(f"{item.name}{suffix}" for suffix in picture_suffixes(formats, plot))

@@ -77,6 +77,7 @@ class _CpuResult:
     route_edges: int | None = None
     route_components: int | None = None
     route_note: str = ""  # why the route graph is empty or has no edge, where it is
+    nav2_note: str = ""  # why the graph (nav2 format) got no Nav2 file, where it did not
     t_thinning_s: float = 0.0
     t_graph_s: float = 0.0
     t_write_s: float = 0.0
@@ -178,7 +179,12 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
                     else:  # the Route Server needs an edge; no file of an earlier run either
                         nav2.unlink(missing_ok=True)
                 elif fmt == "nav2":
-                    written.append(save_nav2_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}"))
+                    nav2 = Path(f"{stem}{_FORMAT_SUFFIX[fmt]}")
+                    if res.edges:
+                        written.append(save_nav2_graph(graph, nav2))
+                    else:  # the Route Server needs an edge; no file of an earlier run either
+                        nav2.unlink(missing_ok=True)
+                        res.nav2_note = _nav2_note(res.vertices)
                 else:
                     written.append(save_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}", format=fmt))
             if job.plot:
@@ -200,6 +206,17 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
     except Exception as exc:
         res.error = _error_text(exc)
     return res
+
+
+def _nav2_note(vertices: int | None) -> str:
+    """Why a graph of ``vertices`` vertices and no edge gets no Nav2 file (a warning
+    where it has vertices; its emptiness is reported by itself otherwise)."""
+    why = "no Nav2 file (the Route Server needs an edge)"
+    if not vertices:
+        return why
+    return (
+        f"warning: the graph has {vertices} vert{'ex' if vertices == 1 else 'ices'}, no edge; {why}"
+    )
 
 
 def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) -> Any:
