@@ -185,3 +185,13 @@ def test_a_bag_folder_of_one_cut_mcap_reads_it(recording, tmp_path):
     with pytest.warns(RuntimeWarning, match=r"rosbag2_run_0\.mcap: the MCAP file is cut off"):
         scans = list(read_bag(folder))
     assert len(scans) == len(whole)
+
+
+def test_a_folder_that_is_not_a_bag_is_refused_saying_so(tmp_path):
+    """A folder without metadata.yaml and without one .mcap file (a bag's parent folder,
+    say) was refused with rosbags' 'Expected metadata file FOLDER does not exist', about
+    a folder that does exist; the message now says what a bag folder holds."""
+    (tmp_path / "notes.txt").write_text("not a bag\n")
+    with pytest.raises(ValueError, match=r"is a folder but not a ROS 2 bag: expected") as info:
+        list(tj.read_scans(tmp_path))
+    assert str(tmp_path) in str(info.value) and "metadata.yaml" in str(info.value)

@@ -85,6 +85,12 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequentia
         mcap = _lone_mcap(path) if path.is_dir() else path
         if magic.startswith(_MCAP_MAGIC[:5]) or (mcap is not None and mcap.suffix == ".mcap"):
             return _mcap_fallback(mcap, err)
+        if path.is_dir() and not (path / "metadata.yaml").is_file():
+            raise ValueError(
+                f"path: {path} is a folder but not a ROS 2 bag: expected its metadata.yaml "
+                "(or, for a recording cut off, one .mcap file), found neither; pass the "
+                "bag folder or a log file"
+            ) from None
         raise ValueError(f"path: cannot read bag {target} with rosbags: {err!r}") from None
 
 
