@@ -208,6 +208,8 @@ def test_output_record_rules(tmp_path):
         (["--graph-every", "-1"], "--graph-every: expected an int >= 0"),
         (["--resolution", "0"], "--resolution: expected a finite number of metres > 0"),
         (["--max-extent-m", "-3"], "--max-extent-m: expected a finite number of metres > 0"),
+        (["--max-range", "-1"], "--max-range: expected a number of metres > 0"),
+        (["--max-range", "nan"], "--max-range: expected a number of metres > 0"),
     ],
 )
 def test_replay_names_its_options_in_errors(tmp_path, capsys, argv, message):

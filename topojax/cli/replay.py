@@ -36,6 +36,11 @@ def _check_numbers(args) -> None:
         positive_int("--max-scans", args.max_scans)
     if args.max_extent_m is not None:
         positive_metres("--max-extent-m", args.max_extent_m)
+    if args.max_range is not None and not args.max_range > 0:  # inf: every reading a hit
+        raise ValueError(
+            f"--max-range: expected a number of metres > 0 (inf: no no-return value), "
+            f"received {args.max_range}"
+        )
     if args.route_graph is not None:
         from ..routegraph.build import RouteGraphConfig, check_scale
 
