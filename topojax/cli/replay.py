@@ -199,8 +199,8 @@ def add_command(subparsers) -> None:
     p.add_argument(
         "--resume",
         action="store_true",
-        help="continue a replay of this log into --out that stopped part way (an error or "
-        "Ctrl-C) from the mapper_state.npz it saved there, skipping the scans it took; the "
+        help="continue a replay of this log into --out that stopped part way (an error, "
+        "Ctrl-C or SIGTERM) from the mapper_state.npz it saved there, skipping the scans it took; the "
         "same mapper and reader options are needed (refused otherwise)",
     )
     p.add_argument(
