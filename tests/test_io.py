@@ -616,6 +616,30 @@ def test_output_folder_that_cannot_be_made_names_the_option(tmp_path, monkeypatc
         output_folder(tmp_path / "x", name="--out")
 
 
+def test_an_existing_folder_that_cannot_be_written_into_is_refused_up_front(tmp_path, monkeypatch):
+    """An output folder that exists but takes no file (no permission, read-only) passed,
+    and a replay mapped its whole log before the first write failed (and so did saving
+    its state); the folder is now tried when it is checked, naming the option."""
+    import tempfile
+
+    from topojax._fs import output_folder
+
+    folder = tmp_path / "read_only"
+    folder.mkdir()
+    real = tempfile.mkstemp
+
+    def refuse(*args, dir=None, **kwargs):
+        if dir is not None and Path(dir) == folder:
+            raise PermissionError(13, "Permission denied")
+        return real(*args, dir=dir, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    with pytest.raises(PermissionError, match=r"--out: cannot write into the folder .*read_only"):
+        output_folder(folder, name="--out")
+    monkeypatch.undo()
+    assert output_folder(folder) == folder and not list(folder.iterdir())  # nothing left
+
+
 def _writers():
     """Every public function that writes a file, called with the path given."""
     from skimage.draw import rectangle

@@ -31,7 +31,7 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
     Raises NotADirectoryError naming ``name`` when ``path``, or a folder above it, is an
     existing file (``mkdir`` itself only says "File exists" / "Not a directory"), and an
     OSError naming it when the folder cannot be made (no permission, a read-only or full
-    file system)."""
+    file system), or when a file cannot be created in it (tried with an empty one)."""
     folder = Path(path)
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -44,6 +44,14 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
         raise OSError(
             exc.errno, f"{name}: cannot make the folder {folder} ({exc.strerror})"
         ) from None
+    try:  # before any work whose results would then be lost
+        fd, probe = tempfile.mkstemp(prefix=".topojax-probe.", dir=folder)
+    except OSError as exc:
+        raise OSError(
+            exc.errno, f"{name}: cannot write into the folder {folder} ({exc.strerror})"
+        ) from None
+    os.close(fd)
+    os.unlink(probe)
     return folder
 
 
