@@ -354,7 +354,6 @@ def test_carmen_gzip_detected_by_magic_not_suffix(tmp_path):
         ("FLASER 4 1 2 3 4 0 0 0 0 0 1 h 1\n", "fields after the 4 ranges"),
         # a beam count one short: the fifth range would be read as x, every field shifted
         ("FLASER 4 1 2 3 4 5 0 0 0 0 0 0 1 h 1\n", "ranges: expected 9 .* received 10"),
-        ("FLASER 4 1 2 3 4 0 nan 0 0 0 0 1 h 1\n", "finite"),
         ("FLASER 1 1 0 0 0 0 0 0 1 h 1\n", ">= 2"),
     ],
 )
@@ -367,6 +366,37 @@ def test_carmen_malformed_lines_raise_with_line_number(tmp_path, line, needle):
         list(read_carmen(path))
     assert f"{path}:4:" in str(info.value)
     assert "FLASER" in str(info.value)
+
+
+def test_carmen_scans_whose_pose_is_not_finite_are_skipped(tmp_path):
+    """A NaN or infinite pose (a localisation glitch) refused the whole log, before any
+    scan was mapped; such scans are skipped with a warning naming the first line, as are
+    pose-less scans posed from such an ODOM line."""
+    path = tmp_path / "glitch.log"
+    path.write_text(
+        _flaser([1, 2, 3, 4], (0, 0, 0))
+        + "FLASER 4 1 2 3 4 0 nan 0 0 0 0 1 h 1\n"
+        + _flaser([1, 2, 3, 4], (1, 0, 0))
+        + "FLASER 4 1 2 3 4 inf 0 0 0 0 0 1 h 1\n"
+    )
+    for kw in ({}, {"max_range_m": 10.0}):  # the log's range survey skips them too
+        with pytest.warns(
+            UserWarning, match=r"skipped 2 FLASER scan\(s\) whose pose is not finite .* line 2$"
+        ):
+            scans = list(read_carmen(path, **kw))
+        assert [s.pose for s in scans] == [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)]
+    raw = "RAWLASER1 0 -1.5 3.0 0.75 20.0 0.01 0 5 1 2 3 4 20 0 {ts} host {ts}\n"
+    path.write_text(
+        "ODOM 1.0 2.0 0.5 0 0 0 1.0 host 1.0\n"
+        + raw.format(ts=1.1)
+        + "ODOM nan 2.5 0.6 0 0 0 1.2 host 1.2\n"
+        + raw.format(ts=1.3)
+        + "ODOM 2.0 3.0 0.7 0 0 0 1.4 host 1.4\n"
+        + raw.format(ts=1.5)
+    )
+    with pytest.warns(UserWarning, match=r"skipped 1 RAWLASER1 scan\(s\) whose pose .* line 4$"):
+        scans = list(read_carmen(path))
+    assert [s.pose for s in scans] == [(1.0, 2.0, 0.5), (2.0, 3.0, 0.7)]
 
 
 def test_damaged_gzip_logs_raise_value_errors_naming_the_file(tmp_path):
@@ -910,7 +940,10 @@ def _write_robot_bag(
     with_odom: bool = False,
     early_scan: bool = False,
     second_scan_topic: bool = False,
+    glitch: int | None = None,
 ) -> None:
+    """A recording of SCAN_TIMES scans with 10 Hz odometry (tf and/or /odom); with
+    ``glitch``, that odometry sample's position is NaN (a localisation glitch)."""
     w = _BagWriter(path, ros)
     if with_tf:
         w.tf(
@@ -942,6 +975,7 @@ def _write_robot_bag(
         t_ns = T0_NS + int(round(t * 1e9))
         if kind == "odom":
             x, y, yaw = _odom_base(t)
+            x = math.nan if k == glitch else x
             if with_tf:
                 w.tf(
                     "/tf",
@@ -1010,6 +1044,26 @@ def test_bag_round_trip_with_tf(tmp_path, ros, parent):
                 _se2(*w.pose), _se2(*s.pose) @ _se2(*s.sensor_offset), atol=1e-9
             )
             assert w.sensor_offset == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("source", ["tf", "odom"])
+def test_bag_poses_that_are_not_finite_are_skipped(tmp_path, source):
+    """A NaN pose in the odometry (a localisation glitch) refused the whole recording;
+    it is left out with a warning, and the scans are posed from the samples around it."""
+    pytest.importorskip("rosbags")
+    kw = {"with_tf": True, "with_odom": source == "odom"}  # odom: the glitch in /tf and /odom
+    read = {"pose_topic": "/odom"} if source == "odom" else {"tf_parent": "odom"}
+    _write_robot_bag(tmp_path / "good", 2, **kw)
+    _write_robot_bag(tmp_path / "glitch", 2, glitch=9, **kw)  # at 0.9 s, between two scans
+    with pytest.warns(
+        UserWarning,
+        match=rf"skipped {1 + (source == 'odom')} pose\(s\) or transform\(s\) that are not ",
+    ):
+        scans = list(read_bag(tmp_path / "glitch", **read))
+    good = list(read_bag(tmp_path / "good", **read))
+    assert len(scans) == len(good) == len(SCAN_TIMES)
+    for a, b in zip(scans, good, strict=True):
+        np.testing.assert_allclose(a.pose, b.pose, atol=1e-9)  # linear: exact either way
 
 
 def test_bag_pose_topic_odometry(tmp_path):

@@ -15,20 +15,25 @@ _Tf = tuple[float, float, float, int]
 _IDENTITY_TF: _Tf = (0.0, 0.0, 0.0, 1)
 
 
+class BadTransform(ValueError):
+    """A transform or pose message that is not finite or whose quaternion is zero (a
+    localisation glitch): the message is skipped, not the recording refused."""
+
+
 def _tf_from_msg(translation: Any, rotation: Any) -> _Tf:
     """Planar part of a 3-D transform: translation x, y; heading of the rotated x axis;
     ``s = -1`` when the rotated z axis points down (sensor mounted upside down)."""
     qx, qy, qz, qw = (float(rotation.x), float(rotation.y), float(rotation.z), float(rotation.w))
     norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     if not math.isfinite(norm) or norm == 0.0:
-        raise ValueError(f"invalid quaternion ({qx}, {qy}, {qz}, {qw})")
+        raise BadTransform(f"invalid quaternion ({qx}, {qy}, {qz}, {qw})")
     qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
     r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
     r10 = 2.0 * (qx * qy + qw * qz)
     r22 = 1.0 - 2.0 * (qx * qx + qy * qy)
     x, y = float(translation.x), float(translation.y)
     if not (math.isfinite(x) and math.isfinite(y)):
-        raise ValueError(f"invalid translation ({x}, {y})")
+        raise BadTransform(f"invalid translation ({x}, {y})")
     return (x, y, math.atan2(r10, r00), -1 if r22 < 0.0 else 1)
 
 

@@ -14,7 +14,7 @@ from .._validate import one_of, real_number
 from .._validate import pose as checked_pose
 from ._mcap import _MCAP_MAGIC, _McapSequential
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
-from ._tf import _IDENTITY_TF, _Tf, _tf_from_msg, _TfSeries, _TfTree
+from ._tf import _IDENTITY_TF, BadTransform, _Tf, _tf_from_msg, _TfSeries, _TfTree
 from .scan import PoseLike, Scan
 
 _LASERSCAN = "sensor_msgs/msg/LaserScan"
@@ -196,7 +196,9 @@ def read_bag(
         transform takes that first (last) sample; default 0.1 s.
     missing_pose : {"skip", "error"}, optional
         What to do with scans whose time is outside the pose data: skip them (a warning
-        gives the count once the iterator is exhausted) or raise ValueError.
+        gives the count once the iterator is exhausted) or raise ValueError.  Pose and
+        transform messages that are not finite or whose quaternion is zero (a
+        localisation glitch) are left out of the pose data, with a warning.
 
     Returns
     -------
@@ -369,18 +371,29 @@ def _collect_poses(
     wanted = list(tf_topics)
     if mode == "topic" and pose_topic is not None:
         wanted.append(pose_topic)
+    bad: list[str] = []  # the poses and transforms skipped (a localisation glitch)
     if mode != "none" and wanted:
         for topic, typ, t_ns, msg in source.messages(wanted):
             if typ in _TF_TYPES:
-                _add_transforms(path, tree, topic, t_ns, msg)
+                _add_transforms(path, tree, topic, t_ns, msg, bad)
                 continue
             try:
                 parent, body, stamp, tf = _pose_from_msg(typ, msg)
+            except BadTransform as err:
+                bad.append(f"{topic} at t={t_ns / 1e9:.9f} s: {err}")
+                continue
             except ValueError as err:
                 raise ValueError(f"{path}: topic {topic}: {err}") from None
             if pose_parent is None:
                 pose_parent, pose_body = parent, body
             body_pose.add(stamp or t_ns, tf, False)
+    if bad:
+        warnings.warn(
+            f"{path}: skipped {len(bad)} pose(s) or transform(s) that are not finite or "
+            f"not a rotation (a localisation glitch; scans use the poses around them), the "
+            f"first on {bad[0]}",
+            stacklevel=3,
+        )
         if mode == "topic" and not body_pose.t:
             raise ValueError(f"pose_topic: {pose_topic!r} in {path} has no messages")
         if mode == "topic" and base_frame is not None:
@@ -388,15 +401,19 @@ def _collect_poses(
     return tree, body_pose, pose_body
 
 
-def _add_transforms(path: Path, tree: _TfTree, topic: str, t_ns: int, msg: Any) -> None:
-    """Add the transforms of one tf message (received at bag time ``t_ns``) to ``tree``."""
+def _add_transforms(
+    path: Path, tree: _TfTree, topic: str, t_ns: int, msg: Any, bad: list[str]
+) -> None:
+    """Add the transforms of one tf message (received at bag time ``t_ns``) to ``tree``;
+    one not finite or not a rotation is left out and described in ``bad``."""
     static = topic.rstrip("/").endswith("tf_static")
     for tr in msg.transforms:
         stamp = _stamp_ns(tr.header.stamp) or t_ns
         try:
             tf = _tf_from_msg(tr.transform.translation, tr.transform.rotation)
-        except ValueError as err:
-            raise ValueError(f"{path}: topic {topic}: {err}") from None
+        except BadTransform as err:
+            bad.append(f"{topic} at t={stamp / 1e9:.9f} s: {err}")
+            continue
         tree.add(_frame(tr.header.frame_id), _frame(tr.child_frame_id), stamp, tf, static)
 
 

@@ -37,6 +37,11 @@ class _CarmenLineError(ValueError):
     pass
 
 
+class _PoseNotFinite(_CarmenLineError):
+    """A well-formed line whose pose is NaN or infinite (a localisation glitch): its scan
+    is skipped, not the log refused."""
+
+
 def _floats(tokens: Sequence[str], what: str) -> np.ndarray:
     try:
         return np.array([float(v) for v in tokens], dtype=np.float64)
@@ -74,7 +79,7 @@ def _parse_old_laser(tokens: list[str]) -> tuple[np.ndarray, np.ndarray | None, 
     if rest == 9:  # more would shift every field: a wrong beam count
         nums = _floats(tokens[2 + n : 9 + n], "pose / odometry / timestamp")
         if not np.all(np.isfinite(nums[:3])):
-            raise _CarmenLineError(f"pose: expected finite x y theta, received {nums[:3].tolist()}")
+            raise _PoseNotFinite(f"pose: expected finite x y theta, received {nums[:3].tolist()}")
         return ranges, nums[:3], float(nums[6])
     if rest == 3:  # very old raw format: n ranges ipc_timestamp hostname logger_timestamp
         return ranges, None, float(_floats(tokens[2 + n : 3 + n], "timestamp")[0])
@@ -144,6 +149,8 @@ def _survey_carmen(path: Path, laser: str, need_max: bool) -> _Survey:
                     ranges = _parse_old_laser(tokens)[0]
                 else:
                     ranges = _parse_new_laser_head(tokens)[1]
+            except _PoseNotFinite:
+                continue  # skipped when read
             except _CarmenLineError as err:
                 if _cut_off(line):  # the logger stopped mid-line: the scans before count
                     break
@@ -248,6 +255,9 @@ def read_carmen(
         host logger_ts``. The robot pose is the ``x y theta`` of the latest ``ODOM`` line
         before the scan (scans before the first ODOM are skipped with a warning).
 
+    A scan whose pose (or ODOM pose) is NaN or infinite, a localisation glitch, is skipped;
+    a warning gives the count and the first line once the iterator is exhausted.
+
     Other lines (``ODOM``, ``PARAM``, ``NEFF``, ``TRUEPOS``, comments, other messages) are
     skipped.
 
@@ -340,6 +350,7 @@ def _iter_carmen(
             )
     odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
+    not_finite: list[int] = []  # lines of scans whose pose is not finite
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
@@ -359,6 +370,9 @@ def _iter_carmen(
                 if scan is None:  # posed from ODOM, before the first ODOM line
                     skipped += 1
                     continue
+            except _PoseNotFinite:
+                not_finite.append(lineno)
+                continue
             except _CarmenLineError as err:
                 if _cut_off(line):
                     warnings.warn(
@@ -373,6 +387,12 @@ def _iter_carmen(
         warnings.warn(
             f"{path}: skipped {skipped} {chosen} scan(s) before the first ODOM line "
             f"(they have no pose)",
+            stacklevel=2,
+        )
+    if not_finite:
+        warnings.warn(
+            f"{path}: skipped {len(not_finite)} {chosen} scan(s) whose pose is not finite "
+            f"(NaN or infinite: a localisation glitch), the first on line {not_finite[0]}",
             stacklevel=2,
         )
 
@@ -426,10 +446,10 @@ class _OdomPoses:
         try:
             _need(toks, 4, "ODOM x y theta")
             xyz = _floats(toks[1:4], "ODOM pose")
-            if not np.all(np.isfinite(xyz)):
-                raise _CarmenLineError(f"ODOM pose is not finite: {xyz.tolist()}")
         except _CarmenLineError as err:
             raise ValueError(f"{self.path}:{num}: malformed ODOM line: {err}") from None
+        if not np.all(np.isfinite(xyz)):
+            raise _PoseNotFinite(f"ODOM pose at line {num} is not finite: {xyz.tolist()}")
         return (float(xyz[0]), float(xyz[1]), float(xyz[2]))
 
 
@@ -469,7 +489,7 @@ def _new_laser_scan(
         _need(tokens, k + 12, "laser pose, robot pose, 5 fields and timestamp")
         nums = _floats(tokens[k : k + 12], "poses / timestamp")
         if not np.all(np.isfinite(nums[:6])):
-            raise _CarmenLineError(f"poses are not finite: {nums[:6].tolist()}")
+            raise _PoseNotFinite(f"poses are not finite: {nums[:6].tolist()}")
         laser_pose = (float(nums[0]), float(nums[1]), float(nums[2]))
         robot = (float(nums[3]), float(nums[4]), float(nums[5]))
         offset = _relative(robot, laser_pose) if offset_override is None else offset_override
