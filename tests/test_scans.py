@@ -771,6 +771,14 @@ def test_octave_parser_newer_headers(tmp_path):
     assert len(list(read_scans(path))) == 2
 
 
+def test_octave_scans_whose_pose_is_not_finite_are_skipped(tmp_path):
+    path = tmp_path / "scans.txt"
+    path.write_text(_OCTAVE_NDIMS.replace(" 1\n 2\n 0.5\n", " nan\n 2\n 0.5\n", 1))
+    with pytest.warns(UserWarning, match=r"skipped 1 scan\(s\) whose pose is not finite"):
+        (b,) = list(read_octave_laser(path))
+    assert b.pose == (-1.0, -2.0, -0.5)
+
+
 def test_octave_errors(tmp_path):
     bad = tmp_path / "bad.txt"
     bad.write_text(_OCTAVE_NDIMS.replace(" 1 2 Inf", " 1 2"))

@@ -4,6 +4,7 @@ data)."""
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -287,10 +288,15 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
             )
         return v
 
+    not_finite: list[int] = []  # scans whose pose is NaN or infinite (from 1)
     for i in range(count):
         ranges = np.asarray(columns["ranges"][i], dtype=np.float64)
         if ranges.ndim == 2 and 1 in ranges.shape:
             ranges = ranges.ravel()
+        pose = triple("pose", i)
+        if not np.isfinite(pose).all():  # a localisation glitch: the scan is skipped
+            not_finite.append(i + 1)
+            continue
         offset = triple("laser_offset", i) if "laser_offset" in columns else np.zeros(3)
         stamp = scalar("timestamp", i) if "timestamp" in columns else None
         try:
@@ -300,10 +306,16 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
                 scalar("angular_resolution", i),
                 0.0,
                 scalar("maximum_range", i),
-                triple("pose", i),
+                pose,
                 offset,
                 stamp,
             )
         except (TypeError, ValueError) as err:
             raise ValueError(f"{path}: {variable}({i + 1}): {err}") from None
         yield scan
+    if not_finite:
+        warnings.warn(
+            f"{path}: skipped {len(not_finite)} scan(s) whose pose is not finite (NaN or "
+            f"infinite: a localisation glitch), the first {variable}({not_finite[0]})",
+            stacklevel=2,
+        )
