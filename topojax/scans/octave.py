@@ -208,7 +208,8 @@ def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Itera
     81.91 for no return with ``maximum_range = 80``).
 
     The format stores each field for all scans together, so the whole file is parsed before
-    the first scan is yielded.
+    the first scan is yielded.  A scan whose pose is NaN or infinite (a localisation
+    glitch) is skipped; a warning gives the count once the iterator is exhausted.
 
     Parameters
     ----------
