@@ -307,9 +307,10 @@ def _map_scans(
 ) -> _Replayed:
     """Feed the scans to the mapper (:func:`_run`), check that they mapped something,
     run the final update (:func:`_final`; a map too large to write leaves the mapper's
-    state in ``out``) and make the final route graph (with a radius).  ``frames`` (animation frames so far, or None) grows by a frame at every
-    update.  ``progress_at`` (where the replay starts in the log) follows the scans
-    taken, for the state (and the recordings) saved on a failure."""
+    state in ``out``) and make the final route graph (with a radius).  ``frames``
+    (animation frames so far, or None) grows by a frame at every update.  ``progress_at``
+    (where the replay starts in the log) follows the scans taken, for the state (and the
+    recordings) saved on a failure."""
     record = None if recorder is None else _Recording(recorder, route_graph_radius_m)
 
     def state_record():

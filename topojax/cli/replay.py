@@ -200,8 +200,9 @@ def add_command(subparsers) -> None:
         "--resume",
         action="store_true",
         help="continue a replay of this log into --out that stopped part way (an error, "
-        "Ctrl-C or SIGTERM) from the mapper_state.npz it saved there, skipping the scans it took; the "
-        "same mapper and reader options are needed (refused otherwise)",
+        "Ctrl-C or SIGTERM) from the mapper_state.npz it saved there, skipping the scans it "
+        "took and continuing its animation, view timeline and MCAP recording; the same "
+        "mapper and reader options are needed (refused otherwise)",
     )
     p.add_argument(
         "--max-range",
