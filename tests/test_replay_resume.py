@@ -189,6 +189,19 @@ def test_a_resumed_replay_without_the_stopped_ones_recordings_says_so(tmp_path, 
     assert len(scans) == 40 - 17
 
 
+def test_damaged_recordings_of_a_stopped_replay_are_started_afresh(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 20)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        recorded_replay(out)
+    for name in ("recording.mcap", "timeline.json.gz", "frames.npz"):
+        (out / ".replay_partial" / name).write_bytes(b"damaged")
+    summary = recorded_replay(out, resume=True)
+    said = [m for m in summary["messages"] if "after the log's first 20: the one the" in m]
+    assert len(said) == 3, summary["messages"]
+    assert len([m for m in mcap_messages(out / "run.mcap") if m[0] == "/scan"]) == 20
+
+
 def test_recordings_of_fewer_scans_than_the_state_are_not_continued(tmp_path, monkeypatch):
     """A stop while a scan's update was being recorded leaves recordings one scan short
     of the mapper's state: a resumed replay starts its recordings afresh and says so."""

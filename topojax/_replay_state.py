@@ -299,26 +299,36 @@ def kept_recordings(out: Path, consumed: int, *, mcap: bool, view: bool, animate
     found: dict[str, Any] = {}
     messages = []
     for name, file, wanted, load in (
-        ("MCAP recording", "recording.mcap", mcap, lambda p: p),
+        ("MCAP recording", "recording.mcap", mcap, _readable_mcap),
         ("view timeline", "timeline.json.gz", view, Timeline.load),
         ("animation", "frames.npz", animate, load_frames),
     ):
         path = folder / file
         if not wanted:
             continue
+        why = "the stopped replay kept none of its own"
         if usable and path.is_file():
-            found[file] = load(path)
-        else:
-            messages.append(
-                f"the {name} holds the scans after the log's first {consumed}: the "
-                "stopped replay kept none of its own"
-            )
+            try:
+                found[file] = load(path)
+                continue
+            except Exception as exc:  # noqa: BLE001 - a damaged part is started afresh
+                why = f"the one the stopped replay kept is unreadable ({exc})"
+        messages.append(f"the {name} holds the scans after the log's first {consumed}: {why}")
     return KeptRecordings(
         found.get("recording.mcap"),
         found.get("timeline.json.gz"),
         found.get("frames.npz"),
         messages,
     )
+
+
+def _readable_mcap(path: Path) -> Path:
+    """``path``, once its MCAP summary reads (ValueError or OSError otherwise)."""
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([path]) as reader:
+        reader.connections  # noqa: B018 - opening reads the summary
+    return path
 
 
 def drop_recordings(out: Path) -> list[str]:
