@@ -1074,6 +1074,18 @@ def test_bag_poses_that_are_not_finite_are_skipped(tmp_path, source):
         np.testing.assert_allclose(a.pose, b.pose, atol=1e-9)  # linear: exact either way
 
 
+def test_bag_pose_topic_takes_base_frame_as_the_posed_frame(tmp_path):
+    """With a pose topic, ``base_frame`` names the frame its poses are of (the sensor
+    offset is the tf from there to the scan's frame)."""
+    pytest.importorskip("rosbags")
+    _write_robot_bag(tmp_path / "bag", 2, with_odom=True)
+    plain = list(read_bag(tmp_path / "bag", pose_topic="/odom"))
+    of_laser = list(read_bag(tmp_path / "bag", pose_topic="/odom", base_frame="laser"))
+    np.testing.assert_allclose(plain[0].sensor_offset, BASE_LASER, atol=1e-9)
+    assert [s.sensor_offset for s in of_laser] == [(0.0, 0.0, 0.0)] * len(SCAN_TIMES)
+    assert [s.pose for s in of_laser] == [s.pose for s in plain]
+
+
 def test_bag_pose_topic_odometry(tmp_path):
     pytest.importorskip("rosbags")
     path = tmp_path / "odom_bag"

@@ -387,6 +387,10 @@ def _collect_poses(
             if pose_parent is None:
                 pose_parent, pose_body = parent, body
             body_pose.add(stamp or t_ns, tf, False)
+        if mode == "topic" and not body_pose.t:
+            raise ValueError(f"pose_topic: {pose_topic!r} in {path} has no messages")
+        if mode == "topic" and base_frame is not None:
+            pose_body = base_frame
     if bad:
         warnings.warn(
             f"{path}: skipped {len(bad)} pose(s) or transform(s) that are not finite or "
@@ -394,10 +398,6 @@ def _collect_poses(
             f"first on {bad[0]}",
             stacklevel=3,
         )
-        if mode == "topic" and not body_pose.t:
-            raise ValueError(f"pose_topic: {pose_topic!r} in {path} has no messages")
-        if mode == "topic" and base_frame is not None:
-            pose_body = base_frame
     return tree, body_pose, pose_body
 
 
