@@ -156,10 +156,13 @@ def test_a_replay_stopped_while_writing_its_files_keeps_its_recordings_as_they_w
     assert mcap_messages(out / "run.mcap") == mcap_messages(full_recorded / "run.mcap")
 
 
-def test_a_replay_stopped_while_ending_its_recording_keeps_only_its_scans(tmp_path, monkeypatch):
-    """Stopped part way through the recording's last messages, the replay keeps the
-    mapper's state but not a recording that holds some of them; the resumed replay says
-    its recordings start after the log's 40 scans."""
+def test_a_replay_stopped_while_ending_its_recording_keeps_the_rest(
+    tmp_path, monkeypatch, full_recorded
+):
+    """Stopped part way through the MCAP recording's last messages, the replay keeps the
+    mapper's state, the timeline and the frames, but not a recording that holds some of
+    those messages: the resumed replay's GIF and view are those of one that did not
+    stop, and it says its MCAP recording starts after the log's 40 scans."""
     import topojax.playback
 
     def stopping(recorder, done):
@@ -171,10 +174,33 @@ def test_a_replay_stopped_while_ending_its_recording_keeps_only_its_scans(tmp_pa
     with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
         recorded_replay(out)
     monkeypatch.undo()
-    assert (out / STATE_FILE).is_file() and not (out / ".replay_partial").exists()
+    assert not (out / ".replay_partial" / "recording.mcap").exists()
     summary = recorded_replay(out, resume=True)
-    assert sum("after the log's first 40" in m for m in summary["messages"]) == 3
+    said = [m for m in summary["messages"] if "after the log's first 40" in m]
+    assert len(said) == 1 and "MCAP" in said[0]
+    for name in RECORDINGS:
+        assert (out / name).read_bytes() == (full_recorded / name).read_bytes(), name
     assert {t for t, *_ in mcap_messages(out / "run.mcap")} == {"/map", "/topology"}
+
+
+def test_a_resume_that_records_nothing_leaves_the_kept_recordings(
+    tmp_path, monkeypatch, full_recorded
+):
+    """A resume without the recordings, stopped before it maps a scan, left the earlier
+    replay's kept recordings deleted; they stay for the next resume."""
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 17)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        recorded_replay(out)
+    monkeypatch.undo()
+    interrupted_reader(monkeypatch, 17)  # the resume's first scan: none mapped
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
+    monkeypatch.undo()
+    recorded_replay(out, resume=True)
+    for name in RECORDINGS:
+        assert (out / name).read_bytes() == (full_recorded / name).read_bytes(), name
+    assert mcap_messages(out / "run.mcap") == mcap_messages(full_recorded / "run.mcap")
 
 
 def test_a_resumed_replay_without_the_stopped_ones_recordings_says_so(tmp_path, monkeypatch):

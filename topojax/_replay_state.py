@@ -245,12 +245,17 @@ def _check_same(path: Path, what: str, saved: dict, now: dict) -> None:
 PARTIAL_DIR = ".replay_partial"
 
 
-def keep_recordings(out: Path, recorded: int, recorder, timeline, frames) -> None:
+def keep_recordings(out: Path, progress: ReplayProgress, recorder, timeline, frames) -> None:
     """After a failure part way through a log, keep what the replay recorded of its
-    first ``recorded`` scans in ``out/.replay_partial``: the open MCAP ``recorder``
-    finished there, the view ``timeline`` and the animation ``frames`` (each None when
-    not recorded).  A failing save is said in a RuntimeWarning."""
+    first ``progress.recorded`` scans in ``out/.replay_partial``: the open MCAP
+    ``recorder`` finished there, the view ``timeline`` and the animation ``frames`` (each
+    None when not recorded).  A resumed replay that recorded no scan leaves the folder as
+    it was (it holds what the earlier replays recorded, also of outputs not asked for
+    now).  A failing save is said in a RuntimeWarning."""
     folder = out / PARTIAL_DIR
+    if progress.recorded == progress.resumed_after and folder.exists():
+        return
+    recorded = progress.recorded
     try:
         shutil.rmtree(folder, ignore_errors=True)
         folder.mkdir(parents=True)
@@ -323,11 +328,13 @@ def kept_recordings(out: Path, consumed: int, *, mcap: bool, view: bool, animate
 
 
 def _readable_mcap(path: Path) -> Path:
-    """``path``, once its MCAP summary reads (ValueError or OSError otherwise)."""
+    """``path``, once every message of the MCAP file reads (an exception otherwise: a
+    recording that cannot be continued is started afresh, before any scan is mapped)."""
     from rosbags.highlevel import AnyReader
 
     with AnyReader([path]) as reader:
-        reader.connections  # noqa: B018 - opening reads the summary
+        for _ in reader.messages():
+            pass
     return path
 
 

@@ -334,11 +334,11 @@ def _map_scans(
         if route_graph_radius_m is not None:
             routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
     except ExportBudgetError as exc:
-        keep_recordings(out, progress_at.recorded, recorder, timeline, frames)
+        keep_recordings(out, progress_at, recorder, timeline, frames)
         raise _unwritable(mapper, exc, out, state_record()) from None
     except (Exception, KeyboardInterrupt):  # a bad line mid-log, Ctrl-C: keep the scans
         if keep_state(mapper, out, state_record):
-            keep_recordings(out, progress_at.recorded, recorder, timeline, frames)
+            keep_recordings(out, progress_at, recorder, timeline, frames)
         raise
     return _Replayed(reports, frames, wall, skipped, update, final_s, result, seg, routes)
 
@@ -372,8 +372,8 @@ def _write_and_close(
         if recorder is not None:
             _record_final(recorder, done)
     except (Exception, KeyboardInterrupt):
-        if keep_state(mapper, out, record) and not final:
-            keep_recordings(out, progress_at.recorded, recorder, timeline, done.frames)
+        if keep_state(mapper, out, record):  # the recording itself only before its end
+            keep_recordings(out, progress_at, None if final else recorder, timeline, done.frames)
         raise
     return written, messages
 

@@ -405,13 +405,16 @@ def _add_transforms(
     path: Path, tree: _TfTree, topic: str, t_ns: int, msg: Any, bad: list[str]
 ) -> None:
     """Add the transforms of one tf message (received at bag time ``t_ns``) to ``tree``;
-    one not finite or not a rotation is left out and described in ``bad``."""
+    one not finite or not a rotation is left out and described in ``bad`` (on a static
+    topic, a mounting that is wrong throughout: ValueError)."""
     static = topic.rstrip("/").endswith("tf_static")
     for tr in msg.transforms:
         stamp = _stamp_ns(tr.header.stamp) or t_ns
         try:
             tf = _tf_from_msg(tr.transform.translation, tr.transform.rotation)
         except BadTransform as err:
+            if static:
+                raise ValueError(f"{path}: topic {topic}: {err}") from None
             bad.append(f"{topic} at t={stamp / 1e9:.9f} s: {err}")
             continue
         tree.add(_frame(tr.header.frame_id), _frame(tr.child_frame_id), stamp, tf, static)

@@ -281,7 +281,10 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
         return float(v.reshape(()))
 
     def triple(name: str, i: int) -> np.ndarray:
-        v = np.asarray(columns[name][i], dtype=np.float64).ravel()
+        try:
+            v = np.asarray(columns[name][i], dtype=np.float64).ravel()
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{path}: {variable}({i + 1}).{name}: {err}") from None
         if v.size != 3:
             raise ValueError(
                 f"{path}: {variable}({i + 1}).{name}: expected 3 values, received shape "
