@@ -131,7 +131,7 @@ var TJ = (window.TJ = window.TJ || {});
   TJ.Router.prototype.snap = function (x, y, maxSnap) {
     var hit = this.grid.nearest(x, y, Infinity);
     if (hit === null) throw new Error("the graph has no vertices or edges to route on");
-    var np = this.G.np, near = this.grid.within(x, y, hit.dist + TIE), at = [];
+    var near = this.grid.within(x, y, hit.dist + TIE), at = [];
     if (near.indexOf(hit.index) < 0) {
       near.push(hit.index);
       near.sort(function (a, b) { return a - b; });
