@@ -19,6 +19,7 @@ from view_cases import intel_replay, intel_result, office_route_graph, payload_o
 import topojax as tj
 from topojax.cli import main
 from topojax.view import View, view_html
+from topojax.view._encode import packed
 
 
 @pytest.fixture(scope="module")
@@ -284,6 +285,50 @@ def test_a_corrupt_timeline_file_says_so(tmp_path):
         tj.Timeline.load(tmp_path)
     with pytest.raises(ValueError, match="holds no graph update"):
         view_html(intel_result(), timeline=tj.Timeline())
+
+
+def _damaged(doc: dict, how: str) -> dict:
+    doc = copy.deepcopy(doc)
+    body = doc["timeline"]
+    if how == "frame bytes":
+        body["frames"][0]["ids"]["z"] = "AAAA"
+    elif how == "frame bytes, view only":
+        del doc["continue"]
+        body["frames"][-1]["x"]["z"] = "AAAA"
+    elif how == "frame not an object":
+        body["frames"][0] = 5
+    elif how == "no frames":
+        body["frames"] = []
+    elif how == "edge outside the pool":
+        body["frames"][-1]["edges"] = packed([10**6], np.int32)
+    elif how == "rooms outside the list":
+        body["frames"][-1]["rooms"] = len(body["rooms"]) + 3
+    elif how == "vertex arrays disagree":
+        body["frames"][-1]["y"] = packed([1.0], np.float32)
+    return doc
+
+
+@pytest.mark.parametrize(
+    "how",
+    [
+        "frame bytes",
+        "frame bytes, view only",
+        "frame not an object",
+        "no frames",
+        "edge outside the pool",
+        "rooms outside the list",
+        "vertex arrays disagree",
+    ],
+)
+def test_a_timeline_file_with_damaged_frames_is_refused_on_loading(tmp_path, how):
+    # not written into a page that then fails in the browser ("Failed to fetch"), with
+    # topojax view exiting 0
+    _, timeline, _ = intel_replay()
+    path = timeline.save(tmp_path / "timeline.json.gz")
+    doc = _damaged(json.loads(gzip.decompress(path.read_bytes())), how)
+    path.write_bytes(gzip.compress(json.dumps(doc).encode()))
+    with pytest.raises(ValueError, match=f"^timeline file {re.escape(str(path))} "):
+        tj.Timeline.load(path)
 
 
 def test_mapper_view_has_its_rooms_and_timeline():

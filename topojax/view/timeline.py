@@ -274,6 +274,12 @@ class Timeline:
         body = doc.get("timeline")
         if not isinstance(body, dict) or not isinstance(body.get("frames"), list):
             raise ValueError(f"timeline file {p} has no frames")
+        if not body["frames"]:
+            raise ValueError(f"timeline file {p} has no frames (no graph update recorded)")
+        try:
+            _check_body(body)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"timeline file {p} is corrupt: {exc}") from None
         cont = doc.get("continue")
         if cont is None:  # saved from a loaded timeline: to view only
             out = cls()
@@ -285,3 +291,58 @@ class Timeline:
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"timeline file {p} is corrupt: {exc}") from None
         return out
+
+
+_FRAME_ARRAYS = ("ids", "x", "y", "kind", "clear", "edges", "added", "removed")
+
+
+def _check_body(body: dict) -> None:
+    """Decode every packed array of a saved :meth:`Timeline.payload` and check that the
+    frames agree with the edge pool, the rooms and each other, so that a damaged file is
+    refused on loading rather than by the page in the browser.
+
+    Raises
+    ------
+    KeyError, TypeError, ValueError
+        Naming the frame and the part that is damaged.
+    """
+    pool = body["pool"]
+    n_pool = unpacked(pool["sizes"]).size
+    for name in ("len", "cmin", "cmean"):
+        if unpacked(pool[name]).size != n_pool:
+            raise ValueError(f"pool {name!r}: expected {n_pool} values (one per edge)")
+    path = body["path"]
+    if len({unpacked(path[k]).size for k in ("scan", "x", "y")}) != 1:
+        raise ValueError("path: 'scan', 'x' and 'y' have different lengths")
+    rooms = body["rooms"]
+    if not isinstance(rooms, list):
+        raise TypeError(f"'rooms': expected a list, received {type(rooms).__name__}")
+    for i, frame in enumerate(body["frames"]):
+        if not isinstance(frame, dict):
+            raise TypeError(f"frame {i}: expected an object, received {type(frame).__name__}")
+        arrays = {}
+        for k in _FRAME_ARRAYS:
+            if k not in frame:
+                raise ValueError(f"frame {i}: {k!r} is missing")
+            try:
+                arrays[k] = unpacked(frame[k])
+            except ValueError as exc:
+                raise ValueError(f"frame {i}: {k!r}: {exc}") from None
+        if len({arrays[k].size for k in ("ids", "x", "y", "kind", "clear")}) != 1:
+            raise ValueError(f"frame {i}: its vertex arrays have different lengths")
+        for k in ("edges", "added", "removed"):
+            if arrays[k].size and not 0 <= arrays[k].min() <= arrays[k].max() < n_pool:
+                raise ValueError(f"frame {i}: {k!r} names edges outside the pool of {n_pool}")
+        r = frame["rooms"]
+        if isinstance(r, bool) or not isinstance(r, int) or not -1 <= r < len(rooms):
+            raise ValueError(f"frame {i}: 'rooms': expected -1 to {len(rooms) - 1}, received {r!r}")
+        if not isinstance(frame["scan"], int) or isinstance(frame["scan"], bool):
+            raise TypeError(f"frame {i}: 'scan': expected an int, received {frame['scan']!r}")
+        picture = frame["map"]
+        if picture is not None and not (
+            isinstance(picture, dict)
+            and isinstance(picture.get("box"), list)
+            and len(picture["box"]) == 4
+            and isinstance(picture.get("level"), dict)
+        ):
+            raise ValueError(f"frame {i}: 'map': expected a map picture (box, level) or null")
