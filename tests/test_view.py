@@ -161,6 +161,32 @@ def test_a_map_given_beside_a_graph_of_another_map_is_noted(res):
     )
 
 
+def test_rooms_of_another_map_are_noted(res):
+    """Rooms segmented on another map are drawn where they lie, over the wrong walls: the
+    page says so (as for a graph), instead of nothing."""
+    own = payload_of(view_html(res, rooms=tj.segment_rooms(res.map)))["notes"]
+    assert not any("rooms were not segmented" in n for n in own)
+    office = tj.sample_map("office")
+    notes = payload_of(view_html(res, rooms=tj.segment_rooms(office)))["notes"]
+    assert any(
+        "the rooms were not segmented on the map shown: expected their map of shape "
+        "(727, 1234), received a map of shape (708, 763)" in n
+        for n in notes
+    )
+    moved = tj.OccupancyMap(
+        occupied=res.map.occupied,
+        free=res.map.free,
+        unknown=res.map.unknown,
+        resolution_m=res.map.resolution_m,
+        origin=(1.0, 0.0, 0.0),
+    )
+    notes = payload_of(view_html(res, rooms=tj.segment_rooms(moved)))["notes"]
+    assert any(
+        "rooms were not segmented on the map shown: expected their map with origin" in n
+        for n in notes
+    )
+
+
 def test_bad_arguments_name_themselves(res, tmp_path):
     with pytest.raises(TypeError, match="obj: expected a TopologyResult"):
         tj.write_view(42, tmp_path / "v.html")

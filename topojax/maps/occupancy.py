@@ -31,7 +31,7 @@ from .classify import (
     classify_array,
 )
 
-__all__ = ["DEFAULT_RESOLUTION_M", "OccupancyMap", "grid_to_world", "map_mismatch"]
+__all__ = ["DEFAULT_RESOLUTION_M", "OccupancyMap", "grid_mismatch", "grid_to_world", "map_mismatch"]
 
 #: Default resolution for plain images (the IPA benchmark and paper maps use 0.05 m/px).
 DEFAULT_RESOLUTION_M = 0.05
@@ -327,25 +327,36 @@ def map_mismatch(graph, occupancy) -> str | None:
     ``resolution_m`` and ``origin`` attributes (those it has), or None when it is: the
     same shape, the resolution to a relative 1e-9, the origin to 1e-9 m."""
     attrs = graph.graph
-    shape = attrs.get("shape")
+    return grid_mismatch(
+        attrs.get("shape"),
+        attrs.get("resolution_m"),
+        attrs.get("origin"),
+        occupancy,
+        owner="the graph's",
+    )
+
+
+def grid_mismatch(shape, resolution_m, origin, occupancy, *, owner: str) -> str | None:
+    """Why ``occupancy`` is not the map of ``shape`` (H, W), ``resolution_m`` and
+    ``origin`` (each None when not known), or None when it is: the same shape, the
+    resolution to a relative 1e-9, the origin to 1e-9 m.  ``owner`` (e.g. "the graph's")
+    names whose map the message expects."""
     if shape is not None and tuple(shape) != tuple(occupancy.free.shape):
         return (
-            f"expected the graph's map of shape {tuple(shape)}, received a map of shape "
+            f"expected {owner} map of shape {tuple(shape)}, received a map of shape "
             f"{tuple(occupancy.free.shape)}"
         )
-    res = attrs.get("resolution_m")
+    res = resolution_m
     if isinstance(res, numbers.Real) and not math.isclose(res, occupancy.resolution_m):
         return (
-            f"expected the graph's map at {res} m/px, received a map at "
-            f"{occupancy.resolution_m} m/px"
+            f"expected {owner} map at {res} m/px, received a map at {occupancy.resolution_m} m/px"
         )
-    origin = attrs.get("origin")
     if origin is not None and (
         np.shape(origin) != np.shape(occupancy.origin)
         or not np.allclose(origin, occupancy.origin, rtol=0.0, atol=1e-9)
     ):
         return (
-            f"expected the graph's map with origin {tuple(origin)}, received a map with "
+            f"expected {owner} map with origin {tuple(origin)}, received a map with "
             f"origin {tuple(occupancy.origin)}"
         )
     return None

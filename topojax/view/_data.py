@@ -12,7 +12,7 @@ import numpy as np
 
 from .._validate import nonnegative_metres, nx_graph
 from ..graph import graph_resolution_m
-from ..maps.occupancy import map_mismatch
+from ..maps.occupancy import grid_mismatch, map_mismatch
 from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
 from ._encode import packed, pyramid
 from ._graphs import Frame, graph_frame, graph_payload
@@ -135,6 +135,11 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
             why = map_mismatch(graph, out.map)
             if why is not None:
                 out.notes.append(f"the {label} was not built on the map shown: {why}")
+    if _instance(out.rooms, "topojax.rooms.model", "RoomSegmentation") and out.map is not None:
+        own = out.rooms.occupancy
+        why = grid_mismatch(own.shape, own.resolution_m, own.origin, out.map, owner="their")
+        if why is not None:
+            out.notes.append(f"the rooms were not segmented on the map shown: {why}")
     return out
 
 
