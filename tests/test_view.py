@@ -479,6 +479,23 @@ def test_view_command_leaves_out_a_map_not_on_the_graphs_grid(tmp_path, capsys):
     assert data["rasters"] == [] and data["graphs"][0]["n_edges"] > 0
 
 
+def test_view_command_notes_rooms_not_made_on_the_map_found(tmp_path, capsys):
+    # the map the rooms were made from was replaced by another: the rooms were drawn over
+    # it without a word
+    png = tmp_path / "plan.png"
+    png.write_bytes(tj.datasets.sample_map_path("office").read_bytes())
+    assert main(["rooms", str(png), "-o", str(tmp_path / "out")]) == 0
+    assert main(["view", str(tmp_path / "out")]) == 0
+    assert "not segmented on" not in capsys.readouterr().out
+    png.write_bytes(tj.datasets.sample_map_path("intel").read_bytes())
+    assert main(["view", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert (
+        "note       plan_rooms.geojson: the rooms were not segmented on the map shown: "
+        "expected their map of shape (727, 1234), received a map of shape (708, 763)"
+    ) in out
+
+
 def test_graph_and_replay_write_their_view(tmp_path, capsys):
     """``topojax graph --view`` and ``topojax replay --view`` write the page beside their
     other outputs; the replay's page carries a timeline of every graph update."""
