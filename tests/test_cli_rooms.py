@@ -105,6 +105,22 @@ def test_room_option_errors_name_the_option(png, tmp_path, capsys, options, mess
     assert not out.exists(), "nothing written"
 
 
+@pytest.mark.parametrize("command", ["graph", "replay"])
+def test_room_options_without_rooms_are_refused(png, tmp_path, capsys, command):
+    # they were ignored: no rooms, not a word (a bad value went unchecked too), as
+    # --nav2-tolerance-m without --nav2 is refused
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    source = str(png) if command == "graph" else str(log)
+    out = tmp_path / "out"
+    options = ["--min-door-width-m", "1", "--door-ratio", "-3"]
+    assert main([command, source, "-o", str(out), *options]) == 2
+    assert capsys.readouterr().err.startswith(
+        f"topojax {command}: error: --min-door-width-m, --door-ratio: only used with "
+        "--rooms, which was not given"
+    )
+    assert not out.exists()
+
+
 def test_rooms_command_bad_inputs(tmp_path, capsys):
     out = tmp_path / "out"
     missing = tmp_path / "nothing.png"

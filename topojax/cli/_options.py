@@ -219,20 +219,27 @@ def add_room_options(p: argparse.ArgumentParser, *, only_with: str = "") -> None
             option,
             dest=field,
             type=float,
-            default=default,
+            default=None,
             metavar=metavar,
             help=f"{text} (default {default:g})",
         )
 
 
-def room_config(args):
+def room_config(args, *, only_with: str | None = None, given: bool = True):
     """The :class:`RoomConfig` of the options of :func:`add_room_options`; an error names
-    the option (checked before any work)."""
+    the option (checked before any work).  With ``only_with`` (the flag the options need,
+    e.g. ``"--rooms"``) and ``given`` False: None, and an error when any option is set."""
     from ..rooms import RoomConfig
 
     option_of = {field: option for option, field, *_ in _ROOM_OPTIONS}
+    values = {f: getattr(args, f) for f in option_of if getattr(args, f) is not None}
+    if only_with is not None and not given:
+        if values:
+            names = ", ".join(option_of[f] for f in values)
+            raise ValueError(f"{names}: only used with {only_with}, which was not given")
+        return None
     try:
-        return RoomConfig(**{field: getattr(args, field) for field in option_of})
+        return RoomConfig(**values)
     except (TypeError, ValueError) as exc:
         text = str(exc)
         for field, option in option_of.items():  # the messages name RoomConfig's fields

@@ -159,7 +159,7 @@ def _cmd_graph(args) -> int:
     from ..pipeline import build_graph
 
     tolerance = nav2_tolerance(args)  # checked before the pipeline runs and writes anything
-    rooms_config = room_config(args) if args.rooms else None
+    rooms_config = room_config(args, only_with="--rooms", given=args.rooms)
     stem = Path(args.map).stem
     targets = [Path(args.out) / name for name in _graph_files(stem, args)]
     _check_outputs_spare_inputs(Path(args.map), targets)

@@ -60,8 +60,9 @@ def _cmd_replay(args) -> int:
     }
     if args.max_extent_m is not None:
         kw["max_extent_m"] = args.max_extent_m
-    if args.rooms:
-        kw["room_config"] = room_config(args)  # checked before the replay
+    config = room_config(args, only_with="--rooms", given=args.rooms)  # before the replay
+    if config is not None:
+        kw["room_config"] = config
     reader_kwargs = {}
     for name, key in (
         ("max_range", "max_range_m"),
