@@ -458,6 +458,23 @@ def test_view_command_errors(tmp_path, capsys):
     assert not (tmp_path / "view.html").exists()
 
 
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (["--window", "nan", "0", "1", "1"], "--window: expected four finite numbers (metres)"),
+        (["--window", "5", "0", "1", "1"], "--window: expected x_min < x_max and y_min < y_max"),
+        (["--max-pixels", "0"], "--max-pixels: expected an int >= 1, received 0"),
+    ],
+)
+def test_view_command_option_errors_name_the_option(tmp_path, capsys, options, message):
+    # they named write_view's argument (window, max_pixels) after the first result's
+    # file, as if that file were at fault
+    tj.save_graph(intel_result().graph, tmp_path / "intel.json")
+    assert main(["view", str(tmp_path), *options]) == 2
+    assert capsys.readouterr().err.startswith(f"topojax view: error: {message}")
+    assert not (tmp_path / "view.html").exists()
+
+
 def test_view_command_on_a_map_too_large(tmp_path, capsys):
     res = intel_result()
     tj.save_graph(res.graph, tmp_path / "intel.json")

@@ -264,7 +264,12 @@ def _index_page(folder: Path, pages: list[tuple[str, Path]]) -> str:
 
 def _cmd_view(args) -> int:
     from .._fs import atomic_write_bytes
+    from .._validate import int_at_least
+    from ..view._window import checked_window
 
+    if args.window is not None:  # checked before any work, named as on the command line
+        checked_window(args.window, name="--window")
+    int_at_least("--max-pixels", args.max_pixels, 1)
     folder = Path(args.folder)
     if not folder.is_dir():
         raise NotADirectoryError(

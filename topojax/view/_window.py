@@ -11,18 +11,19 @@ import numpy as np
 __all__ = ["checked_window", "apply_window"]
 
 
-def checked_window(window) -> tuple[float, float, float, float]:
-    """``(x_min, y_min, x_max, y_max)`` as floats after checking them."""
+def checked_window(window, *, name: str = "window") -> tuple[float, float, float, float]:
+    """``(x_min, y_min, x_max, y_max)`` as floats after checking them; errors name the
+    argument ``name``."""
     try:
         box = tuple(float(v) for v in window)
     except (TypeError, ValueError):
         raise TypeError(
-            f"window: expected (x_min, y_min, x_max, y_max) in metres, received {window!r}"
+            f"{name}: expected (x_min, y_min, x_max, y_max) in metres, received {window!r}"
         ) from None
     if len(box) != 4 or not all(math.isfinite(v) for v in box):
-        raise ValueError(f"window: expected four finite numbers (metres), received {window!r}")
+        raise ValueError(f"{name}: expected four finite numbers (metres), received {window!r}")
     if not (box[0] < box[2] and box[1] < box[3]):
-        raise ValueError(f"window: expected x_min < x_max and y_min < y_max, received {window!r}")
+        raise ValueError(f"{name}: expected x_min < x_max and y_min < y_max, received {window!r}")
     return box
 
 
