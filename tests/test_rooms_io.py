@@ -183,6 +183,10 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
             lambda d: d["features"][3]["properties"].update(pixels=[[1.5, 2]]),
             r"features\[3\] pixels: expected integer pixels",
         ),
+        (  # was cast to int64 first: a warning, and a wrapped negative pixel in the message
+            lambda d: d["features"][3]["properties"].update(pixels=[[10**30, 2]]),
+            r"features\[3\] pixels: expected integer pixels of int64, received \[\[1000000000000000000000000000000, 2\]\]",
+        ),
         (
             lambda d: d["features"][3]["properties"].update(pixels=[["a", 2]]),
             r"features\[3\] pixels: expected a list of K \[a, b\] pairs",

@@ -190,6 +190,10 @@ def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.nda
     if np.dtype(dtype).kind == "i":
         if not np.array_equal(arr, np.round(arr)):
             raise ValueError(f"{what}: expected integer pixels")
+        if np.abs(arr).max(initial=0) > np.iinfo(dtype).max // 2:  # would wrap when cast
+            raise ValueError(
+                f"{what}: expected integer pixels of {np.dtype(dtype)}, received {value!r:.80}"
+            )
     return arr.astype(dtype)
 
 
