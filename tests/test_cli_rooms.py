@@ -4,6 +4,7 @@ and ``--formats rooms``."""
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import cv2
@@ -140,6 +141,7 @@ def test_a_map_without_free_space_says_why(tmp_path, capsys):
     assert main(["rooms", str(dark), "-o", str(tmp_path / "out"), "--mode", "ipa"]) == 0
     printed = capsys.readouterr().out
     assert "rooms      0 rooms, 0 doors" in printed
+    assert re.search(r"^time \(ms\)  total \d+\.\d$", printed, re.M), "not 'time (ms)  ; total'"
     assert "note       no room found: the map has 0 free pixels as classified" in printed
     assert "inaccessible) or --min-isolated-room-m2\n" in printed
     assert tj.load_rooms(tmp_path / "out" / "dark_rooms.geojson") == ((), ())

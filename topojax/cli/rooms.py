@@ -86,12 +86,9 @@ def room_lines(seg, occupancy, *, seconds: float, time_label: str = "time (ms)")
     if doors:
         widths = [d.width_m for d in doors]
         line += f" ({min(widths):.2f}-{max(widths):.2f} m wide)"
-    lines = [
-        line,
-        f"{time_label:<11}"
-        + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in seg.timings_s.items())
-        + f"; total {1e3 * seconds:.1f}",
-    ]
+    stages = ", ".join(f"{k} {1e3 * v:.1f}" for k, v in seg.timings_s.items())
+    total = f"total {1e3 * seconds:.1f}"  # no stages ran on a map without free space
+    lines = [line, f"{time_label:<11}" + (f"{stages}; {total}" if stages else total)]
     if not rooms:
         n_free = int(occupancy.free.sum())
         lines.append(
