@@ -365,6 +365,30 @@ def test_mapper_view_has_its_rooms_and_timeline():
     assert data["graphs"][0]["n_edges"] == mapper.graph.number_of_edges()
 
 
+def test_mapper_view_has_the_rooms_it_keeps_with_its_graph_updates():
+    """``rooms_every=None`` (the default) keeps rooms with every graph update once they
+    are in use: the page showed none.  ``rooms_every=0`` (explicit updates only) may hold
+    rooms older than the map: those are left out unless asked for."""
+    from view_cases import INTEL_EXCERPT
+
+    scans = list(tj.read_scans(INTEL_EXCERPT))
+    pages, ids = {}, {}
+    for every in (None, 0):
+        mapper = tj.IncrementalMapper(graph_every=10, rooms_every=every)
+        for scan in scans[:20]:
+            mapper.add_scan(scan)
+        assert mapper.rooms.rooms  # in use from here on
+        for scan in scans[20:]:
+            mapper.add_scan(scan)
+        pages[every] = payload_of(view_html(mapper))["rooms"]
+        ids[every] = [r.id for r in mapper.rooms.rooms]
+        asked = payload_of(view_html(mapper, rooms=True))["rooms"]
+        assert len(asked["rooms"]) == len(mapper.rooms.rooms)
+    assert pages[None] is not None
+    assert [r["id"] for r in pages[None]["rooms"]] == ids[None]
+    assert pages[0] is None
+
+
 # ---------------------------------------------------------------------------- the command
 def test_view_command_on_a_graph_folder(tmp_path, capsys):
     png = tj.datasets.sample_map_path("office")

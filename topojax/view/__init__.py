@@ -87,8 +87,9 @@ def write_view(
     rooms : RoomSegmentation, (rooms, doors), bool or None
         Rooms to draw: a segmentation, the pair :func:`topojax.load_rooms` returns, True
         (segment the map now; a mapper's own rooms), False (none).  Default: a mapper's
-        rooms when it keeps them (``rooms_every``), else none.  The page notes a
-        segmentation made on another map than the one shown.
+        rooms when it keeps them (``rooms_every`` > 0, or None once its rooms are in
+        use), else none.  The page notes a segmentation made on another map than the
+        one shown.
     graphs : dict of str to networkx graph, optional
         More graphs to draw, each a layer under its name (e.g. ``{"pruned":
         tj.prune_graph(res.graph, ...)}``); routes can be planned on each.

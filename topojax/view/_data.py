@@ -86,7 +86,10 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
             raise ValueError("obj: the mapper has no map yet (add scans or points first)")
         _result_inputs(obj.to_result(update=False), out, pruned=False)
         out.title = f"incremental mapper, {obj.n_scans} scans"
-        if rooms is None and obj.rooms_every:
+        # the rooms it keeps: every rooms_every scans, or (None) with each graph update
+        # once in use; with 0 (explicit updates only) they may be older than the map
+        keeps = obj.rooms_every is None and obj._rooms.active
+        if rooms is None and (obj.rooms_every or keeps):
             rooms = True
         if rooms is True:
             rooms = obj.rooms
