@@ -475,6 +475,13 @@ def test_view_command_errors(tmp_path, capsys):
     assert main(["view", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "no results in" in err and "notes.txt" in err
+    # a replay's map and timeline without its graph are no result: the message listed
+    # map.yaml among what counts, beside "found ... map.yaml"
+    tj.save_map(tj.sample_map("office"), tmp_path / "map.yaml")
+    assert main(["view", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "(a graph STEM.json / .graphml / .geojson, or rooms STEM_rooms.geojson); " in err
+    assert "found map.pgm, map.yaml, notes.txt" in err
     (tmp_path / "graph.json").write_text('{"directed": false, "nodes": [')
     assert main(["view", str(tmp_path)]) == 2
     err = capsys.readouterr().err

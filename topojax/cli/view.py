@@ -281,7 +281,7 @@ def _cmd_view(args) -> int:
         found = sorted(p.name for p in folder.iterdir())[:8]
         raise ValueError(
             f"OUT_DIR: no results in {folder}: expected what topojax {_WRITERS} write "
-            "(a graph STEM.json / .graphml / .geojson, map.yaml, STEM_rooms.geojson); "
+            "(a graph STEM.json / .graphml / .geojson, or rooms STEM_rooms.geojson); "
             f"found {', '.join(found) if found else 'nothing'}"
         )
     index = folder / "view.html"
