@@ -712,6 +712,22 @@ def test_plain_pgm_faults_are_named(tmp_path: Path):
         assert name in str(err.value)
 
 
+def test_binary_pgm_shorter_than_its_header_is_named(tmp_path: Path):
+    # a header claiming 100000 x 100000 pixels over a few bytes must say so, not
+    # "could not decode", and must not allocate the claimed size
+    cases = {
+        "huge.pgm": (b"P5\n100000 100000\n255\n" + b"\xfe" * 1000, "10000000000 bytes"),
+        "huge16.pgm": (b"P5\n100000 100000\n65535\n" + b"\xfe" * 1000, "20000000000 bytes"),
+        "cut.pgm": (b"P5\n4 3\n255\n" + b"\xfe" * 11, "12 bytes"),
+    }
+    for name, (data, need) in cases.items():
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(ValueError, match="header gives") as err:
+            load_map(tmp_path / name)
+        assert name in str(err.value) and need in str(err.value)
+        assert "received" in str(err.value)
+
+
 def test_16bit_png_full_precision(tmp_path: Path):
     # Values straddling the occupied threshold in 16-bit precision.
     edge = 65535 * (1 - 0.65)
@@ -845,9 +861,15 @@ def test_yaml_numbers_as_map_server_reads_them(tmp_path: Path):
     assert m.unknown[0, 1] and m.free[1].all()
     (tmp_path / "w.yaml").write_text("image: x.pgm\nresolution: 'five'\norigin: [0, 0, 0]\n")
     with pytest.raises(
-        ValueError, match="'resolution': expected a finite number > 0, received 'five'"
+        ValueError,
+        match="'resolution': expected a finite number > 0 and at most 10000, received 'five'",
     ):
         load_map(tmp_path / "w.yaml")
+    # a resolution above the largest accepted one is refused with that bound, not with
+    # "a finite number > 0", which 1e300 is
+    (tmp_path / "h.yaml").write_text("image: x.pgm\nresolution: 1e300\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError, match=r"'resolution': expected .*at most 10000.*1e\+300"):
+        load_map(tmp_path / "h.yaml")
 
 
 def test_yaml_negate_and_raw_mode(tmp_path: Path):

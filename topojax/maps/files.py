@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import (
+    MAX_RESOLUTION_M,
     binary_flag,
     is_real_number,
     metres_per_pixel,
@@ -251,7 +252,15 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
             width, height, maxval, offset, comments = _pgm_header(path)
         except (OSError, ValueError):
             return read_image(path)
-        if maxval == 255 and path.stat().st_size >= offset + width * height:
+        need = width * height * (1 if maxval < 256 else 2)
+        size = path.stat().st_size
+        if size < offset + need:  # no decoder reads it; say why, without allocating it
+            raise ValueError(
+                f"map image {path}: its PGM header gives {width} x {height} pixels, "
+                f"expected {need} bytes of pixels after the {offset}-byte header, "
+                f"received a file of {size} bytes"
+            )
+        if maxval == 255:
             pixels = np.memmap(path, np.uint8, mode="r", offset=offset, shape=(height, width))
             return pixels, 255, comments
     return read_image(path)
@@ -302,7 +311,8 @@ def _yaml_settings(
         try:
             resolution_m = metres_per_pixel("resolution", res)
         except (TypeError, ValueError):  # a bad field is a bad file: ValueError
-            raise _yaml_error(p, "resolution", "a finite number > 0", res) from None
+            expected = f"a finite number > 0 and at most {MAX_RESOLUTION_M:g}"
+            raise _yaml_error(p, "resolution", expected, res) from None
     if origin is None:
         raw_origin = doc["origin"]
         try:
