@@ -422,6 +422,12 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         TiledMap.from_array(np.zeros((4, 4), np.float32))
     with pytest.raises(ValueError, match="format"):
         tj.save_tiled_map(m, tmp_path / "x", format="tiff")
+    # a tile of one pixel is a file (or Zarr chunk) per pixel: thousands of times the
+    # map on disk; refused before anything is written
+    for side in (1, 15):
+        with pytest.raises(ValueError, match=rf"tile_px: expected an int >= 16, received {side}"):
+            tj.save_tiled_map(m, tmp_path / "one", tile_px=side)
+        assert not (tmp_path / "one").exists()
 
 
 def test_a_tiled_map_of_an_occupancy_map_is_saved_with_its_unknown_pixels(tmp_path):

@@ -33,6 +33,7 @@ import numpy as np
 from .._fs import output_folder
 from .._validate import (
     binary_flag,
+    int_at_least,
     metres_per_pixel,
     occupancy_thresholds,
     one_of,
@@ -527,6 +528,11 @@ def _open_pgm(image: Path, settings: dict, *, source: Path) -> TiledMap:
         raise ValueError(f"{what} {source}: {exc}") from None
 
 
+#: The smallest tile side :func:`save_tiled_map` writes: each tile is a file (a Zarr
+#: chunk) with its own header, so one-pixel tiles would take thousands of times the map.
+MIN_SAVED_TILE_PX = 16
+
+
 def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") -> Path:
     """Write a map as a tile folder or a Zarr array, a block of rows at a time.
 
@@ -540,7 +546,8 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
         The folder to create: empty or new (for Zarr, also an existing Zarr array,
         which is replaced).
     tile_px : int
-        Tile (Zarr chunk) side in pixels.
+        Tile (Zarr chunk) side in pixels, at least 16 (smaller tiles make a file or
+        chunk for every few pixels).
     format : {"folder", "zarr"}
 
     Returns
@@ -548,7 +555,7 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
     Path
         ``path``; :func:`open_tiled_map` reads it back.
     """
-    tile_px = positive_int("tile_px", tile_px)
+    tile_px = int_at_least("tile_px", tile_px, MIN_SAVED_TILE_PX)
     format = one_of("format", format, ("folder", "zarr"))
     if isinstance(tiled, TiledMap) and isinstance(tiled.reader, _MapReader):
         tiled = tiled.reader.occupancy  # its values are the obstacle mask only
