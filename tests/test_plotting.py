@@ -218,6 +218,24 @@ def test_max_pool_and_map_image_keep_thin_lines():
     assert np.count_nonzero(img == 0.0) == 134 and (img[66] == 0.0).all()
 
 
+def test_a_map_larger_than_any_picture_is_shrunk_before_matplotlib_draws_it():
+    # matplotlib resamples a shown image through several full-size float copies (some
+    # 60 bytes per pixel: 4 GB for an 8000 x 8000 map), so the map layer of plot_map
+    # is shrunk to at most MAX_SHOWN_PX pixels, keeping one-pixel walls
+    from topojax.plotting import MAX_SHOWN_PX, plot_map
+
+    side = 3000
+    occ = np.zeros((side, side), bool)
+    occ[1501, :] = True
+    m = tj.OccupancyMap.from_array(occ, resolution_m=0.05)
+    ax = plot_map(m)
+    shown = ax.images[0].get_array()
+    assert shown.size <= MAX_SHOWN_PX < side * side
+    assert (np.asarray(shown) == 0.0).all(axis=1).sum() == 1  # the wall, whole
+    assert ax.get_xlim() == (-0.5, side - 0.5)  # still drawn in the map's pixels
+    plt.close(ax.figure)
+
+
 def test_map_name_from_the_source():
     from topojax.plotting import map_name
 

@@ -58,6 +58,10 @@ __all__ = [
 _KIND_COLOURS = VERTEX_KIND_COLOURS
 #: Grey levels of the map classes (0 black .. 1 white).
 _OCCUPIED_GREY, _UNKNOWN_GREY, _FREE_GREY = 0.0, 0.8, 1.0
+#: The most map pixels :func:`plot_map` hands to matplotlib, which resamples a shown
+#: image through several full-size float copies: a larger map is shrunk first (each
+#: block's darkest class), still finer than any figure shows it.
+MAX_SHOWN_PX = 8_000_000
 #: Free pixels closer to an obstacle than the robot's radius, in route-graph pictures.
 _MARGIN_COLOUR = "#e6d3b8"
 #: The scale bar's length is the longest 1, 2 or 5 x 10^k metres up to this share of the
@@ -298,10 +302,16 @@ def plot_map(
 ):
     """Occupancy map: occupied black, free white, unknown grey, with a scale bar in metres
     under it (:func:`add_scale_bar`).  With ``pool``, shrunk to the axes' screen pixels by
-    keeping each block's darkest class (:func:`map_image`), so thin walls stay unbroken.
+    keeping each block's darkest class (:func:`map_image`), so thin walls stay unbroken;
+    without, shrunk the same way only as far as :data:`MAX_SHOWN_PX` asks.
     Returns the axes."""
     ax = _axes(ax)
-    k = pool_factor(occupancy.shape, ax) if pool else 1
+    h, w = occupancy.shape
+    k = max(1, math.ceil(math.sqrt(h * w / MAX_SHOWN_PX)))
+    while -(-h // k) * -(-w // k) > MAX_SHOWN_PX:
+        k += 1
+    if pool:
+        k = max(k, pool_factor(occupancy.shape, ax))
     _imshow_pooled(ax, map_image(occupancy, k), occupancy.shape, k, cmap="gray", vmin=0, vmax=1)
     ax.set_axis_off()
     if scale_bar:
