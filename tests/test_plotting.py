@@ -236,6 +236,19 @@ def test_a_map_larger_than_any_picture_is_shrunk_before_matplotlib_draws_it():
     plt.close(ax.figure)
 
 
+def test_a_distance_map_larger_than_any_picture_is_sampled_before_it_is_drawn():
+    from topojax.plotting import MAX_SHOWN_PX, plot_distance
+
+    side = 3000
+    distance = np.linspace(0.0, 1.0, side * side, dtype=np.float32).reshape(side, side)
+    ax = plot_distance(distance)
+    shown = ax.images[0].get_array()
+    assert shown.size <= MAX_SHOWN_PX < side * side
+    assert shown[0, 0] == distance[0, 0]
+    assert ax.get_xlim() == (-0.5, side - 0.5) and ax.get_ylim() == (side - 0.5, -0.5)
+    plt.close(ax.figure)
+
+
 def test_map_name_from_the_source():
     from topojax.plotting import map_name
 

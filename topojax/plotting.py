@@ -120,9 +120,10 @@ def _imshow_pooled(ax, image: np.ndarray, shape: tuple[int, int], factor: int, *
     h, w = shape
     hp, wp = image.shape[:2]
     extent = (-0.5, wp * factor - 0.5, hp * factor - 0.5, -0.5)
-    ax.imshow(image, interpolation="nearest", extent=extent, **kwargs)
+    shown = ax.imshow(image, interpolation="nearest", extent=extent, **kwargs)
     ax.set_xlim(-0.5, w - 0.5)
     ax.set_ylim(h - 0.5, -0.5)
+    return shown
 
 
 def _show_mask(ax, mask: np.ndarray, colour, *, alpha: float = 1.0):
@@ -297,6 +298,16 @@ def _as_result(result, needs: tuple[str, ...]):
     return result
 
 
+def _shown_factor(shape: tuple[int, int]) -> int:
+    """The smallest whole factor that shrinks a layer of ``shape`` (H, W), a block of
+    ``factor`` x ``factor`` pixels to one, to at most :data:`MAX_SHOWN_PX` pixels."""
+    h, w = shape
+    k = max(1, math.ceil(math.sqrt(h * w / MAX_SHOWN_PX)))
+    while -(-h // k) * -(-w // k) > MAX_SHOWN_PX:
+        k += 1
+    return k
+
+
 def plot_map(
     occupancy, *, ax=None, title: str | None = None, scale_bar: bool = True, pool: bool = False
 ):
@@ -306,10 +317,7 @@ def plot_map(
     without, shrunk the same way only as far as :data:`MAX_SHOWN_PX` asks.
     Returns the axes."""
     ax = _axes(ax)
-    h, w = occupancy.shape
-    k = max(1, math.ceil(math.sqrt(h * w / MAX_SHOWN_PX)))
-    while -(-h // k) * -(-w // k) > MAX_SHOWN_PX:
-        k += 1
+    k = _shown_factor(occupancy.shape)
     if pool:
         k = max(k, pool_factor(occupancy.shape, ax))
     _imshow_pooled(ax, map_image(occupancy, k), occupancy.shape, k, cmap="gray", vmin=0, vmax=1)
@@ -322,9 +330,17 @@ def plot_map(
 
 
 def plot_distance(distance: np.ndarray, *, ax=None, title: str | None = "distance map H"):
-    """Distance map ``H`` (float (H, W) in [0, 1]) as a colour image.  Returns the axes."""
+    """Distance map ``H`` (float (H, W) in [0, 1]) as a colour image; above
+    :data:`MAX_SHOWN_PX` pixels, every k-th row and column of it.  Returns the axes."""
     ax = _axes(ax)
-    im = ax.imshow(distance, cmap="viridis", vmin=0, vmax=1, interpolation="nearest")
+    distance = np.asarray(distance)
+    k = _shown_factor(distance.shape)
+    if k > 1:
+        im = _imshow_pooled(
+            ax, distance[::k, ::k], distance.shape, k, cmap="viridis", vmin=0, vmax=1
+        )
+    else:
+        im = ax.imshow(distance, cmap="viridis", vmin=0, vmax=1, interpolation="nearest")
     ax.figure.colorbar(im, ax=ax, fraction=0.046, pad=0.02)
     ax.set_axis_off()
     if title:
