@@ -7,6 +7,7 @@ import matplotlib
 matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt  # noqa: E402
+import networkx as nx  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
@@ -246,6 +247,25 @@ def test_a_distance_map_larger_than_any_picture_is_sampled_before_it_is_drawn():
     assert shown.size <= MAX_SHOWN_PX < side * side
     assert shown[0, 0] == distance[0, 0]
     assert ax.get_xlim() == (-0.5, side - 0.5) and ax.get_ylim() == (side - 0.5, -0.5)
+    plt.close(ax.figure)
+
+
+def test_a_route_graph_picture_of_a_map_larger_than_any_picture_is_shrunk():
+    # the margin layer too: shrunk to at most MAX_SHOWN_PX pixels, margin colour only
+    # where a whole block is margin, so a feasible band one pixel wide stays clear
+    from topojax.maps.occupancy import OccupancyMap
+    from topojax.plotting import MAX_SHOWN_PX, plot_route_graph
+
+    side = 3000
+    free = np.zeros((side, side), bool)
+    free[1:-1, 1:-1] = True
+    occ = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05)
+    g = nx.MultiGraph(shape=(side, side), resolution_m=0.05, origin=(0.0, 0.0, 0.0))
+    ax = plot_route_graph(g, occ, robot_radius_m=0.3)
+    margin = np.asarray(ax.images[1].get_array())
+    assert margin.shape[0] * margin.shape[1] <= MAX_SHOWN_PX
+    assert margin[2, margin.shape[1] // 2, 3] == 255  # rows 4-5: in the 6 px margin band
+    assert margin[margin.shape[0] // 2, margin.shape[1] // 2, 3] == 0  # feasible
     plt.close(ax.figure)
 
 

@@ -535,10 +535,14 @@ def plot_route_graph(
     space = feasible_space(occupancy, robot_radius_m)
     ax = _axes(ax, figsize=(9, 9))
     plot_map(occupancy, ax=ax)
-    margin = space.free & ~space.feasible  # not pooled: a feasible band stays visible
-    rgba = np.zeros(margin.shape + (4,), np.uint8)
-    rgba[margin] = (*(round(255 * c) for c in _hex_rgb(_MARGIN_COLOUR)), 255)
-    _imshow_pooled(ax, rgba, margin.shape, 1)
+    margin = space.free & ~space.feasible
+    # not pooled to the axes, so a feasible band stays visible; past MAX_SHOWN_PX a
+    # block shows the margin only where all of it is margin, for the same reason
+    k = _shown_factor(margin.shape)
+    shown = margin if k == 1 else ~max_pool(~margin, k)
+    rgba = np.zeros(shown.shape + (4,), np.uint8)
+    rgba[shown] = (*(round(255 * c) for c in _hex_rgb(_MARGIN_COLOUR)), 255)
+    _imshow_pooled(ax, rgba, margin.shape, k)
     nodes = list(graph.nodes)
     points: dict[str, list] = {}
     for node, rc in zip(nodes, vertex_pixels(graph, nodes, occupancy, "auto"), strict=True):
