@@ -132,6 +132,22 @@ def test_a_resumed_replay_continues_the_recordings_of_the_stopped_one(
     assert any(".replay_partial: the replay has finished" in m for m in summary["messages"])
 
 
+def test_a_replay_stopped_before_its_first_graph_update_continues_its_recordings(
+    tmp_path, monkeypatch, full_recorded
+):
+    """Stopped after 5 scans, before the first graph update (every 7 scans), the replay's
+    timeline has the robot's path but no snapshot; the resumed replay continues it."""
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 5)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        recorded_replay(out)
+    monkeypatch.undo()
+    summary = recorded_replay(out, resume=True)
+    assert not [m for m in summary["messages"] if "after the log's first" in m]
+    for name in RECORDINGS:
+        assert (out / name).read_bytes() == (full_recorded / name).read_bytes(), name
+
+
 def test_a_replay_stopped_while_writing_its_files_keeps_its_recordings_as_they_were(
     tmp_path, monkeypatch, full_recorded
 ):

@@ -274,13 +274,13 @@ class Timeline:
         body = doc.get("timeline")
         if not isinstance(body, dict) or not isinstance(body.get("frames"), list):
             raise ValueError(f"timeline file {p} has no frames")
-        if not body["frames"]:
+        cont = doc.get("continue")
+        if not body["frames"] and cont is None:  # one saved while recording records on
             raise ValueError(f"timeline file {p} has no frames (no graph update recorded)")
         try:
             _check_body(body)
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"timeline file {p} is corrupt: {exc}") from None
-        cont = doc.get("continue")
         if cont is None:  # saved from a loaded timeline: to view only
             out = cls()
             out._loaded = body
