@@ -547,6 +547,20 @@ _POINT_B = _feature("Point", [1.0, 0.0], id=2)
             {"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": [1]}]},
             "not a topojax geojson graph",
         ),
+        # numbers a graph's users compute with: refused here, not deep in prune_graph
+        (
+            ".json",
+            {
+                "nodes": [{"id": 0}, {"id": 1}],
+                "edges": [{"source": 0, "target": 1, "length_m": "abc"}],
+            },
+            r"edge \(0, 1, 0\) length_m: expected a finite number >= 0, received 'abc'",
+        ),
+        (
+            ".json",
+            {"graph": {"resolution_m": -0.05}, "nodes": [{"id": 0}], "edges": []},
+            r"resolution_m: expected a finite number > 0, received -0.05",
+        ),
     ],
 )
 def test_load_rejects_damaged_files_naming_the_file_and_the_fault(

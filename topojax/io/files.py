@@ -8,6 +8,8 @@ destination with :func:`os.replace`.
 from __future__ import annotations
 
 import json
+import math
+import numbers
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -121,14 +123,38 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     p = existing_file("path", path)
     fmt = _format_for(p, format)
     if fmt == "graphml":
-        return _structure_checked(_read_graphml, p, fmt)
+        return _numbers_checked(_structure_checked(_read_graphml, p, fmt), p)
     try:
         doc = json.loads(p.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ValueError(f"graph file {p} is not valid JSON: {exc}") from None
     reader: Callable[[Any, Path], nx.MultiGraph]
     reader = _from_node_link if fmt == "json" else _from_geojson
-    return _structure_checked(lambda path: reader(doc, path), p, fmt)
+    return _numbers_checked(_structure_checked(lambda path: reader(doc, path), p, fmt), p)
+
+
+def _numbers_checked(g: nx.MultiGraph, p: Path) -> nx.MultiGraph:
+    """``g``, once its graph ``resolution_m`` (if any) is a finite number > 0 and every
+    edge's ``length_m`` (if any) a finite number >= 0: a hand-edited file failed later,
+    deep inside ``graph_summary`` or ``prune_graph``."""
+    res = g.graph.get("resolution_m")
+    if res is not None and not (_is_number(res) and math.isfinite(res) and res > 0):
+        raise ValueError(
+            f"graph file {p}: resolution_m: expected a finite number > 0, received {res!r}"
+        )
+    for u, v, k, length in g.edges(keys=True, data="length_m"):
+        if length is not None and not (
+            _is_number(length) and math.isfinite(length) and length >= 0
+        ):
+            raise ValueError(
+                f"graph file {p}: edge ({u!r}, {v!r}, {k!r}) length_m: expected a finite "
+                f"number >= 0, received {length!r}"
+            )
+    return g
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, numbers.Real) and not isinstance(x, bool)
 
 
 def _structure_checked(read: Callable[[Path], nx.MultiGraph], p: Path, fmt: str):
