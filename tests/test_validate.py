@@ -147,6 +147,15 @@ def test_metres_per_pixel_rejects(value, exc):
         v.metres_per_pixel("resolution", value)
 
 
+@pytest.mark.parametrize("value", [1e-300, 1e-7, 1e5])
+def test_metres_per_pixel_keeps_to_the_range_of_map_resolutions(value):
+    """A resolution of 1e-300 m/px was accepted: a 0.3 m robot radius became 3e299 pixels,
+    which overflowed float32 and gave an empty route graph with numpy warnings."""
+    with pytest.raises(ValueError, match=r"^resolution: expected 1e-06 to 10000 metres per pixel"):
+        v.metres_per_pixel("resolution", value)
+    assert v.metres_per_pixel("resolution", 1e-6) == 1e-6
+
+
 # --------------------------------------------------------------------------------------
 # integers
 # --------------------------------------------------------------------------------------
@@ -493,7 +502,7 @@ def test_every_exported_check_is_tested():
 
 def test_metres_per_pixel_refuses_resolutions_whose_squares_overflow():
     assert v.metres_per_pixel("resolution", v.MAX_RESOLUTION_M) == v.MAX_RESOLUTION_M
-    with pytest.raises(ValueError, match="resolution: expected at most 10000 metres per pixel"):
+    with pytest.raises(ValueError, match="resolution: expected 1e-06 to 10000 metres per pixel"):
         v.metres_per_pixel("resolution", 1e308)
 
 
@@ -521,7 +530,7 @@ def test_metres_per_pixel_refuses_resolutions_whose_squares_overflow():
         (
             lambda tj: tj.OccupancyMap.from_array(np.zeros((4, 4), bool), resolution_m=1e308),
             ValueError,
-            "resolution_m: expected at most",
+            "resolution_m: expected 1e-06 to 10000",
         ),
     ],
 )

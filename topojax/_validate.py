@@ -163,13 +163,19 @@ def is_real_number(value: Any) -> bool:
 MAX_RESOLUTION_M = 1e4
 
 
+#: The finest map resolution (metres per pixel, a micrometre): options in metres (a
+#: robot's radius, a kernel's sigma) stay a pixel count the kernels can hold.
+MIN_RESOLUTION_M = 1e-6
+
+
 def metres_per_pixel(name: str, value: Any) -> float:
-    """:func:`quantity` in metres per pixel, ``> 0`` and at most
+    """:func:`quantity` in metres per pixel, from :data:`MIN_RESOLUTION_M` to
     :data:`MAX_RESOLUTION_M` (a map resolution)."""
     res = quantity(name, value, unit="metres per pixel", allow_zero=False)
-    if res > MAX_RESOLUTION_M:
+    if not MIN_RESOLUTION_M <= res <= MAX_RESOLUTION_M:
         raise ValueError(
-            f"{name}: expected at most {MAX_RESOLUTION_M:g} metres per pixel, received {res!r}"
+            f"{name}: expected {MIN_RESOLUTION_M:g} to {MAX_RESOLUTION_M:g} metres per "
+            f"pixel, received {res!r}"
         )
     return res
 

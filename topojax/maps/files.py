@@ -12,6 +12,7 @@ import numpy as np
 
 from .._validate import (
     MAX_RESOLUTION_M,
+    MIN_RESOLUTION_M,
     binary_flag,
     is_real_number,
     metres_per_pixel,
@@ -311,7 +312,7 @@ def _yaml_settings(
         try:
             resolution_m = metres_per_pixel("resolution", res)
         except (TypeError, ValueError):  # a bad field is a bad file: ValueError
-            expected = f"a finite number > 0 and at most {MAX_RESOLUTION_M:g}"
+            expected = f"a number from {MIN_RESOLUTION_M:g} to {MAX_RESOLUTION_M:g}"
             raise _yaml_error(p, "resolution", expected, res) from None
     if origin is None:
         raw_origin = doc["origin"]
