@@ -335,12 +335,8 @@ def plot_distance(distance: np.ndarray, *, ax=None, title: str | None = "distanc
     ax = _axes(ax)
     distance = np.asarray(distance)
     k = _shown_factor(distance.shape)
-    if k > 1:
-        im = _imshow_pooled(
-            ax, distance[::k, ::k], distance.shape, k, cmap="viridis", vmin=0, vmax=1
-        )
-    else:
-        im = ax.imshow(distance, cmap="viridis", vmin=0, vmax=1, interpolation="nearest")
+    shown = distance[::k, ::k]
+    im = _imshow_pooled(ax, shown, distance.shape, k, cmap="viridis", vmin=0, vmax=1)
     ax.figure.colorbar(im, ax=ax, fraction=0.046, pad=0.02)
     ax.set_axis_off()
     if title:

@@ -120,7 +120,7 @@ def _picture_bytes(
 def _cpu_stage(job: _CpuJob) -> _CpuResult:
     """Thinning, T removal, graph, summary and output files of one map (worker side)."""
     from ..graph import graph_summary
-    from ..io import save_graph, save_nav2_graph, save_room_files
+    from ..io import save_graph, save_room_files
     from ..pipeline import graph_from_ridges
     from ..plotting import route_graph_png
 
@@ -174,17 +174,11 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
                     written += [save_graph(routes, f"{stem}{s}") for s in _FORMAT_FILES[fmt]]
                 elif fmt == "route_nav2":
                     nav2 = Path(f"{stem}{_FORMAT_FILES[fmt][0]}")
-                    if res.route_edges:
-                        written.append(save_nav2_graph(routes, nav2))
-                    else:  # the Route Server needs an edge; no file of an earlier run either
-                        nav2.unlink(missing_ok=True)
+                    written += _nav2_file(routes, res.route_edges, nav2)
                 elif fmt == "nav2":
                     nav2 = Path(f"{stem}{_FORMAT_SUFFIX[fmt]}")
-                    if res.edges:
-                        written.append(save_nav2_graph(graph, nav2))
-                    else:  # the Route Server needs an edge; no file of an earlier run either
-                        nav2.unlink(missing_ok=True)
-                        res.nav2_note = _nav2_note(res.vertices)
+                    written += _nav2_file(graph, res.edges, nav2)
+                    res.nav2_note = "" if res.edges else _nav2_note(res.vertices)
                 else:
                     written.append(save_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}", format=fmt))
             if job.plot:
@@ -206,6 +200,17 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
     except Exception as exc:
         res.error = _error_text(exc)
     return res
+
+
+def _nav2_file(graph, n_edges: int | None, path: Path) -> list[Path]:
+    """Write ``graph``'s Nav2 file to ``path``; a graph without an edge gets none (the
+    Route Server needs one), and a file of an earlier run goes.  Returns what was written."""
+    from ..io import save_nav2_graph
+
+    if n_edges:
+        return [save_nav2_graph(graph, path)]
+    path.unlink(missing_ok=True)
+    return []
 
 
 def _nav2_note(vertices: int | None) -> str:

@@ -9,7 +9,7 @@ stage: ``docs/incremental-exactness.md``.
 from .._jit import trace_counts
 from ._rays import ExtentError
 from ._rethin import thin_components
-from ._rooms import current_room_labels
+from ._rooms import current_room_labels, keeps_rooms
 from ._settings import STRATEGIES, settings_of
 from ._tiles import ExportBudgetError
 from .mapper import IncrementalMapper
@@ -26,6 +26,7 @@ __all__ = [
     "IncrementalMapper",
     "ScanReport",
     "current_room_labels",
+    "keeps_rooms",
     "settings_of",
     "thin_components",
     "timing_summary",

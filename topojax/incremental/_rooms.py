@@ -163,6 +163,13 @@ def _minus(a: list, b: list) -> list:
     return out
 
 
+def keeps_rooms(mapper) -> bool:
+    """Whether the mapper updates its rooms by itself: every ``rooms_every`` scans, or
+    (``rooms_every`` None) with each graph update once rooms are in use; with 0 (updates
+    asked for only) they may be older than the map."""
+    return bool(mapper.rooms_every) or (mapper.rooms_every is None and mapper._rooms.active)
+
+
 def rooms_due(mapper, *, graph_ran: bool) -> bool:
     """Whether the mapper's rooms are due for an update after this scan: every
     ``rooms_every`` scans, or (``rooms_every`` None) with each graph update once rooms are

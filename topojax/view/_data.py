@@ -86,10 +86,9 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
             raise ValueError("obj: the mapper has no map yet (add scans or points first)")
         _result_inputs(obj.to_result(update=False), out, pruned=False)
         out.title = f"incremental mapper, {obj.n_scans} scans"
-        # the rooms it keeps: every rooms_every scans, or (None) with each graph update
-        # once in use; with 0 (explicit updates only) they may be older than the map
-        keeps = obj.rooms_every is None and obj._rooms.active
-        if rooms is None and (obj.rooms_every or keeps):
+        from ..incremental import keeps_rooms  # only for a mapper: no import otherwise
+
+        if rooms is None and keeps_rooms(obj):
             rooms = True
         if rooms is True:
             rooms = obj.rooms
