@@ -78,7 +78,7 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
         ridge_map,
     )
     from .playback import replay
-    from .plotting import plot_route_graph
+    from .plotting import plot, plot_route_graph, plot_stages
     from .rooms import (
         Door,
         Room,

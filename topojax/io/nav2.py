@@ -27,57 +27,57 @@ def save_nav2_graph(
 ) -> Path:
     """Save a topology graph as a route graph for the ROS 2 Nav2 Route Server.
 
-        Nav2's route server (``nav2_route``) reads a GeoJSON ``FeatureCollection`` of
-        ``Point`` nodes (properties ``id`` and ``frame``) and directed ``MultiLineString``
-        edges (properties ``id``, ``startid``, ``endid``), with ids unique over nodes and
-        edges, and optional ``metadata``.  It drives straight from node to node, so each
-        corridor is written as a chain of waypoints: its world polyline simplified
-        (Douglas–Peucker) until every pixel of the corridor lies within ``tolerance_m`` of
-        the chain.  A segment then stays at least the corridor's clearance minus
-        ``tolerance_m`` from the walls.  An edge with ``waypoints`` (a route graph's, whose
-        straight pieces keep the robot's radius from the walls) is written along them
-        instead, as they are.  Every segment is written in both directions.
+    Nav2's route server (``nav2_route``) reads a GeoJSON ``FeatureCollection`` of
+    ``Point`` nodes (properties ``id`` and ``frame``) and directed ``MultiLineString``
+    edges (properties ``id``, ``startid``, ``endid``), with ids unique over nodes and
+    edges, and optional ``metadata``.  It drives straight from node to node, so each
+    corridor is written as a chain of waypoints: its world polyline simplified
+    (Douglas–Peucker) until every pixel of the corridor lies within ``tolerance_m`` of
+    the chain.  A segment then stays at least the corridor's clearance minus
+    ``tolerance_m`` from the walls.  An edge with ``waypoints`` (a route graph's, whose
+    straight pieces keep the robot's radius from the walls) is written along them
+    instead, as they are.  Every segment is written in both directions.
 
-        Parameters
-        ----------
-        graph : networkx.MultiGraph
-            Topology graph (e.g. ``build_graph(m).graph``, best pruned first with
-            :func:`topojax.prune_graph`); nodes need ``world``, edges ``world`` polylines.
-        path : str or Path
-            Output file (``.geojson`` by convention); its folder must exist.
-        tolerance_m : float
-            Largest distance, metres, from a corridor pixel to the waypoint chain (> 0).
-        frame : str
-            The nodes' ``frame`` property: the TF frame of the map (``"map"``).
+    Parameters
+    ----------
+    graph : networkx.MultiGraph
+        Topology graph (e.g. ``build_graph(m).graph``, best pruned first with
+        :func:`topojax.prune_graph`); nodes need ``world``, edges ``world`` polylines.
+    path : str or Path
+        Output file (``.geojson`` by convention); its folder must exist.
+    tolerance_m : float
+        Largest distance, metres, from a corridor pixel to the waypoint chain (> 0).
+    frame : str
+        The nodes' ``frame`` property: the TF frame of the map (``"map"``).
 
-        Returns
-        -------
-        Path
-            The written path.
+    Returns
+    -------
+    Path
+        The written path.
 
-        Raises
-        ------
-        TypeError
-            A ``tolerance_m`` that is not a number, a ``frame`` that is not a string.
-        ValueError
-            A bad ``tolerance_m``, an empty ``frame``, a node or edge without ``world``, or a graph
-            without edges (nav2_route refuses to load one).
+    Raises
+    ------
+    TypeError
+        A ``tolerance_m`` that is not a number, a ``frame`` that is not a string.
+    ValueError
+        A bad ``tolerance_m``, an empty ``frame``, a node or edge without ``world``, or a graph
+        without edges (nav2_route refuses to load one).
 
-        Notes
-        -----
-        Metadata values are numbers, strings and lists of them only (nav2_route's loader
-        accepts no ``null``).  Node ids: the graph's vertices with edges (vertices without edges
+    Notes
+    -----
+    Metadata values are numbers, strings and lists of them only (nav2_route's loader
+    accepts no ``null``).  Node ids: the graph's vertices with edges (vertices without edges
     lead nowhere and are left out) are ``0 .. V-1`` in node order (``metadata``:
-        ``vertex``, the topojax node id, ``kind``, ``clearance_m`` and, after
-        :func:`topojax.assign_rooms`, ``room``), then the waypoints
-        (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
-        topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
-        waypoints; the straight hop along a route graph's ``waypoints``) and the corridor's
-        ``min_clearance_m`` / ``mean_clearance_m``.  topojax
-        writes this format but does not read it back (use :func:`save_graph` for that).
-        Where a path ends at another pixel of its vertex than the vertex's own (merged
-        junction clusters), the chain includes the step to the vertex.  A loop with fewer
-        than two points of its own to place waypoints on leads nowhere and is left out.
+    ``vertex``, the topojax node id, ``kind``, ``clearance_m`` and, after
+    :func:`topojax.assign_rooms`, ``room``), then the waypoints
+    (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
+    topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
+    waypoints; the straight hop along a route graph's ``waypoints``) and the corridor's
+    ``min_clearance_m`` / ``mean_clearance_m``.  topojax
+    writes this format but does not read it back (use :func:`save_graph` for that).
+    Where a path ends at another pixel of its vertex than the vertex's own (merged
+    junction clusters), the chain includes the step to the vertex.  A loop with fewer
+    than two points of its own to place waypoints on leads nowhere and is left out.
     """
     p = path_like("path", path)
     tol = positive_metres("tolerance_m", tolerance_m)
