@@ -160,3 +160,23 @@ def test_command_line_options_named_in_the_docs_exist() -> None:
         text = re.sub(rf"^topojax (?!{command.group(1)} ).*$", "", text, flags=re.M)
         missing = sorted({name for name in flag.findall(text) if name not in own})
         assert not missing, f"topojax {command.group(1)} has no {missing}"
+
+
+def _python_blocks(path: Path) -> list[str]:
+    """The ```python blocks of a page, in order."""
+    text = path.read_text(encoding="utf-8")
+    return re.findall(r"^```python\n(.*?)^```", text, flags=re.M | re.S)
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/routing-and-nav2.md"])
+def test_python_examples_run(page: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The first Python examples a newcomer copies run as written (files go to a scratch
+    folder); a renamed function, argument or attribute otherwise stays in the text."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    blocks = _python_blocks(ROOT / page)
+    assert blocks, f"{page} has no python example"
+    monkeypatch.chdir(tmp_path)
+    for block in blocks:
+        exec(compile(block, page, "exec"), {"__name__": "docs_example"})
