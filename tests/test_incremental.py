@@ -1468,6 +1468,20 @@ def test_vertex_error_metrics_on_known_graphs():
 # --------------------------------------------------------------------------------------
 
 
+def test_float32_readings_at_a_decimal_range_max_add_no_obstacles():
+    """A float32 scan whose no-returns are stored at range_max (5.6 m, no exact float32)
+    adds only its real hits, as its valid_mask says."""
+    r = np.full(360, 5.6, np.float32)
+    r[:10] = 2.0
+    scan = Scan.from_arrays(
+        r, (0.0, 0.0, 0.0), angle_min=-math.pi, angle_increment=2 * math.pi / 360, range_max=5.6
+    )
+    report = IncrementalMapper(free_space=False).add_scan(scan)
+    assert report.n_valid == int(scan.valid_mask().sum()) == 10
+    capped = IncrementalMapper(free_space=False, max_range_m=2.0).add_scan(scan)
+    assert capped.n_valid == 0
+
+
 def test_no_new_traces_during_a_replay():
     scans = list(read_carmen(INTEL_EXCERPT))
     mapper = IncrementalMapper(skeleton_every=4, graph_every=8)

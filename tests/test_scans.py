@@ -136,6 +136,18 @@ def test_float32_max_range_reading_is_no_return():
     np.testing.assert_array_equal(s.valid_mask(), [False, True, True, False])
 
 
+def test_float32_reading_at_a_decimal_range_max_is_no_return():
+    # The limits typed as decimals (a driver's 5.6 m from a config file) have no exact
+    # float32: float32(5.6) < 5.6, so compared in float64 a stored max-range reading would
+    # be a hit, a ring of phantom obstacles at the sensor's range.
+    r = np.array([5.6, 5.5, 0.02, 0.019], dtype=np.float32)
+    s = Scan(r, 0.0, 0.1, 0.02, 5.6, (0, 0, 0))
+    np.testing.assert_array_equal(s.valid_mask(), [False, True, True, False])
+    # float64 readings keep the exact comparison
+    s64 = Scan(r.astype(np.float64), 0.0, 0.1, 0.02, 5.6, (0, 0, 0))
+    np.testing.assert_array_equal(s64.valid_mask(), [True, True, False, False])
+
+
 def test_angles_and_properties():
     s = Scan(np.ones(5), -1.0, 0.25, 0.0, 2.0, (0, 0, 0))
     np.testing.assert_allclose(s.angles(), [-1.0, -0.75, -0.5, -0.25, 0.0], rtol=0, atol=1e-15)

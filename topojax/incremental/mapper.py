@@ -19,6 +19,7 @@ from ..fields.distance import FAR_SQ
 from ..fields.filters import HALO_PX
 from ..fields.tiling import MAX_GRID_CELLS, TileManager
 from ..scans import Scan
+from ..scans.scan import reading_limits
 from ._dense_export import dense_layer, distance_map, export_bbox, occupancy_over
 from ._graph_export import export_graph, global_graph, topology_result
 from ._graph_patch import patch_graph
@@ -309,12 +310,13 @@ class IncrementalMapper:
         t0 = time.perf_counter()
         sx, sy, syaw = scan.sensor_pose_world()
         rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)
+        rmin, rmax = reading_limits(scan.ranges.dtype, scan.range_min, rmax)
         res = self.resolution_m
         er, ec, ext = _scan_geometry(
             scan.ranges,
             scan.angle_min,
             scan.angle_increment,
-            scan.range_min,
+            rmin,
             rmax,
             sx,
             sy,

@@ -13,6 +13,7 @@ Conventions
 * A reading is a *hit* (see :meth:`Scan.valid_mask`) when it is finite, positive,
   ``>= range_min`` and strictly ``< range_max``. Readings at or beyond ``range_max`` are
   "no return" (max-range) readings; NaN, +-inf, zero and negative values are no-returns too.
+  Float32 readings are compared with the limits rounded to float32.
 
 Modules: ``scan`` (:class:`Scan`, :func:`scans_from_arrays`), ``carmen``, ``octave`` and
 ``bag`` (one reader per format, with ``_ros1`` and ``_tf`` behind the bag reader),

@@ -43,6 +43,32 @@ def _relative(
     return (c * dx + s * dy, -s * dx + c * dy, _wrap_angle(b[2] - a[2]))
 
 
+def reading_limits(dtype, range_min: float, range_max: float) -> tuple[float, float]:
+    """``(range_min, range_max)`` in the precision of readings of ``dtype``.
+
+    A float32 reading at a sensor's ``range_max`` of 5.6 m is ``float32(5.6)``, just
+    below 5.6: compared with the float64 limit it would count as a hit.  Rounded to the
+    nearest float32 (no float32 lies between a limit and its rounding), the limits
+    compare float32 readings as the sensor stores them.
+
+    Parameters
+    ----------
+    dtype : numpy.dtype
+        Dtype of the readings (float32 or float64).
+    range_min, range_max : float
+        Limits in metres; ``range_max`` may be inf.
+
+    Returns
+    -------
+    tuple of 2 floats
+        The limits, rounded to float32 for float32 readings, else as given.
+    """
+    if np.dtype(dtype) != np.float32:
+        return range_min, range_max
+    top = float(np.finfo(np.float32).max)
+    return tuple(float(np.float32(v)) if abs(v) <= top else v for v in (range_min, range_max))
+
+
 # --------------------------------------------------------------------------------------------
 # Scan
 # --------------------------------------------------------------------------------------------
@@ -208,10 +234,14 @@ class Scan:
         numpy.ndarray, shape (N,), bool
             True where the range is finite, ``> 0``, ``>= range_min`` and ``< range_max``
             (strictly: a reading equal to ``range_max`` is a max-range "no return").
+            Float32 readings are compared with the limits rounded to float32, so a
+            reading stored at ``range_max`` is a no-return even where the limit (5.6 m,
+            say) has no exact float32.
         """
+        rmin, rmax = reading_limits(self.ranges.dtype, self.range_min, self.range_max)
         r = self.ranges.astype(np.float64)
         with np.errstate(invalid="ignore"):
-            return np.isfinite(r) & (r > 0.0) & (r >= self.range_min) & (r < self.range_max)
+            return np.isfinite(r) & (r > 0.0) & (r >= rmin) & (r < rmax)
 
     def sensor_pose_world(self) -> tuple[float, float, float]:
         """Pose of the sensor in the map frame, ``pose ∘ sensor_offset``.
