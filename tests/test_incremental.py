@@ -2215,6 +2215,38 @@ def test_far_readings_and_poses_are_extent_errors_naming_the_scan():
     assert mapper.n_scans == 1 and tight.n_scans == 0
 
 
+def test_rooms_over_the_export_budget_do_not_fail_the_scan_that_made_them_due():
+    """Rooms in use, a relocalisation 300 m off grows the map past max_export_bytes: the
+    scans are mapped and reported (with the graph loop), the rooms stay as they were with
+    a warning; asking for fresh rooms raises the budget error."""
+    from topojax.incremental import ExportBudgetError
+
+    scans = list(read_carmen(INTEL_EXCERPT))
+    mapper = IncrementalMapper(skeleton_every=2, graph_every=2, max_export_bytes=64 << 20)
+    for s in scans[:6]:
+        mapper.add_scan(s)
+    rooms = mapper.rooms
+    far = [
+        Scan.from_arrays(
+            s.ranges,
+            (s.pose[0] + 300.0, s.pose[1], s.pose[2]),
+            angle_min=s.angle_min,
+            angle_increment=s.angle_increment,
+            range_max=s.range_max,
+        )
+        for s in scans[6:8]
+    ]
+    assert "graph" not in mapper.add_scan(far[0]).loops
+    with pytest.warns(RuntimeWarning, match=r"^scan 7: rooms not updated.*max_export_bytes"):
+        report = mapper.add_scan(far[1])
+    assert mapper.n_scans == 8 and report.index == 7
+    assert "graph" in report.loops and "rooms" not in report.loops
+    assert report.rooms_update is None and report.n_valid > 0
+    assert mapper.rooms is rooms
+    with pytest.raises(ExportBudgetError, match=r"mapper\.rooms: refused to allocate"):
+        mapper.update_rooms()
+
+
 def test_tile_budget_refuses_scans_points_and_maps_before_any_change():
     """``max_tile_bytes`` bounds the memory the tiles may take: a scan whose beams would
     allocate more tiles (a reading far beyond the sensor's range) is refused before

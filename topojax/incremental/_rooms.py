@@ -14,15 +14,18 @@ changes do not reach keep their ids and pixels exactly, doors away from the chan
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from ._room_ids import SAME_ROOM_IOU, match_ids, pasted
+from ._tiles import ExportBudgetError
 
 __all__ = [
     "SAME_ROOM_IOU",
     "RoomKeeper",
+    "due_rooms_update",
     "RoomsUpdate",
     "match_ids",
     "rooms_due",
@@ -179,6 +182,26 @@ def rooms_due(mapper, *, graph_ran: bool) -> bool:
     if mapper.rooms_every is None:
         return graph_ran and mapper._rooms.active
     return bool(mapper.rooms_every) and mapper._since_rooms >= mapper.rooms_every
+
+
+def due_rooms_update(mapper) -> RoomsUpdate | None:
+    """The room update a scan made due, or None where the map has outgrown
+    ``mapper.max_export_bytes`` for rooms (a relocalisation far off, a large site).
+
+    The scan is in the map by then: raising would tell its caller it was refused.  The
+    rooms stay as of their last update instead and a ``RuntimeWarning`` names the
+    export's size; reading :attr:`IncrementalMapper.rooms` afresh
+    (:meth:`~IncrementalMapper.update_rooms`) raises the error itself."""
+    try:
+        return mapper._update_rooms()
+    except ExportBudgetError as exc:
+        warnings.warn(
+            f"scan {mapper._n_scans - 1}: rooms not updated, they stay as of their last "
+            f"update ({exc})",
+            RuntimeWarning,
+            stacklevel=5,
+        )
+        return None
 
 
 def current_room_labels(mapper) -> np.ndarray | None:

@@ -40,7 +40,7 @@ from ._ridges import (
     ridge_kernel,
     update_ridges,
 )
-from ._rooms import RoomKeeper, rooms_due
+from ._rooms import RoomKeeper, due_rooms_update, rooms_due
 from ._settings import (
     DEFAULT_MAX_EXPORT_BYTES,
     DEFAULT_MAX_EXTENT_M,
@@ -466,7 +466,8 @@ class IncrementalMapper:
         self._since_rooms += 1
         rooms = None
         if rooms_due(self, graph_ran=update is not None):
-            rooms = self._update_rooms()
+            rooms = due_rooms_update(self)
+        if rooms is not None:
             timings["rooms"] = rooms.time_s
             loops.append("rooms")
         return ScanReport(
