@@ -1,5 +1,6 @@
 """numba's cache follows the package's sources: a change to any source file drops every
-cached kernel, since a kernel keeps the code of the kernels it calls from other files."""
+cached kernel, since a kernel keeps the code of the kernels it calls from other files; and
+kernels see one memory layout per argument, so that nothing compiles again mid-run."""
 
 from __future__ import annotations
 
@@ -57,3 +58,59 @@ def test_unwritable_cache_is_left_alone(tmp_path, monkeypatch):
     blocker.write_text("")
     monkeypatch.setattr(numba.config, "CACHE_DIR", str(blocker))  # a file: no folder there
     assert not purge_stale_kernels(_package(tmp_path))
+
+
+_LAYOUT_CHECK = """
+from collections import Counter
+import numba
+import numpy as np
+import topojax as tj
+from topojax.rooms._kernels import label_stats
+from topojax.routegraph._cover import covered
+from topojax.routegraph._spanner import see_within
+
+def layouts(f):
+    key = Counter(
+        tuple((a.dtype, a.ndim) if isinstance(a, numba.types.Array) else a for a in sig)
+        for sig in f.signatures
+    )
+    return max(key.values(), default=0)
+
+# rooms: free space over the whole grid, then free space in a crop of it
+walls = np.ones((60, 80), np.uint8) * 254
+walls[[0, -1], :] = 0
+walls[:, [0, -1]] = 0
+walls[:, 40] = 0
+walls[28:34, 40] = 254
+tj.segment_rooms(tj.OccupancyMap.from_array(walls, resolution_m=0.05))
+cropped = np.full((60, 80), 205, np.uint8)
+cropped[10:50, 15:65] = walls[10:50, 15:65]
+cropped[10, 15:65] = cropped[49, 15:65] = 0
+cropped[10:50, 15] = cropped[10:50, 64] = 0
+tj.segment_rooms(tj.OccupancyMap.from_array(cropped, resolution_m=0.05))
+# route graph coverage: many pixels tested (labelled transform) and a few (row by row)
+feasible = np.ones((40, 40), bool)
+raster = np.zeros_like(feasible)
+raster[20, 5:35] = True
+covered(raster, feasible, 3.0)
+among = np.zeros_like(feasible)
+among[10, 10] = among[30, 30] = True
+covered(raster, feasible, 3.0, among=among)
+for f in (label_stats, see_within):
+    if layouts(f) > 1:
+        print(f.__name__, f.signatures)
+"""
+
+
+def test_room_and_coverage_kernels_see_one_memory_layout():
+    """A strided and a contiguous array of the same dtype are two numba variants: a kernel
+    that sees both compiles again (about a second, inside a scan's room update or a route
+    graph) the first time the other layout comes.  Rooms whose free space spans the whole
+    map and rooms in a crop of it, coverage tested densely and at a few pixels, must all
+    give each kernel one layout.  Run in a fresh process (no earlier calls)."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", _LAYOUT_CHECK], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == ""

@@ -156,7 +156,8 @@ def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmenta
     res = float(occ.resolution_m)
     if box is None:
         box = (slice(0, labels.shape[0]), slice(0, labels.shape[1]))
-    part = labels[box]
+    # one memory layout whatever the box (a crop is strided, the whole map is not)
+    part = np.ascontiguousarray(labels[box])
     r_off, c_off = box[0].start, box[1].start
     n = int(part.max()) if part.size else 0
     count, sum_r, sum_c, boxes = label_stats(part, n)

@@ -93,7 +93,8 @@ def covered(
     else:
         out = np.zeros(feasible.shape, bool)
         pts = mask_pixels(test)
-        rr, cc = pts[:, 0], pts[:, 1]
+        # contiguous, as see_named's are: one compiled variant of see_within
+        rr, cc = np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1])
     out[rr, cc] = see_within(rr, cc, raster, wall, feasible, float(snap_px))
     return out
 
