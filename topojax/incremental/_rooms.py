@@ -74,6 +74,7 @@ class RoomKeeper:
         self.free: np.ndarray | None = None
         self.next_id = 1
         self.active = False
+        self.over_budget = False  # the last due update found the map too large to export
 
     def update(self, occupancy, box, config=None, *, local: bool = False) -> RoomsUpdate:
         """Segment ``occupancy`` (the mapper's map over global box ``box``), whole or, with
@@ -190,18 +191,23 @@ def due_rooms_update(mapper) -> RoomsUpdate | None:
 
     The scan is in the map by then: raising would tell its caller it was refused.  The
     rooms stay as of their last update instead and a ``RuntimeWarning`` names the
-    export's size; reading :attr:`IncrementalMapper.rooms` afresh
+    export's size (once, until an update succeeds again); reading :attr:`IncrementalMapper.rooms` afresh
     (:meth:`~IncrementalMapper.update_rooms`) raises the error itself."""
+    keeper = mapper._rooms
     try:
-        return mapper._update_rooms()
+        update = mapper._update_rooms()
     except ExportBudgetError as exc:
-        warnings.warn(
-            f"scan {mapper._n_scans - 1}: rooms not updated, they stay as of their last "
-            f"update ({exc})",
-            RuntimeWarning,
-            stacklevel=5,
-        )
+        if not keeper.over_budget:  # once while the map stays too large, not every update
+            warnings.warn(
+                f"scan {mapper._n_scans - 1}: rooms not updated, they stay as of their last "
+                f"update until the map fits again ({exc})",
+                RuntimeWarning,
+                stacklevel=5,
+            )
+        keeper.over_budget = True
         return None
+    keeper.over_budget = False
+    return update
 
 
 def current_room_labels(mapper) -> np.ndarray | None:
