@@ -155,8 +155,8 @@ def add_coverage(
         # uncovered can only see a graph pixel added since the last test
         raster = graph_raster(work, shape)
         added = raster & ~before
+        before = raster  # the previous raster is not needed (image-sized)
         uncovered = uncovered & ~covered(added, feasible, snap_px, wall, among=uncovered)
-        before = raster
         if grid_round == rounds or not uncovered.any():
             break
         if lane_round == 0:

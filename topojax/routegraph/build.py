@@ -201,20 +201,14 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     """:func:`route_graph` with its options checked."""
     check_scale(cfg, occupancy.resolution_m)
     t0 = time.perf_counter()
-    space = feasible_space(occupancy, cfg.robot_radius_m)
-    # the graph is built in the window round the kept regions (with a margin of pixels
-    # that are not feasible), in the window's pixel coordinates: the same graph wherever
-    # the regions lie in the map
-    kept = _kept_regions(space, cfg.min_region_m2)
-    origin, size = _window(kept, margin=2)
-    feasible, free, clearance_m = (
-        _crop(a, origin, size) for a in (kept, space.free, space.clearance_m)
-    )
+    win, free = _windowed_space(occupancy, cfg)
+    feasible = win.feasible
     t1 = time.perf_counter()
     skeleton = thin(feasible)
     t2 = time.perf_counter()
-    res = space.resolution_m
-    work = _sparse_skeleton_graph(skeleton, free, clearance_m, res, cfg)
+    res = win.resolution_m
+    work = _sparse_skeleton_graph(skeleton, free, win.clearance_m, res, cfg)
+    del skeleton, free  # image-sized, not needed any more
     t3 = time.perf_counter()
     # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
     snap_px = (cfg.snap_m - cfg.waypoint_tolerance_m) / res
@@ -246,7 +240,7 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     # loops shorter than loop_m collapse, wherever the passes left one
     _open_short_loops(work, feasible, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS)
     t4 = time.perf_counter()
-    graph = _assemble(work, occupancy, space, cfg, origin)
+    graph = _assemble(work, occupancy, win, cfg)
     t5 = time.perf_counter()
     n_feasible = int(np.count_nonzero(feasible))
     graph.graph["uncovered_share"] = (
@@ -333,11 +327,64 @@ def _open_short_loops(
     work.contract_all({x for u, v, _ in removed for x in (u, v)})
 
 
+@dataclass(frozen=True, kw_only=True)
+class _Window:
+    """The feasible space in the window round the kept regions (see
+    :func:`_windowed_space`); arrays (h, w) in the window's pixels.
+
+    Attributes
+    ----------
+    origin : tuple of int
+        The map pixel of the window's pixel ``(0, 0)`` (may lie past the map).
+    map_shape : tuple of int
+        The map's ``(H, W)``.
+    resolution_m : float
+        Metres per pixel.
+    feasible : bool (h, w)
+        Feasible pixels of the kept regions.
+    any_feasible : bool (h, w)
+        Feasible pixels of all regions (``feasible`` itself when every region is kept).
+    clearance_m : float32 (h, w)
+        :attr:`FeasibleSpace.clearance_m` in the window (0 past the map).
+    """
+
+    origin: tuple[int, int]
+    map_shape: tuple[int, int]
+    resolution_m: float
+    feasible: np.ndarray
+    any_feasible: np.ndarray
+    clearance_m: np.ndarray
+
+
+def _windowed_space(occupancy, cfg: RouteGraphConfig) -> tuple[_Window, np.ndarray]:
+    """The feasible space of ``occupancy`` for the robot of ``cfg`` in the window round
+    its regions of at least ``cfg.min_region_m2`` (a margin of 2 pixels that are not
+    feasible), and the known-free pixels (bool (h, w)) of that window: the graph is built
+    in the window's pixels, the same graph wherever the regions lie in the map.  The
+    map-sized arrays of the feasible space (labels, clearance) are not kept."""
+    space = feasible_space(occupancy, cfg.robot_radius_m)
+    kept = _kept_regions(space, cfg.min_region_m2)
+    origin, size = _window(kept, margin=2)
+    feasible = _crop(kept, origin, size)
+    every_region = kept is space.feasible
+    del kept
+    win = _Window(
+        origin=origin,
+        map_shape=tuple(int(s) for s in space.free.shape),
+        resolution_m=space.resolution_m,
+        feasible=feasible,
+        any_feasible=feasible if every_region else _crop(space.feasible, origin, size),
+        clearance_m=_crop(space.clearance_m, origin, size),
+    )
+    return win, _crop(space.free, origin, size)
+
+
 def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:
-    """Feasible pixels of the regions of at least ``min_region_m2``."""
+    """Feasible pixels of the regions of at least ``min_region_m2``: ``space.feasible``
+    itself when every region is kept."""
     kept = space.regions_at_least(min_region_m2)
     if kept.size == space.n_regions:
-        return space.feasible.copy()
+        return space.feasible
     keep = np.zeros(space.area_m2.size, bool)
     keep[kept] = True
     return keep[space.labels]
@@ -378,6 +425,7 @@ def _sparse_skeleton_graph(
     clearance_px = clearance_m / np.float32(res)
     graph = skeleton_to_graph(skeleton, resolution_m=res, merge_junction_clusters=True)
     work = WorkGraph.from_networkx(graph)
+    del graph
     collapse_loops(
         work,
         face_labels(skeleton),
@@ -388,23 +436,28 @@ def _sparse_skeleton_graph(
         cfg.small_obstacle_m / res + 2.0 * cfg.robot_radius_m / res,
     )
     work.contract_all()
-    feasible_clear = np.maximum(clearance_px - np.float32(cfg.robot_radius_m / res), 0)
+    # the clearance past the robot's radius, in place (image-sized)
+    feasible_clear = np.subtract(
+        clearance_px, np.float32(cfg.robot_radius_m / res), out=clearance_px
+    )
+    np.maximum(feasible_clear, 0, out=feasible_clear)
     drop_spurs(work, feasible_clear, cfg.spur_m / res, cfg.spur_clearance_factor)
     work.contract_all()
     return work
 
 
-def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphConfig, origin):
-    """The networkx graph of ``work`` (in the pixels of the window of the map from pixel
-    ``origin``) with :func:`topojax.build_graph`'s schema, in the map's pixels."""
-    res = space.resolution_m
-    shift = np.array(origin, np.int32)
+def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig):
+    """The networkx graph of ``work`` (in the pixels of the window ``win``) with
+    :func:`topojax.build_graph`'s schema, in the map's pixels."""
+    res = win.resolution_m
+    shift = np.array(win.origin, np.int32)
     alive = [v for v in range(len(work.pixel)) if v not in work.dead]
     alive.sort(key=lambda v: work.pixel[v])
     new_id = {v: k for k, v in enumerate(alive)}
-    pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2) + shift
+    pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2)
+    clear_at = win.clearance_m[pix[:, 0], pix[:, 1]].astype(np.float64).tolist()
+    pix += shift
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
-    clear_at = space.clearance_m[pix[:, 0], pix[:, 1]].astype(np.float64).tolist()
     degree = work.degrees()
     node_attrs = []
     for v, p, x, y, c in zip(alive, pix.tolist(), wx.tolist(), wy.tolist(), clear_at, strict=True):
@@ -434,13 +487,13 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
     sizes = np.array([len(p) for p in paths], np.int64)
     starts = np.cumsum(sizes) - sizes
     every = (np.concatenate(paths) if paths else np.zeros((0, 2), np.int32)).astype(np.int32)
+    clear = win.clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
+    c_min = (np.minimum.reduceat(clear, starts) if paths else clear).tolist()
+    c_mean = (np.add.reduceat(clear, starts) / sizes if paths else clear).tolist()
+    kept = simplify_paths(every.astype(np.int64), starts, sizes, win.any_feasible, tol_px)
     every += shift.astype(np.int32)
     x, y = occupancy.pixel_to_world(every[:, 0], every[:, 1])
     world_all = np.stack([x, y], axis=1)
-    clear = space.clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
-    c_min = (np.minimum.reduceat(clear, starts) if paths else clear).tolist()
-    c_mean = (np.add.reduceat(clear, starts) / sizes if paths else clear).tolist()
-    kept = simplify_paths(every.astype(np.int64), starts, sizes, space.feasible, tol_px)
     # each edge's arrays are consecutive pieces of the arrays of all edges
     lo, hi = starts.tolist(), (starts + sizes).tolist()
     n_kept = np.add.reduceat(kept.astype(np.int64), starts) if paths else starts
@@ -469,7 +522,7 @@ def _assemble(work: WorkGraph, occupancy, space: FeasibleSpace, cfg: RouteGraphC
     ]
     attrs = {
         "resolution_m": res,
-        "shape": tuple(int(s) for s in space.free.shape),
+        "shape": win.map_shape,
         "merge_junction_clusters": True,
         "origin": tuple(float(o) for o in occupancy.origin),
         "robot_radius_m": cfg.robot_radius_m,
