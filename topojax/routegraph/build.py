@@ -34,7 +34,7 @@ from ..skeleton import thin
 from ._corners import CORNER_TOLERANCE_M
 from ._cover import RUNG_GAIN_M, add_coverage, add_shortcuts, covered, graph_raster
 from ._spanner import open_short_loops, simplify_paths
-from .feasible import FeasibleSpace, feasible_space
+from .feasible import FeasibleSpace, clearance_map_m, feasible_space
 
 __all__ = ["RouteGraphConfig", "route_graph"]
 
@@ -201,14 +201,14 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     """:func:`route_graph` with its options checked."""
     check_scale(cfg, occupancy.resolution_m)
     t0 = time.perf_counter()
-    win, free = _windowed_space(occupancy, cfg)
+    win, free, clearance_m = _windowed_space(occupancy, cfg)
     feasible = win.feasible
     t1 = time.perf_counter()
     skeleton = thin(feasible)
     t2 = time.perf_counter()
     res = win.resolution_m
-    work = _sparse_skeleton_graph(skeleton, free, win.clearance_m, res, cfg)
-    del skeleton, free  # image-sized, not needed any more
+    work = _sparse_skeleton_graph(skeleton, free, clearance_m, res, cfg)
+    del skeleton, free, clearance_m  # image-sized, not needed any more
     t3 = time.perf_counter()
     # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
     snap_px = (cfg.snap_m - cfg.waypoint_tolerance_m) / res
@@ -344,8 +344,6 @@ class _Window:
         Feasible pixels of the kept regions.
     any_feasible : bool (h, w)
         Feasible pixels of all regions (``feasible`` itself when every region is kept).
-    clearance_m : float32 (h, w)
-        :attr:`FeasibleSpace.clearance_m` in the window (0 past the map).
     """
 
     origin: tuple[int, int]
@@ -353,15 +351,15 @@ class _Window:
     resolution_m: float
     feasible: np.ndarray
     any_feasible: np.ndarray
-    clearance_m: np.ndarray
 
 
-def _windowed_space(occupancy, cfg: RouteGraphConfig) -> tuple[_Window, np.ndarray]:
-    """The feasible space of ``occupancy`` for the robot of ``cfg`` in the window round
-    its regions of at least ``cfg.min_region_m2`` (a margin of 2 pixels that are not
-    feasible), and the known-free pixels (bool (h, w)) of that window: the graph is built
-    in the window's pixels, the same graph wherever the regions lie in the map.  The
-    map-sized arrays of the feasible space (labels, clearance) are not kept."""
+def _windowed_space(occupancy, cfg: RouteGraphConfig):
+    """``(window, free, clearance_m)``: the feasible space of ``occupancy`` for the robot
+    of ``cfg`` in the window round its regions of at least ``cfg.min_region_m2`` (a margin
+    of 2 pixels that are not feasible, :class:`_Window`), and the known-free pixels (bool
+    (h, w)) and :attr:`FeasibleSpace.clearance_m` (float32 (h, w), 0 past the map) of
+    that window: the graph is built in the window's pixels, the same graph wherever the
+    regions lie in the map.  The map-sized arrays of the feasible space are not kept."""
     space = feasible_space(occupancy, cfg.robot_radius_m)
     kept = _kept_regions(space, cfg.min_region_m2)
     origin, size = _window(kept, margin=2)
@@ -374,9 +372,8 @@ def _windowed_space(occupancy, cfg: RouteGraphConfig) -> tuple[_Window, np.ndarr
         resolution_m=space.resolution_m,
         feasible=feasible,
         any_feasible=feasible if every_region else _crop(space.feasible, origin, size),
-        clearance_m=_crop(space.clearance_m, origin, size),
     )
-    return win, _crop(space.free, origin, size)
+    return win, _crop(space.free, origin, size), _crop(space.clearance_m, origin, size)
 
 
 def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:
@@ -420,9 +417,10 @@ def _sparse_skeleton_graph(
     cfg: RouteGraphConfig,
 ) -> WorkGraph:
     """The graph of ``skeleton`` (junction clusters merged) without loops around small
-    obstacles and without medial-axis spurs; ``free`` and ``clearance_m`` (metres) of the
-    same pixels, ``res`` metres per pixel."""
-    clearance_px = clearance_m / np.float32(res)
+    obstacles and without medial-axis spurs; ``free`` and ``clearance_m`` (metres;
+    overwritten, the work space of the clearances in pixels) of the same pixels, ``res``
+    metres per pixel."""
+    clearance_px = np.divide(clearance_m, np.float32(res), out=clearance_m)
     graph = skeleton_to_graph(skeleton, resolution_m=res, merge_junction_clusters=True)
     work = WorkGraph.from_networkx(graph)
     del graph
@@ -454,9 +452,11 @@ def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig):
     alive = [v for v in range(len(work.pixel)) if v not in work.dead]
     alive.sort(key=lambda v: work.pixel[v])
     new_id = {v: k for k, v in enumerate(alive)}
-    pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2)
-    clear_at = win.clearance_m[pix[:, 0], pix[:, 1]].astype(np.float64).tolist()
-    pix += shift
+    pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2) + shift
+    # the clearance again (one distance transform): kept through the coverage stage, the
+    # window's copy would add an image-sized float32 array to its peak
+    clearance_m = clearance_map_m(np.asarray(occupancy.free, bool), res)
+    clear_at = clearance_m[pix[:, 0], pix[:, 1]].astype(np.float64).tolist()
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
     degree = work.degrees()
     node_attrs = []
@@ -487,13 +487,14 @@ def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig):
     sizes = np.array([len(p) for p in paths], np.int64)
     starts = np.cumsum(sizes) - sizes
     every = (np.concatenate(paths) if paths else np.zeros((0, 2), np.int32)).astype(np.int32)
-    clear = win.clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
-    c_min = (np.minimum.reduceat(clear, starts) if paths else clear).tolist()
-    c_mean = (np.add.reduceat(clear, starts) / sizes if paths else clear).tolist()
     kept = simplify_paths(every.astype(np.int64), starts, sizes, win.any_feasible, tol_px)
     every += shift.astype(np.int32)
     x, y = occupancy.pixel_to_world(every[:, 0], every[:, 1])
     world_all = np.stack([x, y], axis=1)
+    clear = clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
+    del clearance_m
+    c_min = (np.minimum.reduceat(clear, starts) if paths else clear).tolist()
+    c_mean = (np.add.reduceat(clear, starts) / sizes if paths else clear).tolist()
     # each edge's arrays are consecutive pieces of the arrays of all edges
     lo, hi = starts.tolist(), (starts + sizes).tolist()
     n_kept = np.add.reduceat(kept.astype(np.int64), starts) if paths else starts
