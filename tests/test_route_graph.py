@@ -1207,3 +1207,46 @@ def test_too_many_shortcut_candidates_are_refused_before_they_fill_memory(monkey
     with pytest.raises(ValueError, match=r"^shortcut_radius_m: [\d,]+ pairs of the graph's"):
         route_graph(m, robot_radius_m=0.3)
     assert route_graph(m, robot_radius_m=0.3, config=RouteGraphConfig(shortcut_radius_m=0.0))
+
+
+def test_clearances_are_the_feasible_space_s_at_the_graph_s_pixels():
+    """The graph is built in a window of the map (here off its corner, beside a region
+    too small to keep): its clearance attributes are the map's, at the map's pixels."""
+    free = np.zeros((300, 260), bool)
+    free[60:200, 90:230] = True  # the room, in the middle of the map
+    free[100:150, 150:160] = False  # a pillar
+    free[230:250, 20:40] = True  # a region of under 1 m2 for the robot
+    occ = _map(free)
+    g = route_graph(occ, robot_radius_m=R)
+    space = feasible_space(occ, R)
+    assert g.number_of_edges() > 0
+    for _, d in g.nodes(data=True):
+        assert d["clearance_m"] == float(space.clearance_m[d["pixel"]])
+    for _, _, d in g.edges(data=True):
+        along = space.clearance_m[d["path"][:, 0], d["path"][:, 1]].astype(np.float64)
+        assert d["min_clearance_m"] == along.min()
+        assert d["mean_clearance_m"] == pytest.approx(along.mean(), rel=1e-12)
+    _assert_safe(g, occ)
+
+
+def test_traced_peak_per_pixel_is_bounded():
+    """route_graph keeps few image-sized arrays at once: the map-sized arrays of the
+    feasible space are dropped once the window is cut out, and the clearance is not held
+    through the coverage stage.  NumPy's buffers are traced (not OpenCV's work space or
+    numba's)."""
+    import tracemalloc
+
+    from floorplans import floor_plan
+
+    plan = floor_plan(7, size_m=(48.0, 48.0), clutter=1).occupancy  # about 1000 x 1000 px
+    route_graph(plan, robot_radius_m=R)  # compiled kernels
+    tracemalloc.start()
+    try:
+        base = tracemalloc.get_traced_memory()[0]
+        g = route_graph(plan, robot_radius_m=R)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert g.number_of_edges() > 0
+    per_pixel = (peak - base) / plan.free.size
+    assert per_pixel <= 26.0, f"{per_pixel:.1f} bytes per pixel"
