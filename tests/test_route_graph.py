@@ -1209,9 +1209,14 @@ def test_too_many_shortcut_candidates_are_refused_before_they_fill_memory(monkey
     assert route_graph(m, robot_radius_m=0.3, config=RouteGraphConfig(shortcut_radius_m=0.0))
 
 
-def test_clearances_are_the_feasible_space_s_at_the_graph_s_pixels():
+@pytest.mark.parametrize("hold_max_px", [0, 1 << 22])
+def test_clearances_are_the_feasible_space_s_at_the_graph_s_pixels(monkeypatch, hold_max_px):
     """The graph is built in a window of the map (here off its corner, beside a region
-    too small to keep): its clearance attributes are the map's, at the map's pixels."""
+    too small to keep): its clearance attributes are the map's, at the map's pixels,
+    whether the window's clearance is held for the assembly or computed again there."""
+    import topojax.routegraph.build as build
+
+    monkeypatch.setattr(build, "HOLD_CLEARANCE_MAX_PX", hold_max_px)
     free = np.zeros((300, 260), bool)
     free[60:200, 90:230] = True  # the room, in the middle of the map
     free[100:150, 150:160] = False  # a pillar
@@ -1229,15 +1234,18 @@ def test_clearances_are_the_feasible_space_s_at_the_graph_s_pixels():
     _assert_safe(g, occ)
 
 
-def test_traced_peak_per_pixel_is_bounded():
+def test_traced_peak_per_pixel_is_bounded(monkeypatch):
     """route_graph keeps few image-sized arrays at once: the map-sized arrays of the
-    feasible space are dropped once the window is cut out, and the clearance is not held
-    through the coverage stage.  NumPy's buffers are traced (not OpenCV's work space or
-    numba's)."""
+    feasible space are dropped once the window is cut out, and a large window's
+    clearance is not held through the coverage stage (this plan's window is made to
+    count as large).  NumPy's buffers are traced (not OpenCV's work space or numba's)."""
     import tracemalloc
 
     from floorplans import floor_plan
 
+    import topojax.routegraph.build as build
+
+    monkeypatch.setattr(build, "HOLD_CLEARANCE_MAX_PX", 0)
     plan = floor_plan(7, size_m=(48.0, 48.0), clutter=1).occupancy  # about 1000 x 1000 px
     route_graph(plan, robot_radius_m=R)  # compiled kernels
     tracemalloc.start()

@@ -207,6 +207,9 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     skeleton = thin(feasible)
     t2 = time.perf_counter()
     res = win.resolution_m
+    # a large window's clearance is not held through the coverage stage (4 bytes per
+    # pixel at its peak): the assembly computes it again
+    held = clearance_m.copy() if clearance_m.size <= HOLD_CLEARANCE_MAX_PX else None
     work = _sparse_skeleton_graph(skeleton, free, clearance_m, res, cfg)
     del skeleton, free, clearance_m  # image-sized, not needed any more
     t3 = time.perf_counter()
@@ -240,7 +243,8 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     # loops shorter than loop_m collapse, wherever the passes left one
     _open_short_loops(work, feasible, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS)
     t4 = time.perf_counter()
-    graph = _assemble(work, occupancy, win, cfg)
+    graph = _assemble(work, occupancy, win, cfg, held)
+    del held
     t5 = time.perf_counter()
     n_feasible = int(np.count_nonzero(feasible))
     graph.graph["uncovered_share"] = (
@@ -255,6 +259,11 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     }
     return graph
 
+
+#: Windows of at most this many pixels keep their clearance for the assembly of the graph;
+#: a larger one's is computed again there (one distance transform of the map, a small
+#: share of such a map's build time) rather than held through the coverage stage.
+HOLD_CLEARANCE_MAX_PX = 1 << 22
 
 #: The least coverage reach, ``snap_m - waypoint_tolerance_m``, in pixels of the map: a
 #: reach of about a pixel covers the free space with a mesh of edges a pixel apart.
@@ -444,19 +453,21 @@ def _sparse_skeleton_graph(
     return work
 
 
-def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig):
+def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig, clearance_m):
     """The networkx graph of ``work`` (in the pixels of the window ``win``) with
-    :func:`topojax.build_graph`'s schema, in the map's pixels."""
+    :func:`topojax.build_graph`'s schema, in the map's pixels; ``clearance_m``: the
+    window's (float32 (h, w), metres), or None to compute the map's."""
     res = win.resolution_m
     shift = np.array(win.origin, np.int32)
     alive = [v for v in range(len(work.pixel)) if v not in work.dead]
     alive.sort(key=lambda v: work.pixel[v])
     new_id = {v: k for k, v in enumerate(alive)}
     pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2) + shift
-    # the clearance again (one distance transform): kept through the coverage stage, the
-    # window's copy would add an image-sized float32 array to its peak
-    clearance_m = clearance_map_m(np.asarray(occupancy.free, bool), res)
-    clear_at = clearance_m[pix[:, 0], pix[:, 1]].astype(np.float64).tolist()
+    # the clearance at map pixel p is clearance_m[p - off]
+    off = shift.astype(np.int64)
+    if clearance_m is None:
+        clearance_m, off = clearance_map_m(np.asarray(occupancy.free, bool), res), off * 0
+    clear_at = clearance_m[pix[:, 0] - off[0], pix[:, 1] - off[1]].astype(np.float64).tolist()
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
     degree = work.degrees()
     node_attrs = []
@@ -491,7 +502,7 @@ def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig):
     every += shift.astype(np.int32)
     x, y = occupancy.pixel_to_world(every[:, 0], every[:, 1])
     world_all = np.stack([x, y], axis=1)
-    clear = clearance_m[every[:, 0], every[:, 1]].astype(np.float64)
+    clear = clearance_m[every[:, 0] - off[0], every[:, 1] - off[1]].astype(np.float64)
     del clearance_m
     c_min = (np.minimum.reduceat(clear, starts) if paths else clear).tolist()
     c_mean = (np.add.reduceat(clear, starts) / sizes if paths else clear).tolist()
