@@ -34,7 +34,7 @@ from ..skeleton import thin
 from ._corners import CORNER_TOLERANCE_M
 from ._cover import RUNG_GAIN_M, add_coverage, add_shortcuts, covered, graph_raster
 from ._spanner import open_short_loops, simplify_paths
-from .feasible import FeasibleSpace, clearance_map_m, feasible_space
+from .feasible import FeasibleSpace, clearance_view_m, feasible_space
 
 __all__ = ["RouteGraphConfig", "route_graph"]
 
@@ -466,7 +466,7 @@ def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig, c
     # the clearance at map pixel p is clearance_m[p - off]
     off = shift.astype(np.int64)
     if clearance_m is None:
-        clearance_m, off = clearance_map_m(np.asarray(occupancy.free, bool), res), off * 0
+        clearance_m, off = clearance_view_m(np.asarray(occupancy.free, bool), res), off * 0
     clear_at = clearance_m[pix[:, 0] - off[0], pix[:, 1] - off[1]].astype(np.float64).tolist()
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
     degree = work.degrees()

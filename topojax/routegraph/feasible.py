@@ -65,6 +65,13 @@ def clearance_map_m(free: np.ndarray, resolution_m: float) -> np.ndarray:
     return free_clearance_px(free) * np.float32(resolution_m)
 
 
+def clearance_view_m(free: np.ndarray, resolution_m: float) -> np.ndarray:
+    """:func:`clearance_map_m`, the same values scaled in place: a view (not contiguous)
+    of the distance transform's framed output, with no second image-sized array."""
+    px = free_clearance_px(free)
+    return np.multiply(px, np.float32(resolution_m), out=px)
+
+
 def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     """The feasible space of ``occupancy`` for a round robot of radius ``robot_radius_m``.
 
