@@ -31,7 +31,8 @@ class FeasibleSpace:
         Known free pixels.
     clearance_m : float32 (H, W)
         Distance from each pixel centre to the nearest centre of a pixel that is not known
-        free, with the map surrounded by such pixels; metres, 0 off the free space.
+        free, with the map surrounded by such pixels; metres, 0 off the free space (a
+        view, not contiguous: :func:`clearance_view_m`).
     feasible : bool (H, W)
         ``free & (clearance_m >= robot_radius_m)``.
     labels : int32 (H, W)
@@ -91,7 +92,7 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     radius = nonnegative_metres("robot_radius_m", robot_radius_m)
     free = np.asarray(occupancy.free, bool)
     res = float(occupancy.resolution_m)
-    clearance = clearance_map_m(free, res)
+    clearance = clearance_view_m(free, res)
     feasible = free & (clearance >= min(radius, float(np.finfo(np.float32).max)))
     n, labels, stats, _ = cv2.connectedComponentsWithStats(
         feasible.view(np.uint8), connectivity=8, ltype=cv2.CV_32S
