@@ -1108,3 +1108,14 @@ def test_an_empty_graph_with_the_nav2_format_is_empty_not_an_error(tmp_path):
     assert (out / "office_nav2.geojson").is_file()
     again = build_graphs(maps, resume=True, **kw)  # complete without a Nav2 file
     assert [r.status for r in again] == ["skipped"] * 3
+
+
+def test_out_dir_and_bucket_are_checked_before_any_map_runs():
+    """``out_dir`` must be a path (an int reached ``pathlib`` and failed there, naming no
+    option), and ``tiles_per_call`` is bounded as for :class:`PipelineConfig` (a huge
+    bucket failed every map with a MemoryError instead)."""
+    occ = OccupancyMap.from_array(np.eye(16, dtype=bool))
+    with pytest.raises(TypeError, match=r"out_dir: expected a path \(str or os.PathLike\), "):
+        build_graphs([occ], workers=0, progress=False, out_dir=3)
+    with pytest.raises(ValueError, match="tiles_per_call: expected an int from 1 to 4096"):
+        build_graphs([occ], workers=0, progress=False, tiles_per_call=10**6)

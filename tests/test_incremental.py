@@ -909,7 +909,7 @@ def test_constructor_validation():
         IncrementalMapper(graph_every=2.5)
     with pytest.raises(TypeError, match="config"):
         IncrementalMapper(config="paper")
-    with pytest.raises(ValueError, match="ridge.threshold: expected a value >= 0.*received -0.5"):
+    with pytest.raises(ValueError, match="threshold: expected a finite number >= 0.*received -0.5"):
         from topojax.config import RidgeConfig
 
         IncrementalMapper(ridge=RidgeConfig(threshold=-0.5))

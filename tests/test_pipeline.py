@@ -321,7 +321,7 @@ def test_configs_check_types_and_take_numpy_numbers():
         (
             lambda: tj.distance_map(np.eye(4, dtype=bool), tile_px=2.5),
             TypeError,
-            "tile_px: expected an int >= 1",
+            r"tile_px: expected an int in \[8, 4096\], received float 2.5",
         ),
         (
             lambda: tj.DistanceConfig.from_metres(sigma_m=1000, resolution_m=0.05),
@@ -388,6 +388,48 @@ def test_bad_inputs_raise_clear_errors():
         tj.SkeletonConfig(thinning="lee")
     with pytest.raises(ValueError, match="tile_px"):
         tj.PipelineConfig(tile_px=0)
+
+
+_TILED = {
+    "PipelineConfig": lambda **kw: tj.PipelineConfig(**kw),
+    "dense_fields": lambda **kw: tj.dense_fields(np.eye(16, dtype=bool), **kw),
+    "distance_map": lambda **kw: tj.distance_map(np.eye(16, dtype=bool), **kw),
+    "ridge_map": lambda **kw: tj.ridge_map(np.eye(16, dtype=bool), **kw),
+}
+
+
+@pytest.mark.parametrize("name", list(_TILED))
+def test_kernel_tile_sizes_are_bounded(name):
+    """A tile side outside [8, 4096] is refused up front, naming the option: a huge one
+    would otherwise ask for exabytes (a MemoryError from inside NumPy) for a 16 x 16 map."""
+    call = _TILED[name]
+    with pytest.raises(ValueError, match=r"tile_px: expected an int in \[8, 4096\], received 5"):
+        call(tile_px=5)
+    with pytest.raises(ValueError, match=r"tile_px: expected .*received 1000000000000"):
+        call(tile_px=10**12)
+    call(tile_px=8)  # the smallest tile is fine
+
+
+@pytest.mark.parametrize("name", ["PipelineConfig", "dense_fields"])
+def test_kernel_buckets_are_bounded(name):
+    """More than 2**28 tile pixels per kernel call is refused up front: every call is
+    padded to the full bucket, so 10**6 tiles per call asked for 30 GB for a small map."""
+    call = _TILED[name]
+    with pytest.raises(
+        ValueError, match=r"tiles_per_call: expected an int from 1 to 4096 .*received 1000000"
+    ):
+        call(tile_px=256, tiles_per_call=10**6)
+    with pytest.raises(ValueError, match=r"tiles_per_call: expected an int from 1 to 16 "):
+        call(tile_px=4096, tiles_per_call=17)
+    call(tile_px=8, tiles_per_call=3)
+
+
+def test_negative_ridge_threshold_is_refused():
+    """``round(|Laplacian|) > threshold`` holds for every pixel when the threshold is
+    negative: the whole map, walls included, would come back as ridge pixels."""
+    with pytest.raises(ValueError, match=r"threshold: expected a finite number >= 0 .*-1.0"):
+        tj.RidgeConfig(threshold=-1)
+    assert tj.RidgeConfig(threshold=0).threshold == 0.0
 
 
 def test_tile_size_does_not_change_result():

@@ -493,7 +493,7 @@ def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "existing_file", "finite_pair",
         "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
-        "integer", "is_real_number", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
+        "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pose", "positive_int", "positive_metres",
         "quantity", "real_number",
     }  # fmt: skip
@@ -539,3 +539,28 @@ def test_public_functions_name_a_bad_argument(call, exc, message):
 
     with pytest.raises(exc, match=message):
         call(tj)
+
+
+# --------------------------------------------------------------------------------------
+# kernel tiles
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("value", "exc", "received"),
+    [(7, ValueError, "7"), (4097, ValueError, "4097"), (True, TypeError, "bool True")],
+)
+def test_kernel_tile_px_range(value, exc, received):
+    assert v.kernel_tile_px("tile_px", np.int16(8)) == 8
+    with pytest.raises(
+        exc, match=rf"^tile_px: expected an int in \[8, 4096\], received {received}"
+    ):
+        v.kernel_tile_px("tile_px", value)
+
+
+def test_kernel_tiles_per_call_caps_the_pixels_of_a_call():
+    assert v.kernel_tiles_per_call("tiles_per_call", 4096, 256) == 4096
+    with pytest.raises(ValueError, match=r"^tiles_per_call: expected an int from 1 to 4096 "):
+        v.kernel_tiles_per_call("tiles_per_call", 4097, 256)
+    with pytest.raises(ValueError, match=r"^tiles_per_call: expected an int >= 1, received 0"):
+        v.kernel_tiles_per_call("tiles_per_call", 0, 256)

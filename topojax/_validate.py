@@ -30,6 +30,8 @@ __all__ = [
     "int_at_least",
     "integer",
     "is_real_number",
+    "kernel_tile_px",
+    "kernel_tiles_per_call",
     "metres",
     "metres_per_pixel",
     "names_subset",
@@ -178,6 +180,42 @@ def metres_per_pixel(name: str, value: Any) -> float:
             f"pixel, received {res!r}"
         )
     return res
+
+
+#: The tile sides (pixels) the JAX kernels run on, smallest and largest.
+MIN_KERNEL_TILE_PX = 8
+MAX_KERNEL_TILE_PX = 4096
+
+#: The most tile pixels one kernel call may carry (``tiles_per_call * tile_px**2``; e.g.
+#: 4096 tiles of 256 px): the call's stacked inputs and outputs take about 10 bytes per
+#: pixel, so a larger bucket asks for tens of GB before the first kernel runs.
+MAX_CALL_PX = 2**28
+
+
+def kernel_tile_px(name: str, value: Any) -> int:
+    """``value`` as an int after checking it is an integer from
+    :data:`MIN_KERNEL_TILE_PX` to :data:`MAX_KERNEL_TILE_PX` (a kernel tile side in
+    pixels); a ``TypeError`` for a non-integer, a ``ValueError`` otherwise."""
+    expected = f"{name}: expected an int in [{MIN_KERNEL_TILE_PX}, {MAX_KERNEL_TILE_PX}]"
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise TypeError(f"{expected}, received {type(value).__name__} {value!r}")
+    if not MIN_KERNEL_TILE_PX <= value <= MAX_KERNEL_TILE_PX:
+        raise ValueError(f"{expected}, received {int(value)}")
+    return int(value)
+
+
+def kernel_tiles_per_call(name: str, value: Any, tile_px: int) -> int:
+    """``value`` as an int after checking it is an integer >= 1 (:func:`int_at_least`)
+    whose kernel calls of ``tile_px``-pixel tiles carry at most :data:`MAX_CALL_PX`
+    pixels; a ``ValueError`` naming the largest allowed count otherwise."""
+    n = int_at_least(name, value, 1)
+    most = max(1, MAX_CALL_PX // (tile_px * tile_px))
+    if n > most:
+        raise ValueError(
+            f"{name}: expected an int from 1 to {most} (at most {MAX_CALL_PX} pixels per "
+            f"kernel call of {tile_px} x {tile_px} px tiles), received {n}"
+        )
+    return n
 
 
 #: The largest map origin coordinate (metres): beyond it a float64 world coordinate no

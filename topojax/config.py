@@ -13,10 +13,11 @@ from ._validate import (
     finite_positive,
     flag,
     integer,
+    kernel_tile_px,
+    kernel_tiles_per_call,
     metres_per_pixel,
     nonnegative_metres,
     one_of,
-    positive_int,
     positive_metres,
     quantity,
     real_number,
@@ -166,7 +167,8 @@ class RidgeConfig:
     ksize : int
         OpenCV Laplacian aperture: 1, 3 or 5 (paper: 5).
     threshold : float
-        Ridge threshold on the rounded absolute response (paper: 10; strict ``>``).
+        Ridge threshold on the rounded absolute response, ``>= 0`` (paper: 10; strict
+        ``>``).
     """
 
     scale: float = 255.0
@@ -180,7 +182,13 @@ class RidgeConfig:
             raise ValueError(
                 f"ksize: expected 1, 3 or 5 (OpenCV apertures), received {self.ksize!r}"
             )
-        _canonical(self, "threshold", real_number("threshold", self.threshold))
+        threshold = real_number("threshold", self.threshold)
+        if threshold < 0:  # every pixel's rounded |response| is >= 0: all would be ridges
+            raise ValueError(
+                f"threshold: expected a finite number >= 0 (on the rounded absolute "
+                f"Laplacian), received {threshold!r}"
+            )
+        _canonical(self, "threshold", threshold)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -291,7 +299,9 @@ class PipelineConfig:
                 raise TypeError(
                     f"{name}: expected a {kind.__name__}, received {type(value).__name__} {value!r}"
                 )
-        for name in ("tile_px", "tiles_per_call"):
-            _canonical(self, name, positive_int(name, getattr(self, name)))
-        if self.tile_px < 8 or self.tile_px > 4096:
-            raise ValueError(f"tile_px: expected an int in [8, 4096], received {self.tile_px}")
+        _canonical(self, "tile_px", kernel_tile_px("tile_px", self.tile_px))
+        _canonical(
+            self,
+            "tiles_per_call",
+            kernel_tiles_per_call("tiles_per_call", self.tiles_per_call, self.tile_px),
+        )

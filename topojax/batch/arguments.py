@@ -10,7 +10,15 @@ from typing import Any
 
 from .._cpus import as_executor
 from .._fs import refuse_overwriting_inputs
-from .._validate import flag, instance_or_default, int_at_least, one_of, positive_metres
+from .._validate import (
+    flag,
+    instance_or_default,
+    int_at_least,
+    kernel_tiles_per_call,
+    one_of,
+    path_like,
+    positive_metres,
+)
 from ..config import PipelineConfig
 from ..maps import MODES, OccupancyMap
 from ..routegraph import RouteGraphConfig
@@ -148,12 +156,12 @@ def kernel_settings(
 ) -> tuple[int, int, int]:
     """The checked ``(tiles_per_call, kernel_threads, batch_tiles)`` of
     :func:`build_graphs`, defaults filled in."""
-    tpc = int_at_least(
+    tpc = kernel_tiles_per_call(
         "tiles_per_call",
         max(config.tiles_per_call, DEFAULT_TILES_PER_CALL)
         if tiles_per_call is None
         else tiles_per_call,
-        1,
+        config.tile_px,
     )
     threads = int_at_least(
         "kernel_threads",
@@ -198,14 +206,17 @@ def map_inputs(
 def check_options(
     *, map_mode: Any, flags: dict[str, Any], sigma_m: Any, out_dir: Any
 ) -> float | None:
-    """Check ``map_mode``, the bool ``flags`` (``keep_graphs`` may be None), ``sigma_m``
-    and that ``plot``/``resume`` have an ``out_dir``; the checked ``sigma_m``."""
+    """Check ``map_mode``, the bool ``flags`` (``keep_graphs`` may be None), ``sigma_m``,
+    that ``out_dir`` is a path or None and that ``plot``/``resume`` have one; the checked
+    ``sigma_m``."""
     one_of("map_mode", map_mode, (*MODES, None))
     for name, value in flags.items():
         if not (name == "keep_graphs" and value is None):
             flag(name, value)
     if sigma_m is not None:
         sigma_m = positive_metres("sigma_m", sigma_m)
+    if out_dir is not None:
+        path_like("out_dir", out_dir)
     if out_dir is None and (flags["plot"] or flags["resume"]):
         raise ValueError(
             "out_dir: expected a folder (plot=True and resume=True need one), received None"

@@ -25,7 +25,13 @@ from jax import lax
 
 from .._cpus import usable_cpus
 from .._jit import TRACES, trace_counts
-from .._validate import instance_or_default, names_subset, positive_int
+from .._validate import (
+    instance_or_default,
+    kernel_tile_px,
+    kernel_tiles_per_call,
+    names_subset,
+    positive_int,
+)
 from ..config import DistanceConfig, RidgeConfig
 from .distance import (
     column_distance_tile,
@@ -420,8 +426,8 @@ def _run_kernels(
     maps = [_as_obstacles(o) for o in obstacle_maps]
     distance = instance_or_default("distance", distance, DistanceConfig)
     ridge = instance_or_default("ridge", ridge, RidgeConfig)
-    tile_px = positive_int("tile_px", tile_px)
-    tiles_per_call = positive_int("tiles_per_call", tiles_per_call)
+    tile_px = kernel_tile_px("tile_px", tile_px)
+    tiles_per_call = kernel_tiles_per_call("tiles_per_call", tiles_per_call, tile_px)
     if not maps:
         return [], []
     batch = _TileBatch(maps, tile_px, tiles_per_call)

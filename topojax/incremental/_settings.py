@@ -53,14 +53,6 @@ def merged_config(config, distance, ridge, skeleton) -> PipelineConfig:
         tile_px=config.tile_px,
         tiles_per_call=config.tiles_per_call,
     )
-    if config.ridge.threshold < 0:
-        # then every pixel is a ridge pixel, also far from any obstacle where no tile
-        # (and no ridge update) exists
-        raise ValueError(
-            "ridge.threshold: expected a value >= 0 for incremental mapping (a negative "
-            "threshold makes every pixel of the unbounded map a ridge pixel), received "
-            f"{config.ridge.threshold}"
-        )
     if config.graph.merge_junction_clusters:
         raise ValueError(
             "config.graph.merge_junction_clusters=True is not supported incrementally; "

@@ -107,8 +107,7 @@ class IncrementalMapper:
     config : PipelineConfig, optional
         Distance, ridge and skeleton settings (default: the paper's).  Its ``tile_px`` and
         ``tiles_per_call`` are the full-map pipeline's and are not used here.
-        ``config.graph.merge_junction_clusters`` must be False, and the ridge threshold
-        at least 0 (a negative one makes every pixel of the unbounded map a ridge pixel).
+        ``config.graph.merge_junction_clusters`` must be False.
     distance, ridge, skeleton : configs, optional
         Override the corresponding part of ``config``.
     tile_px : int
