@@ -1463,6 +1463,23 @@ def test_vertex_error_metrics_on_known_graphs():
             vertex_error_metrics(a, b, outlier_px=bad)
 
 
+def test_vertex_error_metrics_checks_the_region():
+    """A region of the wrong length failed with Python's unpacking error, naming nothing;
+    a NaN or empty one (row0 >= row1) gave n_vertices 0 and NaN metrics without a word."""
+    a = nx.Graph()
+    a.add_node(0, pixel=(5, 5))
+    assert vertex_error_metrics(a, a, region=(0.0, 10, np.int64(0), 10))["n_vertices"] == 1
+    for bad in ((0, 10), (0, 10, 0, 10, 0), (0, np.nan, 0, 10), (0, 10, -np.inf, 10)):
+        with pytest.raises(ValueError, match=r"^region: expected 4 finite numbers \(row0, row1"):
+            vertex_error_metrics(a, a, region=bad)
+    for bad in ("abcd", (0, 10, True, 10), None.__class__):
+        with pytest.raises(TypeError, match="^region: expected 4 finite numbers"):
+            vertex_error_metrics(a, a, region=bad)
+    for bad in ((10, 0, 0, 10), (0, 10, 5, 5)):
+        with pytest.raises(ValueError, match="^region: expected row0 < row1 and col0 < col1"):
+            vertex_error_metrics(a, a, region=bad)
+
+
 # --------------------------------------------------------------------------------------
 # Compilation, state, replay
 # --------------------------------------------------------------------------------------
@@ -2443,3 +2460,17 @@ def test_add_scans_and_save_name_a_bad_argument(tmp_path):
     with pytest.raises(TypeError, match=r"path: expected a path .*received int"):
         mapper.save(5)
     assert mapper.n_scans == 0 and not list(tmp_path.iterdir())
+
+
+def test_world_to_pixel_refuses_what_has_no_pixel():
+    """NaN, an infinity or None became the pixel -9223372036854775808 (int64's minimum)
+    with only a NumPy cast warning; a string failed inside NumPy naming no argument."""
+    m = IncrementalMapper(resolution_m=0.1)
+    assert m.world_to_pixel(0.25, -0.25) == (2, 2)
+    for bad, exc in ((math.nan, ValueError), (math.inf, ValueError), (None, TypeError)):
+        with pytest.raises(exc, match="^x: expected"):
+            m.world_to_pixel(bad, 0.0)
+        with pytest.raises(exc, match="^y: expected"):
+            m.world_to_pixel([0.0, 1.0], [0.0, bad])
+    with pytest.raises(TypeError, match="^x: expected a number or an array of real numbers"):
+        m.world_to_pixel("1", 0.0)

@@ -282,6 +282,24 @@ def test_pixel_to_world_without_yaw_matches_map_server_formula():
     np.testing.assert_allclose(y, -3.0 + (5 - rows - 0.5) * 0.1, rtol=0, atol=1e-12)
 
 
+def test_coordinate_conversions_refuse_non_numbers():
+    """None became NaN coordinates without a word, and a string failed inside NumPy
+    ("could not convert string to float"), naming no argument."""
+    m = _small_map()
+    tiled = tj.TiledMap.from_occupancy(m)
+    for convert, names in (
+        (m.pixel_to_world, ("rows", "cols")),
+        (tiled.pixel_to_world, ("rows", "cols")),
+        (m.world_to_pixel, ("x", "y")),
+    ):
+        for bad in (None, "a", [True, False]):
+            with pytest.raises(TypeError, match=f"^{names[0]}: expected a number or an array"):
+                convert(bad, 0)
+            with pytest.raises(TypeError, match=f"^{names[1]}: expected a number or an array"):
+                convert(0, bad)
+    assert np.isnan(m.pixel_to_world(np.nan, 0)[0])  # NaN stays a float: it propagates
+
+
 @pytest.mark.parametrize("yaw", [0.0, 0.3, -1.2, math.pi / 2, math.pi, 2.5])
 def test_pixel_to_world_with_yaw_and_round_trip(yaw: float):
     res, ox, oy = 0.05, 1.5, -2.25

@@ -491,9 +491,9 @@ def test_path_like(tmp_path):
 
 def test_every_exported_check_is_tested():
     tested = {
-        "binary_flag", "binary_image", "existing_file", "finite_pair",
+        "binary_flag", "binary_image", "existing_file", "finite_numbers", "finite_pair",
         "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
-        "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
+        "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pose", "positive_int", "positive_metres",
         "quantity", "real_number",
     }  # fmt: skip
@@ -564,3 +564,28 @@ def test_kernel_tiles_per_call_caps_the_pixels_of_a_call():
         v.kernel_tiles_per_call("tiles_per_call", 4097, 256)
     with pytest.raises(ValueError, match=r"^tiles_per_call: expected an int >= 1, received 0"):
         v.kernel_tiles_per_call("tiles_per_call", 0, 256)
+
+
+def test_real_array_refuses_what_numpy_would_turn_into_nan_or_fail_on():
+    out = v.real_array("rows", [1, 2.5])
+    assert out.dtype == np.float64 and out.tolist() == [1.0, 2.5]
+    assert v.real_array("rows", np.int32(3)).shape == ()
+    assert math.isnan(v.real_array("rows", NAN))  # NaN is a float unless finite=True
+    for bad in (None, "1", [True], [object()]):
+        with pytest.raises(TypeError, match="^rows: expected a number or an array of real"):
+            v.real_array("rows", bad)
+    with pytest.raises(ValueError, match=r"^x: expected finite numbers, received inf among"):
+        v.real_array("x", [0.0, INF], finite=True)
+
+
+def test_finite_numbers():
+    assert v.finite_numbers("region", (0, np.int8(1), 2.5, np.float32(3)), 4, "(a, b, c, d)") == (
+        0.0,
+        1.0,
+        2.5,
+        3.0,
+    )
+    with pytest.raises(ValueError, match=r"^region: expected 4 finite numbers \(a\), received"):
+        v.finite_numbers("region", (0, 1, 2), 4, "(a)")
+    with pytest.raises(TypeError, match=r"^region: expected 4 finite numbers \(a\), received str"):
+        v.finite_numbers("region", "0123", 4, "(a)")

@@ -22,6 +22,7 @@ __all__ = [
     "binary_flag",
     "binary_image",
     "existing_file",
+    "finite_numbers",
     "finite_pair",
     "finite_positive",
     "flag",
@@ -45,6 +46,7 @@ __all__ = [
     "positive_int",
     "positive_metres",
     "quantity",
+    "real_array",
     "real_number",
 ]
 
@@ -105,6 +107,24 @@ def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
         expected = "a number, not NaN" if allow_inf else "a finite number"
         raise ValueError(f"{name}: expected {expected}, received {out!r}")
     return out
+
+
+def real_array(name: str, value: Any, *, finite: bool = False) -> np.ndarray:
+    """``value`` as a float64 array (any shape; 0-d for a number) after checking it holds
+    real numbers: a ``TypeError`` naming ``name`` for None, strings, bools or objects
+    (NumPy would turn None into NaN or fail on a string without naming the argument); a
+    ``ValueError`` for NaN or an infinity when ``finite``."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(
+            f"{name}: expected a number or an array of real numbers, received "
+            f"{type(value).__name__} of dtype {arr.dtype}"
+        )
+    arr = arr.astype(np.float64, copy=False)
+    if finite and not np.isfinite(arr).all():
+        bad = arr[~np.isfinite(arr)].flat[0]
+        raise ValueError(f"{name}: expected finite numbers, received {float(bad)!r} among them")
+    return arr
 
 
 def flag(name: str, value: object) -> bool:
@@ -350,6 +370,14 @@ def finite_pair(name: str, value: Any, what: str) -> np.ndarray:
     error (e.g. ``"(x, y) in metres"``)."""
     expected = f"{name}: expected two finite numbers {what}"
     return np.array(_finite_items(value, 2, expected), dtype=np.float64)
+
+
+def finite_numbers(name: str, value: Any, n: int, what: str) -> tuple[float, ...]:
+    """``value`` as a tuple of ``n`` floats after checking it holds ``n`` finite numbers:
+    a ``TypeError`` unless it is an iterable of numbers (bools are not), a ``ValueError``
+    for another count or a non-finite one; ``what`` describes them in the error (e.g.
+    ``"(row0, row1, col0, col1) in pixels"``)."""
+    return tuple(_finite_items(value, n, f"{name}: expected {n} finite numbers {what}"))
 
 
 def path_like(name: str, value: Any) -> Path:

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import networkx as nx
 import numpy as np
 
-from .._validate import instance_of, path_like
+from .._validate import instance_of, path_like, real_array
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..fields.distance import FAR_SQ
 from ..fields.filters import HALO_PX
@@ -273,10 +273,11 @@ class IncrementalMapper:
         return self._tiles.pixel_bbox
 
     def world_to_pixel(self, x, y) -> tuple[np.ndarray, np.ndarray]:
-        """Global lattice pixel ``(row, col)`` (int64) containing world points ``(x, y)``."""
+        """Global lattice pixel ``(row, col)`` (int64) containing world points ``(x, y)``
+        (finite metres, broadcast together)."""
         res = self.resolution_m
-        rows = np.floor(-np.asarray(y, np.float64) / res).astype(np.int64)
-        cols = np.floor(np.asarray(x, np.float64) / res).astype(np.int64)
+        rows = np.floor(-real_array("y", y, finite=True) / res).astype(np.int64)
+        cols = np.floor(real_array("x", x, finite=True) / res).astype(np.int64)
         return rows, cols
 
     # ------------------------------------------------------------------ scans

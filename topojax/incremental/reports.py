@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .._validate import nx_graph, real_number
+from .._validate import finite_numbers, nx_graph, real_number
 
 
 @dataclass(frozen=True)
@@ -139,6 +139,10 @@ def vertex_error_metrics(
     outlier_px = real_number("outlier_px", outlier_px, allow_inf=True)
     if not outlier_px > 0:  # inf: no outliers
         raise ValueError(f"outlier_px: expected a number > 0, received {outlier_px!r}")
+    if region is not None:
+        region = finite_numbers("region", region, 4, "(row0, row1, col0, col1) in pixels")
+        if not (region[0] < region[1] and region[2] < region[3]):
+            raise ValueError(f"region: expected row0 < row1 and col0 < col1, received {region}")
 
     def pixels(g: nx.Graph, name: str) -> np.ndarray:
         pts = []

@@ -20,7 +20,14 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import binary_flag, metres_per_pixel, occupancy_thresholds, one_of, pose
+from .._validate import (
+    binary_flag,
+    metres_per_pixel,
+    occupancy_thresholds,
+    one_of,
+    pose,
+    real_array,
+)
 from .classify import (
     _FREE,
     _OCC,
@@ -44,8 +51,8 @@ def grid_to_world(rows, cols, *, height: int, resolution_m: float, origin):
     """World ``x, y`` (metres, float64) of continuous pixel coordinates of a grid of
     ``height`` rows with ``resolution_m`` metres per pixel whose lower-left corner is at
     ``origin`` (x, y, yaw); integer values are pixel centres (conventions above)."""
-    r = np.asarray(rows, dtype=np.float64)
-    c = np.asarray(cols, dtype=np.float64)
+    r = real_array("rows", rows)
+    c = real_array("cols", cols)
     ox, oy, yaw = origin
     xm = (c + 0.5) * resolution_m
     ym = (height - r - 0.5) * resolution_m
@@ -173,8 +180,8 @@ class OccupancyMap:
             Continuous pixel coordinates; pixel centres are at integer values. Points
             outside the grid give values outside ``[-0.5, H - 0.5)`` / ``[-0.5, W - 0.5)``.
         """
-        dx = np.asarray(x, dtype=np.float64) - self.origin[0]
-        dy = np.asarray(y, dtype=np.float64) - self.origin[1]
+        dx = real_array("x", x) - self.origin[0]
+        dy = real_array("y", y) - self.origin[1]
         yaw = self.origin[2]
         cos_t, sin_t = math.cos(yaw), math.sin(yaw)
         xm = cos_t * dx + sin_t * dy
