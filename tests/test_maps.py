@@ -1018,6 +1018,9 @@ def test_save_map_errors(tmp_path: Path):
         save_map(m, tmp_path / "out.txt")
     with pytest.raises(ValueError, match="image_name"):
         save_map(m, tmp_path / "out.yaml", image_name="../x.pgm")
+    # not a str: named, not pathlib's "expected str, bytes or os.PathLike object"
+    with pytest.raises(TypeError, match=r"^image_name: expected a bare file name .*received int"):
+        save_map(m, tmp_path / "out.yaml", image_name=3)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="OccupancyMap"):
         save_map(np.zeros((3, 3)), tmp_path / "out.yaml")  # type: ignore[arg-type]
     with pytest.raises(FileNotFoundError):

@@ -408,3 +408,12 @@ def test_command_line_writes_recordings(tmp_path, capsys):
     assert str(tmp_path / "rg.mcap") in capsys.readouterr().out
     assert main([*rg, str(tmp_path / "rg.bag")]) != 0
     assert "--mcap: expected a file name ending in .mcap" in capsys.readouterr().err
+
+
+def test_save_mcap_names_a_wrong_rooms_argument(tmp_path):
+    """The check of ``rooms`` came from the recorder's ``add_rooms`` and named its ``seg``;
+    it now names ``rooms`` and comes before the file is opened."""
+    result = tj.build_graph(tj.OccupancyMap.from_array(np.eye(16, dtype=bool)))
+    with pytest.raises(TypeError, match="^rooms: expected a RoomSegmentation, received str"):
+        tj.save_mcap(result, tmp_path / "a.mcap", rooms="rooms.json")
+    assert not (tmp_path / "a.mcap").exists()

@@ -1177,6 +1177,8 @@ def test_bag_without_poses(tmp_path):
     _write_robot_bag(path, 1, with_tf=False)
     with pytest.raises(ValueError, match="allow_missing_pose"):
         read_bag(path)
+    with pytest.raises(TypeError, match="^allow_missing_pose: expected a bool, received str"):
+        read_bag(path, allow_missing_pose="no")  # a non-empty str was taken as True
     scans = list(read_bag(path, allow_missing_pose=True))
     assert len(scans) == len(SCAN_TIMES)
     assert all(s.pose == (0.0, 0.0, 0.0) and s.sensor_offset == (0.0, 0.0, 0.0) for s in scans)

@@ -418,6 +418,19 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tj.open_tiled_map(tmp_path / "m.png")
     with pytest.raises(ValueError, match="window"):
         TiledMap.from_occupancy(m).codes(0, 800, 0, 10)
+    # a fractional bound was truncated (rows 1.5:3 read as 1:3), None failed in a comparison
+    tiled = TiledMap.from_occupancy(m)
+    with pytest.raises(TypeError, match=r"^r0: expected an int, received float 1\.5"):
+        tiled.codes(1.5, 3, 0, 3)
+    with pytest.raises(TypeError, match="^c1: expected an int, received NoneType"):
+        tiled.values(0, 3, 0, None)
+    with pytest.raises(TypeError, match="^r1: expected an int, received bool"):
+        tiled.occupied(0, True, 0, 3)
+    with pytest.raises(TypeError, match="^occupancy: expected an OccupancyMap, received ndarray"):
+        TiledMap.from_occupancy(np.zeros((4, 4), bool))
+    # out_dir that is not a path: named, not pathlib's TypeError
+    with pytest.raises(TypeError, match=r"^out_dir: expected a path \(str or os.PathLike\)"):
+        tj.build_graph_tiled(m, out_dir=3)
     with pytest.raises(TypeError, match="reader"):
         TiledMap.from_array(np.zeros((4, 4), np.float32))
     with pytest.raises(ValueError, match="format"):

@@ -635,3 +635,10 @@ def test_the_index_page_links_views_whose_names_hold_url_characters():
     hrefs = re.findall(r'href="([^"]*)"', page)
     assert [unquote(h) for h in hrefs] == names
     assert not any(c in h for h in hrefs for c in "#? ")
+
+
+def test_timeline_snapshot_names_a_wrong_mapper():
+    """``snapshot`` (unlike ``record``) read ``mapper.pixel_bbox`` first and failed with an
+    AttributeError on anything else."""
+    with pytest.raises(TypeError, match="^mapper: expected an IncrementalMapper, received int"):
+        tj.Timeline().snapshot(3)

@@ -7,6 +7,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from ._validate import path_like
+
 __all__ = [
     "atomic_write_bytes",
     "input_files",
@@ -31,8 +33,9 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
     Raises NotADirectoryError naming ``name`` when ``path``, or a folder above it, is an
     existing file (``mkdir`` itself only says "File exists" / "Not a directory"), and an
     OSError naming it when the folder cannot be made (no permission, a read-only or full
-    file system), or when a file cannot be created in it (tried with an empty one)."""
-    folder = Path(path)
+    file system), or when a file cannot be created in it (tried with an empty one); a
+    TypeError naming it when ``path`` is not a path (:func:`~topojax._validate.path_like`)."""
+    folder = path_like(name, path)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError):

@@ -50,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from .._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
-from .._validate import no_file_above
+from .._validate import instance_of, no_file_above
 
 __all__ = [
     "LASER_FRAME",
@@ -601,6 +601,10 @@ def save_mcap(result, path, *, rooms=None, route_graph=None) -> Path:
                 f"result: expected a TopologyResult (from build_graph), received "
                 f"{type(result).__name__} (no {name})"
             )
+    if rooms is not None:
+        from ..rooms import RoomSegmentation
+
+        instance_of("rooms", rooms, RoomSegmentation)
     if route_graph is not None:
         _check_graph("route_graph", route_graph)
     with McapRecorder(path) as rec:

@@ -449,6 +449,11 @@ def save_map(
         )
     if image_name is None:
         image_name = yp.stem + ".pgm"
+    if not isinstance(image_name, str):
+        raise TypeError(
+            "image_name: expected a bare file name ending in .pgm (a str), received "
+            f"{type(image_name).__name__} {image_name!r}"
+        )
     if Path(image_name).name != image_name or not image_name.lower().endswith(".pgm"):
         raise ValueError(
             f"image_name: expected a bare file name ending in .pgm, received {image_name!r}"

@@ -33,7 +33,9 @@ import numpy as np
 from .._fs import output_folder
 from .._validate import (
     binary_flag,
+    instance_of,
     int_at_least,
+    integer,
     metres_per_pixel,
     occupancy_thresholds,
     one_of,
@@ -62,6 +64,10 @@ TILE_INDEX = "tiles.json"
 _FOLDER_FORMAT = "topojax-tiles"
 _KINDS = ("image", "grid", "mask")
 _DTYPE_KIND = {"uint8": "image", "uint16": "image", "int8": "grid", "bool": "mask"}
+
+
+#: The names of a window's bounds, as the reading methods take them.
+_BOX = ("r0", "r1", "c0", "c1")
 
 
 class TiledMap:
@@ -144,6 +150,7 @@ class TiledMap:
     @classmethod
     def from_occupancy(cls, occupancy: OccupancyMap) -> TiledMap:
         """A TiledMap of an :class:`OccupancyMap`'s classes (read from its masks)."""
+        instance_of("occupancy", occupancy, OccupancyMap)
         return cls(
             _MapReader(occupancy),
             resolution_m=occupancy.resolution_m,
@@ -159,12 +166,13 @@ class TiledMap:
 
     def _box(self, r0: int, r1: int, c0: int, c1: int) -> tuple[int, int, int, int]:
         h, w = self.shape
+        r0, r1, c0, c1 = (integer(n, v) for n, v in zip(_BOX, (r0, r1, c0, c1), strict=True))
         if not (0 <= r0 <= r1 <= h and 0 <= c0 <= c1 <= w):
             raise ValueError(
                 f"window: expected 0 <= r0 <= r1 <= {h} and 0 <= c0 <= c1 <= {w}, received "
                 f"rows {r0}:{r1}, cols {c0}:{c1}"
             )
-        return int(r0), int(r1), int(c0), int(c1)
+        return r0, r1, c0, c1
 
     def values(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         """The stored values of the window ``[r0:r1, c0:c1]`` (a new array)."""

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import one_of, real_number
+from .._validate import flag, one_of, path_like, real_number
 from .._validate import pose as checked_pose
 from ._mcap import _MCAP_MAGIC, _McapSequential
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
@@ -213,8 +213,9 @@ def read_bag(
     ValueError
         Unreadable bag, topic selection problems, missing pose source or tf frames.
     """
-    p = Path(path)
+    p = path_like("path", path)
     one_of("missing_pose", missing_pose, ("skip", "error"))
+    allow_missing_pose = flag("allow_missing_pose", allow_missing_pose)
     tol = real_number("pose_tolerance_s", pose_tolerance_s)
     if tol < 0:
         raise ValueError(f"pose_tolerance_s: expected a value >= 0 s, received {tol!r}")

@@ -137,6 +137,9 @@ class Timeline:
         rooms : bool
             Also keep the mapper's rooms (otherwise those of the previous snapshot stay).
         """
+        from ..incremental import IncrementalMapper
+
+        instance_of("mapper", mapper, IncrementalMapper)
         self._writable()
         if mapper.pixel_bbox is None:
             return
