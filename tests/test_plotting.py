@@ -354,3 +354,31 @@ def test_route_graph_picture_of_any_graph_the_evaluator_scores():
     ):
         plot_route_graph(g, occ, robot_radius_m=0.3)
     plt.close("all")
+
+
+def test_drawing_options_name_themselves(result):
+    """Wrong drawing options failed inside matplotlib naming no option ("s must be float",
+    "figure size must be positive finite"), or were drawn anyway (a NaN or negative line
+    width, skeleton="no" taken as True, a str route failing with an AttributeError)."""
+    occ = tj.OccupancyMap.from_array(np.pad(np.zeros((20, 20), bool), 2, constant_values=True))
+    routes = tj.route_graph(occ, robot_radius_m=0.1)
+    bad = [
+        (dict(linewidth=np.nan), ValueError, "^linewidth: expected a finite number of points"),
+        (dict(linewidth=-1.0), ValueError, "^linewidth: expected a finite number of points"),
+        (dict(node_size="big"), TypeError, "^node_size: expected a real number of points"),
+        (dict(edge_color="#ff7f0"), ValueError, "^edge_color: expected a matplotlib colour"),
+    ]
+    for kwargs, exc, match in bad:
+        with pytest.raises(exc, match=match):
+            tj.plot_route_graph(routes, occ, **kwargs)
+        with pytest.raises(exc, match=match):
+            plot_graph(result.graph, **kwargs)
+    with pytest.raises(TypeError, match="^skeleton: expected a bool, received str"):
+        tj.plot(result, skeleton="no")
+    with pytest.raises(TypeError, match="^route: expected a Route, received str"):
+        tj.plot(result, route="route.json")
+    with pytest.raises(ValueError, match=r"^figsize: expected \(width, height\) in inches > 0"):
+        plot_stages(result, figsize=(-1, 5))
+    with pytest.raises(ValueError, match="^figsize: expected two finite numbers"):
+        plot_stages(result, figsize=(5,))
+    plt.close("all")

@@ -7,7 +7,7 @@ import sys
 import numpy as np
 
 from .._constants import EDGE_COLOUR
-from .._validate import instance_of, nx_graph
+from .._validate import finite_pair, flag, instance_of, nonnegative_quantity, nx_graph
 from .style import (
     MARGIN_COLOUR,
     add_legend,
@@ -115,6 +115,20 @@ def _vertices_by_kind(graph) -> dict[str, list]:
     return points
 
 
+def _graph_style(edge_color, linewidth, node_size) -> dict:
+    """The checked drawing options of :func:`plot_graph` and :func:`plot_route_graph`:
+    a matplotlib colour and two finite sizes ``>= 0`` (points, points^2)."""
+    from matplotlib.colors import is_color_like
+
+    if not is_color_like(edge_color):
+        raise ValueError(f"edge_color: expected a matplotlib colour, received {edge_color!r}")
+    return {
+        "edge_color": edge_color,
+        "linewidth": nonnegative_quantity("linewidth", linewidth, "points"),
+        "node_size": nonnegative_quantity("node_size", node_size, "points^2"),
+    }
+
+
 def plot_graph(
     graph,
     *,
@@ -145,12 +159,11 @@ def plot_graph(
     matplotlib Axes
         With the legend of edges and vertex kinds under the graph (:func:`add_legend`).
     """
+    style = _graph_style(edge_color, linewidth, node_size)
     ax = axes_or_new(ax)
     segments = [np.asarray(data["path"], float)[:, ::-1] for _, _, data in graph.edges(data=True)]
     points = _vertices_by_kind(graph)
-    draw_graph_lines(
-        ax, segments, points, edge_color=edge_color, linewidth=linewidth, node_size=node_size
-    )
+    draw_graph_lines(ax, segments, points, **style)
     if graph.number_of_nodes():
         add_legend(ax)
     shape = graph.graph.get("shape")
@@ -253,6 +266,7 @@ def plot_route_graph(
     from ..routegraph.feasible import feasible_space
 
     nx_graph("graph", graph, undirected=False)
+    style = _graph_style(edge_color, linewidth, node_size)
     occupancy = map_argument("occupancy", occupancy, files=True)
     why = map_mismatch(graph, occupancy)
     if why is not None:
@@ -279,14 +293,7 @@ def plot_route_graph(
     points: dict[str, list] = {}
     for node, rc in zip(nodes, vertex_pixels(graph, nodes, occupancy, "auto"), strict=True):
         points.setdefault(graph.nodes[node].get("kind"), []).append((rc[1], rc[0]))
-    draw_graph_lines(
-        ax,
-        route_graph_lines(graph, occupancy),
-        points,
-        edge_color=edge_color,
-        linewidth=linewidth,
-        node_size=node_size,
-    )
+    draw_graph_lines(ax, route_graph_lines(graph, occupancy), points, **style)
     if graph.number_of_nodes():
         add_legend(ax)
     ax.set_aspect("equal")
@@ -413,6 +420,11 @@ def plot(
         ``ax.figure.savefig(path)`` writes a picture.
     """
     result = _as_result(result, ("map", "skeleton", "graph"))
+    skeleton, graph = flag("skeleton", skeleton), flag("graph", graph)
+    if route is not None:
+        from ..routing import Route
+
+        instance_of("route", route, Route)
     if rooms is not None:
         rooms = _room_segmentation(rooms, "rooms")
         if rooms.labels.shape != tuple(result.map.shape):
@@ -462,8 +474,13 @@ def plot_stages(result, *, figsize=(15, 9), title: str | None = None):
     import matplotlib.pyplot as plt
 
     result = _as_result(result, ("map", "distance", "lap_abs", "ridges", "skeleton", "graph"))
+    figsize = finite_pair("figsize", figsize, "(width, height) in inches")
+    if not (figsize > 0).all():
+        raise ValueError(
+            f"figsize: expected (width, height) in inches > 0, received {tuple(figsize)}"
+        )
 
-    fig, axes = plt.subplots(2, 3, figsize=figsize)
+    fig, axes = plt.subplots(2, 3, figsize=tuple(figsize))
     title = title if title is not None else map_name(result.map.source)
     if title:
         fig.suptitle(title)
