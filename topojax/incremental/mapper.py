@@ -273,8 +273,19 @@ class IncrementalMapper:
         return self._tiles.pixel_bbox
 
     def world_to_pixel(self, x, y) -> tuple[np.ndarray, np.ndarray]:
-        """Global lattice pixel ``(row, col)`` (int64) containing world points ``(x, y)``
-        (finite metres, broadcast together)."""
+        """Global lattice pixel containing world points ``(x, y)``.
+
+        Parameters
+        ----------
+        x, y : array_like of float
+            Finite world coordinates in metres, map frame (broadcast together).
+
+        Returns
+        -------
+        rows, cols : np.ndarray of int64
+            Global pixel indices (the square ``col r <= x < (col + 1) r``,
+            ``-(row + 1) r < y <= -row r`` for resolution ``r``), with the broadcast shape.
+        """
         res = self.resolution_m
         rows = np.floor(-real_array("y", y, finite=True) / res).astype(np.int64)
         cols = np.floor(real_array("x", x, finite=True) / res).astype(np.int64)

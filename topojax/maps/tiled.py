@@ -175,13 +175,25 @@ class TiledMap:
         return r0, r1, c0, c1
 
     def values(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
-        """The stored values of the window ``[r0:r1, c0:c1]`` (a new array)."""
+        """The stored values of the window ``[r0:r1, c0:c1]`` (a new array).
+
+        Parameters
+        ----------
+        r0, r1, c0, c1 : int
+            Rows ``r0:r1`` and columns ``c0:c1`` (end exclusive), with
+            ``0 <= r0 <= r1 <= H`` and ``0 <= c0 <= c1 <= W``.
+
+        Returns
+        -------
+        np.ndarray, shape (r1 - r0, c1 - c0)
+            The reader's dtype (uint8 / uint16 image, int8 OccupancyGrid or bool mask).
+        """
         box = self._box(r0, r1, c0, c1)
         return np.array(self.reader.read(*box))
 
     def codes(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
-        """Class codes (uint8 (r1-r0, c1-c0)) of a window: those of the loaded map's
-        pixels (:meth:`occupancy`)."""
+        """Class codes (uint8 (r1-r0, c1-c0)) of a window (bounds as :meth:`values`):
+        those of the loaded map's pixels (:meth:`occupancy`)."""
         box = self._box(r0, r1, c0, c1)
         if isinstance(self.reader, _MapReader):
             return self.reader.codes(*box)
@@ -201,7 +213,7 @@ class TiledMap:
         )
 
     def occupied(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
-        """Obstacle mask (bool) of a window."""
+        """Obstacle mask, bool (r1 - r0, c1 - c0), of a window (bounds as :meth:`values`)."""
         return self.codes(r0, r1, c0, c1) == _OCC
 
     def occupancy(self, r0: int = 0, r1: int | None = None, c0: int = 0, c1: int | None = None):
