@@ -424,6 +424,14 @@ def test_kernel_buckets_are_bounded(name):
     call(tile_px=8, tiles_per_call=3)
 
 
+def test_build_graph_names_its_occupancy_argument_for_a_bad_array():
+    """The conversion's errors named its own argument ("array: ..."), not build_graph's."""
+    with pytest.raises(ValueError, match=r"^occupancy \(read by OccupancyMap.from_array\): "):
+        tj.build_graph(np.zeros(5))
+    with pytest.raises(TypeError, match=r"^occupancy \(read by OccupancyMap.from_array\): "):
+        tj.build_graph(np.array([[object()]]))
+
+
 def test_negative_ridge_threshold_is_refused():
     """``round(|Laplacian|) > threshold`` holds for every pixel when the threshold is
     negative: the whole map, walls included, would come back as ridge pixels."""

@@ -414,7 +414,10 @@ def build_graph(
             f"Path), received {type(occupancy).__name__}"
         )
     elif not isinstance(occupancy, OccupancyMap):
-        occupancy = OccupancyMap.from_array(occupancy)
+        try:
+            occupancy = OccupancyMap.from_array(occupancy)
+        except (TypeError, ValueError) as exc:  # its messages name its own argument
+            raise type(exc)(f"occupancy (read by OccupancyMap.from_array): {exc}") from None
     timings: dict[str, float] = {}
     obstacles = occupancy.occupied
     dense_kept = tuple(n for n in ("sq_distance_px", "distance", "lap_abs") if n in keep)
