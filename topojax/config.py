@@ -272,12 +272,13 @@ class PipelineConfig:
     ----------
     distance, ridge, skeleton, graph : stage configurations
     tile_px : int
-        Side of the square tiles the JAX kernels run on.  Shape-setting: every map size
-        is served by the kernels compiled for this tile size.
+        Side of the square tiles the JAX kernels run on, 8 to 4096.  Shape-setting: every
+        map size is served by the kernels compiled for this tile size.
     tiles_per_call : int
         Number of tiles handed to one kernel call (a fixed bucket, so maps of any size
-        reuse the compiled kernels; a short last call is padded with empty tiles).  On a
-        CPU, 1 wastes nothing on padding and the calls are spread over every core.
+        reuse the compiled kernels; a short last call is padded with empty tiles), at
+        most ``2**28 // tile_px**2``.  On a CPU, 1 wastes nothing on padding and the
+        calls are spread over every core.
     """
 
     distance: DistanceConfig = field(default_factory=DistanceConfig)

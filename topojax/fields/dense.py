@@ -285,9 +285,11 @@ def dense_fields(
         Obstacle mask, ``obstacles[row, col]`` (numeric arrays must hold only 0 and 1).
     distance, ridge : configs, optional
     tile_px : int
-        Tile side (shape-setting; every map size uses the same compiled kernel).
+        Tile side, 8 to 4096 (shape-setting; every map size uses the same compiled
+        kernel).
     tiles_per_call : int
-        Tiles per kernel call (fixed bucket; the last call is padded with empty tiles).
+        Tiles per kernel call (fixed bucket; the last call is padded with empty tiles), at
+        most ``2**28 // tile_px**2``.
     threads : int, optional
         Host threads dispatching kernel calls concurrently, each keeping a few calls in
         flight so that its host work (stacking patches, copying outputs) overlaps the
