@@ -88,6 +88,9 @@ def test_scan_fields_validated_and_read_only():
         ({"angle_increment": 0.0}, ValueError, "angle_increment"),
         ({"angle_increment": math.nan}, ValueError, "angle_increment"),
         ({"angle_min": math.inf}, ValueError, "angle_min"),
+        ({"angle_increment": 1e300}, ValueError, r"angle_increment: .*within one turn"),
+        ({"angle_increment": -0.25 * 180}, ValueError, "angle_increment"),  # degrees
+        ({"angle_min": -135.0}, ValueError, r"angle_min: .*within one turn"),
         ({"range_min": -0.1}, ValueError, "range_min"),
         ({"range_max": 0.05}, ValueError, "range_max"),
         ({"range_max": math.nan}, ValueError, "range_max"),

@@ -43,6 +43,11 @@ def _relative(
     return (c * dx + s * dy, -s * dx + c * dy, _wrap_angle(b[2] - a[2]))
 
 
+#: The largest |angle_min| and |angle_increment| a scan may have (radians), with slack
+#: for a float32 2 pi.
+_FULL_TURN = 2.0 * math.pi + 1e-6
+
+
 def reading_limits(dtype, range_min: float, range_max: float) -> tuple[float, float]:
     """``(range_min, range_max)`` in the precision of readings of ``dtype``.
 
@@ -131,10 +136,17 @@ class Scan:
         arr.flags.writeable = False
         object.__setattr__(self, "ranges", arr)
 
-        object.__setattr__(self, "angle_min", real_number("angle_min", self.angle_min))
+        a0 = real_number("angle_min", self.angle_min)
         inc = real_number("angle_increment", self.angle_increment)
         if inc == 0.0:
             raise ValueError("angle_increment: expected a non-zero angle in radians, received 0.0")
+        for name, value in (("angle_min", a0), ("angle_increment", inc)):
+            if abs(value) > _FULL_TURN:  # degrees given as radians, or a garbled field
+                raise ValueError(
+                    f"{name}: expected an angle in radians within one turn (|a| <= 2 pi), "
+                    f"received {value!r}"
+                )
+        object.__setattr__(self, "angle_min", a0)
         object.__setattr__(self, "angle_increment", inc)
         rmin = real_number("range_min", self.range_min)
         if rmin < 0.0:
