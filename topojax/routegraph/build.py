@@ -32,7 +32,14 @@ from ..graph.work import (
 from ..maps import map_argument
 from ..skeleton import thin
 from ._corners import CORNER_TOLERANCE_M
-from ._cover import RUNG_GAIN_M, add_coverage, add_shortcuts, covered, graph_raster
+from ._cover import (
+    RUNG_GAIN_M,
+    add_coverage,
+    add_shortcuts,
+    covered,
+    graph_raster,
+    wall_distance,
+)
 from ._spanner import open_short_loops, simplify_paths
 from .feasible import FeasibleSpace, clearance_view_m, feasible_space
 
@@ -325,8 +332,9 @@ def _open_short_loops(
         before[path[:, 0], path[:, 1]] = True
     reach = np.ones((2 * math.ceil(snap_px) + 1,) * 2, np.uint8)
     near = cv2.dilate((before & ~after).view(np.uint8), reach).view(bool)
-    had = covered(before, feasible, snap_px, among=near)
-    lost = had & ~covered(after, feasible, snap_px, among=had)
+    wall = wall_distance(feasible)  # one transform for both tests
+    had = covered(before, feasible, snap_px, wall, among=near)
+    lost = had & ~covered(after, feasible, snap_px, wall, among=had)
     if lost.any():
         # a lost pixel saw a pixel of a removed edge within snap_px: within the square
         back = cv2.dilate(lost.view(np.uint8), reach).view(bool)
