@@ -883,9 +883,12 @@ def test_a_spacing_below_a_pixel_anchors_every_pixel_however_small():
 
 def _without_mesh(monkeypatch):
     """Route graphs as if open pieces were too small for a mesh (skeleton lanes)."""
-    from topojax.routegraph import _cover
+    from topojax.routegraph import _cover, _joins
 
-    monkeypatch.setattr(_cover, "mesh_pieces", lambda uncovered, snap_px: np.zeros_like(uncovered))
+    def no_mesh(uncovered, min_area_px, split_px):
+        return _joins.large_pieces(uncovered, min_area_px), np.zeros_like(uncovered)
+
+    monkeypatch.setattr(_cover, "pieces_by_area", no_mesh)
 
 
 def test_open_hall_gets_a_mesh_with_fewer_vertices_and_shorter_routes(monkeypatch):
@@ -1116,6 +1119,10 @@ def test_large_pieces_keeps_the_8_connected_pieces_of_at_least_the_area(in_boxes
         want = mask & (sizes[labels] >= area)
         got = _joins.large_pieces(mask, area)
         assert got is not mask and np.array_equal(got, want)
+        split = area + int(rng.integers(0, 25))
+        small, large = _joins.pieces_by_area(mask, area, split)
+        assert np.array_equal(large, mask & (sizes[labels] >= split))
+        assert np.array_equal(small, want & (sizes[labels] < split))
 
 
 def test_route_graphs_and_rooms_load_without_jax():

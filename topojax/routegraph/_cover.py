@@ -19,9 +19,10 @@ from ._joins import (
     geodesic_path,
     grow,
     mask_pixels,
+    pieces_by_area,
 )
-from ._lanes import add_lanes
-from ._mesh import add_mesh, mesh_pieces
+from ._lanes import LANE_MIN_AREA, add_lanes
+from ._mesh import MESH_MIN_AREA, add_mesh
 from ._spanner import anchor_pieces, greedy_shortcuts, see_named, see_within
 
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
@@ -165,10 +166,14 @@ def add_coverage(
                 continue
         if lane_round == 1:
             lane_round = 2
-            open_ = mesh_pieces(uncovered, snap_px)
+            # the large pieces get a mesh, the smaller ones lanes along their skeleton
+            rest, open_ = pieces_by_area(
+                uncovered, LANE_MIN_AREA * snap_px**2, MESH_MIN_AREA * snap_px**2
+            )
             meshed = add_mesh(work, open_, raster, feasible, snap_px, min_loop_px)
-            rest = uncovered & ~open_
-            laned = add_lanes(work, rest, raster, feasible, wall, snap_px, min_loop_px, False)
+            laned = add_lanes(
+                work, rest, raster, feasible, wall, snap_px, min_loop_px, False, sized=True
+            )
             if meshed or laned:
                 continue
         # pieces too small for lanes: waypoints from now on

@@ -20,6 +20,7 @@ __all__ = [
     "join_groups",
     "large_pieces",
     "mask_pixels",
+    "pieces_by_area",
 ]
 
 # Joins tried per group: its pixels (every second one) to their nearest graph pixels.
@@ -48,19 +49,40 @@ def large_pieces(mask: np.ndarray, min_area_px: float) -> np.ndarray:
     """The 8-connected pieces of ``mask`` (bool (H, W)) of at least ``min_area_px``
     pixels, as a new mask."""
     _, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
-    small = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] < min_area_px) + 1
-    x, y, w, h = (stats[small, k] for k in range(4))
-    if len(small) * _PIECE_COST_PX + int(np.dot(w.astype(np.int64), h)) > mask.size:
-        keep = np.ones(len(stats), bool)
-        keep[0] = False
-        keep[small] = False
-        return keep[labels]
-    # few small pieces: each cleared in its bounding box
-    out = mask.copy()
-    for i, x0, y0, x1, y1 in zip(small, x, y, x + w, y + h, strict=True):
-        box = out[y0:y1, x0:x1]
-        box[labels[y0:y1, x0:x1] == i] = False
-    return out
+    area = stats[1:, cv2.CC_STAT_AREA]
+    return _pieces(mask, labels, stats, area >= min_area_px)
+
+
+def pieces_by_area(
+    mask: np.ndarray, min_area_px: float, split_px: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(small, large)``: the 8-connected pieces of ``mask`` (bool (H, W)) of at least
+    ``min_area_px`` pixels but fewer than ``split_px``, and those of at least
+    ``split_px``, as new masks (from one labelling of ``mask``)."""
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
+    area = stats[1:, cv2.CC_STAT_AREA]
+    large = area >= split_px
+    small = (area >= min_area_px) & ~large
+    return _pieces(mask, labels, stats, small), _pieces(mask, labels, stats, large)
+
+
+def _pieces(mask: np.ndarray, labels: np.ndarray, stats: np.ndarray, keep: np.ndarray):
+    """The pieces ``keep`` (bool (n,), piece ``k + 1`` of ``labels``) of ``mask`` as a new
+    mask: the pieces cleared (or the kept ones set) in their bounding boxes where there are
+    few such pieces, else a lookup over the whole mask."""
+    ids = np.arange(1, len(stats))
+    for drop, chosen in ((True, ids[~keep]), (False, ids[keep])):
+        x, y, w, h = (stats[chosen, k] for k in range(4))
+        if len(chosen) * _PIECE_COST_PX + int(np.dot(w.astype(np.int64), h)) > mask.size:
+            continue
+        # few pieces: each cleared (or set) in its bounding box
+        out = mask.copy() if drop else np.zeros_like(mask)
+        for i, x0, y0, x1, y1 in zip(chosen, x, y, x + w, y + h, strict=True):
+            box = out[y0:y1, x0:x1]
+            box[labels[y0:y1, x0:x1] == i] = not drop
+        return out
+    lookup = np.r_[False, keep]
+    return lookup[labels]
 
 
 @cached_njit(nogil=True)

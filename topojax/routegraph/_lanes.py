@@ -28,10 +28,10 @@ LANE_INSET = 0.68
 LANE_MIN_AREA = 0.5
 
 
-def _lane_pixels(uncovered, feasible, wall, snap_px: float, along_walls: bool):
-    """The one-pixel-wide lanes (bool (H, W)) through the large pieces of ``uncovered``,
-    or None when no piece is large enough."""
-    mask = large_pieces(uncovered, LANE_MIN_AREA * snap_px**2)
+def _lane_pixels(uncovered, feasible, wall, snap_px: float, along_walls: bool, sized: bool):
+    """The one-pixel-wide lanes (bool (H, W)) through the large pieces of ``uncovered``
+    (``sized``: it holds only such pieces), or None when no piece is large enough."""
+    mask = uncovered if sized else large_pieces(uncovered, LANE_MIN_AREA * snap_px**2)
     if not mask.any():
         return None
     if not along_walls:
@@ -85,13 +85,16 @@ def add_lanes(
     snap_px: float,
     min_loop_px: float,
     along_walls: bool,
+    *,
+    sized: bool = False,
 ) -> bool:
     """Add lanes through the large pieces of ``uncovered`` (bool (H, W)) and join each to
     the graph (pixels ``raster``); ``wall``: each pixel's distance to the nearest pixel
     that is not feasible (float32 (H, W)); ``along_walls``: the level-curve lanes of the
-    first round, else the skeleton; lanes close no loop shorter than ``min_loop_px``.
-    Returns whether any lane was added."""
-    lanes = _lane_pixels(uncovered, feasible, wall, snap_px, along_walls)
+    first round, else the skeleton; lanes close no loop shorter than ``min_loop_px``;
+    ``sized``: ``uncovered`` holds only pieces of at least :data:`LANE_MIN_AREA` squared
+    snap distances (:func:`._joins.pieces_by_area`).  Returns whether any lane was added."""
+    lanes = _lane_pixels(uncovered, feasible, wall, snap_px, along_walls, sized)
     if lanes is None or not lanes.any():
         return False
     join_groups(work, _merged(work, lanes, snap_px, min_loop_px), raster, feasible)
