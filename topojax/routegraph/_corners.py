@@ -34,12 +34,6 @@ def reflex_corners(feasible: np.ndarray, tolerance_px: float) -> np.ndarray:
     where the feasible space turns round an obstacle."""
     contours, _ = cv2.findContours(feasible.view(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
     h, w = feasible.shape
-    share = cv2.boxFilter(
-        feasible.astype(np.float32),
-        -1,
-        (2 * _WINDOW + 1, 2 * _WINDOW + 1),
-        borderType=cv2.BORDER_CONSTANT,
-    )
     out = []
     for contour in contours:
         if len(contour) < 8:
@@ -61,12 +55,30 @@ def reflex_corners(feasible: np.ndarray, tolerance_px: float) -> np.ndarray:
         cols, rows = np.rint(q[:, 0]).astype(np.int64), np.rint(q[:, 1]).astype(np.int64)
         corner = xy[ok].astype(np.int64)
         inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
-        rows, cols, corner = rows[inside], cols[inside], corner[inside]
-        keep = feasible[rows, cols] & (share[corner[:, 1], corner[:, 0]] > _REFLEX_SHARE)
-        out.append(np.stack([rows[keep], cols[keep]], axis=1))
+        out.append(np.stack([rows[inside], cols[inside], *corner[inside].T[::-1]], axis=1))
     if not out:
         return np.zeros((0, 2), np.int64)
-    return np.unique(np.concatenate(out), axis=0).astype(np.int64)
+    # (point row, point col, corner row, corner col)
+    at = np.concatenate(out)
+    share = _feasible_around(feasible, at[:, 2], at[:, 3]) / (2 * _WINDOW + 1) ** 2
+    keep = feasible[at[:, 0], at[:, 1]] & (share > _REFLEX_SHARE)
+    return np.unique(at[keep, :2], axis=0).astype(np.int64)
+
+
+def _feasible_around(feasible: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """The number of feasible pixels (int64 (K,)) at most ``_WINDOW`` rows and columns
+    from each pixel ``(rows[k], cols[k])`` (none past the image's edge): the box filter
+    of the corner test, read at those pixels only."""
+    h, w = feasible.shape
+    count = np.zeros(rows.shape, np.int64)
+    for dr in range(-_WINDOW, _WINDOW + 1):
+        r = rows + dr
+        r_in = (r >= 0) & (r < h)
+        for dc in range(-_WINDOW, _WINDOW + 1):
+            c = cols + dc
+            inside = r_in & (c >= 0) & (c < w)
+            count += feasible[np.where(inside, r, 0), np.where(inside, c, 0)] & inside
+    return count
 
 
 @cached_njit(nogil=True)
