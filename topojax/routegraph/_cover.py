@@ -138,17 +138,20 @@ def add_coverage(
     snap_px: float,
     rounds: int = 6,
     min_loop_px: float = 0.0,
+    wall: np.ndarray | None = None,
 ) -> np.ndarray:
     """Add lanes along the walls (:func:`add_lanes`), then a triangulated mesh through the
     large open pieces left (:func:`add_mesh`) and lanes along the skeleton of the smaller
     ones, then waypoints joined by straight feasible edges (a shortest spanning tree, or a feasible shortest path where no straight edge
     reaches), until every feasible pixel is covered (:func:`covered`) or ``rounds``
     waypoint rounds are spent.  Returns the feasible pixels still uncovered (bool
-    (H, W)).  The mesh closes no loop shorter than ``min_loop_px``."""
+    (H, W)).  The mesh closes no loop shorter than ``min_loop_px``.  ``wall``:
+    :func:`wall_distance` of ``feasible``, computed when not given."""
     shape = feasible.shape
     spacing = COVER_SPACING * snap_px
     lane_round, grid_round = 0, 0  # lane rounds: along the walls, then mesh and skeleton
-    wall = wall_distance(feasible)
+    if wall is None:
+        wall = wall_distance(feasible)
     uncovered = feasible
     before = np.zeros(shape, bool)
     while True:

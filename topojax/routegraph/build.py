@@ -223,7 +223,10 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
     snap_px = (cfg.snap_m - cfg.waypoint_tolerance_m) / res
     min_loop_px = 2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS
-    uncovered = add_coverage(work, feasible, snap_px, min_loop_px=min_loop_px)
+    wall = wall_distance(feasible)
+    uncovered = add_coverage(work, feasible, snap_px, min_loop_px=min_loop_px, wall=wall)
+    if wall.size > HOLD_CLEARANCE_MAX_PX:
+        wall = None  # as the clearance: computed again where short loops are opened
     work.contract_all()
     # vertices closer than the robot's radius are one place for it (up to a share of the
     # snap distance: the coverage lanes and meshes are spaced by it, and a large robot's
@@ -248,7 +251,8 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     # close vertices merge; a dead end one pixel off its junction is a one-pixel edge
     merge_close_vertices(work, feasible, max(_ONE_PIXEL, merge_px), _ONE_PIXEL, min_loop_px)
     # loops shorter than loop_m collapse, wherever the passes left one
-    _open_short_loops(work, feasible, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS)
+    _open_short_loops(work, feasible, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS, wall)
+    del wall
     t4 = time.perf_counter()
     graph = _assemble(work, occupancy, win, cfg, held)
     del held
@@ -267,9 +271,10 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     return graph
 
 
-#: Windows of at most this many pixels keep their clearance for the assembly of the graph;
-#: a larger one's is computed again there (one distance transform of the map, a small
-#: share of such a map's build time) rather than held through the coverage stage.
+#: Windows of at most this many pixels keep their clearance for the assembly of the graph,
+#: and their distance to the nearest pixel that is not feasible for the last coverage test;
+#: a larger one's are computed again there (one distance transform each, a small share of
+#: such a map's build time) rather than held through the coverage and shortcut stages.
 HOLD_CLEARANCE_MAX_PX = 1 << 22
 
 #: The least coverage reach, ``snap_m - waypoint_tolerance_m``, in pixels of the map: a
@@ -317,12 +322,12 @@ def check_scale(
 
 
 def _open_short_loops(
-    work: WorkGraph, feasible: np.ndarray, snap_px: float, loop_px: float
+    work: WorkGraph, feasible: np.ndarray, snap_px: float, loop_px: float, wall=None
 ) -> None:
     """Remove the edges that close loops shorter than ``loop_px`` (:func:`open_short_loops`;
     a shortcut's bend beside an edge, two splits of one edge), and put back each removed
     edge within reach of a feasible pixel that lost its last graph pixel within
-    ``snap_px``."""
+    ``snap_px``; ``wall``: :func:`wall_distance` of ``feasible``, or None to compute it."""
     removed = open_short_loops(work, loop_px, contract=False)
     if not removed:
         return
@@ -332,7 +337,8 @@ def _open_short_loops(
         before[path[:, 0], path[:, 1]] = True
     reach = np.ones((2 * math.ceil(snap_px) + 1,) * 2, np.uint8)
     near = cv2.dilate((before & ~after).view(np.uint8), reach).view(bool)
-    wall = wall_distance(feasible)  # one transform for both tests
+    if wall is None:
+        wall = wall_distance(feasible)
     had = covered(before, feasible, snap_px, wall, among=near)
     lost = had & ~covered(after, feasible, snap_px, wall, among=had)
     if lost.any():
