@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 from ..graph.work import WorkGraph, line_pixels
 from ._corners import bent_candidates, reflex_corners
 from ._joins import (
+    GraphPixels,
     attach_points,
     feasible_segments,
     geodesic_path,
@@ -173,10 +174,21 @@ def add_coverage(
             rest, open_ = pieces_by_area(
                 uncovered, LANE_MIN_AREA * snap_px**2, MESH_MIN_AREA * snap_px**2
             )
-            meshed = add_mesh(work, open_, raster, feasible, snap_px, min_loop_px)
+            pixels = GraphPixels(raster)  # both join to the same graph pixels
+            meshed = add_mesh(work, open_, raster, feasible, snap_px, min_loop_px, pixels=pixels)
             laned = add_lanes(
-                work, rest, raster, feasible, wall, snap_px, min_loop_px, False, sized=True
+                work,
+                rest,
+                raster,
+                feasible,
+                wall,
+                snap_px,
+                min_loop_px,
+                False,
+                sized=True,
+                pixels=pixels,
             )
+            del pixels
             if meshed or laned:
                 continue
         # pieces too small for lanes: waypoints from now on

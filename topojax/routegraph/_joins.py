@@ -4,6 +4,9 @@ masks the coverage steps share."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import cached_property
+
 import cv2
 import numpy as np
 from scipy.spatial import cKDTree
@@ -13,6 +16,7 @@ from ..graph.geodesic import nearest_path
 from ..graph.work import WorkGraph, line_in_mask, line_pixels
 
 __all__ = [
+    "GraphPixels",
     "attach_points",
     "feasible_segments",
     "geodesic_path",
@@ -172,17 +176,39 @@ def geodesic_path(start, targets: np.ndarray, feasible: np.ndarray) -> np.ndarra
         half *= 2
 
 
-def _nearest_link(work: WorkGraph, vertices: list[int], tree, graph_px, feasible):
-    """The shortest straight feasible segment from a pixel of the piece ``vertices`` (their
-    pixels and those of their edges) to a graph pixel, as ``(piece pixel, graph pixel)``,
-    or None."""
+@dataclass(frozen=True)
+class GraphPixels:
+    """The pixels of a graph (``raster``, bool (H, W)) and their k-d tree, each found when
+    first needed and then kept: the joins of one coverage round share them."""
+
+    raster: np.ndarray
+
+    @cached_property
+    def pixels(self) -> np.ndarray:
+        """:func:`mask_pixels` of ``raster``."""
+        return mask_pixels(self.raster)
+
+    @cached_property
+    def tree(self) -> cKDTree:
+        """The k-d tree of :attr:`pixels`."""
+        return cKDTree(self.pixels)
+
+
+def _piece_pixels(work: WorkGraph, vertices: list[int]) -> np.ndarray:
+    """Every second pixel of the piece ``vertices`` (their pixels and those of their
+    edges), the pixels its joins start from."""
     pix = [work.members[v] for v in vertices]
     edges = set().union(*(work.adj[v] for v in vertices))
     pix += [work.edges[e][2] for e in edges]
-    pix = np.concatenate(pix)[::2]
-    k = min(_NEIGHBOURS, len(graph_px))
-    dist, idx = tree.query(pix, k=k)
-    dist, idx = dist.reshape(len(pix), k), idx.reshape(len(pix), k)
+    return np.concatenate(pix)[::2]
+
+
+def _nearest_link(pix, dist, idx, graph_px, feasible):
+    """The shortest straight feasible segment from a pixel of ``pix`` (a piece's, int
+    (n, 2)) to a graph pixel, among each one's nearest graph pixels (``dist`` and ``idx``
+    (n, k): the k-d tree's distances and indices into ``graph_px``), as ``(piece pixel,
+    graph pixel)``, or None."""
+    k = dist.shape[1]
     flat = np.argsort(dist, axis=None, kind="stable")[:_JOIN_TRIES]
     a = pix[flat // k].astype(np.int64)
     g = graph_px[idx.ravel()[flat]].astype(np.int64)
@@ -194,19 +220,34 @@ def _nearest_link(work: WorkGraph, vertices: list[int], tree, graph_px, feasible
 
 
 def join_groups(
-    work: WorkGraph, groups: list[list[int]], raster: np.ndarray, feasible: np.ndarray
+    work: WorkGraph,
+    groups: list[list[int]],
+    raster: np.ndarray,
+    feasible: np.ndarray,
+    *,
+    pixels: GraphPixels | None = None,
 ) -> None:
     """Join each group of new vertices (a piece of ``work`` not yet joined) to the graph
     pixels ``raster`` (bool (H, W)): by the shortest straight feasible segment from one of
     its pixels, else by a feasible shortest path from its first vertex (no join where
-    neither exists)."""
-    graph_px = mask_pixels(raster)
-    if not groups or graph_px.size == 0:
+    neither exists).  ``pixels``: the :class:`GraphPixels` of ``raster`` where the caller
+    keeps them for other joins."""
+    if not groups:
         return
-    tree = cKDTree(graph_px)
+    pixels = GraphPixels(raster) if pixels is None else pixels
+    graph_px = pixels.pixels
+    if graph_px.size == 0:
+        return
+    # every piece's nearest graph pixels, in one query
+    piece_px = [_piece_pixels(work, vertices) for vertices in groups]
+    k = min(_NEIGHBOURS, len(graph_px))
+    dist, idx = pixels.tree.query(np.concatenate(piece_px), k=k)
+    dist, idx = dist.reshape(-1, k), idx.reshape(-1, k)
+    bounds = np.cumsum([0] + [len(p) for p in piece_px]).tolist()
     piece_ends, graph_ends, paths = [], [], []
-    for vertices in groups:
-        pair = _nearest_link(work, vertices, tree, graph_px, feasible)
+    for g, vertices in enumerate(groups):
+        lo, hi = bounds[g], bounds[g + 1]
+        pair = _nearest_link(piece_px[g], dist[lo:hi], idx[lo:hi], graph_px, feasible)
         if pair is not None:
             piece_ends.append(pair[0])
             graph_ends.append(pair[1])

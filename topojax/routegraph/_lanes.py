@@ -16,7 +16,7 @@ import numpy as np
 from ..graph import skeleton_to_graph
 from ..graph.work import WorkGraph, drop_spurs
 from ..skeleton import thin
-from ._joins import join_groups, large_pieces
+from ._joins import GraphPixels, join_groups, large_pieces
 from ._spanner import open_short_loops
 
 __all__ = ["LANE_INSET", "LANE_MIN_AREA", "add_lanes"]
@@ -87,15 +87,19 @@ def add_lanes(
     along_walls: bool,
     *,
     sized: bool = False,
+    pixels: GraphPixels | None = None,
 ) -> bool:
     """Add lanes through the large pieces of ``uncovered`` (bool (H, W)) and join each to
     the graph (pixels ``raster``); ``wall``: each pixel's distance to the nearest pixel
     that is not feasible (float32 (H, W)); ``along_walls``: the level-curve lanes of the
     first round, else the skeleton; lanes close no loop shorter than ``min_loop_px``;
     ``sized``: ``uncovered`` holds only pieces of at least :data:`LANE_MIN_AREA` squared
-    snap distances (:func:`._joins.pieces_by_area`).  Returns whether any lane was added."""
+    snap distances (:func:`._joins.pieces_by_area`); ``pixels``: the
+    :class:`GraphPixels` of ``raster``, where the caller keeps them.  Returns whether any
+    lane was added."""
     lanes = _lane_pixels(uncovered, feasible, wall, snap_px, along_walls, sized)
     if lanes is None or not lanes.any():
         return False
-    join_groups(work, _merged(work, lanes, snap_px, min_loop_px), raster, feasible)
+    groups = _merged(work, lanes, snap_px, min_loop_px)
+    join_groups(work, groups, raster, feasible, pixels=pixels)
     return True

@@ -22,7 +22,7 @@ from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from .._jit import cached_njit
 from ..graph.work import WorkGraph, line_in_mask, line_pixels
-from ._joins import attach_points, grow, join_groups, large_pieces
+from ._joins import GraphPixels, attach_points, grow, join_groups, large_pieces
 from ._spanner import drop_short_loops
 
 __all__ = ["MESH_JITTER", "MESH_MIN_AREA", "MESH_SPACING", "add_mesh", "mesh_pieces"]
@@ -132,10 +132,13 @@ def add_mesh(
     feasible: np.ndarray,
     snap_px: float,
     min_loop_px: float,
+    *,
+    pixels: GraphPixels | None = None,
 ) -> bool:
     """Add a triangulated net through ``pieces`` (bool (H, W)), joined to the graph
-    (pixels ``raster``), without loops shorter than ``min_loop_px`` (the longer edges of
-    such loops are left out).  Returns whether any site was added."""
+    (pixels ``raster``; ``pixels``: their :class:`GraphPixels`, where the caller keeps
+    them), without loops shorter than ``min_loop_px`` (the longer edges of such loops are
+    left out).  Returns whether any site was added."""
     spacing = MESH_SPACING * snap_px
     inner = _lattice(pieces, spacing)
     if len(inner) == 0:
@@ -187,7 +190,7 @@ def add_mesh(
             work.dead.add(int(ids[i]))
             ids[i] = -1
     pairs = np.array(kept, np.int64).reshape(-1, 2)
-    join_groups(work, _unjoined(pairs, ids, is_inner), raster, feasible)
+    join_groups(work, _unjoined(pairs, ids, is_inner), raster, feasible, pixels=pixels)
     return bool(used.size)
 
 
