@@ -484,15 +484,25 @@ def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig, c
     clear_at = clearance_m[pix[:, 0] - off[0], pix[:, 1] - off[1]].astype(np.float64).tolist()
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
     degree = work.degrees()
+    # each vertex's members are a consecutive piece of those of all, shifted at once
+    members = [work.members[v] for v in alive]
+    m_sizes = np.array([len(m) for m in members], np.int64)
+    m_hi = np.cumsum(m_sizes)
+    every_member = (np.concatenate(members) if members else np.zeros((0, 2), np.int32)) + shift
+    pixels_of = [
+        every_member[i:j] for i, j in zip((m_hi - m_sizes).tolist(), m_hi.tolist(), strict=True)
+    ]
     node_attrs = []
-    for v, p, x, y, c in zip(alive, pix.tolist(), wx.tolist(), wy.tolist(), clear_at, strict=True):
+    for v, p, x, y, c, px in zip(
+        alive, pix.tolist(), wx.tolist(), wy.tolist(), clear_at, pixels_of, strict=True
+    ):
         deg = degree[v]
         loop_only = deg == 2 and len(work.adj[v]) == 1
         kind = "ring" if loop_only else ("isolated", "end", "junction", "junction")[min(deg, 3)]
         node_attrs.append(
             {
                 "pixel": (p[0], p[1]),
-                "pixels": (work.members[v] + shift).astype(np.int32, copy=False),
+                "pixels": px,
                 "world": (x, y),
                 "kind": kind,
                 "clearance_m": c,
