@@ -298,6 +298,11 @@ def test_a_point_robot_is_scored_on_the_free_space():
         ({"coordinates": "polar"}, ValueError, "coordinates"),
         ({"entry": "any"}, ValueError, "entry"),
         ({"snap_m": 1e9}, ValueError, "snap_m: expected at most 5 m"),
+        (
+            {"robot_radius_m": 1e300},
+            ValueError,
+            "robot_radius_m: expected a robot radius of at most",
+        ),
         ({"n_pairs": 10**9}, ValueError, "n_pairs: expected at most 100,000"),
     ],
 )

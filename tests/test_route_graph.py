@@ -279,6 +279,22 @@ def test_a_snap_distance_past_the_evaluators_limit_is_refused(snap_m):
         RouteGraphConfig(snap_m=snap_m)
 
 
+@pytest.mark.parametrize("radius_m", [1000.001, 1e300])
+def test_a_robot_radius_past_a_kilometre_is_refused(radius_m):
+    """A radius of 1e300 m overflowed the float32 clearance with a warning and built an
+    empty graph; the evaluator scored no pair: past 1000 m it is a unit error, refused
+    by the config, the feasible space and so the evaluator and the planner."""
+    occ = _map(_room(3, 3))
+    RouteGraphConfig(robot_radius_m=1000.0)  # the limit itself is fine
+    match = r"^robot_radius_m: expected a robot radius of at most 1000 m, received "
+    with pytest.raises(ValueError, match=match):
+        RouteGraphConfig(robot_radius_m=radius_m)
+    with pytest.raises(ValueError, match=match):
+        route_graph(occ, robot_radius_m=radius_m)
+    with pytest.raises(ValueError, match=match):
+        feasible_space(occ, radius_m)
+
+
 @pytest.mark.parametrize("value", [np.zeros((8, 8), bool), None, 3.0])
 def test_feasible_space_names_a_map_that_is_not_one(value):
     """``feasible_space`` is public: a non-map got an AttributeError ('no attribute

@@ -48,6 +48,7 @@ __all__ = [
     "quantity",
     "real_array",
     "real_number",
+    "robot_radius",
 ]
 
 
@@ -161,6 +162,22 @@ def nonnegative_metres(name: str, value: object) -> float:
     """:func:`metres` ``>= 0`` (the pruning thresholds of :class:`GraphConfig` and
     :func:`topojax.prune_graph`)."""
     return metres(name, value, allow_zero=True)
+
+
+#: The largest robot radius accepted (metres): a larger one is a unit error (millimetres
+#: given as metres), and its pixel counts overflow the float32 clearance.
+MAX_ROBOT_RADIUS_M = 1000.0
+
+
+def robot_radius(name: str, value: object) -> float:
+    """:func:`metres` from 0 to :data:`MAX_ROBOT_RADIUS_M` (a round robot's radius)."""
+    radius = metres(name, value, allow_zero=True)
+    if radius > MAX_ROBOT_RADIUS_M:
+        raise ValueError(
+            f"{name}: expected a robot radius of at most {MAX_ROBOT_RADIUS_M:g} m, received "
+            f"{radius!r} m"
+        )
+    return radius
 
 
 def positive_metres(name: str, value: object) -> float:

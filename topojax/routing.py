@@ -14,7 +14,7 @@ import networkx as nx
 import numpy as np
 
 from ._sight import sees as _sees
-from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres
+from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres, robot_radius
 from .graph import cumulative_length_m, graph_resolution_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
 from .maps.occupancy import map_mismatch
@@ -329,7 +329,7 @@ class RoutePlanner:
             radius_name = "robot_radius_m (the graph's 'robot_radius_m' attribute)"
         from .routegraph.feasible import feasible_space  # the route-graph stack, on demand
 
-        radius = nonnegative_metres(radius_name, radius)
+        radius = robot_radius(radius_name, radius)
         if entry_m is None:
             entry_m = attrs.get("snap_m")
             entry_m = DEFAULT_ENTRY_M if entry_m is None else entry_m

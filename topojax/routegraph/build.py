@@ -19,6 +19,7 @@ from .._validate import (
     positive_metres,
     quantity,
     real_number,
+    robot_radius,
 )
 from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph, paused_gc
@@ -139,6 +140,8 @@ class RouteGraphConfig:
                 value = real_number(f.name, value)  # >= 1, checked below
             elif f.name in ("shortcuts_from_dead_ends", "shortcuts_round_corners"):
                 value = flag(f.name, value)
+            elif f.name == "robot_radius_m":
+                value = robot_radius(f.name, value)
             elif f.name in ("snap_m", "waypoint_tolerance_m"):
                 value = positive_metres(f.name, value)
             elif f.name.endswith("_m"):

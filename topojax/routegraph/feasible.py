@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .._validate import nonnegative_metres
+from .._validate import robot_radius
 from ..fields.clearance import free_clearance_px
 from ..maps import map_argument
 
@@ -89,7 +89,7 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     FeasibleSpace
     """
     occupancy = map_argument("occupancy", occupancy, files=True)
-    radius = nonnegative_metres("robot_radius_m", robot_radius_m)
+    radius = robot_radius("robot_radius_m", robot_radius_m)
     free = np.asarray(occupancy.free, bool)
     res = float(occupancy.resolution_m)
     clearance = clearance_view_m(free, res)
