@@ -748,6 +748,8 @@ def main(argv: list[str] | None = None) -> int:
 
         root = Path(args.root).resolve() if args.root else REPO_ROOT
         results.setdefault("benchmark", "memory")
+        for key in ("git_describe", "date_utc"):  # the file's: this run's (each section
+            results.pop(key, None)  # keeps its own)
         names = case_names(args)
         if any(section_of(n) == "runs" for n in names):
             results["machine"] = machine_info(with_jax=False)
