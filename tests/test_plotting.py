@@ -74,6 +74,24 @@ def test_plot_empty_graph():
     plt.close(ax.figure)
 
 
+def test_titles_count_one_edge_and_one_vertex_in_the_singular():
+    corridor = np.zeros((12, 200), bool)
+    corridor[[0, -1], :] = True  # open at both ends: one centre line, end to end
+    res = tj.build_graph(corridor)
+    assert (res.graph.number_of_nodes(), res.graph.number_of_edges()) == (2, 1)
+    ax = tj.plot(res)
+    assert ax.get_title() == "2 vertices, 1 edge"
+    plt.close(ax.figure)
+    fig = plot_stages(res)
+    assert "graph (2 vertices, 1 edge)" in [a.get_title() for a in fig.axes]
+    plt.close(fig)
+    lone = nx.MultiGraph()
+    lone.add_node(0, pixel=(6, 100), kind="isolated")
+    ax = tj.plot_route_graph(lone, res.map, robot_radius_m=0.1)
+    assert ax.get_title().endswith("1 vertex, 0 edges")
+    plt.close(ax.figure)
+
+
 def test_route_overlay_follows_the_route_pixels(result):
     g = result.graph
     path = max((d["path"] for _, _, d in g.edges(data=True)), key=len)

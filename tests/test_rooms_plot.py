@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
-from room_maps import three_rooms  # noqa: E402
+from room_maps import three_rooms, three_rooms_occupied  # noqa: E402
 
 import topojax as tj  # noqa: E402
 from topojax.io.rooms import room_colours  # noqa: E402
@@ -47,6 +47,16 @@ def test_plot_rooms_colours_doors_and_ids(seg):
         assert texts[str(room.id)] == pytest.approx((c, r))
         assert seg.labels[int(round(float(r))), int(round(float(c)))] == room.id
     assert ax.get_title() == "3 rooms, 2 doors"
+    plt.close(ax.figure)
+
+
+def test_plot_rooms_title_counts_one_door_in_the_singular():
+    occ = three_rooms_occupied()
+    occ[:, 100] = True  # the second doorway walled up: three rooms, one door
+    one_door = tj.segment_rooms(tj.OccupancyMap.from_array(occ, resolution_m=0.05))
+    assert (one_door.n_rooms, len(one_door.doors)) == (3, 1)
+    ax = plot_rooms(one_door)
+    assert ax.get_title() == "3 rooms, 1 door"
     plt.close(ax.figure)
 
 

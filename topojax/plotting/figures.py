@@ -13,6 +13,7 @@ from .style import (
     add_legend,
     add_scale_bar,
     axes_or_new,
+    counted,
     draw_graph_lines,
     hex_rgb,
     imshow_pooled,
@@ -105,6 +106,12 @@ def plot_skeleton(skeleton: np.ndarray, *, ax=None, color="#2ca02c", title: str 
     if title:
         ax.set_title(title)
     return ax
+
+
+def _vertices_edges(graph) -> str:
+    """``"268 vertices, 235 edges"`` for a graph (``"1 vertex"``, ``"1 edge"`` for one)."""
+    n = graph.number_of_nodes()
+    return f"{n} {'vertex' if n == 1 else 'vertices'}, {counted(graph.number_of_edges(), 'edge')}"
 
 
 def _vertices_by_kind(graph) -> dict[str, list]:
@@ -300,8 +307,7 @@ def plot_route_graph(
     if title is None:
         title = titled(
             map_name(occupancy.source),
-            f"r = {float(robot_radius_m):g} m: {graph.number_of_nodes()} vertices, "
-            f"{graph.number_of_edges()} edges",
+            f"r = {float(robot_radius_m):g} m: {_vertices_edges(graph)}",
         )
     ax.set_title(title)
     return ax
@@ -378,7 +384,7 @@ def plot_rooms(seg, *, ax=None, title: str | None = None, doors: bool = True, la
     if title is None:
         title = titled(
             map_name(getattr(seg.occupancy, "source", None)),
-            f"{seg.n_rooms} rooms, {len(seg.doors)} doors",
+            f"{counted(seg.n_rooms, 'room')}, {counted(len(seg.doors), 'door')}",
         )
     ax.set_title(title)
     return ax
@@ -445,9 +451,9 @@ def plot(
         add_legend(ax)
     if title is None:
         g = result.graph
-        title = f"{g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
+        title = _vertices_edges(g)
         if rooms is not None:
-            title += f", {rooms.n_rooms} rooms"
+            title += f", {counted(rooms.n_rooms, 'room')}"
         title = titled(map_name(result.map.source), title)
     ax.set_title(title)
     return ax
@@ -496,7 +502,7 @@ def plot_stages(result, *, figsize=(15, 9), title: str | None = None):
     plot(
         result,
         ax=axes[1, 2],
-        title=f"graph ({g.number_of_nodes()} vertices, {g.number_of_edges()} edges)",
+        title=f"graph ({_vertices_edges(g)})",
     )
     fig.tight_layout()
     return fig

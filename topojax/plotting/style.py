@@ -39,6 +39,11 @@ def titled(name: str | None, text: str) -> str:
     return f"{name}: {text}" if name else text
 
 
+def counted(n: int, noun: str) -> str:
+    """``n`` and ``noun``, plural unless ``n`` is 1: ``"1 door"``, ``"3 doors"``."""
+    return f"{n} {noun}{'s' * (n != 1)}"
+
+
 def max_pool(image: np.ndarray, factor: int) -> np.ndarray:
     """``image`` (bool or numbers, (H, W)) shrunk ``factor`` times by max-pooling: a pixel
     of the result is the largest of its ``factor`` x ``factor`` block (for bool: True when
