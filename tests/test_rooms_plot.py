@@ -60,6 +60,20 @@ def test_plot_rooms_title_counts_one_door_in_the_singular():
     plt.close(ax.figure)
 
 
+def test_the_legend_draws_the_doors_white_line_with_its_dark_outline(seg):
+    for ax in (plot_rooms(seg), tj.plot(tj.build_graph(seg.occupancy), rooms=seg)):
+        legend = ax.get_legend()
+        (door,) = [
+            h
+            for h, t in zip(legend.legend_handles, legend.get_texts(), strict=True)
+            if t.get_text() == "doors"
+        ]
+        (doors,) = _door_lines(ax)
+        assert door.get_path_effects() == doors.get_path_effects() != []
+        assert matplotlib.colors.to_hex(door.get_color()) == "#ffffff"
+        plt.close(ax.figure)
+
+
 def test_plot_rooms_without_doors_or_labels(seg):
     fig, ax = plt.subplots()
     assert plot_rooms(seg, ax=ax, doors=False, labels=False, title="x") is ax

@@ -185,7 +185,21 @@ def add_legend(ax, **kwargs):
         "columnspacing": 1.0,
     }
     options.update(kwargs)
+    from matplotlib.collections import LineCollection
+    from matplotlib.legend_handler import HandlerLineCollection
+
+    if any(isinstance(h, LineCollection) and h.get_path_effects() for h in handles):
+        # a white line drawn with a dark outline (the doors) keeps the outline in the legend
+        outlined = HandlerLineCollection(update_func=_outlined_line)
+        options.setdefault("handler_map", {LineCollection: outlined})
     return ax.legend(handles, labels, **options)
+
+
+def _outlined_line(legend_handle, orig_handle) -> None:
+    """Draw a LineCollection's legend line in its first colour and width, with its outline."""
+    legend_handle.set_color(orig_handle.get_colors()[0])
+    legend_handle.set_linewidth(orig_handle.get_linewidths()[0])
+    legend_handle.set_path_effects(orig_handle.get_path_effects())
 
 
 def draw_graph_lines(
