@@ -78,7 +78,7 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
         ridge_map,
     )
     from .playback import replay
-    from .plotting import plot, plot_route_graph, plot_stages
+    from .plotting import plot, plot_rooms, plot_route_graph, plot_stages
     from .rooms import (
         Door,
         Room,
@@ -139,6 +139,7 @@ __all__ = [
     "open_tiled_map",
     "plan_route",
     "plot",
+    "plot_rooms",
     "plot_route_graph",
     "plot_stages",
     "prune_graph",
@@ -210,6 +211,7 @@ _LAZY = {
     "evaluate_route_graph": "routegraph",
     "route_graph": "routegraph",
     "plot": "plotting",
+    "plot_rooms": "plotting",
     "plot_route_graph": "plotting",
     "plot_stages": "plotting",
     "NoRouteError": "routing",
