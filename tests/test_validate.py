@@ -495,9 +495,20 @@ def test_every_exported_check_is_tested():
         "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pose", "positive_int", "positive_metres",
-        "quantity", "real_number",
+        "quantity", "real_number", "robot_radius",
     }  # fmt: skip
     assert set(v.__all__) == tested
+
+
+def test_robot_radius_is_metres_up_to_a_kilometre():
+    assert v.robot_radius("r", 0) == 0.0
+    assert v.robot_radius("r", v.MAX_ROBOT_RADIUS_M) == 1000.0
+    with pytest.raises(ValueError, match=r"^r: expected a robot radius of at most 1000 m"):
+        v.robot_radius("r", 1000.5)
+    with pytest.raises(ValueError, match="^r: "):
+        v.robot_radius("r", -0.1)
+    with pytest.raises(TypeError, match="^r: "):
+        v.robot_radius("r", "0.3")
 
 
 def test_metres_per_pixel_refuses_resolutions_whose_squares_overflow():
