@@ -252,6 +252,44 @@ def test_corrupt_and_missing_maps_become_error_rows(tmp_path, shared_data, worke
             assert row["vertices"] == "" and row["message"] == rec.message
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+@pytest.mark.parametrize("workers", [0, 2])
+def test_a_named_pipe_among_the_inputs_is_an_error_row_not_a_hang(tmp_path, workers):
+    """Reading a FIFO waits for a writer that never comes: a pipe named like a map (as
+    a folder search finds it) becomes an error row, and the other maps are built."""
+    import threading
+
+    src = tmp_path / "in"
+    src.mkdir()
+    (src / "good.png").write_bytes(PAPER_MAPS[2].read_bytes())
+    pipes = [src / "pipe.pgm", src / "pipe.yaml"]
+    for pipe in pipes:
+        os.mkfifo(pipe)
+    paths = expand_map_inputs([src])
+    assert sorted(p.name for p in paths) == ["good.png", "pipe.pgm", "pipe.yaml"]
+    result: list = []
+    run = threading.Thread(
+        target=lambda: result.extend(
+            build_graphs(paths, out_dir=tmp_path / "out", workers=workers, progress=False)
+        ),
+        daemon=True,
+    )
+    run.start()
+    run.join(timeout=120)
+    hung = run.is_alive()
+    for pipe in pipes:  # release a reader blocked on a pipe (a batch that hung)
+        try:
+            os.close(os.open(pipe, os.O_WRONLY | os.O_NONBLOCK))
+        except OSError:
+            pass
+    assert not hung, "the batch waited on a named pipe"
+    by_name = {r.map: r for r in result}
+    assert by_name["good"].status == "ok"
+    for name in ("pipe_pgm", "pipe_yaml"):
+        assert by_name[name].status == "error"
+        assert "not a regular file" in by_name[name].message
+
+
 def test_kernel_failure_of_one_map_spares_its_group(monkeypatch):
     """A kernel call that fails for one map: that map errors, its group-mates finish."""
     import topojax.fields

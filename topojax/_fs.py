@@ -112,6 +112,8 @@ def yaml_image(path: Path) -> Path | None:
     try:
         import yaml
 
+        if not path.is_file():  # reading a FIFO would wait for a writer forever
+            return None
         doc = yaml.safe_load(path.read_text(encoding="utf-8"))
         image = doc.get("image") if isinstance(doc, dict) else None
         if not isinstance(image, str) or not image.strip():

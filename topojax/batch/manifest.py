@@ -49,6 +49,8 @@ def _fingerprint(item: _Item) -> dict[str, Any] | None:
         h.update(repr((occ.resolution_m, occ.origin)).encode())
         return {"masks_sha256": h.hexdigest()}
     assert item.path is not None
+    if not item.path.is_file():  # missing, or a FIFO whose reading would never end
+        return None
     try:
         files = {item.path.name: _sha256_file(item.path)}
         if item.path.suffix.lower() in YAML_SUFFIXES:

@@ -268,7 +268,8 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
 
 
 def _check_map_path(p: Path, suffix: str) -> None:
-    """Refuse a folder, an unsupported suffix or a missing file (in that order)."""
+    """Refuse a folder, an unsupported suffix, a missing file or one that is not a regular
+    file (in that order)."""
     if p.is_dir():
         raise ValueError(
             f"map path is not a file: {p} is a folder; give a map file (topojax batch, "
@@ -283,6 +284,10 @@ def _check_map_path(p: Path, suffix: str) -> None:
         )
     if not p.exists():
         raise FileNotFoundError(f"map file not found: {p}")
+    if not p.is_file():  # opening a FIFO would wait for a writer forever
+        raise ValueError(
+            f"map path is not a regular file: {p} (a FIFO, socket or device); give a map file"
+        )
 
 
 def _yaml_settings(
