@@ -1098,6 +1098,34 @@ def test_empty_graphs_are_reported_with_a_reason(tmp_path, capsys):
     assert ",empty," in summary
 
 
+def test_resume_keeps_what_the_first_run_said_of_empty_and_warned_maps(tmp_path):
+    """A map skipped by resume is ``skipped``, and its row still says that the map was
+    empty and why, or its warning: the summary after a resumed (e.g. interrupted) run
+    must not hide them."""
+    import cv2
+
+    raw = np.full((40, 50), 200, np.uint8)  # unknown everywhere but a hall: empty graph
+    raw[10:30, 10:40] = 255
+    cv2.imwrite(str(tmp_path / "raw.png"), raw)
+    grey = np.full((120, 160), 205, np.uint8)  # walls that read as unknown: a warning
+    grey[10:110, 10:150] = 254
+    grey[8:10, 20:60] = 0
+    cv2.imwrite(str(tmp_path / "grey.png"), grey)
+    (tmp_path / "plain.png").write_bytes(PAPER_MAPS[2].read_bytes())
+    paths = [tmp_path / n for n in ("raw.png", "grey.png", "plain.png")]
+    out = tmp_path / "out"
+    first = build_graphs(paths, out_dir=out, workers=0, progress=False)
+    assert [r.status for r in first] == ["empty", "ok", "ok"]
+    assert first[1].message.startswith("warning:") and first[2].message == ""
+    again = build_graphs(paths, out_dir=out, workers=0, progress=False, resume=True)
+    assert [r.status for r in again] == ["skipped"] * 3
+    assert again[0].message == f"outputs complete (resume) of an empty map: {first[0].message}"
+    assert again[1].message == f"outputs complete (resume); {first[1].message}"
+    assert again[2].message == "outputs complete (resume)"
+    rows = _read_summary(out)
+    assert [r["message"] for r in rows] == [r.message for r in again]
+
+
 def test_grey_walls_are_flagged_with_a_warning(tmp_path, capsys):
     """A map whose walls read as unknown (grey) builds, but its row says why the graph
     may be odd, the summary counts it, and ``topojax graph`` notes it too."""

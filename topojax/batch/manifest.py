@@ -127,9 +127,20 @@ def _resume_record(
             if name not in ("map", "path", "status", "message") and name in row
         },
         status="skipped",
-        message="outputs complete (resume)",
+        message=_resumed_message(doc.get("status"), doc.get("message")),
         outputs=(*sorted(files), path.relative_to(out_dir).as_posix()),
     )
+
+
+def _resumed_message(status: Any, message: Any) -> str:
+    """The message of a map skipped by resume: that its outputs are complete, and the
+    status and message its manifest recorded where they said more than ``ok`` (an empty
+    graph and why, a warning), so that the summary of a resumed run keeps them."""
+    text = "outputs complete (resume)"
+    note = message if isinstance(message, str) else ""
+    if status == "empty":
+        return f"{text} of an empty map: {note}" if note else f"{text} of an empty map"
+    return f"{text}; {note}" if note else text
 
 
 def _write_manifest(
@@ -152,6 +163,9 @@ def _write_manifest(
         "request": request,
         "files": files,
         "record": {k: v for k, v in rec.row().items() if k not in ("status", "message")},
+        # reported again by resume, which skips the map
+        "status": rec.status,
+        "message": rec.message,
     }
     path = _manifest_path(out_dir, item.name)
     path.parent.mkdir(parents=True, exist_ok=True)

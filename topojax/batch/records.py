@@ -71,7 +71,8 @@ class MapRecord:
     status : {"ok", "empty", "error", "skipped"}
         ``"empty"``: the graph, or the route graph of a ``route`` format, has no vertex
         (outputs written; ``message`` says why);
-        ``"skipped"``: complete outputs found by ``resume``.
+        ``"skipped"``: complete outputs found by ``resume`` (``message`` then repeats
+        what the run that wrote them said of an empty map or a warning).
     message : str
         Error message (``"ExceptionType: text"``) or a note; on an ok map empty, or a
         warning (``"warning: ..."``, e.g. walls that read as unknown:
