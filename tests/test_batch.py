@@ -575,6 +575,26 @@ def test_sigterm_stops_the_worker_processes(tmp_path):
     assert proc.returncode == 128 + signal.SIGTERM
 
 
+def test_an_interrupted_batch_ends_its_worker_processes_instead_of_waiting(tmp_path, monkeypatch):
+    """Ctrl-C in the batch (KeyboardInterrupt) terminates the own worker processes: the
+    maps they are building would get no manifest, and waiting for them made an interrupt
+    take as long as the slowest map in flight."""
+    from topojax.batch import driver
+
+    stopped: list = []
+
+    def interrupt(self, fut):  # Ctrl-C as the first map's CPU stage ends
+        stopped.extend(self.executor._processes.values())
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(driver._BatchRun, "_on_cpu_done", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        build_graphs(PAPER_MAPS * 2, out_dir=tmp_path / "out", workers=2, progress=False)
+    assert len(stopped) == 2
+    # terminated (not left to finish their maps and exit on their own, exit code 0)
+    assert [p.exitcode for p in stopped] == [-signal.SIGTERM] * 2
+
+
 def test_a_task_cancelled_with_a_broken_pool_runs_again(tmp_path, monkeypatch):
     """A pool shut down after it broke cancels the tasks it had not failed yet: they are
     lost as the failed ones are, and run again."""

@@ -355,6 +355,10 @@ class _BatchRun:
                         self._on_kernels_done(fut)
                     else:
                         self._on_cpu_done(fut)
+        except BaseException:  # Ctrl-C, SIGTERM: results no manifest would record
+            if self.owns_executor:
+                _terminate_workers(self.executor)
+            raise
         finally:
             self._bar.close()
             self._load_pool.shutdown(wait=True, cancel_futures=True)
@@ -543,6 +547,25 @@ class _BatchRun:
                 return replace(rec, status="error", message=f"manifest: {_error_text(exc)}")
             rec = replace(rec, outputs=(*rec.outputs, manifest))
         return rec
+
+
+def _terminate_workers(executor: cf.Executor | None) -> None:
+    """Stop the processes of an own process pool now, for a batch that is interrupted.
+
+    Shutting the pool down waits for the maps its processes are building, whose results
+    the interrupted batch no longer records (no manifest): an interrupt then took as
+    long as the slowest map in flight.  Their partly written files are removed when
+    the maps are redone.
+    """
+    if not isinstance(executor, cf.ProcessPoolExecutor):
+        return
+    terminate = getattr(executor, "terminate_workers", None)  # Python >= 3.14
+    if terminate is not None:
+        terminate()
+        return
+    for process in list((getattr(executor, "_processes", None) or {}).values()):
+        if process.is_alive():
+            process.terminate()
 
 
 def _class_counts(g) -> tuple[int, int | None]:
