@@ -23,7 +23,7 @@ from ..maps.classify import wall_warning
 from ..routegraph import RouteGraphConfig
 from .arguments import batch_items, checked_options, map_inputs
 from .inputs import ROUTE_FORMATS, _Item
-from .manifest import _forget_outputs, _resume_record, _write_manifest
+from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
 from .records import MapRecord, totalled, write_summary
 from .worker import (
     InlineExecutor,
@@ -370,10 +370,12 @@ class _BatchRun:
     def _finish(self, index: int, rec: MapRecord) -> None:
         """Record the final ``rec`` of map ``index`` and advance the progress bar; a map
         that failed loses the manifest and files of an earlier run (their input or
-        settings are not this run's)."""
+        settings are not this run's) and the files it wrote before it failed."""
         self._records[index] = rec = totalled(rec)
         if rec.status == "error" and self.out_dir is not None:
-            _forget_outputs(self.items[index], out_dir=self.out_dir, formats=(), plot=False)
+            item = self.items[index]
+            _forget_outputs(item, out_dir=self.out_dir, formats=(), plot=False)
+            _drop_outputs(item, out_dir=self.out_dir, formats=self.formats, plot=self.plot)
         counts = self._counts
         counts[rec.status] += 1
         self._bar.update(1)

@@ -173,6 +173,14 @@ def _write_manifest(
     return path.relative_to(out_dir).as_posix()
 
 
+def _drop_outputs(item: _Item, *, out_dir: Path, formats: tuple[str, ...], plot: bool) -> None:
+    """Remove the files ``item`` writes for ``formats`` and ``plot``: those of a map that
+    failed part-way through writing them (no manifest lists them, and left, they would
+    pass for the outputs of a map whose row says it has none)."""
+    for suffix in (*_format_suffixes(formats), *picture_suffixes(formats, plot)):
+        (out_dir / f"{item.name}{suffix}").unlink(missing_ok=True)
+
+
 def _forget_outputs(
     item: _Item, *, out_dir: Path | None, formats: tuple[str, ...], plot: bool
 ) -> None:
