@@ -1076,6 +1076,29 @@ def test_outputs_never_replace_an_input_map_or_its_yaml_image(tmp_path, capsys):
     assert "would overwrite the graph file" in capsys.readouterr().err
 
 
+def test_a_map_file_of_the_same_name_from_another_folder_is_refused(tmp_path):
+    """Two batches into one folder: ``b/m.png`` after ``a/m.png`` would replace its
+    outputs without a word (the command line refused it, the library did not); the same
+    file again, or a resume, is fine."""
+    png = PAPER_MAPS[2].read_bytes()
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "m.png").write_bytes(png)
+    out = tmp_path / "out"
+    kw = dict(out_dir=out, formats="json", workers=0, progress=False)
+    assert build_graphs([tmp_path / "a" / "m.png"], **kw)[0].status == "ok"
+    before = (out / "m.json").read_bytes()
+    with pytest.raises(
+        ValueError,
+        match=r"^out_dir: .*m\.manifest\.json and the files it "
+        r"lists were written from .*a/m\.png; .*b/m\.png would replace them",
+    ):
+        build_graphs([tmp_path / "b" / "m.png"], **kw)
+    assert (out / "m.json").read_bytes() == before
+    assert build_graphs([tmp_path / "a" / "m.png"], resume=True, **kw)[0].status == "skipped"
+    assert build_graphs([tmp_path / "a" / "m.png"], **kw)[0].status == "ok"
+
+
 def test_batch_argument_checks_for_flags_formats_and_folders(tmp_path):
     occ = load_map(PAPER_MAPS[0])
     with pytest.raises(TypeError, match="keep_graphs: expected a bool"):

@@ -29,6 +29,7 @@ from .inputs import (
     _format_suffixes,
     _Item,
     _room_settings,
+    batch_input,
     check_formats,
     picture_suffixes,
 )
@@ -135,6 +136,7 @@ def batch_items(
     if out is None:
         return items, {}
     check_no_overwrite(items, out, formats, plot)
+    check_same_inputs(items, out)
     return items, {item.index: _fingerprint(item) for item in items}
 
 
@@ -282,3 +284,20 @@ def check_no_overwrite(items: list[_Item], out: Path, formats: tuple[str, ...], 
         [out / f"{it.name}{suffix}" for it in items for suffix in suffixes],
         option="out_dir",
     )
+
+
+def check_same_inputs(items: list[_Item], out: Path) -> None:
+    """Refuse a map file whose output name another map file's batch already used in
+    ``out`` (its manifest names that file): ``maps_a/intel.png`` would silently replace
+    the outputs of ``maps_b/intel.png`` written there before."""
+    for it in items:
+        if it.path is None:
+            continue
+        manifest = out / f"{it.name}{_MANIFEST_SUFFIX}"
+        before = batch_input(manifest)
+        now = os.path.abspath(it.path)
+        if before and os.path.isabs(before) and before != now:
+            raise ValueError(
+                f"out_dir: {manifest} and the files it lists were written from {before}; "
+                f"{now} would replace them. Write into another folder, or remove them first"
+            )
