@@ -42,7 +42,7 @@ from ._cover import (
     wall_distance,
 )
 from ._spanner import open_short_loops, simplify_paths
-from .feasible import FeasibleSpace, clearance_view_m, feasible_space
+from .feasible import FeasibleSpace, clearance_map_m, feasible_space
 
 __all__ = ["RouteGraphConfig", "route_graph"]
 
@@ -480,10 +480,11 @@ def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig, c
     alive.sort(key=lambda v: work.pixel[v])
     new_id = {v: k for k, v in enumerate(alive)}
     pix = np.array([work.pixel[v] for v in alive], np.int64).reshape(-1, 2) + shift
-    # the clearance at map pixel p is clearance_m[p - off]
+    # the clearance at map pixel p is clearance_m[p - off]: the window's, or the map's
     off = shift.astype(np.int64)
     if clearance_m is None:
-        clearance_m, off = clearance_view_m(np.asarray(occupancy.free, bool), res), off * 0
+        clearance_m = clearance_map_m(np.asarray(occupancy.free, bool), res)
+        off = np.zeros(2, np.int64)
     clear_at = clearance_m[pix[:, 0] - off[0], pix[:, 1] - off[1]].astype(np.float64).tolist()
     wx, wy = occupancy.pixel_to_world(pix[:, 0], pix[:, 1])
     degree = work.degrees()

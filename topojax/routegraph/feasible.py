@@ -32,7 +32,7 @@ class FeasibleSpace:
     clearance_m : float32 (H, W)
         Distance from each pixel centre to the nearest centre of a pixel that is not known
         free, with the map surrounded by such pixels; metres, 0 off the free space (a
-        view, not contiguous: :func:`clearance_view_m`).
+        view, not contiguous: :func:`clearance_map_m`).
     feasible : bool (H, W)
         ``free & (clearance_m >= robot_radius_m)``.
     labels : int32 (H, W)
@@ -62,13 +62,9 @@ class FeasibleSpace:
 
 def clearance_map_m(free: np.ndarray, resolution_m: float) -> np.ndarray:
     """Distance (metres, float32 (H, W)) from each pixel centre to the nearest pixel centre
-    that is not ``free``, the map's outside counting as not free; 0 off ``free``."""
-    return free_clearance_px(free) * np.float32(resolution_m)
-
-
-def clearance_view_m(free: np.ndarray, resolution_m: float) -> np.ndarray:
-    """:func:`clearance_map_m`, the same values scaled in place: a view (not contiguous)
-    of the distance transform's framed output, with no second image-sized array."""
+    that is not ``free``, the map's outside counting as not free; 0 off ``free``.  A view
+    (not contiguous) of the distance transform's framed output, scaled in place: no
+    second image-sized array."""
     px = free_clearance_px(free)
     return np.multiply(px, np.float32(resolution_m), out=px)
 
@@ -92,8 +88,8 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     radius = robot_radius("robot_radius_m", robot_radius_m)
     free = np.asarray(occupancy.free, bool)
     res = float(occupancy.resolution_m)
-    clearance = clearance_view_m(free, res)
-    feasible = free & (clearance >= min(radius, float(np.finfo(np.float32).max)))
+    clearance = clearance_map_m(free, res)
+    feasible = free & (clearance >= radius)  # radius: at most MAX_ROBOT_RADIUS_M
     n, labels, stats, _ = cv2.connectedComponentsWithStats(
         feasible.view(np.uint8), connectivity=8, ltype=cv2.CV_32S
     )
