@@ -348,7 +348,7 @@ def test_waypoints_keep_the_route_within_the_tolerance():
     route = plan_route(g, (10.0, 20.0), (30.0, 15.0))
     counts = []
     for tol in (0.5, 0.1, 0.02):
-        w = route.waypoints(tol)
+        w = route.waypoints(tolerance_m=tol)
         np.testing.assert_array_equal(w[0], route.world[0])
         np.testing.assert_array_equal(w[-1], route.world[-1])
         # waypoints are route points, in order, and the route stays near them
@@ -366,7 +366,9 @@ def test_waypoints_keep_the_route_within_the_tolerance():
         ("1", TypeError),
     ):
         with pytest.raises(exc, match="tolerance_m"):
-            route.waypoints(bad)
+            route.waypoints(tolerance_m=bad)
+    with pytest.raises(TypeError):
+        route.waypoints(0.1)  # an option, named like to_geojson's
 
 
 def test_reweighted_edges_charge_partial_traversals_in_proportion():
@@ -477,7 +479,7 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert feature["properties"]["vertices"] == list(want.vertices)
     assert main([*argv, "-o", str(out), "--simplify-m", "0.2"]) == 0
     thin = json.loads(out.read_text())["geometry"]["coordinates"]
-    np.testing.assert_allclose(thin, want.waypoints(0.2))
+    np.testing.assert_allclose(thin, want.waypoints(tolerance_m=0.2))
     assert main([*argv, "-o", str(out), "--simplify-m", "-1"]) == 2
     assert "--simplify-m: expected a finite number of metres > 0" in capsys.readouterr().err
     # too far from the graph: a clear error and exit status 2

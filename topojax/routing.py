@@ -98,7 +98,7 @@ class Route:
     start_snap_m: float
     goal_snap_m: float
 
-    def waypoints(self, tolerance_m: float = 0.1) -> np.ndarray:
+    def waypoints(self, *, tolerance_m: float = 0.1) -> np.ndarray:
         """The route's world polyline thinned to waypoints (Douglas–Peucker): every pixel
         of the route lies within ``tolerance_m`` of the straight segments between them.
 
@@ -129,7 +129,7 @@ class Route:
         With ``tolerance_m``, the line holds the :meth:`waypoints` instead of every
         pixel.  A route of one pixel (start and goal snapped together) repeats it: a GeoJSON
         ``LineString`` needs two positions."""
-        line = self.world if tolerance_m is None else self.waypoints(tolerance_m)
+        line = self.world if tolerance_m is None else self.waypoints(tolerance_m=tolerance_m)
         if len(line) == 1:  # start and goal on one pixel: RFC 7946 wants two positions
             line = np.concatenate([line, line])
         return {
