@@ -82,6 +82,15 @@ def test_route_formats_write_each_maps_route_graph(tmp_path):
     assert rows["narrow"]["status"] == "empty"
 
 
+def test_route_files_of_a_rerun_are_byte_identical(tmp_path):
+    kw = {"workers": 0, "progress": False, "formats": "route,route_nav2"}
+    first = build_graphs([_two_rooms()], out_dir=tmp_path / "a", **kw)
+    again = build_graphs([_two_rooms()], out_dir=tmp_path / "b", **kw)
+    assert first[0].outputs == again[0].outputs and first[0].outputs
+    for name in first[0].outputs:
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+
 def test_without_a_route_format_there_is_no_route_graph(tmp_path):
     (rec,) = build_graphs([_two_rooms()], workers=0, progress=False, out_dir=tmp_path)
     assert rec.status == "ok" and rec.edges > 0

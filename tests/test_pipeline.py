@@ -212,6 +212,28 @@ def test_clearance_at_selected_pixels_is_exact(seed):
     assert np.isinf(got).all()
 
 
+def test_opencv_distance_transform_gives_the_same_bits_wherever_numpy_allocates():
+    """OpenCV's vectorised exact transform rounds a few distances a unit in the last place
+    apart with the output's address modulo 32 bytes: a route graph's mean clearances, and
+    a pixel exactly at the robot's radius, changed from one run to the next."""
+    from scipy import ndimage
+
+    from topojax.fields.clearance import distance_transform_px, free_clearance_px
+
+    free = np.ones((60, 100), bool)
+    free[[0, -1], :] = free[:, [0, -1]] = False
+    free[20:40, 30:70] = False
+    first = free_clearance_px(free).copy()
+    exact = ndimage.distance_transform_edt(np.pad(free, 1))[1:-1, 1:-1]
+    np.testing.assert_allclose(first, exact, rtol=1e-6, atol=0)
+    held = []
+    for k in range(64):  # arrays of other sizes move where the next output lands
+        held += [np.empty(25000 + 16 * k, np.uint8), np.ones(24000 + 24 * k, np.uint8)]
+        got = free_clearance_px(free)
+        assert np.array_equal(got, first), k
+    assert distance_transform_px(free).ctypes.data % 64 == 0
+
+
 def test_world_coordinates_follow_map_origin_and_yaw():
     occ = sample_map("intel")
     moved = tj.OccupancyMap(

@@ -347,6 +347,7 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     assert code == 0
     graph = load_graph(out / "ring_route.json")
     assert graph.number_of_edges() > 0 and graph.graph["robot_radius_m"] == 0.2
+    files = {s: (out / f"ring_route{s}").read_bytes() for s in (".graphml", ".json", ".geojson")}
     report = json.loads((out / "ring_route_report.json").read_text())
     assert report["success_rate"] == 1.0 and report["unsafe_share"] == 0.0
     text = capsys.readouterr().out
@@ -355,6 +356,8 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     assert "0.05 m/px, assumed: the file states none; --resolution sets it" in text
     argv = ["route-graph", str(path), "-o", str(out), "--robot-radius", "0.2"]
     assert main([*argv, "--resolution", "0.05"]) == 0
+    for s, before in files.items():  # no build times in the files: a rerun writes the same
+        assert (out / f"ring_route{s}").read_bytes() == before
     assert "assumed" not in capsys.readouterr().out
     assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2
 

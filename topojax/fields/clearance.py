@@ -12,6 +12,7 @@ __all__ = [
     "clearance_at",
     "clearance_from_sq_distance",
     "clearance_of_values",
+    "distance_transform_px",
     "free_clearance_px",
     "nearest_sq_distance",
 ]
@@ -186,17 +187,35 @@ def clearance_of_values(
 
 def _unwindowed_clearance(obstacles: np.ndarray) -> np.ndarray:
     """OpenCV's exact Euclidean distance transform (float32, px) of a map with obstacles."""
-    import cv2
-
-    return cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return distance_transform_px((~obstacles).view(np.uint8))
 
 
 def free_clearance_px(free: np.ndarray) -> np.ndarray:
     """Distance (pixels, float32 (H, W)) from each pixel centre to the nearest pixel
     centre that is not ``free``, the map's outside counting as not free; 0 off ``free``
     (OpenCV's exact Euclidean transform)."""
-    import cv2
-
     padded = np.zeros((free.shape[0] + 2, free.shape[1] + 2), np.uint8)
     padded[1:-1, 1:-1] = free
-    return cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
+    return distance_transform_px(padded)[1:-1, 1:-1]
+
+
+def distance_transform_px(mask: np.ndarray) -> np.ndarray:
+    """OpenCV's exact Euclidean distance transform of ``mask`` (uint8 or bool (H, W)):
+    the distance (pixels, float32 (H, W)) from each pixel centre to the nearest zero
+    pixel, the same bits on every call.
+
+    OpenCV's vectorised pass rounds some distances differently (by a unit in the last
+    place) with the output's address modulo 32 bytes, which NumPy leaves to chance for a
+    small array; the output here always starts on a 64-byte boundary.
+    """
+    import cv2
+
+    mask = mask.view(np.uint8) if mask.dtype == bool else mask
+    h, w = mask.shape
+    raw = np.empty(h * w * 4 + _ALIGN_BYTES, np.uint8)
+    skip = -raw.ctypes.data % _ALIGN_BYTES
+    out = raw[skip : skip + h * w * 4].view(np.float32).reshape(h, w)
+    return cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE, dst=out)
+
+
+_ALIGN_BYTES = 64

@@ -11,6 +11,7 @@ import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..fields.clearance import distance_transform_px
 from ..graph.work import WorkGraph, line_pixels
 from ._corners import bent_candidates, reflex_corners
 from ._joins import (
@@ -104,7 +105,7 @@ def covered(
 def wall_distance(feasible: np.ndarray) -> np.ndarray:
     """Distance (pixels, float32 (H, W)) of each pixel to the nearest pixel that is not
     feasible (exact Euclidean)."""
-    return cv2.distanceTransform(feasible.view(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return distance_transform_px(feasible)
 
 
 def _waypoint_candidates(uncovered: np.ndarray, spacing_px: float) -> np.ndarray:

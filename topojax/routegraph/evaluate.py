@@ -7,7 +7,6 @@ import math
 import time
 from dataclasses import asdict, dataclass
 
-import cv2
 import networkx as nx
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -22,6 +21,7 @@ from .._validate import (
     positive_int,
     positive_metres,
 )
+from ..fields.clearance import distance_transform_px
 from ..maps import map_argument
 from ..maps.occupancy import map_mismatch
 from ._eval_geometry import GraphGeometry, graph_geometry, pixel_lookup
@@ -171,7 +171,7 @@ def _region_metrics(fs: FeasibleSpace, geo: GraphGeometry, regions, snap_px: flo
     not_graph[rc_in[:, 0], rc_in[:, 1]] = 0
     if rc_in.shape[0] == 0:
         return n_comp, missed, split, 1.0
-    dist = cv2.distanceTransform(not_graph, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    dist = distance_transform_px(not_graph)
     far = np.count_nonzero(target & (dist > np.float32(snap_px)))
     return n_comp, missed, split, float(far / n_target)
 
