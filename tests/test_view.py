@@ -222,6 +222,50 @@ def test_a_map_too_large_is_refused_with_the_limit_and_a_way_out(res, tmp_path):
     assert any("window" in n for n in data["notes"])
 
 
+class _CountingReader:
+    """An array read through a TiledMap that records every window read."""
+
+    def __init__(self, array):
+        self.array, self.shape, self.dtype = array, array.shape, array.dtype
+        self.reads = []
+
+    def read(self, r0, r1, c0, c1):
+        self.reads.append((r1 - r0) * (c1 - c0))
+        return self.array[r0:r1, c0:c1]
+
+
+def test_a_map_on_disk_is_viewed_reading_only_the_window(res, tmp_path):
+    """A map larger than memory (a TiledMap, or build_graph_tiled's result) is shown as
+    the same map in memory would be; a window reads only its pixels, and a map above
+    max_pixels is refused before any is read."""
+    reader = _CountingReader(res.map.to_image())
+    tiled = tj.TiledMap(reader, resolution_m=res.map.resolution_m, origin=res.map.origin)
+    h, w = res.map.shape
+    x0, y0 = res.map.pixel_to_world(h - 1, 0)
+    window = (x0 + 3.0, y0 + 2.0, x0 + 13.0, y0 + 10.0)
+    with pytest.raises(ValueError, match=r"max_pixels=100000 .*window="):
+        view_html(res.graph, map=tiled, max_pixels=100_000)
+    assert reader.reads == []
+    with pytest.raises(ValueError, match=r"window of it with the graph's map \(map=.*open_tiled_map"):
+        view_html(res.graph, max_pixels=100_000)  # a graph alone: window= needs its map
+    got = payload_of(view_html(res.graph, map=tiled, window=window, max_pixels=100_000))
+    assert 0 < sum(reader.reads) <= got["frame"]["height"] * got["frame"]["width"]
+    want = payload_of(view_html(res.graph, map=res.map, window=window))
+    for key in ("frame", "graphs", "notes"):
+        assert got[key] == want[key], key
+    assert got["rasters"][0] == want["rasters"][0]  # the map's pyramid
+    whole = payload_of(view_html(res.graph, map=tiled))
+    assert whole["rasters"][0] == payload_of(view_html(res.graph, map=res.map))["rasters"][0]
+    # the result of build_graph_tiled shows its map and graph
+    result = tj.build_graph_tiled(tj.save_tiled_map(res.map, tmp_path / "tiles", tile_px=128))
+    page = payload_of(view_html(result, window=window))
+    assert page["frame"] == want["frame"] and page["graphs"][0]["n_edges"] > 0
+    assert (
+        page["graphs"]
+        == payload_of(view_html(result.graph, map=result.map, window=window))["graphs"]
+    )
+
+
 @pytest.mark.parametrize(
     ("window", "error", "match"),
     [

@@ -38,13 +38,31 @@ from .classify import (
     classify_array,
 )
 
-__all__ = ["DEFAULT_RESOLUTION_M", "OccupancyMap", "grid_mismatch", "grid_to_world", "map_mismatch"]
+__all__ = [
+    "DEFAULT_RESOLUTION_M",
+    "OccupancyMap",
+    "grid_mismatch",
+    "grid_to_world",
+    "map_mismatch",
+    "world_to_grid",
+]
 
 #: Default resolution for plain images (the IPA benchmark and paper maps use 0.05 m/px).
 DEFAULT_RESOLUTION_M = 0.05
 
 # Pixel value written by ``to_image`` / ``save_map`` for each class (map_saver convention).
 _IMAGE_OCCUPIED, _IMAGE_UNKNOWN, _IMAGE_FREE = 0, 205, 254
+
+
+def world_to_grid(x, y, *, height: int, resolution_m: float, origin):
+    """Continuous pixel coordinates ``rows, cols`` (float64) of world points ``x, y``
+    (metres) on the grid of :func:`grid_to_world`, its inverse."""
+    dx = real_array("x", x) - origin[0]
+    dy = real_array("y", y) - origin[1]
+    cos_t, sin_t = math.cos(origin[2]), math.sin(origin[2])
+    xm = cos_t * dx + sin_t * dy
+    ym = -sin_t * dx + cos_t * dy
+    return height - 0.5 - ym / resolution_m, xm / resolution_m - 0.5
 
 
 def grid_to_world(rows, cols, *, height: int, resolution_m: float, origin):
@@ -180,16 +198,9 @@ class OccupancyMap:
             Continuous pixel coordinates; pixel centres are at integer values. Points
             outside the grid give values outside ``[-0.5, H - 0.5)`` / ``[-0.5, W - 0.5)``.
         """
-        dx = real_array("x", x) - self.origin[0]
-        dy = real_array("y", y) - self.origin[1]
-        yaw = self.origin[2]
-        cos_t, sin_t = math.cos(yaw), math.sin(yaw)
-        xm = cos_t * dx + sin_t * dy
-        ym = -sin_t * dx + cos_t * dy
-        res = self.resolution_m
-        cols = xm / res - 0.5
-        rows = self.shape[0] - 0.5 - ym / res
-        return rows, cols
+        return world_to_grid(
+            x, y, height=self.shape[0], resolution_m=self.resolution_m, origin=self.origin
+        )
 
     # ------------------------------------------------------------------ conversions
     def to_image(self) -> np.ndarray:
@@ -348,10 +359,10 @@ def grid_mismatch(shape, resolution_m, origin, occupancy, *, owner: str) -> str 
     ``origin`` (each None when not known), or None when it is: the same shape, the
     resolution to a relative 1e-9, the origin to 1e-9 m.  ``owner`` (e.g. "the graph's")
     names whose map the message expects."""
-    if shape is not None and tuple(shape) != tuple(occupancy.free.shape):
+    if shape is not None and tuple(shape) != tuple(occupancy.shape):
         return (
             f"expected {owner} map of shape {tuple(shape)}, received a map of shape "
-            f"{tuple(occupancy.free.shape)}"
+            f"{tuple(occupancy.shape)}"
         )
     res = resolution_m
     if isinstance(res, numbers.Real) and not math.isclose(res, occupancy.resolution_m):

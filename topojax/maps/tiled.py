@@ -54,7 +54,7 @@ from .classify import (
     classify_image,
 )
 from .files import YAML_SUFFIXES, _pgm_header, _yaml_settings
-from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap, grid_to_world
+from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap, grid_to_world, world_to_grid
 from .pnm import resolution_from_pgm_comments
 
 __all__ = ["TILE_INDEX", "TiledMap", "open_tiled_map", "save_tiled_map"]
@@ -236,6 +236,13 @@ class TiledMap:
         :meth:`OccupancyMap.pixel_to_world` of the loaded map."""
         return grid_to_world(
             rows, cols, height=self.shape[0], resolution_m=self.resolution_m, origin=self.origin
+        )
+
+    def world_to_pixel(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """Continuous pixel ``(rows, cols)`` of world ``(x, y)`` in metres, as
+        :meth:`OccupancyMap.world_to_pixel` of the loaded map."""
+        return world_to_grid(
+            x, y, height=self.shape[0], resolution_m=self.resolution_m, origin=self.origin
         )
 
     def metadata(self) -> dict[str, Any]:

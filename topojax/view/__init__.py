@@ -42,7 +42,7 @@ def view_html(
         obj, map=map, rooms=rooms, graphs=graphs, route=route, timeline=timeline, title=title
     )
     if window is not None:
-        apply_window(inputs, window)
+        apply_window(inputs, window, max_pixels=max_pixels)
     return page(build_payload(inputs, max_pixels=max_pixels))
 
 
@@ -72,8 +72,10 @@ def write_view(
 
     Parameters
     ----------
-    obj : TopologyResult, IncrementalMapper, RoomSegmentation, networkx graph or OccupancyMap
-        What to show: a result (map, distance map, ridges, skeleton, graph), a mapper
+    obj : TopologyResult, TiledResult, IncrementalMapper, RoomSegmentation, networkx graph,
+          OccupancyMap or TiledMap
+        What to show: a result (map, distance map, ridges, skeleton, graph; of
+        :func:`topojax.build_graph_tiled`, its map and graph), a mapper
         (its map and graph as of the last update, with its rooms when it keeps them), a
         room segmentation (with its map), a graph (e.g. :func:`topojax.route_graph`'s;
         pass its ``map``) or a map alone.
@@ -81,9 +83,11 @@ def write_view(
         The HTML file to write (its folder must exist).
     title : str, optional
         Shown on the page (default: from the map's file name).
-    map : OccupancyMap, optional
+    map : OccupancyMap or TiledMap, optional
         The map under a graph given alone (or another map to draw; the page notes a
-        graph whose recorded shape, resolution or origin is not this map's).
+        graph whose recorded shape, resolution or origin is not this map's).  A
+        :class:`topojax.TiledMap` (a map on disk) is read only where shown: the window,
+        or the whole map once it is known to fit ``max_pixels``.
     rooms : RoomSegmentation, (rooms, doors), bool or None
         Rooms to draw: a segmentation, the pair :func:`topojax.load_rooms` returns, True
         (segment the map now; a mapper's own rooms), False (none).  Default: a mapper's

@@ -13,6 +13,7 @@ import numpy as np
 from .._validate import nonnegative_metres, nx_graph
 from ..graph import graph_resolution_m
 from ..maps.occupancy import grid_mismatch, map_mismatch
+from ..maps.tiled import TiledMap
 from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
 from ._encode import packed, pyramid
 from ._graphs import Frame, graph_frame, graph_payload
@@ -96,26 +97,40 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
         out.map = obj.occupancy
         out.rooms = obj
         out.title = _title_of(obj.occupancy, "rooms")
+    elif _instance(obj, "topojax.outofcore.build", "TiledResult"):
+        out.map = obj.map  # a TiledMap: read when shown (a window of it, at most)
+        out.graphs.append(
+            ("graph", "pruned graph" if obj.config.graph.prunes else "graph", obj.graph)
+        )
+        out.title = _title_of(obj.map, "topology graph")
     elif isinstance(obj, nx.Graph):
         out.graphs.append(("graph", _graph_label(obj), obj))
         out.title = _graph_label(obj)
-    elif isinstance(obj, OccupancyMap):
+    elif isinstance(obj, (OccupancyMap, TiledMap)):
         out.map = obj
         out.title = _title_of(obj, "map")
     else:
         raise TypeError(
-            "obj: expected a TopologyResult, an IncrementalMapper, a RoomSegmentation, a "
-            f"networkx graph or an OccupancyMap, received {type(obj).__name__}"
+            "obj: expected a TopologyResult, a TiledResult, an IncrementalMapper, a "
+            "RoomSegmentation, a networkx graph, an OccupancyMap or a TiledMap, received "
+            f"{type(obj).__name__}"
         )
     if map is not None:
-        if not isinstance(map, OccupancyMap):
-            raise TypeError(f"map: expected an OccupancyMap, received {type(map).__name__}")
+        if not isinstance(map, (OccupancyMap, TiledMap)):
+            raise TypeError(
+                f"map: expected an OccupancyMap or a TiledMap, received {type(map).__name__}"
+            )
         out.map = map
     if rooms is True:
         from ..rooms import segment_rooms
 
         if out.map is None:
             raise ValueError("rooms=True needs a map to segment; pass map=...")
+        if isinstance(out.map, TiledMap):
+            raise ValueError(
+                "rooms=True: the map is a TiledMap, read a window at a time; pass the rooms "
+                "segmented beforehand (rooms=tj.segment_rooms(...))"
+            )
         rooms = segment_rooms(out.map)
     if rooms is not None and rooms is not False:
         if not (_instance(rooms, "topojax.rooms.model", "RoomSegmentation") or is_room_pair(rooms)):
@@ -208,15 +223,23 @@ def _map_frame(occupancy) -> Frame:
     return Frame(int(h), int(w), float(occupancy.resolution_m), tuple(map(float, occupancy.origin)))
 
 
-def _check_size(frame: Frame, max_pixels: int) -> None:
+def _check_size(frame: Frame, max_pixels: int, *, has_map: bool = True) -> None:
     n = frame.height * frame.width
     if n > max_pixels:
+        how = (
+            ""
+            if has_map
+            else (
+                " with the graph's map (map=: an OccupancyMap, or tj.open_tiled_map(...) of a "
+                "map on disk, read a window at a time)"
+            )
+        )
         h, w = frame.height, frame.width
         x, y = frame.pixel_to_world([-0.5, -0.5, h - 0.5, h - 0.5], [-0.5, w - 0.5, -0.5, w - 0.5])
         raise ValueError(
             f"map: {h} x {w} pixels ({n / 1e6:.1f} Mpx) is more than max_pixels={max_pixels} "
             f"({max_pixels / 1e6:g} Mpx), the most a view ships to a browser; view a window "
-            "of it (window=(x_min, y_min, x_max, y_max) in metres; the map spans x "
+            f"of it{how} (window=(x_min, y_min, x_max, y_max) in metres; the map spans x "
             f"{np.min(x):.2f} to {np.max(x):.2f} m, y {np.min(y):.2f} to {np.max(y):.2f} m) "
             "or pass a larger max_pixels"
         )
@@ -348,7 +371,9 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
             if frame is not None:
                 break
     if frame is not None:
-        _check_size(frame, max_pixels)
+        _check_size(frame, max_pixels, has_map=inputs.map is not None)
+    if isinstance(inputs.map, TiledMap):  # read now that it is known to fit
+        inputs.map = inputs.map.occupancy()
     rasters = _rasters(inputs) if inputs.map is not None else []
     if inputs.map is None:
         inputs.notes.append("no map: the graphs are drawn on an empty background")

@@ -53,17 +53,29 @@ def _extent(occupancy) -> str:
 
 
 def _cropped_map(occupancy, r0, r1, c0, c1):
+    """The window's OccupancyMap, in the map's frame; of a TiledMap, only the window's
+    pixels are read."""
     from ..maps import OccupancyMap
+    from ..maps.tiled import TiledMap
 
     x, y = occupancy.pixel_to_world(r1 - 0.5, c0 - 0.5)  # the window's lower-left corner
+    if isinstance(occupancy, TiledMap):
+        masks = _masks(occupancy.occupancy(r0, r1, c0, c1), 0, None, 0, None)
+    else:
+        masks = _masks(occupancy, r0, r1, c0, c1)
     return OccupancyMap(
-        occupied=np.ascontiguousarray(occupancy.occupied[r0:r1, c0:c1]),
-        free=np.ascontiguousarray(occupancy.free[r0:r1, c0:c1]),
-        unknown=np.ascontiguousarray(occupancy.unknown[r0:r1, c0:c1]),
+        **masks,
         resolution_m=occupancy.resolution_m,
         origin=(float(x), float(y), occupancy.origin[2]),
         source=occupancy.source,
     )
+
+
+def _masks(occupancy, r0, r1, c0, c1) -> dict:
+    return {
+        name: np.ascontiguousarray(getattr(occupancy, name)[r0:r1, c0:c1])
+        for name in ("occupied", "free", "unknown")
+    }
 
 
 def _inside(pixels: np.ndarray, r0, r1, c0, c1) -> np.ndarray:
@@ -149,15 +161,21 @@ def _cropped_rooms(rooms, box):
     )
 
 
-def apply_window(inputs, window) -> None:
+def apply_window(inputs, window, *, max_pixels: int) -> None:
     """Cut ``inputs`` (see :class:`topojax.view._data.Inputs`) down to ``window``, a world
     box (x_min, y_min, x_max, y_max) in metres: the map and its layers to the pixels in
-    it, each graph to the edges that pass through it, the rooms to those that meet it."""
+    it, each graph to the edges that pass through it, the rooms to those that meet it.
+    A window of more than ``max_pixels`` is refused before its pixels are read."""
     box = checked_window(window)
     if inputs.map is None:
         raise ValueError("window: needs a map to cut (the view has none)")
     pixel_box = _pixel_box(inputs.map, box)
     r0, r1, c0, c1 = pixel_box
+    if (r1 - r0) * (c1 - c0) > max_pixels:
+        raise ValueError(
+            f"window: {box} covers {r1 - r0} x {c1 - c0} pixels of the map, more than "
+            f"max_pixels={max_pixels}; view a smaller window or pass a larger max_pixels"
+        )
     inputs.map = _cropped_map(inputs.map, r0, r1, c0, c1)
     inputs.window = box
     inputs.rasters = {k: np.asarray(v)[r0:r1, c0:c1] for k, v in inputs.rasters.items()}
