@@ -431,8 +431,19 @@ def test_bad_arguments_name_the_parameter(tmp_path):
     # out_dir that is not a path: named, not pathlib's TypeError
     with pytest.raises(TypeError, match=r"^out_dir: expected a path \(str or os.PathLike\)"):
         tj.build_graph_tiled(m, out_dir=3)
-    with pytest.raises(TypeError, match="reader"):
-        TiledMap.from_array(np.zeros((4, 4), np.float32))
+    # an array of the wrong type or shape is named as the caller gave it, not as the
+    # TiledMap's internal reader
+    floats = np.zeros((64, 64), np.float32)
+    with pytest.raises(TypeError, match=r"^array: expected .*uint8 .*received float32"):
+        TiledMap.from_array(floats)
+    with pytest.raises(TypeError, match=r"^source: expected .*uint8 .*received float32"):
+        tj.build_graph_tiled(floats)
+    with pytest.raises(TypeError, match=r"^tiled: expected .*uint8 .*received int16"):
+        tj.save_tiled_map(floats.astype(np.int16), tmp_path / "i16")
+    with pytest.raises(ValueError, match=r"^source: expected a 2-D .*received shape \(8, 8, 3\)"):
+        tj.build_graph_tiled(np.zeros((8, 8, 3), np.uint8))
+    with pytest.raises(ValueError, match=r"^source: expected .*at least 2 x 2 pixels"):
+        tj.build_graph_tiled(np.zeros((1, 5), np.uint8))
     with pytest.raises(ValueError, match="format"):
         tj.save_tiled_map(m, tmp_path / "x", format="tiff")
     # a tile of one pixel is a file (or Zarr chunk) per pixel: thousands of times the
@@ -441,6 +452,28 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         with pytest.raises(ValueError, match=rf"tile_px: expected an int >= 16, received {side}"):
             tj.save_tiled_map(m, tmp_path / "one", tile_px=side)
         assert not (tmp_path / "one").exists()
+
+
+def test_a_tile_index_with_bad_metadata_is_named(tmp_path):
+    import json
+
+    folder = tj.save_tiled_map(paper_map("intel"), tmp_path / "m", tile_px=256)
+    index = json.loads((folder / TILE_INDEX).read_text())
+    for key, value, error in (("free_thresh", 0.9, ValueError), ("origin", "zero", TypeError)):
+        (folder / TILE_INDEX).write_text(json.dumps({**index, key: value}))
+        with pytest.raises(error, match=rf"^path: {folder / TILE_INDEX}: .*{key}"):
+            tj.open_tiled_map(folder)
+
+
+def test_a_tile_folder_whose_save_did_not_finish_says_so(tmp_path):
+    """save_tiled_map writes the index last: a folder of tiles without it is an
+    interrupted save, not an unknown form, and saving again needs an empty folder."""
+    folder = tj.save_tiled_map(paper_map("intel"), tmp_path / "m", tile_px=256)
+    (folder / TILE_INDEX).unlink()
+    with pytest.raises(ValueError, match=rf"path: {folder} holds 9 tiles but no {TILE_INDEX}"):
+        tj.build_graph_tiled(folder)
+    with pytest.raises(ValueError, match="did not finish"):
+        tj.save_tiled_map(paper_map("intel"), folder, tile_px=256)
 
 
 def test_a_tiled_map_of_an_occupancy_map_is_saved_with_its_unknown_pixels(tmp_path):

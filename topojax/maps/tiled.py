@@ -23,6 +23,7 @@ unknown, 0..100 percent) or an obstacle mask (bool, True = occupied).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -145,7 +146,7 @@ class TiledMap:
     def from_array(cls, array, **metadata) -> TiledMap:
         """A TiledMap of an array in memory (or a ``numpy.memmap``): the stored values of
         an image, an OccupancyGrid or an obstacle mask; ``metadata`` as for the class."""
-        return cls(_ArrayReader(np.asarray(array)), **metadata)
+        return _array_map("array", array, **metadata)
 
     @classmethod
     def from_occupancy(cls, occupancy: OccupancyMap) -> TiledMap:
@@ -265,6 +266,23 @@ class TiledMap:
             f"{self.resolution_m!r}, reader={type(self.reader).__name__}, "
             f"source={self.source!r})"
         )
+
+
+def _array_map(name: str, array, **metadata) -> TiledMap:
+    """:meth:`TiledMap.from_array` whose errors name the argument ``name`` (the array
+    as the caller gave it, not the map's reader)."""
+    array = np.asarray(array)
+    if array.ndim != 2 or min(array.shape) < 2:
+        raise ValueError(
+            f"{name}: expected a 2-D (H, W) array of at least 2 x 2 pixels, received shape "
+            f"{array.shape}"
+        )
+    if array.dtype.name not in _DTYPE_KIND:
+        raise TypeError(
+            f"{name}: expected stored values of dtype uint8 or uint16 (image), int8 "
+            f"(OccupancyGrid) or bool (obstacle mask), received {array.dtype}"
+        )
+    return TiledMap(_ArrayReader(array), **metadata)
 
 
 # --------------------------------------------------------------------------- readers
@@ -451,7 +469,10 @@ def open_tiled_map(path, **overrides) -> TiledMap:
     if p.is_dir() and (p / "zarr.json").is_file():
         reader = _ZarrReader(p)
         meta = dict(_zarr().open_array(str(p), mode="r").attrs.get("topojax", {}))
-        return TiledMap(reader, **_metadata(meta, overrides), source=str(p))
+        with _named(p / "zarr.json"):
+            return TiledMap(reader, **_metadata(meta, overrides), source=str(p))
+    if p.is_dir():
+        _refuse_unfinished(p)
     suffix = p.suffix.lower()
     if suffix in YAML_SUFFIXES:
         image, settings = _yaml_settings(p, **{k: overrides.get(k) for k in _OVERRIDABLE})
@@ -462,6 +483,26 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         f"path: expected a tile folder (with {TILE_INDEX}), a Zarr array, a binary .pgm or a "
         f"map YAML naming one, received {p}"
     )
+
+
+def _refuse_unfinished(folder: Path) -> None:
+    """A folder of tiles without its index: :func:`save_tiled_map` writes the index last,
+    so its save did not finish."""
+    tiles = sum(1 for _ in folder.glob("r*_c*.npy"))
+    if tiles:
+        raise ValueError(
+            f"path: {folder} holds {tiles} tiles but no {TILE_INDEX}, which save_tiled_map "
+            "writes last: the save did not finish; save the map again into an empty folder"
+        )
+
+
+@contextlib.contextmanager
+def _named(index_path: Path):
+    """Errors of the metadata stored in ``index_path`` name that file."""
+    try:
+        yield
+    except (TypeError, ValueError) as exc:
+        raise type(exc)(f"path: {index_path}: {exc}") from None
 
 
 _OVERRIDABLE = ("resolution_m", "origin", "occupied_thresh", "free_thresh", "negate", "mode")
@@ -489,7 +530,8 @@ def _open_folder(p: Path, overrides: dict) -> TiledMap:
     shape, tile_px, dtype = _folder_layout(index, index_path)
     _check_tile_files(p, shape, tile_px)
     reader = _FolderReader(p, shape, tile_px, dtype)
-    return TiledMap(reader, **_metadata(index, overrides), source=str(p))
+    with _named(index_path):
+        return TiledMap(reader, **_metadata(index, overrides), source=str(p))
 
 
 def _folder_layout(index: dict, index_path: Path) -> tuple[tuple[int, int], int, np.dtype]:
@@ -594,7 +636,7 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
             source=tiled.source,
         )
     elif not isinstance(tiled, TiledMap):
-        tiled = TiledMap.from_array(tiled)
+        tiled = _array_map("tiled", tiled)
     p = path_like("path", path)
     h, w = tiled.shape
     dtype = np.dtype(tiled.reader.dtype)
@@ -615,6 +657,8 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
         return p
     folder = output_folder(p, name="path")
     if any(folder.iterdir()):
+        if not (folder / TILE_INDEX).exists():
+            _refuse_unfinished(folder)
         raise ValueError(f"path: expected an empty or new folder for the tiles, received {folder}")
     for tr, r0 in enumerate(range(0, h, tile_px)):
         band = tiled.values(r0, min(h, r0 + tile_px), 0, w)

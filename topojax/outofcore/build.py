@@ -22,7 +22,7 @@ from .._validate import instance_or_default, positive_int, quantity
 from ..config import PipelineConfig
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map
 from ..maps.occupancy import OccupancyMap
-from ..maps.tiled import TiledMap, open_tiled_map
+from ..maps.tiled import TiledMap, _array_map, open_tiled_map
 from .blocks import BlockPiece, block_piece, fields_halo_px
 
 __all__ = ["BYTES_PER_WINDOW_PX", "TiledResult", "block_px_for_budget", "build_graph_tiled"]
@@ -138,7 +138,7 @@ def _as_tiled(source) -> TiledMap:
             # an image that cannot be read a window at a time (PNG, ASCII PGM...): whole
             return TiledMap.from_occupancy(load_map(source))
     if isinstance(source, np.ndarray):
-        return TiledMap.from_array(source)
+        return _array_map("source", source)
     raise TypeError(
         "source: expected a TiledMap, an OccupancyMap, a 2-D array or the path of a tile "
         f"folder, Zarr array or PGM, received {type(source).__name__}"
