@@ -1278,3 +1278,45 @@ def test_traced_peak_per_pixel_is_bounded(monkeypatch):
     assert g.number_of_edges() > 0
     per_pixel = (peak - base) / plan.free.size
     assert per_pixel <= 26.0, f"{per_pixel:.1f} bytes per pixel"
+
+
+def test_shortcut_candidates_take_memory_by_the_block_not_by_their_number(monkeypatch):
+    """A small ``snap_m`` makes a dense graph whose node pairs within the shortcut radius
+    run to tens of millions on a large map: past ``PAIRS_AT_ONCE`` they are listed a block
+    at a time, and only those with a clear line kept, so the traced peak stays far below
+    the pairs' own size (here the limits are lowered to fit a small plan).  Without
+    blocks it was over 100 bytes a pair.  NumPy's buffers are traced."""
+    import tracemalloc
+
+    from floorplans import floor_plan
+    from scipy.spatial import cKDTree
+
+    import topojax.routegraph._cover as cover
+
+    monkeypatch.setattr(cover, "PAIRS_AT_ONCE", 10_000, raising=False)
+    monkeypatch.setattr(cover, "PAIRS_PER_BLOCK", 10_000, raising=False)
+    seen = []
+
+    class Counted(cKDTree):
+        def count_neighbors(self, other, r, *args, **kwargs):
+            n = super().count_neighbors(other, r, *args, **kwargs)
+            seen.append((int(n) - self.n) // 2)
+            return n
+
+    monkeypatch.setattr(cover, "cKDTree", Counted)
+    plan = floor_plan(7, size_m=(12.0, 12.0), clutter=1).occupancy
+    cfg = RouteGraphConfig(snap_m=0.2)
+    route_graph(plan, config=cfg)  # compiled kernels
+    seen.clear()
+    tracemalloc.start()
+    try:
+        base = tracemalloc.get_traced_memory()[0]
+        g = route_graph(plan, config=cfg)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    n_pairs = max(seen)
+    assert n_pairs > 50 * 10_000  # many blocks
+    assert g.number_of_edges() > 0
+    per_pair = (peak - base) / n_pairs
+    assert per_pair <= 30.0, f"{per_pair:.1f} bytes per candidate pair ({n_pairs:,} pairs)"

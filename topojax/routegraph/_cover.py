@@ -25,7 +25,7 @@ from ._joins import (
 )
 from ._lanes import LANE_MIN_AREA, add_lanes
 from ._mesh import MESH_MIN_AREA, add_mesh
-from ._spanner import anchor_pieces, greedy_shortcuts, see_named, see_within
+from ._spanner import anchor_pieces, clear_lines, greedy_shortcuts, see_named, see_within
 
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
 #: distance around each grid point covers its cell up to sqrt 2 / 2 of the spacing).
@@ -346,9 +346,83 @@ def _in_sorted(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
     return sorted_keys[at] == keys
 
 
+#: Up to this many node pairs within the shortcut radius are listed at once (about 100
+#: bytes each on their way through the filters) ...
+PAIRS_AT_ONCE = 2_000_000
+#: ... more are listed a block of nodes at a time, about this many pairs a block, and
+#: only those with a clear line kept: the memory of a dense graph's candidates is then
+#: that of its few clear ones (a small ``snap_m`` on a large map lists tens of millions).
+PAIRS_PER_BLOCK = 1_000_000
+
+
+def _straight_candidates(pos, radius_px, n_vertices, usable, on, vert_key, rungs, clear):
+    """The straight shortcut candidates: node pairs (``pos`` float64 (M, 2); the first
+    ``n_vertices`` vertices, the rest anchors) at most ``radius_px`` apart, both ends
+    ``usable`` (bool (M,)), whose straight line is ``clear`` (a function of int64 (P, 2)
+    pairs giving bool (P,)).  Returns ``(pairs, rung_pairs)``, int64 (P, 2) and (R, 2),
+    ``i < j`` in each row: pairs with a vertex end that are not of one edge
+    (:func:`_same_edge`), and pairs of two anchors (none unless ``rungs``).  Listed at
+    once, in the k-d tree's order; in blocks (over :data:`PAIRS_AT_ONCE` pairs), in row
+    order."""
+    m = len(pos)
+    tree = cKDTree(pos)
+    n_pairs = (int(tree.count_neighbors(tree, radius_px)) - m) // 2
+    if n_pairs > MAX_SHORTCUT_PAIRS:
+        raise ValueError(
+            f"shortcut_radius_m: {n_pairs:,} pairs of the graph's {m:,} vertices and anchors "
+            f"lie within it, expected at most {MAX_SHORTCUT_PAIRS:,} (each takes a line "
+            "test); use a smaller shortcut_radius_m, or a larger snap_m or "
+            "shortcut_spacing_m (fewer vertices and anchors)"
+        )
+    if n_pairs <= PAIRS_AT_ONCE:
+        blocks = [tree.query_pairs(radius_px, output_type="ndarray").reshape(-1, 2)]
+    else:
+        blocks = _pair_blocks(tree, pos, radius_px)
+    plain, rung = [], []
+    for pairs in blocks:
+        a, b = pairs[:, 0], pairs[:, 1]
+        vertex_end = (a < n_vertices) | (b < n_vertices)
+        ok = usable[a] & usable[b]
+        pairs = pairs[ok & (vertex_end | rungs)]
+        # a line not clear now is never clear: drop those before the other tests
+        pairs = pairs[clear(pairs)]
+        vertex_end = (pairs[:, 0] < n_vertices) | (pairs[:, 1] < n_vertices)
+        rung.append(pairs[~vertex_end])
+        pairs = pairs[vertex_end]
+        # no shortcut along one edge or round one vertex (it would cut a bend or a
+        # corner into a thin loop around nothing); at least one end a vertex: a shortcut
+        # between two anchors splits two edges, and between neighbouring lanes of an open
+        # room such rungs would make a mesh; but two anchors whose route is very long get
+        # a rung (whose loop is long too, so it may join two anchors of one edge)
+        plain.append(pairs[~_same_edge(pairs[:, 0], pairs[:, 1], on, vert_key, m)])
+    plain, rung = np.concatenate(plain), np.concatenate(rung)
+    if n_pairs > PAIRS_AT_ONCE:  # the blocks' order is the tree's: rows in order instead
+        plain = plain[np.lexsort((plain[:, 1], plain[:, 0]))]
+        rung = rung[np.lexsort((rung[:, 1], rung[:, 0]))]
+    return plain.astype(np.int64), rung.astype(np.int64)
+
+
+def _pair_blocks(tree, pos, radius_px):
+    """Node pairs ``(i, j)``, ``i < j``, at most ``radius_px`` apart (``tree`` the
+    k-d tree of ``pos``), as int64 (P, 2) arrays of about :data:`PAIRS_PER_BLOCK` rows,
+    block by block of consecutive ``i``."""
+    counts = tree.query_ball_point(pos, radius_px, return_length=True)
+    ends = np.cumsum(counts)
+    lo = 0
+    while lo < len(pos):
+        base = ends[lo - 1] if lo else 0
+        hi = max(lo + 1, int(np.searchsorted(ends, base + PAIRS_PER_BLOCK, side="right")))
+        near = cKDTree(pos[lo:hi]).sparse_distance_matrix(tree, radius_px, output_type="ndarray")
+        i, j = near["i"].astype(np.int64) + lo, near["j"].astype(np.int64)
+        del near
+        yield np.stack([i, j], axis=1)[j > i]
+        lo = hi
+
+
 #: The most shortcut candidate pairs (node pairs within the shortcut radius) a graph may
-#: have: about 100 bytes each on their way through the filters, some 3 GB in all.
-MAX_SHORTCUT_PAIRS = 30_000_000
+#: have: their memory is bounded (:data:`PAIRS_PER_BLOCK`), but each takes a line test,
+#: about a minute for this many.
+MAX_SHORTCUT_PAIRS = 300_000_000
 
 
 def add_shortcuts(
@@ -391,27 +465,23 @@ def add_shortcuts(
     index = {v: k for k, v in enumerate(alive)}
     ends = np.array([(index[u], index[v]) for u, v, _ in work.edges.values()], np.int64)
     vert_key = np.sort(np.r_[ends[:, 0] * m + ends[:, 1], ends[:, 1] * m + ends[:, 0]])
-    tree = cKDTree(pos)
-    n_pairs = (int(tree.count_neighbors(tree, radius_px)) - m) // 2
-    if n_pairs > MAX_SHORTCUT_PAIRS:
-        raise ValueError(
-            f"shortcut_radius_m: {n_pairs:,} pairs of the graph's {m:,} vertices and anchors "
-            f"lie within it, expected at most {MAX_SHORTCUT_PAIRS:,} (each takes about 100 "
-            "bytes); use a smaller shortcut_radius_m, or a larger snap_m or "
-            "shortcut_spacing_m (fewer vertices and anchors)"
-        )
-    pairs = tree.query_pairs(radius_px, output_type="ndarray").reshape(-1, 2)
-    a, b = pairs[:, 0], pairs[:, 1]
-    # no shortcut along one edge or round one vertex (it would cut a bend or a corner into
-    # a thin loop around nothing); at least one end a vertex: a shortcut between two
-    # anchors splits two edges, and between neighbouring lanes of an open room such rungs
-    # would make a mesh; but two anchors whose route is very long get a rung (whose loop
-    # is long too, so it may join two anchors of one edge)
-    vertex_end = (a < len(alive)) | (b < len(alive))
-    usable = (deg[a] >= min_deg) & (deg[b] >= min_deg)
-    rungs = pairs[usable & ~vertex_end] if rung_gain_px > 0 else pairs[:0]
-    pairs = pairs[usable & vertex_end]
-    pairs = pairs[~_same_edge(pairs[:, 0], pairs[:, 1], on, vert_key, m)]
+    # shortcuts cross no edge: a crossing without a vertex would let a query point snap
+    # onto a long edge that leads away from its goal (and doubles the edges in open rooms)
+    occupied = grow(graph_raster(work, feasible.shape))
+    members = [work.members[v] for v in alive] + [p[None] for p in pos_i[len(alive) :]]
+    mem = np.concatenate(members).astype(np.int64)
+    mem_start = np.r_[0, np.cumsum([len(x) for x in members])].astype(np.int64)
+    del members
+
+    def clear(pairs: np.ndarray) -> np.ndarray:
+        return clear_lines(
+            *(np.ascontiguousarray(x) for x in pairs.T),
+            pos_i, mem, mem_start, feasible, occupied, float(end_px),
+        )  # fmt: skip
+
+    pairs, rungs = _straight_candidates(
+        pos, radius_px, len(alive), deg >= min_deg, on, vert_key, rung_gain_px > 0, clear
+    )
     n_plain = len(pairs)
     pairs = np.concatenate([pairs, rungs])
     corners = (
@@ -440,15 +510,13 @@ def add_shortcuts(
     # the graph for a route: a route search per candidate with a clear line costs less
     # than the routes of all candidates up front
     cand = np.argsort(length, kind="stable")
-    # shortcuts cross no edge: a crossing without a vertex would let a query point snap
-    # onto a long edge that leads away from its goal (and doubles the edges in open rooms)
-    occupied = grow(graph_raster(work, feasible.shape))
     nodes = np.concatenate([pos_i, corners]).astype(np.int64)
-    members = [work.members[v] for v in alive] + [p[None] for p in nodes[len(alive) :]]
-    mem_start = np.r_[0, np.cumsum([len(x) for x in members])].astype(np.int64)
+    corner_mem = nodes[len(pos_i) :]
+    mem = np.concatenate([mem, corner_mem])
+    mem_start = np.r_[mem_start, mem_start[-1] + 1 + np.arange(len(corner_mem))]
     taken, _ = greedy_shortcuts(
         nodes,
-        np.concatenate(members).astype(np.int64),
+        mem,
         mem_start,
         ka,
         kb,

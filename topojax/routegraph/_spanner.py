@@ -19,6 +19,7 @@ from ..graph.work import WorkGraph, line_step
 
 __all__ = [
     "anchor_pieces",
+    "clear_lines",
     "drop_short_loops",
     "greedy_shortcuts",
     "open_short_loops",
@@ -210,6 +211,24 @@ def _clear_line(a, b, pos, mem, mem_start, feasible, occupied, end_px, seg, ms, 
             return 0
         seg[i, 0], seg[i, 1] = r, c
     return n + 1
+
+
+@cached_njit(nogil=True)
+def clear_lines(cand_a, cand_b, pos, mem, mem_start, feasible, occupied, end_px):
+    """Whether each straight candidate ``cand_a[i]``-``cand_b[i]`` (int64 (C,) node ids)
+    has a clear line now (:func:`_clear_line`, no crossing): bool (C,).  ``occupied``
+    only grows in :func:`greedy_shortcuts`, so a line not clear here is never clear there;
+    arguments as there."""
+    h, w = feasible.shape
+    seg = np.empty((h + w + 1, 2), np.int64)
+    ms = np.empty(4, np.int64)
+    out = np.zeros(cand_a.size, np.bool_)
+    for i in range(cand_a.size):
+        n = _clear_line(
+            cand_a[i], cand_b[i], pos, mem, mem_start, feasible, occupied, end_px, seg, ms, False
+        )
+        out[i] = n > 0
+    return out
 
 
 @cached_njit(nogil=True)
