@@ -523,22 +523,28 @@ def test_a_large_robot_gets_shortcuts_that_cross_no_edge(radius_m):
 def test_a_large_robot_with_a_small_snap_searches_few_routes(monkeypatch):
     """With a snap distance of 0.2 m the hall has a dense net of vertices, and a robot of
     5 m the whole shortcut radius: still most candidate shortcuts end at the line test
-    (they cross an edge), and only a few per node get a route search."""
+    (they cross an edge, and are dropped before the greedy pass), and only a few per node
+    get a route search."""
     import topojax.routegraph._cover as cover
 
-    calls = []
-    original = cover.greedy_shortcuts
+    calls, lines = [], []
+    original, original_lines = cover.greedy_shortcuts, cover.clear_lines
 
     def counted(pos, *args):
         taken, searched = original(pos, *args)
-        calls.append((pos.shape[0], args[6].size, searched, int(taken.sum())))
+        calls.append((pos.shape[0], searched, int(taken.sum())))
         return taken, searched
 
+    def counted_lines(a, *args):
+        lines.append(a.size)
+        return original_lines(a, *args)
+
     monkeypatch.setattr(cover, "greedy_shortcuts", counted)
+    monkeypatch.setattr(cover, "clear_lines", counted_lines)
     cfg = RouteGraphConfig(robot_radius_m=5.0, snap_m=0.2)
     g = route_graph(_hall_with_pillars(), config=cfg)
-    ((nodes, candidates, searched, taken),) = calls
-    assert candidates > 100 * nodes  # the radius holds many candidates per node
+    ((nodes, searched, taken),) = calls
+    assert sum(lines) > 100 * nodes  # the radius holds many candidates per node
     assert 0 < taken <= searched <= 10 * nodes
     assert g.graph["uncovered_share"] == 0.0
 
