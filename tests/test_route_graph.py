@@ -1326,3 +1326,25 @@ def test_shortcut_candidates_take_memory_by_the_block_not_by_their_number(monkey
     assert g.number_of_edges() > 0
     per_pair = (peak - base) / n_pairs
     assert per_pair <= 30.0, f"{per_pair:.1f} bytes per candidate pair ({n_pairs:,} pairs)"
+
+
+def test_shortcut_candidates_in_blocks_give_the_graph_listed_at_once(monkeypatch):
+    """The candidates are sorted by their ends however they were listed, so the greedy
+    pass meets those of equal length in the same order and the graph is the same."""
+    from floorplans import floor_plan
+
+    import topojax.routegraph._cover as cover
+
+    plan = floor_plan(5, size_m=(10.0, 8.0), clutter=1).occupancy
+    cfg = RouteGraphConfig(snap_m=0.3)  # ties among thousands of candidates
+    at_once = route_graph(plan, config=cfg)
+    monkeypatch.setattr(cover, "PAIRS_AT_ONCE", 1_000)
+    monkeypatch.setattr(cover, "PAIRS_PER_BLOCK", 1_000)
+    in_blocks = route_graph(plan, config=cfg)
+    assert at_once.number_of_edges() > 50
+    assert sorted(at_once.nodes(data="pixel")) == sorted(in_blocks.nodes(data="pixel"))
+    paths = [
+        sorted(np.asarray(p).tobytes() for *_, p in g.edges(data="path"))
+        for g in (at_once, in_blocks)
+    ]
+    assert paths[0] == paths[1]

@@ -246,7 +246,9 @@ def test_a_map_on_disk_is_viewed_reading_only_the_window(res, tmp_path):
     with pytest.raises(ValueError, match=r"max_pixels=100000 .*window="):
         view_html(res.graph, map=tiled, max_pixels=100_000)
     assert reader.reads == []
-    with pytest.raises(ValueError, match=r"window of it with the graph's map \(map=.*open_tiled_map"):
+    with pytest.raises(
+        ValueError, match=r"window of it with the graph's map \(map=.*open_tiled_map"
+    ):
         view_html(res.graph, max_pixels=100_000)  # a graph alone: window= needs its map
     got = payload_of(view_html(res.graph, map=tiled, window=window, max_pixels=100_000))
     assert 0 < sum(reader.reads) <= got["frame"]["height"] * got["frame"]["width"]

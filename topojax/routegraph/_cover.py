@@ -361,9 +361,9 @@ def _straight_candidates(pos, radius_px, n_vertices, usable, on, vert_key, rungs
     ``usable`` (bool (M,)), whose straight line is ``clear`` (a function of int64 (P, 2)
     pairs giving bool (P,)).  Returns ``(pairs, rung_pairs)``, int64 (P, 2) and (R, 2),
     ``i < j`` in each row: pairs with a vertex end that are not of one edge
-    (:func:`_same_edge`), and pairs of two anchors (none unless ``rungs``).  Listed at
-    once, in the k-d tree's order; in blocks (over :data:`PAIRS_AT_ONCE` pairs), in row
-    order."""
+    (:func:`_same_edge`), and pairs of two anchors (none unless ``rungs``); each sorted
+    by ``(i, j)``, whether listed at once or in blocks (over :data:`PAIRS_AT_ONCE`
+    pairs), and whatever order the k-d tree gives them in."""
     m = len(pos)
     tree = cKDTree(pos)
     n_pairs = (int(tree.count_neighbors(tree, radius_px)) - m) // 2
@@ -396,9 +396,9 @@ def _straight_candidates(pos, radius_px, n_vertices, usable, on, vert_key, rungs
         # a rung (whose loop is long too, so it may join two anchors of one edge)
         plain.append(pairs[~_same_edge(pairs[:, 0], pairs[:, 1], on, vert_key, m)])
     plain, rung = np.concatenate(plain), np.concatenate(rung)
-    if n_pairs > PAIRS_AT_ONCE:  # the blocks' order is the tree's: rows in order instead
-        plain = plain[np.lexsort((plain[:, 1], plain[:, 0]))]
-        rung = rung[np.lexsort((rung[:, 1], rung[:, 0]))]
+    # the greedy pass takes candidates of equal length in this order
+    plain = plain[np.lexsort((plain[:, 1], plain[:, 0]))]
+    rung = rung[np.lexsort((rung[:, 1], rung[:, 0]))]
     return plain.astype(np.int64), rung.astype(np.int64)
 
 
