@@ -138,8 +138,9 @@ def save_rooms(seg, path: str | Path) -> Path:
     (:attr:`Room.polygon`), counter-clockwise and closed (first position repeated);
     properties ``kind: "room"``, ``id``, ``area_m2``, ``centroid`` ``[x, y]`` (metres)
     and ``bbox_px`` ``[row_min, col_min, row_max, col_max]``.  An outline that encloses no
-    area (a room one pixel wide) cannot be a ring: the geometry is then the room's pixel
-    box and the outline is kept in the property ``outline``.
+    area or runs clockwise (not one made by :func:`topojax.segment_rooms`, whose outlines
+    are simple counter-clockwise rings) cannot be the ring: the geometry is then the
+    room's pixel box and the outline is kept in the property ``outline``.
 
     One ``LineString`` feature per door, in id order, from one obstacle end of the doorway
     to the other (:attr:`Door.ends_world`); properties ``kind: "door"``, ``id``, ``rooms``

@@ -1,0 +1,139 @@
+"""A room's outline: the pixel-edge (crack) boundary of its pixels as one simple ring
+(compiled tracer)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .._jit import cached_njit
+
+__all__ = ["PINCH_PX", "outline"]
+
+PINCH_PX = 1.0 / 64.0
+"""Size of the corner cut at a pinch, pixels: where the ring passes a pixel corner twice
+(two pixels of the room meet there only diagonally), each pass cuts that corner off the
+empty pixel it turns round by this much along both edges, so the passes stay apart and
+the diagonal contact becomes a neck ``PINCH_PX * sqrt(2)`` wide (each cut adds
+``PINCH_PX**2 / 2`` square pixels)."""
+
+# headings: east, south, west, north in (row, col) steps; the room is on the right
+_DR = np.array([0, 1, 0, -1], np.int64)
+_DC = np.array([1, 0, -1, 0], np.int64)
+# the pixel ahead-left and ahead-right of a pixel corner (row, col) for each heading,
+# as offsets from the corner to the pixel's index (corner (i, j) is the top-left corner
+# of pixel (i, j))
+_AHEAD = np.array(
+    [
+        [[-1, 0], [0, 0]],  # east: above-right, below-right
+        [[0, 0], [0, -1]],  # south: below-right, below-left
+        [[0, -1], [-1, -1]],  # west: below-left, above-left
+        [[-1, -1], [-1, 0]],  # north: above-left, above-right
+    ],
+    np.int64,
+)
+
+
+_NO_ROOM = np.empty((0, 2))
+
+
+@cached_njit(nogil=True)
+def _inside(mask, r, c):
+    return 0 <= r < mask.shape[0] and 0 <= c < mask.shape[1] and mask[r, c]
+
+
+@cached_njit(nogil=True)
+def _trace(mask, r0, c0, cut, out):
+    """Walk the crack boundary of the 8-connected part of ``mask`` that holds pixel
+    ``(r0, c0)`` (the first of that part in raster order), the part on the right, from
+    the top-left corner of that pixel; a corner where the heading changes is a vertex,
+    a corner whose ahead-left pixel is in ``mask`` and ahead-right pixel is not (a
+    diagonal contact) is passed by turning left and gives two points ``cut`` either side
+    of it.  Writes the vertices (pixel-corner coordinates, corner (i, j) at (i, j)) into
+    ``out`` when it is large enough and returns their number and the ring's length in
+    pixel edges."""
+    r, c, d = r0, c0, 0
+    k = 0
+    steps = 0
+    while True:
+        steps += 1
+        r += _DR[d]
+        c += _DC[d]
+        left = _inside(mask, r + _AHEAD[d, 0, 0], c + _AHEAD[d, 0, 1])
+        right = _inside(mask, r + _AHEAD[d, 1, 0], c + _AHEAD[d, 1, 1])
+        if left:
+            nd = (d + 3) % 4
+        elif right:
+            nd = d
+        else:
+            nd = (d + 1) % 4
+        if left and not right:
+            if k + 2 <= out.shape[0]:
+                out[k, 0] = r - cut * _DR[d]
+                out[k, 1] = c - cut * _DC[d]
+                out[k + 1, 0] = r + cut * _DR[nd]
+                out[k + 1, 1] = c + cut * _DC[nd]
+            k += 2
+        elif nd != d:
+            if k < out.shape[0]:
+                out[k, 0] = r
+                out[k, 1] = c
+            k += 1
+        d = nd
+        if r == r0 and c == c0 and d == 0:
+            return k, steps
+
+
+@cached_njit(nogil=True)
+def _crack_length(mask):
+    """Number of pixel edges between ``mask`` and the rest (the space off it included)."""
+    h, w = mask.shape
+    n = 0
+    for r in range(h):
+        for c in range(w):
+            if mask[r, c]:
+                n += (r == 0 or not mask[r - 1, c]) + (r == h - 1 or not mask[r + 1, c])
+                n += (c == 0 or not mask[r, c - 1]) + (c == w - 1 or not mask[r, c + 1])
+    return n
+
+
+def outline(mask: np.ndarray) -> np.ndarray:
+    """The outline of the largest 8-connected part of ``mask`` as one simple ring.
+
+    Parameters
+    ----------
+    mask : bool (H, W)
+
+    Returns
+    -------
+    float64 (K, 2)
+        Vertices (row, col) in pixel coordinates of ``mask`` (pixel centres at integers,
+        so pixel corners at half-integers), first point not repeated, collinear points
+        left out, clockwise on the screen (rows down); empty (0, 2) for an empty mask.
+        The ring runs along the pixel edges between the part and the space outside it:
+        what the part encloses (holes) is inside the ring, and a diagonal contact
+        between two pixels of the part is a neck of width ``PINCH_PX * sqrt(2)``.
+    """
+    if mask.dtype == np.bool_ and mask.flags.c_contiguous:
+        m = mask.view(np.uint8)
+    else:
+        m = np.ascontiguousarray(mask, dtype=np.uint8)
+    flat = int(np.argmax(m))
+    if not m.flat[flat]:
+        return np.empty((0, 2))
+    r0, c0 = divmod(flat, m.shape[1])
+    count, length = _trace(m, r0, c0, PINCH_PX, _NO_ROOM)
+    if length != _crack_length(m):
+        # holes or other parts: trace the largest part, the first in raster order
+        # among equals
+        n, parts = cv2.connectedComponents(m, connectivity=8)
+        size = np.bincount(parts.ravel(), minlength=n)
+        size[0] = 0
+        firsts = [int(np.argmax(parts == k)) for k in np.flatnonzero(size == size.max())]
+        flat = min(firsts)
+        m = (parts == parts.flat[flat]).view(np.uint8)
+        r0, c0 = divmod(flat, m.shape[1])
+        count, length = _trace(m, r0, c0, PINCH_PX, _NO_ROOM)
+    ring = np.empty((count, 2))
+    _trace(m, r0, c0, PINCH_PX, ring)
+    return ring - 0.5
