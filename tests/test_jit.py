@@ -66,6 +66,7 @@ import numba
 import numpy as np
 import topojax as tj
 from topojax.rooms._kernels import label_stats
+from topojax.rooms._outline import _crack_length, _trace
 from topojax.routegraph._cover import covered
 from topojax.routegraph._spanner import see_within
 
@@ -96,7 +97,7 @@ covered(raster, feasible, 3.0)
 among = np.zeros_like(feasible)
 among[10, 10] = among[30, 30] = True
 covered(raster, feasible, 3.0, among=among)
-for f in (label_stats, see_within):
+for f in (label_stats, _trace, _crack_length, see_within):
     if layouts(f) > 1:
         print(f.__name__, f.signatures)
 """

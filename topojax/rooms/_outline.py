@@ -34,24 +34,21 @@ _AHEAD = np.array(
 )
 
 
-_NO_ROOM = np.empty((0, 2))
-
-
 @cached_njit(nogil=True)
 def _inside(mask, r, c):
     return 0 <= r < mask.shape[0] and 0 <= c < mask.shape[1] and mask[r, c]
 
 
 @cached_njit(nogil=True)
-def _trace(mask, r0, c0, cut, out):
+def _trace(mask, r0, c0, cut):
     """Walk the crack boundary of the 8-connected part of ``mask`` that holds pixel
     ``(r0, c0)`` (the first of that part in raster order), the part on the right, from
     the top-left corner of that pixel; a corner where the heading changes is a vertex,
     a corner whose ahead-left pixel is in ``mask`` and ahead-right pixel is not (a
     diagonal contact) is passed by turning left and gives two points ``cut`` either side
-    of it.  Writes the vertices (pixel-corner coordinates, corner (i, j) at (i, j)) into
-    ``out`` when it is large enough and returns their number and the ring's length in
-    pixel edges."""
+    of it.  Returns the vertices float64 (K, 2) (pixel-corner coordinates, corner
+    (i, j) at (i, j)) and the ring's length in pixel edges."""
+    out = np.empty((64, 2))
     r, c, d = r0, c0, 0
     k = 0
     steps = 0
@@ -67,33 +64,40 @@ def _trace(mask, r0, c0, cut, out):
             nd = d
         else:
             nd = (d + 1) % 4
+        if k + 2 > out.shape[0]:
+            grown = np.empty((2 * out.shape[0], 2))
+            grown[:k] = out[:k]
+            out = grown
         if left and not right:
-            if k + 2 <= out.shape[0]:
-                out[k, 0] = r - cut * _DR[d]
-                out[k, 1] = c - cut * _DC[d]
-                out[k + 1, 0] = r + cut * _DR[nd]
-                out[k + 1, 1] = c + cut * _DC[nd]
+            out[k, 0] = r - cut * _DR[d]
+            out[k, 1] = c - cut * _DC[d]
+            out[k + 1, 0] = r + cut * _DR[nd]
+            out[k + 1, 1] = c + cut * _DC[nd]
             k += 2
         elif nd != d:
-            if k < out.shape[0]:
-                out[k, 0] = r
-                out[k, 1] = c
+            out[k, 0] = r
+            out[k, 1] = c
             k += 1
         d = nd
         if r == r0 and c == c0 and d == 0:
-            return k, steps
+            return out[:k], steps
 
 
 @cached_njit(nogil=True)
 def _crack_length(mask):
-    """Number of pixel edges between ``mask`` and the rest (the space off it included)."""
+    """Number of pixel edges between ``mask`` (uint8 0/1) and the rest, the space off it
+    included: changes along rows and columns, and its pixels on the four borders."""
     h, w = mask.shape
     n = 0
+    for c in range(w):
+        n += mask[0, c] + mask[h - 1, c]
     for r in range(h):
+        n += mask[r, 0] + mask[r, w - 1]
+        for c in range(1, w):
+            n += mask[r, c] != mask[r, c - 1]
+    for r in range(1, h):
         for c in range(w):
-            if mask[r, c]:
-                n += (r == 0 or not mask[r - 1, c]) + (r == h - 1 or not mask[r + 1, c])
-                n += (c == 0 or not mask[r, c - 1]) + (c == w - 1 or not mask[r, c + 1])
+            n += mask[r, c] != mask[r - 1, c]
     return n
 
 
@@ -122,7 +126,7 @@ def outline(mask: np.ndarray) -> np.ndarray:
     if not m.flat[flat]:
         return np.empty((0, 2))
     r0, c0 = divmod(flat, m.shape[1])
-    count, length = _trace(m, r0, c0, PINCH_PX, _NO_ROOM)
+    ring, length = _trace(m, r0, c0, PINCH_PX)
     if length != _crack_length(m):
         # holes or other parts: trace the largest part, the first in raster order
         # among equals
@@ -133,7 +137,5 @@ def outline(mask: np.ndarray) -> np.ndarray:
         flat = min(firsts)
         m = (parts == parts.flat[flat]).view(np.uint8)
         r0, c0 = divmod(flat, m.shape[1])
-        count, length = _trace(m, r0, c0, PINCH_PX, _NO_ROOM)
-    ring = np.empty((count, 2))
-    _trace(m, r0, c0, PINCH_PX, ring)
+        ring, _ = _trace(m, r0, c0, PINCH_PX)
     return ring - 0.5
