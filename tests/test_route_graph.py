@@ -455,6 +455,22 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     assert "empty route graph: no known-free region" in capsys.readouterr().out
 
 
+def test_replay_route_graph_files_hold_no_build_times(tmp_path):
+    """The route graph a replay writes carries what the log and options determine, as the
+    route-graph command's: no stage timings, so a rerun writes the same bytes."""
+    from topojax.cli import main
+    from topojax.io import load_graph
+
+    argv = ["replay", "tests/data/intel_first40.log.gz", "--no-progress", "--max-scans", "20"]
+    names = [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")]
+    files = []
+    for run in ("a", "b"):
+        assert main([*argv, "-o", str(tmp_path / run), "--route-graph", "0.3"]) == 0
+        files.append([(tmp_path / run / name).read_bytes() for name in names])
+    assert "timings_s" not in load_graph(tmp_path / "a" / "route_graph.json").graph
+    assert files[0] == files[1]
+
+
 def test_replay_refuses_a_route_graph_radius_too_small_for_its_grid_before_mapping(
     tmp_path, monkeypatch
 ):
