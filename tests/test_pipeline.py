@@ -234,6 +234,30 @@ def test_opencv_distance_transform_gives_the_same_bits_wherever_numpy_allocates(
     assert distance_transform_px(free).ctypes.data % 64 == 0
 
 
+def test_opencv_distance_transform_gives_the_same_bits_with_any_thread_count():
+    """OpenCV's exact transform run on one thread (``cv2.setNumThreads(1)``, a one-core
+    machine or container) rounds many distances a unit in the last place apart from the
+    same transform run in parallel: the same map gave other clearances, and route graphs,
+    on another machine.  Every distance is the float32 nearest the exact one."""
+    import cv2
+    from scipy import ndimage
+
+    from topojax.fields.clearance import distance_transform_px
+
+    free = np.ones((300, 400), bool)
+    free[[0, -1], :] = free[:, [0, -1]] = False
+    free[100:140, 50:330] = False
+    free[200:260:7, 20:380:11] = False  # pillars: many distances, few of them integers
+    exact = ndimage.distance_transform_edt(free).astype(np.float32)
+    threads = cv2.getNumThreads()
+    try:
+        for n in (1, 2, 3):
+            cv2.setNumThreads(n)
+            assert np.array_equal(distance_transform_px(free), exact), n
+    finally:
+        cv2.setNumThreads(threads)
+
+
 def test_world_coordinates_follow_map_origin_and_yaw():
     occ = sample_map("intel")
     moved = tj.OccupancyMap(

@@ -202,11 +202,15 @@ def free_clearance_px(free: np.ndarray) -> np.ndarray:
 def distance_transform_px(mask: np.ndarray) -> np.ndarray:
     """OpenCV's exact Euclidean distance transform of ``mask`` (uint8 or bool (H, W)):
     the distance (pixels, float32 (H, W)) from each pixel centre to the nearest zero
-    pixel, the same bits on every call.
+    pixel, the same bits on every call, machine and thread count.
 
-    OpenCV's vectorised pass rounds some distances differently (by a unit in the last
-    place) with the output's address modulo 32 bytes, which NumPy leaves to chance for a
-    small array; the output here always starts on a 64-byte boundary.
+    OpenCV rounds some distances a unit in the last place apart with the output's
+    address modulo 32 bytes (its vectorised pass) and with the number of threads it runs
+    on (one thread against several).  Every distance is the square root of a whole
+    number of squared pixels, so each is rounded to that number and its root taken again:
+    the float32 nearest the exact distance, up to about 2000 pixels (beyond that a float32
+    distance no longer tells neighbouring whole numbers apart).  The output starts on a
+    64-byte boundary.
     """
     import cv2
 
@@ -215,7 +219,15 @@ def distance_transform_px(mask: np.ndarray) -> np.ndarray:
     raw = np.empty(h * w * 4 + _ALIGN_BYTES, np.uint8)
     skip = -raw.ctypes.data % _ALIGN_BYTES
     out = raw[skip : skip + h * w * 4].view(np.float32).reshape(h, w)
-    return cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE, dst=out)
+    cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE, dst=out)
+    flat = out.reshape(-1)
+    for start in range(0, flat.size, _ROOT_BLOCK_PX):  # float64 a block at a time
+        part = flat[start : start + _ROOT_BLOCK_PX].astype(np.float64)
+        np.multiply(part, part, out=part)
+        np.sqrt(np.rint(part, out=part), out=part)
+        flat[start : start + _ROOT_BLOCK_PX] = part
+    return out
 
 
 _ALIGN_BYTES = 64
+_ROOT_BLOCK_PX = 1 << 20
