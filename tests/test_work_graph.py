@@ -220,3 +220,37 @@ def test_member_bridge_stays_on_the_members_or_gives_none():
     assert member_bridge((0, 0), (2, 2), ring).tolist() == [[0, 0], [0, 1], [1, 2], [2, 2]]
     assert member_bridge((0, 0), (5, 5), ring) is None  # the end is no member
     assert member_bridge((0, 0), (2, 2), ring[[0, 4]]) is None  # not joined
+
+
+def test_route_graph_does_not_rest_on_how_a_sort_orders_equal_keys(monkeypatch, tmp_path):
+    """Identical pillars give loops of equal length, and the loops collapse one after the
+    other in length order: NumPy's default sort leaves the order of equal lengths to its
+    algorithm, which differs between CPUs and releases, and another order opens other
+    loops.  A sort that puts equal keys the other way round must give the same graph."""
+    import topojax as tj
+    from topojax.io import save_graph
+
+    occupied = np.zeros((136, 136), bool)
+    occupied[[0, -1], :] = occupied[:, [0, -1]] = True
+    for r in range(20, 116, 12):
+        for c in range(20, 116, 12):
+            occupied[r : r + 3, c : c + 3] = True
+    occ = tj.OccupancyMap(
+        occupied=occupied, free=~occupied, unknown=np.zeros_like(occupied), resolution_m=0.05
+    )
+    real = np.argsort
+
+    def ties_reversed(a, *args, kind=None, **kw):
+        if kind == "stable":
+            return real(a, *args, kind=kind, **kw)
+        a = np.asarray(a)
+        return a.size - 1 - real(a[::-1], kind="stable")
+
+    def graph_bytes(name):
+        graph = tj.route_graph(occ, robot_radius_m=0.1)
+        del graph.graph["timings_s"]
+        return save_graph(graph, tmp_path / name).read_bytes()
+
+    first = graph_bytes("a.json")  # compiles every kernel before the patch
+    monkeypatch.setattr(np, "argsort", ties_reversed)
+    assert graph_bytes("b.json") == first

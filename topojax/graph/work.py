@@ -340,7 +340,9 @@ def collapse_loops(
         return f
 
     removed = 0
-    for f in np.flatnonzero(small & (loop_len > 0))[np.argsort(loop_len[small & (loop_len > 0)])]:
+    todo = np.flatnonzero(small & (loop_len > 0))
+    # equal lengths in face order: the default sort's order of ties varies between CPUs
+    for f in todo[np.argsort(loop_len[todo], kind="stable")]:
         f = int(f)
         if find(f) != f:
             continue
