@@ -91,16 +91,23 @@ def _problems(ring: np.ndarray) -> list[str]:
     return out
 
 
-def _filled_area(mask: np.ndarray) -> int:
-    """Pixels of the largest 8-connected part of ``mask`` and of what it encloses."""
+def _largest_part(mask: np.ndarray) -> np.ndarray:
+    """The largest 8-connected part of ``mask`` (the first in raster order among equals),
+    bool of its shape."""
     n, parts = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
     if n < 2:
-        return 0
+        return np.zeros(mask.shape, bool)
     size = np.bincount(parts.ravel())
     size[0] = 0
-    # the first in raster order among equals
     first = min(int(np.argmax(parts == k)) for k in np.flatnonzero(size == size.max()))
-    part = parts == parts.flat[first]
+    return parts == parts.flat[first]
+
+
+def _filled_area(mask: np.ndarray) -> int:
+    """Pixels of the largest 8-connected part of ``mask`` and of what it encloses."""
+    part = _largest_part(mask)
+    if not part.any():
+        return 0
     outside = np.pad(~part, 1, constant_values=True).astype(np.uint8)
     cv2.floodFill(outside, None, (0, 0), 2, flags=4)
     return int((outside != 2).sum())
@@ -283,3 +290,155 @@ def test_every_room_of_ipa_maps_is_a_simple_ring(name):
         filled = _filled_area(seg.labels[r0 : r1 + 1, c0 : c1 + 1] == room.id)
         area_px = _twice_area(ring) / 2 / 0.05**2
         assert area_px == pytest.approx(filled, abs=PINCH_AREA * len(ring)), f"room {room.id}"
+
+
+# --- holes ----------------------------------------------------------------------------
+
+
+def _sides_meet(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether a side of ring ``a`` meets (crosses, touches, overlaps) a side of ring
+    ``b``, both (K, 2)."""
+    a0, a1 = a[:, None], np.roll(a, -1, axis=0)[:, None]
+    b0, b1 = b[None], np.roll(b, -1, axis=0)[None]
+    o1, o2 = _orient(a0, a1, b0), _orient(a0, a1, b1)
+    o3, o4 = _orient(b0, b1, a0), _orient(b0, b1, a1)
+    meet = (o1 * o2 < 0) & (o3 * o4 < 0)
+    meet |= (o1 == 0) & _within(a0, a1, b0)
+    meet |= (o2 == 0) & _within(a0, a1, b1)
+    meet |= (o3 == 0) & _within(b0, b1, a0)
+    meet |= (o4 == 0) & _within(b0, b1, a1)
+    return bool(meet.any())
+
+
+def _covered(room, seg) -> np.ndarray:
+    """Pixels of ``seg`` whose centre lies inside ``room``'s polygon and outside its
+    holes (the even-odd rule on rays along the rows), bool (H, W)."""
+    h, w = seg.labels.shape
+    crossings = np.zeros((h, w + 1), np.int64)
+    for ring in (room.polygon, *room.holes):
+        r1, c1 = seg.occupancy.world_to_pixel(ring[:, 0], ring[:, 1])
+        r2, c2 = np.roll(r1, -1), np.roll(c1, -1)
+        for a, b, p, q in zip(r1, r2, c1, c2, strict=True):
+            rows = np.arange(np.ceil(min(a, b)), np.floor(max(a, b)) + 1).astype(int)
+            rows = rows[(rows > min(a, b)) & (rows <= max(a, b)) & (rows >= 0) & (rows < h)]
+            at = p + (rows - a) * (q - p) / (b - a) if len(rows) else rows
+            # the side crosses the rows' rays from pixel centres left of ``at``
+            np.add.at(crossings, (rows, np.clip(np.ceil(at), 0, w).astype(int)), 1)
+    # crossings right of column j: those whose count index is > j
+    right = np.cumsum(crossings[:, ::-1], axis=1)[:, ::-1][:, 1:]
+    return right % 2 == 1
+
+
+def _assert_holes(room, seg, res: float = RES) -> None:
+    """The room's holes are simple clockwise rings apart from each other and from its
+    outline; outline less holes is the area of its outlined part, and a pixel's centre is
+    inside the room's polygon (less holes) exactly where the pixel is in that part."""
+    r0, c0, r1, c1 = room.bbox
+    part = np.zeros(seg.labels.shape, bool)
+    part[r0 : r1 + 1, c0 : c1 + 1] = _largest_part(seg.labels[r0 : r1 + 1, c0 : c1 + 1] == room.id)
+    assert isinstance(room.holes, tuple)
+    rings = [room.polygon, *room.holes]
+    area = _twice_area(room.polygon) / 2
+    for hole in room.holes:
+        assert hole.dtype == np.float64 and hole.ndim == 2 and hole.shape[1] == 2
+        assert _problems(hole) == []
+        assert _twice_area(hole) < 0, "holes run clockwise in the map frame"
+        area += _twice_area(hole) / 2
+    for i in range(len(rings)):
+        for j in range(i + 1, len(rings)):
+            assert not _sides_meet(rings[i], rings[j]), f"rings {i} and {j} meet"
+    n_points = sum(len(r) for r in rings)
+    assert area / res**2 == pytest.approx(part.sum(), abs=PINCH_AREA * n_points)
+    assert np.array_equal(_covered(room, seg), part)
+
+
+def test_a_room_round_another_room_has_it_as_a_hole():
+    labels = np.ones((5, 5), np.int32)
+    labels[1:4, 1:4] = 2
+    labels[2, 2] = 0
+    seg = _seg(labels)
+    one, two = seg.rooms
+    (hole,) = one.holes
+    (centre,) = two.holes  # the pixel of no room in the middle
+    assert -_twice_area(centre) / 2 / RES**2 == 1
+    # the hole is the inner room's outline run the other way round
+    assert {tuple(p) for p in hole.tolist()} == {tuple(p) for p in two.polygon.tolist()}
+    for room in seg.rooms:
+        _assert_holes(room, seg)
+
+
+def test_a_room_round_two_rooms_has_two_holes():
+    labels = _mask(["#########", "#..#....#", "#..#....#", "#########"]).astype(np.int32)
+    labels[1:3, 1:3] = 2
+    labels[1:3, 4:8] = 3
+    seg = _seg(labels)
+    one = seg.rooms[0]
+    assert sorted(round(-_twice_area(h) / 2 / RES**2) for h in one.holes) == [4, 8]
+    for room in seg.rooms:
+        _assert_holes(room, seg)
+
+
+#: name: (rows, pixels of each hole)
+HOLED = {
+    # the hole meets the space outside at one corner (top right of pixel (1, 2))
+    "hole touching the outside diagonally": (["###..", "#..#.", "#..#.", "####."], [4]),
+    # two holes meeting at a corner
+    "holes touching each other": (["#####", "#.###", "##.##", "#####"], [1, 1]),
+    "larger holes touching each other": (
+        ["######", "#..###", "#.#..#", "###..#", "######"],
+        [3, 4],
+    ),
+    # the room's pixels (2, 2) and (3, 3) meet at a corner inside the hole, which passes
+    # round that corner twice
+    "hole pinched by the room": (["######", "#....#", "#.#..#", "#..#.#", "######"], [10]),
+    "pixels of no room": (["#####", "#.#.#", "#####"], [1, 1]),
+}
+
+
+@pytest.mark.parametrize("name", HOLED)
+def test_holes_are_simple_rings_apart_from_each_other_and_the_outline(name):
+    rows, sizes = HOLED[name]
+    seg = _seg(_mask(rows))
+    (room,) = seg.rooms
+    got = sorted(round(-_twice_area(h) / 2 / RES**2) for h in room.holes)
+    assert got == sizes
+    _assert_holes(room, seg)
+
+
+def test_rooms_without_holes_have_an_empty_tuple():
+    for rows, _ in SHAPES.values():
+        (room,) = _seg(_mask(rows)).rooms
+        assert room.holes == () or all(len(h) >= 4 for h in room.holes)
+    (room,) = _seg(_mask(SHAPES["thick L"][0])).rooms
+    assert room.holes == ()
+    assert "holes" not in repr(room)
+
+
+def test_a_room_built_without_holes_gets_none():
+    from topojax.rooms import Room
+
+    room = Room(1, 1.0, (0.0, 0.0), np.zeros((4, 2)), (0, 0, 1, 1))
+    assert room.holes == ()
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    arrays(np.int32, st.tuples(st.integers(2, 9), st.integers(2, 9)), elements=st.integers(0, 3))
+)
+def test_rooms_of_random_label_images_cover_their_own_pixels_only(labels):
+    seg = _seg(labels)
+    for room in seg.rooms:
+        _assert_holes(room, seg)
+
+
+@pytest.mark.skipif(not IPA.exists(), reason="shared IPA maps not present")
+@pytest.mark.parametrize("name", ["lab_a_scan", "office_d_furnitures"])
+def test_rooms_of_ipa_maps_do_not_overlap(name):
+    occ = tj.load_map(IPA / f"{name}.png", mode="ipa", resolution_m=0.05)
+    seg = tj.segment_rooms(occ)
+    assert any(room.holes for room in seg.rooms), "a map with a room round others"
+    covered = np.zeros(seg.labels.shape, np.int32)
+    for room in seg.rooms:
+        _assert_holes(room, seg, 0.05)
+        covered += _covered(room, seg)
+    assert covered.max() == 1

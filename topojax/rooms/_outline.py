@@ -1,5 +1,5 @@
-"""A room's outline: the pixel-edge (crack) boundary of its pixels as one simple ring
-(compiled tracer)."""
+"""A room's outline: the pixel-edge (crack) boundary of its pixels as one simple outer
+ring and one simple ring round each hole (compiled tracer)."""
 
 from __future__ import annotations
 
@@ -40,16 +40,19 @@ def _inside(mask, r, c):
 
 
 @cached_njit(nogil=True)
-def _trace(mask, r0, c0, cut):
-    """Walk the crack boundary of the 8-connected part of ``mask`` that holds pixel
-    ``(r0, c0)`` (the first of that part in raster order), the part on the right, from
-    the top-left corner of that pixel; a corner where the heading changes is a vertex,
-    a corner whose ahead-left pixel is in ``mask`` and ahead-right pixel is not (a
-    diagonal contact) is passed by turning left and gives two points ``cut`` either side
-    of it.  Returns the vertices float64 (K, 2) (pixel-corner coordinates, corner
-    (i, j) at (i, j)) and the ring's length in pixel edges."""
+def _trace(mask, r0, c0, d0, cut):
+    """Walk one closed crack boundary of ``mask`` with ``mask`` on the right, from pixel
+    corner ``(r0, c0)`` leaving it with heading ``d0`` (0 east, 1 south, 2 west, 3 north)
+    along an edge with a pixel of ``mask`` on its right and none on its left: east from
+    the top-left corner of the first pixel of a part in raster order gives the part's
+    outer ring, west from the top-right corner of the first pixel of a hole gives the
+    hole's ring.  A corner where the heading changes is a vertex; a corner whose
+    ahead-left pixel is in ``mask`` and ahead-right pixel is not (a diagonal contact) is
+    passed by turning left and gives two points ``cut`` either side of it.  Returns the
+    vertices float64 (K, 2) (pixel-corner coordinates, corner (i, j) at (i, j)) and the
+    ring's length in pixel edges."""
     out = np.empty((64, 2))
-    r, c, d = r0, c0, 0
+    r, c, d = r0, c0, d0
     k = 0
     steps = 0
     while True:
@@ -79,7 +82,7 @@ def _trace(mask, r0, c0, cut):
             out[k, 1] = c
             k += 1
         d = nd
-        if r == r0 and c == c0 and d == 0:
+        if r == r0 and c == c0 and d == d0:
             return out[:k], steps
 
 
@@ -101,8 +104,9 @@ def _crack_length(mask):
     return n
 
 
-def outline(mask: np.ndarray) -> np.ndarray:
-    """The outline of the largest 8-connected part of ``mask`` as one simple ring.
+def outline(mask: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+    """The outline of the largest 8-connected part of ``mask`` as one simple ring, and the
+    rings round its holes.
 
     Parameters
     ----------
@@ -110,13 +114,21 @@ def outline(mask: np.ndarray) -> np.ndarray:
 
     Returns
     -------
-    float64 (K, 2)
+    ring : float64 (K, 2)
         Vertices (row, col) in pixel coordinates of ``mask`` (pixel centres at integers,
         so pixel corners at half-integers), first point not repeated, collinear points
         left out, clockwise on the screen (rows down); empty (0, 2) for an empty mask.
-        The ring runs along the pixel edges between the part and the space outside it:
-        what the part encloses (holes) is inside the ring, and a diagonal contact
-        between two pixels of the part is a neck of width ``PINCH_PX * sqrt(2)``.
+        The ring runs along the pixel edges between the part and the space outside it
+        and encloses the part's holes; a diagonal contact between two pixels of the part
+        is a neck of width ``PINCH_PX * sqrt(2)``.
+    holes : tuple of float64 (K, 2)
+        One ring per hole (a 4-connected part of the pixels off the outlined part that
+        does not reach the edge of ``mask``: other rooms, pixels of no room, the room's
+        smaller parts), along the pixel edges between it and the part,
+        counter-clockwise on the screen, in raster order of the holes' first pixels.  A
+        diagonal contact is cut as on the outer ring, off the empty pixel the ring turns
+        round, so holes that meet each other or the outside at a corner stay
+        ``PINCH_PX * sqrt(2)`` apart there.
     """
     if mask.dtype == np.bool_ and mask.flags.c_contiguous:
         m = mask.view(np.uint8)
@@ -124,18 +136,41 @@ def outline(mask: np.ndarray) -> np.ndarray:
         m = np.ascontiguousarray(mask, dtype=np.uint8)
     flat = int(np.argmax(m))
     if not m.flat[flat]:
-        return np.empty((0, 2))
+        return np.empty((0, 2)), ()
     r0, c0 = divmod(flat, m.shape[1])
-    ring, length = _trace(m, r0, c0, PINCH_PX)
-    if length != _crack_length(m):
-        # holes or other parts: trace the largest part, the first in raster order
-        # among equals
-        n, parts = cv2.connectedComponents(m, connectivity=8)
-        size = np.bincount(parts.ravel(), minlength=n)
-        size[0] = 0
-        firsts = [int(np.argmax(parts == k)) for k in np.flatnonzero(size == size.max())]
-        flat = min(firsts)
-        m = (parts == parts.flat[flat]).view(np.uint8)
-        r0, c0 = divmod(flat, m.shape[1])
-        ring, _ = _trace(m, r0, c0, PINCH_PX)
-    return ring - 0.5
+    ring, length = _trace(m, r0, c0, 0, PINCH_PX)
+    if length == _crack_length(m):  # one part, no holes
+        return ring - 0.5, ()
+    # holes or other parts: trace the largest part, the first in raster order among equals
+    n, parts = cv2.connectedComponents(m, connectivity=8)
+    size = np.bincount(parts.ravel(), minlength=n)
+    size[0] = 0
+    firsts = [int(np.argmax(parts == k)) for k in np.flatnonzero(size == size.max())]
+    flat = min(firsts)
+    m = (parts == parts.flat[flat]).view(np.uint8)
+    r0, c0 = divmod(flat, m.shape[1])
+    ring, length = _trace(m, r0, c0, 0, PINCH_PX)
+    if length == _crack_length(m):
+        return ring - 0.5, ()
+    return ring - 0.5, _hole_rings(m)
+
+
+def _hole_rings(part: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The rings round the holes of ``part`` (uint8 (H, W), one 8-connected part): the
+    4-connected parts of the rest that do not reach its edge, in raster order of their
+    first pixels, each traced west from its first pixel's top-right corner (the pixel
+    above and the pixel left of a hole's first pixel are in ``part``)."""
+    h, w = part.shape
+    rest = np.ones((h + 2, w + 2), np.uint8)
+    rest[1:-1, 1:-1] = 1 - part
+    _, comp = cv2.connectedComponents(rest, connectivity=4)
+    outside = comp[0, 0]
+    inner = comp[1:-1, 1:-1]
+    ids, first = np.unique(inner, return_index=True)
+    keep = (ids != 0) & (ids != outside)
+    rings = []
+    for flat in np.sort(first[keep]):
+        r, c = divmod(int(flat), w)
+        ring, _ = _trace(part, r, c + 1, 2, PINCH_PX)
+        rings.append(ring - 0.5)
+    return tuple(rings)

@@ -27,16 +27,25 @@ class Room:
     centroid : tuple[float, float]
         Mean world position (x, y) of its pixels, metres.
     polygon : float64 (K, 2)
-        Outline in world (x, y) metres: one simple ring (no sides cross or touch),
+        Outer outline in world (x, y) metres: one simple ring (no sides cross or touch),
         counter-clockwise, first point not repeated, no collinear points, along the
-        outer edges of its pixel squares: rooms that meet share the edges between them
-        and its area is ``area_m2``, except that what the room encloses without owning
-        (rooms inside a corridor loop) is inside it and that only the largest of parts
-        not touching even at a corner is outlined.  Pixels meeting only at a corner are
-        joined by a neck: each of the ring's two passes there cuts 1/64 pixel off the
-        empty pixel it turns round (1/8192 square pixels more area).
+        outer edges of its pixel squares: rooms that meet share the edges between them.
+        Only the largest of the room's parts not touching even at a corner is outlined.
+        Pixels meeting only at a corner are joined by a neck: each of the ring's two
+        passes there cuts 1/64 pixel off the empty pixel it turns round (1/8192 square
+        pixels more area).
     bbox : tuple[int, int, int, int]
         ``(row_min, col_min, row_max, col_max)`` of its pixels, inclusive.
+    holes : tuple of float64 (K, 2), default ()
+        The rings round what the outlined part encloses without owning (the rooms
+        inside a corridor loop, free space of no room), world (x, y) metres, clockwise,
+        first point not repeated, no collinear points, along the pixel edges as
+        ``polygon``; empty for most rooms (a room owns the clutter it encloses).  Each is
+        simple and no two of these rings and ``polygon`` meet: where a hole meets
+        another or the outside at a corner, each ring cuts that corner as above.
+        ``polygon`` less its holes is the area of the outlined part, ``area_m2`` where
+        the room is one part, and the polygons with holes of a segmentation's rooms do
+        not overlap.
     """
 
     id: int
@@ -44,6 +53,7 @@ class Room:
     centroid: tuple[float, float]
     polygon: np.ndarray = field(repr=False)
     bbox: tuple[int, int, int, int]
+    holes: tuple[np.ndarray, ...] = field(default=(), repr=False, kw_only=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,21 +177,15 @@ def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmenta
         q0, p0, q1, p1 = (int(v) for v in boxes[rid])
         mask = part[q0 : q1 + 1, p0 : p1 + 1] == rid
         r0, c0 = q0 + r_off, p0 + c_off
-        ring = outline(mask)
-        px, py = occ.pixel_to_world(ring[:, 0] + r0, ring[:, 1] + c0)
-        poly = np.stack([px, py], axis=1)
-        if poly.shape[0] >= 3:
-            x, y = poly[:, 0], poly[:, 1]
-            twice_area = x[:-1] @ y[1:] - x[1:] @ y[:-1] + x[-1] * y[0] - x[0] * y[-1]
-            if twice_area < 0:
-                poly = poly[::-1].copy()
+        ring, holes = outline(mask)
         rooms.append(
             Room(
                 id=rid,
                 area_m2=float(count[rid]) * res * res,
                 centroid=(float(cx[rid]), float(cy[rid])),
-                polygon=poly,
+                polygon=_world_ring(occ, ring, r0, c0, counter_clockwise=True),
                 bbox=(r0, c0, q1 + r_off, p1 + c_off),
+                holes=tuple(_world_ring(occ, h, r0, c0, counter_clockwise=False) for h in holes),
             )
         )
     out = []
@@ -207,6 +211,19 @@ def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmenta
     )
 
 
+def _world_ring(occ, ring: np.ndarray, r0: int, c0: int, *, counter_clockwise: bool):
+    """``ring`` (pixel (row, col) of a crop whose first pixel is ``(r0, c0)``) in world
+    (x, y) metres, turned to run counter-clockwise or clockwise in the map frame."""
+    px, py = occ.pixel_to_world(ring[:, 0] + r0, ring[:, 1] + c0)
+    poly = np.stack([px, py], axis=1)
+    if poly.shape[0] >= 3:
+        x, y = poly[:, 0], poly[:, 1]
+        twice_area = x[:-1] @ y[1:] - x[1:] @ y[:-1] + x[-1] * y[0] - x[0] * y[-1]
+        if (twice_area < 0) == counter_clockwise:
+            poly = poly[::-1].copy()
+    return poly
+
+
 def relabel(seg: RoomSegmentation, lut: np.ndarray) -> RoomSegmentation:
     """``seg`` with room ``k`` renamed ``lut[k]`` (``lut[0] == 0``, distinct positive ids
     otherwise): labels, rooms (sorted by their new id) and the doors' rooms; door ids are
@@ -220,6 +237,7 @@ def relabel(seg: RoomSegmentation, lut: np.ndarray) -> RoomSegmentation:
                 centroid=r.centroid,
                 polygon=r.polygon,
                 bbox=r.bbox,
+                holes=r.holes,
             )
             for r in seg.rooms
         ),
