@@ -44,6 +44,10 @@ def assert_rooms_equal(got, want) -> None:
         assert type(a.id) is int and all(type(v) is int for v in a.bbox)
         assert a.polygon.dtype == np.float64 and a.polygon.shape == b.polygon.shape
         np.testing.assert_allclose(a.polygon, b.polygon, rtol=0, atol=1e-9)
+        assert isinstance(a.holes, tuple) and len(a.holes) == len(b.holes)
+        for g, w in zip(a.holes, b.holes, strict=True):
+            assert g.dtype == np.float64 and g.shape == w.shape
+            np.testing.assert_allclose(g, w, rtol=0, atol=1e-9)
 
 
 def assert_doors_equal(got, want) -> None:
@@ -101,6 +105,64 @@ def test_rooms_geojson_is_an_rfc7946_feature_collection(seg, tmp_path: Path):
         assert props["rooms"] == list(door.rooms) and props["width_m"] == door.width_m
         assert props["ends_px"] == door.ends_px.tolist()
         assert props["pixels"] == door.pixels.tolist()
+
+
+@pytest.fixture(scope="module")
+def loop():
+    """A corridor round two rooms (its holes), in a frame turned by 0.3 rad."""
+    from topojax.maps.occupancy import OccupancyMap
+    from topojax.rooms.model import build_segmentation
+
+    labels = np.ones((8, 12), np.int32)
+    labels[2:6, 2:5] = 2
+    labels[2:6, 6:10] = 3
+    labels = np.pad(labels, 1)
+    free = labels > 0
+    occ = OccupancyMap(
+        occupied=~free,
+        free=free,
+        unknown=np.zeros_like(free),
+        resolution_m=0.05,
+        origin=(-1.5, 2.0, 0.3),
+    )
+    s = build_segmentation(occ, labels, [])
+    assert [len(r.holes) for r in s.rooms] == [2, 0, 0]
+    return s
+
+
+def test_holes_are_interior_rings_and_come_back(loop, tmp_path: Path):
+    path = tj.save_rooms(loop, tmp_path / "r.geojson")
+    feats = _strict(path.read_text(encoding="utf-8"))["features"]
+    for feat, room in zip(feats, loop.rooms, strict=True):
+        exterior, *interior = feat["geometry"]["coordinates"]
+        assert len(interior) == len(room.holes)
+        assert _area(exterior[:-1]) > 0, "exterior ring counter-clockwise"
+        for ring, hole in zip(interior, room.holes, strict=True):
+            assert len(ring) >= 4 and ring[0] == ring[-1], "closed linear ring"
+            assert _area(ring[:-1]) < 0, "interior ring clockwise (RFC 7946)"
+            np.testing.assert_array_equal(np.asarray(ring[:-1]), hole)
+        assert "holes" not in feat["properties"]
+    corridor = feats[0]["geometry"]["coordinates"]
+    area = sum(_area(r[:-1]) for r in corridor)
+    assert area == pytest.approx(loop.rooms[0].area_m2, rel=1e-9)
+    rooms, _ = tj.load_rooms(path)
+    assert_rooms_equal(rooms, loop.rooms)
+
+
+def test_a_hole_that_is_no_valid_interior_ring_is_kept_as_a_property(loop, tmp_path: Path):
+    corridor = loop.rooms[0]
+    turned = (corridor.holes[0][::-1].copy(), corridor.holes[1])  # counter-clockwise
+    odd = dataclasses.replace(
+        loop, rooms=(dataclasses.replace(corridor, holes=turned), *loop.rooms[1:])
+    )
+    path = tj.save_rooms(odd, tmp_path / "r.geojson")
+    feat = _strict(path.read_text(encoding="utf-8"))["features"][0]
+    (ring,) = feat["geometry"]["coordinates"]  # the pixel box
+    assert len(ring) == 5 and _area(ring[:-1]) > 0
+    assert feat["properties"]["outline"] == corridor.polygon.tolist()
+    assert feat["properties"]["holes"] == [h.tolist() for h in turned]
+    rooms, _ = tj.load_rooms(path)
+    assert_rooms_equal(rooms, odd.rooms)
 
 
 def test_an_outline_without_area_keeps_a_valid_ring(seg, tmp_path: Path):
@@ -170,6 +232,10 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
         (
             lambda d: d["features"][0]["geometry"]["coordinates"][0].pop(),
             r"features\[0\]: the exterior ring must be closed",
+        ),
+        (
+            lambda d: d["features"][0]["geometry"]["coordinates"].append([[0, 0], [1, 0], [0, 1]]),
+            r"features\[0\]: the interior ring 1 must be closed",
         ),
         (
             lambda d: d["features"][1]["properties"].update(area_m2="big"),

@@ -433,6 +433,7 @@ def _shift_room(room, dr: int, dc: int):
         centroid=room.centroid,
         polygon=room.polygon,
         bbox=(b[0] + dr, b[1] + dc, b[2] + dr, b[3] + dc),
+        holes=room.holes,
     )
 
 

@@ -68,7 +68,8 @@ def _box_ring(seg, bbox) -> np.ndarray:
 def _room_feature(seg, room) -> dict:
     where = f"room {room.id}"
     poly = np.asarray(room.polygon, np.float64).reshape(-1, 2)
-    if not np.isfinite(poly).all():
+    holes = [np.asarray(h, np.float64).reshape(-1, 2) for h in room.holes]
+    if not all(np.isfinite(r).all() for r in (poly, *holes)):
         raise ValueError(f"seg: {where} has a polygon with non-finite coordinates")
     props: dict[str, Any] = {
         "kind": "room",
@@ -77,16 +78,18 @@ def _room_feature(seg, room) -> dict:
         "centroid": [float(v) for v in room.centroid],
         "bbox_px": [int(v) for v in room.bbox],
     }
-    ring = poly
-    if poly.shape[0] < 3 or _signed_area(poly) <= 0:
-        # a line, a point or a clockwise outline is no valid exterior ring: the geometry
-        # is the room's pixel box and the outline itself a property
-        ring = _box_ring(seg, room.bbox)
+    rings = [poly, *holes]
+    if any(r.shape[0] < 3 or (_signed_area(r) > 0) != (i == 0) for i, r in enumerate(rings)):
+        # a line, a point, a clockwise outline or a counter-clockwise hole is no valid
+        # ring of RFC 7946: the geometry is the room's pixel box and the rings properties
+        rings = [_box_ring(seg, room.bbox)]
         props["outline"] = poly.tolist()
-    coords = [*ring.tolist(), ring[0].tolist()]
+        if holes:
+            props["holes"] = [h.tolist() for h in holes]
+    coords = [[*r.tolist(), r[0].tolist()] for r in rings]
     return {
         "type": "Feature",
-        "geometry": {"type": "Polygon", "coordinates": [coords]},
+        "geometry": {"type": "Polygon", "coordinates": coords},
         "properties": props,
     }
 
@@ -135,12 +138,15 @@ def save_rooms(seg, path: str | Path) -> Path:
     Notes
     -----
     One ``Polygon`` feature per room, in id order: the exterior ring is the room's outline
-    (:attr:`Room.polygon`), counter-clockwise and closed (first position repeated);
-    properties ``kind: "room"``, ``id``, ``area_m2``, ``centroid`` ``[x, y]`` (metres)
-    and ``bbox_px`` ``[row_min, col_min, row_max, col_max]``.  An outline that encloses no
-    area or runs clockwise (not one made by :func:`topojax.segment_rooms`, whose outlines
-    are simple counter-clockwise rings) cannot be the ring: the geometry is then the
-    room's pixel box and the outline is kept in the property ``outline``.
+    (:attr:`Room.polygon`), counter-clockwise and closed (first position repeated), and
+    the interior rings are its holes (:attr:`Room.holes`: the rooms a corridor loop
+    runs round), clockwise and closed, as RFC 7946 orders them; properties
+    ``kind: "room"``, ``id``, ``area_m2``, ``centroid`` ``[x, y]`` (metres) and
+    ``bbox_px`` ``[row_min, col_min, row_max, col_max]``.  An outline that encloses no
+    area or runs clockwise, or a hole that runs counter-clockwise (not made by
+    :func:`topojax.segment_rooms`), cannot be a ring: the geometry is then the room's
+    pixel box and the outline and holes are kept in the properties ``outline`` and
+    ``holes``.
 
     One ``LineString`` feature per door, in id order, from one obstacle end of the doorway
     to the other (:attr:`Door.ends_world`); properties ``kind: "door"``, ``id``, ``rooms``
@@ -230,14 +236,17 @@ def _read_room(props: dict, geometry: dict, where: str):
         )
     if "outline" in props:
         polygon = _points(props["outline"], np.float64, f"{where} outline")
+        holes = props.get("holes", [])
+        if not isinstance(holes, list):
+            raise ValueError(
+                f"{where}: property 'holes': expected a list of rings, received {holes!r:.80}"
+            )
+        holes = [_points(h, np.float64, f"{where} holes[{i}]") for i, h in enumerate(holes)]
     else:
         rings = geometry.get("coordinates")
         if not isinstance(rings, list) or not rings:
             raise ValueError(f"{where}: a Polygon needs at least one linear ring")
-        ring = _points(rings[0], np.float64, f"{where} exterior ring")
-        if ring.shape[0] < 4 or not np.array_equal(ring[0], ring[-1]):
-            raise ValueError(f"{where}: the exterior ring must be closed (4 or more positions)")
-        polygon = ring[:-1].copy()
+        polygon, *holes = (_linear_ring(r, where, i) for i, r in enumerate(rings))
     centroid = props.get("centroid")
     if not isinstance(centroid, list) or len(centroid) != 2:
         raise ValueError(
@@ -250,7 +259,18 @@ def _read_room(props: dict, geometry: dict, where: str):
         centroid=(cx, cy),
         polygon=polygon,
         bbox=_integers(props, "bbox_px", where, 4),
+        holes=tuple(holes),
     )
+
+
+def _linear_ring(value: Any, where: str, index: int) -> np.ndarray:
+    """Ring ``index`` of a Polygon's coordinates (0 the exterior) without its closing
+    position, float64 (K, 2); ValueError unless closed with 4 or more positions."""
+    what = "exterior ring" if index == 0 else f"interior ring {index}"
+    ring = _points(value, np.float64, f"{where} {what}")
+    if ring.shape[0] < 4 or not np.array_equal(ring[0], ring[-1]):
+        raise ValueError(f"{where}: the {what} must be closed (4 or more positions)")
+    return ring[:-1].copy()
 
 
 def _identifier(props: dict, where: str) -> int:
@@ -290,7 +310,8 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
     -------
     rooms : tuple of Room
         In file order (id order as written), with ``polygon`` float64 (K, 2) world
-        metres (the closing position dropped) and ``bbox`` from ``bbox_px``.
+        metres (the exterior ring, the closing position dropped), ``holes`` (the
+        interior rings, likewise) and ``bbox`` from ``bbox_px``.
     doors : tuple of Door
         In file order, with ``ends_px`` int64 (2, 2), ``ends_world`` float64 (2, 2) (the
         line's coordinates) and ``pixels`` int64 (K, 2).
