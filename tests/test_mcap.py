@@ -417,3 +417,33 @@ def test_save_mcap_names_a_wrong_rooms_argument(tmp_path):
     with pytest.raises(TypeError, match="^rooms: expected a RoomSegmentation, received str"):
         tj.save_mcap(result, tmp_path / "a.mcap", rooms="rooms.json")
     assert not (tmp_path / "a.mcap").exists()
+
+
+def test_room_markers_draw_the_rings_round_a_rooms_holes():
+    from topojax.io.mcap import room_markers
+    from topojax.maps.occupancy import OccupancyMap
+    from topojax.rooms.model import build_segmentation
+
+    labels = np.ones((6, 10), np.int32)
+    labels[2:4, 2:4] = 2
+    labels[2:4, 6:8] = 3
+    labels = np.pad(labels, 1)
+    free = labels > 0
+    occ = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05)
+    seg = build_segmentation(occ, labels, [])
+    corridor = seg.rooms[0]
+    assert len(corridor.holes) == 2 and not any(r.holes for r in seg.rooms[1:])
+    markers = room_markers(seg).markers
+    (holes,) = [m for m in markers if m.ns == "room_holes"]
+    outline = next(m for m in markers if m.ns == "rooms" and m.id == corridor.id)
+    assert holes.id == corridor.id and holes.type == 5  # LINE_LIST
+    assert (holes.color.r, holes.color.g, holes.color.b) == (
+        outline.color.r,
+        outline.color.g,
+        outline.color.b,
+    )
+    pts = np.array([(p.x, p.y) for p in holes.points]).reshape(-1, 2, 2)
+    want = [
+        np.stack([h, np.roll(h, -1, axis=0)], axis=1) for h in corridor.holes
+    ]  # each hole's sides, in ring order
+    np.testing.assert_allclose(pts, np.concatenate(want), atol=1e-9)

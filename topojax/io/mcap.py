@@ -253,7 +253,9 @@ def _check_graph(name: str, graph) -> None:
 def room_markers(seg, stamp_ns: int = 0):
     """``visualization_msgs/msg/MarkerArray`` of a :class:`~topojax.RoomSegmentation`:
     ``DELETEALL``, each room's closed outline (``LINE_STRIP``, namespace ``rooms``, id =
-    room id, in its colour of the label picture), its id as text at its centroid
+    room id, in its colour of the label picture), the rings round its holes where it has
+    any (one ``LINE_LIST``, namespace ``room_holes``, id = room id, same colour, each
+    ring's sides as point pairs), its id as text at its centroid
     (``TEXT_VIEW_FACING``, namespace ``room_ids``) and the doorways (one ``LINE_LIST``,
     namespace ``doors``, two points per door)."""
     from .rooms import room_colours
@@ -277,6 +279,22 @@ def room_markers(seg, stamp_ns: int = 0):
                 scale=_ROOM_LINE_WIDTH_M,
             )
         )
+        if room.holes:
+            sides = []
+            for hole in room.holes:
+                h = np.asarray(hole, np.float64).reshape(-1, 2)
+                sides.append(np.stack([h, np.roll(h, -1, axis=0)], axis=1).reshape(-1, 2))
+            markers.append(
+                _marker(
+                    stamp_ns,
+                    "room_holes",
+                    room.id,
+                    "LINE_LIST",
+                    points=_points(np.concatenate(sides)),
+                    colour=_rgba(colour),
+                    scale=_ROOM_LINE_WIDTH_M,
+                )
+            )
         label = _marker(stamp_ns, "room_ids", room.id, "TEXT_VIEW_FACING", colour=_rgba("#000000"))
         label.pose = _pose(*room.centroid, 0.0)
         label.scale.z = _ROOM_TEXT_M
