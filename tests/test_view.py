@@ -108,6 +108,17 @@ def test_rooms_alone_and_a_route_graph_with_its_map():
     room = data["rooms"]["rooms"][0]
     assert room["area_m2"] == seg.rooms[0].area_m2
     assert np.allclose(np.reshape(room["polygon"], (-1, 2)), seg.rooms[0].polygon, atol=1e-4)
+    assert room["holes"] == [] and seg.rooms[0].holes == ()
+
+
+def test_rooms_carry_the_rings_round_their_holes():
+    from topojax.view._rooms_data import rooms_payload
+
+    hole = np.array([[1.0, 1.0], [1.0, 2.0], [2.0, 2.0], [2.0, 1.0]])
+    outer = np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0], [0.0, 3.0]])
+    loop = tj.rooms.Room(1, 8.0, (1.5, 1.5), outer, (0, 0, 5, 5), holes=(hole, hole + 0.25))
+    (room,) = rooms_payload(((loop,), ()))["rooms"]
+    assert room["holes"] == [hole.ravel().tolist(), (hole + 0.25).ravel().tolist()]
 
 
 def test_a_route_graph_with_its_map_carries_the_robots_feasible_pixels():

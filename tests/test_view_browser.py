@@ -249,6 +249,30 @@ def test_hovering_a_room_inside_another_names_the_inner_one(browser, res, tmp_pa
             assert f"room {room.id}" in text and f"area {room.area_m2:.2f} m²" in text
 
 
+def test_hovering_the_hole_of_a_corridor_loop_names_the_room_inside(browser, res, tmp_path):
+    """A corridor round a larger room: the point inside the corridor's outline but in its
+    hole belongs to the room inside, though the corridor is the smaller room."""
+    from selenium.webdriver.common.by import By
+
+    from topojax.rooms import Room
+
+    def square(x0, y0, side):
+        return np.array([[x0, y0], [x0 + side, y0], [x0 + side, y0 + side], [x0, y0 + side]])
+
+    hole = square(7.0, 7.0, 26.0)[::-1].copy()  # clockwise
+    loop = Room(1, 224.0, (20.0, 20.0), square(5.0, 5.0, 30.0), (0, 0, 1, 1), holes=(hole,))
+    inner = Room(2, 676.0, (20.0, 20.0), square(7.0, 7.0, 26.0), (0, 0, 1, 1))
+    page = tj.write_view(res, tmp_path / "loop.html", rooms=((loop, inner), ()))
+    assert _open(browser, page) == "ready"
+    browser.find_element(By.ID, "tj-layer-graph").click()
+    for point, room in (((20.0, 20.0), inner), ((8.0, 20.0), inner), ((6.0, 20.0), loop)):
+        _move(
+            browser, *_js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", *point)
+        )
+        text = browser.find_element(By.ID, "tj-tooltip").text
+        assert f"room {room.id}" in text and f"area {room.area_m2:.2f} m²" in text, point
+
+
 def test_clicking_two_points_shows_the_length_of_plan_route(intel, res):
     from selenium.webdriver.common.by import By
 

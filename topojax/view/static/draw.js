@@ -249,9 +249,10 @@ var TJ = (window.TJ = window.TJ || {});
     return "hsla(" + ((id * 137.508) % 360).toFixed(1) + ",70%,52%," + alpha + ")";
   };
 
-  /* world polyline [x, y, x, y, ...] -> screen path */
-  TJ.traceWorld = function (ctx, view, frame, xy, closed) {
-    ctx.beginPath();
+  /* world polyline [x, y, x, y, ...] -> screen path (added to the current path when
+     `more` is set) */
+  TJ.traceWorld = function (ctx, view, frame, xy, closed, more) {
+    if (!more) ctx.beginPath();
     for (var i = 0; i < xy.length; i += 2) {
       var uv = frame.worldToView(xy[i], xy[i + 1]);
       var x = uv[0] * view.z + view.tx, y = uv[1] * view.z + view.ty;
@@ -265,7 +266,10 @@ var TJ = (window.TJ = window.TJ || {});
       var r = rooms[i];
       if (r.polygon.length < 6) continue;
       TJ.traceWorld(ctx, view, frame, r.polygon, true);
-      ctx.fillStyle = TJ.roomColour(r.id, 0.28); ctx.fill();
+      // holes (the rooms a corridor loop runs round) are left out of the fill
+      var holes = r.holes || [];
+      for (var k = 0; k < holes.length; k++) TJ.traceWorld(ctx, view, frame, holes[k], true, true);
+      ctx.fillStyle = TJ.roomColour(r.id, 0.28); ctx.fill("evenodd");
       ctx.lineWidth = 1.5; ctx.strokeStyle = TJ.roomColour(r.id, 0.9); ctx.stroke();
     }
   };

@@ -479,12 +479,13 @@ TJ.frameNo = 0;
     }
     var rooms = f ? f.rooms : this.data.rooms ? this.data.rooms.rooms : null;
     if (rooms && this.isOn("rooms")) {
-      // rooms are drawn by their outer outline: of the outlines holding the point (a
-      // room round a courtyard holds the rooms inside it), the smallest room's
+      // a room holds the point inside its outline and outside its holes; of rooms
+      // holding it (rooms given without their holes: a room round a courtyard holds the
+      // rooms inside it), the smallest room's
       var best = -1;
       for (var r = 0; r < rooms.length; r++) {
         if ((best < 0 || rooms[r].area_m2 < rooms[best].area_m2) &&
-            TJ.inside(rooms[r].polygon, world[0], world[1])) best = r;
+            TJ.inRoom(rooms[r], world[0], world[1])) best = r;
       }
       if (best >= 0) {
         return { kind: "room", id: rooms[best].id, lines: [
@@ -496,6 +497,12 @@ TJ.frameNo = 0;
   };
 
   TJ.KINDS = ["junction", "end", "ring", "isolated", "other"];
+  TJ.inRoom = function (room, x, y) {
+    if (!TJ.inside(room.polygon, x, y)) return false;
+    var holes = room.holes || [];
+    for (var k = 0; k < holes.length; k++) if (TJ.inside(holes[k], x, y)) return false;
+    return true;
+  };
   TJ.inside = function (poly, x, y) {
     var inside = false, n = poly.length / 2;
     for (var i = 0, j = n - 1; i < n; j = i++) {
