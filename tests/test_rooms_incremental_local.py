@@ -27,6 +27,22 @@ def _same_up_to_ids(a: np.ndarray, b: np.ndarray) -> bool:
     return len(np.unique(pairs[:, 0])) == len(pairs) == len(np.unique(pairs[:, 1]))
 
 
+def _assert_same_geometry(a, b) -> None:
+    """Each room of segmentation ``a`` has the outline and holes of the room of ``b`` on
+    the same pixels (label images over the same map)."""
+    by_pixel = {}
+    for room in b.rooms:
+        r, c = np.argwhere(b.labels == room.id)[0]
+        by_pixel[(int(r), int(c))] = room
+    for room in a.rooms:
+        r, c = np.argwhere(a.labels == room.id)[0]
+        other = by_pixel[(int(r), int(c))]
+        np.testing.assert_allclose(room.polygon, other.polygon, rtol=0, atol=1e-9)
+        assert len(room.holes) == len(other.holes)
+        for g, w in zip(room.holes, other.holes, strict=True):
+            np.testing.assert_allclose(g, w, rtol=0, atol=1e-9)
+
+
 def _mapper(**kw) -> tj.IncrementalMapper:
     return tj.IncrementalMapper(resolution_m=RES, graph_every=None, skeleton_every=None, **kw)
 
@@ -190,6 +206,7 @@ def test_local_and_whole_agree_when_the_change_stays_in_one_room():
     after = local.rooms
     assert update.segmented_px < after.labels.size, "only a window was segmented"
     assert _same_up_to_ids(after.labels, whole.rooms.labels)
+    _assert_same_geometry(after, whole.rooms)
     assert after.n_rooms == before.n_rooms + 1 == whole.rooms.n_rooms
     assert len(after.doors) == len(before.doors) + 1 == len(whole.rooms.doors)
     # the split room: one id goes or changes, one or two come; every other room stays
