@@ -163,14 +163,15 @@ def _hole_rings(part: np.ndarray) -> tuple[np.ndarray, ...]:
     h, w = part.shape
     rest = np.ones((h + 2, w + 2), np.uint8)
     rest[1:-1, 1:-1] = 1 - part
-    _, comp = cv2.connectedComponents(rest, connectivity=4)
+    n, comp, stats, _ = cv2.connectedComponentsWithStats(rest, connectivity=4)
     outside = comp[0, 0]
-    inner = comp[1:-1, 1:-1]
-    ids, first = np.unique(inner, return_index=True)
-    keep = (ids != 0) & (ids != outside)
+    firsts = []
+    for k in range(1, n):
+        if k != outside:
+            r = int(stats[k, cv2.CC_STAT_TOP]) - 1  # the hole's top row in ``part``
+            firsts.append((r, int(np.argmax(comp[r + 1, 1:-1] == k))))
     rings = []
-    for flat in np.sort(first[keep]):
-        r, c = divmod(int(flat), w)
+    for r, c in sorted(firsts):
         ring, _ = _trace(part, r, c + 1, 2, PINCH_PX)
         rings.append(ring - 0.5)
     return tuple(rings)
