@@ -285,3 +285,63 @@ def test_a_window_over_a_new_area_finds_the_doorways_the_whole_map_finds():
     update = mapper.update_rooms()
     assert update.segmented_px < mapper.rooms.labels.size, "only a window was segmented"
     assert _same_up_to_ids(mapper.rooms.labels, tj.segment_rooms(mapper.occupancy).labels)
+
+
+def _far_corner(plan, far_m: float) -> OccupancyMap:
+    """A small free square ``far_m`` metres right of and below the plan (same frame): it
+    makes the mapper's box far larger than the plan."""
+    free = np.ones((20, 20), bool)
+    x0, y0, _ = plan.occupancy.origin
+    return OccupancyMap(
+        occupied=~free,
+        free=free,
+        unknown=~free,
+        resolution_m=RES,
+        origin=(x0 + far_m, y0 - far_m, 0.0),
+    )
+
+
+def test_a_local_update_works_in_windows_not_on_the_whole_map():
+    """An update for a change in one room allocates far less than one label image of the
+    map (no copy, paste or comparison of the whole labels), keeps the other rooms' Room
+    objects, reports what changed, and leaves the rooms a caller holds as they were."""
+    import tracemalloc
+
+    plan = floor_plan(2, size_m=(16.0, 48.0))
+    wall, _ = _split_wall(plan)
+    mapper = _mapper(rooms_local=True)
+    mapper.add_map(plan.occupancy)
+    mapper.add_map(_far_corner(plan, 120.0))
+    held = mapper.rooms
+    held_labels = held.labels.copy()
+    held_view = held.labels[: plan.occupancy.shape[0]]
+    mapper.add_map(_obstacles(plan, wall))
+    occ, box = mapper.occupancy, mapper.pixel_bbox
+    keeper = mapper._rooms
+    update = keeper.update(occ, box, mapper.room_config, local=True)
+    np.testing.assert_array_equal(held.labels, held_labels)  # what the caller holds
+    assert np.shares_memory(held_view, held.labels)
+    assert update.segmented_px < occ.free.size / 50, "only a window was segmented"
+    assert len(update.added) + len(update.changed) == 2
+    before = mapper.rooms
+    del held, held_view
+    rooms_before = {r.id: r for r in before.rooms}
+    mapper.add_map(_obstacles(plan, np.roll(wall, 3, axis=0)))  # the wall a bit thicker
+    occ = mapper.occupancy
+    labels_px = before.labels.nbytes
+    del before
+    tracemalloc.start()
+    try:
+        update = keeper.update(occ, box, mapper.room_config, local=True)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert 0 < update.segmented_px < occ.free.size / 50
+    assert peak < labels_px / 2, (peak, labels_px)
+    after = mapper.rooms
+    assert _same_up_to_ids(after.labels, tj.segment_rooms(occ).labels)
+    untouched = set(rooms_before) - set(update.changed) - set(update.removed)
+    assert len(untouched) >= len(rooms_before) - 2
+    for room in after.rooms:
+        if room.id in untouched:
+            assert room is rooms_before[room.id], room.id

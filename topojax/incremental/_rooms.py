@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,13 +66,15 @@ class RoomsUpdate:
 
 class RoomKeeper:
     """The rooms of one mapper: the last segmentation (stable ids), its labels and the
-    free space it was made from over the global pixel box, and the next unused id."""
+    free space it was made from over the global pixel box, the bounding box of that free
+    space (global pixels, None if none), and the next unused id."""
 
     def __init__(self) -> None:
         self.seg = None
         self.labels: np.ndarray | None = None
         self.box: tuple[int, int, int, int] | None = None
         self.free: np.ndarray | None = None
+        self.free_box: tuple[int, int, int, int] | None = None
         self.next_id = 1
         self.active = False
         self.over_budget = False  # the last due update found the map too large to export
@@ -82,22 +85,31 @@ class RoomKeeper:
         returns what changed."""
         from ..rooms import RoomConfig, segment_rooms
         from ..rooms.model import relabel
-        from ._rooms_local import local_update
+        from ._rooms_local import free_box_near, local_update
 
         t0 = time.perf_counter()
         cfg = RoomConfig() if config is None else config
         self.active = True
         free = np.asarray(occupancy.free, bool)
-        seg = None
+        seg = changes = None
         if local and self.seg is not None and self.free is not None and _within(self.box, box):
-            seg, segmented, self.next_id = local_update(self, occupancy, box, cfg)
+            seg, segmented, self.next_id, changes = local_update(self, occupancy, box, cfg)
         if seg is None:
             fresh = segment_rooms(occupancy, config=cfg)
             lut, self.next_id = match_ids(self.labels, self.box, fresh.labels, box, self.next_id)
             seg = relabel(fresh, lut)
             segmented = free.size
-        report = self._changes(seg, box)
+        if changes is None:
+            near = free_box_near(free, None)
+            free_box = None if near is None else _moved(near, box)
+        else:
+            free_box = changes.free_box
+        if changes is None or changes.written is None:
+            report = self._changes(seg, box)
+        else:
+            report = self._local_changes(seg, box, changes)
         self.seg, self.labels, self.box, self.free = seg, seg.labels, tuple(box), free
+        self.free_box = free_box
         return RoomsUpdate(
             **report,
             n_rooms=seg.n_rooms,
@@ -133,6 +145,39 @@ class RoomKeeper:
             "doors_added": tuple(k[0] for k in _minus(new_doors, old_doors)),
             "doors_removed": tuple(k[0] for k in _minus(old_doors, new_doors)),
         }
+
+    def _local_changes(self, seg, box, changes) -> dict:
+        """As :meth:`_changes` for a local update over the same box as the kept rooms,
+        reading the labels only in the boxes it wrote: each pixel's labels before the
+        update are those of the first box written that holds it (the kept labels may
+        have been updated in place)."""
+        old_ids = {r.id for r in self.seg.rooms}
+        new_ids = {r.id for r in seg.rooms}
+        touched: set = set()
+        done: list = []
+        for wbox, prev in changes.written:
+            r0, c0, r1, c1 = wbox
+            now = seg.labels[r0 - box[0] : r1 - box[0], c0 - box[1] : c1 - box[1]]
+            differ = prev != now
+            for d in done:  # pixels an earlier box holds were compared there
+                i = (max(d[0], r0), max(d[1], c0), min(d[2], r1), min(d[3], c1))
+                if i[0] < i[2] and i[1] < i[3]:
+                    differ[i[0] - r0 : i[2] - r0, i[1] - c0 : i[3] - c0] = False
+            done.append(wbox)
+            touched |= set(np.unique(prev[differ]).tolist()) | set(np.unique(now[differ]).tolist())
+        gone, new = Counter(changes.doors_gone), Counter(changes.doors_new)
+        return {
+            "added": tuple(sorted(new_ids - old_ids)),
+            "removed": tuple(sorted(old_ids - new_ids)),
+            "changed": tuple(sorted(touched & old_ids & new_ids)),
+            "doors_added": tuple(sorted(k[0] for k in (new - gone).elements())),
+            "doors_removed": tuple(sorted(k[0] for k in (gone - new).elements())),
+        }
+
+
+def _moved(b, box) -> tuple[int, int, int, int]:
+    """Box ``b`` (coordinates of the map box ``box``) in global pixels."""
+    return (b[0] + box[0], b[1] + box[1], b[2] + box[0], b[3] + box[1])
 
 
 def _within(inner, outer) -> bool:

@@ -5,13 +5,20 @@ are in ``docs/rooms.md``, "Incremental")."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._room_ids import match_ids, pasted
 
-__all__ = ["LOCAL_MARGIN", "LOCAL_MAX_SHARE", "local_update"]
+__all__ = [
+    "LOCAL_MARGIN",
+    "LOCAL_MAX_SHARE",
+    "LocalChanges",
+    "door_key",
+    "free_box_near",
+    "local_update",
+]
 
 #: A local update's window reaches this many times ``max_door_width_m + door_context_m``
 #: (RoomConfig) past the changes and the rooms it re-segments.
@@ -32,8 +39,12 @@ class _Rooms:
     doors: list
     next_id: int
     res_m: float
+    origin: tuple = (0, 0)
     bounds: tuple = (0, 0, 0, 0)
     budget: float = 0.0
+    written: list = field(default_factory=list)
+    doors_gone: list = field(default_factory=list)
+    doors_new: list = field(default_factory=list)
 
 
 @dataclass
@@ -52,36 +63,137 @@ def local_update(keeper, occ, box, cfg):
     """The keeper's rooms brought up to ``occ`` (the map over global box ``box``, which
     holds the keeper's box) by re-segmenting windows around the changed free space.
 
-    Returns the new :class:`~topojax.RoomSegmentation`, the pixels segmented and the next
-    unused id; or ``(None, 0, keeper.next_id)`` when the windows would cover more than
+    Returns the new :class:`~topojax.RoomSegmentation`, the pixels segmented, the next
+    unused id and a :class:`LocalChanges` (None when the box grew); or ``(None, 0,
+    keeper.next_id, None)`` when the windows would cover more than
     :data:`LOCAL_MAX_SHARE` of the bounding box of the free space (now and before: the
-    part of the map a segmentation works on)."""
+    part of the map a segmentation works on).
+
+    With the box unchanged nothing here reads or writes the whole map but one comparison
+    of the free space; the labels are updated in place when nothing but the keeper holds
+    them (:func:`_own_labels`)."""
     dr, dc = keeper.box[0] - box[0], keeper.box[1] - box[1]
     free = np.asarray(occ.free, bool)
+    same_box = tuple(keeper.box) == tuple(box)
+    before = keeper.free if same_box else pasted(keeper.free, keeper.box, box)
+    rr, cc = _changed_pixels(before, free)
     st = _Rooms(
-        labels=pasted(keeper.labels, keeper.box, box),
+        labels=_own_labels(keeper) if same_box else pasted(keeper.labels, keeper.box, box),
         rooms={r.id: _shift_room(r, dr, dc) for r in keeper.seg.rooms},
         doors=[_shift_door(d, dr, dc) for d in keeper.seg.doors],
         next_id=keeper.next_id,
         res_m=float(occ.resolution_m),
+        origin=(int(box[0]), int(box[1])),
     )
-    before = pasted(keeper.free, keeper.box, box)
-    changed = before != free
     segmented = 0
-    if changed.any():
-        st.bounds = _box_of(free | before, free.shape)
+    old_free = None if keeper.free_box is None else _shifted(keeper.free_box, box)
+    if rr.size:
+        st.bounds = _grow(_union_opt(old_free, _box_of_pixels(rr, cc)), 1, free.shape)
         st.budget = LOCAL_MAX_SHARE * _area(st.bounds)
         margin = _margin_px(cfg, st.res_m)
-        groups = _groups(changed, margin)
-        first = [_grow(_box_of_pixels(rr, cc), margin, st.bounds) for rr, cc in groups]
+        groups = _groups(rr, cc, free.shape, margin)
+        first = [_grow(_box_of_pixels(gr, gc), margin, st.bounds) for gr, gc in groups]
         if sum(_area(b) for b in first) > st.budget:  # the first windows alone
-            return None, 0, keeper.next_id
-        for rr, cc in groups:
-            n = _local_step(st, occ, rr, cc, cfg)
+            return None, 0, keeper.next_id, None
+        for gr, gc in groups:
+            n = _local_step(st, occ, gr, gc, cfg)
             if n is None:
-                return None, 0, keeper.next_id
+                return None, 0, keeper.next_id, None
             segmented += n
-    return _assembled(st, occ), segmented, st.next_id
+    near = _union_opt(old_free, _box_of_pixels(rr, cc) if rr.size else None)
+    changes = LocalChanges(
+        written=tuple(st.written) if same_box else None,
+        doors_gone=tuple(st.doors_gone),
+        doors_new=tuple(st.doors_new),
+        free_box=_global(free_box_near(free, near), box),
+    )
+    return _assembled(st, occ), segmented, st.next_id, changes
+
+
+@dataclass(frozen=True)
+class LocalChanges:
+    """Where a local update wrote, for reporting it without reading the whole map.
+
+    Attributes
+    ----------
+    written : tuple of ((int, int, int, int), ndarray), or None
+        Boxes (global pixels, end exclusive) holding every label the update changed,
+        each with the labels it held just before it was written (int32, the box's
+        shape), in the order written; None when the map's box grew (then compare
+        everything).
+    doors_gone, doors_new : tuple
+        Keys ``((a, b), ends)`` (:func:`door_key`) of the doors dropped and added, in
+        the order it did so (one may be dropped and added again).
+    free_box : tuple of int, or None
+        Bounding box of the free pixels now (global, end exclusive); None if none.
+    """
+
+    written: tuple | None
+    doors_gone: tuple
+    doors_new: tuple
+    free_box: tuple | None
+
+
+def door_key(door, origin) -> tuple:
+    """``((a, b), (r0, c0, r1, c1))``: the rooms of ``door`` and its ends in global pixels
+    (``origin`` the global pixel of the labels' (0, 0))."""
+    e = door.ends_px + np.array([origin[0], origin[1]])
+    return (door.rooms, tuple(int(v) for v in e.ravel()))
+
+
+def _own_labels(keeper) -> np.ndarray:
+    """The keeper's labels to update in place, or a copy of them when anything but the
+    keeper and its last segmentation refers to that segmentation or its labels (a
+    caller kept ``mapper.rooms``, a view of its labels): those must not change."""
+    import sys
+
+    # references: keeper.seg and the argument; keeper.labels, seg.labels and the argument
+    if sys.getrefcount(keeper.seg) <= 2 and sys.getrefcount(keeper.labels) <= 3:
+        return keeper.labels
+    return keeper.labels.copy()
+
+
+def _changed_pixels(before: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns (int64) of the pixels whose free state differs, row-major."""
+    differ = np.not_equal(before, free)
+    rows = np.flatnonzero(differ.any(axis=1))
+    r, c = np.nonzero(differ[rows])
+    return rows[r].astype(np.int64), c.astype(np.int64)
+
+
+def free_box_near(free: np.ndarray, near) -> tuple[int, int, int, int] | None:
+    """The bounding box (end exclusive) of ``free``, given a box ``near`` that holds it
+    (None: look everywhere): its sides move in while they hold no free pixel, so only
+    the rows and columns between the two boxes are read."""
+    r0, c0, r1, c1 = (0, 0, *free.shape) if near is None else near
+    while r0 < r1 and not free[r0, c0:c1].any():
+        r0 += 1
+    while r1 > r0 and not free[r1 - 1, c0:c1].any():
+        r1 -= 1
+    if r0 == r1:
+        return None
+    while not free[r0:r1, c0].any():
+        c0 += 1
+    while not free[r0:r1, c1 - 1].any():
+        c1 -= 1
+    return (r0, c0, r1, c1)
+
+
+def _shifted(gbox, box) -> tuple[int, int, int, int]:
+    """Global box ``gbox`` in the coordinates of the map box ``box``."""
+    return (gbox[0] - box[0], gbox[1] - box[1], gbox[2] - box[0], gbox[3] - box[1])
+
+
+def _global(b, box):
+    """Box ``b`` (coordinates of the map box ``box``) in global pixels; None stays."""
+    return None if b is None else (b[0] + box[0], b[1] + box[1], b[2] + box[0], b[3] + box[1])
+
+
+def _union_opt(a, b):
+    """The union of boxes ``a`` and ``b``, either of which may be None."""
+    if a is None or b is None:
+        return b if a is None else a
+    return _union(a, b)
 
 
 def _box_of_pixels(rr, cc) -> tuple[int, int, int, int]:
@@ -89,33 +201,22 @@ def _box_of_pixels(rr, cc) -> tuple[int, int, int, int]:
     return (int(rr.min()), int(cc.min()), int(rr.max()) + 1, int(cc.max()) + 1)
 
 
-def _box_of(mask: np.ndarray, shape) -> tuple[int, int, int, int]:
-    """The bounding box (end exclusive) of ``mask`` grown by one pixel, clipped to
-    ``shape``."""
-    rows = np.flatnonzero(mask.any(axis=1))
-    cols = np.flatnonzero(mask.any(axis=0))
-    return _grow((rows[0], cols[0], rows[-1] + 1, cols[-1] + 1), 1, shape)
-
-
 def _margin_px(cfg, res: float) -> int:
     return int(math.ceil(LOCAL_MARGIN * (cfg.max_door_width_m + cfg.door_context_m) / res))
 
 
-def _groups(changed: np.ndarray, reach_px: int) -> list:
-    """The changed pixels as ``(rows, cols)`` int64 per group: cells of a coarse grid
-    with a changed pixel, joined when closer than ``reach_px``."""
+def _groups(rr, cc, shape, reach_px: int) -> list:
+    """The changed pixels ``rr, cc`` (row-major) as ``(rows, cols)`` int64 per group:
+    cells of a coarse grid over ``shape`` with a changed pixel, joined when closer than
+    ``reach_px``."""
     import cv2
 
     b = _CLUSTER_PX
-    h, w = changed.shape
-    hb, wb = -(-h // b), -(-w // b)
-    pad = np.zeros((hb * b, wb * b), bool)
-    pad[:h, :w] = changed
-    coarse = pad.reshape(hb, b, wb, b).any(axis=(1, 3))
+    coarse = np.zeros((-(-shape[0] // b), -(-shape[1] // b)), np.uint8)
+    coarse[rr // b, cc // b] = 1
     k = 2 * -(-reach_px // b) + 1
-    grown = cv2.dilate(coarse.view(np.uint8), np.ones((k, k), np.uint8))
+    grown = cv2.dilate(coarse, np.ones((k, k), np.uint8))
     _, comp = cv2.connectedComponents(grown, connectivity=8, ltype=cv2.CV_32S)
-    rr, cc = np.nonzero(changed)
     which = comp[rr // b, cc // b]
     order = np.argsort(which, kind="stable")
     rr, cc, which = rr[order], cc[order], which[order]
@@ -342,6 +443,7 @@ def _splice(st: _Rooms, sub, win, seg, rel: _Relation) -> dict:
     yc = compact[yl]
     lut, st.next_id = match_ids(np.where(old_x, old, 0), win, yc, win, st.next_id)
     final = lut[yc].astype(np.int32)
+    st.written.append((_global(win, (*st.origin, 0, 0)), old.copy()))
     old[take] = final[take]  # a view of st.labels
     for i in x:
         st.rooms.pop(i, None)
@@ -369,9 +471,7 @@ def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone) -
         inside = (r >= zone[0]) & (r < zone[2]) & (c >= zone[1]) & (c < zone[3])
         return bool(inside.any())
 
-    st.doors = [
-        d for d in st.doors if d.rooms[0] not in x and d.rooms[1] not in x and not in_zone(d.pixels)
-    ]
+    _drop_doors(st, lambda d: d.rooms[0] in x or d.rooms[1] in x or in_zone(d.pixels))
     for d in seg.doors:
         moved = _shift_door(d, win[0], win[1])
         a, b = d.rooms
@@ -379,7 +479,20 @@ def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone) -
             continue
         fa, fb = owner.get(a, 0), owner.get(b, 0)
         if fa and fb and fa != fb and fa in st.rooms and fb in st.rooms:
-            st.doors.append(_shift_door(moved, 0, 0, rooms=(min(fa, fb), max(fa, fb))))
+            door = _shift_door(moved, 0, 0, rooms=(min(fa, fb), max(fa, fb)))
+            st.doors.append(door)
+            st.doors_new.append(door_key(door, st.origin))
+
+
+def _drop_doors(st: _Rooms, gone) -> None:
+    """Drop the doors for which ``gone(door)`` holds, noting their keys."""
+    keep = []
+    for d in st.doors:
+        if gone(d):
+            st.doors_gone.append(door_key(d, st.origin))
+        else:
+            keep.append(d)
+    st.doors = keep
 
 
 def _patch(st: _Rooms, rr, cc, old_at, new_at, rel: _Relation) -> set:
@@ -394,6 +507,10 @@ def _patch(st: _Rooms, rr, cc, old_at, new_at, rel: _Relation) -> set:
     gone = (new_at == 0) & (old_at > 0) & ~np.isin(old_at, np.array(sorted(rel.replaced)))
     target[gone] = 0
     sel = (target >= 0) & (target != old_at)
+    if sel.any():
+        b = _box_of_pixels(rr[sel], cc[sel])
+        prev = st.labels[b[0] : b[2], b[1] : b[3]].copy()
+        st.written.append((_global(b, (*st.origin, 0, 0)), prev))
     st.labels[rr[sel], cc[sel]] = target[sel]
     return (set(target[sel].tolist()) | set(old_at[sel].tolist())) - {0}
 
@@ -417,7 +534,7 @@ def _rebuild(st: _Rooms, occ, ids: set, changed) -> None:
         ids.discard(room.id)
     for i in ids:  # no pixels left
         del st.rooms[i]
-    st.doors = [d for d in st.doors if d.rooms[0] not in ids and d.rooms[1] not in ids]
+    _drop_doors(st, lambda d: d.rooms[0] in ids or d.rooms[1] in ids)
 
 
 def _shift_room(room, dr: int, dc: int):
@@ -441,6 +558,8 @@ def _shift_door(door, dr: int, dc: int, *, rooms=None):
     """``door`` with its pixels moved by ``(dr, dc)`` (and joining ``rooms``, if given)."""
     from ..rooms.model import Door
 
+    if dr == 0 and dc == 0 and rooms is None:
+        return door
     off = np.array([dr, dc], np.int64)
     return Door(
         id=door.id,
