@@ -345,3 +345,51 @@ def test_a_local_update_works_in_windows_not_on_the_whole_map():
     for room in after.rooms:
         if room.id in untouched:
             assert room is rooms_before[room.id], room.id
+
+
+def _room_and_corridors() -> OccupancyMap:
+    """20 x 80 m: a 10 x 5 m room alone in the top left corner and, 6.5 m below it, two
+    3 m corridors the length of the map joined by a door at the far end."""
+    occ = np.zeros((400, 1600), bool)
+    occ[0:3, 0:200] = occ[98:101, 0:200] = occ[0:100, 0:3] = occ[0:100, 197:200] = True
+    for r in (230, 290, 350):
+        occ[r : r + 3, :] = True
+    occ[230:353, [0, 1, 2, -3, -2, -1]] = True
+    occ[290:293, 1560:1578] = False
+    known = np.zeros_like(occ)
+    known[0:101, 0:200] = known[230:353, :] = True
+    return OccupancyMap(
+        occupied=occ, free=~occ & known, unknown=~known, resolution_m=RES, origin=(0, 0, 0)
+    )
+
+
+def test_a_local_update_given_up_half_way_leaves_the_kept_rooms_as_they_were():
+    """The first window is spliced in, the second grows past the budget (the first
+    corridor cut in two): the whole map is segmented and everything, ids and report included, is as
+    for a mapper that updates whole, although the first window had been written."""
+    occ = _room_and_corridors()
+    change = np.zeros(occ.shape, bool)
+    change[3:98, 100:103] = True  # a wall across the room (a door left)
+    change[40:58, 100:103] = False
+    change[233:290, 1300:1303] = True  # a wall across the first corridor
+    local, whole = _mapper(rooms_local=True), _mapper(rooms_local=False)
+    for m in (local, whole):
+        m.add_map(occ)
+        _ = m.rooms
+        m.add_map(_obstacles_of(occ, change))
+    a, b = local.update_rooms(), whole.update_rooms()
+    assert a.segmented_px == local.rooms.labels.size, "the local update gave up"
+    np.testing.assert_array_equal(local.rooms.labels, whole.rooms.labels)
+    for k in ("added", "removed", "changed", "doors_added", "doors_removed", "n_rooms"):
+        assert getattr(a, k) == getattr(b, k), k
+    assert len(a.added) == 2, "a new room from the split room and one from the corridor"
+
+
+def _obstacles_of(occ: OccupancyMap, mask: np.ndarray) -> OccupancyMap:
+    return OccupancyMap(
+        occupied=mask,
+        free=np.zeros_like(mask),
+        unknown=~mask,
+        resolution_m=occ.resolution_m,
+        origin=occ.origin,
+    )

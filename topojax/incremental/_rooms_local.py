@@ -98,6 +98,7 @@ def local_update(keeper, occ, box, cfg):
         for gr, gc in groups:
             n = _local_step(st, occ, gr, gc, cfg)
             if n is None:
+                _undo(st)  # the kept labels may be these: leave them as they were
                 return None, 0, keeper.next_id, None
             segmented += n
     near = _union_opt(old_free, _box_of_pixels(rr, cc) if rr.size else None)
@@ -139,6 +140,13 @@ def door_key(door, origin) -> tuple:
     (``origin`` the global pixel of the labels' (0, 0))."""
     e = door.ends_px + np.array([origin[0], origin[1]])
     return (door.rooms, tuple(int(v) for v in e.ravel()))
+
+
+def _undo(st: _Rooms) -> None:
+    """Put back the labels of every box written, last first."""
+    for gbox, prev in reversed(st.written):
+        r0, c0, r1, c1 = _shifted(gbox, (*st.origin, 0, 0))
+        st.labels[r0:r1, c0:c1] = prev
 
 
 def _own_labels(keeper) -> np.ndarray:
