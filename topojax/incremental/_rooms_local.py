@@ -27,6 +27,8 @@ LOCAL_MARGIN = 1.0
 #: whole map instead.
 LOCAL_MAX_SHARE = 0.5
 _CLUSTER_PX = 32  # changed pixels are grouped on a grid of this many pixels
+#: A doorway's pixels lie within this many pixels of the bounding box of its ends.
+_DOOR_SLACK = 2
 
 
 @dataclass
@@ -479,7 +481,7 @@ def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone) -
         inside = (r >= zone[0]) & (r < zone[2]) & (c >= zone[1]) & (c < zone[3])
         return bool(inside.any())
 
-    _drop_doors(st, lambda d: d.rooms[0] in x or d.rooms[1] in x or in_zone(d.pixels))
+    _drop_doors(st, x, zone, in_zone)
     for d in seg.doors:
         moved = _shift_door(d, win[0], win[1])
         a, b = d.rooms
@@ -492,15 +494,25 @@ def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone) -
             st.doors_new.append(door_key(door, st.origin))
 
 
-def _drop_doors(st: _Rooms, gone) -> None:
-    """Drop the doors for which ``gone(door)`` holds, noting their keys."""
-    keep = []
-    for d in st.doors:
-        if gone(d):
-            st.doors_gone.append(door_key(d, st.origin))
-        else:
-            keep.append(d)
-    st.doors = keep
+def _drop_doors(st: _Rooms, rooms: set, zone=None, in_zone=None) -> None:
+    """Drop the doors of rooms ``rooms`` and, given ``zone`` (a box), those with a pixel
+    in it (``in_zone(pixels)``), noting their keys.  Only doors whose ends come within
+    :data:`_DOOR_SLACK` pixels of the zone have their pixels read (a doorway's pixels lie
+    on the line between its ends)."""
+    if not st.doors:
+        return
+    pair = np.array([d.rooms for d in st.doors], np.int64)
+    drop = np.isin(pair, np.array(sorted(rooms), np.int64)).any(axis=1)
+    if zone is not None:
+        ends = np.array([d.ends_px.ravel() for d in st.doors], np.int64)
+        r, c = ends[:, 0::2], ends[:, 1::2]
+        k = _DOOR_SLACK
+        near = (r.max(axis=1) + k >= zone[0]) & (r.min(axis=1) - k < zone[2])
+        near &= (c.max(axis=1) + k >= zone[1]) & (c.min(axis=1) - k < zone[3])
+        for i in np.flatnonzero(near & ~drop).tolist():
+            drop[i] = in_zone(st.doors[i].pixels)
+    st.doors_gone += [door_key(st.doors[i], st.origin) for i in np.flatnonzero(drop).tolist()]
+    st.doors = [d for d, gone in zip(st.doors, drop.tolist(), strict=True) if not gone]
 
 
 def _patch(st: _Rooms, rr, cc, old_at, new_at, rel: _Relation) -> set:
@@ -542,7 +554,7 @@ def _rebuild(st: _Rooms, occ, ids: set, changed) -> None:
         ids.discard(room.id)
     for i in ids:  # no pixels left
         del st.rooms[i]
-    _drop_doors(st, lambda d: d.rooms[0] in ids or d.rooms[1] in ids)
+    _drop_doors(st, ids)
 
 
 def _shift_room(room, dr: int, dc: int):
