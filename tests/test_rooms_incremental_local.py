@@ -323,8 +323,9 @@ def test_a_local_update_works_in_windows_not_on_the_whole_map():
     assert np.shares_memory(held_view, held.labels)
     assert update.segmented_px < occ.free.size / 50, "only a window was segmented"
     assert len(update.added) + len(update.changed) == 2
-    before = mapper.rooms
     del held, held_view
+    mapper.update_rooms()  # rooms no caller has read: updated in place
+    before = mapper._rooms.seg
     rooms_before = {r.id: r for r in before.rooms}
     mapper.add_map(_obstacles(plan, np.roll(wall, 3, axis=0)))  # the wall a bit thicker
     occ = mapper.occupancy

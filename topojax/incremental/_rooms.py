@@ -78,6 +78,8 @@ class RoomKeeper:
         self.next_id = 1
         self.active = False
         self.over_budget = False  # the last due update found the map too large to export
+        # the last segmentation or its labels left the keeper: a local update copies them
+        self.handed_out = False
 
     def update(self, occupancy, box, config=None, *, local: bool = False) -> RoomsUpdate:
         """Segment ``occupancy`` (the mapper's map over global box ``box``), whole or, with
@@ -109,6 +111,7 @@ class RoomKeeper:
         else:
             report = self._local_changes(seg, box, changes)
         self.seg, self.labels, self.box, self.free = seg, seg.labels, tuple(box), free
+        self.handed_out = False
         self.free_box = free_box
         return RoomsUpdate(
             **report,
@@ -261,4 +264,5 @@ def current_room_labels(mapper) -> np.ndarray | None:
     keeper = mapper._rooms
     if keeper.seg is None or keeper.box != mapper.pixel_bbox:
         return None
+    keeper.handed_out = True
     return keeper.labels

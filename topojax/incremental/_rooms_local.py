@@ -72,8 +72,8 @@ def local_update(keeper, occ, box, cfg):
     part of the map a segmentation works on).
 
     With the box unchanged nothing here reads or writes the whole map but one comparison
-    of the free space; the labels are updated in place when nothing but the keeper holds
-    them (:func:`_own_labels`)."""
+    of the free space; the labels are updated in place unless they were handed out
+    (:func:`_own_labels`)."""
     dr, dc = keeper.box[0] - box[0], keeper.box[1] - box[1]
     free = np.asarray(occ.free, bool)
     same_box = tuple(keeper.box) == tuple(box)
@@ -152,15 +152,10 @@ def _undo(st: _Rooms) -> None:
 
 
 def _own_labels(keeper) -> np.ndarray:
-    """The keeper's labels to update in place, or a copy of them when anything but the
-    keeper and its last segmentation refers to that segmentation or its labels (a
-    caller kept ``mapper.rooms``, a view of its labels): those must not change."""
-    import sys
-
-    # references: keeper.seg and the argument; keeper.labels, seg.labels and the argument
-    if sys.getrefcount(keeper.seg) <= 2 and sys.getrefcount(keeper.labels) <= 3:
-        return keeper.labels
-    return keeper.labels.copy()
+    """The keeper's labels to update in place, or a copy of them once its last
+    segmentation or its labels were handed out (``mapper.rooms``): those must not
+    change."""
+    return keeper.labels.copy() if keeper.handed_out else keeper.labels
 
 
 def _changed_pixels(before: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -747,6 +747,7 @@ class IncrementalMapper:
         mapper, it raises ValueError, and rooms are kept from the first scan on."""
         if self._rooms.seg is None:
             self.update_rooms()
+        self._rooms.handed_out = True  # kept as it is: the next update works on a copy
         return self._rooms.seg
 
     @_synchronized
