@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._constants import FAR_SQ
+from .._jit import cached_njit
 
 __all__ = [
     "SPARSE_CLEARANCE_MAX_PX",
@@ -220,14 +221,17 @@ def distance_transform_px(mask: np.ndarray) -> np.ndarray:
     skip = -raw.ctypes.data % _ALIGN_BYTES
     out = raw[skip : skip + h * w * 4].view(np.float32).reshape(h, w)
     cv2.distanceTransform(mask, cv2.DIST_L2, cv2.DIST_MASK_PRECISE, dst=out)
-    flat = out.reshape(-1)
-    for start in range(0, flat.size, _ROOT_BLOCK_PX):  # float64 a block at a time
-        part = flat[start : start + _ROOT_BLOCK_PX].astype(np.float64)
-        np.multiply(part, part, out=part)
-        np.sqrt(np.rint(part, out=part), out=part)
-        flat[start : start + _ROOT_BLOCK_PX] = part
+    _round_to_roots(out.reshape(-1))
     return out
 
 
 _ALIGN_BYTES = 64
-_ROOT_BLOCK_PX = 1 << 20
+
+
+@cached_njit(nogil=True)
+def _round_to_roots(flat):
+    """Each distance (float32, in place) replaced by the root of the whole number nearest
+    its square, in float64."""
+    for i in range(flat.size):
+        d = np.float64(flat[i])
+        flat[i] = np.float32(np.sqrt(np.floor(d * d + 0.5)))
