@@ -383,18 +383,20 @@ def _straight_candidates(pos, radius_px, n_vertices, usable, on, vert_key, rungs
         a, b = pairs[:, 0], pairs[:, 1]
         vertex_end = (a < n_vertices) | (b < n_vertices)
         ok = usable[a] & usable[b]
-        pairs = pairs[ok & (vertex_end | rungs)]
-        # a line not clear now is never clear: drop those before the other tests
-        pairs = pairs[clear(pairs)]
-        vertex_end = (pairs[:, 0] < n_vertices) | (pairs[:, 1] < n_vertices)
-        rung.append(pairs[~vertex_end])
-        pairs = pairs[vertex_end]
+        keep = ok & (vertex_end | rungs)
+        pairs, vertex_end = pairs[keep], vertex_end[keep]
         # no shortcut along one edge or round one vertex (it would cut a bend or a
         # corner into a thin loop around nothing); at least one end a vertex: a shortcut
         # between two anchors splits two edges, and between neighbouring lanes of an open
         # room such rungs would make a mesh; but two anchors whose route is very long get
         # a rung (whose loop is long too, so it may join two anchors of one edge)
-        plain.append(pairs[~_same_edge(pairs[:, 0], pairs[:, 1], on, vert_key, m)])
+        along = np.zeros(len(pairs), bool)
+        along[vertex_end] = _same_edge(*pairs[vertex_end].T, on, vert_key, m)
+        pairs, vertex_end = pairs[~along], vertex_end[~along]
+        # a line not clear now is never clear: those go before the greedy pass
+        clear_now = clear(pairs)
+        plain.append(pairs[clear_now & vertex_end])
+        rung.append(pairs[clear_now & ~vertex_end])
     plain, rung = np.concatenate(plain), np.concatenate(rung)
     # the greedy pass takes candidates of equal length in this order
     plain = plain[np.lexsort((plain[:, 1], plain[:, 0]))]
