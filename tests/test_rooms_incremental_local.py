@@ -180,14 +180,7 @@ def _split_wall(plan) -> tuple[np.ndarray, int]:
 
 def _obstacles(plan, mask: np.ndarray) -> OccupancyMap:
     """A map of the plan's frame whose only known pixels are obstacles at ``mask``."""
-    occ = plan.occupancy
-    return OccupancyMap(
-        occupied=mask,
-        free=np.zeros_like(mask),
-        unknown=~mask,
-        resolution_m=occ.resolution_m,
-        origin=occ.origin,
-    )
+    return _obstacles_of(plan.occupancy, mask)
 
 
 def test_local_and_whole_agree_when_the_change_stays_in_one_room():
@@ -387,6 +380,7 @@ def test_a_local_update_given_up_half_way_leaves_the_kept_rooms_as_they_were():
 
 
 def _obstacles_of(occ: OccupancyMap, mask: np.ndarray) -> OccupancyMap:
+    """A map of ``occ``'s frame whose only known pixels are obstacles at ``mask``."""
     return OccupancyMap(
         occupied=mask,
         free=np.zeros_like(mask),
