@@ -37,3 +37,21 @@ def three_rooms_png(path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(path), np.where(three_rooms_occupied(), 0, 255).astype(np.uint8))
     return path
+
+
+def corridor_round_two_rooms(shape=(6, 10), origin=(0.0, 0.0, 0.0)):
+    """The rooms (a RoomSegmentation at 0.05 m/px) of a corridor, room 1, round two rooms
+    2 and 3 (its two holes) in a block of ``shape`` pixels framed by a wall pixel."""
+    from topojax.maps.occupancy import OccupancyMap
+    from topojax.rooms.model import build_segmentation
+
+    h, w = shape
+    labels = np.ones(shape, np.int32)
+    labels[2 : h - 2, 2 : w // 2] = 2
+    labels[2 : h - 2, w // 2 + 1 : w - 2] = 3
+    labels = np.pad(labels, 1)
+    free = labels > 0
+    occ = OccupancyMap(
+        occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05, origin=origin
+    )
+    return build_segmentation(occ, labels, [])

@@ -420,17 +420,11 @@ def test_save_mcap_names_a_wrong_rooms_argument(tmp_path):
 
 
 def test_room_markers_draw_the_rings_round_a_rooms_holes():
-    from topojax.io.mcap import room_markers
-    from topojax.maps.occupancy import OccupancyMap
-    from topojax.rooms.model import build_segmentation
+    from room_maps import corridor_round_two_rooms
 
-    labels = np.ones((6, 10), np.int32)
-    labels[2:4, 2:4] = 2
-    labels[2:4, 6:8] = 3
-    labels = np.pad(labels, 1)
-    free = labels > 0
-    occ = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05)
-    seg = build_segmentation(occ, labels, [])
+    from topojax.io.mcap import room_markers
+
+    seg = corridor_round_two_rooms()
     corridor = seg.rooms[0]
     assert len(corridor.holes) == 2 and not any(r.holes for r in seg.rooms[1:])
     markers = room_markers(seg).markers

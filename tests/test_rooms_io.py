@@ -110,22 +110,9 @@ def test_rooms_geojson_is_an_rfc7946_feature_collection(seg, tmp_path: Path):
 @pytest.fixture(scope="module")
 def loop():
     """A corridor round two rooms (its holes), in a frame turned by 0.3 rad."""
-    from topojax.maps.occupancy import OccupancyMap
-    from topojax.rooms.model import build_segmentation
+    from room_maps import corridor_round_two_rooms
 
-    labels = np.ones((8, 12), np.int32)
-    labels[2:6, 2:5] = 2
-    labels[2:6, 6:10] = 3
-    labels = np.pad(labels, 1)
-    free = labels > 0
-    occ = OccupancyMap(
-        occupied=~free,
-        free=free,
-        unknown=np.zeros_like(free),
-        resolution_m=0.05,
-        origin=(-1.5, 2.0, 0.3),
-    )
-    s = build_segmentation(occ, labels, [])
+    s = corridor_round_two_rooms((8, 12), origin=(-1.5, 2.0, 0.3))
     assert [len(r.holes) for r in s.rooms] == [2, 0, 0]
     return s
 

@@ -1277,13 +1277,25 @@ def test_clearances_are_the_feasible_space_s_at_the_graph_s_pixels(monkeypatch, 
     _assert_safe(g, occ)
 
 
+def _traced_peak_growth(call):
+    """``call()``'s result and the growth (bytes) of traced memory at its peak."""
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        base = tracemalloc.get_traced_memory()[0]
+        out = call()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    return out, peak - base
+
+
 def test_traced_peak_per_pixel_is_bounded(monkeypatch):
     """route_graph keeps few image-sized arrays at once: the map-sized arrays of the
     feasible space are dropped once the window is cut out, and a large window's
     clearance is not held through the coverage stage (this plan's window is made to
     count as large).  NumPy's buffers are traced (not OpenCV's work space or numba's)."""
-    import tracemalloc
-
     from floorplans import floor_plan
 
     import topojax.routegraph.build as build
@@ -1291,15 +1303,9 @@ def test_traced_peak_per_pixel_is_bounded(monkeypatch):
     monkeypatch.setattr(build, "HOLD_CLEARANCE_MAX_PX", 0)
     plan = floor_plan(7, size_m=(48.0, 48.0), clutter=1).occupancy  # about 1000 x 1000 px
     route_graph(plan, robot_radius_m=R)  # compiled kernels
-    tracemalloc.start()
-    try:
-        base = tracemalloc.get_traced_memory()[0]
-        g = route_graph(plan, robot_radius_m=R)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    g, growth = _traced_peak_growth(lambda: route_graph(plan, robot_radius_m=R))
     assert g.number_of_edges() > 0
-    per_pixel = (peak - base) / plan.free.size
+    per_pixel = growth / plan.free.size
     assert per_pixel <= 26.0, f"{per_pixel:.1f} bytes per pixel"
 
 
@@ -1309,8 +1315,6 @@ def test_shortcut_candidates_take_memory_by_the_block_not_by_their_number(monkey
     at a time, and only those with a clear line kept, so the traced peak stays far below
     the pairs' own size (here the limits are lowered to fit a small plan).  Without
     blocks it was over 100 bytes a pair.  NumPy's buffers are traced."""
-    import tracemalloc
-
     from floorplans import floor_plan
     from scipy.spatial import cKDTree
 
@@ -1331,17 +1335,11 @@ def test_shortcut_candidates_take_memory_by_the_block_not_by_their_number(monkey
     cfg = RouteGraphConfig(snap_m=0.2)
     route_graph(plan, config=cfg)  # compiled kernels
     seen.clear()
-    tracemalloc.start()
-    try:
-        base = tracemalloc.get_traced_memory()[0]
-        g = route_graph(plan, config=cfg)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    g, growth = _traced_peak_growth(lambda: route_graph(plan, config=cfg))
     n_pairs = max(seen)
     assert n_pairs > 50 * 10_000  # many blocks
     assert g.number_of_edges() > 0
-    per_pair = (peak - base) / n_pairs
+    per_pair = growth / n_pairs
     assert per_pair <= 30.0, f"{per_pair:.1f} bytes per candidate pair ({n_pairs:,} pairs)"
 
 
