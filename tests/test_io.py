@@ -703,3 +703,15 @@ def test_loading_a_nav2_or_rooms_geojson_as_a_graph_says_what_it_is(tmp_path):
     rooms = tj.save_rooms(seg, tmp_path / "rooms.geojson")
     with pytest.raises(ValueError, match="a rooms GeoJSON; read it with load_rooms"):
         load_graph(rooms)
+
+
+@pytest.mark.parametrize("suffix", [".json", ".graphml", ".geojson"])
+def test_saved_files_leave_build_timings_out(tmp_path: Path, suffix: str):
+    """How long a build took is not the graph's: two builds of one map save the same
+    bytes (route graphs carry ``timings_s``, which a file would make differ)."""
+    occ = tj.OccupancyMap.from_array(np.pad(np.ones((40, 60), bool), 1), resolution_m=0.05)
+    graphs = [tj.route_graph(occ, robot_radius_m=0.2) for _ in range(2)]
+    assert all("timings_s" in g.graph for g in graphs)
+    a, b = (save_graph(g, tmp_path / f"{k}{suffix}") for k, g in enumerate(graphs))
+    assert a.read_bytes() == b.read_bytes()
+    assert "timings_s" not in load_graph(a).graph

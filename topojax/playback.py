@@ -333,8 +333,6 @@ def _map_scans(
         routes = None
         if route_graph_radius_m is not None:
             routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
-            # the files hold what the log and options determine, as route-graph's do
-            del routes.graph["timings_s"]
     except ExportBudgetError as exc:
         keep_recordings(out, progress_at, recorder, timeline, frames)
         raise _unwritable(mapper, exc, out, state_record()) from None

@@ -234,8 +234,6 @@ def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) 
 
     assert occupancy is not None
     routes = route_graph(occupancy, config=job.route)
-    # the files hold what the map and options determine; the time is in t_write_s
-    del routes.graph["timings_s"]
     res.route_vertices = routes.number_of_nodes()
     res.route_edges = routes.number_of_edges()
     res.route_components = nx.number_connected_components(routes)

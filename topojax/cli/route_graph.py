@@ -112,7 +112,6 @@ def _cmd_route_graph(args) -> int:
     t0 = time.perf_counter()
     graph = route_graph(occupancy, config=config)
     seconds = time.perf_counter() - t0
-    del graph.graph["timings_s"]  # printed below; the files hold what the map determines
     output_folder(out, name="--out")
     written = [
         save_graph(graph, out / f"{stem}_route{s}") for s in (".graphml", ".json", ".geojson")

@@ -175,10 +175,12 @@ def as_multigraph(graph: Any) -> nx.MultiGraph:
 
 
 def _graph_attrs_to_save(graph: nx.MultiGraph) -> dict[str, Any]:
-    """Graph attributes in a saveable form; unsupported values are skipped with a warning."""
+    """Graph attributes in a saveable form; unsupported values are skipped with a warning,
+    and how long the build took (``timings_s``) is not the graph's: a file's bytes
+    depend only on the graph."""
     out: dict[str, Any] = {}
     for name, value in graph.graph.items():
-        if name == _SCHEMA_KEY:
+        if name in (_SCHEMA_KEY, "timings_s"):
             continue
         if not isinstance(name, str):
             warnings.warn(f"graph attribute {name!r} skipped: name is not a str", stacklevel=3)
