@@ -271,6 +271,9 @@ def test_a_map_on_disk_is_viewed_reading_only_the_window(res, tmp_path):
     assert whole["rasters"][0] == payload_of(view_html(res.graph, map=res.map))["rasters"][0]
     # the result of build_graph_tiled shows its map and graph
     result = tj.build_graph_tiled(tj.save_tiled_map(res.map, tmp_path / "tiles", tile_px=128))
+    with pytest.raises(ValueError, match=r"max_pixels=100000 .*window="):
+        view_html(result, max_pixels=100_000)
+    assert "graph" not in vars(result)  # refused before the networkx graph is built
     page = payload_of(view_html(result, window=window))
     assert page["frame"] == want["frame"] and page["graphs"][0]["n_edges"] > 0
     assert (

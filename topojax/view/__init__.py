@@ -39,7 +39,14 @@ def view_html(
     arguments)."""
     max_pixels = positive_int("max_pixels", max_pixels)
     inputs = inputs_of(
-        obj, map=map, rooms=rooms, graphs=graphs, route=route, timeline=timeline, title=title
+        obj,
+        map=map,
+        rooms=rooms,
+        graphs=graphs,
+        route=route,
+        timeline=timeline,
+        title=title,
+        max_pixels=max_pixels if window is None else None,
     )
     if window is not None:
         apply_window(inputs, window, max_pixels=max_pixels)

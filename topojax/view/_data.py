@@ -68,17 +68,38 @@ def _instance(obj, module: str, name: str) -> bool:
     return mod is not None and isinstance(obj, getattr(mod, name))
 
 
-def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=None, title=None):
+def inputs_of(
+    obj,
+    *,
+    map=None,
+    rooms=None,
+    graphs=None,
+    route=None,
+    timeline=None,
+    title=None,
+    max_pixels: int | None = None,
+):
     """Sort ``obj`` and the keyword arguments of :func:`write_view` into :class:`Inputs`.
+
+    ``max_pixels``, where given, is checked against a ``TiledResult``'s map before its
+    graph is read (pass None when a window will be applied).
 
     Raises
     ------
     TypeError
         ``obj`` or an argument of a type the viewer does not show.
+    ValueError
+        A ``TiledResult`` whose map is larger than ``max_pixels``.
     """
     from ..maps import OccupancyMap
 
     out = Inputs()
+    tiled_result = _instance(obj, "topojax.outofcore.build", "TiledResult")
+    shown = obj.map if tiled_result and map is None else map
+    if tiled_result and max_pixels is not None and isinstance(shown, (OccupancyMap, TiledMap)):
+        # refused before the result's graph is turned into networkx, which on a map this
+        # large takes seconds and gigabytes
+        _check_size(_map_frame(shown), max_pixels)
     if _instance(obj, "topojax.pipeline", "TopologyResult"):
         _result_inputs(obj, out, pruned=obj.config.graph.prunes)
         out.title = _title_of(obj.map, "topology graph")
@@ -97,7 +118,7 @@ def inputs_of(obj, *, map=None, rooms=None, graphs=None, route=None, timeline=No
         out.map = obj.occupancy
         out.rooms = obj
         out.title = _title_of(obj.occupancy, "rooms")
-    elif _instance(obj, "topojax.outofcore.build", "TiledResult"):
+    elif tiled_result:
         out.map = obj.map  # a TiledMap: read when shown (a window of it, at most)
         out.graphs.append(
             ("graph", "pruned graph" if obj.config.graph.prunes else "graph", obj.graph)
