@@ -12,7 +12,7 @@ from floorplans import floor_plan
 
 import topojax as tj
 from topojax.config import DistanceConfig, GraphConfig, PipelineConfig, SkeletonConfig
-from topojax.graph import skeleton_graph_store
+from topojax.graph import GraphStore, skeleton_graph_store
 from topojax.graph.sparse import row_skeleton_graph_store
 from topojax.maps.tiled import TILE_INDEX, TiledMap
 from topojax.outofcore import (
@@ -207,12 +207,18 @@ def test_paths_on_disk_replace_an_earlier_graphs_files(tmp_path, monkeypatch):
     monkeypatch.setattr(sparse, "_edge_values", fail)
     with pytest.raises(RuntimeError, match="interrupted"):
         tj.build_graph_tiled(paper_map("office"), config=SMALL, block_px=128, out_dir=out)
-    assert sorted(p.name for p in out.iterdir()) == ["path_pixels.npy", "path_world.npy"]
+    # no temporary file left, the paths not replaced, and no description: not a store
+    assert all(p.suffix == ".npy" for p in out.iterdir())
     assert np.array_equal(np.load(out / "path_pixels.npy"), second.graph_store.path_pixels)
 
 
+def stored_arrays(res) -> list[str]:
+    fields = GraphStore.__dataclass_fields__
+    return [n for n in fields if n != "attrs" and getattr(res.graph_store, n) is not None]
+
+
 def test_the_paths_folder_always_holds_the_returned_graphs_arrays(tmp_path):
-    """With ``out_dir`` the folder's two arrays are the returned graph's, also for an empty
+    """With ``out_dir`` the folder holds the returned graph's store, also for an empty
     graph (an all-free map) and with junction clusters merged (built in memory): an
     earlier graph's files were left there."""
     out = tmp_path / "graph"
@@ -228,7 +234,8 @@ def test_the_paths_folder_always_holds_the_returned_graphs_arrays(tmp_path):
     assert np.array_equal(np.load(out / "path_pixels.npy"), res.graph_store.path_pixels)
     assert np.array_equal(np.load(out / "path_world.npy"), res.graph_store.path_world)
     assert_same_graph(res, tj.build_graph(paper_map("intel"), config=merged))
-    assert sorted(p.name for p in out.iterdir()) == ["path_pixels.npy", "path_world.npy"]
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted(["graph_store.json", *(f"{n}.npy" for n in stored_arrays(res))])
 
 
 @pytest.mark.parametrize(

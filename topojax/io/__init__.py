@@ -1,4 +1,5 @@
-"""Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON), writing them as
+"""Saving and loading topology graphs (GraphML, JSON node-link, GeoJSON, folders of
+arrays), writing them as
 route graphs for the ROS 2 Nav2 Route Server (:func:`save_nav2_graph`), and the files of a
 room segmentation (:func:`save_rooms` / :func:`load_rooms`, :func:`save_room_labels`,
 :func:`save_room_graph`), and ROS 2 MCAP recordings of maps, graphs, rooms and scans for
@@ -27,7 +28,8 @@ destination with :func:`os.replace`.
 Modules: ``_schema`` (value encoding and the type schema), ``nodelink``, ``graphml``,
 ``geojson`` (one per file format), ``files`` (:func:`save_graph` / :func:`load_graph`),
 ``nav2`` (:func:`save_nav2_graph`), ``rooms`` (rooms and doorways), ``mcap`` (ROS 2
-recordings).
+recordings), ``store`` (a :class:`~topojax.graph.GraphStore` as a folder of memory-mapped
+arrays: :func:`save_graph_store` / :func:`load_graph_store`).
 """
 
 from __future__ import annotations
@@ -45,14 +47,17 @@ from .rooms import (
     save_room_labels,
     save_rooms,
 )
+from .store import load_graph_store, save_graph_store
 
 __all__ = [
     "GRAPH_FORMATS",
     "ROOM_FILE_SUFFIXES",
     "McapRecorder",
     "load_graph",
+    "load_graph_store",
     "load_rooms",
     "save_graph",
+    "save_graph_store",
     "save_mcap",
     "save_nav2_graph",
     "save_room_files",

@@ -190,11 +190,14 @@ def build_graph_tiled(
     threads : int, optional
         Kernel dispatch threads per block (as for :func:`topojax.fields.dense_fields`).
     out_dir : str or Path, optional
-        Folder (created) for the graph's two skeleton-sized arrays, ``path_pixels.npy``
-        and ``path_world.npy``: written a block of edges at a time and given to the
-        store memory-mapped, so they need not fit in memory (with junction clusters
-        merged the graph is built in memory and its arrays written there after).
-        Default: in memory.
+        Folder (created) that receives the graph as :func:`topojax.save_graph_store`
+        saves it (:func:`topojax.load_graph_store` opens it again).  The two
+        skeleton-sized arrays, ``path_pixels.npy`` and ``path_world.npy``, are written
+        a block of edges at a time and given to the store memory-mapped, so they need
+        not fit in memory (with junction clusters merged the graph is built in memory
+        and its arrays written there after; with pruning, the folder holds the pruned
+        graph; a build that stops leaves it without ``graph_store.json``).  Default: in
+        memory.
 
     Returns
     -------
@@ -396,9 +399,12 @@ def _nearest_sq(tiled: TiledMap, rows, cols, start_px: int) -> np.ndarray:
 def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, out_dir):
     """The graph store (no pruning) or the pruned networkx graph, with the attributes
     :func:`topojax.build_graph` gives them."""
-    from ..graph import pixels_graph_store, prune_graph
+    from ..graph import GraphStore, pixels_graph_store, prune_graph
     from ..graph.sparse import row_skeleton_graph_store, write_path_files
+    from ..io.store import STORE_FILE, save_graph_store
 
+    if out_dir is not None:  # a build that stops leaves no complete-looking store there
+        (out_dir / STORE_FILE).unlink(missing_ok=True)
     if config.graph.merge_junction_clusters:  # merging needs the whole pixel graph
         rows = np.repeat(np.arange(row_start.size - 1), np.diff(row_start))
         store = pixels_graph_store(
@@ -427,6 +433,8 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
         attrs["source"] = str(tiled.source)
     if not config.graph.prunes:
         store.attrs.update(attrs)
+        if out_dir is not None:  # its paths are there already: the rest of the store
+            save_graph_store(store, out_dir)
         return store, None
     graph = prune_graph(
         store.to_networkx(),
@@ -435,4 +443,6 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
         min_component_m=config.graph.min_component_m,
     )
     graph.graph.update(attrs)
+    if out_dir is not None:  # the folder holds the graph of the result: the pruned one
+        save_graph_store(GraphStore.from_networkx(graph), out_dir)
     return None, graph

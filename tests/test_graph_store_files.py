@@ -1,0 +1,146 @@
+"""A GraphStore saved as a folder of arrays (``save_graph_store`` / ``load_graph_store``) and
+``build_graph_tiled(out_dir=)``, which leaves its graph there.
+
+Every hand-written store of ``test_graph_store`` comes back array for array, memory-mapped
+or read; a tiled build's folder opens as the build's store; a save or build that stops,
+a file replaced or cut short, and wrong arguments are refused by name."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from test_graph_store import FIXTURES, IDS, assert_same_graph, assert_same_store
+
+import topojax as tj
+import topojax.io.store as store_files
+from topojax.config import DistanceConfig, GraphConfig, PipelineConfig
+from topojax.graph import GraphStore
+
+SMALL = PipelineConfig(distance=DistanceConfig.from_pixels(sigma_px=10.0), tile_px=64)
+
+
+def mapped(arr: np.ndarray) -> bool:
+    while arr is not None and not isinstance(arr, np.memmap):
+        arr = arr.base
+    return arr is not None
+
+
+@pytest.mark.parametrize(("name", "skel", "kw", "store"), FIXTURES, ids=IDS)
+@pytest.mark.parametrize("mmap", [True, False])
+def test_hand_written_stores_come_back_array_for_array(tmp_path, name, skel, kw, store, mmap):
+    store = GraphStore(**{**vars(store), "attrs": {"origin": (1.0, 2.0, 0.0), "note": "x"}})
+    assert tj.save_graph_store(store, tmp_path / "g") == tmp_path / "g"
+    back = tj.load_graph_store(tmp_path / "g", mmap=mmap)
+    assert_same_store(back, store)
+    assert back.attrs["origin"] == (1.0, 2.0, 0.0)  # a tuple again, not a list
+    assert mapped(back.node_pixel) is mmap
+    assert_same_graph(back.to_networkx(), store.to_networkx())
+
+
+def test_a_tiled_build_leaves_its_graph_in_out_dir(tmp_path):
+    m = tj.sample_map("office")
+    out = tmp_path / "graph"
+    res = tj.build_graph_tiled(m, config=SMALL, block_px=128, out_dir=out)
+    assert_same_store(tj.load_graph_store(out), res.graph_store)
+    # the paths the build wrote are its store's: saving it again does not copy them
+    before = (out / "path_world.npy").stat().st_ino
+    tj.save_graph_store(res.graph_store, out)
+    assert (out / "path_world.npy").stat().st_ino == before
+    assert_same_store(tj.load_graph_store(out, mmap=False), res.graph_store)
+
+
+def test_a_pruned_tiled_build_leaves_the_pruned_graph(tmp_path):
+    config = PipelineConfig(
+        distance=SMALL.distance, graph=GraphConfig(min_spur_m=0.5), tile_px=SMALL.tile_px
+    )
+    res = tj.build_graph_tiled(
+        tj.sample_map("office"), config=config, block_px=128, out_dir=tmp_path
+    )
+    back = tj.load_graph_store(tmp_path).to_networkx()
+    assert back.number_of_edges() == res.graph.number_of_edges()
+    assert back.graph["origin"] == res.graph.graph["origin"]
+    assert sorted(back.nodes) == sorted(res.graph.nodes)
+
+
+def test_a_save_that_stops_is_refused_and_old_optional_arrays_go(tmp_path, monkeypatch):
+    merged = FIXTURES[-2][3]  # the merged junction cluster: member arrays
+    assert merged.member_pixels is not None
+    tj.save_graph_store(merged, tmp_path)
+    plain = FIXTURES[0][3]
+    tj.save_graph_store(plain, tmp_path)
+    assert not (tmp_path / "member_pixels.npy").exists()
+    assert_same_store(tj.load_graph_store(tmp_path), plain)
+
+    written = []
+
+    def stop_after_one(path, arr):
+        if written:
+            raise KeyboardInterrupt
+        written.append(path)
+        np.save(path, arr)
+
+    monkeypatch.setattr(store_files, "_write_array", stop_after_one)
+    with pytest.raises(KeyboardInterrupt):
+        tj.save_graph_store(merged, tmp_path)
+    with pytest.raises(FileNotFoundError, match=r"^folder: expected a saved graph store"):
+        tj.load_graph_store(tmp_path)
+
+
+def test_a_tiled_build_that_stops_leaves_no_store(tmp_path, monkeypatch):
+    import topojax.graph.sparse as sparse
+
+    out = tmp_path / "graph"
+    tj.build_graph_tiled(tj.sample_map("office"), config=SMALL, block_px=128, out_dir=out)
+    tj.load_graph_store(out)
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("interrupted")
+
+    monkeypatch.setattr(sparse, "_edge_values", fail)
+    with pytest.raises(RuntimeError, match="interrupted"):
+        tj.build_graph_tiled(tj.sample_map("intel"), config=SMALL, block_px=128, out_dir=out)
+    with pytest.raises(FileNotFoundError, match="graph_store.json"):
+        tj.load_graph_store(out)
+
+
+def test_files_replaced_or_damaged_are_refused(tmp_path):
+    store = FIXTURES[1][3]
+    tj.save_graph_store(store, tmp_path)
+    desc = json.loads((tmp_path / "graph_store.json").read_text())
+    np.save(tmp_path / "edge_u.npy", np.zeros(store.n_edges + 1, np.int64))
+    with pytest.raises(ValueError, match=r"edge_u.npy: expected <i8 .*replaced or cut short"):
+        tj.load_graph_store(tmp_path)
+    (tmp_path / "edge_u.npy").write_bytes(b"not an array")
+    with pytest.raises(ValueError, match=r"edge_u.npy: not a readable .npy array"):
+        tj.load_graph_store(tmp_path)
+    (tmp_path / "edge_u.npy").unlink()
+    with pytest.raises(FileNotFoundError, match=r"the array file .*edge_u.npy is missing"):
+        tj.load_graph_store(tmp_path)
+    (tmp_path / "graph_store.json").write_text(json.dumps({**desc, "version": 99}))
+    with pytest.raises(ValueError, match=r"expected version 1 of the format, received 99"):
+        tj.load_graph_store(tmp_path)
+    (tmp_path / "graph_store.json").write_text('{"format": "something else"}')
+    with pytest.raises(ValueError, match=r"expected a topojax.GraphStore description"):
+        tj.load_graph_store(tmp_path)
+    (tmp_path / "graph_store.json").write_text("{nope")
+    with pytest.raises(ValueError, match=r"not JSON"):
+        tj.load_graph_store(tmp_path)
+    with pytest.raises(FileNotFoundError, match=r"which does not exist"):
+        tj.load_graph_store(tmp_path / "nowhere")
+
+
+def test_wrong_arguments_are_named(tmp_path):
+    with pytest.raises(TypeError, match=r"^store: expected a GraphStore, received MultiGraph"):
+        tj.save_graph_store(tj.build_graph(tj.sample_map("office")).graph, tmp_path)
+    with pytest.raises(TypeError, match=r"^folder: expected a path"):
+        tj.save_graph_store(FIXTURES[0][3], 3)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(NotADirectoryError, match=r"^folder: "):
+        tj.save_graph_store(FIXTURES[0][3], tmp_path / "file")
+    with pytest.raises(TypeError, match=r"^mmap: expected a bool, received str"):
+        tj.load_graph_store(tmp_path, mmap="yes")
+    store = GraphStore(**{**vars(FIXTURES[0][3]), "attrs": {"bad": object()}})
+    with pytest.raises(TypeError, match=r"graph attribute 'bad'"):
+        tj.save_graph_store(store, tmp_path / "g")

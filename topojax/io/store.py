@@ -1,0 +1,175 @@
+"""A :class:`~topojax.graph.GraphStore` as a folder of ``.npy`` arrays: the graph of a map
+larger than memory saved and opened again without networkx, its arrays memory-mapped.
+
+The folder holds one ``NAME.npy`` per array of the store (``node_pixel``,
+``path_pixels``, ...; optional arrays only where present) and ``graph_store.json``: the
+format's name and version, each array's file, dtype and shape, and the graph attributes
+with their type schema (as :func:`topojax.save_graph` records them).  The JSON file is
+written last, so a folder without it (a save that was interrupted) is refused on load.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .._fs import atomic_write_bytes, output_folder
+from .._validate import instance_of, path_like
+from ..graph.store import GraphStore
+from ._schema import _collect_schema, _decode_attrs, jsonable
+
+__all__ = ["STORE_FILE", "load_graph_store", "save_graph_store"]
+
+#: The file that describes a saved store (and marks the folder complete).
+STORE_FILE = "graph_store.json"
+_FORMAT = "topojax.GraphStore"
+_VERSION = 1
+_ARRAYS = tuple(f.name for f in dataclasses.fields(GraphStore) if f.name != "attrs")
+
+
+def _mapped_file(arr: np.ndarray) -> Path | None:
+    """The file ``arr`` is a whole read-only memory map of, or None."""
+    base = arr
+    while base is not None and not isinstance(base, np.memmap):
+        base = base.base
+    if base is None or base.filename is None or base.shape != arr.shape:
+        return None
+    return Path(base.filename).resolve()
+
+
+def _write_array(path: Path, arr: np.ndarray) -> None:
+    """``arr`` to the ``.npy`` file ``path``, under a temporary name renamed when complete
+    (a file of an earlier store there may still be memory-mapped)."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.lib.format.write_array(fh, np.ascontiguousarray(arr), allow_pickle=False)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def save_graph_store(store: GraphStore, folder) -> Path:
+    """Save a graph store as a folder of ``.npy`` arrays.
+
+    Parameters
+    ----------
+    store : GraphStore
+        For example ``build_graph_tiled(...).graph_store`` or
+        ``GraphStore.from_networkx(graph)``.
+    folder : str or Path
+        Folder (created).  Arrays of the store that are already memory-mapped from this
+        folder's files (``build_graph_tiled(out_dir=folder)``) are not written again;
+        the others replace the folder's files of the same name.  Until the save has
+        finished the folder holds no ``graph_store.json``, so a save that stops half way
+        is refused by :func:`load_graph_store` rather than read as a mixture.
+
+    Returns
+    -------
+    Path
+        ``folder``.
+
+    Raises
+    ------
+    TypeError
+        ``store`` is not a GraphStore, or a graph attribute cannot be saved as JSON.
+    """
+    instance_of("store", store, GraphStore)
+    folder = output_folder(folder, name="folder")
+    attrs = {k: v for k, v in store.attrs.items() if k != "timings_s"}
+    doc_attrs = {k: jsonable(v, f"graph attribute {k!r}") for k, v in attrs.items()}
+    # the folder is not a complete store again until its description is written, last
+    (folder / STORE_FILE).unlink(missing_ok=True)
+    arrays = {}
+    for name in _ARRAYS:
+        arr = getattr(store, name)
+        path = folder / f"{name}.npy"
+        if arr is None:  # an earlier store's optional array would only mislead
+            path.unlink(missing_ok=True)
+            continue
+        if _mapped_file(arr) != path.resolve():
+            _write_array(path, arr)
+        arrays[name] = {"file": path.name, "dtype": arr.dtype.str, "shape": list(arr.shape)}
+    doc = {
+        "format": _FORMAT,
+        "version": _VERSION,
+        "arrays": arrays,
+        "attrs": doc_attrs,
+        "attrs_schema": _collect_schema([attrs], "graph"),
+    }
+    atomic_write_bytes(folder / STORE_FILE, json.dumps(doc, indent=1).encode("utf-8"))
+    return folder
+
+
+def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
+    """Open a graph store saved by :func:`save_graph_store` (or ``build_graph_tiled``'s
+    ``out_dir``).
+
+    Parameters
+    ----------
+    folder : str or Path
+    mmap : bool, default True
+        Memory-map the arrays (read-only; they are read from disk as they are used)
+        rather than read them into memory.
+
+    Returns
+    -------
+    GraphStore
+        Equal to the saved store, array for array; ``to_networkx()`` gives its graph.
+
+    Raises
+    ------
+    FileNotFoundError
+        No ``graph_store.json`` in ``folder`` (not a saved store, or a save that did not
+        finish), or an array file it lists is missing.
+    ValueError
+        The description is not a saved store's, or an array's file does not hold the
+        dtype and shape the description gives (a file replaced or cut short).
+    """
+    folder = path_like("folder", folder)
+    mmap = instance_of("mmap", mmap, bool)
+    desc = folder / STORE_FILE
+    if not desc.is_file():
+        raise FileNotFoundError(
+            f"folder: expected a saved graph store (a folder holding {STORE_FILE}), "
+            f"received {folder}" + (", which does not exist" if not folder.exists() else "")
+        )
+    try:
+        doc = json.loads(desc.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{desc}: expected a graph store's description, not JSON: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("format") != _FORMAT:
+        raise ValueError(f"{desc}: expected a {_FORMAT} description, received another file")
+    if doc.get("version") != _VERSION:
+        raise ValueError(
+            f"{desc}: expected version {_VERSION} of the format, received "
+            f"{doc.get('version')!r} (written by another topojax release)"
+        )
+    arrays = {}
+    for name, spec in doc["arrays"].items():
+        if name not in _ARRAYS:
+            raise ValueError(f"{desc}: unknown array {name!r}")
+        path = folder / spec["file"]
+        if not path.is_file():
+            raise FileNotFoundError(f"{desc}: the array file {path} is missing")
+        try:
+            arr = np.load(path, mmap_mode="r" if mmap else None, allow_pickle=False)
+        except ValueError as exc:
+            raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
+        if arr.dtype.str != spec["dtype"] or list(arr.shape) != spec["shape"]:
+            raise ValueError(
+                f"{path}: expected {spec['dtype']} {tuple(spec['shape'])} as {STORE_FILE} "
+                f"describes it, received {arr.dtype.str} {arr.shape} (the file was replaced "
+                "or cut short)"
+            )
+        arrays[name] = arr
+    attrs = _decode_attrs(doc.get("attrs", {}), doc.get("attrs_schema", {}))
+    return GraphStore(**arrays, attrs=attrs)
