@@ -70,6 +70,29 @@ def test_rooms_command_on_an_ipa_png(png, tmp_path, capsys):
     assert main(argv) == 0, "running it again updates its own files"
 
 
+def test_rooms_command_says_when_the_resolution_is_assumed(png, tmp_path, capsys):
+    """Areas and door widths are in metres: a PNG states no resolution, so the map line
+    says the 0.05 m/px is assumed, as ``graph`` does; given, it is not."""
+    base = ["rooms", str(png), "--mode", "ipa"]
+    assert main([*base, "-o", str(tmp_path / "a")]) == 0
+    assert "(60 x 150 px, 0.05 m/px, assumed: the file states none" in capsys.readouterr().out
+    assert main([*base, "-o", str(tmp_path / "b"), "--resolution", "0.05"]) == 0
+    assert "assumed" not in capsys.readouterr().out
+
+
+def test_rooms_command_says_its_time_includes_the_first_call(png, tmp_path, capsys):
+    """The command segments once, in a fresh process: its stage times include loading the
+    compiled kernels (hundreds of ms on a tiny map), and the time line says so."""
+    assert main(["rooms", str(png), "--mode", "ipa", "-o", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out
+    assert re.search(
+        r"^time \(ms\)  fields .*; total \d+\.\d \(the process's first call: it includes "
+        r"loading or compiling the kernels\)$",
+        printed,
+        re.M,
+    )
+
+
 def test_room_options_reach_the_segmentation(png, tmp_path, capsys):
     base = ["rooms", str(png), "--mode", "ipa"]
     assert main([*base, "-o", str(tmp_path / "a"), "--max-door-width-m", "0.6"]) == 0

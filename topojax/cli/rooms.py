@@ -5,7 +5,13 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ._options import add_map_options, add_room_options, map_options, room_config
+from ._options import (
+    add_map_options,
+    add_room_options,
+    assumed_resolution_note,
+    map_options,
+    room_config,
+)
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
@@ -63,20 +69,25 @@ def _cmd_rooms(args) -> int:
     written = save_room_files(seg, out / stem)
     if args.plot:
         written.append(_picture(seg, out / f"{stem}_rooms_plot.png"))
+    # areas and widths are in metres: say when the resolution was not the file's own
     print(
         f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
-        f"{occupancy.resolution_m:g} m/px)"
+        f"{occupancy.resolution_m:g} m/px{assumed_resolution_note(args)})"
     )
-    for line in room_lines(seg, occupancy, seconds=seconds):
+    first = "the process's first call: it includes loading or compiling the kernels"
+    for line in room_lines(seg, occupancy, seconds=seconds, timing_note=first):
         print(line)
     record_outputs(planned(written, args.map), command="rooms", map_options=map_options(args))
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
 
 
-def room_lines(seg, occupancy, *, seconds: float, time_label: str = "time (ms)") -> list[str]:
+def room_lines(
+    seg, occupancy, *, seconds: float, time_label: str = "time (ms)", timing_note: str = ""
+) -> list[str]:
     """The summary of a segmentation: rooms, doors and its stages' time (ms, the line
-    ``time_label``), and a note when the map gave no room."""
+    ``time_label``, ending in ``timing_note`` in brackets where one is given and a stage
+    ran), and a note when the map gave no room."""
     rooms, doors = seg.rooms, seg.doors
     line = f"rooms      {len(rooms)} rooms"
     if rooms:
@@ -87,8 +98,10 @@ def room_lines(seg, occupancy, *, seconds: float, time_label: str = "time (ms)")
         widths = [d.width_m for d in doors]
         line += f" ({min(widths):.2f}-{max(widths):.2f} m wide)"
     stages = ", ".join(f"{k} {1e3 * v:.1f}" for k, v in seg.timings_s.items())
-    total = f"total {1e3 * seconds:.1f}"  # no stages ran on a map without free space
-    lines = [line, f"{time_label:<11}" + (f"{stages}; {total}" if stages else total)]
+    timing = f"total {1e3 * seconds:.1f}"
+    if stages:  # no stage ran (nothing loaded or compiled) on a map without free space
+        timing = f"{stages}; {timing}" + (f" ({timing_note})" if timing_note else "")
+    lines = [line, f"{time_label:<11}{timing}"]
     if not rooms:
         n_free = int(occupancy.free.sum())
         lines.append(
