@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -160,3 +161,23 @@ def test_a_benchmark_ground_truth_scores_one_against_itself(shared_data):
     s = score_rooms(truth, truth)
     assert s.n_rooms > 5
     assert (s.recall, s.precision, s.mean_iou, s.segments_per_room) == (1.0, 1.0, 1.0, 1.0)
+
+
+def test_the_rooms_page_quotes_the_published_benchmark_results():
+    """docs/rooms.md quotes ``bench/results/rooms_amd-epyc-2cpu.json``: its scores and its
+    mean warm and CPU times on all 20 maps (the times once drifted from a rerun's)."""
+    root = Path(__file__).resolve().parents[1]
+    results = json.loads((root / "bench" / "results" / "rooms_amd-epyc-2cpu.json").read_text())
+    page = " ".join((root / "docs" / "rooms.md").read_text().split())
+    plain, furn = (results["averages"][v]["all"] for v in ("plain", "furnitures"))
+    for avg, label in ((plain, "without"), (furn, "with")):
+        t = avg["topojax"]
+        assert f"**{t['recall']:.1f} / {t['precision']:.1f} {label} furniture**" in page
+    p, f = plain["topojax"], furn["topojax"]
+    assert (
+        f"{p['warm_ms']:.0f} ms per map on average without furniture and {f['warm_ms']:.0f} "
+        "ms with it" in page
+    )
+    assert f"({p['warm_cpu_ms']:.0f} and {f['warm_cpu_ms']:.0f} ms of CPU;" in page
+    baseline = (plain["baseline"]["warm_ms"] + furn["baseline"]["warm_ms"]) / 2
+    assert f"baseline about {10 * round(baseline / 10)} ms" in page
