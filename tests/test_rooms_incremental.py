@@ -92,6 +92,17 @@ def test_an_update_with_nothing_new_changes_nothing(plan):
     assert [r.id for r in mapper.rooms.rooms] == ids
 
 
+def test_a_room_update_is_a_public_rooms_update(plan):
+    """The report the rooms page names is importable from ``topojax``, as GraphUpdate and
+    ScanReport are, and is what ``update_rooms`` returns."""
+    assert "RoomsUpdate" in tj.__all__
+    mapper = _mapper()
+    mapper.add_map(plan.occupancy)
+    update = mapper.update_rooms()
+    assert isinstance(update, tj.RoomsUpdate)
+    assert update.n_rooms == plan.n_rooms
+
+
 def test_rooms_follow_the_graph_loop_once_in_use(plan):
     occ = plan.occupancy
     scans = []

@@ -53,6 +53,7 @@ if TYPE_CHECKING:  # the names for type checkers; at run time they load on first
     from .incremental import (
         GraphUpdate,
         IncrementalMapper,
+        RoomsUpdate,
         ScanReport,
         vertex_error_metrics,
     )
@@ -115,6 +116,7 @@ __all__ = [
     "Room",
     "RoomConfig",
     "RoomSegmentation",
+    "RoomsUpdate",
     "Route",
     "RouteGraphConfig",
     "RouteGraphReport",
@@ -232,6 +234,7 @@ _LAZY = {
     "thin": "skeleton",
     "IncrementalMapper": "incremental",
     "ScanReport": "incremental",
+    "RoomsUpdate": "incremental",
     "GraphUpdate": "incremental",
     "replay": "playback",
     "vertex_error_metrics": "incremental",

@@ -9,7 +9,7 @@ stage: ``docs/incremental-exactness.md``.
 from .._jit import trace_counts
 from ._rays import ExtentError
 from ._rethin import thin_components
-from ._rooms import current_room_labels, keeps_rooms
+from ._rooms import RoomsUpdate, current_room_labels, keeps_rooms
 from ._settings import STRATEGIES, settings_of
 from ._tiles import ExportBudgetError
 from .mapper import IncrementalMapper
@@ -24,6 +24,7 @@ __all__ = [
     "STRATEGIES",
     "GraphUpdate",
     "IncrementalMapper",
+    "RoomsUpdate",
     "ScanReport",
     "current_room_labels",
     "keeps_rooms",
