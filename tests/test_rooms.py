@@ -64,6 +64,30 @@ def test_two_rooms_and_one_door_of_any_usual_width(door_m):
     assert nx.is_connected(seg.graph)
 
 
+def test_a_gap_between_a_wall_and_the_maps_edge_is_no_door():
+    """Free space that runs off the map (a map cropped there, or drawn with a white
+    outside) has no wall at the edge: a wall ending 0.9 m short of it leaves no doorway,
+    where the same gap against a wall is one."""
+    free = np.zeros((104, 207), bool)
+    free[2:104, 2:102] = True
+    free[2:104, 105:205] = True
+    free[86:104, 102:105] = True  # the wall between stops 18 px short of the bottom edge
+    seg = tj.segment_rooms(_map(free))
+    assert seg.n_rooms == 1 and seg.doors == ()
+    free[101:104] = False  # a bottom wall: the same gap now runs between two walls
+    free[83:101, 102:105] = True
+    seg = tj.segment_rooms(_map(free))
+    assert seg.n_rooms == 2 and len(seg.doors) == 1
+    assert seg.doors[0].width_m == pytest.approx(0.9, abs=2 * RES)
+
+
+def test_doors_end_on_the_map():
+    for name in ("intel", "office", "a_scan"):
+        occ = tj.sample_map(name)
+        for door in tj.segment_rooms(occ).doors:
+            assert (door.ends_px >= 0).all() and (door.ends_px < occ.shape).all(), name
+
+
 def test_reprs_are_short_summaries():
     """A segmentation's repr is one line, not every pixel of every door and outline."""
     seg = tj.segment_rooms(_map(_two_rooms(0.9)))

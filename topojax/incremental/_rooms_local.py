@@ -266,7 +266,7 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
     for all steps)."""
     from scipy import ndimage
 
-    from ..rooms import segment_rooms
+    from ..rooms.segment import segment_window
 
     bounds = st.bounds
     margin = _margin_px(cfg, st.res_m)
@@ -279,7 +279,8 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
         if st.budget < 0:
             return None
         sub = _crop(occ, win)
-        seg = segment_rooms(sub, config=cfg)
+        h, w = occ.shape
+        seg = segment_window(sub, cfg, map_box=(-win[0], -win[1], h - win[0], w - win[1]))
         segmented += _area(win)
         old = st.labels[win[0] : win[2], win[1] : win[3]]
         inner = _interior(win, band, bounds)

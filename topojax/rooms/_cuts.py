@@ -102,10 +102,12 @@ def _end_pixels(cells: np.ndarray, free: np.ndarray, f: int, towards: np.ndarray
     return np.stack([rr[pick, k], cc[pick, k]], axis=1)
 
 
-def door_candidates(free, cells, clearance, skeleton, f: int, cfg, resolution_m: float):
+def door_candidates(free, cells, clearance, skeleton, f: int, cfg, resolution_m: float, map_box):
     """Doorway candidates of a map, one per ``door_context_m`` neighbourhood, narrowest
     first: centres int64 (N, 2), ends int64 (N, 2, 2) (see :class:`Cut`) and widths
-    float64 (N,) (pixels) within ``cfg``'s range.
+    float64 (N,) (pixels) within ``cfg``'s range, both ends on the map's pixels
+    ``map_box`` ``(row0, col0, row1, col1)``, end-exclusive, in ``free``'s pixels (a gap
+    between a wall and the map's edge is no doorway).
 
     ``cells``, ``clearance`` and ``skeleton`` are those of the free space on cells of
     ``f`` x ``f`` pixels (``cells`` is ``free`` when ``f`` is 1).  On cells, a gap's width
@@ -132,6 +134,9 @@ def door_candidates(free, cells, clearance, skeleton, f: int, cfg, resolution_m:
         ends = np.stack([a, b], axis=1)
     width = np.hypot(*(ends[:, 1] - ends[:, 0]).T) - 1.0
     ok = (2 * lo - 1.0 <= width) & (width <= 2 * hi - 1.0)
+    # a gap between a wall and the map's edge is where the map stops, not a doorway
+    lo_px, hi_px = np.asarray(map_box[:2]), np.asarray(map_box[2:])
+    ok &= ((ends >= lo_px) & (ends < hi_px)).all(axis=(1, 2))
     p, c, ends, width = p[ok], c[ok], ends[ok], width[ok]
     # narrowest first: the clearance at the centre, on cells the half-width on the pixels
     key = c if f == 1 else (width + 1.0) / 2.0

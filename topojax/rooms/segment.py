@@ -19,7 +19,7 @@ from ._kernels import enclosed_owner, fill_parts, room_pixels
 from ._merge import merge_regions
 from .model import RoomSegmentation, build_segmentation
 
-__all__ = ["RoomConfig", "segment_rooms"]
+__all__ = ["RoomConfig", "segment_rooms", "segment_window"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -114,11 +114,24 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
         For a source or option of the wrong type or out of range (the message names it).
     """
     cfg = instance_or_default("config", config, RoomConfig)
-    return _segment(_occupancy_of(source), cfg)
+    occ = _occupancy_of(source)
+    return _segment(occ, cfg, (0, 0, *occ.shape))
 
 
-def _segment(occ, cfg: RoomConfig) -> RoomSegmentation:
-    """:func:`segment_rooms` of an OccupancyMap."""
+def segment_window(occupancy, config: RoomConfig, *, map_box) -> RoomSegmentation:
+    """:func:`segment_rooms` of a window of a larger map (an OccupancyMap cut from it).
+
+    The window's sides inside the larger map are cut through its space: a doorway may end
+    beyond them (a wall of the larger map the window does not hold counts as the side).
+    ``map_box`` ``(row0, col0, row1, col1)``, end-exclusive, is the larger map's extent in
+    the window's pixels; no doorway ends beyond it.
+    """
+    return _segment(occupancy, config, tuple(int(v) for v in map_box))
+
+
+def _segment(occ, cfg: RoomConfig, map_box) -> RoomSegmentation:
+    """:func:`segment_rooms` of an OccupancyMap whose map extends over ``map_box`` (its
+    pixels, end exclusive)."""
     t0 = time.perf_counter()
     full = np.asarray(occ.free, bool)
     res = float(occ.resolution_m)
@@ -156,7 +169,10 @@ def _segment(occ, cfg: RoomConfig) -> RoomSegmentation:
     clearance = free_clearance_px(cells)
     skeleton = thin(cells)
     t1 = time.perf_counter()
-    cuts = make_cuts(*door_candidates(free, cells, clearance, skeleton, f, cfg, res), free)
+    offset = np.array([box[0].start - pad[0], box[1].start - pad[2]], np.int64)
+    in_free = np.asarray(map_box, np.int64) - np.tile(offset, 2)  # in ``free``'s pixels
+    candidates = door_candidates(free, cells, clearance, skeleton, f, cfg, res, in_free)
+    cuts = make_cuts(*candidates, free)
     t2 = time.perf_counter()
     open_ = free.copy()
     for cut in cuts:
@@ -171,7 +187,6 @@ def _segment(occ, cfg: RoomConfig) -> RoomSegmentation:
     _fill_enclosed(local, empty)
     labels = np.zeros(full.shape, np.int32)
     labels[box] = local[inner]
-    offset = np.array([box[0].start - pad[0], box[1].start - pad[2]], np.int64)
     doors = [d.shifted(offset) for d in doors]
     t5 = time.perf_counter()
     seg = build_segmentation(occ, labels, doors, box)
