@@ -441,3 +441,40 @@ def test_room_markers_draw_the_rings_round_a_rooms_holes():
         np.stack([h, np.roll(h, -1, axis=0)], axis=1) for h in corridor.holes
     ]  # each hole's sides, in ring order
     np.testing.assert_allclose(pts, np.concatenate(want), atol=1e-9)
+
+
+def test_markers_refuse_coordinates_that_are_not_finite_x_y_pairs(tmp_path):
+    """A NaN in a vertex's ``world`` or an edge's ``waypoints`` was written into the
+    markers as it stood (RViz drops such a marker with a warning); a vertex ``world`` of
+    three numbers failed inside numpy's reshape.  Both name the graph, vertex or edge."""
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0), kind="end")
+    g.add_node(1, world=(1.0, 0.0), kind="end")
+    g.add_edge(0, 1, waypoints=np.array([[0.0, 0.0], [np.nan, 0.0]]))
+    with McapRecorder(tmp_path / "r.mcap") as rec:
+        with pytest.raises(ValueError, match=r"graph: edge \(0, 1, 0\) 'waypoints': expected"):
+            rec.add_route_graph(g)
+        g.edges[0, 1, 0]["waypoints"] = np.array([[0.0, 0.0], [1.0, 0.0]])
+        g.nodes[1]["world"] = (1.0, math.inf)
+        with pytest.raises(ValueError, match=r"graph: node 1 'world': expected"):
+            rec.add_route_graph(g)
+        g.nodes[1]["world"] = (1.0, 0.0, 0.0)
+        with pytest.raises(ValueError, match=r"graph: node 1 'world': expected"):
+            rec.add_route_graph(g)
+        g.nodes[1]["world"] = (1.0, 0.0)
+        g.edges[0, 1, 0]["waypoints"] = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+        with pytest.raises(ValueError, match=r"graph: edge \(0, 1, 0\) 'waypoints': expected"):
+            rec.add_route_graph(g)
+        del g.edges[0, 1, 0]["waypoints"]
+        g.edges[0, 1, 0]["world"] = [[0.0, 0.0], [1.0, float("nan")]]
+        with pytest.raises(ValueError, match=r"graph: edge \(0, 1, 0\) 'world': expected"):
+            rec.add_map(tj.sample_map("a_scan"), g)
+        g.edges[0, 1, 0]["world"] = [[0.0, 0.0], [1.0, 0.0]]
+        rec.add_route_graph(g)
+    assert rec.counts == {"/route_graph": 1}
+    # save_mcap names its own argument, before it writes anything
+    result = tj.build_graph(tj.sample_map("a_scan"))
+    g.nodes[0]["world"] = (float("nan"), 0.0)
+    with pytest.raises(ValueError, match=r"^route_graph: node 0 'world': expected"):
+        tj.save_mcap(result, tmp_path / "s.mcap", route_graph=g)
+    assert not (tmp_path / "s.mcap").exists()
