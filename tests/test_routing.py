@@ -718,6 +718,20 @@ def test_with_the_map_a_point_on_an_obstacle_is_refused():
     RoutePlanner(g).route(wall, (18, 26), frame="pixel")  # without the map: nearest corridor
 
 
+@pytest.mark.parametrize("far", [(-1e308, 0.0), (1.7e308, 1.7e308)])
+def test_with_the_map_a_point_too_far_for_the_maps_grid_gets_the_planners_error(far):
+    """With the map, a finite point so far off that its pixel overflows to infinity
+    failed in the obstacle check ("cannot convert float infinity to integer"), naming
+    neither the point nor the map; it is refused as far off, as without the map."""
+    m, g = _fork()
+    planner = RoutePlanner(g, occupancy=m)
+    near = m.pixel_to_world(18, 26)
+    with pytest.raises(ValueError, match=r"^start: the nearest point of the graph is more than"):
+        planner.route(far, near)
+    with pytest.raises(ValueError, match=r"^goal: the nearest point of the graph is more than"):
+        planner.route(near, far, max_snap_m=None)
+
+
 def test_with_the_map_routes_on_a_route_graph_join_in_sight_and_are_never_longer():
     from topojax.routegraph.feasible import feasible_space
 

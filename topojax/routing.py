@@ -348,7 +348,8 @@ class RoutePlanner:
             self._check_off_obstacles(q, frame, name)
         tree, owners = self._tree(frame)
         scale = 1.0 if frame == "world" else self._pixel_size_m()
-        box_gap = float(np.hypot(*np.maximum(np.maximum(tree.mins - q, q - tree.maxes), 0.0)))
+        with np.errstate(over="ignore"):  # a gap beyond float range is inf: refused below
+            box_gap = float(np.hypot(*np.maximum(np.maximum(tree.mins - q, q - tree.maxes), 0.0)))
         if box_gap > _FAR:
             raise ValueError(
                 f"{name}: the nearest point of the graph is more than {box_gap * scale:.6g} m "
@@ -367,8 +368,12 @@ class RoutePlanner:
         """With the map, a query point on an occupied pixel is an error (a robot inside a
         wall: a localisation fault, or a goal picked on a wall), not a route from the
         nearest corridor."""
-        qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
-        r, c = (int(v) for v in np.floor(qp + 0.5))
+        with np.errstate(over="ignore"):  # a point far off the map: no pixel of its own
+            qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
+            qp = np.floor(qp + 0.5)
+        if not np.isfinite(qp).all():
+            return  # beyond every pixel: the distance check that follows refuses it
+        r, c = (int(v) for v in qp)
         occupied = self._occupancy.occupied
         if 0 <= r < occupied.shape[0] and 0 <= c < occupied.shape[1] and occupied[r, c]:
             raise ValueError(
