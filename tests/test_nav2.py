@@ -304,3 +304,36 @@ def test_a_route_graph_is_written_along_its_waypoints_and_stays_safe(tmp_path):
         hops.add_edge(a, b)
     report = tj.evaluate_route_graph(hops, m, robot_radius_m=0.3)
     assert report.unsafe_share == 0.0 and report.success_rate == 1.0
+
+
+def nav2_loadable_metadata(value, where="metadata") -> None:
+    """What nav2_route's GeoJSON loader converts: objects (recursively), numbers, bools,
+    strings and arrays of those three; an array holding an array or object fails it."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            nav2_loadable_metadata(v, f"{where}.{k}")
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            assert isinstance(v, (bool, int, float, str)), f"{where}[{i}] is {v!r}"
+    else:
+        assert isinstance(value, (bool, int, float, str)), f"{where} is {value!r}"
+
+
+def test_node_ids_that_are_tuples_are_written_as_text_the_loader_reads(tmp_path):
+    """Node ids of other tools' graphs may be tuples (networkx's grid graphs use
+    ``(row, col)``): ``corridor`` was written as ``[[0, 0], [0, 2], 0]``, an array of
+    arrays, which nav2_route's loader refuses ("Failed to convert"), so the whole graph
+    failed to load.  A node id or edge key that is not a number or string is written as
+    its JSON text."""
+    g = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=0.5)
+    pixel_ids = {n: tuple(int(v) for v in d["pixel"]) for n, d in g.nodes(data=True)}
+    g = nx.relabel_nodes(g, pixel_ids)
+    nodes, edges = read_nav2(tj.save_nav2_graph(g, tmp_path / "g.geojson"))
+    for _, meta in nodes.values():
+        nav2_loadable_metadata(meta)
+    for e in edges:
+        nav2_loadable_metadata(e["metadata"])
+    vertices = {meta["vertex"] for _, meta in nodes.values() if "vertex" in meta}
+    assert vertices == {json.dumps(list(p)) for p in pixel_ids.values()}
+    u, v, k = edges[0]["metadata"]["corridor"]
+    assert g.has_edge(tuple(json.loads(u)), tuple(json.loads(v)), k)

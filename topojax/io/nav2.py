@@ -68,12 +68,13 @@ def save_nav2_graph(
     Metadata values are numbers, strings and lists of them only (nav2_route's loader
     accepts no ``null``).  Node ids: the graph's vertices with edges (vertices without edges
     lead nowhere and are left out) are ``0 .. V-1`` in node order (``metadata``:
-    ``vertex``, the topojax node id, ``kind``, ``clearance_m`` and, after
+    ``vertex``, the topojax node id (an id that is not a number or string, such as a
+    tuple, as its JSON text), ``kind``, ``clearance_m`` and, after
     :func:`topojax.assign_rooms`, ``room``), then the waypoints
     (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
-    topojax edge as ``[u, v, key]``), ``length_m`` (along the corridor between the two
-    waypoints; the straight hop along a route graph's ``waypoints``) and the corridor's
-    ``min_clearance_m`` / ``mean_clearance_m``.  topojax
+    topojax edge as ``[u, v, key]``, each written as ``vertex`` is), ``length_m`` (along
+    the corridor between the two waypoints; the straight hop along a route graph's
+    ``waypoints``) and the corridor's ``min_clearance_m`` / ``mean_clearance_m``.  topojax
     writes this format but does not read it back (use :func:`save_graph` for that).
     Where a path ends at another pixel of its vertex than the vertex's own (merged
     junction clusters), the chain includes the step to the vertex.  A loop with fewer
@@ -120,7 +121,7 @@ def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str) -> tuple[dict,
         if "world" not in d:
             raise ValueError(f"graph: node {n!r} has no 'world' (x, y) attribute")
         node_xy[n] = _xy(d["world"], f"node {n!r} 'world'")
-        meta = {"vertex": jsonable(n, "node id")}
+        meta = {"vertex": _id_value(n, "node id")}
         if isinstance(d.get("kind"), str):
             meta["kind"] = d["kind"]
         meta.update(_finite_metres(d, ("clearance_m",)))
@@ -149,7 +150,7 @@ def _corridor_segments(
     xy = np.asarray(d.get("world", np.empty((0, 2))), dtype=np.float64)
     if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
         raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
-    corridor = {"corridor": [jsonable(x, "edge id") for x in (u, v, k)]}
+    corridor = {"corridor": [_id_value(x, "edge id") for x in (u, v, k)]}
     corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
     planned = _waypoints(d, where)
     # the polyline runs from u (topojax's paths do; be tolerant of other graphs)
@@ -238,6 +239,15 @@ def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
         if at_u != at_v:
             return at_u
     return math.dist(xy[0], node_xy[u]) <= math.dist(xy[0], node_xy[v])
+
+
+def _id_value(value, where: str):
+    """A node id or edge key as a metadata value: a number or string as it is, anything
+    else (a tuple) as its JSON text; nav2_route's loader fails on an array of arrays."""
+    value = jsonable(value, where)
+    if isinstance(value, (bool, int, float, str)):
+        return value
+    return json.dumps(value, allow_nan=False)
 
 
 def _nav2_node(i: int, frame: str, xy: list[float], meta: dict) -> dict:
