@@ -853,6 +853,20 @@ def test_bent_shortcuts_close_no_short_loop_through_a_shared_corner():
     _assert_safe(g, occ)
 
 
+@pytest.mark.parametrize("name", ["office", "intel"])
+def test_shortcuts_bent_at_one_corner_share_their_legs(name):
+    """Two shortcuts bent at the same corner from the same vertex add that leg once: no
+    two edges join the same vertices along the same pixels (each such pair was a loop of
+    no length for a planner, and a doubled edge in the Nav2 file)."""
+    g = route_graph(tj.sample_map(name), robot_radius_m=R)
+    seen = set()
+    for u, v, d in g.edges(data=True):
+        path = np.asarray(d["path"])
+        key = (u, v, path.tobytes()) if u <= v else (v, u, path[::-1].tobytes())
+        assert key not in seen, f"edge {u}-{v} twice"
+        seen.add(key)
+
+
 def test_compiled_helpers_match_plain_numpy():
     """The compiled helpers of the builder against plain NumPy references: pixels of a
     mask, simplification of many paths at once, and anchors along edges."""

@@ -549,13 +549,16 @@ def _add_chosen(work: WorkGraph, chosen, nodes, alive, m, shape) -> None:
         node[anchors] = attach_points(work, [tuple(p) for p in nodes[anchors]], shape)
     for c in np.unique(chosen[chosen[:, 2] >= m, 2]).tolist():
         node[c] = work.add_vertex(nodes[c])
+    legs: set[tuple[int, int]] = set()  # shortcuts bent at one corner share their legs
     for a, b, c in chosen.tolist():
         u, v = int(node[a]), int(node[b])
         if u < 0 or v < 0:
             continue
         if c < 0:
             work.add_edge(u, v, line_pixels(work.pixel[u], work.pixel[v]))
-        else:
-            w = int(node[c])
-            work.add_edge(u, w, line_pixels(work.pixel[u], work.pixel[w]))
-            work.add_edge(w, v, line_pixels(work.pixel[w], work.pixel[v]))
+            continue
+        w = int(node[c])
+        for x, y in ((u, w), (w, v)):
+            if (min(x, y), max(x, y)) not in legs:
+                legs.add((min(x, y), max(x, y)))
+                work.add_edge(x, y, line_pixels(work.pixel[x], work.pixel[y]))
