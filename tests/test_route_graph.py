@@ -325,10 +325,13 @@ def test_map_is_a_map_or_its_file(tmp_path):
         np.testing.assert_array_equal(from_file.edges[u, v, k]["path"], path)
 
 
-def test_map_without_feasible_space_gives_an_empty_graph():
+def test_map_without_feasible_space_gives_an_empty_graph_that_says_why():
     occ = _map(_room(0.5, 0.5))
     g = route_graph(occ, robot_radius_m=R)
     assert g.number_of_nodes() == 0 and g.number_of_edges() == 0
+    assert g.graph["note"].startswith("empty route graph: no known-free region of at least")
+    assert f"radius {R:g} m" in g.graph["note"]
+    assert "note" not in route_graph(_map(_room(4, 4)), robot_radius_m=R).graph
 
 
 def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):

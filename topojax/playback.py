@@ -202,7 +202,6 @@ def replay(
             progress_at,
             functools.partial(replay_record, source, reader_kwargs, progress_at, mapper),
             nav2_tolerance_m=nav2_tolerance_m,
-            route_graph_radius_m=route_graph_radius_m,
             plot=plot,
             animate=animate,
             source=source,
@@ -353,7 +352,6 @@ def _write_and_close(
     record,
     *,
     nav2_tolerance_m,
-    route_graph_radius_m,
     plot,
     animate,
     source,
@@ -365,7 +363,7 @@ def _write_and_close(
     final = False  # whether the recording's last messages are being written
     try:
         written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
-        messages += _route_note(done, route_graph_radius_m)
+        messages += _route_note(done)
         written += _write_rooms_routes_view(mapper, done, out, timeline)
         written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
         final = True
@@ -506,19 +504,9 @@ def _check_flags_and_reader(flags: dict, reader_kwargs) -> None:
         )
 
 
-def _route_note(done: _Replayed, radius_m) -> list[str]:
+def _route_note(done: _Replayed) -> list[str]:
     """Why the final route graph (if any) has no edge, as a message; else none."""
-    if done.routes is None:
-        return []
-    from .routegraph import RouteGraphConfig
-    from .routegraph.feasible import route_graph_note
-
-    note = route_graph_note(
-        done.routes,
-        done.result.map,
-        robot_radius_m=radius_m,
-        min_region_m2=RouteGraphConfig().min_region_m2,  # mapper.route_graph's
-    )
+    note = None if done.routes is None else done.routes.graph.get("note")
     return [note] if note else []
 
 

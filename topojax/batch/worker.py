@@ -230,22 +230,13 @@ def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) 
     import networkx as nx
 
     from ..routegraph import route_graph
-    from ..routegraph.feasible import route_graph_note
 
     assert occupancy is not None
     routes = route_graph(occupancy, config=job.route)
     res.route_vertices = routes.number_of_nodes()
     res.route_edges = routes.number_of_edges()
     res.route_components = nx.number_connected_components(routes)
-    res.route_note = (
-        route_graph_note(
-            routes,
-            occupancy,
-            robot_radius_m=job.route.robot_radius_m,
-            min_region_m2=job.route.min_region_m2,
-        )
-        or ""
-    )
+    res.route_note = routes.graph.get("note", "")
     if res.route_note and "route_nav2" in job.formats:
         res.route_note += "; no Nav2 file (the Route Server needs an edge)"
     return routes

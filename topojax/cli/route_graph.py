@@ -85,7 +85,6 @@ def _cmd_route_graph(args) -> int:
     from ..maps import load_map
     from ..routegraph import RouteGraphConfig, route_graph
     from ..routegraph.build import MAX_SNAP_M, check_scale
-    from ..routegraph.feasible import route_graph_note
 
     radius = nonnegative_metres("--robot-radius", args.robot_radius_m)
     snap_m = positive_metres("--snap-m", args.snap_m)
@@ -118,9 +117,7 @@ def _cmd_route_graph(args) -> int:
     ]
     if args.plot:
         written.append(_picture(occupancy, graph, out / f"{stem}_route.png"))
-    note = route_graph_note(
-        graph, occupancy, robot_radius_m=radius, min_region_m2=config.min_region_m2
-    )
+    note = graph.graph.get("note")
     if args.nav2 and graph.number_of_edges():
         from ..io import save_nav2_graph
 

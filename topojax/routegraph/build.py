@@ -42,7 +42,7 @@ from ._cover import (
     wall_distance,
 )
 from ._spanner import open_short_loops, simplify_paths
-from .feasible import FeasibleSpace, clearance_map_m, feasible_space
+from .feasible import FeasibleSpace, clearance_map_m, feasible_space, route_graph_note
 
 __all__ = ["RouteGraphConfig", "route_graph"]
 
@@ -191,7 +191,9 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         float64 (K, 2) world polyline from ``u``'s ``world`` position to ``v``'s.  Graph
         attributes ``resolution_m``, ``shape``, ``origin``, ``merge_junction_clusters``
         (True), ``robot_radius_m``, ``snap_m``, ``kind`` (``"route_graph"``),
-        ``uncovered_share`` and ``timings_s``.  One component per feasible region of at least
+        ``uncovered_share`` and ``timings_s``; for a graph without edges, ``note``:
+        why (no feasible region, with the most clearance the map offers; or vertices
+        without edges).  One component per feasible region of at least
         ``min_region_m2``.
 
     Raises
@@ -271,6 +273,13 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
         "cover_and_shortcuts": t4 - t3,
         "assemble": t5 - t4,
     }
+    if not graph.number_of_edges():
+        graph.graph["note"] = route_graph_note(
+            graph,
+            occupancy,
+            robot_radius_m=cfg.robot_radius_m,
+            min_region_m2=cfg.min_region_m2,
+        )
     return graph
 
 
