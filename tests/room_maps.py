@@ -55,3 +55,20 @@ def corridor_round_two_rooms(shape=(6, 10), origin=(0.0, 0.0, 0.0)):
         occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05, origin=origin
     )
     return build_segmentation(occ, labels, [])
+
+
+def ring_round_a_room(size: int = 7, origin=(0.0, 0.0, 0.0)):
+    """The rooms (a RoomSegmentation at 0.05 m/px) of a ring, room 1, two pixels wide
+    round a square room 2 of ``size - 4`` pixels, framed by a wall pixel: the ring's
+    centroid lies in room 2."""
+    from topojax.maps.occupancy import OccupancyMap
+    from topojax.rooms.model import build_segmentation
+
+    labels = np.ones((size, size), np.int32)
+    labels[2 : size - 2, 2 : size - 2] = 2
+    labels = np.pad(labels, 1)
+    free = labels > 0
+    occ = OccupancyMap(
+        occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05, origin=origin
+    )
+    return build_segmentation(occ, labels, [])

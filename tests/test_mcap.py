@@ -419,6 +419,21 @@ def test_save_mcap_names_a_wrong_rooms_argument(tmp_path):
     assert not (tmp_path / "a.mcap").exists()
 
 
+def test_room_markers_write_each_id_inside_its_room():
+    from room_maps import ring_round_a_room
+
+    from topojax.io.mcap import room_markers
+
+    seg = ring_round_a_room(origin=(1.0, -2.0, 0.4))
+    assert seg.room_at(seg.rooms[0].centroid) == 2, "the ring's centroid is in room 2"
+    ids = [m for m in room_markers(seg).markers if m.ns == "room_ids"]
+    assert [m.id for m in ids] == [1, 2]
+    for m, room in zip(ids, seg.rooms, strict=True):
+        at = (m.pose.position.x, m.pose.position.y)
+        assert m.text == str(room.id) and at == pytest.approx(room.label_point)
+        assert seg.room_at(at) == room.id
+
+
 def test_room_markers_draw_the_rings_round_a_rooms_holes():
     from room_maps import corridor_round_two_rooms
 

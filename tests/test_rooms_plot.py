@@ -43,10 +43,23 @@ def test_plot_rooms_colours_doors_and_ids(seg):
     texts = {t.get_text(): t.get_position() for t in ax.texts}
     assert set(texts) == {"1", "2", "3"}
     for room in seg.rooms:
-        r, c = seg.occupancy.world_to_pixel(*room.centroid)
+        r, c = seg.occupancy.world_to_pixel(*room.label_point)
         assert texts[str(room.id)] == pytest.approx((c, r))
         assert seg.labels[int(round(float(r))), int(round(float(c)))] == room.id
     assert ax.get_title() == "3 rooms, 2 doors"
+    plt.close(ax.figure)
+
+
+def test_plot_rooms_writes_the_id_of_a_ring_round_a_room_on_the_ring():
+    from room_maps import ring_round_a_room
+
+    seg = ring_round_a_room()
+    ring = seg.rooms[0]
+    assert seg.room_at(ring.centroid) == 2, "the ring's centroid is in the room it encloses"
+    ax = plot_rooms(seg)
+    for text in ax.texts:
+        c, r = text.get_position()
+        assert seg.labels[int(round(r)), int(round(c))] == int(text.get_text())
     plt.close(ax.figure)
 
 

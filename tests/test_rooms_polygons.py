@@ -442,3 +442,58 @@ def test_rooms_of_ipa_maps_do_not_overlap(name):
         _assert_holes(room, seg, 0.05)
         covered += _covered(room, seg)
     assert covered.max() == 1
+
+
+# --- label points ---------------------------------------------------------------------
+
+
+def test_the_label_point_of_a_ring_round_a_room_is_on_the_ring_not_in_its_middle():
+    labels = np.ones((7, 7), np.int32)
+    labels[2:5, 2:5] = 2
+    seg = _seg(labels)
+    ring = seg.rooms[0]
+    assert seg.room_at(ring.centroid) == 2, "the ring's centroid lies in the room it encloses"
+    assert seg.room_at(ring.label_point) == 1
+    assert seg.room_at(seg.rooms[1].label_point) == 2
+    assert seg.rooms[1].label_point == pytest.approx(seg.rooms[1].centroid, abs=0.01 * RES)
+
+
+def test_the_label_point_of_an_l_shaped_room_is_in_the_l():
+    labels = np.full((5, 6), 2, np.int32)
+    labels[0, :] = 1
+    labels[:, 0] = 1
+    seg = _seg(labels)
+    corner = seg.rooms[0]
+    assert seg.room_at(corner.centroid) == 2
+    assert seg.room_at(corner.label_point) == 1
+
+
+def test_the_label_point_of_a_rectangle_is_its_middle_and_is_kept():
+    seg = _seg(np.ones((3, 9), np.int32))
+    (room,) = seg.rooms
+    assert room.label_point == pytest.approx(room.centroid, abs=0.01 * RES)
+    assert room.label_point is room.label_point, "computed once"
+
+
+def test_a_room_whose_outline_encloses_nothing_is_labelled_at_its_centroid():
+    from topojax.rooms import Room
+
+    room = Room(1, 0.0, (2.0, 3.0), np.array([[0.0, 0.0], [1.0, 1.0]]), (0, 0, 0, 0))
+    assert room.label_point == (2.0, 3.0)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    arrays(np.int32, st.tuples(st.integers(1, 9), st.integers(1, 9)), elements=st.integers(0, 3))
+)
+def test_every_label_point_of_random_label_images_lies_in_its_own_room(labels):
+    seg = _seg(labels)
+    for room in seg.rooms:
+        assert seg.room_at(room.label_point) == room.id
+
+
+def test_every_label_point_of_the_bundled_intel_map_lies_in_its_own_room():
+    seg = tj.segment_rooms(tj.sample_map("intel"))
+    assert any(seg.room_at(room.centroid) not in (0, room.id) for room in seg.rooms)
+    for room in seg.rooms:
+        assert seg.room_at(room.label_point) == room.id, f"room {room.id}"

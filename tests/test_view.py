@@ -9,6 +9,8 @@ import gzip
 import inspect
 import json
 import re
+import shutil
+import subprocess
 from pathlib import Path
 
 import networkx as nx
@@ -119,6 +121,59 @@ def test_rooms_carry_the_rings_round_their_holes():
     loop = tj.rooms.Room(1, 8.0, (1.5, 1.5), outer, (0, 0, 5, 5), holes=(hole, hole + 0.25))
     (room,) = rooms_payload(((loop,), ()))["rooms"]
     assert room["holes"] == [hole.ravel().tolist(), (hole + 0.25).ravel().tolist()]
+
+
+def test_rooms_carry_the_point_their_id_is_written_at():
+    from room_maps import ring_round_a_room
+
+    from topojax.view._rooms_data import rooms_payload
+
+    seg = ring_round_a_room()
+    rooms = rooms_payload(seg)["rooms"]
+    for room, sent in zip(seg.rooms, rooms, strict=True):
+        assert sent["label"] == pytest.approx(room.label_point, abs=1e-4)
+        assert seg.room_at(sent["label"]) == room.id
+
+
+_DRAW_ROOMS = """
+const fs = require("fs");
+global.window = {};
+eval(fs.readFileSync(process.argv[1], "utf8"));
+const texts = [];
+const noop = () => {};
+const ctx = {
+  beginPath: noop, moveTo: noop, lineTo: noop, closePath: noop, fill: noop, stroke: noop,
+  fillRect: noop, measureText: (t) => ({ width: 7 * t.length }),
+  fillText: (t, x, y) => texts.push([t, x, y]),
+};
+const frame = { worldToView: (x, y) => [10 * x, -10 * y] };
+const view = { z: 2, tx: 5, ty: 300 };
+window.TJ.roomColour = () => "#000";
+window.TJ.drawRooms(ctx, view, frame, JSON.parse(process.argv[2]));
+process.stdout.write(JSON.stringify(texts));
+"""
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="no node on the PATH")
+def test_the_page_writes_each_room_id_at_its_label_point():
+    from room_maps import ring_round_a_room
+
+    from topojax.view._rooms_data import rooms_payload
+
+    rooms = rooms_payload(ring_round_a_room())["rooms"]
+    old = {**rooms[1], "centroid": [1.0, 2.0]}  # a timeline saved before: no label
+    del old["label"]
+    draw = Path(tj.view.__file__).parent / "static" / "draw.js"
+    out = subprocess.run(
+        ["node", "-e", _DRAW_ROOMS, str(draw), json.dumps([rooms[0], old])],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    (t1, x1, y1), (t2, x2, y2) = json.loads(out)
+    lx, ly = rooms[0]["label"]
+    assert t1 == "1" and (x1, y1) == pytest.approx((20 * lx + 5, -20 * ly + 300.5))
+    assert t2 == "2" and (x2, y2) == pytest.approx((25.0, 260.5))
 
 
 def test_a_route_graph_with_its_map_carries_the_robots_feasible_pixels():

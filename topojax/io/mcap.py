@@ -285,8 +285,8 @@ def room_markers(seg, stamp_ns: int = 0):
     ``DELETEALL``, each room's closed outline (``LINE_STRIP``, namespace ``rooms``, id =
     room id, in its colour of the label picture), the rings round its holes where it has
     any (one ``LINE_LIST``, namespace ``room_holes``, id = room id, same colour, each
-    ring's sides as point pairs), its id as text at its centroid
-    (``TEXT_VIEW_FACING``, namespace ``room_ids``) and the doorways (one ``LINE_LIST``,
+    ring's sides as point pairs), its id as text at its label point
+    (:attr:`~topojax.Room.label_point`, ``TEXT_VIEW_FACING``, namespace ``room_ids``) and the doorways (one ``LINE_LIST``,
     namespace ``doors``, two points per door)."""
     from .rooms import room_colours
 
@@ -326,7 +326,7 @@ def room_markers(seg, stamp_ns: int = 0):
                 )
             )
         label = _marker(stamp_ns, "room_ids", room.id, "TEXT_VIEW_FACING", colour=_rgba("#000000"))
-        label.pose = _pose(*room.centroid, 0.0)
+        label.pose = _pose(*room.label_point, 0.0)
         label.scale.z = _ROOM_TEXT_M
         label.text = str(room.id)
         markers.append(label)

@@ -322,7 +322,7 @@ def _room_segmentation(seg, name: str):
 def _draw_rooms(seg, ax, *, doors: bool, labels: bool, alpha: float) -> None:
     """Rooms as a translucent colour layer (:func:`topojax.io.rooms.room_colours`, as the
     label picture), doorways as white lines between their ends, room ids at their
-    centroids."""
+    :attr:`~topojax.Room.label_point`."""
     from matplotlib.collections import LineCollection
 
     lab = np.asarray(seg.labels)
@@ -336,7 +336,7 @@ def _draw_rooms(seg, ax, *, doors: bool, labels: bool, alpha: float) -> None:
         ax.add_collection(lines)
     if labels:
         for room in seg.rooms:
-            r, c = seg.occupancy.world_to_pixel(*room.centroid)
+            r, c = seg.occupancy.world_to_pixel(*room.label_point)
             ax.text(
                 float(c),
                 float(r),
@@ -368,7 +368,7 @@ def plot_rooms(seg, *, ax=None, title: str | None = None, doors: bool = True, la
     doors : bool
         Draw each doorway as a line between its two obstacle ends.
     labels : bool
-        Write each room's id at its centroid.
+        Write each room's id at its :attr:`~topojax.Room.label_point` (inside the room).
 
     Returns
     -------

@@ -46,6 +46,9 @@ class Room:
         ``polygon`` less its holes is the area of the outlined part, ``area_m2`` where
         the room is one part, and the polygons with holes of a segmentation's rooms do
         not overlap.
+    label_point : tuple[float, float]
+        Where to write the room's id: a world point (x, y), metres, inside ``polygon``
+        and outside its holes (see the property).
     """
 
     id: int
@@ -54,6 +57,21 @@ class Room:
     polygon: np.ndarray = field(repr=False)
     bbox: tuple[int, int, int, int]
     holes: tuple[np.ndarray, ...] = field(default=(), repr=False, kw_only=True)
+
+    @property
+    def label_point(self) -> tuple[float, float]:
+        """World point (x, y), metres, where the room's id is written.
+
+        The point of the outlined part farthest from its outline and holes (to 1/1000
+        of the outline's larger side; of points as far, the nearest to ``centroid``),
+        so inside the room where ``centroid`` is not (a ring round a courtyard, an L).
+        ``centroid`` for an outline that encloses no area.  Computed on first use.
+        """
+        point = self.__dict__.get("_label_point")
+        if point is None:
+            point = _pole(self.polygon, self.holes, self.centroid)
+            object.__setattr__(self, "_label_point", point)
+        return point
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,6 +172,66 @@ class RoomSegmentation:
         if 0 <= r < h and 0 <= c < w:
             return int(self.labels[r, c])
         return 0
+
+
+_SQRT2 = float(np.sqrt(2.0))
+#: Corner offsets of a square cell's four quarters, in half its half side.
+_QUARTERS = np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]])
+
+
+def _pole(polygon, holes, fallback) -> tuple[float, float]:
+    """The point inside ``polygon`` (float (K, 2)) and outside ``holes`` farthest from
+    them all, found by splitting square cells (polylabel); ``fallback`` when the rings
+    enclose no area."""
+    rings = [np.asarray(r, np.float64).reshape(-1, 2) for r in (polygon, *holes)]
+    rings = [r for r in rings if r.shape[0] >= 3]
+    if not rings or not np.isfinite(np.concatenate(rings)).all():
+        return (float(fallback[0]), float(fallback[1]))
+    a = np.concatenate(rings)
+    b = np.concatenate([np.roll(r, -1, axis=0) for r in rings])
+    lo, hi = rings[0].min(axis=0), rings[0].max(axis=0)
+    cell = float(np.min(hi - lo))
+    if not cell > 0:
+        return (float(fallback[0]), float(fallback[1]))
+    tol = 1e-3 * float(np.max(hi - lo))
+    h = cell / 2
+    xs = np.arange(lo[0], hi[0], cell) + h
+    ys = np.arange(lo[1], hi[1], cell) + h
+    centres = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    best_d = -np.inf
+    while True:
+        d = _signed_distance(centres, a, b)
+        best_d = max(best_d, float(d.max()))
+        if h * _SQRT2 <= tol or centres.shape[0] == 0:
+            break
+        centres = centres[d + h * _SQRT2 >= best_d - tol]  # may hold a point as far
+        h /= 2
+        centres = (centres[:, None, :] + h * _QUARTERS).reshape(-1, 2)
+    if not best_d > 0:
+        return (float(fallback[0]), float(fallback[1]))
+    near = centres[d >= best_d - tol]
+    pick = np.argmin(np.hypot(near[:, 0] - fallback[0], near[:, 1] - fallback[1]))
+    return (float(near[pick, 0]), float(near[pick, 1]))
+
+
+def _signed_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance (N,) of ``points`` (N, 2) to the sides ``a[k]``-``b[k]`` (K, 2) of closed
+    rings, positive inside (an odd number of rings round the point), else negative."""
+    out = np.empty(points.shape[0])
+    ab = b - a
+    length2 = np.maximum(np.einsum("kd,kd->k", ab, ab), np.finfo(float).tiny)
+    step = max(1, 2_000_000 // max(a.shape[0], 1))
+    for i in range(0, points.shape[0], step):
+        p = points[i : i + step, None, :]
+        t = np.clip(np.einsum("nkd,kd->nk", p - a, ab) / length2, 0.0, 1.0)
+        dist = np.hypot(*np.moveaxis(p - a - t[..., None] * ab, -1, 0)).min(axis=1)
+        y = p[..., 1]
+        cross = (a[:, 1] > y) != (b[:, 1] > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_at = a[:, 0] + (y - a[:, 1]) * ab[:, 0] / ab[:, 1]
+        inside = np.count_nonzero(cross & (p[..., 0] < x_at), axis=1) % 2 == 1
+        out[i : i + step] = np.where(inside, dist, -dist)
+    return out
 
 
 def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmentation:

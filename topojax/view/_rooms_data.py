@@ -28,8 +28,9 @@ def rounded(values, digits: int = 4) -> list:
 
 
 def rooms_payload(rooms) -> dict:
-    """Rooms (id, area, centroid, outline, the rings round its holes) and doors (rooms,
-    ends, width) for the page; rings are flat ``[x, y, x, y, ...]`` lists."""
+    """Rooms (id, area, centroid, ``label``: where its id is written, outline, the rings
+    round its holes) and doors (rooms, ends, width) for the page; rings are flat
+    ``[x, y, x, y, ...]`` lists."""
     if is_room_pair(rooms):
         room_list, door_list = rooms
     else:
@@ -40,6 +41,7 @@ def rooms_payload(rooms) -> dict:
                 "id": int(r.id),
                 "area_m2": float(r.area_m2),
                 "centroid": rounded(r.centroid),
+                "label": rounded(r.label_point),
                 "polygon": rounded(np.asarray(r.polygon, np.float64).reshape(-1, 2).ravel()),
                 "holes": [
                     rounded(np.asarray(h, np.float64).reshape(-1, 2).ravel()) for h in r.holes

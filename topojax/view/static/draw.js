@@ -272,6 +272,18 @@ var TJ = (window.TJ = window.TJ || {});
       ctx.fillStyle = TJ.roomColour(r.id, 0.28); ctx.fill("evenodd");
       ctx.lineWidth = 1.5; ctx.strokeStyle = TJ.roomColour(r.id, 0.9); ctx.stroke();
     }
+    // the ids over every fill, each at its room's label point (inside the room, where the
+    // centroid of a ring or an L may not be); a timeline saved before had centroids only
+    ctx.font = "bold 11px sans-serif"; ctx.textAlign = "center"; ctx.textBaseline = "middle";
+    for (var j = 0; j < rooms.length; j++) {
+      var at = rooms[j].label || rooms[j].centroid;
+      if (!at) continue;
+      var uv = frame.worldToView(at[0], at[1]);
+      var sx = uv[0] * view.z + view.tx, sy = uv[1] * view.z + view.ty;
+      var text = String(rooms[j].id), w = ctx.measureText(text).width + 6;
+      ctx.fillStyle = "rgba(255,255,255,0.8)"; ctx.fillRect(sx - w / 2, sy - 8, w, 16);
+      ctx.fillStyle = "#111111"; ctx.fillText(text, sx, sy + 0.5);
+    }
   };
 
   TJ.drawDoors = function (ctx, view, frame, doors) {
