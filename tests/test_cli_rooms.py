@@ -272,3 +272,30 @@ def test_replay_rooms_writes_room_files_and_checks_room_options_first(tmp_path, 
     assert "rooms" in text
     for name in ("map_rooms.geojson", "map_rooms.png", "map_rooms.graphml", "map_rooms.json"):
         assert (out / name).is_file()
+
+
+def test_replay_rooms_plot_draws_the_final_rooms_on_graph_png(tmp_path, monkeypatch, capsys):
+    """As ``topojax graph --rooms --plot`` draws its rooms on its picture, once, at the
+    end."""
+    import topojax.plotting
+
+    drawn = []
+    real = topojax.plotting.result_png
+
+    def spy(result, **kw):
+        drawn.append(kw)
+        return real(result, **kw)
+
+    monkeypatch.setattr(topojax.plotting, "result_png", spy)
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    out = tmp_path / "rep"
+    argv = ["replay", str(log), "-o", str(out), "--rooms", "--plot", "--no-progress"]
+    assert main([*argv, "--graph-every", "20"]) == 0
+    capsys.readouterr()
+    (kw,) = drawn
+    seg = kw["rooms"]
+    rooms, doors = tj.load_rooms(out / "map_rooms.geojson")
+    assert isinstance(seg, tj.RoomSegmentation) and seg.n_rooms == len(rooms) > 0
+    assert len(seg.doors) == len(doors)
+    assert kw["title"].endswith(f", {seg.n_rooms} room" + "s" * (seg.n_rooms != 1))
+    assert (out / "graph.png").read_bytes().startswith(b"\x89PNG")

@@ -87,7 +87,8 @@ def replay(
         statistics, see :func:`timing_summary`) and, with ``plot``, ``graph.png`` and
         ``stages.png``.
     plot : bool
-        Write pictures.
+        Write pictures, at the end; with ``rooms``, ``graph.png`` draws the final rooms
+        under the graph.
     animate : str or Path, optional
         Write an animated GIF with one frame per graph update.
     progress : bool
@@ -420,12 +421,13 @@ def _write_rooms_routes_view(
 def _write_pictures_and_animation(
     mapper: IncrementalMapper, done: _Replayed, out: Path, plot: bool, animate, source
 ) -> list[Path]:
-    """With ``plot``, write the still pictures; with ``animate`` (a GIF path), the
-    animation, its last frame the final map.  Returns the paths written."""
+    """With ``plot``, write the still pictures (the final rooms, if any, drawn on the
+    graph's); with ``animate`` (a GIF path), the animation, its last frame the final map.
+    Returns the paths written."""
     written: list[Path] = []
     name = _source_name(source)
     if plot:
-        written += _write_pictures(done.result, out, name)
+        written += _write_pictures(done.result, out, name, rooms=done.seg)
     if animate is not None:
         frames = [*done.frames, animation_frame(mapper)]  # done's stay as recorded
         apath = Path(animate)
@@ -726,18 +728,24 @@ def _remove_stale(out: Path, written: list[Path]) -> list[str]:
     return messages
 
 
-def _write_pictures(result, out: Path, name: str) -> list[Path]:
-    """Write ``graph.png`` and ``stages.png`` titled with the log's ``name``; returns
-    their paths."""
+def _write_pictures(result, out: Path, name: str, *, rooms=None) -> list[Path]:
+    """Write ``graph.png`` (with ``rooms``, a RoomSegmentation of the result's map, drawn
+    under the graph as ``topojax graph --rooms --plot`` draws them) and ``stages.png``,
+    titled with the log's ``name``; returns their paths."""
     import matplotlib
 
     matplotlib.use("Agg")  # plot_stages draws with pyplot; no window
     from ._fs import atomic_write_bytes
     from .plotting import result_png, stages_png
+    from .plotting.style import counted
 
     g = result.graph
-    title = f"{name}: {g.number_of_nodes()} vertices, {g.number_of_edges()} edges"
-    atomic_write_bytes(out / "graph.png", result_png(result, title=title))
+    n = g.number_of_nodes()
+    title = f"{name}: {n} {'vertex' if n == 1 else 'vertices'}, "
+    title += counted(g.number_of_edges(), "edge")
+    if rooms is not None:
+        title += f", {counted(rooms.n_rooms, 'room')}"
+    atomic_write_bytes(out / "graph.png", result_png(result, title=title, rooms=rooms))
     atomic_write_bytes(out / "stages.png", stages_png(result, title=name))
     return [out / "graph.png", out / "stages.png"]
 

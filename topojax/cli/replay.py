@@ -234,7 +234,7 @@ def add_command(subparsers) -> None:
         action="store_true",
         help="also keep rooms as the map grows (with every graph update), give the graph "
         "files their rooms and write map_rooms.{geojson,png,graphml,json}; --animate "
-        "colours the rooms",
+        "colours the rooms and with --plot graph.png draws the final ones",
     )
     add_room_options(p, only_with="--rooms")
     p.add_argument(
