@@ -971,6 +971,48 @@ def test_argument_errors(tmp_path):
         build_graphs([src / "m.png", src / "m_graph.png"], out_dir=src, plot=True, workers=0)
 
 
+def test_a_rooms_batch_counts_rooms_and_doors_in_its_table_and_keeps_them_on_resume(tmp_path):
+    from room_maps import three_rooms_png
+
+    from topojax.batch.records import ROOM_COLUMNS, summary_columns
+
+    png = three_rooms_png(tmp_path / "in" / "three.png")
+    out = tmp_path / "out"
+    kw = dict(out_dir=out, workers=0, progress=False, map_mode="ipa")
+    both = [png, PAPER_MAPS[2]]
+    (rooms, plain) = build_graphs(both[:1], formats="json,rooms", **kw) + build_graphs(
+        both[1:], formats="json", out_dir=tmp_path / "plain", workers=0, progress=False
+    )
+    assert (rooms.rooms, rooms.doors) == (3, 2) and (plain.rooms, plain.doors) == (None, None)
+    columns = summary_columns([rooms])
+    at = SUMMARY_COLUMNS.index("route_components") + 1
+    assert columns == (*SUMMARY_COLUMNS[:at], *ROOM_COLUMNS, *SUMMARY_COLUMNS[at:])
+    assert summary_columns([plain]) == SUMMARY_COLUMNS, "no room columns without rooms"
+
+    def table() -> list[dict]:
+        with open(out / "summary.csv", newline="") as fh:
+            reader = csv.DictReader(fh)
+            assert tuple(reader.fieldnames or ()) == columns
+            return list(reader)
+
+    (row,) = table()
+    assert (row["rooms"], row["doors"]) == ("3", "2")
+    (again,) = build_graphs([png], formats="json,rooms", resume=True, **kw)
+    assert again.status == "skipped" and (again.rooms, again.doors) == (3, 2)
+    (row,) = table()
+    assert (row["rooms"], row["doors"], row["status"]) == ("3", "2", "skipped")
+    # a manifest written before the table counted rooms: the map is redone, not skipped
+    manifest = out / "three.manifest.json"
+    doc = json.loads(manifest.read_text())
+    for name in ROOM_COLUMNS:
+        del doc["record"][name]
+    manifest.write_text(json.dumps(doc))
+    (redone,) = build_graphs([png], formats="json,rooms", resume=True, **kw)
+    assert redone.status == "ok" and (redone.rooms, redone.doors) == (3, 2)
+    (row,) = table()
+    assert (row["rooms"], row["status"]) == ("3", "ok")
+
+
 def test_record_row_has_summary_columns():
     rec = MapRecord(map="m", path=None)
     assert tuple(rec.row()) == SUMMARY_COLUMNS

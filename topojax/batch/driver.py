@@ -519,6 +519,8 @@ class _BatchRun:
             route_vertices=res.route_vertices,
             route_edges=res.route_edges,
             route_components=res.route_components,
+            rooms=res.rooms,
+            doors=res.doors,
             t_thinning_s=res.t_thinning_s,
             t_graph_s=res.t_graph_s,
             t_write_s=res.t_write_s,

@@ -23,7 +23,7 @@ from .inputs import (
     batch_input,
     picture_suffixes,
 )
-from .records import SUMMARY_COLUMNS, MapRecord
+from .records import ROOM_COLUMNS, SUMMARY_COLUMNS, MapRecord
 
 __all__ = ["batch_input"]
 
@@ -100,6 +100,8 @@ def _resume_record(
     row = doc.get("record")
     if not isinstance(row, dict):
         return None
+    if "rooms" in formats and not all(name in row for name in ROOM_COLUMNS):
+        return None  # written before the table had room counts: redone to have them
     # a graph (route graph) without an edge has no Nav2 file
     nav2_less = {"nav2": row.get("edges") == 0, "route_nav2": row.get("route_edges") == 0}
     expected = {
@@ -123,7 +125,7 @@ def _resume_record(
         path=item.label,
         **{
             name: row[name]
-            for name in SUMMARY_COLUMNS
+            for name in (*SUMMARY_COLUMNS, *ROOM_COLUMNS)
             if name not in ("map", "path", "status", "message") and name in row
         },
         status="skipped",

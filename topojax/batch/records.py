@@ -12,7 +12,7 @@ from typing import Any
 
 from .._fs import atomic_write_bytes
 
-__all__ = ["SUMMARY_COLUMNS", "MapRecord", "write_summary"]
+__all__ = ["ROOM_COLUMNS", "SUMMARY_COLUMNS", "MapRecord", "summary_columns", "write_summary"]
 
 #: Columns of the summary table, in order.  Times are seconds of wall time spent on the map
 #: in each stage; ``t_distance_s`` is the map's share (by tile count) of its group's kernel
@@ -43,6 +43,10 @@ SUMMARY_COLUMNS = (
     "message",
 )
 
+#: Columns of the room segmentation (the ``rooms`` format): counts of rooms and doorways.
+#: The table has them, after ``route_components``, only where a map's rooms were made.
+ROOM_COLUMNS = ("rooms", "doors")
+
 
 @dataclass(frozen=True, kw_only=True)
 class MapRecord:
@@ -66,6 +70,9 @@ class MapRecord:
     route_vertices, route_edges, route_components : int or None
         Counts of the route graph (:func:`topojax.route_graph`) with the ``route`` or
         ``route_nav2`` format, else None.
+    rooms, doors : int or None
+        Counts of rooms and doorways (:func:`topojax.segment_rooms`) with the ``rooms``
+        format, else None (see :data:`ROOM_COLUMNS`).
     t_load_s, t_distance_s, t_thinning_s, t_graph_s, t_write_s, t_total_s : float
         Seconds per stage (see :data:`SUMMARY_COLUMNS`).
     status : {"ok", "empty", "error", "skipped"}
@@ -95,6 +102,8 @@ class MapRecord:
     route_vertices: int | None = None
     route_edges: int | None = None
     route_components: int | None = None
+    rooms: int | None = None
+    doors: int | None = None
     t_load_s: float = 0.0
     t_distance_s: float = 0.0
     t_thinning_s: float = 0.0
@@ -107,8 +116,18 @@ class MapRecord:
     graph: Any = field(default=None, repr=False, compare=False)
 
     def row(self) -> dict[str, Any]:
-        """The record as a summary-table row (keys :data:`SUMMARY_COLUMNS`)."""
-        return {name: getattr(self, name) for name in SUMMARY_COLUMNS}
+        """The record as a summary-table row (keys :data:`SUMMARY_COLUMNS`, and
+        :data:`ROOM_COLUMNS` where its rooms were made)."""
+        return {name: getattr(self, name) for name in summary_columns([self])}
+
+
+def summary_columns(records: Sequence[MapRecord]) -> tuple[str, ...]:
+    """The columns of the summary table of ``records``: :data:`SUMMARY_COLUMNS`, with
+    :data:`ROOM_COLUMNS` after ``route_components`` where a record has rooms."""
+    if all(rec.rooms is None for rec in records):
+        return SUMMARY_COLUMNS
+    at = SUMMARY_COLUMNS.index("route_components") + 1
+    return (*SUMMARY_COLUMNS[:at], *ROOM_COLUMNS, *SUMMARY_COLUMNS[at:])
 
 
 def totalled(rec: MapRecord) -> MapRecord:
@@ -134,7 +153,8 @@ def write_summary(records: Sequence[MapRecord], out_dir: str | Path) -> list[Pat
         One per map, in the order the rows should appear.
     out_dir : str or Path
         Existing folder; receives ``summary.csv`` and, when ``pyarrow`` is importable,
-        ``summary.parquet``.
+        ``summary.parquet``, with the columns of :func:`summary_columns` (room and door
+        counts where a map's rooms were made; empty in the rows of the others).
 
     Returns
     -------
@@ -146,10 +166,11 @@ def write_summary(records: Sequence[MapRecord], out_dir: str | Path) -> list[Pat
         raise FileNotFoundError(f"out_dir: expected an existing folder, received {str(folder)!r}")
     buf = _io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(SUMMARY_COLUMNS)
-    for rec in records:
-        row = rec.row()
-        writer.writerow([_csv_value(row[name]) for name in SUMMARY_COLUMNS])
+    columns = summary_columns(records)
+    rows = [{name: getattr(rec, name) for name in columns} for rec in records]
+    writer.writerow(columns)
+    for row in rows:
+        writer.writerow([_csv_value(row[name]) for name in columns])
     written = [folder / "summary.csv"]
     atomic_write_bytes(written[0], buf.getvalue().encode("utf-8"))
     try:
@@ -157,7 +178,7 @@ def write_summary(records: Sequence[MapRecord], out_dir: str | Path) -> list[Pat
         import pyarrow.parquet as pq
     except ImportError:
         return written
-    table = pa.Table.from_pylist([rec.row() for rec in records], schema=_arrow_schema(pa))
+    table = pa.Table.from_pylist(rows, schema=_arrow_schema(pa, columns))
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
     written.append(folder / "summary.parquet")
@@ -165,7 +186,7 @@ def write_summary(records: Sequence[MapRecord], out_dir: str | Path) -> list[Pat
     return written
 
 
-def _arrow_schema(pa: Any) -> Any:
+def _arrow_schema(pa: Any, columns: Sequence[str]) -> Any:
     types = {
         "map": pa.string(),
         "path": pa.string(),
@@ -177,7 +198,9 @@ def _arrow_schema(pa: Any) -> Any:
         "route_vertices": pa.int64(),
         "route_edges": pa.int64(),
         "route_components": pa.int64(),
+        "rooms": pa.int64(),
+        "doors": pa.int64(),
         "status": pa.string(),
         "message": pa.string(),
     }
-    return pa.schema([(name, types.get(name, pa.float64())) for name in SUMMARY_COLUMNS])
+    return pa.schema([(name, types.get(name, pa.float64())) for name in columns])

@@ -76,6 +76,8 @@ class _CpuResult:
     route_vertices: int | None = None
     route_edges: int | None = None
     route_components: int | None = None
+    rooms: int | None = None
+    doors: int | None = None
     route_note: str = ""  # why the route graph is empty or has no edge, where it is
     nav2_note: str = ""  # why the graph (nav2 format) got no Nav2 file, where it did not
     t_thinning_s: float = 0.0
@@ -165,6 +167,8 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             stem.parent.mkdir(parents=True, exist_ok=True)
             occupancy = _occupancy(job) if job.masks_bits is not None else None
             rooms = _rooms(occupancy, graph) if job.rooms else None
+            if rooms is not None:
+                res.rooms, res.doors = rooms.n_rooms, len(rooms.doors)
             routes = _route_graph(job, occupancy, res) if job.route is not None else None
             written = []
             for fmt in job.formats:
