@@ -93,12 +93,41 @@ def test_rooms_command_says_its_time_includes_the_first_call(png, tmp_path, caps
     )
 
 
+def test_summary_lines_count_one_room_and_one_door_in_the_singular():
+    from types import SimpleNamespace
+
+    from topojax.cli.rooms import room_lines
+    from topojax.playback import summary_text
+
+    seg = SimpleNamespace(
+        rooms=[SimpleNamespace(area_m2=7.0)], doors=[SimpleNamespace(width_m=0.8)], timings_s={}
+    )
+    line = room_lines(seg, None, seconds=0.01)[0]
+    assert line == "rooms      1 room (7.0 m2 in all, 7.0-7.0 m2 each), 1 door (0.80-0.80 m wide)"
+    seg = SimpleNamespace(rooms=seg.rooms * 2, doors=seg.doors * 2, timings_s={})
+    assert room_lines(seg, None, seconds=0.01)[0].startswith("rooms      2 rooms (")
+    summary = {
+        "n_scans": 3,
+        "source": "log",
+        "wall_s": 1.0,
+        "map_shape": (10, 10),
+        "n_tiles": 1,
+        "vertices": 4,
+        "edges": 3,
+        "rooms": 1,
+        "timings": {},
+    }
+    assert "\nrooms      1 room\n" in summary_text(summary)
+    assert "\nrooms      2 rooms\n" in summary_text({**summary, "rooms": 2})
+
+
 def test_room_options_reach_the_segmentation(png, tmp_path, capsys):
     base = ["rooms", str(png), "--mode", "ipa"]
     assert main([*base, "-o", str(tmp_path / "a"), "--max-door-width-m", "0.6"]) == 0
-    assert "rooms      1 rooms (" in capsys.readouterr().out, "0.8 m gaps are no doors"
+    printed = capsys.readouterr().out
+    assert "rooms      1 room (" in printed and ", 0 doors" in printed, "0.8 m gaps are no doors"
     assert main([*base, "-o", str(tmp_path / "b"), "--min-room-m2", "10"]) == 0
-    assert "rooms      1 rooms (" in capsys.readouterr().out, "7 m2 rooms merge"
+    assert "rooms      1 room (" in capsys.readouterr().out, "7 m2 rooms merge"
     assert len(tj.load_rooms(tmp_path / "b" / "three_rooms.geojson")[0]) == 1
 
 

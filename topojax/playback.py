@@ -751,6 +751,8 @@ def _write_pictures(result, out: Path, name: str, *, rooms=None) -> list[Path]:
 
 
 def summary_text(summary: dict) -> str:
+    from .plotting.style import counted
+
     lines = [
         f"replayed   {summary['n_scans']} scans of {summary['source']} in "
         f"{summary['wall_s']:.2f} s; map {summary['map_shape'][0]} x "
@@ -759,7 +761,7 @@ def summary_text(summary: dict) -> str:
         "loop        calls    mean ms     p50 ms     p99 ms   amortised ms/scan",
     ]
     if summary.get("rooms") is not None:
-        lines.insert(2, f"rooms      {summary['rooms']} rooms")
+        lines.insert(2, f"rooms      {counted(summary['rooms'], 'room')}")
     for k in ("distance", "splat", "skeleton", "graph", "rooms", "add_scan"):
         s = summary["timings"].get(k)
         if s:

@@ -88,12 +88,14 @@ def room_lines(
     """The summary of a segmentation: rooms, doors and its stages' time (ms, the line
     ``time_label``, ending in ``timing_note`` in brackets where one is given and a stage
     ran), and a note when the map gave no room."""
+    from ..plotting.style import counted
+
     rooms, doors = seg.rooms, seg.doors
-    line = f"rooms      {len(rooms)} rooms"
+    line = f"rooms      {counted(len(rooms), 'room')}"
     if rooms:
         areas = [r.area_m2 for r in rooms]
         line += f" ({sum(areas):.1f} m2 in all, {min(areas):.1f}-{max(areas):.1f} m2 each)"
-    line += f", {len(doors)} doors"
+    line += f", {counted(len(doors), 'door')}"
     if doors:
         widths = [d.width_m for d in doors]
         line += f" ({min(widths):.2f}-{max(widths):.2f} m wide)"
