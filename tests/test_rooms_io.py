@@ -195,6 +195,16 @@ def test_save_rooms_refuses_what_geojson_cannot_hold(seg, tmp_path: Path):
         tj.save_rooms(seg, tmp_path / "missing" / "r.geojson")
 
 
+@pytest.mark.parametrize("name", ["r.json", "r.txt", "rooms", "r.geojson.tmp"])
+def test_save_rooms_checks_its_suffix_as_the_other_room_writers_do(seg, tmp_path: Path, name):
+    with pytest.raises(
+        ValueError, match=rf"^path: expected a \.geojson file name, received '.*{name}'$"
+    ):
+        tj.save_rooms(seg, tmp_path / name)
+    assert not list(tmp_path.iterdir()), "nothing written"
+    assert tj.save_rooms(seg, tmp_path / "R.GeoJSON").is_file()
+
+
 def _graph_geojson(path: Path) -> Path:
     g = nx.MultiGraph()
     g.add_node(0, world=(0.0, 0.0), pixel=(1, 1))

@@ -127,13 +127,20 @@ def save_rooms(seg, path: str | Path) -> Path:
     seg : RoomSegmentation
         From :func:`topojax.segment_rooms`.
     path : str or Path
-        Output file (``.geojson`` by convention); its folder must exist.  Written
-        atomically (a temporary file renamed over it).
+        Output ``.geojson`` file; its folder must exist.  Written atomically (a temporary
+        file renamed over it).
 
     Returns
     -------
     Path
         The written path.
+
+    Raises
+    ------
+    ValueError
+        If ``path`` does not end in ``.geojson`` (as :func:`save_room_labels` and
+        :func:`save_room_graph` check theirs: a ``.json`` there is the room graph), or a
+        number is NaN or infinite.
 
     Notes
     -----
@@ -158,6 +165,8 @@ def save_rooms(seg, path: str | Path) -> Path:
     """
     seg = _check_seg(seg)
     p = path_like("path", path)
+    if p.suffix.lower() != ".geojson":
+        raise ValueError(f"path: expected a .geojson file name, received {str(p)!r}")
     features = [_room_feature(seg, room) for room in seg.rooms]
     features += [_door_feature(door) for door in seg.doors]
     doc = {
