@@ -175,6 +175,8 @@ class RoomSegmentation:
 
 
 _SQRT2 = float(np.sqrt(2.0))
+#: How near the farthest point a label point is, as a share of the outline's larger side.
+_LABEL_TOLERANCE = 1e-3
 #: Corner offsets of a square cell's four quarters, in half its half side.
 _QUARTERS = np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]])
 
@@ -193,7 +195,7 @@ def _pole(polygon, holes, fallback) -> tuple[float, float]:
     cell = float(np.min(hi - lo))
     if not cell > 0:
         return (float(fallback[0]), float(fallback[1]))
-    tol = 1e-3 * float(np.max(hi - lo))
+    tol = _LABEL_TOLERANCE * float(np.max(hi - lo))
     h = cell / 2
     xs = np.arange(lo[0], hi[0], cell) + h
     ys = np.arange(lo[1], hi[1], cell) + h
