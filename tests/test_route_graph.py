@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import cv2
 import networkx as nx
 import numpy as np
@@ -454,9 +456,16 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     assert g.graph["robot_radius_m"] == 0.25 and g.number_of_edges() > 0
     text = capsys.readouterr().out
     assert "route_graph.geojson" in text and "empty route graph" not in text
+    assert not (tmp_path / "route_graph_nav2.geojson").exists()
+    # with --nav2 the route graph, not only the topology graph, goes to the Route Server
+    assert main([*argv, "--route-graph", "0.25", "--nav2"]) == 0
+    doc = json.loads((tmp_path / "route_graph_nav2.geojson").read_text())
+    edges = [f for f in doc["features"] if f["geometry"]["type"] == "MultiLineString"]
+    assert len(edges) >= 2 * g.number_of_edges()  # both directions of every waypoint run
     assert main([*argv, "--route-graph", "-1"]) == 2  # refused before the replay
-    assert main([*argv, "--route-graph", "100"]) == 0  # a robot too large: said so
+    assert main([*argv, "--route-graph", "100", "--nav2"]) == 0  # a robot too large: said so
     assert "empty route graph: no known-free region" in capsys.readouterr().out
+    assert not (tmp_path / "route_graph_nav2.geojson").exists()  # the earlier run's went
 
 
 def test_replay_route_graph_files_hold_no_build_times(tmp_path):

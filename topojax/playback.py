@@ -99,7 +99,8 @@ def replay(
         Passed to the reader.
     nav2_tolerance_m : float, optional
         Also write ``graph_nav2.geojson`` for the ROS 2 Nav2 Route Server with this
-        waypoint tolerance (:func:`topojax.save_nav2_graph`; none when it has no edge).
+        waypoint tolerance (:func:`topojax.save_nav2_graph`; none when it has no edge),
+        and with ``route_graph_radius_m`` the route graph's, ``route_graph_nav2.geojson``.
     graph_config : GraphConfig, optional
         What the written graph (and Nav2 file and pictures) keep of the final graph
         (``free_space_only``, the ``min_*_m`` pruning): the written graph is then
@@ -365,7 +366,7 @@ def _write_and_close(
     try:
         written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
         messages += _route_note(done)
-        written += _write_rooms_routes_view(mapper, done, out, timeline)
+        written += _write_rooms_routes_view(mapper, done, out, timeline, nav2_tolerance_m)
         written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
         final = True
         if recorder is not None:
@@ -387,11 +388,12 @@ def _record_final(recorder, done: _Replayed) -> None:
 
 
 def _write_rooms_routes_view(
-    mapper: IncrementalMapper, done: _Replayed, out: Path, timeline
+    mapper: IncrementalMapper, done: _Replayed, out: Path, timeline, nav2_tolerance_m
 ) -> list[Path]:
     """Write what the replay's options add to the graph and map files: the room files
-    (with rooms), the route graph files (with a robot radius) and the interactive view
-    (with a ``timeline``); returns the paths written."""
+    (with rooms), the route graph files (with a robot radius; its Nav2 file too with a
+    ``nav2_tolerance_m``, where it has an edge) and the interactive view (with a
+    ``timeline``); returns the paths written."""
     written: list[Path] = []
     seg = done.seg
     if seg is not None:
@@ -405,6 +407,11 @@ def _write_rooms_routes_view(
         written += [
             save_graph(routes, out / f"route_graph{s}") for s in (".graphml", ".json", ".geojson")
         ]
+        if nav2_tolerance_m is not None and routes.number_of_edges():
+            from .io import save_nav2_graph
+
+            path = out / "route_graph_nav2.geojson"
+            written.append(save_nav2_graph(routes, path, tolerance_m=nav2_tolerance_m))
     if timeline is not None:
         from .view import write_view
 
@@ -698,6 +705,7 @@ def output_names(
     names += ["map.yaml", "map.pgm", "timings.json"]
     names += ["graph.png", "stages.png"] * plot
     names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")] * route_graph
+    names += ["route_graph_nav2.geojson"] * (route_graph and nav2)
     names += [f"map{suffix}" for suffix in ROOM_FILE_SUFFIXES] * rooms
     return names + ["view.html", "timeline.json.gz"] * view
 

@@ -220,7 +220,7 @@ def add_command(subparsers) -> None:
         help="bags: without any pose source, map every scan at the origin (scan-only bags)",
     )
     add_graph_options(p)
-    add_nav2_options(p, "graph_nav2.geojson")
+    add_nav2_options(p, "graph_nav2.geojson (and route_graph_nav2.geojson with --route-graph)")
     p.add_argument(
         "--route-graph",
         type=float,
