@@ -286,8 +286,8 @@ def room_markers(seg, stamp_ns: int = 0):
     room id, in its colour of the label picture), the rings round its holes where it has
     any (one ``LINE_LIST``, namespace ``room_holes``, id = room id, same colour, each
     ring's sides as point pairs), its id as text at its label point
-    (:attr:`~topojax.Room.label_point`, ``TEXT_VIEW_FACING``, namespace ``room_ids``) and the doorways (one ``LINE_LIST``,
-    namespace ``doors``, two points per door)."""
+    (:attr:`~topojax.Room.label_point`, ``TEXT_VIEW_FACING``, namespace ``room_ids``)
+    and the doorways (one ``LINE_LIST``, namespace ``doors``, two points per door)."""
     from .rooms import room_colours
 
     t = _typestore().types
