@@ -168,14 +168,14 @@ def test_only_route_graphs_asked_for_ignore_the_papers_graph(tmp_path):
 def test_summary_parquet_types_route_counts_as_integers():
     from types import SimpleNamespace
 
-    from topojax.batch.records import _arrow_schema
+    from topojax.batch.records import ROOM_COLUMNS, SUMMARY_COLUMNS, _arrow_schema
 
     pa = SimpleNamespace(string=lambda: "str", int64=lambda: "int", float64=lambda: "float")
     pa.schema = dict
-    types = _arrow_schema(pa)
-    assert {
-        types[c] for c in ("vertices", "route_vertices", "route_edges", "route_components")
-    } == {"int"}
+    types = _arrow_schema(pa, (*SUMMARY_COLUMNS, *ROOM_COLUMNS))
+    counts = ("vertices", "route_vertices", "route_edges", "route_components", *ROOM_COLUMNS)
+    assert {types[c] for c in counts} == {"int"}
+    assert types["t_total_s"] == "float"
 
 
 def _batch_of_two_rooms(tmp_path):
