@@ -44,11 +44,39 @@ def test_a_tiled_build_leaves_its_graph_in_out_dir(tmp_path):
     out = tmp_path / "graph"
     res = tj.build_graph_tiled(m, config=SMALL, block_px=128, out_dir=out)
     assert_same_store(tj.load_graph_store(out), res.graph_store)
-    # the paths the build wrote are its store's: saving it again does not copy them
-    before = (out / "path_world.npy").stat().st_ino
-    tj.save_graph_store(res.graph_store, out)
-    assert (out / "path_world.npy").stat().st_ino == before
     assert_same_store(tj.load_graph_store(out, mmap=False), res.graph_store)
+
+
+def test_the_paths_are_written_once_by_a_tiled_build(tmp_path, monkeypatch):
+    """The build writes its two path arrays a block of edges at a time; saving the rest
+    of the store writes every other array, those not."""
+    names = []
+    write = store_files._write_array
+
+    def counted(path, arr):
+        names.append(path.stem)
+        write(path, arr)
+
+    monkeypatch.setattr(store_files, "_write_array", counted)
+    res = tj.build_graph_tiled(
+        tj.sample_map("office"), config=SMALL, block_px=128, out_dir=tmp_path
+    )
+    assert "node_pixel" in names and not {"path_pixels", "path_world"} & set(names)
+    assert_same_store(tj.load_graph_store(tmp_path), res.graph_store)
+
+
+def test_a_store_mapped_from_replaced_files_saves_its_own_arrays(tmp_path):
+    """A store opened from a folder keeps its arrays when the folder is saved over: saved
+    there again, its arrays go back, in whatever order a view of them takes."""
+    a, b = FIXTURES[1][3], FIXTURES[2][3]
+    tj.save_graph_store(a, tmp_path)
+    opened = tj.load_graph_store(tmp_path)
+    tj.save_graph_store(b, tmp_path)
+    tj.save_graph_store(opened, tmp_path)
+    assert_same_store(tj.load_graph_store(tmp_path), a)
+    flipped = GraphStore(**{**vars(opened), "node_pixel": opened.node_pixel[:, ::-1]})
+    tj.save_graph_store(flipped, tmp_path)
+    assert_same_store(tj.load_graph_store(tmp_path), flipped)
 
 
 def test_a_pruned_tiled_build_leaves_the_pruned_graph(tmp_path):
@@ -117,6 +145,18 @@ def test_files_replaced_or_damaged_are_refused(tmp_path):
         tj.load_graph_store(tmp_path)
     (tmp_path / "edge_u.npy").unlink()
     with pytest.raises(FileNotFoundError, match=r"the array file .*edge_u.npy is missing"):
+        tj.load_graph_store(tmp_path)
+    (tmp_path / "graph_store.json").write_text(json.dumps({**desc, "arrays": {}}))
+    with pytest.raises(ValueError, match=r"expected the arrays node_pixel, node_kind, .* listed"):
+        tj.load_graph_store(tmp_path)
+    np.save(tmp_path / "edge_u.npy", np.asarray(store.edge_u))
+    other = {**desc["arrays"], "node_kind": desc["arrays"]["edge_u"]}  # another store's file
+    (tmp_path / "graph_store.json").write_text(json.dumps({**desc, "arrays": other}))
+    with pytest.raises(ValueError, match=r"the arrays do not make one graph store: node_kind"):
+        tj.load_graph_store(tmp_path)
+    outside = {**desc["arrays"], "edge_u": {**desc["arrays"]["edge_u"], "file": "../x.npy"}}
+    (tmp_path / "graph_store.json").write_text(json.dumps({**desc, "arrays": outside}))
+    with pytest.raises(ValueError, match=r"expected a file in the folder, received '../x.npy'"):
         tj.load_graph_store(tmp_path)
     (tmp_path / "graph_store.json").write_text(json.dumps({**desc, "version": 99}))
     with pytest.raises(ValueError, match=r"expected version 1 of the format, received 99"):

@@ -23,23 +23,18 @@ from .._validate import instance_of, path_like
 from ..graph.store import GraphStore
 from ._schema import _collect_schema, _decode_attrs, jsonable
 
-__all__ = ["STORE_FILE", "load_graph_store", "save_graph_store"]
+__all__ = ["STORE_FILE", "load_graph_store", "save_graph_store", "write_store"]
 
 #: The file that describes a saved store (and marks the folder complete).
 STORE_FILE = "graph_store.json"
 _FORMAT = "topojax.GraphStore"
 _VERSION = 1
 _ARRAYS = tuple(f.name for f in dataclasses.fields(GraphStore) if f.name != "attrs")
-
-
-def _mapped_file(arr: np.ndarray) -> Path | None:
-    """The file ``arr`` is a whole read-only memory map of, or None."""
-    base = arr
-    while base is not None and not isinstance(base, np.memmap):
-        base = base.base
-    if base is None or base.filename is None or base.shape != arr.shape:
-        return None
-    return Path(base.filename).resolve()
+_REQUIRED = tuple(
+    f.name
+    for f in dataclasses.fields(GraphStore)
+    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+)
 
 
 def _write_array(path: Path, arr: np.ndarray) -> None:
@@ -66,11 +61,11 @@ def save_graph_store(store: GraphStore, folder) -> Path:
         For example ``build_graph_tiled(...).graph_store`` or
         ``GraphStore.from_networkx(graph)``.
     folder : str or Path
-        Folder (created).  Arrays of the store that are already memory-mapped from this
-        folder's files (``build_graph_tiled(out_dir=folder)``) are not written again;
-        the others replace the folder's files of the same name.  Until the save has
-        finished the folder holds no ``graph_store.json``, so a save that stops half way
-        is refused by :func:`load_graph_store` rather than read as a mixture.
+        Folder (created); the store's arrays replace its files of the same name (a
+        store memory-mapped from them keeps reading the files it opened).  Until the
+        save has finished the folder holds no ``graph_store.json``, so a save that
+        stops half way is refused by :func:`load_graph_store` rather than read as a
+        mixture.
 
     Returns
     -------
@@ -83,7 +78,13 @@ def save_graph_store(store: GraphStore, folder) -> Path:
         ``store`` is not a GraphStore, or a graph attribute cannot be saved as JSON.
     """
     instance_of("store", store, GraphStore)
-    folder = output_folder(folder, name="folder")
+    return write_store(store, output_folder(folder, name="folder"))
+
+
+def write_store(store: GraphStore, folder: Path, *, written: tuple[str, ...] = ()) -> Path:
+    """:func:`save_graph_store` into the existing ``folder``, whose files of the arrays
+    named in ``written`` hold the store's already (the paths a tiled build wrote there a
+    block at a time, which the store maps)."""
     attrs = {k: v for k, v in store.attrs.items() if k != "timings_s"}
     doc_attrs = {k: jsonable(v, f"graph attribute {k!r}") for k, v in attrs.items()}
     # the folder is not a complete store again until its description is written, last
@@ -95,7 +96,7 @@ def save_graph_store(store: GraphStore, folder) -> Path:
         if arr is None:  # an earlier store's optional array would only mislead
             path.unlink(missing_ok=True)
             continue
-        if _mapped_file(arr) != path.resolve():
+        if name not in written:
             _write_array(path, arr)
         arrays[name] = {"file": path.name, "dtype": arr.dtype.str, "shape": list(arr.shape)}
     doc = {
@@ -153,11 +154,22 @@ def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
             f"{desc}: expected version {_VERSION} of the format, received "
             f"{doc.get('version')!r} (written by another topojax release)"
         )
+    listed = doc.get("arrays")
+    missing = [n for n in _REQUIRED if not isinstance(listed, dict) or n not in listed]
+    if missing:
+        raise ValueError(f"{desc}: expected the arrays {', '.join(missing)} listed, received none")
     arrays = {}
-    for name, spec in doc["arrays"].items():
+    for name, spec in listed.items():
         if name not in _ARRAYS:
             raise ValueError(f"{desc}: unknown array {name!r}")
-        path = folder / spec["file"]
+        if not isinstance(spec, dict) or not {"file", "dtype", "shape"} <= spec.keys():
+            raise ValueError(f"{desc}: array {name!r}: expected its file, dtype and shape")
+        file = str(spec["file"])
+        if Path(file).name != file or file in ("", ".", ".."):
+            raise ValueError(
+                f"{desc}: array {name!r}: expected a file in the folder, received {file!r}"
+            )
+        path = folder / file
         if not path.is_file():
             raise FileNotFoundError(f"{desc}: the array file {path} is missing")
         try:
@@ -172,4 +184,7 @@ def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
             )
         arrays[name] = arr
     attrs = _decode_attrs(doc.get("attrs", {}), doc.get("attrs_schema", {}))
-    return GraphStore(**arrays, attrs=attrs)
+    try:
+        return GraphStore(**arrays, attrs=attrs)
+    except (TypeError, ValueError) as exc:  # files of different stores side by side
+        raise ValueError(f"{desc}: the arrays do not make one graph store: {exc}") from None

@@ -401,7 +401,7 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
     :func:`topojax.build_graph` gives them."""
     from ..graph import GraphStore, pixels_graph_store, prune_graph
     from ..graph.sparse import row_skeleton_graph_store, write_path_files
-    from ..io.store import STORE_FILE, save_graph_store
+    from ..io.store import STORE_FILE, write_store
 
     if out_dir is not None:  # a build that stops leaves no complete-looking store there
         (out_dir / STORE_FILE).unlink(missing_ok=True)
@@ -434,7 +434,7 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
     if not config.graph.prunes:
         store.attrs.update(attrs)
         if out_dir is not None:  # its paths are there already: the rest of the store
-            save_graph_store(store, out_dir)
+            write_store(store, out_dir, written=("path_pixels", "path_world"))
         return store, None
     graph = prune_graph(
         store.to_networkx(),
@@ -444,5 +444,5 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
     )
     graph.graph.update(attrs)
     if out_dir is not None:  # the folder holds the graph of the result: the pruned one
-        save_graph_store(GraphStore.from_networkx(graph), out_dir)
+        write_store(GraphStore.from_networkx(graph), out_dir)
     return None, graph
