@@ -8,6 +8,8 @@ a file replaced or cut short, and wrong arguments are refused by name."""
 from __future__ import annotations
 
 import json
+import os
+import stat
 
 import numpy as np
 import pytest
@@ -184,3 +186,17 @@ def test_wrong_arguments_are_named(tmp_path):
     store = GraphStore(**{**vars(FIXTURES[0][3]), "attrs": {"bad": object()}})
     with pytest.raises(TypeError, match=r"graph attribute 'bad'"):
         tj.save_graph_store(store, tmp_path / "g")
+
+
+def test_saved_arrays_get_the_permissions_of_ordinary_new_files(tmp_path):
+    old = os.umask(0o022)
+    try:
+        out = tmp_path / "graph"
+        res = tj.build_graph_tiled(tj.sample_map("office"), config=SMALL, block_px=128, out_dir=out)
+        tj.save_graph_store(res.graph_store, tmp_path / "copy")
+    finally:
+        os.umask(old)
+    for folder in (out, tmp_path / "copy"):
+        modes = {f.name: stat.S_IMODE(f.stat().st_mode) for f in folder.iterdir()}
+        assert "path_pixels.npy" in modes and "node_pixel.npy" in modes
+        assert modes == dict.fromkeys(modes, 0o644)

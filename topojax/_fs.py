@@ -11,6 +11,7 @@ from ._validate import path_like
 
 __all__ = [
     "atomic_write_bytes",
+    "default_file_mode",
     "input_files",
     "output_folder",
     "refuse_overwriting_inputs",
@@ -25,6 +26,12 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def default_file_mode() -> int:
+    """The permissions an ordinary new file gets (0666 less the process umask), for
+    files made with :func:`tempfile.mkstemp`, which makes them 0600."""
+    return 0o666 & ~_umask()
 
 
 def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
@@ -83,7 +90,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     try:
         # mkstemp creates the file 0600; give the result the permissions any ordinary
         # new file would get (0666 less the process umask).
-        os.fchmod(fd, 0o666 & ~_umask())
+        os.fchmod(fd, default_file_mode())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._fs import output_folder
+from .._fs import default_file_mode, output_folder
 from .._jit import cached_njit
 from .build import _edge_values, _world_of
 from .store import KIND_JUNCTION, KIND_RING, GraphStore
@@ -240,6 +240,7 @@ class _Output:
         self.files, self.tmp = {}, {}
         for name, dtype in (("path_pixels", np.int64), ("path_world", np.float64)):
             fd, tmp = tempfile.mkstemp(suffix=".tmp", prefix=f".{name}.npy.", dir=out_dir)
+            os.fchmod(fd, default_file_mode())  # mkstemp's 0600 would stay after renaming
             os.close(fd)
             self.tmp[name] = tmp
             mm = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=(n_path, 2))

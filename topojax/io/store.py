@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._fs import atomic_write_bytes, output_folder
+from .._fs import atomic_write_bytes, default_file_mode, output_folder
 from .._validate import instance_of, path_like
 from ..graph.store import GraphStore
 from ._schema import _collect_schema, _decode_attrs, jsonable
@@ -42,6 +42,7 @@ def _write_array(path: Path, arr: np.ndarray) -> None:
     (a file of an earlier store there may still be memory-mapped)."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(fd, default_file_mode())  # readable as the folder's other files are
         with os.fdopen(fd, "wb") as fh:
             np.lib.format.write_array(fh, np.ascontiguousarray(arr), allow_pickle=False)
             fh.flush()
