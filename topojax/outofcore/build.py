@@ -228,6 +228,8 @@ def build_graph_tiled(
             f"block_px: expected a multiple of config.tile_px ({config.tile_px}), "
             f"received {block_px}"
         )
+    if threads is not None:  # here, not in the first block (or a worker's task)
+        threads = positive_int("threads", threads)
     pool = as_executor(executor)
     if out_dir is not None:
         out_dir = output_folder(out_dir, name="out_dir")
