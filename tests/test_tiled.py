@@ -414,6 +414,8 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tj.build_graph_tiled(m, memory_budget_mb=0)
     with pytest.raises(TypeError, match="executor"):
         tj.build_graph_tiled(m, executor="threads")
+    with pytest.raises(ValueError, match=r"^threads: expected an int >= 1"):
+        tj.build_graph_tiled(m, threads=0, config=SMALL)
     with pytest.raises(TypeError, match="source"):
         tj.build_graph_tiled([[0, 1], [1, 0]])
     with pytest.raises(TypeError, match="config"):
@@ -459,6 +461,19 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         with pytest.raises(ValueError, match=rf"tile_px: expected an int >= 16, received {side}"):
             tj.save_tiled_map(m, tmp_path / "one", tile_px=side)
         assert not (tmp_path / "one").exists()
+
+
+def test_bad_threads_are_refused_before_any_block(monkeypatch):
+    """Not deep in the first block's kernels, or in an executor's worker."""
+    import topojax.outofcore.build as tiled_build
+
+    def no_block(*args, **kwargs):
+        raise AssertionError("a block was computed")
+
+    monkeypatch.setattr(tiled_build, "block_piece", no_block)
+    for threads, error in ((0, ValueError), (-1, ValueError), ("2", TypeError)):
+        with pytest.raises(error, match=r"^threads: expected an int >= 1"):
+            tj.build_graph_tiled(paper_map("intel"), threads=threads, config=SMALL)
 
 
 def test_a_tile_index_with_bad_metadata_is_named(tmp_path):
@@ -577,6 +592,8 @@ def test_a_tile_index_that_disagrees_with_its_tiles_is_refused_on_opening(tmp_pa
         ({"shape": [300]}, "shape: expected two positive integers"),
         ({"tile_px": 0}, "tile_px: expected a positive integer"),
         ({"dtype": "float32"}, "dtype: expected an integer or bool type name"),
+        ({"version": 2}, "expected version 1 of the tile index, received 2"),
+        ({"version": None}, "expected version 1 of the tile index, received None"),
     ):
         (path / TILE_INDEX).write_text(json.dumps({**index, **bad}))
         with pytest.raises(ValueError, match=needle):

@@ -63,6 +63,7 @@ __all__ = ["TILE_INDEX", "TiledMap", "open_tiled_map", "save_tiled_map"]
 #: Name of a tile folder's index file.
 TILE_INDEX = "tiles.json"
 _FOLDER_FORMAT = "topojax-tiles"
+_FOLDER_VERSION = 1
 _KINDS = ("image", "grid", "mask")
 _DTYPE_KIND = {"uint8": "image", "uint16": "image", "int8": "grid", "bool": "mask"}
 
@@ -527,6 +528,11 @@ def _open_folder(p: Path, overrides: dict) -> TiledMap:
             f"path: {index_path} is not a tile index (format {found!r}, "
             f"expected {_FOLDER_FORMAT!r})"
         )
+    if index.get("version") != _FOLDER_VERSION:
+        raise ValueError(
+            f"path: {index_path}: expected version {_FOLDER_VERSION} of the tile index, "
+            f"received {index.get('version')!r} (written by another topojax release)"
+        )
     shape, tile_px, dtype = _folder_layout(index, index_path)
     _check_tile_files(p, shape, tile_px)
     reader = _FolderReader(p, shape, tile_px, dtype)
@@ -664,7 +670,12 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
         band = tiled.values(r0, min(h, r0 + tile_px), 0, w)
         for tc, c0 in enumerate(range(0, w, tile_px)):
             np.save(folder / f"r{tr:05d}_c{tc:05d}.npy", band[:, c0 : c0 + tile_px])
-    index = {"format": _FOLDER_FORMAT, "version": 1, "shape": [h, w], "tile_px": tile_px}
+    index = {
+        "format": _FOLDER_FORMAT,
+        "version": _FOLDER_VERSION,
+        "shape": [h, w],
+        "tile_px": tile_px,
+    }
     index["dtype"] = dtype.name
     index.update(meta)
     (folder / TILE_INDEX).write_text(json.dumps(index, indent=1) + "\n")
