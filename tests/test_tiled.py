@@ -605,3 +605,26 @@ def test_a_tile_index_that_disagrees_with_its_tiles_is_refused_on_opening(tmp_pa
     (path / TILE_INDEX).write_text("{not json")
     with pytest.raises(ValueError, match="is not JSON"):
         tj.open_tiled_map(path)
+
+
+def test_a_zarr_array_missing_a_chunk_is_refused(tmp_path, monkeypatch):
+    """Zarr reads a missing chunk as 0, an obstacle: a deleted chunk, or a save that
+    stopped, gave another graph without any error."""
+    pytest.importorskip("zarr")
+    img = np.full((300, 280), 254, np.uint8)  # chunks of one value are written all the same
+    img[100:110, :] = 0
+    path = tj.save_tiled_map(img, tmp_path / "m.zarr", format="zarr", tile_px=128)
+    tj.open_tiled_map(path)
+    (path / "c" / "1" / "1").unlink()
+    with pytest.raises(ValueError, match=r"all its 9 chunks but holds 8: the save did not"):
+        tj.build_graph_tiled(path)
+    import topojax.maps.tiled as tiled
+
+    def stop(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tiled.TiledMap, "values", stop)
+    with pytest.raises(KeyboardInterrupt):
+        tj.save_tiled_map(img, tmp_path / "cut.zarr", format="zarr", tile_px=128)
+    with pytest.raises(ValueError, match=r"all its 9 chunks but holds 0"):
+        tj.open_tiled_map(tmp_path / "cut.zarr")

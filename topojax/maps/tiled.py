@@ -469,7 +469,8 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         return _open_folder(p, overrides)
     if p.is_dir() and (p / "zarr.json").is_file():
         reader = _ZarrReader(p)
-        meta = dict(_zarr().open_array(str(p), mode="r").attrs.get("topojax", {}))
+        meta = dict(reader._array.attrs.get("topojax", {}))
+        _refuse_missing_chunks(p, reader._array, meta)
         with _named(p / "zarr.json"):
             return TiledMap(reader, **_metadata(meta, overrides), source=str(p))
     if p.is_dir():
@@ -484,6 +485,18 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         f"path: expected a tile folder (with {TILE_INDEX}), a Zarr array, a binary .pgm or a "
         f"map YAML naming one, received {p}"
     )
+
+
+def _refuse_missing_chunks(path: Path, array, meta: dict) -> None:
+    """Zarr reads a missing chunk as its fill value (0, an obstacle in a grey image):
+    an array that :func:`save_tiled_map` wrote with every chunk (``all_chunks``) must
+    still hold them all, or its save did not finish or chunks were deleted."""
+    if meta.get("all_chunks") is True and array.nchunks_initialized != array.nchunks:
+        raise ValueError(
+            f"path: {path} was saved with all its {array.nchunks} chunks but holds "
+            f"{array.nchunks_initialized}: the save did not finish or chunks were deleted "
+            "(Zarr would read them as the fill value); save the map again"
+        )
 
 
 def _refuse_unfinished(folder: Path) -> None:
@@ -655,9 +668,14 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
                 f"path: expected an empty or new folder or a Zarr array, received {p}"
             )
         arr = zarr.create_array(
-            str(p), shape=(h, w), chunks=(tile_px, tile_px), dtype=dtype, overwrite=True
+            str(p),
+            shape=(h, w),
+            chunks=(tile_px, tile_px),
+            dtype=dtype,
+            overwrite=True,
+            config={"write_empty_chunks": True},  # so a missing chunk is a damaged array
         )
-        arr.attrs["topojax"] = meta
+        arr.attrs["topojax"] = {**meta, "all_chunks": True}
         for r0 in range(0, h, tile_px):
             arr[r0 : min(h, r0 + tile_px), :] = tiled.values(r0, min(h, r0 + tile_px), 0, w)
         return p
