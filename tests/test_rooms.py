@@ -81,6 +81,27 @@ def test_a_gap_between_a_wall_and_the_maps_edge_is_no_door():
     assert seg.doors[0].width_m == pytest.approx(0.9, abs=2 * RES)
 
 
+def test_a_window_keeps_doorways_across_its_cut_sides():
+    """A window cut from a larger map (a local incremental update) ends in the map's
+    space, not at its edge: a doorway whose wall lies beyond the window's side is kept,
+    as the larger map's segmentation has it."""
+    from topojax.rooms.segment import segment_window
+
+    free = _two_rooms(0.9)  # the door runs down the wall between the rooms, rows 43-61
+    occ = _map(free)
+    whole = tj.segment_rooms(occ)
+    assert len(whole.doors) == 1
+    top = 50  # a window whose top side cuts through the doorway
+    window = _map(free[top:])
+    h, w = free.shape
+    kept = segment_window(window, tj.RoomConfig(), map_box=(-top, 0, h - top, w))
+    assert kept.n_rooms == 2 and len(kept.doors) == 1
+    assert kept.doors[0].ends_px[:, 0].min() < 0  # the end beyond the window's side
+    assert tj.segment_rooms(window).doors == ()  # as a map of its own: that is its edge
+    with pytest.raises(ValueError, match=r"map_box: expected a box holding the window"):
+        segment_window(window, tj.RoomConfig(), map_box=(0, 0, 10, 10))
+
+
 def test_doors_end_on_the_map():
     for name in ("intel", "office", "a_scan"):
         occ = tj.sample_map(name)

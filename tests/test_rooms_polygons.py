@@ -480,6 +480,9 @@ def test_a_room_whose_outline_encloses_nothing_is_labelled_at_its_centroid():
 
     room = Room(1, 0.0, (2.0, 3.0), np.array([[0.0, 0.0], [1.0, 1.0]]), (0, 0, 0, 0))
     assert room.label_point == (2.0, 3.0)
+    hole = np.array([[5.0, 5.0], [6.0, 5.0], [6.0, 6.0]])  # a hole is no outline of its own
+    room = Room(1, 0.0, (2.0, 3.0), np.zeros((2, 2)), (0, 0, 0, 0), holes=(hole,))
+    assert room.label_point == (2.0, 3.0)
 
 
 @settings(max_examples=150, deadline=None)

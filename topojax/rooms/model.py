@@ -186,8 +186,10 @@ def _pole(polygon, holes, fallback) -> tuple[float, float]:
     them all, found by splitting square cells (polylabel); ``fallback`` when the rings
     enclose no area."""
     rings = [np.asarray(r, np.float64).reshape(-1, 2) for r in (polygon, *holes)]
+    if rings[0].shape[0] < 3:  # no outline to be inside of
+        return (float(fallback[0]), float(fallback[1]))
     rings = [r for r in rings if r.shape[0] >= 3]
-    if not rings or not np.isfinite(np.concatenate(rings)).all():
+    if not np.isfinite(np.concatenate(rings)).all():
         return (float(fallback[0]), float(fallback[1]))
     a = np.concatenate(rings)
     b = np.concatenate([np.roll(r, -1, axis=0) for r in rings])

@@ -10,7 +10,13 @@ from dataclasses import dataclass, fields
 import cv2
 import numpy as np
 
-from .._validate import instance_or_default, nonnegative_metres, positive_metres, quantity
+from .._validate import (
+    instance_of,
+    instance_or_default,
+    nonnegative_metres,
+    positive_metres,
+    quantity,
+)
 from ..fields.clearance import free_clearance_px
 from ..skeleton import thin
 from ._cuts import door_candidates, make_cuts
@@ -121,12 +127,31 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
 def segment_window(occupancy, config: RoomConfig, *, map_box) -> RoomSegmentation:
     """:func:`segment_rooms` of a window of a larger map (an OccupancyMap cut from it).
 
-    The window's sides inside the larger map are cut through its space: a doorway may end
-    beyond them (a wall of the larger map the window does not hold counts as the side).
-    ``map_box`` ``(row0, col0, row1, col1)``, end-exclusive, is the larger map's extent in
-    the window's pixels; no doorway ends beyond it.
+    The window's sides inside the larger map are cut through its space, not its edge: a
+    doorway may end beyond them (on the side, standing for a wall of the larger map the
+    window does not hold), but not beyond the larger map's own edge.
+
+    Parameters
+    ----------
+    occupancy : OccupancyMap
+        The window.
+    config : RoomConfig
+    map_box : tuple of 4 int
+        ``(row0, col0, row1, col1)``, end-exclusive: the larger map's extent in the
+        window's pixels (``(0, 0, *occupancy.shape)`` for the whole map).
+
+    Returns
+    -------
+    RoomSegmentation
     """
-    return _segment(occupancy, config, tuple(int(v) for v in map_box))
+    r0, c0, r1, c1 = (int(v) for v in map_box)
+    h, w = occupancy.shape
+    if not (r0 <= 0 and c0 <= 0 and r1 >= h and c1 >= w):
+        raise ValueError(
+            f"map_box: expected a box holding the window's {h} x {w} pixels, received "
+            f"{tuple(map_box)}"
+        )
+    return _segment(occupancy, instance_of("config", config, RoomConfig), (r0, c0, r1, c1))
 
 
 def _segment(occ, cfg: RoomConfig, map_box) -> RoomSegmentation:
