@@ -43,7 +43,6 @@ from __future__ import annotations
 import functools
 import math
 import os
-import reprlib
 import shutil
 import tempfile
 from pathlib import Path
@@ -52,6 +51,7 @@ import numpy as np
 
 from .._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
 from .._validate import instance_of, no_file_above
+from ._schema import _xy, xy_points
 
 __all__ = [
     "LASER_FRAME",
@@ -251,33 +251,11 @@ def _check_graph(name: str, graph) -> None:
         )
     # RViz drops a marker with a NaN point, with only a warning
     for n, d in graph.nodes(data=True):
-        _check_xy(name, f"node {n!r} 'world'", d["world"], one=True)
+        _xy(d["world"], f"{name}: node {n!r} 'world'")
     edges = graph.edges(keys=True, data=True) if graph.is_multigraph() else graph.edges(data=True)
     for *edge, d in edges:
         attr = "waypoints" if "waypoints" in d else "world"
-        _check_xy(name, f"edge {tuple(edge)!r} {attr!r}", d[attr])
-
-
-def _check_xy(name: str, where: str, value, *, one: bool = False) -> None:
-    """Raise a ValueError naming ``name`` and ``where`` unless ``value`` is finite (x, y)
-    metres: shape (2,) with ``one``, else (K, 2) with K >= 1."""
-    try:
-        xy = np.asarray(value, np.float64)
-    except (TypeError, ValueError):
-        xy = None
-    what = "2 finite numbers (x, y)" if one else "finite (x, y) points of shape (K, 2)"
-    if xy is None or (xy.shape != (2,) if one else xy.ndim != 2 or xy.shape[1:] != (2,)):
-        shape = "" if xy is None else f" of shape {xy.shape}"
-        received = reprlib.repr(value)
-        raise ValueError(f"{name}: {where}: expected {what} in metres, received {received}{shape}")
-    if not one and len(xy) == 0:
-        raise ValueError(f"{name}: {where}: expected {what} in metres, K >= 1, received none")
-    bad = int(np.count_nonzero(~np.isfinite(xy)))
-    if bad:
-        raise ValueError(
-            f"{name}: {where}: expected {what} in metres, received {bad} value(s) that are "
-            "not finite"
-        )
+        xy_points(d[attr], f"{name}: edge {tuple(edge)!r} {attr!r}")
 
 
 def room_markers(seg, stamp_ns: int = 0):

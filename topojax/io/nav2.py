@@ -12,7 +12,7 @@ import numpy as np
 from .._fs import atomic_write_bytes
 from .._validate import instance_of, path_like, positive_metres
 from ..graph import holds, polyline_keep
-from ._schema import _xy, as_multigraph, jsonable
+from ._schema import _xy, as_multigraph, jsonable, xy_points
 
 # One directed hop of a waypoint chain: start id, end id, start (x, y), end (x, y), metadata.
 _Segment = tuple[int, int, list[float], list[float], dict]
@@ -147,9 +147,9 @@ def _corridor_segments(
     Empty for a loop around no pixel but its vertex's or a path on one point."""
     u, v, k = edge
     where = f"edge ({u!r}, {v!r}, {k!r})"
-    xy = np.asarray(d.get("world", np.empty((0, 2))), dtype=np.float64)
-    if xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < 1 or not np.isfinite(xy).all():
+    if "world" not in d:
         raise ValueError(f"graph: {where} needs a finite 'world' polyline of shape (K, 2)")
+    xy = xy_points(d["world"], f"graph: {where} 'world'")
     corridor = {"corridor": [_id_value(x, "edge id") for x in (u, v, k)]}
     corridor.update(_finite_metres(d, ("min_clearance_m", "mean_clearance_m")))
     planned = _waypoints(d, where)
