@@ -110,7 +110,9 @@ def test_rooms_alone_and_a_route_graph_with_its_map():
     room = data["rooms"]["rooms"][0]
     assert room["area_m2"] == seg.rooms[0].area_m2
     assert np.allclose(np.reshape(room["polygon"], (-1, 2)), seg.rooms[0].polygon, atol=1e-4)
-    assert room["holes"] == [] and seg.rooms[0].holes == ()
+    assert len(room["holes"]) == len(seg.rooms[0].holes)
+    for ring, hole in zip(room["holes"], seg.rooms[0].holes, strict=True):
+        assert np.allclose(np.reshape(ring, (-1, 2)), hole, atol=1e-4)
 
 
 def test_rooms_carry_the_rings_round_their_holes():
