@@ -519,13 +519,13 @@ def test_route_command_with_the_map_joins_the_graph_where_the_route_is_shortest(
     want = RoutePlanner(tj.load_graph(graph_file), occupancy=m).route(start, goal, frame="pixel")
     assert f"{want.length_m:.2f} m along the graph" in printed
     assert f"start {want.start_snap_m:.3f} m" in printed
-    # a map of another size is refused, naming the option's parameter
+    # a map of another size is refused, naming the option
     small = tmp_path / "small.png"
     import cv2
 
     cv2.imwrite(str(small), np.full((20, 20), 255, np.uint8))
     assert main([*argv, "--map", str(small)]) == 2
-    assert "occupancy: expected the graph's map of shape" in capsys.readouterr().err
+    assert "--map: expected the graph's map of shape" in capsys.readouterr().err
     # options that only matter with the map are refused without it
     assert main([*argv, "--resolution", "0.05", "--entry-m", "2"]) == 2
     err = capsys.readouterr().err

@@ -130,9 +130,15 @@ def _cmd_route(args) -> int:
                 "is not a route graph: it records none), received none"
             )
     frame = "pixel" if args.pixel else "world"
-    planner = RoutePlanner(
-        graph, occupancy=occupancy, robot_radius_m=args.robot_radius, entry_m=args.entry_m
-    )
+    try:
+        planner = RoutePlanner(
+            graph, occupancy=occupancy, robot_radius_m=args.robot_radius, entry_m=args.entry_m
+        )
+    except ValueError as exc:  # the planner names its parameter; the user gave the option
+        text = str(exc)
+        if not text.startswith("occupancy: "):
+            raise
+        raise ValueError(f"--map: {text.removeprefix('occupancy: ')}") from None
     try:
         route = planner.route(
             tuple(args.start), tuple(args.goal), frame=frame, max_snap_m=args.max_snap_m
