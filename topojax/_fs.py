@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import BinaryIO
 
 from ._validate import path_like
 
 __all__ = [
+    "atomic_write",
     "atomic_write_bytes",
     "default_file_mode",
     "input_files",
@@ -66,10 +69,7 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically.
-
-    The bytes go to a temporary file in the same folder, which is flushed, synced and then
-    renamed over ``path`` with :func:`os.replace`; readers never see a partial file.
+    """Write ``data`` to ``path`` atomically (:func:`atomic_write`).
 
     Parameters
     ----------
@@ -77,6 +77,21 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
         Destination file. Its folder must exist.
     data : bytes
         File content.
+    """
+    atomic_write(path, lambda fh: fh.write(data))
+
+
+def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
+    """Write a file atomically: ``write(fh)`` fills a temporary file in the same folder,
+    which is flushed, synced and then renamed over ``path`` with :func:`os.replace`;
+    readers never see a partial file (and one that maps the old file keeps it).
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination file. Its folder must exist.
+    write : callable
+        Called with the temporary file, open for binary writing.
     """
     dest = Path(path)
     if dest.is_dir():
@@ -92,7 +107,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
         # new file would get (0666 less the process umask).
         os.fchmod(fd, default_file_mode())
         with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
+            write(fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, dest)

@@ -12,13 +12,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .._fs import atomic_write_bytes, default_file_mode, output_folder
+from .._fs import atomic_write, atomic_write_bytes, output_folder
 from .._validate import instance_of, path_like
 from ..graph.store import GraphStore
 from ._schema import _collect_schema, _decode_attrs, jsonable
@@ -38,19 +36,10 @@ _REQUIRED = tuple(
 
 
 def _write_array(path: Path, arr: np.ndarray) -> None:
-    """``arr`` to the ``.npy`` file ``path``, under a temporary name renamed when complete
-    (a file of an earlier store there may still be memory-mapped)."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(fd, default_file_mode())  # readable as the folder's other files are
-        with os.fdopen(fd, "wb") as fh:
-            np.lib.format.write_array(fh, np.ascontiguousarray(arr), allow_pickle=False)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """``arr`` to the ``.npy`` file ``path``, replacing it whole (a file of an earlier
+    store there may still be memory-mapped)."""
+    arr = np.ascontiguousarray(arr)
+    atomic_write(path, lambda fh: np.lib.format.write_array(fh, arr, allow_pickle=False))
 
 
 def save_graph_store(store: GraphStore, folder) -> Path:
