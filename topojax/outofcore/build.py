@@ -183,7 +183,9 @@ def build_graph_tiled(
         Block side in pixels, a multiple of ``config.tile_px``; default: the largest
         whose stages fit ``memory_budget_mb``.
     memory_budget_mb : float, default 512
-        Memory for one block's stages (per worker), used when ``block_px`` is None.
+        Memory for one block's stages (per worker), used when ``block_px`` is None;
+        not the kernels' compilers and runtimes, which a process's first call loads
+        once (``docs/performance.md``).
     executor : concurrent.futures.Executor or dask.distributed.Client, optional
         Runs the blocks as tasks (a Dask ``Client``: on its workers, each reading its
         window from the source); default: one after another in this process.
