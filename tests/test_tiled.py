@@ -23,6 +23,7 @@ from topojax.outofcore import (
     remove_t_in_map_order,
     thin_window,
 )
+from topojax.outofcore.checkpoint import BLOCKS_FOLDER
 from topojax.skeleton import remove_t_centres, thin
 
 PAPER = ("intel", "office", "a_scan")
@@ -207,8 +208,10 @@ def test_paths_on_disk_replace_an_earlier_graphs_files(tmp_path, monkeypatch):
     monkeypatch.setattr(sparse, "_edge_values", fail)
     with pytest.raises(RuntimeError, match="interrupted"):
         tj.build_graph_tiled(paper_map("office"), config=SMALL, block_px=128, out_dir=out)
-    # no temporary file left, the paths not replaced, and no description: not a store
-    assert all(p.suffix == ".npy" for p in out.iterdir())
+    # no temporary file left, the paths not replaced, and no description: not a store;
+    # the finished blocks stay for resume=True
+    assert all(p.suffix == ".npy" for p in out.iterdir() if p.name != BLOCKS_FOLDER)
+    assert (out / BLOCKS_FOLDER / "build.json").is_file()
     assert np.array_equal(np.load(out / "path_pixels.npy"), second.graph_store.path_pixels)
 
 

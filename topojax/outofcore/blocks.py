@@ -18,6 +18,7 @@ the whole map):
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +29,7 @@ from ..fields.ridge_values import at_ridge_pixels
 from ..maps.tiled import TiledMap
 from .exact import exact_after_t_removal, remove_t_in_map_order, thin_window
 
-__all__ = ["BlockPiece", "block_piece", "fields_halo_px"]
+__all__ = ["BlockPiece", "block_piece", "fields_halo_px", "window_box", "window_digest"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +50,8 @@ class BlockPiece:
         The halo the proof needed (None when it failed: ``flat`` is then empty).
     sub_iterations : int
         Thinning sub-iterations the window ran.
+    window_digest : bytes or None
+        Digest of the map window read (:func:`window_digest`), when asked for.
     """
 
     box: tuple[int, int, int, int]
@@ -57,6 +60,7 @@ class BlockPiece:
     occupied_px: int
     halo_px: int | None
     sub_iterations: int
+    window_digest: bytes | None = None
 
 
 def fields_halo_px(config: PipelineConfig) -> int:
@@ -64,16 +68,31 @@ def fields_halo_px(config: PipelineConfig) -> int:
     return config.distance.half_width_px + HALO_PX
 
 
-def _clip(box, pad, shape):
+def window_box(box, pad: int, shape) -> tuple[int, int, int, int]:
+    """Block ``box`` ``(r0, r1, c0, c1)`` grown by ``pad`` pixels on each side, clipped to
+    a map of ``shape``."""
     r0, r1, c0, c1 = box
     h, w = shape
     return max(0, r0 - pad), min(h, r1 + pad), max(0, c0 - pad), min(w, c1 + pad)
 
 
+def window_digest(codes: np.ndarray) -> bytes:
+    """A 16-byte digest of a map window (its class codes, uint8 (h, w)) and its shape."""
+    data = np.ascontiguousarray(codes, dtype=np.uint8)
+    shape = np.array(data.shape, np.int64).tobytes()
+    return hashlib.blake2b(shape + data.tobytes(), digest_size=16).digest()
+
+
 def block_piece(
-    tiled: TiledMap, box, config: PipelineConfig, halo_px: int, threads: int | None = None
+    tiled: TiledMap,
+    box,
+    config: PipelineConfig,
+    halo_px: int,
+    threads: int | None = None,
+    digest: bool = False,
 ) -> BlockPiece:
-    """The skeleton pixels of block ``box`` with a halo of ``halo_px`` (see the module).
+    """The skeleton pixels of block ``box`` with a halo of ``halo_px`` (see the module);
+    with ``digest``, the piece carries the digest of the map window it read.
 
     ``halo_px - fields_halo_px(config)`` pixels of exact ridges are thinned around the
     block; when that is too few to prove the block's pixels exact, the piece has
@@ -81,15 +100,16 @@ def block_piece(
     """
     h, w = tiled.shape
     r0, r1, c0, c1 = box
-    f0, f1, g0, g1 = _clip(box, halo_px, (h, w))  # the kernels' window
+    f0, f1, g0, g1 = window_box(box, halo_px, (h, w))  # the kernels' window
     codes = tiled.codes(f0, f1, g0, g1)
+    seen = window_digest(codes) if digest else None
     occupied = codes == 1
     core_occ = int(np.count_nonzero(occupied[r0 - f0 : r1 - f0, c0 - g0 : c1 - g0]))
     thin_pad = halo_px - fields_halo_px(config)
-    t0, t1, u0, u1 = _clip(box, thin_pad, (h, w))  # the thinned window
+    t0, t1, u0, u1 = window_box(box, thin_pad, (h, w))  # the thinned window
     empty = np.zeros(0, np.int64)
     if not occupied.any():  # H = 0 in the whole window: no ridge near the block
-        return BlockPiece(box, empty, np.zeros(0, np.int32), core_occ, halo_px, 0)
+        return BlockPiece(box, empty, np.zeros(0, np.int32), core_occ, halo_px, 0, seen)
     fields, ridge_sq = ridge_fields(
         occupied,
         distance=config.distance,
@@ -109,14 +129,14 @@ def block_piece(
     core = (r0 - t0, r1 - t0, c0 - u0, c1 - u0)
     if config.skeleton.remove_t:
         if not exact_after_t_removal(skeleton, unsure, core):
-            return BlockPiece(box, empty, np.zeros(0, np.int32), core_occ, None, n_sub)
+            return BlockPiece(box, empty, np.zeros(0, np.int32), core_occ, None, n_sub, seen)
         remove_t_in_map_order(skeleton, t0, u0, h, w)
     elif unsure[1:-1, 1:-1][core[0] : core[1], core[2] : core[3]].any():
-        return BlockPiece(box, empty, np.zeros(0, np.int32), core_occ, None, n_sub)
+        return BlockPiece(box, empty, np.zeros(0, np.int32), core_occ, None, n_sub, seen)
     rows, cols = np.nonzero(skeleton[core[0] : core[1], core[2] : core[3]])
     rows += r0
     cols += c0
     in_fields = (rows - f0).astype(np.int64) * (g1 - g0) + (cols - g0)
     sq = at_ridge_pixels(ridges_all, ridge_sq, in_fields)
     flat = rows.astype(np.int64) * w + cols
-    return BlockPiece(box, flat, sq.astype(np.int32), core_occ, halo_px, n_sub)
+    return BlockPiece(box, flat, sq.astype(np.int32), core_occ, halo_px, n_sub, seen)

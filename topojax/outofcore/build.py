@@ -18,12 +18,13 @@ import numpy as np
 
 from .._cpus import as_executor
 from .._fs import output_folder
-from .._validate import instance_or_default, positive_int, quantity
+from .._validate import flag, instance_or_default, positive_int, quantity
 from ..config import PipelineConfig
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map
 from ..maps.occupancy import OccupancyMap
 from ..maps.tiled import TiledMap, _array_map, open_tiled_map
 from .blocks import BlockPiece, block_piece, fields_halo_px
+from .checkpoint import BlockCheckpoints
 
 __all__ = ["BYTES_PER_WINDOW_PX", "TiledResult", "block_px_for_budget", "build_graph_tiled"]
 
@@ -57,6 +58,8 @@ class TiledResult:
         ``blocks`` (all block stages, with the clearances), ``graph`` and ``total``.
     blocks : int
         Number of blocks.
+    blocks_reused : int
+        Blocks read from a stopped build's ``out_dir`` (``resume=True``), not computed.
     halo_px : tuple of int
         The distinct halos the blocks needed, smallest first.
     pruned_graph : networkx.MultiGraph or None
@@ -77,6 +80,7 @@ class TiledResult:
     cols: np.ndarray
     timings_s: dict[str, float] = field(default_factory=dict)
     blocks: int = 0
+    blocks_reused: int = 0
     halo_px: tuple[int, ...] = ()
     pruned_graph: Any = None
 
@@ -145,11 +149,14 @@ def _as_tiled(source) -> TiledMap:
     )
 
 
-def _block_task(tiled: TiledMap, box, config: PipelineConfig, halo: int, threads) -> BlockPiece:
-    """One block, its halo grown a tile at a time until its pixels are proved exact."""
+def _block_task(
+    tiled: TiledMap, box, config: PipelineConfig, halo: int, threads, digest: bool = False
+) -> BlockPiece:
+    """One block, its halo grown a tile at a time until its pixels are proved exact
+    (with ``digest``, the piece carries its window's digest)."""
     t = config.tile_px
     for _ in range(MAX_HALO_STEPS + 1):
-        piece = block_piece(tiled, box, config, halo, threads)
+        piece = block_piece(tiled, box, config, halo, threads, digest)
         if piece.halo_px is not None:
             return piece
         halo += t
@@ -168,6 +175,7 @@ def build_graph_tiled(
     executor=None,
     threads: int | None = None,
     out_dir=None,
+    resume: bool = False,
 ) -> TiledResult:
     """Build the topology graph of a map read block by block (maps larger than memory).
 
@@ -198,8 +206,14 @@ def build_graph_tiled(
         a block of edges at a time and given to the store memory-mapped, so they need
         not fit in memory (with junction clusters merged the graph is built in memory
         and its arrays written there after; with pruning, the folder holds the pruned
-        graph; a build that stops leaves it without ``graph_store.json``).  Default: in
-        memory.
+        graph; a build that stops leaves it without ``graph_store.json``).  While the
+        build runs, the folder's ``blocks/`` keeps each finished block (12 bytes per
+        skeleton pixel), removed once the graph is written.  Default: in memory.
+    resume : bool, default False
+        Go on from the blocks a stopped build left in ``out_dir`` (the same map, options
+        and block side; a block whose map window changed since is computed again);
+        blocks of another build are refused.  False: an earlier build's blocks there
+        are removed first.
 
     Returns
     -------
@@ -232,9 +246,17 @@ def build_graph_tiled(
         )
     if threads is not None:  # here, not in the first block (or a worker's task)
         threads = positive_int("threads", threads)
+    resume = flag("resume", resume)
+    if resume and out_dir is None:
+        raise ValueError(
+            "resume: expected out_dir, the folder whose blocks a stopped build left, "
+            "received out_dir=None"
+        )
     pool = as_executor(executor)
+    kept = None
     if out_dir is not None:
         out_dir = output_folder(out_dir, name="out_dir")
+        kept = BlockCheckpoints(out_dir, tiled, config, block_px, resume=resume)
     h, w = tiled.shape
     boxes = [
         (r, min(h, r + block_px), c, min(w, c + block_px))
@@ -243,20 +265,27 @@ def build_graph_tiled(
     ]
     halo = _first_halo(config)
     t0 = time.perf_counter()
+    reused = {b for b in boxes if kept.usable(b)} if resume else set()
+    todo = [b for b in boxes if b not in reused]
+    digest = kept is not None
     if pool is None:
-        pieces = (_block_task(tiled, b, config, halo, threads) for b in boxes)
+        computed = (_block_task(tiled, b, config, halo, threads, digest) for b in todo)
     else:
         shared = tiled
         if not isinstance(executor, cf.Executor) and hasattr(executor, "scatter"):
             shared = executor.scatter(tiled, broadcast=True)  # once, not once per block
-        futures = deque(pool.submit(_block_task, shared, b, config, halo, threads) for b in boxes)
-        pieces = _results(futures)
+        futures = deque(
+            pool.submit(_block_task, shared, b, config, halo, threads, digest) for b in todo
+        )
+        computed = _results(futures)
     skeleton = _Skeleton(tiled, config.distance.half_width_px, config.tile_px)
-    for piece in pieces:
+    for piece in _in_block_order(boxes, reused, computed, kept):
         skeleton.add(piece)
     row_start, cols, clearance = skeleton.finish()
     t1 = time.perf_counter()
     store, pruned = _graph(tiled, row_start, cols, clearance, config, out_dir)
+    if kept is not None:  # the graph is written: the blocks are not needed any more
+        kept.remove()
     t2 = time.perf_counter()
     return TiledResult(
         map=tiled,
@@ -266,9 +295,24 @@ def build_graph_tiled(
         cols=cols,
         timings_s={"blocks": t1 - t0, "graph": t2 - t1, "total": t2 - t0},
         blocks=len(boxes),
+        blocks_reused=len(reused),
         halo_px=tuple(sorted(skeleton.halos)),
         pruned_graph=pruned,
     )
+
+
+def _in_block_order(boxes, reused: set, computed, kept):
+    """Every block's piece in the order of ``boxes``: the ``reused`` ones read from
+    ``kept`` (:class:`BlockCheckpoints` or None), the others the next of ``computed``
+    (in order), each kept there as it comes."""
+    for box in boxes:
+        if box in reused:
+            yield kept.load(box)
+            continue
+        piece = next(computed)
+        if kept is not None:
+            kept.save(piece)
+        yield piece
 
 
 def _results(futures: deque):

@@ -1,0 +1,148 @@
+"""A stopped ``build_graph_tiled`` goes on from the blocks it finished (``resume=True``):
+the same graph as one uninterrupted build, only the missing or changed blocks computed
+again, and never the blocks of another build."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+
+import numpy as np
+import pytest
+from test_tiled import SMALL, assert_same_graph, paper_map
+
+import topojax as tj
+import topojax.outofcore.build as tiled_build
+from topojax.config import DistanceConfig, PipelineConfig
+from topojax.outofcore.checkpoint import BLOCKS_FOLDER
+
+BLOCK = 128  # the office map (727 x 1234) in 6 x 10 blocks
+OTHER = PipelineConfig(distance=DistanceConfig.from_pixels(sigma_px=12.0), tile_px=64)
+
+
+def stop_after(monkeypatch, n_blocks: int) -> list:
+    """Make the block computation stop (Ctrl-C) when block ``n_blocks + 1`` starts;
+    returns the list of the boxes computed, call by call."""
+    real = tiled_build._block_task
+    done: list = []
+
+    def task(tiled, box, *args):
+        if len(done) == n_blocks:
+            raise KeyboardInterrupt
+        done.append(box)
+        return real(tiled, box, *args)
+
+    monkeypatch.setattr(tiled_build, "_block_task", task)
+    return done
+
+
+def test_a_stopped_build_goes_on_where_it_stopped(tmp_path, monkeypatch):
+    m = paper_map("office")
+    out = tmp_path / "graph"
+    done = stop_after(monkeypatch, 7)
+    with pytest.raises(KeyboardInterrupt):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
+    assert len(list((out / BLOCKS_FOLDER).glob("block_*.npz"))) == 7
+    monkeypatch.undo()
+    computed = stop_after(monkeypatch, 10**6)
+    res = tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)
+    assert res.blocks_reused == 7
+    assert not set(computed) & set(done)
+    assert len(computed) == res.blocks - 7
+    assert_same_graph(res, tj.build_graph(m, config=SMALL))
+    # the graph is written: its folder holds the store and no blocks
+    assert not (out / BLOCKS_FOLDER).exists()
+    assert tj.load_graph_store(out).n_edges == res.graph_store.n_edges
+
+
+def test_a_block_whose_window_changed_is_computed_again(tmp_path, monkeypatch):
+    m = paper_map("office")
+    out = tmp_path / "graph"
+    stop_after(monkeypatch, 12)
+    with pytest.raises(KeyboardInterrupt):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
+    monkeypatch.undo()
+    # an obstacle pixel in the first block: the windows that hold it are computed again
+    occupied = np.array(m.occupied)
+    free = np.array(m.free)
+    occupied[40, 60], free[40, 60] = True, False
+    changed = tj.OccupancyMap(
+        occupied=occupied,
+        free=free,
+        unknown=np.array(m.unknown),
+        resolution_m=m.resolution_m,
+        origin=m.origin,
+    )
+    computed = stop_after(monkeypatch, 10**6)
+    res = tj.build_graph_tiled(changed, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)
+    assert 0 < res.blocks_reused < 12
+    assert (0, BLOCK, 0, BLOCK) in computed
+    assert_same_graph(res, tj.build_graph(changed, config=SMALL))
+
+
+def test_blocks_in_a_pool_are_kept_and_reused(tmp_path, monkeypatch):
+    m = paper_map("intel")
+    out = tmp_path / "graph"
+    with cf.ThreadPoolExecutor(2) as pool:
+        first = tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, executor=pool)
+    assert first.blocks_reused == 0
+    # the graph stage stops: every block is kept, none is computed on resuming
+    monkeypatch.setattr(tiled_build, "_graph", lambda *a: (_ for _ in ()).throw(MemoryError))
+    with pytest.raises(MemoryError):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
+    monkeypatch.undo()
+    computed = stop_after(monkeypatch, 10**6)
+    with cf.ThreadPoolExecutor(2) as pool:
+        res = tj.build_graph_tiled(
+            m, config=SMALL, block_px=BLOCK, out_dir=out, executor=pool, resume=True
+        )
+    assert computed == [] and res.blocks_reused == res.blocks
+    assert_same_graph(res, tj.build_graph(m, config=SMALL))
+
+
+def test_blocks_of_another_build_are_refused_and_a_new_build_clears_them(tmp_path, monkeypatch):
+    m = paper_map("office")
+    out = tmp_path / "graph"
+    stop_after(monkeypatch, 3)
+    with pytest.raises(KeyboardInterrupt):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match=r"^resume: .* another build \(block_px: 128, here 64\)"):
+        tj.build_graph_tiled(m, config=SMALL, block_px=64, out_dir=out, resume=True)
+    with pytest.raises(ValueError, match=r"^resume: .* another build \(config: "):
+        tj.build_graph_tiled(m, config=OTHER, block_px=BLOCK, out_dir=out, resume=True)
+    with pytest.raises(ValueError, match=r"^resume: .* another build \(shape: "):
+        tj.build_graph_tiled(
+            paper_map("intel"), config=SMALL, block_px=BLOCK, out_dir=out, resume=True
+        )
+    # without resume the old blocks go first; a file of another program stays
+    (out / BLOCKS_FOLDER / "notes.txt").write_text("mine")
+    computed = stop_after(monkeypatch, 10**6)
+    res = tj.build_graph_tiled(m, config=SMALL, block_px=64, out_dir=out)
+    assert res.blocks_reused == 0 and len(computed) == res.blocks
+    assert sorted(p.name for p in (out / BLOCKS_FOLDER).iterdir()) == ["notes.txt"]
+
+
+def test_a_damaged_block_file_is_computed_again(tmp_path, monkeypatch):
+    m = paper_map("intel")
+    out = tmp_path / "graph"
+    stop_after(monkeypatch, 4)
+    with pytest.raises(KeyboardInterrupt):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
+    monkeypatch.undo()
+    damaged = out / BLOCKS_FOLDER / f"block_0_{BLOCK}.npz"
+    damaged.write_bytes(damaged.read_bytes()[:100])
+    computed = stop_after(monkeypatch, 10**6)
+    res = tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)
+    assert res.blocks_reused == 3 and (0, BLOCK, BLOCK, 2 * BLOCK) in computed
+    assert_same_graph(res, tj.build_graph(m, config=SMALL))
+
+
+def test_resume_is_checked(tmp_path):
+    m = paper_map("intel")
+    with pytest.raises(ValueError, match=r"^resume: expected out_dir, .* received out_dir=None"):
+        tj.build_graph_tiled(m, config=SMALL, resume=True)
+    with pytest.raises(TypeError, match=r"^resume: "):
+        tj.build_graph_tiled(m, config=SMALL, out_dir=tmp_path, resume="yes")
+    # nothing to resume from: every block computed
+    res = tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=tmp_path, resume=True)
+    assert res.blocks_reused == 0

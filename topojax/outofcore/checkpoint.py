@@ -1,0 +1,160 @@
+"""Finished blocks of :func:`topojax.build_graph_tiled` kept in its ``out_dir``, so that a
+build that stopped (killed, out of time, Ctrl-C) goes on where it was with
+``resume=True`` instead of computing every block again.
+
+Each finished block is one ``.npz`` file in ``out_dir/blocks/`` (its skeleton pixels and
+squared distances, 12 bytes per pixel, plus a digest of the map window it read);
+``blocks/build.json`` describes the build they belong to (the map's shape, resolution and
+origin, the configuration, the block side).  A kept block is used again only when the
+build is the same and the window it read still holds the same pixels; the folder is
+removed once the graph is written.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fs import atomic_write, atomic_write_bytes
+from ..config import PipelineConfig
+from ..maps.tiled import TiledMap
+from .blocks import BlockPiece, window_box, window_digest
+
+__all__ = ["BLOCKS_FOLDER", "BlockCheckpoints"]
+
+#: Folder of ``out_dir`` that holds the finished blocks while a build runs.
+BLOCKS_FOLDER = "blocks"
+_BUILD_FILE = "build.json"
+_FORMAT = "topojax-tiled-blocks"
+_VERSION = 1
+_ARRAYS = ("box", "flat", "sq_distance_px", "occupied_px", "halo_px", "sub_iterations", "digest")
+
+
+def _description(tiled: TiledMap, config: PipelineConfig, block_px: int) -> dict[str, Any]:
+    """What makes two builds' blocks the same (JSON types only)."""
+    desc = {
+        "format": _FORMAT,
+        "version": _VERSION,
+        "shape": [int(s) for s in tiled.shape],
+        "resolution_m": float(tiled.resolution_m),
+        "origin": [float(v) for v in tiled.origin],
+        "block_px": int(block_px),
+        "config": dataclasses.asdict(config),
+    }
+    return json.loads(json.dumps(desc))
+
+
+class BlockCheckpoints:
+    """The finished blocks of one build in ``out_dir/blocks``.
+
+    ``resume=False`` removes the blocks of any earlier build; ``resume=True`` keeps them
+    when they belong to the same build and refuses (ValueError naming ``resume``) blocks
+    of another one.
+    """
+
+    def __init__(
+        self,
+        out_dir: Path,
+        tiled: TiledMap,
+        config: PipelineConfig,
+        block_px: int,
+        *,
+        resume: bool,
+    ) -> None:
+        self.folder = out_dir / BLOCKS_FOLDER
+        self.tiled = tiled
+        desc = _description(tiled, config, block_px)
+        build_file = self.folder / _BUILD_FILE
+        if resume and build_file.is_file():
+            _check_same_build(build_file, desc)
+            return
+        self.remove()
+        self.folder.mkdir(exist_ok=True)
+        atomic_write_bytes(build_file, json.dumps(desc, indent=1).encode())
+
+    def _path(self, box) -> Path:
+        return self.folder / f"block_{box[0]}_{box[2]}.npz"
+
+    def usable(self, box) -> bool:
+        """Whether block ``box`` was finished and the window it read is unchanged."""
+        path = self._path(box)
+        if not path.is_file():
+            return False
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                arrays = {name: f[name] for name in _ARRAYS}  # read whole: checksums
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+            return False  # cut short or damaged: computed again
+        saved_box = tuple(int(v) for v in arrays["box"])
+        halo = int(arrays["halo_px"])
+        digest = arrays["digest"].tobytes()
+        del arrays
+        if saved_box != tuple(box):
+            return False
+        r0, r1, c0, c1 = window_box(box, halo, self.tiled.shape)
+        return window_digest(self.tiled.codes(r0, r1, c0, c1)) == digest
+
+    def load(self, box) -> BlockPiece:
+        """The kept piece of block ``box`` (checked with :meth:`usable`)."""
+        with np.load(self._path(box), allow_pickle=False) as f:
+            return BlockPiece(
+                box=tuple(int(v) for v in f["box"]),
+                flat=f["flat"],
+                sq_distance_px=f["sq_distance_px"],
+                occupied_px=int(f["occupied_px"]),
+                halo_px=int(f["halo_px"]),
+                sub_iterations=int(f["sub_iterations"]),
+            )
+
+    def save(self, piece: BlockPiece) -> None:
+        """Keep a finished block, computed with its window's digest (written whole or
+        not at all)."""
+        arrays = {
+            "box": np.asarray(piece.box, np.int64),
+            "flat": piece.flat,
+            "sq_distance_px": piece.sq_distance_px,
+            "occupied_px": np.int64(piece.occupied_px),
+            "halo_px": np.int64(piece.halo_px),
+            "sub_iterations": np.int64(piece.sub_iterations),
+            "digest": np.frombuffer(piece.window_digest, np.uint8),
+        }
+        atomic_write(self._path(piece.box), lambda fh: np.savez(fh, **arrays))
+
+    def remove(self) -> None:
+        """Remove the kept blocks, and the folder when nothing else is in it (only files
+        of this module's names are ever removed)."""
+        if not self.folder.is_dir():
+            return
+        for pattern in ("block_*.npz", _BUILD_FILE, ".block_*.tmp", f".{_BUILD_FILE}.*.tmp"):
+            for path in self.folder.glob(pattern):
+                path.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # not empty: another program's files
+            self.folder.rmdir()
+
+
+def _check_same_build(build_file: Path, desc: dict[str, Any]) -> None:
+    """Refuse kept blocks of a build other than ``desc``, naming the first difference."""
+    try:
+        kept = json.loads(build_file.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ValueError(
+            f"resume: cannot read {build_file} ({exc}); build with resume=False to start over"
+        ) from None
+    for key, value in desc.items():
+        if kept.get(key) != value:
+            raise ValueError(
+                f"resume: the blocks in {build_file.parent} belong to another build ({key}: "
+                f"{_short(kept.get(key))}, here {_short(value)}); build with resume=False to "
+                "start over"
+            )
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 80 else text[:77] + "..."
