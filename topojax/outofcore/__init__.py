@@ -8,7 +8,8 @@ skeleton's pixels and builds the graph from them
 
 Modules: :mod:`~topojax.outofcore.exact` (thinning and T removal of a window, with the
 proof), :mod:`~topojax.outofcore.blocks` (one block's stages), :mod:`~topojax.outofcore.build`
-(the driver).
+(the driver), :mod:`~topojax.outofcore.checkpoint` (finished blocks kept for
+``resume=True``).
 """
 
 from .blocks import BlockPiece, block_piece, fields_halo_px
