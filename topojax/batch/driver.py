@@ -703,6 +703,18 @@ def build_graphs(
         route_config=route_config,
     )
     out = None if out_dir is None else output_folder(out_dir)
+    return _run_batch(items_raw, sources, out, options)
+
+
+def _run_batch(
+    items_raw: list[tuple[Path | None, OccupancyMap | None]],
+    sources: list[Path | None],
+    out: Path | None,
+    options: dict[str, Any],
+) -> list[MapRecord]:
+    """Run :func:`build_graphs` on its checked inputs (:func:`map_inputs`) and options
+    (:func:`checked_options`); with an output folder ``out``, this run's summary table
+    replaces the one there."""
     items, fingerprints = batch_items(
         items_raw, sources, out=out, formats=options["formats"], plot=options["plot"]
     )

@@ -147,7 +147,7 @@ class TiledMap:
     def from_array(cls, array, **metadata) -> TiledMap:
         """A TiledMap of an array in memory (or a ``numpy.memmap``): the stored values of
         an image, an OccupancyGrid or an obstacle mask; ``metadata`` as for the class."""
-        return _array_map("array", array, **metadata)
+        return array_map("array", array, **metadata)
 
     @classmethod
     def from_occupancy(cls, occupancy: OccupancyMap) -> TiledMap:
@@ -269,9 +269,13 @@ class TiledMap:
         )
 
 
-def _array_map(name: str, array, **metadata) -> TiledMap:
+def array_map(name: str, array, **metadata) -> TiledMap:
     """:meth:`TiledMap.from_array` whose errors name the argument ``name`` (the array
-    as the caller gave it, not the map's reader)."""
+    as the caller gave it, not the map's reader).
+
+    Shared with :mod:`topojax.outofcore`, which takes an array where a tiled map is
+    expected.  ``array`` is (H, W), uint8, uint16, int8 or bool.
+    """
     array = np.asarray(array)
     if array.ndim != 2 or min(array.shape) < 2:
         raise ValueError(
@@ -655,7 +659,7 @@ def save_tiled_map(tiled, path, *, tile_px: int = 1024, format: str = "folder") 
             source=tiled.source,
         )
     elif not isinstance(tiled, TiledMap):
-        tiled = _array_map("tiled", tiled)
+        tiled = array_map("tiled", tiled)
     p = path_like("path", path)
     h, w = tiled.shape
     dtype = np.dtype(tiled.reader.dtype)

@@ -22,7 +22,7 @@ from .._validate import flag, instance_or_default, positive_int, quantity
 from ..config import PipelineConfig
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map
 from ..maps.occupancy import OccupancyMap
-from ..maps.tiled import TiledMap, _array_map, open_tiled_map
+from ..maps.tiled import TiledMap, array_map, open_tiled_map
 from .blocks import BlockPiece, block_piece, fields_halo_px
 from .checkpoint import BlockCheckpoints
 
@@ -142,7 +142,7 @@ def _as_tiled(source) -> TiledMap:
             # an image that cannot be read a window at a time (PNG, ASCII PGM...): whole
             return TiledMap.from_occupancy(load_map(source))
     if isinstance(source, np.ndarray):
-        return _array_map("source", source)
+        return array_map("source", source)
     raise TypeError(
         "source: expected a TiledMap, an OccupancyMap, a 2-D array or the path of a tile "
         f"folder, Zarr array or PGM, received {type(source).__name__}"

@@ -1,0 +1,169 @@
+"""The package's layout rules, checked on the source text (no import of topojax).
+
+* a library module never imports the command line (:mod:`topojax.cli`); only
+  ``topojax/__main__.py`` starts it;
+* no underscore name is imported from another package: a helper that two packages share
+  gets a plain name;
+* modules stay under :data:`MAX_MODULE_LINES` lines and functions under
+  :data:`MAX_FUNCTION_LINES` (``def`` line to last line, docstring included).
+
+Each exception in the ``KNOWN_*`` sets below is one to remove, not to add to.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "topojax"
+MAX_MODULE_LINES = 800
+MAX_FUNCTION_LINES = 120
+
+#: ``(module, function)`` pairs allowed to be longer: a numba kernel kept in one piece, and
+#: the replay loop.
+KNOWN_LONG_FUNCTIONS = {("topojax.graph.trace", "_trace"), ("topojax.playback", "replay")}
+#: Modules allowed to be longer.
+KNOWN_LONG_MODULES = {"topojax.incremental.mapper"}
+#: ``(importer, imported)`` pairs of a private name across packages.
+KNOWN_PRIVATE_IMPORTS = {("topojax.cli.view", "topojax.view._window")}
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _package_of(path: Path) -> str:
+    """The dotted package a module belongs to (a package's own ``__init__``: itself)."""
+    name = _module_name(path)
+    return name if path.name == "__init__.py" else name.rpartition(".")[0]
+
+
+def _is_module(dotted: str) -> bool:
+    where = ROOT.joinpath(*dotted.split("."))
+    return where.is_dir() or where.with_suffix(".py").is_file()
+
+
+def _modules() -> list[Path]:
+    return sorted(PACKAGE.rglob("*.py"))
+
+
+def _imported(path: Path, text: str | None = None) -> list[str]:
+    """Every ``topojax`` name a module imports, at any level, as a dotted path: a module,
+    or ``module.name`` for a name taken from one.  ``text``: the module's source, default
+    the file's."""
+    package = _package_of(path)
+    if text is None:
+        text = path.read_text(encoding="utf-8")
+    found = []
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names if a.name.split(".")[0] == "topojax"]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            if module.split(".")[0] == "topojax":
+                found += [f"{module}.{a.name}" for a in node.names]
+    return found
+
+
+def _private_owner(dotted: str) -> tuple[str, str] | None:
+    """``(package, private part)`` of the first underscore name in ``dotted``: the package
+    the private name belongs to, or None when there is none."""
+    parts = dotted.split(".")
+    for i, part in enumerate(parts):
+        if part.startswith("_") and not part.startswith("__"):
+            owner = ".".join(parts[:i])
+            if not ROOT.joinpath(*parts[:i]).is_dir():  # a name inside a module
+                owner = owner.rpartition(".")[0]
+            return owner, ".".join(parts[: i + 1])
+    return None
+
+
+def _private_imports(path: Path, text: str | None = None) -> list[str]:
+    """The underscore names ``path`` takes from another package.  A private *module* of an
+    enclosing package (``topojax._validate`` from ``topojax.graph``) is that package's
+    shared internals, with plain names, and allowed."""
+    package = _package_of(path)
+    bad = []
+    for dotted in _imported(path, text):
+        found = _private_owner(dotted)
+        if found is None:
+            continue
+        owner, private = found
+        inside = package == owner or private == package or package.startswith(private + ".")
+        shared = _is_module(private) and package.startswith(owner + ".")
+        if not (inside or shared):
+            bad.append(private)
+    return bad
+
+
+def test_library_modules_never_import_the_cli() -> None:
+    bad = []
+    for path in _modules():
+        name = _module_name(path)
+        if name == "topojax.__main__" or name.startswith("topojax.cli"):
+            continue
+        bad += [f"{name} imports {d}" for d in _imported(path) if d.startswith("topojax.cli")]
+    assert not bad, "\n".join(bad)
+
+
+def test_no_private_name_is_imported_from_another_package() -> None:
+    bad = []
+    for path in _modules():
+        name = _module_name(path)
+        for private in _private_imports(path):
+            if (name, private) not in KNOWN_PRIVATE_IMPORTS:
+                bad.append(f"{name} imports {private}")
+    assert not bad, "\n".join(bad)
+
+
+def test_modules_are_short() -> None:
+    bad = []
+    for path in _modules():
+        lines = len(path.read_text(encoding="utf-8").splitlines())
+        if lines > MAX_MODULE_LINES and _module_name(path) not in KNOWN_LONG_MODULES:
+            bad.append(f"{path.relative_to(ROOT)}: {lines} lines")
+    assert not bad, "\n".join(bad)
+
+
+def test_functions_are_short() -> None:
+    bad = []
+    for path in _modules():
+        name = _module_name(path)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            lines = node.end_lineno - node.lineno + 1
+            if lines > MAX_FUNCTION_LINES and (name, node.name) not in KNOWN_LONG_FUNCTIONS:
+                bad.append(f"{name}.{node.name} (line {node.lineno}): {lines} lines")
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize(
+    ("importer", "source", "expected"),
+    [
+        (
+            "outofcore/build.py",
+            "from ..maps.tiled import _array_map",
+            ["topojax.maps.tiled._array_map"],
+        ),
+        ("outofcore/build.py", "from ..maps.tiled import array_map", []),
+        ("outofcore/build.py", "from .._validate import flag", []),
+        ("outofcore/build.py", "from .blocks import _private", []),
+        ("cli/view.py", "from ..view._window import checked_window", ["topojax.view._window"]),
+        ("view/__init__.py", "from ._window import checked_window", []),
+        ("graph/build.py", "from ..playback import _helper", ["topojax.playback._helper"]),
+    ],
+)
+def test_private_import_rule(importer: str, source: str, expected: list[str]) -> None:
+    # the check above is only as good as its reading of an import
+    assert _private_imports(PACKAGE / importer, source) == expected
