@@ -5,7 +5,9 @@
 * no underscore name is imported from another package: a helper that two packages share
   gets a plain name;
 * modules stay under :data:`MAX_MODULE_LINES` lines and functions under
-  :data:`MAX_FUNCTION_LINES` (``def`` line to last line, docstring included).
+  :data:`MAX_FUNCTION_LINES` (``def`` line to last line, docstring included);
+* a type check whose error is the one of ``topojax._validate.instance_of`` calls it
+  instead of repeating it.
 
 Each exception in the ``KNOWN_*`` sets below is one to remove, not to add to.
 """
@@ -146,6 +148,69 @@ def test_functions_are_short() -> None:
             if lines > MAX_FUNCTION_LINES and (name, node.name) not in KNOWN_LONG_FUNCTIONS:
                 bad.append(f"{name}.{node.name} (line {node.lineno}): {lines} lines")
     assert not bad, "\n".join(bad)
+
+
+def _repeats_instance_of(node: ast.AST) -> bool:
+    """Whether ``node`` is ``if not isinstance(...): raise TypeError(f"NAME: expected A,
+    received {type(X).__name__}")``, the check and message of ``instance_of``."""
+    if not (isinstance(node, ast.If) and not node.orelse and len(node.body) == 1):
+        return False
+    test, body = node.test, node.body[0]
+    if not (isinstance(test, ast.UnaryOp) and isinstance(test.op, ast.Not)):
+        return False
+    call = test.operand
+    if not (isinstance(call, ast.Call) and getattr(call.func, "id", None) == "isinstance"):
+        return False
+    if not (isinstance(body, ast.Raise) and isinstance(body.exc, ast.Call)):
+        return False
+    exc = body.exc
+    if getattr(exc.func, "id", None) != "TypeError" or len(exc.args) != 1:
+        return False
+    message = exc.args[0]
+    if not isinstance(message, ast.JoinedStr):
+        return False
+    text = "".join(v.value if isinstance(v, ast.Constant) else "{}" for v in message.values)
+    last = message.values[-1]
+    return (
+        ": expected a" in text
+        and text.endswith(", received {}")
+        and isinstance(last, ast.FormattedValue)
+        and ast.unparse(last.value).startswith("type(")
+        and ast.unparse(last.value).endswith(").__name__")
+    )
+
+
+def test_type_checks_use_the_validator() -> None:
+    bad = []
+    for path in _modules():
+        if path.name == "_validate.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if _repeats_instance_of(node):
+                bad.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not bad, "use topojax._validate.instance_of:\n" + "\n".join(bad)
+
+
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [
+        (
+            'if not isinstance(s, str):\n    raise TypeError(f"s: expected a str, received '
+            '{type(s).__name__}")',
+            True,
+        ),
+        (  # more than instance_of says
+            'if not isinstance(s, str):\n    raise TypeError(f"s: expected a str, received '
+            '{type(s).__name__} {s!r}")',
+            False,
+        ),
+        ('instance_of("s", s, str)', False),
+    ],
+)
+def test_instance_of_rule(source: str, expected: bool) -> None:
+    # the check above is only as good as its reading of a type check
+    found = any(_repeats_instance_of(n) for n in ast.walk(ast.parse(source)))
+    assert found is expected
 
 
 @pytest.mark.parametrize(

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from .._fs import yaml_image
+from .._validate import instance_of
 from ..io import GRAPH_FORMATS, ROOM_FILE_SUFFIXES
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, OccupancyMap
 
@@ -99,8 +100,7 @@ def expand_braces(pattern: str) -> list[str]:
     list of str
         The expansions, left to right in the order of the alternatives (duplicates kept).
     """
-    if not isinstance(pattern, str):
-        raise TypeError(f"pattern: expected a str, received {type(pattern).__name__}")
+    instance_of("pattern", pattern, str)
     pos = pattern.find("{")
     while pos != -1:
         found = _matching_brace(pattern, pos)

@@ -22,6 +22,7 @@ import numpy as np
 
 from .._validate import (
     binary_flag,
+    instance_of,
     metres_per_pixel,
     occupancy_thresholds,
     one_of,
@@ -108,10 +109,7 @@ class OccupancyMap:
         masks = {}
         for name in ("occupied", "free", "unknown"):
             arr = getattr(self, name)
-            if not isinstance(arr, np.ndarray):
-                raise TypeError(
-                    f"OccupancyMap.{name}: expected a numpy bool array, received {type(arr).__name__}"
-                )
+            instance_of(f"OccupancyMap.{name}", arr, np.ndarray, "numpy bool array")
             if arr.dtype != np.bool_:
                 raise TypeError(f"OccupancyMap.{name}: expected dtype bool, received {arr.dtype}")
             if arr.ndim != 2:

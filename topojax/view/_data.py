@@ -10,7 +10,7 @@ import cv2
 import networkx as nx
 import numpy as np
 
-from .._validate import nonnegative_metres, nx_graph
+from .._validate import instance_of, nonnegative_metres, nx_graph
 from ..graph import graph_resolution_m
 from ..maps.occupancy import grid_mismatch, map_mismatch
 from ..maps.tiled import TiledMap
@@ -137,11 +137,7 @@ def inputs_of(
             f"{type(obj).__name__}"
         )
     if map is not None:
-        if not isinstance(map, (OccupancyMap, TiledMap)):
-            raise TypeError(
-                f"map: expected an OccupancyMap or a TiledMap, received {type(map).__name__}"
-            )
-        out.map = map
+        out.map = instance_of("map", map, (OccupancyMap, TiledMap), "OccupancyMap or a TiledMap")
     if rooms is True:
         from ..rooms import segment_rooms
 
@@ -165,9 +161,7 @@ def inputs_of(
     out.route = _checked_route(route)
     out.timeline = _checked_timeline(timeline)
     if title is not None:
-        if not isinstance(title, str):
-            raise TypeError(f"title: expected a str, received {type(title).__name__}")
-        out.title = title
+        out.title = instance_of("title", title, str)
     if map is not None:  # a map given beside graphs of another: drawn, but said so
         for _, label, graph in out.graphs:
             why = map_mismatch(graph, out.map)
@@ -197,10 +191,7 @@ def _graph_label(graph: nx.Graph) -> str:
 def _extra_graphs(graphs):
     if graphs is None:
         return []
-    if not isinstance(graphs, dict):
-        raise TypeError(
-            f"graphs: expected a dict of name -> networkx graph, received {type(graphs).__name__}"
-        )
+    instance_of("graphs", graphs, dict, "dict of name -> networkx graph")
     for name, graph in graphs.items():
         if not isinstance(name, str):
             raise TypeError(
@@ -216,9 +207,7 @@ def _checked_route(route):
         return None
     from ..routing import Route
 
-    if not isinstance(route, Route):
-        raise TypeError(f"route: expected a topojax.Route, received {type(route).__name__}")
-    return route
+    return instance_of("route", route, Route, "topojax.Route")
 
 
 def _checked_timeline(timeline):
@@ -226,10 +215,7 @@ def _checked_timeline(timeline):
         return None
     from .timeline import Timeline
 
-    if not isinstance(timeline, Timeline):
-        raise TypeError(
-            f"timeline: expected a topojax.Timeline, received {type(timeline).__name__}"
-        )
+    instance_of("timeline", timeline, Timeline, "topojax.Timeline")
     if timeline.n_frames == 0:
         raise ValueError(
             "timeline: it holds no graph update (record() keeps one at each report whose "

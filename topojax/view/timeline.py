@@ -318,11 +318,9 @@ def _check_body(body: dict) -> None:
     if len({unpacked(path[k]).size for k in ("scan", "x", "y")}) != 1:
         raise ValueError("path: 'scan', 'x' and 'y' have different lengths")
     rooms = body["rooms"]
-    if not isinstance(rooms, list):
-        raise TypeError(f"'rooms': expected a list, received {type(rooms).__name__}")
+    instance_of("'rooms'", rooms, list)
     for i, frame in enumerate(body["frames"]):
-        if not isinstance(frame, dict):
-            raise TypeError(f"frame {i}: expected an object, received {type(frame).__name__}")
+        instance_of(f"frame {i}", frame, dict, "object")
         arrays = {}
         for k in _FRAME_ARRAYS:
             if k not in frame:
