@@ -1,41 +1,12 @@
 """ROS 2 recordings (MCAP) of maps, topology graphs, rooms and scans, for Foxglove, RViz
 and ``ros2 bag play``, written with ``rosbags`` (no ROS install needed).
 
-A recording is one self-contained ``.mcap`` file (the ``ros2`` profile, zstd-compressed
-chunks, the rosbag2 metadata inside), not a bag folder: Foxglove opens it as it is and
-``ros2 bag play -s mcap FILE`` plays it (later distributions find the storage plugin
-without ``-s mcap``).  Messages use the standard types of ROS 2 Humble (the same on the
-wire in Jazzy):
-
-* ``/map``, ``nav_msgs/msg/OccupancyGrid``: the map, 100 occupied, 0 free, -1 unknown,
-  row 0 of ``data`` the map's bottom row (as ``map_server``);
-* ``/topology``, ``visualization_msgs/msg/MarkerArray``: a ``DELETEALL`` marker, one
-  ``SPHERE_LIST`` per vertex kind (namespace ``vertices``) and one ``LINE_STRIP`` per
-  edge through its pixel centres (namespace ``edges``);
-* ``/route_graph``, ``visualization_msgs/msg/MarkerArray``, only when a route graph is
-  recorded (:func:`topojax.route_graph`): the markers of ``/topology``, each edge's
-  ``LINE_STRIP`` through its ``waypoints`` (the polyline a robot follows);
-* ``/rooms``, ``visualization_msgs/msg/MarkerArray``, only when rooms exist: a
-  ``DELETEALL`` marker, each room's closed outline (``LINE_STRIP``, namespace ``rooms``,
-  id = room id), its id as text (``room_ids``) and the doorways (``LINE_LIST``,
-  ``doors``);
-* ``/scan``, ``sensor_msgs/msg/LaserScan``: each scan, in :data:`LASER_FRAME`;
-* ``/tf``, ``tf2_msgs/msg/TFMessage``: per scan, :data:`MAP_FRAME` -> :data:`ROBOT_FRAME`
-  (the robot's pose) and :data:`ROBOT_FRAME` -> :data:`LASER_FRAME` (the sensor offset).
-
-Markers are in :data:`MAP_FRAME`, in metres, at z = 0, in the colours of the pictures
-(:mod:`topojax.plotting`).  ``/map``, ``/topology``, ``/route_graph`` and ``/rooms`` are
-offered as ``transient_local``, depth 1 (as ``map_server`` does), so RViz shows the latest
-map whenever it subscribes.
-
-Time stamps (message log time and header ``stamp`` alike) are the scans' timestamps in
-nanoseconds where they are usable: present, at least 0 and below 2^31 s (a ROS time), and
-after the previous scan's stamp.  A scan without a usable timestamp is stamped
-:data:`SCAN_PERIOD_S` after the previous one (the first at 0 s), so a log without
-timestamps, or with one timestamp for many scans (all 0 in some CARMEN logs), plays at 10
-scans per second in scan order, and no two scans' ``/tf`` share a stamp (tf drops such
-repeats).  Maps, graphs and rooms carry the
-stamp of the scan after which they were made; :func:`save_mcap` stamps its one map at 0 s.
+One self-contained ``.mcap`` file per recording, in the message types of ROS 2 Humble:
+``/map`` (``OccupancyGrid``), ``/topology``, ``/route_graph`` and ``/rooms``
+(``MarkerArray``, in :data:`MAP_FRAME`, metres), ``/scan`` (``LaserScan``, in
+:data:`LASER_FRAME`) and ``/tf``.  Stamps are nanoseconds: a scan's own where usable, else
+:data:`SCAN_PERIOD_S` after the previous one.  Topics, frames, QoS and stamps:
+``docs/command-line.md``, "ROS 2 recordings (MCAP)".
 """
 
 from __future__ import annotations
@@ -538,8 +509,7 @@ class McapRecorder:
         """Write ``/tf`` and ``/scan`` for a :class:`~topojax.Scan`; returns its stamp (ns)."""
         from ..scans import Scan
 
-        if not isinstance(scan, Scan):
-            raise TypeError(f"scan: expected a topojax.Scan, received {type(scan).__name__}")
+        instance_of("scan", scan, Scan, "topojax.Scan")
         self.stamp_ns = self._next_stamp(scan.timestamp)
         self._scanned = True
         self._write("/tf", tf_message(scan, self.stamp_ns), self.stamp_ns)
