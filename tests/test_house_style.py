@@ -30,7 +30,7 @@ KNOWN_LONG_FUNCTIONS = {("topojax.graph.trace", "_trace"), ("topojax.playback", 
 #: Modules allowed to be longer.
 KNOWN_LONG_MODULES = {"topojax.incremental.mapper"}
 #: ``(importer, imported)`` pairs of a private name across packages.
-KNOWN_PRIVATE_IMPORTS = {("topojax.cli.view", "topojax.view._window")}
+KNOWN_PRIVATE_IMPORTS: set[tuple[str, str]] = set()
 
 
 def _module_name(path: Path) -> str:

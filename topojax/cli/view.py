@@ -265,7 +265,7 @@ def _index_page(folder: Path, pages: list[tuple[str, Path]]) -> str:
 def _cmd_view(args) -> int:
     from .._fs import atomic_write_bytes
     from .._validate import int_at_least
-    from ..view._window import checked_window
+    from ..view.window import checked_window
 
     if args.window is not None:  # checked before any work, named as on the command line
         checked_window(args.window, name="--window")

@@ -17,8 +17,8 @@ from pathlib import Path
 from .._validate import instance_of, path_like, positive_int
 from ._data import DEFAULT_MAX_PIXELS, build_payload, inputs_of
 from ._html import page
-from ._window import apply_window
 from .timeline import Timeline
+from .window import apply_window
 
 __all__ = ["DEFAULT_MAX_PIXELS", "Timeline", "View", "show", "view_html", "write_view"]
 
