@@ -236,22 +236,9 @@ def build_graph_tiled(
     """
     config = instance_or_default("config", config, PipelineConfig)
     tiled = _as_tiled(source)
-    if block_px is None:
-        block_px = block_px_for_budget(memory_budget_mb, config)
-    block_px = positive_int("block_px", block_px)
-    if block_px % config.tile_px:
-        raise ValueError(
-            f"block_px: expected a multiple of config.tile_px ({config.tile_px}), "
-            f"received {block_px}"
-        )
-    if threads is not None:  # here, not in the first block (or a worker's task)
-        threads = positive_int("threads", threads)
-    resume = flag("resume", resume)
-    if resume and out_dir is None:
-        raise ValueError(
-            "resume: expected out_dir, the folder whose blocks a stopped build left, "
-            "received out_dir=None"
-        )
+    block_px, threads, resume = _checked_options(
+        config, block_px, memory_budget_mb, threads, resume, out_dir
+    )
     pool = as_executor(executor)
     kept = None
     if out_dir is not None:
@@ -267,17 +254,9 @@ def build_graph_tiled(
     t0 = time.perf_counter()
     reused = {b for b in boxes if kept.usable(b)} if resume else set()
     todo = [b for b in boxes if b not in reused]
-    digest = kept is not None
-    if pool is None:
-        computed = (_block_task(tiled, b, config, halo, threads, digest) for b in todo)
-    else:
-        shared = tiled
-        if not isinstance(executor, cf.Executor) and hasattr(executor, "scatter"):
-            shared = executor.scatter(tiled, broadcast=True)  # once, not once per block
-        futures = deque(
-            pool.submit(_block_task, shared, b, config, halo, threads, digest) for b in todo
-        )
-        computed = _results(futures)
+    computed = _computed(
+        tiled, todo, config, halo, threads, pool, executor, digest=kept is not None
+    )
     skeleton = _Skeleton(tiled, config.distance.half_width_px, config.tile_px)
     for piece in _in_block_order(boxes, reused, computed, kept):
         skeleton.add(piece)
@@ -299,6 +278,44 @@ def build_graph_tiled(
         halo_px=tuple(sorted(skeleton.halos)),
         pruned_graph=pruned,
     )
+
+
+def _checked_options(config: PipelineConfig, block_px, memory_budget_mb, threads, resume, out_dir):
+    """``(block_px, threads, resume)`` of :func:`build_graph_tiled`, checked (here, not
+    in the first block or a worker's task)."""
+    if block_px is None:
+        block_px = block_px_for_budget(memory_budget_mb, config)
+    block_px = positive_int("block_px", block_px)
+    if block_px % config.tile_px:
+        raise ValueError(
+            f"block_px: expected a multiple of config.tile_px ({config.tile_px}), "
+            f"received {block_px}"
+        )
+    if threads is not None:
+        threads = positive_int("threads", threads)
+    resume = flag("resume", resume)
+    if resume and out_dir is None:
+        raise ValueError(
+            "resume: expected out_dir, the folder whose blocks a stopped build left, "
+            "received out_dir=None"
+        )
+    return block_px, threads, resume
+
+
+def _computed(
+    tiled: TiledMap, boxes, config: PipelineConfig, halo: int, threads, pool, executor, *, digest
+):
+    """The pieces of ``boxes``, in order, computed here or by ``pool`` (the executor of
+    ``executor``), each with its window's digest when ``digest``."""
+    if pool is None:
+        return (_block_task(tiled, b, config, halo, threads, digest) for b in boxes)
+    shared = tiled
+    if not isinstance(executor, cf.Executor) and hasattr(executor, "scatter"):
+        shared = executor.scatter(tiled, broadcast=True)  # once, not once per block
+    futures = deque(
+        pool.submit(_block_task, shared, b, config, halo, threads, digest) for b in boxes
+    )
+    return _results(futures)
 
 
 def _in_block_order(boxes, reused: set, computed, kept):
