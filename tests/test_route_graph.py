@@ -393,6 +393,41 @@ def test_route_graph_command_names_its_own_options_before_any_file(
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    ("command", "option"),
+    [
+        (["route-graph", "{map}"], "--robot-radius"),
+        (["batch", "{map}", "--formats", "route", "--workers", "0"], "--robot-radius"),
+        (
+            ["route", "{graph}", "--start", "1", "1", "--goal", "2", "2", "--map", "{map}"],
+            "--robot-radius",
+        ),
+        (["replay", "{log}"], "--route-graph"),
+    ],
+)
+def test_a_robot_radius_too_large_is_refused_under_the_commands_option(
+    tmp_path, capsys, command, option
+):
+    """A radius over 1000 m (a unit error) is named by the command's option, as one
+    below zero or below 1.5 pixels is, not by the library's ``robot_radius_m``."""
+    from pathlib import Path
+
+    from topojax.cli import main
+
+    path = tmp_path / "room.png"
+    cv2.imwrite(str(path), np.where(_room(3, 4), 254, 0).astype(np.uint8))
+    names = {
+        "map": str(path),
+        "graph": str(tmp_path / "room.json"),
+        "log": str(Path(__file__).parent / "data" / "intel_first40.log.gz"),
+    }
+    argv = [part.format(**names) for part in command]
+    out = tmp_path / "out"
+    assert main([*argv, "-o", str(out / "x.geojson"), option, "5000"]) == 2
+    assert f"{option}: expected a robot radius of at most 1000 m" in capsys.readouterr().err
+    assert not out.exists()
+
+
 def test_which_map_files_state_their_resolution(tmp_path):
     from topojax.maps.files import default_resolution_used
 

@@ -94,7 +94,7 @@ def _exit_on_sigterm():
 def _route_config(args):
     """The route graph options of ``--robot-radius``, or None without it (the route
     formats then use :class:`RouteGraphConfig`'s defaults)."""
-    from .._validate import nonnegative_metres
+    from .._validate import robot_radius
     from ..batch.inputs import ROUTE_FORMATS, check_formats
     from ..routegraph import RouteGraphConfig
 
@@ -105,9 +105,7 @@ def _route_config(args):
             f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}; "
             f"expected --formats to name one, received {args.formats!r}"
         )
-    return RouteGraphConfig(
-        robot_radius_m=nonnegative_metres("--robot-radius", args.robot_radius_m)
-    )
+    return RouteGraphConfig(robot_radius_m=robot_radius("--robot-radius", args.robot_radius_m))
 
 
 def add_command(subparsers) -> None:

@@ -23,7 +23,7 @@ from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 def _check_numbers(args) -> None:
     """The numeric options, checked under their own names before the replay (the
     library's messages name its parameters)."""
-    from .._validate import int_at_least, nonnegative_metres, positive_int, positive_metres
+    from .._validate import int_at_least, positive_int, positive_metres, robot_radius
 
     positive_metres("--resolution", args.resolution)
     for option, value in (
@@ -44,7 +44,7 @@ def _check_numbers(args) -> None:
     if args.route_graph is not None:
         from ..routegraph.build import RouteGraphConfig, check_scale
 
-        radius = nonnegative_metres("--route-graph", args.route_graph)
+        radius = robot_radius("--route-graph", args.route_graph)
         check_scale(RouteGraphConfig(robot_radius_m=radius), args.resolution, "--route-graph")
 
 

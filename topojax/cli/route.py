@@ -97,14 +97,14 @@ def _map_options_given(args) -> list[str]:
 
 
 def _cmd_route(args) -> int:
-    from .._validate import nonnegative_metres, positive_metres
+    from .._validate import nonnegative_metres, positive_metres, robot_radius
     from ..io import load_graph
     from ..routing import NoRouteError, RoutePlanner
 
     # checked before the work, under the options' names
     for option, value, check in (
         ("--simplify-m", args.simplify_m, positive_metres),
-        ("--robot-radius", args.robot_radius, nonnegative_metres),
+        ("--robot-radius", args.robot_radius, robot_radius),
         ("--entry-m", args.entry_m, nonnegative_metres),
         ("--max-snap-m", args.max_snap_m, nonnegative_metres),
     ):

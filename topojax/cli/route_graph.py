@@ -80,13 +80,13 @@ def _files(stem: str, args) -> list[str]:
 
 def _cmd_route_graph(args) -> int:
     from .._fs import output_folder, refuse_overwriting_inputs
-    from .._validate import nonnegative_metres, positive_metres
+    from .._validate import positive_metres, robot_radius
     from ..io import save_graph
     from ..maps import load_map
     from ..routegraph import RouteGraphConfig, route_graph
     from ..routegraph.build import MAX_SNAP_M, check_scale
 
-    radius = nonnegative_metres("--robot-radius", args.robot_radius_m)
+    radius = robot_radius("--robot-radius", args.robot_radius_m)
     snap_m = positive_metres("--snap-m", args.snap_m)
     least = 2 * RouteGraphConfig.waypoint_tolerance_m  # the class default: a float
     if not least <= snap_m <= MAX_SNAP_M:
