@@ -504,6 +504,22 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert "different components" in capsys.readouterr().err
 
 
+def test_route_command_names_its_graph_argument_for_a_missing_or_foreign_file(tmp_path, capsys):
+    """A graph file that is missing or not a graph file is named ``graph``, as the command
+    calls it, not by the library's ``path`` or its Python-only ``format=``."""
+    from topojax.cli import main
+
+    picture = tmp_path / "map.png"
+    picture.write_bytes(b"not read")
+    points = ["--start", "1", "1", "--goal", "2", "2"]
+    assert main(["route", str(tmp_path / "none.json"), *points]) == 2
+    assert f"graph: file not found: {tmp_path / 'none.json'}" in capsys.readouterr().err
+    assert main(["route", str(picture), *points]) == 2
+    err = capsys.readouterr().err
+    assert f"graph: expected a .graphml, .json or .geojson file, received {picture}" in err
+    assert "format=" not in err
+
+
 def test_route_command_with_the_map_joins_the_graph_where_the_route_is_shortest(tmp_path, capsys):
     from topojax.cli import main
 

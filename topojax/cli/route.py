@@ -97,8 +97,9 @@ def _map_options_given(args) -> list[str]:
 
 
 def _cmd_route(args) -> int:
-    from .._validate import nonnegative_metres, positive_metres, robot_radius
+    from .._validate import existing_file, nonnegative_metres, positive_metres, robot_radius
     from ..io import load_graph
+    from ..io.files import GRAPH_FORMATS
     from ..routing import NoRouteError, RoutePlanner
 
     # checked before the work, under the options' names
@@ -118,7 +119,13 @@ def _cmd_route(args) -> int:
         raise ValueError(
             f"{', '.join(_map_options_given(args))}: only used with --map, which was not given"
         )
-    graph = load_graph(args.graph)
+    graph_file = existing_file("graph", args.graph)  # named as the command names it
+    if graph_file.suffix.lower() not in GRAPH_FORMATS:
+        *most, last = GRAPH_FORMATS
+        raise ValueError(
+            f"graph: expected a {', '.join(most)} or {last} file, received {args.graph}"
+        )
+    graph = load_graph(graph_file)
     occupancy = None
     if args.map:
         from ..maps import load_map
