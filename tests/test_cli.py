@@ -219,6 +219,37 @@ def test_replay_names_its_options_in_errors(tmp_path, capsys, argv, message):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize(
+    ("command", "argv", "message"),
+    [
+        ("graph", ["--min-spur-m", "-1"], "--min-spur-m: expected a finite number of metres"),
+        ("graph", ["--sigma-m", "0"], "--sigma-m: expected a finite number of metres > 0"),
+        ("graph", ["--sigma-px", "-3"], "--sigma-px: expected a finite number of pixels > 0"),
+        ("demo", ["--min-clearance-m", "-1"], "--min-clearance-m: expected a finite number"),
+        ("demo", ["--tile-px", "5000"], "--tile-px: expected an int in [8, 4096]"),
+        ("replay", ["--min-component-m", "nan"], "--min-component-m: expected a finite"),
+        ("batch", ["--min-spur-m", "-1"], "--min-spur-m: expected a finite number of metres"),
+        ("batch", ["--sigma-m", "-1"], "--sigma-m: expected a finite number of metres > 0"),
+        ("batch", ["--workers", "-1"], "--workers: expected an int >= 0"),
+        ("batch", ["--tiles-per-call", "0"], "--tiles-per-call: expected an int >= 1"),
+        ("batch", ["--kernel-threads", "0"], "--kernel-threads: expected an int >= 1"),
+    ],
+)
+def test_pipeline_and_batch_options_are_named_in_errors(tmp_path, capsys, command, argv, message):
+    """A value out of range is refused under the command's option name, not the
+    configuration field it sets (``min_spur_m``, ``tile_px``, ``workers``)."""
+    map_file = ROOT / "topojax" / "data" / "a_scan.png"
+    source = {
+        "graph": [str(map_file)],
+        "demo": [],
+        "replay": [str(Path(__file__).parent / "data" / "intel_first40.log.gz")],
+        "batch": [str(map_file)],
+    }[command]
+    assert main([command, *source, "-o", str(tmp_path / "out"), *argv]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_python_m_topojax_is_the_command():
     done = subprocess.run(
         [sys.executable, "-m", "topojax", "--version"], capture_output=True, text=True, timeout=120

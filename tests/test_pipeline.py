@@ -580,7 +580,7 @@ def test_cli_graph_sigma_in_metres_or_pixels(tmp_path, capsys):
         cli_main(["graph", str(png), "--sigma-m", "1", "--sigma-px", "20"])
     assert "not allowed with argument" in capsys.readouterr().err
     assert cli_main(["graph", str(png), "-o", str(tmp_path / "x"), "--sigma-m", "-1"]) == 2
-    assert "sigma_m: expected a finite number of metres > 0" in capsys.readouterr().err
+    assert "--sigma-m: expected a finite number of metres > 0" in capsys.readouterr().err
 
 
 def test_cli_keeps_compiled_kernels_between_runs(tmp_path):

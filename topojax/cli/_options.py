@@ -6,37 +6,67 @@ import argparse
 
 from .._constants import MODES
 
+#: The configuration fields that an option of this module sets, and the option.
+_OPTION_OF = {
+    "sigma_m": "--sigma-m",
+    "sigma_px": "--sigma-px",
+    "tile_px": "--tile-px",
+    "min_clearance_m": "--min-clearance-m",
+    "min_spur_m": "--min-spur-m",
+    "min_component_m": "--min-component-m",
+}
+
+
+def _as_option_error(exc: TypeError | ValueError) -> TypeError | ValueError:
+    """``exc`` with the field that its message starts with (``"min_spur_m: ..."``) named
+    as the option that sets it (``"--min-spur-m: ..."``)."""
+    field, sep, rest = str(exc).partition(": ")
+    if not sep or field not in _OPTION_OF:
+        return exc
+    return type(exc)(f"{_OPTION_OF[field]}: {rest}")
+
 
 def pipeline_config(args, *, resolution_m: float | None = None):
     """The :class:`PipelineConfig` of the options of :func:`add_pipeline_options`, with
     the Gaussian of :func:`add_sigma_options` where the command has them: ``--sigma-px``
     as given, ``--sigma-m`` through ``resolution_m`` (a command that runs many maps
-    passes none and converts per map)."""
+    passes none and converts per map; the value is still checked); an error names the
+    option."""
+    from .._validate import positive_metres
     from ..config import DistanceConfig, PipelineConfig, SkeletonConfig
 
-    distance = DistanceConfig()
-    if getattr(args, "sigma_px", None) is not None:
-        distance = DistanceConfig.from_pixels(sigma_px=args.sigma_px)
-    elif getattr(args, "sigma_m", None) is not None and resolution_m is not None:
-        distance = DistanceConfig.from_metres(sigma_m=args.sigma_m, resolution_m=resolution_m)
-    return PipelineConfig(
-        distance=distance,
-        skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
-        graph=graph_config(args),
-        tile_px=args.tile_px,
-    )
+    try:
+        distance = DistanceConfig()
+        if getattr(args, "sigma_px", None) is not None:
+            distance = DistanceConfig.from_pixels(sigma_px=args.sigma_px)
+        elif getattr(args, "sigma_m", None) is not None and resolution_m is not None:
+            distance = DistanceConfig.from_metres(sigma_m=args.sigma_m, resolution_m=resolution_m)
+        elif getattr(args, "sigma_m", None) is not None:
+            positive_metres("sigma_m", args.sigma_m)
+        return PipelineConfig(
+            distance=distance,
+            skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
+            graph=graph_config(args),
+            tile_px=args.tile_px,
+        )
+    except (TypeError, ValueError) as exc:
+        raise _as_option_error(exc) from None
 
 
 def graph_config(args):
-    """The :class:`GraphConfig` of the options of :func:`add_graph_options`."""
+    """The :class:`GraphConfig` of the options of :func:`add_graph_options`; an error
+    names the option."""
     from ..config import GraphConfig
 
-    return GraphConfig(
-        free_space_only=args.free_only,
-        min_clearance_m=args.min_clearance_m,
-        min_spur_m=args.min_spur_m,
-        min_component_m=args.min_component_m,
-    )
+    try:
+        return GraphConfig(
+            free_space_only=args.free_only,
+            min_clearance_m=args.min_clearance_m,
+            min_spur_m=args.min_spur_m,
+            min_component_m=args.min_component_m,
+        )
+    except (TypeError, ValueError) as exc:
+        raise _as_option_error(exc) from None
 
 
 def add_pipeline_options(p: argparse.ArgumentParser) -> None:

@@ -19,6 +19,7 @@ def _cmd_batch(args) -> int:
     from ..batch import build_graphs, expand_map_inputs
     from ..batch.inputs import planned_outputs
 
+    _check_numbers(args)
     route_config = _route_config(args)
     paths = expand_map_inputs(args.inputs, exclude=args.out)
     planned = planned_outputs(paths, formats=args.formats, plot=args.plot)
@@ -89,6 +90,21 @@ def _exit_on_sigterm():
         raise SystemExit(128 + signum)
 
     return signal.signal(signal.SIGTERM, terminate)
+
+
+def _check_numbers(args) -> None:
+    """The numeric options of the batch runner, checked under their own names before any
+    work (the library's messages name its parameters)."""
+    from .._validate import int_at_least, positive_int
+
+    if args.workers is not None:
+        int_at_least("--workers", args.workers, 0)
+    for option, value in (
+        ("--tiles-per-call", args.tiles_per_call),
+        ("--kernel-threads", args.kernel_threads),
+    ):
+        if value is not None:
+            positive_int(option, value)
 
 
 def _route_config(args):
