@@ -219,6 +219,14 @@ def test_replay_names_its_options_in_errors(tmp_path, capsys, argv, message):
     assert not (tmp_path / "out").exists()
 
 
+def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, capsys):
+    """A missing log was reported as ``path: file not found``, the reader's parameter."""
+    missing = tmp_path / "none.log"
+    assert main(["replay", str(missing), "-o", str(tmp_path / "out")]) == 2
+    assert f"source: no log file or bag there: {missing}" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize(
     ("command", "argv", "message"),
     [

@@ -52,6 +52,8 @@ def _cmd_replay(args) -> int:
     from ..playback import replay, summary_text
 
     _check_numbers(args)
+    if not Path(args.source).exists():  # named as the command names it; a bag may be a folder
+        raise FileNotFoundError(f"source: no log file or bag there: {args.source}")
     kw = {
         "resolution_m": args.resolution,
         "skeleton_every": args.skeleton_every,
