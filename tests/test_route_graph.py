@@ -372,6 +372,7 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     ("option", "message"),
     [
         (["--robot-radius", "0.01"], "--robot-radius: expected at least 1.5 pixels of the map"),
+        (["--robot-radius", "2000"], "--robot-radius: expected a robot radius of at most 1000 m"),
         (["--snap-m", "6"], "--snap-m: expected 0.2 to 5 m"),
         (["--snap-m", "0.15"], "--snap-m: expected 0.2 to 5 m"),
     ],

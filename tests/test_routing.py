@@ -496,6 +496,9 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert "--max-snap-m: expected a number of metres or none" in capsys.readouterr().err
     assert main([*argv, "--map", "x.yaml", "--robot-radius", "-1"]) == 2
     assert "--robot-radius: expected" in capsys.readouterr().err
+    assert main([*argv, "--map", "x.yaml", "--robot-radius", "2000"]) == 2
+    err = capsys.readouterr().err
+    assert "--robot-radius: expected a robot radius of at most 1000 m" in err
     # pixel frame, and no route between two components: exit status 1
     skel = art("###....###")
     two = tj.save_graph(skeleton_to_graph(skel, resolution_m=1.0), tmp_path / "two.graphml")
