@@ -565,3 +565,40 @@ def test_snap_legs_follow_the_planners_sight_rule():
     q = np.array([0.0, 0.7])
     cand = np.array([[3.0, 5.0], [3.0, 0.7], [0.0, 5.0]])
     assert _sight.sees(feasible, q, cand).tolist() == [False, True, True]
+
+
+def test_best_entry_memory_does_not_grow_with_the_pairs(monkeypatch):
+    """With ``entry="best"`` each pair has a (start join, goal join) combination per pair
+    of runs its ends see: thousands on a dense graph within a large ``snap_m``.  Held for
+    all pairs at once they took about 200 bytes each, some 100 GB for the most pairs
+    allowed; scored a few sources and a bounded number of combinations at a time, the
+    traced peak stays put as the pairs grow tenfold, and the report is the same."""
+    import tracemalloc
+
+    from topojax.routegraph import _eval_routes
+
+    occ = np.zeros((140, 140), bool)
+    occ[[0, -1], :] = True
+    occ[:, [0, -1]] = True
+    m = _map(occ)
+    g = nx.grid_2d_graph(13, 13)  # a mesh of straight edges 1 m apart
+    nx.set_node_attributes(g, {n: (10 + 10 * n[0], 10 + 10 * n[1]) for n in g}, "pixel")
+
+    def report(n_pairs):
+        r = evaluate_route_graph(g, m, RADIUS, n_pairs=n_pairs, snap_m=3.0, entry="best")
+        return dataclasses.replace(r, evaluation_s=0.0)
+
+    whole = report(100)
+    monkeypatch.setattr(_eval_routes, "SOURCES_AT_ONCE", 1, raising=False)
+    monkeypatch.setattr(_eval_routes, "COMBOS_AT_ONCE", 2000, raising=False)
+    peaks = []
+    for n_pairs in (10, 100):
+        tracemalloc.start()
+        try:
+            base = tracemalloc.get_traced_memory()[0]
+            got = report(n_pairs)
+            peaks.append(tracemalloc.get_traced_memory()[1] - base)
+        finally:
+            tracemalloc.stop()
+    assert got == whole
+    assert peaks[1] < 1.3 * peaks[0]

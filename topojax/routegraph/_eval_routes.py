@@ -36,6 +36,12 @@ GEODESIC_THREADS = 4
 _SNAP_BATCH = 64
 # Dijkstra rows computed per call (bounds the memory of the distance block).
 _DIJKSTRA_CELLS = 8_000_000
+#: Sources whose pairs are routed at once: the joins of their ends are held together.
+SOURCES_AT_ONCE = 100
+#: (start join, goal join) combinations of pairs scored at once (about 200 bytes each on
+#: their way through): with ``entry="best"`` every pair has one per pair of runs its two
+#: ends see, thousands where a dense graph lies within a large ``snap_m``.
+COMBOS_AT_ONCE = 250_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -280,21 +286,41 @@ def _joins(net, queries, snap_px, feasible, best_entry: bool):
     return have, idx[have], dist[have]
 
 
-def _combos(pair_src, n_src, s_q, t_q):
-    """For every pair (of source ``pair_src``, one of ``n_src``), each (start join, goal
-    join) combination: ``(pair, start join index, goal join index)`` (joins by query, as
-    :func:`_joins` gives them)."""
-    n_pairs = pair_src.size
-    s_start = np.searchsorted(s_q, np.arange(n_src + 1))
-    t_start = np.searchsorted(t_q, np.arange(n_pairs + 1))
-    t_count = np.diff(t_start)
-    per_pair = np.diff(s_start)[pair_src] * t_count
-    pair = np.repeat(np.arange(n_pairs), per_pair)
-    k = np.arange(pair.size) - np.repeat(np.cumsum(per_pair) - per_pair, per_pair)
-    ct = t_count[pair]
-    ja = s_start[pair_src[pair]] + k // np.maximum(ct, 1)
-    jb = t_start[pair] + k % np.maximum(ct, 1)
-    return pair, ja, jb
+@dataclass(frozen=True, eq=False)
+class _JoinTable:
+    """Where each source's and each pair's joins lie among those :func:`_joins` gives
+    (``s_start`` (S + 1,), ``t_start`` (P + 1,)), each pair's source (``pair_src``
+    (P,)), and where its (start join, goal join) combinations start among all of them,
+    taken pair after pair (``first`` (P,), ``count`` (P,))."""
+
+    s_start: np.ndarray
+    t_start: np.ndarray
+    pair_src: np.ndarray
+    first: np.ndarray
+    count: np.ndarray
+
+    @classmethod
+    def of(cls, pairs: PairSet, s_q: np.ndarray, t_q: np.ndarray) -> _JoinTable:
+        """The table of ``pairs`` whose sources join at queries ``s_q`` and targets at
+        ``t_q`` (ascending, as :func:`_joins` gives them)."""
+        pair_src = pairs.pair_source()
+        s_start = np.searchsorted(s_q, np.arange(pairs.source.shape[0] + 1))
+        t_start = np.searchsorted(t_q, np.arange(pairs.n_pairs + 1))
+        count = np.diff(s_start)[pair_src] * np.diff(t_start)
+        return cls(s_start, t_start, pair_src, np.cumsum(count) - count, count)
+
+    @property
+    def total(self) -> int:
+        """Number of all combinations."""
+        return int(self.count.sum())
+
+    def combos(self, lo: int, hi: int):
+        """Combinations ``lo`` to ``hi``: ``(pair, start join, goal join)``, int64 each."""
+        combo = np.arange(lo, hi, dtype=np.int64)
+        pair = np.searchsorted(self.first + self.count, combo, side="right")
+        k = combo - self.first[pair]
+        ct = np.maximum(np.diff(self.t_start)[pair], 1)
+        return pair, self.s_start[self.pair_src[pair]] + k // ct, self.t_start[pair] + k % ct
 
 
 def route_lengths_px(
@@ -307,16 +333,44 @@ def route_lengths_px(
     """Route length (pixels) of each pair: snap segment + shortest path along the network
     + snap segment; ``inf`` where a snap is missing or the snap points are not connected.
     Each end snaps to its nearest collision-free network point, or with ``best_entry``
-    to whichever point of :func:`entries` gives the shortest route."""
+    to whichever point of :func:`entries` gives the shortest route.  The pairs of
+    :data:`SOURCES_AT_ONCE` sources are joined at a time, and their combinations of joins
+    scored :data:`COMBOS_AT_ONCE` at a time: the memory is bounded whatever the number of
+    pairs and joins."""
+    out = np.full(pairs.n_pairs, np.inf)
+    n_src = pairs.source.shape[0]
+    for s0 in range(0, n_src, SOURCES_AT_ONCE):
+        s1 = min(s0 + SOURCES_AT_ONCE, n_src)
+        a, b = int(pairs.start[s0]), int(pairs.start[s1])
+        part = PairSet(
+            source=pairs.source[s0:s1],
+            region=pairs.region[s0:s1],
+            start=pairs.start[s0 : s1 + 1] - a,
+            target=pairs.target[a:b],
+        )
+        out[a:b] = _part_lengths_px(net, part, snap_px, feasible, best_entry)
+    return out
+
+
+def _part_lengths_px(net, pairs: PairSet, snap_px, feasible, best_entry) -> np.ndarray:
+    """:func:`route_lengths_px` of a few sources' pairs."""
     out = np.full(pairs.n_pairs, np.inf)
     if pairs.n_pairs == 0:
         return out
     s_q, s_pt, s_d = _joins(net, pairs.source, snap_px, feasible, best_entry)
     t_q, t_pt, t_d = _joins(net, pairs.target, snap_px, feasible, best_entry)
-    pair, ja, jb = _combos(pairs.pair_source(), pairs.source.shape[0], s_q, t_q)
-    if pair.size == 0:
-        return out
-    ga, gb = s_pt[ja], t_pt[jb]
+    table = _JoinTable.of(pairs, s_q, t_q)
+    for lo in range(0, table.total, COMBOS_AT_ONCE):
+        pair, ja, jb = table.combos(lo, min(lo + COMBOS_AT_ONCE, table.total))
+        best = _along_network_px(net, s_pt[ja], t_pt[jb])
+        np.minimum.at(out, pair, s_d[ja] + best + t_d[jb])
+    return out
+
+
+def _along_network_px(net: RouteNetwork, ga: np.ndarray, gb: np.ndarray) -> np.ndarray:
+    """Shortest length (pixels, float64 (C,)) along the network from each network point
+    ``ga`` (int64 (C,)) to the point ``gb`` of the same row: along their run where they
+    share one, else out through an end of one run and in through an end of the other."""
     ra, rb = net.pt_run[ga], net.pt_run[gb]
     ends_a = np.stack([net.run_a[ra], net.run_b[ra]], axis=1)
     off_a = np.stack([net.pt_t[ga], net.run_len[ra] - net.pt_t[ga]], axis=1)
@@ -332,8 +386,7 @@ def route_lengths_px(
             r = inv[:, i] - c0
             here = (r >= 0) & (r < block.shape[0])
             for j in range(2):
-                d = np.full(pair.size, np.inf)
+                d = np.full(ga.size, np.inf)
                 d[here] = block[r[here], ends_b[here, j]]
                 best = np.minimum(best, off_a[:, i] + d + off_b[:, j])
-    np.minimum.at(out, pair, s_d[ja] + best + t_d[jb])
-    return out
+    return best
