@@ -127,6 +127,18 @@ def test_tiny_regions_are_ignored():
     assert math.isnan(r.success_rate) and math.isnan(r.uncovered_share)
 
 
+@pytest.mark.parametrize("resolution_m", [1e-6, 0.05])
+def test_a_one_pixel_region_draws_no_pair_at_any_resolution(resolution_m):
+    """A region of one pixel has no two distinct pixels to pair: at the finest resolution
+    a map may have (1e-6 m per pixel) its area passed the two-pixel test, and the draw
+    failed inside numpy ("high <= 0")."""
+    occ = np.ones((5, 5), bool)
+    occ[2, 2] = False
+    m = OccupancyMap.from_array(occ, resolution_m=resolution_m)
+    r = evaluate_route_graph(nx.Graph(), m, 0.0, n_pairs=10, min_region_m2=0.0)
+    assert r.feasible_regions == 1 and r.pairs == 0
+
+
 def test_graph_in_two_pieces_splits_its_region():
     m = _corridor(5)
     g = _graph(m, [_row(3, 3, 95), _row(3, 105, 198)])

@@ -73,7 +73,9 @@ def sample_pairs(fs, regions: np.ndarray, n_pairs: int, seed: int) -> PairSet:
     rng = np.random.default_rng(seed)
     slices = ndimage.find_objects(fs.labels)
     res2 = fs.resolution_m**2
-    regions = np.array([r for r in regions if fs.area_m2[r] >= 2 * res2 - 1e-12], np.int64)
+    # two pixels or more: half a pixel of slack, whatever the resolution (1e-12 m² was a
+    # pixel at 1e-6 m per pixel, the finest map)
+    regions = np.array([r for r in regions if fs.area_m2[r] >= 1.5 * res2], np.int64)
     empty = np.empty((0, 2), np.int64)
     if regions.size == 0:
         return PairSet(empty, np.empty(0, np.int64), np.zeros(1, np.int64), empty)
