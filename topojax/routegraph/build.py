@@ -76,7 +76,7 @@ class RouteGraphConfig:
     snap_m : float, default 1.0
         Coverage: every feasible pixel lies within this distance of the graph (through the
         feasible space); waypoints are added where the medial axis does not reach.  At
-        most :data:`MAX_SNAP_M` (5 m).
+        most :data:`MAX_SNAP_M` (5 m), at least twice ``waypoint_tolerance_m``.
     loop_m : float, default 2.0
         Loops shorter than this always collapse to one corridor, and no shortcut closes a
         loop shorter than twice this.
@@ -100,7 +100,7 @@ class RouteGraphConfig:
         from its ends a shortcut touches no other edge.
     shortcut_spacing_m : float, default 1.0
         Shortcuts may also start at points about this far apart along the edges (the edge
-        is split there); 0: only at vertices.
+        is split there); 0: only at vertices, else at least one pixel of the map.
     shortcuts_from_dead_ends : bool, default True
         Whether shortcuts may start at dead ends (coverage waypoints at the rim of open
         space); False gives markedly fewer edges in rooms and halls, and longer routes.
