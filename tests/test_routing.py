@@ -482,6 +482,11 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     np.testing.assert_allclose(thin, want.waypoints(tolerance_m=0.2))
     assert main([*argv, "-o", str(out), "--simplify-m", "-1"]) == 2
     assert "--simplify-m: expected a finite number of metres > 0" in capsys.readouterr().err
+    # the route is GeoJSON: another suffix is refused before any work, nothing written
+    assert main([*argv, "-o", str(tmp_path / "route.txt")]) == 2
+    err = capsys.readouterr().err
+    assert "-o: expected a .geojson or .json file (the route is written as GeoJSON)" in err
+    assert not (tmp_path / "route.txt").exists()
     # too far from the graph: a clear error and exit status 2
     assert main([*argv, "--max-snap-m", "0.01"]) == 2
     err = capsys.readouterr().err

@@ -114,6 +114,12 @@ def _cmd_route(args) -> int:
     if args.out and os.path.realpath(args.out) == os.path.realpath(args.graph):
         raise ValueError(f"-o: writing the route to {args.out} would overwrite the graph file")
     if args.out:
+        suffix = Path(args.out).suffix.lower()
+        if suffix not in (".geojson", ".json"):
+            raise ValueError(
+                f"-o: expected a .geojson or .json file (the route is written as GeoJSON), "
+                f"received {args.out!r}"
+            )
         check_outputs(planned([args.out], args.graph), command="route", option=OUT_OPTION)
     if not args.map and _map_options_given(args):
         raise ValueError(
