@@ -302,3 +302,30 @@ def test_ctrl_c_ends_a_command_with_one_line_not_a_traceback(tmp_path, monkeypat
     src = Path(topojax.__file__).parent / "data" / "office.png"
     assert main(["batch", str(src), "-o", str(tmp_path / "out"), "--no-progress"]) == 130
     assert capsys.readouterr().err.strip() == "topojax batch: interrupted (Ctrl-C)"
+
+
+_MAP_OPTION_ERRORS = [
+    (["--resolution", "0"], "--resolution: expected a finite number of metres > 0"),
+    (["--resolution", "nan"], "--resolution: expected a finite number of metres > 0"),
+    (["--occupied-thresh", "2"], "--occupied-thresh: expected a share from 0 to 1"),
+    (["--free-thresh", "-0.1"], "--free-thresh: expected a share from 0 to 1"),
+    (
+        ["--free-thresh", "0.7", "--occupied-thresh", "0.6"],
+        "--free-thresh: expected less than --occupied-thresh (0.6), received 0.7",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("command", "argv", "message"),
+    [(c, a, m) for c in ("graph", "rooms") for a, m in _MAP_OPTION_ERRORS]
+    + [("route-graph", a, m) for a, m in _MAP_OPTION_ERRORS[:2]],  # no threshold options
+)
+def test_map_reading_options_are_named_in_errors(tmp_path, capsys, command, argv, message):
+    """How a map file is read is refused under the command's option, not ``load_map``'s
+    parameter (``resolution_m``, ``occupied_thresh``)."""
+    map_file = ROOT / "topojax" / "data" / "a_scan.png"
+    assert main([command, str(map_file), "-o", str(tmp_path / "out"), *argv]) == 2
+    err = capsys.readouterr().err
+    assert message in err
+    assert "resolution_m" not in err and "occupied_thresh" not in err

@@ -1254,7 +1254,8 @@ def test_snap_and_tolerance_that_leave_no_reach_are_refused():
     res = m.resolution_m
     tight = tj.RouteGraphConfig(snap_m=0.05 + res, waypoint_tolerance_m=0.05)  # 1 px
     with pytest.raises(
-        ValueError, match=r"^snap_m: expected at least waypoint_tolerance_m \+ 1.5 pixels"
+        ValueError,
+        match=r"^snap_m: expected at least the waypoint tolerance \(0.05 m\) plus 1.5 pixels",
     ):
         tj.route_graph(m, config=tight)
 

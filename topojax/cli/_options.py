@@ -182,7 +182,23 @@ def add_map_options(p: argparse.ArgumentParser) -> None:
 
 def map_options(args) -> dict:
     """The keyword arguments of ``load_map`` that the options of :func:`add_map_options`
-    set (those not given are left to the file and the defaults)."""
+    set (those not given are left to the file and the defaults), checked under the
+    options' names."""
+    from .._validate import positive_metres
+
+    if args.resolution_m is not None:
+        positive_metres("--resolution", args.resolution_m)
+    for name in ("occupied_thresh", "free_thresh"):
+        value = getattr(args, name)
+        if value is not None and not 0.0 <= value <= 1.0:  # also NaN
+            option = "--" + name.replace("_", "-")
+            raise ValueError(f"{option}: expected a share from 0 to 1, received {value!r}")
+    if args.free_thresh is not None and args.occupied_thresh is not None:
+        if args.free_thresh >= args.occupied_thresh:
+            raise ValueError(
+                "--free-thresh: expected less than --occupied-thresh "
+                f"({args.occupied_thresh!r}), received {args.free_thresh!r}"
+            )
     kw = {}
     for name in ("resolution_m", "occupied_thresh", "free_thresh", "mode"):
         if getattr(args, name) is not None:

@@ -105,6 +105,8 @@ def _cmd_route_graph(args) -> int:
 
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
         check_outputs(planned([args.mcap], args.map), command="route-graph", option="--mcap")
+    if args.resolution_m is not None:
+        positive_metres("--resolution", args.resolution_m)
     kw = {k: getattr(args, k) for k in ("resolution_m", "mode") if getattr(args, k) is not None}
     occupancy = load_map(args.map, **kw)
     check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")

@@ -322,8 +322,9 @@ def check_scale(
     if (cfg.snap_m - cfg.waypoint_tolerance_m) / res < MIN_REACH_PX - _ROUNDING_PX:
         least = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
         raise ValueError(
-            f"{snap_name}: expected at least waypoint_tolerance_m + {MIN_REACH_PX:g} pixels of the "
-            f"map ({least:g} m at {res:g} m per pixel), received {cfg.snap_m!r}"
+            f"{snap_name}: expected at least the waypoint tolerance "
+            f"({cfg.waypoint_tolerance_m:g} m) plus {MIN_REACH_PX:g} pixels of the map "
+            f"({least:g} m at {res:g} m per pixel), received {cfg.snap_m!r}"
         )
     if 0 < cfg.shortcut_spacing_m < res:
         raise ValueError(
