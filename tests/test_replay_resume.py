@@ -478,3 +478,38 @@ def test_a_failing_recording_leaves_the_scan_counted_but_not_recorded():
         for i in range(10):
             whole.add(mapper, i, i, progress, then=record)
     assert (progress.consumed, progress.recorded) == (3, 2)
+
+
+@pytest.mark.parametrize("inside", ["_splat_group", "skeleton_exact"])
+def test_an_interrupt_during_the_final_update_waits_for_it(tmp_path, monkeypatch, full_run, inside):
+    """Ctrl-C part way through the update after the last scan stopped it half done (the
+    pending obstacles or the changed ridges dropped) and saved that state: the resumed
+    replay wrote another graph.  It now stops once the update has run."""
+    import topojax.incremental._splat as splat_module
+    import topojax.incremental.mapper as mapper_module
+    import topojax.playback as playback
+
+    module = splat_module if inside == "_splat_group" else mapper_module
+    real, real_final = getattr(module, inside), playback._final
+    stage = {"final": False, "sent": False}
+
+    def final(*args, **kw):
+        stage["final"] = True
+        return real_final(*args, **kw)
+
+    def interrupted(*args, **kw):
+        if stage["final"] and not stage["sent"]:
+            stage["sent"] = True
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(*args, **kw)
+
+    monkeypatch.setattr(playback, "_final", final)
+    monkeypatch.setattr(module, inside, interrupted)
+    out = tmp_path / "out"
+    with pytest.warns(RuntimeWarning, match="stopped after 40 scans"):
+        with pytest.raises(KeyboardInterrupt):
+            replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
+    assert stage["sent"]
+    monkeypatch.undo()
+    replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
+    assert_same_outputs(full_run[0], out)

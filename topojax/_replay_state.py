@@ -4,6 +4,7 @@ reader's options and how far into the log the replay got."""
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import shutil
@@ -67,6 +68,21 @@ class WholeScans:
             self._pending = True
             return
         raise KeyboardInterrupt
+
+    @contextlib.contextmanager
+    def held(self):
+        """Within ``with``, a Ctrl-C is held as while a scan is mapped, and raised once the
+        block has run: for the mapper's updates after the last scan (the final skeleton
+        and graph update, the route graph), which an interrupt part way would leave
+        half done, for the state saved on the interrupt to hold."""
+        self._busy = True
+        try:
+            yield
+        finally:
+            self._busy = False
+            if self._pending:  # the held Ctrl-C, now that the block has run
+                self._pending = False
+                raise KeyboardInterrupt  # noqa: B012
 
     def add(self, mapper, scan, index: int, progress: ReplayProgress, then=None):
         """``mapper.add_scan(scan)`` of the log's scan ``index`` (from 0), counted in

@@ -330,10 +330,11 @@ def _map_scans(
             raise ValueError(f"source {source}: no scans to replay")
         if mapper.pixel_bbox is None:
             raise ValueError(f"source {source}: no valid laser readings in {mapper.n_scans} scans")
-        update, final_s, result, seg = _final(mapper, graph_config, rooms)
-        routes = None
-        if route_graph_radius_m is not None:
-            routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
+        with WholeScans() as whole, whole.held():  # a Ctrl-C waits for the update
+            update, final_s, result, seg = _final(mapper, graph_config, rooms)
+            routes = None
+            if route_graph_radius_m is not None:
+                routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
     except ExportBudgetError as exc:
         keep_recordings(out, progress_at, recorder, timeline, frames)
         raise _unwritable(mapper, exc, out, state_record()) from None
