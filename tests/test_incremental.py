@@ -2474,3 +2474,46 @@ def test_world_to_pixel_refuses_what_has_no_pixel():
             m.world_to_pixel([0.0, 1.0], [0.0, bad])
     with pytest.raises(TypeError, match="^x: expected a number or an array of real numbers"):
         m.world_to_pixel("1", 0.0)
+
+
+def test_an_update_stopped_part_way_is_neither_saved_nor_built_on(tmp_path, monkeypatch):
+    """A Ctrl-C part way through a skeleton update (the changed ridges taken, the
+    skeleton not yet re-thinned) left a mapper that saved and took scans as if whole:
+    the state saved, or the map built on, held half an update (a wrong graph).  Saving
+    it, adding to it and updating it are now refused, saying why."""
+    import topojax.incremental.mapper as mapper_module
+
+    scans = list(read_carmen(INTEL_EXCERPT))[:6]
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0)
+    for scan in scans[:5]:
+        mapper.add_scan(scan)
+
+    def interrupted(*args, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(mapper_module, "skeleton_exact", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        mapper.update_graph()
+    monkeypatch.undo()
+    message = "KeyboardInterrupt stopped a skeleton update part way"
+    with pytest.raises(RuntimeError, match=f"cannot save: {message}.*IncrementalMapper.load"):
+        mapper.save(tmp_path / "state.npz")
+    assert not (tmp_path / "state.npz").exists()
+    for call, action in (
+        (lambda: mapper.add_scan(scans[5]), "add a scan"),
+        (lambda: mapper.add_points([[1.0, 1.0]]), "add a scan"),
+        (lambda: mapper.add_map(mapper.occupancy), "add a map"),
+        (mapper.update_graph, "update the skeleton"),
+        (mapper.update_rooms, "update the rooms"),
+    ):
+        with pytest.raises(RuntimeError, match=f"cannot {action}: {message}"):
+            call()
+    assert mapper.n_scans == 5
+    # a scan refused before any change (ExtentError) leaves the mapper whole
+    whole = IncrementalMapper(max_extent_m=50.0)
+    whole.add_scan(scans[0])
+    far = Scan.from_arrays(np.full(5, 2.0), (1000.0, 0.0, 0.0), angle_min=0, angle_increment=0.1)
+    with pytest.raises(ExtentError):
+        whole.add_scan(far)
+    whole.add_scan(scans[1])
+    whole.save(tmp_path / "whole.npz")

@@ -4,6 +4,7 @@ counting, the tiles a scan needs and the integration of hits.
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
@@ -288,6 +289,34 @@ class ExtentError(ValueError):
     beyond 2^30 pixels from the origin (nothing was added)."""
 
 
+@contextlib.contextmanager
+def changing(mapper, what: str):
+    """Within ``with``, ``mapper`` changes its state (``what``: "a skeleton update", say):
+    an exception or interrupt (Ctrl-C) that stops it part way, other than an
+    :class:`ExtentError` (raised before any change), leaves the mapper marked as half
+    updated (:func:`check_whole` then refuses to save or change it)."""
+    try:
+        yield
+    except ExtentError:
+        raise
+    except BaseException as exc:
+        if mapper._torn is None:
+            mapper._torn = f"{type(exc).__name__} stopped {what} part way"
+        raise
+
+
+def check_whole(mapper, action: str) -> None:
+    """Raise RuntimeError, saying why and what to do, if an exception or interrupt left
+    ``mapper`` half updated (:func:`changing`): ``action`` ("save", say) would keep or
+    build on a state that holds part of an update (a wrong map)."""
+    if mapper._torn is not None:
+        raise RuntimeError(
+            f"mapper: cannot {action}: {mapper._torn}, so its state holds part of that "
+            "update (its map and graph would be wrong); load the last saved state "
+            "(IncrementalMapper.load) or add the scans to a new mapper"
+        )
+
+
 def check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
     """Raise :class:`ExtentError` if the tiles of global pixels ``lo_r..hi_r`` x
     ``lo_c..hi_c`` (inclusive) lie beyond 2^30 pixels, or would make the allocated
@@ -356,6 +385,12 @@ def cast_pending_rays(mapper, *, background: bool = False) -> None:
     join_rays(mapper)
     if not mapper._rays:
         return
+    with changing(mapper, "counting free cells"):
+        _cast_batch(mapper, background)
+
+
+def _cast_batch(mapper, background: bool) -> None:
+    """The body of :func:`cast_pending_rays` once beams are waiting."""
     rays, mapper._rays, mapper._n_rays = mapper._rays, [], 0
     sr = np.array([r[0] for r in rays], np.int64)
     sc = np.array([r[1] for r in rays], np.int64)
@@ -467,6 +502,7 @@ def add_occupancy(mapper, occupancy) -> int:
     from ..maps import map_argument
 
     occupancy = map_argument("occupancy", occupancy)
+    check_whole(mapper, "add a map")
     if not math.isclose(occupancy.resolution_m, mapper.resolution_m, rel_tol=1e-9):
         raise ValueError(
             f"occupancy: expected the mapper's resolution {mapper.resolution_m} m, "
@@ -481,7 +517,6 @@ def add_occupancy(mapper, occupancy) -> int:
     x0, y0 = occupancy.pixel_to_world(0, 0)
     r0, c0 = (int(v) for v in mapper.world_to_pixel(x0, y0))
     h, w = occupancy.shape
-    t = mapper.tile_px
     half = mapper._half + HALO_PX
     rows, cols = np.nonzero(occupancy.occupied)
     free_rows, free_cols = np.nonzero(occupancy.free) if mapper.free_space else ((), ())
@@ -500,6 +535,15 @@ def add_occupancy(mapper, occupancy) -> int:
         if er.shape[0]
         else np.zeros(4, np.int64)
     )
+    with changing(mapper, "adding a map"):
+        return _add_map_pixels(mapper, er, ec, ext, free_rows, free_cols, r0, c0)
+
+
+def _add_map_pixels(mapper, er, ec, ext, free_rows, free_cols, r0: int, c0: int) -> int:
+    """The changes of :func:`add_occupancy`: the map's occupied pixels ``(er, ec)``
+    (global, extent ``ext``) as hits and its free pixels (``free_rows``, ``free_cols``
+    of the map, whose pixel (0, 0) is global ``(r0, c0)``) as free cells."""
+    t = mapper.tile_px
     n_new = integrate_end_pixels(mapper, er, ec, ext, None, where=lambda: "occupancy: the map")
     if len(free_rows):
         fr = free_rows.astype(np.int64) + r0

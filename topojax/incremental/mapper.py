@@ -25,11 +25,11 @@ from ._graph_export import export_graph, global_graph, topology_result
 from ._graph_patch import patch_graph
 from ._graph_store import empty_graph_tables
 from ._rays import (
-    RAY_BATCH_BEAMS,
     _scan_geometry,
     add_occupancy,
     cast_pending_rays,
-    integrate_end_pixels,
+    changing,
+    check_whole,
     join_rays,
     point_pixels,
 )
@@ -40,7 +40,8 @@ from ._ridges import (
     ridge_kernel,
     update_ridges,
 )
-from ._rooms import RoomKeeper, due_rooms_update, rooms_due
+from ._rooms import RoomKeeper
+from ._scan_loops import map_end_pixels
 from ._settings import (
     DEFAULT_MAX_EXPORT_BYTES,
     DEFAULT_MAX_EXTENT_M,
@@ -54,7 +55,7 @@ from ._settings import (
 )
 from ._skeleton import skeleton_exact, skeleton_paper
 from ._splat import SPLAT_POINTS, SPLAT_ROWS, _splat_blocks, flush_splat
-from ._tiles import _growth_pool, check_export_budget, new_tile_storage, window_box
+from ._tiles import check_export_budget, new_tile_storage, window_box
 from .reports import GraphUpdate, ScanReport
 from .state import load_state, save_state
 
@@ -224,6 +225,7 @@ class IncrementalMapper:
         self._rays: list[tuple[int, int, np.ndarray, np.ndarray]] = []
         self._n_rays = 0
         self._lock = threading.RLock()
+        self._torn: str | None = None  # what stopped an update part way (see changing)
         self._ray_job = None
         self._n_pending = 0
         self._skel_changed: list[np.ndarray] = []
@@ -316,6 +318,10 @@ class IncrementalMapper:
             If the scan's pixels are absurdly far (beyond 2^30 pixels) or the map would
             exceed ``max_grid_cells``, ``max_extent_m`` or ``max_tile_bytes``
             (:class:`ExtentError`).  Nothing is changed in that case.
+        RuntimeError
+            If an exception or interrupt (Ctrl-C) stopped an update of the mapper part
+            way: its state holds part of that update (so do every other change and
+            :meth:`save`).
         """
         instance_of("scan", scan, Scan, "topojax.Scan (see Scan.from_arrays)")
         t0 = time.perf_counter()
@@ -440,59 +446,9 @@ class IncrementalMapper:
         """The distance loop for one scan's end pixels ``(er, ec)`` (int64, extent
         ``ext`` = (min row, max row, min col, max col)), free space along the rays from the
         ``sensor`` pixel (row, col) when given, then the loops that are due."""
-        n_valid = int(er.shape[0])
-        tiles = self._tiles
-        n_tiles = tiles.n_tiles
-        n_new = integrate_end_pixels(self, er, ec, ext, sensor, where=where)
-        if tiles.n_tiles != n_tiles and _growth_pool() is not None:
-            # page in the storage of the next growth on another thread (see TileManager)
-            tiles.prepare_growth(_growth_pool().submit)
-        if self._n_rays >= RAY_BATCH_BEAMS:
-            cast_pending_rays(self)
-        loops = ["distance"]
-        timings: dict[str, float] = {}
-        if self._n_pending and self._n_pending >= self.max_pending_points:
-            ts = time.perf_counter()
-            self._flush_splat()
-            timings["splat"] = time.perf_counter() - ts
-            loops.append("splat")
-        timings["distance"] = time.perf_counter() - t0
-        self._n_scans += 1
-        self._since_skeleton += 1
-        self._since_graph += 1
-        update = None
-        if self.graph_every and self._since_graph >= self.graph_every:
-            ts = time.perf_counter()
-            self.update_skeleton()
-            timings["skeleton"] = time.perf_counter() - ts
-            ts = time.perf_counter()
-            update = self._update_graph()
-            timings["graph"] = time.perf_counter() - ts
-            loops += ["skeleton", "graph"]
-        elif self.skeleton_every and self._since_skeleton >= self.skeleton_every:
-            ts = time.perf_counter()
-            self.update_skeleton()
-            timings["skeleton"] = time.perf_counter() - ts
-            loops.append("skeleton")
-        self._since_rooms += 1
-        rooms = None
-        if rooms_due(self, graph_ran=update is not None):
-            rooms = due_rooms_update(self)
-        if rooms is not None:
-            timings["rooms"] = rooms.time_s
-            loops.append("rooms")
-        return ScanReport(
-            index=self._n_scans - 1,
-            n_beams=n_beams,
-            n_valid=n_valid,
-            n_dropped=n_beams - n_valid,
-            n_new_obstacles=int(n_new),
-            loops=tuple(loops),
-            timings_s=timings,
-            n_tiles=tiles.n_tiles,
-            graph_update=update,
-            rooms_update=rooms,
-        )
+        check_whole(self, "add a scan")
+        with changing(self, f"adding scan {self._n_scans}"):
+            return map_end_pixels(self, er, ec, ext, sensor, n_beams=n_beams, t0=t0, where=where)
 
     @_synchronized
     def compile(self) -> None:
@@ -529,7 +485,10 @@ class IncrementalMapper:
     # ------------------------------------------------------------------ distance loop
     def _flush_splat(self) -> int:
         """Splat all pending new obstacle pixels; returns the number of changed blocks."""
-        return flush_splat(self)
+        if not self._pending:
+            return 0
+        with changing(self, "a splat"):
+            return flush_splat(self)
 
     # ------------------------------------------------------------------ skeleton loop
     @_synchronized
@@ -542,6 +501,12 @@ class IncrementalMapper:
         int
             Number of skeleton pixels that changed.
         """
+        check_whole(self, "update the skeleton")
+        with changing(self, "a skeleton update"):
+            return self._update_skeleton()
+
+    def _update_skeleton(self) -> int:
+        """The body of :meth:`update_skeleton`."""
         self._flush_splat()
         added, removed, border, blocks = update_ridges(self)
         # The free cells of the scans since the last update are counted on the worker
@@ -573,7 +538,7 @@ class IncrementalMapper:
     def _update_graph(self) -> GraphUpdate:
         from ..graph import paused_gc
 
-        with paused_gc():
+        with paused_gc(), changing(self, "a graph update"):
             return patch_graph(self)
 
     # ------------------------------------------------------------------ exports
@@ -754,6 +719,7 @@ class IncrementalMapper:
     def update_rooms(self):
         """Bring the graph and the rooms up to date; returns a ``RoomsUpdate`` (rooms and
         doors added, removed, changed)."""
+        check_whole(self, "update the rooms")
         self._rooms.active = True  # in use from now on, even if the mapper is empty yet
         self.update_graph()
         return self._update_rooms()

@@ -13,7 +13,7 @@ from .._validate import existing_file
 from ..config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..graph import KIND_NAMES
 from ._graph_store import add_paths, edge_ids, edge_paths, reserve, vertex_ids
-from ._rays import cast_pending_rays
+from ._rays import cast_pending_rays, check_whole
 from ._settings import settings_of
 from ._tiles import _pack, _unpack
 
@@ -31,6 +31,7 @@ def save_state(mapper, path, *, replay: dict | None = None) -> Path:
     which :meth:`IncrementalMapper.load` ignores."""
     from .._fs import atomic_write_bytes
 
+    check_whole(mapper, "save")
     p = Path(path)
     cast_pending_rays(mapper)
     arrays: dict[str, np.ndarray] = {
