@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ._animation import animation_frame, write_animation
+from ._replay_args import check_flags_and_reader, check_replay_args, refuse_overwriting_source
 from ._replay_state import (
     STATE_FILE,
     KeptRecordings,
@@ -24,15 +25,6 @@ from ._replay_state import (
     replay_record,
     resumed_mapper,
     save_replay_state,
-)
-from ._validate import (
-    flag,
-    instance_or_default,
-    no_file_above,
-    nonnegative_metres,
-    path_like,
-    positive_int,
-    positive_metres,
 )
 from .config import GraphConfig
 from .incremental import (
@@ -149,17 +141,53 @@ def replay(
         The files that the last replay into ``out_dir`` wrote and this one does not
         (:func:`optional_outputs`: route graph, rooms, pictures, view) are removed.
     """
-    from ._fs import atomic_write_bytes
-
-    nav2_tolerance_m, route_graph_radius_m = _check_replay_args(
+    nav2_tolerance_m, route_graph_radius_m = check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
     )
-    _refuse_overwriting_source(source, Path(out_dir), animate, mcap)
-    _check_flags_and_reader(
+    refuse_overwriting_source(source, Path(out_dir), animate, mcap)
+    check_flags_and_reader(
         dict(plot=plot, progress=progress, rooms=rooms, view=view, resume=resume),
         reader_kwargs,
     )
-    out = Path(out_dir)
+    return _replay_checked(
+        source,
+        Path(out_dir),
+        mapper_kw,
+        plot=plot,
+        animate=animate,
+        progress=progress,
+        max_scans=max_scans,
+        reader_kwargs=reader_kwargs,
+        nav2_tolerance_m=nav2_tolerance_m,
+        graph_config=graph_config,
+        route_graph_radius_m=route_graph_radius_m,
+        rooms=rooms,
+        view=view,
+        mcap=mcap,
+        resume=resume,
+    )
+
+
+def _replay_checked(
+    source,
+    out: Path,
+    mapper_kw: dict,
+    *,
+    plot,
+    animate,
+    progress,
+    max_scans,
+    reader_kwargs,
+    nav2_tolerance_m,
+    graph_config,
+    route_graph_radius_m,
+    rooms,
+    view,
+    mcap,
+    resume,
+) -> dict:
+    """The body of :func:`replay`, its arguments checked: open the log and make the
+    mapper, map the scans, write the files and the summary; returns the summary."""
     scans, mapper, progress_at, kept = _start(
         source,
         out,
@@ -210,8 +238,18 @@ def replay(
         )
     if recorder is not None:
         written.append(recorder.path)
+    messages += _remove_stale(out, [*written, out / "timings.json"]) + kept.messages
+    return _finish(source, mapper, done, out, progress_at, written, messages, progress)
+
+
+def _finish(source, mapper, done, out: Path, progress_at, written, messages, progress) -> dict:
+    """End a replay whose files are written (``written``, with ``messages`` about them):
+    remove the state and recordings a stopped replay left in ``out`` (this finished one
+    supersedes them), write ``timings.json`` and print the summary (with ``progress``);
+    returns the summary."""
+    from ._fs import atomic_write_bytes
+
     written.append(out / "timings.json")
-    messages += _remove_stale(out, written) + kept.messages
     state = out / STATE_FILE
     if state.is_file():  # a stopped replay's state, superseded by this finished one
         state.unlink()
@@ -503,83 +541,10 @@ def _unwritable(
     )
 
 
-def _check_flags_and_reader(flags: dict, reader_kwargs) -> None:
-    """Check :func:`replay`'s bool options and ``reader_kwargs`` (a dict or None)."""
-    for name, value in flags.items():
-        flag(name, value)
-    if reader_kwargs is not None and not isinstance(reader_kwargs, dict):
-        raise TypeError(
-            "reader_kwargs: expected a dict of keyword arguments of read_scans, received "
-            f"{type(reader_kwargs).__name__}"
-        )
-
-
 def _route_note(done: _Replayed) -> list[str]:
     """Why the final route graph (if any) has no edge, as a message; else none."""
     note = None if done.routes is None else done.routes.graph.get("note")
     return [note] if note else []
-
-
-def _check_replay_args(
-    max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
-):
-    """Check :func:`replay`'s arguments before the replay starts (not after it); returns
-    the Nav2 tolerance and the route graph's robot radius as floats (or None)."""
-    if max_scans is not None:
-        positive_int("max_scans", max_scans)
-    if nav2_tolerance_m is not None:  # checked now, not after the whole replay
-        nav2_tolerance_m = positive_metres("nav2_tolerance_m", nav2_tolerance_m)
-    if graph_config is not None:
-        instance_or_default("graph_config", graph_config, GraphConfig)
-    out = path_like("out_dir", out_dir)
-    if animate is not None:  # written last, after the whole replay
-        no_file_above("animate", path_like("animate", animate))
-    if out.exists() and not out.is_dir():
-        raise NotADirectoryError(
-            f"out_dir: expected a folder to write into, but {out} is an existing file"
-        )
-    if (
-        animate is not None
-        and Path(animate).suffix.lower() != ".gif"
-        and not Path(animate).is_dir()
-    ):
-        raise ValueError(
-            f"animate: expected a GIF file name ending in .gif, received {str(animate)!r}"
-        )
-    if animate is not None and Path(animate).is_dir():  # checked now, not after the replay
-        raise IsADirectoryError(
-            f"animate: expected a GIF file name, received the folder {animate}; e.g. "
-            f"{Path(animate) / 'graph.gif'}"
-        )
-    if mcap is not None:
-        from .io.mcap import mcap_path
-
-        mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
-    if route_graph_radius_m is not None:
-        route_graph_radius_m = nonnegative_metres("route_graph_radius_m", route_graph_radius_m)
-    return nav2_tolerance_m, route_graph_radius_m
-
-
-def _refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
-    """Refuse (ValueError) output paths that are the log itself or, for a bag folder (or
-    a file in one), a file of that folder: e.g. ``mcap`` the recording being replayed
-    (it was replaced by the new recording)."""
-    from ._fs import refuse_overwriting_inputs
-
-    src = path_like("source", source)
-    folder = (
-        src if src.is_dir() else src.parent if (src.parent / "metadata.yaml").is_file() else None
-    )
-    inputs = [src] if folder is None else [p for p in folder.iterdir() if p.is_file()]
-    names = output_names(nav2=True, plot=True, route_graph=True, rooms=True, view=True)
-    for option, targets in (
-        ("out_dir", [out / name for name in [*names, STATE_FILE]]),
-        ("animate", [] if animate is None else [Path(animate)]),
-        ("mcap", [] if mcap is None else [Path(mcap)]),
-    ):
-        refuse_overwriting_inputs(
-            inputs, targets, option=option, what="the replayed log", instead="path"
-        )
 
 
 def _recorder(mcap, continue_from):

@@ -1,0 +1,92 @@
+"""The checks of :func:`topojax.replay`'s arguments, made before the log is opened (not
+after the whole replay)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ._replay_state import STATE_FILE
+from ._validate import (
+    flag,
+    instance_or_default,
+    no_file_above,
+    nonnegative_metres,
+    path_like,
+    positive_int,
+    positive_metres,
+)
+from .config import GraphConfig
+
+
+def check_flags_and_reader(flags: dict, reader_kwargs) -> None:
+    """Check :func:`replay`'s bool options and ``reader_kwargs`` (a dict or None)."""
+    for name, value in flags.items():
+        flag(name, value)
+    if reader_kwargs is not None and not isinstance(reader_kwargs, dict):
+        raise TypeError(
+            "reader_kwargs: expected a dict of keyword arguments of read_scans, received "
+            f"{type(reader_kwargs).__name__}"
+        )
+
+
+def check_replay_args(
+    max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
+):
+    """Check :func:`replay`'s arguments before the replay starts (not after it); returns
+    the Nav2 tolerance and the route graph's robot radius as floats (or None)."""
+    if max_scans is not None:
+        positive_int("max_scans", max_scans)
+    if nav2_tolerance_m is not None:  # checked now, not after the whole replay
+        nav2_tolerance_m = positive_metres("nav2_tolerance_m", nav2_tolerance_m)
+    if graph_config is not None:
+        instance_or_default("graph_config", graph_config, GraphConfig)
+    out = path_like("out_dir", out_dir)
+    if animate is not None:  # written last, after the whole replay
+        no_file_above("animate", path_like("animate", animate))
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(
+            f"out_dir: expected a folder to write into, but {out} is an existing file"
+        )
+    if (
+        animate is not None
+        and Path(animate).suffix.lower() != ".gif"
+        and not Path(animate).is_dir()
+    ):
+        raise ValueError(
+            f"animate: expected a GIF file name ending in .gif, received {str(animate)!r}"
+        )
+    if animate is not None and Path(animate).is_dir():  # checked now, not after the replay
+        raise IsADirectoryError(
+            f"animate: expected a GIF file name, received the folder {animate}; e.g. "
+            f"{Path(animate) / 'graph.gif'}"
+        )
+    if mcap is not None:
+        from .io.mcap import mcap_path
+
+        mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
+    if route_graph_radius_m is not None:
+        route_graph_radius_m = nonnegative_metres("route_graph_radius_m", route_graph_radius_m)
+    return nav2_tolerance_m, route_graph_radius_m
+
+
+def refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
+    """Refuse (ValueError) output paths that are the log itself or, for a bag folder (or
+    a file in one), a file of that folder: e.g. ``mcap`` the recording being replayed
+    (it was replaced by the new recording)."""
+    from ._fs import refuse_overwriting_inputs
+    from .playback import output_names
+
+    src = path_like("source", source)
+    folder = (
+        src if src.is_dir() else src.parent if (src.parent / "metadata.yaml").is_file() else None
+    )
+    inputs = [src] if folder is None else [p for p in folder.iterdir() if p.is_file()]
+    names = output_names(nav2=True, plot=True, route_graph=True, rooms=True, view=True)
+    for option, targets in (
+        ("out_dir", [out / name for name in [*names, STATE_FILE]]),
+        ("animate", [] if animate is None else [Path(animate)]),
+        ("mcap", [] if mcap is None else [Path(mcap)]),
+    ):
+        refuse_overwriting_inputs(
+            inputs, targets, option=option, what="the replayed log", instead="path"
+        )
