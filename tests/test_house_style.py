@@ -24,11 +24,10 @@ PACKAGE = ROOT / "topojax"
 MAX_MODULE_LINES = 800
 MAX_FUNCTION_LINES = 120
 
-#: ``(module, function)`` pairs allowed to be longer: a numba kernel kept in one piece, and
-#: the replay loop.
-KNOWN_LONG_FUNCTIONS = {("topojax.graph.trace", "_trace"), ("topojax.playback", "replay")}
+#: ``(module, function)`` pairs allowed to be longer: a numba kernel kept in one piece.
+KNOWN_LONG_FUNCTIONS = {("topojax.graph.trace", "_trace")}
 #: Modules allowed to be longer.
-KNOWN_LONG_MODULES = {"topojax.incremental.mapper"}
+KNOWN_LONG_MODULES: set[str] = set()
 #: ``(importer, imported)`` pairs of a private name across packages.
 KNOWN_PRIVATE_IMPORTS: set[tuple[str, str]] = set()
 
