@@ -513,3 +513,45 @@ def test_an_interrupt_during_the_final_update_waits_for_it(tmp_path, monkeypatch
     monkeypatch.undo()
     replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
     assert_same_outputs(full_run[0], out)
+
+
+def test_a_replay_stopped_at_a_malformed_line_resumes_past_it_skipping_bad_lines(tmp_path):
+    """A damaged scan line stops a replay, and resuming stopped at it again, so the rest
+    of the log could not be mapped; resumed with ``bad_lines="skip"`` (``--skip-bad-lines``)
+    it goes on past the line, as a replay skipping bad lines from the start does."""
+    lines = gzip.open(INTEL_EXCERPT, "rt").read().splitlines()
+    laser = [i for i, line in enumerate(lines) if line.startswith("FLASER")]
+    damaged = lines[laser[20]].split()
+    damaged[5] = "abc"  # a range that is not a number
+    lines[laser[20]] = " ".join(damaged)
+    log = tmp_path / "damaged.log"
+    log.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    given = {"max_range_m": 50.0}  # no survey of the whole log before the first scan
+    with (
+        pytest.warns(RuntimeWarning, match="stopped after 20 scans"),
+        pytest.raises(ValueError, match=r"malformed FLASER line: .*bad_lines='skip'"),
+    ):
+        replay(log, out_dir=out, progress=False, reader_kwargs=given, **SETTINGS)
+    with (  # the same line again
+        pytest.warns(RuntimeWarning, match="stopped after 20 scans"),
+        pytest.raises(ValueError, match="malformed FLASER line"),
+    ):
+        replay(log, out_dir=out, progress=False, resume=True, reader_kwargs=given, **SETTINGS)
+    skip = {**given, "bad_lines": "skip"}
+    with pytest.warns(UserWarning, match=r"skipped 1 malformed FLASER line\(s\)"):
+        resumed = replay(
+            log, out_dir=out, progress=False, resume=True, reader_kwargs=skip, **SETTINGS
+        )
+    whole = tmp_path / "whole"
+    with pytest.warns(UserWarning, match="skipped 1 malformed"):
+        replay(log, out_dir=whole, progress=False, reader_kwargs=skip, **SETTINGS)
+    assert resumed["n_scans"] == len(laser) - 1
+    assert_same_outputs(out, whole)
+    # the command line's option
+    again = tmp_path / "cli"
+    argv = ["replay", str(log), "-o", str(again), "--max-range", "50"]
+    argv += ["--graph-every", "7", "--skeleton-every", "3"]
+    with pytest.warns(UserWarning, match="skipped 1 malformed"):
+        assert main([*argv, "--skip-bad-lines"]) == 0
+    assert_same_outputs(again, whole)

@@ -381,6 +381,20 @@ def test_carmen_malformed_lines_raise_with_line_number(tmp_path, line, needle):
         list(read_carmen(path))
     assert f"{path}:4:" in str(info.value)
     assert "FLASER" in str(info.value)
+    assert "bad_lines='skip'" in str(info.value)  # the way past it
+    # skipped on request, with a warning naming the count and the first line (also the
+    # first pass that finds the no-return value)
+    for kw in ({}, {"max_range_m": 10.0}):
+        with pytest.warns(UserWarning, match=r"skipped 1 malformed FLASER .* line 4: "):
+            scans = list(read_carmen(path, bad_lines="skip", **kw))
+        assert len(scans) == 1 and scans[0].ranges.size == 4
+
+
+def test_carmen_bad_lines_is_checked(tmp_path):
+    path = tmp_path / "ok.log"
+    path.write_text(_flaser([1, 2, 3, 4], (0, 0, 0)))
+    with pytest.raises(ValueError, match=r"^bad_lines: expected one of"):
+        read_carmen(path, bad_lines="ignore")
 
 
 def test_carmen_scans_whose_pose_is_not_finite_are_skipped(tmp_path):

@@ -188,6 +188,16 @@ def keep_state(mapper, out: Path, record) -> bool:
     return True
 
 
+#: Reader options a replay may resume with changed: skipping malformed lines leaves the
+#: scans before the line a replay stopped at as they were (and a state saved skipping
+#: lines, resumed without, stops at the first such line again).
+_RESUME_FREE = ("bad_lines",)
+
+
+def _without(options: dict, keys) -> dict:
+    return {k: v for k, v in options.items() if k not in keys}
+
+
 def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
     """The mapper saved in ``out`` by a replay of ``source`` that stopped part way, and
     that replay's record (``consumed``, ``mapped``, ``skipped``).
@@ -229,7 +239,12 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
             f"resume: {path} was saved replaying {record['source']}, a different log from "
             f"{source}; replay without resume, or into another folder"
         )
-    _check_same(path, "reader options", record["reader_kwargs"], _plain(reader_kwargs or {}))
+    _check_same(
+        path,
+        "reader options",
+        _without(record["reader_kwargs"], _RESUME_FREE),
+        _without(_plain(reader_kwargs or {}), _RESUME_FREE),
+    )
     _check_same(path, "settings", _plain(json.loads(str(data["settings"]))), _plain(settings))
     if max_scans is not None and record["consumed"] > max_scans:
         raise ValueError(

@@ -75,6 +75,8 @@ def _cmd_replay(args) -> int:
             reader_kwargs[key] = getattr(args, name)
     if args.allow_missing_pose:
         reader_kwargs["allow_missing_pose"] = True
+    if args.skip_bad_lines:
+        reader_kwargs["bad_lines"] = "skip"
     check_outputs(_replay_claims(args), command="replay", option=OUT_OPTION)
     if args.mcap is not None:
         from ..io.mcap import mcap_path
@@ -213,6 +215,12 @@ def add_command(subparsers) -> None:
         metavar="M",
         help="CARMEN logs: readings of M metres or more are no-returns (default: from the "
         "log's no-return value, or each line's own maximum)",
+    )
+    p.add_argument(
+        "--skip-bad-lines",
+        action="store_true",
+        help="CARMEN logs: skip malformed laser lines with a warning instead of stopping "
+        "(also when resuming a replay that stopped at one)",
     )
     p.add_argument("--scan-topic", help="bags: the LaserScan topic (default: the only one)")
     p.add_argument("--pose-topic", help="bags: an Odometry / pose topic (default: tf)")

@@ -119,8 +119,9 @@ class _Survey(NamedTuple):
     n_readings: int
 
 
-def _survey_carmen(path: Path, laser: str, need_max: bool) -> _Survey:
-    """First pass over the log (see :class:`_Survey`)."""
+def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = False) -> _Survey:
+    """First pass over the log (see :class:`_Survey`); malformed laser lines raise, or
+    with ``skip_bad`` are passed over (the reading pass warns)."""
     chosen = None if laser == "auto" else laser
     scan_max: list[float] = []
     tops: list[np.ndarray] = []
@@ -154,7 +155,9 @@ def _survey_carmen(path: Path, laser: str, need_max: bool) -> _Survey:
             except _CarmenLineError as err:
                 if _cut_off(line):  # the logger stopped mid-line: the scans before count
                     break
-                raise ValueError(f"{path}:{lineno}: malformed {key} line: {err}") from None
+                if skip_bad:
+                    continue
+                raise _malformed(path, lineno, key, err) from None
             finite = ranges[np.isfinite(ranges)]
             if finite.size:
                 top = float(finite.max())
@@ -230,6 +233,7 @@ def read_carmen(
     laser: str = "auto",
     no_return_margin_m: float = CARMEN_NO_RETURN_MARGIN_M,
     sensor_offset: PoseLike | None = None,
+    bad_lines: str = "raise",
 ) -> Iterator[Scan]:
     """Read laser scans from a CARMEN log (plain text or gzip, detected by magic bytes).
 
@@ -290,6 +294,11 @@ def read_carmen(
         ``PARAM robot_frontlaser_offset`` / ``_side_offset`` / ``_angular_offset`` values for
         the front laser (RAWLASER1 and pose-less FLASER, 0 when absent); other lasers posed
         from ODOM need it (ValueError otherwise).
+    bad_lines : {"raise", "skip"}, optional
+        A malformed laser line (a field that is not a number, a wrong count): an error
+        naming the line (default), or ``"skip"``: the line is skipped, and a warning gives
+        the count and the first line once the iterator is exhausted (a log damaged part
+        way through can then be read, or a stopped replay resumed, past the damage).
 
     Returns
     -------
@@ -302,7 +311,8 @@ def read_carmen(
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        For a malformed laser (or needed ODOM) line, with the file name and line number;
+        For a malformed laser line (unless ``bad_lines="skip"``) or a malformed ODOM line
+        a scan needs, with the file name and line number;
         for bad arguments; if the file has no scan of the requested kind.
     """
     p = existing_file("path", path)
@@ -319,7 +329,8 @@ def read_carmen(
         if sensor_offset is None
         else checked_pose("sensor_offset", sensor_offset, bounded=False)
     )
-    return _iter_carmen(p, max_range_m, laser, margin, offset_override)
+    skip_bad = one_of("bad_lines", bad_lines, ("raise", "skip")) == "skip"
+    return _iter_carmen(p, max_range_m, laser, margin, offset_override, skip_bad)
 
 
 def _iter_carmen(
@@ -328,9 +339,10 @@ def _iter_carmen(
     laser: str,
     margin: float,
     offset_override: tuple[float, float, float] | None,
+    skip_bad: bool = False,
 ) -> Iterator[Scan]:
     need_max = max_range_m is None and laser in ("auto", *_OLD_LASERS)
-    survey = _survey_carmen(path, laser, need_max)
+    survey = _survey_carmen(path, laser, need_max, skip_bad)
     chosen, params = survey.chosen, survey.params
     if chosen is None:
         raise ValueError(f"{path}: no laser lines found (looked for {', '.join(_CARMEN_LASERS)})")
@@ -351,6 +363,8 @@ def _iter_carmen(
     odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
     not_finite: list[int] = []  # lines of scans whose pose is not finite
+    bad: list[int] = []  # malformed laser lines skipped
+    first_bad = ""
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
@@ -381,12 +395,23 @@ def _iter_carmen(
                         stacklevel=2,
                     )
                     break
-                raise ValueError(f"{path}:{lineno}: malformed {key} line: {err}") from None
+                if not skip_bad:
+                    raise _malformed(path, lineno, key, err) from None
+                if not bad:
+                    first_bad = f"line {lineno}: {err}"
+                bad.append(lineno)
+                continue
             yield scan
     if skipped:
         warnings.warn(
             f"{path}: skipped {skipped} {chosen} scan(s) before the first ODOM line "
             f"(they have no pose)",
+            stacklevel=2,
+        )
+    if bad:
+        warnings.warn(
+            f"{path}: skipped {len(bad)} malformed {chosen} line(s) (bad_lines='skip'), "
+            f"the first on {first_bad}",
             stacklevel=2,
         )
     if not_finite:
@@ -398,6 +423,13 @@ def _iter_carmen(
 
 
 _ZERO_POSE = (0.0, 0.0, 0.0)
+
+
+def _malformed(path: Path, lineno: int, key: str, err: Exception) -> ValueError:
+    return ValueError(
+        f"{path}:{lineno}: malformed {key} line: {err} (bad_lines='skip', or "
+        "--skip-bad-lines in topojax replay, skips such lines with a warning)"
+    )
 
 
 class _OdomPoses:
