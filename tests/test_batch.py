@@ -623,6 +623,81 @@ def test_a_task_cancelled_with_a_broken_pool_runs_again(tmp_path, monkeypatch):
     assert [r.status for r in records] == ["ok", "ok"]
 
 
+def test_a_pool_that_keeps_breaking_gives_error_rows_and_a_summary(tmp_path, monkeypatch):
+    """Once the pool has been replaced as often as it may be, the maps left become error
+    rows that say why: the batch still ends with one record per map and its table."""
+    import concurrent.futures as cf
+    from concurrent.futures.process import BrokenProcessPool
+
+    from topojax.batch import driver
+
+    class BreaksAtOnce(cf.Executor):
+        """A pool whose worker dies with the first task: it fails, later submits raise."""
+
+        def __init__(self):
+            self.broken = False
+
+        def submit(self, fn, /, *args, **kwargs):
+            if self.broken:
+                raise BrokenProcessPool("A child process terminated abruptly")
+            self.broken = True
+            fut = cf.Future()
+            fut.set_exception(BrokenProcessPool("A child process terminated abruptly"))
+            return fut
+
+    monkeypatch.setattr(driver._BatchRun, "_new_executor", lambda self: BreaksAtOnce())
+    records = build_graphs(PAPER_MAPS, out_dir=tmp_path, workers=2, progress=False)
+    assert [r.status for r in records] == ["error"] * len(PAPER_MAPS)
+    assert all("worker process died" in r.message for r in records), records
+    rows = list(csv.DictReader((tmp_path / "summary.csv").open(encoding="utf-8")))
+    assert [row["status"] for row in rows] == ["error"] * len(PAPER_MAPS)
+
+
+def test_a_pool_that_breaks_now_and_then_is_replaced_as_often_as_maps_get_done(
+    tmp_path, monkeypatch
+):
+    """Worker processes killed now and then over a long batch (for memory, say) do not
+    add up to the end of it: the count of breaks starts again once a task is done."""
+    import concurrent.futures as cf
+    from concurrent.futures.process import BrokenProcessPool
+
+    from topojax.batch import driver
+
+    lost: set[str] = set()  # maps whose task a break lost: each once
+
+    class BreaksAfterATask(driver.InlineExecutor):
+        """Runs tasks at once; its worker dies with the task of a map not lost before, once
+        it has done one."""
+
+        def __init__(self):
+            self.done = 0
+            self.broken = False
+
+        def submit(self, fn, /, *args, **kwargs):
+            if self.broken:
+                raise BrokenProcessPool("A child process terminated abruptly")
+            name = args[0].name if fn is driver._cpu_stage else Path(args[0]).stem
+            if self.done and name not in lost:
+                lost.add(name)
+                self.broken = True
+                fut = cf.Future()
+                fut.set_exception(BrokenProcessPool("A child process terminated abruptly"))
+                return fut
+            self.done += 1
+            return super().submit(fn, *args, **kwargs)
+
+    src = tmp_path / "in"
+    src.mkdir()
+    inputs = []
+    for i in range(6):
+        inputs.append(src / f"m{i}.png")
+        inputs[-1].write_bytes(PAPER_MAPS[i % 3].read_bytes())
+    monkeypatch.setattr(driver._BatchRun, "_new_executor", lambda self: BreaksAfterATask())
+    records = build_graphs(inputs, out_dir=tmp_path / "out", workers=2, progress=False)
+    assert [r.status for r in records] == ["ok"] * len(inputs), records
+    assert len(lost) > driver._POOL_RESTARTS + 1  # more breaks than replacements in a row
+
+
 def test_no_more_worker_processes_than_maps_to_run(tmp_path, monkeypatch):
     import concurrent.futures as cf
 

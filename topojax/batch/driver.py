@@ -46,6 +46,8 @@ __all__ = ["build_graphs"]
 # process, and the lock that makes the first call of a bucket run alone.
 _COMPILED_BUCKETS: set[tuple[int, ...]] = set()
 _COMPILE_LOCK = threading.Lock()
+# Times an own process pool that broke (a worker process died) is replaced.
+_POOL_RESTARTS = 3
 
 
 def _ridge_clearance(
@@ -124,14 +126,22 @@ class _BatchRun:
         return ex
 
     def _submit(self, fn: Any, *args: Any) -> cf.Future:
-        """Submit to the executor; an own process pool that broke is replaced (3 times)."""
+        """Submit to the executor; an own process pool that broke is replaced (3 times in
+        a row, with no task done in between), then RuntimeError: the maps left become
+        error rows, not an end of the batch."""
         if self.executor is None:
             self.executor = self._new_executor()
         try:
             return self.executor.submit(fn, *args)
-        except cf.BrokenExecutor:
-            if not self.owns_executor or self._restarts >= 3:
+        except cf.BrokenExecutor as exc:
+            if not self.owns_executor:
                 raise
+            if self._restarts >= _POOL_RESTARTS:
+                raise RuntimeError(
+                    f"workers: a worker process died (killed for memory?) and broke the "
+                    f"pool {self._restarts + 1} times; no new pool is started for the "
+                    "maps left (--resume runs them again; fewer --workers need less memory)"
+                ) from exc
             self._restarts += 1
             self.executor.shutdown(wait=False, cancel_futures=True)
             self.executor = self._new_executor()
@@ -397,9 +407,13 @@ class _BatchRun:
                     continue
                 self._ready.append(loaded)
             elif self._load_in_workers:
-                fut = self._submit(
-                    _load_in_worker, os.fspath(item.path), self._want_free, self.map_mode
-                )
+                try:
+                    fut = self._submit(
+                        _load_in_worker, os.fspath(item.path), self._want_free, self.map_mode
+                    )
+                except Exception as exc:  # the pool broke once too often
+                    self._finish(item.index, _error_record(item, exc))
+                    continue
                 self._loads[fut] = item
             else:
                 fut = self._load_pool.submit(
@@ -436,10 +450,7 @@ class _BatchRun:
             self._config_for(loaded)  # e.g. a sigma_m too large here
             self._ready.append(loaded)
         except Exception as exc:
-            self._finish(
-                item.index,
-                MapRecord(map=item.name, path=item.label, status="error", message=_error_text(exc)),
-            )
+            self._finish(item.index, _error_record(item, exc))
 
     def _on_kernels_done(self, fut: cf.Future) -> None:
         """A group's kernels finished: submit each map's CPU job, or record its error."""
@@ -484,6 +495,11 @@ class _BatchRun:
         process died (e.g. killed for memory)."""
         if not self.owns_executor:
             return False
+        if not fut.cancelled() and fut.exception() is None:
+            # a worker ran a task: only breaks with no task done in between add up to
+            # the pool's last replacement, not those of a long batch
+            self._restarts = 0
+            return False
         # a task of a broken pool fails with BrokenProcessPool, or is cancelled when the
         # pool is shut down before it could fail it
         if not (fut.cancelled() or isinstance(fut.exception(), cf.BrokenExecutor)):
@@ -509,7 +525,7 @@ class _BatchRun:
         try:
             res: _CpuResult = fut.result()
         except Exception as exc:  # the worker died or the task could not be run
-            return replace(rec, status="error", message=f"CPU stage failed: {_error_text(exc)}")
+            return replace(rec, status="error", message=f"CPU stage failed: {_lost_text(exc)}")
         rec = replace(
             rec,
             vertices=res.vertices,
@@ -551,6 +567,22 @@ class _BatchRun:
                 return replace(rec, status="error", message=f"manifest: {_error_text(exc)}")
             rec = replace(rec, outputs=(*rec.outputs, manifest))
         return rec
+
+
+def _error_record(item: _Item, exc: BaseException) -> MapRecord:
+    """The record of a map that could not be loaded: ``exc`` as its message."""
+    return MapRecord(map=item.name, path=item.label, status="error", message=_lost_text(exc))
+
+
+def _lost_text(exc: BaseException) -> str:
+    """The message of ``exc``, saying what happened where a worker process died with the
+    map's task (a broken pool's error, or the cancelling of the task)."""
+    if not isinstance(exc, (cf.BrokenExecutor, cf.CancelledError)):
+        return _error_text(exc)
+    return (
+        f"{_error_text(exc)} (a worker process died while this map was queued or "
+        "running, killed for memory?; --resume runs it again)"
+    )
 
 
 def _terminate_workers(executor: cf.Executor | None) -> None:
