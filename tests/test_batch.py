@@ -717,6 +717,35 @@ def test_no_more_worker_processes_than_maps_to_run(tmp_path, monkeypatch):
     assert sizes == [1, 1]  # one map to run each time: one process, not four
 
 
+@pytest.mark.skipif(not hasattr(os, "sched_getaffinity"), reason="needs CPU affinity")
+@pytest.mark.parametrize("command_line", [False, True])
+def test_default_workers_are_the_cpus_this_process_may_use(tmp_path, monkeypatch, command_line):
+    """On a node of many cores where taskset, a container or a job scheduler allows one,
+    the default is one worker process, not one per core of the machine."""
+    import concurrent.futures as cf
+
+    from topojax.cli import main
+
+    sizes = []
+    pool = cf.ProcessPoolExecutor
+
+    def counted(max_workers=None, **kwargs):
+        sizes.append(max_workers)
+        return pool(max_workers=max_workers, **kwargs)
+
+    monkeypatch.setattr(cf, "ProcessPoolExecutor", counted)
+    monkeypatch.setattr(os, "cpu_count", lambda: 64)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
+    out = tmp_path / "out"
+    if command_line:
+        argv = ["batch", *map(str, PAPER_MAPS[:2]), "-o", str(out), "--no-progress"]
+        assert main([*argv, "--formats", "json"]) == 0
+    else:
+        records = build_graphs(PAPER_MAPS[:2], out_dir=out, formats="json", progress=False)
+        assert [r.status for r in records] == ["ok", "ok"]
+    assert sizes == [1]
+
+
 def _children(pid: int) -> list[int]:
     """Live child processes of ``pid``."""
     return _live_processes(1, pid)

@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .._cpus import as_executor
+from .._cpus import as_executor, usable_cpus
 from .._fs import refuse_overwriting_inputs
 from .._validate import (
     flag,
@@ -72,7 +72,7 @@ def checked_options(
     keep_graphs = flags["keep_graphs"]
     keep = out_dir is None if keep_graphs is None else bool(keep_graphs)
     executor = as_executor(executor)
-    n_workers = (os.cpu_count() or 1) if workers is None else workers
+    n_workers = usable_cpus() if workers is None else workers
     n_workers = int_at_least("workers", n_workers, 0)
     return {
         "executor": executor,
@@ -141,10 +141,11 @@ def batch_items(
 
 
 def default_kernel_threads() -> int:
-    """Kernel threads of a batch: the cores (at most 8) on the CPU backend, else 2."""
+    """Kernel threads of a batch: the CPUs this process may run on (at most 8) on the CPU
+    backend, else 2."""
     import jax
 
-    cores = os.cpu_count() or 1
+    cores = usable_cpus()
     if jax.default_backend() == "cpu":
         return max(1, min(cores, 8))
     return 2  # an accelerator: one thread cuts tiles while the other's kernels run

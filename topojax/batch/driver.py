@@ -660,7 +660,8 @@ def build_graphs(
         files are then read in the calling process.
     workers : int, optional
         Worker processes of the default executor, at most one per map to run; default
-        ``os.cpu_count()``.  ``0`` runs the CPU stage in the calling thread
+        the CPUs this process may run on (its affinity, which ``taskset``, a container or
+        a job scheduler narrows; not every core of the machine).  ``0`` runs the CPU stage in the calling thread
         (:class:`InlineExecutor`).  Not used when ``executor`` is given (but still
         checked).
     config : PipelineConfig, optional
@@ -685,8 +686,8 @@ def build_graphs(
         Tiles per kernel call (the bucket size; one compiled kernel per value).  Default
         ``max(config.tiles_per_call, 16)``; larger values may suit GPUs.
     kernel_threads : int, optional
-        Threads dispatching kernel calls concurrently.  Default: the number of cores
-        (at most 8) on the CPU backend, 2 on an accelerator.
+        Threads dispatching kernel calls concurrently.  Default: the CPUs this process
+        may run on (at most 8) on the CPU backend, 2 on an accelerator.
     batch_tiles : int, optional
         Most tiles per group of maps sent to the kernels together (a larger map forms
         a group of its own).  Default ``16 * tiles_per_call``.

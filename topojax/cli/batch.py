@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import signal
 import sys
 import threading
@@ -144,9 +143,9 @@ def add_command(subparsers) -> None:
     p.add_argument(
         "--workers",
         type=int,
-        default=os.cpu_count() or 1,
-        help="worker processes for the CPU stages, at most one per map (default: number of "
-        "cores; 0 = in-process)",
+        default=None,
+        help="worker processes for the CPU stages, at most one per map (default: the cores "
+        "this process may use, e.g. under taskset or a job scheduler; 0 = in-process)",
     )
     p.add_argument(
         "--scheduler",
