@@ -17,8 +17,11 @@ NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("*.i
 KEY_OUTPUTS = {
     "quickstart.ipynb": {
         "res": lambda res: res.graph.number_of_edges() > 0,
+        "rg": lambda g: g.graph.get("kind") == "route_graph" and g.number_of_edges() > 0,
+        "report": lambda rep: rep.success_rate > 0.9 and rep.unsafe_share == 0,
         "routes": lambda g: g.number_of_edges() > 0,
         "r": lambda route: route.length_m > 0,
+        "seg": lambda seg: seg.n_rooms > 1 and len(seg.doors) > 0,
         "back": lambda g: g.number_of_edges() > 0,
     },
     "incremental.ipynb": {
