@@ -698,10 +698,11 @@ def test_a_pool_that_breaks_now_and_then_is_replaced_as_often_as_maps_get_done(
     assert len(lost) > driver._POOL_RESTARTS + 1  # more breaks than replacements in a row
 
 
-def test_no_more_worker_processes_than_maps_to_run(tmp_path, monkeypatch):
+def pool_sizes(monkeypatch) -> list:
+    """The ``max_workers`` of every process pool made from now on, in order."""
     import concurrent.futures as cf
 
-    sizes = []
+    sizes: list = []
     pool = cf.ProcessPoolExecutor
 
     def counted(max_workers=None, **kwargs):
@@ -709,6 +710,11 @@ def test_no_more_worker_processes_than_maps_to_run(tmp_path, monkeypatch):
         return pool(max_workers=max_workers, **kwargs)
 
     monkeypatch.setattr(cf, "ProcessPoolExecutor", counted)
+    return sizes
+
+
+def test_no_more_worker_processes_than_maps_to_run(tmp_path, monkeypatch):
+    sizes = pool_sizes(monkeypatch)
     out = tmp_path / "out"
     first = build_graphs(PAPER_MAPS[:1], out_dir=out, workers=4, progress=False)
     assert [r.status for r in first] == ["ok"]
@@ -722,18 +728,9 @@ def test_no_more_worker_processes_than_maps_to_run(tmp_path, monkeypatch):
 def test_default_workers_are_the_cpus_this_process_may_use(tmp_path, monkeypatch, command_line):
     """On a node of many cores where taskset, a container or a job scheduler allows one,
     the default is one worker process, not one per core of the machine."""
-    import concurrent.futures as cf
-
     from topojax.cli import main
 
-    sizes = []
-    pool = cf.ProcessPoolExecutor
-
-    def counted(max_workers=None, **kwargs):
-        sizes.append(max_workers)
-        return pool(max_workers=max_workers, **kwargs)
-
-    monkeypatch.setattr(cf, "ProcessPoolExecutor", counted)
+    sizes = pool_sizes(monkeypatch)
     monkeypatch.setattr(os, "cpu_count", lambda: 64)
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
     out = tmp_path / "out"

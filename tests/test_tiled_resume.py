@@ -35,6 +35,16 @@ def stop_after(monkeypatch, n_blocks: int) -> list:
     return done
 
 
+def stopped_build(monkeypatch, m, out, n_blocks: int) -> list:
+    """Build ``m`` into ``out`` and stop it (Ctrl-C) once ``n_blocks`` blocks are done;
+    returns their boxes."""
+    done = stop_after(monkeypatch, n_blocks)
+    with pytest.raises(KeyboardInterrupt):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
+    monkeypatch.undo()
+    return done
+
+
 def test_a_stopped_build_goes_on_where_it_stopped(tmp_path, monkeypatch):
     m = paper_map("office")
     out = tmp_path / "graph"
@@ -57,10 +67,7 @@ def test_a_stopped_build_goes_on_where_it_stopped(tmp_path, monkeypatch):
 def test_a_block_whose_window_changed_is_computed_again(tmp_path, monkeypatch):
     m = paper_map("office")
     out = tmp_path / "graph"
-    stop_after(monkeypatch, 12)
-    with pytest.raises(KeyboardInterrupt):
-        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
-    monkeypatch.undo()
+    stopped_build(monkeypatch, m, out, 12)
     # an obstacle pixel in the first block: the windows that hold it are computed again
     occupied = np.array(m.occupied)
     free = np.array(m.free)
@@ -102,10 +109,7 @@ def test_blocks_in_a_pool_are_kept_and_reused(tmp_path, monkeypatch):
 def test_blocks_of_another_build_are_refused_and_a_new_build_clears_them(tmp_path, monkeypatch):
     m = paper_map("office")
     out = tmp_path / "graph"
-    stop_after(monkeypatch, 3)
-    with pytest.raises(KeyboardInterrupt):
-        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
-    monkeypatch.undo()
+    stopped_build(monkeypatch, m, out, 3)
     with pytest.raises(ValueError, match=r"^resume: .* another build \(block_px: 128, here 64\)"):
         tj.build_graph_tiled(m, config=SMALL, block_px=64, out_dir=out, resume=True)
     with pytest.raises(ValueError, match=r"^resume: .* another build \(config: "):
@@ -125,10 +129,7 @@ def test_blocks_of_another_build_are_refused_and_a_new_build_clears_them(tmp_pat
 def test_a_damaged_block_file_is_computed_again(tmp_path, monkeypatch):
     m = paper_map("intel")
     out = tmp_path / "graph"
-    stop_after(monkeypatch, 4)
-    with pytest.raises(KeyboardInterrupt):
-        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
-    monkeypatch.undo()
+    stopped_build(monkeypatch, m, out, 4)
     damaged = out / BLOCKS_FOLDER / f"block_0_{BLOCK}.npz"
     damaged.write_bytes(damaged.read_bytes()[:100])
     computed = stop_after(monkeypatch, 10**6)
