@@ -518,7 +518,7 @@ def test_cli_graph_keeping_options(tmp_path, capsys, shared_data):
     assert pruned.graph["pruned_min_spur_m"] == 0.4
     capsys.readouterr()
     assert main([*argv, "--min-spur-m", "-1"]) == 2
-    assert "min_spur_m: expected a finite number of metres >= 0, received -1.0" in (
+    assert "--min-spur-m: expected a finite number of metres >= 0, received -1.0" in (
         capsys.readouterr().err
     )
 
