@@ -240,6 +240,7 @@ def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, caps
         ("batch", ["--sigma-m", "-1"], "--sigma-m: expected a finite number of metres > 0"),
         ("batch", ["--workers", "-1"], "--workers: expected an int >= 0"),
         ("batch", ["--tiles-per-call", "0"], "--tiles-per-call: expected an int >= 1"),
+        ("batch", ["--tiles-per-call", "100000"], "--tiles-per-call: expected an int from 1 to"),
         ("batch", ["--kernel-threads", "0"], "--kernel-threads: expected an int >= 1"),
     ],
 )
@@ -329,3 +330,13 @@ def test_map_reading_options_are_named_in_errors(tmp_path, capsys, command, argv
     err = capsys.readouterr().err
     assert message in err
     assert "resolution_m" not in err and "occupied_thresh" not in err
+
+
+@pytest.mark.parametrize("command", ["graph", "route-graph", "batch"])
+def test_an_output_folder_under_a_file_is_named_as_the_option(tmp_path, capsys, command):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    map_file = ROOT / "topojax" / "data" / "a_scan.png"
+    assert main([command, str(map_file), "-o", str(a_file / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"--out: expected a folder to write into, but {a_file / 'out'}" in err

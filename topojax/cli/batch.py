@@ -15,6 +15,7 @@ from ._outputs import OUT_OPTION, check_outputs
 
 
 def _cmd_batch(args) -> int:
+    from .._fs import output_folder
     from ..batch import build_graphs, expand_map_inputs
     from ..batch.inputs import planned_outputs
 
@@ -25,6 +26,7 @@ def _cmd_batch(args) -> int:
     claims = {Path(args.out) / rel: source for rel, source in planned.items()}
     check_outputs(claims, command="batch", option=OUT_OPTION)
     config = pipeline_config(args)  # --sigma-m goes to build_graphs: per map
+    output_folder(args.out, name="--out")  # named as the command names it
     client = None
     executor = None
     if args.scheduler:
@@ -94,16 +96,14 @@ def _exit_on_sigterm():
 def _check_numbers(args) -> None:
     """The numeric options of the batch runner, checked under their own names before any
     work (the library's messages name its parameters)."""
-    from .._validate import int_at_least, positive_int
+    from .._validate import int_at_least, kernel_tiles_per_call, positive_int
 
     if args.workers is not None:
         int_at_least("--workers", args.workers, 0)
-    for option, value in (
-        ("--tiles-per-call", args.tiles_per_call),
-        ("--kernel-threads", args.kernel_threads),
-    ):
-        if value is not None:
-            positive_int(option, value)
+    if args.tiles_per_call is not None:
+        kernel_tiles_per_call("--tiles-per-call", args.tiles_per_call, args.tile_px)
+    if args.kernel_threads is not None:
+        positive_int("--kernel-threads", args.kernel_threads)
 
 
 def _route_config(args):
