@@ -407,6 +407,26 @@ def test_a_bad_map_yaml_is_named_when_opened(tmp_path):
             tj.build_graph_tiled(path)
 
 
+def test_a_pgm_sample_above_its_maxval_is_named_when_read(tmp_path):
+    """A window holding a sample above the PGM's maxval indexed past the classification
+    table (an IndexError); load_map refuses the same file by name."""
+    for name, maxval, dtype, top in (("m15.pgm", 15, np.uint8, 200), ("k.pgm", 1000, ">u2", 1536)):
+        img = np.full((4, 6), maxval, dtype=dtype)
+        img[3, 5] = top
+        path = tmp_path / name
+        path.write_bytes(f"P5\n6 4\n{maxval}\n".encode() + img.tobytes())
+        tiled = tj.open_tiled_map(path)
+        assert tiled.codes(0, 3, 0, 6).tolist() == [[0] * 6] * 3  # the rest reads
+        with pytest.raises(
+            ValueError,
+            match=f"map {path}, rows 2:4, cols 0:6: image: "
+            f"expected intensities 0..{maxval} .* received a pixel of {top}",
+        ):
+            tiled.codes(2, 4, 0, 6)
+        with pytest.raises(ValueError, match=f"{name} has pixel values above its PGM maxval"):
+            tj.load_map(path)
+
+
 def test_bad_arguments_name_the_parameter(tmp_path):
     m = paper_map("intel")
     with pytest.raises(ValueError, match="block_px: expected a multiple of config.tile_px"):

@@ -190,7 +190,8 @@ def classify_image(
 
     ``arr`` is (H, W) or (H, W, C) with C in 1..4; ``full_scale`` is the intensity of white
     (255 for 8-bit, 65535 for 16-bit, a PGM's maxval otherwise).  Alpha is ignored unless
-    ``average_alpha`` (map_server's rule for YAML maps in trinary mode).
+    ``average_alpha`` (map_server's rule for YAML maps in trinary mode).  A pixel above
+    ``full_scale`` is a ValueError.
     """
     if arr.ndim == 2:
         colour, n = arr, 1
@@ -209,6 +210,15 @@ def classify_image(
             "image array: expected shape (H, W) or (H, W, C) with C in 1..4 channels, "
             f"received shape {arr.shape}"
         )
+    if full_scale < np.iinfo(arr.dtype).max and arr.size:
+        # the look-up table ends at full scale: a brighter pixel (a PGM sample above its
+        # maxval, read a window at a time) would index past it
+        top = int(arr.max())
+        if top > full_scale:
+            raise ValueError(
+                f"image: expected intensities 0..{full_scale} (its full scale, a PGM's "
+                f"maxval), received a pixel of {top}"
+            )
     if mode == "raw" and full_scale != 255:
         raise ValueError(
             f"mode='raw': expected an 8-bit image (full scale 255), received full scale "

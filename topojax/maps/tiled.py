@@ -204,15 +204,21 @@ class TiledMap:
             return np.where(raw, _OCC, _FREE)
         if self.kind == "grid":
             return _classify_occupancy_grid(raw, self.occupied_thresh, self.free_thresh, None)
-        return classify_image(
-            raw,
-            full_scale=self.full_scale,
-            occupied_thresh=self.occupied_thresh,
-            free_thresh=self.free_thresh,
-            negate=self.negate,
-            mode=self.mode,
-            unknown_values=None,
-        )
+        try:
+            return classify_image(
+                raw,
+                full_scale=self.full_scale,
+                occupied_thresh=self.occupied_thresh,
+                free_thresh=self.free_thresh,
+                negate=self.negate,
+                mode=self.mode,
+                unknown_values=None,
+            )
+        except ValueError as exc:  # name the map and the window
+            r0, r1, c0, c1 = box
+            raise ValueError(
+                f"map {self.source or '(in memory)'}, rows {r0}:{r1}, cols {c0}:{c1}: {exc}"
+            ) from None
 
     def occupied(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         """Obstacle mask, bool (r1 - r0, c1 - c0), of a window (bounds as :meth:`values`)."""
