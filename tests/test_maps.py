@@ -746,6 +746,25 @@ def test_binary_pgm_shorter_than_its_header_is_named(tmp_path: Path):
         assert "received" in str(err.value)
 
 
+def test_binary_pgm_with_a_bad_header_is_named(tmp_path: Path):
+    """A P5 header that does not parse went on to OpenCV, which read "3x" as 3 (a map
+    without a word) and refused a zero size or maxval as "could not decode"; the tiled
+    reader failed inside int()."""
+    cases = {
+        "word.pgm": (b"P5\n3x 2\n255\n" + bytes(6), "decimal integers, received '3x 2 255'"),
+        "zero.pgm": (b"P5\n0 0\n255\n", "received 0 x 0, maxval 255"),
+        "max0.pgm": (b"P5\n3 2\n0\n" + bytes(6), "received 3 x 2, maxval 0"),
+        "cut.pgm": (b"P5\n3 2", "incomplete PGM header: expected width, height and maxval"),
+    }
+    for name, (data, needle) in cases.items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        for read in (load_map, tj.open_tiled_map):
+            with pytest.raises(ValueError, match=f"^map image {re.escape(str(path))}: ") as err:
+                read(path)
+            assert needle in str(err.value)
+
+
 def test_16bit_png_full_precision(tmp_path: Path):
     # Values straddling the occupied threshold in 16-bit precision.
     edge = 65535 * (1 - 0.65)
@@ -829,7 +848,7 @@ def test_image_errors(tmp_path: Path):
 
 def test_unreadable_image_leaves_no_opencv_log_line(tmp_path: Path, capfd):
     bad = tmp_path / "bad.pgm"
-    bad.write_bytes(b"P5\nnot a header at all")
+    bad.write_bytes(b"P6\nnot a header at all")  # not P5: decoded by OpenCV
     with pytest.raises(ValueError, match="could not decode map image"):
         load_map(bad)
     assert "imdecode" not in capfd.readouterr().err
@@ -1056,7 +1075,7 @@ def test_opencv_log_level_is_restored_after_overlapping_reads(tmp_path):
     from concurrent.futures import ThreadPoolExecutor
 
     bad = tmp_path / "bad.pgm"
-    bad.write_bytes(b"P5\nnot a header at all")
+    bad.write_bytes(b"P6\nnot a header at all")  # not P5: decoded by OpenCV
     before = cv2.utils.logging.getLogLevel()
 
     def read(_):

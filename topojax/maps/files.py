@@ -23,7 +23,7 @@ from .._validate import (
 )
 from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES, classify_image
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
-from .pnm import _parse_pnm_header, read_image, resolution_from_pgm_comments
+from .pnm import pnm_header_tokens, read_image, resolution_from_pgm_comments
 
 __all__ = ["IMAGE_SUFFIXES", "YAML_SUFFIXES", "load_map", "save_map"]
 
@@ -212,36 +212,58 @@ def default_resolution_used(path: str | Path) -> bool:
         return True
 
 
+#: How much of a PGM :func:`_pgm_header` reads for its header.
+_HEADER_BYTES = 1 << 16
+
+
+class _NotMappable(ValueError):
+    """A file that is not a binary PGM, or whose header (comments) runs past
+    ``_HEADER_BYTES``: :func:`load_map` decodes it whole instead."""
+
+
 def _pgm_header(path: Path) -> tuple[int, int, int, int, list[str]]:
-    """``(width, height, maxval, data offset, comments)`` of a binary PGM."""
+    """``(width, height, maxval, data offset, comments)`` of a binary PGM; a ValueError
+    naming the file and what its header holds where that is not a valid P5 header."""
     with open(path, "rb") as f:
-        head = f.read(1 << 16)
+        head = f.read(_HEADER_BYTES)
     if head[:2] != b"P5":
-        raise ValueError(f"path: {path} is not a binary PGM (P5); read other images with load_map")
-    maxval, comments = _parse_pnm_header(head)
-    if maxval is None:
-        raise ValueError(f"path: {path} has an incomplete PGM header")
-    tokens: list[bytes] = []
-    pos = 2
-    while len(tokens) < 3 and pos < len(head):
-        ch = head[pos : pos + 1]
-        if ch == b"#":
-            pos = head.index(b"\n", pos) + 1
-        elif ch.isspace():
-            pos += 1
-        else:
-            start = pos
-            while pos < len(head) and not head[pos : pos + 1].isspace() and head[pos] != 35:
-                pos += 1  # 35: "#"
-            tokens.append(head[start:pos])
+        raise _NotMappable(
+            f"path: {path} is not a binary PGM (P5); read other images with load_map"
+        )
+    tokens, comments, end = pnm_header_tokens(head)
+    words = " ".join(t.decode("latin-1") for t in tokens)
     if len(tokens) < 3:
-        raise ValueError(f"path: {path} has an incomplete PGM header")
-    width, height = int(tokens[0]), int(tokens[1])
+        # a header longer than we read may still be whole: decode the file instead
+        error = _NotMappable if len(head) == _HEADER_BYTES else ValueError
+        raise error(
+            f"map image {path}: incomplete PGM header: expected width, height and maxval, "
+            f"received {words!r} in its first {len(head)} bytes"
+        )
+    if not all(t.isdigit() for t in tokens):
+        raise ValueError(
+            f"map image {path}: PGM header: expected width, height and maxval as decimal "
+            f"integers, received {words!r}"
+        )
+    width, height, maxval = (int(t) for t in tokens)
     if width < 1 or height < 1 or not 0 < maxval < 65536:
         raise ValueError(
-            f"path: {path} has an invalid PGM header ({width} x {height}, maxval {maxval})"
+            f"map image {path}: PGM header: expected width and height >= 1 and maxval "
+            f"1..65535, received {width} x {height}, maxval {maxval}"
         )
-    return width, height, maxval, pos + 1, comments  # one whitespace byte after maxval
+    return width, height, maxval, end + 1, comments  # one whitespace byte after maxval
+
+
+def _check_pgm_size(path: Path, width: int, height: int, maxval: int, offset: int) -> None:
+    """A ValueError unless the binary PGM at ``path`` holds the pixels its header gives
+    (no decoder reads a shorter one; said without allocating them)."""
+    need = width * height * (1 if maxval < 256 else 2)
+    size = path.stat().st_size
+    if size < offset + need:
+        raise ValueError(
+            f"map image {path}: its PGM header gives {width} x {height} pixels, "
+            f"expected {need} bytes of pixels after the {offset}-byte header, "
+            f"received a file of {size} bytes"
+        )
 
 
 def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
@@ -251,16 +273,9 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
     if path.suffix.lower() == ".pgm" and path.is_file():
         try:
             width, height, maxval, offset, comments = _pgm_header(path)
-        except (OSError, ValueError):
+        except _NotMappable:
             return read_image(path)
-        need = width * height * (1 if maxval < 256 else 2)
-        size = path.stat().st_size
-        if size < offset + need:  # no decoder reads it; say why, without allocating it
-            raise ValueError(
-                f"map image {path}: its PGM header gives {width} x {height} pixels, "
-                f"expected {need} bytes of pixels after the {offset}-byte header, "
-                f"received a file of {size} bytes"
-            )
+        _check_pgm_size(path, width, height, maxval, offset)
         if maxval == 255:
             pixels = np.memmap(path, np.uint8, mode="r", offset=offset, shape=(height, width))
             return pixels, 255, comments

@@ -13,7 +13,7 @@ import numpy as np
 
 from .._validate import existing_file
 
-__all__ = ["read_image", "resolution_from_pgm_comments"]
+__all__ = ["pnm_header_tokens", "read_image", "resolution_from_pgm_comments"]
 
 _SILENCE_LOCK = threading.Lock()
 _SILENCE = {"depth": 0, "level": None}
@@ -44,16 +44,15 @@ _PGM_RES_RE = re.compile(r"(?:^|\s)(\S+)\s*m/pix")
 _PGM_NUMBER_RE = re.compile(r"[-+]?[0-9.,]*[0-9][0-9.,]*(?:[eE][-+]?[0-9]+)?$")
 
 
-def _parse_pnm_header(data: bytes) -> tuple[int | None, list[str]]:
-    """Return (maxval, comment lines) of a binary/ASCII PGM/PPM header, or (None, [])."""
-    if len(data) < 2 or data[:1] != b"P" or data[1:2] not in b"2356":
-        return None, []
+def pnm_header_tokens(data: bytes) -> tuple[list[bytes], list[str], int]:
+    """The first three header words (width, height, maxval; fewer if ``data`` ends
+    before them), the comment lines before them and the index just past the last word,
+    of PGM/PPM bytes whose two-byte magic number is skipped."""
     comments: list[str] = []
     tokens: list[bytes] = []
     pos = 2
-    needed = 3  # width, height, maxval
     n = len(data)
-    while len(tokens) < needed and pos < n:
+    while len(tokens) < 3 and pos < n:
         ch = data[pos : pos + 1]
         if ch == b"#":
             end = data.find(b"\n", pos)
@@ -67,7 +66,15 @@ def _parse_pnm_header(data: bytes) -> tuple[int | None, list[str]]:
             while pos < n and not data[pos : pos + 1].isspace() and data[pos : pos + 1] != b"#":
                 pos += 1
             tokens.append(data[start:pos])
-    if len(tokens) < needed:
+    return tokens, comments, pos
+
+
+def _parse_pnm_header(data: bytes) -> tuple[int | None, list[str]]:
+    """Return (maxval, comment lines) of a binary/ASCII PGM/PPM header, or (None, [])."""
+    if len(data) < 2 or data[:1] != b"P" or data[1:2] not in b"2356":
+        return None, []
+    tokens, comments, _ = pnm_header_tokens(data)
+    if len(tokens) < 3:
         return None, comments
     try:
         maxval = int(tokens[2])

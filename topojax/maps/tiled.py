@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 from pathlib import Path
 from typing import Any
 
@@ -54,7 +53,13 @@ from .classify import (
     _classify_occupancy_grid,
     classify_image,
 )
-from .files import YAML_SUFFIXES, _pgm_header, _yaml_settings
+from .files import (
+    YAML_SUFFIXES,
+    _check_pgm_size,
+    _NotMappable,
+    _pgm_header,
+    _yaml_settings,
+)
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap, grid_to_world, world_to_grid
 from .pnm import resolution_from_pgm_comments
 
@@ -609,11 +614,12 @@ def _check_tile_files(folder: Path, shape: tuple[int, int], tile_px: int) -> Non
 
 
 def _open_pgm(image: Path, settings: dict, *, source: Path) -> TiledMap:
-    width, height, maxval, offset, comments = _pgm_header(image)
+    try:
+        width, height, maxval, offset, comments = _pgm_header(image)
+    except _NotMappable as exc:  # load_map decodes it whole; here it cannot be mapped
+        raise ValueError(str(exc)) from None
+    _check_pgm_size(image, width, height, maxval, offset)
     dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
-    need = offset + width * height * dtype.itemsize
-    if os.path.getsize(image) < need:
-        raise ValueError(f"path: {image} is shorter than its PGM header says ({need} bytes)")
     if settings.get("resolution_m") is None:
         res = resolution_from_pgm_comments(comments, image)
         settings["resolution_m"] = DEFAULT_RESOLUTION_M if res is None else res
