@@ -238,6 +238,22 @@ def test_ipa_mode_and_default_mode_on_ipa_map(shared_data: Path):
     assert int(ipa.unknown.sum()) == 0
 
 
+def test_ipa_mode_reads_16_bit_images_as_the_ipa_tools_do(tmp_path: Path):
+    """The IPA tools read a 16-bit map as 8-bit by keeping the high byte
+    (``cv::imread(path, 0)``), so 64000 .. 64249 is their 250, free; mode="ipa" scaled
+    250 / 255 to 64250 instead and made those pixels obstacles."""
+    img = np.array([[63999, 64000, 64249], [64250, 65535, 0]], dtype=np.uint16)
+    assert cv2.imwrite(str(tmp_path / "m.png"), img)
+    as_ipa = cv2.imread(str(tmp_path / "m.png"), cv2.IMREAD_GRAYSCALE) >= 250
+    assert as_ipa.tolist() == [[False, True, True], [True, True, False]]
+    for path in (tmp_path / "m.png", SHARED_DATA / "maps/ipa/lab_b.png"):
+        if not path.is_file():
+            continue
+        m = load_map(path, mode="ipa")
+        expected = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE) >= 250
+        assert np.array_equal(m.free, expected) and np.array_equal(m.occupied, ~expected)
+
+
 def test_palette_png_from_data(shared_data: Path):
     path = shared_data / "maps/ipa/lab_e.png"
     with Image.open(path) as im:

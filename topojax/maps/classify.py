@@ -14,7 +14,8 @@
 Known data-set conventions this module does *not* reproduce by default: the IPA
 room-segmentation maps treat only grey values >= 250 as free and everything else as
 obstacle; with the ``map_server`` thresholds their grey outside area (153 .. 205) is
-*unknown* instead. Use ``mode="ipa"`` to get the IPA interpretation.
+*unknown* instead. Use ``mode="ipa"`` to get the IPA interpretation (for a 16-bit image,
+free from 64000, which the IPA tools read as 250: they keep the high byte).
 """
 
 from __future__ import annotations
@@ -240,7 +241,7 @@ def classify_image(
         lut[valid & (pct > occupied_thresh)] = _OCC
     else:  # ipa
         lut[:] = _OCC
-        lut[v * 255.0 >= _IPA_FREE_MIN * full_scale] = _FREE
+        lut[v >= _ipa_free_min(full_scale)] = _FREE
     for u in _unknown_value_list(unknown_values):
         if not 0.0 <= u <= full_scale:
             raise ValueError(
@@ -250,6 +251,16 @@ def classify_image(
         if idx == int(idx):  # a mean of integer channels can only equal k / n
             lut[int(idx)] = _UNK
     return lut[colour]
+
+
+def _ipa_free_min(full_scale: int) -> float:
+    """The least intensity on ``0 .. full_scale`` that ``mode="ipa"`` reads as free: 250
+    of 255, as the IPA tools read 8-bit images; for 16-bit ones 250 * 256, as they read
+    them (``cv::imread(path, 0)`` keeps the high byte, so 64000 is their 250); on
+    another scale (a PGM maxval) the same share, 250 / 255 of it."""
+    if full_scale == 65535:
+        return float(_IPA_FREE_MIN * 256)
+    return _IPA_FREE_MIN * full_scale / 255.0
 
 
 def _only_0_and_1(arr: np.ndarray) -> bool:

@@ -250,6 +250,7 @@ class OccupancyMap:
             ``v / 100 > occupied_thresh``, free if ``v / 100 < free_thresh``, else unknown.
           - ``"ipa"``: IPA room-segmentation convention: free if ``v >= 250`` (after
             ``negate``), occupied otherwise, never unknown; thresholds are not used.
+            (:func:`load_map` of a 16-bit image: free from 64000, the IPA tools' 250.)
 
         * **int8 or other integer dtypes** (H, W) (not uint8): ROS ``nav_msgs/OccupancyGrid``
           values, -1 = unknown, 0..100 = occupancy percent; occupied if
