@@ -663,6 +663,18 @@ def test_pgm_comment_resolution_and_override(tmp_path: Path):
     assert load_map(tmp_path / "b.pgm").resolution_m == 0.05
 
 
+def test_a_plain_pgms_resolution_comment_is_not_reported_assumed(tmp_path: Path):
+    """load_map takes the resolution from a plain (P2) PGM's comment, but the check
+    behind the command line's "assumed" note read binary headers only."""
+    from topojax.maps.files import default_resolution_used
+
+    (tmp_path / "a.pgm").write_text("P2\n# CREATOR: map_saver.cpp 0.100 m/pix\n2 2\n255\n0 0 0 0\n")
+    (tmp_path / "b.pgm").write_text("P2\n2 2\n255\n0 0 0 0\n")
+    assert load_map(tmp_path / "a.pgm").resolution_m == 0.1
+    assert not default_resolution_used(tmp_path / "a.pgm")
+    assert default_resolution_used(tmp_path / "b.pgm")
+
+
 def test_pgm_comment_resolution_is_read_whole_or_refused(tmp_path: Path):
     img = np.array([[0, 205, 254], [254, 254, 0]], dtype=np.uint8)
     good = {"1e-2 m/pix": 0.01, "CREATOR: x 0.5 m/pix": 0.5, "res .25m/pix": 0.25}

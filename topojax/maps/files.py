@@ -23,7 +23,12 @@ from .._validate import (
 )
 from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES, classify_image
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
-from .pnm import pnm_header_tokens, read_image, resolution_from_pgm_comments
+from .pnm import (
+    _parse_pnm_header,
+    pnm_header_tokens,
+    read_image,
+    resolution_from_pgm_comments,
+)
 
 __all__ = ["IMAGE_SUFFIXES", "YAML_SUFFIXES", "load_map", "save_map"]
 
@@ -206,7 +211,8 @@ def default_resolution_used(path: str | Path) -> bool:
     if p.suffix.lower() != ".pgm":
         return True
     try:
-        comments = _pgm_header(p)[4]
+        with open(p, "rb") as f:  # a plain (P2) file's comments count too, as in load_map
+            comments = _parse_pnm_header(f.read(_HEADER_BYTES))[1]
         return resolution_from_pgm_comments(comments, p) is None
     except (OSError, ValueError):
         return True
