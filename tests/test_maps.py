@@ -298,6 +298,21 @@ def test_pixel_to_world_without_yaw_matches_map_server_formula():
     np.testing.assert_allclose(y, -3.0 + (5 - rows - 0.5) * 0.1, rtol=0, atol=1e-12)
 
 
+def test_coordinate_conversions_name_arguments_of_mismatched_shapes():
+    """NumPy's "operands could not be broadcast together" named neither argument."""
+    m = _small_map()
+    tiled = tj.TiledMap.from_occupancy(m)
+    for convert, names in (
+        (m.pixel_to_world, "rows, cols"),
+        (tiled.pixel_to_world, "rows, cols"),
+        (m.world_to_pixel, "x, y"),
+        (tiled.world_to_pixel, "x, y"),
+    ):
+        with pytest.raises(ValueError, match=rf"^{names}: .* received shapes \(2,\) and \(3,\)"):
+            convert([1, 2], [1, 2, 3])
+        assert convert([[1], [2]], [1, 2, 3])[0].shape == (2, 3)  # broadcasting still works
+
+
 def test_coordinate_conversions_refuse_non_numbers():
     """None became NaN coordinates without a word, and a string failed inside NumPy
     ("could not convert string to float"), naming no argument."""

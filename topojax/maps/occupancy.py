@@ -55,11 +55,25 @@ DEFAULT_RESOLUTION_M = 0.05
 _IMAGE_OCCUPIED, _IMAGE_UNKNOWN, _IMAGE_FREE = 0, 205, 254
 
 
+def _broadcast(names: tuple[str, str], a: np.ndarray, b: np.ndarray):
+    """``a`` and ``b`` after checking their shapes broadcast together; a ValueError
+    naming both otherwise."""
+    try:
+        np.broadcast_shapes(a.shape, b.shape)
+    except ValueError:
+        raise ValueError(
+            f"{names[0]}, {names[1]}: expected arrays of shapes that broadcast together, "
+            f"received shapes {a.shape} and {b.shape}"
+        ) from None
+    return a, b
+
+
 def world_to_grid(x, y, *, height: int, resolution_m: float, origin):
     """Continuous pixel coordinates ``rows, cols`` (float64) of world points ``x, y``
     (metres) on the grid of :func:`grid_to_world`, its inverse."""
-    dx = real_array("x", x) - origin[0]
-    dy = real_array("y", y) - origin[1]
+    x, y = _broadcast(("x", "y"), real_array("x", x), real_array("y", y))
+    dx = x - origin[0]
+    dy = y - origin[1]
     cos_t, sin_t = math.cos(origin[2]), math.sin(origin[2])
     xm = cos_t * dx + sin_t * dy
     ym = -sin_t * dx + cos_t * dy
@@ -70,8 +84,7 @@ def grid_to_world(rows, cols, *, height: int, resolution_m: float, origin):
     """World ``x, y`` (metres, float64) of continuous pixel coordinates of a grid of
     ``height`` rows with ``resolution_m`` metres per pixel whose lower-left corner is at
     ``origin`` (x, y, yaw); integer values are pixel centres (conventions above)."""
-    r = real_array("rows", rows)
-    c = real_array("cols", cols)
+    r, c = _broadcast(("rows", "cols"), real_array("rows", rows), real_array("cols", cols))
     ox, oy, yaw = origin
     xm = (c + 0.5) * resolution_m
     ym = (height - r - 0.5) * resolution_m
