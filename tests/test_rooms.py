@@ -209,24 +209,27 @@ def test_a_finer_map_of_the_same_plan_gives_the_same_rooms_and_doors(seed):
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_padding_the_map_with_unknown_space_changes_no_room(seed):
+@pytest.mark.parametrize("offset", [(0.0, 0.0), (0.5, 0.5), (-0.5, 1.5)])
+def test_padding_the_map_with_unknown_space_changes_no_room(seed, offset):
     """The doorway search runs on cells of 2 x 2 pixels here; they lie on the map frame's
     lattice, not on the map's edge, so a map cut tight round its free space and the same
     map padded in its frame by one to three pixels of unknown space give the same rooms
-    and doors (as a mapper's growing map, or a window of it, must)."""
+    and doors (as a mapper's growing map, or a window of it, must), also where the
+    origin lies half a pixel (``offset``, pixels) off the lattice."""
+    x0, y0 = (v * RES for v in offset)
     occ = floor_plan(seed).occupancy
     rows = np.flatnonzero(occ.free.any(axis=1))
     cols = np.flatnonzero(occ.free.any(axis=0))
     tight = (slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
     free, unknown = occ.free[tight], occ.unknown[tight]
-    base = tj.segment_rooms(_map(free, unknown))
+    base = tj.segment_rooms(_map(free, unknown, origin=(x0, y0, 0.0)))
     for top, left in ((1, 0), (0, 1), (1, 1), (2, 3)):
         padded = [
             np.pad(a, ((top, 1), (left, 2)), constant_values=v)
             for a, v in ((free, False), (unknown, True))
         ]
         # the origin is the lower left corner: one row below, ``left`` columns left
-        seg = tj.segment_rooms(_map(*padded, origin=(-left * RES, -RES, 0.0)))
+        seg = tj.segment_rooms(_map(*padded, origin=(x0 - left * RES, y0 - RES, 0.0)))
         inner = seg.labels[top : top + free.shape[0], left : left + free.shape[1]]
         np.testing.assert_array_equal(inner, base.labels)
         assert sorted(d.rooms for d in seg.doors) == sorted(d.rooms for d in base.doors)

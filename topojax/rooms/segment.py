@@ -235,9 +235,22 @@ def _lattice_anchor(occ, f: int) -> tuple[int, int]:
     res = float(occ.resolution_m)
     x0, y0, yaw = (float(v) for v in occ.origin)
     cos, sin = math.cos(yaw), math.sin(yaw)
-    col0 = round((cos * x0 + sin * y0) / res)  # lattice column of column 0
-    row0 = round(-(-sin * x0 + cos * y0) / res) - occ.shape[0]  # lattice row of row 0
+    col0 = _lattice_index((cos * x0 + sin * y0) / res)  # lattice column of column 0
+    row0 = _lattice_index(-(-sin * x0 + cos * y0) / res) - occ.shape[0]  # and row of row 0
     return (-row0) % f, (-col0) % f
+
+
+def _lattice_index(v: float) -> int:
+    """The lattice index nearest to ``v`` (pixels), halves rounded up: an index that
+    moves by one with ``v`` also for an origin half a pixel off the lattice, which
+    ``round`` (halves to even) and the rounding errors of an origin moved by whole
+    pixels would otherwise step by 0 or 2."""
+    return math.floor(v + 0.5 + _LATTICE_SLACK)
+
+
+#: Offsets of an origin from the lattice within this many pixels of a half count as the
+#: half (an origin moved by whole pixels carries rounding errors of about 1e-12 pixels).
+_LATTICE_SLACK = 1e-6
 
 
 def _free_box(free: np.ndarray) -> tuple[tuple[slice, slice], tuple[int, int, int, int]]:
