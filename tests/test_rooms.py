@@ -133,6 +133,7 @@ def test_one_room_map_is_one_room_and_its_walls_are_no_room():
     room = seg.rooms[0]
     assert room.area_m2 == pytest.approx(free.sum() * RES**2)
     assert room.bbox == (3, 3, 76, 116)
+    assert all(type(v) is int for v in room.bbox)  # as documented (json writes them)
 
 
 @pytest.mark.parametrize("min_room_m2", [0.0, 2.0, 20.0])

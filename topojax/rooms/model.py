@@ -246,7 +246,7 @@ def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmenta
         box = (slice(0, labels.shape[0]), slice(0, labels.shape[1]))
     # one memory layout whatever the box (a crop is strided, the whole map is not)
     part = np.ascontiguousarray(labels[box])
-    r_off, c_off = box[0].start, box[1].start
+    r_off, c_off = int(box[0].start), int(box[1].start)  # Python ints in ``Room.bbox``
     n = int(part.max()) if part.size else 0
     count, sum_r, sum_c, boxes = label_stats(part, n)
     with np.errstate(invalid="ignore", divide="ignore"):
