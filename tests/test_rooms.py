@@ -117,6 +117,22 @@ def test_reprs_are_short_summaries():
     assert "polygon" not in repr(seg.rooms[0]) and "pixels" not in repr(seg.doors[0])
 
 
+def test_rooms_are_numbered_in_raster_order_of_their_first_pixel():
+    """The doorway line in the one-pixel wall at row 40 joins the lower room, so that
+    room's first pixel (40, 40) comes before the first pixel (40, 102) of the room on the
+    right, though its free space off the line starts a row lower."""
+    free = np.zeros((120, 150), bool)
+    free[2:40, 2:100] = True  # upper room
+    free[40, 40:58] = True  # a door of 0.9 m in the wall between it and the lower room
+    free[41:111, 2:100] = True  # lower room
+    free[40:111, 102:148] = True  # a room of its own on the right
+    seg = tj.segment_rooms(_map(free))
+    assert [r.bbox[:2] for r in seg.rooms] == [(2, 2), (40, 2), (40, 102)]
+    firsts = [np.flatnonzero(seg.labels.ravel() == r.id)[0] for r in seg.rooms]
+    assert firsts == sorted(firsts) and firsts[1] == 40 * 150 + 40
+    assert [d.rooms for d in seg.doors] == [(1, 2)]
+
+
 def test_a_gap_wider_than_max_door_width_joins_one_room():
     seg = tj.segment_rooms(_map(_two_rooms(1.6)), config=tj.RoomConfig(max_door_width_m=1.2))
     assert seg.n_rooms == 1 and seg.doors == ()

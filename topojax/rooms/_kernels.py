@@ -13,6 +13,7 @@ __all__ = [
     "disc_offsets",
     "enclosed_owner",
     "fill_parts",
+    "first_pixels",
     "label_stats",
     "draw_lines",
     "region_stats",
@@ -199,6 +200,26 @@ def label_stats(labels, n):
                 box[k, 3] = c1 - 1
             c0 = c1
     return count, sum_r, sum_c, box
+
+
+@cached_njit(nogil=True)
+def first_pixels(labels, n):
+    """Raster index ``row * W + col`` of the first pixel of labels ``1..n`` of ``labels``
+    (int32 (H, W)): int64 (n + 1,), ``H * W`` for a label without pixels (and label 0).
+    Stops once every label is found."""
+    h, w = labels.shape
+    first = np.full(n + 1, h * w, np.int64)
+    left = n
+    for r in range(h):
+        row = labels[r]
+        for c in range(w):
+            k = row[c]
+            if k > 0 and first[k] == h * w:
+                first[k] = r * w + c
+                left -= 1
+        if left == 0:
+            break
+    return first
 
 
 @cached_njit(nogil=True)

@@ -110,8 +110,8 @@ def _merge_pass(rooms: _Rooms, doors: list, cfg, min_area_px: float) -> bool:
 
 
 def merge_regions(regions, n, clearance, f, cuts, cfg, resolution_m: float):
-    """The final room of each region (int32 (n,), ``1..k`` in raster order of each room's
-    first pixel, 0 = no room) and the doors between rooms (list of :class:`DoorCut`);
+    """The final room of each region (int32 (n,), ``1..k`` in raster order of the first
+    pixel of each room's regions, 0 = no room) and the doors between rooms (list of :class:`DoorCut`);
     ``clearance``: that of the cells of ``f`` x ``f`` pixels."""
     area, clear, border, first = region_stats(regions, clearance.astype(np.float32), f, n)
     area[0] = 0.0

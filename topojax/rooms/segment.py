@@ -21,8 +21,8 @@ from ..fields.clearance import free_clearance_px
 from ..skeleton import thin
 from ._cuts import door_candidates, make_cuts
 from ._grid import coarse_free, grid_factor
-from ._kernels import enclosed_owner, fill_parts, room_pixels
-from ._merge import merge_regions
+from ._kernels import enclosed_owner, fill_parts, first_pixels, room_pixels
+from ._merge import DoorCut, merge_regions
 from .model import RoomSegmentation, build_segmentation
 
 __all__ = ["RoomConfig", "segment_rooms", "segment_window"]
@@ -210,6 +210,7 @@ def _segment(occ, cfg: RoomConfig, map_box) -> RoomSegmentation:
     empty = np.empty(free.shape, np.uint8)
     room_pixels(regions, room_of, free, 2, local, empty)
     _fill_enclosed(local, empty)
+    doors = _in_raster_order(local, int(room_of.max(initial=0)), doors)
     labels = np.zeros(full.shape, np.int32)
     labels[box] = local[inner]
     doors = [d.shifted(offset) for d in doors]
@@ -264,6 +265,24 @@ def _free_box(free: np.ndarray) -> tuple[tuple[slice, slice], tuple[int, int, in
     r0, r1, c0, c1 = rows[0] - 1, rows[-1] + 2, cols[0] - 1, cols[-1] + 2
     box = (slice(max(r0, 0), min(r1, h)), slice(max(c0, 0), min(c1, w)))
     return box, (int(r0 < 0), int(r1 > h), int(c0 < 0), int(c1 > w))
+
+
+def _in_raster_order(labels: np.ndarray, n: int, doors: list) -> list:
+    """Rooms ``1..n`` of ``labels`` (int32, renamed in place) numbered in raster order of
+    their first pixel, and ``doors`` (:class:`DoorCut`) with their rooms renamed.  The
+    regions gave the order of their free space off the doorway lines; the cut pixels and
+    the clutter a room took since may come first."""
+    first = first_pixels(labels, n)[1:]
+    if n < 2 or bool((np.diff(first) > 0).all()):
+        return doors
+    lut = np.zeros(n + 1, np.int32)
+    lut[1 + np.argsort(first, kind="stable")] = np.arange(1, n + 1, dtype=np.int32)
+    labels[...] = lut[labels]
+    out = []
+    for d in doors:
+        a, b = int(lut[d.rooms[0]]), int(lut[d.rooms[1]])
+        out.append(DoorCut(cut=d.cut, rooms=(min(a, b), max(a, b))))
+    return out
 
 
 def _fill_enclosed(labels: np.ndarray, empty: np.ndarray) -> None:
