@@ -196,6 +196,24 @@ def test_a_gap_narrower_than_the_door_search_cells_still_joins_the_room():
     assert (seg.labels[free] == 1).all()
 
 
+@pytest.mark.parametrize(
+    "res, min_door_m, door_px", [(0.25, 0.5, 2), (0.1, 0.6, 6), (0.1, 0.5, 5), (0.2, 0.6, 3)]
+)
+def test_a_door_of_exactly_min_door_width_is_a_door_on_coarse_maps(res, min_door_m, door_px):
+    """On maps of 0.1 m or coarser the doorways are searched on the pixels; a gap of an
+    even number of pixels has its clearance half a pixel below an odd one's and was
+    missed at the smallest width."""
+    n = int(round(6.0 / res))  # two rooms of 6 m x 6 m, a wall of one pixel between
+    free = np.zeros((n + 2, 2 * n + 3), bool)
+    free[1:-1, 1 : n + 1] = free[1:-1, n + 2 : -1] = True
+    free[(n + 2 - door_px) // 2 : (n + 2 + door_px) // 2, n + 1] = True
+    occ = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=res)
+    seg = tj.segment_rooms(occ, config=tj.RoomConfig(min_door_width_m=min_door_m))
+    assert [(d.rooms, d.width_m) for d in seg.doors] == [((1, 2), pytest.approx(door_px * res))]
+    narrower = tj.RoomConfig(min_door_width_m=min_door_m + res / 2)
+    assert tj.segment_rooms(occ, config=narrower).doors == ()
+
+
 @pytest.mark.parametrize("door_px", [13, 14, 15, 17])
 def test_door_width_is_measured_on_the_map_pixels(door_px):
     seg = tj.segment_rooms(_map(_two_rooms(door_px * RES)))

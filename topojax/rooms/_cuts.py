@@ -122,7 +122,9 @@ def door_candidates(free, cells, clearance, skeleton, f: int, cfg, resolution_m:
     lo, hi = (min(v, extent) for v in clearance_range_px(cfg, resolution_m))
     w = max(1, int(round(min(cfg.door_context_m / resolution_m, extent))))
     if f == 1:
-        p, c, ends = _candidates(free, clearance, skeleton, lo, hi, w, DOOR_RISE)
+        # a gap of an even number d of pixels has clearance d / 2 at its middle, half a
+        # pixel less than ``(d + 1) / 2``: its width is held to the range below
+        p, c, ends = _candidates(free, clearance, skeleton, lo - 0.5, hi, w, DOOR_RISE)
     else:
         clo, chi = (min(v, extent) for v in clearance_range_px(cfg, resolution_m * f))
         wc = max(1, int(round(min(cfg.door_context_m / (resolution_m * f), extent))))
