@@ -614,3 +614,62 @@ def test_best_entry_memory_does_not_grow_with_the_pairs(monkeypatch):
             tracemalloc.stop()
     assert got == whole
     assert peaks[1] < 1.3 * peaks[0]
+
+
+def _listed_pairs(fs, regions, n_pairs, seed):
+    """Pairs drawn as ``sample_pairs`` draws them, from each region's listed pixels."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(seed)
+    slices = ndimage.find_objects(fs.labels)
+    n_src = -(-n_pairs // 10)
+    regions = np.asarray(regions, np.int64)
+    src_region = np.sort(
+        rng.choice(regions, size=n_src, p=fs.area_m2[regions] / fs.area_m2[regions].sum())
+    )
+    counts = np.full(n_src, 10)
+    counts[-1] = n_pairs - 10 * (n_src - 1)
+    sources, targets = [], []
+    for rid, k in zip(src_region.tolist(), counts.tolist(), strict=True):
+        sl = slices[rid - 1]
+        rr, cc = np.nonzero(fs.labels[sl] == rid)
+        px = np.stack([rr + sl[0].start, cc + sl[1].start], axis=1)
+        i = int(rng.integers(px.shape[0]))
+        j = rng.integers(px.shape[0] - 1, size=k)
+        sources.append(px[i])
+        targets.append(px[j + (j >= i)])
+    return np.array(sources), np.concatenate(targets)
+
+
+def test_pair_sampling_reads_rows_instead_of_listing_the_region():
+    import tracemalloc
+
+    from topojax.routegraph._eval_routes import sample_pairs
+    from topojax.routegraph.feasible import feasible_space
+
+    rng = np.random.default_rng(4)
+    occ = rng.random((120, 150)) < 0.1  # many regions of odd shapes at this radius
+    occ[[0, -1]] = True
+    occ[:, [0, -1]] = True
+    fs = feasible_space(_map(occ), 0.15)
+    regions = np.array([r for r in fs.regions_at_least(0.0) if fs.area_m2[r] >= 1.5 * RES**2])
+    assert regions.size > 5
+    for n_pairs, seed in ((300, 0), (57, 9)):
+        pairs = sample_pairs(fs, fs.regions_at_least(0.0), n_pairs, seed)
+        src, tgt = _listed_pairs(fs, regions, n_pairs, seed)
+        np.testing.assert_array_equal(pairs.source, src)
+        np.testing.assert_array_equal(pairs.target, tgt)
+    # one hall of 4 Mpx: listing its pixels took 16 bytes each (64 MB and more)
+    hall = np.zeros((2000, 2000), bool)
+    hall[[0, -1]] = True
+    hall[:, [0, -1]] = True
+    fs = feasible_space(_map(hall), RADIUS)
+    tracemalloc.start()
+    try:
+        base = tracemalloc.get_traced_memory()[0]
+        pairs = sample_pairs(fs, fs.regions_at_least(0.0), 300, seed=0)
+        peak = tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+    assert pairs.n_pairs == 300
+    assert peak < 2 * hall.size  # the bounding box compared with the region, one byte a pixel
