@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from topojax.graph.build import skeleton_to_graph
 from topojax.graph.work import (
     WorkGraph,
+    collapse_loops,
     edge_sides,
     face_labels,
     line_in_mask,
@@ -253,3 +255,35 @@ def test_route_graph_does_not_rest_on_how_a_sort_orders_equal_keys(monkeypatch, 
     first = graph_bytes("a.json")  # compiles every kernel before the patch
     monkeypatch.setattr(np, "argsort", ties_reversed)
     assert graph_bytes("b.json") == first
+
+
+class _CountedEdges(dict):
+    """A work graph's edges that count the look-ups of an edge id."""
+
+    lookups = 0
+
+    def __contains__(self, e) -> bool:
+        type(self).lookups += 1
+        return super().__contains__(e)
+
+
+def test_collapsing_a_row_of_loops_looks_at_each_edge_a_few_times():
+    # a ladder of n loops, each rung narrower than the one before: each loop opens at its
+    # right rung and joins the next, which thus gathers every rail edge so far; scanning
+    # the gathered edges at each step took 2 n^2 look-ups
+    n = 200
+    skeleton = np.zeros((12, 5 * n + 5), bool)
+    skeleton[[1, 10], 2 : 5 * n + 3] = True
+    clearance = np.full(skeleton.shape, 50.0, np.float32)
+    for k in range(n + 1):
+        skeleton[1:11, 2 + 5 * k] = True
+        clearance[2:10, 2 + 5 * k] = 100.0 if k == 0 else 40.0 - 0.1 * k
+    work = WorkGraph.from_networkx(skeleton_to_graph(skeleton, merge_junction_clusters=True))
+    work.edges = _CountedEdges(work.edges)
+    _CountedEdges.lookups = 0
+    free = np.ones(skeleton.shape, bool)
+    removed = collapse_loops(work, face_labels(skeleton), free, clearance, 1.0, 0.0, 1e9)
+    assert removed == n
+    rungs = {int(c) for _, _, path in work.edges.values() for r, c in path if 2 <= r <= 9}
+    assert rungs == {2}  # the widest rung, at the left end, stays
+    assert _CountedEdges.lookups <= 4 * n

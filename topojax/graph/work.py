@@ -5,6 +5,7 @@ around small obstacles and dropping medial-axis spurs."""
 
 from __future__ import annotations
 
+import heapq
 import math
 
 import cv2
@@ -295,6 +296,58 @@ def obstacle_extent_px(faces: np.ndarray, free: np.ndarray, n_faces: int) -> np.
     return out
 
 
+class _FaceEdges:
+    """The edges between each face (a root of merged faces) and the others, as a heap per
+    face of ``(narrowness, -length, rank, edge)``: ``rank`` orders a face's edges as the
+    lists that they replace did (each face's edges by id, a merged face's list the
+    absorbing face's followed by the absorbed one's), so the heap's top is the first of
+    the narrowest, longest edges of that list.  A merge pushes the smaller heap into the
+    larger one, ranked before or after it: each edge moves O(log E) times, where scanning
+    and appending whole lists took quadratic time on chains of faces that absorb each
+    other (a row of pillars)."""
+
+    def __init__(self, work: WorkGraph, lists: dict[int, list], narrow: dict) -> None:
+        self.heaps: dict[int, list] = {}
+        self.span: dict[int, tuple[int, int]] = {}
+        for f, edges in lists.items():
+            heap = [(narrow[e], -work.length[e], i, e) for i, e in enumerate(edges)]
+            heapq.heapify(heap)
+            self.heaps[f] = heap
+            self.span[f] = (0, len(edges) - 1)
+
+    def best(self, f: int, alive) -> int | None:
+        """The top edge of face ``f`` for which ``alive(edge)`` holds; the others above it
+        are dropped (a removed edge, or one inside a face, stays so)."""
+        heap = self.heaps.get(f)
+        while heap:
+            if alive(heap[0][3]):
+                return heap[0][3]
+            heapq.heappop(heap)
+        return None
+
+    def absorb(self, other: int, f: int) -> None:
+        """Face ``f``'s edges after ``other``'s, as ``other``'s."""
+        hf = self.heaps.pop(f, None)
+        if hf is None:
+            return
+        lo_f, hi_f = self.span.pop(f)
+        ho = self.heaps.get(other)
+        if ho is None:
+            self.heaps[other], self.span[other] = hf, (lo_f, hi_f)
+            return
+        lo_o, hi_o = self.span[other]
+        if len(hf) <= len(ho):  # rank f's after other's
+            shift = hi_o + 1 - lo_f
+            for a, b, rank, e in hf:
+                heapq.heappush(ho, (a, b, rank + shift, e))
+            self.span[other] = (lo_o, hi_f + shift)
+        else:  # rank other's before f's
+            shift = lo_f - 1 - hi_o
+            for a, b, rank, e in ho:
+                heapq.heappush(hf, (a, b, rank + shift, e))
+            self.heaps[other], self.span[other] = hf, (lo_o + shift, hi_f)
+
+
 def collapse_loops(
     work: WorkGraph,
     faces: np.ndarray,
@@ -323,9 +376,10 @@ def collapse_loops(
         c = clearance_px[path[:, 0], path[:, 1]]
         narrow[e] = float(c.min())
         length = work.length[e]
+        weighted = length * float(c.mean())
         for f in (a, b):
             loop_len[f] += length
-            clear_sum[f] += length * float(c.mean())
+            clear_sum[f] += weighted
             edges_of.setdefault(f, []).append(e)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean_clear = np.where(loop_len > 0, clear_sum / loop_len, 0.0)
@@ -339,6 +393,14 @@ def collapse_loops(
             f = parent[f]
         return f
 
+    def between_faces(e: int) -> bool:
+        if e not in work.edges:
+            return False
+        a, b = sides[e]
+        return find(a) != find(b)
+
+    heaps = _FaceEdges(work, edges_of, narrow)
+    del edges_of
     removed = 0
     todo = np.flatnonzero(small & (loop_len > 0))
     # equal lengths in face order: the default sort's order of ties varies between CPUs
@@ -346,16 +408,7 @@ def collapse_loops(
         f = int(f)
         if find(f) != f:
             continue
-        best, best_key = None, None
-        for e in edges_of.get(f, ()):
-            if e not in work.edges:
-                continue
-            a, b = sides[e]
-            if find(a) == find(b):
-                continue
-            key = (narrow[e], -work.length[e])
-            if best_key is None or key < best_key:
-                best, best_key = e, key
+        best = heaps.best(f, between_faces)
         if best is None:
             continue
         a, b = sides[best]
@@ -363,7 +416,7 @@ def collapse_loops(
         work.remove_edge(best)
         removed += 1
         parent[f] = other
-        edges_of.setdefault(other, []).extend(edges_of.pop(f, []))
+        heaps.absorb(other, f)
     return removed
 
 
