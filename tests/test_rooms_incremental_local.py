@@ -388,3 +388,44 @@ def _obstacles_of(occ: OccupancyMap, mask: np.ndarray) -> OccupancyMap:
         resolution_m=occ.resolution_m,
         origin=occ.origin,
     )
+
+
+def test_a_local_update_stopped_part_way_leaves_the_kept_labels_as_they_were(monkeypatch):
+    """The kept labels are updated in place window by window; an error or interrupt
+    between two windows put back what the first wrote, so the next update starts from
+    the rooms as they were and ends where an uninterrupted one does."""
+    import topojax.incremental._rooms_local as rooms_local
+
+    occ = _room_and_corridors()
+    change = np.zeros(occ.shape, bool)
+    change[3:98, 100:103] = True  # a wall across the room (a door left)
+    change[40:58, 100:103] = False
+    change[250:254, 700:704] = True  # a pillar in the first corridor, far from it
+    m = _mapper(rooms_local=True)
+    m.add_map(occ)
+    m.update_rooms()  # not read: the update may write the kept labels in place
+    kept = m._rooms.labels.copy()
+    m.add_map(_obstacles_of(occ, change))
+    real, written_before_stop = rooms_local._local_step, []
+
+    def step(*args, **kwargs):
+        if written_before_stop:
+            raise KeyboardInterrupt
+        n = real(*args, **kwargs)
+        written_before_stop.append(not np.array_equal(m._rooms.labels, kept))
+        return n
+
+    monkeypatch.setattr(rooms_local, "_local_step", step)
+    with pytest.raises(KeyboardInterrupt):
+        m.update_rooms()
+    assert written_before_stop == [True], "the first window wrote the kept labels"
+    np.testing.assert_array_equal(m._rooms.labels, kept)
+    monkeypatch.undo()
+    again = _mapper(rooms_local=True)
+    again.add_map(occ)
+    again.update_rooms()
+    again.add_map(_obstacles_of(occ, change))
+    a, b = m.update_rooms(), again.update_rooms()
+    np.testing.assert_array_equal(m.rooms.labels, again.rooms.labels)
+    for k in ("added", "removed", "changed", "doors_added", "doors_removed", "n_rooms"):
+        assert getattr(a, k) == getattr(b, k), k

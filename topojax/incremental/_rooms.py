@@ -87,7 +87,7 @@ class RoomKeeper:
         returns what changed."""
         from ..rooms import RoomConfig, segment_rooms
         from ..rooms.model import relabel
-        from ._rooms_local import free_box_near, local_update
+        from ._rooms_local import free_box_near, local_update, undo_writes
 
         t0 = time.perf_counter()
         cfg = RoomConfig() if config is None else config
@@ -101,15 +101,20 @@ class RoomKeeper:
             lut, self.next_id = match_ids(self.labels, self.box, fresh.labels, box, self.next_id)
             seg = relabel(fresh, lut)
             segmented = free.size
-        if changes is None:
-            near = free_box_near(free, None)
-            free_box = None if near is None else _moved(near, box)
-        else:
-            free_box = changes.free_box
-        if changes is None or changes.written is None:
-            report = self._changes(seg, box)
-        else:
-            report = self._local_changes(seg, box, changes)
+        try:
+            if changes is None:
+                near = free_box_near(free, None)
+                free_box = None if near is None else _moved(near, box)
+            else:
+                free_box = changes.free_box
+            if changes is None or changes.written is None:
+                report = self._changes(seg, box)
+            else:
+                report = self._local_changes(seg, box, changes)
+        except BaseException:  # the kept labels, updated in place, as they were
+            if changes is not None and changes.written is not None and not self.handed_out:
+                undo_writes(self.labels, changes.written, self.box[:2])
+            raise
         self.seg, self.labels, self.box, self.free = seg, seg.labels, tuple(box), free
         self.handed_out = False
         self.free_box = free_box

@@ -87,6 +87,16 @@ def local_update(keeper, occ, box, cfg):
         res_m=float(occ.resolution_m),
         origin=(int(box[0]), int(box[1])),
     )
+    try:  # an error or interrupt part way leaves the kept labels as they were
+        return _local_steps(st, keeper, occ, box, free, rr, cc, cfg, same_box)
+    except BaseException:
+        _undo(st)
+        raise
+
+
+def _local_steps(st, keeper, occ, box, free, rr, cc, cfg, same_box):
+    """:func:`local_update` from its work state ``st`` on: the windows re-segmented
+    one after another, and the result assembled."""
     segmented = 0
     old_free = None if keeper.free_box is None else _shifted(keeper.free_box, box)
     if rr.size:
@@ -146,9 +156,16 @@ def door_key(door, origin) -> tuple:
 
 def _undo(st: _Rooms) -> None:
     """Put back the labels of every box written, last first."""
-    for gbox, prev in reversed(st.written):
-        r0, c0, r1, c1 = _shifted(gbox, (*st.origin, 0, 0))
-        st.labels[r0:r1, c0:c1] = prev
+    undo_writes(st.labels, st.written, st.origin)
+    st.written.clear()
+
+
+def undo_writes(labels: np.ndarray, written, origin) -> None:
+    """Put back, last first, each ``(global box, labels before)`` of ``written`` into
+    ``labels`` (whose pixel (0, 0) is global pixel ``origin``)."""
+    for gbox, prev in reversed(written):
+        r0, c0, r1, c1 = _shifted(gbox, (*origin, 0, 0))
+        labels[r0:r1, c0:c1] = prev
 
 
 def _own_labels(keeper) -> np.ndarray:
