@@ -112,7 +112,7 @@ def test_blocks_of_another_build_are_refused_and_a_new_build_clears_them(tmp_pat
     stopped_build(monkeypatch, m, out, 3)
     with pytest.raises(ValueError, match=r"^resume: .* another build \(block_px: 128, here 64\)"):
         tj.build_graph_tiled(m, config=SMALL, block_px=64, out_dir=out, resume=True)
-    with pytest.raises(ValueError, match=r"^resume: .* another build \(config: "):
+    with pytest.raises(ValueError, match=r"^resume: .* another build \(distance: "):
         tj.build_graph_tiled(m, config=OTHER, block_px=BLOCK, out_dir=out, resume=True)
     with pytest.raises(ValueError, match=r"^resume: .* another build \(shape: "):
         tj.build_graph_tiled(
@@ -147,3 +147,39 @@ def test_resume_is_checked(tmp_path):
     # nothing to resume from: every block computed
     res = tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=tmp_path, resume=True)
     assert res.blocks_reused == 0
+
+
+def test_blocks_another_build_wrote_into_the_folder_are_not_used(tmp_path, monkeypatch):
+    """Two builds sharing an out_dir: the files of one land under the other's
+    description; each block file names its build, so the other's are computed again."""
+    import shutil
+
+    m = paper_map("office")
+    out = tmp_path / "graph"
+    stopped_build(monkeypatch, m, out, 3)  # options SMALL
+    aside = tmp_path / "aside"
+    shutil.copytree(out / BLOCKS_FOLDER, aside)
+    done = stop_after(monkeypatch, 1)
+    with pytest.raises(KeyboardInterrupt):  # options OTHER: the folder starts afresh
+        tj.build_graph_tiled(m, config=OTHER, block_px=BLOCK, out_dir=out)
+    monkeypatch.undo()
+    for path in aside.glob("block_*.npz"):  # the first build goes on writing its blocks
+        if path.name != f"block_{done[0][0]}_{done[0][2]}.npz":
+            shutil.copy(path, out / BLOCKS_FOLDER / path.name)
+    res = tj.build_graph_tiled(m, config=OTHER, block_px=BLOCK, out_dir=out, resume=True)
+    assert res.blocks_reused == 1
+    assert_same_graph(res, tj.build_graph(m, config=OTHER))
+
+
+def test_a_blocks_folder_of_other_files_is_refused_not_cleared(tmp_path):
+    m = paper_map("intel")
+    folder = tmp_path / "graph" / BLOCKS_FOLDER
+    folder.mkdir(parents=True)
+    (folder / "block_0_0.npz").write_bytes(b"mine")
+    with pytest.raises(ValueError, match=r"^out_dir: .* holds files that no tiled build"):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=tmp_path / "graph")
+    assert (folder / "block_0_0.npz").read_bytes() == b"mine"
+    (tmp_path / "file").mkdir()
+    (tmp_path / "file" / BLOCKS_FOLDER).write_text("")
+    with pytest.raises(NotADirectoryError, match=r"^out_dir: expected .* it is a file"):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=tmp_path / "file")

@@ -207,8 +207,8 @@ def build_graph_tiled(
         not fit in memory (with junction clusters merged the graph is built in memory
         and its arrays written there after; with pruning, the folder holds the pruned
         graph; a build that stops leaves it without ``graph_store.json``).  While the
-        build runs, the folder's ``blocks/`` keeps each finished block (12 bytes per
-        skeleton pixel), removed once the graph is written.  Default: in memory.
+        build runs, the folder's ``topojax_blocks/`` keeps each finished block (12 bytes
+        per skeleton pixel), removed once the graph is written.  Default: in memory.
     resume : bool, default False
         Go on from the blocks a stopped build left in ``out_dir`` (the same map, options
         and block side; a block whose map window changed since is computed again);

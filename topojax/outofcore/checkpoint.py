@@ -2,18 +2,19 @@
 build that stopped (killed, out of time, Ctrl-C) goes on where it was with
 ``resume=True`` instead of computing every block again.
 
-Each finished block is one ``.npz`` file in ``out_dir/blocks/`` (its skeleton pixels and
-squared distances, 12 bytes per pixel, plus a digest of the map window it read);
-``blocks/build.json`` describes the build they belong to (the map's shape, resolution and
-origin, the configuration, the block side).  A kept block is used again only when the
-build is the same and the window it read still holds the same pixels; the folder is
-removed once the graph is written.
+Each finished block is one ``.npz`` file in ``out_dir/topojax_blocks/`` (its skeleton
+pixels and squared distances, 12 bytes per pixel, a digest of the map window it read and
+one of its build); ``build.json`` there describes the build (the map's shape, resolution
+and origin, the options a block depends on, the block side, topojax's version).  A kept
+block is used again only when it is of the same build and the window it read still holds
+the same pixels; the folder is removed once the graph is written.
 """
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import json
 import zipfile
 from pathlib import Path
@@ -29,25 +30,48 @@ from .blocks import BlockPiece, window_box, window_digest
 __all__ = ["BLOCKS_FOLDER", "BlockCheckpoints"]
 
 #: Folder of ``out_dir`` that holds the finished blocks while a build runs.
-BLOCKS_FOLDER = "blocks"
+BLOCKS_FOLDER = "topojax_blocks"
 _BUILD_FILE = "build.json"
 _FORMAT = "topojax-tiled-blocks"
 _VERSION = 1
-_ARRAYS = ("box", "flat", "sq_distance_px", "occupied_px", "halo_px", "sub_iterations", "digest")
+_ARRAYS = (
+    "box",
+    "flat",
+    "sq_distance_px",
+    "occupied_px",
+    "halo_px",
+    "sub_iterations",
+    "digest",
+    "build",
+)
 
 
 def _description(tiled: TiledMap, config: PipelineConfig, block_px: int) -> dict[str, Any]:
-    """What makes two builds' blocks the same (JSON types only)."""
+    """What makes two builds' blocks the same (JSON types only): the map's extent, the
+    options a block's pixels depend on, the block side and topojax's version."""
+    from .. import __version__
+
     desc = {
         "format": _FORMAT,
         "version": _VERSION,
+        "topojax": __version__,
         "shape": [int(s) for s in tiled.shape],
         "resolution_m": float(tiled.resolution_m),
         "origin": [float(v) for v in tiled.origin],
         "block_px": int(block_px),
-        "config": dataclasses.asdict(config),
+        "distance": dataclasses.asdict(config.distance),
+        "ridge": dataclasses.asdict(config.ridge),
+        "skeleton": dataclasses.asdict(config.skeleton),
+        "tile_px": int(config.tile_px),
+        "free_space_only": bool(config.graph.free_space_only),
     }
     return json.loads(json.dumps(desc))
+
+
+def _build_digest(desc: dict[str, Any]) -> np.ndarray:
+    """16 bytes (uint8) naming the build ``desc``, kept in each of its block files."""
+    text = json.dumps(desc, sort_keys=True).encode()
+    return np.frombuffer(hashlib.blake2b(text, digest_size=16).digest(), np.uint8)
 
 
 class BlockCheckpoints:
@@ -70,7 +94,13 @@ class BlockCheckpoints:
         self.folder = out_dir / BLOCKS_FOLDER
         self.tiled = tiled
         desc = _description(tiled, config, block_px)
+        self.build = _build_digest(desc)
         build_file = self.folder / _BUILD_FILE
+        if self.folder.exists() and not self.folder.is_dir():
+            raise NotADirectoryError(
+                f"out_dir: expected {self.folder} to be free for the finished blocks, but "
+                "it is a file; remove it or choose another out_dir"
+            )
         if resume and build_file.is_file():
             _check_same_build(build_file, desc)
             return
@@ -94,8 +124,9 @@ class BlockCheckpoints:
         saved_box = tuple(int(v) for v in arrays["box"])
         halo = int(arrays["halo_px"])
         digest = arrays["digest"].tobytes()
+        same_build = np.array_equal(arrays["build"], self.build)
         del arrays
-        if saved_box != tuple(box):
+        if saved_box != tuple(box) or not same_build:  # e.g. a build sharing the folder
             return False
         r0, r1, c0, c1 = window_box(box, halo, self.tiled.shape)
         return window_digest(self.tiled.codes(r0, r1, c0, c1)) == digest
@@ -123,19 +154,33 @@ class BlockCheckpoints:
             "halo_px": np.int64(piece.halo_px),
             "sub_iterations": np.int64(piece.sub_iterations),
             "digest": np.frombuffer(piece.window_digest, np.uint8),
+            "build": self.build,
         }
         atomic_write(self._path(piece.box), lambda fh: np.savez(fh, **arrays))
 
     def remove(self) -> None:
         """Remove the kept blocks, and the folder when nothing else is in it (only files
-        of this module's names are ever removed)."""
+        of this module's names, and only in a folder whose ``build.json`` it wrote)."""
         if not self.folder.is_dir():
             return
+        if any(self.folder.iterdir()) and not _ours(self.folder / _BUILD_FILE):
+            raise ValueError(
+                f"out_dir: {self.folder} holds files that no tiled build of topojax "
+                "wrote; remove them or choose another out_dir"
+            )
         for pattern in ("block_*.npz", _BUILD_FILE, ".block_*.tmp", f".{_BUILD_FILE}.*.tmp"):
             for path in self.folder.glob(pattern):
                 path.unlink(missing_ok=True)
         with contextlib.suppress(OSError):  # not empty: another program's files
             self.folder.rmdir()
+
+
+def _ours(build_file: Path) -> bool:
+    """Whether ``build_file`` is a build description this module wrote."""
+    try:
+        return json.loads(build_file.read_text(encoding="utf-8")).get("format") == _FORMAT
+    except (OSError, ValueError, AttributeError):
+        return False
 
 
 def _check_same_build(build_file: Path, desc: dict[str, Any]) -> None:
