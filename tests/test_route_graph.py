@@ -536,6 +536,8 @@ def test_replay_refuses_a_route_graph_radius_too_small_for_its_grid_before_mappi
     assert not (tmp_path / "cli").exists()  # checked before the folder and the scans
     with pytest.raises(ValueError, match=r"^route_graph_radius_m: expected at least 1.5 pix"):
         tj.replay(log, out_dir=tmp_path / "api", route_graph_radius_m=0.3, resolution_m=0.25)
+    with pytest.raises(ValueError, match=r"^route_graph_radius_m: expected a robot radius of"):
+        tj.replay(log, out_dir=tmp_path / "api", route_graph_radius_m=2000.0)
 
 
 def _crossings(g: nx.MultiGraph, near_px: float = R / RES) -> int:

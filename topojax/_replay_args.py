@@ -10,10 +10,10 @@ from ._validate import (
     flag,
     instance_or_default,
     no_file_above,
-    nonnegative_metres,
     path_like,
     positive_int,
     positive_metres,
+    robot_radius,
 )
 from .config import GraphConfig
 
@@ -65,7 +65,7 @@ def check_replay_args(
 
         mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
     if route_graph_radius_m is not None:
-        route_graph_radius_m = nonnegative_metres("route_graph_radius_m", route_graph_radius_m)
+        route_graph_radius_m = robot_radius("route_graph_radius_m", route_graph_radius_m)
     return nav2_tolerance_m, route_graph_radius_m
 
 

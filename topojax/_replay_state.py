@@ -93,24 +93,20 @@ class WholeScans:
         from .incremental import ExtentError
 
         before = mapper.n_scans
-        self._busy = True
-        try:
-            report = mapper.add_scan(scan)
-            if then is not None:
-                then(scan, report)
-            progress.recorded = index + 1
-            return report
-        except ExtentError as exc:  # a localisation glitch: skipped, the replay goes on
-            progress.skipped.append(str(exc))
-            progress.consumed = progress.recorded = index + 1
-            return None
-        finally:
-            if mapper.n_scans != before:
-                progress.consumed = index + 1
-            self._busy = False
-            if self._pending:  # the held Ctrl-C, now that the scan is counted
-                self._pending = False
-                raise KeyboardInterrupt  # noqa: B012
+        with self.held():  # a Ctrl-C is raised once the scan is counted
+            try:
+                report = mapper.add_scan(scan)
+                if then is not None:
+                    then(scan, report)
+                progress.recorded = index + 1
+                return report
+            except ExtentError as exc:  # a localisation glitch: skipped, the replay goes on
+                progress.skipped.append(str(exc))
+                progress.consumed = progress.recorded = index + 1
+                return None
+            finally:
+                if mapper.n_scans != before:
+                    progress.consumed = index + 1
 
 
 def _file_digest(path: Path, digest) -> None:

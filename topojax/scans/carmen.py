@@ -363,7 +363,7 @@ def _iter_carmen(
     odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
     not_finite: list[int] = []  # lines of scans whose pose is not finite
-    bad: list[int] = []  # malformed laser lines skipped
+    n_bad = 0  # malformed laser lines skipped
     first_bad = ""
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
@@ -397,9 +397,9 @@ def _iter_carmen(
                     break
                 if not skip_bad:
                     raise _malformed(path, lineno, key, err) from None
-                if not bad:
+                if not n_bad:
                     first_bad = f"line {lineno}: {err}"
-                bad.append(lineno)
+                n_bad += 1
                 continue
             yield scan
     if skipped:
@@ -408,9 +408,9 @@ def _iter_carmen(
             f"(they have no pose)",
             stacklevel=2,
         )
-    if bad:
+    if n_bad:
         warnings.warn(
-            f"{path}: skipped {len(bad)} malformed {chosen} line(s) (bad_lines='skip'), "
+            f"{path}: skipped {n_bad} malformed {chosen} line(s) (bad_lines='skip'), "
             f"the first on {first_bad}",
             stacklevel=2,
         )
