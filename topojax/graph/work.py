@@ -298,13 +298,12 @@ def obstacle_extent_px(faces: np.ndarray, free: np.ndarray, n_faces: int) -> np.
 
 class _FaceEdges:
     """The edges between each face (a root of merged faces) and the others, as a heap per
-    face of ``(narrowness, -length, rank, edge)``: ``rank`` orders a face's edges as the
-    lists that they replace did (each face's edges by id, a merged face's list the
-    absorbing face's followed by the absorbed one's), so the heap's top is the first of
-    the narrowest, longest edges of that list.  A merge pushes the smaller heap into the
-    larger one, ranked before or after it: each edge moves O(log E) times, where scanning
-    and appending whole lists took quadratic time on chains of faces that absorb each
-    other (a row of pillars)."""
+    face of ``(narrowness, -length, rank, edge)``: ``rank`` orders a face's edges as a list
+    would (each face's edges by id, a merged face's list the absorbing face's followed by
+    the absorbed one's), so the heap's top is the first of the narrowest, longest edges of
+    that list.  A merge pushes the smaller heap into the larger one, ranked before or after
+    it: each edge moves O(log E) times, also on chains of faces that absorb each other (a
+    row of pillars)."""
 
     def __init__(self, work: WorkGraph, lists: dict[int, list], narrow: dict) -> None:
         self.heaps: dict[int, list] = {}

@@ -73,8 +73,8 @@ def sample_pairs(fs, regions: np.ndarray, n_pairs: int, seed: int) -> PairSet:
     rng = np.random.default_rng(seed)
     slices = ndimage.find_objects(fs.labels)
     res2 = fs.resolution_m**2
-    # two pixels or more: half a pixel of slack, whatever the resolution (1e-12 m² was a
-    # pixel at 1e-6 m per pixel, the finest map)
+    # two pixels or more: half a pixel of slack, whatever the resolution (down to 1e-6 m
+    # per pixel, the finest map)
     regions = np.array([r for r in regions if fs.area_m2[r] >= 1.5 * res2], np.int64)
     empty = np.empty((0, 2), np.int64)
     if regions.size == 0:
@@ -109,8 +109,8 @@ def sample_pairs(fs, regions: np.ndarray, n_pairs: int, seed: int) -> PairSet:
 def _nth_pixels(labels, sl, rid: int, cum: np.ndarray, nth: np.ndarray) -> np.ndarray:
     """Pixels (row, col) int64 (K, 2) numbered ``nth`` (int64 (K,)) among those of region
     ``rid`` in raster order, given its bounding box ``sl`` and the running count ``cum``
-    of its pixels by row of the box: one row of the box read per pixel, where listing
-    the region's pixels took 16 bytes per pixel (0.7 GB at its peak in a 16 Mpx hall)."""
+    of its pixels by row of the box: one row of the box read per pixel, no list of the
+    region's pixels (16 bytes each) held."""
     rows = np.searchsorted(cum, nth, side="right")
     before = np.where(rows > 0, cum[rows - 1], 0)
     out = np.empty((nth.size, 2), np.int64)
