@@ -448,7 +448,7 @@ def test_output_folder_on_a_file_names_the_option(tmp_path: Path, capsys):
     assert "--out: expected a folder to write into" in capsys.readouterr().err
     argv = ["batch", png, "-o", str(tmp_path / "afile"), "--workers", "0", "--no-progress"]
     assert main(argv) != 0
-    assert "out_dir: expected a folder to write into" in capsys.readouterr().err
+    assert "--out: expected a folder to write into" in capsys.readouterr().err
 
 
 def test_atomic_write_to_a_folder_says_so_and_leaves_nothing(tmp_path: Path):
