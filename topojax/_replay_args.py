@@ -69,12 +69,33 @@ def check_replay_args(
     return nav2_tolerance_m, route_graph_radius_m
 
 
+def output_names(
+    *,
+    nav2: bool = False,
+    plot: bool = False,
+    route_graph: bool = False,
+    rooms: bool = False,
+    view: bool = False,
+) -> list[str]:
+    """The names of the files a replay writes into its folder, with these options on
+    (``nav2_tolerance_m``, ``plot``, ``route_graph_radius_m``, ``rooms``, ``view``)."""
+    from .io import ROOM_FILE_SUFFIXES
+
+    names = ["graph.graphml", "graph.json", "graph.geojson"]
+    names += ["graph_nav2.geojson"] * nav2
+    names += ["map.yaml", "map.pgm", "timings.json"]
+    names += ["graph.png", "stages.png"] * plot
+    names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")] * route_graph
+    names += ["route_graph_nav2.geojson"] * (route_graph and nav2)
+    names += [f"map{suffix}" for suffix in ROOM_FILE_SUFFIXES] * rooms
+    return names + ["view.html", "timeline.json.gz"] * view
+
+
 def refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
     """Refuse (ValueError) output paths that are the log itself or, for a bag folder (or
     a file in one), a file of that folder: e.g. ``mcap`` the recording being replayed
     (it was replaced by the new recording)."""
     from ._fs import refuse_overwriting_inputs
-    from .playback import output_names
 
     src = path_like("source", source)
     folder = (

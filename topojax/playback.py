@@ -12,7 +12,12 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ._animation import animation_frame, write_animation
-from ._replay_args import check_flags_and_reader, check_replay_args, refuse_overwriting_source
+from ._replay_args import (
+    check_flags_and_reader,
+    check_replay_args,
+    output_names,
+    refuse_overwriting_source,
+)
 from ._replay_state import (
     STATE_FILE,
     KeptRecordings,
@@ -652,28 +657,6 @@ def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, li
     written.append(save_map(result.map, out / "map.yaml"))
     written.append(out / "map.yaml")
     return written, messages
-
-
-def output_names(
-    *,
-    nav2: bool = False,
-    plot: bool = False,
-    route_graph: bool = False,
-    rooms: bool = False,
-    view: bool = False,
-) -> list[str]:
-    """The names of the files a replay writes into its folder, with these options on
-    (``nav2_tolerance_m``, ``plot``, ``route_graph_radius_m``, ``rooms``, ``view``)."""
-    from .io import ROOM_FILE_SUFFIXES
-
-    names = ["graph.graphml", "graph.json", "graph.geojson"]
-    names += ["graph_nav2.geojson"] * nav2
-    names += ["map.yaml", "map.pgm", "timings.json"]
-    names += ["graph.png", "stages.png"] * plot
-    names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")] * route_graph
-    names += ["route_graph_nav2.geojson"] * (route_graph and nav2)
-    names += [f"map{suffix}" for suffix in ROOM_FILE_SUFFIXES] * rooms
-    return names + ["view.html", "timeline.json.gz"] * view
 
 
 def optional_outputs() -> list[str]:
