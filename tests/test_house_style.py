@@ -7,7 +7,9 @@
 * modules stay under :data:`MAX_MODULE_LINES` lines and functions under
   :data:`MAX_FUNCTION_LINES` (``def`` line to last line, docstring included);
 * a type check whose error is the one of ``topojax._validate.instance_of`` calls it
-  instead of repeating it.
+  instead of repeating it;
+* no import circle among the modules, imports inside functions and for type checkers
+  included.
 
 Each exception in the ``KNOWN_*`` sets below is one to remove, not to add to.
 """
@@ -125,6 +127,29 @@ def test_no_private_name_is_imported_from_another_package() -> None:
             if (name, private) not in KNOWN_PRIVATE_IMPORTS:
                 bad.append(f"{name} imports {private}")
     assert not bad, "\n".join(bad)
+
+
+def _module_imports() -> dict[str, set[str]]:
+    """Each module's dotted name -> the modules it imports (at any level)."""
+    modules = {_module_name(p): p for p in _modules()}
+    out: dict[str, set[str]] = {}
+    for name, path in modules.items():
+        targets = set()
+        for dotted in _imported(path):
+            while dotted and dotted not in modules:  # ``module.name`` -> the module
+                dotted = dotted.rpartition(".")[0]
+            if dotted and dotted != name:
+                targets.add(dotted)
+        out[name] = targets
+    return out
+
+
+def test_no_import_circles() -> None:
+    import networkx as nx
+
+    graph = nx.DiGraph([(a, b) for a, targets in _module_imports().items() for b in targets])
+    circles = [sorted(c) for c in nx.strongly_connected_components(graph) if len(c) > 1]
+    assert not circles, circles
 
 
 def test_modules_are_short() -> None:

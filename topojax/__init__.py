@@ -39,6 +39,11 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
+from ._constants import VERSION as _VERSION
+
+#: The same as ``version`` in pyproject.toml.
+__version__ = _VERSION
+
 if TYPE_CHECKING:  # the names for type checkers; at run time they load on first use
     from .batch import MapRecord, build_graphs
     from .config import (
@@ -172,9 +177,6 @@ __all__ = [
     "vertex_error_metrics",
     "write_view",
 ]
-
-#: The same as ``version`` in pyproject.toml.
-__version__ = "0.1.0"
 
 # Every public name and the module that defines it.  ``import topojax`` loads none of
 # them (JAX, numba and the map readers take seconds to import); a name's module is

@@ -9,7 +9,10 @@ here and export them under the same names.
 
 from __future__ import annotations
 
-__all__ = ["EDGE_COLOUR", "FAR_SQ", "MODES", "STRATEGIES", "VERTEX_KIND_COLOURS"]
+__all__ = ["EDGE_COLOUR", "FAR_SQ", "MODES", "STRATEGIES", "VERSION", "VERTEX_KIND_COLOURS"]
+
+#: topojax's version, the same as ``version`` in pyproject.toml (``topojax.__version__``).
+VERSION = "0.1.0"
 
 #: Pixel conventions of :func:`topojax.load_map` (``mode``); :data:`topojax.maps.MODES`.
 MODES = ("trinary", "scale", "raw", "ipa")

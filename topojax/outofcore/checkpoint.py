@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from .._constants import VERSION
 from .._fs import atomic_write, atomic_write_bytes
 from ..config import PipelineConfig
 from ..maps.tiled import TiledMap
@@ -49,12 +50,10 @@ _ARRAYS = (
 def _description(tiled: TiledMap, config: PipelineConfig, block_px: int) -> dict[str, Any]:
     """What makes two builds' blocks the same (JSON types only): the map's extent, the
     options a block's pixels depend on, the block side and topojax's version."""
-    from .. import __version__
-
     desc = {
         "format": _FORMAT,
         "version": _VERSION,
-        "topojax": __version__,
+        "topojax": VERSION,
         "shape": [int(s) for s in tiled.shape],
         "resolution_m": float(tiled.resolution_m),
         "origin": [float(v) for v in tiled.origin],
