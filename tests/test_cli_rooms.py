@@ -143,7 +143,13 @@ def test_room_option_defaults_are_room_configs():
     [
         (
             ["--max-door-width-m", "0.1"],
-            "--max-door-width-m: expected a width >= --min-door-width-m (0.5 m), received 0.1",
+            "--min-door-width-m, --max-door-width-m: expected --min-door-width-m <= "
+            "--max-door-width-m, received 0.5 and 0.1 m",
+        ),
+        (  # the default maximum is the one below: both are named
+            ["--min-door-width-m", "3"],
+            "--min-door-width-m, --max-door-width-m: expected --min-door-width-m <= "
+            "--max-door-width-m, received 3.0 and 2.2 m",
         ),
         (["--min-room-m2", "-1"], "--min-room-m2: expected a finite number"),
         (["--door-ratio", "0"], "--door-ratio: expected"),

@@ -414,10 +414,12 @@ def test_room_at_world_points():
     for room in seg.rooms:
         assert seg.room_at(room.centroid) == room.id
     assert seg.room_at((-100.0, -100.0)) == 0
-    with pytest.raises(TypeError, match="point"):
+    with pytest.raises(TypeError, match=r"^point: expected two finite numbers \(x, y\)"):
         seg.room_at("here")
-    with pytest.raises(ValueError, match="point"):
+    with pytest.raises(ValueError, match=r"^point: expected two finite numbers .* received"):
         seg.room_at((np.nan, 0.0))
+    with pytest.raises(TypeError, match=r"^point: expected two finite numbers"):
+        seg.room_at((True, 3.0))  # a bool is not a coordinate
 
 
 # --- bad input -------------------------------------------------------------------------
@@ -428,7 +430,10 @@ def test_room_at_world_points():
     [
         ({"min_door_width_m": -1.0}, "min_door_width_m"),
         ({"max_door_width_m": 0.0}, "max_door_width_m"),
-        ({"max_door_width_m": 0.4, "min_door_width_m": 0.6}, "max_door_width_m"),
+        (
+            {"max_door_width_m": 0.4, "min_door_width_m": 0.6},
+            r"^min_door_width_m, max_door_width_m: expected .* received 0.6 and 0.4 m",
+        ),
         ({"door_ratio": 0.0}, r"^door_ratio: expected a finite number > 0, received 0.0"),
         ({"max_border_share": 2}, r"^max_border_share: expected a share .* in \(0, 1\]"),
         ({"min_room_m2": float("nan")}, r"^min_room_m2: expected a finite number of m2 >= 0"),

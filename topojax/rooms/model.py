@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
+from .._validate import finite_pair
 from ._kernels import label_stats
 from ._outline import outline
 
@@ -158,14 +159,7 @@ class RoomSegmentation:
 
     def room_at(self, point) -> int:
         """Room id at a world point (x, y) in metres (0 outside every room and the map)."""
-        try:
-            x, y = (float(v) for v in point)
-        except (TypeError, ValueError):
-            raise TypeError(
-                f"point: expected a world position (x, y) in metres, received {point!r}"
-            ) from None
-        if not (np.isfinite(x) and np.isfinite(y)):
-            raise ValueError(f"point: expected finite (x, y) metres, received {point!r}")
+        x, y = finite_pair("point", point, "(x, y) in metres")  # bools are no numbers
         r, c = self.occupancy.world_to_pixel(x, y)
         r, c = int(np.floor(r + 0.5)), int(np.floor(c + 0.5))
         h, w = self.labels.shape

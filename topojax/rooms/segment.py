@@ -79,8 +79,9 @@ class RoomConfig:
             )
         if self.max_door_width_m < self.min_door_width_m:
             raise ValueError(
-                "max_door_width_m: expected a width >= min_door_width_m "
-                f"({self.min_door_width_m!r} m), received {self.max_door_width_m!r}"
+                "min_door_width_m, max_door_width_m: expected min_door_width_m <= "
+                f"max_door_width_m, received {self.min_door_width_m!r} and "
+                f"{self.max_door_width_m!r} m"
             )
 
 
