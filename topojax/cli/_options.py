@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 from .._constants import MODES
 
@@ -17,13 +18,14 @@ _OPTION_OF = {
 }
 
 
-def _as_option_error(exc: TypeError | ValueError) -> TypeError | ValueError:
-    """``exc`` with the field that its message starts with (``"min_spur_m: ..."``) named
-    as the option that sets it (``"--min-spur-m: ..."``)."""
-    field, sep, rest = str(exc).partition(": ")
-    if not sep or field not in _OPTION_OF:
-        return exc
-    return type(exc)(f"{_OPTION_OF[field]}: {rest}")
+def _as_option_error(
+    exc: TypeError | ValueError, option_of: dict[str, str] = _OPTION_OF
+) -> TypeError | ValueError:
+    """``exc`` with every configuration field its message names (``min_spur_m``) written
+    as the option that sets it (``--min-spur-m``), ``option_of`` mapping the one to the
+    other: the commands' errors name what their user typed."""
+    words = re.compile(r"\b(" + "|".join(map(re.escape, option_of)) + r")\b")
+    return type(exc)(words.sub(lambda m: option_of[m.group(1)], str(exc)))
 
 
 def pipeline_config(args, *, resolution_m: float | None = None):
@@ -286,8 +288,5 @@ def room_config(args, *, only_with: str | None = None, given: bool = True):
         return None
     try:
         return RoomConfig(**values)
-    except (TypeError, ValueError) as exc:
-        text = str(exc)
-        for field, option in option_of.items():  # the messages name RoomConfig's fields
-            text = text.replace(field, option)
-        raise type(exc)(text) from None
+    except (TypeError, ValueError) as exc:  # the messages name RoomConfig's fields
+        raise _as_option_error(exc, option_of) from None
