@@ -703,13 +703,13 @@ def pool_sizes(monkeypatch) -> list:
     import concurrent.futures as cf
 
     sizes: list = []
-    pool = cf.ProcessPoolExecutor
 
-    def counted(max_workers=None, **kwargs):
-        sizes.append(max_workers)
-        return pool(max_workers=max_workers, **kwargs)
+    class Counted(cf.ProcessPoolExecutor):
+        def __init__(self, max_workers=None, **kwargs):
+            sizes.append(max_workers)
+            super().__init__(max_workers=max_workers, **kwargs)
 
-    monkeypatch.setattr(cf, "ProcessPoolExecutor", counted)
+    monkeypatch.setattr(cf, "ProcessPoolExecutor", Counted)
     return sizes
 
 
@@ -741,6 +741,71 @@ def test_default_workers_are_the_cpus_this_process_may_use(tmp_path, monkeypatch
         records = build_graphs(PAPER_MAPS[:2], out_dir=out, formats="json", progress=False)
         assert [r.status for r in records] == ["ok", "ok"]
     assert sizes == [1]
+
+
+def _memory_for(monkeypatch, n_workers: float) -> None:
+    """Make the memory available hold ``n_workers`` batch worker processes."""
+    from topojax.batch import arguments
+
+    free = int(n_workers * arguments.WORKER_MEMORY_BYTES)
+    monkeypatch.setattr(arguments, "available_memory_bytes", lambda: free)
+
+
+@pytest.mark.parametrize("command_line", [False, True])
+def test_more_workers_than_the_memory_holds_are_refused_before_any_map(
+    tmp_path, monkeypatch, capsys, command_line
+):
+    """Each worker process holds a few hundred MB before its first map: a count the
+    memory cannot hold is an error naming the option, not a machine swapping or the
+    kernel killing workers one after another."""
+    from topojax.cli import main
+
+    sizes = pool_sizes(monkeypatch)
+    _memory_for(monkeypatch, 1.5)
+    out = tmp_path / "out"
+    if command_line:
+        argv = ["batch", *map(str, PAPER_MAPS[:2]), "-o", str(out), "--no-progress"]
+        assert main([*argv, "--workers", "1000"]) == 2
+        err = capsys.readouterr().err
+        assert "--workers: expected at most 1 worker processes" in err
+        assert "received 1000 (2 for the maps to run)" in err
+    else:
+        with pytest.raises(ValueError, match=r"^workers: expected at most 1 worker .*received 3"):
+            build_graphs(PAPER_MAPS, out_dir=out, workers=3, progress=False)
+    assert sizes == []
+    assert not any(p.suffix == ".json" for p in out.iterdir())
+
+
+def test_default_workers_are_as_many_as_the_memory_holds(tmp_path, monkeypatch):
+    sizes = pool_sizes(monkeypatch)
+    monkeypatch.setattr(os, "cpu_count", lambda: 64)
+    if hasattr(os, "sched_getaffinity"):
+        monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(64)))
+    _memory_for(monkeypatch, 2.5)
+    records = build_graphs(PAPER_MAPS, out_dir=tmp_path, formats="json", progress=False)
+    assert [r.status for r in records] == ["ok"] * 3
+    assert sizes == [2]
+
+
+def test_worker_count_within_memory():
+    """``workers_for_memory``: every worker where the memory holds them (or cannot be
+    read), else as many as it holds for a default count and an error for a given one."""
+    from topojax.batch import arguments
+
+    per = arguments.WORKER_MEMORY_BYTES
+    for free, asked, expected in [
+        (None, 8, 8),
+        (8 * per, 8, 8),
+        (8 * per - 1, None, 7),
+        (per // 2, None, 1),
+    ]:
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(arguments, "available_memory_bytes", lambda free=free: free)
+            assert arguments.workers_for_memory(8, asked=asked) == expected
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(arguments, "available_memory_bytes", lambda: 8 * per - 1)
+        with pytest.raises(ValueError, match=r"workers: expected at most 7 .*received 20 \(8 "):
+            arguments.workers_for_memory(8, asked=20)
 
 
 def _children(pid: int) -> list[int]:

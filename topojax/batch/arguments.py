@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .._cpus import as_executor, usable_cpus
+from .._cpus import as_executor, available_memory_bytes, usable_cpus
 from .._fs import refuse_overwriting_inputs
 from .._validate import (
     flag,
@@ -38,6 +38,31 @@ from .manifest import _fingerprint, _normalise
 #: Default kernel bucket of a batch: several tiles per call mean fewer dispatches (empty
 #: padding tiles are nearly free).
 DEFAULT_TILES_PER_CALL = 16
+
+#: Memory a batch's worker process holds before its first map (the interpreter, the
+#: imported modules, numba's and OpenCV's runtimes; docs/performance.md), a lower bound.
+WORKER_MEMORY_BYTES = 300 * 2**20
+
+
+def workers_for_memory(wanted: int, *, asked: int | None) -> int:
+    """How many of ``wanted`` (>= 1) worker processes to start: all of them where the
+    memory available (:func:`~topojax._cpus.available_memory_bytes`) holds
+    :data:`WORKER_MEMORY_BYTES` for each or cannot be read; else as many as it holds (at
+    least one), or, where the user ``asked`` for a count (``workers``; None for the
+    default), ValueError naming ``workers``."""
+    free = available_memory_bytes()
+    if free is None or wanted * WORKER_MEMORY_BYTES <= free:
+        return wanted
+    fits = max(1, free // WORKER_MEMORY_BYTES)
+    if asked is None:
+        return fits
+    raise ValueError(
+        f"workers: expected at most {fits} worker processes for the "
+        f"{free / 2**30:.1f} GiB of memory available (each holds about "
+        f"{WORKER_MEMORY_BYTES // 2**20} MiB before its first map), received {asked} "
+        f"({wanted} for the maps to run); use fewer workers, or 0 to run the maps in "
+        "this process"
+    )
 
 
 def checked_options(
@@ -77,6 +102,7 @@ def checked_options(
     return {
         "executor": executor,
         "workers": n_workers,
+        "workers_given": workers is not None,
         "config": config,
         "formats": fmts,
         "plot": bool(flags["plot"]),

@@ -21,7 +21,7 @@ from ..config import DistanceConfig, PipelineConfig
 from ..maps import OccupancyMap
 from ..maps.classify import wall_warning
 from ..routegraph import RouteGraphConfig
-from .arguments import batch_items, checked_options, map_inputs
+from .arguments import batch_items, checked_options, map_inputs, workers_for_memory
 from .inputs import ROUTE_FORMATS, _Item
 from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
 from .records import MapRecord, totalled, write_summary
@@ -67,6 +67,7 @@ class _BatchRun:
         *,
         executor: cf.Executor | None,
         workers: int,
+        workers_given: bool = True,
         config: PipelineConfig,
         out_dir: Path | None,
         formats: tuple[str, ...],
@@ -90,6 +91,7 @@ class _BatchRun:
         self.executor = executor
         self.owns_executor = executor is None
         self.workers = workers
+        self.workers_given = workers_given
         self.config = config
         self.out_dir = out_dir
         self.formats = formats
@@ -107,6 +109,7 @@ class _BatchRun:
         # reads the kernels wait for; an outside executor's size is unknown.
         self.cpu_backlog = max(4, 3 * workers) if executor is None else 64
         self._restarts = 0
+        self._started_pool = False
         self._pool_size = workers  # no more processes than maps to run (set by run())
         self._retried: set[int] = set()  # maps whose task a broken pool lost once
         # the rooms format segments each map in its CPU stage, which rebuilds the map (as
@@ -120,6 +123,12 @@ class _BatchRun:
     def _new_executor(self) -> cf.Executor:
         if self.workers == 0:
             return InlineExecutor()
+        # each process holds a few hundred MB: a count the memory cannot hold is refused
+        # when the user asked for it before any map runs, and trimmed otherwise
+        first = not self._started_pool
+        self._started_pool = True
+        asked = self.workers if self.workers_given and first else None
+        self._pool_size = workers_for_memory(self._pool_size, asked=asked)
         ex = cf.ProcessPoolExecutor(max_workers=self._pool_size, mp_context=worker_context())
         for _ in range(self._pool_size):  # import + numba cache load while kernels compile
             ex.submit(_warm_worker)
@@ -661,7 +670,9 @@ def build_graphs(
     workers : int, optional
         Worker processes of the default executor, at most one per map to run; default
         the CPUs this process may run on (its affinity, which ``taskset``, a container or
-        a job scheduler narrows; not every core of the machine).  ``0`` runs the CPU stage in the calling thread
+        a job scheduler narrows; not every core of the machine), as many as the memory
+        available holds (see ``docs/batch-and-dask.md``; a larger count given is
+        refused).  ``0`` runs the CPU stage in the calling thread
         (:class:`InlineExecutor`).  Not used when ``executor`` is given (but still
         checked).
     config : PipelineConfig, optional

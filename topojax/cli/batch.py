@@ -10,7 +10,7 @@ from collections import Counter
 from pathlib import Path
 
 from .._constants import MODES
-from ._options import add_pipeline_options, add_sigma_options, pipeline_config
+from ._options import _as_option_error, add_pipeline_options, add_sigma_options, pipeline_config
 from ._outputs import OUT_OPTION, check_outputs
 
 
@@ -57,6 +57,8 @@ def _cmd_batch(args) -> int:
             sigma_m=args.sigma_m,
             route_config=route_config,
         )
+    except ValueError as exc:  # e.g. more --workers than the memory holds
+        raise _as_option_error(exc, {"workers": "--workers"}) from None
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
@@ -144,8 +146,9 @@ def add_command(subparsers) -> None:
         "--workers",
         type=int,
         default=None,
-        help="worker processes for the CPU stages, at most one per map (default: the cores "
-        "this process may use, e.g. under taskset or a job scheduler; 0 = in-process)",
+        help="worker processes for the CPU stages, at most one per map and as many as the "
+        "memory holds (default: the cores this process may use, e.g. under taskset or a "
+        "job scheduler; 0 = in-process)",
     )
     p.add_argument(
         "--scheduler",
