@@ -7,6 +7,7 @@ import contextlib
 import math
 import re
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -110,32 +111,176 @@ def resolution_from_pgm_comments(comments: list[str], path: Path) -> float | Non
     return None
 
 
-def _read_plain_pnm(data: bytes, path: Path) -> np.ndarray:
-    """Pixels of a plain (ASCII) PGM ``P2`` or PPM ``P3`` file, exactly as written: uint8
-    if its maxval is below 256, else uint16; (H, W) or (H, W, 3) RGB."""
-    tokens = re.sub(rb"#[^\n]*", b" ", data[2:]).split()
-    channels = 3 if data[:2] == b"P3" else 1
-    try:
-        width, height, maxval = (int(t) for t in tokens[:3])
-        values = np.array(tokens[3:], dtype=np.bytes_).astype(np.int64)
-    except ValueError:
-        raise ValueError(f"map image {path}: plain PNM file with non-numeric entries") from None
+#: Bytes of a plain PNM file parsed at once: bounds the scratch memory of the parse.
+_PLAIN_CHUNK = 1 << 18
+#: Byte classes of plain PNM files: 0 for a separator (the bytes ``bytes.split`` splits
+#: at), 1 for a digit, 2 for any other byte.
+_PLAIN_CLASS = np.full(256, 2, dtype=np.uint8)
+_PLAIN_CLASS[list(b" \t\n\r\x0b\x0c")] = 0
+_PLAIN_CLASS[list(b"0123456789")] = 1
+#: Digits of the largest maxval (65535): a sample with more significant digits is above it.
+_SAMPLE_DIGITS = 5
+#: Significant digits of the largest header number read.
+_HEADER_DIGITS = 20
+
+
+def _plain_comments(u: np.ndarray, in_comment: bool) -> np.ndarray | None:
+    """Mask (bool, like ``u``) of the bytes of ``u`` (uint8) in comments, ``#`` up to
+    (not including) the next newline; ``in_comment`` if ``u`` starts inside one.  None
+    if there is none."""
+    hashes = u == ord("#")
+    if not in_comment and not hashes.any():
+        return None
+    index = np.arange(u.size, dtype=np.int32)
+    last_hash = np.maximum.accumulate(np.where(hashes, index, -1 if in_comment else -2))
+    last_newline = np.maximum.accumulate(np.where(u == ord("\n"), index, -2 if in_comment else -1))
+    return last_hash > last_newline
+
+
+def _plain_word_error(u: np.ndarray, start: int, end: int, offset: int, path: Path) -> str:
+    """The error message for the word ``u[start:end]`` (at ``offset + start`` in the file),
+    which is not an unsigned decimal integer."""
+    word = u[start : min(end, start + 24)].tobytes().decode("latin-1")
+    word += "..." if end - start > 24 else ""
+    signed = word[:1] in "+-" and word[1:].isdigit() and word[1:].isascii()
+    return (
+        f"map image {path}: plain PNM file with non-numeric entries: {word!r} at byte "
+        f"{offset + start}{' has a sign' if signed else ''}; expected unsigned decimal integers"
+    )
+
+
+def _plain_words(
+    buf: np.ndarray, path: Path
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, int]]:
+    """Yield ``(chunk, starts, ends, offset)`` for consecutive chunks of ``buf`` (uint8,
+    the file after its magic number), cut after a separator: each chunk's words as
+    [start, end) offsets (int64, (K,)) into ``chunk``, which starts at byte ``offset`` of
+    ``buf``.  A ValueError for a word that is not all digits or fills a whole chunk."""
+    pos, in_comment = 0, False
+    while pos < buf.size:
+        u = buf[pos : pos + _PLAIN_CHUNK]
+        byte_class = _PLAIN_CLASS.take(u)
+        comment = _plain_comments(u, in_comment)
+        if comment is not None:
+            byte_class[comment] = 0
+        space = byte_class == 0
+        last = u.size - 1 - int(np.argmax(space[::-1]))
+        if not space[last] and u.size == _PLAIN_CHUNK:
+            raise ValueError(
+                f"map image {path}: plain PNM file with an entry of {_PLAIN_CHUNK} "
+                f"characters or more at byte {pos + 2}"
+            )
+        if pos + u.size < buf.size:  # cut after the last separator
+            u, space, byte_class = u[: last + 1], space[: last + 1], byte_class[: last + 1]
+            in_comment = comment is not None and bool(comment[last])
+        # word edges alternate: start, end, start, ...
+        edges = np.flatnonzero(np.diff(np.concatenate(([True], space, [True])).view(np.int8)))
+        starts, ends = edges[0::2], edges[1::2]
+        bad = byte_class == 2
+        if bad.any():
+            k = int(np.searchsorted(starts, np.argmax(bad), side="right")) - 1
+            raise ValueError(_plain_word_error(u, starts[k], ends[k], pos + 2, path))
+        yield u, starts, ends, pos
+        pos += u.size
+
+
+def _digits_value(u: np.ndarray, first: np.ndarray, n: int) -> np.ndarray:
+    """Values (int32, (K,)) of the ``n`` digits of ``u`` (uint8) from each of ``first``."""
+    value = u[first].astype(np.int32) - ord("0")
+    for j in range(1, n):
+        value *= 10
+        value += u[first + j]
+        value -= ord("0")
+    return value
+
+
+def _plain_values(u: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Values (int32, (K,)) of the digit words ``u[starts[k]:ends[k]]``, computed for
+    the words of each length at once; one above 99999 is given as 100000 (above any
+    maxval)."""
+    length = ends - starts
+    values = np.empty(starts.size, dtype=np.int32)
+    for n in range(1, _SAMPLE_DIGITS + 1):
+        words = np.flatnonzero(length == n)
+        if words.size:
+            values[words] = _digits_value(u, starts[words], n)
+    long = np.flatnonzero(length > _SAMPLE_DIGITS)
+    if long.size:  # the last digits, after leading zeros or with more before them
+        values[long] = _digits_value(u, ends[long] - _SAMPLE_DIGITS, _SAMPLE_DIGITS)
+        nonzero = np.concatenate(([0], np.cumsum(u != ord("0"), dtype=np.int32)))
+        leading = nonzero[ends[long] - _SAMPLE_DIGITS] - nonzero[starts[long]]
+        values[long[leading > 0]] = 10**_SAMPLE_DIGITS
+    return values
+
+
+def _plain_header(words: list[bytes], path: Path) -> tuple[tuple[int, int, int], str | None]:
+    """``(width, height, maxval)`` of a plain PNM header's three digit words, and the
+    error message where they are not a valid header (else None)."""
+    names = ("width", "height", "maxval")
+    for name, word in zip(names, words, strict=True):
+        digits = len(word.lstrip(b"0"))
+        if digits > _HEADER_DIGITS:
+            return (0, 0, 0), (
+                f"map image {path}: plain PNM header: expected width, height >= 1 and "
+                f"maxval 1..65535, received a {name} of {digits} digits"
+            )
+    width, height, maxval = (int(w.lstrip(b"0") or b"0") for w in words)
     if width < 1 or height < 1 or not 0 < maxval < 65536:
-        raise ValueError(
+        return (width, height, maxval), (
             f"map image {path}: plain PNM header: expected width, height >= 1 and maxval "
             f"1..65535, received {width} x {height}, maxval {maxval}"
         )
-    expected = width * height * channels
-    if values.size != expected:
+    return (width, height, maxval), None
+
+
+def _read_plain_pnm(data: bytes, path: Path) -> np.ndarray:
+    """Pixels of a plain (ASCII) PGM ``P2`` or PPM ``P3`` file, exactly as written: uint8
+    if its maxval is below 256, else uint16; (H, W) or (H, W, 3) RGB.
+
+    Parsed in chunks of ``_PLAIN_CHUNK`` bytes with array operations: the memory used
+    is the pixels and a scratch space proportional to the chunk, whatever the file size.  Faults are reported
+    in this order: a word that is not an unsigned decimal integer, the header, the
+    number of samples, samples above maxval.
+    """
+    channels = 3 if data[:2] == b"P3" else 1
+    buf = np.frombuffer(data, dtype=np.uint8)[2:]
+    header: list[bytes] = []
+    size, maxval, error = (0, 0, 0), 0, None
+    out, count, above = None, 0, False
+    for u, starts, ends, offset in _plain_words(buf, path):
+        if len(header) < 3:
+            take = min(3 - len(header), starts.size)
+            header += [u[s:e].tobytes() for s, e in zip(starts[:take], ends[:take], strict=True)]
+            starts, ends = starts[take:], ends[take:]
+            if len(header) == 3:
+                size, error = _plain_header(header, path)
+                maxval, expected = size[2], size[0] * size[1] * channels
+                # allocated only if the rest of the file can hold that many numbers
+                if error is None and expected <= (buf.size - offset + 1) // 2:
+                    out = np.empty(expected, dtype=np.uint8 if maxval < 256 else np.uint16)
+        values = _plain_values(u, starts, ends)
+        if out is not None and count < out.size:
+            stop = min(count + values.size, out.size)
+            out[count:stop] = values[: stop - count]
+        above |= values.size > 0 and int(values.max()) > maxval
+        count += values.size
+    if len(header) < 3:
+        words = " ".join(w.decode("latin-1") for w in header)
+        raise ValueError(
+            f"map image {path}: incomplete plain PNM header: expected width, height and "
+            f"maxval, received {words!r}"
+        )
+    if error is not None:
+        raise ValueError(error)
+    width, height, _ = size
+    if out is None or count != out.size:
         raise ValueError(
             f"map image {path}: plain PNM file of {width} x {height} pixels must hold "
-            f"{expected} values, found {values.size}"
+            f"{width * height * channels} values, found {count}"
         )
-    if values.min() < 0 or values.max() > maxval:
+    if above:
         raise ValueError(f"map image {path} has pixel values above its PGM maxval {maxval}")
-    dtype = np.uint8 if maxval < 256 else np.uint16
-    shape = (height, width) if channels == 1 else (height, width, 3)
-    return values.astype(dtype).reshape(shape)
+    return out.reshape((height, width) if channels == 1 else (height, width, 3))
 
 
 def _decode_with_pil(data: bytes) -> np.ndarray | None:
