@@ -92,8 +92,10 @@ FAULTS = {
     "bare.pgm": (b"P2\n# only a comment\n", "incomplete plain PNM header: .*received ''"),
     "max0.pgm": (b"P2\n2 1\n0\n0 0\n", "received 2 x 1, maxval 0"),
     "max16.pgm": (b"P2\n2 1\n65536\n0 0\n", "received 2 x 1, maxval 65536"),
-    "maxlong.pgm": (b"P2\n2 1\n" + b"9" * 30 + b"\n0 0\n", "received a maxval of 30 digits"),
-    "wide.pgm": (b"P2\n" + b"9" * 30 + b" 1\n255\n0 0\n", "received a width of 30 digits"),
+    "maxlong.pgm": (b"P2\n2 1\n" + b"9" * 30 + b"\n0 0\n", "received 2 x 1, maxval 9{30}$"),
+    "maxhuge.pgm": (b"P2\n2 1\n" + b"9" * 200 + b"\n0 0\n", "received a maxval of 200 digits"),
+    "wide.pgm": (b"P2\n" + b"9" * 30 + b" 1\n255\n0 0\n", "must hold 9{30} values, found 2"),
+    "high.pgm": (b"P2\n1 00" + b"9" * 200 + b"\n255\n0\n", "received a height of 200 digits"),
     # the number of samples, before their values
     "many.pgm": (b"P2\n2 1\n255\n0 1 2\n", "must hold 2 values, found 3"),
     "few.pgm": (b"P2\n2 1\n100\n101\n", "must hold 2 values, found 1"),

@@ -120,8 +120,8 @@ _PLAIN_CLASS[list(b" \t\n\r\x0b\x0c")] = 0
 _PLAIN_CLASS[list(b"0123456789")] = 1
 #: Digits of the largest maxval (65535): a sample with more significant digits is above it.
 _SAMPLE_DIGITS = 5
-#: Significant digits of the largest header number read.
-_HEADER_DIGITS = 20
+#: Significant digits of the largest header number given whole in an error message.
+_HEADER_DIGITS = 100
 
 
 def _plain_comments(u: np.ndarray, in_comment: bool) -> np.ndarray | None:
