@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import pose
 from ..fields.distance import FAR_SQ
 from ._rays import cast_pending_rays
 from ._ridges import _gaussian
@@ -32,6 +33,13 @@ def dense_layer(mapper, name: str, what: str | None = None) -> np.ndarray:
     return mapper._tiles.read(name, r0, c0, r1 - r0, c1 - c0)
 
 
+def lattice_origin(resolution_m: float, row1: int, col0: int) -> tuple[float, float, float]:
+    """Origin ``(x_m, y_m, yaw_rad)`` of the exported map of a global pixel box with bottom
+    row ``row1 - 1`` and left column ``col0``: its pixel centres at the lattice's world
+    coordinates (``x = (col + 0.5) r``, ``y = -(row + 0.5) r`` for resolution ``r``)."""
+    return pose("origin", (col0 * resolution_m, -row1 * resolution_m, 0.0))
+
+
 def occupancy_over(mapper, r0: int, c0: int, r1: int, c1: int):
     """The :class:`~topojax.maps.OccupancyMap` of the global pixel box ``[r0, r1) x
     [c0, c1)``: hit pixels occupied, pixels crossed by a beam and never hit free, the
@@ -49,7 +57,7 @@ def occupancy_over(mapper, r0: int, c0: int, r1: int, c1: int):
         free=free,
         unknown=~(occupied | free),
         resolution_m=res,
-        origin=(c0 * res, -r1 * res, 0.0),
+        origin=lattice_origin(res, r1, c0),
     )
 
 
