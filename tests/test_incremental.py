@@ -2086,7 +2086,7 @@ def test_export_budget_refuses_and_names_the_window():
     scans = list(read_carmen(INTEL_EXCERPT))[:10]
     mapper = IncrementalMapper(skeleton_every=0, graph_every=0, max_export_bytes=10_000)
     mapper.add_scans(scans)
-    for name in ("occupancy", "distance", "sq_distance_px", "obstacles", "skeleton", "graph"):
+    for name in ("occupancy", "distance", "sq_distance_px", "obstacles", "skeleton"):
         with pytest.raises(
             ValueError,
             match=rf"mapper.{name}:.*max_export_bytes=10000.*"

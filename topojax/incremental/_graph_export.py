@@ -8,33 +8,38 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 
+from ..fields.distance import FAR_SQ
 from ..graph import GraphStore, path_lengths_m
-from ..pipeline import clearance_at
+from ..maps.occupancy import grid_to_world
+from ._dense_export import lattice_origin
 from ._graph_store import edge_ids, edge_paths, vertex_ids
-from ._tiles import _unpack
+from ._tiles import _gather_px, _unpack
 
 
 def export_store(mapper) -> GraphStore:
     """The store of :attr:`IncrementalMapper.graph`: pixels relative to the exported
     bounding box, world coordinates, kinds, lengths and clearances as
     :func:`topojax.build_graph` gives them; node ids and edge keys are the mapper's ids,
-    in increasing order."""
+    in increasing order.
+
+    Reads the tiles at the vertex and path pixels only (memory in proportion to the graph
+    and the tiles, not to the bounding box); equal, bit for bit, to the export computed
+    from :attr:`~IncrementalMapper.occupancy`, :attr:`~IncrementalMapper.sq_distance_px`
+    and :attr:`~IncrementalMapper.obstacles` with :func:`topojax.pipeline.clearance_at`.
+    """
     res = mapper.resolution_m
     bbox = mapper._tiles.pixel_bbox
     if bbox is None:
         attrs = {"resolution_m": res, "shape": (0, 0), "merge_junction_clusters": False}
         return GraphStore.empty(attrs)
+    mapper._flush_splat()  # clearances from the current distance map
     r0, c0, r1, c1 = bbox
-    occ = mapper.occupancy
-    d2, obstacles = mapper.sq_distance_px, mapper.obstacles
-
-    def clearance_m(pix: np.ndarray) -> np.ndarray:
-        # exact, read at these pixels only (vertex and path pixels)
-        flat = pix[:, 0].astype(np.intp) * d2.shape[1] + pix[:, 1].astype(np.intp)
-        return clearance_at(d2, obstacles, mapper._half, flat).astype(np.float64) * res
+    origin = lattice_origin(res, r1, c0)
 
     def world(pix: np.ndarray) -> np.ndarray:
-        wx, wy = occ.pixel_to_world(pix[:, 0], pix[:, 1])
+        wx, wy = grid_to_world(
+            pix[:, 0], pix[:, 1], height=r1 - r0, resolution_m=res, origin=origin
+        )
         return np.stack([wx, wy], axis=1)
 
     nodes, edges = vertex_ids(mapper), edge_ids(mapper)
@@ -42,13 +47,14 @@ def export_store(mapper) -> GraphStore:
     paths, lens = edge_paths(mapper, edges)
     paths = paths.astype(np.int64) - [r0, c0]
     offsets = np.concatenate([[0], np.cumsum(lens)]).astype(np.int64)
-    path_clearance = clearance_m(paths)
+    clearance = pixel_clearance_m(mapper, np.concatenate([node_pixel, paths]) + [r0, c0])
+    node_clearance, path_clearance = np.split(clearance, [node_pixel.shape[0]])
     ends = np.searchsorted(nodes, mapper._e_uv[edges])
     return GraphStore(
         node_pixel=node_pixel,
         node_kind=mapper._v_code[nodes],
         node_world=world(node_pixel),
-        node_clearance_m=clearance_m(node_pixel),
+        node_clearance_m=node_clearance,
         edge_u=ends[:, 0],
         edge_v=ends[:, 1],
         path_offsets=offsets,
@@ -62,12 +68,77 @@ def export_store(mapper) -> GraphStore:
             "resolution_m": res,
             "shape": (r1 - r0, c1 - c0),
             "merge_junction_clusters": False,
-            "origin": tuple(float(v) for v in occ.origin),
+            "origin": origin,
             "thinning": mapper.config.skeleton.thinning,
         },
         node_ids=nodes,
         edge_keys=edges,
     )
+
+
+def pixel_clearance_m(mapper, pixels: np.ndarray) -> np.ndarray:
+    """Exact clearance at global pixels of allocated tiles, read from the tiles.
+
+    Parameters
+    ----------
+    mapper : IncrementalMapper
+        Its squared distances are taken as they are (splat first for current ones).
+    pixels : int64 (n, 2)
+        Global ``(row, col)`` lattice pixels.
+
+    Returns
+    -------
+    float64 (n,)
+        Clearance in metres: :func:`topojax.pipeline.clearance_at` of the dense squared
+        distance and obstacle mask over the bounding box at these pixels, bit for bit
+        (``inf`` where the map has no obstacle at all).
+    """
+    tiles = mapper._tiles
+    grid, (g0r, g0c) = tiles.slot_grid
+    rows = np.ascontiguousarray(pixels[:, 0], np.int64)
+    cols = np.ascontiguousarray(pixels[:, 1], np.int64)
+    d2 = np.empty(rows.shape[0], np.int32)
+    layer = tiles.layer("sq_distance")
+    _gather_px(layer, grid, g0r, g0c, mapper.tile_px, rows, cols, FAR_SQ, d2)
+    out = np.sqrt(d2.astype(np.float32))
+    # beyond the window half-width the windowed value is an upper bound only
+    far = np.flatnonzero(d2 > mapper._half * mapper._half)
+    if far.size:
+        out[far] = _nearest_obstacle_px(tiles, rows[far], cols[far])
+    return out.astype(np.float64) * mapper.resolution_m
+
+
+def _nearest_obstacle_px(tiles, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Euclidean distance (px, float32 (n,)) from global pixels ``(rows, cols)`` to the
+    nearest obstacle pixel (hit) of the tiles: the square root of the exact whole number
+    of squared pixels, as :func:`topojax.pipeline.clearance_at` gives it; ``inf`` where
+    the tiles hold no obstacle."""
+    obstacles = _obstacle_pixels(tiles)
+    if obstacles.shape[0] == 0:
+        return np.full(rows.shape[0], np.inf, np.float32)
+    from scipy.spatial import cKDTree  # imported here: slow to import, rarely needed
+
+    # relative to one obstacle: squared offsets stay whole numbers exact in float64
+    base = obstacles[0]
+    tree = cKDTree((obstacles - base).astype(np.float64))
+    query = np.stack([rows - base[0], cols - base[1]], axis=1).astype(np.float64)
+    dist, _ = tree.query(query)
+    sq = np.rint(dist * dist).astype(np.int64)
+    return np.sqrt(sq.astype(np.float32))
+
+
+def _obstacle_pixels(tiles, chunk: int = 256) -> np.ndarray:
+    """Global ``(row, col)`` of every obstacle pixel (hit count > 0) of the tiles, int64
+    (k, 2); read ``chunk`` tiles at a time."""
+    hits = tiles.layer("hits")
+    keys = tiles.keys
+    t = tiles.tile_px
+    parts = [np.zeros((0, 2), np.int64)]
+    for s in range(0, tiles.n_tiles, chunk):
+        slot, lr, lc = np.nonzero(hits[s : min(s + chunk, tiles.n_tiles)] > 0)
+        key = keys[s + slot]
+        parts.append(np.stack([key[:, 0] * t + lr, key[:, 1] * t + lc], axis=1))
+    return np.concatenate(parts)
 
 
 def export_graph(mapper) -> nx.MultiGraph:

@@ -264,7 +264,6 @@ EXPORT_BYTES_PER_PX = {
     "occupancy": 10,
     "occupancy_window": 10,
     "distance": 16,
-    "graph": 24,
     "to_result": 40,
     "route_graph": 64,
     "rooms": 48,

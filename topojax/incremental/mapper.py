@@ -139,9 +139,9 @@ class IncrementalMapper:
         before anything changes, naming the scan's index, timestamp and pose.
     max_export_bytes : int
         The most memory, in bytes, a dense export (:attr:`occupancy`, the fields,
-        :attr:`graph`, :meth:`to_result`, :meth:`route_graph`, :meth:`occupancy_window`)
-        may allocate, estimated from its pixels before anything is allocated (default
-        2 GiB); a larger one raises ValueError that says how to export a window.
+        :meth:`to_result`, :meth:`route_graph`, :meth:`occupancy_window`) may allocate,
+        estimated from its pixels before anything is allocated (default 2 GiB); a larger
+        one raises ValueError that says how to export a window.
     max_tile_bytes : int
         The most memory, in bytes, the mapper's tiles may hold (default 2 GiB: about
         7,000 tiles of 128 px, each about 0.3 MB).  A scan, points or map that would
@@ -645,11 +645,11 @@ class IncrementalMapper:
         ``length_m``, ``min_clearance_m``, ``mean_clearance_m``), with pixel coordinates
         relative to the exported bounding box.  Node ids and edge keys are the mapper's
         stable ids (see :class:`GraphUpdate`); each edge is stored with ``u <= v`` and its
-        path runs from ``u`` to ``v``.  Clearances use the current distance map.
+        path runs from ``u`` to ``v``.  Clearances use the current distance map.  Read
+        from the tiles at the graph's pixels: its memory grows with the graph, not with
+        the bounding box, and ``max_export_bytes`` does not apply.
         """
         if "graph" not in self._export_cache:
-            if self._tiles.pixel_bbox is not None:
-                self._bbox_or_raise("graph")
             self._export_cache["graph"] = export_graph(self)
         return self._export_cache["graph"].copy()
 
