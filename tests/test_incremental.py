@@ -91,6 +91,7 @@ def assert_matches_full_map(mapper: IncrementalMapper, config: PipelineConfig | 
     if mapper.strategy == "exact":  # the state behind the local re-thinning
         times = thin_times_reference(ref.ridges, config.skeleton.thinning)
         np.testing.assert_array_equal(mapper._dense("thin_time"), times)
+    assert_graph_is_the_dense_export(mapper)  # read from the tiles, bit for bit
     gv, ge = canon(mapper.graph)
     rv, re_ = canon(ref.graph)
     assert gv == rv
@@ -1995,6 +1996,148 @@ def test_run_means_are_ndarray_means_bit_for_bit():
     assert _run_min(values, offsets).tolist() == lows
     none = np.zeros(1, np.int64)
     assert _run_means(values[:0], none).shape == _run_min(values[:0], none).shape == (0,)
+
+
+def _dense_store(mapper: IncrementalMapper):
+    """``mapper.graph``'s store computed from the dense exports over the bounding box
+    (``occupancy``, ``sq_distance_px``, ``obstacles``) with ``clearance_at``."""
+    from topojax.graph import GraphStore, path_lengths_m
+    from topojax.incremental._graph_export import _run_means, _run_min
+    from topojax.incremental._graph_store import edge_ids, edge_paths, vertex_ids
+    from topojax.incremental._tiles import _unpack
+    from topojax.pipeline import clearance_at
+
+    res = mapper.resolution_m
+    r0, c0, r1, c1 = mapper.pixel_bbox
+    occ = mapper.occupancy
+    d2, obstacles = mapper.sq_distance_px, mapper.obstacles
+
+    def clearance_m(pix: np.ndarray) -> np.ndarray:
+        flat = pix[:, 0].astype(np.intp) * d2.shape[1] + pix[:, 1].astype(np.intp)
+        return clearance_at(d2, obstacles, mapper._half, flat).astype(np.float64) * res
+
+    def world(pix: np.ndarray) -> np.ndarray:
+        return np.stack(occ.pixel_to_world(pix[:, 0], pix[:, 1]), axis=1)
+
+    nodes, edges = vertex_ids(mapper), edge_ids(mapper)
+    node_pixel = np.stack(_unpack(mapper._v_key[nodes]), axis=1) - [r0, c0]
+    paths, lens = edge_paths(mapper, edges)
+    paths = paths.astype(np.int64) - [r0, c0]
+    offsets = np.concatenate([[0], np.cumsum(lens)]).astype(np.int64)
+    path_clearance = clearance_m(paths)
+    ends = np.searchsorted(nodes, mapper._e_uv[edges])
+    return GraphStore(
+        node_pixel=node_pixel,
+        node_kind=mapper._v_code[nodes],
+        node_world=world(node_pixel),
+        node_clearance_m=clearance_m(node_pixel),
+        edge_u=ends[:, 0],
+        edge_v=ends[:, 1],
+        path_offsets=offsets,
+        path_pixels=paths,
+        path_world=world(paths),
+        edge_length_m=path_lengths_m(paths, offsets[:-1], lens, res),
+        edge_min_clearance_m=_run_min(path_clearance, offsets),
+        edge_mean_clearance_m=_run_means(path_clearance, offsets),
+        attrs={
+            "resolution_m": res,
+            "shape": (r1 - r0, c1 - c0),
+            "merge_junction_clusters": False,
+            "origin": tuple(float(v) for v in occ.origin),
+            "thinning": mapper.config.skeleton.thinning,
+        },
+        node_ids=nodes,
+        edge_keys=edges,
+    )
+
+
+def _far_pixels(mapper: IncrementalMapper) -> int:
+    """Graph pixels (vertices and path pixels) beyond the window half-width, where the
+    exact clearance needs a search for the nearest obstacle."""
+    from topojax.incremental._graph_store import edge_ids, edge_paths, vertex_ids
+    from topojax.incremental._tiles import _unpack
+
+    r0, c0, _, _ = mapper.pixel_bbox
+    paths, _ = edge_paths(mapper, edge_ids(mapper))
+    nodes = np.stack(_unpack(mapper._v_key[vertex_ids(mapper)]), axis=1)
+    pix = np.concatenate([nodes, paths]) - [r0, c0]
+    return int((mapper.sq_distance_px[pix[:, 0], pix[:, 1]] > mapper._half**2).sum())
+
+
+def assert_graph_is_the_dense_export(mapper: IncrementalMapper) -> None:
+    """``mapper.graph`` (read from the tiles at its pixels) equals the export from the
+    dense maps over the bounding box: every store field bit for bit, attributes too."""
+    import dataclasses
+
+    from topojax.graph import GraphStore
+    from topojax.incremental._graph_export import export_store
+
+    got, want = export_store(mapper), _dense_store(mapper)
+    for f in dataclasses.fields(GraphStore):
+        a, b = getattr(got, f.name), getattr(want, f.name)
+        if isinstance(a, np.ndarray):
+            assert (a.dtype, a.shape) == (b.dtype, b.shape), f.name
+            assert a.tobytes() == b.tobytes(), f.name
+        elif isinstance(a, dict):
+            _assert_same_dict(a, b, f.name)
+        else:
+            assert a is b is None, f.name
+    assert_identical_graphs(mapper.graph, want.to_networkx().copy())  # handed out as copies
+
+
+#: Windows of 8 px (0.4 m): most of the graph of the intel excerpt lies beyond them.
+NARROW_KW = {"distance": DistanceConfig(sigma_px=8.0, half_width_px=8)}
+
+
+def test_graph_from_the_tiles_equals_the_dense_export():
+    """The graph export reads the tiles at the graph's pixels; it equals the export from
+    the dense maps bit for bit at every graph update of a replayed log: with the
+    default window (no graph pixel beyond it), a window of 8 px (many beyond it: the
+    dense clearance takes the whole map's transform) and a synthetic world of 1 m
+    windows (a few beyond it: the dense clearance searches around each)."""
+    cases = [
+        ({}, read_carmen(INTEL_EXCERPT), (0, 0)),
+        (NARROW_KW, read_carmen(INTEL_EXCERPT), (65, None)),
+        (SMALL_KW, synthetic_scans(2, 12), (1, 64)),
+    ]
+    for kwargs, scans, (lo, hi) in cases:
+        mapper = IncrementalMapper(skeleton_every=4, graph_every=8, **kwargs)
+        far = []
+        for s in scans:
+            if "graph" in mapper.add_scan(s).loops:
+                assert_graph_is_the_dense_export(mapper)
+                far.append(_far_pixels(mapper))
+        assert len(far) >= 1 and mapper.graph.number_of_edges() > 0
+        assert lo <= max(far) and (hi is None or max(far) <= hi), far
+
+
+def test_sparse_wide_map_exports_its_graph_within_a_small_budget():
+    """Two patches 400 m apart (a bounding box of about 9,200 x 1,150 px, five times the
+    tiles' area): the graph exports within a budget far below the bounding box's dense
+    export, the same graph as the dense export; the dense maps stay refused."""
+    import dataclasses
+
+    from topojax.incremental import ExportBudgetError
+
+    scans = list(read_carmen(INTEL_EXCERPT))
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, max_export_bytes=8 << 20)
+    for s in scans[:20]:
+        mapper.add_scan(s)
+    for s in scans[20:]:
+        x, y, yaw = s.pose
+        mapper.add_scan(dataclasses.replace(s, pose=(x + 400.0, y, yaw)))
+    mapper.update_graph()
+    r0, c0, r1, c1 = mapper.pixel_bbox
+    assert (r1 - r0) * (c1 - c0) * 24 > 16 * mapper.max_export_bytes
+    assert mapper.n_tiles * mapper.tile_px**2 < (r1 - r0) * (c1 - c0) / 4
+    for name in ("occupancy", "sq_distance_px", "obstacles"):
+        with pytest.raises(ExportBudgetError, match=rf"mapper\.{name}: refused"):
+            getattr(mapper, name)
+    graph = mapper.graph
+    xs = [d["world"][0] for _, d in graph.nodes(data=True)]
+    assert min(xs) < 50.0 and max(xs) > 400.0  # both patches
+    mapper.max_export_bytes = 2**31  # the dense export, for the comparison
+    assert_graph_is_the_dense_export(mapper)
 
 
 # --------------------------------------------------------------------------------------
