@@ -8,12 +8,12 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 
-from ..fields.distance import FAR_SQ
 from ..graph import GraphStore, path_lengths_m
 from ..maps.occupancy import grid_to_world
+from ._clearance import pixel_clearance_m
 from ._dense_export import lattice_origin
 from ._graph_store import edge_ids, edge_paths, vertex_ids
-from ._tiles import _gather_px, _unpack
+from ._tiles import _unpack
 
 
 def export_store(mapper) -> GraphStore:
@@ -74,71 +74,6 @@ def export_store(mapper) -> GraphStore:
         node_ids=nodes,
         edge_keys=edges,
     )
-
-
-def pixel_clearance_m(mapper, pixels: np.ndarray) -> np.ndarray:
-    """Exact clearance at global pixels of allocated tiles, read from the tiles.
-
-    Parameters
-    ----------
-    mapper : IncrementalMapper
-        Its squared distances are taken as they are (splat first for current ones).
-    pixels : int64 (n, 2)
-        Global ``(row, col)`` lattice pixels.
-
-    Returns
-    -------
-    float64 (n,)
-        Clearance in metres: :func:`topojax.pipeline.clearance_at` of the dense squared
-        distance and obstacle mask over the bounding box at these pixels, bit for bit
-        (``inf`` where the map has no obstacle at all).
-    """
-    tiles = mapper._tiles
-    grid, (g0r, g0c) = tiles.slot_grid
-    rows = np.ascontiguousarray(pixels[:, 0], np.int64)
-    cols = np.ascontiguousarray(pixels[:, 1], np.int64)
-    d2 = np.empty(rows.shape[0], np.int32)
-    layer = tiles.layer("sq_distance")
-    _gather_px(layer, grid, g0r, g0c, mapper.tile_px, rows, cols, FAR_SQ, d2)
-    out = np.sqrt(d2.astype(np.float32))
-    # beyond the window half-width the windowed value is an upper bound only
-    far = np.flatnonzero(d2 > mapper._half * mapper._half)
-    if far.size:
-        out[far] = _nearest_obstacle_px(tiles, rows[far], cols[far])
-    return out.astype(np.float64) * mapper.resolution_m
-
-
-def _nearest_obstacle_px(tiles, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """Euclidean distance (px, float32 (n,)) from global pixels ``(rows, cols)`` to the
-    nearest obstacle pixel (hit) of the tiles: the square root of the exact whole number
-    of squared pixels, as :func:`topojax.pipeline.clearance_at` gives it; ``inf`` where
-    the tiles hold no obstacle."""
-    obstacles = _obstacle_pixels(tiles)
-    if obstacles.shape[0] == 0:
-        return np.full(rows.shape[0], np.inf, np.float32)
-    from scipy.spatial import cKDTree  # imported here: slow to import, rarely needed
-
-    # relative to one obstacle: squared offsets stay whole numbers exact in float64
-    base = obstacles[0]
-    tree = cKDTree((obstacles - base).astype(np.float64))
-    query = np.stack([rows - base[0], cols - base[1]], axis=1).astype(np.float64)
-    dist, _ = tree.query(query)
-    sq = np.rint(dist * dist).astype(np.int64)
-    return np.sqrt(sq.astype(np.float32))
-
-
-def _obstacle_pixels(tiles, chunk: int = 256) -> np.ndarray:
-    """Global ``(row, col)`` of every obstacle pixel (hit count > 0) of the tiles, int64
-    (k, 2); read ``chunk`` tiles at a time."""
-    hits = tiles.layer("hits")
-    keys = tiles.keys
-    t = tiles.tile_px
-    parts = [np.zeros((0, 2), np.int64)]
-    for s in range(0, tiles.n_tiles, chunk):
-        slot, lr, lc = np.nonzero(hits[s : min(s + chunk, tiles.n_tiles)] > 0)
-        key = keys[s + slot]
-        parts.append(np.stack([key[:, 0] * t + lr, key[:, 1] * t + lc], axis=1))
-    return np.concatenate(parts)
 
 
 def export_graph(mapper) -> nx.MultiGraph:
