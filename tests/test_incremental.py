@@ -2111,6 +2111,49 @@ def test_graph_from_the_tiles_equals_the_dense_export():
         assert lo <= max(far) and (hi is None or max(far) <= hi), far
 
 
+def test_clearance_from_the_tiles_equals_the_dense_clearance_at_every_pixel():
+    """The export's clearance, read from the tiles, equals ``clearance_at`` of the dense
+    maps at every pixel of maps with open space far beyond the window (no obstacle in
+    some windows: the search widens until it holds the nearest obstacle), at a few
+    pixels beyond it (the tiles near them only) and on a map without obstacles (inf)."""
+    from topojax.incremental._clearance import pixel_clearance_m
+    from topojax.pipeline import clearance_at
+
+    occupied = np.zeros((90, 120), bool)
+    occupied[[0, -1], :40] = occupied[:, [0, 39]] = True
+    occupied[40:45, 80:84] = True
+    scattered = np.random.default_rng(5).random((150, 200)) < 0.001
+    cases = {"open": occupied, "scattered": scattered, "empty": np.zeros_like(occupied)}
+    for name, occ in cases.items():
+        mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+        mapper.add_map(
+            OccupancyMap(
+                occupied=occ,
+                free=~occ,
+                unknown=np.zeros_like(occ),
+                resolution_m=0.1,
+                origin=(-4.0, -3.0, 0.0),
+            )
+        )
+        r0, c0, r1, c1 = mapper.pixel_bbox
+        d2, obstacles = mapper.sq_distance_px, mapper.obstacles
+        rows, cols = (g.ravel() for g in np.mgrid[r0:r1, c0:c1])
+        few = np.flatnonzero((d2.ravel() > 10**2) & (d2.ravel() < FAR_SQ))[::7][:40]
+        unbounded = np.flatnonzero(d2.ravel() == FAR_SQ)[::97][:40]
+        near = np.flatnonzero(d2.ravel() <= 10**2)
+        for pick in (np.arange(rows.size), few, unbounded, near):
+            want = clearance_at(d2, obstacles, mapper._half, pick).astype(np.float64) * 0.1
+            got = pixel_clearance_m(mapper, np.stack([rows[pick], cols[pick]], axis=1))
+            assert got.tobytes() == want.tobytes(), name
+            if name == "empty":
+                assert np.isinf(got).all() and not obstacles.any()
+        assert unbounded.size >= 20
+        if name == "empty":
+            assert few.size == near.size == 0
+        else:
+            assert 20 <= few.size <= 64
+
+
 def test_sparse_wide_map_exports_its_graph_within_a_small_budget():
     """Two patches 400 m apart (a bounding box of about 9,200 x 1,150 px, five times the
     tiles' area): the graph exports within a budget far below the bounding box's dense
