@@ -24,7 +24,7 @@ from ._joins import (
     pieces_by_area,
 )
 from ._lanes import LANE_MIN_AREA, add_lanes
-from ._mesh import MESH_MIN_AREA, add_mesh
+from ._mesh import MESH_MIN_AREA, MESH_SPACING, add_mesh
 from ._spanner import anchor_pieces, clear_lines, greedy_shortcuts, see_named, see_within
 
 #: Coverage waypoints lie on a square grid of this many snap distances (a disc of the snap
@@ -427,6 +427,68 @@ def _pair_blocks(tree, pos, radius_px):
 MAX_SHORTCUT_PAIRS = 300_000_000
 
 
+#: The estimate of the pairs (:func:`estimated_pairs`) counts the nodes of the *open*
+#: feasible pixels: those farther than this many coverage reaches from the pixels that
+#: are not feasible (the lanes along the walls cover up to 1 + ``LANE_INSET`` reaches).
+OPEN_DEPTH = 2.0
+#: ... at this share of the density of the open middle of a hall: a graph's own count
+#: lies within about a quarter of the full density's in open halls, and above it where
+#: the space is cluttered, so the estimate stays under the count.
+ESTIMATE_SHARE = 0.75
+#: The node density of an open hall is at most this many times that of the coverage
+#: mesh's lattice plus anchors along edges of two pixels a reach (:func:`pairs_bound`).
+DENSITY_BOUND_FACTOR = 3.0
+
+
+def open_pixels(feasible: np.ndarray, clearance: np.ndarray, radius: float, reach: float):
+    """The open feasible pixels (bool (H, W)): ``feasible`` ones whose clearance
+    (float (H, W)) exceeds the robot's ``radius`` by at least :data:`OPEN_DEPTH` coverage
+    reaches (``reach``); the three lengths in one unit."""
+    return feasible & (clearance >= radius + OPEN_DEPTH * reach)
+
+
+def pairs_bound(n_open: int, reach_px: float, radius_px: float, anchor_px: float) -> float:
+    """An upper bound of :func:`estimated_pairs` for ``n_open`` open pixels, without their
+    layout: nodes at :data:`DENSITY_BOUND_FACTOR` times the density of the coverage mesh's
+    lattice (sites ``MESH_SPACING`` reaches apart, ``reach_px`` pixels) plus that of
+    anchors ``anchor_px`` apart (0: none) along two pixels of edge per reach and pixel,
+    each with all open pixels within the shortcut radius (``radius_px``)."""
+    density = 2.0 / (math.sqrt(3.0) * (MESH_SPACING * reach_px) ** 2)
+    if anchor_px > 0:
+        density += 2.0 / (reach_px * anchor_px)
+    box = (math.sqrt(math.pi) * radius_px + 1.0) ** 2
+    return ESTIMATE_SHARE * 0.5 * (DENSITY_BOUND_FACTOR * density) ** 2 * n_open * min(n_open, box)
+
+
+def estimated_pairs(open_: np.ndarray, density: float, radius_px: float) -> float:
+    """The node pairs within ``radius_px`` (pixels) of a graph whose nodes lie on the open
+    pixels ``open_`` (bool (H, W), :func:`open_pixels`) at ``density`` nodes a pixel, times
+    :data:`ESTIMATE_SHARE`: half the sum, over the open pixels, of the density squared
+    times the open pixels in a square of the area of the radius's disc round each."""
+    side = max(1, round(math.sqrt(math.pi) * radius_px))
+    near = cv2.boxFilter(
+        open_.view(np.uint8),
+        cv2.CV_32F,
+        (side, side),
+        normalize=False,
+        borderType=cv2.BORDER_CONSTANT,
+    )
+    total = float(np.sum(near, where=open_, dtype=np.float64))
+    return ESTIMATE_SHARE * 0.5 * density**2 * total
+
+
+def shortcut_nodes(work: WorkGraph, anchor_px: float, end_px: float):
+    """``(alive, anchor graph)``: the live vertices with an edge, and
+    :func:`_anchor_graph` of them (anchors about ``anchor_px`` apart, 0: none, at least
+    ``end_px`` and a pixel from either end of their edge), the nodes of the shortcuts;
+    None for the anchor graph of fewer than two vertices."""
+    alive = [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
+    if len(alive) < 2:
+        return alive, None
+    spacing = anchor_px if anchor_px > 0 else math.inf
+    return alive, _anchor_graph(work, alive, spacing, max(end_px, 1.0))
+
+
 def add_shortcuts(
     work: WorkGraph,
     feasible: np.ndarray,
@@ -457,11 +519,12 @@ def add_shortcuts(
     0, where the route is longer than ``RUNG_STRETCH`` times the line and than the line
     plus ``rung_gain_px``.  Returns the number of shortcuts added."""
     min_deg = 1 if from_dead_ends else 2
-    alive = [v for v in range(len(work.pixel)) if v not in work.dead and work.adj[v]]
-    if len(alive) < 2 or radius_px <= 0:
+    if radius_px <= 0:
         return 0
-    spacing = anchor_px if anchor_px > 0 else math.inf
-    pos_i, deg, on, ka, kb, kw = _anchor_graph(work, alive, spacing, max(end_px, 1.0))
+    alive, anchored = shortcut_nodes(work, anchor_px, end_px)
+    if anchored is None:
+        return 0
+    pos_i, deg, on, ka, kb, kw = anchored
     pos = pos_i.astype(np.float64)
     m = len(pos)
     index = {v: k for k, v in enumerate(alive)}

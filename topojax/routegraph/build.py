@@ -34,11 +34,16 @@ from ..maps import map_argument
 from ..skeleton import thin
 from ._corners import CORNER_TOLERANCE_M
 from ._cover import (
+    MAX_SHORTCUT_PAIRS,
     RUNG_GAIN_M,
     add_coverage,
     add_shortcuts,
     covered,
+    estimated_pairs,
     graph_raster,
+    open_pixels,
+    pairs_bound,
+    shortcut_nodes,
     wall_distance,
 )
 from ._spanner import open_short_loops, simplify_paths
@@ -199,7 +204,9 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     Raises
     ------
     TypeError, ValueError
-        For an option of the wrong type or out of range (the message names it).
+        For an option of the wrong type or out of range (the message names it); a
+        ``snap_m`` too small for the map's open space is refused before the coverage is
+        built, from an estimate of the shortcut candidates it would make.
     """
     occupancy = map_argument("occupancy", occupancy, files=True)
     cfg = instance_or_default("config", config, RouteGraphConfig)
@@ -215,6 +222,7 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     t0 = time.perf_counter()
     win, free, clearance_m = _windowed_space(occupancy, cfg)
     feasible = win.feasible
+    _refuse_dense_graph(feasible, clearance_m, win.resolution_m, cfg)
     t1 = time.perf_counter()
     skeleton = thin(feasible)
     t2 = time.perf_counter()
@@ -225,18 +233,13 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     work = _sparse_skeleton_graph(skeleton, free, clearance_m, res, cfg)
     del skeleton, free, clearance_m  # image-sized, not needed any more
     t3 = time.perf_counter()
-    # the robot follows the simplified waypoints, up to the tolerance off the pixel paths
-    snap_px = (cfg.snap_m - cfg.waypoint_tolerance_m) / res
-    min_loop_px = 2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS
+    snap_px, min_loop_px = _reach_px(cfg, res), _min_loop_px(cfg, res)
     wall = wall_distance(feasible)
     uncovered = add_coverage(work, feasible, snap_px, min_loop_px=min_loop_px, wall=wall)
     if wall.size > HOLD_CLEARANCE_MAX_PX:
         wall = None  # as the clearance: computed again where short loops are opened
     work.contract_all()
-    # vertices closer than the robot's radius are one place for it (up to a share of the
-    # snap distance: the coverage lanes and meshes are spaced by it, and a large robot's
-    # merges would fold them into hubs of parallel edges)
-    merge_px = min(cfg.robot_radius_m, MERGE_SNAP_SHARE * cfg.snap_m) / res
+    merge_px = _merge_px(cfg, res)
     add_shortcuts(
         work,
         feasible,
@@ -244,9 +247,7 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
         cfg.shortcut_stretch,
         cfg.shortcut_gain_m / res,
         cfg.shortcuts_from_dead_ends,
-        # a shortcut may touch other edges only where it would merge into its ends: a
-        # zone of the full radius of a large robot spans the whole shortcut
-        max(2.0, merge_px),
+        _end_px(cfg, res),
         min_loop_px,
         cfg.shortcut_spacing_m / res,
         CORNER_TOLERANCE_M / res if cfg.shortcuts_round_corners else 0.0,
@@ -281,6 +282,98 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
             min_region_m2=cfg.min_region_m2,
         )
     return graph
+
+
+def _reach_px(cfg: RouteGraphConfig, res: float) -> float:
+    """The coverage reach in pixels: the robot follows the simplified waypoints, up to
+    the tolerance off the pixel paths."""
+    return (cfg.snap_m - cfg.waypoint_tolerance_m) / res
+
+
+def _min_loop_px(cfg: RouteGraphConfig, res: float) -> float:
+    """The shortest loop the coverage and the shortcuts may close, in pixels of path."""
+    return 2.0 * cfg.loop_m / res * PIXEL_PATH_EXCESS
+
+
+def _merge_px(cfg: RouteGraphConfig, res: float) -> float:
+    """The distance (pixels) at which vertices merge: closer than the robot's radius they
+    are one place for it (up to a share of the snap distance: the coverage lanes and
+    meshes are spaced by it, and a large robot's merges would fold them into hubs of
+    parallel edges)."""
+    return min(cfg.robot_radius_m, MERGE_SNAP_SHARE * cfg.snap_m) / res
+
+
+def _end_px(cfg: RouteGraphConfig, res: float) -> float:
+    """How close (pixels) to its ends a shortcut may touch other edges: where it would
+    merge into them (a zone of the full radius of a large robot spans the whole
+    shortcut)."""
+    return max(2.0, _merge_px(cfg, res))
+
+
+#: A map whose estimated shortcut candidate pairs (:func:`estimated_pairs`, a share of
+#: those the graph will have) exceed this is refused before its coverage is built; the
+#: graph's own count is checked against :data:`MAX_SHORTCUT_PAIRS` as well.
+MAX_ESTIMATED_PAIRS = MAX_SHORTCUT_PAIRS
+
+#: The node density of the estimate is measured in a square hall of this many coverage
+#: reaches a side (clipped to ``PROBE_MIN_PX``, ``PROBE_MAX_PX`` pixels) ...
+PROBE_REACHES = 100
+PROBE_MIN_PX = 200
+PROBE_MAX_PX = 2000
+#: ... over its pixels farther than this many reaches from its walls.
+PROBE_DEPTH = 4.0
+
+
+def _refuse_dense_graph(feasible, clearance_m, res: float, cfg: RouteGraphConfig) -> None:
+    """Refuse a ``snap_m`` whose graph would have more than :data:`MAX_ESTIMATED_PAIRS`
+    shortcut candidate pairs, before its coverage is built: ``feasible`` (bool (H, W))
+    and ``clearance_m`` (float32 (H, W), metres) of the window, ``res`` metres per
+    pixel.  The estimate (:func:`estimated_pairs`) puts nodes on the open pixels at the
+    density of an open hall built with ``cfg`` (:func:`_probe_density`), built only
+    where the bound without it (:func:`pairs_bound`) exceeds the limit."""
+    radius_px = cfg.shortcut_radius_m / res
+    if radius_px <= 0:
+        return
+    reach_m = cfg.snap_m - cfg.waypoint_tolerance_m
+    open_ = open_pixels(feasible, clearance_m, cfg.robot_radius_m, reach_m)
+    n_open = int(np.count_nonzero(open_))
+    anchor_px = cfg.shortcut_spacing_m / res
+    if pairs_bound(n_open, reach_m / res, radius_px, anchor_px) <= MAX_ESTIMATED_PAIRS:
+        return
+    pairs = estimated_pairs(open_, _probe_density(cfg, res), radius_px)
+    if pairs > MAX_ESTIMATED_PAIRS:
+        raise ValueError(
+            f"snap_m: {cfg.snap_m!r} leaves an estimated {pairs:,.0f} pairs of vertices "
+            f"and anchors within shortcut_radius_m ({cfg.shortcut_radius_m:g} m) on the "
+            f"map's {n_open * res * res:,.0f} m2 of open feasible space, expected at most "
+            f"{MAX_ESTIMATED_PAIRS:,} (each takes a line test, after the coverage that "
+            "makes them); "
+            "use a larger snap_m or a smaller window of the map (or a smaller "
+            "shortcut_radius_m)"
+        )
+
+
+def _probe_density(cfg: RouteGraphConfig, res: float) -> float:
+    """Nodes of the shortcuts (vertices and anchors, :func:`shortcut_nodes`) per pixel of
+    the open middle of a square hall, free to its border, built with ``cfg`` at ``res``
+    metres per pixel up to the shortcuts (:data:`PROBE_REACHES` reaches a side, plus the
+    robot's diameter)."""
+    reach_px = _reach_px(cfg, res)
+    side = int(np.clip(PROBE_REACHES * reach_px, PROBE_MIN_PX, PROBE_MAX_PX))
+    side += 2 * math.ceil(cfg.robot_radius_m / res)
+    free = np.ones((side, side), bool)
+    clearance_m = clearance_map_m(free, res)
+    feasible = free & (clearance_m >= cfg.robot_radius_m)
+    middle = clearance_m >= cfg.robot_radius_m + PROBE_DEPTH * reach_px * res
+    work = _sparse_skeleton_graph(thin(feasible), free, clearance_m, res, cfg)
+    add_coverage(work, feasible, reach_px, min_loop_px=_min_loop_px(cfg, res))
+    work.contract_all()
+    _, anchored = shortcut_nodes(work, cfg.shortcut_spacing_m / res, _end_px(cfg, res))
+    n_middle = int(np.count_nonzero(middle))
+    if anchored is None or not n_middle:
+        return 0.0
+    pos = anchored[0]
+    return int(np.count_nonzero(middle[pos[:, 0], pos[:, 1]])) / n_middle
 
 
 #: Windows of at most this many pixels keep their clearance for the assembly of the graph,
