@@ -1317,6 +1317,72 @@ def test_too_many_shortcut_candidates_are_refused_before_they_fill_memory(monkey
     assert route_graph(m, robot_radius_m=0.3, config=RouteGraphConfig(shortcut_radius_m=0.0))
 
 
+def test_a_small_snap_on_a_large_open_map_is_refused_before_the_coverage(monkeypatch):
+    """The shortcut pairs of a small ``snap_m`` in a large open space are estimated from
+    the feasible space, and a map over the limit is refused before its coverage is
+    built (the graph's own count came after minutes of coverage on a 200 m hall); the
+    limit is lowered here to keep the hall small."""
+    import topojax.routegraph.build as build
+
+    m = _map(_room(20, 20))
+    assert route_graph(m, robot_radius_m=R, config=RouteGraphConfig(snap_m=0.5)).number_of_edges()
+    monkeypatch.setattr(build, "MAX_ESTIMATED_PAIRS", 1_000_000)
+    cover_of = build.add_coverage
+    shapes = []
+
+    # the estimate's own hall, of PROBE_MIN_PX pixels and the robot's diameter a side
+    probe = build.PROBE_MIN_PX + 2 * _px(R)
+
+    def only_small_halls(work, feasible, *args, **kwargs):
+        shapes.append(feasible.shape)
+        assert max(feasible.shape) <= probe, "the map's coverage was built"
+        return cover_of(work, feasible, *args, **kwargs)
+
+    monkeypatch.setattr(build, "add_coverage", only_small_halls)
+    with pytest.raises(
+        ValueError,
+        match=r"^snap_m: 0\.2 leaves an estimated [\d,]+ pairs of vertices and anchors within "
+        r"shortcut_radius_m \(5 m\) on the map's [\d,]+ m2 of open feasible space, expected "
+        r"at most 1,000,000 .*; use a larger snap_m or a smaller window of the map",
+    ):
+        route_graph(m, robot_radius_m=R, config=RouteGraphConfig(snap_m=0.2))
+    assert shapes == [(probe, probe)]
+
+
+def _pairs_counted(config: RouteGraphConfig, m: OccupancyMap, monkeypatch) -> int:
+    """The graph's shortcut candidate pairs, as its count's error gives them."""
+    import topojax.routegraph._cover as cover
+
+    monkeypatch.setattr(cover, "MAX_SHORTCUT_PAIRS", 0)
+    with pytest.raises(ValueError, match=r"^shortcut_radius_m: [\d,]+ pairs") as err:
+        route_graph(m, config=config)
+    return int(str(err.value).split()[1].replace(",", ""))
+
+
+@pytest.mark.parametrize(
+    ("snap", "tolerance"),
+    [(0.15, 0.075), (0.2, 0.1), (0.2125, 0.1), (0.2, 0.05), (0.3, 0.1), (0.5, 0.1)],
+)
+def test_the_estimate_of_the_pairs_stays_under_the_graph_s_count(monkeypatch, snap, tolerance):
+    """The estimate never refuses a graph whose count passes: at a limit of the graph's
+    own count the count's check speaks, not the estimate's, also at reaches where the
+    graph's density jumps with the pixels (1.5, 2.25, just under 3 pixels); and it is
+    no trivial bound: at a quarter of the count the estimate refuses."""
+    import topojax.routegraph._cover as cover
+    import topojax.routegraph.build as build
+
+    m = _map(_room(12, 12))
+    config = RouteGraphConfig(robot_radius_m=0.2, snap_m=snap, waypoint_tolerance_m=tolerance)
+    count = _pairs_counted(config, m, monkeypatch)
+    monkeypatch.setattr(cover, "MAX_SHORTCUT_PAIRS", count - 1)
+    monkeypatch.setattr(build, "MAX_ESTIMATED_PAIRS", count)
+    with pytest.raises(ValueError, match=r"^shortcut_radius_m: "):
+        route_graph(m, config=config)
+    monkeypatch.setattr(build, "MAX_ESTIMATED_PAIRS", count // 4)
+    with pytest.raises(ValueError, match=r"^snap_m: "):
+        route_graph(m, config=config)
+
+
 @pytest.mark.parametrize("hold_max_px", [0, 1 << 22])
 def test_clearances_are_the_feasible_space_s_at_the_graph_s_pixels(monkeypatch, hold_max_px):
     """The graph is built in a window of the map (here off its corner, beside a region
