@@ -793,19 +793,98 @@ def test_worker_count_within_memory():
     from topojax.batch import arguments
 
     per = arguments.WORKER_MEMORY_BYTES
-    for free, asked, expected in [
-        (None, 8, 8),
-        (8 * per, 8, 8),
-        (8 * per - 1, None, 7),
-        (per // 2, None, 1),
+    for free, wanted, asked, expected in [
+        (None, 8, 8, 8),
+        (8 * per, 8, 8, 8),
+        (8 * per - 1, 8, None, 7),
+        (per // 2, 8, None, 1),
+        (per // 2, 1, 1, 1),  # one worker whatever the memory
     ]:
         with pytest.MonkeyPatch.context() as mp:
             mp.setattr(arguments, "available_memory_bytes", lambda free=free: free)
-            assert arguments.workers_for_memory(8, asked=asked) == expected
+            assert arguments.workers_for_memory(wanted, asked=asked) == expected
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(arguments, "available_memory_bytes", lambda: 8 * per - 1)
         with pytest.raises(ValueError, match=r"workers: expected at most 7 .*received 20 \(8 "):
             arguments.workers_for_memory(8, asked=20)
+
+
+def _write_tree(root: Path, files: dict[str, str]) -> None:
+    for name, text in files.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text)
+
+
+GIB = 2**30
+
+
+@pytest.mark.parametrize(
+    ("files", "expected"),
+    [
+        # no cgroup limit: the kernel's estimate
+        ({"cgroup": "0::/\n", "fs/memory.max": "max\n"}, 20 * GIB),
+        # v2: the limit less the usage, inactive page cache counted as free
+        (
+            {
+                "cgroup": "0::/job/step\n",
+                "fs/job/step/memory.max": f"{4 * GIB}\n",
+                "fs/job/step/memory.current": f"{3 * GIB}\n",
+                "fs/job/step/memory.stat": f"anon 5\ninactive_file {GIB}\nactive_file 7\n",
+            },
+            2 * GIB,
+        ),
+        # v2: a parent's limit is tighter
+        (
+            {
+                "cgroup": "0::/job/step\n",
+                "fs/job/step/memory.max": "max\n",
+                "fs/job/memory.max": f"{2 * GIB}\n",
+                "fs/job/memory.current": f"{GIB}\n",
+            },
+            GIB,
+        ),
+        # v1: the memory controller's hierarchy; the kernel's "unlimited" is no limit
+        (
+            {
+                "cgroup": "9:cpu,cpuacct:/x\n4:memory:/box\n",
+                "fs/memory/memory.limit_in_bytes": "9223372036854771712\n",
+                "fs/memory/box/memory.limit_in_bytes": f"{8 * GIB}\n",
+                "fs/memory/box/memory.usage_in_bytes": f"{7 * GIB}\n",
+                "fs/memory/box/memory.stat": f"inactive_file 1\ntotal_inactive_file {GIB}\n",
+            },
+            2 * GIB,
+        ),
+        # unreadable or odd files are no limit
+        (
+            {
+                "cgroup": "0::/a\n",
+                "fs/a/memory.max": "lots\n",
+                "fs/memory.max": f"{GIB}\n",
+                "fs/memory.current": "?\n",
+            },
+            20 * GIB,
+        ),
+    ],
+)
+def test_available_memory_is_the_tightest_of_the_kernel_and_the_cgroups(tmp_path, files, expected):
+    _write_tree(
+        tmp_path, {"meminfo": f"MemTotal: 1 kB\nMemAvailable: {20 * GIB // 1024} kB\n", **files}
+    )
+    from topojax._cpus import available_memory_bytes
+
+    got = available_memory_bytes(
+        meminfo=str(tmp_path / "meminfo"),
+        cgroups=str(tmp_path / "cgroup"),
+        root=str(tmp_path / "fs"),
+    )
+    assert got == expected
+
+
+def test_available_memory_is_unknown_without_proc(tmp_path):
+    from topojax._cpus import available_memory_bytes
+
+    nowhere = str(tmp_path / "missing")
+    assert available_memory_bytes(meminfo=nowhere, cgroups=nowhere, root=nowhere) is None
 
 
 def _children(pid: int) -> list[int]:

@@ -1349,6 +1349,21 @@ def test_a_small_snap_on_a_large_open_map_is_refused_before_the_coverage(monkeyp
     assert shapes == [(probe, probe)]
 
 
+def test_the_route_graph_command_names_snap_m_when_the_estimate_refuses_it(
+    tmp_path, monkeypatch, capsys
+):
+    import topojax.routegraph.build as build
+    from topojax.cli import main
+
+    path = tmp_path / "hall.png"
+    cv2.imwrite(str(path), np.where(_room(20, 20), 254, 0).astype(np.uint8))
+    monkeypatch.setattr(build, "MAX_ESTIMATED_PAIRS", 1_000_000)
+    out = tmp_path / "out"
+    assert main(["route-graph", str(path), "-o", str(out), "--snap-m", "0.2"]) == 2
+    assert "--snap-m: 0.2 leaves an estimated" in capsys.readouterr().err
+    assert not any(out.glob("*_route.json"))
+
+
 def _pairs_counted(config: RouteGraphConfig, m: OccupancyMap, monkeypatch) -> int:
     """The graph's shortcut candidate pairs, as its count's error gives them."""
     import topojax.routegraph._cover as cover

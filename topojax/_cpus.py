@@ -19,37 +19,86 @@ def usable_cpus() -> int:
         return os.cpu_count() or 1
 
 
-def available_memory_bytes() -> int | None:
+def available_memory_bytes(
+    *,
+    meminfo: str = "/proc/meminfo",
+    cgroups: str = "/proc/self/cgroup",
+    root: str = "/sys/fs/cgroup",
+) -> int | None:
     """Bytes of memory new allocations may still take without swapping: the kernel's
-    ``MemAvailable`` estimate, or less where this process's cgroup (a container, a job
-    scheduler) has a lower limit left; None where neither can be read (not on Linux)."""
+    ``MemAvailable`` estimate (read from ``meminfo``), or less where a memory limit of this
+    process's cgroup or one of its parents (a container, a job scheduler; v2 or v1, listed
+    in ``cgroups``, mounted under ``root``) leaves less; None where neither can be read
+    (not on Linux)."""
     found = []
     try:
-        with open("/proc/meminfo", encoding="ascii") as f:
+        with open(meminfo, encoding="ascii") as f:
             for line in f:
                 if line.startswith("MemAvailable:"):
                     found.append(int(line.split()[1]) * 1024)
                     break
     except (OSError, ValueError, IndexError):
         pass
-    for limit_file, usage_file in (
-        ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),  # cgroup v2
-        (
-            "/sys/fs/cgroup/memory/memory.limit_in_bytes",  # cgroup v1
-            "/sys/fs/cgroup/memory/memory.usage_in_bytes",
-        ),
-    ):
-        try:
-            with open(limit_file, encoding="ascii") as f:
-                limit = f.read().strip()
-            with open(usage_file, encoding="ascii") as f:
-                usage = int(f.read().strip())
-            if limit.isdigit():  # "max": no limit
-                found.append(max(int(limit) - usage, 0))
-            break
-        except (OSError, ValueError):
-            continue
+    found += _cgroup_room(cgroups, root)
     return min(found) if found else None
+
+
+#: A cgroup v1 memory limit at or above this is no limit (the kernel's "unlimited" is
+#: about 2**63 rounded down to a page).
+_NO_LIMIT = 1 << 60
+
+
+def _cgroup_room(cgroups: str, root: str) -> list[int]:
+    """Bytes left under each memory limit of this process's cgroups (listed in
+    ``cgroups``, as ``/proc/self/cgroup``) and their parents, mounted under ``root``:
+    the limit less the usage, page cache the kernel may drop (``inactive_file``) counted
+    as free."""
+    try:
+        with open(cgroups, encoding="ascii") as f:
+            lines = f.read().splitlines()
+    except (OSError, ValueError):
+        return []
+    room = []
+    for line in lines:
+        _, controllers, path = (line.split(":", 2) + ["", ""])[:3]
+        if line.startswith("0::"):  # v2: one hierarchy
+            base, files = root, ("memory.max", "memory.current", "inactive_file")
+        elif "memory" in controllers.split(","):  # v1: the memory controller's own
+            base = os.path.join(root, "memory")
+            files = ("memory.limit_in_bytes", "memory.usage_in_bytes", "total_inactive_file")
+        else:
+            continue
+        parts = [p for p in path.split("/") if p and p != ".."]
+        for depth in range(len(parts), -1, -1):  # the process's cgroup, then its parents
+            left = _room_in(os.path.join(base, *parts[:depth]), *files)
+            if left is not None:
+                room.append(left)
+    return room
+
+
+def _room_in(folder: str, limit_file: str, usage_file: str, inactive_key: str) -> int | None:
+    """Bytes left under the memory limit of the cgroup ``folder``, or None without a
+    limit (or where its files cannot be read)."""
+    try:
+        with open(os.path.join(folder, limit_file), encoding="ascii") as f:
+            limit = f.read().strip()
+        if not limit.isdigit() or int(limit) >= _NO_LIMIT:  # "max": no limit
+            return None
+        with open(os.path.join(folder, usage_file), encoding="ascii") as f:
+            usage = int(f.read().strip())
+    except (OSError, ValueError):
+        return None
+    inactive = 0
+    try:
+        with open(os.path.join(folder, "memory.stat"), encoding="ascii") as f:
+            for line in f:
+                key, _, value = line.partition(" ")
+                if key == inactive_key:
+                    inactive = int(value)
+                    break
+    except (OSError, ValueError):
+        pass
+    return max(int(limit) - max(usage - inactive, 0), 0)
 
 
 def as_executor(executor: Any) -> cf.Executor | None:

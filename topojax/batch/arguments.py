@@ -51,9 +51,11 @@ def workers_for_memory(wanted: int, *, asked: int | None) -> int:
     least one), or, where the user ``asked`` for a count (``workers``; None for the
     default), ValueError naming ``workers``."""
     free = available_memory_bytes()
-    if free is None or wanted * WORKER_MEMORY_BYTES <= free:
+    if free is None:
         return wanted
-    fits = max(1, free // WORKER_MEMORY_BYTES)
+    fits = max(1, free // WORKER_MEMORY_BYTES)  # one worker whatever the memory
+    if fits >= wanted:
+        return wanted
     if asked is None:
         return fits
     raise ValueError(

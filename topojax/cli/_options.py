@@ -24,8 +24,16 @@ def _as_option_error(
     """``exc`` with every configuration field its message names (``min_spur_m``) written
     as the option that sets it (``--min-spur-m``), ``option_of`` mapping the one to the
     other: the commands' errors name what their user typed."""
+    if type(exc) not in (TypeError, ValueError):  # a subclass keeps its own arguments
+        return exc
     words = re.compile(r"\b(" + "|".join(map(re.escape, option_of)) + r")\b")
     return type(exc)(words.sub(lambda m: option_of[m.group(1)], str(exc)))
+
+
+def _option_named(exc: ValueError, field: str, option: str) -> ValueError:
+    """``exc`` with ``field`` written as ``option`` where the error is about that field
+    (its message starts ``field:``), else ``exc`` itself."""
+    return _as_option_error(exc, {field: option}) if str(exc).startswith(f"{field}:") else exc
 
 
 def pipeline_config(args, *, resolution_m: float | None = None):

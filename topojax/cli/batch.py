@@ -10,7 +10,7 @@ from collections import Counter
 from pathlib import Path
 
 from .._constants import MODES
-from ._options import _as_option_error, add_pipeline_options, add_sigma_options, pipeline_config
+from ._options import _option_named, add_pipeline_options, add_sigma_options, pipeline_config
 from ._outputs import OUT_OPTION, check_outputs
 
 
@@ -58,7 +58,7 @@ def _cmd_batch(args) -> int:
             route_config=route_config,
         )
     except ValueError as exc:  # e.g. more --workers than the memory holds
-        raise _as_option_error(exc, {"workers": "--workers"}) from None
+        raise _option_named(exc, "workers", "--workers") from None
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)

@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from .._constants import MODES
-from ._options import assumed_resolution_note
+from ._options import _option_named, assumed_resolution_note
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
@@ -111,7 +111,10 @@ def _cmd_route_graph(args) -> int:
     occupancy = load_map(args.map, **kw)
     check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")
     t0 = time.perf_counter()
-    graph = route_graph(occupancy, config=config)
+    try:
+        graph = route_graph(occupancy, config=config)
+    except ValueError as exc:  # e.g. a --snap-m too small for the map's open space
+        raise _option_named(exc, "snap_m", "--snap-m") from None
     seconds = time.perf_counter() - t0
     output_folder(out, name="--out")
     written = [

@@ -27,8 +27,10 @@ def pixel_clearance_m(mapper, pixels: np.ndarray) -> np.ndarray:
     -------
     float64 (n,)
         Clearance in metres: :func:`topojax.pipeline.clearance_at` of the dense squared
-        distance and obstacle mask over the bounding box at these pixels, bit for bit
-        (``inf`` where the map has no obstacle at all).
+        distance and obstacle mask over the bounding box at these pixels, bit for bit up
+        to about 2000 pixels from the nearest obstacle (farther, the exact root, which
+        ``clearance_at``'s rounded OpenCV transform may miss by a unit in the last
+        place); ``inf`` where the map has no obstacle at all.
     """
     tiles = mapper._tiles
     grid, (g0r, g0c) = tiles.slot_grid

@@ -25,7 +25,8 @@ def export_store(mapper) -> GraphStore:
     Reads the tiles at the vertex and path pixels only (memory in proportion to the graph
     and the tiles, not to the bounding box); equal, bit for bit, to the export computed
     from :attr:`~IncrementalMapper.occupancy`, :attr:`~IncrementalMapper.sq_distance_px`
-    and :attr:`~IncrementalMapper.obstacles` with :func:`topojax.pipeline.clearance_at`.
+    and :attr:`~IncrementalMapper.obstacles` with :func:`topojax.pipeline.clearance_at`
+    (clearances up to about 2000 pixels; see :func:`pixel_clearance_m`).
     """
     res = mapper.resolution_m
     bbox = mapper._tiles.pixel_bbox

@@ -238,8 +238,8 @@ def _read_plain_pnm(data: bytes, path: Path) -> np.ndarray:
     if its maxval is below 256, else uint16; (H, W) or (H, W, 3) RGB.
 
     Parsed in chunks of ``_PLAIN_CHUNK`` bytes with array operations: the memory used
-    is the pixels and a scratch space proportional to the chunk, whatever the file size.  Faults are reported
-    in this order: a word that is not an unsigned decimal integer, the header, the
+    is the pixels and a scratch space proportional to the chunk, whatever the file
+    size.  Faults are reported in this order: a word that is not an unsigned decimal integer, the header, the
     number of samples, samples above maxval.
     """
     channels = 3 if data[:2] == b"P3" else 1

@@ -334,11 +334,11 @@ def _refuse_dense_graph(feasible, clearance_m, res: float, cfg: RouteGraphConfig
     radius_px = cfg.shortcut_radius_m / res
     if radius_px <= 0:
         return
-    reach_m = cfg.snap_m - cfg.waypoint_tolerance_m
-    open_ = open_pixels(feasible, clearance_m, cfg.robot_radius_m, reach_m)
+    reach_px = _reach_px(cfg, res)
+    open_ = open_pixels(feasible, clearance_m, cfg.robot_radius_m, reach_px * res)
     n_open = int(np.count_nonzero(open_))
     anchor_px = cfg.shortcut_spacing_m / res
-    if pairs_bound(n_open, reach_m / res, radius_px, anchor_px) <= MAX_ESTIMATED_PAIRS:
+    if pairs_bound(n_open, reach_px, radius_px, anchor_px) <= MAX_ESTIMATED_PAIRS:
         return
     pairs = estimated_pairs(open_, _probe_density(cfg, res), radius_px)
     if pairs > MAX_ESTIMATED_PAIRS:
@@ -412,7 +412,7 @@ def check_scale(
             f"{cfg.robot_radius_m!r}; below that the graph's paths would squeeze between "
             "single obstacle pixels"
         )
-    if (cfg.snap_m - cfg.waypoint_tolerance_m) / res < MIN_REACH_PX - _ROUNDING_PX:
+    if _reach_px(cfg, res) < MIN_REACH_PX - _ROUNDING_PX:
         least = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
         raise ValueError(
             f"{snap_name}: expected at least the waypoint tolerance "
