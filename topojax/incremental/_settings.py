@@ -160,7 +160,7 @@ DEFAULT_MAX_EXTENT_M = 2000.0
 
 
 #: Default ``max_export_bytes`` of :class:`IncrementalMapper` (2 GiB): the most memory
-#: a dense export (occupancy, fields, graph, result) may allocate.
+#: a dense export (occupancy, fields, result, route graph) may allocate.
 DEFAULT_MAX_EXPORT_BYTES = 1 << 31
 
 #: Default ``max_tile_bytes`` of :class:`IncrementalMapper` (2 GiB): the most memory the
