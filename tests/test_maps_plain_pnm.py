@@ -20,9 +20,10 @@ _SPACES = [b" ", b"\t", b"\n", b"\r", b"\r\n", b"\x0b", b"\x0c", b"  \n"]
 
 
 def reference_plain_pnm(data: bytes) -> np.ndarray:
-    """A valid plain PNM file read word by word: comments (``#`` to the end of the line)
-    blanked, words split at ASCII whitespace, each one ``int``."""
-    words = re.sub(rb"#[^\n]*", b" ", data[2:]).split()
+    """A valid plain PNM file read word by word: comments (``#`` to the end of the line,
+    a line feed or a carriage return) blanked, words split at ASCII whitespace, each one
+    ``int``."""
+    words = re.sub(rb"#[^\r\n]*", b" ", data[2:]).split()
     assert all(w.isdigit() for w in words)
     width, height, maxval = (int(w) for w in words[:3])
     channels = 3 if data[:2] == b"P3" else 1
@@ -42,7 +43,9 @@ def plain_files(draw) -> bytes:
     maxval = draw(st.sampled_from([1, 7, 100, 255, 256, 1000, 65535]))
     n = width * height * channels
     values = draw(st.lists(st.integers(0, maxval), min_size=n, max_size=n))
-    comment = st.binary(max_size=12).map(lambda b: b"#" + b.replace(b"\n", b"x") + b"\n")
+    body = st.binary(max_size=12).map(lambda b: b.replace(b"\n", b"x").replace(b"\r", b"x"))
+    end = st.sampled_from([b"\n", b"\r", b"\r\n"])
+    comment = st.tuples(body, end).map(lambda t: b"#" + t[0] + t[1])
     gap = st.lists(st.one_of(st.sampled_from(_SPACES), comment), min_size=1, max_size=3)
     out = [b"P3" if channels == 3 else b"P2"]
     for number in [width, height, maxval, *values]:
@@ -156,3 +159,14 @@ def test_plain_pnm_parse_builds_no_object_per_pixel() -> None:
     assert peak < pixels.nbytes + 12 * 2**20, peak
     # a header claiming more pixels than the file can hold allocates none of them
     assert _traced_peak(b"P2\n100000 100000\n255\n" + b"0 " * 1000)[1] < 2**20
+
+
+def test_a_comment_ends_at_a_carriage_return(tmp_path):
+    """Netpbm ends a comment at the next line feed or carriage return: a file with
+    classic Mac line ends (CR only) reads, and so does its header's resolution comment."""
+    text = b"P2\r# CREATOR: map_saver.cpp 0.050 m/pix\r3 2\r255\r# row 1\r1 2 3\r4 5 6\r"
+    path = tmp_path / "cr.pgm"
+    path.write_bytes(text)
+    pixels, maxval, comments = read_image(path)
+    assert np.array_equal(pixels, [[1, 2, 3], [4, 5, 6]]) and maxval == 255
+    assert comments == ["CREATOR: map_saver.cpp 0.050 m/pix"]

@@ -45,6 +45,9 @@ _PGM_RES_RE = re.compile(r"(?:^|\s)(\S+)\s*m/pix")
 _PGM_NUMBER_RE = re.compile(r"[-+]?[0-9.,]*[0-9][0-9.,]*(?:[eE][-+]?[0-9]+)?$")
 
 
+_LINE_END = re.compile(rb"[\r\n]")
+
+
 def pnm_header_tokens(data: bytes) -> tuple[list[bytes], list[str], int]:
     """The first three header words (width, height, maxval; fewer if ``data`` ends
     before them), the comment lines before them and the index just past the last word,
@@ -55,9 +58,9 @@ def pnm_header_tokens(data: bytes) -> tuple[list[bytes], list[str], int]:
     n = len(data)
     while len(tokens) < 3 and pos < n:
         ch = data[pos : pos + 1]
-        if ch == b"#":
-            end = data.find(b"\n", pos)
-            end = n if end < 0 else end
+        if ch == b"#":  # to the next line feed or carriage return (Netpbm's rule)
+            found = _LINE_END.search(data, pos)
+            end = n if found is None else found.start()
             comments.append(data[pos + 1 : end].decode("latin-1").strip())
             pos = end + 1
         elif ch.isspace():
@@ -126,14 +129,15 @@ _HEADER_DIGITS = 100
 
 def _plain_comments(u: np.ndarray, in_comment: bool) -> np.ndarray | None:
     """Mask (bool, like ``u``) of the bytes of ``u`` (uint8) in comments, ``#`` up to
-    (not including) the next newline; ``in_comment`` if ``u`` starts inside one.  None
-    if there is none."""
+    (not including) the next line feed or carriage return; ``in_comment`` if ``u`` starts
+    inside one.  None if there is none."""
     hashes = u == ord("#")
     if not in_comment and not hashes.any():
         return None
     index = np.arange(u.size, dtype=np.int32)
     last_hash = np.maximum.accumulate(np.where(hashes, index, -1 if in_comment else -2))
-    last_newline = np.maximum.accumulate(np.where(u == ord("\n"), index, -2 if in_comment else -1))
+    line_end = (u == ord("\n")) | (u == ord("\r"))
+    last_newline = np.maximum.accumulate(np.where(line_end, index, -2 if in_comment else -1))
     return last_hash > last_newline
 
 
