@@ -568,10 +568,18 @@ def test_view_command_on_a_replay_folder_with_a_timeline(tmp_path, capsys):
     tj.save_rooms(mapper.rooms, out / "map_rooms.geojson")
     timeline.save(out / "timeline.json.gz")
     assert main(["view", str(out)]) == 0
-    assert "timeline.json.gz" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "timeline.json.gz" in text and "another run" not in text
     data = payload_of((out / "view.html").read_text())
     assert len(data["timeline"]["frames"]) == 4
     assert data["rooms"]["rooms"] and data["rasters"][0]["name"] == "map"
+    # a graph.json of another run beside the timeline is shown, with a note saying so
+    other = result.graph.copy()
+    other.remove_edge(*next(iter(other.edges(keys=True))))
+    tj.save_graph(other, out / "graph.json")
+    assert main(["view", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "timeline.json.gz: its last graph update (" in text and "another run" in text
 
 
 def test_view_command_with_several_results_writes_an_index(tmp_path, capsys):

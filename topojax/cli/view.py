@@ -153,6 +153,8 @@ def _load(result: _Result):
         from ..view import Timeline
 
         kwargs["timeline"] = Timeline.load(result.timeline)
+        if graph is not None:
+            _note_timeline(result, kwargs["timeline"], graph)
     if graph is not None:
         return graph, occupancy, kwargs
     if occupancy is None:
@@ -161,6 +163,19 @@ def _load(result: _Result):
             "recorded or not found)"
         )
     return occupancy, None, kwargs
+
+
+def _note_timeline(result: _Result, timeline, graph) -> None:
+    """Note when the timeline's last graph is not the graph shown (a timeline of another
+    run in the folder); the page still shows both.  The command prints the note."""
+    last = timeline.last_counts()
+    shown = (graph.number_of_nodes(), graph.number_of_edges())
+    if last is not None and last != shown:
+        result.notes.append(
+            f"{result.timeline.name}: its last graph update ({last[0]} vertices, {last[1]} "
+            f"edges) is not {result.graph.name} ({shown[0]} vertices, {shown[1]} edges): "
+            "the timeline may come from another run"
+        )
 
 
 def _note_rooms_grid(result: _Result, occupancy) -> None:

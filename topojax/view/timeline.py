@@ -62,6 +62,13 @@ class Timeline:
             return len(self._loaded["frames"])
         return len(self._frames)
 
+    def last_counts(self) -> tuple[int, int] | None:
+        """Vertices and edges of the last graph recorded, or None before the first."""
+        frames = self._loaded["frames"] if self._loaded is not None else self._frames
+        if not frames:
+            return None
+        return int(frames[-1]["ids"]["n"]), int(frames[-1]["edges"]["n"])
+
     def _continuation(self) -> dict:
         """What :meth:`load` needs to extend a saved timeline: the mapper's edge key of
         each pooled edge, the keys of the last snapshot and ``max_map_px``."""
