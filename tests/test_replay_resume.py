@@ -555,3 +555,38 @@ def test_a_replay_stopped_at_a_malformed_line_resumes_past_it_skipping_bad_lines
     with pytest.warns(UserWarning, match="skipped 1 malformed"):
         assert main([*argv, "--skip-bad-lines"]) == 0
     assert_same_outputs(again, whole)
+
+
+def test_replay_cli_a_signal_lost_on_the_way_ends_with_the_files_recorded(
+    tmp_path, monkeypatch, capsys
+):
+    """A SIGTERM whose interrupt is lost (raised inside a callback that swallows it, as
+    JAX's garbage-collection callback does) lets the replay finish: its files are
+    complete and recorded for ``topojax view``, and the command still ends with 143."""
+    import os
+    import signal
+
+    real = topojax.scans.read_scans
+
+    def reader(source, **kw):
+        for i, scan in enumerate(real(source, **kw)):
+            if i == 5:
+                try:
+                    os.kill(os.getpid(), signal.SIGTERM)
+                except KeyboardInterrupt:  # a callback that swallows it
+                    pass
+            yield scan
+
+    monkeypatch.setattr(topojax.scans, "read_scans", reader)
+    previous = signal.getsignal(signal.SIGTERM)
+    out = tmp_path / "out"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]
+    try:
+        assert main(args) == 143
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    captured = capsys.readouterr()
+    assert "SIGTERM arrived but the replay finished; its files are complete" in captured.err
+    assert "wrote      " in captured.out
+    assert (out / "graph.json").is_file() and not (out / STATE_FILE).exists()
+    assert (out / ".topojax-outputs.json").is_file()

@@ -85,6 +85,7 @@ def _cmd_replay(args) -> int:
     for option, path in (("--animate", args.animate), ("--mcap", args.mcap)):
         if path is not None:
             check_outputs(planned([path], args.source), command="replay", option=option)
+    summary = None
     with _stops_on_signals() as stopped:
         summary = replay(
             args.source,
@@ -103,13 +104,20 @@ def _cmd_replay(args) -> int:
             resume=args.resume,
             **kw,
         )
-    if stopped:
+    if summary is None:  # stopped part way, its state saved for --resume
         print(f"topojax replay: stopped by {stopped[0].name}", file=sys.stderr)
         return 128 + stopped[0]
     record_outputs(planned(summary["written"], args.source), command="replay")
     if args.no_progress:
         print(summary_text(summary))
     print("wrote      " + ", ".join(summary["written"]))
+    if stopped:  # a signal the replay could not act on (e.g. lost in a callback)
+        print(
+            f"topojax replay: {stopped[0].name} arrived but the replay finished; its files "
+            "are complete",
+            file=sys.stderr,
+        )
+        return 128 + stopped[0]
     return 0
 
 
@@ -182,9 +190,17 @@ def add_command(subparsers) -> None:
         "times (needs rosbags: pip install 'topojax[bags]')",
     )
     p.add_argument(
-        "--skeleton-every", type=int, default=20, help="scans per skeleton update (default 20)"
+        "--skeleton-every",
+        type=int,
+        default=20,
+        help="scans per skeleton update (default 20; 0: only with the graph updates)",
     )
-    p.add_argument("--graph-every", type=int, default=80, help="scans per graph update (80)")
+    p.add_argument(
+        "--graph-every",
+        type=int,
+        default=80,
+        help="scans per graph update (default 80; 0: only after the last scan)",
+    )
     p.add_argument(
         "--strategy",
         choices=STRATEGIES,
