@@ -467,6 +467,32 @@ build_graphs(paths, out_dir=sys.argv[1], workers=0, progress=False)
 """
 
 
+_UNGUARDED_SCRIPT = """
+import sys
+from topojax.batch import build_graphs
+records = build_graphs(sys.argv[2:], out_dir=sys.argv[1], workers=1, progress=False)
+print("MESSAGES", *[r.status + ": " + r.message for r in records], sep="\\n")
+"""
+
+
+def test_workers_that_cannot_start_say_so_not_killed_for_memory(tmp_path):
+    """A script that calls build_graphs without the ``__main__`` guard: its workers fail
+    while importing it, and each map's row says so instead of blaming memory."""
+    script = tmp_path / "unguarded.py"
+    script.write_text(_UNGUARDED_SCRIPT)
+    done = subprocess.run(
+        [sys.executable, str(script), str(tmp_path / "out"), str(PAPER_MAPS[1])],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
+    )
+    lines = done.stdout.split("MESSAGES")[-1].strip().splitlines()
+    assert lines and all(line.startswith("error: ") for line in lines), done.stdout
+    assert all("the worker processes failed to start" in line for line in lines)
+    assert not any("killed for memory" in line for line in lines)
+
+
 def test_a_run_cut_short_leaves_no_earlier_summary(tmp_path, monkeypatch):
     from topojax.batch import driver
 
@@ -645,7 +671,11 @@ def test_a_pool_that_keeps_breaking_gives_error_rows_and_a_summary(tmp_path, mon
             fut.set_exception(BrokenProcessPool("A child process terminated abruptly"))
             return fut
 
-    monkeypatch.setattr(driver._BatchRun, "_new_executor", lambda self: BreaksAtOnce())
+    def started_pool(self):  # its processes started (warmed up), then died with a task
+        self._started = True
+        return BreaksAtOnce()
+
+    monkeypatch.setattr(driver._BatchRun, "_new_executor", started_pool)
     records = build_graphs(PAPER_MAPS, out_dir=tmp_path, workers=2, progress=False)
     assert [r.status for r in records] == ["error"] * len(PAPER_MAPS)
     assert all("worker process died" in r.message for r in records), records

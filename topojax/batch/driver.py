@@ -110,6 +110,7 @@ class _BatchRun:
         self.cpu_backlog = max(4, 3 * workers) if executor is None else 64
         self._restarts = 0
         self._started_pool = False
+        self._started = False  # a worker task has run (see _note_started)
         self._pool_size = workers  # no more processes than maps to run (set by run())
         self._retried: set[int] = set()  # maps whose task a broken pool lost once
         # the rooms format segments each map in its CPU stage, which rebuilds the map (as
@@ -131,8 +132,18 @@ class _BatchRun:
         self._pool_size = workers_for_memory(self._pool_size, asked=asked)
         ex = cf.ProcessPoolExecutor(max_workers=self._pool_size, mp_context=worker_context())
         for _ in range(self._pool_size):  # import + numba cache load while kernels compile
-            ex.submit(_warm_worker)
+            ex.submit(_warm_worker).add_done_callback(self._note_started)
         return ex
+
+    def _note_started(self, fut: cf.Future) -> None:
+        """A worker task ended: one that ran means the processes can start (a pool that
+        breaks later lost a process, e.g. killed for memory)."""
+        if not fut.cancelled() and fut.exception() is None:
+            self._started = True
+
+    def _lost(self, exc: BaseException) -> str:
+        """:func:`_lost_text` of ``exc``, for this batch's pool."""
+        return _lost_text(exc, started=self._started or not self.owns_executor)
 
     def _submit(self, fn: Any, *args: Any) -> cf.Future:
         """Submit to the executor; an own process pool that broke is replaced (3 times in
@@ -421,7 +432,7 @@ class _BatchRun:
                         _load_in_worker, os.fspath(item.path), self._want_free, self.map_mode
                     )
                 except Exception as exc:  # the pool broke once too often
-                    self._finish(item.index, _error_record(item, exc))
+                    self._finish(item.index, _error_record(item, self._lost(exc)))
                     continue
                 self._loads[fut] = item
             else:
@@ -459,7 +470,7 @@ class _BatchRun:
             self._config_for(loaded)  # e.g. a sigma_m too large here
             self._ready.append(loaded)
         except Exception as exc:
-            self._finish(item.index, _error_record(item, exc))
+            self._finish(item.index, _error_record(item, self._lost(exc)))
 
     def _on_kernels_done(self, fut: cf.Future) -> None:
         """A group's kernels finished: submit each map's CPU job, or record its error."""
@@ -508,6 +519,7 @@ class _BatchRun:
             # a worker ran a task: only breaks with no task done in between add up to
             # the pool's last replacement, not those of a long batch
             self._restarts = 0
+            self._started = True
             return False
         # a task of a broken pool fails with BrokenProcessPool, or is cancelled when the
         # pool is shut down before it could fail it
@@ -534,7 +546,7 @@ class _BatchRun:
         try:
             res: _CpuResult = fut.result()
         except Exception as exc:  # the worker died or the task could not be run
-            return replace(rec, status="error", message=f"CPU stage failed: {_lost_text(exc)}")
+            return replace(rec, status="error", message=f"CPU stage failed: {self._lost(exc)}")
         rec = replace(
             rec,
             vertices=res.vertices,
@@ -578,16 +590,23 @@ class _BatchRun:
         return rec
 
 
-def _error_record(item: _Item, exc: BaseException) -> MapRecord:
-    """The record of a map that could not be loaded: ``exc`` as its message."""
-    return MapRecord(map=item.name, path=item.label, status="error", message=_lost_text(exc))
+def _error_record(item: _Item, message: str) -> MapRecord:
+    """The record of a map that could not be loaded, with ``message``."""
+    return MapRecord(map=item.name, path=item.label, status="error", message=message)
 
 
-def _lost_text(exc: BaseException) -> str:
+def _lost_text(exc: BaseException, *, started: bool = True) -> str:
     """The message of ``exc``, saying what happened where a worker process died with the
-    map's task (a broken pool's error, or the cancelling of the task)."""
+    map's task (a broken pool's error, or the cancelling of the task): killed, or, where
+    no worker task ever ran (not ``started``), failed to start."""
     if not isinstance(exc, (cf.BrokenExecutor, cf.CancelledError)):
         return _error_text(exc)
+    if not started:
+        return (
+            f"{_error_text(exc)} (the worker processes failed to start: see their errors "
+            'above; a script must call build_graphs under if __name__ == "__main__":, '
+            "and no folder named topojax may hide the package from them)"
+        )
     return (
         f"{_error_text(exc)} (a worker process died while this map was queued or "
         "running, killed for memory?; --resume runs it again)"
