@@ -210,6 +210,8 @@ def test_format_argument_overrides_suffix(tmp_path: Path):
     assert_graphs_equal(g, load_graph(path, format="json"))
     with pytest.raises(ValueError, match="format"):
         save_graph(g, tmp_path / "g.json", format="yaml")
+    with pytest.raises(ValueError, match=r"^path: expected a graph file suffix, one of .*\.json"):
+        save_graph(g, tmp_path / "graph.txt")
 
 
 # ---------------------------------------------------------------------- format validity

@@ -1324,3 +1324,19 @@ def test_read_scans_dispatch(tmp_path):
     assert len(list(read_scans(renamed, allow_missing_pose=True))) == 25
     with pytest.raises(FileNotFoundError):
         read_scans(tmp_path / "missing.log")
+
+
+@pytest.mark.parametrize("name", ["map.png", "map.pgm", "photo.jpg"])
+def test_read_scans_refuses_a_map_image_by_name(tmp_path, name):
+    """A map image handed to the scan readers is named as one, not read as a CARMEN log
+    without laser lines; ``replay`` names it as its ``source``."""
+    import cv2
+
+    import topojax as tj
+
+    path = tmp_path / name
+    cv2.imwrite(str(path), np.full((4, 4), 254, np.uint8))
+    with pytest.raises(ValueError, match=r"^path: expected a laser log .* received the map image"):
+        read_scans(path)
+    with pytest.raises(ValueError, match=r"^source: expected a laser log"):
+        tj.replay(path, out_dir=tmp_path / "out", progress=False)

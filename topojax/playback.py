@@ -316,7 +316,13 @@ def _start(
     if resume:
         mapper, record = resumed_mapper(out, source, reader_kwargs, settings_of(mapper), max_scans)
         progress_at = ReplayProgress(record["consumed"], record["skipped"])
-    scans = read_scans(source, **(reader_kwargs or {}))
+    try:
+        scans = read_scans(source, **(reader_kwargs or {}))
+    except ValueError as exc:  # named as this function names its file
+        message = str(exc)
+        if not message.startswith("path: "):
+            raise
+        raise ValueError("source: " + message.removeprefix("path: ")) from None
     if progress_at.consumed:
         scans = itertools.islice(scans, progress_at.consumed, None)
     output_folder(out)

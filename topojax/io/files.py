@@ -34,8 +34,8 @@ def _format_for(path: Path, format: str | None) -> str:
     suffix = path.suffix.lower()
     if suffix not in GRAPH_FORMATS:
         raise ValueError(
-            f"cannot infer the graph format of {str(path)!r} from suffix {path.suffix!r}; "
-            f"supported suffixes: {supported} (or pass format=)"
+            f"path: expected a graph file suffix, one of {supported} (or pass format=), "
+            f"received {str(path)!r}"
         )
     return GRAPH_FORMATS[suffix]
 

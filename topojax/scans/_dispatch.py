@@ -74,6 +74,10 @@ def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
     return reader(p, **kwargs)
 
 
+#: Map images, not scans: refused by name instead of read as an empty CARMEN log.
+_IMAGE_SUFFIXES = (".png", ".pgm", ".ppm", ".jpg", ".jpeg", ".tif", ".tiff")
+
+
 def _reader_for(p: Path):
     """The reader of :func:`read_scans` for an existing path."""
     if p.is_dir():
@@ -89,4 +93,12 @@ def _reader_for(p: Path):
         return read_bag
     if _looks_octave(p):
         return read_octave_laser
+    if (
+        magic.startswith((b"\x89PNG", b"P2", b"P5", b"\xff\xd8"))
+        or p.suffix.lower() in _IMAGE_SUFFIXES
+    ):
+        raise ValueError(
+            f"path: expected a laser log (CARMEN, Octave) or a bag (ROS 1, ROS 2, MCAP), "
+            f"received the map image {p} (topojax graph, rooms and route-graph read maps)"
+        )
     return read_carmen
