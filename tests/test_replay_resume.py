@@ -65,10 +65,11 @@ def test_a_resumed_replay_writes_what_an_uninterrupted_one_does(
     out = tmp_path / "out"
     interrupted_reader(monkeypatch, after)
     with (
-        pytest.warns(RuntimeWarning, match=rf"stopped after {after} scans; .*resume"),
+        pytest.warns(RuntimeWarning, match=rf"stopped after {after} scans; .*resume") as warned,
         pytest.raises(KeyboardInterrupt),
     ):
         replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
+    assert [w.filename for w in warned] == [__file__]  # where replay was called
     assert IncrementalMapper.load(out / STATE_FILE).n_scans == after  # old loader reads it
     summary = replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
     assert_same_outputs(full_out, out)

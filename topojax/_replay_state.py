@@ -150,6 +150,11 @@ def replay_record(source, reader_kwargs, progress: ReplayProgress, mapper) -> di
     }
 
 
+#: Stack level of this module's warnings: the caller of :func:`topojax.replay` (from
+#: here, through ``_map_scans`` or ``_write_and_close``, ``_replay_checked`` and ``replay``).
+_CALLER = 5
+
+
 def save_replay_state(mapper, path: Path, record: dict) -> Path:
     """Save ``mapper``'s state to ``path`` (as :meth:`IncrementalMapper.save`) with the
     replay ``record``; returns the path."""
@@ -172,14 +177,14 @@ def keep_state(mapper, out: Path, record) -> bool:
             f"replay stopped after {mapper.n_scans} scans; saving the mapper's state "
             f"failed too ({exc})",
             RuntimeWarning,
-            stacklevel=4,
+            stacklevel=_CALLER,
         )
         return False
     warnings.warn(
         f"replay stopped after {mapper.n_scans} scans; the mapper's state is saved to "
         f"{path} (replay with resume=True, topojax replay --resume, continues from it)",
         RuntimeWarning,
-        stacklevel=4,
+        stacklevel=_CALLER,
     )
     return True
 
@@ -300,7 +305,7 @@ def keep_recordings(out: Path, progress: ReplayProgress, recorder, timeline, fra
             "replay's animation, view timeline and MCAP recording will hold only the "
             "scans after the stop",
             RuntimeWarning,
-            stacklevel=4,
+            stacklevel=_CALLER,
         )
 
 
