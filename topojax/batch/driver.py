@@ -109,7 +109,6 @@ class _BatchRun:
         # reads the kernels wait for; an outside executor's size is unknown.
         self.cpu_backlog = max(4, 3 * workers) if executor is None else 64
         self._restarts = 0
-        self._started_pool = False
         self._started = False  # a worker task has run (see _note_started)
         self._pool_size = workers  # no more processes than maps to run (set by run())
         self._retried: set[int] = set()  # maps whose task a broken pool lost once
@@ -126,8 +125,7 @@ class _BatchRun:
             return InlineExecutor()
         # each process holds a few hundred MB: a count the memory cannot hold is refused
         # when the user asked for it before any map runs, and trimmed otherwise
-        first = not self._started_pool
-        self._started_pool = True
+        first = self.executor is None  # a replacement is made while the broken one is set
         asked = self.workers if self.workers_given and first else None
         self._pool_size = workers_for_memory(self._pool_size, asked=asked)
         ex = cf.ProcessPoolExecutor(max_workers=self._pool_size, mp_context=worker_context())
