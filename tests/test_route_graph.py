@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import cv2
 import networkx as nx
@@ -368,9 +369,26 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2
 
 
+@pytest.mark.parametrize("radius_m", [0.0, -0.0, -1.0])
+def test_a_robot_radius_of_zero_or_less_is_refused_as_not_positive(tmp_path, radius_m):
+    """A route graph needs a robot of some size: zero or less is refused as not positive
+    (not as "expected >= 0" for -1, which made 0 look allowed until the map refused it)."""
+    match = r"^robot_radius_m: expected a finite number of metres > 0, received "
+    with pytest.raises(ValueError, match=match):
+        RouteGraphConfig(robot_radius_m=radius_m)
+    with pytest.raises(ValueError, match=match):
+        route_graph(_map(_room(3, 3)), robot_radius_m=radius_m)
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    match = r"^route_graph_radius_m: expected a finite number of metres > 0"
+    with pytest.raises(ValueError, match=match):
+        tj.replay(log, out_dir=tmp_path / "out", route_graph_radius_m=radius_m)
+
+
 @pytest.mark.parametrize(
     ("option", "message"),
     [
+        (["--robot-radius", "-1"], "--robot-radius: expected a finite number of metres > 0"),
+        (["--robot-radius", "0"], "--robot-radius: expected a finite number of metres > 0"),
         (["--robot-radius", "0.01"], "--robot-radius: expected at least 1.5 pixels of the map"),
         (["--robot-radius", "2000"], "--robot-radius: expected a robot radius of at most 1000 m"),
         (["--snap-m", "6"], "--snap-m: expected 0.2 to 5 m"),
@@ -1280,7 +1298,7 @@ def test_a_radius_under_one_and_a_half_pixels_is_refused():
     single obstacle pixels (a map's speckle), where no waypoint segment is safe."""
     m = tj.load_map(tj.datasets.sample_map_path("office"))
     res = m.resolution_m
-    for radius in (0.0, res, 1.4 * res):
+    for radius in (res, 1.4 * res):
         with pytest.raises(
             ValueError, match=r"^robot_radius_m: expected at least 1.5 pixels of the map"
         ):

@@ -65,7 +65,9 @@ def check_replay_args(
 
         mcap_path(mcap, name="mcap")  # an .mcap file name, not a folder
     if route_graph_radius_m is not None:
-        route_graph_radius_m = robot_radius("route_graph_radius_m", route_graph_radius_m)
+        route_graph_radius_m = robot_radius(
+            "route_graph_radius_m", route_graph_radius_m, allow_zero=False
+        )
     return nav2_tolerance_m, route_graph_radius_m
 
 

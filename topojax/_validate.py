@@ -169,9 +169,10 @@ def nonnegative_metres(name: str, value: object) -> float:
 MAX_ROBOT_RADIUS_M = 1000.0
 
 
-def robot_radius(name: str, value: object) -> float:
-    """:func:`metres` from 0 to :data:`MAX_ROBOT_RADIUS_M` (a round robot's radius)."""
-    radius = metres(name, value, allow_zero=True)
+def robot_radius(name: str, value: object, *, allow_zero: bool = True) -> float:
+    """:func:`metres` from 0 (excluded unless ``allow_zero``) to
+    :data:`MAX_ROBOT_RADIUS_M` (a round robot's radius)."""
+    radius = metres(name, value, allow_zero=allow_zero)
     if radius > MAX_ROBOT_RADIUS_M:
         raise ValueError(
             f"{name}: expected a robot radius of at most {MAX_ROBOT_RADIUS_M:g} m, received "

@@ -122,7 +122,9 @@ def _route_config(args):
             f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}; "
             f"expected --formats to name one, received {args.formats!r}"
         )
-    return RouteGraphConfig(robot_radius_m=robot_radius("--robot-radius", args.robot_radius_m))
+    return RouteGraphConfig(
+        robot_radius_m=robot_radius("--robot-radius", args.robot_radius_m, allow_zero=False)
+    )
 
 
 def add_command(subparsers) -> None:

@@ -44,7 +44,7 @@ def _check_numbers(args) -> None:
     if args.route_graph is not None:
         from ..routegraph.build import RouteGraphConfig, check_scale
 
-        radius = robot_radius("--route-graph", args.route_graph)
+        radius = robot_radius("--route-graph", args.route_graph, allow_zero=False)
         check_scale(RouteGraphConfig(robot_radius_m=radius), args.resolution, "--route-graph")
 
 

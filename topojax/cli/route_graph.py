@@ -86,7 +86,7 @@ def _cmd_route_graph(args) -> int:
     from ..routegraph import RouteGraphConfig, route_graph
     from ..routegraph.build import MAX_SNAP_M, check_scale
 
-    radius = robot_radius("--robot-radius", args.robot_radius_m)
+    radius = robot_radius("--robot-radius", args.robot_radius_m, allow_zero=False)
     snap_m = positive_metres("--snap-m", args.snap_m)
     least = 2 * RouteGraphConfig.waypoint_tolerance_m  # the class default: a float
     if not least <= snap_m <= MAX_SNAP_M:

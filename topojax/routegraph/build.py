@@ -146,7 +146,7 @@ class RouteGraphConfig:
             elif f.name in ("shortcuts_from_dead_ends", "shortcuts_round_corners"):
                 value = flag(f.name, value)
             elif f.name == "robot_radius_m":
-                value = robot_radius(f.name, value)
+                value = robot_radius(f.name, value, allow_zero=False)
             elif f.name in ("snap_m", "waypoint_tolerance_m"):
                 value = positive_metres(f.name, value)
             elif f.name.endswith("_m"):
