@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gzip
 import math
+import re
 import struct
 import warnings
 from pathlib import Path
@@ -905,19 +906,23 @@ class _BagWriter:
         )
         self.writer.write(self.conns[topic], t_ns, data)
 
-    def scan(self, topic: str, t_ns: int, frame: str, ranges: np.ndarray) -> None:
+    def scan(self, topic: str, t_ns: int, frame: str, ranges: np.ndarray, **fields) -> None:
+        """A LaserScan message; ``fields`` replace its beam geometry and limits."""
         t = self.ts.types
+        geometry = {
+            "angle_min": -1.2,
+            "angle_max": -1.2 + 0.06 * (N_BEAMS - 1),
+            "angle_increment": 0.06,
+            "range_min": 0.1,
+            "range_max": 8.0,
+        }
         msg = t["sensor_msgs/msg/LaserScan"](
             header=self._header(t_ns, frame),
-            angle_min=-1.2,
-            angle_max=-1.2 + 0.06 * (N_BEAMS - 1),
-            angle_increment=0.06,
             time_increment=0.0,
             scan_time=0.1,
-            range_min=0.1,
-            range_max=8.0,
             ranges=ranges,
             intensities=np.zeros(0, dtype=np.float32),
+            **{**geometry, **fields},
         )
         self.write(topic, "sensor_msgs/msg/LaserScan", t_ns, msg)
 
@@ -978,9 +983,11 @@ def _write_robot_bag(
     early_scan: bool = False,
     second_scan_topic: bool = False,
     glitch: int | None = None,
+    bad_scans: dict | None = None,
 ) -> None:
     """A recording of SCAN_TIMES scans with 10 Hz odometry (tf and/or /odom); with
-    ``glitch``, that odometry sample's position is NaN (a localisation glitch)."""
+    ``glitch``, that odometry sample's position is NaN (a localisation glitch); with
+    ``bad_scans`` ({scan index: (ranges, LaserScan fields)}), those scans' messages."""
     w = _BagWriter(path, ros)
     if with_tf:
         w.tf(
@@ -1025,7 +1032,8 @@ def _write_robot_bag(
             mx, my, myaw = MAP_ODOM
             w.tf("/tf", t_ns, [w.transform("map", "odom", t_ns, mx, my, 0.0, _quat(0, 0, myaw))])
         elif kind == "scan":
-            w.scan("/scan", t_ns, "laser", _scan_ranges(k))
+            ranges, fields = (bad_scans or {}).get(k, (_scan_ranges(k), {}))
+            w.scan("/scan", t_ns, "laser", ranges, **fields)
             if second_scan_topic:
                 w.scan("/scan2", t_ns, "laser", _scan_ranges(k))
     w.close()
@@ -1101,6 +1109,39 @@ def test_bag_poses_that_are_not_finite_are_skipped(tmp_path, source):
     assert len(scans) == len(good) == len(SCAN_TIMES)
     for a, b in zip(scans, good, strict=True):
         np.testing.assert_allclose(a.pose, b.pose, atol=1e-9)  # linear: exact either way
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+def test_bag_scans_whose_fields_make_no_scan_are_skipped(tmp_path, ros):
+    """One LaserScan message with an impossible geometry (a driver's glitch, or its
+    all-zero message at start-up) refused the whole recording, part way through, and
+    a replay could not get past it; it is skipped with a warning naming the first."""
+    pytest.importorskip("rosbags")
+    zeros = dict(angle_min=0.0, angle_max=0.0, angle_increment=0.0, range_min=0.0, range_max=0.0)
+    bad = {
+        0: (np.zeros(0, np.float32), zeros),
+        4: (_scan_ranges(4), {"angle_increment": 0.0}),
+        6: (_scan_ranges(6), {"range_max": math.nan}),
+        7: (_scan_ranges(7), {"range_max": 0.05}),  # below range_min
+    }
+    suffix = ".bag" if ros == 1 else ""
+    _write_robot_bag(tmp_path / f"good{suffix}", ros)
+    _write_robot_bag(tmp_path / f"glitch{suffix}", ros, bad_scans=bad)
+    with pytest.warns(UserWarning) as caught:
+        scans = list(read_bag(tmp_path / f"glitch{suffix}"))
+    (message,) = [str(w.message) for w in caught]
+    stamp = (T0_NS + round(SCAN_TIMES[0] * 1e9)) / 1e9
+    assert re.search(
+        rf"skipped 4 sensor_msgs/msg/LaserScan message\(s\) on /scan whose fields make no "
+        rf"scan \(a sensor glitch\), the first at t={stamp:.9f} s: angle_increment: "
+        "expected a non-zero angle",
+        message,
+    ), message
+    good = [s for k, s in enumerate(read_bag(tmp_path / f"good{suffix}")) if k not in bad]
+    assert len(scans) == len(good) == len(SCAN_TIMES) - len(bad)
+    for a, b in zip(scans, good, strict=True):
+        assert (a.pose, a.timestamp) == (b.pose, b.timestamp)
+        np.testing.assert_array_equal(a.ranges, b.ranges)
 
 
 def test_bag_pose_topic_takes_base_frame_as_the_posed_frame(tmp_path):

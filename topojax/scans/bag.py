@@ -198,7 +198,10 @@ def read_bag(
         What to do with scans whose time is outside the pose data: skip them (a warning
         gives the count once the iterator is exhausted) or raise ValueError.  Pose and
         transform messages that are not finite or whose quaternion is zero (a
-        localisation glitch) are left out of the pose data, with a warning.
+        localisation glitch) are left out of the pose data, with a warning.  So are
+        LaserScan messages whose fields make no :class:`Scan` (an ``angle_increment``
+        of 0 or NaN, a ``range_max`` not above ``range_min``, say: a sensor glitch):
+        skipped, a warning gives the count and the first once the iterator is exhausted.
 
     Returns
     -------
@@ -333,6 +336,7 @@ def _iter_bag(
         tol_ns,
     )
     skipped = 0
+    n_unusable, first_unusable = 0, ""
     for _topic, _typ, t_ns, msg in source.messages([scan_topic]):
         stamp = _stamp_ns(msg.header.stamp) or t_ns
         frame = _frame(msg.header.frame_id)
@@ -345,11 +349,23 @@ def _iter_bag(
                 )
             skipped += 1
             continue
-        yield _bag_scan(path, msg, stamp, robot, offset, offset_override)
+        try:
+            scan = _bag_scan(path, msg, stamp, robot, offset, offset_override)
+        except _UnusableScan as err:
+            first_unusable = first_unusable or str(err)
+            n_unusable += 1
+            continue
+        yield scan
     if skipped:
         warnings.warn(
             f"{path}: skipped {skipped} scan(s) on {scan_topic} with no pose within "
             f"pose_tolerance_s of the pose data",
+            stacklevel=2,
+        )
+    if n_unusable:
+        warnings.warn(
+            f"{path}: skipped {n_unusable} {_LASERSCAN} message(s) on {scan_topic} whose "
+            f"fields make no scan (a sensor glitch), the first {first_unusable}",
             stacklevel=2,
         )
 
@@ -534,6 +550,11 @@ class _ScanPoses:
         return out
 
 
+class _UnusableScan(ValueError):
+    """A LaserScan message whose fields make no :class:`Scan` (a sensor glitch): the
+    scan is skipped, not the recording refused."""
+
+
 def _bag_scan(
     path: Path,
     msg: Any,
@@ -565,4 +586,4 @@ def _bag_scan(
             stamp / 1e9,
         )
     except (TypeError, ValueError) as err:
-        raise ValueError(f"{path}: scan at t={stamp / 1e9:.9f} s: {err}") from None
+        raise _UnusableScan(f"at t={stamp / 1e9:.9f} s: {err}") from None
