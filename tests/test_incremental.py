@@ -2660,6 +2660,13 @@ def test_world_to_pixel_refuses_what_has_no_pixel():
             m.world_to_pixel([0.0, 1.0], [0.0, bad])
     with pytest.raises(TypeError, match="^x: expected a number or an array of real numbers"):
         m.world_to_pixel("1", 0.0)
+    # a finite coordinate whose pixel index does not fit an int64 became int64's minimum
+    assert m.world_to_pixel(-2e17, 9e17) == (-9e18, -2e18)
+    for x, y, name in ((1e300, 0.0, "x"), (0.0, [1.0, -1e21], "y"), (-1e19, 0.0, "x")):
+        with pytest.raises(
+            ValueError, match=rf"^{name}: expected coordinates within 9.2\d+e\+17 m"
+        ):
+            m.world_to_pixel(x, y)
 
 
 def test_an_update_stopped_part_way_is_neither_saved_nor_built_on(tmp_path, monkeypatch):

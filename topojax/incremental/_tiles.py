@@ -345,3 +345,18 @@ def window_box(mapper, bbox) -> tuple[int, int, int, int]:
             f"received {tuple(values)}: {box[2] - box[0]} x {box[3] - box[1]} px"
         )
     return box
+
+
+def pixel_indices(name: str, value: np.ndarray, sign: float, res: float) -> np.ndarray:
+    """The lattice pixel indices ``floor(sign * value / res)`` of the finite coordinates
+    ``value`` (``name``: ``"x"`` or ``"y"``), int64, after checking each fits: a
+    ValueError naming ``name`` otherwise (a cast would give int64's minimum)."""
+    index = np.floor(sign * value / res)
+    fits = np.abs(index) < 2.0**63
+    if not fits.all():
+        raise ValueError(
+            f"{name}: expected coordinates within {2.0**63 * res:g} m of 0 (a pixel index "
+            f"that fits an int64 at {res:g} m per pixel), received "
+            f"{float(value[~fits].flat[0])!r} among them"
+        )
+    return index.astype(np.int64)

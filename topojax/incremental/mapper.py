@@ -55,7 +55,7 @@ from ._settings import (
 )
 from ._skeleton import skeleton_exact, skeleton_paper
 from ._splat import SPLAT_POINTS, SPLAT_ROWS, _splat_blocks, flush_splat
-from ._tiles import check_export_budget, new_tile_storage, window_box
+from ._tiles import check_export_budget, new_tile_storage, pixel_indices, window_box
 from .reports import GraphUpdate, ScanReport
 from .state import load_state, save_state
 
@@ -287,10 +287,16 @@ class IncrementalMapper:
         rows, cols : np.ndarray of int64
             Global pixel indices (the square ``col r <= x < (col + 1) r``,
             ``-(row + 1) r < y <= -row r`` for resolution ``r``), with the broadcast shape.
+
+        Raises
+        ------
+        TypeError, ValueError
+            If ``x`` or ``y`` is not real numbers, or one is not finite or so far from 0
+            that its pixel index does not fit an int64.
         """
         res = self.resolution_m
-        rows = np.floor(-real_array("y", y, finite=True) / res).astype(np.int64)
-        cols = np.floor(real_array("x", x, finite=True) / res).astype(np.int64)
+        rows = pixel_indices("y", real_array("y", y, finite=True), -1.0, res)
+        cols = pixel_indices("x", real_array("x", x, finite=True), 1.0, res)
         return rows, cols
 
     # ------------------------------------------------------------------ scans
