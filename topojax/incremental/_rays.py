@@ -439,17 +439,18 @@ def point_pixels(mapper, points_xy, origin_xy):
             "points_xy: expected an (N, 2) array of (x, y) in metres, received a bool "
             f"array of shape {np.shape(points_xy)} (for a finished map use add_map)"
         )
+    expected = "points_xy: expected an (N, 2) array of (x, y) in metres"
     try:
-        pts = np.asarray(points_xy, dtype=np.float64)
+        pts = np.asarray(points_xy)
     except (TypeError, ValueError):
         raise ValueError(
-            "points_xy: expected an (N, 2) array of (x, y) in metres, received "
-            f"{type(points_xy).__name__}"
+            f"{expected}, received {type(points_xy).__name__} (rows of different lengths?)"
         ) from None
+    if pts.dtype.kind not in "iuf":  # NumPy would take None as NaN, complex as its real part
+        raise ValueError(f"{expected}, received {type(points_xy).__name__} of dtype {pts.dtype}")
+    pts = pts.astype(np.float64, copy=False)
     if pts.ndim != 2 or pts.shape[1] != 2:
-        raise ValueError(
-            f"points_xy: expected an (N, 2) array of (x, y) in metres, received shape {pts.shape}"
-        )
+        raise ValueError(f"{expected}, received shape {pts.shape}")
     keep = np.isfinite(pts).all(axis=1)
     sensor = None
     if origin_xy is not None:
