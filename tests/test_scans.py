@@ -97,6 +97,9 @@ def test_scan_fields_validated_and_read_only():
         ({"range_max": math.nan}, ValueError, "range_max"),
         ({"pose": (0.0, math.nan, 0.0)}, ValueError, "pose"),
         ({"pose": (0.0, 0.0, math.inf)}, ValueError, "pose"),
+        # a garbled yaw: 1e20 rad is no heading (float64 spacing there is 16384 rad)
+        ({"pose": (0.0, 0.0, 1e20)}, ValueError, r"^pose: .* yaw within 1e\+09 rad of 0"),
+        ({"sensor_offset": (0.0, 0.0, -3e38)}, ValueError, r"^sensor_offset: .* yaw within"),
         ({"pose": (0.0, 0.0)}, ValueError, "pose"),
         ({"sensor_offset": (0.0, 0.0, 0.0, 0.0)}, ValueError, "sensor_offset"),
         ({"sensor_offset": (math.nan, 0.0, 0.0)}, ValueError, "sensor_offset"),

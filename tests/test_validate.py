@@ -317,6 +317,11 @@ def test_pose_refuses_an_origin_where_metres_no_longer_resolve():
         assert v.pose("pose", value, bounded=False) == tuple(float(x) for x in value)
     with pytest.raises(ValueError, match=r"^pose: expected a sequence of 3 finite numbers"):
         v.pose("pose", (0, 0, INF), bounded=False)
+    # an unwrapped yaw is a heading; one where float64 no longer resolves angles is not
+    assert v.pose("pose", (0, 0, -1e6), bounded=False) == (0.0, 0.0, -1e6)
+    for bounded in (True, False):
+        with pytest.raises(ValueError, match=r"^pose: .* yaw within 1e\+09 rad of 0.*1e\+20"):
+            v.pose("pose", (0, 0, 1e20), bounded=bounded)
     with pytest.raises(TypeError, match=r"^pose: expected a sequence of 3 finite numbers"):
         v.pose("pose", (0, 0, "1"), bounded=False)
 

@@ -260,6 +260,10 @@ def kernel_tiles_per_call(name: str, value: Any, tile_px: int) -> int:
 #: longer resolves a millimetre.
 MAX_ORIGIN_M = 1e9
 
+#: The largest yaw (radians) of a pose: beyond it a float64 angle no longer resolves a
+#: microradian, and at 1e16 not even a turn (a garbled field, not a heading).
+MAX_YAW_RAD = 1e9
+
 
 def _real_items(value: Any) -> list[float] | None:
     """The items of ``value`` as floats if it is an iterable of real numbers (see
@@ -300,10 +304,16 @@ def _finite_items(value: Any, n: int, expected: str) -> list[float]:
 def pose(name: str, value: Any, *, bounded: bool = True) -> tuple[float, float, float]:
     """``value`` as ``(x_m, y_m, yaw_rad)`` floats after checking it is a sequence of 3
     finite numbers (a map origin), ``x`` and ``y`` at most :data:`MAX_ORIGIN_M` from 0
-    unless not ``bounded`` (a robot or sensor pose); a ``TypeError`` unless it is an
-    iterable of numbers (bools are not), a ``ValueError`` otherwise."""
+    unless not ``bounded`` (a robot or sensor pose), ``yaw`` at most
+    :data:`MAX_YAW_RAD`; a ``TypeError`` unless it is an iterable of numbers (bools are
+    not), a ``ValueError`` otherwise."""
     expected = f"{name}: expected a sequence of 3 finite numbers (x_m, y_m, yaw_rad)"
     x, y, yaw = _finite_items(value, 3, expected)
+    if abs(yaw) > MAX_YAW_RAD:
+        raise ValueError(
+            f"{expected} with yaw within {MAX_YAW_RAD:g} rad of 0 (where a float64 angle "
+            f"still resolves a microradian), received {value!r}"
+        )
     if bounded and max(abs(x), abs(y)) > MAX_ORIGIN_M:
         raise ValueError(
             f"{expected} with x and y within {MAX_ORIGIN_M:g} m of 0 (where a world "

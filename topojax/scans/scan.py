@@ -98,9 +98,11 @@ class Scan:
         Readings ``r`` with ``range_min <= r < range_max`` are hits, everything else is
         "no return". ``range_min >= 0``; ``range_max > range_min`` (``inf`` allowed).
     pose : tuple of 3 floats
-        ``(x_m, y_m, yaw_rad)`` of the ROBOT in the map frame. Must be finite.
+        ``(x_m, y_m, yaw_rad)`` of the ROBOT in the map frame. Must be finite, ``|yaw|``
+        at most 1e9 rad (beyond, a float64 angle resolves no heading).
     sensor_offset : tuple of 3 floats, optional
-        ``(x_m, y_m, yaw_rad)`` of the sensor in the robot frame; default ``(0, 0, 0)``.
+        ``(x_m, y_m, yaw_rad)`` of the sensor in the robot frame; default ``(0, 0, 0)``;
+        the same bounds.
     timestamp : float or None, optional
         Acquisition time in seconds (as stored in the source), or None.
 
