@@ -2423,6 +2423,43 @@ def test_far_readings_and_poses_are_extent_errors_naming_the_scan():
     assert mapper.n_scans == 1 and tight.n_scans == 0
 
 
+def test_a_sensor_beyond_the_pixel_range_is_an_extent_error():
+    """A sensor pose whose pixel overflows (pose plus offset, or x / resolution, beyond
+    float64) raised OverflowError from math.floor; the sensor's pixel is checked like the
+    readings' (also without valid readings: the rays would start there); nothing
+    changes and the next scan maps as if the refused ones never came."""
+    ref = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
+    first, second = synthetic_scans(3, 2, bad=False)
+    ref.add_scan(first)
+    mapper.add_scan(first)
+    before = _state_of(mapper)
+    beyond = r"put the sensor at \({}, 0\) m, beyond 1073741824 px.*nothing was added"
+    cases = [
+        (np.ones(5), (1.7e308, 0.0, 0.0), (1.7e308, 0.0, 0.0), beyond.format("inf")),
+        (np.ones(5), (1e308, 0.0, 0.0), (0.0, 0.0, 0.0), beyond.format(r"1e\+308")),
+        (np.full(5, np.nan), (1e308, 0.0, 0.0), (0.0, 0.0, 0.0), beyond.format(r"1e\+308")),
+        (np.full(5, np.nan), (1e12, 0.0, 0.0), (0.0, 0.0, 0.0), beyond.format(r"1e\+12")),
+    ]
+    for ranges, pose, offset, message in cases:
+        scan = Scan.from_arrays(
+            ranges, pose, angle_min=0.0, angle_increment=0.3, sensor_offset=offset
+        )
+        with pytest.raises(ExtentError, match=r"^scan 1: the pose .*" + message):
+            mapper.add_scan(scan)
+    for origin in ((1.7e308, 0.0), (1e12, 0.0)):
+        with pytest.raises(ExtentError, match=r"^origin_xy: the points \(scan 1\) put the sensor"):
+            mapper.add_points(np.array([[1.0, 0.0]]), origin_xy=origin)
+    _assert_same_state(before, mapper)
+    assert mapper.n_scans == 1
+    ref.add_scan(second)
+    mapper.add_scan(second)
+    ref.update_graph()
+    mapper.update_graph()
+    _assert_same_state(_state_of(ref), mapper)
+    assert sorted(ref.graph.edges(keys=True)) == sorted(mapper.graph.edges(keys=True))
+
+
 def test_rooms_over_the_export_budget_do_not_fail_the_scan_that_made_them_due():
     """Rooms in use, a relocalisation 300 m off grows the map past max_export_bytes: the
     scans are mapped and reported (with the graph loop), the rooms stay as they were with

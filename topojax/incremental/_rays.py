@@ -336,6 +336,21 @@ def check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
         raise ExtentError(f"{where()}: {exc}; nothing was added") from None
 
 
+def sensor_pixel(mapper, x: float, y: float, where) -> tuple[int, int]:
+    """The global pixel ``(row, col)`` of a sensor at world ``(x, y)`` (metres), whose
+    rays start there; :class:`ExtentError`, its message starting with ``where()``, if it
+    lies beyond 2^30 pixels from the origin (where ``x / resolution`` may overflow)."""
+    res = mapper.resolution_m
+    row, col = -y / res, x / res
+    if not (abs(row) <= _MAX_ABS_PIXEL and abs(col) <= _MAX_ABS_PIXEL):
+        raise ExtentError(
+            f"{where()} put the sensor at ({x:g}, {y:g}) m, beyond {_MAX_ABS_PIXEL} px from "
+            f"the origin at resolution {res} m; nothing was added (expected coordinates in "
+            "metres; a localisation glitch?)"
+        )
+    return math.floor(row), math.floor(col)
+
+
 def check_tile_budget(mapper, new_tiles: int, where) -> None:
     """Raise :class:`ExtentError` if ``new_tiles`` more tiles would make the mapper's
     tiles hold more than ``mapper.max_tile_bytes``; the message starts with ``where()``."""
@@ -455,6 +470,10 @@ def point_pixels(mapper, points_xy, origin_xy):
     sensor = None
     if origin_xy is not None:
         origin = finite_pair("origin_xy", origin_xy, "(x, y) in metres")
+        x, y = (float(v) for v in origin)
+        sensor = sensor_pixel(
+            mapper, x, y, lambda: f"origin_xy: the points (scan {mapper._n_scans})"
+        )
         if mapper.max_range_m is not None:
             # A scan's reading at exactly max_range_m is dropped; its end point, made
             # from the range and rounded, lies a rounding step either side of it.
@@ -464,8 +483,6 @@ def point_pixels(mapper, points_xy, origin_xy):
             scale = np.abs(pts).sum(axis=1) + np.abs(origin).sum() + mapper.max_range_m
             with np.errstate(invalid="ignore"):
                 keep &= np.hypot(*(pts - origin).T) < mapper.max_range_m - slack * scale
-        res = mapper.resolution_m
-        sensor = (math.floor(-origin[1] / res), math.floor(origin[0] / res))
     used = pts[keep]
     if used.shape[0] and np.abs(used).max() / mapper.resolution_m > _MAX_ABS_PIXEL:
         raise ExtentError(

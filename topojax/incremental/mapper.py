@@ -32,6 +32,7 @@ from ._rays import (
     check_whole,
     join_rays,
     point_pixels,
+    sensor_pixel,
 )
 from ._ridges import (
     RIDGE_BLOCKS,
@@ -321,9 +322,9 @@ class IncrementalMapper:
         TypeError
             If ``scan`` is not a :class:`~topojax.scans.Scan`.
         ValueError
-            If the scan's pixels are absurdly far (beyond 2^30 pixels) or the map would
-            exceed ``max_grid_cells``, ``max_extent_m`` or ``max_tile_bytes``
-            (:class:`ExtentError`).  Nothing is changed in that case.
+            If the scan's pixels or its sensor's are absurdly far (beyond 2^30 pixels) or
+            the map would exceed ``max_grid_cells``, ``max_extent_m`` or
+            ``max_tile_bytes`` (:class:`ExtentError`).  Nothing is changed in that case.
         RuntimeError
             If an exception or interrupt (Ctrl-C) stopped an update of the mapper part
             way: its state holds part of that update (so do every other change and
@@ -332,6 +333,7 @@ class IncrementalMapper:
         instance_of("scan", scan, Scan, "topojax.Scan (see Scan.from_arrays)")
         t0 = time.perf_counter()
         sx, sy, syaw = scan.sensor_pose_world()
+        sensor = sensor_pixel(self, sx, sy, lambda: self._scan_name(scan))
         rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)
         rmin, rmax = reading_limits(scan.ranges.dtype, scan.range_min, rmax)
         res = self.resolution_m
@@ -346,7 +348,6 @@ class IncrementalMapper:
             syaw,
             res,
         )
-        sensor = (math.floor(-sy / res), math.floor(sx / res))
         return self._add_end_pixels(
             er,
             ec,
@@ -398,7 +399,7 @@ class IncrementalMapper:
         ------
         ValueError
             If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers,
-            or the points lie absurdly far (beyond 2^30 pixels) or would make the map
+            or the points or origin lie absurdly far (beyond 2^30 pixels) or would make the map
             exceed ``max_grid_cells``, ``max_extent_m`` or ``max_tile_bytes``
             (:class:`ExtentError`).  Nothing is changed in that case.
         """
