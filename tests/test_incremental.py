@@ -1491,13 +1491,15 @@ def test_vertex_error_metrics_checks_the_region():
 # --------------------------------------------------------------------------------------
 
 
-def test_float32_readings_at_a_decimal_range_max_add_no_obstacles():
-    """A float32 scan whose no-returns are stored at range_max (5.6 m, no exact float32)
-    adds only its real hits, as its valid_mask says."""
-    r = np.full(360, 5.6, np.float32)
+@pytest.mark.parametrize(("dtype", "limit"), [(np.float32, 5.6), (np.float16, 4.2)])
+def test_low_precision_readings_at_a_decimal_range_max_add_no_obstacles(dtype, limit):
+    """A float32 (float16) scan whose no-returns are stored at range_max (5.6 m, 4.2 m:
+    rounded down in that precision) adds only its real hits, as its valid_mask says
+    (float16 readings were taken as float64: a ring of phantom obstacles)."""
+    r = np.full(360, limit, dtype)
     r[:10] = 2.0
     scan = Scan.from_arrays(
-        r, (0.0, 0.0, 0.0), angle_min=-math.pi, angle_increment=2 * math.pi / 360, range_max=5.6
+        r, (0.0, 0.0, 0.0), angle_min=-math.pi, angle_increment=2 * math.pi / 360, range_max=limit
     )
     report = IncrementalMapper(free_space=False).add_scan(scan)
     assert report.n_valid == int(scan.valid_mask().sum()) == 10

@@ -153,6 +153,12 @@ def test_float32_reading_at_a_decimal_range_max_is_no_return():
     # float64 readings keep the exact comparison
     s64 = Scan(r.astype(np.float64), 0.0, 0.1, 0.02, 5.6, (0, 0, 0))
     np.testing.assert_array_equal(s64.valid_mask(), [True, True, False, False])
+    # float16 readings are kept as such (not float64) and compared in float16: float16(4.2)
+    # and float16(0.03) lie below 4.2 and 0.03
+    h = np.array([4.2, 4.1, 0.03, 0.0299], dtype=np.float16)
+    s16 = Scan(h, 0.0, 0.1, 0.03, 4.2, (0, 0, 0))
+    assert s16.ranges.dtype == np.float16
+    np.testing.assert_array_equal(s16.valid_mask(), [False, True, True, False])
 
 
 def test_angles_and_properties():

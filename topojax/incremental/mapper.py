@@ -338,7 +338,7 @@ class IncrementalMapper:
         rmin, rmax = reading_limits(scan.ranges.dtype, scan.range_min, rmax)
         res = self.resolution_m
         er, ec, ext = _scan_geometry(
-            scan.ranges,
+            scan.ranges.astype(np.float32) if scan.ranges.dtype == np.float16 else scan.ranges,
             scan.angle_min,
             scan.angle_increment,
             rmin,

@@ -52,26 +52,29 @@ def reading_limits(dtype, range_min: float, range_max: float) -> tuple[float, fl
     """``(range_min, range_max)`` in the precision of readings of ``dtype``.
 
     A float32 reading at a sensor's ``range_max`` of 5.6 m is ``float32(5.6)``, just
-    below 5.6: compared with the float64 limit it would count as a hit.  Rounded to the
-    nearest float32 (no float32 lies between a limit and its rounding), the limits
-    compare float32 readings as the sensor stores them.
+    below 5.6: compared with the float64 limit it would count as a hit (as would a
+    float16 reading at 4.2 m).  Rounded to the nearest float32 (float16: no such number
+    lies between a limit and its rounding), the limits compare the readings as they
+    are stored.
 
     Parameters
     ----------
     dtype : numpy.dtype
-        Dtype of the readings (float32 or float64).
+        Dtype of the readings (float16, float32 or float64).
     range_min, range_max : float
         Limits in metres; ``range_max`` may be inf.
 
     Returns
     -------
     tuple of 2 floats
-        The limits, rounded to float32 for float32 readings, else as given.
+        The limits, rounded to the readings' precision for float16 and float32
+        readings, else as given.
     """
-    if np.dtype(dtype) != np.float32:
+    dtype = np.dtype(dtype)
+    if dtype not in (np.float16, np.float32):
         return range_min, range_max
-    top = float(np.finfo(np.float32).max)
-    return tuple(float(np.float32(v)) if abs(v) <= top else v for v in (range_min, range_max))
+    top = float(np.finfo(dtype).max)
+    return tuple(float(dtype.type(v)) if abs(v) <= top else v for v in (range_min, range_max))
 
 
 # --------------------------------------------------------------------------------------------
@@ -85,8 +88,9 @@ class Scan:
 
     Parameters
     ----------
-    ranges : numpy.ndarray, shape (N,), float32 or float64
-        Measured ranges in metres, beam order. Integer input is converted to float64.
+    ranges : numpy.ndarray, shape (N,), float16, float32 or float64
+        Measured ranges in metres, beam order. Other input (integers) is converted to
+        float64.
         NaN / inf / non-positive values are allowed and are treated as "no return".
         The array is copied and made read-only.
     angle_min : float
@@ -133,7 +137,7 @@ class Scan:
             raise TypeError(f"ranges: expected a real numeric array, received dtype {arr.dtype}")
         if arr.ndim != 1:
             raise ValueError(f"ranges: expected a 1-D array (N,), received shape {arr.shape}")
-        dtype = arr.dtype if arr.dtype in (np.float32, np.float64) else np.float64
+        dtype = arr.dtype if arr.dtype in (np.float16, np.float32, np.float64) else np.float64
         arr = np.array(arr, dtype=dtype, copy=True)
         arr.flags.writeable = False
         object.__setattr__(self, "ranges", arr)
@@ -248,9 +252,9 @@ class Scan:
         numpy.ndarray, shape (N,), bool
             True where the range is finite, ``> 0``, ``>= range_min`` and ``< range_max``
             (strictly: a reading equal to ``range_max`` is a max-range "no return").
-            Float32 readings are compared with the limits rounded to float32, so a
-            reading stored at ``range_max`` is a no-return even where the limit (5.6 m,
-            say) has no exact float32.
+            Float32 (float16) readings are compared with the limits rounded to float32
+            (float16), so a reading stored at ``range_max`` is a no-return even where the
+            limit (5.6 m, say) has no exact float32.
         """
         rmin, rmax = reading_limits(self.ranges.dtype, self.range_min, self.range_max)
         r = self.ranges.astype(np.float64)
