@@ -40,3 +40,27 @@ def paper_reference(shared_data: Path):
         return cache[name]
 
     return load
+
+
+@pytest.fixture
+def read_only_folder(tmp_path, monkeypatch) -> Path:
+    """A folder that takes no new file or folder, as on a read-only file system (the
+    tests may run as root, whom permissions do not stop): ``tempfile.mkstemp`` and
+    ``tempfile.mkdtemp`` in it fail as the system would, with EROFS."""
+    import errno
+    import tempfile
+
+    folder = tmp_path / "read_only"
+    folder.mkdir()
+
+    def refusing(real):
+        def refuse(*args, dir=None, **kwargs):
+            if dir is not None and Path(dir).resolve().is_relative_to(folder.resolve()):
+                raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(dir))
+            return real(*args, dir=dir, **kwargs)
+
+        return refuse
+
+    monkeypatch.setattr(tempfile, "mkstemp", refusing(tempfile.mkstemp))
+    monkeypatch.setattr(tempfile, "mkdtemp", refusing(tempfile.mkdtemp))
+    return folder

@@ -179,8 +179,36 @@ def test_route_and_unrecorded_files(tmp_path, capsys):
     (out / "folder.geojson").mkdir()
     capsys.readouterr()
     assert main([*route, "-o", str(out / "folder.geojson")]) == 2
-    assert "is a folder: expected a file path" in capsys.readouterr().err
+    assert "-o: expected a file name, received the folder" in capsys.readouterr().err
     assert not list(out.glob(".*.tmp"))
+
+
+def test_a_route_file_that_cannot_be_written_is_refused_before_the_route(
+    tmp_path, capsys, read_only_folder
+):
+    """``route -o`` below a file or in a folder that takes no file failed only when the
+    route was written, with the system's message (``[Errno 17] File exists: 'afile'``,
+    ``Read-only file system: '.../.r.geojson.x.tmp'``) naming no option."""
+    a = _ros_map(tmp_path / "a", wall_col=20)
+    out = tmp_path / "out"
+    assert main(["graph", str(a), "-o", str(out)]) == 0
+    (tmp_path / "afile").write_text("")
+    route = ["route", str(out / "map.json"), "--start", "0.3", "0.3", "--goal", "0.3", "1.5"]
+    ro, sub = read_only_folder / "r.geojson", read_only_folder / "sub" / "r.geojson"
+    for target, message in (
+        (ro, f"{ro}: no file can be made in the folder {read_only_folder} (Read-only"),
+        (sub, f"{sub}: its folder {sub.parent} cannot be made in {read_only_folder} (Read-"),
+    ):
+        capsys.readouterr()
+        assert main([*route, "-o", str(target)]) == 2
+        captured = capsys.readouterr()
+        assert captured.err.startswith(f"topojax route: error: -o: cannot write {message}")
+        assert captured.out == ""  # refused before the route
+    assert main([*route, "-o", str(tmp_path / "afile" / "r.geojson")]) == 2
+    captured = capsys.readouterr()
+    assert "topojax route: error: -o: " in captured.err and "is a file, not a" in captured.err
+    assert captured.out == ""
+    assert list(read_only_folder.iterdir()) == []
 
 
 def test_output_record_rules(tmp_path):
@@ -332,11 +360,63 @@ def test_map_reading_options_are_named_in_errors(tmp_path, capsys, command, argv
     assert "resolution_m" not in err and "occupied_thresh" not in err
 
 
-@pytest.mark.parametrize("command", ["graph", "route-graph", "batch"])
+@pytest.mark.parametrize("command", ["graph", "route-graph", "batch", "replay"])
 def test_an_output_folder_under_a_file_is_named_as_the_option(tmp_path, capsys, command):
     a_file = tmp_path / "a_file"
     a_file.write_text("")
-    map_file = ROOT / "topojax" / "data" / "a_scan.png"
-    assert main([command, str(map_file), "-o", str(a_file / "out")]) == 2
+    source = ROOT / "topojax" / "data" / "a_scan.png"
+    if command == "replay":  # named out_dir, the parameter of topojax.replay
+        source = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    assert main([command, str(source), "-o", str(a_file / "out")]) == 2
     err = capsys.readouterr().err
     assert f"--out: expected a folder to write into, but {a_file / 'out'}" in err
+
+
+@pytest.mark.parametrize("command", ["graph", "replay"])
+def test_an_output_folder_that_takes_no_file_is_named_without_an_error_number(
+    tmp_path, capsys, read_only_folder, command
+):
+    """The error read ``error: [Errno 30] --out: cannot write ...`` (the replay's:
+    ``out_dir``, the parameter of topojax.replay): it starts with the option now."""
+    source = ROOT / "topojax" / "data" / "a_scan.png"
+    if command == "replay":
+        source = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    argv = [command, str(source), "-o", str(read_only_folder)]
+    if command == "replay":
+        argv += ["--max-scans", "2", "--no-progress"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        f"topojax {command}: error: --out: cannot write into the folder {read_only_folder} "
+        "(Read-only file system)"
+    )
+
+
+@pytest.mark.parametrize(
+    ("command", "option", "name"),
+    [
+        ("graph", "--mcap", "x.mcap"),
+        ("route-graph", "--mcap", "x.mcap"),
+        ("replay", "--mcap", "x.mcap"),
+        ("replay", "--animate", "x.gif"),
+    ],
+)
+def test_an_output_file_that_cannot_be_written_is_refused_before_the_work(
+    tmp_path, capsys, read_only_folder, command, option, name
+):
+    """An ``--mcap`` or ``--animate`` file in a folder that takes no file was found out
+    when it was written: after the whole run (the graph files written, a replay's state
+    kept), with the system's message about a temporary file, naming no option."""
+    source = ROOT / "topojax" / "data" / "a_scan.png"
+    extra = []
+    if command == "replay":
+        source = Path(__file__).parent / "data" / "intel_first40.log.gz"
+        extra = ["--max-scans", "3", "--no-progress"]
+    target = read_only_folder / name
+    out = tmp_path / "out"
+    assert main([command, str(source), "-o", str(out), option, str(target), *extra]) == 2
+    assert capsys.readouterr().err.startswith(
+        f"topojax {command}: error: {option}: cannot write {target}: no file can be made in "
+        f"the folder {read_only_folder} (Read-only file system)"
+    )
+    assert not out.exists()

@@ -656,6 +656,28 @@ def test_an_existing_folder_that_cannot_be_written_into_is_refused_up_front(tmp_
     assert output_folder(folder) == folder and not list(folder.iterdir())  # nothing left
 
 
+def test_output_file_is_refused_up_front_where_it_cannot_be_written(tmp_path, read_only_folder):
+    """An output file (``--mcap``, ``--animate``, ``route -o``) in a folder that takes no
+    file was found out only when it was written, after the work, with the system's
+    message about a temporary file; it is now tried first, naming the option."""
+    from topojax._fs import output_file
+
+    with pytest.raises(
+        OSError, match=r"--mcap: cannot write .*x\.mcap: no file can be made in the"
+    ):
+        output_file(read_only_folder / "x.mcap", name="--mcap")
+    with pytest.raises(OSError, match=r"-o: cannot write .*r\.geojson: its folder .*sub cannot"):
+        output_file(read_only_folder / "sub" / "r.geojson", name="-o")
+    with pytest.raises(IsADirectoryError, match="-o: expected a file name, received the folder"):
+        output_file(tmp_path, name="-o")
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(NotADirectoryError, match="--animate: .*afile in .* is a file, not a"):
+        output_file(tmp_path / "afile" / "a.gif", name="--animate")
+    assert output_file(tmp_path / "new" / "x.mcap") == tmp_path / "new" / "x.mcap"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "read_only"]  # nothing made
+    assert list(read_only_folder.iterdir()) == []
+
+
 def _writers():
     """Every public function that writes a file, called with the path given."""
     from skimage.draw import rectangle

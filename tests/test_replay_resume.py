@@ -376,7 +376,7 @@ def test_replay_cli_resume(stopped, tmp_path, full_run, capsys):
     assert "replayed   40 scans" in capsys.readouterr().out
     assert_same_outputs(full_run[0], stopped)
     assert main(["replay", str(INTEL_EXCERPT), "-o", str(tmp_path / "empty"), "--resume"]) != 0
-    assert "error: resume: no saved state" in capsys.readouterr().err
+    assert "error: --resume: no saved state" in capsys.readouterr().err  # the option
     assert not (tmp_path / "empty").exists()
 
 

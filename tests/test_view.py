@@ -615,6 +615,19 @@ def test_view_command_errors(tmp_path, capsys):
     assert not (tmp_path / "view.html").exists()
 
 
+def test_view_command_names_a_folder_that_takes_no_page(tmp_path, read_only_folder, capsys):
+    """A results folder that takes no file (read-only) failed with the system's message
+    about the page's temporary file, ``[Errno 30] Read-only file system: '.../.view.html.
+    x.tmp'``, naming neither OUT_DIR nor the folder."""
+    tj.save_graph(intel_result().graph, tmp_path / "a.json")
+    shutil.copy(tmp_path / "a.json", read_only_folder / "a.json")  # a plain copy: no tempfile
+    assert main(["view", str(read_only_folder)]) == 2
+    assert capsys.readouterr().err.startswith(
+        f"topojax view: error: OUT_DIR: cannot write into the folder {read_only_folder} "
+        "(Read-only file system)"
+    )
+
+
 @pytest.mark.parametrize(
     ("options", "message"),
     [

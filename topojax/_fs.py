@@ -9,13 +9,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
 
-from ._validate import path_like
+from ._validate import no_file_above, path_like
 
 __all__ = [
     "atomic_write",
     "atomic_write_bytes",
     "default_file_mode",
     "input_files",
+    "output_file",
     "output_folder",
     "refuse_overwriting_inputs",
     "yaml_image",
@@ -57,15 +58,41 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
         raise OSError(
             exc.errno, f"{name}: cannot make the folder {folder} ({exc.strerror})"
         ) from None
+    _try_writing(folder, f"{name}: cannot write into the folder {folder}")
+    return folder
+
+
+def output_file(path: str | Path, *, name: str = "path") -> Path:
+    """``path`` as a :class:`~pathlib.Path` after checking, before any work, that a file
+    can be written there: it is not a folder (an ``IsADirectoryError``), no folder above
+    it is an existing file (a ``NotADirectoryError``,
+    :func:`~topojax._validate.no_file_above`), and the nearest folder above it that
+    exists takes a new file (tried with an empty one; an ``OSError`` otherwise: no
+    permission, a read-only or full file system).  Errors name ``name``; nothing is
+    created."""
+    p = path_like(name, path)
+    if p.is_dir():
+        raise IsADirectoryError(f"{name}: expected a file name, received the folder {p}")
+    no_file_above(name, p)
+    folder = next(f for f in p.parents if f.is_dir())  # "." or "/" at the latest
+    why = (
+        f"no file can be made in the folder {folder}"
+        if folder == p.parent
+        else f"its folder {p.parent} cannot be made in {folder}"
+    )
+    _try_writing(folder, f"{name}: cannot write {p}: {why}")
+    return p
+
+
+def _try_writing(folder: Path, message: str) -> None:
+    """Make and remove an empty file in ``folder``; an ``OSError`` with ``message`` and
+    the system's reason when it cannot be made."""
     try:  # before any work whose results would then be lost
         fd, probe = tempfile.mkstemp(prefix=".topojax-probe.", dir=folder)
     except OSError as exc:
-        raise OSError(
-            exc.errno, f"{name}: cannot write into the folder {folder} ({exc.strerror})"
-        ) from None
+        raise OSError(exc.errno, f"{message} ({exc.strerror})") from None
     os.close(fd)
     os.unlink(probe)
-    return folder
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ._fs import output_file
 from ._replay_state import STATE_FILE
 from ._validate import (
     flag,
     instance_or_default,
-    no_file_above,
     path_like,
     positive_int,
     positive_metres,
@@ -41,8 +41,8 @@ def check_replay_args(
     if graph_config is not None:
         instance_or_default("graph_config", graph_config, GraphConfig)
     out = path_like("out_dir", out_dir)
-    if animate is not None:  # written last, after the whole replay
-        no_file_above("animate", path_like("animate", animate))
+    if animate is not None:
+        path_like("animate", animate)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(
             f"out_dir: expected a folder to write into, but {out} is an existing file"
@@ -60,6 +60,8 @@ def check_replay_args(
             f"animate: expected a GIF file name, received the folder {animate}; e.g. "
             f"{Path(animate) / 'graph.gif'}"
         )
+    if animate is not None:  # written last, after the whole replay: checked now
+        output_file(animate, name="animate")
     if mcap is not None:
         from .io.mcap import mcap_path
 

@@ -62,6 +62,15 @@ def _use_compilation_cache() -> None:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
+def _message(exc: Exception) -> str:
+    """The text of a command's error: an ``OSError`` made from a number and a message
+    that names the option (``--out: cannot make the folder ...``) without the number's
+    ``[Errno 30]`` before it."""
+    if isinstance(exc, OSError) and exc.filename is None and isinstance(exc.strerror, str):
+        return exc.strerror
+    return str(exc)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``topojax`` command."""
     parser = build_parser()
@@ -71,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.handler(args) or 0)
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
-        print(f"topojax {args.command}: error: {exc}", file=sys.stderr)
+        print(f"topojax {args.command}: error: {_message(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # the command's clean-up has run; no traceback
         print(f"topojax {args.command}: interrupted (Ctrl-C)", file=sys.stderr)

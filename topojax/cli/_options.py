@@ -18,16 +18,25 @@ _OPTION_OF = {
 }
 
 
-def _as_option_error(
-    exc: TypeError | ValueError, option_of: dict[str, str] = _OPTION_OF
-) -> TypeError | ValueError:
+def _as_option_error(exc: Exception, option_of: dict[str, str] = _OPTION_OF) -> Exception:
     """``exc`` with every configuration field its message names (``min_spur_m``) written
     as the option that sets it (``--min-spur-m``), ``option_of`` mapping the one to the
-    other: the commands' errors name what their user typed."""
-    if type(exc) not in (TypeError, ValueError):  # a subclass keeps its own arguments
-        return exc
+    other: the commands' errors name what their user typed.  A ``TypeError``, a
+    ``ValueError`` or a built-in ``OSError`` (``NotADirectoryError`` as well) made from a
+    message (and an error number) is rewritten; any other error is ``exc``."""
     words = re.compile(r"\b(" + "|".join(map(re.escape, option_of)) + r")\b")
-    return type(exc)(words.sub(lambda m: option_of[m.group(1)], str(exc)))
+
+    def named(text: str) -> str:
+        return words.sub(lambda m: option_of[m.group(1)], text)
+
+    if type(exc) in (TypeError, ValueError):  # a subclass keeps its own arguments
+        return type(exc)(named(str(exc)))
+    if isinstance(exc, OSError) and type(exc).__module__ == "builtins" and exc.filename is None:
+        if len(exc.args) == 1 and isinstance(exc.args[0], str):
+            return type(exc)(named(exc.args[0]))
+        if exc.errno is not None and isinstance(exc.strerror, str):
+            return type(exc)(exc.errno, named(exc.strerror))
+    return exc
 
 
 def _option_named(exc: ValueError, field: str, option: str) -> ValueError:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from .._constants import STRATEGIES
 from ._options import (
+    _as_option_error,
     add_graph_options,
     add_nav2_options,
     add_room_options,
@@ -86,7 +87,7 @@ def _cmd_replay(args) -> int:
         if path is not None:
             check_outputs(planned([path], args.source), command="replay", option=option)
     summary = None
-    with _stops_on_signals() as stopped:
+    with _stops_on_signals() as stopped, _named_as_options():
         summary = replay(
             args.source,
             out_dir=args.out,
@@ -119,6 +120,21 @@ def _cmd_replay(args) -> int:
         )
         return 128 + stopped[0]
     return 0
+
+
+#: The parameters of :func:`topojax.replay` that errors name, and the options that set
+#: them (``mcap`` is checked as ``--mcap`` before; ``.mcap`` ends its messages' names).
+_OPTION_OF = {"out_dir": "--out", "animate": "--animate", "resume": "--resume"}
+
+
+@contextlib.contextmanager
+def _named_as_options():
+    """Within ``with``, an error of :func:`topojax.replay` that names its parameters
+    (``out_dir``, ``animate``, ``resume``) names the options instead."""
+    try:
+        yield
+    except (TypeError, ValueError, OSError) as exc:
+        raise _as_option_error(exc, _OPTION_OF) from None
 
 
 @contextlib.contextmanager

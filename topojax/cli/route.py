@@ -97,6 +97,7 @@ def _map_options_given(args) -> list[str]:
 
 
 def _cmd_route(args) -> int:
+    from .._fs import output_file
     from .._validate import existing_file, nonnegative_metres, positive_metres, robot_radius
     from ..io import load_graph
     from ..io.files import GRAPH_FORMATS
@@ -121,6 +122,7 @@ def _cmd_route(args) -> int:
                 f"received {args.out!r}"
             )
         check_outputs(planned([args.out], args.graph), command="route", option=OUT_OPTION)
+        output_file(args.out, name="-o")  # can be written: checked before the route
     if not args.map and _map_options_given(args):
         raise ValueError(
             f"{', '.join(_map_options_given(args))}: only used with --map, which was not given"

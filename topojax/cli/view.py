@@ -278,7 +278,7 @@ def _index_page(folder: Path, pages: list[tuple[str, Path]]) -> str:
 
 
 def _cmd_view(args) -> int:
-    from .._fs import atomic_write_bytes
+    from .._fs import atomic_write_bytes, output_folder
     from .._validate import int_at_least
     from ..view.window import checked_window
 
@@ -306,6 +306,7 @@ def _cmd_view(args) -> int:
         pages = [(r.stem, folder / f"{r.stem}_view.html") for r in results]
     targets = [p for _, p in pages] + ([index] if len(results) > 1 else [])
     check_outputs(planned(targets, folder), command="view", option="OUT_DIR")
+    output_folder(folder, name="OUT_DIR")  # takes the pages: checked before any work
     for result, (_, target) in zip(results, pages, strict=True):
         print("wrote      " + _write_one(result, target, args))
     if len(results) > 1:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
+from .._fs import output_file
 from .._validate import instance_of, no_file_above
 from ._schema import _xy, xy_points
 
@@ -341,9 +342,10 @@ def tf_message(scan, stamp_ns: int = 0):
 # ---------------------------------------------------------------------- the writer
 
 
-def mcap_path(path, *, name: str = "path") -> Path:
+def mcap_path(path, *, name: str = "path", written: bool = True) -> Path:
     """``path`` as a Path, checked: a file name ending in ``.mcap`` that is not a folder
-    (errors name the parameter ``name``)."""
+    and, when it is to be ``written``, one that can be written (its folder takes a new
+    file: :func:`~topojax._fs.output_file`); errors name the parameter ``name``."""
     try:
         p = Path(os.fspath(path))
     except TypeError:
@@ -354,7 +356,7 @@ def mcap_path(path, *, name: str = "path") -> Path:
         raise ValueError(f"{name}: expected a file name ending in .mcap, received {str(p)!r}")
     if p.is_dir():
         raise IsADirectoryError(f"{name}: expected an .mcap file name, received the folder {p}")
-    return no_file_above(name, p)
+    return output_file(p, name=name) if written else no_file_above(name, p)
 
 
 class McapRecorder:
@@ -402,7 +404,9 @@ class McapRecorder:
         self._tmp: Path | None = None
         self._connections: dict[str, object] = {}
         self._earlier = (
-            None if continue_from is None else mcap_path(continue_from, name="continue_from")
+            None
+            if continue_from is None
+            else mcap_path(continue_from, name="continue_from", written=False)
         )
 
     # ------------------------------------------------------------------ lifetime
