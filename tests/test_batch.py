@@ -1354,6 +1354,22 @@ def test_dask_local_cluster_matches_local_run(tmp_path, shared_data):
         assert_graphs_equal(rec.graph, build_graph(load_map(inp)).graph, rec.map)
 
 
+def test_a_scheduler_that_cannot_be_reached_is_named_and_leaves_no_folder(tmp_path, capsys):
+    """A bad ``--scheduler`` address failed with the Dask client's own message (``missing
+    port number in address 'garbage'``), naming no option, after making ``-o``."""
+    pytest.importorskip("distributed")
+    from topojax.cli import main
+
+    out = tmp_path / "out"
+    argv = ["batch", str(PAPER_MAPS[0]), "-o", str(out), "--no-progress", "--workers", "0"]
+    assert main([*argv, "--scheduler", "garbage", "--connect-timeout", "1"]) == 2
+    assert capsys.readouterr().err.startswith(
+        "topojax batch: error: --scheduler: expected the address of a running Dask scheduler "
+        "(e.g. tcp://host:8786), received 'garbage': "
+    )
+    assert not out.exists()
+
+
 def test_all_occupied_maps_give_empty_graphs_as_in_build_graph():
     maps = [OccupancyMap.from_array(np.ones(shape, bool)) for shape in ((2, 2), (2, 9), (40, 30))]
     maps.append(load_map(PAPER_MAPS[0]))

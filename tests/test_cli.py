@@ -270,6 +270,9 @@ def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, caps
         ("batch", ["--tiles-per-call", "0"], "--tiles-per-call: expected an int >= 1"),
         ("batch", ["--tiles-per-call", "100000"], "--tiles-per-call: expected an int from 1 to"),
         ("batch", ["--kernel-threads", "0"], "--kernel-threads: expected an int >= 1"),
+        ("batch", ["--formats", "xml"], "--formats: expected names from ('graphml'"),
+        ("batch", ["--connect-timeout", "nan"], "--connect-timeout: expected a finite number"),
+        ("batch", ["--connect-timeout", "-1"], "--connect-timeout: expected a finite number"),
     ],
 )
 def test_pipeline_and_batch_options_are_named_in_errors(tmp_path, capsys, command, argv, message):

@@ -26,7 +26,6 @@ def _cmd_batch(args) -> int:
     claims = {Path(args.out) / rel: source for rel, source in planned.items()}
     check_outputs(claims, command="batch", option=OUT_OPTION)
     config = pipeline_config(args)  # --sigma-m goes to build_graphs: per map
-    output_folder(args.out, name="--out")  # named as the command names it
     client = None
     executor = None
     if args.scheduler:
@@ -36,11 +35,19 @@ def _cmd_batch(args) -> int:
             raise ValueError(
                 "--scheduler needs dask.distributed (pip install 'topojax[dask]')"
             ) from exc
-        client = Client(args.scheduler, timeout=args.connect_timeout)
+        try:
+            client = Client(args.scheduler, timeout=args.connect_timeout)
+        except (OSError, TypeError, ValueError) as exc:  # no scheduler there, a bad address
+            raise ValueError(
+                f"--scheduler: expected the address of a running Dask scheduler (e.g. "
+                f"tcp://host:8786), received {args.scheduler!r}: {exc}"
+            ) from None
         executor = client.get_executor(pure=False)
     t0 = time.perf_counter()
     previous = _exit_on_sigterm()
     try:
+        # made once the scheduler is reached: a failed connection leaves no folder
+        output_folder(args.out, name="--out")  # named as the command names it
         records = build_graphs(
             paths,
             executor=executor,
@@ -98,8 +105,14 @@ def _exit_on_sigterm():
 def _check_numbers(args) -> None:
     """The numeric options of the batch runner, checked under their own names before any
     work (the library's messages name its parameters)."""
-    from .._validate import int_at_least, kernel_tiles_per_call, positive_int
+    from .._validate import int_at_least, kernel_tiles_per_call, positive_int, quantity
+    from ..batch.inputs import check_formats
 
+    try:
+        check_formats(args.formats)
+    except ValueError as exc:
+        raise _option_named(exc, "formats", "--formats") from None
+    quantity("--connect-timeout", args.connect_timeout, unit="seconds", allow_zero=False)
     if args.workers is not None:
         int_at_least("--workers", args.workers, 0)
     if args.tiles_per_call is not None:
