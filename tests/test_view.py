@@ -645,6 +645,21 @@ def test_view_command_option_errors_name_the_option(tmp_path, capsys, options, m
     assert not (tmp_path / "view.html").exists()
 
 
+def test_view_command_names_the_window_option_when_a_result_cannot_be_cut(tmp_path, capsys):
+    """A ``--window`` that a result cannot use (a graph without its map, a box beside the
+    map) was refused as ``window: ...``, write_view's argument, not the option."""
+    tj.save_graph(intel_result().graph, tmp_path / "intel.json")
+    window = ["--window", "0", "0", "9", "9"]
+    assert main(["view", str(tmp_path), *window]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 'intel.json'}: --window: needs a map to cut (the view has none)" in err
+    tj.save_map(intel_result().map, tmp_path / "intel.yaml")
+    assert main(["view", str(tmp_path), "--window", "1000", "1000", "1001", "1001"]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 'intel.json'}: --window: (1000.0, 1000.0, 1001.0, 1001.0) covers" in err
+    assert not (tmp_path / "view.html").exists()
+
+
 def test_view_command_on_a_map_too_large(tmp_path, capsys):
     res = intel_result()
     tj.save_graph(res.graph, tmp_path / "intel.json")

@@ -249,10 +249,12 @@ def _write_one(result: _Result, target: Path, args) -> str:
     try:
         write_view(obj, target, window=args.window, max_pixels=args.max_pixels, **kwargs)
     except ValueError as exc:
-        hint = ""
-        if "max_pixels=" in str(exc):
+        text, hint = str(exc), ""
+        if text.startswith("window: "):  # write_view's argument, given as --window
+            text = "--window: " + text.removeprefix("window: ")
+        if "max_pixels=" in text:
             hint = " (here: --window X_MIN Y_MIN X_MAX Y_MAX, --max-pixels N)"
-        raise ValueError(f"{result.graph or result.rooms}: {exc}{hint}") from None
+        raise ValueError(f"{result.graph or result.rooms}: {text}{hint}") from None
     parts = [f"{target} ({target.stat().st_size / 1e6:.2f} MB)"]
     if result.graph is not None:
         parts.append(f"graph {result.graph.name}")
