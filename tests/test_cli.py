@@ -231,7 +231,7 @@ def test_output_record_rules(tmp_path):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--route-graph", "-1"], "--route-graph: expected a finite number of metres >= 0"),
+        (["--route-graph", "-1"], "--route-graph: expected a finite number of metres > 0"),
         (["--max-scans", "-5"], "--max-scans: expected an int >= 1"),
         (["--graph-every", "-1"], "--graph-every: expected an int >= 0"),
         (["--resolution", "0"], "--resolution: expected a finite number of metres > 0"),
