@@ -602,6 +602,28 @@ def test_input_not_modified_and_deterministic():
             ["pixel_to_world", "shape", "(1,)"],
         ),
         ({"pixel_to_world": lambda r, c: r}, TypeError, ["pixel_to_world", "(x, y)"]),
+        (
+            {"pixel_to_world": lambda r, c: (c * np.nan, r)},
+            ValueError,
+            ["pixel_to_world", "finite", "nan", "(0, 0)"],
+        ),
+        (
+            {"pixel_to_world": lambda r, c: (c + np.inf, r)},
+            ValueError,
+            ["pixel_to_world", "finite", "inf"],
+        ),
+        (
+            {"pixel_to_world": lambda r, c: (c + 0j, r + 0j)},
+            TypeError,
+            ["pixel_to_world", "real", "complex128"],
+        ),
+        (
+            {"pixel_to_world": lambda r, c: (["a"] * len(r), r)},
+            TypeError,
+            ["pixel_to_world", "real", "<U1"],
+        ),
+        ({"skeleton": None}, TypeError, ["skeleton", "bool-like", "NoneType"]),
+        ({"skeleton": np.ones((2, 2), complex)}, TypeError, ["skeleton", "complex128"]),
         ({"merge_junction_clusters": "yes"}, TypeError, ["merge_junction_clusters", "bool"]),
     ],
 )

@@ -35,17 +35,17 @@ PixelToWorld = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 def _as_skeleton(skeleton: object) -> np.ndarray:
     arr = np.asarray(skeleton)
+    if arr.dtype.kind not in "biuf":
+        raise TypeError(
+            f"skeleton: expected a bool-like array (bool, or integers/floats in {{0, 1}}), "
+            f"received dtype {arr.dtype} (type {type(skeleton).__name__})"
+        )
     if arr.ndim != 2:
         raise ValueError(
             f"skeleton: expected a 2-D array (H, W), received an array with shape {arr.shape}"
         )
     if arr.dtype == np.bool_:
         return arr
-    if arr.dtype.kind not in "iuf":
-        raise TypeError(
-            f"skeleton: expected a bool-like array (bool, or integers/floats in {{0, 1}}), "
-            f"received dtype {arr.dtype}"
-        )
     bad = (arr != 0) & (arr != 1)
     if bad.any():
         first = tuple(int(i) for i in np.argwhere(bad)[0])
@@ -113,15 +113,27 @@ def _world_coords(
             f"pixel_to_world: expected a callable returning (x, y) arrays, received "
             f"{type(out).__name__}"
         ) from exc
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
+    x, y = np.asarray(x), np.asarray(y)
+    if x.dtype.kind not in "iuf" or y.dtype.kind not in "iuf":
+        raise TypeError(
+            f"pixel_to_world: expected a callable returning real (x, y) arrays, received "
+            f"dtypes {x.dtype} and {y.dtype}"
+        )
     n = rows.shape[0]
     if x.shape != (n,) or y.shape != (n,):
         raise ValueError(
             f"pixel_to_world: expected x and y of shape ({n},) for {n} input pixels, "
             f"received shapes {x.shape} and {y.shape}"
         )
-    return np.stack([x, y], axis=1)
+    xy = np.stack([x, y], axis=1).astype(np.float64, copy=False)
+    bad = ~np.isfinite(xy).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"pixel_to_world: expected finite x and y, received ({float(xy[i, 0])!r}, "
+            f"{float(xy[i, 1])!r}) at (row, col) = ({rows[i]:g}, {cols[i]:g})"
+        )
+    return xy
 
 
 #: Pixels converted to world coordinates per call of the conversion (bounds its
