@@ -339,6 +339,9 @@ def test_bad_obstacle_input():
         dense_fields(np.full((4, 4), np.nan))
     with pytest.raises(ValueError, match="at least 2 x 2"):
         dense_fields(np.zeros((1, 9), bool))
+    for wrong in (None, {}, "map.png", np.ones((4, 4), complex)):
+        with pytest.raises(TypeError, match="^obstacles: expected a boolean mask, received"):
+            dense_fields(wrong)
     with pytest.raises(ValueError, match="half_width_px"):
         DistanceConfig(half_width_px=0)
     with pytest.raises(ValueError, match="sigma_px"):

@@ -303,7 +303,7 @@ def test_thin_rejects_bad_input() -> None:
     bad[1, 1] = np.nan
     with pytest.raises(ValueError, match="ridge contains NaN"):
         thin(bad)
-    with pytest.raises(TypeError, match="ridge: expected a 2-D array of bool or numbers"):
+    with pytest.raises(TypeError, match="ridge: expected a 2-D array of bool or real numbers"):
         thin(np.array([["a", "b"], ["c", "d"]]))
     with pytest.raises(TypeError, match="dtype object"):
         thin(np.array([[None, 1], [1, 1]], dtype=object))

@@ -410,8 +410,10 @@ def test_binary_image():
     assert out.tolist() == [[False, True], [True, False]]
     src = np.zeros((3, 4), bool)[:, ::2]
     assert v.binary_image("mask", src).flags.c_contiguous
-    with pytest.raises(TypeError, match="^mask: expected a 2-D array of bool or numbers"):
+    with pytest.raises(TypeError, match="^mask: expected a 2-D array of bool or real numbers"):
         v.binary_image("mask", np.array([["a"]]))
+    with pytest.raises(TypeError, match="^mask: .* received dtype complex128"):
+        v.binary_image("mask", np.ones((2, 2), complex))
     with pytest.raises(
         ValueError, match=r"^mask: expected a 2-D array \(H, W\), received shape \(3,\)"
     ):

@@ -484,16 +484,16 @@ def nx_graph(name: str, graph: Any, *, undirected: bool = True, multigraph: bool
 
 def binary_image(name: str, image: Any) -> np.ndarray:
     """``image`` as a C-contiguous bool (H, W) array (nonzero = True) after checking it is a
-    2-D array of bool or numbers without NaN."""
+    2-D array of bool or real numbers without NaN."""
     arr = np.asarray(image)
-    if arr.dtype == object or arr.dtype.kind in "SUVMm":
+    if arr.dtype.kind not in "biuf":
         raise TypeError(
-            f"{name}: expected a 2-D array of bool or numbers, received dtype {arr.dtype} "
-            f"(type {type(image).__name__})"
+            f"{name}: expected a 2-D array of bool or real numbers, received dtype "
+            f"{arr.dtype} (type {type(image).__name__})"
         )
     if arr.ndim != 2:
         raise ValueError(f"{name}: expected a 2-D array (H, W), received shape {arr.shape}")
-    if arr.dtype.kind in "fc" and np.isnan(arr).any():
+    if arr.dtype.kind == "f" and np.isnan(arr).any():
         raise ValueError(
             f"{name} contains NaN ({int(np.isnan(arr).sum())} of {arr.size} values); "
             "cannot convert it to a binary image"

@@ -242,11 +242,14 @@ FIELD_NAMES = ("sq_distance_px", "distance", "lap_abs", "ridges")
 
 def _as_obstacles(obstacles) -> np.ndarray:
     arr = np.asarray(obstacles)
+    if arr.dtype.kind not in "biuf":
+        raise TypeError(
+            f"obstacles: expected a boolean mask, received dtype {arr.dtype} "
+            f"(type {type(obstacles).__name__})"
+        )
     if arr.ndim != 2:
         raise ValueError(f"obstacles: expected a 2-D (rows, cols) mask, received shape {arr.shape}")
     if arr.dtype != bool:
-        if not np.issubdtype(arr.dtype, np.number):
-            raise TypeError(f"obstacles: expected a boolean mask, received dtype {arr.dtype}")
         nonzero = arr != 0
         other = nonzero & (arr != 1)
         if other.any():  # NaN is neither 0 nor 1: only then is it looked for
