@@ -551,6 +551,16 @@ def test_graph_summary_values():
     assert empty["n_vertices"] == 0 and empty["n_components"] == 0
     with pytest.raises(TypeError, match="graph"):
         graph_summary({"not": "a graph"})
+    u, v, k = next(iter(g.edges(keys=True)))
+    for length, exc, words in (
+        ("2", TypeError, "expected a real number of metres >= 0, received str '2'"),
+        (-2.0, ValueError, "expected a finite number of metres >= 0, received -2.0"),
+        (float("nan"), ValueError, "expected a finite number of metres >= 0, received nan"),
+    ):
+        edited = g.copy()
+        edited.edges[u, v, k]["length_m"] = length
+        with pytest.raises(exc, match=rf"^graph: edge {u}-{v}: 'length_m': {words}"):
+            graph_summary(edited)
 
 
 def test_empty_skeleton_keeps_graph_attributes():

@@ -410,6 +410,18 @@ def test_bad_graphs_raise_clear_errors():
     g.add_node(0, kind="end")
     with pytest.raises(ValueError, match="'pixel'"):
         prune_graph(g)
+    tee = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=1.0)
+    u, v, k = next(iter(tee.edges(keys=True)))
+    for attr, value, exc, words in (
+        ("length_m", "2", TypeError, "'length_m': expected a real number of metres >= 0"),
+        ("length_m", -2.0, ValueError, "'length_m': expected a finite number of metres >= 0"),
+        ("length_m", float("nan"), ValueError, "'length_m': expected a finite number"),
+        ("min_clearance_m", "0.1", TypeError, "'min_clearance_m': expected a real number"),
+    ):
+        edited = tee.copy()
+        edited.edges[u, v, k][attr] = value
+        with pytest.raises(exc, match=rf"^graph: edge {u}-{v}: {words}"):
+            prune_graph(edited, min_clearance_m=1.0, min_spur_m=1.0)
 
 
 # ------------------------------------------------------------------ in the pipeline

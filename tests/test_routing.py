@@ -449,6 +449,20 @@ def test_bad_input_gets_clear_errors():
     wrong.edges[u, v, k]["world"] = wrong.edges[u, v, k]["world"][1:]
     with pytest.raises(ValueError, match="not the pixels of its vertices"):
         RoutePlanner(wrong)
+    for length, exc, words in (
+        ("12", TypeError, "real number of metres >= 0, received str '12'"),
+        (-1.0, ValueError, "finite number of metres >= 0, received -1.0"),
+        (math.nan, ValueError, "finite number of metres >= 0, received nan"),
+    ):
+        edited = g.copy()
+        edited.edges[u, v, k]["length_m"] = length
+        with pytest.raises(exc, match=rf"^graph: edge \({u}, {v}, {k}\): 'length_m': .*{words}"):
+            RoutePlanner(edited)
+    edited = g.copy()
+    edited.edges[u, v, k]["world"] = edited.edges[u, v, k]["world"].astype(object)
+    edited.edges[u, v, k]["world"][0, 0] = None
+    with pytest.raises(TypeError, match=r"'world' polyline, received dtype object"):
+        RoutePlanner(edited)
     # the planner read the graph without changing it
     fresh = skeleton_to_graph(art(U_WITH_SHORTCUT), resolution_m=1.0)
     assert list(g.edges(keys=True)) == list(fresh.edges(keys=True))

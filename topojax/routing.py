@@ -439,13 +439,18 @@ class RoutePlanner:
         where = f"edge ({a!r}, {b!r}, {key!r})"
         try:
             path = np.asarray(data["path"])
-            world = np.asarray(data["world"], dtype=np.float64)
-            length = float(data["length_m"])
+            world = np.asarray(data["world"])
+            length = nonnegative_metres(f"graph: {where}: 'length_m'", data["length_m"])
         except KeyError as exc:
             raise ValueError(
                 f"graph: {where} has no {exc.args[0]!r} attribute; routes need the edges' "
                 "'path', 'world' and 'length_m' (as skeleton_to_graph writes them)"
             ) from None
+        if world.dtype.kind not in "iuf":
+            raise TypeError(
+                f"graph: {where}: expected a real 'world' polyline, received dtype {world.dtype}"
+            )
+        world = world.astype(np.float64, copy=False)
         if (
             path.ndim != 2
             or path.shape[1] != 2
@@ -457,8 +462,10 @@ class RoutePlanner:
                 f"graph: {where}: expected an integer 'path' of shape (n, 2) and a 'world' of "
                 f"the same shape, received {path.dtype} {path.shape} and {world.shape}"
             )
-        if not (math.isfinite(length) and length >= 0) or not np.isfinite(world).all():
-            raise ValueError(f"graph: {where}: 'length_m' and 'world' must be finite")
+        if not np.isfinite(world).all():
+            raise ValueError(
+                f"graph: {where}: expected a finite 'world' polyline, received NaN or inf"
+            )
         return path.astype(np.int64), world, length
 
     def _oriented(self, a, b, key, path):

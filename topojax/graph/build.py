@@ -14,7 +14,7 @@ from collections.abc import Callable
 import networkx as nx
 import numpy as np
 
-from .._validate import flag, metres_per_pixel, nx_graph
+from .._validate import flag, metres_per_pixel, nonnegative_metres, nx_graph
 from .geometry import _edge_pixel_index, orient, path_lengths_m
 from .store import KIND_JUNCTION, GraphStore
 from .trace import (
@@ -548,12 +548,24 @@ def graph_summary(graph: nx.MultiGraph) -> dict[str, float | int]:
         ``n_vertices``, ``n_edges`` (self-loops and parallel edges counted individually),
         ``n_junctions``, ``n_ends``, ``n_rings``, ``n_isolated``, ``n_self_loops``,
         ``n_components`` (connected components, isolated vertices included) and
-        ``total_length_m`` (sum of ``length_m`` over the edges, metres).
+        ``total_length_m`` (sum of ``length_m`` over the edges, metres; an edge without
+        one counts 0).
+
+    Raises
+    ------
+    TypeError
+        If ``graph`` is not an undirected networkx graph, or an edge's ``length_m`` is
+        not a number.
+    ValueError
+        If a node has no ``kind``, or an edge's ``length_m`` is negative or not finite.
     """
     nx_graph("graph", graph)  # undirected: its components are counted
     kinds = [k for _, k in graph.nodes(data="kind")]
     if any(k is None for k in kinds):
         raise ValueError("graph: expected every node to have a 'kind' attribute, some have none")
+    total_m = 0.0
+    for u, v, length in graph.edges(data="length_m", default=0.0):
+        total_m += nonnegative_metres(f"graph: edge {u!r}-{v!r}: 'length_m'", length)
     return {
         "n_vertices": graph.number_of_nodes(),
         "n_edges": graph.number_of_edges(),
@@ -563,5 +575,5 @@ def graph_summary(graph: nx.MultiGraph) -> dict[str, float | int]:
         "n_isolated": kinds.count("isolated"),
         "n_self_loops": nx.number_of_selfloops(graph),
         "n_components": nx.number_connected_components(graph) if kinds else 0,
-        "total_length_m": float(sum(d for _, _, d in graph.edges(data="length_m", default=0.0))),
+        "total_length_m": total_m,
     }

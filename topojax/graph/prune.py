@@ -10,7 +10,7 @@ import math
 import networkx as nx
 import numpy as np
 
-from .._validate import nonnegative_metres, nx_graph
+from .._validate import is_real_number, nonnegative_metres, nx_graph
 from .geometry import _ends_at, _path_length_m, graph_resolution_m, holds
 from .store import fill_multigraph, paused_gc
 
@@ -75,13 +75,14 @@ def prune_graph(
     Raises
     ------
     TypeError
-        If ``graph`` is not an undirected networkx MultiGraph, or a threshold is not a
-        number.
+        If ``graph`` is not an undirected networkx MultiGraph, a threshold is not a
+        number, or an edge's ``length_m`` (or, with ``min_clearance_m`` > 0, its
+        ``min_clearance_m``) is not a number.
     ValueError
         If a threshold is negative or not finite, ``min_spur_m`` or ``min_clearance_m``
         is above 0 for a graph with merged junction clusters (whether or not an edge
-        would go), or a vertex lacks ``pixel`` / an edge lacks ``path`` or
-        ``length_m``.
+        would go), a vertex lacks ``pixel`` / an edge lacks ``path`` or
+        ``length_m``, or an edge's ``length_m`` is negative or not finite.
     """
     nx_graph("graph", graph, multigraph=True)
     clearance = nonnegative_metres("min_clearance_m", min_clearance_m)
@@ -116,6 +117,7 @@ def _prune(graph: nx.MultiGraph, clearance: float, spur: float, component: float
                 raise ValueError(
                     f"graph: expected every edge to have a {name!r}, edge {u}-{v} has none"
                 )
+        nonnegative_metres(f"graph: edge {u}-{v}: 'length_m'", data["length_m"])
         edges[eid] = (u, v, dict(data))
         incident[u].add(eid)
         incident[v].add(eid)
@@ -136,7 +138,7 @@ def _prune(graph: nx.MultiGraph, clearance: float, spur: float, component: float
         return {n for n in changed if n in nodes}  # joined ends may be joined away later
 
     if clearance > 0:
-        narrow = [eid for eid, (_, _, d) in edges.items() if _below(d, clearance)]
+        narrow = [eid for eid, (u, v, d) in edges.items() if _below(d, clearance, f"edge {u}-{v}")]
         ends = set()
         for eid in narrow:
             u, v, _ = edges.pop(eid)
@@ -201,10 +203,17 @@ def _prune(graph: nx.MultiGraph, clearance: float, spur: float, component: float
     return _renumbered(graph.graph, nodes, edges, degree, thresholds)
 
 
-def _below(data: dict, clearance: float) -> bool:
+def _below(data: dict, clearance: float, edge: str) -> bool:
     """Is the edge's narrowest clearance known and below ``clearance`` (metres)?"""
     value = data.get("min_clearance_m")
-    return value is not None and float(value) < clearance  # NaN compares False
+    if value is None:
+        return False
+    if not is_real_number(value):
+        raise TypeError(
+            f"graph: {edge}: 'min_clearance_m': expected a real number of metres (NaN: "
+            f"unknown), received {type(value).__name__} {value!r}"
+        )
+    return float(value) < clearance  # NaN compares False
 
 
 def _copied(data: dict) -> dict:
