@@ -409,6 +409,35 @@ def test_assign_rooms_refuses_another_map():
     assert not any("room" in d for _, d in own.nodes(data=True)), "nothing written"
 
 
+@pytest.mark.parametrize(
+    ("where", "value", "exc", "words"),
+    [
+        ("node", np.array([[np.nan, 3.0]]), ValueError, "integers, .* received nan among them"),
+        ("node", "here", TypeError, "integers, .* received str of dtype <U4"),
+        ("node", [4, 5, 6], ValueError, r"integers, .* received shape \(3,\)"),
+        ("edge", None, TypeError, "integers, .* received NoneType of dtype object"),
+        ("edge", np.array([1, 2, 3]), ValueError, r"integers, .* received shape \(3,\)"),
+        ("edge", np.array([[4.5, 6.0]]), ValueError, "integers, .* received 4.5 among them"),
+    ],
+)
+def test_assign_rooms_refuses_edited_pixels_before_writing(where, value, exc, words):
+    """A vertex's pixels or an edge's path that are not integer (row, col) pixels are
+    refused, naming the vertex or edge, before any room is written."""
+    seg = tj.segment_rooms(_map(_two_rooms(0.9)))
+    own = tj.build_graph(_map(_two_rooms(0.9))).graph
+    u, v, k = next(iter(own.edges(keys=True)))
+    if where == "node":
+        own.nodes[u]["pixels"] = value
+        name = rf"node {u!r}: 'pixels'"
+    else:
+        own.edges[u, v, k]["path"] = value
+        name = rf"edge {u!r}-{v!r}: 'path'"
+    with pytest.raises(exc, match=rf"^graph: {name}: expected \(row, col\) pixels as {words}"):
+        tj.assign_rooms(own, seg)
+    assert not any("room" in d for _, d in own.nodes(data=True)), "nothing written"
+    assert not any("rooms" in d for *_, d in own.edges(data=True)), "nothing written"
+
+
 def test_room_at_world_points():
     seg = tj.segment_rooms(_map(_two_rooms(0.9)))
     for room in seg.rooms:

@@ -13,6 +13,24 @@ from .model import RoomSegmentation
 __all__ = ["assign_rooms"]
 
 
+def _pixel_rows(name: str, value) -> np.ndarray:
+    """``value`` as an int64 (M, 2) array of ``(row, col)`` pixels after checking it holds
+    integers (whole floats, as a JSON or GraphML file may give them, pass): one pair
+    ``(2,)`` or ``M >= 1`` of them ``(M, 2)``; a ``TypeError`` or ``ValueError`` naming
+    ``name`` otherwise."""
+    arr = np.asarray(value)
+    expected = f"{name}: expected (row, col) pixels as integers, shape (2,) or (M, 2)"
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(f"{expected}, received {type(value).__name__} of dtype {arr.dtype}")
+    if arr.ndim not in (1, 2) or arr.shape[-1] != 2 or arr.size == 0:
+        raise ValueError(f"{expected}, received shape {arr.shape}")
+    if arr.dtype.kind == "f":
+        bad = ~(np.isfinite(arr) & (arr == np.round(arr)))
+        if bad.any():
+            raise ValueError(f"{expected}, received {float(arr[bad].flat[0])!r} among them")
+    return arr.astype(np.int64).reshape(-1, 2)
+
+
 def _nearest_room(labels: np.ndarray, pixels: np.ndarray, reach: int = 2) -> int:
     """The room of the first of ``pixels`` (M, 2) that has one, else the most common room
     within ``reach`` pixels of them (vertices on a doorway line, or beside a wall); 0."""
@@ -105,15 +123,21 @@ def assign_rooms(graph: nx.Graph, seg: RoomSegmentation) -> nx.Graph:
     if why is not None:
         raise ValueError(f"graph: a graph of the segmentation's map is needed: {why}")
     labels = seg.labels
-    for n, d in graph.nodes(data=True):  # checked whole before anything is written
-        if d.get("pixels", d.get("pixel")) is None:
+    vertex_pixels = {}  # checked whole before anything is written
+    for n, d in graph.nodes(data=True):
+        name = "pixels" if "pixels" in d else "pixel"
+        if d.get(name) is None:
             raise ValueError(f"graph: node {n!r} has neither 'pixels' nor 'pixel'")
-    if not all("path" in d for *_, d in graph.edges(data=True)):
-        raise ValueError("graph: expected every edge to carry its pixel 'path'")
-    for _, d in graph.nodes(data=True):
-        d["room"] = _nearest_room(labels, d.get("pixels", d.get("pixel")))
+        vertex_pixels[n] = _pixel_rows(f"graph: node {n!r}: {name!r}", d[name])
+    paths = []
+    for u, v, d in graph.edges(data=True):
+        if "path" not in d:
+            raise ValueError("graph: expected every edge to carry its pixel 'path'")
+        paths.append(_pixel_rows(f"graph: edge {u!r}-{v!r}: 'path'", d["path"]))
+    for n, d in graph.nodes(data=True):
+        d["room"] = _nearest_room(labels, vertex_pixels[n])
     doors = _door_lookup(seg)
-    for *_, d in graph.edges(data=True):
-        d["rooms"], d["doors"] = _edge_links(labels, d["path"], doors)
+    for (*_, d), path in zip(graph.edges(data=True), paths, strict=True):
+        d["rooms"], d["doors"] = _edge_links(labels, path, doors)
     graph.graph["rooms"] = seg.n_rooms
     return graph
