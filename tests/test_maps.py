@@ -313,6 +313,27 @@ def test_coordinate_conversions_name_arguments_of_mismatched_shapes():
         assert convert([[1], [2]], [1, 2, 3])[0].shape == (2, 3)  # broadcasting still works
 
 
+@pytest.mark.parametrize(
+    ("attr", "value", "words"),
+    [
+        ("shape", 5, r"recorded shape to be 2 integers \(rows, cols\), received 5"),
+        ("shape", (4.0, 6.0), r"recorded shape to be 2 integers .* received \(4.0, 6.0\)"),
+        ("origin", ["a", "b", "c"], r"recorded origin to be 3 numbers .* \['a', 'b', 'c'\]"),
+        ("origin", 0.0, "recorded origin to be 3 numbers .* received 0.0"),
+        ("resolution_m", "0.1", "recorded resolution_m to be a number, received str '0.1'"),
+    ],
+)
+def test_a_graphs_malformed_map_attributes_are_named_not_crashed_on(attr, value, words):
+    """A graph whose recorded shape or origin was edited into a non-sequence or into
+    strings failed inside NumPy or tuple() ("'int' object is not iterable") wherever it met
+    a map; a str resolution was taken for no resolution."""
+    m = _small_map()
+    graph = tj.build_graph(m).graph
+    graph.graph[attr] = value
+    with pytest.raises(ValueError, match=rf"^occupancy: expected the graph's {words}"):
+        tj.RoutePlanner(graph, occupancy=m, robot_radius_m=0.0)
+
+
 def test_coordinate_conversions_refuse_non_numbers():
     """None became NaN coordinates without a word, and a string failed inside NumPy
     ("could not convert string to float"), naming no argument."""

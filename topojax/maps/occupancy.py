@@ -23,6 +23,7 @@ import numpy as np
 from .._validate import (
     binary_flag,
     instance_of,
+    is_real_number,
     metres_per_pixel,
     occupancy_thresholds,
     one_of,
@@ -370,7 +371,11 @@ def grid_mismatch(shape, resolution_m, origin, occupancy, *, owner: str) -> str 
     """Why ``occupancy`` is not the map of ``shape`` (H, W), ``resolution_m`` and
     ``origin`` (each None when not known), or None when it is: the same shape, the
     resolution to a relative 1e-9, the origin to 1e-9 m.  ``owner`` (e.g. "the graph's")
-    names whose map the message expects."""
+    names whose map the message expects; also why, when one of them is not what a map
+    records (a graph's attributes edited by hand)."""
+    malformed = _malformed_grid(shape, resolution_m, origin, owner)
+    if malformed is not None:
+        return malformed
     if shape is not None and tuple(shape) != tuple(occupancy.shape):
         return (
             f"expected {owner} map of shape {tuple(shape)}, received a map of shape "
@@ -388,5 +393,36 @@ def grid_mismatch(shape, resolution_m, origin, occupancy, *, owner: str) -> str 
         return (
             f"expected {owner} map with origin {tuple(origin)}, received a map with "
             f"origin {tuple(occupancy.origin)}"
+        )
+    return None
+
+
+def _numbers(value: Any, n: int, *, integral: bool = False) -> bool:
+    """Is ``value`` a sequence (not a str) of ``n`` real numbers (integers if
+    ``integral``)?"""
+    if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
+        return False
+    items = list(value)
+    if integral:
+        return len(items) == n and all(
+            isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)) for v in items
+        )
+    return len(items) == n and all(is_real_number(v) for v in items)
+
+
+def _malformed_grid(shape, resolution_m, origin, owner: str) -> str | None:
+    """Why a recorded ``shape``, ``resolution_m`` or ``origin`` (None: not recorded) cannot
+    be a map's, or None."""
+    if shape is not None and not _numbers(shape, 2, integral=True):
+        return f"expected {owner} recorded shape to be 2 integers (rows, cols), received {shape!r}"
+    if resolution_m is not None and not is_real_number(resolution_m):
+        return (
+            f"expected {owner} recorded resolution_m to be a number, received "
+            f"{type(resolution_m).__name__} {resolution_m!r}"
+        )
+    if origin is not None and not _numbers(origin, 3):
+        return (
+            f"expected {owner} recorded origin to be 3 numbers (x_m, y_m, yaw_rad), received "
+            f"{origin!r}"
         )
     return None
