@@ -216,6 +216,45 @@ def test_a_graph_without_paths_is_drawn_but_not_routed():
     assert "no map" in " ".join(payload_of(view_html(g))["notes"])
 
 
+def _edited_tee(**graph_attrs):
+    g = tj.skeleton_to_graph(np.array([[1, 1, 1], [0, 1, 0], [0, 1, 0]]), resolution_m=0.5)
+    g.graph.update(graph_attrs)
+    return g
+
+
+@pytest.mark.parametrize("frame", [True, False])
+@pytest.mark.parametrize(
+    ("where", "value", "words"),
+    [
+        ("vertex", "here", r"vertex 0: expected a world position \(x, y\), received 'here'"),
+        ("vertex", (1.0, 2.0, 3.0), r"vertex 0: expected a world position .* \(1.0, 2.0, 3.0\)"),
+        ("edge", "here", r"edge \(0, 1, 0\): expected a world polyline of \(x, y\) pairs"),
+        ("vertex", (np.nan, 0.0), "a vertex has a world position that is not finite"),
+    ],
+)
+def test_a_graph_with_edited_world_coordinates_is_refused_naming_them(frame, where, value, words):
+    """A vertex's or edge's ``world`` edited into a str or a triple failed inside NumPy
+    ("could not convert string to float", "cannot reshape"), and without the graph's map
+    attributes a NaN one failed converting NaN to an integer."""
+    g = _edited_tee() if frame else nx.MultiGraph(_edited_tee())
+    if not frame:
+        g.graph.clear()
+    if where == "vertex":
+        g.nodes[0]["world"] = value
+    else:
+        g.edges[0, 1, 0]["world"] = value
+    with pytest.raises(ValueError, match=rf"^graph: {words}"):
+        view_html(g)
+
+
+def test_a_graph_with_a_non_finite_origin_is_drawn_by_its_world_coordinates():
+    """A recorded origin with NaN or infinity put NaN into the page's JSON (refused there
+    as out of range); it is no frame, as a missing origin is not."""
+    for origin in ((np.nan, 0.0, 0.0), (0.0, 0.0, np.inf)):
+        (payload,) = payload_of(view_html(_edited_tee(origin=origin)))["graphs"]
+        assert payload["routable"]
+
+
 def test_a_map_given_beside_a_graph_of_another_map_is_noted(res):
     """``map=`` may draw another map under a graph, but the page says when the graph was
     not built on it (shape, resolution or origin differ), instead of nothing."""

@@ -16,7 +16,7 @@ from ..maps.occupancy import grid_mismatch, map_mismatch
 from ..maps.tiled import TiledMap
 from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
 from ._encode import packed, pyramid
-from ._graphs import Frame, graph_frame, graph_payload
+from ._graphs import Frame, graph_frame, graph_payload, world_points
 from ._rooms_data import is_room_pair, rooms_payload, rounded
 
 __all__ = ["DEFAULT_MAX_PIXELS", "FORMAT_VERSION", "Inputs", "build_payload", "inputs_of"]
@@ -301,21 +301,17 @@ def _route_payload(route) -> dict:
 def _graph_bounds_frame(graphs) -> Frame:
     """A frame around the graphs' vertices when there is no map (for the page's
     coordinates only: nothing is drawn on it)."""
-    xy = [
-        np.asarray(d, np.float64).reshape(-1, 2)
-        for _, _, g in graphs
-        for *_, d in g.edges(data="world")
-        if d is not None
-    ]
-    xy += [
-        np.asarray(d, np.float64).reshape(-1, 2)
-        for _, _, g in graphs
-        for _, d in g.nodes(data="world")
-        if d is not None
-    ]
-    if not xy:
+    xy = []
+    for _, _, g in graphs:
+        for d in [d for *_, d in g.edges(data="world")] + [d for _, d in g.nodes(data="world")]:
+            try:
+                xy.append(world_points(d, "world", one=False))
+            except ValueError:  # the graph's own checks name it
+                continue
+    pts = np.concatenate(xy) if xy else np.zeros((0, 2))
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if not len(pts):
         return Frame(100, 100, 0.05, (0.0, 0.0, 0.0))
-    pts = np.concatenate(xy)
     known = [r for _, _, g in graphs if (r := graph_resolution_m(g)) is not None]
     res = known[0] if known else 0.05
     lo, hi = pts.min(axis=0) - 10 * res, pts.max(axis=0) + 10 * res

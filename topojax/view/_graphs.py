@@ -12,6 +12,7 @@ the world polylines themselves go, as float64.
 from __future__ import annotations
 
 import math
+import reprlib
 from dataclasses import dataclass
 
 import networkx as nx
@@ -23,7 +24,7 @@ from ..io import as_multigraph, jsonable
 from ..maps.occupancy import grid_to_world
 from ._encode import packed, pyramid
 
-__all__ = ["Frame", "KIND_NAMES", "graph_payload", "graph_frame"]
+__all__ = ["Frame", "KIND_NAMES", "graph_payload", "graph_frame", "world_points"]
 
 #: Vertex kinds in the order of their codes on the page (anything else is "other").
 KIND_NAMES = ("junction", "end", "ring", "isolated", "other")
@@ -71,7 +72,19 @@ def graph_frame(graph: nx.Graph) -> Frame | None:
         return None
     if h <= 0 or w <= 0 or not (math.isfinite(res) and res > 0) or len(origin) != 3:
         return None
+    if not all(math.isfinite(v) for v in origin):
+        return None
     return Frame(h, w, res, origin)
+
+
+def world_points(value, name: str, *, one: bool) -> np.ndarray:
+    """``value``, a vertex's ``world`` (x, y) when ``one``, else an edge's polyline, as
+    float64 (K, 2); a ValueError naming ``name`` when it is not numbers in pairs."""
+    try:
+        return np.asarray(value, np.float64).reshape(1 if one else -1, 2)
+    except (TypeError, ValueError):
+        what = "a world position (x, y)" if one else "a world polyline of (x, y) pairs"
+        raise ValueError(f"{name}: expected {what}, received {reprlib.repr(value)}") from None
 
 
 def _vertex_world(graph, frame: Frame | None, where: str) -> np.ndarray:
@@ -85,7 +98,7 @@ def _vertex_world(graph, frame: Frame | None, where: str) -> np.ndarray:
                 f"{where}: vertex {n!r} has neither a 'world' position (x, y) nor a "
                 "'pixel' (row, col) on the map"
             )
-        xy[i] = np.asarray(world, np.float64).reshape(2)
+        xy[i] = world_points(world, f"{where}: vertex {n!r}", one=True)[0]
     if not np.isfinite(xy).all():
         raise ValueError(f"{where}: a vertex has a world position that is not finite")
     return xy
@@ -108,7 +121,7 @@ def _routable_edges(graph, where: str):
         world = data.get("world")
         if world is None:
             raise ValueError(f"{where}: {name} has no 'world' polyline to draw")
-        world = np.asarray(world, np.float64).reshape(-1, 2)
+        world = world_points(world, f"{where}: {name}", one=False)
         if len(world) == 0 or not np.isfinite(world).all():
             raise ValueError(f"{where}: {name}: its 'world' polyline is empty or not finite")
         path, length = data.get("path"), _number(data, "length_m")
