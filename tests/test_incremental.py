@@ -1462,6 +1462,11 @@ def test_vertex_error_metrics_on_known_graphs():
     with pytest.raises(TypeError, match="^graph_b: expected a networkx graph, received dict"):
         vertex_error_metrics(a, {})
     assert vertex_error_metrics(a.to_directed(), b)["n_vertices"] == 4  # direction unread
+    for pixel, exc, shown in (("ab", TypeError, "str 'ab'"), ((np.nan, 1.0), ValueError, "nan")):
+        edited = b.copy()
+        edited.nodes[1]["pixel"] = pixel  # failed inside NumPy or SciPy, naming no graph
+        with pytest.raises(exc, match=rf"^graph_b: node 1: 'pixel': expected two finite .*{shown}"):
+            vertex_error_metrics(a, edited)
     with pytest.raises(TypeError, match="^outlier_px: expected a real number, received str"):
         vertex_error_metrics(a, b, outlier_px="20")
     for bad in (0, -1.0, np.nan):

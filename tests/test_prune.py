@@ -410,6 +410,9 @@ def test_bad_graphs_raise_clear_errors():
     g.add_node(0, kind="end")
     with pytest.raises(ValueError, match="'pixel'"):
         prune_graph(g)
+    g.nodes[0]["pixel"] = "here"
+    with pytest.raises(TypeError, match=r"^graph: vertex 0: 'pixel': expected \(row, col\)"):
+        prune_graph(g)
     tee = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=1.0)
     u, v, k = next(iter(tee.edges(keys=True)))
     for attr, value, exc, words in (

@@ -458,6 +458,11 @@ def test_bad_input_gets_clear_errors():
         edited.edges[u, v, k]["length_m"] = length
         with pytest.raises(exc, match=rf"^graph: edge \({u}, {v}, {k}\): 'length_m': .*{words}"):
             RoutePlanner(edited)
+    for pixel, exc in (("here", TypeError), ((1.5, 2.0), ValueError), ((1,), ValueError)):
+        edited = g.copy()
+        edited.nodes[u]["pixel"] = pixel
+        with pytest.raises(exc, match=rf"^graph: vertex {u!r}: 'pixel': expected \(row, col\)"):
+            RoutePlanner(edited)
     edited = g.copy()
     edited.edges[u, v, k]["world"] = edited.edges[u, v, k]["world"].astype(object)
     edited.edges[u, v, k]["world"][0, 0] = None

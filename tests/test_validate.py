@@ -496,12 +496,30 @@ def test_path_like(tmp_path):
             v.path_like("out_dir", bad)
 
 
+def test_pixel_rows():
+    assert v.pixel_rows("p", (3, 4), one=True).tolist() == [3, 4]
+    assert v.pixel_rows("p", (3.0, 4.0), one=True).dtype == np.int64  # whole floats
+    assert v.pixel_rows("p", (3, 4)).tolist() == [[3, 4]]
+    assert v.pixel_rows("p", [[1, 2], [3, 4]]).shape == (2, 2)
+    with pytest.raises(TypeError, match=r"^p: expected \(row, col\) pixels as integers, .* str"):
+        v.pixel_rows("p", "ab")
+    with pytest.raises(TypeError, match=r"^p: .* received list of dtype object"):
+        v.pixel_rows("p", [[1, 2], [3]])  # ragged
+    with pytest.raises(ValueError, match=r"^p: .* shape \(2,\), received shape \(2, 2\)"):
+        v.pixel_rows("p", [[1, 2], [3, 4]], one=True)
+    with pytest.raises(ValueError, match=r"^p: .* received shape \(0, 2\)"):
+        v.pixel_rows("p", np.zeros((0, 2), int))
+    for bad, shown in ((1.5, "1.5"), (math.nan, "nan"), (math.inf, "inf")):
+        with pytest.raises(ValueError, match=rf"^p: .* received {shown} among them"):
+            v.pixel_rows("p", (bad, 2.0), one=True)
+
+
 def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "existing_file", "finite_numbers", "finite_pair",
         "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
-        "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pose", "positive_int", "positive_metres",
+        "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "pose", "positive_int", "positive_metres",
         "quantity", "real_number", "robot_radius",
     }  # fmt: skip
     assert set(v.__all__) == tested

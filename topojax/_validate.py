@@ -42,6 +42,7 @@ __all__ = [
     "occupancy_thresholds",
     "one_of",
     "path_like",
+    "pixel_rows",
     "pose",
     "positive_int",
     "positive_metres",
@@ -480,6 +481,30 @@ def nx_graph(name: str, graph: Any, *, undirected: bool = True, multigraph: bool
     if not ok:
         raise TypeError(f"{name}: expected {_a(what)}, received {type(graph).__name__}")
     return graph
+
+
+def pixel_rows(name: str, value: Any, *, one: bool = False) -> np.ndarray:
+    """``value`` as int64 ``(row, col)`` pixels after checking it holds integers (whole
+    floats pass, as a JSON or GraphML file may give them): shape (2,) when ``one`` (a
+    vertex's ``pixel``), else (M, 2) from one pair or ``M >= 1`` of them (a vertex's
+    ``pixels``, an edge's ``path``); a ``TypeError`` for a non-number, a ``ValueError`` for
+    another shape or a fractional or non-finite value."""
+    try:
+        arr = np.asarray(value)
+    except ValueError:  # ragged nested lists
+        arr = np.array(None)
+    shape = "(2,)" if one else "(2,) or (M, 2)"
+    expected = f"{name}: expected (row, col) pixels as integers, shape {shape}"
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(f"{expected}, received {type(value).__name__} of dtype {arr.dtype}")
+    if arr.shape != (2,) and (one or arr.ndim != 2 or arr.shape[1] != 2 or not len(arr)):
+        raise ValueError(f"{expected}, received shape {arr.shape}")
+    if arr.dtype.kind == "f":
+        bad = ~(np.isfinite(arr) & (arr == np.round(arr)))
+        if bad.any():
+            raise ValueError(f"{expected}, received {float(arr[bad].flat[0])!r} among them")
+    out = arr.astype(np.int64)
+    return out if one else out.reshape(-1, 2)
 
 
 def binary_image(name: str, image: Any) -> np.ndarray:

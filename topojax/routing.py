@@ -482,7 +482,7 @@ class RoutePlanner:
         )
 
     def _holds(self, node, pixel) -> bool:
-        return holds(self._graph.nodes[node], pixel)
+        return holds(self._graph.nodes[node], pixel, f"graph: vertex {node!r}")
 
     def _cumulative(self) -> list[np.ndarray]:
         """Per edge, the length along its path from its start to each pixel, metres,

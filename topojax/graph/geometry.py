@@ -9,6 +9,8 @@ import numbers
 
 import numpy as np
 
+from .._validate import pixel_rows
+
 
 def _steps_length(n_straight, n_diagonal, res: float):
     """Length in metres of a path with these numbers of straight and diagonal steps."""
@@ -56,17 +58,21 @@ def _path_length_m(path: np.ndarray, res: float) -> float:
     return float(path_lengths_m(path, [0], [len(path)], res)[0])
 
 
-def holds(node: dict, pixel) -> bool:
+def holds(node: dict, pixel, name: str = "graph: a vertex") -> bool:
     """Is ``pixel`` one of the vertex's pixels (its ``pixel``, or any of a merged junction
-    cluster's ``pixels``)?  False for a vertex with neither."""
+    cluster's ``pixels``)?  False for a vertex with neither; a ``TypeError`` or
+    ``ValueError`` naming ``name`` (the vertex) for ones that are not integer pixels."""
     r, c = int(pixel[0]), int(pixel[1])
     own = node.get("pixel")
-    if own is not None and int(own[0]) == r and int(own[1]) == c:
-        return True
+    if own is not None:
+        if not (type(own) is tuple and len(own) == 2 and all(type(v) is int for v in own)):
+            own = pixel_rows(f"{name}: 'pixel'", own, one=True)  # not as graphs are built
+        if own[0] == r and own[1] == c:
+            return True
     members = node.get("pixels")
-    if members is None or len(members) == 0:
+    if members is None or (isinstance(members, (list, tuple, np.ndarray)) and not len(members)):
         return False
-    members = np.asarray(members).reshape(-1, 2)
+    members = pixel_rows(f"{name}: 'pixels'", members)
     return bool(np.any((members[:, 0] == r) & (members[:, 1] == c)))
 
 

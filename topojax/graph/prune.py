@@ -10,7 +10,7 @@ import math
 import networkx as nx
 import numpy as np
 
-from .._validate import is_real_number, nonnegative_metres, nx_graph
+from .._validate import is_real_number, nonnegative_metres, nx_graph, pixel_rows
 from .geometry import _ends_at, _path_length_m, graph_resolution_m, holds
 from .store import fill_multigraph, paused_gc
 
@@ -107,6 +107,7 @@ def _prune(graph: nx.MultiGraph, clearance: float, spur: float, component: float
     for v, data in graph.nodes(data=True):
         if "pixel" not in data:
             raise ValueError(f"graph: expected every vertex to have a 'pixel', vertex {v} has none")
+        pixel_rows(f"graph: vertex {v}: 'pixel'", data["pixel"], one=True)
         nodes[v] = dict(data)
     edges: dict[int, tuple] = {}
     incident: dict = {v: set() for v in nodes}

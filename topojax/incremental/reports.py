@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .._validate import finite_numbers, nx_graph, real_number
+from .._validate import finite_numbers, finite_pair, nx_graph, real_number
 
 
 @dataclass(frozen=True)
@@ -149,7 +149,7 @@ def vertex_error_metrics(
         for n, pix in g.nodes(data="pixel"):
             if pix is None:
                 raise ValueError(f"{name}: node {n!r} has no 'pixel' attribute (row, col)")
-            pts.append(pix)
+            pts.append(finite_pair(f"{name}: node {n!r}: 'pixel'", pix, "(row, col)"))
         arr = np.asarray(pts, np.float64).reshape(-1, 2)
         if region is not None:
             r0, r1, c0, c1 = region

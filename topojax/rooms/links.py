@@ -6,29 +6,11 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 
-from .._validate import instance_of, nx_graph
+from .._validate import instance_of, nx_graph, pixel_rows
 from ..maps.occupancy import map_mismatch
 from .model import RoomSegmentation
 
 __all__ = ["assign_rooms"]
-
-
-def _pixel_rows(name: str, value) -> np.ndarray:
-    """``value`` as an int64 (M, 2) array of ``(row, col)`` pixels after checking it holds
-    integers (whole floats, as a JSON or GraphML file may give them, pass): one pair
-    ``(2,)`` or ``M >= 1`` of them ``(M, 2)``; a ``TypeError`` or ``ValueError`` naming
-    ``name`` otherwise."""
-    arr = np.asarray(value)
-    expected = f"{name}: expected (row, col) pixels as integers, shape (2,) or (M, 2)"
-    if arr.dtype.kind not in "iuf":
-        raise TypeError(f"{expected}, received {type(value).__name__} of dtype {arr.dtype}")
-    if arr.ndim not in (1, 2) or arr.shape[-1] != 2 or arr.size == 0:
-        raise ValueError(f"{expected}, received shape {arr.shape}")
-    if arr.dtype.kind == "f":
-        bad = ~(np.isfinite(arr) & (arr == np.round(arr)))
-        if bad.any():
-            raise ValueError(f"{expected}, received {float(arr[bad].flat[0])!r} among them")
-    return arr.astype(np.int64).reshape(-1, 2)
 
 
 def _nearest_room(labels: np.ndarray, pixels: np.ndarray, reach: int = 2) -> int:
@@ -128,12 +110,12 @@ def assign_rooms(graph: nx.Graph, seg: RoomSegmentation) -> nx.Graph:
         name = "pixels" if "pixels" in d else "pixel"
         if d.get(name) is None:
             raise ValueError(f"graph: node {n!r} has neither 'pixels' nor 'pixel'")
-        vertex_pixels[n] = _pixel_rows(f"graph: node {n!r}: {name!r}", d[name])
+        vertex_pixels[n] = pixel_rows(f"graph: node {n!r}: {name!r}", d[name])
     paths = []
     for u, v, d in graph.edges(data=True):
         if "path" not in d:
             raise ValueError("graph: expected every edge to carry its pixel 'path'")
-        paths.append(_pixel_rows(f"graph: edge {u!r}-{v!r}: 'path'", d["path"]))
+        paths.append(pixel_rows(f"graph: edge {u!r}-{v!r}: 'path'", d["path"]))
     for n, d in graph.nodes(data=True):
         d["room"] = _nearest_room(labels, vertex_pixels[n])
     doors = _door_lookup(seg)

@@ -136,8 +136,9 @@ def _routable_edges(graph, where: str):
             reason = reason or f"{name} lacks an integer 'path' like its 'world', or 'length_m'"
             rows.append((a, b, None, world, length))
             continue
-        if not (holds(graph.nodes[a], path[0]) and holds(graph.nodes[b], path[-1])):
-            if holds(graph.nodes[b], path[0]) and holds(graph.nodes[a], path[-1]):
+        na, nb = f"{where}: vertex {a!r}", f"{where}: vertex {b!r}"
+        if not (holds(graph.nodes[a], path[0], na) and holds(graph.nodes[b], path[-1], nb)):
+            if holds(graph.nodes[b], path[0], nb) and holds(graph.nodes[a], path[-1], na):
                 a, b = b, a
             else:
                 reason = reason or f"the path of {name} does not run between its vertices' pixels"
