@@ -280,6 +280,11 @@ def test_bad_input(tmp_path, kwargs, exc, words):
     bare.add_edge(0, 1, world=np.zeros((2, 2)))
     with pytest.raises(ValueError, match="node 0 has no 'world'"):
         tj.save_nav2_graph(bare, tmp_path / "y.geojson")
+    for waypoints in ("here", [[0.0, 0.0], [1.0]]):
+        marked = skeleton_to_graph(art("###"), resolution_m=1.0)
+        marked.edges[0, 1, 0]["waypoints"] = waypoints
+        with pytest.raises(ValueError, match=r"^graph: edge \(0, 1, 0\) needs finite 'waypoints'"):
+            tj.save_nav2_graph(marked, tmp_path / "w.geojson")
     lonely = skeleton_to_graph(art("#.#"), resolution_m=1.0)  # two isolated pixels
     with pytest.raises(ValueError, match="2 vertices and no edges"):
         tj.save_nav2_graph(lonely, tmp_path / "z.geojson")

@@ -128,6 +128,28 @@ def test_plot_takes_an_incremental_mapper_and_rejects_other_objects():
             plot_stages(bad)
 
 
+@pytest.mark.parametrize(
+    ("edit", "exc", "words"),
+    [
+        (lambda g, e: g.edges[e].pop("path"), ValueError, r"edge 0-\d+ has no pixel 'path'"),
+        (lambda g, e: g.edges[e].__setitem__("path", "ab"), TypeError, r"edge 0-\d+: 'path'"),
+        (lambda g, e: g.nodes[0].pop("pixel"), ValueError, r"vertex 0 has no 'pixel'"),
+        (lambda g, e: g.nodes[0].__setitem__("pixel", (1.5, 2)), ValueError, "vertex 0: 'pixel'"),
+        (lambda g, e: g.add_node("new"), ValueError, r"vertex 'new' has no 'pixel'"),
+    ],
+)
+def test_a_result_whose_graph_was_edited_is_refused_before_drawing(edit, exc, words):
+    """A graph edited with networkx (an edge without its path, a vertex without its
+    pixel) failed with a bare KeyError or inside NumPy, after the map was drawn."""
+    res = tj.build_graph(sample_map("a_scan"))
+    edit(res.graph, next(iter(res.graph.edges(keys=True))))
+    before = plt.get_fignums()
+    for draw in (tj.plot, plot_stages):
+        with pytest.raises(exc, match=rf"^graph: {words}"):
+            draw(res)
+    assert plt.get_fignums() == before, "no figure opened"
+
+
 def test_full_map_plotting_does_not_load_the_incremental_module():
     """The incremental mapper and the batch runner load on first use only; plotting a
     full-map result (as batch workers do) must not pull them in."""
@@ -399,4 +421,13 @@ def test_drawing_options_name_themselves(result):
         plot_stages(result, figsize=(-1, 5))
     with pytest.raises(ValueError, match="^figsize: expected two finite numbers"):
         plot_stages(result, figsize=(5,))
+    seg = tj.segment_rooms(occ)
+    for name in ("doors", "labels"):
+        with pytest.raises(TypeError, match=f"^{name}: expected a bool, received str 'no'"):
+            tj.plot_rooms(seg, **{name: "no"})
+    corridors = tj.route_graph(result.map, robot_radius_m=0.2)
+    u, v, k = next(iter(corridors.edges(keys=True)))
+    corridors.edges[u, v, k]["waypoints"] = "corridor"  # failed inside NumPy
+    with pytest.raises(ValueError, match=rf"^graph: edge {u}-{v}: 'waypoints': expected \(x, y\)"):
+        tj.plot_route_graph(corridors, result.map)
     plt.close("all")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import reprlib
 from pathlib import Path
 
 import networkx as nx
@@ -202,7 +203,13 @@ def _waypoints(d: dict, where: str) -> np.ndarray | None:
     w = d.get("waypoints")
     if w is None:
         return None
-    w = np.asarray(w, dtype=np.float64)
+    try:
+        w = np.asarray(w, dtype=np.float64)
+    except (TypeError, ValueError):  # strings, ragged lists
+        raise ValueError(
+            f"graph: {where} needs finite 'waypoints' of shape (K >= 2, 2), received "
+            f"{type(w).__name__} {reprlib.repr(w)}"
+        ) from None
     if w.ndim != 2 or w.shape[1:] != (2,) or len(w) < 2 or not np.isfinite(w).all():
         raise ValueError(
             f"graph: {where} needs finite 'waypoints' of shape (K >= 2, 2), received shape "
@@ -235,7 +242,8 @@ def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
     which vertex is nearer."""
     path = d.get("path")
     if path is not None and len(path):
-        at_u, at_v = holds(g.nodes[u], path[0]), holds(g.nodes[v], path[0])
+        at_u = holds(g.nodes[u], path[0], f"graph: vertex {u!r}")
+        at_v = holds(g.nodes[v], path[0], f"graph: vertex {v!r}")
         if at_u != at_v:
             return at_u
     return math.dist(xy[0], node_xy[u]) <= math.dist(xy[0], node_xy[v])

@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import reprlib
 import sys
 
 import numpy as np
 
 from .._constants import EDGE_COLOUR
-from .._validate import finite_pair, flag, instance_of, nonnegative_quantity, nx_graph
+from .._validate import (
+    finite_pair,
+    flag,
+    instance_of,
+    nonnegative_quantity,
+    nx_graph,
+    pixel_rows,
+)
 from .style import (
     MARGIN_COLOUR,
     add_legend,
@@ -114,12 +122,23 @@ def _vertices_edges(graph) -> str:
     return f"{n} {'vertex' if n == 1 else 'vertices'}, {counted(graph.number_of_edges(), 'edge')}"
 
 
-def _vertices_by_kind(graph) -> dict[str, list]:
-    """Vertex kind -> list of the vertices' ``(col, row)`` pixels."""
+def _graph_pixels(graph) -> tuple[list, dict[str, list]]:
+    """Each edge's ``path`` as float ``(col, row)`` points, and vertex kind -> list of the
+    vertices' ``(col, row)`` pixels; a ValueError or TypeError naming an edge without an
+    integer pixel ``path`` or a vertex without a ``pixel``."""
+    segments = []
+    for u, v, d in graph.edges(data=True):
+        if d.get("path") is None:
+            raise ValueError(f"graph: edge {u!r}-{v!r} has no pixel 'path' to draw")
+        path = pixel_rows(f"graph: edge {u!r}-{v!r}: 'path'", d["path"])
+        segments.append(path[:, ::-1].astype(float))
     points: dict[str, list] = {}
-    for _, d in graph.nodes(data=True):
-        points.setdefault(d.get("kind"), []).append(d["pixel"][::-1])
-    return points
+    for n, d in graph.nodes(data=True):
+        if d.get("pixel") is None:
+            raise ValueError(f"graph: vertex {n!r} has no 'pixel' (row, col) to draw")
+        pixel = pixel_rows(f"graph: vertex {n!r}: 'pixel'", d["pixel"], one=True)
+        points.setdefault(d.get("kind"), []).append(tuple(pixel[::-1].tolist()))
+    return segments, points
 
 
 def _graph_style(edge_color, linewidth, node_size) -> dict:
@@ -167,9 +186,8 @@ def plot_graph(
         With the legend of edges and vertex kinds under the graph (:func:`add_legend`).
     """
     style = _graph_style(edge_color, linewidth, node_size)
+    segments, points = _graph_pixels(graph)
     ax = axes_or_new(ax)
-    segments = [np.asarray(data["path"], float)[:, ::-1] for _, _, data in graph.edges(data=True)]
-    points = _vertices_by_kind(graph)
     draw_graph_lines(ax, segments, points, **style)
     if graph.number_of_nodes():
         add_legend(ax)
@@ -223,7 +241,14 @@ def route_graph_lines(graph, occupancy) -> list[np.ndarray]:
             rows_cols = vertex_pixels(graph, [u, v], occupancy, "auto")
             lines.append(rows_cols[:, ::-1])
             continue
-        xy = np.asarray(pts, np.float64).reshape(-1, 2)
+        try:
+            xy = np.asarray(pts, np.float64).reshape(-1, 2)
+        except (TypeError, ValueError):  # strings, ragged lists, an odd count
+            key = "waypoints" if d.get("waypoints") is not None else "world"
+            raise ValueError(
+                f"graph: edge {u!r}-{v!r}: {key!r}: expected (x, y) points in metres, "
+                f"received {reprlib.repr(pts)}"
+            ) from None
         rows, cols = occupancy.world_to_pixel(xy[:, 0], xy[:, 1])
         lines.append(np.stack([cols, rows], axis=1))
     return lines
@@ -376,6 +401,7 @@ def plot_rooms(seg, *, ax=None, title: str | None = None, doors: bool = True, la
         Each room in its colour of the label picture (:func:`topojax.save_room_labels`).
     """
     seg = _room_segmentation(seg, "seg")
+    doors, labels = flag("doors", doors), flag("labels", labels)
     ax = axes_or_new(ax, figsize=(9, 9))
     plot_map(seg.occupancy, ax=ax)
     _draw_rooms(seg, ax, doors=doors, labels=labels, alpha=0.6)
@@ -427,6 +453,8 @@ def plot(
     """
     result = _as_result(result, ("map", "skeleton", "graph"))
     skeleton, graph = flag("skeleton", skeleton), flag("graph", graph)
+    if graph:
+        _graph_pixels(result.graph)  # checked before anything is drawn
     if route is not None:
         from ..routing import Route
 
@@ -485,6 +513,7 @@ def plot_stages(result, *, figsize=(15, 9), title: str | None = None):
         raise ValueError(
             f"figsize: expected (width, height) in inches > 0, received {tuple(figsize)}"
         )
+    _graph_pixels(result.graph)  # checked before anything is drawn
 
     fig, axes = plt.subplots(2, 3, figsize=tuple(figsize))
     title = title if title is not None else map_name(result.map.source)
