@@ -210,6 +210,11 @@ def test_format_argument_overrides_suffix(tmp_path: Path):
     assert_graphs_equal(g, load_graph(path, format="json"))
     with pytest.raises(ValueError, match="format"):
         save_graph(g, tmp_path / "g.json", format="yaml")
+    for wrong in (3, True, ["json"]):  # read as the text '3', 'true', "['json']"
+        with pytest.raises(TypeError, match=r"^format: expected a str, received"):
+            save_graph(g, tmp_path / "g.json", format=wrong)
+        with pytest.raises(TypeError, match=r"^format: expected a str, received"):
+            load_graph(path, format=wrong)
     with pytest.raises(ValueError, match=r"^path: expected a graph file suffix, one of .*\.json"):
         save_graph(g, tmp_path / "graph.txt")
 

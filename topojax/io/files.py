@@ -17,7 +17,7 @@ from typing import Any
 import networkx as nx
 
 from .._fs import atomic_write_bytes
-from .._validate import existing_file, one_of, path_like
+from .._validate import existing_file, instance_of, one_of, path_like
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
 from .geojson import _from_geojson, _to_geojson
 from .graphml import _read_graphml, _write_graphml
@@ -30,7 +30,8 @@ GRAPH_FORMATS = {".graphml": "graphml", ".json": "json", ".geojson": "geojson"}
 def _format_for(path: Path, format: str | None) -> str:
     supported = sorted(GRAPH_FORMATS)
     if format is not None:
-        return one_of("format", str(format).lower().lstrip("."), sorted(GRAPH_FORMATS.values()))
+        format = instance_of("format", format, str)
+        return one_of("format", format.lower().lstrip("."), sorted(GRAPH_FORMATS.values()))
     suffix = path.suffix.lower()
     if suffix not in GRAPH_FORMATS:
         raise ValueError(
