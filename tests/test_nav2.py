@@ -280,6 +280,11 @@ def test_bad_input(tmp_path, kwargs, exc, words):
     bare.add_edge(0, 1, world=np.zeros((2, 2)))
     with pytest.raises(ValueError, match="node 0 has no 'world'"):
         tj.save_nav2_graph(bare, tmp_path / "y.geojson")
+    for path in ("here", np.array([[np.nan, 1.0]])):  # failed in int(), naming no edge
+        marked = skeleton_to_graph(art("###"), resolution_m=1.0)
+        marked.edges[0, 1, 0]["path"] = path
+        with pytest.raises((TypeError, ValueError), match=r"^graph: edge \(0, 1\): 'path'"):
+            tj.save_nav2_graph(marked, tmp_path / "p.geojson")
     for waypoints in ("here", [[0.0, 0.0], [1.0]]):
         marked = skeleton_to_graph(art("###"), resolution_m=1.0)
         marked.edges[0, 1, 0]["waypoints"] = waypoints

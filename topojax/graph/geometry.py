@@ -66,7 +66,7 @@ def holds(node: dict, pixel, name: str = "graph: a vertex") -> bool:
     own = node.get("pixel")
     if own is not None:
         if not (type(own) is tuple and len(own) == 2 and all(type(v) is int for v in own)):
-            own = pixel_rows(f"{name}: 'pixel'", own, one=True)  # not as graphs are built
+            own = pixel_rows(f"{name}: 'pixel'", own, one=True)  # not the builders' int pair
         if own[0] == r and own[1] == c:
             return True
     members = node.get("pixels")

@@ -11,7 +11,7 @@ import networkx as nx
 import numpy as np
 
 from .._fs import atomic_write_bytes
-from .._validate import instance_of, path_like, positive_metres
+from .._validate import instance_of, path_like, pixel_rows, positive_metres
 from ..graph import holds, polyline_keep
 from ._schema import _xy, as_multigraph, jsonable, xy_points
 
@@ -241,7 +241,8 @@ def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
     among the vertices' pixels (a merged cluster's path may start at any of them), else by
     which vertex is nearer."""
     path = d.get("path")
-    if path is not None and len(path):
+    if path is not None and (not isinstance(path, (list, tuple, np.ndarray)) or len(path)):
+        path = pixel_rows(f"graph: edge ({u!r}, {v!r}): 'path'", path)
         at_u = holds(g.nodes[u], path[0], f"graph: vertex {u!r}")
         at_v = holds(g.nodes[v], path[0], f"graph: vertex {v!r}")
         if at_u != at_v:
