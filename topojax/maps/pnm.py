@@ -14,7 +14,20 @@ import numpy as np
 
 from .._validate import existing_file
 
-__all__ = ["pnm_header_tokens", "read_image", "resolution_from_pgm_comments"]
+__all__ = [
+    "MAX_IMAGE_PIXELS",
+    "pnm_header_tokens",
+    "read_image",
+    "resolution_from_pgm_comments",
+]
+
+#: The most pixels (width x height, as the file's header gives them) :func:`read_image`
+#: decodes into memory: 2**28, an image of 16384 x 16384.  Decoding takes 1 to 8 bytes a
+#: pixel (8-bit grey to 16-bit RGBA) and :func:`topojax.load_map` 4 more for the map's
+#: classes.  Checked before decoding, so a small file whose header claims a huge image
+#: (a decompression bomb) is refused at once.  A binary 8-bit PGM that ``load_map``
+#: memory-maps is not decoded, and not limited.
+MAX_IMAGE_PIXELS = 1 << 28
 
 _SILENCE_LOCK = threading.Lock()
 _SILENCE = {"depth": 0, "level": None}
@@ -304,6 +317,104 @@ def _decode_with_pil(data: bytes) -> np.ndarray | None:
         return None
 
 
+def _png_size(data: bytes) -> tuple[int, int] | None:
+    if data[:8] != b"\x89PNG\r\n\x1a\n" or data[12:16] != b"IHDR" or len(data) < 24:
+        return None
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
+def _jpeg_size(data: bytes) -> tuple[int, int] | None:
+    """Width and height of a JPEG's first frame header (SOF0..SOF15 but DHT, JPG, DAC)."""
+    pos, n = 2, len(data)
+    while pos + 4 <= n and data[pos] == 0xFF:
+        marker = data[pos + 1]
+        if marker == 0xFF:  # fill byte
+            pos += 1
+            continue
+        if marker == 0x01 or 0xD0 <= marker <= 0xD8:  # no length
+            pos += 2
+            continue
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            if pos + 9 > n:
+                return None
+            height = int.from_bytes(data[pos + 5 : pos + 7], "big")
+            return int.from_bytes(data[pos + 7 : pos + 9], "big"), height
+        if marker == 0xDA:  # the scan starts: no frame header before it
+            return None
+        pos += 2 + int.from_bytes(data[pos + 2 : pos + 4], "big")
+    return None
+
+
+def _bmp_size(data: bytes) -> tuple[int, int] | None:
+    if data[:2] != b"BM" or len(data) < 26:
+        return None
+    if int.from_bytes(data[14:18], "little") == 12:  # OS/2 core header: 16-bit sizes
+        return int.from_bytes(data[18:20], "little"), int.from_bytes(data[20:22], "little")
+    width = int.from_bytes(data[18:22], "little", signed=True)
+    return abs(width), abs(int.from_bytes(data[22:26], "little", signed=True))
+
+
+def _tiff_size(data: bytes) -> tuple[int, int] | None:
+    """Width and height of a (classic, not Big) TIFF's first image."""
+    order = {b"II*\x00": "little", b"MM\x00*": "big"}.get(data[:4])
+    if order is None:
+        return None
+    at = int.from_bytes(data[4:8], order)
+    if at + 2 > len(data):
+        return None
+    found = {}
+    for i in range(int.from_bytes(data[at : at + 2], order)):
+        entry = data[at + 2 + 12 * i : at + 14 + 12 * i]
+        if len(entry) < 12:
+            return None
+        tag, kind = int.from_bytes(entry[:2], order), int.from_bytes(entry[2:4], order)
+        if tag in (256, 257) and kind in (3, 4):  # ImageWidth, ImageLength: SHORT or LONG
+            value = entry[8:10] if kind == 3 else entry[8:12]
+            found[tag] = int.from_bytes(value, order)
+    return (found[256], found[257]) if len(found) == 2 else None
+
+
+def _pnm_size(data: bytes) -> tuple[int, int] | None:
+    if len(data) < 2 or data[:1] != b"P" or data[1:2] not in b"2356":
+        return None
+    tokens = pnm_header_tokens(data[: 1 << 16])[0]
+    if len(tokens) < 2 or not all(t.isdigit() and len(t) <= 20 for t in tokens[:2]):
+        return None  # the readers report a header that is not two numbers
+    width, height = int(tokens[0]), int(tokens[1])
+    if data[1:2] in b"23" and len(data) < 2 * width * height:
+        return None  # plain text too short for its samples: refused as such, unread
+    return width, height
+
+
+def _declared_size(data: bytes) -> tuple[int, int] | None:
+    """``(width, height)`` that the header of image file bytes ``data`` gives (PNG, JPEG,
+    BMP, TIFF, PGM / PPM), read without decoding; None where it gives none that is read
+    here (another format, a header cut short)."""
+    for read in (_png_size, _pnm_size, _jpeg_size, _bmp_size, _tiff_size):
+        size = read(data)
+        if size is not None:
+            return size
+    return None
+
+
+def _check_declared_size(data: bytes, path: Path) -> None:
+    """A ValueError where the header of ``data`` (read from ``path``) gives an image of
+    more than :data:`MAX_IMAGE_PIXELS` pixels, said before any of them is decoded."""
+    size = _declared_size(data)
+    if size is None or size[0] * size[1] <= MAX_IMAGE_PIXELS:
+        return
+    width, height = size
+    raise ValueError(
+        f"map image {path}: its header gives {width} x {height} pixels "
+        f"({width * height / 1e6:,.0f} Mpx), expected at most MAX_IMAGE_PIXELS = "
+        f"{MAX_IMAGE_PIXELS:,} ({MAX_IMAGE_PIXELS / 1e6:,.0f} Mpx), the most load_map "
+        "decodes into memory (1 to 8 bytes a pixel, and 4 more for the map's classes); "
+        "save a map this large as a binary 8-bit PGM, which load_map memory-maps instead "
+        "of decoding and build_graph_tiled reads a window at a time, or raise "
+        "topojax.maps.pnm.MAX_IMAGE_PIXELS"
+    )
+
+
 def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     """Read an image file.
 
@@ -314,6 +425,12 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
         Intensity of white (255, 65535 or a PGM maxval).
     comments : list of str
         The PGM/PPM header's comment lines (see :func:`resolution_from_pgm_comments`).
+
+    Raises
+    ------
+    ValueError
+        An image whose header gives more than :data:`MAX_IMAGE_PIXELS` pixels (before
+        decoding), or one that cannot be decoded.
     """
     import cv2
 
@@ -321,6 +438,7 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     data = path.read_bytes()
     if not data:
         raise ValueError(f"map image {path} is empty (0 bytes)")
+    _check_declared_size(data, path)
     maxval, comments = _parse_pnm_header(data)
     pixels: np.ndarray | None = None
     if data[:2] in (b"P2", b"P3"):
