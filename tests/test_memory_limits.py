@@ -1,10 +1,15 @@
 """Inputs whose size the library cannot hold are refused before the memory is taken, with
 a message that names the limit: images whose header claims more pixels than are decoded
-into memory (decompression bombs)."""
+into memory (decompression bombs), and saved arrays whose header claims more data than
+their file holds."""
 
 from __future__ import annotations
 
+import io
+import json
 import struct
+import tracemalloc
+import zipfile
 import zlib
 
 import cv2
@@ -93,3 +98,70 @@ def test_the_limit_reaches_the_command_line(tmp_path, monkeypatch, capsys):
     assert main(["graph", str(path), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "topojax graph: error: map image" in err and "70000 x 50000 pixels" in err
+
+
+# ------------------------------------------------- arrays whose header claims more data
+
+
+def _claiming(header_rows: int, data: bytes, dtype: str = "<i8") -> bytes:
+    """.npy bytes whose header gives ``(header_rows, 2)`` of ``dtype``, followed by
+    ``data`` (far fewer bytes)."""
+    buf = io.BytesIO()
+    header = {"descr": dtype, "fortran_order": False, "shape": (header_rows, 2)}
+    np.lib.format.write_array_header_1_0(buf, header)
+    return buf.getvalue() + data
+
+
+#: Rows a doctored header claims: 64 MB of int64 pairs, against a few kB in the file.
+CLAIMED_ROWS = 1 << 22
+
+
+def _peak_bytes(call) -> tuple[int, Exception | None]:
+    tracemalloc.start()
+    try:
+        call()
+        error = None
+    except ValueError as exc:
+        error = exc
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    return peak, error
+
+
+@pytest.mark.parametrize("mmap", [True, False])
+def test_a_graph_store_array_claiming_more_than_its_file_is_refused_unallocated(tmp_path, mmap):
+    from topojax.graph import GraphStore
+
+    store = GraphStore.from_networkx(tj.build_graph(tj.sample_map("a_scan")).graph)
+    folder = tj.save_graph_store(store, tmp_path / "store")
+    path = folder / "path_pixels.npy"
+    held = np.load(path)
+    path.write_bytes(_claiming(CLAIMED_ROWS, held.tobytes(), held.dtype.str))
+    doc = json.loads((folder / "graph_store.json").read_text())
+    doc["arrays"]["path_pixels"]["shape"] = [CLAIMED_ROWS, 2]
+    (folder / "graph_store.json").write_text(json.dumps(doc))
+    peak, error = _peak_bytes(lambda: tj.load_graph_store(folder, mmap=mmap))
+    assert error is not None
+    assert str(error).startswith(f"{path}: expected the {CLAIMED_ROWS * 16:,} bytes")
+    assert f"received {held.nbytes:,} bytes after the header" in str(error)
+    assert peak < CLAIMED_ROWS  # a sixteenth of the claim: it was never allocated
+
+
+def test_a_mapper_state_member_claiming_more_than_it_holds_is_refused_unallocated(tmp_path):
+    mapper = tj.IncrementalMapper()
+    mapper.add_map(tj.sample_map("a_scan"))
+    good = mapper.save(tmp_path / "state.npz")
+    doctored = tmp_path / "doctored.npz"
+    with zipfile.ZipFile(good) as src, zipfile.ZipFile(doctored, "w") as dst:
+        for info in src.infolist():
+            data = src.read(info.filename)
+            if info.filename == "v_pixel.npy":
+                data = _claiming(CLAIMED_ROWS, b"\0" * 64)
+            dst.writestr(info.filename, data)
+    peak, error = _peak_bytes(lambda: tj.IncrementalMapper.load(doctored))
+    assert error is not None
+    assert "member v_pixel.npy: expected the 67,108,864 bytes" in str(error)
+    assert str(error).startswith(f"{doctored}: not a readable mapper state")
+    assert peak < CLAIMED_ROWS
+    assert tj.IncrementalMapper.load(good).n_scans == mapper.n_scans

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._npy import check_npz_sizes
 from .._validate import existing_file
 from ..config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..graph import KIND_NAMES
@@ -105,6 +106,7 @@ def read_state(path) -> tuple[Path, dict[str, np.ndarray]]:
         )
     try:
         with np.load(p, allow_pickle=False) as z:
+            check_npz_sizes(z)  # before z[k] allocates what a header claims
             data = {k: z[k] for k in z.files}
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
         raise ValueError(f"{p}: not a readable mapper state (.npz): {exc}") from None

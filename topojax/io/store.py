@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from .._fs import atomic_write, atomic_write_bytes, output_folder
+from .._npy import check_npy_size
 from .._validate import instance_of, path_like
 from ..graph.store import GraphStore
 from ._schema import _collect_schema, _decode_attrs, jsonable
@@ -162,6 +163,8 @@ def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
         path = folder / file
         if not path.is_file():
             raise FileNotFoundError(f"{desc}: the array file {path} is missing")
+        with open(path, "rb") as fh:  # before np.load allocates what the header claims
+            check_npy_size(fh, path.stat().st_size, str(path))
         try:
             arr = np.load(path, mmap_mode="r" if mmap else None, allow_pickle=False)
         except ValueError as exc:

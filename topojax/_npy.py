@@ -1,0 +1,48 @@
+""".npy arrays read only once their file holds what their header gives: a header is a
+claim, and ``numpy.load`` allocates the array it claims before reading a byte of it."""
+
+from __future__ import annotations
+
+import math
+from typing import BinaryIO
+
+import numpy as np
+
+__all__ = ["check_npy_size", "check_npz_sizes"]
+
+_HEADER_READERS = {
+    (1, 0): np.lib.format.read_array_header_1_0,
+    (2, 0): np.lib.format.read_array_header_2_0,
+}
+
+
+def check_npy_size(fh: BinaryIO, size: int, where: str) -> None:
+    """A ValueError naming ``where`` unless the ``.npy`` data of ``size`` bytes (its
+    header included) read from ``fh`` (at its start) holds the whole array its header
+    gives.  A header numpy cannot read (or of a version read here) is left to
+    ``numpy.load``, which reports it."""
+    try:
+        version = np.lib.format.read_magic(fh)
+        read_header = _HEADER_READERS.get(version)
+        if read_header is None:
+            return
+        shape, _, dtype = read_header(fh)
+    except ValueError:
+        return
+    need = math.prod(shape) * dtype.itemsize
+    have = size - fh.tell()
+    if need > have:
+        raise ValueError(
+            f"{where}: expected the {need:,} bytes of the {dtype.str} {tuple(shape)} array "
+            f"its header gives, received {max(have, 0):,} bytes after the header (the file "
+            "was cut short or its header altered)"
+        )
+
+
+def check_npz_sizes(npz) -> None:
+    """:func:`check_npy_size` for every member of ``npz`` (an open ``numpy.load`` of an
+    ``.npz`` archive), against its uncompressed size in the archive's directory; the
+    error names the member."""
+    for info in npz.zip.infolist():
+        with npz.zip.open(info) as fh:
+            check_npy_size(fh, info.file_size, f"member {info.filename}")
