@@ -165,3 +165,44 @@ def test_a_mapper_state_member_claiming_more_than_it_holds_is_refused_unallocate
     assert str(error).startswith(f"{doctored}: not a readable mapper state")
     assert peak < CLAIMED_ROWS
     assert tj.IncrementalMapper.load(good).n_scans == mapper.n_scans
+
+
+# ------------------------------------------------------- the command line out of memory
+
+
+@pytest.mark.parametrize(
+    "error",
+    [
+        MemoryError("Unable to allocate 381. MiB for an array with shape (20000, 20000)"),
+        cv2.error("(-4:Insufficient memory) Failed to allocate 1593287056 bytes"),
+    ],
+)
+def test_a_command_out_of_memory_says_so_without_a_traceback(tmp_path, monkeypatch, capsys, error):
+    import topojax.pipeline
+    from topojax.cli import main
+
+    def build_graph(*args, **kwargs):
+        raise error
+
+    monkeypatch.setattr(topojax.pipeline, "build_graph", build_graph)
+    path = tmp_path / "map.png"
+    assert cv2.imwrite(str(path), np.full((20, 20), 254, np.uint8))
+    assert main(["graph", str(path), "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("topojax graph: error: out of memory (")
+    assert str(error).splitlines()[-1] in err and "build_graph_tiled" in err
+    assert "Traceback" not in err
+
+
+def test_other_opencv_errors_are_not_taken_for_memory(tmp_path, monkeypatch):
+    import topojax.pipeline
+    from topojax.cli import main
+
+    def build_graph(*args, **kwargs):
+        raise cv2.error("(-215:Assertion failed) !_src.empty()")
+
+    monkeypatch.setattr(topojax.pipeline, "build_graph", build_graph)
+    path = tmp_path / "map.png"
+    assert cv2.imwrite(str(path), np.full((20, 20), 254, np.uint8))
+    with pytest.raises(cv2.error, match="Assertion failed"):
+        main(["graph", str(path), "-o", str(tmp_path / "out")])

@@ -71,6 +71,27 @@ def _message(exc: Exception) -> str:
     return str(exc)
 
 
+def _out_of_memory(exc: Exception) -> bool:
+    """Whether ``exc`` says the process could not get memory: a MemoryError (numpy's
+    "Unable to allocate ..."), or OpenCV's "Insufficient memory" error (OpenCV is looked
+    up, not imported: building the parser imports no reader)."""
+    if isinstance(exc, MemoryError):
+        return True
+    cv2 = sys.modules.get("cv2")
+    error = getattr(cv2, "error", None)
+    return isinstance(error, type) and isinstance(exc, error) and "Insufficient memory" in str(exc)
+
+
+def _out_of_memory_message(exc: Exception) -> str:
+    detail = str(exc).strip().splitlines()[-1:] or [type(exc).__name__]
+    return (
+        f"out of memory ({detail[0]}): the work grows with the map's pixels "
+        "(bytes per pixel: docs/performance.md); free memory, crop or coarsen the map, or "
+        "build the graph of a map larger than memory with topojax.build_graph_tiled "
+        "(docs/large-maps.md)"
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``topojax`` command."""
     parser = build_parser()
@@ -82,6 +103,11 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
         print(f"topojax {args.command}: error: {_message(exc)}", file=sys.stderr)
         return 2
+    except Exception as exc:
+        if not _out_of_memory(exc):
+            raise
+        print(f"topojax {args.command}: error: {_out_of_memory_message(exc)}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:  # the command's clean-up has run; no traceback
         print(f"topojax {args.command}: interrupted (Ctrl-C)", file=sys.stderr)
         return 130
