@@ -206,3 +206,20 @@ def test_other_opencv_errors_are_not_taken_for_memory(tmp_path, monkeypatch):
     assert cv2.imwrite(str(path), np.full((20, 20), 254, np.uint8))
     with pytest.raises(cv2.error, match="Assertion failed"):
         main(["graph", str(path), "-o", str(tmp_path / "out")])
+
+
+# ----------------------------------------------------- rooms of absurdly fine maps
+
+
+def test_rooms_of_a_map_far_finer_than_the_doorway_cells_take_the_maps_memory(tmp_path):
+    # at 3.3e-5 m per pixel a doorway cell of 0.1 m is 3030 pixels a side, 50 times the
+    # map: the cells' padding and pixels were held at that size (arrays of 9 million
+    # cell pixels; 74 GiB at 1e-6 m per pixel)
+    grey = np.full((60, 60), 254, np.uint8)
+    grey[[0, -1], :] = grey[:, [0, -1]] = grey[30, :40] = 0
+    occupancy = tj.OccupancyMap.from_array(grey, resolution_m=3.3e-5, origin=(0.0123, 0.04, 0))
+    tj.segment_rooms(tj.OccupancyMap.from_array(grey))  # compiles the kernels
+    peak, _ = _peak_bytes(lambda: tj.segment_rooms(occupancy))
+    assert peak < 4_000_000  # the map's 3,600 pixels, a few arrays of them
+    seg = tj.segment_rooms(occupancy)
+    assert seg.labels.shape == (60, 60) and seg.doors == ()

@@ -172,7 +172,11 @@ def _segment(occ, cfg: RoomConfig, map_box) -> RoomSegmentation:
     # a robot still exploring) gets the cells, and so the rooms, of the whole map.  The
     # margin (not free) is there even where the map's edge cuts it off, and grows on the
     # top and left to put the cells' corners on the lattice.
-    f = grid_factor(res)
+    # No cell wider than the free space's box is wholly free, so none finds a doorway:
+    # on maps so fine that a cell is (0.1 m at 1e-6 m per pixel: 100,000 pixels a side),
+    # a cell just wider than the box finds the same (none) without the padding and the
+    # cell pixels of the larger one, which grow with its square.
+    f = min(grid_factor(res), min(box[0].stop - box[0].start, box[1].stop - box[1].start) + 1)
     anchor = _lattice_anchor(occ, f)
     if f > 1:
         pad = (
