@@ -86,9 +86,9 @@ def _out_of_memory_message(exc: Exception) -> str:
     detail = str(exc).strip().splitlines()[-1:] or [type(exc).__name__]
     return (
         f"out of memory ({detail[0]}): the work grows with the map's pixels "
-        "(bytes per pixel: docs/performance.md); free memory, crop or coarsen the map, or "
-        "build the graph of a map larger than memory with topojax.build_graph_tiled "
-        "(docs/large-maps.md)"
+        "(bytes per pixel: docs/performance.md); free memory, or crop or coarsen the map "
+        "(the topology graph of a map larger than memory: topojax.build_graph_tiled, "
+        "docs/large-maps.md)"
     )
 
 
