@@ -223,3 +223,38 @@ def test_rooms_of_a_map_far_finer_than_the_doorway_cells_take_the_maps_memory(tm
     assert peak < 4_000_000  # the map's 3,600 pixels, a few arrays of them
     seg = tj.segment_rooms(occupancy)
     assert seg.labels.shape == (60, 60) and seg.doors == ()
+
+
+def test_the_out_of_memory_message_is_written_after_the_failed_work_let_go(tmp_path, monkeypatch):
+    # the frames of the failed call hold what it allocated: a message written while
+    # they are alive can itself run out of memory (and end in a chain of MemoryErrors)
+    import sys
+    import weakref
+
+    import topojax.pipeline
+    from topojax.cli import main
+
+    class Held:
+        pass
+
+    refs = []
+
+    def build_graph(*args, **kwargs):
+        held = Held()
+        refs.append(weakref.ref(held))
+        raise MemoryError()
+
+    alive_while_writing = []
+
+    class Stderr(io.StringIO):
+        def write(self, text):
+            alive_while_writing.append(refs[0]() is not None)
+            return super().write(text)
+
+    monkeypatch.setattr(topojax.pipeline, "build_graph", build_graph)
+    monkeypatch.setattr(sys, "stderr", Stderr())
+    path = tmp_path / "map.png"
+    assert cv2.imwrite(str(path), np.full((20, 20), 254, np.uint8))
+    assert main(["graph", str(path), "-o", str(tmp_path / "out")]) == 1
+    assert "out of memory (MemoryError)" in sys.stderr.getvalue()
+    assert alive_while_writing and not any(alive_while_writing)

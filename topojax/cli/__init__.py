@@ -82,6 +82,16 @@ def _out_of_memory(exc: Exception) -> bool:
     return isinstance(error, type) and isinstance(exc, error) and "Insufficient memory" in str(exc)
 
 
+def _drop_tracebacks(exc: BaseException | None) -> None:
+    """Let go of the frames of ``exc`` and of the exceptions it was raised from or
+    during, and with them of what the failed work held."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        exc.__traceback__ = None
+        exc = exc.__cause__ or exc.__context__
+
+
 def _out_of_memory_message(exc: Exception) -> str:
     detail = str(exc).strip().splitlines()[-1:] or [type(exc).__name__]
     return (
@@ -106,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         if not _out_of_memory(exc):
             raise
+        _drop_tracebacks(exc)  # their frames hold the memory of the work that failed
         print(f"topojax {args.command}: error: {_out_of_memory_message(exc)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # the command's clean-up has run; no traceback
