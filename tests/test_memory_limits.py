@@ -1,6 +1,6 @@
 """Inputs whose size the library cannot hold are refused before the memory is taken, with
-a message that names the limit: images whose header claims more pixels than are decoded
-into memory (decompression bombs), and saved arrays whose header claims more data than
+a message that names the limit: images whose header claims more pixels than the memory
+available can decode (decompression bombs), and saved arrays whose header claims more data than
 their file holds."""
 
 from __future__ import annotations
@@ -35,14 +35,21 @@ def _png_claiming(path, width: int, height: int) -> None:
     )
 
 
-def test_a_png_claiming_a_huge_image_is_refused_as_too_large_not_as_corrupt(tmp_path):
+def _memory(monkeypatch, available: int | None) -> None:
+    """Make ``available`` bytes the memory available to decode a map image."""
+    monkeypatch.setattr(pnm, "available_memory_bytes", lambda: available)
+
+
+def test_a_png_claiming_a_huge_image_is_refused_as_too_large_not_as_corrupt(tmp_path, monkeypatch):
     path = tmp_path / "bomb.png"
     _png_claiming(path, 100_000, 100_000)
-    with pytest.raises(ValueError) as info:
+    _memory(monkeypatch, 8 << 30)
+    with pytest.raises(MemoryError) as info:
         tj.load_map(path)
     text = str(info.value)
     assert "100000 x 100000 pixels" in text
-    assert "MAX_IMAGE_PIXELS" in text and "topojax.maps.pnm.MAX_IMAGE_PIXELS" in text
+    assert "at least 46.6 GiB to decode and classify" in text
+    assert "more than the 8.0 GiB of memory available" in text
     assert "binary 8-bit PGM" in text
     assert "corrupt" not in text
 
@@ -67,7 +74,7 @@ def _write(path, image: np.ndarray) -> None:
         ("grey.tif", np.full((10, 12), 254, np.uint8)),
     ],
 )
-def test_every_decoded_format_is_held_to_the_limit_before_decoding(
+def test_every_decoded_format_is_held_to_the_memory_available_before_decoding(
     tmp_path, monkeypatch, name, image
 ):
     path = tmp_path / name
@@ -76,17 +83,19 @@ def test_every_decoded_format_is_held_to_the_limit_before_decoding(
         path.write_bytes(ok)
     else:
         _write(path, image)
-    monkeypatch.setattr(pnm, "MAX_IMAGE_PIXELS", 120)
-    assert tj.load_map(path).shape == (10, 12)  # at the limit
-    monkeypatch.setattr(pnm, "MAX_IMAGE_PIXELS", 119)
-    with pytest.raises(ValueError, match=r"12 x 10 pixels .*MAX_IMAGE_PIXELS = 119"):
+    _memory(monkeypatch, 120 * pnm.DECODE_BYTES_PER_PIXEL)
+    assert tj.load_map(path).shape == (10, 12)  # just fits
+    _memory(monkeypatch, 120 * pnm.DECODE_BYTES_PER_PIXEL - 1)
+    with pytest.raises(MemoryError, match=r"12 x 10 pixels, which take at least"):
         tj.load_map(path)
+    _memory(monkeypatch, None)  # unknown (not Linux): decoded as it comes
+    assert tj.load_map(path).shape == (10, 12)
 
 
 def test_a_memory_mapped_pgm_is_not_decoded_and_not_limited(tmp_path, monkeypatch):
     path = tmp_path / "map.pgm"
     assert cv2.imwrite(str(path), np.full((10, 12), 254, np.uint8))
-    monkeypatch.setattr(pnm, "MAX_IMAGE_PIXELS", 1)
+    _memory(monkeypatch, 1)
     assert tj.load_map(path).shape == (10, 12)
 
 
@@ -95,9 +104,13 @@ def test_the_limit_reaches_the_command_line(tmp_path, monkeypatch, capsys):
 
     path = tmp_path / "bomb.png"
     _png_claiming(path, 70_000, 50_000)
-    assert main(["graph", str(path), "-o", str(tmp_path / "out")]) == 2
+    _memory(monkeypatch, 8 << 30)
+    assert main(["graph", str(path), "-o", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
-    assert "topojax graph: error: map image" in err and "70000 x 50000 pixels" in err
+    assert "topojax graph: error: map image" in err
+    assert "GiB of memory available; save a map this large as a binary 8-bit PGM" in err
+    assert "crop or coarsen" not in err  # the advice for memory that ran out during work
+    assert "70000 x 50000 pixels" in err and "Traceback" not in err
 
 
 # ------------------------------------------------- arrays whose header claims more data

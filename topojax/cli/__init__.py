@@ -93,6 +93,10 @@ def _drop_tracebacks(exc: BaseException | None) -> None:
 
 
 def _out_of_memory_message(exc: Exception) -> str:
+    from ..maps.pnm import ImageTooLargeError
+
+    if isinstance(exc, ImageTooLargeError):  # refused before the work: it says what to do
+        return str(exc)
     detail = str(exc).strip().splitlines()[-1:] or [type(exc).__name__]
     return (
         f"out of memory ({detail[0]}): the work grows with the map's pixels "

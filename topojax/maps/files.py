@@ -146,10 +146,11 @@ def load_map(
         If the file (or the YAML's image) does not exist.
     ValueError
         For undecodable images, malformed YAML, missing or invalid fields, or invalid
-        parameters; the message names the file and the field.  An image decoded into
-        memory (any but a binary 8-bit PGM, which is memory-mapped) whose header gives
-        more than :data:`topojax.maps.pnm.MAX_IMAGE_PIXELS` pixels is refused before it
-        is decoded.
+        parameters; the message names the file and the field.
+    MemoryError
+        For an image decoded into memory (any but a binary 8-bit PGM, which is
+        memory-mapped) whose header gives more pixels than the memory available can
+        decode and classify (5 bytes a pixel at least): refused before it is decoded.
 
     Notes
     -----

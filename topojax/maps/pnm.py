@@ -12,22 +12,22 @@ from pathlib import Path
 
 import numpy as np
 
+from .._cpus import available_memory_bytes
 from .._validate import existing_file
 
 __all__ = [
-    "MAX_IMAGE_PIXELS",
+    "DECODE_BYTES_PER_PIXEL",
+    "ImageTooLargeError",
     "pnm_header_tokens",
     "read_image",
     "resolution_from_pgm_comments",
 ]
 
-#: The most pixels (width x height, as the file's header gives them) :func:`read_image`
-#: decodes into memory: 2**28, an image of 16384 x 16384.  Decoding takes 1 to 8 bytes a
-#: pixel (8-bit grey to 16-bit RGBA) and :func:`topojax.load_map` 4 more for the map's
-#: classes.  Checked before decoding, so a small file whose header claims a huge image
-#: (a decompression bomb) is refused at once.  A binary 8-bit PGM that ``load_map``
-#: memory-maps is not decoded, and not limited.
-MAX_IMAGE_PIXELS = 1 << 28
+#: The fewest bytes a pixel of a decoded image takes in :func:`topojax.load_map`: 1 for
+#: the decoded intensity (8-bit grey; up to 8 for 16-bit RGBA) and 4 for the map's
+#: classes.  An image whose header gives more pixels than the memory available holds at
+#: this rate is refused before it is decoded (a decompression bomb costs nothing).
+DECODE_BYTES_PER_PIXEL = 5
 
 _SILENCE_LOCK = threading.Lock()
 _SILENCE = {"depth": 0, "level": None}
@@ -397,21 +397,31 @@ def _declared_size(data: bytes) -> tuple[int, int] | None:
     return None
 
 
+class ImageTooLargeError(MemoryError):
+    """A map image whose header gives more pixels than the memory available can decode;
+    the message says how much it needs, how much there is and what to do instead."""
+
+
 def _check_declared_size(data: bytes, path: Path) -> None:
-    """A ValueError where the header of ``data`` (read from ``path``) gives an image of
-    more than :data:`MAX_IMAGE_PIXELS` pixels, said before any of them is decoded."""
+    """A MemoryError where the header of ``data`` (read from ``path``) gives an image
+    that decoding and classifying cannot fit in the memory available
+    (:data:`DECODE_BYTES_PER_PIXEL`, :func:`~topojax._cpus.available_memory_bytes`),
+    raised before any pixel is decoded."""
     size = _declared_size(data)
-    if size is None or size[0] * size[1] <= MAX_IMAGE_PIXELS:
+    available = available_memory_bytes()
+    if size is None or available is None:
         return
     width, height = size
-    raise ValueError(
-        f"map image {path}: its header gives {width} x {height} pixels "
-        f"({width * height / 1e6:,.0f} Mpx), expected at most MAX_IMAGE_PIXELS = "
-        f"{MAX_IMAGE_PIXELS:,} ({MAX_IMAGE_PIXELS / 1e6:,.0f} Mpx), the most load_map "
-        "decodes into memory (1 to 8 bytes a pixel, and 4 more for the map's classes); "
-        "save a map this large as a binary 8-bit PGM, which load_map memory-maps instead "
-        "of decoding and build_graph_tiled reads a window at a time, or raise "
-        "topojax.maps.pnm.MAX_IMAGE_PIXELS"
+    need = width * height * DECODE_BYTES_PER_PIXEL
+    if need <= available:
+        return
+    raise ImageTooLargeError(
+        f"map image {path}: its header gives {width} x {height} pixels, which take at "
+        f"least {need / 2**30:,.1f} GiB to decode and classify "
+        f"({DECODE_BYTES_PER_PIXEL} bytes a pixel), more than the "
+        f"{available / 2**30:,.1f} GiB of memory available; save a map this large as a "
+        "binary 8-bit PGM, which load_map memory-maps instead of decoding (and "
+        "build_graph_tiled reads a window at a time)"
     )
 
 
@@ -429,8 +439,10 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     Raises
     ------
     ValueError
-        An image whose header gives more than :data:`MAX_IMAGE_PIXELS` pixels (before
-        decoding), or one that cannot be decoded.
+        An image that cannot be decoded.
+    MemoryError
+        An image whose header gives more pixels than the memory available can decode
+        (checked before decoding).
     """
     import cv2
 
