@@ -591,3 +591,20 @@ def test_replay_cli_a_signal_lost_on_the_way_ends_with_the_files_recorded(
     assert "wrote      " in captured.out
     assert (out / "graph.json").is_file() and not (out / STATE_FILE).exists()
     assert (out / ".topojax-outputs.json").is_file()
+
+
+def test_a_replay_that_fails_before_keeping_anything_leaves_no_folder_it_made(tmp_path):
+    """A log without laser lines is refused once read; the output folder the replay made
+    for it goes again (one that was there stays), so no empty folder is left behind."""
+    empty = tmp_path / "empty.log"
+    empty.write_text("# a CARMEN log with no scans\n")
+    out = tmp_path / "runs" / "out"
+    with pytest.raises(ValueError, match="no laser lines"):
+        replay(empty, out_dir=out)
+    assert not out.exists()
+    assert main(["replay", str(empty), "-o", str(out)]) == 2
+    assert not out.exists()
+    out.mkdir(parents=True)
+    with pytest.raises(ValueError, match="no laser lines"):
+        replay(empty, out_dir=out)
+    assert out.is_dir()

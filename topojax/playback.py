@@ -154,23 +154,38 @@ def replay(
         dict(plot=plot, progress=progress, rooms=rooms, view=view, resume=resume),
         reader_kwargs,
     )
-    return _replay_checked(
-        source,
-        Path(out_dir),
-        mapper_kw,
-        plot=plot,
-        animate=animate,
-        progress=progress,
-        max_scans=max_scans,
-        reader_kwargs=reader_kwargs,
-        nav2_tolerance_m=nav2_tolerance_m,
-        graph_config=graph_config,
-        route_graph_radius_m=route_graph_radius_m,
-        rooms=rooms,
-        view=view,
-        mcap=mcap,
-        resume=resume,
-    )
+    with _no_empty_folder_left(Path(out_dir)):
+        return _replay_checked(
+            source,
+            Path(out_dir),
+            mapper_kw,
+            plot=plot,
+            animate=animate,
+            progress=progress,
+            max_scans=max_scans,
+            reader_kwargs=reader_kwargs,
+            nav2_tolerance_m=nav2_tolerance_m,
+            graph_config=graph_config,
+            route_graph_radius_m=route_graph_radius_m,
+            rooms=rooms,
+            view=view,
+            mcap=mcap,
+            resume=resume,
+        )
+
+
+@contextlib.contextmanager
+def _no_empty_folder_left(out: Path):
+    """Within ``with``, a failure (an empty log, a bad line, Ctrl-C) removes ``out`` if it
+    was made within and is still empty; one that holds what was kept stays."""
+    made = not out.exists()
+    try:
+        yield
+    except BaseException:
+        if made:
+            with contextlib.suppress(OSError):  # not empty
+                out.rmdir()
+        raise
 
 
 def _replay_checked(
