@@ -427,6 +427,39 @@ def test_a_pgm_sample_above_its_maxval_is_named_when_read(tmp_path):
             tj.load_map(path)
 
 
+def test_a_pgm_that_changes_after_it_was_opened_is_refused(tmp_path):
+    """Mapped with the header read when it was opened, a PGM rewritten since was read in
+    the old layout (a larger file: another map's pixels, silently) or not at all (a
+    shorter one: numpy's "mmap length is greater than file size"); rewritten while
+    mapped, its windows mixed two maps."""
+    import os
+
+    img = np.array(paper_map("intel").to_image())
+    path = tmp_path / "m.pgm"
+
+    def write(a) -> None:
+        path.write_bytes(f"P5\n{a.shape[1]} {a.shape[0]}\n255\n".encode() + a.tobytes())
+
+    for other in (np.pad(img, ((0, 0), (0, 40))), img[:, :300]):  # another size
+        write(img)
+        source = tj.open_tiled_map(path)
+        write(other)
+        with pytest.raises(ValueError, match=rf"^map {path}: expected the PGM opened \(763 x "):
+            tj.build_graph_tiled(source, config=SMALL, block_px=128)
+    write(img)
+    source = tj.open_tiled_map(path)
+    assert source.values(0, 2, 0, 2).shape == (2, 2)  # mapped
+    other = img.copy()
+    other[10:60, 10:200] = 0  # the same size, other pixels
+    write(other)
+    st = path.stat()
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    with pytest.raises(ValueError, match=r"unchanged, but it changed while it was read; open"):
+        source.codes(0, 128, 0, 128)
+    tiled = tj.build_graph_tiled(tj.open_tiled_map(path), config=SMALL, block_px=128)
+    assert_same_graph(tiled, tj.build_graph(tj.load_map(path), config=SMALL))
+
+
 def test_bad_arguments_name_the_parameter(tmp_path):
     m = paper_map("intel")
     with pytest.raises(ValueError, match="block_px: expected a multiple of config.tile_px"):

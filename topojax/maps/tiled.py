@@ -339,23 +339,63 @@ class _MapReader:
 
 class _PgmReader:
     """Windows of a binary PGM, memory-mapped at its data offset; the map is opened again
-    after pickling (in a Dask worker) instead of copying its pixels."""
+    after pickling (in a Dask worker) instead of copying its pixels.  The file must stay
+    the one opened: a header that gives another layout when it is mapped, or a file that
+    changes while it is mapped (its pixels would be read in the old layout, or mixed from
+    two maps, or past its end), is refused."""
 
-    def __init__(self, path: Path, offset: int, shape: tuple[int, int], file_dtype) -> None:
-        self.path, self.offset = path, offset
-        self.file_dtype = np.dtype(file_dtype)  # big-endian for 16-bit samples
+    def __init__(self, path: Path, offset: int, shape: tuple[int, int], maxval: int) -> None:
+        self.path, self.offset, self.maxval = path, offset, maxval
+        # big-endian for 16-bit samples
+        self.file_dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
         self.shape, self.dtype = shape, self.file_dtype.newbyteorder("=")
         self._data: np.memmap | None = None
+        self._state: tuple[int, int, int] | None = None
 
     def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         if self._data is None:
-            self._data = np.memmap(
-                self.path, dtype=self.file_dtype, mode="r", offset=self.offset, shape=self.shape
-            )
+            self._data = self._map()
+        elif _file_state(self.path) != self._state:
+            raise self._changed("it changed while it was read")
         return self._data[r0:r1, c0:c1].astype(self.dtype)
 
+    def _map(self) -> np.memmap:
+        """The file memory-mapped, after checking that its header still gives the
+        layout it was opened with."""
+        try:
+            width, height, maxval, offset, _ = _pgm_header(self.path)
+            _check_pgm_size(self.path, width, height, maxval, offset)
+        except (OSError, ValueError) as exc:
+            raise self._changed(f"it cannot be read as it was: {exc}") from None
+        if (height, width) != self.shape or maxval != self.maxval or offset != self.offset:
+            raise self._changed(
+                f"its header now gives {width} x {height} pixels, maxval {maxval}, "
+                f"{offset}-byte header"
+            )
+        self._state = _file_state(self.path)
+        return np.memmap(
+            self.path, dtype=self.file_dtype, mode="r", offset=self.offset, shape=self.shape
+        )
+
+    def _changed(self, why: str) -> ValueError:
+        h, w = self.shape
+        return ValueError(
+            f"map {self.path}: expected the PGM opened ({w} x {h} pixels, maxval "
+            f"{self.maxval}, {self.offset}-byte header) unchanged, but {why}; open it "
+            "again with open_tiled_map"
+        )
+
     def __getstate__(self) -> dict:
-        return {**self.__dict__, "_data": None}
+        return {**self.__dict__, "_data": None, "_state": None}
+
+
+def _file_state(path: Path) -> tuple[int, int, int] | None:
+    """``(inode, size, modification time in ns)`` of ``path``; None if it is gone."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_size, st.st_mtime_ns
 
 
 class _FolderReader:
@@ -619,11 +659,10 @@ def _open_pgm(image: Path, settings: dict, *, source: Path) -> TiledMap:
     except _NotMappable as exc:  # load_map decodes it whole; here it cannot be mapped
         raise ValueError(str(exc)) from None
     _check_pgm_size(image, width, height, maxval, offset)
-    dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
     if settings.get("resolution_m") is None:
         res = resolution_from_pgm_comments(comments, image)
         settings["resolution_m"] = DEFAULT_RESOLUTION_M if res is None else res
-    reader = _PgmReader(image, offset, (height, width), dtype)
+    reader = _PgmReader(image, offset, (height, width), maxval)
     meta = {k: v for k, v in settings.items() if v is not None}
     try:
         return TiledMap(reader, **meta, full_scale=maxval, source=str(source))
