@@ -183,3 +183,88 @@ def test_a_blocks_folder_of_other_files_is_refused_not_cleared(tmp_path):
     (tmp_path / "file" / BLOCKS_FOLDER).write_text("")
     with pytest.raises(NotADirectoryError, match=r"^out_dir: expected .* it is a file"):
         tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=tmp_path / "file")
+
+
+def _npy_header(shape, descr="<i8") -> bytes:
+    import io
+
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        buf, {"descr": descr, "fortran_order": False, "shape": shape}
+    )
+    return buf.getvalue()
+
+
+def test_a_block_file_claiming_a_huge_array_is_computed_again(tmp_path, monkeypatch):
+    """np.load allocated what a header claims before reading it: a block file whose
+    member (or a .npy in its place) claimed 8 TB raised MemoryError, and a plain .npy
+    there a TypeError (not an archive), instead of computing the block again."""
+    import io
+    import zipfile
+
+    m = paper_map("intel")
+    out = tmp_path / "graph"
+    stopped_build(monkeypatch, m, out, 4)
+    folder = out / BLOCKS_FOLDER
+    first, second, third = (folder / f"block_0_{c}.npz" for c in (0, BLOCK, 2 * BLOCK))
+    archive = io.BytesIO()
+    with zipfile.ZipFile(first) as z, zipfile.ZipFile(archive, "w") as w:
+        for info in z.infolist():
+            data = z.read(info)
+            if info.filename == "flat.npy":
+                data = _npy_header((10**12,)) + bytes(16)
+            w.writestr(info.filename, data)
+    first.write_bytes(archive.getvalue())
+    second.write_bytes(_npy_header((10**12,)) + bytes(16))
+    buf = io.BytesIO()
+    np.save(buf, np.arange(5))
+    third.write_bytes(buf.getvalue())
+    computed = stop_after(monkeypatch, 10**6)
+    res = tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)
+    assert res.blocks_reused == 1
+    assert {(0, BLOCK, c, c + BLOCK) for c in (0, BLOCK, 2 * BLOCK)} <= set(computed)
+    assert_same_graph(res, tj.build_graph(m, config=SMALL))
+
+
+def test_a_build_description_that_is_not_an_object_is_refused(tmp_path, monkeypatch):
+    m = paper_map("intel")
+    out = tmp_path / "graph"
+    stopped_build(monkeypatch, m, out, 1)
+    (out / BLOCKS_FOLDER / "build.json").write_text("[1, 2]")
+    with pytest.raises(ValueError, match=r"^resume: expected .*build\.json to hold a build "):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)
+
+
+def test_a_kept_block_replaced_while_the_build_runs_is_refused(tmp_path, monkeypatch):
+    """A block checked on starting was read again at the end, as it then was: replaced
+    by another build sharing the folder, that build's block went into the graph."""
+    import shutil
+
+    m = paper_map("office")
+    out = tmp_path / "graph"
+    stopped_build(monkeypatch, m, out, 3)
+    other = tmp_path / "other"
+    stopped_build(monkeypatch, paper_map("office").to_image() // 2, other, 3)
+    (out / BLOCKS_FOLDER / "block_0_0.npz").unlink()  # computed first, the others read after
+    real = tiled_build._block_task
+    name = f"block_0_{BLOCK}.npz"
+
+    def task(tiled, box, *args):  # the other build writes its block meanwhile
+        shutil.copy(other / BLOCKS_FOLDER / name, out / BLOCKS_FOLDER / name)
+        return real(tiled, box, *args)
+
+    monkeypatch.setattr(tiled_build, "_block_task", task)
+    with pytest.raises(ValueError, match=rf"^out_dir: expected the kept block .*{name} that"):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)
+    (out / BLOCKS_FOLDER / name).unlink()
+    monkeypatch.setattr(tiled_build, "_block_task", real)
+    stopped_build(monkeypatch, m, out, 3)
+    (out / BLOCKS_FOLDER / "block_0_0.npz").unlink()
+
+    def gone(tiled, box, *args):  # or removes the kept blocks (a build without resume)
+        (out / BLOCKS_FOLDER / name).unlink(missing_ok=True)
+        return real(tiled, box, *args)
+
+    monkeypatch.setattr(tiled_build, "_block_task", gone)
+    with pytest.raises(ValueError, match=rf"^out_dir: expected the kept block .*{name} that"):
+        tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)

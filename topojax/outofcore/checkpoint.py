@@ -24,6 +24,7 @@ import numpy as np
 
 from .._constants import VERSION
 from .._fs import atomic_write, atomic_write_bytes
+from .._npy import check_npz_sizes
 from ..config import PipelineConfig
 from ..maps.tiled import TiledMap
 from .blocks import BlockPiece, window_box, window_digest
@@ -94,6 +95,7 @@ class BlockCheckpoints:
         self.tiled = tiled
         desc = _description(tiled, config, block_px)
         self.build = _build_digest(desc)
+        self._checked: dict[tuple, bytes] = {}  # window digests of the blocks usable()
         build_file = self.folder / _BUILD_FILE
         if self.folder.exists() and not self.folder.is_dir():
             raise NotADirectoryError(
@@ -112,35 +114,44 @@ class BlockCheckpoints:
 
     def usable(self, box) -> bool:
         """Whether block ``box`` was finished and the window it read is unchanged."""
-        path = self._path(box)
-        if not path.is_file():
+        arrays = _read_block(self._path(box))
+        if arrays is None:  # missing, cut short or damaged: computed again
             return False
-        try:
-            with np.load(path, allow_pickle=False) as f:
-                arrays = {name: f[name] for name in _ARRAYS}  # read whole: checksums
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
-            return False  # cut short or damaged: computed again
         saved_box = tuple(int(v) for v in arrays["box"])
-        halo = int(arrays["halo_px"])
-        digest = arrays["digest"].tobytes()
         same_build = np.array_equal(arrays["build"], self.build)
-        del arrays
         if saved_box != tuple(box) or not same_build:  # e.g. a build sharing the folder
             return False
-        r0, r1, c0, c1 = window_box(box, halo, self.tiled.shape)
-        return window_digest(self.tiled.codes(r0, r1, c0, c1)) == digest
+        r0, r1, c0, c1 = window_box(box, int(arrays["halo_px"]), self.tiled.shape)
+        digest = arrays["digest"].tobytes()
+        if window_digest(self.tiled.codes(r0, r1, c0, c1)) != digest:
+            return False
+        self._checked[tuple(box)] = digest
+        return True
 
     def load(self, box) -> BlockPiece:
-        """The kept piece of block ``box`` (checked with :meth:`usable`)."""
-        with np.load(self._path(box), allow_pickle=False) as f:
-            return BlockPiece(
-                box=tuple(int(v) for v in f["box"]),
-                flat=f["flat"],
-                sq_distance_px=f["sq_distance_px"],
-                occupied_px=int(f["occupied_px"]),
-                halo_px=int(f["halo_px"]),
-                sub_iterations=int(f["sub_iterations"]),
+        """The kept piece of block ``box`` (checked with :meth:`usable`); a ValueError
+        naming ``out_dir`` if its file changed since (another build writing there)."""
+        path = self._path(box)
+        arrays = _read_block(path)
+        if (
+            arrays is None
+            or not np.array_equal(arrays["build"], self.build)
+            or tuple(int(v) for v in arrays["box"]) != tuple(box)
+            or arrays["digest"].tobytes() != self._checked.get(tuple(box))
+        ):
+            raise ValueError(
+                f"out_dir: expected the kept block {path} that this build checked, but it "
+                "was removed or replaced since (another build writing into the same "
+                "out_dir?); give each build its own out_dir and build again with resume=True"
             )
+        return BlockPiece(
+            box=tuple(int(v) for v in arrays["box"]),
+            flat=arrays["flat"],
+            sq_distance_px=arrays["sq_distance_px"],
+            occupied_px=int(arrays["occupied_px"]),
+            halo_px=int(arrays["halo_px"]),
+            sub_iterations=int(arrays["sub_iterations"]),
+        )
 
     def save(self, piece: BlockPiece) -> None:
         """Keep a finished block, computed with its window's digest (written whole or
@@ -174,6 +185,24 @@ class BlockCheckpoints:
             self.folder.rmdir()
 
 
+def _read_block(path: Path) -> dict[str, np.ndarray] | None:
+    """The arrays of the block file ``path``, or None when it is missing or is not a
+    whole block file (cut short, damaged, or of another kind)."""
+    if not path.is_file() or not zipfile.is_zipfile(path):  # np.load would read a .npy
+        return None
+    size = path.stat().st_size
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            # np.savez stores its members: none is larger than the file, and none holds
+            # less than its header claims (read first: f[name] allocates the claim)
+            if any(i.file_size > size for i in f.zip.infolist()):
+                return None
+            check_npz_sizes(f)
+            return {name: f[name] for name in _ARRAYS}  # read whole: checksums
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return None
+
+
 def _ours(build_file: Path) -> bool:
     """Whether ``build_file`` is a build description this module wrote."""
     try:
@@ -188,8 +217,15 @@ def _check_same_build(build_file: Path, desc: dict[str, Any]) -> None:
         kept = json.loads(build_file.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
         raise ValueError(
-            f"resume: cannot read {build_file} ({exc}); build with resume=False to start over"
+            f"resume: cannot read {build_file} ({exc}); remove {build_file.parent} or "
+            "choose another out_dir"
         ) from None
+    if not isinstance(kept, dict):
+        raise ValueError(
+            f"resume: expected {build_file} to hold a build description (a JSON object), "
+            f"received a JSON {type(kept).__name__}; remove {build_file.parent} or choose "
+            "another out_dir"
+        )
     for key, value in desc.items():
         if kept.get(key) != value:
             raise ValueError(
