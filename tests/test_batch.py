@@ -319,6 +319,40 @@ def test_kernel_failure_of_one_map_spares_its_group(monkeypatch):
         assert_graphs_equal(records[i].graph, build_graph(maps[i]).graph, f"map {i}")
 
 
+def test_a_manifest_record_missing_a_value_or_of_another_type_is_redone(tmp_path):
+    """A manifest's record was copied into the resumed row as it was: a time of another
+    type (a string, null) broke the table's sum with a TypeError that ended the batch,
+    a count of another type went into the table, and a missing count left it empty."""
+    out = tmp_path / "out"
+    kw = {"out_dir": out, "workers": 0, "progress": False, "formats": "json"}
+    (first,) = build_graphs([PAPER_MAPS[2]], **kw)
+    manifest = out / "a_scan.manifest.json"
+    clean = json.loads(manifest.read_text())
+    for key, value in (
+        ("t_load_s", "0.1"),
+        ("t_graph_s", None),
+        ("t_write_s", -1.0),
+        ("vertices", "many"),
+        ("height", [1, 2]),
+        ("edges", True),
+        ("resolution_m", "0.05"),
+        ("vertices", ...),  # missing
+    ):
+        doc = json.loads(json.dumps(clean))
+        if value is ...:
+            del doc["record"][key]
+        else:
+            doc["record"][key] = value
+        manifest.write_text(json.dumps(doc))
+        (again,) = build_graphs([PAPER_MAPS[2]], resume=True, **kw)
+        assert (again.status, again.vertices) == ("ok", first.vertices), key
+    doc = json.loads(json.dumps(clean))
+    doc["record"]["future_column"] = "x"  # a value no column of this table takes
+    manifest.write_text(json.dumps(doc))
+    (again,) = build_graphs([PAPER_MAPS[2]], resume=True, **kw)
+    assert (again.status, again.vertices, again.edges) == ("skipped", first.vertices, first.edges)
+
+
 def test_write_failure_leaves_no_manifest_and_resume_redoes(tmp_path, monkeypatch):
     """A fault while writing a map's files: error row, no manifest, none of its files
     (neither those written before the fault nor an earlier run's); resume redoes it."""

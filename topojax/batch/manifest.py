@@ -6,6 +6,7 @@ from __future__ import annotations
 import glob as _glob
 import hashlib
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -97,11 +98,9 @@ def _resume_record(
     files = doc.get("files")
     if not isinstance(files, dict):
         return None
-    row = doc.get("record")
-    if not isinstance(row, dict):
+    row = _recorded_row(doc.get("record"), formats)
+    if row is None:
         return None
-    if "rooms" in formats and not all(name in row for name in ROOM_COLUMNS):
-        return None  # written before the table had room counts: redone to have them
     # a graph (route graph) without an edge has no Nav2 file
     nav2_less = {"nav2": row.get("edges") == 0, "route_nav2": row.get("route_edges") == 0}
     expected = {
@@ -123,15 +122,48 @@ def _resume_record(
     return MapRecord(
         map=item.name,
         path=item.label,
-        **{
-            name: row[name]
-            for name in (*SUMMARY_COLUMNS, *ROOM_COLUMNS)
-            if name not in ("map", "path", "status", "message") and name in row
-        },
+        **row,
         status="skipped",
         message=_resumed_message(doc.get("status"), doc.get("message")),
         outputs=(*sorted(files), path.relative_to(out_dir).as_posix()),
     )
+
+
+#: Columns of the summary table whose values are counts (int, or None where not made).
+_COUNT_COLUMNS = frozenset(
+    ("height", "width", "vertices", "edges", "components", *ROOM_COLUMNS)
+    + tuple(name for name in SUMMARY_COLUMNS if name.startswith("route_"))
+)
+
+
+def _recorded_row(row: Any, formats: tuple[str, ...]) -> dict[str, Any] | None:
+    """The table values a manifest's ``record`` holds for a map skipped by resume, or
+    None (the map is redone) where one this run's table has is missing, as in a manifest
+    written before the table had that column, or is not of the column's type (a
+    damaged manifest: its row would break the table's sums and its Parquet types)."""
+    if not isinstance(row, dict):
+        return None
+    names = [n for n in SUMMARY_COLUMNS if n not in ("map", "path", "status", "message")]
+    needed = set(names) | (set(ROOM_COLUMNS) if "rooms" in formats else set())
+    out = {}
+    for name in (*names, *ROOM_COLUMNS):
+        if name not in row:
+            if name in needed:
+                return None
+            continue
+        value = row[name]
+        if isinstance(value, bool):
+            return None
+        if name.startswith("t_"):  # seconds, summed into t_total_s
+            ok = isinstance(value, (int, float)) and math.isfinite(value) and value >= 0
+        elif name in _COUNT_COLUMNS:
+            ok = value is None or isinstance(value, int)
+        else:  # resolution, total length
+            ok = value is None or isinstance(value, (int, float))
+        if not ok:
+            return None
+        out[name] = value
+    return out
 
 
 def _resumed_message(status: Any, message: Any) -> str:
