@@ -353,6 +353,25 @@ def test_a_manifest_record_missing_a_value_or_of_another_type_is_redone(tmp_path
     assert (again.status, again.vertices, again.edges) == ("skipped", first.vertices, first.edges)
 
 
+def test_a_folder_with_an_outputs_name_makes_an_error_row(tmp_path):
+    """Removing a failed map's files (or the manifest of a map about to be redone) met a
+    folder of that name with an IsADirectoryError that ended the batch without its
+    table."""
+    maps = [PAPER_MAPS[0], PAPER_MAPS[2]]
+    for folder in ("intel.json", "intel.manifest.json"):
+        out = tmp_path / folder / "out"
+        (out / folder).mkdir(parents=True)
+        for resume in (False, True):
+            records = build_graphs(
+                maps, out_dir=out, workers=0, progress=False, formats="json", resume=resume
+            )
+            assert [r.status for r in records] == ["error", "skipped" if resume else "ok"]
+            assert f"output file {out / folder} is a folder" in records[0].message
+            assert (out / folder).is_dir()
+            assert sorted(p.name for p in out.iterdir() if p.name.startswith("intel")) == [folder]
+            assert [r["status"] for r in _read_summary(out)][0] == "error"
+
+
 def test_write_failure_leaves_no_manifest_and_resume_redoes(tmp_path, monkeypatch):
     """A fault while writing a map's files: error row, no manifest, none of its files
     (neither those written before the fault nor an earlier run's); resume redoes it."""

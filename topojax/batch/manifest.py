@@ -207,12 +207,19 @@ def _write_manifest(
     return path.relative_to(out_dir).as_posix()
 
 
+def _remove_file(path: Path) -> None:
+    """Remove ``path`` unless it is a folder: one that has an output's name is no output
+    of a batch; the map's writing into it fails and its row names it."""
+    if not path.is_dir():
+        path.unlink(missing_ok=True)
+
+
 def _drop_outputs(item: _Item, *, out_dir: Path, formats: tuple[str, ...], plot: bool) -> None:
     """Remove the files ``item`` writes for ``formats`` and ``plot``: those of a map that
     failed part-way through writing them (no manifest lists them, and left, they would
     pass for the outputs of a map whose row says it has none)."""
     for suffix in (*_format_suffixes(formats), *picture_suffixes(formats, plot)):
-        (out_dir / f"{item.name}{suffix}").unlink(missing_ok=True)
+        _remove_file(out_dir / f"{item.name}{suffix}")
 
 
 def _forget_outputs(
@@ -228,7 +235,7 @@ def _forget_outputs(
         listed = json.loads(manifest.read_text(encoding="utf-8")).get("files")
     except (OSError, ValueError, AttributeError):
         listed = None
-    manifest.unlink(missing_ok=True)
+    _remove_file(manifest)
     if isinstance(listed, dict):
         own = {f"{item.name}{s}" for s in (*_format_suffixes(_FORMAT_FILES), *_PICTURES)}
         again = {
@@ -237,7 +244,7 @@ def _forget_outputs(
         }
         for rel in listed:  # only names this map's outputs can have
             if rel in own and rel not in again:
-                (out_dir / rel).unlink(missing_ok=True)
+                _remove_file(out_dir / rel)
     folder = manifest.parent
     if folder.is_dir():
         base = Path(item.name).name
