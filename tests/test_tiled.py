@@ -644,6 +644,17 @@ def test_a_tile_index_that_disagrees_with_its_tiles_is_refused_on_opening(tmp_pa
     (path / TILE_INDEX).write_text(json.dumps({**index, "shape": [10**9, 10**9]}))
     with pytest.raises(ValueError, match="expected 61035156250000 tile files, found 9"):
         tj.open_tiled_map(path)
+    # and a tile side as large: one tile file, as many as the folder holds, was too few
+    # to refuse it, and the build planned 10^10 blocks before reading a tile
+    for f in path.glob("r*_c*.npy"):
+        if f.name != "r00000_c00000.npy":
+            f.unlink()
+    (path / TILE_INDEX).write_text(json.dumps({**index, "shape": [10**8] * 2, "tile_px": 10**8}))
+    with pytest.raises(
+        ValueError, match=r"r00000_c00000.npy: expected a uint8 array of 100000000 x 100000000 "
+    ):
+        tj.open_tiled_map(path)
+    path = _tile_folder(tmp_path / "again")
     for bad, needle in (
         ({"shape": [300]}, "shape: expected two positive integers"),
         ({"tile_px": 0}, "tile_px: expected a positive integer"),

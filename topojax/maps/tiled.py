@@ -604,6 +604,10 @@ def _open_folder(p: Path, overrides: dict) -> TiledMap:
     shape, tile_px, dtype = _folder_layout(index, index_path)
     _check_tile_files(p, shape, tile_px)
     reader = _FolderReader(p, shape, tile_px, dtype)
+    # its first tile holds what the index gives (its header and bytes): with the number
+    # of tiles, that bounds the map's size by the folder's bytes, however large the shape
+    # and tile side the index claims
+    reader._tile(0, 0)
     with _named(index_path):
         return TiledMap(reader, **_metadata(index, overrides), source=str(p))
 
