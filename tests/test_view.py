@@ -488,6 +488,31 @@ def _damaged(doc: dict, how: str) -> dict:
         body["frames"][-1]["rooms"] = len(body["rooms"]) + 3
     elif how == "vertex arrays disagree":
         body["frames"][-1]["y"] = packed([1.0], np.float32)
+    elif how == "vertex not finite":  # the page would draw it nowhere
+        x = unpacked(body["frames"][-1]["x"])
+        body["frames"][-1]["x"] = packed(np.where(np.arange(x.size) == 0, np.nan, x), np.float32)
+    elif how == "edge point not finite, view only":
+        del doc["continue"]
+        xy = unpacked(body["pool"]["xy"])
+        body["pool"]["xy"] = packed(np.where(np.arange(xy.size) == 3, np.inf, xy), np.float32)
+    elif how == "path not finite":
+        y = unpacked(body["path"]["y"])
+        body["path"]["y"] = packed(np.where(np.arange(y.size) == 2, np.nan, y), np.float64)
+    elif how == "edge sizes disagree with their points, view only":
+        del doc["continue"]
+        sizes = unpacked(body["pool"]["sizes"])
+        body["pool"]["sizes"] = packed(sizes + np.arange(sizes.size) % 2, np.int32)
+    elif how == "vertex kind unknown":
+        kind = unpacked(body["frames"][0]["kind"])
+        body["frames"][0]["kind"] = packed(np.full_like(kind, 200), np.uint8)
+    elif how == "map box NaN":
+        body["frames"][0]["map"]["box"][0] = float("nan")
+    elif how == "map level damaged":
+        body["frames"][0]["map"]["level"] = {"tiles": 5}
+    elif how == "room without an outline":
+        del body["rooms"][body["frames"][-1]["rooms"]][0]["polygon"]
+    elif how == "room hole of odd length":
+        body["rooms"][body["frames"][-1]["rooms"]][0]["holes"] = [[1.0, 2.0, 3.0]]
     return doc
 
 
@@ -501,6 +526,15 @@ def _damaged(doc: dict, how: str) -> dict:
         "edge outside the pool",
         "rooms outside the list",
         "vertex arrays disagree",
+        "vertex not finite",
+        "edge point not finite, view only",
+        "path not finite",
+        "edge sizes disagree with their points, view only",
+        "vertex kind unknown",
+        "map box NaN",
+        "map level damaged",
+        "room without an outline",
+        "room hole of odd length",
     ],
 )
 def test_a_timeline_file_with_damaged_frames_is_refused_on_loading(tmp_path, how):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -269,7 +270,10 @@ class Timeline:
         """
         p = existing_file("path", path)
         try:
-            doc = json.loads(gzip.decompress(p.read_bytes()).decode("utf-8"))
+            text = gzip.decompress(p.read_bytes()).decode("utf-8")
+            doc = json.loads(text, parse_constant=_no_constant)
+        except _NotFinite as exc:
+            raise ValueError(f"timeline file {p} is corrupt: {exc}") from None
         except (OSError, EOFError, ValueError, UnicodeDecodeError) as exc:
             raise ValueError(
                 f"timeline file {p} is not a gzip-compressed JSON file: {exc}"
@@ -306,6 +310,89 @@ class Timeline:
 _FRAME_ARRAYS = ("ids", "x", "y", "kind", "clear", "edges", "added", "removed")
 
 
+class _NotFinite(ValueError):
+    """A NaN or Infinity in a timeline file."""
+
+
+def _no_constant(name: str):
+    """``json.loads``' ``parse_constant``: :meth:`Timeline.save` writes no NaN or
+    Infinity, and the page's JSON cannot hold them."""
+    raise _NotFinite(f"it holds {name}, expected finite numbers only")
+
+
+def _finite(values: np.ndarray, what: str) -> np.ndarray:
+    if not np.isfinite(values).all():
+        raise ValueError(f"{what}: expected finite coordinates, received NaN or infinity")
+    return values
+
+
+def _numbers(value, what: str, *, count: int | None = None, pairs: bool = False) -> None:
+    """Raise a ValueError naming ``what`` unless ``value`` is a list of numbers (of
+    ``count`` of them, or of an even count when ``pairs``)."""
+    if (
+        not isinstance(value, list)
+        or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        )
+        or (count is not None and len(value) != count)
+        or (pairs and len(value) % 2)
+    ):
+        size = f"{count} " if count is not None else ""
+        kind = "x, y pairs of finite numbers" if pairs else "finite numbers"
+        raise ValueError(f"{what}: expected a list of {size}{kind}, received {value!r:.80}")
+
+
+def _check_rooms(rooms) -> None:
+    """The rooms of each snapshot as :func:`rooms_payload` gives them (the page draws their
+    rings and writes their ids)."""
+    instance_of("'rooms'", rooms, list)
+    for i, snapshot in enumerate(rooms):
+        instance_of(f"rooms {i}", snapshot, list)
+        for j, room in enumerate(snapshot):
+            where = f"rooms {i}, room {j}"
+            instance_of(where, room, dict, "object")
+            if isinstance(room.get("id"), bool) or not isinstance(room.get("id"), int):
+                raise ValueError(f"{where}: 'id': expected an int, received {room.get('id')!r}")
+            area = room.get("area_m2")
+            if not isinstance(area, (int, float)) or isinstance(area, bool) or not area >= 0:
+                raise ValueError(f"{where}: 'area_m2': expected a number >= 0, received {area!r}")
+            _numbers(room.get("label"), f"{where}: 'label'", count=2)
+            _numbers(room.get("polygon"), f"{where}: 'polygon'", pairs=True)
+            instance_of(f"{where}: 'holes'", room.get("holes"), list)
+            for k, hole in enumerate(room["holes"]):
+                _numbers(hole, f"{where}: hole {k}", pairs=True)
+
+
+def _check_picture(picture, i: int) -> None:
+    """A frame's map picture: its world ``box`` and one pyramid level of PNG tiles."""
+    if picture is None:
+        return
+    expected = f"frame {i}: 'map': expected a map picture (box, level) or null"
+    if not isinstance(picture, dict) or not isinstance(picture.get("level"), dict):
+        raise ValueError(f"{expected}, received {picture!r:.80}")
+    _numbers(picture.get("box"), f"frame {i}: 'map' 'box'", count=4)
+    level = picture["level"]
+    for key in ("step", "width", "height"):
+        v = level.get(key)
+        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+            raise ValueError(
+                f"frame {i}: 'map' level {key!r}: expected an int >= 1, received {v!r}"
+            )
+    tiles = level.get("tiles")
+    if not isinstance(tiles, list) or not all(
+        isinstance(t, list)
+        and len(t) == 3
+        and all(isinstance(v, int) and not isinstance(v, bool) for v in t[:2])
+        and isinstance(t[2], str)
+        for t in tiles
+    ):
+        raise ValueError(
+            f"frame {i}: 'map' level 'tiles': expected [row, col, PNG base64] lists, received "
+            f"{tiles!r:.80}"
+        )
+
+
 def _check_body(body: dict) -> None:
     """Decode every packed array of a saved :meth:`Timeline.payload` and check that the
     frames agree with the edge pool, the rooms and each other, so that a damaged file is
@@ -317,15 +404,25 @@ def _check_body(body: dict) -> None:
         Naming the frame and the part that is damaged.
     """
     pool = body["pool"]
-    n_pool = unpacked(pool["sizes"]).size
+    sizes = unpacked(pool["sizes"])
+    n_pool = sizes.size
     for name in ("len", "cmin", "cmean"):
         if unpacked(pool[name]).size != n_pool:
             raise ValueError(f"pool {name!r}: expected {n_pool} values (one per edge)")
+    xy = _finite(unpacked(pool["xy"]), "pool 'xy'")
+    if (sizes < 0).any() or 2 * int(sizes.sum(dtype=np.int64)) != xy.size:
+        raise ValueError(
+            f"pool 'sizes': expected the point counts of the edges, {xy.size // 2} points in "
+            f"all, received counts summing to {int(sizes.sum(dtype=np.int64))}"
+            + (" (some negative)" if (sizes < 0).any() else "")
+        )
     path = body["path"]
     if len({unpacked(path[k]).size for k in ("scan", "x", "y")}) != 1:
         raise ValueError("path: 'scan', 'x' and 'y' have different lengths")
+    for k in ("x", "y"):
+        _finite(unpacked(path[k]), f"path {k!r}")
     rooms = body["rooms"]
-    instance_of("'rooms'", rooms, list)
+    _check_rooms(rooms)
     for i, frame in enumerate(body["frames"]):
         instance_of(f"frame {i}", frame, dict, "object")
         arrays = {}
@@ -338,6 +435,14 @@ def _check_body(body: dict) -> None:
                 raise ValueError(f"frame {i}: {k!r}: {exc}") from None
         if len({arrays[k].size for k in ("ids", "x", "y", "kind", "clear")}) != 1:
             raise ValueError(f"frame {i}: its vertex arrays have different lengths")
+        for k in ("x", "y"):
+            _finite(arrays[k], f"frame {i}: {k!r}")
+        if arrays["kind"].size and not 0 <= arrays["kind"].min() <= arrays["kind"].max() < len(
+            KIND_NAMES
+        ):
+            raise ValueError(
+                f"frame {i}: 'kind': expected vertex kind codes 0 to {len(KIND_NAMES) - 1}"
+            )
         for k in ("edges", "added", "removed"):
             if arrays[k].size and not 0 <= arrays[k].min() <= arrays[k].max() < n_pool:
                 raise ValueError(f"frame {i}: {k!r} names edges outside the pool of {n_pool}")
@@ -346,11 +451,4 @@ def _check_body(body: dict) -> None:
             raise ValueError(f"frame {i}: 'rooms': expected -1 to {len(rooms) - 1}, received {r!r}")
         if not isinstance(frame["scan"], int) or isinstance(frame["scan"], bool):
             raise TypeError(f"frame {i}: 'scan': expected an int, received {frame['scan']!r}")
-        picture = frame["map"]
-        if picture is not None and not (
-            isinstance(picture, dict)
-            and isinstance(picture.get("box"), list)
-            and len(picture["box"]) == 4
-            and isinstance(picture.get("level"), dict)
-        ):
-            raise ValueError(f"frame {i}: 'map': expected a map picture (box, level) or null")
+        _check_picture(frame["map"], i)
