@@ -342,6 +342,69 @@ def test_a_recording_continues_one_closed_part_way(tmp_path):
         McapRecorder(tmp_path / "s.mcap", continue_from=tmp_path / "r.bag")
 
 
+@pytest.mark.parametrize(
+    "damage",
+    ["not MCAP", "empty", "cut short", "summary damaged"],
+)
+def test_continuing_a_damaged_recording_names_it_and_leaves_nothing(tmp_path, damage):
+    with McapRecorder(tmp_path / "part.mcap") as rec:
+        for t in (1.0, 2.0, 3.0):
+            rec.add_scan(_scan(t))
+    whole = (tmp_path / "part.mcap").read_bytes()
+    data = {
+        "not MCAP": b"not a recording at all",
+        "empty": b"",
+        "cut short": whole[: len(whole) // 2],
+        "summary damaged": whole[:-200] + b"\x01" * 192 + whole[-8:],
+    }[damage]
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(data)
+    with pytest.raises(
+        ValueError, match=r"^continue_from: expected a complete MCAP recording .*bad\.mcap"
+    ):
+        McapRecorder(tmp_path / "out" / "r.mcap", continue_from=bad).open()
+    assert list((tmp_path / "out").iterdir()) == []  # no recording, no temporary folder
+
+
+def test_a_recorder_writes_one_recording(tmp_path):
+    rec = McapRecorder(tmp_path / "r.mcap").open()
+    with pytest.raises(RuntimeError, match="r.mcap is already open"):
+        rec.open()
+    rec.add_scan(_scan(1.0))
+    with pytest.raises(ValueError, match=r"path: expected a file name ending in \.mcap"):
+        rec.close(tmp_path / "r.txt")
+    rec.add_scan(_scan(2.0))  # still open: a wrong name loses nothing
+    rec.close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.mcap"]
+    assert [t for tp, _, t, _ in read_messages(tmp_path / "r.mcap") if tp == "/scan"] == [
+        1_000_000_000,
+        2_000_000_000,
+    ]
+    with pytest.raises(RuntimeError, match="is finished .*no more messages"):
+        rec.add_scan(_scan(3.0))
+    with pytest.raises(RuntimeError, match="is finished .*make a new McapRecorder"):
+        with rec:
+            pass
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.mcap"]
+
+
+def test_a_scan_whose_sensor_pose_overflows_is_refused(tmp_path):
+    far = tj.Scan.from_arrays(
+        np.full(5, 2.0),
+        (1.7e308, 0.0, 0.0),
+        angle_min=-0.2,
+        angle_increment=0.1,
+        sensor_offset=(1.7e308, 0.0, 0.0),
+    )
+    with McapRecorder(tmp_path / "r.mcap") as rec:
+        rec.add_scan(_scan(1.0))
+        with pytest.raises(
+            ValueError, match=r"^scan: expected a sensor pose in the map frame .*inf"
+        ):
+            rec.add_scan(far)
+    assert rec.counts == {"/tf": 1, "/scan": 1} and rec.stamp_ns == 1_000_000_000
+
+
 def test_recorder_leaves_nothing_behind_on_error_and_checks_its_path(tmp_path):
     with pytest.raises(RuntimeError, match="boom"):
         with McapRecorder(tmp_path / "r.mcap") as rec:

@@ -365,7 +365,8 @@ class McapRecorder:
     Use it as a context manager: the file appears, complete, when the ``with`` block ends
     (an exception leaves no file and no temporary folder behind).  Messages are written as
     they come; the recording is built in a hidden folder beside ``path`` and moved to
-    ``path`` at the end, replacing a file that was there.
+    ``path`` at the end, replacing a file that was there.  A recorder writes one
+    recording: once closed or aborted it takes no more messages and does not open again.
 
     Parameters
     ----------
@@ -374,7 +375,8 @@ class McapRecorder:
     continue_from : str or Path, optional
         A recording this one continues (one written by :meth:`close` when a replay
         stopped part way): its messages are copied first, and the next scan is stamped
-        after its last one.
+        after its last one.  A file that is not a complete MCAP recording is refused with
+        a ValueError naming it when the recording opens.
 
     Attributes
     ----------
@@ -403,6 +405,7 @@ class McapRecorder:
         self._writer = None
         self._tmp: Path | None = None
         self._connections: dict[str, object] = {}
+        self._finished = False  # closed or aborted: a recorder writes one recording
         self._earlier = (
             None
             if continue_from is None
@@ -414,19 +417,26 @@ class McapRecorder:
         """Start the recording (the ``with`` statement calls it)."""
         from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 
+        if self._writer is not None:
+            raise RuntimeError(f"McapRecorder: the recording {self.path} is already open")
+        if self._finished:
+            raise RuntimeError(
+                f"McapRecorder: the recording {self.path} is finished (closed or aborted); "
+                "make a new McapRecorder for another"
+            )
         _typestore()  # a missing rosbags fails here, before anything is created
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", dir=self.path.parent))
-        writer = Writer(self._tmp / "recording", version=8, storage_plugin=StoragePlugin.MCAP)
-        writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
-        writer.open()
-        self._writer = writer
-        if self._earlier is not None:
-            try:
+        try:
+            writer = Writer(self._tmp / "recording", version=8, storage_plugin=StoragePlugin.MCAP)
+            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+            writer.open()
+            self._writer = writer
+            if self._earlier is not None:
                 self._copy(self._earlier)
-            except BaseException:
-                self.abort()
-                raise
+        except BaseException:
+            self.abort()
+            raise
         return self
 
     def _copy(self, earlier: Path) -> None:
@@ -436,24 +446,37 @@ class McapRecorder:
 
         if not earlier.is_file():
             raise FileNotFoundError(f"continue_from: no recording {earlier}")
-        with AnyReader([earlier]) as reader:
-            for conn, stamp_ns, raw in reader.messages():
-                if conn.topic not in TOPICS:
-                    raise ValueError(
-                        f"continue_from: expected a recording of McapRecorder's topics "
-                        f"{sorted(TOPICS)}, {earlier} has {conn.topic!r}"
-                    )
-                self._write_raw(conn.topic, raw, stamp_ns)
-                if conn.topic == "/scan":
-                    self.stamp_ns, self._scanned = max(self.stamp_ns, stamp_ns), True
+
+        def messages():
+            # rosbags raises several types (AssertionError among them) for a file that is
+            # not MCAP, cut short or damaged; the writing's own errors pass as they are
+            try:
+                with AnyReader([earlier]) as reader:
+                    yield from reader.messages()
+            except Exception as exc:  # noqa: BLE001
+                raise ValueError(
+                    f"continue_from: expected a complete MCAP recording (one McapRecorder "
+                    f"closed), {earlier} cannot be read: {type(exc).__name__}: {exc}"
+                ) from None
+
+        for conn, stamp_ns, raw in messages():
+            if conn.topic not in TOPICS:
+                raise ValueError(
+                    f"continue_from: expected a recording of McapRecorder's topics "
+                    f"{sorted(TOPICS)}, {earlier} has {conn.topic!r}"
+                )
+            self._write_raw(conn.topic, raw, stamp_ns)
+            if conn.topic == "/scan":
+                self.stamp_ns, self._scanned = max(self.stamp_ns, stamp_ns), True
 
     def close(self, path=None) -> Path:
         """Finish the file and move it to :attr:`path` (or to ``path``, e.g. a stopped
         replay's part, which a later recording continues); returns where it is."""
-        writer, self._writer = self._writer, None
-        if writer is None:
+        if self._writer is None:
             raise RuntimeError("McapRecorder: the recording is not open")
         target = self.path if path is None else mcap_path(path)
+        writer, self._writer = self._writer, None
+        self._finished = True
         try:
             writer.close()
             done = self._tmp / "recording" / "recording.mcap"
@@ -470,6 +493,7 @@ class McapRecorder:
         """Drop the recording: no file is written."""
         writer, self._writer = self._writer, None
         if writer is not None:
+            self._finished = True
             writer.abort()
         if self._tmp is not None:
             shutil.rmtree(self._tmp, ignore_errors=True)
@@ -490,6 +514,11 @@ class McapRecorder:
     def _write_raw(self, topic: str, raw, stamp_ns: int) -> None:
         """Write one CDR-serialised message of ``topic``."""
         if self._writer is None:
+            if self._finished:
+                raise RuntimeError(
+                    f"McapRecorder: the recording {self.path} is finished (closed or aborted): "
+                    "no more messages can be written"
+                )
             raise RuntimeError("McapRecorder: open the recording first (use it in a with block)")
         conn = self._connections.get(topic)
         if conn is None:
@@ -510,10 +539,19 @@ class McapRecorder:
         return self.stamp_ns + int(round(SCAN_PERIOD_S * _NS)) if self._scanned else 0
 
     def add_scan(self, scan) -> int:
-        """Write ``/tf`` and ``/scan`` for a :class:`~topojax.Scan`; returns its stamp (ns)."""
+        """Write ``/tf`` and ``/scan`` for a :class:`~topojax.Scan`; returns its stamp (ns).
+        A scan whose sensor pose in the map frame (``pose`` then ``sensor_offset``) is not
+        finite is refused with a ValueError, and nothing is written."""
         from ..scans import Scan
 
         instance_of("scan", scan, Scan, "topojax.Scan")
+        sensor = scan.sensor_pose_world()
+        if not all(math.isfinite(v) for v in sensor):  # tf would put the laser nowhere
+            raise ValueError(
+                "scan: expected a sensor pose in the map frame (pose then sensor_offset) of "
+                f"finite numbers, received {sensor} from pose {scan.pose} and sensor_offset "
+                f"{scan.sensor_offset}"
+            )
         self.stamp_ns = self._next_stamp(scan.timestamp)
         self._scanned = True
         self._write("/tf", tf_message(scan, self.stamp_ns), self.stamp_ns)
