@@ -441,6 +441,14 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path: Path, monkeypatch):
         atomic_write_bytes(tmp_path / "no_dir" / "x.bin", b"x")
 
 
+def test_atomic_write_under_a_file_says_the_file_is_no_folder(tmp_path: Path):
+    (tmp_path / "afile").write_text("x")
+    for target in (tmp_path / "afile" / "g.json", tmp_path / "afile" / "sub" / "g.json"):
+        with pytest.raises(NotADirectoryError, match=r"afile is a file, not a folder"):
+            save_graph(make_graph(), target)
+    assert [p.name for p in tmp_path.iterdir()] == ["afile"]
+
+
 def test_output_folder_on_a_file_names_the_option(tmp_path: Path, capsys):
     from topojax._fs import output_folder
     from topojax.cli import main

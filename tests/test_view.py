@@ -312,6 +312,30 @@ def test_bad_arguments_name_themselves(res, tmp_path):
     assert not (tmp_path / "v.html").exists()
 
 
+def test_a_page_that_cannot_be_written_is_refused_before_the_work(res, tmp_path, monkeypatch):
+    import topojax.view as view
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the page was made for a path it cannot be written to")
+
+    monkeypatch.setattr(view, "view_html", no_work)
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "d.html").mkdir()
+    cases = [
+        (tmp_path / "afile" / "v.html", NotADirectoryError, "afile in .* is a file, not a folder"),
+        (tmp_path / "d.html", IsADirectoryError, "expected a file name, received the folder"),
+        (tmp_path / "none" / "v.html", FileNotFoundError, "whose folder .*none does not exist"),
+    ]
+    for target, error, words in cases:
+        with pytest.raises(error, match=f"^path: .*{words}"):
+            tj.write_view(res, target)
+        with pytest.raises(error, match=f"^path: .*{words}"):
+            View("<html></html>").save(target)
+        with pytest.raises(error, match=f"^path: .*{words}"):
+            tj.Timeline().save(target)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "d.html"]
+
+
 def test_a_map_too_large_is_refused_with_the_limit_and_a_way_out(res, tmp_path):
     h, w = res.map.shape
     with pytest.raises(ValueError, match=rf"{h} x {w} pixels .* max_pixels=100000 .*window="):

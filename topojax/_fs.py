@@ -17,6 +17,7 @@ __all__ = [
     "default_file_mode",
     "input_files",
     "output_file",
+    "output_file_in_folder",
     "output_folder",
     "refuse_overwriting_inputs",
     "yaml_image",
@@ -84,6 +85,18 @@ def output_file(path: str | Path, *, name: str = "path") -> Path:
     return p
 
 
+def output_file_in_folder(path: str | Path, *, name: str = "path") -> Path:
+    """:func:`output_file`, and ``path``'s folder exists (a ``FileNotFoundError`` naming
+    ``name`` otherwise): for writers that make no folders, checked before their work."""
+    p = output_file(path, name=name)
+    if not p.parent.is_dir():
+        raise FileNotFoundError(
+            f"{name}: expected a file in an existing folder, received {p}, whose folder "
+            f"{p.parent} does not exist"
+        )
+    return p
+
+
 def _try_writing(folder: Path, message: str) -> None:
     """Make and remove an empty file in ``folder``; an ``OSError`` with ``message`` and
     the system's reason when it cannot be made."""
@@ -127,6 +140,13 @@ def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
         )
     folder = dest.parent if str(dest.parent) else Path(".")
     if not folder.is_dir():
+        blocker = next(
+            (f for f in (folder, *folder.parents) if f.exists() and not f.is_dir()), None
+        )
+        if blocker is not None:
+            raise NotADirectoryError(
+                f"folder for output file {dest}: {blocker} is a file, not a folder"
+            )
         raise FileNotFoundError(f"folder for output file {dest} does not exist: {folder}")
     fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=folder)
     try:

@@ -14,7 +14,7 @@ import html
 import inspect
 from pathlib import Path
 
-from .._validate import instance_of, path_like, positive_int
+from .._validate import instance_of, positive_int
 from ._data import DEFAULT_MAX_PIXELS, build_payload, inputs_of
 from ._html import page
 from .timeline import Timeline
@@ -125,6 +125,9 @@ def write_view(
     ------
     TypeError
         ``obj`` or an argument of the wrong type.
+    FileNotFoundError, NotADirectoryError, IsADirectoryError
+        ``path`` cannot be written (its folder is missing or a file, or it is a folder):
+        checked before any work.
     ValueError
         A map larger than ``max_pixels`` (the message names the limit and how to view a
         part), nothing to show (no map and an empty graph), or a malformed graph, rooms
@@ -135,9 +138,9 @@ def write_view(
     >>> res = tj.build_graph(tj.sample_map("intel"))              # doctest: +SKIP
     >>> tj.write_view(res, "intel.html")                           # doctest: +SKIP
     """
-    from .._fs import atomic_write_bytes
+    from .._fs import atomic_write_bytes, output_file_in_folder
 
-    path_like("path", path)
+    output_file_in_folder(path, name="path")  # before the work
     text = view_html(
         obj,
         title=title,
@@ -179,9 +182,9 @@ class View:
 
     def save(self, path) -> Path:
         """Write the page to ``path`` (an HTML file)."""
-        from .._fs import atomic_write_bytes
+        from .._fs import atomic_write_bytes, output_file_in_folder
 
-        p = path_like("path", path)
+        p = output_file_in_folder(path, name="path")
         atomic_write_bytes(p, self.html.encode("utf-8"))
         return p
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validate import existing_file, instance_of, int_at_least, path_like
+from .._validate import existing_file, instance_of, int_at_least
 from ._encode import TILE_PX, packed, pyramid, unpacked
 from ._graphs import KIND_NAMES
 from ._rooms_data import rooms_payload
@@ -244,9 +244,9 @@ class Timeline:
     def save(self, path) -> Path:
         """Write the timeline to a gzip-compressed JSON file (e.g. ``timeline.json.gz``
         next to a replay's outputs, where ``topojax view`` finds it)."""
-        from .._fs import atomic_write_bytes
+        from .._fs import atomic_write_bytes, output_file_in_folder
 
-        p = path_like("path", path)
+        p = output_file_in_folder(path, name="path")
         doc = {"format": _FORMAT, "version": _VERSION, "timeline": self.payload()}
         if self._loaded is None:
             doc["continue"] = self._continuation()
