@@ -4,6 +4,7 @@ edges of, on literal shapes, random masks and the IPA benchmark maps."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import cv2
@@ -483,6 +484,17 @@ def test_a_room_whose_outline_encloses_nothing_is_labelled_at_its_centroid():
     hole = np.array([[5.0, 5.0], [6.0, 5.0], [6.0, 6.0]])  # a hole is no outline of its own
     room = Room(1, 0.0, (2.0, 3.0), np.zeros((2, 2)), (0, 0, 0, 0), holes=(hole,))
     assert room.label_point == (2.0, 3.0)
+
+
+def test_a_room_whose_outline_overflows_in_squares_is_labelled_at_its_centroid():
+    # finite coordinates (a rooms file edited or damaged) whose distances overflow
+    from topojax.rooms import Room
+
+    ring = np.array([[0.0, 0.0], [1e308, 0.0], [1e308, 1e308], [0.0, 1e308]])
+    room = Room(1, 1.0, (2.0, 3.0), ring, (0, 0, 0, 0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow warnings either
+        assert room.label_point == (2.0, 3.0)
 
 
 @settings(max_examples=150, deadline=None)

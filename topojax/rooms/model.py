@@ -198,7 +198,10 @@ def _pole(polygon, holes, fallback) -> tuple[float, float]:
     centres = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
     best_d = -np.inf
     while True:
-        d = _signed_distance(centres, a, b)
+        with np.errstate(over="ignore", invalid="ignore"):
+            d = _signed_distance(centres, a, b)
+        if not np.isfinite(d).all():  # coordinates whose squares overflow (a damaged file)
+            return (float(fallback[0]), float(fallback[1]))
         best_d = max(best_d, float(d.max()))
         if h * _SQRT2 <= tol or centres.shape[0] == 0:
             break
