@@ -312,6 +312,33 @@ def test_bad_arguments_name_themselves(res, tmp_path):
     assert not (tmp_path / "v.html").exists()
 
 
+def test_a_value_the_page_cannot_hold_is_named():
+    import dataclasses
+
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0), pixel=(1, 0))
+    g.add_node(1, world=(0.1, 0.0), pixel=(1, 1))
+    g.add_edge(0, 1, path=[(1, 0), (1, 1)], world=[(0.0, 0.0), (0.1, 0.0)], length_m=0.1)
+    route = tj.plan_route(g, (0.0, 0.0), (0.1, 0.0))
+    for field, value, where in [
+        ("length_m", float("nan"), r"route\.length_m is nan"),
+        ("goal_snap_m", float("inf"), r"route\.goal_snap_m is inf"),
+    ]:
+        bad = dataclasses.replace(route, **{field: value})
+        with pytest.raises(ValueError, match=f"^the view's data: {where}, expected a finite"):
+            view_html(g, route=bad)
+
+
+def test_rooms_with_coordinates_near_the_float_limit_are_drawn(res):
+    # rounding them to 0.1 mm would make them infinite, which the page cannot hold
+    from topojax.rooms import Room
+
+    ring = np.array([[0.0, 0.0], [1e308, 0.0], [1e308, 1e308], [0.0, 1e308]])
+    room = Room(1, 1.0, (2.0, 3.0), ring, (0, 0, 0, 0))
+    data = payload_of(view_html(res, rooms=([room], [])))
+    assert data["rooms"]["rooms"][0]["polygon"][2:4] == [1e308, 0.0]
+
+
 def test_a_page_that_cannot_be_written_is_refused_before_the_work(res, tmp_path, monkeypatch):
     import topojax.view as view
 

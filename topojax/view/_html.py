@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import html
 import json
+import math
 from importlib import resources
 
 __all__ = ["SCRIPTS", "page"]
@@ -23,9 +24,43 @@ def _script_safe(text: str) -> str:
     return text.replace("<", "\\u003c")
 
 
+def _not_finite(value, where: str = "") -> tuple[str, float] | None:
+    """Where in ``value`` (dicts and lists) the first NaN or infinite float is, and it."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return where, value
+    items = (
+        value.items()
+        if isinstance(value, dict)
+        else enumerate(value)
+        if isinstance(value, (list, tuple))
+        else ()
+    )
+    for key, item in items:
+        found = _not_finite(item, f"{where}.{key}" if isinstance(key, str) else f"{where}[{key}]")
+        if found is not None:
+            return found
+    return None
+
+
 def page(payload: dict) -> str:
-    """The complete HTML document showing ``payload`` (see :func:`build_payload`)."""
-    data = _script_safe(json.dumps(payload, separators=(",", ":"), allow_nan=False))
+    """The complete HTML document showing ``payload`` (see :func:`build_payload`).
+
+    Raises
+    ------
+    ValueError
+        A value of ``payload`` is NaN or infinite (the message says where).
+    """
+    try:
+        text = json.dumps(payload, separators=(",", ":"), allow_nan=False)
+    except ValueError:
+        found = _not_finite(payload)
+        if found is None:
+            raise
+        raise ValueError(
+            f"the view's data: {found[0].lstrip('.')} is {found[1]}, expected a finite number "
+            "(the page's JSON holds no NaN or infinity)"
+        ) from None
+    data = _script_safe(text)
     scripts = "\n".join(_static(name) for name in SCRIPTS)
     title = html.escape(str(payload.get("title") or "topojax view"))
     return (

@@ -23,8 +23,12 @@ def is_room_pair(value) -> bool:
 
 
 def rounded(values, digits: int = 4) -> list:
-    """``values`` as a flat-or-nested list of floats rounded to ``digits`` decimals."""
-    return np.round(np.asarray(values, np.float64), digits).tolist()
+    """``values`` as a flat-or-nested list of floats rounded to ``digits`` decimals (values
+    too large for that, near the float64 limit, as they are rather than infinite)."""
+    a = np.asarray(values, np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = np.round(a, digits)
+    return np.where(np.isfinite(r), r, a).tolist()
 
 
 def rooms_payload(rooms) -> dict:
