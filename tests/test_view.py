@@ -682,6 +682,33 @@ def test_view_command_reads_the_map_as_the_graph_command_did(tmp_path, capsys):
     assert "graph only" not in capsys.readouterr().out
 
 
+@pytest.mark.parametrize(
+    "entry, note",
+    [
+        ({"input": 5}, "the map it was made from is not recorded: graph only"),
+        ({"map_options": {"sigma": 2}}, "cannot be read (load_map() got an unexpected keyword"),
+    ],
+)
+def test_view_command_shows_the_graph_alone_when_the_record_is_damaged(
+    tmp_path, capsys, entry, note
+):
+    """A record (``.topojax-outputs.json``) edited by hand names its map by a value that
+    is no path, or with options ``load_map`` does not take: the graph is shown alone
+    with a note, as for a map that is gone."""
+    from topojax.cli._outputs import RECORD_NAME
+
+    out = tmp_path / "out"
+    assert main(["graph", str(tj.datasets.sample_map_path("office")), "-o", str(out)]) == 0
+    record = json.loads((out / RECORD_NAME).read_text())
+    for files in record["files"].values():
+        files.update(entry)
+    (out / RECORD_NAME).write_text(json.dumps(record))
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    assert note in capsys.readouterr().out
+    assert payload_of((out / "view.html").read_text())["graphs"][0]["n_edges"] > 0
+
+
 def test_view_command_on_a_replay_folder_with_a_timeline(tmp_path, capsys):
     mapper, timeline, _ = intel_replay()
     out = tmp_path / "rep"

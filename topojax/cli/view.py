@@ -76,7 +76,7 @@ def _recorded_input(record: dict, folder: Path, stem: str) -> tuple[Path | None,
     read with (none recorded: the file's own)."""
     for suffix in _GRAPH_SUFFIXES + ("_rooms.geojson",):
         entry = record.get(f"{stem}{suffix}")
-        if isinstance(entry, dict) and entry.get("input"):
+        if isinstance(entry, dict) and isinstance(entry.get("input"), str) and entry["input"]:
             options = entry.get("map_options")
             return Path(entry["input"]), dict(options) if isinstance(options, dict) else {}
     return None, {}
@@ -215,7 +215,7 @@ def _load_map(result: _Result, graph):
         return None
     try:
         occupancy = load_map(result.map, **result.map_kwargs)
-    except (ValueError, OSError) as exc:
+    except (ValueError, OSError, TypeError) as exc:  # TypeError: options edited in the record
         result.notes.append(f"its map {result.map} cannot be read ({exc}): graph only")
         return None
     grid = _graph_grid(graph)
