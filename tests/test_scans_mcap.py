@@ -136,6 +136,23 @@ def test_a_record_length_past_the_end_of_the_file_is_a_cut_not_a_huge_read(recor
         read_bag(bad)
 
 
+@pytest.mark.parametrize("cut", [False, True])
+def test_a_recording_damaged_inside_its_chunk_is_refused_naming_it(recording, tmp_path, cut):
+    """Bytes of the zstd chunk overwritten: the decompressor's own error (ZstdError,
+    which the command line printed as a traceback) is a ValueError naming the file,
+    whole (rosbags reads it) or cut as well (read record by record)."""
+    path, _ = recording
+    data = path.read_bytes()
+    end_of_chunk = 43 + 9 + int.from_bytes(data[44:52], "little")
+    middle = end_of_chunk // 2
+    damaged = data[:middle] + bytes(b ^ 0xFF for b in data[middle : middle + 64])
+    damaged += data[middle + 64 :]
+    bad = tmp_path / "damaged.mcap"
+    bad.write_bytes(damaged[: end_of_chunk + 100] if cut else damaged)
+    with pytest.raises(ValueError, match=r"damaged\.mcap.* (does not decompress|is damaged)"):
+        list(tj.read_scans(bad))
+
+
 def test_a_file_that_is_not_mcap_is_refused_naming_it(tmp_path):
     fake = tmp_path / "fake.mcap"
     fake.write_bytes(b"this is not a recording\n" * 10)

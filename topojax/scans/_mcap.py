@@ -40,7 +40,19 @@ def _string(body: bytes, pos: int) -> tuple[str, int]:
 
 def _decompress(data: bytes, compression: str, cut: bool) -> bytes:
     """A chunk's records: ``data`` decompressed (``""``, ``"zstd"`` or ``"lz4"``); of a
-    chunk ``cut`` off, as much as its data hold."""
+    chunk ``cut`` off, as much as its data hold.  A ValueError for data that do not
+    decompress (a damaged chunk)."""
+    try:
+        return _decompressed(data, compression, cut)
+    except (ValueError, ImportError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - zstd and lz4 raise their own types
+        raise ValueError(
+            f"a {compression} chunk does not decompress ({type(exc).__name__}: {exc})"
+        ) from None
+
+
+def _decompressed(data: bytes, compression: str, cut: bool) -> bytes:
     if compression == "":
         return data
     if compression == "zstd":

@@ -59,6 +59,24 @@ class _AnyReaderSource:
                 yield conn.topic, conn.msgtype, t_ns, reader.deserialize(raw, conn.msgtype)
 
 
+def _messages(path: Path, source, topics) -> Iterator[tuple[str, str, int, Any]]:
+    """``source.messages(topics)``, with an error of the reader on a message (a damaged
+    chunk or message: rosbags and its decompressors raise their own types) as a
+    ValueError naming ``path``."""
+    it = iter(source.messages(topics))
+    while True:
+        try:
+            item = next(it)
+        except StopIteration:
+            return
+        except Exception as exc:  # noqa: BLE001 - any reader error is a damaged file
+            raise ValueError(
+                f"path: {path} is damaged: a message after its start cannot be read "
+                f"({type(exc).__name__}: {exc})"
+            ) from None
+        yield item
+
+
 def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequential:
     if not path.exists():
         raise FileNotFoundError(f"path: bag not found: {path}")
@@ -337,7 +355,7 @@ def _iter_bag(
     )
     skipped = 0
     n_unusable, first_unusable = 0, ""
-    for _topic, _typ, t_ns, msg in source.messages([scan_topic]):
+    for _topic, _typ, t_ns, msg in _messages(path, source, [scan_topic]):
         stamp = _stamp_ns(msg.header.stamp) or t_ns
         frame = _frame(msg.header.frame_id)
         robot, offset = poses.at(frame, stamp)
@@ -390,7 +408,7 @@ def _collect_poses(
         wanted.append(pose_topic)
     bad: list[str] = []  # the poses and transforms skipped (a localisation glitch)
     if mode != "none" and wanted:
-        for topic, typ, t_ns, msg in source.messages(wanted):
+        for topic, typ, t_ns, msg in _messages(path, source, wanted):
             if typ in _TF_TYPES:
                 _add_transforms(path, tree, topic, t_ns, msg, bad)
                 continue
