@@ -709,6 +709,16 @@ def test_view_command_shows_the_graph_alone_when_the_record_is_damaged(
     assert payload_of((out / "view.html").read_text())["graphs"][0]["n_edges"] > 0
 
 
+def test_view_command_passes_over_a_folder_named_as_rooms(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["graph", str(tj.datasets.sample_map_path("office")), "-o", str(out)]) == 0
+    (out / "office_rooms.geojson").mkdir()
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    assert "office_rooms.geojson" not in capsys.readouterr().out
+    assert payload_of((out / "view.html").read_text())["rooms"] is None
+
+
 def test_view_command_on_a_replay_folder_with_a_timeline(tmp_path, capsys):
     mapper, timeline, _ = intel_replay()
     out = tmp_path / "rep"

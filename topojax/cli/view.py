@@ -113,6 +113,8 @@ def find_results(folder: Path) -> list[_Result]:
             continue
         results.setdefault(stem, _Result(stem)).graph = path
     for rooms in sorted(folder.glob("*_rooms.geojson")):
+        if not rooms.is_file():  # as for graphs: a folder or a pipe is no result
+            continue
         stem = rooms.name[: -len("_rooms.geojson")]
         if stem == "map" and replay:
             stem = "graph"
