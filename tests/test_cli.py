@@ -247,6 +247,23 @@ def test_replay_names_its_options_in_errors(tmp_path, capsys, argv, message):
     assert not (tmp_path / "out").exists()
 
 
+def test_replay_option_names_leave_the_paths_in_its_errors_as_they_are(tmp_path, capsys):
+    """A folder or file named like a parameter (``resume``, ``animate.gif``) came out of
+    the error as ``.../--resume/mapper_state.npz`` or ``.../--animate.gif``: the words
+    that name options were rewritten inside paths too."""
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    out = tmp_path / "resume"
+    assert main(["replay", str(log), "-o", str(out), "--resume"]) != 0
+    err = capsys.readouterr().err
+    assert f"error: --resume: no saved state {out / 'mapper_state.npz'} " in err
+    assert "replay without --resume" in err  # the parameter in prose is still the option
+    (tmp_path / "file").write_text("")
+    gif = tmp_path / "file" / "animate.gif"
+    assert main(["replay", str(log), "-o", str(tmp_path / "o"), "--animate", str(gif)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("topojax replay: error: --animate: ") and str(gif) in err
+
+
 def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, capsys):
     """A missing log was reported as ``path: file not found``, the reader's parameter."""
     missing = tmp_path / "none.log"

@@ -23,8 +23,11 @@ def _as_option_error(exc: Exception, option_of: dict[str, str] = _OPTION_OF) -> 
     as the option that sets it (``--min-spur-m``), ``option_of`` mapping the one to the
     other: the commands' errors name what their user typed.  A ``TypeError``, a
     ``ValueError`` or a built-in ``OSError`` (``NotADirectoryError`` as well) made from a
-    message (and an error number) is rewritten; any other error is ``exc``."""
-    words = re.compile(r"\b(" + "|".join(map(re.escape, option_of)) + r")\b")
+    message (and an error number) is rewritten; any other error is ``exc``.  A name
+    within a file path (``out/resume/state.npz``, ``animate.gif``) or already an option
+    (``--resume``) is left as it is."""
+    names = "|".join(map(re.escape, option_of))
+    words = re.compile(rf"(?<![\w/\\.-])({names})(?![\w/\\-]|\.\w)")
 
     def named(text: str) -> str:
         return words.sub(lambda m: option_of[m.group(1)], text)
