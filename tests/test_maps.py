@@ -317,7 +317,8 @@ def test_coordinate_conversions_name_arguments_of_mismatched_shapes():
     ("attr", "value", "words"),
     [
         ("shape", 5, r"recorded shape to be 2 integers \(rows, cols\), received 5"),
-        ("shape", (4.0, 6.0), r"recorded shape to be 2 integers .* received \(4.0, 6.0\)"),
+        ("shape", (4.5, 6.0), r"recorded shape to be 2 integers .* received \(4.5, 6.0\)"),
+        ("shape", (4, np.nan), r"recorded shape to be 2 integers .* received \(4, nan\)"),
         ("origin", ["a", "b", "c"], r"recorded origin to be 3 numbers .* \['a', 'b', 'c'\]"),
         ("origin", 0.0, "recorded origin to be 3 numbers .* received 0.0"),
         ("resolution_m", "0.1", "recorded resolution_m to be a number, received str '0.1'"),

@@ -398,16 +398,14 @@ def grid_mismatch(shape, resolution_m, origin, occupancy, *, owner: str) -> str 
 
 
 def _numbers(value: Any, n: int, *, integral: bool = False) -> bool:
-    """Is ``value`` a sequence (not a str) of ``n`` real numbers (integers if
-    ``integral``)?"""
+    """Is ``value`` a sequence (not a str) of ``n`` real numbers (whole and finite if
+    ``integral``: ``4.0`` too, as a JSON or GraphML file may give them)?"""
     if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
         return False
     items = list(value)
-    if integral:
-        return len(items) == n and all(
-            isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)) for v in items
-        )
-    return len(items) == n and all(is_real_number(v) for v in items)
+    if len(items) != n or not all(is_real_number(v) for v in items):
+        return False
+    return not integral or all(float(v).is_integer() for v in items)
 
 
 def _malformed_grid(shape, resolution_m, origin, owner: str) -> str | None:
