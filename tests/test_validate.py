@@ -519,10 +519,29 @@ def test_every_exported_check_is_tested():
         "binary_flag", "binary_image", "existing_file", "finite_numbers", "finite_pair",
         "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
-        "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "pose", "positive_int", "positive_metres",
+        "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "plain_int_pair", "plain_length_m", "pose", "positive_int", "positive_metres",
         "quantity", "real_number", "robot_radius",
     }  # fmt: skip
     assert set(v.__all__) == tested
+
+
+@pytest.mark.parametrize("value", [0, 0.0, 2, 1.5, 1e300])
+def test_a_plain_length_is_a_python_number_finite_and_not_negative(value):
+    assert v.plain_length_m(value)
+
+
+@pytest.mark.parametrize(
+    "value", [-0.5, -1, math.nan, math.inf, True, "1.0", None, np.float64(1.0), [1.0]]
+)
+def test_anything_else_is_not_a_plain_length_and_goes_to_the_full_check(value):
+    """NumPy numbers are lengths too, but checked (and converted) by nonnegative_metres."""
+    assert not v.plain_length_m(value)
+
+
+def test_a_plain_int_pair_is_a_tuple_of_two_python_ints():
+    assert v.plain_int_pair((3, 4))
+    for value in ([3, 4], (3,), (3, 4, 5), (3.0, 4), (np.int64(3), 4), (True, 4), "34", None):
+        assert not v.plain_int_pair(value)
 
 
 def test_robot_radius_is_metres_up_to_a_kilometre():

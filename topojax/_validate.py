@@ -43,6 +43,8 @@ __all__ = [
     "one_of",
     "path_like",
     "pixel_rows",
+    "plain_int_pair",
+    "plain_length_m",
     "pose",
     "positive_int",
     "positive_metres",
@@ -481,6 +483,21 @@ def nx_graph(name: str, graph: Any, *, undirected: bool = True, multigraph: bool
     if not ok:
         raise TypeError(f"{name}: expected {_a(what)}, received {type(graph).__name__}")
     return graph
+
+
+def plain_length_m(value: Any) -> bool:
+    """Is ``value`` a plain Python float or int, finite and ``>= 0``?  The common case of
+    a graph's ``length_m``, told apart without building an error's name (per edge of a
+    large graph); anything else goes through :func:`nonnegative_metres`."""
+    return (type(value) is float or type(value) is int) and 0 <= value < math.inf
+
+
+def plain_int_pair(value: Any) -> bool:
+    """Is ``value`` a tuple of two plain Python ints (a vertex's ``pixel`` as the builders
+    write it)?  Anything else goes through :func:`pixel_rows`."""
+    return (
+        type(value) is tuple and len(value) == 2 and type(value[0]) is int and type(value[1]) is int
+    )
 
 
 def pixel_rows(name: str, value: Any, *, one: bool = False) -> np.ndarray:

@@ -14,7 +14,14 @@ import networkx as nx
 import numpy as np
 
 from ._sight import sees as _sees
-from ._validate import finite_pair, nonnegative_metres, one_of, positive_metres, robot_radius
+from ._validate import (
+    finite_pair,
+    nonnegative_metres,
+    one_of,
+    plain_length_m,
+    positive_metres,
+    robot_radius,
+)
 from .graph import cumulative_length_m, graph_resolution_m, holds, polyline_keep
 from .io import as_multigraph, jsonable
 from .maps.occupancy import map_mismatch
@@ -440,12 +447,17 @@ class RoutePlanner:
         try:
             path = np.asarray(data["path"])
             world = np.asarray(data["world"])
-            length = nonnegative_metres(f"graph: {where}: 'length_m'", data["length_m"])
+            length = data["length_m"]
         except KeyError as exc:
             raise ValueError(
                 f"graph: {where} has no {exc.args[0]!r} attribute; routes need the edges' "
                 "'path', 'world' and 'length_m' (as skeleton_to_graph writes them)"
             ) from None
+        length = (
+            float(length)
+            if plain_length_m(length)
+            else nonnegative_metres(f"graph: {where}: 'length_m'", length)
+        )
         if world.dtype.kind not in "iuf":
             raise TypeError(
                 f"graph: {where}: expected a real 'world' polyline, received dtype {world.dtype}"

@@ -14,7 +14,7 @@ from collections.abc import Callable
 import networkx as nx
 import numpy as np
 
-from .._validate import flag, metres_per_pixel, nonnegative_metres, nx_graph
+from .._validate import flag, metres_per_pixel, nonnegative_metres, nx_graph, plain_length_m
 from .geometry import _edge_pixel_index, orient, path_lengths_m
 from .store import KIND_JUNCTION, GraphStore
 from .trace import (
@@ -565,7 +565,10 @@ def graph_summary(graph: nx.MultiGraph) -> dict[str, float | int]:
         raise ValueError("graph: expected every node to have a 'kind' attribute, some have none")
     total_m = 0.0
     for u, v, length in graph.edges(data="length_m", default=0.0):
-        total_m += nonnegative_metres(f"graph: edge {u!r}-{v!r}: 'length_m'", length)
+        if plain_length_m(length):
+            total_m += length
+        else:
+            total_m += nonnegative_metres(f"graph: edge {u!r}-{v!r}: 'length_m'", length)
     return {
         "n_vertices": graph.number_of_nodes(),
         "n_edges": graph.number_of_edges(),

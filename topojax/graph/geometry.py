@@ -9,7 +9,7 @@ import numbers
 
 import numpy as np
 
-from .._validate import pixel_rows
+from .._validate import pixel_rows, plain_int_pair
 
 
 def _steps_length(n_straight, n_diagonal, res: float):
@@ -65,7 +65,7 @@ def holds(node: dict, pixel, name: str = "graph: a vertex") -> bool:
     r, c = int(pixel[0]), int(pixel[1])
     own = node.get("pixel")
     if own is not None:
-        if not (type(own) is tuple and len(own) == 2 and all(type(v) is int for v in own)):
+        if not plain_int_pair(own):
             own = pixel_rows(f"{name}: 'pixel'", own, one=True)  # not the builders' int pair
         if own[0] == r and own[1] == c:
             return True

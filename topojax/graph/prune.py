@@ -10,7 +10,14 @@ import math
 import networkx as nx
 import numpy as np
 
-from .._validate import is_real_number, nonnegative_metres, nx_graph, pixel_rows
+from .._validate import (
+    is_real_number,
+    nonnegative_metres,
+    nx_graph,
+    pixel_rows,
+    plain_int_pair,
+    plain_length_m,
+)
 from .geometry import _ends_at, _path_length_m, graph_resolution_m, holds
 from .store import fill_multigraph, paused_gc
 
@@ -107,7 +114,8 @@ def _prune(graph: nx.MultiGraph, clearance: float, spur: float, component: float
     for v, data in graph.nodes(data=True):
         if "pixel" not in data:
             raise ValueError(f"graph: expected every vertex to have a 'pixel', vertex {v} has none")
-        pixel_rows(f"graph: vertex {v}: 'pixel'", data["pixel"], one=True)
+        if not plain_int_pair(data["pixel"]):
+            pixel_rows(f"graph: vertex {v}: 'pixel'", data["pixel"], one=True)
         nodes[v] = dict(data)
     edges: dict[int, tuple] = {}
     incident: dict = {v: set() for v in nodes}
@@ -118,7 +126,8 @@ def _prune(graph: nx.MultiGraph, clearance: float, spur: float, component: float
                 raise ValueError(
                     f"graph: expected every edge to have a {name!r}, edge {u}-{v} has none"
                 )
-        nonnegative_metres(f"graph: edge {u}-{v}: 'length_m'", data["length_m"])
+        if not plain_length_m(data["length_m"]):
+            nonnegative_metres(f"graph: edge {u}-{v}: 'length_m'", data["length_m"])
         edges[eid] = (u, v, dict(data))
         incident[u].add(eid)
         incident[v].add(eid)
