@@ -148,9 +148,10 @@ def load_map(
         For undecodable images, malformed YAML, missing or invalid fields, or invalid
         parameters; the message names the file and the field.
     MemoryError
-        For an image decoded into memory (any but a binary 8-bit PGM, which is
-        memory-mapped) whose header gives more pixels than the memory available can
-        decode and classify (5 bytes a pixel at least): refused before it is decoded.
+        For a PNG, JPEG, BMP, TIFF or PGM/PPM image decoded into memory (any but a
+        binary 8-bit PGM, which is memory-mapped) whose header gives more pixels than
+        the memory available can decode and classify (5 bytes a pixel at least):
+        refused before it is decoded.  Other formats are decoded unchecked.
 
     Notes
     -----
