@@ -285,10 +285,11 @@ def test_bad_input(tmp_path, kwargs, exc, words):
         marked.edges[0, 1, 0]["path"] = path
         with pytest.raises((TypeError, ValueError), match=r"^graph: edge \(0, 1\): 'path'"):
             tj.save_nav2_graph(marked, tmp_path / "p.geojson")
-    for waypoints in ("here", [[0.0, 0.0], [1.0]]):
+    for waypoints in ("here", [[0.0, 0.0], [1.0]], [[0.0, 0.0]], [[0.0, 0.0], [np.nan, 1.0]]):
         marked = skeleton_to_graph(art("###"), resolution_m=1.0)
         marked.edges[0, 1, 0]["waypoints"] = waypoints
-        with pytest.raises(ValueError, match=r"^graph: edge \(0, 1, 0\) needs finite 'waypoints'"):
+        words = r"^graph: edge \(0, 1, 0\) 'waypoints': expected finite \(x, y\) points"
+        with pytest.raises(ValueError, match=words):
             tj.save_nav2_graph(marked, tmp_path / "w.geojson")
     lonely = skeleton_to_graph(art("#.#"), resolution_m=1.0)  # two isolated pixels
     with pytest.raises(ValueError, match="2 vertices and no edges"):

@@ -428,6 +428,8 @@ def test_drawing_options_name_themselves(result):
     corridors = tj.route_graph(result.map, robot_radius_m=0.2)
     u, v, k = next(iter(corridors.edges(keys=True)))
     corridors.edges[u, v, k]["waypoints"] = "corridor"  # failed inside NumPy
-    with pytest.raises(ValueError, match=rf"^graph: edge {u}-{v}: 'waypoints': expected \(x, y\)"):
+    with pytest.raises(
+        ValueError, match=rf"^graph: edge {u}-{v}: 'waypoints': expected finite \(x, y\) points"
+    ):
         tj.plot_route_graph(corridors, result.map)
     plt.close("all")

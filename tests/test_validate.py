@@ -520,7 +520,7 @@ def test_every_exported_check_is_tested():
         "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "plain_int_pair", "plain_length_m", "pose", "positive_int", "positive_metres",
-        "quantity", "real_number", "robot_radius",
+        "quantity", "real_number", "robot_radius", "xy_points",
     }  # fmt: skip
     assert set(v.__all__) == tested
 
@@ -542,6 +542,23 @@ def test_a_plain_int_pair_is_a_tuple_of_two_python_ints():
     assert v.plain_int_pair((3, 4))
     for value in ([3, 4], (3,), (3, 4, 5), (3.0, 4), (np.int64(3), 4), (True, 4), "34", None):
         assert not v.plain_int_pair(value)
+
+
+def test_xy_points_are_finite_pairs_at_least_min_points_of_them():
+    np.testing.assert_array_equal(v.xy_points([[1, 2], [3, 4]], "w"), [[1.0, 2.0], [3.0, 4.0]])
+    assert v.xy_points([[1, 2]], "w").dtype == np.float64
+    cases = [
+        ("abc", r"^w: expected finite \(x, y\) points of shape \(K, 2\), K >= 1, received 'abc'$"),
+        ([[1, 2], [3]], r"^w: expected finite .* K >= 1, received \[\[1, 2\], \[3\]\]$"),
+        ([1, 2], r"^w: expected finite .* received \[1, 2\] of shape \(2,\)$"),
+        (np.zeros((0, 2)), r"^w: expected finite .* of shape \(0, 2\)$"),
+        ([[1, np.inf]], r"^w: expected finite \(x, y\) points, received 1 value\(s\) that are not"),
+    ]
+    for value, words in cases:
+        with pytest.raises(ValueError, match=words):
+            v.xy_points(value, "w")
+    with pytest.raises(ValueError, match=r"^w: expected finite .* K >= 2, received"):
+        v.xy_points([[1, 2]], "w", min_points=2)
 
 
 def test_robot_radius_is_metres_up_to_a_kilometre():

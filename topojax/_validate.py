@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import reprlib
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -52,6 +53,7 @@ __all__ = [
     "real_array",
     "real_number",
     "robot_radius",
+    "xy_points",
 ]
 
 
@@ -543,3 +545,26 @@ def binary_image(name: str, image: Any) -> np.ndarray:
     if arr.dtype == np.bool_:
         return np.ascontiguousarray(arr)
     return np.ascontiguousarray(arr != 0)
+
+
+def xy_points(value: Any, where: str, *, min_points: int = 1) -> np.ndarray:
+    """``value`` as float64 (K, 2) ``(x, y)`` points, ``K >= min_points`` (a vertex's
+    position, an edge's ``world`` polyline or ``waypoints``); a ValueError naming
+    ``where`` unless it is that shape and every number is finite."""
+    try:
+        xy = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        xy = None
+    if xy is None or xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < max(min_points, 1):
+        shape = "" if xy is None else f" of shape {xy.shape}"
+        raise ValueError(
+            f"{where}: expected finite (x, y) points of shape (K, 2), K >= {max(min_points, 1)}, "
+            f"received "
+            f"{reprlib.repr(value)}{shape}"
+        )
+    bad = int(np.count_nonzero(~np.isfinite(xy)))
+    if bad:
+        raise ValueError(
+            f"{where}: expected finite (x, y) points, received {bad} value(s) that are not finite"
+        )
+    return xy

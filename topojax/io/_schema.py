@@ -11,7 +11,6 @@ tools) are decoded with the topojax defaults (``_DEFAULT_*_KINDS``).
 from __future__ import annotations
 
 import dataclasses
-import reprlib
 import warnings
 from pathlib import Path
 from typing import Any
@@ -255,27 +254,6 @@ def _xy(value: Any, where: str) -> list[float]:
     if arr.shape != (2,) or not np.all(np.isfinite(arr)):
         raise ValueError(f"{where}: expected 2 finite numbers (x, y), received {value!r}")
     return [float(arr[0]), float(arr[1])]
-
-
-def xy_points(value: Any, where: str) -> np.ndarray:
-    """``value`` as float64 (K, 2) ``(x, y)`` points, K >= 1; ValueError naming ``where``
-    unless it is that shape and every number is finite."""
-    try:
-        xy = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        xy = None
-    if xy is None or xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) == 0:
-        shape = "" if xy is None else f" of shape {xy.shape}"
-        raise ValueError(
-            f"{where}: expected finite (x, y) points of shape (K, 2), K >= 1, received "
-            f"{reprlib.repr(value)}{shape}"
-        )
-    bad = int(np.count_nonzero(~np.isfinite(xy)))
-    if bad:
-        raise ValueError(
-            f"{where}: expected finite (x, y) points, received {bad} value(s) that are not finite"
-        )
-    return xy
 
 
 def _check_ends(g, u: Any, v: Any, path: Path, where: str) -> None:

@@ -22,8 +22,8 @@ import numpy as np
 
 from .._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
 from .._fs import output_file
-from .._validate import instance_of, no_file_above
-from ._schema import _xy, xy_points
+from .._validate import instance_of, no_file_above, xy_points
+from ._schema import _xy
 
 __all__ = [
     "LASER_FRAME",

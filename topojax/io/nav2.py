@@ -4,16 +4,15 @@ from __future__ import annotations
 
 import json
 import math
-import reprlib
 from pathlib import Path
 
 import networkx as nx
 import numpy as np
 
 from .._fs import atomic_write_bytes
-from .._validate import instance_of, path_like, pixel_rows, positive_metres
+from .._validate import instance_of, path_like, pixel_rows, positive_metres, xy_points
 from ..graph import holds, polyline_keep
-from ._schema import _xy, as_multigraph, jsonable, xy_points
+from ._schema import _xy, as_multigraph, jsonable
 
 # One directed hop of a waypoint chain: start id, end id, start (x, y), end (x, y), metadata.
 _Segment = tuple[int, int, list[float], list[float], dict]
@@ -201,21 +200,7 @@ def _waypoints(d: dict, where: str) -> np.ndarray | None:
     """An edge's ``waypoints`` (a route graph's simplified polyline), float64 (K, 2),
     or None when it has none."""
     w = d.get("waypoints")
-    if w is None:
-        return None
-    try:
-        w = np.asarray(w, dtype=np.float64)
-    except (TypeError, ValueError):  # strings, ragged lists
-        raise ValueError(
-            f"graph: {where} needs finite 'waypoints' of shape (K >= 2, 2), received "
-            f"{type(w).__name__} {reprlib.repr(w)}"
-        ) from None
-    if w.ndim != 2 or w.shape[1:] != (2,) or len(w) < 2 or not np.isfinite(w).all():
-        raise ValueError(
-            f"graph: {where} needs finite 'waypoints' of shape (K >= 2, 2), received shape "
-            f"{w.shape}"
-        )
-    return w
+    return None if w is None else xy_points(w, f"graph: {where} 'waypoints'", min_points=2)
 
 
 def _segment_features(segments: list[_Segment], first_id: int) -> list[dict]:

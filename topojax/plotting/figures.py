@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import reprlib
 import sys
 
 import numpy as np
@@ -15,6 +14,7 @@ from .._validate import (
     nonnegative_quantity,
     nx_graph,
     pixel_rows,
+    xy_points,
 )
 from .style import (
     MARGIN_COLOUR,
@@ -241,14 +241,8 @@ def route_graph_lines(graph, occupancy) -> list[np.ndarray]:
             rows_cols = vertex_pixels(graph, [u, v], occupancy, "auto")
             lines.append(rows_cols[:, ::-1])
             continue
-        try:
-            xy = np.asarray(pts, np.float64).reshape(-1, 2)
-        except (TypeError, ValueError):  # strings, ragged lists, an odd count
-            key = "waypoints" if d.get("waypoints") is not None else "world"
-            raise ValueError(
-                f"graph: edge {u!r}-{v!r}: {key!r}: expected (x, y) points in metres, "
-                f"received {reprlib.repr(pts)}"
-            ) from None
+        key = "waypoints" if d.get("waypoints") is not None else "world"
+        xy = xy_points(pts, f"graph: edge {u!r}-{v!r}: {key!r}")
         rows, cols = occupancy.world_to_pixel(xy[:, 0], xy[:, 1])
         lines.append(np.stack([cols, rows], axis=1))
     return lines

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .._validate import nx_graph
+from .._validate import nx_graph, xy_points
 from ..graph import holds
 from ..io import as_multigraph, jsonable
 from ..maps.occupancy import grid_to_world
@@ -80,11 +80,14 @@ def graph_frame(graph: nx.Graph) -> Frame | None:
 def world_points(value, name: str, *, one: bool) -> np.ndarray:
     """``value``, a vertex's ``world`` (x, y) when ``one``, else an edge's polyline, as
     float64 (K, 2); a ValueError naming ``name`` when it is not numbers in pairs."""
+    if not one:
+        return xy_points(value, name)
     try:
-        return np.asarray(value, np.float64).reshape(1 if one else -1, 2)
+        return np.asarray(value, np.float64).reshape(1, 2)
     except (TypeError, ValueError):
-        what = "a world position (x, y)" if one else "a world polyline of (x, y) pairs"
-        raise ValueError(f"{name}: expected {what}, received {reprlib.repr(value)}") from None
+        raise ValueError(
+            f"{name}: expected a world position (x, y), received {reprlib.repr(value)}"
+        ) from None
 
 
 def _vertex_world(graph, frame: Frame | None, where: str) -> np.ndarray:
