@@ -466,7 +466,10 @@ def test_bad_input_gets_clear_errors():
     edited = g.copy()
     edited.edges[u, v, k]["world"] = edited.edges[u, v, k]["world"].astype(object)
     edited.edges[u, v, k]["world"][0, 0] = None
-    with pytest.raises(TypeError, match=r"'world' polyline, received dtype object"):
+    with pytest.raises(
+        TypeError,
+        match=r"'world': expected a number or an array of real numbers, received ndarray of dtype object",
+    ):
         RoutePlanner(edited)
     # the planner read the graph without changing it
     fresh = skeleton_to_graph(art(U_WITH_SHORTCUT), resolution_m=1.0)

@@ -20,6 +20,7 @@ from ._validate import (
     one_of,
     plain_length_m,
     positive_metres,
+    real_array,
     robot_radius,
 )
 from .graph import cumulative_length_m, graph_resolution_m, holds, polyline_keep
@@ -446,7 +447,7 @@ class RoutePlanner:
         where = f"edge ({a!r}, {b!r}, {key!r})"
         try:
             path = np.asarray(data["path"])
-            world = np.asarray(data["world"])
+            world = real_array(f"graph: {where}: 'world'", data["world"], finite=True)
             length = data["length_m"]
         except KeyError as exc:
             raise ValueError(
@@ -458,11 +459,6 @@ class RoutePlanner:
             if plain_length_m(length)
             else nonnegative_metres(f"graph: {where}: 'length_m'", length)
         )
-        if world.dtype.kind not in "iuf":
-            raise TypeError(
-                f"graph: {where}: expected a real 'world' polyline, received dtype {world.dtype}"
-            )
-        world = world.astype(np.float64, copy=False)
         if (
             path.ndim != 2
             or path.shape[1] != 2
@@ -473,10 +469,6 @@ class RoutePlanner:
             raise ValueError(
                 f"graph: {where}: expected an integer 'path' of shape (n, 2) and a 'world' of "
                 f"the same shape, received {path.dtype} {path.shape} and {world.shape}"
-            )
-        if not np.isfinite(world).all():
-            raise ValueError(
-                f"graph: {where}: expected a finite 'world' polyline, received NaN or inf"
             )
         return path.astype(np.int64), world, length
 
