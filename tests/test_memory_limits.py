@@ -134,7 +134,7 @@ def _peak_bytes(call) -> tuple[int, Exception | None]:
     try:
         call()
         error = None
-    except ValueError as exc:
+    except (ValueError, MemoryError) as exc:
         error = exc
     finally:
         peak = tracemalloc.get_traced_memory()[1]
@@ -178,6 +178,31 @@ def test_a_mapper_state_member_claiming_more_than_it_holds_is_refused_unallocate
     assert str(error).startswith(f"{doctored}: not a readable mapper state")
     assert peak < CLAIMED_ROWS
     assert tj.IncrementalMapper.load(good).n_scans == mapper.n_scans
+
+
+def test_a_mapper_state_that_unpacks_past_the_memory_available_is_refused_unread(
+    tmp_path, monkeypatch
+):
+    """A zip bomb (a few kB unpacking to gigabytes, every header true) passes the header
+    checks; its unpacked size, from the archive's directory, is held to the memory
+    available before any member is read."""
+    import topojax._npy as npy
+
+    mapper = tj.IncrementalMapper()
+    mapper.add_map(tj.sample_map("a_scan"))
+    state = mapper.save(tmp_path / "state.npz")
+    with zipfile.ZipFile(state) as z:
+        unpacked = sum(i.file_size for i in z.infolist())
+    monkeypatch.setattr(npy, "available_memory_bytes", lambda: unpacked - 1)
+    peak, error = _peak_bytes(lambda: tj.IncrementalMapper.load(state))
+    assert isinstance(error, MemoryError)
+    assert str(error).startswith(f"{state}: its arrays unpack to ")
+    assert "GiB of memory available" in str(error)
+    assert peak < unpacked  # refused before the members were read
+    monkeypatch.setattr(npy, "available_memory_bytes", lambda: unpacked)
+    assert tj.IncrementalMapper.load(state).n_scans == mapper.n_scans
+    monkeypatch.setattr(npy, "available_memory_bytes", lambda: None)  # not known
+    assert tj.IncrementalMapper.load(state).n_scans == mapper.n_scans
 
 
 # ------------------------------------------------------- the command line out of memory

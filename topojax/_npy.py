@@ -8,7 +8,9 @@ from typing import BinaryIO
 
 import numpy as np
 
-__all__ = ["check_npy_size", "check_npz_sizes"]
+from ._cpus import available_memory_bytes
+
+__all__ = ["check_npy_size", "check_npz_fits", "check_npz_sizes"]
 
 _HEADER_READERS = {
     (1, 0): np.lib.format.read_array_header_1_0,
@@ -46,3 +48,18 @@ def check_npz_sizes(npz) -> None:
     for info in npz.zip.infolist():
         with npz.zip.open(info) as fh:
             check_npy_size(fh, info.file_size, f"member {info.filename}")
+
+
+def check_npz_fits(npz, where: str) -> None:
+    """A MemoryError naming ``where`` when the members of ``npz`` (an open ``numpy.load``
+    of an ``.npz`` archive), unpacked at the sizes its directory gives, hold more bytes
+    than the memory available (:func:`~topojax._cpus.available_memory_bytes`): a small
+    archive that unpacks to gigabytes (a zip bomb, or a state of a far larger map) is
+    refused before any member is read."""
+    need = sum(info.file_size for info in npz.zip.infolist())
+    available = available_memory_bytes()
+    if available is not None and need > available:
+        raise MemoryError(
+            f"{where}: its arrays unpack to {need / 2**30:,.1f} GiB, more than the "
+            f"{available / 2**30:,.1f} GiB of memory available"
+        )

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._npy import check_npz_sizes
+from .._npy import check_npz_fits, check_npz_sizes
 from .._validate import existing_file
 from ..config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..graph import KIND_NAMES
@@ -97,6 +97,9 @@ def read_state(path) -> tuple[Path, dict[str, np.ndarray]]:
     ValueError
         If it is not a file (a folder), or the file is not a mapper state or has another
         format version.
+    MemoryError
+        If its arrays unpack to more bytes than the memory available (checked before
+        any is read).
     """
     p = existing_file("path", path)
     if not zipfile.is_zipfile(p):  # np.load would read a .npy or ask about pickles
@@ -106,6 +109,7 @@ def read_state(path) -> tuple[Path, dict[str, np.ndarray]]:
         )
     try:
         with np.load(p, allow_pickle=False) as z:
+            check_npz_fits(z, str(p))  # a MemoryError: not caught below
             check_npz_sizes(z)  # before z[k] allocates what a header claims
             data = {k: z[k] for k in z.files}
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
