@@ -507,6 +507,26 @@ def test_timeline_keeps_every_update_and_round_trips(tmp_path):
         tj.Timeline.load(path).snapshot(mapper)
 
 
+def test_a_timeline_file_that_unpacks_past_its_share_of_memory_is_refused(tmp_path, monkeypatch):
+    """A small gzip file can unpack to gigabytes (and gzip records no size to trust): it
+    is unpacked a megabyte at a time and refused once past a quarter of the memory
+    available, before its JSON is parsed."""
+    import topojax.view.timeline as timeline
+
+    bomb = tmp_path / "timeline.json.gz"
+    bomb.write_bytes(gzip.compress(b" " * (8 << 20)))  # 8 MiB of spaces in 8 kB
+    monkeypatch.setattr(timeline, "available_memory_bytes", lambda: 16 << 20)
+    with pytest.raises(MemoryError, match=rf"^timeline file {bomb}: unpacks to more than"):
+        tj.Timeline.load(bomb)
+    monkeypatch.setattr(timeline, "available_memory_bytes", lambda: 40 << 20)
+    with pytest.raises(ValueError, match="not a gzip-compressed JSON file"):  # all spaces
+        tj.Timeline.load(bomb)
+    cut = tmp_path / "cut.json.gz"
+    cut.write_bytes(gzip.compress(b'{"format": 1}')[:-6])
+    with pytest.raises(ValueError, match="not a gzip-compressed JSON file: compressed file"):
+        tj.Timeline.load(cut)
+
+
 def test_a_corrupt_timeline_file_says_so(tmp_path):
     bad = tmp_path / "timeline.json.gz"
     bad.write_bytes(b"not gzip")

@@ -13,10 +13,12 @@ from __future__ import annotations
 import gzip
 import json
 import math
+import zlib
 from pathlib import Path
 
 import numpy as np
 
+from .._cpus import available_memory_bytes
 from .._validate import existing_file, instance_of, int_at_least
 from ._encode import TILE_PX, packed, pyramid, unpacked
 from ._graphs import KIND_NAMES
@@ -267,14 +269,17 @@ class Timeline:
         ValueError
             If it is not a file (a folder), not a timeline file or is corrupt (the message
             names the file).
+        MemoryError
+            If its JSON text unpacks to more than a quarter of the memory available
+            (parsed, it takes a few times its text), said once that much is unpacked.
         """
         p = existing_file("path", path)
         try:
-            text = gzip.decompress(p.read_bytes()).decode("utf-8")
+            text = _gunzip(p.read_bytes(), p).decode("utf-8")
             doc = json.loads(text, parse_constant=_no_constant)
         except _NotFinite as exc:
             raise ValueError(f"timeline file {p} is corrupt: {exc}") from None
-        except (OSError, EOFError, ValueError, UnicodeDecodeError) as exc:
+        except (OSError, EOFError, ValueError, UnicodeDecodeError, zlib.error) as exc:
             raise ValueError(
                 f"timeline file {p} is not a gzip-compressed JSON file: {exc}"
             ) from None
@@ -308,6 +313,36 @@ class Timeline:
 
 
 _FRAME_ARRAYS = ("ids", "x", "y", "kind", "clear", "edges", "added", "removed")
+
+
+def _gunzip(data: bytes, path: Path) -> bytes:
+    """The gzip-compressed ``data`` (read from ``path``; one or more members) unpacked a
+    megabyte at a time, up to a quarter of the memory available: a MemoryError naming the
+    file beyond that (a small file can unpack to gigabytes, and gzip records no size to
+    trust); ``EOFError`` for a stream cut short, ``zlib.error`` for a damaged one."""
+    available = available_memory_bytes()
+    limit = None if available is None else available // 4
+    parts, total, rest = [], 0, data
+    while rest:
+        stream = zlib.decompressobj(wbits=31)  # a gzip member
+        pending = rest
+        while not stream.eof:
+            piece = stream.decompress(pending, 1 << 20)
+            pending = stream.unconsumed_tail
+            if not piece and not pending:  # all read, no end of stream: cut short
+                break
+            total += len(piece)
+            if limit is not None and total > limit:
+                raise MemoryError(
+                    f"timeline file {path}: unpacks to more than {limit / 2**30:,.2f} GiB, a "
+                    f"quarter of the {available / 2**30:,.1f} GiB of memory available (its "
+                    "parsed JSON takes a few times its text)"
+                )
+            parts.append(piece)
+        if not stream.eof:
+            raise EOFError("compressed file ended before the end-of-stream marker was reached")
+        rest = stream.unused_data
+    return b"".join(parts)
 
 
 class _NotFinite(ValueError):
