@@ -18,6 +18,7 @@ import pytest
 from PIL import Image
 
 import topojax as tj
+from topojax._cpus import MemoryRefusal
 from topojax.maps import pnm
 
 
@@ -44,7 +45,7 @@ def test_a_png_claiming_a_huge_image_is_refused_as_too_large_not_as_corrupt(tmp_
     path = tmp_path / "bomb.png"
     _png_claiming(path, 100_000, 100_000)
     _memory(monkeypatch, 8 << 30)
-    with pytest.raises(MemoryError) as info:
+    with pytest.raises(MemoryRefusal) as info:
         tj.load_map(path)
     text = str(info.value)
     assert "100000 x 100000 pixels" in text
@@ -195,7 +196,7 @@ def test_a_mapper_state_that_unpacks_past_the_memory_available_is_refused_unread
         unpacked = sum(i.file_size for i in z.infolist())
     monkeypatch.setattr(npy, "available_memory_bytes", lambda: unpacked - 1)
     peak, error = _peak_bytes(lambda: tj.IncrementalMapper.load(state))
-    assert isinstance(error, MemoryError)
+    assert isinstance(error, MemoryRefusal)  # a MemoryError the command line prints as is
     assert str(error).startswith(f"{state}: its arrays unpack to ")
     assert "GiB of memory available" in str(error)
     assert peak < unpacked  # refused before the members were read

@@ -516,7 +516,9 @@ def test_a_timeline_file_that_unpacks_past_its_share_of_memory_is_refused(tmp_pa
     bomb = tmp_path / "timeline.json.gz"
     bomb.write_bytes(gzip.compress(b" " * (8 << 20)))  # 8 MiB of spaces in 8 kB
     monkeypatch.setattr(timeline, "available_memory_bytes", lambda: 16 << 20)
-    with pytest.raises(MemoryError, match=rf"^timeline file {bomb}: unpacks to more than"):
+    from topojax._cpus import MemoryRefusal
+
+    with pytest.raises(MemoryRefusal, match=rf"^timeline file {bomb}: unpacks to more than"):
         tj.Timeline.load(bomb)
     monkeypatch.setattr(timeline, "available_memory_bytes", lambda: 40 << 20)
     with pytest.raises(ValueError, match="not a gzip-compressed JSON file"):  # all spaces

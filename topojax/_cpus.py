@@ -7,7 +7,13 @@ import concurrent.futures as cf
 import os
 from typing import Any
 
-__all__ = ["as_executor", "available_memory_bytes", "usable_cpus"]
+__all__ = ["MemoryRefusal", "as_executor", "available_memory_bytes", "usable_cpus"]
+
+
+class MemoryRefusal(MemoryError):
+    """Input refused before the work because it would not fit the memory available (see
+    :func:`available_memory_bytes`); the message says what it needs, what there is and,
+    where there is one, what to do instead."""
 
 
 def usable_cpus() -> int:

@@ -93,9 +93,9 @@ def _drop_tracebacks(exc: BaseException | None) -> None:
 
 
 def _out_of_memory_message(exc: Exception) -> str:
-    from ..maps.pnm import ImageTooLargeError
+    from .._cpus import MemoryRefusal
 
-    if isinstance(exc, ImageTooLargeError):  # refused before the work: it says what to do
+    if isinstance(exc, MemoryRefusal):  # refused before the work: it says what to do
         return str(exc)
     detail = str(exc).strip().splitlines()[-1:] or [type(exc).__name__]
     return (

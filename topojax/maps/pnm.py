@@ -12,12 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .._cpus import available_memory_bytes
+from .._cpus import MemoryRefusal, available_memory_bytes
 from .._validate import existing_file
 
 __all__ = [
     "DECODE_BYTES_PER_PIXEL",
-    "ImageTooLargeError",
     "pnm_header_tokens",
     "read_image",
     "resolution_from_pgm_comments",
@@ -397,11 +396,6 @@ def _declared_size(data: bytes) -> tuple[int, int] | None:
     return None
 
 
-class ImageTooLargeError(MemoryError):
-    """A map image whose header gives more pixels than the memory available can decode;
-    the message says how much it needs, how much there is and what to do instead."""
-
-
 def _check_declared_size(data: bytes, path: Path) -> None:
     """A MemoryError where the header of ``data`` (read from ``path``) gives an image
     that decoding and classifying cannot fit in the memory available
@@ -415,7 +409,7 @@ def _check_declared_size(data: bytes, path: Path) -> None:
     need = width * height * DECODE_BYTES_PER_PIXEL
     if need <= available:
         return
-    raise ImageTooLargeError(
+    raise MemoryRefusal(
         f"map image {path}: its header gives {width} x {height} pixels, which take at "
         f"least {need / 2**30:,.1f} GiB to decode and classify "
         f"({DECODE_BYTES_PER_PIXEL} bytes a pixel), more than the "
