@@ -18,6 +18,7 @@ import pytest
 from PIL import Image
 
 import topojax as tj
+import topojax._cpus as cpus
 from topojax._cpus import MemoryRefusal
 from topojax.maps import pnm
 
@@ -38,7 +39,7 @@ def _png_claiming(path, width: int, height: int) -> None:
 
 def _memory(monkeypatch, available: int | None) -> None:
     """Make ``available`` bytes the memory available to decode a map image."""
-    monkeypatch.setattr(pnm, "available_memory_bytes", lambda: available)
+    monkeypatch.setattr(cpus, "available_memory_bytes", lambda: available)
 
 
 def test_a_png_claiming_a_huge_image_is_refused_as_too_large_not_as_corrupt(tmp_path, monkeypatch):
@@ -49,7 +50,7 @@ def test_a_png_claiming_a_huge_image_is_refused_as_too_large_not_as_corrupt(tmp_
         tj.load_map(path)
     text = str(info.value)
     assert "100000 x 100000 pixels" in text
-    assert "at least 46.6 GiB to decode and classify" in text
+    assert "decoding and classifying them (5 bytes a pixel) takes at least 46.6 GiB" in text
     assert "more than the 8.0 GiB of memory available" in text
     assert "binary 8-bit PGM" in text
     assert "corrupt" not in text
@@ -87,7 +88,9 @@ def test_every_decoded_format_is_held_to_the_memory_available_before_decoding(
     _memory(monkeypatch, 120 * pnm.DECODE_BYTES_PER_PIXEL)
     assert tj.load_map(path).shape == (10, 12)  # just fits
     _memory(monkeypatch, 120 * pnm.DECODE_BYTES_PER_PIXEL - 1)
-    with pytest.raises(MemoryError, match=r"12 x 10 pixels, which take at least"):
+    with pytest.raises(
+        MemoryError, match=r"12 x 10 pixels, and decoding and classifying them .* takes at least"
+    ):
         tj.load_map(path)
     _memory(monkeypatch, None)  # unknown (not Linux): decoded as it comes
     assert tj.load_map(path).shape == (10, 12)
@@ -187,22 +190,20 @@ def test_a_mapper_state_that_unpacks_past_the_memory_available_is_refused_unread
     """A zip bomb (a few kB unpacking to gigabytes, every header true) passes the header
     checks; its unpacked size, from the archive's directory, is held to the memory
     available before any member is read."""
-    import topojax._npy as npy
-
     mapper = tj.IncrementalMapper()
     mapper.add_map(tj.sample_map("a_scan"))
     state = mapper.save(tmp_path / "state.npz")
     with zipfile.ZipFile(state) as z:
         unpacked = sum(i.file_size for i in z.infolist())
-    monkeypatch.setattr(npy, "available_memory_bytes", lambda: unpacked - 1)
+    monkeypatch.setattr(cpus, "available_memory_bytes", lambda: unpacked - 1)
     peak, error = _peak_bytes(lambda: tj.IncrementalMapper.load(state))
     assert isinstance(error, MemoryRefusal)  # a MemoryError the command line prints as is
     assert str(error).startswith(f"{state}: its arrays unpack to ")
     assert "GiB of memory available" in str(error)
     assert peak < unpacked  # refused before the members were read
-    monkeypatch.setattr(npy, "available_memory_bytes", lambda: unpacked)
+    monkeypatch.setattr(cpus, "available_memory_bytes", lambda: unpacked)
     assert tj.IncrementalMapper.load(state).n_scans == mapper.n_scans
-    monkeypatch.setattr(npy, "available_memory_bytes", lambda: None)  # not known
+    monkeypatch.setattr(cpus, "available_memory_bytes", lambda: None)  # not known
     assert tj.IncrementalMapper.load(state).n_scans == mapper.n_scans
 
 

@@ -7,13 +7,31 @@ import concurrent.futures as cf
 import os
 from typing import Any
 
-__all__ = ["MemoryRefusal", "as_executor", "available_memory_bytes", "usable_cpus"]
+__all__ = [
+    "MemoryRefusal",
+    "as_executor",
+    "available_memory_bytes",
+    "check_fits_memory",
+    "usable_cpus",
+]
 
 
 class MemoryRefusal(MemoryError):
     """Input refused before the work because it would not fit the memory available (see
     :func:`available_memory_bytes`); the message says what it needs, what there is and,
     where there is one, what to do instead."""
+
+
+def check_fits_memory(need_bytes: int, what: str, advice: str = "") -> None:
+    """A :class:`MemoryRefusal` saying ``what`` (e.g. "map image m.png: ... takes at
+    least") ``need_bytes``, more than the memory available, then ``advice``; nothing when
+    it fits or the memory available is not known (not on Linux)."""
+    available = available_memory_bytes()
+    if available is not None and need_bytes > available:
+        raise MemoryRefusal(
+            f"{what} {need_bytes / 2**30:,.1f} GiB, more than the {available / 2**30:,.1f} GiB "
+            f"of memory available{advice}"
+        )
 
 
 def usable_cpus() -> int:

@@ -140,13 +140,7 @@ def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
         )
     folder = dest.parent if str(dest.parent) else Path(".")
     if not folder.is_dir():
-        blocker = next(
-            (f for f in (folder, *folder.parents) if f.exists() and not f.is_dir()), None
-        )
-        if blocker is not None:
-            raise NotADirectoryError(
-                f"folder for output file {dest}: {blocker} is a file, not a folder"
-            )
+        no_file_above(f"folder for output file {dest}", dest)
         raise FileNotFoundError(f"folder for output file {dest} does not exist: {folder}")
     fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=folder)
     try:

@@ -8,7 +8,7 @@ from typing import BinaryIO
 
 import numpy as np
 
-from ._cpus import MemoryRefusal, available_memory_bytes
+from ._cpus import check_fits_memory
 
 __all__ = ["check_npy_size", "check_npz_fits", "check_npz_sizes"]
 
@@ -57,9 +57,4 @@ def check_npz_fits(npz, where: str) -> None:
     archive that unpacks to gigabytes (a zip bomb, or a state of a far larger map) is
     refused before any member is read."""
     need = sum(info.file_size for info in npz.zip.infolist())
-    available = available_memory_bytes()
-    if available is not None and need > available:
-        raise MemoryRefusal(
-            f"{where}: its arrays unpack to {need / 2**30:,.1f} GiB, more than the "
-            f"{available / 2**30:,.1f} GiB of memory available"
-        )
+    check_fits_memory(need, f"{where}: its arrays unpack to")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._cpus import MemoryRefusal, available_memory_bytes
+from .._cpus import check_fits_memory
 from .._validate import existing_file
 
 __all__ = [
@@ -402,20 +402,15 @@ def _check_declared_size(data: bytes, path: Path) -> None:
     (:data:`DECODE_BYTES_PER_PIXEL`, :func:`~topojax._cpus.available_memory_bytes`),
     raised before any pixel is decoded."""
     size = _declared_size(data)
-    available = available_memory_bytes()
-    if size is None or available is None:
+    if size is None:
         return
     width, height = size
-    need = width * height * DECODE_BYTES_PER_PIXEL
-    if need <= available:
-        return
-    raise MemoryRefusal(
-        f"map image {path}: its header gives {width} x {height} pixels, which take at "
-        f"least {need / 2**30:,.1f} GiB to decode and classify "
-        f"({DECODE_BYTES_PER_PIXEL} bytes a pixel), more than the "
-        f"{available / 2**30:,.1f} GiB of memory available; save a map this large as a "
-        "binary 8-bit PGM, which load_map memory-maps instead of decoding (and "
-        "build_graph_tiled reads a window at a time)"
+    check_fits_memory(
+        width * height * DECODE_BYTES_PER_PIXEL,
+        f"map image {path}: its header gives {width} x {height} pixels, and decoding and "
+        f"classifying them ({DECODE_BYTES_PER_PIXEL} bytes a pixel) takes at least",
+        "; save a map this large as a binary 8-bit PGM, which load_map memory-maps instead "
+        "of decoding (and build_graph_tiled reads a window at a time)",
     )
 
 
