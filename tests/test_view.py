@@ -978,3 +978,20 @@ def test_timeline_snapshot_names_a_wrong_mapper():
     AttributeError on anything else."""
     with pytest.raises(TypeError, match="^mapper: expected an IncrementalMapper, received int"):
         tj.Timeline().snapshot(3)
+
+
+def test_view_command_shows_the_results_it_can_and_names_the_others(tmp_path, capsys):
+    res = intel_result()
+    for stem in ("a", "c"):
+        tj.save_graph(res.graph, tmp_path / f"{stem}.json")
+    assert main(["view", str(tmp_path)]) == 0
+    (tmp_path / "b.json").write_text('{"directed": false, "nodes": [')
+    (tmp_path / "b_view.html").write_text("an older page of b")
+    assert main(["view", str(tmp_path)]) == 2
+    out, err = capsys.readouterr()
+    assert "a_view.html" in out and "c_view.html" in out
+    assert "OUT_DIR: 1 of the 3 results" in err and "(the others were written)" in err
+    assert "b.json" in err
+    index = (tmp_path / "view.html").read_text()
+    assert 'href="a_view.html"' in index and 'href="c_view.html"' in index
+    assert "b_view.html" not in index and not (tmp_path / "b_view.html").exists()

@@ -311,12 +311,27 @@ def _cmd_view(args) -> int:
     targets = [p for _, p in pages] + ([index] if len(results) > 1 else [])
     check_outputs(planned(targets, folder), command="view", option="OUT_DIR")
     output_folder(folder, name="OUT_DIR")  # takes the pages: checked before any work
-    for result, (_, target) in zip(results, pages, strict=True):
-        print("wrote      " + _write_one(result, target, args))
-    if len(results) > 1:
-        atomic_write_bytes(index, _index_page(folder, pages).encode("utf-8"))
-        print(f"wrote      {index} (links to the {len(pages)} views)")
+    if len(results) == 1:
+        print("wrote      " + _write_one(results[0], index, args))
+        record_outputs(planned(targets, folder), command="view")
+        return 0
+    written, failed = [], []
+    for result, (stem, target) in zip(results, pages, strict=True):
+        try:  # one result that cannot be shown does not keep the others from the index
+            print("wrote      " + _write_one(result, target, args))
+            written.append((stem, target))
+        except (ValueError, OSError) as exc:
+            failed.append(str(exc))
+            target.unlink(missing_ok=True)  # an older page of it would show what is gone
+    if written:
+        atomic_write_bytes(index, _index_page(folder, written).encode("utf-8"))
+        print(f"wrote      {index} (links to the {len(written)} views)")
     record_outputs(planned(targets, folder), command="view")
+    if failed:
+        raise ValueError(
+            f"OUT_DIR: {len(failed)} of the {len(results)} results in {folder} could not "
+            f"be shown{' (the others were written)' if written else ''}:\n  " + "\n  ".join(failed)
+        )
     return 0
 
 
