@@ -268,3 +268,18 @@ def test_a_kept_block_replaced_while_the_build_runs_is_refused(tmp_path, monkeyp
     monkeypatch.setattr(tiled_build, "_block_task", gone)
     with pytest.raises(ValueError, match=rf"^out_dir: expected the kept block .*{name} that"):
         tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)
+
+
+def test_blocks_whose_build_description_was_removed_are_still_used(tmp_path, monkeypatch):
+    m = paper_map("office")
+    out = tmp_path / "graph"
+    done = stopped_build(monkeypatch, m, out, 5)
+    (out / BLOCKS_FOLDER / "build.json").unlink()
+    res = tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out, resume=True)
+    assert res.blocks_reused == len(done) == 5
+    assert_same_graph(res, tj.build_graph(m, config=SMALL))
+    # without resume they are cleared as the build's own, not refused as another program's
+    stopped_build(monkeypatch, m, out, 3)
+    (out / BLOCKS_FOLDER / "build.json").unlink()
+    res = tj.build_graph_tiled(m, config=SMALL, block_px=BLOCK, out_dir=out)
+    assert res.blocks_reused == 0 and not (out / BLOCKS_FOLDER).exists()

@@ -34,6 +34,9 @@ __all__ = ["BLOCKS_FOLDER", "BlockCheckpoints"]
 #: Folder of ``out_dir`` that holds the finished blocks while a build runs.
 BLOCKS_FOLDER = "topojax_blocks"
 _BUILD_FILE = "build.json"
+#: The names of the files this module writes into the folder (blocks, the description and
+#: their temporary files while written).
+_NAMES = ("block_*.npz", _BUILD_FILE, ".block_*.tmp", f".{_BUILD_FILE}.*.tmp")
 _FORMAT = "topojax-tiled-blocks"
 _VERSION = 1
 _ARRAYS = (
@@ -105,6 +108,11 @@ class BlockCheckpoints:
         if resume and build_file.is_file():
             _check_same_build(build_file, desc)
             return
+        if resume and self.folder.is_dir() and _only_block_files(self.folder):
+            # the description is gone, the blocks are not: each block carries its build's
+            # digest and is used only when it matches
+            atomic_write_bytes(build_file, json.dumps(desc, indent=1).encode())
+            return
         self.remove()
         self.folder.mkdir(exist_ok=True)
         atomic_write_bytes(build_file, json.dumps(desc, indent=1).encode())
@@ -173,12 +181,13 @@ class BlockCheckpoints:
         of this module's names, and only in a folder whose ``build.json`` it wrote)."""
         if not self.folder.is_dir():
             return
-        if any(self.folder.iterdir()) and not _ours(self.folder / _BUILD_FILE):
+        ours = _ours(self.folder / _BUILD_FILE) or _only_block_files(self.folder)
+        if not ours and any(self.folder.iterdir()):
             raise ValueError(
                 f"out_dir: {self.folder} holds files that no tiled build of topojax "
                 "wrote; remove them or choose another out_dir"
             )
-        for pattern in ("block_*.npz", _BUILD_FILE, ".block_*.tmp", f".{_BUILD_FILE}.*.tmp"):
+        for pattern in _NAMES:
             for path in self.folder.glob(pattern):
                 path.unlink(missing_ok=True)
         with contextlib.suppress(OSError):  # not empty: another program's files
@@ -201,6 +210,30 @@ def _read_block(path: Path) -> dict[str, np.ndarray] | None:
             return {name: f[name] for name in _ARRAYS}  # read whole: checksums
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
         return None
+
+
+def _only_block_files(folder: Path) -> bool:
+    """Whether ``folder`` holds block files and nothing else but this module's temporary
+    files (a folder of blocks whose ``build.json`` was removed)."""
+    entries = list(folder.iterdir())
+    blocks = [e for e in entries if e.match("block_*.npz")]
+    temporary = [e for e in entries if any(e.match(p) for p in _NAMES[2:])]
+    return (
+        bool(blocks)
+        and len(blocks) + len(temporary) == len(entries)
+        and all(e.is_file() for e in entries)
+        and all(_is_block_file(e) for e in blocks)
+    )
+
+
+def _is_block_file(path: Path) -> bool:
+    """Whether ``path`` is a zip of exactly the arrays of a block (its members' names;
+    not read)."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            return sorted(z.namelist()) == sorted(f"{name}.npy" for name in _ARRAYS)
+    except (OSError, zipfile.BadZipFile):
+        return False
 
 
 def _ours(build_file: Path) -> bool:
