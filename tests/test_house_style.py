@@ -9,7 +9,9 @@
 * a type check whose error is the one of ``topojax._validate.instance_of`` calls it
   instead of repeating it;
 * no import circle among the modules, imports inside functions and for type checkers
-  included.
+  included;
+* the repository passes README.md's lint and format commands, ``ruff check .`` and
+  ``ruff format --check .`` (the notebooks' cells included).
 
 Each exception in the ``KNOWN_*`` sets below is one to remove, not to add to.
 """
@@ -17,6 +19,8 @@ Each exception in the ``KNOWN_*`` sets below is one to remove, not to add to.
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -150,6 +154,19 @@ def test_no_import_circles() -> None:
     graph = nx.DiGraph([(a, b) for a, targets in _module_imports().items() for b in targets])
     circles = [sorted(c) for c in nx.strongly_connected_components(graph) if len(c) > 1]
     assert not circles, circles
+
+
+@pytest.mark.parametrize("command", [["check"], ["format", "--check"]], ids=" ".join)
+def test_the_repository_passes_ruff(command: list[str]) -> None:
+    pytest.importorskip("ruff")  # in the test extra
+    done = subprocess.run(
+        [sys.executable, "-m", "ruff", *command, "."],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
 
 
 def test_modules_are_short() -> None:
