@@ -40,7 +40,8 @@ from common import DEFAULT_DATA, machine_info, paper_obstacles, use_checkout, wr
 def floor(maps: dict[str, np.ndarray], repeats: int, rounds: int) -> dict:
     import jax
 
-    from topojax import distance, pipeline
+    from topojax import pipeline
+    from topojax.fields import distance
 
     shipped = distance._band_min
 
