@@ -584,6 +584,26 @@ def test_route_command_with_the_map_joins_the_graph_where_the_route_is_shortest(
     )
 
 
+def test_route_command_names_the_map_option_when_the_map_cannot_be_loaded(tmp_path, capsys):
+    """A map that is missing or does not load is named by ``--map`` (the option that gave
+    it), as a map of another size is, not by its file name alone."""
+    from topojax.cli import main
+
+    graph = tj.save_graph(skeleton_to_graph(art("#####"), resolution_m=1.0), tmp_path / "g.json")
+    undecodable = tmp_path / "bad.png"
+    undecodable.write_bytes(b"not an image")
+    no_origin = tmp_path / "map.yaml"
+    no_origin.write_text("image: map.pgm\nresolution: 0.05\n")
+    argv = ["route", str(graph), "--pixel", "--start", "0", "0", "--goal", "0", "4"]
+    for map_file, message in (
+        (tmp_path / "none.png", f"map file not found: {tmp_path / 'none.png'}"),
+        (undecodable, f"could not decode map image {undecodable}"),
+        (no_origin, f"map YAML {no_origin} is missing the required key 'origin'"),
+    ):
+        assert main([*argv, "--map", str(map_file), "--robot-radius", "0.1"]) == 2
+        assert f"topojax route: error: --map: {message}" in capsys.readouterr().err
+
+
 def test_default_snap_limit_refuses_far_points_and_none_lifts_it():
     import topojax as tj
     from topojax.routing import DEFAULT_MAX_SNAP_M

@@ -138,7 +138,13 @@ def _cmd_route(args) -> int:
     if args.map:
         from ..maps import load_map
 
-        occupancy = load_map(args.map, **map_options(args))
+        kw = map_options(args)  # its errors name their options
+        try:
+            occupancy = load_map(args.map, **kw)
+        except (ValueError, OSError) as exc:  # they name the file; the user gave --map
+            if type(exc).__module__ != "builtins":  # a subclass keeps its own arguments
+                raise
+            raise type(exc)(f"--map: {exc}") from None
         if args.robot_radius is None and graph.graph.get("robot_radius_m") is None:
             raise ValueError(
                 "--robot-radius: expected the robot radius in metres with --map (the graph "
