@@ -433,3 +433,48 @@ def test_drawing_options_name_themselves(result):
     ):
         tj.plot_route_graph(corridors, result.map)
     plt.close("all")
+
+
+def test_a_title_that_is_not_a_str_is_refused_before_anything_is_drawn(result):
+    """``title=3`` was drawn as "3" (and ``plot_stages(title=0)`` as no title): every
+    helper that takes a title takes a str or None, and names ``title`` otherwise."""
+    from topojax.plotting import (
+        plot_distance,
+        plot_map,
+        plot_ridges,
+        plot_route,
+        plot_skeleton,
+        result_png,
+        route_graph_png,
+        stages_png,
+    )
+
+    occ = tj.OccupancyMap.from_array(np.pad(np.zeros((20, 20), bool), 2, constant_values=True))
+    routes = tj.route_graph(occ, robot_radius_m=0.1)
+    g = result.graph
+    u, v = next((a, b) for a, b in g.edges() if a != b)
+    route = tj.plan_route(g, g.nodes[u]["pixel"], g.nodes[v]["pixel"], frame="pixel")
+    draws = [
+        lambda **kw: plot_map(result.map, **kw),
+        lambda **kw: plot_distance(result.distance, **kw),
+        lambda **kw: plot_ridges(result.ridges, **kw),
+        lambda **kw: plot_skeleton(result.skeleton, **kw),
+        lambda **kw: plot_graph(g, **kw),
+        lambda **kw: plot_route(route, **kw),
+        lambda **kw: tj.plot_route_graph(routes, occ, **kw),
+        lambda **kw: tj.plot_rooms(tj.segment_rooms(occ), **kw),
+        lambda **kw: tj.plot(result, **kw),
+        lambda **kw: plot_stages(result, **kw),
+        lambda **kw: result_png(result, **kw),
+        lambda **kw: stages_png(result, **kw),
+        lambda **kw: route_graph_png(routes, occ, **kw),
+    ]
+    plt.close("all")
+    for draw in draws:
+        for title in (3, 0, b"map", ["map"]):
+            with pytest.raises(TypeError, match="^title: expected a str or None, received "):
+                draw(title=title)
+        assert not plt.get_fignums()  # refused before a figure was made
+    ax = tj.plot(result, title="x")
+    assert ax.get_title() == "x"
+    plt.close("all")
