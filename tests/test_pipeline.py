@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import cv2
 import networkx as nx
@@ -484,6 +485,43 @@ def test_negative_ridge_threshold_is_refused():
     with pytest.raises(ValueError, match=r"threshold: expected a finite number >= 0 .*-1.0"):
         tj.RidgeConfig(threshold=-1)
     assert tj.RidgeConfig(threshold=0).threshold == 0.0
+
+
+def test_a_ridge_scale_outside_the_range_the_test_can_resolve_is_refused():
+    """``scale=1e30`` made every pixel with any curvature a ridge.  The ridge test is
+    ``|Laplacian(H)| > (floor(threshold) + 0.5) / scale`` on a map in [0, 1]: refused are
+    the scales at which no pixel can pass (the largest |Laplacian| is 4, 8 or 56 by
+    aperture) and those at which the threshold falls below float32's rounding error of
+    the Laplacian (2 * 56 * 2**-24 with aperture 5); the bounds are what the kernels do."""
+    import jax.numpy as jnp
+
+    from topojax.fields.filters import laplacian_valid, ridge_from_laplacian
+
+    with pytest.raises(
+        ValueError,
+        match=r"^scale: expected 0\.1875 to 1\.57286e\+06 with ksize=5 and threshold=10 .*"
+        r"received 1e\+30$",
+    ):
+        tj.RidgeConfig(scale=1e30)
+    for ksize, peak in ((1, 4.0), (3, 8.0), (5, 56.0)):
+        for threshold in (0.0, 10.0, 254.5):
+            cut = math.floor(threshold) + 0.5
+            low, high = cut / peak, cut / (2 * peak * 2.0**-24)
+            for scale in (low, high):
+                assert tj.RidgeConfig(scale=scale, ksize=ksize, threshold=threshold).scale == scale
+            for scale in (low * (1 - 1e-6), high * (1 + 1e-6)):
+                with pytest.raises(ValueError, match=f"^scale: expected .* ksize={ksize} "):
+                    tj.RidgeConfig(scale=scale, ksize=ksize, threshold=threshold)
+            # the largest Laplacian of a [0, 1] map: 1 under the positive weights, 0 under
+            # the negative ones; it passes from the lowest scale on, not below
+            kernel = np.asarray(laplacian_valid(jnp.pad(jnp.eye(1), 4), ksize=ksize))[::-1, ::-1]
+            values = np.pad((kernel > 0).astype(np.float32), 2)
+            lap = laplacian_valid(jnp.asarray(values), ksize=ksize)
+            assert float(jnp.abs(lap).max()) == peak
+            for scale, passes in ((low * (1 + 1e-6), True), (low * (1 - 1e-6), False)):
+                ridge = ridge_from_laplacian(lap, scale=scale, threshold=threshold)[1]
+                assert bool(ridge.any()) is passes
+    assert tj.RidgeConfig() == tj.RidgeConfig(scale=255.0, ksize=5, threshold=10.0)
 
 
 def test_tile_size_does_not_change_result():

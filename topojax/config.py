@@ -42,6 +42,22 @@ ORIGINAL_HALF_WIDTH_PX = 227
 _THINNING = ("guo_hall", "zhang")
 #: Largest window half-width the distance kernels take (pixels).
 _MAX_HALF_WIDTH_PX = 4096
+#: Per OpenCV aperture, the sum of the Laplacian kernel's positive weights (that of its
+#: negative ones is the same): the largest |Laplacian| of a map with values in [0, 1].
+_MAX_LAPLACIAN = {1: 4.0, 3: 8.0, 5: 56.0}
+
+
+def _scale_range(ksize: int, threshold: float) -> tuple[float, float]:
+    """``(low, high)``: the ``scale`` factors with which the ridge test
+    ``round(|Laplacian(scale * H)|) > threshold`` on a distance map ``H`` in [0, 1] means
+    something.  The test is ``|Laplacian(H)| > cut / scale`` with ``cut = floor(threshold)
+    + 0.5``: below ``low = cut / max|Laplacian|`` no pixel can pass; above ``high``, ``cut
+    / scale`` is under ``2 max|Laplacian| 2**-24``, the Laplacian of a one-step float32
+    rounding (2**-24 below 1) of every pixel of H, the size of the float32 kernels'
+    rounding error."""
+    peak = _MAX_LAPLACIAN[ksize]
+    cut = math.floor(threshold) + 0.5
+    return cut / peak, cut / (2.0 * peak * 2.0**-24)
 
 
 def _canonical(obj: object, name: str, value: object) -> None:
@@ -163,7 +179,15 @@ class RidgeConfig:
     Parameters
     ----------
     scale : float
-        Factor applied to the [0, 1] distance map before filtering (paper: 255).
+        Factor applied to the [0, 1] distance map before filtering (paper: 255).  The
+        ridges depend on ``threshold / scale`` (and the rounding).  A scale at which no
+        pixel can pass the threshold is refused: below ``(floor(threshold) + 0.5) / 56``,
+        56 being the largest |Laplacian| of a [0, 1] map with aperture 5 (8 with 3, 4
+        with 1).  So is one at which the threshold, on the unscaled Laplacian, falls
+        below float32's rounding error of it (``2 * 56 * 2**-24`` with aperture 5): the
+        test then asks for more than the float32 kernels compute, and every pixel with
+        any curvature passes.  With the paper's aperture and threshold: 0.1875 to
+        1572864.
     ksize : int
         OpenCV Laplacian aperture: 1, 3 or 5 (paper: 5).
     threshold : float
@@ -189,6 +213,16 @@ class RidgeConfig:
                 f"Laplacian), received {threshold!r}"
             )
         _canonical(self, "threshold", threshold)
+        low, high = _scale_range(self.ksize, threshold)
+        if not low <= self.scale <= high:
+            raise ValueError(
+                f"scale: expected {low:.6g} to {high:.6g} with ksize={self.ksize} and "
+                f"threshold={threshold:g} (below, no pixel of a [0, 1] map passes "
+                "round(|Laplacian(scale * H)|) > threshold; above, the threshold on the "
+                "unscaled Laplacian, about threshold / scale, lies under the float32 kernels' "
+                "rounding error of it, and every pixel with any curvature passes), received "
+                f"{self.scale!r}"
+            )
 
 
 @dataclass(frozen=True, kw_only=True)
