@@ -818,6 +818,36 @@ def test_octave_scans_whose_pose_is_not_finite_are_skipped(tmp_path):
     assert b.pose == (-1.0, -2.0, -0.5)
 
 
+@pytest.mark.parametrize(
+    ("field", "old", "new", "why"),
+    [
+        ("angular_resolution", "0.5", "0", "angle_increment: expected a non-zero angle"),
+        ("angular_resolution", "0.5", "NaN", "angle_increment: expected a finite number"),
+        ("maximum_range", "10", "0", r"range_max: expected a value > range_min \(0\.0 m\)"),
+        ("start_angle", "-1", "NA", "angle_min: expected a finite number"),
+    ],
+)
+def test_octave_scans_whose_fields_make_no_scan_are_skipped(tmp_path, field, old, new, why):
+    """An element with an impossible geometry (a sensor glitch) stopped the reading part
+    way, where the bag reader skips such a message: it is skipped too, with the bag
+    reader's warning naming the first and why."""
+    path = tmp_path / "scans.txt"
+    head, tail = _OCTAVE_NDIMS.split(f"# name: {field}\n")
+    first = f"# type: scalar\n{old}\n"
+    assert first in tail  # its first occurrence: the field's first element
+    tail = tail.replace(first, f"# type: scalar\n{new}\n", 1)
+    path.write_text(head + f"# name: {field}\n" + tail)
+    with pytest.warns(UserWarning) as caught:
+        (b,) = list(read_octave_laser(path))
+    (message,) = [str(w.message) for w in caught]
+    assert re.fullmatch(
+        rf"{re.escape(str(path))}: skipped 1 element\(s\) of scans whose fields make no scan "
+        rf"\(a sensor glitch\), the first scans\(1\): {why}.*",
+        message,
+    ), message
+    assert b.pose == (-1.0, -2.0, -0.5) and b.angle_increment == 0.25
+
+
 def test_octave_errors(tmp_path):
     bad = tmp_path / "bad.txt"
     bad.write_text(_OCTAVE_NDIMS.replace(" 1 2 Inf", " 1 2"))

@@ -15,7 +15,7 @@ from .._validate import pose as checked_pose
 from ._mcap import _MCAP_MAGIC, _McapSequential
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
 from ._tf import _IDENTITY_TF, BadTransform, _Tf, _tf_from_msg, _TfSeries, _TfTree
-from .scan import PoseLike, Scan
+from .scan import PoseLike, Scan, _SkippedScans
 
 _LASERSCAN = "sensor_msgs/msg/LaserScan"
 _TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
@@ -354,7 +354,7 @@ def _iter_bag(
         tol_ns,
     )
     skipped = 0
-    n_unusable, first_unusable = 0, ""
+    unusable = _SkippedScans()
     for _topic, _typ, t_ns, msg in _messages(path, source, [scan_topic]):
         stamp = _stamp_ns(msg.header.stamp) or t_ns
         frame = _frame(msg.header.frame_id)
@@ -367,25 +367,16 @@ def _iter_bag(
                 )
             skipped += 1
             continue
-        try:
-            scan = _bag_scan(path, msg, stamp, robot, offset, offset_override)
-        except _UnusableScan as err:
-            first_unusable = first_unusable or str(err)
-            n_unusable += 1
-            continue
-        yield scan
+        scan = _bag_scan(path, msg, stamp, robot, offset, offset_override, unusable)
+        if scan is not None:
+            yield scan
     if skipped:
         warnings.warn(
             f"{path}: skipped {skipped} scan(s) on {scan_topic} with no pose within "
             f"pose_tolerance_s of the pose data",
             stacklevel=2,
         )
-    if n_unusable:
-        warnings.warn(
-            f"{path}: skipped {n_unusable} {_LASERSCAN} message(s) on {scan_topic} whose "
-            f"fields make no scan (a sensor glitch), the first {first_unusable}",
-            stacklevel=2,
-        )
+    unusable.warn(path, f"{_LASERSCAN} message(s) on {scan_topic}")
 
 
 def _collect_poses(
@@ -568,11 +559,6 @@ class _ScanPoses:
         return out
 
 
-class _UnusableScan(ValueError):
-    """A LaserScan message whose fields make no :class:`Scan` (a sensor glitch): the
-    scan is skipped, not the recording refused."""
-
-
 def _bag_scan(
     path: Path,
     msg: Any,
@@ -580,9 +566,11 @@ def _bag_scan(
     robot: _Tf,
     offset: _Tf,
     offset_override: tuple[float, float, float] | None,
-) -> Scan:
+    unusable: _SkippedScans,
+) -> Scan | None:
     """The :class:`Scan` of a LaserScan message at ``stamp`` (ns) with its poses; a mirrored
-    sensor negates the beam angles."""
+    sensor negates the beam angles.  None (counted in ``unusable``) where the message's
+    fields make no scan."""
     angle_min = float(msg.angle_min)
     inc = float(msg.angle_increment)
     if robot[3] < 0:
@@ -592,16 +580,14 @@ def _bag_scan(
     if offset[3] < 0:
         angle_min, inc = -angle_min, -inc
     final_offset = offset_override if offset_override is not None else offset[:3]
-    try:
-        return Scan(
-            np.asarray(msg.ranges),
-            angle_min,
-            inc,
-            float(msg.range_min),
-            float(msg.range_max),
-            robot[:3],
-            final_offset,
-            stamp / 1e9,
-        )
-    except (TypeError, ValueError) as err:
-        raise _UnusableScan(f"at t={stamp / 1e9:.9f} s: {err}") from None
+    return unusable.scan(
+        f"at t={stamp / 1e9:.9f} s",
+        np.asarray(msg.ranges),
+        angle_min,
+        inc,
+        float(msg.range_min),
+        float(msg.range_max),
+        robot[:3],
+        final_offset,
+        stamp / 1e9,
+    )

@@ -13,7 +13,7 @@ import numpy as np
 
 from .._validate import existing_file
 from ._text import _open_text
-from .scan import Scan
+from .scan import Scan, _SkippedScans
 
 
 class _OctaveStruct:
@@ -209,7 +209,10 @@ def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Itera
 
     The format stores each field for all scans together, so the whole file is parsed before
     the first scan is yielded.  A scan whose pose is NaN or infinite (a localisation
-    glitch) is skipped; a warning gives the count once the iterator is exhausted.
+    glitch) is skipped; a warning gives the count once the iterator is exhausted.  So is
+    one whose fields make no :class:`Scan` (an ``angular_resolution`` of 0 or NaN, a
+    ``maximum_range`` not above 0, a timestamp that is not finite: a sensor glitch), as
+    :func:`read_bag` skips such messages; its warning names the first and why.
 
     Parameters
     ----------
@@ -226,8 +229,8 @@ def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Itera
     Raises
     ------
     FileNotFoundError, ValueError
-        Missing file; syntax errors (with line number); missing fields or inconsistent cell
-        lengths.
+        Missing file; syntax errors (with line number); missing fields, inconsistent cell
+        lengths or a field of the wrong size.
     """
     p = existing_file("path", path)
     return _iter_octave(p, variable)
@@ -293,6 +296,7 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
         return v
 
     not_finite: list[int] = []  # scans whose pose is NaN or infinite (from 1)
+    unusable = _SkippedScans()
     for i in range(count):
         ranges = np.asarray(columns["ranges"][i], dtype=np.float64)
         if ranges.ndim == 2 and 1 in ranges.shape:
@@ -303,23 +307,23 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
             continue
         offset = triple("laser_offset", i) if "laser_offset" in columns else np.zeros(3)
         stamp = scalar("timestamp", i) if "timestamp" in columns else None
-        try:
-            scan = Scan(
-                ranges,
-                scalar("start_angle", i),
-                scalar("angular_resolution", i),
-                0.0,
-                scalar("maximum_range", i),
-                pose,
-                offset,
-                stamp,
-            )
-        except (TypeError, ValueError) as err:
-            raise ValueError(f"{path}: {variable}({i + 1}): {err}") from None
-        yield scan
+        scan = unusable.scan(
+            f"{variable}({i + 1})",
+            ranges,
+            scalar("start_angle", i),
+            scalar("angular_resolution", i),
+            0.0,
+            scalar("maximum_range", i),
+            pose,
+            offset,
+            stamp,
+        )
+        if scan is not None:
+            yield scan
     if not_finite:
         warnings.warn(
             f"{path}: skipped {len(not_finite)} scan(s) whose pose is not finite (NaN or "
             f"infinite: a localisation glitch), the first {variable}({not_finite[0]})",
             stacklevel=2,
         )
+    unusable.warn(path, f"element(s) of {variable}")

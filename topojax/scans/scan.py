@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -379,3 +380,35 @@ def scans_from_arrays(
             )
 
     return generate()
+
+
+class _SkippedScans:
+    """The records of a log whose fields make no :class:`Scan` (an ``angle_increment`` of
+    0 or NaN, a ``range_max`` not above ``range_min``, say: a sensor glitch).  A reader
+    skips them rather than refuse the log, and once its iterator is exhausted warns of
+    how many there were and why the first made none."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.first = ""
+
+    def scan(self, where: str, *fields: Any) -> Scan | None:
+        """``Scan(*fields)``, or None (and counted) where the fields make none; ``where``
+        names the record for the warning (``at t=1.5 s``, ``laser(3)``)."""
+        try:
+            return Scan(*fields)
+        except (TypeError, ValueError) as err:
+            if not self.count:
+                self.first = f"{where}: {err}"
+            self.count += 1
+            return None
+
+    def warn(self, path: Any, records: str) -> None:
+        """The warning, where any were skipped, from a reader's iterator (``records``
+        says what they are: ``sensor_msgs/msg/LaserScan message(s) on /scan``)."""
+        if self.count:
+            warnings.warn(
+                f"{path}: skipped {self.count} {records} whose fields make no scan (a "
+                f"sensor glitch), the first {self.first}",
+                stacklevel=3,
+            )
