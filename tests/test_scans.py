@@ -438,6 +438,41 @@ def test_carmen_scans_whose_pose_is_not_finite_are_skipped(tmp_path):
     assert [s.pose for s in scans] == [(1.0, 2.0, 0.5), (2.0, 3.0, 0.7)]
 
 
+def test_carmen_scans_whose_timestamp_is_not_finite_are_skipped(tmp_path):
+    """A NaN or infinite timestamp (a logging glitch) was reported as a malformed line,
+    refusing the whole log (or, with bad_lines="skip", counted among malformed lines): the
+    scan is skipped with a warning naming the first line, as one whose pose is not
+    finite is, in every message kind."""
+    path = tmp_path / "glitch.log"
+    path.write_text(
+        _flaser([1, 2, 3, 4], (0, 0, 0))
+        + _flaser([1, 2, 3, 4], (0.5, 0, 0), ts="nan")
+        + _flaser([1, 2, 3, 4], (1, 0, 0))
+        + _flaser([1, 2, 3, 4], (1.5, 0, 0), ts="-inf")
+    )
+    for kw in ({}, {"max_range_m": 10.0}, {"bad_lines": "skip"}):
+        with pytest.warns(UserWarning) as caught:
+            scans = list(read_carmen(path, **kw))
+        assert [str(w.message) for w in caught] == [
+            f"{path}: skipped 2 FLASER scan(s) whose timestamp is not finite (NaN or infinite: "
+            "a logging glitch), the first on line 2"
+        ]
+        assert [s.pose for s in scans] == [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)]
+    robot = "ROBOTLASER1 0 -1 2 0.5 30 0.01 0 5 1 2 3 4 5 0 0 0 0 0 0 0 0 0 0 0 0 {ts} h 1\n"
+    raw = "RAWLASER1 0 -1.5 3.0 0.75 20.0 0.01 0 5 1 2 3 4 20 0 {ts} host 1\n"
+    poseless = "FLASER 4 1 2 3 4 {ts} host 1\n"
+    for line in (robot, raw, poseless):
+        path.write_text(
+            "ODOM 1 2 0.5 0 0 0 1 host 1\n" + line.format(ts="nan") + line.format(ts="1.5")
+        )
+        kind = line.split()[0]
+        with pytest.warns(
+            UserWarning, match=rf"skipped 1 {kind} scan\(s\) whose timestamp is not .* line 2$"
+        ):
+            (scan,) = list(read_carmen(path, max_range_m=10.0))
+        assert scan.timestamp == 1.5
+
+
 def test_damaged_gzip_logs_raise_value_errors_naming_the_file(tmp_path):
     good = (DATA / "intel_first40.log.gz").read_bytes()
     flipped = bytearray(good)

@@ -37,9 +37,20 @@ class _CarmenLineError(ValueError):
     pass
 
 
-class _PoseNotFinite(_CarmenLineError):
-    """A well-formed line whose pose is NaN or infinite (a localisation glitch): its scan
-    is skipped, not the log refused."""
+class _NotFinite(_CarmenLineError):
+    """A well-formed line whose ``what`` is NaN or infinite (``why``: a glitch of the
+    logger or the localisation): its scan is skipped, not the log refused."""
+
+    what = ""
+    why = ""
+
+
+class _PoseNotFinite(_NotFinite):
+    what, why = "pose", "a localisation glitch"
+
+
+class _StampNotFinite(_NotFinite):
+    what, why = "timestamp", "a logging glitch"
 
 
 def _floats(tokens: Sequence[str], what: str) -> np.ndarray:
@@ -260,7 +271,9 @@ def read_carmen(
         before the scan (scans before the first ODOM are skipped with a warning).
 
     A scan whose pose (or ODOM pose) is NaN or infinite, a localisation glitch, is skipped;
-    a warning gives the count and the first line once the iterator is exhausted.
+    a warning gives the count and the first line once the iterator is exhausted.  So is
+    one whose timestamp is NaN or infinite (a logging glitch), as other readers skip a
+    scan whose fields make none.
 
     Other lines (``ODOM``, ``PARAM``, ``NEFF``, ``TRUEPOS``, comments, other messages) are
     skipped.
@@ -362,7 +375,7 @@ def _iter_carmen(
             )
     odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
-    not_finite: list[int] = []  # lines of scans whose pose is not finite
+    not_finite: dict[type, list[int]] = {}  # lines of scans by what is not finite in them
     n_bad = 0  # malformed laser lines skipped
     first_bad = ""
     with _open_text(path) as fh:
@@ -384,8 +397,8 @@ def _iter_carmen(
                 if scan is None:  # posed from ODOM, before the first ODOM line
                     skipped += 1
                     continue
-            except _PoseNotFinite:
-                not_finite.append(lineno)
+            except _NotFinite as err:
+                not_finite.setdefault(type(err), []).append(lineno)
                 continue
             except _CarmenLineError as err:
                 if _cut_off(line):
@@ -414,10 +427,10 @@ def _iter_carmen(
             f"the first on {first_bad}",
             stacklevel=2,
         )
-    if not_finite:
+    for kind, lines in not_finite.items():
         warnings.warn(
-            f"{path}: skipped {len(not_finite)} {chosen} scan(s) whose pose is not finite "
-            f"(NaN or infinite: a localisation glitch), the first on line {not_finite[0]}",
+            f"{path}: skipped {len(lines)} {chosen} scan(s) whose {kind.what} is not finite "
+            f"(NaN or infinite: {kind.why}), the first on line {lines[0]}",
             stacklevel=2,
         )
 
@@ -536,7 +549,10 @@ def _new_laser_scan(
 
 
 def _line_scan(ranges, angle_min, inc, rmax, robot, offset, stamp) -> Scan:
-    """``Scan(...)`` with its complaints as :class:`_CarmenLineError` (they are the line's)."""
+    """``Scan(...)`` with its complaints as :class:`_CarmenLineError` (they are the line's);
+    a timestamp that is not finite is :class:`_StampNotFinite`."""
+    if not math.isfinite(stamp):
+        raise _StampNotFinite(f"timestamp: expected a finite number, received {stamp!r}")
     try:
         return Scan(ranges, angle_min, inc, 0.0, rmax, robot, offset, stamp)
     except (TypeError, ValueError) as err:
