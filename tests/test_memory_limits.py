@@ -96,6 +96,98 @@ def test_every_decoded_format_is_held_to_the_memory_available_before_decoding(
     assert tj.load_map(path).shape == (10, 12)
 
 
+def _encoded(fmt: str, image: np.ndarray, **options) -> bytes:
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, fmt, **options)
+    return buf.getvalue()
+
+
+def _behind_yaml(tmp_path, name: str, data: bytes):
+    """A map YAML whose image is ``name`` holding ``data``: how a map in a format that
+    load_map takes from no file name of its own (a WebP, a GIF) is read."""
+    (tmp_path / name).write_bytes(data)
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(f"image: {name}\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    return path
+
+
+_GREY = np.full((10, 12), 254, np.uint8)
+_OTHER_FORMATS = [
+    ("grey.gif", lambda: _encoded("GIF", _GREY)),
+    ("lossy.webp", lambda: _encoded("WEBP", _GREY, lossless=False)),
+    ("lossless.webp", lambda: _encoded("WEBP", _GREY, lossless=True)),
+    ("extended.webp", lambda: _encoded("WEBP", np.dstack([_GREY] * 4), exif=b"Exif\x00\x00")),
+    ("grey.jp2", lambda: _encoded("JPEG2000", _GREY)),
+    ("grey.j2k", lambda: _encoded("JPEG2000", _GREY, no_jp2=True)),
+    ("grey.tga", lambda: _encoded("TGA", _GREY)),  # its header read by PIL
+    ("grey.pbm", lambda: cv2.imencode(".pbm", _GREY)[1].tobytes()),
+]
+
+
+@pytest.mark.parametrize("name, encode", _OTHER_FORMATS, ids=[name for name, _ in _OTHER_FORMATS])
+def test_other_decoded_formats_are_held_to_the_memory_available_before_decoding(
+    tmp_path, monkeypatch, name, encode
+):
+    """Formats whose header load_map read itself (PNG, JPEG, BMP, TIFF, PGM / PPM) were
+    held to the memory available, the others decoded unchecked."""
+    path = _behind_yaml(tmp_path, name, encode())
+    _memory(monkeypatch, 120 * pnm.DECODE_BYTES_PER_PIXEL)
+    assert tj.load_map(path).shape == (10, 12)  # just fits
+    _memory(monkeypatch, 120 * pnm.DECODE_BYTES_PER_PIXEL - 1)
+    with pytest.raises(MemoryRefusal, match=rf"^map image .*{name}: its header gives 12 x 10 "):
+        tj.load_map(path)
+    _memory(monkeypatch, None)
+    assert tj.load_map(path).shape == (10, 12)
+
+
+def _gif_claiming(width: int, height: int) -> bytes:
+    data = bytearray(_encoded("GIF", _GREY))
+    data[6:10] = struct.pack("<HH", width, height)  # the logical screen
+    return bytes(data)
+
+
+def _webp_claiming(width: int, height: int) -> bytes:
+    data = bytearray(_encoded("WEBP", np.dstack([_GREY] * 4), exif=b"Exif\x00\x00"))
+    assert data[12:16] == b"VP8X"
+    data[24:30] = (width - 1).to_bytes(3, "little") + (height - 1).to_bytes(3, "little")
+    return bytes(data)
+
+
+def _jp2_claiming(width: int, height: int) -> bytes:
+    data = bytearray(_encoded("JPEG2000", _GREY))
+    at = data.index(b"ihdr") + 4
+    data[at : at + 8] = struct.pack(">II", height, width)
+    return bytes(data)
+
+
+def _j2k_claiming(width: int, height: int) -> bytes:
+    data = bytearray(_encoded("JPEG2000", _GREY, no_jp2=True))
+    assert data[:4] == b"\xff\x4f\xff\x51"  # SOC, SIZ
+    data[8:16] = struct.pack(">II", width, height)
+    return bytes(data)
+
+
+@pytest.mark.parametrize(
+    "name, claiming, size",
+    [
+        ("bomb.gif", _gif_claiming, (65_535, 65_535)),
+        ("bomb.webp", _webp_claiming, (100_000, 100_000)),
+        ("bomb.jp2", _jp2_claiming, (100_000, 100_000)),
+        ("bomb.j2k", _j2k_claiming, (100_000, 100_000)),
+    ],
+)
+def test_a_gif_webp_or_jpeg_2000_claiming_a_huge_image_is_refused_before_decoding(
+    tmp_path, monkeypatch, name, claiming, size
+):
+    path = _behind_yaml(tmp_path, name, claiming(*size))
+    _memory(monkeypatch, 8 << 30)
+    with pytest.raises(MemoryRefusal) as info:
+        tj.load_map(path)
+    text = str(info.value)
+    assert f"map image {tmp_path / name}: its header gives {size[0]} x {size[1]} pixels" in text
+    assert "more than the 8.0 GiB of memory available" in text
+
+
 def test_a_memory_mapped_pgm_is_not_decoded_and_not_limited(tmp_path, monkeypatch):
     path = tmp_path / "map.pgm"
     assert cv2.imwrite(str(path), np.full((10, 12), 254, np.uint8))

@@ -148,10 +148,12 @@ def load_map(
         For undecodable images, malformed YAML, missing or invalid fields, or invalid
         parameters; the message names the file and the field.
     MemoryError
-        For a PNG, JPEG, BMP, TIFF or PGM/PPM image decoded into memory (any but a
-        binary 8-bit PGM, which is memory-mapped) whose header gives more pixels than
-        the memory available can decode and classify (5 bytes a pixel at least):
-        refused before it is decoded.  Other formats are decoded unchecked.
+        For an image decoded into memory (any but a binary 8-bit PGM, which is
+        memory-mapped) whose header gives more pixels than the memory available can
+        decode and classify (5 bytes a pixel at least): refused before it is decoded.
+        The header is read here for PNG, JPEG, BMP, TIFF, PGM/PPM, GIF, WebP and JPEG
+        2000, and by PIL for the other formats it reads; an image PIL refuses to open as
+        larger than twice its ``MAX_IMAGE_PIXELS`` goes unchecked.
 
     Notes
     -----

@@ -385,15 +385,94 @@ def _pnm_size(data: bytes) -> tuple[int, int] | None:
     return width, height
 
 
+def _gif_size(data: bytes) -> tuple[int, int] | None:
+    """Width and height of a GIF's logical screen (what the decoders return)."""
+    if data[:6] not in (b"GIF87a", b"GIF89a") or len(data) < 10:
+        return None
+    return int.from_bytes(data[6:8], "little"), int.from_bytes(data[8:10], "little")
+
+
+def _webp_size(data: bytes) -> tuple[int, int] | None:
+    """Width and height of a WebP's canvas (VP8X) or its one frame (VP8L, VP8)."""
+    if data[:4] != b"RIFF" or data[8:12] != b"WEBP" or len(data) < 30:
+        return None
+    kind = data[12:16]
+    if kind == b"VP8X":  # 24-bit canvas width - 1 and height - 1
+        return 1 + int.from_bytes(data[24:27], "little"), 1 + int.from_bytes(data[27:30], "little")
+    if kind == b"VP8L" and data[20] == 0x2F:  # 14-bit width - 1 and height - 1
+        bits = int.from_bytes(data[21:25], "little")
+        return 1 + (bits & 0x3FFF), 1 + ((bits >> 14) & 0x3FFF)
+    if kind == b"VP8 " and data[23:26] == b"\x9d\x01\x2a":  # a key frame: 14-bit sizes
+        width = int.from_bytes(data[26:28], "little") & 0x3FFF
+        return width, int.from_bytes(data[28:30], "little") & 0x3FFF
+    return None
+
+
+def _jpeg2000_size(data: bytes) -> tuple[int, int] | None:
+    """Width and height of a JPEG 2000 image: a JP2 file's ``ihdr`` box, or a bare
+    codestream's SIZ marker (the image area less its offset)."""
+    if data[:4] == b"\xff\x4f\xff\x51":  # SOC, SIZ: Lsiz Rsiz Xsiz Ysiz XOsiz YOsiz
+        if len(data) < 24:
+            return None
+        x, y, x0, y0 = (int.from_bytes(data[k : k + 4], "big") for k in range(8, 24, 4))
+        return (x - x0, y - y0) if x >= x0 and y >= y0 else None
+    if data[:12] != b"\x00\x00\x00\x0cjP  \r\n\x87\n":
+        return None
+    pos = 12
+    while pos + 8 <= len(data):  # boxes: length, type[, 64-bit length]; ihdr is in jp2h
+        length, kind, head = int.from_bytes(data[pos : pos + 4], "big"), data[pos + 4 : pos + 8], 8
+        if length == 1:
+            length, head = int.from_bytes(data[pos + 8 : pos + 16], "big"), 16
+        if kind == b"ihdr":  # HEIGHT, WIDTH
+            body = data[pos + head : pos + head + 8]
+            if len(body) < 8:
+                return None
+            return int.from_bytes(body[4:], "big"), int.from_bytes(body[:4], "big")
+        if kind == b"jp2h":  # a box of boxes: into it
+            pos += head
+        elif length < head:  # 0: the last box, to the end of the file
+            return None
+        else:
+            pos += length
+    return None
+
+
+def _pil_size(data: bytes) -> tuple[int, int] | None:
+    """Width and height of an image in a format PIL reads, from its header (PIL opens an
+    image lazily); None where PIL reads none, or refuses to open the image as larger than
+    twice its ``MAX_IMAGE_PIXELS`` (its own guard against decompression bombs)."""
+    import io as _stdio
+
+    from PIL import Image
+
+    try:
+        with Image.open(_stdio.BytesIO(data)) as im:
+            return im.size
+    except Exception:  # PIL raises many exception types for input it cannot read
+        return None
+
+
 def _declared_size(data: bytes) -> tuple[int, int] | None:
-    """``(width, height)`` that the header of image file bytes ``data`` gives (PNG, JPEG,
-    BMP, TIFF, PGM / PPM), read without decoding; None where it gives none that is read
-    here (another format, a header cut short)."""
-    for read in (_png_size, _pnm_size, _jpeg_size, _bmp_size, _tiff_size):
+    """``(width, height)`` that the header of image file bytes ``data`` gives, read
+    without decoding: here for PNG, JPEG, BMP, TIFF, PGM / PPM, GIF, WebP and JPEG 2000,
+    by PIL for the other formats it reads; None where it gives none (a format neither
+    reads, a header cut short)."""
+    for read in (
+        _png_size,
+        _pnm_size,
+        _jpeg_size,
+        _bmp_size,
+        _tiff_size,
+        _gif_size,
+        _webp_size,
+        _jpeg2000_size,
+    ):
         size = read(data)
         if size is not None:
             return size
-    return None
+    if data[:2] in (b"P2", b"P3", b"P5", b"P6"):  # the readers report what is not read here
+        return None
+    return _pil_size(data)
 
 
 def _check_declared_size(data: bytes, path: Path) -> None:
