@@ -16,6 +16,7 @@ from functools import cached_property
 import networkx as nx
 import numpy as np
 
+from ._stage_memory import BUILD_GRAPH_BYTES_PER_PX, check_stage_fits
 from ._validate import instance_or_default, names_subset
 from .config import PipelineConfig
 from .fields import (
@@ -418,6 +419,14 @@ def build_graph(
             occupancy = OccupancyMap.from_array(occupancy)
         except (TypeError, ValueError) as exc:  # its messages name its own argument
             raise type(exc)(f"occupancy (read by OccupancyMap.from_array): {exc}") from None
+    check_stage_fits(
+        "build_graph",
+        "occupancy",
+        occupancy.shape,
+        BUILD_GRAPH_BYTES_PER_PX,
+        "; build it block by block with build_graph_tiled, which gives the same graph "
+        "(docs/large-maps.md)",
+    )
     timings: dict[str, float] = {}
     obstacles = occupancy.occupied
     dense_kept = tuple(n for n in ("sq_distance_px", "distance", "lap_abs") if n in keep)

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._cpus import MemoryRefusal
 from ._room_ids import SAME_ROOM_IOU, match_ids, pasted
 from ._tiles import ExportBudgetError
 
@@ -240,16 +241,17 @@ def rooms_due(mapper, *, graph_ran: bool) -> bool:
 
 def due_rooms_update(mapper) -> RoomsUpdate | None:
     """The room update a scan made due, or None where the map has outgrown
-    ``mapper.max_export_bytes`` for rooms (a relocalisation far off, a large site).
+    ``mapper.max_export_bytes`` for rooms (a relocalisation far off, a large site) or
+    the memory available (:func:`topojax.segment_rooms` refuses it).
 
     The scan is in the map by then: raising would tell its caller it was refused.  The
-    rooms stay as of their last update instead and a ``RuntimeWarning`` names the
-    export's size (once, until an update succeeds again); reading :attr:`IncrementalMapper.rooms` afresh
+    rooms stay as of their last update instead and a ``RuntimeWarning`` says why (once,
+    until an update succeeds again); reading :attr:`IncrementalMapper.rooms` afresh
     (:meth:`~IncrementalMapper.update_rooms`) raises the error itself."""
     keeper = mapper._rooms
     try:
         update = mapper._update_rooms()
-    except ExportBudgetError as exc:
+    except (ExportBudgetError, MemoryRefusal) as exc:
         if not keeper.over_budget:  # once while the map stays too large, not every update
             warnings.warn(
                 f"scan {mapper._n_scans - 1}: rooms not updated, they stay as of their last "

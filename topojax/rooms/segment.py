@@ -10,6 +10,7 @@ from dataclasses import dataclass, fields
 import cv2
 import numpy as np
 
+from .._stage_memory import SEGMENT_ROOMS_BYTES_PER_PX, SMALLER_MAP, check_stage_fits
 from .._validate import (
     instance_of,
     instance_or_default,
@@ -122,6 +123,7 @@ def segment_rooms(source, *, config: RoomConfig | None = None) -> RoomSegmentati
     """
     cfg = instance_or_default("config", config, RoomConfig)
     occ = _occupancy_of(source)
+    check_stage_fits("segment_rooms", "source", occ.shape, SEGMENT_ROOMS_BYTES_PER_PX, SMALLER_MAP)
     return _segment(occ, cfg, (0, 0, *occ.shape))
 
 

@@ -12,6 +12,7 @@ import cv2
 import networkx as nx
 import numpy as np
 
+from .._stage_memory import ROUTE_GRAPH_BYTES_PER_PX, SMALLER_MAP, check_stage_fits
 from .._validate import (
     flag,
     instance_or_default,
@@ -219,6 +220,9 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
 def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
     """:func:`route_graph` with its options checked."""
     check_scale(cfg, occupancy.resolution_m)
+    check_stage_fits(
+        "route_graph", "occupancy", occupancy.shape, ROUTE_GRAPH_BYTES_PER_PX, SMALLER_MAP
+    )
     t0 = time.perf_counter()
     win, free, clearance_m = _windowed_space(occupancy, cfg)
     feasible = win.feasible
