@@ -390,3 +390,19 @@ def test_the_out_of_memory_message_is_written_after_the_failed_work_let_go(tmp_p
     assert main(["graph", str(path), "-o", str(tmp_path / "out")]) == 1
     assert "out of memory (MemoryError)" in sys.stderr.getvalue()
     assert alive_while_writing and not any(alive_while_writing)
+
+
+@pytest.mark.parametrize(
+    ("available", "need", "says"),
+    [
+        (8 * 2**30, 46 * 2**30, "46.0 GiB, more than the 8.0 GiB"),
+        (16 * 2**20, 40 * 2**20, "40.0 MiB, more than the 16.0 MiB"),
+        (2**30 - 2**20, 5 * 2**30 // 2, "2.5 GiB, more than the 1,023.0 MiB"),
+        (1000, 5000, "5,000 bytes, more than the 1,000 bytes"),
+    ],
+)
+def test_a_refusal_gives_sizes_in_units_that_show_them(monkeypatch, available, need, says):
+    # small machines and small limits read "0.0 GiB" in GiB alone
+    _memory(monkeypatch, available)
+    with pytest.raises(MemoryRefusal, match=rf"^it takes {says} of memory available$"):
+        cpus.check_fits_memory(need, "it takes")

@@ -11,6 +11,7 @@ __all__ = [
     "MemoryRefusal",
     "as_executor",
     "available_memory_bytes",
+    "byte_size",
     "check_fits_memory",
     "usable_cpus",
 ]
@@ -29,9 +30,18 @@ def check_fits_memory(need_bytes: int, what: str, advice: str = "") -> None:
     available = available_memory_bytes()
     if available is not None and need_bytes > available:
         raise MemoryRefusal(
-            f"{what} {need_bytes / 2**30:,.1f} GiB, more than the {available / 2**30:,.1f} GiB "
-            f"of memory available{advice}"
+            f"{what} {byte_size(need_bytes)}, more than the {byte_size(available)} of memory "
+            f"available{advice}"
         )
+
+
+def byte_size(n: float) -> str:
+    """``n`` bytes as a person reads them: GiB from one GiB, MiB from one MiB, else
+    bytes."""
+    for unit, size in (("GiB", 2**30), ("MiB", 2**20)):
+        if n >= size:
+            return f"{n / size:,.1f} {unit}"
+    return f"{int(n):,} bytes"
 
 
 def usable_cpus() -> int:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._cpus import MemoryRefusal, available_memory_bytes
+from .._cpus import MemoryRefusal, available_memory_bytes, byte_size
 from .._validate import existing_file, instance_of, int_at_least
 from ._encode import TILE_PX, packed, pyramid, unpacked
 from ._graphs import KIND_NAMES
@@ -334,9 +334,9 @@ def _gunzip(data: bytes, path: Path) -> bytes:
             total += len(piece)
             if limit is not None and total > limit:
                 raise MemoryRefusal(
-                    f"timeline file {path}: unpacks to more than {limit / 2**30:,.2f} GiB, a "
-                    f"quarter of the {available / 2**30:,.1f} GiB of memory available (its "
-                    "parsed JSON takes a few times its text)"
+                    f"timeline file {path}: unpacks to more than {byte_size(limit)}, a "
+                    f"quarter of the {byte_size(available)} of memory available (its parsed "
+                    "JSON takes a few times its text)"
                 )
             parts.append(piece)
         if not stream.eof:
