@@ -290,6 +290,22 @@ def test_degenerate_maps_give_empty_graphs(array):
     assert not res.skeleton.any()
 
 
+@pytest.mark.parametrize(
+    "occupied",
+    [[[0, 1], [1, 0]], [[0, 1, 0], [0, 0, 0]], [[0, 0], [1, 0], [0, 0]]],
+    ids=["diagonal-2x2", "2x3", "3x2"],
+)
+def test_maps_two_pixels_across_reflect_their_border_as_opencv(occupied):
+    """The Laplacian reads past a 2-pixel side by reflecting twice (OpenCV's
+    BORDER_REFLECT_101), not from outside the map: no ridge, so no graph, on obstacles."""
+    occupied = np.array(occupied, bool)
+    res = tj.build_graph(occupied, keep="all")
+    want = cv2.convertScaleAbs(cv2.Laplacian(res.distance.astype(np.float64) * 255, -1, ksize=5))
+    np.testing.assert_array_equal(res.lap_abs, want)
+    assert not (res.ridges & occupied).any()
+    assert res.graph.number_of_edges() == 0
+
+
 def test_obstacles_and_unknown_space_keep_the_papers_graph(capsys):
     """No free pixel but unknown space between walls: the paper's method only looks at
     obstacles, so the graph runs through the unknown space; free-space-only has none."""

@@ -53,9 +53,10 @@ def reflect_101_halo(
     """
     # Only the ``halo`` rows (cols) just outside each map edge can be read by the
     # Laplacian of a map pixel, so only those are replaced, by row (col) copies: a gather
-    # of the whole tile costs more than the filter itself.  Sources are read before any
-    # write, so tiny maps whose reflections land outside the map again behave like a
-    # gather from the unmodified tile.
+    # of the whole tile costs more than the filter itself.  The reflection repeats with
+    # period ``2 * last`` (OpenCV reflects again where one reflection leaves the map, as
+    # on a map 2 pixels across), so every source lies inside the map; sources are read
+    # before any write.
     out = values
     for axis in (0, 1):
         n = out.shape[axis]
@@ -67,7 +68,7 @@ def reflect_101_halo(
         rows = []
         for t in targets:
             glob = start + t
-            src = jnp.where(glob < 0, -glob, glob)
+            src = jnp.remainder(jnp.abs(glob), 2 * last)  # maps have >= 2 pixels: last >= 1
             src = jnp.where(src > last, 2 * last - src, src)
             src = jnp.clip(src - start, 0, n - 1)
             inside = (t >= 0) & (t < n)
