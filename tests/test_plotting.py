@@ -277,6 +277,20 @@ def test_a_map_larger_than_any_picture_is_shrunk_before_matplotlib_draws_it():
     plt.close(ax.figure)
 
 
+@pytest.mark.parametrize("shape", [(5000, 3), (3, 5000), (700, 800)])
+def test_the_picture_of_a_strip_map_keeps_a_bounded_canvas(shape):
+    # a 5000 x 3 map on a figure as tall as its aspect asks is 15000 inches tall: some
+    # 7 GB of canvas at the PNGs' 150 dpi; it is drawn narrower on a figure at most
+    # MAX_FIGURE_ASPECT widths tall, and an ordinary map keeps its aspect
+    from topojax.plotting.png import MAX_FIGURE_ASPECT, map_figure
+
+    fig, _ = map_figure(shape, 9.0)
+    width_in, height_in = fig.get_size_inches()
+    assert width_in == 9.0
+    assert height_in == pytest.approx(9.0 * min(shape[0] / shape[1], MAX_FIGURE_ASPECT))
+    assert height_in <= 72.0
+
+
 def test_a_distance_map_larger_than_any_picture_is_sampled_before_it_is_drawn():
     from topojax.plotting import MAX_SHOWN_PX, plot_distance
 

@@ -19,13 +19,19 @@ def figure_png(fig, *, dpi: int = 150) -> bytes:
     return buf.getvalue()
 
 
+#: The tallest picture, in widths: a map taller than that (a strip a few pixels wide) is
+#: drawn narrower within it, not on a figure whose canvas outgrows memory.
+MAX_FIGURE_ASPECT = 8.0
+
+
 def map_figure(shape: tuple[int, int], side_in: float):
     """A figure (no pyplot state: safe in worker processes and threads) with one axes,
-    ``side_in`` inches wide and as tall as the map's aspect ratio asks."""
+    ``side_in`` inches wide and as tall as the map's aspect ratio asks, up to
+    :data:`MAX_FIGURE_ASPECT` times its width."""
     from matplotlib.figure import Figure
 
     h, w = shape
-    fig = Figure(figsize=(side_in, side_in * h / max(w, 1)))
+    fig = Figure(figsize=(side_in, side_in * min(h / max(w, 1), MAX_FIGURE_ASPECT)))
     return fig, fig.add_subplot()
 
 
