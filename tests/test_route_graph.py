@@ -478,6 +478,8 @@ def test_route_graph_command_explains_an_empty_graph_and_writes_no_nav2_file(tmp
     text = capsys.readouterr().out
     assert "note       empty route graph: no known-free region" in text
     assert "robot of radius 5 m fits" in text and "no Nav2 file" in text
+    assert "evaluation no route to score: no feasible region of at least 1 m2" in text
+    assert "nan" not in text
     assert not (out / "closet_route_nav2.geojson").exists()  # nor the earlier run's
     assert (out / "closet_route.json").is_file() and (out / "closet_route_report.json").is_file()
     # an .mcap path under a file is refused before any work

@@ -160,11 +160,17 @@ def _cmd_route_graph(args) -> int:
 
         atomic_write_bytes(path, json.dumps(report.as_dict(), indent=1).encode("utf-8"))
         written.append(path)
-        print(
-            f"evaluation success {100 * report.success_rate:.1f} %, stretch median "
-            f"{report.stretch_median:.3f} (p90 {report.stretch_p90:.3f}), unsafe share "
-            f"{report.unsafe_share:.3f}, uncovered share {report.uncovered_share:.4f}"
-        )
+        if not report.pairs:  # its rates are NaN: say why rather than print them
+            print(
+                "evaluation no route to score: no feasible region of at least "
+                f"{config.min_region_m2:g} m2 and 2 pixels for a robot of radius {radius:g} m"
+            )
+        else:
+            print(
+                f"evaluation success {100 * report.success_rate:.1f} %, stretch median "
+                f"{report.stretch_median:.3f} (p90 {report.stretch_p90:.3f}), unsafe share "
+                f"{report.unsafe_share:.3f}, uncovered share {report.uncovered_share:.4f}"
+            )
     record_outputs(planned(written, args.map), command="route-graph", map_options=kw)
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
