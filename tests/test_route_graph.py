@@ -335,6 +335,12 @@ def test_map_without_feasible_space_gives_an_empty_graph_that_says_why():
     assert g.graph["note"].startswith("empty route graph: no known-free region of at least")
     assert f"radius {R:g} m" in g.graph["note"]
     assert "note" not in route_graph(_map(_room(4, 4)), robot_radius_m=R).graph
+    # a map of 0.1 mm pixels: its 3 mm of clearance is not rounded away
+    fine = np.zeros((60, 60), bool)
+    fine[[0, -1], :] = fine[:, [0, -1]] = True
+    fine = tj.OccupancyMap.from_array(fine, resolution_m=1e-4)
+    note = route_graph(fine, robot_radius_m=R).graph["note"]
+    assert note.endswith("the most clearance from anything not known free is 0.0029 m)")
 
 
 def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):

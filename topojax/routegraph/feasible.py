@@ -132,6 +132,6 @@ def route_graph_note(graph, occupancy, *, robot_radius_m: float, min_region_m2: 
         why = (
             f"no known-free region of at least {min_region_m2:g} m2 where a robot of "
             f"radius {robot_radius_m:g} m fits (the most clearance from anything not "
-            f"known free is {most:.2f} m)"
+            f"known free is {most:.3g} m)"  # significant digits: maps of 1e-6 m/px too
         )
     return f"empty route graph: {why}"
