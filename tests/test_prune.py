@@ -685,3 +685,14 @@ def test_narrow_edges_on_random_skeletons(seed, clearance):
     )
     assert {tuple(d["pixel"]) for _, d in got.nodes(data=True) if d["kind"] != "ring"} == stay
     check_structure(got)
+
+
+def test_an_edge_exactly_as_wide_as_the_limit_is_kept_whatever_its_rounding():
+    skel = art("""
+        #####
+        """)
+    g = skeleton_to_graph(skel, clearance_px=np.full(skel.shape, 11.0), resolution_m=0.03)
+    ((_, _, width),) = g.edges(data="min_clearance_m")
+    assert width < 0.33  # 11 x 0.03 in float64
+    assert prune_graph(g, min_clearance_m=0.33).number_of_edges() == 1
+    assert prune_graph(g, min_clearance_m=0.3301).number_of_edges() == 0

@@ -1535,3 +1535,18 @@ def test_shortcut_candidates_in_blocks_give_the_graph_listed_at_once(monkeypatch
         for g in (at_once, in_blocks)
     ]
     assert paths[0] == paths[1]
+
+
+@pytest.mark.parametrize(
+    ("res", "radius_m", "side"), [(0.03, 0.33, 21), (0.02, 0.2, 19), (RES, R, 11)]
+)
+def test_a_robot_as_wide_as_the_clearance_fits_at_any_resolution(res, radius_m, side):
+    # the centre of a free square with the map's border round it is side // 2 + 1 pixels
+    # from the nearest pixel that is not free, exactly radius_m; 11 x 0.03 m rounds below
+    # 0.33 m in float32 and in float64, 10 x 0.02 m below 0.2 m in float32
+    free = np.ones((side, side), bool)
+    occ = OccupancyMap(occupied=~free, free=free, unknown=~free, resolution_m=res)
+    space = feasible_space(occ, radius_m)
+    c = side // 2
+    assert (side // 2 + 1) * res == pytest.approx(radius_m)
+    assert space.feasible[c, c] and space.feasible.sum() == 1

@@ -9,8 +9,10 @@ from .._constants import FAR_SQ
 from .._jit import cached_njit
 
 __all__ = [
+    "CLEARANCE_RTOL",
     "SPARSE_CLEARANCE_MAX_PX",
     "clearance_at",
+    "clearance_at_least",
     "clearance_from_sq_distance",
     "clearance_of_values",
     "distance_transform_px",
@@ -21,6 +23,19 @@ __all__ = [
 #: Needed pixels beyond the window that :func:`clearance_from_sq_distance` searches one
 #: by one (a square crop each) before it takes the whole map's distance transform instead.
 SPARSE_CLEARANCE_MAX_PX = 64
+
+#: Relative slack of a clearance compared with a limit: a clearance is a pixel distance
+#: times the resolution, in float32 or float64, and one that equals a limit exactly can
+#: round a few units in the last place below it.  Far below the gap between neighbouring
+#: pixel distances (about 1 / (2 d^2) of a distance of d pixels, 1e-6 at 700 px).
+CLEARANCE_RTOL = 2.0**-20
+
+
+def clearance_at_least(clearance, limit_m: float):
+    """``clearance >= limit_m`` (metres; array or scalar) up to its rounding
+    (:data:`CLEARANCE_RTOL`): a robot of radius ``limit_m`` fits at a clearance that
+    equals it, whatever the resolution's binary expansion."""
+    return clearance >= limit_m * (1.0 - CLEARANCE_RTOL)
 
 
 def nearest_sq_distance(obstacles, rows, cols, upper_sq, start_px, budget_px):

@@ -18,6 +18,7 @@ from .._validate import (
     plain_int_pair,
     plain_length_m,
 )
+from ..fields.clearance import clearance_at_least
 from .geometry import _ends_at, _path_length_m, graph_resolution_m, holds
 from .store import fill_multigraph, paused_gc
 
@@ -223,7 +224,8 @@ def _below(data: dict, clearance: float, edge: str) -> bool:
             f"graph: {edge}: 'min_clearance_m': expected a real number of metres (NaN: "
             f"unknown), received {type(value).__name__} {value!r}"
         )
-    return float(value) < clearance  # NaN compares False
+    value = float(value)
+    return not math.isnan(value) and not clearance_at_least(value, clearance)  # NaN: unknown
 
 
 def _copied(data: dict) -> dict:

@@ -22,6 +22,7 @@ from .._validate import (
     real_number,
     robot_radius,
 )
+from ..fields.clearance import clearance_at_least
 from ..graph import skeleton_to_graph
 from ..graph.store import fill_multigraph, paused_gc
 from ..graph.work import (
@@ -367,7 +368,7 @@ def _probe_density(cfg: RouteGraphConfig, res: float) -> float:
     side += 2 * math.ceil(cfg.robot_radius_m / res)
     free = np.ones((side, side), bool)
     clearance_m = clearance_map_m(free, res)
-    feasible = free & (clearance_m >= cfg.robot_radius_m)
+    feasible = free & clearance_at_least(clearance_m, cfg.robot_radius_m)
     middle = clearance_m >= cfg.robot_radius_m + PROBE_DEPTH * reach_px * res
     work = _sparse_skeleton_graph(thin(feasible), free, clearance_m, res, cfg)
     add_coverage(work, feasible, reach_px, min_loop_px=_min_loop_px(cfg, res))

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from .._validate import robot_radius
-from ..fields.clearance import free_clearance_px
+from ..fields.clearance import clearance_at_least, free_clearance_px
 from ..maps import map_argument
 
 __all__ = ["FeasibleSpace", "feasible_space"]
@@ -34,7 +34,8 @@ class FeasibleSpace:
         free, with the map surrounded by such pixels; metres, 0 off the free space (a
         view, not contiguous: :func:`clearance_map_m`).
     feasible : bool (H, W)
-        ``free & (clearance_m >= robot_radius_m)``.
+        ``free & (clearance_m >= robot_radius_m)``, up to the clearance's rounding (one
+        exactly ``robot_radius_m`` is feasible at any resolution).
     labels : int32 (H, W)
         Region of each feasible pixel, ``1..n_regions`` (8-connected); 0 elsewhere.
     area_m2 : float64 (n_regions + 1,)
@@ -89,7 +90,7 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     free = np.asarray(occupancy.free, bool)
     res = float(occupancy.resolution_m)
     clearance = clearance_map_m(free, res)
-    feasible = free & (clearance >= radius)  # radius: at most MAX_ROBOT_RADIUS_M
+    feasible = free & clearance_at_least(clearance, radius)  # radius <= MAX_ROBOT_RADIUS_M
     n, labels, stats, _ = cv2.connectedComponentsWithStats(
         feasible.view(np.uint8), connectivity=8, ltype=cv2.CV_32S
     )
