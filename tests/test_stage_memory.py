@@ -58,8 +58,8 @@ def test_a_stage_refuses_a_map_its_floor_does_not_fit_and_runs_one_it_does(monke
     h, w = occ.shape
     assert str(info.value) == (
         f"{stage}: {ARGUMENT[stage]} of {h} x {w} pixels takes at least {FLOORS[stage]:g} "
-        f"bytes a pixel beyond the map, {need / 2**30:,.1f} GiB, more than the "
-        f"{(need - 1) / 2**30:,.1f} GiB of memory available{ADVICE[stage]}"
+        f"bytes a pixel beyond the map, {need / 2**20:,.1f} MiB, more than the "
+        f"{(need - 1) / 2**20:,.1f} MiB of memory available{ADVICE[stage]}"
     )
     _memory(monkeypatch, need)
     assert _run(stage, occ) is not None
@@ -117,7 +117,7 @@ def test_the_command_line_prints_the_refusal(tmp_path, monkeypatch, capsys, comm
     assert main([command, str(path), "-o", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
     assert err.startswith(f"topojax {command}: error: {stage}: ")
-    assert "GiB of memory available; " in err
+    assert "MiB of memory available; " in err
     assert "out of memory" not in err and "Traceback" not in err
 
 
