@@ -23,13 +23,15 @@ tools) are decoded with the topojax defaults above.
 
 Floats are written with Python's shortest round-trip representation, so they come back
 bit-exact. Writes are atomic: a temporary file in the target folder is renamed over the
-destination with :func:`os.replace`.
+destination with :func:`os.replace`. Graph files are written a node and an edge at a time,
+so writing one holds far less memory than the file's size.
 
-Modules: ``_schema`` (value encoding and the type schema), ``nodelink``, ``graphml``,
-``geojson`` (one per file format), ``files`` (:func:`save_graph` / :func:`load_graph`),
-``nav2`` (:func:`save_nav2_graph`), ``rooms`` (rooms and doorways), ``mcap`` (ROS 2
-recordings), ``store`` (a :class:`~topojax.graph.GraphStore` as a folder of memory-mapped
-arrays: :func:`save_graph_store` / :func:`load_graph_store`).
+Modules: ``_schema`` (value encoding and the type schema), ``_stream`` (writing a file
+a piece at a time), ``nodelink``, ``graphml``, ``geojson`` (one per file format),
+``files`` (:func:`save_graph` / :func:`load_graph`), ``nav2`` (:func:`save_nav2_graph`),
+``rooms`` (rooms and doorways), ``mcap`` (ROS 2 recordings), ``store`` (a
+:class:`~topojax.graph.GraphStore` as a folder of memory-mapped arrays:
+:func:`save_graph_store` / :func:`load_graph_store`).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 Floats are written with Python's shortest round-trip representation, so they come back
 bit-exact. Writes are atomic: a temporary file in the target folder is renamed over the
-destination with :func:`os.replace`.
+destination with :func:`os.replace`; the file is written a node and an edge at a time.
 """
 
 from __future__ import annotations
@@ -11,14 +11,16 @@ import json
 import math
 import numbers
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import networkx as nx
 
-from .._fs import atomic_write_bytes
+from .._fs import atomic_write
 from .._validate import existing_file, instance_of, one_of, path_like
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
+from ._stream import _NotJsonCompliant, _write_json
 from .geojson import _from_geojson, _to_geojson
 from .graphml import _read_graphml, _write_graphml
 from .nodelink import _from_node_link, _to_node_link
@@ -79,20 +81,20 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
     g = as_multigraph(graph)
     graph_attrs = _graph_attrs_to_save(g)
     schema = _build_schema(g, graph_attrs)
+    write: Callable[[BinaryIO], None]
     if fmt == "graphml":
-        data = _write_graphml(g, graph_attrs, schema)
+        write = partial(_write_graphml, g, graph_attrs, schema)
     elif fmt == "json":
-        data = json.dumps(_to_node_link(g, graph_attrs, schema), allow_nan=True).encode("utf-8")
+        write = partial(_write_json, doc=_to_node_link(g, graph_attrs, schema), allow_nan=True)
     else:
-        doc = _to_geojson(g, graph_attrs, schema)
-        try:
-            data = json.dumps(doc, allow_nan=False).encode("utf-8")
-        except ValueError:
-            raise ValueError(
-                f"cannot write {p} as GeoJSON: an attribute holds NaN or infinity, which "
-                "strict JSON cannot represent (use .json or .graphml)"
-            ) from None
-    atomic_write_bytes(p, data)
+        write = partial(_write_json, doc=_to_geojson(g, graph_attrs, schema), allow_nan=False)
+    try:
+        atomic_write(p, write)  # nodes and edges are made as they are written
+    except _NotJsonCompliant:
+        raise ValueError(
+            f"cannot write {p} as GeoJSON: an attribute holds NaN or infinity, which "
+            "strict JSON cannot represent (use .json or .graphml)"
+        ) from None
     return p
 
 

@@ -3,6 +3,7 @@ metres (not WGS 84), with the graph attributes and the type schema as foreign me
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,22 @@ _GEO_EDGE_RESERVED = ("u", "v", "key", "feature", "closed_by_writer")
 
 
 def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
-    features = []
+    """The GeoJSON document of ``g``; its ``"features"`` is an iterator that makes each
+    feature as it is taken (:func:`~topojax.io._stream._write_json`)."""
+    graph_json = {
+        name: jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
+    }
+    # Foreign members (RFC 7946 section 6.1); coordinates are map-frame metres, not WGS 84.
+    return {
+        "type": "FeatureCollection",
+        "features": _features(g),
+        "graph": graph_json,
+        _SCHEMA_KEY: schema,
+    }
+
+
+def _features(g: nx.MultiGraph) -> Iterator[dict]:
+    """A Point feature per node, then a LineString feature per edge."""
     for n, d in g.nodes(data=True):
         if "world" not in d:
             raise ValueError(f"GeoJSON needs a 'world' (x, y) attribute on every node; node {n!r}")
@@ -38,7 +54,7 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
         props["feature"] = "node"
         props["id"] = jsonable(n, "node id")
         geometry = {"type": "Point", "coordinates": _xy(d["world"], f"node {n!r} 'world'")}
-        features.append({"type": "Feature", "geometry": geometry, "properties": props})
+        yield {"type": "Feature", "geometry": geometry, "properties": props}
     for u, v, k, d in g.edges(keys=True, data=True):
         where = f"edge ({u!r}, {v!r}, {k!r})"
         if "world" in d:
@@ -70,17 +86,7 @@ def _to_geojson(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
         if appended:
             props["closed_by_writer"] = appended
         geometry = {"type": "LineString", "coordinates": line}
-        features.append({"type": "Feature", "geometry": geometry, "properties": props})
-    graph_json = {
-        name: jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
-    }
-    # Foreign members (RFC 7946 section 6.1); coordinates are map-frame metres, not WGS 84.
-    return {
-        "type": "FeatureCollection",
-        "features": features,
-        "graph": graph_json,
-        _SCHEMA_KEY: schema,
-    }
+        yield {"type": "Feature", "geometry": geometry, "properties": props}
 
 
 def _hint(props: dict) -> str:

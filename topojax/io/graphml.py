@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import networkx as nx
 
@@ -17,6 +18,7 @@ from ._schema import (
     _to_python_scalar,
     jsonable,
 )
+from ._stream import _Chunks
 
 
 def _graphml_value(value: Any, spec: dict[str, Any], where: str) -> Any:
@@ -26,6 +28,11 @@ def _graphml_value(value: Any, spec: dict[str, Any], where: str) -> Any:
     if kind == "float" and isinstance(value, (int, float)):
         return float(value)
     if kind in ("bool", "int", "str", "float"):
+        if type(value) not in (bool, int, float, str):  # an IntEnum, a str subclass
+            raise TypeError(
+                f"{where}: expected a bool, int, float or str (to be saved as GraphML), "
+                f"received {type(value).__name__}"
+            )
         return value
     return json.dumps(jsonable(value, where), allow_nan=True)
 
@@ -40,33 +47,133 @@ def _graphml_decode(value: Any, spec: dict[str, Any] | None) -> Any:
     return _decode_value(value, spec)
 
 
-def _write_graphml(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> bytes:
-    h = nx.MultiGraph()
-    for name, val in graph_attrs.items():
-        h.graph[name] = _graphml_value(val, schema["graph"][name], f"graph attribute {name!r}")
-    h.graph[_SCHEMA_KEY] = json.dumps(schema)
+#: GraphML's types (networkx's names) of the values :func:`_graphml_value` gives for
+#: each kind of the schema; "string" for the others.
+_KIND_XML_TYPES = {"bool": "boolean", "int": "long", "float": "double"}
+#: The line breaks of :meth:`str.splitlines` left in ASCII text once escaped: networkx
+#: writes a document's lines joined with "\n".
+_LINE_BREAKS = re.compile("\r\n|[\r\n\x0b\x0c\x1c\x1d\x1e]")
+#: Attribute names that networkx's ``add_node`` / ``add_edge`` take as arguments, which
+#: a graph read back cannot hold.
+_TAKEN_NODE_NAMES = ("node_for_adding",)
+_TAKEN_EDGE_NAMES = ("u_for_edge", "v_for_edge", "key")
+_TAKEN = "an argument of networkx's add_node / add_edge: load_graph could not read it back"
+_HEAD = (
+    '<graphml xmlns="http://graphml.graphdrawing.org/xmlns" '
+    'xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
+    'xsi:schemaLocation="http://graphml.graphdrawing.org/xmlns '
+    'http://graphml.graphdrawing.org/xmlns/1.0/graphml.xsd">'
+)
+
+
+def _escape(text: str, quote: bool) -> str:
+    """``text`` escaped as ElementTree escapes character data (or, ``quote``, an
+    attribute value), each line break that is left a newline."""
+    if "&" in text:
+        text = text.replace("&", "&amp;")
+    if "<" in text:
+        text = text.replace("<", "&lt;")
+    if ">" in text:
+        text = text.replace(">", "&gt;")
+    if quote:
+        if '"' in text:
+            text = text.replace('"', "&quot;")
+        if "\r" in text:
+            text = text.replace("\r", "&#13;")
+        if "\n" in text:
+            text = text.replace("\n", "&#10;")
+        if "\t" in text:
+            text = text.replace("\t", "&#09;")
+    return _LINE_BREAKS.sub("\n", text) if _LINE_BREAKS.search(text) else text
+
+
+def _write_graphml(
+    g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict, fh: BinaryIO
+) -> None:
+    """Write ``g`` to ``fh`` as GraphML, an element at a time: the bytes of networkx's
+    ``generate_graphml`` (pretty-printed, its lines joined with newlines) for the graph
+    whose values are :func:`_graphml_value`'s, non-ASCII characters as references."""
+    graph_data = {
+        name: _graphml_value(val, schema["graph"][name], f"graph attribute {name!r}")
+        for name, val in graph_attrs.items()
+    }
+    graph_data[_SCHEMA_KEY] = json.dumps(schema)
+    graph_id = graph_data.pop("id", None)  # networkx's graph element id, not a value
+    for name in ("node_default", "edge_default"):  # networkx's defaults, not values
+        graph_data.pop(name, None)
+    _check_names(g, schema)
+    keys: dict[tuple[str, str], str] = {}  # networkx numbers them in the order first used
+    types = {}
+    for scope, names in (("graph", graph_data), ("node", schema["node"]), ("edge", schema["edge"])):
+        for name in names:
+            keys[scope, name] = f"d{len(keys)}"
+            kind = schema[scope][name]["kind"] if name in schema[scope] else "str"
+            types[scope, name] = _KIND_XML_TYPES.get(kind, "string")
+    out = _Chunks(fh, "ascii", "xmlcharrefreplace")
+    out.write(_HEAD)
+    for (scope, name), key in reversed(keys.items()):  # networkx puts each new one first
+        out.write(
+            f'\n  <key id="{key}" for="{scope}" attr.name="{_escape(name, True)}" '
+            f'attr.type="{types[scope, name]}" />'
+        )
+    gid = "" if graph_id is None else f' id="{_escape(str(graph_id), True)}"'
+    out.write(f'\n  <graph edgedefault="undirected"{gid}>')
     for n, d in g.nodes(data=True):
-        h.add_node(
-            _to_python_scalar(n),
-            **{
-                k: _graphml_value(v, schema["node"][k], f"node {n!r} attribute {k!r}")
-                for k, v in d.items()
-            },
-        )
+        node = _escape(str(_to_python_scalar(n)), True)
+        out.write(f'\n    <node id="{node}"')
+        data = {
+            k: _graphml_value(v, schema["node"][k], f"node {n!r} attribute {k!r}")
+            for k, v in d.items()
+        }
+        out.write(_data_elements(data, keys, "node", "\n    ", "</node>"))
     for u, v, k, d in g.edges(keys=True, data=True):
-        h.add_edge(
-            _to_python_scalar(u),
-            _to_python_scalar(v),
-            key=_to_python_scalar(k),
-            **{
-                name: _graphml_value(
-                    val, schema["edge"][name], f"edge ({u!r}, {v!r}, {k!r}) attribute {name!r}"
-                )
-                for name, val in d.items()
-            },
+        ends = (_escape(str(_to_python_scalar(x)), True) for x in (u, v, k))
+        out.write('\n    <edge source="{}" target="{}" id="{}"'.format(*ends))
+        data = {
+            name: _graphml_value(
+                val, schema["edge"][name], f"edge ({u!r}, {v!r}, {k!r}) attribute {name!r}"
+            )
+            for name, val in d.items()
+        }
+        out.write(_data_elements(data, keys, "edge", "\n    ", "</edge>"))
+    # networkx adds the graph's data elements after its nodes and edges
+    out.write(_data_elements(graph_data, keys, "graph", "\n  ", "</graph>")[1:])
+    out.write("\n</graphml>")
+    out.close()
+
+
+def _data_elements(data: dict, keys: dict, scope: str, indent: str, end: str) -> str:
+    """The ``<data>`` elements of an element (``data``: its values) indented one level
+    below ``indent``, after the ``>`` that ends its start tag, and its end tag ``end``;
+    ``" />"`` for an element without data."""
+    if not data:
+        return " />"
+    parts = [">"]
+    for name, value in data.items():
+        text = _escape(str(value), False)
+        key = keys[scope, name]
+        parts.append(
+            f'{indent}  <data key="{key}">{text}</data>'
+            if text
+            else f'{indent}  <data key="{key}" />'
         )
-    text = "\n".join(nx.generate_graphml(h, encoding="utf-8", prettyprint=True))
-    return text.encode("utf-8")
+    parts.append(f"{indent}{end}")
+    return "".join(parts)
+
+
+def _check_names(g: nx.MultiGraph, schema: dict) -> None:
+    """A ValueError when a node or edge attribute has a name that networkx's
+    ``add_node`` / ``add_edge`` take as an argument: the graph could not be read back."""
+    for name in (n for n in _TAKEN_NODE_NAMES if n in schema["node"]):
+        owner = next(f"node {n!r}" for n, d in g.nodes(data=True) if name in d)
+        raise ValueError(f"{owner} has an attribute named {name!r}, {_TAKEN}")
+    for name in (n for n in _TAKEN_EDGE_NAMES if n in schema["edge"]):
+        owner = next(
+            f"edge ({u!r}, {v!r}, {k!r})"
+            for u, v, k, d in g.edges(keys=True, data=True)
+            if name in d
+        )
+        raise ValueError(f"{owner} has an attribute named {name!r}, {_TAKEN}")
 
 
 def _read_graphml(path: Path) -> nx.MultiGraph:

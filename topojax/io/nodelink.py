@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -18,14 +19,31 @@ from ._schema import (
 
 
 def _to_node_link(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
-    nodes = []
+    """The node-link document of ``g``; its ``"nodes"`` and ``"edges"`` are iterators
+    that make each entry as it is taken (:func:`~topojax.io._stream._write_json`)."""
+    graph_json = {
+        name: jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
+    }
+    graph_json[_SCHEMA_KEY] = schema
+    return {
+        "directed": False,
+        "multigraph": True,
+        "graph": graph_json,
+        "nodes": _node_entries(g),
+        "edges": _edge_entries(g),
+    }
+
+
+def _node_entries(g: nx.MultiGraph) -> Iterator[dict]:
     for n, d in g.nodes(data=True):
         entry = {k: jsonable(v, f"node {n!r} attribute {k!r}") for k, v in d.items()}
         if "id" in entry:
             raise ValueError(f"node {n!r} has an attribute named 'id', reserved by node-link")
         entry["id"] = jsonable(n, "node id")
-        nodes.append(entry)
-    edges = []
+        yield entry
+
+
+def _edge_entries(g: nx.MultiGraph) -> Iterator[dict]:
     for u, v, k, d in g.edges(keys=True, data=True):
         entry = {
             name: jsonable(val, f"edge ({u!r}, {v!r}, {k!r}) attribute {name!r}")
@@ -40,18 +58,7 @@ def _to_node_link(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -
         entry["source"] = jsonable(u, "node id")
         entry["target"] = jsonable(v, "node id")
         entry["key"] = jsonable(k, "edge key")
-        edges.append(entry)
-    graph_json = {
-        name: jsonable(val, f"graph attribute {name!r}") for name, val in graph_attrs.items()
-    }
-    graph_json[_SCHEMA_KEY] = schema
-    return {
-        "directed": False,
-        "multigraph": True,
-        "graph": graph_json,
-        "nodes": nodes,
-        "edges": edges,
-    }
+        yield entry
 
 
 def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
