@@ -1,4 +1,4 @@
-"""save_graph writes its files a piece at a time: the bytes networkx's
+"""save_graph and save_nav2_graph write their files a piece at a time: the bytes networkx's
 GraphML writer and json.dumps give for the whole document, with a traced peak of memory
 well below the file's size, and nothing in place of the file when the writing fails."""
 
@@ -147,6 +147,10 @@ def test_json_files_are_json_dumps_of_the_whole_document(tmp_path: Path, name: s
     path = tj.save_graph(graph, tmp_path / "g.geojson")
     doc = _to_geojson(g, graph_attrs, schema)
     assert path.read_bytes() == _whole_json(doc, allow_nan=False)
+    if name != "empty":
+        nav2 = tj.save_nav2_graph(graph, tmp_path / "nav2.geojson")
+        text = nav2.read_bytes()
+        assert text == json.dumps(json.loads(text), allow_nan=False).encode()
 
 
 def test_write_json_writes_iterators_as_lists_and_checks_every_item(tmp_path: Path):
@@ -254,11 +258,11 @@ def grid() -> nx.MultiGraph:
     return g
 
 
-@pytest.mark.parametrize("suffix", [".graphml", ".json", ".geojson"])
+@pytest.mark.parametrize("suffix", [".graphml", ".json", ".geojson", "nav2"])
 def test_saving_a_big_graph_holds_far_less_than_the_file(tmp_path: Path, grid, suffix: str):
     small = grid.subgraph(range(30)).copy()  # the first call's imports are not the file's
-    save = tj.save_graph
-    name = f"g{suffix}"
+    save = tj.save_nav2_graph if suffix == "nav2" else tj.save_graph
+    name = "g.geojson" if suffix == "nav2" else f"g{suffix}"
     save(small, tmp_path / name)
     tracemalloc.start()
     try:

@@ -4,18 +4,19 @@ from __future__ import annotations
 
 import json
 import math
+from array import array
+from collections.abc import Iterator
+from functools import partial
 from pathlib import Path
 
 import networkx as nx
 import numpy as np
 
-from .._fs import atomic_write_bytes
+from .._fs import atomic_write
 from .._validate import instance_of, path_like, pixel_rows, positive_metres, xy_points
 from ..graph import holds, polyline_keep
 from ._schema import _xy, as_multigraph, jsonable
-
-# One directed hop of a waypoint chain: start id, end id, start (x, y), end (x, y), metadata.
-_Segment = tuple[int, int, list[float], list[float], dict]
+from ._stream import _write_json
 
 
 def save_nav2_graph(
@@ -94,27 +95,40 @@ def save_nav2_graph(
     # a vertex without edges leads nowhere; a server that joins a pose at the nearest
     # node would get no route from it
     node_id = {n: i for i, n in enumerate(n for n in g.nodes if g.degree(n))}
-    node_xy, features = _vertex_features(g, node_id, frame)
-    segments: list[_Segment] = []
+    features = _features(g, node_id, tol, frame)  # made one at a time as they are written
+    doc = {"type": "FeatureCollection", "name": "topojax route graph", "features": features}
+    atomic_write(p, partial(_write_json, doc=doc, allow_nan=False))
+    return p
+
+
+def _features(g: nx.MultiGraph, node_id: dict, tol: float, frame: str) -> Iterator[dict]:
+    """The route graph's features: the vertices (ids ``node_id``), the waypoints of each
+    corridor's chain in edge order, then every hop of the chains, both ways."""
+    node_xy: dict = {}
+    yield from _vertex_features(g, node_id, frame, node_xy)
+    chains = _Chains()
+    next_id = len(node_id)
     for u, v, k, d in g.edges(keys=True, data=True):
-        segments += _corridor_segments(g, (u, v, k), d, node_id, node_xy, tol, frame, features)
-    if not segments:  # every edge was a loop with no room for waypoints
+        chain = _corridor_chain(g, (u, v, k), d, node_xy, tol)
+        if chain is None:
+            continue
+        a, b, inner, lengths, corridor = chain
+        ids = [node_id[a], *range(next_id, next_id + len(inner)), node_id[b]]
+        for point in inner:
+            yield _nav2_node(next_id, frame, point, {"kind": "waypoint"})
+            next_id += 1
+        chains.add(ids, [node_xy[a], *inner, node_xy[b]], lengths, corridor)
+    if not len(chains):  # every edge was a loop with no room for waypoints
         raise ValueError(
             f"graph: none of its {g.number_of_edges()} edges leads anywhere (loops around a "
             "single point); the Nav2 Route Server rejects a graph without edges"
         )
-    features += _segment_features(segments, len(features))
-    doc = {"type": "FeatureCollection", "name": "topojax route graph", "features": features}
-    data = json.dumps(doc, allow_nan=False).encode("utf-8")
-    atomic_write_bytes(p, data)
-    return p
+    yield from chains.features(next_id)
 
 
-def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str) -> tuple[dict, list[dict]]:
-    """The graph's vertices as Point features (ids ``node_id``), and each vertex's
-    ``[x, y]``."""
-    node_xy = {}
-    features: list[dict] = []
+def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str, node_xy: dict) -> Iterator[dict]:
+    """The graph's vertices as Point features (ids ``node_id``); each vertex's ``[x, y]``
+    goes into ``node_xy``."""
     for n, d in g.nodes(data=True):
         if n not in node_id:
             continue
@@ -128,23 +142,16 @@ def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str) -> tuple[dict,
         room = d.get("room")
         if isinstance(room, (int, np.integer)) and not isinstance(room, bool):
             meta["room"] = int(room)
-        features.append(_nav2_node(node_id[n], frame, node_xy[n], meta))
-    return node_xy, features
+        yield _nav2_node(node_id[n], frame, node_xy[n], meta)
 
 
-def _corridor_segments(
-    g: nx.MultiGraph,
-    edge: tuple,
-    d: dict,
-    node_id: dict,
-    node_xy: dict,
-    tol: float,
-    frame: str,
-    features: list[dict],
-) -> list[_Segment]:
-    """The hops of one corridor's waypoint chain, its polyline simplified within ``tol``
-    metres; the waypoints are appended to ``features`` (their ids: their positions there).
-    Empty for a loop around no pixel but its vertex's or a path on one point."""
+def _corridor_chain(
+    g: nx.MultiGraph, edge: tuple, d: dict, node_xy: dict, tol: float
+) -> tuple[object, object, list, list, dict] | None:
+    """One corridor's waypoint chain, its polyline simplified within ``tol`` metres:
+    the vertex it starts at, the one it ends at, the waypoints between (``[x, y]``
+    each), the length of each hop (metres) and the corridor's metadata.  None for a
+    loop around no pixel but its vertex's or a path on one point."""
     u, v, k = edge
     where = f"edge ({u!r}, {v!r}, {k!r})"
     if "world" not in d:
@@ -159,41 +166,24 @@ def _corridor_segments(
     if planned is not None:  # a route graph's own chain, safe as it stands: straight hops
         inner = planned[1:-1].tolist()
         if u == v and len(inner) < 2:
-            return []  # a loop needs two distinct waypoints
+            return None  # a loop needs two distinct waypoints
         points = [node_xy[u], *inner, node_xy[v]]
         lengths = [math.dist(a, b) for a, b in zip(points[:-1], points[1:], strict=True)]
-        return _hops(u, v, inner, lengths, node_id, node_xy, frame, features, corridor)
+        return u, v, inner, lengths, corridor
     # The chain runs from node to node: where a path ends at another pixel than its
     # vertex's (a merged junction cluster), the hop to the vertex is part of it, so the
     # simplification keeps every corridor pixel within the tolerance of what is written.
     xy = np.concatenate([[node_xy[u]], xy, [node_xy[v]]])
     xy = xy[np.r_[True, (np.diff(xy, axis=0) != 0).any(axis=1)]]  # no repeated points
     if len(xy) < (4 if u == v else 2):
-        return []  # a loop around no pixel but its vertex's, or a path on one point
+        return None  # a loop around no pixel but its vertex's, or a path on one point
     keep = polyline_keep(xy, tol)
     if u == v and len(keep) < 4:  # a loop needs two distinct waypoints
         keep = np.unique(np.concatenate([keep, [len(xy) // 3, 2 * len(xy) // 3]]))
     along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
     lengths = np.diff(along[keep]).tolist()  # along the corridor between the waypoints
     inner = xy[keep[1:-1]].tolist()
-    return _hops(u, v, inner, lengths, node_id, node_xy, frame, features, corridor)
-
-
-def _hops(
-    u, v, inner: list, lengths: list, node_id, node_xy, frame, features, corridor
-) -> list[_Segment]:
-    """The hops from vertex ``u`` through the waypoints ``inner`` (``[x, y]`` each,
-    appended to ``features``) to vertex ``v``, hop ``j`` of ``lengths[j]`` metres."""
-    chain = [node_id[u]]
-    for point in inner:
-        chain.append(len(features))
-        features.append(_nav2_node(len(features), frame, point, {"kind": "waypoint"}))
-    chain.append(node_id[v])
-    points = [node_xy[u], *inner, node_xy[v]]
-    return [
-        (chain[j], chain[j + 1], points[j], points[j + 1], dict(corridor, length_m=lengths[j]))
-        for j in range(len(chain) - 1)
-    ]
+    return u, v, inner, lengths, corridor
 
 
 def _waypoints(d: dict, where: str) -> np.ndarray | None:
@@ -203,22 +193,46 @@ def _waypoints(d: dict, where: str) -> np.ndarray | None:
     return None if w is None else xy_points(w, f"graph: {where} 'waypoints'", min_points=2)
 
 
-def _segment_features(segments: list[_Segment], first_id: int) -> list[dict]:
-    """Every hop as two MultiLineString features, one per direction, with ids from
-    ``first_id`` on."""
-    features = []
-    next_id = first_id
-    for a, b, pa, pb, meta in segments:
-        for start, end, p0, p1 in ((a, b, pa, pb), (b, a, pb, pa)):
-            features.append(
-                {
+class _Chains:
+    """The hops of the corridors' waypoint chains, kept until every waypoint is written:
+    their numbers in arrays and one metadata dict per corridor, a few dozen bytes a hop
+    against the hundreds of its two features."""
+
+    def __init__(self) -> None:
+        self._ends = array("q")  # start id, end id per hop
+        self._xy = array("d")  # start x, y, end x, y per hop
+        self._lengths = array("d")
+        self._corridor = array("q")  # index in _corridors per hop
+        self._corridors: list[dict] = []
+
+    def __len__(self) -> int:
+        return len(self._lengths)
+
+    def add(self, ids: list[int], points: list, lengths: list[float], corridor: dict) -> None:
+        """The chain through the features ``ids`` at ``points``, hop ``j`` of
+        ``lengths[j]`` metres, with the metadata ``corridor``."""
+        for j, length in enumerate(lengths):
+            self._ends.extend((ids[j], ids[j + 1]))
+            self._xy.extend((*points[j], *points[j + 1]))
+            self._lengths.append(length)
+            self._corridor.append(len(self._corridors))
+        self._corridors.append(corridor)
+
+    def features(self, first_id: int) -> Iterator[dict]:
+        """Every hop as two MultiLineString features, one per direction, with ids from
+        ``first_id`` on."""
+        next_id = first_id
+        for h, length in enumerate(self._lengths):
+            a, b = self._ends[2 * h], self._ends[2 * h + 1]
+            pa, pb = self._xy[4 * h : 4 * h + 2].tolist(), self._xy[4 * h + 2 : 4 * h + 4].tolist()
+            meta = dict(self._corridors[self._corridor[h]], length_m=length)
+            for start, end, p0, p1 in ((a, b, pa, pb), (b, a, pb, pa)):
+                yield {
                     "type": "Feature",
                     "properties": {"id": next_id, "startid": start, "endid": end, "metadata": meta},
                     "geometry": {"type": "MultiLineString", "coordinates": [[p0, p1]]},
                 }
-            )
-            next_id += 1
-    return features
+                next_id += 1
 
 
 def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
