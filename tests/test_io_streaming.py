@@ -75,8 +75,8 @@ def _str_id_graph() -> nx.MultiGraph:
 
 
 def _plain_graph() -> nx.Graph:
-    """A plain Graph (edge keys 0) with networkx's graph id, and nodes out of order."""
-    g = nx.Graph(id="graph & id", node_default="no dict")
+    """A plain Graph (edge keys 0) with nodes out of order."""
+    g = nx.Graph(name="graph & name")
     g.add_edge(3, 1, w=1.0)
     g.add_edge(1, 2, w=2)
     g.add_edge(0, 3, w=3)
@@ -187,22 +187,40 @@ def test_geojson_reports_a_later_missing_world_before_an_earlier_nan(tmp_path: P
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize(
-    ("where", "name"),
-    [("node", "node_for_adding"), ("edge", "key"), ("edge", "u_for_edge")],
-)
-def test_graphml_refuses_names_networkx_keeps_for_itself(tmp_path: Path, where: str, name: str):
+def test_graphml_refuses_a_node_attribute_networkx_reads_as_its_own_argument(tmp_path: Path):
     g = _str_id_graph()
-    if where == "node":
-        g.nodes["é<>"][name] = 1
-        owner = "node 'é<>'"
-    else:
-        ends = ("a&b", "c\"d'", "k2")
-        g.edges[ends][name] = 1
-        owner = f"edge {ends!r}"
-    with pytest.raises(ValueError, match=re.escape(f"{owner} has an attribute named {name!r}")):
+    g.nodes["é<>"]["node_for_adding"] = 1
+    with pytest.raises(
+        ValueError, match=re.escape("node 'é<>' has an attribute named 'node_for_adding'")
+    ):
         tj.save_graph(g, tmp_path / "g.graphml")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("suffix", [".graphml", ".json", ".geojson"])
+def test_attributes_named_as_networkx_arguments_or_graphml_fields_are_read_back(
+    tmp_path: Path, suffix: str
+):
+    # a graph's 'id' was GraphML's graph element id, and 'node_default' / 'edge_default'
+    # networkx's defaults: all three were lost; edge attributes named as add_edge's
+    # arguments (and, outside GraphML, add_node's) made files load_graph could not read
+    g = _str_id_graph()
+    g.graph.update(id="floor 3", node_default=[1, 2], edge_default="x")
+    ends = ("a&b", "c\"d'", "k2")
+    g.edges[ends].update(u_for_edge=1, v_for_edge="v")
+    if suffix == ".graphml":
+        g.edges[ends]["key"] = 2.5  # node-link and GeoJSON files keep "key" for the key
+    else:
+        g.nodes["é<>"]["node_for_adding"] = 1
+    back = tj.load_graph(tj.save_graph(g, tmp_path / f"g{suffix}"))
+    assert {k: back.graph[k] for k in ("id", "node_default", "edge_default")} == {
+        "id": "floor 3",
+        "node_default": [1, 2],
+        "edge_default": "x",
+    }
+    kept = {k: v for k, v in back.edges[ends].items() if k != "world"}
+    assert kept == {k: v for k, v in g.edges[ends].items() if k != "world"}
+    assert dict(back.nodes["é<>"]).get("node_for_adding") == g.nodes["é<>"].get("node_for_adding")
 
 
 def test_graphml_refuses_a_subclass_of_a_scalar_naming_the_attribute(tmp_path: Path):

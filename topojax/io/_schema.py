@@ -262,3 +262,17 @@ def _check_ends(g, u: Any, v: Any, path: Path, where: str) -> None:
     for end in (u, v):
         if end not in g:
             raise ValueError(f"graph file {path}: {where} joins node {end!r}, which is not listed")
+
+
+def add_node(g: nx.MultiGraph, node: Any, attrs: dict[str, Any]) -> None:
+    """Add ``node`` to ``g`` with ``attrs``, whatever their names (``add_node(node,
+    **attrs)`` would take ``node_for_adding`` for its own argument)."""
+    g.add_node(node)
+    g.nodes[node].update(attrs)
+
+
+def add_edge(g: nx.MultiGraph, u: Any, v: Any, key: Any, attrs: dict[str, Any]) -> None:
+    """Add the edge ``(u, v, key)`` (``key`` None: the next free one) to ``g`` with
+    ``attrs``, whatever their names (``key``, ``u_for_edge`` and ``v_for_edge`` too)."""
+    key = g.add_edge(u, v, key=key)
+    g.edges[u, v, key].update(attrs)

@@ -18,6 +18,8 @@ from ._schema import (
     _decode_value,
     _schema_or_default,
     _xy,
+    add_edge,
+    add_node,
     jsonable,
 )
 
@@ -121,7 +123,7 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
             xy = _xy(coords, f"graph file {path}: features[{i}] coordinates")
             spec = schema["node"].get("world") or {"kind": "tuple"}
             attrs["world"] = _decode_value(xy, spec)
-            g.add_node(node, **attrs)
+            add_node(g, node, attrs)
         elif gtype == "LineString":
             if "u" not in props or "v" not in props:
                 raise ValueError(
@@ -157,5 +159,5 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
         if spec is not None and spec["kind"] == "ndarray":
             world = world.astype(np.dtype(spec["dtype"]), copy=False)
         attrs["world"] = world
-        g.add_edge(u, v, key=key, **attrs)
+        add_edge(g, u, v, key, attrs)
     return g

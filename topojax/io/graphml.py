@@ -16,6 +16,8 @@ from ._schema import (
     _decode_value,
     _schema_or_default,
     _to_python_scalar,
+    add_edge,
+    add_node,
     jsonable,
 )
 from ._stream import _Chunks
@@ -53,11 +55,9 @@ _KIND_XML_TYPES = {"bool": "boolean", "int": "long", "float": "double"}
 #: The line breaks of :meth:`str.splitlines` left in ASCII text once escaped: networkx
 #: writes a document's lines joined with "\n".
 _LINE_BREAKS = re.compile("\r\n|[\r\n\x0b\x0c\x1c\x1d\x1e]")
-#: Attribute names that networkx's ``add_node`` / ``add_edge`` take as arguments, which
-#: a graph read back cannot hold.
-_TAKEN_NODE_NAMES = ("node_for_adding",)
-_TAKEN_EDGE_NAMES = ("u_for_edge", "v_for_edge", "key")
-_TAKEN = "an argument of networkx's add_node / add_edge: load_graph could not read it back"
+#: A node attribute name that networkx's GraphML reader cannot read back: it hands a
+#: node's values to ``add_node`` as keywords, and ``add_node`` takes this one itself.
+_UNREADABLE_NODE_NAME = "node_for_adding"
 _HEAD = (
     '<graphml xmlns="http://graphml.graphdrawing.org/xmlns" '
     'xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
@@ -98,9 +98,6 @@ def _write_graphml(
         for name, val in graph_attrs.items()
     }
     graph_data[_SCHEMA_KEY] = json.dumps(schema)
-    graph_id = graph_data.pop("id", None)  # networkx's graph element id, not a value
-    for name in ("node_default", "edge_default"):  # networkx's defaults, not values
-        graph_data.pop(name, None)
     _check_names(g, schema)
     keys: dict[tuple[str, str], str] = {}  # networkx numbers them in the order first used
     types = {}
@@ -116,8 +113,7 @@ def _write_graphml(
             f'\n  <key id="{key}" for="{scope}" attr.name="{_escape(name, True)}" '
             f'attr.type="{types[scope, name]}" />'
         )
-    gid = "" if graph_id is None else f' id="{_escape(str(graph_id), True)}"'
-    out.write(f'\n  <graph edgedefault="undirected"{gid}>')
+    out.write('\n  <graph edgedefault="undirected">')  # an 'id' attribute is a <data> too
     for n, d in g.nodes(data=True):
         node = _escape(str(_to_python_scalar(n)), True)
         out.write(f'\n    <node id="{node}"')
@@ -162,18 +158,16 @@ def _data_elements(data: dict, keys: dict, scope: str, indent: str, end: str) ->
 
 
 def _check_names(g: nx.MultiGraph, schema: dict) -> None:
-    """A ValueError when a node or edge attribute has a name that networkx's
-    ``add_node`` / ``add_edge`` take as an argument: the graph could not be read back."""
-    for name in (n for n in _TAKEN_NODE_NAMES if n in schema["node"]):
-        owner = next(f"node {n!r}" for n, d in g.nodes(data=True) if name in d)
-        raise ValueError(f"{owner} has an attribute named {name!r}, {_TAKEN}")
-    for name in (n for n in _TAKEN_EDGE_NAMES if n in schema["edge"]):
-        owner = next(
-            f"edge ({u!r}, {v!r}, {k!r})"
-            for u, v, k, d in g.edges(keys=True, data=True)
-            if name in d
+    """A ValueError when a node has an attribute networkx's GraphML reader cannot read
+    back (:data:`_UNREADABLE_NODE_NAME`)."""
+    name = _UNREADABLE_NODE_NAME
+    if name in schema["node"]:
+        owner = next(n for n, d in g.nodes(data=True) if name in d)
+        raise ValueError(
+            f"node {owner!r} has an attribute named {name!r}, which networkx's GraphML "
+            "reader takes for its own argument: load_graph could not read it back; rename "
+            "it, or save as .json or .geojson"
         )
-        raise ValueError(f"{owner} has an attribute named {name!r}, {_TAKEN}")
 
 
 def _read_graphml(path: Path) -> nx.MultiGraph:
@@ -184,13 +178,14 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
     if raw.is_directed():
         raise ValueError(f"graph file {path} holds a directed graph; expected undirected")
     graph_attrs = dict(raw.graph)
-    graph_attrs.pop("node_default", None)
-    graph_attrs.pop("edge_default", None)
     schema_text = graph_attrs.pop(_SCHEMA_KEY, None)
     try:
         schema = _schema_or_default(json.loads(schema_text) if schema_text else None)
     except json.JSONDecodeError:
         raise ValueError(f"graph file {path}: unreadable {_SCHEMA_KEY!r} attribute") from None
+    for name in ("node_default", "edge_default"):  # networkx's, unless the graph had them
+        if name not in schema["graph"]:
+            graph_attrs.pop(name, None)
     has_schema = schema_text is not None
     # networkx adds a node that only an edge names, bare; JSON and GeoJSON refuse it
     listed = _graphml_node_ids(path)  # a second parse of the file: only its node ids
@@ -200,17 +195,18 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
     g.graph.update({k: _graphml_decode(v, schema["graph"].get(k)) for k, v in graph_attrs.items()})
     for n, d in raw.nodes(data=True):
         node = _decode_id(n, schema["node_id"], "node id", path)
-        g.add_node(node, **{k: _graphml_decode(v, schema["node"].get(k)) for k, v in d.items()})
+        add_node(g, node, {k: _graphml_decode(v, schema["node"].get(k)) for k, v in d.items()})
     for u, v, k, d in raw.edges(keys=True, data=True):
         attrs = dict(d)
         # networkx's reader copies the GraphML edge id into an 'id' attribute.
         if "id" in attrs and (not has_schema or "id" not in schema["edge"]):
             attrs.pop("id")
-        g.add_edge(
+        add_edge(
+            g,
             _decode_id(u, schema["node_id"], "node id", path),
             _decode_id(v, schema["node_id"], "node id", path),
-            key=_decode_id(k, schema["edge_key"], "edge key", path),
-            **{name: _graphml_decode(val, schema["edge"].get(name)) for name, val in attrs.items()},
+            _decode_id(k, schema["edge_key"], "edge key", path),
+            {name: _graphml_decode(val, schema["edge"].get(name)) for name, val in attrs.items()},
         )
     return g
 

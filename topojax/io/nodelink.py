@@ -14,6 +14,8 @@ from ._schema import (
     _decode_attrs,
     _decode_id,
     _schema_or_default,
+    add_edge,
+    add_node,
     jsonable,
 )
 
@@ -76,7 +78,7 @@ def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
             raise ValueError(f"graph file {path}: node entry without 'id': {entry!r}")
         attrs = {k: v for k, v in entry.items() if k != "id"}
         node = _decode_id(entry["id"], schema["node_id"], "node id", path)
-        g.add_node(node, **_decode_attrs(attrs, schema["node"]))
+        add_node(g, node, _decode_attrs(attrs, schema["node"]))
     for entry in doc.get(edge_list_name, []):
         if not isinstance(entry, dict) or "source" not in entry or "target" not in entry:
             raise ValueError(f"graph file {path}: edge entry without source/target: {entry!r}")
@@ -87,5 +89,5 @@ def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
         key = entry.get("key")
         if key is not None:
             key = _decode_id(key, schema["edge_key"], "edge key", path)
-        g.add_edge(u, v, key=key, **_decode_attrs(attrs, schema["edge"]))
+        add_edge(g, u, v, key, _decode_attrs(attrs, schema["edge"]))
     return g
