@@ -351,7 +351,7 @@ def test_names_subset():
     choices = ("a", "b", "c")
     assert v.names_subset("keep", ["c", "a", "c"], choices) == ("a", "c")
     assert v.names_subset("keep", (), choices) == ()
-    for bad in ("ab", None, 3):
+    for bad in ("ab", None, 3, np.array("a")):
         with pytest.raises(TypeError, match=r"^keep: expected an iterable of names from \('a'"):
             v.names_subset("keep", bad, choices)
     for bad in (["a", "d"], [1]):

@@ -357,9 +357,13 @@ def occupancy_thresholds(
 def names_subset(name: str, value: Any, choices: tuple[str, ...]) -> tuple[str, ...]:
     """``value``, an iterable of strings among ``choices`` (not a bare string), as a tuple
     in the order of ``choices`` without repeats."""
+    expected = f"{name}: expected an iterable of names from {choices}, received {value!r}"
     if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
-        raise TypeError(f"{name}: expected an iterable of names from {choices}, received {value!r}")
-    items = list(value)
+        raise TypeError(expected)
+    try:
+        items = list(value)
+    except TypeError:  # iterable by its type but not this one: a 0-d array
+        raise TypeError(expected) from None
     unknown = [v for v in items if not isinstance(v, str) or v not in choices]
     if unknown:
         raise ValueError(f"{name}: expected names from {choices}, received {unknown[0]!r}")
