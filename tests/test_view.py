@@ -980,6 +980,24 @@ def test_timeline_snapshot_names_a_wrong_mapper():
         tj.Timeline().snapshot(3)
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "message"),
+    [
+        ({"scan_index": 2.5}, TypeError, r"^scan_index: expected an int >= 0, received float 2.5$"),
+        ({"scan_index": True}, TypeError, r"^scan_index: expected an int >= 0, received bool"),
+        ({"scan_index": "3"}, TypeError, r"^scan_index: expected an int >= 0, received str"),
+        ({"scan_index": -1}, ValueError, r"^scan_index: expected an int >= 0, received -1$"),
+        ({"rooms": "no"}, TypeError, r"^rooms: expected a bool, received str 'no'$"),
+        ({"rooms": None}, TypeError, r"^rooms: expected a bool, received NoneType"),
+    ],
+)
+def test_timeline_snapshot_checks_its_options(kwargs, exc, message):
+    """A float scan index was cut to an int, True kept as scan 1 and a str or NaN failed in
+    ``int()`` naming nothing; ``rooms`` was read by its truth value ("no" kept rooms)."""
+    with pytest.raises(exc, match=message):
+        tj.Timeline().snapshot(tj.IncrementalMapper(), **kwargs)
+
+
 def test_view_command_shows_the_results_it_can_and_names_the_others(tmp_path, capsys):
     res = intel_result()
     for stem in ("a", "c"):

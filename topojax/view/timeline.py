@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .._cpus import MemoryRefusal, available_memory_bytes, byte_size
-from .._validate import existing_file, instance_of, int_at_least
+from .._validate import existing_file, flag, instance_of, int_at_least
 from ._encode import TILE_PX, packed, pyramid, unpacked
 from ._graphs import KIND_NAMES
 from ._rooms_data import rooms_payload
@@ -143,13 +143,16 @@ class Timeline:
         ----------
         mapper : IncrementalMapper
         scan_index : int, optional
-            The scan it belongs to (default: the mapper's last).
+            The scan it belongs to, from 0 (default: the mapper's last).
         rooms : bool
             Also keep the mapper's rooms (otherwise those of the previous snapshot stay).
         """
         from ..incremental import IncrementalMapper
 
         instance_of("mapper", mapper, IncrementalMapper)
+        if scan_index is not None:
+            scan_index = int_at_least("scan_index", scan_index, 0)
+        rooms = flag("rooms", rooms)
         self._writable()
         if mapper.pixel_bbox is None:
             return
