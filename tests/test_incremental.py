@@ -2697,6 +2697,13 @@ def test_add_scans_and_save_name_a_bad_argument(tmp_path):
     assert mapper.n_scans == 0 and not list(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("update", ["no", None, 0, np.array(True)])
+def test_to_result_update_is_a_bool(update):
+    """``update`` was read by its truth value: "no" updated the graph, None did not."""
+    with pytest.raises(TypeError, match="^update: expected a bool, received "):
+        IncrementalMapper(**SMALL_KW).to_result(update=update)
+
+
 def test_world_to_pixel_refuses_what_has_no_pixel():
     """NaN, an infinity or None became the pixel -9223372036854775808 (int64's minimum)
     with only a NumPy cast warning; a string failed inside NumPy naming no argument."""

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 import networkx as nx
 import numpy as np
 
-from .._validate import instance_of, path_like, real_array
+from .._validate import flag, instance_of, path_like, real_array
 from ..config import DistanceConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..fields.distance import FAR_SQ
 from ..fields.filters import HALO_PX
@@ -705,7 +705,7 @@ class IncrementalMapper:
         TopologyResult
             ``map`` is :attr:`occupancy`; arrays cover its grid; ``timings_s`` is empty.
         """
-        return topology_result(self, update)
+        return topology_result(self, flag("update", update))
 
     # ------------------------------------------------------------------ rooms
     @property
