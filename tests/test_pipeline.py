@@ -397,10 +397,29 @@ def test_configs_check_types_and_take_numpy_numbers():
             "half_width_m: 300.0 m",
         ),
         (lambda: tj.DistanceConfig.from_pixels(sigma_px=5000), ValueError, "sigma_px: 5000.0"),
+        (
+            lambda: tj.DistanceConfig.from_metres(sigma_m=1e-300, resolution_m=0.05),
+            ValueError,
+            "sigma_m: 1e-300 m at 0.05 m/px is 2e-299 px, less than the narrowest sigma, 1e-06 px",
+        ),
     ]
     for make, exc, words in bad:
         with pytest.raises(exc, match=words):
             make()
+
+
+def test_a_sigma_narrower_than_a_micropixel_is_refused():
+    """sigma_px=1e-19 was accepted and its distance map was NaN on every obstacle (the
+    kernels' float32 ``1 / (2 sigma^2)`` overflows); every sigma up to about 0.07 px gives
+    the same map, the obstacles alone, so none narrower than 1e-6 px is needed."""
+    mask = np.eye(12, dtype=bool)
+    got = tj.distance_map(mask, config=tj.DistanceConfig(sigma_px=1e-6))
+    np.testing.assert_array_equal(got, mask.astype(np.float32))
+    wider = tj.distance_map(mask, config=tj.DistanceConfig(sigma_px=0.05))
+    np.testing.assert_array_equal(wider, got)
+    for bad in (9e-7, 1e-19, 1e-300):
+        with pytest.raises(ValueError, match=r"^sigma_px: expected at least 1e-06 px .*received"):
+            tj.DistanceConfig(sigma_px=bad)
 
 
 def test_distance_and_ridge_maps_read_map_files():

@@ -42,6 +42,10 @@ ORIGINAL_HALF_WIDTH_PX = 227
 _THINNING = ("guo_hall", "zhang")
 #: Largest window half-width the distance kernels take (pixels).
 _MAX_HALF_WIDTH_PX = 4096
+#: Smallest sigma (pixels): every sigma below about 0.07 px gives the same distance map,
+#: the obstacles alone (the Gaussian is 0 in float32 one pixel away), and below about
+#: 1e-19 px the kernels' float32 ``1 / (2 sigma^2)`` overflows and the map is NaN.
+_MIN_SIGMA_PX = 1e-6
 #: Per OpenCV aperture, the sum of the Laplacian kernel's positive weights (that of its
 #: negative ones is the same): the largest |Laplacian| of a map with values in [0, 1].
 _MAX_LAPLACIAN = {1: 4.0, 3: 8.0, 5: 56.0}
@@ -75,8 +79,8 @@ class DistanceConfig:
     Parameters
     ----------
     sigma_px : float
-        Gaussian standard deviation in pixels.  Default: the original's effective
-        64.19283 px.
+        Gaussian standard deviation in pixels, at least 1e-6.  Default: the original's
+        effective 64.19283 px.
     half_width_px : int, optional
         Half-width ``R`` of the square support in pixels (kernel size ``2R + 1``), at
         least ``sigma_px`` (a narrower window cuts the Gaussian off inside one sigma and
@@ -90,6 +94,11 @@ class DistanceConfig:
 
     def __post_init__(self) -> None:
         sigma_px = quantity("sigma_px", self.sigma_px, unit="pixels", allow_zero=False)
+        if sigma_px < _MIN_SIGMA_PX:
+            raise ValueError(
+                f"sigma_px: expected at least {_MIN_SIGMA_PX:g} px (every narrower Gaussian "
+                f"gives the same distance map, the obstacles alone), received {sigma_px!r}"
+            )
         _canonical(self, "sigma_px", sigma_px)
         if self.half_width_px is None:
             half = _scaled_half_width(sigma_px)
@@ -133,6 +142,12 @@ class DistanceConfig:
         sigma_m = positive_metres("sigma_m", sigma_m)
         resolution_m = metres_per_pixel("resolution_m", resolution_m)
         sigma_px = sigma_m / resolution_m
+        if sigma_px < _MIN_SIGMA_PX:
+            raise ValueError(
+                f"sigma_m: {sigma_m!r} m at {resolution_m!r} m/px is {sigma_px:.6g} px, less "
+                f"than the narrowest sigma, {_MIN_SIGMA_PX:g} px (every narrower Gaussian "
+                "gives the same distance map, the obstacles alone)"
+            )
         if half_width_m is None:
             half = _scaled_half_width(sigma_px)
             if half > _MAX_HALF_WIDTH_PX:
