@@ -1424,6 +1424,22 @@ def test_the_estimate_of_the_pairs_stays_under_the_graph_s_count(monkeypatch, sn
         route_graph(m, config=config)
 
 
+def test_a_shortcut_radius_beyond_the_map_counts_as_the_whole_map():
+    """``shortcut_radius_m=1e300`` failed with an OverflowError in the bound of the pairs;
+    and where the estimate runs (a large map) the radius was the side of an OpenCV box
+    filter: 1e7 px took 2.7 GB, 1e8 px failed with OpenCV's ``bad_alloc`` and 1e9 px
+    exhausted the memory.  A box of twice the map's size holds the whole map already."""
+    from topojax.routegraph._cover import estimated_pairs
+
+    m = _map(_room(12, 12))
+    whole = route_graph(m, config=RouteGraphConfig(shortcut_radius_m=100.0))
+    far = route_graph(m, config=RouteGraphConfig(shortcut_radius_m=1e300))
+    assert sorted(far.edges()) == sorted(whole.edges())
+    open_ = np.zeros((40, 50), bool)
+    open_[5:30, 3:45] = True
+    assert estimated_pairs(open_, 0.1, 1e300) == estimated_pairs(open_, 0.1, 60.0)
+
+
 @pytest.mark.parametrize("hold_max_px", [0, 1 << 22])
 def test_clearances_are_the_feasible_space_s_at_the_graph_s_pixels(monkeypatch, hold_max_px):
     """The graph is built in a window of the map (here off its corner, beside a region

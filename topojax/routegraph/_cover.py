@@ -456,7 +456,8 @@ def pairs_bound(n_open: int, reach_px: float, radius_px: float, anchor_px: float
     density = 2.0 / (math.sqrt(3.0) * (MESH_SPACING * reach_px) ** 2)
     if anchor_px > 0:
         density += 2.0 / (reach_px * anchor_px)
-    box = (math.sqrt(math.pi) * radius_px + 1.0) ** 2
+    side = math.sqrt(math.pi) * radius_px + 1.0
+    box = side * side  # inf for a radius beyond any map, where ``** 2`` raises OverflowError
     return ESTIMATE_SHARE * 0.5 * (DENSITY_BOUND_FACTOR * density) ** 2 * n_open * min(n_open, box)
 
 
@@ -465,7 +466,9 @@ def estimated_pairs(open_: np.ndarray, density: float, radius_px: float) -> floa
     pixels ``open_`` (bool (H, W), :func:`open_pixels`) at ``density`` nodes a pixel, times
     :data:`ESTIMATE_SHARE`: half the sum, over the open pixels, of the density squared
     times the open pixels in a square of the area of the radius's disc round each."""
-    side = max(1, round(math.sqrt(math.pi) * radius_px))
+    # a square of 2 max(H, W) - 1 pixels a side holds the whole map round every pixel: a
+    # larger one counts no more, and OpenCV's buffers grow with its side (1e7: 2.7 GB)
+    side = max(1, min(round(math.sqrt(math.pi) * radius_px), 2 * max(open_.shape) - 1))
     near = cv2.boxFilter(
         open_.view(np.uint8),
         cv2.CV_32F,
