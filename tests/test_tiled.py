@@ -493,6 +493,18 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tiled.occupied(0, True, 0, 3)
     with pytest.raises(TypeError, match="^occupancy: expected an OccupancyMap, received ndarray"):
         TiledMap.from_occupancy(np.zeros((4, 4), bool))
+    # a window too small for an OccupancyMap was named as OccupancyMap's own shape
+    with pytest.raises(ValueError, match=r"^window: expected at least 2 x 2 .*rows 0:0, cols 1:5"):
+        tiled.occupancy(0, 0, 1, 5)
+    # a reader that is not one failed with an AttributeError on its shape
+    with pytest.raises(TypeError, match=r"^reader: expected an object with shape, dtype and read"):
+        TiledMap(np.zeros((4, 4), np.uint8).tolist())
+    # a white beyond the image's values asked for a lookup table as long (Maximum allowed
+    # size exceeded) at the first window read
+    reader = TiledMap.from_array(np.zeros((4, 4), np.uint8)).reader
+    assert TiledMap(reader, full_scale=100).full_scale == 100
+    with pytest.raises(ValueError, match=r"^full_scale: expected an int from 1 to 255 for a uint8"):
+        TiledMap(reader, full_scale=10**30)
     # out_dir that is not a path: named, not pathlib's TypeError
     with pytest.raises(TypeError, match=r"^out_dir: expected a path \(str or os.PathLike\)"):
         tj.build_graph_tiled(m, out_dir=3)

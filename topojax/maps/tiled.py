@@ -93,7 +93,8 @@ class TiledMap:
         Classification, as for :meth:`OccupancyMap.from_array` (``negate`` and the modes
         other than ``"trinary"`` / ``"scale"`` apply to images only).
     full_scale : int, optional
-        Intensity of white for images (255 for uint8, 65535 for uint16, a PGM's maxval).
+        Intensity of white for images, at most the largest value of their dtype
+        (default 255 for uint8, 65535 for uint16; a PGM's maxval).
     source : str, optional
         Where the map is stored, kept as the graph attribute ``source``.
     """
@@ -111,6 +112,11 @@ class TiledMap:
         full_scale: int | None = None,
         source: str | None = None,
     ) -> None:
+        if not all(hasattr(reader, a) for a in ("shape", "dtype", "read")):
+            raise TypeError(
+                "reader: expected an object with shape, dtype and read(r0, r1, c0, c1) (see "
+                f"TiledMap.from_array), received {type(reader).__name__}"
+            )
         shape = tuple(int(v) for v in reader.shape)
         if len(shape) != 2 or min(shape) < 2:
             raise ValueError(
@@ -140,6 +146,11 @@ class TiledMap:
         if full_scale is None:
             full_scale = 65535 if dtype == np.uint16 else 255
         self.full_scale = positive_int("full_scale", full_scale)
+        if kind == "image" and self.full_scale > np.iinfo(dtype).max:
+            raise ValueError(  # white must be a value the image can hold
+                f"full_scale: expected an int from 1 to {np.iinfo(dtype).max} for a {dtype} "
+                f"image, received {self.full_scale}"
+            )
         if kind == "image" and self.mode == "raw" and self.full_scale != 255:
             raise ValueError(  # found here, not when the first window is classified
                 f"mode='raw': expected an 8-bit image (full scale 255), received full scale "
@@ -235,6 +246,12 @@ class TiledMap:
         origin of the whole map's frame only when it is the whole map."""
         r1 = self.shape[0] if r1 is None else r1
         c1 = self.shape[1] if c1 is None else c1
+        r0, r1, c0, c1 = self._box(r0, r1, c0, c1)
+        if min(r1 - r0, c1 - c0) < 2:
+            raise ValueError(
+                f"window: expected at least 2 x 2 pixels for an OccupancyMap, received rows "
+                f"{r0}:{r1}, cols {c0}:{c1}"
+            )
         codes = self.codes(r0, r1, c0, c1)
         masks = {"occupied": codes == _OCC, "free": codes == _FREE, "unknown": codes == _UNK}
         del codes
