@@ -674,6 +674,13 @@ def test_occupancy_map_validation():
         OccupancyMap(a, t, a, origin=(1.0, 2.0, 3.0, 4.0))
     with pytest.raises(TypeError, match="numpy"):
         OccupancyMap([[False]], t, a)  # type: ignore[arg-type]
+    # a source that is no path or name was kept as its str(): "True", "<object ...>"
+    assert OccupancyMap(a, t, a, source=Path("maps/m.pgm")).source == str(Path("maps/m.pgm"))
+    for bad in (True, 3, object()):
+        with pytest.raises(TypeError, match=r"^source: expected a str, an os.PathLike or None"):
+            OccupancyMap(a, t, a, source=bad)
+        with pytest.raises(TypeError, match=r"^source: expected a str, an os.PathLike or None"):
+            OccupancyMap.from_array(t, source=bad)
 
 
 # ---------------------------------------------------------------------- image files

@@ -505,6 +505,9 @@ def test_bad_arguments_name_the_parameter(tmp_path):
     assert TiledMap(reader, full_scale=100).full_scale == 100
     with pytest.raises(ValueError, match=r"^full_scale: expected an int from 1 to 255 for a uint8"):
         TiledMap(reader, full_scale=10**30)
+    # a source that is no path or name was kept as its str()
+    with pytest.raises(TypeError, match=r"^source: expected a str, an os.PathLike or None"):
+        TiledMap(reader, source=True)
     # out_dir that is not a path: named, not pathlib's TypeError
     with pytest.raises(TypeError, match=r"^out_dir: expected a path \(str or os.PathLike\)"):
         tj.build_graph_tiled(m, out_dir=3)

@@ -496,6 +496,22 @@ def test_path_like(tmp_path):
             v.path_like("out_dir", bad)
 
 
+def test_text_or_none(tmp_path):
+    assert v.text_or_none("title", None) is None
+    assert v.text_or_none("title", "intel") == "intel"
+    assert v.text_or_none("title", np.str_("intel")) == "intel"
+    assert v.text_or_none("source", tmp_path / "m.pgm", paths=True) == str(tmp_path / "m.pgm")
+    assert v.text_or_none("source", "s3://maps//a.pgm", paths=True) == "s3://maps//a.pgm"
+    for bad in (True, 3, math.nan, ["a"], object(), b"m.pgm", tmp_path):
+        with pytest.raises(TypeError, match=r"^title: expected a str or None, received "):
+            v.text_or_none("title", bad)
+    for bad in (True, 3, ["a"], b"m.pgm"):
+        with pytest.raises(
+            TypeError, match=r"^source: expected a str, an os.PathLike or None, received "
+        ):
+            v.text_or_none("source", bad, paths=True)
+
+
 def test_pixel_rows():
     assert v.pixel_rows("p", (3, 4), one=True).tolist() == [3, 4]
     assert v.pixel_rows("p", (3.0, 4.0), one=True).dtype == np.int64  # whole floats
@@ -520,7 +536,7 @@ def test_every_exported_check_is_tested():
         "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "plain_int_pair", "plain_length_m", "pose", "positive_int", "positive_metres",
-        "quantity", "real_number", "robot_radius", "xy_points",
+        "quantity", "real_number", "robot_radius", "text_or_none", "xy_points",
     }  # fmt: skip
     assert set(v.__all__) == tested
 

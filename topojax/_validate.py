@@ -53,6 +53,7 @@ __all__ = [
     "real_array",
     "real_number",
     "robot_radius",
+    "text_or_none",
     "xy_points",
 ]
 
@@ -425,6 +426,19 @@ def path_like(name: str, value: Any) -> Path:
             f"{name}: expected a path (str or os.PathLike), received {type(value).__name__}"
         )
     return Path(value)
+
+
+def text_or_none(name: str, value: Any, *, paths: bool = False) -> str | None:
+    """``value`` (None stays None) after checking it is a ``str`` or, with ``paths``, an
+    ``os.PathLike`` (returned as its ``str``, not normalised as a :class:`~pathlib.Path`:
+    where a map came from); a ``TypeError`` naming ``name`` otherwise (``str()`` and
+    matplotlib would take any object: a title or a source of ``True``)."""
+    if value is None or isinstance(value, str):
+        return value
+    if paths and isinstance(value, os.PathLike):
+        return str(value)
+    what = "a str, an os.PathLike or None" if paths else "a str or None"
+    raise TypeError(f"{name}: expected {what}, received {type(value).__name__} {value!r}")
 
 
 def no_file_above(name: str, path: Path) -> Path:

@@ -29,6 +29,7 @@ from .._validate import (
     one_of,
     pose,
     real_array,
+    text_or_none,
 )
 from .classify import (
     _FREE,
@@ -108,8 +109,8 @@ class OccupancyMap:
     origin : tuple of 3 float
         ``(x_m, y_m, yaw_rad)``: world pose of the lower-left corner of the lower-left
         pixel (ROS ``map_server`` convention).
-    source : str or None
-        Where the map came from (a path), used in messages.
+    source : str, os.PathLike or None
+        Where the map came from (a path, kept as a str), used in messages.
     """
 
     occupied: np.ndarray
@@ -157,8 +158,7 @@ class OccupancyMap:
             self, "resolution_m", metres_per_pixel("resolution_m", self.resolution_m)
         )
         object.__setattr__(self, "origin", pose("origin", self.origin))
-        if self.source is not None and not isinstance(self.source, str):
-            object.__setattr__(self, "source", str(self.source))
+        object.__setattr__(self, "source", text_or_none("source", self.source, paths=True))
 
     # ------------------------------------------------------------------ basic properties
     @property

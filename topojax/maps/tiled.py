@@ -42,6 +42,7 @@ from .._validate import (
     path_like,
     pose,
     positive_int,
+    text_or_none,
 )
 from .classify import (
     _FREE,
@@ -95,8 +96,8 @@ class TiledMap:
     full_scale : int, optional
         Intensity of white for images, at most the largest value of their dtype
         (default 255 for uint8, 65535 for uint16; a PGM's maxval).
-    source : str, optional
-        Where the map is stored, kept as the graph attribute ``source``.
+    source : str or os.PathLike, optional
+        Where the map is stored (kept as a str), the graph attribute ``source``.
     """
 
     def __init__(
@@ -156,7 +157,7 @@ class TiledMap:
                 f"mode='raw': expected an 8-bit image (full scale 255), received full scale "
                 f"{self.full_scale}"
             )
-        self.source = None if source is None else str(source)
+        self.source = text_or_none("source", source, paths=True)
 
     # ------------------------------------------------------------------ construction
     @classmethod
