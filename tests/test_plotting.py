@@ -439,6 +439,18 @@ def test_drawing_options_name_themselves(result):
     for name in ("doors", "labels"):
         with pytest.raises(TypeError, match=f"^{name}: expected a bool, received str 'no'"):
             tj.plot_rooms(seg, **{name: "no"})
+    # a title that is not a str was drawn as its str(): "True", "<object object at ...>"
+    drawings = [
+        lambda t: tj.plot(result, title=t),
+        lambda t: tj.plot_rooms(seg, title=t),
+        lambda t: tj.plot_route_graph(routes, occ, title=t),
+        lambda t: plot_stages(result, title=t),
+        lambda t: plot_graph(result.graph, title=t),
+    ]
+    for draw in drawings:
+        for title in (True, 3.5, ["a"], object()):
+            with pytest.raises(TypeError, match="^title: expected a str or None, received "):
+                draw(title)
     corridors = tj.route_graph(result.map, robot_radius_m=0.2)
     u, v, k = next(iter(corridors.edges(keys=True)))
     corridors.edges[u, v, k]["waypoints"] = "corridor"  # failed inside NumPy

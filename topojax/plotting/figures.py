@@ -14,6 +14,7 @@ from .._validate import (
     nonnegative_quantity,
     nx_graph,
     pixel_rows,
+    text_or_none,
     xy_points,
 )
 from .style import (
@@ -53,11 +54,6 @@ def _as_result(result, needs: tuple[str, ...]):
     return result
 
 
-def _title(title):
-    """``title`` after checking it is a str or None (a number would be drawn as its text)."""
-    return instance_of("title", title, (str, type(None)), "str or None")
-
-
 def plot_map(
     occupancy, *, ax=None, title: str | None = None, scale_bar: bool = True, pool: bool = False
 ):
@@ -66,7 +62,7 @@ def plot_map(
     keeping each block's darkest class (:func:`map_image`), so thin walls stay unbroken;
     without, shrunk the same way only as far as :data:`MAX_SHOWN_PX` asks.
     Returns the axes."""
-    title = _title(title)
+    title = text_or_none("title", title)
     ax = axes_or_new(ax)
     k = shown_factor(occupancy.shape)
     if pool:
@@ -83,7 +79,7 @@ def plot_map(
 def plot_distance(distance: np.ndarray, *, ax=None, title: str | None = "distance map H"):
     """Distance map ``H`` (float (H, W) in [0, 1]) as a colour image; above
     :data:`MAX_SHOWN_PX` pixels, every k-th row and column of it.  Returns the axes."""
-    title = _title(title)
+    title = text_or_none("title", title)
     ax = axes_or_new(ax)
     distance = np.asarray(distance)
     k = shown_factor(distance.shape)
@@ -100,7 +96,7 @@ def plot_ridges(ridges: np.ndarray, *, ax=None, title: str | None = "ridges"):
     """Binary ridge map (bool (H, W)), black on white; max-pooled when the axes show it
     smaller than its pixels (:func:`max_pool`), so one-pixel lines stay unbroken.
     Returns the axes."""
-    title = _title(title)
+    title = text_or_none("title", title)
     ax = axes_or_new(ax)
     ridges = np.asarray(ridges, bool)
     h, w = ridges.shape
@@ -116,7 +112,7 @@ def plot_ridges(ridges: np.ndarray, *, ax=None, title: str | None = "ridges"):
 def plot_skeleton(skeleton: np.ndarray, *, ax=None, color="#2ca02c", title: str | None = None):
     """Skeleton pixels as an overlay (transparent elsewhere), max-pooled when the axes
     show it smaller than its pixels (:func:`max_pool`).  Returns the axes."""
-    title = _title(title)
+    title = text_or_none("title", title)
     ax = axes_or_new(ax)
     show_mask(ax, np.asarray(skeleton, bool), color)
     ax.set_axis_off()
@@ -194,8 +190,8 @@ def plot_graph(
     matplotlib Axes
         With the legend of edges and vertex kinds under the graph (:func:`add_legend`).
     """
+    title = text_or_none("title", title)
     style = _graph_style(edge_color, linewidth, node_size)
-    title = _title(title)
     segments, points = _graph_pixels(graph)
     ax = axes_or_new(ax)
     draw_graph_lines(ax, segments, points, **style)
@@ -224,7 +220,7 @@ def plot_route(route, *, ax=None, color="#d62728", linewidth: float = 3.0, title
     -------
     matplotlib Axes
     """
-    title = _title(title)
+    title = text_or_none("title", title)
     ax = axes_or_new(ax)
     px = np.asarray(route.pixels, float)
     ax.plot(px[:, 1], px[:, 0], color=color, linewidth=linewidth, zorder=4, label="route")
@@ -296,15 +292,14 @@ def plot_route_graph(
     -------
     matplotlib Axes
     """
-
     from ..maps import map_argument
     from ..maps.occupancy import map_mismatch
     from ..routegraph import vertex_pixels
     from ..routegraph.feasible import feasible_space
 
+    title = text_or_none("title", title)
     nx_graph("graph", graph, undirected=False)
     style = _graph_style(edge_color, linewidth, node_size)
-    title = _title(title)
     occupancy = map_argument("occupancy", occupancy, files=True)
     why = map_mismatch(graph, occupancy)
     if why is not None:
@@ -406,9 +401,9 @@ def plot_rooms(seg, *, ax=None, title: str | None = None, doors: bool = True, la
     matplotlib Axes
         Each room in its colour of the label picture (:func:`topojax.save_room_labels`).
     """
+    title = text_or_none("title", title)
     seg = _room_segmentation(seg, "seg")
     doors, labels = flag("doors", doors), flag("labels", labels)
-    title = _title(title)
     ax = axes_or_new(ax, figsize=(9, 9))
     plot_map(seg.occupancy, ax=ax)
     _draw_rooms(seg, ax, doors=doors, labels=labels, alpha=0.6)
@@ -458,9 +453,9 @@ def plot(
     matplotlib Axes
         ``ax.figure.savefig(path)`` writes a picture.
     """
+    title = text_or_none("title", title)
     result = _as_result(result, ("map", "skeleton", "graph"))
     skeleton, graph = flag("skeleton", skeleton), flag("graph", graph)
-    title = _title(title)
     if graph:
         _graph_pixels(result.graph)  # checked before anything is drawn
     if route is not None:
@@ -513,6 +508,7 @@ def plot_stages(result, *, figsize=(15, 9), title: str | None = None):
     -------
     matplotlib Figure
     """
+    title = text_or_none("title", title)
     import matplotlib.pyplot as plt
 
     result = _as_result(result, ("map", "distance", "lap_abs", "ridges", "skeleton", "graph"))
@@ -521,7 +517,6 @@ def plot_stages(result, *, figsize=(15, 9), title: str | None = None):
         raise ValueError(
             f"figsize: expected (width, height) in inches > 0, received {tuple(figsize)}"
         )
-    title = _title(title)
     _graph_pixels(result.graph)  # checked before anything is drawn
 
     fig, axes = plt.subplots(2, 3, figsize=tuple(figsize))
