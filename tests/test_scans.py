@@ -1301,6 +1301,11 @@ def test_bag_topic_and_frame_errors(tmp_path):
         read_bag(tmp_path / "missing.bag")
     with pytest.raises(ValueError, match="missing_pose"):
         read_bag(path, missing_pose="ignore")
+    # a list failed as an unhashable dict key; a frame that was no name went unchecked
+    for name in ("scan_topic", "pose_topic", "tf_parent", "base_frame"):
+        for bad in (["/scan"], True, np.array("/scan")):
+            with pytest.raises(TypeError, match=rf"^{name}: expected a str or None, received "):
+                read_bag(path, **{name: bad})
 
 
 def test_bag_without_poses(tmp_path):

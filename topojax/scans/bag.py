@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import flag, one_of, path_like, real_number
+from .._validate import flag, one_of, path_like, real_number, text_or_none
 from .._validate import pose as checked_pose
 from ._mcap import _MCAP_MAGIC, _McapSequential
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
@@ -234,7 +234,7 @@ def read_bag(
     ValueError
         Unreadable bag, topic selection problems, missing pose source or tf frames.
     """
-    p = path_like("path", path)
+    p = _checked_path(path, scan_topic, pose_topic, tf_parent, base_frame)
     one_of("missing_pose", missing_pose, ("skip", "error"))
     allow_missing_pose = flag("allow_missing_pose", allow_missing_pose)
     tol = real_number("pose_tolerance_s", pose_tolerance_s)
@@ -266,6 +266,19 @@ def read_bag(
         int(round(tol * 1e9)),
         missing_pose,
     )
+
+
+def _checked_path(path, *names) -> Path:
+    """``path`` as a Path (:func:`path_like`) after checking it, and the topic and frame
+    ``names`` of :func:`read_bag` (a str or None each)."""
+    p = path_like("path", path)
+    for name, value in zip(_NAMED, names, strict=True):
+        text_or_none(name, value)
+    return p
+
+
+#: The arguments of :func:`read_bag` that name a topic or a frame.
+_NAMED = ("scan_topic", "pose_topic", "tf_parent", "base_frame")
 
 
 def _choose_scan_topic(
