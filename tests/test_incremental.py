@@ -1442,6 +1442,21 @@ def test_paper_strategy_reports_paper_metrics(shared_data):
     assert mapper.skeleton.sum() < 1.2 * ref.skeleton.sum()
 
 
+def test_a_paper_layer_wider_than_the_window_reaches_all_of_it():
+    """The layer was a dilation by a square of ``2 * paper_layer_px + 1`` pixels:
+    10**30 failed inside NumPy ("Maximum allowed dimension exceeded"), 10**6 asked for a
+    3.6 TiB structuring element, and its cost grew with the square's area."""
+    scans = list(read_carmen(INTEL_EXCERPT))[:12]
+    skeletons = []
+    for layer in (10**30, 10**4, 2):
+        mapper = IncrementalMapper(strategy="paper", paper_layer_px=layer, skeleton_every=4)
+        mapper.add_scans(scans)
+        mapper.update_skeleton()
+        skeletons.append(mapper.skeleton)
+    np.testing.assert_array_equal(skeletons[0], skeletons[1])
+    assert skeletons[2].any()
+
+
 def test_vertex_error_metrics_on_known_graphs():
     a, b = nx.Graph(), nx.Graph()
     for i, pix in enumerate([(0, 0), (10, 0), (50, 50), (7, 7)]):

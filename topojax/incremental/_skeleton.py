@@ -138,8 +138,11 @@ def skeleton_paper(mapper, blocks) -> int:
     oy, ox = max(0, mr0 - r0), max(0, mc0 - c0)
     sub = mask_full[max(0, r0 - mr0) : r1 - mr0, max(0, c0 - mc0) : c1 - mc0]
     mask[oy : oy + sub.shape[0], ox : ox + sub.shape[1]] = sub
-    layer = ndimage.binary_dilation(mask, np.ones((2 * lay + 1, 2 * lay + 1), bool)) & ~mask
     h, w = mask.shape
+    # the square dilation as a separable maximum filter, whose cost does not grow with the
+    # layer; a layer wider than the window reaches all of it
+    side = 2 * min(lay, max(h, w)) + 1
+    layer = ndimage.maximum_filter(mask, size=side, mode="constant", cval=False) & ~mask
     ridge = tiles.read("ridge", r0, c0, h, w)
     old = tiles.read("skeleton", r0, c0, h, w)
     sk = thin(mapper, (ridge & mask) | (old & layer))
