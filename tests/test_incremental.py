@@ -2707,6 +2707,10 @@ def test_add_scans_and_save_name_a_bad_argument(tmp_path):
         mapper.add_scans(5)
     with pytest.raises(TypeError, match=r"scans: .*received Scan; add one scan with add_scan"):
         mapper.add_scans(scan)
+    # a path was iterated character by character, a 0-d array failed inside NumPy
+    for bad, shown in (("intel.log", "str"), (b"intel.log", "bytes"), (np.array(1), "ndarray")):
+        with pytest.raises(TypeError, match=rf"^scans: expected an iterable of Scan .*{shown}"):
+            mapper.add_scans(bad)
     with pytest.raises(TypeError, match=r"path: expected a path .*received int"):
         mapper.save(5)
     assert mapper.n_scans == 0 and not list(tmp_path.iterdir())

@@ -482,7 +482,11 @@ class IncrementalMapper:
     @_synchronized
     def add_scans(self, scans) -> list[ScanReport]:
         """:meth:`add_scan` for every scan of an iterable; returns the reports."""
-        if isinstance(scans, Scan) or not hasattr(scans, "__iter__"):
+        if (
+            isinstance(scans, (Scan, str, bytes))  # a path: read_scans(path) reads it
+            or not hasattr(scans, "__iter__")
+            or (isinstance(scans, np.ndarray) and scans.ndim == 0)
+        ):
             raise TypeError(
                 f"scans: expected an iterable of Scan (e.g. read_scans(path)), received "
                 f"{type(scans).__name__}; add one scan with add_scan"
