@@ -2691,12 +2691,14 @@ def test_replay_stopped_part_way_keeps_the_mapper_state(tmp_path):
         ({"animate": 5}, r"animate: expected a path .*received int"),
         ({"reader_kwargs": [1]}, "reader_kwargs: expected a dict .*received list"),
         ({"animate": "a.png"}, r"animate: expected a GIF file name ending in .gif, .*a.png"),
+        # named as the reader's ``path``
+        ({"source": "missing.log"}, "^source: no log file or bag there: missing.log$"),
     ],
 )
 def test_replay_checks_its_options_before_mapping(tmp_path, kwargs, message):
-    args = {"out_dir": tmp_path / "out", "progress": False, **kwargs}
-    with pytest.raises((TypeError, ValueError), match=message):
-        replay(INTEL_EXCERPT, **args)
+    args = {"source": INTEL_EXCERPT, "out_dir": tmp_path / "out", "progress": False, **kwargs}
+    with pytest.raises((TypeError, ValueError, FileNotFoundError), match=message):
+        replay(**args)
     assert not (tmp_path / "out").exists()
 
 

@@ -478,6 +478,8 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tj.build_graph_tiled(m, config=SMALL.distance)
     with pytest.raises(FileNotFoundError, match="path"):
         tj.open_tiled_map(tmp_path / "missing")
+    with pytest.raises(FileNotFoundError, match="^source: map not found: .*missing"):
+        tj.build_graph_tiled(tmp_path / "missing")  # named as open_tiled_map's ``path``
     (tmp_path / "m.png").write_bytes(b"")
     with pytest.raises(ValueError, match="path: expected a tile folder"):
         tj.open_tiled_map(tmp_path / "m.png")

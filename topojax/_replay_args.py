@@ -96,12 +96,15 @@ def output_names(
 
 
 def refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
-    """Refuse (ValueError) output paths that are the log itself or, for a bag folder (or
-    a file in one), a file of that folder: e.g. ``mcap`` the recording being replayed
-    (it was replaced by the new recording)."""
+    """Refuse a ``source`` that is not there (FileNotFoundError naming ``source``, not
+    the reader's ``path``), and (ValueError) output paths that are the log itself or, for
+    a bag folder (or a file in one), a file of that folder: e.g. ``mcap`` the recording
+    being replayed (it was replaced by the new recording)."""
     from ._fs import refuse_overwriting_inputs
 
     src = path_like("source", source)
+    if not src.exists():
+        raise FileNotFoundError(f"source: no log file or bag there: {src}")
     folder = (
         src if src.is_dir() else src.parent if (src.parent / "metadata.yaml").is_file() else None
     )

@@ -134,6 +134,8 @@ def _as_tiled(source) -> TiledMap:
     if isinstance(source, OccupancyMap):
         return TiledMap.from_occupancy(source)
     if isinstance(source, (str, os.PathLike)):
+        if not Path(source).exists():  # named here, not as open_tiled_map's ``path``
+            raise FileNotFoundError(f"source: map not found: {source}")
         try:
             return open_tiled_map(source)
         except ValueError:
