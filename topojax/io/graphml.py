@@ -58,6 +58,9 @@ _LINE_BREAKS = re.compile("\r\n|[\r\n\x0b\x0c\x1c\x1d\x1e]")
 #: A node attribute name that networkx's GraphML reader cannot read back: it hands a
 #: node's values to ``add_node`` as keywords, and ``add_node`` takes this one itself.
 _UNREADABLE_NODE_NAME = "node_for_adding"
+#: What ElementTree replaces in character data, and also in attribute values.
+_ESCAPES = (("&", "&amp;"), ("<", "&lt;"), (">", "&gt;"))
+_QUOTE_ESCAPES = (('"', "&quot;"), ("\r", "&#13;"), ("\n", "&#10;"), ("\t", "&#09;"))
 _HEAD = (
     '<graphml xmlns="http://graphml.graphdrawing.org/xmlns" '
     'xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
@@ -69,21 +72,9 @@ _HEAD = (
 def _escape(text: str, quote: bool) -> str:
     """``text`` escaped as ElementTree escapes character data (or, ``quote``, an
     attribute value), each line break that is left a newline."""
-    if "&" in text:
-        text = text.replace("&", "&amp;")
-    if "<" in text:
-        text = text.replace("<", "&lt;")
-    if ">" in text:
-        text = text.replace(">", "&gt;")
-    if quote:
-        if '"' in text:
-            text = text.replace('"', "&quot;")
-        if "\r" in text:
-            text = text.replace("\r", "&#13;")
-        if "\n" in text:
-            text = text.replace("\n", "&#10;")
-        if "\t" in text:
-            text = text.replace("\t", "&#09;")
+    for char, reference in _ESCAPES + (_QUOTE_ESCAPES if quote else ()):
+        if char in text:  # "&" first: the references hold one
+            text = text.replace(char, reference)
     return _LINE_BREAKS.sub("\n", text) if _LINE_BREAKS.search(text) else text
 
 
