@@ -883,6 +883,16 @@ def test_octave_scans_whose_fields_make_no_scan_are_skipped(tmp_path, field, old
     assert b.pose == (-1.0, -2.0, -0.5) and b.angle_increment == 0.25
 
 
+def test_an_octave_log_none_of_whose_elements_makes_a_scan_is_refused(tmp_path):
+    # angles in degrees are no glitch: skipping every element would read as an empty log
+    path = tmp_path / "degrees.txt"
+    text = OCTAVE_EXCERPT.read_text()
+    assert "-1.570796" in text
+    path.write_text(text.replace("-1.570796", "-90"))
+    with pytest.raises(ValueError, match=r"none of its 20 element\(s\) of laser makes a scan, "):
+        list(read_octave_laser(path))
+
+
 def test_octave_errors(tmp_path):
     bad = tmp_path / "bad.txt"
     bad.write_text(_OCTAVE_NDIMS.replace(" 1 2 Inf", " 1 2"))
@@ -1216,6 +1226,14 @@ def test_bag_scans_whose_fields_make_no_scan_are_skipped(tmp_path, ros):
     for a, b in zip(scans, good, strict=True):
         assert (a.pose, a.timestamp) == (b.pose, b.timestamp)
         np.testing.assert_array_equal(a.ranges, b.ranges)
+
+
+def test_a_bag_none_of_whose_laser_scans_makes_a_scan_is_refused(tmp_path):
+    pytest.importorskip("rosbags")
+    bad = {k: (_scan_ranges(k), {"angle_increment": 0.0}) for k in range(len(SCAN_TIMES))}
+    _write_robot_bag(tmp_path / "glitch", 2, bad_scans=bad)
+    with pytest.raises(ValueError, match=r"none of its \d+ sensor_msgs/msg/LaserScan message"):
+        list(read_bag(tmp_path / "glitch"))
 
 
 def test_bag_pose_topic_takes_base_frame_as_the_posed_frame(tmp_path):

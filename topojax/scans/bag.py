@@ -232,7 +232,9 @@ def read_bag(
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        Unreadable bag, topic selection problems, missing pose source or tf frames.
+        Unreadable bag, topic selection problems, missing pose source or tf frames, or
+        no LaserScan message that makes a scan (one that makes none among others that do,
+        a sensor glitch, is skipped with a warning).
     """
     p = _checked_path(path, scan_topic, pose_topic, tf_parent, base_frame)
     one_of("missing_pose", missing_pose, ("skip", "error"))
@@ -389,7 +391,7 @@ def _iter_bag(
             f"pose_tolerance_s of the pose data",
             stacklevel=2,
         )
-    unusable.warn(path, f"{_LASERSCAN} message(s) on {scan_topic}")
+    unusable.finish(path, f"{_LASERSCAN} message(s) on {scan_topic}")
 
 
 def _collect_poses(

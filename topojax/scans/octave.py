@@ -229,8 +229,9 @@ def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Itera
     Raises
     ------
     FileNotFoundError, ValueError
-        Missing file; syntax errors (with line number); missing fields, inconsistent cell
-        lengths or a field of the wrong size.
+        Missing file; syntax errors (with line number); missing fields or inconsistent
+        cell lengths; no element that makes a scan.  An element whose fields make no
+        scan (a sensor glitch) among others that do is skipped with a warning.
     """
     p = existing_file("path", path)
     return _iter_octave(p, variable)
@@ -326,4 +327,4 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
             f"infinite: a localisation glitch), the first {variable}({not_finite[0]})",
             stacklevel=2,
         )
-    unusable.warn(path, f"element(s) of {variable}")
+    unusable.finish(path, f"element(s) of {variable}")

@@ -386,26 +386,35 @@ class _SkippedScans:
     """The records of a log whose fields make no :class:`Scan` (an ``angle_increment`` of
     0 or NaN, a ``range_max`` not above ``range_min``, say: a sensor glitch).  A reader
     skips them rather than refuse the log, and once its iterator is exhausted warns of
-    how many there were and why the first made none."""
+    how many there were and why the first made none; a log none of whose records makes a
+    scan (angles in degrees, ranges of the wrong shape: no glitch) is refused."""
 
     def __init__(self) -> None:
         self.count = 0
+        self.made = 0
         self.first = ""
 
     def scan(self, where: str, *fields: Any) -> Scan | None:
         """``Scan(*fields)``, or None (and counted) where the fields make none; ``where``
         names the record for the warning (``at t=1.5 s``, ``laser(3)``)."""
         try:
-            return Scan(*fields)
+            scan = Scan(*fields)
         except (TypeError, ValueError) as err:
             if not self.count:
                 self.first = f"{where}: {err}"
             self.count += 1
             return None
+        self.made += 1
+        return scan
 
-    def warn(self, path: Any, records: str) -> None:
-        """The warning, where any were skipped, from a reader's iterator (``records``
-        says what they are: ``sensor_msgs/msg/LaserScan message(s) on /scan``)."""
+    def finish(self, path: Any, records: str) -> None:
+        """From a reader's exhausted iterator: the warning, where any records were
+        skipped, or a ValueError where all were (``records`` says what they are:
+        ``sensor_msgs/msg/LaserScan message(s) on /scan``)."""
+        if self.count and not self.made:
+            raise ValueError(
+                f"{path}: none of its {self.count} {records} makes a scan, the first {self.first}"
+            )
         if self.count:
             warnings.warn(
                 f"{path}: skipped {self.count} {records} whose fields make no scan (a "
