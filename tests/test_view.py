@@ -1013,3 +1013,12 @@ def test_view_command_shows_the_results_it_can_and_names_the_others(tmp_path, ca
     index = (tmp_path / "view.html").read_text()
     assert 'href="a_view.html"' in index and 'href="c_view.html"' in index
     assert "b_view.html" not in index and not (tmp_path / "b_view.html").exists()
+
+
+def test_view_command_leaves_no_index_when_no_result_can_be_shown(tmp_path, capsys):
+    for stem in ("a", "b"):
+        (tmp_path / f"{stem}.json").write_text('{"directed": false, "nodes": [')
+    (tmp_path / "view.html").write_text('an older index linking <a href="a_view.html">')
+    assert main(["view", str(tmp_path)]) == 2
+    assert "OUT_DIR: 2 of the 2 results" in capsys.readouterr().err
+    assert not (tmp_path / "view.html").exists()

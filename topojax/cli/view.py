@@ -326,6 +326,8 @@ def _cmd_view(args) -> int:
     if written:
         atomic_write_bytes(index, _index_page(folder, written).encode("utf-8"))
         print(f"wrote      {index} (links to the {len(written)} views)")
+    else:
+        index.unlink(missing_ok=True)  # an older index would link the pages just removed
     record_outputs(planned(targets, folder), command="view")
     if failed:
         raise ValueError(
