@@ -26,9 +26,10 @@ SPARSE_CLEARANCE_MAX_PX = 64
 
 #: Relative slack of a clearance compared with a limit: a clearance is a pixel distance
 #: times the resolution, in float32 or float64, and one that equals a limit exactly can
-#: round a few units in the last place below it.  Far below the gap between neighbouring
-#: pixel distances (about 1 / (2 d^2) of a distance of d pixels, 1e-6 at 700 px).
-CLEARANCE_RTOL = 2.0**-20
+#: round up to 1.5 float32 units in the last place (2**-23 each) below it.  Below the
+#: relative gap between neighbouring pixel distances (about 1 / (2 d^2) at d pixels) up
+#: to d = 1448 px, so it admits no pixel nearer than the limit short of that.
+CLEARANCE_RTOL = 2.0**-22
 
 
 def clearance_at_least(clearance, limit_m: float):
