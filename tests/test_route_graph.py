@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import cv2
@@ -1438,6 +1439,8 @@ def test_a_shortcut_radius_beyond_the_map_counts_as_the_whole_map():
     open_ = np.zeros((40, 50), bool)
     open_[5:30, 3:45] = True
     assert estimated_pairs(open_, 0.1, 1e300) == estimated_pairs(open_, 0.1, 60.0)
+    # a radius in pixels can be infinite (1e306 m at 1e-3 m per pixel)
+    assert estimated_pairs(open_, 0.1, math.inf) == estimated_pairs(open_, 0.1, 60.0)
 
 
 @pytest.mark.parametrize("hold_max_px", [0, 1 << 22])

@@ -468,7 +468,7 @@ def estimated_pairs(open_: np.ndarray, density: float, radius_px: float) -> floa
     times the open pixels in a square of the area of the radius's disc round each."""
     # a square of 2 max(H, W) - 1 pixels a side holds the whole map round every pixel: a
     # larger one counts no more, and OpenCV's buffers grow with its side (1e7: 2.7 GB)
-    side = max(1, min(round(math.sqrt(math.pi) * radius_px), 2 * max(open_.shape) - 1))
+    side = max(1, round(min(math.sqrt(math.pi) * radius_px, 2 * max(open_.shape) - 1)))
     near = cv2.boxFilter(
         open_.view(np.uint8),
         cv2.CV_32F,
