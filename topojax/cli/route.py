@@ -31,7 +31,7 @@ def add_command(subparsers) -> None:
         help="shortest route between two points on a saved graph",
         description="Snap a start and a goal point to a saved topology graph (GraphML, "
         "JSON or GeoJSON from `topojax graph`) and print the shortest route between them "
-        "along its corridors; optionally write it as a GeoJSON LineString.",
+        "along its corridors; optionally write it as a GeoJSON Feature (a LineString).",
     )
     p.add_argument("graph", help="graph file: .graphml, .json or .geojson")
     p.add_argument(
