@@ -165,9 +165,8 @@ def read_bag(
     bags that ``rosbags`` refuses because of inconsistent index records are read by a small
     sequential reader instead (message definitions come from the bag itself); so is one
     cut off while recording (no index), up to the cut, with a warning.  Likewise an MCAP
-    file cut off while recording (no summary or end magic; the robot powered down) is
-    read record by record up to its last whole message (of a chunk cut short, the
-    messages before the cut), with a warning giving the count.
+    file cut off while recording (no summary or end magic: the robot powered down) is
+    read up to its last whole message, with a warning giving the count.
 
     Poses are planar: for each transform only ``x``, ``y`` and the heading of the rotated
     ``x`` axis are used; a frame whose ``z`` axis points down (an upside-down laser) mirrors
@@ -232,9 +231,8 @@ def read_bag(
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        Unreadable bag, topic selection problems, missing pose source or tf frames, or
-        no LaserScan message that makes a scan (one that makes none among others that do,
-        a sensor glitch, is skipped with a warning).
+        Unreadable bag, topic selection problems, missing pose source or tf frames, no
+        LaserScan that makes a scan (one among others, a glitch, is skipped: a warning).
     """
     p = _checked_path(path, scan_topic, pose_topic, tf_parent, base_frame)
     one_of("missing_pose", missing_pose, ("skip", "error"))
