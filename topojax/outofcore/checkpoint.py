@@ -36,7 +36,8 @@ BLOCKS_FOLDER = "topojax_blocks"
 _BUILD_FILE = "build.json"
 #: The names of the files this module writes into the folder (blocks, the description and
 #: their temporary files while written).
-_NAMES = ("block_*.npz", _BUILD_FILE, ".block_*.tmp", f".{_BUILD_FILE}.*.tmp")
+_TEMPORARY = (".block_*.tmp", f".{_BUILD_FILE}.*.tmp")
+_NAMES = ("block_*.npz", _BUILD_FILE, *_TEMPORARY)
 _FORMAT = "topojax-tiled-blocks"
 _VERSION = 1
 _ARRAYS = (
@@ -217,7 +218,7 @@ def _only_block_files(folder: Path) -> bool:
     files (a folder of blocks whose ``build.json`` was removed)."""
     entries = list(folder.iterdir())
     blocks = [e for e in entries if e.match("block_*.npz")]
-    temporary = [e for e in entries if any(e.match(p) for p in _NAMES[2:])]
+    temporary = [e for e in entries if any(e.match(p) for p in _TEMPORARY)]
     return (
         bool(blocks)
         and len(blocks) + len(temporary) == len(entries)
