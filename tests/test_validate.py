@@ -209,6 +209,26 @@ def test_int_at_least():
             v.int_at_least("tile_px", bad, 8)
 
 
+def test_the_int_checks_take_a_0d_integer_array_as_numpy_scalars_are_taken():
+    jnp = pytest.importorskip("jax.numpy")
+    for value in (np.array(3), np.array(3, dtype=np.uint8), jnp.array(3)):
+        assert type(v.integer("count", value)) is int and v.integer("count", value) == 3
+        assert v.int_at_least("workers", value, 1) == 3 and v.positive_int("n", value) == 3
+    assert v.kernel_tile_px("tile_px", np.array(16)) == 16
+    assert v.binary_flag("negate", np.array(1)) is True
+    with pytest.raises(ValueError, match=r"^workers: expected an int >= 1, received 0$"):
+        v.positive_int("workers", np.array(0))
+
+
+@pytest.mark.parametrize("value", [np.array(True), np.array(3.0), np.array([3]), 3.0])
+def test_the_int_checks_refuse_a_0d_bool_or_float_array_as_they_refuse_a_bool_or_float(value):
+    for check in (v.integer, v.positive_int, v.kernel_tile_px):
+        with pytest.raises(TypeError, match=r"^n: expected an int.*, received "):
+            check("n", value)
+    with pytest.raises(TypeError, match=r"^negate: expected a bool or 0/1, received "):
+        v.binary_flag("negate", value)
+
+
 # --------------------------------------------------------------------------------------
 # flags and choices
 # --------------------------------------------------------------------------------------

@@ -4,7 +4,8 @@ Each check returns the value in its canonical Python type, or raises a ``TypeErr
 wrong type / a ``ValueError`` for a wrong value (:func:`existing_file`: also
 ``FileNotFoundError``) whose message reads ``"<name>: expected <what>, received <what was
 given>"``.
-NumPy scalars are accepted wherever the matching Python type is; ``bool`` is never a number.
+NumPy scalars and 0-d arrays (NumPy's, JAX's) are accepted wherever the matching Python
+type is; ``bool`` is never a number, and a float (whole or not) is never an int.
 """
 
 from __future__ import annotations
@@ -63,23 +64,43 @@ def finite_positive(name: str, value: object) -> float:
     return quantity(name, value, unit="", allow_zero=False)
 
 
-def integer(name: str, value: object) -> int:
-    """``value`` as an int after checking it is an integer (Python or NumPy, not bool)."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise TypeError(f"{name}: expected an int, received {type(value).__name__} {value!r}")
+def _integral(value: Any) -> int | None:
+    """``value`` as an int if it is an integer: a Python or NumPy int, not a bool (the
+    number inside a 0-d array, NumPy's or any other with ``__array__`` such as a JAX
+    scalar); None for anything else, floats with a whole value included. The one test
+    behind every int check here."""
+    if type(value) is int:
+        return value
+    if (
+        not isinstance(value, numbers.Number)
+        and hasattr(value, "__array__")
+        and getattr(value, "shape", None) == ()
+    ):
+        value = np.asarray(value)[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        return None
     return int(value)
+
+
+def integer(name: str, value: object) -> int:
+    """``value`` as an int after checking it is an integer (see :func:`_integral`)."""
+    number = _integral(value)
+    if number is None:
+        raise TypeError(f"{name}: expected an int, received {type(value).__name__} {value!r}")
+    return number
 
 
 def int_at_least(name: str, value: Any, minimum: int) -> int:
-    """``value`` as an int after checking it is an integer (Python or NumPy, not bool),
-    a ``TypeError`` otherwise, and ``>= minimum``, a ``ValueError`` otherwise."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+    """``value`` as an int after checking it is an integer (see :func:`_integral`), a
+    ``TypeError`` otherwise, and ``>= minimum``, a ``ValueError`` otherwise."""
+    number = _integral(value)
+    if number is None:
         raise TypeError(
             f"{name}: expected an int >= {minimum}, received {type(value).__name__} {value!r}"
         )
-    if value < minimum:
-        raise ValueError(f"{name}: expected an int >= {minimum}, received {int(value)}")
-    return int(value)
+    if number < minimum:
+        raise ValueError(f"{name}: expected an int >= {minimum}, received {number}")
+    return number
 
 
 def _real(value: Any) -> Any:
@@ -241,11 +262,12 @@ def kernel_tile_px(name: str, value: Any) -> int:
     :data:`MIN_KERNEL_TILE_PX` to :data:`MAX_KERNEL_TILE_PX` (a kernel tile side in
     pixels); a ``TypeError`` for a non-integer, a ``ValueError`` otherwise."""
     expected = f"{name}: expected an int in [{MIN_KERNEL_TILE_PX}, {MAX_KERNEL_TILE_PX}]"
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+    number = _integral(value)
+    if number is None:
         raise TypeError(f"{expected}, received {type(value).__name__} {value!r}")
-    if not MIN_KERNEL_TILE_PX <= value <= MAX_KERNEL_TILE_PX:
-        raise ValueError(f"{expected}, received {int(value)}")
-    return int(value)
+    if not MIN_KERNEL_TILE_PX <= number <= MAX_KERNEL_TILE_PX:
+        raise ValueError(f"{expected}, received {number}")
+    return number
 
 
 def kernel_tiles_per_call(name: str, value: Any, tile_px: int) -> int:
@@ -378,11 +400,12 @@ def binary_flag(name: str, value: Any) -> bool:
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     expected = f"{name}: expected a bool or 0/1, received"
-    if not isinstance(value, numbers.Integral):
+    number = _integral(value)
+    if number is None:
         raise TypeError(f"{expected} {type(value).__name__} {value!r}")
-    if int(value) not in (0, 1):
+    if number not in (0, 1):
         raise ValueError(f"{expected} {value!r}")
-    return bool(value)
+    return bool(number)
 
 
 def positive_int(name: str, value: Any) -> int:
