@@ -473,6 +473,30 @@ def test_carmen_scans_whose_timestamp_is_not_finite_are_skipped(tmp_path):
         assert scan.timestamp == 1.5
 
 
+def test_a_carmen_log_whose_every_pose_is_not_finite_is_refused_for_its_poses(tmp_path):
+    """Every scan skipped for its pose left the range survey without a reading, refused as
+    a log with no finite range reading (or, with max_range_m, an empty log and a warning):
+    the refusal names the poses and the first line, as the bag and Octave readers name
+    the first record of a log none of whose records makes a scan."""
+    path = tmp_path / "lost.log"
+    path.write_text(
+        "PARAM robot_front_laser_max 50\n"
+        + "FLASER 4 1 2 3 4 0 nan 0 0 0 0 1 h 1\n"
+        + "FLASER 4 1 2 3 4 inf 0 0 0 0 0 1 h 1\n"
+    )
+    pose_fault = (
+        rf"^{re.escape(str(path))}: no FLASER line makes a scan: 2 skipped for a pose that is "
+        r"not finite \(NaN or infinite\), the first on line 2: pose: expected finite x y "
+        r"theta, received \[0\.0, nan, 0\.0\]$"
+    )
+    for kw in ({}, {"max_range_m": 10.0}):
+        with pytest.raises(ValueError, match=pose_fault):
+            list(read_carmen(path, **kw))
+    path.write_text(_flaser([1, 2, 3, 4], (0, 0, 0), ts="nan") + _flaser([1, 2], (0, "nan", 0)))
+    with pytest.raises(ValueError, match=r"2 skipped for a timestamp or pose .* line 1: time"):
+        list(read_carmen(path, max_range_m=10.0))
+
+
 def test_damaged_gzip_logs_raise_value_errors_naming_the_file(tmp_path):
     good = (DATA / "intel_first40.log.gz").read_bytes()
     flipped = bytearray(good)

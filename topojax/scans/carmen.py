@@ -121,13 +121,16 @@ def _parse_new_laser_head(tokens: list[str]) -> tuple[np.ndarray, np.ndarray, in
 class _Survey(NamedTuple):
     """What the first pass over a log found: the laser message to use, the PARAM values,
     and (when the range limit is to be inferred) each scan's largest finite reading, the
-    readings within ``_TOP_BAND_M`` of it, and how many finite readings there were."""
+    readings within ``_TOP_BAND_M`` of it, how many finite readings there were, how many
+    lines had a finite pose, and how many had none and the first of them."""
 
     chosen: str | None
     params: dict[str, str]
     scan_max: np.ndarray
     tops: np.ndarray
     n_readings: int
+    n_posed: int
+    unposed: tuple[int, str]
 
 
 def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = False) -> _Survey:
@@ -136,7 +139,8 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
     chosen = None if laser == "auto" else laser
     scan_max: list[float] = []
     tops: list[np.ndarray] = []
-    n_readings = 0
+    n_readings = n_posed = n_unposed = 0
+    first_unposed = ""
     params: dict[str, str] = {}
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
@@ -161,14 +165,18 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
                     ranges = _parse_old_laser(tokens)[0]
                 else:
                     ranges = _parse_new_laser_head(tokens)[1]
-            except _PoseNotFinite:
-                continue  # skipped when read
+            except _PoseNotFinite as err:  # skipped when read
+                if not n_unposed:
+                    first_unposed = f"line {lineno}: {err}"
+                n_unposed += 1
+                continue
             except _CarmenLineError as err:
                 if _cut_off(line):  # the logger stopped mid-line: the scans before count
                     break
                 if skip_bad:
                     continue
                 raise _malformed(path, lineno, key, err) from None
+            n_posed += 1
             finite = ranges[np.isfinite(ranges)]
             if finite.size:
                 top = float(finite.max())
@@ -181,6 +189,8 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
         np.asarray(scan_max, np.float64),
         np.concatenate(tops) if tops else np.empty(0),
         n_readings,
+        n_posed,
+        (n_unposed, first_unposed),
     )
 
 
@@ -273,7 +283,8 @@ def read_carmen(
     A scan whose pose (or ODOM pose) is NaN or infinite, a localisation glitch, is skipped;
     a warning gives the count and the first line once the iterator is exhausted.  So is
     one whose timestamp is NaN or infinite (a logging glitch), as other readers skip a
-    scan whose fields make none.
+    scan whose fields make none; a log in which no line makes a scan, those skipped so, is
+    refused, naming the first.
 
     Other lines (``ODOM``, ``PARAM``, ``NEFF``, ``TRUEPOS``, comments, other messages) are
     skipped.
@@ -326,7 +337,8 @@ def read_carmen(
     ValueError
         For a malformed laser line (unless ``bad_lines="skip"``) or a malformed ODOM line
         a scan needs, with the file name and line number;
-        for bad arguments; if the file has no scan of the requested kind.
+        for bad arguments; if the file has no scan of the requested kind, or none whose
+        pose and timestamp are finite.
     """
     p = existing_file("path", path)
     one_of("laser", laser, ("auto", *_CARMEN_LASERS))
@@ -362,6 +374,8 @@ def _iter_carmen(
     old = chosen in _OLD_LASERS
     range_max_old: float | None = max_range_m
     if old and range_max_old is None:
+        if not survey.scan_max.size and not survey.n_posed and survey.unposed[0]:
+            raise _no_scan(path, chosen, survey.unposed[0], "pose", survey.unposed[1])
         if not survey.scan_max.size:
             raise ValueError(f"{path}: no finite {chosen} range readings to find the max range")
         file_max, faulty = _no_return_value(survey.scan_max, margin)
@@ -376,6 +390,8 @@ def _iter_carmen(
     odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
     not_finite: dict[type, list[int]] = {}  # lines of scans by what is not finite in them
+    first_not_finite = ""
+    made = 0
     n_bad = 0  # malformed laser lines skipped
     first_bad = ""
     with _open_text(path) as fh:
@@ -398,6 +414,8 @@ def _iter_carmen(
                     skipped += 1
                     continue
             except _NotFinite as err:
+                if not not_finite:
+                    first_not_finite = f"line {lineno}: {err}"
                 not_finite.setdefault(type(err), []).append(lineno)
                 continue
             except _CarmenLineError as err:
@@ -414,6 +432,7 @@ def _iter_carmen(
                     first_bad = f"line {lineno}: {err}"
                 n_bad += 1
                 continue
+            made += 1
             yield scan
     if skipped:
         warnings.warn(
@@ -427,6 +446,9 @@ def _iter_carmen(
             f"the first on {first_bad}",
             stacklevel=2,
         )
+    if not_finite and not made:
+        whats = " or ".join(kind.what for kind in not_finite)
+        raise _no_scan(path, chosen, sum(map(len, not_finite.values())), whats, first_not_finite)
     for kind, lines in not_finite.items():
         warnings.warn(
             f"{path}: skipped {len(lines)} {chosen} scan(s) whose {kind.what} is not finite "
@@ -436,6 +458,16 @@ def _iter_carmen(
 
 
 _ZERO_POSE = (0.0, 0.0, 0.0)
+
+
+def _no_scan(path: Path, chosen: str, count: int, whats: str, first: str) -> ValueError:
+    """The refusal of a log none of whose ``chosen`` lines makes a scan, ``count`` of them
+    skipped for a ``whats`` (``pose``, ``timestamp``) not finite, the ``first`` of them
+    ``line 3: ...``."""
+    return ValueError(
+        f"{path}: no {chosen} line makes a scan: {count} skipped for a {whats} that is not "
+        f"finite (NaN or infinite), the first on {first}"
+    )
 
 
 def _malformed(path: Path, lineno: int, key: str, err: Exception) -> ValueError:
