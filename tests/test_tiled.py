@@ -460,6 +460,54 @@ def test_a_pgm_that_changes_after_it_was_opened_is_refused(tmp_path):
     assert_same_graph(tiled, tj.build_graph(tj.load_map(path), config=SMALL))
 
 
+def test_a_pgm_rewritten_between_the_blocks_of_workers_is_refused(tmp_path, monkeypatch):
+    """A worker's copy of the map (pickled, as a process pool or a Dask worker gets it)
+    mapped the file when it first read it and took the file as it was then: a PGM
+    rewritten (the same size) between two blocks gave a graph mixed from two maps."""
+    import concurrent.futures as cf
+    import os
+    import pickle
+
+    from topojax.maps import tiled as tiled_module
+
+    img = np.array(paper_map("intel").to_image())
+    path = tmp_path / "m.pgm"
+
+    def write(a) -> None:
+        path.write_bytes(f"P5\n{a.shape[1]} {a.shape[0]}\n255\n".encode() + a.tobytes())
+        st = path.stat()  # a later modification time, on a coarse-clock file system too
+        os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+
+    class CopyingPool(cf.ThreadPoolExecutor):
+        """Each task gets its own copy of its arguments, as a worker process does."""
+
+        def submit(self, fn, /, *args, **kwargs):
+            return super().submit(fn, *pickle.loads(pickle.dumps(args)), **kwargs)
+
+    other = img.copy()
+    other[10:300, 10:300] = 0  # the same size, other pixels
+    read, reads = tiled_module._PgmReader.read, []
+
+    def read_then_rewrite(self, *box):
+        out = read(self, *box)
+        reads.append(box)
+        if len(reads) == 1:
+            write(other)
+        return out
+
+    monkeypatch.setattr(tiled_module._PgmReader, "read", read_then_rewrite)
+    write(img)
+    with (
+        CopyingPool(1) as pool,
+        pytest.raises(
+            ValueError,
+            match=rf"^map {path}: expected the PGM opened \(763 x 708 .* unchanged, but ",
+        ),
+    ):
+        tj.build_graph_tiled(tj.open_tiled_map(path), config=SMALL, block_px=128, executor=pool)
+    assert len(reads) == 1
+
+
 def test_bad_arguments_name_the_parameter(tmp_path):
     m = paper_map("intel")
     with pytest.raises(ValueError, match="block_px: expected a multiple of config.tile_px"):

@@ -357,10 +357,11 @@ class _MapReader:
 
 class _PgmReader:
     """Windows of a binary PGM, memory-mapped at its data offset; the map is opened again
-    after pickling (in a Dask worker) instead of copying its pixels.  The file must stay
-    the one opened: a header that gives another layout when it is mapped, or a file that
-    changes while it is mapped (its pixels would be read in the old layout, or mixed from
-    two maps, or past its end), is refused."""
+    after pickling (in a Dask or process-pool worker) instead of copying its pixels.  The
+    file must stay the one opened: a header that gives another layout when it is mapped,
+    or a file whose inode, size or modification time are no longer those it had when it
+    was opened (its pixels would be read in the old layout, or mixed from two maps, or
+    past its end), is refused, in every copy."""
 
     def __init__(self, path: Path, offset: int, shape: tuple[int, int], maxval: int) -> None:
         self.path, self.offset, self.maxval = path, offset, maxval
@@ -368,7 +369,7 @@ class _PgmReader:
         self.file_dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
         self.shape, self.dtype = shape, self.file_dtype.newbyteorder("=")
         self._data: np.memmap | None = None
-        self._state: tuple[int, int, int] | None = None
+        self._state = _file_state(path)
 
     def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
         if self._data is None:
@@ -390,10 +391,12 @@ class _PgmReader:
                 f"its header now gives {width} x {height} pixels, maxval {maxval}, "
                 f"{offset}-byte header"
             )
-        self._state = _file_state(self.path)
-        return np.memmap(
+        data = np.memmap(
             self.path, dtype=self.file_dtype, mode="r", offset=self.offset, shape=self.shape
         )
+        if _file_state(self.path) != self._state:
+            raise self._changed("it changed after it was opened")
+        return data
 
     def _changed(self, why: str) -> ValueError:
         h, w = self.shape
@@ -404,7 +407,7 @@ class _PgmReader:
         )
 
     def __getstate__(self) -> dict:
-        return {**self.__dict__, "_data": None, "_state": None}
+        return {**self.__dict__, "_data": None}
 
 
 def _file_state(path: Path) -> tuple[int, int, int] | None:
