@@ -907,6 +907,19 @@ def test_octave_scans_whose_fields_make_no_scan_are_skipped(tmp_path, field, old
     assert b.pose == (-1.0, -2.0, -0.5) and b.angle_increment == 0.25
 
 
+def test_an_octave_log_whose_every_pose_is_not_finite_is_refused(tmp_path):
+    # each skipped alone, they left an empty log behind a warning
+    path = tmp_path / "scans.txt"
+    text = _OCTAVE_NDIMS.replace(" 1\n 2\n 0.5\n", " nan\n 2\n 0.5\n", 1)
+    path.write_text(text.replace(" -1 -2 -0.5\n", " -1 inf -0.5\n", 1))
+    with pytest.raises(
+        ValueError,
+        match=r"none of its 2 element\(s\) of scans makes a scan: each pose is not finite "
+        r"\(NaN or infinite\), the first scans\(1\)$",
+    ):
+        list(read_octave_laser(path))
+
+
 def test_an_octave_log_none_of_whose_elements_makes_a_scan_is_refused(tmp_path):
     # angles in degrees are no glitch: skipping every element would read as an empty log
     path = tmp_path / "degrees.txt"

@@ -230,8 +230,9 @@ def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Itera
     ------
     FileNotFoundError, ValueError
         Missing file; syntax errors (with line number); missing fields or inconsistent
-        cell lengths; no element that makes a scan.  An element whose fields make no
-        scan (a sensor glitch) among others that do is skipped with a warning.
+        cell lengths; no element that makes a scan (every pose not finite, say).  An
+        element whose fields make no scan (a sensor glitch) among others that do is
+        skipped with a warning.
     """
     p = existing_file("path", path)
     return _iter_octave(p, variable)
@@ -321,6 +322,11 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
         )
         if scan is not None:
             yield scan
+    if not_finite and not unusable.made and not unusable.count:
+        raise ValueError(
+            f"{path}: none of its {len(not_finite)} element(s) of {variable} makes a scan: "
+            f"each pose is not finite (NaN or infinite), the first {variable}({not_finite[0]})"
+        )
     if not_finite:
         warnings.warn(
             f"{path}: skipped {len(not_finite)} scan(s) whose pose is not finite (NaN or "
