@@ -1103,11 +1103,11 @@ def _write_robot_bag(
     with_odom: bool = False,
     early_scan: bool = False,
     second_scan_topic: bool = False,
-    glitch: int | None = None,
+    glitch: range | set | None = None,
     bad_scans: dict | None = None,
 ) -> None:
     """A recording of SCAN_TIMES scans with 10 Hz odometry (tf and/or /odom); with
-    ``glitch``, that odometry sample's position is NaN (a localisation glitch); with
+    ``glitch``, those odometry samples' positions are NaN (a localisation glitch); with
     ``bad_scans`` ({scan index: (ranges, LaserScan fields)}), those scans' messages."""
     w = _BagWriter(path, ros)
     if with_tf:
@@ -1140,7 +1140,7 @@ def _write_robot_bag(
         t_ns = T0_NS + int(round(t * 1e9))
         if kind == "odom":
             x, y, yaw = _odom_base(t)
-            x = math.nan if k == glitch else x
+            x = math.nan if glitch is not None and k in glitch else x
             if with_tf:
                 w.tf(
                     "/tf",
@@ -1220,7 +1220,7 @@ def test_bag_poses_that_are_not_finite_are_skipped(tmp_path, source):
     kw = {"with_tf": True, "with_odom": source == "odom"}  # odom: the glitch in /tf and /odom
     read = {"pose_topic": "/odom"} if source == "odom" else {"tf_parent": "odom"}
     _write_robot_bag(tmp_path / "good", 2, **kw)
-    _write_robot_bag(tmp_path / "glitch", 2, glitch=9, **kw)  # at 0.9 s, between two scans
+    _write_robot_bag(tmp_path / "glitch", 2, glitch={9}, **kw)  # at 0.9 s, between two scans
     with pytest.warns(
         UserWarning,
         match=rf"skipped {1 + (source == 'odom')} pose\(s\) or transform\(s\) that are not ",
@@ -1335,6 +1335,20 @@ def test_bag_missing_pose_skip_or_error(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert len(list(read_bag(path, pose_tolerance_s=1.0))) == len(SCAN_TIMES) + 1
+
+
+def test_a_bag_none_of_whose_scans_has_a_pose_is_refused(tmp_path):
+    # the odometry lost after its first sample: skipping each scan read as an empty recording
+    pytest.importorskip("rosbags")
+    path = tmp_path / "lost.bag"
+    _write_robot_bag(path, 1, glitch=range(1, 31))  # odometry at 0 s only
+    with pytest.warns(UserWarning, match=r"skipped 30 pose\(s\) or transform\(s\)"):
+        with pytest.raises(
+            ValueError,
+            match=rf"none of its {len(SCAN_TIMES)} sensor_msgs/msg/LaserScan message\(s\) on "
+            r"/scan has a pose within pose_tolerance_s of the pose data, the first at t=",
+        ):
+            list(read_bag(path, pose_tolerance_s=0.01))
 
 
 def test_bag_topic_and_frame_errors(tmp_path):

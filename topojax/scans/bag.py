@@ -213,7 +213,7 @@ def read_bag(
         transform takes that first (last) sample; default 0.1 s.
     missing_pose : {"skip", "error"}, optional
         What to do with scans whose time is outside the pose data: skip them (a warning
-        gives the count once the iterator is exhausted) or raise ValueError.  Pose and
+        gives the count at the end; none left: ValueError) or raise ValueError.  Pose and
         transform messages that are not finite or whose quaternion is zero (a
         localisation glitch) are left out of the pose data, with a warning.  So are
         LaserScan messages whose fields make no :class:`Scan` (an ``angle_increment``
@@ -366,7 +366,7 @@ def _iter_bag(
         offset_override,
         tol_ns,
     )
-    skipped = 0
+    skipped, first_skipped = 0, 0
     unusable = _SkippedScans()
     for _topic, _typ, t_ns, msg in _messages(path, source, [scan_topic]):
         stamp = _stamp_ns(msg.header.stamp) or t_ns
@@ -378,18 +378,25 @@ def _iter_bag(
                     f"{path}: no pose for the scan at t={stamp / 1e9:.9f} s (frame {frame!r}) "
                     f"within pose_tolerance_s of the pose data"
                 )
+            first_skipped = first_skipped or stamp
             skipped += 1
             continue
         scan = _bag_scan(path, msg, stamp, robot, offset, offset_override, unusable)
         if scan is not None:
             yield scan
+    records = f"{_LASERSCAN} message(s) on {scan_topic}"
+    if skipped and not unusable.made and not unusable.count:
+        raise ValueError(
+            f"{path}: none of its {skipped} {records} has a pose within pose_tolerance_s of "
+            f"the pose data, the first at t={first_skipped / 1e9:.9f} s"
+        )
     if skipped:
         warnings.warn(
             f"{path}: skipped {skipped} scan(s) on {scan_topic} with no pose within "
             f"pose_tolerance_s of the pose data",
             stacklevel=2,
         )
-    unusable.finish(path, f"{_LASERSCAN} message(s) on {scan_topic}")
+    unusable.finish(path, records)
 
 
 def _collect_poses(
