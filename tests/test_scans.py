@@ -1351,6 +1351,19 @@ def test_a_bag_none_of_whose_scans_has_a_pose_is_refused(tmp_path):
             list(read_bag(path, pose_tolerance_s=0.01))
 
 
+def test_a_pose_topic_whose_every_pose_is_not_finite_is_refused_as_such(tmp_path):
+    # it read "has no messages"
+    pytest.importorskip("rosbags")
+    path = tmp_path / "lost.bag"
+    _write_robot_bag(path, 1, with_tf=False, with_odom=True, glitch=range(31))
+    with pytest.raises(
+        ValueError,
+        match=r"^pose_topic: '/odom' in .*lost.bag has no pose that is finite and a rotation "
+        r"\(the first left out: /odom at t=",
+    ):
+        list(read_bag(path, pose_topic="/odom"))
+
+
 def test_bag_topic_and_frame_errors(tmp_path):
     pytest.importorskip("rosbags")
     path = tmp_path / "two_scans"

@@ -434,7 +434,10 @@ def _collect_poses(
                 pose_parent, pose_body = parent, body
             body_pose.add(stamp or t_ns, tf, False)
         if mode == "topic" and not body_pose.t:
-            raise ValueError(f"pose_topic: {pose_topic!r} in {path} has no messages")
+            got = "no messages"
+            if bad:
+                got = f"no pose that is finite and a rotation (the first left out: {bad[0]})"
+            raise ValueError(f"pose_topic: {pose_topic!r} in {path} has {got}")
         if mode == "topic" and base_frame is not None:
             pose_body = base_frame
     if bad:
