@@ -168,15 +168,18 @@ def _python_blocks(path: Path) -> list[str]:
     return re.findall(r"^```python\n(.*?)^```", text, flags=re.M | re.S)
 
 
-@pytest.mark.parametrize("page", ["README.md", "docs/routing-and-nav2.md"])
+@pytest.mark.parametrize("page", ["README.md", "docs/routing-and-nav2.md", "docs/viewer.md"])
 def test_python_examples_run(page: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The first Python examples a newcomer copies run as written (files go to a scratch
-    folder); a renamed function, argument or attribute otherwise stays in the text."""
+    folder, where the repository's bundled ``tests/data`` is found as from its root); a
+    renamed function, argument or attribute, or data that is not bundled, otherwise stays
+    in the text."""
     import matplotlib
 
     matplotlib.use("Agg")
     blocks = _python_blocks(ROOT / page)
     assert blocks, f"{page} has no python example"
+    (tmp_path / "tests").symlink_to(ROOT / "tests", target_is_directory=True)
     monkeypatch.chdir(tmp_path)
     for block in blocks:
         exec(compile(block, page, "exec"), {"__name__": "docs_example"})
