@@ -653,6 +653,21 @@ def test_mapper_view_has_the_rooms_it_keeps_with_its_graph_updates():
     assert pages[0] is None
 
 
+def test_mapper_view_shows_the_graph_its_first_rooms_were_made_with():
+    """Before a mapper's first rooms update, reading its rooms updates its graph first:
+    the page shows that graph with those rooms, not the graph from before."""
+    from view_cases import INTEL_EXCERPT
+
+    mapper = tj.IncrementalMapper(graph_every=80, rooms_every=80)
+    for scan in list(tj.read_scans(INTEL_EXCERPT))[:5]:
+        mapper.add_scan(scan)
+    assert mapper.graph.number_of_nodes() == 0  # no graph update yet
+    data = payload_of(view_html(mapper))
+    assert data["rooms"] is not None
+    assert data["graphs"][0]["n_vertices"] == mapper.graph.number_of_nodes() > 0
+    assert data["graphs"][0]["n_edges"] == mapper.graph.number_of_edges()
+
+
 # ---------------------------------------------------------------------------- the command
 def test_view_command_on_a_graph_folder(tmp_path, capsys):
     png = tj.datasets.sample_map_path("office")

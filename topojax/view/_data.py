@@ -106,14 +106,14 @@ def inputs_of(
     elif _instance(obj, "topojax.incremental.mapper", "IncrementalMapper"):
         if obj.pixel_bbox is None:
             raise ValueError("obj: the mapper has no map yet (add scans or points first)")
-        _result_inputs(obj.to_result(update=False), out, pruned=False)
-        out.title = f"incremental mapper, {obj.n_scans} scans"
         from ..incremental import keeps_rooms  # only for a mapper: no import otherwise
 
         if rooms is None and keeps_rooms(obj):
             rooms = True
         if rooms is True:
-            rooms = obj.rooms
+            rooms = obj.rooms  # its first read updates the graph: the graph is taken after
+        _result_inputs(obj.to_result(update=False), out, pruned=False)
+        out.title = f"incremental mapper, {obj.n_scans} scans"
     elif _instance(obj, "topojax.rooms.model", "RoomSegmentation"):
         out.map = obj.occupancy
         out.rooms = obj
