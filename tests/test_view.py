@@ -255,6 +255,16 @@ def test_a_graph_with_a_non_finite_origin_is_drawn_by_its_world_coordinates():
         assert payload["routable"]
 
 
+def test_an_empty_route_graph_is_noted_with_its_reason():
+    occupancy = tj.sample_map("office")
+    routes = tj.route_graph(occupancy, robot_radius_m=50.0)
+    assert routes.number_of_nodes() == 0
+    notes = payload_of(view_html(routes, map=occupancy))["notes"]
+    assert (
+        f"the route graph is empty: no vertex, no edge; its note: {routes.graph['note']}" in notes
+    )
+
+
 def test_a_map_given_beside_a_graph_of_another_map_is_noted(res):
     """``map=`` may draw another map under a graph, but the page says when the graph was
     not built on it (shape, resolution or origin differ), instead of nothing."""

@@ -393,9 +393,11 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
             "nothing to show: no map, and the graphs have no vertices (an empty graph "
             "without its map)"
         )
-    for g in graphs:
+    for (_, _, graph), g in zip(inputs.graphs, graphs, strict=True):
         if g["n_vertices"] == 0:
-            inputs.notes.append(f"the {g['label']} is empty: no vertex, no edge")
+            note = graph.graph.get("note")  # a route graph's reason (topojax.route_graph)
+            why = f"; its note: {note}" if isinstance(note, str) and note else ""
+            inputs.notes.append(f"the {g['label']} is empty: no vertex, no edge{why}")
     payload = {
         "version": FORMAT_VERSION,
         "title": inputs.title,
