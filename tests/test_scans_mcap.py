@@ -212,3 +212,12 @@ def test_a_folder_that_is_not_a_bag_is_refused_saying_so(tmp_path):
     with pytest.raises(ValueError, match=r"is a folder but not a ROS 2 bag: expected") as info:
         list(tj.read_scans(tmp_path))
     assert str(tmp_path) in str(info.value) and "metadata.yaml" in str(info.value)
+
+
+def test_a_folder_of_several_recordings_is_refused_counting_them(recording, tmp_path):
+    """A folder of MCAP recordings without metadata.yaml is no bag: the message counts
+    its .mcap files rather than saying it found none."""
+    for name in ("a.mcap", "b.mcap"):
+        (tmp_path / name).write_bytes(recording[0].read_bytes())
+    with pytest.raises(ValueError, match=r"not a ROS 2 bag: .*found 2 \.mcap files; pass"):
+        list(tj.read_scans(tmp_path))

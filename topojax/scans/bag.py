@@ -104,10 +104,12 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequentia
         if magic.startswith(_MCAP_MAGIC[:5]) or (mcap is not None and mcap.suffix == ".mcap"):
             return _mcap_fallback(mcap, err)
         if path.is_dir() and not (path / "metadata.yaml").is_file():
+            n_mcap = len(list(path.glob("*.mcap")))
+            found = f"{n_mcap} .mcap files" if n_mcap > 1 else "neither"
             raise ValueError(
                 f"path: {path} is a folder but not a ROS 2 bag: expected its metadata.yaml "
-                "(or, for a recording cut off, one .mcap file), found neither; pass the "
-                "bag folder or a log file"
+                f"(or, for a recording cut off, one .mcap file), found {found}; pass the "
+                "bag folder, one .mcap file or a log file"
             ) from None
         raise ValueError(f"path: cannot read bag {target} with rosbags: {err!r}") from None
 
