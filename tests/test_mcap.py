@@ -224,6 +224,24 @@ def test_replay_recording_has_the_route_graph_of_every_graph_update(replayed):
     assert_markers_are_graph(next(m for tp, _, _, m in messages if tp == "/route_graph"), first)
 
 
+def test_route_graph_edges_are_told_apart_from_the_topology_s(replayed):
+    """Both are shown together in Foxglove and RViz: the route graph's edges are green,
+    the topology's orange (the viewer's first and second graph colours); they were the
+    same orange."""
+    _, _, _, messages = replayed
+
+    def edge_rgb(topic):
+        (colour,) = {
+            (m.color.r, m.color.g, m.color.b)
+            for m in last(messages, topic).markers
+            if m.ns == "edges"
+        }
+        return tuple(round(255 * v) for v in colour)
+
+    assert edge_rgb("/topology") == (0xFF, 0x7F, 0x0E)
+    assert edge_rgb("/route_graph") == (0x2C, 0xA0, 0x2C)
+
+
 def test_replay_recording_reads_with_the_mcap_package(replayed):
     """The file is plain MCAP with the ros2 profile, as Foxglove reads it."""
     pytest.importorskip("mcap_ros2")

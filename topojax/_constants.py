@@ -29,6 +29,9 @@ VERTEX_KIND_COLOURS = {
 }
 #: Colour of the graph's edges in pictures and ROS markers.
 EDGE_COLOUR = "#ff7f0e"
+#: Colour of a route graph's edges in ROS markers (``/route_graph`` beside ``/topology``;
+#: the viewer's colour for a second graph).
+ROUTE_EDGE_COLOUR = "#2ca02c"
 #: Squared-distance value (px^2) of pixels with no obstacle inside their window
 #: (:data:`topojax.fields.FAR_SQ`).
 FAR_SQ = 1 << 30

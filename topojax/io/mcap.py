@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
+from .._constants import EDGE_COLOUR, ROUTE_EDGE_COLOUR, VERTEX_KIND_COLOURS
 from .._fs import output_file
 from .._validate import instance_of, no_file_above, xy_points
 from ._schema import _xy
@@ -170,12 +170,13 @@ def _marker(stamp_ns: int, ns: str, mid: int, kind: str, *, points=(), colour=No
     )
 
 
-def graph_markers(graph, stamp_ns: int = 0):
+def graph_markers(graph, stamp_ns: int = 0, *, edge_colour: str = EDGE_COLOUR):
     """``visualization_msgs/msg/MarkerArray`` of a topology or route graph: ``DELETEALL``,
     one ``SPHERE_LIST`` per vertex kind (namespace ``vertices``, id 0 junction, 1 end, 2
     ring, 3 isolated; vertices in node order) and one ``LINE_STRIP`` per edge (namespace
-    ``edges``, id = its place in ``graph.edges``) through its ``waypoints`` where the edge
-    has them (route graphs), else the ``world`` (x, y) of its pixel centres."""
+    ``edges``, id = its place in ``graph.edges``, in ``edge_colour``, ``#rrggbb``) through
+    its ``waypoints`` where the edge has them (route graphs), else the ``world`` (x, y) of
+    its pixel centres."""
     _check_graph("graph", graph)
     t = _typestore().types
     markers = [_marker(stamp_ns, "", 0, "DELETEALL")]
@@ -193,7 +194,7 @@ def graph_markers(graph, stamp_ns: int = 0):
                     scale=_VERTEX_DIAMETER_M,
                 )
             )
-    edge_colour = _rgba(EDGE_COLOUR)
+    line_colour = _rgba(edge_colour)
     for i, (_, _, d) in enumerate(graph.edges(data=True)):
         markers.append(
             _marker(
@@ -202,7 +203,7 @@ def graph_markers(graph, stamp_ns: int = 0):
                 i,
                 "LINE_STRIP",
                 points=_points(d["waypoints"] if "waypoints" in d else d["world"]),
-                colour=edge_colour,
+                colour=line_colour,
                 scale=_EDGE_WIDTH_M,
             )
         )
@@ -572,8 +573,9 @@ class McapRecorder:
 
     def add_route_graph(self, graph) -> None:
         """Write ``/route_graph`` (a :func:`topojax.route_graph`, edges drawn through their
-        ``waypoints``) at :attr:`stamp_ns`."""
-        self._write("/route_graph", graph_markers(graph, self.stamp_ns), self.stamp_ns)
+        ``waypoints``, green where ``/topology``'s are orange) at :attr:`stamp_ns`."""
+        markers = graph_markers(graph, self.stamp_ns, edge_colour=ROUTE_EDGE_COLOUR)
+        self._write("/route_graph", markers, self.stamp_ns)
 
     def add_rooms(self, seg) -> None:
         """Write ``/rooms`` (a :class:`~topojax.RoomSegmentation`) at :attr:`stamp_ns`."""
