@@ -429,3 +429,23 @@ def test_a_local_update_stopped_part_way_leaves_the_kept_labels_as_they_were(mon
     np.testing.assert_array_equal(m.rooms.labels, again.rooms.labels)
     for k in ("added", "removed", "changed", "doors_added", "doors_removed", "n_rooms"):
         assert getattr(a, k) == getattr(b, k), k
+
+
+def test_a_local_update_with_options_reaching_far_past_the_map_falls_back_to_whole():
+    """Options of any finite size are valid: a margin (``max_door_width_m +
+    door_context_m``) far wider than the map covers it all, so the update segments the
+    whole map, as a mapper that updates whole does, and allocates nothing the size of
+    the margin."""
+    occ = _room_and_corridors()
+    change = np.zeros(occ.shape, bool)
+    change[250:254, 700:704] = True  # a pillar in the first corridor
+    cfg = tj.RoomConfig(door_context_m=1e6)
+    local, whole = _mapper(rooms_local=True, room_config=cfg), _mapper(room_config=cfg)
+    for m in (local, whole):
+        m.add_map(occ)
+        m.update_rooms()
+        m.add_map(_obstacles_of(occ, change))
+    update = local.update_rooms()
+    whole.update_rooms()
+    assert update.segmented_px == local.rooms.labels.size
+    np.testing.assert_array_equal(local.rooms.labels, whole.rooms.labels)

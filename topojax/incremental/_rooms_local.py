@@ -236,7 +236,9 @@ def _groups(rr, cc, shape, reach_px: int) -> list:
     b = _CLUSTER_PX
     coarse = np.zeros((-(-shape[0] // b), -(-shape[1] // b)), np.uint8)
     coarse[rr // b, cc // b] = 1
-    k = 2 * -(-reach_px // b) + 1
+    # a reach past the grid's far side joins no more cells (nor allocates a kernel the
+    # size of the reach: the options are metres of any finite size)
+    k = 2 * min(-(-reach_px // b), max(coarse.shape)) + 1
     grown = cv2.dilate(coarse, np.ones((k, k), np.uint8))
     _, comp = cv2.connectedComponents(grown, connectivity=8, ltype=cv2.CV_32S)
     which = comp[rr // b, cc // b]
