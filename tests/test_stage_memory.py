@@ -170,3 +170,27 @@ def test_a_batch_reports_the_refusal_for_that_map_and_goes_on(tmp_path, monkeypa
     assert [r.status for r in records] == ["error", "ok"]
     assert records[0].message.startswith(f"MemoryRefusal: {stage}: ")
     assert "400 x 400 pixels" in records[0].message
+
+
+def test_a_local_room_update_holds_each_window_to_the_floor(monkeypatch):
+    """A local room update segments windows of the map, each held to the floor of
+    ``segment_rooms``: one that fits is segmented although the whole map would not fit,
+    one that does not is refused as the whole map is (the map is kept, the rooms stay as
+    they were; ``update_rooms`` raises the refusal)."""
+    hall = _hall(600)
+    mapper = tj.IncrementalMapper(graph_every=None, skeleton_every=None, rooms_local=True)
+    mapper.add_map(hall)
+    mapper.update_rooms()  # the first update segments the whole map
+    kept = mapper._rooms.labels.copy()
+    pillar = np.zeros(hall.shape, bool)
+    pillar[100:104, 450:454] = True  # far from the wall half across
+    mapper.add_map(tj.OccupancyMap(occupied=pillar, free=np.zeros_like(pillar), unknown=~pillar))
+    whole = _need("segment_rooms", mapper.occupancy.shape)
+    _memory(monkeypatch, 1024)  # less than any window needs
+    with pytest.raises(MemoryRefusal, match=r"^segment_rooms: window of \d+ x \d+ pixels "):
+        mapper.update_rooms()
+    np.testing.assert_array_equal(mapper._rooms.labels, kept)
+    _memory(monkeypatch, whole - 1)  # the whole map does not fit, its windows do
+    update = mapper.update_rooms()
+    assert 0 < update.segmented_px < mapper.occupancy.free.size / 4
+    assert not mapper.rooms.labels[100:104, 450:454].any()

@@ -132,7 +132,9 @@ def segment_window(occupancy, config: RoomConfig, *, map_box) -> RoomSegmentatio
 
     The window's sides inside the larger map are cut through its space, not its edge: a
     doorway may end beyond them (on the side, standing for a wall of the larger map the
-    window does not hold), but not beyond the larger map's own edge.
+    window does not hold), but not beyond the larger map's own edge.  A window is held to
+    the memory floor of :func:`segment_rooms` (a local room update's window may cover
+    half the map).
 
     Parameters
     ----------
@@ -154,7 +156,9 @@ def segment_window(occupancy, config: RoomConfig, *, map_box) -> RoomSegmentatio
             f"map_box: expected a box holding the window's {h} x {w} pixels, received "
             f"{tuple(map_box)}"
         )
-    return _segment(occupancy, instance_of("config", config, RoomConfig), (r0, c0, r1, c1))
+    cfg = instance_of("config", config, RoomConfig)
+    check_stage_fits("segment_rooms", "window", (h, w), SEGMENT_ROOMS_BYTES_PER_PX, SMALLER_MAP)
+    return _segment(occupancy, cfg, (r0, c0, r1, c1))
 
 
 def _segment(occ, cfg: RoomConfig, map_box) -> RoomSegmentation:
