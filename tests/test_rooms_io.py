@@ -359,7 +359,9 @@ def test_label_picture(seg, tmp_path: Path):
     again = tj.save_room_labels(seg, tmp_path / "again.png")
     assert again.read_bytes() == path.read_bytes(), "deterministic"
     for name in ("labels.jpg", "labels"):  # PNG bytes under another name would mislead
-        with pytest.raises(ValueError, match=r"path: expected a \.png file name"):
+        with pytest.raises(
+            ValueError, match=rf"^path: expected a \.png file name, received '.*/{name}'$"
+        ):
             tj.save_room_labels(seg, tmp_path / name)
         assert not (tmp_path / name).exists()
 

@@ -502,7 +502,7 @@ def save_room_labels(seg, path: str | Path) -> Path:
 
     p = path_like("path", path)
     if p.suffix.lower() != ".png":
-        raise ValueError(f"path: expected a .png file name, received {p}")
+        raise ValueError(f"path: expected a .png file name, received {str(p)!r}")
     rgb = room_picture(seg)
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[..., ::-1]))
     if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
