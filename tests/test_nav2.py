@@ -348,3 +348,27 @@ def test_node_ids_that_are_tuples_are_written_as_text_the_loader_reads(tmp_path)
     assert vertices == {json.dumps(list(p)) for p in pixel_ids.values()}
     u, v, k = edges[0]["metadata"]["corridor"]
     assert g.has_edge(tuple(json.loads(u)), tuple(json.loads(v)), k)
+
+
+@pytest.mark.parametrize(
+    "ids, words",
+    [
+        ({0: float("nan")}, r"^graph: node id: expected .* without NaN or infinity .*nan"),
+        ({0: (0, float("inf"))}, r"^graph: node id: expected .* received \(0, inf\)"),
+        ({0: object()}, r"^graph: node id: values of type object cannot be saved"),
+    ],
+)
+def test_node_ids_strict_json_cannot_hold_are_refused_by_name(tmp_path, ids, words):
+    """A NaN or an infinity in a node id was refused by the JSON writer's own message
+    ("Out of range float values are not JSON compliant"), which named no node."""
+    g = nx.relabel_nodes(skeleton_to_graph(art("###"), resolution_m=1.0), ids)
+    with pytest.raises((TypeError, ValueError), match=words):
+        tj.save_nav2_graph(g, tmp_path / "x.geojson")
+    assert not (tmp_path / "x.geojson").exists()
+
+
+def test_a_vertex_position_that_is_not_a_pair_names_the_graph(tmp_path):
+    g = skeleton_to_graph(art("###"), resolution_m=1.0)
+    g.nodes[0]["world"] = (1.0, 2.0, 3.0)
+    with pytest.raises(ValueError, match=r"^graph: node 0 'world': expected 2 finite numbers"):
+        tj.save_nav2_graph(g, tmp_path / "x.geojson")

@@ -134,7 +134,7 @@ def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str, node_xy: dict)
             continue
         if "world" not in d:
             raise ValueError(f"graph: node {n!r} has no 'world' (x, y) attribute")
-        node_xy[n] = _xy(d["world"], f"node {n!r} 'world'")
+        node_xy[n] = _xy(d["world"], f"graph: node {n!r} 'world'")
         meta = {"vertex": _id_value(n, "node id")}
         if isinstance(d.get("kind"), str):
             meta["kind"] = d["kind"]
@@ -252,10 +252,15 @@ def _starts_at(g, u, v, d: dict, xy: np.ndarray, node_xy: dict) -> bool:
 def _id_value(value, where: str):
     """A node id or edge key as a metadata value: a number or string as it is, anything
     else (a tuple) as its JSON text; nav2_route's loader fails on an array of arrays."""
-    value = jsonable(value, where)
-    if isinstance(value, (bool, int, float, str)):
-        return value
-    return json.dumps(value, allow_nan=False)
+    plain = jsonable(value, f"graph: {where}")
+    try:
+        text = json.dumps(plain, allow_nan=False)
+    except ValueError:  # a NaN or an infinity, which strict JSON cannot hold
+        raise ValueError(
+            f"graph: {where}: expected a number, string or tuple of them without NaN or "
+            f"infinity (strict JSON), received {value!r}"
+        ) from None
+    return plain if isinstance(plain, (bool, int, float, str)) else text
 
 
 def _nav2_node(i: int, frame: str, xy: list[float], meta: dict) -> dict:
