@@ -108,7 +108,8 @@ class Route:
 
     def waypoints(self, *, tolerance_m: float = 0.1) -> np.ndarray:
         """The route's world polyline thinned to waypoints (Douglas–Peucker): every pixel
-        of the route lies within ``tolerance_m`` of the straight segments between them.
+        of the route lies within ``tolerance_m`` of the straight segments between them, so
+        a segment may pass up to ``tolerance_m`` closer to a wall than the route's pixels.
 
         Parameters
         ----------
