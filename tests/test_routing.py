@@ -17,7 +17,7 @@ from brute_force import distance_to_polyline, segment_pixels_exact
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from skimage.morphology import skeletonize
-from view_cases import crossing_graph
+from view_cases import crossing_graph, wall_between
 
 import topojax as tj
 from topojax._sight import sees
@@ -727,35 +727,13 @@ def test_with_the_map_a_route_does_not_join_through_a_wall_or_beyond_reach():
     assert r.pixels[0].tolist() == [10, 20] and r.length_m == pytest.approx(5.0)
 
 
-def _wall_between():
-    """A free 40 x 40 map of 0.1 m pixels (walls all round) split by a wall down column 20
-    from the top to row 30; a graph (robot radius 0.25 m) of two edges down its sides,
-    "l" along column 10 and "r" along column 22, each from row 2 to row 35, joined along
-    row 35."""
-    occupied = np.ones((40, 40), bool)
-    occupied[1:-1, 1:-1] = False
-    occupied[1:31, 20] = True
-    m = tj.OccupancyMap.from_array(occupied, resolution_m=0.1)
-    g = nx.MultiGraph(resolution_m=0.1, shape=(40, 40), robot_radius_m=0.25, snap_m=1.0)
-    corners = {"l0": (2, 10), "l1": (35, 10), "r0": (2, 22), "r1": (35, 22)}
-    for name, pixel in corners.items():
-        g.add_node(name, pixel=pixel, world=tuple(float(x) for x in m.pixel_to_world(*pixel)))
-    for u, v in (("l0", "l1"), ("l1", "r1"), ("r1", "r0")):
-        (r0, c0), (r1, c1) = corners[u], corners[v]
-        n = max(abs(r1 - r0), abs(c1 - c0)) + 1
-        path = np.stack([np.linspace(r0, r1, n), np.linspace(c0, c1, n)], 1).astype(np.int64)
-        x, y = m.pixel_to_world(path[:, 0], path[:, 1])
-        g.add_edge(u, v, path=path, world=np.stack([x, y], 1), length_m=0.1 * (n - 1))
-    return m, g
-
-
 def test_with_the_map_a_route_does_not_join_a_nearer_point_behind_a_wall():
     """The start (5, 17), left of the wall, is 0.5 m from the right edge's (5, 22) behind
     the wall and 0.7 m from the left edge's (5, 10) in sight.  With the map, the route
     joined the nearer point through the wall whenever that made it shortest (here: the
     goal is right of the wall, 0.3 m from (5, 22)); it now joins only points in sight,
     and goes round the wall."""
-    m, g = _wall_between()
+    m, g = wall_between()
     start, goal = (5, 17), (5, 25)
     plain = RoutePlanner(g).route(start, goal, frame="pixel")
     assert plain.pixels[0].tolist() == [5, 22] and plain.length_m == pytest.approx(0.0)
@@ -763,9 +741,43 @@ def test_with_the_map_a_route_does_not_join_a_nearer_point_behind_a_wall():
     assert r.pixels[0].tolist() == [5, 10] and r.pixels[-1].tolist() == [5, 22]
     assert (r.start_snap_m, r.goal_snap_m) == pytest.approx((0.7, 0.3))
     assert r.length_m == pytest.approx(3.0 + 1.2 + 3.0)
-    # an end that sees no graph point within reach still joins at the nearest
+    # an end that sees no graph point within reach joins the nearest in sight, up to
+    # entry_m farther than the nearest point (it joined the nearest, through the wall)
     r = RoutePlanner(g, occupancy=m, entry_m=0.6).route(start, goal, frame="pixel")
-    assert r.pixels[0].tolist() == [5, 22] and r.length_m == pytest.approx(0.0)
+    assert r.pixels[0].tolist() == [5, 10] and r.length_m == pytest.approx(3.0 + 1.2 + 3.0)
+    assert r.start_snap_m == pytest.approx(0.7)
+
+
+def test_with_the_map_a_point_the_robot_does_not_fit_at_joins_the_graph_in_sight():
+    """A robot closer to a wall than its radius sees no graph point over feasible pixels;
+    it joined the nearest point, through the wall.  It now leaves along a straight line
+    off the obstacles, as the page's router does."""
+    m, g = wall_between()
+    start, goal = (5, 19), (5, 25)  # 0.1 m from the wall: the robot (0.25 m) does not fit
+    assert RoutePlanner(g).route(start, goal, frame="pixel").pixels[0].tolist() == [5, 22]
+    r = RoutePlanner(g, occupancy=m).route(start, goal, frame="pixel")
+    assert r.pixels[0].tolist() == [5, 10] and r.start_snap_m == pytest.approx(0.9)
+    assert r.length_m == pytest.approx(3.0 + 1.2 + 3.0)
+    assert sees(~m.occupied, np.array(start, float), r.pixels[:1].astype(float)).all()
+
+
+def test_with_the_map_a_point_in_a_pocket_the_graph_does_not_reach_is_refused():
+    """A point in a closet walled off from the graph: every leg to the graph crosses a
+    wall.  It was routed from the nearest point, through the wall; now an error."""
+    m, g = wall_between(closet=True)
+    planner = RoutePlanner(g, occupancy=m)
+    with pytest.raises(
+        ValueError,
+        match=r"^start: expected a point that sees the graph along a straight line off the "
+        r"map's obstacles, received \(6\.0, 15\.0\) \(pixel frame\), whose nearest point of "
+        r"the graph, 0\.5 m away, is behind an obstacle or off the map, as is every other "
+        r"within 1\.5 m",
+    ):
+        planner.route((6, 15), (5, 25), frame="pixel")
+    # beyond max_snap_m, the distance is what is refused
+    with pytest.raises(ValueError, match=r"^goal: the nearest point of the graph is 0\.5 m"):
+        planner.route((5, 25), (6, 15), frame="pixel", max_snap_m=0.4)
+    RoutePlanner(g).route((6, 15), (5, 25), frame="pixel")  # without the map: nearest
 
 
 def test_with_the_map_a_point_on_an_obstacle_is_refused():

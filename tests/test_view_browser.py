@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 import pytest
 from brute_force import segment_pixels_exact
-from view_cases import crossing_graph, intel_replay, intel_result, office_route_graph
+from view_cases import crossing_graph, intel_replay, intel_result, office_route_graph, wall_between
 
 import topojax as tj
 
@@ -383,6 +383,30 @@ def test_routes_from_where_edges_cross_equal_plan_route(browser, tmp_path):
             a, b = tuple(map(float, a)), tuple(map(float, b))
             got = _js(browser, "topojaxView.route(...arguments)", *a, *b, "graph")
             assert abs(got["length_m"] - planner.route(a, b).length_m) < 1e-9, (a, b)
+
+
+def test_routes_from_where_the_robot_does_not_fit_equal_plan_route(browser, tmp_path):
+    """A start closer to a wall than the robot's radius joins the graph in sight off the
+    obstacles, and one in a closet the graph does not reach is refused, in the page as
+    by the planner given the map."""
+    occupancy, g = wall_between(closet=True)
+    page = tj.write_view(g, tmp_path / "wall.html", map=occupancy)
+    assert _open(browser, page) == "ready"
+    planner = tj.RoutePlanner(g, occupancy=occupancy)
+    goal = tuple(map(float, occupancy.pixel_to_world(5, 25)))
+    for start in ((15, 19), (12, 19), (20, 13), (33, 21)):  # 0.1 m from a wall
+        a = tuple(map(float, occupancy.pixel_to_world(*start)))
+        want = planner.route(a, goal)
+        got = _js(browser, "topojaxView.route(...arguments)", *a, *goal, "graph")
+        assert "error" not in got, (start, got)
+        assert abs(got["length_m"] - want.length_m) < 1e-9, start
+        assert abs(got["start_snap_m"] - want.start_snap_m) < 1e-9, start
+    closet = tuple(map(float, occupancy.pixel_to_world(6, 15)))
+    with pytest.raises(ValueError, match="behind an obstacle or off the map"):
+        planner.route(closet, goal)
+    got = _js(browser, "topojaxView.route(...arguments)", *closet, *goal, "graph")
+    assert got["error"].startswith("start: the nearest point of the graph, 0.500000 m away, is ")
+    assert "behind an obstacle or off the map, as is every other within 1.50000 m" in got["error"]
 
 
 def test_sight_lines_in_the_page_pass_the_planners_pixels(intel):

@@ -80,3 +80,31 @@ def crossing_graph():
         world = np.array([occupancy.pixel_to_world(r, c) for r, c in path], np.float64)
         g.add_edge(u, v, path=path, world=world, length_m=float(len(path) - 1))
     return occupancy, g
+
+
+def wall_between(closet: bool = False):
+    """A free 40 x 40 map of 0.1 m pixels (walls all round) split by a wall down column 20
+    from the top to row 30; a graph (robot radius 0.25 m) of two edges down its sides,
+    "l" along column 10 and "r" along column 22, each from row 2 to row 35, joined along
+    row 35; with ``closet``, a closet of 5 x 4 free pixels walled off from the graph at
+    rows 4-8, columns 14-17, 0.3 m right of the left edge."""
+    import networkx as nx
+
+    occupied = np.ones((40, 40), bool)
+    occupied[1:-1, 1:-1] = False
+    occupied[1:31, 20] = True
+    if closet:
+        occupied[3:10, 13:19] = True
+        occupied[4:9, 14:18] = False
+    m = tj.OccupancyMap.from_array(occupied, resolution_m=0.1)
+    g = nx.MultiGraph(resolution_m=0.1, shape=(40, 40), robot_radius_m=0.25, snap_m=1.0)
+    corners = {"l0": (2, 10), "l1": (35, 10), "r0": (2, 22), "r1": (35, 22)}
+    for name, pixel in corners.items():
+        g.add_node(name, pixel=pixel, world=tuple(float(x) for x in m.pixel_to_world(*pixel)))
+    for u, v in (("l0", "l1"), ("l1", "r1"), ("r1", "r0")):
+        (r0, c0), (r1, c1) = corners[u], corners[v]
+        n = max(abs(r1 - r0), abs(c1 - c0)) + 1
+        path = np.stack([np.linspace(r0, r1, n), np.linspace(c0, c1, n)], 1).astype(np.int64)
+        x, y = m.pixel_to_world(path[:, 0], path[:, 1])
+        g.add_edge(u, v, path=path, world=np.stack([x, y], 1), length_m=0.1 * (n - 1))
+    return m, g

@@ -179,9 +179,12 @@ class RoutePlanner:
         The graph's map.  With it, each end of a route joins the graph at the nearest
         point of any edge it sees within ``entry_m`` (along a straight line over pixels
         where the robot fits), whichever gives the shortest route in all (the straight
-        legs included); an end that sees no edge within ``entry_m`` (a robot closer to a
-        wall than its radius, a goal beyond the graph's reach) and every end without the
-        map join at the nearest corridor point, in sight or not.
+        legs included); an end that sees no edge so within ``entry_m`` (a robot closer to
+        a wall than its radius, a goal beyond the graph's reach) joins one it sees along a
+        straight line over pixels that are not occupied, up to ``entry_m`` farther than
+        the nearest point and within ``max_snap_m``, and an end that sees none so is an
+        error (:meth:`route`).  Without the map every end joins at the nearest corridor
+        point.
     robot_radius_m : float, optional
         Robot radius for those straight legs, metres; default the graph's
         ``robot_radius_m`` attribute (a route graph's).
@@ -215,6 +218,8 @@ class RoutePlanner:
         self._res = graph_resolution_m(graph)
         self._occupancy = occupancy
         self._feasible, self._entry_m = self._entry_space(occupancy, robot_radius_m, entry_m)
+        # with the map, the pixels a leg from a point the robot does not fit at may cross
+        self._clear = None if occupancy is None else ~np.asarray(occupancy.occupied, bool)
         self._nodes = list(graph.nodes)
         # Per edge: node ids at the start and end of its path, key, path, world, the
         # cumulative length along the path from its start, and its length.
@@ -288,15 +293,17 @@ class RoutePlanner:
         ValueError
             Bad ``start``, ``goal``, ``frame`` or ``max_snap_m`` (``TypeError`` for a
             ``max_snap_m`` that is not a number); a point beyond ``max_snap_m``; with the
-            map, a point on an occupied pixel; a graph without vertices.
+            map, a point on an occupied pixel, or one that sees no point of the graph
+            along a straight line off the obstacles (a closet the graph does not reach);
+            a graph without vertices.
         """
         one_of("frame", frame, _FRAMES)
         if max_snap_m is not None:
             max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
         # a join farther than max_snap_m would be dropped: none is looked for
         reach = self._entry_m if max_snap_m is None else min(self._entry_m, max_snap_m)
-        s = self._snaps(start, frame, "start", reach)
-        g = self._snaps(goal, frame, "goal", reach)
+        s = self._snaps(start, frame, "start", reach, max_snap_m)
+        g = self._snaps(goal, frame, "goal", reach, max_snap_m)
         # joins in sight lie within the reach; the nearest points are all as far as the first
         for name, snaps in (("start", s), ("goal", g)):
             if max_snap_m is not None and snaps[0].distance_m > max_snap_m:
@@ -346,12 +353,16 @@ class RoutePlanner:
         entry_m = nonnegative_metres("entry_m", entry_m)
         return feasible_space(occupancy, radius).feasible, entry_m
 
-    def _snaps(self, point, frame: str, name: str, reach_m: float) -> list[_Snap]:
+    def _snaps(
+        self, point, frame: str, name: str, reach_m: float, max_snap_m: float | None
+    ) -> list[_Snap]:
         """The points where a route from ``point`` may join the graph, nearest first: with
         the map, each edge's nearest point that ``point`` sees within ``reach_m`` (metres;
-        see :meth:`route` for the frames); without it, or where it sees none, every
-        corridor point as near as the nearest one (within :data:`_TIE`: one, or one per
-        edge through the pixel where edges cross)."""
+        see :meth:`route` for the frames) over feasible pixels, else (a point the robot
+        does not fit at, or beyond reach) over pixels off the obstacles up to ``entry_m``
+        farther than the nearest point and within ``max_snap_m``, else a ValueError;
+        without the map, every corridor point as near as the nearest one (within
+        :data:`_TIE`: one, or one per edge through the pixel where edges cross)."""
         q = _point(point, name, frame)
         if self._occupancy is not None:
             self._check_off_obstacles(q, frame, name)
@@ -366,12 +377,30 @@ class RoutePlanner:
                 f"({frame} frame): is it in the graph's frame and units?"
             )
         dist, k = tree.query(q)
+        nearest_m = float(dist) * scale
+        if self._feasible is not None and nearest_m <= (
+            math.inf if max_snap_m is None else max_snap_m
+        ):
+            for mask, reach in (
+                (self._feasible, reach_m),
+                (self._clear, nearest_m + self._entry_m),
+            ):
+                if max_snap_m is not None:
+                    reach = min(reach, max_snap_m)
+                seen = [
+                    self._snap(owners[i], d) for i, d in self._entries(q, frame, scale, reach, mask)
+                ]
+                if seen:  # a clear leg exists: none through a wall to a nearer point
+                    return seen
+            raise ValueError(
+                f"{name}: expected a point that sees the graph along a straight line off the "
+                f"map's obstacles, received {tuple(float(v) for v in q)} ({frame} frame), "
+                f"whose nearest point of the graph, {nearest_m:.6g} m away, is behind an "
+                f"obstacle or off the map, as is every other within {reach:.6g} m (a point "
+                "in a pocket the graph does not reach)"
+            )
         near = sorted(set(tree.query_ball_point(q, float(dist) + _TIE)) | {int(k)})
-        if self._feasible is not None and reach_m > 0:
-            seen = [self._snap(owners[i], d) for i, d in self._entries(q, frame, scale, reach_m)]
-            if seen:  # a clear leg exists: none through a wall to a nearer point
-                return seen
-        return [self._snap(owners[i], float(dist) * scale) for i in near]
+        return [self._snap(owners[i], nearest_m) for i in near]
 
     def _check_off_obstacles(self, q: np.ndarray, frame: str, name: str) -> None:
         """With the map, a query point on an occupied pixel is an error (a robot inside a
@@ -396,12 +425,12 @@ class RoutePlanner:
         return _Snap(edge, index, self._nodes[vertex] if edge < 0 else None, distance_m)
 
     def _entries(
-        self, q: np.ndarray, frame: str, scale: float, reach_m: float
+        self, q: np.ndarray, frame: str, scale: float, reach_m: float, mask: np.ndarray
     ) -> list[tuple[int, float]]:
         """``(tree point, distance m)`` of each edge's (or edgeless vertex's) nearest
         corridor point within ``reach_m`` of query ``q`` that the robot reaches along
-        a straight line over feasible pixels: every pixel the line passes through
-        (:func:`topojax._sight.sees`).  Candidates are tried nearest first, a batch at a
+        a straight line over pixels set in ``mask`` (bool (H, W)): every pixel the line
+        passes through (:func:`topojax._sight.sees`).  Candidates are tried nearest first, a batch at a
         time, skipping edges already joined (bounded memory for any reach)."""
         tree, owners = self._tree(frame)
         cand = np.asarray(tree.query_ball_point(q, reach_m / scale), np.int64)
@@ -421,7 +450,7 @@ class RoutePlanner:
                 sel = sel[~np.isin(key[sel], np.fromiter(joined, np.int64))]
             if sel.size == 0:
                 continue
-            seen = _sees(self._feasible, qp, self._pixels_of(cand[sel], frame))
+            seen = _sees(mask, qp, self._pixels_of(cand[sel], frame))
             for i in sel[seen].tolist():  # nearest first
                 if int(key[i]) not in joined:
                     joined.add(int(key[i]))

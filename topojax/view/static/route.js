@@ -9,8 +9,9 @@
  * direct way along it.  Lengths along an edge are its straight and diagonal pixel steps
  * scaled to the edge's length_m, as RoutePlanner counts them.  A route graph shown with
  * its map carries the robot's feasible pixels: each end then joins the graph at the
- * nearest point of any edge it sees within reach, whichever gives the shortest route (at
- * the nearest point only where it sees none), as RoutePlanner(graph, occupancy=map) does. */
+ * nearest point of any edge it sees within reach, whichever gives the shortest route
+ * (where it sees none, of any edge it sees off the obstacles; where none is, an error), as
+ * RoutePlanner(graph, occupancy=map) does. */
 "use strict";
 var TJ = (window.TJ = window.TJ || {});
 
@@ -93,6 +94,13 @@ var TJ = (window.TJ = window.TJ || {});
     var cell = 8 * (G.resolution || 0.05);
     this.grid = new TJ.Grid(sx, sy, cell);
     this.entry = G.entry;
+    if (this.entry) {
+      // the pixels off the obstacles: those a leg from a point the robot does not fit at
+      // may cross (the bits past the last pixel are never read)
+      var occ = this.entry.occupied, clear = new Uint8Array(occ.length);
+      for (var b = 0; b < occ.length; b++) clear[b] = ~occ[b] & 255;
+      this.clear = { h: this.entry.h, w: this.entry.w, bits: clear };
+    }
   };
 
   /* Whether the straight line from pixel (q0, q1) to pixel (c0, c1) passes through
@@ -124,11 +132,13 @@ var TJ = (window.TJ = window.TJ || {});
 
   /* Where a route from (x, y) may join the graph, {dist: the nearest point's distance,
    * at: [{edge, index, vertex, dist}, ...]}: with the feasible pixels, each edge's nearest
-   * point in sight within reach and maxSnap; without them, or where none is in sight, the
-   * nearest corridor points (one, or one per edge through it where edges cross; points at
-   * most TIE metres farther count as near). */
+   * point in sight over them within reach and maxSnap, else (a point the robot does not
+   * fit at, or beyond reach) in sight over the pixels off the obstacles up to reach
+   * farther than the nearest point and within maxSnap, else an Error, as RoutePlanner;
+   * without them the nearest corridor points (one, or one per edge through it where edges
+   * cross; points at most TIE metres farther count as near). */
   var TIE = 1e-9;
-  TJ.Router.prototype.snap = function (x, y, maxSnap) {
+  TJ.Router.prototype.snap = function (x, y, maxSnap, name) {
     var hit = this.grid.nearest(x, y, Infinity);
     if (hit === null) throw new Error("the graph has no vertices or edges to route on");
     var near = this.grid.within(x, y, hit.dist + TIE), at = [];
@@ -136,11 +146,22 @@ var TJ = (window.TJ = window.TJ || {});
       near.push(hit.index);
       near.sort(function (a, b) { return a - b; });
     }
-    if (this.entry) this.entries(x, y, maxSnap, at);
-    // with the feasible pixels, the points in sight; where none is, the nearest ones
-    if (at.length === 0) {
-      for (var k = 0; k < near.length; k++) at.push(this.point(near[k], hit.dist));
+    var cap = maxSnap === null || maxSnap === undefined ? Infinity : maxSnap;
+    if (this.entry && hit.dist <= cap) {
+      // the points in sight over feasible pixels, else over those off the obstacles
+      var wide = Math.min(hit.dist + this.entry.reach, cap);
+      this.entries(x, y, Math.min(this.entry.reach, cap), this.entry, at);
+      if (at.length === 0) this.entries(x, y, wide, this.clear, at);
+      if (at.length === 0) {
+        throw new Error(
+          (name ? name + ": " : "") + "the nearest point of the graph, " +
+            hit.dist.toPrecision(6) + " m away, is behind an obstacle or off the map, as " +
+            "is every other within " + wide.toPrecision(6) + " m"
+        );
+      }
+      return { dist: hit.dist, at: at };
     }
+    for (var k = 0; k < near.length; k++) at.push(this.point(near[k], hit.dist));
     return { dist: hit.dist, at: at };
   };
 
@@ -152,11 +173,10 @@ var TJ = (window.TJ = window.TJ || {});
     return { edge: e, index: i - this.G.starts[e], vertex: -1, dist: dist };
   };
 
-  /* append to `at` each edge's (or edgeless vertex's) nearest point within reach (and
-   * maxSnap) that (x, y) sees, nearest first */
-  TJ.Router.prototype.entries = function (x, y, maxSnap, at) {
+  /* append to `at` each edge's (or edgeless vertex's) nearest point within `reach`
+   * metres that (x, y) sees over the set pixels of `mask`, nearest first */
+  TJ.Router.prototype.entries = function (x, y, reach, mask, at) {
     var F = this.entry, G = this.G, np = G.np, grid = this.grid;
-    var reach = F.reach;
     var cand = grid.within(x, y, reach).map(function (i) {
       var dx = grid.x[i] - x, dy = grid.y[i] - y;
       return [Math.sqrt(dx * dx + dy * dy), i];
@@ -165,11 +185,10 @@ var TJ = (window.TJ = window.TJ || {});
     var q = F.frame.worldToPixel(x, y), joined = new Set();
     for (var k = 0; k < cand.length; k++) {
       var d = cand[k][0], i = cand[k][1];
-      if (maxSnap !== null && maxSnap !== undefined && d > maxSnap) break;
       var key = i >= np ? G.ne + this.lonely[i - np] : this.pointEdge[i];
       if (joined.has(key)) continue;
       var c = i >= np ? F.frame.worldToPixel(grid.x[i], grid.y[i]) : [G.rows[i], G.cols[i]];
-      if (!sees(F, q[0], q[1], c[0], c[1])) continue;
+      if (!sees(mask, q[0], q[1], c[0], c[1])) continue;
       joined.add(key);
       at.push(this.point(i, d));
     }
@@ -221,7 +240,7 @@ var TJ = (window.TJ = window.TJ || {});
   TJ.Router.prototype.route = function (x0, y0, x1, y1, maxSnap) {
     this.offObstacles("start", x0, y0);
     this.offObstacles("goal", x1, y1);
-    var s = this.snap(x0, y0, maxSnap), g = this.snap(x1, y1, maxSnap);
+    var s = this.snap(x0, y0, maxSnap, "start"), g = this.snap(x1, y1, maxSnap, "goal");
     var named = [["start", s], ["goal", g]];
     for (var i = 0; i < 2; i++) {
       if (maxSnap !== null && maxSnap !== undefined && named[i][1].dist > maxSnap) {
