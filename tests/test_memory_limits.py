@@ -188,10 +188,27 @@ def test_a_gif_webp_or_jpeg_2000_claiming_a_huge_image_is_refused_before_decodin
     assert "more than the 8.0 GiB of memory available" in text
 
 
-def test_a_memory_mapped_pgm_is_not_decoded_and_not_limited(tmp_path, monkeypatch):
+def test_a_memory_mapped_pgm_is_held_to_the_memory_its_classes_take(tmp_path, monkeypatch):
+    """Not decoded, so not held to the 5 bytes a pixel of decoding; but its classes (4
+    bytes a pixel while classified) were taken unchecked, and a batch worker loading a
+    PGM of 10^10 pixels ended in the kernel's out-of-memory killer."""
     path = tmp_path / "map.pgm"
     assert cv2.imwrite(str(path), np.full((10, 12), 254, np.uint8))
-    _memory(monkeypatch, 1)
+    _memory(monkeypatch, 120 * 4)
+    assert tj.load_map(path).shape == (10, 12)  # just fits
+    _memory(monkeypatch, 120 * 4 - 1)
+    with pytest.raises(MemoryRefusal) as info:
+        tj.load_map(path)
+    text = str(info.value)
+    assert f"map image {path}: its header gives 12 x 10 pixels" in text
+    assert "classifying them (4 bytes a pixel) takes at least 480 bytes" in text
+    assert "build_graph_tiled" in text
+    yaml = tmp_path / "map.yaml"
+    yaml.write_text("image: map.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    with pytest.raises(MemoryRefusal, match="its header gives 12 x 10 pixels"):
+        tj.load_map(yaml)
+    assert tj.build_graph_tiled(path).graph is not None  # read a window at a time
+    _memory(monkeypatch, None)
     assert tj.load_map(path).shape == (10, 12)
 
 

@@ -110,10 +110,14 @@ def test_a_bad_argument_is_named_before_the_memory_is_weighed(monkeypatch, call,
 def test_the_command_line_prints_the_refusal(tmp_path, monkeypatch, capsys, command, stage):
     from topojax.cli import main
 
-    # a binary PGM: memory-mapped, not decoded, so reading it is not held to the memory
+    # a binary PGM: memory-mapped, not decoded; its classes (4 bytes a pixel) fit, and
+    # what they leave does not fit the stage
     path = tmp_path / "a_scan.pgm"
     assert cv2.imwrite(str(path), cv2.imread(str(sample_map_path("a_scan")), 0))
-    _memory(monkeypatch, _need(stage, tj.load_map(path).shape) - 1)
+    h, w = tj.load_map(path).shape
+    answers = iter([4 * h * w])  # the first question is load_map's
+    left = _need(stage, (h, w)) - 1
+    monkeypatch.setattr(cpus, "available_memory_bytes", lambda: next(answers, left))
     assert main([command, str(path), "-o", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
     assert err.startswith(f"topojax {command}: error: {stage}: ")

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from .._cpus import check_fits_memory
 from .._validate import (
     MAX_RESOLUTION_M,
     MIN_RESOLUTION_M,
@@ -150,7 +151,9 @@ def load_map(
     MemoryError
         For an image decoded into memory (any but a binary 8-bit PGM, which is
         memory-mapped) whose header gives more pixels than the memory available can
-        decode and classify (5 bytes a pixel at least): refused before it is decoded.
+        decode and classify (5 bytes a pixel at least): refused before it is decoded;
+        for a binary 8-bit PGM, one whose classes (4 bytes a pixel while classified) do
+        not fit: refused before it is classified.
         The header is read here for PNG, JPEG, BMP, TIFF, PGM/PPM, GIF, WebP and JPEG
         2000, and by PIL for the other formats it reads; an image PIL refuses to open as
         larger than twice its ``MAX_IMAGE_PIXELS`` goes unchecked.
@@ -225,6 +228,10 @@ def default_resolution_used(path: str | Path) -> bool:
         return True
 
 
+#: Bytes a pixel of a memory-mapped PGM takes while :func:`load_map` classifies it: 1 for
+#: the class codes and 3 for the map's classes (the pixels stay in the file).
+_CLASSIFY_BYTES_PER_PIXEL = 4
+
 #: How much of a PGM :func:`_pgm_header` reads for its header.
 _HEADER_BYTES = 1 << 16
 
@@ -281,8 +288,9 @@ def _check_pgm_size(path: Path, width: int, height: int, maxval: int, offset: in
 
 def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
     """:func:`read_image`, except that a binary 8-bit PGM (``P5``, maxval 255) is
-    memory-mapped at its data offset instead of read whole and decoded: a map of any size
-    is then classified straight from the file (the same pixels)."""
+    memory-mapped at its data offset instead of read whole and decoded: a map is then
+    classified straight from the file (the same pixels), where its classes fit the memory
+    available."""
     if path.suffix.lower() == ".pgm" and path.is_file():
         try:
             width, height, maxval, offset, comments = _pgm_header(path)
@@ -290,6 +298,12 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
             return read_image(path)
         _check_pgm_size(path, width, height, maxval, offset)
         if maxval == 255:
+            check_fits_memory(
+                width * height * _CLASSIFY_BYTES_PER_PIXEL,
+                f"map image {path}: its header gives {width} x {height} pixels, and "
+                f"classifying them ({_CLASSIFY_BYTES_PER_PIXEL} bytes a pixel) takes at least",
+                "; build_graph_tiled reads a binary PGM a window at a time (docs/large-maps.md)",
+            )
             pixels = np.memmap(path, np.uint8, mode="r", offset=offset, shape=(height, width))
             return pixels, 255, comments
     return read_image(path)
