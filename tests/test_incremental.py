@@ -2570,6 +2570,30 @@ def test_tile_budget_refuses_scans_points_and_maps_before_any_change():
     assert budget > 4 * 4  # every point's window spans several tiles
 
 
+def test_the_tiles_of_a_wide_far_scan_are_counted_once_and_only_up_to_the_budget():
+    """Every beam of a wide scan crosses the tiles its neighbours cross: counted once per
+    crossing, the tiles of a scan of a million beams at 300 m took gigabytes before the
+    scan was refused (and a MemoryError there left the mapper half updated).  Each tile
+    is counted once, and the count stops once it is over the budget."""
+    probe = IncrementalMapper(**SMALL_KW)
+    tile_bytes = probe.tiles.tile_nbytes
+    mapper = IncrementalMapper(
+        skeleton_every=0, graph_every=0, max_tile_bytes=30 * tile_bytes, **SMALL_KW
+    )
+    n = 20_000
+    wide = Scan.from_arrays(
+        np.full(n, 150.0), (0, 0, 0), angle_min=-math.pi, angle_increment=2 * math.pi / n
+    )
+    with pytest.raises(ExtentError, match=r"^scan 0: .* would allocate at least 31 more tiles"):
+        mapper.add_scan(wide)
+    assert mapper.tiles.n_tiles == 0
+    near = Scan.from_arrays(
+        np.full(n, 2.0), (0, 0, 0), angle_min=-math.pi, angle_increment=2 * math.pi / n
+    )
+    mapper.add_scan(near)  # the mapper goes on
+    assert 0 < mapper.tiles.n_tiles <= 30 and mapper.n_scans == 1
+
+
 @pytest.mark.parametrize(
     ("glitch", "message"),
     [

@@ -75,10 +75,26 @@ def _bresenham_step(r, c, err, dr, dc, stp_r, stp_c):
     return r, c, err
 
 
+@cached_njit(nogil=True, inline="always")
+def _note_missing(out, m, tr, tc, seen, b0r, b0c):
+    """Append tile ``(tr, tc)`` to ``out[:m]`` unless ``seen`` (the tiles of the box from
+    tile ``(b0r, b0c)``) marks it already; returns ``(out, m)``, ``out`` grown when full."""
+    if seen[tr - b0r, tc - b0c]:
+        return out, m
+    seen[tr - b0r, tc - b0c] = True
+    if m == out.shape[0]:
+        out = np.concatenate((out, np.empty_like(out)))
+    out[m, 0] = tr
+    out[m, 1] = tc
+    return out, m + 1
+
+
 @cached_njit(nogil=True)
-def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
+def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c, seen, b0r, b0c, limit):
     """Tiles touched by the beams (end cells; ray cells too if ``rays``) that are not
-    allocated (with repeats).  Fast path: a ray whose tile rectangle is fully allocated
+    allocated, each once (``seen`` covers the tiles of the box from tile ``(b0r, b0c)``
+    that holds them all, and marks those found), the walk stopping once more than
+    ``limit`` are found.  Fast path: a ray whose tile rectangle is allocated or found
     needs no walk."""
     tsh = _log2(t)
     n = er.shape[0]
@@ -89,6 +105,8 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
     str_ = sr >> tsh
     stc = sc >> tsh
     for i in range(n):
+        if m > limit:
+            break
         r1 = er[i]
         c1 = ec[i]
         if rays:
@@ -104,16 +122,13 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
             for tc in range(tc0, tc1 + 1):
                 gi = tr - g0r
                 gj = tc - g0c
-                if gi < 0 or gj < 0 or gi >= gh or gj >= gw or grid[gi, gj] < 0:
+                absent = gi < 0 or gj < 0 or gi >= gh or gj >= gw or grid[gi, gj] < 0
+                if absent and not seen[tr - b0r, tc - b0c]:
                     full = False
         if full:
             continue
         if not rays:
-            if m == out.shape[0]:
-                out = np.concatenate((out, np.empty_like(out)))
-            out[m, 0] = tr0
-            out[m, 1] = tc0
-            m += 1
+            out, m = _note_missing(out, m, tr0, tc0, seen, b0r, b0c)
             continue
         r = sr
         c = sc
@@ -127,11 +142,9 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
                 last_r = tr
                 last_c = tc
                 if _slot(grid, g0r, g0c, tsh, r, c) < 0:
-                    if m == out.shape[0]:
-                        out = np.concatenate((out, np.empty_like(out)))
-                    out[m, 0] = tr
-                    out[m, 1] = tc
-                    m += 1
+                    out, m = _note_missing(out, m, tr, tc, seen, b0r, b0c)
+                    if m > limit:
+                        return out[:m]
             if r == r1 and c == c1:
                 break
             r, c, err = _bresenham_step(r, c, err, dr, dc, stp_r, stp_c)
@@ -139,14 +152,17 @@ def _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c):
 
 
 @cached_njit(nogil=True)
-def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
-    """Tiles intersecting the squares ``[p - w, p + w]^2`` that are not allocated."""
+def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c, seen, b0r, b0c, limit):
+    """Tiles intersecting the squares ``[p - w, p + w]^2`` that are not allocated, each
+    once and none that ``seen`` marks (as :func:`_missing_ray_tiles`), stopping once
+    more than ``limit`` are found."""
     tsh = _log2(t)
     n = pr.shape[0]
-    span = ((2 * w) >> tsh) + 2
-    out = np.empty((n * span * span + 1, 2), np.int64)
+    out = np.empty((16, 2), np.int64)
     m = 0
     for i in range(n):
+        if m > limit:
+            break
         tr0 = (pr[i] - w) >> tsh
         tr1 = (pr[i] + w) >> tsh
         tc0 = (pc[i] - w) >> tsh
@@ -157,19 +173,20 @@ def _missing_window_tiles(pr, pc, w, t, grid, g0r, g0c):
                 gj = tc - g0c
                 ok = gi >= 0 and gj >= 0 and gi < grid.shape[0] and gj < grid.shape[1]
                 if not ok or grid[gi, gj] < 0:
-                    out[m, 0] = tr
-                    out[m, 1] = tc
-                    m += 1
+                    out, m = _note_missing(out, m, tr, tc, seen, b0r, b0c)
+                    if m > limit:
+                        return out[:m]
     return out[:m]
 
 
 @cached_njit(nogil=True)
-def _integrate(er, ec, t, grid, g0r, g0c, hits, w):
+def _integrate(er, ec, t, grid, g0r, g0c, hits, w, seen, b0r, b0c):
     """Count hits (beam end cells); every end cell's tile must exist.
 
     Counters saturate at 65535.  Returns the pixels hit for the first time ever (new
     obstacles, (n, 2) int64, in beam order) and the unallocated tiles within ``w`` pixels
-    (Chebyshev) of them (:func:`_missing_window_tiles`).
+    (Chebyshev) of them (:func:`_missing_window_tiles`, each once: ``seen``, cleared,
+    covers the tiles of the box from tile ``(b0r, b0c)`` that holds them).
     """
     tsh = _log2(t)
     n = er.shape[0]
@@ -185,7 +202,9 @@ def _integrate(er, ec, t, grid, g0r, g0c, hits, w):
         if h < _UINT16_MAX:
             hits[s, lr, lc] = h + 1
     new = new[:n_new]
-    return new, _missing_window_tiles(new[:, 0], new[:, 1], w, t, grid, g0r, g0c)
+    return new, _missing_window_tiles(
+        new[:, 0], new[:, 1], w, t, grid, g0r, g0c, seen, b0r, b0c, seen.size
+    )
 
 
 @cached_njit(nogil=True)
@@ -255,20 +274,31 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where)
     rays = mapper.free_space and sensor is not None
     grid, (g0r, g0c) = tiles.slot_grid
-    need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c)
+    # each missing tile counted once (marked in `seen`, the tiles of the extent), and the
+    # count stopped once over the budget: a far reading of a wide scan crosses many tiles
+    b0r, b0c = lo_r // t, lo_c // t
+    seen = np.zeros((hi_r // t - b0r + 1, hi_c // t - b0c + 1), np.bool_)
+    spare = max(mapper.max_tile_bytes // tiles.tile_nbytes - tiles.n_tiles, 0)
+    need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c, seen, b0r, b0c, spare)
     # the tiles of the beams, and of the splat windows round new obstacles (a subset of
     # the end pixels), counted exactly only where a rough bound could exceed the budget
     span = ((2 * w) // t) + 2
-    if (tiles.n_tiles + need.shape[0] + n_valid * span * span) * tiles.tile_nbytes > (
-        mapper.max_tile_bytes
+    more = 0
+    if need.shape[0] <= spare and (
+        (tiles.n_tiles + need.shape[0] + n_valid * span * span) * tiles.tile_nbytes
+        > mapper.max_tile_bytes
     ):
-        both = np.concatenate([need, _missing_window_tiles(er, ec, w, t, grid, g0r, g0c)])
-        if both.shape[0]:
-            check_tile_budget(mapper, unique_pairs(both[:, 0], both[:, 1]).shape[0], where)
+        limit = spare - need.shape[0]
+        more = _missing_window_tiles(er, ec, w, t, grid, g0r, g0c, seen, b0r, b0c, limit)
+        more = more.shape[0]
+    if need.shape[0] + more > spare:  # counted up to one over: "at least"
+        check_tile_budget(mapper, need.shape[0] + more, where, at_least=True)
     if need.shape[0]:
         tiles.ensure(need[:, 0], need[:, 1])
         grid, (g0r, g0c) = tiles.slot_grid
-    new, miss = _integrate(er, ec, t, grid, g0r, g0c, tiles.layer("hits"), w)
+    seen[:] = False  # the budget's count marked window tiles it did not allocate
+    hits = tiles.layer("hits")
+    new, miss = _integrate(er, ec, t, grid, g0r, g0c, hits, w, seen, b0r, b0c)
     if rays:
         # free cells are counted later, in batches (see cast_pending_rays)
         mapper._rays.append((sr, sc, er, ec))
@@ -351,17 +381,20 @@ def sensor_pixel(mapper, x: float, y: float, where) -> tuple[int, int]:
     return math.floor(row), math.floor(col)
 
 
-def check_tile_budget(mapper, new_tiles: int, where) -> None:
-    """Raise :class:`ExtentError` if ``new_tiles`` more tiles would make the mapper's
-    tiles hold more than ``mapper.max_tile_bytes``; the message starts with ``where()``."""
+def check_tile_budget(mapper, new_tiles: int, where, *, at_least: bool = False) -> None:
+    """Raise :class:`ExtentError` if ``new_tiles`` more tiles (``at_least`` that many: a
+    count stopped once over the budget) would make the mapper's tiles hold more than
+    ``mapper.max_tile_bytes``; the message starts with ``where()``."""
     tiles = mapper._tiles
     need = (tiles.n_tiles + int(new_tiles)) * tiles.tile_nbytes
     if need > mapper.max_tile_bytes:
+        least = "at least " if at_least else ""
         raise ExtentError(
-            f"{where()} would allocate {new_tiles} more tiles, {need / 2**20:,.0f} MiB in "
-            f"all, beyond max_tile_bytes={mapper.max_tile_bytes}; nothing was added (a "
-            "reading far beyond the sensor's range? set the scan's range_max or the "
-            "mapper's max_range_m, or make the mapper with a larger max_tile_bytes)"
+            f"{where()} would allocate {least}{new_tiles} more tiles, {least}"
+            f"{need / 2**20:,.0f} MiB in all, beyond max_tile_bytes={mapper.max_tile_bytes}; "
+            "nothing was added (a reading far beyond the sensor's range? set the scan's "
+            "range_max or the mapper's max_range_m, or make the mapper with a larger "
+            "max_tile_bytes)"
         )
 
 
