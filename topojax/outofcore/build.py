@@ -198,7 +198,9 @@ def build_graph_tiled(
         once (``docs/performance.md``).
     executor : concurrent.futures.Executor or dask.distributed.Client, optional
         Runs the blocks as tasks (a Dask ``Client``: on its workers, each reading its
-        window from the source); default: one after another in this process.
+        window from the source); default: one after another in this process.  A
+        process pool must start its workers with ``forkserver`` or ``spawn``: one
+        forked from a process that has run JAX can deadlock.
     threads : int, optional
         Kernel dispatch threads per block (as for :func:`topojax.fields.dense_fields`).
     out_dir : str or Path, optional
