@@ -302,7 +302,9 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
                 width * height * _CLASSIFY_BYTES_PER_PIXEL,
                 f"map image {path}: its header gives {width} x {height} pixels, and "
                 f"classifying them ({_CLASSIFY_BYTES_PER_PIXEL} bytes a pixel) takes at least",
-                "; build_graph_tiled reads a binary PGM a window at a time (docs/large-maps.md)",
+                "; crop or coarsen the map, or build its topology graph with "
+                "build_graph_tiled, which reads a binary PGM a window at a time "
+                "(docs/large-maps.md)",
             )
             pixels = np.memmap(path, np.uint8, mode="r", offset=offset, shape=(height, width))
             return pixels, 255, comments
