@@ -2570,6 +2570,36 @@ def test_tile_budget_refuses_scans_points_and_maps_before_any_change():
     assert budget > 4 * 4  # every point's window spans several tiles
 
 
+def test_a_map_over_the_tile_budget_is_refused_before_its_pixels_are_indexed():
+    """add_map weighed a map against max_tile_bytes from the indices of its pixels, 16
+    bytes a pixel: a 14000 x 14000 map took 5 GB before its refusal (or a MemoryError).
+    Its tiles come from its masks, a tile row and column at a time."""
+    import tracemalloc
+
+    free = np.ones((2000, 2000), bool)
+    big = OccupancyMap(
+        occupied=np.zeros_like(free), free=free, unknown=~free, resolution_m=0.05, origin=(0, 0, 0)
+    )
+    probe = IncrementalMapper()
+    mapper = IncrementalMapper(max_tile_bytes=100 * probe.tiles.tile_nbytes)
+    tracemalloc.start()
+    try:
+        with pytest.raises(ExtentError, match=r"^occupancy: the map .* 256 more tiles"):
+            mapper.add_map(big)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < free.size  # under a byte a pixel
+    assert mapper.tiles.n_tiles == 0
+    small = np.ones((600, 600), bool)
+    mapper.add_map(
+        OccupancyMap(
+            occupied=~small, free=small, unknown=~small, resolution_m=0.05, origin=(0, 0, 0)
+        )
+    )
+    assert 0 < mapper.tiles.n_tiles <= 100  # the mapper goes on
+
+
 def test_the_tiles_of_a_wide_far_scan_are_counted_once_and_only_up_to_the_budget():
     """Every beam of a wide scan crosses the tiles its neighbours cross: counted once per
     crossing, the tiles of a scan of a million beams at 300 m took gigabytes before the

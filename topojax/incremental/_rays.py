@@ -531,16 +531,32 @@ def point_pixels(mapper, points_xy, origin_xy):
     return er, ec, ext, sensor, pts.shape[0]
 
 
-def _map_tiles(mapper, er, ec, free_rows, free_cols, r0: int, c0: int) -> int:
-    """How many tiles an imported map allocates: those of its known pixels and those the
-    splat windows round its occupied pixels (global ``er``, ``ec``) reach."""
+def _mask_tiles(mask, r0: int, c0: int, t: int) -> np.ndarray:
+    """The global tiles (int64 (n, 2)) holding a True pixel of ``mask``, whose pixel
+    (0, 0) is global ``(r0, c0)``: reduced a tile row and column at a time, without the
+    pixels' indices (16 bytes a pixel)."""
+    h, w = mask.shape
+    rows = np.unique(np.r_[0, np.arange((-r0) % t, h, t)])  # first map row of each tile row
+    cols = np.unique(np.r_[0, np.arange((-c0) % t, w, t)])
+    held = np.logical_or.reduceat(np.logical_or.reduceat(mask, rows, axis=0), cols, axis=1)
+    i, j = np.nonzero(held)
+    return np.stack([(r0 + rows[i]) // t, (c0 + cols[j]) // t], axis=1).astype(np.int64)
+
+
+def _map_tiles(mapper, occupied, free, r0: int, c0: int) -> int:
+    """How many tiles an imported map allocates: those of its known pixels (``occupied``,
+    and ``free`` unless None, masks of the map whose pixel (0, 0) is global ``(r0, c0)``)
+    and those the splat windows round its occupied pixels reach."""
     t = mapper.tile_px
     k = -(-(mapper._half + HALO_PX) // t)  # tiles a window reaches beyond its pixel's
-    occupied = unique_pairs(er // t, ec // t) if er.shape[0] else np.empty((0, 2), np.int64)
+    held = _mask_tiles(occupied, r0, c0, t)
     near = np.arange(-k, k + 1)
     dr, dc = np.repeat(near, near.size), np.tile(near, near.size)
-    rows = [(occupied[:, :1] + dr).ravel(), (np.asarray(free_rows, np.int64) + r0) // t]
-    cols = [(occupied[:, 1:] + dc).ravel(), (np.asarray(free_cols, np.int64) + c0) // t]
+    rows, cols = [(held[:, :1] + dr).ravel()], [(held[:, 1:] + dc).ravel()]
+    if free is not None:
+        held = _mask_tiles(free, r0, c0, t)
+        rows.append(held[:, 0])
+        cols.append(held[:, 1])
     known = unique_pairs(np.concatenate(rows), np.concatenate(cols))
     return int((mapper._tiles.lookup(known[:, 0], known[:, 1]) < 0).sum())
 
@@ -569,16 +585,16 @@ def add_occupancy(mapper, occupancy) -> int:
     r0, c0 = (int(v) for v in mapper.world_to_pixel(x0, y0))
     h, w = occupancy.shape
     half = mapper._half + HALO_PX
-    rows, cols = np.nonzero(occupancy.occupied)
-    free_rows, free_cols = np.nonzero(occupancy.free) if mapper.free_space else ((), ())
-    if rows.shape[0] or len(free_rows):
+    free = occupancy.free if mapper.free_space else None
+    if occupancy.occupied.any() or (free is not None and free.any()):
         lo_r, hi_r, lo_c, hi_c = r0 - half, r0 + h + half, c0 - half, c0 + w + half
-        # the whole map and its splat windows, before anything changes
+        # the whole map and its splat windows, before anything changes (or the pixels'
+        # indices, 16 bytes a pixel, are taken)
         where = lambda: f"occupancy: the map at {occupancy.origin}"  # noqa: E731
         check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where)
-        check_tile_budget(
-            mapper, _map_tiles(mapper, rows + r0, cols + c0, free_rows, free_cols, r0, c0), where
-        )
+        check_tile_budget(mapper, _map_tiles(mapper, occupancy.occupied, free, r0, c0), where)
+    rows, cols = np.nonzero(occupancy.occupied)
+    free_rows, free_cols = np.nonzero(free) if free is not None else ((), ())
     er = rows.astype(np.int64) + r0
     ec = cols.astype(np.int64) + c0
     ext = (
