@@ -20,6 +20,7 @@ from ._options import (
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 from .rooms import room_files, room_lines
+from .tiled import add_tiled_options, check_tiled_options, cmd_graph_tiled
 
 
 def add_commands(subparsers) -> None:
@@ -60,6 +61,7 @@ def add_commands(subparsers) -> None:
     )
     add_pipeline_options(p)
     add_room_options(p, only_with="--rooms")
+    add_tiled_options(p)
     p.set_defaults(handler=_cmd_graph)
 
     p = subparsers.add_parser(
@@ -158,6 +160,9 @@ def _cmd_graph(args) -> int:
     from ..maps import load_map
     from ..pipeline import build_graph
 
+    check_tiled_options(args)
+    if args.tiled:
+        return cmd_graph_tiled(args)
     tolerance = nav2_tolerance(args)  # checked before the pipeline runs and writes anything
     rooms_config = room_config(args, only_with="--rooms", given=args.rooms)
     stem = Path(args.map).stem

@@ -128,7 +128,11 @@ def _first_halo(config: PipelineConfig) -> int:
     return -(-(fields_halo_px(config) + 8) // t) * t
 
 
-def _as_tiled(source) -> TiledMap:
+def tiled_source(source, **overrides) -> TiledMap:
+    """``source`` as :func:`build_graph_tiled` takes it, as a :class:`TiledMap`; a path
+    is opened with ``overrides`` (``resolution_m``, ``mode``, ... as
+    :func:`~topojax.maps.tiled.open_tiled_map` and :func:`topojax.load_map` take them),
+    read a window at a time where it can be, else whole."""
     if isinstance(source, TiledMap):
         return source
     if isinstance(source, OccupancyMap):
@@ -137,12 +141,12 @@ def _as_tiled(source) -> TiledMap:
         if not Path(source).exists():  # named here, not as open_tiled_map's ``path``
             raise FileNotFoundError(f"source: map not found: {source}")
         try:
-            return open_tiled_map(source)
+            return open_tiled_map(source, **overrides)
         except ValueError:
             if Path(source).suffix.lower() not in IMAGE_SUFFIXES + YAML_SUFFIXES:
                 raise
             # an image that cannot be read a window at a time (PNG, ASCII PGM...): whole
-            return TiledMap.from_occupancy(load_map(source))
+            return TiledMap.from_occupancy(load_map(source, **overrides))
     if isinstance(source, np.ndarray):
         return array_map("source", source)
     raise TypeError(
@@ -239,7 +243,7 @@ def build_graph_tiled(
     (:func:`topojax.graph.pixels_graph_store`, about 100 bytes per skeleton pixel).
     """
     config = instance_or_default("config", config, PipelineConfig)
-    tiled = _as_tiled(source)
+    tiled = tiled_source(source)
     block_px, threads, resume = _checked_options(
         config, block_px, memory_budget_mb, threads, resume, out_dir
     )

@@ -1,0 +1,74 @@
+"""``topojax graph --tiled``: the topology graph of a map read block by block from disk,
+the same graph as ``topojax graph`` writes, a stopped build resumed, the options only
+``--tiled`` takes, and those it refuses."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from test_tiled_resume import stop_after
+
+import topojax as tj
+from topojax.cli import main
+
+
+@pytest.fixture(scope="module")
+def office_yaml(tmp_path_factory):
+    """The bundled office map as a map_server YAML and binary PGM (read a window at a
+    time)."""
+    path = tmp_path_factory.mktemp("map") / "office.yaml"
+    tj.save_map(tj.sample_map("office"), path)
+    return path
+
+
+def _graph(folder, stem="office") -> dict:
+    return json.loads((folder / f"{stem}.json").read_text())
+
+
+def test_tiled_graph_files_equal_the_whole_map_build(office_yaml, tmp_path, capsys):
+    assert main(["graph", str(office_yaml), "-o", str(tmp_path / "whole")]) == 0
+    tiled = tmp_path / "tiled"
+    argv = ["graph", str(office_yaml), "-o", str(tiled), "--tiled", "--memory-budget-mb", "14"]
+    assert main([*argv, "--nav2"]) == 0
+    out = capsys.readouterr().out
+    assert "blocks     15, memory budget 14 MB" in out
+    assert _graph(tiled) == _graph(tmp_path / "whole")
+    store = tj.load_graph_store(tiled / "office_store")
+    assert store.n_edges == len(_graph(tiled)["edges"])
+    assert (tiled / "office_nav2.geojson").is_file()
+    assert (tiled / "office.graphml").is_file() and (tiled / "office.geojson").is_file()
+
+
+def test_a_stopped_tiled_build_is_resumed(office_yaml, tmp_path, monkeypatch, capsys):
+    argv = ["graph", str(office_yaml), "-o", str(tmp_path), "--tiled", "--memory-budget-mb", "14"]
+    stop_after(monkeypatch, 6)
+    assert main(argv) == 130  # Ctrl-C, after the command's clean-up
+    monkeypatch.undo()
+    assert not (tmp_path / "office.json").exists()
+    computed = stop_after(monkeypatch, 10**6)
+    assert main([*argv, "--resume"]) == 0
+    assert "blocks     15 (6 reused)" in capsys.readouterr().out
+    assert len(computed) == 9
+    assert main(["graph", str(office_yaml), "-o", str(tmp_path / "whole")]) == 0
+    assert _graph(tmp_path) == _graph(tmp_path / "whole")
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--resume"], "--resume: only used with --tiled, which was not given"),
+        (["--memory-budget-mb", "64"], "--memory-budget-mb: only used with --tiled"),
+        (["--tiled", "--plot"], "--plot: not with --tiled, which never holds the whole map"),
+        (["--tiled", "--rooms"], "--rooms: not with --tiled"),
+        (["--tiled", "--view"], "--view: not with --tiled"),
+        (["--tiled", "--stages"], "--stages: not with --tiled"),
+        (["--tiled", "--mcap", "x.mcap"], "--mcap: not with --tiled"),
+        (["--tiled", "--memory-budget-mb", "0"], "--memory-budget-mb: expected a finite number"),
+        (["--tiled", "--memory-budget-mb", "nan"], "--memory-budget-mb: expected a finite"),
+    ],
+)
+def test_tiled_options_are_checked_before_any_work(office_yaml, tmp_path, capsys, extra, message):
+    assert main(["graph", str(office_yaml), "-o", str(tmp_path), *extra]) == 2
+    assert message in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())

@@ -1,0 +1,122 @@
+"""``topojax graph --tiled``: the topology graph of a map read block by block from disk."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ._options import assumed_resolution_note, map_options, nav2_tolerance, pipeline_config
+from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+
+#: What ``--tiled`` leaves out: each needs the whole map in memory.
+_WHOLE_MAP_OPTIONS = ("--plot", "--stages", "--rooms", "--mcap", "--view")
+
+#: Default ``--memory-budget-mb``: as :func:`topojax.build_graph_tiled`'s.
+DEFAULT_BUDGET_MB = 512.0
+
+
+def add_tiled_options(p) -> None:
+    """``--tiled`` and the options only it takes: ``--memory-budget-mb``, ``--resume``."""
+    p.add_argument(
+        "--tiled",
+        action="store_true",
+        help="build block by block, reading the map from disk a window at a time (maps "
+        "larger than memory: a binary PGM, a YAML naming one, a tile folder or a Zarr "
+        "array; topojax.build_graph_tiled): the same graph, also saved as arrays in "
+        "STEM_store/ (topojax.load_graph_store), where finished blocks are kept for "
+        f"--resume; not with {', '.join(_WHOLE_MAP_OPTIONS)}",
+    )
+    p.add_argument(
+        "--memory-budget-mb",
+        type=float,
+        metavar="MB",
+        help=f"with --tiled: memory for one block's stages (default {DEFAULT_BUDGET_MB:g})",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="with --tiled: reuse the blocks a stopped build kept in STEM_store/",
+    )
+
+
+def check_tiled_options(args) -> None:
+    """Refuse ``--memory-budget-mb`` or ``--resume`` without ``--tiled``, and with it
+    the options that need the whole map in memory (before any work)."""
+    if not args.tiled:
+        for option, given in (
+            ("--memory-budget-mb", args.memory_budget_mb is not None),
+            ("--resume", args.resume),
+        ):
+            if given:
+                raise ValueError(f"{option}: only used with --tiled, which was not given")
+        return
+    given = {
+        "--plot": args.plot,
+        "--stages": args.stages,
+        "--rooms": args.rooms,
+        "--mcap": args.mcap is not None,
+        "--view": args.view,
+    }
+    for option in _WHOLE_MAP_OPTIONS:
+        if given[option]:
+            raise ValueError(
+                f"{option}: not with --tiled, which never holds the whole map in memory; "
+                f"leave out {option}, or --tiled for a map that fits"
+            )
+
+
+def tiled_files(stem: str, nav2: bool) -> list[str]:
+    """The files ``topojax graph --tiled`` writes beside its ``STEM_store/`` folder."""
+    names = [f"{stem}{s}" for s in (".graphml", ".json", ".geojson")]
+    return names + [f"{stem}_nav2.geojson"] * nav2
+
+
+def cmd_graph_tiled(args) -> int:
+    """``topojax graph MAP --tiled``: build, write the graph files, print a summary."""
+    from .._validate import finite_positive
+    from ..graph import graph_summary
+    from ..io import save_graph, save_nav2_graph
+    from ..outofcore.build import build_graph_tiled, tiled_source
+
+    check_tiled_options(args)
+    tolerance = nav2_tolerance(args)
+    budget = DEFAULT_BUDGET_MB
+    if args.memory_budget_mb is not None:
+        budget = finite_positive("--memory-budget-mb", args.memory_budget_mb)
+    stem, out = Path(args.map).stem, Path(args.out)
+    store = out / f"{stem}_store"
+    targets = [out / name for name in tiled_files(stem, args.nav2)]
+    check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
+    options = map_options(args)
+    source = tiled_source(args.map, **options)
+    config = pipeline_config(args, resolution_m=source.resolution_m)
+    result = build_graph_tiled(
+        source, config=config, memory_budget_mb=budget, out_dir=store, resume=args.resume
+    )
+    graph = result.graph
+    written = [save_graph(graph, out / f"{stem}{s}") for s in (".graphml", ".json", ".geojson")]
+    notes = []
+    if tolerance is not None:
+        try:
+            written.append(
+                save_nav2_graph(graph, out / f"{stem}_nav2.geojson", tolerance_m=tolerance)
+            )
+        except ValueError as exc:  # a graph without edges, which Nav2 refuses
+            notes.append(f"note       {stem}_nav2.geojson not written: {exc}")
+    s = graph_summary(graph)
+    h, w = source.shape
+    t = result.timings_s
+    reused = f" ({result.blocks_reused} reused)" if result.blocks_reused else ""
+    for line in [
+        f"map        {args.map}  ({h} x {w} px, {source.resolution_m:g} m/px"
+        f"{assumed_resolution_note(args)})",
+        f"blocks     {result.blocks}{reused}, memory budget {budget:g} MB",
+        f"graph      {s['n_vertices']} vertices ({s['n_junctions']} junctions, "
+        f"{s['n_ends']} ends), {s['n_edges']} edges, {s['total_length_m']:.1f} m of "
+        f"corridors, {s['n_components']} components",
+        f"time (s)   blocks {t['blocks']:.2f}, graph {t['graph']:.2f}; total {t['total']:.2f}",
+        *notes,
+    ]:
+        print(line)
+    record_outputs(planned(written, args.map), command="graph", map_options=options)
+    print("wrote      " + ", ".join(str(p) for p in [*written, store]))
+    return 0
