@@ -339,7 +339,7 @@ def test_a_command_out_of_memory_says_so_without_a_traceback(tmp_path, monkeypat
     assert main(["graph", str(path), "-o", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
     assert err.startswith("topojax graph: error: out of memory (")
-    assert str(error).splitlines()[-1] in err and "build_graph_tiled" in err
+    assert str(error).splitlines()[-1] in err and "topojax graph --tiled" in err
     assert "Traceback" not in err
 
 

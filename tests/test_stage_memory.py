@@ -29,8 +29,8 @@ FLOORS = {
 }
 ARGUMENT = {"build_graph": "occupancy", "segment_rooms": "source", "route_graph": "occupancy"}
 ADVICE = {
-    "build_graph": "; build it block by block with build_graph_tiled, which gives the same "
-    "graph (docs/large-maps.md)",
+    "build_graph": "; build it block by block with build_graph_tiled (topojax graph "
+    "--tiled), which gives the same graph (docs/large-maps.md)",
     "segment_rooms": stage_memory.SMALLER_MAP,
     "route_graph": stage_memory.SMALLER_MAP,
 }

@@ -424,8 +424,8 @@ def build_graph(
         "occupancy",
         occupancy.shape,
         BUILD_GRAPH_BYTES_PER_PX,
-        "; build it block by block with build_graph_tiled, which gives the same graph "
-        "(docs/large-maps.md)",
+        "; build it block by block with build_graph_tiled (topojax graph --tiled), which "
+        "gives the same graph (docs/large-maps.md)",
     )
     timings: dict[str, float] = {}
     obstacles = occupancy.occupied

@@ -101,7 +101,7 @@ def _out_of_memory_message(exc: Exception) -> str:
     return (
         f"out of memory ({detail[0]}): the work grows with the map's pixels "
         "(bytes per pixel: docs/performance.md); free memory, or crop or coarsen the map "
-        "(the topology graph of a map larger than memory: topojax.build_graph_tiled, "
+        "(the topology graph of a map larger than memory: topojax graph --tiled, "
         "docs/large-maps.md)"
     )
 

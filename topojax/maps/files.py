@@ -303,8 +303,8 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
                 f"map image {path}: its header gives {width} x {height} pixels, and "
                 f"classifying them ({_CLASSIFY_BYTES_PER_PIXEL} bytes a pixel) takes at least",
                 "; crop or coarsen the map, or build its topology graph with "
-                "build_graph_tiled, which reads a binary PGM a window at a time "
-                "(docs/large-maps.md)",
+                "build_graph_tiled (topojax graph --tiled), which reads a binary PGM a "
+                "window at a time (docs/large-maps.md)",
             )
             pixels = np.memmap(path, np.uint8, mode="r", offset=offset, shape=(height, width))
             return pixels, 255, comments

@@ -489,7 +489,8 @@ def _check_declared_size(data: bytes, path: Path) -> None:
         f"map image {path}: its header gives {width} x {height} pixels, and decoding and "
         f"classifying them ({DECODE_BYTES_PER_PIXEL} bytes a pixel) takes at least",
         "; save a map this large as a binary 8-bit PGM, which load_map memory-maps instead "
-        "of decoding (and build_graph_tiled reads a window at a time)",
+        "of decoding (and build_graph_tiled, topojax graph --tiled, reads a window at a "
+        "time)",
     )
 
 
