@@ -780,6 +780,44 @@ def test_with_the_map_a_point_in_a_pocket_the_graph_does_not_reach_is_refused():
     RoutePlanner(g).route((6, 15), (5, 25), frame="pixel")  # without the map: nearest
 
 
+def test_with_the_map_an_end_joins_its_nearest_point_in_sight_even_with_no_reach():
+    # with entry_m=0 the reach beyond the nearest point is that point itself, whatever
+    # the rounding of its distance (in metres, the frame routes are asked in)
+    m, g = wall_between()
+    planner = RoutePlanner(g, occupancy=m, entry_m=0)
+    tree, _ = planner._tree("world")
+    goal = tuple(map(float, m.pixel_to_world(5, 25)))
+    rng = np.random.default_rng(0)
+    tried = 0
+    for rc in rng.uniform(1.0, 38.0, (400, 2)):
+        start = tuple(map(float, m.pixel_to_world(*rc)))
+        nearest = np.array(m.world_to_pixel(*tree.data[tree.query(start)[1]]), float)
+        if m.occupied[tuple(np.floor(rc + 0.5).astype(int))]:
+            continue
+        if not sees(~m.occupied, rc, nearest[None])[0]:
+            continue
+        r = planner.route(start, goal)
+        assert r.start_snap_m == pytest.approx(tree.query(start)[0])
+        tried += 1
+    assert tried > 300
+
+
+def test_with_the_map_no_sight_line_is_drawn_from_off_the_map(monkeypatch):
+    """A point off the map sees nothing: its lines are not drawn (with max_snap_m=None,
+    one to every corridor point within reach of a point 100 km off took gigabytes)."""
+    import topojax.routing as routing
+
+    m, g = wall_between()
+    drawn = []
+    monkeypatch.setattr(routing, "_sees", lambda *a: drawn.append(a) or sees(*a))
+    planner = RoutePlanner(g, occupancy=m, entry_m=1e6)
+    with pytest.raises(ValueError, match="is behind an obstacle or off the map"):
+        planner.route((1e5, 0.0), (1.0, 1.0), max_snap_m=None)
+    with pytest.raises(ValueError, match="is behind an obstacle or off the map"):
+        planner.route((-0.5, 2.0), (1.0, 1.0))  # just off the map's left side
+    assert drawn == []
+
+
 def test_with_the_map_a_point_on_an_obstacle_is_refused():
     """A robot inside a wall (a localisation fault) or a goal picked on one: with the map
     given, an error naming the point, not a route from the nearest corridor."""

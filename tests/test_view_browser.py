@@ -389,12 +389,16 @@ def test_routes_from_where_the_robot_does_not_fit_equal_plan_route(browser, tmp_
     """A start closer to a wall than the robot's radius joins the graph in sight off the
     obstacles, and one in a closet the graph does not reach is refused, in the page as
     by the planner given the map."""
+    from topojax.routegraph.feasible import feasible_space
+
     occupancy, g = wall_between(closet=True)
     page = tj.write_view(g, tmp_path / "wall.html", map=occupancy)
     assert _open(browser, page) == "ready"
     planner = tj.RoutePlanner(g, occupancy=occupancy)
     goal = tuple(map(float, occupancy.pixel_to_world(5, 25)))
-    for start in ((15, 19), (12, 19), (20, 13), (33, 21)):  # 0.1 m from a wall
+    feasible = feasible_space(occupancy, 0.25).feasible
+    for start in ((15, 19), (12, 19), (28, 21), (38, 5)):  # 0.1 m from a wall
+        assert not feasible[start]  # the robot does not fit there
         a = tuple(map(float, occupancy.pixel_to_world(*start)))
         want = planner.route(a, goal)
         got = _js(browser, "topojaxView.route(...arguments)", *a, *goal, "graph")

@@ -383,7 +383,8 @@ class RoutePlanner:
         ):
             for mask, reach in (
                 (self._feasible, reach_m),
-                (self._clear, nearest_m + self._entry_m),
+                # the nearest point itself within reach, whatever the rounding
+                (self._clear, (nearest_m + self._entry_m) * (1 + 1e-12) + _TIE),
             ):
                 if max_snap_m is not None:
                     reach = min(reach, max_snap_m)
@@ -433,6 +434,14 @@ class RoutePlanner:
         passes through (:func:`topojax._sight.sees`).  Candidates are tried nearest first, a batch at a
         time, skipping edges already joined (bounded memory for any reach)."""
         tree, owners = self._tree(frame)
+        with np.errstate(over="ignore", invalid="ignore"):  # far off the map: no pixel
+            qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
+            own = np.floor(qp + 0.5)
+        h, w = mask.shape
+        if not (np.isfinite(own).all() and 0 <= own[0] < h and 0 <= own[1] < w):
+            return []  # every line starts off the map: none is drawn
+        if not mask[int(own[0]), int(own[1])]:
+            return []  # every line starts on a pixel it may not cross
         cand = np.asarray(tree.query_ball_point(q, reach_m / scale), np.int64)
         if cand.size == 0:
             return []
@@ -441,7 +450,6 @@ class RoutePlanner:
         order = np.lexsort((cand, dist))
         cand, dist = cand[order], dist[order]
         key = np.where(owners[cand, 0] >= 0, owners[cand, 0], len(self._u) + owners[cand, 2])
-        qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
         out: list[tuple[int, float]] = []
         joined: set[int] = set()
         for b in range(0, cand.size, _ENTRY_BATCH):

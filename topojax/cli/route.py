@@ -57,9 +57,10 @@ def add_command(subparsers) -> None:
         metavar="MAP",
         help="the graph's map (as `topojax graph` reads it): each end may then join the "
         "graph at the nearest point of any edge it sees within the graph's snap distance "
-        "(1 m if it has none), whichever gives the shortest route; the robot radius is the "
-        "graph's (a route graph's) or --robot-radius; the map options below say how it is "
-        "read",
+        "(1 m if it has none), whichever gives the shortest route, and a point that sees "
+        "no edge along a line off the map's obstacles (a closet the graph does not reach, a "
+        "point off the map) is an error; the robot radius is the graph's (a route graph's) "
+        "or --robot-radius; the map options below say how it is read",
     )
     p.add_argument(
         "--robot-radius",

@@ -149,7 +149,8 @@ var TJ = (window.TJ = window.TJ || {});
     var cap = maxSnap === null || maxSnap === undefined ? Infinity : maxSnap;
     if (this.entry && hit.dist <= cap) {
       // the points in sight over feasible pixels, else over those off the obstacles
-      var wide = Math.min(hit.dist + this.entry.reach, cap);
+      // the nearest point itself within reach, whatever the rounding (as RoutePlanner)
+      var wide = Math.min((hit.dist + this.entry.reach) * (1 + 1e-12) + TIE, cap);
       this.entries(x, y, Math.min(this.entry.reach, cap), this.entry, at);
       if (at.length === 0) this.entries(x, y, wide, this.clear, at);
       if (at.length === 0) {
@@ -177,12 +178,17 @@ var TJ = (window.TJ = window.TJ || {});
    * metres that (x, y) sees over the set pixels of `mask`, nearest first */
   TJ.Router.prototype.entries = function (x, y, reach, mask, at) {
     var F = this.entry, G = this.G, np = G.np, grid = this.grid;
+    var q = F.frame.worldToPixel(x, y);
+    var r0 = Math.floor(q[0] + 0.5), c0 = Math.floor(q[1] + 0.5);
+    if (!(r0 >= 0 && r0 < mask.h && c0 >= 0 && c0 < mask.w)) return; // off the map
+    var i0 = r0 * mask.w + c0;
+    if (((mask.bits[i0 >> 3] >> (7 - (i0 & 7))) & 1) === 0) return; // a pixel it may not cross
     var cand = grid.within(x, y, reach).map(function (i) {
       var dx = grid.x[i] - x, dy = grid.y[i] - y;
       return [Math.sqrt(dx * dx + dy * dy), i];
     });
     cand.sort(function (a, b) { return a[0] - b[0] || a[1] - b[1]; });
-    var q = F.frame.worldToPixel(x, y), joined = new Set();
+    var joined = new Set();
     for (var k = 0; k < cand.length; k++) {
       var d = cand[k][0], i = cand[k][1];
       var key = i >= np ? G.ne + this.lonely[i - np] : this.pointEdge[i];
