@@ -12,8 +12,9 @@ of any edge in sight within 1 m):
 * **query**: one ``planner.route(start, goal)`` between two random points near the
   graph's corridors (up to 1 m off, off the map's obstacles), warm median and 90th percentile over ``--queries``
   pairs, with the share of pairs that have a route (the others raise ``NoRouteError``,
-  timed too), and the median length of the routes (straight legs to and from the graph
-  included);
+  or, with the map, ``ValueError`` for an end that sees no edge off the obstacles: timed
+  too, and the share of the latter), and the median length of the routes (straight legs
+  to and from the graph included);
 * **cold**: in a fresh process, ``import topojax``, read the graph from JSON, build the
   planner and answer one query (SciPy's k-d tree module is imported on first use).
 
@@ -94,7 +95,7 @@ def bench_graph(graph, occupancy, *, repeats: int, queries: int, with_map: bool)
         planner = tj.RoutePlanner(graph, occupancy=occupancy if with_map else None)
         planner._tree("world")  # the k-d tree the first query builds
         builds.append(time.perf_counter() - t0)
-    times, lengths = [], []
+    times, lengths, refused = [], [], 0
     for start, goal in query_pairs(graph, queries + 1, graph.number_of_edges(), occupancy):
         t0 = time.perf_counter()
         try:
@@ -102,6 +103,10 @@ def bench_graph(graph, occupancy, *, repeats: int, queries: int, with_map: bool)
             lengths.append(r.start_snap_m + r.length_m + r.goal_snap_m)
         except tj.NoRouteError:
             pass
+        except ValueError:  # with the map: an end in a pocket the graph does not reach
+            if not with_map:
+                raise
+            refused += 1
         times.append(time.perf_counter() - t0)
     n_routed = len(lengths)
     n_all = len(times)
@@ -114,6 +119,7 @@ def bench_graph(graph, occupancy, *, repeats: int, queries: int, with_map: bool)
         "query_median_ms": ms(median(times)),
         "query_p90_ms": ms(float(np.percentile(times, 90))),
         "routed_share": round(n_routed / n_all, 3),
+        "refused_share": round(refused / n_all, 3),
         "route_median_m": round(median(lengths), 3) if lengths else None,
     }
 
@@ -132,7 +138,7 @@ def cold_worker(graph_file: str, map_file: str, with_map: bool) -> None:
     planner = tj.RoutePlanner(graph, occupancy=occupancy)
     try:
         planner.route(start, goal)
-    except tj.NoRouteError:
+    except (tj.NoRouteError, ValueError):  # no route, or (with the map) an end in a pocket
         pass
     t3 = time.perf_counter()
     print(json.dumps({"import_ms": ms(t1 - t0), "load_ms": ms(load), "first_ms": ms(t3 - t2)}))
@@ -189,6 +195,7 @@ def main(argv: list[str] | None = None) -> int:
             e[label]["query_median_ms"],
             e[label]["query_p90_ms"],
             e[label]["routed_share"],
+            e[label]["refused_share"],
             e[label]["route_median_m"],
             e[label]["cold"]["first_ms"],
         ]
@@ -211,6 +218,7 @@ def main(argv: list[str] | None = None) -> int:
                     "query ms (median)",
                     "query ms (p90)",
                     "routed",
+                    "refused",
                     "route m (median)",
                     "cold: planner + first query ms",
                 ],
