@@ -2570,6 +2570,15 @@ def test_tile_budget_refuses_scans_points_and_maps_before_any_change():
     assert budget > 4 * 4  # every point's window spans several tiles
 
 
+def test_a_tile_budget_of_any_size_is_taken():
+    # the count of a scan's missing tiles is bounded by the budget: one past an int64
+    mapper = IncrementalMapper(max_tile_bytes=10**30, **SMALL_KW)
+    scan = Scan.from_arrays(np.full(90, 3.0), (0, 0, 0), angle_min=-1.5, angle_increment=1 / 30)
+    mapper.add_scan(scan)
+    mapper.add_scan(scan)
+    assert mapper.n_scans == 2 and mapper.tiles.n_tiles > 0
+
+
 def test_a_map_over_the_tile_budget_is_refused_before_its_pixels_are_indexed():
     """add_map weighed a map against max_tile_bytes from the indices of its pixels, 16
     bytes a pixel: a 14000 x 14000 map took 5 GB before its refusal (or a MemoryError).

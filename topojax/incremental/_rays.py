@@ -278,7 +278,8 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     # count stopped once over the budget: a far reading of a wide scan crosses many tiles
     b0r, b0c = lo_r // t, lo_c // t
     seen = np.zeros((hi_r // t - b0r + 1, hi_c // t - b0c + 1), np.bool_)
-    spare = max(mapper.max_tile_bytes // tiles.tile_nbytes - tiles.n_tiles, 0)
+    # (at most the tiles of the extent: a budget of any size fits the compiled count)
+    spare = min(max(mapper.max_tile_bytes // tiles.tile_nbytes - tiles.n_tiles, 0), seen.size)
     need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c, seen, b0r, b0c, spare)
     # the tiles of the beams, and of the splat windows round new obstacles (a subset of
     # the end pixels), counted exactly only where a rough bound could exceed the budget
