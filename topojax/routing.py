@@ -378,16 +378,11 @@ class RoutePlanner:
             )
         dist, k = tree.query(q)
         nearest_m = float(dist) * scale
-        if self._feasible is not None and nearest_m <= (
-            math.inf if max_snap_m is None else max_snap_m
-        ):
-            for mask, reach in (
-                (self._feasible, reach_m),
-                # the nearest point itself within reach, whatever the rounding
-                (self._clear, (nearest_m + self._entry_m) * (1 + 1e-12) + _TIE),
-            ):
-                if max_snap_m is not None:
-                    reach = min(reach, max_snap_m)
+        cap = math.inf if max_snap_m is None else max_snap_m
+        if self._feasible is not None and nearest_m <= cap:
+            # the nearest point itself within the second reach, whatever the rounding
+            wide = (nearest_m + self._entry_m) * (1 + 1e-12) + _TIE
+            for mask, reach in ((self._feasible, reach_m), (self._clear, min(wide, cap))):
                 seen = [
                     self._snap(owners[i], d) for i, d in self._entries(q, frame, scale, reach, mask)
                 ]
@@ -437,11 +432,9 @@ class RoutePlanner:
         with np.errstate(over="ignore", invalid="ignore"):  # far off the map: no pixel
             qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
             own = np.floor(qp + 0.5)
-        h, w = mask.shape
-        if not (np.isfinite(own).all() and 0 <= own[0] < h and 0 <= own[1] < w):
-            return []  # every line starts off the map: none is drawn
-        if not mask[int(own[0]), int(own[1])]:
-            return []  # every line starts on a pixel it may not cross
+        (h, w), (r, c) = mask.shape, (int(v) if np.isfinite(v) else -1 for v in own)
+        if not (0 <= r < h and 0 <= c < w and mask[r, c]):
+            return []  # every line would start off the map or on a pixel it may not cross
         cand = np.asarray(tree.query_ball_point(q, reach_m / scale), np.int64)
         if cand.size == 0:
             return []
