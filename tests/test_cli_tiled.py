@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 from test_tiled_resume import stop_after
 
@@ -66,9 +67,26 @@ def test_a_stopped_tiled_build_is_resumed(office_yaml, tmp_path, monkeypatch, ca
         (["--tiled", "--mcap", "x.mcap"], "--mcap: not with --tiled"),
         (["--tiled", "--memory-budget-mb", "0"], "--memory-budget-mb: expected a finite number"),
         (["--tiled", "--memory-budget-mb", "nan"], "--memory-budget-mb: expected a finite"),
+        (["--tiled", "--memory-budget-mb", "1"], "--memory-budget-mb: expected at least "),
+        (["--tiled", "--min-room-m2", "3"], "--min-room-m2: only used with --rooms"),
     ],
 )
 def test_tiled_options_are_checked_before_any_work(office_yaml, tmp_path, capsys, extra, message):
     assert main(["graph", str(office_yaml), "-o", str(tmp_path), *extra]) == 2
     assert message in capsys.readouterr().err
     assert not any(tmp_path.iterdir())
+
+
+def test_a_file_in_place_of_the_output_folder_is_named_as_the_option(office_yaml, tmp_path, capsys):
+    (tmp_path / "afile").write_text("")
+    argv = ["graph", str(office_yaml), "-o", str(tmp_path / "afile"), "--tiled"]
+    assert main(argv) == 2
+    assert "--out: expected a folder to write into" in capsys.readouterr().err
+
+
+def test_an_empty_tiled_graph_says_why(tmp_path, capsys):
+    free = tj.OccupancyMap.from_array(np.zeros((64, 64), bool), resolution_m=0.05)
+    tj.save_map(free, tmp_path / "free.yaml")
+    assert main(["graph", str(tmp_path / "free.yaml"), "-o", str(tmp_path / "o"), "--tiled"]) == 0
+    out = capsys.readouterr().out
+    assert "graph      0 vertices" in out and "note       the graph is empty" in out

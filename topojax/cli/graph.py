@@ -6,6 +6,7 @@ import json
 import time
 from pathlib import Path
 
+from ._graph_out import GRAPH_SUFFIXES, summary_lines, write_graph_files, write_nav2
 from ._options import (
     add_map_options,
     add_nav2_options,
@@ -79,13 +80,7 @@ def add_commands(subparsers) -> None:
 def _write_outputs(
     result, out_dir: Path, stem: str, *, plot: bool, stages: bool, rooms=None
 ) -> list[Path]:
-    from .._fs import output_folder
-    from ..io import save_graph
-
-    output_folder(out_dir, name="--out")
-    written = []
-    for suffix in (".graphml", ".json", ".geojson"):
-        written.append(save_graph(result.graph, out_dir / f"{stem}{suffix}"))
+    written = write_graph_files(result.graph, out_dir, stem)
     if plot or stages:
         import matplotlib
 
@@ -138,24 +133,6 @@ def _classes_hint(occupancy, graph) -> list[str]:
     ]
 
 
-def _summary_lines(name: str, result, *, timing_note: str = "", assumed: str = "") -> list[str]:
-    from ..graph import graph_summary
-
-    s = graph_summary(result.graph)
-    h, w = result.map.shape
-    t = result.timings_s
-    return [
-        f"map        {name}  ({h} x {w} px, {result.map.resolution_m:g} m/px{assumed})",
-        f"graph      {s['n_vertices']} vertices ({s['n_junctions']} junctions, "
-        f"{s['n_ends']} ends), {s['n_edges']} edges, "
-        f"{s['total_length_m']:.1f} m of corridors, {s['n_components']} components",
-        "time (ms)  "
-        + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in t.items() if k != "total")
-        + f"; total {1e3 * t['total']:.1f}"
-        + (f" ({timing_note})" if timing_note else ""),
-    ]
-
-
 def _cmd_graph(args) -> int:
     from ..maps import load_map
     from ..pipeline import build_graph
@@ -196,18 +173,10 @@ def _cmd_graph(args) -> int:
 
         written += save_room_files(seg, Path(args.out) / stem)
     if args.nav2:
-        from ..io import save_nav2_graph
-
-        try:
-            written.append(
-                save_nav2_graph(
-                    result.graph,
-                    Path(args.out) / f"{stem}_nav2.geojson",
-                    tolerance_m=tolerance,
-                )
-            )
-        except ValueError as exc:  # a graph without edges, which Nav2 refuses (as replay)
-            notes.append(f"note       {stem}_nav2.geojson not written: {exc}")
+        nav2, nav2_notes = write_nav2(
+            result.graph, Path(args.out) / f"{stem}_nav2.geojson", tolerance
+        )
+        written, notes = written + nav2, notes + nav2_notes
     if args.mcap is not None:
         from ..io.mcap import save_mcap
 
@@ -218,7 +187,7 @@ def _cmd_graph(args) -> int:
         written.append(write_view(result, Path(args.out) / f"{stem}_view.html", rooms=seg))
     first = "the process's first call: it includes loading or compiling the kernels"
     for line in [
-        *_summary_lines(
+        *summary_lines(
             str(args.map), result, timing_note=first, assumed=assumed_resolution_note(args)
         ),
         *notes,
@@ -231,7 +200,7 @@ def _cmd_graph(args) -> int:
 
 def _graph_files(stem: str, args) -> list[str]:
     """The names of the files ``topojax graph`` writes for a map called ``stem``."""
-    names = [f"{stem}{s}" for s in (".graphml", ".json", ".geojson")]
+    names = [f"{stem}{s}" for s in GRAPH_SUFFIXES]
     names += [f"{stem}.png"] * bool(args.plot) + [f"{stem}_stages.png"] * bool(args.stages)
     names += [f"{stem}_nav2.geojson"] * bool(args.nav2)
     names += room_files(stem) if args.rooms else []
@@ -273,7 +242,7 @@ def _cmd_demo(args) -> int:
         f"topojax demo: bundled map '{args.map}' ({sample_map_path(args.map).name}, MIT, "
         "from the IncrementalTopo paper)"
     )
-    for line in _summary_lines(args.map, result, timing_note="the last warm call"):
+    for line in summary_lines(args.map, result, timing_note="the last warm call"):
         print(line)
     print(
         f"end-to-end first call {1e3 * cold:.0f} ms (includes compilation), "

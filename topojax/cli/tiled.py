@@ -4,7 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._options import assumed_resolution_note, map_options, nav2_tolerance, pipeline_config
+from ._graph_out import GRAPH_SUFFIXES, summary_lines, write_graph_files, write_nav2
+from ._options import (
+    _option_named,
+    assumed_resolution_note,
+    map_options,
+    nav2_tolerance,
+    pipeline_config,
+    room_config,
+)
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 #: What ``--tiled`` leaves out: each needs the whole map in memory.
@@ -66,56 +74,50 @@ def check_tiled_options(args) -> None:
 
 def tiled_files(stem: str, nav2: bool) -> list[str]:
     """The files ``topojax graph --tiled`` writes beside its ``STEM_store/`` folder."""
-    names = [f"{stem}{s}" for s in (".graphml", ".json", ".geojson")]
-    return names + [f"{stem}_nav2.geojson"] * nav2
+    return [f"{stem}{s}" for s in GRAPH_SUFFIXES] + [f"{stem}_nav2.geojson"] * nav2
 
 
 def cmd_graph_tiled(args) -> int:
-    """``topojax graph MAP --tiled``: build, write the graph files, print a summary."""
+    """``topojax graph MAP --tiled`` (its options checked by :func:`check_tiled_options`):
+    build, write the graph files, print a summary."""
+    from .._fs import output_folder
     from .._validate import finite_positive
-    from ..graph import graph_summary
-    from ..io import save_graph, save_nav2_graph
-    from ..outofcore.build import build_graph_tiled, tiled_source
+    from ..outofcore.build import block_px_for_budget, build_graph_tiled, tiled_source
 
-    check_tiled_options(args)
     tolerance = nav2_tolerance(args)
+    room_config(args, only_with="--rooms", given=False)  # room options: refused here
     budget = DEFAULT_BUDGET_MB
     if args.memory_budget_mb is not None:
         budget = finite_positive("--memory-budget-mb", args.memory_budget_mb)
     stem, out = Path(args.map).stem, Path(args.out)
-    store = out / f"{stem}_store"
     targets = [out / name for name in tiled_files(stem, args.nav2)]
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
     options = map_options(args)
     source = tiled_source(args.map, **options)
     config = pipeline_config(args, resolution_m=source.resolution_m)
+    try:
+        block_px_for_budget(budget, config)
+    except ValueError as exc:  # its message names the parameter, not the option
+        raise _option_named(exc, "memory_budget_mb", "--memory-budget-mb") from None
+    store = output_folder(out, name="--out") / f"{stem}_store"
     result = build_graph_tiled(
         source, config=config, memory_budget_mb=budget, out_dir=store, resume=args.resume
     )
-    graph = result.graph
-    written = [save_graph(graph, out / f"{stem}{s}") for s in (".graphml", ".json", ".geojson")]
+    written = write_graph_files(result.graph, out, stem)
     notes = []
+    if result.graph.number_of_nodes() == 0:
+        notes.append(
+            "note       the graph is empty: no corridor was found between the obstacles; "
+            "check the thresholds, --negate, or --mode (e.g. --mode ipa for IPA benchmark "
+            "maps)"
+        )
     if tolerance is not None:
-        try:
-            written.append(
-                save_nav2_graph(graph, out / f"{stem}_nav2.geojson", tolerance_m=tolerance)
-            )
-        except ValueError as exc:  # a graph without edges, which Nav2 refuses
-            notes.append(f"note       {stem}_nav2.geojson not written: {exc}")
-    s = graph_summary(graph)
-    h, w = source.shape
-    t = result.timings_s
+        nav2, nav2_notes = write_nav2(result.graph, out / f"{stem}_nav2.geojson", tolerance)
+        written, notes = written + nav2, notes + nav2_notes
     reused = f" ({result.blocks_reused} reused)" if result.blocks_reused else ""
-    for line in [
-        f"map        {args.map}  ({h} x {w} px, {source.resolution_m:g} m/px"
-        f"{assumed_resolution_note(args)})",
-        f"blocks     {result.blocks}{reused}, memory budget {budget:g} MB",
-        f"graph      {s['n_vertices']} vertices ({s['n_junctions']} junctions, "
-        f"{s['n_ends']} ends), {s['n_edges']} edges, {s['total_length_m']:.1f} m of "
-        f"corridors, {s['n_components']} components",
-        f"time (s)   blocks {t['blocks']:.2f}, graph {t['graph']:.2f}; total {t['total']:.2f}",
-        *notes,
-    ]:
+    lines = summary_lines(str(args.map), result, assumed=assumed_resolution_note(args))
+    lines.insert(1, f"blocks     {result.blocks}{reused}, memory budget {budget:g} MB")
+    for line in [*lines, *notes]:
         print(line)
     record_outputs(planned(written, args.map), command="graph", map_options=options)
     print("wrote      " + ", ".join(str(p) for p in [*written, store]))

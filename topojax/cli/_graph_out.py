@@ -1,0 +1,49 @@
+"""What ``topojax graph`` writes and prints, with the whole map or ``--tiled``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: The graph files of ``topojax graph``: ``STEM`` and each of these.
+GRAPH_SUFFIXES = (".graphml", ".json", ".geojson")
+
+
+def write_graph_files(graph, out_dir: Path, stem: str) -> list[Path]:
+    """Write ``graph`` as ``STEM.graphml``, ``STEM.json`` and ``STEM.geojson`` into
+    ``out_dir`` (created; an error names ``--out``)."""
+    from .._fs import output_folder
+    from ..io import save_graph
+
+    output_folder(out_dir, name="--out")
+    return [save_graph(graph, out_dir / f"{stem}{suffix}") for suffix in GRAPH_SUFFIXES]
+
+
+def write_nav2(graph, path: Path, tolerance_m: float) -> tuple[list[Path], list[str]]:
+    """Write ``graph`` for the Nav2 Route Server at ``path``: ``([path], [])``, or
+    ``([], [note])`` for a graph Nav2 refuses (one without edges)."""
+    from ..io import save_nav2_graph
+
+    try:
+        return [save_nav2_graph(graph, path, tolerance_m=tolerance_m)], []
+    except ValueError as exc:  # a graph without edges, which Nav2 refuses (as replay)
+        return [], [f"note       {path.name} not written: {exc}"]
+
+
+def summary_lines(name: str, result, *, timing_note: str = "", assumed: str = "") -> list[str]:
+    """The map, graph and time lines ``topojax graph`` prints for ``result`` (a
+    ``TopologyResult`` or a ``TiledResult``)."""
+    from ..graph import graph_summary
+
+    s = graph_summary(result.graph)
+    h, w = result.map.shape
+    t = result.timings_s
+    return [
+        f"map        {name}  ({h} x {w} px, {result.map.resolution_m:g} m/px{assumed})",
+        f"graph      {s['n_vertices']} vertices ({s['n_junctions']} junctions, "
+        f"{s['n_ends']} ends), {s['n_edges']} edges, "
+        f"{s['total_length_m']:.1f} m of corridors, {s['n_components']} components",
+        "time (ms)  "
+        + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in t.items() if k != "total")
+        + f"; total {1e3 * t['total']:.1f}"
+        + (f" ({timing_note})" if timing_note else ""),
+    ]
