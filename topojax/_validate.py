@@ -4,8 +4,10 @@ Each check returns the value in its canonical Python type, or raises a ``TypeErr
 wrong type / a ``ValueError`` for a wrong value (:func:`existing_file`: also
 ``FileNotFoundError``) whose message reads ``"<name>: expected <what>, received <what was
 given>"``.
-NumPy scalars and 0-d arrays (NumPy's, JAX's) are accepted wherever the matching Python
-type is; ``bool`` is never a number, and a float (whole or not) is never an int.
+NumPy scalars are accepted wherever the matching Python type is, and 0-d numeric arrays
+(NumPy's, JAX's) wherever a number is; a bool check takes a Python or NumPy bool only (a
+0-d bool array is an array); ``bool`` is never a number, and a float (whole or not) is
+never an int.
 """
 
 from __future__ import annotations
