@@ -926,8 +926,28 @@ def test_an_octave_log_none_of_whose_elements_makes_a_scan_is_refused(tmp_path):
     text = OCTAVE_EXCERPT.read_text()
     assert "-1.570796" in text
     path.write_text(text.replace("-1.570796", "-90"))
-    with pytest.raises(ValueError, match=r"none of its 20 element\(s\) of laser makes a scan, "):
+    with pytest.raises(
+        ValueError,
+        match=r"none of its 20 element\(s\) of laser makes a scan; the first whose fields "
+        r"make none is laser\(1\): ",
+    ):
         list(read_octave_laser(path))
+
+
+def test_an_octave_log_refused_counts_every_element_skipped(tmp_path):
+    # one pose not finite, the other element's fields make no scan: both count
+    path = tmp_path / "scans.txt"
+    text = _OCTAVE_NDIMS.replace(" 1\n 2\n 0.5\n", " nan\n 2\n 0.5\n", 1)
+    head, tail = text.split("# name: angular_resolution\n")
+    tail = tail.replace("# type: scalar\n0.25\n", "# type: scalar\n0\n", 1)
+    path.write_text(head + "# name: angular_resolution\n" + tail)
+    with pytest.warns(UserWarning, match="whose pose is not finite"):
+        with pytest.raises(
+            ValueError,
+            match=r"none of its 2 element\(s\) of scans makes a scan; the first whose fields "
+            r"make none is scans\(2\): angle_increment",
+        ):
+            list(read_octave_laser(path))
 
 
 def test_octave_errors(tmp_path):

@@ -398,7 +398,7 @@ def _iter_bag(
             f"pose_tolerance_s of the pose data",
             stacklevel=2,
         )
-    unusable.finish(path, records)
+    unusable.finish(path, records, others=skipped)
 
 
 def _collect_poses(

@@ -333,4 +333,4 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
             f"infinite: a localisation glitch), the first {variable}({not_finite[0]})",
             stacklevel=2,
         )
-    unusable.finish(path, f"element(s) of {variable}")
+    unusable.finish(path, f"element(s) of {variable}", others=len(not_finite))

@@ -407,13 +407,15 @@ class _SkippedScans:
         self.made += 1
         return scan
 
-    def finish(self, path: Any, records: str) -> None:
+    def finish(self, path: Any, records: str, *, others: int = 0) -> None:
         """From a reader's exhausted iterator: the warning, where any records were
         skipped, or a ValueError where all were (``records`` says what they are:
-        ``sensor_msgs/msg/LaserScan message(s) on /scan``)."""
+        ``sensor_msgs/msg/LaserScan message(s) on /scan``; ``others``: how many the reader
+        skipped for another reason, a pose it has not, say, counted in the refusal)."""
         if self.count and not self.made:
             raise ValueError(
-                f"{path}: none of its {self.count} {records} makes a scan, the first {self.first}"
+                f"{path}: none of its {self.count + others} {records} makes a scan; the "
+                f"first whose fields make none is {self.first}"
             )
         if self.count:
             warnings.warn(
