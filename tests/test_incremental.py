@@ -2580,9 +2580,9 @@ def test_a_tile_budget_of_any_size_is_taken():
 
 
 def test_a_map_over_the_tile_budget_is_refused_before_its_pixels_are_indexed():
-    """add_map weighed a map against max_tile_bytes from the indices of its pixels, 16
-    bytes a pixel: a 14000 x 14000 map took 5 GB before its refusal (or a MemoryError).
-    Its tiles come from its masks, a tile row and column at a time."""
+    """add_map weighs a map against max_tile_bytes from its masks, a tile row and column
+    at a time, not from the indices of its pixels (16 bytes a pixel: 5 GB for a 14000 x
+    14000 map before its refusal)."""
     import tracemalloc
 
     free = np.ones((2000, 2000), bool)
@@ -2610,10 +2610,9 @@ def test_a_map_over_the_tile_budget_is_refused_before_its_pixels_are_indexed():
 
 
 def test_the_tiles_of_a_wide_far_scan_are_counted_once_and_only_up_to_the_budget():
-    """Every beam of a wide scan crosses the tiles its neighbours cross: counted once per
-    crossing, the tiles of a scan of a million beams at 300 m took gigabytes before the
-    scan was refused (and a MemoryError there left the mapper half updated).  Each tile
-    is counted once, and the count stops once it is over the budget."""
+    """Every beam of a wide scan crosses the tiles its neighbours cross: each tile is
+    counted once, and the count stops once it is over the budget (counted once per
+    crossing, a scan of a million beams at 300 m needs gigabytes to be refused)."""
     probe = IncrementalMapper(**SMALL_KW)
     tile_bytes = probe.tiles.tile_nbytes
     mapper = IncrementalMapper(

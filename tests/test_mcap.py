@@ -226,8 +226,7 @@ def test_replay_recording_has_the_route_graph_of_every_graph_update(replayed):
 
 def test_route_graph_edges_are_told_apart_from_the_topology_s(replayed):
     """Both are shown together in Foxglove and RViz: the route graph's edges are green,
-    the topology's orange (the viewer's first and second graph colours); they were the
-    same orange."""
+    the topology's orange (the viewer's first and second graph colours)."""
     _, _, _, messages = replayed
 
     def edge_rgb(topic):

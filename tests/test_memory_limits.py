@@ -189,9 +189,9 @@ def test_a_gif_webp_or_jpeg_2000_claiming_a_huge_image_is_refused_before_decodin
 
 
 def test_a_memory_mapped_pgm_is_held_to_the_memory_its_classes_take(tmp_path, monkeypatch):
-    """Not decoded, so not held to the 5 bytes a pixel of decoding; but its classes (4
-    bytes a pixel while classified) were taken unchecked, and a batch worker loading a
-    PGM of 10^10 pixels ended in the kernel's out-of-memory killer."""
+    """Not decoded, so not held to the 5 bytes a pixel of decoding; but its classes take 4
+    bytes a pixel while classified (10^10 pixels: beyond most machines), and those are
+    held to the memory available."""
     path = tmp_path / "map.pgm"
     assert cv2.imwrite(str(path), np.full((10, 12), 254, np.uint8))
     _memory(monkeypatch, 120 * 4)

@@ -359,8 +359,8 @@ def test_node_ids_that_are_tuples_are_written_as_text_the_loader_reads(tmp_path)
     ],
 )
 def test_node_ids_strict_json_cannot_hold_are_refused_by_name(tmp_path, ids, words):
-    """A NaN or an infinity in a node id was refused by the JSON writer's own message
-    ("Out of range float values are not JSON compliant"), which named no node."""
+    """A NaN or an infinity in a node id is refused naming the node, not by the JSON
+    writer's own message ("Out of range float values are not JSON compliant")."""
     g = nx.relabel_nodes(skeleton_to_graph(art("###"), resolution_m=1.0), ids)
     with pytest.raises((TypeError, ValueError), match=words):
         tj.save_nav2_graph(g, tmp_path / "x.geojson")

@@ -742,16 +742,16 @@ def test_with_the_map_a_route_does_not_join_a_nearer_point_behind_a_wall():
     assert (r.start_snap_m, r.goal_snap_m) == pytest.approx((0.7, 0.3))
     assert r.length_m == pytest.approx(3.0 + 1.2 + 3.0)
     # an end that sees no graph point within reach joins the nearest in sight, up to
-    # entry_m farther than the nearest point (it joined the nearest, through the wall)
+    # entry_m farther than the nearest point, not the nearest through the wall
     r = RoutePlanner(g, occupancy=m, entry_m=0.6).route(start, goal, frame="pixel")
     assert r.pixels[0].tolist() == [5, 10] and r.length_m == pytest.approx(3.0 + 1.2 + 3.0)
     assert r.start_snap_m == pytest.approx(0.7)
 
 
 def test_with_the_map_a_point_the_robot_does_not_fit_at_joins_the_graph_in_sight():
-    """A robot closer to a wall than its radius sees no graph point over feasible pixels;
-    it joined the nearest point, through the wall.  It now leaves along a straight line
-    off the obstacles, as the page's router does."""
+    """A robot closer to a wall than its radius sees no graph point over feasible pixels:
+    it leaves along a straight line off the obstacles, as the page's router does, not to
+    the nearest point through the wall."""
     m, g = wall_between()
     start, goal = (5, 19), (5, 25)  # 0.1 m from the wall: the robot (0.25 m) does not fit
     assert RoutePlanner(g).route(start, goal, frame="pixel").pixels[0].tolist() == [5, 22]
@@ -762,8 +762,8 @@ def test_with_the_map_a_point_the_robot_does_not_fit_at_joins_the_graph_in_sight
 
 
 def test_with_the_map_a_point_in_a_pocket_the_graph_does_not_reach_is_refused():
-    """A point in a closet walled off from the graph: every leg to the graph crosses a
-    wall.  It was routed from the nearest point, through the wall; now an error."""
+    """A point in a closet walled off from the graph, where every leg to the graph
+    crosses a wall, is an error, not a route from the nearest point through the wall."""
     m, g = wall_between(closet=True)
     planner = RoutePlanner(g, occupancy=m)
     with pytest.raises(
@@ -804,7 +804,7 @@ def test_with_the_map_an_end_joins_its_nearest_point_in_sight_even_with_no_reach
 
 def test_with_the_map_no_sight_line_is_drawn_from_off_the_map(monkeypatch):
     """A point off the map sees nothing: its lines are not drawn (with max_snap_m=None,
-    one to every corridor point within reach of a point 100 km off took gigabytes)."""
+    one to every corridor point within reach of a point 100 km off takes gigabytes)."""
     import topojax.routing as routing
 
     m, g = wall_between()

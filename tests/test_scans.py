@@ -474,10 +474,10 @@ def test_carmen_scans_whose_timestamp_is_not_finite_are_skipped(tmp_path):
 
 
 def test_a_carmen_log_whose_every_pose_is_not_finite_is_refused_for_its_poses(tmp_path):
-    """Every scan skipped for its pose left the range survey without a reading, refused as
-    a log with no finite range reading (or, with max_range_m, an empty log and a warning):
-    the refusal names the poses and the first line, as the bag and Octave readers name
-    the first record of a log none of whose records makes a scan."""
+    """Every scan skipped for its pose is no log without a finite range reading (nor, with
+    max_range_m, an empty log): the refusal names the poses and the first line, as the
+    bag and Octave readers name the first record of a log none of whose records makes a
+    scan."""
     path = tmp_path / "lost.log"
     path.write_text(
         "PARAM robot_front_laser_max 50\n"
@@ -908,7 +908,7 @@ def test_octave_scans_whose_fields_make_no_scan_are_skipped(tmp_path, field, old
 
 
 def test_an_octave_log_whose_every_pose_is_not_finite_is_refused(tmp_path):
-    # each skipped alone, they left an empty log behind a warning
+    # each skipped alone, but together no empty log behind a warning
     path = tmp_path / "scans.txt"
     text = _OCTAVE_NDIMS.replace(" 1\n 2\n 0.5\n", " nan\n 2\n 0.5\n", 1)
     path.write_text(text.replace(" -1 -2 -0.5\n", " -1 inf -0.5\n", 1))
@@ -1358,7 +1358,7 @@ def test_bag_missing_pose_skip_or_error(tmp_path):
 
 
 def test_a_bag_none_of_whose_scans_has_a_pose_is_refused(tmp_path):
-    # the odometry lost after its first sample: skipping each scan read as an empty recording
+    # the odometry lost after its first sample: every scan skipped is no empty recording
     pytest.importorskip("rosbags")
     path = tmp_path / "lost.bag"
     _write_robot_bag(path, 1, glitch=range(1, 31))  # odometry at 0 s only
@@ -1372,7 +1372,7 @@ def test_a_bag_none_of_whose_scans_has_a_pose_is_refused(tmp_path):
 
 
 def test_a_pose_topic_whose_every_pose_is_not_finite_is_refused_as_such(tmp_path):
-    # it read "has no messages"
+    # it has messages, none of them usable
     pytest.importorskip("rosbags")
     path = tmp_path / "lost.bag"
     _write_robot_bag(path, 1, with_tf=False, with_odom=True, glitch=range(31))

@@ -462,8 +462,8 @@ def test_a_pgm_that_changes_after_it_was_opened_is_refused(tmp_path):
 
 def test_a_pgm_rewritten_between_the_blocks_of_workers_is_refused(tmp_path, monkeypatch):
     """A worker's copy of the map (pickled, as a process pool or a Dask worker gets it)
-    mapped the file when it first read it and took the file as it was then: a PGM
-    rewritten (the same size) between two blocks gave a graph mixed from two maps."""
+    holds the file's signature from when the map was opened: a PGM rewritten (the same
+    size) between two blocks is refused, not read into a graph mixed from two maps."""
     import concurrent.futures as cf
     import os
     import pickle
