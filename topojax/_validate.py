@@ -66,22 +66,29 @@ def finite_positive(name: str, value: object) -> float:
     return quantity(name, value, unit="", allow_zero=False)
 
 
-def _integral(value: Any) -> int | None:
-    """``value`` as an int if it is an integer: a Python or NumPy int, not a bool (the
-    number inside a 0-d array, NumPy's or any other with ``__array__`` such as a JAX
-    scalar); None for anything else, floats with a whole value included. The one test
-    behind every int check here."""
-    if type(value) is int:
-        return value
+def _number(value: Any, kind: type) -> Any:
+    """``value``, or the number inside it if it is a 0-d array (NumPy's or any other with
+    ``__array__`` such as a JAX scalar), if that is a ``kind`` (``numbers.Integral``,
+    ``numbers.Real``) and not a bool; None otherwise."""
     if (
         not isinstance(value, numbers.Number)
         and hasattr(value, "__array__")
         and getattr(value, "shape", None) == ()
     ):
         value = np.asarray(value)[()]
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, kind):
         return None
-    return int(value)
+    return value
+
+
+def _integral(value: Any) -> int | None:
+    """``value`` as an int if it is an integer: a Python or NumPy int, not a bool, or a
+    0-d array of one; None for anything else, floats with a whole value included. The one
+    test behind every int check here."""
+    if type(value) is int:
+        return value
+    number = _number(value, numbers.Integral)
+    return None if number is None else int(number)
 
 
 def integer(name: str, value: object) -> int:
@@ -112,15 +119,7 @@ def _real(value: Any) -> Any:
     :func:`real_number` and :func:`quantity`."""
     if type(value) is float or type(value) is int:
         return value
-    if (
-        not isinstance(value, numbers.Number)
-        and hasattr(value, "__array__")
-        and getattr(value, "shape", None) == ()
-    ):
-        value = np.asarray(value)[()]
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        return None
-    return value
+    return _number(value, numbers.Real)
 
 
 def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
