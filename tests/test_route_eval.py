@@ -99,6 +99,21 @@ def test_graph_partly_in_the_wall_safe_routes_avoid_it():
     assert r.success_rate > r.success_safe_rate > 0.0
 
 
+@pytest.mark.parametrize("row", [2.5, 3.5])
+def test_graph_on_the_border_of_a_region_lies_on_it(row):
+    # 5 free rows, feasible row 3 only; the graph runs along the border between row 3 and
+    # the infeasible row above or below it: its points lie on row 3 too, on either side
+    m = _corridor(5)
+    g = nx.Graph()
+    g.add_node(0, pixel=(row, 3.0))
+    g.add_node(1, pixel=(row, 198.0))
+    g.add_edge(0, 1)
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=20, coordinates="pixel")
+    assert r.unsafe_share == 0.0
+    assert (r.feasible_regions, r.regions_missed, r.regions_split) == (1, 0, 0)
+    assert r.uncovered_share == 0.0
+
+
 def _two_rooms() -> OccupancyMap:
     occ = np.ones((22, 44), bool)
     occ[1:21, 1:21] = False  # room A: cols 1..20

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-__all__ = ["GraphGeometry", "graph_geometry", "pixel_lookup", "vertex_pixels"]
+__all__ = ["GraphGeometry", "graph_geometry", "pixel_lookup", "touched_pixels", "vertex_pixels"]
 
 # Polyline ends closer than this (pixels) to their vertex count as lying on it.
 _END_TOL_PX = 1e-6
@@ -317,6 +317,17 @@ def graph_geometry(graph: nx.Graph, occupancy, coordinates: str) -> GraphGeometr
     )
 
 
+def _touched_ranges(rc: np.ndarray):
+    """The lowest and highest row and column of the pixels each point ``rc`` (..., 2)
+    touches: its own, or both pixels of a border it lies on (a coordinate exactly
+    halfway between two centres)."""
+    r_lo = np.ceil(rc[..., 0] - 0.5 - _TIE)
+    r_hi = np.floor(rc[..., 0] + 0.5 + _TIE)
+    c_lo = np.ceil(rc[..., 1] - 0.5 - _TIE)
+    c_hi = np.floor(rc[..., 1] + 0.5 + _TIE)
+    return (r_lo, r_hi), (c_lo, c_hi)
+
+
 def pixel_lookup(mask: np.ndarray, rc: np.ndarray) -> np.ndarray:
     """Whether each point ``rc`` (..., 2) lies on a pixel of ``mask``: the pixel it is
     inside, or, for a point on a border or corner shared by pixels (a coordinate exactly
@@ -324,12 +335,29 @@ def pixel_lookup(mask: np.ndarray, rc: np.ndarray) -> np.ndarray:
     rc = np.asarray(rc, np.float64)
     h, w = mask.shape
     out = np.zeros(rc.shape[:-1], bool)
-    r_lo = np.ceil(rc[..., 0] - 0.5 - _TIE)
-    r_hi = np.floor(rc[..., 0] + 0.5 + _TIE)
-    c_lo = np.ceil(rc[..., 1] - 0.5 - _TIE)
-    c_hi = np.floor(rc[..., 1] + 0.5 + _TIE)
-    for r in (r_lo, r_hi):
-        for c in (c_lo, c_hi):
+    rows, cols = _touched_ranges(rc)
+    for r in rows:
+        for c in cols:
             inside = (r >= 0) & (r < h) & (c >= 0) & (c < w) & ~out
             out[inside] = mask[r[inside].astype(np.int64), c[inside].astype(np.int64)]
     return out
+
+
+def touched_pixels(rc: np.ndarray, shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every map pixel each point ``rc`` (N, 2) lies on, as ``pixel_lookup`` reads them
+    (the pixel it is inside, or each pixel of a border or corner it lies on; none off
+    the map): ``(point, row, col)``, int64, one entry per point and pixel."""
+    rc = np.asarray(rc, np.float64).reshape(-1, 2)
+    h, w = shape
+    rows, cols = _touched_ranges(rc)
+    point = np.arange(rc.shape[0])
+    parts = []
+    for i, r in enumerate(rows):
+        for j, c in enumerate(cols):
+            new = (r >= 0) & (r < h) & (c >= 0) & (c < w)
+            if i:  # the second row only where it differs from the first: once each
+                new &= rows[1] != rows[0]
+            if j:
+                new &= cols[1] != cols[0]
+            parts.append((point[new], r[new].astype(np.int64), c[new].astype(np.int64)))
+    return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))

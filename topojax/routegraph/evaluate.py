@@ -24,7 +24,7 @@ from .._validate import (
 from ..fields.clearance import distance_transform_px
 from ..maps import map_argument
 from ..maps.occupancy import map_mismatch
-from ._eval_geometry import GraphGeometry, graph_geometry, pixel_lookup
+from ._eval_geometry import GraphGeometry, graph_geometry, pixel_lookup, touched_pixels
 from ._eval_loops import short_dead_ends, short_loops
 from ._eval_routes import (
     PairSet,
@@ -149,12 +149,11 @@ def _components(geo: GraphGeometry) -> tuple[int, np.ndarray]:
 def _region_metrics(fs: FeasibleSpace, geo: GraphGeometry, regions, snap_px: float):
     """(components, regions_missed, regions_split, uncovered_share)."""
     n_comp, comp = _components(geo)
-    rc = np.rint(geo.pt_rc).astype(np.int64) if geo.pt_rc.size else np.empty((0, 2), np.int64)
     h, w = fs.labels.shape
-    inside = (rc[:, 0] >= 0) & (rc[:, 0] < h) & (rc[:, 1] >= 0) & (rc[:, 1] < w)
-    rc_in = rc[inside]
-    label = fs.labels[rc_in[:, 0], rc_in[:, 1]]
-    pt_comp = comp[geo.edge_u[geo.pt_edge[inside]]]
+    # every pixel a point lies on: a point on a pixel border lies on both pixels
+    point, rows, cols = touched_pixels(geo.pt_rc, (h, w))
+    label = fs.labels[rows, cols]
+    pt_comp = comp[geo.edge_u[geo.pt_edge[point]]]
     big = np.zeros(fs.area_m2.size, bool)
     big[regions] = True
     sel = big[label]
@@ -168,8 +167,8 @@ def _region_metrics(fs: FeasibleSpace, geo: GraphGeometry, regions, snap_px: flo
     if n_target == 0:
         return n_comp, missed, split, math.nan
     not_graph = np.ones((h, w), np.uint8)
-    not_graph[rc_in[:, 0], rc_in[:, 1]] = 0
-    if rc_in.shape[0] == 0:
+    not_graph[rows, cols] = 0
+    if rows.size == 0:
         return n_comp, missed, split, 1.0
     dist = distance_transform_px(not_graph)
     far = np.count_nonzero(target & (dist > np.float32(snap_px)))
