@@ -369,6 +369,15 @@ def test_a_non_finite_polyline_point_is_named():
         evaluate_route_graph(g, m, RADIUS)
 
 
+@pytest.mark.parametrize("value", ["abc", [[1.0, 2.0], [3.0]]])
+def test_a_polyline_that_is_not_numbers_is_named_as_received(value):
+    m = _corridor(5)
+    g = _graph(m, [_row(3, 3, 198)])
+    next(iter(g.edges(data=True)))[2]["waypoints"] = value
+    with pytest.raises(ValueError, match=rf"'waypoints': .* received {type(value).__name__} "):
+        evaluate_route_graph(g, m, RADIUS)
+
+
 def test_geodesic_matches_skimage_mcp_geometric():
     from skimage.graph import MCP_Geometric
 

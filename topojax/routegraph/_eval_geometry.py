@@ -8,6 +8,7 @@ them); the caller converts to metres.
 
 from __future__ import annotations
 
+import reprlib
 from dataclasses import dataclass
 
 import networkx as nx
@@ -118,10 +119,13 @@ def _edge_points(edge, data: dict, coordinates: str) -> tuple[np.ndarray | None,
         return None, False
     try:
         arr = np.asarray(data[key], dtype=np.float64)
-    except (TypeError, ValueError):
-        arr = np.empty((0, 0))
+    except (TypeError, ValueError):  # not numbers, or rows of different lengths
+        raise ValueError(
+            f"graph: edge {edge!r} attribute {key!r}: expected a (K, 2) array of finite "
+            f"numbers, received {type(data[key]).__name__} {reprlib.repr(data[key])}"
+        ) from None
     if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 2 or not np.isfinite(arr[:, :2]).all():
-        got = f"shape {getattr(arr, 'shape', None)}"
+        got = f"shape {arr.shape}"
         if arr.ndim == 2 and arr.shape[0] >= 1 and arr.shape[1] >= 2:  # the shape is right
             row = int(np.flatnonzero(~np.isfinite(arr[:, :2]).all(axis=1))[0])
             got += f" with a non-finite point {arr[row, :2].tolist()} at row {row}"
