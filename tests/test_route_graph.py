@@ -519,6 +519,14 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     assert g.graph["robot_radius_m"] == 0.25 and g.number_of_edges() > 0
     text = capsys.readouterr().out
     assert "route_graph.geojson" in text and "empty route graph" not in text
+    counts = {"vertices": g.number_of_nodes(), "edges": g.number_of_edges()}
+    counts["components"] = nx.number_connected_components(g)
+    assert (
+        f"route graph {counts['vertices']} vertices, {counts['edges']} edges, "
+        f"{counts['components']} components, robot radius 0.25 m\n" in text
+    )
+    timings = json.loads((tmp_path / "timings.json").read_text())
+    assert timings["route_graph"] == {**counts, "robot_radius_m": 0.25}
     assert not (tmp_path / "route_graph_nav2.geojson").exists()
     # with --nav2 the route graph, not only the topology graph, goes to the Route Server
     assert main([*argv, "--route-graph", "0.25", "--nav2"]) == 0
@@ -527,7 +535,9 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     assert len(edges) >= 2 * g.number_of_edges()  # both directions of every waypoint run
     assert main([*argv, "--route-graph", "-1"]) == 2  # refused before the replay
     assert main([*argv, "--route-graph", "100", "--nav2"]) == 0  # a robot too large: said so
-    assert "empty route graph: no known-free region" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "empty route graph: no known-free region" in text
+    assert "route graph 0 vertices, 0 edges, 0 components, robot radius 100 m\n" in text
     assert not (tmp_path / "route_graph_nav2.geojson").exists()  # the earlier run's went
 
 

@@ -136,7 +136,9 @@ def replay(
         ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals, :class:`ExtentError`,
         of scans that would have grown the map out of the mapper's bounds, a localisation
         glitch: skipped, the replay goes on), ``n_tiles``, ``vertices``, ``edges``,
-        ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
+        ``route_graph`` (with ``route_graph_radius_m``: its ``vertices``, ``edges``,
+        ``components`` and ``robot_radius_m``; else None), ``timings`` (per loop),
+        ``written`` (paths), ``messages``.  A map grown too large
         to export, an unreadable scan part way through the log, or an interrupt or error
         (also while the files are written) leaves
         the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
@@ -514,8 +516,10 @@ def _summary(source, mapper: IncrementalMapper, done: _Replayed, progress_at) ->
     from .graph import graph_summary
 
     summary_g = graph_summary(done.result.graph)
+    routes = done.routes
     return {
         "rooms": None if done.seg is None else done.seg.n_rooms,
+        "route_graph": None if routes is None else _route_counts(routes),
         "source": str(source),
         "n_scans": mapper.n_scans,
         "skipped_scans": done.skipped,
@@ -529,6 +533,19 @@ def _summary(source, mapper: IncrementalMapper, done: _Replayed, progress_at) ->
         "timings": timing_summary(done.reports),
         "settings": settings_of(mapper),
         "resumed_after": progress_at.resumed_after,
+    }
+
+
+def _route_counts(routes) -> dict:
+    """The vertices, edges and components of a route graph, and its robot radius."""
+    import networkx as nx
+
+    n = routes.number_of_nodes()
+    return {
+        "vertices": n,
+        "edges": routes.number_of_edges(),
+        "components": nx.number_connected_components(routes) if n else 0,
+        "robot_radius_m": routes.graph["robot_radius_m"],
     }
 
 
@@ -738,6 +755,13 @@ def summary_text(summary: dict) -> str:
         f"graph      {summary['vertices']} vertices, {summary['edges']} edges",
         "loop        calls    mean ms     p50 ms     p99 ms   amortised ms/scan",
     ]
+    routes = summary.get("route_graph")
+    if routes is not None:
+        lines.insert(
+            2,
+            f"route graph {routes['vertices']} vertices, {routes['edges']} edges, "
+            f"{routes['components']} components, robot radius {routes['robot_radius_m']:g} m",
+        )
     if summary.get("rooms") is not None:
         lines.insert(2, f"rooms      {counted(summary['rooms'], 'room')}")
     for k in ("distance", "splat", "skeleton", "graph", "rooms", "add_scan"):
