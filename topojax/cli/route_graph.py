@@ -37,7 +37,8 @@ def add_command(subparsers) -> None:
         type=float,
         default=1.0,
         metavar="M",
-        help="every feasible point lies within M metres of the graph (0.2 to 5; default 1.0)",
+        help="every feasible point lies within M metres of the graph (0.2 to 5, and at "
+        "least 0.1 plus 1.5 pixels of the map; default 1.0)",
     )
     p.add_argument(
         "--resolution",
