@@ -136,9 +136,8 @@ def replay(
         ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals, :class:`ExtentError`,
         of scans that would have grown the map out of the mapper's bounds, a localisation
         glitch: skipped, the replay goes on), ``n_tiles``, ``vertices``, ``edges``,
-        ``route_graph`` (with ``route_graph_radius_m``: its ``vertices``, ``edges``,
-        ``components`` and ``robot_radius_m``; else None), ``timings`` (per loop),
-        ``written`` (paths), ``messages``.  A map grown too large
+        ``route_graph`` (its ``vertices``, ``edges``, ``components``, ``robot_radius_m``;
+        None without one), ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
         to export, an unreadable scan part way through the log, or an interrupt or error
         (also while the files are written) leaves
         the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
