@@ -608,3 +608,43 @@ def test_a_replay_that_fails_before_keeping_anything_leaves_no_folder_it_made(tm
     with pytest.raises(ValueError, match="no laser lines"):
         replay(empty, out_dir=out)
     assert out.is_dir()
+
+
+@pytest.mark.parametrize("presses", [1, 2])
+def test_a_ctrl_c_while_a_stopped_replay_keeps_its_scans_waits_for_them(
+    tmp_path, monkeypatch, full_run, presses
+):
+    """Ctrl-C pressed again while a stopping replay saved its state (a second press of
+    an impatient user) broke off the save: the mapped scans were lost without a word.  A
+    press then waits for the state and the recordings to be kept; a second one while it
+    waits breaks off at once, and the warning says that nothing was kept."""
+    import topojax._replay_state as replay_state
+    import topojax.incremental.state as state_module
+
+    def pressed(real):
+        def saving(*args, **kwargs):
+            for _ in range(presses):
+                os.kill(os.getpid(), signal.SIGINT)
+            return real(*args, **kwargs)
+
+        return saving
+
+    out, gif = tmp_path / "out", tmp_path / "graph.gif"
+    interrupted_reader(monkeypatch, 12)
+    monkeypatch.setattr(state_module, "save_state", pressed(state_module.save_state))
+    monkeypatch.setattr(replay_state, "save_frames", pressed(replay_state.save_frames))
+    kept = "is saved to" if presses == 1 else "was interrupted, so it is not kept"
+    with pytest.warns(RuntimeWarning, match=kept), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, animate=gif, **SETTINGS)
+    monkeypatch.undo()
+    if presses == 2:
+        assert not (out / STATE_FILE).exists()
+        return
+    assert IncrementalMapper.load(out / STATE_FILE).n_scans == 12
+    assert (out / ".replay_partial" / "recorded.json").is_file()
+    summary = replay(
+        INTEL_EXCERPT, out_dir=out, progress=False, resume=True, animate=gif, **SETTINGS
+    )
+    assert summary["resumed_after"] == 12
+    assert not [m for m in summary["messages"] if "holds the scans after" in m]
+    assert_same_outputs(full_run[0], out)

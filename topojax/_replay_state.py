@@ -84,6 +84,18 @@ class WholeScans:
                 self._pending = False
                 raise KeyboardInterrupt  # noqa: B012
 
+    @contextlib.contextmanager
+    def held_then_dropped(self):
+        """Within ``with``, a Ctrl-C is held as in :meth:`held`, and dropped once the
+        block has run: for keeping what a stopping replay mapped (its state, its
+        recordings), after which the stop is raised anyway; a second one while it is held
+        interrupts at once."""
+        self._busy = True
+        try:
+            yield
+        finally:
+            self._busy = self._pending = False
+
     def add(self, mapper, scan, index: int, progress: ReplayProgress, then=None):
         """``mapper.add_scan(scan)`` of the log's scan ``index`` (from 0), counted in
         ``progress`` once the mapper took it (also when it raised part way), then
@@ -171,7 +183,16 @@ def keep_state(mapper, out: Path, record) -> bool:
     if mapper.n_scans == 0 or mapper.pixel_bbox is None:
         return False
     try:
-        path = save_replay_state(mapper, out / STATE_FILE, record())
+        with WholeScans() as whole, whole.held_then_dropped():  # a Ctrl-C waits for it
+            path = save_replay_state(mapper, out / STATE_FILE, record())
+    except KeyboardInterrupt:  # a second Ctrl-C while the state was saved
+        warnings.warn(
+            f"replay stopped after {mapper.n_scans} scans; saving the mapper's state was "
+            "interrupted, so it is not kept",
+            RuntimeWarning,
+            stacklevel=_CALLER,
+        )
+        raise
     except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
         warnings.warn(
             f"replay stopped after {mapper.n_scans} scans; saving the mapper's state "
@@ -289,15 +310,16 @@ def keep_recordings(out: Path, progress: ReplayProgress, recorder, timeline, fra
         return
     recorded = progress.recorded
     try:
-        shutil.rmtree(folder, ignore_errors=True)
-        folder.mkdir(parents=True)
-        if recorder is not None:
-            recorder.close(folder / "recording.mcap")
-        if timeline is not None:
-            timeline.save(folder / "timeline.json.gz")
-        if frames is not None:
-            save_frames(frames, folder / "frames.npz")
-        (folder / "recorded.json").write_text(json.dumps({"recorded": recorded}))
+        with WholeScans() as whole, whole.held_then_dropped():  # a Ctrl-C waits for them
+            shutil.rmtree(folder, ignore_errors=True)
+            folder.mkdir(parents=True)
+            if recorder is not None:
+                recorder.close(folder / "recording.mcap")
+            if timeline is not None:
+                timeline.save(folder / "timeline.json.gz")
+            if frames is not None:
+                save_frames(frames, folder / "frames.npz")
+            (folder / "recorded.json").write_text(json.dumps({"recorded": recorded}))
     except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
         shutil.rmtree(folder, ignore_errors=True)
         warnings.warn(
