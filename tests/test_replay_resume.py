@@ -380,6 +380,22 @@ def test_replay_cli_resume(stopped, tmp_path, full_run, capsys):
     assert not (tmp_path / "empty").exists()
 
 
+def test_replay_cli_refused_resume_names_the_options(stopped, capsys):
+    """A resume refused for other options named the library's parameters
+    (``graph_every``, ``max_range_m``, ``max_scans=5``); it names the options typed."""
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(stopped), "--resume", "--no-progress"]
+    for options, message in (
+        (["--graph-every", "8"], "other settings (--graph-every: saved 7, now 8)"),
+        (["--max-range", "40"], "other reader options (--max-range: saved None, now 40.0)"),
+        (["--max-scans", "5"], "more than --max-scans=5"),
+    ):
+        given = ["--graph-every", "7", "--skeleton-every", "3", *options]
+        assert main([*args, *given]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "_every" not in err and "max_range_m" not in err
+    assert IncrementalMapper.load(stopped / STATE_FILE).n_scans == 12  # left for a resume
+
+
 @pytest.mark.parametrize(("signum", "status"), [("SIGTERM", 143), ("SIGINT", 130)])
 def test_replay_cli_stopped_by_a_signal_keeps_its_scans(
     tmp_path, monkeypatch, full_run, capsys, signum, status

@@ -125,16 +125,33 @@ def _cmd_replay(args) -> int:
 #: The parameters of :func:`topojax.replay` that errors name, and the options that set
 #: them (``mcap`` is checked as ``--mcap`` before; ``.mcap`` ends its messages' names).
 _OPTION_OF = {"out_dir": "--out", "animate": "--animate", "resume": "--resume"}
+#: With them, the mapper settings, reader options and ``max_scans`` that a refused
+#: resume names (``resume: ...``), as the options that set them.
+_RESUME_OPTION_OF = {
+    **_OPTION_OF,
+    "max_scans": "--max-scans",
+    "resolution_m": "--resolution",
+    "skeleton_every": "--skeleton-every",
+    "graph_every": "--graph-every",
+    "strategy": "--strategy",
+    "max_extent_m": "--max-extent-m",
+    "max_range_m": "--max-range",
+    "scan_topic": "--scan-topic",
+    "pose_topic": "--pose-topic",
+    "allow_missing_pose": "--allow-missing-pose",
+}
 
 
 @contextlib.contextmanager
 def _named_as_options():
     """Within ``with``, an error of :func:`topojax.replay` that names its parameters
-    (``out_dir``, ``animate``, ``resume``) names the options instead."""
+    (``out_dir``, ``animate``, ``resume``; in a refused resume also the settings and
+    reader options it compares, and ``max_scans``) names the options instead."""
     try:
         yield
     except (TypeError, ValueError, OSError) as exc:
-        raise _as_option_error(exc, _OPTION_OF) from None
+        names = _RESUME_OPTION_OF if str(exc).startswith("resume:") else _OPTION_OF
+        raise _as_option_error(exc, names) from None
 
 
 @contextlib.contextmanager
