@@ -435,6 +435,44 @@ def test_replay_cli_stopped_by_a_signal_keeps_its_scans(
     assert_same_outputs(full_run[0], out)
 
 
+def test_replay_cli_in_a_background_job_stops_on_sigterm_too(
+    tmp_path, monkeypatch, full_run, capsys
+):
+    """A script's background job ignores SIGINT, and there SIGTERM (``kill``) was left to
+    end the command at once, every mapped scan lost; it now stops the replay there too,
+    once the scan being mapped is counted, and a SIGINT is still ignored."""
+    real = IncrementalMapper.add_scan
+
+    def add_scan(self, scan):
+        if self.n_scans == 10:
+            os.kill(os.getpid(), signal.SIGINT)  # ignored
+        if self.n_scans == 14:
+            os.kill(os.getpid(), signal.SIGTERM)  # held while scan 15 is mapped
+        return real(self, scan)
+
+    def ignored(signum, frame):  # what SIGTERM does outside the command
+        pass
+
+    monkeypatch.setattr(IncrementalMapper, "add_scan", add_scan)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN), signal.signal(signal.SIGTERM, ignored)
+    out = tmp_path / "out"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]
+    args += ["--graph-every", "7", "--skeleton-every", "3"]
+    try:
+        with pytest.warns(RuntimeWarning, match="stopped after 15 scans"):
+            assert main(args) == 143
+        assert signal.getsignal(signal.SIGTERM) is ignored  # the command's is undone
+        assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous[0])
+        signal.signal(signal.SIGTERM, previous[1])
+    assert "topojax replay: stopped by SIGTERM" in capsys.readouterr().err
+    assert IncrementalMapper.load(out / STATE_FILE).n_scans == 15
+    monkeypatch.undo()
+    assert main([*args, "--resume"]) == 0
+    assert_same_outputs(full_run[0], out)
+
+
 class SlowMapper:
     """Counts scans as IncrementalMapper does; a Ctrl-C arrives while it maps scan
     ``interrupted`` (after it has counted it), and twice while it maps ``twice``."""

@@ -33,27 +33,44 @@ class ReplayProgress:
         self.skipped = list(skipped or [])
 
 
+#: The :class:`WholeScans` in force in the main thread, the innermost last.
+_IN_FORCE: list[WholeScans] = []
+
+
+def interrupt(signum, frame) -> None:
+    """Interrupt a replay as a Ctrl-C does, from a signal handler of the main thread:
+    held by the innermost :class:`WholeScans` in force while it maps a scan (or holds),
+    at once (``KeyboardInterrupt``) otherwise.  For a signal other than SIGINT (``topojax
+    replay``'s SIGTERM) where SIGINT is ignored (a background job of a script)."""
+    if _IN_FORCE:
+        _IN_FORCE[-1]._interrupt(signum, frame)
+    else:
+        raise KeyboardInterrupt
+
+
 class WholeScans:
     """Maps scans so that an interrupt falls between them: within ``with``, a Ctrl-C
     (SIGINT) that arrives while :meth:`add` maps a scan is held until the scan is mapped
     and counted, then raised; a second one while it is held, or one between scans,
     interrupts at once.  Outside the main thread, or where SIGINT has a handler other
-    than Python's default, interrupts are left as they are."""
+    than Python's default, interrupts are left as they are (:func:`interrupt` is held
+    in the main thread all the same)."""
 
     def __init__(self) -> None:
         self._busy = False
         self._pending = False
         self._old = None
+        self._main = False
 
     def __enter__(self) -> WholeScans:
         import signal
         import threading
 
-        if (
-            threading.current_thread() is threading.main_thread()
-            and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-        ):
-            self._old = signal.signal(signal.SIGINT, self._interrupt)
+        self._main = threading.current_thread() is threading.main_thread()
+        if self._main:
+            _IN_FORCE.append(self)
+            if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+                self._old = signal.signal(signal.SIGINT, self._interrupt)
         return self
 
     def __exit__(self, *exc) -> None:
@@ -62,6 +79,9 @@ class WholeScans:
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
             self._old = None
+        if self._main:
+            _IN_FORCE.remove(self)
+            self._main = False
 
     def _interrupt(self, signum, frame) -> None:
         if self._busy and not self._pending:

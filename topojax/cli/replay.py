@@ -160,23 +160,25 @@ def _stops_on_signals():
     manager's stop) stop the replay as Ctrl-C stops :func:`topojax.replay`, which keeps
     the mapped scans for ``--resume``; the list it yields then holds the signal.  SIGTERM
     goes through the SIGINT handler in force when it arrives, the replay's, which lets
-    the scan being mapped finish.  Outside the main thread, or where SIGINT is not
-    Python's default (ignored in a background job, say: the replay then cannot hold an
-    interrupt until a scan is mapped), SIGTERM is left as it is."""
+    the scan being mapped finish; where SIGINT is ignored (a background job of a
+    script), through the replay's holding all the same.  Outside the main thread, or
+    where SIGINT has another handler, SIGTERM is left as it is."""
+    from .._replay_state import interrupt
+
     stopped: list[signal.Signals] = []
 
     def terminate(signum, frame):
         stopped[:] = [signal.SIGTERM]
         handler = signal.getsignal(signal.SIGINT)
-        if not callable(handler):
-            raise KeyboardInterrupt
-        handler(signal.SIGINT, frame)
+        if not callable(handler):  # ignored: the replay holds the stop all the same
+            interrupt(signal.SIGINT, frame)
+        else:
+            handler(signal.SIGINT, frame)
 
     previous = None
-    if (
-        threading.current_thread() is threading.main_thread()
-        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    ):
+    if threading.current_thread() is threading.main_thread() and signal.getsignal(
+        signal.SIGINT
+    ) in (signal.default_int_handler, signal.SIG_IGN):
         previous = signal.signal(signal.SIGTERM, terminate)
     try:
         yield stopped
