@@ -388,6 +388,7 @@ def test_replay_cli_refused_resume_names_the_options(stopped, capsys):
         (["--graph-every", "8"], "other settings (--graph-every: saved 7, now 8)"),
         (["--max-range", "40"], "other reader options (--max-range: saved None, now 40.0)"),
         (["--max-scans", "5"], "more than --max-scans=5"),
+        (["--rooms"], "other settings (--rooms: saved None, now "),
     ):
         given = ["--graph-every", "7", "--skeleton-every", "3", *options]
         assert main([*args, *given]) == 2

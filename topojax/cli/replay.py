@@ -133,6 +133,7 @@ _RESUME_OPTION_OF = {
     "resolution_m": "--resolution",
     "skeleton_every": "--skeleton-every",
     "graph_every": "--graph-every",
+    "rooms_every": "--rooms",
     "strategy": "--strategy",
     "max_extent_m": "--max-extent-m",
     "max_range_m": "--max-range",
