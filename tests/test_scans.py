@@ -907,47 +907,48 @@ def test_octave_scans_whose_fields_make_no_scan_are_skipped(tmp_path, field, old
     assert b.pose == (-1.0, -2.0, -0.5) and b.angle_increment == 0.25
 
 
+def _octave_refused(path, text: str, match: str) -> None:
+    """An Octave log of ``text`` written at ``path`` is refused with ``match``."""
+    path.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        list(read_octave_laser(path))
+
+
 def test_an_octave_log_whose_every_pose_is_not_finite_is_refused(tmp_path):
     # each skipped alone, but together no empty log behind a warning
-    path = tmp_path / "scans.txt"
     text = _OCTAVE_NDIMS.replace(" 1\n 2\n 0.5\n", " nan\n 2\n 0.5\n", 1)
-    path.write_text(text.replace(" -1 -2 -0.5\n", " -1 inf -0.5\n", 1))
-    with pytest.raises(
-        ValueError,
-        match=r"none of its 2 element\(s\) of scans makes a scan: each pose is not finite "
+    _octave_refused(
+        tmp_path / "scans.txt",
+        text.replace(" -1 -2 -0.5\n", " -1 inf -0.5\n", 1),
+        r"none of its 2 element\(s\) of scans makes a scan: each pose is not finite "
         r"\(NaN or infinite\), the first scans\(1\)$",
-    ):
-        list(read_octave_laser(path))
+    )
 
 
 def test_an_octave_log_none_of_whose_elements_makes_a_scan_is_refused(tmp_path):
     # angles in degrees are no glitch: skipping every element would read as an empty log
-    path = tmp_path / "degrees.txt"
     text = OCTAVE_EXCERPT.read_text()
     assert "-1.570796" in text
-    path.write_text(text.replace("-1.570796", "-90"))
-    with pytest.raises(
-        ValueError,
-        match=r"none of its 20 element\(s\) of laser makes a scan; the first whose fields "
+    _octave_refused(
+        tmp_path / "degrees.txt",
+        text.replace("-1.570796", "-90"),
+        r"none of its 20 element\(s\) of laser makes a scan; the first whose fields "
         r"make none is laser\(1\): ",
-    ):
-        list(read_octave_laser(path))
+    )
 
 
 def test_an_octave_log_refused_counts_every_element_skipped(tmp_path):
     # one pose not finite, the other element's fields make no scan: both count
-    path = tmp_path / "scans.txt"
     text = _OCTAVE_NDIMS.replace(" 1\n 2\n 0.5\n", " nan\n 2\n 0.5\n", 1)
     head, tail = text.split("# name: angular_resolution\n")
     tail = tail.replace("# type: scalar\n0.25\n", "# type: scalar\n0\n", 1)
-    path.write_text(head + "# name: angular_resolution\n" + tail)
     with pytest.warns(UserWarning, match="whose pose is not finite"):
-        with pytest.raises(
-            ValueError,
-            match=r"none of its 2 element\(s\) of scans makes a scan; the first whose fields "
+        _octave_refused(
+            tmp_path / "scans.txt",
+            head + "# name: angular_resolution\n" + tail,
+            r"none of its 2 element\(s\) of scans makes a scan; the first whose fields "
             r"make none is scans\(2\): angle_increment",
-        ):
-            list(read_octave_laser(path))
+        )
 
 
 def test_octave_errors(tmp_path):
