@@ -402,12 +402,7 @@ class RoutePlanner:
         """With the map, a query point on an occupied pixel is an error (a robot inside a
         wall: a localisation fault, or a goal picked on a wall), not a route from the
         nearest corridor."""
-        with np.errstate(over="ignore"):  # a point far off the map: no pixel of its own
-            qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
-            qp = np.floor(qp + 0.5)
-        if not np.isfinite(qp).all():
-            return  # beyond every pixel: the distance check that follows refuses it
-        r, c = (int(v) for v in qp)
+        _, (r, c) = self._query_pixel(q, frame)
         occupied = self._occupancy.occupied
         if 0 <= r < occupied.shape[0] and 0 <= c < occupied.shape[1] and occupied[r, c]:
             raise ValueError(
@@ -415,6 +410,17 @@ class RoutePlanner:
                 f"{tuple(float(v) for v in q)} ({frame} frame), on the occupied pixel "
                 f"({r}, {c})"
             )
+
+    def _query_pixel(self, q: np.ndarray, frame: str) -> tuple[np.ndarray, tuple[int, int]]:
+        """Query ``q`` in the map's pixel coordinates (float64 (2,)) and the pixel it
+        rounds to (halves up), ``(-1, -1)`` for a point so far off the map that it has no
+        pixel (the distance check refuses it)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
+            own = np.floor(qp + 0.5)
+        if not np.isfinite(own).all():
+            return qp, (-1, -1)
+        return qp, (int(own[0]), int(own[1]))
 
     def _snap(self, owner, distance_m: float) -> _Snap:
         edge, index, vertex = (int(x) for x in owner)
@@ -429,10 +435,8 @@ class RoutePlanner:
         passes through (:func:`topojax._sight.sees`).  Candidates are tried nearest first, a batch at a
         time, skipping edges already joined (bounded memory for any reach)."""
         tree, owners = self._tree(frame)
-        with np.errstate(over="ignore", invalid="ignore"):  # far off the map: no pixel
-            qp = q if frame == "pixel" else np.array(self._occupancy.world_to_pixel(*q), np.float64)
-            own = np.floor(qp + 0.5)
-        (h, w), (r, c) = mask.shape, (int(v) if np.isfinite(v) else -1 for v in own)
+        qp, (r, c) = self._query_pixel(q, frame)
+        h, w = mask.shape
         if not (0 <= r < h and 0 <= c < w and mask[r, c]):
             return []  # every line would start off the map or on a pixel it may not cross
         cand = np.asarray(tree.query_ball_point(q, reach_m / scale), np.int64)
