@@ -2780,7 +2780,7 @@ def test_add_scans_and_save_name_a_bad_argument(tmp_path):
     assert mapper.n_scans == 0 and not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize("update", ["no", None, 0, np.array(True)])
+@pytest.mark.parametrize("update", ["no", None, 0, np.array([True])])
 def test_to_result_update_is_a_bool(update):
     """``update`` was read by its truth value: "no" updated the graph, None did not."""
     with pytest.raises(TypeError, match="^update: expected a bool, received "):

@@ -225,6 +225,10 @@ def test_the_int_checks_refuse_a_0d_bool_or_float_array_as_they_refuse_a_bool_or
     for check in (v.integer, v.positive_int, v.kernel_tile_px):
         with pytest.raises(TypeError, match=r"^n: expected an int.*, received "):
             check("n", value)
+
+
+@pytest.mark.parametrize("value", [np.array(3.0), np.array([3]), np.array([True]), 3.0])
+def test_binary_flag_refuses_a_float_or_a_1d_array(value):
     with pytest.raises(TypeError, match=r"^negate: expected a bool or 0/1, received "):
         v.binary_flag("negate", value)
 
@@ -234,21 +238,33 @@ def test_the_int_checks_refuse_a_0d_bool_or_float_array_as_they_refuse_a_bool_or
 # --------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("value", [True, False, np.bool_(True), np.bool_(False)])
-def test_flag_accepts_python_and_numpy_bools(value):
+@pytest.mark.parametrize(
+    "value", [True, False, np.bool_(True), np.bool_(False), np.array(True), np.array(False)]
+)
+def test_flag_accepts_python_and_numpy_bools_and_0d_bool_arrays(value):
     out = v.flag("plot", value)
     assert type(out) is bool and out == bool(value)
 
 
+def test_flag_takes_a_0d_jax_bool_array_as_the_number_checks_take_a_0d_jax_number():
+    jnp = pytest.importorskip("jax.numpy")
+    assert v.flag("plot", jnp.array(True)) is True and v.flag("plot", jnp.array(False)) is False
+    assert v.binary_flag("negate", jnp.array(True)) is True
+
+
 @pytest.mark.parametrize(
-    "value", [1, 0, np.int64(1), "yes", None, 1.0, np.array(True), type("bool_", (), {})()]
+    "value",
+    [1, 0, np.int64(1), np.array(1), "yes", None, 1.0, np.array([True]), np.array("True")]
+    + [type("bool_", (), {})()],
 )
 def test_flag_rejects_non_bools(value):
     with pytest.raises(TypeError, match="^plot: expected a bool, received "):
         v.flag("plot", value)
 
 
-@pytest.mark.parametrize("value", [True, False, 0, 1, np.int8(1), np.bool_(False)])
+@pytest.mark.parametrize(
+    "value", [True, False, 0, 1, np.int8(1), np.bool_(False), np.array(True), np.array(0)]
+)
 def test_binary_flag_accepts_bools_and_0_1(value):
     out = v.binary_flag("negate", value)
     assert type(out) is bool and out == bool(value)

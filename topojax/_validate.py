@@ -4,10 +4,11 @@ Each check returns the value in its canonical Python type, or raises a ``TypeErr
 wrong type / a ``ValueError`` for a wrong value (:func:`existing_file`: also
 ``FileNotFoundError``) whose message reads ``"<name>: expected <what>, received <what was
 given>"``.
-NumPy scalars are accepted wherever the matching Python type is, and 0-d numeric arrays
-(NumPy's, JAX's) wherever a number is; a bool check takes a Python or NumPy bool only (a
-0-d bool array is an array); ``bool`` is never a number, and a float (whole or not) is
-never an int.
+NumPy scalars are accepted wherever the matching Python type is, and a 0-d array (NumPy's,
+JAX's) wherever its item is: a 0-d numeric array where a number is, a 0-d bool array where
+a bool is.  A bool (of any of these forms) is never a number, a number is never a bool
+(a flag refuses 1 and 0; :func:`binary_flag` alone takes them), and a float (whole or not)
+is never an int.
 """
 
 from __future__ import annotations
@@ -66,19 +67,35 @@ def finite_positive(name: str, value: object) -> float:
     return quantity(name, value, unit="", allow_zero=False)
 
 
-def _number(value: Any, kind: type) -> Any:
-    """``value``, or the number inside it if it is a 0-d array (NumPy's or any other with
-    ``__array__`` such as a JAX scalar), if that is a ``kind`` (``numbers.Integral``,
-    ``numbers.Real``) and not a bool; None otherwise."""
+def _item(value: Any) -> Any:
+    """The item inside ``value`` if it is a 0-d array (NumPy's or any other with
+    ``__array__`` such as a JAX scalar), else ``value`` itself."""
     if (
-        not isinstance(value, numbers.Number)
+        not isinstance(value, (numbers.Number, np.bool_))
         and hasattr(value, "__array__")
         and getattr(value, "shape", None) == ()
     ):
-        value = np.asarray(value)[()]
+        return np.asarray(value)[()]
+    return value
+
+
+def _number(value: Any, kind: type) -> Any:
+    """``value``, or the item inside it if it is a 0-d array (:func:`_item`), if that is a
+    ``kind`` (``numbers.Integral``, ``numbers.Real``) and not a bool; None otherwise."""
+    value = _item(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, kind):
         return None
     return value
+
+
+def _boolean(value: Any) -> bool | None:
+    """``value`` as a bool if it is one: a Python or NumPy bool, or a 0-d array of one
+    (:func:`_item`); None for anything else, numbers included. The one test behind
+    :func:`flag` and :func:`binary_flag`."""
+    if type(value) is bool:
+        return value
+    value = _item(value)
+    return bool(value) if isinstance(value, (bool, np.bool_)) else None
 
 
 def _integral(value: Any) -> int | None:
@@ -157,10 +174,12 @@ def real_array(name: str, value: Any, *, finite: bool = False) -> np.ndarray:
 
 
 def flag(name: str, value: object) -> bool:
-    """``value`` as a bool after checking it is one (Python or NumPy)."""
-    if not isinstance(value, (bool, np.bool_)):
+    """``value`` as a bool after checking it is one (see :func:`_boolean`): a Python or
+    NumPy bool or a 0-d array of one, not a number (1, 0)."""
+    out = _boolean(value)
+    if out is None:
         raise TypeError(f"{name}: expected a bool, received {type(value).__name__} {value!r}")
-    return bool(value)
+    return out
 
 
 def quantity(name: str, value: object, *, unit: str, allow_zero: bool) -> float:
@@ -395,11 +414,13 @@ def names_subset(name: str, value: Any, choices: tuple[str, ...]) -> tuple[str, 
 
 
 def binary_flag(name: str, value: Any) -> bool:
-    """``value`` as a bool after checking it is a bool or the integer 0 or 1 (Python or
-    NumPy), as ``map_server`` YAML files write ``negate``: a ``TypeError`` for another
-    type (a float, a str), a ``ValueError`` for another integer."""
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
+    """``value`` as a bool after checking it is a bool (see :func:`flag`) or the integer
+    0 or 1 (Python or NumPy, or a 0-d array of one), as ``map_server`` YAML files write
+    ``negate``: a ``TypeError`` for another type (a float, a str), a ``ValueError`` for
+    another integer."""
+    out = _boolean(value)
+    if out is not None:
+        return out
     expected = f"{name}: expected a bool or 0/1, received"
     number = _integral(value)
     if number is None:
