@@ -522,6 +522,21 @@ def test_negative_ridge_threshold_is_refused():
     assert tj.RidgeConfig(threshold=0).threshold == 0.0
 
 
+def test_a_ridge_scale_or_threshold_float32_cannot_hold_is_refused():
+    """``threshold=1e39`` with ``scale=1e38`` passed the scale's range check, then the
+    threshold became inf in the float32 kernels and no pixel was a ridge (so did both
+    with ``scale=2.55e40``, the paper's ratio); float32's largest finite value itself is
+    taken."""
+    top = float(np.finfo(np.float32).max)
+    with pytest.raises(ValueError, match=r"^threshold: expected a number at most 3\.40282e\+38 "):
+        tj.RidgeConfig(threshold=1e39, scale=1e38)
+    with pytest.raises(ValueError, match=r"^scale: .* float32.*received 1e\+39$"):
+        tj.RidgeConfig(threshold=1e38, scale=1e39)
+    edge = tj.RidgeConfig(threshold=top, scale=top)
+    assert (edge.threshold, edge.scale) == (top, top)
+    assert np.isfinite(np.float32(edge.threshold)) and np.isfinite(np.float32(edge.scale))
+
+
 def test_a_ridge_scale_outside_the_range_the_test_can_resolve_is_refused():
     """``scale=1e30`` made every pixel with any curvature a ridge.  The ridge test is
     ``|Laplacian(H)| > (floor(threshold) + 0.5) / scale`` on a map in [0, 1]: refused are

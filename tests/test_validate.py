@@ -566,10 +566,21 @@ def test_pixel_rows():
             v.pixel_rows("p", (bad, 2.0), one=True)
 
 
+def test_float32_finite_refuses_what_float32_turns_into_an_infinity():
+    top = float(np.finfo(np.float32).max)
+    for ok in (0.0, -top, top, 1e38):
+        assert v.float32_finite("scale", ok) == ok
+    for bad in (1e39, -1e39, np.nextafter(top, math.inf)):
+        with pytest.raises(
+            ValueError, match=r"^scale: expected a number at most 3\.40282e\+38 in magnitude "
+        ):
+            v.float32_finite("scale", bad)
+
+
 def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "existing_file", "finite_numbers", "finite_pair",
-        "finite_positive", "flag", "instance_of", "instance_or_default", "int_at_least",
+        "finite_positive", "flag", "float32_finite", "instance_of", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "plain_int_pair", "plain_length_m", "pose", "positive_int", "positive_metres",
         "quantity", "real_number", "robot_radius", "text_or_none", "xy_points",

@@ -31,6 +31,7 @@ __all__ = [
     "finite_pair",
     "finite_positive",
     "flag",
+    "float32_finite",
     "instance_of",
     "instance_or_default",
     "int_at_least",
@@ -180,6 +181,23 @@ def flag(name: str, value: object) -> bool:
     if out is None:
         raise TypeError(f"{name}: expected a bool, received {type(value).__name__} {value!r}")
     return out
+
+
+#: The largest finite float32 (about 3.4e38): a larger number becomes inf in a float32
+#: kernel.
+MAX_FLOAT32 = float(np.finfo(np.float32).max)
+
+
+def float32_finite(name: str, value: float) -> float:
+    """``value``, a finite float already checked, after checking it stays finite in
+    float32 (at most :data:`MAX_FLOAT32` from 0), for a number a float32 kernel takes; a
+    ``ValueError`` otherwise."""
+    if abs(value) > MAX_FLOAT32:
+        raise ValueError(
+            f"{name}: expected a number at most {MAX_FLOAT32:g} in magnitude (float32's "
+            f"largest finite value: the kernels compute in float32), received {value!r}"
+        )
+    return value
 
 
 def quantity(name: str, value: object, *, unit: str, allow_zero: bool) -> float:

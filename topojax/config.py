@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from ._validate import (
     finite_positive,
     flag,
+    float32_finite,
     integer,
     kernel_tile_px,
     kernel_tiles_per_call,
@@ -207,7 +208,8 @@ class RidgeConfig:
         OpenCV Laplacian aperture: 1, 3 or 5 (paper: 5).
     threshold : float
         Ridge threshold on the rounded absolute response, ``>= 0`` (paper: 10; strict
-        ``>``).
+        ``>``).  Like ``scale``, at most float32's largest finite value (about 3.4e38):
+        both reach the kernels as float32.
     """
 
     scale: float = 255.0
@@ -215,7 +217,7 @@ class RidgeConfig:
     threshold: float = 10.0
 
     def __post_init__(self) -> None:
-        _canonical(self, "scale", finite_positive("scale", self.scale))
+        _canonical(self, "scale", float32_finite("scale", finite_positive("scale", self.scale)))
         _canonical(self, "ksize", integer("ksize", self.ksize))
         if self.ksize not in (1, 3, 5):
             raise ValueError(
@@ -227,7 +229,7 @@ class RidgeConfig:
                 f"threshold: expected a finite number >= 0 (on the rounded absolute "
                 f"Laplacian), received {threshold!r}"
             )
-        _canonical(self, "threshold", threshold)
+        _canonical(self, "threshold", float32_finite("threshold", threshold))
         low, high = _scale_range(self.ksize, threshold)
         if not low <= self.scale <= high:
             raise ValueError(
