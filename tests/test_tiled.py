@@ -6,6 +6,8 @@ clearances, attributes)."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from floorplans import floor_plan
@@ -387,6 +389,30 @@ def test_memory_budget_sets_the_block_side():
         r"256 px tile with a halo of 1024 px.*received 64",
     ):
         block_px_for_budget(64, wide)
+
+
+def test_a_memory_budget_above_the_memory_available_is_warned_of_once(monkeypatch):
+    """A budget above the memory available sized blocks that could not fit, and nothing
+    said so; a warning names the budget and the memory (not a refusal: what is available
+    changes).  At or below it, or where it is not known, nothing is said."""
+    import topojax.outofcore.build as build
+
+    monkeypatch.setattr(build, "available_memory_bytes", lambda: 100 * 2**20)
+    with pytest.warns(UserWarning) as caught:
+        assert block_px_for_budget(512, PipelineConfig()) % 256 == 0
+    assert [str(w.message) for w in caught] == [
+        "memory_budget_mb: 512 MB is more than the 100.0 MiB of memory available; blocks "
+        "sized to it may not fit (a smaller budget gives smaller blocks)"
+    ]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        tj.build_graph_tiled(np.zeros((64, 64), bool), config=SMALL, memory_budget_mb=200)
+    assert ["memory_budget_mb: 200 MB" in str(w.message) for w in caught] == [True]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        block_px_for_budget(100, PipelineConfig())  # all that is available
+        monkeypatch.setattr(build, "available_memory_bytes", lambda: None)  # not Linux
+        block_px_for_budget(10**6, PipelineConfig())
 
 
 # ----------------------------------------------------------------------- bad arguments

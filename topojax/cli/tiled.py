@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 from ._graph_out import GRAPH_SUFFIXES, summary_lines, write_graph_files, write_nav2
@@ -95,13 +96,17 @@ def cmd_graph_tiled(args) -> int:
     options = map_options(args)
     source = tiled_source(args.map, **options)
     config = pipeline_config(args, resolution_m=source.resolution_m)
-    try:
-        block_px_for_budget(budget, config)
-    except ValueError as exc:  # its message names the parameter, not the option
-        raise _option_named(exc, "memory_budget_mb", "--memory-budget-mb") from None
+    with warnings.catch_warnings(record=True) as caught:
+        try:
+            block_px = block_px_for_budget(budget, config)
+        except ValueError as exc:  # its message names the parameter, not the option
+            raise _option_named(exc, "memory_budget_mb", "--memory-budget-mb") from None
+    for w in caught:  # so do its warnings
+        text = str(w.message).replace("memory_budget_mb:", "--memory-budget-mb:", 1)
+        warnings.warn(text, w.category, stacklevel=2)
     store = output_folder(out, name="--out") / f"{stem}_store"
     result = build_graph_tiled(
-        source, config=config, memory_budget_mb=budget, out_dir=store, resume=args.resume
+        source, config=config, block_px=block_px, out_dir=store, resume=args.resume
     )
     written = write_graph_files(result.graph, out, stem)
     notes = []

@@ -8,6 +8,7 @@ import concurrent.futures as cf
 import math
 import os
 import time
+import warnings
 from collections import deque
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -16,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .._cpus import as_executor
+from .._cpus import as_executor, available_memory_bytes, byte_size
 from .._fs import output_folder
 from .._validate import flag, instance_or_default, positive_int, quantity
 from ..config import PipelineConfig
@@ -106,7 +107,9 @@ def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
     """The largest block side (a multiple of ``config.tile_px``, at least one tile) whose
     stages take about ``memory_budget_mb`` (:data:`BYTES_PER_WINDOW_PX` per pixel of the
     kernels' window, the block plus the first halo on each side); a budget below one
-    tile's window is refused."""
+    tile's window is refused.  A budget above the memory available now
+    (:func:`~topojax._cpus.available_memory_bytes`) guards nothing: a ``UserWarning``
+    says so (not a refusal: what is available changes while a build runs)."""
     budget = quantity("memory_budget_mb", memory_budget_mb, unit="megabytes", allow_zero=False)
     t = config.tile_px
     halo = _first_halo(config)
@@ -116,6 +119,15 @@ def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
             f"memory_budget_mb: expected at least {math.ceil(least_mb * 10) / 10:g} MB, what "
             f"the smallest block takes (one {t} px tile with a halo of {halo} px on each "
             f"side, the distance window's reach), received {budget:g}"
+        )
+    available = available_memory_bytes()
+    if available is not None and budget * 2**20 > available:
+        warnings.warn(
+            f"memory_budget_mb: {budget:g} MB is more than the {byte_size(available)} of "
+            "memory available; blocks sized to it may not fit (a smaller budget gives "
+            "smaller blocks)",
+            UserWarning,
+            stacklevel=2,
         )
     side = math.sqrt(budget * 2**20 / BYTES_PER_WINDOW_PX) - 2 * halo
     return max(t, int(side // t) * t)
@@ -199,7 +211,8 @@ def build_graph_tiled(
     memory_budget_mb : float, default 512
         Memory for one block's stages (per worker), used when ``block_px`` is None;
         not the kernels' compilers and runtimes, which a process's first call loads
-        once (``docs/performance.md``).
+        once (``docs/performance.md``).  A budget above the memory available is
+        warned of (:func:`block_px_for_budget`).
     executor : concurrent.futures.Executor or dask.distributed.Client, optional
         Runs the blocks as tasks (a Dask ``Client``: on its workers, each reading its
         window from the source); default: one after another in this process.  A
