@@ -485,16 +485,72 @@ def test_a_carmen_log_whose_every_pose_is_not_finite_is_refused_for_its_poses(tm
         + "FLASER 4 1 2 3 4 inf 0 0 0 0 0 1 h 1\n"
     )
     pose_fault = (
-        rf"^{re.escape(str(path))}: no FLASER line makes a scan: 2 skipped for a pose that is "
-        r"not finite \(NaN or infinite\), the first on line 2: pose: expected finite x y "
-        r"theta, received \[0\.0, nan, 0\.0\]$"
+        rf"^{re.escape(str(path))}: no scan to read: 2 FLASER line\(s\) skipped for a pose "
+        r"that is not finite \(NaN or infinite\), the first on line 2: pose: expected finite "
+        r"x y theta, received \[0\.0, nan, 0\.0\]; expected at least one well-formed FLASER "
+        r"line with a finite pose and timestamp$"
     )
     for kw in ({}, {"max_range_m": 10.0}):
         with pytest.raises(ValueError, match=pose_fault):
             list(read_carmen(path, **kw))
     path.write_text(_flaser([1, 2, 3, 4], (0, 0, 0), ts="nan") + _flaser([1, 2], (0, "nan", 0)))
-    with pytest.raises(ValueError, match=r"2 skipped for a timestamp or pose .* line 1: time"):
+    with pytest.raises(
+        ValueError, match=r"2 FLASER line\(s\) skipped for a timestamp or pose .* line 1: time"
+    ):
         list(read_carmen(path, max_range_m=10.0))
+
+
+def test_a_carmen_log_whose_every_laser_line_is_skipped_as_malformed_is_refused(tmp_path):
+    # bad_lines="skip" passes over damage; a log of nothing but damage is no empty log
+    path = tmp_path / "damaged.log"
+    robot = "ROBOTLASER1 0 -1.5 3 0.1 10 0.1 0 3 1 2 x 0\n"
+    expected = r"; expected at least one well-formed {} line with a finite pose and timestamp$"
+    for text, kind in (
+        (_flaser([1, 2, 3, 4], (0, 0, 0)).replace("2.00", "x") + "FLASER 4 1 2\n", "FLASER"),
+        (robot, "ROBOTLASER1"),
+    ):
+        path.write_text(text)
+        for kw in ({}, {"max_range_m": 10.0}):
+            with pytest.raises(
+                ValueError,
+                match=rf"^{re.escape(str(path))}: no scan to read: \d malformed {kind} line\(s\) "
+                r"skipped \(bad_lines='skip', --skip-bad-lines\), the first on line 1: range reading: not a "
+                r"number .*" + expected.format(kind),
+            ):
+                list(read_carmen(path, bad_lines="skip", **kw))
+    # with lines skipped for a pose not finite, the refusal counts both
+    path.write_text(_flaser([1, 2, 3, 4], (0, "nan", 0)) + "FLASER 4 1 2\n")
+    for kw in ({}, {"max_range_m": 10.0}):
+        with pytest.raises(
+            ValueError,
+            match=r"no scan to read: 1 FLASER line\(s\) skipped for a pose that is not finite "
+            r".* on line 1: .*; 1 malformed FLASER line\(s\) skipped .* on line 2: .*"
+            + expected.format("FLASER"),
+        ):
+            list(read_carmen(path, bad_lines="skip", **kw))
+
+
+def test_a_carmen_log_without_a_line_of_the_kind_asked_for_is_refused(tmp_path):
+    path = tmp_path / "front.log"
+    path.write_text(_flaser([1, 2, 3, 4], (0, 0, 0)))
+    for kind in ("ROBOTLASER1", "RLASER"):
+        with pytest.raises(
+            ValueError,
+            match=rf"^{re.escape(str(path))}: no scan to read: no {kind} line found; expected "
+            rf"at least one, the kind laser='{kind}' asks for$",
+        ):
+            list(read_carmen(path, laser=kind))
+
+
+def test_a_carmen_log_whose_every_scan_comes_before_the_first_odom_line_is_refused(tmp_path):
+    path = tmp_path / "raw.log"
+    path.write_text("RAWLASER1 0 -1.5 3.0 0.75 20.0 0.01 0 3 1 2 3 0 0.5 host 0.5\n")
+    with pytest.raises(
+        ValueError,
+        match=r"no scan to read: 1 RAWLASER1 line\(s\) skipped before the first ODOM line "
+        r"\(they have no pose\); expected",
+    ):
+        list(read_carmen(path))
 
 
 def test_damaged_gzip_logs_raise_value_errors_naming_the_file(tmp_path):
@@ -920,8 +976,9 @@ def test_an_octave_log_whose_every_pose_is_not_finite_is_refused(tmp_path):
     _octave_refused(
         tmp_path / "scans.txt",
         text.replace(" -1 -2 -0.5\n", " -1 inf -0.5\n", 1),
-        r"none of its 2 element\(s\) of scans makes a scan: each pose is not finite "
-        r"\(NaN or infinite\), the first scans\(1\)$",
+        r": no scan to read: 2 element\(s\) of scans skipped for a pose that is not finite "
+        r"\(NaN or infinite\), the first scans\(1\); expected at least one element of scans "
+        r"with a finite pose$",
     )
 
 
@@ -932,8 +989,8 @@ def test_an_octave_log_none_of_whose_elements_makes_a_scan_is_refused(tmp_path):
     _octave_refused(
         tmp_path / "degrees.txt",
         text.replace("-1.570796", "-90"),
-        r"none of its 20 element\(s\) of laser makes a scan; the first whose fields "
-        r"make none is laser\(1\): ",
+        r": no scan to read: 20 element\(s\) of laser skipped, the first whose fields "
+        r"make none is laser\(1\): .*; expected at least one whose fields make a scan$",
     )
 
 
@@ -946,7 +1003,7 @@ def test_an_octave_log_refused_counts_every_element_skipped(tmp_path):
         _octave_refused(
             tmp_path / "scans.txt",
             head + "# name: angular_resolution\n" + tail,
-            r"none of its 2 element\(s\) of scans makes a scan; the first whose fields "
+            r": no scan to read: 2 element\(s\) of scans skipped, the first whose fields "
             r"make none is scans\(2\): angle_increment",
         )
 
@@ -1290,7 +1347,9 @@ def test_a_bag_none_of_whose_laser_scans_makes_a_scan_is_refused(tmp_path):
     pytest.importorskip("rosbags")
     bad = {k: (_scan_ranges(k), {"angle_increment": 0.0}) for k in range(len(SCAN_TIMES))}
     _write_robot_bag(tmp_path / "glitch", 2, bad_scans=bad)
-    with pytest.raises(ValueError, match=r"none of its \d+ sensor_msgs/msg/LaserScan message"):
+    with pytest.raises(
+        ValueError, match=r"no scan to read: \d+ sensor_msgs/msg/LaserScan message\(s\) on "
+    ):
         list(read_bag(tmp_path / "glitch"))
 
 
@@ -1366,8 +1425,9 @@ def test_a_bag_none_of_whose_scans_has_a_pose_is_refused(tmp_path):
     with pytest.warns(UserWarning, match=r"skipped 30 pose\(s\) or transform\(s\)"):
         with pytest.raises(
             ValueError,
-            match=rf"none of its {len(SCAN_TIMES)} sensor_msgs/msg/LaserScan message\(s\) on "
-            r"/scan has a pose within pose_tolerance_s of the pose data, the first at t=",
+            match=rf"no scan to read: {len(SCAN_TIMES)} sensor_msgs/msg/LaserScan message\(s\) "
+            r"on /scan skipped for no pose within pose_tolerance_s of the pose data, the first "
+            r"at t=.*; expected at least one scan within pose_tolerance_s of the pose data$",
         ):
             list(read_bag(path, pose_tolerance_s=0.01))
 

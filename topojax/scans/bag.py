@@ -15,7 +15,7 @@ from .._validate import pose as checked_pose
 from ._mcap import _MCAP_MAGIC, _McapSequential
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
 from ._tf import _IDENTITY_TF, BadTransform, _Tf, _tf_from_msg, _TfSeries, _TfTree
-from .scan import PoseLike, Scan, _SkippedScans
+from .scan import PoseLike, Scan, _SkippedScans, no_scan_error
 
 _LASERSCAN = "sensor_msgs/msg/LaserScan"
 _TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
@@ -388,9 +388,11 @@ def _iter_bag(
             yield scan
     records = f"{_LASERSCAN} message(s) on {scan_topic}"
     if skipped and not unusable.made and not unusable.count:
-        raise ValueError(
-            f"{path}: none of its {skipped} {records} has a pose within pose_tolerance_s of "
-            f"the pose data, the first at t={first_skipped / 1e9:.9f} s"
+        raise no_scan_error(
+            path,
+            f"{skipped} {records} skipped for no pose within pose_tolerance_s of the pose "
+            f"data, the first at t={first_skipped / 1e9:.9f} s",
+            "at least one scan within pose_tolerance_s of the pose data",
         )
     if skipped:
         warnings.warn(

@@ -13,7 +13,7 @@ import numpy as np
 from .._validate import existing_file, one_of, real_number
 from .._validate import pose as checked_pose
 from ._text import _cut_off, _open_text
-from .scan import PoseLike, Scan, _relative
+from .scan import PoseLike, Scan, _relative, no_scan_error
 
 _OLD_LASERS = ("FLASER", "RLASER")
 _ROBOT_LASERS = ("ROBOTLASER1", "ROBOTLASER2")
@@ -122,7 +122,8 @@ class _Survey(NamedTuple):
     """What the first pass over a log found: the laser message to use, the PARAM values,
     and (when the range limit is to be inferred) each scan's largest finite reading, the
     readings within ``_TOP_BAND_M`` of it, how many finite readings there were, how many
-    lines had a finite pose, and how many had none and the first of them."""
+    lines had a finite pose, how many had none and the first of them, whether a line of
+    the kind was found, and how many were malformed (skipped) and the first of them."""
 
     chosen: str | None
     params: dict[str, str]
@@ -131,6 +132,8 @@ class _Survey(NamedTuple):
     n_readings: int
     n_posed: int
     unposed: tuple[int, str]
+    found: bool
+    bad: tuple[int, str]
 
 
 def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = False) -> _Survey:
@@ -139,8 +142,9 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
     chosen = None if laser == "auto" else laser
     scan_max: list[float] = []
     tops: list[np.ndarray] = []
-    n_readings = n_posed = n_unposed = 0
-    first_unposed = ""
+    n_readings = n_posed = n_unposed = n_bad = 0
+    first_unposed = first_bad = ""
+    found = False
     params: dict[str, str] = {}
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
@@ -157,6 +161,7 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
                 chosen = key
             if key != chosen:
                 continue
+            found = True
             if not need_max:
                 # Keep reading PARAM lines only until the first scan of the chosen kind.
                 break
@@ -173,9 +178,12 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
             except _CarmenLineError as err:
                 if _cut_off(line):  # the logger stopped mid-line: the scans before count
                     break
-                if skip_bad:
-                    continue
-                raise _malformed(path, lineno, key, err) from None
+                if not skip_bad:
+                    raise _malformed(path, lineno, key, err) from None
+                if not n_bad:
+                    first_bad = f"line {lineno}: {err}"
+                n_bad += 1
+                continue
             n_posed += 1
             finite = ranges[np.isfinite(ranges)]
             if finite.size:
@@ -191,6 +199,8 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
         n_readings,
         n_posed,
         (n_unposed, first_unposed),
+        found,
+        (n_bad, first_bad),
     )
 
 
@@ -322,7 +332,8 @@ def read_carmen(
         A malformed laser line (a field that is not a number, a wrong count): an error
         naming the line (default), or ``"skip"``: the line is skipped, and a warning gives
         the count and the first line once the iterator is exhausted (a log damaged part
-        way through can then be read, or a stopped replay resumed, past the damage).
+        way through can then be read, or a stopped replay resumed, past the damage; a
+        log none of whose lines is well-formed is refused).
 
     Returns
     -------
@@ -337,8 +348,9 @@ def read_carmen(
     ValueError
         For a malformed laser line (unless ``bad_lines="skip"``) or a malformed ODOM line
         a scan needs, with the file name and line number;
-        for bad arguments; if the file has no scan of the requested kind, or none whose
-        pose and timestamp are finite.
+        for bad arguments; if the file has no line of the requested kind, or none that
+        makes a scan (each skipped for a pose or timestamp that is not finite, as
+        malformed with ``bad_lines="skip"``, or before the first ODOM line).
     """
     p = existing_file("path", path)
     one_of("laser", laser, ("auto", *_CARMEN_LASERS))
@@ -370,12 +382,17 @@ def _iter_carmen(
     survey = _survey_carmen(path, laser, need_max, skip_bad)
     chosen, params = survey.chosen, survey.params
     if chosen is None:
-        raise ValueError(f"{path}: no laser lines found (looked for {', '.join(_CARMEN_LASERS)})")
+        kinds = ", ".join(_CARMEN_LASERS)
+        raise no_scan_error(path, "no laser lines found", f"a line of one of {kinds}")
+    if not survey.found:
+        raise no_scan_error(
+            path, f"no {chosen} line found", f"at least one, the kind laser={laser!r} asks for"
+        )
     old = chosen in _OLD_LASERS
     range_max_old: float | None = max_range_m
     if old and range_max_old is None:
-        if not survey.scan_max.size and not survey.n_posed and survey.unposed[0]:
-            raise _no_scan(path, chosen, survey.unposed[0], "pose", survey.unposed[1])
+        if not survey.n_posed and (survey.unposed[0] or survey.bad[0]):
+            raise _no_scan(path, chosen, (*survey.unposed, "pose"), survey.bad)
         if not survey.scan_max.size:
             raise ValueError(f"{path}: no finite {chosen} range readings to find the max range")
         file_max, faulty = _no_return_value(survey.scan_max, margin)
@@ -434,6 +451,10 @@ def _iter_carmen(
                 continue
             made += 1
             yield scan
+    if not made and (skipped or n_bad or not_finite):
+        whats = " or ".join(kind.what for kind in not_finite)
+        count = sum(map(len, not_finite.values()))
+        raise _no_scan(path, chosen, (count, first_not_finite, whats), (n_bad, first_bad), skipped)
     if skipped:
         warnings.warn(
             f"{path}: skipped {skipped} {chosen} scan(s) before the first ODOM line "
@@ -446,9 +467,6 @@ def _iter_carmen(
             f"the first on {first_bad}",
             stacklevel=2,
         )
-    if not_finite and not made:
-        whats = " or ".join(kind.what for kind in not_finite)
-        raise _no_scan(path, chosen, sum(map(len, not_finite.values())), whats, first_not_finite)
     for kind, lines in not_finite.items():
         warnings.warn(
             f"{path}: skipped {len(lines)} {chosen} scan(s) whose {kind.what} is not finite "
@@ -460,13 +478,36 @@ def _iter_carmen(
 _ZERO_POSE = (0.0, 0.0, 0.0)
 
 
-def _no_scan(path: Path, chosen: str, count: int, whats: str, first: str) -> ValueError:
-    """The refusal of a log none of whose ``chosen`` lines makes a scan, ``count`` of them
-    skipped for a ``whats`` (``pose``, ``timestamp``) not finite, the ``first`` of them
-    ``line 3: ...``."""
-    return ValueError(
-        f"{path}: no {chosen} line makes a scan: {count} skipped for a {whats} that is not "
-        f"finite (NaN or infinite), the first on {first}"
+def _no_scan(
+    path: Path,
+    chosen: str,
+    not_finite: tuple[int, str, str],
+    bad: tuple[int, str],
+    before_odom: int = 0,
+) -> ValueError:
+    """The refusal of a log none of whose ``chosen`` lines makes a scan: ``not_finite``
+    ``(count, first, whats)`` of them skipped for a ``whats`` (``pose``, ``timestamp``)
+    not finite, the first of them ``line 3: ...``; ``bad`` ``(count, first)`` skipped as
+    malformed (``bad_lines="skip"``); ``before_odom`` skipped before the first ODOM line."""
+    reasons = []
+    if not_finite[0]:
+        reasons.append(
+            f"{not_finite[0]} {chosen} line(s) skipped for a {not_finite[2]} that is not "
+            f"finite (NaN or infinite), the first on {not_finite[1]}"
+        )
+    if bad[0]:
+        reasons.append(
+            f"{bad[0]} malformed {chosen} line(s) skipped (bad_lines='skip', --skip-bad-lines), "
+            f"the first on {bad[1]}"
+        )
+    if before_odom:
+        reasons.append(
+            f"{before_odom} {chosen} line(s) skipped before the first ODOM line (they have no pose)"
+        )
+    return no_scan_error(
+        path,
+        "; ".join(reasons),
+        f"at least one well-formed {chosen} line with a finite pose and timestamp",
     )
 
 

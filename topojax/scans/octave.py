@@ -13,7 +13,7 @@ import numpy as np
 
 from .._validate import existing_file
 from ._text import _open_text
-from .scan import Scan, _SkippedScans
+from .scan import Scan, _SkippedScans, no_scan_error
 
 
 class _OctaveStruct:
@@ -323,9 +323,11 @@ def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
         if scan is not None:
             yield scan
     if not_finite and not unusable.made and not unusable.count:
-        raise ValueError(
-            f"{path}: none of its {len(not_finite)} element(s) of {variable} makes a scan: "
-            f"each pose is not finite (NaN or infinite), the first {variable}({not_finite[0]})"
+        raise no_scan_error(
+            path,
+            f"{len(not_finite)} element(s) of {variable} skipped for a pose that is not "
+            f"finite (NaN or infinite), the first {variable}({not_finite[0]})",
+            f"at least one element of {variable} with a finite pose",
         )
     if not_finite:
         warnings.warn(

@@ -382,6 +382,13 @@ def scans_from_arrays(
     return generate()
 
 
+def no_scan_error(path: Any, reason: str, expected: str) -> ValueError:
+    """The refusal of a log that leaves no scan to read, the same for every reader:
+    ``reason`` says what became of its records (``2 FLASER line(s) skipped for ...``),
+    ``expected`` what a log needs to make a scan."""
+    return ValueError(f"{path}: no scan to read: {reason}; expected {expected}")
+
+
 class _SkippedScans:
     """The records of a log whose fields make no :class:`Scan` (an ``angle_increment`` of
     0 or NaN, a ``range_max`` not above ``range_min``, say: a sensor glitch).  A reader
@@ -413,9 +420,11 @@ class _SkippedScans:
         ``sensor_msgs/msg/LaserScan message(s) on /scan``; ``others``: how many the reader
         skipped for another reason, a pose it has not, say, counted in the refusal)."""
         if self.count and not self.made:
-            raise ValueError(
-                f"{path}: none of its {self.count + others} {records} makes a scan; the "
-                f"first whose fields make none is {self.first}"
+            raise no_scan_error(
+                path,
+                f"{self.count + others} {records} skipped, the first whose fields make none "
+                f"is {self.first}",
+                "at least one whose fields make a scan",
             )
         if self.count:
             warnings.warn(
