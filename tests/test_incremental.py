@@ -2632,6 +2632,45 @@ def test_the_tiles_of_a_wide_far_scan_are_counted_once_and_only_up_to_the_budget
     assert 0 < mapper.tiles.n_tiles <= 30 and mapper.n_scans == 1
 
 
+def test_a_wide_far_scan_over_the_tile_budget_is_refused_from_a_spread_of_its_beams(
+    monkeypatch,
+):
+    """A scan of many far beams over the tile budget is refused once the tiles of a spread
+    of its beams are over it, without walking every beam (each walk costs work in its
+    length); a scan within the budget has every beam's tiles counted and is mapped as
+    with no budget."""
+    from topojax.incremental import _rays
+
+    walked = []
+    real = _rays._missing_ray_tiles
+
+    def counting(sr, sc, er, *args):
+        walked.append(er.shape[0])
+        return real(sr, sc, er, *args)
+
+    monkeypatch.setattr(_rays, "_missing_ray_tiles", counting)
+    tile_bytes = IncrementalMapper(**SMALL_KW).tiles.tile_nbytes
+    kw = {"skeleton_every": 0, "graph_every": 0, **SMALL_KW}
+    mapper = IncrementalMapper(max_tile_bytes=30 * tile_bytes, **kw)
+    n = 20_000
+    wide = Scan.from_arrays(
+        np.full(n, 150.0), (0, 0, 0), angle_min=-math.pi, angle_increment=2 * math.pi / n
+    )
+    with pytest.raises(ExtentError, match=r"^scan 0: .* would allocate at least 31 more tiles"):
+        mapper.add_scan(wide)
+    assert walked and max(walked) < n
+    assert mapper.tiles.n_tiles == 0
+    narrow = Scan.from_arrays(np.full(n, 150.0), (0, 0, 0), angle_min=0.0, angle_increment=1e-5)
+    unbounded = IncrementalMapper(**kw)
+    unbounded.add_scan(narrow)
+    need = unbounded.tiles.n_tiles
+    walked.clear()
+    bounded = IncrementalMapper(max_tile_bytes=need * tile_bytes, **kw)
+    bounded.add_scan(narrow)
+    assert max(walked) == n and min(walked) < n  # the spread first, then every beam
+    _assert_same_state(_state_of(unbounded), bounded)
+
+
 @pytest.mark.parametrize(
     ("glitch", "message"),
     [

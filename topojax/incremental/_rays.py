@@ -19,6 +19,11 @@ from ._tiles import _MAX_ABS_PIXEL, _UINT16_MAX, _locate, _log2, _slot, _worker_
 #: are counted at once.
 RAY_BATCH_BEAMS = 1 << 16
 
+#: Beams of a scan, spread over it, whose tiles are counted first where its extent holds
+#: more tiles than the tile budget has left: a wide far scan far over the budget is then
+#: refused after these, not after every beam (each costing work in its length).
+_PROBE_BEAMS = 1024
+
 
 @cached_njit(nogil=True)
 def _scan_geometry(ranges, angle_min, angle_inc, range_min, range_max, sx, sy, syaw, res):
@@ -280,6 +285,14 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     seen = np.zeros((hi_r // t - b0r + 1, hi_c // t - b0c + 1), np.bool_)
     # (at most the tiles of the extent: a budget of any size fits the compiled count)
     spare = min(max(mapper.max_tile_bytes // tiles.tile_nbytes - tiles.n_tiles, 0), seen.size)
+    if rays and seen.size > spare and n_valid > _PROBE_BEAMS:  # see _PROBE_BEAMS
+        step = -(-n_valid // _PROBE_BEAMS)
+        pr, pc = np.ascontiguousarray(er[::step]), np.ascontiguousarray(ec[::step])
+        probe = _missing_ray_tiles(
+            sr, sc, pr, pc, t, rays, grid, g0r, g0c, seen.copy(), b0r, b0c, spare
+        )
+        if probe.shape[0] > spare:  # a subset of the beams' tiles: "at least"
+            check_tile_budget(mapper, probe.shape[0], where, at_least=True)
     need = _missing_ray_tiles(sr, sc, er, ec, t, rays, grid, g0r, g0c, seen, b0r, b0c, spare)
     # the tiles of the beams, and of the splat windows round new obstacles (a subset of
     # the end pixels), counted exactly only where a rough bound could exceed the budget
