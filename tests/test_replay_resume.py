@@ -388,13 +388,34 @@ def test_replay_cli_refused_resume_names_the_options(stopped, capsys):
         (["--graph-every", "8"], "other settings (--graph-every: saved 7, now 8)"),
         (["--max-range", "40"], "other reader options (--max-range: saved None, now 40.0)"),
         (["--max-scans", "5"], "more than --max-scans=5"),
-        (["--rooms"], "other settings (--rooms: saved None, now "),
+        (["--rooms"], "(--rooms: the saved replay had no --rooms, this one updates rooms every 7"),
     ):
         given = ["--graph-every", "7", "--skeleton-every", "3", *options]
         assert main([*args, *given]) == 2
         err = capsys.readouterr().err
         assert message in err and "_every" not in err and "max_range_m" not in err
     assert IncrementalMapper.load(stopped / STATE_FILE).n_scans == 12  # left for a resume
+
+
+def test_replay_cli_refused_resume_without_rooms_says_so_in_words(tmp_path, monkeypatch, capsys):
+    """A replay stopped with --rooms, resumed without (or with rooms at its end only),
+    is refused saying how each replay keeps its rooms, in the option's words."""
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 12)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, rooms=True, **SETTINGS)
+    monkeypatch.undo()
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--resume", "--no-progress"]
+    for options, message in (
+        ([], "(--rooms: the saved replay updated rooms every 7 scans, this one has no --rooms)"),
+        (
+            ["--rooms", "--graph-every", "0"],
+            "--rooms: the saved replay updated rooms every 7 scans, this one after its last "
+            "scan only)",
+        ),
+    ):
+        assert main([*args, "--graph-every", "7", "--skeleton-every", "3", *options]) == 2
+        assert message in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(("signum", "status"), [("SIGTERM", 143), ("SIGINT", 130)])

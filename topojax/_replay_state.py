@@ -296,17 +296,37 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
     return mapper_from_state(IncrementalMapper, path, data), record
 
 
+def _rooms_every_differs(saved, now) -> str:
+    """How the saved replay's ``rooms_every`` and this one's differ, in words: None is
+    no rooms (``rooms`` not asked for), 0 rooms after the last scan only."""
+
+    def updated(every) -> str:
+        return "after its last scan only" if every == 0 else f"every {every} scans"
+
+    if now is None:
+        return f"the saved replay updated rooms {updated(saved)}, this one has no rooms_every"
+    if saved is None:
+        return f"the saved replay had no rooms_every, this one updates rooms {updated(now)}"
+    return f"the saved replay updated rooms {updated(saved)}, this one {updated(now)}"
+
+
+#: Settings whose difference is said in words, not as the two values.
+_IN_WORDS = {"rooms_every": _rooms_every_differs}
+
+
 def _check_same(path: Path, what: str, saved: dict, now: dict) -> None:
     """Refuse (ValueError) resuming when the ``saved`` and ``now`` dicts differ, naming
     the keys that differ."""
     if saved == now:
         return
     keys = sorted(set(saved) | set(now), key=str)
-    diff = "; ".join(
-        f"{k}: saved {saved.get(k)!r}, now {now.get(k)!r}"
-        for k in keys
-        if saved.get(k) != now.get(k)
-    )
+
+    def differs(k) -> str:
+        if k in _IN_WORDS:
+            return _IN_WORDS[k](saved.get(k), now.get(k))
+        return f"saved {saved.get(k)!r}, now {now.get(k)!r}"
+
+    diff = "; ".join(f"{k}: {differs(k)}" for k in keys if saved.get(k) != now.get(k))
     raise ValueError(
         f"resume: {path} was made with other {what} ({diff}); resume with the same "
         "options, or replay without resume"
