@@ -21,7 +21,7 @@ _BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 def _looks_octave(path: Path) -> bool:
     """Does the file open with an Octave ``save -text`` header (``# Created by Octave`` or
     ``# name:`` among its first 20 lines, before any line that is not a comment)?"""
-    with _open_text(path) as fh:
+    with _open_text(path, warn_cut=False) as fh:  # the reader warns of a cut
         for _ in range(20):
             line = fh.readline()
             if not line:

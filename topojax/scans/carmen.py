@@ -146,7 +146,7 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
     first_unposed = first_bad = ""
     found = False
     params: dict[str, str] = {}
-    with _open_text(path) as fh:
+    with _open_text(path, warn_cut=False) as fh:  # the reading pass warns
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
             if not tokens:
