@@ -2717,6 +2717,25 @@ def test_replay_skips_a_scan_far_off_and_goes_on(tmp_path, capsys, glitch, messa
     assert len(summary["skipped_scans"]) == 1
 
 
+def test_replay_says_the_scans_it_skipped_in_one_line(tmp_path, capsys):
+    """With a --max-extent-m that the log outgrows, the scans refused are counted in
+    one line with the first refusal; timings.json lists them all."""
+    import re
+
+    from topojax.cli import main
+
+    out = tmp_path / "out"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]
+    assert main([*args, "--max-extent-m", "50"]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("skipped")]
+    summary = json.loads((out / "timings.json").read_text())
+    n = len(summary["skipped_scans"])
+    assert n > 1 and summary["n_scans"] == 40 - n
+    assert len(lines) == 1
+    assert re.match(rf"skipped {n} of 40 scans, .*--max-extent-m.*; the first: scan \d+ ", lines[0])
+    assert summary["skipped_scans"][0] in lines[0]
+
+
 def test_replay_whose_every_scan_is_refused_says_why(tmp_path):
     """At 5 m per pixel the default tiles and distance window alone are wider than
     ``max_extent_m``: every scan is refused, and the error says so with the first

@@ -33,6 +33,20 @@ class ReplayProgress:
         self.skipped = list(skipped or [])
 
 
+def skipped_message(progress: ReplayProgress) -> list[str]:
+    """The scans a replay skipped (refused as beyond the mapper's bounds) in one message,
+    none if none: the refusal itself for one scan, else how many of the scans taken and
+    the first refusal (the others are in the summary's ``skipped_scans``)."""
+    skipped = progress.skipped
+    if len(skipped) <= 1:
+        return [f"skipped {m}" for m in skipped]
+    return [
+        f"skipped {len(skipped)} of {progress.consumed} scans, each refused as beyond the "
+        "mapper's bounds (max_extent_m, --max-extent-m in topojax replay) and not mapped; "
+        f"timings.json lists every refusal (skipped_scans); the first: {skipped[0]}"
+    ]
+
+
 #: The :class:`WholeScans` in force in the main thread, the innermost last.
 _IN_FORCE: list[WholeScans] = []
 

@@ -30,6 +30,7 @@ from ._replay_state import (
     replay_record,
     resumed_mapper,
     save_replay_state,
+    skipped_message,
 )
 from .config import GraphConfig
 from .incremental import (
@@ -137,11 +138,11 @@ def replay(
         of scans that would have grown the map out of the mapper's bounds, a localisation
         glitch: skipped, the replay goes on), ``n_tiles``, ``vertices``, ``edges``,
         ``route_graph`` (its ``vertices``, ``edges``, ``components``, ``robot_radius_m``;
-        None without one), ``timings`` (per loop), ``written`` (paths), ``messages``.  A map grown too large
-        to export, an unreadable scan part way through the log, or an interrupt or error
-        (also while the files are written) leaves
-        the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
-        raises; ``resume`` continues from it.  A replay that finishes removes the state
+        None without one), ``timings`` (per loop), ``written`` (paths), ``messages`` (the
+        skipped scans in one, with the first refusal).  A map grown too large to export,
+        an unreadable scan part way through the log, or an interrupt or error (also while
+        the files are written) leaves the mapper's state in ``out_dir/mapper_state.npz``
+        (with a RuntimeWarning) and raises; ``resume`` continues from it.  A replay that finishes removes the state
         file an earlier one left in ``out_dir``.  ``n_scans`` and ``skipped_scans`` count
         from the log's start, ``resumed_after`` the scans taken before this call.
         The files that the last replay into ``out_dir`` wrote and this one does not
@@ -279,7 +280,7 @@ def _finish(source, mapper, done, out: Path, progress_at, written, messages, pro
     summary = _summary(source, mapper, done, progress_at)
     summary["written"] = [str(p) for p in written]
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
-    summary["messages"] = messages + [f"skipped {m}" for m in done.skipped]
+    summary["messages"] = messages + skipped_message(progress_at)
     if progress:
         print(summary_text(summary))
     return summary
