@@ -506,8 +506,11 @@ def test_timeline_keeps_every_update_and_round_trips(tmp_path):
     assert back.n_frames == 4 and back.payload() == timeline.payload()
     # a timeline saved while recording records on as the one it was saved from
     going_on = copy.deepcopy(timeline)  # (intel_replay's is shared)
-    going_on.snapshot(mapper, rooms=True)
-    back.snapshot(mapper, rooms=True)
+    for timeline_now in (going_on, back):  # the last step again (a final update): none
+        timeline_now.snapshot(mapper, rooms=True)
+    assert back.n_frames == 4 and back.payload() == going_on.payload()
+    going_on.snapshot(mapper, scan_index=40, rooms=True)
+    back.snapshot(mapper, scan_index=40, rooms=True)
     assert back.n_frames == 5 and back.payload() == going_on.payload()
     # one saved without what recording on needs (an older file) is to view only
     doc = json.loads(gzip.decompress(path.read_bytes()))
@@ -942,6 +945,21 @@ def test_view_command_on_a_replay_view_folder_keeps_the_timeline(tmp_path, capsy
     assert "timeline.json.gz" in capsys.readouterr().out
     assert len(payload_of((out / "view.html").read_text())["timeline"]["frames"]) == frames
     assert main([*args, "--graph-every", "10"]) == 0  # and the replay may write it again
+
+
+@pytest.mark.parametrize(("every", "scans"), [(10, [9, 19, 29, 39]), (7, [6, 13, 20, 27, 34, 39])])
+def test_replay_view_has_a_step_per_scan_that_updated_the_graph(tmp_path, every, scans):
+    """The final graph update after the last scan is a step of the timeline only when
+    scans came after the last update: right after one it changes nothing, and a second
+    step of the same scan would show "+0 -0"."""
+    from view_cases import INTEL_EXCERPT
+
+    out = tmp_path / "rep"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress", "--view"]
+    assert main([*args, "--graph-every", str(every), "--rooms"]) == 0
+    frames = payload_of((out / "view.html").read_text())["timeline"]["frames"]
+    assert [f["scan"] for f in frames] == scans
+    assert all(len(unpacked(f["added"])) + len(unpacked(f["removed"])) for f in frames)
 
 
 def test_a_replay_removes_what_the_last_replay_wrote_and_it_does_not(tmp_path, capsys):

@@ -132,12 +132,15 @@ class Timeline:
         if report.graph_update is None and getattr(report, "rooms_update", None) is None:
             return False
         rooms = report.rooms_update is not None
+        before = len(self._frames)
         self.snapshot(mapper, scan_index=int(report.index), rooms=rooms)
-        return True
+        return len(self._frames) > before
 
     def snapshot(self, mapper, *, scan_index: int | None = None, rooms: bool = False) -> None:
         """Keep the mapper's graph as of its last graph update (e.g. after a final
-        :meth:`~topojax.IncrementalMapper.update_graph`).
+        :meth:`~topojax.IncrementalMapper.update_graph`), unless the last snapshot is of
+        the same scan with the same graph (and rooms): a final update with nothing left
+        to change adds no step.
 
         Parameters
         ----------
@@ -175,31 +178,44 @@ class Timeline:
         added = sorted(self._pool_index[k] for k in now - self._last_keys)
         removed = sorted(self._pool_index[k] for k in self._last_keys - now)
         self._last_keys = now
-        if rooms:
-            self._rooms.append(rooms_payload(mapper.rooms)["rooms"])
         nodes = list(graph.nodes(data=True))
         xy = np.array([d["world"] for _, d in nodes], np.float64).reshape(-1, 2)
         kind = [
             KIND_NAMES.index(d.get("kind")) if d.get("kind") in KIND_NAMES[:-1] else 4
             for _, d in nodes
         ]
-        self._frames.append(
-            {
-                "scan": mapper.n_scans - 1 if scan_index is None else int(scan_index),
-                "ids": packed([int(n) for n, _ in nodes], np.int32),
-                "x": packed(xy[:, 0], np.float32),
-                "y": packed(xy[:, 1], np.float32),
-                "kind": packed(kind, np.uint8),
-                "clear": packed(
-                    [float(d.get("clearance_m", np.nan)) for _, d in nodes], np.float32
-                ),
-                "edges": packed([self._pool_index[k] for k in keys], np.int32),
-                "added": packed(added, np.int32),
-                "removed": packed(removed, np.int32),
-                "rooms": len(self._rooms) - 1,
-                "map": self._map_picture(mapper),
-            }
-        )
+        frame = {
+            "scan": mapper.n_scans - 1 if scan_index is None else int(scan_index),
+            "ids": packed([int(n) for n, _ in nodes], np.int32),
+            "x": packed(xy[:, 0], np.float32),
+            "y": packed(xy[:, 1], np.float32),
+            "kind": packed(kind, np.uint8),
+            "clear": packed([float(d.get("clearance_m", np.nan)) for _, d in nodes], np.float32),
+            "edges": packed([self._pool_index[k] for k in keys], np.int32),
+        }
+        room_list = rooms_payload(mapper.rooms)["rooms"] if rooms else None
+        if self._repeats_last(frame, added or removed, room_list):
+            return
+        if rooms:
+            self._rooms.append(room_list)
+        frame["added"] = packed(added, np.int32)
+        frame["removed"] = packed(removed, np.int32)
+        frame["rooms"] = len(self._rooms) - 1
+        frame["map"] = self._map_picture(mapper)
+        self._frames.append(frame)
+
+    def _repeats_last(self, frame: dict, changed, room_list) -> bool:
+        """Whether ``frame`` (without its edge changes, rooms and map) is the last
+        snapshot again: the same scan, no edge ``changed``, the same vertices and, with
+        a ``room_list``, the same rooms."""
+        if not self._frames or changed:
+            return False
+        last = self._frames[-1]
+        if any(last[k] != v for k, v in frame.items()):
+            return False
+        if room_list is None:
+            return True
+        return last["rooms"] >= 0 and self._rooms[last["rooms"]] == room_list
 
     def _map_picture(self, mapper) -> dict | None:
         if self.max_map_px == 0:
