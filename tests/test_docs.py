@@ -183,3 +183,36 @@ def test_python_examples_run(page: str, tmp_path: Path, monkeypatch: pytest.Monk
     monkeypatch.chdir(tmp_path)
     for block in blocks:
         exec(compile(block, page, "exec"), {"__name__": "docs_example"})
+
+
+def _api_page_listing() -> str:
+    """docs/api.md up to its rendered reference (the ``::: topojax`` block)."""
+    page = (DOCS / "api.md").read_text(encoding="utf-8")
+    assert "\n::: topojax\n" in page, "docs/api.md lost its mkdocstrings block"
+    return page.split("\n::: topojax\n", 1)[0]
+
+
+def test_api_page_lists_every_public_name_and_no_other() -> None:
+    """docs/api.md names every ``topojax.__all__`` name in the first column of a table,
+    once, and names nothing that is not public, so the page read on GitHub, without the
+    built reference, cannot drift from the API."""
+    import topojax
+
+    listing = _api_page_listing()
+    rows = re.findall(r"^\| `(\w+)` \|", listing, flags=re.M)
+    duplicated = sorted({name for name in rows if rows.count(name) > 1})
+    assert duplicated == []
+    assert sorted(set(topojax.__all__) - set(rows)) == [], "public names not in docs/api.md"
+    assert sorted(set(rows) - set(topojax.__all__)) == [], "docs/api.md lists non-public names"
+    # a code span holding a Python name (``Name``, ``Name.attr``) anywhere in the listing
+    # must start with a public one; besides, the package, unit suffixes, parameters and
+    # ROS's map_server
+    words = {"topojax", "__all__", "_px", "_m", "_s", "out_dir", "start", "goal", "map_server"}
+    stray = sorted(
+        {
+            span
+            for span in re.findall(r"`([A-Za-z_]\w*(?:\.\w+)*)`", listing)
+            if span.split(".")[0] not in set(topojax.__all__) | words
+        }
+    )
+    assert stray == [], f"docs/api.md names what is not public: {stray}"
