@@ -104,10 +104,15 @@ def map_path(data: Path, name: str, variant: str) -> Path:
     return data / IPA_DIR / VARIANTS[variant].format(name=name)
 
 
-def load(data: Path, name: str, variant: str):
+def load(data: Path, name: str, variant: str, origin_px: tuple[int, int] = (0, 0)):
+    """The map, its lower-left corner ``origin_px`` (x, y) pixels from the map frame's
+    origin: an odd number puts other pixels together in the doorway search's cells."""
     import topojax as tj
 
-    return tj.load_map(map_path(data, name, variant), mode="ipa", resolution_m=RESOLUTION_M)
+    origin = (origin_px[0] * RESOLUTION_M, origin_px[1] * RESOLUTION_M, 0.0)
+    return tj.load_map(
+        map_path(data, name, variant), mode="ipa", resolution_m=RESOLUTION_M, origin=origin
+    )
 
 
 def map_set(name: str) -> str:
@@ -261,7 +266,7 @@ def bench_variant(name: str, variant: str, truth: np.ndarray, args) -> dict:
     """Scores and times of both segmenters on one map variant."""
     from rooms_scoring import score_rooms
 
-    occ = load(args.data, name, variant)
+    occ = load(args.data, name, variant, tuple(args.origin_px))
     first_tj, _, labels_tj, _ = run_topojax(occ)
     first_base, _, labels_base = run_baseline(occ, args)
     times: dict[str, list[float]] = {m: [] for m in METHODS}
@@ -518,6 +523,14 @@ def parse_args(argv):
     p.add_argument("--cold-maps", nargs="+", default=["lab_intel"], help="maps timed cold")
     p.add_argument("--no-cold", action="store_true", help="skip the cold processes")
     p.add_argument("--data", type=Path, default=DEFAULT_DATA, help="shared data folder")
+    p.add_argument(
+        "--origin-px",
+        nargs=2,
+        type=int,
+        default=[0, 0],
+        metavar=("DX", "DY"),
+        help="place each map DX, DY pixels off the map frame's origin (default 0 0)",
+    )
     p.add_argument("--out", type=Path, help="JSON path (default bench/results/...)")
     p.add_argument("--markdown", type=Path, help="also write the markdown report here")
     return p.parse_args(argv)
