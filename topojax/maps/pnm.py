@@ -1,12 +1,11 @@
-"""Map image files: PGM/PPM headers and their resolution comments, plain (ASCII) PNM, and
-decoding with OpenCV or PIL."""
+"""Map image files: PGM/PPM headers and their resolution comments, plain (ASCII) PNM, the
+image sizes headers give, and reading an image (decoded by OpenCV or PIL in
+:mod:`topojax.maps._decode`)."""
 
 from __future__ import annotations
 
-import contextlib
 import math
 import re
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import numpy as np
 
 from .._cpus import check_fits_memory
 from .._validate import existing_file
+from ._decode import decode_image
 
 __all__ = [
     "DECODE_BYTES_PER_PIXEL",
@@ -27,29 +27,6 @@ __all__ = [
 #: classes.  An image whose header gives more pixels than the memory available holds at
 #: this rate is refused before it is decoded (a decompression bomb costs nothing).
 DECODE_BYTES_PER_PIXEL = 5
-
-_SILENCE_LOCK = threading.Lock()
-_SILENCE = {"depth": 0, "level": None}
-
-
-@contextlib.contextmanager
-def _opencv_silenced(cv2):
-    """OpenCV's (process-wide) log level set to silent while any thread is inside; the
-    first to enter saves the level and the last to leave restores it, so overlapping
-    readers (the batch loads maps on two threads) cannot leave it silent."""
-    with _SILENCE_LOCK:
-        if _SILENCE["depth"] == 0:
-            _SILENCE["level"] = cv2.utils.logging.getLogLevel()
-            cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
-        _SILENCE["depth"] += 1
-    try:
-        yield
-    finally:
-        with _SILENCE_LOCK:
-            _SILENCE["depth"] -= 1
-            if _SILENCE["depth"] == 0:
-                cv2.utils.logging.setLogLevel(_SILENCE["level"])
-
 
 # the whitespace-delimited word before "m/pix" (map_saver writes "0.050 m/pix")
 _PGM_RES_RE = re.compile(r"(?:^|\s)(\S+)\s*m/pix")
@@ -299,23 +276,6 @@ def _read_plain_pnm(data: bytes, path: Path) -> np.ndarray:
     return out.reshape((height, width) if channels == 1 else (height, width, 3))
 
 
-def _decode_with_pil(data: bytes) -> np.ndarray | None:
-    import io as _stdio
-
-    from PIL import Image
-
-    try:
-        with Image.open(_stdio.BytesIO(data)) as im:
-            im.load()
-            if im.mode in ("P", "PA"):
-                im = im.convert("RGBA")
-            elif im.mode == "1":
-                im = im.convert("L")
-            return np.asarray(im)
-    except Exception:  # PIL raises many exception types for undecodable input
-        return None
-
-
 def _png_size(data: bytes) -> tuple[int, int] | None:
     if data[:8] != b"\x89PNG\r\n\x1a\n" or data[12:16] != b"IHDR" or len(data) < 24:
         return None
@@ -479,11 +439,16 @@ def _check_declared_size(data: bytes, path: Path) -> None:
     """A MemoryError where the header of ``data`` (read from ``path``) gives an image
     that decoding and classifying cannot fit in the memory available
     (:data:`DECODE_BYTES_PER_PIXEL`, :func:`~topojax._cpus.available_memory_bytes`),
-    raised before any pixel is decoded."""
+    raised before any pixel is decoded; a ValueError where it gives no pixels."""
     size = _declared_size(data)
     if size is None:
         return
     width, height = size
+    if not (width and height) and data[:2] not in (b"P2", b"P3"):  # those say it themselves
+        raise ValueError(
+            f"map image {path}: its header gives {width} x {height} pixels; expected an "
+            "image of at least 2 x 2 pixels"
+        )
     check_fits_memory(
         width * height * DECODE_BYTES_PER_PIXEL,
         f"map image {path}: its header gives {width} x {height} pixels, and decoding and "
@@ -508,37 +473,25 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     Raises
     ------
     ValueError
-        An image that cannot be decoded.
+        An image that cannot be decoded, whose header gives no pixels or whose data the
+        decoder reports damaged.
     MemoryError
         An image whose header gives more pixels than the memory available can decode
         (checked before decoding).
     """
-    import cv2
-
     path = existing_file("path", path)
     data = path.read_bytes()
     if not data:
         raise ValueError(f"map image {path} is empty (0 bytes)")
     _check_declared_size(data, path)
     maxval, comments = _parse_pnm_header(data)
-    pixels: np.ndarray | None = None
     if data[:2] in (b"P2", b"P3"):
         # Plain (ASCII) PGM / PPM: OpenCV and PIL rescale these to 0..255 when the maxval
         # is not 255 (with rounding), while binary files keep their values; read them here
         # so that both are classified against their own maxval.
         pixels = _read_plain_pnm(data, path)
     else:
-        # a file OpenCV cannot read gets our error below (or PIL reads it): not also
-        # OpenCV's own log line on stderr
-        with _opencv_silenced(cv2):
-            try:
-                pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-            except cv2.error:
-                pixels = None
-    if pixels is None or pixels.size == 0:
-        pixels = _decode_with_pil(data)
-    if pixels is None or pixels.size == 0:
-        raise ValueError(f"could not decode map image {path} (corrupt or unsupported format)")
+        pixels = decode_image(data, path)
     if pixels.dtype == np.uint8:
         full = 255
     elif pixels.dtype == np.uint16:

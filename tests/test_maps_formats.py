@@ -1,0 +1,155 @@
+"""Map images in less common formats and damaged files, as :func:`topojax.load_map` reads
+them: a map where the format says what the pixels are, an error naming the file where it
+does not, and nothing from the C decoders on standard error."""
+
+from __future__ import annotations
+
+import io
+import struct
+import zlib
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from PIL import Image
+
+from topojax.maps import load_map
+
+#: A map_saver map: 0 occupied, 205 unknown, 254 free.
+GREY = np.full((20, 30), 254, np.uint8)
+GREY[5:15, 10:20] = 0
+GREY[:, :4] = 205
+
+
+def _assert_grey_map(m) -> None:
+    assert np.array_equal(m.occupied, GREY == 0)
+    assert np.array_equal(m.unknown, GREY == 205)
+    assert np.array_equal(m.free, GREY == 254)
+
+
+def _chunk(kind: bytes, body: bytes) -> bytes:
+    crc = zlib.crc32(kind + body) & 0xFFFFFFFF
+    return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", crc)
+
+
+def _png(extra: bytes = b"", image: np.ndarray = GREY) -> bytes:
+    """An 8-bit grey PNG of ``image``, with the chunks ``extra`` before its data."""
+    h, w = image.shape
+    header = _chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0))
+    rows = b"".join(b"\0" + row.tobytes() for row in image)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + header
+        + extra
+        + _chunk(b"IDAT", zlib.compress(rows))
+        + _chunk(b"IEND", b"")
+    )
+
+
+def test_formats_with_a_clear_meaning_are_read_as_that_map(tmp_path: Path):
+    """16-bit grey on its full scale, 1-bit, palette with a transparent entry, CMYK TIFF."""
+    deep = (GREY.astype(np.uint32) * 257).astype(np.uint16)
+    Image.fromarray(deep).save(tmp_path / "deep.png")
+    assert Image.open(tmp_path / "deep.png").mode == "I;16"
+    Image.fromarray(GREY).convert("P").save(tmp_path / "palette.png", transparency=0)
+    Image.fromarray(GREY).convert("CMYK").save(tmp_path / "cmyk.tif")
+    for name in ("deep.png", "palette.png", "cmyk.tif"):
+        _assert_grey_map(load_map(tmp_path / name, resolution_m=0.05))
+    binary = GREY > 128
+    Image.fromarray(binary).save(tmp_path / "bits.png")
+    assert Image.open(tmp_path / "bits.png").mode == "1"
+    m = load_map(tmp_path / "bits.png")
+    assert np.array_equal(m.occupied, ~binary) and np.array_equal(m.free, binary)
+
+
+def test_damaged_pngs_are_refused_with_libpngs_reason_and_nothing_on_stderr(tmp_path: Path, capfd):
+    good = _png()
+    idat = good.index(b"IDAT")
+    bad_crc = bytearray(good)
+    bad_crc[idat + 4 + struct.unpack(">I", good[idat - 4 : idat])[0]] ^= 0xFF
+    cases = {
+        "crc.png": (bytes(bad_crc), "IDAT: CRC error"),
+        "no_end.png": (good[:-12], "PNG input buffer is incomplete"),
+    }
+    for name, (data, reason) in cases.items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        with pytest.raises(ValueError) as err:
+            load_map(path, resolution_m=0.05)
+        assert str(err.value).startswith(f"could not decode map image {path}: its PNG data is")
+        assert f"(libpng: {reason})" in str(err.value)
+    assert capfd.readouterr().err == ""
+
+
+def test_libpng_warnings_on_a_readable_png_stay_off_stderr(tmp_path: Path, capfd):
+    """An ancillary chunk libpng complains about (a colour profile, a damaged comment)
+    says nothing about the pixels."""
+    bad_text = bytearray(_chunk(b"tEXt", b"Comment\0map"))
+    bad_text[-1] ^= 0xFF
+    short_profile = _chunk(b"iCCP", b"sRGB\0\0" + zlib.compress(b"not a profile"))
+    for name, extra in (("text.png", bytes(bad_text)), ("icc.png", short_profile)):
+        (tmp_path / name).write_bytes(_png(extra))
+        _assert_grey_map(load_map(tmp_path / name, resolution_m=0.05))
+    assert capfd.readouterr().err == ""
+
+
+def test_a_jpeg_the_decoder_calls_corrupt_is_refused(tmp_path: Path, capfd):
+    buf = io.BytesIO()
+    Image.fromarray(np.tile(GREY, (4, 4))).save(buf, "JPEG", quality=95)
+    data = buf.getvalue()
+    path = tmp_path / "corrupt.jpg"
+    path.write_bytes(data[:-2] + b"\0" * 40 + data[-2:])  # junk before the end marker
+    with pytest.raises(ValueError) as err:
+        load_map(path, resolution_m=0.05)
+    assert str(err.value).startswith(f"map image {path}: its JPEG data is damaged")
+    assert "Corrupt JPEG data" in str(err.value)
+    assert capfd.readouterr().err == ""
+
+
+def test_other_output_on_stderr_during_a_decode_is_kept(tmp_path: Path, capfd, monkeypatch):
+    """Standard error is the process's: a line another thread writes while a map decodes
+    reaches it; the decoder's lines do not."""
+    decode = cv2.imdecode
+
+    def imdecode(buf, flags):
+        import os
+
+        os.write(2, b"another thread\nlibpng warning: iCCP: known incorrect sRGB profile\n")
+        return decode(buf, flags)
+
+    monkeypatch.setattr(cv2, "imdecode", imdecode)
+    (tmp_path / "m.png").write_bytes(_png())
+    _assert_grey_map(load_map(tmp_path / "m.png", resolution_m=0.05))
+    assert capfd.readouterr().err == "another thread\n"
+
+
+def test_files_without_pixels_say_what_they_are(tmp_path: Path, capfd):
+    empty = _chunk(b"IHDR", struct.pack(">IIBBBBB", 0, 0, 8, 0, 0, 0, 0))
+    (tmp_path / "empty.png").write_bytes(
+        b"\x89PNG\r\n\x1a\n" + empty + _chunk(b"IDAT", zlib.compress(b"")) + _chunk(b"IEND", b"")
+    )
+    (tmp_path / "notes.png").write_text("this is a text file\n")
+    (tmp_path / "cut.png").write_bytes(_png()[:60])
+    cases = {
+        "empty.png": ": its header gives 0 x 0 pixels; expected an image of at least 2 x 2",
+        "notes.png": ", received a file that is none (it starts with b'this is a text f')",
+        "cut.png": ", received one PIL does not decode: image file is truncated",
+    }
+    for name, needle in cases.items():
+        with pytest.raises(ValueError) as err:
+            load_map(tmp_path / name, resolution_m=0.05)
+        assert str(tmp_path / name) in str(err.value)
+        assert needle in str(err.value)
+    assert capfd.readouterr().err == ""
+
+
+def test_the_command_line_names_a_damaged_image_without_decoder_lines(tmp_path: Path, capfd):
+    from topojax.cli import main
+
+    path = tmp_path / "no_end.png"
+    path.write_bytes(_png()[:-12])
+    assert main(["graph", str(path), "--resolution", "0.05", "-o", str(tmp_path / "out")]) == 2
+    err = capfd.readouterr().err
+    assert f"topojax graph: error: could not decode map image {path}: its PNG data" in err
+    assert "libpng error" not in err and "Traceback" not in err

@@ -1,0 +1,155 @@
+"""Decoding map image files with OpenCV, or PIL where OpenCV cannot: the messages the C
+decoders print on standard error kept off it (and turned into the error where they say the
+file is damaged)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import re
+import sys
+import tempfile
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["decode_image"]
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+#: The lines libpng and libjpeg (inside OpenCV) print on standard error.
+_DECODER_LINE = re.compile(
+    r"libpng (?:warning|error): |Corrupt JPEG data|Premature end of JPEG file|"
+    r"Invalid SOS parameters|Inconsistent progression sequence|Warning: unknown JFIF"
+)
+#: libjpeg's words for compressed data it could not decode as written: it returns pixels
+#: all the same, some of them made up.
+_JPEG_DAMAGE = re.compile(
+    r"Corrupt JPEG data|Premature end of JPEG file|Invalid SOS parameters|"
+    r"Inconsistent progression sequence"
+)
+
+_SILENCE_LOCK = threading.Lock()
+_SILENCE = {"depth": 0, "level": None}
+#: Held while standard error is taken from the process to hear a decoder.
+_STDERR_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _opencv_silenced(cv2):
+    """OpenCV's (process-wide) log level set to silent while any thread is inside; the
+    first to enter saves the level and the last to leave restores it, so overlapping
+    readers (the batch loads maps on two threads) cannot leave it silent."""
+    with _SILENCE_LOCK:
+        if _SILENCE["depth"] == 0:
+            _SILENCE["level"] = cv2.utils.logging.getLogLevel()
+            cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+        _SILENCE["depth"] += 1
+    try:
+        yield
+    finally:
+        with _SILENCE_LOCK:
+            _SILENCE["depth"] -= 1
+            if _SILENCE["depth"] == 0:
+                cv2.utils.logging.setLogLevel(_SILENCE["level"])
+
+
+@contextlib.contextmanager
+def _decoder_messages() -> Iterator[list[str]]:
+    """Standard error (file descriptor 2) sent to a file while inside, one thread at a
+    time: the list yielded then holds the lines libpng and libjpeg printed there, and the
+    other bytes (another thread's) are written on to standard error as they came."""
+    lines: list[str] = []
+    with _STDERR_LOCK:
+        if sys.stderr is not None:
+            with contextlib.suppress(OSError, ValueError):  # closed, or not a file
+                sys.stderr.flush()
+        try:
+            saved = os.dup(2)
+        except OSError:  # no standard error to keep them off
+            saved = None
+        if saved is None:
+            yield lines
+            return
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield lines
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                sink.seek(0)
+                others = []
+                for line in sink.read().splitlines(keepends=True):
+                    text = line.decode("utf-8", "replace")
+                    if _DECODER_LINE.match(text):
+                        lines.append(text.rstrip("\r\n"))
+                    else:
+                        others.append(line)
+                if others:  # as written, a carriage return (a progress line) included
+                    os.write(2, b"".join(others))
+
+
+def _decode_with_pil(data: bytes) -> tuple[np.ndarray | None, str]:
+    """The pixels PIL decodes from ``data``, or None and PIL's reason (empty where PIL does not know the format)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(io.BytesIO(data)) as im:
+            im.load()
+            if im.mode in ("P", "PA"):
+                im = im.convert("RGBA")
+            elif im.mode == "1":
+                im = im.convert("L")
+            return np.asarray(im), ""
+    except UnidentifiedImageError:
+        return None, ""
+    except Exception as exc:  # PIL raises many exception types for undecodable input
+        return None, str(exc) or type(exc).__name__
+
+
+def decode_image(data: bytes, path: Path) -> np.ndarray:
+    """The pixels of image file bytes ``data`` (read from ``path``): OpenCV's (BGR order),
+    PIL's where OpenCV decodes none.
+
+    A ValueError naming ``path`` where neither decodes the file, where libpng refuses it
+    as damaged (PIL would read past a bad checksum or a missing end), or where libjpeg
+    says its data is corrupt (it fills in what it cannot decode)."""
+    import cv2
+
+    with _opencv_silenced(cv2), _decoder_messages() as messages:
+        try:
+            pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+        except cv2.error:
+            pixels = None
+    damage = [m for m in messages if _JPEG_DAMAGE.match(m)]
+    if damage:
+        raise ValueError(
+            f"map image {path}: its JPEG data is damaged (the decoder reports "
+            f"{'; '.join(damage)!r}), so some of its pixels would be made up; expected an "
+            "undamaged file: export the map again (PNG or PGM keep its values exactly)"
+        )
+    failed = pixels is None or pixels.size == 0
+    png_errors = [m[len("libpng error: ") :] for m in messages if m.startswith("libpng error: ")]
+    if failed and data[:8] == _PNG_SIGNATURE and png_errors:
+        raise ValueError(
+            f"could not decode map image {path}: its PNG data is damaged (libpng: "
+            f"{'; '.join(png_errors)}); expected a complete PNG file with valid checksums"
+        )
+    reason = ""
+    if failed:
+        pixels, reason = _decode_with_pil(data)
+    if pixels is None or pixels.size == 0:
+        received = (
+            f"a file that is none (it starts with {data[:16]!r})"
+            if not reason
+            else f"one PIL does not decode: {reason}"
+        )
+        raise ValueError(
+            f"could not decode map image {path}: expected a complete image file (PNG, "
+            f"JPEG, BMP, TIFF, PGM or another format OpenCV or PIL reads), received {received}"
+        )
+    return pixels
