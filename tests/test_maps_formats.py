@@ -63,6 +63,35 @@ def test_formats_with_a_clear_meaning_are_read_as_that_map(tmp_path: Path):
     assert np.array_equal(m.occupied, ~binary) and np.array_equal(m.free, binary)
 
 
+def test_an_image_of_several_pages_or_frames_is_refused(tmp_path: Path):
+    black = Image.fromarray(np.zeros_like(GREY))
+    Image.fromarray(GREY).save(tmp_path / "pages.tif", save_all=True, append_images=[black])
+    Image.fromarray(GREY).save(tmp_path / "anim.png", save_all=True, append_images=[black])
+    gif = tmp_path / "anim.gif"
+    Image.fromarray(GREY).convert("P").save(gif, save_all=True, append_images=[black])
+    (tmp_path / "gif.yaml").write_text("image: anim.gif\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    for name, what in (
+        ("pages.tif", "2 pages (a multi-page TIFF)"),
+        ("anim.png", "2 frames (an animated PNG)"),
+        ("gif.yaml", "2 frames (an animation)"),
+    ):
+        with pytest.raises(ValueError) as err:
+            load_map(tmp_path / name, resolution_m=0.05)
+        image = tmp_path / name.replace("gif.yaml", "anim.gif")
+        assert str(err.value).startswith(f"map image {image} holds {what}; expected a single")
+
+
+def test_a_tiff_with_a_reduced_resolution_copy_is_one_image(tmp_path: Path):
+    """A thumbnail or overview page (NewSubfileType 1) is not a second map."""
+    path = tmp_path / "overview.tif"
+    small = Image.fromarray(GREY[::2, ::2])
+    small.encoderinfo = {"tiffinfo": {254: 1}}
+    Image.fromarray(GREY).save(path, save_all=True, append_images=[small])
+    with Image.open(path) as im:
+        assert im.n_frames == 2
+    _assert_grey_map(load_map(path, resolution_m=0.05))
+
+
 def test_damaged_pngs_are_refused_with_libpngs_reason_and_nothing_on_stderr(tmp_path: Path, capfd):
     good = _png()
     idat = good.index(b"IDAT")

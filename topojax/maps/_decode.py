@@ -1,6 +1,6 @@
 """Decoding map image files with OpenCV, or PIL where OpenCV cannot: the messages the C
 decoders print on standard error kept off it (and turned into the error where they say the
-file is damaged)."""
+file is damaged), and files that hold several images refused."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["decode_image"]
+__all__ = ["decode_image", "refuse_several_images"]
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -153,3 +153,71 @@ def decode_image(data: bytes, path: Path) -> np.ndarray:
             f"JPEG, BMP, TIFF, PGM or another format OpenCV or PIL reads), received {received}"
         )
     return pixels
+
+
+def _png_frames(data: bytes) -> int:
+    """The frames of an animated PNG (its ``acTL`` chunk's count); 1 for a still one."""
+    pos = len(_PNG_SIGNATURE)
+    while pos + 12 <= len(data):
+        length, kind = int.from_bytes(data[pos : pos + 4], "big"), data[pos + 4 : pos + 8]
+        if kind == b"acTL":
+            return max(1, int.from_bytes(data[pos + 8 : pos + 12], "big"))
+        if kind in (b"IDAT", b"IEND"):  # acTL comes before the image data
+            return 1
+        pos += 12 + length
+    return 1
+
+
+def _tiff_pages(data: bytes) -> int:
+    """The full-resolution images of a classic TIFF: its image file directories less
+    those of reduced-resolution copies (thumbnails, overviews) and transparency masks."""
+    order = {b"II*\x00": "little", b"MM\x00*": "big"}[data[:4]]
+
+    def number(at: int, size: int) -> int:
+        return int.from_bytes(data[at : at + size], order)
+
+    pages, at, seen = 0, number(4, 4), set()
+    while 8 <= at and at + 2 <= len(data) and at not in seen:
+        seen.add(at)
+        count, subfile = number(at, 2), 0
+        for entry in range(at + 2, at + 2 + 12 * count, 12):
+            tag, kind = number(entry, 2), number(entry + 2, 2)
+            value = number(entry + 8, 4 if kind == 4 else 2)
+            if tag == 254:  # NewSubfileType: 1 reduced resolution, 4 transparency mask
+                subfile = value
+            elif tag == 255 and value == 2:  # SubfileType: reduced resolution
+                subfile = 1
+        pages += not subfile & 0b101
+        at = number(at + 2 + 12 * count, 4)
+    return max(pages, 1)
+
+
+def _pil_frames(data: bytes) -> int:
+    """The frames PIL counts in an image file (a GIF, a WebP); 1 where it opens none."""
+    from PIL import Image
+
+    try:
+        with Image.open(io.BytesIO(data)) as im:
+            return int(getattr(im, "n_frames", 1))
+    except Exception:  # PIL raises many exception types for input it cannot read
+        return 1
+
+
+def refuse_several_images(data: bytes, path: Path) -> None:
+    """A ValueError naming ``path`` where image file bytes ``data`` hold more than one
+    image, of which a decoder would return the first without a word: the pages of a TIFF
+    (not counting reduced-resolution copies), the frames of an animated PNG, GIF or
+    WebP. A JPEG's extra images (MPO previews) and a PNM's are not counted."""
+    if data[:8] == _PNG_SIGNATURE:
+        count, what = _png_frames(data), "frames (an animated PNG)"
+    elif data[:4] in (b"II*\x00", b"MM\x00*"):
+        count, what = _tiff_pages(data), "pages (a multi-page TIFF)"
+    elif data[:2] == b"\xff\xd8" or data[:1] == b"P" or data[:2] == b"BM":
+        return
+    else:
+        count, what = _pil_frames(data), "frames (an animation)"
+    if count > 1:
+        raise ValueError(
+            f"map image {path} holds {count} {what}; expected a single image: save the "
+            "one that is the map as a file of its own"
+        )

@@ -147,8 +147,10 @@ def load_map(
         If the file (or the YAML's image) does not exist.
     ValueError
         For undecodable images, images whose data the decoder reports damaged (a PNG
-        checksum, corrupt JPEG data), malformed YAML, missing or invalid fields, or
-        invalid parameters; the message names the file and the field.
+        checksum, corrupt JPEG data), files of several images (the pages of a TIFF, less
+        reduced-resolution copies; the frames of an animation), malformed YAML, missing
+        or invalid fields, or invalid parameters; the message names the file and the
+        field.
     MemoryError
         For an image decoded into memory (any but a binary 8-bit PGM, which is
         memory-mapped) whose header gives more pixels than the memory available can

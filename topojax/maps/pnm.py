@@ -13,7 +13,7 @@ import numpy as np
 
 from .._cpus import check_fits_memory
 from .._validate import existing_file
-from ._decode import decode_image
+from ._decode import decode_image, refuse_several_images
 
 __all__ = [
     "DECODE_BYTES_PER_PIXEL",
@@ -473,8 +473,8 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     Raises
     ------
     ValueError
-        An image that cannot be decoded, whose header gives no pixels or whose data the
-        decoder reports damaged.
+        An image that cannot be decoded, whose header gives no pixels, whose data the
+        decoder reports damaged, or a file of several images (pages, frames).
     MemoryError
         An image whose header gives more pixels than the memory available can decode
         (checked before decoding).
@@ -484,6 +484,7 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     if not data:
         raise ValueError(f"map image {path} is empty (0 bytes)")
     _check_declared_size(data, path)
+    refuse_several_images(data, path)
     maxval, comments = _parse_pnm_header(data)
     if data[:2] in (b"P2", b"P3"):
         # Plain (ASCII) PGM / PPM: OpenCV and PIL rescale these to 0..255 when the maxval
