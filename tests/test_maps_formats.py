@@ -63,6 +63,13 @@ def test_formats_with_a_clear_meaning_are_read_as_that_map(tmp_path: Path):
     assert np.array_equal(m.occupied, ~binary) and np.array_equal(m.free, binary)
 
 
+def test_a_cmyk_jpeg_keeps_its_grey_levels(tmp_path: Path):
+    """OpenCV converts CMYK a level too light: the unknown 205 came out a free 206."""
+    path = tmp_path / "cmyk.jpg"
+    Image.fromarray(np.dstack([GREY] * 3)).convert("CMYK").save(path, quality=100)
+    _assert_grey_map(load_map(path, resolution_m=0.05))
+
+
 def test_an_image_of_several_pages_or_frames_is_refused(tmp_path: Path):
     black = Image.fromarray(np.zeros_like(GREY))
     Image.fromarray(GREY).save(tmp_path / "pages.tif", save_all=True, append_images=[black])

@@ -94,7 +94,8 @@ def _decoder_messages() -> Iterator[list[str]]:
 
 
 def _decode_with_pil(data: bytes) -> tuple[np.ndarray | None, str]:
-    """The pixels PIL decodes from ``data``, or None and PIL's reason (empty where PIL does not know the format)."""
+    """The pixels PIL decodes from ``data`` (CMYK and YCbCr converted to RGB), or None and
+    PIL's reason (empty where PIL does not know the format)."""
     from PIL import Image, UnidentifiedImageError
 
     try:
@@ -104,6 +105,8 @@ def _decode_with_pil(data: bytes) -> tuple[np.ndarray | None, str]:
                 im = im.convert("RGBA")
             elif im.mode == "1":
                 im = im.convert("L")
+            elif im.mode in ("CMYK", "YCbCr"):
+                im = im.convert("RGB")
             return np.asarray(im), ""
     except UnidentifiedImageError:
         return None, ""
@@ -111,20 +114,24 @@ def _decode_with_pil(data: bytes) -> tuple[np.ndarray | None, str]:
         return None, str(exc) or type(exc).__name__
 
 
-def decode_image(data: bytes, path: Path) -> np.ndarray:
+def decode_image(data: bytes, path: Path, *, cmyk_jpeg: bool = False) -> np.ndarray:
     """The pixels of image file bytes ``data`` (read from ``path``): OpenCV's (BGR order),
-    PIL's where OpenCV decodes none.
+    PIL's where OpenCV decodes none (and for a CMYK JPEG, ``cmyk_jpeg``, which OpenCV
+    converts a grey level too light: the ``map_saver`` unknown 205 becomes a free 206).
 
     A ValueError naming ``path`` where neither decodes the file, where libpng refuses it
     as damaged (PIL would read past a bad checksum or a missing end), or where libjpeg
     says its data is corrupt (it fills in what it cannot decode)."""
     import cv2
 
-    with _opencv_silenced(cv2), _decoder_messages() as messages:
-        try:
-            pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-        except cv2.error:
-            pixels = None
+    messages: list[str] = []
+    pixels = None
+    if not cmyk_jpeg:
+        with _opencv_silenced(cv2), _decoder_messages() as messages:
+            try:
+                pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+            except cv2.error:
+                pixels = None
     damage = [m for m in messages if _JPEG_DAMAGE.match(m)]
     if damage:
         raise ValueError(

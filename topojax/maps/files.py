@@ -128,7 +128,7 @@ def load_map(
         unless given here), ``negate`` (default 0), ``occupied_thresh`` (default 0.65),
         ``free_thresh`` (default 0.196) and ``mode`` (default ``trinary``).
         ``.pgm``, ``.png``, ``.jpg``, ``.jpeg``, ``.bmp``, ``.tif``, ``.tiff``: a plain
-        image (1- to 16-bit; grey, grey + alpha, RGB, RGBA or palette). Defaults:
+        image (1- to 16-bit; grey, grey + alpha, RGB, RGBA, CMYK or palette). Defaults:
         resolution from a PGM ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment if
         present, else 0.05 m/px (the IPA benchmark / paper value); origin (0, 0, 0);
         thresholds 0.65 / 0.196; trinary mode.

@@ -282,8 +282,9 @@ def _png_size(data: bytes) -> tuple[int, int] | None:
     return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
 
 
-def _jpeg_size(data: bytes) -> tuple[int, int] | None:
-    """Width and height of a JPEG's first frame header (SOF0..SOF15 but DHT, JPG, DAC)."""
+def _jpeg_frame(data: bytes) -> tuple[int, int, int] | None:
+    """Width, height and number of colour components of a JPEG's first frame header
+    (SOF0..SOF15 but DHT, JPG, DAC)."""
     pos, n = 2, len(data)
     while pos + 4 <= n and data[pos] == 0xFF:
         marker = data[pos + 1]
@@ -294,14 +295,20 @@ def _jpeg_size(data: bytes) -> tuple[int, int] | None:
             pos += 2
             continue
         if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-            if pos + 9 > n:
+            if pos + 10 > n:
                 return None
             height = int.from_bytes(data[pos + 5 : pos + 7], "big")
-            return int.from_bytes(data[pos + 7 : pos + 9], "big"), height
+            return int.from_bytes(data[pos + 7 : pos + 9], "big"), height, data[pos + 9]
         if marker == 0xDA:  # the scan starts: no frame header before it
             return None
         pos += 2 + int.from_bytes(data[pos + 2 : pos + 4], "big")
     return None
+
+
+def _jpeg_size(data: bytes) -> tuple[int, int] | None:
+    """Width and height of a JPEG's first frame header."""
+    frame = _jpeg_frame(data)
+    return None if frame is None else frame[:2]
 
 
 def _bmp_size(data: bytes) -> tuple[int, int] | None:
@@ -492,7 +499,8 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
         # so that both are classified against their own maxval.
         pixels = _read_plain_pnm(data, path)
     else:
-        pixels = decode_image(data, path)
+        frame = _jpeg_frame(data) if data[:2] == b"\xff\xd8" else None
+        pixels = decode_image(data, path, cmyk_jpeg=frame is not None and frame[2] == 4)
     if pixels.dtype == np.uint8:
         full = 255
     elif pixels.dtype == np.uint16:
