@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from topojax.maps import load_map
+from topojax.maps import OccupancyMap, load_map
 
 #: A map_saver map: 0 occupied, 205 unknown, 254 free.
 GREY = np.full((20, 30), 254, np.uint8)
@@ -189,3 +189,18 @@ def test_the_command_line_names_a_damaged_image_without_decoder_lines(tmp_path: 
     err = capfd.readouterr().err
     assert f"topojax graph: error: could not decode map image {path}: its PNG data" in err
     assert "libpng error" not in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("shape", [(1, 50), (50, 1)])
+def test_an_image_of_one_row_or_column_is_refused_naming_the_file_once(tmp_path, shape):
+    path = tmp_path / "strip.png"
+    cv2.imwrite(str(path), np.full(shape, 254, np.uint8))
+    with pytest.raises(ValueError) as info:
+        load_map(path, resolution_m=0.05)
+    message = str(info.value)
+    assert message == f"map {path}: expected at least 2x2 pixels, received shape {shape}"
+
+
+def test_an_array_of_one_row_is_refused_naming_the_array():
+    with pytest.raises(ValueError, match=r"^array: expected at least 2x2 pixels"):
+        OccupancyMap.from_array(np.zeros((1, 5)), resolution_m=0.05)

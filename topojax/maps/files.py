@@ -426,7 +426,8 @@ def _classify_pixels(
         except ValueError as exc:  # name the file (e.g. a 0/1 mask saved as an image)
             if str(path) in str(exc):
                 raise
-            raise ValueError(f"{where}: {exc}") from None
+            # the decoded pixels are the file's: a refusal of the array is the file's
+            raise ValueError(f"{where}: {str(exc).removeprefix('array: ')}") from None
     # 16-bit, non-standard maxval or map_server's alpha rule: classify directly.
     resolution_m = metres_per_pixel("resolution_m", settings["resolution_m"])
     origin_t = pose("origin", settings["origin"])
@@ -446,7 +447,7 @@ def _classify_pixels(
         )
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
-    return OccupancyMap._from_codes(codes, resolution_m, origin_t, str(path))
+    return OccupancyMap._from_codes(codes, resolution_m, origin_t, str(path), where=where)
 
 
 def map_argument(name: str, value: Any, *, files: bool = False) -> OccupancyMap:

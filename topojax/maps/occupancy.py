@@ -323,7 +323,7 @@ class OccupancyMap:
             unknown_values=unknown_values,
             given_type=type(array).__name__,
         )
-        return cls._from_codes(codes, resolution_m, origin_t, source)
+        return cls._from_codes(codes, resolution_m, origin_t, source, where="array")
 
     @classmethod
     def _from_codes(
@@ -332,9 +332,12 @@ class OccupancyMap:
         resolution_m: float,
         origin: tuple[float, float, float],
         source: str | None,
+        *,
+        where: str,
     ) -> OccupancyMap:
+        """The map of classified ``codes``; a refusal of their shape names ``where``."""
         if codes.ndim != 2 or codes.shape[0] < 2 or codes.shape[1] < 2:
-            raise ValueError(f"map: expected at least 2x2 pixels, received shape {codes.shape}")
+            raise ValueError(f"{where}: expected at least 2x2 pixels, received shape {codes.shape}")
         occupied = codes == _OCC
         free = codes == _FREE
         unknown = codes == _UNK
