@@ -11,6 +11,7 @@ import dataclasses
 import json
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -625,28 +626,38 @@ def _session_processes(sid: int) -> list[int]:
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="needs /proc")
-def test_sigterm_stops_the_worker_processes(tmp_path):
-    """``kill`` (SIGTERM) of a batch with workers ends it without leaving them behind."""
+@pytest.mark.parametrize("background", [False, True], ids=["foreground", "script-job"])
+def test_sigterm_stops_the_worker_processes(tmp_path, background):
+    """``kill`` (SIGTERM) of a batch with workers ends it without leaving them behind or
+    temporary files, and says in one line how many maps it finished and how to do the
+    others; as well as a background job of a script, where SIGINT is ignored."""
+    if background and shutil.which("bash") is None:
+        pytest.skip("needs bash")
     src = tmp_path / "in"
     src.mkdir()
     for i in range(12):
         (src / f"m{i:02d}.png").write_bytes(PAPER_MAPS[i % 3].read_bytes())
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "topojax", "batch", str(src), "-o", str(out)]
+    cmd += ["--workers", "2", "--no-progress"]
+    if background:  # a shell without job control starts it with SIGINT ignored
+        cmd = ["bash", "-c", '"$@" & echo $!; wait $!', "bash", *cmd]
     proc = subprocess.Popen(
-        [*cmd, "--workers", "2", "--no-progress"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
+        cmd,
+        stdout=subprocess.PIPE if background else subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
         start_new_session=True,
+        text=True,
     )
+    pid = int(proc.stdout.readline()) if background else proc.pid
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
         if any(out.glob("*.manifest.json")):
             break
         time.sleep(0.01)
     assert proc.poll() is None, "the batch ended before it could be stopped"
-    proc.send_signal(signal.SIGTERM)
-    proc.wait(timeout=60)
+    os.kill(pid, signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
     deadline = time.monotonic() + 10
     while _session_processes(proc.pid) and time.monotonic() < deadline:
         time.sleep(0.1)
@@ -655,6 +666,35 @@ def test_sigterm_stops_the_worker_processes(tmp_path):
         os.kill(pid, signal.SIGKILL)
     assert not left, "worker processes outlived the batch"
     assert proc.returncode == 128 + signal.SIGTERM
+    done = len(list(out.glob("*.manifest.json")))
+    assert err.strip().splitlines()[-1] == (
+        f"topojax batch: stopped by SIGTERM; this run finished {done} of 12 maps (their "
+        f"files and manifests are in {out}; summary.csv is written only by a run that "
+        "ends); the same command with --resume does the others"
+    )
+    assert not list(out.glob(".*.tmp"))
+
+
+def test_a_stopped_batch_removes_the_temporary_files_of_the_maps_in_flight(tmp_path, monkeypatch):
+    """The worker processes of a stopped batch are terminated, not left to finish: the
+    temporary files of the maps they were writing are removed (kept, they piled up in
+    the output folder until those maps were redone)."""
+    from topojax.batch import driver
+
+    out = tmp_path / "out"
+    planted: list[Path] = []
+
+    def interrupt(self, fut):  # Ctrl-C as the first map's CPU stage ends
+        for item, _, _ in self._cpu.values():  # as a killed write leaves them
+            planted.append(out / f".{item.name}.graphml.k1ll3d.tmp")
+            planted[-1].write_bytes(b"cut short")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(driver._BatchRun, "_on_cpu_done", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        build_graphs(PAPER_MAPS, out_dir=out, workers=2, progress=False)
+    assert planted
+    assert not any(p.exists() for p in planted)
 
 
 def test_an_interrupted_batch_ends_its_worker_processes_instead_of_waiting(tmp_path, monkeypatch):

@@ -341,7 +341,8 @@ def test_library_modules_do_not_import_the_command_line():
 
 def test_ctrl_c_ends_a_command_with_one_line_not_a_traceback(tmp_path, monkeypatch, capsys):
     """Ctrl-C of ``topojax batch`` printed a traceback through concurrent.futures and
-    threading; a command stopped by Ctrl-C now says so in one line, with status 130."""
+    threading; a batch stopped by Ctrl-C now says so in one line, with status 130: how
+    many of its maps it finished, and how to do the others."""
     import topojax.batch
 
     def interrupted(*args, **kwargs):
@@ -349,8 +350,43 @@ def test_ctrl_c_ends_a_command_with_one_line_not_a_traceback(tmp_path, monkeypat
 
     monkeypatch.setattr(topojax.batch, "build_graphs", interrupted)
     src = Path(topojax.__file__).parent / "data" / "office.png"
-    assert main(["batch", str(src), "-o", str(tmp_path / "out"), "--no-progress"]) == 130
-    assert capsys.readouterr().err.strip() == "topojax batch: interrupted (Ctrl-C)"
+    out = tmp_path / "out"
+    assert main(["batch", str(src), "-o", str(out), "--no-progress"]) == 130
+    assert capsys.readouterr().err.strip() == (
+        f"topojax batch: interrupted (Ctrl-C); this run finished 0 of 1 map (their files "
+        f"and manifests are in {out}; summary.csv is written only by a run that ends); the "
+        "same command with --resume does the others"
+    )
+
+
+def test_sigterm_ends_a_batch_with_the_maps_it_finished(tmp_path, monkeypatch, capsys):
+    """SIGTERM (``kill``, ``timeout``) of ``topojax batch`` ended it with status 143 and
+    not a word; it now ends as Ctrl-C does, with one line that counts the maps this run
+    finished (a manifest left by an earlier run is not one) and says how to go on."""
+    import signal
+
+    import topojax.batch
+
+    data = Path(topojax.__file__).parent / "data"
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "intel.manifest.json").write_text("{}")  # an earlier run's
+
+    def stopped_after_one_map(*args, **kwargs):
+        (out / "office.manifest.json").write_text("{}")
+        signal.raise_signal(signal.SIGTERM)
+        raise AssertionError("SIGTERM did not stop the batch")
+
+    monkeypatch.setattr(topojax.batch, "build_graphs", stopped_after_one_map)
+    handler = signal.getsignal(signal.SIGTERM)
+    srcs = [str(data / "office.png"), str(data / "intel.png"), str(data / "a_scan.png")]
+    assert main(["batch", *srcs, "-o", str(out), "--no-progress"]) == 143
+    assert capsys.readouterr().err.strip() == (
+        f"topojax batch: stopped by SIGTERM; this run finished 1 of 3 maps (their files "
+        f"and manifests are in {out}; summary.csv is written only by a run that ends); the "
+        "same command with --resume does the others"
+    )
+    assert signal.getsignal(signal.SIGTERM) is handler
 
 
 _MAP_OPTION_ERRORS = [

@@ -366,6 +366,7 @@ class _BatchRun:
         self._in_kernels: dict[cf.Future, list[_Loaded]] = {}
         self._cpu: dict[cf.Future, tuple[_Item, MapRecord, _CpuJob]] = {}
         self._ready: deque[_Loaded] = deque()
+        stopped = False
         try:
             if self._pending and self.executor is None:
                 self.executor = self._new_executor()
@@ -384,6 +385,7 @@ class _BatchRun:
                     else:
                         self._on_cpu_done(fut)
         except BaseException:  # Ctrl-C, SIGTERM: results no manifest would record
+            stopped = True
             if self.owns_executor:
                 _terminate_workers(self.executor)
             raise
@@ -393,6 +395,11 @@ class _BatchRun:
             self._kernel_pool.shutdown(wait=True, cancel_futures=True)
             if self.owns_executor and self.executor is not None:
                 self.executor.shutdown(wait=True, cancel_futures=True)
+            if stopped and self.owns_executor:
+                # the temporary files the stopped processes were writing (a given
+                # executor's tasks may still be writing theirs)
+                for item, _, _ in self._cpu.values():
+                    self._forget_outputs(item)
         return [self._records[item.index] for item in self.items]
 
     def _finish(self, index: int, rec: MapRecord) -> None:

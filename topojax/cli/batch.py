@@ -13,8 +13,28 @@ from .._constants import MODES
 from ._options import _option_named, add_pipeline_options, add_sigma_options, pipeline_config
 from ._outputs import OUT_OPTION, check_outputs
 
+#: What a batch map's manifest appends to its name (``docs/batch-internals.md``).
+_MANIFEST = ".manifest.json"
+
 
 def _cmd_batch(args) -> int:
+    stopped: list[signal.Signals] = []
+    manifests: dict[Path, tuple[int, int] | None] = {}
+    previous = _stop_on_sigterm(stopped)
+    try:
+        return _batch(args, manifests)
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM through _stop_on_sigterm
+        signum = stopped[0] if stopped else signal.SIGINT
+        print(_stopped_text(signum, args.out, manifests), file=sys.stderr)
+        return 128 + signum
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
+    """Run the batch of ``args``; ``manifests`` receives the manifest of each of its
+    maps and its :func:`_stamp` before the run, for the line of a stopped run."""
     from .._fs import output_folder
     from ..batch import build_graphs, expand_map_inputs
     from ..batch.inputs import planned_outputs
@@ -44,7 +64,9 @@ def _cmd_batch(args) -> int:
             ) from None
         executor = client.get_executor(pure=False)
     t0 = time.perf_counter()
-    previous = _exit_on_sigterm()
+    for rel in planned:
+        if rel.endswith(_MANIFEST):
+            manifests[Path(args.out) / rel] = _stamp(Path(args.out) / rel)
     try:
         # made once the scheduler is reached: a failed connection leaves no folder
         output_folder(args.out, name="--out")  # named as the command names it
@@ -67,8 +89,6 @@ def _cmd_batch(args) -> int:
     except ValueError as exc:  # e.g. more --workers than the memory holds
         raise _option_named(exc, "workers", "--workers") from None
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
         if client is not None:
             client.close()
     wall = time.perf_counter() - t0
@@ -88,18 +108,47 @@ def _cmd_batch(args) -> int:
     return 1 if counts["error"] else 0
 
 
-def _exit_on_sigterm():
-    """Make SIGTERM (``kill``, ``timeout``, a job scheduler) end the batch as Ctrl-C does,
-    through its clean-up, which stops the worker processes: killed by the default action,
-    the command left them running with nothing to do.  The previous handler, or None
-    outside the main thread."""
+def _stop_on_sigterm(stopped: list[signal.Signals]):
+    """Make SIGTERM (``kill``, ``timeout``, a job scheduler) stop the batch as Ctrl-C
+    does (a ``KeyboardInterrupt``, ``stopped`` then holding SIGTERM), through its
+    clean-up, which stops the worker processes: killed by the default action, the
+    command left them running with nothing to do.  Where SIGINT is ignored (a background
+    job of a script) as well.  The previous handler, or None outside the main thread."""
     if threading.current_thread() is not threading.main_thread():
         return None
 
     def terminate(signum, frame):
-        raise SystemExit(128 + signum)
+        stopped[:] = [signal.SIGTERM]
+        raise KeyboardInterrupt
 
     return signal.signal(signal.SIGTERM, terminate)
+
+
+def _stopped_text(signum: int, out, manifests: dict[Path, tuple[int, int] | None]) -> str:
+    """The line of a batch stopped by the signal ``signum``: how many of its maps this
+    run finished (their manifests, ``manifests`` with their stamps before the run, now
+    new) and how to do the others."""
+    how = "stopped by SIGTERM" if signum == signal.SIGTERM else "interrupted (Ctrl-C)"
+    if not manifests:
+        return f"topojax batch: {how} before any map was started"
+    from ..plotting.style import counted
+
+    done = sum(1 for path, was in manifests.items() if _stamp(path) not in (None, was))
+    return (
+        f"topojax batch: {how}; this run finished {done} of {counted(len(manifests), 'map')} "
+        f"(their files and manifests are in {out}; summary.csv is written only by a run "
+        "that ends); the same command with --resume does the others"
+    )
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """The inode and modification time of ``path``, or None where there is no file: a
+    manifest written again (renamed into place) gets another."""
+    try:
+        st = path.stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns
 
 
 def _check_numbers(args) -> None:
