@@ -389,6 +389,44 @@ def test_sigterm_ends_a_batch_with_the_maps_it_finished(tmp_path, monkeypatch, c
     assert signal.getsignal(signal.SIGTERM) is handler
 
 
+_SIGTERM_IN_A_WRITE = """
+import os, signal, sys
+import topojax._fs as fs
+from topojax.cli import main
+
+class Os:  # the file system calls of atomic writes, SIGTERM arriving in the first fsync
+    def __getattr__(self, name):
+        return getattr(os, name)
+
+    @staticmethod
+    def fsync(fd):
+        signal.raise_signal(signal.SIGTERM)
+        return os.fsync(fd)
+
+fs.os = Os()
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("command", ["graph", "route-graph"])
+def test_sigterm_in_a_write_leaves_no_temporary_file(tmp_path, command):
+    """SIGTERM (``kill``, ``timeout``) of a command while it writes a file killed it with
+    the file's temporary copy left in the output folder and not a word; it now ends as
+    Ctrl-C does: the temporary file removed, one line, status 143."""
+    out = tmp_path / "out"
+    src = Path(topojax.__file__).parent / "data" / "office.png"
+    done = subprocess.run(
+        [sys.executable, "-c", _SIGTERM_IN_A_WRITE, command, str(src), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=300,
+    )
+    assert done.returncode == 143, done.stderr
+    assert done.stderr.strip() == f"topojax {command}: stopped by SIGTERM"
+    assert out.is_dir() and not [p.name for p in out.iterdir() if p.suffix == ".tmp"]
+
+
 _MAP_OPTION_ERRORS = [
     (["--resolution", "0"], "--resolution: expected a finite number of metres > 0"),
     (["--resolution", "nan"], "--resolution: expected a finite number of metres > 0"),

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 
 from .. import __version__
 from . import batch, graph, replay, rooms, route, route_graph, view
@@ -112,6 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if getattr(args, "runs_kernels", True):  # route only reads a graph: no JAX
         _use_compilation_cache()
+    stopped: list[signal.Signals] = []
+    previous = _stop_on_sigterm(stopped)
     try:
         return int(args.handler(args) or 0)
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
@@ -124,5 +128,27 @@ def main(argv: list[str] | None = None) -> int:
         print(f"topojax {args.command}: error: {_out_of_memory_message(exc)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:  # the command's clean-up has run; no traceback
+        if stopped:
+            print(f"topojax {args.command}: stopped by SIGTERM", file=sys.stderr)
+            return 128 + signal.SIGTERM
         print(f"topojax {args.command}: interrupted (Ctrl-C)", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _stop_on_sigterm(stopped: list[signal.Signals]):
+    """Make SIGTERM (``kill``, ``timeout``, a service manager's stop) end a command as
+    Ctrl-C does, ``stopped`` then holding it: through its clean-up, which removes the
+    temporary file of a write cut short (killed by the default action, the command left
+    it in the output folder).  ``replay`` and ``batch`` stop on it their own way within.
+    The previous handler, or None outside the main thread."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def terminate(signum, frame):
+        stopped[:] = [signal.SIGTERM]
+        raise KeyboardInterrupt
+
+    return signal.signal(signal.SIGTERM, terminate)
