@@ -676,9 +676,8 @@ def test_sigterm_stops_the_worker_processes(tmp_path, background):
 
 
 def test_a_stopped_batch_removes_the_temporary_files_of_the_maps_in_flight(tmp_path, monkeypatch):
-    """The worker processes of a stopped batch are terminated, not left to finish: the
-    temporary files of the maps they were writing are removed (kept, they piled up in
-    the output folder until those maps were redone)."""
+    """The worker processes of a stopped batch are terminated, not left to finish, and
+    the temporary files of the maps they were writing are removed with them."""
     from topojax.batch import driver
 
     out = tmp_path / "out"

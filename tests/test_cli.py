@@ -340,9 +340,9 @@ def test_library_modules_do_not_import_the_command_line():
 
 
 def test_ctrl_c_ends_a_command_with_one_line_not_a_traceback(tmp_path, monkeypatch, capsys):
-    """Ctrl-C of ``topojax batch`` printed a traceback through concurrent.futures and
-    threading; a batch stopped by Ctrl-C now says so in one line, with status 130: how
-    many of its maps it finished, and how to do the others."""
+    """A batch stopped by Ctrl-C ends with one line, not a traceback through
+    concurrent.futures and threading, and status 130: how many of its maps it finished,
+    and how to do the others."""
     import topojax.batch
 
     def interrupted(*args, **kwargs):
@@ -360,9 +360,9 @@ def test_ctrl_c_ends_a_command_with_one_line_not_a_traceback(tmp_path, monkeypat
 
 
 def test_sigterm_ends_a_batch_with_the_maps_it_finished(tmp_path, monkeypatch, capsys):
-    """SIGTERM (``kill``, ``timeout``) of ``topojax batch`` ended it with status 143 and
-    not a word; it now ends as Ctrl-C does, with one line that counts the maps this run
-    finished (a manifest left by an earlier run is not one) and says how to go on."""
+    """SIGTERM (``kill``, ``timeout``) ends ``topojax batch`` as Ctrl-C does, with status
+    143 and one line that counts the maps this run finished (a manifest left by an
+    earlier run is not one) and says how to go on."""
     import signal
 
     import topojax.batch
@@ -410,9 +410,9 @@ sys.exit(main(sys.argv[1:]))
 
 @pytest.mark.parametrize("command", ["graph", "route-graph"])
 def test_sigterm_in_a_write_leaves_no_temporary_file(tmp_path, command):
-    """SIGTERM (``kill``, ``timeout``) of a command while it writes a file killed it with
-    the file's temporary copy left in the output folder and not a word; it now ends as
-    Ctrl-C does: the temporary file removed, one line, status 143."""
+    """SIGTERM (``kill``, ``timeout``) of a command while it writes a file ends it as
+    Ctrl-C does: no temporary copy of the file left in the output folder, one line,
+    status 143."""
     out = tmp_path / "out"
     src = Path(topojax.__file__).parent / "data" / "office.png"
     done = subprocess.run(
