@@ -141,8 +141,8 @@ def main(argv: list[str] | None = None) -> int:
 def _stop_on_sigterm(stopped: list[signal.Signals]):
     """Make SIGTERM (``kill``, ``timeout``, a service manager's stop) end a command as
     Ctrl-C does, ``stopped`` then holding it: through its clean-up, which removes the
-    temporary file of a write cut short (killed by the default action, the command left
-    it in the output folder).  ``replay`` and ``batch`` stop on it their own way within.
+    temporary file of a write cut short (the default action, killing the process, would
+    leave it in the output folder).  ``replay`` and ``batch`` stop on it their own way within.
     The previous handler, or None outside the main thread."""
     if threading.current_thread() is not threading.main_thread():
         return None
