@@ -8,6 +8,7 @@ import re
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -425,6 +426,49 @@ def test_sigterm_in_a_write_leaves_no_temporary_file(tmp_path, command):
     assert done.returncode == 143, done.stderr
     assert done.stderr.strip() == f"topojax {command}: stopped by SIGTERM"
     assert out.is_dir() and not [p.name for p in out.iterdir() if p.suffix == ".tmp"]
+
+
+def test_summaries_count_one_in_the_singular():
+    """The summary lines of ``graph`` and ``replay`` say "1 vertex", "1 edge", "1
+    component", "1 scan" and "1 tile", and more of them in the plural."""
+    import networkx as nx
+
+    from topojax.cli._graph_out import summary_lines
+    from topojax.playback import summary_text
+
+    summary = {
+        "n_scans": 1,
+        "source": "log",
+        "wall_s": 1.0,
+        "map_shape": (10, 10),
+        "n_tiles": 1,
+        "vertices": 1,
+        "edges": 1,
+        "route_graph": {"vertices": 1, "edges": 1, "components": 1, "robot_radius_m": 0.3},
+        "timings": {},
+    }
+    assert summary_text(summary).splitlines()[:3] == [
+        "replayed   1 scan of log in 1.00 s; map 10 x 10 px in 1 tile",
+        "graph      1 vertex, 1 edge",
+        "route graph 1 vertex, 1 edge, 1 component, robot radius 0.3 m",
+    ]
+    more = summary_text({**summary, "n_scans": 2, "n_tiles": 3, "vertices": 2, "edges": 0})
+    assert more.splitlines()[:2] == [
+        "replayed   2 scans of log in 1.00 s; map 10 x 10 px in 3 tiles",
+        "graph      2 vertices, 0 edges",
+    ]
+    graph = nx.MultiGraph()
+    graph.add_node(0, kind="end", pixel=(1, 1))
+    graph.add_node(1, kind="end", pixel=(1, 4))
+    graph.add_edge(0, 1, length_m=0.3)
+    result = SimpleNamespace(
+        graph=graph,
+        map=SimpleNamespace(shape=(5, 5), resolution_m=0.05),
+        timings_s={"total": 0.001},
+    )
+    assert summary_lines("m", result)[1] == (
+        "graph      2 vertices (0 junctions, 2 ends), 1 edge, 0.3 m of corridors, 1 component"
+    )
 
 
 _MAP_OPTION_ERRORS = [

@@ -376,6 +376,28 @@ def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     assert main(["route-graph", str(path), "-o", str(out), "--robot-radius", "-1"]) == 2
 
 
+def test_route_graph_command_counts_one_in_the_singular_and_names_an_undefined_share(
+    tmp_path, capsys
+):
+    """A route graph of one vertex and no edge: its line counts "1 vertex" and "1
+    component", and the evaluation says in words that the unsafe share has no edges to
+    measure, where the report holds NaN."""
+    from topojax.cli import main
+
+    image = np.zeros((60, 60), np.uint8)
+    image[10:50, 10:50] = 254  # a 2 m square room: one spot for a robot of radius 0.5 m
+    path = tmp_path / "box.png"
+    cv2.imwrite(str(path), image)
+    argv = ["route-graph", str(path), "-o", str(tmp_path / "out"), "--robot-radius", "0.5"]
+    assert main([*argv, "--evaluate"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    graph_line = next(line for line in lines if line.startswith("route graph "))
+    assert graph_line.startswith("route graph 1 vertex, 0 edges, 1 component, robot radius")
+    evaluation = next(line for line in lines if line.startswith("evaluation "))
+    assert "unsafe share: no edges" in evaluation
+    assert "nan" not in evaluation
+
+
 @pytest.mark.parametrize("radius_m", [0.0, -0.0, -1.0])
 def test_a_robot_radius_of_zero_or_less_is_refused_as_not_positive(tmp_path, radius_m):
     """A route graph needs a robot of some size: zero or less is refused as not positive
@@ -512,6 +534,7 @@ def test_mapper_route_graph_is_the_route_graph_of_its_map():
 def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     from topojax.cli import main
     from topojax.io import load_graph
+    from topojax.plotting.style import counted
 
     argv = ["replay", "tests/data/intel_first40.log.gz", "-o", str(tmp_path), "--no-progress"]
     assert main([*argv, "--route-graph", "0.25"]) == 0
@@ -522,8 +545,9 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     counts = {"vertices": g.number_of_nodes(), "edges": g.number_of_edges()}
     counts["components"] = nx.number_connected_components(g)
     assert (
-        f"route graph {counts['vertices']} vertices, {counts['edges']} edges, "
-        f"{counts['components']} components, robot radius 0.25 m\n" in text
+        f"route graph {counted(counts['vertices'], 'vertex', 'vertices')}, "
+        f"{counted(counts['edges'], 'edge')}, {counted(counts['components'], 'component')}, "
+        "robot radius 0.25 m\n" in text
     )
     timings = json.loads((tmp_path / "timings.json").read_text())
     assert timings["route_graph"] == {**counts, "robot_radius_m": 0.25}

@@ -749,18 +749,20 @@ def summary_text(summary: dict) -> str:
     from .plotting.style import counted
 
     lines = [
-        f"replayed   {summary['n_scans']} scans of {summary['source']} in "
+        f"replayed   {counted(summary['n_scans'], 'scan')} of {summary['source']} in "
         f"{summary['wall_s']:.2f} s; map {summary['map_shape'][0]} x "
-        f"{summary['map_shape'][1]} px in {summary['n_tiles']} tiles",
-        f"graph      {summary['vertices']} vertices, {summary['edges']} edges",
+        f"{summary['map_shape'][1]} px in {counted(summary['n_tiles'], 'tile')}",
+        f"graph      {counted(summary['vertices'], 'vertex', 'vertices')}, "
+        f"{counted(summary['edges'], 'edge')}",
         "loop        calls    mean ms     p50 ms     p99 ms   amortised ms/scan",
     ]
     routes = summary.get("route_graph")
     if routes is not None:
         lines.insert(
             2,
-            f"route graph {routes['vertices']} vertices, {routes['edges']} edges, "
-            f"{routes['components']} components, robot radius {routes['robot_radius_m']:g} m",
+            f"route graph {counted(routes['vertices'], 'vertex', 'vertices')}, "
+            f"{counted(routes['edges'], 'edge')}, {counted(routes['components'], 'component')}, "
+            f"robot radius {routes['robot_radius_m']:g} m",
         )
     if summary.get("rooms") is not None:
         lines.insert(2, f"rooms      {counted(summary['rooms'], 'room')}")

@@ -33,15 +33,17 @@ def summary_lines(name: str, result, *, timing_note: str = "", assumed: str = ""
     """The map, graph and time lines ``topojax graph`` prints for ``result`` (a
     ``TopologyResult`` or a ``TiledResult``)."""
     from ..graph import graph_summary
+    from ..plotting.style import counted
 
     s = graph_summary(result.graph)
     h, w = result.map.shape
     t = result.timings_s
     return [
         f"map        {name}  ({h} x {w} px, {result.map.resolution_m:g} m/px{assumed})",
-        f"graph      {s['n_vertices']} vertices ({s['n_junctions']} junctions, "
-        f"{s['n_ends']} ends), {s['n_edges']} edges, "
-        f"{s['total_length_m']:.1f} m of corridors, {s['n_components']} components",
+        f"graph      {counted(s['n_vertices'], 'vertex', 'vertices')} "
+        f"({counted(s['n_junctions'], 'junction')}, {counted(s['n_ends'], 'end')}), "
+        f"{counted(s['n_edges'], 'edge')}, {s['total_length_m']:.1f} m of corridors, "
+        f"{counted(s['n_components'], 'component')}",
         "time (ms)  "
         + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in t.items() if k != "total")
         + f"; total {1e3 * t['total']:.1f}"

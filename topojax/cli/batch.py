@@ -38,6 +38,7 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     from .._fs import output_folder
     from ..batch import build_graphs, expand_map_inputs
     from ..batch.inputs import planned_outputs
+    from ..plotting.style import counted
 
     _check_numbers(args)
     route_config = _route_config(args)
@@ -97,9 +98,9 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     done = ("ok", "empty")
     megapixels = sum((r.height or 0) * (r.width or 0) for r in records if r.status in done) / 1e6
     print(
-        f"topojax batch: {len(records)} maps in {wall:.1f} s "
+        f"topojax batch: {counted(len(records), 'map')} in {wall:.1f} s "
         f"({counts['ok']} ok, {counts['empty']} empty, {counts['skipped']} skipped, "
-        f"{counts['error']} errors, {len(warned)} with a warning; "
+        f"{counted(counts['error'], 'error')}, {len(warned)} with a warning; "
         f"{megapixels:.1f} Mpx processed); table: {Path(args.out) / 'summary.csv'}"
     )
     for r in records:

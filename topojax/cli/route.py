@@ -102,6 +102,7 @@ def _cmd_route(args) -> int:
     from .._validate import existing_file, nonnegative_metres, positive_metres, robot_radius
     from ..io import load_graph
     from ..io.files import GRAPH_FORMATS
+    from ..plotting.style import counted
     from ..routing import NoRouteError, RoutePlanner
 
     # checked before the work, under the options' names
@@ -173,8 +174,10 @@ def _cmd_route(args) -> int:
             raise
         raise ValueError(f"{exc}; on the command line: --max-snap-m M, or none") from None
     print(
-        f"route      {route.length_m:.2f} m along the graph, {len(route.pixels)} pixels, "
-        f"{len(route.vertices)} vertices, {len(route.edges)} edges"
+        f"route      {route.length_m:.2f} m along the graph, "
+        f"{counted(len(route.pixels), 'pixel')}, "
+        f"{counted(len(route.vertices), 'vertex', 'vertices')}, "
+        f"{counted(len(route.edges), 'edge')}"
     )
     print(f"snapped    start {route.start_snap_m:.3f} m, goal {route.goal_snap_m:.3f} m away")
     if args.out:

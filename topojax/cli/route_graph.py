@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
@@ -84,6 +85,7 @@ def _cmd_route_graph(args) -> int:
     from .._validate import positive_metres, robot_radius
     from ..io import save_graph
     from ..maps import load_map
+    from ..plotting.style import counted
     from ..routegraph import RouteGraphConfig, route_graph
     from ..routegraph.build import MAX_SNAP_M, check_scale
 
@@ -140,8 +142,9 @@ def _cmd_route_graph(args) -> int:
         f"{occupancy.resolution_m:g} m/px{assumed})"
     )
     print(
-        f"route graph {graph.number_of_nodes()} vertices, {graph.number_of_edges()} edges, "
-        f"{components} components, robot radius {radius:g} m; {seconds:.2f} s"
+        f"route graph {counted(graph.number_of_nodes(), 'vertex', 'vertices')}, "
+        f"{counted(graph.number_of_edges(), 'edge')}, {counted(components, 'component')}, "
+        f"robot radius {radius:g} m; {seconds:.2f} s"
     )
     if note:
         print(f"note       {note}")
@@ -161,20 +164,39 @@ def _cmd_route_graph(args) -> int:
 
         atomic_write_bytes(path, json.dumps(report.as_dict(), indent=1).encode("utf-8"))
         written.append(path)
-        if not report.pairs:  # its rates are NaN: say why rather than print them
-            print(
-                "evaluation no route to score: no feasible region of at least "
-                f"{config.min_region_m2:g} m2 and 2 pixels for a robot of radius {radius:g} m"
-            )
-        else:
-            print(
-                f"evaluation success {100 * report.success_rate:.1f} %, stretch median "
-                f"{report.stretch_median:.3f} (p90 {report.stretch_p90:.3f}), unsafe share "
-                f"{report.unsafe_share:.3f}, uncovered share {report.uncovered_share:.4f}"
-            )
+        print(_evaluation_line(report, config.min_region_m2))
     record_outputs(planned(written, args.map), command="route-graph", map_options=kw)
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _evaluation_line(report, min_region_m2: float) -> str:
+    """The printed line of the route graph's ``report``; a measure the graph leaves
+    undefined (NaN in the report) says why in words."""
+    if not report.pairs:  # its rates are NaN: say why rather than print them
+        return (
+            "evaluation no route to score: no feasible region of at least "
+            f"{min_region_m2:g} m2 and 2 pixels for a robot of radius "
+            f"{report.robot_radius_m:g} m"
+        )
+
+    def measure(name: str, text: str, value: float, why: str) -> str:
+        return f"{name} {text}" if math.isfinite(value) else f"{name}: {why}"
+
+    stretch = f"{report.stretch_median:.3f} (p90 {report.stretch_p90:.3f})"
+    no_length = "no edges" if not report.edges else "no edge length"
+    parts = [
+        f"success {100 * report.success_rate:.1f} %",
+        measure("stretch median", stretch, report.stretch_median, "no route found"),
+        measure("unsafe share", f"{report.unsafe_share:.3f}", report.unsafe_share, no_length),
+        measure(
+            "uncovered share",
+            f"{report.uncovered_share:.4f}",
+            report.uncovered_share,
+            "no feasible region",
+        ),
+    ]
+    return "evaluation " + ", ".join(parts)
 
 
 def _components(graph) -> int:

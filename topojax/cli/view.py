@@ -170,13 +170,17 @@ def _load(result: _Result):
 def _note_timeline(result: _Result, timeline, graph) -> None:
     """Note when the timeline's last graph is not the graph shown (a timeline of another
     run in the folder); the page still shows both.  The command prints the note."""
+    from ..plotting.style import counted
+
     last = timeline.last_counts()
     shown = (graph.number_of_nodes(), graph.number_of_edges())
     if last is not None and last != shown:
+        sizes = [
+            f"{counted(v, 'vertex', 'vertices')}, {counted(e, 'edge')}" for v, e in (last, shown)
+        ]
         result.notes.append(
-            f"{result.timeline.name}: its last graph update ({last[0]} vertices, {last[1]} "
-            f"edges) is not {result.graph.name} ({shown[0]} vertices, {shown[1]} edges): "
-            "the timeline may come from another run"
+            f"{result.timeline.name}: its last graph update ({sizes[0]}) is not "
+            f"{result.graph.name} ({sizes[1]}): the timeline may come from another run"
         )
 
 
@@ -284,6 +288,7 @@ def _index_page(folder: Path, pages: list[tuple[str, Path]]) -> str:
 def _cmd_view(args) -> int:
     from .._fs import atomic_write_bytes, output_folder
     from .._validate import int_at_least
+    from ..plotting.style import counted
     from ..view.window import checked_window
 
     if args.window is not None:  # checked before any work, named as on the command line
@@ -325,14 +330,15 @@ def _cmd_view(args) -> int:
             target.unlink(missing_ok=True)  # an older page of it would show what is gone
     if written:
         atomic_write_bytes(index, _index_page(folder, written).encode("utf-8"))
-        print(f"wrote      {index} (links to the {len(written)} views)")
+        print(f"wrote      {index} (links to {counted(len(written), 'view')})")
     else:
         index.unlink(missing_ok=True)  # an older index would link the pages just removed
     record_outputs(planned(targets, folder), command="view")
     if failed:
         raise ValueError(
-            f"OUT_DIR: {len(failed)} of the {len(results)} results in {folder} could not "
-            f"be shown{' (the others were written)' if written else ''}:\n  " + "\n  ".join(failed)
+            f"OUT_DIR: {len(failed)} of the {counted(len(results), 'result')} in {folder} "
+            f"could not be shown{' (the others were written)' if written else ''}:\n  "
+            + "\n  ".join(failed)
         )
     return 0
 

@@ -39,9 +39,10 @@ def titled(name: str | None, text: str) -> str:
     return f"{name}: {text}" if name else text
 
 
-def counted(n: int, noun: str) -> str:
-    """``n`` and ``noun``, plural unless ``n`` is 1: ``"1 door"``, ``"3 doors"``."""
-    return f"{n} {noun}{'s' * (n != 1)}"
+def counted(n: int, noun: str, plural: str | None = None) -> str:
+    """``n`` and ``noun``, plural unless ``n`` is 1: ``"1 door"``, ``"3 doors"``; the
+    plural is ``plural`` where given (``"vertex"``, ``"vertices"``), else ``noun`` + s."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"
 
 
 def max_pool(image: np.ndarray, factor: int) -> np.ndarray:
