@@ -202,6 +202,22 @@ def test_batch_command_writes_route_graphs_for_the_robot_radius(tmp_path, capsys
     assert "--robot-radius: only used with the formats" in capsys.readouterr().err
 
 
+def test_batch_command_names_the_option_of_a_radius_too_small_for_a_map(tmp_path, capsys):
+    """A radius too small for a map's resolution fails that map; its message, printed and
+    in the summary table, names the option ``--robot-radius``, not the library's
+    ``robot_radius_m``."""
+    from topojax.cli import main
+
+    _, out, argv = _batch_of_two_rooms(tmp_path)
+    assert main([*argv, "--formats", "route", "--robot-radius", "0.001"]) == 1
+    captured = capsys.readouterr()
+    assert "1 map in " in captured.out and "1 error," in captured.out
+    (row,) = csv.DictReader((out / "summary.csv").read_text().splitlines())
+    for message in (captured.err, row["message"]):
+        assert "ValueError: --robot-radius: expected at least 1.5 pixels" in message
+        assert "robot_radius_m" not in message
+
+
 def test_view_of_a_route_only_batch_draws_the_route_graph_over_its_map(tmp_path, capsys):
     from view_cases import payload_of
 

@@ -26,20 +26,22 @@ def _as_option_error(exc: Exception, option_of: dict[str, str] = _OPTION_OF) -> 
     message (and an error number) is rewritten; any other error is ``exc``.  A name
     within a file path (``out/resume/state.npz``, ``animate.gif``) or already an option
     (``--resume``) is left as it is."""
-    names = "|".join(map(re.escape, option_of))
-    words = re.compile(rf"(?<![\w/\\.-])({names})(?![\w/\\-]|\.\w)")
-
-    def named(text: str) -> str:
-        return words.sub(lambda m: option_of[m.group(1)], text)
-
     if type(exc) in (TypeError, ValueError):  # a subclass keeps its own arguments
-        return type(exc)(named(str(exc)))
+        return type(exc)(_as_options(str(exc), option_of))
     if isinstance(exc, OSError) and type(exc).__module__ == "builtins" and exc.filename is None:
         if len(exc.args) == 1 and isinstance(exc.args[0], str):
-            return type(exc)(named(exc.args[0]))
+            return type(exc)(_as_options(exc.args[0], option_of))
         if exc.errno is not None and isinstance(exc.strerror, str):
-            return type(exc)(exc.errno, named(exc.strerror))
+            return type(exc)(exc.errno, _as_options(exc.strerror, option_of))
     return exc
+
+
+def _as_options(text: str, option_of: dict[str, str] = _OPTION_OF) -> str:
+    """``text`` with every configuration field it names written as the option that sets
+    it, as :func:`_as_option_error` writes a message."""
+    names = "|".join(map(re.escape, option_of))
+    words = re.compile(rf"(?<![\w/\\.-])({names})(?![\w/\\-]|\.\w)")
+    return words.sub(lambda m: option_of[m.group(1)], text)
 
 
 def _option_named(exc: ValueError, field: str, option: str) -> ValueError:

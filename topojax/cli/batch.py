@@ -10,11 +10,21 @@ from collections import Counter
 from pathlib import Path
 
 from .._constants import MODES
-from ._options import _option_named, add_pipeline_options, add_sigma_options, pipeline_config
+from ._options import (
+    _OPTION_OF,
+    _as_options,
+    _option_named,
+    add_pipeline_options,
+    add_sigma_options,
+    pipeline_config,
+)
 from ._outputs import OUT_OPTION, check_outputs
 
 #: What a batch map's manifest appends to its name (``docs/batch-internals.md``).
 _MANIFEST = ".manifest.json"
+#: The parameters that the message of a map may name (a radius too small for the map's
+#: resolution, ``robot_radius_m: expected at least 1.5 pixels ...``), and their options.
+_MAP_OPTION_OF = {**_OPTION_OF, "robot_radius_m": "--robot-radius"}
 
 
 def _cmd_batch(args) -> int:
@@ -93,6 +103,7 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
         if client is not None:
             client.close()
     wall = time.perf_counter() - t0
+    records = _named_as_options(records, args.out)
     counts = Counter(r.status for r in records)
     warned = [r for r in records if r.status == "ok" and r.message]
     done = ("ok", "empty")
@@ -107,6 +118,20 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
         if r.status in ("error", "empty") or r in warned:
             print(f"  {r.status:5s}  {r.map}: {r.message}", file=sys.stderr)
     return 1 if counts["error"] else 0
+
+
+def _named_as_options(records: list, out) -> list:
+    """``records`` with the parameters their messages name written as the options that
+    set them (``--robot-radius: expected at least 1.5 pixels ...``), and the summary
+    table in ``out`` written again with them where one changed."""
+    from dataclasses import replace
+
+    from ..batch import write_summary
+
+    named = [replace(r, message=_as_options(r.message, _MAP_OPTION_OF)) for r in records]
+    if any(a.message != b.message for a, b in zip(records, named, strict=True)):
+        write_summary(named, out)
+    return named
 
 
 def _stop_on_sigterm(stopped: list[signal.Signals]):
