@@ -1198,7 +1198,7 @@ def test_cli_batch(tmp_path, capsys):
     (src / "broken.png").write_bytes(b"not an image")
     assert main([*argv, "--formats", "json", "--resume"]) == 1
     captured = capsys.readouterr()
-    assert "1 errors" in captured.out and "broken" in captured.err
+    assert "1 error," in captured.out and "broken" in captured.err
 
 
 def test_nav2_format_is_written_and_resumed(tmp_path, capsys):
