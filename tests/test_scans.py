@@ -400,6 +400,34 @@ def test_carmen_malformed_lines_raise_with_line_number(tmp_path, line, needle):
         assert len(scans) == 1 and scans[0].ranges.size == 4
 
 
+@pytest.mark.parametrize(
+    ("line", "counted"),
+    [
+        ("FLASER\n", "the beam count: expected at least 1 field after FLASER, received 0"),
+        (
+            "FLASER 3 1.0 2.0\n",
+            "3 ranges: expected at least 3 fields after the beam count, received 2",
+        ),
+        (
+            "ROBOTLASER1 0 -1 2 0.5 30\n",
+            "the laser configuration: expected at least 8 fields after ROBOTLASER1, received 5",
+        ),
+        (
+            "ROBOTLASER1 0 -1 2 0.5 30 0.01 0 3 1 2\n",
+            "3 ranges and num_remissions: expected at least 4 fields after num_readings, "
+            "received 2",
+        ),
+    ],
+)
+def test_a_short_carmen_line_counts_the_fields_its_message_names(tmp_path, line, counted):
+    """A cut-short laser line's message counts the fields it names, not the keyword and
+    the fields before them."""
+    path = tmp_path / "short.log"
+    path.write_text(line)
+    with pytest.raises(ValueError, match=re.escape(counted)):
+        list(read_carmen(path, max_range_m=10.0))
+
+
 def test_carmen_bad_lines_is_checked(tmp_path):
     path = tmp_path / "ok.log"
     path.write_text(_flaser([1, 2, 3, 4], (0, 0, 0)))

@@ -70,9 +70,16 @@ def _count(token: str, what: str) -> int:
     return n
 
 
-def _need(tokens: Sequence[str], k: int, what: str) -> None:
-    if len(tokens) < k:
-        raise _CarmenLineError(f"{what}: expected at least {k} fields, received {len(tokens)}")
+def _need(tokens: Sequence[str], start: int, k: int, what: str, after: str) -> None:
+    """A :class:`_CarmenLineError` unless ``tokens`` hold at least ``k`` fields from
+    index ``start`` on, those of ``what``; the message counts the fields after ``after``
+    (the field before ``start``), as it names them."""
+    have = max(0, len(tokens) - start)
+    if have < k:
+        fields = "field" if k == 1 else "fields"
+        raise _CarmenLineError(
+            f"{what}: expected at least {k} {fields} after {after}, received {have}"
+        )
 
 
 def _parse_old_laser(tokens: list[str]) -> tuple[np.ndarray, np.ndarray | None, float | None]:
@@ -80,11 +87,11 @@ def _parse_old_laser(tokens: list[str]) -> tuple[np.ndarray, np.ndarray | None, 
 
     Returns ranges, the pose (x, y, theta) or None for pose-less lines, and the timestamp.
     """
-    _need(tokens, 2, "the beam count")
+    _need(tokens, 1, 1, "the beam count", tokens[0])
     n = _count(tokens[1], "number of readings")
     if n < 2:
         raise _CarmenLineError(f"number of readings: expected >= 2, received {n}")
-    _need(tokens, 2 + n, f"{n} ranges")
+    _need(tokens, 2, n, f"{n} ranges", "the beam count")
     ranges = _floats(tokens[2 : 2 + n], "range reading")
     rest = len(tokens) - 2 - n
     if rest == 9:  # more would shift every field: a wrong beam count
@@ -109,10 +116,10 @@ def _parse_new_laser_head(tokens: list[str]) -> tuple[np.ndarray, np.ndarray, in
     Returns ``[start_angle, fov, angular_resolution, maximum_range]``, the ranges and the
     index of the first token after the remissions.
     """
-    _need(tokens, 9, "the laser configuration")
+    _need(tokens, 1, 8, "the laser configuration", tokens[0])
     cfg = _floats(tokens[2:6], "laser configuration")
     n = _count(tokens[8], "num_readings")
-    _need(tokens, 10 + n, f"{n} ranges and num_remissions")
+    _need(tokens, 9, n + 1, f"{n} ranges and num_remissions", "num_readings")
     ranges = _floats(tokens[9 : 9 + n], "range reading")
     m = _count(tokens[9 + n], "num_remissions")
     return cfg, ranges, 10 + n + m
@@ -562,7 +569,7 @@ class _OdomPoses:
         assert self.line is not None
         num, toks = self.line
         try:
-            _need(toks, 4, "ODOM x y theta")
+            _need(toks, 1, 3, "ODOM x y theta", "ODOM")
             xyz = _floats(toks[1:4], "ODOM pose")
         except _CarmenLineError as err:
             raise ValueError(f"{self.path}:{num}: malformed ODOM line: {err}") from None
@@ -604,7 +611,7 @@ def _new_laser_scan(
     angle_min, inc = float(cfg[0]), float(cfg[2])
     rmax = float(cfg[3]) if max_range_m is None else max_range_m
     if chosen in _ROBOT_LASERS:
-        _need(tokens, k + 12, "laser pose, robot pose, 5 fields and timestamp")
+        _need(tokens, k, 12, "laser pose, robot pose, 5 fields and timestamp", "the remissions")
         nums = _floats(tokens[k : k + 12], "poses / timestamp")
         if not np.all(np.isfinite(nums[:6])):
             raise _PoseNotFinite(f"poses are not finite: {nums[:6].tolist()}")
@@ -613,7 +620,7 @@ def _new_laser_scan(
         offset = _relative(robot, laser_pose) if offset_override is None else offset_override
         stamp = float(nums[11])
     else:
-        _need(tokens, k + 1, "the timestamp")
+        _need(tokens, k, 1, "the timestamp", "the remissions")
         stamp = float(_floats(tokens[k : k + 1], "timestamp")[0])
         if odom.line is None:
             return None
