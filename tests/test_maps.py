@@ -1049,6 +1049,24 @@ def test_yaml_errors(tmp_path: Path, text: str, pattern: str):
     assert str(path) in str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("text", "where"),
+    [
+        ("image: m.pgm\nresolution: 0.1\n foo: : bar\n", "line 3, column 5: mapping values"),
+        ("image: [unclosed\nresolution: 0.1\n", "line 2, column 11: expected ',' or ']'"),
+        ("image: m.pgm\nresolution: \x01\n", "line 2, column 13: character #x0001"),
+    ],
+)
+def test_a_broken_yaml_names_its_line_and_column_not_pyyaml_s_stream(
+    tmp_path: Path, text: str, where: str
+):
+    path = _yaml_map(tmp_path, text)
+    with pytest.raises(ValueError) as info:
+        load_map(path)
+    assert str(info.value).startswith(f"map YAML {path} could not be parsed: {where}")
+    assert "<unicode string>" not in str(info.value) and "\n" not in str(info.value)
+
+
 def test_yaml_missing_image_file(tmp_path: Path):
     (tmp_path / "m.yaml").write_text("image: nothere.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
     with pytest.raises(FileNotFoundError, match="nothere.pgm"):

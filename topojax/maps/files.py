@@ -53,7 +53,9 @@ def _load_yaml(path: Path) -> dict[str, Any]:
     try:
         doc = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        raise ValueError(f"map YAML {path} could not be parsed: {exc}") from None
+        raise ValueError(
+            f"map YAML {path} could not be parsed: {_yaml_problem(exc, text)}"
+        ) from None
     if not isinstance(doc, dict):
         raise ValueError(
             f"map YAML {path}: expected a mapping (key: value), received {type(doc).__name__}"
@@ -66,6 +68,22 @@ def _load_yaml(path: Path) -> dict[str, Any]:
     if isinstance(doc.get("origin"), list):
         doc["origin"] = [_number_text(v) for v in doc["origin"]]
     return doc
+
+
+def _yaml_problem(exc: Exception, text: str) -> str:
+    """Where in the file and what PyYAML found wrong (``line 3, column 5: mapping values
+    are not allowed here``), without its ``in "<unicode string>"`` and the quoted text."""
+    import yaml
+
+    if isinstance(exc, yaml.MarkedYAMLError):
+        for mark, problem in ((exc.problem_mark, exc.problem), (exc.context_mark, exc.context)):
+            if mark is not None and problem:
+                return f"line {mark.line + 1}, column {mark.column + 1}: {problem}"
+    if isinstance(exc, yaml.reader.ReaderError):  # a character PyYAML does not read
+        line = text.count("\n", 0, exc.position) + 1
+        column = exc.position - text.rfind("\n", 0, exc.position)
+        return f"line {line}, column {column}: character #x{exc.character:04x}: {exc.reason}"
+    return str(exc)
 
 
 _NUMBER_RE = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
