@@ -143,6 +143,17 @@ def test_graph_says_when_the_resolution_is_assumed(tmp_path, capsys):
     assert "assumed" not in capsys.readouterr().out
 
 
+def test_a_map_yaml_without_origin_says_how_to_give_one_on_the_command_line(tmp_path, capsys):
+    """The command has no --origin: the hint is the file's key, and origin= is Python's."""
+    yaml = _ros_map(tmp_path / "m", wall_col=20)
+    text = yaml.read_text()
+    yaml.write_text("".join(line for line in text.splitlines(True) if "origin" not in line))
+    assert main(["graph", str(yaml), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"map YAML {yaml} is missing the required key 'origin'" in err
+    assert "add 'origin: [x, y, yaw]'" in err and "in Python give it with load_map's origin=" in err
+
+
 def test_batch_outputs_are_guarded_by_their_manifests(tmp_path, capsys):
     from topojax.cli import main
 

@@ -374,7 +374,9 @@ def _yaml_settings(
             raise ValueError(f"map YAML {p} is missing the required key {key!r}")
     if origin is None and "origin" not in doc:
         raise ValueError(
-            f"map YAML {p} is missing the required key 'origin' (pass origin= to override)"
+            f"map YAML {p} is missing the required key 'origin', as map_server requires "
+            "it: add 'origin: [x, y, yaw]' (m, m, rad: the world pose of the lower-left "
+            "corner of the image) to the file, or in Python give it with load_map's origin="
         )
     image_path = _resolve_image_path(p, doc["image"])
     if resolution_m is None:
