@@ -1652,3 +1652,34 @@ def test_read_scans_refuses_a_map_image_by_name(tmp_path, name):
         read_scans(path)
     with pytest.raises(ValueError, match=r"^source: expected a laser log"):
         tj.replay(path, out_dir=tmp_path / "out", progress=False)
+
+
+@pytest.mark.parametrize(
+    ("content", "opens"),
+    [
+        # raw Hokuyo scans and wheel ticks, one record a line (BreezySLAM's exp1.dat)
+        (b"212387282 14710 29221 25178 0 0 0 170.1 9941 12750\n", "opens with '212387282'"),
+        (b"\x7fELF\x02\x01\x01\x00 binary\n", "is binary data"),
+    ],
+)
+def test_a_file_of_no_format_read_is_refused_as_such_with_the_formats_read(
+    tmp_path, content, opens
+):
+    """A file that is no format topojax reads was refused as a CARMEN log with no laser
+    lines; it is refused as none, the formats read listed with their suffixes."""
+    path = tmp_path / "exp1.dat"
+    path.write_bytes(content)
+    for read in (read_scans, read_carmen):
+        with pytest.raises(ValueError) as info:
+            list(read(path))
+        text = str(info.value)
+        assert text.startswith(f"{path}: not a laser log or bag that topojax reads: ")
+        assert f"its first line {opens}, where a CARMEN line opens with a message name" in text
+        for name in ("CARMEN logs (.log, .clf", "Octave", "ROS 1 bags (.bag)", "(.mcap)"):
+            assert name in text
+        assert "no laser lines" not in text
+    # a CARMEN log without laser lines keeps its own message
+    for text in ("PARAM robot_front_laser_max 50.0 h 0\n", "# nothing\n", "\n"):
+        path.write_text(text)
+        with pytest.raises(ValueError, match="no scan to read: no laser lines found"):
+            list(read_scans(path))

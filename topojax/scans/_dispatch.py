@@ -41,7 +41,8 @@ def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
       suffixes ``.bag`` / ``.db3`` / ``.mcap`` -> :func:`read_bag`;
     * an Octave text file (``# Created by Octave`` or ``# name:`` in its first lines, plain
       or gzip) -> :func:`read_octave_laser`;
-    * anything else (``.log``, ``.clf``, ``.gz``, ...) -> :func:`read_carmen`.
+    * anything else (``.log``, ``.clf``, ``.gz``, ...) -> :func:`read_carmen`, which
+      refuses a file whose first line is no CARMEN line, listing the formats read here.
 
     Parameters
     ----------
@@ -58,6 +59,9 @@ def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
     ------
     FileNotFoundError
         If ``path`` does not exist.
+    ValueError
+        For a map image, or a file of none of these formats (raised once the scans are
+        iterated), the message listing the formats and their usual suffixes.
     """
     p = path_like("path", path)
     if not p.exists():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -13,7 +14,7 @@ import numpy as np
 from .._validate import existing_file, one_of, real_number
 from .._validate import pose as checked_pose
 from ._text import _cut_off, _open_text
-from .scan import PoseLike, Scan, _relative, no_scan_error
+from .scan import PoseLike, Scan, _relative, _unknown_format_error, no_scan_error
 
 _OLD_LASERS = ("FLASER", "RLASER")
 _ROBOT_LASERS = ("ROBOTLASER1", "ROBOTLASER2")
@@ -125,12 +126,22 @@ def _parse_new_laser_head(tokens: list[str]) -> tuple[np.ndarray, np.ndarray, in
     return cfg, ranges, 10 + n + m
 
 
+_MESSAGE_NAME = re.compile(r"[A-Z][A-Z0-9_]*")
+
+
+def _opens_a_carmen_line(field: str) -> bool:
+    """Whether a file whose first line opens with ``field`` may be a CARMEN log: the name
+    of a message (``FLASER``, ``ODOM``, ``PARAM``) or a ``#`` comment."""
+    return field.startswith("#") or bool(_MESSAGE_NAME.fullmatch(field))
+
+
 class _Survey(NamedTuple):
     """What the first pass over a log found: the laser message to use, the PARAM values,
     and (when the range limit is to be inferred) each scan's largest finite reading, the
     readings within ``_TOP_BAND_M`` of it, how many finite readings there were, how many
     lines had a finite pose, how many had none and the first of them, whether a line of
-    the kind was found, and how many were malformed (skipped) and the first of them."""
+    the kind was found, how many were malformed (skipped) and the first of them, and the
+    first field of the first line that is not blank (None for a file of blank lines)."""
 
     chosen: str | None
     params: dict[str, str]
@@ -141,6 +152,7 @@ class _Survey(NamedTuple):
     unposed: tuple[int, str]
     found: bool
     bad: tuple[int, str]
+    first_field: str | None
 
 
 def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = False) -> _Survey:
@@ -153,12 +165,15 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
     first_unposed = first_bad = ""
     found = False
     params: dict[str, str] = {}
+    first_field = None
     with _open_text(path, warn_cut=False) as fh:  # the reading pass warns
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
             if not tokens:
                 continue
             key = tokens[0]
+            if first_field is None:
+                first_field = key
             if key == "PARAM" and len(tokens) >= 3:
                 params[tokens[1]] = tokens[2]
                 continue
@@ -208,6 +223,7 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
         (n_unposed, first_unposed),
         found,
         (n_bad, first_bad),
+        first_field,
     )
 
 
@@ -355,8 +371,9 @@ def read_carmen(
     ValueError
         For a malformed laser line (unless ``bad_lines="skip"``) or a malformed ODOM line
         a scan needs, with the file name and line number;
-        for bad arguments; if the file has no line of the requested kind, or none that
-        makes a scan (each skipped for a pose or timestamp that is not finite, as
+        for bad arguments; if the file has no line of the requested kind (where its
+        first line is no CARMEN line either, the message says the file is no format
+        topojax reads and lists those it reads), or none that makes a scan (each skipped for a pose or timestamp that is not finite, as
         malformed with ``bad_lines="skip"``, or before the first ODOM line).
     """
     p = existing_file("path", path)
@@ -388,6 +405,14 @@ def _iter_carmen(
     need_max = max_range_m is None and laser in ("auto", *_OLD_LASERS)
     survey = _survey_carmen(path, laser, need_max, skip_bad)
     chosen, params = survey.chosen, survey.params
+    first = survey.first_field
+    if not survey.found and first is not None and not _opens_a_carmen_line(first):
+        opens = f"opens with {first[:24]!r}" if first.isprintable() else "is binary data"
+        raise _unknown_format_error(
+            path,
+            f"its first line {opens}, where a CARMEN line opens with a message name "
+            "(FLASER, ODOM, PARAM, ...) or # for a comment",
+        )
     if chosen is None:
         kinds = ", ".join(_CARMEN_LASERS)
         raise no_scan_error(path, "no laser lines found", f"a line of one of {kinds}")

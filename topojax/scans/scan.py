@@ -389,6 +389,22 @@ def no_scan_error(path: Any, reason: str, expected: str) -> ValueError:
     return ValueError(f"{path}: no scan to read: {reason}; expected {expected}")
 
 
+#: The files :func:`topojax.read_scans` reads, and their usual suffixes.
+_READ_FORMATS = (
+    "CARMEN logs (.log, .clf; plain or gzip, .gz), Octave text files (save -text: .txt, "
+    ".mat; plain or gzip), ROS 1 bags (.bag), ROS 2 bags (a folder with metadata.yaml, or "
+    "its .db3 or .mcap file) and MCAP recordings (.mcap)"
+)
+
+
+def _unknown_format_error(path: Any, what: str) -> ValueError:
+    """The refusal of a file that is no format topojax reads: ``what`` says what it
+    holds instead; the message lists the formats read."""
+    return ValueError(
+        f"{path}: not a laser log or bag that topojax reads: {what}; topojax reads {_READ_FORMATS}"
+    )
+
+
 class _SkippedScans:
     """The records of a log whose fields make no :class:`Scan` (an ``angle_increment`` of
     0 or NaN, a ``range_max`` not above ``range_min``, say: a sensor glitch).  A reader
