@@ -550,6 +550,30 @@ def test_route_command_names_its_graph_argument_for_a_missing_or_foreign_file(tm
     assert "format=" not in err
 
 
+def test_a_room_graph_is_refused_as_one_naming_the_graphs_routes_run_on(tmp_path, capsys):
+    """A room graph (``topojax rooms``) failed on its first edge's missing 'path'; it is
+    named as a room graph, and the graphs that routes run on are named."""
+    from room_maps import three_rooms
+
+    from topojax.cli import main
+
+    seg = tj.segment_rooms(three_rooms())
+    assert seg.n_rooms == 3
+    expected = "graph: expected a topology graph (build_graph, topojax graph) or a route graph"
+    received = "received a room graph (rooms as nodes, doors as edges"
+    for suffix in (".json", ".graphml"):
+        path = tj.save_room_graph(seg, tmp_path / f"rooms{suffix}")
+        with pytest.raises(ValueError, match="received a room graph") as info:
+            RoutePlanner(tj.load_graph(path))
+        assert str(info.value).startswith(expected)
+        assert main(["route", str(path), "--start", "0", "0", "--goal", "1", "1"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"topojax route: error: {expected}") and received in err
+    # one without the graph attributes (RoomSegmentation.graph) is told by its doors
+    with pytest.raises(ValueError, match="received a room graph"):
+        RoutePlanner(seg.graph)
+
+
 def test_route_command_with_the_map_joins_the_graph_where_the_route_is_shortest(tmp_path, capsys):
     from topojax.cli import main
 

@@ -24,6 +24,7 @@ from ._validate import (
     robot_radius,
 )
 from .graph import cumulative_length_m, graph_resolution_m, holds, polyline_keep
+from .graph.geometry import check_corridor_graph
 from .io import as_multigraph, jsonable
 from .maps.occupancy import map_mismatch
 
@@ -198,9 +199,9 @@ class RoutePlanner:
         ``graph`` is not an undirected networkx graph (a plain ``networkx.Graph`` is read
         as a MultiGraph with edge keys 0), or ``occupancy`` is not an OccupancyMap.
     ValueError
-        An edge lacks ``path``, ``world`` or ``length_m``, or its path does not start and
-        end at its vertices; ``occupancy`` is not the graph's map (shape, resolution,
-        origin);
+        An edge lacks ``path``, ``world`` or ``length_m`` (a room graph is named as one),
+        or its path does not start and end at its vertices; ``occupancy`` is not the
+        graph's map (shape, resolution, origin);
         no robot radius is given or known; ``robot_radius_m`` or ``entry_m`` without
         ``occupancy``.
     """
@@ -214,6 +215,7 @@ class RoutePlanner:
         entry_m: float | None = None,
     ) -> None:
         graph = as_multigraph(graph)  # a plain Graph: its edges get key 0
+        check_corridor_graph(graph)  # a room graph, say, is named as one
         self._graph = graph
         self._res = graph_resolution_m(graph)
         self._occupancy = occupancy
@@ -480,15 +482,9 @@ class RoutePlanner:
 
     def _edge_arrays(self, a, b, key, data):
         where = f"edge ({a!r}, {b!r}, {key!r})"
-        try:
-            path = np.asarray(data["path"])
-            world = real_array(f"graph: {where}: 'world'", data["world"], finite=True)
-            length = data["length_m"]
-        except KeyError as exc:
-            raise ValueError(
-                f"graph: {where} has no {exc.args[0]!r} attribute; routes need the edges' "
-                "'path', 'world' and 'length_m' (as skeleton_to_graph writes them)"
-            ) from None
+        path = np.asarray(data["path"])  # each edge has the three: check_corridor_graph
+        world = real_array(f"graph: {where}: 'world'", data["world"], finite=True)
+        length = data["length_m"]
         length = (
             float(length)
             if plain_length_m(length)

@@ -1,6 +1,7 @@
 """Pixel-path geometry shared by the graph builders, pruning, routing and export: path
 lengths counted in integer straight / diagonal steps, cumulative lengths, path
-orientation in CSR layout, vertex-pixel membership and Douglas–Peucker simplification."""
+orientation in CSR layout, vertex-pixel membership, Douglas–Peucker simplification, and
+the check that a graph's edges are corridors."""
 
 from __future__ import annotations
 
@@ -135,3 +136,26 @@ def graph_resolution_m(graph) -> float | None:
     res = graph.graph.get("resolution_m")
     ok = isinstance(res, numbers.Real) and not isinstance(res, bool)
     return float(res) if ok and math.isfinite(res) and res > 0 else None
+
+
+_ROOM_GRAPH = "a room graph (rooms as nodes, doors as edges: save_room_graph, topojax rooms)"
+
+
+def check_corridor_graph(graph) -> None:
+    """A ValueError naming the parameter ``graph`` unless each edge of the multigraph
+    ``graph`` is a corridor, with ``path``, ``world`` and ``length_m`` (a topology or
+    route graph); a room graph (:func:`topojax.save_room_graph`'s, with its graph
+    attribute ``n_rooms``, or one whose edges are doors) is named as one."""
+    received = _ROOM_GRAPH if "n_rooms" in graph.graph else None
+    for a, b, key, data in graph.edges(keys=True, data=True):
+        missing = [name for name in ("path", "world", "length_m") if name not in data]
+        if received is None and missing:
+            edge = f"edge ({a!r}, {b!r}, {key!r})"
+            lacks = f"a graph whose {edge} has no {missing[0]!r} attribute"
+            received = _ROOM_GRAPH if "doors" in data else lacks
+    if received is not None:
+        raise ValueError(
+            "graph: expected a topology graph (build_graph, topojax graph) or a route graph "
+            "(route_graph, topojax route-graph), whose edges carry the corridors' 'path', "
+            f"'world' and 'length_m'; received {received}"
+        )
