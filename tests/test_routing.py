@@ -357,7 +357,7 @@ def test_waypoints_keep_the_route_within_the_tolerance():
         assert distance_to_polyline(route.world, w).max() <= tol + 1e-12
         counts.append(len(w))
         feature = route.to_geojson(tolerance_m=tol)
-        np.testing.assert_array_equal(feature["geometry"]["coordinates"], w)
+        np.testing.assert_array_equal(feature["geometry"]["coordinates"], np.round(w, 9))
     assert counts[0] < counts[1] < counts[2] <= len(route.world)
     for bad, exc in (
         (0.0, ValueError),
@@ -404,7 +404,22 @@ def test_route_of_one_pixel_is_valid_geojson():
     assert route.length_m == 0 and len(route.world) == 1
     for tol in (None, 0.1):
         line = route.to_geojson(tolerance_m=tol)["geometry"]["coordinates"]
-        assert line == [list(p), list(p)]  # a LineString needs two positions
+        xy = [round(v, 9) for v in p]
+        assert line == [xy, xy]  # a LineString needs two positions
+
+
+def test_route_geojson_writes_no_float_noise():
+    """World points carry the noise of origin + (col + 0.5) * resolution (5.675000000000001);
+    the GeoJSON coordinates are rounded to 1e-9 m and keep the pixels' metres."""
+    import json
+
+    from topojax.routing import Route
+
+    world = np.array([[5.675000000000001, 0.42500000000000004], [42.175000000000004, 1e-7]])
+    route = Route(1.0, np.array([[0, 0], [0, 1]], np.int32), world, (), (), 0.0, 0.0)
+    text = json.dumps(route.to_geojson())
+    assert '"coordinates": [[5.675, 0.425], [42.175, 1e-07]]' in text
+    np.testing.assert_array_equal(route.world, world)  # the route itself keeps its floats
 
 
 # ------------------------------------------------------------------ bad input

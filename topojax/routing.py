@@ -138,13 +138,16 @@ class Route:
         graphs) with ``length_m``, the snap distances and the vertices as properties.
         With ``tolerance_m``, the line holds the :meth:`waypoints` instead of every
         pixel.  A route of one pixel (start and goal snapped together) repeats it: a GeoJSON
-        ``LineString`` needs two positions."""
+        ``LineString`` needs two positions.  Coordinates are rounded to 1e-9 m, a
+        thousandth of the finest pixel a map may have (1e-6 m), so that ``5.675`` is
+        written, not the float noise ``5.675000000000001``."""
         line = self.world if tolerance_m is None else self.waypoints(tolerance_m=tolerance_m)
         if len(line) == 1:  # start and goal on one pixel: RFC 7946 wants two positions
             line = np.concatenate([line, line])
+        xy = [[round(x, 9), round(y, 9)] for x, y in line.tolist()]  # correctly rounded
         return {
             "type": "Feature",
-            "geometry": {"type": "LineString", "coordinates": line.tolist()},
+            "geometry": {"type": "LineString", "coordinates": xy},
             "properties": {
                 "length_m": self.length_m,
                 "start_snap_m": self.start_snap_m,
