@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import cv2
@@ -331,16 +332,23 @@ def test_map_is_a_map_or_its_file(tmp_path):
 
 def test_map_without_feasible_space_gives_an_empty_graph_that_says_why():
     occ = _map(_room(0.5, 0.5))
-    g = route_graph(occ, robot_radius_m=R)
+    # the note is a warning too, for a notebook, where nobody reads the graph's attributes
+    with pytest.warns(UserWarning, match="^empty route graph: no known-free region") as info:
+        g = route_graph(occ, robot_radius_m=R)
+    assert [str(w.message) for w in info] == [g.graph["note"]]
+    assert info[0].filename == __file__  # it points at the call
     assert g.number_of_nodes() == 0 and g.number_of_edges() == 0
     assert g.graph["note"].startswith("empty route graph: no known-free region of at least")
     assert f"radius {R:g} m" in g.graph["note"]
-    assert "note" not in route_graph(_map(_room(4, 4)), robot_radius_m=R).graph
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert "note" not in route_graph(_map(_room(4, 4)), robot_radius_m=R).graph
     # a map of 0.1 mm pixels: its 3 mm of clearance is not rounded away
     fine = np.zeros((60, 60), bool)
     fine[[0, -1], :] = fine[:, [0, -1]] = True
     fine = tj.OccupancyMap.from_array(fine, resolution_m=1e-4)
-    note = route_graph(fine, robot_radius_m=R).graph["note"]
+    with pytest.warns(UserWarning, match="^empty route graph"):
+        note = route_graph(fine, robot_radius_m=R).graph["note"]
     assert note.endswith("the most clearance from anything not known free is 0.0029 m)")
 
 
@@ -503,8 +511,12 @@ def test_route_graph_command_explains_an_empty_graph_and_writes_no_nav2_file(tmp
     assert main([*argv, "--robot-radius", "0.2"]) == 0
     assert (out / "closet_route_nav2.geojson").is_file()
     capsys.readouterr()
-    assert main([*argv, "--robot-radius", "5"]) == 0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main([*argv, "--robot-radius", "5"]) == 0
+    assert [str(w.message) for w in caught if "empty route graph" in str(w.message)] == []
     text = capsys.readouterr().out
+    assert text.count("empty route graph") == 1  # the note line, not a warning as well
     assert "note       empty route graph: no known-free region" in text
     assert "robot of radius 5 m fits" in text and "no Nav2 file" in text
     assert "evaluation no route to score: no feasible region of at least 1 m2" in text
@@ -558,9 +570,12 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     edges = [f for f in doc["features"] if f["geometry"]["type"] == "MultiLineString"]
     assert len(edges) >= 2 * g.number_of_edges()  # both directions of every waypoint run
     assert main([*argv, "--route-graph", "-1"]) == 2  # refused before the replay
-    assert main([*argv, "--route-graph", "100", "--nav2"]) == 0  # a robot too large: said so
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main([*argv, "--route-graph", "100", "--nav2"]) == 0  # a robot too large
+    assert [str(w.message) for w in caught if "empty route graph" in str(w.message)] == []
     text = capsys.readouterr().out
-    assert "empty route graph: no known-free region" in text
+    assert text.count("empty route graph: no known-free region") == 1  # said once
     assert "route graph 0 vertices, 0 edges, 0 components, robot radius 100 m\n" in text
     assert not (tmp_path / "route_graph_nav2.geojson").exists()  # the earlier run's went
 

@@ -7,6 +7,7 @@ import copy
 import functools
 import json
 import time
+import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -400,7 +401,7 @@ def _map_scans(
             update, final_s, result, seg = _final(mapper, graph_config, rooms)
             routes = None
             if route_graph_radius_m is not None:
-                routes = mapper.route_graph(robot_radius_m=route_graph_radius_m)
+                routes = _quiet_route_graph(mapper, route_graph_radius_m)
     except ExportBudgetError as exc:
         keep_recordings(out, progress_at, recorder, timeline, frames)
         raise _unwritable(mapper, exc, out, state_record()) from None
@@ -584,6 +585,17 @@ def _unwritable(
     )
 
 
+def _quiet_route_graph(mapper, robot_radius_m: float):
+    """``mapper.route_graph``, without its warning of an empty graph: the replay reports
+    the final graph's note itself, and a graph recorded on the way is empty while the
+    map is small."""
+    from .routegraph.feasible import ROUTE_GRAPH_NOTE
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ROUTE_GRAPH_NOTE, UserWarning)
+        return mapper.route_graph(robot_radius_m=robot_radius_m)
+
+
 def _route_note(done: _Replayed) -> list[str]:
     """Why the final route graph (if any) has no edge, as a message; else none."""
     note = None if done.routes is None else done.routes.graph.get("note")
@@ -664,7 +676,7 @@ class _Recording:
         if rep.graph_update is not None:
             self.recorder.add_map(mapper.occupancy, mapper.graph)
             if self.route_graph_radius_m is not None:
-                routes = mapper.route_graph(robot_radius_m=self.route_graph_radius_m)
+                routes = _quiet_route_graph(mapper, self.route_graph_radius_m)
                 self.recorder.add_route_graph(routes)
         if rep.rooms_update is not None:
             self.recorder.add_rooms(mapper.rooms)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, fields, replace
 
 import cv2
@@ -200,8 +201,8 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         (True), ``robot_radius_m``, ``snap_m``, ``kind`` (``"route_graph"``),
         ``uncovered_share`` and ``timings_s``; for a graph without edges, ``note``:
         why (no feasible region, with the most clearance the map offers; or vertices
-        without edges).  One component per feasible region of at least
-        ``min_region_m2``.
+        without edges), also given as a ``UserWarning``.  One component per feasible
+        region of at least ``min_region_m2``.
 
     Raises
     ------
@@ -215,7 +216,10 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     if robot_radius_m is not None:
         cfg = replace(cfg, robot_radius_m=robot_radius_m)
     with paused_gc():  # many small containers, no reference cycles
-        return _route_graph(occupancy, cfg)
+        graph = _route_graph(occupancy, cfg)
+    if graph.graph.get("note"):  # an empty graph: in a notebook, where the note is unseen
+        warnings.warn(graph.graph["note"], UserWarning, stacklevel=2)
+    return graph
 
 
 def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
