@@ -7,6 +7,7 @@ import os
 import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -141,6 +142,21 @@ def test_graph_says_when_the_resolution_is_assumed(tmp_path, capsys):
         main(["graph", str(_ros_map(tmp_path / "c", wall_col=20)), "-o", str(tmp_path / "c")]) == 0
     )
     assert "assumed" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", [["graph"], ["graph", "--tiled"], ["rooms"], ["route-graph"]])
+def test_an_assumed_resolution_is_said_once_in_the_map_line(tmp_path, capsys, command):
+    """load_map warns of a resolution it assumes; a command that says so in its map line
+    does not show the warning as well."""
+    from room_maps import three_rooms_png
+
+    png = three_rooms_png(tmp_path / "rooms.png")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main([*command, str(png), "-o", str(tmp_path / "out")]) == 0
+    assert [str(w.message) for w in caught if "states no resolution" in str(w.message)] == []
+    out = capsys.readouterr().out
+    assert out.count("0.05 m/px, assumed: the file states none") == 1
 
 
 def test_a_map_yaml_without_origin_says_how_to_give_one_on_the_command_line(tmp_path, capsys):

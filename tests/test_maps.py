@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import re
 import struct
+import warnings
 from pathlib import Path
 
 import cv2
@@ -704,7 +705,34 @@ def test_pgm_comment_resolution_and_override(tmp_path: Path):
     assert np.array_equal(m.unknown, img == 205)
     assert load_map(tmp_path / "a.pgm", resolution_m=0.5).resolution_m == 0.5
     _write_pgm(tmp_path / "b.pgm", img)
-    assert load_map(tmp_path / "b.pgm").resolution_m == 0.05
+    with pytest.warns(UserWarning, match="states no resolution"):
+        assert load_map(tmp_path / "b.pgm").resolution_m == 0.05
+
+
+def test_a_map_that_states_no_resolution_is_loaded_at_an_assumed_one_with_a_warning(
+    tmp_path: Path,
+):
+    """A plain image without a resolution was loaded at 0.05 m/px without a word: every
+    length in metres then rests on a scale nobody gave."""
+    img = np.array([[0, 205, 254], [254, 254, 0]], dtype=np.uint8)
+    png = tmp_path / "plain.png"
+    cv2.imwrite(str(png), img)
+    with pytest.warns(UserWarning) as info:
+        assert load_map(png).resolution_m == 0.05
+    assert [str(w.message) for w in info] == [
+        f"map {png} states no resolution: assumed 0.05 m/px, on which every length and "
+        "world point rests; give the map's own with load_map(..., resolution_m=...) "
+        "(--resolution on the command line)"
+    ]
+    assert info[0].filename == __file__  # it points at the call
+    # a resolution given, in a PGM's comment or a YAML: nothing assumed, nothing said
+    _write_pgm(tmp_path / "a.pgm", img, comment="CREATOR: map_saver.cpp 0.070 m/pix")
+    (tmp_path / "a.yaml").write_text("image: a.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert load_map(png, resolution_m=0.2).resolution_m == 0.2
+        assert load_map(tmp_path / "a.pgm").resolution_m == 0.07
+        assert load_map(tmp_path / "a.yaml").resolution_m == 0.1
 
 
 def test_a_plain_pgms_resolution_comment_is_not_reported_assumed(tmp_path: Path):
@@ -731,7 +759,8 @@ def test_pgm_comment_resolution_is_read_whole_or_refused(tmp_path: Path):
         assert load_map(tmp_path / "g.pgm").resolution_m == value, comment
     for comment in ("units: m/pix", "Resolution in m/pix: 0.05"):
         _write_pgm(tmp_path / "g.pgm", img, comment=comment)
-        assert load_map(tmp_path / "g.pgm").resolution_m == 0.05, comment  # the default
+        with pytest.warns(UserWarning, match="states no resolution: assumed 0.05 m/px"):
+            assert load_map(tmp_path / "g.pgm").resolution_m == 0.05, comment  # the default
     # a decimal comma, a sign or a zero must not be read as some other number
     for comment in ("CREATOR: x 0,05 m/pix", "-0.05 m/pix", "x=0,05 m/pix", "0 m/pix"):
         _write_pgm(tmp_path / "b.pgm", img, comment=comment)

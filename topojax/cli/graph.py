@@ -17,6 +17,7 @@ from ._options import (
     map_options,
     nav2_tolerance,
     pipeline_config,
+    resolution_said_in_map_line,
     room_config,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
@@ -151,7 +152,8 @@ def _cmd_graph(args) -> int:
 
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
         check_outputs(planned([args.mcap], args.map), command="graph", option="--mcap")
-    occupancy = load_map(args.map, **map_options(args))
+    with resolution_said_in_map_line():
+        occupancy = load_map(args.map, **map_options(args))
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
     for line in _classes_hint(occupancy, result.graph):

@@ -10,6 +10,7 @@ from ._options import (
     add_room_options,
     assumed_resolution_note,
     map_options,
+    resolution_said_in_map_line,
     room_config,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
@@ -61,7 +62,8 @@ def _cmd_rooms(args) -> int:
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="rooms", option=OUT_OPTION)
-    occupancy = load_map(args.map, **map_options(args))
+    with resolution_said_in_map_line():
+        occupancy = load_map(args.map, **map_options(args))
     t0 = time.perf_counter()
     seg = segment_rooms(occupancy, config=config)
     seconds = time.perf_counter() - t0

@@ -9,7 +9,7 @@ import warnings
 from pathlib import Path
 
 from .._constants import MODES
-from ._options import _option_named, assumed_resolution_note
+from ._options import _option_named, assumed_resolution_note, resolution_said_in_map_line
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
@@ -113,7 +113,8 @@ def _cmd_route_graph(args) -> int:
     if args.resolution_m is not None:
         positive_metres("--resolution", args.resolution_m)
     kw = {k: getattr(args, k) for k in ("resolution_m", "mode") if getattr(args, k) is not None}
-    occupancy = load_map(args.map, **kw)
+    with resolution_said_in_map_line():
+        occupancy = load_map(args.map, **kw)
     check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")
     t0 = time.perf_counter()
     try:

@@ -12,6 +12,7 @@ from ._options import (
     map_options,
     nav2_tolerance,
     pipeline_config,
+    resolution_said_in_map_line,
     room_config,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
@@ -94,7 +95,8 @@ def cmd_graph_tiled(args) -> int:
     targets = [out / name for name in tiled_files(stem, args.nav2)]
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
     options = map_options(args)
-    source = tiled_source(args.map, **options)
+    with resolution_said_in_map_line():
+        source = tiled_source(args.map, **options)
     config = pipeline_config(args, resolution_m=source.resolution_m)
     with warnings.catch_warnings(record=True) as caught:
         try:

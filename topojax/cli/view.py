@@ -20,6 +20,7 @@ import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ._options import resolution_said_in_map_line
 from ._outputs import RECORD_NAME, check_outputs, planned, read_record, record_outputs
 
 __all__ = ["add_command", "find_results"]
@@ -220,7 +221,8 @@ def _load_map(result: _Result, graph):
         result.notes.append(f"its map {result.map} is not there: graph only")
         return None
     try:
-        occupancy = load_map(result.map, **result.map_kwargs)
+        with resolution_said_in_map_line():  # the command that made the files said so
+            occupancy = load_map(result.map, **result.map_kwargs)
     except (ValueError, OSError, TypeError) as exc:  # TypeError: options edited in the record
         result.notes.append(f"its map {result.map} cannot be read ({exc}): graph only")
         return None

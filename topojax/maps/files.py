@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -148,8 +149,9 @@ def load_map(
         ``.pgm``, ``.png``, ``.jpg``, ``.jpeg``, ``.bmp``, ``.tif``, ``.tiff``: a plain
         image (1- to 16-bit; grey, grey + alpha, RGB, RGBA, CMYK or palette). Defaults:
         resolution from a PGM ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment if
-        present, else 0.05 m/px (the IPA benchmark / paper value); origin (0, 0, 0);
-        thresholds 0.65 / 0.196; trinary mode.
+        present, else 0.05 m/px (the IPA benchmark / paper value, with a
+        ``UserWarning`` naming ``resolution_m``); origin (0, 0, 0); thresholds
+        0.65 / 0.196; trinary mode.
     resolution_m, origin, occupied_thresh, free_thresh, negate, mode
         Override the values from the YAML file or the defaults (see
         :meth:`OccupancyMap.from_array` for their meaning).
@@ -206,8 +208,16 @@ def load_map(
     else:
         pixels, full, comments = _read_pixels(p)
         if resolution_m is None:
-            header_res = resolution_from_pgm_comments(comments, p)
-            resolution_m = header_res if header_res is not None else DEFAULT_RESOLUTION_M
+            resolution_m = resolution_from_pgm_comments(comments, p)
+        if resolution_m is None:
+            resolution_m = DEFAULT_RESOLUTION_M
+            warnings.warn(
+                f"map {p} states no resolution: assumed {resolution_m:g} m/px, on which every "
+                "length and world point rests; give the map's own with load_map(..., "
+                "resolution_m=...) (--resolution on the command line)",
+                UserWarning,
+                stacklevel=2,
+            )
         settings = {
             "resolution_m": resolution_m,
             "origin": (0.0, 0.0, 0.0) if origin is None else origin,
@@ -231,6 +241,11 @@ def load_map(
     return _classify_pixels(
         pixels, full, settings, average_alpha=average_alpha, path=p, where=where
     )
+
+
+#: How :func:`load_map`'s warning of an assumed resolution starts (a regular expression):
+#: the commands that print the assumption in their map line filter the warning out.
+ASSUMED_RESOLUTION_WARNING = r"map .* states no resolution: assumed "
 
 
 def default_resolution_used(path: str | Path) -> bool:
