@@ -724,3 +724,14 @@ def test_a_ctrl_c_while_a_stopped_replay_keeps_its_scans_waits_for_them(
     assert summary["resumed_after"] == 12
     assert not [m for m in summary["messages"] if "holds the scans after" in m]
     assert_same_outputs(full_run[0], out)
+
+
+def test_a_rooms_difference_on_resume_counts_one_scan_in_the_singular():
+    from topojax._replay_state import _IN_WORDS
+
+    differs = _IN_WORDS["rooms_every"]
+    assert (
+        differs(1, None)
+        == "the saved replay updated rooms every 1 scan, this one has no rooms_every"
+    )
+    assert differs(None, 2).endswith("this one updates rooms every 2 scans")

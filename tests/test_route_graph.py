@@ -544,9 +544,9 @@ def test_mapper_route_graph_is_the_route_graph_of_its_map():
 
 
 def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
+    from topojax._words import counted
     from topojax.cli import main
     from topojax.io import load_graph
-    from topojax.plotting.style import counted
 
     argv = ["replay", "tests/data/intel_first40.log.gz", "-o", str(tmp_path), "--no-progress"]
     assert main([*argv, "--route-graph", "0.25"]) == 0

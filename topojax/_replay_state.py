@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from ._animation import load_frames, save_frames
+from ._words import counted
 
 #: Where a replay that stops part way keeps the mapper's state, in its output folder.
 STATE_FILE = "mapper_state.npz"
@@ -221,7 +222,7 @@ def keep_state(mapper, out: Path, record) -> bool:
             path = save_replay_state(mapper, out / STATE_FILE, record())
     except KeyboardInterrupt:  # a second Ctrl-C while the state was saved
         warnings.warn(
-            f"replay stopped after {mapper.n_scans} scans; saving the mapper's state was "
+            f"replay stopped after {counted(mapper.n_scans, 'scan')}; saving the mapper's state was "
             "interrupted, so it is not kept",
             RuntimeWarning,
             stacklevel=_CALLER,
@@ -229,14 +230,14 @@ def keep_state(mapper, out: Path, record) -> bool:
         raise
     except Exception as exc:  # noqa: BLE001 - the original failure is what is raised
         warnings.warn(
-            f"replay stopped after {mapper.n_scans} scans; saving the mapper's state "
+            f"replay stopped after {counted(mapper.n_scans, 'scan')}; saving the mapper's state "
             f"failed too ({exc})",
             RuntimeWarning,
             stacklevel=_CALLER,
         )
         return False
     warnings.warn(
-        f"replay stopped after {mapper.n_scans} scans; the mapper's state is saved to "
+        f"replay stopped after {counted(mapper.n_scans, 'scan')}; the mapper's state is saved to "
         f"{path} (replay with resume=True, topojax replay --resume, continues from it)",
         RuntimeWarning,
         stacklevel=_CALLER,
@@ -315,7 +316,7 @@ def _rooms_every_differs(saved, now) -> str:
     no rooms (``rooms`` not asked for), 0 rooms after the last scan only."""
 
     def updated(every) -> str:
-        return "after its last scan only" if every == 0 else f"every {every} scans"
+        return "after its last scan only" if every == 0 else f"every {counted(every, 'scan')}"
 
     if now is None:
         return f"the saved replay updated rooms {updated(saved)}, this one has no rooms_every"
@@ -453,3 +454,14 @@ def drop_recordings(out: Path) -> list[str]:
         return []
     shutil.rmtree(folder, ignore_errors=True)
     return [f"removed {folder}: the replay has finished"]
+
+
+def quiet_route_graph(mapper, robot_radius_m: float):
+    """``mapper.route_graph``, without its warning of an empty graph: the replay reports
+    the final graph's note itself, and a graph recorded on the way is empty while the
+    map is small."""
+    from .routegraph.feasible import ROUTE_GRAPH_NOTE
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ROUTE_GRAPH_NOTE, UserWarning)
+        return mapper.route_graph(robot_radius_m=robot_radius_m)

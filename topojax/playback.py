@@ -7,7 +7,6 @@ import copy
 import functools
 import json
 import time
-import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -28,11 +27,13 @@ from ._replay_state import (
     keep_recordings,
     keep_state,
     kept_recordings,
+    quiet_route_graph,
     replay_record,
     resumed_mapper,
     save_replay_state,
     skipped_message,
 )
+from ._words import counted
 from .config import GraphConfig
 from .incremental import (
     ExportBudgetError,
@@ -396,12 +397,14 @@ def _map_scans(
         if not mapper.n_scans:
             raise ValueError(f"source {source}: no scans to replay")
         if mapper.pixel_bbox is None:
-            raise ValueError(f"source {source}: no valid laser readings in {mapper.n_scans} scans")
+            raise ValueError(
+                f"source {source}: no valid laser readings in {counted(mapper.n_scans, 'scan')}"
+            )
         with WholeScans() as whole, whole.held():  # a Ctrl-C waits for the update
             update, final_s, result, seg = _final(mapper, graph_config, rooms)
             routes = None
             if route_graph_radius_m is not None:
-                routes = _quiet_route_graph(mapper, route_graph_radius_m)
+                routes = quiet_route_graph(mapper, route_graph_radius_m)
     except ExportBudgetError as exc:
         keep_recordings(out, progress_at, recorder, timeline, frames)
         raise _unwritable(mapper, exc, out, state_record()) from None
@@ -577,23 +580,12 @@ def _unwritable(
     lost) and return the error for a map too large to write whole."""
     path = save_replay_state(mapper, out / STATE_FILE, record)
     return ValueError(
-        f"{exc}. The map of the {mapper.n_scans} scans mapped is too large to export "
+        f"{exc}. The map of the {counted(mapper.n_scans, 'scan')} mapped is too large to export "
         f"whole; the mapper's state is saved to {path} (IncrementalMapper.load; export "
         "windows of it with occupancy_window). A pose far off (a localisation glitch)? "
         f"Replay with a smaller max_extent_m (--max-extent-m; now {mapper.max_extent_m:g} m) "
         "to skip such scans."
     )
-
-
-def _quiet_route_graph(mapper, robot_radius_m: float):
-    """``mapper.route_graph``, without its warning of an empty graph: the replay reports
-    the final graph's note itself, and a graph recorded on the way is empty while the
-    map is small."""
-    from .routegraph.feasible import ROUTE_GRAPH_NOTE
-
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", ROUTE_GRAPH_NOTE, UserWarning)
-        return mapper.route_graph(robot_radius_m=robot_radius_m)
 
 
 def _route_note(done: _Replayed) -> list[str]:
@@ -676,7 +668,7 @@ class _Recording:
         if rep.graph_update is not None:
             self.recorder.add_map(mapper.occupancy, mapper.graph)
             if self.route_graph_radius_m is not None:
-                routes = _quiet_route_graph(mapper, self.route_graph_radius_m)
+                routes = quiet_route_graph(mapper, self.route_graph_radius_m)
                 self.recorder.add_route_graph(routes)
         if rep.rooms_update is not None:
             self.recorder.add_rooms(mapper.rooms)
@@ -744,7 +736,6 @@ def _write_pictures(result, out: Path, name: str, *, rooms=None) -> list[Path]:
     matplotlib.use("Agg")  # plot_stages draws with pyplot; no window
     from ._fs import atomic_write_bytes
     from .plotting import result_png, stages_png
-    from .plotting.style import counted
 
     g = result.graph
     n = g.number_of_nodes()
@@ -758,8 +749,6 @@ def _write_pictures(result, out: Path, name: str, *, rooms=None) -> list[Path]:
 
 
 def summary_text(summary: dict) -> str:
-    from .plotting.style import counted
-
     lines = [
         f"replayed   {counted(summary['n_scans'], 'scan')} of {summary['source']} in "
         f"{summary['wall_s']:.2f} s; map {summary['map_shape'][0]} x "

@@ -32,8 +32,8 @@ def write_nav2(graph, path: Path, tolerance_m: float) -> tuple[list[Path], list[
 def summary_lines(name: str, result, *, timing_note: str = "", assumed: str = "") -> list[str]:
     """The map, graph and time lines ``topojax graph`` prints for ``result`` (a
     ``TopologyResult`` or a ``TiledResult``)."""
+    from .._words import counted
     from ..graph import graph_summary
-    from ..plotting.style import counted
 
     s = graph_summary(result.graph)
     h, w = result.map.shape

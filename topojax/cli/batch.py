@@ -46,9 +46,9 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     """Run the batch of ``args``; ``manifests`` receives the manifest of each of its
     maps and its :func:`_stamp` before the run, for the line of a stopped run."""
     from .._fs import output_folder
+    from .._words import counted
     from ..batch import build_graphs, expand_map_inputs
     from ..batch.inputs import planned_outputs
-    from ..plotting.style import counted
 
     _check_numbers(args)
     route_config = _route_config(args)
@@ -157,7 +157,7 @@ def _stopped_text(signum: int, out, manifests: dict[Path, tuple[int, int] | None
     how = "stopped by SIGTERM" if signum == signal.SIGTERM else "interrupted (Ctrl-C)"
     if not manifests:
         return f"topojax batch: {how} before any map was started"
-    from ..plotting.style import counted
+    from .._words import counted
 
     done = sum(1 for path, was in manifests.items() if _stamp(path) not in (None, was))
     return (

@@ -90,7 +90,7 @@ def room_lines(
     """The summary of a segmentation: rooms, doors and its stages' time (ms, the line
     ``time_label``, ending in ``timing_note`` in brackets where one is given and a stage
     ran), and a note when the map gave no room."""
-    from ..plotting.style import counted
+    from .._words import counted
 
     rooms, doors = seg.rooms, seg.doors
     line = f"rooms      {counted(len(rooms), 'room')}"

@@ -100,9 +100,9 @@ def _map_options_given(args) -> list[str]:
 def _cmd_route(args) -> int:
     from .._fs import output_file
     from .._validate import existing_file, nonnegative_metres, positive_metres, robot_radius
+    from .._words import counted
     from ..io import load_graph
     from ..io.files import GRAPH_FORMATS
-    from ..plotting.style import counted
     from ..routing import NoRouteError, RoutePlanner
 
     # checked before the work, under the options' names

@@ -84,9 +84,9 @@ def _files(stem: str, args) -> list[str]:
 def _cmd_route_graph(args) -> int:
     from .._fs import output_folder, refuse_overwriting_inputs
     from .._validate import positive_metres, robot_radius
+    from .._words import counted
     from ..io import save_graph
     from ..maps import load_map
-    from ..plotting.style import counted
     from ..routegraph import RouteGraphConfig, route_graph
     from ..routegraph.build import MAX_SNAP_M, check_scale
     from ..routegraph.feasible import ROUTE_GRAPH_NOTE

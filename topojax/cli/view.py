@@ -171,7 +171,7 @@ def _load(result: _Result):
 def _note_timeline(result: _Result, timeline, graph) -> None:
     """Note when the timeline's last graph is not the graph shown (a timeline of another
     run in the folder); the page still shows both.  The command prints the note."""
-    from ..plotting.style import counted
+    from .._words import counted
 
     last = timeline.last_counts()
     shown = (graph.number_of_nodes(), graph.number_of_edges())
@@ -290,7 +290,7 @@ def _index_page(folder: Path, pages: list[tuple[str, Path]]) -> str:
 def _cmd_view(args) -> int:
     from .._fs import atomic_write_bytes, output_folder
     from .._validate import int_at_least
-    from ..plotting.style import counted
+    from .._words import counted
     from ..view.window import checked_window
 
     if args.window is not None:  # checked before any work, named as on the command line

@@ -17,12 +17,12 @@ from .._validate import (
     text_or_none,
     xy_points,
 )
+from .._words import counted
 from .style import (
     MARGIN_COLOUR,
     add_legend,
     add_scale_bar,
     axes_or_new,
-    counted,
     draw_graph_lines,
     hex_rgb,
     imshow_pooled,

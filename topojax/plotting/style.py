@@ -39,12 +39,6 @@ def titled(name: str | None, text: str) -> str:
     return f"{name}: {text}" if name else text
 
 
-def counted(n: int, noun: str, plural: str | None = None) -> str:
-    """``n`` and ``noun``, plural unless ``n`` is 1: ``"1 door"``, ``"3 doors"``; the
-    plural is ``plural`` where given (``"vertex"``, ``"vertices"``), else ``noun`` + s."""
-    return f"{n} {noun if n == 1 else plural or noun + 's'}"
-
-
 def max_pool(image: np.ndarray, factor: int) -> np.ndarray:
     """``image`` (bool or numbers, (H, W)) shrunk ``factor`` times by max-pooling: a pixel
     of the result is the largest of its ``factor`` x ``factor`` block (for bool: True when

@@ -11,6 +11,7 @@ import networkx as nx
 import numpy as np
 
 from .._validate import instance_of, nonnegative_metres, nx_graph
+from .._words import counted
 from ..graph import graph_resolution_m
 from ..maps.occupancy import grid_mismatch, map_mismatch
 from ..maps.tiled import TiledMap
@@ -113,7 +114,7 @@ def inputs_of(
         if rooms is True:
             rooms = obj.rooms  # its first read updates the graph: the graph is taken after
         _result_inputs(obj.to_result(update=False), out, pruned=False)
-        out.title = f"incremental mapper, {obj.n_scans} scans"
+        out.title = f"incremental mapper, {counted(obj.n_scans, 'scan')}"
     elif _instance(obj, "topojax.rooms.model", "RoomSegmentation"):
         out.map = obj.occupancy
         out.rooms = obj
