@@ -65,7 +65,10 @@ def test_a_resumed_replay_writes_what_an_uninterrupted_one_does(
     out = tmp_path / "out"
     interrupted_reader(monkeypatch, after)
     with (
-        pytest.warns(RuntimeWarning, match=rf"stopped after {after} scans; .*resume") as warned,
+        pytest.warns(
+            RuntimeWarning,
+            match=rf"stopped after {after} scan{'s' if after != 1 else ''}; .*resume",
+        ) as warned,
         pytest.raises(KeyboardInterrupt),
     ):
         replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
