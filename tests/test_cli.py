@@ -41,6 +41,32 @@ def test_building_the_parser_loads_no_heavy_module():
     assert _loaded_after("from topojax.cli import build_parser; build_parser()") == []
 
 
+@pytest.mark.parametrize(
+    ("argv", "error"),
+    [
+        (
+            ["--robot-radius", "0.3", "--snapm", "1"],
+            "unrecognized arguments: --snapm 1 (--snapm: did you mean --snap-m?)",
+        ),
+        (
+            ["--plott", "--robot-radus=0.3"],
+            "unrecognized arguments: --plott --robot-radus=0.3 (--plott: did you mean "
+            "--plot?; --robot-radus: did you mean --robot-radius?)",
+        ),
+        (["--zzzzz"], "unrecognized arguments: --zzzzz"),  # nothing close: no guess
+    ],
+)
+def test_an_unknown_option_is_the_commands_error(capsys, argv, error):
+    """A mistyped option is refused under the command's usage line and name, not the
+    ``topojax`` ones (which list no option of the command), with its closest option."""
+    with pytest.raises(SystemExit) as stop:
+        main(["route-graph", "map.png", *argv])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: topojax route-graph [-h]")
+    assert err.rstrip().endswith(f"topojax route-graph: error: {error}")
+
+
 def test_names_load_on_first_use():
     code = (
         "import sys, topojax; from topojax import OccupancyMap, GraphConfig; "

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import difflib
 import os
 import signal
 import sys
@@ -28,7 +29,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--version", action="version", version=f"%(prog)s {__version__}", help="print the version"
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(
+        dest="command", required=True, metavar="COMMAND", parser_class=_CommandParser
+    )
 
     graph.add_commands(sub)
     route.add_command(sub)
@@ -38,6 +41,34 @@ def build_parser() -> argparse.ArgumentParser:
     batch.add_command(sub)
     view.add_command(sub)
     return parser
+
+
+class _CommandParser(argparse.ArgumentParser):
+    """The parser of one command: an argument it does not know is an error under the
+    command's own usage line and name (``topojax route-graph: error: ...``, not the
+    ``topojax`` ones), which suggests the command's closest option to a mistyped one."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras:
+            self.error(_unrecognized_text(extras, self._option_string_actions))
+        return namespace, extras
+
+
+def _unrecognized_text(extras: list[str], options) -> str:
+    """The error of the arguments ``extras`` that no option or positional argument took,
+    with the closest of ``options`` (a command's option strings) to each that looks like
+    an option (``--snapm 1``: ``did you mean --snap-m?``)."""
+    hints = []
+    for word in extras:
+        name = word.split("=", 1)[0]
+        if name.startswith("--"):  # compared without the dashes that every one has
+            close = difflib.get_close_matches(
+                name[2:], [o[2:] for o in options if o[:2] == "--"], 1
+            )
+            hints += [f"{name}: did you mean --{close[0]}?"] if close else []
+    text = f"unrecognized arguments: {' '.join(extras)}"
+    return f"{text} ({'; '.join(hints)})" if hints else text
 
 
 def _use_compilation_cache() -> None:
