@@ -318,6 +318,29 @@ def test_replay_option_names_leave_the_paths_in_its_errors_as_they_are(tmp_path,
     assert err.startswith("topojax replay: error: --animate: ") and str(gif) in err
 
 
+def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
+    """A scan refused as beyond the mapped area's bound read ``beyond max_extent_m=12 m``
+    and advised to "make the mapper with a smaller tile_px or sigma, or a larger
+    max_extent_m", settings the command has no option for: every scan refused is an error
+    in the command's words, and so is a skipped scan in the printed summary."""
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    out = str(tmp_path / "out")
+    assert main(["replay", str(log), "-o", out, "--max-extent-m", "12", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "all 40 scans were refused" in err and "beyond --max-extent-m=12 m" in err
+    assert err.rstrip().endswith("at 0.05 m per pixel: give a larger --max-extent-m)")
+    for word in ("max_extent_m", "tile_px", "sigma", "make the mapper"):
+        assert word not in err
+    assert main(["replay", str(log), "-o", out, "--max-extent-m", "46", "--no-progress"]) == 0
+    printed = capsys.readouterr().out
+    assert (
+        "skipped 27 of 40 scans, each refused as beyond the mapper's bounds (--max-extent-m)"
+        in (printed)
+    )
+    assert "beyond --max-extent-m=46 m" in printed and "give a larger --max-extent-m)" in printed
+    assert "max_extent_m" not in printed and "make the mapper" not in printed
+
+
 def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, capsys):
     """A missing log was reported as ``path: file not found``, the reader's parameter."""
     missing = tmp_path / "none.log"

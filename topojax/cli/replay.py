@@ -11,6 +11,7 @@ from pathlib import Path
 from .._constants import STRATEGIES
 from ._options import (
     _as_option_error,
+    _as_options,
     add_graph_options,
     add_nav2_options,
     add_room_options,
@@ -109,8 +110,10 @@ def _cmd_replay(args) -> int:
         print(f"topojax replay: stopped by {stopped[0].name}", file=sys.stderr)
         return 128 + stopped[0]
     record_outputs(planned(summary["written"], args.source), command="replay")
-    if args.no_progress:
-        print(summary_text(summary))
+    if args.no_progress:  # a skipped scan's refusal in the command's words
+        words = {"max_extent_m": "--max-extent-m"}  # not "resume", a word of the messages
+        messages = [_in_options(m, words) for m in summary["messages"]]
+        print(summary_text({**summary, "messages": messages}))
     print("wrote      " + ", ".join(summary["written"]))
     if stopped:  # a signal the replay could not act on (e.g. lost in a callback)
         print(
@@ -124,7 +127,33 @@ def _cmd_replay(args) -> int:
 
 #: The parameters of :func:`topojax.replay` that errors name, and the options that set
 #: them (``mcap`` is checked as ``--mcap`` before; ``.mcap`` ends its messages' names).
-_OPTION_OF = {"out_dir": "--out", "animate": "--animate", "resume": "--resume"}
+_OPTION_OF = {
+    "out_dir": "--out",
+    "animate": "--animate",
+    "resume": "--resume",
+    "max_extent_m": "--max-extent-m",
+}
+#: The advice of the mapper's refusals of a scan beyond ``max_extent_m`` that names
+#: settings this command has no option for (the mapper's tiles and Gaussian), or names
+#: the option besides the parameter, and what the command says instead.
+_ADVICE = {
+    "make the mapper with a smaller tile_px or sigma, or a larger max_extent_m": (
+        "give a larger max_extent_m"
+    ),
+    "make the mapper with a larger max_extent_m": "give a larger max_extent_m",
+    "(max_extent_m, --max-extent-m in topojax replay)": "(max_extent_m)",
+}
+
+
+def _in_options(text: str, option_of: dict[str, str] = _OPTION_OF) -> str:
+    """``text`` (a message of :func:`topojax.replay`) in the words of this command: the
+    mapper's advice as :data:`_ADVICE` words it, each parameter of ``option_of`` as the
+    option that sets it."""
+    for phrase, instead in _ADVICE.items():
+        text = text.replace(phrase, instead)
+    return _as_options(text, option_of)
+
+
 #: With them, the mapper settings, reader options and ``max_scans`` that a refused
 #: resume names (``resume: ...``), as the options that set them.
 _RESUME_OPTION_OF = {
@@ -152,6 +181,8 @@ def _named_as_options():
         yield
     except (TypeError, ValueError, OSError) as exc:
         names = _RESUME_OPTION_OF if str(exc).startswith("resume:") else _OPTION_OF
+        if type(exc) is ValueError:  # e.g. every scan refused: the mapper's advice
+            raise ValueError(_in_options(str(exc), names)) from None
         raise _as_option_error(exc, names) from None
 
 
