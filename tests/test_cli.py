@@ -420,12 +420,12 @@ def test_ctrl_c_ends_a_command_with_one_line_not_a_traceback(tmp_path, monkeypat
     """A batch stopped by Ctrl-C ends with one line, not a traceback through
     concurrent.futures and threading, and status 130: how many of its maps it finished,
     and how to do the others."""
-    import topojax.batch
+    import topojax.batch.driver
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(topojax.batch, "build_graphs", interrupted)
+    monkeypatch.setattr(topojax.batch.driver, "run_batch", interrupted)
     src = Path(topojax.__file__).parent / "data" / "office.png"
     out = tmp_path / "out"
     assert main(["batch", str(src), "-o", str(out), "--no-progress"]) == 130
@@ -442,7 +442,7 @@ def test_sigterm_ends_a_batch_with_the_maps_it_finished(tmp_path, monkeypatch, c
     earlier run is not one) and says how to go on."""
     import signal
 
-    import topojax.batch
+    import topojax.batch.driver
 
     data = Path(topojax.__file__).parent / "data"
     out = tmp_path / "out"
@@ -454,7 +454,7 @@ def test_sigterm_ends_a_batch_with_the_maps_it_finished(tmp_path, monkeypatch, c
         signal.raise_signal(signal.SIGTERM)
         raise AssertionError("SIGTERM did not stop the batch")
 
-    monkeypatch.setattr(topojax.batch, "build_graphs", stopped_after_one_map)
+    monkeypatch.setattr(topojax.batch.driver, "run_batch", stopped_after_one_map)
     handler = signal.getsignal(signal.SIGTERM)
     srcs = [str(data / "office.png"), str(data / "intel.png"), str(data / "a_scan.png")]
     assert main(["batch", *srcs, "-o", str(out), "--no-progress"]) == 143
@@ -561,8 +561,7 @@ _MAP_OPTION_ERRORS = [
 
 @pytest.mark.parametrize(
     ("command", "argv", "message"),
-    [(c, a, m) for c in ("graph", "rooms") for a, m in _MAP_OPTION_ERRORS]
-    + [("route-graph", a, m) for a, m in _MAP_OPTION_ERRORS[:2]],  # no threshold options
+    [(c, a, m) for c in ("graph", "rooms", "route-graph", "batch") for a, m in _MAP_OPTION_ERRORS],
 )
 def test_map_reading_options_are_named_in_errors(tmp_path, capsys, command, argv, message):
     """How a map file is read is refused under the command's option, not ``load_map``'s

@@ -81,15 +81,20 @@ def checked_options(
     map_mode: Any,
     sigma_m: Any,
     route_config: Any = None,
+    map_options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Check the options of :func:`build_graphs` and fill in their defaults.
 
     ``flags`` holds ``plot``, ``resume``, ``progress`` and ``keep_graphs`` (bool;
-    ``keep_graphs`` may be None).  Returns the keyword arguments of the batch run other
-    than its items, output folder and fingerprints: ``config``, ``formats``,
-    ``executor``, ``workers``, the flags as bools, the kernel settings, ``map_mode``,
-    ``sigma_m``, ``route_config`` (None without a route format) and the ``request`` its
-    manifests record.  Raises TypeError or ValueError naming the argument.
+    ``keep_graphs`` may be None); ``map_options`` are more keyword arguments of
+    :func:`~topojax.load_map` for every map file (``resolution_m``, ``occupied_thresh``,
+    ``free_thresh``, ``negate``; checked by ``load_map``), as ``topojax batch`` gives
+    them.  Returns the keyword arguments of the batch run other than its items, output
+    folder and fingerprints: ``config``, ``formats``, ``executor``, ``workers``, the
+    flags as bools, the kernel settings, ``map_options`` (those and ``map_mode`` as
+    ``mode``), ``sigma_m``, ``route_config`` (None without a route format) and the
+    ``request`` its manifests record.  Raises TypeError or ValueError naming the
+    argument.
     """
     config = instance_or_default("config", config, PipelineConfig)
     fmts = check_formats(formats)
@@ -114,7 +119,7 @@ def checked_options(
         "batch_tiles": group_tiles,
         "progress": bool(flags["progress"]),
         "resume": bool(flags["resume"]),
-        "map_mode": map_mode,
+        "map_options": {**(map_options or {}), **({"mode": map_mode} if map_mode else {})},
         "sigma_m": sigma_m,
         "route_config": route_config,
         "request": request_settings(
@@ -124,6 +129,7 @@ def checked_options(
             map_mode=map_mode,
             sigma_m=sigma_m,
             route_config=route_config,
+            map_options=map_options,
         ),
     }
 
@@ -282,9 +288,10 @@ def request_settings(
     map_mode: str | None,
     sigma_m: float | None,
     route_config: RouteGraphConfig | None = None,
+    map_options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The result-relevant settings recorded in every manifest (``resume`` compares
-    them)."""
+    them; ``topojax view`` reads the maps with ``map_mode`` and ``map_options``)."""
     return _normalise(
         {
             "distance": dataclasses.asdict(config.distance),
@@ -299,6 +306,7 @@ def request_settings(
             **({"route": dataclasses.asdict(route_config)} if route_config else {}),
             # only when given, so that manifests written without them still match
             **({"map_mode": map_mode} if map_mode is not None else {}),
+            **({"map_options": dict(sorted(map_options.items()))} if map_options else {}),
             **({"sigma_m": sigma_m} if sigma_m is not None else {}),
         }
     )

@@ -80,12 +80,12 @@ class _BatchRun:
         resume: bool,
         request: dict[str, Any],
         fingerprints: dict[int, dict[str, Any] | None],
-        map_mode: str | None = None,
+        map_options: dict[str, Any] | None = None,
         sigma_m: float | None = None,
         route_config: RouteGraphConfig | None = None,
     ) -> None:
         self.items = items
-        self.map_mode = map_mode
+        self.map_options = map_options  # load_map's keyword arguments
         self.sigma_m = sigma_m
         self._configs: dict[float, PipelineConfig] = {}
         self.executor = executor
@@ -434,7 +434,7 @@ class _BatchRun:
             elif self._load_in_workers:
                 try:
                     fut = self._submit(
-                        _load_in_worker, os.fspath(item.path), self._want_free, self.map_mode
+                        _load_in_worker, os.fspath(item.path), self._want_free, self.map_options
                     )
                 except Exception as exc:  # the pool broke once too often
                     self._finish(item.index, _error_record(item, self._lost(exc)))
@@ -442,7 +442,7 @@ class _BatchRun:
                 self._loads[fut] = item
             else:
                 fut = self._load_pool.submit(
-                    _load_here, item, tile_px, self._want_free, self.map_mode
+                    _load_here, item, tile_px, self._want_free, self.map_options
                 )
                 self._loads[fut] = item
 
@@ -771,18 +771,18 @@ def build_graphs(
         route_config=route_config,
     )
     out = None if out_dir is None else output_folder(out_dir)
-    return _run_batch(items_raw, sources, out, options)
+    return run_batch(items_raw, sources, out, options)
 
 
-def _run_batch(
+def run_batch(
     items_raw: list[tuple[Path | None, OccupancyMap | None]],
     sources: list[Path | None],
     out: Path | None,
     options: dict[str, Any],
 ) -> list[MapRecord]:
     """Run :func:`build_graphs` on its checked inputs (:func:`map_inputs`) and options
-    (:func:`checked_options`); with an output folder ``out``, this run's summary table
-    replaces the one there."""
+    (:func:`checked_options`, whose ``map_options`` ``topojax batch`` gives too); with an
+    output folder ``out``, this run's summary table replaces the one there."""
     items, fingerprints = batch_items(
         items_raw, sources, out=out, formats=options["formats"], plot=options["plot"]
     )

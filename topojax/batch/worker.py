@@ -309,10 +309,11 @@ class _LoadedBits:
     wall_share: float | None = None
 
 
-def _load_in_worker(path: str, want_free: bool, mode: str | None = None) -> _LoadedBits:
-    """Worker side: read and classify a map file (PNG/PGM decoding, YAML, thresholds)."""
+def _load_in_worker(path: str, want_free: bool, options: dict | None = None) -> _LoadedBits:
+    """Worker side: read and classify a map file (PNG/PGM decoding, YAML, thresholds),
+    with the keyword arguments ``options`` of ``load_map``."""
     t0 = time.perf_counter()
-    occ = load_map(path, mode=mode)
+    occ = load_map(path, **(options or {}))
     return _LoadedBits(
         shape=(int(occ.shape[0]), int(occ.shape[1])),
         resolution_m=occ.resolution_m,
@@ -366,10 +367,13 @@ def _loaded_from_bits(item: _Item, bits: _LoadedBits, tile_px: int) -> _Loaded:
     )
 
 
-def _load_here(item: _Item, tile_px: int, want_free: bool, mode: str | None = None) -> _Loaded:
-    """Calling-process side: use the given map object, or load the file in this thread."""
+def _load_here(item: _Item, tile_px: int, want_free: bool, options: dict | None = None) -> _Loaded:
+    """Calling-process side: use the given map object, or load the file in this thread
+    (with the keyword arguments ``options`` of ``load_map``)."""
     t0 = time.perf_counter()
-    occ = item.occupancy if item.occupancy is not None else load_map(item.path, mode=mode)
+    occ = item.occupancy
+    if occ is None:
+        occ = load_map(item.path, **(options or {}))
     return _Loaded(
         item=item,
         occupied=occ.occupied,

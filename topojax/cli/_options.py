@@ -186,14 +186,16 @@ def nav2_tolerance(args) -> float | None:
     return positive_metres("--nav2-tolerance-m", tolerance)
 
 
-def add_map_options(p: argparse.ArgumentParser) -> None:
+def add_map_options(p: argparse.ArgumentParser, *, each_map: str = "") -> None:
     """How a map file is read: ``--resolution``, ``--occupied-thresh``, ``--free-thresh``,
-    ``--negate`` and ``--mode`` (:func:`map_options` gives them to ``load_map``)."""
+    ``--negate`` and ``--mode`` (:func:`map_options` gives them to ``load_map``), the
+    options of every command that reads one; ``each_map`` ends the help of the first."""
     p.add_argument(
         "--resolution",
         dest="resolution_m",
         type=float,
-        help="m/px of the map (default: a YAML's own, a PGM's 'm/pix' comment, else 0.05; given, it replaces a YAML's)",
+        help=f"m/px of the map{each_map} (default: a YAML's own, a PGM's 'm/pix' comment, "
+        "else 0.05; given, it replaces a YAML's)",
     )
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")

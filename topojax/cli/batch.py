@@ -9,13 +9,14 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from .._constants import MODES
 from ._options import (
     _OPTION_OF,
     _as_options,
     _option_named,
+    add_map_options,
     add_pipeline_options,
     add_sigma_options,
+    map_options,
     pipeline_config,
 )
 from ._outputs import OUT_OPTION, check_outputs
@@ -47,10 +48,13 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     maps and its :func:`_stamp` before the run, for the line of a stopped run."""
     from .._fs import output_folder
     from .._words import counted
-    from ..batch import build_graphs, expand_map_inputs
+    from ..batch import expand_map_inputs
+    from ..batch.arguments import checked_options, map_inputs
+    from ..batch.driver import run_batch
     from ..batch.inputs import planned_outputs
 
     _check_numbers(args)
+    reading = map_options(args)  # checked under the options' names
     route_config = _route_config(args)
     paths = expand_map_inputs(args.inputs, exclude=args.out)
     planned = planned_outputs(paths, formats=args.formats, plot=args.plot)
@@ -80,30 +84,36 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
             manifests[Path(args.out) / rel] = _stamp(Path(args.out) / rel)
     try:
         # made once the scheduler is reached: a failed connection leaves no folder
-        output_folder(args.out, name="--out")  # named as the command names it
-        records = build_graphs(
-            paths,
+        out = output_folder(args.out, name="--out")  # named as the command names it
+        # build_graphs, with load_map's options besides its map_mode for every map file
+        options = checked_options(
             executor=executor,
             workers=args.workers,
             config=config,
-            out_dir=args.out,
             formats=args.formats,
-            plot=args.plot,
-            resume=args.resume,
-            progress=not args.no_progress,
+            flags={
+                "plot": args.plot,
+                "resume": args.resume,
+                "progress": not args.no_progress,
+                "keep_graphs": None,
+            },
+            out_dir=out,
             tiles_per_call=args.tiles_per_call,
             kernel_threads=args.kernel_threads,
-            map_mode=args.mode,
+            batch_tiles=None,
+            map_mode=reading.pop("mode", None),
             sigma_m=args.sigma_m,
             route_config=route_config,
+            map_options=reading,
         )
+        records = run_batch(*map_inputs(paths), out, options)
     except ValueError as exc:  # e.g. more --workers than the memory holds
         raise _option_named(exc, "workers", "--workers") from None
     finally:
         if client is not None:
             client.close()
     wall = time.perf_counter() - t0
-    records = _named_as_options(records, args.out)
+    records = _as_printed(records, args)
     counts = Counter(r.status for r in records)
     warned = [r for r in records if r.status == "ok" and r.message]
     done = ("ok", "empty")
@@ -120,17 +130,29 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     return 1 if counts["error"] else 0
 
 
-def _named_as_options(records: list, out) -> list:
+def _as_printed(records: list, args) -> list:
     """``records`` with the parameters their messages name written as the options that
-    set them (``--robot-radius: expected at least 1.5 pixels ...``), and the summary
-    table in ``out`` written again with them where one changed."""
+    set them (``--robot-radius: expected at least 1.5 pixels ...``) and, for a map read
+    at a resolution its file does not state (a PNG) and ``--resolution`` did not give,
+    a note that it was assumed, as ``topojax graph`` prints it; the summary table in
+    ``--out`` written again with them where one changed."""
     from dataclasses import replace
 
     from ..batch import write_summary
+    from ..maps.files import default_resolution_used
 
-    named = [replace(r, message=_as_options(r.message, _MAP_OPTION_OF)) for r in records]
+    def message(r) -> str:
+        text = _as_options(r.message, _MAP_OPTION_OF)
+        if r.resolution_m is None or args.resolution_m is not None or r.path is None:
+            return text
+        if not default_resolution_used(r.path):
+            return text
+        note = f"{r.resolution_m:g} m/px assumed: the file states none; --resolution sets it"
+        return f"{text}; {note}" if text else note
+
+    named = [replace(r, message=message(r)) for r in records]
     if any(a.message != b.message for a, b in zip(records, named, strict=True)):
-        write_summary(named, out)
+        write_summary(named, args.out)
     return named
 
 
@@ -248,6 +270,7 @@ def add_command(subparsers) -> None:
     p.add_argument(
         "--connect-timeout", type=float, default=30.0, help="seconds to reach the scheduler"
     )
+    add_map_options(p, each_map=", the same for every map file")
     add_sigma_options(p, each_map=" (each map through its own resolution)")
     add_pipeline_options(p)
     p.add_argument(
@@ -261,12 +284,6 @@ def add_command(subparsers) -> None:
         "--resume", action="store_true", help="skip maps whose outputs are complete and valid"
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument(
-        "--mode",
-        choices=MODES,
-        help="pixel convention of every map file (default: each file's own; ipa: free if "
-        ">= 250, everything else occupied)",
-    )
     p.add_argument(
         "--formats",
         default="graphml,json,geojson",

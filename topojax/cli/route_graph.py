@@ -8,8 +8,13 @@ import time
 import warnings
 from pathlib import Path
 
-from .._constants import MODES
-from ._options import _option_named, assumed_resolution_note, resolution_said_in_map_line
+from ._options import (
+    _option_named,
+    add_map_options,
+    assumed_resolution_note,
+    map_options,
+    resolution_said_in_map_line,
+)
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
@@ -42,17 +47,7 @@ def add_command(subparsers) -> None:
         help="every feasible point lies within M metres of the graph (0.2 to 5, and at "
         "least 0.1 plus 1.5 pixels of the map; default 1.0)",
     )
-    p.add_argument(
-        "--resolution",
-        dest="resolution_m",
-        type=float,
-        help="m/px of the map (default: a YAML's own, a PGM's 'm/pix' comment, else 0.05; given, it replaces a YAML's)",
-    )
-    p.add_argument(
-        "--mode",
-        choices=MODES,
-        help="pixel convention (default: the YAML's, else trinary; ipa: free if >= 250)",
-    )
+    add_map_options(p)
     p.add_argument("--plot", action="store_true", help="also write STEM_route.png")
     p.add_argument(
         "--nav2", action="store_true", help="also write STEM_route_nav2.geojson (Nav2 Route Server)"
@@ -110,9 +105,7 @@ def _cmd_route_graph(args) -> int:
 
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
         check_outputs(planned([args.mcap], args.map), command="route-graph", option="--mcap")
-    if args.resolution_m is not None:
-        positive_metres("--resolution", args.resolution_m)
-    kw = {k: getattr(args, k) for k in ("resolution_m", "mode") if getattr(args, k) is not None}
+    kw = map_options(args)  # its errors name their options
     with resolution_said_in_map_line():
         occupancy = load_map(args.map, **kw)
     check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")

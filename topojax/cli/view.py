@@ -84,7 +84,8 @@ def _recorded_input(record: dict, folder: Path, stem: str) -> tuple[Path | None,
 
 
 def _manifest_map(folder: Path, stem: str) -> tuple[Path | None, dict]:
-    """The map a batch manifest ``STEM.manifest.json`` names, and its map mode."""
+    """The map a batch manifest ``STEM.manifest.json`` names, and the ``load_map``
+    options it was read with (its map mode, ``--resolution``, thresholds, ``--negate``)."""
     try:
         doc = json.loads((folder / f"{stem}.manifest.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -94,7 +95,9 @@ def _manifest_map(folder: Path, stem: str) -> tuple[Path | None, dict]:
         return None, {}
     request = doc.get("request") if isinstance(doc.get("request"), dict) else {}
     mode = request.get("map_mode")
-    return Path(path), ({"mode": mode} if isinstance(mode, str) else {})
+    options = request.get("map_options")
+    options = dict(options) if isinstance(options, dict) else {}
+    return Path(path), {**options, **({"mode": mode} if isinstance(mode, str) else {})}
 
 
 def find_results(folder: Path) -> list[_Result]:
