@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import networkx as nx
@@ -1656,3 +1657,28 @@ def test_out_dir_and_bucket_are_checked_before_any_map_runs():
         build_graphs([occ], workers=0, progress=False, out_dir=3)
     with pytest.raises(ValueError, match="tiles_per_call: expected an int from 1 to 4096"):
         build_graphs([occ], workers=0, progress=False, tiles_per_call=10**6)
+
+
+def test_a_map_read_at_an_assumed_resolution_says_so_in_its_record_not_a_warning(tmp_path):
+    """load_map warns of a resolution it assumes; a batch notes it in the map's record
+    instead (a warning from each worker process would repeat on stderr), and a map whose
+    file states its resolution gets no note."""
+    import cv2
+
+    grid = np.full((60, 60), 254, np.uint8)
+    grid[[0, -1], :] = 0
+    grid[:, [0, -1]] = 0
+    grid[30, 10:50] = 0
+    cv2.imwrite(str(tmp_path / "plain.png"), grid)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plain, given = build_graphs(
+            [tmp_path / "plain.png", load_map(tmp_path / "plain.png", resolution_m=0.1)],
+            workers=0,
+            progress=False,
+        )
+    assert plain.message == (
+        "0.05 m/px assumed: the file states none; "
+        "a map given as load_map(path, resolution_m=...) sets it"
+    )
+    assert given.message == "" and given.resolution_m == 0.1

@@ -37,6 +37,7 @@ from .worker import (
     _loaded_from_bits,
     _LoadedBits,
     _warm_worker,
+    resolution_note,
     worker_context,
 )
 
@@ -578,6 +579,7 @@ class _BatchRun:
         notes += [res.nav2_note] if res.nav2_note else []
         notes += [res.route_note] if res.route_note else []
         notes += [warning] if warning else []
+        notes += resolution_note(item.path, self.map_options, rec.resolution_m)
         empty = (paper and not res.vertices) or res.route_vertices == 0
         rec = replace(
             rec,

@@ -8,6 +8,7 @@ import concurrent.futures as cf
 import multiprocessing
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +19,7 @@ from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
+from ..maps.files import ASSUMED_RESOLUTION_WARNING, default_resolution_used
 from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
 
@@ -234,9 +236,12 @@ def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) 
     import networkx as nx
 
     from ..routegraph import route_graph
+    from ..routegraph.feasible import ROUTE_GRAPH_NOTE
 
     assert occupancy is not None
-    routes = route_graph(occupancy, config=job.route)
+    with warnings.catch_warnings():  # the note goes into the map's record instead
+        warnings.filterwarnings("ignore", ROUTE_GRAPH_NOTE, UserWarning)
+        routes = route_graph(occupancy, config=job.route)
     res.route_vertices = routes.number_of_nodes()
     res.route_edges = routes.number_of_edges()
     res.route_components = nx.number_connected_components(routes)
@@ -313,7 +318,7 @@ def _load_in_worker(path: str, want_free: bool, options: dict | None = None) -> 
     """Worker side: read and classify a map file (PNG/PGM decoding, YAML, thresholds),
     with the keyword arguments ``options`` of ``load_map``."""
     t0 = time.perf_counter()
-    occ = load_map(path, **(options or {}))
+    occ = _load_quietly(path, options)
     return _LoadedBits(
         shape=(int(occ.shape[0]), int(occ.shape[1])),
         resolution_m=occ.resolution_m,
@@ -373,7 +378,7 @@ def _load_here(item: _Item, tile_px: int, want_free: bool, options: dict | None 
     t0 = time.perf_counter()
     occ = item.occupancy
     if occ is None:
-        occ = load_map(item.path, **(options or {}))
+        occ = _load_quietly(item.path, options)
     return _Loaded(
         item=item,
         occupied=occ.occupied,
@@ -385,3 +390,26 @@ def _load_here(item: _Item, tile_px: int, want_free: bool, options: dict | None 
         n_tiles=_n_tiles(occ.shape, tile_px),
         wall_share=wall_share(occ.occupied, occ.free),
     )
+
+
+#: How a map of :func:`resolution_note` gets its resolution (the command line names its
+#: option instead).
+RESOLUTION_HINT = "a map given as load_map(path, resolution_m=...) sets it"
+
+
+def _load_quietly(path, options: dict | None) -> OccupancyMap:
+    """``load_map(path, **options)`` without its warning of an assumed resolution, which
+    the map's record notes instead (:func:`resolution_note`)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", ASSUMED_RESOLUTION_WARNING, UserWarning)
+        return load_map(path, **(options or {}))
+
+
+def resolution_note(path, options: dict | None, resolution_m: float) -> list[str]:
+    """The note of a map file read at ``resolution_m`` because it states none and
+    ``options`` (``load_map``'s keyword arguments) give none; no note otherwise."""
+    if path is None or (options or {}).get("resolution_m") is not None:
+        return []
+    if not default_resolution_used(path):
+        return []
+    return [f"{resolution_m:g} m/px assumed: the file states none; {RESOLUTION_HINT}"]

@@ -132,23 +132,17 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
 
 def _as_printed(records: list, args) -> list:
     """``records`` with the parameters their messages name written as the options that
-    set them (``--robot-radius: expected at least 1.5 pixels ...``) and, for a map read
-    at a resolution its file does not state (a PNG) and ``--resolution`` did not give,
-    a note that it was assumed, as ``topojax graph`` prints it; the summary table in
-    ``--out`` written again with them where one changed."""
+    set them (``--robot-radius: expected at least 1.5 pixels ...``, ``--resolution sets
+    it``); the summary table in ``--out`` written again with them where one changed."""
     from dataclasses import replace
 
     from ..batch import write_summary
-    from ..maps.files import default_resolution_used
+    from ..batch.worker import RESOLUTION_HINT
 
     def message(r) -> str:
-        text = _as_options(r.message, _MAP_OPTION_OF)
-        if r.resolution_m is None or args.resolution_m is not None or r.path is None:
-            return text
-        if not default_resolution_used(r.path):
-            return text
-        note = f"{r.resolution_m:g} m/px assumed: the file states none; --resolution sets it"
-        return f"{text}; {note}" if text else note
+        return _as_options(r.message, _MAP_OPTION_OF).replace(
+            RESOLUTION_HINT, "--resolution sets it"
+        )
 
     named = [replace(r, message=message(r)) for r in records]
     if any(a.message != b.message for a, b in zip(records, named, strict=True)):
