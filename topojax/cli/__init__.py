@@ -9,10 +9,10 @@ import difflib
 import os
 import signal
 import sys
-import threading
 
 from .. import __version__
 from . import batch, graph, replay, rooms, route, route_graph, view
+from ._signals import stop_on_sigterm
 
 __all__ = ["build_parser", "main"]
 
@@ -146,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "runs_kernels", True):  # route only reads a graph: no JAX
         _use_compilation_cache()
     stopped: list[signal.Signals] = []
-    previous = _stop_on_sigterm(stopped)
+    previous = stop_on_sigterm(stopped)
     try:
         return int(args.handler(args) or 0)
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
@@ -167,19 +167,3 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-
-
-def _stop_on_sigterm(stopped: list[signal.Signals]):
-    """Make SIGTERM (``kill``, ``timeout``, a service manager's stop) end a command as
-    Ctrl-C does, ``stopped`` then holding it: through its clean-up, which removes the
-    temporary file of a write cut short (the default action, killing the process, would
-    leave it in the output folder).  ``replay`` and ``batch`` stop on it their own way within.
-    The previous handler, or None outside the main thread."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-
-    def terminate(signum, frame):
-        stopped[:] = [signal.SIGTERM]
-        raise KeyboardInterrupt
-
-    return signal.signal(signal.SIGTERM, terminate)

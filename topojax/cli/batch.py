@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import signal
 import sys
-import threading
 import time
 from collections import Counter
 from pathlib import Path
@@ -20,6 +19,7 @@ from ._options import (
     pipeline_config,
 )
 from ._outputs import OUT_OPTION, check_outputs
+from ._signals import stop_on_sigterm
 
 #: What a batch map's manifest appends to its name (``docs/batch-internals.md``).
 _MANIFEST = ".manifest.json"
@@ -31,10 +31,10 @@ _MAP_OPTION_OF = {**_OPTION_OF, "robot_radius_m": "--robot-radius"}
 def _cmd_batch(args) -> int:
     stopped: list[signal.Signals] = []
     manifests: dict[Path, tuple[int, int] | None] = {}
-    previous = _stop_on_sigterm(stopped)
+    previous = stop_on_sigterm(stopped)
     try:
         return _batch(args, manifests)
-    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM through _stop_on_sigterm
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM through stop_on_sigterm
         signum = stopped[0] if stopped else signal.SIGINT
         print(_stopped_text(signum, args.out, manifests), file=sys.stderr)
         return 128 + signum
@@ -148,22 +148,6 @@ def _as_printed(records: list, args) -> list:
     if any(a.message != b.message for a, b in zip(records, named, strict=True)):
         write_summary(named, args.out)
     return named
-
-
-def _stop_on_sigterm(stopped: list[signal.Signals]):
-    """Make SIGTERM (``kill``, ``timeout``, a job scheduler) stop the batch as Ctrl-C
-    does (a ``KeyboardInterrupt``, ``stopped`` then holding SIGTERM), through its
-    clean-up, which stops the worker processes: killed by the default action, the
-    command left them running with nothing to do.  Where SIGINT is ignored (a background
-    job of a script) as well.  The previous handler, or None outside the main thread."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-
-    def terminate(signum, frame):
-        stopped[:] = [signal.SIGTERM]
-        raise KeyboardInterrupt
-
-    return signal.signal(signal.SIGTERM, terminate)
 
 
 def _stopped_text(signum: int, out, manifests: dict[Path, tuple[int, int] | None]) -> str:
