@@ -203,6 +203,13 @@ def test_mixed_sizes_share_one_compiled_kernel():
 # ---------------------------------------------------------------------- outputs and faults
 
 
+#: The note of a map read from a file that states no resolution (a PNG).
+ASSUMED = (
+    "0.05 m/px assumed: the file states none; "
+    "a map given as load_map(path, resolution_m=...) sets it"
+)
+
+
 def _read_summary(out: Path) -> list[dict[str, str]]:
     with open(out / "summary.csv", newline="") as fh:
         reader = csv.DictReader(fh)
@@ -242,7 +249,9 @@ def test_corrupt_and_missing_maps_become_error_rows(tmp_path, shared_data, worke
             assert float(row["total_length_m"]) == rec.total_length_m
             assert int(row["height"]) == rec.height and float(row["resolution_m"]) > 0
             assert float(row["t_total_s"]) >= float(row["t_distance_s"]) > 0
-            assert row["message"] == ""
+            # a PNG states no resolution: the record says 0.05 m/px was assumed
+            png = Path(rec.path).suffix == ".png"
+            assert row["message"] == (ASSUMED if png else "")
             # the graph files load back equal to build_graph's graph
             want = build_graph(load_map(rec.path)).graph
             for suffix in (".graphml", ".json", ".geojson"):
@@ -1588,12 +1597,12 @@ def test_resume_keeps_what_the_first_run_said_of_empty_and_warned_maps(tmp_path)
     out = tmp_path / "out"
     first = build_graphs(paths, out_dir=out, workers=0, progress=False)
     assert [r.status for r in first] == ["empty", "ok", "ok"]
-    assert first[1].message.startswith("warning:") and first[2].message == ""
+    assert first[1].message.startswith("warning:") and first[2].message == ASSUMED
     again = build_graphs(paths, out_dir=out, workers=0, progress=False, resume=True)
     assert [r.status for r in again] == ["skipped"] * 3
     assert again[0].message == f"outputs complete (resume) of an empty map: {first[0].message}"
     assert again[1].message == f"outputs complete (resume); {first[1].message}"
-    assert again[2].message == "outputs complete (resume)"
+    assert again[2].message == f"outputs complete (resume); {ASSUMED}"
     rows = _read_summary(out)
     assert [r["message"] for r in rows] == [r.message for r in again]
 
@@ -1677,8 +1686,5 @@ def test_a_map_read_at_an_assumed_resolution_says_so_in_its_record_not_a_warning
             workers=0,
             progress=False,
         )
-    assert plain.message == (
-        "0.05 m/px assumed: the file states none; "
-        "a map given as load_map(path, resolution_m=...) sets it"
-    )
+    assert plain.message == ASSUMED
     assert given.message == "" and given.resolution_m == 0.1
