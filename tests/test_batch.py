@@ -1688,3 +1688,24 @@ def test_a_map_read_at_an_assumed_resolution_says_so_in_its_record_not_a_warning
         )
     assert plain.message == ASSUMED
     assert given.message == "" and given.resolution_m == 0.1
+
+
+def test_a_batch_assumes_no_resolution_where_a_pgm_comment_is_refused(tmp_path):
+    """A batch gives load_map the resolution it would assume, so that no thread or
+    worker warns; a PGM comment load_map refuses (a decimal comma) stays an error row,
+    not a map read at the assumed 0.05 m/px, and the warnings filters are as before."""
+    grid = np.full((40, 40), 254, np.uint8)
+    grid[[0, -1], :] = 0
+    grid[:, [0, -1]] = 0
+    grid[20, 5:35] = 0
+    bad = tmp_path / "comma.pgm"
+    bad.write_bytes(b"P5\n# CREATOR: map_saver.cpp 0,05 m/pix\n40 40\n255\n" + grid.tobytes())
+    plain = tmp_path / "plain.pgm"
+    plain.write_bytes(b"P5\n40 40\n255\n" + grid.tobytes())
+    filters = list(warnings.filters)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        refused, assumed = build_graphs([bad, plain] * 4, workers=0, progress=False)[:2]
+    assert refused.status == "error" and "not a positive number" in refused.message
+    assert assumed.status == "ok" and assumed.message == ASSUMED
+    assert list(warnings.filters) == filters

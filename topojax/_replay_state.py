@@ -460,8 +460,6 @@ def quiet_route_graph(mapper, robot_radius_m: float):
     """``mapper.route_graph``, without its warning of an empty graph: the replay reports
     the final graph's note itself, and a graph recorded on the way is empty while the
     map is small."""
-    from .routegraph.feasible import ROUTE_GRAPH_NOTE
+    from .routegraph.build import unwarned_route_graph
 
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", ROUTE_GRAPH_NOTE, UserWarning)
-        return mapper.route_graph(robot_radius_m=robot_radius_m)
+    return unwarned_route_graph(mapper.occupancy, robot_radius_m=robot_radius_m)

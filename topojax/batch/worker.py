@@ -8,7 +8,6 @@ import concurrent.futures as cf
 import multiprocessing
 import os
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,7 +18,7 @@ from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
-from ..maps.files import ASSUMED_RESOLUTION_WARNING, default_resolution_used
+from ..maps.files import default_resolution_used, unstated_resolution
 from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
 
@@ -235,13 +234,10 @@ def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) 
     empty where it is, go into ``res``."""
     import networkx as nx
 
-    from ..routegraph import route_graph
-    from ..routegraph.feasible import ROUTE_GRAPH_NOTE
+    from ..routegraph.build import unwarned_route_graph
 
     assert occupancy is not None
-    with warnings.catch_warnings():  # the note goes into the map's record instead
-        warnings.filterwarnings("ignore", ROUTE_GRAPH_NOTE, UserWarning)
-        routes = route_graph(occupancy, config=job.route)
+    routes = unwarned_route_graph(occupancy, config=job.route)  # its note: in the record
     res.route_vertices = routes.number_of_nodes()
     res.route_edges = routes.number_of_edges()
     res.route_components = nx.number_connected_components(routes)
@@ -398,11 +394,13 @@ RESOLUTION_HINT = "a map given as load_map(path, resolution_m=...) sets it"
 
 
 def _load_quietly(path, options: dict | None) -> OccupancyMap:
-    """``load_map(path, **options)`` without its warning of an assumed resolution, which
-    the map's record notes instead (:func:`resolution_note`)."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", ASSUMED_RESOLUTION_WARNING, UserWarning)
-        return load_map(path, **(options or {}))
+    """``load_map(path, **options)``, given the resolution it would assume (so without
+    its warning, from every thread and worker process): the map's record notes the
+    assumption instead (:func:`resolution_note`)."""
+    options = dict(options or {})
+    if options.get("resolution_m") is None:
+        options["resolution_m"] = unstated_resolution(path)
+    return load_map(path, **options)
 
 
 def resolution_note(path, options: dict | None, resolution_m: float) -> list[str]:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 import time
-import warnings
 from pathlib import Path
 
 from ._options import (
@@ -82,9 +81,8 @@ def _cmd_route_graph(args) -> int:
     from .._words import counted
     from ..io import save_graph
     from ..maps import load_map
-    from ..routegraph import RouteGraphConfig, route_graph
-    from ..routegraph.build import MAX_SNAP_M, check_scale
-    from ..routegraph.feasible import ROUTE_GRAPH_NOTE
+    from ..routegraph import RouteGraphConfig
+    from ..routegraph.build import MAX_SNAP_M, check_scale, unwarned_route_graph
 
     radius = robot_radius("--robot-radius", args.robot_radius_m, allow_zero=False)
     snap_m = positive_metres("--snap-m", args.snap_m)
@@ -111,9 +109,7 @@ def _cmd_route_graph(args) -> int:
     check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")
     t0 = time.perf_counter()
     try:
-        with warnings.catch_warnings():  # the note of an empty graph is printed below
-            warnings.filterwarnings("ignore", ROUTE_GRAPH_NOTE, UserWarning)
-            graph = route_graph(occupancy, config=config)
+        graph = unwarned_route_graph(occupancy, config=config)  # its note: printed below
     except ValueError as exc:  # e.g. a --snap-m too small for the map's open space
         raise _option_named(exc, "snap_m", "--snap-m") from None
     seconds = time.perf_counter() - t0

@@ -264,6 +264,26 @@ def default_resolution_used(path: str | Path) -> bool:
         return True
 
 
+def unstated_resolution(path: str | Path) -> float | None:
+    """``DEFAULT_RESOLUTION_M`` where :func:`load_map` of ``path`` without
+    ``resolution_m`` would assume it (warning that it does); None for a YAML, a PGM whose
+    comment states a resolution, and a PGM whose header cannot be read or whose comment
+    is refused (``load_map`` names that fault).  A caller that reports the assumption
+    itself passes the result as ``resolution_m``."""
+    p = Path(path)
+    if p.suffix.lower() in YAML_SUFFIXES:
+        return None
+    if p.suffix.lower() == ".pgm":
+        try:
+            with open(p, "rb") as f:
+                comments = _parse_pnm_header(f.read(_HEADER_BYTES))[1]
+            if resolution_from_pgm_comments(comments, p) is not None:
+                return None
+        except (OSError, ValueError):
+            return None
+    return DEFAULT_RESOLUTION_M
+
+
 #: Bytes a pixel of a memory-mapped PGM takes while :func:`load_map` classifies it: 1 for
 #: the class codes and 3 for the map's classes (the pixels stay in the file).
 _CLASSIFY_BYTES_PER_PIXEL = 4

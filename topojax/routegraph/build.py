@@ -211,15 +211,23 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         ``snap_m`` too small for the map's open space is refused before the coverage is
         built, from an estimate of the shortcut candidates it would make.
     """
+    graph = unwarned_route_graph(occupancy, robot_radius_m=robot_radius_m, config=config)
+    if graph.graph.get("note"):  # an empty graph: in a notebook, where the note is unseen
+        warnings.warn(graph.graph["note"], UserWarning, stacklevel=2)
+    return graph
+
+
+def unwarned_route_graph(
+    occupancy, *, robot_radius_m: float | None = None, config=None
+) -> nx.MultiGraph:
+    """:func:`route_graph` without its warning of an empty graph, for a caller that
+    reports the graph's ``note`` itself (a command, a batch's record, a replay)."""
     occupancy = map_argument("occupancy", occupancy, files=True)
     cfg = instance_or_default("config", config, RouteGraphConfig)
     if robot_radius_m is not None:
         cfg = replace(cfg, robot_radius_m=robot_radius_m)
     with paused_gc():  # many small containers, no reference cycles
-        graph = _route_graph(occupancy, cfg)
-    if graph.graph.get("note"):  # an empty graph: in a notebook, where the note is unseen
-        warnings.warn(graph.graph["note"], UserWarning, stacklevel=2)
-    return graph
+        return _route_graph(occupancy, cfg)
 
 
 def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:

@@ -107,11 +107,6 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     )
 
 
-#: How every :func:`route_graph_note` starts (a regular expression): the callers that
-#: report the note themselves filter out :func:`route_graph`'s warning of it with this.
-ROUTE_GRAPH_NOTE = r"empty route graph: |warning: the route graph has \d+ vert"
-
-
 def route_graph_note(graph, occupancy, *, robot_radius_m: float, min_region_m2: float):
     """Why a route graph of ``occupancy`` has no vertex or no edge, as one line; None for
     a graph with edges.
