@@ -319,10 +319,10 @@ def test_replay_option_names_leave_the_paths_in_its_errors_as_they_are(tmp_path,
 
 
 def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
-    """A scan refused as beyond the mapped area's bound read ``beyond max_extent_m=12 m``
-    and advised to "make the mapper with a smaller tile_px or sigma, or a larger
-    max_extent_m", settings the command has no option for: every scan refused is an error
-    in the command's words, and so is a skipped scan in the printed summary."""
+    """A scan refused as beyond the mapped area's bound is named in the command's words
+    (``--max-extent-m``), never as the mapper's ``max_extent_m``, ``tile_px`` or ``sigma``
+    the command has no option for: in the error of a log whose every scan is refused, and
+    for a skipped scan in the printed summary."""
     log = Path(__file__).parent / "data" / "intel_first40.log.gz"
     out = str(tmp_path / "out")
     assert main(["replay", str(log), "-o", out, "--max-extent-m", "12", "--no-progress"]) == 2
@@ -342,7 +342,8 @@ def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
 
 
 def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, capsys):
-    """A missing log was reported as ``path: file not found``, the reader's parameter."""
+    """A missing log is reported under the command's argument ``source``, not the
+    reader's parameter ``path``."""
     missing = tmp_path / "none.log"
     assert main(["replay", str(missing), "-o", str(tmp_path / "out")]) == 2
     assert f"source: no log file or bag there: {missing}" in capsys.readouterr().err

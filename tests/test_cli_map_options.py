@@ -50,7 +50,7 @@ def _rows(out: Path) -> list[dict]:
 )
 def test_a_command_reads_its_map_with_the_map_options(tmp_path, command, written):
     """The grey image of occupancy read with the map options gives the graph of the
-    plain map (``route-graph`` took only ``--resolution`` and ``--mode``)."""
+    plain map, for every command that reads a map."""
     plain = three_rooms_png(tmp_path / "plain.png")
     grey = _grey_occupancy_png(tmp_path / "grey.png")
     assert main([command, str(plain), "-o", str(tmp_path / "a"), "--resolution", "0.1"]) == 0
@@ -63,9 +63,9 @@ def test_a_command_reads_its_map_with_the_map_options(tmp_path, command, written
 
 
 def test_batch_reads_every_map_with_the_map_options(tmp_path, capsys):
-    """``batch`` took only ``--mode``: the other map options reach the worker processes
-    that read the maps, each map's manifest records them, ``--resume`` redoes a map read
-    with other ones, and ``topojax view`` reads the map with them."""
+    """Every map option reaches the batch's worker processes that read the maps, each
+    map's manifest records them, ``--resume`` redoes a map read with other ones, and
+    ``topojax view`` reads the map with them."""
     plain = three_rooms_png(tmp_path / "in" / "plain.png")
     grey = _grey_occupancy_png(tmp_path / "in" / "grey.png")
     want = tmp_path / "want"
@@ -97,9 +97,9 @@ def test_batch_reads_every_map_with_the_map_options(tmp_path, capsys):
 
 
 def test_batch_says_when_a_maps_resolution_was_assumed(tmp_path, capsys):
-    """A map file that states no resolution (a PNG) was read at 0.05 m/px without a
-    word: without ``--resolution`` its message says so, printed and in the summary table,
-    as ``topojax graph`` says it on its map line; a YAML states its own."""
+    """A map file that states no resolution (a PNG) is read at 0.05 m/px, and without
+    ``--resolution`` its message says so, printed and in the summary table, as
+    ``topojax graph`` says it on its map line; a YAML states its own."""
     png = three_rooms_png(tmp_path / "in" / "plain.png")
     three_rooms_png(tmp_path / "in" / "stated.png")
     (tmp_path / "in" / "stated.yaml").write_text(

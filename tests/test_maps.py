@@ -712,7 +712,7 @@ def test_pgm_comment_resolution_and_override(tmp_path: Path):
 def test_a_map_that_states_no_resolution_is_loaded_at_an_assumed_one_with_a_warning(
     tmp_path: Path,
 ):
-    """A plain image without a resolution was loaded at 0.05 m/px without a word: every
+    """A plain image without a resolution is loaded at 0.05 m/px with a warning: every
     length in metres then rests on a scale nobody gave."""
     img = np.array([[0, 205, 254], [254, 254, 0]], dtype=np.uint8)
     png = tmp_path / "plain.png"

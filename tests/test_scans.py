@@ -467,10 +467,9 @@ def test_carmen_scans_whose_pose_is_not_finite_are_skipped(tmp_path):
 
 
 def test_carmen_scans_whose_timestamp_is_not_finite_are_skipped(tmp_path):
-    """A NaN or infinite timestamp (a logging glitch) was reported as a malformed line,
-    refusing the whole log (or, with bad_lines="skip", counted among malformed lines): the
-    scan is skipped with a warning naming the first line, as one whose pose is not
-    finite is, in every message kind."""
+    """A scan with a NaN or infinite timestamp (a logging glitch) is skipped with a
+    warning naming the first line, as one whose pose is not finite is, in every message
+    kind: not a malformed line that refuses the whole log."""
     path = tmp_path / "glitch.log"
     path.write_text(
         _flaser([1, 2, 3, 4], (0, 0, 0))
@@ -1665,8 +1664,8 @@ def test_read_scans_refuses_a_map_image_by_name(tmp_path, name):
 def test_a_file_of_no_format_read_is_refused_as_such_with_the_formats_read(
     tmp_path, content, opens
 ):
-    """A file that is no format topojax reads was refused as a CARMEN log with no laser
-    lines; it is refused as none, the formats read listed with their suffixes."""
+    """A file that is no format topojax reads is refused as such, with the formats read
+    and their suffixes, not as a CARMEN log with no laser lines."""
     path = tmp_path / "exp1.dat"
     path.write_bytes(content)
     for read in (read_scans, read_carmen):
