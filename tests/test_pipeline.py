@@ -523,10 +523,10 @@ def test_negative_ridge_threshold_is_refused():
 
 
 def test_a_ridge_scale_or_threshold_float32_cannot_hold_is_refused():
-    """``threshold=1e39`` with ``scale=1e38`` passed the scale's range check, then the
-    threshold became inf in the float32 kernels and no pixel was a ridge (so did both
-    with ``scale=2.55e40``, the paper's ratio); float32's largest finite value itself is
-    taken."""
+    """A ridge scale or threshold beyond float32's largest finite value is refused: in
+    the float32 kernels it would be inf and no pixel a ridge (``threshold=1e39`` with
+    ``scale=1e38``, both with ``scale=2.55e40``, the paper's ratio); that value itself
+    is taken."""
     top = float(np.finfo(np.float32).max)
     with pytest.raises(ValueError, match=r"^threshold: expected a number at most 3\.40282e\+38 "):
         tj.RidgeConfig(threshold=1e39, scale=1e38)
