@@ -130,16 +130,43 @@ def test_libpng_warnings_on_a_readable_png_stay_off_stderr(tmp_path: Path, capfd
     assert capfd.readouterr().err == ""
 
 
-def test_a_jpeg_the_decoder_calls_corrupt_is_refused(tmp_path: Path, capfd):
+def _jpeg() -> bytes:
     buf = io.BytesIO()
     Image.fromarray(np.tile(GREY, (4, 4))).save(buf, "JPEG", quality=95)
-    data = buf.getvalue()
+    return buf.getvalue()
+
+
+def test_a_jpeg_the_decoder_calls_corrupt_is_refused(tmp_path: Path, capfd):
+    """48 one bits in the compressed data are no Huffman code; libjpeg fills in the rest
+    of the image. libjpeg-turbo says so only on its careful path, which it takes in the
+    last 512 bytes of the data (its fast one makes up the pixels without a word)."""
+    data = _jpeg()
+    at = len(data) - 100
+    while data[at - 1] == 0xFF:  # not the second byte of a stuffed 0xFF 0x00
+        at -= 1
     path = tmp_path / "corrupt.jpg"
-    path.write_bytes(data[:-2] + b"\0" * 40 + data[-2:])  # junk before the end marker
+    path.write_bytes(data[:at] + b"\xff\x00" * 6 + data[at + 12 :])
     with pytest.raises(ValueError) as err:
         load_map(path, resolution_m=0.05)
     assert str(err.value).startswith(f"map image {path}: its JPEG data is damaged")
-    assert "Corrupt JPEG data" in str(err.value)
+    assert "Corrupt JPEG data: bad Huffman code" in str(err.value)
+    assert capfd.readouterr().err == ""
+
+
+def test_zero_bytes_before_a_jpegs_end_are_padding_and_other_bytes_damage(tmp_path: Path, capfd):
+    """libjpeg says the same of both, "N extraneous bytes before marker 0xd9": zeros some
+    writers pad a file with change no pixel; the other bytes are compressed data left over
+    where the decoder lost its place, as it does for most damage within the data."""
+    data = _jpeg()
+    (tmp_path / "plain.jpg").write_bytes(data)
+    (tmp_path / "padded.jpg").write_bytes(data[:-2] + b"\0" * 40 + data[-2:])
+    (tmp_path / "junk.jpg").write_bytes(data[:-2] + b"junk" * 10 + data[-2:])
+    plain = load_map(tmp_path / "plain.jpg", resolution_m=0.05)
+    padded = load_map(tmp_path / "padded.jpg", resolution_m=0.05)
+    for layer in ("occupied", "free", "unknown"):
+        assert np.array_equal(getattr(padded, layer), getattr(plain, layer))
+    with pytest.raises(ValueError, match="extraneous bytes before marker 0xd9"):
+        load_map(tmp_path / "junk.jpg", resolution_m=0.05)
     assert capfd.readouterr().err == ""
 
 

@@ -31,6 +31,9 @@ _JPEG_DAMAGE = re.compile(
     r"Corrupt JPEG data|Premature end of JPEG file|Invalid SOS parameters|"
     r"Inconsistent progression sequence"
 )
+#: libjpeg's word for bytes it skipped to reach a marker: compressed data left over where
+#: the decoder lost its place (damage), or padding before the end of the image (none).
+_JPEG_SKIPPED = re.compile(r"Corrupt JPEG data: (\d+) extraneous bytes before marker 0xd9$")
 
 _SILENCE_LOCK = threading.Lock()
 _SILENCE = {"depth": 0, "level": None}
@@ -93,6 +96,29 @@ def _decoder_messages() -> Iterator[list[str]]:
                     os.write(2, b"".join(others))
 
 
+def _is_jpeg_padding(message: str, data: bytes) -> bool:
+    """Whether the bytes libjpeg's ``message`` says it skipped before an end-of-image
+    marker of ``data`` are zeros: padding some writers add, skipped after the last pixel
+    is decoded. Other bytes are refused: they are what most damage within the compressed
+    data leaves, the decoder out of step and done before the data is, and that data ends
+    in the encoder's last byte, which holds an end-of-block code or the one bits that
+    pad it. Zeros before another marker are refused too: libjpeg prints its first
+    warning only, so that one would hide the damage after it."""
+    skipped = _JPEG_SKIPPED.match(message)
+    if not skipped:
+        return False
+    count = int(skipped[1])
+    at = data.find(b"\xff\xd9")
+    while at >= 0:
+        start = at  # the marker's first byte: libjpeg skips 0xFF fill without counting it
+        while start > 0 and data[start - 1] == 0xFF:
+            start -= 1
+        if start >= count and data[start - count : start] == bytes(count):
+            return True
+        at = data.find(b"\xff\xd9", at + 2)
+    return False
+
+
 def _decode_with_pil(data: bytes) -> tuple[np.ndarray | None, str]:
     """The pixels PIL decodes from ``data`` (CMYK and YCbCr converted to RGB), or None and
     PIL's reason (empty where PIL does not know the format)."""
@@ -121,7 +147,8 @@ def decode_image(data: bytes, path: Path, *, cmyk_jpeg: bool = False) -> np.ndar
 
     A ValueError naming ``path`` where neither decodes the file, where libpng refuses it
     as damaged (PIL would read past a bad checksum or a missing end), or where libjpeg
-    says its data is corrupt (it fills in what it cannot decode)."""
+    says its data is corrupt (it fills in what it cannot decode; zero bytes it skips
+    before the end marker are padding, not damage)."""
     import cv2
 
     messages: list[str] = []
@@ -132,7 +159,7 @@ def decode_image(data: bytes, path: Path, *, cmyk_jpeg: bool = False) -> np.ndar
                 pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
             except cv2.error:
                 pixels = None
-    damage = [m for m in messages if _JPEG_DAMAGE.match(m)]
+    damage = [m for m in messages if _JPEG_DAMAGE.match(m) and not _is_jpeg_padding(m, data)]
     if damage:
         raise ValueError(
             f"map image {path}: its JPEG data is damaged (the decoder reports "
