@@ -187,6 +187,25 @@ def test_other_output_on_stderr_during_a_decode_is_kept(tmp_path: Path, capfd, m
     assert capfd.readouterr().err == "another thread\n"
 
 
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="counts /proc/self/fd")
+def test_a_map_decodes_without_a_temporary_file_to_hear_the_decoder(tmp_path: Path, monkeypatch):
+    """No writable temporary folder (or a full disk): the decoder's lines reach stderr,
+    the map loads, and no file descriptor is left open."""
+    import os
+
+    from topojax.maps import _decode
+
+    def no_file():
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(_decode.tempfile, "TemporaryFile", no_file)
+    (tmp_path / "m.png").write_bytes(_png())
+    before = len(os.listdir("/proc/self/fd"))
+    for _ in range(5):
+        _assert_grey_map(load_map(tmp_path / "m.png", resolution_m=0.05))
+    assert len(os.listdir("/proc/self/fd")) == before
+
+
 def test_files_without_pixels_say_what_they_are(tmp_path: Path, capfd):
     empty = _chunk(b"IHDR", struct.pack(">IIBBBBB", 0, 0, 8, 0, 0, 0, 0))
     (tmp_path / "empty.png").write_bytes(

@@ -64,26 +64,37 @@ def _opencv_silenced(cv2):
 def _decoder_messages() -> Iterator[list[str]]:
     """Standard error (file descriptor 2) sent to a file while inside, one thread at a
     time: the list yielded then holds the lines libpng and libjpeg printed there, and the
-    other bytes (another thread's) are written on to standard error as they came."""
+    other bytes (another thread's) are written on to standard error as they came. Where
+    there is no temporary file to send it to (no writable folder, a full disk) or no
+    standard error, the list stays empty and the lines go where standard error goes."""
     lines: list[str] = []
     with _STDERR_LOCK:
         if sys.stderr is not None:
             with contextlib.suppress(OSError, ValueError):  # closed, or not a file
                 sys.stderr.flush()
         try:
-            saved = os.dup(2)
-        except OSError:  # no standard error to keep them off
-            saved = None
-        if saved is None:
+            sink = tempfile.TemporaryFile()
+        except OSError:
+            sink = None
+        if sink is None:
             yield lines
             return
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), 2)
+        with sink:
             try:
+                saved = os.dup(2)
+            except OSError:  # no standard error to keep them off
+                saved = None
+            if saved is None:
+                yield lines
+                return
+            try:
+                os.dup2(sink.fileno(), 2)
                 yield lines
             finally:
-                os.dup2(saved, 2)
-                os.close(saved)
+                try:
+                    os.dup2(saved, 2)
+                finally:
+                    os.close(saved)
                 sink.seek(0)
                 others = []
                 for line in sink.read().splitlines(keepends=True):
