@@ -341,6 +341,19 @@ def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
     assert "max_extent_m" not in printed and "make the mapper" not in printed
 
 
+def test_replay_prints_its_summary_in_its_own_words_with_the_progress_bar(tmp_path, capsys):
+    """Without ``--no-progress`` the library printed the summary, in its parameters' words
+    ("make the mapper with a larger max_extent_m"): the command prints it, once, in its
+    options' words with the bar as without it."""
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    out = str(tmp_path / "out")
+    assert main(["replay", str(log), "-o", out, "--max-extent-m", "46"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("skipped 27 of 40 scans") == 1 and printed.count("replayed ") == 1
+    assert "beyond --max-extent-m=46 m" in printed and "give a larger --max-extent-m)" in printed
+    assert "max_extent_m" not in printed and "make the mapper" not in printed
+
+
 def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, capsys):
     """A missing log is reported under the command's argument ``source``, not the
     reader's parameter ``path``."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import copy
 import functools
 import json
@@ -43,6 +44,9 @@ from .incremental import (
     timing_summary,
 )
 
+#: Whether :func:`replay` with ``progress`` prints its summary: False where the caller
+#: prints it in its own words (``topojax replay``, in its options').
+summary_printed = contextvars.ContextVar("summary_printed", default=True)
 #: Suffixes dropped from a log's file name for the pictures' titles.
 _LOG_SUFFIXES = (".gz", ".bz2", ".log", ".bag", ".db3", ".mcap", ".txt", ".dat", ".clf")
 
@@ -283,7 +287,7 @@ def _finish(source, mapper, done, out: Path, progress_at, written, messages, pro
     summary["written"] = [str(p) for p in written]
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     summary["messages"] = messages + skipped_message(progress_at)
-    if progress:
+    if progress and summary_printed.get():
         print(summary_text(summary))
     return summary
 

@@ -51,7 +51,7 @@ def _check_numbers(args) -> None:
 
 
 def _cmd_replay(args) -> int:
-    from ..playback import replay, summary_text
+    from ..playback import replay, summary_printed, summary_text
 
     _check_numbers(args)
     if not Path(args.source).exists():  # named as the command names it; a bag may be a folder
@@ -88,32 +88,35 @@ def _cmd_replay(args) -> int:
         if path is not None:
             check_outputs(planned([path], args.source), command="replay", option=option)
     summary = None
-    with _stops_on_signals() as stopped, _named_as_options():
-        summary = replay(
-            args.source,
-            out_dir=args.out,
-            plot=args.plot,
-            animate=args.animate,
-            progress=not args.no_progress,
-            max_scans=args.max_scans,
-            reader_kwargs=reader_kwargs or None,
-            nav2_tolerance_m=nav2_tolerance(args),
-            graph_config=graph_config(args),
-            route_graph_radius_m=args.route_graph,
-            rooms=args.rooms,
-            mcap=args.mcap,
-            view=args.view,
-            resume=args.resume,
-            **kw,
-        )
+    printed_here = summary_printed.set(False)  # below, in the command's words
+    try:
+        with _stops_on_signals() as stopped, _named_as_options():
+            summary = replay(
+                args.source,
+                out_dir=args.out,
+                plot=args.plot,
+                animate=args.animate,
+                progress=not args.no_progress,
+                max_scans=args.max_scans,
+                reader_kwargs=reader_kwargs or None,
+                nav2_tolerance_m=nav2_tolerance(args),
+                graph_config=graph_config(args),
+                route_graph_radius_m=args.route_graph,
+                rooms=args.rooms,
+                mcap=args.mcap,
+                view=args.view,
+                resume=args.resume,
+                **kw,
+            )
+    finally:
+        summary_printed.reset(printed_here)
     if summary is None:  # stopped part way, its state saved for --resume
         print(f"topojax replay: stopped by {stopped[0].name}", file=sys.stderr)
         return 128 + stopped[0]
     record_outputs(planned(summary["written"], args.source), command="replay")
-    if args.no_progress:  # a skipped scan's refusal in the command's words
-        words = {"max_extent_m": "--max-extent-m"}  # not "resume", a word of the messages
-        messages = [_in_options(m, words) for m in summary["messages"]]
-        print(summary_text({**summary, "messages": messages}))
+    words = {"max_extent_m": "--max-extent-m"}  # not "resume", a word of the messages
+    messages = [_in_options(m, words) for m in summary["messages"]]  # e.g. a skipped scan's
+    print(summary_text({**summary, "messages": messages}))
     print("wrote      " + ", ".join(summary["written"]))
     if stopped:  # a signal the replay could not act on (e.g. lost in a callback)
         print(
