@@ -185,6 +185,28 @@ def test_an_assumed_resolution_is_said_once_in_the_map_line(tmp_path, capsys, co
     assert out.count("0.05 m/px, assumed: the file states none") == 1
 
 
+def test_route_with_a_map_says_an_assumed_resolution_once_in_its_map_line(tmp_path, capsys):
+    """``route --map`` of a PNG showed load_map's raw warning, with its source line and
+    ``resolution_m=``; it says so in a map line, in its options' words, as ``graph``."""
+    from room_maps import three_rooms_png
+
+    png = three_rooms_png(tmp_path / "rooms.png")
+    assert main(["route-graph", str(png), "--robot-radius", "0.2", "-o", str(tmp_path)]) == 0
+    capsys.readouterr()
+    graph = tmp_path / "rooms_route.json"
+    argv = ["route", str(graph), "--pixel", "--start", "7", "42", "--goal", "8", "92"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main([*argv, "--map", str(png)]) == 0
+    assert [str(w.message) for w in caught if "states no resolution" in str(w.message)] == []
+    out = capsys.readouterr().out
+    note = "0.05 m/px, assumed: the file states none; --resolution sets it)"
+    assert out.count(note) == 1 and out.startswith(f"map        {png}  (60 x 150 px, ")
+    assert main([*argv, "--map", str(png), "--resolution", "0.05"]) == 0
+    out = capsys.readouterr().out
+    assert "0.05 m/px)" in out and "assumed" not in out
+
+
 def test_a_map_yaml_without_origin_says_how_to_give_one_on_the_command_line(tmp_path, capsys):
     """The command has no --origin: the hint is the file's key, and origin= is Python's."""
     yaml = _ros_map(tmp_path / "m", wall_col=20)

@@ -8,7 +8,12 @@ import os
 import sys
 from pathlib import Path
 
-from ._options import add_map_options, map_options
+from ._options import (
+    add_map_options,
+    assumed_resolution_note,
+    map_options,
+    resolution_said_in_map_line,
+)
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
@@ -142,7 +147,8 @@ def _cmd_route(args) -> int:
 
         kw = map_options(args)  # its errors name their options
         try:
-            occupancy = load_map(args.map, **kw)
+            with resolution_said_in_map_line():
+                occupancy = load_map(args.map, **kw)
         except (ValueError, OSError) as exc:  # they name the file; the user gave --map
             if type(exc).__module__ != "builtins":  # a subclass keeps its own arguments
                 raise
@@ -152,6 +158,11 @@ def _cmd_route(args) -> int:
                 "--robot-radius: expected the robot radius in metres with --map (the graph "
                 "is not a route graph: it records none), received none"
             )
+        # the snap and entry distances are in metres: say when the resolution was assumed
+        print(
+            f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
+            f"{occupancy.resolution_m:g} m/px{assumed_resolution_note(args)})"
+        )
     frame = "pixel" if args.pixel else "world"
     try:
         planner = RoutePlanner(
