@@ -2748,6 +2748,14 @@ def test_replay_whose_every_scan_is_refused_says_why(tmp_path):
         replay(INTEL_EXCERPT, out_dir=tmp_path / "out", progress=False, resolution_m=5.0)
 
 
+def test_replay_whose_only_scan_is_refused_says_so_in_the_singular(tmp_path):
+    """One scan refused read "all 1 scans were refused; the first: ..."."""
+    with pytest.raises(
+        ValueError, match=r"^source \S+: the only scan replayed was refused: scan 0 "
+    ):
+        replay(INTEL_EXCERPT, out_dir=tmp_path, progress=False, max_scans=1, resolution_m=5.0)
+
+
 def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
     """A log whose final map is beyond ``max_export_bytes`` is not lost: the replay saves
     the mapper's state, and its error says where and how to skip the scans that grew

@@ -395,9 +395,10 @@ def _map_scans(
         )
         skipped = progress_at.skipped  # from the log's start
         if not mapper.n_scans and skipped:
-            raise ValueError(
-                f"source {source}: all {len(skipped)} scans were refused; the first: {skipped[0]}"
-            )
+            n = len(skipped)
+            which = "the only scan replayed was" if n == 1 else f"all {counted(n, 'scan')} were"
+            first = ": " if n == 1 else "; the first: "
+            raise ValueError(f"source {source}: {which} refused{first}{skipped[0]}")
         if not mapper.n_scans:
             raise ValueError(f"source {source}: no scans to replay")
         if mapper.pixel_bbox is None:
