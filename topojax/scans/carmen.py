@@ -161,8 +161,8 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
     chosen = None if laser == "auto" else laser
     scan_max: list[float] = []
     tops: list[np.ndarray] = []
-    n_readings = n_posed = n_unposed = n_bad = 0
-    first_unposed = first_bad = ""
+    n_readings = n_posed = 0
+    unposed, bad = _Tally(), _Tally()
     found = False
     params: dict[str, str] = {}
     first_field = None
@@ -193,18 +193,14 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
                 else:
                     ranges = _parse_new_laser_head(tokens)[1]
             except _PoseNotFinite as err:  # skipped when read
-                if not n_unposed:
-                    first_unposed = f"line {lineno}: {err}"
-                n_unposed += 1
+                unposed.add(lineno, err)
                 continue
             except _CarmenLineError as err:
                 if _cut_off(line):  # the logger stopped mid-line: the scans before count
                     break
                 if not skip_bad:
                     raise _malformed(path, lineno, key, err) from None
-                if not n_bad:
-                    first_bad = f"line {lineno}: {err}"
-                n_bad += 1
+                bad.add(lineno, err)
                 continue
             n_posed += 1
             finite = ranges[np.isfinite(ranges)]
@@ -220,9 +216,9 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
         np.concatenate(tops) if tops else np.empty(0),
         n_readings,
         n_posed,
-        (n_unposed, first_unposed),
+        (unposed.count, unposed.first),
         found,
-        (n_bad, first_bad),
+        (bad.count, bad.first),
         first_field,
     )
 
@@ -441,8 +437,7 @@ def _iter_carmen(
     not_finite: dict[type, list[int]] = {}  # lines of scans by what is not finite in them
     first_not_finite = ""
     made = 0
-    n_bad = 0  # malformed laser lines skipped
-    first_bad = ""
+    bad = _Tally()  # malformed laser lines skipped
     with _open_text(path) as fh:
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
@@ -477,26 +472,26 @@ def _iter_carmen(
                     break
                 if not skip_bad:
                     raise _malformed(path, lineno, key, err) from None
-                if not n_bad:
-                    first_bad = f"line {lineno}: {err}"
-                n_bad += 1
+                bad.add(lineno, err)
                 continue
             made += 1
             yield scan
-    if not made and (skipped or n_bad or not_finite):
+    if not made and (skipped or bad.count or not_finite):
         whats = " or ".join(kind.what for kind in not_finite)
         count = sum(map(len, not_finite.values()))
-        raise _no_scan(path, chosen, (count, first_not_finite, whats), (n_bad, first_bad), skipped)
+        raise _no_scan(
+            path, chosen, (count, first_not_finite, whats), (bad.count, bad.first), skipped
+        )
     if skipped:
         warnings.warn(
             f"{path}: skipped {skipped} {chosen} scan(s) before the first ODOM line "
             f"(they have no pose)",
             stacklevel=2,
         )
-    if n_bad:
+    if bad.count:
         warnings.warn(
-            f"{path}: skipped {n_bad} malformed {chosen} line(s) (bad_lines='skip'), "
-            f"the first on {first_bad}",
+            f"{path}: skipped {bad.count} malformed {chosen} line(s) (bad_lines='skip'), "
+            f"the first on {bad.first}",
             stacklevel=2,
         )
     for kind, lines in not_finite.items():
@@ -508,6 +503,20 @@ def _iter_carmen(
 
 
 _ZERO_POSE = (0.0, 0.0, 0.0)
+
+
+class _Tally:
+    """Lines of a log skipped for one reason: how many, and the first (``"line N:
+    why"``)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.first = ""
+
+    def add(self, lineno: int, err: Exception) -> None:
+        if not self.count:
+            self.first = f"line {lineno}: {err}"
+        self.count += 1
 
 
 def _no_scan(
