@@ -103,9 +103,11 @@ def test_summary_lines_count_one_room_and_one_door_in_the_singular():
         rooms=[SimpleNamespace(area_m2=7.0)], doors=[SimpleNamespace(width_m=0.8)], timings_s={}
     )
     line = room_lines(seg, None, seconds=0.01)[0]
-    assert line == "rooms      1 room (7.0 m2 in all, 7.0-7.0 m2 each), 1 door (0.80-0.80 m wide)"
+    assert line == "rooms      1 room (7.0 m2), 1 door (0.80 m wide)"
     seg = SimpleNamespace(rooms=seg.rooms * 2, doors=seg.doors * 2, timings_s={})
-    assert room_lines(seg, None, seconds=0.01)[0].startswith("rooms      2 rooms (")
+    assert room_lines(seg, None, seconds=0.01)[0].startswith(
+        "rooms      2 rooms (14.0 m2 in all, 7.0-7.0 m2 each), 2 doors (0.80-0.80 m wide)"
+    )
     summary = {
         "n_scans": 3,
         "source": "log",

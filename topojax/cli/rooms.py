@@ -96,11 +96,13 @@ def room_lines(
     line = f"rooms      {counted(len(rooms), 'room')}"
     if rooms:
         areas = [r.area_m2 for r in rooms]
-        line += f" ({sum(areas):.1f} m2 in all, {min(areas):.1f}-{max(areas):.1f} m2 each)"
+        spread = f"{min(areas):.1f}-{max(areas):.1f} m2 each"
+        line += f" ({sum(areas):.1f} m2{f' in all, {spread}' if len(areas) > 1 else ''})"
     line += f", {counted(len(doors), 'door')}"
     if doors:
         widths = [d.width_m for d in doors]
-        line += f" ({min(widths):.2f}-{max(widths):.2f} m wide)"
+        wide = f"{min(widths):.2f}" if len(widths) == 1 else f"{min(widths):.2f}-{max(widths):.2f}"
+        line += f" ({wide} m wide)"
     stages = ", ".join(f"{k} {1e3 * v:.1f}" for k, v in seg.timings_s.items())
     timing = f"total {1e3 * seconds:.1f}"
     if stages:  # no stage ran (nothing loaded or compiled) on a map without free space
