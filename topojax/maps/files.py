@@ -271,7 +271,7 @@ def unstated_resolution(path: str | Path) -> float | None:
     is refused (``load_map`` names that fault).  A caller that reports the assumption
     itself passes the result as ``resolution_m``."""
     p = Path(path)
-    if p.suffix.lower() in YAML_SUFFIXES:
+    if p.suffix.lower() in YAML_SUFFIXES or not p.is_file():  # a pipe: load_map refuses it
         return None
     if p.suffix.lower() == ".pgm":
         try:
