@@ -57,18 +57,20 @@ def test_a_stopped_tiled_build_is_resumed(office_yaml, tmp_path, monkeypatch, ca
 
 
 def test_a_budget_above_the_memory_available_is_warned_of_once_naming_the_option(
-    office_yaml, tmp_path, monkeypatch
+    office_yaml, tmp_path, monkeypatch, capsys
 ):
     import topojax.outofcore.build as build
 
     monkeypatch.setattr(build, "available_memory_bytes", lambda: 10 * 2**20)
     argv = ["graph", str(office_yaml), "-o", str(tmp_path), "--tiled", "--memory-budget-mb", "14"]
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings():
         warnings.simplefilter("always")
         assert main(argv) == 0
-    assert [str(w.message) for w in caught if "memory" in str(w.message)] == [
-        "--memory-budget-mb: 14 MB is more than the 10.0 MiB of memory available; blocks "
-        "sized to it may not fit (a smaller budget gives smaller blocks)"
+    err = capsys.readouterr().err
+    assert [line for line in err.splitlines() if "memory" in line] == [
+        "topojax graph: warning: --memory-budget-mb: 14 MB is more than the 10.0 MiB of "
+        "memory available; blocks sized to it may not fit (a smaller budget gives smaller "
+        "blocks)"
     ]
 
 

@@ -5,10 +5,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import difflib
 import os
 import signal
 import sys
+import warnings
 
 from .. import __version__
 from . import batch, graph, replay, rooms, route, route_graph, view
@@ -139,6 +141,24 @@ def _out_of_memory_message(exc: Exception) -> str:
     )
 
 
+@contextlib.contextmanager
+def _warnings_as_lines(command: str):
+    """Within: a warning shown is one line on standard error, ``topojax COMMAND: warning:
+    MESSAGE``, as the command's errors are (not Python's ``file:line: Category:`` form
+    with the source line).  Which warnings are shown is left to the filters
+    (``-W``, ``PYTHONWARNINGS``)."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        stream = sys.stderr if file is None else file
+        if stream is not None:
+            with contextlib.suppress(OSError, ValueError):  # closed: nowhere to say it
+                print(f"topojax {command}: warning: {message}", file=stream)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``topojax`` command."""
     parser = build_parser()
@@ -148,7 +168,8 @@ def main(argv: list[str] | None = None) -> int:
     stopped: list[signal.Signals] = []
     previous = stop_on_sigterm(stopped)
     try:
-        return int(args.handler(args) or 0)
+        with _warnings_as_lines(args.command):
+            return int(args.handler(args) or 0)
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
         print(f"topojax {args.command}: error: {_message(exc)}", file=sys.stderr)
         return 2
