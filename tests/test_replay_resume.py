@@ -462,13 +462,14 @@ def test_replay_cli_stopped_by_a_signal_keeps_its_scans(
 
 
 def test_the_command_line_page_says_how_replay_ends_on_a_signal():
-    """The page said every command ends on Ctrl-C with one line, ``interrupted
-    (Ctrl-C)``; ``replay`` warns where it saved its state and ends with the lines that
-    :func:`test_replay_cli_stopped_by_a_signal_keeps_its_scans` checks."""
+    """The page says how ``replay`` ends on a signal, unlike the other commands'
+    ``interrupted (Ctrl-C)``: it warns where it saved its state and ends with the lines
+    that :func:`test_replay_cli_stopped_by_a_signal_keeps_its_scans` checks."""
     page = (Path(__file__).parents[1] / "docs" / "command-line.md").read_text("utf-8")
     stops = " ".join(page[page.index("Ctrl-C stops") : page.index("## Map options")].split())
     assert "`topojax replay: stopped by SIGINT` and status 130" in stops
-    assert "`stopped by SIGTERM` and 143" in stops and "`mapper_state.npz`" in stops
+    assert "`stopped by SIGTERM` and 143" in stops and "mapper_state.npz" in stops
+    assert "`topojax replay: warning: replay stopped after N scans;" in stops
 
 
 def test_replay_cli_in_a_background_job_stops_on_sigterm_too(
