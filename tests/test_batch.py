@@ -331,9 +331,10 @@ def test_kernel_failure_of_one_map_spares_its_group(monkeypatch):
 
 
 def test_a_manifest_record_missing_a_value_or_of_another_type_is_redone(tmp_path):
-    """A manifest's record was copied into the resumed row as it was: a time of another
-    type (a string, null) broke the table's sum with a TypeError that ended the batch,
-    a count of another type went into the table, and a missing count left it empty."""
+    """A manifest record with a value of another type or a missing one is redone, not
+    copied into the resumed row as it stands: there a time of another type (a string,
+    null) would break the table's sum with a TypeError that ends the batch, a count of
+    another type would go into the table, and a missing count would leave it empty."""
     out = tmp_path / "out"
     kw = {"out_dir": out, "workers": 0, "progress": False, "formats": "json"}
     (first,) = build_graphs([PAPER_MAPS[2]], **kw)
@@ -365,9 +366,10 @@ def test_a_manifest_record_missing_a_value_or_of_another_type_is_redone(tmp_path
 
 
 def test_a_folder_with_an_outputs_name_makes_an_error_row(tmp_path):
-    """Removing a failed map's files (or the manifest of a map about to be redone) met a
-    folder of that name with an IsADirectoryError that ended the batch without its
-    table."""
+    """A folder where a map's output file or manifest goes, met when a failed map's
+    files (or the manifest of a map about to be redone) are removed, makes that map an
+    error row naming the folder, which stays; it does not end the batch (an
+    IsADirectoryError) without its table."""
     maps = [PAPER_MAPS[0], PAPER_MAPS[2]]
     for folder in ("intel.json", "intel.manifest.json"):
         out = tmp_path / folder / "out"
@@ -416,9 +418,9 @@ def test_write_failure_leaves_no_manifest_and_resume_redoes(tmp_path, monkeypatc
 
 
 def test_a_map_redone_with_fewer_outputs_leaves_none_of_the_earlier_ones(tmp_path):
-    """Files of formats (or pictures) a map's earlier run wrote and this one does not are
-    removed with its manifest: left, ``topojax view`` showed the earlier settings' graph
-    beside this run's manifest."""
+    """Files of formats (or pictures) a map's earlier run wrote and this one does not
+    are removed with its manifest: left, ``topojax view`` would show the earlier
+    settings' graph beside this run's manifest."""
     out = tmp_path / "out"
     src = PAPER_MAPS[2]
     stem = src.stem
@@ -437,9 +439,10 @@ def test_a_map_redone_with_fewer_outputs_leaves_none_of_the_earlier_ones(tmp_pat
 
 
 def test_a_map_that_fails_when_redone_keeps_no_earlier_files(tmp_path):
-    """A map that fails this run (here: its file was damaged since) loses the manifest and
-    files of its earlier run: left, they were attributed to a map whose input is no
-    longer theirs (``topojax view`` showed them as its graph); other files stay."""
+    """A map that fails this run (here: its file was damaged since) loses the manifest
+    and files of its earlier run, which, left, would be attributed to a map whose input
+    is no longer theirs (``topojax view`` would show them as its graph); other files
+    stay."""
     out = tmp_path / "out"
     src = tmp_path / "m.png"
     src.write_bytes(PAPER_MAPS[2].read_bytes())
@@ -1145,8 +1148,8 @@ def test_expand_map_inputs_skips_the_excluded_folder(tmp_path):
     named = root / "out" / "a_graph.png"
     assert expand_map_inputs([named], exclude=root / "out") == [named]
     assert expand_map_inputs([root / "out"], exclude=root / "out") == [named]
-    # an output folder that is the input folder or above it hides nothing (every map of
-    # `topojax batch maps -o .` was lost)
+    # an output folder that is the input folder or above it hides nothing (else every map
+    # of `topojax batch maps -o .` would be lost)
     both = [root / "a.png", named]
     for out in (root, tmp_path, tmp_path.parent):
         assert expand_map_inputs([root], exclude=out) == both
@@ -1457,8 +1460,9 @@ def test_dask_local_cluster_matches_local_run(tmp_path, shared_data):
 
 
 def test_a_scheduler_that_cannot_be_reached_is_named_and_leaves_no_folder(tmp_path, capsys):
-    """A bad ``--scheduler`` address failed with the Dask client's own message (``missing
-    port number in address 'garbage'``), naming no option, after making ``-o``."""
+    """A bad ``--scheduler`` address is refused naming the option, before ``-o`` is
+    made, not with the Dask client's own message (``missing port number in address
+    'garbage'``), which names no option."""
     pytest.importorskip("distributed")
     from topojax.cli import main
 
@@ -1513,8 +1517,8 @@ def test_outputs_never_replace_an_input_map_or_its_yaml_image(tmp_path, capsys):
 
 def test_a_map_file_of_the_same_name_from_another_folder_is_refused(tmp_path):
     """Two batches into one folder: ``b/m.png`` after ``a/m.png`` would replace its
-    outputs without a word (the command line refused it, the library did not); the same
-    file again, or a resume, is fine."""
+    outputs without a word, and the library refuses it as the command line does; the
+    same file again, or a resume, is fine."""
     png = PAPER_MAPS[2].read_bytes()
     for folder in ("a", "b"):
         (tmp_path / folder).mkdir()
@@ -1635,9 +1639,9 @@ def test_grey_walls_are_flagged_with_a_warning(tmp_path, capsys):
 
 def test_an_empty_graph_with_the_nav2_format_is_empty_not_an_error(tmp_path):
     """With ``--formats ...,nav2``, a map whose graph has no edge (all unknown, all
-    occupied) was ``status=error`` ("the Nav2 Route Server rejects a graph without
-    edges") with its other files missing; it is ``empty`` with its reason, and, as for
-    the route graph's Nav2 file, gets no Nav2 file; the other maps' are written."""
+    occupied) is ``empty`` with its reason, not ``status=error`` ("the Nav2 Route Server
+    rejects a graph without edges") with its other files missing; as for the route
+    graph's Nav2 file, it gets no Nav2 file; the other maps' are written."""
     import cv2
 
     cv2.imwrite(str(tmp_path / "unknown.png"), np.full((60, 60), 205, np.uint8))
@@ -1658,9 +1662,9 @@ def test_an_empty_graph_with_the_nav2_format_is_empty_not_an_error(tmp_path):
 
 
 def test_out_dir_and_bucket_are_checked_before_any_map_runs():
-    """``out_dir`` must be a path (an int reached ``pathlib`` and failed there, naming no
-    option), and ``tiles_per_call`` is bounded as for :class:`PipelineConfig` (a huge
-    bucket failed every map with a MemoryError instead)."""
+    """``out_dir`` must be a path (an int is named, not left to fail in ``pathlib``
+    naming no option), and ``tiles_per_call`` is bounded as for :class:`PipelineConfig`
+    (a huge bucket would fail every map with a MemoryError)."""
     occ = OccupancyMap.from_array(np.eye(16, dtype=bool))
     with pytest.raises(TypeError, match=r"out_dir: expected a path \(str or os.PathLike\), "):
         build_graphs([occ], workers=0, progress=False, out_dir=3)

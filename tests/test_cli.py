@@ -186,8 +186,9 @@ def test_an_assumed_resolution_is_said_once_in_the_map_line(tmp_path, capsys, co
 
 
 def test_route_with_a_map_says_an_assumed_resolution_once_in_its_map_line(tmp_path, capsys):
-    """``route --map`` of a PNG showed load_map's raw warning, with its source line and
-    ``resolution_m=``; it says so in a map line, in its options' words, as ``graph``."""
+    """``route --map`` of a PNG says the assumed resolution in a map line, in its
+    options' words, as ``graph`` does, not as load_map's raw warning with its source
+    line and ``resolution_m=``."""
     from room_maps import three_rooms_png
 
     png = three_rooms_png(tmp_path / "rooms.png")
@@ -262,9 +263,10 @@ def test_route_and_unrecorded_files(tmp_path, capsys):
 def test_a_route_file_that_cannot_be_written_is_refused_before_the_route(
     tmp_path, capsys, read_only_folder
 ):
-    """``route -o`` below a file or in a folder that takes no file failed only when the
-    route was written, with the system's message (``[Errno 17] File exists: 'afile'``,
-    ``Read-only file system: '.../.r.geojson.x.tmp'``) naming no option."""
+    """``route -o`` below a file or in a folder that takes no file is refused naming the
+    option before the route is planned, not when the route is written, with the system's
+    message (``[Errno 17] File exists: 'afile'``, ``Read-only file system:
+    '.../.r.geojson.x.tmp'``), which names no option."""
     a = _ros_map(tmp_path / "a", wall_col=20)
     out = tmp_path / "out"
     assert main(["graph", str(a), "-o", str(out)]) == 0
@@ -324,9 +326,9 @@ def test_replay_names_its_options_in_errors(tmp_path, capsys, argv, message):
 
 
 def test_replay_option_names_leave_the_paths_in_its_errors_as_they_are(tmp_path, capsys):
-    """A folder or file named like a parameter (``resume``, ``animate.gif``) came out of
-    the error as ``.../--resume/mapper_state.npz`` or ``.../--animate.gif``: the words
-    that name options were rewritten inside paths too."""
+    """A folder or file named like a parameter (``resume``, ``animate.gif``) stays as it
+    is in the error, not ``.../--resume/mapper_state.npz`` or ``.../--animate.gif``: the
+    words that name options are not rewritten inside paths."""
     log = Path(__file__).parent / "data" / "intel_first40.log.gz"
     out = tmp_path / "resume"
     assert main(["replay", str(log), "-o", str(out), "--resume"]) != 0
@@ -364,9 +366,9 @@ def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
 
 
 def test_replay_prints_its_summary_in_its_own_words_with_the_progress_bar(tmp_path, capsys):
-    """Without ``--no-progress`` the library printed the summary, in its parameters' words
-    ("make the mapper with a larger max_extent_m"): the command prints it, once, in its
-    options' words with the bar as without it."""
+    """With the progress bar (no ``--no-progress``) the command prints the summary once,
+    in its options' words, as without it, not the library's summary in its parameters'
+    words ("make the mapper with a larger max_extent_m")."""
     log = Path(__file__).parent / "data" / "intel_first40.log.gz"
     out = str(tmp_path / "out")
     assert main(["replay", str(log), "-o", out, "--max-extent-m", "46"]) == 0
@@ -625,8 +627,9 @@ def test_an_output_folder_under_a_file_is_named_as_the_option(tmp_path, capsys, 
 def test_an_output_folder_that_takes_no_file_is_named_without_an_error_number(
     tmp_path, capsys, read_only_folder, command
 ):
-    """The error read ``error: [Errno 30] --out: cannot write ...`` (the replay's:
-    ``out_dir``, the parameter of topojax.replay): it starts with the option now."""
+    """The error starts with the option (the replay's too, not with ``out_dir``, the
+    parameter of topojax.replay), not with an error number as in
+    ``error: [Errno 30] --out: cannot write ...``."""
     source = ROOT / "topojax" / "data" / "a_scan.png"
     if command == "replay":
         source = Path(__file__).parent / "data" / "intel_first40.log.gz"
@@ -653,9 +656,10 @@ def test_an_output_folder_that_takes_no_file_is_named_without_an_error_number(
 def test_an_output_file_that_cannot_be_written_is_refused_before_the_work(
     tmp_path, capsys, read_only_folder, command, option, name
 ):
-    """An ``--mcap`` or ``--animate`` file in a folder that takes no file was found out
-    when it was written: after the whole run (the graph files written, a replay's state
-    kept), with the system's message about a temporary file, naming no option."""
+    """An ``--mcap`` or ``--animate`` file in a folder that takes no file is refused
+    naming the option before the work, not found out when it is written: after the whole
+    run (the graph files written, a replay's state kept), with the system's message
+    about a temporary file."""
     source = ROOT / "topojax" / "data" / "a_scan.png"
     extra = []
     if command == "replay":

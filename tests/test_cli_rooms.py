@@ -168,7 +168,7 @@ def test_room_option_errors_name_the_option(png, tmp_path, capsys, options, mess
 
 @pytest.mark.parametrize("command", ["graph", "replay"])
 def test_room_options_without_rooms_are_refused(png, tmp_path, capsys, command):
-    # they were ignored: no rooms, not a word (a bad value went unchecked too), as
+    # refused, not ignored (no rooms, not a word, a bad value unchecked), as
     # --nav2-tolerance-m without --nav2 is refused
     log = Path(__file__).parent / "data" / "intel_first40.log.gz"
     source = str(png) if command == "graph" else str(log)

@@ -760,7 +760,7 @@ def test_bad_points_raise_before_any_change():
         (np.array([[1e300, 0.0]]), "points_xy: the points put pixels beyond"),
         (np.array([[500.0, 0.0]]), "max_grid_cells"),
         (np.ones((2, 2), bool), "points_xy: .*received a bool array"),
-        # NumPy took None as NaN (a dropped point) and complex as its real part
+        # NumPy would take None as NaN (a dropped point) and complex as its real part
         ([[1.0, None]], r"points_xy: expected an .N, 2. array.*list of dtype object"),
         (None, r"points_xy: expected an .N, 2. array.*NoneType of dtype object"),
         (np.array([[1.0 + 2.0j, 0.0]]), "points_xy: expected .*dtype complex128"),
@@ -1443,9 +1443,10 @@ def test_paper_strategy_reports_paper_metrics(shared_data):
 
 
 def test_a_paper_layer_wider_than_the_window_reaches_all_of_it():
-    """The layer was a dilation by a square of ``2 * paper_layer_px + 1`` pixels:
-    10**30 failed inside NumPy ("Maximum allowed dimension exceeded"), 10**6 asked for a
-    3.6 TiB structuring element, and its cost grew with the square's area."""
+    """A paper layer far wider than the window covers all of it without a dilation by a
+    square of ``2 * paper_layer_px + 1`` pixels, which at 10**30 fails inside NumPy
+    ("Maximum allowed dimension exceeded"), at 10**6 asks for a 3.6 TiB structuring
+    element, and whose cost grows with the square's area."""
     scans = list(read_carmen(INTEL_EXCERPT))[:12]
     skeletons = []
     for layer in (10**30, 10**4, 2):
@@ -1479,7 +1480,7 @@ def test_vertex_error_metrics_on_known_graphs():
     assert vertex_error_metrics(a.to_directed(), b)["n_vertices"] == 4  # direction unread
     for pixel, exc, shown in (("ab", TypeError, "str 'ab'"), ((np.nan, 1.0), ValueError, "nan")):
         edited = b.copy()
-        edited.nodes[1]["pixel"] = pixel  # failed inside NumPy or SciPy, naming no graph
+        edited.nodes[1]["pixel"] = pixel  # named, not left to fail inside NumPy or SciPy
         with pytest.raises(exc, match=rf"^graph_b: node 1: 'pixel': expected two finite .*{shown}"):
             vertex_error_metrics(a, edited)
     with pytest.raises(TypeError, match="^outlier_px: expected a real number, received str"):
@@ -1490,8 +1491,9 @@ def test_vertex_error_metrics_on_known_graphs():
 
 
 def test_vertex_error_metrics_checks_the_region():
-    """A region of the wrong length failed with Python's unpacking error, naming nothing;
-    a NaN or empty one (row0 >= row1) gave n_vertices 0 and NaN metrics without a word."""
+    """A region of the wrong length, a NaN one or an empty one (row0 >= row1) is refused
+    naming ``region``, not left to Python's unpacking error, which names nothing, nor to
+    n_vertices 0 and NaN metrics without a word."""
     a = nx.Graph()
     a.add_node(0, pixel=(5, 5))
     assert vertex_error_metrics(a, a, region=(0.0, 10, np.int64(0), 10))["n_vertices"] == 1
@@ -1515,7 +1517,7 @@ def test_vertex_error_metrics_checks_the_region():
 def test_low_precision_readings_at_a_decimal_range_max_add_no_obstacles(dtype, limit):
     """A float32 (float16) scan whose no-returns are stored at range_max (5.6 m, 4.2 m:
     rounded down in that precision) adds only its real hits, as its valid_mask says
-    (float16 readings were taken as float64: a ring of phantom obstacles)."""
+    (float16 readings taken as float64 would make a ring of phantom obstacles)."""
     r = np.full(360, limit, dtype)
     r[:10] = 2.0
     scan = Scan.from_arrays(
@@ -1778,7 +1780,7 @@ def test_replay_cli_reader_options_and_early_path_checks(tmp_path, capsys):
     (tmp_path / "afile").write_text("x")
     with pytest.raises(NotADirectoryError, match="out_dir: expected a folder to write into"):
         replay(INTEL_EXCERPT, out_dir=tmp_path / "afile", progress=False)
-    # a GIF below a file: refused now, not with "File exists" after the whole replay
+    # a GIF below a file: refused before the replay, not with "File exists" after it
     with pytest.raises(NotADirectoryError, match=r"animate: .*afile in .* is a file, not a"):
         replay(INTEL_EXCERPT, out_dir=tmp_path / "b", animate=tmp_path / "afile" / "x.gif")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "f", "gif", "o", "s"]
@@ -2447,9 +2449,10 @@ def test_far_readings_and_poses_are_extent_errors_naming_the_scan():
 
 def test_a_sensor_beyond_the_pixel_range_is_an_extent_error():
     """A sensor pose whose pixel overflows (pose plus offset, or x / resolution, beyond
-    float64) raised OverflowError from math.floor; the sensor's pixel is checked like the
-    readings' (also without valid readings: the rays would start there); nothing
-    changes and the next scan maps as if the refused ones never came."""
+    float64) is an extent error, not an OverflowError from math.floor: the sensor's
+    pixel is checked like the readings' (also without valid readings: the rays would
+    start there); nothing changes and the next scan maps as if the refused ones never
+    came."""
     ref = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
     mapper = IncrementalMapper(skeleton_every=0, graph_every=0, **SMALL_KW)
     first, second = synthetic_scans(3, 2, bad=False)
@@ -2751,7 +2754,8 @@ def test_replay_whose_every_scan_is_refused_says_why(tmp_path):
 
 
 def test_replay_whose_only_scan_is_refused_says_so_in_the_singular(tmp_path):
-    """One scan refused read "all 1 scans were refused; the first: ..."."""
+    """One scan refused is said in the singular ("the only scan replayed was refused"),
+    not as "all 1 scans were refused; the first: ..."."""
     with pytest.raises(
         ValueError, match=r"^source \S+: the only scan replayed was refused: scan 0 "
     ):
@@ -2839,7 +2843,8 @@ def test_add_scans_and_save_name_a_bad_argument(tmp_path):
         mapper.add_scans(5)
     with pytest.raises(TypeError, match=r"scans: .*received Scan; add one scan with add_scan"):
         mapper.add_scans(scan)
-    # a path was iterated character by character, a 0-d array failed inside NumPy
+    # a path is refused, not iterated character by character, and so is a 0-d array, not
+    # left to fail inside NumPy
     for bad, shown in (("intel.log", "str"), (b"intel.log", "bytes"), (np.array(1), "ndarray")):
         with pytest.raises(TypeError, match=rf"^scans: expected an iterable of Scan .*{shown}"):
             mapper.add_scans(bad)
@@ -2850,14 +2855,16 @@ def test_add_scans_and_save_name_a_bad_argument(tmp_path):
 
 @pytest.mark.parametrize("update", ["no", None, 0, np.array([True])])
 def test_to_result_update_is_a_bool(update):
-    """``update`` was read by its truth value: "no" updated the graph, None did not."""
+    """``update`` is a bool, not read by its truth value (where "no" would update the
+    graph and None would not)."""
     with pytest.raises(TypeError, match="^update: expected a bool, received "):
         IncrementalMapper(**SMALL_KW).to_result(update=update)
 
 
 def test_world_to_pixel_refuses_what_has_no_pixel():
-    """NaN, an infinity or None became the pixel -9223372036854775808 (int64's minimum)
-    with only a NumPy cast warning; a string failed inside NumPy naming no argument."""
+    """NaN, an infinity or None has no pixel and is refused, not turned into the pixel
+    -9223372036854775808 (int64's minimum) with only a NumPy cast warning; a string is
+    refused naming the argument, not left to fail inside NumPy."""
     m = IncrementalMapper(resolution_m=0.1)
     assert m.world_to_pixel(0.25, -0.25) == (2, 2)
     for bad, exc in ((math.nan, ValueError), (math.inf, ValueError), (None, TypeError)):
@@ -2867,7 +2874,8 @@ def test_world_to_pixel_refuses_what_has_no_pixel():
             m.world_to_pixel([0.0, 1.0], [0.0, bad])
     with pytest.raises(TypeError, match="^x: expected a number or an array of real numbers"):
         m.world_to_pixel("1", 0.0)
-    # a finite coordinate whose pixel index does not fit an int64 became int64's minimum
+    # a finite coordinate whose pixel index does not fit an int64 is refused, not turned
+    # into int64's minimum
     assert m.world_to_pixel(-2e17, 9e17) == (-9e18, -2e18)
     for x, y, name in ((1e300, 0.0, "x"), (0.0, [1.0, -1e21], "y"), (-1e19, 0.0, "x")):
         with pytest.raises(
@@ -2878,9 +2886,9 @@ def test_world_to_pixel_refuses_what_has_no_pixel():
 
 def test_an_update_stopped_part_way_is_neither_saved_nor_built_on(tmp_path, monkeypatch):
     """A Ctrl-C part way through a skeleton update (the changed ridges taken, the
-    skeleton not yet re-thinned) left a mapper that saved and took scans as if whole:
-    the state saved, or the map built on, held half an update (a wrong graph).  Saving
-    it, adding to it and updating it are now refused, saying why."""
+    skeleton not yet re-thinned) leaves a mapper that holds half an update: the state
+    saved, or the map built on, would give a wrong graph.  Saving it, adding to it and
+    updating it are refused, saying why."""
     import topojax.incremental.mapper as mapper_module
 
     scans = list(read_carmen(INTEL_EXCERPT))[:6]

@@ -646,9 +646,9 @@ def test_output_folder_that_cannot_be_made_names_the_option(tmp_path, monkeypatc
 
 
 def test_an_existing_folder_that_cannot_be_written_into_is_refused_up_front(tmp_path, monkeypatch):
-    """An output folder that exists but takes no file (no permission, read-only) passed,
-    and a replay mapped its whole log before the first write failed (and so did saving
-    its state); the folder is now tried when it is checked, naming the option."""
+    """An output folder that exists but takes no file (no permission, read-only) is
+    tried when it is checked and refused naming the option, before a replay maps its
+    whole log only to fail at the first write (and at saving its state)."""
     import tempfile
 
     from topojax._fs import output_folder
@@ -670,9 +670,9 @@ def test_an_existing_folder_that_cannot_be_written_into_is_refused_up_front(tmp_
 
 
 def test_output_file_is_refused_up_front_where_it_cannot_be_written(tmp_path, read_only_folder):
-    """An output file (``--mcap``, ``--animate``, ``route -o``) in a folder that takes no
-    file was found out only when it was written, after the work, with the system's
-    message about a temporary file; it is now tried first, naming the option."""
+    """An output file (``--mcap``, ``--animate``, ``route -o``) in a folder that takes
+    no file is tried first and refused naming the option, not found out when it is
+    written, after the work, with the system's message about a temporary file."""
     from topojax._fs import output_file
 
     with pytest.raises(

@@ -201,9 +201,10 @@ def test_graphml_refuses_a_node_attribute_networkx_reads_as_its_own_argument(tmp
 def test_attributes_named_as_networkx_arguments_or_graphml_fields_are_read_back(
     tmp_path: Path, suffix: str
 ):
-    # a graph's 'id' was GraphML's graph element id, and 'node_default' / 'edge_default'
-    # networkx's defaults: all three were lost; edge attributes named as add_edge's
-    # arguments (and, outside GraphML, add_node's) made files load_graph could not read
+    # a graph's 'id' is also GraphML's graph element id, and 'node_default' /
+    # 'edge_default' networkx's defaults: all three are read back, and edge attributes
+    # named as add_edge's arguments (and, outside GraphML, add_node's) make files that
+    # load_graph reads
     g = _str_id_graph()
     g.graph.update(id="floor 3", node_default=[1, 2], edge_default="x")
     ends = ("a&b", "c\"d'", "k2")

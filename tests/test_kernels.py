@@ -381,7 +381,7 @@ def test_distance_config_from_metres():
 def test_distance_config_window_follows_sigma_unless_given():
     """Given sigma alone, the window scales with it as in the original (the same as
     ``from_pixels``); a window narrower than one sigma (which flattens the ridges away:
-    the Intel map's graph went empty at sigma 1000 px in a 227 px window) is refused."""
+    the Intel map's graph goes empty at sigma 1000 px in a 227 px window) is refused."""
     assert DistanceConfig().half_width_px == 227
     assert DistanceConfig(sigma_px=10.0) == DistanceConfig.from_pixels(sigma_px=10.0)
     assert DistanceConfig(sigma_px=10.0).half_width_px == 35

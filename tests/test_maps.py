@@ -300,7 +300,8 @@ def test_pixel_to_world_without_yaw_matches_map_server_formula():
 
 
 def test_coordinate_conversions_name_arguments_of_mismatched_shapes():
-    """NumPy's "operands could not be broadcast together" named neither argument."""
+    """Coordinates of mismatched shapes are refused naming both arguments, not left to
+    NumPy's "operands could not be broadcast together", which names neither."""
     m = _small_map()
     tiled = tj.TiledMap.from_occupancy(m)
     for convert, names in (
@@ -327,8 +328,9 @@ def test_coordinate_conversions_name_arguments_of_mismatched_shapes():
 )
 def test_a_graphs_malformed_map_attributes_are_named_not_crashed_on(attr, value, words):
     """A graph whose recorded shape or origin was edited into a non-sequence or into
-    strings failed inside NumPy or tuple() ("'int' object is not iterable") wherever it met
-    a map; a str resolution was taken for no resolution."""
+    strings is refused naming the attribute wherever it meets a map, not left to fail
+    inside NumPy or tuple() ("'int' object is not iterable"); nor is a str resolution
+    taken for no resolution."""
     m = _small_map()
     graph = tj.build_graph(m).graph
     graph.graph[attr] = value
@@ -337,8 +339,9 @@ def test_a_graphs_malformed_map_attributes_are_named_not_crashed_on(attr, value,
 
 
 def test_coordinate_conversions_refuse_non_numbers():
-    """None became NaN coordinates without a word, and a string failed inside NumPy
-    ("could not convert string to float"), naming no argument."""
+    """None and strings are refused naming the argument: None would become NaN
+    coordinates without a word, and a string would fail inside NumPy ("could not convert
+    string to float")."""
     m = _small_map()
     tiled = tj.TiledMap.from_occupancy(m)
     for convert, names in (
@@ -675,7 +678,8 @@ def test_occupancy_map_validation():
         OccupancyMap(a, t, a, origin=(1.0, 2.0, 3.0, 4.0))
     with pytest.raises(TypeError, match="numpy"):
         OccupancyMap([[False]], t, a)  # type: ignore[arg-type]
-    # a source that is no path or name was kept as its str(): "True", "<object ...>"
+    # a source that is no path or name is refused, not kept as its str(): "True",
+    # "<object ...>"
     assert OccupancyMap(a, t, a, source=Path("maps/m.pgm")).source == str(Path("maps/m.pgm"))
     for bad in (True, 3, object()):
         with pytest.raises(TypeError, match=r"^source: expected a str, an os.PathLike or None"):
@@ -848,9 +852,10 @@ def test_binary_pgm_shorter_than_its_header_is_named(tmp_path: Path):
 
 
 def test_binary_pgm_with_a_bad_header_is_named(tmp_path: Path):
-    """A P5 header that does not parse went on to OpenCV, which read "3x" as 3 (a map
-    without a word) and refused a zero size or maxval as "could not decode"; the tiled
-    reader failed inside int()."""
+    """A P5 header that does not parse is refused naming the map image and what its
+    header holds, by both readers: not passed on to OpenCV, which reads "3x" as 3 (a map
+    without a word) and refuses a zero size or maxval as "could not decode", nor left to
+    fail inside int() in the tiled reader."""
     cases = {
         "word.pgm": (b"P5\n3x 2\n255\n" + bytes(6), "decimal integers, received '3x 2 255'"),
         "zero.pgm": (b"P5\n0 0\n255\n", "received 0 x 0, maxval 255"),

@@ -64,7 +64,8 @@ def test_formats_with_a_clear_meaning_are_read_as_that_map(tmp_path: Path):
 
 
 def test_a_cmyk_jpeg_keeps_its_grey_levels(tmp_path: Path):
-    """OpenCV converts CMYK a level too light: the unknown 205 came out a free 206."""
+    """OpenCV converts CMYK a level too light (the unknown 205 would come out a free
+    206): a CMYK JPEG keeps its grey levels."""
     path = tmp_path / "cmyk.jpg"
     Image.fromarray(np.dstack([GREY] * 3)).convert("CMYK").save(path, quality=100)
     _assert_grey_map(load_map(path, resolution_m=0.05))

@@ -129,8 +129,9 @@ def test_replay_recording_has_every_topic_with_standard_types_and_counts(replaye
 
 
 def test_replaying_a_recording_does_not_record_over_it(replayed, tmp_path):
-    """A recording replayed with ``mcap`` naming it is refused before anything is read or
-    written: the new recording replaced the log (and any topic it had besides scans)."""
+    """A recording replayed with ``mcap`` naming it is refused before anything is read
+    or written: the new recording would replace the log (and any topic it holds besides
+    scans)."""
     source = tmp_path / "run.mcap"
     source.write_bytes(replayed[1].read_bytes())
     before = source.read_bytes()
@@ -491,8 +492,8 @@ def test_command_line_writes_recordings(tmp_path, capsys):
 
 
 def test_save_mcap_names_a_wrong_rooms_argument(tmp_path):
-    """The check of ``rooms`` came from the recorder's ``add_rooms`` and named its ``seg``;
-    it now names ``rooms`` and comes before the file is opened."""
+    """A wrong ``rooms`` is named as ``rooms`` (not as ``seg``, the argument of the
+    recorder's ``add_rooms``), before the file is opened."""
     result = tj.build_graph(tj.OccupancyMap.from_array(np.eye(16, dtype=bool)))
     with pytest.raises(TypeError, match="^rooms: expected a RoomSegmentation, received str"):
         tj.save_mcap(result, tmp_path / "a.mcap", rooms="rooms.json")
@@ -539,9 +540,10 @@ def test_room_markers_draw_the_rings_round_a_rooms_holes():
 
 
 def test_markers_refuse_coordinates_that_are_not_finite_x_y_pairs(tmp_path):
-    """A NaN in a vertex's ``world`` or an edge's ``waypoints`` was written into the
-    markers as it stood (RViz drops such a marker with a warning); a vertex ``world`` of
-    three numbers failed inside numpy's reshape.  Both name the graph, vertex or edge."""
+    """A NaN in a vertex's ``world`` or an edge's ``waypoints`` (RViz drops such a
+    marker with a warning) and a vertex ``world`` of three numbers (which fails inside
+    numpy's reshape) are refused naming the graph, vertex or edge, not written into the
+    markers."""
     g = nx.MultiGraph()
     g.add_node(0, world=(0.0, 0.0), kind="end")
     g.add_node(1, world=(1.0, 0.0), kind="end")

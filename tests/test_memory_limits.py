@@ -128,8 +128,9 @@ _OTHER_FORMATS = [
 def test_other_decoded_formats_are_held_to_the_memory_available_before_decoding(
     tmp_path, monkeypatch, name, encode
 ):
-    """Formats whose header load_map read itself (PNG, JPEG, BMP, TIFF, PGM / PPM) were
-    held to the memory available, the others decoded unchecked."""
+    """Formats other than those whose header load_map reads itself (PNG, JPEG, BMP,
+    TIFF, PGM / PPM) are held to the memory available before they are decoded, as those
+    are, not decoded unchecked."""
     path = _behind_yaml(tmp_path, name, encode())
     _memory(monkeypatch, 120 * pnm.DECODE_BYTES_PER_PIXEL)
     assert tj.load_map(path).shape == (10, 12)  # just fits
@@ -362,8 +363,8 @@ def test_other_opencv_errors_are_not_taken_for_memory(tmp_path, monkeypatch):
 
 def test_rooms_of_a_map_far_finer_than_the_doorway_cells_take_the_maps_memory(tmp_path):
     # at 3.3e-5 m per pixel a doorway cell of 0.1 m is 3030 pixels a side, 50 times the
-    # map: the cells' padding and pixels were held at that size (arrays of 9 million
-    # cell pixels; 74 GiB at 1e-6 m per pixel)
+    # map: the cells' padding and pixels must not be held at that size (arrays of 9
+    # million cell pixels; 74 GiB at 1e-6 m per pixel)
     grey = np.full((60, 60), 254, np.uint8)
     grey[[0, -1], :] = grey[:, [0, -1]] = grey[30, :40] = 0
     occupancy = tj.OccupancyMap.from_array(grey, resolution_m=3.3e-5, origin=(0.0123, 0.04, 0))
@@ -419,7 +420,7 @@ def test_the_out_of_memory_message_is_written_after_the_failed_work_let_go(tmp_p
     ],
 )
 def test_a_refusal_gives_sizes_in_units_that_show_them(monkeypatch, available, need, says):
-    # small machines and small limits read "0.0 GiB" in GiB alone
+    # small machines and small limits would read "0.0 GiB" in GiB alone
     _memory(monkeypatch, available)
     with pytest.raises(MemoryRefusal, match=rf"^it takes {says} of memory available$"):
         cpus.check_fits_memory(need, "it takes")

@@ -155,9 +155,10 @@ def test_fixture_ring_and_loop_get_two_waypoints_at_least(tmp_path):
 @pytest.mark.parametrize("seed", range(8))
 def test_merged_clusters_keep_the_tolerance_and_write_no_degenerate_edges(tmp_path, seed):
     """With merged junction clusters a path may end at another pixel of its vertex than
-    the vertex's own: the chain runs node to node, so that hop is part of it (corridor
-    pixels once lay outside the tolerance), and a small loop still gets two distinct
-    waypoints or, if it has none to give, is left out (a node-to-itself edge was written)."""
+    the vertex's own: the chain runs node to node, so that hop is part of it (else
+    corridor pixels would lie outside the tolerance), and a small loop still gets two
+    distinct waypoints or, if it has none to give, is left out (not written as a
+    node-to-itself edge)."""
     from skimage.morphology import skeletonize
 
     rng = np.random.default_rng(seed)
@@ -280,7 +281,7 @@ def test_bad_input(tmp_path, kwargs, exc, words):
     bare.add_edge(0, 1, world=np.zeros((2, 2)))
     with pytest.raises(ValueError, match="node 0 has no 'world'"):
         tj.save_nav2_graph(bare, tmp_path / "y.geojson")
-    for path in ("here", np.array([[np.nan, 1.0]])):  # failed in int(), naming no edge
+    for path in ("here", np.array([[np.nan, 1.0]])):  # named, not left to fail in int()
         marked = skeleton_to_graph(art("###"), resolution_m=1.0)
         marked.edges[0, 1, 0]["path"] = path
         with pytest.raises((TypeError, ValueError), match=r"^graph: edge \(0, 1\): 'path'"):
@@ -332,10 +333,10 @@ def nav2_loadable_metadata(value, where="metadata") -> None:
 
 def test_node_ids_that_are_tuples_are_written_as_text_the_loader_reads(tmp_path):
     """Node ids of other tools' graphs may be tuples (networkx's grid graphs use
-    ``(row, col)``): ``corridor`` was written as ``[[0, 0], [0, 2], 0]``, an array of
-    arrays, which nav2_route's loader refuses ("Failed to convert"), so the whole graph
-    failed to load.  A node id or edge key that is not a number or string is written as
-    its JSON text."""
+    ``(row, col)``).  A node id or edge key that is not a number or string is written as
+    its JSON text, not as an array (``corridor`` as ``[[0, 0], [0, 2], 0]``, an array of
+    arrays), which nav2_route's loader refuses ("Failed to convert"), so that the whole
+    graph fails to load."""
     g = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=0.5)
     pixel_ids = {n: tuple(int(v) for v in d["pixel"]) for n, d in g.nodes(data=True)}
     g = nx.relabel_nodes(g, pixel_ids)

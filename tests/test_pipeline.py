@@ -238,8 +238,8 @@ def test_opencv_distance_transform_gives_the_same_bits_wherever_numpy_allocates(
 def test_opencv_distance_transform_gives_the_same_bits_with_any_thread_count():
     """OpenCV's exact transform run on one thread (``cv2.setNumThreads(1)``, a one-core
     machine or container) rounds many distances a unit in the last place apart from the
-    same transform run in parallel: the same map gave other clearances, and route graphs,
-    on another machine.  Every distance is the float32 nearest the exact one."""
+    same transform run in parallel: the same map would give other clearances, and route
+    graphs, on another machine.  Every distance is the float32 nearest the exact one."""
     import cv2
     from scipy import ndimage
 
@@ -409,9 +409,10 @@ def test_configs_check_types_and_take_numpy_numbers():
 
 
 def test_a_sigma_narrower_than_a_micropixel_is_refused():
-    """sigma_px=1e-19 was accepted and its distance map was NaN on every obstacle (the
-    kernels' float32 ``1 / (2 sigma^2)`` overflows); every sigma up to about 0.07 px gives
-    the same map, the obstacles alone, so none narrower than 1e-6 px is needed."""
+    """A sigma narrower than 1e-6 px is refused: at 1e-19 the distance map would be NaN
+    on every obstacle (the kernels' float32 ``1 / (2 sigma^2)`` overflows), and every
+    sigma up to about 0.07 px gives the same map, the obstacles alone, so none narrower
+    than 1e-6 px is needed."""
     mask = np.eye(12, dtype=bool)
     got = tj.distance_map(mask, config=tj.DistanceConfig(sigma_px=1e-6))
     np.testing.assert_array_equal(got, mask.astype(np.float32))
@@ -495,7 +496,8 @@ def test_kernel_tile_sizes_are_bounded(name):
 @pytest.mark.parametrize("name", ["PipelineConfig", "dense_fields"])
 def test_kernel_buckets_are_bounded(name):
     """More than 2**28 tile pixels per kernel call is refused up front: every call is
-    padded to the full bucket, so 10**6 tiles per call asked for 30 GB for a small map."""
+    padded to the full bucket, so 10**6 tiles per call would ask for 30 GB for a small
+    map."""
     call = _TILED[name]
     with pytest.raises(
         ValueError, match=r"tiles_per_call: expected an int from 1 to 4096 .*received 1000000"
@@ -507,7 +509,8 @@ def test_kernel_buckets_are_bounded(name):
 
 
 def test_build_graph_names_its_occupancy_argument_for_a_bad_array():
-    """The conversion's errors named its own argument ("array: ..."), not build_graph's."""
+    """The conversion's errors name build_graph's argument, not the conversion's own
+    ("array: ...")."""
     with pytest.raises(ValueError, match=r"^occupancy \(read by OccupancyMap.from_array\): "):
         tj.build_graph(np.zeros(5))
     with pytest.raises(TypeError, match=r"^occupancy \(read by OccupancyMap.from_array\): "):

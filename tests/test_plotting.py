@@ -140,7 +140,8 @@ def test_plot_takes_an_incremental_mapper_and_rejects_other_objects():
 )
 def test_a_result_whose_graph_was_edited_is_refused_before_drawing(edit, exc, words):
     """A graph edited with networkx (an edge without its path, a vertex without its
-    pixel) failed with a bare KeyError or inside NumPy, after the map was drawn."""
+    pixel) is refused naming what is missing before anything is drawn, not with a bare
+    KeyError or inside NumPy after the map is drawn."""
     res = tj.build_graph(sample_map("a_scan"))
     edit(res.graph, next(iter(res.graph.edges(keys=True))))
     before = plt.get_fignums()
@@ -411,9 +412,10 @@ def test_route_graph_picture_of_any_graph_the_evaluator_scores():
 
 
 def test_drawing_options_name_themselves(result):
-    """Wrong drawing options failed inside matplotlib naming no option ("s must be float",
-    "figure size must be positive finite"), or were drawn anyway (a NaN or negative line
-    width, skeleton="no" taken as True, a str route failing with an AttributeError)."""
+    """Wrong drawing options are refused naming the option, neither left to fail inside
+    matplotlib naming none ("s must be float", "figure size must be positive finite")
+    nor drawn anyway (a NaN or negative line width, skeleton="no" taken as True, a str
+    route failing with an AttributeError)."""
     occ = tj.OccupancyMap.from_array(np.pad(np.zeros((20, 20), bool), 2, constant_values=True))
     routes = tj.route_graph(occ, robot_radius_m=0.1)
     bad = [
@@ -439,7 +441,8 @@ def test_drawing_options_name_themselves(result):
     for name in ("doors", "labels"):
         with pytest.raises(TypeError, match=f"^{name}: expected a bool, received str 'no'"):
             tj.plot_rooms(seg, **{name: "no"})
-    # a title that is not a str was drawn as its str(): "True", "<object object at ...>"
+    # a title that is not a str is refused, not drawn as its str(): "True",
+    # "<object object at ...>"
     drawings = [
         lambda t: tj.plot(result, title=t),
         lambda t: tj.plot_rooms(seg, title=t),
@@ -453,7 +456,7 @@ def test_drawing_options_name_themselves(result):
                 draw(title)
     corridors = tj.route_graph(result.map, robot_radius_m=0.2)
     u, v, k = next(iter(corridors.edges(keys=True)))
-    corridors.edges[u, v, k]["waypoints"] = "corridor"  # failed inside NumPy
+    corridors.edges[u, v, k]["waypoints"] = "corridor"  # named, not left to fail inside NumPy
     with pytest.raises(
         ValueError, match=rf"^graph: edge {u}-{v}: 'waypoints': expected finite \(x, y\) points"
     ):
@@ -462,8 +465,9 @@ def test_drawing_options_name_themselves(result):
 
 
 def test_a_title_that_is_not_a_str_is_refused_before_anything_is_drawn(result):
-    """``title=3`` was drawn as "3" (and ``plot_stages(title=0)`` as no title): every
-    helper that takes a title takes a str or None, and names ``title`` otherwise."""
+    """Every helper that takes a title takes a str or None, and names ``title``
+    otherwise: ``title=3`` is not drawn as "3" (nor ``plot_stages(title=0)`` as no
+    title)."""
     from topojax.plotting import (
         plot_distance,
         plot_map,

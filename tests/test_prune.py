@@ -378,9 +378,9 @@ def _members(data: dict) -> set[tuple[int, int]]:
 
 @pytest.mark.parametrize("seed", range(6))
 def test_paths_run_from_u_to_v_after_pruning_merged_graphs(seed):
-    """Edges stay ``(u, v)`` with ``u <= v`` and the path from a pixel of ``u`` to a pixel
-    of ``v``; with merged junction clusters a path may end at any member pixel (the
-    orientation test once looked at the representative pixel only and reversed them)."""
+    """Edges stay ``(u, v)`` with ``u <= v`` and the path from a pixel of ``u`` to a
+    pixel of ``v``; with merged junction clusters a path may end at any member pixel (an
+    orientation test that looks at the representative pixel only reverses them)."""
     rng = np.random.default_rng(seed)
     blobs = rng.random((60, 60)) < 0.45
     skel = skeletonize(blobs)

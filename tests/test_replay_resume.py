@@ -116,8 +116,8 @@ def test_a_resumed_replay_continues_the_recordings_of_the_stopped_one(
     tmp_path, monkeypatch, full_recorded
 ):
     """The animation, the view timeline and the MCAP recording of a replay stopped after
-    17 scans and resumed are those of a replay that did not stop (they held only the
-    scans after the stop)."""
+    17 scans and resumed are those of a replay that did not stop, not recordings of the
+    scans after the stop alone."""
     out = tmp_path / "out"
     interrupted_reader(monkeypatch, 17)
     with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
@@ -206,8 +206,8 @@ def test_a_replay_stopped_while_ending_its_recording_keeps_the_rest(
 def test_a_resume_that_records_nothing_leaves_the_kept_recordings(
     tmp_path, monkeypatch, full_recorded
 ):
-    """A resume without the recordings, stopped before it maps a scan, left the earlier
-    replay's kept recordings deleted; they stay for the next resume."""
+    """A resume without the recordings, stopped before it maps a scan, leaves the
+    earlier replay's kept recordings for the next resume, not deleted."""
     out = tmp_path / "out"
     interrupted_reader(monkeypatch, 17)
     with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
@@ -384,8 +384,8 @@ def test_replay_cli_resume(stopped, tmp_path, full_run, capsys):
 
 
 def test_replay_cli_refused_resume_names_the_options(stopped, capsys):
-    """A resume refused for other options named the library's parameters
-    (``graph_every``, ``max_range_m``, ``max_scans=5``); it names the options typed."""
+    """A resume refused for other options names the options typed, not the library's
+    parameters (``graph_every``, ``max_range_m``, ``max_scans=5``)."""
     args = ["replay", str(INTEL_EXCERPT), "-o", str(stopped), "--resume", "--no-progress"]
     for options, message in (
         (["--graph-every", "8"], "other settings (--graph-every: saved 7, now 8)"),
@@ -425,9 +425,9 @@ def test_replay_cli_refused_resume_without_rooms_says_so_in_words(tmp_path, monk
 def test_replay_cli_stopped_by_a_signal_keeps_its_scans(
     tmp_path, monkeypatch, full_run, capsys, signum, status
 ):
-    # kill, timeout or a service manager's stop (SIGTERM) ended the command at once and
-    # lost every mapped scan; it now stops as Ctrl-C does: the scans are kept for
-    # --resume, and the command ends with one line, not a traceback
+    # kill, timeout or a service manager's stop (SIGTERM) stops the replay as Ctrl-C
+    # does, not at once with every mapped scan lost: the scans are kept for --resume,
+    # and the command ends with one line, not a traceback
     import os
     import signal
 
@@ -475,9 +475,9 @@ def test_the_command_line_page_says_how_replay_ends_on_a_signal():
 def test_replay_cli_in_a_background_job_stops_on_sigterm_too(
     tmp_path, monkeypatch, full_run, capsys
 ):
-    """A script's background job ignores SIGINT, and there SIGTERM (``kill``) was left to
-    end the command at once, every mapped scan lost; it now stops the replay there too,
-    once the scan being mapped is counted, and a SIGINT is still ignored."""
+    """A script's background job ignores SIGINT, and there SIGTERM (``kill``) stops the
+    replay too, once the scan being mapped is counted, rather than ending the command at
+    once with every mapped scan lost; a SIGINT is still ignored."""
     real = IncrementalMapper.add_scan
 
     def add_scan(self, scan):
@@ -530,8 +530,8 @@ class SlowMapper:
 
 
 def test_an_interrupt_while_a_scan_is_mapped_waits_for_it_to_be_counted():
-    """Ctrl-C part way through a scan stopped the replay with the scan mapped but not
-    counted, and a resumed replay mapped it twice; it now stops after the scan, counted."""
+    """Ctrl-C part way through a scan stops the replay after the scan, counted: stopped
+    with the scan mapped but not counted, a resumed replay would map it twice."""
     from topojax._replay_state import ReplayProgress, WholeScans
 
     mapper, progress = SlowMapper(interrupted=3), ReplayProgress()
@@ -575,9 +575,9 @@ def test_a_failing_recording_leaves_the_scan_counted_but_not_recorded():
 
 @pytest.mark.parametrize("inside", ["_splat_group", "skeleton_exact"])
 def test_an_interrupt_during_the_final_update_waits_for_it(tmp_path, monkeypatch, full_run, inside):
-    """Ctrl-C part way through the update after the last scan stopped it half done (the
-    pending obstacles or the changed ridges dropped) and saved that state: the resumed
-    replay wrote another graph.  It now stops once the update has run."""
+    """Ctrl-C part way through the update after the last scan stops the replay once the
+    update has run: stopped half done (the pending obstacles or the changed ridges
+    dropped) and saved in that state, the resumed replay would write another graph."""
     import topojax.incremental._splat as splat_module
     import topojax.incremental.mapper as mapper_module
     import topojax.playback as playback
@@ -609,9 +609,10 @@ def test_an_interrupt_during_the_final_update_waits_for_it(tmp_path, monkeypatch
 
 
 def test_a_replay_stopped_at_a_malformed_line_resumes_past_it_skipping_bad_lines(tmp_path, capsys):
-    """A damaged scan line stops a replay, and resuming stopped at it again, so the rest
-    of the log could not be mapped; resumed with ``bad_lines="skip"`` (``--skip-bad-lines``)
-    it goes on past the line, as a replay skipping bad lines from the start does."""
+    """A damaged scan line stops a replay, and a plain resume stops at it again, so the
+    rest of the log cannot be mapped that way; resumed with ``bad_lines="skip"``
+    (``--skip-bad-lines``) it goes on past the line, as a replay skipping bad lines from
+    the start does."""
     lines = gzip.open(INTEL_EXCERPT, "rt").read().splitlines()
     laser = [i for i, line in enumerate(lines) if line.startswith("FLASER")]
     damaged = lines[laser[20]].split()
@@ -707,10 +708,10 @@ def test_a_replay_that_fails_before_keeping_anything_leaves_no_folder_it_made(tm
 def test_a_ctrl_c_while_a_stopped_replay_keeps_its_scans_waits_for_them(
     tmp_path, monkeypatch, full_run, presses
 ):
-    """Ctrl-C pressed again while a stopping replay saved its state (a second press of
-    an impatient user) broke off the save: the mapped scans were lost without a word.  A
-    press then waits for the state and the recordings to be kept; a second one while it
-    waits breaks off at once, and the warning says that nothing was kept."""
+    """Ctrl-C pressed again while a stopping replay saves its state (a second press of
+    an impatient user) must not break off the save and lose the mapped scans without a
+    word: a press then waits for the state and the recordings to be kept; a second one
+    while it waits breaks off at once, and the warning says that nothing was kept."""
     import topojax._replay_state as replay_state
     import topojax.incremental.state as state_module
 

@@ -201,8 +201,8 @@ def test_a_gap_narrower_than_the_door_search_cells_still_joins_the_room():
 )
 def test_a_door_of_exactly_min_door_width_is_a_door_on_coarse_maps(res, min_door_m, door_px):
     """On maps of 0.1 m or coarser the doorways are searched on the pixels; a gap of an
-    even number of pixels has its clearance half a pixel below an odd one's and was
-    missed at the smallest width."""
+    even number of pixels has its clearance half a pixel below an odd one's and must not
+    be missed at the smallest width."""
     n = int(round(6.0 / res))  # two rooms of 6 m x 6 m, a wall of one pixel between
     free = np.zeros((n + 2, 2 * n + 3), bool)
     free[1:-1, 1 : n + 1] = free[1:-1, n + 2 : -1] = True

@@ -268,8 +268,8 @@ def _two_buildings(gap_px: int) -> tuple[OccupancyMap, OccupancyMap]:
 def test_a_window_over_a_new_area_finds_the_doorways_the_whole_map_finds():
     # The doorway search works on cells of two pixels a side (at 5 cm) whose corners
     # are set by the free space's bounding box; a window segmented with its own corners
-    # found other doorways in this building than the whole map, which starts an odd
-    # number of pixels further left, and merged two of its rooms.
+    # would find other doorways in this building than the whole map, which starts an
+    # odd number of pixels further left, and merge two of its rooms.
     first, both = _two_buildings(gap_px=601)
     mapper = _mapper(rooms_local=True)
     mapper.add_map(first)
@@ -392,7 +392,7 @@ def _obstacles_of(occ: OccupancyMap, mask: np.ndarray) -> OccupancyMap:
 
 def test_a_local_update_stopped_part_way_leaves_the_kept_labels_as_they_were(monkeypatch):
     """The kept labels are updated in place window by window; an error or interrupt
-    between two windows put back what the first wrote, so the next update starts from
+    between two windows puts back what the first wrote, so the next update starts from
     the rooms as they were and ends where an uninterrupted one does."""
     import topojax.incremental._rooms_local as rooms_local
 

@@ -246,7 +246,7 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
             lambda d: d["features"][3]["properties"].update(pixels=[[1.5, 2]]),
             r"features\[3\] pixels: expected integer pixels",
         ),
-        (  # was cast to int64 first: a warning, and a wrapped negative pixel in the message
+        (  # not cast to int64 first (a warning, a wrapped negative pixel in the message)
             lambda d: d["features"][3]["properties"].update(pixels=[[10**30, 2]]),
             r"features\[3\] pixels: expected integer pixels of int64, received \[\[1000000000000000000000000000000, 2\]\]",
         ),

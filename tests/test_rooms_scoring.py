@@ -164,8 +164,9 @@ def test_a_benchmark_ground_truth_scores_one_against_itself(shared_data):
 
 
 def test_the_rooms_page_quotes_the_published_benchmark_results():
-    """docs/rooms.md quotes ``bench/results/rooms_amd-epyc-2cpu.json``: its scores and its
-    mean warm and CPU times on all 20 maps (the times once drifted from a rerun's)."""
+    """docs/rooms.md quotes ``bench/results/rooms_amd-epyc-2cpu.json``: its scores and
+    its mean warm and CPU times on all 20 maps, so that the times cannot drift from a
+    rerun's."""
     root = Path(__file__).resolve().parents[1]
     results = json.loads((root / "bench" / "results" / "rooms_amd-epyc-2cpu.json").read_text())
     page = " ".join((root / "docs" / "rooms.md").read_text().split())

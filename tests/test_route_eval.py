@@ -144,9 +144,9 @@ def test_tiny_regions_are_ignored():
 
 @pytest.mark.parametrize("resolution_m", [1e-6, 0.05])
 def test_a_one_pixel_region_draws_no_pair_at_any_resolution(resolution_m):
-    """A region of one pixel has no two distinct pixels to pair: at the finest resolution
-    a map may have (1e-6 m per pixel) its area passed the two-pixel test, and the draw
-    failed inside numpy ("high <= 0")."""
+    """A region of one pixel has no two distinct pixels to pair, at any resolution: at
+    the finest a map may have (1e-6 m per pixel) its area would pass a two-pixel test,
+    and the draw would fail inside numpy ("high <= 0")."""
     occ = np.ones((5, 5), bool)
     occ[2, 2] = False
     m = OccupancyMap.from_array(occ, resolution_m=resolution_m)
@@ -228,10 +228,11 @@ def test_pixel_only_vertices_are_converted_with_the_map():
 
 
 def test_a_pixel_only_graph_is_read_whole_without_coordinates():
-    """A graph in pixels only (vertex ``pixel``, edge ``path``): "auto" took the vertices'
-    ``pixel`` but ignored the edges' ``path``, scoring each bent edge as the straight
-    line between its ends (through the wall here: an unsafe share, failed routes),
-    where ``coordinates="pixel"`` gave the graph's real score."""
+    """A graph in pixels only (vertex ``pixel``, edge ``path``) is read whole by "auto",
+    the edges' ``path`` included, and scores as with ``coordinates="pixel"``: the
+    vertices' ``pixel`` without the edges' ``path`` would score each bent edge as the
+    straight line between its ends (through the wall here: an unsafe share, failed
+    routes)."""
     occ = np.ones((40, 40), bool)
     occ[5:10, 5:35] = False  # an L: along row 7, then down column 32
     occ[5:35, 30:35] = False
@@ -604,11 +605,12 @@ def test_snap_legs_follow_the_planners_sight_rule():
 
 
 def test_best_entry_memory_does_not_grow_with_the_pairs(monkeypatch):
-    """With ``entry="best"`` each pair has a (start join, goal join) combination per pair
-    of runs its ends see: thousands on a dense graph within a large ``snap_m``.  Held for
-    all pairs at once they took about 200 bytes each, some 100 GB for the most pairs
-    allowed; scored a few sources and a bounded number of combinations at a time, the
-    traced peak stays put as the pairs grow tenfold, and the report is the same."""
+    """With ``entry="best"`` each pair has a (start join, goal join) combination per
+    pair of runs its ends see: thousands on a dense graph within a large ``snap_m``.
+    Held for all pairs at once they would take about 200 bytes each, some 100 GB for the
+    most pairs allowed; scored a few sources and a bounded number of combinations at a
+    time, the traced peak stays put as the pairs grow tenfold, and the report is the
+    same."""
     import tracemalloc
 
     from topojax.routegraph import _eval_routes
@@ -683,7 +685,7 @@ def test_pair_sampling_reads_rows_instead_of_listing_the_region():
         src, tgt = _listed_pairs(fs, regions, n_pairs, seed)
         np.testing.assert_array_equal(pairs.source, src)
         np.testing.assert_array_equal(pairs.target, tgt)
-    # one hall of 4 Mpx: listing its pixels took 16 bytes each (64 MB and more)
+    # one hall of 4 Mpx: listing its pixels would take 16 bytes each (64 MB and more)
     hall = np.zeros((2000, 2000), bool)
     hall[[0, -1]] = True
     hall[:, [0, -1]] = True

@@ -142,10 +142,10 @@ def test_a_large_robot_keeps_the_hall_mesh_without_hubs(radius_m):
 
 @pytest.mark.parametrize("width_m", [2.6, 3.0, 3.6])
 def test_wide_corridor_is_crossed_where_it_is_not_walked_round(width_m):
-    """A corridor too wide for its centre line to cover gets lanes along both walls; they
-    join the rest at rungs every few metres, not only at the corridor's ends (a route
-    across the middle then ran about 20 m round: p90 stretch 4.5-7 on these corridors; with
-    rungs 1.6-2.5)."""
+    """A corridor too wide for its centre line to cover gets lanes along both walls;
+    they join the rest at rungs every few metres, not only at the corridor's ends (a
+    route across the middle would otherwise run about 20 m round: p90 stretch 4.5-7 on
+    these corridors; with rungs 1.6-2.5)."""
     occ = _map(_room(width_m, 20))
     g = route_graph(occ, robot_radius_m=R)
     report = tj.evaluate_route_graph(g, occ, robot_radius_m=R)
@@ -273,10 +273,10 @@ def test_options_are_checked():
 
 @pytest.mark.parametrize("snap_m", [5.01, 50.0, 1e9])
 def test_a_snap_distance_past_the_evaluators_limit_is_refused(snap_m):
-    """The coverage test's work grows with the square of the snap distance: 1e9 m ran
-    out of memory deep inside the coverage pass, and a graph built past 5 m could not be
-    scored (``evaluate_route_graph``) or routed to by default (``max_snap_m``) at its
-    own snap distance."""
+    """The coverage test's work grows with the square of the snap distance: 1e9 m would
+    run out of memory deep inside the coverage pass, and a graph built past 5 m could
+    not be scored (``evaluate_route_graph``) or routed to by default (``max_snap_m``) at
+    its own snap distance."""
     from topojax.routegraph.evaluate import MAX_SNAP_M
 
     assert MAX_SNAP_M == 5.0
@@ -287,9 +287,9 @@ def test_a_snap_distance_past_the_evaluators_limit_is_refused(snap_m):
 
 @pytest.mark.parametrize("radius_m", [1000.001, 1e300])
 def test_a_robot_radius_past_a_kilometre_is_refused(radius_m):
-    """A radius of 1e300 m overflowed the float32 clearance with a warning and built an
-    empty graph; the evaluator scored no pair: past 1000 m it is a unit error, refused
-    by the config, the feasible space and so the evaluator and the planner."""
+    """A radius past 1000 m is a unit error, refused by the config, the feasible space
+    and so the evaluator and the planner: 1e300 m would overflow the float32 clearance
+    with a warning and build an empty graph on which the evaluator scores no pair."""
     occ = _map(_room(3, 3))
     RouteGraphConfig(robot_radius_m=1000.0)  # the limit itself is fine
     match = r"^robot_radius_m: expected a robot radius of at most 1000 m, received "
@@ -436,9 +436,9 @@ def test_route_graph_command_names_its_own_options_before_any_file(
     tmp_path, capsys, option, message
 ):
     """A value out of range is refused under the command's option name (not the Python
-    option's) before anything is written: ``--snap-m 6 --evaluate`` wrote the graph and
-    then failed in the evaluation, and ``--snap-m 0.15`` blamed ``waypoint_tolerance_m``,
-    which the command does not take."""
+    option's) before anything is written: ``--snap-m 6 --evaluate`` must not write the
+    graph and then fail in the evaluation, nor ``--snap-m 0.15`` blame
+    ``waypoint_tolerance_m``, which the command does not take."""
     from topojax.cli import main
 
     path = tmp_path / "room.png"
@@ -651,7 +651,7 @@ def _hall_with_pillars() -> OccupancyMap:
 def test_a_large_robot_gets_shortcuts_that_cross_no_edge(radius_m):
     """A shortcut may touch other edges only near its ends, where close vertices merge
     (the robot's radius, up to half the snap distance): a zone of the full radius of a
-    robot of 2-4 m spanned whole shortcuts, which crossed the edges of the hall."""
+    robot of 2-4 m would span whole shortcuts, which would cross the edges of the hall."""
     occ = _hall_with_pillars()
     cfg = RouteGraphConfig(robot_radius_m=radius_m, shortcuts_round_corners=False)
     g = route_graph(occ, config=cfg)
@@ -982,8 +982,8 @@ def test_bent_shortcuts_close_no_short_loop_through_a_shared_corner():
 @pytest.mark.parametrize("name", ["office", "intel"])
 def test_shortcuts_bent_at_one_corner_share_their_legs(name):
     """Two shortcuts bent at the same corner from the same vertex add that leg once: no
-    two edges join the same vertices along the same pixels (each such pair was a loop of
-    no length for a planner, and a doubled edge in the Nav2 file)."""
+    two edges join the same vertices along the same pixels (each such pair would be a
+    loop of no length for a planner, and a doubled edge in the Nav2 file)."""
     g = route_graph(tj.sample_map(name), robot_radius_m=R)
     seen = set()
     for u, v, d in g.edges(data=True):
@@ -1050,7 +1050,7 @@ def test_compiled_helpers_match_plain_numpy():
 def test_a_spacing_below_a_pixel_anchors_every_pixel_however_small():
     """Cuts less than a pixel apart put an anchor on every pixel of an edge (but its
     ends); a spacing of 1e-300 pixels does the same, promptly, rather than ask for more
-    cuts than an int holds (none were made) or loop over billions of them."""
+    cuts than an int holds (which would make none) or loop over billions of them."""
     from topojax.routegraph._spanner import anchor_pieces
 
     every = np.array([[5, c] for c in range(12)] + [[5 + r, 11 + r] for r in range(1, 9)])
@@ -1260,7 +1260,7 @@ def test_last_loop_pass_keeps_an_edge_that_coverage_needs():
 
 @pytest.mark.parametrize(("seed", "snap_m"), [(55, 2.0), (3, 1.0)])
 def test_no_loop_shorter_than_loop_m(seed, snap_m):
-    """Random plans, including one whose lanes once closed a ring round one pixel."""
+    """Random plans, including one whose lanes could close a ring round one pixel."""
     occ = _map(_random_plan(seed))
     config = RouteGraphConfig(snap_m=snap_m)
     g = route_graph(occ, config=config)
@@ -1370,8 +1370,8 @@ def test_a_radius_under_one_and_a_half_pixels_is_refused():
 )
 def test_exactly_one_and_a_half_pixels_is_enough(res, radius, snap, tolerance):
     """The limits are "at least 1.5 pixels": a radius or a reach of exactly that, as
-    typed in metres, was refused as under it (0.075 / 0.05 is 1.4999999999999998 in
-    floating point), by an error that said it expected 0.075 m and received 0.075."""
+    typed in metres, is enough, although 0.075 / 0.05 is 1.4999999999999998 in floating
+    point (not refused by an error that says it expected 0.075 m and received 0.075)."""
     free = np.zeros((60, 60), bool)
     free[1:-1, 1:-1] = True
     m = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=res)
@@ -1395,8 +1395,8 @@ def test_too_many_shortcut_candidates_are_refused_before_they_fill_memory(monkey
 
 def test_a_small_snap_on_a_large_open_map_is_refused_before_the_coverage(monkeypatch):
     """The shortcut pairs of a small ``snap_m`` in a large open space are estimated from
-    the feasible space, and a map over the limit is refused before its coverage is
-    built (the graph's own count came after minutes of coverage on a 200 m hall); the
+    the feasible space, and a map over the limit is refused before its coverage is built
+    (the graph's own count comes only after minutes of coverage on a 200 m hall); the
     limit is lowered here to keep the hall small."""
     import topojax.routegraph.build as build
 
@@ -1475,10 +1475,11 @@ def test_the_estimate_of_the_pairs_stays_under_the_graph_s_count(monkeypatch, sn
 
 
 def test_a_shortcut_radius_beyond_the_map_counts_as_the_whole_map():
-    """``shortcut_radius_m=1e300`` failed with an OverflowError in the bound of the pairs;
-    and where the estimate runs (a large map) the radius was the side of an OpenCV box
-    filter: 1e7 px took 2.7 GB, 1e8 px failed with OpenCV's ``bad_alloc`` and 1e9 px
-    exhausted the memory.  A box of twice the map's size holds the whole map already."""
+    """A shortcut radius beyond the map counts as the whole map:
+    ``shortcut_radius_m=1e300`` gives no OverflowError in the bound of the pairs, and
+    where the estimate runs (a large map) no OpenCV box filter of the radius's side is
+    made (1e7 px would take 2.7 GB, 1e8 px fail with OpenCV's ``bad_alloc`` and 1e9 px
+    exhaust the memory).  A box of twice the map's size holds the whole map already."""
     from topojax.routegraph._cover import estimated_pairs
 
     m = _map(_room(12, 12))
@@ -1550,11 +1551,12 @@ def test_traced_peak_per_pixel_is_bounded(monkeypatch):
 
 
 def test_shortcut_candidates_take_memory_by_the_block_not_by_their_number(monkeypatch):
-    """A small ``snap_m`` makes a dense graph whose node pairs within the shortcut radius
-    run to tens of millions on a large map: past ``PAIRS_AT_ONCE`` they are listed a block
-    at a time, and only those with a clear line kept, so the traced peak stays far below
-    the pairs' own size (here the limits are lowered to fit a small plan).  Without
-    blocks it was over 100 bytes a pair.  NumPy's buffers are traced."""
+    """A small ``snap_m`` makes a dense graph whose node pairs within the shortcut
+    radius run to tens of millions on a large map: past ``PAIRS_AT_ONCE`` they are
+    listed a block at a time, and only those with a clear line kept, so the traced peak
+    stays far below the pairs' own size (here the limits are lowered to fit a small
+    plan).  Without blocks it would be over 100 bytes a pair.  NumPy's buffers are
+    traced."""
     from floorplans import floor_plan
     from scipy.spatial import cKDTree
 

@@ -566,8 +566,8 @@ def test_route_command_names_its_graph_argument_for_a_missing_or_foreign_file(tm
 
 
 def test_a_room_graph_is_refused_as_one_naming_the_graphs_routes_run_on(tmp_path, capsys):
-    """A room graph (``topojax rooms``) failed on its first edge's missing 'path'; it is
-    named as a room graph, and the graphs that routes run on are named."""
+    """A room graph (``topojax rooms``) is refused as a room graph, naming the graphs
+    that routes run on, not failing on its first edge's missing 'path'."""
     from room_maps import three_rooms
 
     from topojax.cli import main
@@ -667,8 +667,8 @@ def test_default_snap_limit_refuses_far_points_and_none_lifts_it():
 @pytest.mark.parametrize("far", [(1e200, 0.0), (-1e300, 5.0), (1e160, 1e160)])
 def test_a_point_too_far_for_any_distance_gets_the_planners_error(far, max_snap_m):
     """A finite point so far off that its squared distance overflows (a unit or frame
-    mix-up) failed inside SciPy's k-d tree ("The value of p too large for this
-    dataset"), naming neither the point nor the graph; it is refused as far off."""
+    mix-up) is refused as far off, not left to fail inside SciPy's k-d tree ("The value
+    of p too large for this dataset"), which names neither the point nor the graph."""
     g = tj.build_graph(tj.sample_map("intel")).graph
     start = g.nodes[0]["world"]
     with pytest.raises(ValueError, match=r"^goal: the nearest point of the graph is more than"):
@@ -705,8 +705,9 @@ def _fork(wall: bool = False, radius: float | None = 0.25):
 
 def test_no_sight_line_is_drawn_past_max_snap_m(monkeypatch):
     """Joins farther than ``max_snap_m`` are dropped, so none is tested: with a long
-    ``entry_m`` every corridor point of the map had its sight line drawn first (38.7 s a
-    query on the DM_0.11 route graph with entry_m=1e6, for the route of entry_m=5)."""
+    ``entry_m``, drawing the sight line of every corridor point of the map first would
+    take 38.7 s a query on the DM_0.11 route graph with entry_m=1e6, for the route of
+    entry_m=5."""
     import topojax.routing as routing
 
     m, g = _fork()
@@ -767,11 +768,11 @@ def test_with_the_map_a_route_does_not_join_through_a_wall_or_beyond_reach():
 
 
 def test_with_the_map_a_route_does_not_join_a_nearer_point_behind_a_wall():
-    """The start (5, 17), left of the wall, is 0.5 m from the right edge's (5, 22) behind
-    the wall and 0.7 m from the left edge's (5, 10) in sight.  With the map, the route
-    joined the nearer point through the wall whenever that made it shortest (here: the
-    goal is right of the wall, 0.3 m from (5, 22)); it now joins only points in sight,
-    and goes round the wall."""
+    """The start (5, 17), left of the wall, is 0.5 m from the right edge's (5, 22)
+    behind the wall and 0.7 m from the left edge's (5, 10) in sight.  With the map, the
+    route joins only points in sight, and goes round the wall, even where joining the
+    nearer point through the wall would make it shortest (here: the goal is right of the
+    wall, 0.3 m from (5, 22))."""
     m, g = wall_between()
     start, goal = (5, 17), (5, 25)
     plain = RoutePlanner(g).route(start, goal, frame="pixel")
@@ -875,9 +876,10 @@ def test_with_the_map_a_point_on_an_obstacle_is_refused():
 
 @pytest.mark.parametrize("far", [(-1e308, 0.0), (1.7e308, 1.7e308)])
 def test_with_the_map_a_point_too_far_for_the_maps_grid_gets_the_planners_error(far):
-    """With the map, a finite point so far off that its pixel overflows to infinity
-    failed in the obstacle check ("cannot convert float infinity to integer"), naming
-    neither the point nor the map; it is refused as far off, as without the map."""
+    """With the map, a finite point so far off that its pixel overflows to infinity is
+    refused as far off, as without the map, not left to fail in the obstacle check
+    ("cannot convert float infinity to integer"), which names neither the point nor the
+    map."""
     m, g = _fork()
     planner = RoutePlanner(g, occupancy=m)
     near = m.pixel_to_world(18, 26)

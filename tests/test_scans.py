@@ -436,9 +436,9 @@ def test_carmen_bad_lines_is_checked(tmp_path):
 
 
 def test_carmen_scans_whose_pose_is_not_finite_are_skipped(tmp_path):
-    """A NaN or infinite pose (a localisation glitch) refused the whole log, before any
-    scan was mapped; such scans are skipped with a warning naming the first line, as are
-    pose-less scans posed from such an ODOM line."""
+    """A NaN or infinite pose (a localisation glitch) does not refuse the whole log
+    before any scan is mapped: such scans are skipped with a warning naming the first
+    line, as are pose-less scans posed from such an ODOM line."""
     path = tmp_path / "glitch.log"
     path.write_text(
         _flaser([1, 2, 3, 4], (0, 0, 0))
@@ -971,9 +971,9 @@ def test_octave_scans_whose_pose_is_not_finite_are_skipped(tmp_path):
     ],
 )
 def test_octave_scans_whose_fields_make_no_scan_are_skipped(tmp_path, field, old, new, why):
-    """An element with an impossible geometry (a sensor glitch) stopped the reading part
-    way, where the bag reader skips such a message: it is skipped too, with the bag
-    reader's warning naming the first and why."""
+    """An element with an impossible geometry (a sensor glitch) is skipped, as the bag
+    reader skips such a message, with the bag reader's warning naming the first and why,
+    rather than stopping the reading part way."""
     path = tmp_path / "scans.txt"
     head, tail = _OCTAVE_NDIMS.split(f"# name: {field}\n")
     first = f"# type: scalar\n{old}\n"
@@ -1492,7 +1492,8 @@ def test_bag_topic_and_frame_errors(tmp_path):
         read_bag(tmp_path / "missing.bag")
     with pytest.raises(ValueError, match="missing_pose"):
         read_bag(path, missing_pose="ignore")
-    # a list failed as an unhashable dict key; a frame that was no name went unchecked
+    # a list is refused, not failing as an unhashable dict key, and so is a frame that is
+    # no name
     for name in ("scan_topic", "pose_topic", "tf_parent", "base_frame"):
         for bad in (["/scan"], True, np.array("/scan")):
             with pytest.raises(TypeError, match=rf"^{name}: expected a str or None, received "):
@@ -1506,7 +1507,7 @@ def test_bag_without_poses(tmp_path):
     with pytest.raises(ValueError, match="allow_missing_pose"):
         read_bag(path)
     with pytest.raises(TypeError, match="^allow_missing_pose: expected a bool, received str"):
-        read_bag(path, allow_missing_pose="no")  # a non-empty str was taken as True
+        read_bag(path, allow_missing_pose="no")  # a non-empty str is not taken as True
     scans = list(read_bag(path, allow_missing_pose=True))
     assert len(scans) == len(SCAN_TIMES)
     assert all(s.pose == (0.0, 0.0, 0.0) and s.sensor_offset == (0.0, 0.0, 0.0) for s in scans)
@@ -1583,8 +1584,8 @@ def test_ccny_excerpt_bag():
 
 def test_a_ros1_bag_cut_off_reads_its_scans_up_to_the_cut(tmp_path):
     """A recording that stopped while writing (no index, its last chunk cut short) reads
-    the scans before the cut with a warning, as a cut-off log does; it failed with the
-    deserializer's 'Invalid sequence length' naming no file."""
+    the scans before the cut with a warning, as a cut-off log does, rather than failing
+    with the deserializer's 'Invalid sequence length', which names no file."""
     pytest.importorskip("rosbags")
     whole = list(read_bag(CCNY_EXCERPT, allow_missing_pose=True))
     cut = tmp_path / "cut.bag"

@@ -139,7 +139,7 @@ def test_a_record_length_past_the_end_of_the_file_is_a_cut_not_a_huge_read(recor
 @pytest.mark.parametrize("cut", [False, True])
 def test_a_recording_damaged_inside_its_chunk_is_refused_naming_it(recording, tmp_path, cut):
     """Bytes of the zstd chunk overwritten: the decompressor's own error (ZstdError,
-    which the command line printed as a traceback) is a ValueError naming the file,
+    which the command line would print as a traceback) is a ValueError naming the file,
     whole (rosbags reads it) or cut as well (read record by record)."""
     path, _ = recording
     data = path.read_bytes()
@@ -206,8 +206,8 @@ def test_a_bag_folder_of_one_cut_mcap_reads_it(recording, tmp_path):
 
 def test_a_folder_that_is_not_a_bag_is_refused_saying_so(tmp_path):
     """A folder without metadata.yaml and without one .mcap file (a bag's parent folder,
-    say) was refused with rosbags' 'Expected metadata file FOLDER does not exist', about
-    a folder that does exist; the message now says what a bag folder holds."""
+    say) is refused saying what a bag folder holds, not with rosbags' 'Expected metadata
+    file FOLDER does not exist' about a folder that does exist."""
     (tmp_path / "notes.txt").write_text("not a bag\n")
     with pytest.raises(ValueError, match=r"is a folder but not a ROS 2 bag: expected") as info:
         list(tj.read_scans(tmp_path))

@@ -475,7 +475,8 @@ def test_remove_t_on_thinned_images(shape, density, seed, method) -> None:
 
 def test_same_results_with_numba_switched_off(tmp_path) -> None:
     """With ``NUMBA_DISABLE_JIT=1`` the kernels run as plain Python on NumPy scalars:
-    counts summed from uint8 pixels must not wrap at 256 (they did: wrong skeletons)."""
+    counts summed from uint8 pixels must not wrap at 256 (wrapped, they give wrong
+    skeletons)."""
     import json
     import os
     import subprocess

@@ -224,8 +224,8 @@ def stored_arrays(res) -> list[str]:
 
 def test_the_paths_folder_always_holds_the_returned_graphs_arrays(tmp_path):
     """With ``out_dir`` the folder holds the returned graph's store, also for an empty
-    graph (an all-free map) and with junction clusters merged (built in memory): an
-    earlier graph's files were left there."""
+    graph (an all-free map) and with junction clusters merged (built in memory): no
+    earlier graph's files are left there."""
     out = tmp_path / "graph"
     tj.build_graph_tiled(paper_map("office"), config=SMALL, block_px=128, out_dir=out)
     empty = tj.build_graph_tiled(np.zeros((40, 50), bool), config=SMALL, out_dir=out)
@@ -380,7 +380,7 @@ def test_memory_budget_sets_the_block_side():
     )
     assert small % 256 == 0 and large % 256 == 0
     assert 256 <= small < large
-    # below one tile's window the budget cannot be kept: refused (it was exceeded)
+    # below one tile's window the budget cannot be kept: refused, not exceeded
     wide = PipelineConfig(distance=DistanceConfig(sigma_px=280.0))
     assert block_px_for_budget(122, wide) == 256
     with pytest.raises(
@@ -392,9 +392,9 @@ def test_memory_budget_sets_the_block_side():
 
 
 def test_a_memory_budget_above_the_memory_available_is_warned_of_once(monkeypatch):
-    """A budget above the memory available sized blocks that could not fit, and nothing
-    said so; a warning names the budget and the memory (not a refusal: what is available
-    changes).  At or below it, or where it is not known, nothing is said."""
+    """A budget above the memory available sizes blocks that may not fit: a warning
+    names the budget and the memory (not a refusal: what is available changes).  At or
+    below it, or where it is not known, nothing is said."""
     import topojax.outofcore.build as build
 
     monkeypatch.setattr(build, "available_memory_bytes", lambda: 100 * 2**20)
@@ -454,10 +454,10 @@ def test_a_pgm_sample_above_its_maxval_is_named_when_read(tmp_path):
 
 
 def test_a_pgm_that_changes_after_it_was_opened_is_refused(tmp_path):
-    """Mapped with the header read when it was opened, a PGM rewritten since was read in
-    the old layout (a larger file: another map's pixels, silently) or not at all (a
-    shorter one: numpy's "mmap length is greater than file size"); rewritten while
-    mapped, its windows mixed two maps."""
+    """A PGM rewritten after it was opened is refused, not read with the header read
+    then: in the old layout (a larger file: another map's pixels, silently) or not at
+    all (a shorter one: numpy's "mmap length is greater than file size"); rewritten
+    while mapped, its windows would mix two maps."""
     import os
 
     img = np.array(paper_map("intel").to_image())
@@ -559,7 +559,8 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tj.open_tiled_map(tmp_path / "m.png")
     with pytest.raises(ValueError, match="window"):
         TiledMap.from_occupancy(m).codes(0, 800, 0, 10)
-    # a fractional bound was truncated (rows 1.5:3 read as 1:3), None failed in a comparison
+    # a fractional bound is refused, not truncated (rows 1.5:3 read as 1:3), and so is
+    # None, not left to fail in a comparison
     tiled = TiledMap.from_occupancy(m)
     with pytest.raises(TypeError, match=r"^r0: expected an int, received float 1\.5"):
         tiled.codes(1.5, 3, 0, 3)
@@ -569,19 +570,20 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tiled.occupied(0, True, 0, 3)
     with pytest.raises(TypeError, match="^occupancy: expected an OccupancyMap, received ndarray"):
         TiledMap.from_occupancy(np.zeros((4, 4), bool))
-    # a window too small for an OccupancyMap was named as OccupancyMap's own shape
+    # a window too small for an OccupancyMap is named as the window, not as
+    # OccupancyMap's own shape
     with pytest.raises(ValueError, match=r"^window: expected at least 2 x 2 .*rows 0:0, cols 1:5"):
         tiled.occupancy(0, 0, 1, 5)
-    # a reader that is not one failed with an AttributeError on its shape
+    # a reader that is not one is named, not left to an AttributeError on its shape
     with pytest.raises(TypeError, match=r"^reader: expected an object with shape, dtype and read"):
         TiledMap(np.zeros((4, 4), np.uint8).tolist())
-    # a white beyond the image's values asked for a lookup table as long (Maximum allowed
-    # size exceeded) at the first window read
+    # a white beyond the image's values is refused, rather than asking for a lookup table
+    # as long (Maximum allowed size exceeded) at the first window read
     reader = TiledMap.from_array(np.zeros((4, 4), np.uint8)).reader
     assert TiledMap(reader, full_scale=100).full_scale == 100
     with pytest.raises(ValueError, match=r"^full_scale: expected an int from 1 to 255 for a uint8"):
         TiledMap(reader, full_scale=10**30)
-    # a source that is no path or name was kept as its str()
+    # a source that is no path or name is refused, not kept as its str()
     with pytest.raises(TypeError, match=r"^source: expected a str, an os.PathLike or None"):
         TiledMap(reader, source=True)
     # out_dir that is not a path: named, not pathlib's TypeError
@@ -731,12 +733,13 @@ def test_a_tile_index_that_disagrees_with_its_tiles_is_refused_on_opening(tmp_pa
 
     path = _tile_folder(tmp_path)
     index = json.loads((path / TILE_INDEX).read_text())
-    # a shape far larger than the tiles present (it had planned blocks until memory ran out)
+    # a shape far larger than the tiles present (else blocks are planned until memory
+    # runs out)
     (path / TILE_INDEX).write_text(json.dumps({**index, "shape": [10**9, 10**9]}))
     with pytest.raises(ValueError, match="expected 61035156250000 tile files, found 9"):
         tj.open_tiled_map(path)
-    # and a tile side as large: one tile file, as many as the folder holds, was too few
-    # to refuse it, and the build planned 10^10 blocks before reading a tile
+    # and a tile side as large: one tile file, as many as the folder holds, so the count
+    # cannot refuse it; the tile's own shape does, before a build plans 10^10 blocks
     for f in path.glob("r*_c*.npy"):
         if f.name != "r00000_c00000.npy":
             f.unlink()
@@ -767,7 +770,7 @@ def test_a_tile_index_that_disagrees_with_its_tiles_is_refused_on_opening(tmp_pa
 
 def test_a_zarr_array_missing_a_chunk_is_refused(tmp_path, monkeypatch):
     """Zarr reads a missing chunk as 0, an obstacle: a deleted chunk, or a save that
-    stopped, gave another graph without any error."""
+    stopped, is refused, not built into another graph without any error."""
     pytest.importorskip("zarr")
     img = np.full((300, 280), 254, np.uint8)  # chunks of one value are written all the same
     img[100:110, :] = 0

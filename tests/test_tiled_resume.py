@@ -196,9 +196,9 @@ def _npy_header(shape, descr="<i8") -> bytes:
 
 
 def test_a_block_file_claiming_a_huge_array_is_computed_again(tmp_path, monkeypatch):
-    """np.load allocated what a header claims before reading it: a block file whose
-    member (or a .npy in its place) claimed 8 TB raised MemoryError, and a plain .npy
-    there a TypeError (not an archive), instead of computing the block again."""
+    """np.load allocates what a header claims before reading it: a block file whose
+    member (or a .npy in its place) claims 8 TB, or a plain .npy there (not an archive),
+    is computed again, not met with a MemoryError or a TypeError."""
     import io
     import zipfile
 
@@ -236,8 +236,9 @@ def test_a_build_description_that_is_not_an_object_is_refused(tmp_path, monkeypa
 
 
 def test_a_kept_block_replaced_while_the_build_runs_is_refused(tmp_path, monkeypatch):
-    """A block checked on starting was read again at the end, as it then was: replaced
-    by another build sharing the folder, that build's block went into the graph."""
+    """A kept block replaced while the build runs (by another build sharing the folder)
+    is refused, not read again at the end as it then is, which would put that build's
+    block into the graph."""
     import shutil
 
     m = paper_map("office")

@@ -149,8 +149,9 @@ def test_metres_per_pixel_rejects(value, exc):
 
 @pytest.mark.parametrize("value", [1e-300, 1e-7, 1e5])
 def test_metres_per_pixel_keeps_to_the_range_of_map_resolutions(value):
-    """A resolution of 1e-300 m/px was accepted: a 0.3 m robot radius became 3e299 pixels,
-    which overflowed float32 and gave an empty route graph with numpy warnings."""
+    """A resolution below 1e-6 m/px is refused: at 1e-300 m/px a 0.3 m robot radius
+    would be 3e299 pixels, which overflows float32 and gives an empty route graph with
+    numpy warnings."""
     with pytest.raises(ValueError, match=r"^resolution: expected 1e-06 to 10000 metres per pixel"):
         v.metres_per_pixel("resolution", value)
     assert v.metres_per_pixel("resolution", 1e-6) == 1e-6

@@ -233,9 +233,10 @@ def _edited_tee(**graph_attrs):
     ],
 )
 def test_a_graph_with_edited_world_coordinates_is_refused_naming_them(frame, where, value, words):
-    """A vertex's or edge's ``world`` edited into a str or a triple failed inside NumPy
-    ("could not convert string to float", "cannot reshape"), and without the graph's map
-    attributes a NaN one failed converting NaN to an integer."""
+    """A vertex's or edge's ``world`` edited into a str or a triple, or (without the
+    graph's map attributes) into NaN, is refused naming it, not left to fail inside
+    NumPy ("could not convert string to float", "cannot reshape") or in converting NaN
+    to an integer."""
     g = _edited_tee() if frame else nx.MultiGraph(_edited_tee())
     if not frame:
         g.graph.clear()
@@ -644,8 +645,8 @@ def test_mapper_view_has_its_rooms_and_timeline():
 
 def test_mapper_view_has_the_rooms_it_keeps_with_its_graph_updates():
     """``rooms_every=None`` (the default) keeps rooms with every graph update once they
-    are in use: the page showed none.  ``rooms_every=0`` (explicit updates only) may hold
-    rooms older than the map: those are left out unless asked for."""
+    are in use, and the page shows them.  ``rooms_every=0`` (explicit updates only) may
+    hold rooms older than the map: those are left out unless asked for."""
     from view_cases import INTEL_EXCERPT
 
     scans = list(tj.read_scans(INTEL_EXCERPT))
@@ -827,9 +828,9 @@ def test_view_command_errors(tmp_path, capsys):
 
 
 def test_view_command_names_a_folder_that_takes_no_page(tmp_path, read_only_folder, capsys):
-    """A results folder that takes no file (read-only) failed with the system's message
-    about the page's temporary file, ``[Errno 30] Read-only file system: '.../.view.html.
-    x.tmp'``, naming neither OUT_DIR nor the folder."""
+    """A results folder that takes no file (read-only) is named as OUT_DIR, not left to
+    the system's message about the page's temporary file, ``[Errno 30] Read-only file
+    system: '.../.view.html.x.tmp'``, which names neither OUT_DIR nor the folder."""
     tj.save_graph(intel_result().graph, tmp_path / "a.json")
     shutil.copy(tmp_path / "a.json", read_only_folder / "a.json")  # a plain copy: no tempfile
     assert main(["view", str(read_only_folder)]) == 2
@@ -848,8 +849,8 @@ def test_view_command_names_a_folder_that_takes_no_page(tmp_path, read_only_fold
     ],
 )
 def test_view_command_option_errors_name_the_option(tmp_path, capsys, options, message):
-    # they named write_view's argument (window, max_pixels) after the first result's
-    # file, as if that file were at fault
+    # the option is named, not write_view's argument (window, max_pixels) after the
+    # first result's file, as if that file were at fault
     tj.save_graph(intel_result().graph, tmp_path / "intel.json")
     assert main(["view", str(tmp_path), *options]) == 2
     assert capsys.readouterr().err.startswith(f"topojax view: error: {message}")
@@ -857,8 +858,9 @@ def test_view_command_option_errors_name_the_option(tmp_path, capsys, options, m
 
 
 def test_view_command_names_the_window_option_when_a_result_cannot_be_cut(tmp_path, capsys):
-    """A ``--window`` that a result cannot use (a graph without its map, a box beside the
-    map) was refused as ``window: ...``, write_view's argument, not the option."""
+    """A ``--window`` that a result cannot use (a graph without its map, a box beside
+    the map) is refused naming the option, not as ``window: ...``, write_view's
+    argument."""
     tj.save_graph(intel_result().graph, tmp_path / "intel.json")
     window = ["--window", "0", "0", "9", "9"]
     assert main(["view", str(tmp_path), *window]) == 2
@@ -893,8 +895,8 @@ def test_view_command_leaves_out_a_map_not_on_the_graphs_grid(tmp_path, capsys):
 
 
 def test_view_command_notes_rooms_not_made_on_the_map_found(tmp_path, capsys):
-    # the map the rooms were made from was replaced by another: the rooms were drawn over
-    # it without a word
+    # the map the rooms were made from is replaced by another: a note says the rooms
+    # were not segmented on it, not drawn over it without a word
     png = tmp_path / "plan.png"
     png.write_bytes(tj.datasets.sample_map_path("office").read_bytes())
     assert main(["rooms", str(png), "-o", str(tmp_path / "out")]) == 0
@@ -1017,8 +1019,8 @@ def test_the_index_page_links_views_whose_names_hold_url_characters():
 
 
 def test_timeline_snapshot_names_a_wrong_mapper():
-    """``snapshot`` (unlike ``record``) read ``mapper.pixel_bbox`` first and failed with an
-    AttributeError on anything else."""
+    """``snapshot``, as ``record`` does, names a wrong mapper rather than failing with
+    an AttributeError on its ``pixel_bbox``."""
     with pytest.raises(TypeError, match="^mapper: expected an IncrementalMapper, received int"):
         tj.Timeline().snapshot(3)
 
@@ -1035,8 +1037,9 @@ def test_timeline_snapshot_names_a_wrong_mapper():
     ],
 )
 def test_timeline_snapshot_checks_its_options(kwargs, exc, message):
-    """A float scan index was cut to an int, True kept as scan 1 and a str or NaN failed in
-    ``int()`` naming nothing; ``rooms`` was read by its truth value ("no" kept rooms)."""
+    """A scan index is an int (a float not cut to one, True not kept as scan 1, a str or
+    NaN not left to fail in ``int()`` naming nothing), and ``rooms`` a bool, not read by
+    its truth value (where "no" would keep rooms)."""
     with pytest.raises(exc, match=message):
         tj.Timeline().snapshot(tj.IncrementalMapper(), **kwargs)
 

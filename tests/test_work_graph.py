@@ -270,7 +270,7 @@ class _CountedEdges(dict):
 def test_collapsing_a_row_of_loops_looks_at_each_edge_a_few_times():
     # a ladder of n loops, each rung narrower than the one before: each loop opens at its
     # right rung and joins the next, which thus gathers every rail edge so far; scanning
-    # the gathered edges at each step took 2 n^2 look-ups
+    # the gathered edges at each step would take 2 n^2 look-ups
     n = 200
     skeleton = np.zeros((12, 5 * n + 5), bool)
     skeleton[[1, 10], 2 : 5 * n + 3] = True
