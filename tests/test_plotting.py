@@ -417,7 +417,8 @@ def test_drawing_options_name_themselves(result):
     nor drawn anyway (a NaN or negative line width, skeleton="no" taken as True, a str
     route failing with an AttributeError)."""
     occ = tj.OccupancyMap.from_array(np.pad(np.zeros((20, 20), bool), 2, constant_values=True))
-    routes = tj.route_graph(occ, robot_radius_m=0.1)
+    with pytest.warns(UserWarning, match="empty route graph"):  # a 1 m room: too small
+        routes = tj.route_graph(occ, robot_radius_m=0.1)
     bad = [
         (dict(linewidth=np.nan), ValueError, "^linewidth: expected a finite number of points"),
         (dict(linewidth=-1.0), ValueError, "^linewidth: expected a finite number of points"),
@@ -480,7 +481,8 @@ def test_a_title_that_is_not_a_str_is_refused_before_anything_is_drawn(result):
     )
 
     occ = tj.OccupancyMap.from_array(np.pad(np.zeros((20, 20), bool), 2, constant_values=True))
-    routes = tj.route_graph(occ, robot_radius_m=0.1)
+    with pytest.warns(UserWarning, match="empty route graph"):  # a 1 m room: too small
+        routes = tj.route_graph(occ, robot_radius_m=0.1)
     g = result.graph
     u, v = next((a, b) for a, b in g.edges() if a != b)
     route = tj.plan_route(g, g.nodes[u]["pixel"], g.nodes[v]["pixel"], frame="pixel")

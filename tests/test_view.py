@@ -258,7 +258,8 @@ def test_a_graph_with_a_non_finite_origin_is_drawn_by_its_world_coordinates():
 
 def test_an_empty_route_graph_is_noted_with_its_reason():
     occupancy = tj.sample_map("office")
-    routes = tj.route_graph(occupancy, robot_radius_m=50.0)
+    with pytest.warns(UserWarning, match="empty route graph: no known-free region"):
+        routes = tj.route_graph(occupancy, robot_radius_m=50.0)
     assert routes.number_of_nodes() == 0
     notes = payload_of(view_html(routes, map=occupancy))["notes"]
     assert (
