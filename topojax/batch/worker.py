@@ -18,7 +18,7 @@ from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
-from ..maps.files import default_resolution_used, unstated_resolution
+from ..maps.files import default_resolution_used, said_resolution
 from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
 
@@ -314,7 +314,7 @@ def _load_in_worker(path: str, want_free: bool, options: dict | None = None) -> 
     """Worker side: read and classify a map file (PNG/PGM decoding, YAML, thresholds),
     with the keyword arguments ``options`` of ``load_map``."""
     t0 = time.perf_counter()
-    occ = _load_quietly(path, options)
+    occ = load_map(path, **said_resolution(path, options or {}))
     return _LoadedBits(
         shape=(int(occ.shape[0]), int(occ.shape[1])),
         resolution_m=occ.resolution_m,
@@ -374,7 +374,7 @@ def _load_here(item: _Item, tile_px: int, want_free: bool, options: dict | None 
     t0 = time.perf_counter()
     occ = item.occupancy
     if occ is None:
-        occ = _load_quietly(item.path, options)
+        occ = load_map(item.path, **said_resolution(item.path, options or {}))
     return _Loaded(
         item=item,
         occupied=occ.occupied,
@@ -391,16 +391,6 @@ def _load_here(item: _Item, tile_px: int, want_free: bool, options: dict | None 
 #: How a map of :func:`resolution_note` gets its resolution (the command line names its
 #: option instead).
 RESOLUTION_HINT = "a map given as load_map(path, resolution_m=...) sets it"
-
-
-def _load_quietly(path, options: dict | None) -> OccupancyMap:
-    """``load_map(path, **options)``, given the resolution it would assume (so without
-    its warning, from every thread and worker process): the map's record notes the
-    assumption instead (:func:`resolution_note`)."""
-    options = dict(options or {})
-    if options.get("resolution_m") is None:
-        options["resolution_m"] = unstated_resolution(path)
-    return load_map(path, **options)
 
 
 def resolution_note(path, options: dict | None, resolution_m: float) -> list[str]:

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import re
-import warnings
 
 from .._constants import MODES
 
@@ -234,17 +232,6 @@ def map_options(args) -> dict:
     if args.negate:
         kw["negate"] = True
     return kw
-
-
-@contextlib.contextmanager
-def resolution_said_in_map_line():
-    """Within: ``load_map``'s warning that a map states no resolution is not shown, as
-    the command says so in its map line (:func:`assumed_resolution_note`), once."""
-    from ..maps.files import ASSUMED_RESOLUTION_WARNING
-
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", ASSUMED_RESOLUTION_WARNING, UserWarning)
-        yield
 
 
 def assumed_resolution_note(args) -> str:

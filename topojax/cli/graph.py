@@ -17,7 +17,6 @@ from ._options import (
     map_options,
     nav2_tolerance,
     pipeline_config,
-    resolution_said_in_map_line,
     room_config,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
@@ -136,6 +135,7 @@ def _classes_hint(occupancy, graph) -> list[str]:
 
 def _cmd_graph(args) -> int:
     from ..maps import load_map
+    from ..maps.files import said_resolution
     from ..pipeline import build_graph
 
     check_tiled_options(args)
@@ -152,8 +152,7 @@ def _cmd_graph(args) -> int:
 
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
         check_outputs(planned([args.mcap], args.map), command="graph", option="--mcap")
-    with resolution_said_in_map_line():
-        occupancy = load_map(args.map, **map_options(args))
+    occupancy = load_map(args.map, **said_resolution(args.map, map_options(args)))
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
     for line in _classes_hint(occupancy, result.graph):

@@ -12,7 +12,6 @@ from ._options import (
     add_map_options,
     assumed_resolution_note,
     map_options,
-    resolution_said_in_map_line,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
@@ -144,11 +143,11 @@ def _cmd_route(args) -> int:
     occupancy = None
     if args.map:
         from ..maps import load_map
+        from ..maps.files import said_resolution
 
         kw = map_options(args)  # its errors name their options
         try:
-            with resolution_said_in_map_line():
-                occupancy = load_map(args.map, **kw)
+            occupancy = load_map(args.map, **said_resolution(args.map, kw))
         except (ValueError, OSError) as exc:  # they name the file; the user gave --map
             if type(exc).__module__ != "builtins":  # a subclass keeps its own arguments
                 raise

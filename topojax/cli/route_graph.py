@@ -12,7 +12,6 @@ from ._options import (
     add_map_options,
     assumed_resolution_note,
     map_options,
-    resolution_said_in_map_line,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
@@ -81,6 +80,7 @@ def _cmd_route_graph(args) -> int:
     from .._words import counted
     from ..io import save_graph
     from ..maps import load_map
+    from ..maps.files import said_resolution
     from ..routegraph import RouteGraphConfig
     from ..routegraph.build import MAX_SNAP_M, check_scale, unwarned_route_graph
 
@@ -104,8 +104,7 @@ def _cmd_route_graph(args) -> int:
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
         check_outputs(planned([args.mcap], args.map), command="route-graph", option="--mcap")
     kw = map_options(args)  # its errors name their options
-    with resolution_said_in_map_line():
-        occupancy = load_map(args.map, **kw)
+    occupancy = load_map(args.map, **said_resolution(args.map, kw))
     check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")
     t0 = time.perf_counter()
     try:

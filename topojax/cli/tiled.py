@@ -12,7 +12,6 @@ from ._options import (
     map_options,
     nav2_tolerance,
     pipeline_config,
-    resolution_said_in_map_line,
     room_config,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
@@ -84,6 +83,7 @@ def cmd_graph_tiled(args) -> int:
     build, write the graph files, print a summary."""
     from .._fs import output_folder
     from .._validate import finite_positive
+    from ..maps.files import said_resolution
     from ..outofcore.build import block_px_for_budget, build_graph_tiled, tiled_source
 
     tolerance = nav2_tolerance(args)
@@ -95,8 +95,7 @@ def cmd_graph_tiled(args) -> int:
     targets = [out / name for name in tiled_files(stem, args.nav2)]
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
     options = map_options(args)
-    with resolution_said_in_map_line():
-        source = tiled_source(args.map, **options)
+    source = tiled_source(args.map, **said_resolution(args.map, options))
     config = pipeline_config(args, resolution_m=source.resolution_m)
     with warnings.catch_warnings(record=True) as caught:
         try:

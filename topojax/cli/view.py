@@ -20,7 +20,6 @@ import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ._options import resolution_said_in_map_line
 from ._outputs import RECORD_NAME, check_outputs, planned, read_record, record_outputs
 
 __all__ = ["add_command", "find_results"]
@@ -216,6 +215,7 @@ def _load_map(result: _Result, graph):
     """The result's map when it is there and on the graph's grid; else None (a note
     says why)."""
     from ..maps import load_map
+    from ..maps.files import said_resolution
 
     if result.map is None:
         result.notes.append("the map it was made from is not recorded: graph only")
@@ -224,8 +224,8 @@ def _load_map(result: _Result, graph):
         result.notes.append(f"its map {result.map} is not there: graph only")
         return None
     try:
-        with resolution_said_in_map_line():  # the command that made the files said so
-            occupancy = load_map(result.map, **result.map_kwargs)
+        # the command that made the files said that a resolution was assumed
+        occupancy = load_map(result.map, **said_resolution(result.map, result.map_kwargs))
     except (ValueError, OSError, TypeError) as exc:  # TypeError: options edited in the record
         result.notes.append(f"its map {result.map} cannot be read ({exc}): graph only")
         return None

@@ -243,35 +243,31 @@ def load_map(
     )
 
 
-#: How :func:`load_map`'s warning of an assumed resolution starts (a regular expression):
-#: the commands that print the assumption in their map line filter the warning out.
-ASSUMED_RESOLUTION_WARNING = r"map .* states no resolution: assumed "
-
-
 def default_resolution_used(path: str | Path) -> bool:
     """Whether :func:`load_map` of ``path`` without ``resolution_m`` falls back to
-    ``DEFAULT_RESOLUTION_M``: a plain image (not YAML) whose header states none."""
-    p = Path(path)
-    if p.suffix.lower() in YAML_SUFFIXES:
-        return False
-    if p.suffix.lower() != ".pgm":
-        return True
-    try:
-        with open(p, "rb") as f:  # a plain (P2) file's comments count too, as in load_map
-            comments = _parse_pnm_header(f.read(_HEADER_BYTES))[1]
-        return resolution_from_pgm_comments(comments, p) is None
-    except (OSError, ValueError):
-        return True
+    ``DEFAULT_RESOLUTION_M`` (:func:`unstated_resolution`)."""
+    return unstated_resolution(path) is not None
+
+
+def said_resolution(path: str | Path, options: dict[str, Any]) -> dict[str, Any]:
+    """``options`` (:func:`load_map`'s keyword arguments for ``path``) with the
+    resolution ``load_map`` would assume given (:func:`unstated_resolution`), so that it
+    does not warn of it: for a caller that says so itself (a command's map line, a
+    batch's record).  Without a filter of warnings, which are process-wide."""
+    if options.get("resolution_m") is not None:
+        return options
+    assumed = unstated_resolution(path)
+    return options if assumed is None else {**options, "resolution_m": assumed}
 
 
 def unstated_resolution(path: str | Path) -> float | None:
     """``DEFAULT_RESOLUTION_M`` where :func:`load_map` of ``path`` without
     ``resolution_m`` would assume it (warning that it does); None for a YAML, a PGM whose
     comment states a resolution, and a PGM whose header cannot be read or whose comment
-    is refused (``load_map`` names that fault).  A caller that reports the assumption
-    itself passes the result as ``resolution_m``."""
+    is refused, and a path that is there but not a file (a named pipe, which opening
+    would wait on; ``load_map`` names each fault)."""
     p = Path(path)
-    if p.suffix.lower() in YAML_SUFFIXES or not p.is_file():  # a pipe: load_map refuses it
+    if p.suffix.lower() in YAML_SUFFIXES or (p.exists() and not p.is_file()):  # a pipe
         return None
     if p.suffix.lower() == ".pgm":
         try:
