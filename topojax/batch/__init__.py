@@ -12,7 +12,7 @@ command-line front end.  Design, outputs, resume, names, clusters and GPU use:
 Modules: ``records`` (:class:`MapRecord`, the summary table), ``inputs`` (input expansion
 and map names), ``manifest`` (fingerprints, ``resume``), ``worker`` (the CPU stage and map
 loading), ``arguments`` (checks and defaults of the arguments of :func:`build_graphs`),
-``driver`` (:func:`build_graphs`).
+``pool`` (the worker processes, one pipe each), ``driver`` (:func:`build_graphs`).
 """
 
 from __future__ import annotations

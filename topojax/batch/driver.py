@@ -24,6 +24,7 @@ from ..routegraph import RouteGraphConfig
 from .arguments import batch_items, checked_options, map_inputs, workers_for_memory
 from .inputs import ROUTE_FORMATS, _Item
 from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
+from .pool import WorkerDied, WorkerPool
 from .records import MapRecord, totalled, write_summary
 from .worker import (
     InlineExecutor,
@@ -47,7 +48,7 @@ __all__ = ["build_graphs"]
 # process, and the lock that makes the first call of a bucket run alone.
 _COMPILED_BUCKETS: set[tuple[int, ...]] = set()
 _COMPILE_LOCK = threading.Lock()
-# Times an own process pool that broke (a worker process died) is replaced.
+# Times an own process pool that broke (its worker processes kept dying) is replaced.
 _POOL_RESTARTS = 3
 
 
@@ -129,7 +130,7 @@ class _BatchRun:
         first = self.executor is None  # a replacement is made while the broken one is set
         asked = self.workers if self.workers_given and first else None
         self._pool_size = workers_for_memory(self._pool_size, asked=asked)
-        ex = cf.ProcessPoolExecutor(max_workers=self._pool_size, mp_context=worker_context())
+        ex = WorkerPool(self._pool_size, mp_context=worker_context())
         for _ in range(self._pool_size):  # import + numba cache load while kernels compile
             ex.submit(_warm_worker).add_done_callback(self._note_started)
         return ex
@@ -516,9 +517,8 @@ class _BatchRun:
         self._finish(item.index, self._complete(item, rec, fut))
 
     def _retry(self, item: _Item, fut: cf.Future) -> bool:
-        """Whether ``item``'s task, lost when a process of the own pool died, runs once
-        more: every task queued on a pool that breaks is lost, not only the one whose
-        process died (e.g. killed for memory)."""
+        """Whether ``item``'s task, lost when a process of the own pool died (e.g. killed
+        for memory) while it ran the task, or when the pool broke, runs once more."""
         if not self.owns_executor:
             return False
         if not fut.cancelled() and fut.exception() is None:
@@ -527,7 +527,7 @@ class _BatchRun:
             self._restarts = 0
             self._started = True
             return False
-        # a task of a broken pool fails with BrokenProcessPool, or is cancelled when the
+        # a lost task fails with WorkerDied (a BrokenExecutor), or is cancelled when the
         # pool is shut down before it could fail it
         if not (fut.cancelled() or isinstance(fut.exception(), cf.BrokenExecutor)):
             return False
@@ -614,6 +614,8 @@ def _lost_text(exc: BaseException, *, started: bool = True) -> str:
             'above; a script must call build_graphs under if __name__ == "__main__":, '
             "and no folder named topojax may hide the package from them)"
         )
+    if isinstance(exc, WorkerDied):  # the own pool's: its message says which task died
+        return f"{_error_text(exc)} (killed for memory?; --resume runs it again)"
     return (
         f"{_error_text(exc)} (a worker process died while this map was queued or "
         "running, killed for memory?; --resume runs it again)"
@@ -628,15 +630,8 @@ def _terminate_workers(executor: cf.Executor | None) -> None:
     long as the slowest map in flight.  Their partly written files are removed when
     the maps are redone.
     """
-    if not isinstance(executor, cf.ProcessPoolExecutor):
-        return
-    terminate = getattr(executor, "terminate_workers", None)  # Python >= 3.14
-    if terminate is not None:
-        terminate()
-        return
-    for process in list((getattr(executor, "_processes", None) or {}).values()):
-        if process.is_alive():
-            process.terminate()
+    if isinstance(executor, WorkerPool):
+        executor.terminate_workers()
 
 
 def _class_counts(g) -> tuple[int, int | None]:
@@ -687,10 +682,10 @@ def build_graphs(
         expand globs/folders first, e.g. with :func:`expand_map_inputs`) and/or loaded
         maps.  A single path or map is accepted too.
     executor : concurrent.futures.Executor or dask.distributed.Client, optional
-        Runs the CPU stages (thinning, T removal, graph, output files).  Default: a
-        :class:`~concurrent.futures.ProcessPoolExecutor` of ``workers`` processes
-        (``forkserver`` start method where available, else ``spawn``), which also reads
-        the map files, shut down at the end.  A Dask ``Client`` is used through
+        Runs the CPU stages (thinning, T removal, graph, output files).  Default: a pool
+        of ``workers`` processes (``forkserver`` start method where available, else
+        ``spawn``), each with its own pipe, which also reads the map files, shut down at
+        the end; a process that dies (killed for memory, say) loses only the map it ran.  A Dask ``Client`` is used through
         ``client.get_executor(pure=False)``.  A given executor is not shut down, and map
         files are then read in the calling process.
     workers : int, optional
