@@ -1564,7 +1564,9 @@ def test_empty_graphs_are_reported_with_a_reason(tmp_path, capsys):
     cv2.imwrite(str(tmp_path / "raw.png"), raw)
     records = build_graphs([tmp_path / "raw.png"], progress=False, workers=0)
     assert records[0].status == "empty" and records[0].vertices == 0
-    assert "no occupied pixel" in records[0].message and "--mode" in records[0].message
+    message = records[0].message
+    assert "no occupied pixel" in message and "map_mode, e.g. 'ipa'" in message
+    assert "occupied_thresh, free_thresh, negate" in message and "--" not in message
     assert (
         main(
             [
@@ -1581,8 +1583,10 @@ def test_empty_graphs_are_reported_with_a_reason(tmp_path, capsys):
     )
     captured = capsys.readouterr()
     assert "1 empty" in captured.out and "empty  raw" in captured.err
+    assert "(--occupied-thresh, --free-thresh, --negate)" in captured.err
+    assert "(--mode, e.g. 'ipa'" in captured.err and "map_mode" not in captured.err
     summary = (tmp_path / "out" / "summary.csv").read_text()
-    assert ",empty," in summary
+    assert ",empty," in summary and "--mode" in summary
 
 
 def test_resume_keeps_what_the_first_run_said_of_empty_and_warned_maps(tmp_path):
@@ -1632,11 +1636,14 @@ def test_grey_walls_are_flagged_with_a_warning(tmp_path, capsys):
     assert 0 < wall_share(occ.occupied, occ.free) < 0.1
     records = build_graphs([path], out_dir=tmp_path / "out", workers=1)
     assert records[0].status == "ok" and records[0].message.startswith("warning: only ")
+    assert "check occupied_thresh, free_thresh or map_mode" in records[0].message
     assert main(["batch", str(path), "-o", str(tmp_path / "cli"), "--workers", "1"]) == 0
     err = capsys.readouterr()
     assert "1 with a warning" in err.out and "grey" in err.err
+    assert "check --occupied-thresh, --free-thresh or --mode" in err.err
     assert main(["graph", str(path), "-o", str(tmp_path / "g")]) == 0
-    assert "are the walls drawn in grey?" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "are the walls drawn in grey? check --occupied-thresh, --free-thresh or --mode" in out
 
 
 def test_an_empty_graph_with_the_nav2_format_is_empty_not_an_error(tmp_path):

@@ -648,9 +648,9 @@ def _empty_reason(n_occupied: int | None, n_free: int | None) -> str:
     else:
         why = "no corridor was found between the obstacles"
     return (
-        f"empty graph: {why}; check the thresholds, negate, or the pixel convention "
-        "(--mode, e.g. ipa for IPA benchmark maps, where every pixel below 250 is "
-        "inaccessible)"
+        f"empty graph: {why}; check the map's thresholds (occupied_thresh, free_thresh, "
+        "negate) or its pixel convention (map_mode, e.g. 'ipa' for IPA benchmark maps, "
+        "where every pixel below 250 is inaccessible)"
     )
 
 

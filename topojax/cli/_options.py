@@ -36,6 +36,13 @@ def _as_option_error(exc: Exception, option_of: dict[str, str] = _OPTION_OF) -> 
     return exc
 
 
+#: The map options to check when a map, as classified, gives nothing (for a note).
+MAP_OPTIONS_TO_CHECK = (
+    "--occupied-thresh, --free-thresh, --negate, --mode (e.g. --mode ipa for IPA "
+    "benchmark maps, where every pixel below 250 is inaccessible)"
+)
+
+
 def _as_options(text: str, option_of: dict[str, str] = _OPTION_OF) -> str:
     """``text`` with every configuration field it names written as the option that sets
     it, as :func:`_as_option_error` writes a message."""

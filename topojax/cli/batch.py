@@ -25,7 +25,14 @@ from ._signals import stop_on_sigterm
 _MANIFEST = ".manifest.json"
 #: The parameters that the message of a map may name (a radius too small for the map's
 #: resolution, ``robot_radius_m: expected at least 1.5 pixels ...``), and their options.
-_MAP_OPTION_OF = {**_OPTION_OF, "robot_radius_m": "--robot-radius"}
+_MAP_OPTION_OF = {
+    **_OPTION_OF,
+    "robot_radius_m": "--robot-radius",
+    "occupied_thresh": "--occupied-thresh",
+    "free_thresh": "--free-thresh",
+    "negate": "--negate",
+    "map_mode": "--mode",
+}
 
 
 def _cmd_batch(args) -> int:

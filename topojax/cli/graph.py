@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ._graph_out import GRAPH_SUFFIXES, summary_lines, write_graph_files, write_nav2
 from ._options import (
+    MAP_OPTIONS_TO_CHECK,
     add_map_options,
     add_nav2_options,
     add_pipeline_options,
@@ -105,14 +106,14 @@ def _classes_hint(occupancy, graph) -> list[str]:
     if n_occ and n_free:
         from ..maps.classify import wall_share, wall_warning
 
-        warning = wall_warning(wall_share(occupancy.occupied, occupancy.free))
+        share = wall_share(occupancy.occupied, occupancy.free)
+        warning = wall_warning(share, to_check="--occupied-thresh, --free-thresh or --mode")
         notes = [f"note       {warning}"] if warning else []
         if graph.number_of_nodes() == 0:
             notes.append(
                 f"note       the graph is empty: no corridor was found between the "
                 f"obstacles ({n_occ} occupied, {n_free} free pixels as classified); check "
-                "the thresholds, --negate, or --mode (e.g. --mode ipa for IPA benchmark "
-                "maps, where every pixel below 250 is inaccessible)"
+                f"{MAP_OPTIONS_TO_CHECK}"
             )
         return notes
     n_unknown = int(occupancy.unknown.sum())
@@ -127,9 +128,7 @@ def _classes_hint(occupancy, graph) -> list[str]:
         outcome = "so the graph runs through unknown space only (--free-only: none)"
     return [
         f"note       the map has {what} as classified ({n_occ} occupied, {n_free} free, "
-        f"{n_unknown} unknown), {outcome}; check the "
-        "thresholds, --negate, or --mode (e.g. --mode ipa for IPA benchmark maps, where "
-        "every pixel below 250 is inaccessible)"
+        f"{n_unknown} unknown), {outcome}; check {MAP_OPTIONS_TO_CHECK}"
     ]
 
 

@@ -6,6 +6,7 @@ import time
 from pathlib import Path
 
 from ._options import (
+    MAP_OPTIONS_TO_CHECK,
     add_map_options,
     add_room_options,
     assumed_resolution_note,
@@ -111,8 +112,7 @@ def room_lines(
         n_free = int(occupancy.free.sum())
         lines.append(
             f"note       no room found: the map has {n_free} free pixels as classified; "
-            "check the thresholds, --negate, --mode (e.g. --mode ipa for IPA benchmark "
-            "maps, where every pixel below 250 is inaccessible) or --min-isolated-room-m2"
+            f"check {MAP_OPTIONS_TO_CHECK} or --min-isolated-room-m2"
         )
     return lines
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ._graph_out import GRAPH_SUFFIXES, summary_lines, write_graph_files, write_nav2
 from ._options import (
+    MAP_OPTIONS_TO_CHECK,
     _option_named,
     assumed_resolution_note,
     map_options,
@@ -114,8 +115,7 @@ def cmd_graph_tiled(args) -> int:
     if result.graph.number_of_nodes() == 0:
         notes.append(
             "note       the graph is empty: no corridor was found between the obstacles; "
-            "check the thresholds, --negate, or --mode (e.g. --mode ipa for IPA benchmark "
-            "maps)"
+            f"check {MAP_OPTIONS_TO_CHECK}"
         )
     if tolerance is not None:
         nav2, nav2_notes = write_nav2(result.graph, out / f"{stem}_nav2.geojson", tolerance)

@@ -372,12 +372,14 @@ def wall_share(occupied: np.ndarray, free: np.ndarray) -> float | None:
     return float(np.count_nonzero(rim & np.asarray(occupied, bool))) / n_rim
 
 
-def wall_warning(share: float | None) -> str | None:
-    """The warning for a map whose :func:`wall_share` is low, else None."""
+def wall_warning(
+    share: float | None, *, to_check: str = "occupied_thresh, free_thresh or map_mode"
+) -> str | None:
+    """The warning for a map whose :func:`wall_share` is low, else None; ``to_check``
+    names the settings to check (as the caller's user gives them)."""
     if share is None or share >= LOW_WALL_SHARE:
         return None
     return (
         f"warning: only {100 * share:.0f}% of the pixels around the free space are occupied, "
-        "the rest unknown: are the walls drawn in grey? check --occupied-thresh / "
-        "--free-thresh or --mode"
+        f"the rest unknown: are the walls drawn in grey? check {to_check}"
     )
