@@ -400,6 +400,39 @@ def test_replay_cli_refused_resume_names_the_options(stopped, capsys):
     assert IncrementalMapper.load(stopped / STATE_FILE).n_scans == 12  # left for a resume
 
 
+def test_a_resume_with_other_room_settings_names_only_those_that_differ(
+    tmp_path, monkeypatch, capsys
+):
+    """The room settings are one record: a refused resume names the field that differs
+    (``room_config.max_door_width_m: saved 2.2, now 1.5``), not the two records whole."""
+    from topojax.rooms import RoomConfig
+
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 12)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, rooms=True, **SETTINGS)
+    monkeypatch.undo()
+    other = RoomConfig(max_door_width_m=1.5)
+    with pytest.raises(ValueError, match="room_config") as info:
+        replay(
+            INTEL_EXCERPT,
+            out_dir=out,
+            progress=False,
+            resume=True,
+            rooms=True,
+            room_config=other,
+            **SETTINGS,
+        )
+    message = str(info.value)
+    assert "(room_config.max_door_width_m: saved 2.2, now 1.5)" in message, message
+    assert "min_door_width_m" not in message
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--resume", "--no-progress", "--rooms"]
+    args += ["--graph-every", "7", "--skeleton-every", "3", "--max-door-width-m", "1.5"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "(--max-door-width-m: saved 2.2, now 1.5)" in err and "room_config" not in err
+
+
 def test_replay_cli_refused_resume_without_rooms_says_so_in_words(tmp_path, monkeypatch, capsys):
     """A replay stopped with --rooms, resumed without (or with rooms at its end only),
     is refused saying how each replay keeps its rooms, in the option's words."""

@@ -329,19 +329,29 @@ def _rooms_every_differs(saved, now) -> str:
 _IN_WORDS = {"rooms_every": _rooms_every_differs}
 
 
+def _differences(saved: dict, now: dict, prefix: str = "") -> list[str]:
+    """``key: saved ..., now ...`` for each key whose value differs; a setting that is
+    itself a dict (``room_config``) by the keys of it that differ."""
+    out = []
+    for k in sorted(set(saved) | set(now), key=str):
+        a, b = saved.get(k), now.get(k)
+        if a == b:
+            continue
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += _differences(a, b, f"{prefix}{k}.")
+        elif k in _IN_WORDS and not prefix:
+            out.append(f"{k}: {_IN_WORDS[k](a, b)}")
+        else:
+            out.append(f"{prefix}{k}: saved {a!r}, now {b!r}")
+    return out
+
+
 def _check_same(path: Path, what: str, saved: dict, now: dict) -> None:
     """Refuse (ValueError) resuming when the ``saved`` and ``now`` dicts differ, naming
     the keys that differ."""
     if saved == now:
         return
-    keys = sorted(set(saved) | set(now), key=str)
-
-    def differs(k) -> str:
-        if k in _IN_WORDS:
-            return _IN_WORDS[k](saved.get(k), now.get(k))
-        return f"saved {saved.get(k)!r}, now {now.get(k)!r}"
-
-    diff = "; ".join(f"{k}: {differs(k)}" for k in keys if saved.get(k) != now.get(k))
+    diff = "; ".join(_differences(saved, now))
     raise ValueError(
         f"resume: {path} was made with other {what} ({diff}); resume with the same "
         "options, or replay without resume"

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from .._constants import STRATEGIES
 from ._options import (
+    _ROOM_OPTIONS,
     _as_option_error,
     _as_options,
     add_graph_options,
@@ -172,6 +173,7 @@ _RESUME_OPTION_OF = {
     "scan_topic": "--scan-topic",
     "pose_topic": "--pose-topic",
     "allow_missing_pose": "--allow-missing-pose",
+    **{f"room_config.{field}": option for option, field, *_ in _ROOM_OPTIONS},
 }
 
 
