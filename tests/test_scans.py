@@ -652,6 +652,52 @@ def test_log_cut_off_mid_line_keeps_the_scans_before(tmp_path):
         list(read_carmen(path))
 
 
+def test_a_gzip_log_of_several_members_with_zero_padding_reads_whole(tmp_path):
+    """Concatenated gzip members (``cat a.gz b.gz``) read as one log, zero padding after
+    the last is no damage, and any other bytes after it are."""
+    text = gzip.decompress((DATA / "intel_first40.log.gz").read_bytes())
+    half = text.index(b"\nFLASER", len(text) // 2) + 1
+    joined = tmp_path / "joined.log.gz"
+    joined.write_bytes(gzip.compress(text[:half]) + gzip.compress(text[half:]) + bytes(100))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scans = list(read_carmen(joined))
+    whole = list(read_carmen(DATA / "intel_first40.log.gz"))
+    assert len(scans) == len(whole) == 40
+    for a, b in zip(scans, whole, strict=True):
+        np.testing.assert_array_equal(a.ranges, b.ranges)
+    joined.write_bytes(gzip.compress(text) + b"trailing words")
+    with pytest.raises(ValueError, match=r"joined\.log\.gz: the gzip-compressed data is damaged"):
+        list(read_carmen(joined))
+
+
+def test_a_gzip_log_cut_mid_line_gives_one_warning_for_the_cut_and_its_line(tmp_path):
+    """Compressed data cut off in the middle of a laser line: one warning says both
+    (the data is cut off, that line is skipped), not one for each."""
+    import zlib
+
+    good = (DATA / "intel_first40.log.gz").read_bytes()
+    size = len(good) // 2
+    while True:  # a cut that ends the readable text a third of the way into a FLASER line
+        text = zlib.decompressobj(31).decompress(good[:size]).decode("latin-1")
+        last = text.rsplit("\n", 1)[1]
+        if last.startswith("FLASER") and 10 < len(last.split()) < 100:
+            break
+        size += 7
+    cut = tmp_path / "cut.log.gz"
+    cut.write_bytes(good[:size])
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        scans = list(read_carmen(cut))
+    lineno = text.count("\n") + 1
+    assert [str(x.message) for x in w] == [
+        f"{cut}: the gzip-compressed data is cut off; read up to the cut, where line "
+        f"{lineno}, a FLASER line, ends mid-way and is skipped"
+    ]
+    assert w[0].category is RuntimeWarning
+    assert len(scans) == text.count("\nFLASER") + text.startswith("FLASER") - 1
+
+
 def test_carmen_errors_for_bad_arguments(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.log"):
         read_carmen(tmp_path / "nope.log")

@@ -3,7 +3,6 @@ reported as ValueError naming the file."""
 
 from __future__ import annotations
 
-import gzip
 import io
 import warnings
 import zlib
@@ -29,39 +28,85 @@ def _open_text(path: Path, *, warn_cut: bool = True) -> IO[str]:
 
 
 class _CheckedGzip(io.RawIOBase):
-    """A gzip file's decompressed bytes: up to the cut where it is cut off, and
-    decompression faults as ValueError."""
+    """A gzip file's decompressed bytes: every byte before the cut where it is cut off,
+    and decompression faults as ValueError.
+
+    It decompresses with :mod:`zlib` itself: :mod:`gzip` raises EOFError at a cut and
+    drops what it had decompressed of its last block (the last scans of the log)."""
+
+    _CHUNK = 1 << 16  # compressed bytes read at a time
+    _MAX_OUT = 1 << 22  # decompressed bytes made at a time
 
     def __init__(self, path: Path, warn_cut: bool = True) -> None:
         self._path = path
         self._warn_cut = warn_cut  # whether the cut is yet to be warned of (once)
-        self._file = gzip.open(path, "rb")
+        self.cut = False  # the cut has been reached
+        self._file = open(path, "rb")
+        self._inflate = zlib.decompressobj(31)  # a gzip member, header and trailer checked
+        self._fed = False  # the member has had bytes
+        self._out = b""  # decompressed, not yet read
+        self._ended = False
 
     def readable(self) -> bool:
         return True
 
     def readinto(self, buffer) -> int:
+        while not self._out and not self._ended:
+            self._more()
+        n = min(len(buffer), len(self._out))
+        buffer[:n] = self._out[:n]
+        self._out = self._out[n:]
+        return n
+
+    def _more(self) -> None:
+        """Decompress more into ``_out``, or end (at the cut, where the file ends within a
+        member)."""
+        if self._inflate.eof:  # a member ended: another may follow (concatenated gzip)
+            data = self._inflate.unused_data
+            self._inflate, self._fed = zlib.decompressobj(31), False
+        else:
+            data = self._inflate.unconsumed_tail
+        at_end = False
+        if not data:
+            data = self._file.read(self._CHUNK)
+            at_end = not data
+        if not self._fed:
+            data = data.lstrip(b"\x00")  # zero padding after a member, as gzip allows
+            if not data and not at_end:
+                return
+        if not data:
+            self._ended = True
+            if self._fed:
+                self._cut()
+            return
+        self._fed = True
         try:
-            return self._file.readinto(buffer)
-        except EOFError:
-            if not self._warn_cut:
-                return 0
-            self._warn_cut = False
-            warnings.warn(
-                f"{self._path}: the gzip-compressed data is cut off; read up to the cut",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-            return 0
-        except (zlib.error, gzip.BadGzipFile) as exc:
+            self._out = self._inflate.decompress(data, self._MAX_OUT)
+        except zlib.error as exc:
             raise ValueError(
                 f"{self._path}: the gzip-compressed data is damaged ({exc}); the file "
                 "cannot be read to its end"
             ) from None
 
+    def _cut(self) -> None:
+        self.cut = True
+        if self._warn_cut:
+            self._warn_cut = False
+            warnings.warn(
+                f"{self._path}: the gzip-compressed data is cut off; read up to the cut",
+                RuntimeWarning,
+                stacklevel=4,
+            )
+
     def close(self) -> None:
         self._file.close()
         super().close()
+
+
+def gzip_cut(fh: IO[str]) -> bool:
+    """Whether ``fh``, opened by :func:`_open_text`, is compressed data read up to a cut."""
+    raw = getattr(getattr(fh, "buffer", None), "raw", None)
+    return isinstance(raw, _CheckedGzip) and raw.cut
 
 
 def _cut_off(line: str) -> bool:

@@ -13,7 +13,7 @@ import numpy as np
 
 from .._validate import existing_file, one_of, real_number
 from .._validate import pose as checked_pose
-from ._text import _cut_off, _open_text
+from ._text import _cut_off, _open_text, gzip_cut
 from .scan import PoseLike, Scan, _relative, _unknown_format_error, no_scan_error
 
 _OLD_LASERS = ("FLASER", "RLASER")
@@ -438,7 +438,8 @@ def _iter_carmen(
     first_not_finite = ""
     made = 0
     bad = _Tally()  # malformed laser lines skipped
-    with _open_text(path) as fh:
+    half_line: tuple[int, str, Exception] | None = None  # the last line, cut off mid-way
+    with _open_text(path, warn_cut=False) as fh:  # one warning of a cut, below
         for lineno, line in enumerate(fh, 1):
             tokens = line.split()
             if not tokens:
@@ -464,11 +465,7 @@ def _iter_carmen(
                 continue
             except _CarmenLineError as err:
                 if _cut_off(line):
-                    warnings.warn(
-                        f"{path}:{lineno}: the log ends in the middle of a {key} line (no "
-                        f"line end; {err}); that line is skipped",
-                        stacklevel=2,
-                    )
+                    half_line = (lineno, key, err)
                     break
                 if not skip_bad:
                     raise _malformed(path, lineno, key, err) from None
@@ -476,6 +473,8 @@ def _iter_carmen(
                 continue
             made += 1
             yield scan
+        cut = gzip_cut(fh)
+    _warn_of_a_cut(path, cut, half_line)
     if not made and (skipped or bad.count or not_finite):
         whats = " or ".join(kind.what for kind in not_finite)
         count = sum(map(len, not_finite.values()))
@@ -550,6 +549,27 @@ def _no_scan(
         "; ".join(reasons),
         f"at least one well-formed {chosen} line with a finite pose and timestamp",
     )
+
+
+def _warn_of_a_cut(
+    path: Path, gzip_cut: bool, half_line: tuple[int, str, Exception] | None
+) -> None:
+    """One warning for a log that ends cut off: its compressed data (``gzip_cut``), its
+    last line (``half_line``: line number, key and fault), or both."""
+    if gzip_cut:
+        skipped = ""
+        if half_line is not None:
+            lineno, key, _ = half_line
+            skipped = f", where line {lineno}, a {key} line, ends mid-way and is skipped"
+        text = f"{path}: the gzip-compressed data is cut off; read up to the cut{skipped}"
+        warnings.warn(text, RuntimeWarning, stacklevel=3)
+    elif half_line is not None:
+        lineno, key, err = half_line
+        warnings.warn(
+            f"{path}:{lineno}: the log ends in the middle of a {key} line (no line end; "
+            f"{err}); that line is skipped",
+            stacklevel=3,
+        )
 
 
 def _malformed(path: Path, lineno: int, key: str, err: Exception) -> ValueError:
