@@ -2575,11 +2575,32 @@ def test_tile_budget_refuses_scans_points_and_maps_before_any_change():
 
 def test_a_tile_budget_of_any_size_is_taken():
     # the count of a scan's missing tiles is bounded by the budget: one past an int64
-    mapper = IncrementalMapper(max_tile_bytes=10**30, **SMALL_KW)
+    with pytest.warns(UserWarning, match="max_tile_bytes: .* is more than the"):
+        mapper = IncrementalMapper(max_tile_bytes=10**30, **SMALL_KW)
     scan = Scan.from_arrays(np.full(90, 3.0), (0, 0, 0), angle_min=-1.5, angle_increment=1 / 30)
     mapper.add_scan(scan)
     mapper.add_scan(scan)
     assert mapper.n_scans == 2 and mapper.tiles.n_tiles > 0
+
+
+def test_limits_above_the_memory_available_warn_that_they_guard_nothing(monkeypatch):
+    """A tile or export limit above the memory available is taken, with a warning: the
+    mapper would be killed for memory before it refused.  Limits that fit say nothing."""
+    import warnings
+
+    from topojax.incremental import _settings
+
+    monkeypatch.setattr(_settings, "available_memory_bytes", lambda: 1 << 30)
+    with pytest.warns(UserWarning) as caught:
+        mapper = IncrementalMapper(**SMALL_KW)  # the defaults: 2 GiB each
+    assert [str(w.message).split(":")[0] for w in caught] == ["max_tile_bytes", "max_export_bytes"]
+    assert "2.0 GiB is more than the 1.0 GiB of memory available" in str(caught[0].message)
+    assert mapper.max_tile_bytes == 1 << 31
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        IncrementalMapper(max_tile_bytes=1 << 29, max_export_bytes=1 << 29, **SMALL_KW)
+        monkeypatch.setattr(_settings, "available_memory_bytes", lambda: None)  # not Linux
+        IncrementalMapper(**SMALL_KW)
 
 
 def test_a_map_over_the_tile_budget_is_refused_before_its_pixels_are_indexed():

@@ -3,9 +3,11 @@ JSON-ready dictionary a saved state stores."""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import asdict
 
 from .._constants import STRATEGIES
+from .._cpus import available_memory_bytes, byte_size
 from .._validate import (
     flag,
     instance_or_default,
@@ -180,11 +182,28 @@ def checked_guard_settings(
         If one has the wrong type or range (the message names it, what was expected and
         what was received).
     """
-    return (
+    limits = (
         positive_metres("max_extent_m", max_extent_m),
         positive_int("max_export_bytes", max_export_bytes),
         positive_int("max_tile_bytes", max_tile_bytes),
     )
+    available = available_memory_bytes()
+    for name, limit, what in (
+        (
+            "max_tile_bytes",
+            limits[2],
+            "the mapper may be killed for memory before it refuses to grow",
+        ),
+        ("max_export_bytes", limits[1], "an export may be killed for memory before it is refused"),
+    ):
+        if available is not None and limit > available:
+            warnings.warn(
+                f"{name}: {byte_size(limit)} is more than the {byte_size(available)} of "
+                f"memory available; {what} (a smaller {name} refuses first)",
+                UserWarning,
+                stacklevel=3,
+            )
+    return limits
 
 
 def settings_of(mapper) -> dict:
