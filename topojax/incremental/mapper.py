@@ -148,7 +148,7 @@ class IncrementalMapper:
         7,000 tiles of 128 px, each about 0.3 MB).  A scan, points or map that would
         allocate more is refused with :class:`ExtentError` before anything changes
         (readings far beyond the sensor's range: set ``range_max`` or ``max_range_m``).
-        Either byte limit above the memory available warns (it would guard nothing).
+        Either byte limit given above the memory available warns (it guards nothing).
 
     Notes
     -----
