@@ -3,9 +3,10 @@ any moment, half way through writing its result too, costs only the task it ran.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import os
 import signal
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -122,33 +123,39 @@ def test_shutdown_cancels_or_runs_what_waits_and_terminate_kills():
     pool = WorkerPool(1, mp_context=worker_context())
     running = pool.submit(time.sleep, 0.5)
     waiting = [pool.submit(pow, 2, i) for i in range(3)]
+    seen: list = []
+    waiting[0].add_done_callback(lambda f: seen.append(pool.pids))  # calls the pool back
     while not running.running():  # handed to the worker
         time.sleep(0.01)
-    pool.shutdown(wait=True, cancel_futures=True)
+    closer = threading.Thread(target=pool.shutdown, kwargs={"cancel_futures": True}, daemon=True)
+    closer.start()
+    closer.join(60)
+    assert not closer.is_alive(), "shutdown waits on its own lock"
     assert running.result(timeout=0) is None
-    assert all(f.cancelled() for f in waiting)
+    assert all(f.cancelled() for f in waiting) and len(seen) == 1
     with pytest.raises(RuntimeError, match="after shutdown"):
         pool.submit(pow, 2, 2)
 
     pool = WorkerPool(1, mp_context=worker_context())
-    pids = []
     long = pool.submit(time.sleep, 60)
-    while not pids:
-        pids = pool.pids
-    t0 = time.monotonic()
+    queued = [pool.submit(os.getpid) for _ in range(3)]
+    while not long.running():
+        time.sleep(0.01)
+    pids = pool.pids
     pool.terminate_workers()
     with pytest.raises(WorkerDied):
         long.result(timeout=30)
+    assert all(f.cancelled() for f in queued)  # not run on a new worker
     pool.shutdown(wait=True)
-    assert time.monotonic() - t0 < 30
-    assert not os.path.exists(f"/proc/{pids[0]}") or _zombie_or_gone(pids[0])
+    assert pool.pids == [] and not any(_alive(pid) for pid in pids)
 
 
-def _zombie_or_gone(pid: int) -> bool:
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (not gone, not a zombie)."""
     try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] in "ZX"
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] not in "ZX"
     except OSError:
-        return True
+        return False
 
 
 def test_max_workers_is_checked():
@@ -158,8 +165,38 @@ def test_max_workers_is_checked():
         WorkerPool(True)  # type: ignore[arg-type]
 
 
-def test_a_pool_that_is_not_shut_down_lets_its_workers_go():
+_EXIT_WITHOUT_SHUTDOWN = """
+import multiprocessing.forkserver
+import time
+from pathlib import Path
+
+from topojax.batch.pool import WorkerPool
+from topojax.batch.worker import worker_context
+
+if __name__ == "__main__":
     pool = WorkerPool(1, mp_context=worker_context())
-    assert pool.submit(pow, 2, 3).result(timeout=60) == 8
-    pool.shutdown(wait=True)
-    assert isinstance(pool, cf.Executor)
+    running = pool.submit(time.sleep, 30)
+    waiting = [pool.submit(Path(f"ran-{i}").touch) for i in range(3)]
+    while not running.running():
+        time.sleep(0.01)
+    server = multiprocessing.forkserver._forkserver._forkserver_pid
+    print(*pool.pids, server, flush=True)
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="needs /proc")
+def test_a_process_that_exits_without_shutdown_leaves_no_worker(tmp_path):
+    """The interpreter's exit stops the workers and drops the waiting tasks: none runs on
+    a worker started for a process that has gone."""
+    script = tmp_path / "exits.py"
+    script.write_text(_EXIT_WITHOUT_SHUTDOWN)
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path
+    )
+    assert done.returncode == 0, done.stderr
+    pids = [int(word) for word in done.stdout.split()]
+    deadline = time.monotonic() + 20
+    while any(map(_alive, pids)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(map(_alive, pids)), "a worker or the fork server outlived the process"
+    assert not list(tmp_path.glob("ran-*")), "a waiting task ran after the exit"

@@ -131,8 +131,12 @@ class _BatchRun:
         asked = self.workers if self.workers_given and first else None
         self._pool_size = workers_for_memory(self._pool_size, asked=asked)
         ex = WorkerPool(self._pool_size, mp_context=worker_context())
-        for _ in range(self._pool_size):  # import + numba cache load while kernels compile
-            ex.submit(_warm_worker).add_done_callback(self._note_started)
+        try:
+            for _ in range(self._pool_size):  # import + numba cache load while kernels compile
+                ex.submit(_warm_worker).add_done_callback(self._note_started)
+        except BaseException:  # Ctrl-C: a pool no one holds would live on in a notebook
+            _terminate_workers(ex)
+            raise
         return ex
 
     def _note_started(self, fut: cf.Future) -> None:
@@ -158,11 +162,13 @@ class _BatchRun:
                 raise
             if self._restarts >= _POOL_RESTARTS:
                 raise RuntimeError(
-                    f"workers: a worker process died (killed for memory?) and broke the "
-                    f"pool {self._restarts + 1} times; no new pool is started for the "
-                    "maps left (--resume runs them again; fewer --workers need less memory)"
+                    f"workers: a worker process died or could not start, and broke the pool "
+                    f"{self._restarts + 1} times in a row (the last time: {exc}); no new "
+                    "pool is started for the maps left (--resume runs them again; fewer "
+                    "--workers need less memory)"
                 ) from exc
             self._restarts += 1
+            _terminate_workers(self.executor)  # its live workers hold memory too
             self.executor.shutdown(wait=False, cancel_futures=True)
             self.executor = self._new_executor()
             return self.executor.submit(fn, *args)

@@ -11,12 +11,14 @@ fails with :class:`WorkerDied`, and a new process takes the worker's place.
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures as cf
 import multiprocessing
 import multiprocessing.connection as mpc
 import signal
 import threading
 import traceback
+import weakref
 from collections import deque
 from dataclasses import dataclass
 from multiprocessing.reduction import ForkingPickler
@@ -63,10 +65,11 @@ def _serve(conn: mpc.Connection) -> None:
             return
         try:
             fn, args, kwargs = ForkingPickler.loads(data)
+            del data
             outcome = (True, fn(*args, **kwargs), "")
         except BaseException as exc:  # noqa: BLE001 - every failure goes back to the pool
             outcome = (False, exc, "".join(traceback.format_exception(exc)))
-        del data
+        fn = args = kwargs = data = None  # an idle worker holds no task's arguments
         try:
             conn.send_bytes(_outcome_bytes(*outcome))
         except OSError:  # the pool's process has gone
@@ -78,6 +81,7 @@ def _serve(conn: mpc.Connection) -> None:
 class _Task:
     future: cf.Future
     call: tuple[Any, tuple, dict] | None  # fn, args, kwargs: pickled as it is handed over
+    running: bool = False  # its future is set running (it may be handed over again)
 
 
 def _fail(tasks: list[_Task], message: str) -> None:
@@ -89,11 +93,30 @@ def _fail(tasks: list[_Task], message: str) -> None:
             pass
 
 
+def _drop(tasks: list[_Task]) -> None:
+    """Cancel each of ``tasks``; one already running (handed to a worker that died before
+    it could run it) fails instead."""
+    _fail([task for task in tasks if not task.future.cancel()], "the pool was stopped")
+
+
 @dataclass(eq=False)
 class _Worker:
     process: Any  # a multiprocessing Process
     conn: mpc.Connection
     task: _Task | None = None
+
+
+#: The pools not yet ended: their workers are stopped when the interpreter exits.
+_LIVE_POOLS: weakref.WeakSet[WorkerPool] = weakref.WeakSet()
+
+
+@atexit.register
+def _stop_live_pools() -> None:
+    """At exit (before multiprocessing's own clean-up, registered earlier), stop every
+    pool's workers and drop its waiting tasks: no worker is started, or left running, for
+    a process that has gone."""
+    for pool in list(_LIVE_POOLS):
+        pool.terminate_workers()
 
 
 class WorkerPool(cf.Executor):
@@ -110,8 +133,9 @@ class WorkerPool(cf.Executor):
     -----
     A task runs on one idle worker at a time; tasks wait in this process until a worker
     is free.  A worker that dies fails its task with :class:`WorkerDied` and is replaced;
-    after :data:`DEATHS_IN_A_ROW` deaths with no task done in between the pool is broken:
-    its waiting tasks fail with :class:`WorkerDied` and :meth:`submit` raises it.
+    after :data:`DEATHS_IN_A_ROW` deaths with no task done in between, or when no worker
+    can be started, the pool is broken: its waiting tasks fail with :class:`WorkerDied`
+    and :meth:`submit` raises it.
     """
 
     def __init__(self, max_workers: int, *, mp_context: Any = None) -> None:
@@ -123,15 +147,19 @@ class WorkerPool(cf.Executor):
         self._queue: deque[_Task] = deque()
         self._workers: list[_Worker] = []
         self._broken: str | None = None
-        self._closing = False
+        self._closing = False  # shut down: no new task
+        self._stopped = False  # workers terminated: none is started, no task handed over
         self._deaths = 0  # in a row
+        self._wake_lock = threading.Lock()
         self._wake_r, self._wake_w = multiprocessing.Pipe(duplex=False)
         try:  # here, so that a process that cannot start says so to the caller
             for _ in range(max_workers):
                 self._start_worker()
         except BaseException:
+            self._stopped = True
             self._close()
             raise
+        _LIVE_POOLS.add(self)
         self._thread = threading.Thread(target=self._run, name="topojax-pool", daemon=True)
         self._thread.start()
 
@@ -152,19 +180,23 @@ class WorkerPool(cf.Executor):
         ``cancel_futures``), then the workers exit.  ``wait`` waits for that."""
         with self._lock:
             self._closing = True
+            dropped = list(self._queue) if cancel_futures else []
             if cancel_futures:
-                while self._queue:
-                    self._queue.popleft().future.cancel()
+                self._queue.clear()
+        _drop(dropped)  # outside the lock: a done-callback may call the pool
         self._wake()
         if wait and self._thread is not threading.current_thread():
             self._thread.join()
 
     def terminate_workers(self) -> None:
-        """Stop the worker processes now (SIGTERM); their tasks fail with
-        :class:`WorkerDied`, and the pool takes no more."""
+        """Stop the worker processes now (SIGTERM): their tasks fail with
+        :class:`WorkerDied`, the waiting ones are cancelled, and the pool takes no more."""
         with self._lock:
-            self._closing = True
+            self._closing = self._stopped = True
             processes = [w.process for w in self._workers]
+            dropped = list(self._queue)
+            self._queue.clear()
+        _drop(dropped)
         for process in processes:
             if process.is_alive():
                 process.terminate()
@@ -178,10 +210,9 @@ class WorkerPool(cf.Executor):
 
     # ------------------------------------------------------------------ the pool's thread
     def _wake(self) -> None:
-        try:
-            self._wake_w.send_bytes(b"")
-        except OSError:  # the pool's thread has ended
-            pass
+        with self._wake_lock:
+            if not self._wake_w.closed:
+                self._wake_w.send_bytes(b"")
 
     def _start_worker(self) -> None:
         ours, theirs = multiprocessing.Pipe(duplex=True)
@@ -195,6 +226,9 @@ class WorkerPool(cf.Executor):
             theirs.close()  # only the worker holds that end: its death closes the pipe
         with self._lock:
             self._workers.append(_Worker(process, ours))
+            stopped = self._stopped
+        if stopped:  # terminate_workers ran while it started
+            process.terminate()
 
     def _run(self) -> None:
         try:
@@ -215,23 +249,32 @@ class WorkerPool(cf.Executor):
             self._queue.clear()
         _fail(failed, f"the pool is broken: {reason}")
 
-    def _step(self) -> bool:
-        """Hand tasks to idle workers and wait for one event; False once the pool ends."""
+    def _fill(self) -> None:
+        """Start workers up to the pool's size while tasks may come; where one cannot
+        start, the pool goes on with those it has, and breaks when it has none."""
         while len(self._workers) < self._size and self._broken is None:
-            if self._closing and not self._queue:
-                break
+            if self._stopped or (self._closing and not self._queue):
+                return
             try:
                 self._start_worker()
             except Exception as exc:  # out of memory or processes, say
+                if self._workers:
+                    self._size = len(self._workers)
+                    return
                 self._break(f"a worker process could not start: {type(exc).__name__}: {exc}")
+
+    def _step(self) -> bool:
+        """Hand tasks to idle workers and wait for one event; False once the pool ends."""
+        self._fill()
         with self._lock:
             if self._closing and not self._queue and all(w.task is None for w in self._workers):
                 return False
             handed = []
             for w in self._workers:
-                while w.task is None and self._queue:
+                while w.task is None and self._queue and not self._stopped:
                     task = self._queue.popleft()
-                    if task.future.set_running_or_notify_cancel():
+                    if task.running or task.future.set_running_or_notify_cancel():
+                        task.running = True
                         w.task = task
                         handed.append(w)
         for w in handed:
@@ -252,6 +295,12 @@ class WorkerPool(cf.Executor):
     def _send(self, w: _Worker) -> None:
         task = w.task
         assert task is not None and task.call is not None
+        if w.process.exitcode is not None:  # it died idle: the task goes to another
+            w.task = None
+            with self._lock:
+                self._queue.appendleft(task)
+            self._died(w)
+            return
         try:
             payload = ForkingPickler.dumps(task.call)
         except Exception as exc:  # the worker stays idle, for the next task
@@ -259,12 +308,15 @@ class WorkerPool(cf.Executor):
             task.future.set_exception(exc)
             self._wake()
             return
-        finally:
-            task.call = None
         try:
             w.conn.send_bytes(payload)
-        except OSError:
+        except OSError:  # it died before it read the task, which goes to another
+            w.task = None
+            with self._lock:
+                self._queue.appendleft(task)
             self._died(w)
+            return
+        task.call = None
 
     def _receive(self, w: _Worker) -> None:
         try:
@@ -307,7 +359,9 @@ class WorkerPool(cf.Executor):
             )
 
     def _close(self) -> None:
-        """Let the workers exit (their pipes close), and fail what is left."""
+        """Let the idle workers exit (their pipes close), stop busy ones (only a pool
+        whose thread failed has them), and fail what is left."""
+        _LIVE_POOLS.discard(self)
         with self._lock:
             workers, self._workers = self._workers, []
             left = list(self._queue)
@@ -317,11 +371,13 @@ class WorkerPool(cf.Executor):
             w.conn.close()
             if w.task is not None:
                 left.append(w.task)
+                w.process.kill()
         for w in workers:
             w.process.join(timeout=10)
             if w.process.is_alive():
                 w.process.kill()
                 w.process.join()
         _fail(left, "the pool ended before the task's outcome came back")
+        with self._wake_lock:
+            self._wake_w.close()
         self._wake_r.close()
-        self._wake_w.close()
