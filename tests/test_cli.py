@@ -504,6 +504,38 @@ def test_sigterm_ends_a_batch_with_the_maps_it_finished(tmp_path, monkeypatch, c
     assert signal.getsignal(signal.SIGTERM) is handler
 
 
+def test_a_sigterm_python_drops_stops_the_command_all_the_same(tmp_path, monkeypatch, capsys):
+    """A SIGTERM whose KeyboardInterrupt is raised where Python drops exceptions (a
+    garbage-collector callback, a ``__del__``) is sent again, so the command still stops:
+    a batch whose stop landed in JAX's collector callback ran to its end, status 0."""
+    import gc
+    import signal
+    import sys
+    import time
+
+    import topojax.batch.driver
+
+    class DropsTheStop:
+        def __del__(self):  # the handler runs here: its exception is "unraisable"
+            signal.raise_signal(signal.SIGTERM)
+
+    def stop_in_a_del(*args, **kwargs):
+        DropsTheStop()  # deleted at once
+        gc.collect()
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            time.sleep(0.01)
+        raise AssertionError("SIGTERM did not stop the batch")
+
+    monkeypatch.setattr(topojax.batch.driver, "run_batch", stop_in_a_del)
+    hook = sys.unraisablehook
+    data = Path(topojax.__file__).parent / "data"
+    assert main(["batch", str(data / "office.png"), "-o", str(tmp_path), "--no-progress"]) == 143
+    err = capsys.readouterr().err
+    assert "stopped by SIGTERM" in err and "Exception ignored" not in err
+    assert sys.unraisablehook is hook
+
+
 _SIGTERM_IN_A_WRITE = """
 import os, signal, sys
 import topojax._fs as fs

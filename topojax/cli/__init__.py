@@ -14,7 +14,7 @@ import warnings
 
 from .. import __version__
 from . import batch, graph, replay, rooms, route, route_graph, view
-from ._signals import stop_on_sigterm
+from ._signals import sigterm_stops
 
 __all__ = ["build_parser", "main"]
 
@@ -166,9 +166,8 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "runs_kernels", True):  # route only reads a graph: no JAX
         _use_compilation_cache()
     stopped: list[signal.Signals] = []
-    previous = stop_on_sigterm(stopped)
     try:
-        with _warnings_as_lines(args.command):
+        with sigterm_stops(stopped), _warnings_as_lines(args.command):
             return int(args.handler(args) or 0)
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
         print(f"topojax {args.command}: error: {_message(exc)}", file=sys.stderr)
@@ -185,6 +184,3 @@ def main(argv: list[str] | None = None) -> int:
             return 128 + signal.SIGTERM
         print(f"topojax {args.command}: interrupted (Ctrl-C)", file=sys.stderr)
         return 130
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)

@@ -19,7 +19,7 @@ from ._options import (
     pipeline_config,
 )
 from ._outputs import OUT_OPTION, check_outputs
-from ._signals import stop_on_sigterm
+from ._signals import sigterm_stops
 
 #: What a batch map's manifest appends to its name (``docs/batch-internals.md``).
 _MANIFEST = ".manifest.json"
@@ -38,16 +38,13 @@ _MAP_OPTION_OF = {
 def _cmd_batch(args) -> int:
     stopped: list[signal.Signals] = []
     manifests: dict[Path, tuple[int, int] | None] = {}
-    previous = stop_on_sigterm(stopped)
     try:
-        return _batch(args, manifests)
-    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM through stop_on_sigterm
+        with sigterm_stops(stopped):
+            return _batch(args, manifests)
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM through sigterm_stops
         signum = stopped[0] if stopped else signal.SIGINT
         print(_stopped_text(signum, args.out, manifests), file=sys.stderr)
         return 128 + signum
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
 
 
 def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
