@@ -150,6 +150,23 @@ def test_shutdown_cancels_or_runs_what_waits_and_terminate_kills():
     assert pool.pids == [] and not any(_alive(pid) for pid in pids)
 
 
+def test_a_pool_stopped_while_it_hands_over_a_task_ends():
+    """terminate_workers while a large task is being sent: the task fails or is
+    cancelled, and shutdown returns (the task was put back in the queue of a stopped
+    pool, and shutdown waited for ever)."""
+    pool = WorkerPool(1, mp_context=worker_context())
+    assert pool.submit(int).result(timeout=60) == 0  # the worker is up
+    big = pool.submit(len, bytes(128 << 20))
+    while not big.running():  # handed over: the pool's thread pickles and sends it
+        time.sleep(0.001)
+    pool.terminate_workers()
+    closer = threading.Thread(target=pool.shutdown, daemon=True)
+    closer.start()
+    closer.join(60)
+    assert not closer.is_alive(), "shutdown waits on a task no worker will run"
+    assert big.done()
+
+
 def _alive(pid: int) -> bool:
     """Whether process ``pid`` runs (not gone, not a zombie)."""
     try:

@@ -691,9 +691,9 @@ def build_graphs(
         Runs the CPU stages (thinning, T removal, graph, output files).  Default: a pool
         of ``workers`` processes (``forkserver`` start method where available, else
         ``spawn``), each with its own pipe, which also reads the map files, shut down at
-        the end; a process that dies (killed for memory, say) loses only the map it ran.  A Dask ``Client`` is used through
-        ``client.get_executor(pure=False)``.  A given executor is not shut down, and map
-        files are then read in the calling process.
+        the end; a process that dies (killed for memory, say) loses only the map it ran.
+        A Dask ``Client`` is used through ``client.get_executor(pure=False)``.  A given
+        executor is not shut down, and map files are then read in the calling process.
     workers : int, optional
         Worker processes of the default executor, at most one per map to run; default
         the CPUs this process may run on (its affinity, which ``taskset``, a container or

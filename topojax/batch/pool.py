@@ -151,6 +151,7 @@ class WorkerPool(cf.Executor):
         self._stopped = False  # workers terminated: none is started, no task handed over
         self._deaths = 0  # in a row
         self._wake_lock = threading.Lock()
+        self._woken = False  # a wake-up message waits in the pipe
         self._wake_r, self._wake_w = multiprocessing.Pipe(duplex=False)
         try:  # here, so that a process that cannot start says so to the caller
             for _ in range(max_workers):
@@ -210,8 +211,10 @@ class WorkerPool(cf.Executor):
 
     # ------------------------------------------------------------------ the pool's thread
     def _wake(self) -> None:
+        """Wake the pool's thread (one message waits at most: the pipe never fills)."""
         with self._wake_lock:
-            if not self._wake_w.closed:
+            if not self._woken and not self._wake_w.closed:
+                self._woken = True
                 self._wake_w.send_bytes(b"")
 
     def _start_worker(self) -> None:
@@ -281,10 +284,13 @@ class WorkerPool(cf.Executor):
             self._send(w)
         busy = [w.conn for w in self._workers if w.task is not None]
         sentinels = [w.process.sentinel for w in self._workers]
-        ready = mpc.wait([self._wake_r, *busy, *sentinels])
+        with self._lock:  # a task left for an idle worker (its last could not be sent)
+            more = bool(self._queue) and len(busy) < len(self._workers) and not self._stopped
+        ready = mpc.wait([self._wake_r, *busy, *sentinels], timeout=0 if more else None)
         if self._wake_r in ready:
-            while self._wake_r.poll():
+            with self._wake_lock:
                 self._wake_r.recv_bytes()
+                self._woken = False
         for w in list(self._workers):
             if w.conn in ready:
                 self._receive(w)
@@ -296,27 +302,32 @@ class WorkerPool(cf.Executor):
         task = w.task
         assert task is not None and task.call is not None
         if w.process.exitcode is not None:  # it died idle: the task goes to another
-            w.task = None
-            with self._lock:
-                self._queue.appendleft(task)
-            self._died(w)
+            self._hand_back(w)
             return
         try:
             payload = ForkingPickler.dumps(task.call)
         except Exception as exc:  # the worker stays idle, for the next task
             w.task = None
             task.future.set_exception(exc)
-            self._wake()
             return
         try:
             w.conn.send_bytes(payload)
-        except OSError:  # it died before it read the task, which goes to another
-            w.task = None
-            with self._lock:
-                self._queue.appendleft(task)
-            self._died(w)
+        except OSError:  # it died before it read the task (or was stopped)
+            self._hand_back(w)
             return
         task.call = None
+
+    def _hand_back(self, w: _Worker) -> None:
+        """Worker ``w`` died before it could read its task: the task waits for another
+        worker, first in line, or, in a pool stopped or broken meanwhile, is dropped."""
+        task, w.task = w.task, None
+        with self._lock:
+            ended = self._stopped or self._broken is not None
+            if not ended:
+                self._queue.appendleft(task)
+        if ended:
+            _drop([task])
+        self._died(w)
 
     def _receive(self, w: _Worker) -> None:
         try:
