@@ -506,8 +506,8 @@ def test_sigterm_ends_a_batch_with_the_maps_it_finished(tmp_path, monkeypatch, c
 
 def test_a_sigterm_python_drops_stops_the_command_all_the_same(tmp_path, monkeypatch, capsys):
     """A SIGTERM whose KeyboardInterrupt is raised where Python drops exceptions (a
-    garbage-collector callback, a ``__del__``) is sent again, so the command still stops:
-    a batch whose stop landed in JAX's collector callback ran to its end, status 0."""
+    garbage-collector callback such as JAX's, a ``__del__``) is sent again, so the
+    command still stops, with status 143."""
     import gc
     import signal
     import sys
@@ -534,6 +534,32 @@ def test_a_sigterm_python_drops_stops_the_command_all_the_same(tmp_path, monkeyp
     err = capsys.readouterr().err
     assert "stopped by SIGTERM" in err and "Exception ignored" not in err
     assert sys.unraisablehook is hook
+
+
+def test_a_stop_dropped_as_a_command_ends_stands_and_is_not_sent_later():
+    """A dropped stop whose re-sending is still due when the block ends raises
+    KeyboardInterrupt there, and no SIGTERM is sent after the handler is restored (it
+    would kill the caller of ``main``)."""
+    import signal
+    import time
+
+    from topojax.cli._signals import sigterm_stops
+
+    class DropsTheStop:
+        def __del__(self):
+            signal.raise_signal(signal.SIGTERM)
+
+    caught: list = []
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: caught.append(signum))
+    try:
+        stopped: list = []
+        with pytest.raises(KeyboardInterrupt), sigterm_stops(stopped):
+            DropsTheStop()  # the block ends within the re-sending's delay
+        time.sleep(0.2)
+        assert stopped == [signal.SIGTERM] and caught == []
+        assert signal.getsignal(signal.SIGTERM) is not None
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 _SIGTERM_IN_A_WRITE = """

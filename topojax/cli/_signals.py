@@ -31,19 +31,20 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    resent: list[int] = []
+    timers: list[threading.Timer] = []  # stops sent again
+    closing: list[bool] = []  # the block has ended: a stop is only recorded
 
     def terminate(signum, frame):
         stopped[:] = [signal.SIGTERM]
-        raise KeyboardInterrupt
+        if not closing:
+            raise KeyboardInterrupt
 
     def dropped(unraisable) -> None:
         if stopped and isinstance(unraisable.exc_value, KeyboardInterrupt):
-            if len(resent) < _RESENDS:
-                resent.append(1)
-                timer = threading.Timer(0.01, os.kill, (os.getpid(), signal.SIGTERM))
-                timer.daemon = True
-                timer.start()
+            if len(timers) < _RESENDS:
+                timers.append(threading.Timer(0.01, os.kill, (os.getpid(), signal.SIGTERM)))
+                timers[-1].daemon = True
+                timers[-1].start()
                 return
         hook(unraisable)
 
@@ -52,5 +53,13 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
     try:
         yield
     finally:
+        closing.append(True)
+        pending = False
+        for timer in timers:  # none may stop the caller once the handler is restored
+            pending |= timer.is_alive()
+            timer.cancel()
+            timer.join()
         signal.signal(signal.SIGTERM, previous)
         sys.unraisablehook = hook
+    if pending:  # a stop sent again had not come yet: the block ended, the stop stands
+        raise KeyboardInterrupt
