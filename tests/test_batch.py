@@ -1589,6 +1589,23 @@ def test_empty_graphs_are_reported_with_a_reason(tmp_path, capsys):
     assert ",empty," in summary and "--mode" in summary
 
 
+def test_a_bad_yaml_field_is_named_as_the_file_names_it(tmp_path, capsys):
+    """An error row names a map YAML's field as the file spells it (``occupied_thresh``),
+    not as the option of the same setting: the file is at fault."""
+    import shutil
+
+    from topojax.cli import main
+
+    shutil.copy(PAPER_MAPS[0], tmp_path / "m.png")
+    (tmp_path / "m.yaml").write_text(
+        "image: m.png\nresolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 2\n"
+    )
+    args = ["batch", str(tmp_path / "m.yaml"), "-o", str(tmp_path / "out"), "--workers", "0"]
+    assert main([*args, "--no-progress"]) == 1
+    err = capsys.readouterr().err
+    assert "'occupied_thresh'" in err and "--occupied-thresh" not in err, err
+
+
 def test_resume_keeps_what_the_first_run_said_of_empty_and_warned_maps(tmp_path):
     """A map skipped by resume is ``skipped``, and its row still says that the map was
     empty and why, or its warning: the summary after a resumed (e.g. interrupted) run

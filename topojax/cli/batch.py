@@ -25,9 +25,11 @@ from ._signals import sigterm_stops
 _MANIFEST = ".manifest.json"
 #: The parameters that the message of a map may name (a radius too small for the map's
 #: resolution, ``robot_radius_m: expected at least 1.5 pixels ...``), and their options.
-_MAP_OPTION_OF = {
-    **_OPTION_OF,
-    "robot_radius_m": "--robot-radius",
+_MAP_OPTION_OF = {**_OPTION_OF, "robot_radius_m": "--robot-radius"}
+#: With them, the map settings a note of an empty or warned map names (an error row's
+#: message, e.g. a YAML field's, names them as the file does).
+_NOTE_OPTION_OF = {
+    **_MAP_OPTION_OF,
     "occupied_thresh": "--occupied-thresh",
     "free_thresh": "--free-thresh",
     "negate": "--negate",
@@ -144,9 +146,8 @@ def _as_printed(records: list, args) -> list:
     from ..batch.worker import RESOLUTION_HINT
 
     def message(r) -> str:
-        return _as_options(r.message, _MAP_OPTION_OF).replace(
-            RESOLUTION_HINT, "--resolution sets it"
-        )
+        names = _MAP_OPTION_OF if r.status == "error" else _NOTE_OPTION_OF
+        return _as_options(r.message, names).replace(RESOLUTION_HINT, "--resolution sets it")
 
     named = [replace(r, message=message(r)) for r in records]
     if any(a.message != b.message for a, b in zip(records, named, strict=True)):
