@@ -2584,23 +2584,29 @@ def test_a_tile_budget_of_any_size_is_taken():
 
 
 def test_limits_above_the_memory_available_warn_that_they_guard_nothing(monkeypatch):
-    """A tile or export limit above the memory available is taken, with a warning: the
-    mapper would be killed for memory before it refused.  Limits that fit say nothing."""
+    """A tile or export limit given above the memory available is taken, with a warning:
+    the mapper would be killed for memory before it refused.  Limits that fit, and the
+    defaults, say nothing."""
     import warnings
 
     from topojax.incremental import _settings
 
     monkeypatch.setattr(_settings, "available_memory_bytes", lambda: 1 << 30)
     with pytest.warns(UserWarning) as caught:
-        mapper = IncrementalMapper(**SMALL_KW)  # the defaults: 2 GiB each
+        mapper = IncrementalMapper(max_tile_bytes=3 << 30, max_export_bytes=3 << 30, **SMALL_KW)
     assert [str(w.message).split(":")[0] for w in caught] == ["max_tile_bytes", "max_export_bytes"]
-    assert "2.0 GiB is more than the 1.0 GiB of memory available" in str(caught[0].message)
-    assert mapper.max_tile_bytes == 1 << 31
+    assert str(caught[0].message) == (
+        "max_tile_bytes: 3.0 GiB is more than the 1.0 GiB of memory available; the mapper "
+        "may be killed for memory before it refuses a scan (a smaller max_tile_bytes "
+        "refuses first)"
+    )
+    assert mapper.max_tile_bytes == 3 << 30
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         IncrementalMapper(max_tile_bytes=1 << 29, max_export_bytes=1 << 29, **SMALL_KW)
+        IncrementalMapper(**SMALL_KW)  # the defaults (2 GiB each)
         monkeypatch.setattr(_settings, "available_memory_bytes", lambda: None)  # not Linux
-        IncrementalMapper(**SMALL_KW)
+        IncrementalMapper(max_tile_bytes=3 << 30, **SMALL_KW)
 
 
 def test_a_map_over_the_tile_budget_is_refused_before_its_pixels_are_indexed():

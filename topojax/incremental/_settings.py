@@ -188,18 +188,18 @@ def checked_guard_settings(
         positive_int("max_tile_bytes", max_tile_bytes),
     )
     available = available_memory_bytes()
-    for name, limit, what in (
-        (
-            "max_tile_bytes",
-            limits[2],
-            "the mapper may be killed for memory before it refuses to grow",
-        ),
-        ("max_export_bytes", limits[1], "an export may be killed for memory before it is refused"),
-    ):
-        if available is not None and limit > available:
+    guards = (
+        ("max_tile_bytes", limits[2], DEFAULT_MAX_TILE_BYTES, "the mapper", "refuses a scan"),
+        ("max_export_bytes", limits[1], DEFAULT_MAX_EXPORT_BYTES, "an export", "is refused"),
+    )
+    for name, limit, default, who, refusal in guards:
+        # a limit given, not the default: on a small computer every mapper would warn of
+        # a limit its user did not choose
+        if available is not None and limit > available and limit != default:
             warnings.warn(
                 f"{name}: {byte_size(limit)} is more than the {byte_size(available)} of "
-                f"memory available; {what} (a smaller {name} refuses first)",
+                f"memory available; {who} may be killed for memory before it {refusal} (a "
+                f"smaller {name} refuses first)",
                 UserWarning,
                 stacklevel=3,
             )
