@@ -35,7 +35,7 @@ class _CheckedGzip(io.RawIOBase):
     drops what it had decompressed of its last block (the last scans of the log)."""
 
     _CHUNK = 1 << 16  # compressed bytes read at a time
-    _MAX_OUT = 1 << 22  # decompressed bytes made at a time
+    _MAX_OUT = 1 << 20  # decompressed bytes made at a time
 
     def __init__(self, path: Path, warn_cut: bool = True) -> None:
         self._path = path
@@ -44,18 +44,20 @@ class _CheckedGzip(io.RawIOBase):
         self._file = open(path, "rb")
         self._inflate = zlib.decompressobj(31)  # a gzip member, header and trailer checked
         self._fed = False  # the member has had bytes
-        self._out = b""  # decompressed, not yet read
+        self._out = b""  # decompressed, read up to _pos
+        self._pos = 0
         self._ended = False
 
     def readable(self) -> bool:
         return True
 
     def readinto(self, buffer) -> int:
-        while not self._out and not self._ended:
+        while self._pos == len(self._out) and not self._ended:
+            self._out, self._pos = b"", 0
             self._more()
-        n = min(len(buffer), len(self._out))
-        buffer[:n] = self._out[:n]
-        self._out = self._out[n:]
+        n = min(len(buffer), len(self._out) - self._pos)
+        buffer[:n] = memoryview(self._out)[self._pos : self._pos + n]
+        self._pos += n
         return n
 
     def _more(self) -> None:
@@ -74,10 +76,12 @@ class _CheckedGzip(io.RawIOBase):
             data = data.lstrip(b"\x00")  # zero padding after a member, as gzip allows
             if not data and not at_end:
                 return
-        if not data:
-            self._ended = True
-            if self._fed:
-                self._cut()
+        if not data:  # the end of the file
+            self._out = self._inflate.flush() if self._fed else b""  # what zlib still holds
+            if not self._out:
+                self._ended = True
+                if self._fed:
+                    self._cut()
             return
         self._fed = True
         try:
