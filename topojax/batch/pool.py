@@ -81,7 +81,6 @@ def _serve(conn: mpc.Connection) -> None:
 class _Task:
     future: cf.Future
     call: tuple[Any, tuple, dict] | None  # fn, args, kwargs: pickled as it is handed over
-    running: bool = False  # its future is set running (it may be handed over again)
 
 
 def _fail(tasks: list[_Task], message: str) -> None:
@@ -276,8 +275,8 @@ class WorkerPool(cf.Executor):
             for w in self._workers:
                 while w.task is None and self._queue and not self._stopped:
                     task = self._queue.popleft()
-                    if task.running or task.future.set_running_or_notify_cancel():
-                        task.running = True
+                    # one handed back is running already (its worker died before it)
+                    if task.future.running() or task.future.set_running_or_notify_cancel():
                         w.task = task
                         handed.append(w)
         for w in handed:

@@ -32,7 +32,7 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
         yield
         return
     timers: list[threading.Timer] = []  # stops sent again
-    closing: list[bool] = []  # the block has ended: a stop is only recorded
+    closing = False  # the block has ended: a stop is only recorded
 
     def terminate(signum, frame):
         stopped[:] = [signal.SIGTERM]
@@ -53,7 +53,7 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
     try:
         yield
     finally:
-        closing.append(True)
+        closing = True
         pending = False
         for timer in timers:  # none may stop the caller once the handler is restored
             pending |= timer.is_alive()
