@@ -185,6 +185,32 @@ def test_clutter_inside_a_room_belongs_to_it():
     assert seg.rooms[0].area_m2 == pytest.approx(116 * 116 * RES**2)
 
 
+@pytest.mark.parametrize("min_room_m2", [1.0, 2.0, 4.0])
+def test_unexplored_space_a_room_surrounds_is_no_room_from_min_room_m2_on(min_room_m2):
+    # a corridor ring (1 m wide) mapped round a block whose inside was never seen: a
+    # wall of known pixels, then unknown space; and an unseen table inside a 0.25 m² patch
+    free = np.zeros((160, 160), bool)
+    free[2:158, 2:158] = True
+    free[22:138, 22:138] = False
+    unknown = np.zeros_like(free)
+    unknown[24:136, 24:136] = True
+    unknown[5:10, 60:70] = True  # 0.125 m², inside the corridor
+    free[5:10, 60:70] = False
+    n_unknown_px = 112 * 112  # 31.4 m²
+    seg = tj.segment_rooms(_map(free, unknown), config=tj.RoomConfig(min_room_m2=min_room_m2))
+    assert seg.n_rooms == 1
+    assert (seg.labels[5:10, 60:70] == 1).all()  # the small patch is the corridor's
+    assert n_unknown_px * RES**2 >= min_room_m2
+    assert not seg.labels[unknown & (np.arange(160)[:, None] > 20)].any()  # the block: none
+    assert (seg.labels[22:138, 22:24] == 0).all()  # nor the block's known wall
+    assert len(seg.rooms[0].holes) == 1
+    # the same block with a smaller inside than min_room_m2 is the corridor's again
+    small = np.zeros_like(free)
+    small[60 : 60 + 10, 60 : 60 + 10] = True  # 0.25 m²
+    seg = tj.segment_rooms(_map(free, small), config=tj.RoomConfig(min_room_m2=min_room_m2))
+    assert (seg.labels[22:138, 22:138] == 1).all()
+
+
 def test_a_gap_narrower_than_the_door_search_cells_still_joins_the_room():
     # a cupboard one pixel (0.05 m) off the wall: closed on the 0.1 m cells the doorways
     # are searched on, open on the map's pixels, where the regions are made

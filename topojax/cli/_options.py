@@ -270,7 +270,14 @@ _ROOM_OPTIONS = (
         "R",
         "keep a door only if at most R times the width of each room it joins",
     ),
-    ("--min-room-m2", "min_room_m2", 2.0, "A", "smaller regions merge into a neighbour"),
+    (
+        "--min-room-m2",
+        "min_room_m2",
+        2.0,
+        "A",
+        "smaller regions merge into a neighbour; unknown space of A m2 or more that a room "
+        "surrounds stays no room",
+    ),
     (
         "--min-isolated-room-m2",
         "min_isolated_room_m2",

@@ -45,7 +45,8 @@ class RoomConfig:
         A door is kept only when its width is at most this times the width (twice the
         largest clearance) of each room it joins; otherwise the two rooms merge.
     min_room_m2 : float, default 2.0
-        Smaller regions merge into the neighbour they share the most doorway with.
+        Smaller regions merge into the neighbour they share the most doorway with; an
+        area of unknown space this large that a room surrounds stays no room.
     min_isolated_room_m2 : float, default 0.5
         A region without doorways (a free area of its own) is a room from this size on.
     max_border_share : float, default 0.25
@@ -220,7 +221,9 @@ def _segment(occ, cfg: RoomConfig, map_box) -> RoomSegmentation:
     local = np.zeros(free.shape, np.int32)
     empty = np.empty(free.shape, np.uint8)
     room_pixels(regions, room_of, free, 2, local, empty)
-    _fill_enclosed(local, empty)
+    unknown = np.zeros(free.shape, bool)
+    unknown[inner] = np.asarray(occ.unknown, bool)[box]
+    _fill_enclosed(local, empty, unknown, max_unknown_px=cfg.min_room_m2 / res**2)
     doors = _in_raster_order(local, int(room_of.max(initial=0)), doors)
     labels = np.zeros(full.shape, np.int32)
     labels[box] = local[inner]
@@ -296,10 +299,16 @@ def _in_raster_order(labels: np.ndarray, n: int, doors: list) -> list:
     return out
 
 
-def _fill_enclosed(labels: np.ndarray, empty: np.ndarray) -> None:
+def _fill_enclosed(
+    labels: np.ndarray, empty: np.ndarray, unknown: np.ndarray, *, max_unknown_px: float
+) -> None:
     """In place: every part of the pixels without a room (``empty``, uint8) that touches
     one room only and not the map's edge (furniture, clutter, pillars, small unknown
-    patches inside a room) takes that room's id in ``labels``."""
+    patches inside a room) takes that room's id in ``labels``, unless it holds
+    ``max_unknown_px`` or more pixels of ``unknown`` (bool): unexplored space the room
+    surrounds, such as a building's inner block mapped from the corridors round it."""
     n, parts = cv2.connectedComponents(empty, connectivity=4, ltype=cv2.CV_32S)
     if n > 1:
-        fill_parts(labels, parts, enclosed_owner(parts, labels, n))
+        owner = enclosed_owner(parts, labels, n)
+        owner[np.bincount(parts[unknown], minlength=n) >= max_unknown_px] = 0
+        fill_parts(labels, parts, owner)
