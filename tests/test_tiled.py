@@ -389,6 +389,12 @@ def test_memory_budget_sets_the_block_side():
         r"256 px tile with a halo of 1024 px.*received 64",
     ):
         block_px_for_budget(64, wide)
+    # a budget near the largest float sizes blocks as large as it allows, rather than
+    # failing on its overflowed byte count (inf pixels: "cannot convert float NaN")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # more than the memory available
+        huge = block_px_for_budget(1e308, PipelineConfig())
+    assert huge % 256 == 0 and huge > large
 
 
 def test_a_memory_budget_above_the_memory_available_is_warned_of_once(monkeypatch):

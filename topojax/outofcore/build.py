@@ -129,7 +129,9 @@ def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
             UserWarning,
             stacklevel=2,
         )
-    side = math.sqrt(budget * 2**20 / BYTES_PER_WINDOW_PX) - 2 * halo
+    # 2**20 bytes a megabyte: 2**10 pixels a side; the budget is not multiplied by 2**20,
+    # which overflows to inf for a budget near the largest float
+    side = math.sqrt(budget / BYTES_PER_WINDOW_PX) * 2**10 - 2 * halo
     return max(t, int(side // t) * t)
 
 
