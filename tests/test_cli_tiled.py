@@ -56,6 +56,23 @@ def test_a_stopped_tiled_build_is_resumed(office_yaml, tmp_path, monkeypatch, ca
     assert _graph(tmp_path) == _graph(tmp_path / "whole")
 
 
+def test_a_resume_of_another_build_names_the_options(office_yaml, tmp_path, monkeypatch, capsys):
+    """The kept blocks of a build with another budget (another block side) or another
+    Gaussian are refused in the command's words, not the library's parameters."""
+    argv = ["graph", str(office_yaml), "-o", str(tmp_path), "--tiled", "--memory-budget-mb", "14"]
+    stop_after(monkeypatch, 2)
+    assert main(argv) == 130
+    monkeypatch.undo()
+    capsys.readouterr()
+    assert main([*argv[:-1], "64", "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert "--resume: the blocks in " in err
+    assert "(block side from --memory-budget-mb: 256, here 1024); run without --resume" in err
+    assert "resume=" not in err and "block_px" not in err
+    assert main([*argv, "--sigma-px", "6", "--resume"]) == 2
+    assert "another build (--sigma-px or --sigma-m: {" in capsys.readouterr().err
+
+
 def test_a_budget_above_the_memory_available_is_warned_of_once_naming_the_option(
     office_yaml, tmp_path, monkeypatch, capsys
 ):

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 from pathlib import Path
 
 from ._graph_out import GRAPH_SUFFIXES, summary_lines, write_graph_files, write_nav2
 from ._options import (
     MAP_OPTIONS_TO_CHECK,
+    _as_option_error,
+    _as_options,
     _option_named,
     assumed_resolution_note,
     map_options,
@@ -74,6 +77,43 @@ def check_tiled_options(args) -> None:
             )
 
 
+#: The parameters of :func:`topojax.build_graph_tiled` that its errors about the kept
+#: blocks name, and the options that set them.
+_OPTION_OF = {"out_dir": "--out", "resume": "--resume"}
+#: With them, what a refused resume names of the build description (the map's shape and
+#: origin are the map's own), and its advice, in this command's words.
+_RESUME_OPTION_OF = {
+    **_OPTION_OF,
+    "block_px": "block side from --memory-budget-mb",
+    "resolution_m": "--resolution",
+    "distance": "--sigma-px or --sigma-m",
+    "skeleton": "--thinning or --keep-t",
+    "tile_px": "--tile-px",
+    "free_space_only": "--free-only",
+}
+_ADVICE = {
+    "build with resume=False to start over": "run without --resume to start over",
+    "build again with resume=True": "run again with --resume",
+}
+
+
+@contextlib.contextmanager
+def _named_as_options():
+    """Within ``with``, an error of :func:`topojax.build_graph_tiled` that names its
+    parameters (``out_dir``, ``resume``; in a refused resume also what differs) names the
+    options instead."""
+    try:
+        yield
+    except (TypeError, ValueError, OSError) as exc:
+        names = _RESUME_OPTION_OF if str(exc).startswith("resume:") else _OPTION_OF
+        if type(exc) is not ValueError:
+            raise _as_option_error(exc, names) from None
+        text = str(exc)
+        for phrase, instead in _ADVICE.items():
+            text = text.replace(phrase, instead)
+        raise ValueError(_as_options(text, names)) from None
+
+
 def tiled_files(stem: str, nav2: bool) -> list[str]:
     """The files ``topojax graph --tiled`` writes beside its ``STEM_store/`` folder."""
     return [f"{stem}{s}" for s in GRAPH_SUFFIXES] + [f"{stem}_nav2.geojson"] * nav2
@@ -107,9 +147,10 @@ def cmd_graph_tiled(args) -> int:
         text = str(w.message).replace("memory_budget_mb:", "--memory-budget-mb:", 1)
         warnings.warn(text, w.category, stacklevel=2)
     store = output_folder(out, name="--out") / f"{stem}_store"
-    result = build_graph_tiled(
-        source, config=config, block_px=block_px, out_dir=store, resume=args.resume
-    )
+    with _named_as_options():
+        result = build_graph_tiled(
+            source, config=config, block_px=block_px, out_dir=store, resume=args.resume
+        )
     written = write_graph_files(result.graph, out, stem)
     notes = []
     if result.graph.number_of_nodes() == 0:
