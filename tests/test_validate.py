@@ -531,6 +531,11 @@ def test_path_like(tmp_path):
             TypeError, match=r"^out_dir: expected a path \(str or os.PathLike\), received"
         ):
             v.path_like("out_dir", bad)
+    # an empty path is the current folder to pathlib: a store, graph or picture would
+    # land there unasked
+    for empty in ("", type("P", (), {"__fspath__": lambda self: ""})()):
+        with pytest.raises(ValueError, match=r"^out_dir: expected a path, received an empty"):
+            v.path_like("out_dir", empty)
 
 
 def test_text_or_none(tmp_path):

@@ -483,11 +483,14 @@ def finite_numbers(name: str, value: Any, n: int, what: str) -> tuple[float, ...
 
 def path_like(name: str, value: Any) -> Path:
     """``value`` as a :class:`~pathlib.Path` after checking it is a ``str`` or
-    ``os.PathLike``; a ``TypeError`` naming ``name`` otherwise."""
+    ``os.PathLike``, and not empty (``Path("")`` is the current folder); a ``TypeError``
+    or ``ValueError`` naming ``name`` otherwise."""
     if not isinstance(value, str | os.PathLike):
         raise TypeError(
             f"{name}: expected a path (str or os.PathLike), received {type(value).__name__}"
         )
+    if os.fspath(value) in ("", b""):
+        raise ValueError(f"{name}: expected a path, received an empty one ({value!r})")
     return Path(value)
 
 
