@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 from pathlib import Path
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 import topojax as tj
-from topojax._fs import atomic_write_bytes
+from topojax._fs import atomic_write, atomic_write_bytes
 from topojax.io import load_graph, save_graph
 
 FORMATS = (".graphml", ".json", ".geojson")
@@ -439,6 +440,28 @@ def test_atomic_write_keeps_old_file_on_failure(tmp_path: Path, monkeypatch):
     assert [p.name for p in tmp_path.iterdir()] == ["g.json"]
     with pytest.raises(FileNotFoundError, match="no_dir"):
         atomic_write_bytes(tmp_path / "no_dir" / "x.bin", b"x")
+
+
+def test_a_full_disk_names_the_file_it_could_not_write(tmp_path: Path):
+    target = tmp_path / "g.json"
+    target.write_bytes(b"old")
+
+    def full(fh):
+        fh.write(b"part")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    with pytest.raises(OSError) as info:
+        atomic_write(target, full)
+    assert info.value.errno == errno.ENOSPC and type(info.value) is OSError
+    assert (
+        str(info.value) == f"[Errno {errno.ENOSPC}] cannot write {target} (No space left on device)"
+    )
+    assert target.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["g.json"]
+    # an error that names its file already, or is no OSError, stays as it is
+    with pytest.raises(PermissionError) as info:
+        atomic_write(target, lambda fh: (_ for _ in ()).throw(PermissionError(13, "no", "x")))
+    assert info.value.filename == "x"
 
 
 def test_atomic_write_under_a_file_says_the_file_is_no_folder(tmp_path: Path):

@@ -152,12 +152,25 @@ def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, dest)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if _unnamed_os_error(exc):  # a full disk says only "No space left on device"
+            raise type(exc)(exc.errno, f"cannot write {dest} ({exc.strerror})") from exc
         raise
+
+
+def _unnamed_os_error(exc: BaseException) -> bool:
+    """Whether ``exc`` is a built-in OSError with an error number and no file name."""
+    return (
+        isinstance(exc, OSError)
+        and type(exc).__module__ == "builtins"
+        and exc.filename is None
+        and exc.errno is not None
+        and isinstance(exc.strerror, str)
+    )
 
 
 def input_files(path: Path) -> list[Path]:
