@@ -469,6 +469,9 @@ def test_room_at_world_points():
     for room in seg.rooms:
         assert seg.room_at(room.centroid) == room.id
     assert seg.room_at((-100.0, -100.0)) == 0
+    # finite points so far off that their pixel overflows are off the map too
+    assert seg.room_at((1e308, -1e308)) == 0
+    assert seg.room_at((1e300, 0.0)) == 0
     with pytest.raises(TypeError, match=r"^point: expected two finite numbers \(x, y\)"):
         seg.room_at("here")
     with pytest.raises(ValueError, match=r"^point: expected two finite numbers .* received"):

@@ -160,11 +160,13 @@ class RoomSegmentation:
     def room_at(self, point) -> int:
         """Room id at a world point (x, y) in metres (0 outside every room and the map)."""
         x, y = finite_pair("point", point, "(x, y) in metres")  # bools are no numbers
-        r, c = self.occupancy.world_to_pixel(x, y)
-        r, c = int(np.floor(r + 0.5)), int(np.floor(c + 0.5))
+        with np.errstate(over="ignore", invalid="ignore"):  # a point far off: inf pixels
+            r, c = self.occupancy.world_to_pixel(x, y)
         h, w = self.labels.shape
+        # compared as floats: a point so far off that its pixel overflows is off the map
+        r, c = float(np.floor(r + 0.5)), float(np.floor(c + 0.5))
         if 0 <= r < h and 0 <= c < w:
-            return int(self.labels[r, c])
+            return int(self.labels[int(r), int(c)])
         return 0
 
 
