@@ -250,6 +250,23 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
             lambda d: d["features"][3]["properties"].update(pixels=[[10**30, 2]]),
             r"features\[3\] pixels: expected integer pixels of int64, received \[\[1000000000000000000000000000000, 2\]\]",
         ),
+        # JSON integers beyond any float: refused, not an OverflowError
+        (
+            lambda d: d["features"][1]["properties"].update(area_m2=10**400),
+            r"features\[1\]: property 'area_m2': expected a finite number, received 1000",
+        ),
+        (
+            lambda d: d["features"][1]["properties"].update(centroid=[10**400, 0.0]),
+            r"features\[1\]: property 'centroid': expected a finite number",
+        ),
+        (
+            lambda d: d["features"][1]["geometry"]["coordinates"][0].insert(1, [10**400, 0]),
+            r"features\[1\] exterior ring: expected finite numbers",
+        ),
+        (
+            lambda d: d["features"][3]["properties"].update(pixels=[[10**400, 2]]),
+            r"features\[3\] pixels: expected finite numbers",
+        ),
         (
             lambda d: d["features"][3]["properties"].update(pixels=[["a", 2]]),
             r"features\[3\] pixels: expected a list of K \[a, b\] pairs",

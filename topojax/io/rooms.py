@@ -196,6 +196,8 @@ def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.nda
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         arr = np.empty(0)
+    except OverflowError:  # a JSON integer beyond any float
+        raise ValueError(f"{what}: expected finite numbers") from None
     if isinstance(value, list) and not value and count is None:  # no pixels
         arr = arr.reshape(0, 2)
     if arr.ndim != 2 or arr.shape[1] != 2 or (count is not None and arr.shape[0] != count):
@@ -215,11 +217,19 @@ def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.nda
 
 def _number(props: dict, name: str, where: str) -> float:
     value = props.get(name)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
         raise ValueError(
-            f"{where}: property {name!r}: expected a finite number, received {value!r}"
+            f"{where}: property {name!r}: expected a finite number, received {value!r:.80}"
         )
     return float(value)
+
+
+def _finite(value: int | float) -> bool:
+    """Whether ``value`` is a finite float (a JSON integer beyond any float is not)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 def _integers(props: dict, name: str, where: str, count: int) -> tuple[int, ...]:
