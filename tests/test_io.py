@@ -776,3 +776,36 @@ def test_saved_files_leave_build_timings_out(tmp_path: Path, suffix: str):
     a, b = (save_graph(g, tmp_path / f"{k}{suffix}") for k, g in enumerate(graphs))
     assert a.read_bytes() == b.read_bytes()
     assert "timings_s" not in load_graph(a).graph
+
+
+# what GraphML text loses ("\r" read back as "\n") or cannot hold (control characters)
+LOST_IN_XML = "a\rb\r\nc\x0bd\x0ce\x1cf\x01g\x00h\x1fi\ud800j\ufffe"
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_strings_with_control_characters_read_back_as_they_were(tmp_path: Path, suffix: str):
+    g = nx.MultiGraph(note=LOST_IN_XML)
+    g.add_node(0, world=(0.0, 0.0), kind=LOST_IN_XML)
+    g.add_node(1, world=(1.0, 0.0), kind="end")
+    g.add_edge(0, 1, world=np.array([[0.0, 0.0], [1.0, 0.0]]), label=LOST_IN_XML)
+    back = load_graph(save_graph(g, tmp_path / f"g{suffix}"))
+    assert back.graph["note"] == LOST_IN_XML
+    assert [k for _, k in back.nodes(data="kind")] == [LOST_IN_XML, "end"]
+    assert back.edges[0, 1, 0]["label"] == LOST_IN_XML
+
+
+@pytest.mark.parametrize(
+    ("what", "change"),
+    [
+        ("node id", lambda g: nx.relabel_nodes(g, {0: "a\x01", 1: "b"})),
+        ("edge key", lambda g: nx.MultiGraph([(0, 1, "k\x0b")])),
+        ("attribute name", lambda g: g.add_node(0, **{"x\x02": 1}) or g),
+    ],
+)
+def test_graphml_refuses_names_xml_cannot_hold(tmp_path: Path, what: str, change):
+    g = change(nx.MultiGraph([(0, 1)]))
+    with pytest.raises(ValueError, match=rf"^{what} .*: expected text that GraphML can hold"):
+        save_graph(g, tmp_path / "g.graphml")
+    assert list(tmp_path.iterdir()) == []
+    back = load_graph(save_graph(g, tmp_path / "g.json"))  # JSON holds them
+    assert list(back.nodes) == list(g.nodes)

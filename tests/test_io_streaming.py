@@ -25,7 +25,7 @@ from topojax.io._schema import (
 )
 from topojax.io._stream import _NotJsonCompliant, _write_json
 from topojax.io.geojson import _to_geojson
-from topojax.io.graphml import _graphml_value
+from topojax.io.graphml import _graphml_value, _xml_schema
 from topojax.io.nodelink import _to_node_link
 
 ODD_TEXT = "a<b>&\"'é ü\u2028\x85 \U0001f600 \r\n\t\x0b\x0c\x1c end\r"
@@ -102,7 +102,7 @@ def _networkx_graphml(graph: nx.Graph) -> bytes:
     writes as GraphML, its lines joined with "\\n"."""
     g = as_multigraph(graph)
     graph_attrs = _graph_attrs_to_save(g)
-    schema = _build_schema(g, graph_attrs)
+    schema = _xml_schema(g, graph_attrs, _build_schema(g, graph_attrs))
     h = nx.MultiGraph()
     for name, val in graph_attrs.items():
         h.graph[name] = _graphml_value(val, schema["graph"][name], name)

@@ -59,7 +59,11 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
     format : {"graphml", "json", "geojson"}, optional
         Default: from the suffix (``.graphml``, ``.json``, ``.geojson``).
 
-        * ``graphml``: arrays, tuples and lists are stored as JSON strings.
+        * ``graphml``: arrays, tuples and lists are stored as JSON strings, and so
+          are the str values of an attribute where one holds a control character
+          (XML cannot hold most, and reads a carriage return back as a line feed);
+          node ids, edge keys and attribute names with such a character other
+          than tab, line feed or carriage return are refused.
         * ``json``: networkx node-link data (``"nodes"`` / ``"edges"``, edge ``"key"``),
           arrays as nested lists.
         * ``geojson``: a FeatureCollection with one Point per node (properties ``id``,

@@ -55,6 +55,10 @@ _KIND_XML_TYPES = {"bool": "boolean", "int": "long", "float": "double"}
 #: The line breaks of :meth:`str.splitlines` left in ASCII text once escaped: networkx
 #: writes a document's lines joined with "\n".
 _LINE_BREAKS = re.compile("\r\n|[\r\n\x0b\x0c\x1c\x1d\x1e]")
+#: Characters that XML 1.0 cannot hold, not even as character references.
+_NOT_XML_CHAR = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+#: Those and "\r", which an XML reader gives back as "\n" in character data.
+_NOT_XML_TEXT = re.compile("[\r\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 #: A node attribute name that networkx's GraphML reader cannot read back: it hands a
 #: node's values to ``add_node`` as keywords, and ``add_node`` takes this one itself.
 _UNREADABLE_NODE_NAME = "node_for_adding"
@@ -84,12 +88,13 @@ def _write_graphml(
     """Write ``g`` to ``fh`` as GraphML, an element at a time: the bytes of networkx's
     ``generate_graphml`` (pretty-printed, its lines joined with newlines) for the graph
     whose values are :func:`_graphml_value`'s, non-ASCII characters as references."""
+    _check_names(g, schema)
+    schema = _xml_schema(g, graph_attrs, schema)
     graph_data = {
         name: _graphml_value(val, schema["graph"][name], f"graph attribute {name!r}")
         for name, val in graph_attrs.items()
     }
     graph_data[_SCHEMA_KEY] = json.dumps(schema)
-    _check_names(g, schema)
     keys: dict[tuple[str, str], str] = {}  # networkx numbers them in the order first used
     types = {}
     for scope, names in (("graph", graph_data), ("node", schema["node"]), ("edge", schema["edge"])):
@@ -148,9 +153,44 @@ def _data_elements(data: dict, keys: dict, scope: str, indent: str, end: str) ->
     return "".join(parts)
 
 
+def _xml_schema(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
+    """``schema`` with the kind ``"json"`` for each str attribute one of whose values
+    holds a character that GraphML text loses or cannot hold (:data:`_NOT_XML_TEXT`):
+    its values are written as JSON strings, which escape it, and read back as they were."""
+    out = dict(schema)
+    for scope, items in (
+        ("graph", [graph_attrs]),
+        ("node", (d for _, d in g.nodes(data=True))),
+        ("edge", (d for *_, d in g.edges(data=True))),
+    ):
+        names = {name for name, spec in schema[scope].items() if spec["kind"] == "str"}
+        found = set()
+        for d in items if names else ():
+            for name in names - found:
+                value = d.get(name)
+                if isinstance(value, str) and _NOT_XML_TEXT.search(value):
+                    found.add(name)
+        if found:
+            out[scope] = {**schema[scope], **{name: {"kind": "json"} for name in found}}
+    return out
+
+
 def _check_names(g: nx.MultiGraph, schema: dict) -> None:
-    """A ValueError when a node has an attribute networkx's GraphML reader cannot read
-    back (:data:`_UNREADABLE_NODE_NAME`)."""
+    """A ValueError when a node id, edge key or attribute name holds a character that
+    XML cannot (:data:`_NOT_XML_CHAR`), or a node has an attribute networkx's GraphML
+    reader cannot read back (:data:`_UNREADABLE_NODE_NAME`)."""
+    texts = [("attribute name", n) for scope in ("graph", "node", "edge") for n in schema[scope]]
+    if schema["node_id"] == "str":
+        texts += [("node id", n) for n in g.nodes]
+    if schema["edge_key"] == "str":
+        texts += [("edge key", k) for *_, k in g.edges(keys=True)]
+    for what, text in texts:
+        if _NOT_XML_CHAR.search(str(text)):
+            raise ValueError(
+                f"{what} {text!r}: expected text that GraphML can hold (no control "
+                "characters but tab, line feed and carriage return, no lone surrogates), "
+                f"received one with {_NOT_XML_CHAR.search(str(text)).group()!r}; save as .json"
+            )
     name = _UNREADABLE_NODE_NAME
     if name in schema["node"]:
         owner = next(n for n, d in g.nodes(data=True) if name in d)
