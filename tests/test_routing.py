@@ -527,7 +527,11 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     # too far from the graph: a clear error and exit status 2
     assert main([*argv, "--max-snap-m", "0.01"]) == 2
     err = capsys.readouterr().err
-    assert "start: the nearest point of the graph is" in err and "--max-snap-m M" in err
+    assert "error: --start: the nearest point of the graph is" in err and "--max-snap-m M" in err
+    # a point the planner refuses is named by its option
+    assert main([*argv[:6], "nan", "5"]) == 2
+    err = capsys.readouterr().err
+    assert "error: --goal: expected two finite numbers (x, y) in metres, received (nan, 5.0)" in err
     assert main([*argv, "--max-snap-m", "-1"]) == 2
     assert "--max-snap-m: expected a finite number of metres >= 0" in capsys.readouterr().err
     assert main([*argv, "--max-snap-m", "none"]) == 0  # no limit (the start is 0.55 m off)

@@ -179,10 +179,13 @@ def _cmd_route(args) -> int:
     except NoRouteError as exc:
         print(f"topojax route: {exc}", file=sys.stderr)
         return 1
-    except ValueError as exc:
-        if "max_snap_m=" not in str(exc):
+    except ValueError as exc:  # the planner names start and goal; the user gave --start
+        text = str(exc)
+        if not text.startswith(("start: ", "goal: ")):
             raise
-        raise ValueError(f"{exc}; on the command line: --max-snap-m M, or none") from None
+        if "max_snap_m=" in text:
+            text += "; on the command line: --max-snap-m M, or none"
+        raise ValueError(f"--{text}") from None
     print(
         f"route      {route.length_m:.2f} m along the graph, "
         f"{counted(len(route.pixels), 'pixel')}, "
