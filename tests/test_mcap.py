@@ -500,6 +500,16 @@ def test_save_mcap_names_a_wrong_rooms_argument(tmp_path):
     assert not (tmp_path / "a.mcap").exists()
 
 
+def test_save_mcap_names_a_tiled_result_as_its_result_argument(tmp_path):
+    """A :func:`topojax.build_graph_tiled` result, whose map stays on disk, is refused
+    as ``result``, the argument given, not as the recorder's ``occupancy``."""
+    occ = tj.OccupancyMap.from_array(np.pad(np.ones((30, 40), bool), 2))
+    tiled = tj.build_graph_tiled(occ)
+    with pytest.raises(TypeError, match="^result: expected a TopologyResult .* TiledResult"):
+        tj.save_mcap(tiled, tmp_path / "a.mcap")
+    assert not (tmp_path / "a.mcap").exists()
+
+
 def test_room_markers_write_each_id_inside_its_room():
     from room_maps import ring_round_a_room
 

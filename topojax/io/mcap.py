@@ -635,12 +635,20 @@ def save_mcap(result, path, *, rooms=None, route_graph=None) -> Path:
     Path
         ``path``.  See :mod:`topojax.io.mcap` for topics, types and frames.
     """
+    from ..maps import OccupancyMap
+
     for name in ("map", "graph"):
         if not hasattr(result, name):
             raise TypeError(
                 f"result: expected a TopologyResult (from build_graph), received "
                 f"{type(result).__name__} (no {name})"
             )
+    if not isinstance(result.map, OccupancyMap):  # a TiledResult's map stays on disk
+        raise TypeError(
+            f"result: expected a TopologyResult (from build_graph), whose map is an "
+            f"OccupancyMap in memory, received {type(result).__name__} with a "
+            f"{type(result.map).__name__}"
+        )
     if rooms is not None:
         from ..rooms import RoomSegmentation
 
