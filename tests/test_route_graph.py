@@ -1620,3 +1620,22 @@ def test_a_robot_as_wide_as_the_clearance_fits_at_any_resolution(res, radius_m, 
     c = side // 2
     assert (side // 2 + 1) * res == pytest.approx(radius_m)
     assert space.feasible[c, c] and space.feasible.sum() == 1
+
+
+@pytest.mark.parametrize("name", ["lab_c_scan", "lab_f_scan_furnitures"])
+def test_merged_vertices_leave_every_pixel_covered_to_the_reach(shared_data, name):
+    """Merging close vertices drops the short edge between them, and contracting a merged
+    vertex drops its member pixels: on these maps a corner pixel or a few were then seen
+    only at 0.92 m, past ``snap_m - waypoint_tolerance_m`` (0.9 m), until covered again."""
+    from topojax.routegraph._cover import covered
+
+    occ = tj.load_map(shared_data / "maps" / "ipa" / f"{name}.png", mode="ipa")
+    g = route_graph(occ, robot_radius_m=R)
+    space = feasible_space(occ, R)
+    kept = np.isin(space.labels, space.regions_at_least(1.0))
+    raster = np.zeros(occ.shape, bool)
+    pix = _graph_pixels(g)
+    raster[pix[:, 0], pix[:, 1]] = True
+    reach_px = (g.graph["snap_m"] - 0.1) / occ.resolution_m
+    seen = covered(raster, space.feasible, reach_px)
+    assert not np.argwhere(kept & ~seen).tolist()

@@ -141,6 +141,7 @@ def add_coverage(
     rounds: int = 6,
     min_loop_px: float = 0.0,
     wall: np.ndarray | None = None,
+    among: np.ndarray | None = None,
 ) -> np.ndarray:
     """Add lanes along the walls (:func:`add_lanes`), then a triangulated mesh through the
     large open pieces left (:func:`add_mesh`) and lanes along the skeleton of the smaller
@@ -148,13 +149,14 @@ def add_coverage(
     reaches), until every feasible pixel is covered (:func:`covered`) or ``rounds``
     waypoint rounds are spent.  Returns the feasible pixels still uncovered (bool
     (H, W)).  The mesh closes no loop shorter than ``min_loop_px``.  ``wall``:
-    :func:`wall_distance` of ``feasible``, computed when not given."""
+    :func:`wall_distance` of ``feasible``, computed when not given.  ``among``: only
+    these pixels (bool (H, W)) need covering, the others count as covered."""
     shape = feasible.shape
     spacing = COVER_SPACING * snap_px
     lane_round, grid_round = 0, 0  # lane rounds: along the walls, then mesh and skeleton
     if wall is None:
         wall = wall_distance(feasible)
-    uncovered = feasible
+    uncovered = feasible if among is None else feasible & among
     before = np.zeros(shape, bool)
     while True:
         # the graph only grows: what was covered stays covered, and a pixel still

@@ -271,11 +271,13 @@ def _route_graph(occupancy, cfg: RouteGraphConfig) -> nx.MultiGraph:
         RUNG_GAIN_M / res,
     )
     work.contract_all()
+    before = graph_raster(work, feasible.shape)
     # close vertices merge; a dead end one pixel off its junction is a one-pixel edge
     merge_close_vertices(work, feasible, max(_ONE_PIXEL, merge_px), _ONE_PIXEL, min_loop_px)
     # loops shorter than loop_m collapse, wherever the passes left one
     _open_short_loops(work, feasible, snap_px, cfg.loop_m / res * PIXEL_PATH_EXCESS, wall)
-    del wall
+    uncovered |= _cover_lost(work, feasible, snap_px, before, min_loop_px, wall)
+    del wall, before
     t4 = time.perf_counter()
     graph = _assemble(work, occupancy, win, cfg, held)
     del held
@@ -471,6 +473,28 @@ def _open_short_loops(
             if back[path[:, 0], path[:, 1]].any():
                 work.add_edge(u, v, path)
     work.contract_all({x for u, v, _ in removed for x in (u, v)})
+
+
+def _cover_lost(
+    work: WorkGraph, feasible: np.ndarray, snap_px: float, before: np.ndarray, min_loop_px, wall
+) -> np.ndarray:
+    """Cover again (:func:`add_coverage`) the feasible pixels that saw a pixel of the graph
+    ``before`` (its raster) within ``snap_px`` and see none now: a merge drops the short
+    edge between the two vertices, and contracting a merged vertex drops its member
+    pixels.  Returns the pixels still uncovered (bool (H, W))."""
+    after = graph_raster(work, feasible.shape)
+    gone = before & ~after
+    if not gone.any():
+        return gone
+    reach = np.ones((2 * math.ceil(snap_px) + 1,) * 2, np.uint8)
+    near = cv2.dilate(gone.view(np.uint8), reach).view(bool)
+    had = covered(before, feasible, snap_px, wall, among=near)
+    lost = had & ~covered(after, feasible, snap_px, wall, among=had)
+    if not lost.any():
+        return lost
+    left = add_coverage(work, feasible, snap_px, min_loop_px=min_loop_px, wall=wall, among=lost)
+    work.contract_all()
+    return left
 
 
 @dataclass(frozen=True, kw_only=True)
