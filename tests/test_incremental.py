@@ -14,6 +14,7 @@ import gzip
 import json
 import math
 import os
+import re
 from collections import Counter
 
 import networkx as nx
@@ -2813,6 +2814,40 @@ def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
             max_export_bytes=50 * h * w,
         )
     assert IncrementalMapper.load(state).n_scans == 40
+
+
+def _with_export_budget(max_export_bytes: int):
+    """``IncrementalMapper`` with another default ``max_export_bytes``."""
+
+    def make(**kw):
+        return IncrementalMapper(**{"max_export_bytes": max_export_bytes, **kw})
+
+    return make
+
+
+def test_replay_of_a_map_too_large_to_write_names_the_scans_it_skipped(tmp_path, capsys):
+    """A replay that skipped scans (refused as beyond the mapper's bounds) and then
+    finds its map too large to write says so in its error, with the first refusal (no
+    summary lists them: none is written); the command names its options once."""
+    from topojax import playback
+    from topojax.cli import main
+
+    out = tmp_path / "out"
+    kw = dict(out_dir=out, progress=False, max_extent_m=50, max_export_bytes=20_000)
+    with pytest.raises(ValueError, match=r"saved to .*skipped (\d+) of the 40 scans") as err:
+        replay(INTEL_EXCERPT, **kw)
+    n = int(re.search(r"skipped (\d+) of the 40 scans", str(err.value))[1])
+    assert 0 < n < 40 and IncrementalMapper.load(out / "mapper_state.npz").n_scans == 40 - n
+    assert "; the first: scan " in str(err.value)
+    (out / "mapper_state.npz").unlink()
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]
+    with pytest.MonkeyPatch.context() as mp:
+        # the export budget has no option: the command's mapper gets it here
+        mp.setattr(playback, "IncrementalMapper", _with_export_budget(20_000))
+        assert main([*args, "--max-extent-m", "50"]) != 0
+    text = capsys.readouterr().err
+    assert f"skipped {n} of the 40 scans" in text and "beyond --max-extent-m=50 m" in text
+    assert "a smaller --max-extent-m (now 50 m) to skip" in text
 
 
 def test_replay_stopped_part_way_keeps_the_mapper_state(tmp_path):

@@ -412,7 +412,7 @@ def _map_scans(
                 routes = quiet_route_graph(mapper, route_graph_radius_m)
     except ExportBudgetError as exc:
         keep_recordings(out, progress_at, recorder, timeline, frames)
-        raise _unwritable(mapper, exc, out, state_record()) from None
+        raise _unwritable(mapper, exc, out, state_record(), progress_at) from None
     except (Exception, KeyboardInterrupt):  # a bad line mid-log, Ctrl-C: keep the scans
         if keep_state(mapper, out, state_record):
             keep_recordings(out, progress_at, recorder, timeline, frames)
@@ -579,17 +579,32 @@ def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
 
 
 def _unwritable(
-    mapper: IncrementalMapper, exc: ExportBudgetError, out: Path, record: dict
+    mapper: IncrementalMapper,
+    exc: ExportBudgetError,
+    out: Path,
+    record: dict,
+    progress_at: ReplayProgress,
 ) -> ValueError:
     """Save the mapper's state with the replay ``record`` to ``out`` (nothing mapped is
-    lost) and return the error for a map too large to write whole."""
+    lost) and return the error for a map too large to write whole, which also names the
+    scans the replay skipped (``progress_at``), as a finished replay's summary does."""
     path = save_replay_state(mapper, out / STATE_FILE, record)
+    skipped, n = progress_at.skipped, len(progress_at.skipped)
+    if n == 1:  # the refusal names the bound it met (no summary lists it: none is written)
+        skipped = f" The replay skipped one scan, refused: {skipped[0]}"
+    elif n:
+        skipped = (
+            f" The replay skipped {n} of the {progress_at.consumed} scans it took, each "
+            f"refused as beyond the mapper's bounds; the first: {skipped[0]}"
+        )
+    else:
+        skipped = ""
     return ValueError(
         f"{exc}. The map of the {counted(mapper.n_scans, 'scan')} mapped is too large to export "
         f"whole; the mapper's state is saved to {path} (IncrementalMapper.load; export "
         "windows of it with occupancy_window). A pose far off (a localisation glitch)? "
-        f"Replay with a smaller max_extent_m (--max-extent-m; now {mapper.max_extent_m:g} m) "
-        "to skip such scans."
+        f"Replay with a smaller max_extent_m (now {mapper.max_extent_m:g} m; --max-extent-m in "
+        f"topojax replay) to skip such scans.{skipped}"
     )
 
 
