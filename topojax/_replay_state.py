@@ -48,6 +48,21 @@ def skipped_message(progress: ReplayProgress) -> list[str]:
     ]
 
 
+def skipped_note(progress: ReplayProgress) -> str:
+    """The scans a replay skipped, as a sentence (with a leading space) for an error that
+    ends the replay before its summary, which would list them, is written; "" if none.
+    Each refusal names the bound it met, so the first is quoted."""
+    skipped, n = progress.skipped, len(progress.skipped)
+    if n == 1:
+        return f" The replay skipped one scan, refused: {skipped[0]}"
+    if n:
+        return (
+            f" The replay skipped {n} of the {progress.consumed} scans it took, each "
+            f"refused as beyond the mapper's bounds; the first: {skipped[0]}"
+        )
+    return ""
+
+
 #: The :class:`WholeScans` in force in the main thread, the innermost last.
 _IN_FORCE: list[WholeScans] = []
 

@@ -33,6 +33,7 @@ from ._replay_state import (
     resumed_mapper,
     save_replay_state,
     skipped_message,
+    skipped_note,
 )
 from ._words import counted
 from .config import GraphConfig
@@ -578,33 +579,17 @@ def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
     return update, final_s, result, seg
 
 
-def _unwritable(
-    mapper: IncrementalMapper,
-    exc: ExportBudgetError,
-    out: Path,
-    record: dict,
-    progress_at: ReplayProgress,
-) -> ValueError:
+def _unwritable(mapper, exc: ExportBudgetError, out: Path, record: dict, progress_at) -> ValueError:
     """Save the mapper's state with the replay ``record`` to ``out`` (nothing mapped is
-    lost) and return the error for a map too large to write whole, which also names the
-    scans the replay skipped (``progress_at``), as a finished replay's summary does."""
+    lost) and return the error for a map too large to write whole, naming the scans
+    skipped so far (``progress_at``: no summary lists them)."""
     path = save_replay_state(mapper, out / STATE_FILE, record)
-    skipped, n = progress_at.skipped, len(progress_at.skipped)
-    if n == 1:  # the refusal names the bound it met (no summary lists it: none is written)
-        skipped = f" The replay skipped one scan, refused: {skipped[0]}"
-    elif n:
-        skipped = (
-            f" The replay skipped {n} of the {progress_at.consumed} scans it took, each "
-            f"refused as beyond the mapper's bounds; the first: {skipped[0]}"
-        )
-    else:
-        skipped = ""
     return ValueError(
         f"{exc}. The map of the {counted(mapper.n_scans, 'scan')} mapped is too large to export "
         f"whole; the mapper's state is saved to {path} (IncrementalMapper.load; export "
         "windows of it with occupancy_window). A pose far off (a localisation glitch)? "
         f"Replay with a smaller max_extent_m (now {mapper.max_extent_m:g} m; --max-extent-m in "
-        f"topojax replay) to skip such scans.{skipped}"
+        f"topojax replay) to skip such scans.{skipped_note(progress_at)}"
     )
 
 
