@@ -43,9 +43,27 @@ def skipped_message(progress: ReplayProgress) -> list[str]:
         return [f"skipped {m}" for m in skipped]
     return [
         f"skipped {len(skipped)} of {progress.consumed} scans, each refused as beyond the "
-        "mapper's bounds (max_extent_m, --max-extent-m in topojax replay) and not mapped; "
-        f"timings.json lists every refusal (skipped_scans); the first: {skipped[0]}"
+        f"mapper's bounds{_bounds_met(skipped)} and not mapped; timings.json lists every "
+        f"refusal (skipped_scans); the first: {skipped[0]}"
     ]
+
+
+#: The mapper's bounds a refusal may name, each with the words that name it in a
+#: refusal's message and how the summary names it (with the option of ``topojax replay``
+#: that sets it, where it has one).
+_BOUNDS = (
+    ("beyond max_extent_m=", "max_extent_m, --max-extent-m in topojax replay"),
+    ("beyond max_tile_bytes=", "max_tile_bytes"),
+    ("(max_grid_cells)", "max_grid_cells"),
+)
+
+
+def _bounds_met(refusals: list[str]) -> str:
+    """The bounds the ``refusals`` met, as ``" (max_extent_m, --max-extent-m in topojax
+    replay; max_tile_bytes)"``; "" where none names a bound (pixels beyond 2^30 px from
+    the origin)."""
+    met = [name for words, name in _BOUNDS if any(words in r for r in refusals)]
+    return f" ({'; '.join(met)})" if met else ""
 
 
 def skipped_note(progress: ReplayProgress) -> str:
@@ -163,12 +181,24 @@ class WholeScans:
                 progress.recorded = index + 1
                 return report
             except ExtentError as exc:  # a localisation glitch: skipped, the replay goes on
-                progress.skipped.append(str(exc))
+                progress.skipped.append(_named_in_log(str(exc), before, index))
                 progress.consumed = progress.recorded = index + 1
                 return None
             finally:
                 if mapper.n_scans != before:
                     progress.consumed = index + 1
+
+
+def _named_in_log(refusal: str, mapped: int, index: int) -> str:
+    """A mapper's ``refusal`` of a scan, which names the scan by the scans the mapper
+    had added (``mapped``: "scan 594 (timestamp ...): ..."), naming it instead by its
+    ``index`` in the log (from 0), as the replay counts scans: refused scans and those a
+    resumed replay skipped are not the mapper's, so that number would not find it."""
+    named = f"scan {mapped}"
+    rest = refusal[len(named) :]
+    if not refusal.startswith(named) or rest[:1] not in (" ", ":"):
+        return refusal
+    return f"scan {index} of the log{rest}"
 
 
 def _file_digest(path: Path, digest) -> None:
