@@ -63,23 +63,37 @@ def pipeline_config(args, *, resolution_m: float | None = None):
     as given, ``--sigma-m`` through ``resolution_m`` (a command that runs many maps
     passes none and converts per map; the value is still checked); an error names the
     option."""
-    from .._validate import positive_metres
     from ..config import DistanceConfig, PipelineConfig, SkeletonConfig
 
+    distance = distance_config(args, resolution_m=resolution_m) or DistanceConfig()
     try:
-        distance = DistanceConfig()
-        if getattr(args, "sigma_px", None) is not None:
-            distance = DistanceConfig.from_pixels(sigma_px=args.sigma_px)
-        elif getattr(args, "sigma_m", None) is not None and resolution_m is not None:
-            distance = DistanceConfig.from_metres(sigma_m=args.sigma_m, resolution_m=resolution_m)
-        elif getattr(args, "sigma_m", None) is not None:
-            positive_metres("sigma_m", args.sigma_m)
         return PipelineConfig(
             distance=distance,
             skeleton=SkeletonConfig(thinning=args.thinning, remove_t=not args.keep_t),
             graph=graph_config(args),
             tile_px=args.tile_px,
         )
+    except (TypeError, ValueError) as exc:
+        raise _as_option_error(exc) from None
+
+
+def distance_config(args, *, resolution_m: float | None = None):
+    """The :class:`DistanceConfig` of the options of :func:`add_sigma_options`:
+    ``--sigma-px`` as given, ``--sigma-m`` through ``resolution_m`` (without one, the
+    value is only checked, and None returned); None where neither is given (the paper's
+    Gaussian).  An error names the option."""
+    from .._validate import positive_metres
+    from ..config import DistanceConfig
+
+    sigma_px, sigma_m = getattr(args, "sigma_px", None), getattr(args, "sigma_m", None)
+    try:
+        if sigma_px is not None:
+            return DistanceConfig.from_pixels(sigma_px=sigma_px)
+        if sigma_m is not None and resolution_m is not None:
+            return DistanceConfig.from_metres(sigma_m=sigma_m, resolution_m=resolution_m)
+        if sigma_m is not None:
+            positive_metres("sigma_m", sigma_m)
+        return None
     except (TypeError, ValueError) as exc:
         raise _as_option_error(exc) from None
 

@@ -16,6 +16,8 @@ from ._options import (
     add_graph_options,
     add_nav2_options,
     add_room_options,
+    add_sigma_options,
+    distance_config,
     graph_config,
     nav2_tolerance,
     room_config,
@@ -65,6 +67,9 @@ def _cmd_replay(args) -> int:
     }
     if args.max_extent_m is not None:
         kw["max_extent_m"] = args.max_extent_m
+    distance = distance_config(args, resolution_m=args.resolution)  # before the replay
+    if distance is not None:
+        kw["distance"] = distance
     config = room_config(args, only_with="--rooms", given=args.rooms)  # before the replay
     if config is not None:
         kw["room_config"] = config
@@ -175,6 +180,8 @@ _RESUME_OPTION_OF = {
     "scan_topic": "--scan-topic",
     "pose_topic": "--pose-topic",
     "allow_missing_pose": "--allow-missing-pose",
+    "config.distance.sigma_px": "--sigma-px or --sigma-m (sigma in px)",
+    "config.distance.half_width_px": "the Gaussian's half-width in px (--sigma-px or --sigma-m)",
     **{f"room_config.{field}": option for option, field, *_ in _ROOM_OPTIONS},
 }
 
@@ -282,6 +289,7 @@ def add_command(subparsers) -> None:
         help="skeleton update: exact (equals the full-map result; default) or paper",
     )
     p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
+    add_sigma_options(p, each_map=" (converted to pixels at --resolution)")
     p.add_argument("--max-scans", type=int, help="stop after this many scans")
     p.add_argument(
         "--max-extent-m",
