@@ -360,6 +360,60 @@ def mcap_path(path, *, name: str = "path", written: bool = True) -> Path:
     return output_file(p, name=name) if written else no_file_above(name, p)
 
 
+#: The file a recorder holds locked in its temporary folder while it records (the lock
+#: goes with its process, however that ends).
+_OWNER_LOCK = "recorder.lock"
+
+
+def _lock_as_owner(folder: Path):
+    """Hold ``folder/recorder.lock`` locked (``flock``) while the returned descriptor is
+    open; None where the system has no ``flock``.  The file is locked before it gets its
+    name, so a lock file found unlocked was left by a process that has ended."""
+    try:
+        import fcntl
+    except ImportError:  # no flock: no temporary folder is ever taken for abandoned
+        return None
+    part = folder / f"{_OWNER_LOCK}.part"
+    fd = os.open(part, os.O_CREAT | os.O_WRONLY, 0o600)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        os.rename(part, folder / _OWNER_LOCK)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def _remove_abandoned(path: Path) -> None:
+    """Remove the temporary folders that recorders of ``path`` left beside it when their
+    process ended without closing them (killed with SIGKILL, a power cut): those whose
+    lock file no process holds.  A folder without one (being made, or not a recorder's)
+    and one whose recorder still records are left as they are."""
+    try:
+        import fcntl
+    except ImportError:
+        return
+    if not path.parent.is_dir():
+        return
+    prefix = f".{path.name}."
+    for folder in path.parent.iterdir():
+        if not folder.name.startswith(prefix) or folder.is_symlink() or not folder.is_dir():
+            continue
+        try:
+            fd = os.open(folder / _OWNER_LOCK, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:  # held: its recorder is recording
+            os.close(fd)
+            continue
+        try:
+            shutil.rmtree(folder, ignore_errors=True)
+        finally:
+            os.close(fd)
+
+
 class McapRecorder:
     """Write a ROS 2 MCAP recording of a mapping run, message by message.
 
@@ -368,6 +422,8 @@ class McapRecorder:
     they come; the recording is built in a hidden folder beside ``path`` and moved to
     ``path`` at the end, replacing a file that was there.  A recorder writes one
     recording: once closed or aborted it takes no more messages and does not open again.
+    Opening removes the hidden folders that recorders of ``path`` whose process was
+    killed left behind (never one whose recorder still records).
 
     Parameters
     ----------
@@ -405,6 +461,7 @@ class McapRecorder:
         self._scanned = False
         self._writer = None
         self._tmp: Path | None = None
+        self._owner: int | None = None  # the locked descriptor of the temporary folder
         self._connections: dict[str, object] = {}
         self._finished = False  # closed or aborted: a recorder writes one recording
         self._earlier = (
@@ -427,8 +484,10 @@ class McapRecorder:
             )
         _typestore()  # a missing rosbags fails here, before anything is created
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        _remove_abandoned(self.path)
         self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", dir=self.path.parent))
         try:
+            self._owner = _lock_as_owner(self._tmp)
             writer = Writer(self._tmp / "recording", version=8, storage_plugin=StoragePlugin.MCAP)
             writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
             writer.open()
@@ -487,8 +546,16 @@ class McapRecorder:
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.move(done, target)
         finally:
-            shutil.rmtree(self._tmp, ignore_errors=True)
+            self._remove_tmp()
         return target
+
+    def _remove_tmp(self) -> None:
+        """Remove the temporary folder, then let go of its lock."""
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+        if self._owner is not None:
+            os.close(self._owner)
+            self._owner = None
 
     def abort(self) -> None:
         """Drop the recording: no file is written."""
@@ -496,8 +563,7 @@ class McapRecorder:
         if writer is not None:
             self._finished = True
             writer.abort()
-        if self._tmp is not None:
-            shutil.rmtree(self._tmp, ignore_errors=True)
+        self._remove_tmp()
 
     def __enter__(self) -> McapRecorder:
         return self.open()
