@@ -213,6 +213,34 @@ def test_local_and_whole_agree_when_the_change_stays_in_one_room():
             assert _same_pixels(before, box, after, box, room.id)
 
 
+def test_unknown_space_turned_occupied_is_a_change_a_local_update_sees():
+    """A room round a large unexplored block leaves the block out; once the block is seen
+    to be solid (unknown turned occupied: no free pixel changed) the room owns it, in a
+    local update as from scratch."""
+    from topojax.incremental._rooms import RoomKeeper
+
+    free = np.zeros((160, 1000), bool)
+    free[2:158, 2:158] = True
+    free[22:138, 22:138] = False  # a corridor ring round a block
+    free[2:158, 200:998] = True  # a hall of its own
+    unknown = np.zeros_like(free)
+    unknown[24:136, 24:136] = True  # 31 m² never seen
+    keeper, box, cfg = RoomKeeper(), (0, 0, *free.shape), tj.RoomConfig()
+
+    def seen(free, unknown):
+        return OccupancyMap(occupied=~free & ~unknown, free=free, unknown=unknown, resolution_m=RES)
+
+    keeper.update(seen(free, unknown), box, cfg, local=True)
+    assert keeper.seg.labels[80, 80] == 0
+    unknown[:] = False  # the block is solid
+    free[100:110, 300:310] = False  # and a box stands in the other room
+    update = keeper.update(seen(free, unknown), box, cfg, local=True)
+    fresh = tj.segment_rooms(seen(free, unknown), config=cfg)
+    assert update.segmented_px < free.size, "only windows were segmented"
+    assert fresh.labels[80, 80] > 0
+    assert _same_up_to_ids(keeper.seg.labels, fresh.labels)
+
+
 def test_local_rooms_carry_on_after_save_and_load(tmp_path):
     plan = floor_plan(2, size_m=(16.0, 48.0))
     wall, _ = _split_wall(plan)

@@ -67,7 +67,7 @@ class RoomsUpdate:
 
 class RoomKeeper:
     """The rooms of one mapper: the last segmentation (stable ids), its labels and the
-    free space it was made from over the global pixel box, the bounding box of that free
+    free and unknown space it was made from over the global pixel box, the bounding box of that free
     space (global pixels, None if none), and the next unused id."""
 
     def __init__(self) -> None:
@@ -75,6 +75,7 @@ class RoomKeeper:
         self.labels: np.ndarray | None = None
         self.box: tuple[int, int, int, int] | None = None
         self.free: np.ndarray | None = None
+        self.unknown: np.ndarray | None = None
         self.free_box: tuple[int, int, int, int] | None = None
         self.next_id = 1
         self.active = False
@@ -117,6 +118,7 @@ class RoomKeeper:
                 undo_writes(self.labels, changes.written, self.box[:2])
             raise
         self.seg, self.labels, self.box, self.free = seg, seg.labels, tuple(box), free
+        self.unknown = np.asarray(occupancy.unknown, bool)
         self.handed_out = False
         self.free_box = free_box
         return RoomsUpdate(

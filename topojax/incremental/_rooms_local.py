@@ -72,13 +72,17 @@ def local_update(keeper, occ, box, cfg):
     part of the map a segmentation works on).
 
     With the box unchanged nothing here reads or writes the whole map but one comparison
-    of the free space; the labels are updated in place unless they were handed out
+    of the free and unknown space; the labels are updated in place unless they were handed out
     (:func:`_own_labels`)."""
     dr, dc = keeper.box[0] - box[0], keeper.box[1] - box[1]
     free = np.asarray(occ.free, bool)
+    unknown = np.asarray(occ.unknown, bool)
     same_box = tuple(keeper.box) == tuple(box)
     before = keeper.free if same_box else pasted(keeper.free, keeper.box, box)
-    rr, cc = _changed_pixels(before, free)
+    # unknown space turned occupied can change a room's fill (segment_rooms leaves a
+    # large unexplored part a room surrounds out of it), though no free pixel changed
+    was_unknown = keeper.unknown if same_box else _pasted_unknown(keeper, box)
+    rr, cc = _changed_pixels(before, free, was_unknown, unknown)
     st = _Rooms(
         labels=_own_labels(keeper) if same_box else pasted(keeper.labels, keeper.box, box),
         rooms={r.id: _shift_room(r, dr, dc) for r in keeper.seg.rooms},
@@ -175,12 +179,36 @@ def _own_labels(keeper) -> np.ndarray:
     return keeper.labels.copy() if keeper.handed_out else keeper.labels
 
 
-def _changed_pixels(before: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows and columns (int64) of the pixels whose free state differs, row-major."""
-    differ = np.not_equal(before, free)
-    rows = np.flatnonzero(differ.any(axis=1))
-    r, c = np.nonzero(differ[rows])
-    return rows[r].astype(np.int64), c.astype(np.int64)
+def _changed_pixels(
+    before: np.ndarray, free: np.ndarray, was_unknown: np.ndarray, unknown: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns (int64) of the pixels whose free or unknown state differs,
+    row-major; compared a block of rows at a time (no whole-map temporary)."""
+    rows, cols = [], []
+    for r0 in range(0, free.shape[0], _ROWS_AT_ONCE):
+        rs = slice(r0, r0 + _ROWS_AT_ONCE)
+        differ = np.not_equal(before[rs], free[rs])
+        differ |= np.not_equal(was_unknown[rs], unknown[rs])
+        r, c = np.nonzero(differ)
+        rows.append(r.astype(np.int64) + r0)
+        cols.append(c.astype(np.int64))
+    if not rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return np.concatenate(rows), np.concatenate(cols)
+
+
+#: Rows compared at once by :func:`_changed_pixels`.
+_ROWS_AT_ONCE = 256
+
+
+def _pasted_unknown(keeper, box) -> np.ndarray:
+    """The keeper's unknown space placed over global box ``box`` (which holds the
+    keeper's box), unknown beyond it."""
+    out = np.ones((box[2] - box[0], box[3] - box[1]), bool)
+    r0, c0 = keeper.box[0] - box[0], keeper.box[1] - box[1]
+    h, w = keeper.unknown.shape
+    out[r0 : r0 + h, c0 : c0 + w] = keeper.unknown
+    return out
 
 
 def free_box_near(free: np.ndarray, near) -> tuple[int, int, int, int] | None:
