@@ -344,16 +344,18 @@ def test_replay_option_names_leave_the_paths_in_its_errors_as_they_are(tmp_path,
 
 def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
     """A scan refused as beyond the mapped area's bound is named in the command's words
-    (``--max-extent-m``), never as the mapper's ``max_extent_m``, ``tile_px`` or ``sigma``
-    the command has no option for: in the error of a log whose every scan is refused, and
-    for a skipped scan in the printed summary."""
+    (``--max-extent-m``, ``--sigma-m``), never as the mapper's ``max_extent_m`` or
+    ``sigma``, nor its ``tile_px`` the command has no option for: in the error of a log
+    whose every scan is refused, and for a skipped scan in the printed summary."""
     log = Path(__file__).parent / "data" / "intel_first40.log.gz"
     out = str(tmp_path / "out")
     assert main(["replay", str(log), "-o", out, "--max-extent-m", "12", "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "all 40 scans were refused" in err and "beyond --max-extent-m=12 m" in err
-    assert err.rstrip().endswith("at 0.05 m per pixel: give a larger --max-extent-m)")
-    for word in ("max_extent_m", "tile_px", "sigma", "make the mapper"):
+    assert err.rstrip().endswith(
+        "at 0.05 m per pixel: give a smaller --sigma-m or --sigma-px, or a larger --max-extent-m)"
+    )
+    for word in ("max_extent_m", "tile_px", " sigma", "make the mapper"):
         assert word not in err
     assert main(["replay", str(log), "-o", out, "--max-extent-m", "46", "--no-progress"]) == 0
     printed = capsys.readouterr().out

@@ -143,11 +143,11 @@ _OPTION_OF = {
     "max_extent_m": "--max-extent-m",
 }
 #: The advice of the mapper's refusals of a scan beyond ``max_extent_m`` that names
-#: settings this command has no option for (the mapper's tiles and Gaussian), or names
-#: the option besides the parameter, and what the command says instead.
+#: settings this command has no option for (the mapper's tiles) or that it sets with an
+#: option (the Gaussian, ``max_extent_m``), and what the command says instead.
 _ADVICE = {
     "make the mapper with a smaller tile_px or sigma, or a larger max_extent_m": (
-        "give a larger max_extent_m"
+        "give a smaller --sigma-m or --sigma-px, or a larger max_extent_m"
     ),
     "make the mapper with a larger max_extent_m": "give a larger max_extent_m",
     "(max_extent_m, --max-extent-m in topojax replay)": "(max_extent_m)",
