@@ -50,6 +50,18 @@ def test_a_killed_recorders_folder_is_removed_by_the_next_recorder(tmp_path):
     assert path.is_file() and temporaries(path) == [foreign]
 
 
+def test_an_abandoned_folder_of_another_file_is_left_to_that_files_recorder(tmp_path):
+    other = tmp_path / "run.mcap.old.mcap"  # its folders start ".run.mcap." too
+    killed_recording(other)
+    (left,) = temporaries(other)
+    with McapRecorder(tmp_path / "run.mcap"):
+        pass
+    assert left.is_dir()
+    with McapRecorder(other):
+        pass
+    assert not left.exists()
+
+
 def test_the_folder_of_a_recorder_still_recording_is_left(tmp_path):
     path = tmp_path / "run.mcap"
     first = McapRecorder(path).open()

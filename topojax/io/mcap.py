@@ -377,6 +377,10 @@ def _lock_as_owner(folder: Path):
     fd = os.open(part, os.O_CREAT | os.O_WRONLY, 0o600)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:  # a file system without flock: no lock file, never taken as abandoned
+        os.close(fd)
+        return None
+    try:
         os.rename(part, folder / _OWNER_LOCK)
     except BaseException:
         os.close(fd)
@@ -397,7 +401,9 @@ def _remove_abandoned(path: Path) -> None:
         return
     prefix = f".{path.name}."
     for folder in path.parent.iterdir():
-        if not folder.name.startswith(prefix) or folder.is_symlink() or not folder.is_dir():
+        # mkdtemp's own part has no dot: ".run.mcap.bak.x1y2" is another file's folder
+        mine = folder.name.startswith(prefix) and "." not in folder.name[len(prefix) :]
+        if not mine or folder.is_symlink() or not folder.is_dir():
             continue
         try:
             fd = os.open(folder / _OWNER_LOCK, os.O_RDONLY)
