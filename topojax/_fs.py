@@ -46,7 +46,8 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
     existing file (``mkdir`` itself only says "File exists" / "Not a directory"), and an
     OSError naming it when the folder cannot be made (no permission, a read-only or full
     file system), or when a file cannot be created in it (tried with an empty one); a
-    TypeError naming it when ``path`` is not a path (:func:`~topojax._validate.path_like`)."""
+    TypeError naming it when ``path`` is not a path, a ValueError when it is empty
+    (:func:`~topojax._validate.path_like`)."""
     folder = path_like(name, path)
     try:
         folder.mkdir(parents=True, exist_ok=True)

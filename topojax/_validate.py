@@ -519,7 +519,8 @@ def no_file_above(name: str, path: Path) -> Path:
 
 def existing_file(name: str, path: Any) -> Path:
     """``path`` as a :class:`~pathlib.Path` after checking it is one (:func:`path_like`,
-    a ``TypeError`` otherwise) naming an existing regular file: a ``FileNotFoundError`` if
+    a ``TypeError`` or, for an empty one, a ``ValueError`` otherwise) naming an existing
+    regular file: a ``FileNotFoundError`` if
     nothing is there, a ``ValueError`` for a folder or a special file."""
     p = path_like(name, path)
     if not p.exists():
