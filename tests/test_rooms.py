@@ -175,11 +175,12 @@ def test_unknown_space_outside_the_mapped_area_is_never_a_room():
     assert not seg.labels[fp.occupancy.unknown].any()
 
 
-def test_clutter_inside_a_room_belongs_to_it():
+@pytest.mark.parametrize("min_room_m2", [0.0, 2.0])
+def test_clutter_inside_a_room_belongs_to_it(min_room_m2):
     free = np.zeros((120, 120), bool)
     free[2:118, 2:118] = True
     free[50:60, 40:70] = False  # a table standing free in the room
-    seg = tj.segment_rooms(_map(free))
+    seg = tj.segment_rooms(_map(free), config=tj.RoomConfig(min_room_m2=min_room_m2))
     assert seg.n_rooms == 1
     assert (seg.labels[50:60, 40:70] == 1).all()
     assert seg.rooms[0].area_m2 == pytest.approx(116 * 116 * RES**2)

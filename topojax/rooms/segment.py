@@ -310,5 +310,6 @@ def _fill_enclosed(
     n, parts = cv2.connectedComponents(empty, connectivity=4, ltype=cv2.CV_32S)
     if n > 1:
         owner = enclosed_owner(parts, labels, n)
-        owner[np.bincount(parts[unknown], minlength=n) >= max_unknown_px] = 0
+        # at least one pixel: a part with no unknown pixel (furniture) is always filled
+        owner[np.bincount(parts[unknown], minlength=n) >= max(max_unknown_px, 1.0)] = 0
         fill_parts(labels, parts, owner)
