@@ -43,9 +43,14 @@ MAP_OPTIONS_TO_CHECK = (
 )
 
 
-def _as_options(text: str, option_of: dict[str, str] = _OPTION_OF) -> str:
+def _as_options(
+    text: str, option_of: dict[str, str] = _OPTION_OF, *, advice: dict[str, str] | None = None
+) -> str:
     """``text`` with every configuration field it names written as the option that sets
-    it, as :func:`_as_option_error` writes a message."""
+    it, as :func:`_as_option_error` writes a message; first each phrase of ``advice``
+    (the library's advice, such as "build with resume=False") as the command words it."""
+    for phrase, instead in (advice or {}).items():
+        text = text.replace(phrase, instead)
     names = "|".join(map(re.escape, option_of))
     words = re.compile(rf"(?<![\w/\\.-])({names})(?![\w/\\-]|\.\w)")
     return words.sub(lambda m: option_of[m.group(1)], text)

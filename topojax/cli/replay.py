@@ -160,9 +160,7 @@ def _in_options(text: str, option_of: dict[str, str] = _OPTION_OF) -> str:
     """``text`` (a message of :func:`topojax.replay`) in the words of this command: the
     mapper's advice as :data:`_ADVICE` words it, each parameter of ``option_of`` as the
     option that sets it."""
-    for phrase, instead in _ADVICE.items():
-        text = text.replace(phrase, instead)
-    return _as_options(text, option_of)
+    return _as_options(text, option_of, advice=_ADVICE)
 
 
 #: With them, the mapper settings, reader options and ``max_scans`` that a refused

@@ -108,10 +108,7 @@ def _named_as_options():
         names = _RESUME_OPTION_OF if str(exc).startswith("resume:") else _OPTION_OF
         if type(exc) is not ValueError:
             raise _as_option_error(exc, names) from None
-        text = str(exc)
-        for phrase, instead in _ADVICE.items():
-            text = text.replace(phrase, instead)
-        raise ValueError(_as_options(text, names)) from None
+        raise ValueError(_as_options(str(exc), names, advice=_ADVICE)) from None
 
 
 def tiled_files(stem: str, nav2: bool) -> list[str]:

@@ -65,9 +65,10 @@ def match_ids(old, old_box, new, new_box, next_id: int) -> tuple[np.ndarray, int
     return lut, next_id
 
 
-def pasted(labels: np.ndarray, box, union) -> np.ndarray:
-    """``labels`` (over global box ``box``) placed in a zero array over box ``union``."""
-    out = np.zeros((union[2] - union[0], union[3] - union[1]), labels.dtype)
+def pasted(labels: np.ndarray, box, union, *, fill=0) -> np.ndarray:
+    """``labels`` (over global box ``box``) placed in an array of ``fill`` over box
+    ``union``."""
+    out = np.full((union[2] - union[0], union[3] - union[1]), fill, labels.dtype)
     r0, c0 = box[0] - union[0], box[1] - union[1]
     out[r0 : r0 + labels.shape[0], c0 : c0 + labels.shape[1]] = labels
     return out

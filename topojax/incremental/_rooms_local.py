@@ -81,7 +81,7 @@ def local_update(keeper, occ, box, cfg):
     before = keeper.free if same_box else pasted(keeper.free, keeper.box, box)
     # unknown space turned occupied can change a room's fill (segment_rooms leaves a
     # large unexplored part a room surrounds out of it), though no free pixel changed
-    was_unknown = keeper.unknown if same_box else _pasted_unknown(keeper, box)
+    was_unknown = keeper.unknown if same_box else pasted(keeper.unknown, keeper.box, box, fill=True)
     rr, cc = _changed_pixels(before, free, was_unknown, unknown)
     st = _Rooms(
         labels=_own_labels(keeper) if same_box else pasted(keeper.labels, keeper.box, box),
@@ -199,16 +199,6 @@ def _changed_pixels(
 
 #: Rows compared at once by :func:`_changed_pixels`.
 _ROWS_AT_ONCE = 256
-
-
-def _pasted_unknown(keeper, box) -> np.ndarray:
-    """The keeper's unknown space placed over global box ``box`` (which holds the
-    keeper's box), unknown beyond it."""
-    out = np.ones((box[2] - box[0], box[3] - box[1]), bool)
-    r0, c0 = keeper.box[0] - box[0], keeper.box[1] - box[1]
-    h, w = keeper.unknown.shape
-    out[r0 : r0 + h, c0 : c0 + w] = keeper.unknown
-    return out
 
 
 def free_box_near(free: np.ndarray, near) -> tuple[int, int, int, int] | None:
