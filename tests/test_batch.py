@@ -688,6 +688,81 @@ def test_sigterm_stops_the_worker_processes(tmp_path, background):
     assert not list(out.glob(".*.tmp"))
 
 
+_INTERRUPTED_WHILE_WAITING = """
+import concurrent.futures._base as base
+import os, signal, sys
+from topojax.batch import build_graphs
+
+enter = base._AcquireFutures.__enter__
+
+def interrupted(self):  # the signal comes while wait() takes the futures' locks
+    running = [f for f in self.futures if f.running()]  # another thread completes it
+    if not running or sys.argv[3] == "sent":
+        return enter(self)
+    sys.argv[3] = "sent"
+    running[0]._condition.acquire()
+    os.kill(os.getpid(), signal.SIGINT)
+    for f in self.futures:
+        if f is not running[0]:
+            f._condition.acquire()
+
+if __name__ == "__main__":
+    base._AcquireFutures.__enter__ = interrupted
+    maps = sys.argv[1].split(os.pathsep)
+    try:
+        build_graphs(maps, out_dir=sys.argv[2], workers=2, progress=False)
+    except KeyboardInterrupt:
+        print("interrupted")
+"""
+
+
+def test_an_interrupt_while_the_batch_waits_ends_it(tmp_path):
+    """Ctrl-C that comes while the main loop waits for its futures (Python's
+    ``concurrent.futures.wait`` takes each future's lock in turn) stops the batch: it is
+    held until the wait has taken and given back the locks, where raised at once it left
+    a lock taken that the pool's thread needed, and the batch never ended."""
+    import concurrent.futures._base as base
+
+    if not hasattr(base, "_AcquireFutures"):
+        pytest.skip("concurrent.futures.wait takes the futures' locks otherwise here")
+    script = tmp_path / "interrupted.py"
+    script.write_text(_INTERRUPTED_WHILE_WAITING)
+    maps = os.pathsep.join(map(str, PAPER_MAPS * 2))
+    cmd = [sys.executable, str(script), maps, str(tmp_path / "out"), "not sent"]
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+    try:
+        out, err = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        pytest.fail("the interrupted batch did not end")
+    assert out.strip() == "interrupted", err
+    assert proc.returncode == 0
+
+
+def test_an_interrupt_in_a_map_run_by_the_calling_thread_stops_it_at_once(tmp_path, monkeypatch):
+    """With ``workers=0`` the main thread runs each map's CPU stage itself: Ctrl-C stops
+    the map where it is rather than waiting for it to end, and the handlers are the
+    caller's again after the batch."""
+    from topojax.batch import driver
+
+    reached = []
+
+    def slow_stage(job):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(30)
+        reached.append(job)
+
+    monkeypatch.setattr(driver, "_cpu_stage", slow_stage)
+    handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    with pytest.raises(KeyboardInterrupt):
+        build_graphs(PAPER_MAPS[:1], out_dir=tmp_path / "out", workers=0, progress=False)
+    assert not reached
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == handlers
+
+
 def test_a_stopped_batch_removes_the_temporary_files_of_the_maps_in_flight(tmp_path, monkeypatch):
     """The worker processes of a stopped batch are terminated, not left to finish, and
     the temporary files of the maps they were writing are removed with them."""

@@ -23,9 +23,10 @@ from ..maps.classify import wall_warning
 from ..routegraph import RouteGraphConfig
 from .arguments import batch_items, checked_options, map_inputs, workers_for_memory
 from .inputs import ROUTE_FORMATS, _Item
+from .interrupts import HeldInterrupts
 from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
 from .pool import WorkerDied, WorkerPool
-from .records import MapRecord, totalled, write_summary
+from .records import MapRecord, empty_reason, totalled, write_summary
 from .worker import (
     InlineExecutor,
     _cpu_stage,
@@ -156,6 +157,9 @@ class _BatchRun:
         if self.executor is None:
             self.executor = self._new_executor()
         try:
+            if isinstance(self.executor, InlineExecutor):  # the task runs here and now
+                with self._held.at_once():
+                    return self.executor.submit(fn, *args)
             return self.executor.submit(fn, *args)
         except cf.BrokenExecutor as exc:
             if not self.owns_executor:
@@ -375,23 +379,19 @@ class _BatchRun:
         self._cpu: dict[cf.Future, tuple[_Item, MapRecord, _CpuJob]] = {}
         self._ready: deque[_Loaded] = deque()
         stopped = False
+        self._held = HeldInterrupts()  # Ctrl-C, SIGTERM: taken between steps
         try:
-            if self._pending and self.executor is None:
-                self.executor = self._new_executor()
-            while True:
-                self._start_loads()
-                self._start_kernels()
-                waiting = [*self._loads, *self._in_kernels, *self._cpu]
-                if not waiting:
-                    break
-                done, _ = cf.wait(waiting, return_when=cf.FIRST_COMPLETED)
-                for fut in done:
-                    if fut in self._loads:
-                        self._on_loaded(fut)
-                    elif fut in self._in_kernels:
-                        self._on_kernels_done(fut)
-                    else:
-                        self._on_cpu_done(fut)
+            with self._held:
+                if self._pending and self.executor is None:
+                    self.executor = self._new_executor()
+                while waiting := self._start_work():
+                    for fut in self._held.wait(waiting):
+                        if fut in self._loads:
+                            self._on_loaded(fut)
+                        elif fut in self._in_kernels:
+                            self._on_kernels_done(fut)
+                        else:
+                            self._on_cpu_done(fut)
         except BaseException:  # Ctrl-C, SIGTERM: results no manifest would record
             stopped = True
             if self.owns_executor:
@@ -425,6 +425,12 @@ class _BatchRun:
         self._bar.set_postfix(
             {k: counts[k] for k in ("ok", "empty", "skipped", "error") if counts[k]}
         )
+
+    def _start_work(self) -> list[cf.Future]:
+        """Start the loads and kernels that may start; the futures of all work under way."""
+        self._start_loads()
+        self._start_kernels()
+        return [*self._loads, *self._in_kernels, *self._cpu]
 
     def _start_loads(self) -> None:
         """Start loading pending maps until ``prefetch`` are loading or loaded."""
@@ -581,7 +587,7 @@ class _BatchRun:
         classes = self._classes.pop(item.index, (None, None))
         # the paper's graph counts unless only route graphs were asked for
         paper = self.out_dir is None or not set(self.formats) <= set(ROUTE_FORMATS)
-        notes = [] if res.vertices or not paper else [_empty_reason(*classes)]
+        notes = [] if res.vertices or not paper else [empty_reason(*classes)]
         notes += [res.nav2_note] if res.nav2_note else []
         notes += [res.route_note] if res.route_note else []
         notes += [warning] if warning else []
@@ -643,21 +649,6 @@ def _terminate_workers(executor: cf.Executor | None) -> None:
 def _class_counts(g) -> tuple[int, int | None]:
     """Occupied and free pixels of a loaded map (free: None where it was not kept)."""
     return int(g.occupied.sum()), None if g.free is None else int(g.free.sum())
-
-
-def _empty_reason(n_occupied: int | None, n_free: int | None) -> str:
-    """Why a map's graph is empty, and what to check (the ``message`` of an empty map)."""
-    if n_occupied == 0:
-        why = "the map has no occupied pixel as classified"
-    elif n_free == 0:
-        why = "the map has no free pixel as classified"
-    else:
-        why = "no corridor was found between the obstacles"
-    return (
-        f"empty graph: {why}; check the map's thresholds (occupied_thresh, free_thresh, "
-        "negate) or its pixel convention (map_mode, e.g. 'ipa' for IPA benchmark maps, "
-        "where every pixel below 250 is inaccessible)"
-    )
 
 
 def build_graphs(
