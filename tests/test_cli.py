@@ -538,6 +538,57 @@ def test_a_sigterm_python_drops_stops_the_command_all_the_same(tmp_path, monkeyp
     assert sys.unraisablehook is hook
 
 
+def test_a_ctrl_c_python_keeps_dropping_still_stops_the_command(tmp_path, monkeypatch, capsys):
+    """A Ctrl-C whose KeyboardInterrupt is dropped (raised in a garbage-collector callback,
+    as JAX's are while its extension modules initialise for a second, or in a
+    ``__del__``) is sent again until it stops the command: none is lost."""
+    import signal
+    import sys
+    import time
+
+    import topojax.batch.driver
+
+    class Slow:
+        def __del__(self):  # a Ctrl-C is handled here, and dropped, most of the time
+            time.sleep(0.002)
+
+    class Interrupts:
+        def __del__(self):
+            signal.raise_signal(signal.SIGINT)
+
+    def drops_for_a_second(*args, **kwargs):
+        Interrupts()
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            Slow()
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            time.sleep(0.01)
+        raise AssertionError("Ctrl-C did not stop the batch")
+
+    monkeypatch.setattr(topojax.batch.driver, "run_batch", drops_for_a_second)
+    hook = sys.unraisablehook
+    data = Path(topojax.__file__).parent / "data"
+    assert main(["batch", str(data / "office.png"), "-o", str(tmp_path), "--no-progress"]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted (Ctrl-C)" in err and "Exception ignored" not in err
+    assert sys.unraisablehook is hook
+
+
+def test_a_ctrl_c_while_jax_is_imported_ends_the_command_with_one_line(monkeypatch, capsys):
+    """The command imports JAX (seconds, on a slow disk) where Ctrl-C is taken as in the
+    rest of the command: one line and status 130, no traceback."""
+    import topojax.cli
+
+    def importing(*args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(topojax.cli, "_use_compilation_cache", importing)
+    data = Path(topojax.__file__).parent / "data"
+    assert main(["graph", str(data / "office.png")]) == 130
+    assert capsys.readouterr().err.strip() == "topojax graph: interrupted (Ctrl-C)"
+
+
 def test_a_stop_dropped_as_a_command_ends_stands_and_is_not_sent_later():
     """A dropped stop whose re-sending is still due when the block ends raises
     KeyboardInterrupt there, and no SIGTERM is sent after the handler is restored (it

@@ -163,11 +163,11 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``topojax`` command."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if getattr(args, "runs_kernels", True):  # route only reads a graph: no JAX
-        _use_compilation_cache()
     stopped: list[signal.Signals] = []
     try:
         with sigterm_stops(stopped), _warnings_as_lines(args.command):
+            if getattr(args, "runs_kernels", True):  # route only reads a graph: no JAX
+                _use_compilation_cache()  # imports JAX: seconds a Ctrl-C may come in
             return int(args.handler(args) or 0)
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
         print(f"topojax {args.command}: error: {_message(exc)}", file=sys.stderr)

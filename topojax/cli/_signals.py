@@ -1,4 +1,4 @@
-"""SIGTERM ending a command as Ctrl-C does."""
+"""SIGTERM ending a command as Ctrl-C does, and neither lost where Python drops it."""
 
 from __future__ import annotations
 
@@ -11,8 +11,11 @@ from collections.abc import Iterator
 
 __all__ = ["sigterm_stops"]
 
-#: Times a stop that Python dropped is sent again (see :func:`sigterm_stops`).
-_RESENDS = 10
+#: Times a stop that Python dropped is sent again (see :func:`sigterm_stops`), and the
+#: delays before each, growing from the first to the last: while an extension module
+#: initialises (JAX's, for a second), every stop is dropped in its garbage collections.
+_RESENDS = 100
+_DELAYS_S = (0.01, 0.25)
 
 
 @contextlib.contextmanager
@@ -25,9 +28,9 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
     background job of a script) too.
 
     A handler's exception raised where Python cannot pass it on (a garbage-collector
-    callback, such as JAX's, or a ``__del__``) is dropped as "unraisable": the stop is
-    then sent again, from a moment later, rather than lost.  Outside the main thread
-    (where no handler can be set) nothing changes."""
+    callback, such as JAX's, or a ``__del__``) is dropped as "unraisable": the stop, or
+    the Ctrl-C, is then sent again, from a moment later, rather than lost.  Outside the
+    main thread (where no handler can be set) nothing changes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -40,12 +43,16 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
             raise KeyboardInterrupt
 
     def dropped(unraisable) -> None:
-        if stopped and isinstance(unraisable.exc_value, KeyboardInterrupt):
-            if len(timers) < _RESENDS:
-                timers.append(threading.Timer(0.01, os.kill, (os.getpid(), signal.SIGTERM)))
-                timers[-1].daemon = True
-                timers[-1].start()
-                return
+        signum = stopped[0] if stopped else signal.SIGINT  # else a Ctrl-C's
+        handled = callable(signal.getsignal(signum))  # not ignored (nor fatal) here
+        if isinstance(unraisable.exc_value, KeyboardInterrupt) and handled:
+            if len(timers) >= _RESENDS:
+                return hook(unraisable)
+            delay = min(_DELAYS_S[0] * 1.5 ** len(timers), _DELAYS_S[1])
+            timers.append(threading.Timer(delay, os.kill, (os.getpid(), signum)))
+            timers[-1].daemon = True
+            timers[-1].start()
+            return
         hook(unraisable)
 
     previous = signal.signal(signal.SIGTERM, terminate)
