@@ -217,3 +217,40 @@ def test_a_process_that_exits_without_shutdown_leaves_no_worker(tmp_path):
         time.sleep(0.1)
     assert not any(map(_alive, pids)), "a worker or the fork server outlived the process"
     assert not list(tmp_path.glob("ran-*")), "a waiting task ran after the exit"
+
+
+_CTRL_C_MASKS = """
+import multiprocessing.forkserver as fs
+import signal
+from topojax.batch.pool import WorkerPool
+from topojax.batch.worker import worker_context
+
+def blocked(pid):
+    with open(f"/proc/{pid}/status") as f:
+        mask = next(int(line.split()[1], 16) for line in f if line.startswith("SigBlk:"))
+    return bool(mask >> (signal.SIGINT - 1) & 1)
+
+if __name__ == "__main__":
+    ctx = worker_context()
+    pool = WorkerPool(1, mp_context=ctx)
+    pids = pool.pids
+    if ctx.get_start_method() == "forkserver":
+        pids.append(fs._forkserver._forkserver_pid)
+    print(*[blocked(pid) for pid in pids], blocked("self"))
+    pool.shutdown()
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").is_file(), reason="needs /proc")
+def test_worker_processes_take_no_ctrl_c_from_their_start(tmp_path):
+    """A Ctrl-C in a terminal reaches every process of the batch: the workers, and the
+    forkserver they come from, leave it to the pool's process (which stops them) from
+    their first instruction, not only once their modules are imported (a Ctrl-C then
+    printed their tracebacks); the pool's process still takes it."""
+    script = tmp_path / "masks.py"
+    script.write_text(_CTRL_C_MASKS)
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    *workers, caller = run.stdout.split()
+    assert workers and all(w == "True" for w in workers)
+    assert caller == "False"

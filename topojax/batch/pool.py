@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import atexit
 import concurrent.futures as cf
+import contextlib
 import multiprocessing
 import multiprocessing.connection as mpc
 import signal
@@ -20,7 +21,9 @@ import threading
 import traceback
 import weakref
 from collections import deque
+from collections.abc import Iterator
 from dataclasses import dataclass
+from multiprocessing import resource_tracker
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
@@ -75,6 +78,26 @@ def _serve(conn: mpc.Connection) -> None:
         except OSError:  # the pool's process has gone
             return
         del outcome
+
+
+@contextlib.contextmanager
+def _ctrl_c_blocked() -> Iterator[None]:
+    """Within ``with``, the calling thread takes no Ctrl-C (SIGINT, blocked), and a
+    process it starts takes none from its first instruction on: the pool stops its
+    workers (and the forkserver they are forked from), and a Ctrl-C that came while one
+    imported its modules printed its traceback.  The caller's other threads, or this
+    one after the block, take a Ctrl-C that comes meanwhile."""
+    if not hasattr(signal, "pthread_sigmask"):  # not POSIX
+        yield
+        return
+    # started first by a process's start, multiprocessing's resource tracker unblocks
+    # SIGINT as its own start ends
+    resource_tracker.ensure_running()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 @dataclass(eq=False)
@@ -220,7 +243,8 @@ class WorkerPool(cf.Executor):
         ours, theirs = multiprocessing.Pipe(duplex=True)
         try:
             process = self._ctx.Process(target=_serve, args=(theirs,), daemon=True)
-            process.start()
+            with _ctrl_c_blocked():
+                process.start()
         except BaseException:
             ours.close()
             raise
