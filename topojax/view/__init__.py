@@ -92,7 +92,8 @@ def write_view(
         Shown on the page (default: from the map's file name).
     map : OccupancyMap or TiledMap, optional
         The map under a graph given alone (or another map to draw; the page notes a
-        graph whose recorded shape, resolution or origin is not this map's).  A
+        graph whose recorded shape, resolution or origin is not this map's, and leaves
+        out a result's distance map, ridges and skeleton, which lie on its own map).  A
         :class:`topojax.TiledMap` (a map on disk) is read only where shown: the window,
         or the whole map once it is known to fit ``max_pixels``.
     rooms : RoomSegmentation, (rooms, doors), bool or None

@@ -138,7 +138,9 @@ def inputs_of(
             f"{type(obj).__name__}"
         )
     if map is not None:
+        own = out.map
         out.map = instance_of("map", map, (OccupancyMap, TiledMap), "OccupancyMap or a TiledMap")
+        _fields_on_the_map(out, own)
     if rooms is True:
         from ..rooms import segment_rooms
 
@@ -174,6 +176,21 @@ def inputs_of(
         if why is not None:
             out.notes.append(f"the rooms were not segmented on the map shown: {why}")
     return out
+
+
+def _fields_on_the_map(out: Inputs, own) -> None:
+    """Leave out a result's per-pixel fields (on ``own``, its map's grid) when the map
+    shown is on another grid, with a note: drawn there they would stand in the wrong
+    place, or not fit it."""
+    if not out.rasters or own is None or own is out.map:
+        return
+    why = grid_mismatch(own.shape, own.resolution_m, own.origin, out.map, owner="their")
+    if why is not None:
+        out.rasters = {}
+        out.notes.append(
+            "the distance map, ridges and skeleton were left out: they were not computed "
+            f"on the map shown: {why}"
+        )
 
 
 def _title_of(occupancy, what: str) -> str:
