@@ -1,5 +1,5 @@
 """The viewer with maps other than the graph's own: another map given to ``write_view``
-beside a result."""
+beside a result, and a stored map (a tile folder) found by ``topojax view``."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import numpy as np
 from view_cases import payload_of
 
 import topojax as tj
+from topojax.cli import main
 from topojax.view import view_html
 
 
@@ -38,3 +39,23 @@ def test_a_result_shown_over_another_map_leaves_its_fields_out_and_says_so():
     same = payload_of(view_html(res, map=_room_map()))  # its own map again: all layers
     assert [r["name"] for r in same["rasters"]] == ["map", "distance", "ridges", "skeleton"]
     assert same["notes"] == []
+
+
+def test_view_command_shows_the_tile_folder_a_tiled_graph_was_built_from(tmp_path, capsys):
+    """``graph --tiled`` reads a tile folder; ``topojax view`` of its output opens that
+    folder as the map (it is there, a folder, not a file)."""
+    occupancy = _room_map(origin=(-1.0, 2.0, 0.4))
+    tiles = tmp_path / "map tiles"
+    tj.save_tiled_map(occupancy, tiles, tile_px=16)
+    out = tmp_path / "out"
+    assert main(["graph", str(tiles), "--tiled", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "not there" not in text and f"map {tiles}" in text
+    data = payload_of((out / "view.html").read_text(encoding="utf-8"))
+    assert data["rasters"][0]["name"] == "map"
+    assert data["frame"]["origin"] == [-1.0, 2.0, 0.4]
+    assert data["notes"] == []
+    expected = tj.view.view_html(tj.build_graph(occupancy).graph, map=occupancy)
+    assert data["rasters"][0]["levels"] == payload_of(expected)["rasters"][0]["levels"]

@@ -216,17 +216,21 @@ def _load_map(result: _Result, graph):
     says why)."""
     from ..maps import load_map
     from ..maps.files import said_resolution
+    from ..maps.tiled import open_tiled_map
 
     if result.map is None:
         result.notes.append("the map it was made from is not recorded: graph only")
         return None
-    if not result.map.is_file():
+    stored = result.map.is_dir()  # a tile folder or a Zarr array (graph --tiled)
+    if not (stored or result.map.is_file()):
         result.notes.append(f"its map {result.map} is not there: graph only")
         return None
     try:
-        # the command that made the files said that a resolution was assumed
-        occupancy = load_map(result.map, **said_resolution(result.map, result.map_kwargs))
-    except (ValueError, OSError, TypeError) as exc:  # TypeError: options edited in the record
+        if stored:  # read a window at a time, only where shown
+            occupancy = open_tiled_map(result.map, **result.map_kwargs)
+        else:  # the command that made the files said that a resolution was assumed
+            occupancy = load_map(result.map, **said_resolution(result.map, result.map_kwargs))
+    except (ValueError, OSError, TypeError, ImportError) as exc:  # TypeError: options edited
         result.notes.append(f"its map {result.map} cannot be read ({exc}): graph only")
         return None
     grid = _graph_grid(graph)
