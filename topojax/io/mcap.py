@@ -348,13 +348,15 @@ def mcap_path(path, *, name: str = "path", written: bool = True) -> Path:
     and, when it is to be ``written``, one that can be written (its folder takes a new
     file: :func:`~topojax._fs.output_file`); errors name the parameter ``name``."""
     try:
-        p = Path(os.fspath(path))
+        given = os.fspath(path)
+        p = Path(given)
     except TypeError:
         raise TypeError(
             f"{name}: expected a file name ending in .mcap, received {type(path).__name__}"
         ) from None
-    if p.suffix.lower() != ".mcap":
-        raise ValueError(f"{name}: expected a file name ending in .mcap, received {str(p)!r}")
+    if p.suffix.lower() != ".mcap":  # the value as given: Path("") reads "."
+        shown = repr(given) if given else "an empty path"
+        raise ValueError(f"{name}: expected a file name ending in .mcap, received {shown}")
     if p.is_dir():
         raise IsADirectoryError(f"{name}: expected an .mcap file name, received the folder {p}")
     return output_file(p, name=name) if written else no_file_above(name, p)
