@@ -120,9 +120,24 @@ def test_a_file_in_place_of_the_output_folder_is_named_as_the_option(office_yaml
     assert "--out: expected a folder to write into" in capsys.readouterr().err
 
 
-def test_an_empty_tiled_graph_says_why(tmp_path, capsys):
-    free = tj.OccupancyMap.from_array(np.zeros((64, 64), bool), resolution_m=0.05)
-    tj.save_map(free, tmp_path / "free.yaml")
-    assert main(["graph", str(tmp_path / "free.yaml"), "-o", str(tmp_path / "o"), "--tiled"]) == 0
+@pytest.mark.parametrize(
+    ("occupied", "unknown", "says"),
+    [
+        (False, False, "the map has no occupied pixel as classified (0 occupied, 4096 free, 0"),
+        (False, True, "the map has no occupied pixel as classified (0 occupied, 0 free, 4096"),
+        (True, False, "the map has nothing but occupied pixels as classified (4096 occupied"),
+    ],
+    ids=["all-free", "all-unknown", "all-occupied"],
+)
+def test_an_empty_tiled_graph_says_what_the_map_holds(tmp_path, capsys, occupied, unknown, says):
+    """As with the whole map, the note of an empty tiled graph says which class the map
+    lacks, counted window by window (not "no corridor between the obstacles" on a map
+    with none)."""
+    codes = np.full((64, 64), 205 if unknown else (0 if occupied else 254), np.uint8)
+    path = tmp_path / "m.pgm"
+    path.write_bytes(b"P5\n64 64\n255\n" + codes.tobytes())
+    argv = ["graph", str(path), "-o", str(tmp_path / "o"), "--tiled", "--resolution", "0.05"]
+    argv += ["--memory-budget-mb", "14"]
+    assert main(argv) == 0
     out = capsys.readouterr().out
-    assert "graph      0 vertices" in out and "note       the graph is empty" in out
+    assert "graph      0 vertices" in out and f"note       {says}" in out

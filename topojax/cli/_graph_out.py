@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ._options import MAP_OPTIONS_TO_CHECK
+
 #: The graph files of ``topojax graph``: ``STEM`` and each of these.
 GRAPH_SUFFIXES = (".graphml", ".json", ".geojson")
 
@@ -49,3 +51,27 @@ def summary_lines(name: str, result, *, timing_note: str = "", assumed: str = ""
         + f"; total {1e3 * t['total']:.1f}"
         + (f" ({timing_note})" if timing_note else ""),
     ]
+
+
+def classes_note(n_occupied: int, n_free: int, n_unknown: int) -> str:
+    """The note of a map whose graph is empty, or runs through unknown space only: its
+    pixels as classified, and the options to check."""
+    if n_occupied and n_free:
+        return (
+            f"note       the graph is empty: no corridor was found between the "
+            f"obstacles ({n_occupied} occupied, {n_free} free pixels as classified); check "
+            f"{MAP_OPTIONS_TO_CHECK}"
+        )
+    if not n_occupied:
+        what = "no occupied pixel"
+        outcome = "so the graph is empty"
+    elif not n_unknown:
+        what = "nothing but occupied pixels"
+        outcome = "so the graph is empty"
+    else:
+        what = "no free pixel"
+        outcome = "so the graph runs through unknown space only (--free-only: none)"
+    return (
+        f"note       the map has {what} as classified ({n_occupied} occupied, {n_free} "
+        f"free, {n_unknown} unknown), {outcome}; check {MAP_OPTIONS_TO_CHECK}"
+    )

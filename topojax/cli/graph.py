@@ -6,9 +6,14 @@ import json
 import time
 from pathlib import Path
 
-from ._graph_out import GRAPH_SUFFIXES, summary_lines, write_graph_files, write_nav2
+from ._graph_out import (
+    GRAPH_SUFFIXES,
+    classes_note,
+    summary_lines,
+    write_graph_files,
+    write_nav2,
+)
 from ._options import (
-    MAP_OPTIONS_TO_CHECK,
     add_map_options,
     add_nav2_options,
     add_pipeline_options,
@@ -110,26 +115,9 @@ def _classes_hint(occupancy, graph) -> list[str]:
         warning = wall_warning(share, to_check="--occupied-thresh, --free-thresh or --mode")
         notes = [f"note       {warning}"] if warning else []
         if graph.number_of_nodes() == 0:
-            notes.append(
-                f"note       the graph is empty: no corridor was found between the "
-                f"obstacles ({n_occ} occupied, {n_free} free pixels as classified); check "
-                f"{MAP_OPTIONS_TO_CHECK}"
-            )
+            notes.append(classes_note(n_occ, n_free, 0))
         return notes
-    n_unknown = int(occupancy.unknown.sum())
-    if not n_occ:
-        what = "no occupied pixel"
-        outcome = "so the graph is empty"
-    elif not n_unknown:
-        what = "nothing but occupied pixels"
-        outcome = "so the graph is empty"
-    else:
-        what = "no free pixel"
-        outcome = "so the graph runs through unknown space only (--free-only: none)"
-    return [
-        f"note       the map has {what} as classified ({n_occ} occupied, {n_free} free, "
-        f"{n_unknown} unknown), {outcome}; check {MAP_OPTIONS_TO_CHECK}"
-    ]
+    return [classes_note(n_occ, n_free, int(occupancy.unknown.sum()))]
 
 
 def _cmd_graph(args) -> int:

@@ -6,9 +6,14 @@ import contextlib
 import warnings
 from pathlib import Path
 
-from ._graph_out import GRAPH_SUFFIXES, summary_lines, write_graph_files, write_nav2
+from ._graph_out import (
+    GRAPH_SUFFIXES,
+    classes_note,
+    summary_lines,
+    write_graph_files,
+    write_nav2,
+)
 from ._options import (
-    MAP_OPTIONS_TO_CHECK,
     _as_option_error,
     _as_options,
     _option_named,
@@ -150,11 +155,8 @@ def cmd_graph_tiled(args) -> int:
         )
     written = write_graph_files(result.graph, out, stem)
     notes = []
-    if result.graph.number_of_nodes() == 0:
-        notes.append(
-            "note       the graph is empty: no corridor was found between the obstacles; "
-            f"check {MAP_OPTIONS_TO_CHECK}"
-        )
+    if result.graph.number_of_nodes() == 0:  # say what the map's pixels are
+        notes.append(classes_note(*_class_counts(source, block_px * block_px)))
     if tolerance is not None:
         nav2, nav2_notes = write_nav2(result.graph, out / f"{stem}_nav2.geojson", tolerance)
         written, notes = written + nav2, notes + nav2_notes
@@ -166,3 +168,16 @@ def cmd_graph_tiled(args) -> int:
     record_outputs(planned(written, args.map), command="graph", map_options=options)
     print("wrote      " + ", ".join(str(p) for p in [*written, store]))
     return 0
+
+
+def _class_counts(source, max_pixels: int) -> tuple[int, int, int]:
+    """Occupied, free and unknown pixels of a tiled map, read in bands of rows of at
+    most ``max_pixels`` pixels (one row where a row is larger)."""
+    height, width = source.shape
+    rows = max(1, max_pixels // max(width, 1))
+    counts = [0, 0, 0]
+    for r0 in range(0, height, rows):
+        window = source.occupancy(r0, min(r0 + rows, height))
+        for i, mask in enumerate((window.occupied, window.free, window.unknown)):
+            counts[i] += int(mask.sum())
+    return counts[0], counts[1], counts[2]
