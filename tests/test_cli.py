@@ -506,42 +506,17 @@ def test_sigterm_ends_a_batch_with_the_maps_it_finished(tmp_path, monkeypatch, c
     assert signal.getsignal(signal.SIGTERM) is handler
 
 
-def test_a_sigterm_python_drops_stops_the_command_all_the_same(tmp_path, monkeypatch, capsys):
-    """A SIGTERM whose KeyboardInterrupt is raised where Python drops exceptions (a
-    garbage-collector callback such as JAX's, a ``__del__``) is sent again, so the
-    command still stops, with status 143."""
-    import gc
-    import signal
-    import sys
-    import time
-
-    import topojax.batch.driver
-
-    class DropsTheStop:
-        def __del__(self):  # the handler runs here: its exception is "unraisable"
-            signal.raise_signal(signal.SIGTERM)
-
-    def stop_in_a_del(*args, **kwargs):
-        DropsTheStop()  # deleted at once
-        gc.collect()
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            time.sleep(0.01)
-        raise AssertionError("SIGTERM did not stop the batch")
-
-    monkeypatch.setattr(topojax.batch.driver, "run_batch", stop_in_a_del)
-    hook = sys.unraisablehook
-    data = Path(topojax.__file__).parent / "data"
-    assert main(["batch", str(data / "office.png"), "-o", str(tmp_path), "--no-progress"]) == 143
-    err = capsys.readouterr().err
-    assert "stopped by SIGTERM" in err and "Exception ignored" not in err
-    assert sys.unraisablehook is hook
-
-
-def test_a_ctrl_c_python_keeps_dropping_still_stops_the_command(tmp_path, monkeypatch, capsys):
-    """A Ctrl-C whose KeyboardInterrupt is dropped (raised in a garbage-collector callback,
-    as JAX's are while its extension modules initialise for a second, or in a
-    ``__del__``) is sent again until it stops the command: none is lost."""
+@pytest.mark.parametrize(
+    ("signame", "status", "said"),
+    [("SIGTERM", 143, "stopped by SIGTERM"), ("SIGINT", 130, "interrupted (Ctrl-C)")],
+)
+def test_a_stop_python_keeps_dropping_still_stops_the_command(
+    tmp_path, monkeypatch, capsys, signame, status, said
+):
+    """A SIGTERM or Ctrl-C whose KeyboardInterrupt is raised where Python drops exceptions
+    (a garbage-collector callback, as JAX's are while its extension modules initialise
+    for a second, or a ``__del__``) is sent again until it stops the command: none is
+    lost, and none is reported as an ignored exception."""
     import signal
     import sys
     import time
@@ -549,29 +524,29 @@ def test_a_ctrl_c_python_keeps_dropping_still_stops_the_command(tmp_path, monkey
     import topojax.batch.driver
 
     class Slow:
-        def __del__(self):  # a Ctrl-C is handled here, and dropped, most of the time
+        def __del__(self):  # a stop is handled here, and dropped, most of the time
             time.sleep(0.002)
 
-    class Interrupts:
+    class Stops:
         def __del__(self):
-            signal.raise_signal(signal.SIGINT)
+            signal.raise_signal(getattr(signal, signame))
 
     def drops_for_a_second(*args, **kwargs):
-        Interrupts()
+        Stops()  # deleted at once: the handler runs in its __del__
         end = time.monotonic() + 1.0
         while time.monotonic() < end:
             Slow()
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline:
             time.sleep(0.01)
-        raise AssertionError("Ctrl-C did not stop the batch")
+        raise AssertionError(f"{signame} did not stop the batch")
 
     monkeypatch.setattr(topojax.batch.driver, "run_batch", drops_for_a_second)
     hook = sys.unraisablehook
     data = Path(topojax.__file__).parent / "data"
-    assert main(["batch", str(data / "office.png"), "-o", str(tmp_path), "--no-progress"]) == 130
+    assert main(["batch", str(data / "office.png"), "-o", str(tmp_path), "--no-progress"]) == status
     err = capsys.readouterr().err
-    assert "interrupted (Ctrl-C)" in err and "Exception ignored" not in err
+    assert said in err and "Exception ignored" not in err
     assert sys.unraisablehook is hook
 
 
