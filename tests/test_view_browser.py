@@ -105,6 +105,14 @@ def _canvas_rgb(driver) -> np.ndarray:
     return img[y : y + int(rect["height"]), x : x + int(rect["width"])]
 
 
+def _next_frame(driver) -> None:
+    """Wait for the page's next animation frame: a draw asked for before (the page draws
+    in ``requestAnimationFrame``) has then run, however long a busy machine takes."""
+    driver.execute_async_script(
+        "var done = arguments[arguments.length - 1]; requestAnimationFrame(function () { done(); });"
+    )
+
+
 def _count(img: np.ndarray, rgb, tol: int = 30) -> int:
     return int(np.all(np.abs(img.astype(int) - rgb) <= tol, axis=2).sum())
 
@@ -455,7 +463,7 @@ def test_pan_zoom_and_scale_bar(intel):
     before = _js(intel, "topojaxView.view()")
     label = intel.find_element(By.ID, "tj-scale-label").text
     ActionChains(intel).scroll_from_origin(ScrollOrigin.from_element(canvas), 0, -600).perform()
-    time.sleep(0.2)
+    _next_frame(intel)  # the scale bar is drawn with the frame the zoom asks for
     zoomed = _js(intel, "topojaxView.view()")
     assert zoomed["z"] > 2 * before["z"]
     assert intel.find_element(By.ID, "tj-scale-label").text != label
