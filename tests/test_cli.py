@@ -590,6 +590,77 @@ def test_a_stop_dropped_as_a_command_ends_stands_and_is_not_sent_later():
         signal.signal(signal.SIGTERM, previous)
 
 
+class _FiresAsCancelled:
+    """A timer that has not fired when the block ends and fires as it is cancelled."""
+
+    def __init__(self, interval, function, args=(), kwargs=None):
+        self.function, self.args, self.kwargs = function, args, kwargs or {}
+        self.daemon = True
+
+    def start(self):
+        pass
+
+    def cancel(self):
+        self.function(*self.args, **self.kwargs)
+
+    def is_alive(self):
+        return False
+
+    def join(self, timeout=None):
+        pass
+
+
+@pytest.mark.parametrize("signame", ["SIGTERM", "SIGINT"])
+def test_a_dropped_stop_sent_again_as_the_block_ends_stands(monkeypatch, signame):
+    """A dropped stop whose re-sending comes just as the block ends is not lost, nor
+    raised part way through the clean-up: KeyboardInterrupt once the handlers and hook
+    are restored."""
+    import signal
+    import sys
+
+    from topojax.cli import _signals
+
+    class DropsTheStop:
+        def __del__(self):
+            signal.raise_signal(getattr(signal, signame))
+
+    monkeypatch.setattr(_signals.threading, "Timer", _FiresAsCancelled)
+    before = signal.getsignal(signal.SIGTERM), sys.unraisablehook
+    stopped: list = []
+    with pytest.raises(KeyboardInterrupt):
+        with _signals.sigterm_stops(stopped):
+            DropsTheStop()
+    assert (signal.getsignal(signal.SIGTERM), sys.unraisablehook) == before
+
+
+def test_a_ctrl_c_during_the_clean_up_stands_and_the_handlers_are_restored(monkeypatch):
+    """A Ctrl-C that comes while the block's clean-up runs (a second one, say) lets the
+    clean-up finish, then raises KeyboardInterrupt."""
+    import os
+    import signal
+    import sys
+
+    from topojax.cli import _signals
+
+    class CtrlCAsCancelled(_FiresAsCancelled):
+        def cancel(self):  # once: a Ctrl-C while the first timer is cancelled
+            if not sent:
+                sent.append(os.kill(os.getpid(), signal.SIGINT))
+
+    sent: list = []
+
+    class DropsTheStop:
+        def __del__(self):
+            signal.raise_signal(signal.SIGTERM)
+
+    monkeypatch.setattr(_signals.threading, "Timer", CtrlCAsCancelled)
+    before = signal.getsignal(signal.SIGTERM), sys.unraisablehook
+    with pytest.raises(KeyboardInterrupt):
+        with _signals.sigterm_stops([]):
+            DropsTheStop()
+    assert (signal.getsignal(signal.SIGTERM), sys.unraisablehook) == before
+
+
 _SIGTERM_IN_A_WRITE = """
 import os, signal, sys
 import topojax._fs as fs

@@ -29,44 +29,68 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
 
     A handler's exception raised where Python cannot pass it on (a garbage-collector
     callback, such as JAX's, or a ``__del__``) is dropped as "unraisable": the stop, or
-    the Ctrl-C, is then sent again, from a moment later, rather than lost.  Outside the
+    the Ctrl-C, is then sent again, from a moment later, rather than lost.  One still
+    owed when the block ends, or one that comes while it ends, raises
+    ``KeyboardInterrupt`` once the handlers are restored; none is sent after.  Outside the
     main thread (where no handler can be set) nothing changes."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     timers: list[threading.Timer] = []  # stops sent again
+    lock = threading.Lock()  # no stop is sent again once the block ends
     closing = False  # the block has ended: a stop is only recorded
+    owed = False  # a stop was dropped and not sent again: it stands when the block ends
 
     def terminate(signum, frame):
+        nonlocal owed
         stopped[:] = [signal.SIGTERM]
-        if not closing:
-            raise KeyboardInterrupt
+        if closing:
+            owed = True
+            return
+        raise KeyboardInterrupt
+
+    def resend(signum: int) -> None:
+        nonlocal owed
+        with lock:
+            if not closing:
+                owed = False  # it is owed again if it is dropped again
+                os.kill(os.getpid(), signum)
 
     def dropped(unraisable) -> None:
+        nonlocal owed
         signum = stopped[0] if stopped else signal.SIGINT  # else a Ctrl-C's
         handled = callable(signal.getsignal(signum))  # not ignored (nor fatal) here
         if isinstance(unraisable.exc_value, KeyboardInterrupt) and handled:
-            if len(timers) >= _RESENDS:
-                return hook(unraisable)
-            delay = min(_DELAYS_S[0] * 1.5 ** len(timers), _DELAYS_S[1])
-            timers.append(threading.Timer(delay, os.kill, (os.getpid(), signum)))
-            timers[-1].daemon = True
-            timers[-1].start()
-            return
+            owed = True
+            if len(timers) < _RESENDS:
+                delay = min(_DELAYS_S[0] * 1.5 ** len(timers), _DELAYS_S[1])
+                timers.append(threading.Timer(delay, resend, (signum,)))
+                timers[-1].daemon = True
+                timers[-1].start()
+                return
         hook(unraisable)
+
+    def close() -> None:  # may run again: a Ctrl-C may come part way through
+        nonlocal closing
+        with lock:
+            closing = True
+        while timers:  # one left uncancelled sends nothing: the block is closing
+            timer = timers.pop()
+            timer.cancel()
+            timer.join()
+        signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = hook
 
     previous = signal.signal(signal.SIGTERM, terminate)
     hook, sys.unraisablehook = sys.unraisablehook, dropped
     try:
         yield
     finally:
-        closing = True
-        pending = False
-        for timer in timers:  # none may stop the caller once the handler is restored
-            pending |= timer.is_alive()
-            timer.cancel()
-            timer.join()
-        signal.signal(signal.SIGTERM, previous)
-        sys.unraisablehook = hook
-    if pending:  # a stop sent again had not come yet: the block ended, the stop stands
+        while True:
+            try:
+                close()
+                break
+            except KeyboardInterrupt:  # a Ctrl-C during the clean-up: it stands
+                owed = True
+    if owed:  # a stop that was dropped, or came as the block ended, stands
         raise KeyboardInterrupt
