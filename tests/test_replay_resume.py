@@ -786,3 +786,35 @@ def test_a_rooms_difference_on_resume_counts_one_scan_in_the_singular():
         == "the saved replay updated rooms every 1 scan, this one has no rooms_every"
     )
     assert differs(None, 2).endswith("this one updates rooms every 2 scans")
+
+
+def test_a_ctrl_c_while_the_recording_is_closed_keeps_the_scans(
+    tmp_path, monkeypatch, full_recorded
+):
+    """A Ctrl-C that comes as the finished MCAP recording is closed into its file (the
+    last of the replay's writing) keeps the mapper's state like one during the other
+    files: the resumed replay writes the files of one that did not stop, and no
+    temporary folder of the recording is left beside it."""
+    from topojax.io.mcap import McapRecorder
+
+    real = McapRecorder.close
+
+    def close(self, path=None):
+        if path is None:  # the final file, not a stopped replay's part
+            raise KeyboardInterrupt
+        return real(self, path)
+
+    out = tmp_path / "out"
+    monkeypatch.setattr(McapRecorder, "close", close)
+    with pytest.warns(RuntimeWarning, match="stopped after 40 scans"):
+        with pytest.raises(KeyboardInterrupt):
+            recorded_replay(out)
+    monkeypatch.undo()
+    assert IncrementalMapper.load(out / STATE_FILE).n_scans == 40
+    assert not [p.name for p in out.iterdir() if p.name.startswith(".run.mcap.")]
+    summary = recorded_replay(out, resume=True)
+    assert summary["resumed_after"] == 40
+    assert_same_outputs(full_recorded, out)
+    for name in RECORDINGS:
+        assert (out / name).read_bytes() == (full_recorded / name).read_bytes(), name
+    assert {t for t, *_ in mcap_messages(out / "run.mcap")} == {"/map", "/topology"}

@@ -441,6 +441,25 @@ def keep_recordings(out: Path, progress: ReplayProgress, recorder, timeline, fra
         )
 
 
+@contextlib.contextmanager
+def open_recording(mcap, continue_from):
+    """Within ``with``, an open :class:`~topojax.io.mcap.McapRecorder` for ``mcap``
+    (continuing the recording ``continue_from``, if not None), or None.  The replay
+    closes it with its files, keeping the mapper's state when that is interrupted; a
+    failure or an interrupt before then drops it."""
+    if mcap is None:
+        yield None
+        return
+    from .io.mcap import McapRecorder
+
+    recorder = McapRecorder(mcap, continue_from=continue_from).open()
+    try:
+        yield recorder
+    except BaseException:
+        recorder.abort()
+        raise
+
+
 class KeptRecordings(NamedTuple):
     """What a stopped replay recorded (:func:`keep_recordings`), for the resumed one to
     continue: the MCAP recording's path, the view timeline and the animation frames

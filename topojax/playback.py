@@ -28,6 +28,7 @@ from ._replay_state import (
     keep_recordings,
     keep_state,
     kept_recordings,
+    open_recording,
     quiet_route_graph,
     replay_record,
     resumed_mapper,
@@ -235,7 +236,7 @@ def _replay_checked(
 
         config = RouteGraphConfig(robot_radius_m=route_graph_radius_m)
         check_scale(config, mapper.resolution_m, "route_graph_radius_m")
-    with _recorder(mcap, kept.mcap) as recorder:
+    with open_recording(mcap, kept.mcap) as recorder:
         done = _map_scans(
             mapper,
             scans,
@@ -436,9 +437,10 @@ def _write_and_close(
     source,
 ) -> tuple[list[Path], list[str]]:
     """Write the replay's files, then end the recording (if any) with the final map,
-    graph, rooms and route graph; returns the paths written and messages.  A Ctrl-C or a
-    failure keeps the mapper's state (``record()``: its replay record) and, before the
-    recording's last messages, the recordings for a resume."""
+    graph, rooms and route graph and close it into its file; returns the paths written
+    and messages.  A Ctrl-C or a failure keeps the mapper's state (``record()``: its
+    replay record) and, before the recording's last messages, the recordings for a
+    resume."""
     final = False  # whether the recording's last messages are being written
     try:
         written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
@@ -448,6 +450,7 @@ def _write_and_close(
         final = True
         if recorder is not None:
             _record_final(recorder, done)
+            recorder.close()  # the file in place: a Ctrl-C while it closes keeps the state
     except (Exception, KeyboardInterrupt):
         if keep_state(mapper, out, record):  # the recording itself only before its end
             keep_recordings(out, progress_at, None if final else recorder, timeline, done.frames)
@@ -597,16 +600,6 @@ def _route_note(done: _Replayed) -> list[str]:
     """Why the final route graph (if any) has no edge, as a message; else none."""
     note = None if done.routes is None else done.routes.graph.get("note")
     return [note] if note else []
-
-
-def _recorder(mcap, continue_from):
-    """A :class:`~topojax.io.mcap.McapRecorder` for ``mcap`` (continuing the recording
-    ``continue_from``, if not None), or a context of None."""
-    if mcap is None:
-        return contextlib.nullcontext()
-    from .io.mcap import McapRecorder
-
-    return McapRecorder(mcap, continue_from=continue_from)
 
 
 def _run(
