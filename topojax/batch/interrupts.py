@@ -39,16 +39,39 @@ class HeldInterrupts:
 
     def __enter__(self) -> HeldInterrupts:
         if threading.current_thread() is threading.main_thread():
-            for signum in _SIGNALS:
-                if callable(signal.getsignal(signum)):
-                    self._previous[signum] = signal.signal(signum, self._hold)
+            try:
+                for signum in _SIGNALS:
+                    handler = signal.getsignal(signum)
+                    if callable(handler):  # noted before it is replaced
+                        self._previous[signum] = handler
+                        signal.signal(signum, self._hold)
+            except BaseException:  # a signal's handler ran first: none is left held
+                self._restore()
+                raise
         return self
 
     def __exit__(self, *exc: object) -> None:
-        previous, self._previous = self._previous, {}
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
-        self._deliver(previous)
+        handlers = dict(self._previous)
+        self._restore()
+        self._deliver(handlers)
+
+    def _restore(self) -> None:
+        """Set the handlers that were replaced again, every one of them: ``signal.signal``
+        first runs the handlers of signals that came, and the one of a signal whose own
+        handler is back may raise before the next is set.  That exception (the stop) is
+        raised once all are set."""
+        stop: BaseException | None = None
+        while True:
+            try:
+                for signum, handler in self._previous.items():
+                    signal.signal(signum, handler)
+                break
+            except BaseException as exc:  # setting them again is harmless
+                stop = stop or exc
+        self._previous = {}
+        if stop is not None:
+            self._pending.clear()  # the same stop
+            raise stop
 
     def _hold(self, signum: int, frame: FrameType | None) -> None:
         self._pending.append((signum, frame))

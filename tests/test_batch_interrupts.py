@@ -1,0 +1,65 @@
+"""Ctrl-C and SIGTERM held by the batch's main loop (``topojax.batch.interrupts``)."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from topojax.batch.interrupts import HeldInterrupts
+
+
+def _terminate(signum, frame):  # as the command's SIGTERM handler: a stop
+    raise KeyboardInterrupt
+
+
+@pytest.fixture
+def sigterm_stops():
+    """SIGTERM raises ``KeyboardInterrupt`` within the test; the handlers are the
+    test's own again after it."""
+    handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    signal.signal(signal.SIGTERM, _terminate)
+    yield
+    signal.signal(signal.SIGINT, handlers[0])
+    signal.signal(signal.SIGTERM, handlers[1])
+
+
+def test_a_stop_while_the_handlers_are_set_leaves_none_held(sigterm_stops, monkeypatch):
+    """A SIGTERM that comes once Ctrl-C's handler is replaced stops the block before it
+    starts, and Ctrl-C's own handler is set again: the one that holds would keep every
+    later Ctrl-C for a block that never ends."""
+    getsignal = signal.getsignal
+
+    def sigterm_comes(signum):
+        if signum == signal.SIGTERM:
+            os.kill(os.getpid(), signal.SIGTERM)
+        return getsignal(signum)
+
+    monkeypatch.setattr(signal, "getsignal", sigterm_comes)
+    with pytest.raises(KeyboardInterrupt), HeldInterrupts():
+        pytest.fail("the block ran")
+    monkeypatch.undo()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGTERM) is _terminate
+
+
+def test_a_stop_while_the_handlers_are_set_back_leaves_none_held(sigterm_stops, monkeypatch):
+    """A Ctrl-C that comes once its own handler is back, as SIGTERM's is set back, stops
+    the caller, and SIGTERM's handler is set back too: the one that holds would keep
+    every later SIGTERM for a block that has ended."""
+    set_handler = signal.signal
+    sent = []
+
+    def ctrl_c_comes(signum, handler):
+        if signum == signal.SIGTERM and handler is _terminate and not sent:
+            sent.append(signum)
+            os.kill(os.getpid(), signal.SIGINT)
+        return set_handler(signum, handler)
+
+    with pytest.raises(KeyboardInterrupt), HeldInterrupts():
+        monkeypatch.setattr(signal, "signal", ctrl_c_comes)
+    monkeypatch.undo()
+    assert sent
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGTERM) is _terminate
