@@ -63,3 +63,21 @@ def test_a_stop_while_the_handlers_are_set_back_leaves_none_held(sigterm_stops, 
     assert sent
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     assert signal.getsignal(signal.SIGTERM) is _terminate
+
+
+def test_a_ctrl_c_as_work_run_at_once_starts_stops_it(sigterm_stops, monkeypatch):
+    """A Ctrl-C that comes just after the held ones are delivered, as work that takes
+    signals as they come starts, stops that work: held, it waited until the work ended."""
+    held = HeldInterrupts()
+    check = held.check
+    ran = []
+
+    def ctrl_c_comes():
+        check()
+        os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt), held:
+        monkeypatch.setattr(held, "check", ctrl_c_comes)
+        with held.at_once():
+            ran.append("the work")
+    assert not ran

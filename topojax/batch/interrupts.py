@@ -104,9 +104,9 @@ class HeldInterrupts:
         """Within ``with``, signals are delivered as they come: for work the main thread
         does itself (a map's CPU stage with ``workers=0``), which holds no lock of the
         batch's threads and may take minutes."""
-        self.check()
         self._holding = False
         try:
+            self.check()  # after the change: one that comes between is not held
             yield
         finally:
             self._holding = True
