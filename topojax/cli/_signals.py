@@ -40,6 +40,7 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
     lock = threading.Lock()  # no stop is sent again once the block ends
     closing = False  # the block has ended: a stop is only recorded
     owed = False  # a stop was dropped and not sent again: it stands when the block ends
+    due = False  # a stop is to be sent again: one dropped meanwhile is the same stop
 
     def terminate(signum, frame):
         nonlocal owed
@@ -50,19 +51,23 @@ def sigterm_stops(stopped: list[signal.Signals]) -> Iterator[None]:
         raise KeyboardInterrupt
 
     def resend(signum: int) -> None:
-        nonlocal owed
+        nonlocal owed, due
         with lock:
+            due = False
             if not closing:
                 owed = False  # it is owed again if it is dropped again
                 os.kill(os.getpid(), signum)
 
     def dropped(unraisable) -> None:
-        nonlocal owed
+        nonlocal owed, due
         signum = stopped[0] if stopped else signal.SIGINT  # else a Ctrl-C's
         handled = callable(signal.getsignal(signum))  # not ignored (nor fatal) here
         if isinstance(unraisable.exc_value, KeyboardInterrupt) and handled:
             owed = True
+            if due:  # two Ctrl-Cs dropped are one stop: a second would cut the clean-up
+                return
             if len(timers) < _RESENDS:
+                due = True
                 delay = min(_DELAYS_S[0] * 1.5 ** len(timers), _DELAYS_S[1])
                 timers.append(threading.Timer(delay, resend, (signum,)))
                 timers[-1].daemon = True
