@@ -141,3 +141,19 @@ def test_an_empty_tiled_graph_says_what_the_map_holds(tmp_path, capsys, occupied
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "graph      0 vertices" in out and f"note       {says}" in out
+
+
+def test_an_empty_tiled_graph_counts_a_last_band_of_one_row(tmp_path, capsys):
+    """The pixels of an empty graph's map are counted in bands of rows; a map whose last
+    band would be one row (too few for a window) is counted all the same."""
+    from topojax.outofcore.build import block_px_for_budget
+    from topojax.pipeline import PipelineConfig
+
+    side = block_px_for_budget(14, PipelineConfig())  # the bands: side * side pixels
+    codes = np.full((side + 1, side), 254, np.uint8)
+    path = tmp_path / "m.pgm"
+    path.write_bytes(f"P5\n{side} {side + 1}\n255\n".encode() + codes.tobytes())
+    argv = ["graph", str(path), "-o", str(tmp_path / "o"), "--tiled", "--resolution", "0.05"]
+    assert main([*argv, "--memory-budget-mb", "14"]) == 0
+    out = capsys.readouterr().out
+    assert f"(0 occupied, {side * (side + 1)} free, 0 unknown)" in out

@@ -172,12 +172,17 @@ def cmd_graph_tiled(args) -> int:
 
 def _class_counts(source, max_pixels: int) -> tuple[int, int, int]:
     """Occupied, free and unknown pixels of a tiled map, read in bands of rows of at
-    most ``max_pixels`` pixels (one row where a row is larger)."""
+    most ``max_pixels`` pixels (two rows where a row is larger, the fewest a window
+    holds; a single row left at the end is read with the band before it)."""
     height, width = source.shape
-    rows = max(1, max_pixels // max(width, 1))
+    rows = max(2, max_pixels // max(width, 1))
     counts = [0, 0, 0]
-    for r0 in range(0, height, rows):
-        window = source.occupancy(r0, min(r0 + rows, height))
+    r0 = 0
+    while r0 < height:
+        r1 = min(r0 + rows, height)
+        r1 = height if height - r1 == 1 else r1
+        window = source.occupancy(r0, r1)
         for i, mask in enumerate((window.occupied, window.free, window.unknown)):
             counts[i] += int(mask.sum())
+        r0 = r1
     return counts[0], counts[1], counts[2]
