@@ -220,37 +220,64 @@ def test_a_process_that_exits_without_shutdown_leaves_no_worker(tmp_path):
 
 
 _CTRL_C_MASKS = """
+import multiprocessing as mp
 import multiprocessing.forkserver as fs
 import signal
 from topojax.batch.pool import WorkerPool
 from topojax.batch.worker import worker_context
 
-def blocked(pid):
+def takes_ctrl_c(pid="self"):  # neither blocked nor ignored
     with open(f"/proc/{pid}/status") as f:
-        mask = next(int(line.split()[1], 16) for line in f if line.startswith("SigBlk:"))
-    return bool(mask >> (signal.SIGINT - 1) & 1)
+        masks = dict(line.split()[:2] for line in f if line.startswith(("SigBlk", "SigIgn")))
+    bit = 1 << (signal.SIGINT - 1)
+    return not (int(masks["SigBlk:"], 16) | int(masks["SigIgn:"], 16)) & bit
 
 if __name__ == "__main__":
     ctx = worker_context()
     pool = WorkerPool(1, mp_context=ctx)
-    pids = pool.pids
+    ours = [pool.submit(takes_ctrl_c).result(timeout=120)]
     if ctx.get_start_method() == "forkserver":
-        pids.append(fs._forkserver._forkserver_pid)
-    print(*[blocked(pid) for pid in pids], blocked("self"))
+        ours.append(takes_ctrl_c(fs._forkserver._forkserver_pid))
+        with mp.get_context("forkserver").Pool(1) as users:  # the same forkserver
+            theirs = users.apply(takes_ctrl_c)
+    else:
+        theirs = True
+    print(*ours, theirs, takes_ctrl_c())
     pool.shutdown()
 """
 
 
 @pytest.mark.skipif(not Path("/proc/self/status").is_file(), reason="needs /proc")
-def test_worker_processes_take_no_ctrl_c_from_their_start(tmp_path):
+def test_worker_processes_leave_ctrl_c_to_the_pool_and_others_take_it(tmp_path):
     """A Ctrl-C in a terminal reaches every process of the batch: the workers, and the
-    forkserver they come from, leave it to the pool's process (which stops them) from
-    their first instruction, not only once their modules are imported (a Ctrl-C then
-    printed their tracebacks); the pool's process still takes it."""
+    forkserver they come from, leave it to the pool's process (which stops them); a
+    caller's own processes forked later by the same forkserver, and the pool's process,
+    take it."""
     script = tmp_path / "masks.py"
     script.write_text(_CTRL_C_MASKS)
-    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=180)
     assert run.returncode == 0, run.stderr
-    *workers, caller = run.stdout.split()
-    assert workers and all(w == "True" for w in workers)
-    assert caller == "False"
+    *ours, theirs, caller = run.stdout.split()
+    assert ours and all(took == "False" for took in ours)
+    assert (theirs, caller) == ("True", "True")
+
+
+_PENDING_CTRL_C = """
+import os, signal
+signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})  # as the forkserver starts
+os.kill(os.getpid(), signal.SIGINT)  # a Ctrl-C while it imports: pending
+import topojax.batch.preloaded
+print(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, ()),
+      signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+"""
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signal masks")
+def test_the_forkserver_takes_ctrl_c_again_once_its_modules_are_imported():
+    """The module the forkserver imports last unblocks SIGINT and drops a Ctrl-C that
+    came while it imported (no traceback); its handler is left as it was."""
+    run = subprocess.run(
+        [sys.executable, "-c", _PENDING_CTRL_C], capture_output=True, text=True, timeout=120
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["False", "True"]

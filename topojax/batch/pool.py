@@ -85,8 +85,10 @@ def _ctrl_c_blocked() -> Iterator[None]:
     """Within ``with``, the calling thread takes no Ctrl-C (SIGINT, blocked), and a
     process it starts takes none from its first instruction on: the pool stops its
     workers (and the forkserver they are forked from), and a Ctrl-C that came while one
-    imported its modules printed its traceback.  The caller's other threads, or this
-    one after the block, take a Ctrl-C that comes meanwhile."""
+    imported its modules printed its traceback.  A forkserver unblocks it once its
+    modules are imported (:mod:`topojax.batch.preloaded`), for its later children.  The
+    caller's other threads, or this one after the block, take a Ctrl-C that comes
+    meanwhile."""
     if not hasattr(signal, "pthread_sigmask"):  # not POSIX
         yield
         return

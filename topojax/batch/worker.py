@@ -279,7 +279,8 @@ def worker_context() -> Any:
     """
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(list(_PRELOAD))
+        # the last takes Ctrl-C again (see topojax.batch.preloaded)
+        ctx.set_forkserver_preload([*_PRELOAD, "topojax.batch.preloaded"])
         return ctx
     return multiprocessing.get_context("spawn")
 
