@@ -34,7 +34,7 @@ class HeldInterrupts:
 
     def __init__(self) -> None:
         self._previous: dict[int, Any] = {}
-        self._pending: list[tuple[int, FrameType | None]] = []
+        self._pending: tuple[int, FrameType | None] | None = None  # the first held
         self._holding = True
 
     def __enter__(self) -> HeldInterrupts:
@@ -70,19 +70,19 @@ class HeldInterrupts:
                 stop = stop or exc
         self._previous = {}
         if stop is not None:
-            self._pending.clear()  # the same stop
+            self._pending = None  # the same stop
             raise stop
 
     def _hold(self, signum: int, frame: FrameType | None) -> None:
-        self._pending.append((signum, frame))
+        if self._pending is None:  # a later one is the same stop
+            self._pending = (signum, frame)
         if not self._holding:
             self._deliver(self._previous)
 
     def _deliver(self, handlers: dict[int, Any]) -> None:
-        """Run the handler of the first held signal (the others are the same stop)."""
-        if self._pending:
-            signum, frame = self._pending[0]
-            self._pending.clear()
+        """Run the handler of the held signal, if any."""
+        if self._pending is not None:
+            (signum, frame), self._pending = self._pending, None
             handlers[signum](signum, frame)
 
     def check(self) -> None:
