@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import re
+from collections.abc import Iterator
 
 from .._constants import MODES
 
@@ -18,16 +20,21 @@ _OPTION_OF = {
 }
 
 
-def _as_option_error(exc: Exception, option_of: dict[str, str] = _OPTION_OF) -> Exception:
+def _as_option_error(
+    exc: Exception, option_of: dict[str, str] = _OPTION_OF, *, advice: dict[str, str] | None = None
+) -> Exception:
     """``exc`` with every configuration field its message names (``min_spur_m``) written
     as the option that sets it (``--min-spur-m``), ``option_of`` mapping the one to the
-    other: the commands' errors name what their user typed.  A ``TypeError``, a
-    ``ValueError`` or a built-in ``OSError`` (``NotADirectoryError`` as well) made from a
-    message (and an error number) is rewritten; any other error is ``exc``.  A name
-    within a file path (``out/resume/state.npz``, ``animate.gif``) or already an option
-    (``--resume``) is left as it is."""
-    if type(exc) in (TypeError, ValueError):  # a subclass keeps its own arguments
-        return type(exc)(_as_options(str(exc), option_of))
+    other: the commands' errors name what their user typed; a ``ValueError``'s advice
+    as :func:`_as_options` words it with ``advice``.  A ``TypeError``, a ``ValueError``
+    or a built-in ``OSError`` (``NotADirectoryError`` as well) made from a message (and
+    an error number) is rewritten; any other error is ``exc``.  A name within a file path
+    (``out/resume/state.npz``, ``animate.gif``) or already an option (``--resume``) is
+    left as it is."""
+    if type(exc) is ValueError:  # a subclass keeps its own arguments
+        return ValueError(_as_options(str(exc), option_of, advice=advice))
+    if type(exc) is TypeError:
+        return TypeError(_as_options(str(exc), option_of))
     if isinstance(exc, OSError) and type(exc).__module__ == "builtins" and exc.filename is None:
         if len(exc.args) == 1 and isinstance(exc.args[0], str):
             return type(exc)(_as_options(exc.args[0], option_of))
@@ -54,6 +61,21 @@ def _as_options(
     names = "|".join(map(re.escape, option_of))
     words = re.compile(rf"(?<![\w/\\.-])({names})(?![\w/\\-]|\.\w)")
     return words.sub(lambda m: option_of[m.group(1)], text)
+
+
+@contextlib.contextmanager
+def named_as_options(
+    option_of: dict[str, str], resume_option_of: dict[str, str], *, advice: dict[str, str]
+) -> Iterator[None]:
+    """Within ``with``, an error of a library call that names its parameters names the
+    options that set them (:func:`_as_option_error`): ``option_of``'s, or for a refused
+    resume (``resume: ...``, which also names the settings that differ)
+    ``resume_option_of``'s; a ``ValueError``'s advice as ``advice`` words it."""
+    try:
+        yield
+    except (TypeError, ValueError, OSError) as exc:
+        names = resume_option_of if str(exc).startswith("resume:") else option_of
+        raise _as_option_error(exc, names, advice=advice) from None
 
 
 def _option_named(exc: ValueError, field: str, option: str) -> ValueError:

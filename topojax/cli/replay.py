@@ -11,7 +11,6 @@ from pathlib import Path
 from .._constants import STRATEGIES
 from ._options import (
     _ROOM_OPTIONS,
-    _as_option_error,
     _as_options,
     add_graph_options,
     add_nav2_options,
@@ -19,6 +18,7 @@ from ._options import (
     add_sigma_options,
     distance_config,
     graph_config,
+    named_as_options,
     nav2_tolerance,
     room_config,
 )
@@ -96,7 +96,10 @@ def _cmd_replay(args) -> int:
     summary = None
     printed_here = summary_printed.set(False)  # below, in the command's words
     try:
-        with _stops_on_signals() as stopped, _named_as_options():
+        with (
+            _stops_on_signals() as stopped,
+            named_as_options(_OPTION_OF, _RESUME_OPTION_OF, advice=_ADVICE),
+        ):
             summary = replay(
                 args.source,
                 out_dir=args.out,
@@ -150,7 +153,6 @@ _ADVICE = {
         "give a smaller --sigma-m or --sigma-px, or a larger max_extent_m"
     ),
     "make the mapper with a larger max_extent_m": "give a larger max_extent_m",
-    "(max_extent_m, --max-extent-m in topojax replay)": "(max_extent_m)",
     "max_extent_m, --max-extent-m in topojax replay": "max_extent_m",
     "; --max-extent-m in topojax replay)": ")",
 }
@@ -182,20 +184,6 @@ _RESUME_OPTION_OF = {
     "config.distance.half_width_px": "the Gaussian's half-width in px (--sigma-px or --sigma-m)",
     **{f"room_config.{field}": option for option, field, *_ in _ROOM_OPTIONS},
 }
-
-
-@contextlib.contextmanager
-def _named_as_options():
-    """Within ``with``, an error of :func:`topojax.replay` that names its parameters
-    (``out_dir``, ``animate``, ``resume``; in a refused resume also the settings and
-    reader options it compares, and ``max_scans``) names the options instead."""
-    try:
-        yield
-    except (TypeError, ValueError, OSError) as exc:
-        names = _RESUME_OPTION_OF if str(exc).startswith("resume:") else _OPTION_OF
-        if type(exc) is ValueError:  # e.g. every scan refused: the mapper's advice
-            raise ValueError(_in_options(str(exc), names)) from None
-        raise _as_option_error(exc, names) from None
 
 
 @contextlib.contextmanager

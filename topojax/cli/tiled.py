@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import warnings
 from pathlib import Path
 
@@ -14,11 +13,10 @@ from ._graph_out import (
     write_nav2,
 )
 from ._options import (
-    _as_option_error,
-    _as_options,
     _option_named,
     assumed_resolution_note,
     map_options,
+    named_as_options,
     nav2_tolerance,
     pipeline_config,
     room_config,
@@ -102,20 +100,6 @@ _ADVICE = {
 }
 
 
-@contextlib.contextmanager
-def _named_as_options():
-    """Within ``with``, an error of :func:`topojax.build_graph_tiled` that names its
-    parameters (``out_dir``, ``resume``; in a refused resume also what differs) names the
-    options instead."""
-    try:
-        yield
-    except (TypeError, ValueError, OSError) as exc:
-        names = _RESUME_OPTION_OF if str(exc).startswith("resume:") else _OPTION_OF
-        if type(exc) is not ValueError:
-            raise _as_option_error(exc, names) from None
-        raise ValueError(_as_options(str(exc), names, advice=_ADVICE)) from None
-
-
 def tiled_files(stem: str, nav2: bool) -> list[str]:
     """The files ``topojax graph --tiled`` writes beside its ``STEM_store/`` folder."""
     return [f"{stem}{s}" for s in GRAPH_SUFFIXES] + [f"{stem}_nav2.geojson"] * nav2
@@ -149,7 +133,7 @@ def cmd_graph_tiled(args) -> int:
         text = str(w.message).replace("memory_budget_mb:", "--memory-budget-mb:", 1)
         warnings.warn(text, w.category, stacklevel=2)
     store = output_folder(out, name="--out") / f"{stem}_store"
-    with _named_as_options():
+    with named_as_options(_OPTION_OF, _RESUME_OPTION_OF, advice=_ADVICE):
         result = build_graph_tiled(
             source, config=config, block_px=block_px, out_dir=store, resume=args.resume
         )
