@@ -20,6 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
+try:  # file locks (flock): POSIX only
+    import fcntl
+except ImportError:
+    fcntl = None
+
 from .._constants import EDGE_COLOUR, ROUTE_EDGE_COLOUR, VERTEX_KIND_COLOURS
 from .._fs import output_file
 from .._validate import instance_of, no_file_above, xy_points
@@ -371,9 +376,7 @@ def _lock_as_owner(folder: Path):
     """Hold ``folder/recorder.lock`` locked (``flock``) while the returned descriptor is
     open; None where the system has no ``flock``.  The file is locked before it gets its
     name, so a lock file found unlocked was left by a process that has ended."""
-    try:
-        import fcntl
-    except ImportError:  # no flock: no temporary folder is ever taken for abandoned
+    if fcntl is None:  # no flock: no temporary folder is ever taken for abandoned
         return None
     part = folder / f"{_OWNER_LOCK}.part"
     fd = os.open(part, os.O_CREAT | os.O_WRONLY, 0o600)
@@ -395,9 +398,7 @@ def _remove_abandoned(path: Path) -> None:
     process ended without closing them (killed with SIGKILL, a power cut): those whose
     lock file no process holds.  A folder without one (being made, or not a recorder's)
     and one whose recorder still records are left as they are."""
-    try:
-        import fcntl
-    except ImportError:
+    if fcntl is None:
         return
     if not path.parent.is_dir():
         return
