@@ -5,6 +5,7 @@ written map and graph are those of a replay that did not stop."""
 from __future__ import annotations
 
 import gzip
+import json
 import os
 import signal
 from pathlib import Path
@@ -319,6 +320,28 @@ def test_a_replay_stopped_while_writing_its_files_keeps_its_scans(
     assert summary["n_scans"] == 40 and summary["resumed_after"] == 40
     assert_same_outputs(full_run[0], out)
     assert not (out / STATE_FILE).exists()
+
+
+def test_a_stop_as_the_finished_replay_removes_its_state_leaves_timings(tmp_path, monkeypatch):
+    # the state of a stopped replay goes only once timings.json records the finished
+    # one: a Ctrl-C just after it goes must not leave a folder with neither
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 12)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
+    monkeypatch.undo()
+    real_unlink = Path.unlink
+
+    def unlink_then_stop(self, *args, **kwargs):
+        real_unlink(self, *args, **kwargs)
+        if self.name == STATE_FILE:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(Path, "unlink", unlink_then_stop)
+    with pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
+    assert not (out / STATE_FILE).exists()
+    assert json.loads((out / "timings.json").read_text())["n_scans"] == 40
 
 
 @pytest.fixture

@@ -274,20 +274,22 @@ def _replay_checked(
 
 def _finish(source, mapper, done, out: Path, progress_at, written, messages, progress) -> dict:
     """End a replay whose files are written (``written``, with ``messages`` about them):
-    remove the state and recordings a stopped replay left in ``out`` (this finished one
-    supersedes them), write ``timings.json`` and print the summary (with ``progress``);
-    returns the summary."""
+    write ``timings.json``, then remove the state and recordings a stopped replay left in
+    ``out`` (this finished one supersedes them) and print the summary (with
+    ``progress``); returns the summary."""
     from ._fs import atomic_write_bytes
 
     written.append(out / "timings.json")
+    summary = _summary(source, mapper, done, progress_at)
+    summary["written"] = [str(p) for p in written]
+    # timings.json before the state goes: a stop in between leaves the state, which
+    # --resume finishes again, never a folder with neither
+    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     state = out / STATE_FILE
     if state.is_file():  # a stopped replay's state, superseded by this finished one
         state.unlink()
         messages.append(f"removed {state}: the replay has finished")
     messages += drop_recordings(out)
-    summary = _summary(source, mapper, done, progress_at)
-    summary["written"] = [str(p) for p in written]
-    atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     summary["messages"] = messages + skipped_message(progress_at)
     if progress and summary_printed.get():
         print(summary_text(summary))
