@@ -157,3 +157,38 @@ def test_an_empty_tiled_graph_counts_a_last_band_of_one_row(tmp_path, capsys):
     assert main([*argv, "--memory-budget-mb", "14"]) == 0
     out = capsys.readouterr().out
     assert f"(0 occupied, {side * (side + 1)} free, 0 unknown)" in out
+
+
+@pytest.mark.parametrize("max_pixels", [1, 40 * 3, 40 * 7, 40 * 60])
+def test_the_census_of_a_tiled_map_equals_the_whole_maps(tmp_path, max_pixels):
+    """Class counts and wall share read in bands of rows (each with a row more on either
+    side) are those of the whole map, whatever the bands."""
+    from topojax.cli.tiled import _census
+    from topojax.maps.classify import wall_share
+    from topojax.outofcore.build import tiled_source
+
+    rng = np.random.default_rng(7)
+    codes = rng.choice(np.array([0, 205, 254], np.uint8), size=(59, 40), p=[0.2, 0.3, 0.5])
+    path = tmp_path / "m.pgm"
+    path.write_bytes(b"P5\n40 59\n255\n" + codes.tobytes())
+    whole = tj.load_map(path, resolution_m=0.05)
+    counts, share = _census(tiled_source(path, resolution_m=0.05), max_pixels)
+    assert counts == tuple(int(m.sum()) for m in (whole.occupied, whole.free, whole.unknown))
+    assert share == pytest.approx(wall_share(whole.occupied, whole.free), abs=1e-15)
+
+
+def test_tiled_grey_walls_are_flagged_as_the_whole_maps_are(tmp_path, capsys):
+    """A map whose walls read as unknown gets the whole-map build's warning."""
+    codes = np.full((80, 96), 205, np.uint8)  # grey walls and outside: unknown
+    codes[10:70, 10:86] = 254
+    codes[30:50, 40:50] = 0  # one obstacle, so that the map has both classes
+    path = tmp_path / "m.pgm"
+    path.write_bytes(b"P5\n96 80\n255\n" + codes.tobytes())
+    argv = ["graph", str(path), "--resolution", "0.05"]
+    assert main([*argv, "-o", str(tmp_path / "whole")]) == 0
+    whole = capsys.readouterr().out
+    assert main([*argv, "-o", str(tmp_path / "t"), "--tiled", "--memory-budget-mb", "14"]) == 0
+    tiled = capsys.readouterr().out
+    warning = "are the walls drawn in grey? check --occupied-thresh, --free-thresh or --mode"
+    note = [line for line in whole.splitlines() if warning in line]
+    assert note and note[0] in tiled.splitlines()

@@ -75,3 +75,20 @@ def classes_note(n_occupied: int, n_free: int, n_unknown: int) -> str:
         f"note       the map has {what} as classified ({n_occupied} occupied, {n_free} "
         f"free, {n_unknown} unknown), {outcome}; check {MAP_OPTIONS_TO_CHECK}"
     )
+
+
+def map_notes(counts: tuple[int, int, int], wall_share: float | None, empty: bool) -> list[str]:
+    """The notes on a map's pixels as classified (``counts``: occupied, free, unknown) for
+    a graph that is ``empty`` or not: :func:`classes_note` where the map cannot give a
+    graph or gave none, and a warning where its walls look unknown (``wall_share``, of
+    :func:`topojax.maps.classify.wall_share`, low: grey walls)."""
+    from ..maps.classify import wall_warning
+
+    n_occ, n_free, n_unknown = counts
+    if not (n_occ and n_free):
+        return [classes_note(n_occ, n_free, n_unknown)]
+    warning = wall_warning(wall_share, to_check="--occupied-thresh, --free-thresh or --mode")
+    notes = [f"note       {warning}"] if warning else []
+    if empty:
+        notes.append(classes_note(n_occ, n_free, 0))
+    return notes

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ._graph_out import (
     GRAPH_SUFFIXES,
-    classes_note,
+    map_notes,
     summary_lines,
     write_graph_files,
     write_nav2,
@@ -107,17 +107,11 @@ def _classes_hint(occupancy, graph) -> list[str]:
     """A note when the map, as classified, cannot give a graph (no obstacle or no free
     pixel), gave none, or its walls look unknown (grey walls): usually thresholds or a
     pixel convention that do not fit the file."""
-    n_occ, n_free = int(occupancy.occupied.sum()), int(occupancy.free.sum())
-    if n_occ and n_free:
-        from ..maps.classify import wall_share, wall_warning
+    from ..maps.classify import wall_share
 
-        share = wall_share(occupancy.occupied, occupancy.free)
-        warning = wall_warning(share, to_check="--occupied-thresh, --free-thresh or --mode")
-        notes = [f"note       {warning}"] if warning else []
-        if graph.number_of_nodes() == 0:
-            notes.append(classes_note(n_occ, n_free, 0))
-        return notes
-    return [classes_note(n_occ, n_free, int(occupancy.unknown.sum()))]
+    counts = tuple(int(m.sum()) for m in (occupancy.occupied, occupancy.free, occupancy.unknown))
+    share = wall_share(occupancy.occupied, occupancy.free) if all(counts[:2]) else None
+    return map_notes(counts, share, graph.number_of_nodes() == 0)
 
 
 def _cmd_graph(args) -> int:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ._graph_out import (
     GRAPH_SUFFIXES,
-    classes_note,
+    map_notes,
     summary_lines,
     write_graph_files,
     write_nav2,
@@ -138,9 +138,7 @@ def cmd_graph_tiled(args) -> int:
             source, config=config, block_px=block_px, out_dir=store, resume=args.resume
         )
     written = write_graph_files(result.graph, out, stem)
-    notes = []
-    if result.graph.number_of_nodes() == 0:  # say what the map's pixels are
-        notes.append(classes_note(*_class_counts(source, block_px * block_px)))
+    notes = map_notes(*_census(source, block_px * block_px), result.graph.number_of_nodes() == 0)
     if tolerance is not None:
         nav2, nav2_notes = write_nav2(result.graph, out / f"{stem}_nav2.geojson", tolerance)
         written, notes = written + nav2, notes + nav2_notes
@@ -154,19 +152,28 @@ def cmd_graph_tiled(args) -> int:
     return 0
 
 
-def _class_counts(source, max_pixels: int) -> tuple[int, int, int]:
-    """Occupied, free and unknown pixels of a tiled map, read in bands of rows of at
-    most ``max_pixels`` pixels (two rows where a row is larger, the fewest a window
-    holds; a single row left at the end is read with the band before it)."""
+def _census(source, max_pixels: int) -> tuple[tuple[int, int, int], float | None]:
+    """The occupied, free and unknown pixels of a tiled map and its wall share (of
+    :func:`topojax.maps.classify.wall_share`; None without free space), read in bands of
+    rows of at most ``max_pixels`` pixels (two rows where a row is larger, the fewest a
+    window holds; a single row left at the end is read with the band before it), each
+    with a row more on either side for the pixels next to the free space."""
+    from ..maps.classify import rim_counts, share_of_rim
+
     height, width = source.shape
     rows = max(2, max_pixels // max(width, 1))
-    counts = [0, 0, 0]
+    counts, rim = [0, 0, 0], [0, 0]
     r0 = 0
     while r0 < height:
         r1 = min(r0 + rows, height)
         r1 = height if height - r1 == 1 else r1
-        window = source.occupancy(r0, r1)
+        lo, hi = max(r0 - 1, 0), min(r1 + 1, height)
+        window = source.occupancy(lo, hi)
+        own = slice(r0 - lo, r1 - lo)
         for i, mask in enumerate((window.occupied, window.free, window.unknown)):
-            counts[i] += int(mask.sum())
+            counts[i] += int(mask[own].sum())
+        for i, n in enumerate(rim_counts(window.occupied, window.free, own)):
+            rim[i] += n
         r0 = r1
-    return counts[0], counts[1], counts[2]
+    share = share_of_rim(*rim) if counts[1] else None
+    return (counts[0], counts[1], counts[2]), share

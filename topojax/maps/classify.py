@@ -34,6 +34,8 @@ __all__ = [
     "MODES",
     "classify_array",
     "classify_image",
+    "rim_counts",
+    "share_of_rim",
     "wall_share",
     "wall_warning",
 ]
@@ -362,14 +364,27 @@ def wall_share(occupied: np.ndarray, free: np.ndarray) -> float | None:
     free = np.asarray(free, bool)
     if not free.any():
         return None
+    return share_of_rim(*rim_counts(occupied, free))
+
+
+def rim_counts(occupied: np.ndarray, free: np.ndarray, rows: slice = slice(None)):
+    """The pixels next to the free space (8-neighbours, not free themselves) among
+    ``rows`` of the (H, W) masks, and how many of them are occupied; a map read in bands
+    of rows gives its :func:`wall_share` from each band read with a row more on either
+    side, counted over the band's own rows."""
     import cv2
 
-    near = cv2.dilate(np.ascontiguousarray(free).view(np.uint8), np.ones((3, 3), np.uint8))
-    rim = near.view(bool) & ~free
-    n_rim = int(np.count_nonzero(rim))
+    free = np.ascontiguousarray(free, bool)
+    near = cv2.dilate(free.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+    rim = (near & ~free)[rows]
+    return int(np.count_nonzero(rim)), int(np.count_nonzero(rim & np.asarray(occupied, bool)[rows]))
+
+
+def share_of_rim(n_rim: int, n_rim_occupied: int) -> float:
+    """:func:`wall_share` from :func:`rim_counts` of a map with free space."""
     if n_rim == 0:
         return 1.0  # free up to the map's edge: nothing reads as a missing wall
-    return float(np.count_nonzero(rim & np.asarray(occupied, bool))) / n_rim
+    return n_rim_occupied / n_rim
 
 
 def wall_warning(
