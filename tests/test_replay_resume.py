@@ -322,28 +322,6 @@ def test_a_replay_stopped_while_writing_its_files_keeps_its_scans(
     assert not (out / STATE_FILE).exists()
 
 
-def test_a_stop_as_the_finished_replay_removes_its_state_leaves_timings(tmp_path, monkeypatch):
-    # the state of a stopped replay goes only once timings.json records the finished
-    # one: a Ctrl-C just after it goes must not leave a folder with neither
-    out = tmp_path / "out"
-    interrupted_reader(monkeypatch, 12)
-    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
-        replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
-    monkeypatch.undo()
-    real_unlink = Path.unlink
-
-    def unlink_then_stop(self, *args, **kwargs):
-        real_unlink(self, *args, **kwargs)
-        if self.name == STATE_FILE:
-            raise KeyboardInterrupt
-
-    monkeypatch.setattr(Path, "unlink", unlink_then_stop)
-    with pytest.raises(KeyboardInterrupt):
-        replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
-    assert not (out / STATE_FILE).exists()
-    assert json.loads((out / "timings.json").read_text())["n_scans"] == 40
-
-
 @pytest.fixture
 def stopped(tmp_path, monkeypatch):
     """An output folder with the state of a replay stopped after 12 scans."""
@@ -353,6 +331,23 @@ def stopped(tmp_path, monkeypatch):
         replay(INTEL_EXCERPT, out_dir=out, progress=False, **SETTINGS)
     monkeypatch.undo()
     return out
+
+
+def test_a_stop_as_the_finished_replay_removes_its_state_leaves_timings(stopped, monkeypatch):
+    # the state of a stopped replay goes only once timings.json records the finished
+    # one: a Ctrl-C just after it goes must not leave a folder with neither
+    real_unlink = Path.unlink
+
+    def unlink_then_stop(self, *args, **kwargs):
+        real_unlink(self, *args, **kwargs)
+        if self.name == STATE_FILE:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(Path, "unlink", unlink_then_stop)
+    with pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=stopped, progress=False, resume=True, **SETTINGS)
+    assert not (stopped / STATE_FILE).exists()
+    assert json.loads((stopped / "timings.json").read_text())["n_scans"] == 40
 
 
 def test_resume_without_a_saved_state_is_refused(tmp_path):
