@@ -442,6 +442,20 @@ def test_waypoints_are_the_edge_geometry_when_present():
     assert straight.graph_length_m == pytest.approx(40 * RES, rel=1e-6)
 
 
+def test_an_attribute_set_to_none_is_a_missing_one():
+    """A graph from another tool may hold None for a geometry it lacks (as
+    save_nav2_graph reads it): the next geometry is used, as if the key were absent."""
+    m = _map(np.zeros((60, 60), bool))
+    g = _graph(m, [[(30, 10), (10, 30), (30, 50)]])
+    ref = evaluate_route_graph(g, m, RADIUS, n_pairs=5)
+    next(iter(g.edges(data=True)))[2]["waypoints"] = None
+    for n in g:
+        g.nodes[n]["world"] = None  # the vertices' pixel instead
+    r = evaluate_route_graph(g, m, RADIUS, n_pairs=5)
+    assert r.graph_length_m == pytest.approx(ref.graph_length_m)
+    assert r.success_rate == ref.success_rate
+
+
 @pytest.mark.parametrize("reverse", [False, True])
 def test_polylines_are_joined_to_their_vertices_either_way_round(reverse):
     """An edge's polyline that stops short of its vertices is joined to them by straight

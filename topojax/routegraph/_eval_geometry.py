@@ -58,12 +58,18 @@ class GraphGeometry:
 _TIE = 1e-9
 
 
+def _has(data: dict, key: str) -> bool:
+    """Whether ``data`` holds ``key`` with a value other than None."""
+    return data.get(key) is not None
+
+
 def _vertex_point(node, data: dict, coordinates: str) -> tuple[np.ndarray, bool]:
     """One vertex's ``world`` (x, y) or ``pixel`` (row, col) attribute, checked, and
     whether it is ``world``."""
-    use_world = coordinates == "world" or (coordinates == "auto" and "world" in data)
+    # an attribute set to None is a missing one (as save_nav2_graph reads it)
+    use_world = coordinates == "world" or (coordinates == "auto" and _has(data, "world"))
     key = "world" if use_world else "pixel"
-    if key not in data:
+    if not _has(data, key):
         wanted = {
             "world": "a 'world' attribute ((x, y) metres)",
             "pixel": "a 'pixel' attribute ((row, col) pixels)",
@@ -112,10 +118,10 @@ def _edge_points(edge, data: dict, coordinates: str) -> tuple[np.ndarray | None,
     if coordinates == "pixel":
         key = "path"
     else:
-        key = next((k for k in ("waypoints", "world") if k in data), "world")
-        if key not in data and coordinates == "auto" and "path" in data:
+        key = next((k for k in ("waypoints", "world") if _has(data, k)), "world")
+        if not _has(data, key) and coordinates == "auto" and _has(data, "path"):
             key = "path"  # a graph in pixels: its vertices' pixel, its edges' path
-    if key not in data:
+    if not _has(data, key):
         return None, False
     try:
         arr = np.asarray(data[key], dtype=np.float64)
