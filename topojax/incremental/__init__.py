@@ -7,7 +7,7 @@ stage: ``docs/incremental-exactness.md``.
 """
 
 from .._jit import trace_counts
-from ._rays import ExtentError
+from ._extent import ExtentError
 from ._rethin import thin_components
 from ._rooms import RoomsUpdate, current_room_labels, keeps_rooms
 from ._settings import STRATEGIES, settings_of

@@ -13,6 +13,7 @@ from .._jit import cached_njit
 from .._validate import finite_pair
 from ..fields.filters import HALO_PX
 from ..fields.tiling import unique_pairs
+from ._extent import ExtentError, Subject, refusal
 from ._tiles import _MAX_ABS_PIXEL, _UINT16_MAX, _locate, _log2, _slot, _worker_pool
 
 #: Beams whose free cells may wait for the next skeleton update (or an export); more
@@ -258,8 +259,8 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     min col, max col)): their tiles and those of their splat windows allocated, new
     obstacles queued for the splat, and the rays from the ``sensor`` pixel (row, col)
     queued for the free-cell count when given.  Raises before any change if the
-    extent is too large, its message starting with ``where()`` (a callable: the scan
-    path formats nothing unless it fails).  Returns the number of new obstacle
+    extent is too large (:class:`ExtentError`), its message starting with ``where()`` (a
+    callable giving a :class:`Subject`: the scan path formats nothing unless it fails).  Returns the number of new obstacle
     pixels."""
     if mapper._ray_job is not None:  # only after an interrupted update
         join_rays(mapper)
@@ -327,12 +328,6 @@ def integrate_end_pixels(mapper, er, ec, ext, sensor, *, where) -> int:
     return int(n_new)
 
 
-class ExtentError(ValueError):
-    """A scan, points or map refused because it would grow the mapped area beyond the
-    mapper's ``max_extent_m``, ``max_grid_cells`` or ``max_tile_bytes``, or put pixels
-    beyond 2^30 pixels from the origin (nothing was added)."""
-
-
 @contextlib.contextmanager
 def changing(mapper, what: str):
     """Within ``with``, ``mapper`` changes its state (``what``: "a skeleton update", say):
@@ -367,17 +362,19 @@ def check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
     tiles' bounding box longer than ``max_extent_m`` or larger than ``max_grid_cells``;
     the message starts with ``where()``."""
     if max(abs(lo_r), abs(hi_r), abs(lo_c), abs(hi_c)) > _MAX_ABS_PIXEL:
-        raise ExtentError(
-            f"{where()} put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
+        raise refusal(
+            where,
+            f" put pixels beyond {_MAX_ABS_PIXEL} px from the origin at "
             f"resolution {mapper.resolution_m} m; nothing was added (expected coordinates "
-            "in metres; a localisation glitch?)"
+            "in metres; a localisation glitch?)",
+            "max_abs_pixel",
         )
     check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where)
     t = mapper.tile_px
     try:
         mapper._tiles.check_extent_box(lo_r // t, lo_c // t, hi_r // t + 1, hi_c // t + 1)
     except ValueError as exc:
-        raise ExtentError(f"{where()}: {exc}; nothing was added") from None
+        raise refusal(where, f": {exc}; nothing was added", "max_grid_cells") from None
 
 
 def sensor_pixel(mapper, x: float, y: float, where) -> tuple[int, int]:
@@ -387,10 +384,12 @@ def sensor_pixel(mapper, x: float, y: float, where) -> tuple[int, int]:
     res = mapper.resolution_m
     row, col = -y / res, x / res
     if not (abs(row) <= _MAX_ABS_PIXEL and abs(col) <= _MAX_ABS_PIXEL):
-        raise ExtentError(
-            f"{where()} put the sensor at ({x:g}, {y:g}) m, beyond {_MAX_ABS_PIXEL} px from "
+        raise refusal(
+            where,
+            f" put the sensor at ({x:g}, {y:g}) m, beyond {_MAX_ABS_PIXEL} px from "
             f"the origin at resolution {res} m; nothing was added (expected coordinates in "
-            "metres; a localisation glitch?)"
+            "metres; a localisation glitch?)",
+            "max_abs_pixel",
         )
     return math.floor(row), math.floor(col)
 
@@ -403,12 +402,14 @@ def check_tile_budget(mapper, new_tiles: int, where, *, at_least: bool = False) 
     need = (tiles.n_tiles + int(new_tiles)) * tiles.tile_nbytes
     if need > mapper.max_tile_bytes:
         least = "at least " if at_least else ""
-        raise ExtentError(
-            f"{where()} would allocate {least}{new_tiles} more tiles, {least}"
+        raise refusal(
+            where,
+            f" would allocate {least}{new_tiles} more tiles, {least}"
             f"{need / 2**20:,.0f} MiB in all, beyond max_tile_bytes={mapper.max_tile_bytes}; "
             "nothing was added (a reading far beyond the sensor's range? set the scan's "
             "range_max or the mapper's max_range_m, or make the mapper with a larger "
-            "max_tile_bytes)"
+            "max_tile_bytes)",
+            "max_tile_bytes",
         )
 
 
@@ -434,10 +435,12 @@ def check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
             )
         else:
             why = "a localisation glitch? check the pose, or make the mapper with a larger max_extent_m"
-        raise ExtentError(
-            f"{where()} would grow the mapped area to {width_m:.6g} m x {height_m:.6g} m "
+        raise refusal(
+            where,
+            f" would grow the mapped area to {width_m:.6g} m x {height_m:.6g} m "
             f"(x by y, tile-aligned), beyond max_extent_m={mapper.max_extent_m:g} m; "
-            f"nothing was added ({why})"
+            f"nothing was added ({why})",
+            "max_extent_m",
         )
 
 
@@ -518,8 +521,9 @@ def point_pixels(mapper, points_xy, origin_xy):
     if origin_xy is not None:
         origin = finite_pair("origin_xy", origin_xy, "(x, y) in metres")
         x, y = (float(v) for v in origin)
+        n = mapper._n_scans
         sensor = sensor_pixel(
-            mapper, x, y, lambda: f"origin_xy: the points (scan {mapper._n_scans})"
+            mapper, x, y, lambda: Subject(f"origin_xy: the points (scan {n})", scan=n)
         )
         if mapper.max_range_m is not None:
             # A scan's reading at exactly max_range_m is dropped; its end point, made
@@ -532,10 +536,12 @@ def point_pixels(mapper, points_xy, origin_xy):
                 keep &= np.hypot(*(pts - origin).T) < mapper.max_range_m - slack * scale
     used = pts[keep]
     if used.shape[0] and np.abs(used).max() / mapper.resolution_m > _MAX_ABS_PIXEL:
-        raise ExtentError(
-            f"points_xy: the points put pixels beyond {_MAX_ABS_PIXEL} px from the origin "
+        raise refusal(
+            lambda: Subject("points_xy: the points", scan=mapper._n_scans),
+            f" put pixels beyond {_MAX_ABS_PIXEL} px from the origin "
             f"at resolution {mapper.resolution_m} m (largest coordinate "
-            f"{np.abs(used).max():g}); nothing was added (expected coordinates in metres)"
+            f"{np.abs(used).max():g}); nothing was added (expected coordinates in metres)",
+            "max_abs_pixel",
         )
     er, ec = mapper.world_to_pixel(used[:, 0], used[:, 1])
     if er.shape[0]:
@@ -604,7 +610,7 @@ def add_occupancy(mapper, occupancy) -> int:
         lo_r, hi_r, lo_c, hi_c = r0 - half, r0 + h + half, c0 - half, c0 + w + half
         # the whole map and its splat windows, before anything changes (or the pixels'
         # indices, 16 bytes a pixel, are taken)
-        where = lambda: f"occupancy: the map at {occupancy.origin}"  # noqa: E731
+        where = lambda: Subject(f"occupancy: the map at {occupancy.origin}")  # noqa: E731
         check_growth(mapper, lo_r, hi_r, lo_c, hi_c, where)
         check_tile_budget(mapper, _map_tiles(mapper, occupancy.occupied, free, r0, c0), where)
     rows, cols = np.nonzero(occupancy.occupied)

@@ -21,6 +21,7 @@ from ..fields.tiling import MAX_GRID_CELLS, TileManager
 from ..scans import Scan
 from ..scans.scan import reading_limits
 from ._dense_export import dense_layer, distance_map, export_bbox, occupancy_over
+from ._extent import Subject
 from ._graph_export import export_graph, global_graph, topology_result
 from ._graph_patch import patch_graph
 from ._graph_store import empty_graph_tables
@@ -359,14 +360,15 @@ class IncrementalMapper:
             where=lambda: self._scan_name(scan),
         )
 
-    def _scan_name(self, scan: Scan) -> str:
-        """``scan <index> (timestamp <t> s): the pose (x, y, yaw) with readings up to <r>
-        m`` for error messages."""
+    def _scan_name(self, scan: Scan) -> Subject:
+        """``scan <index>`` then `` (timestamp <t> s): the pose (x, y, yaw) with readings
+        up to <r> m``, naming the scan in a refusal (:class:`ExtentError`)."""
         stamp = "" if scan.timestamp is None else f" (timestamp {scan.timestamp:.6f} s)"
         r = np.asarray(scan.ranges, np.float64)[scan.valid_mask()]
         r = r if self.max_range_m is None else r[r < self.max_range_m]
         far = f" with readings up to {r.max():.6g} m" if r.size else ""
-        return f"scan {self._n_scans}{stamp}: the pose {scan.pose}{far}"
+        n = self._n_scans
+        return Subject(f"scan {n}", f"{stamp}: the pose {scan.pose}{far}", n)
 
     @_synchronized
     def add_points(self, points_xy, *, origin_xy=None) -> ScanReport:
@@ -406,6 +408,7 @@ class IncrementalMapper:
         """
         t0 = time.perf_counter()
         er, ec, ext, sensor, n_points = point_pixels(self, points_xy, origin_xy)
+        n = self._n_scans
         return self._add_end_pixels(
             er,
             ec,
@@ -413,7 +416,7 @@ class IncrementalMapper:
             sensor,
             n_beams=n_points,
             t0=t0,
-            where=lambda: f"points_xy: the points (scan {self._n_scans})",
+            where=lambda: Subject(f"points_xy: the points (scan {n})", scan=n),
         )
 
     @_synchronized

@@ -1,0 +1,121 @@
+"""The mapper's refusals (:class:`ExtentError`) say in fields what their messages say in
+words: the bound met, and what was refused as the message names it first (with the
+scan's index); each place that refuses sets them, and they survive pickling."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+
+from topojax.config import DistanceConfig
+from topojax.incremental import ExtentError, IncrementalMapper
+from topojax.maps import OccupancyMap
+from topojax.scans import Scan
+
+SMALL_KW = {
+    "resolution_m": 0.1,
+    "distance": DistanceConfig(sigma_px=4.0, half_width_px=10),
+    "tile_px": 16,
+    "block_px": 8,
+    "skeleton_every": 0,
+    "graph_every": 0,
+}
+TILE_BYTES = IncrementalMapper(**SMALL_KW).tiles.tile_nbytes
+#: How each bound is named in the messages.
+WORDS = {
+    "max_extent_m": "beyond max_extent_m=",
+    "max_grid_cells": "(max_grid_cells)",
+    "max_tile_bytes": "beyond max_tile_bytes=",
+    "max_abs_pixel": "beyond 1073741824 px",
+}
+
+
+def _scan(ranges, pose=(0.0, 0.0, 0.0)) -> Scan:
+    return Scan.from_arrays(np.asarray(ranges, float), pose, angle_min=0, angle_increment=0.3)
+
+
+def _map(shape, origin, *, free: bool = False) -> OccupancyMap:
+    occupied = np.zeros(shape, bool)
+    if not free:
+        occupied[::50, ::5] = True
+    return OccupancyMap(
+        occupied=occupied,
+        free=~occupied if free else np.zeros_like(occupied),
+        unknown=occupied if free else ~occupied,
+        resolution_m=0.1,
+        origin=origin,
+    )
+
+
+def _mapper(**kw) -> IncrementalMapper:
+    """A mapper that has mapped one scan near the origin."""
+    mapper = IncrementalMapper(**SMALL_KW, **kw)
+    mapper.add_scan(_scan(np.full(5, 2.0)))
+    return mapper
+
+
+far_points = np.stack([np.linspace(-60, 60, 200), np.full(200, 30.0)], 1)
+#: (case, mapper settings, call, bound, subject, scan): every place the mapper refuses.
+CASES = [
+    ("scan pose", {"max_extent_m": 20.0}, lambda m: m.add_scan(_scan(np.ones(3), (30, 0, 0))),
+     "max_extent_m", "scan 1", 1),
+    ("scan readings", {}, lambda m: m.add_scan(_scan(np.full(5, 1e30))),
+     "max_abs_pixel", "scan 1", 1),
+    ("scan sensor", {}, lambda m: m.add_scan(_scan(np.full(5, np.nan), (1e12, 0, 0))),
+     "max_abs_pixel", "scan 1", 1),
+    ("scan tiles", {"max_grid_cells": 50}, lambda m: m.add_scan(_scan(np.full(5, 50.0))),
+     "max_grid_cells", "scan 1", 1),
+    ("scan memory", {"max_tile_bytes": 60 * TILE_BYTES},
+     lambda m: m.add_scan(_scan(np.full(40, 80.0))), "max_tile_bytes", "scan 1", 1),
+    ("points", {"max_extent_m": 20.0}, lambda m: m.add_points(np.array([[40.0, 0.0]])),
+     "max_extent_m", "points_xy: the points (scan 1)", 1),
+    ("points far", {}, lambda m: m.add_points(np.array([[1e12, 0.0]])),
+     "max_abs_pixel", "points_xy: the points", 1),
+    ("points origin", {}, lambda m: m.add_points(np.ones((1, 2)), origin_xy=(1e12, 0.0)),
+     "max_abs_pixel", "origin_xy: the points (scan 1)", 1),
+    ("points memory", {"max_tile_bytes": 60 * TILE_BYTES}, lambda m: m.add_points(far_points),
+     "max_tile_bytes", "points_xy: the points (scan 1)", 1),
+    ("map", {"max_extent_m": 20.0}, lambda m: m.add_map(_map((400, 20), (0.0, 0.0, 0.0))),
+     "max_extent_m", "occupancy: the map at (0.0, 0.0, 0.0)", None),
+    ("map far", {}, lambda m: m.add_map(_map((20, 20), (5e8, 0.0, 0.0))),
+     "max_abs_pixel", "occupancy: the map at (500000000.0, 0.0, 0.0)", None),
+    ("map tiles", {"max_grid_cells": 50}, lambda m: m.add_map(_map((400, 20), (0.0, 0.0, 0.0))),
+     "max_grid_cells", "occupancy: the map at (0.0, 0.0, 0.0)", None),
+    ("map memory", {"max_tile_bytes": 60 * TILE_BYTES},
+     lambda m: m.add_map(_map((600, 600), (-30.0, -30.0, 0.0), free=True)),
+     "max_tile_bytes", "occupancy: the map at (-30.0, -30.0, 0.0)", None),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("settings", "call", "bound", "subject", "scan"),
+    [case[1:] for case in CASES],
+    ids=[case[0] for case in CASES],
+)
+def test_each_refusal_says_the_bound_met_and_what_was_refused(settings, call, bound, subject, scan):
+    mapper = _mapper(**settings)
+    with pytest.raises(ExtentError) as info:
+        call(mapper)
+    exc = info.value
+    assert isinstance(exc, ValueError)
+    assert (exc.bound, exc.subject, exc.scan) == (bound, subject, scan)
+    message = str(exc)
+    assert message.startswith(subject) and WORDS[bound] in message  # the words agree
+    assert mapper.n_scans == 1  # nothing was added
+    # renamed: the message with the subject alone replaced
+    assert exc.renamed("it") == "it" + message[len(subject) :]
+    # through a process boundary (a pickle) with its fields
+    back = pickle.loads(pickle.dumps(exc))
+    assert type(back) is ExtentError and str(back) == message
+    assert (back.bound, back.subject, back.scan) == (bound, subject, scan)
+
+
+def test_an_extent_error_is_made_with_a_known_bound_and_its_message_s_subject():
+    exc = ExtentError("scan 3 (t): too far", bound="max_extent_m", subject="scan 3", scan=3)
+    assert exc.renamed("scan 9 of the log") == "scan 9 of the log (t): too far"
+    with pytest.raises(ValueError, match=r"^bound: expected one of .*received 'far'"):
+        ExtentError("scan 3: too far", bound="far")
+    with pytest.raises(ValueError, match=r"^subject: expected the start of the message"):
+        ExtentError("scan 3: too far", bound="max_extent_m", subject="scan 4")
