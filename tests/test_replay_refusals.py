@@ -3,11 +3,15 @@ its index in the log, and the summary by the bounds the refusals met."""
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
+import pytest
+
+from topojax._replay_state import ReplayProgress, skipped_message
 from topojax.cli import main
-from topojax.incremental import IncrementalMapper
+from topojax.incremental import ExtentError, IncrementalMapper
 from topojax.playback import replay
 from topojax.scans import read_scans
 
@@ -53,3 +57,93 @@ def test_the_skipped_scans_line_of_the_command_names_its_option(tmp_path, capsys
     line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("skipped"))
     assert "bounds (--max-extent-m) and not mapped" in line
     assert re.search(r"the first: scan \d+ of the log \(timestamp", line)
+
+
+def _reworded(monkeypatch) -> None:
+    """Make every refusal of the mapper say only that it refused, in other words than the
+    mapper's (its fields as they were): what a replay makes of refusals must not hang on
+    their wording."""
+    from topojax.incremental import _rays
+
+    def refusal(where, reason, bound):
+        what = where()
+        return ExtentError(
+            f"{what.name}{what.more}: refused, not mapped", bound=bound, subject=what.name,
+            scan=what.scan,
+        )  # fmt: skip
+
+    monkeypatch.setattr(_rays, "refusal", refusal)
+
+
+def test_the_bound_each_skipped_scan_met_is_in_timings_json_whatever_the_wording(
+    tmp_path, monkeypatch
+):
+    """``timings.json`` names the bound each skipped scan met (``skipped_bounds``, beside
+    ``skipped_scans``), and the summary's line the bounds, from the refusals' fields: a
+    reworded refusal changes neither, and its scan is named by its index in the log."""
+    _reworded(monkeypatch)
+    out = tmp_path / "o"
+    summary = replay(INTEL_EXCERPT, out_dir=out, progress=False, max_tile_bytes=50 * TILE_BYTES)
+    written = json.loads((out / "timings.json").read_text())
+    skipped = written["skipped_scans"]
+    assert len(skipped) > 1 and skipped == summary["skipped_scans"]
+    assert written["skipped_bounds"] == ["max_tile_bytes"] * len(skipped)
+    for refusal in skipped:
+        assert re.fullmatch(r"scan \d+ of the log \(timestamp .*: refused, not mapped", refusal)
+    line = next(m for m in summary["messages"] if m.startswith("skipped"))
+    assert "bounds (max_tile_bytes) and not mapped" in line
+
+
+def test_the_skipped_scans_line_of_the_command_names_its_option_whatever_the_wording(
+    tmp_path, monkeypatch, capsys
+):
+    _reworded(monkeypatch)
+    out = tmp_path / "o"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]
+    assert main([*args, "--max-extent-m", "46"]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("skipped"))
+    assert "bounds (--max-extent-m) and not mapped" in line
+    bounds = json.loads((out / "timings.json").read_text())["skipped_bounds"]
+    assert len(bounds) > 1 and set(bounds) == {"max_extent_m"}
+
+
+def test_a_resumed_replay_names_the_bounds_the_stopped_one_met(tmp_path, monkeypatch):
+    """The bounds met by the scans skipped before a stop are kept with the mapper's state
+    and named by the resumed replay (its refusals reworded: not read from their words)."""
+    import topojax.scans
+
+    _reworded(monkeypatch)
+    real = topojax.scans.read_scans
+
+    def stopping(source, **kw):  # the first replay stops after 12 scans (6 skipped)
+        monkeypatch.setattr(topojax.scans, "read_scans", real)
+        for i, scan in enumerate(real(source, **kw)):
+            if i == 12:
+                raise KeyboardInterrupt
+            yield scan
+
+    monkeypatch.setattr(topojax.scans, "read_scans", stopping)
+    out, kw = tmp_path / "o", {"progress": False, "max_tile_bytes": 50 * TILE_BYTES}
+    with pytest.warns(RuntimeWarning, match="resume"), pytest.raises(KeyboardInterrupt):
+        replay(INTEL_EXCERPT, out_dir=out, **kw)
+    # the resumed replay skips no scan: only those before the stop are refused
+    summary = replay(INTEL_EXCERPT, out_dir=out, resume=True, max_scans=12, **kw)
+    assert summary["resumed_after"] == 12 and len(summary["skipped_scans"]) > 1
+    assert summary["skipped_bounds"] == ["max_tile_bytes"] * len(summary["skipped_scans"])
+    line = next(m for m in summary["messages"] if m.startswith("skipped"))
+    assert "bounds (max_tile_bytes) and not mapped" in line
+
+
+def test_refusals_recorded_without_their_bounds_name_none():
+    """A state saved by an older topojax records the refusals without their bounds: those
+    are not known, and the summary names no bound for them."""
+    progress = ReplayProgress(5, ["scan 1 of the log: refused", "scan 3 of the log: refused"])
+    assert progress.skipped_bounds == [None, None]
+    assert skipped_message(progress)[0].startswith(
+        "skipped 2 of 5 scans, each refused as beyond the mapper's bounds and not mapped"
+    )
+    progress.skip("scan 4 of the log: refused", "max_extent_m")
+    assert (
+        "bounds (max_extent_m, --max-extent-m in topojax replay) and"
+        in (skipped_message(progress)[0])
+    )

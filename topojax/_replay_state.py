@@ -22,16 +22,32 @@ _HASHED_BYTES = 1 << 20  # of each end of a log file, for its fingerprint
 
 class ReplayProgress:
     """How far a replay got: ``consumed`` scans taken from the log (mapped or skipped),
-    the refusals of the ``skipped`` ones, and ``recorded``: the scans whose updates the
-    replay's recordings (animation, view timeline, MCAP) hold; updated after every scan."""
+    the refusals of the ``skipped`` ones and the bound each met (``skipped_bounds``,
+    :attr:`ExtentError.bound`; None where not known: a state saved by an older topojax),
+    and ``recorded``: the scans whose updates the replay's recordings (animation, view
+    timeline, MCAP) hold; updated after every scan."""
 
-    __slots__ = ("consumed", "recorded", "resumed_after", "skipped")
+    __slots__ = ("consumed", "recorded", "resumed_after", "skipped", "skipped_bounds")
 
-    def __init__(self, consumed: int = 0, skipped: list[str] | None = None) -> None:
+    def __init__(
+        self,
+        consumed: int = 0,
+        skipped: list[str] | None = None,
+        skipped_bounds: list[str | None] | None = None,
+    ) -> None:
         self.consumed = consumed
         self.recorded = consumed
         self.resumed_after = consumed
         self.skipped = list(skipped or [])
+        bounds = list(skipped_bounds or [])
+        if len(bounds) != len(self.skipped):  # not recorded: not known
+            bounds = [None] * len(self.skipped)
+        self.skipped_bounds = bounds
+
+    def skip(self, refusal: str, bound: str) -> None:
+        """Count a skipped scan: its ``refusal`` and the ``bound`` it met."""
+        self.skipped.append(refusal)
+        self.skipped_bounds.append(bound)
 
 
 def skipped_message(progress: ReplayProgress) -> list[str]:
@@ -41,28 +57,29 @@ def skipped_message(progress: ReplayProgress) -> list[str]:
     skipped = progress.skipped
     if len(skipped) <= 1:
         return [f"skipped {m}" for m in skipped]
+    met = _bounds_met(progress.skipped_bounds)
     return [
         f"skipped {len(skipped)} of {progress.consumed} scans, each refused as beyond the "
-        f"mapper's bounds{_bounds_met(skipped)} and not mapped; timings.json lists every "
-        f"refusal (skipped_scans); the first: {skipped[0]}"
+        f"mapper's bounds{met} and not mapped; timings.json lists every refusal "
+        f"(skipped_scans); the first: {skipped[0]}"
     ]
 
 
-#: The mapper's bounds a refusal may name, each with the words that name it in a
-#: refusal's message and how the summary names it (with the option of ``topojax replay``
-#: that sets it, where it has one).
-_BOUNDS = (
-    ("beyond max_extent_m=", "max_extent_m, --max-extent-m in topojax replay"),
-    ("beyond max_tile_bytes=", "max_tile_bytes"),
-    ("(max_grid_cells)", "max_grid_cells"),
-)
+#: The mapper's bounds a refusal may meet (:attr:`ExtentError.bound`) that the summary
+#: names, in its order, each as it names it (with the option of ``topojax replay`` that
+#: sets it, where it has one); pixels beyond 2^30 px from the origin are no setting.
+_BOUNDS = {
+    "max_extent_m": "max_extent_m, --max-extent-m in topojax replay",
+    "max_tile_bytes": "max_tile_bytes",
+    "max_grid_cells": "max_grid_cells",
+}
 
 
-def _bounds_met(refusals: list[str]) -> str:
-    """The bounds the ``refusals`` met, as ``" (max_extent_m, --max-extent-m in topojax
-    replay; max_tile_bytes)"``; "" where none names a bound (pixels beyond 2^30 px from
-    the origin)."""
-    met = [name for words, name in _BOUNDS if any(words in r for r in refusals)]
+def _bounds_met(bounds: list[str | None]) -> str:
+    """The settings among the ``bounds`` the refusals met, as ``" (max_extent_m,
+    --max-extent-m in topojax replay; max_tile_bytes)"``; "" where none is a setting
+    (pixels beyond 2^30 px from the origin, or not known)."""
+    met = [name for bound, name in _BOUNDS.items() if bound in bounds]
     return f" ({'; '.join(met)})" if met else ""
 
 
@@ -181,7 +198,7 @@ class WholeScans:
                 progress.recorded = index + 1
                 return report
             except ExtentError as exc:  # a localisation glitch: skipped, the replay goes on
-                progress.skipped.append(_named_in_log(str(exc), before, index))
+                progress.skip(_named_in_log(exc, index), exc.bound)
                 progress.consumed = progress.recorded = index + 1
                 return None
             finally:
@@ -189,16 +206,15 @@ class WholeScans:
                     progress.consumed = index + 1
 
 
-def _named_in_log(refusal: str, mapped: int, index: int) -> str:
-    """A mapper's ``refusal`` of a scan, which names the scan by the scans the mapper
-    had added (``mapped``: "scan 594 (timestamp ...): ..."), naming it instead by its
-    ``index`` in the log (from 0), as the replay counts scans: refused scans and those a
-    resumed replay skipped are not the mapper's, so that number would not find it."""
-    named = f"scan {mapped}"
-    rest = refusal[len(named) :]
-    if not refusal.startswith(named) or rest[:1] not in (" ", ":"):
-        return refusal
-    return f"scan {index} of the log{rest}"
+def _named_in_log(refusal, index: int) -> str:
+    """The message of the mapper's ``refusal`` (:class:`ExtentError`) of a scan, which
+    names the scan by the scans the mapper had added ("scan 594 (timestamp ...): ..."),
+    naming it instead by its ``index`` in the log (from 0), as the replay counts scans:
+    refused scans and those a resumed replay skipped are not the mapper's, so that number
+    would not find it."""
+    if refusal.scan is None:  # not a scan
+        return str(refusal)
+    return refusal.renamed(f"scan {index} of the log")
 
 
 def _file_digest(path: Path, digest) -> None:
@@ -239,6 +255,7 @@ def replay_record(source, reader_kwargs, progress: ReplayProgress, mapper) -> di
         "consumed": int(progress.consumed),
         "mapped": int(mapper.n_scans),
         "skipped": list(progress.skipped),
+        "skipped_bounds": list(progress.skipped_bounds),
     }
 
 

@@ -144,7 +144,9 @@ def replay(
     dict
         ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals, :class:`ExtentError`,
         of scans that would have grown the map out of the mapper's bounds, a localisation
-        glitch: skipped, the replay goes on), ``n_tiles``, ``vertices``, ``edges``,
+        glitch: skipped, the replay goes on), ``skipped_bounds`` (the bound each met,
+        :attr:`ExtentError.bound`; None for one recorded by an older topojax's stopped
+        replay), ``n_tiles``, ``vertices``, ``edges``,
         ``route_graph`` (its ``vertices``, ``edges``, ``components``, ``robot_radius_m``;
         None without one), ``timings`` (per loop), ``written`` (paths), ``messages`` (the
         skipped scans in one, with the first refusal).  A map grown too large to export,
@@ -342,7 +344,9 @@ def _start(
     progress_at = ReplayProgress()
     if resume:
         mapper, record = resumed_mapper(out, source, reader_kwargs, settings_of(mapper), max_scans)
-        progress_at = ReplayProgress(record["consumed"], record["skipped"])
+        progress_at = ReplayProgress(
+            record["consumed"], record["skipped"], record.get("skipped_bounds")
+        )
     try:
         scans = read_scans(source, **(reader_kwargs or {}))
     except ValueError as exc:  # named as this function names its file
@@ -538,6 +542,7 @@ def _summary(source, mapper: IncrementalMapper, done: _Replayed, progress_at) ->
         "source": str(source),
         "n_scans": mapper.n_scans,
         "skipped_scans": done.skipped,
+        "skipped_bounds": list(progress_at.skipped_bounds),
         "n_tiles": mapper.n_tiles,
         "map_shape": list(done.result.map.shape),
         "vertices": summary_g["n_vertices"],
