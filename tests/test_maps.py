@@ -990,6 +990,38 @@ def test_yaml_defaults_and_overrides(tmp_path: Path):
     assert load_map(tmp_path / "rel.yml").occupied.all()
 
 
+@pytest.mark.parametrize(
+    ("given", "message"),
+    [
+        (
+            {"free_thresh": 0.7},
+            r"^free_thresh: expected less than occupied_thresh \(0\.65, from map YAML .*m\.yaml\), received 0\.7$",
+        ),
+        (
+            {"occupied_thresh": 0.1},
+            r"^occupied_thresh: expected more than free_thresh \(0\.196, from map YAML .*m\.yaml\), received 0\.1$",
+        ),
+        ({"free_thresh": 1.5}, r"^free_thresh: expected a number from 0 to 1, received 1\.5$"),
+        (
+            {"free_thresh": 0.7, "occupied_thresh": 0.6},
+            r"^free_thresh, occupied_thresh: expected 0 <= free_thresh < occupied_thresh",
+        ),
+    ],
+)
+def test_a_threshold_given_against_the_yaml_s_other_is_blamed_on_the_caller(
+    tmp_path: Path, given, message
+):
+    # a threshold given beside a YAML that sets the other one: the refusal names the one
+    # given and where the other came from, not the file alone (whose fields are fine)
+    path = _yaml_map(tmp_path, GOOD)
+    with pytest.raises(ValueError, match=message):
+        load_map(path, **given)
+    from topojax.maps.tiled import open_tiled_map
+
+    with pytest.raises(ValueError, match=message):
+        open_tiled_map(path, **given)
+
+
 def test_yaml_numbers_as_map_server_reads_them(tmp_path: Path):
     # PyYAML (YAML 1.1) reads 5e-2 and quoted numbers as strings; yaml-cpp, which
     # map_server uses, reads them as numbers

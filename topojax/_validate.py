@@ -388,6 +388,19 @@ def pose(name: str, value: Any, *, bounded: bool = True) -> tuple[float, float, 
     return (x, y, yaw)
 
 
+def threshold(name: str, value: Any) -> float:
+    """``value`` as a float after checking it is a number (a ``TypeError`` otherwise) from
+    0 to 1 (a ``ValueError`` otherwise): an occupancy threshold, alone."""
+    number = _real(value)
+    if number is None:
+        raise TypeError(
+            f"{name}: expected a number from 0 to 1, received {type(value).__name__} {value!r}"
+        )
+    if not 0.0 <= float(number) <= 1.0:  # also NaN
+        raise ValueError(f"{name}: expected a number from 0 to 1, received {value!r}")
+    return float(number)
+
+
 def occupancy_thresholds(
     occupied_thresh: Any, free_thresh: Any, *, where: str = ""
 ) -> tuple[float, float]:

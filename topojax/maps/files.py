@@ -22,6 +22,7 @@ from .._validate import (
     one_of,
     path_like,
     pose,
+    threshold,
 )
 from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES, classify_image
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
@@ -443,6 +444,10 @@ def _yaml_settings(
         if not is_real_number(val) or not 0.0 <= float(val) <= 1.0:
             raise _yaml_error(p, key, "a number in [0, 1]", val)
         thresholds[key] = float(val)
+    if occupied_thresh is not None and free_thresh is not None:  # the caller's pair
+        occupancy_thresholds(occupied_thresh, free_thresh)
+    elif (occupied_thresh is None) != (free_thresh is None):  # one given, one the file's
+        _check_given_threshold(p, thresholds, given=occupied_thresh is None)
     if mode is None:
         raw_mode = doc.get("mode", "trinary")
         if not isinstance(raw_mode, str) or raw_mode not in ("trinary", "scale", "raw"):
@@ -457,6 +462,23 @@ def _yaml_settings(
         "mode": mode,
     }
     return image_path, settings
+
+
+def _check_given_threshold(p: Path, thresholds: dict[str, Any], *, given: bool) -> None:
+    """Check the threshold the caller gave (``free_thresh`` where ``given`` is True, else
+    ``occupied_thresh``) against the other, read from the map YAML ``p``: the error names
+    the one given and says where the other came from."""
+    occ, free = thresholds["occupied_thresh"], thresholds["free_thresh"]
+    name, value = ("free_thresh", free) if given else ("occupied_thresh", occ)
+    number = threshold(name, value)
+    other, other_value = ("occupied_thresh", occ) if given else ("free_thresh", free)
+    if (number < occ) if given else (number > free):
+        return
+    relation = "less" if given else "more"
+    raise ValueError(
+        f"{name}: expected {relation} than {other} ({other_value!r}, from map YAML {p}), "
+        f"received {value!r}"
+    )
 
 
 def _classify_pixels(
