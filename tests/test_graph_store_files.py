@@ -145,6 +145,9 @@ def test_files_replaced_or_damaged_are_refused(tmp_path):
     (tmp_path / "edge_u.npy").write_bytes(b"not an array")
     with pytest.raises(ValueError, match=r"edge_u.npy: not a readable .npy array"):
         tj.load_graph_store(tmp_path)
+    (tmp_path / "edge_u.npy").write_bytes(b"")  # numpy raises a bare EOFError for it
+    with pytest.raises(ValueError, match=r"edge_u.npy: not a readable .npy array"):
+        tj.load_graph_store(tmp_path)
     (tmp_path / "edge_u.npy").unlink()
     with pytest.raises(FileNotFoundError, match=r"the array file .*edge_u.npy is missing"):
         tj.load_graph_store(tmp_path)

@@ -722,6 +722,12 @@ def _tile_folder(tmp_path):
             ValueError,
             "r00000_c00002.npy is not a .npy array",
         ),
+        # a 0-byte tile (a disk that filled up): numpy raises a bare EOFError for it
+        (
+            lambda p: (p / "r00001_c00000.npy").write_bytes(b""),
+            ValueError,
+            "r00001_c00000.npy is not a .npy array",
+        ),
     ],
 )
 def test_a_damaged_tile_is_named_when_read(tmp_path, damage, error, needle):

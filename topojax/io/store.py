@@ -167,7 +167,7 @@ def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
             check_npy_size(fh, path.stat().st_size, str(path))
         try:
             arr = np.load(path, mmap_mode="r" if mmap else None, allow_pickle=False)
-        except ValueError as exc:
+        except (ValueError, EOFError) as exc:  # EOFError: an empty file
             raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
         if arr.dtype.str != spec["dtype"] or list(arr.shape) != spec["shape"]:
             raise ValueError(

@@ -454,7 +454,7 @@ class _FolderReader:
             raise FileNotFoundError(
                 f"tile folder {self.folder}: tile {path.name} is missing"
             ) from None
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, EOFError) as exc:  # EOFError: an empty file
             raise ValueError(
                 f"tile folder {self.folder}: {path.name} is not a .npy array ({exc})"
             ) from None
