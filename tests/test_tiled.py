@@ -563,6 +563,10 @@ def test_bad_arguments_name_the_parameter(tmp_path):
     (tmp_path / "m.png").write_bytes(b"")
     with pytest.raises(ValueError, match="path: expected a tile folder"):
         tj.open_tiled_map(tmp_path / "m.png")
+    for name in ("folder.pgm", "folder.yaml"):  # a folder, whatever its name ends with
+        (tmp_path / name).mkdir()
+        with pytest.raises(ValueError, match=f"path: expected a tile folder.*{name}"):
+            tj.open_tiled_map(tmp_path / name)
     with pytest.raises(ValueError, match="window"):
         TiledMap.from_occupancy(m).codes(0, 800, 0, 10)
     # a fractional bound is refused, not truncated (rows 1.5:3 read as 1:3), and so is

@@ -549,13 +549,13 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         _refuse_missing_chunks(p, reader._array, meta)
         with _named(p / "zarr.json"):
             return TiledMap(reader, **_metadata(meta, overrides), source=str(p))
-    if p.is_dir():
-        _refuse_unfinished(p)
     suffix = p.suffix.lower()
-    if suffix in YAML_SUFFIXES:
+    if p.is_dir():  # whatever its name ends with
+        _refuse_unfinished(p)
+    elif suffix in YAML_SUFFIXES:
         image, settings = _yaml_settings(p, **{k: overrides.get(k) for k in _OVERRIDABLE})
         return _open_pgm(image, settings, source=p)
-    if suffix == ".pgm":
+    elif suffix == ".pgm":
         return _open_pgm(p, dict(overrides), source=p)
     raise ValueError(
         f"path: expected a tile folder (with {TILE_INDEX}), a Zarr array, a binary .pgm or a "
