@@ -2317,6 +2317,10 @@ def test_export_budget_refuses_and_names_the_window():
         mapper.occupancy_window((-10.0, -10.0, 10.0, 10.0))
     small = mapper.occupancy_window((0.0, 0.0, 1.0, 1.0))  # 20 x 20 px: within the budget
     assert small.shape == (20, 20)
+    # under a MiB the need is given in bytes, not as "about 0 MiB"; a window refused
+    # points to a smaller window, not to occupancy_window as if it were another export
+    with pytest.raises(ValueError, match=r"about 16,000 bytes for 40 x 40 px.*smaller window"):
+        mapper.occupancy_window((0.0, 0.0, 2.0, 2.0))
 
 
 def test_occupancy_window_equals_the_crop_of_the_full_export():

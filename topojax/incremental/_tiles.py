@@ -293,11 +293,18 @@ def check_export_budget(mapper, what: str, box: tuple[int, int, int, int]) -> No
             f" (the mapped area spans x {bbox[1] * res:g}..{bbox[3] * res:g} m, "
             f"y {-bbox[2] * res:g}..{-bbox[0] * res:g} m)"
         )
+    size = f"{need / 2**20:,.0f} MiB" if need >= 2**20 else f"{need:,} bytes"
+    if what == "occupancy_window":
+        instead = "ask for a smaller window"
+    else:
+        instead = (
+            "export a window instead with "
+            "mapper.occupancy_window((x_min, y_min, x_max, y_max)) in metres"
+        )
     raise ExportBudgetError(
-        f"mapper.{what}: refused to allocate about {need / 2**20:,.0f} MiB for {h} x {w} "
+        f"mapper.{what}: refused to allocate about {size} for {h} x {w} "
         f"px ({w * res:g} m x {h * res:g} m, about {per_px} bytes per pixel), more than "
-        f"max_export_bytes={mapper.max_export_bytes}; export a window instead with "
-        f"mapper.occupancy_window((x_min, y_min, x_max, y_max)) in metres{span}, or make "
+        f"max_export_bytes={mapper.max_export_bytes}; {instead}{span}, or make "
         "the mapper with a larger max_export_bytes"
     )
 
