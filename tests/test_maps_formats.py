@@ -251,3 +251,27 @@ def test_an_image_of_one_row_or_column_is_refused_naming_the_file_once(tmp_path,
 def test_an_array_of_one_row_is_refused_naming_the_array():
     with pytest.raises(ValueError, match=r"^array: expected at least 2x2 pixels"):
         OccupancyMap.from_array(np.zeros((1, 5)), resolution_m=0.05)
+
+
+def test_an_image_larger_than_the_decoders_read_is_named_as_such(tmp_path: Path, monkeypatch):
+    """A PNG of 2^30 pixels and more, which OpenCV refuses and PIL takes for a
+    decompression bomb, is refused as too large for them (with what to save it as), not
+    as a damaged file, also on a computer with the memory to decode it."""
+    from topojax import _cpus
+
+    monkeypatch.setattr(_cpus, "available_memory_bytes", lambda: 1 << 50)
+    side = 40_000  # 1.6e9 pixels
+    row = b"\x00" + b"\xfe" * side
+    (tmp_path / "huge.png").write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + _chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 8, 0, 0, 0, 0))
+        + _chunk(b"IDAT", zlib.compress(row * 4))
+        + _chunk(b"IEND", b"")
+    )
+    with pytest.raises(ValueError) as err:
+        load_map(tmp_path / "huge.png", resolution_m=0.05)
+    message = str(err.value)
+    assert "expected an image of at most" in message
+    assert "received one of 40000 x 40000 pixels" in message
+    assert "binary 8-bit PGM" in message
+    assert "expected a complete image file" not in message

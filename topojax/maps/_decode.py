@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["decode_image", "refuse_several_images"]
+__all__ = ["decodable_pixels", "decode_image", "refuse_several_images"]
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -128,6 +128,33 @@ def _is_jpeg_padding(message: str, data: bytes) -> bool:
             return True
         at = data.find(b"\xff\xd9", at + 2)
     return False
+
+
+def _env_int(name: str, default: int) -> int:
+    try:
+        return int(os.environ.get(name, default))
+    except ValueError:
+        return default
+
+
+def decodable_pixels(width: int, height: int) -> int | None:
+    """The most pixels OpenCV or PIL decodes, where an image of ``width`` x ``height``
+    exceeds what both decode (OpenCV: at most ``OPENCV_IO_MAX_IMAGE_PIXELS``, 2^30 by
+    default, and 2^20 a side; PIL: twice ``PIL.Image.MAX_IMAGE_PIXELS``, above which it
+    refuses the image as a decompression bomb), else None."""
+    from PIL import Image
+
+    pixels = width * height
+    opencv = _env_int("OPENCV_IO_MAX_IMAGE_PIXELS", 1 << 30)
+    opencv_fits = (
+        pixels <= opencv
+        and width <= _env_int("OPENCV_IO_MAX_IMAGE_WIDTH", 1 << 20)
+        and height <= _env_int("OPENCV_IO_MAX_IMAGE_HEIGHT", 1 << 20)
+    )
+    pil = Image.MAX_IMAGE_PIXELS
+    if opencv_fits or pil is None or pixels <= 2 * pil:
+        return None
+    return max(opencv, 2 * pil)
 
 
 def _decode_with_pil(data: bytes) -> tuple[np.ndarray | None, str]:

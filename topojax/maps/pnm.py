@@ -13,7 +13,7 @@ import numpy as np
 
 from .._cpus import check_fits_memory
 from .._validate import existing_file
-from ._decode import decode_image, refuse_several_images
+from ._decode import decodable_pixels, decode_image, refuse_several_images
 
 __all__ = [
     "DECODE_BYTES_PER_PIXEL",
@@ -446,7 +446,8 @@ def _check_declared_size(data: bytes, path: Path) -> None:
     """A MemoryError where the header of ``data`` (read from ``path``) gives an image
     that decoding and classifying cannot fit in the memory available
     (:data:`DECODE_BYTES_PER_PIXEL`, :func:`~topojax._cpus.available_memory_bytes`),
-    raised before any pixel is decoded; a ValueError where it gives no pixels."""
+    raised before any pixel is decoded; a ValueError where it gives no pixels, or more
+    than the decoders decode."""
     size = _declared_size(data)
     if size is None:
         return
@@ -464,6 +465,15 @@ def _check_declared_size(data: bytes, path: Path) -> None:
         "of decoding (and build_graph_tiled, topojax graph --tiled, reads a window at a "
         "time)",
     )
+    plain = data[:2] in (b"P2", b"P3")  # read here, not decoded
+    most = None if plain else decodable_pixels(width, height)
+    if most is not None:
+        raise ValueError(
+            f"map image {path}: expected an image of at most {most:,} pixels (what OpenCV "
+            f"and PIL decode), received one of {width} x {height} pixels; save a map this "
+            "large as a binary 8-bit PGM, which load_map memory-maps instead of decoding "
+            "(and build_graph_tiled, topojax graph --tiled, reads a window at a time)"
+        )
 
 
 def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
