@@ -392,6 +392,19 @@ def test_room_colours_are_distinct_and_stable():
     assert room_colours(0).shape == (0, 3)
 
 
+def test_room_colours_for_more_rooms_than_the_hue_families_hold():
+    # the golden-ratio hues at nine saturation/value pairs round to fewer than 8000
+    # distinct colours; a map of 10,000 rooms (isolated specks on a coarse map) still
+    # gets a distinct colour for each, and the first ones do not change
+    n = 10_000
+    many = room_colours(n)
+    assert many.shape == (n, 3)
+    as_int = many.astype(np.int64) @ np.array([1 << 16, 1 << 8, 1])
+    assert np.unique(as_int).size == n
+    assert not ((many[:, 0] == many[:, 1]) & (many[:, 1] == many[:, 2])).any()  # no grey
+    np.testing.assert_array_equal(many[:300], room_colours(300))
+
+
 # ---------------------------------------------------------------------- room graph
 
 

@@ -37,6 +37,12 @@ _VERSION = 1
 #: Label-picture colours: no room on an obstacle, no room elsewhere, doorways.
 _BLACK, _GREY, _WHITE = (0, 0, 0), (128, 128, 128), (255, 255, 255)
 _GOLDEN = 0.6180339887498949
+#: Rooms coloured by golden-ratio hues (all distinct); later ones by :func:`_scrambled_colours`.
+_HUE_COLOURS = 2048
+#: An odd step through the 24-bit colours, so that neighbouring ids differ in every channel.
+_SCRAMBLE = 0x3779B1
+#: The RGB colours that are not grey (r = g = b).
+_MAX_COLOURS = (1 << 24) - 256
 
 
 def _check_seg(seg: Any):
@@ -446,23 +452,42 @@ def _check_links(rooms: list, doors: list) -> None:
 def room_colours(n: int) -> np.ndarray:
     """Colours of rooms 1 .. ``n``: uint8 (n, 3) RGB, distinct, the same for every map.
 
-    Hues step by the golden ratio (neighbouring ids far apart on the colour wheel) at
-    three saturations and values; none is a grey, so none is black, grey or white."""
-    out = np.empty((max(int(n), 0), 3), np.uint8)
-    taken = {_BLACK, _GREY, _WHITE}
-    k = 0
-    for i in range(out.shape[0]):
-        while True:
-            hue = (k * _GOLDEN) % 1.0
-            sat = (0.65, 0.9, 0.45)[k % 3]
-            val = (0.95, 0.75, 0.85)[(k // 3) % 3]
-            k += 1
-            rgb = tuple(int(round(255 * c)) for c in colorsys.hsv_to_rgb(hue, sat, val))
-            if rgb not in taken:
-                break
-        taken.add(rgb)
-        out[i] = rgb
+    The first :data:`_HUE_COLOURS` step their hues by the golden ratio (neighbouring ids
+    far apart on the colour wheel) at three saturations and values; those round to fewer
+    than 8000 distinct colours, so the rooms after them (maps of specks) take the RGB
+    cube in a scrambled order.  None is a grey, so none is black, grey or white.
+
+    Raises
+    ------
+    ValueError
+        For more rooms than there are colours that are not grey.
+    """
+    n = max(int(n), 0)
+    if n > _MAX_COLOURS:
+        raise ValueError(
+            f"n: expected at most {_MAX_COLOURS} rooms (the RGB colours that are not grey), "
+            f"received {n}"
+        )
+    out = np.empty((n, 3), np.uint8)
+    for k in range(min(n, _HUE_COLOURS)):  # every one new (checked in the tests)
+        hue = (k * _GOLDEN) % 1.0
+        sat = (0.65, 0.9, 0.45)[k % 3]
+        val = (0.95, 0.75, 0.85)[(k // 3) % 3]
+        out[k] = [int(round(255 * c)) for c in colorsys.hsv_to_rgb(hue, sat, val)]
+    if n > _HUE_COLOURS:
+        out[_HUE_COLOURS:] = _scrambled_colours(n - _HUE_COLOURS, out[:_HUE_COLOURS])
     return out
+
+
+def _scrambled_colours(n: int, taken: np.ndarray) -> np.ndarray:
+    """``n`` RGB colours (uint8 (n, 3)), none grey nor in ``taken`` (uint8 (K, 3)): the
+    24-bit colours ``j * _SCRAMBLE mod 2**24`` for j = 0, 1, ... (each once, the step
+    being odd) less those."""
+    codes = (np.arange(n + taken.shape[0] + 256, dtype=np.int64) * _SCRAMBLE) % (1 << 24)
+    rgb = np.stack([codes >> 16, (codes >> 8) & 255, codes & 255], axis=1)
+    grey = (rgb[:, 0] == rgb[:, 1]) & (rgb[:, 1] == rgb[:, 2])
+    used = np.isin(codes, taken.astype(np.int64) @ np.array([1 << 16, 1 << 8, 1]))
+    return rgb[~grey & ~used][:n].astype(np.uint8)
 
 
 def room_picture(seg) -> np.ndarray:
