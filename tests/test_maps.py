@@ -995,11 +995,13 @@ def test_yaml_defaults_and_overrides(tmp_path: Path):
     [
         (
             {"free_thresh": 0.7},
-            r"^free_thresh: expected less than occupied_thresh \(0\.65, from map YAML .*m\.yaml\), received 0\.7$",
+            r"^free_thresh: expected less than occupied_thresh \(0\.65, map_server's default: "
+            r"map YAML .*m\.yaml sets none\), received 0\.7$",
         ),
         (
             {"occupied_thresh": 0.1},
-            r"^occupied_thresh: expected more than free_thresh \(0\.196, from map YAML .*m\.yaml\), received 0\.1$",
+            r"^occupied_thresh: expected more than free_thresh \(0\.196, map_server's default: "
+            r"map YAML .*m\.yaml sets none\), received 0\.1$",
         ),
         ({"free_thresh": 1.5}, r"^free_thresh: expected a number from 0 to 1, received 1\.5$"),
         (
@@ -1020,6 +1022,17 @@ def test_a_threshold_given_against_the_yaml_s_other_is_blamed_on_the_caller(
 
     with pytest.raises(ValueError, match=message):
         open_tiled_map(path, **given)
+
+
+def test_a_threshold_given_against_the_yaml_s_own_other_names_the_file(tmp_path: Path):
+    # the other threshold set in the file: the refusal says it came from there
+    path = _yaml_map(tmp_path, GOOD + "occupied_thresh: 0.6\nfree_thresh: 0.3\n")
+    less = r"^free_thresh: expected less than occupied_thresh \(0\.6, from map YAML .*m\.yaml\)"
+    with pytest.raises(ValueError, match=less + r", received 0\.7$"):
+        load_map(path, free_thresh=0.7)
+    more = r"^occupied_thresh: expected more than free_thresh \(0\.3, from map YAML .*m\.yaml\)"
+    with pytest.raises(ValueError, match=more + r", received 0\.2$"):
+        load_map(path, occupied_thresh=0.2)
 
 
 def test_yaml_numbers_as_map_server_reads_them(tmp_path: Path):

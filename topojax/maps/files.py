@@ -447,7 +447,9 @@ def _yaml_settings(
     if occupied_thresh is not None and free_thresh is not None:  # the caller's pair
         occupancy_thresholds(occupied_thresh, free_thresh)
     elif (occupied_thresh is None) != (free_thresh is None):  # one given, one the file's
-        _check_given_threshold(p, thresholds, given=occupied_thresh is None)
+        free_given = occupied_thresh is None
+        in_file = ("occupied_thresh" if free_given else "free_thresh") in doc
+        _check_given_threshold(p, thresholds, given=free_given, in_file=in_file)
     if mode is None:
         raw_mode = doc.get("mode", "trinary")
         if not isinstance(raw_mode, str) or raw_mode not in ("trinary", "scale", "raw"):
@@ -464,10 +466,13 @@ def _yaml_settings(
     return image_path, settings
 
 
-def _check_given_threshold(p: Path, thresholds: dict[str, Any], *, given: bool) -> None:
+def _check_given_threshold(
+    p: Path, thresholds: dict[str, Any], *, given: bool, in_file: bool
+) -> None:
     """Check the threshold the caller gave (``free_thresh`` where ``given`` is True, else
-    ``occupied_thresh``) against the other, read from the map YAML ``p``: the error names
-    the one given and says where the other came from."""
+    ``occupied_thresh``) against the other, read from the map YAML ``p`` (``in_file``) or
+    map_server's default: the error names the one given and says where the other came
+    from."""
     occ, free = thresholds["occupied_thresh"], thresholds["free_thresh"]
     name, value = ("free_thresh", free) if given else ("occupied_thresh", occ)
     number = threshold(name, value)
@@ -475,9 +480,9 @@ def _check_given_threshold(p: Path, thresholds: dict[str, Any], *, given: bool) 
     if (number < occ) if given else (number > free):
         return
     relation = "less" if given else "more"
+    source = f"from map YAML {p}" if in_file else f"map_server's default: map YAML {p} sets none"
     raise ValueError(
-        f"{name}: expected {relation} than {other} ({other_value!r}, from map YAML {p}), "
-        f"received {value!r}"
+        f"{name}: expected {relation} than {other} ({other_value!r}, {source}), received {value!r}"
     )
 
 
