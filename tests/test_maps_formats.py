@@ -275,3 +275,30 @@ def test_an_image_larger_than_the_decoders_read_is_named_as_such(tmp_path: Path,
     assert "received one of 40000 x 40000 pixels" in message
     assert "binary 8-bit PGM" in message
     assert "expected a complete image file" not in message
+
+
+def test_an_image_too_wide_for_opencv_is_refused_by_the_side_it_exceeds(
+    tmp_path: Path, monkeypatch
+):
+    """A PNG wider than OpenCV decodes (2^20 a side) with more pixels than PIL decodes,
+    though fewer than OpenCV's 2^30: the refusal names the side, not only a count of
+    pixels the image is under."""
+    from PIL import Image
+
+    from topojax import _cpus
+
+    monkeypatch.setattr(_cpus, "available_memory_bytes", lambda: 1 << 50)
+    width, height = (1 << 20) + 1, 200
+    assert 2 * Image.MAX_IMAGE_PIXELS < width * height < 1 << 30
+    (tmp_path / "wide.png").write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + _chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+        + _chunk(b"IDAT", zlib.compress(b"\x00" * 64))
+        + _chunk(b"IEND", b"")
+    )
+    with pytest.raises(ValueError) as err:
+        load_map(tmp_path / "wide.png", resolution_m=0.05)
+    message = str(err.value)
+    assert f"received one of {width} x {height} pixels" in message
+    assert "1,048,576 pixels a side" in message
+    assert f"{2 * Image.MAX_IMAGE_PIXELS:,} pixels" in message

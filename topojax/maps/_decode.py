@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["decodable_pixels", "decode_image", "refuse_several_images"]
+__all__ = ["decode_image", "decoder_limits", "refuse_several_images"]
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -137,8 +137,8 @@ def _env_int(name: str, default: int) -> int:
         return default
 
 
-def decodable_pixels(width: int, height: int) -> int | None:
-    """The most pixels OpenCV or PIL decodes, where an image of ``width`` x ``height``
+def decoder_limits(width: int, height: int) -> str | None:
+    """What OpenCV and PIL decode, in words, where an image of ``width`` x ``height``
     exceeds what both decode (OpenCV: at most ``OPENCV_IO_MAX_IMAGE_PIXELS``, 2^30 by
     default, and 2^20 a side; PIL: twice ``PIL.Image.MAX_IMAGE_PIXELS``, above which it
     refuses the image as a decompression bomb), else None."""
@@ -146,15 +146,17 @@ def decodable_pixels(width: int, height: int) -> int | None:
 
     pixels = width * height
     opencv = _env_int("OPENCV_IO_MAX_IMAGE_PIXELS", 1 << 30)
-    opencv_fits = (
-        pixels <= opencv
-        and width <= _env_int("OPENCV_IO_MAX_IMAGE_WIDTH", 1 << 20)
-        and height <= _env_int("OPENCV_IO_MAX_IMAGE_HEIGHT", 1 << 20)
-    )
+    wide = _env_int("OPENCV_IO_MAX_IMAGE_WIDTH", 1 << 20)
+    high = _env_int("OPENCV_IO_MAX_IMAGE_HEIGHT", 1 << 20)
+    opencv_fits = pixels <= opencv and width <= wide and height <= high
     pil = Image.MAX_IMAGE_PIXELS
     if opencv_fits or pil is None or pixels <= 2 * pil:
         return None
-    return max(opencv, 2 * pil)
+    side = f"{wide:,} pixels a side" if wide == high else f"{wide:,} wide and {high:,} high"
+    return (
+        f"at most {2 * pil:,} pixels (what PIL decodes) or at most {opencv:,} pixels and "
+        f"{side} (what OpenCV decodes)"
+    )
 
 
 def _decode_with_pil(data: bytes) -> tuple[np.ndarray | None, str]:

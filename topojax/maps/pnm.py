@@ -13,7 +13,7 @@ import numpy as np
 
 from .._cpus import check_fits_memory
 from .._validate import existing_file
-from ._decode import decodable_pixels, decode_image, refuse_several_images
+from ._decode import decode_image, decoder_limits, refuse_several_images
 
 __all__ = [
     "DECODE_BYTES_PER_PIXEL",
@@ -466,13 +466,13 @@ def _check_declared_size(data: bytes, path: Path) -> None:
         "time)",
     )
     plain = data[:2] in (b"P2", b"P3")  # read here, not decoded
-    most = None if plain else decodable_pixels(width, height)
-    if most is not None:
+    limits = None if plain else decoder_limits(width, height)
+    if limits is not None:
         raise ValueError(
-            f"map image {path}: expected an image of at most {most:,} pixels (what OpenCV "
-            f"and PIL decode), received one of {width} x {height} pixels; save a map this "
-            "large as a binary 8-bit PGM, which load_map memory-maps instead of decoding "
-            "(and build_graph_tiled, topojax graph --tiled, reads a window at a time)"
+            f"map image {path}: expected an image of {limits}, received one of {width} x "
+            f"{height} pixels; save a map this large as a binary 8-bit PGM, which load_map "
+            "memory-maps instead of decoding (and build_graph_tiled, topojax graph --tiled, "
+            "reads a window at a time)"
         )
 
 
