@@ -119,3 +119,21 @@ def test_an_extent_error_is_made_with_a_known_bound_and_its_message_s_subject():
         ExtentError("scan 3: too far", bound="far")
     with pytest.raises(ValueError, match=r"^subject: expected the start of the message"):
         ExtentError("scan 3: too far", bound="max_extent_m", subject="scan 4")
+
+
+def test_a_map_s_refusal_while_adding_it_is_an_extent_error(monkeypatch):
+    """The checks made as the map's pixels go in (after those of the whole map, which
+    they repeat) refuse with an :class:`ExtentError` too, which leaves the mapper whole;
+    here the whole map's tile count is made to pass so that they meet the budget."""
+    from topojax.incremental import _rays
+
+    monkeypatch.setattr(_rays, "_map_tiles", lambda *args: 0)
+    mapper = _mapper(max_tile_bytes=60 * TILE_BYTES)
+    with pytest.raises(ExtentError) as info:
+        mapper.add_map(_map((600, 600), (-30.0, -30.0, 0.0)))
+    assert (info.value.bound, info.value.subject, info.value.scan) == (
+        "max_tile_bytes",
+        "occupancy: the map",
+        None,
+    )
+    mapper.add_scan(_scan(np.full(5, 2.0)))  # not left half updated

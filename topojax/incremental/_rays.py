@@ -631,7 +631,8 @@ def _add_map_pixels(mapper, er, ec, ext, free_rows, free_cols, r0: int, c0: int)
     (global, extent ``ext``) as hits and its free pixels (``free_rows``, ``free_cols``
     of the map, whose pixel (0, 0) is global ``(r0, c0)``) as free cells."""
     t = mapper.tile_px
-    n_new = integrate_end_pixels(mapper, er, ec, ext, None, where=lambda: "occupancy: the map")
+    where = lambda: Subject("occupancy: the map")  # noqa: E731
+    n_new = integrate_end_pixels(mapper, er, ec, ext, None, where=where)
     if len(free_rows):
         fr = free_rows.astype(np.int64) + r0
         fc = free_cols.astype(np.int64) + c0
