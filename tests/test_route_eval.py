@@ -456,6 +456,17 @@ def test_an_attribute_set_to_none_is_a_missing_one():
     assert r.success_rate == ref.success_rate
 
 
+def test_a_vertex_whose_wanted_attribute_is_none_is_refused_saying_so():
+    # the refusal lists the attributes the vertex has; one set to None is named as such,
+    # not listed as if it held a position
+    m = _map(np.zeros((60, 60), bool))
+    g = _graph(m, [[(30, 10), (10, 30), (30, 50)]])
+    node = next(iter(g))
+    g.nodes[node]["world"] = None
+    with pytest.raises(ValueError, match=r"'world' attribute .*\('world' set to None\)$"):
+        evaluate_route_graph(g, m, RADIUS, n_pairs=5, coordinates="world")
+
+
 @pytest.mark.parametrize("reverse", [False, True])
 def test_polylines_are_joined_to_their_vertices_either_way_round(reverse):
     """An edge's polyline that stops short of its vertices is joined to them by straight

@@ -75,9 +75,11 @@ def _vertex_point(node, data: dict, coordinates: str) -> tuple[np.ndarray, bool]
             "pixel": "a 'pixel' attribute ((row, col) pixels)",
             "auto": "a 'world' ((x, y) metres) or 'pixel' ((row, col) pixels) attribute",
         }[coordinates]
+        unset = [str(k) for k in ("world", "pixel") if k in data and data[k] is None]
+        none = f" ({' and '.join(map(repr, unset))} set to None)" if unset else ""
         raise ValueError(
             f"graph: expected every vertex to carry {wanted}, vertex {node!r} has "
-            f"attributes {sorted(map(str, data))}"
+            f"attributes {sorted(map(str, data))}{none}"
         )
     try:
         q = np.asarray(data[key], dtype=np.float64).ravel()
