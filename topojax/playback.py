@@ -143,20 +143,18 @@ def replay(
     -------
     dict
         ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals, :class:`ExtentError`,
-        of scans that would have grown the map out of the mapper's bounds, a localisation
-        glitch: skipped, the replay goes on), ``skipped_bounds`` (the bound each met,
-        :attr:`ExtentError.bound`; None for one recorded by an older topojax's stopped
-        replay), ``n_tiles``, ``vertices``, ``edges``,
-        ``route_graph`` (its ``vertices``, ``edges``, ``components``, ``robot_radius_m``;
-        None without one), ``timings`` (per loop), ``written`` (paths), ``messages`` (the
-        skipped scans in one, with the first refusal).  A map grown too large to export,
-        an unreadable scan part way through the log, or an interrupt or error (also while
-        the files are written) leaves the mapper's state in ``out_dir/mapper_state.npz``
-        (with a RuntimeWarning) and raises; ``resume`` continues from it.  A replay that finishes removes the state
-        file an earlier one left in ``out_dir``.  ``n_scans`` and ``skipped_scans`` count
-        from the log's start, ``resumed_after`` the scans taken before this call.
-        The files that the last replay into ``out_dir`` wrote and this one does not
-        (:func:`optional_outputs`: route graph, rooms, pictures, view) are removed.
+        of scans that would have grown the map out of the mapper's bounds: skipped, the
+        replay goes on), ``skipped_bounds`` (the bound each met, :attr:`ExtentError.bound`;
+        None where an older topojax's stopped replay recorded it), ``n_tiles``,
+        ``vertices``, ``edges``, ``route_graph`` (its ``vertices``, ``edges``,
+        ``components``, ``robot_radius_m``; None without one), ``timings`` (per loop),
+        ``written`` (paths), ``messages``.  A map grown too large to export, an unreadable
+        scan part way, or an interrupt or error (also while the files are written) leaves
+        the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
+        raises; ``resume`` continues from it, and a replay that finishes removes it.
+        ``n_scans`` and ``skipped_scans`` count from the log's start, ``resumed_after``
+        the scans taken before this call.  The files the last replay into ``out_dir``
+        wrote and this one does not (:func:`optional_outputs`) are removed.
     """
     nav2_tolerance_m, route_graph_radius_m = check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
