@@ -671,6 +671,27 @@ def test_a_gzip_log_of_several_members_with_zero_padding_reads_whole(tmp_path):
         list(read_carmen(joined))
 
 
+@pytest.mark.parametrize("packed", [False, True])
+def test_a_log_saved_with_a_byte_order_mark_keeps_its_first_scan(tmp_path, packed):
+    """A log saved by an editor that writes a UTF-8 byte order mark (and CRLF line ends)
+    reads every scan: the mark is not part of the first line's message name, which would
+    make its scan a line of no known kind, dropped without a word."""
+    text = gzip.decompress(INTEL_EXCERPT.read_bytes()).decode("latin-1")
+    lasers = "".join(line + "\r\n" for line in text.splitlines() if line.startswith("FLASER"))
+    data = b"\xef\xbb\xbf" + lasers.encode("latin-1")
+    path = tmp_path / ("bom.log.gz" if packed else "bom.log")
+    path.write_bytes(gzip.compress(data) if packed else data)
+    scans = list(read_scans(path))
+    whole = list(read_carmen(INTEL_EXCERPT))
+    assert len(scans) == len(whole) == 40
+    for a, b in zip(scans, whole, strict=True):
+        np.testing.assert_array_equal(a.ranges, b.ranges)
+        assert a.pose == b.pose
+    octave = tmp_path / "bom.txt"  # an Octave file is told by its first line
+    octave.write_bytes(b"\xef\xbb\xbf" + OCTAVE_EXCERPT.read_bytes())
+    assert len(list(read_scans(octave))) == len(list(read_octave_laser(OCTAVE_EXCERPT)))
+
+
 def test_a_gzip_log_cut_mid_line_gives_one_warning_for_the_cut_and_its_line(tmp_path):
     """Compressed data cut off in the middle of a laser line: one warning says both
     (the data is cut off, that line is skipped), not one for each."""

@@ -10,10 +10,14 @@ from pathlib import Path
 from typing import IO
 
 _GZIP_MAGIC = b"\x1f\x8b"
+#: The UTF-8 byte order mark some editors write at the start of a text file: not text of
+#: the log (read as latin-1 it would join the first line's message name).
+_UTF8_BOM = b"\xef\xbb\xbf"
 
 
 def _open_text(path: Path, *, warn_cut: bool = True) -> IO[str]:
-    """Open a text file that may be gzip-compressed (detected by its magic bytes).
+    """Open a text file that may be gzip-compressed (detected by its magic bytes), past a
+    UTF-8 byte order mark at its start.
 
     Compressed data cut off (a logger that stopped while writing) reads up to the cut,
     with a warning (``warn_cut``; a first pass over a log that is read again passes
@@ -23,8 +27,11 @@ def _open_text(path: Path, *, warn_cut: bool = True) -> IO[str]:
         magic = fh.read(2)
     if magic == _GZIP_MAGIC:
         raw = io.BufferedReader(_CheckedGzip(path, warn_cut))
-        return io.TextIOWrapper(raw, encoding="latin-1", newline=None)
-    return open(path, encoding="latin-1", newline=None)
+    else:
+        raw = open(path, "rb")  # noqa: SIM115 - the text wrapper owns and closes it
+    if raw.peek(len(_UTF8_BOM))[: len(_UTF8_BOM)] == _UTF8_BOM:
+        raw.read(len(_UTF8_BOM))
+    return io.TextIOWrapper(raw, encoding="latin-1", newline=None)
 
 
 class _CheckedGzip(io.RawIOBase):
