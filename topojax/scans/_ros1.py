@@ -41,9 +41,14 @@ class _Ros1Sequential:
         self.path = path
         self.connections: dict[int, _Ros1Connection] = {}
         self._typestore: Any = None
+        self._cut_told = False  # whether the cut (if any) has been warned of
         if not self._connections_from_index():
-            for _ in self._records(want_messages=False):
-                pass
+            # no index (a recording cut off, say): the connections are among the chunks;
+            # the walk counts the messages up to a cut, for the one warning of it
+            self._cut_told = True
+            n_messages = sum(1 for _ in self._records(want_messages=True))
+            self._cut_told = False
+            self._warn_cut(f"read {n_messages} messages up to the cut")
 
     def _connections_from_index(self) -> bool:
         """Read the connection records at the bag header's ``index_pos``; False if absent."""
@@ -120,14 +125,24 @@ class _Ros1Sequential:
             info.get("callerid", b"").decode("utf-8", "replace") or None,
         )
 
+    _cut_at: int | None = None  # the byte of the record the bag ends inside, if any
+
     def _cut_off(self, pos: int) -> None:
-        """Warn that the bag ends inside the record at byte ``pos`` (a recording that
-        stopped while writing: its messages up to the cut are read)."""
+        """Note that the bag ends inside the record at byte ``pos`` (a recording that
+        stopped while writing: its messages up to the cut are read); warned of once,
+        however many passes read the bag."""
+        self._cut_at = pos
+        self._warn_cut("read up to the cut")
+
+    def _warn_cut(self, what: str) -> None:
+        if self._cut_told or self._cut_at is None:
+            return
+        self._cut_told = True
         warnings.warn(
-            f"{self.path}: the bag ends in the middle of the record at byte {pos} (a "
-            "recording cut off); read up to the cut",
+            f"{self.path}: the bag ends in the middle of the record at byte {self._cut_at} "
+            f"(a recording cut off); {what}",
             RuntimeWarning,
-            stacklevel=3,
+            stacklevel=4,
         )
 
     def _records(self, want_messages: bool) -> Iterator[tuple[int, int, bytes]]:
