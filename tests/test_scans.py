@@ -632,6 +632,33 @@ def test_log_without_a_no_return_value_warns_when_most_readings_go(tmp_path):
         assert all(s.valid_mask().sum() == 170 for s in read_carmen(mixed))
 
 
+def test_reading_a_long_log_holds_no_share_of_its_readings(tmp_path):
+    """The pass that finds a log's no-return value streams: what it keeps does not grow
+    with the readings near each scan's largest (a quarter of an outdoor log's readings
+    are no-returns), so a log six times longer peaks at about the same memory."""
+    import tracemalloc
+
+    rng = np.random.default_rng(3)
+    ranges = np.r_[np.full(170, 81.91), np.zeros(10)]
+
+    def peak(n_scans: int) -> int:
+        path = tmp_path / f"long{n_scans}.log"
+        with open(path, "w") as fh:
+            for _ in range(n_scans):
+                ranges[170:] = rng.uniform(1, 5, 10)
+                fh.write(_flaser(ranges, (0, 0, 0)))
+        tracemalloc.start()
+        try:
+            with warnings.catch_warnings():  # most readings are no-returns: a warning
+                warnings.simplefilter("ignore")
+                assert sum(1 for _ in read_carmen(path)) == n_scans
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    assert peak(3000) - peak(500) < 1_500_000  # the no-returns alone are 3.4 MB
+
+
 def test_log_cut_off_mid_line_keeps_the_scans_before(tmp_path):
     text = (DATA / "intel_first40.log.gz").read_bytes()
     full = gzip.decompress(text).decode("latin-1")

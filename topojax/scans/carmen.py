@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import re
 import warnings
+from array import array
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
@@ -135,18 +136,55 @@ def _opens_a_carmen_line(field: str) -> bool:
     return field.startswith("#") or bool(_MESSAGE_NAME.fullmatch(field))
 
 
+class _ValueCounts:
+    """A multiset of readings kept as distinct values and their counts, so that it does
+    not grow with the readings of a long log (a log prints its ranges to a few decimals,
+    and its no-returns share a few values)."""
+
+    _BUFFER = 1 << 16  # readings taken before they are merged into the counts
+
+    def __init__(self) -> None:
+        self.values = np.empty(0)
+        self.counts = np.empty(0, np.int64)
+        self._pending: list[np.ndarray] = []
+        self._n_pending = 0
+
+    def add(self, readings: np.ndarray) -> None:
+        self._pending.append(readings)
+        self._n_pending += readings.size
+        if self._n_pending >= self._BUFFER:
+            self._merge()
+
+    def _merge(self) -> None:
+        if not self._pending:
+            return
+        values = np.concatenate([self.values, *self._pending])
+        weights = np.concatenate([self.counts, np.ones(self._n_pending, np.int64)])
+        self.values, where = np.unique(values, return_inverse=True)
+        self.counts = np.bincount(where, weights=weights, minlength=self.values.size).astype(
+            np.int64
+        )
+        self._pending, self._n_pending = [], 0
+
+    def count_between(self, low: float, high: float) -> int:
+        """How many readings lie in ``[low, high]``."""
+        self._merge()
+        inside = (self.values >= low) & (self.values <= high)
+        return int(self.counts[inside].sum())
+
+
 class _Survey(NamedTuple):
     """What the first pass over a log found: the laser message to use, the PARAM values,
     and (when the range limit is to be inferred) each scan's largest finite reading, the
-    readings within ``_TOP_BAND_M`` of it, how many finite readings there were, how many
-    lines had a finite pose, how many had none and the first of them, whether a line of
+    readings within ``_TOP_BAND_M`` of it (counted by value), how many finite readings
+    there were, how many lines had a finite pose, how many had none and the first of them, whether a line of
     the kind was found, how many were malformed (skipped) and the first of them, and the
     first field of the first line that is not blank (None for a file of blank lines)."""
 
     chosen: str | None
     params: dict[str, str]
     scan_max: np.ndarray
-    tops: np.ndarray
+    tops: _ValueCounts
     n_readings: int
     n_posed: int
     unposed: tuple[int, str]
@@ -159,8 +197,8 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
     """First pass over the log (see :class:`_Survey`); malformed laser lines raise, or
     with ``skip_bad`` are passed over (the reading pass warns)."""
     chosen = None if laser == "auto" else laser
-    scan_max: list[float] = []
-    tops: list[np.ndarray] = []
+    scan_max = array("d")
+    tops = _ValueCounts()
     n_readings = n_posed = 0
     unposed, bad = _Tally(), _Tally()
     found = False
@@ -207,13 +245,13 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
             if finite.size:
                 top = float(finite.max())
                 scan_max.append(top)
-                tops.append(finite[finite >= top - _TOP_BAND_M])
+                tops.add(finite[finite >= top - _TOP_BAND_M])
                 n_readings += finite.size
     return _Survey(
         chosen,
         params,
-        np.asarray(scan_max, np.float64),
-        np.concatenate(tops) if tops else np.empty(0),
+        np.frombuffer(scan_max, np.float64),
+        tops,
         n_readings,
         n_posed,
         (unposed.count, unposed.first),
@@ -248,13 +286,13 @@ def _no_return_value(scan_max: np.ndarray, margin: float) -> tuple[float, np.nda
 
 
 def _warn_if_no_sentinel(
-    path: Path, laser: str, near: np.ndarray, total: int, best: float, margin: float
+    path: Path, laser: str, near: _ValueCounts, total: int, best: float, margin: float
 ) -> None:
     """Warn when the range limit inferred from the no-return value drops most readings: a
     log with a no-return value drops its no-return beams (at most a quarter of the
     readings in the shared logs, the open campus), one without drops its longest real
     readings, all of them when the readings lie within the margin of each other."""
-    dropped = int(np.count_nonzero((near >= best - margin) & (near <= best)))
+    dropped = near.count_between(best - margin, best)
     if total and dropped > total // 2:
         warnings.warn(
             f"{path}: {best} m is taken as the {laser} no-return value, "
