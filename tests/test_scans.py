@@ -1716,6 +1716,22 @@ def test_ccny_shared_bag(shared_data):
 # ------------------------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("suffix", [".bag", ".db3"])
+def test_a_bag_file_that_is_no_bag_is_refused_by_its_start(tmp_path, suffix):
+    """A file named as a bag whose bytes are not one (a download that failed, a file of
+    another kind renamed) is refused saying what its start should be, not with the
+    repr of the decoder's error, which prints the file's garbage."""
+    pytest.importorskip("rosbags")
+    path = tmp_path / f"data{suffix}"
+    path.write_bytes(np.random.default_rng(5).bytes(20000))
+    with pytest.raises(ValueError) as info:
+        list(read_scans(path))
+    text = str(info.value)
+    want = "#ROSBAG V2.0" if suffix == ".bag" else "SQLite format 3"
+    assert text.startswith(f"path: {path} is not a ") and f"does not begin with b'{want}" in text
+    assert len(text) < 300
+
+
 def test_read_scans_dispatch(tmp_path):
     a = list(read_scans(INTEL_EXCERPT))
     assert len(a) == 40 and a[0].n_beams == 180

@@ -83,8 +83,8 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequentia
     magic = b""
     if path.is_file():
         with open(path, "rb") as fh:
-            magic = fh.read(len(_ROS1_MAGIC))
-    ros1 = magic == _ROS1_MAGIC
+            magic = fh.read(len(_SQLITE_MAGIC))
+    ros1 = magic[: len(_ROS1_MAGIC)] == _ROS1_MAGIC
     if ros1 and path.suffix != ".bag":
         return _Ros1Sequential(path)
     target = path
@@ -103,6 +103,7 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequentia
         mcap = _lone_mcap(path) if path.is_dir() else path
         if magic.startswith(_MCAP_MAGIC[:5]) or (mcap is not None and mcap.suffix == ".mcap"):
             return _mcap_fallback(mcap, err)
+        _refuse_a_file_of_another_kind(path, magic)
         if path.is_dir() and not (path / "metadata.yaml").is_file():
             n_mcap = len(list(path.glob("*.mcap")))
             found = f"{n_mcap} .mcap files" if n_mcap > 1 else "neither"
@@ -112,6 +113,22 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequentia
                 "bag folder, one .mcap file or a log file"
             ) from None
         raise ValueError(f"path: cannot read bag {target} with rosbags: {err!r}") from None
+
+
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+#: The first bytes of a bag file by its suffix, and what it is.
+_BAG_MAGIC = {".bag": (_ROS1_MAGIC, "ROS 1 bag"), ".db3": (_SQLITE_MAGIC, "ROS 2 SQLite bag")}
+
+
+def _refuse_a_file_of_another_kind(path: Path, magic: bytes) -> None:
+    """A ValueError for a ``.bag`` / ``.db3`` file that does not begin as one (a failed
+    download, a renamed file), rather than the decoder's error, which prints its bytes."""
+    want = _BAG_MAGIC.get(path.suffix.lower()) if path.is_file() else None
+    if want is not None and not magic.startswith(want[0]):
+        got = f"it begins with {magic[:8]!r}" if magic else "it is empty"
+        raise ValueError(
+            f"path: {path} is not a {want[1]}: it does not begin with {want[0]!r} ({got})"
+        )
 
 
 def _lone_mcap(folder: Path) -> Path | None:
