@@ -1145,6 +1145,26 @@ def test_octave_errors(tmp_path):
         read_octave_laser(tmp_path / "none.txt")
 
 
+@pytest.mark.parametrize("packed", [False, True])
+def test_an_octave_file_cut_off_is_refused_as_cut_off(tmp_path, packed):
+    """An Octave file stores each field of every scan together (the poses after all the
+    ranges), so one cut off while written has no scan to read: it is refused saying it
+    is cut off, where it was cut and why nothing is read; a compressed one is not first
+    said to be read up to the cut."""
+    text = OCTAVE_EXCERPT.read_bytes()
+    half = text[: len(text) // 2]
+    path = tmp_path / ("cut.txt.gz" if packed else "cut.txt")
+    path.write_bytes(gzip.compress(text)[: len(gzip.compress(half))] if packed else half)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(ValueError) as info:
+            list(read_scans(path))
+    assert not [str(x.message) for x in caught]
+    said = str(info.value)
+    assert said.startswith(f"{path}: the file is cut off at line ")
+    assert "no scan can be read" in said
+
+
 # ------------------------------------------------------------------------------------------
 # ROS bags
 # ------------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import existing_file
-from ._text import _open_text
+from ._text import _cut_off, _open_text, gzip_cut
 from .scan import Scan, _SkippedScans, no_scan_error
 
 
@@ -192,9 +192,29 @@ class _OctaveReader:
 
 
 def _read_octave_text(path: Path) -> dict[str, Any]:
-    with _open_text(path) as fh:
-        lines = fh.read().splitlines()
-    return _OctaveReader(lines, path).variables()
+    """The variables of an Octave text file; a file cut off while written (its last line
+    unfinished, or its compressed data cut) that does not parse is refused as cut off."""
+    with _open_text(path, warn_cut=False) as fh:
+        text = fh.read()
+        packed_cut = gzip_cut(fh)
+    lines = text.splitlines()
+    try:
+        out = _OctaveReader(lines, path).variables()
+    except ValueError as err:
+        if not (packed_cut or (text and _cut_off(text))):
+            raise
+        how = "its compressed data end there" if packed_cut else "its last line has no line end"
+        raise ValueError(
+            f"{path}: the file is cut off at line {len(lines)} ({how}); an Octave file "
+            f"stores each field of all its scans together, so no scan can be read ({err})"
+        ) from None
+    if packed_cut:
+        warnings.warn(
+            f"{path}: the gzip-compressed data is cut off; read up to the cut",
+            RuntimeWarning,
+            stacklevel=4,
+        )
+    return out
 
 
 def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Iterator[Scan]:
