@@ -659,6 +659,26 @@ def test_reading_a_long_log_holds_no_share_of_its_readings(tmp_path):
     assert peak(3000) - peak(500) < 1_500_000  # the no-returns alone are 3.4 MB
 
 
+def test_a_line_that_is_no_carmen_message_is_counted_when_skipped(tmp_path):
+    """A line whose first field is no message name (a scan whose name was garbled, bytes
+    of another file) is skipped with a warning that counts such lines and names the
+    first, rather than silently as a message of another kind."""
+    lines = gzip.decompress(INTEL_EXCERPT.read_bytes()).decode("latin-1").splitlines()
+    flaser = [i for i, line in enumerate(lines) if line.startswith("FLASER")]
+    lines[flaser[3]] = "F\x00ASER" + lines[flaser[3]][6:]
+    lines.insert(flaser[7], "\x13\x9c garbage\x00 bytes")
+    path = tmp_path / "garbled.log"
+    path.write_text("\n".join(lines) + "\n", encoding="latin-1")
+    with pytest.warns(UserWarning) as caught:
+        scans = list(read_carmen(path))
+    assert len(scans) == 39
+    said = [str(x.message) for x in caught]
+    assert said == [
+        f"{path}: skipped 2 line(s) that are no CARMEN message (their first field is no "
+        f"message name), the first on line {flaser[3] + 1}: 'F\\x00ASER'"
+    ]
+
+
 def test_log_cut_off_mid_line_keeps_the_scans_before(tmp_path):
     text = (DATA / "intel_first40.log.gz").read_bytes()
     full = gzip.decompress(text).decode("latin-1")

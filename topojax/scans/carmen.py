@@ -354,7 +354,8 @@ def read_carmen(
     refused, naming the first.
 
     Other lines (``ODOM``, ``PARAM``, ``NEFF``, ``TRUEPOS``, comments, other messages) are
-    skipped.
+    skipped; so are lines whose first field is no message name (damage: a garbled name,
+    bytes of another file), with a warning that counts them and names the first.
 
     Parameters
     ----------
@@ -476,6 +477,7 @@ def _iter_carmen(
     first_not_finite = ""
     made = 0
     bad = _Tally()  # malformed laser lines skipped
+    garbled = _Tally()  # lines whose first field is no message name
     half_line: tuple[int, str, Exception] | None = None  # the last line, cut off mid-way
     with _open_text(path, warn_cut=False) as fh:  # one warning of a cut, below
         for lineno, line in enumerate(fh, 1):
@@ -488,6 +490,8 @@ def _iter_carmen(
                     odom.line = (lineno, tokens)
                     continue
                 if key != chosen:
+                    if not _opens_a_carmen_line(key):
+                        garbled.add(lineno, repr(key[:24]))
                     continue
                 if old:
                     scan = _old_laser_scan(tokens, range_max_old, offset_override, odom)
@@ -531,6 +535,12 @@ def _iter_carmen(
             f"the first on {bad.first}",
             stacklevel=2,
         )
+    if garbled.count:
+        warnings.warn(
+            f"{path}: skipped {garbled.count} line(s) that are no CARMEN message (their "
+            f"first field is no message name), the first on {garbled.first}",
+            stacklevel=2,
+        )
     for kind, lines in not_finite.items():
         warnings.warn(
             f"{path}: skipped {len(lines)} {chosen} scan(s) whose {kind.what} is not finite "
@@ -550,7 +560,7 @@ class _Tally:
         self.count = 0
         self.first = ""
 
-    def add(self, lineno: int, err: Exception) -> None:
+    def add(self, lineno: int, err: object) -> None:
         if not self.count:
             self.first = f"line {lineno}: {err}"
         self.count += 1
