@@ -1634,6 +1634,30 @@ def test_bag_topic_and_frame_errors(tmp_path):
                 read_bag(path, **{name: bad})
 
 
+def test_replay_takes_the_bag_options_the_reader_errors_advise(tmp_path, capsys):
+    """A bag of odometry and scans without the laser's mounting in tf (a common
+    recording) needs a sensor offset, and one whose tf does not reach the default map
+    frame a tf parent: topojax replay has the options, and the errors name them."""
+    pytest.importorskip("rosbags")
+    from topojax.cli import main
+
+    bag = tmp_path / "odom.bag"
+    _write_robot_bag(bag, 1, with_tf=False, with_odom=True)
+    base = ["replay", str(bag), "--max-scans", "2", "--no-progress"]
+    assert main([*base, "-o", str(tmp_path / "a")]) != 0
+    assert "(topojax replay --sensor-offset X Y YAW)" in capsys.readouterr().err
+    offset = [str(v) for v in BASE_LASER]
+    assert main([*base, "-o", str(tmp_path / "b"), "--sensor-offset", *offset]) == 0
+    tf_bag = tmp_path / "tf.bag"
+    _write_robot_bag(tf_bag, 1)
+    base = ["replay", str(tf_bag), "--max-scans", "2", "--no-progress"]
+    assert main([*base, "-o", str(tmp_path / "c"), "--tf-parent", "world"]) != 0
+    err = capsys.readouterr().err
+    assert "no tf chain from 'world'" in err and "--tf-parent" in err
+    more = ["--tf-parent", "odom", "--base-frame", "base_link"]
+    assert main([*base, "-o", str(tmp_path / "d"), *more]) == 0
+
+
 def test_bag_without_poses(tmp_path):
     pytest.importorskip("rosbags")
     path = tmp_path / "scans_only.bag"

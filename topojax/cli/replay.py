@@ -81,6 +81,11 @@ def _cmd_replay(args) -> int:
     ):
         if getattr(args, name) is not None:
             reader_kwargs[key] = getattr(args, name)
+    for name in ("tf_parent", "base_frame"):
+        if getattr(args, name) is not None:
+            reader_kwargs[name] = getattr(args, name)
+    if args.sensor_offset is not None:
+        reader_kwargs["sensor_offset"] = tuple(args.sensor_offset)
     if args.allow_missing_pose:
         reader_kwargs["allow_missing_pose"] = True
     if args.skip_bad_lines:
@@ -180,6 +185,9 @@ _RESUME_OPTION_OF = {
     "scan_topic": "--scan-topic",
     "pose_topic": "--pose-topic",
     "allow_missing_pose": "--allow-missing-pose",
+    "tf_parent": "--tf-parent",
+    "base_frame": "--base-frame",
+    "sensor_offset": "--sensor-offset",
     "config.distance.sigma_px": "--sigma-px or --sigma-m (sigma in px)",
     "config.distance.half_width_px": "the Gaussian's half-width in px (--sigma-px or --sigma-m)",
     **{f"room_config.{field}": option for option, field, *_ in _ROOM_OPTIONS},
@@ -313,6 +321,25 @@ def add_command(subparsers) -> None:
         "--allow-missing-pose",
         action="store_true",
         help="bags: without any pose source, map every scan at the origin (scan-only bags)",
+    )
+    p.add_argument(
+        "--tf-parent",
+        metavar="FRAME",
+        help="bags: the map frame of poses from tf (default: map if in tf, else odom)",
+    )
+    p.add_argument(
+        "--base-frame",
+        metavar="FRAME",
+        help="bags: the robot frame (default: base_footprint or base_link on the tf chain, "
+        "or the Odometry child frame)",
+    )
+    p.add_argument(
+        "--sensor-offset",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "YAW"),
+        help="the laser's pose on the robot in metres and radians, overriding tf (bags) "
+        "or the log (CARMEN); needed where neither gives it",
     )
     add_graph_options(p)
     add_nav2_options(p, "graph_nav2.geojson (and route_graph_nav2.geojson with --route-graph)")

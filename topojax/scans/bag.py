@@ -555,7 +555,8 @@ class _ScanPoses:
         elif pose_body is None:
             raise ValueError(
                 f"pose_topic: {pose_topic!r} in {path} does not name the robot frame; pass "
-                f"base_frame= (to look the laser mounting up in tf) or sensor_offset="
+                f"base_frame= (to look the laser mounting up in tf) or sensor_offset= "
+                "(--base-frame, --sensor-offset in topojax replay)"
             )
         elif (
             pose_body in self.frames
@@ -567,7 +568,8 @@ class _ScanPoses:
             raise ValueError(
                 f"sensor_offset: the pose topic {pose_topic!r} gives the pose of frame "
                 f"{pose_body!r} but tf in {path} does not connect it to the scan frame "
-                f"{frame!r}; pass sensor_offset=(x_m, y_m, yaw_rad)"
+                f"{frame!r}; pass sensor_offset=(x_m, y_m, yaw_rad) (topojax replay "
+                "--sensor-offset X Y YAW)"
             )
         return robot, offset
 
@@ -585,7 +587,7 @@ class _ScanPoses:
             raise ValueError(
                 f"tf_parent: no tf chain from {parent_frame!r} to the scan frame {frame!r} in "
                 f"{path}; tf frames: {sorted(frames)} (try tf_parent='odom' or 'map', or "
-                f"pose_topic=)"
+                f"pose_topic=; --tf-parent, --pose-topic in topojax replay)"
             )
         chain = self.tree.ancestors(frame)
         if base_frame is not None:

@@ -663,7 +663,8 @@ class _OdomPoses:
             return checked_pose("PARAM robot_frontlaser_*", vals, bounded=False)
         raise ValueError(
             f"{self.path}: {self.chosen} lines carry no pose and the log does not say where "
-            f"this laser is mounted; pass sensor_offset=(x_m, y_m, yaw_rad)"
+            f"this laser is mounted; pass sensor_offset=(x_m, y_m, yaw_rad) (topojax replay "
+            "--sensor-offset X Y YAW)"
         )
 
     def pose(self) -> tuple[float, float, float]:
