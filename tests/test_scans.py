@@ -1161,6 +1161,9 @@ def test_octave_errors(tmp_path):
         list(read_octave_laser(missing))
     with pytest.raises(ValueError, match="variable"):
         list(read_octave_laser(OCTAVE_EXCERPT, variable="nope"))
+    # a variable name that is no str is refused on the call, before the file is parsed
+    with pytest.raises(TypeError, match="variable: expected a str or None, received int 5"):
+        read_octave_laser(OCTAVE_EXCERPT, variable=5)
     with pytest.raises(FileNotFoundError):
         read_octave_laser(tmp_path / "none.txt")
 

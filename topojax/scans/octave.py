@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validate import existing_file
+from .._validate import existing_file, text_or_none
 from ._text import _cut_off, _open_text, gzip_cut
 from .scan import Scan, _SkippedScans, no_scan_error
 
@@ -255,7 +255,7 @@ def read_octave_laser(path: str | Path, *, variable: str | None = None) -> Itera
         skipped with a warning.
     """
     p = existing_file("path", path)
-    return _iter_octave(p, variable)
+    return _iter_octave(p, text_or_none("variable", variable))
 
 
 def _iter_octave(path: Path, variable: str | None) -> Iterator[Scan]:
