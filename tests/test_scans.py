@@ -1661,6 +1661,21 @@ def test_replay_takes_the_bag_options_the_reader_errors_advise(tmp_path, capsys)
     assert main([*base, "-o", str(tmp_path / "d"), *more]) == 0
 
 
+def test_a_bag_folder_of_one_sqlite_file_without_metadata_reads_it(tmp_path):
+    """ROS 2 writes a bag folder's metadata.yaml when the recording ends, so one stopped
+    by a power cut holds only its .db3 file: the folder reads as that file, as one
+    holding only its .mcap file does."""
+    pytest.importorskip("rosbags")
+    whole = tmp_path / "whole"
+    _write_robot_bag(whole, 2)
+    (whole / "metadata.yaml").unlink()
+    scans = list(read_bag(whole))
+    assert len(scans) == len(SCAN_TIMES)
+    (whole / "copy.db3").write_bytes(next(whole.glob("*.db3")).read_bytes())
+    with pytest.raises(ValueError, match=r"not a ROS 2 bag: .*found 2 \.db3 files; pass"):
+        list(read_bag(whole))
+
+
 def test_bag_without_poses(tmp_path):
     pytest.importorskip("rosbags")
     path = tmp_path / "scans_only.bag"

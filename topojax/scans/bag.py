@@ -105,12 +105,16 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequentia
             return _mcap_fallback(mcap, err)
         _refuse_a_file_of_another_kind(path, magic)
         if path.is_dir() and not (path / "metadata.yaml").is_file():
-            n_mcap = len(list(path.glob("*.mcap")))
-            found = f"{n_mcap} .mcap files" if n_mcap > 1 else "neither"
+            db3 = sorted(path.glob("*.db3"))
+            if len(db3) == 1 and not list(path.glob("*.mcap")):
+                return _open_bag(db3[0])  # a recording cut off: metadata.yaml comes last
+            counts = ((len(list(path.glob("*.mcap"))), ".mcap"), (len(db3), ".db3"))
+            found = " and ".join(f"{n} {ext} file{'s' if n > 1 else ''}" for n, ext in counts if n)
+            found = found or "neither"
             raise ValueError(
                 f"path: {path} is a folder but not a ROS 2 bag: expected its metadata.yaml "
-                f"(or, for a recording cut off, one .mcap file), found {found}; pass the "
-                "bag folder, one .mcap file or a log file"
+                f"(or, for a recording cut off, one .mcap or .db3 file), found {found}; pass "
+                "the bag folder, one .mcap or .db3 file or a log file"
             ) from None
         raise ValueError(f"path: cannot read bag {target} with rosbags: {err!r}") from None
 
@@ -185,7 +189,9 @@ def read_bag(
     sequential reader instead (message definitions come from the bag itself); so is one
     cut off while recording (no index), up to the cut, with a warning.  Likewise an MCAP
     file cut off while recording (no summary or end magic: the robot powered down) is
-    read up to its last whole message, with a warning giving the count.
+    read up to its last whole message, with a warning giving the count, and a bag folder
+    without its ``metadata.yaml`` (written when the recording ends) is read as its one
+    ``.mcap`` or ``.db3`` file.
 
     Poses are planar: for each transform only ``x``, ``y`` and the heading of the rotated
     ``x`` axis are used; a frame whose ``z`` axis points down (an upside-down laser) mirrors
