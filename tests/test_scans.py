@@ -1610,6 +1610,21 @@ def test_a_pose_topic_whose_every_pose_is_not_finite_is_refused_as_such(tmp_path
         list(read_bag(path, pose_topic="/odom"))
 
 
+def test_bag_topics_named_without_the_root_slash_are_the_root_s(tmp_path):
+    # "scan" and "odom" resolve to /scan and /odom, as ROS resolves a relative name in
+    # the root namespace; the same scans and poses as with the full names
+    pytest.importorskip("rosbags")
+    path = tmp_path / "odom_bag"
+    _write_robot_bag(path, 2, with_odom=True)
+    full = list(read_bag(path, scan_topic="/scan", pose_topic="/odom"))
+    short = list(read_bag(path, scan_topic="scan", pose_topic="odom"))
+    assert len(short) == len(full) == len(SCAN_TIMES)
+    for a, b in zip(full, short, strict=True):
+        assert a.pose == b.pose and np.array_equal(a.ranges, b.ranges, equal_nan=True)
+    with pytest.raises(ValueError, match=r"scan_topic: 'odom' is not a .*LaserScan"):
+        read_bag(path, scan_topic="odom")
+
+
 def test_bag_topic_and_frame_errors(tmp_path):
     pytest.importorskip("rosbags")
     path = tmp_path / "two_scans"

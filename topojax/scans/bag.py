@@ -221,8 +221,9 @@ def read_bag(
     path : str or Path
         Bag file or ROS 2 bag folder.
     scan_topic : str, optional
-        LaserScan topic; default: the only LaserScan topic (ValueError listing the topics
-        if there is none or more than one).
+        LaserScan topic (a relative name, ``scan``, is ``/scan`` where the bag holds only
+        that); default: the only LaserScan topic (ValueError listing the topics if there
+        is none or more than one).
     pose_topic : str, optional
         Pose topic (see above).
     tf_parent : str, optional
@@ -319,11 +320,19 @@ def _choose_scan_topic(
                 f"default, found {len(scan_topics)}; topics: {listing}"
             )
         return scan_topics[0]
-    if topics.get(scan_topic) != _LASERSCAN:
+    if topics.get(_in_root(scan_topic, topics)) != _LASERSCAN:
         raise ValueError(
             f"scan_topic: {scan_topic!r} is not a {_LASERSCAN} topic in {p}; topics: {listing}"
         )
-    return scan_topic
+    return _in_root(scan_topic, topics)
+
+
+def _in_root(topic: str, topics: dict[str, str]) -> str:
+    """``topic`` as the bag names it: a relative name (``scan``) that the bag holds only
+    in the root namespace (``/scan``) is that topic, as ROS resolves it."""
+    if topic in topics or topic.startswith("/") or "/" + topic not in topics:
+        return topic
+    return "/" + topic
 
 
 def _choose_pose_source(
@@ -338,12 +347,12 @@ def _choose_pose_source(
     ``("tf", None)`` or ``("none", None)``."""
     pose_topics = [t for t, m in topics.items() if m in _POSE_TYPES]
     if pose_topic is not None:
-        if topics.get(pose_topic) not in _POSE_TYPES:
+        if topics.get(_in_root(pose_topic, topics)) not in _POSE_TYPES:
             raise ValueError(
                 f"pose_topic: {pose_topic!r} is not one of {', '.join(_POSE_TYPES)} in {p}; "
                 f"topics: {listing}"
             )
-        return "topic", pose_topic
+        return "topic", _in_root(pose_topic, topics)
     if tf_topics:
         return "tf", None
     if len(pose_topics) == 1:
