@@ -356,10 +356,12 @@ class OccupancyMap:
 # ---------------------------------------------------------------------- classification
 
 
-def map_mismatch(graph, occupancy) -> str | None:
+def map_mismatch(graph, occupancy, *, graph_blamed: bool = False) -> str | None:
     """Why ``occupancy`` is not the map that ``graph`` records in its ``shape``,
     ``resolution_m`` and ``origin`` attributes (those it has), or None when it is: the
-    same shape, the resolution to a relative 1e-9, the origin to 1e-9 m."""
+    same shape, the resolution to a relative 1e-9, the origin to 1e-9 m.  The reason
+    expects the graph's map and receives ``occupancy``; with ``graph_blamed``, for an
+    error that names the graph, it expects ``occupancy`` and receives the graph's."""
     attrs = graph.graph
     return grid_mismatch(
         attrs.get("shape"),
@@ -367,36 +369,38 @@ def map_mismatch(graph, occupancy) -> str | None:
         attrs.get("origin"),
         occupancy,
         owner="the graph's",
+        owner_blamed=graph_blamed,
     )
 
 
-def grid_mismatch(shape, resolution_m, origin, occupancy, *, owner: str) -> str | None:
+def grid_mismatch(
+    shape, resolution_m, origin, occupancy, *, owner: str, owner_blamed: bool = False
+) -> str | None:
     """Why ``occupancy`` is not the map of ``shape`` (H, W), ``resolution_m`` and
     ``origin`` (each None when not known), or None when it is: the same shape, the
     resolution to a relative 1e-9, the origin to 1e-9 m.  ``owner`` (e.g. "the graph's")
-    names whose map the message expects; also why, when one of them is not what a map
-    records (a graph's attributes edited by hand)."""
+    names whose map the message expects (with ``owner_blamed``, whose map it received);
+    also why, when one of them is not what a map records (a graph's attributes edited by
+    hand)."""
     malformed = _malformed_grid(shape, resolution_m, origin, owner)
     if malformed is not None:
         return malformed
+
+    def why(kind: str, own, other) -> str:
+        if owner_blamed:
+            return f"expected a map {kind.format(other)}, received {owner} map {kind.format(own)}"
+        return f"expected {owner} map {kind.format(own)}, received a map {kind.format(other)}"
+
     if shape is not None and tuple(shape) != tuple(occupancy.shape):
-        return (
-            f"expected {owner} map of shape {tuple(shape)}, received a map of shape "
-            f"{tuple(occupancy.shape)}"
-        )
+        return why("of shape {}", tuple(shape), tuple(occupancy.shape))
     res = resolution_m
     if isinstance(res, numbers.Real) and not math.isclose(res, occupancy.resolution_m):
-        return (
-            f"expected {owner} map at {res} m/px, received a map at {occupancy.resolution_m} m/px"
-        )
+        return why("at {} m/px", res, occupancy.resolution_m)
     if origin is not None and (
         np.shape(origin) != np.shape(occupancy.origin)
         or not np.allclose(origin, occupancy.origin, rtol=0.0, atol=1e-9)
     ):
-        return (
-            f"expected {owner} map with origin {tuple(origin)}, received a map with "
-            f"origin {tuple(occupancy.origin)}"
-        )
+        return why("with origin {}", tuple(origin), tuple(occupancy.origin))
     return None
 
 

@@ -101,7 +101,7 @@ def assign_rooms(graph: nx.Graph, seg: RoomSegmentation) -> nx.Graph:
     """
     nx_graph("graph", graph, undirected=False)
     instance_of("seg", seg, RoomSegmentation)
-    why = map_mismatch(graph, seg.occupancy)
+    why = map_mismatch(graph, seg.occupancy, graph_blamed=True)
     if why is not None:
         raise ValueError(f"graph: a graph of the segmentation's map is needed: {why}")
     labels = seg.labels
