@@ -4,9 +4,11 @@
 from __future__ import annotations
 
 import dataclasses
+import fnmatch
 import glob as _glob
 import json
 import os
+import warnings
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -15,6 +17,7 @@ from typing import Any
 
 from .._fs import yaml_image
 from .._validate import instance_of
+from .._words import counted
 from ..io import GRAPH_FORMATS, ROOM_FILE_SUFFIXES
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, OccupancyMap
 
@@ -121,15 +124,29 @@ def _is_map_file(path: Path) -> bool:
     return path.suffix.lower() in _MAP_SUFFIXES
 
 
-def _walk_maps(folder: Path) -> list[Path]:
+def _walk_maps(folder: Path, unreadable: list[str] | None = None) -> list[Path]:
+    """The map files below ``folder`` (hidden entries skipped); the folders that could not
+    be listed are appended to ``unreadable`` (``os.walk`` would pass over them silently)."""
     found = []
-    for root, dirs, files in os.walk(folder):
+
+    def failed(exc: OSError) -> None:
+        if unreadable is not None:
+            _note_unreadable(exc, unreadable)
+
+    for root, dirs, files in os.walk(folder, onerror=failed):
         dirs[:] = sorted(d for d in dirs if not d.startswith("."))
         for name in sorted(files):
             p = Path(root) / name
             if not name.startswith(".") and _is_map_file(p):
                 found.append(p)
     return found
+
+
+def _note_unreadable(exc: OSError, unreadable: list[str]) -> None:
+    """Append the folder that ``exc`` could not list to ``unreadable``, with the reason;
+    one that no longer exists, or never did (a pattern's fixed start), holds no map."""
+    if not isinstance(exc, (FileNotFoundError, NotADirectoryError)):
+        unreadable.append(f"{exc.filename} ({exc.strerror or type(exc).__name__})")
 
 
 def _static_prefix(pattern: str) -> str:
@@ -162,6 +179,10 @@ def expand_map_inputs(
           these searches;
         * anything else is taken as a file name as is (a missing or unsupported file
           then becomes an error row of the batch, not an exception here).
+
+        A folder that a search could not list (no permission) and an input that gave no
+        map file (an empty folder, a pattern that matched none) are named in a
+        ``UserWarning``.
     exclude : str or path, optional
         A folder that searches of a folder (or pattern) strictly above it skip, e.g. the
         batch's output folder inside an input folder (its pictures are PNG files).  An
@@ -195,27 +216,33 @@ def expand_map_inputs(
         return [f for f in files if not os.path.realpath(f).startswith(skip)]
 
     found: list[Path] = []
+    unreadable: list[str] = []  # folders a search could not list
+    fruitless: list[str] = []  # folders and patterns that gave no map file
     for raw in inputs:
         if not os.fspath(raw).strip():  # Path("") is ".": an unset $MAPS would batch it
             raise ValueError(
                 "inputs: expected map files, folders or patterns, received an empty string "
                 f"among {list(inputs)!r}"
             )
+        before = len(found)
         for pattern in expand_braces(os.fspath(raw)):
             p = Path(pattern)
             if p.is_dir():
-                found.extend(searched(pattern, _walk_maps(p)))
+                found.extend(searched(pattern, _walk_maps(p, unreadable)))
             elif _glob.has_magic(pattern):
                 matches = []
                 for match in sorted(_glob.glob(pattern, recursive=True)):
                     m = Path(match)
                     if m.is_dir():
-                        matches.extend(_walk_maps(m))
+                        matches.extend(_walk_maps(m, unreadable))
                     elif _is_map_file(m):
                         matches.append(m)
+                _unreadable_for(pattern, unreadable)
                 found.extend(searched(_static_prefix(pattern), matches))
             else:
                 found.append(p)
+        if len(found) == before:
+            fruitless.append(repr(os.fspath(raw)))
     unique: list[Path] = []
     seen: set[str] = set()
     for p in found:
@@ -234,10 +261,48 @@ def expand_map_inputs(
         for p in unique
         if p.suffix.lower() in YAML_SUFFIXES or os.path.realpath(p) not in referenced
     ]
+    unreadable = list(dict.fromkeys(unreadable))
+    denied = f"; could not search {', '.join(unreadable)}" if unreadable else ""
     if not result:
         shown = ", ".join(repr(os.fspath(x)) for x in inputs) if inputs else "(none)"
-        raise ValueError(f"inputs: expected map files, folders or patterns; none found in {shown}")
+        raise ValueError(
+            f"inputs: expected map files, folders or patterns; none found in {shown}{denied}"
+        )
+    if unreadable:  # os.walk and glob pass over such folders without a word
+        warnings.warn(
+            f"inputs: could not search {counted(len(unreadable), 'folder')}, so any maps in "
+            f"{'it' if len(unreadable) == 1 else 'them'} are not in this batch: "
+            f"{', '.join(unreadable)}",
+            stacklevel=2,
+        )
+    if fruitless:
+        warnings.warn(
+            f"inputs: expected each input to give map files, received "
+            f"{', '.join(fruitless)}, which gave none",
+            stacklevel=2,
+        )
     return result
+
+
+def _unreadable_for(pattern: str, unreadable: list[str]) -> None:
+    """Append to ``unreadable`` the folders that the glob ``pattern`` would have searched
+    but could not list: those below its fixed start whose names match its folder parts
+    (any, past a ``**``), hidden ones skipped as :func:`glob.glob` skips them."""
+    parts = Path(pattern).parts
+    prefix = _static_prefix(pattern)
+    folder_parts = parts[len(Path(prefix).parts) if prefix != "." else 0 : -1]
+
+    def wanted(names: tuple[str, ...]) -> bool:
+        for name, part in zip(names, folder_parts, strict=False):
+            if part == "**":
+                return True
+            if not fnmatch.fnmatchcase(name, part):
+                return False
+        return len(names) <= len(folder_parts) or "**" in folder_parts
+
+    for root, dirs, _files in os.walk(prefix, onerror=lambda e: _note_unreadable(e, unreadable)):
+        rel = Path(os.path.relpath(root, prefix)).parts if root != prefix else ()
+        dirs[:] = [d for d in dirs if not d.startswith(".") and wanted((*rel, d))]
 
 
 @dataclass

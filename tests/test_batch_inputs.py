@@ -1,0 +1,75 @@
+"""The inputs of a batch that give no map: folders that cannot be listed, and folders or
+patterns with no map file in them, are named, not passed over in silence."""
+
+from __future__ import annotations
+
+import os
+import re
+import warnings
+
+import pytest
+
+from topojax.batch import expand_map_inputs
+
+_PNG = b"\x89PNG\r\n\x1a\n"  # only the name and the suffix matter to the search
+
+
+def _deny(monkeypatch, folder) -> None:
+    """Make listing ``folder`` fail as a folder without read permission does (the tests
+    may run as root, whom ``chmod 000`` does not stop)."""
+    real = os.scandir
+    denied = os.path.realpath(folder)
+
+    def scandir(path="."):
+        if os.path.realpath(os.fspath(path)) == denied:
+            raise PermissionError(13, "Permission denied", os.fspath(path))
+        return real(path)
+
+    monkeypatch.setattr(os, "scandir", scandir)
+
+
+@pytest.fixture
+def tree(tmp_path):
+    root = tmp_path / "maps"
+    (root / "sub").mkdir(parents=True)
+    (root / "a.png").write_bytes(_PNG)
+    (root / "sub" / "b.png").write_bytes(_PNG)
+    return root
+
+
+def test_a_folder_that_cannot_be_listed_is_named(tree, monkeypatch):
+    _deny(monkeypatch, tree / "sub")
+    for inputs in ([tree], [f"{tree}/**/*.png"], [f"{tree}/*/*.png", tree / "a.png"]):
+        with pytest.warns(UserWarning, match=r"inputs: could not search 1 folder, .* in it .*sub"):
+            assert expand_map_inputs(inputs) == [tree / "a.png"]
+    with pytest.raises(ValueError, match=r"none found in .*could not search .*sub"):
+        expand_map_inputs([tree / "sub"])
+
+
+def test_a_folder_the_pattern_does_not_enter_is_not_named(tree, monkeypatch):
+    (tree / "other").mkdir()
+    _deny(monkeypatch, tree / "other")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert expand_map_inputs([f"{tree}/sub/*.png"]) == [tree / "sub" / "b.png"]
+        assert expand_map_inputs([f"{tree}/s*/*.png"]) == [tree / "sub" / "b.png"]
+        assert expand_map_inputs([f"{tree}/*.png"]) == [tree / "a.png"]
+    # ...though a search of every folder is
+    with pytest.warns(UserWarning, match="could not search"):
+        expand_map_inputs([tree])
+
+
+def test_an_input_that_gives_no_map_is_named(tree):
+    (tree / "empty").mkdir()
+    typo = str(tree / "sbu" / "*.png")
+    with pytest.warns(
+        UserWarning, match=rf"received {re.escape(repr(typo))}, .*'.*empty', which gave none"
+    ):
+        got = expand_map_inputs([typo, tree / "sub", tree / "empty"])
+    assert got == [tree / "sub" / "b.png"]
+    with warnings.catch_warnings():  # one alternative of a brace pattern may match nothing
+        warnings.simplefilter("error")
+        assert expand_map_inputs([f"{tree}/**/*.{{png,pgm}}"]) == [
+            tree / "a.png",
+            tree / "sub" / "b.png",
+        ]
