@@ -407,6 +407,9 @@ def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, caps
         ("batch", ["--formats", "xml"], "--formats: expected names from ('graphml'"),
         ("batch", ["--connect-timeout", "nan"], "--connect-timeout: expected a finite number"),
         ("batch", ["--connect-timeout", "-1"], "--connect-timeout: expected a finite number"),
+        # an unset $SCHEDULER must not run the batch on this machine instead
+        ("batch", ["--scheduler", ""], "--scheduler: expected the address of a running Dask"),
+        ("batch", ["--scheduler", " "], "received ' '"),
     ],
 )
 def test_pipeline_and_batch_options_are_named_in_errors(tmp_path, capsys, command, argv, message):

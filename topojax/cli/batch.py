@@ -193,6 +193,11 @@ def _check_numbers(args) -> None:
     except ValueError as exc:
         raise _option_named(exc, "formats", "--formats") from None
     quantity("--connect-timeout", args.connect_timeout, unit="seconds", allow_zero=False)
+    if args.scheduler is not None and not args.scheduler.strip():  # an unset $SCHEDULER
+        raise ValueError(
+            "--scheduler: expected the address of a running Dask scheduler (e.g. "
+            f"tcp://host:8786), received {args.scheduler!r}"
+        )
     if args.workers is not None:
         int_at_least("--workers", args.workers, 0)
     if args.tiles_per_call is not None:
