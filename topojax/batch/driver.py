@@ -281,7 +281,8 @@ class _BatchRun:
                 ridges_bits=np.packbits(ridges),
                 clearance_values=clearance,
                 config=cfg,
-                out_dir=None if self.out_dir is None else os.fspath(self.out_dir),
+                # absolute: a worker (on a Dask cluster, say) may run in another folder
+                out_dir=None if self.out_dir is None else os.path.abspath(self.out_dir),
                 formats=self.formats,
                 masks_bits=masks,
                 keep_graph=self.keep_graphs,

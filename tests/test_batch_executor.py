@@ -1,0 +1,48 @@
+"""A given executor runs the CPU stages wherever its workers are: they may run in another
+folder than the caller (a Dask worker started elsewhere), and must still write into the
+caller's output folder."""
+
+from __future__ import annotations
+
+import json
+import os
+from concurrent.futures import Executor, Future
+from pathlib import Path
+
+from topojax import build_graphs
+
+MAP = Path(__file__).resolve().parents[1] / "topojax" / "data" / "a_scan.png"
+
+
+class _Elsewhere(Executor):
+    """Runs each task at once, in the folder ``cwd``, as a worker started there would."""
+
+    def __init__(self, cwd: Path) -> None:
+        self.cwd = cwd
+
+    def submit(self, fn, /, *args, **kwargs):
+        future: Future = Future()
+        here = os.getcwd()
+        os.chdir(self.cwd)
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # the batch reads it from the future
+            future.set_exception(exc)
+        finally:
+            os.chdir(here)
+        return future
+
+
+def test_a_relative_out_dir_is_the_callers_for_workers_in_another_folder(tmp_path, monkeypatch):
+    (tmp_path / "caller").mkdir()
+    (tmp_path / "worker").mkdir()
+    monkeypatch.chdir(tmp_path / "caller")
+    kw = dict(out_dir="out", formats="json", progress=False)
+    [rec] = build_graphs([MAP], executor=_Elsewhere(tmp_path / "worker"), **kw)
+    assert rec.status == "ok", rec.message
+    assert not (tmp_path / "worker" / "out").exists()
+    manifest = json.loads(Path("out/a_scan.manifest.json").read_text(encoding="utf-8"))
+    assert all(Path("out", rel).is_file() for rel in manifest["files"])
+    # so a resumed run finds the files, and skips the map
+    [again] = build_graphs([MAP], executor=_Elsewhere(tmp_path / "worker"), resume=True, **kw)
+    assert again.status == "skipped", again.message
