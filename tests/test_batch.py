@@ -1753,7 +1753,7 @@ def test_an_empty_graph_with_the_nav2_format_is_empty_not_an_error(tmp_path):
     kw = {"workers": 0, "progress": False, "out_dir": out, "formats": "json,nav2"}
     unknown, walls, office = build_graphs(maps, **kw)
     assert (unknown.status, walls.status, office.status) == ("empty", "empty", "ok")
-    assert "no occupied pixel" in unknown.message and "empty graph" in walls.message
+    assert "no occupied and no free pixel" in unknown.message and "empty graph" in walls.message
     assert "no Nav2 file" in unknown.message and "no Nav2 file" in walls.message
     assert (out / "unknown.json").is_file() and (out / "walls.json").is_file()
     assert not (out / "unknown_nav2.geojson").exists()
@@ -1814,3 +1814,17 @@ def test_a_batch_assumes_no_resolution_where_a_pgm_comment_is_refused(tmp_path):
     assert refused.status == "error" and "not a positive number" in refused.message
     assert assumed.status == "ok" and assumed.message == ASSUMED
     assert list(warnings.filters) == filters
+
+
+def test_an_empty_map_read_as_ipa_is_not_told_to_try_ipa(tmp_path):
+    """The reason of an empty map suggests the IPA pixel convention only to a batch that
+    did not read the map with it."""
+    import cv2
+
+    cv2.imwrite(str(tmp_path / "grey.png"), np.full((40, 40), 200, np.uint8))
+    kw = {"workers": 0, "progress": False}
+    plain = build_graphs([tmp_path / "grey.png"], **kw)[0]
+    ipa = build_graphs([tmp_path / "grey.png"], map_mode="ipa", **kw)[0]
+    assert plain.status == ipa.status == "empty"
+    assert "e.g. 'ipa'" in plain.message
+    assert "ipa" not in ipa.message and "pixel convention (map_mode)" in ipa.message

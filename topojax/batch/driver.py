@@ -588,7 +588,8 @@ class _BatchRun:
         classes = self._classes.pop(item.index, (None, None))
         # the paper's graph counts unless only route graphs were asked for
         paper = self.out_dir is None or not set(self.formats) <= set(ROUTE_FORMATS)
-        notes = [] if res.vertices or not paper else [empty_reason(*classes)]
+        mode = (self.map_options or {}).get("mode")
+        notes = [] if res.vertices or not paper else [empty_reason(*classes, mode=mode)]
         notes += [res.nav2_note] if res.nav2_note else []
         notes += [res.route_note] if res.route_note else []
         notes += [warning] if warning else []
@@ -648,7 +649,9 @@ def _terminate_workers(executor: cf.Executor | None) -> None:
 
 
 def _class_counts(g) -> tuple[int, int | None]:
-    """Occupied and free pixels of a loaded map (free: None where it was not kept)."""
+    """Occupied and free pixels of a loaded map (free: None where not known)."""
+    if g.n_free is not None:
+        return int(g.occupied.sum()), g.n_free
     return int(g.occupied.sum()), None if g.free is None else int(g.free.sum())
 
 

@@ -206,16 +206,26 @@ def _arrow_schema(pa: Any, columns: Sequence[str]) -> Any:
     return pa.schema([(name, types.get(name, pa.float64())) for name in columns])
 
 
-def empty_reason(n_occupied: int | None, n_free: int | None) -> str:
-    """Why a map's graph is empty, and what to check (the ``message`` of an empty map)."""
-    if n_occupied == 0:
+def empty_reason(n_occupied: int | None, n_free: int | None, *, mode: str | None = None) -> str:
+    """Why a map's graph is empty, and what to check (the ``message`` of an empty map read
+    in ``mode``, the ``map_mode`` given or None)."""
+    if n_occupied == 0 and n_free == 0:
+        why = "the map has no occupied and no free pixel as classified"
+    elif n_occupied == 0:
         why = "the map has no occupied pixel as classified"
     elif n_free == 0:
         why = "the map has no free pixel as classified"
     else:
         why = "no corridor was found between the obstacles"
+    convention = (
+        "map_mode"
+        if mode == "ipa"
+        else (
+            "map_mode, e.g. 'ipa' for IPA benchmark maps, where every pixel below 250 is "
+            "inaccessible"
+        )
+    )
     return (
         f"empty graph: {why}; check the map's thresholds (occupied_thresh, free_thresh, "
-        "negate) or its pixel convention (map_mode, e.g. 'ipa' for IPA benchmark maps, "
-        "where every pixel below 250 is inaccessible)"
+        f"negate) or its pixel convention ({convention})"
     )

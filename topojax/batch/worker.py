@@ -309,6 +309,7 @@ class _LoadedBits:
     free_bits: np.ndarray | None
     t_load_s: float
     wall_share: float | None = None
+    n_free: int | None = None  # free pixels, counted where the mask itself is not kept
 
 
 def _load_in_worker(path: str, want_free: bool, options: dict | None = None) -> _LoadedBits:
@@ -325,6 +326,7 @@ def _load_in_worker(path: str, want_free: bool, options: dict | None = None) -> 
         free_bits=np.packbits(occ.free) if want_free else None,
         t_load_s=time.perf_counter() - t0,
         wall_share=wall_share(occ.occupied, occ.free),
+        n_free=int(np.count_nonzero(occ.free)),
     )
 
 
@@ -341,6 +343,7 @@ class _Loaded:
     t_load_s: float
     n_tiles: int
     wall_share: float | None = None
+    n_free: int | None = None  # free pixels (also where ``free`` is not kept)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -366,6 +369,7 @@ def _loaded_from_bits(item: _Item, bits: _LoadedBits, tile_px: int) -> _Loaded:
         t_load_s=bits.t_load_s,
         n_tiles=_n_tiles(bits.shape, tile_px),
         wall_share=bits.wall_share,
+        n_free=bits.n_free,
     )
 
 
@@ -386,6 +390,7 @@ def _load_here(item: _Item, tile_px: int, want_free: bool, options: dict | None 
         t_load_s=time.perf_counter() - t0,
         n_tiles=_n_tiles(occ.shape, tile_px),
         wall_share=wall_share(occ.occupied, occ.free),
+        n_free=int(np.count_nonzero(occ.free)),
     )
 
 
