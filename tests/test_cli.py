@@ -398,6 +398,9 @@ def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, caps
         ("demo", ["--min-clearance-m", "-1"], "--min-clearance-m: expected a finite number"),
         ("demo", ["--tile-px", "5000"], "--tile-px: expected an int in [8, 4096]"),
         ("replay", ["--min-component-m", "nan"], "--min-component-m: expected a finite"),
+        # the laser's pose, as the readers check it, but under the option's name
+        ("replay", ["--sensor-offset", "nan", "0", "0"], "--sensor-offset: expected a sequ"),
+        ("replay", ["--sensor-offset", "0", "0", "1e10"], "--sensor-offset: expected a sequ"),
         ("batch", ["--min-spur-m", "-1"], "--min-spur-m: expected a finite number of metres"),
         ("batch", ["--sigma-m", "-1"], "--sigma-m: expected a finite number of metres > 0"),
         ("batch", ["--workers", "-1"], "--workers: expected an int >= 0"),

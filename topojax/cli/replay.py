@@ -28,7 +28,7 @@ from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 def _check_numbers(args) -> None:
     """The numeric options, checked under their own names before the replay (the
     library's messages name its parameters)."""
-    from .._validate import int_at_least, positive_int, positive_metres, robot_radius
+    from .._validate import int_at_least, pose, positive_int, positive_metres, robot_radius
 
     positive_metres("--resolution", args.resolution)
     for option, value in (
@@ -46,6 +46,8 @@ def _check_numbers(args) -> None:
             f"--max-range: expected a number of metres > 0 (inf: no no-return value), "
             f"received {args.max_range}"
         )
+    if args.sensor_offset is not None:  # as the readers check it, under the option's name
+        pose("--sensor-offset", tuple(args.sensor_offset), bounded=False)
     if args.route_graph is not None:
         from ..routegraph.build import RouteGraphConfig, check_scale
 
