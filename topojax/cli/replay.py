@@ -304,6 +304,37 @@ def add_command(subparsers) -> None:
         "took and continuing its animation, view timeline and MCAP recording; the same "
         "mapper and reader options are needed (refused otherwise)",
     )
+    _add_reader_options(p)
+    add_graph_options(p)
+    add_nav2_options(p, "graph_nav2.geojson (and route_graph_nav2.geojson with --route-graph)")
+    p.add_argument(
+        "--route-graph",
+        type=float,
+        metavar="RADIUS_M",
+        help="also write route_graph.{graphml,json,geojson}: the route graph of the final "
+        "map for a round robot of this radius in metres (see topojax route-graph); with "
+        "--mcap, also the route graph of the map at every graph update",
+    )
+    p.add_argument(
+        "--rooms",
+        action="store_true",
+        help="also keep rooms as the map grows (with every graph update), give the graph "
+        "files their rooms and write map_rooms.{geojson,png,graphml,json}; --animate "
+        "colours the rooms and with --plot graph.png draws the final ones",
+    )
+    add_room_options(p, only_with="--rooms")
+    p.add_argument(
+        "--view",
+        action="store_true",
+        help="also write view.html: the interactive view of the final map and graph with a "
+        "timeline of every graph update (see topojax view)",
+    )
+    p.set_defaults(handler=_cmd_replay)
+    return p
+
+
+def _add_reader_options(p) -> None:
+    """The options passed to the log's reader (CARMEN logs, bags)."""
     p.add_argument(
         "--max-range",
         type=float,
@@ -343,29 +374,3 @@ def add_command(subparsers) -> None:
         help="the laser's pose on the robot in metres and radians, overriding tf (bags) "
         "or the log (CARMEN); needed where neither gives it",
     )
-    add_graph_options(p)
-    add_nav2_options(p, "graph_nav2.geojson (and route_graph_nav2.geojson with --route-graph)")
-    p.add_argument(
-        "--route-graph",
-        type=float,
-        metavar="RADIUS_M",
-        help="also write route_graph.{graphml,json,geojson}: the route graph of the final "
-        "map for a round robot of this radius in metres (see topojax route-graph); with "
-        "--mcap, also the route graph of the map at every graph update",
-    )
-    p.add_argument(
-        "--rooms",
-        action="store_true",
-        help="also keep rooms as the map grows (with every graph update), give the graph "
-        "files their rooms and write map_rooms.{geojson,png,graphml,json}; --animate "
-        "colours the rooms and with --plot graph.png draws the final ones",
-    )
-    add_room_options(p, only_with="--rooms")
-    p.add_argument(
-        "--view",
-        action="store_true",
-        help="also write view.html: the interactive view of the final map and graph with a "
-        "timeline of every graph update (see topojax view)",
-    )
-    p.set_defaults(handler=_cmd_replay)
-    return p
