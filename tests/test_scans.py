@@ -1679,13 +1679,20 @@ def test_replay_takes_the_bag_options_the_reader_errors_advise(tmp_path, capsys)
 def test_a_bag_folder_of_one_sqlite_file_without_metadata_reads_it(tmp_path):
     """ROS 2 writes a bag folder's metadata.yaml when the recording ends, so one stopped
     by a power cut holds only its .db3 file: the folder reads as that file, as one
-    holding only its .mcap file does."""
+    holding only its .mcap file does, with a warning naming the file read (SQLite keeps
+    every message written, so nothing else tells that the recording was cut off)."""
     pytest.importorskip("rosbags")
     whole = tmp_path / "whole"
     _write_robot_bag(whole, 2)
     (whole / "metadata.yaml").unlink()
-    scans = list(read_bag(whole))
+    (db3,) = whole.glob("*.db3")
+    with pytest.warns(RuntimeWarning) as caught:
+        scans = list(read_bag(whole))
     assert len(scans) == len(SCAN_TIMES)
+    assert [str(x.message) for x in caught] == [
+        f"{whole}: the bag folder has no metadata.yaml (written when a recording ends: "
+        f"one cut off, say); read its one .db3 file, {db3.name}"
+    ]
     (whole / "copy.db3").write_bytes(next(whole.glob("*.db3")).read_bytes())
     with pytest.raises(ValueError, match=r"not a ROS 2 bag: .*found 2 \.db3 files; pass"):
         list(read_bag(whole))

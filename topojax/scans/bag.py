@@ -107,7 +107,14 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequentia
         if path.is_dir() and not (path / "metadata.yaml").is_file():
             db3 = sorted(path.glob("*.db3"))
             if len(db3) == 1 and not list(path.glob("*.mcap")):
-                return _open_bag(db3[0])  # a recording cut off: metadata.yaml comes last
+                source = _open_bag(db3[0])  # a recording cut off: metadata.yaml comes last
+                warnings.warn(
+                    f"{path}: the bag folder has no metadata.yaml (written when a recording "
+                    f"ends: one cut off, say); read its one .db3 file, {db3[0].name}",
+                    RuntimeWarning,
+                    stacklevel=3,
+                )
+                return source
             counts = ((len(list(path.glob("*.mcap"))), ".mcap"), (len(db3), ".db3"))
             found = " and ".join(f"{n} {ext} file{'s' if n > 1 else ''}" for n, ext in counts if n)
             found = found or "neither"
