@@ -177,9 +177,10 @@ class _Survey(NamedTuple):
     """What the first pass over a log found: the laser message to use, the PARAM values,
     and (when the range limit is to be inferred) each scan's largest finite reading, the
     readings within ``_TOP_BAND_M`` of it (counted by value), how many finite readings
-    there were, how many lines had a finite pose, how many had none and the first of them, whether a line of
-    the kind was found, how many were malformed (skipped) and the first of them, and the
-    first field of the first line that is not blank (None for a file of blank lines)."""
+    there were, how many lines had a finite pose, how many had none and the first of
+    them, whether a line of the kind was found, how many were malformed (skipped) and the
+    first of them, and the first field of the first line that is not blank (None for a
+    file of blank lines)."""
 
     chosen: str | None
     params: dict[str, str]
