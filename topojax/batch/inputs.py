@@ -159,6 +159,29 @@ def _static_prefix(pattern: str) -> str:
     return os.path.join(*fixed) if fixed else "."
 
 
+def _each_map_once(found: list[Path]) -> list[Path]:
+    """``found`` without repeats (the same file by any path) and without the images that
+    a YAML among them references: each map once, through its YAML."""
+    unique: list[Path] = []
+    seen: set[str] = set()
+    for p in found:
+        key = os.path.realpath(p)
+        if key not in seen:
+            seen.add(key)
+            unique.append(p)
+    referenced = set()
+    for p in unique:
+        if p.suffix.lower() in YAML_SUFFIXES and p.is_file():
+            img = yaml_image(p)
+            if img is not None:
+                referenced.add(os.path.realpath(img))
+    return [
+        p
+        for p in unique
+        if p.suffix.lower() in YAML_SUFFIXES or os.path.realpath(p) not in referenced
+    ]
+
+
 def expand_map_inputs(
     inputs: Iterable[str | os.PathLike[str]], *, exclude: str | os.PathLike[str] | None = None
 ) -> list[Path]:
@@ -243,24 +266,7 @@ def expand_map_inputs(
                 found.append(p)
         if len(found) == before:
             fruitless.append(repr(os.fspath(raw)))
-    unique: list[Path] = []
-    seen: set[str] = set()
-    for p in found:
-        key = os.path.realpath(p)
-        if key not in seen:
-            seen.add(key)
-            unique.append(p)
-    referenced = set()
-    for p in unique:
-        if p.suffix.lower() in YAML_SUFFIXES and p.is_file():
-            img = yaml_image(p)
-            if img is not None:
-                referenced.add(os.path.realpath(img))
-    result = [
-        p
-        for p in unique
-        if p.suffix.lower() in YAML_SUFFIXES or os.path.realpath(p) not in referenced
-    ]
+    result = _each_map_once(found)
     unreadable = list(dict.fromkeys(unreadable))
     denied = f"; could not search {', '.join(unreadable)}" if unreadable else ""
     if not result:

@@ -191,14 +191,12 @@ def read_bag(
     """Read ``sensor_msgs/LaserScan`` messages with poses from a ROS 1 or ROS 2 bag.
 
     Bags are read with ``rosbags.highlevel.AnyReader`` (no ROS install needed): a ROS 1
-    ``.bag`` file, or a ROS 2 bag folder (or a ``.db3`` / ``.mcap`` file inside one). ROS 1
-    bags that ``rosbags`` refuses because of inconsistent index records are read by a small
-    sequential reader instead (message definitions come from the bag itself); so is one
-    cut off while recording (no index), up to the cut, with a warning.  Likewise an MCAP
-    file cut off while recording (no summary or end magic: the robot powered down) is
-    read up to its last whole message, with a warning giving the count, and a bag folder
-    without its ``metadata.yaml`` (written when the recording ends) is read as its one
-    ``.mcap`` or ``.db3`` file.
+    ``.bag`` file, or a ROS 2 bag folder (or a ``.db3`` / ``.mcap`` file inside one).  A
+    ROS 1 bag ``rosbags`` refuses (inconsistent index records; no index: cut off while
+    recording) is read by a small sequential reader, up to any cut with a warning; an MCAP
+    file cut off (no summary or end magic) up to its last whole message, with a warning
+    giving the count; a bag folder without its ``metadata.yaml`` (written when the
+    recording ends) as its one ``.mcap`` or ``.db3`` file, with a warning.
 
     Poses are planar: for each transform only ``x``, ``y`` and the heading of the rotated
     ``x`` axis are used; a frame whose ``z`` axis points down (an upside-down laser) mirrors
@@ -273,11 +271,8 @@ def read_bag(
     tol = real_number("pose_tolerance_s", pose_tolerance_s)
     if tol < 0:
         raise ValueError(f"pose_tolerance_s: expected a value >= 0 s, received {tol!r}")
-    offset_override = (
-        None
-        if sensor_offset is None
-        else checked_pose("sensor_offset", sensor_offset, bounded=False)
-    )
+    offset = sensor_offset
+    offset = None if offset is None else checked_pose("sensor_offset", offset, bounded=False)
     source = _open_bag(p)
     topics = source.topics
     listing = ", ".join(f"{t} [{m}]" for t, m in sorted(topics.items())) or "(none)"
@@ -295,7 +290,7 @@ def read_bag(
         tf_topics,
         tf_parent,
         base_frame,
-        offset_override,
+        offset,
         int(round(tol * 1e9)),
         missing_pose,
     )
