@@ -123,6 +123,29 @@ def test_rooms_follow_the_graph_loop_once_in_use(plan):
     assert "rooms" not in report.loops
 
 
+def test_an_explicit_graph_update_brings_the_rooms_in_use(plan):
+    """``rooms_every=None``: rooms follow every graph update, an explicit
+    ``update_graph`` too (after ``add_map``, which runs no loop), in the frame of the
+    updated map; ``rooms_every=0`` leaves them to explicit calls."""
+    occ = plan.occupancy
+    w = occ.free.shape[1]
+    mapper = _mapper()
+    mapper.add_map(_part(occ, slice(0, w // 2)))
+    before = mapper.rooms
+    mapper.add_map(occ)
+    mapper.update_graph()
+    after = mapper.rooms
+    assert after is not before
+    assert _same_up_to_ids(after.labels, tj.segment_rooms(mapper.occupancy).labels)
+    tj.assign_rooms(mapper.graph, after)  # the graph's frame
+    explicit = _mapper(rooms_every=0)
+    explicit.add_map(_part(occ, slice(0, w // 2)))
+    kept = explicit.rooms
+    explicit.add_map(occ)
+    explicit.update_graph()
+    assert explicit.rooms is kept
+
+
 def test_rooms_read_before_the_first_scan_are_kept_from_then_on(plan):
     """Reading rooms at start-up, before any scan, says the mapper is empty and puts
     rooms in use: the first graph update after scans brings them."""

@@ -241,7 +241,7 @@ def rooms_due(mapper, *, graph_ran: bool) -> bool:
     return bool(mapper.rooms_every) and mapper._since_rooms >= mapper.rooms_every
 
 
-def due_rooms_update(mapper) -> RoomsUpdate | None:
+def due_rooms_update(mapper, *, stacklevel: int = 5) -> RoomsUpdate | None:
     """The room update a scan made due, or None where the map has outgrown
     ``mapper.max_export_bytes`` for rooms (a relocalisation far off, a large site) or
     the memory available (:func:`topojax.segment_rooms` refuses it).
@@ -249,7 +249,8 @@ def due_rooms_update(mapper) -> RoomsUpdate | None:
     The scan is in the map by then: raising would tell its caller it was refused.  The
     rooms stay as of their last update instead and a ``RuntimeWarning`` says why (once,
     until an update succeeds again); reading :attr:`IncrementalMapper.rooms` afresh
-    (:meth:`~IncrementalMapper.update_rooms`) raises the error itself."""
+    (:meth:`~IncrementalMapper.update_rooms`) raises the error itself.  ``stacklevel``:
+    the warning's, to name the caller of the mapper's method."""
     keeper = mapper._rooms
     try:
         update = mapper._update_rooms()
@@ -259,7 +260,7 @@ def due_rooms_update(mapper) -> RoomsUpdate | None:
                 f"scan {mapper._n_scans - 1}: rooms not updated, they stay as of their last "
                 f"update until the map fits again ({exc})",
                 RuntimeWarning,
-                stacklevel=5,
+                stacklevel=stacklevel,
             )
         keeper.over_budget = True
         return None

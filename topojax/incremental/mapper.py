@@ -42,7 +42,7 @@ from ._ridges import (
     ridge_kernel,
     update_ridges,
 )
-from ._rooms import RoomKeeper
+from ._rooms import RoomKeeper, due_rooms_update, rooms_due
 from ._scan_loops import map_end_pixels
 from ._settings import (
     DEFAULT_MAX_EXPORT_BYTES,
@@ -542,13 +542,20 @@ class IncrementalMapper:
     def update_graph(self) -> GraphUpdate:
         """Bring everything up to date: splat, skeleton loop, then the graph loop.
 
+        With ``rooms_every=None`` and rooms in use, the rooms are updated too, as with
+        every graph update (a map past ``max_export_bytes`` for them warns and leaves
+        them as they were, as a scan's update does).
+
         Returns
         -------
         GraphUpdate
             What the graph loop changed (``time_s`` covers the graph loop only).
         """
         self.update_skeleton()
-        return self._update_graph()
+        update = self._update_graph()
+        if self.rooms_every is None and rooms_due(self, graph_ran=True):
+            due_rooms_update(self, stacklevel=4)  # names update_graph's caller
+        return update
 
     def _update_graph(self) -> GraphUpdate:
         from ..graph import paused_gc
@@ -736,7 +743,8 @@ class IncrementalMapper:
         doors added, removed, changed)."""
         check_whole(self, "update the rooms")
         self._rooms.active = True  # in use from now on, even if the mapper is empty yet
-        self.update_graph()
+        self.update_skeleton()
+        self._update_graph()
         return self._update_rooms()
 
     def _update_rooms(self):
