@@ -403,6 +403,18 @@ def test_tile_manager_extent_limit_changes_nothing():
     assert TileManager(tile_px=np.int64(8), layers={}, max_grid_cells=np.int32(9)).tile_px == 8
 
 
+def test_max_grid_cells_is_refused_where_a_saved_state_cannot_hold_it(tmp_path):
+    """The saved state stores ``max_grid_cells`` as an int64: a larger one is refused
+    when the mapper is made, not by its first save once scans are mapped."""
+    top = int(np.iinfo(np.int64).max)
+    with pytest.raises(
+        ValueError, match=f"max_grid_cells: expected .* <= {top}, received {top + 1}"
+    ):
+        IncrementalMapper(max_grid_cells=top + 1)
+    path = IncrementalMapper(max_grid_cells=top).save(tmp_path / "state.npz")
+    assert IncrementalMapper.load(path).tiles.max_grid_cells == top
+
+
 # --------------------------------------------------------------------------------------
 # Distance loop
 # --------------------------------------------------------------------------------------

@@ -33,6 +33,8 @@ __all__ = [
 #: Largest number of cells the dense tile index (:attr:`TileManager.slot_grid`) may have.
 #: With 128-pixel tiles at 5 cm this is a square of 4096 tiles = 26 km on a side.
 MAX_GRID_CELLS = 1 << 24
+#: Largest ``max_grid_cells``: :meth:`TileManager.state` stores it as an int64.
+_INT64_MAX = (1 << 63) - 1
 #: Layer storage at least this large gets its own memory mapping (see ``_storage``).
 _MAPPED_MIN_BYTES = 1 << 20
 #: Capacity growth factor of the tile storage.  Growing copies every tile into new,
@@ -120,7 +122,7 @@ class TileManager:
     max_grid_cells : int
         Upper bound on the cells of the dense tile index (its area in tiles).  Adding a
         tile that would make the bounding box larger raises :class:`ValueError` before
-        anything is changed.
+        anything is changed.  At most ``2**63 - 1`` (an int64).
     initial_capacity : int
         Tiles the storage holds before its first growth.
     reserve_bytes : int, optional
@@ -143,6 +145,10 @@ class TileManager:
     ) -> None:
         tile_px = int_at_least("tile_px", tile_px, 4)
         max_grid_cells = positive_int("max_grid_cells", max_grid_cells)
+        if max_grid_cells > _INT64_MAX:  # saved states store it as an int64
+            raise ValueError(
+                f"max_grid_cells: expected an int <= {_INT64_MAX}, received {max_grid_cells}"
+            )
         self.tile_px = tile_px
         self.max_grid_cells = max_grid_cells
         self._capacity = 0
