@@ -5,6 +5,7 @@ scan's index); each place that refuses sets them, and they survive pickling."""
 from __future__ import annotations
 
 import pickle
+import re
 
 import numpy as np
 import pytest
@@ -137,3 +138,13 @@ def test_a_map_s_refusal_while_adding_it_is_an_extent_error(monkeypatch):
         None,
     )
     mapper.add_scan(_scan(np.full(5, 2.0)))  # not left half updated
+
+
+def test_a_tile_budget_under_a_mib_is_said_in_bytes():
+    # the need of a refusal under 1 MiB in bytes, not "0 MiB in all"
+    mapper = IncrementalMapper(**SMALL_KW, max_tile_bytes=60 * TILE_BYTES)
+    with pytest.raises(ExtentError) as refused:
+        mapper.add_scan(_scan(np.full(40, 80.0)))
+    assert 60 * TILE_BYTES < 2**20
+    assert re.search(r"\d[\d,]* bytes in all, beyond max_tile_bytes=", str(refused.value))
+    assert "MiB" not in str(refused.value)

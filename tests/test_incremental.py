@@ -919,7 +919,8 @@ def test_constructor_validation():
     with pytest.raises(ValueError, match="block_px: expected a power of two.*received 12"):
         IncrementalMapper(tile_px=64, block_px=12)
     with pytest.raises(
-        ValueError, match=r"tile_px: expected a value >= block_px \(32\), received 16"
+        ValueError,
+        match=r"tile_px, block_px: expected tile_px >= block_px .*, received tile_px=16, block_px=32",
     ):
         IncrementalMapper(tile_px=16, block_px=32)
     with pytest.raises(ValueError, match="skeleton_every"):

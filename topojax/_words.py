@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
-__all__ = ["counted"]
+__all__ = ["counted", "memory_size"]
 
 
 def counted(n: int, noun: str, plural: str | None = None) -> str:
     """``n`` and ``noun``, plural unless ``n`` is 1: ``"1 door"``, ``"3 doors"``; the
     plural is ``plural`` where given (``"vertex"``, ``"vertices"``), else ``noun`` + s."""
     return f"{n} {noun if n == 1 else plural or noun + 's'}"
+
+
+def memory_size(n_bytes: int) -> str:
+    """A memory size for a message: whole MiB from 1 MiB (``"1,536 MiB"``), else bytes
+    (``"16,000 bytes"``, never ``"0 MiB"``)."""
+    return f"{n_bytes / 2**20:,.0f} MiB" if n_bytes >= 2**20 else f"{n_bytes:,} bytes"

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._jit import cached_njit
 from .._validate import finite_pair
+from .._words import memory_size
 from ..fields.filters import HALO_PX
 from ..fields.tiling import unique_pairs
 from ._extent import ExtentError, Subject, refusal
@@ -405,7 +406,7 @@ def check_tile_budget(mapper, new_tiles: int, where, *, at_least: bool = False) 
         raise refusal(
             where,
             f" would allocate {least}{new_tiles} more tiles, {least}"
-            f"{need / 2**20:,.0f} MiB in all, beyond max_tile_bytes={mapper.max_tile_bytes}; "
+            f"{memory_size(need)} in all, beyond max_tile_bytes={mapper.max_tile_bytes}; "
             "nothing was added (a reading far beyond the sensor's range? set the scan's "
             "range_max or the mapper's max_range_m, or make the mapper with a larger "
             "max_tile_bytes)",

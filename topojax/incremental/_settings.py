@@ -94,7 +94,10 @@ def checked_sizes(tile_px, block_px, paper_layer_px) -> tuple[int, int, int]:
     if tile_px > 4096:  # as the full-map pipeline's tiles; one tile is tile_px**2 pixels
         raise ValueError(f"tile_px: expected a value <= 4096, received {tile_px}")
     if tile_px < block_px:
-        raise ValueError(f"tile_px: expected a value >= block_px ({block_px}), received {tile_px}")
+        raise ValueError(
+            "tile_px, block_px: expected tile_px >= block_px (a block within a tile), "
+            f"received tile_px={tile_px}, block_px={block_px}"
+        )
     if block_px < 2 * HALO_PX:
         raise ValueError(f"block_px: expected a value >= {2 * HALO_PX}, received {block_px}")
     return tile_px, block_px, paper_layer_px

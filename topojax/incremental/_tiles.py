@@ -13,6 +13,7 @@ import numpy as np
 
 from .._cpus import usable_cpus
 from .._jit import cached_njit
+from .._words import memory_size
 from ..fields.distance import FAR_SQ
 from ..fields.tiling import TileManager
 
@@ -293,7 +294,7 @@ def check_export_budget(mapper, what: str, box: tuple[int, int, int, int]) -> No
             f" (the mapped area spans x {bbox[1] * res:g}..{bbox[3] * res:g} m, "
             f"y {-bbox[2] * res:g}..{-bbox[0] * res:g} m)"
         )
-    size = f"{need / 2**20:,.0f} MiB" if need >= 2**20 else f"{need:,} bytes"
+    amount = memory_size(need)
     if what == "occupancy_window":
         instead = "ask for a smaller window"
     else:
@@ -302,7 +303,7 @@ def check_export_budget(mapper, what: str, box: tuple[int, int, int, int]) -> No
             "mapper.occupancy_window((x_min, y_min, x_max, y_max)) in metres"
         )
     raise ExportBudgetError(
-        f"mapper.{what}: refused to allocate about {size} for {h} x {w} "
+        f"mapper.{what}: refused to allocate about {amount} for {h} x {w} "
         f"px ({w * res:g} m x {h * res:g} m, about {per_px} bytes per pixel), more than "
         f"max_export_bytes={mapper.max_export_bytes}; {instead}{span}, or make "
         "the mapper with a larger max_export_bytes"
