@@ -8,6 +8,7 @@ import pytest
 from floorplans import RES, floor_plan
 
 import topojax as tj
+from topojax.incremental import ExportBudgetError
 from topojax.maps.occupancy import OccupancyMap
 
 
@@ -200,3 +201,32 @@ def test_replay_keeps_rooms_and_writes_them(tmp_path):
     graph = tj.load_graph(tmp_path / "graph.graphml")
     ids = {r.id for r in rooms} | {0}
     assert all(d["room"] in ids for _, d in graph.nodes(data=True))
+
+
+def test_a_room_update_the_map_outgrew_warns_at_the_caller_s_line():
+    """The warning that rooms stay as they were (map past ``max_export_bytes``) names the
+    user's line, through add_scan, add_scans or update_graph alike."""
+    import warnings
+
+    from topojax.scans import Scan
+
+    def scan():
+        return Scan.from_arrays(np.full(90, 3.0), (0, 0, 0), angle_min=0, angle_increment=0.07)
+
+    for call in ("add_scan", "add_scans", "update_graph"):
+        mapper = tj.IncrementalMapper(rooms_every=1, max_export_bytes=2000, graph_every=0)
+        if call == "update_graph":  # rooms in use, following each graph update
+            mapper = tj.IncrementalMapper(max_export_bytes=2000, graph_every=0)
+            mapper.add_scan(scan())
+            with pytest.raises(ExportBudgetError):
+                mapper.update_rooms()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            if call == "add_scan":
+                mapper.add_scan(scan())
+            elif call == "add_scans":
+                mapper.add_scans([scan()])
+            else:
+                mapper.update_graph()
+        rooms = [w for w in caught if "rooms not updated" in str(w.message)]
+        assert rooms and rooms[0].filename == __file__, (call, [w.filename for w in rooms])

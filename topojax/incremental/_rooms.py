@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._caller import outside_stacklevel
 from .._cpus import MemoryRefusal
 from ._room_ids import SAME_ROOM_IOU, match_ids, pasted
 from ._tiles import ExportBudgetError
@@ -241,7 +242,7 @@ def rooms_due(mapper, *, graph_ran: bool) -> bool:
     return bool(mapper.rooms_every) and mapper._since_rooms >= mapper.rooms_every
 
 
-def due_rooms_update(mapper, *, stacklevel: int = 5) -> RoomsUpdate | None:
+def due_rooms_update(mapper) -> RoomsUpdate | None:
     """The room update a scan made due, or None where the map has outgrown
     ``mapper.max_export_bytes`` for rooms (a relocalisation far off, a large site) or
     the memory available (:func:`topojax.segment_rooms` refuses it).
@@ -249,8 +250,8 @@ def due_rooms_update(mapper, *, stacklevel: int = 5) -> RoomsUpdate | None:
     The scan is in the map by then: raising would tell its caller it was refused.  The
     rooms stay as of their last update instead and a ``RuntimeWarning`` says why (once,
     until an update succeeds again); reading :attr:`IncrementalMapper.rooms` afresh
-    (:meth:`~IncrementalMapper.update_rooms`) raises the error itself.  ``stacklevel``:
-    the warning's, to name the caller of the mapper's method."""
+    (:meth:`~IncrementalMapper.update_rooms`) raises the error itself.  The warning names
+    the line outside topojax that led to it (an ``add_scan``, an ``update_graph``)."""
     keeper = mapper._rooms
     try:
         update = mapper._update_rooms()
@@ -260,7 +261,7 @@ def due_rooms_update(mapper, *, stacklevel: int = 5) -> RoomsUpdate | None:
                 f"scan {mapper._n_scans - 1}: rooms not updated, they stay as of their last "
                 f"update until the map fits again ({exc})",
                 RuntimeWarning,
-                stacklevel=stacklevel,
+                stacklevel=outside_stacklevel(),
             )
         keeper.over_budget = True
         return None

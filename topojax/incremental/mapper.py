@@ -554,7 +554,7 @@ class IncrementalMapper:
         self.update_skeleton()
         update = self._update_graph()
         if self.rooms_every is None and rooms_due(self, graph_ran=True):
-            due_rooms_update(self, stacklevel=4)  # names update_graph's caller
+            due_rooms_update(self)
         return update
 
     def _update_graph(self) -> GraphUpdate:
