@@ -1766,7 +1766,16 @@ def test_replay_cli_reader_options_and_early_path_checks(tmp_path, capsys):
     assert main([*base, str(bag), "--allow-missing-pose"]) == 0
     # options for another reader are named, not a TypeError
     assert main([*base, str(bag), "--max-range", "5"]) != 0
-    assert "read_bag, which takes no max_range_m" in capsys.readouterr().err
+    assert (
+        "--max-range: expected options of the log's reader, received a log read by read_bag "
+        in capsys.readouterr().err
+    )
+    # and the options a bag takes, on a CARMEN log, in the command's words
+    other = ["replay", "-o", str(tmp_path / "carmen"), "--no-progress"]
+    assert main([*other, str(INTEL_EXCERPT), "--tf-parent", "odom"]) != 0
+    err = capsys.readouterr().err
+    assert "--tf-parent: expected options of the log's reader" in err and "tf_parent" not in err
+    assert "read_carmen" in err and "takes --skip-bad-lines, --max-range, --sensor-offset" in err
     # --max-range reaches the CARMEN reader: with 1 m nearly every beam is a no-return
     short = replay(
         INTEL_EXCERPT,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gzip
 import math
+import pickle
 import re
 import struct
 import warnings
@@ -1902,3 +1903,18 @@ def test_a_file_of_no_format_read_is_refused_as_such_with_the_formats_read(
         path.write_text(text)
         with pytest.raises(ValueError, match="no scan to read: no laser lines found"):
             list(read_scans(path))
+
+
+def test_options_another_reader_takes_are_refused_with_what_the_reader_takes():
+    from topojax.scans import ReaderOptionError
+
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    with pytest.raises(ReaderOptionError) as refused:
+        read_scans(log, tf_parent="odom", scan_topic="/scan")
+    exc = refused.value
+    assert isinstance(exc, ValueError) and exc.reader == "read_carmen"
+    assert exc.unknown == ("scan_topic", "tf_parent") and "max_range_m" in exc.accepted
+    assert str(exc).startswith(
+        f"{log} is read by read_carmen, which takes no scan_topic, tf_parent"
+    )
+    assert pickle.loads(pickle.dumps(exc)).unknown == exc.unknown

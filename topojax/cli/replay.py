@@ -57,6 +57,7 @@ def _check_numbers(args) -> None:
 
 def _cmd_replay(args) -> int:
     from ..playback import replay, summary_printed, summary_text
+    from ..scans import ReaderOptionError
 
     _check_numbers(args)
     if not Path(args.source).exists():  # named as the command names it; a bag may be a folder
@@ -124,6 +125,8 @@ def _cmd_replay(args) -> int:
                 resume=args.resume,
                 **kw,
             )
+    except ReaderOptionError as exc:  # options of another reader than the log's
+        raise _reader_refused(exc) from None
     finally:
         summary_printed.reset(printed_here)
     if summary is None:  # stopped part way, its state saved for --resume
@@ -142,6 +145,18 @@ def _cmd_replay(args) -> int:
         )
         return 128 + stopped[0]
     return 0
+
+
+def _reader_refused(exc) -> ValueError:
+    """The error of reader options the log's reader does not take
+    (:class:`topojax.scans.ReaderOptionError`), in the command's options."""
+    option_of = {**_RESUME_OPTION_OF, "bad_lines": "--skip-bad-lines"}
+    given = ", ".join(option_of.get(name, name) for name in exc.unknown)
+    takes = [option_of[name] for name in exc.accepted if name in option_of]
+    return ValueError(
+        f"{given}: expected options of the log's reader, received a log read by "
+        f"{exc.reader} ({exc.path}), which takes {', '.join(takes) or 'none of them'}"
+    )
 
 
 #: The parameters of :func:`topojax.replay` that errors name, and the options that set

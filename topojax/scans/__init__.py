@@ -22,7 +22,7 @@ Modules: ``scan`` (:class:`Scan`, :func:`scans_from_arrays`), ``carmen``, ``octa
 
 from __future__ import annotations
 
-from ._dispatch import read_scans
+from ._dispatch import ReaderOptionError, read_scans
 from .bag import read_bag
 from .carmen import CARMEN_NO_RETURN_MARGIN_M, read_carmen
 from .octave import read_octave_laser
@@ -30,6 +30,7 @@ from .scan import Scan, scans_from_arrays
 
 __all__ = [
     "CARMEN_NO_RETURN_MARGIN_M",
+    "ReaderOptionError",
     "Scan",
     "read_bag",
     "read_carmen",

@@ -18,6 +18,32 @@ from .scan import Scan
 _BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 
 
+class ReaderOptionError(ValueError):
+    """Options given to :func:`read_scans` that the reader of the file does not take.
+
+    Attributes
+    ----------
+    path : Path
+        The file.
+    reader : str
+        The name of its reader (``"read_carmen"``, ``"read_bag"``, ...).
+    unknown : tuple of str
+        The options it does not take, sorted.
+    accepted : tuple of str
+        The options it takes, sorted.
+    """
+
+    def __init__(self, path: Path, reader: str, unknown: tuple, accepted: tuple) -> None:
+        super().__init__(
+            f"{path} is read by {reader}, which takes no {', '.join(unknown)} "
+            f"(its options: {', '.join(accepted)})"
+        )
+        self.path, self.reader, self.unknown, self.accepted = path, reader, unknown, accepted
+
+    def __reduce__(self):
+        return type(self), (self.path, self.reader, self.unknown, self.accepted)
+
+
 def _looks_octave(path: Path) -> bool:
     """Does the file open with an Octave ``save -text`` header (``# Created by Octave`` or
     ``# name:`` among its first 20 lines, before any line that is not a comment)?"""
@@ -61,7 +87,8 @@ def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
         If ``path`` does not exist.
     ValueError
         For a map image, or a file of none of these formats (raised once the scans are
-        iterated), the message listing the formats and their usual suffixes.
+        iterated), the message listing the formats and their usual suffixes; a
+        :class:`ReaderOptionError` for options the file's reader does not take.
     """
     p = path_like("path", path)
     if not p.exists():
@@ -71,10 +98,7 @@ def read_scans(path: str | Path, **kwargs: Any) -> Iterator[Scan]:
     unknown = sorted(set(kwargs) - set(accepted))
     if unknown:
         options = sorted(k for k, v in accepted.items() if v.kind is v.KEYWORD_ONLY)
-        raise ValueError(
-            f"{p} is read by {reader.__name__}, which takes no {', '.join(unknown)} "
-            f"(its options: {', '.join(options)})"
-        )
+        raise ReaderOptionError(p, reader.__name__, tuple(unknown), tuple(options))
     return reader(p, **kwargs)
 
 
