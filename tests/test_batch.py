@@ -1553,6 +1553,22 @@ def test_a_scheduler_that_cannot_be_reached_is_named_and_leaves_no_folder(tmp_pa
     assert not out.exists()
 
 
+def test_workers_beside_a_scheduler_are_said_to_be_unused(tmp_path, capsys):
+    """``--workers`` does nothing with ``--scheduler`` (the cluster's workers run the
+    maps): a warning says so rather than let it seem to bound the cluster."""
+    distributed = pytest.importorskip("distributed")
+    from topojax.cli import main
+
+    with distributed.LocalCluster(
+        n_workers=1, processes=False, protocol="tcp://", host="127.0.0.1", dashboard_address=None
+    ) as cluster:
+        argv = ["batch", str(PAPER_MAPS[0]), "-o", str(tmp_path / "o"), "--no-progress"]
+        assert main([*argv, "--scheduler", cluster.scheduler_address, "--workers", "3"]) == 0
+    err = capsys.readouterr().err
+    assert "topojax batch: warning: --workers: not used with --scheduler (received 3)" in err
+    assert (tmp_path / "o" / f"{PAPER_MAPS[0].stem}.json").is_file()
+
+
 def test_all_occupied_maps_give_empty_graphs_as_in_build_graph():
     maps = [OccupancyMap.from_array(np.ones(shape, bool)) for shape in ((2, 2), (2, 9), (40, 30))]
     maps.append(load_map(PAPER_MAPS[0]))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import signal
 import sys
 import time
+import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -84,6 +85,13 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
                 f"tcp://host:8786), received {args.scheduler!r}: {exc}"
             ) from None
         executor = client.get_executor(pure=False)
+        if args.workers is not None:
+            warnings.warn(
+                f"--workers: not used with --scheduler (received {args.workers}): the "
+                "cluster's own workers run the maps",
+                UserWarning,
+                stacklevel=2,
+            )
     t0 = time.perf_counter()
     for rel in planned:
         if rel.endswith(_MANIFEST):
