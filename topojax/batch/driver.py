@@ -649,10 +649,8 @@ def _terminate_workers(executor: cf.Executor | None) -> None:
 
 
 def _class_counts(g) -> tuple[int, int | None]:
-    """Occupied and free pixels of a loaded map (free: None where not known)."""
-    if g.n_free is not None:
-        return int(g.occupied.sum()), g.n_free
-    return int(g.occupied.sum()), None if g.free is None else int(g.free.sum())
+    """Occupied and free pixels of a loaded map (free counted as it was loaded)."""
+    return int(g.occupied.sum()), g.n_free
 
 
 def build_graphs(
