@@ -1275,7 +1275,8 @@ def test_cli_batch(tmp_path, capsys):
     out = tmp_path / "out"
     argv = ["batch", f"{src}/*.{{png,pgm}}", "-o", str(out), "--workers", "0", "--no-progress"]
     assert main([*argv, "--formats", "json"]) == 0
-    assert "2 maps" in capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert "2 maps" in captured.out and "2 with a warning" in captured.out  # no resolution
     assert sorted(p.name for p in out.iterdir()) == [
         "a_scan.json",
         "a_scan.manifest.json",
@@ -1284,7 +1285,10 @@ def test_cli_batch(tmp_path, capsys):
         "summary.csv",
     ]
     assert main([*argv, "--formats", "json", "--resume"]) == 0
-    assert "2 skipped" in capsys.readouterr().out
+    captured = capsys.readouterr()
+    # the warnings of the run that wrote the outputs are counted and shown again
+    assert "2 skipped" in captured.out and "2 with a warning" in captured.out
+    assert captured.err.count("skipped  ") == 2 and "m/px assumed" in captured.err
     (src / "broken.png").write_bytes(b"not an image")
     assert main([*argv, "--formats", "json", "--resume"]) == 1
     captured = capsys.readouterr()
@@ -1673,7 +1677,7 @@ def test_empty_graphs_are_reported_with_a_reason(tmp_path, capsys):
         == 0
     )
     captured = capsys.readouterr()
-    assert "1 empty" in captured.out and "empty  raw" in captured.err
+    assert "1 empty" in captured.out and "empty    raw:" in captured.err
     assert "(--occupied-thresh, --free-thresh, --negate)" in captured.err
     assert "(--mode, e.g. 'ipa'" in captured.err and "map_mode" not in captured.err
     summary = (tmp_path / "out" / "summary.csv").read_text()

@@ -114,4 +114,4 @@ def test_batch_says_when_a_maps_resolution_was_assumed(tmp_path, capsys):
     assert rows["plain"]["status"] == rows["stated"]["status"] == "ok"
     captured = capsys.readouterr()
     assert "1 with a warning" in captured.out
-    assert captured.err.splitlines() == [f"  ok     plain: {note}"]
+    assert captured.err.splitlines() == [f"  ok       plain: {note}"]

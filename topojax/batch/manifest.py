@@ -26,7 +26,7 @@ from .inputs import (
 )
 from .records import ROOM_COLUMNS, SUMMARY_COLUMNS, MapRecord
 
-__all__ = ["batch_input"]
+__all__ = ["RESUMED", "batch_input"]
 
 _MANIFEST_VERSION = 1
 
@@ -166,11 +166,16 @@ def _recorded_row(row: Any, formats: tuple[str, ...]) -> dict[str, Any] | None:
     return out
 
 
+#: How the message of a map skipped by resume begins; ``"; "`` and the warning of the run
+#: that wrote its outputs follow where it had one.
+RESUMED = "outputs complete (resume)"
+
+
 def _resumed_message(status: Any, message: Any) -> str:
     """The message of a map skipped by resume: that its outputs are complete, and the
     status and message its manifest recorded where they said more than ``ok`` (an empty
     graph and why, a warning), so that the summary of a resumed run keeps them."""
-    text = "outputs complete (resume)"
+    text = RESUMED
     note = message if isinstance(message, str) else ""
     if status == "empty":
         return f"{text} of an empty map: {note}" if note else f"{text} of an empty map"

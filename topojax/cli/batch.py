@@ -129,7 +129,7 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     wall = time.perf_counter() - t0
     records = _as_printed(records, args)
     counts = Counter(r.status for r in records)
-    warned = [r for r in records if r.status == "ok" and r.message]
+    warned = [r for r in records if _warned(r)]
     done = ("ok", "empty")
     megapixels = sum((r.height or 0) * (r.width or 0) for r in records if r.status in done) / 1e6
     print(
@@ -140,8 +140,18 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     )
     for r in records:
         if r.status in ("error", "empty") or r in warned:
-            print(f"  {r.status:5s}  {r.map}: {r.message}", file=sys.stderr)
+            print(f"  {r.status:7s}  {r.map}: {r.message}", file=sys.stderr)
     return 1 if counts["error"] else 0
+
+
+def _warned(record) -> bool:
+    """Whether ``record`` carries a warning: an ok map's note, or the warning a skipped
+    map's earlier run recorded (repeated after ``outputs complete (resume); ``)."""
+    from ..batch.manifest import RESUMED
+
+    if record.status == "skipped":
+        return record.message.startswith(f"{RESUMED}; ")
+    return record.status == "ok" and bool(record.message)
 
 
 def _as_printed(records: list, args) -> list:
