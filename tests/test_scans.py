@@ -1796,9 +1796,30 @@ def test_a_ros1_bag_cut_off_reads_its_scans_up_to_the_cut(tmp_path):
     # one warning, for a bag read in several passes, counting the messages read
     said = [str(x.message) for x in caught if "cut" in str(x.message)]
     assert len(said) == 1 and said[0].startswith(f"{cut}: the bag ends in the middle of")
-    assert said[0].endswith(f"(a recording cut off); read {len(scans)} messages up to the cut")
+    n = len(scans)  # the excerpt's messages before the cut are all scans
+    assert said[0].endswith(f"(a recording cut off); read up to the cut: {n} messages (/scan {n})")
     for a, b in zip(scans, whole, strict=False):
         assert np.array_equal(a.ranges, b.ranges) and a.timestamp == b.timestamp
+
+
+def test_a_cut_ros1_bag_counts_what_it_read_per_topic(tmp_path):
+    """The warning of a cut-off bag counts the messages read per topic, so that scans
+    are not confused with the tf and odometry messages beside them."""
+    pytest.importorskip("rosbags")
+    whole = tmp_path / "whole.bag"
+    _write_robot_bag(whole, 1, with_odom=True)
+    cut = tmp_path / "cut.bag"
+    data = whole.read_bytes()
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scans = list(read_bag(cut))
+    (said,) = [str(x.message) for x in caught if "cut off" in str(x.message)]
+    counts = dict(re.findall(r"(/\w+) (\d+)", said.rpartition("(")[2]))
+    assert {"/odom", "/scan", "/tf", "/tf_static"} <= set(counts)
+    assert 0 < len(scans) <= int(counts["/scan"]) < len(SCAN_TIMES)
+    total = int(re.search(r"read up to the cut: (\d+) messages", said)[1])
+    assert total == sum(int(n) for n in counts.values()) > int(counts["/scan"])
 
 
 def test_ccny_shared_bag(shared_data):

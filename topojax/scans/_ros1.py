@@ -5,9 +5,12 @@ from __future__ import annotations
 import bz2
 import struct
 import warnings
+from collections import Counter
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
+
+from .._words import counted
 
 _ROS1_MAGIC = b"#ROSBAG V2.0\n"
 
@@ -46,9 +49,9 @@ class _Ros1Sequential:
             # no index (a recording cut off, say): the connections are among the chunks;
             # the walk counts the messages up to a cut, for the one warning of it
             self._cut_told = True
-            n_messages = sum(1 for _ in self._records(want_messages=True))
+            per_conn = Counter(conn for conn, _, _ in self._records(want_messages=True))
             self._cut_told = False
-            self._warn_cut(f"read {n_messages} messages up to the cut")
+            self._warn_cut(f"read up to the cut: {self._per_topic(per_conn)}")
 
     def _connections_from_index(self) -> bool:
         """Read the connection records at the bag header's ``index_pos``; False if absent."""
@@ -79,6 +82,17 @@ class _Ros1Sequential:
             self.connections.clear()
             return False
         return found == conn_count
+
+    def _per_topic(self, per_conn: Counter) -> str:
+        """The messages counted per connection in ``per_conn``, summed per topic:
+        ``"40 messages (/scan 10, /tf 30)"``."""
+        per_topic: Counter = Counter()
+        for conn, n in per_conn.items():
+            conn_info = self.connections.get(conn)
+            per_topic[conn_info.topic if conn_info else f"connection {conn}"] += n
+        each = ", ".join(f"{topic} {n}" for topic, n in sorted(per_topic.items()))
+        total = counted(sum(per_topic.values()), "message")
+        return f"{total} ({each})" if each else total
 
     @property
     def topics(self) -> dict[str, str]:
