@@ -1775,7 +1775,13 @@ def test_replay_cli_reader_options_and_early_path_checks(tmp_path, capsys):
     assert main([*other, str(INTEL_EXCERPT), "--tf-parent", "odom"]) != 0
     err = capsys.readouterr().err
     assert "--tf-parent: expected options of the log's reader" in err and "tf_parent" not in err
-    assert "read_carmen" in err and "takes --skip-bad-lines, --max-range, --sensor-offset" in err
+    takes = "takes --skip-bad-lines, --laser, --max-range, --sensor-offset"
+    assert "read_carmen" in err and takes in err
+    assert main([*base, str(bag), "--laser", "RLASER"]) != 0  # a CARMEN option on a bag
+    assert "--laser: expected options of the log's reader" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main([*other, str(INTEL_EXCERPT), "--laser", "LASER9"])
+    assert "--laser: invalid choice: 'LASER9' (choose from " in capsys.readouterr().err
     # --max-range reaches the CARMEN reader: with 1 m nearly every beam is a no-return
     short = replay(
         INTEL_EXCERPT,

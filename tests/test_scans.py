@@ -852,9 +852,41 @@ def test_carmen_laser_selection(tmp_path):
     )
     path = tmp_path / "two.log"
     path.write_text(text)
-    assert len(list(read_carmen(path))) == 2  # auto = kind of the first laser line
-    (rear,) = list(read_carmen(path, laser="RLASER", max_range_m=10.0))
+    # auto = kind of the first laser line, with a word on the lines of the others
+    with pytest.warns(UserWarning) as caught:
+        assert len(list(read_carmen(path))) == 2
+    assert [str(w.message) for w in caught] == [
+        f"{path}: read the FLASER lines, the first laser kind in the log; it also holds "
+        "lines of other kinds, not read: 1 RLASER (pass laser=..., topojax replay --laser, "
+        "to read another)"
+    ]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # asked for by name: the other kinds are not wanted
+        assert len(list(read_carmen(path, laser="FLASER", max_range_m=10.0))) == 2
+        (rear,) = list(read_carmen(path, laser="RLASER", max_range_m=10.0))
     assert rear.pose == (1.0, 1.0, 3.1) and rear.ranges.tolist() == [5.0] * 4
+
+
+def test_replay_reads_the_carmen_laser_it_is_asked_for(tmp_path, capsys):
+    """``topojax replay --laser`` reads another laser of a CARMEN log than the first."""
+    from topojax.cli import main
+
+    text = "".join(
+        _flaser([1.0, 2.0, 3.0, 4.0], (0.1 * k, 0, 0), ts=k)
+        + f"RLASER 4 5 5 5 5 {0.1 * k} 1 3.1 {0.1 * k} 1 3.1 {k} h {k}\n"
+        for k in range(4)
+    )
+    path = tmp_path / "two.log"
+    path.write_text(text)
+    argv = ["replay", str(path), "--no-progress", "--max-range", "10"]
+    assert main([*argv, "-o", str(tmp_path / "rear"), "--laser", "RLASER"]) == 0
+    captured = capsys.readouterr()
+    assert "4 scans" in captured.out and "warning" not in captured.err
+    assert main([*argv, "-o", str(tmp_path / "front")]) == 0
+    captured = capsys.readouterr()
+    assert "4 scans" in captured.out and "not read: 4 RLASER" in captured.err
+    rear, front = ((tmp_path / d / "map.pgm").read_bytes() for d in ("rear", "front"))
+    assert rear != front
 
 
 def _first_flaser_tokens(path: Path) -> list[str]:

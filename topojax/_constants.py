@@ -9,7 +9,15 @@ here and export them under the same names.
 
 from __future__ import annotations
 
-__all__ = ["EDGE_COLOUR", "FAR_SQ", "MODES", "STRATEGIES", "VERSION", "VERTEX_KIND_COLOURS"]
+__all__ = [
+    "CARMEN_LASERS",
+    "EDGE_COLOUR",
+    "FAR_SQ",
+    "MODES",
+    "STRATEGIES",
+    "VERSION",
+    "VERTEX_KIND_COLOURS",
+]
 
 #: topojax's version, the same as ``version`` in pyproject.toml (``topojax.__version__``).
 VERSION = "0.1.0"
@@ -19,6 +27,18 @@ MODES = ("trinary", "scale", "raw", "ipa")
 #: Skeleton update strategies of :class:`topojax.IncrementalMapper`;
 #: :data:`topojax.incremental.STRATEGIES`.
 STRATEGIES = ("exact", "paper")
+#: The laser messages of a CARMEN log that :func:`topojax.scans.read_carmen` reads
+#: (``laser``; ``topojax replay --laser``).
+CARMEN_LASERS = (
+    "FLASER",
+    "RLASER",
+    "ROBOTLASER1",
+    "ROBOTLASER2",
+    "RAWLASER1",
+    "RAWLASER2",
+    "RAWLASER3",
+    "RAWLASER4",
+)
 #: Colour of each vertex kind in pictures and ROS markers (:mod:`topojax.plotting`,
 #: :mod:`topojax.io.mcap`).
 VERTEX_KIND_COLOURS = {

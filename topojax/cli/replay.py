@@ -8,7 +8,7 @@ import sys
 import threading
 from pathlib import Path
 
-from .._constants import STRATEGIES
+from .._constants import CARMEN_LASERS, STRATEGIES
 from ._options import (
     _ROOM_OPTIONS,
     _as_options,
@@ -78,6 +78,7 @@ def _cmd_replay(args) -> int:
         kw["room_config"] = config
     reader_kwargs = {}
     for name, key in (
+        ("laser", "laser"),
         ("max_range", "max_range_m"),
         ("scan_topic", "scan_topic"),
         ("pose_topic", "pose_topic"),
@@ -199,6 +200,7 @@ _RESUME_OPTION_OF = {
     "strategy": "--strategy",
     "max_extent_m": "--max-extent-m",
     "max_range_m": "--max-range",
+    "laser": "--laser",
     "scan_topic": "--scan-topic",
     "pose_topic": "--pose-topic",
     "allow_missing_pose": "--allow-missing-pose",
@@ -356,6 +358,14 @@ def _add_reader_options(p) -> None:
         metavar="M",
         help="CARMEN logs: readings of M metres or more are no-returns (default: from the "
         "log's no-return value, or each line's own maximum)",
+    )
+    p.add_argument(
+        "--laser",
+        choices=CARMEN_LASERS,
+        metavar="KIND",
+        help="CARMEN logs: the laser lines to read, one of "
+        + ", ".join(CARMEN_LASERS)
+        + " (default: the kind of the log's first laser line)",
     )
     p.add_argument(
         "--skip-bad-lines",

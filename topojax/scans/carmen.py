@@ -6,12 +6,14 @@ import math
 import re
 import warnings
 from array import array
+from collections import Counter
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from .._constants import CARMEN_LASERS
 from .._validate import existing_file, one_of, real_number
 from .._validate import pose as checked_pose
 from ._text import _cut_off, _open_text, gzip_cut
@@ -20,7 +22,6 @@ from .scan import PoseLike, Scan, _relative, _unknown_format_error, no_scan_erro
 _OLD_LASERS = ("FLASER", "RLASER")
 _ROBOT_LASERS = ("ROBOTLASER1", "ROBOTLASER2")
 _RAW_LASERS = ("RAWLASER1", "RAWLASER2", "RAWLASER3", "RAWLASER4")
-_CARMEN_LASERS = _OLD_LASERS + _ROBOT_LASERS + _RAW_LASERS
 
 #: Default width (m) of the band below a CARMEN file's no-return value that counts as
 #: "no return". In the 13 corrected logs the no-return values form a cluster up to 0.15 m
@@ -216,7 +217,7 @@ def _survey_carmen(path: Path, laser: str, need_max: bool, skip_bad: bool = Fals
             if key == "PARAM" and len(tokens) >= 3:
                 params[tokens[1]] = tokens[2]
                 continue
-            if key not in _CARMEN_LASERS:
+            if key not in CARMEN_LASERS:
                 continue
             if chosen is None:
                 chosen = key
@@ -413,7 +414,7 @@ def read_carmen(
         malformed with ``bad_lines="skip"``, or before the first ODOM line).
     """
     p = existing_file("path", path)
-    one_of("laser", laser, ("auto", *_CARMEN_LASERS))
+    one_of("laser", laser, ("auto", *CARMEN_LASERS))
     if max_range_m is not None:
         max_range_m = real_number("max_range_m", max_range_m, allow_inf=True)
         if max_range_m <= 0:
@@ -450,7 +451,7 @@ def _iter_carmen(
             "(FLASER, ODOM, PARAM, ...) or # for a comment",
         )
     if chosen is None:
-        kinds = ", ".join(_CARMEN_LASERS)
+        kinds = ", ".join(CARMEN_LASERS)
         raise no_scan_error(path, "no laser lines found", f"a line of one of {kinds}")
     if not survey.found:
         raise no_scan_error(
@@ -479,6 +480,7 @@ def _iter_carmen(
     made = 0
     bad = _Tally()  # malformed laser lines skipped
     garbled = _Tally()  # lines whose first field is no message name
+    others: Counter = Counter()  # lines of the laser kinds not read
     half_line: tuple[int, str, Exception] | None = None  # the last line, cut off mid-way
     with _open_text(path, warn_cut=False) as fh:  # one warning of a cut, below
         for lineno, line in enumerate(fh, 1):
@@ -491,7 +493,9 @@ def _iter_carmen(
                     odom.line = (lineno, tokens)
                     continue
                 if key != chosen:
-                    if not _opens_a_carmen_line(key):
+                    if key in CARMEN_LASERS:
+                        others[key] += 1
+                    elif not _opens_a_carmen_line(key):
                         garbled.add(lineno, repr(key[:24]))
                     continue
                 if old:
@@ -540,6 +544,14 @@ def _iter_carmen(
         warnings.warn(
             f"{path}: skipped {garbled.count} line(s) that are no CARMEN message (their "
             f"first field is no message name), the first on {garbled.first}",
+            stacklevel=2,
+        )
+    if others and laser == "auto":  # a kind asked for by name: the others are not wanted
+        each = ", ".join(f"{n} {kind}" for kind, n in sorted(others.items()))
+        warnings.warn(
+            f"{path}: read the {chosen} lines, the first laser kind in the log; it also "
+            f"holds lines of other kinds, not read: {each} (pass laser=..., topojax "
+            "replay --laser, to read another)",
             stacklevel=2,
         )
     for kind, lines in not_finite.items():
