@@ -543,6 +543,23 @@ def test_mapper_route_graph_is_the_route_graph_of_its_map():
     assert got.graph["robot_radius_m"] == 0.25
 
 
+def test_an_empty_route_graph_of_the_mapper_warns_at_the_caller_s_line():
+    """The warning that the mapper's route graph is empty names the user's line, as
+    ``tj.route_graph``'s does, not the mapper's module (where the default filter would
+    show it once for every caller in the process)."""
+    from topojax.scans import Scan
+
+    mapper = tj.IncrementalMapper(resolution_m=RES)
+    closet = Scan.from_arrays(np.full(360, 0.4), (0, 0, 0), angle_min=0, angle_increment=0.0175)
+    mapper.add_scan(closet)  # 0.8 m across: no room for a robot of radius 0.3 m
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        graph = mapper.route_graph(robot_radius_m=R)
+    assert graph.number_of_nodes() == 0
+    notes = [w for w in caught if "empty route graph" in str(w.message)]
+    assert [w.filename for w in notes] == [__file__]
+
+
 def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     from topojax._words import counted
     from topojax.cli import main

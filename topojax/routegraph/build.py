@@ -13,6 +13,7 @@ import cv2
 import networkx as nx
 import numpy as np
 
+from .._caller import outside_stacklevel
 from .._stage_memory import ROUTE_GRAPH_BYTES_PER_PX, SMALLER_MAP, check_stage_fits
 from .._validate import (
     flag,
@@ -213,7 +214,8 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
     """
     graph = unwarned_route_graph(occupancy, robot_radius_m=robot_radius_m, config=config)
     if graph.graph.get("note"):  # an empty graph: in a notebook, where the note is unseen
-        warnings.warn(graph.graph["note"], UserWarning, stacklevel=2)
+        # at the user's line, also through the mapper's route_graph and its lock
+        warnings.warn(graph.graph["note"], UserWarning, stacklevel=outside_stacklevel())
     return graph
 
 
