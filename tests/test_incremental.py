@@ -2642,6 +2642,26 @@ def test_limits_above_the_memory_available_warn_that_they_guard_nothing(monkeypa
         IncrementalMapper(max_tile_bytes=3 << 30, **SMALL_KW)
 
 
+def test_a_loaded_limit_above_the_memory_available_warns_at_the_caller_s_line(
+    tmp_path, monkeypatch
+):
+    """The warning that a limit guards nothing names the line that made the mapper or
+    loaded its state, not the package's own code."""
+    import warnings
+
+    from topojax.incremental import _settings
+
+    monkeypatch.setattr(_settings, "available_memory_bytes", lambda: 1 << 30)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mapper = IncrementalMapper(max_export_bytes=3 << 30, **SMALL_KW)
+        mapper.add_points(np.array([[1.0, 1.0]]))
+        mapper.save(tmp_path / "state.npz")
+        IncrementalMapper.load(tmp_path / "state.npz")
+    limits = [w for w in caught if str(w.message).startswith("max_export_bytes: ")]
+    assert [w.filename for w in limits] == [__file__, __file__]
+
+
 def test_a_map_over_the_tile_budget_is_refused_before_its_pixels_are_indexed():
     """add_map weighs a map against max_tile_bytes from its masks, a tile row and column
     at a time, not from the indices of its pixels (16 bytes a pixel: 5 GB for a 14000 x

@@ -6,6 +6,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import asdict
 
+from .._caller import outside_stacklevel
 from .._constants import STRATEGIES
 from .._cpus import available_memory_bytes, byte_size
 from .._validate import (
@@ -204,7 +205,7 @@ def checked_guard_settings(
                 f"memory available; {who} may be killed for memory before it {refusal} (a "
                 f"smaller {name} refuses first)",
                 UserWarning,
-                stacklevel=3,
+                stacklevel=outside_stacklevel(),  # IncrementalMapper(...) or .load(...)
             )
     return limits
 
