@@ -543,6 +543,44 @@ def test_mapper_route_graph_is_the_route_graph_of_its_map():
     assert got.graph["robot_radius_m"] == 0.25
 
 
+def test_the_mapper_takes_scans_while_its_route_graph_is_built(monkeypatch):
+    """mapper.route_graph holds the mapper's lock only to export the map: a scan callback
+    on another thread maps its scan while the route graph is built (up to tenths of a
+    second a map), and the graph is that of the map as the call found it."""
+    import threading
+
+    import topojax.routegraph as routegraph
+    from topojax.scans import read_scans
+
+    scans = list(read_scans("tests/data/intel_first40.log.gz"))
+    mapper = tj.IncrementalMapper(resolution_m=RES)
+    for scan in scans[:30]:
+        mapper.add_scan(scan)
+    before = mapper.occupancy
+    build = routegraph.route_graph
+    taken = []
+
+    def scan_callback():  # a scan arriving now: mapped if the lock is free
+        if mapper._lock.acquire(blocking=False):
+            try:
+                taken.append(mapper.add_scan(scans[30]).index)
+            finally:
+                mapper._lock.release()
+
+    def building(occupancy, **kw):
+        thread = threading.Thread(target=scan_callback)
+        thread.start()
+        thread.join()
+        return build(occupancy, **kw)
+
+    monkeypatch.setattr(routegraph, "route_graph", building)
+    got = mapper.route_graph(robot_radius_m=R)
+    assert taken == [30] and mapper.n_scans == 31
+    want = build(before, robot_radius_m=R)
+    assert list(got.edges(keys=True)) == list(want.edges(keys=True)) != []
+    assert got.graph["shape"] == want.graph["shape"]
+
+
 def test_an_empty_route_graph_of_the_mapper_warns_at_the_caller_s_line():
     """The warning that the mapper's route graph is empty names the user's line, as
     ``tj.route_graph``'s does, not the mapper's module (where the default filter would

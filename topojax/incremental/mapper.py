@@ -682,10 +682,11 @@ class IncrementalMapper:
         node ``kind``; no other attributes (a new graph)."""
         return global_graph(self)
 
-    @_synchronized
     def route_graph(self, *, robot_radius_m: float | None = None, config=None) -> nx.MultiGraph:
         """The route graph of the current map for a round robot (:func:`topojax.route_graph`
-        of :attr:`occupancy`, recomputed whole), in the exported map's frame.
+        of :attr:`occupancy`, recomputed whole), in the exported map's frame.  The lock is
+        held only while the map is exported: scans from other threads go on while the
+        graph is built, and it is the graph of the map as of the call.
 
         Parameters
         ----------
@@ -702,8 +703,10 @@ class IncrementalMapper:
         """
         from ..routegraph import route_graph
 
-        self._bbox_or_raise("route_graph")
-        return route_graph(self.occupancy, robot_radius_m=robot_radius_m, config=config)
+        with self._lock:
+            self._bbox_or_raise("route_graph")
+            occupancy = self.occupancy
+        return route_graph(occupancy, robot_radius_m=robot_radius_m, config=config)
 
     @_synchronized
     def to_result(self, *, update: bool = True):
