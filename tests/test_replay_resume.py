@@ -204,6 +204,31 @@ def test_a_replay_stopped_while_ending_its_recording_keeps_the_rest(
     assert {t for t, *_ in mcap_messages(out / "run.mcap")} == {"/map", "/topology"}
 
 
+def test_a_resume_may_not_record_route_graphs_of_another_radius(tmp_path, monkeypatch, capsys):
+    """The MCAP recording of a stopped replay holds its route graphs for one robot: a
+    resume that would add those of another radius (or none) is refused before it maps a
+    scan, and with the same radius the recording goes on."""
+    out = tmp_path / "out"
+    interrupted_reader(monkeypatch, 17)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        recorded_replay(out, route_graph_radius_m=0.3)
+    monkeypatch.undo()
+    for radius, said in ((0.4, "for a robot of 0.4 m"), (None, "would add no route graph")):
+        with pytest.raises(ValueError, match=r"^resume: the MCAP recording") as caught:
+            recorded_replay(out, resume=True, route_graph_radius_m=radius)
+        assert "holds route graphs for a robot of 0.3 m" in str(caught.value)
+        assert said in str(caught.value)
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--resume", "--no-progress"]
+    args += ["--graph-every", "7", "--skeleton-every", "3", "--mcap", str(out / "run.mcap")]
+    assert main([*args, "--view", "--animate", str(out / "animation.gif")]) == 2
+    err = capsys.readouterr().err
+    assert "resume with the same --route-graph" in err and "route_graph_radius_m" not in err
+    assert not (out / "run.mcap").exists()  # the state and the kept recording stay
+    summary = recorded_replay(out, resume=True, route_graph_radius_m=0.3)
+    assert summary["resumed_after"] == 17
+    assert {"/route_graph"} <= {t for t, *_ in mcap_messages(out / "run.mcap")}
+
+
 def test_a_resume_that_records_nothing_leaves_the_kept_recordings(
     tmp_path, monkeypatch, full_recorded
 ):

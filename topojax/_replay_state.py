@@ -9,6 +9,7 @@ import hashlib
 import json
 import shutil
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -245,10 +246,14 @@ def _plain(value):
     return json.loads(json.dumps(value, sort_keys=True, default=str))
 
 
-def replay_record(source, reader_kwargs, progress: ReplayProgress, mapper) -> dict:
+def replay_record(
+    source, reader_kwargs, progress: ReplayProgress, mapper, route_graph_radius_m=None
+) -> dict:
     """What a saved state records of its replay: the log (path and fingerprint), the
-    reader's options, the scans taken from the log and mapped, and the refusals."""
+    reader's options, the scans taken from the log and mapped, the refusals, and the
+    robot radius of the route graphs recorded (None: none)."""
     return {
+        "route_graph_radius_m": route_graph_radius_m,
         "source": str(Path(source).resolve()),
         "fingerprint": log_fingerprint(source),
         "reader_kwargs": _plain(reader_kwargs or {}),
@@ -425,6 +430,28 @@ def _check_same(path: Path, what: str, saved: dict, now: dict) -> None:
 PARTIAL_DIR = ".replay_partial"
 
 
+@dataclass(frozen=True)
+class ScanRecording:
+    """Writes each scan into an open :class:`~topojax.io.mcap.McapRecorder`, and what the
+    scan's report updated: the map and graph at a graph update (and the route graph of
+    the map, for a robot of ``route_graph_radius_m``), the rooms at a rooms update."""
+
+    recorder: object
+    route_graph_radius_m: float | None
+
+    def __call__(self, mapper, scan, rep) -> None:
+        self.recorder.add_scan(scan)
+        if mapper.pixel_bbox is None:
+            return
+        if rep.graph_update is not None:
+            self.recorder.add_map(mapper.occupancy, mapper.graph)
+            if self.route_graph_radius_m is not None:
+                routes = quiet_route_graph(mapper, self.route_graph_radius_m)
+                self.recorder.add_route_graph(routes)
+        if rep.rooms_update is not None:
+            self.recorder.add_rooms(mapper.rooms)
+
+
 def keep_recordings(out: Path, progress: ReplayProgress, recorder, timeline, frames) -> None:
     """After a failure part way through a log, keep what the replay recorded of its
     first ``progress.recorded`` scans in ``out/.replay_partial``: the open MCAP
@@ -487,6 +514,25 @@ class KeptRecordings(NamedTuple):
     timeline: Any
     frames: list | None
     messages: list[str]
+
+
+def same_recorded_radius(out: Path, record: dict, kept, route_graph_radius_m) -> None:
+    """Refuse (ValueError) to continue the stopped replay's MCAP recording (``kept.mcap``)
+    with route graphs for another robot radius than it holds (a state saved before the
+    radius was recorded is not checked)."""
+    if kept.mcap is None or "route_graph_radius_m" not in record:
+        return
+    saved = record["route_graph_radius_m"]
+    if saved != route_graph_radius_m:
+
+        def said(r) -> str:
+            return "no route graph" if r is None else f"route graphs for a robot of {r} m"
+
+        raise ValueError(
+            f"resume: the MCAP recording of the stopped replay in {out} holds "
+            f"{said(saved)}, this replay would add {said(route_graph_radius_m)}; resume "
+            "with the same route_graph_radius_m, or replay without resume"
+        )
 
 
 def kept_recordings(out: Path, consumed: int, *, mcap: bool, view: bool, animate: bool):

@@ -8,7 +8,7 @@ import copy
 import functools
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 from typing import NamedTuple
 
@@ -23,6 +23,7 @@ from ._replay_state import (
     STATE_FILE,
     KeptRecordings,
     ReplayProgress,
+    ScanRecording,
     WholeScans,
     drop_recordings,
     keep_recordings,
@@ -32,6 +33,7 @@ from ._replay_state import (
     quiet_route_graph,
     replay_record,
     resumed_mapper,
+    same_recorded_radius,
     save_replay_state,
     skipped_message,
     skipped_note,
@@ -229,6 +231,7 @@ def _replay_checked(
         max_scans=max_scans,
         mcap=mcap is not None,
         animate=animate is not None,
+        route_graph_radius_m=route_graph_radius_m,
     )
     timeline = kept.timeline
     if route_graph_radius_m is not None:  # now, not after the whole replay
@@ -260,7 +263,9 @@ def _replay_checked(
             recorder,
             timeline,
             progress_at,
-            functools.partial(replay_record, source, reader_kwargs, progress_at, mapper),
+            functools.partial(
+                replay_record, source, reader_kwargs, progress_at, mapper, route_graph_radius_m
+            ),
             nav2_tolerance_m=nav2_tolerance_m,
             plot=plot,
             animate=animate,
@@ -324,13 +329,15 @@ def _start(
     max_scans,
     mcap: bool,
     animate: bool,
+    route_graph_radius_m,
 ):
     """Open the log, make the mapper (with ``rooms``, rooms at every graph update unless
     ``rooms_every`` is given; with ``resume``, the one saved in ``out``, checked against
     these settings) and create the output folder; returns the scans (with ``resume``,
     from the first one not yet taken), the mapper, the replay's progress so far and the
     recordings to continue (:class:`KeptRecordings`: with ``view`` a timeline, with
-    ``animate`` the frames, with ``mcap`` the stopped replay's recording)."""
+    ``animate`` the frames, with ``mcap`` the stopped replay's recording, refused where
+    its route graphs are of another ``route_graph_radius_m``)."""
     import itertools
 
     from ._fs import output_folder
@@ -358,6 +365,7 @@ def _start(
     kept = KeptRecordings(None, None, None, [])
     if resume:
         kept = kept_recordings(out, progress_at.consumed, mcap=mcap, view=view, animate=animate)
+        same_recorded_radius(out, record, kept, route_graph_radius_m)
     if view and kept.timeline is None:
         from .view import Timeline
 
@@ -390,10 +398,10 @@ def _map_scans(
     (animation frames so far, or None) grows by a frame at every update.  ``progress_at``
     (where the replay starts in the log) follows the scans taken, for the state (and the
     recordings) saved on a failure."""
-    record = None if recorder is None else _Recording(recorder, route_graph_radius_m)
+    record = None if recorder is None else ScanRecording(recorder, route_graph_radius_m)
 
     def state_record():
-        return replay_record(source, reader_kwargs, progress_at, mapper)
+        return replay_record(source, reader_kwargs, progress_at, mapper, route_graph_radius_m)
 
     try:  # a map grown too large to export (the recording's, the final) is kept
         reports, wall = _run(
@@ -619,7 +627,7 @@ def _run(
 ):
     """Feed ``scans`` to ``mapper`` until the log's scan ``max_scans``; returns the
     reports and the wall time (s).  Each scan mapped is recorded: ``record`` (a
-    :class:`_Recording`) writes it and what its report updated, ``timeline`` takes its
+    :class:`~topojax._replay_state.ScanRecording`) writes it and what its report updated, ``timeline`` takes its
     update, ``frames`` (a list, or None) gets a frame at each graph or rooms update.
     ``progress_at`` gives where ``scans`` start in the log, and follows each scan taken
     (mapped, or skipped with its refusal) and recorded."""
@@ -653,28 +661,6 @@ def _run(
                 reports.append(rep)
     bar.close()
     return reports, time.perf_counter() - t0
-
-
-@dataclass(frozen=True)
-class _Recording:
-    """Writes each scan into an open :class:`~topojax.io.mcap.McapRecorder`, and what the
-    scan's report updated: the map and graph at a graph update (and the route graph of
-    the map, for a robot of ``route_graph_radius_m``), the rooms at a rooms update."""
-
-    recorder: object
-    route_graph_radius_m: float | None
-
-    def __call__(self, mapper, scan, rep: ScanReport) -> None:
-        self.recorder.add_scan(scan)
-        if mapper.pixel_bbox is None:
-            return
-        if rep.graph_update is not None:
-            self.recorder.add_map(mapper.occupancy, mapper.graph)
-            if self.route_graph_radius_m is not None:
-                routes = quiet_route_graph(mapper, self.route_graph_radius_m)
-                self.recorder.add_route_graph(routes)
-        if rep.rooms_update is not None:
-            self.recorder.add_rooms(mapper.rooms)
 
 
 def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, list[str]]:

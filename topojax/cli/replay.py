@@ -200,6 +200,7 @@ _RESUME_OPTION_OF = {
     "strategy": "--strategy",
     "max_extent_m": "--max-extent-m",
     "max_range_m": "--max-range",
+    "route_graph_radius_m": "--route-graph",
     "laser": "--laser",
     "scan_topic": "--scan-topic",
     "pose_topic": "--pose-topic",
