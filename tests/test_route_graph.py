@@ -602,6 +602,7 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     from topojax._words import counted
     from topojax.cli import main
     from topojax.io import load_graph
+    from topojax.plotting import route_graph_png
 
     argv = ["replay", "tests/data/intel_first40.log.gz", "-o", str(tmp_path), "--no-progress"]
     assert main([*argv, "--route-graph", "0.25"]) == 0
@@ -624,6 +625,16 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     doc = json.loads((tmp_path / "route_graph_nav2.geojson").read_text())
     edges = [f for f in doc["features"] if f["geometry"]["type"] == "MultiLineString"]
     assert len(edges) >= 2 * g.number_of_edges()  # both directions of every waypoint run
+    assert not (tmp_path / "route_graph.png").exists()  # a picture with --plot
+    # with --plot the picture topojax route-graph --plot draws, titled with the log
+    assert main([*argv, "--route-graph", "0.25", "--plot"]) == 0
+    title = f"intel_first40: r = 0.25 m: {counts['vertices']} vertices, {counts['edges']} edges"
+    drawn = route_graph_png(load_graph(tmp_path / "route_graph.json"), tmp_path / "map.yaml")
+    assert (tmp_path / "route_graph.png").read_bytes() != drawn  # the title
+    drawn = route_graph_png(
+        load_graph(tmp_path / "route_graph.json"), tmp_path / "map.yaml", title=title
+    )
+    assert (tmp_path / "route_graph.png").read_bytes() == drawn
     assert main([*argv, "--route-graph", "-1"]) == 2  # refused before the replay
     with warnings.catch_warnings():
         warnings.simplefilter("always")
@@ -633,6 +644,7 @@ def test_replay_writes_the_route_graph_of_its_final_map(tmp_path, capsys):
     assert text.count("empty route graph: no known-free region") == 1  # said once
     assert "route graph 0 vertices, 0 edges, 0 components, robot radius 100 m\n" in text
     assert not (tmp_path / "route_graph_nav2.geojson").exists()  # the earlier run's went
+    assert not (tmp_path / "route_graph.png").exists()
 
 
 def test_replay_route_graph_files_hold_no_build_times(tmp_path):

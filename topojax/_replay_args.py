@@ -91,6 +91,7 @@ def output_names(
     names += ["graph.png", "stages.png"] * plot
     names += [f"route_graph{s}" for s in (".graphml", ".json", ".geojson")] * route_graph
     names += ["route_graph_nav2.geojson"] * (route_graph and nav2)
+    names += ["route_graph.png"] * (route_graph and plot)
     names += [f"map{suffix}" for suffix in ROOM_FILE_SUFFIXES] * rooms
     return names + ["view.html", "timeline.json.gz"] * view
 

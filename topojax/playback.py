@@ -93,10 +93,11 @@ def replay(
         ``graph.geojson`` (skipped with a message when an attribute is not finite),
         ``map.yaml`` + ``map.pgm`` (the occupancy map), ``timings.json`` (per-loop
         statistics, see :func:`timing_summary`) and, with ``plot``, ``graph.png`` and
-        ``stages.png``.
+        ``stages.png`` (and ``route_graph.png`` with ``route_graph_radius_m``).
     plot : bool
         Write pictures, at the end; with ``rooms``, ``graph.png`` draws the final rooms
-        under the graph.
+        under the graph; with ``route_graph_radius_m``, ``route_graph.png`` the route
+        graph on the map, as ``topojax route-graph --plot`` draws it.
     animate : str or Path, optional
         Write an animated GIF with one frame per graph update.
     progress : bool
@@ -521,12 +522,23 @@ def _write_pictures_and_animation(
     mapper: IncrementalMapper, done: _Replayed, out: Path, plot: bool, animate, source
 ) -> list[Path]:
     """With ``plot``, write the still pictures (the final rooms, if any, drawn on the
-    graph's); with ``animate`` (a GIF path), the animation, its last frame the final map.
+    graph's; the route graph, if any, in ``route_graph.png``); with ``animate`` (a GIF path), the animation, its last frame the final map.
     Returns the paths written."""
     written: list[Path] = []
     name = _source_name(source)
     if plot:
         written += _write_pictures(done.result, out, name, rooms=done.seg)
+    if plot and done.routes is not None:  # as topojax route-graph --plot draws it
+        from ._fs import atomic_write_bytes
+        from .plotting import route_graph_png
+
+        routes = done.routes
+        title = f"{name}: r = {routes.graph['robot_radius_m']:g} m: "
+        title += f"{counted(len(routes), 'vertex', 'vertices')}, "
+        title += counted(routes.number_of_edges(), "edge")
+        png = route_graph_png(routes, done.result.map, title=title)
+        atomic_write_bytes(out / "route_graph.png", png)
+        written.append(out / "route_graph.png")
     if animate is not None:
         frames = [*done.frames, animation_frame(mapper)]  # done's stay as recorded
         apath = Path(animate)
