@@ -96,8 +96,7 @@ def replay(
         ``stages.png`` (and ``route_graph.png`` with ``route_graph_radius_m``).
     plot : bool
         Write pictures, at the end; with ``rooms``, ``graph.png`` draws the final rooms
-        under the graph; with ``route_graph_radius_m``, ``route_graph.png`` the route
-        graph on the map, as ``topojax route-graph --plot`` draws it.
+        under the graph.
     animate : str or Path, optional
         Write an animated GIF with one frame per graph update.
     progress : bool

@@ -611,7 +611,8 @@ class IncrementalMapper:
     def occupancy_window(self, bbox):
         """The occupancy map of the pixels whose squares meet ``bbox`` (those outside the
         allocated tiles unknown), e.g. of a map too large to export whole: on the pixels
-        it shares with :attr:`occupancy` it equals it, ``pixel_to_world`` included.
+        it shares with :attr:`occupancy` it equals it, and ``pixel_to_world`` gives the
+        same points to within float rounding (about 1e-15 m: the two origins differ).
 
         Parameters
         ----------

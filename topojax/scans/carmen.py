@@ -540,25 +540,33 @@ def _iter_carmen(
             f"the first on {bad.first}",
             stacklevel=2,
         )
-    if garbled.count:
-        warnings.warn(
-            f"{path}: skipped {garbled.count} line(s) that are no CARMEN message (their "
-            f"first field is no message name), the first on {garbled.first}",
-            stacklevel=2,
-        )
-    if others and laser == "auto":  # a kind asked for by name: the others are not wanted
-        each = ", ".join(f"{n} {kind}" for kind, n in sorted(others.items()))
-        warnings.warn(
-            f"{path}: read the {chosen} lines, the first laser kind in the log; it also "
-            f"holds lines of other kinds, not read: {each} (pass laser=..., topojax "
-            "replay --laser, to read another)",
-            stacklevel=2,
-        )
+    # a kind asked for by name: the lines of the others are not wanted
+    _warn_unread(path, chosen, garbled, others if laser == "auto" else Counter())
     for kind, lines in not_finite.items():
         warnings.warn(
             f"{path}: skipped {len(lines)} {chosen} scan(s) whose {kind.what} is not finite "
             f"(NaN or infinite: {kind.why}), the first on line {lines[0]}",
             stacklevel=2,
+        )
+
+
+def _warn_unread(path: Path, chosen: str, garbled: _Tally, others: Counter) -> None:
+    """Warn, from the reading generator, of the lines skipped as no CARMEN message
+    (``garbled``) and of the lines of other laser kinds than ``chosen`` (``others``, a
+    count per kind)."""
+    if garbled.count:
+        warnings.warn(
+            f"{path}: skipped {garbled.count} line(s) that are no CARMEN message (their "
+            f"first field is no message name), the first on {garbled.first}",
+            stacklevel=3,
+        )
+    if others:
+        each = ", ".join(f"{n} {kind}" for kind, n in sorted(others.items()))
+        warnings.warn(
+            f"{path}: read the {chosen} lines, the first laser kind in the log; it also "
+            f"holds lines of other kinds, not read: {each} (pass laser=..., topojax "
+            "replay --laser, to read another)",
+            stacklevel=3,
         )
 
 
