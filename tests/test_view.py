@@ -950,6 +950,22 @@ def test_view_command_on_a_replay_view_folder_keeps_the_timeline(tmp_path, capsy
     assert main([*args, "--graph-every", "10"]) == 0  # and the replay may write it again
 
 
+@pytest.mark.parametrize("options", [["--free-only"], ["--min-spur-m", "0.5"]])
+def test_view_command_on_a_filtered_replay_notes_no_other_run(tmp_path, capsys, options):
+    """A replay's ``--free-only`` / ``--min-*-m`` apply to the graph files only, not to
+    the timeline of the mapper's updates: their counts differ by design, and ``topojax
+    view`` does not take the timeline for another run's."""
+    from view_cases import INTEL_EXCERPT
+
+    out = tmp_path / "rep"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress", "--view"]
+    assert main([*args, "--graph-every", "10", *options]) == 0
+    capsys.readouterr()
+    assert main(["view", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "timeline.json.gz" in text and "another run" not in text
+
+
 @pytest.mark.parametrize(("every", "scans"), [(10, [9, 19, 29, 39]), (7, [6, 13, 20, 27, 34, 39])])
 def test_replay_view_has_a_step_per_scan_that_updated_the_graph(tmp_path, every, scans):
     """The final graph update after the last scan is a step of the timeline only when

@@ -141,6 +141,13 @@ def graph_config(args):
         raise _as_option_error(exc) from None
 
 
+def graph_filters(config) -> dict:
+    """The options of ``config`` (a :class:`GraphConfig`) that change the graph written,
+    by their field names (``{"min_spur_m": 0.5}``); empty when it keeps the whole graph."""
+    names = ("free_space_only", "min_clearance_m", "min_spur_m", "min_component_m")
+    return {name: getattr(config, name) for name in names if getattr(config, name)}
+
+
 def add_pipeline_options(p: argparse.ArgumentParser) -> None:
     """Options shared by every command that runs the full-map pipeline (thinning, T
     removal, what to keep of the graph, tiles)."""

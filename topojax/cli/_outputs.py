@@ -3,7 +3,7 @@ different command, or the same command from a different input, wrote.
 
 Every folder a command writes into gets a small record, ``.topojax-outputs.json``: for
 each file written there, the command and the absolute path of the input it was made from
-(and the options a map input was read with).
+(and the options a map input was read with, and those that filtered a replay's graph).
 Before any work a command checks its planned files: one that exists and is recorded as
 written by another command or from another input is refused (``ValueError`` naming the
 option, the file and who wrote it).  A file the record does not list (written by hand, or
@@ -133,11 +133,13 @@ def record_outputs(
     *,
     command: str,
     map_options: Mapping[str, object] | None = None,
+    graph_options: Mapping[str, object] | None = None,
 ) -> None:
     """Record the files of ``claims`` that exist as written by ``command`` from their
     input (in the record of each file's folder), with the ``load_map`` options the input
     was read with (``map_options``, JSON values), so that ``topojax view`` reads it the
-    same way."""
+    same way, and the ``GraphConfig`` options that filtered the graph written
+    (``graph_options``: a replay's graph is then not its timeline's last)."""
     from .._fs import atomic_write_bytes
 
     for folder, files in _by_folder(claims).items():
@@ -149,5 +151,7 @@ def record_outputs(
             recorded[target.name] = _owner(command, source)
             if map_options:
                 recorded[target.name]["map_options"] = dict(map_options)
+            if graph_options:
+                recorded[target.name]["graph_options"] = dict(graph_options)
         doc = {"version": _VERSION, "files": dict(sorted(recorded.items()))}
         atomic_write_bytes(folder / RECORD_NAME, json.dumps(doc, indent=1).encode("utf-8"))

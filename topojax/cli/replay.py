@@ -18,6 +18,7 @@ from ._options import (
     add_sigma_options,
     distance_config,
     graph_config,
+    graph_filters,
     named_as_options,
     nav2_tolerance,
     room_config,
@@ -133,7 +134,10 @@ def _cmd_replay(args) -> int:
     if summary is None:  # stopped part way, its state saved for --resume
         print(f"topojax replay: stopped by {stopped[0].name}", file=sys.stderr)
         return 128 + stopped[0]
-    record_outputs(planned(summary["written"], args.source), command="replay")
+    filters = graph_filters(graph_config(args))  # the timeline keeps the graph unfiltered
+    record_outputs(
+        planned(summary["written"], args.source), command="replay", graph_options=filters
+    )
     words = {"max_extent_m": "--max-extent-m"}  # not "resume", a word of the messages
     messages = [_in_options(m, words) for m in summary["messages"]]  # e.g. a skipped scan's
     print(summary_text({**summary, "messages": messages}))

@@ -54,6 +54,9 @@ class _Result:
     rooms: Path | None = None
     route_graph: Path | None = None
     timeline: Path | None = None
+    #: The options that filtered the graph file after the replay's last update (its
+    #: record's ``graph_options``): then it is not the timeline's last graph.
+    graph_filtered: bool = False
     notes: list[str] = field(default_factory=list)
 
 
@@ -127,6 +130,8 @@ def find_results(folder: Path) -> list[_Result]:
             res.map = folder / "map.yaml"
             if (folder / _TIMELINE).is_file():
                 res.timeline = folder / _TIMELINE
+            entry = record.get(res.graph.name) if res.graph is not None else None
+            res.graph_filtered = isinstance(entry, dict) and bool(entry.get("graph_options"))
             continue
         source, kwargs = _recorded_input(record, folder, stem)
         if source is None:
@@ -172,9 +177,13 @@ def _load(result: _Result):
 
 def _note_timeline(result: _Result, timeline, graph) -> None:
     """Note when the timeline's last graph is not the graph shown (a timeline of another
-    run in the folder); the page still shows both.  The command prints the note."""
+    run in the folder); the page still shows both.  The command prints the note.  A
+    graph the replay filtered (``--free-only``, ``--min-*-m``) differs from its
+    timeline's by design: no note."""
     from .._words import counted
 
+    if result.graph_filtered:
+        return
     last = timeline.last_counts()
     shown = (graph.number_of_nodes(), graph.number_of_edges())
     if last is not None and last != shown:
