@@ -828,6 +828,20 @@ def test_view_command_errors(tmp_path, capsys):
     assert not (tmp_path / "view.html").exists()
 
 
+def test_view_command_leaves_no_page_of_a_result_it_cannot_show_any_more(tmp_path, capsys):
+    """The one result of a folder, damaged after its page was written, is named in the
+    error and its older page removed, as with several results: the page would show a
+    graph that is gone."""
+    tj.save_graph(intel_result().graph, tmp_path / "graph.json")
+    assert main(["view", str(tmp_path)]) == 0
+    assert (tmp_path / "view.html").is_file()
+    (tmp_path / "graph.json").write_text('{"directed": false, "nodes": [')
+    capsys.readouterr()
+    assert main(["view", str(tmp_path)]) == 2
+    assert "graph.json" in capsys.readouterr().err
+    assert not (tmp_path / "view.html").exists()
+
+
 def test_view_command_names_a_folder_that_takes_no_page(tmp_path, read_only_folder, capsys):
     """A results folder that takes no file (read-only) is named as OUT_DIR, not left to
     the system's message about the page's temporary file, ``[Errno 30] Read-only file

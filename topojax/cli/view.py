@@ -303,6 +303,12 @@ def _index_page(folder: Path, pages: list[tuple[str, Path]]) -> str:
     )
 
 
+def _remove_page(page: Path) -> None:
+    """Remove an older page (a file; a folder of that name is not the command's)."""
+    if page.is_file() or page.is_symlink():
+        page.unlink(missing_ok=True)
+
+
 def _cmd_view(args) -> int:
     from .._fs import atomic_write_bytes, output_folder
     from .._validate import int_at_least
@@ -335,7 +341,11 @@ def _cmd_view(args) -> int:
     check_outputs(planned(targets, folder), command="view", option="OUT_DIR")
     output_folder(folder, name="OUT_DIR")  # takes the pages: checked before any work
     if len(results) == 1:
-        print("wrote      " + _write_one(results[0], index, args))
+        try:
+            print("wrote      " + _write_one(results[0], index, args))
+        except (ValueError, OSError):
+            _remove_page(index)  # an older page of it would show what is gone
+            raise
         record_outputs(planned(targets, folder), command="view")
         return 0
     written, failed = [], []
@@ -345,7 +355,7 @@ def _cmd_view(args) -> int:
             written.append((stem, target))
         except (ValueError, OSError) as exc:
             failed.append(str(exc))
-            target.unlink(missing_ok=True)  # an older page of it would show what is gone
+            _remove_page(target)  # an older page of it would show what is gone
     if written:
         atomic_write_bytes(index, _index_page(folder, written).encode("utf-8"))
         print(f"wrote      {index} (links to {counted(len(written), 'view')})")
