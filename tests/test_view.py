@@ -842,6 +842,24 @@ def test_view_command_leaves_no_page_of_a_result_it_cannot_show_any_more(tmp_pat
     assert not (tmp_path / "view.html").exists()
 
 
+@pytest.mark.parametrize("stems", [["a"], ["a", "b"]])
+def test_view_command_refuses_a_folder_named_as_its_page_before_any_work(tmp_path, capsys, stems):
+    """A folder where a page goes (``view.html``, the index of several results too) is
+    refused naming OUT_DIR before any page is written, not after the work as the page
+    writer's ``path`` or a system error."""
+    graph = intel_result().graph
+    for stem in stems:
+        tj.save_graph(graph, tmp_path / f"{stem}.json")
+    (tmp_path / "view.html").mkdir()
+    assert main(["view", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        f"topojax view: error: OUT_DIR: expected to write the page {tmp_path / 'view.html'}, "
+        "received a folder of that name"
+    )
+    assert not list(tmp_path.glob("*_view.html"))
+
+
 def test_view_command_names_a_folder_that_takes_no_page(tmp_path, read_only_folder, capsys):
     """A results folder that takes no file (read-only) is named as OUT_DIR, not left to
     the system's message about the page's temporary file, ``[Errno 30] Read-only file

@@ -340,6 +340,12 @@ def _cmd_view(args) -> int:
     targets = [p for _, p in pages] + ([index] if len(results) > 1 else [])
     check_outputs(planned(targets, folder), command="view", option="OUT_DIR")
     output_folder(folder, name="OUT_DIR")  # takes the pages: checked before any work
+    for target in targets:
+        if target.is_dir():
+            raise IsADirectoryError(
+                f"OUT_DIR: expected to write the page {target}, received a folder of that "
+                "name; move it away or remove it first"
+            )
     if len(results) == 1:
         try:
             print("wrote      " + _write_one(results[0], index, args))
