@@ -842,6 +842,30 @@ def test_view_command_leaves_no_page_of_a_result_it_cannot_show_any_more(tmp_pat
     assert not (tmp_path / "view.html").exists()
 
 
+def test_view_command_removes_its_pages_of_results_that_are_gone(tmp_path, capsys):
+    """Pages an earlier ``topojax view`` wrote for results no longer in the folder are
+    removed (they would show graphs that are gone, and the index no longer lists them);
+    pages it did not write stay."""
+    graph = intel_result().graph
+    for stem in ("a", "b", "c"):
+        tj.save_graph(graph, tmp_path / f"{stem}.json")
+    assert main(["view", str(tmp_path)]) == 0
+    (tmp_path / "mine_view.html").write_text("<p>mine</p>")
+    (tmp_path / "c.json").unlink()
+    capsys.readouterr()
+    assert main(["view", str(tmp_path)]) == 0
+    assert f"removed    {tmp_path / 'c_view.html'}" in capsys.readouterr().out
+    assert sorted(p.name for p in tmp_path.glob("*.html")) == [
+        "a_view.html",
+        "b_view.html",
+        "mine_view.html",
+        "view.html",
+    ]
+    (tmp_path / "b.json").unlink()  # one result: its page is view.html
+    assert main(["view", str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.glob("*.html")) == ["mine_view.html", "view.html"]
+
+
 @pytest.mark.parametrize("stems", [["a"], ["a", "b"]])
 def test_view_command_refuses_a_folder_named_as_its_page_before_any_work(tmp_path, capsys, stems):
     """A folder where a page goes (``view.html``, the index of several results too) is

@@ -309,6 +309,19 @@ def _remove_page(page: Path) -> None:
         page.unlink(missing_ok=True)
 
 
+def _remove_older_pages(folder: Path, record: dict, targets: list[Path]) -> None:
+    """Remove the pages an earlier ``topojax view`` wrote into ``folder`` (as its
+    ``record`` says) that are not among this run's ``targets``: pages of results that
+    are gone, which the index no longer lists.  Prints a line per page removed."""
+    kept = {t.name for t in targets}
+    for name, entry in sorted(record.items()):
+        page = name == "view.html" or name.endswith("_view.html")
+        mine = isinstance(entry, dict) and entry.get("command") == "view"
+        if page and mine and name not in kept and (folder / name).is_file():
+            (folder / name).unlink(missing_ok=True)
+            print(f"removed    {folder / name}, the page of a result no longer there")
+
+
 def _cmd_view(args) -> int:
     from .._fs import atomic_write_bytes, output_folder
     from .._validate import int_at_least
@@ -340,6 +353,7 @@ def _cmd_view(args) -> int:
     targets = [p for _, p in pages] + ([index] if len(results) > 1 else [])
     check_outputs(planned(targets, folder), command="view", option="OUT_DIR")
     output_folder(folder, name="OUT_DIR")  # takes the pages: checked before any work
+    earlier = read_record(folder)  # before this run's pages are recorded
     for target in targets:
         if target.is_dir():
             raise IsADirectoryError(
@@ -352,6 +366,7 @@ def _cmd_view(args) -> int:
         except (ValueError, OSError):
             _remove_page(index)  # an older page of it would show what is gone
             raise
+        _remove_older_pages(folder, earlier, targets)
         record_outputs(planned(targets, folder), command="view")
         return 0
     written, failed = [], []
@@ -367,6 +382,7 @@ def _cmd_view(args) -> int:
         print(f"wrote      {index} (links to {counted(len(written), 'view')})")
     else:
         index.unlink(missing_ok=True)  # an older index would link the pages just removed
+    _remove_older_pages(folder, earlier, targets)
     record_outputs(planned(targets, folder), command="view")
     if failed:
         raise ValueError(
