@@ -229,7 +229,11 @@ def _edited_tee(**graph_attrs):
         ("vertex", "here", r"vertex 0: expected a world position \(x, y\), received 'here'"),
         ("vertex", (1.0, 2.0, 3.0), r"vertex 0: expected a world position .* \(1.0, 2.0, 3.0\)"),
         ("edge", "here", r"edge \(0, 1, 0\): expected finite \(x, y\) points of shape"),
-        ("vertex", (np.nan, 0.0), "a vertex has a world position that is not finite"),
+        (
+            "vertex",
+            (np.nan, 0.0),
+            r"vertex 0: expected a finite world position \(x, y\), received \(nan, 0.0\)",
+        ),
     ],
 )
 def test_a_graph_with_edited_world_coordinates_is_refused_naming_them(frame, where, value, words):

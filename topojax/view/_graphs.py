@@ -102,8 +102,11 @@ def _vertex_world(graph, frame: Frame | None, where: str) -> np.ndarray:
                 "'pixel' (row, col) on the map"
             )
         xy[i] = world_points(world, f"{where}: vertex {n!r}", one=True)[0]
-    if not np.isfinite(xy).all():
-        raise ValueError(f"{where}: a vertex has a world position that is not finite")
+        if not np.isfinite(xy[i]).all():  # the page would draw it nowhere
+            raise ValueError(
+                f"{where}: vertex {n!r}: expected a finite world position (x, y), received "
+                f"{tuple(xy[i].tolist())}"
+            )
     return xy
 
 
