@@ -648,6 +648,24 @@ def test_mapper_view_has_its_rooms_and_timeline():
     assert data["graphs"][0]["n_edges"] == mapper.graph.number_of_edges()
 
 
+def test_a_timeline_recorded_beyond_the_map_shown_is_noted(res):
+    """A timeline whose maps reach beyond the map shown (another run's, another map's)
+    is drawn with a note saying so, as a graph or rooms of another map are; the map its
+    mapper made, or a larger one holding it, takes it without a word."""
+    mapper, timeline, _ = intel_replay()
+    assert not any(
+        "timeline" in n for n in payload_of(view_html(mapper, timeline=timeline))["notes"]
+    )
+    final = mapper.to_result(update=False).map
+    assert not any(
+        "timeline" in n for n in payload_of(view_html(final, timeline=timeline))["notes"]
+    )
+    notes = payload_of(view_html(res, timeline=timeline))["notes"]  # the Intel map at (0, 0)
+    (note,) = [n for n in notes if "timeline" in n]
+    assert note.startswith("the timeline was not recorded on the map shown: its last map spans x ")
+    assert "beyond the map shown (x 0.00 to 38.15 m, y 0.00 to 35.40 m)" in note
+
+
 def test_mapper_view_has_the_rooms_it_keeps_with_its_graph_updates():
     """``rooms_every=None`` (the default) keeps rooms with every graph update once they
     are in use, and the page shows them.  ``rooms_every=0`` (explicit updates only) may

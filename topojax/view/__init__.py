@@ -108,7 +108,8 @@ def write_view(
     route : Route, optional
         A route to draw (e.g. from :func:`topojax.plan_route`).
     timeline : Timeline, optional
-        The mapper's graph at every update: the page gets a timeline to play or scrub.
+        The mapper's graph at every update: the page gets a timeline to play or scrub
+        (and a note when its last map reaches beyond the map shown).
     window : (x_min, y_min, x_max, y_max), optional
         Show only this world box (metres): the map and its layers inside it, the edges
         that pass through it (whole, with their vertices; routes run on those), the

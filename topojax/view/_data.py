@@ -175,7 +175,32 @@ def inputs_of(
         why = grid_mismatch(own.shape, own.resolution_m, own.origin, out.map, owner="their")
         if why is not None:
             out.notes.append(f"the rooms were not segmented on the map shown: {why}")
+    if out.timeline is not None and out.map is not None:
+        why = _timeline_beyond(out.timeline, out.map)
+        if why is not None:
+            out.notes.append(f"the timeline was not recorded on the map shown: {why}")
     return out
+
+
+def _timeline_beyond(timeline, occupancy) -> str | None:
+    """Why ``timeline`` does not belong under ``occupancy``: its last map picture reaches
+    beyond the map (by more than a pixel), as another run's or another map's would; None
+    when it lies inside (the mapper's own map, or a larger one holding it)."""
+    box = timeline._last_map_box()
+    if box is None:
+        return None
+    h, w = occupancy.shape
+    xs, ys = occupancy.pixel_to_world(
+        [-0.5, -0.5, h - 0.5, h - 0.5], [-0.5, w - 0.5, -0.5, w - 0.5]
+    )
+    x0, x1, y0, y1 = (float(f(v)) for v in (xs, ys) for f in (np.min, np.max))
+    tol = occupancy.resolution_m
+    if box[0] >= x0 - tol and box[1] >= y0 - tol and box[2] <= x1 + tol and box[3] <= y1 + tol:
+        return None
+    return (
+        f"its last map spans x {box[0]:.2f} to {box[2]:.2f} m, y {box[1]:.2f} to {box[3]:.2f} "
+        f"m, beyond the map shown (x {x0:.2f} to {x1:.2f} m, y {y0:.2f} to {y1:.2f} m)"
+    )
 
 
 def _fields_on_the_map(out: Inputs, own) -> None:

@@ -72,6 +72,15 @@ class Timeline:
             return None
         return int(frames[-1]["ids"]["n"]), int(frames[-1]["edges"]["n"])
 
+    def _last_map_box(self) -> list[float] | None:
+        """The world box ``[x_min, y_min, x_max, y_max]`` of the last map picture kept,
+        or None when no frame has one (``max_map_px=0``)."""
+        frames = self._loaded["frames"] if self._loaded is not None else self._frames
+        for frame in reversed(frames):
+            if frame.get("map") is not None:
+                return [float(v) for v in frame["map"]["box"]]
+        return None
+
     def _continuation(self) -> dict:
         """What :meth:`load` needs to extend a saved timeline: the mapper's edge key of
         each pooled edge, the keys of the last snapshot and ``max_map_px``."""
