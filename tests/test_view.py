@@ -216,6 +216,19 @@ def test_a_graph_without_paths_is_drawn_but_not_routed():
     assert "no map" in " ".join(payload_of(view_html(g))["notes"])
 
 
+def test_a_graph_with_an_infinite_edge_length_says_so():
+    """An edge whose ``length_m`` is not a finite number is named with its length, not
+    said to lack a path it has."""
+    g = tj.skeleton_to_graph(np.array([[1, 1, 1], [0, 1, 0], [0, 1, 0]]), resolution_m=0.5)
+    u, v, k = next(iter(g.edges(keys=True)))
+    g.edges[u, v, k]["length_m"] = float("inf")
+    (payload,) = payload_of(view_html(g))["graphs"]
+    assert not payload["routable"]
+    assert payload["why_not_routable"] == (
+        f"edge ({u!r}, {v!r}, {k!r}): expected a finite 'length_m' >= 0, received inf"
+    )
+
+
 def _edited_tee(**graph_attrs):
     g = tj.skeleton_to_graph(np.array([[1, 1, 1], [0, 1, 0], [0, 1, 0]]), resolution_m=0.5)
     g.graph.update(graph_attrs)

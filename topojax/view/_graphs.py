@@ -133,13 +133,14 @@ def _routable_edges(graph, where: str):
         path, length = data.get("path"), _number(data, "length_m")
         if path is not None:
             path = np.asarray(path)
-        if (
-            path is None
-            or path.shape != world.shape
-            or not np.issubdtype(path.dtype, np.integer)
-            or not (math.isfinite(length) and length >= 0)
-        ):
-            reason = reason or f"{name} lacks an integer 'path' like its 'world', or 'length_m'"
+        why = None
+        if path is None or path.shape != world.shape or not np.issubdtype(path.dtype, np.integer):
+            why = f"{name} lacks an integer 'path' like its 'world'"
+        elif not (math.isfinite(length) and length >= 0):
+            got = data.get("length_m")
+            why = f"{name}: expected a finite 'length_m' >= 0, received {got!r}"
+        if why is not None:
+            reason = reason or why
             rows.append((a, b, None, world, length))
             continue
         na, nb = f"{where}: vertex {a!r}", f"{where}: vertex {b!r}"
