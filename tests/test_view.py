@@ -1176,3 +1176,20 @@ def test_view_command_leaves_no_index_when_no_result_can_be_shown(tmp_path, caps
     assert main(["view", str(tmp_path)]) == 2
     assert "OUT_DIR: 2 of the 2 results" in capsys.readouterr().err
     assert not (tmp_path / "view.html").exists()
+
+
+def test_the_page_colours_vertex_kinds_as_the_pictures_and_markers_do():
+    """The page's vertex colours are those of the plots and the MCAP markers
+    (``VERTEX_KIND_COLOURS``), kind for kind; kinds they do not know get a colour of
+    their own."""
+    import re
+    from pathlib import Path
+
+    from topojax._constants import VERTEX_KIND_COLOURS
+    from topojax.view._graphs import KIND_NAMES
+
+    script = (Path(tj.__file__).parent / "view" / "static" / "draw.js").read_text()
+    page = re.search(r"TJ\.KIND_COLOURS = \[([^\]]*)\]", script)[1]
+    colours = dict(zip(KIND_NAMES, re.findall(r'"(#[0-9a-f]{6})"', page), strict=True))
+    assert {k: colours[k] for k in VERTEX_KIND_COLOURS} == VERTEX_KIND_COLOURS
+    assert colours["other"] not in VERTEX_KIND_COLOURS.values()

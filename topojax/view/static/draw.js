@@ -10,7 +10,7 @@
 var TJ = (window.TJ = window.TJ || {});
 
 (function () {
-  TJ.KIND_COLOURS = ["#d62728", "#1f77b4", "#9467bd", "#8c564b", "#7f7f7f"];
+  TJ.KIND_COLOURS = ["#d62728", "#1f77b4", "#9467bd", "#7f7f7f", "#8c564b"];
   TJ.GRAPH_COLOURS = ["#e6550d", "#2ca02c", "#17becf", "#bcbd22", "#e377c2"];
   var MASK_COLOURS = { ridges: [255, 176, 0], skeleton: [40, 90, 255] };
   // distance map: a dark-to-light scale through purple and orange (magma-like stops)
