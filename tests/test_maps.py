@@ -1060,6 +1060,17 @@ def test_yaml_numbers_as_map_server_reads_them(tmp_path: Path):
         load_map(tmp_path / "h.yaml")
 
 
+def test_a_quoted_negate_is_read_as_map_server_reads_it(tmp_path: Path):
+    # yaml-cpp reads negate: "1" as the integer 1, as it reads the other quoted numbers
+    img = np.array([[0, 50, 100], [150, 255, 10]], dtype=np.uint8)
+    for text, negated in (("'1'", True), ('"0"', False), ("' 1 '", True)):
+        m = load_map(_yaml_map(tmp_path, GOOD + f"negate: {text}\n", img))
+        assert np.array_equal(m.occupied, img >= 166 if negated else img <= 89)
+    path = _yaml_map(tmp_path, GOOD + "negate: '2'\n", img)
+    with pytest.raises(ValueError, match="field 'negate': expected 0, 1, true or false"):
+        load_map(path)
+
+
 def test_yaml_negate_and_raw_mode(tmp_path: Path):
     img = np.array([[0, 50, 100], [150, 255, 10]], dtype=np.uint8)
     path = _yaml_map(tmp_path, GOOD + "negate: 1\n", img)

@@ -69,6 +69,9 @@ def _load_yaml(path: Path) -> dict[str, Any]:
             doc[key] = _number_text(doc[key])
     if isinstance(doc.get("origin"), list):
         doc["origin"] = [_number_text(v) for v in doc["origin"]]
+    negate = doc.get("negate")
+    if isinstance(negate, str) and _INTEGER_RE.fullmatch(negate.strip()):
+        doc["negate"] = int(negate)  # an int to map_server too (then checked: 0 or 1)
     return doc
 
 
@@ -88,6 +91,7 @@ def _yaml_problem(exc: Exception, text: str) -> str:
     return str(exc)
 
 
+_INTEGER_RE = re.compile(r"[-+]?[0-9]+")
 _NUMBER_RE = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
 
 
