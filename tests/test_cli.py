@@ -313,6 +313,7 @@ def test_output_record_rules(tmp_path):
         (["--max-scans", "-5"], "--max-scans: expected an int >= 1"),
         (["--graph-every", "-1"], "--graph-every: expected an int >= 0"),
         (["--resolution", "0"], "--resolution: expected a finite number of metres > 0"),
+        (["--resolution", "1e-7"], "--resolution: expected 1e-06 to 10000 metres per pixel"),
         (["--max-extent-m", "-3"], "--max-extent-m: expected a finite number of metres > 0"),
         (["--max-range", "-1"], "--max-range: expected a number of metres > 0"),
         (["--max-range", "nan"], "--max-range: expected a number of metres > 0"),
@@ -751,6 +752,8 @@ def test_summaries_count_one_in_the_singular():
 _MAP_OPTION_ERRORS = [
     (["--resolution", "0"], "--resolution: expected a finite number of metres > 0"),
     (["--resolution", "nan"], "--resolution: expected a finite number of metres > 0"),
+    (["--resolution", "1e-7"], "--resolution: expected 1e-06 to 10000 metres per pixel"),
+    (["--resolution", "2e4"], "--resolution: expected 1e-06 to 10000 metres per pixel"),
     (["--occupied-thresh", "2"], "--occupied-thresh: expected a share from 0 to 1"),
     (["--free-thresh", "-0.1"], "--free-thresh: expected a share from 0 to 1"),
     (

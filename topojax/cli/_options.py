@@ -265,10 +265,11 @@ def map_options(args) -> dict:
     """The keyword arguments of ``load_map`` that the options of :func:`add_map_options`
     set (those not given are left to the file and the defaults), checked under the
     options' names."""
-    from .._validate import positive_metres
+    from .._validate import metres_per_pixel, positive_metres
 
     if args.resolution_m is not None:
         positive_metres("--resolution", args.resolution_m)
+        metres_per_pixel("--resolution", args.resolution_m)  # and a map's range
     for name in ("occupied_thresh", "free_thresh"):
         value = getattr(args, name)
         if value is not None and not 0.0 <= value <= 1.0:  # also NaN

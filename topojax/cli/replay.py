@@ -29,9 +29,17 @@ from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 def _check_numbers(args) -> None:
     """The numeric options, checked under their own names before the replay (the
     library's messages name its parameters)."""
-    from .._validate import int_at_least, pose, positive_int, positive_metres, robot_radius
+    from .._validate import (
+        int_at_least,
+        metres_per_pixel,
+        pose,
+        positive_int,
+        positive_metres,
+        robot_radius,
+    )
 
     positive_metres("--resolution", args.resolution)
+    metres_per_pixel("--resolution", args.resolution)  # and a map's range
     for option, value in (
         ("--skeleton-every", args.skeleton_every),
         ("--graph-every", args.graph_every),
