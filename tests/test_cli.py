@@ -747,6 +747,15 @@ def test_summaries_count_one_in_the_singular():
     assert summary_lines("m", result)[1] == (
         "graph      2 vertices (0 junctions, 2 ends), 1 edge, 0.3 m of corridors, 1 component"
     )
+    # every vertex is counted in the parentheses: rings and isolated ones where there are
+    graph.add_node(2, kind="isolated", pixel=(3, 1))
+    graph.add_node(3, kind="isolated", pixel=(3, 3))
+    graph.add_node(4, kind="ring", pixel=(4, 4))
+    graph.add_edge(4, 4, length_m=0.4)
+    assert summary_lines("m", result)[1] == (
+        "graph      5 vertices (0 junctions, 2 ends, 1 ring, 2 isolated), 2 edges, 0.7 m of "
+        "corridors, 4 components"
+    )
 
 
 _MAP_OPTION_ERRORS = [

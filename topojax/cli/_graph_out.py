@@ -40,10 +40,12 @@ def summary_lines(name: str, result, *, timing_note: str = "", assumed: str = ""
     s = graph_summary(result.graph)
     h, w = result.map.shape
     t = result.timings_s
+    kinds = [counted(s["n_junctions"], "junction"), counted(s["n_ends"], "end")]
+    kinds += [counted(s["n_rings"], "ring")] * bool(s["n_rings"])  # so that they add up
+    kinds += [f"{s['n_isolated']} isolated"] * bool(s["n_isolated"])
     return [
         f"map        {name}  ({h} x {w} px, {result.map.resolution_m:g} m/px{assumed})",
-        f"graph      {counted(s['n_vertices'], 'vertex', 'vertices')} "
-        f"({counted(s['n_junctions'], 'junction')}, {counted(s['n_ends'], 'end')}), "
+        f"graph      {counted(s['n_vertices'], 'vertex', 'vertices')} ({', '.join(kinds)}), "
         f"{counted(s['n_edges'], 'edge')}, {s['total_length_m']:.1f} m of corridors, "
         f"{counted(s['n_components'], 'component')}",
         "time (ms)  "
