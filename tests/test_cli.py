@@ -786,6 +786,39 @@ def test_map_reading_options_are_named_in_errors(tmp_path, capsys, command, argv
     assert "resolution_m" not in err and "occupied_thresh" not in err
 
 
+@pytest.mark.parametrize("command", ["graph", "rooms", "route-graph", "route", "batch"])
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (
+            ["--free-thresh", "0.7"],
+            "--free-thresh: expected less than --occupied-thresh (0.65, map_server's default: map ",
+        ),
+        (
+            ["--occupied-thresh", "0.1"],
+            "--occupied-thresh: expected more than --free-thresh (0.196, map_server's default: "
+            "map ",
+        ),
+    ],
+)
+def test_a_threshold_option_against_the_map_s_other_is_named_as_options(
+    tmp_path, capsys, command, argv, message
+):
+    """A threshold option that the map's other threshold (here map_server's default, the
+    map having no YAML) refuses is named as the option, the other as the option that
+    would set it; a batch fails the map (status 1), the others the command (2)."""
+    map_file = ROOT / "topojax" / "data" / "a_scan.png"
+    given = [command, str(map_file), "-o", str(tmp_path / "out"), *argv]
+    if command == "route":
+        assert main(["graph", str(map_file), "-o", str(tmp_path / "g")]) == 0
+        graph = tmp_path / "g" / "a_scan.json"
+        given = ["route", str(graph), "--map", str(map_file), "--start", "5", "5"]
+        given += ["--goal", "10", "10", "-o", str(tmp_path / "r.geojson"), *argv]
+    assert main(given) == (1 if command == "batch" else 2)
+    err = capsys.readouterr().err
+    assert message in err and "_thresh" not in err
+
+
 @pytest.mark.parametrize("command", ["graph", "route-graph", "batch", "replay"])
 def test_an_output_folder_under_a_file_is_named_as_the_option(tmp_path, capsys, command):
     a_file = tmp_path / "a_file"

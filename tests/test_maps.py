@@ -1024,6 +1024,37 @@ def test_a_threshold_given_against_the_yaml_s_other_is_blamed_on_the_caller(
         open_tiled_map(path, **given)
 
 
+@pytest.mark.parametrize(
+    ("given", "message"),
+    [
+        (
+            {"free_thresh": 0.7},
+            r"^free_thresh: expected less than occupied_thresh \(0\.65, map_server's default: "
+            r"map .*x\.pgm has no YAML\), received 0\.7$",
+        ),
+        (
+            {"occupied_thresh": 0.1},
+            r"^occupied_thresh: expected more than free_thresh \(0\.196, map_server's default: "
+            r"map .*x\.pgm has no YAML\), received 0\.1$",
+        ),
+        (
+            {"free_thresh": 0.7, "occupied_thresh": 0.6},
+            r"^free_thresh, occupied_thresh: expected 0 <= free_thresh < occupied_thresh",
+        ),
+    ],
+)
+def test_a_threshold_given_for_an_image_names_the_default_it_meets(tmp_path: Path, given, message):
+    # an image has no YAML: the threshold given meets map_server's default other one,
+    # and the refusal says so, as it does beside a YAML
+    _write_pgm(tmp_path / "x.pgm", np.full((3, 3), 254, np.uint8))
+    with pytest.raises(ValueError, match=message):
+        load_map(tmp_path / "x.pgm", resolution_m=0.05, **given)
+    from topojax.maps.tiled import open_tiled_map
+
+    with pytest.raises(ValueError, match=message):
+        open_tiled_map(tmp_path / "x.pgm", resolution_m=0.05, **given)
+
+
 def test_a_threshold_given_against_the_yaml_s_own_other_names_the_file(tmp_path: Path):
     # the other threshold set in the file: the refusal says it came from there
     path = _yaml_map(tmp_path, GOOD + "occupied_thresh: 0.6\nfree_thresh: 0.3\n")

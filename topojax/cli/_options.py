@@ -84,6 +84,35 @@ def _option_named(exc: ValueError, field: str, option: str) -> ValueError:
     return _as_option_error(exc, {field: option}) if str(exc).startswith(f"{field}:") else exc
 
 
+#: The thresholds of :func:`map_options` that a map's loading checks against the other
+#: one, read from its YAML or map_server's default, and the options that give them.
+_THRESHOLD_OPTIONS = (("free_thresh", "--free-thresh"), ("occupied_thresh", "--occupied-thresh"))
+
+
+def load_option_map(path, options: dict):
+    """``load_map(path, **options)`` (the keyword arguments of :func:`map_options`), with
+    the resolution it would assume given, as the command's map line says it; a threshold
+    that an option gave and the map's other one refuses is named as that option, the
+    other as the option that would set it."""
+    from ..maps import load_map
+    from ..maps.files import said_resolution
+
+    try:
+        return load_map(path, **said_resolution(path, options))
+    except ValueError as exc:
+        if given_threshold_refused(str(exc), options):
+            raise _as_option_error(exc, dict(_THRESHOLD_OPTIONS)) from None
+        raise
+
+
+def given_threshold_refused(message: str, options: dict) -> bool:
+    """Whether ``message`` refuses a threshold that ``options`` give (against the map's
+    other one): its thresholds are then the options'."""
+    return any(
+        options.get(f) is not None and message.startswith(f"{f}:") for f, _ in _THRESHOLD_OPTIONS
+    )
+
+
 def pipeline_config(args, *, resolution_m: float | None = None):
     """The :class:`PipelineConfig` of the options of :func:`add_pipeline_options`, with
     the Gaussian of :func:`add_sigma_options` where the command has them: ``--sigma-px``

@@ -11,11 +11,13 @@ from pathlib import Path
 
 from ._options import (
     _OPTION_OF,
+    _THRESHOLD_OPTIONS,
     _as_options,
     _option_named,
     add_map_options,
     add_pipeline_options,
     add_sigma_options,
+    given_threshold_refused,
     map_options,
     pipeline_config,
 )
@@ -165,6 +167,9 @@ def _as_printed(records: list, args) -> list:
 
     def message(r) -> str:
         names = _MAP_OPTION_OF if r.status == "error" else _NOTE_OPTION_OF
+        error = r.message.removeprefix("ValueError: ")
+        if r.status == "error" and given_threshold_refused(error, map_options(args)):
+            names = {**names, **dict(_THRESHOLD_OPTIONS)}  # the one given, the map's other
         return _as_options(r.message, names).replace(RESOLUTION_HINT, "--resolution sets it")
 
     named = [replace(r, message=message(r)) for r in records]

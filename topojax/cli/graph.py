@@ -20,6 +20,7 @@ from ._options import (
     add_room_options,
     add_sigma_options,
     assumed_resolution_note,
+    load_option_map,
     map_options,
     nav2_tolerance,
     pipeline_config,
@@ -115,8 +116,6 @@ def _classes_hint(occupancy, graph) -> list[str]:
 
 
 def _cmd_graph(args) -> int:
-    from ..maps import load_map
-    from ..maps.files import said_resolution
     from ..pipeline import build_graph
 
     check_tiled_options(args)
@@ -133,7 +132,7 @@ def _cmd_graph(args) -> int:
 
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
         check_outputs(planned([args.mcap], args.map), command="graph", option="--mcap")
-    occupancy = load_map(args.map, **said_resolution(args.map, map_options(args)))
+    occupancy = load_option_map(args.map, map_options(args))
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
     for line in _classes_hint(occupancy, result.graph):

@@ -10,6 +10,7 @@ from ._options import (
     add_map_options,
     add_room_options,
     assumed_resolution_note,
+    load_option_map,
     map_options,
     room_config,
 )
@@ -53,8 +54,6 @@ def _files(stem: str, args) -> list[str]:
 def _cmd_rooms(args) -> int:
     from .._fs import output_folder, refuse_overwriting_inputs
     from ..io import save_room_files
-    from ..maps import load_map
-    from ..maps.files import said_resolution
     from ..rooms import segment_rooms
 
     config = room_config(args)  # checked before any work
@@ -63,7 +62,7 @@ def _cmd_rooms(args) -> int:
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="rooms", option=OUT_OPTION)
-    occupancy = load_map(args.map, **said_resolution(args.map, map_options(args)))
+    occupancy = load_option_map(args.map, map_options(args))
     t0 = time.perf_counter()
     seg = segment_rooms(occupancy, config=config)
     seconds = time.perf_counter() - t0

@@ -11,6 +11,7 @@ from pathlib import Path
 from ._options import (
     add_map_options,
     assumed_resolution_note,
+    load_option_map,
     map_options,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
@@ -142,12 +143,9 @@ def _cmd_route(args) -> int:
     graph = load_graph(graph_file)
     occupancy = None
     if args.map:
-        from ..maps import load_map
-        from ..maps.files import said_resolution
-
         kw = map_options(args)  # its errors name their options
         try:
-            occupancy = load_map(args.map, **said_resolution(args.map, kw))
+            occupancy = load_option_map(args.map, kw)
         except (ValueError, OSError) as exc:  # they name the file; the user gave --map
             if type(exc).__module__ != "builtins":  # a subclass keeps its own arguments
                 raise

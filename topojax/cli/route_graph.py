@@ -11,6 +11,7 @@ from ._options import (
     _option_named,
     add_map_options,
     assumed_resolution_note,
+    load_option_map,
     map_options,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
@@ -79,8 +80,6 @@ def _cmd_route_graph(args) -> int:
     from .._validate import positive_metres, robot_radius
     from .._words import counted
     from ..io import save_graph
-    from ..maps import load_map
-    from ..maps.files import said_resolution
     from ..routegraph import RouteGraphConfig
     from ..routegraph.build import MAX_SNAP_M, check_scale, unwarned_route_graph
 
@@ -104,7 +103,7 @@ def _cmd_route_graph(args) -> int:
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
         check_outputs(planned([args.mcap], args.map), command="route-graph", option="--mcap")
     kw = map_options(args)  # its errors name their options
-    occupancy = load_map(args.map, **said_resolution(args.map, kw))
+    occupancy = load_option_map(args.map, kw)
     check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")
     t0 = time.perf_counter()
     try:

@@ -234,6 +234,9 @@ def load_map(
             "mode": "trinary" if mode is None else mode,
         }
         where = f"map {p}"
+        _check_caller_thresholds(
+            occupied_thresh, free_thresh, settings, f"map_server's default: map {p} has no YAML"
+        )
 
     # map_server averages an alpha channel in with the colour in trinary mode; a YAML map
     # is read as map_server reads it (plain images and arrays ignore alpha)
@@ -448,12 +451,11 @@ def _yaml_settings(
         if not is_real_number(val) or not 0.0 <= float(val) <= 1.0:
             raise _yaml_error(p, key, "a number in [0, 1]", val)
         thresholds[key] = float(val)
-    if occupied_thresh is not None and free_thresh is not None:  # the caller's pair
-        occupancy_thresholds(occupied_thresh, free_thresh)
-    elif (occupied_thresh is None) != (free_thresh is None):  # one given, one the file's
-        free_given = occupied_thresh is None
-        in_file = ("occupied_thresh" if free_given else "free_thresh") in doc
-        _check_given_threshold(p, thresholds, given=free_given, in_file=in_file)
+    other = "occupied_thresh" if occupied_thresh is None else "free_thresh"
+    source = (
+        f"from map YAML {p}" if other in doc else f"map_server's default: map YAML {p} sets none"
+    )
+    _check_caller_thresholds(occupied_thresh, free_thresh, thresholds, source)
     if mode is None:
         raw_mode = doc.get("mode", "trinary")
         if not isinstance(raw_mode, str) or raw_mode not in ("trinary", "scale", "raw"):
@@ -470,13 +472,17 @@ def _yaml_settings(
     return image_path, settings
 
 
-def _check_given_threshold(
-    p: Path, thresholds: dict[str, Any], *, given: bool, in_file: bool
-) -> None:
-    """Check the threshold the caller gave (``free_thresh`` where ``given`` is True, else
-    ``occupied_thresh``) against the other, read from the map YAML ``p`` (``in_file``) or
-    map_server's default: the error names the one given and says where the other came
+def _check_caller_thresholds(occupied_thresh, free_thresh, thresholds: dict, source: str):
+    """Check the thresholds the caller gave (None: not given): a pair against each other,
+    one against the other of ``thresholds`` (the file's or map_server's default, which
+    ``source`` names); the error names the one given and says where the other came
     from."""
+    if occupied_thresh is not None and free_thresh is not None:  # the caller's pair
+        occupancy_thresholds(occupied_thresh, free_thresh)
+        return
+    if occupied_thresh is None and free_thresh is None:
+        return
+    given = occupied_thresh is None  # free_thresh given
     occ, free = thresholds["occupied_thresh"], thresholds["free_thresh"]
     name, value = ("free_thresh", free) if given else ("occupied_thresh", occ)
     number = threshold(name, value)
@@ -484,7 +490,6 @@ def _check_given_threshold(
     if (number < occ) if given else (number > free):
         return
     relation = "less" if given else "more"
-    source = f"from map YAML {p}" if in_file else f"map_server's default: map YAML {p} sets none"
     raise ValueError(
         f"{name}: expected {relation} than {other} ({other_value!r}, {source}), received {value!r}"
     )
