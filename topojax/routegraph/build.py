@@ -51,7 +51,13 @@ from ._cover import (
     wall_distance,
 )
 from ._spanner import open_short_loops, simplify_paths
-from .feasible import FeasibleSpace, clearance_map_m, feasible_space, route_graph_note
+from .feasible import (
+    FeasibleSpace,
+    clearance_map_m,
+    feasible_space,
+    feasible_space_of_free,
+    route_graph_note,
+)
 
 __all__ = ["RouteGraphConfig", "route_graph"]
 
@@ -531,21 +537,31 @@ def _windowed_space(occupancy, cfg: RouteGraphConfig):
     of 2 pixels that are not feasible, :class:`_Window`), and the known-free pixels (bool
     (h, w)) and :attr:`FeasibleSpace.clearance_m` (float32 (h, w), 0 past the map) of
     that window: the graph is built in the window's pixels, the same graph wherever the
-    regions lie in the map.  The map-sized arrays of the feasible space are not kept."""
-    space = feasible_space(occupancy, cfg.robot_radius_m)
+    regions lie in the map.  The map-sized arrays of the feasible space are not made: it
+    is found in the bounding box of the known-free pixels (the nearest pixel that is not
+    free lies in that box or on its frame, which stands for the map's outside)."""
+    free = np.asarray(occupancy.free, bool)
+    (b0, b1), (bh, bw) = _window(free, margin=0)  # the whole map when none is free
+    space = feasible_space_of_free(
+        free[b0 : b0 + bh, b1 : b1 + bw], float(occupancy.resolution_m), cfg.robot_radius_m
+    )
     kept = _kept_regions(space, cfg.min_region_m2)
-    origin, size = _window(kept, margin=2)
-    feasible = _crop(kept, origin, size)
+    if not kept.any():  # the window of no region is the whole map
+        space = feasible_space(occupancy, cfg.robot_radius_m)
+        kept, (b0, b1) = _kept_regions(space, cfg.min_region_m2), (0, 0)
+    (r0, c0), size = _window(kept, margin=2)
+    feasible = _crop(kept, (r0, c0), size)
     every_region = kept is space.feasible
     del kept
     win = _Window(
-        origin=origin,
-        map_shape=tuple(int(s) for s in space.free.shape),
+        origin=(r0 + b0, c0 + b1),
+        map_shape=tuple(int(s) for s in free.shape),
         resolution_m=space.resolution_m,
         feasible=feasible,
-        any_feasible=feasible if every_region else _crop(space.feasible, origin, size),
+        any_feasible=feasible if every_region else _crop(space.feasible, (r0, c0), size),
     )
-    return win, _crop(space.free, origin, size), _crop(space.clearance_m, origin, size)
+    free_win = _crop(space.free, (r0, c0), size)
+    return win, free_win, _crop(space.clearance_m, (r0, c0), size)
 
 
 def _kept_regions(space: FeasibleSpace, min_region_m2: float) -> np.ndarray:

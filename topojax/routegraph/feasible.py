@@ -87,8 +87,15 @@ def feasible_space(occupancy, robot_radius_m: float) -> FeasibleSpace:
     """
     occupancy = map_argument("occupancy", occupancy, files=True)
     radius = robot_radius("robot_radius_m", robot_radius_m)
-    free = np.asarray(occupancy.free, bool)
-    res = float(occupancy.resolution_m)
+    return feasible_space_of_free(
+        np.asarray(occupancy.free, bool), float(occupancy.resolution_m), radius
+    )
+
+
+def feasible_space_of_free(free: np.ndarray, res: float, radius: float) -> FeasibleSpace:
+    """:func:`feasible_space` of the known-free pixels ``free`` (bool (H, W), a map's or a
+    window's whose outside is not free) at ``res`` metres per pixel, for a checked robot
+    radius ``radius`` (metres)."""
     clearance = clearance_map_m(free, res)
     feasible = free & clearance_at_least(clearance, radius)  # radius <= MAX_ROBOT_RADIUS_M
     n, labels, stats, _ = cv2.connectedComponentsWithStats(

@@ -1,0 +1,69 @@
+"""The faster forms of route-graph passes give exactly what the plain forms give."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from topojax.maps.occupancy import OccupancyMap
+from topojax.routegraph.build import RouteGraphConfig
+from topojax.routegraph.feasible import feasible_space
+
+RES = 0.05
+
+
+def _map(free: np.ndarray) -> OccupancyMap:
+    free = np.asarray(free, bool)
+    return OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=RES)
+
+
+def _plain_window(occ: OccupancyMap, cfg: RouteGraphConfig):
+    """The window of the kept regions cut from the whole map's feasible space."""
+    import topojax.routegraph.build as build
+
+    space = feasible_space(occ, cfg.robot_radius_m)
+    kept = build._kept_regions(space, cfg.min_region_m2)
+    origin, size = build._window(kept, margin=2)
+    crop = build._crop
+    return origin, [
+        crop(kept, origin, size),
+        crop(space.feasible, origin, size),
+        crop(space.free, origin, size),
+        crop(space.clearance_m, origin, size),
+    ]
+
+
+def _plans() -> dict[str, np.ndarray]:
+    plans = {}
+    free = np.zeros((300, 260), bool)
+    free[60:200, 90:230] = True  # a room off the map's corner
+    free[100:150, 150:160] = False  # a pillar
+    free[230:250, 20:40] = True  # a region too small to keep
+    plans["inner"] = free
+    edge = np.zeros((200, 180), bool)
+    edge[0:120, 40:180] = True  # free to the map's border: the border is a wall
+    edge[150:199, 0:30] = True
+    plans["border"] = edge
+    tiny = np.zeros((120, 100), bool)
+    tiny[50:60, 40:52] = True  # no region the robot fits: the window is the whole map
+    plans["none kept"] = tiny
+    plans["no free pixel"] = np.zeros((40, 30), bool)
+    return plans
+
+
+@pytest.mark.parametrize("name", list(_plans()))
+@pytest.mark.parametrize("radius", [0.2, 0.3])
+def test_window_from_the_free_pixels_box_is_the_whole_map_s(name, radius):
+    """The feasible space found in the bounding box of the known-free pixels gives the
+    window, its feasible pixels, free pixels and clearance that the whole map's gives."""
+    import topojax.routegraph.build as build
+
+    occ = _map(_plans()[name])
+    cfg = RouteGraphConfig(robot_radius_m=radius)
+    origin, expected = _plain_window(occ, cfg)
+    win, free, clearance = build._windowed_space(occ, cfg)
+    assert win.origin == origin
+    assert win.map_shape == occ.free.shape
+    for got, want in zip([win.feasible, win.any_feasible, free, clearance], expected, strict=True):
+        assert got.dtype == want.dtype
+        assert np.array_equal(got, want)
