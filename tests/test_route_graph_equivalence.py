@@ -67,3 +67,32 @@ def test_window_from_the_free_pixels_box_is_the_whole_map_s(name, radius):
     for got, want in zip([win.feasible, win.any_feasible, free, clearance], expected, strict=True):
         assert got.dtype == want.dtype
         assert np.array_equal(got, want)
+
+
+def test_raster_grown_by_what_was_made_since_is_the_graph_s_raster():
+    """The coverage rounds add to the previous raster the pixels of the vertices and
+    edges made since (an edge split into pieces keeps its pixels; a vertex made and left
+    without edges is dead): the sum is the raster drawn from the whole graph."""
+    from topojax.graph.work import WorkGraph, line_pixels
+    from topojax.routegraph._cover import _grown_raster, graph_raster
+    from topojax.routegraph._joins import attach_points
+
+    shape = (40, 40)
+    work = WorkGraph()
+    for p in [(2, 2), (2, 30), (30, 30)]:
+        work.add_vertex(p)
+    work.add_edge(0, 1, line_pixels((2, 2), (2, 30)))
+    work.add_edge(1, 2, line_pixels((2, 30), (30, 30)))
+    raster, seen = _grown_raster(work, shape, (0, 0))
+    assert np.array_equal(raster, graph_raster(work, shape))
+    # a round: an edge split, a new vertex joined to the split, one left dead
+    (mid,) = attach_points(work, [(2, 16)], shape)
+    far = work.add_vertex((20, 10))
+    work.add_edge(mid, far, line_pixels((2, 16), (20, 10)))
+    work.dead.add(work.add_vertex((35, 5)))
+    added, seen = _grown_raster(work, shape, seen)
+    assert np.array_equal(raster | added, graph_raster(work, shape))
+    assert not added[35, 5] and added[20, 10]
+    # nothing made since: nothing added
+    added, _ = _grown_raster(work, shape, seen)
+    assert not added.any()

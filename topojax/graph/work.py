@@ -177,6 +177,12 @@ class WorkGraph:
         self.adj[v].add(e)
         return e
 
+    @property
+    def next_edge_id(self) -> int:
+        """The id the next edge will get: edges made earlier have smaller ones, and
+        :attr:`edges` holds them in the order they were made."""
+        return self._next_edge
+
     def remove_edge(self, e: int) -> None:
         u, v, _ = self.edges.pop(e)
         del self.length[e]

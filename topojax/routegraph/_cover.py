@@ -56,6 +56,27 @@ def graph_raster(work: WorkGraph, shape: tuple[int, int]) -> np.ndarray:
     return mask
 
 
+def _grown_raster(work: WorkGraph, shape: tuple[int, int], seen: tuple[int, int]):
+    """``(pixels, seen)``: the pixels (bool (H, W)) of the live vertices and edges of
+    ``work`` made since it had ``seen`` = ``(vertices, next edge id)``, and that pair now.
+    Where the graph only grows (edges split into pieces over the same pixels, vertices
+    and edges removed only when made since), the graph's raster is the previous one with
+    these pixels."""
+    n_vertices, first_edge = seen
+    mask = np.zeros(shape, bool)
+    parts = []
+    for e in reversed(work.edges):  # edge ids grow in the order the edges were made
+        if e < first_edge:
+            break
+        parts.append(work.edges[e][2])
+    dead = work.dead
+    parts += [work.members[v] for v in range(n_vertices, len(work.members)) if v not in dead]
+    if parts:
+        every = np.concatenate(parts)
+        mask[every[:, 0], every[:, 1]] = True
+    return mask, (len(work.members), work.next_edge_id)
+
+
 def covered(
     raster: np.ndarray,
     feasible: np.ndarray,
@@ -157,13 +178,16 @@ def add_coverage(
     if wall is None:
         wall = wall_distance(feasible)
     uncovered = feasible if among is None else feasible & among
-    before = np.zeros(shape, bool)
+    raster, seen = None, (0, 0)
     while True:
         # the graph only grows: what was covered stays covered, and a pixel still
         # uncovered can only see a graph pixel added since the last test
-        raster = graph_raster(work, shape)
-        added = raster & ~before
-        before = raster  # the previous raster is not needed (image-sized)
+        added, seen = _grown_raster(work, shape, seen)
+        if raster is not None:
+            added &= ~raster
+            raster = raster | added  # a new array: the rounds' joins hold the old one
+        else:
+            raster = added.copy()
         uncovered = uncovered & ~covered(added, feasible, snap_px, wall, among=uncovered)
         if grid_round == rounds or not uncovered.any():
             break
