@@ -13,7 +13,9 @@ from topojax.graph.work import (
     line_in_mask,
     line_into,
     line_pixels,
+    lines_pixels,
     merge_close_vertices,
+    path_length_px,
 )
 
 FEASIBLE = np.ones((30, 30), bool)
@@ -287,3 +289,28 @@ def test_collapsing_a_row_of_loops_looks_at_each_edge_a_few_times():
     rungs = {int(c) for _, _, path in work.edges.values() for r, c in path if 2 <= r <= 9}
     assert rungs == {2}  # the widest rung, at the left end, stays
     assert _CountedEdges.lookups <= 4 * n
+
+
+def test_lines_drawn_at_once_are_those_drawn_one_by_one():
+    """lines_pixels gives each line and length that line_pixels and path_length_px give,
+    a line of one pixel (length 0) and lines in every octant among them."""
+    rng = np.random.default_rng(7)
+    ends = rng.integers(0, 40, size=(300, 4)).astype(np.int64)
+    ends[:5, 2:] = ends[:5, :2]  # single pixels
+    pixels, starts, lengths = lines_pixels(ends)
+    assert pixels.dtype == np.int32
+    for k, (r0, c0, r1, c1) in enumerate(ends.tolist()):
+        line = line_pixels((r0, c0), (r1, c1))
+        assert np.array_equal(pixels[starts[k] : starts[k + 1]], line)
+        assert lengths[k] == path_length_px(line)
+    empty = lines_pixels(np.zeros((0, 4), np.int64))
+    assert empty[0].shape == (0, 2) and empty[1].tolist() == [0] and empty[2].size == 0
+
+
+def test_an_edge_given_its_length_keeps_it():
+    """add_edge takes a length given with the path instead of measuring the path."""
+    work = _graph([(1, 1), (1, 5)], [])
+    path = line_pixels((1, 1), (1, 5))
+    assert work.length[work.add_edge(0, 1, path)] == 4.0
+    assert work.length[work.add_edge(0, 1, path, 4.0)] == 4.0
+    assert work.next_edge_id == 2

@@ -24,6 +24,7 @@ __all__ = [
     "line_step",
     "line_into",
     "line_pixels",
+    "lines_pixels",
     "merge_close_vertices",
 ]
 
@@ -84,6 +85,26 @@ def line_pixels(a, b) -> np.ndarray:
     out = np.empty((max(abs(r1 - r0), abs(c1 - c0)) + 1, 2), np.int32)
     line_into(r0, c0, r1, c1, out)
     return out
+
+
+@cached_njit(nogil=True)
+def lines_pixels(ends):
+    """The digital lines of :func:`line_pixels` between the pixels ``ends[k, 0:2]`` and
+    ``ends[k, 2:4]`` (int64 (K, 4)), all at once: ``(pixels int32 (N, 2), starts int64
+    (K + 1,), lengths float64 (K,))``, line ``k`` being ``pixels[starts[k]:starts[k +
+    1]]`` and ``lengths[k]`` its :func:`path_length_px`."""
+    k_lines = ends.shape[0]
+    starts = np.zeros(k_lines + 1, np.int64)
+    for k in range(k_lines):
+        n = max(abs(ends[k, 2] - ends[k, 0]), abs(ends[k, 3] - ends[k, 1]))
+        starts[k + 1] = starts[k] + n + 1
+    pixels = np.empty((starts[k_lines], 2), np.int32)
+    lengths = np.empty(k_lines, np.float64)
+    for k in range(k_lines):
+        out = pixels[starts[k] : starts[k + 1]]
+        line_into(ends[k, 0], ends[k, 1], ends[k, 2], ends[k, 3], out)
+        lengths[k] = _path_length(out) if out.shape[0] >= 2 else 0.0
+    return pixels, starts, lengths
 
 
 @cached_njit(nogil=True)
@@ -167,12 +188,13 @@ class WorkGraph:
         self.adj.append(set())
         return len(self.pixel) - 1
 
-    def add_edge(self, u: int, v: int, path: np.ndarray) -> int:
-        """A new edge ``u``-``v`` along ``path``; returns its id."""
+    def add_edge(self, u: int, v: int, path: np.ndarray, length: float | None = None) -> int:
+        """A new edge ``u``-``v`` along ``path`` (of :func:`path_length_px` ``length``,
+        found when not given); returns its id."""
         e = self._next_edge
         self._next_edge += 1
         self.edges[e] = [u, v, path]
-        self.length[e] = path_length_px(path)
+        self.length[e] = path_length_px(path) if length is None else length
         self.adj[u].add(e)
         self.adj[v].add(e)
         return e

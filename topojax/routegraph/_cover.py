@@ -12,7 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..fields.clearance import distance_transform_px
-from ..graph.work import WorkGraph, line_pixels
+from ..graph.work import WorkGraph, line_pixels, lines_pixels
 from ._corners import bent_candidates, reflex_corners
 from ._joins import (
     GraphPixels,
@@ -642,15 +642,23 @@ def _add_chosen(work: WorkGraph, chosen, nodes, alive, m, shape) -> None:
     for c in np.unique(chosen[chosen[:, 2] >= m, 2]).tolist():
         node[c] = work.add_vertex(nodes[c])
     legs: set[tuple[int, int]] = set()  # shortcuts bent at one corner share their legs
+    made = []  # the edges, in order: their lines are drawn all at once
     for a, b, c in chosen.tolist():
         u, v = int(node[a]), int(node[b])
         if u < 0 or v < 0:
             continue
         if c < 0:
-            work.add_edge(u, v, line_pixels(work.pixel[u], work.pixel[v]))
+            made.append((u, v))
             continue
         w = int(node[c])
         for x, y in ((u, w), (w, v)):
             if (min(x, y), max(x, y)) not in legs:
                 legs.add((min(x, y), max(x, y)))
-                work.add_edge(x, y, line_pixels(work.pixel[x], work.pixel[y]))
+                made.append((x, y))
+    if not made:
+        return
+    ends = np.array([(*work.pixel[x], *work.pixel[y]) for x, y in made], np.int64)
+    pixels, starts, lengths = lines_pixels(ends)
+    lo, hi = starts[:-1].tolist(), starts[1:].tolist()
+    for (x, y), i, j, length in zip(made, lo, hi, lengths.tolist(), strict=True):
+        work.add_edge(x, y, pixels[i:j], length)
