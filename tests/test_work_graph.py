@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from topojax.graph.build import skeleton_to_graph
+from topojax.graph.build import skeleton_graph_store, skeleton_to_graph
 from topojax.graph.work import (
     WorkGraph,
     collapse_loops,
@@ -314,3 +314,35 @@ def test_an_edge_given_its_length_keeps_it():
     assert work.length[work.add_edge(0, 1, path)] == 4.0
     assert work.length[work.add_edge(0, 1, path, 4.0)] == 4.0
     assert work.next_edge_id == 2
+
+
+def _same_work(a: WorkGraph, b: WorkGraph) -> bool:
+    if a.pixel != b.pixel or a.dead != b.dead or a.adj != b.adj or a.length != b.length:
+        return False
+    if any(not np.array_equal(x, y) for x, y in zip(a.members, b.members, strict=True)):
+        return False
+    return list(a.edges) == list(b.edges) and all(
+        a.edges[e][:2] == b.edges[e][:2] and np.array_equal(a.edges[e][2], b.edges[e][2])
+        for e in a.edges
+    )
+
+
+def test_work_graph_of_a_store_is_that_of_its_networkx_graph():
+    """from_store gives the vertices, edges and ids that from_networkx gives for the
+    store's networkx graph: parallel edges, self-loops (rings, a cluster's loop) and
+    merged junction clusters included."""
+    from topojax.skeleton import thin
+
+    rng = np.random.default_rng(3)
+    masks = []
+    for _ in range(6):
+        blob = rng.random((60, 70)) < 0.55
+        masks.append(thin(blob))
+    ring = np.zeros((20, 20), bool)
+    ring[5, 5:15] = ring[14, 5:15] = ring[5:15, 5] = ring[5:15, 14] = True
+    masks += [ring, np.zeros((5, 5), bool)]
+    for mask in masks:
+        for merge in (False, True):
+            store = skeleton_graph_store(mask, merge_junction_clusters=merge)
+            nx_work = WorkGraph.from_networkx(store.to_networkx())
+            assert _same_work(WorkGraph.from_store(store), nx_work)

@@ -179,6 +179,34 @@ class WorkGraph:
             work.add_edge(u, v, np.asarray(data["path"], np.int32))
         return work
 
+    @classmethod
+    def from_store(cls, store) -> WorkGraph:
+        """:meth:`from_networkx` of ``store.to_networkx()`` (a
+        :func:`topojax.graph.skeleton_graph_store` store), without the networkx graph:
+        the same vertices and edges, with the same ids."""
+        n = store.n_nodes
+        if not np.array_equal(store.node_ids, np.arange(n)) or not store.has_metrics:
+            return cls.from_networkx(store.to_networkx())
+        work = cls()
+        if store.member_pixels is None:
+            members, bounds = store.node_pixel.astype(np.int32), list(range(n + 1))
+        else:
+            members = store.member_pixels.astype(np.int32)
+            bounds = store.member_offsets.tolist()
+        for p, i, j in zip(store.node_pixel.tolist(), bounds[:-1], bounds[1:], strict=True):
+            work.add_vertex(p, members[i:j])
+        # networkx lists a multigraph's edges under their smaller node, by the order that
+        # node met each neighbour (the first edge of the pair), then in the order added
+        a, b = store.edge_u.astype(np.int64), store.edge_v.astype(np.int64)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        _, first, pair = np.unique(lo * max(n, 1) + hi, return_index=True, return_inverse=True)
+        order = np.lexsort((np.arange(a.size), first[pair.reshape(-1)], lo))
+        paths = store.path_pixels.astype(np.int32)
+        offsets = store.path_offsets.tolist()
+        for k, u, v in zip(order.tolist(), lo[order].tolist(), hi[order].tolist(), strict=True):
+            work.add_edge(u, v, paths[offsets[k] : offsets[k + 1]])
+        return work
+
     def add_vertex(self, pixel, members=None) -> int:
         """A new vertex at ``pixel``; returns its id."""
         self.pixel.append((int(pixel[0]), int(pixel[1])))

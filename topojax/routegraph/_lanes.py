@@ -13,7 +13,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..graph import skeleton_to_graph
+from ..graph import skeleton_graph_store
 from ..graph.work import WorkGraph, drop_spurs
 from ..skeleton import thin
 from ._joins import GraphPixels, join_groups, large_pieces
@@ -48,7 +48,7 @@ def _merged(
     """Add the graph of ``lanes`` (spurs shorter than ``snap_px`` and loops shorter than
     ``min_loop_px`` dropped) to ``work``; returns the new vertices grouped by connected
     piece."""
-    piece = WorkGraph.from_networkx(skeleton_to_graph(lanes, merge_junction_clusters=True))
+    piece = WorkGraph.from_store(skeleton_graph_store(lanes, merge_junction_clusters=True))
     drop_spurs(piece, np.zeros(lanes.shape, np.float32), snap_px, 0.0)
     piece.contract_all()
     open_short_loops(piece, min_loop_px)

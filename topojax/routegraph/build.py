@@ -25,7 +25,7 @@ from .._validate import (
     robot_radius,
 )
 from ..fields.clearance import clearance_at_least
-from ..graph import skeleton_to_graph
+from ..graph import skeleton_graph_store
 from ..graph.store import fill_multigraph, paused_gc
 from ..graph.work import (
     WorkGraph,
@@ -609,9 +609,9 @@ def _sparse_skeleton_graph(
     overwritten, the work space of the clearances in pixels) of the same pixels, ``res``
     metres per pixel."""
     clearance_px = np.divide(clearance_m, np.float32(res), out=clearance_m)
-    graph = skeleton_to_graph(skeleton, resolution_m=res, merge_junction_clusters=True)
-    work = WorkGraph.from_networkx(graph)
-    del graph
+    work = WorkGraph.from_store(
+        skeleton_graph_store(skeleton, resolution_m=res, merge_junction_clusters=True)
+    )
     collapse_loops(
         work,
         face_labels(skeleton),
