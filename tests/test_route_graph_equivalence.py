@@ -96,3 +96,22 @@ def test_raster_grown_by_what_was_made_since_is_the_graph_s_raster():
     # nothing made since: nothing added
     added, _ = _grown_raster(work, shape, seen)
     assert not added.any()
+
+
+def test_feasible_pixels_round_corners_are_counted_as_by_the_box():
+    """The corner test's count of feasible pixels in the box round each point is the
+    box's sum, the part past the image's edge counting none (points on and past the edge
+    among them)."""
+    from topojax.routegraph._corners import _WINDOW, _feasible_around
+
+    rng = np.random.default_rng(5)
+    feasible = rng.random((30, 40)) < 0.6
+    rows = rng.integers(-5, 35, 200)
+    cols = rng.integers(-5, 45, 200)
+    padded = np.zeros((30 + 2 * 50, 40 + 2 * 50), np.int64)
+    padded[50:80, 50:90] = feasible
+    want = [
+        padded[r + 50 - _WINDOW : r + 51 + _WINDOW, c + 50 - _WINDOW : c + 51 + _WINDOW].sum()
+        for r, c in zip(rows.tolist(), cols.tolist(), strict=True)
+    ]
+    assert _feasible_around(feasible, rows, cols).tolist() == want

@@ -34,50 +34,53 @@ def reflex_corners(feasible: np.ndarray, tolerance_px: float) -> np.ndarray:
     where the feasible space turns round an obstacle."""
     contours, _ = cv2.findContours(feasible.view(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
     h, w = feasible.shape
-    out = []
-    for contour in contours:
-        if len(contour) < 8:
-            continue
-        poly = cv2.approxPolyDP(contour, float(tolerance_px), True).reshape(-1, 2)
-        if len(poly) < 3:
-            continue
-        xy = poly.astype(np.float64)
-        prev, nxt = np.roll(xy, 1, axis=0), np.roll(xy, -1, axis=0)
-        u = prev - xy
-        v = nxt - xy
-        u /= np.maximum(np.hypot(u[:, 0], u[:, 1]), 1e-9)[:, None]
-        v /= np.maximum(np.hypot(v[:, 0], v[:, 1]), 1e-9)[:, None]
-        bis = u + v
-        norm = np.hypot(bis[:, 0], bis[:, 1])
-        ok = norm > 1e-6
-        # the bisector of the two sides points into the obstacle at a reflex corner
-        q = xy[ok] - _INSET_PX * bis[ok] / norm[ok][:, None]
-        cols, rows = np.rint(q[:, 0]).astype(np.int64), np.rint(q[:, 1]).astype(np.int64)
-        corner = xy[ok].astype(np.int64)
-        inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
-        out.append(np.stack([rows[inside], cols[inside], *corner[inside].T[::-1]], axis=1))
-    if not out:
+    polys = [
+        cv2.approxPolyDP(contour, float(tolerance_px), True).reshape(-1, 2)
+        for contour in contours
+        if len(contour) >= 8
+    ]
+    polys = [poly for poly in polys if len(poly) >= 3]
+    if not polys:
         return np.zeros((0, 2), np.int64)
+    # every polygon's corners at once, each with its neighbours along its own polygon
+    xy = np.concatenate(polys).astype(np.float64)
+    sizes = np.array([len(poly) for poly in polys], np.int64)
+    first = np.repeat(np.cumsum(sizes) - sizes, sizes)
+    at = np.arange(len(xy)) - first
+    prev = xy[first + (at - 1) % np.repeat(sizes, sizes)]
+    nxt = xy[first + (at + 1) % np.repeat(sizes, sizes)]
+    u = prev - xy
+    v = nxt - xy
+    u /= np.maximum(np.hypot(u[:, 0], u[:, 1]), 1e-9)[:, None]
+    v /= np.maximum(np.hypot(v[:, 0], v[:, 1]), 1e-9)[:, None]
+    bis = u + v
+    norm = np.hypot(bis[:, 0], bis[:, 1])
+    ok = norm > 1e-6
+    # the bisector of the two sides points into the obstacle at a reflex corner
+    q = xy[ok] - _INSET_PX * bis[ok] / norm[ok][:, None]
+    cols, rows = np.rint(q[:, 0]).astype(np.int64), np.rint(q[:, 1]).astype(np.int64)
+    corner = xy[ok].astype(np.int64)
+    inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
+    at = np.stack([rows[inside], cols[inside], *corner[inside].T[::-1]], axis=1)
     # (point row, point col, corner row, corner col)
-    at = np.concatenate(out)
     share = _feasible_around(feasible, at[:, 2], at[:, 3]) / (2 * _WINDOW + 1) ** 2
     keep = feasible[at[:, 0], at[:, 1]] & (share > _REFLEX_SHARE)
     return np.unique(at[keep, :2], axis=0).astype(np.int64)
 
 
+@cached_njit(nogil=True)
 def _feasible_around(feasible: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """The number of feasible pixels (int64 (K,)) at most ``_WINDOW`` rows and columns
     from each pixel ``(rows[k], cols[k])`` (none past the image's edge): the box filter
     of the corner test, read at those pixels only."""
     h, w = feasible.shape
-    count = np.zeros(rows.shape, np.int64)
-    for dr in range(-_WINDOW, _WINDOW + 1):
-        r = rows + dr
-        r_in = (r >= 0) & (r < h)
-        for dc in range(-_WINDOW, _WINDOW + 1):
-            c = cols + dc
-            inside = r_in & (c >= 0) & (c < w)
-            count += feasible[np.where(inside, r, 0), np.where(inside, c, 0)] & inside
+    count = np.zeros(rows.shape[0], np.int64)
+    for k in range(rows.shape[0]):
+        n = 0
+        for r in range(max(0, rows[k] - _WINDOW), min(h, rows[k] + _WINDOW + 1)):
+            for c in range(max(0, cols[k] - _WINDOW), min(w, cols[k] + _WINDOW + 1)):
+                n += int(feasible[r, c])
+        count[k] = n
     return count
 
 
