@@ -3,6 +3,8 @@ after the whole replay)."""
 
 from __future__ import annotations
 
+import contextlib
+import json
 from pathlib import Path
 
 from ._fs import output_file
@@ -18,8 +20,9 @@ from ._validate import (
 from .config import GraphConfig
 
 
-def check_flags_and_reader(flags: dict, reader_kwargs) -> None:
-    """Check :func:`replay`'s bool options and ``reader_kwargs`` (a dict or None)."""
+def check_flags_and_reader(reader_kwargs, **flags) -> None:
+    """Check :func:`replay`'s bool options ``flags`` and ``reader_kwargs`` (a dict or
+    None)."""
     for name, value in flags.items():
         flag(name, value)
     if reader_kwargs is not None and not isinstance(reader_kwargs, dict):
@@ -119,3 +122,43 @@ def refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
         refuse_overwriting_inputs(
             inputs, targets, option=option, what="the replayed log", instead="path"
         )
+
+
+def optional_outputs() -> list[str]:
+    """The names of the files a replay writes only with some option."""
+    always = set(output_names())
+    every = output_names(nav2=True, plot=True, route_graph=True, rooms=True, view=True)
+    return [n for n in every if n not in always]
+
+
+def remove_stale(out: Path, written: list[Path]) -> list[str]:
+    """Remove the optional outputs that the last replay into ``out`` wrote (as its
+    ``timings.json`` lists them) and this one did not: they belong to another map, and
+    ``topojax view`` would show them with this one.  Returns a message per file removed."""
+    try:
+        before = json.loads((out / "timings.json").read_text(encoding="utf-8"))["written"]
+        before = {Path(p).name for p in before if isinstance(p, str)}
+    except (OSError, ValueError, KeyError, TypeError):  # none, or not a replay's
+        return []
+    now = {Path(p).resolve() for p in written}
+    messages = []
+    for name in optional_outputs():
+        path = out / name
+        if name in before and path.is_file() and path.resolve() not in now:
+            path.unlink()
+            messages.append(f"removed {path}, written by an earlier replay")
+    return messages
+
+
+@contextlib.contextmanager
+def no_empty_folder_left(out: Path):
+    """Within ``with``, a failure (an empty log, a bad line, Ctrl-C) removes ``out`` if it
+    was made within and is still empty; one that holds what was kept stays."""
+    made = not out.exists()
+    try:
+        yield
+    except BaseException:
+        if made:
+            with contextlib.suppress(OSError):  # not empty
+                out.rmdir()
+        raise

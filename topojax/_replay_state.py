@@ -7,7 +7,9 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import shutil
+import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,9 +28,17 @@ class ReplayProgress:
     the refusals of the ``skipped`` ones and the bound each met (``skipped_bounds``,
     :attr:`ExtentError.bound`; None where not known: a state saved by an older topojax),
     and ``recorded``: the scans whose updates the replay's recordings (animation, view
-    timeline, MCAP) hold; updated after every scan."""
+    timeline, MCAP) hold; updated after every scan; ``checkpoints``: the states this
+    replay saved as it went (:class:`Checkpoints`)."""
 
-    __slots__ = ("consumed", "recorded", "resumed_after", "skipped", "skipped_bounds")
+    __slots__ = (
+        "checkpoints",
+        "consumed",
+        "recorded",
+        "resumed_after",
+        "skipped",
+        "skipped_bounds",
+    )
 
     def __init__(
         self,
@@ -44,6 +54,7 @@ class ReplayProgress:
         if len(bounds) != len(self.skipped):  # not recorded: not known
             bounds = [None] * len(self.skipped)
         self.skipped_bounds = bounds
+        self.checkpoints = 0  # saved by this replay (:class:`Checkpoints`)
 
     def skip(self, refusal: str, bound: str) -> None:
         """Count a skipped scan: its ``refusal`` and the ``bound`` it met."""
@@ -312,6 +323,55 @@ def keep_state(mapper, out: Path, record) -> bool:
     return True
 
 
+class Checkpoints:
+    """Saves a replay's state into its output folder ``out`` as it goes, for a resume
+    after a replay killed outright (``kill -9``, out of memory, a power cut), which
+    saves nothing when it stops: after a scan, once ``every_s`` seconds of wall time
+    have passed since the replay started or the last checkpoint was saved (0: never).
+    The state is the one a stopped replay saves (:data:`STATE_FILE`, with ``record()``,
+    marked ``checkpoint``), written atomically: a kill while it is written leaves the
+    last one.  Recordings a stopped replay kept in ``out`` are removed first: they hold
+    fewer scans than the checkpoint.  ``progress.checkpoints`` counts the states saved;
+    a failing save is said in a RuntimeWarning (once) and the replay goes on."""
+
+    def __init__(self, every_s: float, out: Path, record, progress: ReplayProgress) -> None:
+        self._every_s = every_s
+        self._out = out
+        self._record = record
+        self._progress = progress
+        self._due = time.monotonic() + every_s if every_s else math.inf
+        self._failed = False
+
+    def after_scan(self, mapper) -> None:
+        """Save the state if a checkpoint is due and the mapper has mapped something."""
+        if time.monotonic() < self._due or mapper.pixel_bbox is None:
+            return
+        try:
+            drop_recordings(self._out)
+            record = {**self._record(), "checkpoint": True}
+            save_replay_state(mapper, self._out / STATE_FILE, record)
+            self._progress.checkpoints += 1
+        except Exception as exc:  # noqa: BLE001 - the mapping goes on; the next one may work
+            if not self._failed:
+                warnings.warn(
+                    f"replay: saving a checkpoint of the mapper's state after "
+                    f"{counted(mapper.n_scans, 'scan')} failed ({exc}); the replay goes on "
+                    f"and tries again every {self._every_s:g} s",
+                    RuntimeWarning,
+                    stacklevel=_CALLER + 1,
+                )
+            self._failed = True
+        self._due = time.monotonic() + self._every_s
+
+
+def remove_torn_states(out: Path) -> None:
+    """Remove the temporary files of states (checkpoints) that a replay killed while it
+    wrote one left in ``out`` (the state itself is the one before, whole).  For a replay
+    that holds ``out``'s lock: no other replay is writing one."""
+    for tmp in out.glob(f".{STATE_FILE}.*.tmp"):
+        tmp.unlink(missing_ok=True)
+
+
 #: Reader options a replay may resume with changed: skipping malformed lines leaves the
 #: scans before the line a replay stopped at as they were (and a state saved skipping
 #: lines, resumed without, stops at the first such line again).
@@ -343,8 +403,9 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
     if not path.is_file():
         raise FileNotFoundError(
             f"resume: no saved state {path} to continue from: a replay that stops part way "
-            "(an error or an interrupt) saves one there; replay without resume to start "
-            "from the first scan"
+            "(an error or an interrupt) saves one there, and one killed outright leaves its "
+            "last checkpoint (every checkpoint_every_s) there; replay without resume to "
+            "start from the first scan"
         )
     path, data = read_state(path)
     if "replay" not in data:
@@ -535,10 +596,13 @@ def same_recorded_radius(out: Path, record: dict, kept, route_graph_radius_m) ->
         )
 
 
-def kept_recordings(out: Path, consumed: int, *, mcap: bool, view: bool, animate: bool):
+def kept_recordings(
+    out: Path, consumed: int, *, mcap: bool, view: bool, animate: bool, checkpoint: bool = False
+):
     """The recordings kept in ``out`` by the replay that stopped after taking
     ``consumed`` scans, those wanted now (:class:`KeptRecordings`); recordings of
-    another number of scans are not used."""
+    another number of scans are not used.  ``checkpoint``: the state is a checkpoint
+    (:class:`Checkpoints`) of a replay killed outright, which keeps no recordings."""
     from .view import Timeline
 
     folder = out / PARTIAL_DIR
@@ -558,6 +622,11 @@ def kept_recordings(out: Path, consumed: int, *, mcap: bool, view: bool, animate
         if not wanted:
             continue
         why = "the stopped replay kept none of its own"
+        if checkpoint:
+            why = (
+                "the replay was killed (kill -9, out of memory, a power cut) after saving "
+                "this checkpoint of its state, which keeps no recordings"
+            )
         if usable and path.is_file():
             try:
                 found[file] = load(path)
@@ -589,7 +658,8 @@ def drop_recordings(out: Path) -> list[str]:
     folder = out / PARTIAL_DIR
     if not folder.exists():
         return []
-    shutil.rmtree(folder, ignore_errors=True)
+    (folder / "recorded.json").unlink(missing_ok=True)  # first: a kill part way leaves
+    shutil.rmtree(folder, ignore_errors=True)  # no recordings that look usable
     return [f"removed {folder}: the replay has finished"]
 
 

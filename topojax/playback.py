@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import contextvars
 import copy
 import functools
@@ -16,11 +15,15 @@ from ._animation import animation_frame, write_animation
 from ._replay_args import (
     check_flags_and_reader,
     check_replay_args,
-    output_names,
+    no_empty_folder_left,
+    optional_outputs,  # noqa: F401 - for topojax.playback's users
+    output_names,  # noqa: F401
     refuse_overwriting_source,
+    remove_stale,
 )
 from ._replay_state import (
     STATE_FILE,
+    Checkpoints,
     KeptRecordings,
     ReplayProgress,
     ScanRecording,
@@ -31,6 +34,7 @@ from ._replay_state import (
     kept_recordings,
     open_recording,
     quiet_route_graph,
+    remove_torn_states,
     replay_record,
     resumed_mapper,
     same_recorded_radius,
@@ -38,6 +42,7 @@ from ._replay_state import (
     skipped_message,
     skipped_note,
 )
+from ._validate import flag, nonnegative_quantity
 from ._words import counted
 from .config import GraphConfig
 from .incremental import (
@@ -80,6 +85,7 @@ def replay(
     view: bool = False,
     mcap=None,
     resume: bool = False,
+    checkpoint_every_s: float = 60.0,
     **mapper_kw,
 ) -> dict:
     """Replay a scan log through an :class:`IncrementalMapper` and write the results.
@@ -95,8 +101,7 @@ def replay(
         statistics, see :func:`timing_summary`) and, with ``plot``, ``graph.png`` and
         ``stages.png`` (and ``route_graph.png`` with ``route_graph_radius_m``).
     plot : bool
-        Write pictures, at the end; with ``rooms``, ``graph.png`` draws the final rooms
-        under the graph.
+        Write pictures, at the end (with ``rooms``, the final ones under the graph).
     animate : str or Path, optional
         Write an animated GIF with one frame per graph update.
     progress : bool
@@ -111,32 +116,32 @@ def replay(
         and with ``route_graph_radius_m`` the route graph's, ``route_graph_nav2.geojson``.
     graph_config : GraphConfig, optional
         What the written graph (and Nav2 file and pictures) keep of the final graph
-        (``free_space_only``, the ``min_*_m`` pruning): the written graph is then
-        ``build_graph(map, ...)``'s with this ``graph``.  Default: the mapper's whole
-        graph, as the paper keeps it.
+        (``free_space_only``, ``min_*_m``): ``build_graph(map, ...)``'s with this
+        ``graph``.  Default: the mapper's whole graph, as the paper keeps it.
     route_graph_radius_m : float, optional
         Also write ``route_graph.{graphml,json,geojson}``, the final map's route graph for
-        a round robot of this radius (and, with ``mcap``, record it at every update).
+        a round robot of this radius (recorded at every update with ``mcap``).
     rooms : bool
         Keep rooms as the map grows (``room_config`` in ``mapper_kw``), give the written
         graphs their rooms and write ``map_rooms.{geojson,png,graphml,json}``.
     mcap : str or Path, optional
-        Also write a ROS 2 MCAP recording (needs ``rosbags``): scans, map, graph (route
-        graph, rooms) at every update, stamped with the log's timestamps
-        (:mod:`topojax.io.mcap`).
+        Also write a ROS 2 MCAP recording (:mod:`topojax.io.mcap`, needs ``rosbags``):
+        scans, map, graph (route graph, rooms) at every update, at the log's times.
     view : bool
         Also write ``view.html`` (:func:`topojax.write_view`), the final map and graph
         with a timeline of every graph update, and ``timeline.json.gz``.
     resume : bool
-        Continue the replay of ``source`` into ``out_dir`` that stopped part way (an
-        error or an interrupt) from the state it saved, ``out_dir/mapper_state.npz``:
-        the scans it took from the log are skipped, and the map and graph written are
-        those of a replay that did not stop.  Refused (ValueError, FileNotFoundError)
-        without a saved state, or when it was saved replaying another log or with other
-        ``reader_kwargs`` or mapper settings.  The animation, view timeline and MCAP
-        recording go on from those the stopped replay kept (``out_dir/.replay_partial``);
-        one it did not keep holds only the scans replayed now (the summary's
-        ``messages`` say so).
+        Continue the replay of ``source`` into ``out_dir`` that stopped part way from the
+        state it saved there (see Returns) or its last checkpoint: the scans it took are
+        skipped, and the map and graph written are those of a replay that did not stop.
+        Refused (ValueError, FileNotFoundError) without a state, or one saved replaying
+        another log or with other ``reader_kwargs`` or mapper settings.  The recordings
+        go on from those the stopped replay kept (``out_dir/.replay_partial``); one it
+        did not keep holds only the scans replayed now (the ``messages`` say so).
+    checkpoint_every_s : float
+        After the scan that ends each such span of wall time, save that state
+        (atomically), for ``resume`` after a replay killed outright (``kill -9``, out of
+        memory, a power cut), which saves nothing as it dies; 0: never.
     **mapper_kw
         Passed to :class:`IncrementalMapper` (``resolution_m``, ``skeleton_every``,
         ``graph_every``, ``strategy``, ``room_config``, ...).
@@ -146,27 +151,25 @@ def replay(
     dict
         ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals, :class:`ExtentError`,
         of scans that would have grown the map out of the mapper's bounds: skipped, the
-        replay goes on), ``skipped_bounds`` (the bound each met, :attr:`ExtentError.bound`;
-        None where an older topojax's stopped replay recorded it), ``n_tiles``,
-        ``vertices``, ``edges``, ``route_graph`` (its ``vertices``, ``edges``,
+        replay goes on; both from the log's start), ``skipped_bounds`` (the bound each
+        met; None where not known), ``resumed_after`` (scans taken before this call),
+        ``n_tiles``, ``vertices``, ``edges``, ``route_graph`` (its ``vertices``, ``edges``,
         ``components``, ``robot_radius_m``; None without one), ``timings`` (per loop),
-        ``written`` (paths), ``messages``.  A map grown too large to export, an unreadable
-        scan part way, or an interrupt or error (also while the files are written) leaves
-        the mapper's state in ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and
-        raises; ``resume`` continues from it, and a replay that finishes removes it.
-        ``n_scans`` and ``skipped_scans`` count from the log's start, ``resumed_after``
-        the scans taken before this call.  The files the last replay into ``out_dir``
-        wrote and this one does not (:func:`optional_outputs`) are removed.
+        ``checkpoints`` (states saved as it went), ``written`` (paths), ``messages``.  An
+        error or interrupt (a map grown too large to export, an unreadable scan, also
+        while the files are written) leaves the mapper's state in
+        ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and raises; a replay that
+        finishes removes it.  The files the last replay into ``out_dir`` wrote and this
+        one does not (:func:`optional_outputs`) are removed.
     """
     nav2_tolerance_m, route_graph_radius_m = check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
     )
     refuse_overwriting_source(source, Path(out_dir), animate, mcap)
-    check_flags_and_reader(
-        dict(plot=plot, progress=progress, rooms=rooms, view=view, resume=resume),
-        reader_kwargs,
-    )
-    with _no_empty_folder_left(Path(out_dir)):
+    check_flags_and_reader(reader_kwargs, plot=plot, progress=progress, rooms=rooms, view=view)
+    flag("resume", resume)
+    every_s = nonnegative_quantity("checkpoint_every_s", checkpoint_every_s, "seconds")
+    with no_empty_folder_left(Path(out_dir)):
         return _replay_checked(
             source,
             Path(out_dir),
@@ -183,21 +186,8 @@ def replay(
             view=view,
             mcap=mcap,
             resume=resume,
+            checkpoint_every_s=every_s,
         )
-
-
-@contextlib.contextmanager
-def _no_empty_folder_left(out: Path):
-    """Within ``with``, a failure (an empty log, a bad line, Ctrl-C) removes ``out`` if it
-    was made within and is still empty; one that holds what was kept stays."""
-    made = not out.exists()
-    try:
-        yield
-    except BaseException:
-        if made:
-            with contextlib.suppress(OSError):  # not empty
-                out.rmdir()
-        raise
 
 
 def _replay_checked(
@@ -217,6 +207,7 @@ def _replay_checked(
     view,
     mcap,
     resume,
+    checkpoint_every_s,
 ) -> dict:
     """The body of :func:`replay`, its arguments checked: open the log and make the
     mapper, map the scans, write the files and the summary; returns the summary."""
@@ -255,6 +246,7 @@ def _replay_checked(
             out=out,
             progress_at=progress_at,
             reader_kwargs=reader_kwargs,
+            checkpoint_every_s=checkpoint_every_s,
         )
         written, messages = _write_and_close(
             mapper,
@@ -273,7 +265,7 @@ def _replay_checked(
         )
     if recorder is not None:
         written.append(recorder.path)
-    messages += _remove_stale(out, [*written, out / "timings.json"]) + kept.messages
+    messages += remove_stale(out, [*written, out / "timings.json"]) + kept.messages
     return _finish(source, mapper, done, out, progress_at, written, messages, progress)
 
 
@@ -291,9 +283,10 @@ def _finish(source, mapper, done, out: Path, progress_at, written, messages, pro
     # --resume finishes again, never a folder with neither
     atomic_write_bytes(out / "timings.json", json.dumps(summary, indent=2).encode("utf-8"))
     state = out / STATE_FILE
-    if state.is_file():  # a stopped replay's state, superseded by this finished one
+    if state.is_file():  # a stopped replay's state or a checkpoint, superseded now
         state.unlink()
-        messages.append(f"removed {state}: the replay has finished")
+        if not progress_at.checkpoints:  # not this replay's own checkpoint
+            messages.append(f"removed {state}: the replay has finished")
     messages += drop_recordings(out)
     summary["messages"] = messages + skipped_message(progress_at)
     if progress and summary_printed.get():
@@ -362,9 +355,17 @@ def _start(
     if progress_at.consumed:
         scans = itertools.islice(scans, progress_at.consumed, None)
     output_folder(out)
+    remove_torn_states(out)
     kept = KeptRecordings(None, None, None, [])
     if resume:
-        kept = kept_recordings(out, progress_at.consumed, mcap=mcap, view=view, animate=animate)
+        kept = kept_recordings(
+            out,
+            progress_at.consumed,
+            mcap=mcap,
+            view=view,
+            animate=animate,
+            checkpoint=bool(record.get("checkpoint")),
+        )
         same_recorded_radius(out, record, kept, route_graph_radius_m)
     if view and kept.timeline is None:
         from .view import Timeline
@@ -391,21 +392,24 @@ def _map_scans(
     out: Path,
     progress_at: ReplayProgress,
     reader_kwargs,
+    checkpoint_every_s: float,
 ) -> _Replayed:
     """Feed the scans to the mapper (:func:`_run`), check that they mapped something,
     run the final update (:func:`_final`; a map too large to write leaves the mapper's
     state in ``out``) and make the final route graph (with a radius).  ``frames``
     (animation frames so far, or None) grows by a frame at every update.  ``progress_at``
     (where the replay starts in the log) follows the scans taken, for the state (and the
-    recordings) saved on a failure."""
+    recordings) saved on a failure, and for the checkpoints, every
+    ``checkpoint_every_s`` (:class:`~topojax._replay_state.Checkpoints`)."""
     record = None if recorder is None else ScanRecording(recorder, route_graph_radius_m)
 
     def state_record():
         return replay_record(source, reader_kwargs, progress_at, mapper, route_graph_radius_m)
 
+    checkpoints = Checkpoints(checkpoint_every_s, out, state_record, progress_at)
     try:  # a map grown too large to export (the recording's, the final) is kept
         reports, wall = _run(
-            mapper, scans, max_scans, frames, progress, record, timeline, progress_at
+            mapper, scans, max_scans, frames, progress, record, timeline, progress_at, checkpoints
         )
         skipped = progress_at.skipped  # from the log's start
         if not mapper.n_scans and skipped:
@@ -570,6 +574,7 @@ def _summary(source, mapper: IncrementalMapper, done: _Replayed, progress_at) ->
         "timings": timing_summary(done.reports),
         "settings": settings_of(mapper),
         "resumed_after": progress_at.resumed_after,
+        "checkpoints": progress_at.checkpoints,
     }
 
 
@@ -635,13 +640,15 @@ def _run(
     record,
     timeline,
     progress_at: ReplayProgress,
+    checkpoints: Checkpoints,
 ):
     """Feed ``scans`` to ``mapper`` until the log's scan ``max_scans``; returns the
     reports and the wall time (s).  Each scan mapped is recorded: ``record`` (a
     :class:`~topojax._replay_state.ScanRecording`) writes it and what its report updated, ``timeline`` takes its
     update, ``frames`` (a list, or None) gets a frame at each graph or rooms update.
     ``progress_at`` gives where ``scans`` start in the log, and follows each scan taken
-    (mapped, or skipped with its refusal) and recorded."""
+    (mapped, or skipped with its refusal) and recorded; ``checkpoints`` saves the state
+    after a scan when one is due (a Ctrl-C waits for it)."""
     from tqdm import tqdm
 
     reports: list[ScanReport] = []
@@ -667,6 +674,8 @@ def _run(
             if max_scans is not None and i >= max_scans:
                 break
             rep = whole.add(mapper, scan, i, progress_at, then=recorded)
+            with whole.held():
+                checkpoints.after_scan(mapper)
             bar.update(1)
             if rep is not None:  # else skipped
                 reports.append(rep)
@@ -699,32 +708,6 @@ def _write_graphs_and_map(result, out: Path, nav2_tolerance_m) -> tuple[list, li
     written.append(save_map(result.map, out / "map.yaml"))
     written.append(out / "map.yaml")
     return written, messages
-
-
-def optional_outputs() -> list[str]:
-    """The names of the files a replay writes only with some option."""
-    always = set(output_names())
-    every = output_names(nav2=True, plot=True, route_graph=True, rooms=True, view=True)
-    return [n for n in every if n not in always]
-
-
-def _remove_stale(out: Path, written: list[Path]) -> list[str]:
-    """Remove the optional outputs that the last replay into ``out`` wrote (as its
-    ``timings.json`` lists them) and this one did not: they belong to another map, and
-    ``topojax view`` would show them with this one.  Returns a message per file removed."""
-    try:
-        before = json.loads((out / "timings.json").read_text(encoding="utf-8"))["written"]
-        before = {Path(p).name for p in before if isinstance(p, str)}
-    except (OSError, ValueError, KeyError, TypeError):  # none, or not a replay's
-        return []
-    now = {Path(p).resolve() for p in written}
-    messages = []
-    for name in optional_outputs():
-        path = out / name
-        if name in before and path.is_file() and path.resolve() not in now:
-            path.unlink()
-            messages.append(f"removed {path}, written by an earlier replay")
-    return messages
 
 
 def _write_pictures(result, out: Path, name: str, *, rooms=None) -> list[Path]:

@@ -32,6 +32,7 @@ def _check_numbers(args) -> None:
     from .._validate import (
         int_at_least,
         metres_per_pixel,
+        nonnegative_quantity,
         pose,
         positive_int,
         positive_metres,
@@ -40,6 +41,7 @@ def _check_numbers(args) -> None:
 
     positive_metres("--resolution", args.resolution)
     metres_per_pixel("--resolution", args.resolution)  # and a map's range
+    nonnegative_quantity("--checkpoint-every", args.checkpoint_every, "seconds")
     for option, value in (
         ("--skeleton-every", args.skeleton_every),
         ("--graph-every", args.graph_every),
@@ -133,6 +135,7 @@ def _cmd_replay(args) -> int:
                 mcap=args.mcap,
                 view=args.view,
                 resume=args.resume,
+                checkpoint_every_s=args.checkpoint_every,
                 **kw,
             )
     except ReaderOptionError as exc:  # options of another reader than the log's
@@ -179,6 +182,7 @@ _OPTION_OF = {
     "animate": "--animate",
     "resume": "--resume",
     "max_extent_m": "--max-extent-m",
+    "checkpoint_every_s": "--checkpoint-every",
 }
 #: The advice of the mapper's refusals of a scan beyond ``max_extent_m`` that names
 #: settings this command has no option for (the mapper's tiles) or that it sets with an
@@ -332,7 +336,16 @@ def add_command(subparsers) -> None:
         help="continue a replay of this log into --out that stopped part way (an error, "
         "Ctrl-C or SIGTERM) from the mapper_state.npz it saved there, skipping the scans it "
         "took and continuing its animation, view timeline and MCAP recording; the same "
-        "mapper and reader options are needed (refused otherwise)",
+        "mapper and reader options are needed (refused otherwise); also after a replay "
+        "killed outright (kill -9, out of memory, a power cut), from its last checkpoint",
+    )
+    p.add_argument(
+        "--checkpoint-every",
+        type=float,
+        default=60.0,
+        metavar="SECONDS",
+        help="while mapping, save the mapper's state into --out for --resume after a scan "
+        "once this many seconds have passed since the last save (default 60; 0: never)",
     )
     _add_reader_options(p)
     add_graph_options(p)
