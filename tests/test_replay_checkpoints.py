@@ -111,7 +111,7 @@ def test_a_replay_killed_outright_resumes_from_its_last_checkpoint(tmp_path, ful
     assert record["consumed"] == 23 and record["checkpoint"] is True
     assert not (out / "graph.json").exists() and not (out / "run.mcap").exists()
     args = ["replay", str(INTEL_EXCERPT), "-o", str(out), *CLI_SETTINGS, *recordings]
-    assert main([*args, "--resume", "--checkpoint-every", "0"]) == 0
+    assert main([*args, "--resume", "--checkpoint-every", "0"]) == 0  # its lock died with it
     said = capsys.readouterr().out
     assert_same_outputs(full_cli, out)
     for name in ("MCAP recording", "view timeline", "animation"):
@@ -122,7 +122,7 @@ def test_a_replay_killed_outright_resumes_from_its_last_checkpoint(tmp_path, ful
     assert "mapper_state.npz: the replay has finished" in said
     assert (out / "run.mcap").is_file() and (out / "a.gif").is_file()
     left = sorted(p.name for p in out.iterdir() if p.name.startswith("."))
-    assert left == [".topojax-outputs.json"]  # no temporary folder or partial
+    assert left == [".topojax-outputs.json"]  # no temporary folder, lock or partial
 
 
 def test_a_replay_killed_while_writing_a_checkpoint_keeps_the_one_before(tmp_path, full_cli):

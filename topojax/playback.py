@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ._animation import animation_frame, write_animation
+from ._lock import one_writer
 from ._replay_args import (
     check_flags_and_reader,
     check_replay_args,
@@ -99,7 +100,8 @@ def replay(
         ``graph.geojson`` (skipped with a message when an attribute is not finite),
         ``map.yaml`` + ``map.pgm`` (the occupancy map), ``timings.json`` (per-loop
         statistics, see :func:`timing_summary`) and, with ``plot``, ``graph.png`` and
-        ``stages.png`` (and ``route_graph.png`` with ``route_graph_radius_m``).
+        ``stages.png`` (and ``route_graph.png`` with ``route_graph_radius_m``).  Locked
+        while the replay runs: a second one into it is refused (BlockingIOError).
     plot : bool
         Write pictures, at the end (with ``rooms``, the final ones under the graph).
     animate : str or Path, optional
@@ -169,7 +171,7 @@ def replay(
     check_flags_and_reader(reader_kwargs, plot=plot, progress=progress, rooms=rooms, view=view)
     flag("resume", resume)
     every_s = nonnegative_quantity("checkpoint_every_s", checkpoint_every_s, "seconds")
-    with no_empty_folder_left(Path(out_dir)):
+    with no_empty_folder_left(Path(out_dir)), one_writer(Path(out_dir), name="out_dir"):
         return _replay_checked(
             source,
             Path(out_dir),

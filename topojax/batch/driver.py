@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .._fs import output_folder
+from .._lock import one_writer
 from ..config import DistanceConfig, PipelineConfig
 from ..maps import OccupancyMap
 from ..maps.classify import wall_warning
@@ -698,8 +698,9 @@ def build_graphs(
     config : PipelineConfig, optional
         Stage settings, as for :func:`topojax.build_graph`.
     out_dir : str or path, optional
-        Output folder (created).  Without it nothing is written and the graphs are
-        returned in the records.
+        Output folder (created; locked while the batch runs: a second batch or replay
+        into it is refused, BlockingIOError).  Without it nothing is written and the
+        graphs are returned in the records.
     formats : sequence of str, or a comma-separated str
         Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2`` (the graph for
         the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms`; the graph files
@@ -766,8 +767,10 @@ def build_graphs(
         sigma_m=sigma_m,
         route_config=route_config,
     )
-    out = None if out_dir is None else output_folder(out_dir)
-    return run_batch(items_raw, sources, out, options)
+    if out_dir is None:
+        return run_batch(items_raw, sources, None, options)
+    with one_writer(out_dir, name="out_dir", command="batch") as out:  # one run per folder
+        return run_batch(items_raw, sources, out, options)
 
 
 def run_batch(

@@ -56,6 +56,7 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     """Run the batch of ``args``; ``manifests`` receives the manifest of each of its
     maps and its :func:`_stamp` before the run, for the line of a stopped run."""
     from .._fs import output_folder
+    from .._lock import one_writer
     from .._words import counted
     from ..batch import expand_map_inputs
     from ..batch.arguments import checked_options, map_inputs
@@ -122,7 +123,8 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
             route_config=route_config,
             map_options=reading,
         )
-        records = run_batch(*map_inputs(paths), out, options)
+        with one_writer(out, name="--out", command="batch"):  # one batch per folder
+            records = run_batch(*map_inputs(paths), out, options)
     except ValueError as exc:  # e.g. more --workers than the memory holds
         raise _option_named(exc, "workers", "--workers") from None
     finally:

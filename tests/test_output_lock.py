@@ -1,0 +1,119 @@
+"""One writer per output folder: a replay or a batch holds a lock on its output folder
+while it runs (``topojax._lock``), so that a second one into the same folder is refused
+at once instead of silently overwriting the first one's files."""
+
+from __future__ import annotations
+
+import errno
+import os
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+import topojax
+import topojax._lock
+from topojax import build_graphs
+from topojax._lock import LOCK_FILE, one_writer
+from topojax.cli import main
+from topojax.playback import replay
+
+ROOT = Path(__file__).resolve().parents[1]
+INTEL_EXCERPT = Path(__file__).parent / "data" / "intel_first40.log.gz"
+OFFICE = Path(topojax.__file__).parent / "data" / "office.png"
+
+#: Holds the lock of the folder argv[1] for ``topojax replay`` until its input closes.
+_HOLDER = """
+import sys
+from topojax._lock import one_writer
+
+with one_writer(sys.argv[1], name="out_dir", command="replay"):
+    print("locked", flush=True)
+    sys.stdin.read()
+"""
+
+
+@pytest.fixture
+def held(tmp_path):
+    """An output folder whose lock another process holds; yields it and that process."""
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _HOLDER, str(out)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    try:
+        assert proc.stdout.readline().strip() == "locked"
+        yield out, proc
+    finally:
+        proc.kill()
+        proc.wait(timeout=60)
+
+
+def test_a_second_writer_into_a_folder_is_refused_at_once(held, capsys):
+    """While another process writes into the folder, a replay and a batch into it are
+    refused before they read anything, naming the option (or parameter), the folder and
+    the process; they write nothing there."""
+    out, proc = held
+    said = f"another topojax process (pid {proc.pid}, topojax replay) is writing into {out}"
+    assert main(["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]) == 2
+    assert f"topojax replay: error: --out: {said}; wait for it" in capsys.readouterr().err
+    assert main(["batch", str(OFFICE), "-o", str(out), "--no-progress", "--workers", "0"]) == 2
+    assert f"topojax batch: error: --out: {said}" in capsys.readouterr().err
+    with pytest.raises(BlockingIOError, match=rf"^\[Errno {errno.EWOULDBLOCK}\] out_dir: "):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False)
+    with pytest.raises(BlockingIOError, match="out_dir: another topojax process"):
+        build_graphs([OFFICE], out_dir=out, workers=0, progress=False)
+    assert sorted(p.name for p in out.iterdir()) == [LOCK_FILE]
+
+
+def test_the_lock_of_a_killed_writer_is_not_left_behind(held):
+    """``kill -9`` of the writer lets its lock go (the file stays): the next replay
+    takes it over and, done, removes it."""
+    out, proc = held
+    proc.kill()
+    proc.wait(timeout=60)
+    assert (out / LOCK_FILE).is_file()
+    summary = replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=5)
+    assert summary["n_scans"] == 5
+    assert not (out / LOCK_FILE).exists()
+
+
+def test_the_lock_names_its_holder_and_goes_with_it(tmp_path):
+    out = tmp_path / "out"
+    with one_writer(out, name="-o/--out", command="batch") as folder:
+        assert folder == out
+        assert (out / LOCK_FILE).read_text() == f"{os.getpid()} topojax batch\n"
+        with pytest.raises(BlockingIOError) as refused:
+            with one_writer(out, name="out_dir"):
+                pass
+        assert refused.value.strerror == (
+            f"out_dir: another topojax process (pid {os.getpid()}, topojax batch) is "
+            f"writing into {out}; wait for it to end, or write into another folder"
+        )
+    assert not (out / LOCK_FILE).exists()
+    with one_writer(out, name="out_dir"):  # free again
+        pass
+
+
+def no_locks(fd, operation):
+    raise OSError(errno.ENOLCK, os.strerror(errno.ENOLCK))
+
+
+@pytest.mark.parametrize(
+    "fcntl",
+    [None, SimpleNamespace(LOCK_EX=2, LOCK_NB=4, flock=no_locks)],
+    ids=["no fcntl", "no flock on the file system"],
+)
+def test_without_flock_no_lock_is_taken(tmp_path, monkeypatch, fcntl):
+    """Where the system has no ``fcntl`` (Windows), or the file system no ``flock`` (an
+    error), the writers run unlocked and leave no lock file."""
+    monkeypatch.setattr(topojax._lock, "fcntl", fcntl)
+    out = tmp_path / "out"
+    with one_writer(out, name="out_dir"):
+        with one_writer(out, name="out_dir"):
+            assert not (out / LOCK_FILE).exists()
