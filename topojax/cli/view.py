@@ -318,7 +318,7 @@ def _remove_older_pages(folder: Path, record: dict, targets: list[Path]) -> None
         page = name == "view.html" or name.endswith("_view.html")
         mine = isinstance(entry, dict) and entry.get("command") == "view"
         if page and mine and name not in kept and (folder / name).is_file():
-            (folder / name).unlink(missing_ok=True)
+            _remove_page(folder / name)
             print(f"removed    {folder / name}, the page of a result no longer there")
 
 

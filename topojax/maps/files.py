@@ -226,17 +226,11 @@ def load_map(
         settings = {
             "resolution_m": resolution_m,
             "origin": (0.0, 0.0, 0.0) if origin is None else origin,
-            "occupied_thresh": (
-                DEFAULT_OCCUPIED_THRESH if occupied_thresh is None else occupied_thresh
-            ),
-            "free_thresh": DEFAULT_FREE_THRESH if free_thresh is None else free_thresh,
+            **thresholds_without_yaml(p, occupied_thresh, free_thresh),
             "negate": False if negate is None else negate,
             "mode": "trinary" if mode is None else mode,
         }
         where = f"map {p}"
-        _check_caller_thresholds(
-            occupied_thresh, free_thresh, settings, f"map_server's default: map {p} has no YAML"
-        )
 
     # map_server averages an alpha channel in with the colour in trinary mode; a YAML map
     # is read as map_server reads it (plain images and arrays ignore alpha)
@@ -470,6 +464,18 @@ def _yaml_settings(
         "mode": mode,
     }
     return image_path, settings
+
+
+def thresholds_without_yaml(p: Path, occupied_thresh, free_thresh) -> dict[str, float]:
+    """The thresholds of a map image ``p`` read without a YAML: each one given (None:
+    not given), else map_server's default, the caller's checked against the other."""
+    thresholds = {
+        "occupied_thresh": DEFAULT_OCCUPIED_THRESH if occupied_thresh is None else occupied_thresh,
+        "free_thresh": DEFAULT_FREE_THRESH if free_thresh is None else free_thresh,
+    }
+    source = f"map_server's default: map {p} has no YAML"
+    _check_caller_thresholds(occupied_thresh, free_thresh, thresholds, source)
+    return thresholds
 
 
 def _check_caller_thresholds(occupied_thresh, free_thresh, thresholds: dict, source: str):

@@ -56,11 +56,11 @@ from .classify import (
 )
 from .files import (
     YAML_SUFFIXES,
-    _check_caller_thresholds,
     _check_pgm_size,
     _NotMappable,
     _pgm_header,
     _yaml_settings,
+    thresholds_without_yaml,
 )
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap, grid_to_world, world_to_grid
 from .pnm import resolution_from_pgm_comments
@@ -557,11 +557,7 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         image, settings = _yaml_settings(p, **{k: overrides.get(k) for k in _OVERRIDABLE})
         return _open_pgm(image, settings, source=p)
     elif suffix == ".pgm":
-        occ, free = overrides.get("occupied_thresh"), overrides.get("free_thresh")
-        defaults = {"occupied_thresh": DEFAULT_OCCUPIED_THRESH, "free_thresh": DEFAULT_FREE_THRESH}
-        thresholds = {k: v for k, v in overrides.items() if k in defaults and v is not None}
-        source = f"map_server's default: map {p} has no YAML"
-        _check_caller_thresholds(occ, free, {**defaults, **thresholds}, source)
+        thresholds_without_yaml(p, overrides.get("occupied_thresh"), overrides.get("free_thresh"))
         return _open_pgm(p, dict(overrides), source=p)
     raise ValueError(
         f"path: expected a tile folder (with {TILE_INDEX}), a Zarr array, a binary .pgm or a "
