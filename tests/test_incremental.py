@@ -769,15 +769,8 @@ def test_bad_points_raise_before_any_change():
     cases = [
         (np.ones((4, 3)), "points_xy: expected an .N, 2. array.*shape \\(4, 3\\)"),
         (np.ones(4), "points_xy: expected an .N, 2. array.*shape \\(4,\\)"),
-        ([["a", "b"]], "points_xy: expected an .N, 2. array"),
         (np.array([[1e300, 0.0]]), "points_xy: the points put pixels beyond"),
         (np.array([[500.0, 0.0]]), "max_grid_cells"),
-        (np.ones((2, 2), bool), "points_xy: .*received a bool array"),
-        # NumPy would take None as NaN (a dropped point) and complex as its real part
-        ([[1.0, None]], r"points_xy: expected an .N, 2. array.*list of dtype object"),
-        (None, r"points_xy: expected an .N, 2. array.*NoneType of dtype object"),
-        (np.array([[1.0 + 2.0j, 0.0]]), "points_xy: expected .*dtype complex128"),
-        ([[1.0, 2.0], [3.0]], r"points_xy: expected .*list \(rows of different lengths"),
     ]
     for points, message in cases:
         with pytest.raises(ValueError, match=message):

@@ -50,6 +50,7 @@ __all__ = [
     "path_like",
     "pixel_rows",
     "plain_int_pair",
+    "point_rows",
     "plain_length_m",
     "pose",
     "positive_int",
@@ -622,6 +623,32 @@ def pixel_rows(name: str, value: Any, *, one: bool = False) -> np.ndarray:
             raise ValueError(f"{expected}, received {float(arr[bad].flat[0])!r} among them")
     out = arr.astype(np.int64)
     return out if one else out.reshape(-1, 2)
+
+
+def point_rows(name: str, value: Any) -> np.ndarray:
+    """``value`` as float64 (N, 2) ``(x, y)`` points in metres (non-finite ones kept)
+    after checking it is an array of real numbers: a ``TypeError`` naming ``name`` for
+    None, strings, bools, complex numbers, objects or rows of different lengths (NumPy
+    would take None as NaN and complex as its real part), a ``ValueError`` for another
+    shape; an empty sequence is no points."""
+    expected = f"{name}: expected an (N, 2) array of (x, y) in metres"
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"{expected}, received {type(value).__name__} that makes no array "
+            "(rows of different lengths?)"
+        ) from None
+    if arr.dtype.kind not in "iuf":
+        mask = " (a mask? for a finished map use add_map)" if arr.dtype.kind == "b" else ""
+        raise TypeError(
+            f"{expected} (real numbers), received {type(value).__name__} of dtype {arr.dtype}{mask}"
+        )
+    if arr.shape == (0,):
+        return np.zeros((0, 2), np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ValueError(f"{expected}, received {type(value).__name__} of shape {arr.shape}")
+    return arr.astype(np.float64, copy=False)
 
 
 def binary_image(name: str, image: Any) -> np.ndarray:

@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from .._jit import cached_njit
-from .._validate import finite_pair
+from .._validate import finite_pair, point_rows
 from .._words import memory_size
 from ..fields.filters import HALO_PX
 from ..fields.tiling import unique_pairs
@@ -496,27 +496,13 @@ def point_pixels(mapper, points_xy, origin_xy):
 
     Raises
     ------
+    TypeError
+        If ``points_xy`` is not an array of real numbers, ``origin_xy`` not two numbers.
     ValueError
-        If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers, or
+        If ``points_xy`` is not of shape (N, 2), ``origin_xy`` not two finite numbers, or
         the points lie beyond 2^30 pixels.
     """
-    if getattr(points_xy, "dtype", None) == np.bool_:  # a mask, not coordinates
-        raise ValueError(
-            "points_xy: expected an (N, 2) array of (x, y) in metres, received a bool "
-            f"array of shape {np.shape(points_xy)} (for a finished map use add_map)"
-        )
-    expected = "points_xy: expected an (N, 2) array of (x, y) in metres"
-    try:
-        pts = np.asarray(points_xy)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{expected}, received {type(points_xy).__name__} (rows of different lengths?)"
-        ) from None
-    if pts.dtype.kind not in "iuf":  # NumPy would take None as NaN, complex as its real part
-        raise ValueError(f"{expected}, received {type(points_xy).__name__} of dtype {pts.dtype}")
-    pts = pts.astype(np.float64, copy=False)
-    if pts.ndim != 2 or pts.shape[1] != 2:
-        raise ValueError(f"{expected}, received shape {pts.shape}")
+    pts = point_rows("points_xy", points_xy)
     keep = np.isfinite(pts).all(axis=1)
     sensor = None
     if origin_xy is not None:

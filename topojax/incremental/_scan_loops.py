@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
+
+from ._extent import Subject
 from ._rays import RAY_BATCH_BEAMS, cast_pending_rays, integrate_end_pixels
 from ._rooms import due_rooms_update, rooms_due
 from ._tiles import _growth_pool
@@ -67,3 +70,14 @@ def map_end_pixels(mapper, er, ec, ext, sensor, *, n_beams: int, t0: float, wher
         graph_update=update,
         rooms_update=rooms,
     )
+
+
+def scan_subject(mapper, scan) -> Subject:
+    """``scan <index>`` then `` (timestamp <t> s): the pose (x, y, yaw) with readings up
+    to <r> m``, naming the scan in a refusal (:class:`ExtentError`)."""
+    stamp = "" if scan.timestamp is None else f" (timestamp {scan.timestamp:.6f} s)"
+    r = np.asarray(scan.ranges, np.float64)[scan.valid_mask()]
+    r = r if mapper.max_range_m is None else r[r < mapper.max_range_m]
+    far = f" with readings up to {r.max():.6g} m" if r.size else ""
+    n = mapper._n_scans
+    return Subject(f"scan {n}", f"{stamp}: the pose {scan.pose}{far}", n)

@@ -43,7 +43,7 @@ from ._ridges import (
     update_ridges,
 )
 from ._rooms import RoomKeeper, due_rooms_update, rooms_due
-from ._scan_loops import map_end_pixels
+from ._scan_loops import map_end_pixels, scan_subject
 from ._settings import (
     DEFAULT_MAX_EXPORT_BYTES,
     DEFAULT_MAX_EXTENT_M,
@@ -335,7 +335,7 @@ class IncrementalMapper:
         instance_of("scan", scan, Scan, "topojax.Scan (see Scan.from_arrays)")
         t0 = time.perf_counter()
         sx, sy, syaw = scan.sensor_pose_world()
-        sensor = sensor_pixel(self, sx, sy, lambda: self._scan_name(scan))
+        sensor = sensor_pixel(self, sx, sy, lambda: scan_subject(self, scan))
         rmax = scan.range_max if self.max_range_m is None else min(scan.range_max, self.max_range_m)
         rmin, rmax = reading_limits(scan.ranges.dtype, scan.range_min, rmax)
         res = self.resolution_m
@@ -357,18 +357,8 @@ class IncrementalMapper:
             sensor,
             n_beams=scan.n_beams,
             t0=t0,
-            where=lambda: self._scan_name(scan),
+            where=lambda: scan_subject(self, scan),
         )
-
-    def _scan_name(self, scan: Scan) -> Subject:
-        """``scan <index>`` then `` (timestamp <t> s): the pose (x, y, yaw) with readings
-        up to <r> m``, naming the scan in a refusal (:class:`ExtentError`)."""
-        stamp = "" if scan.timestamp is None else f" (timestamp {scan.timestamp:.6f} s)"
-        r = np.asarray(scan.ranges, np.float64)[scan.valid_mask()]
-        r = r if self.max_range_m is None else r[r < self.max_range_m]
-        far = f" with readings up to {r.max():.6g} m" if r.size else ""
-        n = self._n_scans
-        return Subject(f"scan {n}", f"{stamp}: the pose {scan.pose}{far}", n)
 
     @_synchronized
     def add_points(self, points_xy, *, origin_xy=None) -> ScanReport:
@@ -400,9 +390,12 @@ class IncrementalMapper:
 
         Raises
         ------
+        TypeError
+            If ``points_xy`` is not real numbers (None, text, complex) or ``origin_xy``
+            not two numbers.
         ValueError
-            If ``points_xy`` is not (N, 2) numbers, ``origin_xy`` not two finite numbers,
-            or the points or origin lie absurdly far (beyond 2^30 pixels) or would make the map
+            If ``points_xy`` is not of shape (N, 2) (``[]``: no points), ``origin_xy`` not
+            finite, or the points or origin lie beyond 2^30 pixels or would make the map
             exceed ``max_grid_cells``, ``max_extent_m`` or ``max_tile_bytes``
             (:class:`ExtentError`).  Nothing is changed in that case.
         """
