@@ -49,3 +49,82 @@ def test_add_points_of_an_empty_list_is_a_frame_without_points():
     mapper = IncrementalMapper(**KW)
     report = mapper.add_points([], origin_xy=(0.0, 0.0))
     assert (report.n_beams, report.n_valid, mapper.n_scans, mapper.n_tiles) == (0, 0, 1, 0)
+
+
+# --------------------------------------------------------------------------------------
+# hand-edited or corrupted saved states
+# --------------------------------------------------------------------------------------
+
+HUGE = 10**15
+
+
+@pytest.fixture(scope="module")
+def saved_state(tmp_path_factory):
+    """The arrays of a small mapper's state, mid-run: pending splats and skeleton changes
+    not yet in the graph, rooms in use."""
+    mapper = IncrementalMapper(**KW)
+    origin = (0.5, 0.5)
+    mapper.add_points([[0.0, 0.0], [1.0, 0.5], [2.0, 2.0], [3.0, 0.0]], origin_xy=origin)
+    mapper.update_rooms()
+    mapper.add_points([[1.0, 3.5], [-1.0, 2.0]], origin_xy=origin)
+    mapper.update_skeleton()
+    mapper.add_points([[0.25, -1.0]], origin_xy=origin)
+    path = mapper.save(tmp_path_factory.mktemp("state") / "state.npz")
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
+
+def _edited(tmp_path, data, key, index, value):
+    arrays = {k: v.copy() for k, v in data.items()}
+    arrays[key][index] = value
+    path = tmp_path / "edited.npz"
+    np.savez_compressed(path, **arrays)
+    return path
+
+
+def test_the_state_used_for_edits_loads_and_keeps_its_parts(saved_state, tmp_path):
+    assert saved_state["pending"].shape[0] and saved_state["skel_changed"].shape[0]
+    assert saved_state["v_id"].size and "rooms_labels" in saved_state
+    mapper = IncrementalMapper.load(_edited(tmp_path, saved_state, "version", (), 2))
+    assert mapper.n_scans == 3
+
+
+@pytest.mark.parametrize(
+    ("key", "index", "field"),
+    [
+        ("counters", 3, r"counters \(next_vertex\): expected an integer from 0 to 2147483647"),
+        ("counters", 4, r"counters \(next_edge\): expected an integer from 0 to 2147483647"),
+        ("counters", 1, r"counters \(since_skeleton\): expected an integer from 0 to 3 "),
+        ("counters", 5, r"counters \(n_ridge\): expected an integer from 0 to \d+ .ridge"),
+        ("rooms_counters", 0, r"rooms_counters \(next_room_id\): expected an integer from 1"),
+        ("rooms_counters", 2, r"rooms_counters \(since_rooms\): expected an integer from 0 to 3"),
+        ("pending", (0, 0), r"pending: expected \(row, col\) pixels on the state's tiles"),
+        ("skel_changed", (0, 1), r"skel_changed: expected \(row, col\) pixels on the state's"),
+        ("v_pixel", (0, 0), r"v_pixel: expected \(row, col\) pixels on the state's tiles"),
+        ("e_path", (0, 1), r"e_path: expected \(row, col\) pixels on the state's tiles"),
+        ("ridge_bbox", 2, r"ridge_bbox: expected a box within the tiles' pixel box"),
+        ("tiles/bbox", 3, r"tile state: bbox \(.*\) is not the box of the tile keys"),
+    ],
+)
+def test_a_huge_number_in_a_state_is_refused_naming_file_and_field(
+    saved_state, tmp_path, key, index, field
+):
+    """A counter of 10**15 made tables of 10**15 ids (MemoryError); a pixel or box that far
+    off loaded, and failed at a later update (or, for a vertex, stayed in the graph)."""
+    path = _edited(tmp_path, saved_state, key, index, HUGE)
+    with pytest.raises(ValueError, match=f"^{path}: corrupt or inconsistent mapper state: {field}"):
+        IncrementalMapper.load(path)
+    path = _edited(tmp_path, saved_state, key, index, -1 if key.endswith("counters") else 5000)
+    with pytest.raises(ValueError, match=f"^{path}: corrupt .*: {field.split(':')[0]}"):
+        IncrementalMapper.load(path)
+
+
+def test_id_tables_beyond_the_memory_available_are_refused(saved_state, tmp_path, monkeypatch):
+    import topojax.incremental._state_checks as checks
+
+    monkeypatch.setattr(checks, "available_memory_bytes", lambda: 10**6)
+    path = _edited(tmp_path, saved_state, "counters", 4, 10**6)
+    with pytest.raises(
+        ValueError, match=r"counters \(next_edge\): 1000000 edge ids take .* more than the"
+    ):
+        IncrementalMapper.load(path)

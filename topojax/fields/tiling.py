@@ -654,6 +654,9 @@ class TileManager:
             keys[grid[gr, gc]], np.stack([gr + origin[0], gc + origin[1]], axis=1)
         ):
             raise ValueError("tile state: the tile index does not match the tile keys")
+        box = tuple(int(v) for v in state["bbox"]) if bool(state["has_bbox"]) else None
+        if box != (None if n == 0 else (*keys.min(0).tolist(), *(keys.max(0) + 1).tolist())):
+            raise ValueError(f"tile state: bbox {box} is not the box of the tile keys")
         self._allocate(n)  # replaces nothing if it fails
         self._spare = self._spare_job = None
         self._keys[:n] = keys
@@ -665,7 +668,7 @@ class TileManager:
         self._grid_origin = (origin[0], origin[1])
         self._n = n
         self._nbr9 = None
-        self._bbox = tuple(int(v) for v in state["bbox"]) if bool(state["has_bbox"]) else None
+        self._bbox = box
 
 
 __all__ += ["MAX_GRID_CELLS", "TileManager"]

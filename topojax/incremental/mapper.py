@@ -314,6 +314,8 @@ class IncrementalMapper:
             (NaN, inf, non-positive, below ``range_min``, at or beyond ``range_max`` or
             ``max_range_m``) are dropped and counted in the report.  A scan without valid
             readings changes nothing but the scan counter (and may trigger due loops).
+            Its timestamp only names it in errors: scans are mapped in the order given,
+            timestamps that repeat or go backwards (as in some CARMEN logs) included.
 
         Returns
         -------
@@ -788,6 +790,8 @@ class IncrementalMapper:
             If ``path`` does not exist.
         ValueError
             If it is not a file (a folder), the file is not a mapper state, has another
-            format version, or is corrupt (the message names the file and the problem).
+            format version, or is corrupt (the message names the file and the problem),
+            e.g. a counter beyond what its tiles, int32 ids or the memory available allow,
+            or a pixel off its tiles (the message names the field).
         """
         return load_state(cls, path)

@@ -16,6 +16,7 @@ from ..graph import KIND_NAMES
 from ._graph_store import add_paths, edge_ids, edge_paths, reserve, vertex_ids
 from ._rays import cast_pending_rays, check_whole
 from ._settings import settings_of
+from ._state_checks import check_counters, check_pixels
 from ._tiles import _pack, _unpack
 
 #: ``format`` field of saved mapper states.
@@ -178,6 +179,9 @@ def mapper_from_state(cls, p: Path, data: dict[str, np.ndarray]):
         mapper = cls(config=config, **settings)
         tile_state = {k[6:]: v for k, v in data.items() if k.startswith("tiles/")}
         mapper._tiles.load_state(tile_state)
+        tiles = mapper._tiles
+        check_counters(data, tiles.n_tiles, mapper.tile_px)
+        check_pixels(data, tiles.keys, mapper.tile_px, tiles.pixel_bbox)
         pend = np.asarray(data["pending"], np.int64).reshape(-1, 2)
         mapper._pending = [pend] if pend.shape[0] else []
         mapper._n_pending = int(pend.shape[0])
