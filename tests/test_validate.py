@@ -572,6 +572,25 @@ def test_pixel_rows():
             v.pixel_rows("p", (bad, 2.0), one=True)
 
 
+def test_point_rows():
+    out = v.point_rows("xy", [[1, 2], [3.5, np.nan]])
+    assert out.dtype == np.float64 and out.shape == (2, 2) and np.isnan(out[1, 1])
+    assert v.point_rows("xy", []).shape == (0, 2)  # no points
+    assert v.point_rows("xy", np.zeros((0, 2), np.float32)).shape == (0, 2)
+    for bad, shown in [(None, "NoneType of dtype object"), ("ab", "str of dtype <U2")] + [
+        ([[1j, 0]], "list of dtype complex128"),
+        ([[True, False]], r"list of dtype bool \(a mask\?"),
+        ([[1, 2], [3]], r"list that makes no array \(rows of different lengths\?\)"),
+    ]:
+        with pytest.raises(TypeError, match=r"^xy: expected an \(N, 2\) array .*received " + shown):
+            v.point_rows("xy", bad)
+    for bad, shown in ((np.ones((3, 3)), r"\(3, 3\)"), (5.0, r"\(\)"), ([1.0, 2.0], r"\(2,\)")):
+        with pytest.raises(
+            ValueError, match=r"^xy: expected an \(N, 2\) array .* of shape " + shown
+        ):
+            v.point_rows("xy", bad)
+
+
 def test_float32_finite_refuses_what_float32_turns_into_an_infinity():
     top = float(np.finfo(np.float32).max)
     for ok in (0.0, -top, top, 1e38):
@@ -588,7 +607,7 @@ def test_every_exported_check_is_tested():
         "binary_flag", "binary_image", "existing_file", "finite_numbers", "finite_pair",
         "finite_positive", "flag", "float32_finite", "instance_of", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
-        "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "plain_int_pair", "plain_length_m", "pose", "positive_int", "positive_metres",
+        "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "plain_int_pair", "point_rows", "plain_length_m", "pose", "positive_int", "positive_metres",
         "quantity", "real_number", "robot_radius", "text_or_none", "xy_points",
     }  # fmt: skip
     assert set(v.__all__) == tested
