@@ -85,12 +85,13 @@ sys.exit(main(sys.argv[3:]))
 """
 
 
-def killed_replay(kill_at: int, when: str, out: Path, *options: str) -> None:
+def killed_replay(kill_at: int, when: str, out: Path, *options: str, every: str = "1e-9") -> None:
     """Run ``topojax replay`` of the excerpt into ``out`` with a checkpoint after every
-    scan, in a process killed with SIGKILL part way (:data:`_KILLED`)."""
+    scan (or every ``every`` seconds), in a process killed with SIGKILL part way
+    (:data:`_KILLED`)."""
     args = ["replay", str(INTEL_EXCERPT), "-o", str(out), *CLI_SETTINGS, *options]
     done = subprocess.run(
-        [sys.executable, "-c", _KILLED, str(kill_at), when, *args, "--checkpoint-every", "1e-9"],
+        [sys.executable, "-c", _KILLED, str(kill_at), when, *args, "--checkpoint-every", every],
         capture_output=True,
         text=True,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
@@ -137,6 +138,34 @@ def test_a_replay_killed_while_writing_a_checkpoint_keeps_the_one_before(tmp_pat
     assert main([*args, "--checkpoint-every", "0"]) == 0
     assert_same_outputs(full_cli, out)
     assert not list(out.glob(".*.tmp")) and not (out / STATE_FILE).exists()
+
+
+def test_a_fresh_replay_killed_before_its_first_checkpoint_leaves_nothing_to_resume(
+    tmp_path, monkeypatch, capsys
+):
+    """A replay stopped after 17 scans leaves its state and recordings; a later replay
+    without --resume (other options) killed outright after 5 scans, before its first
+    checkpoint, has removed them as it started: --resume then says there is nothing to
+    continue rather than continue the earlier run that the killed one replaced."""
+    out = tmp_path / "out"
+    real = topojax.scans.read_scans
+
+    def interrupted(source, **kw):
+        for i, scan in enumerate(real(source, **kw)):
+            if i == 17:
+                raise KeyboardInterrupt
+            yield scan
+
+    monkeypatch.setattr(topojax.scans, "read_scans", interrupted)
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress", "--view"]
+    assert main([*args, "--graph-every", "5"]) == 130
+    monkeypatch.undo()
+    assert saved_record(out)["consumed"] == 17 and (out / ".replay_partial").is_dir()
+    killed_replay(5, "scan", out, "--view", every="0")
+    assert not (out / STATE_FILE).exists() and not (out / ".replay_partial").exists()
+    capsys.readouterr()
+    assert main([*args, *CLI_SETTINGS[1:], "--resume"]) == 2
+    assert "error: --resume: no saved state" in capsys.readouterr().err
 
 
 def test_checkpoints_leave_the_results_as_they_were(tmp_path):

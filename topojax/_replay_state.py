@@ -372,6 +372,29 @@ def remove_torn_states(out: Path) -> None:
         tmp.unlink(missing_ok=True)
 
 
+def retire_earlier_replay(out: Path) -> list[str]:
+    """Remove the state (a stop's or a checkpoint) and the recordings that an earlier
+    replay into ``out`` left for a resume, for a replay from the log's first scan, before
+    it writes anything: a resume after this one is killed before its first checkpoint
+    then finds nothing to continue, not the earlier run (which it chose not to resume).
+    The state goes first: a kill in between leaves recordings that no state continues.
+    Returns a message for each thing removed."""
+    messages = []
+    state = out / STATE_FILE
+    if state.is_file():
+        state.unlink()
+        messages.append(
+            f"removed {state}: the state of an earlier replay into {out}, which this one, "
+            "from the log's first scan, replaces"
+        )
+    folder = out / PARTIAL_DIR
+    if folder.exists():
+        (folder / "recorded.json").unlink(missing_ok=True)  # first, as drop_recordings
+        shutil.rmtree(folder, ignore_errors=True)
+        messages.append(f"removed {folder}: the recordings of an earlier replay into {out}")
+    return messages
+
+
 #: Reader options a replay may resume with changed: skipping malformed lines leaves the
 #: scans before the line a replay stopped at as they were (and a state saved skipping
 #: lines, resumed without, stops at the first such line again).
@@ -404,8 +427,9 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
         raise FileNotFoundError(
             f"resume: no saved state {path} to continue from: a replay that stops part way "
             "(an error or an interrupt) saves one there, and one killed outright leaves its "
-            "last checkpoint (every checkpoint_every_s) there; replay without resume to "
-            "start from the first scan"
+            "last checkpoint (every checkpoint_every_s) there, if it saved one (a replay "
+            "without resume removes those of earlier replays as it starts); replay without "
+            "resume to start from the first scan"
         )
     path, data = read_state(path)
     if "replay" not in data:

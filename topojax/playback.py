@@ -38,6 +38,7 @@ from ._replay_state import (
     remove_torn_states,
     replay_record,
     resumed_mapper,
+    retire_earlier_replay,
     same_recorded_radius,
     save_replay_state,
     skipped_message,
@@ -158,11 +159,11 @@ def replay(
         ``n_tiles``, ``vertices``, ``edges``, ``route_graph`` (its ``vertices``, ``edges``,
         ``components``, ``robot_radius_m``; None without one), ``timings`` (per loop),
         ``checkpoints`` (states saved as it went), ``written`` (paths), ``messages``.  An
-        error or interrupt (a map grown too large to export, an unreadable scan, also
-        while the files are written) leaves the mapper's state in
-        ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and raises; a replay that
-        finishes removes it.  The files the last replay into ``out_dir`` wrote and this
-        one does not (:func:`optional_outputs`) are removed.
+        error or interrupt (a map grown too large to export, an unreadable scan, also while the
+        files are written) leaves the mapper's state in ``out_dir/mapper_state.npz`` (with a
+        RuntimeWarning) and raises; a replay that finishes removes it, one without ``resume``
+        an earlier one's state and recordings as it starts.  The files the last replay into
+        ``out_dir`` wrote and this one does not (:func:`optional_outputs`) are removed.
     """
     nav2_tolerance_m, route_graph_radius_m = check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
@@ -232,6 +233,7 @@ def _replay_checked(
 
         config = RouteGraphConfig(robot_radius_m=route_graph_radius_m)
         check_scale(config, mapper.resolution_m, "route_graph_radius_m")
+    retired = [] if resume else retire_earlier_replay(out)  # its options all checked
     with open_recording(mcap, kept.mcap) as recorder:
         done = _map_scans(
             mapper,
@@ -267,7 +269,7 @@ def _replay_checked(
         )
     if recorder is not None:
         written.append(recorder.path)
-    messages += remove_stale(out, [*written, out / "timings.json"]) + kept.messages
+    messages += retired + remove_stale(out, [*written, out / "timings.json"]) + kept.messages
     return _finish(source, mapper, done, out, progress_at, written, messages, progress)
 
 
