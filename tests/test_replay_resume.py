@@ -635,6 +635,56 @@ def test_an_interrupt_while_a_scan_is_mapped_waits_for_it_to_be_counted():
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
 
 
+def test_a_second_interrupt_while_a_scan_is_recorded_waits_for_the_recording():
+    """Two Ctrl-Cs while the replay records scan 5 stop it once scan 5 is recorded:
+    the second one at once would cut the recording short of the mapped scans."""
+    from topojax._replay_state import ReplayProgress, WholeScans
+
+    mapper, progress, seen = SlowMapper(interrupted=-1), ReplayProgress(), []
+
+    def record(scan, report):
+        if scan == 5:
+            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), signal.SIGINT)
+        seen.append(scan)
+
+    with pytest.raises(KeyboardInterrupt), WholeScans() as whole:
+        for i in range(10):
+            whole.add(mapper, i, i, progress, then=record)
+    assert seen == list(range(6)) and progress.consumed == progress.recorded == 6
+
+
+def test_a_replay_interrupted_twice_while_recording_an_update_keeps_its_recordings(
+    tmp_path, monkeypatch, full_recorded
+):
+    """Ctrl-C twice in a row while the MCAP recording takes the second graph update's
+    map: the replay stops once that scan is recorded, keeps every recording, and the
+    resumed one writes those of a replay that did not stop (not recordings of the scans
+    after the stop alone, as when the second Ctrl-C cut the recording short)."""
+    from topojax.io.mcap import McapRecorder
+
+    real, calls = McapRecorder.add_map, []
+
+    def add_map(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(McapRecorder, "add_map", add_map)
+    out = tmp_path / "out"
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        recorded_replay(out)
+    monkeypatch.undo()
+    summary = recorded_replay(out, resume=True)
+    assert summary["resumed_after"] == 14  # the graph update after the 14th scan
+    assert not [m for m in summary["messages"] if "holds the scans after" in m]
+    assert mcap_messages(out / "run.mcap") == mcap_messages(full_recorded / "run.mcap")
+    for name in RECORDINGS:
+        assert (out / name).read_bytes() == (full_recorded / name).read_bytes(), name
+
+
 def test_a_failing_recording_leaves_the_scan_counted_but_not_recorded():
     from topojax._replay_state import ReplayProgress, WholeScans
 

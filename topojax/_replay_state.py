@@ -129,13 +129,15 @@ class WholeScans:
     """Maps scans so that an interrupt falls between them: within ``with``, a Ctrl-C
     (SIGINT) that arrives while :meth:`add` maps a scan is held until the scan is mapped
     and counted, then raised; a second one while it is held, or one between scans,
-    interrupts at once.  Outside the main thread, or where SIGINT has a handler other
+    interrupts at once, except while the mapped scan is recorded (:meth:`add`'s
+    ``then``): every Ctrl-C waits for that.  Outside the main thread, or where SIGINT has a handler other
     than Python's default, interrupts are left as they are (:func:`interrupt` is held
     in the main thread all the same)."""
 
     def __init__(self) -> None:
         self._busy = False
         self._pending = False
+        self._recording = False  # every Ctrl-C held, not only the first
         self._old = None
         self._main = False
 
@@ -161,7 +163,7 @@ class WholeScans:
             self._main = False
 
     def _interrupt(self, signum, frame) -> None:
-        if self._busy and not self._pending:
+        if self._busy and (self._recording or not self._pending):
             self._pending = True
             return
         raise KeyboardInterrupt
@@ -198,16 +200,23 @@ class WholeScans:
         ``progress`` once the mapper took it (also when it raised part way), then
         ``then(scan, report)`` (what the replay records of it; a held Ctrl-C waits for it too,
         and ``progress.recorded`` counts the scan once it returned); None for a scan
-        refused with :class:`ExtentError` (its refusal is kept in ``progress``)."""
+        refused with :class:`ExtentError` (its refusal is kept in ``progress``).  While
+        ``then`` runs, a second Ctrl-C is held as well: one cut part way would leave the
+        recordings short of the mapped scans, which a resume could not continue, so all
+        they held would be lost."""
         from .incremental import ExtentError
 
         before = mapper.n_scans
         with self.held():  # a Ctrl-C is raised once the scan is counted
             try:
                 report = mapper.add_scan(scan)
-                if then is not None:
-                    then(scan, report)
-                progress.recorded = index + 1
+                self._recording = True
+                try:
+                    if then is not None:
+                        then(scan, report)
+                    progress.recorded = index + 1
+                finally:
+                    self._recording = False
                 return report
             except ExtentError as exc:  # a localisation glitch: skipped, the replay goes on
                 progress.skip(_named_in_log(exc, index), exc.bound)
