@@ -1,16 +1,18 @@
 """.npy arrays read only once their file holds what their header gives: a header is a
-claim, and ``numpy.load`` allocates the array it claims before reading a byte of it."""
+claim, and ``numpy.load`` allocates the array it claims before reading a byte of it; and
+.npz archives written at a chosen zlib level."""
 
 from __future__ import annotations
 
 import math
+import zipfile
 from typing import BinaryIO
 
 import numpy as np
 
 from ._cpus import check_fits_memory
 
-__all__ = ["check_npy_size", "check_npz_fits", "check_npz_sizes"]
+__all__ = ["check_npy_size", "check_npz_fits", "check_npz_sizes", "savez_deflated"]
 
 _HEADER_READERS = {
     (1, 0): np.lib.format.read_array_header_1_0,
@@ -58,3 +60,12 @@ def check_npz_fits(npz, where: str) -> None:
     refused before any member is read."""
     need = sum(info.file_size for info in npz.zip.infolist())
     check_fits_memory(need, f"{where}: its arrays unpack to")
+
+
+def savez_deflated(fh: BinaryIO, arrays: dict[str, np.ndarray], level: int) -> None:
+    """Write ``arrays`` into ``fh`` as :func:`numpy.savez_compressed` does (an .npz that
+    :func:`numpy.load` reads), deflated at zlib ``level`` (1-9; numpy's is 6)."""
+    with zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED, compresslevel=level) as zf:
+        for name, value in arrays.items():
+            with zf.open(f"{name}.npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(value), allow_pickle=False)

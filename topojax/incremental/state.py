@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._npy import check_npz_fits, check_npz_sizes
+from .._npy import check_npz_fits, check_npz_sizes, savez_deflated
 from .._validate import existing_file
 from ..config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, SkeletonConfig
 from ..graph import KIND_NAMES
@@ -21,6 +21,13 @@ from ._tiles import _pack, _unpack
 
 #: ``format`` field of saved mapper states.
 STATE_FORMAT = "topojax.IncrementalMapper"
+
+
+#: zlib level of saved states: 3, the best ratio of zlib's fast levels (1-3), saves the
+#: whole Intel log's state (mostly tiles of squared distances, which compress least) in
+#: about a third of the time of numpy's default, 6, for a file about 15% larger; a
+#: replay's checkpoints save it every minute.  States saved at any level load alike.
+STATE_ZLIB_LEVEL = 3
 
 
 #: Version of the saved-state layout; :meth:`IncrementalMapper.load` accepts only this one.
@@ -83,7 +90,7 @@ def save_state(mapper, path, *, replay: dict | None = None) -> Path:
         [keeper.next_id, int(keeper.active), mapper._since_rooms], np.int64
     )
     buf = _io.BytesIO()
-    np.savez_compressed(buf, **arrays)
+    savez_deflated(buf, arrays, STATE_ZLIB_LEVEL)
     atomic_write_bytes(p, buf.getvalue())
     return p
 
