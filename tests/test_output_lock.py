@@ -71,6 +71,35 @@ def test_a_second_writer_into_a_folder_is_refused_at_once(held, capsys):
     assert sorted(p.name for p in out.iterdir()) == [LOCK_FILE]
 
 
+def test_a_tiled_build_into_a_locked_folder_is_refused(held, capsys):
+    """``topojax graph --tiled`` keeps its blocks for ``--resume`` in its output folder:
+    it takes the folder's lock too, and is refused while another process holds it."""
+    out, proc = held
+    argv = ["graph", str(OFFICE), "-o", str(out), "--tiled", "--resolution", "0.05"]
+    assert main(argv) == 2
+    said = f"another topojax process (pid {proc.pid}, topojax replay) is writing into {out}"
+    assert f"topojax graph: error: --out: {said}; wait for it" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [LOCK_FILE]
+
+
+def test_a_tiled_build_holds_the_lock_of_its_folder(tmp_path, monkeypatch, capsys):
+    """While a tiled build runs, its folder's lock is held in the build's name."""
+    from topojax.outofcore import build
+
+    out, seen = tmp_path / "out", []
+    real = build.build_graph_tiled
+
+    def spying(*args, **kwargs):
+        seen.append((out / LOCK_FILE).read_text())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(build, "build_graph_tiled", spying)
+    argv = ["graph", str(OFFICE), "-o", str(out), "--tiled", "--resolution", "0.05"]
+    assert main(argv) == 0
+    assert seen == [f"{os.getpid()} topojax graph --tiled\n"]
+    assert not (out / LOCK_FILE).exists()
+
+
 def test_the_lock_of_a_killed_writer_is_not_left_behind(held):
     """``kill -9`` of the writer lets its lock go (the file stays): the next replay
     takes it over and, done, removes it."""

@@ -108,7 +108,7 @@ def tiled_files(stem: str, nav2: bool) -> list[str]:
 def cmd_graph_tiled(args) -> int:
     """``topojax graph MAP --tiled`` (its options checked by :func:`check_tiled_options`):
     build, write the graph files, print a summary."""
-    from .._fs import output_folder
+    from .._lock import one_writer
     from .._validate import finite_positive
     from ..maps.files import said_resolution
     from ..outofcore.build import block_px_for_budget, build_graph_tiled, tiled_source
@@ -132,22 +132,25 @@ def cmd_graph_tiled(args) -> int:
     for w in caught:  # so do its warnings
         text = str(w.message).replace("memory_budget_mb:", "--memory-budget-mb:", 1)
         warnings.warn(text, w.category, stacklevel=2)
-    store = output_folder(out, name="--out") / f"{stem}_store"
-    with named_as_options(_OPTION_OF, _RESUME_OPTION_OF, advice=_ADVICE):
-        result = build_graph_tiled(
-            source, config=config, block_px=block_px, out_dir=store, resume=args.resume
-        )
-    written = write_graph_files(result.graph, out, stem)
-    notes = map_notes(*_census(source, block_px * block_px), result.graph.number_of_nodes() == 0)
-    if tolerance is not None:
-        nav2, nav2_notes = write_nav2(result.graph, out / f"{stem}_nav2.geojson", tolerance)
-        written, notes = written + nav2, notes + nav2_notes
+    # one build per folder: two into it would overwrite each other's kept blocks
+    with one_writer(out, name="--out", command="graph --tiled"):
+        store = out / f"{stem}_store"
+        with named_as_options(_OPTION_OF, _RESUME_OPTION_OF, advice=_ADVICE):
+            result = build_graph_tiled(
+                source, config=config, block_px=block_px, out_dir=store, resume=args.resume
+            )
+        written = write_graph_files(result.graph, out, stem)
+        empty = result.graph.number_of_nodes() == 0
+        notes = map_notes(*_census(source, block_px * block_px), empty)
+        if tolerance is not None:
+            nav2, nav2_notes = write_nav2(result.graph, out / f"{stem}_nav2.geojson", tolerance)
+            written, notes = written + nav2, notes + nav2_notes
+        record_outputs(planned(written, args.map), command="graph", map_options=options)
     reused = f" ({result.blocks_reused} reused)" if result.blocks_reused else ""
     lines = summary_lines(str(args.map), result, assumed=assumed_resolution_note(args))
     lines.insert(1, f"blocks     {result.blocks}{reused}, memory budget {budget:g} MB")
     for line in [*lines, *notes]:
         print(line)
-    record_outputs(planned(written, args.map), command="graph", map_options=options)
     print("wrote      " + ", ".join(str(p) for p in [*written, store]))
     return 0
 
