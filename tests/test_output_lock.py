@@ -4,8 +4,10 @@ at once instead of silently overwriting the first one's files."""
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -110,6 +112,61 @@ def test_the_lock_of_a_killed_writer_is_not_left_behind(held):
     summary = replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=5)
     assert summary["n_scans"] == 5
     assert not (out / LOCK_FILE).exists()
+
+
+#: Holds the lock of the folder argv[1] and forks: with argv[2] "pool", a ``fork`` pool
+#: worker that sleeps on, then the writer kills itself; with "leave", a child that leaves
+#: the ``with`` block as its parent would, then the writer waits for its input to close.
+_FORKING = """
+import multiprocessing, os, signal, sys, time
+from topojax._lock import one_writer
+
+with one_writer(sys.argv[1], name="out_dir", command="batch"):
+    if sys.argv[2] == "pool":
+        child = multiprocessing.get_context("fork").Process(target=time.sleep, args=(60,))
+        child.start()
+        print(child.pid, flush=True)
+        os.kill(os.getpid(), signal.SIGKILL)
+    pid = os.fork()
+    if pid == 0:
+        sys.exit(0)  # leaves the with block: must not let the parent's lock go
+    os.waitpid(pid, 0)
+    print(pid, flush=True)
+    sys.stdin.read()
+"""
+
+
+@pytest.mark.parametrize("how", ["pool", "leave"])
+def test_a_forked_child_does_not_keep_or_drop_the_lock(tmp_path, how):
+    """A process forked while the lock is held closes its copy: a writer killed with
+    its ``fork`` pool's workers alive leaves the folder free (a copy in the workers
+    would hold the ``flock`` on), and a child that leaves the ``with`` block neither
+    removes the lock file nor lets the lock go."""
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _FORKING, str(out), how],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    child = int(proc.stdout.readline())
+    try:
+        if how == "pool":
+            proc.wait(timeout=60)
+            with one_writer(out, name="out_dir"):
+                pass
+        else:
+            assert (out / LOCK_FILE).read_text() == f"{proc.pid} topojax batch\n"
+            with pytest.raises(BlockingIOError, match=f"pid {proc.pid}, topojax batch"):
+                with one_writer(out, name="out_dir"):
+                    pass
+    finally:
+        if how == "pool":
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(child, signal.SIGKILL)
+        proc.kill()
+        proc.wait(timeout=60)
 
 
 def test_the_lock_names_its_holder_and_goes_with_it(tmp_path):

@@ -6,7 +6,9 @@ overwriting the first one's files.
 The lock is ``flock`` on :data:`LOCK_FILE` inside the folder.  The system releases it
 when the process ends however it ends (``kill -9``, out of memory, a power cut), so a
 lock is never left stale; the file itself is removed on a clean exit and a file left by
-a killed run is taken over by the next.  Where the system or the file system has no
+a killed run is taken over by the next.  A process forked while the lock is held (a
+``fork`` pool's worker) closes its copy of the descriptor at once: a ``flock`` belongs to
+the open file, so a copy would keep the lock held after the writer is killed.  Where the system or the file system has no
 ``flock`` (Windows, some network file systems), no lock is taken.
 """
 
@@ -25,6 +27,22 @@ except ImportError:  # pragma: no cover - Windows
 
 #: The lock file a writer holds in its output folder.
 LOCK_FILE = ".topojax.lock"
+
+#: The descriptors of the locks held, and the id of the process that took each.
+_HELD: dict[int, int] = {}
+
+
+def _close_inherited() -> None:
+    """In a child just forked: close the lock descriptors copied from the parent (the
+    parent's lock stays held; a close lets go only when the last copy goes)."""
+    for fd in list(_HELD):
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _HELD.clear()
+
+
+if hasattr(os, "register_at_fork"):  # POSIX only
+    os.register_at_fork(after_in_child=_close_inherited)
 
 
 @contextlib.contextmanager
@@ -76,6 +94,7 @@ def _acquire(folder: Path, name: str, command: str) -> int | None:
         if _same_file(path, fd):
             break
         os.close(fd)  # removed by the writer that held it: lock the file there now
+    _HELD[fd] = os.getpid()
     os.ftruncate(fd, 0)
     os.write(fd, f"{os.getpid()} topojax {command}\n".encode())
     return fd
@@ -104,7 +123,10 @@ def _holder(fd: int) -> str:
 
 
 def _release(path: Path, fd: int) -> None:
-    """Remove the lock file while it is still locked, then let the lock go."""
+    """Remove the lock file while it is still locked, then let the lock go; nothing in a
+    forked child, which closed its copy of ``fd`` and whose parent holds the lock."""
+    if _HELD.pop(fd, None) != os.getpid():
+        return
     try:
         with contextlib.suppress(OSError):
             os.unlink(path)
