@@ -192,3 +192,21 @@ def test_tiled_grey_walls_are_flagged_as_the_whole_maps_are(tmp_path, capsys):
     warning = "are the walls drawn in grey? check --occupied-thresh, --free-thresh or --mode"
     note = [line for line in whole.splitlines() if warning in line]
     assert note and note[0] in tiled.splitlines()
+
+
+def test_a_tile_folder_with_a_dot_in_its_name_names_the_outputs_whole(
+    tmp_path, capsys, monkeypatch
+):
+    """A tile folder is named whole (``floor.v2``, not ``floor``); a map file loses its
+    suffix; ``.`` is named as the folder it is."""
+    from topojax.cli._outputs import output_stem
+
+    folder = tj.save_tiled_map(tj.sample_map("office"), tmp_path / "floor.v2", tile_px=256)
+    argv = ["graph", str(folder), "-o", str(tmp_path / "o"), "--tiled", "--resolution", "0.05"]
+    assert main(argv) == 0
+    written = {p.name for p in (tmp_path / "o").iterdir()}
+    assert {"floor.v2.json", "floor.v2.graphml", "floor.v2_store"} <= written
+    assert not any(name.startswith("floor.") and ".v2" not in name for name in written)
+    assert output_stem(tmp_path / "floor.v2.yaml") == "floor.v2"
+    monkeypatch.chdir(folder)
+    assert output_stem(".") == "floor.v2"

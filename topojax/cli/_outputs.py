@@ -23,13 +23,30 @@ import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-__all__ = ["OUT_OPTION", "RECORD_NAME", "check_outputs", "planned", "record_outputs"]
+__all__ = [
+    "OUT_OPTION",
+    "RECORD_NAME",
+    "check_outputs",
+    "output_stem",
+    "planned",
+    "record_outputs",
+]
 
 #: The record's file name, in each folder written into.
 RECORD_NAME = ".topojax-outputs.json"
 #: The option that chooses the output folder (or file), as errors name it.
 OUT_OPTION = "-o/--out"
 _VERSION = 1
+
+
+def output_stem(map_path: str | os.PathLike[str]) -> str:
+    """The STEM of the files made from the map ``map_path``: a file's name without its
+    suffix (``office.yaml``: ``office``), a folder's (a tile folder, a Zarr array) whole
+    (``floor.v2``: ``floor.v2``; ``.``: the current folder's name)."""
+    path = Path(map_path)
+    if path.is_dir():
+        return path.resolve().name
+    return path.stem
 
 
 def planned(files: Iterable[str | os.PathLike[str]], source) -> dict[Path, str | None]:

@@ -26,7 +26,7 @@ from ._options import (
     pipeline_config,
     room_config,
 )
-from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+from ._outputs import OUT_OPTION, check_outputs, output_stem, planned, record_outputs
 from .rooms import room_files, room_lines
 from .tiled import add_tiled_options, check_tiled_options, cmd_graph_tiled
 
@@ -123,7 +123,7 @@ def _cmd_graph(args) -> int:
         return cmd_graph_tiled(args)
     tolerance = nav2_tolerance(args)  # checked before the pipeline runs and writes anything
     rooms_config = room_config(args, only_with="--rooms", given=args.rooms)
-    stem = Path(args.map).stem
+    stem = output_stem(args.map)
     targets = [Path(args.out) / name for name in _graph_files(stem, args)]
     _check_outputs_spare_inputs(Path(args.map), targets)
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)

@@ -14,7 +14,7 @@ from ._options import (
     map_options,
     room_config,
 )
-from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+from ._outputs import OUT_OPTION, check_outputs, output_stem, planned, record_outputs
 
 
 def add_command(subparsers) -> None:
@@ -58,7 +58,7 @@ def _cmd_rooms(args) -> int:
 
     config = room_config(args)  # checked before any work
     out = Path(args.out)
-    stem = Path(args.map).stem
+    stem = output_stem(args.map)
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="rooms", option=OUT_OPTION)

@@ -14,7 +14,7 @@ from ._options import (
     load_option_map,
     map_options,
 )
-from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+from ._outputs import OUT_OPTION, check_outputs, output_stem, planned, record_outputs
 
 
 def add_command(subparsers) -> None:
@@ -93,7 +93,7 @@ def _cmd_route_graph(args) -> int:
         )
     config = RouteGraphConfig(robot_radius_m=radius, snap_m=snap_m)
     out = Path(args.out)
-    stem = Path(args.map).stem
+    stem = output_stem(args.map)
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="route-graph", option=OUT_OPTION)

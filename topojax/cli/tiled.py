@@ -21,7 +21,7 @@ from ._options import (
     pipeline_config,
     room_config,
 )
-from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
+from ._outputs import OUT_OPTION, check_outputs, output_stem, planned, record_outputs
 
 #: What ``--tiled`` leaves out: each needs the whole map in memory.
 _WHOLE_MAP_OPTIONS = ("--plot", "--stages", "--rooms", "--mcap", "--view")
@@ -118,7 +118,7 @@ def cmd_graph_tiled(args) -> int:
     budget = DEFAULT_BUDGET_MB
     if args.memory_budget_mb is not None:
         budget = finite_positive("--memory-budget-mb", args.memory_budget_mb)
-    stem, out = Path(args.map).stem, Path(args.out)
+    stem, out = output_stem(args.map), Path(args.out)
     targets = [out / name for name in tiled_files(stem, args.nav2)]
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
     options = map_options(args)
