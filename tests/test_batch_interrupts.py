@@ -81,3 +81,40 @@ def test_a_ctrl_c_as_work_run_at_once_starts_stops_it(sigterm_stops, monkeypatch
         with held.at_once():
             ran.append("the work")
     assert not ran
+
+
+def test_a_second_ctrl_c_while_a_stopped_batch_cleans_up_leaves_no_temporary_files(
+    tmp_path, monkeypatch
+):
+    """A Ctrl-C that comes while a stopped batch shuts its pools down waits until the
+    temporary files of the maps in flight are removed (raised there, it left them), and
+    is not raised again: the batch ends with the first stop, its handlers set back."""
+    from pathlib import Path
+
+    import topojax
+    from topojax import build_graphs
+    from topojax.batch import driver
+
+    out, planted = tmp_path / "out", []
+    office = Path(topojax.__file__).parent / "data" / "office.png"
+
+    def interrupt(self, fut):  # Ctrl-C as the first map's CPU stage ends
+        for item, _, _ in self._cpu.values():  # as a killed write leaves them
+            planted.append(out / f".{item.name}.graphml.k1ll3d.tmp")
+            planted[-1].write_bytes(b"cut short")
+        shutdown = self._kernel_pool.shutdown
+
+        def ctrl_c_again(*args, **kwargs):  # the second Ctrl-C, during the clean-up
+            os.kill(os.getpid(), signal.SIGINT)
+            return shutdown(*args, **kwargs)
+
+        self._kernel_pool.shutdown = ctrl_c_again
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(driver._BatchRun, "_on_cpu_done", interrupt)
+    handler = signal.getsignal(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt):
+        build_graphs([office] * 3, out_dir=out, workers=2, progress=False)
+    assert planted
+    assert not any(p.exists() for p in planted)
+    assert signal.getsignal(signal.SIGINT) is handler

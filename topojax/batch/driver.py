@@ -25,7 +25,7 @@ from .arguments import batch_items, checked_options, map_inputs, workers_for_mem
 from .inputs import ROUTE_FORMATS, _Item
 from .interrupts import HeldInterrupts
 from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
-from .pool import WorkerDied, WorkerPool
+from .pool import WorkerDied, WorkerPool, terminate_workers
 from .records import MapRecord, empty_reason, totalled, write_summary
 from .worker import (
     InlineExecutor,
@@ -136,7 +136,7 @@ class _BatchRun:
             for _ in range(self._pool_size):  # import + numba cache load while kernels compile
                 ex.submit(_warm_worker).add_done_callback(self._note_started)
         except BaseException:  # Ctrl-C: a pool no one holds would live on in a notebook
-            _terminate_workers(ex)
+            terminate_workers(ex)
             raise
         return ex
 
@@ -172,7 +172,7 @@ class _BatchRun:
                     "--workers need less memory)"
                 ) from exc
             self._restarts += 1
-            _terminate_workers(self.executor)  # its live workers hold memory too
+            terminate_workers(self.executor)  # its live workers hold memory too
             self.executor.shutdown(wait=False, cancel_futures=True)
             self.executor = self._new_executor()
             return self.executor.submit(fn, *args)
@@ -395,21 +395,32 @@ class _BatchRun:
                             self._on_cpu_done(fut)
         except BaseException:  # Ctrl-C, SIGTERM: results no manifest would record
             stopped = True
-            if self.owns_executor:
-                _terminate_workers(self.executor)
             raise
         finally:
-            self._bar.close()
-            self._load_pool.shutdown(wait=True, cancel_futures=True)
-            self._kernel_pool.shutdown(wait=True, cancel_futures=True)
-            if self.owns_executor and self.executor is not None:
-                self.executor.shutdown(wait=True, cancel_futures=True)
-            if stopped and self.owns_executor:
-                # the temporary files the stopped processes were writing (a given
-                # executor's tasks may still be writing theirs)
-                for item, _, _ in self._cpu.values():
-                    self._forget_outputs(item)
+            self._close(stopped)
         return [self._records[item.index] for item in self.items]
+
+    def _close(self, stopped: bool) -> None:
+        """Shut the pools down; a ``stopped`` batch's own processes are terminated and
+        the temporary files they were writing removed.  A Ctrl-C or SIGTERM meanwhile
+        waits until that is done: raised part way it left those files behind (for a
+        stopped batch it is the same stop, and not raised again)."""
+        try:
+            with HeldInterrupts():
+                if stopped and self.owns_executor:
+                    terminate_workers(self.executor)
+                self._bar.close()
+                self._load_pool.shutdown(wait=True, cancel_futures=True)
+                self._kernel_pool.shutdown(wait=True, cancel_futures=True)
+                if self.owns_executor and self.executor is not None:
+                    self.executor.shutdown(wait=True, cancel_futures=True)
+                if stopped and self.owns_executor:
+                    # (a given executor's tasks may still be writing theirs)
+                    for item, _, _ in self._cpu.values():
+                        self._forget_outputs(item)
+        except KeyboardInterrupt:
+            if not stopped:
+                raise
 
     def _finish(self, index: int, rec: MapRecord) -> None:
         """Record the final ``rec`` of map ``index`` and advance the progress bar; a map
@@ -634,18 +645,6 @@ def _lost_text(exc: BaseException, *, started: bool = True) -> str:
         f"{_error_text(exc)} (a worker process died while this map was queued or "
         "running, killed for memory?; --resume runs it again)"
     )
-
-
-def _terminate_workers(executor: cf.Executor | None) -> None:
-    """Stop the processes of an own process pool now, for a batch that is interrupted.
-
-    Shutting the pool down waits for the maps its processes are building, whose results
-    the interrupted batch no longer records (no manifest): an interrupt then took as
-    long as the slowest map in flight.  Their partly written files are removed when
-    the maps are redone.
-    """
-    if isinstance(executor, WorkerPool):
-        executor.terminate_workers()
 
 
 def _class_counts(g) -> tuple[int, int | None]:

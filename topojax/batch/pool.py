@@ -27,7 +27,7 @@ from multiprocessing import resource_tracker
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
-__all__ = ["WorkerDied", "WorkerPool"]
+__all__ = ["WorkerDied", "WorkerPool", "terminate_workers"]
 
 #: Worker deaths in a row, with no task done in between, after which the pool is broken
 #: (workers that cannot start, or a machine out of memory, would be replaced for ever).
@@ -417,3 +417,15 @@ class WorkerPool(cf.Executor):
         with self._wake_lock:
             self._wake_w.close()
         self._wake_r.close()
+
+
+def terminate_workers(executor: cf.Executor | None) -> None:
+    """Stop the processes of an own process pool now, for a batch that is interrupted.
+
+    Shutting the pool down waits for the maps its processes are building, whose results
+    the interrupted batch no longer records (no manifest): an interrupt then took as
+    long as the slowest map in flight.  Their partly written files are removed when
+    the maps are redone.
+    """
+    if isinstance(executor, WorkerPool):
+        executor.terminate_workers()
