@@ -77,3 +77,33 @@ def test_an_input_that_gives_no_map_is_named(tree):
             tree / "a.png",
             tree / "sub" / "b.png",
         ]
+
+
+@pytest.mark.parametrize("pattern", ["**/*.png", "**", "*", "*/**/*.p*", "**/deep/*"])
+def test_a_pattern_lists_each_folder_once(tree, monkeypatch, pattern):
+    """A glob pattern's tree is listed once (``glob.glob`` listed every folder twice for
+    ``**/NAME``, then the search for unreadable folders once more): the same maps, in
+    the order of the sorted matches, hidden entries skipped as ``glob.glob`` skips them."""
+    deep = tree / "sub" / "deep"
+    deep.mkdir()
+    for path in (deep / "c.png", tree / ".hidden" / "h.png", tree / "z.v2" / "d.png"):
+        path.parent.mkdir(exist_ok=True)
+        path.write_bytes(_PNG)
+    real, listed = os.scandir, []
+
+    def scandir(path="."):
+        listed.append(os.path.normpath(os.fspath(path)))
+        return real(path)
+
+    monkeypatch.setattr(os, "scandir", scandir)
+    got = expand_map_inputs([f"{tree}/{pattern}"])
+    monkeypatch.undo()
+    assert listed and len(listed) == len(set(listed))
+    want = {
+        "**/*.png": ["a.png", "sub/b.png", "sub/deep/c.png", "z.v2/d.png"],
+        "**": ["a.png", "sub/b.png", "sub/deep/c.png", "z.v2/d.png"],
+        "*": ["a.png", "sub/b.png", "sub/deep/c.png", "z.v2/d.png"],
+        "*/**/*.p*": ["sub/b.png", "sub/deep/c.png", "z.v2/d.png"],
+        "**/deep/*": ["sub/deep/c.png"],
+    }[pattern]
+    assert got == [tree / rel for rel in want]

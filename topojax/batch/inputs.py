@@ -253,14 +253,7 @@ def expand_map_inputs(
             if p.is_dir():
                 found.extend(searched(pattern, _walk_maps(p, unreadable)))
             elif _glob.has_magic(pattern):
-                matches = []
-                for match in sorted(_glob.glob(pattern, recursive=True)):
-                    m = Path(match)
-                    if m.is_dir():
-                        matches.extend(_walk_maps(m, unreadable))
-                    elif _is_map_file(m):
-                        matches.append(m)
-                _unreadable_for(pattern, unreadable)
+                matches = _pattern_maps(pattern, unreadable)
                 found.extend(searched(_static_prefix(pattern), matches))
             else:
                 found.append(p)
@@ -290,25 +283,99 @@ def expand_map_inputs(
     return result
 
 
-def _unreadable_for(pattern: str, unreadable: list[str]) -> None:
-    """Append to ``unreadable`` the folders that the glob ``pattern`` would have searched
-    but could not list: those below its fixed start whose names match its folder parts
-    (any, past a ``**``), hidden ones skipped as :func:`glob.glob` skips them."""
-    parts = Path(pattern).parts
+def _pattern_maps(pattern: str, unreadable: list[str]) -> list[Path]:
+    """The map files of the glob ``pattern`` (``**``: any depth), each folder listed once:
+    the map files it matches and those below the folders it matches, as
+    :func:`glob.glob` and :func:`_walk_maps` find them (in the order of the sorted
+    matches, hidden entries skipped), the folders that could not be listed appended to
+    ``unreadable``.  ``glob.glob`` listed every folder twice for ``**/NAME``, and the
+    search for unreadable folders once more."""
+    if ".." in Path(pattern).parts[1:]:  # resolved by glob; a folder listing has no ".."
+        pattern = os.path.normpath(pattern)
     prefix = _static_prefix(pattern)
-    folder_parts = parts[len(Path(prefix).parts) if prefix != "." else 0 : -1]
+    parts = Path(pattern).parts[len(Path(prefix).parts) if prefix != "." else 0 :]
+    groups: list[tuple[str, list[Path]]] = []  # each match, and its maps
+    if prefix != "." and _parts_match((), parts):  # "x/**" matches x/ itself
+        groups.append((os.path.join(prefix, ""), []))
+    _scan(prefix, (), parts, groups[0][1] if groups else None, groups, unreadable, set())
+    groups.sort(key=lambda group: group[0])
+    return [path for _, paths in groups for path in paths]
 
-    def wanted(names: tuple[str, ...]) -> bool:
-        for name, part in zip(names, folder_parts, strict=False):
-            if part == "**":
-                return True
-            if not fnmatch.fnmatchcase(name, part):
-                return False
-        return len(names) <= len(folder_parts) or "**" in folder_parts
 
-    for root, dirs, _files in os.walk(prefix, onerror=lambda e: _note_unreadable(e, unreadable)):
-        rel = Path(os.path.relpath(root, prefix)).parts if root != prefix else ()
-        dirs[:] = [d for d in dirs if not d.startswith(".") and wanted((*rel, d))]
+def _scan(folder, names, parts, group, groups, unreadable, above) -> None:
+    """List ``folder`` (``names`` below the pattern's fixed start) once: into ``group``
+    (below a matched folder, as :func:`_walk_maps` lists them: symbolic links to folders
+    not followed) its map files, into ``groups`` its matches (links followed, as
+    :func:`glob.glob` follows them); then the folders below that hold either, but none
+    of the folders ``above`` (the ids of those it lies in) again."""
+    try:
+        st = os.stat(folder)
+        with os.scandir(folder) as listing:
+            entries = sorted(listing, key=lambda entry: entry.name)
+    except OSError as exc:
+        _note_unreadable(exc, unreadable)
+        return
+    key = (st.st_dev, st.st_ino)
+    if key in above:  # a link to a folder it lies in: glob would go round for ever
+        return
+    below = []
+    for entry in entries:
+        rel, is_dir = (*names, entry.name), _is_dir(entry)
+        walked = group is not None and not entry.name.startswith(".")
+        own = None
+        if _could_match(names, parts) and _parts_match(rel, parts):
+            groups.append((entry.path, own := []))
+        if not is_dir:
+            if (walked or own is not None) and _is_map_file(Path(entry.path)):
+                (group if walked else own).append(Path(entry.path))
+            continue
+        into = group if walked and not entry.is_symlink() else own
+        if into is not None or _could_match(rel, parts):
+            below.append((entry.path, rel, into))
+    for path, rel, into in below:
+        _scan(path, rel, parts, into, groups, unreadable, above | {key})
+
+
+def _is_dir(entry: os.DirEntry) -> bool:
+    try:
+        return entry.is_dir()
+    except OSError:
+        return False
+
+
+def _name_matches(name: str, part: str) -> bool:
+    """Whether the folder entry ``name`` matches the pattern part ``part`` as in
+    :func:`glob.glob`: a wildcard matches a hidden name only where ``part`` starts
+    with a dot."""
+    if not _glob.has_magic(part):
+        return name == part
+    if name.startswith(".") and not part.startswith("."):
+        return False
+    return fnmatch.fnmatchcase(name, part)
+
+
+def _parts_match(names: tuple[str, ...], parts: tuple[str, ...]) -> bool:
+    """Whether the path ``names`` matches the pattern ``parts`` (``**``: any names)."""
+    if not parts:
+        return not names
+    if parts[0] == "**":
+        if _parts_match(names, parts[1:]):
+            return True
+        return bool(names) and not names[0].startswith(".") and _parts_match(names[1:], parts)
+    return bool(names) and _name_matches(names[0], parts[0]) and _parts_match(names[1:], parts[1:])
+
+
+def _could_match(names: tuple[str, ...], parts: tuple[str, ...]) -> bool:
+    """Whether a path below the folder ``names`` may match the pattern ``parts``."""
+    if not names:
+        return True
+    if not parts:
+        return False
+    if parts[0] == "**":
+        if not names[0].startswith(".") and _could_match(names[1:], parts):
+            return True
+        return _could_match(names, parts[1:])
+    return _name_matches(names[0], parts[0]) and _could_match(names[1:], parts[1:])
 
 
 @dataclass
