@@ -13,11 +13,12 @@ import sys
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 import topojax
 import topojax._lock
-from topojax import build_graphs
+from topojax import build_graph_tiled, build_graphs
 from topojax._lock import LOCK_FILE, one_writer
 from topojax.cli import main
 from topojax.playback import replay
@@ -57,9 +58,9 @@ def held(tmp_path):
 
 
 def test_a_second_writer_into_a_folder_is_refused_at_once(held, capsys):
-    """While another process writes into the folder, a replay and a batch into it are
-    refused before they read anything, naming the option (or parameter), the folder and
-    the process; they write nothing there."""
+    """While another process writes into the folder, a replay, a batch and a tiled build
+    into it are refused before they read anything, naming the option (or parameter), the
+    folder and the process; they write nothing there."""
     out, proc = held
     said = f"another topojax process (pid {proc.pid}, topojax replay) is writing into {out}"
     assert main(["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]) == 2
@@ -70,6 +71,8 @@ def test_a_second_writer_into_a_folder_is_refused_at_once(held, capsys):
         replay(INTEL_EXCERPT, out_dir=out, progress=False)
     with pytest.raises(BlockingIOError, match="out_dir: another topojax process"):
         build_graphs([OFFICE], out_dir=out, workers=0, progress=False)
+    with pytest.raises(BlockingIOError, match="out_dir: another topojax process"):
+        build_graph_tiled(np.ones((64, 64), bool), out_dir=out)
     assert sorted(p.name for p in out.iterdir()) == [LOCK_FILE]
 
 
@@ -121,10 +124,17 @@ _FORKING = """
 import multiprocessing, os, signal, sys, time
 from topojax._lock import one_writer
 
+def sleeper(started):
+    started.set()  # after the fork's handlers: the copy of the lock is closed by now
+    time.sleep(60)
+
 with one_writer(sys.argv[1], name="out_dir", command="batch"):
     if sys.argv[2] == "pool":
-        child = multiprocessing.get_context("fork").Process(target=time.sleep, args=(60,))
+        fork = multiprocessing.get_context("fork")
+        started = fork.Event()
+        child = fork.Process(target=sleeper, args=(started,))
         child.start()
+        started.wait(60)
         print(child.pid, flush=True)
         os.kill(os.getpid(), signal.SIGKILL)
     pid = os.fork()

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .._cpus import as_executor, available_memory_bytes, byte_size
-from .._fs import output_folder
+from .._lock import one_writer
 from .._validate import flag, instance_or_default, positive_int, quantity
 from ..config import PipelineConfig
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map
@@ -236,7 +236,8 @@ def build_graph_tiled(
         Go on from the blocks a stopped build left in ``out_dir`` (the same map, options
         and block side; a block whose map window changed since is computed again);
         blocks of another build are refused.  False: an earlier build's blocks there
-        are removed first.
+        are removed first.  One build at a time writes into a folder: a second one
+        there is refused with a ``BlockingIOError``.
 
     Returns
     -------
@@ -262,10 +263,21 @@ def build_graph_tiled(
     block_px, threads, resume = _checked_options(
         config, block_px, memory_budget_mb, threads, resume, out_dir
     )
+    if out_dir is None:
+        return _build(tiled, config, block_px, threads, executor, None, resume)
+    # one build per folder: two into it would overwrite each other's kept blocks
+    with one_writer(out_dir, name="out_dir", command="build_graph_tiled") as out:
+        return _build(tiled, config, block_px, threads, executor, out, resume)
+
+
+def _build(
+    tiled: TiledMap, config: PipelineConfig, block_px: int, threads, executor, out_dir, resume
+) -> TiledResult:
+    """:func:`build_graph_tiled` of the checked options, into the folder ``out_dir``
+    (made and locked; None: in memory)."""
     pool = as_executor(executor)
     kept = None
     if out_dir is not None:
-        out_dir = output_folder(out_dir, name="out_dir")
         kept = BlockCheckpoints(out_dir, tiled, config, block_px, resume=resume)
     h, w = tiled.shape
     boxes = [
