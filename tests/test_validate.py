@@ -606,9 +606,9 @@ def test_every_exported_check_is_tested():
     tested = {
         "binary_flag", "binary_image", "existing_file", "finite_numbers", "finite_pair",
         "finite_positive", "flag", "float32_finite", "instance_of", "instance_or_default", "int_at_least",
-        "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
+        "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "masked_entries", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "plain_int_pair", "point_rows", "plain_length_m", "pose", "positive_int", "positive_metres",
-        "quantity", "real_number", "robot_radius", "text_or_none", "xy_points",
+        "quantity", "real_number", "robot_radius", "text_or_none", "unmasked", "xy_points",
     }  # fmt: skip
     assert set(v.__all__) == tested
 
@@ -749,3 +749,54 @@ def test_finite_numbers():
         v.finite_numbers("region", (0, 1, 2), 4, "(a)")
     with pytest.raises(TypeError, match=r"^region: expected 4 finite numbers \(a\), received str"):
         v.finite_numbers("region", "0123", 4, "(a)")
+
+
+MASKED = np.ma.masked_array([1.0, 2.0, 3.0], mask=[False, True, False])
+
+
+def test_masked_entries_are_those_of_a_masked_array_with_one():
+    assert v.masked_entries(MASKED).tolist() == [False, True, False]
+    assert v.masked_entries(np.ma.masked).tolist() is True  # the masked constant, 0-d
+    for plain in ([1.0, 2.0], np.ones(3), np.ma.masked_array([1.0, 2.0]), 1.0, None):
+        assert v.masked_entries(plain) is None
+
+
+def test_unmasked_fills_the_masked_entries_or_refuses_naming_the_argument():
+    out = v.unmasked("ranges", MASKED, fill=math.nan)
+    assert type(out) is np.ndarray and out[[0, 2]].tolist() == [1.0, 3.0] and np.isnan(out[1])
+    as_int = np.ma.masked_array([4, 5], mask=[True, False], dtype=np.uint16)
+    filled = v.unmasked("ranges", as_int, fill=math.nan)
+    assert filled.dtype == np.float64 and np.isnan(filled[0]) and filled[1] == 5.0
+    assert v.unmasked("grid", as_int, fill=0).tolist() == [0, 5]
+    assert MASKED.mask.tolist() == [False, True, False]  # the argument is not changed
+    whole = np.ma.masked_array([1.0, 2.0], mask=False)
+    assert type(v.unmasked("x", whole)) is np.ndarray
+    plain = [1.0, 2.0]
+    assert v.unmasked("x", plain) is plain
+    with pytest.raises(
+        TypeError,
+        match=r"^x: expected an array without masked entries, received a masked array "
+        r"with 1 of 3 entries masked .*call \.filled\(value\)",
+    ):
+        v.unmasked("x", MASKED)
+
+
+def test_the_array_and_number_checks_refuse_masked_values_numpy_would_read_through():
+    for check in (
+        lambda: v.real_array("x", MASKED),
+        lambda: v.pixel_rows("p", np.ma.masked_array([[1, 2]], mask=[[0, 1]])),
+        lambda: v.binary_image("mask", np.ma.masked_array(np.ones((2, 2)), mask=np.eye(2))),
+    ):
+        with pytest.raises(TypeError, match=r"^(x|p|mask): expected an array without masked"):
+            check()
+    with pytest.raises(TypeError, match=r"^graph: edge 'world': expected an array without"):
+        v.xy_points(np.ma.masked_array([[1.0, 2.0]], mask=[[1, 0]]), "graph: edge 'world'")
+    with pytest.raises(TypeError, match=r"^origin_xy: expected two finite .*1 of 2 entries"):
+        v.finite_pair("origin_xy", np.ma.masked_array([0.0, 5.0], mask=[0, 1]), "(x, y)")
+    with pytest.raises(TypeError, match=r"^pose: expected a sequence of 3 finite numbers"):
+        v.pose("pose", np.ma.masked_array([0.0, 1.0, 2.0], mask=[0, 0, 1]))
+    with pytest.raises(TypeError, match=r"^timestamp: expected a real number"):
+        v.real_number("timestamp", np.ma.masked)
+    assert v.real_number("t", np.ma.masked_array(2.5, mask=False)) == 2.5
+    rows = v.point_rows("xy", np.ma.masked_array([[1.0, 2.0], [3.0, 4.0]], mask=[[0, 0], [0, 1]]))
+    assert rows[0].tolist() == [1.0, 2.0] and rows[1, 0] == 3.0 and np.isnan(rows[1, 1])

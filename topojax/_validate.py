@@ -39,6 +39,7 @@ __all__ = [
     "is_real_number",
     "kernel_tile_px",
     "kernel_tiles_per_call",
+    "masked_entries",
     "metres",
     "metres_per_pixel",
     "names_subset",
@@ -60,6 +61,7 @@ __all__ = [
     "real_number",
     "robot_radius",
     "text_or_none",
+    "unmasked",
     "xy_points",
 ]
 
@@ -71,7 +73,10 @@ def finite_positive(name: str, value: object) -> float:
 
 def _item(value: Any) -> Any:
     """The item inside ``value`` if it is a 0-d array (NumPy's or any other with
-    ``__array__`` such as a JAX scalar), else ``value`` itself."""
+    ``__array__`` such as a JAX scalar), else ``value`` itself (a masked one too: no
+    number, where ``np.asarray`` would give the value under the mask)."""
+    if masked_entries(value) is not None:
+        return value
     if (
         not isinstance(value, (numbers.Number, np.bool_))
         and hasattr(value, "__array__")
@@ -161,8 +166,9 @@ def real_array(name: str, value: Any, *, finite: bool = False) -> np.ndarray:
     """``value`` as a float64 array (any shape; 0-d for a number) after checking it holds
     real numbers: a ``TypeError`` naming ``name`` for None, strings, bools or objects
     (NumPy would turn None into NaN or fail on a string without naming the argument); a
-    ``ValueError`` for NaN or an infinity when ``finite``."""
-    arr = np.asarray(value)
+    ``ValueError`` for NaN or an infinity when ``finite``; a masked array is refused
+    (:func:`unmasked`)."""
+    arr = np.asarray(unmasked(name, value))
     if arr.dtype.kind not in "iuf":
         raise TypeError(
             f"{name}: expected a number or an array of real numbers, received "
@@ -332,6 +338,40 @@ MAX_ORIGIN_M = 1e9
 MAX_YAW_RAD = 1e9
 
 
+def masked_entries(value: Any) -> np.ndarray | None:
+    """Which entries of ``value`` are masked (a bool array of its shape) if it is a NumPy
+    masked array with a masked entry; None for anything else (``np.asarray`` would drop
+    the mask and keep the values under it)."""
+    if not isinstance(value, np.ma.MaskedArray):
+        return None
+    mask = np.ma.getmaskarray(value)
+    return mask if mask.any() else None
+
+
+def unmasked(name: str, value: Any, *, fill: Any = None) -> Any:
+    """``value`` itself unless it is a NumPy masked array: then its data if no entry is
+    masked, else a copy with the masked entries set to ``fill`` (integers and bools as
+    float64 for a NaN ``fill``); without ``fill`` (where a masked entry has no meaning) a
+    ``TypeError`` naming ``name`` that says to call ``.filled``."""
+    if not isinstance(value, np.ma.MaskedArray):
+        return value
+    data = np.asarray(value.data)
+    mask = masked_entries(value)
+    if mask is None:
+        return data
+    if fill is None:
+        raise TypeError(
+            f"{name}: expected an array without masked entries, received a masked array "
+            f"with {int(mask.sum())} of {mask.size} entries masked (the values under the "
+            "mask would be used); call .filled(value) with the value they stand for"
+        )
+    if data.dtype.kind in "biu" and isinstance(fill, float) and math.isnan(fill):
+        data = data.astype(np.float64)
+    out = np.array(data, copy=True)
+    out[mask] = fill
+    return out
+
+
 def _real_items(value: Any) -> list[float] | None:
     """The items of ``value`` as floats if it is an iterable of real numbers (see
     :func:`is_real_number`; not a str or bytes, not a 0-d array), else None. NumPy and JAX
@@ -360,6 +400,12 @@ def _finite_items(value: Any, n: int, expected: str) -> list[float]:
     """The ``n`` items of ``value`` as floats (see :func:`_real_items`): a ``TypeError``
     unless it is an iterable of numbers, a ``ValueError`` for another count or a
     non-finite item, each message ``expected`` followed by what was received."""
+    mask = masked_entries(value)
+    if mask is not None:
+        raise TypeError(
+            f"{expected}, received a masked array with {int(mask.sum())} of {mask.size} "
+            "entries masked; call .filled(value) with the value they stand for"
+        )
     items = _real_items(value)
     if items is None:
         raise TypeError(f"{expected}, received {type(value).__name__} {value!r}")
@@ -606,9 +652,10 @@ def pixel_rows(name: str, value: Any, *, one: bool = False) -> np.ndarray:
     floats pass, as a JSON or GraphML file may give them): shape (2,) when ``one`` (a
     vertex's ``pixel``), else (M, 2) from one pair or ``M >= 1`` of them (a vertex's
     ``pixels``, an edge's ``path``); a ``TypeError`` for a non-number, a ``ValueError`` for
-    another shape or a fractional or non-finite value."""
+    another shape or a fractional or non-finite value; a masked array is refused
+    (:func:`unmasked`)."""
     try:
-        arr = np.asarray(value)
+        arr = np.asarray(unmasked(name, value))
     except ValueError:  # ragged nested lists
         arr = np.array(None)
     shape = "(2,)" if one else "(2,) or (M, 2)"
@@ -630,10 +677,10 @@ def point_rows(name: str, value: Any) -> np.ndarray:
     after checking it is an array of real numbers: a ``TypeError`` naming ``name`` for
     None, strings, bools, complex numbers, objects or rows of different lengths (NumPy
     would take None as NaN and complex as its real part), a ``ValueError`` for another
-    shape; an empty sequence is no points."""
+    shape; an empty sequence is no points.  Masked entries of a masked array are NaN."""
     expected = f"{name}: expected an (N, 2) array of (x, y) in metres"
     try:
-        arr = np.asarray(value)
+        arr = np.asarray(unmasked(name, value, fill=math.nan))
     except (TypeError, ValueError):
         raise TypeError(
             f"{expected}, received {type(value).__name__} that makes no array "
@@ -653,8 +700,8 @@ def point_rows(name: str, value: Any) -> np.ndarray:
 
 def binary_image(name: str, image: Any) -> np.ndarray:
     """``image`` as a C-contiguous bool (H, W) array (nonzero = True) after checking it is a
-    2-D array of bool or real numbers without NaN."""
-    arr = np.asarray(image)
+    2-D array of bool or real numbers without NaN, not masked (:func:`unmasked`)."""
+    arr = np.asarray(unmasked(name, image))
     if arr.dtype.kind not in "biuf":
         raise TypeError(
             f"{name}: expected a 2-D array of bool or real numbers, received dtype "
@@ -675,9 +722,11 @@ def binary_image(name: str, image: Any) -> np.ndarray:
 def xy_points(value: Any, where: str, *, min_points: int = 1) -> np.ndarray:
     """``value`` as float64 (K, 2) ``(x, y)`` points, ``K >= min_points`` (a vertex's
     position, an edge's ``world`` polyline or ``waypoints``); a ValueError naming
-    ``where`` unless it is that shape and every number is finite."""
+    ``where`` unless it is that shape and every number is finite (a ``TypeError`` for a
+    masked array, :func:`unmasked`)."""
+    plain = unmasked(where, value)
     try:
-        xy = np.asarray(value, dtype=np.float64)
+        xy = np.asarray(plain, dtype=np.float64)
     except (TypeError, ValueError):
         xy = None
     if xy is None or xy.ndim != 2 or xy.shape[1:] != (2,) or len(xy) < max(min_points, 1):

@@ -374,9 +374,9 @@ class IncrementalMapper:
         Parameters
         ----------
         points_xy : array_like, shape (N, 2)
-            World ``(x, y)`` in metres, map frame.  Rows that are not finite (NaN, inf)
-            are dropped and counted in the report.  The pixel of a point is the one whose
-            square holds it (:meth:`world_to_pixel`).
+            World ``(x, y)`` in metres, map frame.  Rows that are not finite (NaN, inf) or
+            hold a masked entry (a NumPy masked array) are dropped and counted in the
+            report.  The pixel of a point is the one whose square holds it.
         origin_xy : (x, y), optional
             Position of the sensor in the map frame, metres.  With it, the ray from the
             origin to each point is free space for the exported occupancy map (as a scan's

@@ -24,12 +24,14 @@ from .._validate import (
     binary_flag,
     instance_of,
     is_real_number,
+    masked_entries,
     metres_per_pixel,
     occupancy_thresholds,
     one_of,
     pose,
     real_array,
     text_or_none,
+    unmasked,
 )
 from .classify import (
     _FREE,
@@ -123,7 +125,7 @@ class OccupancyMap:
     def __post_init__(self) -> None:
         masks = {}
         for name in ("occupied", "free", "unknown"):
-            arr = getattr(self, name)
+            arr = unmasked(f"OccupancyMap.{name}", getattr(self, name))
             instance_of(f"OccupancyMap.{name}", arr, np.ndarray, "numpy bool array")
             if arr.dtype != np.bool_:
                 raise TypeError(f"OccupancyMap.{name}: expected dtype bool, received {arr.dtype}")
@@ -274,6 +276,9 @@ class OccupancyMap:
           ``p > occupied_thresh``, free if ``p < free_thresh``, else unknown. NaN or values
           outside [0, 1] raise ValueError.
 
+        Whatever the dtype, the masked pixels of a NumPy masked array are unknown (a
+        colour pixel with any channel masked); their values are not read.
+
         Parameters
         ----------
         array : array_like
@@ -314,8 +319,9 @@ class OccupancyMap:
         occ_t, free_t = occupancy_thresholds(occupied_thresh, free_thresh)
         mode = one_of("mode", mode, MODES)
         negate = binary_flag("negate", negate)
+        masked = masked_entries(array)
         codes = classify_array(
-            np.asarray(array),
+            np.asarray(unmasked("array", array, fill=0)),  # 0: a value every dtype accepts
             occupied_thresh=occ_t,
             free_thresh=free_t,
             negate=negate,
@@ -323,6 +329,8 @@ class OccupancyMap:
             unknown_values=unknown_values,
             given_type=type(array).__name__,
         )
+        if masked is not None:
+            codes[masked if masked.ndim == codes.ndim else masked.any(axis=-1)] = _UNK
         return cls._from_codes(codes, resolution_m, origin_t, source, where="array")
 
     @classmethod

@@ -43,6 +43,7 @@ from .._validate import (
     pose,
     positive_int,
     text_or_none,
+    unmasked,
 )
 from .classify import (
     _FREE,
@@ -306,7 +307,7 @@ def array_map(name: str, array, **metadata) -> TiledMap:
     Shared with :mod:`topojax.outofcore`, which takes an array where a tiled map is
     expected.  ``array`` is (H, W), uint8, uint16, int8 or bool.
     """
-    array = np.asarray(array)
+    array = np.asarray(unmasked(name, array))  # no class for a masked value: refused
     if array.ndim != 2 or min(array.shape) < 2:
         raise ValueError(
             f"{name}: expected a 2-D (H, W) array of at least 2 x 2 pixels, received shape "

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import pose as checked_pose
-from .._validate import real_number
+from .._validate import real_number, unmasked
 
 PoseLike = Sequence[float] | np.ndarray
 
@@ -92,7 +92,8 @@ class Scan:
     ranges : numpy.ndarray, shape (N,), float16, float32 or float64
         Measured ranges in metres, beam order. Other input (integers) is converted to
         float64.
-        NaN / inf / non-positive values are allowed and are treated as "no return".
+        NaN / inf / non-positive values are allowed and are treated as "no return", as
+        are the masked entries of a NumPy masked array (stored as NaN).
         The array is copied and made read-only.
     angle_min : float
         Angle of beam 0 in radians, counter-clockwise from the sensor's ``x`` axis.
@@ -129,7 +130,7 @@ class Scan:
     def __post_init__(self) -> None:
         raw = self.ranges
         try:
-            arr = np.asarray(raw)
+            arr = np.asarray(unmasked("ranges", raw, fill=math.nan))
         except (TypeError, ValueError) as err:
             raise TypeError(
                 f"ranges: expected a 1-D numeric array, received {raw!r} ({err})"
@@ -198,7 +199,7 @@ class Scan:
         Parameters
         ----------
         ranges : array_like, shape (N,)
-            Ranges in metres.
+            Ranges in metres; masked entries (a NumPy masked array) are "no return".
         pose : array_like, shape (3,)
             Robot pose ``(x_m, y_m, yaw_rad)`` in the map frame.
         angle_min, angle_increment : float
@@ -215,7 +216,7 @@ class Scan:
         Scan
         """
         return cls(
-            np.asarray(ranges),
+            ranges,
             angle_min,
             angle_increment,
             range_min,
@@ -323,7 +324,8 @@ def scans_from_arrays(
     Parameters
     ----------
     ranges : array_like, shape (S, N)
-        Ranges in metres, one row per scan.
+        Ranges in metres, one row per scan; masked entries (a NumPy masked array) are
+        "no return".
     poses : array_like, shape (S, 3)
         Robot poses ``(x_m, y_m, yaw_rad)`` in the map frame, one row per scan.
     angle_min, angle_increment : float
@@ -345,8 +347,8 @@ def scans_from_arrays(
     ValueError
         If the shapes do not match.
     """
-    r = np.asarray(ranges)
-    p = np.asarray(poses, dtype=np.float64)
+    r = np.asarray(unmasked("ranges", ranges, fill=math.nan))
+    p = np.asarray(unmasked("poses", poses), dtype=np.float64)
     if r.ndim != 2:
         raise ValueError(f"ranges: expected a 2-D array (S, N), received shape {r.shape}")
     if p.ndim != 2 or p.shape[1] != 3:
@@ -357,7 +359,7 @@ def scans_from_arrays(
         )
     t: np.ndarray | None = None
     if timestamps is not None:
-        t = np.asarray(timestamps, dtype=np.float64)
+        t = np.asarray(unmasked("timestamps", timestamps), dtype=np.float64)
         if t.shape != (r.shape[0],):
             raise ValueError(
                 f"timestamps: expected shape ({r.shape[0]},), received shape {t.shape}"
