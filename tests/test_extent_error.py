@@ -76,6 +76,12 @@ CASES = [
      "max_abs_pixel", "points_xy: the points", 1),
     ("points origin", {}, lambda m: m.add_points(np.ones((1, 2)), origin_xy=(1e12, 0.0)),
      "max_abs_pixel", "origin_xy: the points (scan 1)", 1),
+    ("points origin extent", {"max_extent_m": 20.0},
+     lambda m: m.add_points(np.ones((1, 2)), origin_xy=(40.0, 0.0)),
+     "max_extent_m", "origin_xy: the points (scan 1)", 1),
+    ("points origin tiles", {"max_grid_cells": 50},
+     lambda m: m.add_points(np.ones((1, 2)), origin_xy=(50.0, 0.0)),
+     "max_grid_cells", "origin_xy: the points (scan 1)", 1),
     ("points memory", {"max_tile_bytes": 60 * TILE_BYTES}, lambda m: m.add_points(far_points),
      "max_tile_bytes", "points_xy: the points (scan 1)", 1),
     ("map", {"max_extent_m": 20.0}, lambda m: m.add_map(_map((400, 20), (0.0, 0.0, 0.0))),
@@ -148,3 +154,16 @@ def test_a_tile_budget_under_a_mib_is_said_in_bytes():
     assert 60 * TILE_BYTES < 2**20
     assert re.search(r"\d[\d,]* bytes in all, beyond max_tile_bytes=", str(refused.value))
     assert "MiB" not in str(refused.value)
+
+
+@pytest.mark.parametrize("first", [False, True])
+def test_points_refused_with_their_origin_name_whichever_lies_far_out(first):
+    """Points and their origin apart by more than max_extent_m: the one farther from the
+    mapped area (from (0, 0) for the first points) is named, the other not blamed."""
+    near, far = (1.0, 1.0), (1e4, 0.0)
+    for points, origin, subject in ((near, far, "origin_xy"), (far, near, "points_xy")):
+        mapper = IncrementalMapper(**SMALL_KW) if first else _mapper()
+        with pytest.raises(ExtentError, match=rf"^{subject}: the points \(scan") as info:
+            mapper.add_points(np.array([points]), origin_xy=origin)
+        assert info.value.bound == "max_extent_m" and info.value.subject.startswith(subject)
+        assert mapper.n_scans == (0 if first else 1)  # nothing was added
