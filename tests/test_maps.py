@@ -558,6 +558,31 @@ def test_too_small_maps_raise(arr):
         OccupancyMap.from_array(arr)
 
 
+def test_an_occupancy_grid_read_as_uint8_is_refused_not_read_as_an_inverted_image():
+    # ROS OccupancyGrid cells (int8: 0 free, 100 occupied, -1 unknown) seen as uint8
+    # (-1 as 255): as intensities 0 is black (occupied), 100 grey, 255 white (free)
+    grid = np.zeros((6, 6), np.int8)
+    grid[0, :] = 100
+    grid[5, :] = -1
+    cells = grid.view(np.uint8)
+    with pytest.raises(ValueError, match=r"^array: uint8 image holds only the values 0, 100 "):
+        OccupancyMap.from_array(cells)
+    with pytest.raises(ValueError, match=r"OccupancyGrid.*view\(np\.int8\) or mode='raw'"):
+        tj.build_graph(cells)
+    expected = OccupancyMap.from_array(grid)
+    assert expected.occupied[0].all() and expected.free[1:5].all() and expected.unknown[5].all()
+    for same in (cells.view(np.int8), cells):
+        got = OccupancyMap.from_array(same, mode="raw" if same.dtype == np.uint8 else "trinary")
+        assert np.array_equal(got.occupied, expected.occupied)
+        assert np.array_equal(got.unknown, expected.unknown)
+    # an image whose grey 100 is meant as unknown, said so; other images are unaffected
+    image = OccupancyMap.from_array(cells, unknown_values=(100,))
+    assert image.occupied[1:5].all() and image.unknown[0].all() and image.free[5].all()
+    for values in ((0, 255), (0, 100, 254), (0, 205, 254), (100, 255, 1)):
+        img = np.resize(np.array(values, np.uint8), (6, 6))
+        OccupancyMap.from_array(img)
+
+
 @pytest.mark.parametrize("dtype", [np.int8, np.int32, np.int64, np.uint16, np.uint8])
 def test_zero_one_integer_array_is_refused_not_read_as_a_degenerate_map(dtype):
     # As OccupancyGrid percentages 0 and 1 are both free (no obstacle at all), as uint8

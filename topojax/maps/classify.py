@@ -105,6 +105,17 @@ def _classify_uint8(
             "254 = free); for an obstacle mask pass a bool array "
             "(array.astype(bool), True = occupied), or save a mask image as 0 / 255"
         )
+    if arr.ndim == 2 and mode != "raw" and unknown_values is None and _grid_values(arr):
+        # Intensities 0 / 100 / 255 are the cells of an OccupancyGrid (int8) read as uint8:
+        # 0 free, 100 occupied, -1 unknown became 255.  As intensities they turn free
+        # into occupied and unknown into free (map_saver writes 0 / 205 / 254).
+        raise ValueError(
+            "array: uint8 image holds only the values 0, 100 and 255, the cells of a ROS "
+            "OccupancyGrid (0 free, 100 occupied, -1 unknown as 255) read as uint8; as "
+            "intensities free cells would be occupied and unknown ones free; for "
+            "OccupancyGrid data pass array.view(np.int8) or mode='raw', for an image "
+            "whose grey 100 is unknown pass unknown_values=(100,)"
+        )
     return classify_image(
         arr,
         full_scale=255,
@@ -268,6 +279,13 @@ def _ipa_free_min(full_scale: int) -> float:
 def _only_0_and_1(arr: np.ndarray) -> bool:
     """Does a uint8 array hold the value 1 and nothing but 0 and 1?"""
     return arr.size > 0 and int(arr.max()) == 1
+
+
+def _grid_values(arr: np.ndarray) -> bool:
+    """Does a uint8 array hold the value 100 and nothing but 0, 100 and 255?"""
+    if not arr.size or int(arr.max()) not in (100, 255) or not (arr == 100).any():
+        return False
+    return not np.count_nonzero((arr != 0) & (arr != 100) & (arr != 255))
 
 
 def _classify_occupancy_grid(

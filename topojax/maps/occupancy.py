@@ -268,6 +268,11 @@ class OccupancyMap:
             ``negate``), occupied otherwise, never unknown; thresholds are not used.
             (:func:`load_map` of a 16-bit image: free from 64000, the IPA tools' 250.)
 
+          A 2-D image of nothing but 0 and 1 (an obstacle mask), or of 0, 100 and 255
+          with 100 among them (ROS OccupancyGrid cells read as uint8, -1 as 255), is
+          refused with a ValueError, unless ``mode="raw"`` (which reads the latter
+          right) or ``unknown_values`` is given.
+
         * **int8 or other integer dtypes** (H, W) (not uint8): ROS ``nav_msgs/OccupancyGrid``
           values, -1 = unknown, 0..100 = occupancy percent; occupied if
           ``v / 100 > occupied_thresh``, free if ``v / 100 < free_thresh``, else unknown.
