@@ -120,3 +120,19 @@ def test_masks_and_tiled_arrays_with_masked_entries_are_refused():
     assert type(occupancy.occupied) is np.ndarray  # nothing masked: its data
     with pytest.raises(TypeError, match=r"^array: expected an array without masked entries"):
         tj.TiledMap.from_array(masked)
+
+
+def test_an_obstacle_mask_with_masked_cells_is_refused_naming_it():
+    # a masked cell of an obstacle mask is neither an obstacle nor free: no meaning
+    mask = np.zeros((8, 8), bool)
+    mask[0] = True
+    masked = np.ma.masked_array(mask, mask=np.eye(8, dtype=bool))
+    for call, name in (
+        (tj.distance_map, "obstacles"),
+        (tj.ridge_map, "obstacles"),
+        (tj.thin, "ridge"),
+        (tj.build_graph_tiled, "source"),
+    ):
+        with pytest.raises(TypeError, match=rf"^{name}: expected an array without masked"):
+            call(masked)
+    assert tj.distance_map(np.ma.masked_array(mask)).shape == (8, 8)  # nothing masked

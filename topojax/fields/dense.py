@@ -31,6 +31,7 @@ from .._validate import (
     kernel_tiles_per_call,
     names_subset,
     positive_int,
+    unmasked,
 )
 from ..config import DistanceConfig, RidgeConfig
 from .distance import (
@@ -241,7 +242,7 @@ FIELD_NAMES = ("sq_distance_px", "distance", "lap_abs", "ridges")
 
 
 def _as_obstacles(obstacles) -> np.ndarray:
-    arr = np.asarray(obstacles)
+    arr = np.asarray(unmasked("obstacles", obstacles))  # a masked cell: neither
     if arr.dtype.kind not in "biuf":
         raise TypeError(
             f"obstacles: expected a boolean mask, received dtype {arr.dtype} "
