@@ -342,7 +342,9 @@ def _classify_probability(
     n_nan = int(np.count_nonzero(np.isnan(arr)))
     if n_nan:
         raise ValueError(
-            f"float array must hold occupancy probabilities in [0, 1]; it has {n_nan} NaN values"
+            f"array: expected occupancy probabilities in [0, 1], received a float array with "
+            f"{n_nan} NaN values (cells of unknown occupancy? mask them, "
+            "np.ma.masked_invalid(array): masked cells are unknown)"
         )
     extra = _unknown_value_list(unknown_values)
     forced = np.isin(arr, extra) if extra else None

@@ -279,7 +279,8 @@ class OccupancyMap:
           Values outside -1..100 raise ValueError.
         * **float** (H, W): occupancy probabilities in [0, 1]; occupied if
           ``p > occupied_thresh``, free if ``p < free_thresh``, else unknown. NaN or values
-          outside [0, 1] raise ValueError.
+          outside [0, 1] raise ValueError (``np.ma.masked_invalid(array)`` makes NaN
+          cells unknown).
 
         Whatever the dtype, the masked pixels of a NumPy masked array are unknown (a
         colour pixel with any channel masked); their values are not read.
