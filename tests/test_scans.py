@@ -162,6 +162,20 @@ def test_float32_reading_at_a_decimal_range_max_is_no_return():
     np.testing.assert_array_equal(s16.valid_mask(), [False, True, True, False])
 
 
+@pytest.mark.parametrize("order", [">", "<"])
+def test_readings_of_either_byte_order_keep_their_precision(order):
+    # big-endian float32 readings (from a file or the network) are float32 readings: the
+    # limits compare them as stored, so a reading at range_max is still no return
+    for dtype, limit in (("f4", 5.6), ("f2", 4.2)):
+        r = np.array([limit, 1.0], dtype=order + dtype)
+        s = Scan(r, 0.0, 0.1, 0.0, limit, (0, 0, 0))
+        assert s.ranges.dtype == np.dtype(dtype) and s.ranges.dtype.isnative
+        np.testing.assert_array_equal(s.valid_mask(), [False, True])
+        assert s.ranges.tolist() == r.tolist()
+    wide = Scan(np.array([2.0, 3.0], order + "u2"), 0.0, 0.1, 0.0, 10.0, (0, 0, 0))
+    assert wide.ranges.dtype == np.float64 and wide.ranges.tolist() == [2.0, 3.0]
+
+
 def test_angles_and_properties():
     s = Scan(np.ones(5), -1.0, 0.25, 0.0, 2.0, (0, 0, 0))
     np.testing.assert_allclose(s.angles(), [-1.0, -0.75, -0.5, -0.25, 0.0], rtol=0, atol=1e-15)

@@ -90,8 +90,8 @@ class Scan:
     Parameters
     ----------
     ranges : numpy.ndarray, shape (N,), float16, float32 or float64
-        Measured ranges in metres, beam order. Other input (integers) is converted to
-        float64.
+        Measured ranges in metres, beam order (stored in native byte order). Other input
+        (integers) is converted to float64.
         NaN / inf / non-positive values are allowed and are treated as "no return", as
         are the masked entries of a NumPy masked array (stored as NaN).
         The array is copied and made read-only.
@@ -139,7 +139,8 @@ class Scan:
             raise TypeError(f"ranges: expected a real numeric array, received dtype {arr.dtype}")
         if arr.ndim != 1:
             raise ValueError(f"ranges: expected a 1-D array (N,), received shape {arr.shape}")
-        dtype = arr.dtype if arr.dtype in (np.float16, np.float32, np.float64) else np.float64
+        dtype = arr.dtype.newbyteorder("=")  # big-endian float32 readings stay float32
+        dtype = dtype if dtype in (np.float16, np.float32, np.float64) else np.float64
         arr = np.array(arr, dtype=dtype, copy=True)
         arr.flags.writeable = False
         object.__setattr__(self, "ranges", arr)
