@@ -489,10 +489,12 @@ def join_rays(mapper) -> None:
 
 def point_pixels(mapper, points_xy, origin_xy):
     """End pixels of the obstacle points ``points_xy`` (see
-    :meth:`IncrementalMapper.add_points`): ``(er, ec, ext, sensor, n)`` with the pixels
-    of the finite points (int64; those at ``max_range_m`` or farther from ``origin_xy``
-    dropped), their extent (min row, max row, min col, max col) and the pixel of
-    ``origin_xy`` (None without it), and the number of points given.
+    :meth:`IncrementalMapper.add_points`): ``(er, ec, ext, sensor, n, where)`` with the
+    pixels of the finite points (int64; those at ``max_range_m`` or farther from
+    ``origin_xy`` dropped), their extent (min row, max row, min col, max col) and the
+    pixel of ``origin_xy`` (None without it), the number of points given, and what a
+    refusal of their extent names (a callable giving a :class:`Subject`, see
+    :func:`_blamed`).
 
     Raises
     ------
@@ -531,32 +533,32 @@ def point_pixels(mapper, points_xy, origin_xy):
             "max_abs_pixel",
         )
     er, ec = mapper.world_to_pixel(used[:, 0], used[:, 1])
+    name = "points_xy"
     if er.shape[0]:
         ext = np.array([er.min(), er.max(), ec.min(), ec.max()], np.int64)
         if sensor is not None:
-            _check_origin_growth(mapper, ext, sensor)
+            name = _blamed(mapper, ext, sensor)
     else:
         ext = np.zeros(4, np.int64)
-    return er, ec, ext, sensor, pts.shape[0]
+    n = mapper._n_scans
+    return er, ec, ext, sensor, pts.shape[0], lambda: _points_subject(name, n)
 
 
-def _check_origin_growth(mapper, ext, sensor) -> None:
-    """Refuse (:func:`check_growth`) points of extent ``ext`` (min row, max row, min col,
-    max col) whose splat windows, with their origin's pixel ``sensor``, grow the map
-    beyond the mapper's limits, naming ``points_xy`` if the points alone do, else
-    whichever lies farther from the mapped area (pixel (0, 0) before any): an origin
-    far out with points near names ``origin_xy``."""
+def _blamed(mapper, ext, sensor) -> str:
+    """Which of ``points_xy`` and ``origin_xy`` a refusal of points of extent ``ext`` (min
+    row, max row, min col, max col) with their origin's pixel ``sensor`` names:
+    ``points_xy`` if the points alone grow the map beyond the mapper's limits (raised here,
+    :func:`check_growth`), else whichever lies farther from the mapped area (pixel (0, 0)
+    before any): an origin far out with points near names ``origin_xy``."""
     n = mapper._n_scans
     w = mapper._half + HALO_PX
     r0, r1, c0, c1 = ext.tolist()
-    sr, sc = sensor
     check_growth(mapper, r0 - w, r1 + w, c0 - w, c1 + w, lambda: _points_subject("points_xy", n))
     bbox = mapper._tiles.pixel_bbox
     mid_r, mid_c = (0, 0) if bbox is None else ((bbox[0] + bbox[2]) // 2, (bbox[1] + bbox[3]) // 2)
     points_far = max(abs(r0 - mid_r), abs(r1 - mid_r), abs(c0 - mid_c), abs(c1 - mid_c))
-    name = "origin_xy" if max(abs(sr - mid_r), abs(sc - mid_c)) > points_far else "points_xy"
-    lo_r, hi_r, lo_c, hi_c = min(r0, sr), max(r1, sr), min(c0, sc), max(c1, sc)
-    check_growth(mapper, lo_r - w, hi_r + w, lo_c - w, hi_c + w, lambda: _points_subject(name, n))
+    sr, sc = sensor
+    return "origin_xy" if max(abs(sr - mid_r), abs(sc - mid_c)) > points_far else "points_xy"
 
 
 def _points_subject(name: str, n: int) -> Subject:

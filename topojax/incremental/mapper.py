@@ -21,7 +21,6 @@ from ..fields.tiling import MAX_GRID_CELLS, TileManager
 from ..scans import Scan
 from ..scans.scan import reading_limits
 from ._dense_export import dense_layer, distance_map, export_bbox, occupancy_over
-from ._extent import Subject
 from ._graph_export import export_graph, global_graph, topology_result
 from ._graph_patch import patch_graph
 from ._graph_store import empty_graph_tables
@@ -402,17 +401,8 @@ class IncrementalMapper:
             (:class:`ExtentError`).  Nothing is changed in that case.
         """
         t0 = time.perf_counter()
-        er, ec, ext, sensor, n_points = point_pixels(self, points_xy, origin_xy)
-        n = self._n_scans
-        return self._add_end_pixels(
-            er,
-            ec,
-            ext,
-            sensor,
-            n_beams=n_points,
-            t0=t0,
-            where=lambda: Subject(f"points_xy: the points (scan {n})", scan=n),
-        )
+        er, ec, ext, sensor, n_points, where = point_pixels(self, points_xy, origin_xy)
+        return self._add_end_pixels(er, ec, ext, sensor, n_beams=n_points, t0=t0, where=where)
 
     @_synchronized
     def add_map(self, occupancy) -> int:
