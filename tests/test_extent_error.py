@@ -73,7 +73,7 @@ CASES = [
     ("points", {"max_extent_m": 20.0}, lambda m: m.add_points(np.array([[40.0, 0.0]])),
      "max_extent_m", "points_xy: the points (scan 1)", 1),
     ("points far", {}, lambda m: m.add_points(np.array([[1e12, 0.0]])),
-     "max_abs_pixel", "points_xy: the points", 1),
+     "max_abs_pixel", "points_xy: the points (scan 1)", 1),
     ("points origin", {}, lambda m: m.add_points(np.ones((1, 2)), origin_xy=(1e12, 0.0)),
      "max_abs_pixel", "origin_xy: the points (scan 1)", 1),
     ("points origin extent", {"max_extent_m": 20.0},

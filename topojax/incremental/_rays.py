@@ -526,7 +526,7 @@ def point_pixels(mapper, points_xy, origin_xy):
     used = pts[keep]
     if used.shape[0] and np.abs(used).max() / mapper.resolution_m > _MAX_ABS_PIXEL:
         raise refusal(
-            lambda: Subject("points_xy: the points", scan=mapper._n_scans),
+            lambda: _points_subject("points_xy", mapper._n_scans),
             f" put pixels beyond {_MAX_ABS_PIXEL} px from the origin "
             f"at resolution {mapper.resolution_m} m (largest coordinate "
             f"{np.abs(used).max():g}); nothing was added (expected coordinates in metres)",
