@@ -583,6 +583,19 @@ def test_an_occupancy_grid_read_as_uint8_is_refused_not_read_as_an_inverted_imag
         OccupancyMap.from_array(img)
 
 
+def test_an_image_file_of_0_100_and_255_is_read_as_map_server_reads_it(tmp_path):
+    """A file is an image: its 0 / 100 / 255 pixels are black, grey and white (occupied,
+    unknown at (255 - 100) / 255 = 0.61, free), not refused as OccupancyGrid cells."""
+    cells = np.zeros((6, 6), np.uint8)
+    cells[0], cells[1:5], cells[5] = 0, 255, 100
+    png = tmp_path / "grey.png"
+    cv2.imwrite(str(png), cells)
+    yaml = _yaml_map(tmp_path, GOOD, cells)  # the same pixels as m.pgm beside a YAML
+    for m in (load_map(png, resolution_m=0.1), load_map(yaml)):
+        assert m.occupied[0].all() and m.free[1:5].all() and m.unknown[5].all()
+        assert m.occupied.sum() + m.free.sum() + m.unknown.sum() == 36
+
+
 @pytest.mark.parametrize("dtype", [np.int8, np.int32, np.int64, np.uint16, np.uint8])
 def test_zero_one_integer_array_is_refused_not_read_as_a_degenerate_map(dtype):
     # As OccupancyGrid percentages 0 and 1 are both free (no obstacle at all), as uint8

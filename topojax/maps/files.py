@@ -24,7 +24,13 @@ from .._validate import (
     pose,
     threshold,
 )
-from .classify import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, MODES, classify_image
+from .classify import (
+    DEFAULT_FREE_THRESH,
+    DEFAULT_OCCUPIED_THRESH,
+    MODES,
+    _grid_values,
+    classify_image,
+)
 from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap
 from .pnm import (
     _parse_pnm_header,
@@ -512,8 +518,11 @@ def _classify_pixels(
 ) -> OccupancyMap:
     """The map of decoded image pixels whose white is ``full``: 8-bit images through
     :meth:`OccupancyMap.from_array` (errors prefixed with ``where`` unless they name the
-    file), 16-bit, other maxvals and ``map_server``'s alpha rule classified here."""
-    if full == 255 and pixels.dtype == np.uint8 and not average_alpha:
+    file), 16-bit, other maxvals and ``map_server``'s alpha rule classified here, as are
+    8-bit images of 0, 100 and 255: an array of them may be OccupancyGrid cells, which
+    ``from_array`` refuses, but a file is an image, read as map_server reads it."""
+    grid_like = pixels.ndim == 2 and pixels.dtype == np.uint8 and _grid_values(pixels)
+    if full == 255 and pixels.dtype == np.uint8 and not average_alpha and not grid_like:
         try:
             return OccupancyMap.from_array(pixels, **settings, source=str(path))
         except ValueError as exc:  # name the file (e.g. a 0/1 mask saved as an image)
