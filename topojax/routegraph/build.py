@@ -1,6 +1,6 @@
 """Route graphs for a round robot: :func:`route_graph` and its options,
-:class:`RouteGraphConfig`.  The method and the meaning of every option, with pictures, are
-in ``docs/route-graphs.md``."""
+:class:`RouteGraphConfig`.  The meaning of every option, with pictures, is in
+``docs/route-graphs.md``, the method in ``docs/route-graph-design.md``."""
 
 from __future__ import annotations
 
