@@ -901,6 +901,10 @@ def test_replay_reads_the_carmen_laser_it_is_asked_for(tmp_path, capsys):
     assert "4 scans" in captured.out and "not read: 4 RLASER" in captured.err
     rear, front = ((tmp_path / d / "map.pgm").read_bytes() for d in ("rear", "front"))
     assert rear != front
+    # a kind the log does not hold is refused under the option's name
+    path.write_text("".join(_flaser([1.0, 2.0], (0, 0, 0), ts=k) for k in range(2)))
+    assert main([*argv, "-o", str(tmp_path / "none"), "--laser", "RLASER"]) == 2
+    assert "at least one, the kind --laser 'RLASER' asks for" in capsys.readouterr().err
 
 
 def _first_flaser_tokens(path: Path) -> list[str]:

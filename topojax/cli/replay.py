@@ -194,6 +194,7 @@ _ADVICE = {
     "make the mapper with a larger max_extent_m": "give a larger max_extent_m",
     "max_extent_m, --max-extent-m in topojax replay": "max_extent_m",
     "; --max-extent-m in topojax replay)": ")",
+    "the kind laser=": "the kind --laser ",  # a CARMEN log without the lines asked for
 }
 
 
