@@ -148,15 +148,7 @@ def test_a_fresh_replay_killed_before_its_first_checkpoint_leaves_nothing_to_res
     checkpoint, has removed them as it started: --resume then says there is nothing to
     continue rather than continue the earlier run that the killed one replaced."""
     out = tmp_path / "out"
-    real = topojax.scans.read_scans
-
-    def interrupted(source, **kw):
-        for i, scan in enumerate(real(source, **kw)):
-            if i == 17:
-                raise KeyboardInterrupt
-            yield scan
-
-    monkeypatch.setattr(topojax.scans, "read_scans", interrupted)
+    stopping_reader(monkeypatch, 17, KeyboardInterrupt)
     args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress", "--view"]
     assert main([*args, "--graph-every", "5"]) == 130
     monkeypatch.undo()
@@ -184,14 +176,15 @@ class Killed(BaseException):
     """A kill in the process: nothing the replay does on an error or interrupt runs."""
 
 
-def killing_reader(monkeypatch, after: int) -> None:
-    """Make replay's reader raise :class:`Killed` when asked for scan ``after``."""
+def stopping_reader(monkeypatch, after: int, stop: type[BaseException] | None = None) -> None:
+    """Make replay's reader raise ``stop`` (default :class:`Killed`) when asked for
+    scan ``after``."""
     real = topojax.scans.read_scans
 
     def reader(source, **kw):
         for i, scan in enumerate(real(source, **kw)):
             if i == after:
-                raise Killed
+                raise stop or Killed
             yield scan
 
     monkeypatch.setattr(topojax.scans, "read_scans", reader)
@@ -237,20 +230,12 @@ def test_a_checkpoint_drops_the_recordings_an_earlier_stop_kept(tmp_path, monkey
             INTEL_EXCERPT, out_dir=out, progress=False, view=True, mcap=out / "r.mcap", **kw
         )
 
-    real = topojax.scans.read_scans
-
-    def interrupted(source, **kw):
-        for i, scan in enumerate(real(source, **kw)):
-            if i == 17:
-                raise KeyboardInterrupt
-            yield scan
-
-    monkeypatch.setattr(topojax.scans, "read_scans", interrupted)
+    stopping_reader(monkeypatch, 17, KeyboardInterrupt)
     with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
         recorded(graph_every=5, skeleton_every=5)
     assert (out / ".replay_partial" / "recorded.json").is_file()
     monkeypatch.undo()
-    killing_reader(monkeypatch, 17)
+    stopping_reader(monkeypatch, 17)
     with pytest.raises(Killed):
         recorded(checkpoint_every_s=1e-9, **SETTINGS)
     monkeypatch.undo()
