@@ -23,7 +23,13 @@ from ._validate import (
     real_array,
     robot_radius,
 )
-from .graph import cumulative_length_m, graph_resolution_m, holds, polyline_keep
+from .graph import (
+    cumulative_length_m,
+    graph_resolution_m,
+    holds,
+    polyline_keep,
+    scaled_cumulative,
+)
 from .graph.geometry import check_corridor_graph
 from .io import as_multigraph, jsonable
 from .maps.occupancy import map_mismatch
@@ -48,7 +54,6 @@ _FRAMES = ("world", "pixel")
 #: distances would overflow (a float's square root of its largest value is about 1.3e154).
 _FAR = 1e150
 
-
 #: Default limit of :meth:`RoutePlanner.route` / :func:`plan_route` on the distance from a
 #: query point to the graph, metres: a point farther off (a goal in a room the graph does
 #: not reach, or coordinates in the wrong frame) is an error, not a silent long snap.
@@ -60,7 +65,6 @@ DEFAULT_ENTRY_M = 1.0
 
 # Candidate entry points whose sight lines are drawn at once.
 _ENTRY_BATCH = 256
-# A graph's recorded map origin matches a map's to within this (metres).
 
 
 class NoRouteError(nx.NetworkXNoPath):
@@ -535,12 +539,7 @@ class RoutePlanner:
         # for a graph as built (length_m is the step sum), and for an edge whose length_m
         # a user re-weighted, partial traversals cost their share of it (never less than
         # zero, and the whole edge exactly length_m).
-        ends = starts + sizes - 1
-        steps = cum[ends]
-        scale = np.divide(self._len, steps, out=np.ones_like(steps), where=steps > 0)
-        cum *= np.repeat(scale, sizes)
-        cum[ends] = self._len
-        return np.split(cum, starts[1:])
+        return np.split(scaled_cumulative(cum, starts, sizes, self._len), starts[1:])
 
     def _pixel_size_m(self) -> float:
         if self._res is not None:

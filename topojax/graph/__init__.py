@@ -20,6 +20,7 @@ from .geometry import (
     orient,
     path_lengths_m,
     polyline_keep,
+    scaled_cumulative,
 )
 from .prune import prune_graph
 from .store import KIND_CODES, KIND_NAMES, GraphStore, paused_gc
@@ -42,6 +43,7 @@ __all__ = [
     "polyline_keep",
     "prune_graph",
     "raw_graph",
+    "scaled_cumulative",
     "skeleton_graph_store",
     "skeleton_to_graph",
 ]

@@ -54,6 +54,27 @@ def cumulative_length_m(pixels: np.ndarray, starts, sizes, res: float) -> np.nda
     return _steps_length(steps - diagonal, diagonal, res)
 
 
+def scaled_cumulative(cum: np.ndarray, starts, sizes, lengths) -> np.ndarray:
+    """``cum`` (running lengths along paths stored one after another, as
+    :func:`cumulative_length_m` gives) rescaled per path so that its last entry is the
+    path's entry of ``lengths`` and every other keeps its share of it (a path of length 0
+    keeps its zeros).  Where the factor overflows (a huge ``length_m`` on a short path),
+    the share is taken first, so finite lengths give finite results."""
+    sizes = np.asarray(sizes, np.int64)
+    ends = np.asarray(starts, np.int64) + sizes - 1
+    lengths = np.asarray(lengths, np.float64)
+    steps = cum[ends]
+    with np.errstate(over="ignore"):
+        scale = np.divide(lengths, steps, out=np.ones_like(steps), where=steps > 0)
+    huge = ~np.isfinite(scale)
+    out = cum * np.repeat(np.where(huge, 1.0, scale), sizes)
+    if huge.any():
+        at = np.repeat(huge, sizes)
+        out[at] = cum[at] / np.repeat(steps, sizes)[at] * np.repeat(lengths, sizes)[at]
+    out[ends] = lengths
+    return out
+
+
 def _path_length_m(path: np.ndarray, res: float) -> float:
     """``length_m`` of a ``(K, 2)`` pixel path, exactly as :func:`skeleton_to_graph`."""
     return float(path_lengths_m(path, [0], [len(path)], res)[0])
