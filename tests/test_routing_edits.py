@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from topojax._validate import MAX_TOTAL_LENGTH_M
 from topojax.graph import skeleton_to_graph
-from topojax.routing import RoutePlanner
+from topojax.routing import RoutePlanner, plan_route
 
 # A tee: vertices 0 (0, 0), 1 (0, 4), 2 (0, 8) and 3 (2, 4); edges (0, 1), (1, 2) of four
 # pixels' steps and (1, 3) of two.
@@ -34,3 +35,20 @@ def test_a_huge_length_m_on_a_short_edge_is_charged_in_proportion_not_overflowed
     assert across.length_m == pytest.approx(1e307)
     assert across.edges == ((0, 1, 0), (1, 3, 0))
     assert beside.length_m == pytest.approx(0.04)
+
+
+def test_lengths_whose_sum_would_overflow_are_refused_naming_length_m():
+    """Two edges of 1e308 m make a route of inf m: the planner refuses the graph, rather
+    than report the connected start and goal as in different components."""
+    g = tee()
+    g.edges[0, 1, 0]["length_m"] = 1e308
+    g.edges[1, 3, 0]["length_m"] = 1e308
+    with pytest.raises(
+        ValueError, match=r"^graph: the edges' 'length_m': expected lengths that add up to at most"
+    ):
+        plan_route(g, (0, 0), (2, 4), frame="pixel")
+    g.edges[1, 3, 0]["length_m"] = 2.0
+    g.edges[0, 1, 0]["length_m"] = MAX_TOTAL_LENGTH_M * 0.9  # the most, less the others
+    route = plan_route(g, (0, 0), (2, 4), frame="pixel")
+    assert route.length_m == pytest.approx(MAX_TOTAL_LENGTH_M * 0.9)
+    assert np.isfinite(route.length_m)

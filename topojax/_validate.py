@@ -639,6 +639,26 @@ def plain_length_m(value: Any) -> bool:
     return (type(value) is float or type(value) is int) and 0 <= value < math.inf
 
 
+#: The largest sum (metres) of a graph's edge ``length_m`` that routes are planned on: a
+#: quarter of the largest float, so that a route's sums (part of an edge, a path through
+#: the graph, part of another edge) stay finite.
+MAX_TOTAL_LENGTH_M = float(np.finfo(np.float64).max) / 4
+
+
+def summable_lengths_m(name: str, lengths: Any) -> float:
+    """The sum of ``lengths`` (each a finite number of metres >= 0), at most
+    :data:`MAX_TOTAL_LENGTH_M`; a ValueError naming ``name`` above it."""
+    with np.errstate(over="ignore"):
+        total = float(np.sum(np.asarray(lengths, np.float64)))
+    if not total <= MAX_TOTAL_LENGTH_M:
+        raise ValueError(
+            f"{name}: expected lengths that add up to at most {MAX_TOTAL_LENGTH_M:.6g} m, so "
+            f"that sums along a route stay finite, received a sum of {total:.6g} m (to keep "
+            "routes off an edge, remove it)"
+        )
+    return total
+
+
 def plain_int_pair(value: Any) -> bool:
     """Is ``value`` a tuple of two plain Python ints (a vertex's ``pixel`` as the builders
     write it)?  Anything else goes through :func:`pixel_rows`."""

@@ -22,6 +22,7 @@ from ._validate import (
     positive_metres,
     real_array,
     robot_radius,
+    summable_lengths_m,
 )
 from .graph import (
     cumulative_length_m,
@@ -207,9 +208,9 @@ class RoutePlanner:
         as a MultiGraph with edge keys 0), or ``occupancy`` is not an OccupancyMap.
     ValueError
         An edge lacks ``path``, ``world`` or ``length_m`` (a room graph is named as one),
-        or its path does not start and end at its vertices; ``occupancy`` is not the
-        graph's map (shape, resolution, origin);
-        no robot radius is given or known; ``robot_radius_m`` or ``entry_m`` without
+        or its path does not start and end at its vertices; the lengths add up to over
+        4.5e307 m; ``occupancy`` is not the graph's map (shape, resolution, origin); no
+        robot radius is given or known; ``robot_radius_m`` or ``entry_m`` without
         ``occupancy``.
     """
 
@@ -247,6 +248,7 @@ class RoutePlanner:
             self._path.append(path)
             self._world.append(world)
             self._len.append(length)
+        summable_lengths_m("graph: the edges' 'length_m'", self._len)  # sums stay finite
         # where each edge's pixels start in the edges' paths (or polylines) one after another
         self._sizes = np.array([len(p) for p in self._path], np.int64)
         self._starts = np.concatenate([[0], np.cumsum(self._sizes)[:-1]]).astype(np.int64)
