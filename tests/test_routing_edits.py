@@ -52,3 +52,18 @@ def test_lengths_whose_sum_would_overflow_are_refused_naming_length_m():
     route = plan_route(g, (0, 0), (2, 4), frame="pixel")
     assert route.length_m == pytest.approx(MAX_TOTAL_LENGTH_M * 0.9)
     assert np.isfinite(route.length_m)
+
+
+def test_a_vertex_without_its_pixel_is_named_as_the_reason_its_edge_is_refused():
+    """A vertex whose 'pixel' and 'pixels' a user dropped from a file: the error that its
+    edge's path ends elsewhere names the vertex and the missing attribute."""
+    g = tee()
+    del g.nodes[3]["pixel"]  # its 'pixels' (a cluster's, here of one pixel) still place it
+    assert plan_route(g, (0, 0), (2, 4), frame="pixel").length_m == pytest.approx(6.0)
+    del g.nodes[3]["pixels"]
+    with pytest.raises(
+        ValueError,
+        match=r"^graph: the path of edge \(1, 3, 0\) runs from \(0, 4\) to \(2, 4\), which are "
+        r"not the pixels of its vertices \(vertex 3 has no 'pixel' or 'pixels' attribute\)$",
+    ):
+        RoutePlanner(g)

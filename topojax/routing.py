@@ -28,6 +28,7 @@ from .graph import (
     cumulative_length_m,
     graph_resolution_m,
     holds,
+    pixel_less,
     polyline_keep,
     scaled_cumulative,
 )
@@ -374,7 +375,8 @@ class RoutePlanner:
         farther than the nearest point and within ``max_snap_m``, else a ValueError;
         without the map, every corridor point as near as the nearest one (within
         :data:`_TIE`: one, or one per edge through the pixel where edges cross)."""
-        q = _point(point, name, frame)
+        what = "(x, y) in metres" if frame == "world" else "(row, col) in pixels"
+        q = finite_pair(name, point, what)
         if self._occupancy is not None:
             self._check_off_obstacles(q, frame, name)
         tree, owners = self._tree(frame)
@@ -522,7 +524,7 @@ class RoutePlanner:
         raise ValueError(
             f"graph: the path of edge ({a!r}, {b!r}, {key!r}) runs from "
             f"{tuple(first.tolist())} to {tuple(last.tolist())}, which are not the pixels of "
-            "its vertices"
+            f"its vertices{pixel_less(self._graph, (a, b))}"
         )
 
     def _holds(self, node, pixel) -> bool:
@@ -785,11 +787,6 @@ def plan_route(
         graph, occupancy=occupancy, robot_radius_m=robot_radius_m, entry_m=entry_m
     )
     return planner.route(start, goal, frame=frame, max_snap_m=max_snap_m)
-
-
-def _point(point, name: str, frame: str) -> np.ndarray:
-    what = "(x, y) in metres" if frame == "world" else "(row, col) in pixels"
-    return finite_pair(name, point, what)
 
 
 def _step_size(path: np.ndarray, world: np.ndarray) -> float:

@@ -19,6 +19,7 @@ from .geometry import (
     holds,
     orient,
     path_lengths_m,
+    pixel_less,
     polyline_keep,
     scaled_cumulative,
 )
@@ -38,6 +39,7 @@ __all__ = [
     "orient",
     "path_lengths_m",
     "paused_gc",
+    "pixel_less",
     "pixel_graph_degree",
     "pixels_graph_store",
     "polyline_keep",

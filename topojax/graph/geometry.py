@@ -98,6 +98,17 @@ def holds(node: dict, pixel, name: str = "graph: a vertex") -> bool:
     return bool(np.any((members[:, 0] == r) & (members[:, 1] == c)))
 
 
+def pixel_less(graph, nodes) -> str:
+    """A note naming the first of ``nodes`` (vertices of ``graph``) with neither a
+    ``pixel`` nor ``pixels`` attribute (a hand-edited file, say), for an error that its
+    edge's path ends elsewhere; ``""`` when each has one."""
+    for n in nodes:
+        data = graph.nodes[n]
+        if data.get("pixel") is None and data.get("pixels") is None:
+            return f" (vertex {n!r} has no 'pixel' or 'pixels' attribute)"
+    return ""
+
+
 def _ends_at(path: np.ndarray, pixel) -> bool:
     """Is ``pixel`` the last pixel of ``path``?"""
     return int(path[-1, 0]) == int(pixel[0]) and int(path[-1, 1]) == int(pixel[1])
