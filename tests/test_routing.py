@@ -536,6 +536,8 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert "--max-snap-m: expected a finite number of metres >= 0" in capsys.readouterr().err
     assert main([*argv, "--max-snap-m", "none"]) == 0  # no limit (the start is 0.55 m off)
     capsys.readouterr()
+    assert main([*argv, "--max-snap-m", "inf"]) == 0  # no limit either
+    capsys.readouterr()
     with pytest.raises(SystemExit) as info:  # argparse's own exit
         main([*argv, "--max-snap-m", "x"])
     assert info.value.code == 2
@@ -661,10 +663,11 @@ def test_default_snap_limit_refuses_far_points_and_none_lifts_it():
     with pytest.raises(ValueError, match="max_snap_m=5.0 .*None for no limit"):
         tj.plan_route(g, start, far)
     assert DEFAULT_MAX_SNAP_M == 5.0
-    try:  # no limit: snapped however far (to a piece that may be out of reach)
-        tj.plan_route(g, start, far, max_snap_m=None)
-    except tj.NoRouteError:
-        pass
+    for no_limit in (None, float("inf"), np.inf):  # snapped however far, to a piece
+        try:  # that may be out of reach
+            tj.plan_route(g, start, far, max_snap_m=no_limit)
+        except tj.NoRouteError:
+            pass
 
 
 @pytest.mark.parametrize("max_snap_m", [5.0, None])

@@ -291,7 +291,7 @@ class RoutePlanner:
         max_snap_m : float, optional
             Largest allowed distance from a query point to the graph, metres; a point
             farther away raises ``ValueError`` (e.g. a goal in a room the graph does not
-            reach).  Default :data:`DEFAULT_MAX_SNAP_M` (5 m); ``None``: no limit.
+            reach).  Default :data:`DEFAULT_MAX_SNAP_M` (5 m); ``None`` or inf: no limit.
 
         Returns
         -------
@@ -310,7 +310,7 @@ class RoutePlanner:
             a graph without vertices.
         """
         one_of("frame", frame, _FRAMES)
-        if max_snap_m is not None:
+        if max_snap_m is not None and max_snap_m != math.inf:  # both: no limit
             max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
         # a join farther than max_snap_m would be dropped: none is looked for
         reach = self._entry_m if max_snap_m is None else min(self._entry_m, max_snap_m)
@@ -757,7 +757,7 @@ def plan_route(
     frame : {"world", "pixel"}
     max_snap_m : float or None, optional
         Largest allowed distance from a query point to the graph, metres (default
-        :data:`DEFAULT_MAX_SNAP_M`, 5 m); ``None``: no limit.
+        :data:`DEFAULT_MAX_SNAP_M`, 5 m); ``None`` or inf: no limit.
     occupancy : OccupancyMap, optional
         The graph's map: each end may then join the graph at the nearest point of any
         edge it sees within reach, whichever gives the shortest route (see

@@ -18,15 +18,16 @@ from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
 
 
 def _snap_limit(text: str) -> float | None:
-    """``--max-snap-m``: a number of metres, or ``none`` for no limit."""
+    """``--max-snap-m``: a number of metres, or ``none`` (or ``inf``) for no limit."""
     if text.strip().lower() == "none":
         return None
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected a number of metres or none, received {text!r}"
         ) from None
+    return None if value == float("inf") else value
 
 
 def add_command(subparsers) -> None:
