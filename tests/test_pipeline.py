@@ -702,7 +702,8 @@ def test_cli_keeps_compiled_kernels_between_runs(tmp_path):
         outputs.append((out / "rooms.json").read_bytes())
         kernels = sorted(p.name for p in (tmp_path / "cache" / "topojax" / "jax").iterdir())
         assert any(name.startswith("jit__forward_tiles") for name in kernels), kernels
-    assert "cache hit for 'jit__forward_tiles'" in done.stderr.decode(), done.stderr
+    hits = [s for s in done.stderr.decode().splitlines() if "cache hit" in s.lower()]
+    assert any("jit__forward_tiles" in line for line in hits), done.stderr
     assert outputs[0] == outputs[1]
     # JAX_COMPILATION_CACHE_DIR alone moves the cache, and kernels are still kept there
     env["JAX_COMPILATION_CACHE_DIR"] = str(tmp_path / "own")
