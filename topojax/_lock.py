@@ -7,9 +7,10 @@ The lock is ``flock`` on :data:`LOCK_FILE` inside the folder.  The system releas
 when the process ends however it ends (``kill -9``, out of memory, a power cut), so a
 lock is never left stale; the file itself is removed on a clean exit and a file left by
 a killed run is taken over by the next.  A process forked while the lock is held (a
-``fork`` pool's worker) closes its copy of the descriptor at once: a ``flock`` belongs to
-the open file, so a copy would keep the lock held after the writer is killed.  Where the system or the file system has no
-``flock`` (Windows, some network file systems), no lock is taken.
+``fork`` pool's worker) closes its copy of the descriptor at once: a ``flock`` belongs
+to the open file, so a copy would keep the lock held after the writer is killed.  Where
+the system or the file system has no ``flock`` (Windows, some network file systems), no
+lock is taken.
 """
 
 from __future__ import annotations

@@ -130,9 +130,9 @@ class WholeScans:
     (SIGINT) that arrives while :meth:`add` maps a scan is held until the scan is mapped
     and counted, then raised; a second one while it is held, or one between scans,
     interrupts at once, except while the mapped scan is recorded (:meth:`add`'s
-    ``then``): every Ctrl-C waits for that.  Outside the main thread, or where SIGINT has a handler other
-    than Python's default, interrupts are left as they are (:func:`interrupt` is held
-    in the main thread all the same)."""
+    ``then``): every Ctrl-C waits for that.  Outside the main thread, or where SIGINT
+    has a handler other than Python's default, interrupts are left as they are
+    (:func:`interrupt` is held in the main thread all the same)."""
 
     def __init__(self) -> None:
         self._busy = False

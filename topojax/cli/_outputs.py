@@ -10,10 +10,11 @@ option, the file and who wrote it).  A file the record does not list (written by
 by an older topojax) is replaced as before, and so is a file of the same command and
 input: running a command again updates its own outputs.  A view page (``view.html``,
 ``STEM_view.html``) that ``topojax view`` wrote, or that it is asked to write over, is
-replaced too: it is made from the folder's results and can be made again.  After the work the files written
-are recorded (the record is replaced atomically).  ``topojax batch`` writes no record:
-the manifest of each of its maps (``<name>.manifest.json``) names the map file it was made
-from, read relative to the current folder when the batch was given a relative path.
+replaced too: it is made from the folder's results and can be made again.  After the
+work the files written are recorded (the record is replaced atomically).  ``topojax
+batch`` writes no record: the manifest of each of its maps (``<name>.manifest.json``)
+names the map file it was made from, read relative to the current folder when the batch
+was given a relative path.
 """
 
 from __future__ import annotations
