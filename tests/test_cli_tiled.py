@@ -198,7 +198,7 @@ def test_a_tile_folder_with_a_dot_in_its_name_names_the_outputs_whole(
     tmp_path, capsys, monkeypatch
 ):
     """A tile folder is named whole (``floor.v2``, not ``floor``); a map file loses its
-    suffix; ``.`` is named as the folder it is."""
+    suffix; ``.`` is named as the folder it is, a link to a folder by its own name."""
     from topojax.cli._outputs import output_stem
 
     folder = tj.save_tiled_map(tj.sample_map("office"), tmp_path / "floor.v2", tile_px=256)
@@ -210,3 +210,5 @@ def test_a_tile_folder_with_a_dot_in_its_name_names_the_outputs_whole(
     assert output_stem(tmp_path / "floor.v2.yaml") == "floor.v2"
     monkeypatch.chdir(folder)
     assert output_stem(".") == "floor.v2"
+    (tmp_path / "level_2").symlink_to(folder)  # a link is named as the user named it
+    assert output_stem("../level_2") == "level_2"

@@ -43,10 +43,10 @@ _VERSION = 1
 def output_stem(map_path: str | os.PathLike[str]) -> str:
     """The STEM of the files made from the map ``map_path``: a file's name without its
     suffix (``office.yaml``: ``office``), a folder's (a tile folder, a Zarr array) whole
-    (``floor.v2``: ``floor.v2``; ``.``: the current folder's name)."""
+    (``floor.v2``: ``floor.v2``; ``.``: the current folder's name; a link's own name)."""
     path = Path(map_path)
     if path.is_dir():
-        return path.resolve().name
+        return Path(os.path.abspath(path)).name
     return path.stem
 
 
