@@ -620,12 +620,20 @@ def test_an_interrupt_while_a_scan_is_mapped_waits_for_it_to_be_counted():
         for i in range(10):
             whole.add(mapper, i, i, progress)
     assert progress.consumed == mapper.n_scans == 3 and mapper.finished == 2
-    # a Ctrl-C while the replay records a scan's update waits for the recording too
+
+
+@pytest.mark.parametrize("signals", [1, 2])
+def test_interrupts_while_a_scan_is_recorded_wait_for_the_recording(signals):
+    """One Ctrl-C, or two, while the replay records scan 5 stop it once scan 5 is
+    recorded: the second one at once would cut the recording short of the mapped scans."""
+    from topojax._replay_state import ReplayProgress, WholeScans
+
     mapper, progress, seen = SlowMapper(interrupted=-1), ReplayProgress(), []
 
     def record(scan, report):
         if scan == 5:
-            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(signals):
+                os.kill(os.getpid(), signal.SIGINT)
         seen.append(scan)
 
     with pytest.raises(KeyboardInterrupt), WholeScans() as whole:
@@ -633,25 +641,6 @@ def test_an_interrupt_while_a_scan_is_mapped_waits_for_it_to_be_counted():
             whole.add(mapper, i, i, progress, then=record)
     assert seen == list(range(6)) and progress.consumed == progress.recorded == 6
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
-
-
-def test_a_second_interrupt_while_a_scan_is_recorded_waits_for_the_recording():
-    """Two Ctrl-Cs while the replay records scan 5 stop it once scan 5 is recorded:
-    the second one at once would cut the recording short of the mapped scans."""
-    from topojax._replay_state import ReplayProgress, WholeScans
-
-    mapper, progress, seen = SlowMapper(interrupted=-1), ReplayProgress(), []
-
-    def record(scan, report):
-        if scan == 5:
-            os.kill(os.getpid(), signal.SIGINT)
-            os.kill(os.getpid(), signal.SIGINT)
-        seen.append(scan)
-
-    with pytest.raises(KeyboardInterrupt), WholeScans() as whole:
-        for i in range(10):
-            whole.add(mapper, i, i, progress, then=record)
-    assert seen == list(range(6)) and progress.consumed == progress.recorded == 6
 
 
 def test_a_replay_interrupted_twice_while_recording_an_update_keeps_its_recordings(
