@@ -12,6 +12,18 @@ import pytest
 # the home directory.  The test of the cache runs the command in a subprocess.
 os.environ.setdefault("TOPOJAX_NO_JAX_CACHE", "1")
 
+# Hypothesis times the garbage collector with a gc callback from its first test on.  A
+# Ctrl-C that a signal test sends to this process and that comes while the collector
+# runs is raised inside that callback, where Python drops it, and the test then waits
+# for a stop that never comes.  The timing serves deadlines, which no test here sets
+# (every @settings has deadline=None), so the callback is not installed.
+try:
+    from hypothesis.internal.conjecture import junkdrawer as _hypothesis_internals
+except ImportError:  # pragma: no cover - hypothesis is a test requirement
+    pass
+else:
+    _hypothesis_internals._gc_initialized = True
+
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
 

@@ -273,3 +273,29 @@ def test_instance_of_rule(source: str, expected: bool) -> None:
 def test_private_import_rule(importer: str, source: str, expected: list[str]) -> None:
     # the check above is only as good as its reading of an import
     assert _private_imports(PACKAGE / importer, source) == expected
+
+
+def test_property_tests_set_no_deadline() -> None:
+    """Every hypothesis test sets ``deadline=None``: the suite's timing varies with the
+    machine's load, and ``conftest.py`` leaves out hypothesis's garbage-collector timing,
+    which only deadlines use (its callback could swallow a signal test's Ctrl-C)."""
+    missing = []
+    for path in sorted((ROOT / "tests").glob("test_*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                continue
+            names = {ast.unparse(d).split("(")[0] for d in node.decorator_list}
+            if "given" not in names and "hypothesis.given" not in names:
+                continue
+            settings = [
+                d
+                for d in node.decorator_list
+                if isinstance(d, ast.Call) and ast.unparse(d.func).endswith("settings")
+            ]
+            if not any(
+                kw.arg == "deadline" and ast.unparse(kw.value) == "None"
+                for d in settings
+                for kw in d.keywords
+            ):
+                missing.append(f"{path.name}:{node.lineno} {node.name}")
+    assert not missing, missing
