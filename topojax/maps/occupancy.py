@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import weakref
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -57,6 +58,27 @@ DEFAULT_RESOLUTION_M = 0.05
 
 # Pixel value written by ``to_image`` / ``save_map`` for each class (map_saver convention).
 _IMAGE_OCCUPIED, _IMAGE_UNKNOWN, _IMAGE_FREE = 0, 205, 254
+
+#: The mask arrays this module made read-only, by id (an entry goes with its array): no
+#: caller holds a writeable array over their memory, so a map keeps them without a copy.
+_FROZEN: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
+
+
+def _freeze(arr: np.ndarray) -> np.ndarray:
+    """``arr``, a new array no caller has seen, made read-only and recorded as frozen."""
+    arr.setflags(write=False)
+    _FROZEN[id(arr)] = arr
+    return arr
+
+
+def _frozen_mask(arr: np.ndarray) -> np.ndarray:
+    """``arr`` if it is a frozen mask or a read-only view of one, else a frozen copy: a
+    read-only view of a caller's array (or a read-only array with a writeable view) would
+    let the caller change the map."""
+    owner = arr if arr.base is None else arr.base
+    if not arr.flags.writeable and _FROZEN.get(id(owner)) is owner:
+        return arr
+    return _freeze(arr.copy())
 
 
 def _broadcast(names: tuple[str, str], a: np.ndarray, b: np.ndarray):
@@ -104,8 +126,11 @@ class OccupancyMap:
     ----------
     occupied, free, unknown : np.ndarray of bool, shape (H, W)
         Class masks indexed ``[row, col]`` with row 0 at the top of the image. Exactly one
-        of the three is True at every pixel. ``H`` and ``W`` must both be >= 2. The masks
-        are stored read-only (writeable inputs are copied first).
+        of the three is True at every pixel. ``H`` and ``W`` must both be >= 2. The map
+        stores read-only masks that no caller can write: an array given here is copied
+        (a read-only view of a writeable array too), unless it is a mask of another
+        map or a read-only view of one. :meth:`from_array` and :func:`load_map` make
+        their masks without a copy.
     resolution_m : float
         Edge length of one pixel in metres (> 0).
     origin : tuple of 3 float
@@ -152,10 +177,7 @@ class OccupancyMap:
                 f"unknown per pixel); {bad} of {total.size} pixels violate this"
             )
         for name, arr in masks.items():
-            if arr.flags.writeable:
-                arr = arr.copy()
-                arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
+            object.__setattr__(self, name, _frozen_mask(arr))
         object.__setattr__(
             self, "resolution_m", metres_per_pixel("resolution_m", self.resolution_m)
         )
@@ -355,12 +377,10 @@ class OccupancyMap:
         occupied = codes == _OCC
         free = codes == _FREE
         unknown = codes == _UNK
-        for m in (occupied, free, unknown):
-            m.setflags(write=False)
         return cls(
-            occupied=occupied,
-            free=free,
-            unknown=unknown,
+            occupied=_freeze(occupied),
+            free=_freeze(free),
+            unknown=_freeze(unknown),
             resolution_m=resolution_m,
             origin=origin,
             source=source,

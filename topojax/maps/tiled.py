@@ -63,7 +63,13 @@ from .files import (
     _yaml_settings,
     thresholds_without_yaml,
 )
-from .occupancy import DEFAULT_RESOLUTION_M, OccupancyMap, grid_to_world, world_to_grid
+from .occupancy import (
+    DEFAULT_RESOLUTION_M,
+    OccupancyMap,
+    _freeze,
+    grid_to_world,
+    world_to_grid,
+)
 from .pnm import resolution_from_pgm_comments
 
 __all__ = ["TILE_INDEX", "TiledMap", "open_tiled_map", "save_tiled_map"]
@@ -256,10 +262,12 @@ class TiledMap:
                 f"{r0}:{r1}, cols {c0}:{c1}"
             )
         codes = self.codes(r0, r1, c0, c1)
-        masks = {"occupied": codes == _OCC, "free": codes == _FREE, "unknown": codes == _UNK}
+        masks = {
+            "occupied": _freeze(codes == _OCC),
+            "free": _freeze(codes == _FREE),
+            "unknown": _freeze(codes == _UNK),
+        }
         del codes
-        for m in masks.values():
-            m.setflags(write=False)
         return OccupancyMap(
             **masks, resolution_m=self.resolution_m, origin=self.origin, source=self.source
         )
