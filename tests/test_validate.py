@@ -608,7 +608,7 @@ def test_every_exported_check_is_tested():
         "finite_positive", "flag", "float32_finite", "instance_of", "instance_or_default", "int_at_least",
         "integer", "is_real_number", "kernel_tile_px", "kernel_tiles_per_call", "masked_entries", "real_array", "metres", "metres_per_pixel", "names_subset", "nonnegative_metres", "nx_graph",
         "nonnegative_quantity", "occupancy_thresholds", "one_of", "path_like", "pixel_rows", "plain_int_pair", "point_rows", "plain_length_m", "pose", "positive_int", "positive_metres",
-        "quantity", "real_number", "robot_radius", "text_or_none", "unmasked", "xy_points",
+        "quantity", "real_number", "real_values", "robot_radius", "text_or_none", "unmasked", "xy_points",
     }  # fmt: skip
     assert set(v.__all__) == tested
 
@@ -724,6 +724,34 @@ def test_kernel_tiles_per_call_caps_the_pixels_of_a_call():
         v.kernel_tiles_per_call("tiles_per_call", 4097, 256)
     with pytest.raises(ValueError, match=r"^tiles_per_call: expected an int >= 1, received 0"):
         v.kernel_tiles_per_call("tiles_per_call", 0, 256)
+
+
+def test_real_values_turns_ml_dtypes_floats_into_float32():
+    ml_dtypes = pytest.importorskip("ml_dtypes")
+    for dtype in (ml_dtypes.bfloat16, ml_dtypes.float8_e4m3fn):
+        out = v.real_values(np.array([1.5, -2.0, 0.25], dtype))
+        assert out.dtype == np.float32 and out.tolist() == [1.5, -2.0, 0.25]
+    assert np.isinf(v.real_values(np.array([np.inf], ml_dtypes.bfloat16))).all()
+    for kept in (
+        np.ones(2, np.float16),
+        np.ones(2, np.int8),
+        np.zeros(2, "V4"),
+        np.zeros(2, [("a", "f4")]),
+        np.zeros(2, ml_dtypes.int4),
+    ):
+        assert v.real_values(kept) is kept
+
+
+def test_the_real_number_checks_take_jax_bfloat16_arrays():
+    jnp = pytest.importorskip("jax.numpy")
+    bf = jnp.asarray([[1.0, 2.5], [3.0, -4.0]], jnp.bfloat16)
+    assert v.real_array("x", bf).tolist() == [[1.0, 2.5], [3.0, -4.0]]
+    assert v.real_array("x", bf).dtype == np.float64
+    assert v.point_rows("xy", bf).dtype == np.float64
+    assert v.pixel_rows("p", bf[0, :1].repeat(2)).tolist() == [[1, 1]]
+    assert v.binary_image("image", bf).all()
+    with pytest.raises(ValueError, match=r"^p: expected .* received 2\.5 among them"):
+        v.pixel_rows("p", bf[0])
 
 
 def test_real_array_refuses_what_numpy_would_turn_into_nan_or_fail_on():

@@ -59,6 +59,7 @@ __all__ = [
     "quantity",
     "real_array",
     "real_number",
+    "real_values",
     "robot_radius",
     "text_or_none",
     "unmasked",
@@ -162,13 +163,28 @@ def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
     return out
 
 
+def real_values(arr: np.ndarray) -> np.ndarray:
+    """``arr`` itself, or as float32 if its dtype is an ``ml_dtypes`` float that NumPy
+    knows as kind ``"V"`` (JAX's ``bfloat16``, most float8s), whose values float32 holds
+    exactly; the checks of real numbers (dtype kind ``"iuf"``) then take it."""
+    if arr.dtype.kind != "V" or arr.dtype.fields is not None:
+        return arr
+    import ml_dtypes  # a dependency of JAX
+
+    try:
+        ml_dtypes.finfo(arr.dtype)
+    except (TypeError, ValueError):  # not a float: a plain void, ml_dtypes' int4
+        return arr
+    return arr.astype(np.float32)
+
+
 def real_array(name: str, value: Any, *, finite: bool = False) -> np.ndarray:
     """``value`` as a float64 array (any shape; 0-d for a number) after checking it holds
     real numbers: a ``TypeError`` naming ``name`` for None, strings, bools or objects
     (NumPy would turn None into NaN or fail on a string without naming the argument); a
     ``ValueError`` for NaN or an infinity when ``finite``; a masked array is refused
     (:func:`unmasked`)."""
-    arr = np.asarray(unmasked(name, value))
+    arr = real_values(np.asarray(unmasked(name, value)))
     if arr.dtype.kind not in "iuf":
         raise TypeError(
             f"{name}: expected a number or an array of real numbers, received "
@@ -675,7 +691,7 @@ def pixel_rows(name: str, value: Any, *, one: bool = False) -> np.ndarray:
     another shape or a fractional or non-finite value; a masked array is refused
     (:func:`unmasked`)."""
     try:
-        arr = np.asarray(unmasked(name, value))
+        arr = real_values(np.asarray(unmasked(name, value)))
     except ValueError:  # ragged nested lists
         arr = np.array(None)
     shape = "(2,)" if one else "(2,) or (M, 2)"
@@ -700,7 +716,7 @@ def point_rows(name: str, value: Any) -> np.ndarray:
     shape; an empty sequence is no points.  Masked entries of a masked array are NaN."""
     expected = f"{name}: expected an (N, 2) array of (x, y) in metres"
     try:
-        arr = np.asarray(unmasked(name, value, fill=math.nan))
+        arr = real_values(np.asarray(unmasked(name, value, fill=math.nan)))
     except (TypeError, ValueError):
         raise TypeError(
             f"{expected}, received {type(value).__name__} that makes no array "
@@ -721,7 +737,7 @@ def point_rows(name: str, value: Any) -> np.ndarray:
 def binary_image(name: str, image: Any) -> np.ndarray:
     """``image`` as a C-contiguous bool (H, W) array (nonzero = True) after checking it is a
     2-D array of bool or real numbers without NaN, not masked (:func:`unmasked`)."""
-    arr = np.asarray(unmasked(name, image))
+    arr = real_values(np.asarray(unmasked(name, image)))
     if arr.dtype.kind not in "biuf":
         raise TypeError(
             f"{name}: expected a 2-D array of bool or real numbers, received dtype "

@@ -31,6 +31,7 @@ from .._validate import (
     one_of,
     pose,
     real_array,
+    real_values,
     text_or_none,
     unmasked,
 )
@@ -299,10 +300,10 @@ class OccupancyMap:
           values, -1 = unknown, 0..100 = occupancy percent; occupied if
           ``v / 100 > occupied_thresh``, free if ``v / 100 < free_thresh``, else unknown.
           Values outside -1..100 raise ValueError.
-        * **float** (H, W): occupancy probabilities in [0, 1]; occupied if
-          ``p > occupied_thresh``, free if ``p < free_thresh``, else unknown. NaN or values
-          outside [0, 1] raise ValueError (``np.ma.masked_invalid(array)`` makes NaN
-          cells unknown).
+        * **float** (H, W), JAX's ``bfloat16`` too: occupancy probabilities in [0, 1];
+          occupied if ``p > occupied_thresh``, free if ``p < free_thresh``, else unknown. NaN
+          or values outside [0, 1] raise ValueError (``np.ma.masked_invalid(array)`` makes
+          NaN cells unknown).
 
         Whatever the dtype, the masked pixels of a NumPy masked array are unknown (a
         colour pixel with any channel masked); their values are not read.
@@ -349,7 +350,8 @@ class OccupancyMap:
         negate = binary_flag("negate", negate)
         masked = masked_entries(array)
         codes = classify_array(
-            np.asarray(unmasked("array", array, fill=0)),  # 0: a value every dtype accepts
+            # 0: a value every dtype accepts
+            real_values(np.asarray(unmasked("array", array, fill=0))),
             occupied_thresh=occ_t,
             free_thresh=free_t,
             negate=negate,

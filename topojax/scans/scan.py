@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import pose as checked_pose
-from .._validate import real_number, unmasked
+from .._validate import real_number, real_values, unmasked
 
 PoseLike = Sequence[float] | np.ndarray
 
@@ -90,8 +90,9 @@ class Scan:
     Parameters
     ----------
     ranges : numpy.ndarray, shape (N,), float16, float32 or float64
-        Measured ranges in metres, beam order (stored in native byte order). Other input
-        (integers) is converted to float64.
+        Measured ranges in metres, beam order (stored in native byte order). Integers are
+        converted to float64, JAX's ``bfloat16`` (and other ``ml_dtypes`` floats) to
+        float32.
         NaN / inf / non-positive values are allowed and are treated as "no return", as
         are the masked entries of a NumPy masked array (stored as NaN).
         The array is copied and made read-only.
@@ -130,7 +131,7 @@ class Scan:
     def __post_init__(self) -> None:
         raw = self.ranges
         try:
-            arr = np.asarray(unmasked("ranges", raw, fill=math.nan))
+            arr = real_values(np.asarray(unmasked("ranges", raw, fill=math.nan)))
         except (TypeError, ValueError) as err:
             raise TypeError(
                 f"ranges: expected a 1-D numeric array, received {raw!r} ({err})"
