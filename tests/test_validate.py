@@ -754,6 +754,15 @@ def test_the_real_number_checks_take_jax_bfloat16_arrays():
         v.pixel_rows("p", bf[0])
 
 
+def test_a_jax_bfloat16_scalar_is_a_real_number_and_not_a_bool():
+    jnp = pytest.importorskip("jax.numpy")
+    for scalar in (jnp.asarray(0.5, jnp.bfloat16), jnp.bfloat16(0.5)):
+        assert v.is_real_number(scalar) and v.real_number("angle_min", scalar) == 0.5
+    assert v.pose("pose", jnp.asarray([1.0, 2.0, 0.5], jnp.bfloat16)) == (1.0, 2.0, 0.5)
+    with pytest.raises(TypeError, match="^f: expected a bool, received"):
+        v.flag("f", jnp.asarray(1.0, jnp.bfloat16))
+
+
 def test_real_array_refuses_what_numpy_would_turn_into_nan_or_fail_on():
     out = v.real_array("rows", [1, 2.5])
     assert out.dtype == np.float64 and out.tolist() == [1.0, 2.5]

@@ -8,7 +8,7 @@ NumPy scalars are accepted wherever the matching Python type is, and a 0-d array
 JAX's) wherever its item is: a 0-d numeric array where a number is, a 0-d bool array where
 a bool is.  A bool (of any of these forms) is never a number, a number is never a bool
 (a flag refuses 1 and 0; :func:`binary_flag` alone takes them), and a float (whole or not)
-is never an int.
+is never an int.  JAX's bfloat16 is a float wherever real numbers are (:func:`real_values`).
 """
 
 from __future__ import annotations
@@ -74,8 +74,9 @@ def finite_positive(name: str, value: object) -> float:
 
 def _item(value: Any) -> Any:
     """The item inside ``value`` if it is a 0-d array (NumPy's or any other with
-    ``__array__`` such as a JAX scalar), else ``value`` itself (a masked one too: no
-    number, where ``np.asarray`` would give the value under the mask)."""
+    ``__array__`` such as a JAX scalar; float32 for a bfloat16, :func:`real_values`),
+    else ``value`` itself (a masked one too: no number, where ``np.asarray`` would give
+    the value under the mask)."""
     if masked_entries(value) is not None:
         return value
     if (
@@ -83,7 +84,7 @@ def _item(value: Any) -> Any:
         and hasattr(value, "__array__")
         and getattr(value, "shape", None) == ()
     ):
-        return np.asarray(value)[()]
+        return real_values(np.asarray(value))[()]
     return value
 
 
