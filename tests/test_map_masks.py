@@ -3,7 +3,9 @@ maps keep theirs without a copy."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import pickle
 import tracemalloc
 
 import numpy as np
@@ -72,3 +74,13 @@ def test_from_array_and_load_map_make_their_masks_without_a_copy(tmp_path):
     tj.save_map(OccupancyMap.from_array(image), yaml_path)
     for make in (lambda: OccupancyMap.from_array(image), lambda: tj.load_map(yaml_path)):
         assert _peak_bytes(make) < 7 * image.size
+
+
+@pytest.mark.parametrize("protocol", [2, pickle.HIGHEST_PROTOCOL])
+def test_a_pickled_or_deep_copied_map_keeps_read_only_masks(protocol):
+    m = OccupancyMap.from_array(np.array([[0, 254, 205], [254, 254, 0]], np.uint8))
+    for restored in (pickle.loads(pickle.dumps(m, protocol=protocol)), copy.deepcopy(m)):
+        assert np.array_equal(restored.free, m.free) and restored.origin == m.origin
+        for name in ("occupied", "free", "unknown"):
+            with pytest.raises(ValueError, match="read-only"):
+                getattr(restored, name)[0, 0] = True

@@ -185,6 +185,12 @@ class OccupancyMap:
         object.__setattr__(self, "origin", pose("origin", self.origin))
         object.__setattr__(self, "source", text_or_none("source", self.source, paths=True))
 
+    def __setstate__(self, state: dict) -> None:
+        """Restore a pickled or copied map: unpickled masks are new writeable arrays no
+        caller holds yet, made read-only here (without a copy) as the map's own."""
+        masks = {name: _freeze(np.asarray(state[name])) for name in ("occupied", "free", "unknown")}
+        self.__dict__.update(state | masks)
+
     # ------------------------------------------------------------------ basic properties
     @property
     def shape(self) -> tuple[int, int]:
