@@ -26,7 +26,7 @@ from .inputs import ROUTE_FORMATS, _Item
 from .interrupts import HeldInterrupts
 from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
 from .pool import WorkerDied, WorkerPool, terminate_workers
-from .records import MapRecord, empty_reason, totalled, write_summary
+from .records import MapRecord, empty_reason, no_room_reason, totalled, write_summary
 from .worker import (
     InlineExecutor,
     _cpu_stage,
@@ -597,15 +597,16 @@ class _BatchRun:
             return replace(rec, status="error", message=res.error)
         warning = wall_warning(self._walls.pop(item.index, None))
         classes = self._classes.pop(item.index, (None, None))
-        # the paper's graph counts unless only route graphs were asked for
-        paper = self.out_dir is None or not set(self.formats) <= set(ROUTE_FORMATS)
+        # the paper's graph counts unless only route graphs or rooms were asked for
+        paper = self.out_dir is None or not set(self.formats) <= {*ROUTE_FORMATS, "rooms"}
         mode = (self.map_options or {}).get("mode")
         notes = [] if res.vertices or not paper else [empty_reason(*classes, mode=mode)]
+        notes += [no_room_reason(classes[1], mode=mode)] if res.rooms == 0 else []
         notes += [res.nav2_note] if res.nav2_note else []
         notes += [res.route_note] if res.route_note else []
         notes += [warning] if warning else []
         notes += resolution_note(item.path, self.map_options, rec.resolution_m)
-        empty = (paper and not res.vertices) or res.route_vertices == 0
+        empty = (paper and not res.vertices) or res.route_vertices == 0 or res.rooms == 0
         rec = replace(
             rec,
             status="empty" if empty else rec.status,
@@ -703,7 +704,7 @@ def build_graphs(
     formats : sequence of str, or a comma-separated str
         Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2`` (the graph for
         the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms`; the graph files
-        then carry the rooms), ``route`` and ``route_nav2`` (the route graph of
+        then carry the rooms; a map without a room gets ``status="empty"``), ``route`` and ``route_nav2`` (the route graph of
         ``route_config``, as graph files and for Nav2; a map where it is empty gets
         ``status="empty"``).  File names: ``docs/batch-and-dask.md``.
     plot : bool

@@ -76,8 +76,9 @@ class MapRecord:
     t_load_s, t_distance_s, t_thinning_s, t_graph_s, t_write_s, t_total_s : float
         Seconds per stage (see :data:`SUMMARY_COLUMNS`).
     status : {"ok", "empty", "error", "skipped"}
-        ``"empty"``: the graph, or the route graph of a ``route`` format, has no vertex
-        (outputs written; ``message`` says why);
+        ``"empty"``: the graph (unless only route graphs or rooms were asked for), or
+        the route graph of a ``route`` format, has no vertex, or the ``rooms`` format
+        found no room (outputs written; ``message`` says why);
         ``"skipped"``: complete outputs found by ``resume`` (``message`` then repeats
         what the run that wrote them said of an empty map or a warning).
     message : str
@@ -217,6 +218,18 @@ def empty_reason(n_occupied: int | None, n_free: int | None, *, mode: str | None
         why = "the map has no free pixel as classified"
     else:
         why = "no corridor was found between the obstacles"
+    return f"empty graph: {why}; {_check_map(mode)}"
+
+
+def no_room_reason(n_free: int | None, *, mode: str | None = None) -> str:
+    """Why a map has no room (the rooms format's default :class:`topojax.RoomConfig`), and
+    what to check (``n_free``: its free pixels, where counted)."""
+    free = "" if n_free is None else f": the map has {n_free} free pixels as classified"
+    return f"no room found{free}; {_check_map(mode)}"
+
+
+def _check_map(mode: str | None) -> str:
+    """What to check of a map read in ``mode`` that gave no graph or no room."""
     convention = (
         "map_mode"
         if mode == "ipa"
@@ -226,6 +239,6 @@ def empty_reason(n_occupied: int | None, n_free: int | None, *, mode: str | None
         )
     )
     return (
-        f"empty graph: {why}; check the map's thresholds (occupied_thresh, free_thresh, "
-        f"negate) or its pixel convention ({convention})"
+        "check the map's thresholds (occupied_thresh, free_thresh, negate) or its pixel "
+        f"convention ({convention})"
     )
