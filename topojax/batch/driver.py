@@ -704,9 +704,10 @@ def build_graphs(
     formats : sequence of str, or a comma-separated str
         Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2`` (the graph for
         the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms`; the graph files
-        then carry the rooms; a map without a room gets ``status="empty"``), ``route`` and ``route_nav2`` (the route graph of
-        ``route_config``, as graph files and for Nav2; a map where it is empty gets
-        ``status="empty"``).  File names: ``docs/batch-and-dask.md``.
+        then carry the rooms; a map without a room gets ``status="empty"``), ``route``
+        and ``route_nav2`` (the route graph of ``route_config``, as graph files and for
+        Nav2; a map where it is empty gets ``status="empty"``).  File names:
+        ``docs/batch-and-dask.md``.
     plot : bool
         Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
     resume : bool
