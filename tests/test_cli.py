@@ -154,7 +154,7 @@ def test_outputs_of_another_input_are_not_overwritten(tmp_path, capsys):
 def test_graph_says_when_the_resolution_is_assumed(tmp_path, capsys):
     """A PNG states no resolution: the map line says the 0.05 m/px is assumed (the graph's
     lengths and world points rest on it) until --resolution gives one; a YAML map's own
-    resolution gets no remark."""
+    resolution gets no remark, one that --resolution replaces is named."""
     from topojax.datasets import sample_map_path
 
     png = tmp_path / "office.png"
@@ -164,10 +164,16 @@ def test_graph_says_when_the_resolution_is_assumed(tmp_path, capsys):
     assert main(["graph", str(png), "-o", str(tmp_path / "b"), "--resolution", "0.1"]) == 0
     out = capsys.readouterr().out
     assert "0.1 m/px)" in out and "assumed" not in out
-    assert (
-        main(["graph", str(_ros_map(tmp_path / "c", wall_col=20)), "-o", str(tmp_path / "c")]) == 0
-    )
+    yaml = _ros_map(tmp_path / "c", wall_col=20)
+    assert main(["graph", str(yaml), "-o", str(tmp_path / "c")]) == 0
     assert "assumed" not in capsys.readouterr().out
+    # --resolution that replaces the file's own says so: every length and area scales
+    for command in ("graph", "rooms"):
+        argv = [command, str(yaml), "-o", str(tmp_path / command), "--resolution", "0.1"]
+        assert main(argv) == 0
+        assert "0.1 m/px, from --resolution: the file states 0.05)" in capsys.readouterr().out
+    assert main(["graph", str(yaml), "-o", str(tmp_path / "d"), "--resolution", "0.05"]) == 0
+    assert "0.05 m/px)" in capsys.readouterr().out  # the same as the file's: no remark
 
 
 @pytest.mark.parametrize("command", [["graph"], ["graph", "--tiled"], ["rooms"], ["route-graph"]])

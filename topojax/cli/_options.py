@@ -321,11 +321,18 @@ def map_options(args) -> dict:
 
 def assumed_resolution_note(args) -> str:
     """``", assumed: ..."`` where the map file (``args.map``) states no resolution and
-    ``--resolution`` did not give one, else ``""``: for the line that prints it."""
-    from ..maps.files import default_resolution_used
+    ``--resolution`` did not give one; ``", from --resolution: ..."`` where it replaced
+    another the file states (every length and area then scales); else ``""``: for the
+    line that prints it."""
+    from ..maps.files import default_resolution_used, stated_resolution
 
-    if args.resolution_m is None and default_resolution_used(args.map):
-        return ", assumed: the file states none; --resolution sets it"
+    if args.resolution_m is None:
+        if default_resolution_used(args.map):
+            return ", assumed: the file states none; --resolution sets it"
+        return ""
+    own = stated_resolution(args.map)
+    if own is not None and own != args.resolution_m:
+        return f", from --resolution: the file states {own:g}"
     return ""
 
 

@@ -288,6 +288,25 @@ def unstated_resolution(path: str | Path) -> float | None:
     return DEFAULT_RESOLUTION_M
 
 
+def stated_resolution(path: str | Path) -> float | None:
+    """The resolution (m/px) the map file ``path`` states itself: a YAML's ``resolution``
+    or a PGM's comment; None where it states none or cannot be read (:func:`load_map`
+    names each fault)."""
+    p = Path(path)
+    try:
+        if p.suffix.lower() in YAML_SUFFIXES and p.is_file():
+            doc = _load_yaml(p)
+            value = doc.get("resolution") if isinstance(doc, dict) else None
+            return metres_per_pixel("resolution", value) if value is not None else None
+        if p.suffix.lower() == ".pgm" and p.is_file():
+            with open(p, "rb") as f:
+                comments = _parse_pnm_header(f.read(_HEADER_BYTES))[1]
+            return resolution_from_pgm_comments(comments, p)
+    except (OSError, TypeError, ValueError):
+        return None
+    return None
+
+
 #: Bytes a pixel of a memory-mapped PGM takes while :func:`load_map` classifies it: 1 for
 #: the class codes and 3 for the map's classes (the pixels stay in the file).
 _CLASSIFY_BYTES_PER_PIXEL = 4
