@@ -95,7 +95,8 @@ def _classify_uint8(
     unknown_values: Iterable[float] | None,
 ) -> np.ndarray:
     """Class codes of an 8-bit image, after refusing an obstacle mask of 0 and 1."""
-    if arr.ndim == 2 and mode != "raw" and unknown_values is None and _only_0_and_1(arr):
+    plain = arr.ndim == 2 and mode != "raw" and unknown_values is None  # read as intensities
+    if plain and _only_0_and_1(arr):
         # As image intensities 0 and 1 are both black: every pixel would be occupied
         # (all free with negate).  Such an array is an obstacle mask in uint8, as
         # OpenCV makes them, and distance_map reads it as one.
@@ -105,7 +106,7 @@ def _classify_uint8(
             "254 = free); for an obstacle mask pass a bool array "
             "(array.astype(bool), True = occupied), or save a mask image as 0 / 255"
         )
-    if arr.ndim == 2 and mode != "raw" and unknown_values is None and _grid_values(arr):
+    if plain and _grid_values(arr):
         # Intensities 0 / 100 / 255 are the cells of an OccupancyGrid (int8) read as uint8:
         # 0 free, 100 occupied, -1 unknown became 255.  As intensities they turn free
         # into occupied and unknown into free (map_saver writes 0 / 205 / 254).
