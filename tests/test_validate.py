@@ -737,9 +737,24 @@ def test_real_values_turns_ml_dtypes_floats_into_float32():
         np.ones(2, np.int8),
         np.zeros(2, "V4"),
         np.zeros(2, [("a", "f4")]),
-        np.zeros(2, ml_dtypes.int4),
     ):
         assert v.real_values(kept) is kept
+
+
+def test_real_values_turns_ml_dtypes_integers_into_8_bit_ones():
+    ml_dtypes = pytest.importorskip("ml_dtypes")
+    for dtype, eight, values in (
+        (ml_dtypes.int4, np.int8, [-8, 0, 7]),
+        (ml_dtypes.uint4, np.uint8, [0, 1, 15]),
+    ):
+        out = v.real_values(np.array(values, dtype))
+        assert out.dtype == eight and out.tolist() == values
+    four = np.asarray(3, ml_dtypes.int4)
+    assert v.integer("n", four) == 3 and v.real_number("x", four) == 3.0
+    assert v.real_array("x", np.array([-8, 7], ml_dtypes.int4)).tolist() == [-8.0, 7.0]
+    assert v.binary_image("image", np.array([[0, 1]], ml_dtypes.uint4)).tolist() == [[False, True]]
+    with pytest.raises(TypeError, match="^f: expected a bool, received"):
+        v.flag("f", np.asarray(1, ml_dtypes.uint4))
 
 
 def test_the_real_number_checks_take_jax_bfloat16_arrays():

@@ -8,7 +8,8 @@ NumPy scalars are accepted wherever the matching Python type is, and a 0-d array
 JAX's) wherever its item is: a 0-d numeric array where a number is, a 0-d bool array where
 a bool is.  A bool (of any of these forms) is never a number, a number is never a bool
 (a flag refuses 1 and 0; :func:`binary_flag` alone takes them), and a float (whole or not)
-is never an int.  JAX's bfloat16 is a float wherever real numbers are (:func:`real_values`).
+is never an int.  JAX's bfloat16 is a float wherever real numbers are, and ``ml_dtypes``'
+int4 an integer wherever integers are (:func:`real_values`).
 """
 
 from __future__ import annotations
@@ -165,18 +166,26 @@ def real_number(name: str, value: Any, *, allow_inf: bool = False) -> float:
 
 
 def real_values(arr: np.ndarray) -> np.ndarray:
-    """``arr`` itself, or as float32 if its dtype is an ``ml_dtypes`` float that NumPy
-    knows as kind ``"V"`` (JAX's ``bfloat16``, most float8s), whose values float32 holds
-    exactly; the checks of real numbers (dtype kind ``"iuf"``) then take it."""
+    """``arr`` itself, or in the NumPy dtype that holds its values exactly if its dtype is
+    an ``ml_dtypes`` one that NumPy knows as kind ``"V"``: float32 for a float (JAX's
+    ``bfloat16``, the float8s), int8 / uint8 for a signed / unsigned integer (``int4``,
+    ``uint4``); the checks of real numbers and integers (dtype kind ``"iuf"``) then take
+    it, and arithmetic on it runs in float32 or wider, not in the narrow dtype."""
     if arr.dtype.kind != "V" or arr.dtype.fields is not None:
         return arr
     import ml_dtypes  # a dependency of JAX
 
     try:
         ml_dtypes.finfo(arr.dtype)
-    except (TypeError, ValueError):  # not a float: a plain void, ml_dtypes' int4
+    except (TypeError, ValueError):  # not a float: an integer, a plain void
+        pass
+    else:
+        return arr.astype(np.float32)
+    try:
+        signed = ml_dtypes.iinfo(arr.dtype).min < 0
+    except (TypeError, ValueError):  # a plain void
         return arr
-    return arr.astype(np.float32)
+    return arr.astype(np.int8 if signed else np.uint8)
 
 
 def real_array(name: str, value: Any, *, finite: bool = False) -> np.ndarray:
