@@ -50,3 +50,72 @@ def test_a_mapper_and_a_map_take_bfloat16_points():
     x, y = m.pixel_to_world(_bf16([1.0]), _bf16([2.0]))
     expected_x, expected_y = m.pixel_to_world(np.array([1.0]), np.array([2.0]))
     assert np.array_equal(x, expected_x) and np.array_equal(y, expected_y)
+
+
+# ------------------------------------------------------------------ ml_dtypes at the array checks
+
+ml_dtypes = pytest.importorskip("ml_dtypes")
+
+_SKELETON = np.zeros((7, 7), bool)
+_SKELETON[3, 1:6] = True
+_WALLS = np.ones((16, 16), bool)
+_WALLS[1:-1, 1:-1] = False
+
+
+def _same_graph(a, b) -> bool:
+    return sorted(a.nodes(data="pixel")) == sorted(b.nodes(data="pixel")) and sorted(
+        (u, v, d["length_m"]) for u, v, d in a.edges(data=True)
+    ) == sorted((u, v, d["length_m"]) for u, v, d in b.edges(data=True))
+
+
+@pytest.mark.parametrize("dtype", [jnp.bfloat16, ml_dtypes.int4, ml_dtypes.uint4])
+def test_skeleton_to_graph_takes_ml_dtypes_skeletons_like_float32_and_int8(dtype):
+    from topojax.graph import pixel_graph_degree
+
+    expected = tj.skeleton_to_graph(_SKELETON)
+    assert _same_graph(tj.skeleton_to_graph(_SKELETON.astype(dtype)), expected)
+    assert _same_graph(tj.skeleton_to_graph(jnp.asarray(_SKELETON, dtype)), expected)
+    assert np.array_equal(
+        pixel_graph_degree(_SKELETON.astype(dtype)), pixel_graph_degree(_SKELETON)
+    )
+    two = _SKELETON.astype(np.float32) * 2
+    with pytest.raises(ValueError, match=r"^skeleton: expected only the values 0 and 1"):
+        tj.skeleton_to_graph(two.astype(dtype))
+
+
+@pytest.mark.parametrize("dtype", [jnp.bfloat16, ml_dtypes.int4, ml_dtypes.uint4])
+def test_skeleton_to_graph_takes_ml_dtypes_clearances_and_world_coordinates(dtype):
+    clearance = np.full(_SKELETON.shape, 3.0)
+    expected = tj.skeleton_to_graph(_SKELETON, clearance_px=clearance)
+    for given in (clearance.astype(dtype), lambda flat: clearance.ravel()[flat].astype(dtype)):
+        g = tj.skeleton_to_graph(_SKELETON, clearance_px=given)
+        assert [d["clearance_m"] for _, d in g.nodes(data=True)] == [
+            d["clearance_m"] for _, d in expected.nodes(data=True)
+        ]
+    g = tj.skeleton_to_graph(
+        _SKELETON, pixel_to_world=lambda r, c: (c.astype(dtype), r.astype(dtype))
+    )
+    assert sorted(d["world"] for _, d in g.nodes(data=True)) == [(1.0, 3.0), (5.0, 3.0)]
+
+
+def test_pixels_graph_store_takes_int4_indices_and_refuses_bfloat16_ones():
+    from topojax.graph import pixels_graph_store
+
+    flat = np.array([1, 2, 3])
+    expected = pixels_graph_store((1, 5), flat).to_networkx()
+    assert _same_graph(
+        pixels_graph_store((1, 5), flat.astype(ml_dtypes.int4)).to_networkx(), expected
+    )
+    with pytest.raises(TypeError, match=r"^flat: expected a 1-D integer array, received dtype"):
+        pixels_graph_store((1, 5), flat.astype(jnp.bfloat16))
+
+
+@pytest.mark.parametrize("dtype", [ml_dtypes.int4, ml_dtypes.uint4])
+def test_thin_and_from_array_take_4_bit_integers_like_8_bit_ones(dtype):
+    eight = np.int8 if dtype == ml_dtypes.int4 else np.uint8
+    assert np.array_equal(tj.thin(_SKELETON.astype(dtype)), tj.thin(_SKELETON.astype(eight)))
+    grid = np.array([[0, 7], [-1, 7]] if dtype == ml_dtypes.int4 else [[0, 15], [9, 15]])
+    m = tj.OccupancyMap.from_array(grid.astype(dtype))
+    expected = tj.OccupancyMap.from_array(grid.astype(eight))
+    for name in ("occupied", "free", "unknown"):
+        assert np.array_equal(getattr(m, name), getattr(expected, name))

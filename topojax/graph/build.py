@@ -14,7 +14,14 @@ from collections.abc import Callable
 import networkx as nx
 import numpy as np
 
-from .._validate import flag, metres_per_pixel, nonnegative_metres, nx_graph, plain_length_m
+from .._validate import (
+    flag,
+    metres_per_pixel,
+    nonnegative_metres,
+    nx_graph,
+    plain_length_m,
+    real_values,
+)
 from .geometry import _edge_pixel_index, orient, path_lengths_m
 from .store import KIND_JUNCTION, GraphStore
 from .trace import (
@@ -34,7 +41,7 @@ PixelToWorld = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
 def _as_skeleton(skeleton: object) -> np.ndarray:
-    arr = np.asarray(skeleton)
+    arr = real_values(np.asarray(skeleton))
     if arr.dtype.kind not in "biuf":
         raise TypeError(
             f"skeleton: expected a bool-like array (bool, or integers/floats in {{0, 1}}), "
@@ -60,11 +67,7 @@ def _check_clearance(clearance_px: object, skel: np.ndarray, flat: np.ndarray) -
     """Validate ``clearance_px`` at the skeleton's pixels ``flat`` (flat indices, raster
     order) and return its values there as float64 (n,): only those are read, so only those
     are checked, not the whole map."""
-    arr = np.asarray(clearance_px)
-    if arr.dtype.kind not in "iuf" or arr.dtype == np.bool_:
-        raise TypeError(
-            f"clearance_px: expected a real numeric array (pixels), received dtype {arr.dtype}"
-        )
+    arr = _real_clearances(clearance_px)
     if arr.shape != skel.shape:
         raise ValueError(
             f"clearance_px: expected shape {skel.shape} (the skeleton's shape), "
@@ -73,11 +76,23 @@ def _check_clearance(clearance_px: object, skel: np.ndarray, flat: np.ndarray) -
     return _check_clearance_values(arr.ravel()[flat], skel.shape, flat)
 
 
+def _real_clearances(values: object) -> np.ndarray:
+    """``values`` as an array of real numbers (bfloat16 as float32, :func:`real_values`);
+    a TypeError naming ``clearance_px`` for another dtype."""
+    arr = real_values(np.asarray(values))
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(
+            f"clearance_px: expected a real numeric array (pixels), received dtype {arr.dtype}"
+        )
+    return arr
+
+
 def _check_clearance_values(
     values: np.ndarray, shape: tuple[int, ...], flat: np.ndarray
 ) -> np.ndarray:
-    """Clearances at the pixels ``flat`` as float64 (n,), checked non-negative, not NaN."""
-    vals = np.asarray(values).astype(np.float64, copy=False)
+    """Clearances at the pixels ``flat`` as float64 (n,), checked real, non-negative, not
+    NaN."""
+    vals = _real_clearances(values).astype(np.float64, copy=False)
     if vals.shape != flat.shape:
         raise ValueError(
             f"clearance_px: expected {flat.shape[0]} values (one per skeleton pixel), "
@@ -113,7 +128,7 @@ def _world_coords(
             f"pixel_to_world: expected a callable returning (x, y) arrays, received "
             f"{type(out).__name__}"
         ) from exc
-    x, y = np.asarray(x), np.asarray(y)
+    x, y = real_values(np.asarray(x)), real_values(np.asarray(y))
     if x.dtype.kind not in "iuf" or y.dtype.kind not in "iuf":
         raise TypeError(
             f"pixel_to_world: expected a callable returning real (x, y) arrays, received "
@@ -355,10 +370,11 @@ def pixels_graph_store(
     if len(shape) != 2 or min(int(v) for v in shape) < 1:
         raise ValueError(f"shape: expected (H, W) with H, W >= 1, received {shape!r}")
     shape = (int(shape[0]), int(shape[1]))
-    idx = np.asarray(flat)
+    given = np.asarray(flat)
+    idx = real_values(given)
     if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
         raise TypeError(
-            f"flat: expected a 1-D integer array, received dtype {idx.dtype} shape {idx.shape}"
+            f"flat: expected a 1-D integer array, received dtype {given.dtype} shape {idx.shape}"
         )
     idx = idx.astype(np.int64, copy=False)
     if idx.size and (idx[0] < 0 or idx[-1] >= shape[0] * shape[1] or np.any(np.diff(idx) <= 0)):
