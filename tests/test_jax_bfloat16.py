@@ -110,6 +110,16 @@ def test_pixels_graph_store_takes_int4_indices_and_refuses_bfloat16_ones():
         pixels_graph_store((1, 5), flat.astype(jnp.bfloat16))
 
 
+@pytest.mark.parametrize("dtype", [jnp.bfloat16, ml_dtypes.int4, ml_dtypes.uint4])
+def test_distance_map_takes_ml_dtypes_obstacle_masks_like_float32_and_int8(dtype):
+    expected = tj.distance_map(_WALLS)
+    assert np.array_equal(tj.distance_map(_WALLS.astype(dtype)), expected)
+    assert np.array_equal(tj.distance_map(jnp.asarray(_WALLS, dtype)), expected)
+    assert np.array_equal(tj.ridge_map(_WALLS.astype(dtype)), tj.ridge_map(_WALLS))
+    with pytest.raises(ValueError, match=rf"^obstacles: expected .* received {np.dtype(dtype)} "):
+        tj.distance_map((_WALLS * 3).astype(dtype))
+
+
 @pytest.mark.parametrize("dtype", [ml_dtypes.int4, ml_dtypes.uint4])
 def test_thin_and_from_array_take_4_bit_integers_like_8_bit_ones(dtype):
     eight = np.int8 if dtype == ml_dtypes.int4 else np.uint8

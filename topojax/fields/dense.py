@@ -31,6 +31,7 @@ from .._validate import (
     kernel_tiles_per_call,
     names_subset,
     positive_int,
+    real_values,
     unmasked,
 )
 from ..config import DistanceConfig, RidgeConfig
@@ -242,7 +243,8 @@ FIELD_NAMES = ("sq_distance_px", "distance", "lap_abs", "ridges")
 
 
 def _as_obstacles(obstacles) -> np.ndarray:
-    arr = np.asarray(unmasked("obstacles", obstacles))  # a masked cell: neither
+    given = np.asarray(unmasked("obstacles", obstacles))  # a masked cell: neither
+    arr = real_values(given)  # bfloat16 as float32, int4 as int8
     if arr.dtype.kind not in "biuf":
         raise TypeError(
             f"obstacles: expected a boolean mask, received dtype {arr.dtype} "
@@ -260,7 +262,7 @@ def _as_obstacles(obstacles) -> np.ndarray:
             # "nonzero = obstacle" would silently give the wrong map
             raise ValueError(
                 "obstacles: expected a boolean mask (or 0 / 1 values), received "
-                f"{arr.dtype} values in [{arr.min()}, {arr.max()}] with "
+                f"{given.dtype} values in [{arr.min()}, {arr.max()}] with "
                 f"{int(other.sum())} pixels neither 0 nor 1; convert images and "
                 "occupancy grids with OccupancyMap.from_array(...) and pass it (or its "
                 ".occupied)"
