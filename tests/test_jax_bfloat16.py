@@ -129,3 +129,51 @@ def test_thin_and_from_array_take_4_bit_integers_like_8_bit_ones(dtype):
     expected = tj.OccupancyMap.from_array(grid.astype(eight))
     for name in ("occupied", "free", "unknown"):
         assert np.array_equal(getattr(m, name), getattr(expected, name))
+
+
+def _store_arrays():
+    from topojax.graph import skeleton_graph_store
+
+    store = skeleton_graph_store(_SKELETON)
+    names = (
+        "node_pixel node_kind node_world node_clearance_m edge_u edge_v path_offsets "
+        "path_pixels path_world edge_length_m edge_min_clearance_m edge_mean_clearance_m"
+    ).split()
+    return store, {name: np.asarray(getattr(store, name)) for name in names}
+
+
+def test_graph_store_takes_bfloat16_reals_and_int4_integers():
+    from topojax.graph import GraphStore
+
+    store, arrays = _store_arrays()
+    given = {
+        name: arr.astype(ml_dtypes.int4 if arr.dtype.kind in "iu" else jnp.bfloat16)
+        for name, arr in arrays.items()
+    }
+    out = GraphStore(**given, attrs=dict(store.attrs))
+    for name, arr in arrays.items():
+        assert getattr(out, name).dtype == arr.dtype
+        assert np.array_equal(getattr(out, name), arr, equal_nan=arr.dtype.kind == "f")
+    with pytest.raises(TypeError, match=r"^edge_u: expected an integer array, received dtype bf"):
+        GraphStore(**{**arrays, "edge_u": arrays["edge_u"].astype(jnp.bfloat16)})
+
+
+@pytest.mark.parametrize("dtype", [np.complex64, object, str])
+def test_the_array_checks_still_name_a_wrong_dtype(dtype):
+    from topojax.graph import GraphStore
+
+    _, arrays = _store_arrays()
+    calls = {
+        "skeleton": lambda: tj.skeleton_to_graph(_SKELETON.astype(dtype)),
+        "clearance_px": lambda: tj.skeleton_to_graph(
+            _SKELETON, clearance_px=lambda flat: np.ones(flat.shape, dtype)
+        ),
+        "obstacles": lambda: tj.distance_map(_WALLS.astype(dtype)),
+        "node_world": lambda: GraphStore(
+            **{**arrays, "node_world": arrays["node_world"].astype(dtype)}
+        ),
+    }
+    for name, call in calls.items():
+        with pytest.raises(TypeError, match=rf"^{name}: expected .* received .*dtype") as err:
+            call()
+        assert np.dtype(dtype).name.rstrip("0123456789") in str(err.value) or dtype is str

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
-from .._validate import nx_graph
+from .._validate import nx_graph, real_values
 
 __all__ = [
     "KIND_CODES",
@@ -128,11 +128,13 @@ def fill_multigraph(
 
 def _array(name: str, value, dtype, kinds: str, shape: tuple) -> np.ndarray:
     """``value`` as a read-only array of ``dtype`` after checking its dtype kind and
-    shape (``None`` in ``shape``: any length)."""
-    arr = np.asarray(value)
-    if arr.dtype.kind not in kinds or arr.dtype == np.bool_:
-        expected = "integer" if kinds == "iu" else "real"
-        raise TypeError(f"{name}: expected an {expected} array, received dtype {arr.dtype}")
+    shape (``None`` in ``shape``: any length); ``ml_dtypes`` ones as :func:`real_values`
+    takes them."""
+    given = np.asarray(value)
+    arr = real_values(given)
+    if arr.dtype.kind not in kinds:
+        expected = "an integer" if kinds == "iu" else "a real"
+        raise TypeError(f"{name}: expected {expected} array, received dtype {given.dtype}")
     if arr.ndim != len(shape) or any(
         s is not None and s != a for s, a in zip(shape, arr.shape, strict=True)
     ):
