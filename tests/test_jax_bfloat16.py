@@ -177,3 +177,29 @@ def test_the_array_checks_still_name_a_wrong_dtype(dtype):
         with pytest.raises(TypeError, match=rf"^{name}: expected .* received .*dtype") as err:
             call()
         assert np.dtype(dtype).name.rstrip("0123456789") in str(err.value) or dtype is str
+
+
+def _with_paths(dtype):
+    g = tj.skeleton_to_graph(_SKELETON)
+    for _, _, d in g.edges(data=True):
+        d["path"] = np.asarray(d["path"]).astype(dtype)
+    return g
+
+
+def test_routes_take_int4_edge_paths_and_refuse_bfloat16_ones():
+    start, goal = (1.0, 3.5), (5.0, 3.5)
+    expected = tj.plan_route(tj.skeleton_to_graph(_SKELETON), start, goal)
+    route = tj.plan_route(_with_paths(ml_dtypes.int4), start, goal)
+    assert route.length_m == expected.length_m
+    with pytest.raises(ValueError, match=r"expected an integer 'path' .* received bfloat16"):
+        tj.plan_route(_with_paths(jnp.bfloat16), start, goal)
+
+
+def test_the_view_routes_int4_edge_paths_and_not_bfloat16_ones():
+    from topojax.view._graphs import graph_payload
+
+    def payload(dtype):
+        return graph_payload(_with_paths(dtype), None, name="g", label="graph")
+
+    assert payload(ml_dtypes.int4)["routable"] and payload(np.int64)["routable"]
+    assert not payload(jnp.bfloat16)["routable"] and not payload(np.float32)["routable"]

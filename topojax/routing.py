@@ -21,6 +21,7 @@ from ._validate import (
     plain_length_m,
     positive_metres,
     real_array,
+    real_values,
     robot_radius,
     summable_lengths_m,
 )
@@ -493,7 +494,8 @@ class RoutePlanner:
 
     def _edge_arrays(self, a, b, key, data):
         where = f"edge ({a!r}, {b!r}, {key!r})"
-        path = np.asarray(data["path"])  # each edge has the three: check_corridor_graph
+        given = np.asarray(data["path"])  # each edge has the three: check_corridor_graph
+        path = real_values(given)  # int4 as int8; bfloat16 as float32, refused below
         world = real_array(f"graph: {where}: 'world'", data["world"], finite=True)
         length = data["length_m"]
         length = (
@@ -510,7 +512,7 @@ class RoutePlanner:
         ):
             raise ValueError(
                 f"graph: {where}: expected an integer 'path' of shape (n, 2) and a 'world' of "
-                f"the same shape, received {path.dtype} {path.shape} and {world.shape}"
+                f"the same shape, received {given.dtype} {path.shape} and {world.shape}"
             )
         return path.astype(np.int64), world, length
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from .._validate import nx_graph, xy_points
+from .._validate import nx_graph, real_values, xy_points
 from ..graph import holds
 from ..io import as_multigraph, jsonable
 from ..maps.occupancy import grid_to_world
@@ -132,7 +132,7 @@ def _routable_edges(graph, where: str):
             raise ValueError(f"{where}: {name}: its 'world' polyline is empty or not finite")
         path, length = data.get("path"), _number(data, "length_m")
         if path is not None:
-            path = np.asarray(path)
+            path = real_values(np.asarray(path))  # int4 as int8; bfloat16 is no integer
         why = None
         if path is None or path.shape != world.shape or not np.issubdtype(path.dtype, np.integer):
             why = f"{name} lacks an integer 'path' like its 'world'"
