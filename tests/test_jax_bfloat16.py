@@ -203,3 +203,13 @@ def test_the_view_routes_int4_edge_paths_and_not_bfloat16_ones():
 
     assert payload(ml_dtypes.int4)["routable"] and payload(np.int64)["routable"]
     assert not payload(jnp.bfloat16)["routable"] and not payload(np.float32)["routable"]
+
+
+def test_a_tiled_map_takes_an_int4_grid_like_an_int8_one_and_refuses_bfloat16():
+    grid = np.array([[0, 7, -1], [0, 0, 7]])
+    m = tj.TiledMap.from_array(grid.astype(ml_dtypes.int4))
+    expected = tj.TiledMap.from_array(grid.astype(np.int8))
+    assert m.kind == expected.kind == "grid"
+    assert np.array_equal(m.codes(0, 2, 0, 3), expected.codes(0, 2, 0, 3))
+    with pytest.raises(TypeError, match=r"^array: expected .* received bfloat16$"):
+        tj.TiledMap.from_array(grid.astype(jnp.bfloat16))

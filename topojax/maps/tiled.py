@@ -42,6 +42,7 @@ from .._validate import (
     path_like,
     pose,
     positive_int,
+    real_values,
     text_or_none,
     unmasked,
 )
@@ -315,7 +316,8 @@ def array_map(name: str, array, **metadata) -> TiledMap:
     Shared with :mod:`topojax.outofcore`, which takes an array where a tiled map is
     expected.  ``array`` is (H, W), uint8, uint16, int8 or bool.
     """
-    array = np.asarray(unmasked(name, array))  # no class for a masked value: refused
+    given = np.asarray(unmasked(name, array))  # no class for a masked value: refused
+    array = real_values(given)  # int4 as int8 (an OccupancyGrid); bfloat16 refused below
     if array.ndim != 2 or min(array.shape) < 2:
         raise ValueError(
             f"{name}: expected a 2-D (H, W) array of at least 2 x 2 pixels, received shape "
@@ -324,7 +326,7 @@ def array_map(name: str, array, **metadata) -> TiledMap:
     if array.dtype.name not in _DTYPE_KIND:
         raise TypeError(
             f"{name}: expected stored values of dtype uint8 or uint16 (image), int8 "
-            f"(OccupancyGrid) or bool (obstacle mask), received {array.dtype}"
+            f"(OccupancyGrid) or bool (obstacle mask), received {given.dtype}"
         )
     return TiledMap(_ArrayReader(array), **metadata)
 
