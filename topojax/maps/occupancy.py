@@ -279,11 +279,11 @@ class OccupancyMap:
         The interpretation depends on the dtype of ``array``:
 
         * **bool** (H, W): True = occupied, False = free; no unknown pixels.
-        * **uint8** (H, W) grey image, or (H, W, C) with C = 1 (grey), 2 (grey + alpha),
-          3 (RGB or BGR) or 4 (RGBA/BGRA): an image with ``map_server`` semantics. The
-          intensity ``v`` is the mean of the colour channels (alpha ignored; a map read
-          from a ROS YAML by :func:`load_map` follows ``map_server`` there too), then
-          ``mode`` decides:
+        * **uint8** (H, W) grey image (``ml_dtypes``' uint4 too, as uint8), or (H, W, C)
+          with C = 1 (grey), 2 (grey + alpha), 3 (RGB or BGR) or 4 (RGBA/BGRA): an image
+          with ``map_server`` semantics. The intensity ``v`` is the mean of the colour
+          channels (alpha ignored; a map read from a ROS YAML by :func:`load_map` follows
+          ``map_server`` there too), then ``mode`` decides:
 
           - ``"trinary"``: ``p = (255 - v) / 255`` (``v / 255`` if ``negate``); occupied if
             ``p > occupied_thresh``, free if ``p < free_thresh``, unknown otherwise.
@@ -302,9 +302,10 @@ class OccupancyMap:
           refused with a ValueError, unless ``mode="raw"`` (which reads the latter
           right) or ``unknown_values`` is given.
 
-        * **int8 or other integer dtypes** (H, W) (not uint8): ROS ``nav_msgs/OccupancyGrid``
-          values, -1 = unknown, 0..100 = occupancy percent; occupied if
-          ``v / 100 > occupied_thresh``, free if ``v / 100 < free_thresh``, else unknown.
+        * **int8 or other integer dtypes** (H, W) (not uint8 or uint4; int4 too): ROS
+          ``nav_msgs/OccupancyGrid`` values, -1 = unknown, 0..100 = occupancy percent;
+          occupied if ``v / 100 > occupied_thresh``, free if ``v / 100 < free_thresh``,
+          else unknown.
           Values outside -1..100 raise ValueError.
         * **float** (H, W), JAX's ``bfloat16`` too: occupancy probabilities in [0, 1];
           occupied if ``p > occupied_thresh``, free if ``p < free_thresh``, else unknown. NaN
