@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from pathlib import Path
 
 import cv2
 import networkx as nx
 import numpy as np
 import pytest
-from room_maps import three_rooms
+from room_maps import three_rooms, three_rooms_occupied
 
 import topojax as tj
 from topojax.io import ROOM_FILE_SUFFIXES, save_room_files
@@ -307,6 +308,42 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
             lambda d: d["features"][3]["properties"].update(pixels=[[-1, 2]]),
             r"features\[3\]: property 'pixels': expected pixels \(row, col\) >= 0",
         ),
+        # the map frame: a resolution no map has, an origin that is no pose
+        *(
+            (
+                lambda d, v=v: d["topojax_rooms"].update(resolution_m=v),
+                r"topojax_rooms: 'resolution_m': expected a number of metres per pixel from "
+                rf"1e-06 to 10000, received {got}$",
+            )
+            for v, got in ((0, "0"), (-0.05, "-0.05"), (math.nan, "nan"), (math.inf, "inf"))
+        ),
+        (
+            lambda d: d["topojax_rooms"].update(resolution_m="0.05"),
+            r"topojax_rooms: 'resolution_m': expected a number .*, received '0.05'$",
+        ),
+        (
+            lambda d: d["topojax_rooms"].update(origin=[0.0, 0.0]),
+            r"topojax_rooms: 'origin': expected \[x, y, yaw\] .*, received \[0.0, 0.0\]$",
+        ),
+        (
+            lambda d: d["topojax_rooms"].update(origin=[0.0, math.nan, 0.0]),
+            r"topojax_rooms: 'origin': expected \[x, y, yaw\] .*, received \[0.0, nan, 0.0\]$",
+        ),
+        # door ends: on the map's pixels (its border ones included), never past its edge
+        (
+            lambda d: d["features"][3]["properties"].update(ends_px=[[21, 50], [500, 50]]),
+            r"features\[3\]: property 'ends_px': expected two pixels \(row, col\) >= 0, "
+            r"inside the map's 60 x 150 pixels, received \[\[21, 50\], \[500, 50\]\]$",
+        ),
+        (
+            lambda d: d["features"][3]["properties"].update(ends_px=[[-1, 50], [38, 50]]),
+            r"features\[3\]: property 'ends_px': expected two pixels \(row, col\) >= 0",
+        ),
+        (
+            lambda d: d["features"][4]["geometry"].update(coordinates=[[0.0, 0.0], [1e6, 0.0]]),
+            r"features\[4\]: geometry: expected a door's two ends \[x, y\] on the map's 60 x "
+            r"150 pixels, received \[\[0.0, 0.0\], \[1000000.0, 0.0\]\]$",
+        ),
         (
             lambda d: d["features"][4]["properties"].update(width_m=-0.5),
             r"features\[4\]: property 'width_m': expected >= 0",
@@ -329,6 +366,24 @@ def test_load_rooms_names_the_file_and_the_fault(seg, tmp_path: Path, damage, me
     with pytest.raises(ValueError, match=message) as info:
         tj.load_rooms(path)
     assert str(path) in str(info.value)
+
+
+def test_load_rooms_takes_doors_that_end_on_the_maps_border(tmp_path: Path):
+    # a doorway between a wall and the map's outer wall on its first row ends on row 0:
+    # the rooms the package writes may end a door on the border, never past it
+    occ = three_rooms_occupied()
+    for c in (50, 100):
+        occ[:, c] = True
+        occ[1:17, c] = False
+    m = tj.OccupancyMap(occupied=occ, free=~occ, unknown=np.zeros_like(occ), resolution_m=0.05)
+    border = tj.segment_rooms(m)
+    assert [d.ends_px.tolist() for d in border.doors] == [
+        [[0, 50], [17, 50]],
+        [[0, 100], [17, 100]],
+    ]
+    rooms, doors = tj.load_rooms(tj.save_rooms(border, tmp_path / "r.geojson"))
+    assert_rooms_equal(rooms, border.rooms)
+    assert_doors_equal(doors, border.doors)
 
 
 def test_load_rooms_missing_unreadable_or_another_kind_of_file(tmp_path: Path):

@@ -13,7 +13,15 @@ from typing import Any
 import numpy as np
 
 from .._fs import atomic_write_bytes
-from .._validate import existing_file, instance_of, path_like
+from .._validate import (
+    MAX_RESOLUTION_M,
+    MIN_RESOLUTION_M,
+    existing_file,
+    instance_of,
+    metres_per_pixel,
+    path_like,
+    pose,
+)
 
 __all__ = [
     "ROOM_FILE_SUFFIXES",
@@ -348,8 +356,15 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
     ValueError
         If it is not a file, not valid JSON, or not a rooms GeoJSON, or if room or door
         ids repeat, a door does not join two distinct rooms of the file, or a value is
-        one no segmentation has (a negative area or width, a room's bounding box or a
-        door's pixels outside the map); the message names the file and the feature.
+        one no segmentation has (a ``resolution_m`` no map has, an ``origin`` that is no
+        pose, a negative area or width, a room's bounding box or a door's ends or pixels
+        off the map); the message names the file and the feature or field.
+
+    Notes
+    -----
+    A door's ends (``ends_px``, and its line where the file states the map's shape,
+    resolution and origin) lie on the map's pixels, those on its border included:
+    :func:`topojax.segment_rooms` never ends a doorway past the map's edge.
     """
     p = existing_file("path", path)
     try:
@@ -385,24 +400,48 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
             raise ValueError(
                 f"{where} has kind {kind!r}; expected 'room' or 'door': not a rooms GeoJSON{hint}"
             )
-    shape = meta.get("shape") if isinstance(meta, dict) else None
-    _check_pixels(rooms, doors, shape, f"rooms file {p}: {_MEMBER}")
+    shape, resolution_m, origin = _map_frame(meta, f"rooms file {p}: {_MEMBER}")
+    _check_pixels(rooms, doors, shape)
+    if None not in (shape, resolution_m, origin):
+        _check_lines(doors, shape, resolution_m, origin)
     _check_links(rooms, doors)
     return tuple(r for _, r in rooms), tuple(d for _, d in doors)
 
 
-def _check_pixels(rooms: list, doors: list, shape, where: str) -> None:
-    """Areas and widths >= 0, room bounding boxes and door pixels >= 0 and inside the map
-    ``shape`` ([H, W], where the file states it)."""
-    if shape is not None:
-        if not (
-            isinstance(shape, list)
-            and len(shape) == 2
-            and all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in shape)
-        ):
-            raise ValueError(
-                f"{where}: 'shape': expected [H, W] (two positive integers), received {shape!r:.80}"
-            )
+def _map_frame(meta, where: str) -> tuple:
+    """``shape`` [H, W], ``resolution_m`` and ``origin`` (x, y, yaw) of the foreign member
+    ``meta``, each None where it states none; ValueError naming the field otherwise."""
+    if not isinstance(meta, dict):
+        return None, None, None
+    shape, res, origin = (meta.get(k) for k in ("shape", "resolution_m", "origin"))
+    if shape is not None and not (
+        isinstance(shape, list)
+        and len(shape) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in shape)
+    ):
+        raise ValueError(
+            f"{where}: 'shape': expected [H, W] (two positive integers), received {shape!r:.80}"
+        )
+    try:  # a bad field is a bad file: ValueError, whatever its type
+        res = None if res is None else metres_per_pixel("resolution_m", res)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{where}: 'resolution_m': expected a number of metres per pixel from "
+            f"{MIN_RESOLUTION_M:g} to {MAX_RESOLUTION_M:g}, received {res!r:.80}"
+        ) from None
+    try:
+        origin = None if origin is None else pose("origin", origin)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{where}: 'origin': expected [x, y, yaw] (three finite numbers: metres, metres, "
+            f"radians), received {origin!r:.80}"
+        ) from None
+    return shape, res, origin
+
+
+def _check_pixels(rooms: list, doors: list, shape) -> None:
+    """Areas and widths >= 0, room bounding boxes, door ends and door pixels >= 0 and
+    inside the map ``shape`` ([H, W], where the file states it)."""
     h, w = shape if shape is not None else (math.inf, math.inf)
     inside = "" if shape is None else f", inside the map's {h} x {w} pixels"
     for at, room in rooms:
@@ -417,11 +456,35 @@ def _check_pixels(rooms: list, doors: list, shape, where: str) -> None:
     for at, door in doors:
         if door.width_m < 0:
             raise ValueError(f"{at}: property 'width_m': expected >= 0, received {door.width_m}")
-        px = door.pixels  # (its ends_px may lie just past the map's edge)
-        if px.size and not ((px >= 0).all() and (px[:, 0] < h).all() and (px[:, 1] < w).all()):
+        # segment_rooms ends a doorway on an obstacle pixel of the map, never past its
+        # edge (a gap between a wall and the edge is no doorway): the ends may lie on the
+        # border pixels, as the doorway's own pixels may
+        for name, px, what in (
+            ("ends_px", door.ends_px, "two pixels"),
+            ("pixels", door.pixels, "pixels"),
+        ):
+            if px.size and not ((px >= 0).all() and (px[:, 0] < h).all() and (px[:, 1] < w).all()):
+                raise ValueError(
+                    f"{at}: property {name!r}: expected {what} (row, col) >= 0{inside}, "
+                    f"received {px.tolist()!r:.80}"
+                )
+
+
+def _check_lines(doors: list, shape, resolution_m: float, origin) -> None:
+    """Each door's line ends (world metres) on the map of ``shape``, ``resolution_m`` and
+    ``origin``: within the outer edges of its pixels."""
+    from ..maps.occupancy import world_to_grid
+
+    h, w = shape
+    for at, door in doors:
+        xy = door.ends_world
+        rows, cols = world_to_grid(
+            xy[:, 0], xy[:, 1], height=h, resolution_m=resolution_m, origin=origin
+        )
+        if not ((rows >= -0.5) & (rows <= h - 0.5) & (cols >= -0.5) & (cols <= w - 0.5)).all():
             raise ValueError(
-                f"{at}: property 'pixels': expected pixels (row, col) >= 0{inside}, "
-                f"received {px.tolist()!r:.80}"
+                f"{at}: geometry: expected a door's two ends [x, y] on the map's {h} x {w} "
+                f"pixels, received {xy.tolist()!r:.80}"
             )
 
 
