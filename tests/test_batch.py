@@ -1836,6 +1836,26 @@ def test_a_batch_assumes_no_resolution_where_a_pgm_comment_is_refused(tmp_path):
     assert list(warnings.filters) == filters
 
 
+def test_a_batch_notes_a_resolution_that_replaces_the_files_own(tmp_path):
+    """A resolution given for every map file (``topojax batch --resolution``) that
+    replaces the one a YAML or a PGM comment states makes every length and area scale:
+    the map's note names the file's own; the same one, or none given, is no note."""
+    from topojax.batch.worker import resolution_note
+
+    grid = np.full((40, 40), 254, np.uint8)
+    pgm = tmp_path / "stated.pgm"
+    pgm.write_bytes(b"P5\n# CREATOR: map_saver.cpp 0.100 m/pix\n40 40\n255\n" + grid.tobytes())
+    yaml = tmp_path / "stated.yaml"
+    yaml.write_text("image: stated.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n", encoding="utf-8")
+    for path in (pgm, yaml):
+        assert resolution_note(path, {"resolution_m": 0.05}, 0.05) == [
+            "0.05 m/px from map_options' resolution_m: the file states 0.1"
+        ]
+        assert resolution_note(path, {"resolution_m": 0.1}, 0.1) == []
+        assert resolution_note(path, {}, 0.1) == []
+    assert resolution_note(None, {"resolution_m": 0.05}, 0.05) == []  # a loaded map
+
+
 def test_an_empty_map_read_as_ipa_is_not_told_to_try_ipa(tmp_path):
     """The reason of an empty map suggests the IPA pixel convention only to a batch that
     did not read the map with it."""

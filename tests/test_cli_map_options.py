@@ -115,3 +115,28 @@ def test_batch_says_when_a_maps_resolution_was_assumed(tmp_path, capsys):
     captured = capsys.readouterr()
     assert "1 with a warning" in captured.out
     assert captured.err.splitlines() == [f"  ok       plain: {note}"]
+
+
+def test_batch_says_when_resolution_replaces_a_maps_own(tmp_path, capsys):
+    """``--resolution`` that replaces the resolution a map file states (every length and
+    area then scales) is named in that map's message, printed and in the summary table,
+    as ``topojax graph`` names it on its map line; the map stays ok, and one given the
+    same as the file's gets no remark."""
+    three_rooms_png(tmp_path / "in" / "fine.png")
+    three_rooms_png(tmp_path / "in" / "coarse.png")
+    for name, res in (("fine", 0.05), ("coarse", 0.1)):
+        (tmp_path / "in" / f"{name}.yaml").write_text(
+            f"image: {name}.png\nresolution: {res}\norigin: [0.0, 0.0, 0.0]\n", encoding="utf-8"
+        )
+    out = tmp_path / "out"
+    maps = [str(tmp_path / "in" / f"{name}.yaml") for name in ("fine", "coarse")]
+    argv = ["batch", *maps, "-o", str(out), "--no-progress", "--resolution", "0.05"]
+    assert main([*argv, "--workers", "0"]) == 0
+    note = "0.05 m/px from --resolution: the file states 0.1"
+    rows = {r["map"]: r for r in _rows(out)}
+    assert rows["coarse"]["message"] == note and rows["fine"]["message"] == ""
+    assert rows["coarse"]["status"] == rows["fine"]["status"] == "ok"
+    assert rows["coarse"]["resolution_m"] == "0.05"
+    captured = capsys.readouterr()
+    assert "2 ok, 0 empty" in captured.out and "1 with a warning" in captured.out
+    assert captured.err.splitlines() == [f"  ok       coarse: {note}"]

@@ -18,7 +18,7 @@ from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
-from ..maps.files import default_resolution_used, said_resolution
+from ..maps.files import default_resolution_used, replaced_resolution, said_resolution
 from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
 
@@ -397,13 +397,24 @@ def _load_here(item: _Item, tile_px: int, want_free: bool, options: dict | None 
 #: How a map of :func:`resolution_note` gets its resolution (the command line names its
 #: option instead).
 RESOLUTION_HINT = "a map given as load_map(path, resolution_m=...) sets it"
+#: Where a resolution that replaces a map file's own comes from (the command line names
+#: its option instead).
+GIVEN_RESOLUTION = "map_options' resolution_m"
 
 
 def resolution_note(path, options: dict | None, resolution_m: float) -> list[str]:
     """The note of a map file read at ``resolution_m`` because it states none and
-    ``options`` (``load_map``'s keyword arguments) give none; no note otherwise."""
-    if path is None or (options or {}).get("resolution_m") is not None:
+    ``options`` (``load_map``'s keyword arguments) give none, or because they give one
+    that replaces another the file states (every length and area then scales); no note
+    otherwise."""
+    if path is None:
         return []
+    given = (options or {}).get("resolution_m")
+    if given is not None:
+        own = replaced_resolution(path, given)
+        if own is None:
+            return []
+        return [f"{given:g} m/px from {GIVEN_RESOLUTION}: the file states {own:g}"]
     if not default_resolution_used(path):
         return []
     return [f"{resolution_m:g} m/px assumed: the file states none; {RESOLUTION_HINT}"]

@@ -324,16 +324,14 @@ def assumed_resolution_note(args) -> str:
     ``--resolution`` did not give one; ``", from --resolution: ..."`` where it replaced
     another the file states (every length and area then scales); else ``""``: for the
     line that prints it."""
-    from ..maps.files import default_resolution_used, stated_resolution
+    from ..maps.files import default_resolution_used, replaced_resolution
 
     if args.resolution_m is None:
         if default_resolution_used(args.map):
             return ", assumed: the file states none; --resolution sets it"
         return ""
-    own = stated_resolution(args.map)
-    if own is not None and own != args.resolution_m:
-        return f", from --resolution: the file states {own:g}"
-    return ""
+    own = replaced_resolution(args.map, args.resolution_m)
+    return "" if own is None else f", from --resolution: the file states {own:g}"
 
 
 #: The room options: (option, RoomConfig field, default, metavar, help).  The defaults are

@@ -165,14 +165,15 @@ def _as_printed(records: list, args) -> list:
     from dataclasses import replace
 
     from ..batch import write_summary
-    from ..batch.worker import RESOLUTION_HINT
+    from ..batch.worker import GIVEN_RESOLUTION, RESOLUTION_HINT
 
     def message(r) -> str:
         names = _MAP_OPTION_OF if r.status == "error" else _NOTE_OPTION_OF
         error = r.message.removeprefix("ValueError: ")
         if r.status == "error" and given_threshold_refused(error, map_options(args)):
             names = {**names, **dict(_THRESHOLD_OPTIONS)}  # the one given, the map's other
-        return _as_options(r.message, names).replace(RESOLUTION_HINT, "--resolution sets it")
+        text = r.message.replace(RESOLUTION_HINT, "--resolution sets it")
+        return _as_options(text.replace(GIVEN_RESOLUTION, "--resolution"), names)
 
     named = [replace(r, message=message(r)) for r in records]
     if any(a.message != b.message for a, b in zip(records, named, strict=True)):

@@ -288,6 +288,16 @@ def unstated_resolution(path: str | Path) -> float | None:
     return DEFAULT_RESOLUTION_M
 
 
+def replaced_resolution(path: str | Path, resolution_m: float | None) -> float | None:
+    """The resolution (m/px) the map file ``path`` states where ``resolution_m``, given to
+    :func:`load_map`, replaces another (every length and area then scales); None where
+    none is given, the file states none, or it states the same."""
+    if resolution_m is None:
+        return None
+    own = stated_resolution(path)
+    return own if own is not None and own != resolution_m else None
+
+
 def stated_resolution(path: str | Path) -> float | None:
     """The resolution (m/px) the map file ``path`` states itself: a YAML's ``resolution``
     or a PGM's comment; None where it states none or cannot be read (:func:`load_map`
