@@ -265,6 +265,30 @@ def test_from_arrays_and_scans_from_arrays():
         scans_from_arrays(ranges, poses, angle_min=0, angle_increment=0.0)
 
 
+@pytest.mark.parametrize(
+    ("name", "bad"),
+    [
+        ("poses", np.zeros((3, 3)) + 1j),  # NumPy keeps the real part, with a warning
+        ("poses", [["a", "b", "c"]] * 3),
+        ("poses", [[0.0, 0.0, None]] * 3),  # NumPy reads None as NaN
+        ("timestamps", np.zeros(3) + 1j),
+        ("timestamps", ["a", "b", "c"]),
+    ],
+)
+def test_scans_from_arrays_refuses_poses_and_times_that_are_no_real_numbers(name, bad):
+    args = {"poses": np.zeros((3, 3)), "timestamps": None, name: bad}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning: a refusal
+        with pytest.raises(TypeError, match=rf"^{name}: expected .*real numbers"):
+            scans_from_arrays(
+                np.ones((3, 4)),
+                args["poses"],
+                angle_min=0.0,
+                angle_increment=0.1,
+                timestamps=args["timestamps"],
+            )
+
+
 # ------------------------------------------------------------------------------------------
 # CARMEN
 # ------------------------------------------------------------------------------------------

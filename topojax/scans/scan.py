@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import pose as checked_pose
-from .._validate import real_number, real_values, unmasked
+from .._validate import real_array, real_number, real_values, unmasked
 
 PoseLike = Sequence[float] | np.ndarray
 
@@ -346,11 +346,13 @@ def scans_from_arrays(
 
     Raises
     ------
+    TypeError
+        If ``poses`` or ``timestamps`` hold no real numbers (None, text, complex).
     ValueError
         If the shapes do not match.
     """
     r = np.asarray(unmasked("ranges", ranges, fill=math.nan))
-    p = np.asarray(unmasked("poses", poses), dtype=np.float64)
+    p = real_array("poses", poses)  # None, text, complex: a TypeError naming poses
     if r.ndim != 2:
         raise ValueError(f"ranges: expected a 2-D array (S, N), received shape {r.shape}")
     if p.ndim != 2 or p.shape[1] != 3:
@@ -361,7 +363,7 @@ def scans_from_arrays(
         )
     t: np.ndarray | None = None
     if timestamps is not None:
-        t = np.asarray(unmasked("timestamps", timestamps), dtype=np.float64)
+        t = real_array("timestamps", timestamps)
         if t.shape != (r.shape[0],):
             raise ValueError(
                 f"timestamps: expected shape ({r.shape[0]},), received shape {t.shape}"
