@@ -477,3 +477,43 @@ def test_a_local_update_with_options_reaching_far_past_the_map_falls_back_to_who
     whole.update_rooms()
     assert update.segmented_px == local.rooms.labels.size
     np.testing.assert_array_equal(local.rooms.labels, whole.rooms.labels)
+
+
+def _room_over_corridor() -> OccupancyMap:
+    """A room (6 x 10 m) over a corridor 2.5 m wide running down from a 1.5 m doorway in
+    the room's lower wall, at 0.05 m per pixel."""
+    occ = np.zeros((224, 202), bool)
+    occ[[0, -1]] = True
+    occ[:, [0, -1]] = True
+    occ[121, :86] = True  # the room's lower wall, the doorway at columns 86..115
+    occ[121, 116:] = True
+    occ[122:, :76] = True  # the corridor, columns 76..125
+    occ[122:, 126:] = True
+    return OccupancyMap(
+        occupied=occ, free=~occ, unknown=np.zeros_like(occ), resolution_m=RES, origin=(0, 0, 0)
+    )
+
+
+def test_a_local_update_keeps_a_doorway_its_window_cuts_off_beyond():
+    """A pillar placed 2.1 m from a doorway: the window (3.2 m round the pillar) ends
+    just past the doorway, too near for the window to see the corridor widen beyond it,
+    while the doorway lies in the zone whose doors are refreshed.  The two rooms stay as
+    they were, so their door stays too (it went, leaving the room graph without the
+    edge a segmentation from scratch has)."""
+    occ = _room_over_corridor()
+    pillar = np.zeros(occ.shape, bool)
+    pillar[74:78, 99:103] = True
+    local, whole = _mapper(rooms_local=True), _mapper(rooms_local=False)
+    for m in (local, whole):
+        m.add_map(occ)
+        m.update_rooms()
+        m.add_map(_obstacles_of(occ, pillar))
+    update = local.update_rooms()
+    whole.update_rooms()
+    assert update.segmented_px < local.rooms.labels.size, "only a window was segmented"
+    assert _same_up_to_ids(local.rooms.labels, whole.rooms.labels)
+    assert [d.rooms for d in local.rooms.doors] == [(1, 2)]
+    assert [d.ends_px.tolist() for d in local.rooms.doors] == [
+        d.ends_px.tolist() for d in whole.rooms.doors
+    ]
+    assert not update.doors_removed and not update.doors_added

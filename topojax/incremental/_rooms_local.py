@@ -343,7 +343,7 @@ def _local_step(st: _Rooms, occ, rr, cc, cfg) -> int | None:
     reach = int(math.ceil((cfg.max_door_width_m + cfg.door_context_m) / st.res_m))
     zone = _grow(_box_of_pixels(rr, cc), reach, win)
     zone = _intersection(zone, _moved(_interior(win, band, bounds), win))
-    _refresh_doors(st, win, seg, rel, final_of, zone)
+    _refresh_doors(st, win, seg, rel, final_of, zone, (rr, cc))
     return segmented
 
 
@@ -495,12 +495,15 @@ def _splice(st: _Rooms, sub, win, seg, rel: _Relation) -> dict:
     return {j: int(lut[compact[j]]) for j in ys}
 
 
-def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone) -> None:
+def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone, changed) -> None:
     """Doors after a local step: the old doors, less those of replaced rooms and those
     in ``zone`` (a box near the changes, inside the window's interior: a doorway there
     may have moved, appeared or gone); plus the window's doors of affected rooms and
     those in ``zone``, each side named by its final id (affected rooms), the old room it
-    is the same as, or the old room it overlaps most."""
+    is the same as, or the old room it overlaps most.  An old door in ``zone`` stays
+    when both its rooms stay, the window gives no door between them and no pixel of
+    ``changed`` (rows, cols) comes near it: the window's side may cut off the space a
+    doorway needs beyond it, and the rooms it separates still meet there."""
     x, y = rel.replaced, rel.affected
     owner = dict(rel.same)
     best: dict[int, int] = {}
@@ -514,7 +517,7 @@ def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone) -
         inside = (r >= zone[0]) & (r < zone[2]) & (c >= zone[1]) & (c < zone[3])
         return bool(inside.any())
 
-    _drop_doors(st, x, zone, in_zone)
+    new = []
     for d in seg.doors:
         moved = _shift_door(d, win[0], win[1])
         a, b = d.rooms
@@ -522,16 +525,29 @@ def _refresh_doors(st: _Rooms, win, seg, rel: _Relation, final_of: dict, zone) -
             continue
         fa, fb = owner.get(a, 0), owner.get(b, 0)
         if fa and fb and fa != fb and fa in st.rooms and fb in st.rooms:
-            door = _shift_door(moved, 0, 0, rooms=(min(fa, fb), max(fa, fb)))
-            st.doors.append(door)
-            st.doors_new.append(door_key(door, st.origin))
+            new.append(_shift_door(moved, 0, 0, rooms=(min(fa, fb), max(fa, fb))))
+    pairs = {d.rooms for d in new}
+    cr, cc = changed
+
+    def unjudged(door) -> bool:
+        if door.rooms in pairs or not all(i in st.rooms for i in door.rooms):
+            return False
+        e, k = door.ends_px, _DOOR_SLACK + 1
+        near = (cr >= e[:, 0].min() - k) & (cr <= e[:, 0].max() + k)
+        near &= (cc >= e[:, 1].min() - k) & (cc <= e[:, 1].max() + k)
+        return not bool(near.any())
+
+    _drop_doors(st, x, zone, lambda d: in_zone(d.pixels) and not unjudged(d))
+    for door in new:
+        st.doors.append(door)
+        st.doors_new.append(door_key(door, st.origin))
 
 
 def _drop_doors(st: _Rooms, rooms: set, zone=None, in_zone=None) -> None:
-    """Drop the doors of rooms ``rooms`` and, given ``zone`` (a box), those with a pixel
-    in it (``in_zone(pixels)``), noting their keys.  Only doors whose ends come within
-    :data:`_DOOR_SLACK` pixels of the zone have their pixels read (a doorway's pixels lie
-    on the line between its ends)."""
+    """Drop the doors of rooms ``rooms`` and, given ``zone`` (a box), those that
+    ``in_zone(door)`` picks (a pixel in it), noting their keys.  Only doors whose ends
+    come within :data:`_DOOR_SLACK` pixels of the zone are offered to ``in_zone`` (a
+    doorway's pixels lie on the line between its ends)."""
     if not st.doors:
         return
     pair = np.array([d.rooms for d in st.doors], np.int64)
@@ -543,7 +559,7 @@ def _drop_doors(st: _Rooms, rooms: set, zone=None, in_zone=None) -> None:
         near = (r.max(axis=1) + k >= zone[0]) & (r.min(axis=1) - k < zone[2])
         near &= (c.max(axis=1) + k >= zone[1]) & (c.min(axis=1) - k < zone[3])
         for i in np.flatnonzero(near & ~drop).tolist():
-            drop[i] = in_zone(st.doors[i].pixels)
+            drop[i] = in_zone(st.doors[i])
     st.doors_gone += [door_key(st.doors[i], st.origin) for i in np.flatnonzero(drop).tolist()]
     st.doors = [d for d, gone in zip(st.doors, drop.tolist(), strict=True) if not gone]
 
