@@ -247,10 +247,11 @@ def build_segmentation(occ, labels: np.ndarray, doors, box=None) -> RoomSegmenta
     part = np.ascontiguousarray(labels[box])
     r_off, c_off = int(box[0].start), int(box[1].start)  # Python ints in ``Room.bbox``
     n = int(part.max()) if part.size else 0
-    count, sum_r, sum_c, boxes = label_stats(part, n)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # the map frame is an affine image of the pixel grid: mean of world = world of mean
-        cx, cy = occ.pixel_to_world(sum_r / count + r_off, sum_c / count + c_off)
+    if n:  # no room, nothing to measure: the compiled kernel is not even loaded
+        count, sum_r, sum_c, boxes = label_stats(part, n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            # the map frame is an affine image of the pixel grid: mean of world = world of mean
+            cx, cy = occ.pixel_to_world(sum_r / count + r_off, sum_c / count + c_off)
     rooms = []
     for rid in range(1, n + 1):
         if count[rid] == 0:
