@@ -41,6 +41,18 @@ def test_a_result_shown_over_another_map_leaves_its_fields_out_and_says_so():
     assert same["notes"] == []
 
 
+def test_more_graphs_of_another_map_beside_a_result_are_noted():
+    """A graph given in ``graphs=`` beside a result is drawn over the result's own map:
+    one built on another map (shape or origin) is noted, as one under ``map=`` is, not
+    drawn off its place without a word; one of the same map is not."""
+    res = tj.build_graph(_room_map())
+    for other in (_room_map(shape=(50, 70)), _room_map(origin=(3.0, 0.0, 0.0))):
+        notes = payload_of(view_html(res, graphs={"other": tj.build_graph(other).graph}))["notes"]
+        assert any("the other was not built on the map shown" in n for n in notes), notes
+    own = tj.prune_graph(res.graph, min_spur_m=0.5)
+    assert payload_of(view_html(res, graphs={"pruned": own}))["notes"] == []
+
+
 def test_view_command_shows_the_tile_folder_a_tiled_graph_was_built_from(tmp_path, capsys):
     """``graph --tiled`` reads a tile folder; ``topojax view`` of its output opens that
     folder as the map (it is there, a folder, not a file)."""

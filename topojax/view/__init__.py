@@ -104,7 +104,8 @@ def write_view(
         one shown.
     graphs : dict of str to networkx graph, optional
         More graphs to draw, each a layer under its name (e.g. ``{"pruned":
-        tj.prune_graph(res.graph, ...)}``); routes can be planned on each.
+        tj.prune_graph(res.graph, ...)}``); routes can be planned on each.  The page
+        notes one whose recorded shape, resolution or origin is not the shown map's.
     route : Route, optional
         A route to draw (e.g. from :func:`topojax.plan_route`).
     timeline : Timeline, optional

@@ -159,14 +159,18 @@ def inputs_of(
                 f"topojax.load_rooms, True or False, received {type(rooms).__name__}"
             )
         out.rooms = rooms
+    own_graphs = len(out.graphs)
     for name, graph in _extra_graphs(graphs):
         out.graphs.append((f"g{len(out.graphs)}", name, graph))
     out.route = _checked_route(route)
     out.timeline = _checked_timeline(timeline)
     if title is not None:
         out.title = instance_of("title", title, str)
-    if map is not None:  # a map given beside graphs of another: drawn, but said so
-        for _, label, graph in out.graphs:
+    # a graph beside a map of another (one given in map=, or any in graphs= beside the
+    # object's own map): drawn, but said so
+    checked = out.graphs if map is not None else out.graphs[own_graphs:]
+    if out.map is not None:
+        for _, label, graph in checked:
             why = map_mismatch(graph, out.map)
             if why is not None:
                 out.notes.append(f"the {label} was not built on the map shown: {why}")
