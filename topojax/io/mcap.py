@@ -705,6 +705,12 @@ def save_mcap(result, path, *, rooms=None, route_graph=None) -> Path:
     route_graph : networkx.MultiGraph, optional
         A route graph of the same map (:func:`topojax.route_graph`).
 
+    Raises
+    ------
+    ValueError
+        ``rooms`` or ``route_graph`` made on another map (its recorded shape,
+        resolution or origin is not the result's), which would be drawn off its place.
+
     Returns
     -------
     Path
@@ -724,12 +730,23 @@ def save_mcap(result, path, *, rooms=None, route_graph=None) -> Path:
             f"OccupancyMap in memory, received {type(result).__name__} with a "
             f"{type(result.map).__name__}"
         )
+    from ..maps.occupancy import grid_mismatch, map_mismatch
+
+    # every topic is drawn in the one map frame: rooms or a route graph of another map
+    # would sit off their place over /map
     if rooms is not None:
         from ..rooms import RoomSegmentation
 
         instance_of("rooms", rooms, RoomSegmentation)
+        own = rooms.occupancy
+        why = grid_mismatch(own.shape, own.resolution_m, own.origin, result.map, owner="their")
+        if why is not None:
+            raise ValueError(f"rooms: not segmented on the result's map: {why}")
     if route_graph is not None:
         _check_graph("route_graph", route_graph)
+        why = map_mismatch(route_graph, result.map)
+        if why is not None:
+            raise ValueError(f"route_graph: not built on the result's map: {why}")
     with McapRecorder(path) as rec:
         rec.add_map(result.map, result.graph)
         if rooms is not None:
