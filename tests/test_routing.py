@@ -496,6 +496,25 @@ def test_bad_input_gets_clear_errors():
 # ------------------------------------------------------------------ command line
 
 
+def test_route_command_refuses_simplify_without_a_file_to_write(tmp_path, capsys):
+    """``--simplify-m`` thins the route written with ``-o``; without ``-o`` it would do
+    nothing, so it is refused as the options that need ``--map`` are, not dropped."""
+    from topojax.cli import main
+
+    free = np.zeros((40, 60), bool)
+    free[5:35, 5:55] = True
+    free[15:25, 20:40] = False
+    graph = tj.build_graph(tj.OccupancyMap.from_array(free)).graph
+    graph_file = tj.save_graph(graph, tmp_path / "g.json")
+    a, b = (d["world"] for _, d in list(graph.nodes(data=True))[:2])
+    argv = ["route", str(graph_file), "--start", *map(str, a), "--goal", *map(str, b)]
+    assert main([*argv, "--simplify-m", "0.1"]) == 2
+    captured = capsys.readouterr()
+    assert "--simplify-m: only used with -o, which was not given" in captured.err
+    assert captured.out == ""
+    assert main([*argv, "--simplify-m", "0.1", "-o", str(tmp_path / "r.geojson")]) == 0
+
+
 def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     import json
 

@@ -87,8 +87,8 @@ def add_command(subparsers) -> None:
         "--simplify-m",
         type=float,
         metavar="M",
-        help="write waypoints that keep every route pixel within M metres instead of every "
-        "pixel (default: every pixel)",
+        help="with -o: write waypoints that keep every route pixel within M metres instead "
+        "of every pixel (default: every pixel)",
     )
     p.set_defaults(handler=_cmd_route, runs_kernels=False)
 
@@ -120,6 +120,8 @@ def _cmd_route(args) -> int:
     ):
         if value is not None:
             check(option, value)
+    if args.simplify_m is not None and not args.out:  # it thins the file written
+        raise ValueError("--simplify-m: only used with -o, which was not given")
     if args.out and os.path.realpath(args.out) == os.path.realpath(args.graph):
         raise ValueError(f"-o: writing the route to {args.out} would overwrite the graph file")
     if args.out:
