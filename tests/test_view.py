@@ -13,6 +13,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import cv2
 import networkx as nx
 import numpy as np
 import pytest
@@ -749,6 +750,33 @@ def test_view_command_leaves_out_a_route_written_beside_the_graph(tmp_path, caps
     text = capsys.readouterr().out
     assert "office.json" in text and "route" not in text.replace(str(tmp_path), "")
     assert not (out / "route_view.html").exists()
+
+
+def test_view_command_tells_the_graph_of_a_map_named_route_from_a_route_graph(tmp_path):
+    """A map file named ``lab_route.png`` gives ``lab_route.json`` from ``topojax graph``:
+    the folder's record says that command made it from that map, so it is a result of
+    its own, not the route graph of ``lab.json``'s result (which left its page out)."""
+    from topojax.cli.view import find_results
+
+    occupancy = np.zeros((30, 40), bool)
+    occupancy[[0, -1], :] = occupancy[:, [0, -1]] = True
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    for stem in ("lab", "lab_route"):
+        cv2.imwrite(str(maps / f"{stem}.png"), np.where(occupancy, 0, 254).astype(np.uint8))
+    out = tmp_path / "out"
+    for stem in ("lab", "lab_route"):
+        assert main(["graph", str(maps / f"{stem}.png"), "-o", str(out)]) == 0
+    found = {r.stem: r for r in find_results(out)}
+    assert sorted(found) == ["lab", "lab_route"]
+    assert found["lab"].route_graph is None
+    assert found["lab_route"].graph == out / "lab_route.json"
+    assert found["lab_route"].map == maps / "lab_route.png"
+    # a route graph that route-graph wrote beside its graph still goes with that graph
+    assert main(["route-graph", str(maps / "lab.png"), "-o", str(tmp_path / "rg")]) == 0
+    assert main(["graph", str(maps / "lab.png"), "-o", str(tmp_path / "rg")]) == 0
+    (result,) = find_results(tmp_path / "rg")
+    assert result.stem == "lab" and result.route_graph == tmp_path / "rg" / "lab_route.json"
 
 
 def test_view_command_reads_the_map_as_the_graph_command_did(tmp_path, capsys):

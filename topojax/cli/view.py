@@ -113,7 +113,11 @@ def find_results(folder: Path) -> list[_Result]:
         if stem == "route_graph" and replay:
             base = "graph"
         elif stem.endswith("_route") and stem[: -len("_route")] in stems:
-            base = stem[: -len("_route")]
+            # unless the record says another command made it: the graph of a map
+            # named STEM_route is a result of its own
+            entry = record.get(path.name)
+            if not isinstance(entry, dict) or entry.get("command") in (None, "route-graph"):
+                base = stem[: -len("_route")]
         if base is not None:
             results.setdefault(base, _Result(base)).route_graph = path
             continue
