@@ -779,6 +779,26 @@ def test_view_command_tells_the_graph_of_a_map_named_route_from_a_route_graph(tm
     assert result.stem == "lab" and result.route_graph == tmp_path / "rg" / "lab_route.json"
 
 
+@pytest.mark.parametrize("stem", ["meeting_rooms", "run_summary", "timings"])
+def test_view_command_shows_the_graph_of_a_map_named_as_another_output(tmp_path, stem):
+    """``topojax graph meeting_rooms.png`` writes the graph ``meeting_rooms.json`` (and
+    ``.geojson``): the record says so, so the view shows it rather than taking it for
+    rooms, a summary or timings (which made ``topojax view`` fail or find nothing)."""
+    from topojax.cli.view import find_results
+
+    occupancy = np.zeros((30, 40), bool)
+    occupancy[[0, -1], :] = occupancy[:, [0, -1]] = True
+    png = tmp_path / f"{stem}.png"
+    cv2.imwrite(str(png), np.where(occupancy, 0, 254).astype(np.uint8))
+    out = tmp_path / "out"
+    assert main(["graph", str(png), "-o", str(out), "--rooms"]) == 0
+    (result,) = find_results(out)
+    assert result.stem == stem and result.graph == out / f"{stem}.json"
+    assert result.rooms == out / f"{stem}_rooms.geojson" and result.map == png
+    assert main(["view", str(out)]) == 0
+    assert (out / "view.html").is_file()
+
+
 def test_view_command_reads_the_map_as_the_graph_command_did(tmp_path, capsys):
     """A graph built from a map read with options (``--mode ipa``) is shown over the map
     read with the same options, which the folder's record keeps."""

@@ -69,9 +69,25 @@ def _graph_stems(folder: Path, record: dict) -> dict[str, Path]:
             entry = record.get(path.name)
             if isinstance(entry, dict) and entry.get("command") == "route":
                 continue
-            if path.is_file() and not path.name.endswith(_NOT_GRAPHS):
+            if path.is_file() and (
+                not path.name.endswith(_NOT_GRAPHS) or _recorded_graph(path, record)
+            ):
                 stems[path.name[: -len(suffix)]] = path
     return stems
+
+
+def _recorded_graph(path: Path, record: dict) -> bool:
+    """Whether the record says ``path`` is the graph file of the map it was made from
+    (``STEM`` + a graph suffix, STEM the map's name): so is ``meeting_rooms.json`` of a
+    map ``meeting_rooms.png``, whose name ends as a rooms file's does."""
+    entry = record.get(path.name)
+    if not isinstance(entry, dict) or entry.get("command") not in ("graph", "demo"):
+        return False
+    source = entry.get("input")
+    if not isinstance(source, str) or not source:
+        return False
+    names = {Path(source).name, Path(source).stem}  # a tile folder's whole name, a file's stem
+    return any(path.name == f"{n}{suffix}" for n in names for suffix in _GRAPH_SUFFIXES)
 
 
 def _recorded_input(record: dict, folder: Path, stem: str) -> tuple[Path | None, dict]:
@@ -123,7 +139,8 @@ def find_results(folder: Path) -> list[_Result]:
             continue
         results.setdefault(stem, _Result(stem)).graph = path
     for rooms in sorted(folder.glob("*_rooms.geojson")):
-        if not rooms.is_file():  # as for graphs: a folder or a pipe is no result
+        # as for graphs: a folder or a pipe is no result; nor is a graph so named
+        if not rooms.is_file() or _recorded_graph(rooms, record):
             continue
         stem = rooms.name[: -len("_rooms.geojson")]
         if stem == "map" and replay:
