@@ -260,6 +260,30 @@ def test_command_checks_the_tolerance_first_and_notes_a_graph_without_edges(tmp_
     assert not (tmp_path / "e" / "empty_nav2.geojson").exists()
 
 
+def test_a_rerun_whose_graph_has_no_edges_leaves_no_nav2_file_of_the_run_before(tmp_path, capsys):
+    """``graph --nav2`` run again on the same map with options that leave no edge says
+    the Nav2 file is not written: the one of the run before goes too, or it would stand
+    beside a graph it no longer matches (as ``route-graph --nav2`` and the batch do)."""
+    import cv2
+
+    from topojax.cli import main
+
+    free = np.full((40, 60), 254, np.uint8)
+    free[[0, -1], :] = free[:, [0, -1]] = 0
+    free[15:25, 20:40] = 0
+    png = tmp_path / "room.png"
+    cv2.imwrite(str(png), free)
+    argv = ["graph", str(png), "-o", str(tmp_path / "out"), "--nav2"]
+    assert main(argv) == 0
+    nav2 = tmp_path / "out" / "room_nav2.geojson"
+    assert nav2.is_file()
+    capsys.readouterr()
+    assert main([*argv, "--min-component-m", "1000"]) == 0  # every piece removed
+    assert "room_nav2.geojson not written" in capsys.readouterr().out
+    assert tj.load_graph(tmp_path / "out" / "room.json").number_of_edges() == 0
+    assert not nav2.exists()
+
+
 @pytest.mark.parametrize(
     "kwargs, exc, words",
     [

@@ -22,12 +22,14 @@ def write_graph_files(graph, out_dir: Path, stem: str) -> list[Path]:
 
 def write_nav2(graph, path: Path, tolerance_m: float) -> tuple[list[Path], list[str]]:
     """Write ``graph`` for the Nav2 Route Server at ``path``: ``([path], [])``, or
-    ``([], [note])`` for a graph Nav2 refuses (one without edges)."""
+    ``([], [note])`` for a graph Nav2 refuses (one without edges), whose ``path`` of an
+    earlier run is removed (it would not match the graph written beside it)."""
     from ..io import save_nav2_graph
 
     try:
         return [save_nav2_graph(graph, path, tolerance_m=tolerance_m)], []
     except ValueError as exc:  # a graph without edges, which Nav2 refuses (as replay)
+        path.unlink(missing_ok=True)
         return [], [f"note       {path.name} not written: {exc}"]
 
 
