@@ -266,6 +266,39 @@ def test_route_and_unrecorded_files(tmp_path, capsys):
     assert not list(out.glob(".*.tmp"))
 
 
+def test_an_option_naming_a_file_of_another_input_suggests_a_file_it_takes(tmp_path, capsys):
+    """``route -o FILE`` and ``--mcap FILE.mcap`` name a file, not a folder: where that
+    file belongs to another input, the error's example is such a file in another folder
+    (it suggested ``--mcap out/a``, which the option refuses as not an .mcap file), and
+    the suggestion given works."""
+    import re
+
+    from topojax.cli import main
+
+    a = _ros_map(tmp_path / "a", wall_col=20)
+    b = _ros_map(tmp_path / "b", wall_col=30)
+    out = tmp_path / "out"
+    assert main(["graph", str(a), "-o", str(out), "--mcap", str(out / "run.mcap")]) == 0
+    route = ["route", str(out / "map.json"), "--start", "0.3", "0.3", "--goal", "0.3", "1.5"]
+    for argv, option in (
+        (
+            ["graph", str(b), "-o", str(tmp_path / "out_b"), "--mcap", str(out / "run.mcap")],
+            "--mcap",
+        ),
+        ([*route, "-o", str(out / "map.geojson")], "-o"),
+    ):
+        capsys.readouterr()
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        hint = re.search(rf"\(e\.g\. {option} (\S+)\)", err)
+        assert hint is not None, err
+        suggested = Path(hint.group(1))
+        assert suggested.name == ("run.mcap" if option == "--mcap" else "map.geojson")
+        assert suggested.parent != out
+        assert main([*argv[:-1], str(suggested)]) == 0, capsys.readouterr().err
+        assert suggested.is_file()
+
+
 def test_a_route_file_that_cannot_be_written_is_refused_before_the_route(
     tmp_path, capsys, read_only_folder
 ):

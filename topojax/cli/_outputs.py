@@ -81,7 +81,11 @@ def _by_folder(claims: Mapping[Path, object]) -> dict[Path, dict[Path, object]]:
 
 
 def check_outputs(
-    claims: Mapping[Path, str | os.PathLike[str] | None], *, command: str, option: str
+    claims: Mapping[Path, str | os.PathLike[str] | None],
+    *,
+    command: str,
+    option: str,
+    names_file: bool = False,
 ) -> None:
     """Refuse files another command or input wrote (checked before any work).
 
@@ -94,6 +98,9 @@ def check_outputs(
         The command's name, e.g. ``"graph"``.
     option : str
         The option that chose the folder, named in the error (e.g. ``"-o/--out"``).
+    names_file : bool
+        The option names the file itself (``route -o``, ``--mcap``): the error's example
+        is then that file in another folder, not a folder.
 
     Raises
     ------
@@ -113,7 +120,7 @@ def check_outputs(
             page = target.name == "view.html" or target.name.endswith("_view.html")
             if page and "view" in (command, before.get("command")):
                 continue  # a view page: made again from the folder's results at any time
-            raise ValueError(_conflict(option, target, before, command, source))
+            raise ValueError(_conflict(option, target, before, command, source, names_file))
 
 
 def _written_by(target: Path, recorded: dict[str, dict]) -> dict | None:
@@ -130,7 +137,9 @@ def _written_by(target: Path, recorded: dict[str, dict]) -> dict | None:
     return _owner("batch", label or None)
 
 
-def _conflict(option: str, target: Path, before: dict, command: str, source) -> str:
+def _conflict(
+    option: str, target: Path, before: dict, command: str, source, names_file: bool
+) -> str:
     was = f"'topojax {before.get('command')}'"
     if before.get("input") is not None:
         was += f" from {before['input']}"
@@ -139,10 +148,10 @@ def _conflict(option: str, target: Path, before: dict, command: str, source) -> 
         path = Path(os.path.realpath(os.fspath(source)))
         now += f" from {path}"
         hint = path.parent.name or path.stem
+    example = target.parent / hint / target.name if names_file else target.parent / hint
     return (
         f"{option}: {target} was written by {was}; {now} would overwrite it. Write into "
-        f"another folder (e.g. {option.split('/')[0]} {target.parent / hint}) or remove "
-        "the file first"
+        f"another folder (e.g. {option.split('/')[0]} {example}) or remove the file first"
     )
 
 

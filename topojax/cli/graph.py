@@ -131,7 +131,9 @@ def _cmd_graph(args) -> int:
         from ..io.mcap import mcap_path
 
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
-        check_outputs(planned([args.mcap], args.map), command="graph", option="--mcap")
+        check_outputs(
+            planned([args.mcap], args.map), command="graph", option="--mcap", names_file=True
+        )
     occupancy = load_option_map(args.map, map_options(args))
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)

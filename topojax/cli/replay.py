@@ -112,7 +112,9 @@ def _cmd_replay(args) -> int:
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
     for option, path in (("--animate", args.animate), ("--mcap", args.mcap)):
         if path is not None:
-            check_outputs(planned([path], args.source), command="replay", option=option)
+            check_outputs(
+                planned([path], args.source), command="replay", option=option, names_file=True
+            )
     summary = None
     printed_here = summary_printed.set(False)  # below, in the command's words
     try:

@@ -131,7 +131,9 @@ def _cmd_route(args) -> int:
                 f"-o: expected a .geojson or .json file (the route is written as GeoJSON), "
                 f"received {args.out!r}"
             )
-        check_outputs(planned([args.out], args.graph), command="route", option=OUT_OPTION)
+        check_outputs(
+            planned([args.out], args.graph), command="route", option=OUT_OPTION, names_file=True
+        )
         output_file(args.out, name="-o")  # can be written: checked before the route
     if not args.map and _map_options_given(args):
         raise ValueError(

@@ -101,7 +101,9 @@ def _cmd_route_graph(args) -> int:
         from ..io.mcap import mcap_path
 
         mcap_path(args.mcap, name="--mcap")  # an .mcap file name, not a folder
-        check_outputs(planned([args.mcap], args.map), command="route-graph", option="--mcap")
+        check_outputs(
+            planned([args.mcap], args.map), command="route-graph", option="--mcap", names_file=True
+        )
     kw = map_options(args)  # its errors name their options
     occupancy = load_option_map(args.map, kw)
     check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")
