@@ -299,6 +299,27 @@ def test_an_option_naming_a_file_of_another_input_suggests_a_file_it_takes(tmp_p
         assert suggested.is_file()
 
 
+@pytest.mark.parametrize(
+    "command, name",
+    [("graph", "map.json"), ("route-graph", "map_route.json"), ("rooms", "map_rooms.png")],
+)
+def test_a_folder_named_as_an_output_file_is_refused_before_any_is_written(
+    tmp_path, capsys, command, name
+):
+    """A folder in ``-o`` under the name of a file the command writes was found only when
+    that file's turn came: the files before it were written, and the error named no
+    option and suggested a path inside that folder."""
+    from topojax.cli import main
+
+    a = _ros_map(tmp_path / "a", wall_col=20)
+    out = tmp_path / "out"
+    (out / name).mkdir(parents=True)
+    assert main([command, str(a), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"-o/--out: expected to write the file {out / name}, received a folder" in err
+    assert sorted(p.name for p in out.iterdir()) == [name]
+
+
 def test_a_route_file_that_cannot_be_written_is_refused_before_the_route(
     tmp_path, capsys, read_only_folder
 ):

@@ -123,6 +123,24 @@ def check_outputs(
             raise ValueError(_conflict(option, target, before, command, source, names_file))
 
 
+def refuse_folders(targets: Iterable[Path], *, option: str) -> None:
+    """Refuse a folder where one of the files ``targets`` is to be written, naming
+    ``option``: checked before any work, not when that file's turn comes after others
+    were written.
+
+    Raises
+    ------
+    IsADirectoryError
+        If a target is an existing folder.
+    """
+    for target in targets:
+        if Path(target).is_dir():
+            raise IsADirectoryError(
+                f"{option}: expected to write the file {target}, received a folder of that "
+                "name; move it away or remove it first"
+            )
+
+
 def _written_by(target: Path, recorded: dict[str, dict]) -> dict | None:
     """Who wrote ``target``: its entry in the folder's record, else the batch map whose
     manifest lists it (``topojax batch`` keeps no record: its manifests are one)."""

@@ -26,7 +26,14 @@ from ._options import (
     pipeline_config,
     room_config,
 )
-from ._outputs import OUT_OPTION, check_outputs, output_stem, planned, record_outputs
+from ._outputs import (
+    OUT_OPTION,
+    check_outputs,
+    output_stem,
+    planned,
+    record_outputs,
+    refuse_folders,
+)
 from .rooms import room_files, room_lines
 from .tiled import add_tiled_options, check_tiled_options, cmd_graph_tiled
 
@@ -127,6 +134,7 @@ def _cmd_graph(args) -> int:
     targets = [Path(args.out) / name for name in _graph_files(stem, args)]
     _check_outputs_spare_inputs(Path(args.map), targets)
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
+    refuse_folders(targets, option=OUT_OPTION)
     if args.mcap is not None:
         from ..io.mcap import mcap_path
 

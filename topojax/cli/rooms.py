@@ -14,7 +14,14 @@ from ._options import (
     map_options,
     room_config,
 )
-from ._outputs import OUT_OPTION, check_outputs, output_stem, planned, record_outputs
+from ._outputs import (
+    OUT_OPTION,
+    check_outputs,
+    output_stem,
+    planned,
+    record_outputs,
+    refuse_folders,
+)
 
 
 def add_command(subparsers) -> None:
@@ -62,6 +69,7 @@ def _cmd_rooms(args) -> int:
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="rooms", option=OUT_OPTION)
+    refuse_folders(targets, option=OUT_OPTION)
     occupancy = load_option_map(args.map, map_options(args))
     t0 = time.perf_counter()
     seg = segment_rooms(occupancy, config=config)

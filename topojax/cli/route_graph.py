@@ -14,7 +14,14 @@ from ._options import (
     load_option_map,
     map_options,
 )
-from ._outputs import OUT_OPTION, check_outputs, output_stem, planned, record_outputs
+from ._outputs import (
+    OUT_OPTION,
+    check_outputs,
+    output_stem,
+    planned,
+    record_outputs,
+    refuse_folders,
+)
 
 
 def add_command(subparsers) -> None:
@@ -97,6 +104,7 @@ def _cmd_route_graph(args) -> int:
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="route-graph", option=OUT_OPTION)
+    refuse_folders(targets, option=OUT_OPTION)
     if args.mcap is not None:
         from ..io.mcap import mcap_path
 
