@@ -92,6 +92,13 @@ def test_extra_graphs_rooms_and_route(res):
     assert data["route"]["length_m"] == route.length_m
 
 
+@pytest.mark.parametrize("name", ["graph", "", "  "])
+def test_an_extra_graph_needs_a_layer_name_of_its_own(res, name):
+    # two layers named "graph" (or one blank) could not be told apart in the layer list
+    with pytest.raises(ValueError, match=rf"^graphs: expected a name .* received {name!r}$"):
+        view_html(res, graphs={name: res.graph})
+
+
 def test_a_pruning_result_labels_its_graph(res):
     cfg = tj.PipelineConfig(graph=tj.GraphConfig(min_spur_m=0.5))
     pruned = tj.build_graph(res.map, config=cfg)

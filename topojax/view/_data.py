@@ -161,6 +161,12 @@ def inputs_of(
         out.rooms = rooms
     own_graphs = len(out.graphs)
     for name, graph in _extra_graphs(graphs):
+        taken = [label for _, label, _ in out.graphs]
+        if not name.strip() or name in taken:  # the layer list would not tell them apart
+            raise ValueError(
+                f"graphs: expected a name for each layer, none blank or already a layer's "
+                f"(here {', '.join(repr(t) for t in taken) or 'none'}), received {name!r}"
+            )
         out.graphs.append((f"g{len(out.graphs)}", name, graph))
     out.route = _checked_route(route)
     out.timeline = _checked_timeline(timeline)
