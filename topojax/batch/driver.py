@@ -22,10 +22,11 @@ from ..maps import OccupancyMap
 from ..maps.classify import wall_warning
 from ..routegraph import RouteGraphConfig
 from .arguments import batch_items, checked_options, map_inputs, workers_for_memory
+from .failures import _error_record, _lost_text
 from .inputs import ROUTE_FORMATS, _Item
 from .interrupts import HeldInterrupts
 from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
-from .pool import WorkerDied, WorkerPool, terminate_workers
+from .pool import WorkerPool, terminate_workers
 from .records import MapRecord, empty_reason, no_room_reason, totalled, write_summary
 from .worker import (
     InlineExecutor,
@@ -621,31 +622,6 @@ class _BatchRun:
                 return replace(rec, status="error", message=f"manifest: {_error_text(exc)}")
             rec = replace(rec, outputs=(*rec.outputs, manifest))
         return rec
-
-
-def _error_record(item: _Item, message: str) -> MapRecord:
-    """The record of a map that could not be loaded, with ``message``."""
-    return MapRecord(map=item.name, path=item.label, status="error", message=message)
-
-
-def _lost_text(exc: BaseException, *, started: bool = True) -> str:
-    """The message of ``exc``, saying what happened where a worker process died with the
-    map's task (a broken pool's error, or the cancelling of the task): killed, or, where
-    no worker task ever ran (not ``started``), failed to start."""
-    if not isinstance(exc, (cf.BrokenExecutor, cf.CancelledError)):
-        return _error_text(exc)
-    if not started:
-        return (
-            f"{_error_text(exc)} (the worker processes failed to start: see their errors "
-            'above; a script must call build_graphs under if __name__ == "__main__":, '
-            "and no folder named topojax may hide the package from them)"
-        )
-    if isinstance(exc, WorkerDied):  # the own pool's: its message says which task died
-        return f"{_error_text(exc)} (killed for memory?; --resume runs it again)"
-    return (
-        f"{_error_text(exc)} (a worker process died while this map was queued or "
-        "running, killed for memory?; --resume runs it again)"
-    )
 
 
 def _class_counts(g) -> tuple[int, int | None]:
