@@ -1,10 +1,13 @@
-"""A batch's status for the rooms format: judged by the rooms where only rooms are asked for."""
+"""A batch's rooms format: its status (judged by the rooms where only rooms are asked for)
+and its room settings (room_config)."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import topojax as tj
+from topojax import RoomConfig
 from topojax.batch import build_graphs
 
 
@@ -40,5 +43,51 @@ def test_a_map_without_rooms_is_empty_and_says_why(tmp_path):
         (rec,) = build_graphs([speck], formats=formats, **kw)
         assert rec.rooms == 0 and rec.status == "empty", formats
         assert "no room found: the map has 100 free pixels" in rec.message, formats
+        assert "without doorways (min_isolated_room_m2)" in rec.message, formats
     (walled,) = build_graphs([_hall(walls=True)], formats="json,rooms", **kw)
     assert walled.rooms == 1 and walled.status == "ok"
+
+
+def test_room_config_sets_the_rooms_written(tmp_path):
+    from room_maps import three_rooms
+
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path, "formats": "rooms"}
+    (default,) = build_graphs([three_rooms()], **kw)
+    assert default.rooms == 3
+    large = RoomConfig(min_room_m2=8.0)
+    (merged,) = build_graphs([three_rooms()], room_config=large, **kw)
+    want = tj.segment_rooms(three_rooms(), config=large)
+    assert merged.status == "ok" and merged.rooms == want.n_rooms < default.rooms
+    assert merged.doors == len(want.doors)
+    (geojson,) = tmp_path.glob("*_rooms.geojson")
+    rooms, doors = tj.load_rooms(geojson)
+    assert (len(rooms), len(doors)) == (want.n_rooms, len(want.doors))
+
+
+def test_resume_redoes_a_map_whose_room_settings_differ(tmp_path):
+    from room_maps import three_rooms
+
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path, "formats": "json,rooms"}
+    (first,) = build_graphs([three_rooms()], **kw)
+    assert first.status == "ok" and first.rooms == 3
+    # RoomConfig's defaults are the settings of a batch run without room_config
+    (same,) = build_graphs([three_rooms()], resume=True, room_config=RoomConfig(), **kw)
+    assert same.status == "skipped" and same.rooms == 3
+    large = RoomConfig(min_room_m2=8.0)
+    (redone,) = build_graphs([three_rooms()], resume=True, room_config=large, **kw)
+    assert redone.status == "ok" and redone.rooms == 1
+    (again,) = build_graphs([three_rooms()], resume=True, room_config=large, **kw)
+    assert again.status == "skipped" and again.rooms == 1
+    (back,) = build_graphs([three_rooms()], resume=True, **kw)
+    assert back.status == "ok" and back.rooms == 3
+
+
+def test_room_config_is_checked(tmp_path):
+    from room_maps import three_rooms
+
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path}
+    with pytest.raises(TypeError, match="room_config: expected a RoomConfig"):
+        build_graphs([three_rooms()], formats="rooms", room_config={"min_room_m2": 8.0}, **kw)
+    with pytest.raises(ValueError, match="room_config: only used with the format rooms"):
+        build_graphs([three_rooms()], formats="json", room_config=RoomConfig(), **kw)
+    assert not list(tmp_path.iterdir())

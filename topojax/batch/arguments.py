@@ -28,7 +28,6 @@ from .inputs import (
     _assign_names,
     _format_suffixes,
     _Item,
-    _room_settings,
     batch_input,
     check_formats,
     picture_suffixes,
@@ -82,6 +81,7 @@ def checked_options(
     sigma_m: Any,
     route_config: Any = None,
     map_options: dict[str, Any] | None = None,
+    room_config: Any = None,
 ) -> dict[str, Any]:
     """Check the options of :func:`build_graphs` and fill in their defaults.
 
@@ -92,13 +92,15 @@ def checked_options(
     them.  Returns the keyword arguments of the batch run other than its items, output
     folder and fingerprints: ``config``, ``formats``, ``executor``, ``workers``, the
     flags as bools, the kernel settings, ``map_options`` (those and ``map_mode`` as
-    ``mode``), ``sigma_m``, ``route_config`` (None without a route format) and the
-    ``request`` its manifests record.  Raises TypeError or ValueError naming the
+    ``mode``), ``sigma_m``, ``route_config`` (None without a route format),
+    ``room_config`` (None without the rooms format) and the ``request`` its manifests
+    record.  Raises TypeError or ValueError naming the
     argument.
     """
     config = instance_or_default("config", config, PipelineConfig)
     fmts = check_formats(formats)
     route_config = route_options(route_config, fmts, out_dir)
+    room_config = room_options(room_config, fmts)
     sigma_m = check_options(map_mode=map_mode, flags=flags, sigma_m=sigma_m, out_dir=out_dir)
     tpc, threads, group_tiles = kernel_settings(config, tiles_per_call, kernel_threads, batch_tiles)
     keep_graphs = flags["keep_graphs"]
@@ -122,6 +124,7 @@ def checked_options(
         "map_options": {**(map_options or {}), **({"mode": map_mode} if map_mode else {})},
         "sigma_m": sigma_m,
         "route_config": route_config,
+        "room_config": room_config,
         "request": request_settings(
             config,
             fmts,
@@ -129,6 +132,7 @@ def checked_options(
             map_mode=map_mode,
             sigma_m=sigma_m,
             route_config=route_config,
+            room_config=room_config,
             map_options=map_options,
         ),
     }
@@ -280,6 +284,22 @@ def route_options(route_config: Any, formats: tuple[str, ...], out_dir: Any):
     return config
 
 
+def room_options(room_config: Any, formats: tuple[str, ...]):
+    """The checked ``room_config`` (its default where None) when ``formats`` name the
+    ``rooms`` format, else None."""
+    from ..rooms import RoomConfig
+
+    config = instance_or_default("room_config", room_config, RoomConfig)
+    if "rooms" not in formats:
+        if room_config is not None:
+            raise ValueError(
+                "room_config: only used with the format rooms; expected formats to name "
+                f"it, received {formats}"
+            )
+        return None
+    return config
+
+
 def request_settings(
     config: PipelineConfig,
     formats: tuple[str, ...],
@@ -288,10 +308,13 @@ def request_settings(
     map_mode: str | None,
     sigma_m: float | None,
     route_config: RouteGraphConfig | None = None,
+    room_config: Any = None,
     map_options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The result-relevant settings recorded in every manifest (``resume`` compares
-    them; ``topojax view`` reads the maps with ``map_mode`` and ``map_options``)."""
+    them; ``topojax view`` reads the maps with ``map_mode`` and ``map_options``):
+    ``route_config`` and ``room_config`` (a :class:`topojax.RoomConfig`) are those of
+    the route and rooms formats, None without them."""
     return _normalise(
         {
             "distance": dataclasses.asdict(config.distance),
@@ -301,7 +324,7 @@ def request_settings(
             "formats": sorted(formats),
             "plot": bool(plot),
             # only with the rooms format, so that manifests written without it still match
-            **({"rooms": _room_settings()} if "rooms" in formats else {}),
+            **({"rooms": dataclasses.asdict(room_config)} if room_config is not None else {}),
             # likewise only with a route format
             **({"route": dataclasses.asdict(route_config)} if route_config else {}),
             # only when given, so that manifests written without them still match

@@ -20,6 +20,7 @@ from .._lock import one_writer
 from ..config import DistanceConfig, PipelineConfig
 from ..maps import OccupancyMap
 from ..maps.classify import wall_warning
+from ..rooms import RoomConfig
 from ..routegraph import RouteGraphConfig
 from .arguments import batch_items, checked_options, map_inputs, workers_for_memory
 from .failures import _error_record, _lost_text
@@ -87,6 +88,7 @@ class _BatchRun:
         map_options: dict[str, Any] | None = None,
         sigma_m: float | None = None,
         route_config: RouteGraphConfig | None = None,
+        room_config: RoomConfig | None = None,
     ) -> None:
         self.items = items
         self.map_options = map_options  # load_map's keyword arguments
@@ -117,11 +119,11 @@ class _BatchRun:
         self._pool_size = workers  # no more processes than maps to run (set by run())
         self._retried: set[int] = set()  # maps whose task a broken pool lost once
         # the rooms format segments each map in its CPU stage, which rebuilds the map (as
-        # it does for the picture)
-        self._rooms = "rooms" in formats and out_dir is not None
+        # it does for the picture; a RoomConfig, else None)
+        self._rooms = room_config if out_dir is not None else None
         # so does a route format, for the route graph (a RouteGraphConfig, else None)
         self._route = route_config if out_dir is not None else None
-        self._needs_map = out_dir is not None and (plot or self._rooms or bool(self._route))
+        self._needs_map = out_dir is not None and (plot or bool(self._rooms or self._route))
 
     # ---------------------------------------------------------------- executor handling
     def _new_executor(self) -> cf.Executor:
@@ -647,6 +649,7 @@ def build_graphs(
     map_mode: str | None = None,
     sigma_m: float | None = None,
     route_config: RouteGraphConfig | None = None,
+    room_config: RoomConfig | None = None,
 ) -> list[MapRecord]:
     """Build the topology graphs of many maps (design: docs/batch-internals.md).
 
@@ -666,24 +669,21 @@ def build_graphs(
     workers : int, optional
         Worker processes of the default executor, at most one per map to run; default
         the CPUs this process may run on (its affinity, which ``taskset``, a container or
-        a job scheduler narrows; not every core of the machine), as many as the memory
-        available holds (see ``docs/batch-and-dask.md``; a larger count given is
-        refused).  ``0`` runs the CPU stage in the calling thread
-        (:class:`InlineExecutor`).  Not used when ``executor`` is given (but still
-        checked).
+        a job scheduler narrows), as many as the memory available holds (a larger count
+        given is refused; ``docs/batch-and-dask.md``).  ``0`` runs the CPU stage in the
+        calling thread (:class:`InlineExecutor`).  Unused (but checked) with ``executor``.
     config : PipelineConfig, optional
         Stage settings, as for :func:`topojax.build_graph`.
     out_dir : str or path, optional
-        Output folder (created; locked while the batch runs: a second batch or replay
-        into it is refused, BlockingIOError).  Without it nothing is written and the
-        graphs are returned in the records.
+        Output folder (created; locked while the batch runs: a second batch or replay into
+        it is refused, BlockingIOError); without it nothing is written (see keep_graphs).
     formats : sequence of str, or a comma-separated str
         Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2`` (the graph for
-        the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms`; the graph files
-        then carry the rooms; a map without a room gets ``status="empty"``), ``route``
-        and ``route_nav2`` (the route graph of ``route_config``, as graph files and for
-        Nav2; a map where it is empty gets ``status="empty"``).  File names:
-        ``docs/batch-and-dask.md``.
+        the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms` with
+        ``room_config``; the graph files then carry the rooms), ``route`` and
+        ``route_nav2`` (the route graph of ``route_config``, as graph files and for
+        Nav2).  A map without a room, or whose route graph is empty, gets
+        ``status="empty"``.  File names: ``docs/batch-and-dask.md``.
     plot : bool
         Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
     resume : bool
@@ -702,14 +702,13 @@ def build_graphs(
         a group of its own).  Default ``16 * tiles_per_call``.
     keep_graphs : bool, optional
         Return each ``networkx.MultiGraph`` in ``MapRecord.graph``.  Default: True
-        without ``out_dir``, False with it (graphs are then on disk).  Maps skipped by
-        ``resume`` are not rebuilt, so their records hold no graph (read it from their
-        files with :func:`topojax.load_graph`).
+        without ``out_dir``, False with it (graphs are then on disk).  A map skipped by
+        ``resume`` is not rebuilt: its record holds none (:func:`topojax.load_graph`).
     map_mode : {"trinary", "scale", "raw", "ipa"}, optional
         Pixel convention for every map file, as ``mode`` of :func:`topojax.load_map`
-        (e.g. ``"ipa"`` for the IPA benchmark maps, where every pixel below 250 is
-        inaccessible).  Default: each file's own (its YAML's, else trinary).  Maps given
-        as :class:`OccupancyMap` objects are already classified.
+        (``"ipa"`` for the IPA benchmark maps: every pixel below 250 inaccessible).
+        Default: each file's own (its YAML's, else trinary); maps given as
+        :class:`OccupancyMap` objects are already classified.
     sigma_m : float, optional
         The distance map's Gaussian σ in metres for every map, converted with each map's
         own resolution (:meth:`DistanceConfig.from_metres`), in place of
@@ -717,6 +716,9 @@ def build_graphs(
     route_config : RouteGraphConfig, optional
         Options of the route graph of the ``route`` formats (default: its defaults, a
         robot radius of 0.3 m).
+    room_config : RoomConfig, optional
+        Options of the ``rooms`` format's segmentation (default: its defaults; refused
+        without that format).
 
     Returns
     -------
@@ -743,6 +745,7 @@ def build_graphs(
         map_mode=map_mode,
         sigma_m=sigma_m,
         route_config=route_config,
+        room_config=room_config,
     )
     if out_dir is None:
         return run_batch(items_raw, sources, None, options)

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import fnmatch
 import glob as _glob
 import json
@@ -55,13 +54,6 @@ _IMAGES_OUT = tuple(
     for s in (*(x for v in _FORMAT_FILES.values() for x in v), *_PICTURES)
     if s.lower().endswith(_MAP_SUFFIXES)
 )
-
-
-def _room_settings() -> dict[str, Any]:
-    """The settings of the ``rooms`` format: :class:`topojax.RoomConfig`'s defaults."""
-    from ..rooms import RoomConfig
-
-    return dataclasses.asdict(RoomConfig())
 
 
 def _format_suffixes(formats: Iterable[str]) -> list[str]:

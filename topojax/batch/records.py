@@ -222,10 +222,11 @@ def empty_reason(n_occupied: int | None, n_free: int | None, *, mode: str | None
 
 
 def no_room_reason(n_free: int | None, *, mode: str | None = None) -> str:
-    """Why a map has no room (the rooms format's default :class:`topojax.RoomConfig`), and
-    what to check (``n_free``: its free pixels, where counted)."""
+    """Why a map has no room (the rooms format's :class:`topojax.RoomConfig`), and what to
+    check (``n_free``: its free pixels, where counted)."""
     free = "" if n_free is None else f": the map has {n_free} free pixels as classified"
-    return f"no room found{free}; {_check_map(mode)}"
+    smallest = "the smallest room without doorways (min_isolated_room_m2)"
+    return f"no room found{free}; {_check_map(mode)}, or {smallest}"
 
 
 def _check_map(mode: str | None) -> str:

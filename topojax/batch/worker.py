@@ -63,7 +63,7 @@ class _CpuJob:
     keep_graph: bool
     free_bits: np.ndarray | None = None  # packbits of free, only for free_space_only
     plot: bool = False  # write the picture
-    rooms: bool = False  # segment the map into rooms: the room files, rooms on the graph
+    rooms: Any = None  # RoomConfig of the rooms format (the room files, rooms on the graph)
     route: Any = None  # RouteGraphConfig of the route formats, else None
 
 
@@ -167,7 +167,7 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             stem = out / job.name
             stem.parent.mkdir(parents=True, exist_ok=True)
             occupancy = _occupancy(job) if job.masks_bits is not None else None
-            rooms = _rooms(occupancy, graph) if job.rooms else None
+            rooms = _rooms(occupancy, graph, job.rooms) if job.rooms is not None else None
             if rooms is not None:
                 res.rooms, res.doors = rooms.n_rooms, len(rooms.doors)
             routes = _route_graph(job, occupancy, res) if job.route is not None else None
@@ -247,12 +247,13 @@ def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) 
     return routes
 
 
-def _rooms(occupancy: OccupancyMap | None, graph: Any) -> Any:
-    """The rooms of ``occupancy`` (default settings), written onto ``graph``."""
+def _rooms(occupancy: OccupancyMap | None, graph: Any, config: Any) -> Any:
+    """The rooms of ``occupancy`` (the :class:`topojax.RoomConfig` ``config``), written
+    onto ``graph``."""
     from ..rooms import assign_rooms, segment_rooms
 
     assert occupancy is not None
-    seg = segment_rooms(occupancy)
+    seg = segment_rooms(occupancy, config=config)
     assign_rooms(graph, seg)
     return seg
 
