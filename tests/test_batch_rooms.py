@@ -1,7 +1,9 @@
 """A batch's rooms format: its status (judged by the rooms where only rooms are asked for)
-and its room settings (room_config)."""
+and its room settings (room_config, the room options of topojax batch)."""
 
 from __future__ import annotations
+
+import csv
 
 import numpy as np
 import pytest
@@ -48,6 +50,21 @@ def test_a_map_without_rooms_is_empty_and_says_why(tmp_path):
     assert walled.rooms == 1 and walled.status == "ok"
 
 
+def _three_rooms_png(tmp_path):
+    """The three rooms as an IPA-style PNG, the output folder and the arguments of
+    ``topojax batch`` for it (IPA pixel convention, in process), formats to add."""
+    from room_maps import three_rooms_png
+
+    png = three_rooms_png(tmp_path / "maps" / "three.png")
+    out = tmp_path / "out"
+    argv = ["batch", str(png), "-o", str(out), "--mode", "ipa", "--workers", "0"]
+    return png, out, [*argv, "--no-progress"]
+
+
+def _summary_rows(out) -> list[dict]:
+    return list(csv.DictReader((out / "summary.csv").read_text().splitlines()))
+
+
 def test_room_config_sets_the_rooms_written(tmp_path):
     from room_maps import three_rooms
 
@@ -91,3 +108,44 @@ def test_room_config_is_checked(tmp_path):
     with pytest.raises(ValueError, match="room_config: only used with the format rooms"):
         build_graphs([three_rooms()], formats="json", room_config=RoomConfig(), **kw)
     assert not list(tmp_path.iterdir())
+
+
+def test_batch_command_takes_the_room_options(tmp_path, capsys):
+    from topojax.cli import main
+
+    png, out, argv = _three_rooms_png(tmp_path)
+    assert main([*argv, "--formats", "rooms", "--min-room-m2", "8"]) == 0
+    occupancy = tj.load_map(png, mode="ipa")
+    want = tj.segment_rooms(occupancy, config=RoomConfig(min_room_m2=8.0))
+    (row,) = _summary_rows(out)
+    assert (row["status"], int(row["rooms"])) == ("ok", want.n_rooms)
+    assert want.n_rooms < tj.segment_rooms(occupancy).n_rooms
+    assert main([*argv, "--formats", "rooms", "--min-room-m2", "8", "--resume"]) == 0
+    assert _summary_rows(out)[0]["status"] == "skipped"
+    assert main([*argv, "--formats", "rooms", "--resume"]) == 0
+    (row,) = _summary_rows(out)
+    assert (row["status"], int(row["rooms"])) == ("ok", 3)
+    capsys.readouterr()
+    none = ["--min-room-m2", "100", "--min-isolated-room-m2", "100"]
+    assert main([*argv, "--formats", "rooms", *none]) == 0
+    (row,) = _summary_rows(out)
+    assert (row["status"], int(row["rooms"])) == ("empty", 0)
+    for message in (capsys.readouterr().err, row["message"]):
+        assert "without doorways (--min-isolated-room-m2)" in message
+
+
+def test_batch_command_refuses_room_options_it_cannot_use(tmp_path, capsys):
+    from topojax.cli import main
+
+    _, out, argv = _three_rooms_png(tmp_path)
+    capsys.readouterr()
+    assert main([*argv, "--formats", "json", "--min-room-m2", "8"]) == 2
+    err = capsys.readouterr().err
+    assert "--min-room-m2: only used with the format rooms" in err and "'json'" in err
+    assert main([*argv, "--formats", "rooms", "--min-room-m2", "-1"]) == 2
+    err = capsys.readouterr().err
+    assert "--min-room-m2:" in err and "min_room_m2" not in err
+    assert main([*argv, "--formats", "rooms", "--min-door-width-m", "3"]) == 2
+    err = capsys.readouterr().err
+    assert "--min-door-width-m, --max-door-width-m:" in err and "_width_m" not in err
+    assert not out.exists()

@@ -11,15 +11,18 @@ from pathlib import Path
 
 from ._options import (
     _OPTION_OF,
+    _ROOM_OPTIONS,
     _THRESHOLD_OPTIONS,
     _as_options,
     _option_named,
     add_map_options,
     add_pipeline_options,
+    add_room_options,
     add_sigma_options,
     given_threshold_refused,
     map_options,
     pipeline_config,
+    room_config,
 )
 from ._outputs import OUT_OPTION, check_outputs
 from ._signals import sigterm_stops
@@ -29,10 +32,11 @@ _MANIFEST = ".manifest.json"
 #: The parameters that the message of a map may name (a radius too small for the map's
 #: resolution, ``robot_radius_m: expected at least 1.5 pixels ...``), and their options.
 _MAP_OPTION_OF = {**_OPTION_OF, "robot_radius_m": "--robot-radius"}
-#: With them, the map settings a note of an empty or warned map names (an error row's
-#: message, e.g. a YAML field's, names them as the file does).
+#: With them, the map and room settings a note of an empty or warned map names (an error
+#: row's message, e.g. a YAML field's, names them as the file does).
 _NOTE_OPTION_OF = {
     **_MAP_OPTION_OF,
+    **{field: option for option, field, *_ in _ROOM_OPTIONS},
     "occupied_thresh": "--occupied-thresh",
     "free_thresh": "--free-thresh",
     "negate": "--negate",
@@ -66,6 +70,7 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
     _check_numbers(args)
     reading = map_options(args)  # checked under the options' names
     route_config = _route_config(args)
+    rooms_config = _room_config(args)
     paths = expand_map_inputs(args.inputs, exclude=args.out)
     planned = planned_outputs(paths, formats=args.formats, plot=args.plot)
     claims = {Path(args.out) / rel: source for rel, source in planned.items()}
@@ -121,6 +126,7 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
             map_mode=reading.pop("mode", None),
             sigma_m=args.sigma_m,
             route_config=route_config,
+            room_config=rooms_config,
             map_options=reading,
         )
         with one_writer(out, name="--out", command="batch"):  # one batch per folder
@@ -251,6 +257,23 @@ def _route_config(args):
     )
 
 
+def _room_config(args):
+    """The room options of the ``rooms`` format (those of ``topojax rooms``), or None
+    without any (the format then uses :class:`RoomConfig`'s defaults); an error names the
+    option."""
+    from ..batch.inputs import check_formats
+
+    given = [option for option, field, *_ in _ROOM_OPTIONS if getattr(args, field) is not None]
+    if not given:
+        return None
+    if "rooms" not in check_formats(args.formats):
+        raise ValueError(
+            f"{', '.join(given)}: only used with the format rooms; expected --formats to "
+            f"name it, received {args.formats!r}"
+        )
+    return room_config(args)
+
+
 def add_command(subparsers) -> None:
     """Register the ``batch`` subcommand on an ``argparse`` subparsers object."""
     p = subparsers.add_parser(
@@ -303,8 +326,8 @@ def add_command(subparsers) -> None:
         default="graphml,json,geojson",
         help="comma-separated graph formats: graphml, json, geojson, nav2 (a Nav2 Route "
         "Server graph, NAME_nav2.geojson), rooms (the map's rooms and doorways, "
-        "NAME_rooms.{geojson,png,graphml,json}; the graph files then carry each vertex's "
-        "room), route (the route graph for a round robot of --robot-radius, "
+        "NAME_rooms.{geojson,png,graphml,json}, with the room options below; the graph "
+        "files then carry each vertex's room), route (the route graph for a round robot of --robot-radius, "
         "NAME_route.{graphml,json,geojson}), route_nav2 (that graph for the Nav2 Route "
         "Server, NAME_route_nav2.geojson) (default: graphml,json,geojson)",
     )
@@ -315,4 +338,5 @@ def add_command(subparsers) -> None:
         metavar="M",
         help="robot radius in metres of the route formats (default 0.3)",
     )
+    add_room_options(p, only_with="--formats rooms")
     p.set_defaults(handler=_cmd_batch)
