@@ -160,13 +160,7 @@ def inputs_of(
             )
         out.rooms = rooms
     own_graphs = len(out.graphs)
-    for name, graph in _extra_graphs(graphs):
-        taken = [label for _, label, _ in out.graphs]
-        if not name.strip() or name in taken:  # the layer list would not tell them apart
-            raise ValueError(
-                f"graphs: expected a name for each layer, none blank or already a layer's "
-                f"(here {', '.join(repr(t) for t in taken) or 'none'}), received {name!r}"
-            )
+    for name, graph in _extra_graphs(graphs, [label for _, label, _ in out.graphs]):
         out.graphs.append((f"g{len(out.graphs)}", name, graph))
     out.route = _checked_route(route)
     out.timeline = _checked_timeline(timeline)
@@ -241,7 +235,9 @@ def _graph_label(graph: nx.Graph) -> str:
     return "route graph" if graph.graph.get("kind") == "route_graph" else "graph"
 
 
-def _extra_graphs(graphs):
+def _extra_graphs(graphs, taken: list[str]):
+    """The (name, graph) pairs of ``graphs``, checked; ``taken`` lists the layer names
+    already shown, which a name may not repeat (the layer list would not tell them apart)."""
     if graphs is None:
         return []
     instance_of("graphs", graphs, dict, "dict of name -> networkx graph")
@@ -250,6 +246,11 @@ def _extra_graphs(graphs):
             raise TypeError(
                 f"graphs: expected a dict of name (str) -> networkx graph, received a key "
                 f"{name!r} ({type(name).__name__})"
+            )
+        if not name.strip() or name in taken:
+            raise ValueError(
+                f"graphs: expected a name for each layer, none blank or already a layer's "
+                f"(here {', '.join(repr(t) for t in taken) or 'none'}), received {name!r}"
             )
         nx_graph(f"graphs[{name!r}]", graph)
     return list(graphs.items())
