@@ -110,6 +110,14 @@ def test_room_config_is_checked(tmp_path):
     assert not list(tmp_path.iterdir())
 
 
+def test_the_rooms_format_needs_a_folder():
+    from room_maps import three_rooms
+
+    # rooms are written, not kept in the records: without a folder they would be lost
+    with pytest.raises(ValueError, match=r"^out_dir: expected a folder .*'rooms'.* None$"):
+        build_graphs([three_rooms()], formats="rooms,json", workers=0, progress=False)
+
+
 def test_batch_command_takes_the_room_options(tmp_path, capsys):
     from topojax.cli import main
 

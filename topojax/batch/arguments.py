@@ -100,7 +100,7 @@ def checked_options(
     config = instance_or_default("config", config, PipelineConfig)
     fmts = check_formats(formats)
     route_config = route_options(route_config, fmts, out_dir)
-    room_config = room_options(room_config, fmts)
+    room_config = room_options(room_config, fmts, out_dir)
     sigma_m = check_options(map_mode=map_mode, flags=flags, sigma_m=sigma_m, out_dir=out_dir)
     tpc, threads, group_tiles = kernel_settings(config, tiles_per_call, kernel_threads, batch_tiles)
     keep_graphs = flags["keep_graphs"]
@@ -284,9 +284,10 @@ def route_options(route_config: Any, formats: tuple[str, ...], out_dir: Any):
     return config
 
 
-def room_options(room_config: Any, formats: tuple[str, ...]):
+def room_options(room_config: Any, formats: tuple[str, ...], out_dir: Any):
     """The checked ``room_config`` (its default where None) when ``formats`` name the
-    ``rooms`` format, else None."""
+    ``rooms`` format, else None; that format needs ``out_dir`` (rooms are not kept in
+    the records)."""
     from ..rooms import RoomConfig
 
     config = instance_or_default("room_config", room_config, RoomConfig)
@@ -297,6 +298,11 @@ def room_options(room_config: Any, formats: tuple[str, ...]):
                 f"it, received {formats}"
             )
         return None
+    if out_dir is None:
+        raise ValueError(
+            "out_dir: expected a folder (the format 'rooms' writes files and needs one), "
+            "received None"
+        )
     return config
 
 

@@ -682,8 +682,8 @@ def build_graphs(
         the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms` with
         ``room_config``; the graph files then carry the rooms), ``route`` and
         ``route_nav2`` (the route graph of ``route_config``, as graph files and for
-        Nav2).  A map without a room, or whose route graph is empty, gets
-        ``status="empty"``.  File names: ``docs/batch-and-dask.md``.
+        Nav2); these three need ``out_dir``.  A map without a room, or whose route graph
+        is empty, gets ``status="empty"``.  File names: ``docs/batch-and-dask.md``.
     plot : bool
         Also write ``<name>_graph.png`` (map, skeleton and graph; needs ``out_dir``).
     resume : bool
