@@ -213,6 +213,28 @@ def test_a_memory_mapped_pgm_is_held_to_the_memory_its_classes_take(tmp_path, mo
     assert tj.load_map(path).shape == (10, 12)
 
 
+@pytest.mark.parametrize("name", ["deep.pgm", "deep.png"])
+def test_a_large_map_file_is_refused_from_its_header_before_the_file_is_read(
+    tmp_path, monkeypatch, name
+):
+    """A file larger than the memory available (a 16-bit PGM holds 2 bytes a pixel)
+    would end the process as it is read whole: its header is held to the memory
+    available first, from the start of the file only."""
+    path = tmp_path / name
+    rng = np.random.default_rng(0)  # noise: a PNG of it is not compressed to nothing
+    image = rng.integers(0, 65535, size=(1024, 1536), dtype=np.uint16)
+    assert cv2.imwrite(str(path), image)
+    size = path.stat().st_size
+    assert size > 1 << 20
+    _memory(monkeypatch, 1024 * 1536 * pnm.DECODE_BYTES_PER_PIXEL - 1)
+    peak, error = _peak_bytes(lambda: tj.load_map(path, resolution_m=0.05))
+    assert isinstance(error, MemoryRefusal)
+    assert f"map image {path}: its header gives 1536 x 1024 pixels" in str(error)
+    assert peak < size // 2  # the file was not read whole
+    _memory(monkeypatch, 1024 * 1536 * pnm.DECODE_BYTES_PER_PIXEL)
+    assert tj.load_map(path, resolution_m=0.05).shape == (1024, 1536)
+
+
 def test_the_limit_reaches_the_command_line(tmp_path, monkeypatch, capsys):
     from topojax.cli import main
 

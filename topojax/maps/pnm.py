@@ -476,6 +476,11 @@ def _check_declared_size(data: bytes, path: Path) -> None:
         )
 
 
+#: How much of an image file :func:`read_image` reads for its header before the rest: a
+#: file larger than the memory available would otherwise end the process as it is read.
+_HEAD_BYTES = 1 << 20
+
+
 def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
     """Read an image file.
 
@@ -497,7 +502,12 @@ def read_image(path: Path) -> tuple[np.ndarray, int, list[str]]:
         (checked before decoding).
     """
     path = existing_file("path", path)
-    data = path.read_bytes()
+    with open(path, "rb") as f:
+        head = f.read(_HEAD_BYTES)
+        if len(head) == _HEAD_BYTES:  # more to come: what the header gives must fit first
+            _check_declared_size(head, path)
+            f.seek(0)
+        data = head if len(head) < _HEAD_BYTES else f.read()
     if not data:
         raise ValueError(f"map image {path} is empty (0 bytes)")
     _check_declared_size(data, path)
