@@ -212,3 +212,32 @@ def test_a_tile_folder_with_a_dot_in_its_name_names_the_outputs_whole(
     assert output_stem(".") == "floor.v2"
     (tmp_path / "level_2").symlink_to(folder)  # a link is named as the user named it
     assert output_stem("../level_2") == "level_2"
+
+
+def test_graph_files_too_large_for_the_memory_are_refused_with_the_store_kept(
+    office_yaml, tmp_path, monkeypatch, capsys
+):
+    """The graph files are written from a networkx graph, about 1 kB a vertex and an
+    edge, which the block budget does not bound: where the memory available cannot hold
+    it, the command says so (status 1, not killed) once the store is saved, and names
+    the store that holds the graph."""
+    import topojax._cpus as cpus
+    import topojax.cli.tiled as cli_tiled
+
+    out = tmp_path / "out"
+    argv = ["graph", str(office_yaml), "-o", str(out), "--tiled", "--memory-budget-mb", "14"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the budget is more than the memory here
+        monkeypatch.setattr(cpus, "available_memory_bytes", lambda: 10_000)
+        assert main(argv) == 1
+    err = capsys.readouterr().err
+    store = tj.load_graph_store(out / "office_store")
+    assert "Traceback" not in err
+    assert f"{store.n_nodes:,} vertices and {store.n_edges:,} edges" in err
+    assert f"{cli_tiled.GRAPH_FILE_BYTES_PER_ELEMENT} bytes a vertex and an edge" in err
+    assert "more than the 10,000 bytes of memory available" in err
+    assert str(out / "office_store") in err and "load_graph_store" in err
+    assert not (out / "office.json").exists()
+    monkeypatch.setattr(cpus, "available_memory_bytes", lambda: None)
+    assert main(argv) == 0
+    assert (out / "office.json").is_file()
