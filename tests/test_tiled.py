@@ -548,6 +548,10 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tj.build_graph_tiled(m, block_px=0)
     with pytest.raises(ValueError, match="memory_budget_mb"):
         tj.build_graph_tiled(m, memory_budget_mb=0)
+    # with block_px given the budget sizes nothing, but a bad one is refused, not ignored
+    for budget, error in ((-64, ValueError), (float("nan"), ValueError), ("64", TypeError)):
+        with pytest.raises(error, match=r"^memory_budget_mb: expected a .*number of megabytes"):
+            tj.build_graph_tiled(m, block_px=256, memory_budget_mb=budget)
     with pytest.raises(TypeError, match="executor"):
         tj.build_graph_tiled(m, executor="threads")
     with pytest.raises(ValueError, match=r"^threads: expected an int >= 1"):

@@ -320,6 +320,8 @@ def _checked_options(config: PipelineConfig, block_px, memory_budget_mb, threads
     in the first block or a worker's task)."""
     if block_px is None:
         block_px = block_px_for_budget(memory_budget_mb, config)
+    else:  # it sizes nothing then, but a bad one is refused rather than ignored
+        quantity("memory_budget_mb", memory_budget_mb, unit="megabytes", allow_zero=False)
     block_px = positive_int("block_px", block_px)
     if block_px % config.tile_px:
         raise ValueError(
