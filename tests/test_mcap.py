@@ -504,20 +504,21 @@ def test_save_mcap_refuses_rooms_and_a_route_graph_of_another_map(tmp_path):
     """The recording puts every topic in the one map frame: rooms or a route graph made
     on another map (another origin or shape) would sit off their place over ``/map``
     in RViz without a word, so they are refused, named, before the file is opened."""
-    free = np.pad(np.ones((30, 40), bool), 2)
-    result = tj.build_graph(tj.OccupancyMap.from_array(free))
-    moved = tj.OccupancyMap.from_array(free, origin=(1.0, -2.0, 0.3))
+    walls = ~np.pad(np.ones((30, 40), bool), 2)  # True = occupied: a room in its walls
+    result = tj.build_graph(tj.OccupancyMap.from_array(walls))
+    moved = tj.OccupancyMap.from_array(walls, origin=(1.0, -2.0, 0.3))
     path = tmp_path / "a.mcap"
     with pytest.raises(ValueError, match="^route_graph: .*origin"):
         tj.save_mcap(result, path, route_graph=tj.route_graph(moved, robot_radius_m=0.1))
     with pytest.raises(ValueError, match="^rooms: .*origin"):
         tj.save_mcap(result, path, rooms=tj.segment_rooms(moved))
-    wider = tj.OccupancyMap.from_array(np.pad(np.ones((30, 50), bool), 2))
+    wider = tj.OccupancyMap.from_array(~np.pad(np.ones((30, 50), bool), 2))
     with pytest.raises(ValueError, match="^rooms: .*shape"):
         tj.save_mcap(result, path, rooms=tj.segment_rooms(wider))
     assert not path.exists()
     # those of the result's own map are recorded
     own = tj.route_graph(result.map, robot_radius_m=0.1)
+    assert own.number_of_edges() > 0
     tj.save_mcap(result, path, rooms=tj.segment_rooms(result), route_graph=own)
     assert [tp for tp, *_ in read_messages(path)] == ["/map", "/topology", "/rooms", "/route_graph"]
 
