@@ -352,6 +352,17 @@ def test_map_without_feasible_space_gives_an_empty_graph_that_says_why():
     assert note.endswith("the most clearance from anything not known free is 0.0029 m)")
 
 
+def test_empty_graph_note_names_the_area_when_the_robot_fits_but_the_regions_are_small():
+    """Where the robot fits but every feasible region is below min_region_m2, the note
+    says how large the largest is, not only the clearance (which exceeds the radius and
+    would point at the radius)."""
+    occ = _map(_room(1.0, 1.0))  # 0.9 m inside: the robot fits, in 8 x 8 pixels
+    with pytest.warns(UserWarning, match="^empty route graph"):
+        note = route_graph(occ, robot_radius_m=R).graph["note"]
+    assert "the largest feasible region is 0.16 m2" in note, note
+    assert "min_region_m2" in note
+
+
 def test_route_graph_command_writes_the_graph_and_its_report(tmp_path, capsys):
     import json
 

@@ -207,8 +207,9 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         attributes ``resolution_m``, ``shape``, ``origin``, ``merge_junction_clusters``
         (True), ``robot_radius_m``, ``snap_m``, ``kind`` (``"route_graph"``),
         ``uncovered_share`` and ``timings_s``; for a graph without edges, ``note``:
-        why (no feasible region, with the most clearance the map offers; or vertices
-        without edges), also given as a ``UserWarning``.  One component per feasible
+        why (no feasible region, with the most clearance the map offers and, where the
+        robot fits, the largest feasible region's area; or vertices without edges), also
+        given as a ``UserWarning``.  One component per feasible
         region of at least ``min_region_m2``.
 
     Raises
