@@ -724,3 +724,28 @@ def test_pair_sampling_reads_rows_instead_of_listing_the_region():
         tracemalloc.stop()
     assert pairs.n_pairs == 300
     assert peak < 2 * hall.size  # the bounding box compared with the region, one byte a pixel
+
+
+def test_string_positions_as_networkx_reads_graphml_point_at_load_graph(tmp_path):
+    """GraphML holds lists as text: a graph read with networkx.read_graphml carries
+    '[x, y]' strings, which read as two numbers in the message; the error says they are
+    text and names topojax.load_graph, which decodes them (its graph then scores)."""
+    from topojax import load_graph
+
+    m = _corridor(7)
+    ends = [[float(v) for v in m.pixel_to_world(4, c)] for c in (5, 90)]
+    g = nx.Graph()
+    g.add_node("a", world=json.dumps(ends[0]))
+    g.add_node("b", world=json.dumps(ends[1]))
+    g.add_edge("a", "b", world=json.dumps(ends))
+    nx.write_graphml(g, tmp_path / "peer.graphml")
+    raw = nx.read_graphml(tmp_path / "peer.graphml")
+    words = r"received str '\[.*text.*topojax\.load_graph"
+    with pytest.raises(ValueError, match=rf"vertex 'a' attribute 'world': .*{words}"):
+        evaluate_route_graph(raw, m, RADIUS, n_pairs=10)
+    for n in ("a", "b"):
+        raw.nodes[n]["world"] = json.loads(raw.nodes[n]["world"])
+    with pytest.raises(ValueError, match=rf"edge \('a', 'b'\) attribute 'world': .*{words}"):
+        evaluate_route_graph(raw, m, RADIUS, n_pairs=10)
+    report = evaluate_route_graph(load_graph(tmp_path / "peer.graphml"), m, RADIUS, n_pairs=10)
+    assert report.graph_length_m == pytest.approx(85 * RES)

@@ -63,6 +63,18 @@ def _has(data: dict, key: str) -> bool:
     return data.get(key) is not None
 
 
+def _received(value) -> str:
+    """``value`` as an error message shows it: text (GraphML keeps lists as text, which
+    networkx's reader leaves as it is) said to be text, with the reader that decodes it."""
+    if isinstance(value, (str, bytes)):
+        return (
+            f"{type(value).__name__} {reprlib.repr(value)} (text, as networkx.read_graphml "
+            "leaves GraphML's lists: read the file with topojax.load_graph, which decodes "
+            "JSON lists such as '[x, y]')"
+        )
+    return f"{type(value).__name__} {reprlib.repr(value)}"
+
+
 def _vertex_point(node, data: dict, coordinates: str) -> tuple[np.ndarray, bool]:
     """One vertex's ``world`` (x, y) or ``pixel`` (row, col) attribute, checked, and
     whether it is ``world``."""
@@ -88,7 +100,7 @@ def _vertex_point(node, data: dict, coordinates: str) -> tuple[np.ndarray, bool]
     if q.size < 2 or not np.isfinite(q[:2]).all():
         raise ValueError(
             f"graph: vertex {node!r} attribute {key!r}: expected two finite numbers, "
-            f"received {data[key]!r}"
+            f"received {_received(data[key])}"
         )
     return q[:2], use_world
 
@@ -126,11 +138,13 @@ def _edge_points(edge, data: dict, coordinates: str) -> tuple[np.ndarray | None,
     if not _has(data, key):
         return None, False
     try:
+        if isinstance(data[key], (str, bytes)):  # numpy would read "1.5" as a number
+            raise TypeError
         arr = np.asarray(data[key], dtype=np.float64)
     except (TypeError, ValueError):  # not numbers, or rows of different lengths
         raise ValueError(
             f"graph: edge {edge!r} attribute {key!r}: expected a (K, 2) array of finite "
-            f"numbers, received {type(data[key]).__name__} {reprlib.repr(data[key])}"
+            f"numbers, received {_received(data[key])}"
         ) from None
     if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 2 or not np.isfinite(arr[:, :2]).all():
         got = f"shape {arr.shape}"
