@@ -330,6 +330,17 @@ def test_map_is_a_map_or_its_file(tmp_path):
         np.testing.assert_array_equal(from_file.edges[u, v, k]["path"], path)
 
 
+def test_a_tiled_map_is_refused_naming_its_occupancy_method():
+    """A TiledMap given where an OccupancyMap is expected is refused pointing at
+    TiledMap.occupancy(), which gives it, not at load_map, which has nothing to do
+    with a map already loaded."""
+    tiled = tj.TiledMap.from_occupancy(_map(_room(2, 2)))
+    with pytest.raises(TypeError, match=r"^occupancy: .* received TiledMap .*\.occupancy\(\)"):
+        route_graph(tiled, robot_radius_m=R)
+    with pytest.raises(TypeError, match=r"^occupancy: .* received TiledMap .*\.occupancy\(\)"):
+        tj.evaluate_route_graph(nx.MultiGraph(), tiled, R)
+
+
 def test_map_without_feasible_space_gives_an_empty_graph_that_says_why():
     occ = _map(_room(0.5, 0.5))
     # the note is a warning too, for a notebook, where nobody reads the graph's attributes

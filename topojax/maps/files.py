@@ -589,11 +589,14 @@ def map_argument(name: str, value: Any, *, files: bool = False) -> OccupancyMap:
     if files and isinstance(value, (str, os.PathLike)):
         return load_map(value)
     what = "an OccupancyMap or a map file path (str or Path)" if files else "an OccupancyMap"
-    hint = (
-        " (an array has no resolution: see OccupancyMap.from_array)"
-        if isinstance(value, np.ndarray)
-        else " (see load_map)"
-    )
+    from .tiled import TiledMap  # tiled imports this module
+
+    if isinstance(value, np.ndarray):
+        hint = " (an array has no resolution: see OccupancyMap.from_array)"
+    elif isinstance(value, TiledMap):  # loaded already: load_map is no help
+        hint = " (its .occupancy() is the OccupancyMap of the whole map, for maps that fit)"
+    else:
+        hint = " (see load_map)"
     raise TypeError(f"{name}: expected {what}, received {type(value).__name__}{hint}")
 
 
