@@ -1,7 +1,8 @@
 """Inputs whose size the library cannot hold are refused before the memory is taken, with
 a message that names the limit: images whose header claims more pixels than the memory
 available can decode (decompression bombs), and saved arrays whose header claims more data than
-their file holds."""
+their file holds; and a tiled build whose blocks outgrow the memory they were sized for says
+so."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import io
 import json
 import struct
 import tracemalloc
+import warnings
 import zipfile
 import zlib
 
@@ -20,7 +22,17 @@ from PIL import Image
 import topojax as tj
 import topojax._cpus as cpus
 from topojax._cpus import MemoryRefusal
+from topojax.config import DistanceConfig, PipelineConfig, RidgeConfig
 from topojax.maps import pnm
+from topojax.outofcore import BYTES_PER_WINDOW_PX
+
+#: A narrow Gaussian and a low ridge threshold: on the office map the thinning of some
+#: 64 px blocks is proved exact only with a halo of 160 px, five times the first (32 px).
+FAR_THINNING = PipelineConfig(
+    distance=DistanceConfig.from_pixels(sigma_px=5.0),
+    tile_px=32,
+    ridge=RidgeConfig(ksize=3, threshold=4.0),
+)
 
 
 def _png_claiming(path, width: int, height: int) -> None:
@@ -446,3 +458,56 @@ def test_a_refusal_gives_sizes_in_units_that_show_them(monkeypatch, available, n
     _memory(monkeypatch, available)
     with pytest.raises(MemoryRefusal, match=rf"^it takes {says} of memory available$"):
         cpus.check_fits_memory(need, "it takes")
+
+
+def _office_part() -> tj.OccupancyMap:
+    """256 x 192 px of the office map, where FAR_THINNING's halos grow to 160 px."""
+    grey = cv2.imread("topojax/data/office.png", cv2.IMREAD_GRAYSCALE)
+    return tj.OccupancyMap.from_array(grey[448:704, 256:448], resolution_m=0.05)
+
+
+def _window_mb(window) -> float:
+    return BYTES_PER_WINDOW_PX * window[0] * window[1] / 2**20
+
+
+def test_a_block_whose_halo_outgrows_the_memory_budget_is_warned_of_once():
+    """Blocks sized to a budget whose proof needs a wider halo read larger windows than
+    the budget holds: one warning names the budget, the largest window (pixels and
+    megabytes) and the halo that made it; the graph is build_graph's all the same."""
+    m = _office_part()
+    with pytest.warns(UserWarning) as caught:
+        result = tj.build_graph_tiled(m, config=FAR_THINNING, memory_budget_mb=0.4)
+    messages = [str(w.message) for w in caught if "window" in str(w.message)]
+    assert len(messages) == 1, messages
+    (message,) = messages
+    rows, cols = result.largest_window_px
+    assert rows * cols * BYTES_PER_WINDOW_PX > 0.4 * 2**20
+    assert max(result.halo_px) == 160
+    assert "memory_budget_mb=0.4" in message
+    assert f"{rows} x {cols} px ({_window_mb(result.largest_window_px):.1f} MB" in message
+    assert "halo of 160 px" in message and "first (32 px)" in message
+    whole = tj.build_graph(m, config=FAR_THINNING)
+    assert np.array_equal(result.skeleton_flat(), np.flatnonzero(whole.skeleton))
+    for name in ("node_pixel", "edge_u", "edge_v", "path_offsets", "path_pixels"):
+        got, want = getattr(result.graph_store, name), getattr(whole.graph_store, name)
+        assert np.array_equal(got, want), name
+
+
+def test_a_given_block_side_is_held_to_its_first_window():
+    """With ``block_px`` the budget sizes nothing: the window the block side was chosen
+    for (the block and the first halo on each side) is the one a larger window is
+    measured against."""
+    with pytest.warns(UserWarning, match="window") as caught:
+        result = tj.build_graph_tiled(_office_part(), config=FAR_THINNING, block_px=64)
+    (message,) = [str(w.message) for w in caught if "window" in str(w.message)]
+    assert "block_px=64" in message and "128 x 128 px" in message
+    assert "memory_budget_mb" in message  # says that it was not used
+    assert result.largest_window_px[0] * result.largest_window_px[1] > 128 * 128
+
+
+def test_windows_within_the_budget_are_not_warned_of():
+    """A budget large enough for the grown windows: nothing is said."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = tj.build_graph_tiled(_office_part(), config=FAR_THINNING, memory_budget_mb=4)
+    assert result.largest_window_px == (256, 192)

@@ -24,7 +24,7 @@ from ..config import PipelineConfig
 from ..maps import IMAGE_SUFFIXES, YAML_SUFFIXES, load_map
 from ..maps.occupancy import OccupancyMap
 from ..maps.tiled import TiledMap, array_map, open_tiled_map
-from .blocks import BlockPiece, block_piece, fields_halo_px
+from .blocks import BlockPiece, block_piece, fields_halo_px, window_box
 from .checkpoint import BlockCheckpoints
 
 __all__ = ["BYTES_PER_WINDOW_PX", "TiledResult", "block_px_for_budget", "build_graph_tiled"]
@@ -65,6 +65,10 @@ class TiledResult:
         The distinct halos the blocks needed, smallest first.
     pruned_graph : networkx.MultiGraph or None
         The graph when ``config.graph`` prunes (pruning works on networkx), else None.
+    largest_window_px : (int, int)
+        Rows and columns of the largest kernel window a block read (the block and the
+        halo it needed on each side, clipped to the map); its stages took about
+        :data:`BYTES_PER_WINDOW_PX` bytes per pixel of it.
     graph : networkx.MultiGraph
         ``pruned_graph``, or built from ``graph_store`` on first access.
 
@@ -84,6 +88,7 @@ class TiledResult:
     blocks_reused: int = 0
     halo_px: tuple[int, ...] = ()
     pruned_graph: Any = None
+    largest_window_px: tuple[int, int] = (0, 0)
 
     def skeleton_flat(self) -> np.ndarray:
         """Flat indices ``row * W + col`` (int64, increasing) of the skeleton's pixels."""
@@ -99,7 +104,8 @@ class TiledResult:
     def __repr__(self) -> str:
         return (
             f"TiledResult(map shape={self.map.shape}, blocks={self.blocks}, halo_px="
-            f"{self.halo_px}, skeleton_px={self.cols.size}, timings_s={self.timings_s})"
+            f"{self.halo_px}, largest_window_px={self.largest_window_px}, skeleton_px="
+            f"{self.cols.size}, timings_s={self.timings_s})"
         )
 
 
@@ -209,12 +215,18 @@ def build_graph_tiled(
         As for :func:`topojax.build_graph`.
     block_px : int, optional
         Block side in pixels, a multiple of ``config.tile_px``; default: the largest
-        whose stages fit ``memory_budget_mb``.
+        whose stages fit ``memory_budget_mb``.  Given, a block whose halo grows reads a
+        larger window than the block and the first halo: one ``UserWarning`` per build
+        says so (as below).
     memory_budget_mb : float, default 512
         Memory for one block's stages (per worker), used when ``block_px`` is None;
         not the kernels' compilers and runtimes, which a process's first call loads
         once (``docs/performance.md``).  A budget above the memory available is
-        warned of (:func:`block_px_for_budget`).
+        warned of (:func:`block_px_for_budget`).  A block whose proof needs a wider
+        halo reads a larger window than its first; where that passes the budget (at
+        :data:`BYTES_PER_WINDOW_PX` bytes a pixel), one ``UserWarning`` per build names
+        the budget, the largest window and the halo it needed
+        (``TiledResult.largest_window_px``).
     executor : concurrent.futures.Executor or dask.distributed.Client, optional
         Runs the blocks as tasks (a Dask ``Client``: on its workers, each reading its
         window from the source); default: one after another in this process.  A
@@ -260,21 +272,31 @@ def build_graph_tiled(
     """
     config = instance_or_default("config", config, PipelineConfig)
     tiled = tiled_source(source)
+    given = block_px is not None
     block_px, threads, resume = _checked_options(
         config, block_px, memory_budget_mb, threads, resume, out_dir
     )
+    sized_for = _sized_window(config, block_px if given else None, memory_budget_mb)
     if out_dir is None:
-        return _build(tiled, config, block_px, threads, executor, None, resume)
+        return _build(tiled, config, block_px, threads, executor, None, resume, sized_for)
     # one build per folder: two into it would overwrite each other's kept blocks
     with one_writer(out_dir, name="out_dir", command="build_graph_tiled") as out:
-        return _build(tiled, config, block_px, threads, executor, out, resume)
+        return _build(tiled, config, block_px, threads, executor, out, resume, sized_for)
 
 
 def _build(
-    tiled: TiledMap, config: PipelineConfig, block_px: int, threads, executor, out_dir, resume
+    tiled: TiledMap,
+    config: PipelineConfig,
+    block_px: int,
+    threads,
+    executor,
+    out_dir,
+    resume,
+    sized_for: tuple[float, str, str],
 ) -> TiledResult:
     """:func:`build_graph_tiled` of the checked options, into the folder ``out_dir``
-    (made and locked; None: in memory)."""
+    (made and locked; None: in memory); a window past ``sized_for`` (its pixels, what
+    sized it, how) is warned of (:class:`_Windows`)."""
     pool = as_executor(executor)
     kept = None
     if out_dir is not None:
@@ -293,9 +315,12 @@ def _build(
         tiled, todo, config, halo, threads, pool, executor, digest=kept is not None
     )
     skeleton = _Skeleton(tiled, config.distance.half_width_px, config.tile_px)
+    windows = _Windows(tiled.shape, sized_for[0])
     for piece in _in_block_order(boxes, reused, computed, kept):
+        windows.add(piece)
         skeleton.add(piece)
     row_start, cols, clearance = skeleton.finish()
+    windows.warn(sized_for, halo, len(boxes))
     t1 = time.perf_counter()
     store, pruned = _graph(tiled, row_start, cols, clearance, config, out_dir)
     if kept is not None:  # the graph is written: the blocks are not needed any more
@@ -312,7 +337,63 @@ def _build(
         blocks_reused=len(reused),
         halo_px=tuple(sorted(skeleton.halos)),
         pruned_graph=pruned,
+        largest_window_px=windows.largest,
     )
+
+
+def _sized_window(
+    config: PipelineConfig, block_px: int | None, memory_budget_mb: float
+) -> tuple[float, str, str]:
+    """``(pixels, option, what)`` of the window the blocks were sized for (both options
+    checked): the budget's pixels when it sized them (``block_px`` None), else the
+    given block with the first halo on each side (the budget sizes nothing then)."""
+    if block_px is None:
+        limit_px = memory_budget_mb * 2**20 / BYTES_PER_WINDOW_PX
+        how = f"memory_budget_mb={memory_budget_mb:g} holds ({limit_px:.0f} px)"
+        return limit_px, "memory_budget_mb", how
+    side = block_px + 2 * _first_halo(config)
+    how = (
+        f"block_px={block_px} with the first halo on each side ({side} x {side} px; "
+        f"memory_budget_mb={memory_budget_mb:g} sizes nothing when block_px is given)"
+    )
+    return side * side, "block_px", how
+
+
+class _Windows:
+    """The largest kernel window the blocks read, and how many read more than
+    ``limit_px`` pixels."""
+
+    def __init__(self, shape, limit_px: float) -> None:
+        self.shape, self.limit_px = shape, limit_px
+        self.largest: tuple[int, int] = (0, 0)
+        self.box, self.halo, self.over = None, 0, 0
+
+    def add(self, piece: BlockPiece) -> None:
+        f0, f1, g0, g1 = window_box(piece.box, piece.halo_px, self.shape)
+        size = (f1 - f0) * (g1 - g0)
+        self.over += size > self.limit_px
+        if size > self.largest[0] * self.largest[1]:
+            self.largest, self.box, self.halo = (f1 - f0, g1 - g0), piece.box, piece.halo_px
+
+    def warn(self, sized_for: tuple[float, str, str], first_halo: int, blocks: int) -> None:
+        """One ``UserWarning`` when a window outgrew ``sized_for``: the halo that made it
+        is the proof's, which no block side shrinks."""
+        limit_px, option, how = sized_for
+        if not self.over:
+            return
+        rows, cols = self.largest
+        mb = BYTES_PER_WINDOW_PX * rows * cols / 2**20
+        r0, r1, c0, c1 = self.box
+        warnings.warn(
+            f"{option}: {self.over} of {blocks} blocks read a larger window than "
+            f"{how}, the largest {rows} x {cols} px ({mb:.1f} MB at "
+            f"{BYTES_PER_WINDOW_PX} bytes a pixel): block rows {r0}:{r1}, columns {c0}:{c1} "
+            f"needed a halo of {self.halo} px, not the first ({first_halo} px), for its "
+            "thinning to be proved equal to the whole map's (a smaller block does not "
+            "shrink the halo; result.largest_window_px records the window)",
+            UserWarning,
+            stacklevel=4,
+        )
 
 
 def _checked_options(config: PipelineConfig, block_px, memory_budget_mb, threads, resume, out_dir):
