@@ -13,6 +13,7 @@ import tracemalloc
 import warnings
 import zipfile
 import zlib
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -462,7 +463,7 @@ def test_a_refusal_gives_sizes_in_units_that_show_them(monkeypatch, available, n
 
 def _office_part() -> tj.OccupancyMap:
     """256 x 192 px of the office map, where FAR_THINNING's halos grow to 160 px."""
-    grey = cv2.imread("topojax/data/office.png", cv2.IMREAD_GRAYSCALE)
+    grey = cv2.imread(str(Path(tj.__file__).parent / "data" / "office.png"), cv2.IMREAD_GRAYSCALE)
     return tj.OccupancyMap.from_array(grey[448:704, 256:448], resolution_m=0.05)
 
 
@@ -493,16 +494,14 @@ def test_a_block_whose_halo_outgrows_the_memory_budget_is_warned_of_once():
         assert np.array_equal(got, want), name
 
 
-def test_a_given_block_side_is_held_to_its_first_window():
-    """With ``block_px`` the budget sizes nothing: the window the block side was chosen
-    for (the block and the first halo on each side) is the one a larger window is
-    measured against."""
-    with pytest.warns(UserWarning, match="window") as caught:
+def test_a_given_block_side_records_its_windows_without_a_warning():
+    """With ``block_px`` the budget sizes nothing: the windows are the caller's choice,
+    recorded in the result and not warned of."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         result = tj.build_graph_tiled(_office_part(), config=FAR_THINNING, block_px=64)
-    (message,) = [str(w.message) for w in caught if "window" in str(w.message)]
-    assert "block_px=64" in message and "128 x 128 px" in message
-    assert "memory_budget_mb" in message  # says that it was not used
-    assert result.largest_window_px[0] * result.largest_window_px[1] > 128 * 128
+    assert max(result.halo_px) == 160
+    assert result.largest_window_px == (256, 192)  # 64 + 2 x 160 a side, clipped to the map
 
 
 def test_windows_within_the_budget_are_not_warned_of():

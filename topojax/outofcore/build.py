@@ -215,9 +215,9 @@ def build_graph_tiled(
         As for :func:`topojax.build_graph`.
     block_px : int, optional
         Block side in pixels, a multiple of ``config.tile_px``; default: the largest
-        whose stages fit ``memory_budget_mb``.  Given, a block whose halo grows reads a
-        larger window than the block and the first halo: one ``UserWarning`` per build
-        says so (as below).
+        whose stages fit ``memory_budget_mb``.  Given, the windows it makes are the
+        caller's choice: ``TiledResult.largest_window_px`` records the largest, and
+        nothing is warned of.
     memory_budget_mb : float, default 512
         Memory for one block's stages (per worker), used when ``block_px`` is None;
         not the kernels' compilers and runtimes, which a process's first call loads
@@ -276,7 +276,7 @@ def build_graph_tiled(
     block_px, threads, resume = _checked_options(
         config, block_px, memory_budget_mb, threads, resume, out_dir
     )
-    sized_for = _sized_window(config, block_px if given else None, memory_budget_mb)
+    sized_for = _sized_window(block_px if given else None, memory_budget_mb)
     if out_dir is None:
         return _build(tiled, config, block_px, threads, executor, None, resume, sized_for)
     # one build per folder: two into it would overwrite each other's kept blocks
@@ -292,7 +292,7 @@ def _build(
     executor,
     out_dir,
     resume,
-    sized_for: tuple[float, str, str],
+    sized_for: tuple[float, str],
 ) -> TiledResult:
     """:func:`build_graph_tiled` of the checked options, into the folder ``out_dir``
     (made and locked; None: in memory); a window past ``sized_for`` (its pixels, what
@@ -341,22 +341,14 @@ def _build(
     )
 
 
-def _sized_window(
-    config: PipelineConfig, block_px: int | None, memory_budget_mb: float
-) -> tuple[float, str, str]:
-    """``(pixels, option, what)`` of the window the blocks were sized for (both options
-    checked): the budget's pixels when it sized them (``block_px`` None), else the
-    given block with the first halo on each side (the budget sizes nothing then)."""
-    if block_px is None:
-        limit_px = memory_budget_mb * 2**20 / BYTES_PER_WINDOW_PX
-        how = f"memory_budget_mb={memory_budget_mb:g} holds ({limit_px:.0f} px)"
-        return limit_px, "memory_budget_mb", how
-    side = block_px + 2 * _first_halo(config)
-    how = (
-        f"block_px={block_px} with the first halo on each side ({side} x {side} px; "
-        f"memory_budget_mb={memory_budget_mb:g} sizes nothing when block_px is given)"
-    )
-    return side * side, "block_px", how
+def _sized_window(block_px: int | None, memory_budget_mb: float) -> tuple[float, str]:
+    """``(pixels, what)`` of the kernel window the budget holds where it sized the blocks
+    (``block_px`` None); ``(inf, "")`` where ``block_px`` was given, which the budget does
+    not size (the window is then the caller's choice, recorded but not warned of)."""
+    if block_px is not None:
+        return math.inf, ""
+    limit_px = memory_budget_mb * 2**20 / BYTES_PER_WINDOW_PX
+    return limit_px, f"memory_budget_mb={memory_budget_mb:g} holds ({limit_px:.0f} px)"
 
 
 class _Windows:
@@ -375,17 +367,17 @@ class _Windows:
         if size > self.largest[0] * self.largest[1]:
             self.largest, self.box, self.halo = (f1 - f0, g1 - g0), piece.box, piece.halo_px
 
-    def warn(self, sized_for: tuple[float, str, str], first_halo: int, blocks: int) -> None:
+    def warn(self, sized_for: tuple[float, str], first_halo: int, blocks: int) -> None:
         """One ``UserWarning`` when a window outgrew ``sized_for``: the halo that made it
         is the proof's, which no block side shrinks."""
-        limit_px, option, how = sized_for
+        limit_px, how = sized_for
         if not self.over:
             return
         rows, cols = self.largest
         mb = BYTES_PER_WINDOW_PX * rows * cols / 2**20
         r0, r1, c0, c1 = self.box
         warnings.warn(
-            f"{option}: {self.over} of {blocks} blocks read a larger window than "
+            f"memory_budget_mb: {self.over} of {blocks} blocks read a larger window than "
             f"{how}, the largest {rows} x {cols} px ({mb:.1f} MB at "
             f"{BYTES_PER_WINDOW_PX} bytes a pixel): block rows {r0}:{r1}, columns {c0}:{c1} "
             f"needed a halo of {self.halo} px, not the first ({first_halo} px), for its "
