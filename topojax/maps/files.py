@@ -589,11 +589,10 @@ def map_argument(name: str, value: Any, *, files: bool = False) -> OccupancyMap:
     if files and isinstance(value, (str, os.PathLike)):
         return load_map(value)
     what = "an OccupancyMap or a map file path (str or Path)" if files else "an OccupancyMap"
-    from .tiled import TiledMap  # tiled imports this module
-
     if isinstance(value, np.ndarray):
         hint = " (an array has no resolution: see OccupancyMap.from_array)"
-    elif isinstance(value, TiledMap):  # loaded already: load_map is no help
+    elif type(value).__module__ == "topojax.maps.tiled":  # a TiledMap (tiled imports this
+        # module): loaded already, so load_map is no help
         hint = " (its .occupancy() is the OccupancyMap of the whole map, for maps that fit)"
     else:
         hint = " (see load_map)"
