@@ -222,7 +222,7 @@ def test_graph_files_too_large_for_the_memory_are_refused_with_the_store_kept(
     it, the command says so (status 1, not killed) once the store is saved, and names
     the store that holds the graph."""
     import topojax._cpus as cpus
-    import topojax.cli.tiled as cli_tiled
+    from topojax.graph.store import NX_BYTES_PER_ELEMENT
 
     out = tmp_path / "out"
     argv = ["graph", str(office_yaml), "-o", str(out), "--tiled", "--memory-budget-mb", "14"]
@@ -234,7 +234,7 @@ def test_graph_files_too_large_for_the_memory_are_refused_with_the_store_kept(
     store = tj.load_graph_store(out / "office_store")
     assert "Traceback" not in err
     assert f"{store.n_nodes:,} vertices and {store.n_edges:,} edges" in err
-    assert f"{cli_tiled.GRAPH_FILE_BYTES_PER_ELEMENT} bytes a vertex and an edge" in err
+    assert f"{NX_BYTES_PER_ELEMENT} bytes a vertex and an edge" in err
     assert "more than the 10,000 bytes of memory available" in err
     assert str(out / "office_store") in err and "load_graph_store" in err
     assert not (out / "office.json").exists()

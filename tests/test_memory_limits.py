@@ -510,3 +510,21 @@ def test_windows_within_the_budget_are_not_warned_of():
         warnings.simplefilter("error")
         result = tj.build_graph_tiled(_office_part(), config=FAR_THINNING, memory_budget_mb=4)
     assert result.largest_window_px == (256, 192)
+
+
+def test_a_networkx_graph_the_memory_cannot_hold_is_refused_before_it_is_built(monkeypatch):
+    """A result holds its graph as arrays; the networkx graph made from them on first
+    access takes about a kilobyte a vertex and an edge, which is checked first."""
+    result = tj.build_graph(_office_part())
+    store = result.graph_store
+    _memory(monkeypatch, 10_000)
+    with pytest.raises(MemoryRefusal) as info:
+        result.graph  # noqa: B018 - the first access builds it
+    message = str(info.value)
+    assert message.startswith(
+        f"graph: the networkx graph of {store.n_nodes:,} vertices and {store.n_edges:,} edges"
+    )
+    assert "more than the 10,000 bytes of memory available" in message
+    assert "load_graph_store" in message
+    _memory(monkeypatch, 1 << 30)
+    assert result.graph.number_of_nodes() == store.n_nodes

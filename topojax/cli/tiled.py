@@ -29,11 +29,6 @@ _WHOLE_MAP_OPTIONS = ("--plot", "--stages", "--rooms", "--mcap", "--view")
 #: Default ``--memory-budget-mb``: as :func:`topojax.build_graph_tiled`'s.
 DEFAULT_BUDGET_MB = 512.0
 
-#: Bytes a vertex or an edge takes at least in the networkx graph that the graph files are
-#: written from, which ``--memory-budget-mb`` does not bound: about 0.8 times the 1.07 to
-#: 1.2 kB measured (Edmonton tiled 4 x 4 each way; a 6000 px map of 1 % noise).
-GRAPH_FILE_BYTES_PER_ELEMENT = 850
-
 
 def add_tiled_options(p) -> None:
     """``--tiled`` and the options only it takes: ``--memory-budget-mb``, ``--resume``."""
@@ -163,18 +158,19 @@ def cmd_graph_tiled(args) -> int:
 
 def _check_graph_files_fit(result, store: Path) -> None:
     """A :class:`~topojax._cpus.MemoryRefusal` where the networkx graph that the graph
-    files are written from (:data:`GRAPH_FILE_BYTES_PER_ELEMENT`) exceeds the memory
+    files are written from (``NX_BYTES_PER_ELEMENT`` a vertex and an edge) exceeds the memory
     available, naming ``store``, which holds the graph already (a pruned graph is one
     already built)."""
     from .._cpus import check_fits_memory
+    from ..graph.store import NX_BYTES_PER_ELEMENT
 
     if result.graph_store is None:
         return
     n, m = result.graph_store.n_nodes, result.graph_store.n_edges
     check_fits_memory(
-        GRAPH_FILE_BYTES_PER_ELEMENT * (n + m),
+        NX_BYTES_PER_ELEMENT * (n + m),
         f"--tiled: the graph files of {n:,} vertices and {m:,} edges are written from a "
-        f"networkx graph of them, at least {GRAPH_FILE_BYTES_PER_ELEMENT} bytes a vertex and "
+        f"networkx graph of them, at least {NX_BYTES_PER_ELEMENT} bytes a vertex and "
         "an edge (not bounded by --memory-budget-mb): at least",
         f"; the graph is saved in {store} (topojax.load_graph_store reads it memory-mapped)",
     )

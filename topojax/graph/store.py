@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
+from .._cpus import check_fits_memory
 from .._validate import nx_graph, real_values
 
 __all__ = [
@@ -25,6 +26,11 @@ __all__ = [
     "fill_multigraph",
     "paused_gc",
 ]
+
+#: Bytes a vertex or an edge takes at least in the networkx graph of a store: about 0.8
+#: times the 1.07 to 1.2 kB measured on large skeleton graphs (their dicts, tuples and
+#: small arrays); :meth:`GraphStore.to_networkx` checks the memory available for it.
+NX_BYTES_PER_ELEMENT = 850
 
 # Vertex kind codes.  The codes of "isolated" and "end" are their pixel-graph degrees and
 # every degree >= 3 is a junction, so ``min(degree, KIND_JUNCTION)`` is the kind of a
@@ -386,7 +392,21 @@ class GraphStore:
             ``attrs``.  Without the metric arrays (:attr:`has_metrics`), nodes have only
             ``pixel`` and ``kind`` and edges only ``path``.  Its arrays are views of new
             arrays: it shares no memory with the store.
+
+        Raises
+        ------
+        MemoryError
+            A ``topojax`` ``MemoryRefusal``, before any of it is built, where it would
+            take more than the memory available (:data:`NX_BYTES_PER_ELEMENT` a vertex
+            and an edge).
         """
+        n, m = self.n_nodes, self.n_edges
+        check_fits_memory(
+            NX_BYTES_PER_ELEMENT * (n + m),
+            f"graph: the networkx graph of {n:,} vertices and {m:,} edges takes at least",
+            "; the graph store holds them as arrays (save_graph_store writes it, "
+            "load_graph_store reads it memory-mapped)",
+        )
         ids = self.node_ids.tolist()
         pixel = self.node_pixel.tolist()
         kinds = [KIND_NAMES[k] for k in self.node_kind.tolist()]
