@@ -457,13 +457,22 @@ def _check_declared_size(data: bytes, path: Path) -> None:
             f"map image {path}: its header gives {width} x {height} pixels; expected an "
             "image of at least 2 x 2 pixels"
         )
+    if data[:2] == b"P5":  # 16-bit or maxval not 255 (not memory-mapped): tiled reads it
+        advice = (
+            "; build its topology graph with build_graph_tiled (topojax graph --tiled), "
+            "which reads this binary PGM a window at a time"
+        )
+    else:
+        advice = (
+            "; save a map this large as a binary 8-bit PGM, which load_map memory-maps "
+            "instead of decoding (and build_graph_tiled, topojax graph --tiled, reads a "
+            "window at a time)"
+        )
     check_fits_memory(
         width * height * DECODE_BYTES_PER_PIXEL,
         f"map image {path}: its header gives {width} x {height} pixels, and decoding and "
         f"classifying them ({DECODE_BYTES_PER_PIXEL} bytes a pixel) takes at least",
-        "; save a map this large as a binary 8-bit PGM, which load_map memory-maps instead "
-        "of decoding (and build_graph_tiled, topojax graph --tiled, reads a window at a "
-        "time)",
+        advice,
     )
     plain = data[:2] in (b"P2", b"P3")  # read here, not decoded
     limits = None if plain else decoder_limits(width, height)
