@@ -136,14 +136,14 @@ def route_graph_note(graph, occupancy, *, robot_radius_m: float, min_region_m2: 
     if not free.any():
         why = "the map has no free pixel as classified"
     else:
-        res = occupancy.resolution_m
-        most = float(clearance_map_m(free, res).max())
+        space = feasible_space_of_free(free, occupancy.resolution_m, robot_radius_m)
+        most = float(space.clearance_m.max())
         why = (
             f"no known-free region of at least {min_region_m2:g} m2 where a robot of "
             f"radius {robot_radius_m:g} m fits (the most clearance from anything not "
             f"known free is {most:.3g} m"  # significant digits: maps of 1e-6 m/px too
         )
-        largest = float(feasible_space_of_free(free, res, robot_radius_m).area_m2.max())
+        largest = float(space.area_m2.max())
         if largest > 0:  # the robot fits: the regions are too small, not the clearance
             why += f"; the largest feasible region is {largest:.3g} m2, below min_region_m2"
         why += ")"
