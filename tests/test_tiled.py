@@ -7,6 +7,7 @@ clearances, attributes)."""
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -265,6 +266,42 @@ def test_graph_options(graph):
         assert_same_networkx(tiled.graph, result.graph)
     else:
         assert_same_graph(tiled, result)
+
+
+def test_whole_graph_stages_beyond_the_memory_available_are_refused_naming_the_option(
+    monkeypatch,
+):
+    """Merging junction clusters (the whole pixel graph) and pruning (a networkx graph)
+    hold the whole graph at once, not a block's share: where the memory available cannot
+    hold it, the build is refused naming the option and the counts, before that stage; with
+    the memory known to suffice (or unknown, off Linux) the same build gives
+    ``build_graph``'s graph."""
+    from topojax import _cpus as cpus
+    from topojax.graph.store import NX_BYTES_PER_ELEMENT
+    from topojax.outofcore.build import MERGE_BYTES_PER_SKELETON_PX
+
+    m = paper_map("intel")
+    n_px = int(np.count_nonzero(tj.build_graph(m, config=SMALL).skeleton))
+    merged = replace(SMALL, graph=GraphConfig(merge_junction_clusters=True))
+    pruned = replace(SMALL, graph=GraphConfig(min_spur_m=0.5))
+    store = tj.build_graph_tiled(m, config=SMALL, block_px=128).graph_store
+    nx_need = NX_BYTES_PER_ELEMENT * (store.n_nodes + store.n_edges)
+    for config, need, words in (
+        (merged, MERGE_BYTES_PER_SKELETON_PX * n_px, f"pixel graph of {n_px:,} skeleton"),
+        (pruned, nx_need, f"networkx graph of {store.n_nodes:,} vertices"),
+    ):
+        monkeypatch.setattr(cpus, "available_memory_bytes", lambda need=need: need - 1)
+        with pytest.raises(MemoryError, match="build_graph_tiled: ") as error:
+            tj.build_graph_tiled(m, config=config, block_px=128)
+        assert words in str(error.value)
+        assert ("merge_junction_clusters" if config is merged else "min_spur_m") in str(error.value)
+        for available in (need, None):
+            monkeypatch.setattr(cpus, "available_memory_bytes", lambda a=available: a)
+            tiled = tj.build_graph_tiled(m, config=config, block_px=128)
+            if config is pruned:
+                assert_same_networkx(tiled.graph, tj.build_graph(m, config=config).graph)
+            else:
+                assert_same_graph(tiled, tj.build_graph(m, config=config))
 
 
 def test_shared_slam_map_streamed_from_its_pgm(shared_data):

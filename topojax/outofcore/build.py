@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .._cpus import as_executor, available_memory_bytes, byte_size
+from .._cpus import as_executor, available_memory_bytes, byte_size, check_fits_memory
 from .._lock import one_writer
 from .._validate import flag, instance_or_default, positive_int, quantity
 from ..config import PipelineConfig
@@ -33,6 +33,9 @@ __all__ = ["BYTES_PER_WINDOW_PX", "TiledResult", "block_px_for_budget", "build_g
 #: classified window, the kernels' padded map and column pass, the ridges, the thinning's
 #: work space; measured in ``bench/bench_memory.py``).
 BYTES_PER_WINDOW_PX = 24
+#: Bytes the whole pixel graph takes per skeleton pixel while junction clusters are merged,
+#: a lower estimate (0.8 times the least measured over sparse to cluttered maps).
+MERGE_BYTES_PER_SKELETON_PX = 60
 #: Largest halo tried for one block before giving up, in multiples of the tile side
 #: beyond the first.
 MAX_HALO_STEPS = 16
@@ -571,6 +574,22 @@ def _nearest_sq(tiled: TiledMap, rows, cols, start_px: int) -> np.ndarray:
     return out
 
 
+def _check_networkx_fits(store) -> None:
+    """A :class:`~topojax._cpus.MemoryRefusal` where pruning's networkx graph of ``store``
+    exceeds the memory available, naming the options that prune."""
+    from ..graph.store import NX_BYTES_PER_ELEMENT
+
+    n, m = store.n_nodes, store.n_edges
+    check_fits_memory(
+        NX_BYTES_PER_ELEMENT * (n + m),
+        f"build_graph_tiled: pruning (config.graph's min_clearance_m, min_spur_m, "
+        f"min_component_m) works on the networkx graph of {n:,} vertices and {m:,} edges "
+        f"({NX_BYTES_PER_ELEMENT} bytes a vertex and an edge or more), which takes at least",
+        "; without pruning, the graph is kept as a graph store of arrays (out_dir= writes "
+        "it to disk)",
+    )
+
+
 def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, out_dir):
     """The graph store (no pruning) or the pruned networkx graph, with the attributes
     :func:`topojax.build_graph` gives them."""
@@ -581,6 +600,13 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
     if out_dir is not None:  # a build that stops leaves no complete-looking store there
         (out_dir / STORE_FILE).unlink(missing_ok=True)
     if config.graph.merge_junction_clusters:  # merging needs the whole pixel graph
+        check_fits_memory(
+            MERGE_BYTES_PER_SKELETON_PX * cols.size,
+            f"build_graph_tiled: merging junction clusters (config.graph."
+            f"merge_junction_clusters) builds the whole pixel graph of {cols.size:,} skeleton "
+            f"pixels ({MERGE_BYTES_PER_SKELETON_PX} bytes a pixel or more), which takes at least",
+            "; without merging, the graph is built a block of rows at a time",
+        )
         rows = np.repeat(np.arange(row_start.size - 1), np.diff(row_start))
         store = pixels_graph_store(
             tiled.shape,
@@ -611,6 +637,7 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
         if out_dir is not None:  # its paths are there already: the rest of the store
             write_store(store, out_dir, written=("path_pixels", "path_world"))
         return store, None
+    _check_networkx_fits(store)
     graph = prune_graph(
         store.to_networkx(),
         min_clearance_m=config.graph.min_clearance_m,
