@@ -271,7 +271,9 @@ def build_graph_tiled(
     state; :func:`topojax.graph.sparse.row_skeleton_graph_store`), the graph's vertex and
     edge arrays, and its paths (32 bytes per skeleton pixel; on disk with ``out_dir``).
     With ``merge_junction_clusters`` the graph is built from the whole pixel graph
-    (:func:`topojax.graph.pixels_graph_store`, about 100 bytes per skeleton pixel).
+    (:func:`topojax.graph.pixels_graph_store`, 75-170 bytes per skeleton pixel), and
+    pruning works on the networkx graph: both are refused up front (a ``MemoryError``
+    naming the option) where the memory available cannot hold them.
     """
     config = instance_or_default("config", config, PipelineConfig)
     tiled = tiled_source(source)
