@@ -558,6 +558,9 @@ def test_workers_that_cannot_start_say_so_not_killed_for_memory(tmp_path):
     assert lines and all(line.startswith("error: ") for line in lines), done.stdout
     assert all("the worker processes failed to start" in line for line in lines)
     assert not any("killed for memory" in line for line in lines)
+    # each worker's own error (printed above) names the cause, not a lock held by its parent
+    assert "another topojax process" not in done.stderr, done.stderr[-2000:]
+    assert 'if __name__ == "__main__":' in done.stderr, done.stderr[-2000:]
 
 
 def test_a_run_cut_short_leaves_no_earlier_summary(tmp_path, monkeypatch):

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import multiprocessing
 import os
 from collections.abc import Iterator
 from pathlib import Path
@@ -82,6 +83,7 @@ def _acquire(folder: Path, name: str, command: str) -> int | None:
         except BlockingIOError:
             holder = _holder(fd)
             os.close(fd)
+            _refuse_a_worker_of_the_holder(name, holder)
             raise BlockingIOError(
                 errno.EWOULDBLOCK,
                 f"{name}: another topojax process{holder} is writing into {folder}; wait "
@@ -121,6 +123,24 @@ def _holder(fd: int) -> str:
     if not words or not words[0].isdigit():
         return ""
     return f" (pid {words[0]}{', ' + ' '.join(words[1:]) if words[1:] else ''})"
+
+
+def _refuse_a_worker_of_the_holder(name: str, holder: str) -> None:
+    """Raise a ``RuntimeError`` when this process is a ``spawn`` or ``forkserver`` worker
+    still importing the calling script (it has a process name but no parent process yet):
+    a script without the ``__main__`` guard starts the run again there, and finds the
+    folder locked by the run that started the worker (``holder``, as :func:`_holder`
+    gives it)."""
+    if multiprocessing.parent_process() is not None:
+        return
+    if multiprocessing.current_process().name == "MainProcess":
+        return
+    raise RuntimeError(
+        f"{name}: expected the run to start once, in the calling script, received a second "
+        f"start in a worker process importing that script (the first run{holder} holds the "
+        'folder\'s lock): a script must call build_graphs under if __name__ == "__main__":, '
+        "since each worker process imports the script first"
+    ) from None
 
 
 def _release(path: Path, fd: int) -> None:
