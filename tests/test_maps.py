@@ -992,6 +992,23 @@ def test_image_errors(tmp_path: Path):
             load_map(odd)
 
 
+def test_load_map_of_a_stored_tiled_map_points_at_the_tiled_readers(tmp_path):
+    # a tile folder or Zarr array is a map, but one read a window at a time: the refusal
+    # names what reads it, not the batch's folder search (which finds no map file there)
+    tiles = tmp_path / "floor.v2"
+    tj.save_tiled_map(OccupancyMap.from_array(np.zeros((8, 8), bool)), tiles)
+    zarr_folder = tmp_path / "floor.zarr"
+    zarr_folder.mkdir()
+    (zarr_folder / "zarr.json").write_text("{}")
+    for path, kind in ((tiles, "tile folder"), (zarr_folder, "Zarr array")):
+        with pytest.raises(ValueError) as info:
+            load_map(path)
+        message = str(info.value)
+        assert f"{path} is a {kind}" in message
+        assert "open_tiled_map" in message and "topojax graph --tiled" in message
+        assert "topojax batch" not in message
+
+
 def test_unreadable_image_leaves_no_opencv_log_line(tmp_path: Path, capfd):
     bad = tmp_path / "bad.pgm"
     bad.write_bytes(b"P6\nnot a header at all")  # not P5: decoded by OpenCV

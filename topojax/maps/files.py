@@ -404,6 +404,16 @@ def _check_map_path(p: Path, suffix: str) -> None:
     """Refuse a folder, an unsupported suffix, a missing file or one that is not a regular
     file (in that order)."""
     if p.is_dir():
+        # the marker files of a stored tiled map (maps.tiled imports this module)
+        kind = {"tiles.json": "tile folder", "zarr.json": "Zarr array"}
+        stored = [what for marker, what in kind.items() if (p / marker).is_file()]
+        if stored:
+            raise ValueError(
+                f"map path is not a file: {p} is a {stored[0]}, a map read a window at a "
+                "time; open it with topojax.open_tiled_map (its .occupancy() is the whole "
+                "map, where it fits), or build its graph with build_graph_tiled (topojax "
+                "graph --tiled)"
+            )
         raise ValueError(
             f"map path is not a file: {p} is a folder; give a map file (topojax batch, "
             "and topojax.batch.expand_map_inputs, search folders for maps)"
