@@ -168,7 +168,9 @@ def _python_blocks(path: Path) -> list[str]:
     return re.findall(r"^```python\n(.*?)^```", text, flags=re.M | re.S)
 
 
-@pytest.mark.parametrize("page", ["README.md", "docs/routing-and-nav2.md", "docs/viewer.md"])
+@pytest.mark.parametrize(
+    "page", ["README.md", "docs/incremental.md", "docs/routing-and-nav2.md", "docs/viewer.md"]
+)
 def test_python_examples_run(page: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The first Python examples a newcomer copies run as written (files go to a scratch
     folder, where the repository's bundled ``tests/data`` is found as from its root); a
