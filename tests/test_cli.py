@@ -15,6 +15,7 @@ import pytest
 
 import topojax
 from topojax.cli import build_parser, main
+from topojax.cli.rooms import room_files
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("jax", "numba", "matplotlib", "scipy", "networkx", "PIL", "yaml")
@@ -347,6 +348,59 @@ def test_a_route_file_that_cannot_be_written_is_refused_before_the_route(
     assert "topojax route: error: -o: " in captured.err and "is a file, not a" in captured.err
     assert captured.out == ""
     assert list(read_only_folder.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    ("command", "first", "then", "left", "gone"),
+    [
+        (
+            ["graph"],
+            ["--plot", "--stages", "--nav2", "--rooms"],
+            ["--nav2"],
+            ["rooms.json", "rooms_nav2.geojson"],
+            ["rooms.png", "rooms_stages.png", *room_files("rooms")],
+        ),
+        (["graph", "--tiled"], [], [], ["rooms.json"], []),  # after the plain graph's run
+        (["rooms"], ["--plot"], [], ["rooms_rooms.geojson"], ["rooms_rooms_plot.png"]),
+        (
+            ["route-graph", "--robot-radius", "0.2"],
+            ["--plot", "--nav2", "--evaluate"],
+            ["--nav2"],
+            ["rooms_route.json", "rooms_route_nav2.geojson"],
+            ["rooms_route.png", "rooms_route_report.json"],
+        ),
+    ],
+)
+def test_a_rerun_removes_the_optional_files_of_its_earlier_run_it_did_not_write(
+    tmp_path, capsys, command, first, then, left, gone
+):
+    """A command run again from the same map into the same folder leaves its own files
+    only: an earlier run's picture, Nav2 graph, rooms or report that this run did not write
+    would no longer match the files beside them (and ``topojax view`` would show them
+    together), so they are removed, each said; a file of the same name that no run
+    recorded (made by hand) stays."""
+    from room_maps import three_rooms_png
+
+    png = three_rooms_png(tmp_path / "rooms.png")
+    out = tmp_path / "out"
+    base = [*command[:1], str(png), *command[1:], "-o", str(out), "--resolution", "0.05"]
+    if command == ["graph", "--tiled"]:  # the whole-map run writes every optional file
+        first = ["--plot", "--stages", "--nav2", "--rooms"]
+        gone = ["rooms.png", "rooms_stages.png", "rooms_nav2.geojson", *room_files("rooms")]
+        assert main(["graph", str(png), "-o", str(out), "--resolution", "0.05", *first]) == 0
+    else:
+        assert main([*base, *first]) == 0
+    assert all((out / name).is_file() for name in gone)
+    (out / "rooms_unrecorded.png").write_text("by hand")
+    capsys.readouterr()
+    assert main([*base, *then]) == 0
+    printed = capsys.readouterr().out
+    for name in gone:
+        assert not (out / name).exists()
+        assert f"removed    {out / name}, written by an earlier run from this map" in printed
+    assert all((out / name).is_file() for name in left)
+    assert (out / "rooms_unrecorded.png").read_text() == "by hand"
+    assert printed.count("removed    ") == len(gone)
 
 
 def test_output_record_rules(tmp_path):

@@ -10,6 +10,27 @@ from ._options import MAP_OPTIONS_TO_CHECK
 GRAPH_SUFFIXES = (".graphml", ".json", ".geojson")
 
 
+def graph_files(
+    stem: str,
+    *,
+    plot: bool = True,
+    stages: bool = True,
+    nav2: bool = True,
+    rooms: bool = True,
+    view: bool = True,
+) -> list[str]:
+    """The names of the files ``topojax graph`` writes into ``--out`` for a map called
+    ``stem`` with those options (by default every one it may write)."""
+    from .rooms import room_files
+
+    names = [f"{stem}{s}" for s in GRAPH_SUFFIXES]
+    names += [f"{stem}.png"] * plot + [f"{stem}_stages.png"] * stages
+    names += [f"{stem}_nav2.geojson"] * nav2
+    names += room_files(stem) if rooms else []
+    names += [f"{stem}_view.html"] * view
+    return names
+
+
 def write_graph_files(graph, out_dir: Path, stem: str) -> list[Path]:
     """Write ``graph`` as ``STEM.graphml``, ``STEM.json`` and ``STEM.geojson`` into
     ``out_dir`` (created; an error names ``--out``)."""

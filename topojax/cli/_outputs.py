@@ -8,7 +8,9 @@ Before any work a command checks its planned files: one that exists and is recor
 written by another command or from another input is refused (``ValueError`` naming the
 option, the file and who wrote it).  A file the record does not list (written by hand, or
 by an older topojax) is replaced as before, and so is a file of the same command and
-input: running a command again updates its own outputs.  A view page (``view.html``,
+input: running a command again updates its own outputs, and the optional files of
+its earlier run from that input that it does not write again are removed
+(:func:`remove_earlier_outputs`).  A view page (``view.html``,
 ``STEM_view.html``) that ``topojax view`` wrote, or that it is asked to write over, is
 replaced too: it is made from the folder's results and can be made again.  After the
 work the files written are recorded (the record is replaced atomically).  ``topojax
@@ -31,6 +33,7 @@ __all__ = [
     "output_stem",
     "planned",
     "record_outputs",
+    "remove_earlier_outputs",
 ]
 
 #: The record's file name, in each folder written into.
@@ -171,6 +174,38 @@ def _conflict(
         f"{option}: {target} was written by {was}; {now} would overwrite it. Write into "
         f"another folder (e.g. {option.split('/')[0]} {example}) or remove the file first"
     )
+
+
+def remove_earlier_outputs(
+    possible: Iterable[Path], written: Iterable[Path], source, *, command: str
+) -> list[str]:
+    """Remove the files of ``possible`` (the optional outputs a command may write for one
+    input) that this run did not write (``written``) and the folder's record names as
+    written by ``command`` from ``source``: an earlier run's, which no longer match the
+    files written beside them (``topojax view`` would show them together).  A file the
+    record does not name as this command's from this input stays.  Returns a line per
+    file removed."""
+    from .._fs import atomic_write_bytes
+
+    now = {Path(p).resolve() for p in written}
+    owner = _owner(command, source)
+    lines = []
+    for folder, files in _by_folder(planned(possible, source)).items():
+        recorded = read_record(folder)
+        gone = []
+        for target in files:
+            before = recorded.get(target.name)
+            if not isinstance(before, dict) or target.resolve() in now:
+                continue
+            if all(before.get(k) == v for k, v in owner.items()) and target.is_file():
+                target.unlink()
+                gone.append(target.name)
+                lines.append(f"removed    {target}, written by an earlier run from this map")
+        if gone:
+            kept = {name: entry for name, entry in recorded.items() if name not in gone}
+            doc = {"version": _VERSION, "files": dict(sorted(kept.items()))}
+            atomic_write_bytes(folder / RECORD_NAME, json.dumps(doc, indent=1).encode("utf-8"))
+    return lines
 
 
 def record_outputs(

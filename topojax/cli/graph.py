@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from ._graph_out import (
-    GRAPH_SUFFIXES,
+    graph_files,
     map_notes,
     summary_lines,
     write_graph_files,
@@ -33,8 +33,9 @@ from ._outputs import (
     planned,
     record_outputs,
     refuse_folders,
+    remove_earlier_outputs,
 )
-from .rooms import room_files, room_lines
+from .rooms import room_lines
 from .tiled import add_tiled_options, check_tiled_options, cmd_graph_tiled
 
 
@@ -184,6 +185,11 @@ def _cmd_graph(args) -> int:
         *notes,
     ]:
         print(line)
+    out = Path(args.out)
+    for line in remove_earlier_outputs(
+        [out / name for name in graph_files(stem)], written, args.map, command="graph"
+    ):
+        print(line)
     record_outputs(planned(written, args.map), command="graph", map_options=map_options(args))
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0
@@ -191,12 +197,14 @@ def _cmd_graph(args) -> int:
 
 def _graph_files(stem: str, args) -> list[str]:
     """The names of the files ``topojax graph`` writes for a map called ``stem``."""
-    names = [f"{stem}{s}" for s in GRAPH_SUFFIXES]
-    names += [f"{stem}.png"] * bool(args.plot) + [f"{stem}_stages.png"] * bool(args.stages)
-    names += [f"{stem}_nav2.geojson"] * bool(args.nav2)
-    names += room_files(stem) if args.rooms else []
-    names += [f"{stem}_view.html"] * bool(getattr(args, "view", False))
-    return names
+    return graph_files(
+        stem,
+        plot=args.plot,
+        stages=args.stages,
+        nav2=args.nav2,
+        rooms=bool(args.rooms),
+        view=bool(getattr(args, "view", False)),
+    )
 
 
 def _check_outputs_spare_inputs(map_path: Path, targets: list[Path]) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import time
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from ._outputs import (
     planned,
     record_outputs,
     refuse_folders,
+    remove_earlier_outputs,
 )
 
 
@@ -85,6 +87,9 @@ def _cmd_rooms(args) -> int:
     )
     first = "the process's first call: it includes loading or compiling the kernels"
     for line in room_lines(seg, occupancy, seconds=seconds, timing_note=first):
+        print(line)
+    possible = [out / name for name in _files(stem, argparse.Namespace(plot=True))]
+    for line in remove_earlier_outputs(possible, written, args.map, command="rooms"):
         print(line)
     record_outputs(planned(written, args.map), command="rooms", map_options=map_options(args))
     print("wrote      " + ", ".join(str(p) for p in written))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import time
@@ -21,6 +22,7 @@ from ._outputs import (
     planned,
     record_outputs,
     refuse_folders,
+    remove_earlier_outputs,
 )
 
 
@@ -167,6 +169,10 @@ def _cmd_route_graph(args) -> int:
         atomic_write_bytes(path, json.dumps(report.as_dict(), indent=1).encode("utf-8"))
         written.append(path)
         print(_evaluation_line(report, config.min_region_m2))
+    every = argparse.Namespace(plot=True, nav2=True, evaluate=True)
+    possible = [out / name for name in _files(stem, every)]
+    for line in remove_earlier_outputs(possible, written, args.map, command="route-graph"):
+        print(line)
     record_outputs(planned(written, args.map), command="route-graph", map_options=kw)
     print("wrote      " + ", ".join(str(p) for p in written))
     return 0

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ._graph_out import (
     GRAPH_SUFFIXES,
+    graph_files,
     map_notes,
     summary_lines,
     write_graph_files,
@@ -21,7 +22,14 @@ from ._options import (
     pipeline_config,
     room_config,
 )
-from ._outputs import OUT_OPTION, check_outputs, output_stem, planned, record_outputs
+from ._outputs import (
+    OUT_OPTION,
+    check_outputs,
+    output_stem,
+    planned,
+    record_outputs,
+    remove_earlier_outputs,
+)
 
 #: What ``--tiled`` leaves out: each needs the whole map in memory.
 _WHOLE_MAP_OPTIONS = ("--plot", "--stages", "--rooms", "--mcap", "--view")
@@ -146,11 +154,14 @@ def cmd_graph_tiled(args) -> int:
         if tolerance is not None:
             nav2, nav2_notes = write_nav2(result.graph, out / f"{stem}_nav2.geojson", tolerance)
             written, notes = written + nav2, notes + nav2_notes
+        removed = remove_earlier_outputs(
+            [out / name for name in graph_files(stem)], written, args.map, command="graph"
+        )
         record_outputs(planned(written, args.map), command="graph", map_options=options)
     reused = f" ({result.blocks_reused} reused)" if result.blocks_reused else ""
     lines = summary_lines(str(args.map), result, assumed=assumed_resolution_note(args))
     lines.insert(1, f"blocks     {result.blocks}{reused}, memory budget {budget:g} MB")
-    for line in [*lines, *notes]:
+    for line in [*lines, *notes, *removed]:
         print(line)
     print("wrote      " + ", ".join(str(p) for p in [*written, store]))
     return 0
