@@ -259,6 +259,34 @@ def test_local_rooms_carry_on_after_save_and_load(tmp_path):
     np.testing.assert_array_equal(loaded.rooms.labels, mapper.rooms.labels)
 
 
+def test_a_state_saved_between_room_updates_carries_on_as_if_never_saved(tmp_path):
+    """Saved after the map changed and before the next room update, the loaded mapper
+    updates locally from the rooms it kept, as the saved one does: the same labels,
+    rooms and doors (a whole segmentation in their place differs by some pixels)."""
+    plan = floor_plan(5, size_m=(16.0, 48.0))
+    order = _exploration_order(plan)
+    assert len(order) == 19
+
+    def explored(save: bool):
+        mapper = _mapper(rooms_local=True)
+        for j in range(17, len(order) + 1):
+            mapper.add_map(_shown(plan, order[:j]))
+            if save and j == 18:
+                mapper = tj.IncrementalMapper.load(mapper.save(tmp_path / "state.npz"))
+            mapper.update_rooms()
+        return mapper.rooms
+
+    kept, loaded = explored(False), explored(True)
+    np.testing.assert_array_equal(loaded.labels, kept.labels)
+    assert [(r.id, r.area_m2, r.bbox) for r in loaded.rooms] == [
+        (r.id, r.area_m2, r.bbox) for r in kept.rooms
+    ]
+    _assert_same_geometry(loaded, kept)
+    assert [(d.rooms, d.ends_px.tolist()) for d in loaded.doors] == [
+        (d.rooms, d.ends_px.tolist()) for d in kept.doors
+    ]
+
+
 def test_room_updates_are_local_by_default():
     assert tj.IncrementalMapper().rooms_local is True
 

@@ -15,6 +15,7 @@ from ..config import DistanceConfig, GraphConfig, PipelineConfig, RidgeConfig, S
 from ..graph import KIND_NAMES
 from ._graph_store import add_paths, edge_ids, edge_paths, reserve, vertex_ids
 from ._rays import cast_pending_rays, check_whole
+from ._rooms_state import restore_rooms_seg, rooms_seg_arrays
 from ._settings import settings_of
 from ._state_checks import check_counters, check_pixels
 from ._tiles import _pack, _unpack
@@ -86,6 +87,7 @@ def save_state(mapper, path, *, replay: dict | None = None) -> Path:
     if keeper.labels is not None:
         arrays["rooms_labels"] = keeper.labels
         arrays["rooms_box"] = np.asarray(keeper.box, np.int64)
+        arrays.update(rooms_seg_arrays(keeper))
     arrays["rooms_counters"] = np.asarray(
         [keeper.next_id, int(keeper.active), mapper._since_rooms], np.int64
     )
@@ -143,9 +145,11 @@ def read_state(path) -> tuple[Path, dict[str, np.ndarray]]:
 
 
 def load_rooms_state(mapper, data) -> None:
-    """Restore the mapper's room keeper: the stored labels and ids; the rooms themselves
-    are segmented again on first use and keep the stored ids (the same map gives the
-    same rooms)."""
+    """Restore the mapper's room keeper: the stored labels and ids, and the last
+    segmentation with the free and unknown space it was made from, so that the next
+    (local) update is the one the saved mapper would have made.  A state without the
+    segmentation (saved by an older topojax) segments the whole map at the next update,
+    keeping the stored ids."""
     if "rooms_counters" not in data:
         return
     keeper = mapper._rooms
@@ -158,6 +162,7 @@ def load_rooms_state(mapper, data) -> None:
             raise ValueError("the stored room labels do not match their box")
         if keeper.labels.size and int(keeper.labels.max()) >= keeper.next_id:
             raise ValueError("stored room ids reach past the next unused id")
+        restore_rooms_seg(keeper, data, mapper.resolution_m)
 
 
 def load_state(cls, path):
