@@ -170,3 +170,25 @@ def test_points_refused_with_their_origin_name_whichever_lies_far_out(first):
             mapper.add_points(np.array([points]), origin_xy=origin)
         assert info.value.bound == "max_extent_m" and info.value.subject.startswith(subject)
         assert mapper.n_scans == (0 if first else 1)  # nothing was added
+
+
+@pytest.mark.parametrize("ranges", [[1e6, 2.0], [2.0, 2500.0]])
+def test_a_first_scan_whose_readings_reach_too_far_is_told_so_not_to_shrink_its_tiles(ranges):
+    """The first scan of a mapper whose tiles and distance window fit ``max_extent_m``
+    many times over, refused for a reading far off, points at the readings (the scan's
+    range_max, the mapper's max_range_m), not at the tile size or sigma."""
+    mapper = IncrementalMapper(**SMALL_KW)
+    with pytest.raises(ExtentError, match="max_extent_m") as info:
+        mapper.add_scan(_scan(ranges))
+    message = str(info.value)
+    assert "range_max" in message and "max_range_m" in message, message
+    assert "tile_px" not in message and "sigma" not in message, message
+    assert mapper.pixel_bbox is None and mapper.n_scans == 0
+
+
+def test_a_first_scan_refused_for_tiles_wider_than_the_limit_says_so():
+    """Where one pixel's tiles and distance window alone are wider than
+    ``max_extent_m``, every scan is refused: the message says to shrink them."""
+    mapper = IncrementalMapper(**{**SMALL_KW, "max_extent_m": 3.0})
+    with pytest.raises(ExtentError, match="smaller tile_px or sigma"):
+        mapper.add_scan(_scan([1.0, 1.0]))
