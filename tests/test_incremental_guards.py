@@ -128,3 +128,58 @@ def test_id_tables_beyond_the_memory_available_are_refused(saved_state, tmp_path
         ValueError, match=r"counters \(next_edge\): 1000000 edge ids take .* more than the"
     ):
         IncrementalMapper.load(path)
+
+
+@pytest.fixture(scope="module")
+def rooms_state(tmp_path_factory):
+    """The arrays of a state saved with rooms and doors kept, its map grown since."""
+    from floorplans import RES, floor_plan
+
+    plan = floor_plan(9, size_m=(16.0, 24.0))
+    mapper = IncrementalMapper(resolution_m=RES, **KW)
+    mapper.add_map(plan.occupancy)
+    mapper.update_rooms()
+    mapper.add_points([[40.0, 1.0]])
+    assert mapper.rooms.labels.shape != mapper.occupancy.shape
+    path = mapper.save(tmp_path_factory.mktemp("rooms") / "state.npz")
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}, mapper.rooms
+
+
+def test_a_state_keeps_the_rooms_last_segmentation(rooms_state, tmp_path):
+    """The rooms a loaded mapper returns are those it had when saved, not segmented
+    again from its map (which has grown since)."""
+    data, rooms = rooms_state
+    assert len(rooms.rooms) > 1 and rooms.doors
+    mapper = IncrementalMapper.load(_edited(tmp_path, data, "version", (), 2))
+    np.testing.assert_array_equal(mapper.rooms.labels, rooms.labels)
+    assert [(r.id, r.area_m2, r.bbox) for r in mapper.rooms.rooms] == [
+        (r.id, r.area_m2, r.bbox) for r in rooms.rooms
+    ]
+    for a, b in zip(mapper.rooms.rooms, rooms.rooms, strict=True):
+        np.testing.assert_array_equal(a.polygon, b.polygon)
+    assert [(d.rooms, d.width_m) for d in mapper.rooms.doors] == [
+        (d.rooms, d.width_m) for d in rooms.doors
+    ]
+
+
+@pytest.mark.parametrize(
+    ("key", "edit", "field"),
+    [
+        ("rooms_seg/free", lambda a: a[:-1], r"rooms_seg/free: expected \d+ bytes"),
+        ("rooms_seg/unknown", lambda a: a[:0], r"rooms_seg/unknown: expected \d+ bytes"),
+        ("rooms_seg/room_polygon_len", lambda a: a + HUGE, r"rooms_seg/room_polygon: the len"),
+        ("rooms_seg/room_polygon_len", lambda a: -a, r"rooms_seg/room_polygon: the len"),
+        ("rooms_seg/room_area_m2", lambda a: a[1:], r"rooms_seg/room_\*: the rooms' fields"),
+        ("rooms_seg/door_id", lambda a: np.append(a, 7), r"rooms_seg/door_\*: the doors' fie"),
+    ],
+)
+def test_a_state_whose_rooms_do_not_hold_together_is_refused_naming_the_field(
+    rooms_state, tmp_path, key, edit, field
+):
+    arrays = {k: v.copy() for k, v in rooms_state[0].items()}
+    arrays[key] = edit(arrays[key])
+    path = tmp_path / "edited.npz"
+    np.savez_compressed(path, **arrays)
+    with pytest.raises(ValueError, match=f"^{path}: corrupt or inconsistent mapper state: {field}"):
+        IncrementalMapper.load(path)
