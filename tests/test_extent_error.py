@@ -173,17 +173,37 @@ def test_points_refused_with_their_origin_name_whichever_lies_far_out(first):
 
 
 @pytest.mark.parametrize("ranges", [[1e6, 2.0], [2.0, 2500.0]])
-def test_a_first_scan_whose_readings_reach_too_far_is_told_so_not_to_shrink_its_tiles(ranges):
-    """The first scan of a mapper whose tiles and distance window fit ``max_extent_m``
-    many times over, refused for a reading far off, points at the readings (the scan's
-    range_max, the mapper's max_range_m), not at the tile size or sigma."""
+@pytest.mark.parametrize("first", [True, False])
+def test_a_scan_whose_readings_reach_too_far_is_told_so(ranges, first):
+    """A scan at the origin refused for a reading far off points at the readings (the
+    scan's range_max, the mapper's max_range_m): not, as the first scan of a mapper
+    whose tiles and distance window fit ``max_extent_m`` many times over, at the tile
+    size or sigma, nor, as a later one, at its pose."""
     mapper = IncrementalMapper(**SMALL_KW)
+    if not first:
+        mapper.add_scan(_scan([1.0, 2.0]))
+    box = mapper.pixel_bbox
     with pytest.raises(ExtentError, match="max_extent_m") as info:
         mapper.add_scan(_scan(ranges))
     message = str(info.value)
     assert "range_max" in message and "max_range_m" in message, message
     assert "tile_px" not in message and "sigma" not in message, message
-    assert mapper.pixel_bbox is None and mapper.n_scans == 0
+    assert "check the pose" not in message, message
+    assert mapper.pixel_bbox == box and mapper.n_scans == (0 if first else 1)
+
+
+def test_a_map_wider_than_the_limit_is_told_so():
+    occupied = np.zeros((4, 30), bool)
+    occupied[:, [0, -1]] = True
+    occ = OccupancyMap(
+        occupied=occupied,
+        free=~occupied,
+        unknown=np.zeros_like(occupied),
+        resolution_m=0.1,
+    )
+    mapper = IncrementalMapper(**{**SMALL_KW, "max_extent_m": 2.5})
+    with pytest.raises(ExtentError, match=r"the map alone spans [\d.]+ m: make the mapper with a"):
+        mapper.add_map(occ)
 
 
 def test_a_first_scan_refused_for_tiles_wider_than_the_limit_says_so():

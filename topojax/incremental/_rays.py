@@ -429,18 +429,20 @@ def check_max_extent(mapper, lo_r, hi_r, lo_c, hi_c, where) -> None:
     if max(height_m, width_m) > mapper.max_extent_m:
         w = mapper._half + HALO_PX  # the callers' splat window round each pixel
         spread = (max(hi_r - lo_r, hi_c - lo_c) + 1 - 2 * w) * res  # the pixels' own
-        if bbox is None and spread <= mapper.max_extent_m:  # the tiles and window too large
+        if spread > mapper.max_extent_m and where().scan is None:  # a map wider than that
+            why = f"the map alone spans {spread:.6g} m: make the mapper with a larger max_extent_m"
+        elif spread > mapper.max_extent_m:  # the pixels themselves lie too far apart
+            why = (
+                f"its pixels alone span {spread:.6g} m: a reading far beyond the sensor's "
+                "range or a point far off? set the scan's range_max or the mapper's max_range_m, "
+                "or make the mapper with a larger max_extent_m"
+            )
+        elif bbox is None:  # the first pixels alone: the tiles and window are too large
             why = (
                 f"the first pixels' tiles of {t} px and distance window of "
                 f"{mapper._half} px are {t * res:g} m and {mapper._half * res:g} m at "
                 f"{res:g} m per pixel: make the mapper with a smaller tile_px or sigma, "
                 "or a larger max_extent_m"
-            )
-        elif bbox is None:  # the first pixels themselves lie too far apart
-            why = (
-                f"its pixels alone span {spread:.6g} m: a reading far beyond the sensor's "
-                "range or a point far off? set the scan's range_max or the mapper's max_range_m, "
-                "or make the mapper with a larger max_extent_m"
             )
         else:
             why = "a localisation glitch? check the pose, or make the mapper with a larger max_extent_m"
