@@ -406,6 +406,24 @@ def test_resume_from_another_log_is_refused(stopped, tmp_path):
         replay(other, out_dir=stopped, progress=False, resume=True, **SETTINGS)
 
 
+def test_resume_from_a_log_changed_since_says_so(tmp_path, monkeypatch):
+    """A log written to after the replay stopped (a robot still logging into it) is
+    named as that log, changed since, not as "a different log from" itself."""
+    log, out = tmp_path / "run.log", tmp_path / "out"
+    log.write_text(gzip.open(INTEL_EXCERPT, "rt").read())
+    interrupted_reader(monkeypatch, 12)
+    with pytest.warns(RuntimeWarning), pytest.raises(KeyboardInterrupt):
+        replay(log, out_dir=out, progress=False, **SETTINGS)
+    monkeypatch.undo()
+    with log.open("a") as fh:
+        fh.write("ODOM 0 0 0 0 0 0 999.0 host 999.0\n")
+    with pytest.raises(
+        ValueError, match=r"saved replaying \S*run\.log, which has changed si"
+    ) as info:
+        replay(log, out_dir=out, progress=False, resume=True, **SETTINGS)
+    assert "different log" not in str(info.value)
+
+
 def test_resume_from_a_state_that_records_no_replay_is_refused(stopped):
     """A state saved by IncrementalMapper.save (or before replays recorded their
     progress) loads as before but cannot be resumed: how far it got is unknown."""

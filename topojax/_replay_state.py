@@ -453,9 +453,13 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"resume: {path}: corrupt record of its replay ({exc!r})") from None
     if record["fingerprint"] != log_fingerprint(source):
+        if record["source"] == str(Path(source).resolve()):  # the same file, written since
+            which = "which has changed since (written to, cut or replaced)"
+        else:
+            which = f"a different log from {source}"
         raise ValueError(
-            f"resume: {path} was saved replaying {record['source']}, a different log from "
-            f"{source}; replay without resume, or into another folder"
+            f"resume: {path} was saved replaying {record['source']}, {which}; replay "
+            "without resume, or into another folder"
         )
     _check_same(
         path,
