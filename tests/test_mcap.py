@@ -309,7 +309,7 @@ def test_scans_without_usable_timestamps_keep_the_scan_order(tmp_path):
     """Missing timestamps and ones that go back are replaced by the previous stamp plus
     SCAN_PERIOD_S (0.1 s); the first scan without one is at 0 s."""
     path = tmp_path / "r.mcap"
-    with McapRecorder(path) as rec:
+    with McapRecorder(path) as rec:  # a step back of a second: no warning
         stamps = [rec.add_scan(_scan(t)) for t in (None, None, 5.0, 4.0, 6.0)]
     assert stamps == [0, 100_000_000, 5_000_000_000, 5_100_000_000, 6_000_000_000]
     messages = read_messages(path)
@@ -317,6 +317,22 @@ def test_scans_without_usable_timestamps_keep_the_scan_order(tmp_path):
     assert rec.counts == {"/tf": 5, "/scan": 5}
     sensor = last(messages, "/tf").transforms[1].transform
     assert (sensor.translation.x, sensor.translation.y, sensor.rotation.w) == (0.2, 0.0, 1.0)
+
+
+def test_a_timestamp_far_ahead_is_said_once_as_it_shifts_the_scans_after_it(tmp_path):
+    """A log whose times jump far ahead once (1, 2, 1e6, 3, 4) moves every later scan's
+    stamp past the jump (stamps only move forward): said in one warning naming the
+    times, not silently."""
+    with McapRecorder(tmp_path / "r.mcap") as rec, pytest.warns(UserWarning) as caught:
+        stamps = [rec.add_scan(_scan(t)) for t in (1.0, 2.0, 1e6, 3.0, 4.0)]
+    assert stamps[3:] == [1_000_000_100_000_000, 1_000_000_200_000_000]
+    assert len(caught) == 1
+    text = str(caught[0].message)
+    assert "the scans' times went back from 1000000 s to 3 s" in text
+    assert "0.1 s apart from 1000000 s on" in text
+    with McapRecorder(tmp_path / "s.mcap") as rec:  # times first missing: nothing to say
+        stamps = [rec.add_scan(_scan(t)) for t in [None] * 200 + [0.5, 30.0]]
+    assert stamps[-2:] == [20_000_000_000, 30_000_000_000]
 
 
 def test_repeated_timestamps_get_distinct_stamps(tmp_path):

@@ -16,6 +16,7 @@ import math
 import os
 import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +26,7 @@ try:  # file locks (flock): POSIX only
 except ImportError:
     fcntl = None
 
+from .._caller import outside_stacklevel
 from .._constants import EDGE_COLOUR, ROUTE_EDGE_COLOUR, VERTEX_KIND_COLOURS
 from .._fs import output_file
 from .._validate import instance_of, no_file_above, xy_points
@@ -32,6 +34,7 @@ from ._schema import _xy
 
 __all__ = [
     "LASER_FRAME",
+    "LATE_WARN_S",
     "MAP_FRAME",
     "ROBOT_FRAME",
     "SCAN_PERIOD_S",
@@ -54,6 +57,9 @@ ROBOT_FRAME = "base_link"
 LASER_FRAME = "base_laser"
 #: Seconds between a scan without a usable timestamp and the one before it.
 SCAN_PERIOD_S = 0.1
+#: Seconds a scan's own timestamp may lie behind its stamp before a warning says that
+#: the log's times went back (a jitter of a scan or two is not said).
+LATE_WARN_S = 10.0
 #: Each topic and its message type.
 TOPICS = {
     "/map": "nav_msgs/msg/OccupancyGrid",
@@ -468,6 +474,8 @@ class McapRecorder:
         self.counts: dict[str, int] = {}
         self.stamp_ns = 0
         self._scanned = False
+        self._last_time: float | None = None  # the last scan's own usable timestamp (s)
+        self._late_warned = False  # a scan's own time going back: said once
         self._writer = None
         self._tmp: Path | None = None
         self._owner: int | None = None  # the locked descriptor of the temporary folder
@@ -610,8 +618,22 @@ class McapRecorder:
         stamp), else one :data:`SCAN_PERIOD_S` after the previous stamp."""
         if timestamp is not None and 0.0 <= timestamp < _MAX_STAMP_S:
             ns = int(round(timestamp * _NS))
+            last, self._last_time = self._last_time, timestamp
             if not self._scanned or ns > self.stamp_ns:
                 return ns
+            behind_s = self.stamp_ns / _NS - timestamp
+            late = last is not None and last != timestamp and behind_s > LATE_WARN_S
+            if late and not self._late_warned:
+                self._late_warned = True  # repeated times (all 0 in some logs) are not said
+                warnings.warn(
+                    f"{self.path}: the scans' times went back from {last:.9g} s to "
+                    f"{timestamp:.9g} s; this scan and the ones after it are recorded "
+                    f"{SCAN_PERIOD_S:g} s apart from {self.stamp_ns / _NS:.9g} s on, until "
+                    "the log's times pass that (a recording's stamps only move forward: a "
+                    "timestamp far ahead in the log shifts the scans after it)",
+                    UserWarning,
+                    stacklevel=outside_stacklevel(),
+                )
         return self.stamp_ns + int(round(SCAN_PERIOD_S * _NS)) if self._scanned else 0
 
     def add_scan(self, scan) -> int:
