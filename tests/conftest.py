@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -23,6 +24,13 @@ except ImportError:  # pragma: no cover - hypothesis is a test requirement
     pass
 else:
     _hypothesis_internals._gc_initialized = True
+
+# A suite started in the background of a shell without job control (``cmd &`` in a
+# script, ``nohup``) inherits SIGINT ignored, and Python then leaves it ignored: the tests
+# of what a Ctrl-C does, here and in the commands they start, would wait for a stop that
+# never comes.  Ctrl-C is given back its Python handler, as in a terminal.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
