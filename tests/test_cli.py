@@ -995,3 +995,25 @@ def test_an_output_file_that_cannot_be_written_is_refused_before_the_work(
         f"the folder {read_only_folder} (Read-only file system)"
     )
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "word, value",
+    [("-1e-05", -1e-05), ("-3e5", -3e5), ("-1.5E+06", -1.5e6), ("-5.", -5.0), ("-2.5", -2.5)],
+)
+def test_a_negative_number_in_any_notation_is_a_value_not_an_option(word, value):
+    """argparse takes ``-1e-05`` (Python's own str of -0.00001), ``-3e5`` or ``-5.`` for
+    an option, so ``route --start -1e-05 2`` failed with ``expected 2 arguments``; every
+    form of a negative number is read as the number it writes."""
+    args = build_parser().parse_args(["route", "g.json", "--start", word, "2", "--goal", "1", word])
+    assert args.start == [value, 2.0] and args.goal == [1.0, value]
+    args = build_parser().parse_args(["view", "out", "--window", word, word, "1", "1"])
+    assert args.window[:2] == [value, value]
+
+
+def test_a_negative_number_beyond_floats_is_left_to_argparse(capsys):
+    """An exponent too large for a float is not written out digit by digit (a billion
+    digits for ``-1e-999999999``): argparse reads the word as it would."""
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["route", "g.json", "--start", "-1e-999999999", "2"])
+    assert "--start: expected 2 arguments" in capsys.readouterr().err
