@@ -539,3 +539,15 @@ def test_empty_store_is_the_empty_skeletons_store():
     assert_same_store(empty, FIXTURES[-1][3])
     assert_same_graph(empty.to_networkx(), g)
     assert GraphStore.empty().attrs == {} and GraphStore.empty().to_networkx().graph == {}
+
+
+def test_from_networkx_of_a_route_graph_says_where_to_save_one():
+    """A route graph's edges carry ``waypoints``, which a store has no array for: the
+    error said only ``others ['waypoints']``; it now names the route graph and the files
+    that hold one whole."""
+    g = skeleton_to_graph(T)
+    for _, _, d in g.edges(data=True):
+        d["waypoints"] = np.asarray(d["world"], np.float64)[[0, -1]]
+    g.graph["kind"] = "route_graph"
+    with pytest.raises(ValueError, match=r"others \['waypoints'\].*a route graph.*save_graph"):
+        GraphStore.from_networkx(g)

@@ -537,7 +537,7 @@ class GraphStore:
         )
         edges = list(graph.edges(keys=True, data=True))
         for u, v, k, d in edges:
-            _exact(d, _EDGE_ATTRS, f"edge {u}-{v} (key {k!r})")
+            _exact(d, _EDGE_ATTRS, f"edge {u}-{v} (key {k!r})", _ROUTE_GRAPH_HINT)
             if isinstance(k, bool) or not isinstance(k, numbers.Integral):
                 raise TypeError(f"graph: expected integer edge keys, received {k!r}")
         paths = [np.asarray(d["path"]).reshape(-1, 2) for _, _, _, d in edges]
@@ -572,14 +572,24 @@ def _node_ids(graph: nx.MultiGraph) -> tuple[list, dict]:
     return ids, {n: i for i, n in enumerate(ids)}
 
 
-def _exact(data: dict, names: tuple, where: str) -> dict:
-    """``data`` after checking that it has exactly the attributes ``names``."""
+#: Why an edge with ``waypoints`` is refused, and what holds it.
+_ROUTE_GRAPH_HINT = (
+    "waypoints",
+    "; a route graph's edges carry 'waypoints', for which a graph store has no array: "
+    "save a route graph with topojax.save_graph (GraphML, JSON or GeoJSON), which keeps "
+    "them",
+)
+
+
+def _exact(data: dict, names: tuple, where: str, hint: tuple[str, str] = ("", "")) -> dict:
+    """``data`` after checking that it has exactly the attributes ``names``; ``hint``:
+    an attribute and the words added to the error where ``data`` has it."""
     if set(data) != set(names):
         missing = [k for k in names if k not in data]
         extra = sorted(str(k) for k in data if k not in names)
         raise ValueError(
             f"graph: expected {where} to have exactly the attributes {names}; "
-            f"missing {missing}, others {extra}"
+            f"missing {missing}, others {extra}{hint[1] if hint[0] in data else ''}"
         )
     return data
 
