@@ -1417,6 +1417,11 @@ def test_snap_and_tolerance_that_leave_no_reach_are_refused():
     ):
         tj.RouteGraphConfig(waypoint_tolerance_m=2.0)
     tj.RouteGraphConfig(snap_m=0.2, waypoint_tolerance_m=0.1)  # exactly half: fine
+    # a tolerance over half the largest snap_m: no snap_m fits it, none is suggested
+    with pytest.raises(ValueError, match=r"received 3.0 \(at most 2.5 m for the largest snap_m"):
+        tj.RouteGraphConfig(waypoint_tolerance_m=3.0)
+    with pytest.raises(ValueError, match=r"received 2.0 \(or snap_m: at least 4 m\)$"):
+        tj.RouteGraphConfig(waypoint_tolerance_m=2.0)
     m = tj.load_map(tj.datasets.sample_map_path("office"))
     res = m.resolution_m
     tight = tj.RouteGraphConfig(snap_m=0.05 + res, waypoint_tolerance_m=0.05)  # 1 px

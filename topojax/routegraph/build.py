@@ -177,10 +177,15 @@ class RouteGraphConfig:
                 f"{self.snap_m!r}"
             )
         if self.waypoint_tolerance_m > 0.5 * self.snap_m:
+            least = 2 * self.waypoint_tolerance_m
+            fix = (  # no snap_m is suggested past its own limit
+                f"or snap_m: at least {least:g} m"
+                if least <= MAX_SNAP_M
+                else f"at most {0.5 * MAX_SNAP_M:g} m for the largest snap_m, {MAX_SNAP_M:g} m"
+            )
             raise ValueError(
                 "waypoint_tolerance_m: expected at most half of snap_m "
-                f"({0.5 * self.snap_m:g} m), received {self.waypoint_tolerance_m!r} (or "
-                f"snap_m: at least {2 * self.waypoint_tolerance_m:g} m)"
+                f"({0.5 * self.snap_m:g} m), received {self.waypoint_tolerance_m!r} ({fix})"
             )
 
 
