@@ -397,3 +397,16 @@ def test_a_vertex_position_that_is_not_a_pair_names_the_graph(tmp_path):
     g.nodes[0]["world"] = (1.0, 2.0, 3.0)
     with pytest.raises(ValueError, match=r"^graph: node 0 'world': expected 2 finite numbers"):
         tj.save_nav2_graph(g, tmp_path / "x.geojson")
+
+
+def test_an_empty_route_graph_is_refused_with_why_it_is_empty(tmp_path):
+    import warnings
+
+    m = tj.OccupancyMap.from_array(np.full((40, 40), 205, np.uint8), resolution_m=0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rg = tj.route_graph(m, robot_radius_m=0.3)
+    with pytest.raises(ValueError, match="rejects a graph without edges") as err:
+        tj.save_nav2_graph(rg, tmp_path / "empty.geojson")
+    assert f"({rg.graph['note']})" in str(err.value)
+    assert not (tmp_path / "empty.geojson").exists()

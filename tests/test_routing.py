@@ -1066,3 +1066,19 @@ def test_the_route_graphs_straight_line_test_walks_the_planners_pixels():
         q, p = rng.integers(0, (15, 17)), rng.integers(0, (15, 17))
         want = bool(sees(feasible, q.astype(float), p[None].astype(float))[0])
         assert straight_is_feasible(*q.tolist(), *p.tolist(), feasible) == want, (q, p)
+
+
+def test_routing_on_an_empty_route_graph_says_why_it_is_empty():
+    """A route graph without edges records why (its ``note``); routing on it said only
+    ``no vertices or edges`` (``topojax route`` on such a file too), not that the robot
+    fits nowhere on the map."""
+    import warnings
+
+    m = tj.OccupancyMap.from_array(np.full((40, 40), 205, np.uint8), resolution_m=0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rg = tj.route_graph(m, robot_radius_m=0.3)
+    note = rg.graph["note"]
+    with pytest.raises(ValueError, match="no vertices or edges to route on") as err:
+        tj.plan_route(rg, (0.5, 0.5), (1.0, 1.0))
+    assert f"({note})" in str(err.value)

@@ -33,7 +33,7 @@ from .graph import (
     polyline_keep,
     scaled_cumulative,
 )
-from .graph.geometry import check_corridor_graph
+from .graph.geometry import check_corridor_graph, why_empty
 from .io import as_multigraph, jsonable
 from .maps.occupancy import map_mismatch
 
@@ -577,7 +577,7 @@ class RoutePlanner:
                 points.append(np.asarray(where, np.float64).reshape(1, 2))
                 owners.append(np.array([[-1, 0, i]]))
             if not points:
-                raise ValueError("graph: it has no vertices or edges to route on")
+                raise ValueError(f"graph: no vertices or edges to route on{why_empty(self._graph)}")
             xy = np.concatenate([np.asarray(p, np.float64) for p in points])
             self._trees[frame] = (cKDTree(xy), np.concatenate(owners).astype(np.int64))
         return self._trees[frame]

@@ -170,6 +170,13 @@ def graph_resolution_m(graph) -> float | None:
     return float(res) if ok and math.isfinite(res) and res > 0 else None
 
 
+def why_empty(graph) -> str:
+    """`` (NOTE)`` with the ``note`` a graph records (a route graph without edges says why
+    it has none), or ``""``: for errors about a graph with nothing on it."""
+    note = graph.graph.get("note")
+    return f" ({note})" if isinstance(note, str) and note else ""
+
+
 _ROOM_GRAPH = "a room graph (rooms as nodes, doors as edges: save_room_graph, topojax rooms)"
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from .._fs import atomic_write
 from .._validate import instance_of, path_like, pixel_rows, positive_metres, xy_points
 from ..graph import holds, polyline_keep
+from ..graph.geometry import why_empty
 from ._schema import _xy, as_multigraph, jsonable
 from ._stream import _write_json
 
@@ -89,8 +90,8 @@ def save_nav2_graph(
     g = as_multigraph(graph)
     if g.number_of_edges() == 0:
         raise ValueError(
-            f"graph: it has {g.number_of_nodes()} vertices and no edges; the Nav2 Route Server "
-            "rejects a graph without edges"
+            f"graph: it has {g.number_of_nodes()} vertices and no edges{why_empty(g)}; the Nav2 "
+            "Route Server rejects a graph without edges"
         )
     # a vertex without edges leads nowhere; a server that joins a pose at the nearest
     # node would get no route from it
