@@ -410,3 +410,33 @@ def test_an_empty_route_graph_is_refused_with_why_it_is_empty(tmp_path):
         tj.save_nav2_graph(rg, tmp_path / "empty.geojson")
     assert f"({rg.graph['note']})" in str(err.value)
     assert not (tmp_path / "empty.geojson").exists()
+
+
+def test_a_vertex_whose_only_edge_is_a_loop_left_out_is_left_out_too(tmp_path):
+    """A loop with no room for two waypoints is left out; its vertex, with no other edge,
+    was still written, a node that leads nowhere, where a route server that joins a pose
+    at the nearest node finds no route."""
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0), pixel=(10, 0), kind="end")
+    g.add_node(1, world=(1.0, 0.0), pixel=(10, 20), kind="end")
+    g.add_node(2, world=(5.0, 5.0), pixel=(0, 100), kind="ring")
+    g.add_edge(0, 1, world=np.array([[0.0, 0.0], [0.5, 0.0], [1.0, 0.0]]), length_m=1.0)
+    g.add_edge(2, 2, world=np.array([[5.0, 5.0], [5.05, 5.0], [5.0, 5.0]]), length_m=0.1)
+    path = tj.save_nav2_graph(g, tmp_path / "g.geojson")
+    features = json.loads(path.read_text())["features"]
+    nodes = [f["properties"] for f in features if f["geometry"]["type"] == "Point"]
+    assert [p["metadata"]["vertex"] for p in nodes] == [0, 1]
+    assert [p["id"] for p in nodes] == [0, 1]
+    ends = {
+        p[k]
+        for f in features
+        if (p := f["properties"]).get("startid") is not None
+        for k in ("startid", "endid")
+    }
+    assert ends == {0, 1}
+    # the same with a route graph's waypoints: a loop of one waypoint
+    g.edges[2, 2, 0]["waypoints"] = np.array([[5.0, 5.0], [5.05, 5.0], [5.0, 5.0]])
+    g.edges[0, 1, 0]["waypoints"] = np.array([[0.0, 0.0], [1.0, 0.0]])
+    features = json.loads(tj.save_nav2_graph(g, path).read_text())["features"]
+    assert [f["properties"]["metadata"]["vertex"] for f in features[:2]] == [0, 1]
+    assert features[2]["geometry"]["type"] == "MultiLineString"

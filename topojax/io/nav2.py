@@ -80,7 +80,8 @@ def save_nav2_graph(
     writes this format but does not read it back (use :func:`save_graph` for that).
     Where a path ends at another pixel of its vertex than the vertex's own (merged
     junction clusters), the chain includes the step to the vertex.  A loop with fewer
-    than two points of its own to place waypoints on leads nowhere and is left out.
+    than two points of its own to place waypoints on leads nowhere and is left out, as
+    is a vertex with no other edge.
     """
     p = path_like("path", path)
     tol = positive_metres("tolerance_m", tolerance_m)
@@ -95,7 +96,7 @@ def save_nav2_graph(
         )
     # a vertex without edges leads nowhere; a server that joins a pose at the nearest
     # node would get no route from it
-    node_id = {n: i for i, n in enumerate(n for n in g.nodes if g.degree(n))}
+    node_id = {n: i for i, n in enumerate(n for n in g.nodes if _leads_somewhere(g, n, tol))}
     features = _features(g, node_id, tol, frame)  # made one at a time as they are written
     doc = {"type": "FeatureCollection", "name": "topojax route graph", "features": features}
     atomic_write(p, partial(_write_json, doc=doc, allow_nan=False))
@@ -110,6 +111,8 @@ def _features(g: nx.MultiGraph, node_id: dict, tol: float, frame: str) -> Iterat
     chains = _Chains()
     next_id = len(node_id)
     for u, v, k, d in g.edges(keys=True, data=True):
+        if u not in node_id:  # a loop left out, and its vertex with it
+            continue
         chain = _corridor_chain(g, (u, v, k), d, node_xy, tol)
         if chain is None:
             continue
@@ -133,9 +136,7 @@ def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str, node_xy: dict)
     for n, d in g.nodes(data=True):
         if n not in node_id:
             continue
-        if "world" not in d:
-            raise ValueError(f"graph: node {n!r} has no 'world' (x, y) attribute")
-        node_xy[n] = _xy(d["world"], f"graph: node {n!r} 'world'")
+        node_xy[n] = _node_xy(n, d)
         meta = {"vertex": _id_value(n, "node id")}
         if isinstance(d.get("kind"), str):
             meta["kind"] = d["kind"]
@@ -144,6 +145,26 @@ def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str, node_xy: dict)
         if isinstance(room, (int, np.integer)) and not isinstance(room, bool):
             meta["room"] = int(room)
         yield _nav2_node(node_id[n], frame, node_xy[n], meta)
+
+
+def _node_xy(n, d: dict) -> list[float]:
+    """Vertex ``n``'s ``[x, y]`` from its attributes ``d``."""
+    if "world" not in d:
+        raise ValueError(f"graph: node {n!r} has no 'world' (x, y) attribute")
+    return _xy(d["world"], f"graph: node {n!r} 'world'")
+
+
+def _leads_somewhere(g: nx.MultiGraph, n, tol: float) -> bool:
+    """Whether vertex ``n`` keeps an edge in the file: one to another vertex, or a loop
+    with room for two waypoints (a loop without is left out, and a vertex with no other
+    edge with it)."""
+    loops = []
+    for _, m, k, d in g.edges(n, keys=True, data=True):
+        if m != n:
+            return True
+        loops.append((k, d))
+    xy = {n: _node_xy(n, g.nodes[n])} if loops else {}
+    return any(_corridor_chain(g, (n, n, k), d, xy, tol) is not None for k, d in loops)
 
 
 def _corridor_chain(
