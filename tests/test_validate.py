@@ -323,6 +323,16 @@ def test_finite_pair_rejects(value, exc):
         v.finite_pair("start", value, "(x, y) in metres")
 
 
+@pytest.mark.parametrize("value", [{30.0, 5.0}, frozenset((30.0, 5.0)), {30.0: 0, 5.0: 1}])
+def test_finite_pair_refuses_a_collection_without_order(value):
+    """A set iterates in hash order: ``{30.0, 5.0}`` gave the start (5, 30), a route
+    from the wrong point; a dict iterates its keys.  Neither says which number is x."""
+    with pytest.raises(TypeError, match=r"^start: expected two finite numbers .*received"):
+        v.finite_pair("start", value, "(x, y) in metres")
+    with pytest.raises(TypeError, match=r"^origin: expected a sequence of 3 finite numbers"):
+        v.pose("origin", {*value, 1.0}, bounded=False)
+
+
 @pytest.mark.parametrize(
     "value",
     [(1, 2, 0.5), [0.0, 0.0, 0.0], np.array([1.0, 2.0, 3.0]), (np.float32(1), np.int8(2), 3)]

@@ -18,7 +18,7 @@ import math
 import numbers
 import os
 import reprlib
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Set
 from pathlib import Path
 from typing import Any
 
@@ -400,9 +400,10 @@ def unmasked(name: str, value: Any, *, fill: Any = None) -> Any:
 
 def _real_items(value: Any) -> list[float] | None:
     """The items of ``value`` as floats if it is an iterable of real numbers (see
-    :func:`is_real_number`; not a str or bytes, not a 0-d array), else None. NumPy and JAX
+    :func:`is_real_number`; not a str or bytes, not a 0-d array, not a set or mapping,
+    whose order says nothing about which item is which), else None. NumPy and JAX
     arrays are iterated along their first axis, so a 2-D one holds arrays, not numbers."""
-    if isinstance(value, (str, bytes)):
+    if isinstance(value, (str, bytes, Set, Mapping)):  # a set's order is its hashes'
         return None
     if (
         not isinstance(value, np.ndarray)
