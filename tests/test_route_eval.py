@@ -749,3 +749,24 @@ def test_string_positions_as_networkx_reads_graphml_point_at_load_graph(tmp_path
         evaluate_route_graph(raw, m, RADIUS, n_pairs=10)
     report = evaluate_route_graph(load_graph(tmp_path / "peer.graphml"), m, RADIUS, n_pairs=10)
     assert report.graph_length_m == pytest.approx(85 * RES)
+
+
+def test_a_route_graph_file_read_with_networkx_points_at_load_graph(tmp_path):
+    """A route graph saved as GraphML records its map's ``shape`` and ``origin`` as text
+    that networkx.read_graphml leaves as it is: the map check refused it as a graph whose
+    shape is not 2 integers, without saying why; it now says that it is text and names
+    topojax.load_graph, as the positions' errors do."""
+    import warnings
+
+    import topojax as tj
+
+    m = _corridor(7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rg = tj.route_graph(m, robot_radius_m=RADIUS)
+    tj.save_graph(rg, tmp_path / "rg.graphml")
+    raw = nx.read_graphml(tmp_path / "rg.graphml")
+    with pytest.raises(
+        ValueError, match=r"recorded shape .*received '\[.*text.*topojax\.load_graph"
+    ):
+        evaluate_route_graph(raw, m, RADIUS, n_pairs=10)

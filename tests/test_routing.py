@@ -1082,3 +1082,18 @@ def test_routing_on_an_empty_route_graph_says_why_it_is_empty():
     with pytest.raises(ValueError, match="no vertices or edges to route on") as err:
         tj.plan_route(rg, (0.5, 0.5), (1.0, 1.0))
     assert f"({note})" in str(err.value)
+
+
+def test_a_graph_file_read_with_networkx_points_at_load_graph(tmp_path):
+    """networkx.read_graphml leaves a topojax GraphML file's lists as text: the planner
+    said ``'world': expected a number or an array of real numbers, received str``; it
+    now says that the paths are text and names topojax.load_graph, which decodes them."""
+    g = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=1.0)
+    tj.save_graph(g, tmp_path / "g.graphml")
+    raw = nx.read_graphml(tmp_path / "g.graphml")
+    with pytest.raises(ValueError, match=r"'path' .*text.*topojax\.load_graph") as err:
+        RoutePlanner(raw)
+    assert str(err.value).startswith("graph: ")
+    with pytest.raises(ValueError, match=r"'world': .*received '\[.*text.*topojax\.load_graph"):
+        tj.save_nav2_graph(raw, tmp_path / "g.geojson")
+    assert RoutePlanner(tj.load_graph(tmp_path / "g.graphml")).route((0, 0), (2, 2), frame="pixel")

@@ -11,6 +11,7 @@ import numbers
 import numpy as np
 
 from .._validate import pixel_rows, plain_int_pair
+from .._words import graphml_text
 
 
 def _steps_length(n_straight, n_diagonal, res: float):
@@ -188,10 +189,12 @@ def check_corridor_graph(graph) -> None:
     received = _ROOM_GRAPH if "n_rooms" in graph.graph else None
     for a, b, key, data in graph.edges(keys=True, data=True):
         missing = [name for name in ("path", "world", "length_m") if name not in data]
+        edge = f"edge ({a!r}, {b!r}, {key!r})"
         if received is None and missing:
-            edge = f"edge ({a!r}, {b!r}, {key!r})"
             lacks = f"a graph whose {edge} has no {missing[0]!r} attribute"
             received = _ROOM_GRAPH if "doors" in data else lacks
+        elif received is None and graphml_text(data["path"]):
+            received = f"a graph whose {edge} has a 'path'{graphml_text(data['path'])}"
     if received is not None:
         raise ValueError(
             "graph: expected a topology graph (build_graph, topojax graph) or a route graph "

@@ -19,6 +19,7 @@ import networkx as nx
 import numpy as np
 
 from .._validate import nx_graph
+from .._words import graphml_text
 
 _SCHEMA_KEY = "topojax_schema"
 _SCHEMA_VERSION = 1
@@ -252,7 +253,9 @@ def _xy(value: Any, where: str) -> list[float]:
     except (TypeError, ValueError):
         arr = np.empty(0)
     if arr.shape != (2,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{where}: expected 2 finite numbers (x, y), received {value!r}")
+        raise ValueError(
+            f"{where}: expected 2 finite numbers (x, y), received {value!r}{graphml_text(value)}"
+        )
     return [float(arr[0]), float(arr[1])]
 
 

@@ -35,6 +35,7 @@ from .._validate import (
     text_or_none,
     unmasked,
 )
+from .._words import graphml_text
 from .classify import (
     _FREE,
     _OCC,
@@ -462,15 +463,18 @@ def _malformed_grid(shape, resolution_m, origin, owner: str) -> str | None:
     """Why a recorded ``shape``, ``resolution_m`` or ``origin`` (None: not recorded) cannot
     be a map's, or None."""
     if shape is not None and not _numbers(shape, 2, integral=True):
-        return f"expected {owner} recorded shape to be 2 integers (rows, cols), received {shape!r}"
+        return (
+            f"expected {owner} recorded shape to be 2 integers (rows, cols), received "
+            f"{shape!r}{graphml_text(shape)}"
+        )
     if resolution_m is not None and not is_real_number(resolution_m):
         return (
             f"expected {owner} recorded resolution_m to be a number, received "
-            f"{type(resolution_m).__name__} {resolution_m!r}"
+            f"{type(resolution_m).__name__} {resolution_m!r}{graphml_text(resolution_m)}"
         )
     if origin is not None and not _numbers(origin, 3):
         return (
             f"expected {owner} recorded origin to be 3 numbers (x_m, y_m, yaw_rad), received "
-            f"{origin!r}"
+            f"{origin!r}{graphml_text(origin)}"
         )
     return None

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
+from .._words import graphml_text
+
 __all__ = ["GraphGeometry", "graph_geometry", "pixel_lookup", "touched_pixels", "vertex_pixels"]
 
 # Polyline ends closer than this (pixels) to their vertex count as lying on it.
@@ -66,13 +68,7 @@ def _has(data: dict, key: str) -> bool:
 def _received(value) -> str:
     """``value`` as an error message shows it: text (GraphML keeps lists as text, which
     networkx's reader leaves as it is) said to be text, with the reader that decodes it."""
-    if isinstance(value, (str, bytes)):
-        return (
-            f"{type(value).__name__} {reprlib.repr(value)} (text, as networkx.read_graphml "
-            "leaves GraphML's lists: read the file with topojax.load_graph, which decodes "
-            "JSON lists such as '[x, y]')"
-        )
-    return f"{type(value).__name__} {reprlib.repr(value)}"
+    return f"{type(value).__name__} {reprlib.repr(value)}{graphml_text(value)}"
 
 
 def _vertex_point(node, data: dict, coordinates: str) -> tuple[np.ndarray, bool]:
