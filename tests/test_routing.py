@@ -1097,3 +1097,16 @@ def test_a_graph_file_read_with_networkx_points_at_load_graph(tmp_path):
     with pytest.raises(ValueError, match=r"'world': .*received '\[.*text.*topojax\.load_graph"):
         tj.save_nav2_graph(raw, tmp_path / "g.geojson")
     assert RoutePlanner(tj.load_graph(tmp_path / "g.graphml")).route((0, 0), (2, 2), frame="pixel")
+
+
+def test_a_tiled_map_as_the_planners_map_says_how_to_get_its_occupancy_map():
+    """evaluate_route_graph and route_graph name a TiledMap's .occupancy(); the planner
+    said only ``expected an OccupancyMap, received TiledMap``."""
+    from topojax.maps.tiled import TiledMap
+
+    m = tj.OccupancyMap.from_array(np.full((20, 20), 254, np.uint8), resolution_m=0.05)
+    g = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=0.05)
+    with pytest.raises(TypeError, match=r"^occupancy: expected an OccupancyMap, .*\.occupancy\(\)"):
+        RoutePlanner(g, occupancy=TiledMap.from_occupancy(m))
+    with pytest.raises(TypeError, match=r"^occupancy: .*received ndarray \(an array has no res"):
+        plan_route(g, (0, 0), (2, 2), frame="pixel", occupancy=np.zeros((20, 20), bool))

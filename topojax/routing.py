@@ -35,6 +35,7 @@ from .graph import (
 )
 from .graph.geometry import check_corridor_graph, why_empty
 from .io import as_multigraph, jsonable
+from .maps import map_argument
 from .maps.occupancy import map_mismatch
 
 __all__ = [
@@ -340,9 +341,7 @@ class RoutePlanner:
         if not all(
             hasattr(occupancy, a) for a in ("free", "resolution_m", "origin", "world_to_pixel")
         ):
-            raise TypeError(
-                f"occupancy: expected an OccupancyMap, received {type(occupancy).__name__}"
-            )
+            map_argument("occupancy", occupancy)  # not one: its TypeError names what to pass
         attrs = self._graph.graph
         why = map_mismatch(self._graph, occupancy)
         if why is not None:
