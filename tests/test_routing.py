@@ -915,6 +915,30 @@ def test_with_the_map_a_point_too_far_for_the_maps_grid_gets_the_planners_error(
         planner.route(near, far, max_snap_m=None)
 
 
+def test_a_robot_larger_than_the_route_graph_was_built_for_is_refused(tmp_path, capsys):
+    """A route graph's edges keep its own robot_radius_m from obstacles and no more: a
+    planner asked for a larger robot is refused (its routes would not be safe for it),
+    naming both radii, in the API and on the command line; the graph's own radius or a
+    smaller one plans, and a topology graph (no radius of its own) takes any."""
+    m = tj.sample_map("intel")
+    rg = tj.route_graph(m, robot_radius_m=0.3)
+    for radius in (0.3, 0.2, None):
+        RoutePlanner(rg, occupancy=m, robot_radius_m=radius)
+    for radius in (0.31, 2.0):
+        with pytest.raises(ValueError, match=r"^robot_radius_m: expected at most the 0.3 m"):
+            RoutePlanner(rg, occupancy=m, robot_radius_m=radius)
+    RoutePlanner(tj.build_graph(m).graph, occupancy=m, robot_radius_m=2.0)
+    from topojax.cli import main
+
+    tj.save_graph(rg, tmp_path / "rg.json")
+    argv = ["route", str(tmp_path / "rg.json"), "--map", "topojax/data/intel.png"]
+    argv += ["--resolution", "0.05", "--start", "5", "30", "--goal", "33", "5"]
+    assert main([*argv, "--robot-radius", "0.25"]) == 0
+    capsys.readouterr()
+    assert main([*argv, "--robot-radius", "2"]) == 2
+    assert "route: error: --robot-radius: expected at most the 0.3 m" in capsys.readouterr().err
+
+
 def test_with_the_map_routes_on_a_route_graph_join_in_sight_and_are_never_longer():
     from topojax.routegraph.feasible import feasible_space
 

@@ -214,7 +214,7 @@ class RoutePlanner:
         or its path does not start and end at its vertices; the lengths add up to over
         4.5e307 m; ``occupancy`` is not the graph's map (shape, resolution, origin); no
         robot radius is given or known; ``robot_radius_m`` or ``entry_m`` without
-        ``occupancy``.
+        ``occupancy``; a ``robot_radius_m`` larger than the route graph was built for.
     """
 
     def __init__(
@@ -355,9 +355,10 @@ class RoutePlanner:
                     "(the graph has no 'robot_radius_m' attribute), received None"
                 )
             radius_name = "robot_radius_m (the graph's 'robot_radius_m' attribute)"
-        from .routegraph.feasible import feasible_space  # the route-graph stack, on demand
+        from .routegraph.feasible import check_radius_within_graphs, feasible_space
 
         radius = robot_radius(radius_name, radius)
+        check_radius_within_graphs(attrs, radius)
         if entry_m is None:
             entry_m = attrs.get("snap_m")
             entry_m = DEFAULT_ENTRY_M if entry_m is None else entry_m

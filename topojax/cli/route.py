@@ -172,9 +172,10 @@ def _cmd_route(args) -> int:
         )
     except ValueError as exc:  # the planner names its parameter; the user gave the option
         text = str(exc)
-        if not text.startswith("occupancy: "):
-            raise
-        raise ValueError(f"--map: {text.removeprefix('occupancy: ')}") from None
+        for name, option in (("occupancy", "--map"), ("robot_radius_m", "--robot-radius")):
+            if text.startswith(f"{name}: "):
+                raise ValueError(f"{option}: {text.removeprefix(f'{name}: ')}") from None
+        raise
     try:
         route = planner.route(
             tuple(args.start), tuple(args.goal), frame=frame, max_snap_m=args.max_snap_m

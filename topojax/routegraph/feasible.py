@@ -14,11 +14,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .._validate import robot_radius
+from .._validate import is_real_number, robot_radius
 from ..fields.clearance import clearance_at_least, free_clearance_px
 from ..maps import map_argument
 
-__all__ = ["FeasibleSpace", "feasible_space"]
+__all__ = ["FeasibleSpace", "check_radius_within_graphs", "feasible_space"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,3 +148,17 @@ def route_graph_note(graph, occupancy, *, robot_radius_m: float, min_region_m2: 
             why += f"; the largest feasible region is {largest:.3g} m2, below min_region_m2"
         why += ")"
     return f"empty route graph: {why}"
+
+
+def check_radius_within_graphs(attrs, radius_m: float) -> None:
+    """A ValueError where ``radius_m`` (a planner's ``robot_radius_m``) is larger than
+    the radius a route graph records it was built for (``attrs``' ``robot_radius_m``):
+    its edges keep that far from obstacles only, so a route on it is no safe route for
+    the larger robot.  Nothing for a graph that records none (a topology graph)."""
+    built = attrs.get("robot_radius_m")
+    if is_real_number(built) and radius_m > float(built) * (1 + 1e-9):
+        raise ValueError(
+            f"robot_radius_m: expected at most the {float(built):g} m the route graph was "
+            f"built for (its edges keep that far from obstacles, no farther), received "
+            f"{radius_m:g} m; build the route graph for a robot of {radius_m:g} m"
+        )
