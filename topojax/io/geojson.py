@@ -123,7 +123,7 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
             xy = _xy(coords, f"graph file {path}: features[{i}] coordinates")
             spec = schema["node"].get("world") or {"kind": "tuple"}
             attrs["world"] = _decode_value(xy, spec)
-            add_node(g, node, attrs)
+            add_node(g, node, _in_order(attrs, schema["node"]))
         elif gtype == "LineString":
             if "u" not in props or "v" not in props:
                 raise ValueError(
@@ -159,5 +159,12 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
         if spec is not None and spec["kind"] == "ndarray":
             world = world.astype(np.dtype(spec["dtype"]), copy=False)
         attrs["world"] = world
-        add_edge(g, u, v, key, attrs)
+        add_edge(g, u, v, key, _in_order(attrs, schema["edge"]))
     return g
+
+
+def _in_order(attrs: dict, spec: dict) -> dict:
+    """``attrs`` in the order the file's schema lists them (the written graph's order; the
+    geometry's ``world`` comes apart from the properties), others after."""
+    first = {k: attrs[k] for k in spec if k in attrs}
+    return first | {k: v for k, v in attrs.items() if k not in first}
