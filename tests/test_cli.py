@@ -467,10 +467,8 @@ def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
     assert main(["replay", str(log), "-o", out, "--max-extent-m", "12", "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "all 40 scans were refused" in err and "beyond --max-extent-m=12 m" in err
-    assert err.rstrip().endswith(
-        "at 0.05 m per pixel: give a smaller --sigma-m or --sigma-px, or a larger --max-extent-m)"
-    )
-    for word in ("max_extent_m", "tile_px", " sigma", "make the mapper"):
+    assert err.rstrip().endswith("give a smaller --max-range, or a larger --max-extent-m)")
+    for word in ("max_extent_m", "max_range_m", "tile_px", " sigma", "make the mapper"):
         assert word not in err
     assert main(["replay", str(log), "-o", out, "--max-extent-m", "46", "--no-progress"]) == 0
     printed = capsys.readouterr().out

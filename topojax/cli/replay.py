@@ -193,6 +193,8 @@ _ADVICE = {
     "make the mapper with a smaller tile_px or sigma, or a larger max_extent_m": (
         "give a smaller --sigma-m or --sigma-px, or a larger max_extent_m"
     ),
+    "set the scan's range_max or the mapper's max_range_m, or make the mapper with a "
+    "larger max_extent_m": "give a smaller --max-range, or a larger max_extent_m",
     "make the mapper with a larger max_extent_m": "give a larger max_extent_m",
     "max_extent_m, --max-extent-m in topojax replay": "max_extent_m",
     "; --max-extent-m in topojax replay)": ")",
