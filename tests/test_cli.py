@@ -192,6 +192,26 @@ def test_an_assumed_resolution_is_said_once_in_the_map_line(tmp_path, capsys, co
     assert out.count("0.05 m/px, assumed: the file states none") == 1
 
 
+def test_route_with_a_map_notes_a_graph_that_records_no_map_to_check(tmp_path, capsys):
+    """``route --map`` checks the map against the shape, resolution and origin the graph
+    records; a graph that records none of them (made by another tool, or its attributes
+    dropped) is routed as before, with a note that the map could not be checked."""
+    from room_maps import three_rooms_png
+
+    png = three_rooms_png(tmp_path / "rooms.png")
+    assert main(["route-graph", str(png), "--robot-radius", "0.2", "-o", str(tmp_path)]) == 0
+    graph = topojax.load_graph(tmp_path / "rooms_route.json")
+    for name in ("shape", "resolution_m", "origin"):
+        del graph.graph[name]
+    topojax.save_graph(graph, tmp_path / "bare.json")
+    argv = ["--pixel", "--start", "7", "42", "--goal", "8", "92", "--map", str(png)]
+    note = "note       the graph records no shape, resolution_m or origin: --map cannot be"
+    for name, noted in (("rooms_route.json", False), ("bare.json", True)):
+        capsys.readouterr()
+        assert main(["route", str(tmp_path / name), *argv, "--resolution", "0.05"]) == 0
+        assert (note in capsys.readouterr().out) is noted
+
+
 def test_route_with_a_map_says_an_assumed_resolution_once_in_its_map_line(tmp_path, capsys):
     """``route --map`` of a PNG says the assumed resolution in a map line, in its
     options' words, as ``graph`` does, not as load_map's raw warning with its source

@@ -165,6 +165,11 @@ def _cmd_route(args) -> int:
             f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
             f"{occupancy.resolution_m:g} m/px{assumed_resolution_note(args)})"
         )
+        if all(graph.graph.get(a) is None for a in ("shape", "resolution_m", "origin")):
+            print(  # nothing to compare: a graph made elsewhere, or its attributes dropped
+                "note       the graph records no shape, resolution_m or origin: --map "
+                "cannot be checked to be its map"
+            )
     frame = "pixel" if args.pixel else "world"
     try:
         planner = RoutePlanner(
