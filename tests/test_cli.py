@@ -421,6 +421,9 @@ def test_a_rerun_removes_the_optional_files_of_its_earlier_run_it_did_not_write(
     assert all((out / name).is_file() for name in left)
     assert (out / "rooms_unrecorded.png").read_text() == "by hand"
     assert printed.count("removed    ") == len(gone)
+    from topojax.cli._outputs import read_record
+
+    assert not set(gone) & set(read_record(out))  # the record lists the files there
 
 
 def test_output_record_rules(tmp_path):

@@ -183,28 +183,20 @@ def remove_earlier_outputs(
     input) that this run did not write (``written``) and the folder's record names as
     written by ``command`` from ``source``: an earlier run's, which no longer match the
     files written beside them (``topojax view`` would show them together).  A file the
-    record does not name as this command's from this input stays.  Returns a line per
-    file removed."""
-    from .._fs import atomic_write_bytes
-
+    record does not name as this command's from this input stays; :func:`record_outputs`
+    then drops the removed ones from the record.  Returns a line per file removed."""
     now = {Path(p).resolve() for p in written}
     owner = _owner(command, source)
     lines = []
     for folder, files in _by_folder(planned(possible, source)).items():
         recorded = read_record(folder)
-        gone = []
         for target in files:
             before = recorded.get(target.name)
             if not isinstance(before, dict) or target.resolve() in now:
                 continue
             if all(before.get(k) == v for k, v in owner.items()) and target.is_file():
                 target.unlink()
-                gone.append(target.name)
                 lines.append(f"removed    {target}, written by an earlier run from this map")
-        if gone:
-            kept = {name: entry for name, entry in recorded.items() if name not in gone}
-            doc = {"version": _VERSION, "files": dict(sorted(kept.items()))}
-            atomic_write_bytes(folder / RECORD_NAME, json.dumps(doc, indent=1).encode("utf-8"))
     return lines
 
 
@@ -219,14 +211,16 @@ def record_outputs(
     input (in the record of each file's folder), with the ``load_map`` options the input
     was read with (``map_options``, JSON values), so that ``topojax view`` reads it the
     same way, and the ``GraphConfig`` options that filtered the graph written
-    (``graph_options``: a replay's graph is then not its timeline's last)."""
+    (``graph_options``: a replay's graph is then not its timeline's last).  Entries of
+    files no longer in the folder are dropped."""
     from .._fs import atomic_write_bytes
 
     for folder, files in _by_folder(claims).items():
         written = {t: s for t, s in files.items() if t.is_file()}
         if not written:
             continue
-        recorded = read_record(folder)
+        # the record lists files that are there: one removed since is dropped
+        recorded = {n: e for n, e in read_record(folder).items() if (folder / n).is_file()}
         for target, source in written.items():
             recorded[target.name] = _owner(command, source)
             if map_options:

@@ -6,7 +6,6 @@ import warnings
 from pathlib import Path
 
 from ._graph_out import (
-    GRAPH_SUFFIXES,
     graph_files,
     map_notes,
     summary_lines,
@@ -110,7 +109,7 @@ _ADVICE = {
 
 def tiled_files(stem: str, nav2: bool) -> list[str]:
     """The files ``topojax graph --tiled`` writes beside its ``STEM_store/`` folder."""
-    return [f"{stem}{s}" for s in GRAPH_SUFFIXES] + [f"{stem}_nav2.geojson"] * nav2
+    return graph_files(stem, plot=False, stages=False, nav2=nav2, rooms=False, view=False)
 
 
 def cmd_graph_tiled(args) -> int:
@@ -169,21 +168,17 @@ def cmd_graph_tiled(args) -> int:
 
 def _check_graph_files_fit(result, store: Path) -> None:
     """A :class:`~topojax._cpus.MemoryRefusal` where the networkx graph that the graph
-    files are written from (``NX_BYTES_PER_ELEMENT`` a vertex and an edge) exceeds the memory
-    available, naming ``store``, which holds the graph already (a pruned graph is one
-    already built)."""
-    from .._cpus import check_fits_memory
-    from ..graph.store import NX_BYTES_PER_ELEMENT
+    files are written from exceeds the memory available, naming ``store``, which holds
+    the graph already (a pruned graph is one already built)."""
+    from ..graph.store import check_networkx_fits
 
     if result.graph_store is None:
         return
-    n, m = result.graph_store.n_nodes, result.graph_store.n_edges
-    check_fits_memory(
-        NX_BYTES_PER_ELEMENT * (n + m),
-        f"--tiled: the graph files of {n:,} vertices and {m:,} edges are written from a "
-        f"networkx graph of them, at least {NX_BYTES_PER_ELEMENT} bytes a vertex and "
-        "an edge (not bounded by --memory-budget-mb): at least",
-        f"; the graph is saved in {store} (topojax.load_graph_store reads it memory-mapped)",
+    check_networkx_fits(
+        result.graph_store,
+        "--tiled: the graph files are written from",
+        f" (not bounded by --memory-budget-mb); the graph is saved in {store} "
+        "(topojax.load_graph_store reads it memory-mapped)",
     )
 
 

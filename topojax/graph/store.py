@@ -23,6 +23,7 @@ __all__ = [
     "KIND_NAMES",
     "KIND_RING",
     "GraphStore",
+    "check_networkx_fits",
     "fill_multigraph",
     "paused_gc",
 ]
@@ -74,6 +75,20 @@ def paused_gc() -> Iterator[None]:
     finally:
         if enabled:
             gc.enable()
+
+
+def check_networkx_fits(store: GraphStore, context: str, advice: str) -> None:
+    """A :class:`~topojax._cpus.MemoryRefusal` where the networkx graph of ``store``
+    (:data:`NX_BYTES_PER_ELEMENT` a vertex and an edge) exceeds the memory available,
+    checked before any of it is built: ``context`` (e.g. ``"graph:"``) begins the message,
+    ``advice`` ends it; nothing when it fits or the memory available is not known."""
+    n, m = store.n_nodes, store.n_edges
+    check_fits_memory(
+        NX_BYTES_PER_ELEMENT * (n + m),
+        f"{context} the networkx graph of {n:,} vertices and {m:,} edges "
+        f"({NX_BYTES_PER_ELEMENT} bytes a vertex and an edge or more) takes at least",
+        advice,
+    )
 
 
 def fill_multigraph(
@@ -400,10 +415,9 @@ class GraphStore:
             take more than the memory available (:data:`NX_BYTES_PER_ELEMENT` a vertex
             and an edge).
         """
-        n, m = self.n_nodes, self.n_edges
-        check_fits_memory(
-            NX_BYTES_PER_ELEMENT * (n + m),
-            f"graph: the networkx graph of {n:,} vertices and {m:,} edges takes at least",
+        check_networkx_fits(
+            self,
+            "graph:",
             "; the graph store holds them as arrays (save_graph_store writes it, "
             "load_graph_store reads it memory-mapped)",
         )

@@ -576,27 +576,12 @@ def _nearest_sq(tiled: TiledMap, rows, cols, start_px: int) -> np.ndarray:
     return out
 
 
-def _check_networkx_fits(store) -> None:
-    """A :class:`~topojax._cpus.MemoryRefusal` where pruning's networkx graph of ``store``
-    exceeds the memory available, naming the options that prune."""
-    from ..graph.store import NX_BYTES_PER_ELEMENT
-
-    n, m = store.n_nodes, store.n_edges
-    check_fits_memory(
-        NX_BYTES_PER_ELEMENT * (n + m),
-        f"build_graph_tiled: pruning (config.graph's min_clearance_m, min_spur_m, "
-        f"min_component_m) works on the networkx graph of {n:,} vertices and {m:,} edges "
-        f"({NX_BYTES_PER_ELEMENT} bytes a vertex and an edge or more), which takes at least",
-        "; without pruning, the graph is kept as a graph store of arrays (out_dir= writes "
-        "it to disk)",
-    )
-
-
 def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, out_dir):
     """The graph store (no pruning) or the pruned networkx graph, with the attributes
     :func:`topojax.build_graph` gives them."""
     from ..graph import GraphStore, pixels_graph_store, prune_graph
     from ..graph.sparse import row_skeleton_graph_store, write_path_files
+    from ..graph.store import check_networkx_fits
     from ..io.store import STORE_FILE, write_store
 
     if out_dir is not None:  # a build that stops leaves no complete-looking store there
@@ -639,7 +624,13 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
         if out_dir is not None:  # its paths are there already: the rest of the store
             write_store(store, out_dir, written=("path_pixels", "path_world"))
         return store, None
-    _check_networkx_fits(store)
+    check_networkx_fits(  # pruning works on networkx: checked before any of it is built
+        store,
+        "build_graph_tiled: pruning (config.graph's min_clearance_m, min_spur_m, "
+        "min_component_m) works on",
+        "; without pruning, the graph is kept as a graph store of arrays (out_dir= writes "
+        "it to disk)",
+    )
     graph = prune_graph(
         store.to_networkx(),
         min_clearance_m=config.graph.min_clearance_m,
