@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -110,9 +112,17 @@ def test_plot_overlay_takes_the_rooms_of_its_map(seg):
     wall = np.ones((10, 10), bool)
     other = tj.segment_rooms(tj.OccupancyMap(occupied=wall, free=~wall, unknown=~wall))
     with pytest.raises(
-        ValueError, match=r"rooms: expected the rooms of a map of shape \(60, 150\)"
+        ValueError,
+        match=r"rooms: not of the result's map: expected a map of shape \(60, 150\), "
+        r"received the rooms' map of shape \(10, 10\)",
     ):
         tj.plot(result, rooms=other)
+    moved = tj.segment_rooms(dataclasses.replace(result.map, origin=(1.0, 0.0, 0.0)))
+    with pytest.raises(ValueError, match=r"rooms: not of the result's map: .*origin"):
+        tj.plot(result, rooms=moved)  # would be drawn a metre off
+    coarse = tj.segment_rooms(dataclasses.replace(result.map, resolution_m=0.1))
+    with pytest.raises(ValueError, match=r"rooms: not of the result's map: .* m/px"):
+        tj.plot(result, rooms=coarse)
     with pytest.raises(TypeError, match="rooms: expected a RoomSegmentation"):
         tj.plot(result, rooms=3)
     plt.close("all")

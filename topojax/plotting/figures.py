@@ -463,12 +463,19 @@ def plot(
 
         instance_of("route", route, Route)
     if rooms is not None:
+        from ..maps.occupancy import grid_mismatch
+
         rooms = _room_segmentation(rooms, "rooms")
-        if rooms.labels.shape != tuple(result.map.shape):
-            raise ValueError(
-                f"rooms: expected the rooms of a map of shape {tuple(result.map.shape)} (the "
-                f"result's), received rooms of shape {rooms.labels.shape}"
-            )
+        why = grid_mismatch(
+            rooms.labels.shape,
+            rooms.resolution_m,
+            rooms.origin,
+            result.map,
+            owner="the rooms'",
+            owner_blamed=True,
+        )
+        if why is not None:  # rooms of another map would be drawn at the wrong places
+            raise ValueError(f"rooms: not of the result's map: {why}")
     ax = axes_or_new(ax, figsize=(9, 9))
     plot_map(result.map, ax=ax)
     if rooms is not None:
