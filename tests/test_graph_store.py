@@ -371,7 +371,7 @@ def test_default_keys_are_networkx_keys_and_ids_and_keys_can_be_given():
     [
         ({"node_pixel": [[0.0, 0.0], [0.0, 2.0]]}, TypeError, "node_pixel: expected an integer"),
         ({"node_pixel": [[0, 0, 0], [0, 2, 0]]}, ValueError, "node_pixel: expected shape"),
-        ({"node_kind": [1]}, ValueError, "node_kind: expected shape"),
+        ({"node_kind": [1]}, ValueError, r"node_kind: expected shape \(2,\), received"),
         ({"node_kind": [1, 4]}, ValueError, "node_kind: expected codes"),
         ({"node_kind": [1, 259]}, ValueError, "node_kind: expected codes"),
         ({"node_world": [[True, False], [True, True]]}, TypeError, "node_world"),

@@ -159,7 +159,8 @@ def _array(name: str, value, dtype, kinds: str, shape: tuple) -> np.ndarray:
     if arr.ndim != len(shape) or any(
         s is not None and s != a for s, a in zip(shape, arr.shape, strict=True)
     ):
-        want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+        want = "(" + ", ".join("n" if s is None else str(s) for s in shape)
+        want += ",)" if len(shape) == 1 else ")"
         raise ValueError(f"{name}: expected shape {want}, received shape {arr.shape}")
     return _readonly(arr.astype(dtype, copy=False))
 
