@@ -541,13 +541,147 @@ def test_empty_store_is_the_empty_skeletons_store():
     assert GraphStore.empty().attrs == {} and GraphStore.empty().to_networkx().graph == {}
 
 
-def test_from_networkx_of_a_route_graph_says_where_to_save_one():
-    """A route graph's edges carry ``waypoints``, which a store has no array for: the
-    error said only ``others ['waypoints']``; it now names the route graph and the files
-    that hold one whole."""
+# ----------------------------------------------------------------------------------------
+# waypoints: the simplified world polyline on each edge of a route graph
+# ----------------------------------------------------------------------------------------
+
+#: A literal floor plan ('#' wall, '.' free), each character 8 x 8 pixels of 0.05 m: two
+#: rooms with pillars, joined by a door, 8 m x 16 m.
+PLAN = """
+    ####################
+    #........#.........#
+    #........#.........#
+    #..##....#....#....#
+    #..##..............#
+    #..................#
+    #........#.........#
+    #........#....##...#
+    #........#.........#
+    ####################
+"""
+
+
+def plan_map():
+    from topojax.maps.occupancy import OccupancyMap
+
+    free = np.kron(~art(PLAN), np.ones((8, 8), bool))
+    return OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=0.05)
+
+
+def with_waypoints(store: GraphStore) -> dict:
+    """The fields of ``store`` plus waypoints: each edge's first and last world point."""
+    fields = _fields(store)
+    ends = np.stack([store.path_offsets[:-1], store.path_offsets[1:] - 1], axis=1).ravel()
+    fields.update(
+        waypoint_offsets=np.arange(0, 2 * store.n_edges + 1, 2),
+        waypoints=store.path_world[ends],
+    )
+    return fields
+
+
+def test_a_route_graph_round_trips_through_a_store():
+    from topojax.routegraph import route_graph
+
+    g = route_graph(plan_map(), robot_radius_m=0.3)
+    assert g.graph["kind"] == "route_graph" and g.number_of_edges() > 10
+    assert any(len(d["pixels"]) > 1 for _, d in g.nodes(data=True))  # merged members
+    store = GraphStore.from_networkx(g)
+    assert store.waypoints.dtype == np.float64 and store.waypoints.shape[1] == 2
+    assert store.waypoint_offsets.shape == (store.n_edges + 1,)
+    assert not store.waypoints.flags.writeable and not store.waypoint_offsets.flags.writeable
+    back = store.to_networkx()
+    assert_same_graph(back, g)
+    for (_, _, a), (_, _, b) in zip(
+        g.edges(data="waypoints"), back.edges(data="waypoints"), strict=True
+    ):
+        assert a.tobytes() == b.tobytes()  # bit for bit
+        assert b.flags.writeable and not np.shares_memory(b, store.waypoints)
+    assert_same_store(GraphStore.from_networkx(back), store)
+
+
+def test_a_store_without_waypoints_has_none():
+    store = GraphStore.from_networkx(skeleton_to_graph(T))
+    assert store.waypoints is None and store.waypoint_offsets is None
+    assert all("waypoints" not in d for _, _, d in store.to_networkx().edges(data=True))
+
+
+def test_waypoints_of_a_hand_written_store():
+    fields = with_waypoints(FIXTURES[1][3])  # the T
+    store = GraphStore(**fields)
+    np.testing.assert_array_equal(store.waypoint_offsets, [0, 2, 4, 6])
+    g = store.to_networkx()
+    for i, (_, _, d) in enumerate(g.edges(data=True)):
+        assert list(d)[-1] == "waypoints"
+        np.testing.assert_array_equal(d["waypoints"], fields["waypoints"][2 * i : 2 * i + 2])
+    assert_same_graph(GraphStore.from_networkx(g).to_networkx(), g)
+
+
+@pytest.mark.parametrize(
+    ("change", "error", "match"),
+    [
+        ({"waypoints": None}, ValueError, "waypoint_offsets, waypoints: expected both or neither"),
+        ({"waypoint_offsets": None}, ValueError, "expected both or neither"),
+        (
+            {"waypoints": np.zeros((6, 3))},
+            ValueError,
+            r"waypoints: expected shape \(6, 2\), received shape \(6, 3\)",
+        ),
+        ({"waypoints": np.zeros((6, 2), bool)}, TypeError, "waypoints: expected a real array"),
+        ({"waypoint_offsets": [0, 2, 4]}, ValueError, r"waypoint_offsets: expected shape \(4,\)"),
+        (
+            {"waypoint_offsets": [0, 2, 4, 7]},
+            ValueError,
+            "waypoint_offsets: expected non-decreasing offsets from 0 to 6",
+        ),
+        ({"waypoint_offsets": [0, 4, 2, 6]}, ValueError, r"waypoint_offsets: .*\(decreasing\)"),
+        (
+            {"waypoint_offsets": [0.0, 2.0, 4.0, 6.0]},
+            TypeError,
+            "waypoint_offsets: expected an integer",
+        ),
+    ],
+)
+def test_waypoint_checks(change, error, match):
+    with pytest.raises(error, match=match):
+        GraphStore(**{**with_waypoints(FIXTURES[1][3]), **change})
+
+
+def test_waypoints_need_the_metric_arrays():
+    fields = {k: v for k, v in with_waypoints(FIXTURES[1][3]).items() if k not in _METRICS}
+    with pytest.raises(
+        ValueError, match=r"waypoint_offsets, waypoints: expected only with the metric"
+    ):
+        GraphStore(**fields)
+
+
+def test_from_networkx_refuses_waypoints_on_only_some_edges():
     g = skeleton_to_graph(T)
-    for _, _, d in g.edges(data=True):
-        d["waypoints"] = np.asarray(d["world"], np.float64)[[0, -1]]
-    g.graph["kind"] = "route_graph"
-    with pytest.raises(ValueError, match=r"others \['waypoints'\].*a route graph.*save_graph"):
+    first = next(iter(g.edges(keys=True, data=True)))
+    first[3]["waypoints"] = np.asarray(first[3]["world"])[[0, -1]]
+    with pytest.raises(
+        ValueError, match=r"graph: expected 'waypoints' on every edge or on none, received 1 of 3"
+    ):
         GraphStore.from_networkx(g)
+    odd = skeleton_to_graph(T)
+    for _, _, d in odd.edges(data=True):
+        d["waypoints"] = np.zeros((2, 3))
+    with pytest.raises(ValueError, match=r"graph: expected edge .* waypoints of shape \(K, 2\)"):
+        GraphStore.from_networkx(odd)
+
+
+def test_the_networkx_memory_check_counts_the_waypoints(monkeypatch):
+    import topojax.graph.store as store_module
+
+    asked = []
+    monkeypatch.setattr(
+        store_module, "check_fits_memory", lambda n, what, advice: asked.append((n, what))
+    )
+    plain = FIXTURES[1][3]
+    store = GraphStore(**with_waypoints(plain))
+    plain.to_networkx()
+    store.to_networkx()
+    (without, what_without), (with_wp, what_with) = asked
+    assert without == store_module.NX_BYTES_PER_ELEMENT * (plain.n_nodes + plain.n_edges)
+    extra = store_module.NX_WAYPOINT_BYTES_PER_EDGE * store.n_edges + store.waypoints.nbytes
+    assert with_wp == without + extra
+    assert "waypoints" not in what_without and "waypoints" in what_with

@@ -32,6 +32,10 @@ __all__ = [
 #: times the 1.07 to 1.2 kB measured on large skeleton graphs (their dicts, tuples and
 #: small arrays); :meth:`GraphStore.to_networkx` checks the memory available for it.
 NX_BYTES_PER_ELEMENT = 850
+#: Bytes an edge's ``waypoints`` adds at least to the networkx graph of a store, besides
+#: its 16 bytes a point: about 0.8 times the 215 bytes measured (the array view and the
+#: edge's attribute dict grown to six entries).
+NX_WAYPOINT_BYTES_PER_EDGE = 170
 
 # Vertex kind codes.  The codes of "isolated" and "end" are their pixel-graph degrees and
 # every degree >= 3 is a junction, so ``min(degree, KIND_JUNCTION)`` is the kind of a
@@ -79,14 +83,23 @@ def paused_gc() -> Iterator[None]:
 
 def check_networkx_fits(store: GraphStore, context: str, advice: str) -> None:
     """A :class:`~topojax._cpus.MemoryRefusal` where the networkx graph of ``store``
-    (:data:`NX_BYTES_PER_ELEMENT` a vertex and an edge) exceeds the memory available,
-    checked before any of it is built: ``context`` (e.g. ``"graph:"``) begins the message,
-    ``advice`` ends it; nothing when it fits or the memory available is not known."""
+    (:data:`NX_BYTES_PER_ELEMENT` a vertex and an edge; with waypoints,
+    :data:`NX_WAYPOINT_BYTES_PER_EDGE` more an edge and 16 a waypoint) exceeds the memory
+    available, checked before any of it is built: ``context`` (e.g. ``"graph:"``) begins
+    the message, ``advice`` ends it; nothing when it fits or the memory available is not
+    known."""
     n, m = store.n_nodes, store.n_edges
+    need = NX_BYTES_PER_ELEMENT * (n + m)
+    sizes = f"{NX_BYTES_PER_ELEMENT} bytes a vertex and an edge or more"
+    if store.waypoints is not None:
+        need += NX_WAYPOINT_BYTES_PER_EDGE * m + store.waypoints.nbytes
+        sizes += (
+            f", and {NX_WAYPOINT_BYTES_PER_EDGE} an edge and 16 a point for its "
+            f"{store.waypoints.shape[0]:,} waypoints"
+        )
     check_fits_memory(
-        NX_BYTES_PER_ELEMENT * (n + m),
-        f"{context} the networkx graph of {n:,} vertices and {m:,} edges "
-        f"({NX_BYTES_PER_ELEMENT} bytes a vertex and an edge or more) takes at least",
+        need,
+        f"{context} the networkx graph of {n:,} vertices and {m:,} edges ({sizes}) takes at least",
         advice,
     )
 
@@ -207,7 +220,9 @@ class GraphStore:
     :meth:`to_networkx` gives the networkx graph of :func:`skeleton_to_graph`.
     Without the metric arrays (world coordinates, clearances, lengths: all of them or
     none) the store holds pixels and kinds only, and its networkx graph has only the
-    node attributes ``pixel`` and ``kind`` and the edge attribute ``path``.
+    node attributes ``pixel`` and ``kind`` and the edge attribute ``path``.  A route
+    graph's store (:func:`topojax.route_graph`) also holds each edge's ``waypoints``,
+    the rows ``waypoint_offsets[i]:waypoint_offsets[i + 1]`` of ``waypoints``.
 
     Parameters
     ----------
@@ -248,6 +263,13 @@ class GraphStore:
     member_pixels : int (M, 2), optional
         ``(row, col)`` of the member pixels, vertex after vertex, each in raster order.
         Only with the metric arrays.
+    waypoint_offsets : int (E + 1,), optional
+        CSR offsets of each edge's waypoints in ``waypoints``: 0, non-decreasing, ending
+        at W; stored as int64.  Given with ``waypoints`` or not at all.
+    waypoints : real (W, 2), optional
+        ``(x, y)`` in metres of the waypoints of all edges (a route graph's simplified
+        polylines, each from its ``u``'s ``world`` to its ``v``'s), one edge after
+        another; stored as float64.  Only with the metric arrays.
 
     Raises
     ------
@@ -257,8 +279,8 @@ class GraphStore:
     ValueError
         If shapes disagree, offsets do not run from 0 to the row count, an edge end is
         not a node index, a kind code is unknown, node ids repeat, two edges of one node
-        pair share a key, only some metric arrays are given, or member pixels are given
-        without them.
+        pair share a key, only some metric arrays are given, member pixels or waypoints
+        are given without them, or one array of a CSR pair without the other.
     """
 
     node_pixel: np.ndarray
@@ -278,6 +300,8 @@ class GraphStore:
     edge_keys: np.ndarray | None = None
     member_offsets: np.ndarray | None = None
     member_pixels: np.ndarray | None = None
+    waypoint_offsets: np.ndarray | None = None
+    waypoints: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = np.shape(self.node_pixel)[0] if np.ndim(self.node_pixel) else -1
@@ -306,7 +330,8 @@ class GraphStore:
         if given_ids and np.unique(self.node_ids).shape[0] != n:
             raise ValueError("node_ids: expected distinct ids, received repeated ones")
         self._check_edges(n)
-        self._check_members(n)
+        self._check_runs("member_offsets", "member_pixels", n, np.int64, "iu")
+        self._check_runs("waypoint_offsets", "waypoints", self.n_edges, np.float64, "iuf")
         self._put("attrs", dict(self.attrs))
 
     def _put(self, name: str, value) -> None:
@@ -343,23 +368,22 @@ class GraphStore:
         if same.any():
             raise ValueError("edge_keys: expected distinct keys per node pair, received repeats")
 
-    def _check_members(self, n: int) -> None:
-        if (self.member_offsets is None) != (self.member_pixels is None):
-            raise ValueError(
-                "member_offsets, member_pixels: expected both or neither, received one"
-            )
-        if self.member_pixels is None:
+    def _check_runs(self, offsets: str, rows: str, n: int, dtype, kinds: str) -> None:
+        """The optional CSR pair ``offsets`` (n + 1,) over the (M, 2) array ``rows``: both
+        or neither, only with the metric arrays."""
+        given_offsets, given_rows = getattr(self, offsets), getattr(self, rows)
+        if (given_offsets is None) != (given_rows is None):
+            raise ValueError(f"{offsets}, {rows}: expected both or neither, received one")
+        if given_rows is None:
             return
         if not self.has_metrics:
             raise ValueError(
-                "member_offsets, member_pixels: expected only with the metric arrays "
+                f"{offsets}, {rows}: expected only with the metric arrays "
                 f"({', '.join(_METRIC_FIELDS)}), received them without"
             )
-        m = np.shape(self.member_pixels)[0] if np.ndim(self.member_pixels) else -1
-        self._put(
-            "member_pixels", _array("member_pixels", self.member_pixels, np.int64, "iu", (m, 2))
-        )
-        self._put("member_offsets", _offsets("member_offsets", self.member_offsets, n, m))
+        m = np.shape(given_rows)[0] if np.ndim(given_rows) else -1
+        self._put(rows, _array(rows, given_rows, dtype, kinds, (m, 2)))
+        self._put(offsets, _offsets(offsets, given_offsets, n, m))
 
     # ---- views --------------------------------------------------------------------------
 
@@ -404,8 +428,8 @@ class GraphStore:
             ``pixels`` (int32 (M, 2)), ``world`` ((x, y) tuple of float), ``kind`` (name)
             and ``clearance_m`` (float); edges ``(node_ids[u], node_ids[v], key)`` in store
             order with ``path`` (int32 (K, 2)), ``world`` (float64 (K, 2)), ``length_m``,
-            ``min_clearance_m`` and ``mean_clearance_m`` (float); graph attributes
-            ``attrs``.  Without the metric arrays (:attr:`has_metrics`), nodes have only
+            ``min_clearance_m`` and ``mean_clearance_m`` (float), and, where the store
+            holds them, ``waypoints`` (float64 (K, 2)); graph attributes ``attrs``.  Without the metric arrays (:attr:`has_metrics`), nodes have only
             ``pixel`` and ``kind`` and edges only ``path``.  Its arrays are views of new
             arrays: it shares no memory with the store.
 
@@ -414,7 +438,8 @@ class GraphStore:
         MemoryError
             A ``topojax`` ``MemoryRefusal``, before any of it is built, where it would
             take more than the memory available (:data:`NX_BYTES_PER_ELEMENT` a vertex
-            and an edge).
+            and an edge, with waypoints :data:`NX_WAYPOINT_BYTES_PER_EDGE` more an edge
+            and 16 a waypoint).
         """
         check_networkx_fits(
             self,
@@ -471,6 +496,8 @@ class GraphStore:
         length = self.edge_length_m.tolist()
         low = self.edge_min_clearance_m.tolist()
         mean = self.edge_mean_clearance_m.tolist()
+        if self.waypoints is not None:
+            waypoints, wp_bounds = self.waypoints.copy(), self.waypoint_offsets.tolist()
         for i in range(len(u)):
             a, b = bounds[i], bounds[i + 1]
             attrs = {
@@ -480,6 +507,8 @@ class GraphStore:
                 "min_clearance_m": low[i],
                 "mean_clearance_m": mean[i],
             }
+            if self.waypoints is not None:
+                attrs["waypoints"] = waypoints[wp_bounds[i] : wp_bounds[i + 1]]
             yield u[i], v[i], keys[i], attrs
 
     @classmethod
@@ -511,7 +540,7 @@ class GraphStore:
     @classmethod
     def from_networkx(cls, graph: nx.MultiGraph) -> GraphStore:
         """The store of a topology graph (:func:`skeleton_to_graph`, :func:`prune_graph`,
-        the incremental mapper, :func:`topojax.load_graph`).
+        the incremental mapper, :func:`topojax.route_graph`, :func:`topojax.load_graph`).
 
         Parameters
         ----------
@@ -519,22 +548,25 @@ class GraphStore:
             Undirected; integer nodes with exactly the attributes ``pixel``, ``pixels``,
             ``world``, ``kind`` and ``clearance_m``; integer edge keys; edges with exactly
             ``path``, ``world``, ``length_m``, ``min_clearance_m`` and
-            ``mean_clearance_m``.  Nodes and edges are read in the graph's order.
+            ``mean_clearance_m``, and either every edge or none with ``waypoints``
+            ((K, 2) real: a route graph's).  Nodes and edges are read in the graph's
+            order.
 
         Returns
         -------
         GraphStore
             ``to_networkx()`` of it equals ``graph``: the same nodes, edges, keys and
             attributes in the same order, with paths and member pixels as int32.
-            ``member_pixels`` is None when every vertex's only member is its own pixel.
+            ``member_pixels`` is None when every vertex's only member is its own pixel,
+            ``waypoints`` and ``waypoint_offsets`` when no edge has waypoints.
 
         Raises
         ------
         TypeError
             If ``graph`` is not an undirected MultiGraph or a node or key is not an int.
         ValueError
-            If a vertex or edge lacks one of those attributes or has others, or a kind is
-            unknown.
+            If a vertex or edge lacks one of those attributes or has others, a kind is
+            unknown, only some edges have ``waypoints`` or an edge's are not (K, 2).
         """
         nx_graph("graph", graph, multigraph=True)
         ids, index = _node_ids(graph)
@@ -551,8 +583,10 @@ class GraphStore:
             not members or np.array_equal(np.concatenate(members), pixel)
         )
         edges = list(graph.edges(keys=True, data=True))
+        waypoints = _edge_waypoints(edges)
+        names = _EDGE_ATTRS if waypoints is None else (*_EDGE_ATTRS, "waypoints")
         for u, v, k, d in edges:
-            _exact(d, _EDGE_ATTRS, f"edge {u}-{v} (key {k!r})", _ROUTE_GRAPH_HINT)
+            _exact(d, names, f"edge {u}-{v} (key {k!r})")
             if isinstance(k, bool) or not isinstance(k, numbers.Integral):
                 raise TypeError(f"graph: expected integer edge keys, received {k!r}")
         paths = [np.asarray(d["path"]).reshape(-1, 2) for _, _, _, d in edges]
@@ -575,6 +609,8 @@ class GraphStore:
             edge_keys=np.array([k for _, _, k, _ in edges], dtype=np.int64),
             member_offsets=None if own else np.cumsum([0] + [m.shape[0] for m in members]),
             member_pixels=None if own else _stacked(members, np.int64),
+            waypoint_offsets=None if waypoints is None else _run_offsets(waypoints),
+            waypoints=None if waypoints is None else _stacked(waypoints, np.float64),
         )
 
 
@@ -587,26 +623,50 @@ def _node_ids(graph: nx.MultiGraph) -> tuple[list, dict]:
     return ids, {n: i for i, n in enumerate(ids)}
 
 
-#: Why an edge with ``waypoints`` is refused, and what holds it.
-_ROUTE_GRAPH_HINT = (
-    "waypoints",
-    "; a route graph's edges carry 'waypoints', for which a graph store has no array: "
-    "save a route graph with topojax.save_graph (GraphML, JSON or GeoJSON), which keeps "
-    "them",
-)
-
-
-def _exact(data: dict, names: tuple, where: str, hint: tuple[str, str] = ("", "")) -> dict:
-    """``data`` after checking that it has exactly the attributes ``names``; ``hint``:
-    an attribute and the words added to the error where ``data`` has it."""
+def _exact(data: dict, names: tuple, where: str) -> dict:
+    """``data`` after checking that it has exactly the attributes ``names``."""
     if set(data) != set(names):
         missing = [k for k in names if k not in data]
         extra = sorted(str(k) for k in data if k not in names)
         raise ValueError(
             f"graph: expected {where} to have exactly the attributes {names}; "
-            f"missing {missing}, others {extra}{hint[1] if hint[0] in data else ''}"
+            f"missing {missing}, others {extra}"
         )
     return data
+
+
+def _edge_waypoints(edges: list) -> list[np.ndarray] | None:
+    """Each edge's ``waypoints`` as float64 (K, 2), in order; None where no edge has any
+    (a graph of :func:`skeleton_to_graph`'s schema)."""
+    have = sum("waypoints" in d for _, _, _, d in edges)
+    if not have:
+        return None
+    if have < len(edges):
+        u, v, k, _ = next(e for e in edges if "waypoints" not in e[3])
+        raise ValueError(
+            f"graph: expected 'waypoints' on every edge or on none, received {have} of "
+            f"{len(edges)} edges with them (not edge {u}-{v} (key {k!r}))"
+        )
+    out = []
+    for u, v, k, d in edges:
+        try:
+            points = np.asarray(d["waypoints"], dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            points, why = None, f"{type(d['waypoints']).__name__} ({exc})"
+        else:
+            why = f"shape {points.shape}"
+        if points is None or points.ndim != 2 or points.shape[1] != 2:
+            raise ValueError(
+                f"graph: expected edge {u}-{v} (key {k!r}) to have waypoints of shape "
+                f"(K, 2) of real numbers, received {why}"
+            )
+        out.append(points)
+    return out
+
+
+def _run_offsets(runs: list[np.ndarray]) -> np.ndarray:
+    """CSR offsets of the row counts of ``runs``: int64 (len(runs) + 1,)."""
+    return np.concatenate([[0], np.cumsum([r.shape[0] for r in runs], dtype=np.int64)])
 
 
 def _stacked(arrays: list, dtype) -> np.ndarray:
