@@ -10,15 +10,27 @@ from __future__ import annotations
 import json
 import os
 import stat
+from pathlib import Path
 
 import numpy as np
 import pytest
-from test_graph_store import FIXTURES, IDS, assert_same_graph, assert_same_store
+from test_graph_store import (
+    FIXTURES,
+    IDS,
+    assert_same_graph,
+    assert_same_store,
+    plan_map,
+    with_waypoints,
+)
 
 import topojax as tj
 import topojax.io.store as store_files
 from topojax.config import DistanceConfig, GraphConfig, PipelineConfig
 from topojax.graph import GraphStore
+
+#: A store saved before stores had waypoint arrays: the merged junction cluster of
+#: ``test_graph_store`` with the attributes ``origin`` (1.0, 2.0, 0.0) and ``note`` "x".
+SAVED_V1 = Path(__file__).parent / "data" / "graph_store_v1"
 
 SMALL = PipelineConfig(distance=DistanceConfig.from_pixels(sigma_px=10.0), tile_px=64)
 
@@ -203,3 +215,106 @@ def test_saved_arrays_get_the_permissions_of_ordinary_new_files(tmp_path):
         modes = {f.name: stat.S_IMODE(f.stat().st_mode) for f in folder.iterdir()}
         assert "path_pixels.npy" in modes and "node_pixel.npy" in modes
         assert modes == dict.fromkeys(modes, 0o644)
+
+
+# ----------------------------------------------------------------------------------------
+# waypoints (route graphs), and the files of stores saved before them
+# ----------------------------------------------------------------------------------------
+
+
+def _without_timings(graph):
+    """``graph`` as a saved store gives it back: without ``timings_s``, which is not saved."""
+    graph = graph.copy()
+    del graph.graph["timings_s"]
+    return graph
+
+
+@pytest.mark.parametrize("mmap", [True, False])
+def test_a_route_graph_of_a_literal_map_is_saved_and_loaded(tmp_path, mmap):
+    g = tj.route_graph(plan_map(), robot_radius_m=0.3)
+    store = GraphStore.from_networkx(g)
+    tj.save_graph_store(store, tmp_path / "g")
+    desc = json.loads((tmp_path / "g" / "graph_store.json").read_text())
+    assert desc["version"] == 1
+    assert desc["arrays"]["waypoints"]["dtype"] == "<f8"
+    assert desc["arrays"]["waypoint_offsets"]["shape"] == [store.n_edges + 1]
+    back = tj.load_graph_store(tmp_path / "g", mmap=mmap)
+    assert mapped(back.waypoints) is mmap
+    assert_same_store(back, GraphStore(**{**vars(store), "attrs": _without_timings(g).graph}))
+    assert_same_graph(back.to_networkx(), _without_timings(g))
+
+
+def test_a_route_graph_of_a_shared_map_round_trips(tmp_path, shared_data):
+    m = tj.load_map(shared_data / "maps/ros/turtlebot3_office/map_office_raw.yaml")
+    g = tj.route_graph(m, robot_radius_m=0.3)
+    assert g.number_of_edges() > 100
+    store = GraphStore.from_networkx(g)
+    assert_same_graph(store.to_networkx(), g)
+    tj.save_graph_store(store, tmp_path)
+    back = tj.load_graph_store(tmp_path).to_networkx()
+    assert_same_graph(back, _without_timings(g))
+    for (_, _, a), (_, _, b) in zip(
+        g.edges(data="waypoints"), back.edges(data="waypoints"), strict=True
+    ):
+        assert a.tobytes() == b.tobytes()
+
+
+def test_a_store_saved_before_waypoints_still_loads_and_saves_the_same_bytes(tmp_path):
+    merged = FIXTURES[-2][3]
+    want = GraphStore(
+        **{**vars(merged), "attrs": {**merged.attrs, "origin": (1.0, 2.0, 0.0), "note": "x"}}
+    )
+    for mmap in (True, False):
+        back = tj.load_graph_store(SAVED_V1, mmap=mmap)
+        assert back.waypoints is None and back.waypoint_offsets is None
+        assert_same_store(back, want)
+    tj.save_graph_store(want, tmp_path)
+    saved = sorted(f.name for f in SAVED_V1.iterdir())
+    assert sorted(f.name for f in tmp_path.iterdir()) == saved
+    for name in saved:
+        assert (tmp_path / name).read_bytes() == (SAVED_V1 / name).read_bytes(), name
+
+
+def test_a_store_without_waypoints_leaves_no_waypoint_files(tmp_path):
+    store = GraphStore(**with_waypoints(FIXTURES[1][3]))
+    tj.save_graph_store(store, tmp_path)
+    assert (tmp_path / "waypoints.npy").is_file() and (tmp_path / "waypoint_offsets.npy").is_file()
+    assert_same_store(tj.load_graph_store(tmp_path), store)
+    tj.save_graph_store(FIXTURES[1][3], tmp_path)
+    assert not (tmp_path / "waypoints.npy").exists()
+    assert not (tmp_path / "waypoint_offsets.npy").exists()
+    assert "waypoints" not in (tmp_path / "graph_store.json").read_text()
+    assert_same_store(tj.load_graph_store(tmp_path), FIXTURES[1][3])
+
+
+def test_damaged_waypoint_files_are_refused_naming_them(tmp_path):
+    store = GraphStore(**with_waypoints(FIXTURES[1][3]))
+    tj.save_graph_store(store, tmp_path)
+    desc = json.loads((tmp_path / "graph_store.json").read_text())
+    offsets = np.asarray(store.waypoint_offsets)
+    np.save(tmp_path / "waypoint_offsets.npy", offsets[::-1].copy())
+    with pytest.raises(
+        ValueError,
+        match=r"do not make one graph store: waypoint_offsets: expected non-decreasing offsets",
+    ):
+        tj.load_graph_store(tmp_path)
+    np.save(tmp_path / "waypoint_offsets.npy", offsets)
+    np.save(tmp_path / "waypoints.npy", np.zeros((5, 2)))
+    with pytest.raises(ValueError, match=r"waypoints.npy: expected <f8 \(6, 2\) .*cut short"):
+        tj.load_graph_store(tmp_path)
+    np.save(tmp_path / "waypoints.npy", np.zeros((6, 2), np.int64))
+    with pytest.raises(ValueError, match=r"waypoints.npy: expected <f8 \(6, 2\)"):
+        tj.load_graph_store(tmp_path)
+    (tmp_path / "waypoints.npy").unlink()
+    with pytest.raises(FileNotFoundError, match=r"the array file .*waypoints.npy is missing"):
+        tj.load_graph_store(tmp_path)
+    np.save(tmp_path / "waypoints.npy", np.asarray(store.waypoints))
+    one = {k: v for k, v in desc["arrays"].items() if k != "waypoint_offsets"}
+    (tmp_path / "graph_store.json").write_text(json.dumps({**desc, "arrays": one}))
+    with pytest.raises(ValueError, match=r"waypoint_offsets, waypoints: expected both or neither"):
+        tj.load_graph_store(tmp_path)
+    lines = {**desc["arrays"], "waypoints": {**desc["arrays"]["waypoints"], "shape": [6, 3]}}
+    np.save(tmp_path / "waypoints.npy", np.zeros((6, 3)))
+    (tmp_path / "graph_store.json").write_text(json.dumps({**desc, "arrays": lines}))
+    with pytest.raises(ValueError, match=r"one graph store: waypoints: expected shape \(6, 2\)"):
+        tj.load_graph_store(tmp_path)

@@ -6,6 +6,10 @@ The folder holds one ``NAME.npy`` per array of the store (``node_pixel``,
 format's name and version, each array's file, dtype and shape, and the graph attributes
 with their type schema (as :func:`topojax.save_graph` records them).  The JSON file is
 written last, so a folder without it (a save that was interrupted) is refused on load.
+
+A route graph's store adds ``waypoint_offsets`` and ``waypoints``; being optional arrays,
+they leave the version at 1: a store without them is saved byte for byte as before, and
+a folder saved before them loads.
 """
 
 from __future__ import annotations
@@ -50,7 +54,8 @@ def save_graph_store(store: GraphStore, folder) -> Path:
     ----------
     store : GraphStore
         For example ``build_graph_tiled(...).graph_store`` or
-        ``GraphStore.from_networkx(graph)``.
+        ``GraphStore.from_networkx(graph)`` (of a route graph too: its waypoints are
+        arrays of the store).  Its graph attributes are saved, all but ``timings_s``.
     folder : str or Path
         Folder (created); the store's arrays replace its files of the same name (a
         store memory-mapped from them keeps reading the files it opened).  Until the
