@@ -444,6 +444,27 @@ def test_from_networkx_refuses_what_it_cannot_hold():
         GraphStore.from_networkx(keyed)
 
 
+@pytest.mark.parametrize(
+    "where, name, value",
+    [
+        ("edge", "path", np.array([[1, 1, 1], [1, 2, 1]])),  # six numbers: not three pixels
+        ("edge", "world", np.zeros((2, 3))),
+        ("vertex", "pixel", (1, 1, 0)),
+        ("vertex", "world", (0.0, 0.0, 0.0)),
+        ("vertex", "pixels", np.array([[1, 1, 0, 2]])),
+    ],
+)
+def test_from_networkx_refuses_points_that_are_not_pairs(where, name, value):
+    g = skeleton_to_graph(T)
+    owner = g.edges[0, 1, 0] if where == "edge" else g.nodes[0]
+    owner[name] = value
+    at = r"edge 0-1 \(key 0\)" if where == "edge" else "vertex 0"
+    with pytest.raises(
+        ValueError, match=rf"graph: expected {at} to have '{name}' of shape \(K, 2\)"
+    ):
+        GraphStore.from_networkx(g)
+
+
 def test_pruned_graphs_round_trip():
     skel = art("""
         ..........
@@ -665,7 +686,7 @@ def test_from_networkx_refuses_waypoints_on_only_some_edges():
     odd = skeleton_to_graph(T)
     for _, _, d in odd.edges(data=True):
         d["waypoints"] = np.zeros((2, 3))
-    with pytest.raises(ValueError, match=r"graph: expected edge .* waypoints of shape \(K, 2\)"):
+    with pytest.raises(ValueError, match=r"graph: expected edge .* 'waypoints' of shape \(K, 2\)"):
         GraphStore.from_networkx(odd)
 
 

@@ -577,8 +577,10 @@ class GraphStore:
             raise ValueError(
                 f"graph: expected vertex kinds in {tuple(KIND_CODES)}, received {exc}"
             ) from None
-        members = [np.asarray(d["pixels"]).reshape(-1, 2) for d in nodes]
-        pixel = np.array([d["pixel"] for d in nodes], dtype=np.int64).reshape(-1, 2)
+        vertices = [f"vertex {n}" for n in ids]
+        members = _pair_runs([d["pixels"] for d in nodes], np.int64, vertices, "pixels")
+        pixel = _pair_rows([d["pixel"] for d in nodes], np.int64, vertices, "pixel")
+        node_world = _pair_rows([d["world"] for d in nodes], np.float64, vertices, "world")
         own = all(m.shape[0] == 1 for m in members) and (
             not members or np.array_equal(np.concatenate(members), pixel)
         )
@@ -589,18 +591,20 @@ class GraphStore:
             _exact(d, names, f"edge {u}-{v} (key {k!r})")
             if isinstance(k, bool) or not isinstance(k, numbers.Integral):
                 raise TypeError(f"graph: expected integer edge keys, received {k!r}")
-        paths = [np.asarray(d["path"]).reshape(-1, 2) for _, _, _, d in edges]
+        names = [f"edge {u}-{v} (key {k!r})" for u, v, k, _ in edges]
+        paths = _pair_runs([d["path"] for *_, d in edges], np.int64, names, "path")
+        worlds = _pair_runs([d["world"] for *_, d in edges], np.float64, names, "world")
         lens = [p.shape[0] for p in paths]
         return cls(
             node_pixel=pixel,
             node_kind=np.array(kinds, dtype=np.int8),
-            node_world=np.array([d["world"] for d in nodes], dtype=np.float64).reshape(-1, 2),
+            node_world=node_world,
             node_clearance_m=np.array([d["clearance_m"] for d in nodes], dtype=np.float64),
             edge_u=np.array([index[u] for u, _, _, _ in edges], dtype=np.int64),
             edge_v=np.array([index[v] for _, v, _, _ in edges], dtype=np.int64),
             path_offsets=np.concatenate([[0], np.cumsum(lens, dtype=np.int64)]),
             path_pixels=_stacked(paths, np.int64),
-            path_world=_stacked([d["world"] for _, _, _, d in edges], np.float64),
+            path_world=_stacked(worlds, np.float64),
             edge_length_m=_floats(edges, "length_m"),
             edge_min_clearance_m=_floats(edges, "min_clearance_m"),
             edge_mean_clearance_m=_floats(edges, "mean_clearance_m"),
@@ -647,21 +651,55 @@ def _edge_waypoints(edges: list) -> list[np.ndarray] | None:
             f"graph: expected 'waypoints' on every edge or on none, received {have} of "
             f"{len(edges)} edges with them (not edge {u}-{v} (key {k!r}))"
         )
-    out = []
-    for u, v, k, d in edges:
-        try:
-            points = np.asarray(d["waypoints"], dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            points, why = None, f"{type(d['waypoints']).__name__} ({exc})"
-        else:
-            why = f"shape {points.shape}"
-        if points is None or points.ndim != 2 or points.shape[1] != 2:
-            raise ValueError(
-                f"graph: expected edge {u}-{v} (key {k!r}) to have waypoints of shape "
-                f"(K, 2) of real numbers, received {why}"
-            )
-        out.append(points)
-    return out
+    names = [f"edge {u}-{v} (key {k!r})" for u, v, k, _ in edges]
+    return _pair_runs([d["waypoints"] for *_, d in edges], np.float64, names, "waypoints")
+
+
+def _pair_rows(values: list, dtype, wheres: list, name: str) -> np.ndarray:
+    """``values`` (one pair each) as a ``dtype`` array (n, 2); ValueError naming
+    ``wheres[i]``'s ``name`` for the first that is not a pair of numbers."""
+    if not values:
+        return np.zeros((0, 2), dtype=dtype)
+    try:
+        rows = np.array(values, dtype=dtype)
+    except (TypeError, ValueError, OverflowError):
+        rows = None
+    if rows is not None and rows.ndim == 2 and rows.shape[1] == 2:
+        return rows
+    for value, where in zip(values, wheres, strict=True):
+        _pairs([value], dtype, where, name)
+    raise AssertionError("unreachable: a row that is no pair was found above")
+
+
+def _pair_runs(values: list, dtype, wheres: list, name: str) -> list[np.ndarray]:
+    """Each of ``values`` as a ``dtype`` array (K, 2), checked as :func:`_pairs` checks
+    one (``wheres[i]`` names the owner of ``values[i]``), in one pass where all are."""
+    try:
+        runs = [np.asarray(v, dtype=dtype) for v in values]
+    except (TypeError, ValueError, OverflowError):
+        runs = None
+    if runs is not None and all(r.ndim == 2 and r.shape[1] == 2 for r in runs):
+        return runs
+    return [_pairs(v, dtype, w, name) for v, w in zip(values, wheres, strict=True)]
+
+
+def _pairs(value, dtype, where: str, name: str) -> np.ndarray:
+    """``value`` as a ``dtype`` array (K, 2) (an empty one as (0, 2)); ValueError naming
+    ``where``'s ``name`` when it is not one: a (K, 3) array is not taken apart into pairs."""
+    try:
+        points = np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError, OverflowError) as exc:
+        points, why = None, f"{type(value).__name__} ({exc})"
+    else:
+        why = f"shape {points.shape}"
+        if points.size == 0:
+            return points.reshape(0, 2)
+    if points is None or points.ndim != 2 or points.shape[1] != 2:
+        raise ValueError(
+            f"graph: expected {where} to have {name!r} of shape (K, 2) of real numbers, "
+            f"received {why}"
+        )
+    return points
 
 
 def _run_offsets(runs: list[np.ndarray]) -> np.ndarray:
@@ -673,7 +711,7 @@ def _stacked(arrays: list, dtype) -> np.ndarray:
     """Row-wise concatenation of (K, 2) arrays as ``dtype`` (0, 2) when there are none."""
     if not arrays:
         return np.zeros((0, 2), dtype=dtype)
-    return np.concatenate([np.asarray(a, dtype=dtype).reshape(-1, 2) for a in arrays])
+    return np.concatenate([np.asarray(a, dtype=dtype) for a in arrays])
 
 
 def _floats(edges: list, name: str) -> np.ndarray:
