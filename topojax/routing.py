@@ -13,13 +13,13 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
+from ._route import Route, narrowest_m, recorded_clearance_m
 from ._sight import sees as _sees
 from ._validate import (
     finite_pair,
     nonnegative_metres,
     one_of,
     plain_length_m,
-    positive_metres,
     real_array,
     real_values,
     robot_radius,
@@ -30,11 +30,10 @@ from .graph import (
     graph_resolution_m,
     holds,
     pixel_less,
-    polyline_keep,
     scaled_cumulative,
 )
 from .graph.geometry import check_corridor_graph, why_empty
-from .io import as_multigraph, jsonable
+from .io import as_multigraph
 from .maps import map_argument
 from .maps.occupancy import map_mismatch
 
@@ -76,101 +75,12 @@ class NoRouteError(nx.NetworkXNoPath):
 
 
 @dataclass(frozen=True)
-class Route:
-    """A route along a topology graph.
-
-    Attributes
-    ----------
-    length_m : float
-        Length along the graph from the snapped start to the snapped goal, metres: the
-        sum of the ``length_m`` of the edges (and edge parts) it runs along.  Inside a
-        merged junction cluster (a vertex of several pixels) the step from one edge's
-        end pixel to the next edge's start pixel costs nothing, as the graph's vertex is
-        one point, so there the polyline of ``world`` is a little longer (at most the
-        cluster's extent per cluster passed).
-    pixels : int32 array, shape (n, 2)
-        The skeleton pixels of the route in order, ``[row, col]``; ``pixels[0]`` is the
-        snapped start, ``pixels[-1]`` the snapped goal.  Consecutive pixels are
-        8-neighbours, except inside a junction cluster merged into one vertex
-        (``merge_junction_clusters=True``), where the route goes from the pixel one
-        edge ends at to the pixel the next starts at.
-    world : float64 array, shape (n, 2)
-        ``x, y`` of those pixels in metres.
-    vertices : tuple
-        Ids of the graph vertices the route passes through, in order (empty when it stays
-        on one edge or at one vertex).
-    edges : tuple of (u, v, key)
-        Graph edges the route runs along, in order, the first and last possibly in part;
-        ``u`` is the vertex the edge's ``path`` starts at, whichever way the route runs.
-    start_snap_m, goal_snap_m : float
-        Distance from the start (goal) query point to ``pixels[0]`` (``pixels[-1]``),
-        metres.
-    """
-
-    length_m: float
-    pixels: np.ndarray
-    world: np.ndarray
-    vertices: tuple
-    edges: tuple
-    start_snap_m: float
-    goal_snap_m: float
-
-    def waypoints(self, *, tolerance_m: float = 0.1) -> np.ndarray:
-        """The route's world polyline thinned to waypoints (Douglas–Peucker): every pixel
-        of the route lies within ``tolerance_m`` of the straight segments between them, so
-        a segment may pass up to ``tolerance_m`` closer to a wall than the route's pixels.
-
-        Parameters
-        ----------
-        tolerance_m : float
-            Largest distance from a route pixel to the waypoint polyline, metres (> 0).
-
-        Returns
-        -------
-        float64 array, shape (m, 2)
-            ``x, y`` in metres; the first and last are the route's ends.
-
-        Raises
-        ------
-        TypeError
-            If ``tolerance_m`` is not a number.
-        ValueError
-            If it is not finite and > 0.
-        """
-        tol = positive_metres("tolerance_m", tolerance_m)
-        return self.world[polyline_keep(self.world, tol)]
-
-    def to_geojson(self, *, tolerance_m: float | None = None) -> dict:
-        """The route as a GeoJSON ``Feature``: a ``LineString`` of its world coordinates
-        (``x, y`` in metres, the map's frame, as :func:`topojax.save_graph` writes
-        graphs) with ``length_m``, the snap distances and the vertices as properties.
-        With ``tolerance_m``, the line holds the :meth:`waypoints` instead of every
-        pixel.  A route of one pixel (start and goal snapped together) repeats it: a GeoJSON
-        ``LineString`` needs two positions.  Coordinates are rounded to 1e-9 m, a
-        thousandth of the finest pixel a map may have (1e-6 m), so that ``5.675`` is
-        written, not the float noise ``5.675000000000001``."""
-        line = self.world if tolerance_m is None else self.waypoints(tolerance_m=tolerance_m)
-        if len(line) == 1:  # start and goal on one pixel: RFC 7946 wants two positions
-            line = np.concatenate([line, line])
-        xy = [[round(x, 9), round(y, 9)] for x, y in line.tolist()]  # correctly rounded
-        return {
-            "type": "Feature",
-            "geometry": {"type": "LineString", "coordinates": xy},
-            "properties": {
-                "length_m": self.length_m,
-                "start_snap_m": self.start_snap_m,
-                "goal_snap_m": self.goal_snap_m,
-                "vertices": [jsonable(v, "vertex id") for v in self.vertices],
-            },
-        }
-
-
-@dataclass(frozen=True)
 class _Snap:
     edge: int  # index into the planner's edges, or -1 for a vertex without edges
     index: int  # position on the edge's path (or 0)
     vertex: object  # the vertex (node id) for edge == -1, else None
     distance_m: float
+    feasible: bool | None = None  # the leg to it fits the robot (None: without the map)
 
 
 class RoutePlanner:
@@ -194,7 +104,8 @@ class RoutePlanner:
         legs included); an end that sees no edge so within ``entry_m`` (a robot closer to
         a wall than its radius, a goal beyond the graph's reach) joins one it sees along a
         straight line over pixels that are not occupied, up to ``entry_m`` farther than
-        the nearest point and within ``max_snap_m``, and an end that sees none so is an
+        the nearest point and within ``max_snap_m`` (the route's ``start_leg_feasible``
+        or ``goal_leg_feasible`` is then False), and an end that sees none so is an
         error (:meth:`route`).  Without the map every end joins at the nearest corridor
         point.
     robot_radius_m : float, optional
@@ -208,7 +119,8 @@ class RoutePlanner:
     ------
     TypeError
         ``graph`` is not an undirected networkx graph (a plain ``networkx.Graph`` is read
-        as a MultiGraph with edge keys 0), or ``occupancy`` is not an OccupancyMap.
+        as a MultiGraph with edge keys 0), ``occupancy`` is not an OccupancyMap, or an
+        edge's ``min_clearance_m`` is not a number.
     ValueError
         An edge lacks ``path``, ``world`` or ``length_m`` (a room graph is named as one),
         or its path does not start and end at its vertices; the lengths add up to over
@@ -230,18 +142,22 @@ class RoutePlanner:
         self._graph = graph
         self._res = graph_resolution_m(graph)
         self._occupancy = occupancy
-        self._feasible, self._entry_m = self._entry_space(occupancy, robot_radius_m, entry_m)
+        self._feasible, self._entry_m, self._radius = self._entry_space(
+            occupancy, robot_radius_m, entry_m
+        )
         # with the map, the pixels a leg from a point the robot does not fit at may cross
         self._clear = None if occupancy is None else ~np.asarray(occupancy.occupied, bool)
         self._nodes = list(graph.nodes)
         # Per edge: node ids at the start and end of its path, key, path, world, the
-        # cumulative length along the path from its start, and its length.
+        # cumulative length along the path from its start, its length and its narrowest
+        # clearance (NaN: not recorded).
         self._u: list = []
         self._v: list = []
         self._key: list = []
         self._path: list[np.ndarray] = []
         self._world: list[np.ndarray] = []
         self._len: list[float] = []
+        self._min_clear: list[float] = []
         for a, b, key, data in graph.edges(keys=True, data=True):
             path, world, length = self._edge_arrays(a, b, key, data)
             a, b = self._oriented(a, b, key, path)
@@ -251,6 +167,8 @@ class RoutePlanner:
             self._path.append(path)
             self._world.append(world)
             self._len.append(length)
+            where = f"edge ({a!r}, {b!r}, {key!r})"
+            self._min_clear.append(recorded_clearance_m(data, "min_clearance_m", where))
         summable_lengths_m("graph: the edges' 'length_m'", self._len)  # sums stay finite
         # where each edge's pixels start in the edges' paths (or polylines) one after another
         self._sizes = np.array([len(p) for p in self._path], np.int64)
@@ -306,7 +224,8 @@ class RoutePlanner:
             subclass of :class:`networkx.NetworkXNoPath`).
         ValueError
             Bad ``start``, ``goal``, ``frame`` or ``max_snap_m`` (``TypeError`` for a
-            ``max_snap_m`` that is not a number); a point beyond ``max_snap_m``; with the
+            ``max_snap_m`` that is not a number, or a vertex's ``clearance_m`` that is not
+            one on a route along no edge); a point beyond ``max_snap_m``; with the
             map, a point on an occupied pixel, or one that sees no point of the graph
             along a straight line off the obstacles (a closet the graph does not reach);
             a graph without vertices.
@@ -331,13 +250,13 @@ class RoutePlanner:
     # ------------------------------------------------------------------ internals
     def _entry_space(self, occupancy, radius, entry_m):
         """The feasible pixels (bool (H, W)) a route may cross to join the graph away from
-        its nearest point, and how far (metres) it may go to do so; ``(None, 0.0)``
-        without a map."""
+        its nearest point, how far (metres) it may go to do so and the robot radius
+        (metres); ``(None, 0.0, None)`` without a map."""
         if occupancy is None:
             for name, value in (("robot_radius_m", radius), ("entry_m", entry_m)):
                 if value is not None:
                     raise ValueError(f"{name}: only used with occupancy=, which was not given")
-            return None, 0.0
+            return None, 0.0, None
         if not all(
             hasattr(occupancy, a) for a in ("free", "resolution_m", "origin", "world_to_pixel")
         ):
@@ -364,7 +283,7 @@ class RoutePlanner:
             entry_m = DEFAULT_ENTRY_M if entry_m is None else entry_m
             entry_m = nonnegative_metres("entry_m (the graph's 'snap_m' attribute)", entry_m)
         entry_m = nonnegative_metres("entry_m", entry_m)
-        return feasible_space(occupancy, radius).feasible, entry_m
+        return feasible_space(occupancy, radius).feasible, entry_m, radius
 
     def _snaps(
         self, point, frame: str, name: str, reach_m: float, max_snap_m: float | None
@@ -396,10 +315,10 @@ class RoutePlanner:
         if self._feasible is not None and nearest_m <= cap:
             # the nearest point itself within the second reach, whatever the rounding
             wide = (nearest_m + self._entry_m) * (1 + 1e-12) + _TIE
-            for mask, reach in ((self._feasible, reach_m), (self._clear, min(wide, cap))):
-                seen = [
-                    self._snap(owners[i], d) for i, d in self._entries(q, frame, scale, reach, mask)
-                ]
+            legs = ((True, self._feasible, reach_m), (False, self._clear, min(wide, cap)))
+            for fits, mask, reach in legs:  # the fallback's legs do not fit the robot
+                entries = self._entries(q, frame, scale, reach, mask)
+                seen = [self._snap(owners[i], d, fits) for i, d in entries]
                 if seen:  # a clear leg exists: none through a wall to a nearer point
                     return seen
             raise ValueError(
@@ -436,9 +355,10 @@ class RoutePlanner:
             return qp, (-1, -1)
         return qp, (int(own[0]), int(own[1]))
 
-    def _snap(self, owner, distance_m: float) -> _Snap:
+    def _snap(self, owner, distance_m: float, feasible: bool | None = None) -> _Snap:
         edge, index, vertex = (int(x) for x in owner)
-        return _Snap(edge, index, self._nodes[vertex] if edge < 0 else None, distance_m)
+        node = self._nodes[vertex] if edge < 0 else None
+        return _Snap(edge, index, node, distance_m, feasible)
 
     def _entries(
         self, q: np.ndarray, frame: str, scale: float, reach_m: float, mask: np.ndarray
@@ -691,6 +611,7 @@ class RoutePlanner:
         rows: list[np.ndarray] = []
         xys: list[np.ndarray] = []
         edges: list[tuple] = []
+        along: list[int] = []  # the edges run along, by index
         last = None
         for e, i, j in pieces:
             n = len(self._path[e])
@@ -706,6 +627,7 @@ class RoutePlanner:
             xys.append(w)
             if i != j:  # the piece runs along the edge (not only its end pixel)
                 edges.append((self._u[e], self._v[e], self._key[e]))
+                along.append(e)
         if not rows:  # start and goal on the same vertex without edges
             data = self._graph.nodes[s.vertex]
             pixel = np.asarray(data.get("pixel", (0, 0)), np.int64).reshape(1, 2)
@@ -721,6 +643,24 @@ class RoutePlanner:
             edges=tuple(edges),
             start_snap_m=s.distance_m,
             goal_snap_m=g.distance_m,
+            start_leg_feasible=s.feasible,
+            goal_leg_feasible=g.feasible,
+            min_clearance_m=self._narrowest(along, vertices, s),
+            robot_radius_m=self._radius,
+        )
+
+    def _narrowest(self, along: list[int], vertices, s: _Snap) -> float:
+        """The narrowest clearance (metres) of the edges ``along`` (indices) a route runs
+        along; for a route along none, that of the vertices it passes (or the start's
+        edgeless vertex), else of the edge it stands on (NaN: not recorded)."""
+        if along:
+            return narrowest_m(self._min_clear[e] for e in along)
+        nodes = list(vertices) if vertices else ([s.vertex] if s.edge < 0 else [])
+        if not nodes:
+            return self._min_clear[s.edge]
+        return narrowest_m(
+            recorded_clearance_m(self._graph.nodes[n], "clearance_m", f"vertex {n!r}")
+            for n in nodes
         )
 
     def _where(self, snap: _Snap) -> str:

@@ -1,0 +1,153 @@
+"""What a route says about its robot's safety: whether each end's leg to the graph is one
+the robot fits along, and the narrowest clearance of the corridors it runs along."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import networkx as nx
+import numpy as np
+import pytest
+from scipy.ndimage import distance_transform_edt
+from skimage.morphology import skeletonize
+from view_cases import wall_between
+
+import topojax as tj
+from topojax.graph import skeleton_to_graph
+from topojax.routing import RoutePlanner, plan_route
+
+# 0.1 m pixels.  Room A (rows 3-13, columns 1-12) has a closet one pixel wide in the wall
+# above it (rows 1-2, column 7), a door two pixels wide (rows 5-6) along a corridor to
+# room B (columns 18-29) and a wide way down (columns 3-12) to room C.
+ROOMS = """
+##############################
+#######.######################
+#######.######################
+#............#################
+#............#####...........#
+#............................#
+#............................#
+#............#####...........#
+#............#####...........#
+#............#####...........#
+#............#####...........#
+#............#####...........#
+#............#####...........#
+#............#####...........#
+###..........#################
+###..........#################
+###..........#################
+#..............###############
+#..............###############
+#..............###############
+#..............###############
+#..............###############
+#..............###############
+#..............###############
+#..............###############
+##############################
+"""
+ROBOT_M = 0.25  # wider than the door (0.1 m from its walls), narrower than the rest
+ROOM_A, ROOM_B, ROOM_C, CLOSET, DOOR = (8, 6), (8, 24), (22, 8), (2, 7), (5, 15)
+
+
+def rooms():
+    """The map of :data:`ROOMS` and its topology graph: the skeleton of its free space,
+    whose edges carry the clearance (distance to the nearest obstacle) of their pixels."""
+    occupied = np.array([[ch == "#" for ch in line] for line in ROOMS.strip().splitlines()])
+    m = tj.OccupancyMap.from_array(occupied, resolution_m=0.1)
+    free = ~occupied
+    g = skeleton_to_graph(
+        skeletonize(free),
+        clearance_px=distance_transform_edt(free),
+        resolution_m=0.1,
+        pixel_to_world=m.pixel_to_world,
+    )
+    return m, g
+
+
+def narrowest(g, route) -> float:
+    return min(g.edges[e]["min_clearance_m"] for e in route.edges)
+
+
+def test_a_route_through_a_door_narrower_than_the_robot_says_how_narrow():
+    m, g = rooms()
+    planner = RoutePlanner(g, occupancy=m, robot_radius_m=ROBOT_M)
+    through = planner.route(ROOM_C, ROOM_B, frame="pixel")
+    assert through.min_clearance_m == pytest.approx(0.1)  # the door: 1 pixel either side
+    assert through.min_clearance_m == narrowest(g, through) < ROBOT_M
+    assert through.robot_radius_m == ROBOT_M
+    assert through.start_leg_feasible is True and through.goal_leg_feasible is True
+    wide = planner.route(ROOM_C, ROOM_A, frame="pixel")
+    assert wide.min_clearance_m == narrowest(g, wide) >= ROBOT_M
+    # without the map (other joins), the clearance is still the graph's
+    plain = RoutePlanner(g).route(ROOM_C, ROOM_B, frame="pixel")
+    assert plain.min_clearance_m == narrowest(g, plain) == through.min_clearance_m
+
+
+def test_a_point_in_a_closet_only_the_fallback_reaches_says_the_robot_does_not_fit():
+    m, g = rooms()
+    planner = RoutePlanner(g, occupancy=m, robot_radius_m=ROBOT_M)
+    for inside in (CLOSET, DOOR):  # no pixel of either fits the robot
+        r = planner.route(inside, ROOM_A, frame="pixel")
+        assert r.start_leg_feasible is False and r.goal_leg_feasible is True
+        r = planner.route(ROOM_A, inside, frame="pixel")
+        assert r.start_leg_feasible is True and r.goal_leg_feasible is False
+    # as the documented fallback of a robot closer to a wall than its radius
+    m, g = wall_between()
+    r = RoutePlanner(g, occupancy=m).route((5, 19), (5, 25), frame="pixel")
+    assert r.start_snap_m == pytest.approx(0.9)
+    assert r.start_leg_feasible is False
+    assert r.robot_radius_m == 0.25  # the graph's
+
+
+def test_a_route_planned_without_the_map_knows_no_leg_and_no_robot():
+    m, g = rooms()
+    r = plan_route(g, CLOSET, ROOM_B, frame="pixel")
+    assert r.start_leg_feasible is None and r.goal_leg_feasible is None
+    assert r.robot_radius_m is None
+    assert r.min_clearance_m == narrowest(g, r)
+    # edges built without clearances (NaN), or recording none: unknown
+    bare = skeleton_to_graph(skeletonize(~m.occupied), resolution_m=0.1)
+    assert math.isnan(plan_route(bare, ROOM_C, ROOM_B, frame="pixel").min_clearance_m)
+    for *_, d in bare.edges(data=True):
+        del d["min_clearance_m"]
+    assert math.isnan(plan_route(bare, ROOM_C, ROOM_B, frame="pixel").min_clearance_m)
+    # one edge known, one not: the narrowest is not known
+    known = plan_route(g, ROOM_C, ROOM_B, frame="pixel")
+    g.edges[known.edges[0]]["min_clearance_m"] = math.nan
+    assert math.isnan(plan_route(g, ROOM_C, ROOM_B, frame="pixel").min_clearance_m)
+    # a value that is not a number is refused, naming the edge
+    g.edges[known.edges[0]]["min_clearance_m"] = "narrow"
+    with pytest.raises(TypeError, match=r"^graph: edge .*: 'min_clearance_m': expected a real"):
+        RoutePlanner(g)
+
+
+def test_a_route_along_no_edge_takes_the_clearance_where_it_stands():
+    m, g = rooms()
+    e, d = next((e, d) for e, d in g.edges.items() if len(d["path"]) > 2)
+    inner = tuple(int(v) for v in d["path"][1])
+    r = plan_route(g, inner, inner, frame="pixel")
+    assert r.edges == () and r.min_clearance_m == d["min_clearance_m"]
+    n, nd = next(iter(g.nodes(data=True)))
+    r = plan_route(g, nd["pixel"], nd["pixel"], frame="pixel")
+    assert r.edges == () and r.min_clearance_m == nd["clearance_m"]
+    lone = nx.MultiGraph(resolution_m=0.1)
+    lone.add_node(0, pixel=(1, 1), world=(0.15, 0.15), clearance_m=0.3)
+    assert plan_route(lone, (0.15, 0.15), (0.15, 0.15)).min_clearance_m == 0.3
+    lone.nodes[0].pop("clearance_m")
+    assert math.isnan(plan_route(lone, (0.15, 0.15), (0.15, 0.15)).min_clearance_m)
+
+
+def test_the_geojson_of_a_route_carries_what_it_says_about_the_robot():
+    m, g = rooms()
+    r = plan_route(g, CLOSET, ROOM_B, frame="pixel", occupancy=m, robot_radius_m=ROBOT_M)
+    props = json.loads(json.dumps(r.to_geojson()))["properties"]
+    assert props["start_leg_feasible"] is False and props["goal_leg_feasible"] is True
+    assert props["min_clearance_m"] == r.min_clearance_m and props["robot_radius_m"] == ROBOT_M
+    bare = skeleton_to_graph(skeletonize(~m.occupied), resolution_m=0.1)
+    props = plan_route(bare, ROOM_C, ROOM_B, frame="pixel").to_geojson()["properties"]
+    assert props["start_leg_feasible"] is None and props["goal_leg_feasible"] is None
+    assert props["min_clearance_m"] is None and props["robot_radius_m"] is None
+    json.dumps(props, allow_nan=False)  # valid JSON: no NaN

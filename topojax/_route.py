@@ -1,0 +1,165 @@
+"""The route :class:`topojax.routing.RoutePlanner` returns, and what it says of the robot's
+safety: whether each end's straight leg fits the robot, and the narrowest clearance of
+the graph's corridors it runs along."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._validate import is_real_number, positive_metres
+from .graph import polyline_keep
+from .io import jsonable
+
+
+@dataclass(frozen=True)
+class Route:
+    """A route along a topology graph.
+
+    Attributes
+    ----------
+    length_m : float
+        Length along the graph from the snapped start to the snapped goal, metres: the
+        sum of the ``length_m`` of the edges (and edge parts) it runs along.  Inside a
+        merged junction cluster (a vertex of several pixels) the step from one edge's
+        end pixel to the next edge's start pixel costs nothing, as the graph's vertex is
+        one point, so there the polyline of ``world`` is a little longer (at most the
+        cluster's extent per cluster passed).
+    pixels : int32 array, shape (n, 2)
+        The skeleton pixels of the route in order, ``[row, col]``; ``pixels[0]`` is the
+        snapped start, ``pixels[-1]`` the snapped goal.  Consecutive pixels are
+        8-neighbours, except inside a junction cluster merged into one vertex
+        (``merge_junction_clusters=True``), where the route goes from the pixel one
+        edge ends at to the pixel the next starts at.
+    world : float64 array, shape (n, 2)
+        ``x, y`` of those pixels in metres.
+    vertices : tuple
+        Ids of the graph vertices the route passes through, in order (empty when it stays
+        on one edge or at one vertex).
+    edges : tuple of (u, v, key)
+        Graph edges the route runs along, in order, the first and last possibly in part;
+        ``u`` is the vertex the edge's ``path`` starts at, whichever way the route runs.
+    start_snap_m, goal_snap_m : float
+        Distance from the start (goal) query point to ``pixels[0]`` (``pixels[-1]``),
+        metres.
+    start_leg_feasible, goal_leg_feasible : bool or None
+        Planned with the map: True when the straight leg from the start (goal) query
+        point to ``pixels[0]`` (``pixels[-1]``) runs over pixels where a robot of
+        ``robot_radius_m`` fits; False when no such leg reached the graph and the route
+        took the fallback, a leg over pixels that are only not occupied (free or
+        unknown), along which the robot may touch an obstacle (a point closer to a wall
+        than the radius, or in a pocket narrower than the robot).  None when planned
+        without the map: nothing is known of the legs.
+    min_clearance_m : float
+        Narrowest clearance (distance to the nearest obstacle) along the route's graph
+        part, metres: the least ``min_clearance_m`` of its ``edges``.  The graph records
+        one value per edge, so the first and last edge, run along in part, count with
+        their whole length, and the route's own pixels there may be wider.  A route
+        along no edge (one pixel) takes the ``clearance_m`` of the vertex it stands at,
+        else the ``min_clearance_m`` of the edge it lies on.  NaN when any of those is
+        not recorded (a graph built without clearances).  Below ``robot_radius_m``, the
+        route runs through a corridor narrower than the robot (a topology graph's
+        corridors are not chosen for a robot; a route graph's keep its radius).
+    robot_radius_m : float or None
+        Robot radius the legs were planned for, metres; None when planned without the
+        map.
+    """
+
+    length_m: float
+    pixels: np.ndarray
+    world: np.ndarray
+    vertices: tuple
+    edges: tuple
+    start_snap_m: float
+    goal_snap_m: float
+    start_leg_feasible: bool | None = field(default=None, kw_only=True)
+    goal_leg_feasible: bool | None = field(default=None, kw_only=True)
+    min_clearance_m: float = field(default=math.nan, kw_only=True)
+    robot_radius_m: float | None = field(default=None, kw_only=True)
+
+    def waypoints(self, *, tolerance_m: float = 0.1) -> np.ndarray:
+        """The route's world polyline thinned to waypoints (Douglas–Peucker): every pixel
+        of the route lies within ``tolerance_m`` of the straight segments between them, so
+        a segment may pass up to ``tolerance_m`` closer to a wall than the route's pixels.
+
+        Parameters
+        ----------
+        tolerance_m : float
+            Largest distance from a route pixel to the waypoint polyline, metres (> 0).
+
+        Returns
+        -------
+        float64 array, shape (m, 2)
+            ``x, y`` in metres; the first and last are the route's ends.
+
+        Raises
+        ------
+        TypeError
+            If ``tolerance_m`` is not a number.
+        ValueError
+            If it is not finite and > 0.
+        """
+        tol = positive_metres("tolerance_m", tolerance_m)
+        return self.world[polyline_keep(self.world, tol)]
+
+    def to_geojson(self, *, tolerance_m: float | None = None) -> dict:
+        """The route as a GeoJSON ``Feature``: a ``LineString`` of its world coordinates
+        (``x, y`` in metres, the map's frame, as :func:`topojax.save_graph` writes
+        graphs) with ``length_m``, the snap distances, the vertices and what the route
+        says of the robot (whether each leg is feasible, ``min_clearance_m``, null when
+        unknown, and ``robot_radius_m``) as properties.
+        With ``tolerance_m``, the line holds the :meth:`waypoints` instead of every
+        pixel.  A route of one pixel (start and goal snapped together) repeats it: a GeoJSON
+        ``LineString`` needs two positions.  Coordinates are rounded to 1e-9 m, a
+        thousandth of the finest pixel a map may have (1e-6 m), so that ``5.675`` is
+        written, not the float noise ``5.675000000000001``."""
+        line = self.world if tolerance_m is None else self.waypoints(tolerance_m=tolerance_m)
+        if len(line) == 1:  # start and goal on one pixel: RFC 7946 wants two positions
+            line = np.concatenate([line, line])
+        xy = [[round(x, 9), round(y, 9)] for x, y in line.tolist()]  # correctly rounded
+        clear = None if math.isnan(self.min_clearance_m) else self.min_clearance_m  # JSON
+        return {
+            "type": "Feature",
+            "geometry": {"type": "LineString", "coordinates": xy},
+            "properties": {
+                "length_m": self.length_m,
+                "start_snap_m": self.start_snap_m,
+                "goal_snap_m": self.goal_snap_m,
+                "vertices": [jsonable(v, "vertex id") for v in self.vertices],
+                "start_leg_feasible": self.start_leg_feasible,
+                "goal_leg_feasible": self.goal_leg_feasible,
+                "min_clearance_m": None if math.isnan(self.min_clearance_m) else clear,
+                "robot_radius_m": self.robot_radius_m,
+            },
+        }
+
+
+def recorded_clearance_m(data: dict, name: str, where: str) -> float:
+    """The clearance (metres) an edge's or vertex's attributes ``data`` record under
+    ``name`` (``min_clearance_m``, ``clearance_m``), NaN when none is (or it is NaN).
+
+    Raises
+    ------
+    TypeError
+        If the value is not a real number; ``where`` names the edge or vertex.
+    """
+    value = data.get(name)
+    if value is None:
+        return math.nan
+    if not is_real_number(value):
+        raise TypeError(
+            f"graph: {where}: {name!r}: expected a real number of metres (NaN: unknown), "
+            f"received {type(value).__name__} {value!r}"
+        )
+    return float(value)
+
+
+def narrowest_m(clearances) -> float:
+    """The least of the clearances (metres), NaN when any is NaN (the narrowest is then
+    not known) or there are none."""
+    values = list(clearances)
+    if not values or any(math.isnan(v) for v in values):
+        return math.nan
+    return min(values)
