@@ -151,3 +151,49 @@ def test_the_geojson_of_a_route_carries_what_it_says_about_the_robot():
     assert props["start_leg_feasible"] is None and props["goal_leg_feasible"] is None
     assert props["min_clearance_m"] is None and props["robot_radius_m"] is None
     json.dumps(props, allow_nan=False)  # valid JSON: no NaN
+
+
+def test_route_command_warns_of_a_fallback_leg_and_a_corridor_narrower_than_the_robot(
+    tmp_path, capsys
+):
+    import cv2
+
+    from topojax.cli import main
+
+    m, g = rooms()
+    graph_file = tj.save_graph(g, tmp_path / "rooms.json")
+    map_file = tmp_path / "rooms.png"
+    cv2.imwrite(str(map_file), np.where(m.occupied, 0, 255).astype(np.uint8))
+    out = tmp_path / "route.geojson"
+    given = ["--map", str(map_file), "--resolution", "0.1", "--robot-radius", str(ROBOT_M)]
+
+    def route(start, goal, *extra):
+        points = ["--pixel", "--start", *map(str, start), "--goal", *map(str, goal)]
+        assert main(["route", str(graph_file), *points, *extra]) == 0
+        return capsys.readouterr()
+
+    calm = route(ROOM_C, ROOM_A, *given)
+    assert "warning" not in calm.err and "warning" not in calm.out
+    told = route(ROOM_C, ROOM_B, *given, "-o", str(out))
+    (line,) = told.err.splitlines()
+    assert line == (
+        "topojax route: warning: the route runs along a corridor 0.100 m from the nearest "
+        "obstacle at its narrowest, less than the robot radius 0.25 m"
+    )
+    props = json.loads(out.read_text())["properties"]
+    assert props["min_clearance_m"] == pytest.approx(0.1) and props["robot_radius_m"] == ROBOT_M
+    assert props["start_leg_feasible"] is True and props["goal_leg_feasible"] is True
+    told = route(DOOR, ROOM_A, *given)
+    want = plan_route(g, DOOR, ROOM_A, frame="pixel", occupancy=m, robot_radius_m=ROBOT_M)
+    assert told.err.splitlines() == [
+        "topojax route: warning: start: no straight line from it to the graph within reach "
+        "fits the robot (radius 0.25 m): it joins the graph "
+        f"{want.start_snap_m:.3f} m away over pixels that are only not occupied (free or "
+        "unknown)"
+    ]
+    told = route(ROOM_A, CLOSET, *given)  # along the closet's own edge, 0.1 m wide
+    (leg, narrow) = told.err.splitlines()
+    assert leg.startswith("topojax route: warning: goal: no straight line from it")
+    assert narrow.startswith("topojax route: warning: the route runs along a corridor 0.100 m")
+    # without the map nothing is known of the robot: no warning
+    assert route(CLOSET, ROOM_B).err == ""

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
+import warnings
 from pathlib import Path
 
 from ._options import (
@@ -101,6 +103,33 @@ def _map_options_given(args) -> list[str]:
     ]
     extra = (("--robot-radius", args.robot_radius), ("--entry-m", args.entry_m))
     return given + [option for option, value in extra if value is not None]
+
+
+def _unsafe(route) -> list[str]:
+    """What makes ``route`` unsafe for the robot it was planned for (with ``--map``): an
+    end joined along the fallback leg, a corridor narrower than the robot's radius."""
+    from ..fields.clearance import clearance_at_least
+
+    radius = route.robot_radius_m
+    if radius is None:  # planned without the map: no robot to compare with
+        return []
+    found = [
+        f"{end}: no straight line from it to the graph within reach fits the robot (radius "
+        f"{radius:g} m): it joins the graph {snap_m:.3f} m away over pixels that are only "
+        "not occupied (free or unknown)"
+        for end, fits, snap_m in (
+            ("start", route.start_leg_feasible, route.start_snap_m),
+            ("goal", route.goal_leg_feasible, route.goal_snap_m),
+        )
+        if fits is False
+    ]
+    clear = route.min_clearance_m
+    if not math.isnan(clear) and not clearance_at_least(clear, radius):
+        found.append(
+            f"the route runs along a corridor {clear:.3f} m from the nearest obstacle at its "
+            f"narrowest, less than the robot radius {radius:g} m"
+        )
+    return found
 
 
 def _cmd_route(args) -> int:
@@ -202,6 +231,8 @@ def _cmd_route(args) -> int:
         f"{counted(len(route.edges), 'edge')}"
     )
     print(f"snapped    start {route.start_snap_m:.3f} m, goal {route.goal_snap_m:.3f} m away")
+    for text in _unsafe(route):
+        warnings.warn(text, UserWarning, stacklevel=2)
     if args.out:
         from .._fs import atomic_write_bytes
 
