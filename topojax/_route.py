@@ -130,7 +130,7 @@ class Route:
                 "vertices": [jsonable(v, "vertex id") for v in self.vertices],
                 "start_leg_feasible": self.start_leg_feasible,
                 "goal_leg_feasible": self.goal_leg_feasible,
-                "min_clearance_m": None if math.isnan(self.min_clearance_m) else clear,
+                "min_clearance_m": clear,
                 "robot_radius_m": self.robot_radius_m,
             },
         }
