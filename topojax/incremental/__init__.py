@@ -7,6 +7,7 @@ stage: ``docs/incremental-exactness.md``.
 """
 
 from .._jit import trace_counts
+from ._extent import BOUNDS as EXTENT_BOUNDS
 from ._extent import ExtentError
 from ._rethin import thin_components
 from ._rooms import RoomsUpdate, current_room_labels, keeps_rooms
@@ -18,6 +19,7 @@ from .state import STATE_FORMAT, STATE_VERSION
 
 __all__ = [
     "ExportBudgetError",
+    "EXTENT_BOUNDS",
     "ExtentError",
     "STATE_FORMAT",
     "STATE_VERSION",
