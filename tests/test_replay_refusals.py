@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from topojax._replay_skips import SkippedScans
 from topojax._replay_state import ReplayProgress, skipped_message
 from topojax.cli import main
 from topojax.incremental import ExtentError, IncrementalMapper
@@ -137,8 +138,10 @@ def test_a_resumed_replay_names_the_bounds_the_stopped_one_met(tmp_path, monkeyp
 def test_refusals_recorded_without_their_bounds_name_none():
     """A state saved by an older topojax records the refusals without their bounds: those
     are not known, and the summary names no bound for them."""
-    progress = ReplayProgress(5, ["scan 1 of the log: refused", "scan 3 of the log: refused"])
-    assert progress.skipped_bounds == [None, None]
+    record = {"skipped": ["scan 1 of the log: refused", "scan 3 of the log: refused"]}
+    progress = ReplayProgress(5, SkippedScans.from_record(record))
+    assert progress.skipped.bounds == [None, None]
+    assert progress.skipped.per_bound == {"unknown": 2}
     assert skipped_message(progress)[0].startswith(
         "skipped 2 of 5 scans, each refused as beyond the mapper's bounds and not mapped"
     )

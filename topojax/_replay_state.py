@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from ._animation import load_frames, save_frames
+from ._replay_skips import SkippedScans, check_replay_counts
 from ._words import counted
 
 #: Where a replay that stops part way keeps the mapper's state, in its output folder.
@@ -25,55 +26,45 @@ _HASHED_BYTES = 1 << 20  # of each end of a log file, for its fingerprint
 
 class ReplayProgress:
     """How far a replay got: ``consumed`` scans taken from the log (mapped or skipped),
-    the refusals of the ``skipped`` ones and the bound each met (``skipped_bounds``,
-    :attr:`ExtentError.bound`; None where not known: a state saved by an older topojax),
-    and ``recorded``: the scans whose updates the replay's recordings (animation, view
-    timeline, MCAP) hold; updated after every scan; ``checkpoints``: the states this
-    replay saved as it went (:class:`Checkpoints`)."""
+    ``skipped``: those refused (:class:`~topojax._replay_skips.SkippedScans`: how many,
+    per bound met, the refusals of the first and of the latest), and ``recorded``: the
+    scans whose updates the replay's recordings (animation, view timeline, MCAP) hold;
+    updated after every scan; ``checkpoints``: the states this replay saved as it went
+    (:class:`Checkpoints`)."""
 
-    __slots__ = (
-        "checkpoints",
-        "consumed",
-        "recorded",
-        "resumed_after",
-        "skipped",
-        "skipped_bounds",
-    )
+    __slots__ = ("checkpoints", "consumed", "recorded", "resumed_after", "skipped")
 
-    def __init__(
-        self,
-        consumed: int = 0,
-        skipped: list[str] | None = None,
-        skipped_bounds: list[str | None] | None = None,
-    ) -> None:
+    def __init__(self, consumed: int = 0, skipped: SkippedScans | None = None) -> None:
         self.consumed = consumed
         self.recorded = consumed
         self.resumed_after = consumed
-        self.skipped = list(skipped or [])
-        bounds = list(skipped_bounds or [])
-        if len(bounds) != len(self.skipped):  # not recorded: not known
-            bounds = [None] * len(self.skipped)
-        self.skipped_bounds = bounds
+        self.skipped = SkippedScans() if skipped is None else skipped
         self.checkpoints = 0  # saved by this replay (:class:`Checkpoints`)
 
     def skip(self, refusal: str, bound: str) -> None:
         """Count a skipped scan: its ``refusal`` and the ``bound`` it met."""
-        self.skipped.append(refusal)
-        self.skipped_bounds.append(bound)
+        self.skipped.skip(refusal, bound)
 
 
 def skipped_message(progress: ReplayProgress) -> list[str]:
     """The scans a replay skipped (refused as beyond the mapper's bounds) in one message,
-    none if none: the refusal itself for one scan, else how many of the scans taken and
-    the first refusal (the others are in the summary's ``skipped_scans``)."""
+    none if none: the refusal itself for one scan, else how many of the scans taken, the
+    bounds they met and the first refusal (the others kept are in the summary's
+    ``skipped_scans``: all, or those of the first and of the latest, as it says)."""
     skipped = progress.skipped
-    if len(skipped) <= 1:
-        return [f"skipped {m}" for m in skipped]
-    met = _bounds_met(progress.skipped_bounds)
+    if skipped.count <= 1:
+        return [f"skipped {m}" for m in skipped.texts]
+    met = _bounds_met(skipped.per_bound)
+    listed = "every refusal (skipped_scans)"
+    if skipped.left_out:
+        listed = (
+            f"the refusals of the first {skipped.first_kept} and of the latest (skipped_scans; "
+            f"the other {skipped.left_out} are left out)"
+        )
     return [
-        f"skipped {len(skipped)} of {progress.consumed} scans, each refused as beyond the "
-        f"mapper's bounds{met} and not mapped; timings.json lists every refusal "
-        f"(skipped_scans); the first: {skipped[0]}"
+        f"skipped {skipped.count} of {progress.consumed} scans, each refused as beyond the "
+        f"mapper's bounds{met} and not mapped; timings.json lists {listed}; the first: "
+        f"{skipped.texts[0]}"
     ]
 
 
@@ -87,8 +78,8 @@ _BOUNDS = {
 }
 
 
-def _bounds_met(bounds: list[str | None]) -> str:
-    """The settings among the ``bounds`` the refusals met, as ``" (max_extent_m,
+def _bounds_met(bounds) -> str:
+    """The settings among the ``bounds`` the refusals met (any collection of names), as ``" (max_extent_m,
     --max-extent-m in topojax replay; max_tile_bytes)"``; "" where none is a setting
     (pixels beyond 2^30 px from the origin, or not known)."""
     met = [name for bound, name in _BOUNDS.items() if bound in bounds]
@@ -99,7 +90,7 @@ def skipped_note(progress: ReplayProgress) -> str:
     """The scans a replay skipped, as a sentence (with a leading space) for an error that
     ends the replay before its summary, which would list them, is written; "" if none.
     Each refusal names the bound it met, so the first is quoted."""
-    skipped, n = progress.skipped, len(progress.skipped)
+    skipped, n = progress.skipped.texts, progress.skipped.count
     if n == 1:
         return f" The replay skipped one scan, refused: {skipped[0]}"
     if n:
@@ -271,7 +262,9 @@ def replay_record(
 ) -> dict:
     """What a saved state records of its replay: the log (path and fingerprint), the
     reader's options, the scans taken from the log and mapped, the refusals, and the
-    robot radius of the route graphs recorded (None: none)."""
+    robot radius of the route graphs recorded (None: none).  Of the refusals, those of
+    the first scans skipped and of the latest (:class:`~topojax._replay_skips.SkippedScans`),
+    so that it stays bounded however many scans are skipped."""
     return {
         "route_graph_radius_m": route_graph_radius_m,
         "source": str(Path(source).resolve()),
@@ -279,8 +272,7 @@ def replay_record(
         "reader_kwargs": _plain(reader_kwargs or {}),
         "consumed": int(progress.consumed),
         "mapped": int(mapper.n_scans),
-        "skipped": list(progress.skipped),
-        "skipped_bounds": list(progress.skipped_bounds),
+        **progress.skipped.record(),
     }
 
 
@@ -416,7 +408,8 @@ def _without(options: dict, keys) -> dict:
 
 def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
     """The mapper saved in ``out`` by a replay of ``source`` that stopped part way, and
-    that replay's record (``consumed``, ``mapped``, ``skipped``).
+    that replay's record (``consumed``, ``mapped``, the skipped scans: see
+    :meth:`~topojax._replay_skips.SkippedScans.from_record`), its counts checked.
 
     Raises
     ------
@@ -425,7 +418,9 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
     ValueError
         If the state is unreadable, records no replay (saved by
         :meth:`IncrementalMapper.save` or an older topojax), was made from another log,
-        with other reader options or mapper ``settings``, or took more scans than
+        with other reader options or mapper ``settings``, records counts that are no
+        counts of scans or that do not add up (a damaged state; the message names the
+        field, what was expected and what was received), or took more scans than
         ``max_scans``.
     """
     from .incremental import IncrementalMapper
@@ -468,12 +463,17 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
         _without(_plain(reader_kwargs or {}), _RESUME_FREE),
     )
     _check_same(path, "settings", _plain(json.loads(str(data["settings"]))), _plain(settings))
+    mapper = mapper_from_state(IncrementalMapper, path, data)
+    try:
+        check_replay_counts(record, mapper.n_scans)
+    except ValueError as exc:
+        raise ValueError(f"resume: {path}: {exc}") from None
     if max_scans is not None and record["consumed"] > max_scans:
         raise ValueError(
             f"resume: {path} has already taken {record['consumed']} scans from the log, "
             f"more than max_scans={max_scans}"
         )
-    return mapper_from_state(IncrementalMapper, path, data), record
+    return mapper, record
 
 
 def _rooms_every_differs(saved, now) -> str:

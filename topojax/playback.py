@@ -22,6 +22,7 @@ from ._replay_args import (
     refuse_overwriting_source,
     remove_stale,
 )
+from ._replay_skips import SkippedScans, ordered
 from ._replay_state import (
     STATE_FILE,
     Checkpoints,
@@ -152,10 +153,15 @@ def replay(
     Returns
     -------
     dict
-        ``n_scans`` (scans mapped), ``skipped_scans`` (the refusals, :class:`ExtentError`,
-        of scans that would have grown the map out of the mapper's bounds: skipped, the
-        replay goes on; both from the log's start), ``skipped_bounds`` (the bound each
-        met; None where not known), ``resumed_after`` (scans taken before this call),
+        ``n_scans`` (scans mapped), ``n_skipped`` (scans refused, :class:`ExtentError`, as
+        they would have grown the map out of the mapper's bounds: skipped, the replay
+        goes on), ``skipped_per_bound`` (how many met each bound, ``"unknown"`` for those
+        a state saved by an older topojax lists without it), ``skipped_scans`` (the
+        refusals of the first 100 skipped scans and of the latest: the others are counted,
+        not kept, so that a log far off for hours keeps the summary and the saved states
+        small; ``skipped_left_out`` counts those left out), ``skipped_bounds`` (the bound
+        each of ``skipped_scans`` met; None where not known); all from the log's start;
+        ``resumed_after`` (scans taken before this call),
         ``n_tiles``, ``vertices``, ``edges``, ``route_graph`` (its ``vertices``, ``edges``,
         ``components``, ``robot_radius_m``; None without one), ``timings`` (per loop),
         ``checkpoints`` (states saved as it went), ``written`` (paths), ``messages``.  An
@@ -300,13 +306,13 @@ def _finish(source, mapper, done, out: Path, progress_at, written, messages, pro
 
 class _Replayed(NamedTuple):
     """What mapping a log gave: the scans' reports, the animation frames, the wall time
-    of the scans (s), the refusals of skipped scans, the final graph update and its time
+    of the scans (s), the skipped scans (:class:`SkippedScans`), the final graph update and its time
     (s), the result to write, the final rooms and the final route graph (or None)."""
 
     reports: list
     frames: list
     wall_s: float
-    skipped: list
+    skipped: SkippedScans
     update: object
     final_s: float
     result: object
@@ -346,9 +352,7 @@ def _start(
     progress_at = ReplayProgress()
     if resume:
         mapper, record = resumed_mapper(out, source, reader_kwargs, settings_of(mapper), max_scans)
-        progress_at = ReplayProgress(
-            record["consumed"], record["skipped"], record.get("skipped_bounds")
-        )
+        progress_at = ReplayProgress(record["consumed"], SkippedScans.from_record(record))
     try:
         scans = read_scans(source, **(reader_kwargs or {}))
     except ValueError as exc:  # named as this function names its file
@@ -416,11 +420,11 @@ def _map_scans(
             mapper, scans, max_scans, frames, progress, record, timeline, progress_at, checkpoints
         )
         skipped = progress_at.skipped  # from the log's start
-        if not mapper.n_scans and skipped:
-            n = len(skipped)
+        if not mapper.n_scans and skipped.count:
+            n = skipped.count
             which = "the only scan replayed was" if n == 1 else f"all {counted(n, 'scan')} were"
             first = ": " if n == 1 else "; the first: "
-            raise ValueError(f"source {source}: {which} refused{first}{skipped[0]}")
+            raise ValueError(f"source {source}: {which} refused{first}{skipped.texts[0]}")
         if not mapper.n_scans:
             raise ValueError(f"source {source}: no scans to replay")
         if mapper.pixel_bbox is None:
@@ -566,8 +570,11 @@ def _summary(source, mapper: IncrementalMapper, done: _Replayed, progress_at) ->
         "route_graph": None if routes is None else _route_counts(routes),
         "source": str(source),
         "n_scans": mapper.n_scans,
-        "skipped_scans": done.skipped,
-        "skipped_bounds": list(progress_at.skipped_bounds),
+        "n_skipped": done.skipped.count,
+        "skipped_scans": done.skipped.texts,
+        "skipped_bounds": done.skipped.bounds,
+        "skipped_per_bound": ordered(done.skipped.per_bound),
+        "skipped_left_out": done.skipped.left_out,
         "n_tiles": mapper.n_tiles,
         "map_shape": list(done.result.map.shape),
         "vertices": summary_g["n_vertices"],

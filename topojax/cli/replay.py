@@ -332,7 +332,7 @@ def add_command(subparsers) -> None:
         metavar="M",
         help="the longest side the mapped area may grow to (default 2000); a scan that "
         "would grow it further (a pose far off) is skipped, and the summary counts the "
-        "skipped scans with the first refusal",
+        "skipped scans per bound met with the first refusal",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument(
