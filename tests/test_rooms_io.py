@@ -272,6 +272,23 @@ def _rooms_doc(seg, tmp_path: Path) -> dict:
             lambda d: d["features"][3]["properties"].update(pixels=[["a", 2]]),
             r"features\[3\] pixels: expected a list of K \[a, b\] pairs",
         ),
+        # true and false are no numbers (read as 1 and 0 they named other pixels)
+        (
+            lambda d: d["features"][3]["properties"].update(pixels=[[True, 2]]),
+            r"features\[3\] pixels: expected a list of K \[a, b\] pairs, received \[\[True, 2\]\]",
+        ),
+        (
+            lambda d: d["features"][3]["properties"].update(ends_px=[[21, 50], [38, False]]),
+            r"features\[3\] ends_px: expected a list of 2 \[a, b\] pairs, received",
+        ),
+        (
+            lambda d: d["features"][4]["geometry"].update(coordinates=[[True, 0.0], [1.0, 0.0]]),
+            r"features\[4\] line: expected a list of 2 \[a, b\] pairs, received",
+        ),
+        (
+            lambda d: d["features"][1]["geometry"]["coordinates"][0].insert(1, [False, 0.0]),
+            r"features\[1\] exterior ring: expected a list of K \[a, b\] pairs, received",
+        ),
         (
             lambda d: d["features"][4]["geometry"].update(type="Point"),
             "geometry: expected a LineString for a door, received 'Point'",

@@ -205,9 +205,10 @@ def save_rooms(seg, path: str | Path) -> Path:
 
 
 def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.ndarray:
-    """``value`` as an array (K, 2) of ``dtype``; ValueError naming ``what``."""
+    """``value`` as an array (K, 2) of ``dtype``; ValueError naming ``what``.  JSON's
+    ``true`` and ``false`` are no numbers (NumPy would read them as 1 and 0)."""
     try:
-        arr = np.asarray(value, dtype=np.float64)
+        arr = np.empty(0) if _holds_bool(value) else np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         arr = np.empty(0)
     except OverflowError:  # a JSON integer beyond any float
@@ -227,6 +228,18 @@ def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.nda
                 f"{what}: expected integer pixels of {np.dtype(dtype)}, received {value!r:.80}"
             )
     return arr.astype(dtype)
+
+
+def _holds_bool(value: Any) -> bool:
+    """Whether ``value`` or a list item in it, to two levels (pairs in a list), is a bool."""
+    if isinstance(value, bool):
+        return True
+    if not isinstance(value, list):
+        return False
+    return any(
+        isinstance(v, bool) or (isinstance(v, list) and any(isinstance(u, bool) for u in v))
+        for v in value
+    )
 
 
 def _number(props: dict, name: str, where: str) -> float:
