@@ -115,9 +115,8 @@ def replay(
     reader_kwargs : dict, optional
         Passed to the reader.
     nav2_tolerance_m : float, optional
-        Also write ``graph_nav2.geojson`` for the ROS 2 Nav2 Route Server with this
-        waypoint tolerance (:func:`topojax.save_nav2_graph`; none when it has no edge),
-        and with ``route_graph_radius_m`` the route graph's, ``route_graph_nav2.geojson``.
+        Also write ``graph_nav2.geojson`` (and ``route_graph_nav2.geojson``) for the
+        Nav2 Route Server with this waypoint tolerance (:func:`topojax.save_nav2_graph`).
     graph_config : GraphConfig, optional
         What the written graph (and Nav2 file and pictures) keep of the final graph
         (``free_space_only``, ``min_*_m``): ``build_graph(map, ...)``'s with this
@@ -153,16 +152,12 @@ def replay(
     Returns
     -------
     dict
-        ``n_scans`` (scans mapped), ``n_skipped`` (scans refused, :class:`ExtentError`, as
-        they would have grown the map out of the mapper's bounds: skipped, the replay
-        goes on), ``skipped_per_bound`` (how many met each bound, ``"unknown"`` for those
-        a state saved by an older topojax lists without it), ``skipped_scans`` (the
-        refusals of the first 100 skipped scans and of the latest: the others are counted,
-        not kept, so that a log far off for hours keeps the summary and the saved states
-        small; ``skipped_left_out`` counts those left out), ``skipped_bounds`` (the bound
-        each of ``skipped_scans`` met; None where not known); all from the log's start;
-        ``resumed_after`` (scans taken before this call),
-        ``n_tiles``, ``vertices``, ``edges``, ``route_graph`` (its ``vertices``, ``edges``,
+        ``n_scans`` (scans mapped), ``n_skipped`` (scans refused, :class:`ExtentError`,
+        as beyond the mapper's bounds, and skipped), ``skipped_per_bound``,
+        ``skipped_scans`` and ``skipped_bounds`` (the refusals of the first 100 and the
+        latest, and their bounds), ``skipped_left_out``, all from the log's start;
+        ``resumed_after`` (scans taken before this call), ``n_tiles``, ``vertices``,
+        ``edges``, ``route_graph`` (its ``vertices``, ``edges``,
         ``components``, ``robot_radius_m``; None without one), ``timings`` (per loop),
         ``checkpoints`` (states saved as it went), ``written`` (paths), ``messages``.  An
         error or interrupt (a map grown too large to export, an unreadable scan, also while the
