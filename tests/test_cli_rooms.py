@@ -121,6 +121,8 @@ def test_summary_lines_count_one_room_and_one_door_in_the_singular():
     }
     assert "\nrooms      1 room\n" in summary_text(summary)
     assert "\nrooms      2 rooms\n" in summary_text({**summary, "rooms": 2})
+    with_doors = summary_text({**summary, "rooms": 2, "doors": 1})
+    assert "\nrooms      2 rooms, 1 door\n" in with_doors, "as the rooms command counts them"
 
 
 def test_room_options_reach_the_segmentation(png, tmp_path, capsys):

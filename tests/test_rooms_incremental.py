@@ -197,7 +197,7 @@ def test_replay_keeps_rooms_and_writes_them(tmp_path):
     for name in ("map_rooms.geojson", "map_rooms.png", "map_rooms.graphml", "rooms.gif"):
         assert (tmp_path / name).stat().st_size > 0
     rooms, doors = tj.load_rooms(tmp_path / "map_rooms.geojson")
-    assert len(rooms) == summary["rooms"]
+    assert (len(rooms), len(doors)) == (summary["rooms"], summary["doors"])
     graph = tj.load_graph(tmp_path / "graph.graphml")
     ids = {r.id for r in rooms} | {0}
     assert all(d["room"] in ids for _, d in graph.nodes(data=True))

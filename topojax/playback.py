@@ -157,11 +157,11 @@ def replay(
         ``skipped_scans`` and ``skipped_bounds`` (the refusals of the first 100 and the
         latest, and their bounds), ``skipped_left_out``, all from the log's start;
         ``resumed_after`` (scans taken before this call), ``n_tiles``, ``vertices``,
-        ``edges``, ``route_graph`` (its ``vertices``, ``edges``,
-        ``components``, ``robot_radius_m``; None without one), ``timings`` (per loop),
-        ``checkpoints`` (states saved as it went), ``written`` (paths), ``messages``.  An
-        error or interrupt (a map grown too large to export, an unreadable scan, also while the
-        files are written) leaves the mapper's state in ``out_dir/mapper_state.npz`` (with a
+        ``edges``, ``rooms`` and ``doors`` (None without ``rooms``), ``route_graph`` (its
+        ``vertices``, ``edges``, ``components``, ``robot_radius_m``; None without one),
+        ``timings`` (per loop), ``checkpoints`` (states saved as it went), ``written``
+        (paths), ``messages``.  An error or interrupt (a map grown too large to export, an
+        unreadable scan, also while the files are written) leaves the mapper's state in ``out_dir/mapper_state.npz`` (with a
         RuntimeWarning) and raises; a replay that finishes removes it, one without ``resume``
         an earlier one's state and recordings as it starts.  The files the last replay into
         ``out_dir`` wrote and this one does not (:func:`optional_outputs`) are removed.
@@ -562,6 +562,7 @@ def _summary(source, mapper: IncrementalMapper, done: _Replayed, progress_at) ->
     routes = done.routes
     return {
         "rooms": None if done.seg is None else done.seg.n_rooms,
+        "doors": None if done.seg is None else len(done.seg.doors),
         "route_graph": None if routes is None else _route_counts(routes),
         "source": str(source),
         "n_scans": mapper.n_scans,
@@ -755,7 +756,9 @@ def summary_text(summary: dict) -> str:
             f"robot radius {routes['robot_radius_m']:g} m",
         )
     if summary.get("rooms") is not None:
-        lines.insert(2, f"rooms      {counted(summary['rooms'], 'room')}")
+        doors = summary.get("doors")  # absent from a record written before it was kept
+        line = f"rooms      {counted(summary['rooms'], 'room')}"
+        lines.insert(2, line if doors is None else f"{line}, {counted(doors, 'door')}")
     for k in ("distance", "splat", "skeleton", "graph", "rooms", "add_scan"):
         s = summary["timings"].get(k)
         if s:
