@@ -368,6 +368,20 @@ def test_tile_folder_layout_and_windows(tmp_path):
     assert np.array_equal(source.values(120, 140, 0, 500), grid[120:140])
 
 
+@pytest.mark.parametrize("yaw", [0.0, 0.7])
+def test_a_windows_occupancy_map_places_its_pixels_where_the_whole_map_has_them(yaw):
+    grid = np.full((60, 80), 0, np.int8)
+    grid[20:30, 10:70] = 100
+    source = TiledMap.from_array(grid, resolution_m=0.1, origin=(-3.0, 2.5, yaw))
+    window = source.occupancy(12, 50, 7, 61)
+    rows, cols = np.mgrid[0:38, 0:54]
+    got = window.pixel_to_world(rows, cols)
+    want = source.pixel_to_world(rows + 12, cols + 7)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+    assert np.array_equal(window.occupied, grid[12:50, 7:61] == 100)
+    assert source.occupancy().origin == source.origin
+
+
 def test_a_png_path_is_read_whole():
     tiled = tj.build_graph_tiled("topojax/data/a_scan.png", config=SMALL, block_px=256)
     assert_same_graph(tiled, tj.build_graph("topojax/data/a_scan.png", config=SMALL))

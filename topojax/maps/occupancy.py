@@ -52,6 +52,7 @@ __all__ = [
     "grid_mismatch",
     "grid_to_world",
     "map_mismatch",
+    "window_origin",
     "world_to_grid",
 ]
 
@@ -118,6 +119,19 @@ def grid_to_world(rows, cols, *, height: int, resolution_m: float, origin):
     ym = (height - r - 0.5) * resolution_m
     cos_t, sin_t = math.cos(yaw), math.sin(yaw)
     return ox + cos_t * xm - sin_t * ym, oy + sin_t * xm + cos_t * ym
+
+
+def window_origin(origin, resolution_m: float, below: int, left: int):
+    """The origin (x, y, yaw) of a window of a grid whose lower-left corner is at
+    ``origin``: the window's lower-left corner, ``below`` rows above the grid's bottom and
+    ``left`` columns right of its left edge, along the grid's own (rotated) axes, so that
+    the window's pixels keep their world coordinates."""
+    ox, oy, yaw = origin
+    if below == 0 and left == 0:
+        return origin
+    dx, dy = left * resolution_m, below * resolution_m
+    cos_t, sin_t = math.cos(yaw), math.sin(yaw)
+    return (ox + cos_t * dx - sin_t * dy, oy + sin_t * dx + cos_t * dy, yaw)
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -69,6 +69,7 @@ from .occupancy import (
     OccupancyMap,
     _freeze,
     grid_to_world,
+    window_origin,
     world_to_grid,
 )
 from .pnm import resolution_from_pgm_comments
@@ -252,8 +253,10 @@ class TiledMap:
 
     def occupancy(self, r0: int = 0, r1: int | None = None, c0: int = 0, c1: int | None = None):
         """An :class:`OccupancyMap` of a window (by default the whole map, held in
-        memory: for maps that fit).  A window's map keeps this map's resolution and the
-        origin of the whole map's frame only when it is the whole map."""
+        memory: for maps that fit).  A window's map keeps this map's resolution, and its
+        origin is the pose of the window's lower-left corner, so that its pixels have the
+        world coordinates they have in the whole map (a graph built from the window is in
+        the whole map's frame)."""
         r1 = self.shape[0] if r1 is None else r1
         c1 = self.shape[1] if c1 is None else c1
         r0, r1, c0, c1 = self._box(r0, r1, c0, c1)
@@ -270,7 +273,10 @@ class TiledMap:
         }
         del codes
         return OccupancyMap(
-            **masks, resolution_m=self.resolution_m, origin=self.origin, source=self.source
+            **masks,
+            resolution_m=self.resolution_m,
+            origin=window_origin(self.origin, self.resolution_m, self.shape[0] - r1, c0),
+            source=self.source,
         )
 
     def pixel_to_world(self, rows, cols) -> tuple[np.ndarray, np.ndarray]:
