@@ -701,6 +701,24 @@ def test_a_tile_index_with_bad_metadata_is_named(tmp_path):
             tj.open_tiled_map(folder)
 
 
+@pytest.mark.parametrize("form", ["folder", "zarr"])
+def test_a_bad_override_is_named_as_the_callers_not_the_stored_files(tmp_path, form):
+    if form == "zarr":
+        pytest.importorskip("zarr")
+    grid = np.zeros((40, 40), np.int8)
+    path = tj.save_tiled_map(grid, tmp_path / "g", tile_px=16, format=form)
+    for key, value in (("negate", True), ("resolution_m", -1.0), ("origin", (1.0, 2.0))):
+        with pytest.raises(ValueError, match=key) as info:
+            tj.open_tiled_map(path, **{key: value})
+        assert str(path) not in str(info.value), key
+    with pytest.raises(
+        TypeError,
+        match=r"expected keyword arguments from .*resolution_m.*"
+        r"received \['bogus'\]",
+    ):
+        tj.open_tiled_map(path, bogus=1)
+
+
 def test_a_tile_folder_whose_save_did_not_finish_says_so(tmp_path):
     """save_tiled_map writes the index last: a folder of tiles without it is an
     interrupted save, not an unknown form, and saving again needs an empty folder."""

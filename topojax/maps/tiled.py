@@ -547,16 +547,12 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         For a Zarr array without the ``zarr`` package.
     """
     p = path_like("path", path)
-    unknown = set(overrides) - {
-        "resolution_m",
-        "origin",
-        "occupied_thresh",
-        "free_thresh",
-        "negate",
-        "mode",
-    }
+    unknown = set(overrides) - set(_OVERRIDABLE)
     if unknown:
-        raise TypeError(f"open_tiled_map: unexpected keyword arguments {sorted(unknown)}")
+        raise TypeError(
+            f"open_tiled_map: expected keyword arguments from {_OVERRIDABLE}, received "
+            f"{sorted(unknown)}"
+        )
     if not p.exists():
         raise FileNotFoundError(f"path: map not found: {p}")
     if p.is_dir() and (p / TILE_INDEX).is_file():
@@ -565,8 +561,7 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         reader = _ZarrReader(p)
         meta = dict(reader._array.attrs.get("topojax", {}))
         _refuse_missing_chunks(p, reader._array, meta)
-        with _named(p / "zarr.json"):
-            return TiledMap(reader, **_metadata(meta, overrides), source=str(p))
+        return _with_metadata(reader, p / "zarr.json", meta, overrides, source=str(p))
     suffix = p.suffix.lower()
     if p.is_dir():  # whatever its name ends with
         _refuse_unfinished(p)
@@ -618,10 +613,17 @@ _OVERRIDABLE = ("resolution_m", "origin", "occupied_thresh", "free_thresh", "neg
 
 
 def _metadata(stored: dict, overrides: dict) -> dict:
-    keys = (*_OVERRIDABLE, "full_scale")
-    out = {k: stored[k] for k in keys if k in stored}
+    out = {k: stored[k] for k in (*_OVERRIDABLE, "full_scale") if k in stored}
     out.update({k: v for k, v in overrides.items() if v is not None})
     return out
+
+
+def _with_metadata(reader, index_path: Path, stored: dict, overrides: dict, source: str):
+    """A TiledMap of ``reader``; errors of ``stored`` name ``index_path``, not those of the
+    caller's ``overrides``."""
+    with _named(index_path):
+        TiledMap(reader, **_metadata(stored, {}), source=source)
+    return TiledMap(reader, **_metadata(stored, overrides), source=source)
 
 
 def _open_folder(p: Path, overrides: dict) -> TiledMap:
@@ -648,8 +650,7 @@ def _open_folder(p: Path, overrides: dict) -> TiledMap:
     # of tiles, that bounds the map's size by the folder's bytes, however large the shape
     # and tile side the index claims
     reader._tile(0, 0)
-    with _named(index_path):
-        return TiledMap(reader, **_metadata(index, overrides), source=str(p))
+    return _with_metadata(reader, index_path, index, overrides, source=str(p))
 
 
 def _folder_layout(index: dict, index_path: Path) -> tuple[tuple[int, int], int, np.dtype]:
