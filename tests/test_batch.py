@@ -1638,6 +1638,30 @@ def test_a_map_file_of_the_same_name_from_another_folder_is_refused(tmp_path):
     assert build_graphs([tmp_path / "a" / "m.png"], **kw)[0].status == "ok"
 
 
+def test_a_loaded_map_of_the_same_name_from_another_file_is_refused(tmp_path, monkeypatch):
+    """A map loaded from ``b/m.png`` (its ``source``) would replace the outputs written
+    from ``a/m.png`` just as the file itself would; the manifest of a loaded map names its
+    file by its absolute path, so a later batch from any folder is checked against it."""
+    png = PAPER_MAPS[2].read_bytes()
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "m.png").write_bytes(png)
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out"
+    kw = dict(out_dir=out, formats="json", workers=0, progress=False)
+    assert build_graphs([load_map("a/m.png")], **kw)[0].status == "ok"
+    before = (out / "m.json").read_bytes()
+    for other in (load_map("b/m.png"), Path("b/m.png")):
+        with pytest.raises(
+            ValueError, match=r"^out_dir: .*written from .*a/m\.png; .*b/m\.png would replace"
+        ):
+            build_graphs([other], **kw)
+    assert (out / "m.json").read_bytes() == before
+    assert build_graphs([load_map("a/m.png")], **kw)[0].status == "ok"
+    assert build_graphs([Path("a/m.png")], **kw)[0].status == "ok"
+    assert build_graphs([load_map("a/m.png")], **kw)[0].status == "ok"
+
+
 def test_batch_argument_checks_for_flags_formats_and_folders(tmp_path):
     occ = load_map(PAPER_MAPS[0])
     with pytest.raises(TypeError, match="keep_graphs: expected a bool"):

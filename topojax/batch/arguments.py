@@ -353,15 +353,15 @@ def check_no_overwrite(items: list[_Item], out: Path, formats: tuple[str, ...], 
 
 
 def check_same_inputs(items: list[_Item], out: Path) -> None:
-    """Refuse a map file whose output name another map file's batch already used in
-    ``out`` (its manifest names that file): ``maps_a/intel.png`` would silently replace
+    """Refuse a map file (or a map object loaded from one) whose output name another map
+    file's batch already used in ``out`` (its manifest names that file): ``maps_a/intel.png`` would silently replace
     the outputs of ``maps_b/intel.png`` written there before."""
     for it in items:
-        if it.path is None:
+        now = it.file  # a map object loaded from a file is checked as that file
+        if now is None:
             continue
         manifest = out / f"{it.name}{_MANIFEST_SUFFIX}"
         before = batch_input(manifest)
-        now = os.path.abspath(it.path)
         if before and os.path.isabs(before) and before != now:
             raise ValueError(
                 f"out_dir: {manifest} and the files it lists were written from {before}; "

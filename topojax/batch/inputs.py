@@ -383,6 +383,17 @@ class _Item:
             return os.fspath(self.path)
         return None if self.occupancy is None else self.occupancy.source
 
+    @property
+    def file(self) -> str | None:
+        """The absolute path of the map's file: the path given, or the file that a map
+        object's ``source`` names (None for a map that no file holds)."""
+        if self.path is not None:
+            return os.path.abspath(self.path)
+        source = None if self.occupancy is None else self.occupancy.source
+        if source and os.path.isfile(source):
+            return os.path.abspath(source)
+        return None
+
 
 def _assign_names(sources: list[Path | None]) -> list[str]:
     """Unique output stems (rules: "Names" in docs/batch-internals.md)."""

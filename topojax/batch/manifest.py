@@ -7,7 +7,6 @@ import glob as _glob
 import hashlib
 import json
 import math
-import os
 from pathlib import Path
 from typing import Any
 
@@ -196,8 +195,9 @@ def _write_manifest(
     doc = {
         "version": _MANIFEST_VERSION,
         "map": item.name,
-        # absolute, so that the map is found again from any working directory
-        "path": os.path.abspath(item.path) if item.path is not None else item.label,
+        # absolute, so that the map is found again from any working directory (that of a
+        # map object loaded from a file too: a later batch is checked against it)
+        "path": item.file or item.label,
         "input": _normalise(fingerprint),
         "request": request,
         "files": files,
