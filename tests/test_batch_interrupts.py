@@ -118,3 +118,34 @@ def test_a_second_ctrl_c_while_a_stopped_batch_cleans_up_leaves_no_temporary_fil
     assert planted
     assert not any(p.exists() for p in planted)
     assert signal.getsignal(signal.SIGINT) is handler
+
+
+def test_a_stopped_batch_removes_the_finished_files_of_the_maps_in_flight(tmp_path, monkeypatch):
+    """A map stopped after some of its files were written whole, before its manifest:
+    those files go as a failed map's do.  Left, they passed for outputs that no manifest
+    vouches for, and a picture left in a batch's input folder (``-o`` the same folder)
+    was taken for a map by the next run."""
+    from pathlib import Path
+
+    import topojax
+    from topojax import build_graphs
+    from topojax.batch import driver
+
+    out, written = tmp_path / "out", []
+    office = Path(topojax.__file__).parent / "data" / "office.png"
+
+    def interrupt(self, fut):  # Ctrl-C as the first map's CPU stage ends
+        for item, _, _ in self._cpu.values():  # files a worker wrote whole, no manifest
+            for suffix in (".json", "_graph.png"):
+                written.append(out / f"{item.name}{suffix}")
+                written[-1].write_bytes(b"complete")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(driver._BatchRun, "_on_cpu_done", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        build_graphs(
+            [office] * 3, out_dir=out, formats="json", plot=True, workers=2, progress=False
+        )
+    assert written
+    assert not [p.name for p in written if p.exists()]
+    assert not list(out.glob("*.manifest.json"))

@@ -405,7 +405,7 @@ class _BatchRun:
 
     def _close(self, stopped: bool) -> None:
         """Shut the pools down; a ``stopped`` batch's own processes are terminated and
-        the temporary files they were writing removed.  A Ctrl-C or SIGTERM meanwhile
+        the files of the maps they were running removed (temporary or whole).  A Ctrl-C or SIGTERM meanwhile
         waits until that is done: raised part way it left those files behind (for a
         stopped batch it is the same stop, and not raised again)."""
         try:
@@ -418,9 +418,14 @@ class _BatchRun:
                 if self.owns_executor and self.executor is not None:
                     self.executor.shutdown(wait=True, cancel_futures=True)
                 if stopped and self.owns_executor:
-                    # (a given executor's tasks may still be writing theirs)
+                    # (a given executor's tasks may still be writing theirs); the files a
+                    # map wrote whole go too, as a failed map's: no manifest vouches for them
                     for item, _, _ in self._cpu.values():
                         self._forget_outputs(item)
+                        if self.out_dir is not None:
+                            _drop_outputs(
+                                item, out_dir=self.out_dir, formats=self.formats, plot=self.plot
+                            )
         except KeyboardInterrupt:
             if not stopped:
                 raise
