@@ -615,6 +615,9 @@ def test_bad_arguments_name_the_parameter(tmp_path):
         tj.open_tiled_map(tmp_path / "missing")
     with pytest.raises(FileNotFoundError, match="^source: map not found: .*missing"):
         tj.build_graph_tiled(tmp_path / "missing")  # named as open_tiled_map's ``path``
+    (tmp_path / "maps").mkdir()  # a folder of map files is no tiled map: named ``source``
+    with pytest.raises(ValueError, match="^source: expected a tile folder .*received .*maps"):
+        tj.build_graph_tiled(tmp_path / "maps")
     (tmp_path / "m.png").write_bytes(b"")
     with pytest.raises(ValueError, match="path: expected a tile folder"):
         tj.open_tiled_map(tmp_path / "m.png")
@@ -724,7 +727,7 @@ def test_a_tile_folder_whose_save_did_not_finish_says_so(tmp_path):
     interrupted save, not an unknown form, and saving again needs an empty folder."""
     folder = tj.save_tiled_map(paper_map("intel"), tmp_path / "m", tile_px=256)
     (folder / TILE_INDEX).unlink()
-    with pytest.raises(ValueError, match=rf"path: {folder} holds 9 tiles but no {TILE_INDEX}"):
+    with pytest.raises(ValueError, match=rf"^source: {folder} holds 9 tiles but no {TILE_INDEX}"):
         tj.build_graph_tiled(folder)
     with pytest.raises(ValueError, match="did not finish"):
         tj.save_tiled_map(paper_map("intel"), folder, tile_px=256)

@@ -165,9 +165,13 @@ def tiled_source(source, **overrides) -> TiledMap:
             raise FileNotFoundError(f"source: map not found: {source}")
         try:
             return open_tiled_map(source, **overrides)
-        except ValueError:
+        except ValueError as exc:
             if Path(source).suffix.lower() not in IMAGE_SUFFIXES + YAML_SUFFIXES:
-                raise
+                # named as this function's ``source``, not as open_tiled_map's ``path``
+                text = str(exc)
+                if not text.startswith("path: "):
+                    raise
+                raise ValueError(f"source: {text[len('path: ') :]}") from None
             # an image that cannot be read a window at a time (PNG, ASCII PGM...): whole
             return TiledMap.from_occupancy(load_map(source, **overrides))
     if isinstance(source, np.ndarray):
