@@ -382,6 +382,28 @@ def test_a_windows_occupancy_map_places_its_pixels_where_the_whole_map_has_them(
     assert source.occupancy().origin == source.origin
 
 
+def test_a_memory_mapped_array_goes_to_a_worker_as_its_file_not_its_pixels(tmp_path):
+    """Each block task of an executor pickles the map: a ``numpy.memmap`` given to
+    ``TiledMap.from_array`` is opened again from its file there, as a PGM is, rather than
+    copied whole into every task (a map larger than memory could not be sent at all)."""
+    import pickle
+
+    grid = np.full((600, 700), 254, np.uint8)
+    grid[::7] = 0
+    np.save(tmp_path / "m.npy", grid)
+    mapped = np.load(tmp_path / "m.npy", mmap_mode="r")
+    for array, want in ((mapped, grid), (mapped[50:580, 30:], grid[50:580, 30:])):
+        source = TiledMap.from_array(array, resolution_m=0.1)
+        sent = pickle.dumps(source)
+        assert len(sent) < 20_000, len(sent)
+        back = pickle.loads(sent)
+        assert back.shape == want.shape
+        assert np.array_equal(back.values(0, want.shape[0], 0, want.shape[1]), want)
+    # an array in memory has no file: its pixels go with it
+    in_memory = pickle.loads(pickle.dumps(TiledMap.from_array(grid)))
+    assert np.array_equal(in_memory.values(0, 600, 0, 700), grid)
+
+
 def test_a_png_path_is_read_whole():
     tiled = tj.build_graph_tiled("topojax/data/a_scan.png", config=SMALL, block_px=256)
     assert_same_graph(tiled, tj.build_graph("topojax/data/a_scan.png", config=SMALL))

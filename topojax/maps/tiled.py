@@ -46,6 +46,7 @@ from .._validate import (
     text_or_none,
     unmasked,
 )
+from ._arrays import _ArrayReader
 from .classify import (
     _FREE,
     _OCC,
@@ -338,20 +339,6 @@ def array_map(name: str, array, **metadata) -> TiledMap:
 
 
 # --------------------------------------------------------------------------- readers
-
-
-class _ArrayReader:
-    """Windows of an array in memory or memory-mapped."""
-
-    def __init__(self, array: np.ndarray) -> None:
-        if array.ndim != 2:
-            raise ValueError(f"array: expected a 2-D (H, W) array, received shape {array.shape}")
-        self.array = array
-        self.shape = array.shape
-        self.dtype = array.dtype
-
-    def read(self, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
-        return self.array[r0:r1, c0:c1]
 
 
 class _MapReader:
