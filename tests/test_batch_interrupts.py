@@ -149,3 +149,27 @@ def test_a_stopped_batch_removes_the_finished_files_of_the_maps_in_flight(tmp_pa
     assert written
     assert not [p.name for p in written if p.exists()]
     assert not list(out.glob("*.manifest.json"))
+
+
+def test_a_ctrl_c_in_the_cpu_stage_run_here_removes_the_maps_files(tmp_path, monkeypatch):
+    """With ``workers=0`` a Ctrl-C while a map writes its files stops it there; the files
+    it had written (no manifest lists them) go, as those of a map in a worker do."""
+    from pathlib import Path
+
+    import topojax
+    import topojax.io
+    from topojax import build_graphs
+
+    out = tmp_path / "out"
+    scan = Path(topojax.__file__).parent / "data" / "a_scan.png"
+    save_graph = topojax.io.save_graph
+
+    def save_then_ctrl_c(graph, path, **kwargs):
+        written = save_graph(graph, path, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)  # delivered at once: the stage runs here
+        return written
+
+    monkeypatch.setattr(topojax.io, "save_graph", save_then_ctrl_c)
+    with pytest.raises(KeyboardInterrupt):
+        build_graphs([scan], out_dir=out, formats="graphml,json", workers=0, progress=False)
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == []

@@ -537,8 +537,11 @@ class _BatchRun:
 
     def _on_cpu_done(self, fut: cf.Future) -> None:
         """A map's CPU stage ended: record it, or run it again on a new pool."""
-        item, rec, job = self._cpu.pop(fut)
+        # left in place until recorded: a Ctrl-C its future holds (the stage ran here,
+        # workers=0) stops the batch with the map still in flight, so its files go
+        item, rec, job = self._cpu[fut]
         if self._retry(item, fut):
+            del self._cpu[fut]
             try:
                 self._cpu[self._submit(_cpu_stage, job)] = (item, rec, job)
                 return
@@ -546,7 +549,9 @@ class _BatchRun:
                 rec = replace(rec, status="error", message=_error_text(exc))
                 self._finish(item.index, rec)
                 return
-        self._finish(item.index, self._complete(item, rec, fut))
+        rec = self._complete(item, rec, fut)
+        del self._cpu[fut]
+        self._finish(item.index, rec)
 
     def _retry(self, item: _Item, fut: cf.Future) -> bool:
         """Whether ``item``'s task, lost when a process of the own pool died (e.g. killed
