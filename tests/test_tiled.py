@@ -715,6 +715,26 @@ def test_bad_threads_are_refused_before_any_block(monkeypatch):
             tj.build_graph_tiled(paper_map("intel"), threads=threads, config=SMALL)
 
 
+def test_a_process_pool_that_forks_its_workers_is_refused_before_any_block(monkeypatch):
+    """Each block runs JAX in the worker: one forked from this process (which has JAX's
+    threads) waited for ever on one of their locks, so the build never ended."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    import topojax.outofcore.build as tiled_build
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork start method here")
+
+    def no_block(*args, **kwargs):
+        raise AssertionError("a block was computed")
+
+    monkeypatch.setattr(tiled_build, "block_piece", no_block)
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork")) as pool:
+        with pytest.raises(ValueError, match=r"^executor: expected a process pool .*forkserver"):
+            tj.build_graph_tiled(paper_map("a_scan"), config=SMALL, executor=pool)
+
+
 def test_a_tile_index_with_bad_metadata_is_named(tmp_path):
     import json
 

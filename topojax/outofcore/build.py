@@ -238,7 +238,8 @@ def build_graph_tiled(
         Runs the blocks as tasks (a Dask ``Client``: on its workers, each reading its
         window from the source); default: one after another in this process.  A
         process pool must start its workers with ``forkserver`` or ``spawn``: one
-        forked from a process that has run JAX can deadlock.
+        forked from a process that has run JAX can deadlock (a ValueError refuses a
+        ``ProcessPoolExecutor`` whose start method is ``fork``).
     threads : int, optional
         Kernel dispatch threads per block (as for :func:`topojax.fields.dense_fields`).
     out_dir : str or Path, optional
@@ -285,6 +286,7 @@ def build_graph_tiled(
     block_px, threads, resume = _checked_options(
         config, block_px, memory_budget_mb, threads, resume, out_dir
     )
+    _refuse_forked_workers(executor)
     sized_for = _sized_window(block_px if given else None, memory_budget_mb)
     if out_dir is None:
         return _build(tiled, config, block_px, threads, executor, None, resume, sized_for)
@@ -419,6 +421,22 @@ def _checked_options(config: PipelineConfig, block_px, memory_budget_mb, threads
             "received out_dir=None"
         )
     return block_px, threads, resume
+
+
+def _refuse_forked_workers(executor) -> None:
+    """Refuse a process pool that forks its workers: each block runs JAX in a worker,
+    and one forked from this process (which runs JAX's threads) waited for ever on a lock
+    one of them held at the fork, so the build never ended."""
+    if not isinstance(executor, cf.ProcessPoolExecutor):
+        return
+    context = getattr(executor, "_mp_context", None)  # no public way to ask the pool
+    if context is not None and context.get_start_method() == "fork":
+        raise ValueError(
+            "executor: expected a process pool whose workers start with 'forkserver' or "
+            "'spawn' (ProcessPoolExecutor(mp_context=multiprocessing.get_context("
+            "'forkserver'))), received one that forks them, which can wait for ever on a "
+            "lock of JAX's threads"
+        )
 
 
 def _computed(
