@@ -624,3 +624,21 @@ def test_markers_refuse_coordinates_that_are_not_finite_x_y_pairs(tmp_path):
     with pytest.raises(ValueError, match=r"^route_graph: node 0 'world': expected"):
         tj.save_mcap(result, tmp_path / "s.mcap", route_graph=g)
     assert not (tmp_path / "s.mcap").exists()
+
+
+def test_vertices_of_other_kinds_are_drawn_not_dropped():
+    """A vertex without one of the four kinds (a graph of another tool, read with
+    ``load_graph``) is drawn in a fifth sphere list, as the viewer draws it as "other",
+    rather than left out of ``/topology`` without a word."""
+    from topojax.io.mcap import graph_markers
+
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0), kind="junction")
+    g.add_node(1, world=(1.0, 0.0))
+    g.add_node(2, world=(2.0, 0.0), kind="door")
+    g.add_edge(0, 1, world=[[0.0, 0.0], [1.0, 0.0]])
+    g.add_edge(1, 2, world=[[1.0, 0.0], [2.0, 0.0]])
+    spheres = {m.id: m for m in graph_markers(g).markers if m.ns == "vertices"}
+    assert sorted(spheres) == [KIND_IDS["junction"], 4]
+    assert [(p.x, p.y) for p in spheres[4].points] == [(1.0, 0.0), (2.0, 0.0)]
+    assert spheres[4].type == 7 and spheres[4].color.a == 1.0 and spheres[4].scale.x > 0

@@ -14,6 +14,7 @@ __all__ = [
     "EDGE_COLOUR",
     "FAR_SQ",
     "MODES",
+    "OTHER_VERTEX_COLOUR",
     "STRATEGIES",
     "VERSION",
     "VERTEX_KIND_COLOURS",
@@ -47,6 +48,9 @@ VERTEX_KIND_COLOURS = {
     "ring": "#9467bd",
     "isolated": "#7f7f7f",
 }
+#: Colour of a vertex of any other kind, or none (a graph of another tool), in the viewer
+#: and ROS markers.
+OTHER_VERTEX_COLOUR = "#8c564b"
 #: Colour of the graph's edges in pictures and ROS markers.
 EDGE_COLOUR = "#ff7f0e"
 #: Colour of a route graph's edges in ROS markers (``/route_graph`` beside ``/topology``;

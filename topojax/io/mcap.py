@@ -27,7 +27,12 @@ except ImportError:
     fcntl = None
 
 from .._caller import outside_stacklevel
-from .._constants import EDGE_COLOUR, ROUTE_EDGE_COLOUR, VERTEX_KIND_COLOURS
+from .._constants import (
+    EDGE_COLOUR,
+    OTHER_VERTEX_COLOUR,
+    ROUTE_EDGE_COLOUR,
+    VERTEX_KIND_COLOURS,
+)
 from .._fs import output_file
 from .._validate import instance_of, no_file_above, xy_points
 from ._schema import _xy
@@ -184,15 +189,16 @@ def _marker(stamp_ns: int, ns: str, mid: int, kind: str, *, points=(), colour=No
 def graph_markers(graph, stamp_ns: int = 0, *, edge_colour: str = EDGE_COLOUR):
     """``visualization_msgs/msg/MarkerArray`` of a topology or route graph: ``DELETEALL``,
     one ``SPHERE_LIST`` per vertex kind (namespace ``vertices``, id 0 junction, 1 end, 2
-    ring, 3 isolated; vertices in node order) and one ``LINE_STRIP`` per edge (namespace
-    ``edges``, id = its place in ``graph.edges``, in ``edge_colour``, ``#rrggbb``) through
-    its ``waypoints`` where the edge has them (route graphs), else the ``world`` (x, y) of
-    its pixel centres."""
+    ring, 3 isolated, 4 any other kind or none, as the viewer's "other"; vertices in node
+    order) and one ``LINE_STRIP`` per edge (namespace ``edges``, id = its place in
+    ``graph.edges``, in ``edge_colour``, ``#rrggbb``) through its ``waypoints`` where the
+    edge has them (route graphs), else the ``world`` (x, y) of its pixel centres."""
     _check_graph("graph", graph)
     t = _typestore().types
     markers = [_marker(stamp_ns, "", 0, "DELETEALL")]
-    for i, (kind, colour) in enumerate(VERTEX_KIND_COLOURS.items()):
-        xy = [d["world"] for _, d in graph.nodes(data=True) if d.get("kind") == kind]
+    kinds = [*VERTEX_KIND_COLOURS.items(), (None, OTHER_VERTEX_COLOUR)]
+    for i, (kind, colour) in enumerate(kinds):
+        xy = [d["world"] for _, d in graph.nodes(data=True) if _kind(d) == kind]
         if xy:
             markers.append(
                 _marker(
@@ -219,6 +225,12 @@ def graph_markers(graph, stamp_ns: int = 0, *, edge_colour: str = EDGE_COLOUR):
             )
         )
     return t["visualization_msgs/msg/MarkerArray"](markers=markers)
+
+
+def _kind(data: dict):
+    """A vertex's kind where it is one of :data:`VERTEX_KIND_COLOURS`, else None."""
+    kind = data.get("kind")
+    return kind if isinstance(kind, str) and kind in VERTEX_KIND_COLOURS else None
 
 
 def _check_graph(name: str, graph) -> None:
