@@ -21,11 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-try:  # file locks (flock): POSIX only
-    import fcntl
-except ImportError:
-    fcntl = None
-
 from .._caller import outside_stacklevel
 from .._constants import (
     EDGE_COLOUR,
@@ -35,6 +30,7 @@ from .._constants import (
 )
 from .._fs import output_file
 from .._validate import instance_of, no_file_above, xy_points
+from ._recording_lock import lock_as_owner, remove_abandoned
 from ._schema import _xy
 
 __all__ = [
@@ -385,62 +381,6 @@ def mcap_path(path, *, name: str = "path", written: bool = True) -> Path:
     return output_file(p, name=name) if written else no_file_above(name, p)
 
 
-#: The file a recorder holds locked in its temporary folder while it records (the lock
-#: goes with its process, however that ends).
-_OWNER_LOCK = "recorder.lock"
-
-
-def _lock_as_owner(folder: Path):
-    """Hold ``folder/recorder.lock`` locked (``flock``) while the returned descriptor is
-    open; None where the system has no ``flock``.  The file is locked before it gets its
-    name, so a lock file found unlocked was left by a process that has ended."""
-    if fcntl is None:  # no flock: no temporary folder is ever taken for abandoned
-        return None
-    part = folder / f"{_OWNER_LOCK}.part"
-    fd = os.open(part, os.O_CREAT | os.O_WRONLY, 0o600)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:  # a file system without flock: no lock file, never taken as abandoned
-        os.close(fd)
-        return None
-    try:
-        os.rename(part, folder / _OWNER_LOCK)
-    except BaseException:
-        os.close(fd)
-        raise
-    return fd
-
-
-def _remove_abandoned(path: Path) -> None:
-    """Remove the temporary folders that recorders of ``path`` left beside it when their
-    process ended without closing them (killed with SIGKILL, a power cut): those whose
-    lock file no process holds.  A folder without one (being made, or not a recorder's)
-    and one whose recorder still records are left as they are."""
-    if fcntl is None:
-        return
-    if not path.parent.is_dir():
-        return
-    prefix = f".{path.name}."
-    for folder in path.parent.iterdir():
-        # mkdtemp's own part has no dot: ".run.mcap.bak.x1y2" is another file's folder
-        mine = folder.name.startswith(prefix) and "." not in folder.name[len(prefix) :]
-        if not mine or folder.is_symlink() or not folder.is_dir():
-            continue
-        try:
-            fd = os.open(folder / _OWNER_LOCK, os.O_RDONLY)
-        except OSError:
-            continue
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:  # held: its recorder is recording
-            os.close(fd)
-            continue
-        try:
-            shutil.rmtree(folder, ignore_errors=True)
-        finally:
-            os.close(fd)
-
-
 class McapRecorder:
     """Write a ROS 2 MCAP recording of a mapping run, message by message.
 
@@ -513,10 +453,10 @@ class McapRecorder:
             )
         _typestore()  # a missing rosbags fails here, before anything is created
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        _remove_abandoned(self.path)
+        remove_abandoned(self.path)
         self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", dir=self.path.parent))
         try:
-            self._owner = _lock_as_owner(self._tmp)
+            self._owner = lock_as_owner(self._tmp)
             writer = Writer(self._tmp / "recording", version=8, storage_plugin=StoragePlugin.MCAP)
             writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
             writer.open()
