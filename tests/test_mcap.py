@@ -118,6 +118,7 @@ def test_replay_recording_has_every_topic_with_standard_types_and_counts(replaye
     # 40 scans; a graph (room, route graph) update every 10 scans, and the written result
     # at the end
     assert counts == {
+        "/tf_static": 1,
         "/tf": 40,
         "/scan": 40,
         "/map": 5,
@@ -172,9 +173,8 @@ def test_replay_recording_scans_and_poses(replayed):
         assert msg.angle_max == pytest.approx(
             scan.angle_min + (scan.n_beams - 1) * scan.angle_increment, abs=1e-6
         )
-        robot, sensor = tf.transforms
+        (robot,) = tf.transforms  # the sensor's fixed offset is on /tf_static
         assert (robot.header.frame_id, robot.child_frame_id) == (MAP_FRAME, ROBOT_FRAME)
-        assert (sensor.header.frame_id, sensor.child_frame_id) == (ROBOT_FRAME, LASER_FRAME)
         x, y, yaw = scan.pose
         q = robot.transform.rotation
         assert (robot.transform.translation.x, robot.transform.translation.y) == (x, y)
@@ -314,8 +314,10 @@ def test_scans_without_usable_timestamps_keep_the_scan_order(tmp_path):
     assert stamps == [0, 100_000_000, 5_000_000_000, 5_100_000_000, 6_000_000_000]
     messages = read_messages(path)
     assert [t for tp, _, t, _ in messages if tp == "/scan"] == stamps
-    assert rec.counts == {"/tf": 5, "/scan": 5}
-    sensor = last(messages, "/tf").transforms[1].transform
+    assert rec.counts == {"/tf_static": 1, "/tf": 5, "/scan": 5}
+    (sensor,) = last(messages, "/tf_static").transforms
+    assert (sensor.header.frame_id, sensor.child_frame_id) == (ROBOT_FRAME, LASER_FRAME)
+    sensor = sensor.transform
     assert (sensor.translation.x, sensor.translation.y, sensor.rotation.w) == (0.2, 0.0, 1.0)
 
 
@@ -364,7 +366,8 @@ def test_a_recording_continues_one_closed_part_way(tmp_path):
     part = rec.close(tmp_path / "part" / "part.mcap")
     assert part == tmp_path / "part" / "part.mcap" and not (tmp_path / "r.mcap").exists()
     with McapRecorder(tmp_path / "r.mcap", continue_from=part) as rec:
-        assert rec.stamp_ns == 2_000_000_000 and rec.counts == {"/tf": 3, "/scan": 3}
+        assert rec.stamp_ns == 2_000_000_000
+        assert rec.counts == {"/tf_static": 1, "/tf": 3, "/scan": 3}
         for t in stamps[3:]:
             rec.add_scan(_scan(t))
     assert raw_messages(tmp_path / "r.mcap") == raw_messages(tmp_path / "whole.mcap")
@@ -436,7 +439,7 @@ def test_a_scan_whose_sensor_pose_overflows_is_refused(tmp_path):
             ValueError, match=r"^scan: expected a sensor pose in the map frame .*inf"
         ):
             rec.add_scan(far)
-    assert rec.counts == {"/tf": 1, "/scan": 1} and rec.stamp_ns == 1_000_000_000
+    assert rec.counts == {"/tf_static": 1, "/tf": 1, "/scan": 1} and rec.stamp_ns == 1_000_000_000
 
 
 def test_recorder_leaves_nothing_behind_on_error_and_checks_its_path(tmp_path):
@@ -488,7 +491,7 @@ def test_command_line_writes_recordings(tmp_path, capsys):
     args += ["--max-scans", "12", "--graph-every", "6", "--mcap", str(tmp_path / "r.mcap")]
     assert main(args) == 0
     counts = Counter(tp for tp, *_ in read_messages(tmp_path / "r.mcap"))
-    assert counts == {"/tf": 12, "/scan": 12, "/map": 3, "/topology": 3}
+    assert counts == {"/tf_static": 1, "/tf": 12, "/scan": 12, "/map": 3, "/topology": 3}
     # a recording written by another command is not replaced
     other = ["graph", str(a_scan), "-o", str(tmp_path / "g2"), "--mcap", str(tmp_path / "r.mcap")]
     assert main(other) != 0

@@ -41,10 +41,17 @@ def recording(tmp_path_factory):
 
 
 def write_chunked(path: Path, compression: str, chunk_size: int = 3000) -> Path:
-    """The 40 intel scans (``/scan`` and ``/tf``) in an MCAP file of small chunks with
-    ``compression`` ("", "lz4" or "zstd"), written with the ``mcap`` package."""
+    """The 40 intel scans (``/scan`` and ``/tf``, the sensor offset once on
+    ``/tf_static``) in an MCAP file of small chunks with ``compression`` ("", "lz4" or
+    "zstd"), written with the ``mcap`` package."""
     mcap_writer = pytest.importorskip("mcap.writer")
-    from topojax.io.mcap import TOPICS, _typestore, scan_message, tf_message
+    from topojax.io.mcap import (
+        TOPICS,
+        _typestore,
+        scan_message,
+        tf_message,
+        tf_static_message,
+    )
 
     store = _typestore()
     kinds = {"": "NONE", "lz4": "LZ4", "zstd": "ZSTD"}
@@ -56,13 +63,16 @@ def write_chunked(path: Path, compression: str, chunk_size: int = 3000) -> Path:
         )
         writer.start(profile="ros2", library="test")
         channels = {}
-        for topic in ("/scan", "/tf"):
+        for topic in ("/scan", "/tf", "/tf_static"):
             text = store.generate_msgdef(TOPICS[topic], ros_version=2)[0]
             sid = writer.register_schema(TOPICS[topic], "ros2msg", text.encode())
             channels[topic] = writer.register_channel(topic, "cdr", sid)
         for i, scan in enumerate(tj.read_scans(INTEL_EXCERPT)):
             ns = (i + 1) * 100_000_000
-            for topic, msg in (("/tf", tf_message(scan, ns)), ("/scan", scan_message(scan, ns))):
+            messages = [("/tf", tf_message(scan, ns)), ("/scan", scan_message(scan, ns))]
+            if i == 0:
+                messages.insert(0, ("/tf_static", tf_static_message(scan, ns)))
+            for topic, msg in messages:
                 data = store.serialize_cdr(msg, TOPICS[topic])
                 writer.add_message(channels[topic], log_time=ns, data=data, publish_time=ns)
         writer.finish()
@@ -79,7 +89,8 @@ def test_a_recording_cut_after_its_chunk_reads_every_scan(recording, tmp_path):
     cut = tmp_path / "cut.mcap"
     for size in (end_of_chunk, end_of_chunk + 100, len(data) - 200, len(data) - 30):
         cut.write_bytes(data[:size])
-        match = r"cut\.mcap: the MCAP file is cut off at the record at byte \d+ .* read 80 messages"
+        # 40 scans, their 40 /tf and the sensor offset's one /tf_static
+        match = r"cut\.mcap: the MCAP file is cut off at the record at byte \d+ .* read 81 messages"
         with pytest.warns(RuntimeWarning, match=match):
             scans = list(read_bag(cut))
         assert len(scans) == len(whole) == 40

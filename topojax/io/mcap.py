@@ -4,7 +4,8 @@ and ``ros2 bag play``, written with ``rosbags`` (no ROS install needed).
 One self-contained ``.mcap`` file per recording, in the message types of ROS 2 Humble:
 ``/map`` (``OccupancyGrid``), ``/topology``, ``/route_graph`` and ``/rooms``
 (``MarkerArray``, in :data:`MAP_FRAME`, metres), ``/scan`` (``LaserScan``, in
-:data:`LASER_FRAME`) and ``/tf``.  Stamps are nanoseconds: a scan's own where usable, else
+:data:`LASER_FRAME`), ``/tf`` (the robot's pose) and ``/tf_static`` (the sensor's
+offset).  Stamps are nanoseconds: a scan's own where usable, else
 :data:`SCAN_PERIOD_S` after the previous one.  Topics, frames, QoS and stamps:
 ``docs/command-line.md``, "ROS 2 recordings (MCAP)".
 """
@@ -48,13 +49,15 @@ __all__ = [
     "save_mcap",
     "scan_message",
     "tf_message",
+    "tf_static_message",
 ]
 
 #: The fixed frame of maps, graphs and rooms.
 MAP_FRAME = "map"
 #: The robot's frame: ``/tf`` gives its pose in :data:`MAP_FRAME`.
 ROBOT_FRAME = "base_link"
-#: The frame of ``/scan``: the sensor's pose in :data:`ROBOT_FRAME` (``Scan.sensor_offset``).
+#: The frame of ``/scan``: ``/tf_static`` gives the sensor's pose in :data:`ROBOT_FRAME`
+#: (``Scan.sensor_offset``).
 LASER_FRAME = "base_laser"
 #: Seconds between a scan without a usable timestamp and the one before it.
 SCAN_PERIOD_S = 0.1
@@ -69,9 +72,13 @@ TOPICS = {
     "/rooms": "visualization_msgs/msg/MarkerArray",
     "/scan": "sensor_msgs/msg/LaserScan",
     "/tf": "tf2_msgs/msg/TFMessage",
+    "/tf_static": "tf2_msgs/msg/TFMessage",
 }
 #: Topics offered as ``transient_local`` (late subscribers get the last message).
-_LATCHED = ("/map", "/topology", "/route_graph", "/rooms")
+_LATCHED = ("/map", "/topology", "/route_graph", "/rooms", "/tf_static")
+#: Metres (and quaternion parts) by which a static transform must move to be written
+#: again: logs that store the offset per scan carry rounding noise.
+_STATIC_TOLERANCE = 1e-9
 _VERTEX_DIAMETER_M = 0.25
 _EDGE_WIDTH_M = 0.05
 _ROOM_LINE_WIDTH_M = 0.08
@@ -349,13 +356,39 @@ def _transform(stamp_ns: int, parent: str, child: str, pose3):
 
 
 def tf_message(scan, stamp_ns: int = 0):
-    """``tf2_msgs/msg/TFMessage``: :data:`MAP_FRAME` -> :data:`ROBOT_FRAME` (the scan's
-    ``pose``) and :data:`ROBOT_FRAME` -> :data:`LASER_FRAME` (its ``sensor_offset``)."""
+    """``tf2_msgs/msg/TFMessage`` of ``/tf``: :data:`MAP_FRAME` -> :data:`ROBOT_FRAME`
+    (the scan's ``pose``)."""
     return _typestore().types["tf2_msgs/msg/TFMessage"](
-        transforms=[
-            _transform(stamp_ns, MAP_FRAME, ROBOT_FRAME, scan.pose),
-            _transform(stamp_ns, ROBOT_FRAME, LASER_FRAME, scan.sensor_offset),
+        transforms=[_transform(stamp_ns, MAP_FRAME, ROBOT_FRAME, scan.pose)]
+    )
+
+
+def tf_static_message(scan, stamp_ns: int = 0):
+    """``tf2_msgs/msg/TFMessage`` of ``/tf_static``, the recording's whole set of static
+    transforms: :data:`ROBOT_FRAME` -> :data:`LASER_FRAME` (the scan's ``sensor_offset``)."""
+    return _typestore().types["tf2_msgs/msg/TFMessage"](
+        transforms=[_transform(stamp_ns, ROBOT_FRAME, LASER_FRAME, scan.sensor_offset)]
+    )
+
+
+def _same_static(a, b) -> bool:
+    """Whether two ``/tf_static`` messages hold the same transforms (stamps aside, the
+    values within :data:`_STATIC_TOLERANCE`)."""
+
+    def values(msg) -> list:
+        return [
+            (
+                (tf.header.frame_id, tf.child_frame_id),
+                [getattr(tf.transform.translation, k) for k in "xyz"]
+                + [getattr(tf.transform.rotation, k) for k in "xyzw"],
+            )
+            for tf in msg.transforms
         ]
+
+    va, vb = values(a), values(b)
+    return len(va) == len(vb) and all(
+        fa == fb and all(abs(x - y) <= _STATIC_TOLERANCE for x, y in zip(xa, xb, strict=True))
+        for (fa, xa), (fb, xb) in zip(va, vb, strict=True)
     )
 
 
@@ -398,8 +431,8 @@ class McapRecorder:
         The ``.mcap`` file to write; its folder is created.
     continue_from : str or Path, optional
         A recording this one continues (one written by :meth:`close` when a replay
-        stopped part way): its messages are copied first, and the next scan is stamped
-        after its last one.  A file that is not a complete MCAP recording is refused with
+        stopped part way): its messages are copied first, the next scan is stamped
+        after its last one, and its last ``/tf_static`` stands until an offset differs.  A file that is not a complete MCAP recording is refused with
         a ValueError naming it when the recording opens.
 
     Attributes
@@ -426,6 +459,7 @@ class McapRecorder:
         self.counts: dict[str, int] = {}
         self.stamp_ns = 0
         self._scanned = False
+        self._static = None  # the last /tf_static written (or copied)
         self._last_time: float | None = None  # the last scan's own usable timestamp (s)
         self._late_warned = False  # a scan's own time going back: said once
         self._writer = None
@@ -495,6 +529,8 @@ class McapRecorder:
                     f"{sorted(TOPICS)}, {earlier} has {conn.topic!r}"
                 )
             self._write_raw(conn.topic, raw, stamp_ns)
+            if conn.topic == "/tf_static":
+                self._static = _typestore().deserialize_cdr(raw, TOPICS["/tf_static"])
             if conn.topic == "/scan":
                 self.stamp_ns, self._scanned = max(self.stamp_ns, stamp_ns), True
 
@@ -589,9 +625,11 @@ class McapRecorder:
         return self.stamp_ns + int(round(SCAN_PERIOD_S * _NS)) if self._scanned else 0
 
     def add_scan(self, scan) -> int:
-        """Write ``/tf`` and ``/scan`` for a :class:`~topojax.Scan`; returns its stamp (ns).
-        A scan whose sensor pose in the map frame (``pose`` then ``sensor_offset``) is not
-        finite is refused with a ValueError, and nothing is written."""
+        """Write ``/tf`` and ``/scan`` for a :class:`~topojax.Scan`, and ``/tf_static``
+        at the first scan and where its ``sensor_offset`` differs from the last one
+        written; returns its stamp (ns).  A scan whose sensor pose in the map frame
+        (``pose`` then ``sensor_offset``) is not finite is refused with a ValueError, and
+        nothing is written."""
         from ..scans import Scan
 
         instance_of("scan", scan, Scan, "topojax.Scan")
@@ -604,6 +642,10 @@ class McapRecorder:
             )
         self.stamp_ns = self._next_stamp(scan.timestamp)
         self._scanned = True
+        static = tf_static_message(scan, self.stamp_ns)
+        if self._static is None or not _same_static(static, self._static):
+            self._write("/tf_static", static, self.stamp_ns)
+            self._static = static
         self._write("/tf", tf_message(scan, self.stamp_ns), self.stamp_ns)
         self._write("/scan", scan_message(scan, self.stamp_ns), self.stamp_ns)
         return self.stamp_ns
