@@ -432,8 +432,9 @@ class McapRecorder:
     continue_from : str or Path, optional
         A recording this one continues (one written by :meth:`close` when a replay
         stopped part way): its messages are copied first, the next scan is stamped
-        after its last one, and its last ``/tf_static`` stands until an offset differs.  A file that is not a complete MCAP recording is refused with
-        a ValueError naming it when the recording opens.
+        after its last one, and its last ``/tf_static`` stands until a scan's offset
+        differs.  A file that is not a complete MCAP recording is refused with a
+        ValueError naming it when the recording opens.
 
     Attributes
     ----------
