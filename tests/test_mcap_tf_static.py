@@ -178,3 +178,12 @@ def test_a_recording_reads_back_with_its_sensor_offset(tmp_path):
     back = list(tj.read_scans(record(tmp_path / "r.mcap", scans)))
     assert [s.sensor_offset for s in back] == [pytest.approx(B, abs=1e-9)] * 3
     assert [s.pose for s in back] == [pytest.approx(s.pose, abs=1e-9) for s in scans]
+
+
+def test_a_recording_whose_offset_changes_reads_back_with_each_scan_s_offset(tmp_path):
+    """Each /tf_static holds from its stamp on: a scan reads the latest one at or before
+    its own time (the first, for scans before any), so the offsets written come back."""
+    offsets = [A, A, B, B, B, A]
+    scans = [scan(i, o) for i, o in enumerate(offsets)]
+    back = list(tj.read_scans(record(tmp_path / "r.mcap", scans)))
+    assert [s.sensor_offset for s in back] == [pytest.approx(o, abs=1e-9) for o in offsets]

@@ -4,6 +4,7 @@ message, are refused naming the file."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -160,8 +161,14 @@ def test_a_recording_damaged_inside_its_chunk_is_refused_naming_it(recording, tm
     damaged += data[middle + 64 :]
     bad = tmp_path / "damaged.mcap"
     bad.write_bytes(damaged[: end_of_chunk + 100] if cut else damaged)
-    with pytest.raises(ValueError, match=r"damaged\.mcap.* (does not decompress|is damaged)"):
-        list(tj.read_scans(bad))
+    with warnings.catch_warnings():
+        # cut: where the damage decompresses (to bytes no message decodes from), the cut
+        # is found first and warned of, as it should be, before the refusal
+        warnings.filterwarnings(
+            "ignore", r".*damaged\.mcap: the MCAP file is cut off", RuntimeWarning
+        )
+        with pytest.raises(ValueError, match=r"damaged\.mcap.* (does not decompress|is damaged)"):
+            list(tj.read_scans(bad))
 
 
 def test_a_file_that_is_not_mcap_is_refused_naming_it(tmp_path):

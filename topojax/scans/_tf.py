@@ -57,8 +57,8 @@ def _tf_inverse(a: _Tf) -> _Tf:
 
 
 class _TfSeries:
-    """Time series of one transform (parent -> child), linearly interpolated.  Samples
-    are kept in typed arrays (33 bytes each, where tuples in a list take about 190: an
+    """Time series of one transform (parent -> child), linearly interpolated; once a
+    static one comes, only static ones, each holding from its stamp on.  Samples are kept in typed arrays (33 bytes each, where tuples in a list take about 190: an
     hour of 100 Hz tf is about 12 MB per transform)."""
 
     def __init__(self) -> None:
@@ -69,10 +69,10 @@ class _TfSeries:
         self._arr: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def add(self, t_ns: int, tf: _Tf, static: bool) -> None:
-        if static:
+        if static and not self.static:  # a static transform replaces the moving one
             self.static = True
             self.t, self.xyy, self.s = array("q"), array("d"), array("b")
-        elif self.static:
+        elif self.static and not static:
             return
         self.t.append(t_ns)
         self.xyy.extend(tf[:3])
@@ -81,11 +81,6 @@ class _TfSeries:
 
     def __len__(self) -> int:
         return len(self.t)
-
-    def last(self) -> _Tf:
-        """The latest sample added."""
-        x, y, yaw = self.xyy[-3:]
-        return (x, y, yaw, self.s[-1])
 
     def _arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if self._arr is None:
@@ -97,9 +92,10 @@ class _TfSeries:
         return self._arr
 
     def at(self, t_ns: int, tol_ns: int) -> _Tf | None:
-        if self.static:
-            return self.last()
         t, x, y, yaw, s = self._arrays()
+        if self.static:  # the latest at or before t_ns holds (the first, before any)
+            j = max(int(np.searchsorted(t, t_ns, side="right")) - 1, 0)
+            return (float(x[j]), float(y[j]), _wrap_angle(float(yaw[j])), int(s[j]))
         if t_ns < t[0] - tol_ns or t_ns > t[-1] + tol_ns:
             return None
         k = int(np.searchsorted(t, t_ns, side="right"))

@@ -202,7 +202,8 @@ def read_bag(
     ``x`` axis are used; a frame whose ``z`` axis points down (an upside-down laser) mirrors
     the scan, which is represented by negating ``angle_min`` and ``angle_increment``.
     Transforms are linearly interpolated at the scan's ``header.stamp`` (the bag time when
-    the stamp is zero); ``/tf_static`` transforms are constant.
+    the stamp is zero); a ``/tf_static`` transform holds from its stamp until the next
+    one of its frames (a scan before the first takes the first).
 
     Pose sources, in order:
 
