@@ -510,3 +510,23 @@ def test_a_title_that_is_not_a_str_is_refused_before_anything_is_drawn(result):
     ax = tj.plot(result, title="x")
     assert ax.get_title() == "x"
     plt.close("all")
+
+
+def test_vertices_of_other_kinds_are_drawn_not_dropped():
+    """A graph made by another tool (no ``kind``, or one topojax does not use) shows every
+    vertex: those of other kinds as "other", in the viewer's and the MCAP markers' brown."""
+    from matplotlib.colors import to_hex
+
+    from topojax._constants import OTHER_VERTEX_COLOUR
+
+    g = tj.build_graph(sample_map("a_scan")).graph.copy()
+    nodes = list(g.nodes)
+    del g.nodes[nodes[0]]["kind"]
+    g.nodes[nodes[1]]["kind"] = "door"
+    ax = plot_graph(g)
+    drawn = {c.get_label(): c for c in ax.collections if not isinstance(c, LineCollection)}
+    assert sum(len(c.get_offsets()) for c in drawn.values()) == g.number_of_nodes()
+    assert len(drawn["other"].get_offsets()) == 2
+    assert to_hex(drawn["other"].get_facecolor()[0]) == OTHER_VERTEX_COLOUR
+    assert "other" in [t.get_text() for t in ax.get_legend().get_texts()]
+    plt.close(ax.figure)

@@ -182,7 +182,8 @@ def plot_graph(
     linewidth : float
         Edge line width, points.
     node_size : float
-        Vertex marker size, points^2 (junction red, end blue, ring purple, isolated grey).
+        Vertex marker size, points^2 (junction red, end blue, ring purple, isolated grey,
+        any other kind brown).
     title : str, optional
 
     Returns

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._constants import EDGE_COLOUR, VERTEX_KIND_COLOURS
+from .._constants import EDGE_COLOUR, OTHER_VERTEX_COLOUR, VERTEX_KIND_COLOURS
 
 _KIND_COLOURS = VERTEX_KIND_COLOURS
 #: Grey levels of the map classes (0 black .. 1 white).
@@ -208,15 +208,19 @@ def draw_graph_lines(
 ) -> None:
     """Edges and vertices in any coordinates: ``segments`` a list of (K, 2) (x, y) arrays,
     ``points_by_kind`` vertex kind -> (N, 2) (x, y), drawn in the kind colours (junction
-    red, end blue, ring purple, isolated grey) and labelled for :func:`add_legend`."""
+    red, end blue, ring purple, isolated grey; any other kind, or None, brown as "other")
+    and labelled for :func:`add_legend`."""
     from matplotlib.collections import LineCollection
 
     if len(segments):
         ax.add_collection(
             LineCollection(segments, colors=edge_color, linewidths=linewidth, label="edges")
         )
-    for kind, colour in _KIND_COLOURS.items():
-        pts = np.asarray(points_by_kind.get(kind, ()), float).reshape(-1, 2)
+    others = [p for kind, pts in points_by_kind.items() if kind not in _KIND_COLOURS for p in pts]
+    layers = [*_KIND_COLOURS.items(), ("other", OTHER_VERTEX_COLOUR)]
+    for kind, colour in layers:
+        pts = points_by_kind.get(kind, ()) if kind != "other" else others
+        pts = np.asarray(pts, float).reshape(-1, 2)
         if len(pts):
             ax.scatter(pts[:, 0], pts[:, 1], s=node_size, c=colour, label=kind, zorder=3)
 
