@@ -923,3 +923,13 @@ def test_a_zarr_array_missing_a_chunk_is_refused(tmp_path, monkeypatch):
         tj.save_tiled_map(img, tmp_path / "cut.zarr", format="zarr", tile_px=128)
     with pytest.raises(ValueError, match=r"all its 9 chunks but holds 0"):
         tj.open_tiled_map(tmp_path / "cut.zarr")
+
+
+def test_an_empty_pgm_is_named_as_empty(tmp_path):
+    """Not "not a binary PGM": the file has nothing in it, as load_map says too."""
+    empty = tmp_path / "map.pgm"
+    empty.write_bytes(b"")
+    with pytest.raises(ValueError, match=r"path: .*map\.pgm is empty \(0 bytes\)"):
+        tj.open_tiled_map(empty)
+    with pytest.raises(ValueError, match=r"map image .*map\.pgm is empty \(0 bytes\)"):
+        tj.load_map(empty)

@@ -335,6 +335,8 @@ def _pgm_header(path: Path) -> tuple[int, int, int, int, list[str]]:
     naming the file and what its header holds where that is not a valid P5 header."""
     with open(path, "rb") as f:
         head = f.read(_HEADER_BYTES)
+    if not head:  # nothing at all, not an image of another kind
+        raise _NotMappable(f"path: {path} is empty (0 bytes)")
     if head[:2] != b"P5":
         raise _NotMappable(
             f"path: {path} is not a binary PGM (P5); read other images with load_map"
