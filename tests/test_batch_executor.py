@@ -6,8 +6,11 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from concurrent.futures import Executor, Future
 from pathlib import Path
+
+import pytest
 
 from topojax import build_graphs
 
@@ -46,3 +49,14 @@ def test_a_relative_out_dir_is_the_callers_for_workers_in_another_folder(tmp_pat
     # so a resumed run finds the files, and skips the map
     [again] = build_graphs([MAP], executor=_Elsewhere(tmp_path / "worker"), resume=True, **kw)
     assert again.status == "skipped", again.message
+
+
+def test_workers_given_with_an_executor_are_warned_of(tmp_path):
+    """The executor's own workers run the maps: a count given beside it does nothing,
+    which the caller is told, as the command line tells --workers beside --scheduler."""
+    with pytest.warns(UserWarning, match=r"workers: not used with executor= \(received 3\)"):
+        [rec] = build_graphs([MAP], executor=_Elsewhere(tmp_path), workers=3, progress=False)
+    assert rec.status == "ok", rec.message
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        [rec] = build_graphs([MAP], executor=_Elsewhere(tmp_path), progress=False)

@@ -8,6 +8,7 @@ import os
 import sys
 import threading
 import time
+import warnings
 from collections import Counter, deque
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
@@ -681,7 +682,8 @@ def build_graphs(
         the CPUs this process may run on (its affinity, which ``taskset``, a container or
         a job scheduler narrows), as many as the memory available holds (a larger count
         given is refused; ``docs/batch-and-dask.md``).  ``0`` runs the CPU stage in the
-        calling thread (:class:`InlineExecutor`).  Unused (but checked) with ``executor``.
+        calling thread (:class:`InlineExecutor`).  Unused (checked, and warned of) with
+        ``executor``.
     config : PipelineConfig, optional
         Stage settings, as for :func:`topojax.build_graph`.
     out_dir : str or path, optional
@@ -757,6 +759,13 @@ def build_graphs(
         route_config=route_config,
         room_config=room_config,
     )
+    if executor is not None and workers is not None:  # as the command line warns
+        warnings.warn(
+            f"workers: not used with executor= (received {workers}): the executor's own "
+            "workers run the maps",
+            UserWarning,
+            stacklevel=2,
+        )
     if out_dir is None:
         return run_batch(items_raw, sources, None, options)
     with one_writer(out_dir, name="out_dir", command="batch") as out:  # one run per folder
