@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -367,3 +368,16 @@ def check_same_inputs(items: list[_Item], out: Path) -> None:
                 f"out_dir: {manifest} and the files it lists were written from {before}; "
                 f"{now} would replace them. Write into another folder, or remove them first"
             )
+
+
+def warn_unused_workers(executor: Any, workers: int | None) -> None:
+    """Warn, at :func:`build_graphs`' caller, that ``workers`` given beside an
+    ``executor`` is not used (the executor's own workers run the maps), as the command
+    line warns of ``--workers`` beside ``--scheduler``."""
+    if executor is not None and workers is not None:
+        warnings.warn(
+            f"workers: not used with executor= (received {workers}): the executor's own "
+            "workers run the maps",
+            UserWarning,
+            stacklevel=3,
+        )

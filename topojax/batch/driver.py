@@ -8,7 +8,6 @@ import os
 import sys
 import threading
 import time
-import warnings
 from collections import Counter, deque
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
@@ -23,7 +22,13 @@ from ..maps import OccupancyMap
 from ..maps.classify import wall_warning
 from ..rooms import RoomConfig
 from ..routegraph import RouteGraphConfig
-from .arguments import batch_items, checked_options, map_inputs, workers_for_memory
+from .arguments import (
+    batch_items,
+    checked_options,
+    map_inputs,
+    warn_unused_workers,
+    workers_for_memory,
+)
 from .failures import _error_record, _lost_text
 from .inputs import ROUTE_FORMATS, _Item
 from .interrupts import HeldInterrupts
@@ -667,9 +672,8 @@ def build_graphs(
     Parameters
     ----------
     maps : iterable of (str, path or OccupancyMap)
-        Map files in any format :func:`topojax.load_map` reads (YAML, PGM, PNG, ...;
-        expand globs/folders first, e.g. with :func:`expand_map_inputs`) and/or loaded
-        maps.  A single path or map is accepted too.
+        Map files :func:`topojax.load_map` reads (expand globs and folders first, e.g.
+        with :func:`expand_map_inputs`) and/or loaded maps; or a single path or map.
     executor : concurrent.futures.Executor or dask.distributed.Client, optional
         Runs the CPU stages (thinning, T removal, graph, output files).  Default: a pool
         of ``workers`` processes (``forkserver`` start method where available, else
@@ -682,8 +686,7 @@ def build_graphs(
         the CPUs this process may run on (its affinity, which ``taskset``, a container or
         a job scheduler narrows), as many as the memory available holds (a larger count
         given is refused; ``docs/batch-and-dask.md``).  ``0`` runs the CPU stage in the
-        calling thread (:class:`InlineExecutor`).  Unused (checked, and warned of) with
-        ``executor``.
+        calling thread (:class:`InlineExecutor`).  Unused (warned of) with ``executor``.
     config : PipelineConfig, optional
         Stage settings, as for :func:`topojax.build_graph`.
     out_dir : str or path, optional
@@ -759,13 +762,7 @@ def build_graphs(
         route_config=route_config,
         room_config=room_config,
     )
-    if executor is not None and workers is not None:  # as the command line warns
-        warnings.warn(
-            f"workers: not used with executor= (received {workers}): the executor's own "
-            "workers run the maps",
-            UserWarning,
-            stacklevel=2,
-        )
+    warn_unused_workers(executor, workers)
     if out_dir is None:
         return run_batch(items_raw, sources, None, options)
     with one_writer(out_dir, name="out_dir", command="batch") as out:  # one run per folder
