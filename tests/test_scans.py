@@ -125,6 +125,25 @@ def test_scan_rejects_bad_fields(kwargs, exc, word):
         Scan(**base)
 
 
+def test_scan_beams_sweeping_more_than_one_turn_are_refused():
+    # 360 beams 1 degree apart, the increment given in degrees: the beams would sweep
+    # 359 rad, 57 turns, and land scrambled around the robot
+    with pytest.raises(ValueError, match=r"angle_increment: .*one turn.* 360 beams"):
+        Scan.from_arrays(np.full(360, 3.0), (0, 0, 0), angle_min=0.0, angle_increment=1.0)
+    with pytest.raises(ValueError, match=r"angle_increment: .*received -0\.5 rad"):
+        Scan.from_arrays(np.full(100, 3.0), (0, 0, 0), angle_min=0.0, angle_increment=-0.5)
+    # a full turn, the last beam repeating the first, is a real 360 degree sensor
+    n = 721
+    full = Scan.from_arrays(
+        np.full(n, 3.0), (0, 0, 0), angle_min=-math.pi, angle_increment=2 * math.pi / (n - 1)
+    )
+    assert full.angle_max == pytest.approx(math.pi)
+    one = Scan.from_arrays([3.0], (0, 0, 0), angle_min=0.0, angle_increment=6.0)
+    assert one.n_beams == 1
+    with pytest.raises(ValueError, match="angle_increment: .*one turn"):  # when called
+        scans_from_arrays(np.ones((2, 360)), np.zeros((2, 3)), angle_min=0, angle_increment=1)
+
+
 def test_valid_mask_drops_no_returns():
     r = np.array([1.0, np.nan, np.inf, -np.inf, -1.0, 0.0, 0.05, 0.1, 4.999, 5.0, 7.0])
     s = Scan(r, 0.0, 0.1, 0.1, 5.0, (0, 0, 0))

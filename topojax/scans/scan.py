@@ -100,7 +100,9 @@ class Scan:
         Angle of beam 0 in radians, counter-clockwise from the sensor's ``x`` axis.
     angle_increment : float
         Angle between consecutive beams in radians; finite and non-zero (negative for
-        sensors that sweep clockwise).
+        sensors that sweep clockwise); the beams sweep at most one turn, ``(N - 1) *
+        |angle_increment| <= 2 pi`` (with one beam's slack for a last beam repeating the
+        first).
     range_min, range_max : float
         Readings ``r`` with ``range_min <= r < range_max`` are hits, everything else is
         "no return". ``range_min >= 0``; ``range_max > range_min`` (``inf`` allowed).
@@ -156,6 +158,13 @@ class Scan:
                     f"{name}: expected an angle in radians within one turn (|a| <= 2 pi), "
                     f"received {value!r}"
                 )
+        sweep = max(arr.shape[0] - 1, 0) * abs(inc)
+        if sweep > _FULL_TURN + abs(inc):  # the last beam may repeat the first, no more
+            raise ValueError(
+                "angle_increment: expected beams within one turn ((n_beams - 1) * "
+                f"|angle_increment| <= 2 pi), received {inc!r} rad for {arr.shape[0]} beams, "
+                f"a sweep of {sweep:.4g} rad (degrees given as radians?)"
+            )
         object.__setattr__(self, "angle_min", a0)
         object.__setattr__(self, "angle_increment", inc)
         rmin = real_number("range_min", self.range_min)
@@ -369,8 +378,8 @@ def scans_from_arrays(
                 f"timestamps: expected shape ({r.shape[0]},), received shape {t.shape}"
             )
     offset = checked_pose("sensor_offset", sensor_offset, bounded=False)
-    # Validate the shared geometry once, eagerly, on an empty scan.
-    Scan(np.zeros(0), angle_min, angle_increment, range_min, range_max, (0, 0, 0), offset)
+    # Validate the shared geometry once, eagerly, on a scan of as many beams.
+    Scan(np.zeros(r.shape[1]), angle_min, angle_increment, range_min, range_max, (0, 0, 0), offset)
 
     def generate() -> Iterator[Scan]:
         for i in range(r.shape[0]):
