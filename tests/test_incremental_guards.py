@@ -119,6 +119,36 @@ def test_a_huge_number_in_a_state_is_refused_naming_file_and_field(
         IncrementalMapper.load(path)
 
 
+@pytest.mark.parametrize("key", ["settings", "counters", "pending", "v_id", "e_path"])
+def test_a_state_without_a_field_is_refused_naming_the_missing_field(saved_state, tmp_path, key):
+    """The message was the bare key (``...mapper state: 'v_id'``), saying neither that a
+    field was missing nor that it was a field."""
+    arrays = {k: v for k, v in saved_state.items() if k != key}
+    path = tmp_path / "cut.npz"
+    np.savez_compressed(path, **arrays)
+    with pytest.raises(ValueError, match=f"^{path}: corrupt .*: no field '{key}' .expected the "):
+        IncrementalMapper.load(path)
+
+
+@pytest.mark.parametrize(
+    ("settings", "message"),
+    [
+        ("1", r"settings: expected a JSON object, received '1'"),  # was an AttributeError
+        ('{"resolution_m": 0.05}', r"settings: expected the key 'config' in the saved"),
+    ],
+)
+def test_a_state_whose_settings_are_damaged_is_refused_naming_them(
+    saved_state, tmp_path, settings, message
+):
+    arrays = dict(saved_state, settings=np.array(settings))
+    path = tmp_path / "settings.npz"
+    np.savez_compressed(path, **arrays)
+    with pytest.raises(
+        ValueError, match=f"^{path}: corrupt or inconsistent mapper state: {message}"
+    ):
+        IncrementalMapper.load(path)
+
+
 def test_id_tables_beyond_the_memory_available_are_refused(saved_state, tmp_path, monkeypatch):
     import topojax.incremental._state_checks as checks
 

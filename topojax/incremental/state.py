@@ -165,6 +165,31 @@ def load_rooms_state(mapper, data) -> None:
         restore_rooms_seg(keeper, data, mapper.resolution_m)
 
 
+def saved_settings(text: str) -> dict:
+    """The keyword arguments of the mapper whose settings :meth:`IncrementalMapper.save`
+    wrote as the JSON ``text``; a key missing from them raises ValueError naming it."""
+    settings = json.loads(text)
+    if not isinstance(settings, dict):
+        raise ValueError(f"settings: expected a JSON object, received {text[:80]!r}")
+    try:
+        cfg = settings.pop("config")
+        if "room_config" in settings:
+            from ..rooms import RoomConfig
+
+            settings["room_config"] = RoomConfig(**settings["room_config"])
+        settings["config"] = PipelineConfig(
+            distance=DistanceConfig(**cfg["distance"]),
+            ridge=RidgeConfig(**cfg["ridge"]),
+            skeleton=SkeletonConfig(**cfg["skeleton"]),
+            graph=GraphConfig(**cfg["graph"]),
+            tile_px=cfg["tile_px"],
+            tiles_per_call=cfg["tiles_per_call"],
+        )
+    except KeyError as exc:
+        raise ValueError(f"settings: expected the key {exc} in the saved settings") from None
+    return settings
+
+
 def load_state(cls, path):
     """The body of :meth:`IncrementalMapper.load` (``cls``: the mapper class)."""
     return mapper_from_state(cls, *read_state(path))
@@ -174,21 +199,7 @@ def mapper_from_state(cls, p: Path, data: dict[str, np.ndarray]):
     """The mapper (of class ``cls``) of the state ``data`` read from ``p``
     (:func:`read_state`); a corrupt or inconsistent state raises ValueError naming ``p``."""
     try:
-        settings = json.loads(str(data["settings"]))
-        cfg = settings.pop("config")
-        if "room_config" in settings:
-            from ..rooms import RoomConfig
-
-            settings["room_config"] = RoomConfig(**settings["room_config"])
-        config = PipelineConfig(
-            distance=DistanceConfig(**cfg["distance"]),
-            ridge=RidgeConfig(**cfg["ridge"]),
-            skeleton=SkeletonConfig(**cfg["skeleton"]),
-            graph=GraphConfig(**cfg["graph"]),
-            tile_px=cfg["tile_px"],
-            tiles_per_call=cfg["tiles_per_call"],
-        )
-        mapper = cls(config=config, **settings)
+        mapper = cls(**saved_settings(str(data["settings"])))
         tile_state = {k[6:]: v for k, v in data.items() if k.startswith("tiles/")}
         mapper._tiles.load_state(tile_state)
         tiles = mapper._tiles
@@ -238,6 +249,11 @@ def mapper_from_state(cls, p: Path, data: dict[str, np.ndarray]):
         mapper._e_alive[e_id] = True
         add_paths(mapper, e_id, paths.astype(np.int32), np.asarray(data["e_len"], np.int64))
         load_rooms_state(mapper, data)
-    except (KeyError, TypeError, ValueError, IndexError) as exc:
+    except KeyError as exc:
+        raise ValueError(
+            f"{p}: corrupt or inconsistent mapper state: no field {exc} (expected the "
+            f"fields IncrementalMapper.save writes, version {STATE_VERSION})"
+        ) from None
+    except (TypeError, ValueError, IndexError) as exc:
         raise ValueError(f"{p}: corrupt or inconsistent mapper state: {exc}") from None
     return mapper
