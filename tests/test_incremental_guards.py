@@ -58,6 +58,19 @@ def test_add_points_of_an_empty_list_is_a_frame_without_points():
 HUGE = 10**15
 
 
+def test_add_scans_names_the_item_that_is_no_scan_and_what_was_added():
+    from topojax.scans import Scan
+
+    scan = Scan.from_arrays([1.0, 2.0], (0, 0, 0), angle_min=0.0, angle_increment=0.1)
+    mapper = IncrementalMapper(**KW)
+    with pytest.raises(
+        TypeError,
+        match=r"^scans\[2\]: expected a topojax.Scan .*received str.* 2 scan.s. before it were added",
+    ):
+        mapper.add_scans(iter([scan, scan, "scan.log", scan]))
+    assert mapper.n_scans == 2
+
+
 @pytest.fixture(scope="module")
 def saved_state(tmp_path_factory):
     """The arrays of a small mapper's state, mid-run: pending splats and skeleton changes

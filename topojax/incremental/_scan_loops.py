@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 
+from ..scans.scan import Scan
 from ._extent import Subject
 from ._rays import RAY_BATCH_BEAMS, cast_pending_rays, integrate_end_pixels
 from ._rooms import due_rooms_update, rooms_due
@@ -81,3 +82,29 @@ def scan_subject(mapper, scan) -> Subject:
     far = f" with readings up to {r.max():.6g} m" if r.size else ""
     n = mapper._n_scans
     return Subject(f"scan {n}", f"{stamp}: the pose {scan.pose}{far}", n)
+
+
+def add_each(mapper, scans) -> list[ScanReport]:
+    """The body of :meth:`IncrementalMapper.add_scans`: ``mapper.add_scan`` for every
+    item of the iterable ``scans``, in order.
+
+    Returns
+    -------
+    list of ScanReport
+        One per scan.
+
+    Raises
+    ------
+    TypeError
+        For an item that is no :class:`~topojax.Scan`, naming its index in ``scans``
+        and how many scans before it were added (they stay in the map).
+    """
+    reports = []
+    for i, scan in enumerate(scans):
+        if not isinstance(scan, Scan):
+            raise TypeError(
+                f"scans[{i}]: expected a topojax.Scan (see Scan.from_arrays), received "
+                f"{type(scan).__name__}; the {i} scan(s) before it were added"
+            )
+        reports.append(mapper.add_scan(scan))
+    return reports

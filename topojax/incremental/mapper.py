@@ -42,7 +42,7 @@ from ._ridges import (
     update_ridges,
 )
 from ._rooms import RoomKeeper, due_rooms_update, rooms_due
-from ._scan_loops import map_end_pixels, scan_subject
+from ._scan_loops import add_each, map_end_pixels, scan_subject
 from ._settings import (
     DEFAULT_MAX_EXPORT_BYTES,
     DEFAULT_MAX_EXTENT_M,
@@ -470,7 +470,8 @@ class IncrementalMapper:
 
     @_synchronized
     def add_scans(self, scans) -> list[ScanReport]:
-        """:meth:`add_scan` for every scan of an iterable; returns the reports."""
+        """:meth:`add_scan` for every scan of an iterable; returns the reports (an item
+        that is no Scan raises TypeError naming its index; the scans before it stay)."""
         if (
             isinstance(scans, (Scan, str, bytes))  # a path: read_scans(path) reads it
             or not hasattr(scans, "__iter__")
@@ -480,7 +481,7 @@ class IncrementalMapper:
                 f"scans: expected an iterable of Scan (e.g. read_scans(path)), received "
                 f"{type(scans).__name__}; add one scan with add_scan"
             )
-        return [self.add_scan(s) for s in scans]
+        return add_each(self, scans)
 
     # ------------------------------------------------------------------ distance loop
     def _flush_splat(self) -> int:
