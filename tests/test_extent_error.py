@@ -34,7 +34,10 @@ WORDS = {
 
 
 def _scan(ranges, pose=(0.0, 0.0, 0.0)) -> Scan:
-    return Scan.from_arrays(np.asarray(ranges, float), pose, angle_min=0, angle_increment=0.3)
+    """Beams 0.3 rad apart, closer where that would sweep more than one turn."""
+    r = np.asarray(ranges, float)
+    inc = min(0.3, 2 * np.pi / r.size)
+    return Scan.from_arrays(r, pose, angle_min=0, angle_increment=inc)
 
 
 def _map(shape, origin, *, free: bool = False) -> OccupancyMap:
