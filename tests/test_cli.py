@@ -68,6 +68,25 @@ def test_an_unknown_option_is_the_commands_error(capsys, argv, error):
     assert err.rstrip().endswith(f"topojax route-graph: error: {error}")
 
 
+def test_every_option_of_every_command_has_help(capsys):
+    """``topojax COMMAND --help`` says what each option does; demo's ``--map`` also
+    names its default, the map a plain ``topojax demo`` runs on."""
+    import argparse
+
+    parser = build_parser()
+    (commands,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    bare = [
+        f"{name} {action.option_strings or action.dest}"
+        for name, sub in commands.choices.items()
+        for action in sub._actions
+        if action.help is None
+    ]
+    assert bare == []
+    with pytest.raises(SystemExit):
+        main(["demo", "--help"])
+    assert "(default: intel)" in " ".join(capsys.readouterr().out.split())
+
+
 def test_names_load_on_first_use():
     code = (
         "import sys, topojax; from topojax import OccupancyMap, GraphConfig; "

@@ -86,7 +86,12 @@ def add_commands(subparsers) -> None:
         description="Run the full pipeline on a map bundled with topojax (the paper's maps), "
         "write the graph and pictures, and print a summary.",
     )
-    p.add_argument("--map", choices=("intel", "office", "a_scan"), default="intel")
+    p.add_argument(
+        "--map",
+        choices=("intel", "office", "a_scan"),
+        default="intel",
+        help="bundled map to run on (default: intel)",
+    )
     p.add_argument("-o", "--out", default="out", help="output folder (default: out)")
     add_pipeline_options(p)
     p.set_defaults(handler=_cmd_demo)
