@@ -87,6 +87,32 @@ def test_every_option_of_every_command_has_help(capsys):
     assert "(default: intel)" in " ".join(capsys.readouterr().out.split())
 
 
+@pytest.mark.parametrize(
+    "argv, option",
+    [
+        (["graph", "", "-o", "{tmp}"], "map"),
+        (["graph", "{map}", "-o", ""], "-o/--out"),
+        (["route-graph", "{map}", "-o", ""], "-o/--out"),
+        (["route", "{graph}", "--start", "0", "0", "--goal", "1", "1", "-o", ""], "-o/--out"),
+        (["route", "{graph}", "--start", "0", "0", "--goal", "1", "1", "--map", ""], "--map"),
+        (["view", ""], "OUT_DIR"),
+    ],
+)
+def test_an_empty_path_is_refused_naming_its_option(tmp_path, capsys, monkeypatch, argv, option):
+    """An empty word where a path goes is refused before any work, naming the option:
+    ``-o ""`` wrote into the current folder (``graph``, ``route-graph``) or wrote no
+    route at all with status 0 (``route``), ``route --map ""`` routed without the map
+    and ``view ""`` read the current folder."""
+    monkeypatch.chdir(tmp_path)
+    names = {"tmp": str(tmp_path), "map": "map.png", "graph": "g.json"}
+    with pytest.raises(SystemExit) as stop:
+        main([word.format(**names) for word in argv])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert f"error: argument {option}: expected a path, received an empty one ('')" in err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_names_load_on_first_use():
     code = (
         "import sys, topojax; from topojax import OccupancyMap, GraphConfig; "

@@ -58,7 +58,17 @@ class _CommandParser(argparse.ArgumentParser):
         namespace, extras = super().parse_known_args(args, namespace)
         if extras:
             self.error(_unrecognized_text(extras, self._option_string_actions))
+        for action in self._actions:
+            if action.dest in _PATHS and getattr(namespace, action.dest, None) == "":
+                name = "/".join(action.option_strings) or action.metavar or action.dest
+                self.error(f"argument {name}: expected a path, received an empty one ('')")
         return namespace, extras
+
+
+#: The arguments that name a file or folder and that nothing else checks to be a word:
+#: ``-o ""`` would be the current folder, ``route -o ""`` or ``--map ""`` no file at all,
+#: each taken without a word said (``--mcap`` and the inputs say it themselves).
+_PATHS = frozenset({"out", "map", "graph", "folder", "source", "animate"})
 
 
 #: A negative decimal number in any notation: ``-1e-05``, ``-3E+5``, ``-5.``, ``-.5``.
