@@ -140,3 +140,12 @@ def test_batch_says_when_resolution_replaces_a_maps_own(tmp_path, capsys):
     captured = capsys.readouterr()
     assert "2 ok, 0 empty" in captured.out and "1 with a warning" in captured.out
     assert captured.err.splitlines() == [f"  ok       coarse: {note}"]
+
+
+def test_the_resolution_help_says_it_replaces_a_pgms_too(capsys):
+    """``--resolution`` replaces the m/px that a PGM's comment states as well as a YAML's
+    (the docs' map options); its help said a YAML's only."""
+    with pytest.raises(SystemExit):
+        main(["graph", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "given, it replaces a YAML's or a PGM's" in text

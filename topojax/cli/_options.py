@@ -277,7 +277,7 @@ def add_map_options(p: argparse.ArgumentParser, *, each_map: str = "") -> None:
         dest="resolution_m",
         type=float,
         help=f"m/px of the map{each_map} (default: a YAML's own, a PGM's 'm/pix' comment, "
-        "else 0.05; given, it replaces a YAML's)",
+        "else 0.05; given, it replaces a YAML's or a PGM's)",
     )
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")
