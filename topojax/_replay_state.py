@@ -79,9 +79,9 @@ _BOUNDS = {
 
 
 def _bounds_met(bounds) -> str:
-    """The settings among the ``bounds`` the refusals met (any collection of names), as ``" (max_extent_m,
-    --max-extent-m in topojax replay; max_tile_bytes)"``; "" where none is a setting
-    (pixels beyond 2^30 px from the origin, or not known)."""
+    """The settings among the ``bounds`` the refusals met (any collection of names),
+    as ``" (max_extent_m, --max-extent-m in topojax replay; max_tile_bytes)"``; ""
+    where none is a setting (pixels beyond 2^30 px from the origin, or not known)."""
     met = [name for bound, name in _BOUNDS.items() if bound in bounds]
     return f" ({'; '.join(met)})" if met else ""
 
@@ -301,8 +301,8 @@ def keep_state(mapper, out: Path, record) -> bool:
             path = save_replay_state(mapper, out / STATE_FILE, record())
     except KeyboardInterrupt:  # a second Ctrl-C while the state was saved
         warnings.warn(
-            f"replay stopped after {counted(mapper.n_scans, 'scan')}; saving the mapper's state was "
-            "interrupted, so it is not kept",
+            f"replay stopped after {counted(mapper.n_scans, 'scan')}; saving the mapper's "
+            "state was interrupted, so it is not kept",
             RuntimeWarning,
             stacklevel=_CALLER,
         )

@@ -161,10 +161,10 @@ def replay(
         ``vertices``, ``edges``, ``components``, ``robot_radius_m``; None without one),
         ``timings`` (per loop), ``checkpoints`` (states saved as it went), ``written``
         (paths), ``messages``.  An error or interrupt (a map grown too large to export, an
-        unreadable scan, also while the files are written) leaves the mapper's state in ``out_dir/mapper_state.npz`` (with a
-        RuntimeWarning) and raises; a replay that finishes removes it, one without ``resume``
-        an earlier one's state and recordings as it starts.  The files the last replay into
-        ``out_dir`` wrote and this one does not (:func:`optional_outputs`) are removed.
+        unreadable scan, also while the files are written) leaves the mapper's state in
+        ``out_dir/mapper_state.npz`` (with a RuntimeWarning) and raises; one that finishes
+        removes it, one without ``resume`` an earlier one's state and recordings as it
+        starts; the files the last replay there wrote and this one does not are removed.
     """
     nav2_tolerance_m, route_graph_radius_m = check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
@@ -528,8 +528,8 @@ def _write_pictures_and_animation(
     mapper: IncrementalMapper, done: _Replayed, out: Path, plot: bool, animate, source
 ) -> list[Path]:
     """With ``plot``, write the still pictures (the final rooms, if any, drawn on the
-    graph's; the route graph, if any, in ``route_graph.png``); with ``animate`` (a GIF path), the animation, its last frame the final map.
-    Returns the paths written."""
+    graph's; the route graph, if any, in ``route_graph.png``); with ``animate`` (a GIF
+    path), the animation, its last frame the final map.  Returns the paths written."""
     written: list[Path] = []
     name = _source_name(source)
     if plot:
@@ -651,9 +651,10 @@ def _run(
 ):
     """Feed ``scans`` to ``mapper`` until the log's scan ``max_scans``; returns the
     reports and the wall time (s).  Each scan mapped is recorded: ``record`` (a
-    :class:`~topojax._replay_state.ScanRecording`) writes it and what its report updated, ``timeline`` takes its
-    update, ``frames`` (a list, or None) gets a frame at each graph or rooms update.
-    ``progress_at`` gives where ``scans`` start in the log, and follows each scan taken
+    :class:`~topojax._replay_state.ScanRecording`) writes it and what its report
+    updated, ``timeline`` takes its update, ``frames`` (a list, or None) gets a frame at
+    each graph or rooms update.  ``progress_at`` gives where ``scans`` start in the log,
+    and follows each scan taken
     (mapped, or skipped with its refusal) and recorded; ``checkpoints`` saves the state
     after a scan when one is due (a Ctrl-C waits for it)."""
     from tqdm import tqdm

@@ -366,8 +366,9 @@ class RoutePlanner:
         """``(tree point, distance m)`` of each edge's (or edgeless vertex's) nearest
         corridor point within ``reach_m`` of query ``q`` that the robot reaches along
         a straight line over pixels set in ``mask`` (bool (H, W)): every pixel the line
-        passes through (:func:`topojax._sight.sees`).  Candidates are tried nearest first, a batch at a
-        time, skipping edges already joined (bounded memory for any reach)."""
+        passes through (:func:`topojax._sight.sees`).  Candidates are tried nearest
+        first, a batch at a time, skipping edges already joined (bounded memory for any
+        reach)."""
         tree, owners = self._tree(frame)
         qp, (r, c) = self._query_pixel(q, frame)
         h, w = mask.shape

@@ -355,8 +355,9 @@ def check_no_overwrite(items: list[_Item], out: Path, formats: tuple[str, ...], 
 
 def check_same_inputs(items: list[_Item], out: Path) -> None:
     """Refuse a map file (or a map object loaded from one) whose output name another map
-    file's batch already used in ``out`` (its manifest names that file): ``maps_a/intel.png`` would silently replace
-    the outputs of ``maps_b/intel.png`` written there before."""
+    file's batch already used in ``out`` (its manifest names that file):
+    ``maps_a/intel.png`` would silently replace the outputs of ``maps_b/intel.png``
+    written there before."""
     for it in items:
         now = it.file  # a map object loaded from a file is checked as that file
         if now is None:

@@ -411,9 +411,9 @@ class _BatchRun:
 
     def _close(self, stopped: bool) -> None:
         """Shut the pools down; a ``stopped`` batch's own processes are terminated and
-        the files of the maps they were running removed (temporary or whole).  A Ctrl-C or SIGTERM meanwhile
-        waits until that is done: raised part way it left those files behind (for a
-        stopped batch it is the same stop, and not raised again)."""
+        the files of the maps they were running removed (temporary or whole).  A Ctrl-C
+        or SIGTERM meanwhile waits until that is done: raised part way it left those
+        files behind (for a stopped batch it is the same stop, and not raised again)."""
         try:
             with HeldInterrupts():
                 if stopped and self.owns_executor:

@@ -429,7 +429,8 @@ class GraphStore:
             and ``clearance_m`` (float); edges ``(node_ids[u], node_ids[v], key)`` in store
             order with ``path`` (int32 (K, 2)), ``world`` (float64 (K, 2)), ``length_m``,
             ``min_clearance_m`` and ``mean_clearance_m`` (float), and, where the store
-            holds them, ``waypoints`` (float64 (K, 2)); graph attributes ``attrs``.  Without the metric arrays (:attr:`has_metrics`), nodes have only
+            holds them, ``waypoints`` (float64 (K, 2)); graph attributes ``attrs``.
+            Without the metric arrays (:attr:`has_metrics`), nodes have only
             ``pixel`` and ``kind`` and edges only ``path``.  Its arrays are views of new
             arrays: it shares no memory with the store.
 

@@ -609,7 +609,9 @@ def _with_metadata(reader, index_path: Path, stored: dict, overrides: dict, sour
     """A TiledMap of ``reader``; errors of ``stored`` name ``index_path``, not those of the
     caller's ``overrides``."""
     with _named(index_path):
-        TiledMap(reader, **_metadata(stored, {}), source=source)
+        as_stored = TiledMap(reader, **_metadata(stored, {}), source=source)
+    if all(v is None for v in overrides.values()):  # nothing to replace: that map
+        return as_stored
     return TiledMap(reader, **_metadata(stored, overrides), source=source)
 
 

@@ -455,8 +455,8 @@ def check_scale(
     if 0 < cfg.shortcut_spacing_m < res:
         raise ValueError(
             f"shortcut_spacing_m: expected 0 (shortcuts from vertices only) or at least one "
-            f"pixel of the map ({res:g} m), received {cfg.shortcut_spacing_m!r}; anchors closer than a pixel are the "
-            "same anchors, at many times the time and memory"
+            f"pixel of the map ({res:g} m), received {cfg.shortcut_spacing_m!r}; anchors "
+            "closer than a pixel are the same anchors, at many times the time and memory"
         )
 
 

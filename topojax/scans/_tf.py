@@ -58,8 +58,9 @@ def _tf_inverse(a: _Tf) -> _Tf:
 
 class _TfSeries:
     """Time series of one transform (parent -> child), linearly interpolated; once a
-    static one comes, only static ones, each holding from its stamp on.  Samples are kept in typed arrays (33 bytes each, where tuples in a list take about 190: an
-    hour of 100 Hz tf is about 12 MB per transform)."""
+    static one comes, only static ones, each holding from its stamp on.  Samples are
+    kept in typed arrays (33 bytes each, where tuples in a list take about 190: an hour
+    of 100 Hz tf is about 12 MB per transform)."""
 
     def __init__(self) -> None:
         self.t = array("q")  # ns
