@@ -15,7 +15,7 @@ from view_cases import wall_between
 
 import topojax as tj
 from topojax.graph import skeleton_to_graph
-from topojax.routing import RoutePlanner, plan_route
+from topojax.routing import NoRouteError, RoutePlanner, plan_route
 
 # 0.1 m pixels.  Room A (rows 3-13, columns 1-12) has a closet one pixel wide in the wall
 # above it (rows 1-2, column 7), a door two pixels wide (rows 5-6) along a corridor to
@@ -197,3 +197,73 @@ def test_route_command_warns_of_a_fallback_leg_and_a_corridor_narrower_than_the_
     assert narrow.startswith("topojax route: warning: the route runs along a corridor 0.100 m")
     # without the map nothing is known of the robot: no warning
     assert route(CLOSET, ROOM_B).err == ""
+
+
+# 0.1 m pixels, a map free but for two walls (rows 0 and 20) and a pinch of two obstacle
+# pixels 3 pixels above and below row 10 at column 6.  The graph: a line along row 10 from
+# column 2 to column 48 with a branch down column 30 to row 17, so three edges: the left
+# one, narrow at the pinch (3 pixels), the right one and the branch, each 10 pixels from
+# the walls along row 10.
+def pinched():
+    """The map above and its graph, whose clearances are those of the graph builders (the
+    float32 Euclidean distance in pixels to the nearest occupied pixel)."""
+    occupied = np.zeros((21, 51), bool)
+    occupied[[0, 20]] = True
+    occupied[[7, 13], 6] = True
+    skeleton = np.zeros_like(occupied)
+    skeleton[10, 2:49] = True
+    skeleton[11:18, 30] = True
+    m = tj.OccupancyMap.from_array(occupied, resolution_m=0.1)
+    g = skeleton_to_graph(
+        skeleton,
+        clearance_px=distance_transform_edt(~occupied).astype(np.float32),
+        resolution_m=0.1,
+        pixel_to_world=m.pixel_to_world,
+    )
+    return m, g
+
+
+def test_with_the_map_a_route_measures_the_part_of_its_end_edges_it_runs_along():
+    m, g = pinched()
+    left = next(e for e in g.edges if tuple(g.nodes[e[0]]["pixel"]) == (10, 2))
+    assert g.edges[left]["min_clearance_m"] == 3 * 0.1  # the pinch, beyond the start
+    planner = RoutePlanner(g, occupancy=m, robot_radius_m=ROBOT_M)
+    for start, goal in (((10, 18), (10, 41)), ((10, 41), (10, 18))):
+        r = planner.route(start, goal, frame="pixel")
+        assert r.start_snap_m == 0 and r.goal_snap_m == 0 and left in r.edges
+        # every pixel from column 18 to 41 on row 10 is 10 pixels from the walls, and the
+        # pinch is farther (12.4 pixels from (10, 18))
+        assert sorted(r.pixels[:, 1].tolist()) == list(range(18, 42))
+        assert r.min_clearance_m == 10 * 0.1
+        # without the map, the left edge counts whole: its pinch
+        plain = RoutePlanner(g).route(start, goal, frame="pixel")
+        assert plain.edges == r.edges
+        assert plain.min_clearance_m == 3 * 0.1 == narrowest(g, plain)
+
+
+def test_a_route_along_whole_edges_has_the_recorded_clearance_with_and_without_the_map():
+    rooms_map, _ = rooms()
+    m, g = pinched()
+    cases = [
+        (m, g, 0.25),  # the graph builders' clearance, recorded by skeleton_to_graph
+        (rooms_map, tj.build_graph(rooms_map).graph, 0.1),
+        (rooms_map, tj.route_graph(rooms_map, robot_radius_m=0.15), None),
+    ]
+    for occupancy, graph, radius in cases:
+        with_map = RoutePlanner(graph, occupancy=occupancy, robot_radius_m=radius)
+        plain = RoutePlanner(graph)
+        ends = [tuple(d["pixel"]) for _, d in graph.nodes(data=True) if graph.degree(_) > 0]
+        checked = 0
+        for a in ends:
+            for b in ends:
+                try:
+                    r = with_map.route(a, b, frame="pixel")
+                except NoRouteError:  # pieces of the graph apart
+                    continue
+                if r.start_snap_m or r.goal_snap_m or not r.edges:
+                    continue  # a leg to a point part way along an edge, or no edge
+                want = narrowest(graph, r)
+                assert r.min_clearance_m == want, (a, b)
+                assert plain.route(a, b, frame="pixel").min_clearance_m == want
+                checked += 1
+        assert checked >= len(ends)

@@ -54,14 +54,20 @@ class Route:
         without the map: nothing is known of the legs.
     min_clearance_m : float
         Narrowest clearance (distance to the nearest obstacle) along the route's graph
-        part, metres: the least ``min_clearance_m`` of its ``edges``.  The graph records
-        one value per edge, so the first and last edge, run along in part, count with
-        their whole length, and the route's own pixels there may be wider.  A route
-        along no edge (one pixel) takes the ``clearance_m`` of the vertex it stands at,
-        else the ``min_clearance_m`` of the edge it lies on.  NaN when any of those is
-        not recorded (a graph built without clearances).  Below ``robot_radius_m``, the
-        route runs through a corridor narrower than the robot (a topology graph's
-        corridors are not chosen for a robot; a route graph's keep its radius).
+        part, metres.  Planned with the map: the least over the route's ``pixels`` of the
+        map's distance to the nearest wall, measured as the graph's clearances are (a
+        route graph's: to the nearest pixel that is not known free, the map's outside
+        counting as such; any other graph's: to the nearest occupied pixel), so the first
+        and last edge count only where the route runs along them, and a route along
+        whole edges gets the least ``min_clearance_m`` they record.  Without the map: the
+        least ``min_clearance_m`` of its ``edges``; the graph records one value per edge,
+        so the first and last edge count whole, a lower bound (the route's own pixels
+        there may be wider), and a route along no edge (one pixel) takes the
+        ``clearance_m`` of the vertex it stands at, else the ``min_clearance_m`` of the
+        edge it lies on; NaN when any of those is not recorded (a graph built without
+        clearances).  Below ``robot_radius_m``, the route runs through a corridor
+        narrower than the robot (a topology graph's corridors are not chosen for a
+        robot; a route graph's keep its radius).
     robot_radius_m : float or None
         Robot radius the legs were planned for, metres; None when planned without the
         map.
@@ -163,3 +169,59 @@ def narrowest_m(clearances) -> float:
     if not values or any(math.isnan(v) for v in values):
         return math.nan
     return min(values)
+
+
+@dataclass(frozen=True, eq=False)
+class WallDistance:
+    """Per pixel of a map, the distance to its nearest wall as a graph's clearances
+    measure it: for a route graph (graph attribute ``kind`` ``"route_graph"``) the
+    distance to the nearest pixel that is not known free, the map's outside counting as
+    such (:func:`topojax.routegraph.feasible.clearance_map_m`); for any other graph, as
+    :func:`topojax.build_graph` records it, the distance to the nearest occupied pixel.
+    The least of it over the pixels of whole edges is their recorded ``min_clearance_m``,
+    to the bit.
+
+    Attributes
+    ----------
+    px : float32 (H, W)
+        Distance from each pixel centre to the nearest wall's centre, pixels (inf on a
+        map without an occupied pixel, for a graph other than a route graph).
+    resolution_m : float
+        Metres per pixel.
+    route_graph : bool
+        Whether the distance is a route graph's (rounded to float32 metres, as it records
+        them).
+    """
+
+    px: np.ndarray
+    resolution_m: float
+    route_graph: bool
+
+    @classmethod
+    def of_map(cls, occupancy, attrs: dict, resolution_m: float) -> WallDistance:
+        """The distance on ``occupancy`` for the graph of attributes ``attrs``, at
+        ``resolution_m`` metres per pixel (the graph's, which its clearances use)."""
+        from .fields.clearance import distance_transform_px, free_clearance_px
+
+        route_graph = attrs.get("kind") == "route_graph"
+        if route_graph:
+            px = free_clearance_px(np.asarray(occupancy.free, bool))
+        else:
+            occupied = np.asarray(occupancy.occupied, bool)
+            if occupied.any():
+                px = distance_transform_px(~occupied)
+            else:  # nothing to measure from, as the graph builders' clearance
+                px = np.full(occupied.shape, np.inf, np.float32)
+        return cls(px, float(resolution_m), route_graph)
+
+    def least_m(self, pixels: np.ndarray) -> float:
+        """The least distance (metres) at ``pixels`` (int (n, 2), ``[row, col]``, n >= 1),
+        NaN when one lies off the map."""
+        h, w = self.px.shape
+        rows, cols = pixels[:, 0], pixels[:, 1]
+        if rows.min() < 0 or cols.min() < 0 or rows.max() >= h or cols.max() >= w:
+            return math.nan
+        least = self.px[rows, cols].min()  # the metres grow with the pixels: the least
+        if self.route_graph:  # float32 metres, as clearance_map_m scales them
+            return float(np.float32(least) * np.float32(self.resolution_m))
+        return float(least) * self.resolution_m  # as the graph builders scale them

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from ._route import Route, narrowest_m, recorded_clearance_m
+from ._route import Route, WallDistance, narrowest_m, recorded_clearance_m
 from ._sight import sees as _sees
 from ._validate import (
     finite_pair,
@@ -106,8 +106,11 @@ class RoutePlanner:
         straight line over pixels that are not occupied, up to ``entry_m`` farther than
         the nearest point and within ``max_snap_m`` (the route's ``start_leg_feasible``
         or ``goal_leg_feasible`` is then False), and an end that sees none so is an
-        error (:meth:`route`).  Without the map every end joins at the nearest corridor
-        point.
+        error (:meth:`route`).  The route's ``min_clearance_m`` is then measured on the
+        map along the pixels the route runs along (the map's distance to the nearest
+        wall, computed on the first route and kept: 4 bytes a pixel).  Without the map
+        every end joins at the nearest corridor point, and ``min_clearance_m`` is the
+        edges' recorded one, the first and last edge counted whole.
     robot_radius_m : float, optional
         Robot radius for those straight legs, metres; default the graph's
         ``robot_radius_m`` attribute (a route graph's).
@@ -194,6 +197,7 @@ class RoutePlanner:
         )
         self._trees: dict = {}
         self._tree_px: dict = {}  # per frame, the tree points' pixels (with the map)
+        self._walls: WallDistance | None = None  # with the map, on the first route
 
     # ------------------------------------------------------------------ public
     def route(
@@ -636,6 +640,11 @@ class RoutePlanner:
             rows, xys = [pixel], [world]
         pixels = np.concatenate(rows).astype(np.int32)
         world = np.concatenate(xys).astype(np.float64)
+        clear = math.nan
+        if self._occupancy is not None and pieces:  # the pixels it runs along, measured
+            clear = self._wall_distance().least_m(pixels)
+        if math.isnan(clear):  # without the map (or off it): the edges' recorded values
+            clear = self._narrowest(along, vertices, s)
         return Route(
             length_m=float(length),
             pixels=pixels,
@@ -646,9 +655,17 @@ class RoutePlanner:
             goal_snap_m=g.distance_m,
             start_leg_feasible=s.feasible,
             goal_leg_feasible=g.feasible,
-            min_clearance_m=self._narrowest(along, vertices, s),
+            min_clearance_m=clear,
             robot_radius_m=self._radius,
         )
+
+    def _wall_distance(self) -> WallDistance:
+        """The map's distance to the nearest wall, as the graph's clearances measure it
+        (computed on the first route, then kept)."""
+        if self._walls is None:
+            res = self._occupancy.resolution_m if self._res is None else self._res
+            self._walls = WallDistance.of_map(self._occupancy, self._graph.graph, res)
+        return self._walls
 
     def _narrowest(self, along: list[int], vertices, s: _Snap) -> float:
         """The narrowest clearance (metres) of the edges ``along`` (indices) a route runs
