@@ -1049,7 +1049,8 @@ def test_in_sight_exactly_when_every_pixel_the_line_passes_through_is_feasible(s
 @pytest.mark.parametrize(
     ("kwargs", "graph_radius", "exc", "words"),
     [
-        ({"robot_radius_m": 0.3}, 0.25, ValueError, "robot_radius_m: only used with occupancy"),
+        ({"robot_radius_m": 0.3}, 0.25, ValueError, "^robot_radius_m: expected at most the 0.25"),
+        ({"robot_radius_m": -1.0}, None, ValueError, "^robot_radius_m: expected"),
         ({"entry_m": 1.0}, 0.25, ValueError, "entry_m: only used with occupancy"),
         ({"occupancy": "map"}, 0.25, TypeError, "occupancy: expected an OccupancyMap"),
         ({"occupancy": "small"}, 0.25, ValueError, "occupancy: expected the graph's map"),

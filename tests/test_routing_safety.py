@@ -267,3 +267,57 @@ def test_a_route_along_whole_edges_has_the_recorded_clearance_with_and_without_t
                 assert plain.route(a, b, frame="pixel").min_clearance_m == want
                 checked += 1
         assert checked >= len(ends)
+
+
+def test_a_robot_radius_without_the_map_is_recorded_and_checked_against_the_edges():
+    m, g = pinched()
+    r = RoutePlanner(g, robot_radius_m=0.35).route((10, 18), (10, 41), frame="pixel")
+    assert r.robot_radius_m == 0.35 and r.min_clearance_m == 3 * 0.1  # the left edge whole
+    assert r.start_leg_feasible is None and r.goal_leg_feasible is None  # no map: no legs
+    assert plan_route(g, (10, 18), (10, 41), frame="pixel", robot_radius_m=0.2).robot_radius_m
+    assert RoutePlanner(g).route((10, 18), (10, 41), frame="pixel").robot_radius_m is None
+    with pytest.raises(ValueError, match="^entry_m: only used with occupancy="):
+        RoutePlanner(g, robot_radius_m=0.35, entry_m=1.0)
+
+
+def test_route_command_checks_a_robot_radius_without_the_map_against_the_edges(tmp_path, capsys):
+    import cv2
+
+    from topojax.cli import main
+
+    m, g = pinched()
+    graph_file = tj.save_graph(g, tmp_path / "pinched.json")
+    map_file = tmp_path / "pinched.png"
+    cv2.imwrite(str(map_file), np.where(m.occupied, 0, 255).astype(np.uint8))
+    points = ["--pixel", "--start", "10", "18", "--goal", "10", "41"]
+
+    def route(*extra):
+        assert main(["route", str(graph_file), *points, *extra]) == 0
+        return capsys.readouterr()
+
+    told = route("--robot-radius", "0.35")
+    assert (
+        "note       without --map the legs from the start and goal to the graph are not "
+        "checked for the robot, and the first and last edge count whole"
+    ) in told.out
+    (line,) = told.err.splitlines()
+    assert line == (
+        "topojax route: warning: the route runs along edges 0.300 m from the nearest "
+        "obstacle at their narrowest, less than the robot radius 0.35 m (without --map the "
+        "first and last edge count whole, though the route may run along part of them only)"
+    )
+    calm = route("--robot-radius", "0.25")
+    assert calm.err == "" and "note       without --map the legs" in calm.out
+    # with the map, the part of the left edge run along is measured: 1 m, no warning
+    mapped = route("--robot-radius", "0.35", "--map", str(map_file), "--resolution", "0.1")
+    assert mapped.err == "" and "without --map" not in mapped.out
+    # an edge recording no clearance: the radius cannot be checked, which is said
+    for *_, d in g.edges(data=True):
+        d["min_clearance_m"] = math.nan
+    tj.save_graph(g, graph_file)
+    bare = route("--robot-radius", "0.35")
+    assert bare.err == ""
+    assert "the graph records no clearance along the route: the robot radius" in bare.out
+    # nor a bad radius without the map, named as the option
+    assert main(["route", str(graph_file), *points, "--robot-radius", "-1"]) == 2
+    assert "--robot-radius: expected" in capsys.readouterr().err

@@ -69,8 +69,8 @@ class Route:
         narrower than the robot (a topology graph's corridors are not chosen for a
         robot; a route graph's keep its radius).
     robot_radius_m : float or None
-        Robot radius the legs were planned for, metres; None when planned without the
-        map.
+        Robot radius the route was planned for, metres (with the map, the legs' too);
+        None when planned without the map and without a ``robot_radius_m``.
     """
 
     length_m: float

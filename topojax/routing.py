@@ -112,8 +112,11 @@ class RoutePlanner:
         every end joins at the nearest corridor point, and ``min_clearance_m`` is the
         edges' recorded one, the first and last edge counted whole.
     robot_radius_m : float, optional
-        Robot radius for those straight legs, metres; default the graph's
-        ``robot_radius_m`` attribute (a route graph's).
+        Robot radius, metres, that each route records (its ``robot_radius_m``, for a
+        comparison with its ``min_clearance_m``); with the map, also the radius of those
+        straight legs, default the graph's ``robot_radius_m`` attribute (a route
+        graph's).  Without the map nothing is known of the legs (``start_leg_feasible``
+        and ``goal_leg_feasible`` stay None) and there is no default.
     entry_m : float, optional
         Reach of those legs, metres; default the graph's ``snap_m`` attribute, else
         :data:`DEFAULT_ENTRY_M`.
@@ -128,7 +131,7 @@ class RoutePlanner:
         An edge lacks ``path``, ``world`` or ``length_m`` (a room graph is named as one),
         or its path does not start and end at its vertices; the lengths add up to over
         4.5e307 m; ``occupancy`` is not the graph's map (shape, resolution, origin); no
-        robot radius is given or known; ``robot_radius_m`` or ``entry_m`` without
+        robot radius is given or known with ``occupancy``; ``entry_m`` without
         ``occupancy``; a ``robot_radius_m`` larger than the route graph was built for.
     """
 
@@ -255,12 +258,16 @@ class RoutePlanner:
     def _entry_space(self, occupancy, radius, entry_m):
         """The feasible pixels (bool (H, W)) a route may cross to join the graph away from
         its nearest point, how far (metres) it may go to do so and the robot radius
-        (metres); ``(None, 0.0, None)`` without a map."""
+        (metres); ``(None, 0.0, robot_radius_m)`` without a map (None when not given)."""
         if occupancy is None:
-            for name, value in (("robot_radius_m", radius), ("entry_m", entry_m)):
-                if value is not None:
-                    raise ValueError(f"{name}: only used with occupancy=, which was not given")
-            return None, 0.0, None
+            if entry_m is not None:
+                raise ValueError("entry_m: only used with occupancy=, which was not given")
+            if radius is not None:  # the route's robot only: no leg can be checked
+                from .routegraph.feasible import check_radius_within_graphs
+
+                radius = robot_radius("robot_radius_m", radius)
+                check_radius_within_graphs(self._graph.graph, radius)
+            return None, 0.0, radius
         if not all(
             hasattr(occupancy, a) for a in ("free", "resolution_m", "origin", "world_to_pixel")
         ):
@@ -722,9 +729,11 @@ def plan_route(
         The graph's map: each end may then join the graph at the nearest point of any
         edge it sees within reach, whichever gives the shortest route (see
         :class:`RoutePlanner`).
-    robot_radius_m, entry_m : float, optional
-        With ``occupancy``: the robot radius (default the graph's ``robot_radius_m``) and
-        the reach (default the graph's ``snap_m``, else 1 m), metres.
+    robot_radius_m : float, optional
+        The robot radius, metres, which the route records; with ``occupancy`` also that
+        of the legs (default the graph's ``robot_radius_m``).
+    entry_m : float, optional
+        With ``occupancy``: the reach (default the graph's ``snap_m``, else 1 m), metres.
 
     Returns
     -------

@@ -74,7 +74,10 @@ def add_command(subparsers) -> None:
         "--robot-radius",
         type=float,
         metavar="M",
-        help="with --map: the robot radius in metres (default: the graph's)",
+        help="the robot radius in metres: a warning says when the route runs closer to an "
+        "obstacle than that; with --map the legs to the graph keep it from the walls too "
+        "(default: the graph's); without, only the edges' recorded min_clearance_m is "
+        "checked, the first and last edge counted whole, and the legs are not",
     )
     p.add_argument(
         "--entry-m",
@@ -101,17 +104,17 @@ def _map_options_given(args) -> list[str]:
         "--resolution" if k == "resolution_m" else "--" + k.replace("_", "-")
         for k in map_options(args)
     ]
-    extra = (("--robot-radius", args.robot_radius), ("--entry-m", args.entry_m))
-    return given + [option for option, value in extra if value is not None]
+    return given + (["--entry-m"] if args.entry_m is not None else [])
 
 
-def _unsafe(route) -> list[str]:
-    """What makes ``route`` unsafe for the robot it was planned for (with ``--map``): an
-    end joined along the fallback leg, a corridor narrower than the robot's radius."""
+def _unsafe(route, mapped: bool) -> list[str]:
+    """What makes ``route`` unsafe for the robot it was planned for: an end joined along
+    the fallback leg (with ``--map``), a corridor narrower than the robot's radius
+    (without ``--map``, by the edges' recorded clearances, the end edges whole)."""
     from ..fields.clearance import clearance_at_least
 
     radius = route.robot_radius_m
-    if radius is None:  # planned without the map: no robot to compare with
+    if radius is None:  # no robot to compare with
         return []
     found = [
         f"{end}: no straight line from it to the graph within reach fits the robot (radius "
@@ -124,12 +127,37 @@ def _unsafe(route) -> list[str]:
         if fits is False
     ]
     clear = route.min_clearance_m
-    if not math.isnan(clear) and not clearance_at_least(clear, radius):
+    if math.isnan(clear) or clearance_at_least(clear, radius):
+        return found
+    if mapped:
         found.append(
             f"the route runs along a corridor {clear:.3f} m from the nearest obstacle at its "
             f"narrowest, less than the robot radius {radius:g} m"
         )
+    else:
+        found.append(
+            f"the route runs along edges {clear:.3f} m from the nearest obstacle at their "
+            f"narrowest, less than the robot radius {radius:g} m (without --map the first "
+            "and last edge count whole, though the route may run along part of them only)"
+        )
     return found
+
+
+def _unchecked(route, mapped: bool) -> list[str]:
+    """What of ``route``'s robot cannot be checked without the map: the legs, and the
+    corridors where the graph records no clearance."""
+    if mapped or route.robot_radius_m is None:
+        return []
+    notes = [
+        "without --map the legs from the start and goal to the graph are not checked for "
+        "the robot, and the first and last edge count whole in its narrowest clearance"
+    ]
+    if math.isnan(route.min_clearance_m):
+        notes.append(
+            "the graph records no clearance along the route: the robot radius cannot be "
+            "checked without --map"
+        )
+    return notes
 
 
 def _cmd_route(args) -> int:
@@ -231,7 +259,9 @@ def _cmd_route(args) -> int:
         f"{counted(len(route.edges), 'edge')}"
     )
     print(f"snapped    start {route.start_snap_m:.3f} m, goal {route.goal_snap_m:.3f} m away")
-    for text in _unsafe(route):
+    for text in _unchecked(route, occupancy is not None):
+        print(f"note       {text}")
+    for text in _unsafe(route, occupancy is not None):
         warnings.warn(text, UserWarning, stacklevel=2)
     if args.out:
         from .._fs import atomic_write_bytes
