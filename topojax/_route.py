@@ -59,15 +59,16 @@ class Route:
         route graph's: to the nearest pixel that is not known free, the map's outside
         counting as such; any other graph's: to the nearest occupied pixel), so the first
         and last edge count only where the route runs along them, and a route along
-        whole edges gets the least ``min_clearance_m`` they record.  Without the map: the
-        least ``min_clearance_m`` of its ``edges``; the graph records one value per edge,
-        so the first and last edge count whole, a lower bound (the route's own pixels
-        there may be wider), and a route along no edge (one pixel) takes the
-        ``clearance_m`` of the vertex it stands at, else the ``min_clearance_m`` of the
-        edge it lies on; NaN when any of those is not recorded (a graph built without
-        clearances).  Below ``robot_radius_m``, the route runs through a corridor
-        narrower than the robot (a topology graph's corridors are not chosen for a
-        robot; a route graph's keep its radius).
+        whole edges gets the least ``min_clearance_m`` they record (on a graph without
+        edges, or with a route pixel off the map, the recorded values below).  Without
+        the map: the least ``min_clearance_m`` of its ``edges``; the graph records one
+        value per edge, so the first and last edge count whole, a lower bound (the
+        route's own pixels there may be wider), and a route along no edge (one pixel)
+        takes the ``clearance_m`` of the vertex it stands at, else the
+        ``min_clearance_m`` of the edge it lies on; NaN when any of those is not
+        recorded (a graph built without clearances).  Below ``robot_radius_m``, the
+        route runs through a corridor narrower than the robot (a topology graph's
+        corridors are not chosen for a robot; a route graph's keep its radius).
     robot_radius_m : float or None
         Robot radius the route was planned for, metres (with the map, the legs' too);
         None when planned without the map and without a ``robot_radius_m``.
