@@ -167,7 +167,9 @@ def test_replay_recording_scans_and_poses(replayed):
     laser = [m for tp, _, _, m in messages if tp == "/scan"]
     tfs = [m for tp, _, _, m in messages if tp == "/tf"]
     for scan, msg, tf in zip(scans, laser, tfs, strict=True):
-        np.testing.assert_array_equal(msg.ranges, scan.ranges.astype(np.float32))
+        # the log's no-return sentinel (81.83 m, beyond range_max) is REP 117's +inf
+        want = np.where(scan.valid_mask(), scan.ranges, np.inf).astype(np.float32)
+        np.testing.assert_array_equal(msg.ranges, want)
         assert msg.header.frame_id == LASER_FRAME
         assert msg.angle_min == pytest.approx(scan.angle_min, abs=1e-6)
         assert msg.angle_max == pytest.approx(
@@ -346,6 +348,65 @@ def test_repeated_timestamps_get_distinct_stamps(tmp_path):
     with McapRecorder(tmp_path / "s.mcap") as rec:
         stamps = [rec.add_scan(_scan(t)) for t in (5.0, 5.0, 5.3)]
     assert stamps == [5_000_000_000, 5_100_000_000, 5_300_000_000]
+
+
+def test_readings_of_no_return_are_recorded_as_rep_117_s_plus_inf(tmp_path):
+    """A reading of 0 (range_min 0), at range_max, beyond it, NaN or below range_min is no
+    return to topojax; recorded as read, RViz and Foxglove drew the 0 as a point on the
+    laser.  REP 117's no return is +inf; the hits keep their values."""
+    ranges = np.array([0.0, 2.0, 10.0, 12.5, np.nan, np.inf, 0.05, 9.999, -1.0])
+    scan = tj.Scan.from_arrays(
+        ranges, (0.0, 0.0, 0.0), angle_min=-0.4, angle_increment=0.1, range_max=10.0
+    )
+    with McapRecorder(tmp_path / "r.mcap") as rec:
+        rec.add_scan(scan)
+    msg = last(read_messages(tmp_path / "r.mcap"), "/scan")
+    inf = np.inf
+    want = np.array([inf, 2.0, inf, inf, inf, inf, 0.05, 9.999, inf], np.float32)
+    np.testing.assert_array_equal(msg.ranges, want)
+    assert (msg.range_min, msg.range_max) == (0.0, 10.0)
+    near = tj.Scan.from_arrays(
+        ranges, (0, 0, 0), angle_min=-0.4, angle_increment=0.1, range_min=0.1, range_max=10.0
+    )
+    with McapRecorder(tmp_path / "s.mcap") as rec:
+        rec.add_scan(near)
+    msg = last(read_messages(tmp_path / "s.mcap"), "/scan")
+    np.testing.assert_array_equal(msg.ranges[6], np.float32(inf))  # below range_min
+
+
+def test_a_recording_read_back_maps_as_the_log(tmp_path):
+    """topojax's bag reader reads a recording back to scans that hit where the log's hit
+    (no returns, 0 and range_max readings among them, read back as +inf) and map to the
+    same occupancy."""
+    from topojax.incremental import IncrementalMapper
+
+    scans = []
+    for i, s in enumerate(tj.read_scans(INTEL_EXCERPT)):
+        r = np.array(s.ranges)
+        r[i % 7 :: 11] = 0.0
+        r[i % 5 :: 13] = s.range_max
+        scans.append(
+            tj.Scan(r, s.angle_min, s.angle_increment, 0.0, s.range_max, s.pose, s.sensor_offset)
+        )
+    assert sum((s.ranges >= s.range_max).sum() for s in scans) > 900
+    assert sum((s.ranges == 0.0).sum() for s in scans) > 500
+    with McapRecorder(tmp_path / "r.mcap") as rec:
+        for s in scans:
+            rec.add_scan(s)
+    back = list(tj.read_scans(tmp_path / "r.mcap"))
+    assert len(back) == len(scans)
+    for a, b in zip(scans, back, strict=True):
+        np.testing.assert_array_equal(b.valid_mask(), a.valid_mask())
+        np.testing.assert_array_equal(b.ranges[~b.valid_mask()], np.inf)
+        assert b.range_max == pytest.approx(a.range_max, rel=1e-7)  # float32 in the message
+    maps = []
+    for run in (scans, back):
+        mapper = IncrementalMapper(skeleton_every=0, graph_every=0)
+        mapper.add_scans(run)
+        maps.append(mapper.occupancy)
+    for name in ("occupied", "free", "unknown"):
+        np.testing.assert_array_equal(getattr(maps[1], name), getattr(maps[0], name))
+    assert maps[1].origin == maps[0].origin and maps[0].occupied.any()
 
 
 def raw_messages(path: Path) -> list[tuple[str, int, bytes]]:

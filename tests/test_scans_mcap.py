@@ -152,13 +152,17 @@ def test_a_record_length_past_the_end_of_the_file_is_a_cut_not_a_huge_read(recor
 def test_a_recording_damaged_inside_its_chunk_is_refused_naming_it(recording, tmp_path, cut):
     """Bytes of the zstd chunk overwritten: the decompressor's own error (ZstdError,
     which the command line would print as a traceback) is a ValueError naming the file,
-    whole (rosbags reads it) or cut as well (read record by record)."""
+    whole (rosbags reads it) or cut as well (read record by record).  The bytes are the
+    start of the zstd frame, which zstd checks whatever the scans hold (bytes of a block
+    further in may decompress, unnoticed, to other bytes)."""
     path, _ = recording
     data = path.read_bytes()
     end_of_chunk = 43 + 9 + int.from_bytes(data[44:52], "little")
-    middle = end_of_chunk // 2
-    damaged = data[:middle] + bytes(b ^ 0xFF for b in data[middle : middle + 64])
-    damaged += data[middle + 64 :]
+    # the chunk's times, sizes and CRC (28 bytes), "zstd" (4 + 4) and the records' length
+    frame = 43 + 9 + 28 + 8 + 8
+    assert data[frame : frame + 4] == b"\x28\xb5\x2f\xfd"  # zstd's magic number
+    damaged = data[:frame] + bytes(b ^ 0xFF for b in data[frame : frame + 64])
+    damaged += data[frame + 64 :]
     bad = tmp_path / "damaged.mcap"
     bad.write_bytes(damaged[: end_of_chunk + 100] if cut else damaged)
     with warnings.catch_warnings():

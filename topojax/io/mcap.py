@@ -325,9 +325,13 @@ def room_markers(seg, stamp_ns: int = 0):
 
 def scan_message(scan, stamp_ns: int = 0):
     """``sensor_msgs/msg/LaserScan`` of a :class:`~topojax.Scan` in :data:`LASER_FRAME`
-    (ranges as float32, no intensities)."""
+    (ranges in metres as float32, no intensities).  A reading the scan takes as no return
+    (not in :meth:`~topojax.Scan.valid_mask`: 0, NaN, below ``range_min``, at or beyond
+    ``range_max``) is +inf, REP 117's no return, which RViz and Foxglove do not draw (a 0
+    would be a point on the laser)."""
     t = _typestore().types
     n = scan.n_beams
+    ranges = np.where(scan.valid_mask(), scan.ranges, np.inf).astype(np.float32)
     return t["sensor_msgs/msg/LaserScan"](
         header=_header(stamp_ns, LASER_FRAME),
         angle_min=scan.angle_min,
@@ -337,7 +341,7 @@ def scan_message(scan, stamp_ns: int = 0):
         scan_time=0.0,
         range_min=scan.range_min,
         range_max=scan.range_max,
-        ranges=np.asarray(scan.ranges, np.float32),
+        ranges=ranges,
         intensities=np.zeros(0, np.float32),
     )
 
