@@ -133,6 +133,19 @@ def test_an_offset_that_differs_only_by_rounding_is_not_written_again(tmp_path):
     assert_one_pose_per_scan(messages, scans)
 
 
+def test_a_yaw_that_differs_by_whole_turns_is_not_written_again(tmp_path):
+    """A laser mounted backwards is at yaw pi or -pi (or 3 pi): one mounting, whose
+    quaternions are opposite (z = 1 and z = -1); each counted as a change of offset and
+    wrote /tf_static again.  A yaw a microradian off is still a change."""
+    back = [(0.2, 0.0, math.pi), (0.2, 0.0, -math.pi), (0.2, 0.0, 3 * math.pi)]
+    scans = [scan(i, o) for i, o in enumerate([*back, (0.2, 0.0, math.pi - 1e-6)])]
+    messages = read(record(tmp_path / "r.mcap", scans))
+    (first, _), (moved, offset) = statics(messages)
+    assert (first, moved) == (1 * SECOND, 4 * SECOND)
+    assert offset == pytest.approx((0.2, 0.0, math.pi - 1e-6), abs=1e-9)
+    assert_one_pose_per_scan(messages, scans)
+
+
 def test_a_recording_without_scans_has_no_tf(tmp_path):
     result = tj.build_graph(tj.sample_map("a_scan"))
     path = tj.save_mcap(result, tmp_path / "a.mcap")

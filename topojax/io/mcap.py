@@ -76,7 +76,7 @@ TOPICS = {
 }
 #: Topics offered as ``transient_local`` (late subscribers get the last message).
 _LATCHED = ("/map", "/topology", "/route_graph", "/rooms", "/tf_static")
-#: Metres (and quaternion parts) by which a static transform must move to be written
+#: Metres (and radians of yaw) by which a static transform must move to be written
 #: again: logs that store the offset per scan carry rounding noise.
 _STATIC_TOLERANCE = 1e-9
 _VERTEX_DIAMETER_M = 0.25
@@ -376,23 +376,26 @@ def tf_static_message(scan, stamp_ns: int = 0):
 
 
 def _same_static(a, b) -> bool:
-    """Whether two ``/tf_static`` messages hold the same transforms (stamps aside, the
-    values within :data:`_STATIC_TOLERANCE`)."""
+    """Whether two ``/tf_static`` messages hold the same transforms (stamps aside): the
+    translations (m) within :data:`_STATIC_TOLERANCE`, and the yaws (rad) too, modulo a
+    turn (a yaw of pi and one of -pi are one mounting, their quaternions opposite)."""
 
     def values(msg) -> list:
-        return [
-            (
-                (tf.header.frame_id, tf.child_frame_id),
-                [getattr(tf.transform.translation, k) for k in "xyz"]
-                + [getattr(tf.transform.rotation, k) for k in "xyzw"],
-            )
-            for tf in msg.transforms
-        ]
+        out = []
+        for tf in msg.transforms:
+            q = tf.transform.rotation
+            xyz = [getattr(tf.transform.translation, k) for k in "xyz"]
+            # the recorder's rotations turn about z alone; x and y are compared as they are
+            yaw = 2.0 * math.atan2(q.z, q.w)
+            out.append(((tf.header.frame_id, tf.child_frame_id), [*xyz, q.x, q.y], yaw))
+        return out
 
     va, vb = values(a), values(b)
     return len(va) == len(vb) and all(
-        fa == fb and all(abs(x - y) <= _STATIC_TOLERANCE for x, y in zip(xa, xb, strict=True))
-        for (fa, xa), (fb, xb) in zip(va, vb, strict=True)
+        fa == fb
+        and all(abs(x - y) <= _STATIC_TOLERANCE for x, y in zip(xa, xb, strict=True))
+        and abs(math.remainder(ya - yb, 2.0 * math.pi)) <= _STATIC_TOLERANCE
+        for (fa, xa, ya), (fb, xb, yb) in zip(va, vb, strict=True)
     )
 
 
