@@ -582,6 +582,7 @@ def test_replay_names_its_source_argument_when_the_log_is_missing(tmp_path, caps
         # the laser's pose, as the readers check it, but under the option's name
         ("replay", ["--sensor-offset", "nan", "0", "0"], "--sensor-offset: expected a sequ"),
         ("replay", ["--sensor-offset", "0", "0", "1e10"], "--sensor-offset: expected a sequ"),
+        ("replay", ["--sensor-offset", "0", "1e5", "0"], "--sensor-offset: expected a sensor's"),
         ("batch", ["--min-spur-m", "-1"], "--min-spur-m: expected a finite number of metres"),
         ("batch", ["--sigma-m", "-1"], "--sigma-m: expected a finite number of metres > 0"),
         ("batch", ["--workers", "-1"], "--workers: expected an int >= 0"),

@@ -109,6 +109,14 @@ def test_scan_fields_validated_and_read_only():
         ({"pose": None}, TypeError, "pose"),
         ({"pose": ("1", "2", "0")}, TypeError, "pose"),
         ({"sensor_offset": (True, 0.0, 0.0)}, TypeError, "sensor_offset"),
+        # 100 km: no laser's mounting on its robot (millimetres given as metres?)
+        (
+            {"sensor_offset": (1e5, 0.0, 0.0)},
+            ValueError,
+            r"^sensor_offset: expected a sensor's mounting on its robot, \(x_m, y_m\) within "
+            r"100 m of the robot's frame, received \(100000\.0, 0\.0, 0\.0\) \(100000 m off",
+        ),
+        ({"sensor_offset": (80.0, -80.0, 0.0)}, ValueError, r"sensor_offset: .*113\.137 m off"),
     ],
 )
 def test_scan_rejects_bad_fields(kwargs, exc, word):
@@ -866,6 +874,39 @@ def test_carmen_robotlaser_line(tmp_path):
     # Truncated line -> error with line number.
     path.write_text(line.rsplit(" ", 8)[0] + "\n")
     with pytest.raises(ValueError, match=r"new\.log:1: malformed ROBOTLASER1"):
+        list(read_carmen(path))
+
+
+def test_a_sensor_offset_beyond_a_mounting_is_refused_by_every_reader(tmp_path):
+    """A sensor offset of 100 km was taken, and put every beam 100 km off the robot; an
+    offset farther than 100 m from the robot's frame is refused, naming the parameter,
+    the bound and the value, and one of 100 m is taken."""
+    far = (0.0, 150.0, 0.0)
+    message = r"sensor_offset: expected a sensor's mounting .* within 100 m .* \(150 m off"
+    for make in (
+        lambda o: Scan.from_arrays(
+            [1.0], (0, 0, 0), angle_min=0, angle_increment=1, sensor_offset=o
+        ),
+        lambda o: next(
+            scans_from_arrays([[1.0]], [[0, 0, 0]], angle_min=0, angle_increment=1, sensor_offset=o)
+        ),
+        lambda o: list(read_carmen(INTEL_EXCERPT, sensor_offset=o)),
+        lambda o: list(read_bag(CCNY_EXCERPT, sensor_offset=o, allow_missing_pose=True)),
+    ):
+        with pytest.raises(ValueError, match=message):
+            make(far)
+    edge = Scan.from_arrays(
+        [1.0], (0, 0, 0), angle_min=0, angle_increment=1, sensor_offset=(0, 100, 0)
+    )
+    assert edge.sensor_offset == (0.0, 100.0, 0.0)
+    # the log's own mounting (a PARAM in millimetres) is checked as well
+    path = tmp_path / "raw.log"
+    path.write_text(
+        "PARAM robot_frontlaser_offset 250 nohost 0\n"
+        "ODOM 1.0 2.0 0.5 0 0 0 1.0 host 1.0\n"
+        "RAWLASER1 0 -1.5 3.0 0.75 20.0 0.01 0 5 1 2 3 4 20 0 1.2 host 1.2\n"
+    )
+    with pytest.raises(ValueError, match=r"PARAM robot_frontlaser_\*: expected a sensor's mou"):
         list(read_carmen(path))
 
 

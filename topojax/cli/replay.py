@@ -33,7 +33,6 @@ def _check_numbers(args) -> None:
         int_at_least,
         metres_per_pixel,
         nonnegative_quantity,
-        pose,
         positive_int,
         positive_metres,
         robot_radius,
@@ -58,7 +57,9 @@ def _check_numbers(args) -> None:
             f"received {args.max_range}"
         )
     if args.sensor_offset is not None:  # as the readers check it, under the option's name
-        pose("--sensor-offset", tuple(args.sensor_offset), bounded=False)
+        from ..scans.scan import mounting
+
+        mounting("--sensor-offset", tuple(args.sensor_offset))
     if args.route_graph is not None:
         from ..routegraph.build import RouteGraphConfig, check_scale
 

@@ -11,11 +11,10 @@ from typing import Any
 import numpy as np
 
 from .._validate import flag, one_of, path_like, real_number, text_or_none
-from .._validate import pose as checked_pose
 from ._mcap import _MCAP_MAGIC, _McapSequential
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
 from ._tf import _IDENTITY_TF, BadTransform, _Tf, _tf_from_msg, _TfSeries, _TfTree
-from .scan import PoseLike, Scan, _SkippedScans, no_scan_error
+from .scan import PoseLike, Scan, _SkippedScans, mounting, no_scan_error
 
 _LASERSCAN = "sensor_msgs/msg/LaserScan"
 _TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
@@ -237,7 +236,8 @@ def read_bag(
     base_frame : str, optional
         Robot frame (see above).
     sensor_offset : array_like, shape (3,), optional
-        Sensor pose in the robot frame, overriding tf.
+        Sensor pose in the robot frame, overriding tf; ``(x, y)`` within 100 m of its
+        origin (as every sensor offset, tf's too).
     allow_missing_pose : bool, optional
         Use the identity pose when the bag has no pose source at all.
     pose_tolerance_s : float, optional
@@ -273,7 +273,7 @@ def read_bag(
     if tol < 0:
         raise ValueError(f"pose_tolerance_s: expected a value >= 0 s, received {tol!r}")
     offset = sensor_offset
-    offset = None if offset is None else checked_pose("sensor_offset", offset, bounded=False)
+    offset = None if offset is None else mounting("sensor_offset", offset)
     source = _open_bag(p)
     topics = source.topics
     listing = ", ".join(f"{t} [{m}]" for t, m in sorted(topics.items())) or "(none)"

@@ -15,9 +15,8 @@ import numpy as np
 
 from .._constants import CARMEN_LASERS
 from .._validate import existing_file, one_of, real_number
-from .._validate import pose as checked_pose
 from ._text import _cut_off, _open_text, gzip_cut
-from .scan import PoseLike, Scan, _relative, _unknown_format_error, no_scan_error
+from .scan import PoseLike, Scan, _relative, _unknown_format_error, mounting, no_scan_error
 
 _OLD_LASERS = ("FLASER", "RLASER")
 _ROBOT_LASERS = ("ROBOTLASER1", "ROBOTLASER2")
@@ -383,11 +382,12 @@ def read_carmen(
         no-return readings of one log are not all identical, see
         :data:`CARMEN_NO_RETURN_MARGIN_M`). Ignored when ``max_range_m`` is given.
     sensor_offset : array_like, shape (3,), optional
-        Override of the sensor pose in the robot frame. Default: zero for FLASER/RLASER with a
-        pose; computed from the line for ROBOTLASER; for scans posed from ODOM, the
+        Override of the sensor pose in the robot frame. Default: zero for FLASER/RLASER
+        with a pose; computed from the line for ROBOTLASER; for scans posed from ODOM, the
         ``PARAM robot_frontlaser_offset`` / ``_side_offset`` / ``_angular_offset`` values for
         the front laser (RAWLASER1 and pose-less FLASER, 0 when absent); other lasers posed
-        from ODOM need it (ValueError otherwise).
+        from ODOM need it (ValueError otherwise).  Given or found, ``(x, y)`` lies within
+        100 m of the robot's frame (a ROBOTLASER line farther is malformed).
     bad_lines : {"raise", "skip"}, optional
         A malformed laser line (a field that is not a number, a wrong count): an error
         naming the line (default), or ``"skip"``: the line is skipped, and a warning gives
@@ -407,11 +407,11 @@ def read_carmen(
         If ``path`` does not exist.
     ValueError
         For a malformed laser line (unless ``bad_lines="skip"``) or a malformed ODOM line
-        a scan needs, with the file name and line number;
-        for bad arguments; if the file has no line of the requested kind (where its
-        first line is no CARMEN line either, the message says the file is no format
-        topojax reads and lists those it reads), or none that makes a scan (each skipped for a pose or timestamp that is not finite, as
-        malformed with ``bad_lines="skip"``, or before the first ODOM line).
+        a scan needs, with the file name and line number; for bad arguments; if the file
+        has no line of the requested kind (where its first line is no CARMEN line either,
+        the message says the file is no format topojax reads and lists those it reads),
+        or none that makes a scan (each skipped for a pose or timestamp that is not
+        finite, as malformed with ``bad_lines="skip"``, or before the first ODOM line).
     """
     p = existing_file("path", path)
     one_of("laser", laser, ("auto", *CARMEN_LASERS))
@@ -422,11 +422,7 @@ def read_carmen(
     margin = real_number("no_return_margin_m", no_return_margin_m)
     if margin < 0:
         raise ValueError(f"no_return_margin_m: expected a value >= 0 m, received {margin!r}")
-    offset_override = (
-        None
-        if sensor_offset is None
-        else checked_pose("sensor_offset", sensor_offset, bounded=False)
-    )
+    offset_override = None if sensor_offset is None else mounting("sensor_offset", sensor_offset)
     skip_bad = one_of("bad_lines", bad_lines, ("raise", "skip")) == "skip"
     return _iter_carmen(p, max_range_m, laser, margin, offset_override, skip_bad)
 
@@ -681,7 +677,7 @@ class _OdomPoses:
                         f"{self.path}: PARAM robot_frontlaser_{name}: expected a number, "
                         f"received {txt!r}"
                     ) from None
-            return checked_pose("PARAM robot_frontlaser_*", vals, bounded=False)
+            return mounting("PARAM robot_frontlaser_*", vals)
         raise ValueError(
             f"{self.path}: {self.chosen} lines carry no pose and the log does not say where "
             f"this laser is mounted; pass sensor_offset=(x_m, y_m, yaw_rad) (topojax replay "

@@ -44,6 +44,28 @@ def _relative(
     return (c * dx + s * dy, -s * dx + c * dy, _wrap_angle(b[2] - a[2]))
 
 
+#: The farthest a sensor may sit from its robot's frame (metres): the largest vehicles
+#: that carry a planar laser measure tens of metres, so an offset beyond is no mounting
+#: but a unit or field error (millimetres read as metres, a pose given as the offset).
+MAX_SENSOR_OFFSET_M = 100.0
+
+
+def mounting(name: str, value: Any) -> tuple[float, float, float]:
+    """``value`` as a sensor's offset ``(x_m, y_m, yaw_rad)`` in its robot's frame after
+    checking it as a robot's pose is checked, and that ``(x, y)`` lies within
+    :data:`MAX_SENSOR_OFFSET_M` of the frame's origin; a ``ValueError`` naming ``name``,
+    the bound and the distance received otherwise."""
+    x, y, yaw = checked_pose(name, value, bounded=False)
+    off_m = math.hypot(x, y)
+    if off_m > MAX_SENSOR_OFFSET_M:
+        raise ValueError(
+            f"{name}: expected a sensor's mounting on its robot, (x_m, y_m) within "
+            f"{MAX_SENSOR_OFFSET_M:g} m of the robot's frame, received {value!r} "
+            f"({off_m:.6g} m off: millimetres given as metres?)"
+        )
+    return (x, y, yaw)
+
+
 #: The largest |angle_min| and |angle_increment| a scan may have (radians), with slack
 #: for a float32 2 pi.
 _FULL_TURN = 2.0 * math.pi + 1e-6
@@ -111,7 +133,8 @@ class Scan:
         at most 1e9 rad (beyond, a float64 angle resolves no heading).
     sensor_offset : tuple of 3 floats, optional
         ``(x_m, y_m, yaw_rad)`` of the sensor in the robot frame; default ``(0, 0, 0)``;
-        the same bounds.
+        finite, ``(x, y)`` within 100 m of the robot's frame's origin (a mounting on the
+        robot: farther is a unit or field error), ``|yaw|`` at most 1e9 rad.
     timestamp : float or None, optional
         Acquisition time in seconds (as stored in the source), or None.
 
@@ -178,9 +201,7 @@ class Scan:
         object.__setattr__(self, "range_min", rmin)
         object.__setattr__(self, "range_max", rmax)
         object.__setattr__(self, "pose", checked_pose("pose", self.pose, bounded=False))
-        object.__setattr__(
-            self, "sensor_offset", checked_pose("sensor_offset", self.sensor_offset, bounded=False)
-        )
+        object.__setattr__(self, "sensor_offset", mounting("sensor_offset", self.sensor_offset))
         if self.timestamp is not None:
             object.__setattr__(self, "timestamp", real_number("timestamp", self.timestamp))
 
@@ -218,7 +239,7 @@ class Scan:
         range_min, range_max : float, optional
             Valid range interval ``[range_min, range_max)`` in metres; default ``[0, inf)``.
         sensor_offset : array_like, shape (3,), optional
-            Sensor pose in the robot frame.
+            Sensor pose in the robot frame, ``(x, y)`` within 100 m of its origin.
         timestamp : float, optional
             Time in seconds.
 
@@ -233,7 +254,7 @@ class Scan:
             range_min,
             range_max,
             checked_pose("pose", pose, bounded=False),
-            checked_pose("sensor_offset", sensor_offset, bounded=False),
+            mounting("sensor_offset", sensor_offset),
             timestamp,
         )
 
@@ -346,7 +367,8 @@ def scans_from_arrays(
     timestamps : array_like, shape (S,), optional
         Times in seconds.
     sensor_offset : array_like, shape (3,), optional
-        Sensor pose in the robot frame, shared by all scans.
+        Sensor pose in the robot frame, shared by all scans, ``(x, y)`` within 100 m of
+        its origin.
 
     Returns
     -------
@@ -377,7 +399,7 @@ def scans_from_arrays(
             raise ValueError(
                 f"timestamps: expected shape ({r.shape[0]},), received shape {t.shape}"
             )
-    offset = checked_pose("sensor_offset", sensor_offset, bounded=False)
+    offset = mounting("sensor_offset", sensor_offset)
     # Validate the shared geometry once, eagerly, on a scan of as many beams.
     Scan(np.zeros(r.shape[1]), angle_min, angle_increment, range_min, range_max, (0, 0, 0), offset)
 
