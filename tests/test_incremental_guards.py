@@ -105,6 +105,7 @@ def test_the_state_used_for_edits_loads_and_keeps_its_parts(saved_state, tmp_pat
 @pytest.mark.parametrize(
     ("key", "index", "field"),
     [
+        ("counters", 0, r"counters \(n_scans\): expected an integer from 0 to 1000000000000 "),
         ("counters", 3, r"counters \(next_vertex\): expected an integer from 0 to 2147483647"),
         ("counters", 4, r"counters \(next_edge\): expected an integer from 0 to 2147483647"),
         ("counters", 1, r"counters \(since_skeleton\): expected an integer from 0 to 3 "),

@@ -1,7 +1,7 @@
 """Small constants that the command line needs to build its parser, the colours that
-pictures and ROS markers share, and the distance kernels' "no obstacle" value, in a module
-that imports nothing (the modules that use them import JAX, numba, matplotlib or the map
-readers).
+pictures and ROS markers share, the distance kernels' "no obstacle" value, and the most
+scans a saved mapper state or replay may count, in a module that imports nothing (the
+modules that use them import JAX, numba, matplotlib or the map readers).
 
 :mod:`topojax.maps`, :mod:`topojax.incremental` and :mod:`topojax.fields` import them from
 here and export them under the same names.
@@ -13,6 +13,7 @@ __all__ = [
     "CARMEN_LASERS",
     "EDGE_COLOUR",
     "FAR_SQ",
+    "MAX_LOG_SCANS",
     "MODES",
     "OTHER_VERTEX_COLOUR",
     "STRATEGIES",
@@ -59,3 +60,7 @@ ROUTE_EDGE_COLOUR = "#2ca02c"
 #: Squared-distance value (px^2) of pixels with no obstacle inside their window
 #: (:data:`topojax.fields.FAR_SQ`).
 FAR_SQ = 1 << 30
+#: The most scans a saved mapper state or replay may count (a mapper's ``n_scans``, the
+#: scans a replay took from its log): 10**12 scans are 800 years of a laser at 40 scans/s,
+#: so a larger count is a damaged state.
+MAX_LOG_SCANS = 10**12

@@ -7,6 +7,7 @@ them and of the scans it took."""
 
 from __future__ import annotations
 
+from ._constants import MAX_LOG_SCANS
 from .incremental import EXTENT_BOUNDS
 
 #: The skipped scans whose refusals a replay keeps, besides the latest one's: 100
@@ -16,10 +17,6 @@ from .incremental import EXTENT_BOUNDS
 #: scans' indices, times and poses) and whether it ended; the latest shows where the
 #: log stood at its last skipped scan.  The others are counted, not kept.
 KEPT_REFUSALS = 100
-
-#: The most scans a saved state may say a replay took from its log: 10**12 scans are
-#: 800 years of a laser at 40 scans/s, so a larger count is a damaged state.
-MAX_LOG_SCANS = 10**12
 
 #: The key of :attr:`SkippedScans.per_bound` that counts refusals whose bound is not
 #: known (listed by a state saved by an older topojax, which did not record it).

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._constants import MAX_LOG_SCANS
 from .._cpus import available_memory_bytes, byte_size
 
 #: Vertex and edge ids are stored in the int32 tile layer ``graph_id`` (an edge as its
@@ -57,12 +58,15 @@ def _fits(key: str, name: str, n: int, what: str) -> None:
 
 def check_counters(data, n_tiles: int, tile_px: int) -> None:
     """Check the ``counters`` and ``rooms_counters`` fields of a state whose tiles number
-    ``n_tiles`` of ``tile_px`` pixels: none negative, the scans since an update at most
-    the scans, the ridge pixels at most the tiles' pixels, the next ids within int32
-    (:data:`MAX_IDS`) and their tables within the memory available."""
+    ``n_tiles`` of ``tile_px`` pixels: none negative, the scans at most
+    :data:`~topojax._constants.MAX_LOG_SCANS` (as a replay's resume checks them), the
+    scans since an update at most the scans, the ridge pixels at most the tiles' pixels,
+    the next ids within int32 (:data:`MAX_IDS`) and their tables within the memory
+    available."""
     c = dict(zip(_COUNTERS, _ints(data, "counters", len(_COUNTERS)), strict=True))
     n = c["n_scans"]
-    _counter("counters", "n_scans", n, 0, np.iinfo(np.int64).max, "scans added")
+    why = "scans added; more would be 800 years of a laser at 40 scans/s"
+    _counter("counters", "n_scans", n, 0, MAX_LOG_SCANS, why)
     for name in ("since_skeleton", "since_graph"):
         _counter("counters", name, c[name], 0, n, "scans since that update, at most n_scans")
     _counter("counters", "n_ridge", c["n_ridge"], 0, n_tiles * tile_px**2, "ridge pixels")

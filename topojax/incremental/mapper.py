@@ -783,6 +783,7 @@ class IncrementalMapper:
             If it is not a file (a folder), the file is not a mapper state, has another
             format version, or is corrupt (the message names the file and the problem),
             e.g. a counter beyond what its tiles, int32 ids or the memory available allow,
-            or a pixel off its tiles (the message names the field).
+            a scan count (``n_scans``) above 10**12, or a pixel off its tiles (the message
+            names the field).
         """
         return load_state(cls, path)
