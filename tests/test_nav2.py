@@ -181,7 +181,8 @@ def test_merged_clusters_keep_the_tolerance_and_write_no_degenerate_edges(tmp_pa
             assert tuple(p0) == nodes[e["startid"]][0] and tuple(p1) == nodes[e["endid"]][0]
             if e["startid"] < e["endid"]:
                 chains[tuple(e["metadata"]["corridor"])].append(e)
-        pairs = Counter((e["startid"], e["endid"]) for e in edges)
+        # per corridor: the loops of a merged cluster may share a hop, written once by each
+        pairs = Counter((tuple(e["metadata"]["corridor"]), e["startid"], e["endid"]) for e in edges)
         for u, v, k, d in g.edges(keys=True, data=True):
             segs = chains.get((u, v, k))
             if segs is None:  # only a loop with no pixel to place two waypoints on
@@ -191,7 +192,7 @@ def test_merged_clusters_keep_the_tolerance_and_write_no_degenerate_edges(tmp_pa
             assert distance_to_polyline(world, chain_of(segs, nodes)).max() <= tol + 1e-12
             if u == v:  # a loop: at least two waypoints, no segment written twice
                 assert len(segs) >= 3
-                assert all(pairs[(s["startid"], s["endid"])] == 1 for s in segs)
+                assert all(pairs[((u, v, k), s["startid"], s["endid"])] == 1 for s in segs)
 
 
 def test_a_graph_of_point_loops_only_is_refused(tmp_path):
@@ -330,7 +331,13 @@ def test_a_route_graph_is_written_along_its_waypoints_and_stays_safe(tmp_path):
     path = tj.save_nav2_graph(rg, tmp_path / "route.geojson", tolerance_m=0.5)
     nodes, edges = read_nav2(path)
     n_inner = sum(len(d["waypoints"]) - 2 for _, _, d in rg.edges(data=True))
-    assert len(nodes) == rg.number_of_nodes() + n_inner
+    # a waypoint where an edge crosses another or passes a vertex without meeting it is
+    # the node already there: no two nodes at one point, which the Route Server would
+    # hold unconnected
+    points = {tuple(map(float, rg.nodes[n]["world"])) for n in rg}
+    points |= {tuple(p) for *_, d in rg.edges(data=True) for p in d["waypoints"][1:-1].tolist()}
+    assert len({xy for xy, _ in nodes.values()}) == len(nodes) == len(points)
+    assert len(nodes) < rg.number_of_nodes() + n_inner  # there are such waypoints here
     assert len(edges) == 2 * sum(len(d["waypoints"]) - 1 for _, _, d in rg.edges(data=True))
     hops = nx.Graph()
     for e in edges:
@@ -340,6 +347,43 @@ def test_a_route_graph_is_written_along_its_waypoints_and_stays_safe(tmp_path):
         hops.add_edge(a, b)
     report = tj.evaluate_route_graph(hops, m, robot_radius_m=0.3)
     assert report.unsafe_share == 0.0 and report.success_rate == 1.0
+
+
+def test_waypoints_at_one_point_are_one_node_that_keeps_all_their_edges(tmp_path):
+    """Route-graph edges may cross, or pass a vertex, without meeting it: a waypoint of one
+    edge then lies where a waypoint or vertex of another lies.  Written as two nodes, the
+    Route Server would hold two unconnected nodes at one point; they are one node, with
+    every edge of both, and no edge from a node to itself."""
+    g = nx.MultiGraph()
+    for n, xy in enumerate([(0, 0), (4, 0), (2, -2), (2, 3), (2, 2), (4, 2)]):
+        g.add_node(n, world=(float(xy[0]), float(xy[1])), kind="end")
+    ways = {
+        (0, 1): [(0, 0), (2, 0), (4, 0)],
+        (2, 3): [(2, -2), (2, 0), (2, 2), (2, 3)],  # crosses (0, 1) at (2, 0), passes 4
+        (4, 5): [(2, 2), (2, 2), (4, 2)],  # a waypoint on its own vertex
+    }
+    for (u, v), w in ways.items():
+        w = np.array(w, float)
+        g.add_edge(u, v, world=w, waypoints=w, length_m=float(np.hypot(*np.diff(w.T)).sum()))
+    nodes, edges = read_nav2(tj.save_nav2_graph(g, tmp_path / "x.geojson"))
+    assert sorted(nodes) == list(range(7))  # the six vertices and one waypoint, (2, 0)
+    assert [nodes[i][1]["vertex"] for i in range(6)] == list(range(6))
+    assert len({xy for xy, _ in nodes.values()}) == len(nodes)
+    assert sorted(e["id"] for e in edges) == list(range(7, 7 + len(edges)))
+    hops = Counter((e["startid"], e["endid"]) for e in edges)
+    both = {(a, b) for a, b in [(0, 6), (6, 1), (2, 6), (6, 4), (4, 3), (4, 5)]}
+    assert hops == Counter(both | {(b, a) for a, b in both})
+    for e in edges:
+        (p0, p1) = e["coordinates"][0]
+        assert tuple(p0) == nodes[e["startid"]][0] and tuple(p1) == nodes[e["endid"]][0]
+        assert p0 != p1
+    # a vertex at another's place is that one's node
+    g.add_node(6, world=(4.0, 0.0), kind="end")
+    w = np.array([(4.0, 0.0), (2.0, 3.0)])
+    g.add_edge(6, 3, world=w, waypoints=w, length_m=float(np.hypot(*np.diff(w.T)).sum()))
+    nodes, edges = read_nav2(tj.save_nav2_graph(g, tmp_path / "x.geojson"))
+    assert sorted(nodes) == list(range(7)) and nodes[1][1]["vertex"] == 1
+    assert Counter((e["startid"], e["endid"]) for e in edges)[(1, 3)] == 1
 
 
 def nav2_loadable_metadata(value, where="metadata") -> None:

@@ -73,7 +73,12 @@ def save_nav2_graph(
     ``vertex``, the topojax node id (an id that is not a number or string, such as a
     tuple, as its JSON text), ``kind``, ``clearance_m`` and, after
     :func:`topojax.assign_rooms`, ``room``), then the waypoints
-    (``kind: "waypoint"``); edge ids follow.  Edge ``metadata``: ``corridor`` (the
+    (``kind: "waypoint"``); edge ids follow.  Points with equal coordinates, as written
+    (the floats as they are, unrounded), are one node with the edges of all: a waypoint
+    where a route graph's edge crosses another or passes a vertex without meeting it (a
+    few per map) is the node already there, and a vertex at an earlier vertex's place is
+    that one's node; a hop between two such points is left out, as an edge from a node
+    to itself would be.  Edge ``metadata``: ``corridor`` (the
     topojax edge as ``[u, v, key]``, each written as ``vertex`` is), ``length_m`` (along
     the corridor between the two waypoints; the straight hop along a route graph's
     ``waypoints``) and the corridor's ``min_clearance_m`` / ``mean_clearance_m``.  topojax
@@ -96,20 +101,28 @@ def save_nav2_graph(
         )
     # a vertex without edges leads nowhere; a server that joins a pose at the nearest
     # node would get no route from it
-    node_id = {n: i for i, n in enumerate(n for n in g.nodes if _leads_somewhere(g, n, tol))}
-    features = _features(g, node_id, tol, frame)  # made one at a time as they are written
+    at: dict[tuple[float, float], int] = {}  # the node id written at each [x, y]
+    node_id = {
+        n: at.setdefault(tuple(_node_xy(n, g.nodes[n])), len(at))
+        for n in g.nodes
+        if _leads_somewhere(g, n, tol)
+    }
+    features = _features(g, node_id, at, tol, frame)  # made one at a time as they are written
     doc = {"type": "FeatureCollection", "name": "topojax route graph", "features": features}
     atomic_write(p, partial(_write_json, doc=doc, allow_nan=False))
     return p
 
 
-def _features(g: nx.MultiGraph, node_id: dict, tol: float, frame: str) -> Iterator[dict]:
+def _features(g: nx.MultiGraph, node_id: dict, at: dict, tol: float, frame: str) -> Iterator[dict]:
     """The route graph's features: the vertices (ids ``node_id``), the waypoints of each
-    corridor's chain in edge order, then every hop of the chains, both ways."""
+    corridor's chain in edge order, then every hop of the chains, both ways.
+
+    ``at`` holds the id of the node written at each ``(x, y)``: a waypoint where a node
+    already is (an edge crossing another, or passing a vertex, without a junction) is
+    that node, so the written graph is joined where the geometry is."""
     node_xy: dict = {}
     yield from _vertex_features(g, node_id, frame, node_xy)
     chains = _Chains()
-    next_id = len(node_id)
     for u, v, k, d in g.edges(keys=True, data=True):
         if u not in node_id:  # a loop left out, and its vertex with it
             continue
@@ -117,26 +130,34 @@ def _features(g: nx.MultiGraph, node_id: dict, tol: float, frame: str) -> Iterat
         if chain is None:
             continue
         a, b, inner, lengths, corridor = chain
-        ids = [node_id[a], *range(next_id, next_id + len(inner)), node_id[b]]
+        ids = [node_id[a]]
         for point in inner:
-            yield _nav2_node(next_id, frame, point, {"kind": "waypoint"})
-            next_id += 1
+            new = len(at)
+            ids.append(at.setdefault(tuple(point), new))
+            if ids[-1] == new:
+                yield _nav2_node(new, frame, point, {"kind": "waypoint"})
+        ids.append(node_id[b])
         chains.add(ids, [node_xy[a], *inner, node_xy[b]], lengths, corridor)
     if not len(chains):  # every edge was a loop with no room for waypoints
         raise ValueError(
             f"graph: none of its {g.number_of_edges()} edges leads anywhere (loops around a "
             "single point); the Nav2 Route Server rejects a graph without edges"
         )
-    yield from chains.features(next_id)
+    yield from chains.features(len(at))
 
 
 def _vertex_features(g: nx.MultiGraph, node_id: dict, frame: str, node_xy: dict) -> Iterator[dict]:
-    """The graph's vertices as Point features (ids ``node_id``); each vertex's ``[x, y]``
+    """The graph's vertices as Point features (ids ``node_id``; a vertex with the id of
+    one before it, at the same ``[x, y]``, is that one's node); each vertex's ``[x, y]``
     goes into ``node_xy``."""
+    written = -1
     for n, d in g.nodes(data=True):
         if n not in node_id:
             continue
         node_xy[n] = _node_xy(n, d)
+        if node_id[n] <= written:  # at an earlier vertex's [x, y]: that one's node
+            continue
+        written = node_id[n]
         meta = {"vertex": _id_value(n, "node id")}
         if isinstance(d.get("kind"), str):
             meta["kind"] = d["kind"]
@@ -232,8 +253,11 @@ class _Chains:
 
     def add(self, ids: list[int], points: list, lengths: list[float], corridor: dict) -> None:
         """The chain through the features ``ids`` at ``points``, hop ``j`` of
-        ``lengths[j]`` metres, with the metadata ``corridor``."""
+        ``lengths[j]`` metres, with the metadata ``corridor``; a hop between two points
+        written as one node is left out (no edge from a node to itself)."""
         for j, length in enumerate(lengths):
+            if ids[j] == ids[j + 1]:
+                continue
             self._ends.extend((ids[j], ids[j + 1]))
             self._xy.extend((*points[j], *points[j + 1]))
             self._lengths.append(length)
