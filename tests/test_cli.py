@@ -274,10 +274,31 @@ def test_route_with_a_map_says_an_assumed_resolution_once_in_its_map_line(tmp_pa
     out, err = capsys.readouterr()
     assert "states no resolution" not in err
     note = "0.05 m/px, assumed: the file states none; --resolution sets it)"
-    assert out.count(note) == 1 and out.startswith(f"map        {png}  (60 x 150 px, ")
+    assert out.count(note) == 1 and out.startswith(f"map        {png}  (150 x 60 px (w x h), ")
     assert main([*argv, "--map", str(png), "--resolution", "0.05"]) == 0
     out = capsys.readouterr().out
     assert "0.05 m/px)" in out and "assumed" not in out
+
+
+def test_the_map_line_gives_the_size_as_width_by_height(tmp_path, capsys):
+    """Image sizes are read width x height: the map line of ``graph``, ``rooms``,
+    ``route-graph`` and ``route`` gives the 150 px wide, 60 px high map as 150 x 60 and
+    says which is which (it gave rows x columns, 60 x 150)."""
+    from room_maps import three_rooms_png
+
+    png = three_rooms_png(tmp_path / "rooms.png")
+    line = f"map        {png}  (150 x 60 px (w x h), 0.05 m/px)"
+    res = ["--resolution", "0.05"]
+    graph = tmp_path / "rooms_route.json"
+    for argv in (
+        ["graph", str(png), "-o", str(tmp_path / "g"), *res],
+        ["rooms", str(png), "-o", str(tmp_path / "r"), "--mode", "ipa", *res],
+        ["route-graph", str(png), "--robot-radius", "0.2", "-o", str(tmp_path), *res],
+        ["route", str(graph), "--pixel", "--start", "7", "42", "--goal", "8", "92"]
+        + ["--map", str(png), *res],
+    ):
+        assert main(argv) == 0
+        assert line in capsys.readouterr().out.splitlines(), argv[0]
 
 
 def test_a_map_yaml_without_origin_says_how_to_give_one_on_the_command_line(tmp_path, capsys):

@@ -56,7 +56,7 @@ def test_rooms_command_on_an_ipa_png(png, tmp_path, capsys):
     argv = ["rooms", str(png), "-o", str(out), "--mode", "ipa", "--resolution", "0.05"]
     assert main(argv) == 0
     printed = capsys.readouterr().out
-    assert "map        " + str(png) + "  (60 x 150 px, 0.05 m/px)" in printed
+    assert "map        " + str(png) + "  (150 x 60 px (w x h), 0.05 m/px)" in printed
     assert "rooms      3 rooms (" in printed and ", 2 doors (0.80-0.80 m wide)" in printed
     assert sorted(p.name for p in out.iterdir()) == sorted(
         [*_names("three"), ".topojax-outputs.json"]
@@ -75,7 +75,9 @@ def test_rooms_command_says_when_the_resolution_is_assumed(png, tmp_path, capsys
     says the 0.05 m/px is assumed, as ``graph`` does; given, it is not."""
     base = ["rooms", str(png), "--mode", "ipa"]
     assert main([*base, "-o", str(tmp_path / "a")]) == 0
-    assert "(60 x 150 px, 0.05 m/px, assumed: the file states none" in capsys.readouterr().out
+    assert (
+        "(150 x 60 px (w x h), 0.05 m/px, assumed: the file states none" in capsys.readouterr().out
+    )
     assert main([*base, "-o", str(tmp_path / "b"), "--resolution", "0.05"]) == 0
     assert "assumed" not in capsys.readouterr().out
 

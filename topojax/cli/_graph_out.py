@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._options import MAP_OPTIONS_TO_CHECK
+from ._options import MAP_OPTIONS_TO_CHECK, map_line
 
 #: The graph files of ``topojax graph``: ``STEM`` and each of these.
 GRAPH_SUFFIXES = (".graphml", ".json", ".geojson")
@@ -61,13 +61,12 @@ def summary_lines(name: str, result, *, timing_note: str = "", assumed: str = ""
     from ..graph import graph_summary
 
     s = graph_summary(result.graph)
-    h, w = result.map.shape
     t = result.timings_s
     kinds = [counted(s["n_junctions"], "junction"), counted(s["n_ends"], "end")]
     kinds += [counted(s["n_rings"], "ring")] * bool(s["n_rings"])  # so that they add up
     kinds += [f"{s['n_isolated']} isolated"] * bool(s["n_isolated"])
     return [
-        f"map        {name}  ({h} x {w} px, {result.map.resolution_m:g} m/px{assumed})",
+        map_line(name, result.map, assumed),
         f"graph      {counted(s['n_vertices'], 'vertex', 'vertices')} ({', '.join(kinds)}), "
         f"{counted(s['n_edges'], 'edge')}, {s['total_length_m']:.1f} m of corridors, "
         f"{counted(s['n_components'], 'component')}",

@@ -319,6 +319,16 @@ def map_options(args) -> dict:
     return kw
 
 
+def map_line(name, occupancy, assumed: str = "") -> str:
+    """The ``map`` line the commands print: the map's name, its size in pixels, width x
+    height as images are read (and said so), its resolution and the ``assumed`` note
+    (:func:`assumed_resolution_note`)."""
+    rows, cols = occupancy.shape[:2]
+    return (
+        f"map        {name}  ({cols} x {rows} px (w x h), {occupancy.resolution_m:g} m/px{assumed})"
+    )
+
+
 def assumed_resolution_note(args) -> str:
     """``", assumed: ..."`` where the map file (``args.map``) states no resolution and
     ``--resolution`` did not give one; ``", from --resolution: ..."`` where it replaced

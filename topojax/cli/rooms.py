@@ -12,6 +12,7 @@ from ._options import (
     add_room_options,
     assumed_resolution_note,
     load_option_map,
+    map_line,
     map_options,
     room_config,
 )
@@ -81,10 +82,7 @@ def _cmd_rooms(args) -> int:
     if args.plot:
         written.append(_picture(seg, out / f"{stem}_rooms_plot.png"))
     # areas and widths are in metres: say when the resolution was not the file's own
-    print(
-        f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
-        f"{occupancy.resolution_m:g} m/px{assumed_resolution_note(args)})"
-    )
+    print(map_line(args.map, occupancy, assumed_resolution_note(args)))
     first = "the process's first call: it includes loading or compiling the kernels"
     for line in room_lines(seg, occupancy, seconds=seconds, timing_note=first):
         print(line)

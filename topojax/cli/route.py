@@ -14,6 +14,7 @@ from ._options import (
     add_map_options,
     assumed_resolution_note,
     load_option_map,
+    map_line,
     map_options,
 )
 from ._outputs import OUT_OPTION, check_outputs, planned, record_outputs
@@ -218,10 +219,7 @@ def _cmd_route(args) -> int:
                 "is not a route graph: it records none), received none"
             )
         # the snap and entry distances are in metres: say when the resolution was assumed
-        print(
-            f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
-            f"{occupancy.resolution_m:g} m/px{assumed_resolution_note(args)})"
-        )
+        print(map_line(args.map, occupancy, assumed_resolution_note(args)))
         if all(graph.graph.get(a) is None for a in ("shape", "resolution_m", "origin")):
             print(  # nothing to compare: a graph made elsewhere, or its attributes dropped
                 "note       the graph records no shape, resolution_m or origin: --map "

@@ -13,6 +13,7 @@ from ._options import (
     add_map_options,
     assumed_resolution_note,
     load_option_map,
+    map_line,
     map_options,
 )
 from ._outputs import (
@@ -140,11 +141,7 @@ def _cmd_route_graph(args) -> int:
     if args.mcap is not None:
         written.append(_recording(occupancy, graph, args.mcap))
     components = _components(graph)
-    assumed = assumed_resolution_note(args)
-    print(
-        f"map        {args.map}  ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
-        f"{occupancy.resolution_m:g} m/px{assumed})"
-    )
+    print(map_line(args.map, occupancy, assumed_resolution_note(args)))
     print(
         f"route graph {counted(graph.number_of_nodes(), 'vertex', 'vertices')}, "
         f"{counted(graph.number_of_edges(), 'edge')}, {counted(components, 'component')}, "
