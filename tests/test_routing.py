@@ -515,6 +515,34 @@ def test_route_command_refuses_simplify_without_a_file_to_write(tmp_path, capsys
     assert main([*argv, "--simplify-m", "0.1", "-o", str(tmp_path / "r.geojson")]) == 0
 
 
+def test_a_point_beyond_the_snap_limit_is_refused_in_the_callers_words(tmp_path, capsys):
+    """The planner names its parameter, ``max_snap_m`` and ``None``; ``topojax route``
+    names its option, ``--max-snap-m`` and ``none``, and not the parameter as well."""
+    from topojax.cli import main
+
+    free = np.zeros((40, 60), bool)
+    free[5:35, 5:55] = True
+    free[15:25, 20:40] = False
+    graph = tj.build_graph(tj.OccupancyMap.from_array(free)).graph
+    a, b = (d["world"] for _, d in list(graph.nodes(data=True))[:2])
+    off = (a[0] + 0.3, a[1] + 0.3)
+    with pytest.raises(ValueError) as err:
+        plan_route(graph, off, b, max_snap_m=0.01)
+    text = str(err.value)
+    assert text.startswith("start: the nearest point of the graph is ")
+    assert text.endswith(
+        "m away, more than max_snap_m=0.01 (pass a larger max_snap_m, or None for no limit)"
+    )
+    assert "--max-snap-m" not in text
+    graph_file = tj.save_graph(graph, tmp_path / "g.json")
+    argv = ["route", str(graph_file), "--start", *map(str, off), "--goal", *map(str, b)]
+    assert main([*argv, "--max-snap-m", "0.01"]) == 2
+    err = capsys.readouterr().err
+    assert "error: --start: the nearest point of the graph is " in err
+    assert "more than --max-snap-m 0.01 (pass a larger --max-snap-m, or none for no limit)" in err
+    assert "max_snap_m" not in err and "None" not in err
+
+
 def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     import json
 
@@ -546,7 +574,7 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     # too far from the graph: a clear error and exit status 2
     assert main([*argv, "--max-snap-m", "0.01"]) == 2
     err = capsys.readouterr().err
-    assert "error: --start: the nearest point of the graph is" in err and "--max-snap-m M" in err
+    assert "error: --start: the nearest point of the graph is" in err and "--max-snap-m 0.01" in err
     # a point the planner refuses is named by its option
     assert main([*argv[:6], "nan", "5"]) == 2
     err = capsys.readouterr().err

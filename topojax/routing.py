@@ -74,6 +74,29 @@ class NoRouteError(nx.NetworkXNoPath):
     """The start and goal snap to parts of the graph that no corridor connects."""
 
 
+class SnapLimitError(ValueError):
+    """A start or goal farther from the graph than the snap limit.
+
+    Its message names the planner's parameter, ``max_snap_m``; ``name`` (``"start"`` or
+    ``"goal"``), ``distance_m`` and ``limit_m`` (metres) let a caller that took the limit
+    under another name (a command-line option) word it with :meth:`worded`.
+    """
+
+    def __init__(self, name: str, distance_m: float, limit_m: float) -> None:
+        self.name, self.distance_m, self.limit_m = name, distance_m, limit_m
+        super().__init__(self.worded(f"max_snap_m={limit_m}", "a larger max_snap_m, or None"))
+
+    def __reduce__(self):
+        return type(self), (self.name, self.distance_m, self.limit_m)
+
+    def worded(self, limit: str, lift: str) -> str:
+        """The message with the limit written ``limit`` and how to lift it ``lift``."""
+        return (
+            f"{self.name}: the nearest point of the graph is {self.distance_m:.6g} m away, "
+            f"more than {limit} (pass {lift} for no limit)"
+        )
+
+
 @dataclass(frozen=True)
 class _Snap:
     edge: int  # index into the planner's edges, or -1 for a vertex without edges
@@ -247,11 +270,7 @@ class RoutePlanner:
         # joins in sight lie within the reach; the nearest points are all as far as the first
         for name, snaps in (("start", s), ("goal", g)):
             if max_snap_m is not None and snaps[0].distance_m > max_snap_m:
-                raise ValueError(
-                    f"{name}: the nearest point of the graph is {snaps[0].distance_m:.6g} m away, "
-                    f"more than max_snap_m={max_snap_m} (pass a larger max_snap_m, or None for "
-                    "no limit)"
-                )
+                raise SnapLimitError(name, snaps[0].distance_m, max_snap_m)
         return self._route(s, g)
 
     # ------------------------------------------------------------------ internals

@@ -167,7 +167,7 @@ def _cmd_route(args) -> int:
     from .._words import counted
     from ..io import load_graph
     from ..io.files import GRAPH_FORMATS
-    from ..routing import NoRouteError, RoutePlanner
+    from ..routing import NoRouteError, RoutePlanner, SnapLimitError
 
     # checked before the work, under the options' names
     for option, value, check in (
@@ -243,12 +243,13 @@ def _cmd_route(args) -> int:
     except NoRouteError as exc:
         print(f"topojax route: {exc}", file=sys.stderr)
         return 1
+    except SnapLimitError as exc:  # the planner names max_snap_m; the user gave the option
+        limit = f"--max-snap-m {exc.limit_m:g}"
+        raise ValueError(f"--{exc.worded(limit, 'a larger --max-snap-m, or none')}") from None
     except ValueError as exc:  # the planner names start and goal; the user gave --start
         text = str(exc)
         if not text.startswith(("start: ", "goal: ")):
             raise
-        if "max_snap_m=" in text:
-            text += "; on the command line: --max-snap-m M, or none"
         raise ValueError(f"--{text}") from None
     print(
         f"route      {route.length_m:.2f} m along the graph, "
