@@ -928,13 +928,13 @@ def test_summaries_count_one_in_the_singular():
         "timings": {},
     }
     assert summary_text(summary).splitlines()[:3] == [
-        "replayed   1 scan of log in 1.00 s; map 10 x 10 px in 1 tile",
+        "replayed   1 scan of log in 1.00 s; map 10 x 10 px (w x h) in 1 tile",
         "graph      1 vertex, 1 edge",
         "route graph 1 vertex, 1 edge, 1 component, robot radius 0.3 m",
     ]
     more = summary_text({**summary, "n_scans": 2, "n_tiles": 3, "vertices": 2, "edges": 0})
     assert more.splitlines()[:2] == [
-        "replayed   2 scans of log in 1.00 s; map 10 x 10 px in 3 tiles",
+        "replayed   2 scans of log in 1.00 s; map 10 x 10 px (w x h) in 3 tiles",
         "graph      2 vertices, 0 edges",
     ]
     graph = nx.MultiGraph()

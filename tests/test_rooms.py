@@ -113,7 +113,7 @@ def test_reprs_are_short_summaries():
     """A segmentation's repr is one line, not every pixel of every door and outline."""
     seg = tj.segment_rooms(_map(_two_rooms(0.9)))
     w = seg.labels.shape[1]
-    assert repr(seg) == f"RoomSegmentation(2 rooms, 1 door, 104 x {w} px at {RES:g} m/px)"
+    assert repr(seg) == f"RoomSegmentation(2 rooms, 1 door, {w} x 104 px (w x h) at {RES:g} m/px)"
     assert "polygon" not in repr(seg.rooms[0]) and "pixels" not in repr(seg.doors[0])
 
 

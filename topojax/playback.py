@@ -742,8 +742,8 @@ def _write_pictures(result, out: Path, name: str, *, rooms=None) -> list[Path]:
 def summary_text(summary: dict) -> str:
     lines = [
         f"replayed   {counted(summary['n_scans'], 'scan')} of {summary['source']} in "
-        f"{summary['wall_s']:.2f} s; map {summary['map_shape'][0]} x "
-        f"{summary['map_shape'][1]} px in {counted(summary['n_tiles'], 'tile')}",
+        f"{summary['wall_s']:.2f} s; map {summary['map_shape'][1]} x "
+        f"{summary['map_shape'][0]} px (w x h) in {counted(summary['n_tiles'], 'tile')}",
         f"graph      {counted(summary['vertices'], 'vertex', 'vertices')}, "
         f"{counted(summary['edges'], 'edge')}",
         "loop        calls    mean ms     p50 ms     p99 ms   amortised ms/scan",

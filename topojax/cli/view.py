@@ -266,8 +266,8 @@ def _load_map(result: _Result, graph):
     grid = _graph_grid(graph)
     if grid is not None and grid != (*occupancy.shape, occupancy.resolution_m):
         result.notes.append(
-            f"its map {result.map} ({occupancy.shape[0]} x {occupancy.shape[1]} px, "
-            f"{occupancy.resolution_m:g} m/px) is not the graph's ({grid[0]} x {grid[1]} px, "
+            f"its map {result.map} ({occupancy.shape[1]} x {occupancy.shape[0]} px (w x h), "
+            f"{occupancy.resolution_m:g} m/px) is not the graph's ({grid[1]} x {grid[0]} px, "
             f"{grid[2]:g} m/px): graph only"
         )
         return None

@@ -138,7 +138,7 @@ class RoomSegmentation:
         rooms, doors = self.n_rooms, len(self.doors)
         return (
             f"RoomSegmentation({rooms} room{'s' * (rooms != 1)}, {doors} door"
-            f"{'s' * (doors != 1)}, {h} x {w} px at {self.resolution_m:g} m/px)"
+            f"{'s' * (doors != 1)}, {w} x {h} px (w x h) at {self.resolution_m:g} m/px)"
         )
 
     @property
