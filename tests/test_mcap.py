@@ -374,6 +374,27 @@ def test_readings_of_no_return_are_recorded_as_rep_117_s_plus_inf(tmp_path):
     np.testing.assert_array_equal(msg.ranges[6], np.float32(inf))  # below range_min
 
 
+def test_hits_rounded_onto_a_limit_in_float32_stay_hits(tmp_path):
+    """LaserScan readings are float32.  A float64 hit just below ``range_max`` rounds to
+    the float32 ``range_max`` (a max-range no return on reading back), and a hit of 1e-60 m
+    with ``range_min`` 0 rounds to 0: both are recorded as the nearest float32 inside the
+    limits, so every hit reads back as a hit."""
+    below = np.nextafter(5.6, 0.0)  # < 5.6, but float32(below) == float32(5.6)
+    assert np.float32(below) == np.float32(5.6)
+    ranges = np.array([below, 1e-60, 2.0, 5.6])
+    scan = tj.Scan.from_arrays(
+        ranges, (0.0, 0.0, 0.0), angle_min=-0.1, angle_increment=0.1, range_max=5.6
+    )
+    assert scan.valid_mask().tolist() == [True, True, True, False]
+    with McapRecorder(tmp_path / "r.mcap") as rec:
+        rec.add_scan(scan)
+    (back,) = tj.read_scans(tmp_path / "r.mcap")
+    assert back.valid_mask().tolist() == [True, True, True, False]
+    assert back.ranges[0] == np.nextafter(np.float32(5.6), np.float32(0))
+    assert back.ranges[1] == np.nextafter(np.float32(0), np.float32(1))
+    assert back.ranges[2] == np.float32(2.0)
+
+
 def test_a_recording_read_back_maps_as_the_log(tmp_path):
     """topojax's bag reader reads a recording back to scans that hit where the log's hit
     (no returns, 0 and range_max readings among them, read back as +inf) and map to the

@@ -31,6 +31,7 @@ from .._constants import (
 )
 from .._fs import output_file
 from .._validate import instance_of, no_file_above, xy_points
+from ..scans.scan import reading_limits
 from ._recording_lock import lock_as_owner, remove_abandoned
 from ._schema import _xy
 
@@ -328,10 +329,12 @@ def scan_message(scan, stamp_ns: int = 0):
     (ranges in metres as float32, no intensities).  A reading the scan takes as no return
     (not in :meth:`~topojax.Scan.valid_mask`: 0, NaN, below ``range_min``, at or beyond
     ``range_max``) is +inf, REP 117's no return, which RViz and Foxglove do not draw (a 0
-    would be a point on the laser)."""
+    would be a point on the laser).  A hit that float32 rounds onto a limit (just below
+    ``range_max``, or a tiny reading with ``range_min`` 0) is the nearest float32 inside
+    it, so it reads back as a hit."""
     t = _typestore().types
     n = scan.n_beams
-    ranges = np.where(scan.valid_mask(), scan.ranges, np.inf).astype(np.float32)
+    ranges = _float32_ranges(scan)
     return t["sensor_msgs/msg/LaserScan"](
         header=_header(stamp_ns, LASER_FRAME),
         angle_min=scan.angle_min,
@@ -344,6 +347,19 @@ def scan_message(scan, stamp_ns: int = 0):
         ranges=ranges,
         intensities=np.zeros(0, np.float32),
     )
+
+
+def _float32_ranges(scan) -> np.ndarray:
+    """``scan``'s readings as float32 (N,), +inf where it takes them as no return and its
+    hits kept inside ``(0, range_max)`` in float32 (``valid_mask`` on read-back agrees)."""
+    hit = scan.valid_mask()
+    ranges = np.where(hit, scan.ranges, np.inf).astype(np.float32)
+    _, top = reading_limits(np.float32, scan.range_min, scan.range_max)
+    with np.errstate(over="ignore"):  # a limit beyond float32: inf, whose neighbour is max
+        top = np.nextafter(np.float32(top), np.float32(0))
+    least = np.nextafter(np.float32(0), np.float32(1))
+    ranges[hit] = np.clip(ranges[hit], least, top)
+    return ranges
 
 
 def _transform(stamp_ns: int, parent: str, child: str, pose3):
