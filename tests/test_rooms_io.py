@@ -385,6 +385,61 @@ def test_load_rooms_names_the_file_and_the_fault(seg, tmp_path: Path, damage, me
     assert str(path) in str(info.value)
 
 
+def _with_altitudes(doc: dict, z) -> dict:
+    """``doc`` with every geometry position given the third element ``z`` (an altitude)."""
+    for feat in doc["features"]:
+        geom = feat["geometry"]
+        lines = geom["coordinates"] if geom["type"] == "Polygon" else [geom["coordinates"]]
+        for line in lines:
+            for pos in line:
+                pos.append(z)
+    return doc
+
+
+def test_load_rooms_reads_positions_with_an_altitude(loop, tmp_path: Path):
+    # RFC 7946 3.1.1: a position may hold an altitude as its third element; GIS tools
+    # write one. The rooms are those of the file without it.
+    for s in (loop, tj.segment_rooms(three_rooms())):
+        doc = _with_altitudes(_rooms_doc(s, tmp_path), 12.5)
+        doc["features"][0]["geometry"]["coordinates"][0][1].pop()  # positions may mix
+        path = tmp_path / "z.geojson"
+        path.write_text(json.dumps(doc), encoding="utf-8")
+        rooms, doors = tj.load_rooms(path)
+        assert_rooms_equal(rooms, s.rooms)
+        assert_doors_equal(doors, s.doors)
+
+
+@pytest.mark.parametrize(
+    ("z", "feature", "message"),
+    [
+        (True, 0, r"features\[0\] exterior ring: position 0: expected an altitude"),
+        (math.nan, 4, r"features\[4\] line: position 0: expected an altitude .*, received nan"),
+        ("high", 1, r"features\[1\] exterior ring: position 0: expected an altitude"),
+        (
+            [0.0, 1.0],  # an altitude and a fourth element
+            3,
+            r"features\[3\] line: position 0: expected \[x, y\] or \[x, y, z\], received "
+            r"\[.*, .*, 0.0, 1.0\]$",
+        ),
+    ],
+)
+def test_load_rooms_refuses_a_bad_altitude_or_a_fourth_element(
+    seg, tmp_path: Path, z, feature, message
+):
+    doc = _rooms_doc(seg, tmp_path)
+    pos = doc["features"][feature]["geometry"]["coordinates"]
+    pos = pos[0][0] if doc["features"][feature]["geometry"]["type"] == "Polygon" else pos[0]
+    if isinstance(z, list):
+        pos.extend(z)
+    else:
+        pos.append(z)
+    path = tmp_path / "bad.geojson"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(ValueError, match=message) as info:
+        tj.load_rooms(path)
+    assert str(path) in str(info.value)
+
+
 def test_load_rooms_takes_doors_that_end_on_the_maps_border(tmp_path: Path):
     # a doorway between a wall and the map's outer wall on its first row ends on row 0:
     # the rooms the package writes may end a door on the border, never past it

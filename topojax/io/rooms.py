@@ -230,6 +230,31 @@ def _points(value: Any, dtype, what: str, *, count: int | None = None) -> np.nda
     return arr.astype(dtype)
 
 
+def _positions(value: Any, what: str, *, count: int | None = None) -> np.ndarray:
+    """GeoJSON positions ``[x, y]`` or ``[x, y, z]`` as float64 (K, 2), as :func:`_points`
+    reads pairs: RFC 7946 (3.1.1) allows an altitude as a third element, which other
+    tools write; it must be a finite number and is dropped.  ValueError naming ``what``
+    and the position for a fourth element or an altitude that is no finite number."""
+    if not isinstance(value, list):
+        return _points(value, np.float64, what, count=count)
+    pairs = []
+    for i, pos in enumerate(value):
+        if isinstance(pos, list) and len(pos) > 3:
+            raise ValueError(
+                f"{what}: position {i}: expected [x, y] or [x, y, z], received {pos!r:.80}"
+            )
+        if isinstance(pos, list) and len(pos) == 3:
+            z = pos[2]
+            if isinstance(z, bool) or not isinstance(z, (int, float)) or not _finite(z):
+                raise ValueError(
+                    f"{what}: position {i}: expected an altitude (a finite number) as its "
+                    f"third element, received {z!r:.80}"
+                )
+            pos = pos[:2]
+        pairs.append(pos)
+    return _points(pairs, np.float64, what, count=count)
+
+
 def _holds_bool(value: Any) -> bool:
     """Whether ``value`` or a list item in it, to two levels (pairs in a list), is a bool."""
     if isinstance(value, bool):
@@ -313,7 +338,7 @@ def _linear_ring(value: Any, where: str, index: int) -> np.ndarray:
     """Ring ``index`` of a Polygon's coordinates (0 the exterior) without its closing
     position, float64 (K, 2); ValueError unless closed with 4 or more positions."""
     what = "exterior ring" if index == 0 else f"interior ring {index}"
-    ring = _points(value, np.float64, f"{where} {what}")
+    ring = _positions(value, f"{where} {what}")
     if ring.shape[0] < 4 or not np.array_equal(ring[0], ring[-1]):
         raise ValueError(f"{where}: the {what} must be closed (4 or more positions)")
     return ring[:-1].copy()
@@ -338,7 +363,7 @@ def _read_door(props: dict, geometry: dict, where: str):
         id=_identifier(props, where),
         rooms=_integers(props, "rooms", where, 2),
         ends_px=_points(props.get("ends_px"), np.int64, f"{where} ends_px", count=2),
-        ends_world=_points(geometry.get("coordinates"), np.float64, f"{where} line", count=2),
+        ends_world=_positions(geometry.get("coordinates"), f"{where} line", count=2),
         width_m=_number(props, "width_m", where),
         pixels=_points(props.get("pixels"), np.int64, f"{where} pixels"),
     )
@@ -375,6 +400,10 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
 
     Notes
     -----
+    A position of a ring or a door's line may hold an altitude as a third element
+    (``[x, y, z]``, RFC 7946 3.1.1, as other GIS tools write): it must be a finite number
+    and is ignored; a fourth element is refused.
+
     A door's ends (``ends_px``, and its line where the file states the map's shape,
     resolution and origin) lie on the map's pixels, those on its border included:
     :func:`topojax.segment_rooms` never ends a doorway past the map's edge.
