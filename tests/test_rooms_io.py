@@ -409,6 +409,22 @@ def test_load_rooms_reads_positions_with_an_altitude(loop, tmp_path: Path):
         assert_doors_equal(doors, s.doors)
 
 
+def test_load_rooms_gives_rings_turned_the_other_way_the_rooms_orientation(loop, tmp_path: Path):
+    # RFC 7946 3.1.6: a reader should not refuse rings against the right-hand rule; other
+    # tools write clockwise exteriors (shapely's normalize, ESRI's convention). A Room's
+    # polygon runs counter-clockwise and its holes clockwise, whatever the file's order.
+    doc = _rooms_doc(loop, tmp_path)
+    for feat in doc["features"]:
+        if feat["geometry"]["type"] == "Polygon":
+            feat["geometry"]["coordinates"] = [r[::-1] for r in feat["geometry"]["coordinates"]]
+    path = tmp_path / "turned.geojson"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    rooms, _ = tj.load_rooms(path)
+    assert_rooms_equal(rooms, loop.rooms)
+    assert [_area(r.polygon) > 0 for r in rooms] == [True] * 3
+    assert all(_area(h) < 0 for h in rooms[0].holes)
+
+
 @pytest.mark.parametrize(
     ("z", "feature", "message"),
     [

@@ -318,6 +318,10 @@ def _read_room(props: dict, geometry: dict, where: str):
         if not isinstance(rings, list) or not rings:
             raise ValueError(f"{where}: a Polygon needs at least one linear ring")
         polygon, *holes = (_linear_ring(r, where, i) for i, r in enumerate(rings))
+        # RFC 7946 (3.1.6): rings against the right-hand rule are read, not refused; a
+        # Room's outline runs counter-clockwise and its holes clockwise
+        polygon = _turned(polygon, counter_clockwise=True)
+        holes = [_turned(h, counter_clockwise=False) for h in holes]
     centroid = props.get("centroid")
     if not isinstance(centroid, list) or len(centroid) != 2:
         raise ValueError(
@@ -342,6 +346,15 @@ def _linear_ring(value: Any, where: str, index: int) -> np.ndarray:
     if ring.shape[0] < 4 or not np.array_equal(ring[0], ring[-1]):
         raise ValueError(f"{where}: the {what} must be closed (4 or more positions)")
     return ring[:-1].copy()
+
+
+def _turned(ring: np.ndarray, *, counter_clockwise: bool) -> np.ndarray:
+    """``ring`` (K, 2) running the other way, from the same first position, where it
+    encloses area and does not run as asked (``counter_clockwise`` or clockwise)."""
+    area = _signed_area(ring)
+    if area == 0 or (area > 0) == counter_clockwise:
+        return ring
+    return np.concatenate([ring[:1], ring[:0:-1]])
 
 
 def _identifier(props: dict, where: str) -> int:
@@ -381,8 +394,11 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
     -------
     rooms : tuple of Room
         In file order (id order as written), with ``polygon`` float64 (K, 2) world
-        metres (the exterior ring, the closing position dropped), ``holes`` (the
-        interior rings, likewise) and ``bbox`` from ``bbox_px``.
+        metres (the exterior ring, the closing position dropped, counter-clockwise),
+        ``holes`` (the interior rings, likewise, clockwise) and ``bbox`` from
+        ``bbox_px``.  A ring that runs the other way (another tool's file; RFC 7946
+        asks readers not to refuse it) is read turned round, from the same first
+        position.
     doors : tuple of Door
         In file order, with ``ends_px`` int64 (2, 2), ``ends_world`` float64 (2, 2) (the
         line's coordinates) and ``pixels`` int64 (K, 2).
