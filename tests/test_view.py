@@ -331,6 +331,33 @@ def test_rooms_of_another_map_are_noted(res):
     )
 
 
+def test_rooms_read_from_a_file_of_another_map_are_noted(res, tmp_path):
+    """The (rooms, doors) pair load_rooms gives records no map; its doors' pixel ends and
+    its rooms' pixel boxes, put on the map shown, say whether they were made on it."""
+    own = tj.load_rooms(tj.save_rooms(tj.segment_rooms(res.map), tmp_path / "own.geojson"))
+    assert own[1], "doors to check"
+    notes = payload_of(view_html(res, rooms=own))["notes"]
+    assert not any("rooms were not segmented" in n for n in notes)
+    office = tj.segment_rooms(tj.sample_map("office"))
+    other = tj.load_rooms(tj.save_rooms(office, tmp_path / "office.geojson"))
+    notes = payload_of(view_html(res, rooms=other))["notes"]
+    assert any(
+        re.fullmatch(
+            r"the rooms were not segmented on the map shown: door 1 ends on pixels "
+            r"\[\[\d+, \d+\], \[\d+, \d+\]\] of their map, which lie at pixels .* of "
+            r"the map shown",
+            n,
+        )
+        for n in notes
+    ), notes
+    doorless = (other[0], ())  # the rooms alone: their outlines leave their pixel boxes
+    notes = payload_of(view_html(res, rooms=doorless))["notes"]
+    assert any(
+        n.startswith("the rooms were not segmented on the map shown: room 1's outline ")
+        for n in notes
+    ), notes
+
+
 def test_bad_arguments_name_themselves(res, tmp_path):
     with pytest.raises(TypeError, match="obj: expected a TopologyResult"):
         tj.write_view(42, tmp_path / "v.html")

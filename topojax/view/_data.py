@@ -18,7 +18,7 @@ from ..maps.tiled import TiledMap
 from ..routing import DEFAULT_ENTRY_M, DEFAULT_MAX_SNAP_M
 from ._encode import packed, pyramid
 from ._graphs import Frame, graph_frame, graph_payload, world_points
-from ._rooms_data import is_room_pair, rooms_payload, rounded
+from ._rooms_data import is_room_pair, pair_mismatch, rooms_payload, rounded
 
 __all__ = ["DEFAULT_MAX_PIXELS", "FORMAT_VERSION", "Inputs", "build_payload", "inputs_of"]
 
@@ -177,6 +177,10 @@ def inputs_of(
     if _instance(out.rooms, "topojax.rooms.model", "RoomSegmentation") and out.map is not None:
         own = out.rooms.occupancy
         why = grid_mismatch(own.shape, own.resolution_m, own.origin, out.map, owner="their")
+        if why is not None:
+            out.notes.append(f"the rooms were not segmented on the map shown: {why}")
+    elif out.rooms is not None and out.map is not None:  # a pair: no map recorded
+        why = pair_mismatch(out.rooms, out.map)
         if why is not None:
             out.notes.append(f"the rooms were not segmented on the map shown: {why}")
     if out.timeline is not None and out.map is not None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["is_room_pair", "rooms_payload", "rounded"]
+__all__ = ["is_room_pair", "pair_mismatch", "rooms_payload", "rounded"]
 
 
 def is_room_pair(value) -> bool:
@@ -20,6 +20,40 @@ def is_room_pair(value) -> bool:
         and all(isinstance(r, Room) for r in value[0])
         and all(isinstance(d, Door) for d in value[1])
     )
+
+
+#: How far (pixels) a door's world end, or a room's outline, may lie from its pixels on the
+#: map it was segmented on (a file's rounding; its own map's are exact).
+_PIXEL_SLACK = 0.01
+
+
+def pair_mismatch(pair, occupancy) -> str | None:
+    """Why a ``(rooms, doors)`` pair, which records no map, was not segmented on
+    ``occupancy``: a door whose world ends are not its pixel ends there, or a room whose
+    outline leaves its pixel box there; None when every door and room fits."""
+    rooms, doors = pair
+    with np.errstate(over="ignore", invalid="ignore"):
+        for door in doors:
+            px = np.asarray(door.ends_px, np.float64).reshape(-1, 2)
+            xy = np.asarray(door.ends_world, np.float64).reshape(-1, 2)
+            at = np.stack(occupancy.world_to_pixel(xy[:, 0], xy[:, 1]), axis=1)
+            if not np.allclose(at, px, rtol=0.0, atol=_PIXEL_SLACK):
+                return (
+                    f"door {door.id} ends on pixels {px.astype(np.int64).tolist()} of their "
+                    f"map, which lie at pixels {rounded(at, 1)} of the map shown"
+                )
+        for room in rooms:
+            ring = np.asarray(room.polygon, np.float64).reshape(-1, 2)
+            rows, cols = occupancy.world_to_pixel(ring[:, 0], ring[:, 1])
+            r0, c0, r1, c1 = room.bbox
+            s = 0.5 + _PIXEL_SLACK
+            inside = (rows >= r0 - s) & (rows <= r1 + s) & (cols >= c0 - s) & (cols <= c1 + s)
+            if not inside.all():
+                return (
+                    f"room {room.id}'s outline leaves its pixels (rows {r0} to {r1}, columns "
+                    f"{c0} to {c1} of their map) on the map shown"
+                )
+    return None
 
 
 def rounded(values, digits: int = 4) -> list:
