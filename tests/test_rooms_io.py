@@ -588,3 +588,21 @@ def test_save_room_files_writes_the_four_outputs(seg, tmp_path: Path):
     assert all(p.is_file() for p in written)
     rooms, doors = tj.load_rooms(written[0])
     assert_rooms_equal(rooms, seg.rooms)
+
+
+@pytest.mark.parametrize(
+    ("stem", "error", "words"),
+    [
+        (None, TypeError, "stem: expected a path (str or os.PathLike), received NoneType"),
+        (3, TypeError, "stem: expected a path (str or os.PathLike), received int"),
+        ("", ValueError, "stem: expected a path, received an empty one"),
+        (".", ValueError, "stem: expected a path ending in a file name"),
+        ("out/..", ValueError, "stem: expected a path ending in a file name"),
+    ],
+)
+def test_save_room_files_names_a_stem_that_is_no_file_name(seg, stem, error, words):
+    """A stem that is no path, or a folder with no name to put the suffixes on, is refused
+    naming ``stem`` (a raw "expected str, bytes or os.PathLike" or "has an empty name")."""
+    with pytest.raises(error) as info:
+        save_room_files(seg, stem)
+    assert words in str(info.value)

@@ -732,13 +732,26 @@ def save_room_files(seg, stem: str | Path) -> list[Path]:
     (:func:`save_rooms`), ``STEM_rooms.png`` (:func:`save_room_labels`),
     ``STEM_rooms.graphml`` and ``STEM_rooms.json`` (:func:`save_room_graph`).
 
+    Parameters
+    ----------
+    seg : RoomSegmentation
+        The rooms to write.
+    stem : str or os.PathLike
+        Folder and file-name start of the four files (``out/intel`` writes
+        ``out/intel_rooms.geojson`` ...).
+
     Returns
     -------
     list of Path
         The written files, in the order of :data:`ROOM_FILE_SUFFIXES`.
     """
     seg = _check_seg(seg)
-    base = Path(stem)
+    base = path_like("stem", stem)
+    if base.name in ("", ".", ".."):  # a folder: no name to put the suffixes on
+        raise ValueError(
+            f"stem: expected a path ending in a file name (STEM of STEM_rooms.geojson), "
+            f"received {stem!r}"
+        )
     geojson, png, graphml, nodelink = (
         base.with_name(base.name + suffix) for suffix in ROOM_FILE_SUFFIXES
     )
