@@ -588,6 +588,36 @@ def test_a_route_graph_is_scored_only_on_its_own_map(tmp_path):
     assert [getattr(by_file, k) for k in same] == [getattr(by_map, k) for k in same]
 
 
+def test_a_route_graph_is_scored_at_the_snap_distance_it_was_built_for(tmp_path):
+    """Without ``snap_m`` a route graph is scored at its own ``snap_m``, saved and loaded
+    too, as ``route-graph --evaluate`` scores it: at the default 1 m a graph built to cover
+    2 m read as missing a tenth of its hall, against its own ``uncovered_share`` of 0."""
+    import topojax as tj
+
+    free = np.zeros((242, 362), bool)  # a 12 x 18 m hall at 0.05 m per pixel
+    free[1:-1, 1:-1] = True
+    hall = OccupancyMap.from_array(~free, resolution_m=0.05)
+    rg = tj.route_graph(hall, config=tj.RouteGraphConfig(snap_m=2.0))
+    assert rg.graph["uncovered_share"] == 0.0
+    tj.save_graph(rg, tmp_path / "hall_route.json")
+    loaded = tj.load_graph(tmp_path / "hall_route.json")
+    own = evaluate_route_graph(rg, hall, 0.3, snap_m=2.0, n_pairs=100)
+    for graph in (rg, loaded):
+        report = evaluate_route_graph(graph, hall, 0.3, n_pairs=100)
+        assert report.snap_m == 2.0
+        assert report.uncovered_share == 0.0 and report.success_rate == 1.0
+        assert report.stretch_median == own.stretch_median
+    at_one = evaluate_route_graph(rg, hall, 0.3, snap_m=1.0, n_pairs=100)
+    assert at_one.uncovered_share > 0.05  # an explicit snap_m still wins
+    bare = nx.MultiGraph(rg)
+    bare.graph.pop("snap_m")  # a graph that records none: 1 m, as before
+    assert evaluate_route_graph(bare, hall, 0.3, n_pairs=100).snap_m == 1.0
+    bad = nx.MultiGraph(rg)
+    bad.graph["snap_m"] = -1.0
+    with pytest.raises(ValueError, match="^snap_m \\(the graph's 'snap_m' attribute\\): "):
+        evaluate_route_graph(bad, hall, 0.3, n_pairs=100)
+
+
 def test_a_graph_far_outside_its_map_is_refused_by_name():
     """A vertex or waypoint in another frame or unit (kilometres off) would be densified
     pixel by pixel; it is named instead."""

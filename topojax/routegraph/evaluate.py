@@ -44,6 +44,8 @@ SHORT_LOOP_M = 4.0
 SHORT_DEAD_END_M = 1.0
 #: The most pairs (each source's geodesic search covers its region).
 MAX_PAIRS = 100_000
+#: ``snap_m`` of a graph that records none (metres): a route graph's default.
+DEFAULT_SNAP_M = 1.0
 
 
 @dataclass(frozen=True)
@@ -95,6 +97,10 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
     if why is not None:  # a graph that records its map (a route graph) scored on another
         raise ValueError(f"occupancy: {why}")
     radius = nonnegative_metres("robot_radius_m", radius)
+    if snap_m is None:  # a route graph is scored at the distance it was built to cover
+        snap_m = graph.graph.get("snap_m")
+        snap_m = DEFAULT_SNAP_M if snap_m is None else snap_m
+        snap_m = positive_metres("snap_m (the graph's 'snap_m' attribute)", snap_m)
     snap_m = positive_metres("snap_m", snap_m)
     if snap_m > MAX_SNAP_M:
         raise ValueError(
@@ -192,7 +198,7 @@ def evaluate_route_graph(
     occupancy,
     robot_radius_m: float,
     *,
-    snap_m: float = 1.0,
+    snap_m: float | None = None,
     entry: str = "nearest",
     n_pairs: int = 300,
     seed: int = 0,
@@ -218,9 +224,11 @@ def evaluate_route_graph(
         map.
     robot_radius_m : float
         Robot radius in metres (>= 0; 0: a point robot, the free space is feasible).
-    snap_m : float
+    snap_m : float, optional
         Largest distance (metres, > 0, at most :data:`MAX_SNAP_M`) from a point to the
-        graph point it snaps to, and the coverage distance.
+        graph point it snaps to, and the coverage distance; default the graph's
+        ``snap_m`` attribute (a route graph's: the distance it was built to cover), else
+        :data:`DEFAULT_SNAP_M`.
     entry : {"nearest", "best"}
         Where a route joins the graph: ``"nearest"``, at the nearest graph point each end
         sees within ``snap_m``; ``"best"``, at the nearest point it sees of whichever
