@@ -259,6 +259,27 @@ def test_a_route_graph_of_a_shared_map_round_trips(tmp_path, shared_data):
         assert a.tobytes() == b.tobytes()
 
 
+def test_a_store_and_a_networkx_graph_passed_for_each_other_say_how_to_convert(tmp_path):
+    """A loaded store handed to what takes a networkx graph (routing, scoring, saving) and
+    a networkx graph handed to save_graph_store are refused naming the conversion, not
+    only the type."""
+    m = plan_map()
+    g = tj.route_graph(m, robot_radius_m=0.3)
+    with pytest.raises(TypeError, match=r"GraphStore\.from_networkx\(graph\) holds it"):
+        tj.save_graph_store(g, tmp_path / "g")
+    tj.save_graph_store(GraphStore.from_networkx(g), tmp_path / "g")
+    store = tj.load_graph_store(tmp_path / "g")
+    words = r"received GraphStore \(its to_networkx\(\) gives the networkx graph\)$"
+    for call in (
+        lambda: tj.RoutePlanner(store, occupancy=m),
+        lambda: tj.evaluate_route_graph(store, m, 0.3),
+        lambda: tj.save_graph(store, tmp_path / "g.json"),
+    ):
+        with pytest.raises(TypeError, match=words):
+            call()
+    tj.RoutePlanner(store.to_networkx(), occupancy=m)  # as the message says
+
+
 def test_a_store_saved_before_waypoints_still_loads_and_saves_the_same_bytes(tmp_path):
     merged = FIXTURES[-2][3]
     want = GraphStore(

@@ -655,7 +655,10 @@ def nx_graph(name: str, graph: Any, *, undirected: bool = True, multigraph: bool
         ok = isinstance(graph, nx.Graph) and not (undirected and graph.is_directed())
         what = "undirected networkx graph" if undirected else "networkx graph"
     if not ok:
-        raise TypeError(f"{name}: expected {_a(what)}, received {type(graph).__name__}")
+        hint = ""
+        if callable(getattr(graph, "to_networkx", None)):  # a GraphStore, say
+            hint = " (its to_networkx() gives the networkx graph)"
+        raise TypeError(f"{name}: expected {_a(what)}, received {type(graph).__name__}{hint}")
     return graph
 
 

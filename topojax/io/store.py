@@ -73,6 +73,11 @@ def save_graph_store(store: GraphStore, folder) -> Path:
     TypeError
         ``store`` is not a GraphStore, or a graph attribute cannot be saved as JSON.
     """
+    if not isinstance(store, GraphStore) and hasattr(store, "adj"):  # a networkx graph
+        raise TypeError(
+            f"store: expected a GraphStore, received {type(store).__name__} (a networkx "
+            "graph: topojax.graph.GraphStore.from_networkx(graph) holds it as a store)"
+        )
     instance_of("store", store, GraphStore)
     return write_store(store, output_folder(folder, name="folder"))
 
