@@ -280,6 +280,23 @@ def test_a_store_and_a_networkx_graph_passed_for_each_other_say_how_to_convert(t
     tj.RoutePlanner(store.to_networkx(), occupancy=m)  # as the message says
 
 
+def test_a_store_folder_given_as_a_graph_file_names_load_graph_store(tmp_path, capsys):
+    """load_graph and topojax route given a saved store's folder say that it is one and
+    what reads it; any other folder is refused as before."""
+    from topojax.cli import main
+
+    tj.save_graph_store(FIXTURES[0][3], tmp_path / "g_store")
+    words = r"received the saved graph store .*g_store \(topojax\.load_graph_store\(folder\)"
+    with pytest.raises(ValueError, match=r"^path: expected a graph file .*" + words):
+        tj.load_graph(tmp_path / "g_store")
+    argv = ["route", str(tmp_path / "g_store"), "--start", "0", "0", "--goal", "1", "1"]
+    assert main(argv) == 2
+    assert "graph: expected a graph file" in capsys.readouterr().err
+    (tmp_path / "other").mkdir()
+    with pytest.raises(ValueError, match=r"^path: expected a file, received a directory"):
+        tj.load_graph(tmp_path / "other")
+
+
 def test_a_store_saved_before_waypoints_still_loads_and_saves_the_same_bytes(tmp_path):
     merged = FIXTURES[-2][3]
     want = GraphStore(

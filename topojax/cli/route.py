@@ -163,10 +163,10 @@ def _unchecked(route, mapped: bool) -> list[str]:
 
 def _cmd_route(args) -> int:
     from .._fs import output_file
-    from .._validate import existing_file, nonnegative_metres, positive_metres, robot_radius
+    from .._validate import nonnegative_metres, positive_metres, robot_radius
     from .._words import counted
     from ..io import load_graph
-    from ..io.files import GRAPH_FORMATS
+    from ..io.files import GRAPH_FORMATS, graph_file
     from ..routing import NoRouteError, RoutePlanner, SnapLimitError
 
     # checked before the work, under the options' names
@@ -197,13 +197,13 @@ def _cmd_route(args) -> int:
         raise ValueError(
             f"{', '.join(_map_options_given(args))}: only used with --map, which was not given"
         )
-    graph_file = existing_file("graph", args.graph)  # named as the command names it
-    if graph_file.suffix.lower() not in GRAPH_FORMATS:
+    graph_path = graph_file("graph", args.graph)  # named as the command names it
+    if graph_path.suffix.lower() not in GRAPH_FORMATS:
         *most, last = GRAPH_FORMATS
         raise ValueError(
             f"graph: expected a {', '.join(most)} or {last} file, received {args.graph}"
         )
-    graph = load_graph(graph_file)
+    graph = load_graph(graph_path)
     occupancy = None
     if args.map:
         kw = map_options(args)  # its errors name their options

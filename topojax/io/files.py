@@ -102,6 +102,21 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
     return p
 
 
+def graph_file(name: str, path: Any) -> Path:
+    """``path`` as an existing graph file (:func:`~topojax._validate.existing_file`); a
+    saved graph store's folder is refused naming :func:`topojax.load_graph_store`, which
+    reads it, rather than as a folder only."""
+    p = path_like(name, path)
+    from .store import STORE_FILE
+
+    if p.is_dir() and (p / STORE_FILE).is_file():
+        raise ValueError(
+            f"{name}: expected a graph file (GraphML, JSON or GeoJSON), received the saved "
+            f"graph store {p} (topojax.load_graph_store(folder).to_networkx() reads it)"
+        )
+    return existing_file(name, p)
+
+
 def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     """Load a graph written by :func:`save_graph`.
 
@@ -124,10 +139,10 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        If it is not a file, its format cannot be told from the suffix, or it cannot be
-        parsed as that format.
+        If it is not a file (a saved graph store's folder is named as one), its format
+        cannot be told from the suffix, or it cannot be parsed as that format.
     """
-    p = existing_file("path", path)
+    p = graph_file("path", path)
     fmt = _format_for(p, format)
     if fmt == "graphml":
         return _numbers_checked(_structure_checked(_read_graphml, p, fmt), p)
