@@ -205,6 +205,27 @@ def test_batch_command_writes_route_graphs_for_the_robot_radius(tmp_path, capsys
     assert "--robot-radius: only used with the formats" in capsys.readouterr().err
 
 
+def test_batch_command_builds_route_graphs_at_the_snap_distance(tmp_path, capsys):
+    """``--snap-m`` is ``topojax route-graph``'s: the route graphs of a batch cover the
+    feasible space within it (the same graph as the API's), checked as that command
+    checks it, and refused without a route format."""
+    from topojax.cli import main
+
+    yaml, out, argv = _batch_of_two_rooms(tmp_path)
+    assert main([*argv, "--formats", "route", "--snap-m", "2"]) == 0
+    config = tj.RouteGraphConfig(robot_radius_m=0.3, snap_m=2.0)
+    want = tj.route_graph(tj.load_map(yaml), config=config)
+    got = load_graph(out / "rooms_route.json")
+    assert got.graph["snap_m"] == 2.0
+    assert _edges_by_path(got) == _edges_by_path(want)
+    capsys.readouterr()
+    for bad, words in (("0.1", "expected 0.2 to 5 m"), ("nan", "expected a finite number")):
+        assert main([*argv, "--formats", "route", "--snap-m", bad]) == 2
+        assert f"--snap-m: {words}" in capsys.readouterr().err
+    assert main([*argv, "--formats", "json", "--snap-m", "2"]) == 2
+    assert "--snap-m: only used with the formats" in capsys.readouterr().err
+
+
 def test_batch_command_names_the_option_of_a_radius_too_small_for_a_map(tmp_path, capsys):
     """A radius too small for a map's resolution fails that map; its message, printed and
     in the summary table, names the option ``--robot-radius``, not the library's

@@ -319,6 +319,35 @@ def map_options(args) -> dict:
     return kw
 
 
+def add_snap_option(p: argparse.ArgumentParser, *, default: float | None = 1.0) -> None:
+    """``--snap-m``, the route graph's coverage distance (:func:`snap_option` checks it)."""
+    p.add_argument(
+        "--snap-m",
+        type=float,
+        default=default,
+        metavar="M",
+        help="every feasible point lies within M metres of the route graph (0.2 to 5, and "
+        "at least 0.1 plus 1.5 pixels of the map; default 1.0)",
+    )
+
+
+def snap_option(value: float) -> float:
+    """``--snap-m`` after checking it lies in the route graph's range (twice the waypoint
+    tolerance to ``MAX_SNAP_M``); a ``ValueError`` naming the option otherwise."""
+    from .._validate import positive_metres
+    from ..routegraph import RouteGraphConfig
+    from ..routegraph.build import MAX_SNAP_M
+
+    snap_m = positive_metres("--snap-m", value)
+    least = 2 * RouteGraphConfig.waypoint_tolerance_m  # the class default: a float
+    if not least <= snap_m <= MAX_SNAP_M:
+        raise ValueError(
+            f"--snap-m: expected {least:g} to {MAX_SNAP_M:g} m (twice the waypoint "
+            f"tolerance at least), received {snap_m!r}"
+        )
+    return snap_m
+
+
 def map_line(name, occupancy, assumed: str = "") -> str:
     """The ``map`` line the commands print: the map's name, its size in pixels, width x
     height as images are read (and said so), its resolution and the ``assumed`` note

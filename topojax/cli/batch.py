@@ -19,10 +19,12 @@ from ._options import (
     add_pipeline_options,
     add_room_options,
     add_sigma_options,
+    add_snap_option,
     given_threshold_refused,
     map_options,
     pipeline_config,
     room_config,
+    snap_option,
 )
 from ._outputs import OUT_OPTION, check_outputs
 from ._signals import sigterm_stops
@@ -31,7 +33,7 @@ from ._signals import sigterm_stops
 _MANIFEST = ".manifest.json"
 #: The parameters that the message of a map may name (a radius too small for the map's
 #: resolution, ``robot_radius_m: expected at least 1.5 pixels ...``), and their options.
-_MAP_OPTION_OF = {**_OPTION_OF, "robot_radius_m": "--robot-radius"}
+_MAP_OPTION_OF = {**_OPTION_OF, "robot_radius_m": "--robot-radius", "snap_m": "--snap-m"}
 #: With them, the map and room settings a note of an empty or warned map names (an error
 #: row's message, e.g. a YAML field's, names them as the file does).
 _NOTE_OPTION_OF = {
@@ -239,22 +241,29 @@ def _check_numbers(args) -> None:
 
 
 def _route_config(args):
-    """The route graph options of ``--robot-radius``, or None without it (the route
-    formats then use :class:`RouteGraphConfig`'s defaults)."""
+    """The route graph options of ``--robot-radius`` and ``--snap-m``, or None without
+    either (the route formats then use :class:`RouteGraphConfig`'s defaults)."""
     from .._validate import robot_radius
     from ..batch.inputs import ROUTE_FORMATS, check_formats
     from ..routegraph import RouteGraphConfig
 
-    if args.robot_radius_m is None:
+    given = {"robot_radius_m": args.robot_radius_m, "snap_m": args.snap_m}
+    given = {k: v for k, v in given.items() if v is not None}
+    if not given:
         return None
     if not set(check_formats(args.formats)) & set(ROUTE_FORMATS):
         raise ValueError(
-            f"--robot-radius: only used with the formats {', '.join(ROUTE_FORMATS)}; "
-            f"expected --formats to name one, received {args.formats!r}"
+            f"{_MAP_OPTION_OF[next(iter(given))]}: only used with the formats "
+            f"{', '.join(ROUTE_FORMATS)}; expected --formats to name one, received "
+            f"{args.formats!r}"
         )
-    return RouteGraphConfig(
-        robot_radius_m=robot_radius("--robot-radius", args.robot_radius_m, allow_zero=False)
-    )
+    if "robot_radius_m" in given:
+        given["robot_radius_m"] = robot_radius(
+            "--robot-radius", given["robot_radius_m"], allow_zero=False
+        )
+    if "snap_m" in given:
+        given["snap_m"] = snap_option(given["snap_m"])
+    return RouteGraphConfig(**given)
 
 
 def _room_config(args):
@@ -327,7 +336,8 @@ def add_command(subparsers) -> None:
         help="comma-separated graph formats: graphml, json, geojson, nav2 (a Nav2 Route "
         "Server graph, NAME_nav2.geojson), rooms (the map's rooms and doorways, "
         "NAME_rooms.{geojson,png,graphml,json}, with the room options below; the graph "
-        "files then carry each vertex's room), route (the route graph for a round robot of --robot-radius, "
+        "files then carry each vertex's room), route (the route graph for a round robot of "
+        "--robot-radius, covering the feasible space within --snap-m, "
         "NAME_route.{graphml,json,geojson}), route_nav2 (that graph for the Nav2 Route "
         "Server, NAME_route_nav2.geojson) (default: graphml,json,geojson)",
     )
@@ -338,5 +348,6 @@ def add_command(subparsers) -> None:
         metavar="M",
         help="robot radius in metres of the route formats (default 0.3)",
     )
+    add_snap_option(p, default=None)
     add_room_options(p, only_with="--formats rooms")
     p.set_defaults(handler=_cmd_batch)

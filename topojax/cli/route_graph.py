@@ -11,10 +11,12 @@ from pathlib import Path
 from ._options import (
     _option_named,
     add_map_options,
+    add_snap_option,
     assumed_resolution_note,
     load_option_map,
     map_line,
     map_options,
+    snap_option,
 )
 from ._outputs import (
     OUT_OPTION,
@@ -48,14 +50,7 @@ def add_command(subparsers) -> None:
         metavar="M",
         help="robot radius in metres (default 0.3)",
     )
-    p.add_argument(
-        "--snap-m",
-        type=float,
-        default=1.0,
-        metavar="M",
-        help="every feasible point lies within M metres of the graph (0.2 to 5, and at "
-        "least 0.1 plus 1.5 pixels of the map; default 1.0)",
-    )
+    add_snap_option(p)
     add_map_options(p)
     p.add_argument("--plot", action="store_true", help="also write STEM_route.png")
     p.add_argument(
@@ -87,20 +82,14 @@ def _files(stem: str, args) -> list[str]:
 
 def _cmd_route_graph(args) -> int:
     from .._fs import output_folder, refuse_overwriting_inputs
-    from .._validate import positive_metres, robot_radius
+    from .._validate import robot_radius
     from .._words import counted
     from ..io import save_graph
     from ..routegraph import RouteGraphConfig
-    from ..routegraph.build import MAX_SNAP_M, check_scale, unwarned_route_graph
+    from ..routegraph.build import check_scale, unwarned_route_graph
 
     radius = robot_radius("--robot-radius", args.robot_radius_m, allow_zero=False)
-    snap_m = positive_metres("--snap-m", args.snap_m)
-    least = 2 * RouteGraphConfig.waypoint_tolerance_m  # the class default: a float
-    if not least <= snap_m <= MAX_SNAP_M:
-        raise ValueError(
-            f"--snap-m: expected {least:g} to {MAX_SNAP_M:g} m (twice the waypoint "
-            f"tolerance at least), received {snap_m!r}"
-        )
+    snap_m = snap_option(args.snap_m)
     config = RouteGraphConfig(robot_radius_m=radius, snap_m=snap_m)
     out = Path(args.out)
     stem = output_stem(args.map)
