@@ -618,6 +618,48 @@ def test_a_route_graph_is_scored_at_the_snap_distance_it_was_built_for(tmp_path)
         evaluate_route_graph(bad, hall, 0.3, n_pairs=100)
 
 
+def _room_and_closet() -> OccupancyMap:
+    """A 5 x 5 m room beside a closed 2 x 2 m closet (about 2 m2 feasible at 0.3 m),
+    at 0.05 m per pixel."""
+    free = np.zeros((104, 164), bool)
+    free[2:102, 2:102] = True  # the room
+    free[20:60, 120:160] = True  # the closet, no door
+    return OccupancyMap.from_array(~free, resolution_m=0.05)
+
+
+def test_a_route_graph_is_scored_on_the_regions_it_was_built_for(tmp_path):
+    """Without ``min_region_m2`` a route graph is scored on the regions of its own
+    ``min_region_m2``, saved and loaded in every format too: a graph that skips a closet
+    under 4 m2 on purpose read as missing a region at the default 1 m2."""
+    import topojax as tj
+    from topojax.graph import GraphStore
+
+    occ = _room_and_closet()
+    rg = tj.route_graph(occ, config=tj.RouteGraphConfig(min_region_m2=4.0))
+    assert rg.graph["min_region_m2"] == 4.0 and nx.number_connected_components(rg) == 1
+    at_one = evaluate_route_graph(rg, occ, 0.3, min_region_m2=1.0, n_pairs=50)
+    assert at_one.feasible_regions == 2 and at_one.regions_missed == 1  # explicit still wins
+    copies = [rg, GraphStore.from_networkx(rg).to_networkx()]
+    for name in ("rg.json", "rg.graphml", "rg.geojson"):
+        tj.save_graph(rg, tmp_path / name)
+        copies.append(tj.load_graph(tmp_path / name))
+    tj.save_graph_store(GraphStore.from_networkx(rg), tmp_path / "store")
+    copies.append(tj.load_graph_store(tmp_path / "store").to_networkx())
+    for graph in copies:
+        assert graph.graph["min_region_m2"] == 4.0
+        assert graph.graph["snap_m"] == rg.graph["snap_m"]
+        report = evaluate_route_graph(graph, occ, 0.3, n_pairs=50)
+        assert report.feasible_regions == 1 and report.regions_missed == 0
+    bare = nx.MultiGraph(rg)
+    bare.graph.pop("min_region_m2")  # a graph that records none: 1 m2, as before
+    assert evaluate_route_graph(bare, occ, 0.3, n_pairs=50).regions_missed == 1
+    bad = nx.MultiGraph(rg)
+    bad.graph["min_region_m2"] = -1.0
+    match = "^min_region_m2 \\(the graph's 'min_region_m2' attribute\\): "
+    with pytest.raises(ValueError, match=match):
+        evaluate_route_graph(bad, occ, 0.3, n_pairs=50)
+
+
 def test_a_graph_far_outside_its_map_is_refused_by_name():
     """A vertex or waypoint in another frame or unit (kilometres off) would be densified
     pixel by pixel; it is named instead."""

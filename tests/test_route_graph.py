@@ -563,6 +563,7 @@ def test_mapper_route_graph_is_the_route_graph_of_its_map():
         map(tuple, (d["pixel"] for _, d in want.nodes(data=True)))
     )
     assert got.graph["robot_radius_m"] == 0.25
+    assert got.graph["min_region_m2"] == want.graph["min_region_m2"] == 1.0
 
 
 def test_the_mapper_takes_scans_while_its_route_graph_is_built(monkeypatch):

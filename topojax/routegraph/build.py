@@ -210,11 +210,12 @@ def route_graph(occupancy, *, robot_radius_m: float | None = None, config=None) 
         ``min_clearance_m``, ``mean_clearance_m``) plus, on each edge, ``waypoints``:
         float64 (K, 2) world polyline from ``u``'s ``world`` position to ``v``'s.  Graph
         attributes ``resolution_m``, ``shape``, ``origin``, ``merge_junction_clusters``
-        (True), ``robot_radius_m``, ``snap_m``, ``kind`` (``"route_graph"``),
-        ``uncovered_share`` and ``timings_s``; for a graph without edges, ``note``:
-        why (no feasible region, with the most clearance the map offers and, where the
-        robot fits, the largest feasible region's area; or vertices without edges), also
-        given as a ``UserWarning``.  One component per feasible
+        (True), ``robot_radius_m``, ``snap_m`` and ``min_region_m2`` (the options it was
+        built with, which :func:`topojax.evaluate_route_graph` scores it at by default),
+        ``kind`` (``"route_graph"``), ``uncovered_share`` and ``timings_s``; for a graph
+        without edges, ``note``: why (no feasible region, with the most clearance the map
+        offers and, where the robot fits, the largest feasible region's area; or vertices
+        without edges), also given as a ``UserWarning``.  One component per feasible
         region of at least ``min_region_m2``.
 
     Raises
@@ -735,6 +736,7 @@ def _assemble(work: WorkGraph, occupancy, win: _Window, cfg: RouteGraphConfig, c
         "origin": tuple(float(o) for o in occupancy.origin),
         "robot_radius_m": cfg.robot_radius_m,
         "snap_m": cfg.snap_m,
+        "min_region_m2": cfg.min_region_m2,
         "kind": "route_graph",
     }
     return fill_multigraph(attrs, range(len(alive)), node_attrs, edges)

@@ -46,6 +46,8 @@ SHORT_DEAD_END_M = 1.0
 MAX_PAIRS = 100_000
 #: ``snap_m`` of a graph that records none (metres): a route graph's default.
 DEFAULT_SNAP_M = 1.0
+#: ``min_region_m2`` of a graph that records none (square metres): a route graph's default.
+DEFAULT_MIN_REGION_M2 = 1.0
 
 
 @dataclass(frozen=True)
@@ -111,6 +113,12 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
     if n_pairs > MAX_PAIRS:
         raise ValueError(f"n_pairs: expected at most {MAX_PAIRS:,}, received {n_pairs:,}")
     seed = int_at_least("seed", seed, 0)  # numpy's generators take no negative seed
+    if min_region_m2 is None:  # a route graph is scored on the regions it was built for
+        min_region_m2 = graph.graph.get("min_region_m2")
+        min_region_m2 = DEFAULT_MIN_REGION_M2 if min_region_m2 is None else min_region_m2
+        min_region_m2 = nonnegative_quantity(
+            "min_region_m2 (the graph's 'min_region_m2' attribute)", min_region_m2, "square metres"
+        )
     min_region_m2 = nonnegative_quantity("min_region_m2", min_region_m2, "square metres")
     gen = (
         None
@@ -202,7 +210,7 @@ def evaluate_route_graph(
     entry: str = "nearest",
     n_pairs: int = 300,
     seed: int = 0,
-    min_region_m2: float = 1.0,
+    min_region_m2: float | None = None,
     generation_s: float | None = None,
     coordinates: str = "auto",
 ) -> RouteGraphReport:
@@ -239,8 +247,10 @@ def evaluate_route_graph(
         Number of pairs (>= 1, at most :data:`MAX_PAIRS`).
     seed : int
         Seed of the pair sampling (>= 0).
-    min_region_m2 : float
-        Feasible regions smaller than this (square metres, >= 0) are ignored.
+    min_region_m2 : float, optional
+        Feasible regions smaller than this (square metres, >= 0) are ignored; default the
+        graph's ``min_region_m2`` attribute (a route graph's: the smallest region it was
+        built to reach), else :data:`DEFAULT_MIN_REGION_M2`.
     generation_s : float or None
         Time taken to make the graph (seconds), echoed in the report.
     coordinates : {"auto", "world", "pixel"}
