@@ -349,6 +349,42 @@ def test_a_route_graph_is_written_along_its_waypoints_and_stays_safe(tmp_path):
     assert report.unsafe_share == 0.0 and report.success_rate == 1.0
 
 
+def test_waypoints_that_do_not_run_between_their_vertices_are_refused(tmp_path):
+    """The vertices are written in place of an edge's first and last waypoint: hand-edited
+    waypoints ending elsewhere were written as a chain they do not describe, without a
+    word.  Waypoints stored from ``v`` to ``u`` go out in the edge's own order."""
+    free = np.zeros((84, 124), bool)  # a 4 x 6 m room with a 1 m pillar, 0.05 m a pixel
+    free[2:82, 2:122] = True
+    free[32:52, 52:72] = False
+    m = tj.OccupancyMap.from_array(~free, resolution_m=0.05)
+    rg = tj.route_graph(m, robot_radius_m=0.3)
+    want = tj.save_nav2_graph(rg, tmp_path / "want.geojson").read_text()
+    _, (u, v, k) = max(  # the edge with the most waypoints between its ends
+        (len(d["waypoints"]), (u, v, k)) for u, v, k, d in rg.edges(keys=True, data=True) if u != v
+    )
+    d = rg.edges[u, v, k]
+    assert len(d["waypoints"]) > 3
+    # a polyline stored the other way round is the same corridor
+    d["waypoints"] = d["waypoints"][::-1].copy()
+    assert tj.save_nav2_graph(rg, tmp_path / "back.geojson").read_text() == want
+    # an end off its vertex by less than tolerance_m (0.1 m) is the vertex
+    d["waypoints"] = d["waypoints"][::-1].copy()
+    d["waypoints"][0] += [0.03, 0.0]
+    assert tj.save_nav2_graph(rg, tmp_path / "near.geojson").read_text() == want
+    d["waypoints"] = np.array([[0.0, 0.0], [1.0, 1.0]])
+    words = (
+        rf"^graph: edge \({u!r}, {v!r}, {k!r}\) 'waypoints': expected a polyline from "
+        rf"vertex ({u!r}|{v!r})'s 'world' \[.+\] to vertex ({u!r}|{v!r})'s \[.+\] \(or "
+        r"back\), each end "
+        r"within tolerance_m=0.1 m, received one from \[0.0, 0.0\] to \[1.0, 1.0\]$"
+    )
+    with pytest.raises(ValueError, match=words) as err:
+        tj.save_nav2_graph(rg, tmp_path / "bad.geojson")
+    for n in (u, v):  # where the ends were expected
+        assert str(list(map(float, rg.nodes[n]["world"]))) in str(err.value)
+    assert not (tmp_path / "bad.geojson").exists()
+
+
 def test_waypoints_at_one_point_are_one_node_that_keeps_all_their_edges(tmp_path):
     """Route-graph edges may cross, or pass a vertex, without meeting it: a waypoint of one
     edge then lies where a waypoint or vertex of another lies.  Written as two nodes, the

@@ -38,7 +38,9 @@ def save_nav2_graph(
     the chain.  A segment then stays at least the corridor's clearance minus
     ``tolerance_m`` from the walls.  An edge with ``waypoints`` (a route graph's, whose
     straight pieces keep the robot's radius from the walls) is written along them
-    instead, as they are.  Every segment is written in both directions.
+    instead, as they are: they must run from one of its vertices' ``world`` to the
+    other's, each end within ``tolerance_m``, as the vertices are written in their place.
+    Every segment is written in both directions.
 
     Parameters
     ----------
@@ -62,8 +64,10 @@ def save_nav2_graph(
     TypeError
         A ``tolerance_m`` that is not a number, a ``frame`` that is not a string.
     ValueError
-        A bad ``tolerance_m``, an empty ``frame``, a node or edge without ``world``, or a graph
-        without edges (nav2_route refuses to load one).
+        A bad ``tolerance_m``, an empty ``frame``, a node or edge without ``world``, an
+        edge whose ``waypoints`` do not run from one of its vertices to the other (the
+        message names the edge, the vertices' positions and the waypoints' ends), or a
+        graph without edges (nav2_route refuses to load one).
 
     Notes
     -----
@@ -207,6 +211,7 @@ def _corridor_chain(
     if u != v and not _starts_at(g, u, v, d, xy if planned is None else planned, node_xy):
         u, v = v, u
     if planned is not None:  # a route graph's own chain, safe as it stands: straight hops
+        planned = _from_u_to_v(planned, (u, node_xy[u]), (v, node_xy[v]), where, tol)
         inner = planned[1:-1].tolist()
         if u == v and len(inner) < 2:
             return None  # a loop needs two distinct waypoints
@@ -234,6 +239,24 @@ def _waypoints(d: dict, where: str) -> np.ndarray | None:
     or None when it has none."""
     w = d.get("waypoints")
     return None if w is None else xy_points(w, f"graph: {where} 'waypoints'", min_points=2)
+
+
+def _from_u_to_v(planned: np.ndarray, u: tuple, v: tuple, where: str, tol: float) -> np.ndarray:
+    """An edge's ``waypoints`` from vertex ``u`` to ``v`` (each ``(id, [x, y])``): as they
+    are, or reversed where they run from ``v`` to ``u``; a ValueError naming the edge where
+    they do not end at its vertices within ``tol`` metres.  The vertices are written in
+    place of the first and last waypoint, so that farther off, the written chain would
+    leave the polyline without a word (``tolerance_m`` bounds how far any chain may)."""
+    first, last = planned[0], planned[-1]
+    if math.dist(first, u[1]) <= tol and math.dist(last, v[1]) <= tol:
+        return planned
+    if math.dist(first, v[1]) <= tol and math.dist(last, u[1]) <= tol:
+        return planned[::-1]
+    raise ValueError(
+        f"graph: {where} 'waypoints': expected a polyline from vertex {u[0]!r}'s 'world' "
+        f"{list(u[1])} to vertex {v[0]!r}'s {list(v[1])} (or back), each end within "
+        f"tolerance_m={tol:g} m, received one from {first.tolist()} to {last.tolist()}"
+    )
 
 
 class _Chains:
