@@ -290,7 +290,8 @@ def test_save_mcap_writes_one_map_graph_and_rooms(tmp_path):
     messages = read_messages(path)
     assert [tp for tp, *_ in messages] == ["/map", "/topology", "/route_graph"]
     assert_markers_are_graph(last(messages, "/route_graph"), routes)
-    with pytest.raises(TypeError, match="route_graph: expected a networkx graph"):
+    words = "route_graph: expected an undirected networkx graph, received TopologyResult"
+    with pytest.raises(TypeError, match=words):
         tj.save_mcap(result, tmp_path / "y.mcap", route_graph=result)
     assert not (tmp_path / "y.mcap").exists()
 
@@ -706,6 +707,32 @@ def test_markers_refuse_coordinates_that_are_not_finite_x_y_pairs(tmp_path):
     result = tj.build_graph(tj.sample_map("a_scan"))
     g.nodes[0]["world"] = (float("nan"), 0.0)
     with pytest.raises(ValueError, match=r"^route_graph: node 0 'world': expected"):
+        tj.save_mcap(result, tmp_path / "s.mcap", route_graph=g)
+    assert not (tmp_path / "s.mcap").exists()
+
+
+def test_a_directed_route_graph_is_refused_as_the_other_readers_refuse_it(tmp_path):
+    """A route graph's corridors run both ways: a directed graph, which ``save_graph``,
+    ``evaluate_route_graph`` and ``RoutePlanner`` refuse, was drawn into ``/route_graph``
+    without a word, by the recorder and by ``save_mcap``."""
+    g = nx.DiGraph()
+    g.add_node(0, world=(0.0, 0.0), kind="end")
+    g.add_node(1, world=(1.0, 0.0), kind="end")
+    g.add_edge(0, 1, waypoints=np.array([[0.0, 0.0], [1.0, 0.0]]))
+    with McapRecorder(tmp_path / "r.mcap") as rec:
+        for directed in (g, nx.MultiDiGraph(g)):
+            words = (
+                "^graph: expected an undirected networkx graph, received "
+                f"{type(directed).__name__}$"
+            )
+            with pytest.raises(TypeError, match=words):
+                rec.add_route_graph(directed)
+        rec.add_route_graph(nx.MultiGraph(g))  # the same graph, undirected
+        rec.add_map(tj.sample_map("a_scan"), g)  # /topology draws any graph, as before
+    assert rec.counts == {"/route_graph": 1, "/map": 1, "/topology": 1}
+    result = tj.build_graph(tj.sample_map("a_scan"))
+    words = "^route_graph: expected an undirected networkx graph, received DiGraph$"
+    with pytest.raises(TypeError, match=words):
         tj.save_mcap(result, tmp_path / "s.mcap", route_graph=g)
     assert not (tmp_path / "s.mcap").exists()
 

@@ -30,7 +30,7 @@ from .._constants import (
     VERTEX_KIND_COLOURS,
 )
 from .._fs import output_file
-from .._validate import instance_of, no_file_above, xy_points
+from .._validate import instance_of, no_file_above, nx_graph, xy_points
 from ..scans.scan import reading_limits
 from ._recording_lock import lock_as_owner, remove_abandoned
 from ._schema import _xy
@@ -237,12 +237,11 @@ def _kind(data: dict):
     return kind if isinstance(kind, str) and kind in VERTEX_KIND_COLOURS else None
 
 
-def _check_graph(name: str, graph) -> None:
+def _check_graph(name: str, graph, *, undirected: bool = False) -> None:
     """Raise a TypeError or ValueError naming ``name`` unless ``graph`` is a networkx
-    graph whose vertices have ``world`` and whose edges ``waypoints`` or ``world``."""
-    from .._validate import nx_graph
-
-    nx_graph(name, graph, undirected=False)
+    graph (an undirected one where ``undirected``) whose vertices have ``world`` and
+    whose edges ``waypoints`` or ``world``."""
+    nx_graph(name, graph, undirected=undirected)
     if any("world" not in d for _, d in graph.nodes(data=True)):
         raise ValueError(f"{name}: expected a 'world' (x, y) on every vertex, one has none")
     if any("world" not in d and "waypoints" not in d for *_, d in graph.edges(data=True)):
@@ -689,6 +688,7 @@ class McapRecorder:
     def add_route_graph(self, graph) -> None:
         """Write ``/route_graph`` (a :func:`topojax.route_graph`, edges drawn through their
         ``waypoints``, green where ``/topology``'s are orange) at :attr:`stamp_ns`."""
+        nx_graph("graph", graph)  # undirected, as every route graph reader takes it
         markers = graph_markers(graph, self.stamp_ns, edge_colour=ROUTE_EDGE_COLOUR)
         self._write("/route_graph", markers, self.stamp_ns)
 
@@ -783,7 +783,7 @@ def save_mcap(result, path, *, rooms=None, route_graph=None) -> Path:
         if why is not None:
             raise ValueError(f"rooms: not segmented on the result's map: {why}")
     if route_graph is not None:
-        _check_graph("route_graph", route_graph)
+        _check_graph("route_graph", route_graph, undirected=True)
         why = map_mismatch(route_graph, result.map)
         if why is not None:
             raise ValueError(f"route_graph: not built on the result's map: {why}")
