@@ -93,33 +93,38 @@ class RouteGraphReport:
         return out
 
 
+def _given_or_recorded(graph, name: str, value, default) -> tuple:
+    """``value``, else the graph's attribute ``name`` (the option a route graph was built
+    with), else ``default``; with the name its errors give."""
+    if value is not None:
+        return value, name
+    recorded = graph.graph.get(name)
+    if recorded is None:
+        return default, name
+    return recorded, f"{name} (the graph's '{name}' attribute)"
+
+
 def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, generation_s):
     nx_graph("graph", graph)
     why = map_mismatch(graph, occupancy)
     if why is not None:  # a graph that records its map (a route graph) scored on another
         raise ValueError(f"occupancy: {why}")
     radius = nonnegative_metres("robot_radius_m", radius)
-    if snap_m is None:  # a route graph is scored at the distance it was built to cover
-        snap_m = graph.graph.get("snap_m")
-        snap_m = DEFAULT_SNAP_M if snap_m is None else snap_m
-        snap_m = positive_metres("snap_m (the graph's 'snap_m' attribute)", snap_m)
-    snap_m = positive_metres("snap_m", snap_m)
+    # a route graph is scored at the distance it was built to cover
+    snap_m, named = _given_or_recorded(graph, "snap_m", snap_m, DEFAULT_SNAP_M)
+    snap_m = positive_metres(named, snap_m)
     if snap_m > MAX_SNAP_M:
         raise ValueError(
-            f"snap_m: expected at most {MAX_SNAP_M:g} m (how far a route may run off the "
+            f"{named}: expected at most {MAX_SNAP_M:g} m (how far a route may run off the "
             f"graph to join it; the work grows with its square), received {snap_m!r}"
         )
     n_pairs = positive_int("n_pairs", n_pairs)
     if n_pairs > MAX_PAIRS:
         raise ValueError(f"n_pairs: expected at most {MAX_PAIRS:,}, received {n_pairs:,}")
     seed = int_at_least("seed", seed, 0)  # numpy's generators take no negative seed
-    if min_region_m2 is None:  # a route graph is scored on the regions it was built for
-        min_region_m2 = graph.graph.get("min_region_m2")
-        min_region_m2 = DEFAULT_MIN_REGION_M2 if min_region_m2 is None else min_region_m2
-        min_region_m2 = nonnegative_quantity(
-            "min_region_m2 (the graph's 'min_region_m2' attribute)", min_region_m2, "square metres"
-        )
-    min_region_m2 = nonnegative_quantity("min_region_m2", min_region_m2, "square metres")
+    # and on the regions it was built to reach
+    area, named = _given_or_recorded(graph, "min_region_m2", min_region_m2, DEFAULT_MIN_REGION_M2)
+    min_region_m2 = nonnegative_quantity(named, area, "square metres")
     gen = (
         None
         if generation_s is None
