@@ -639,6 +639,7 @@ def test_a_route_graph_is_scored_on_the_regions_it_was_built_for(tmp_path):
     assert rg.graph["min_region_m2"] == 4.0 and nx.number_connected_components(rg) == 1
     at_one = evaluate_route_graph(rg, occ, 0.3, min_region_m2=1.0, n_pairs=50)
     assert at_one.feasible_regions == 2 and at_one.regions_missed == 1  # explicit still wins
+    assert at_one.min_region_m2 == 1.0 and at_one.as_dict()["min_region_m2"] == 1.0
     copies = [rg, GraphStore.from_networkx(rg).to_networkx()]
     for name in ("rg.json", "rg.graphml", "rg.geojson"):
         tj.save_graph(rg, tmp_path / name)
@@ -650,6 +651,7 @@ def test_a_route_graph_is_scored_on_the_regions_it_was_built_for(tmp_path):
         assert graph.graph["snap_m"] == rg.graph["snap_m"]
         report = evaluate_route_graph(graph, occ, 0.3, n_pairs=50)
         assert report.feasible_regions == 1 and report.regions_missed == 0
+        assert report.min_region_m2 == 4.0  # the report says what it counted
     bare = nx.MultiGraph(rg)
     bare.graph.pop("min_region_m2")  # a graph that records none: 1 m2, as before
     assert evaluate_route_graph(bare, occ, 0.3, n_pairs=50).regions_missed == 1

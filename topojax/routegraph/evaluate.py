@@ -82,6 +82,7 @@ class RouteGraphReport:
     generation_s: float | None
     evaluation_s: float
     entry: str = "nearest"
+    min_region_m2: float = DEFAULT_MIN_REGION_M2
 
     def as_dict(self) -> dict:
         """The fields as a JSON-friendly dict (plain ints and floats, NaN as None)."""
@@ -301,6 +302,7 @@ def evaluate_route_graph(
         robot_radius_m=radius,
         snap_m=snap_m,
         entry=entry,
+        min_region_m2=min_area,
         seed=seed,
         pairs=pairs.n_pairs,
         success_rate=ok,
