@@ -747,6 +747,8 @@ def save_mcap(result, path, *, rooms=None, route_graph=None) -> Path:
 
     Raises
     ------
+    TypeError
+        ``route_graph`` is not an undirected networkx graph.
     ValueError
         ``rooms`` or ``route_graph`` made on another map (its recorded shape,
         resolution or origin is not the result's), which would be drawn off its place.
