@@ -83,6 +83,25 @@ def test_route_formats_write_each_maps_route_graph(tmp_path):
     assert rows["narrow"]["status"] == "empty"
 
 
+def test_kept_graphs_hold_the_route_graph_too(tmp_path):
+    """With ``keep_graphs`` a record holds the map's route graph beside the paper's graph
+    (the graph written to its route files); without a route format, or without
+    ``keep_graphs``, none."""
+    kw = {"progress": False, "out_dir": tmp_path / "out"}
+    for n in (0, 1):  # in this process and from a worker process
+        (rec,) = build_graphs(
+            [_two_rooms()], formats="route", keep_graphs=True, workers=n, resume=False, **kw
+        )
+        assert rec.graph is not None and rec.graph.graph.get("kind") != "route_graph"
+        want = load_graph(tmp_path / "out" / "two_rooms_route.json")
+        assert rec.route_graph.graph["kind"] == "route_graph"
+        assert _edges_by_path(rec.route_graph) == _edges_by_path(want)
+    (rec,) = build_graphs([_two_rooms()], formats="json", keep_graphs=True, workers=0, **kw)
+    assert rec.graph is not None and rec.route_graph is None
+    (rec,) = build_graphs([_two_rooms()], formats="route", workers=0, **kw)
+    assert rec.graph is None and rec.route_graph is None
+
+
 def test_route_files_of_a_rerun_are_byte_identical(tmp_path):
     kw = {"workers": 0, "progress": False, "formats": "route,route_nav2"}
     first = build_graphs([_two_rooms()], out_dir=tmp_path / "a", **kw)

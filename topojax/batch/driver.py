@@ -631,6 +631,7 @@ class _BatchRun:
             status="empty" if empty else rec.status,
             message="; ".join(notes),  # why it is empty, and any warning
             graph=res.graph,
+            route_graph=res.route_graph,
         )
         if self.out_dir is not None:
             rec = totalled(rec)
@@ -716,7 +717,7 @@ def build_graphs(
         Most tiles per group of maps sent to the kernels together (a larger map forms
         a group of its own).  Default ``16 * tiles_per_call``.
     keep_graphs : bool, optional
-        Return each ``networkx.MultiGraph`` in ``MapRecord.graph``.  Default: True
+        Return each graph in ``MapRecord.graph`` (and ``.route_graph``).  Default: True
         without ``out_dir``, False with it (graphs are then on disk).  A map skipped by
         ``resume`` is not rebuilt: its record holds none (:func:`topojax.load_graph`).
     map_mode : {"trinary", "scale", "raw", "ipa"}, optional

@@ -89,6 +89,9 @@ class MapRecord:
         Files written for this map, relative to ``out_dir`` (manifest last).
     graph : networkx.MultiGraph or None
         The graph itself when ``keep_graphs`` (not in the table).
+    route_graph : networkx.MultiGraph or None
+        The route graph itself when ``keep_graphs`` with a ``route`` or ``route_nav2``
+        format (not in the table).
     """
 
     map: str
@@ -115,6 +118,7 @@ class MapRecord:
     message: str = ""
     outputs: tuple[str, ...] = ()
     graph: Any = field(default=None, repr=False, compare=False)
+    route_graph: Any = field(default=None, repr=False, compare=False)
 
     def row(self) -> dict[str, Any]:
         """The record as a summary-table row (keys :data:`SUMMARY_COLUMNS`, and

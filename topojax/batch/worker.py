@@ -86,6 +86,7 @@ class _CpuResult:
     t_write_s: float = 0.0
     files: dict[str, dict[str, Any]] = field(default_factory=dict)
     graph: Any = None
+    route_graph: Any = None
     error: str | None = None
 
 
@@ -162,6 +163,7 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
         t2 = time.perf_counter()
         res.t_graph_s = t2 - t0_graph
 
+        routes = None  # the route formats write files: only with out_dir
         if job.out_dir is not None:
             out = Path(job.out_dir)
             stem = out / job.name
@@ -202,6 +204,7 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
         res.t_write_s = time.perf_counter() - t2
         if job.keep_graph:
             res.graph = graph
+            res.route_graph = routes
     except Exception as exc:
         res.error = _error_text(exc)
     return res
