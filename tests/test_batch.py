@@ -1236,6 +1236,29 @@ def test_expand_map_inputs_skips_the_excluded_folder(tmp_path):
         assert expand_map_inputs([f"{root}/**/*.png"], exclude=out) == both
 
 
+def test_a_later_batch_does_not_replace_another_maps_file(tmp_path):
+    """Across runs into one folder, map ``x_nav2`` would replace ``x_nav2.geojson``, the
+    Nav2 graph an earlier batch wrote for map ``x`` (whose manifest still lists it), and
+    the other way round: refused before any work, naming the file and the other map."""
+    src = tmp_path / "maps"
+    src.mkdir()
+    x, x_nav2 = src / "x.png", src / "x_nav2.png"
+    x.write_bytes(PAPER_MAPS[0].read_bytes())
+    x_nav2.write_bytes(PAPER_MAPS[2].read_bytes())
+    kw = {"workers": 0, "progress": False}
+    for first, then, formats in ((x, x_nav2, "geojson"), (x_nav2, x, "json,nav2")):
+        out = tmp_path / f"out_{first.stem}"
+        build_graphs([first], out_dir=out, formats="json,nav2,geojson", **kw)
+        before = (out / "x_nav2.geojson").read_bytes()
+        with pytest.raises(ValueError, match="out_dir: .*x_nav2.geojson was written for") as e:
+            build_graphs([then], out_dir=out, formats=formats, **kw)
+        assert str(first) in str(e.value) and f"map '{then.stem}'" in str(e.value)
+        assert (out / "x_nav2.geojson").read_bytes() == before
+    # a map's own files of an earlier run are its own to replace
+    (rec,) = build_graphs([x], out_dir=tmp_path / "out_x", formats="json,nav2", **kw)
+    assert rec.status == "ok"
+
+
 def test_output_names_never_share_a_file(tmp_path, capsys):
     """A map ``x_nav2`` beside a map ``x`` would write ``x_nav2.geojson``, the Nav2 graph of
     ``x``: both maps reported ok while one file replaced the other, and every resume redid

@@ -176,6 +176,7 @@ def batch_items(
         return items, {}
     check_no_overwrite(items, out, formats, plot)
     check_same_inputs(items, out)
+    check_other_maps_files(items, out, formats, plot)
     return items, {item.index: _fingerprint(item) for item in items}
 
 
@@ -369,6 +370,29 @@ def check_same_inputs(items: list[_Item], out: Path) -> None:
                 f"out_dir: {manifest} and the files it lists were written from {before}; "
                 f"{now} would replace them. Write into another folder, or remove them first"
             )
+
+
+def check_other_maps_files(
+    items: list[_Item], out: Path, formats: tuple[str, ...], plot: bool
+) -> None:
+    """Refuse a map whose output file another map's manifest in ``out`` lists: map
+    ``x_nav2`` would replace ``x_nav2.geojson``, the Nav2 graph an earlier batch wrote for
+    map ``x`` (and the other way round), leaving ``x``'s manifest vouching for another
+    file."""
+    suffixes = _format_suffixes(formats) + picture_suffixes(formats, plot)
+    for it in items:
+        own = out / f"{it.name}{_MANIFEST_SUFFIX}"
+        for target in (out / f"{it.name}{suffix}" for suffix in suffixes):
+            if not target.is_file():
+                continue
+            other = batch_input(target, other_than=own)
+            if other is not None:
+                source = other or "a map object"
+                raise ValueError(
+                    f"out_dir: {target} was written for another map ({source}), whose "
+                    f"manifest lists it; map {it.name!r} would replace it. Write into "
+                    "another folder, or remove that map's files first"
+                )
 
 
 def warn_unused_workers(executor: Any, workers: int | None) -> None:

@@ -494,16 +494,19 @@ def planned_outputs(
     }
 
 
-def batch_input(target: str | os.PathLike[str]) -> str | None:
+def batch_input(target: str | os.PathLike[str], *, other_than: Path | None = None) -> str | None:
     """The input of the batch map that wrote the file ``target`` (its manifest's ``path``:
     the map file's absolute path, a map object's ``source``, ``""`` for one without), or
-    None when no manifest beside ``target`` lists it."""
+    None when no manifest beside ``target`` (other than the manifest ``other_than``) lists
+    it."""
     target = Path(target)
     name = target.name
     for suffix in (*_format_suffixes(_FORMAT_FILES), *_PICTURES, _MANIFEST_SUFFIX):
         if not name.endswith(suffix):
             continue
         manifest = target.with_name(name[: -len(suffix)] + _MANIFEST_SUFFIX)
+        if manifest == other_than:
+            continue
         try:
             doc = json.loads(manifest.read_text(encoding="utf-8"))
         except (OSError, ValueError):
