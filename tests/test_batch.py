@@ -1528,12 +1528,26 @@ def test_parquet_summary_when_pyarrow_is_installed(tmp_path):
 # ---------------------------------------------------------------------- Dask
 
 
+def _local_cluster(distributed, tries: int = 3, **kw):
+    """``distributed.LocalCluster(**kw)``, tried again where its event loop did not start:
+    distributed waits 10 s for the loop's thread, which a loaded 2-core machine can
+    exceed while an earlier cluster's processes shut down (an AssertionError in
+    ``LoopRunner``, before any topojax code runs)."""
+    for _ in range(tries - 1):
+        try:
+            return distributed.LocalCluster(**kw)
+        except AssertionError:
+            time.sleep(1.0)
+    return distributed.LocalCluster(**kw)  # the last try's error is the test's
+
+
 def test_dask_local_cluster_matches_local_run(tmp_path, shared_data):
     distributed = pytest.importorskip("distributed")
     inputs = [*PAPER_MAPS, *_small_shared(shared_data)[:2]]
     local = build_graphs(inputs, out_dir=tmp_path / "local", workers=0, progress=False)
     with (
-        distributed.LocalCluster(
+        _local_cluster(
+            distributed,
             n_workers=2,
             processes=True,
             threads_per_worker=1,
@@ -1589,8 +1603,13 @@ def test_workers_beside_a_scheduler_are_said_to_be_unused(tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
     from topojax.cli import main
 
-    with distributed.LocalCluster(
-        n_workers=1, processes=False, protocol="tcp://", host="127.0.0.1", dashboard_address=None
+    with _local_cluster(
+        distributed,
+        n_workers=1,
+        processes=False,
+        protocol="tcp://",
+        host="127.0.0.1",
+        dashboard_address=None,
     ) as cluster:
         argv = ["batch", str(PAPER_MAPS[0]), "-o", str(tmp_path / "o"), "--no-progress"]
         assert main([*argv, "--scheduler", cluster.scheduler_address, "--workers", "3"]) == 0
