@@ -321,3 +321,20 @@ def test_route_command_checks_a_robot_radius_without_the_map_against_the_edges(t
     # nor a bad radius without the map, named as the option
     assert main(["route", str(graph_file), *points, "--robot-radius", "-1"]) == 2
     assert "--robot-radius: expected" in capsys.readouterr().err
+
+
+def test_a_route_graph_planner_measures_clearance_on_the_transform_it_already_made(monkeypatch):
+    import cv2
+
+    rooms_map, _ = rooms()
+    graph = tj.route_graph(rooms_map, robot_radius_m=0.15)
+    planner = RoutePlanner(graph, occupancy=rooms_map)
+    calls = []
+    real = cv2.distanceTransform
+    monkeypatch.setattr(cv2, "distanceTransform", lambda *a, **k: calls.append(1) or real(*a, **k))
+    r = planner.route(ROOM_A, ROOM_C, frame="pixel")
+    assert calls == []  # the feasible space's clearance serves the route's
+    fresh = RoutePlanner(graph, occupancy=rooms_map)  # one transform, for the feasible space
+    assert calls == [1]
+    assert fresh.route(ROOM_A, ROOM_C, frame="pixel").min_clearance_m == r.min_clearance_m
+    assert calls == [1]

@@ -185,18 +185,27 @@ class WallDistance:
     Attributes
     ----------
     px : float32 (H, W)
-        Distance from each pixel centre to the nearest wall's centre, pixels (inf on a
-        map without an occupied pixel, for a graph other than a route graph).
-    resolution_m : float
-        Metres per pixel.
+        Distance from each pixel centre to the nearest wall's centre, in units of
+        ``unit_m`` (inf on a map without an occupied pixel, for a graph other than a
+        route graph).
+    unit_m : float
+        Metres per unit of ``px``: the map's resolution, or 1 for a route graph's
+        clearance already in float32 metres (:meth:`of_clearance_m`).
     route_graph : bool
         Whether the distance is a route graph's (rounded to float32 metres, as it records
         them).
     """
 
     px: np.ndarray
-    resolution_m: float
+    unit_m: float
     route_graph: bool
+
+    @classmethod
+    def of_clearance_m(cls, clearance_m: np.ndarray) -> WallDistance:
+        """A route graph's distance from its map's clearance (float32 (H, W), metres, as
+        :func:`topojax.routegraph.feasible.clearance_map_m` gives it at the graph's
+        resolution): float32 scaling keeps the order, so its least is the same bits."""
+        return cls(clearance_m, 1.0, True)
 
     @classmethod
     def of_map(cls, occupancy, attrs: dict, resolution_m: float) -> WallDistance:
@@ -224,5 +233,5 @@ class WallDistance:
             return math.nan
         least = self.px[rows, cols].min()  # the metres grow with the pixels: the least
         if self.route_graph:  # float32 metres, as clearance_map_m scales them
-            return float(np.float32(least) * np.float32(self.resolution_m))
-        return float(least) * self.resolution_m  # as the graph builders scale them
+            return float(np.float32(least) * np.float32(self.unit_m))
+        return float(least) * self.unit_m  # as the graph builders scale them

@@ -131,9 +131,10 @@ class RoutePlanner:
         or ``goal_leg_feasible`` is then False), and an end that sees none so is an
         error (:meth:`route`).  The route's ``min_clearance_m`` is then measured on the
         map along the pixels the route runs along (the map's distance to the nearest
-        wall, computed on the first route and kept: 4 bytes a pixel).  Without the map
-        every end joins at the nearest corridor point, and ``min_clearance_m`` is the
-        edges' recorded one, the first and last edge counted whole.
+        wall, kept from the feasible space for a route graph, else computed on the first
+        route and kept: 4 bytes a pixel).  Without the map every end joins at the
+        nearest corridor point, and ``min_clearance_m`` is the edges' recorded one, the
+        first and last edge counted whole.
     robot_radius_m : float, optional
         Robot radius, metres, that each route records (its ``robot_radius_m``, for a
         comparison with its ``min_clearance_m``); with the map, also the radius of those
@@ -171,9 +172,8 @@ class RoutePlanner:
         self._graph = graph
         self._res = graph_resolution_m(graph)
         self._occupancy = occupancy
-        self._feasible, self._entry_m, self._radius = self._entry_space(
-            occupancy, robot_radius_m, entry_m
-        )
+        space, self._entry_m, self._radius = self._entry_space(occupancy, robot_radius_m, entry_m)
+        self._feasible = None if space is None else space.feasible
         # with the map, the pixels a leg from a point the robot does not fit at may cross
         self._clear = None if occupancy is None else ~np.asarray(occupancy.occupied, bool)
         self._nodes = list(graph.nodes)
@@ -224,6 +224,10 @@ class RoutePlanner:
         self._trees: dict = {}
         self._tree_px: dict = {}  # per frame, the tree points' pixels (with the map)
         self._walls: WallDistance | None = None  # with the map, on the first route
+        if space is not None and graph.graph.get("kind") == "route_graph":
+            res = space.resolution_m if self._res is None else self._res
+            if np.float32(res) == np.float32(space.resolution_m):  # the clearance's scale
+                self._walls = WallDistance.of_clearance_m(space.clearance_m)
 
     # ------------------------------------------------------------------ public
     def route(
@@ -275,9 +279,10 @@ class RoutePlanner:
 
     # ------------------------------------------------------------------ internals
     def _entry_space(self, occupancy, radius, entry_m):
-        """The feasible pixels (bool (H, W)) a route may cross to join the graph away from
-        its nearest point, how far (metres) it may go to do so and the robot radius
-        (metres); ``(None, 0.0, robot_radius_m)`` without a map (None when not given)."""
+        """The feasible space (its pixels are those a route may cross to join the graph
+        away from its nearest point), how far (metres) it may go to do so and the robot
+        radius (metres); ``(None, 0.0, robot_radius_m)`` without a map (None when not
+        given)."""
         if occupancy is None:
             if entry_m is not None:
                 raise ValueError("entry_m: only used with occupancy=, which was not given")
@@ -313,7 +318,7 @@ class RoutePlanner:
             entry_m = DEFAULT_ENTRY_M if entry_m is None else entry_m
             entry_m = nonnegative_metres("entry_m (the graph's 'snap_m' attribute)", entry_m)
         entry_m = nonnegative_metres("entry_m", entry_m)
-        return feasible_space(occupancy, radius).feasible, entry_m, radius
+        return feasible_space(occupancy, radius), entry_m, radius
 
     def _snaps(
         self, point, frame: str, name: str, reach_m: float, max_snap_m: float | None
