@@ -5,6 +5,7 @@ ROS 2 decoder (the library Foxglove's tools use)."""
 from __future__ import annotations
 
 import math
+import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -266,6 +267,48 @@ def test_replay_recording_reads_with_the_mcap_package(replayed):
     np.testing.assert_array_equal(
         data.reshape(grid.info.height, grid.info.width)[::-1] == 100, occ.occupied
     )
+
+
+def test_every_chunk_carries_the_crc_of_its_records(replayed, tmp_path):
+    """Each chunk records the CRC-32 of its uncompressed records (0 means none, and damage
+    that still decompresses would pass unseen): the mcap package's reader checks them, and
+    topojax's readers refuse a recording whose chunk does not match its CRC."""
+    import zlib
+
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader
+
+    _, path, _, _ = replayed
+    with open(path, "rb") as f:
+        chunks = [r for r in StreamReader(f, emit_chunks=True).records if isinstance(r, Chunk)]
+    with open(path, "rb") as f:  # the reader that checks the CRCs reads every record
+        assert len(list(StreamReader(f, validate_crcs=True).records)) > len(chunks) >= 2
+    for chunk in chunks:
+        assert chunk.compression == "zstd"
+        records = zstd_decompress(chunk.data, chunk.uncompressed_size)
+        assert chunk.uncompressed_crc == zlib.crc32(records) != 0
+    # the first chunk follows the magic (8 bytes) and the header record (opcode, length)
+    data = bytearray(path.read_bytes())
+    chunk_at = 8 + 9 + int.from_bytes(data[9:17], "little")
+    assert data[chunk_at] == 0x06
+    data[chunk_at + 9 + 24] ^= 0x01  # its CRC: start and end times, size, then the CRC
+    for name, cut in (("bad_crc.mcap", 0), ("bad_crc_cut.mcap", 30)):
+        bad = tmp_path / name
+        bad.write_bytes(bytes(data[: len(data) - cut]))
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", ".*is cut off", RuntimeWarning)
+            with pytest.raises(ValueError, match=rf"{name[:-5]}\.mcap.*(CRC|checksum)"):
+                list(tj.read_scans(bad))
+
+
+def zstd_decompress(data: bytes, size: int) -> bytes:
+    try:
+        from compression import zstd  # Python >= 3.14
+    except ImportError:
+        from backports import zstd  # a dependency of rosbags
+    out = zstd.decompress(data)
+    assert len(out) == size
+    return out
 
 
 def test_save_mcap_writes_one_map_graph_and_rooms(tmp_path):

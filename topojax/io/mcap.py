@@ -30,6 +30,7 @@ from .._constants import (
     VERTEX_KIND_COLOURS,
 )
 from .._fs import output_file
+from .._mcap_records import fill_chunk_crcs
 from .._validate import instance_of, no_file_above, nx_graph, xy_points
 from ..scans.scan import reading_limits
 from ._recording_lock import lock_as_owner, remove_abandoned
@@ -568,6 +569,7 @@ class McapRecorder:
         try:
             writer.close()
             done = self._tmp / "recording" / "recording.mcap"
+            fill_chunk_crcs(done)  # rosbags records none: damage would read unseen
             if path is None:
                 os.replace(done, target)
             else:  # its folder, maybe on another file system

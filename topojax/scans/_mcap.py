@@ -5,13 +5,24 @@ from __future__ import annotations
 
 import struct
 import warnings
+import zlib
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
 
-_MCAP_MAGIC = b"\x89MCAP0\r\n"
-_SCHEMA, _CHANNEL, _MESSAGE, _CHUNK, _FOOTER = 0x03, 0x04, 0x05, 0x06, 0x02
-_RECORD_HEAD = 9  # opcode u8 + body length u64
+from .._mcap_records import (
+    CHANNEL,
+    CHUNK,
+    CHUNK_HEAD,
+    CRC_AT,
+    FOOTER,
+    MCAP_MAGIC,
+    MESSAGE,
+    RECORD_HEAD,
+    SCHEMA,
+    decompress,
+    string_at,
+)
 
 
 class _McapChannel(NamedTuple):
@@ -26,51 +37,6 @@ class _McapChannel(NamedTuple):
 
 class _Cut(Exception):
     """A record of the file, or of a chunk, runs past its end."""
-
-
-def _string(body: bytes, pos: int) -> tuple[str, int]:
-    """The u32-length-prefixed UTF-8 string at ``pos`` of a record body and the position
-    after it."""
-    (n,) = struct.unpack_from("<I", body, pos)
-    end = pos + 4 + n
-    if end > len(body):
-        raise ValueError("a string runs past the end of its record")
-    return body[pos + 4 : end].decode("utf-8", "replace"), end
-
-
-def _decompress(data: bytes, compression: str, cut: bool) -> bytes:
-    """A chunk's records: ``data`` decompressed (``""``, ``"zstd"`` or ``"lz4"``); of a
-    chunk ``cut`` off, as much as its data hold.  A ValueError for data that do not
-    decompress (a damaged chunk)."""
-    try:
-        return _decompressed(data, compression, cut)
-    except (ValueError, ImportError):
-        raise
-    except Exception as exc:  # noqa: BLE001 - zstd and lz4 raise their own types
-        raise ValueError(
-            f"a {compression} chunk does not decompress ({type(exc).__name__}: {exc})"
-        ) from None
-
-
-def _decompressed(data: bytes, compression: str, cut: bool) -> bytes:
-    if compression == "":
-        return data
-    if compression == "zstd":
-        try:
-            from compression import zstd  # Python >= 3.14
-        except ImportError:
-            from backports import zstd  # a dependency of rosbags
-        return zstd.ZstdDecompressor().decompress(data) if cut else zstd.decompress(data)
-    if compression == "lz4":
-        import lz4.frame  # a dependency of rosbags
-
-        if not cut:
-            return lz4.frame.decompress(data)
-        try:
-            return lz4.frame.LZ4FrameDecompressor().decompress(data)
-        except RuntimeError:  # cut inside the frame header
-            return b""
-    raise ValueError(f"chunk compression: expected '', 'zstd' or 'lz4', received {compression!r}")
 
 
 class _McapSequential:
@@ -115,56 +81,58 @@ class _McapSequential:
         ``cut_at`` to the byte where the file is cut (None: it ends with a footer)."""
         size = self.path.stat().st_size
         with open(self.path, "rb") as fh:
-            if fh.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
+            if fh.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
                 raise ValueError(
                     f"{self.path}: not an MCAP file (it does not begin with the MCAP magic "
-                    f"{_MCAP_MAGIC!r})"
+                    f"{MCAP_MAGIC!r})"
                 )
-            pos = len(_MCAP_MAGIC)
+            pos = len(MCAP_MAGIC)
             while True:
-                head = fh.read(_RECORD_HEAD)
-                if len(head) < _RECORD_HEAD:  # ends between records, or in a record head
+                head = fh.read(RECORD_HEAD)
+                if len(head) < RECORD_HEAD:  # ends between records, or in a record head
                     self.cut_at = pos
                     return
                 op, length = head[0], struct.unpack_from("<Q", head, 1)[0]
                 # a length past the file's end (cut, or garbage) reads only what is there
-                body = fh.read(min(length, size - pos - _RECORD_HEAD))
+                body = fh.read(min(length, size - pos - RECORD_HEAD))
                 cut = len(body) < length
-                if op == _FOOTER and not cut:
+                if op == FOOTER and not cut:
                     return
                 try:
-                    yield from self._record(op, body, cut)
+                    yield from self._record(op, body, cut, pos)
                 except _Cut:
                     cut = True
                 if cut:
                     self.cut_at = pos
                     return
-                pos += _RECORD_HEAD + length
+                pos += RECORD_HEAD + length
 
-    def _record(self, op: int, body: bytes, cut: bool) -> Iterator[tuple[int, int, bytes]]:
-        """The messages of one record (a message, or a chunk's); schemas and channels
-        are kept.  Raises :class:`_Cut` for a record ``cut`` short (a chunk's whole
-        records before the cut are read first)."""
-        if op == _CHUNK:
-            yield from self._chunk(body, cut)
+    def _record(
+        self, op: int, body: bytes, cut: bool, pos: int
+    ) -> Iterator[tuple[int, int, bytes]]:
+        """The messages of one record (a message, or a chunk's), at byte ``pos``; schemas
+        and channels are kept.  Raises :class:`_Cut` for a record ``cut`` short (a chunk's
+        whole records before the cut are read first)."""
+        if op == CHUNK:
+            yield from self._chunk(body, cut, pos)
             return
         if cut:
             raise _Cut
-        if op == _SCHEMA:
+        if op == SCHEMA:
             self._add_schema(body)
-        elif op == _CHANNEL:
+        elif op == CHANNEL:
             self._add_channel(body)
-        elif op == _MESSAGE:
+        elif op == MESSAGE:
             yield self._message(body)
 
-    def _chunk(self, body: bytes, cut: bool) -> Iterator[tuple[int, int, bytes]]:
-        """The messages of a chunk record, in log-time order (of one ``cut`` short, those
-        before the cut, then :class:`_Cut`)."""
-        head = 8 + 8 + 8 + 4
-        if len(body) < head + 4:
+    def _chunk(self, body: bytes, cut: bool, where: int) -> Iterator[tuple[int, int, bytes]]:
+        """The messages of the chunk record at byte ``where``, in log-time order (of one
+        ``cut`` short, those before the cut, then :class:`_Cut`); a ValueError for a
+        whole chunk whose records do not match its CRC."""
+        if len(body) < CHUNK_HEAD + 4:
             raise _Cut
         try:
-            compression, pos = _string(body, head)
+            compression, pos = string_at(body, CHUNK_HEAD)
         except ValueError:
             raise _Cut from None
         if len(body) < pos + 8:
@@ -172,21 +140,27 @@ class _McapSequential:
         (n,) = struct.unpack_from("<Q", body, pos)
         data = body[pos + 8 : pos + 8 + n]
         inner_cut = cut or len(data) < n
-        records = _decompress(data, compression, inner_cut)
+        records = decompress(data, compression, inner_cut)
+        (crc,) = struct.unpack_from("<I", body, CRC_AT)
+        if crc and not inner_cut and zlib.crc32(records) != crc:
+            raise ValueError(
+                f"{self.path}: the chunk at byte {where} is damaged: its records do not "
+                f"match its CRC ({zlib.crc32(records):#010x}, recorded {crc:#010x})"
+            )
         messages: list[tuple[int, int, bytes]] = []
         at = 0
-        while at + _RECORD_HEAD <= len(records):
+        while at + RECORD_HEAD <= len(records):
             op, length = records[at], struct.unpack_from("<Q", records, at + 1)[0]
-            inner = records[at + _RECORD_HEAD : at + _RECORD_HEAD + length]
+            inner = records[at + RECORD_HEAD : at + RECORD_HEAD + length]
             if len(inner) < length:
                 break
-            if op == _SCHEMA:
+            if op == SCHEMA:
                 self._add_schema(inner)
-            elif op == _CHANNEL:
+            elif op == CHANNEL:
                 self._add_channel(inner)
-            elif op == _MESSAGE:
+            elif op == MESSAGE:
                 messages.append(self._message(inner))
-            at += _RECORD_HEAD + length
+            at += RECORD_HEAD + length
         messages.sort(key=lambda m: m[1])  # stable: file order among equal times
         yield from messages
         if inner_cut or at != len(records):
@@ -194,14 +168,14 @@ class _McapSequential:
 
     def _add_schema(self, body: bytes) -> None:
         (sid,) = struct.unpack_from("<H", body, 0)
-        name, pos = _string(body, 2)
-        encoding, pos = _string(body, pos)
-        text, _ = _string(body, pos)
+        name, pos = string_at(body, 2)
+        encoding, pos = string_at(body, pos)
+        text, _ = string_at(body, pos)
         self._schemas[sid] = (name, encoding, text)
 
     def _add_channel(self, body: bytes) -> None:
         cid, sid = struct.unpack_from("<HH", body, 0)
-        topic, _ = _string(body, 4)
+        topic, _ = string_at(body, 4)
         if sid == 0:  # no schema: the messages cannot be decoded, the topic is listed
             self.channels[cid] = _McapChannel(topic, "", "", "")
             return

@@ -10,8 +10,9 @@ from typing import Any
 
 import numpy as np
 
+from .._mcap_records import MCAP_MAGIC
 from .._validate import flag, one_of, path_like, real_number, text_or_none
-from ._mcap import _MCAP_MAGIC, _McapSequential
+from ._mcap import _McapSequential
 from ._ros1 import _ROS1_MAGIC, _Ros1Sequential
 from ._tf import _IDENTITY_TF, BadTransform, _Tf, _tf_from_msg, _TfSeries, _TfTree
 from .scan import PoseLike, Scan, _SkippedScans, mounting, no_scan_error
@@ -100,7 +101,7 @@ def _open_bag(path: Path) -> _AnyReaderSource | _Ros1Sequential | _McapSequentia
                     f"path: cannot read ROS 1 bag {path}: rosbags: {err!r}; fallback: {err2}"
                 ) from None
         mcap = _lone_mcap(path) if path.is_dir() else path
-        if magic.startswith(_MCAP_MAGIC[:5]) or (mcap is not None and mcap.suffix == ".mcap"):
+        if magic.startswith(MCAP_MAGIC[:5]) or (mcap is not None and mcap.suffix == ".mcap"):
             return _mcap_fallback(mcap, err)
         _refuse_a_file_of_another_kind(path, magic)
         if path.is_dir() and not (path / "metadata.yaml").is_file():
@@ -152,10 +153,10 @@ def _mcap_fallback(path: Path, err: Exception) -> _McapSequential:
     """Read an MCAP file that ``rosbags`` refused (``err``) record by record: one cut off
     while recording (no summary, no end magic) is read up to the cut, with a warning."""
     with open(path, "rb") as fh:
-        if fh.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
+        if fh.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
             raise ValueError(
                 f"path: {path} is not an MCAP file: it does not begin with the MCAP magic "
-                f"{_MCAP_MAGIC!r} (rosbags: {err})"
+                f"{MCAP_MAGIC!r} (rosbags: {err})"
             ) from None
     try:
         return _McapSequential(path)
