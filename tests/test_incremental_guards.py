@@ -149,6 +149,7 @@ def test_a_state_without_a_field_is_refused_naming_the_missing_field(saved_state
     [
         ("1", r"settings: expected a JSON object, received '1'"),  # was an AttributeError
         ('{"resolution_m": 0.05}', r"settings: expected the key 'config' in the saved"),
+        ("{not json", r"settings: expected a JSON object, received '\{not json' \(Expecting"),
     ],
 )
 def test_a_state_whose_settings_are_damaged_is_refused_naming_them(

@@ -168,7 +168,12 @@ def load_rooms_state(mapper, data) -> None:
 def saved_settings(text: str) -> dict:
     """The keyword arguments of the mapper whose settings :meth:`IncrementalMapper.save`
     wrote as the JSON ``text``; a key missing from them raises ValueError naming it."""
-    settings = json.loads(text)
+    try:
+        settings = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(
+            f"settings: expected a JSON object, received {text[:80]!r} ({exc})"
+        ) from None
     if not isinstance(settings, dict):
         raise ValueError(f"settings: expected a JSON object, received {text[:80]!r}")
     try:
