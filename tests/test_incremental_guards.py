@@ -164,6 +164,34 @@ def test_a_state_whose_settings_are_damaged_is_refused_naming_them(
         IncrementalMapper.load(path)
 
 
+@pytest.mark.parametrize(
+    ("key", "edit", "field"),
+    [
+        ("v_pixel", lambda a: a[:-1], r"v_pixel: expected one \(row, col\) per vertex id"),
+        ("v_kind", lambda a: a[:-1], r"v_kind: expected one kind code per vertex id"),
+        ("v_kind", lambda a: np.full_like(a, 99), r"v_kind: expected kind codes among"),
+        ("e_uv", lambda a: a[:-1], r"e_uv: expected one \(u, v\) per edge id"),
+        ("e_uv", lambda a: np.full_like(a, HUGE), r"e_uv: expected the ids of stored vertices"),
+        ("e_uv", lambda a: np.full_like(a, -1), r"e_uv: expected the ids of stored vertices"),
+        ("e_len", lambda a: a[:-1], r"e_len: expected one path length per edge id"),
+        ("e_len", lambda a: a * 0, r"e_len: expected path lengths >= 1"),
+        ("e_len", lambda a: a * 2, r"e_len: expected lengths adding up to the \d+ pixels"),
+    ],
+)
+def test_a_state_whose_graph_tables_do_not_hold_together_is_refused_naming_the_field(
+    saved_state, tmp_path, key, edit, field
+):
+    """An edge end off the vertex table raised a bare IndexError message (``index ... is
+    out of bounds for axis 0``), and tables of different lengths NumPy's broadcasting
+    error: neither named the field."""
+    assert saved_state["e_id"].size
+    arrays = dict(saved_state, **{key: edit(saved_state[key])})
+    path = tmp_path / "graph.npz"
+    np.savez_compressed(path, **arrays)
+    with pytest.raises(ValueError, match=f"^{path}: corrupt or inconsistent mapper state: {field}"):
+        IncrementalMapper.load(path)
+
+
 def test_id_tables_beyond_the_memory_available_are_refused(saved_state, tmp_path, monkeypatch):
     import topojax.incremental._state_checks as checks
 

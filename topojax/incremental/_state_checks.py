@@ -1,4 +1,4 @@
-"""Checks of a saved mapper state's counters and pixels against its tiles, made before
+"""Checks of a saved mapper state's counters, pixels and graph tables, made before
 the mapper allocates anything from them: a hand-edited or corrupted state (a counter of
 10**15, a pixel far off its tiles) is refused with a ValueError naming the file and
 the field, not a MemoryError or a failure at a later scan."""
@@ -114,3 +114,43 @@ def check_pixels(data, keys: np.ndarray, tile_px: int, pixel_bbox) -> None:
             raise ValueError(
                 f"ridge_bbox: expected a box within the tiles' pixel box {b}, received {tuple(box)}"
             )
+
+
+def _rows(key: str, arr: np.ndarray, n: int, what: str) -> None:
+    if arr.shape[0] != n:
+        raise ValueError(f"{key}: expected one {what} ({n}), received {arr.shape[0]}")
+
+
+def check_graph_tables(data, kinds) -> None:
+    """Check that the graph's tables hold together: one pixel and one kind (among the
+    codes ``kinds``) per vertex id, one pair of ends (ids of stored vertices) and one
+    path length (>= 1) per edge id, the lengths adding up to the stored path pixels."""
+    n_v = np.asarray(data["v_id"]).reshape(-1).shape[0]
+    n_e = np.asarray(data["e_id"]).reshape(-1).shape[0]
+    _rows("v_pixel", np.asarray(data["v_pixel"]).reshape(-1, 2), n_v, "(row, col) per vertex id")
+    codes = np.asarray(data["v_kind"]).reshape(-1)
+    _rows("v_kind", codes, n_v, "kind code per vertex id")
+    if not set(codes.tolist()) <= set(kinds):
+        raise ValueError(
+            f"v_kind: expected kind codes among {sorted(kinds)}, received "
+            f"{sorted(set(codes.tolist()) - set(kinds))}"
+        )
+    ends = np.asarray(data["e_uv"]).reshape(-1, 2)
+    _rows("e_uv", ends, n_e, "(u, v) per edge id")
+    stored = np.asarray(data["v_id"], np.int64).reshape(-1)
+    off = ~np.isin(ends, stored)
+    if off.any():
+        raise ValueError(
+            f"e_uv: expected the ids of stored vertices, received {int(ends[off][0])} "
+            f"({int(off.sum())} of {ends.size} ends off them)"
+        )
+    lengths = np.asarray(data["e_len"]).reshape(-1)
+    _rows("e_len", lengths, n_e, "path length per edge id")
+    if (lengths < 1).any():
+        raise ValueError(f"e_len: expected path lengths >= 1, received {int(lengths.min())}")
+    n_px = np.asarray(data["e_path"]).reshape(-1, 2).shape[0]
+    if int(lengths.sum()) != n_px:
+        raise ValueError(
+            f"e_len: expected lengths adding up to the {n_px} pixels of e_path, received "
+            f"lengths adding up to {int(lengths.sum())}"
+        )

@@ -17,7 +17,7 @@ from ._graph_store import add_paths, edge_ids, edge_paths, reserve, vertex_ids
 from ._rays import cast_pending_rays, check_whole
 from ._rooms_state import restore_rooms_seg, rooms_seg_arrays
 from ._settings import settings_of
-from ._state_checks import check_counters, check_pixels
+from ._state_checks import check_counters, check_graph_tables, check_pixels
 from ._tiles import _pack, _unpack
 
 #: ``format`` field of saved mapper states.
@@ -236,20 +236,12 @@ def mapper_from_state(cls, p: Path, data: dict[str, np.ndarray]):
                 raise ValueError(
                     f"{name} ids: expected values in [0, {n}), received {ids.min()}..{ids.max()}"
                 )
-        if not set(v_code.tolist()) <= set(KIND_NAMES):
-            raise ValueError(f"unknown vertex kind codes {sorted(set(v_code.tolist()))}")
+        check_graph_tables(data, KIND_NAMES)
         reserve(mapper, vertices=nv, edges=ne)
         mapper._v_key[v_id] = _pack(v_px[:, 0], v_px[:, 1])
         mapper._v_code[v_id] = v_code
         mapper._v_alive[v_id] = True
-        if e_uv.size and not mapper._v_alive[e_uv.ravel()].all():
-            raise ValueError("some edges end at unknown vertices")
-        if (np.asarray(data["e_len"]) < 1).any():
-            raise ValueError("edge path lengths must be positive")
-        bounds = np.concatenate([[0], np.cumsum(data["e_len"])])
         paths = np.asarray(data["e_path"], np.int64).reshape(-1, 2)
-        if bounds[-1] != paths.shape[0]:
-            raise ValueError("edge path lengths do not add up to the stored paths")
         mapper._e_uv[e_id] = e_uv
         mapper._e_alive[e_id] = True
         add_paths(mapper, e_id, paths.astype(np.int32), np.asarray(data["e_len"], np.int64))
