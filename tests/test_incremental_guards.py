@@ -176,6 +176,8 @@ def test_a_state_whose_settings_are_damaged_is_refused_naming_them(
         ("e_len", lambda a: a[:-1], r"e_len: expected one path length per edge id"),
         ("e_len", lambda a: a * 0, r"e_len: expected path lengths >= 1"),
         ("e_len", lambda a: a * 2, r"e_len: expected lengths adding up to the \d+ pixels"),
+        ("v_id", lambda a: np.append(a[:-1], a[0]), r"v_id: expected distinct ids, received"),
+        ("e_id", lambda a: np.append(a[:-1], a[0]), r"e_id: expected distinct ids, received"),
     ],
 )
 def test_a_state_whose_graph_tables_do_not_hold_together_is_refused_naming_the_field(
@@ -183,7 +185,8 @@ def test_a_state_whose_graph_tables_do_not_hold_together_is_refused_naming_the_f
 ):
     """An edge end off the vertex table raised a bare IndexError message (``index ... is
     out of bounds for axis 0``), and tables of different lengths NumPy's broadcasting
-    error: neither named the field."""
+    error: neither named the field.  An edge id stored twice loaded, one edge's ends
+    written over the other's."""
     assert saved_state["e_id"].size
     arrays = dict(saved_state, **{key: edit(saved_state[key])})
     path = tmp_path / "graph.npz"

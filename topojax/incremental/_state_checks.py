@@ -122,9 +122,17 @@ def _rows(key: str, arr: np.ndarray, n: int, what: str) -> None:
 
 
 def check_graph_tables(data, kinds) -> None:
-    """Check that the graph's tables hold together: one pixel and one kind (among the
-    codes ``kinds``) per vertex id, one pair of ends (ids of stored vertices) and one
-    path length (>= 1) per edge id, the lengths adding up to the stored path pixels."""
+    """Check that the graph's tables hold together: distinct vertex and edge ids, one
+    pixel and one kind (among the codes ``kinds``) per vertex id, one pair of ends (ids
+    of stored vertices) and one path length (>= 1) per edge id, the lengths adding up to
+    the stored path pixels."""
+    for key in ("v_id", "e_id"):
+        ids, counts = np.unique(np.asarray(data[key]).reshape(-1), return_counts=True)
+        if (counts > 1).any():
+            raise ValueError(
+                f"{key}: expected distinct ids, received {int(ids[counts > 1][0])} "
+                f"{int(counts.max())} times"
+            )
     n_v = np.asarray(data["v_id"]).reshape(-1).shape[0]
     n_e = np.asarray(data["e_id"]).reshape(-1).shape[0]
     _rows("v_pixel", np.asarray(data["v_pixel"]).reshape(-1, 2), n_v, "(row, col) per vertex id")
