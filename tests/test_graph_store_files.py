@@ -147,6 +147,37 @@ def test_a_tiled_build_that_stops_leaves_no_store(tmp_path, monkeypatch):
         tj.load_graph_store(out)
 
 
+def test_a_full_disk_while_the_paths_are_written_names_the_file(tmp_path, monkeypatch):
+    """The paths go to their files a block of edges at a time; a full disk says which
+    file it stopped (as every other file the build writes does), and leaves no part."""
+    import errno
+
+    import topojax.graph.sparse as sparse
+
+    class Full:
+        def __init__(self, f):
+            self.f = f
+
+        def seek(self, offset):
+            self.f.seek(offset)
+
+        def write(self, data):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        def close(self):
+            self.f.close()
+
+    monkeypatch.setattr(sparse, "open", lambda *a: Full(open(*a)), raising=False)
+    out = tmp_path / "graph"
+    with pytest.raises(OSError) as info:
+        tj.build_graph_tiled(tj.sample_map("intel"), config=SMALL, block_px=128, out_dir=out)
+    assert info.value.errno == errno.ENOSPC
+    assert str(info.value) == (
+        f"[Errno {errno.ENOSPC}] cannot write {out / 'path_pixels.npy'} (No space left on device)"
+    )
+    assert not [p.name for p in out.iterdir() if p.name.endswith(".tmp")]
+
+
 def test_files_replaced_or_damaged_are_refused(tmp_path):
     store = FIXTURES[1][3]
     tj.save_graph_store(store, tmp_path)

@@ -158,9 +158,18 @@ def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
-        if _unnamed_os_error(exc):  # a full disk says only "No space left on device"
-            raise type(exc)(exc.errno, f"cannot write {dest} ({exc.strerror})") from exc
+        named = naming_file(exc, dest)
+        if named is not exc:
+            raise named from exc
         raise
+
+
+def naming_file(exc: BaseException, dest) -> BaseException:
+    """``exc``, or where it is a built-in OSError that names no file (a full disk says
+    only "No space left on device"), one of its type saying it could not write ``dest``."""
+    if _unnamed_os_error(exc):
+        return type(exc)(exc.errno, f"cannot write {dest} ({exc.strerror})")
+    return exc
 
 
 def _unnamed_os_error(exc: BaseException) -> bool:

@@ -16,13 +16,14 @@ time, into memory or into ``.npy`` files.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .._fs import default_file_mode, output_folder
+from .._fs import default_file_mode, naming_file, output_folder
 from .._jit import cached_njit
 from .build import _edge_values, _world_of
 from .store import KIND_JUNCTION, KIND_RING, GraphStore
@@ -222,6 +223,18 @@ def _write_paths(row_start, cols, masks, state, h, w, eu, ek, urow, el, out_idx,
         at += el[e]
 
 
+@contextlib.contextmanager
+def _naming(dest: Path):
+    """Re-raise an OSError that names no file (a full disk) as one naming ``dest``."""
+    try:
+        yield
+    except OSError as exc:
+        named = naming_file(exc, dest)
+        if named is not exc:
+            raise named from exc
+        raise
+
+
 class _Output:
     """The store's two path arrays, in memory or as ``.npy`` files written in order."""
 
@@ -254,7 +267,8 @@ class _Output:
         if self.out_dir is None:
             self.arrays[name][self.at : self.at + values.shape[0]] = values
         else:
-            self.files[name].write(np.ascontiguousarray(values).tobytes())
+            with _naming(self.out_dir / f"{name}.npy"):
+                self.files[name].write(np.ascontiguousarray(values).tobytes())
 
     def advance(self, n: int) -> None:
         self.at += n
@@ -262,9 +276,14 @@ class _Output:
     def finish(self) -> dict[str, np.ndarray]:
         if self.out_dir is None:
             return self.arrays
-        for name, f in self.files.items():
-            f.close()
-            os.replace(self.tmp[name], self.out_dir / f"{name}.npy")
+        try:
+            for name, f in self.files.items():
+                with _naming(self.out_dir / f"{name}.npy"):
+                    f.close()  # writes what the file's buffer still holds
+                os.replace(self.tmp[name], self.out_dir / f"{name}.npy")
+        except BaseException:
+            self.discard()
+            raise
         return {n: np.load(self.out_dir / f"{n}.npy", mmap_mode="r") for n in self.files}
 
     def discard(self) -> None:
@@ -272,7 +291,8 @@ class _Output:
         if self.out_dir is None:
             return
         for name, f in self.files.items():
-            f.close()
+            with contextlib.suppress(OSError):  # its unwritten buffer, on a full disk
+                f.close()
             Path(self.tmp[name]).unlink(missing_ok=True)
 
 
