@@ -233,7 +233,10 @@ def test_graph_files_too_large_for_the_memory_are_refused_with_the_store_kept(
     err = capsys.readouterr().err
     store = tj.load_graph_store(out / "office_store")
     assert "Traceback" not in err
-    assert f"{store.n_nodes:,} vertices and {store.n_edges:,} edges" in err
+    assert (
+        "--tiled: to write the graph files, the networkx graph of "
+        f"{store.n_nodes:,} vertices and {store.n_edges:,} edges ("
+    ) in err
     assert f"{NX_BYTES_PER_ELEMENT} bytes a vertex and an edge" in err
     assert "more than the 10,000 bytes of memory available" in err
     assert str(out / "office_store") in err and "load_graph_store" in err

@@ -288,7 +288,12 @@ def test_whole_graph_stages_beyond_the_memory_available_are_refused_naming_the_o
     nx_need = NX_BYTES_PER_ELEMENT * (store.n_nodes + store.n_edges)
     for config, need, words in (
         (merged, MERGE_BYTES_PER_SKELETON_PX * n_px, f"pixel graph of {n_px:,} skeleton"),
-        (pruned, nx_need, f"networkx graph of {store.n_nodes:,} vertices"),
+        (
+            pruned,
+            nx_need,
+            "to prune (config.graph's min_clearance_m, min_spur_m, min_component_m), the "
+            f"networkx graph of {store.n_nodes:,} vertices",
+        ),
     ):
         monkeypatch.setattr(cpus, "available_memory_bytes", lambda need=need: need - 1)
         with pytest.raises(MemoryError, match="build_graph_tiled: ") as error:

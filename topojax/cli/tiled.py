@@ -176,7 +176,7 @@ def _check_graph_files_fit(result, store: Path) -> None:
         return
     check_networkx_fits(
         result.graph_store,
-        "--tiled: the graph files are written from",
+        "--tiled: to write the graph files,",
         f" (not bounded by --memory-budget-mb); the graph is saved in {store} "
         "(topojax.load_graph_store reads it memory-mapped)",
     )

@@ -648,8 +648,8 @@ def _graph(tiled: TiledMap, row_start, cols, clearance, config: PipelineConfig, 
         return store, None
     check_networkx_fits(  # pruning works on networkx: checked before any of it is built
         store,
-        "build_graph_tiled: pruning (config.graph's min_clearance_m, min_spur_m, "
-        "min_component_m) works on",
+        "build_graph_tiled: to prune (config.graph's min_clearance_m, min_spur_m, "
+        "min_component_m),",
         "; without pruning, the graph is kept as a graph store of arrays (out_dir= writes "
         "it to disk)",
     )
