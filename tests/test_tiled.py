@@ -475,6 +475,25 @@ def test_memory_budget_sets_the_block_side():
     assert huge % 256 == 0 and huge > large
 
 
+def test_a_map_smaller_than_the_least_window_needs_only_its_own_window():
+    """A block's window is cut at the map's edges, so a map smaller than one tile and its
+    halos needs only its own pixels' budget: tiles larger than the map are accepted with
+    a budget that holds the map, and the least budget refused names this map's window."""
+    m = paper_map("intel")  # 708 x 763 px
+    big_tiles = PipelineConfig(tile_px=4096)  # a window of 12288 px a side, uncut
+    assert block_px_for_budget(13, big_tiles, shape=m.shape) == 4096
+    tiled = tj.build_graph_tiled(m, config=big_tiles, memory_budget_mb=13)
+    assert tiled.blocks == 1 and tiled.largest_window_px == m.shape
+    assert_same_graph(tiled, tj.build_graph(m, config=big_tiles))
+    with pytest.raises(
+        ValueError,
+        match=r"memory_budget_mb: expected at least 12.4 MB, what the smallest block takes "
+        r"\(one 4096 px tile with a halo of 4096 px on each side, the distance window's "
+        r"reach, a window of 708 x 763 px cut at this map's edges\), received 12$",
+    ):
+        tj.build_graph_tiled(m, config=big_tiles, memory_budget_mb=12)
+
+
 def test_a_memory_budget_above_the_memory_available_is_warned_of_once(monkeypatch):
     """A budget above the memory available sizes blocks that may not fit: a warning
     names the budget and the memory (not a refusal: what is available changes).  At or

@@ -133,7 +133,7 @@ def cmd_graph_tiled(args) -> int:
     config = pipeline_config(args, resolution_m=source.resolution_m)
     with warnings.catch_warnings(record=True) as caught:
         try:
-            block_px = block_px_for_budget(budget, config)
+            block_px = block_px_for_budget(budget, config, shape=source.shape)
         except ValueError as exc:  # its message names the parameter, not the option
             raise _option_named(exc, "memory_budget_mb", "--memory-budget-mb") from None
     for w in caught:  # so do its warnings

@@ -112,22 +112,32 @@ class TiledResult:
         )
 
 
-def block_px_for_budget(memory_budget_mb: float, config: PipelineConfig) -> int:
+def block_px_for_budget(
+    memory_budget_mb: float, config: PipelineConfig, *, shape: tuple[int, int] | None = None
+) -> int:
     """The largest block side (a multiple of ``config.tile_px``, at least one tile) whose
     stages take about ``memory_budget_mb`` (:data:`BYTES_PER_WINDOW_PX` per pixel of the
     kernels' window, the block plus the first halo on each side); a budget below one
-    tile's window is refused.  A budget above the memory available now
-    (:func:`~topojax._cpus.available_memory_bytes`) guards nothing: a ``UserWarning``
-    says so (not a refusal: what is available changes while a build runs)."""
+    tile's window (cut at the edges of a map of ``shape``, where given) is refused.  A
+    budget above the memory available now (:func:`~topojax._cpus.available_memory_bytes`)
+    guards nothing: a ``UserWarning`` says so (not a refusal: what is available changes
+    while a build runs)."""
     budget = quantity("memory_budget_mb", memory_budget_mb, unit="megabytes", allow_zero=False)
     t = config.tile_px
     halo = _first_halo(config)
-    least_mb = BYTES_PER_WINDOW_PX * (t + 2 * halo) ** 2 / 2**20
+    side = t + 2 * halo
+    window = (side, side) if shape is None else tuple(min(side, int(n)) for n in shape)
+    least_mb = BYTES_PER_WINDOW_PX * window[0] * window[1] / 2**20
     if budget < least_mb:
+        cut = (
+            ""
+            if window == (side, side)
+            else (f", a window of {window[0]} x {window[1]} px cut at this map's edges")
+        )
         raise ValueError(
             f"memory_budget_mb: expected at least {math.ceil(least_mb * 10) / 10:g} MB, what "
             f"the smallest block takes (one {t} px tile with a halo of {halo} px on each "
-            f"side, the distance window's reach), received {budget:g}"
+            f"side, the distance window's reach{cut}), received {budget:g}"
         )
     available = available_memory_bytes()
     if available is not None and budget * 2**20 > available:
@@ -284,7 +294,7 @@ def build_graph_tiled(
     tiled = tiled_source(source)
     given = block_px is not None
     block_px, threads, resume = _checked_options(
-        config, block_px, memory_budget_mb, threads, resume, out_dir
+        config, tiled.shape, block_px, memory_budget_mb, threads, resume, out_dir
     )
     _refuse_forked_workers(executor)
     sized_for = _sized_window(block_px if given else None, memory_budget_mb)
@@ -399,11 +409,13 @@ class _Windows:
         )
 
 
-def _checked_options(config: PipelineConfig, block_px, memory_budget_mb, threads, resume, out_dir):
-    """``(block_px, threads, resume)`` of :func:`build_graph_tiled`, checked (here, not
-    in the first block or a worker's task)."""
+def _checked_options(
+    config: PipelineConfig, shape, block_px, memory_budget_mb, threads, resume, out_dir
+):
+    """``(block_px, threads, resume)`` of :func:`build_graph_tiled` for a map of
+    ``shape``, checked (here, not in the first block or a worker's task)."""
     if block_px is None:
-        block_px = block_px_for_budget(memory_budget_mb, config)
+        block_px = block_px_for_budget(memory_budget_mb, config, shape=shape)
     else:  # it sizes nothing then, but a bad one is refused rather than ignored
         quantity("memory_budget_mb", memory_budget_mb, unit="megabytes", allow_zero=False)
     block_px = positive_int("block_px", block_px)
