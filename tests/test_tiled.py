@@ -866,7 +866,8 @@ def _tile_folder(tmp_path):
         (
             lambda p: (p / "r00000_c00002.npy").write_bytes(b"not an array"),
             ValueError,
-            "r00000_c00002.npy is not a .npy array",
+            r"r00000_c00002.npy is not a .npy array \(expected a file that begins with the "
+            r".npy magic string b'\\x93NUMPY', received one that begins with b'not an'\)$",
         ),
         # a 0-byte tile (a disk that filled up): numpy raises a bare EOFError for it
         (

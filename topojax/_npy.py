@@ -12,12 +12,33 @@ import numpy as np
 
 from ._cpus import check_fits_memory
 
-__all__ = ["check_npy_size", "check_npz_fits", "check_npz_sizes", "savez_deflated"]
+__all__ = [
+    "check_npy_size",
+    "check_npz_fits",
+    "check_npz_sizes",
+    "load_npy",
+    "savez_deflated",
+]
 
 _HEADER_READERS = {
     (1, 0): np.lib.format.read_array_header_1_0,
     (2, 0): np.lib.format.read_array_header_2_0,
 }
+
+
+def load_npy(path, *, mmap_mode: str | None = None) -> np.ndarray:
+    """``numpy.load`` of the ``.npy`` file ``path``, pickles refused.  A file that does not
+    begin with the ``.npy`` magic string is a ValueError saying so (numpy takes it for a
+    pickle and advises loading it unsafely); an empty one is numpy's EOFError."""
+    magic = np.lib.format.MAGIC_PREFIX
+    with open(path, "rb") as fh:
+        head = fh.read(len(magic))
+    if head and head != magic:
+        raise ValueError(
+            f"expected a file that begins with the .npy magic string {magic!r}, received "
+            f"one that begins with {head!r}"
+        )
+    return np.load(path, mmap_mode=mmap_mode, allow_pickle=False)
 
 
 def check_npy_size(fh: BinaryIO, size: int, where: str) -> None:

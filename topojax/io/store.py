@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .._fs import atomic_write, atomic_write_bytes, output_folder
-from .._npy import check_npy_size
+from .._npy import check_npy_size, load_npy
 from .._validate import instance_of, path_like
 from ..graph.store import GraphStore
 from ._schema import _collect_schema, _decode_attrs, jsonable
@@ -176,7 +176,7 @@ def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
         with open(path, "rb") as fh:  # before np.load allocates what the header claims
             check_npy_size(fh, path.stat().st_size, str(path))
         try:
-            arr = np.load(path, mmap_mode="r" if mmap else None, allow_pickle=False)
+            arr = load_npy(path, mmap_mode="r" if mmap else None)
         except (ValueError, EOFError) as exc:  # EOFError: an empty file
             raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
         if arr.dtype.str != spec["dtype"] or list(arr.shape) != spec["shape"]:

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from .._fs import output_folder
+from .._npy import load_npy
 from .._validate import (
     binary_flag,
     instance_of,
@@ -454,7 +455,7 @@ class _FolderReader:
         t = self.tile_px
         want = (min(t, self.shape[0] - tr * t), min(t, self.shape[1] - tc * t))
         try:
-            tile = np.load(path, mmap_mode="r", allow_pickle=False)
+            tile = load_npy(path, mmap_mode="r")
         except FileNotFoundError:
             raise FileNotFoundError(
                 f"tile folder {self.folder}: tile {path.name} is missing"
