@@ -82,6 +82,33 @@ def test_a_resumed_replay_writes_what_an_uninterrupted_one_does(
     assert (summary["vertices"], summary["edges"]) == (full["vertices"], full["edges"])
 
 
+def test_a_replay_stopped_by_its_export_limit_resumes_with_a_larger_one(
+    tmp_path, monkeypatch, full_run
+):
+    """A map past ``max_export_bytes`` stops the replay with its scans saved, and the
+    message says to raise the limit: a resume may, as the limit only refuses (the
+    scans are mapped alike), and writes what a replay that did not stop writes.  The
+    other mapper settings must still be the saved ones."""
+    full_out, full = full_run
+    out = tmp_path / "out"
+    small = 5_000_000
+    with pytest.raises(ValueError, match=r"max_export_bytes.* state is saved"):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, max_export_bytes=small, **SETTINGS)
+    assert IncrementalMapper.load(out / STATE_FILE).n_scans == 40
+    with pytest.raises(ValueError, match=r"other settings \(graph_every: saved 7, now 8\)"):
+        replay(
+            INTEL_EXCERPT,
+            out_dir=out,
+            progress=False,
+            resume=True,
+            **{**SETTINGS, "graph_every": 8},
+        )
+    summary = replay(INTEL_EXCERPT, out_dir=out, progress=False, resume=True, **SETTINGS)
+    assert_same_outputs(full_out, out)
+    assert summary["resumed_after"] == 40
+    assert (summary["vertices"], summary["edges"]) == (full["vertices"], full["edges"])
+
+
 RECORDINGS = ("animation.gif", "view.html")
 
 
@@ -442,6 +469,24 @@ def test_replay_cli_resume(stopped, tmp_path, full_run, capsys):
     assert main(["replay", str(INTEL_EXCERPT), "-o", str(tmp_path / "empty"), "--resume"]) != 0
     assert "error: --resume: no saved state" in capsys.readouterr().err  # the option
     assert not (tmp_path / "empty").exists()
+
+
+def test_replay_cli_resumes_a_replay_its_export_limit_stopped_with_a_larger_one(
+    tmp_path, full_run, capsys
+):
+    out = tmp_path / "out"
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]
+    args += ["--graph-every", "7", "--skeleton-every", "3"]
+    assert main([*args, "--max-export-mb", "5"]) == 2
+    err = capsys.readouterr().err
+    assert "more than --max-export-mb 5 (5,242,880 bytes)" in err
+    assert "or give a larger --max-export-mb" in err
+    assert err.rstrip().endswith("replay again with --resume and a larger --max-export-mb.")
+    assert main([*args, "--resume"]) == 0  # the default limit, 2048 MB
+    assert_same_outputs(full_run[0], out)
+    for bad in ("0", "-1", "nan", "inf", "1e-9"):
+        assert main([*args, "--max-export-mb", bad]) == 2, bad
+        assert "error: --max-export-mb: expected" in capsys.readouterr().err
 
 
 def test_replay_cli_refused_resume_names_the_options(stopped, capsys):

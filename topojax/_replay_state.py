@@ -402,6 +402,12 @@ def retire_earlier_replay(out: Path) -> list[str]:
 _RESUME_FREE = ("bad_lines",)
 
 
+#: Mapper settings a resume may change: limits that only refuse (an export past
+#: ``max_export_bytes`` stops the replay, and its message says to raise the limit), so
+#: the scans are mapped alike; the resumed mapper takes the new ones.
+_RESUME_FREE_SETTINGS = ("max_export_bytes",)
+
+
 def _without(options: dict, keys) -> dict:
     return {k: v for k, v in options.items() if k not in keys}
 
@@ -418,7 +424,8 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
     ValueError
         If the state is unreadable, records no replay (saved by
         :meth:`IncrementalMapper.save` or an older topojax), was made from another log,
-        with other reader options or mapper ``settings``, records counts that are no
+        with other reader options or mapper ``settings`` (but for
+        ``max_export_bytes``, which the resumed mapper takes), records counts that are no
         counts of scans or that do not add up (a damaged state; the message names the
         field, what was expected and what was received), or took more scans than
         ``max_scans``.
@@ -462,8 +469,11 @@ def resumed_mapper(out: Path, source, reader_kwargs, settings: dict, max_scans):
         _without(record["reader_kwargs"], _RESUME_FREE),
         _without(_plain(reader_kwargs or {}), _RESUME_FREE),
     )
-    _check_same(path, "settings", _plain(json.loads(str(data["settings"]))), _plain(settings))
+    saved = _without(_plain(json.loads(str(data["settings"]))), _RESUME_FREE_SETTINGS)
+    _check_same(path, "settings", saved, _without(_plain(settings), _RESUME_FREE_SETTINGS))
     mapper = mapper_from_state(IncrementalMapper, path, data)
+    for key in _RESUME_FREE_SETTINGS:  # checked as the new mapper's own
+        setattr(mapper, key, settings[key])
     try:
         check_replay_counts(record, mapper.n_scans)
     except ValueError as exc:

@@ -35,6 +35,7 @@ def _check_numbers(args) -> None:
         nonnegative_quantity,
         positive_int,
         positive_metres,
+        quantity,
         robot_radius,
     )
 
@@ -51,6 +52,10 @@ def _check_numbers(args) -> None:
         positive_int("--max-scans", args.max_scans)
     if args.max_extent_m is not None:
         positive_metres("--max-extent-m", args.max_extent_m)
+    if args.max_export_mb is not None:
+        mb = quantity("--max-export-mb", args.max_export_mb, unit="MB", allow_zero=False)
+        if _export_bytes(mb) < 1:
+            raise ValueError(f"--max-export-mb: expected at least one byte, received {mb!r} MB")
     if args.max_range is not None and not args.max_range > 0:  # inf: every reading a hit
         raise ValueError(
             f"--max-range: expected a number of metres > 0 (inf: no no-return value), "
@@ -82,6 +87,14 @@ def _cmd_replay(args) -> int:
     }
     if args.max_extent_m is not None:
         kw["max_extent_m"] = args.max_extent_m
+    advice = _ADVICE
+    if args.max_export_mb is not None:
+        kw["max_export_bytes"] = limit = _export_bytes(args.max_export_mb)
+        advice = {
+            f"max_export_bytes={limit}": f"--max-export-mb {args.max_export_mb:g} "
+            f"({limit:,} bytes)",
+            **_ADVICE,
+        }
     distance = distance_config(args, resolution_m=args.resolution)  # before the replay
     if distance is not None:
         kw["distance"] = distance
@@ -121,7 +134,7 @@ def _cmd_replay(args) -> int:
     try:
         with (
             _stops_on_signals() as stopped,
-            named_as_options(_OPTION_OF, _RESUME_OPTION_OF, advice=_ADVICE),
+            named_as_options(_OPTION_OF, _RESUME_OPTION_OF, advice=advice),
         ):
             summary = replay(
                 args.source,
@@ -166,6 +179,11 @@ def _cmd_replay(args) -> int:
     return 0
 
 
+def _export_bytes(mb: float) -> int:
+    """``--max-export-mb`` in bytes (a MB is 2**20 bytes)."""
+    return int(mb * 2**20)
+
+
 def _reader_refused(exc) -> ValueError:
     """The error of reader options the log's reader does not take
     (:class:`topojax.scans.ReaderOptionError`), in the command's options."""
@@ -197,6 +215,10 @@ _ADVICE = {
     "set the scan's range_max or the mapper's max_range_m, or make the mapper with a "
     "larger max_extent_m": "give a smaller --max-range, or a larger max_extent_m",
     "make the mapper with a larger max_extent_m": "give a larger max_extent_m",
+    "make the mapper with a larger max_export_bytes": "give a larger --max-export-mb",
+    "replay again with resume=True and a larger max_export_bytes": (
+        "replay again with --resume and a larger --max-export-mb"
+    ),
     "max_extent_m, --max-extent-m in topojax replay": "max_extent_m",
     "; --max-extent-m in topojax replay)": ")",
     "the kind laser=": "the kind --laser ",  # a CARMEN log without the lines asked for
@@ -334,6 +356,15 @@ def add_command(subparsers) -> None:
         help="the longest side the mapped area may grow to (default 2000); a scan that "
         "would grow it further (a pose far off) is skipped, and the summary counts the "
         "skipped scans per bound met with the first refusal",
+    )
+    p.add_argument(
+        "--max-export-mb",
+        type=float,
+        metavar="MB",
+        help="the most memory (MB of 2**20 bytes) one export of the whole map may take: "
+        "the map, graph and route graph written at graph updates and at the end (default "
+        "2048); a map past it stops the replay with its scans saved, and --resume with a "
+        "larger one writes them",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument(
