@@ -128,6 +128,13 @@ def test_plot_takes_an_incremental_mapper_and_rejects_other_objects():
             plot_stages(bad)
 
 
+def test_a_mapper_without_a_map_is_refused_naming_the_argument():
+    mapper = tj.IncrementalMapper(resolution_m=0.1, tile_px=16)
+    for draw in (tj.plot, plot_stages):
+        with pytest.raises(ValueError, match=r"result: the mapper has no map yet \(add scans"):
+            draw(mapper)
+
+
 @pytest.mark.parametrize(
     ("edit", "exc", "words"),
     [

@@ -44,6 +44,8 @@ def _as_result(result, needs: tuple[str, ...]):
     # an IncrementalMapper exists only once its (large) module is loaded: do not load it
     incremental = sys.modules.get("topojax.incremental")
     if incremental is not None and isinstance(result, incremental.IncrementalMapper):
+        if result.pixel_bbox is None:
+            raise ValueError("result: the mapper has no map yet (add scans or points first)")
         return result.to_result()
     missing = [name for name in needs if not hasattr(result, name)]
     if missing:
