@@ -71,3 +71,21 @@ def test_view_command_shows_the_tile_folder_a_tiled_graph_was_built_from(tmp_pat
     assert data["notes"] == []
     expected = tj.view.view_html(tj.build_graph(occupancy).graph, map=occupancy)
     assert data["rasters"][0]["levels"] == payload_of(expected)["rasters"][0]["levels"]
+
+
+def test_a_route_planned_on_another_map_is_noted():
+    """A route is drawn by its world points: one planned on another map (another
+    origin, another grid) would lie elsewhere or off the map, drawn silently; its pixels,
+    put on the map shown, say whether it was planned there, as for rooms read from a
+    file."""
+    res = tj.build_graph(_room_map())
+    g = res.graph
+    ends = [g.nodes[n]["world"] for n in g.nodes if g.degree(n)]
+    route = tj.plan_route(g, tuple(ends[0]), tuple(ends[-1]))
+    own = payload_of(view_html(res, route=route))["notes"]
+    assert not any("route" in n for n in own)
+    moved = tj.build_graph(_room_map(origin=(3.0, 0.0, 0.0)))
+    notes = payload_of(view_html(moved, route=route))["notes"]
+    assert any(
+        n.startswith("the route was not planned on the map shown: its pixel ") for n in notes
+    ), notes

@@ -108,7 +108,8 @@ def write_view(
         tj.prune_graph(res.graph, ...)}``); routes can be planned on each.  The page
         notes one whose recorded shape, resolution or origin is not the shown map's.
     route : Route, optional
-        A route to draw (e.g. from :func:`topojax.plan_route`).
+        A route to draw (e.g. from :func:`topojax.plan_route`); the page notes one whose
+        pixels do not lie where its world points fall on the map shown.
     timeline : Timeline, optional
         The mapper's graph at every update: the page gets a timeline to play or scrub
         (and a note when its last map reaches beyond the map shown).

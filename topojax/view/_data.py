@@ -168,26 +168,55 @@ def inputs_of(
         out.title = instance_of("title", title, str)
     # a graph beside a map of another (one given in map=, or any in graphs= beside the
     # object's own map): drawn, but said so
-    checked = out.graphs if map is not None else out.graphs[own_graphs:]
     if out.map is not None:
-        for _, label, graph in checked:
-            why = map_mismatch(graph, out.map)
-            if why is not None:
-                out.notes.append(f"the {label} was not built on the map shown: {why}")
-    if _instance(out.rooms, "topojax.rooms.model", "RoomSegmentation") and out.map is not None:
+        _note_other_maps(out, out.graphs if map is not None else out.graphs[own_graphs:])
+    return out
+
+
+def _note_other_maps(out: Inputs, checked) -> None:
+    """Note each of the ``checked`` graphs, the rooms, the route and the timeline that
+    was not made on ``out.map``: drawn, but said so."""
+    for _, label, graph in checked:
+        why = map_mismatch(graph, out.map)
+        if why is not None:
+            out.notes.append(f"the {label} was not built on the map shown: {why}")
+    if _instance(out.rooms, "topojax.rooms.model", "RoomSegmentation"):
         own = out.rooms.occupancy
         why = grid_mismatch(own.shape, own.resolution_m, own.origin, out.map, owner="their")
         if why is not None:
             out.notes.append(f"the rooms were not segmented on the map shown: {why}")
-    elif out.rooms is not None and out.map is not None:  # a pair: no map recorded
+    elif out.rooms is not None:  # a pair: no map recorded
         why = pair_mismatch(out.rooms, out.map)
         if why is not None:
             out.notes.append(f"the rooms were not segmented on the map shown: {why}")
-    if out.timeline is not None and out.map is not None:
+    if out.route is not None:
+        why = _route_mismatch(out.route, out.map)
+        if why is not None:
+            out.notes.append(f"the route was not planned on the map shown: {why}")
+    if out.timeline is not None:
         why = _timeline_beyond(out.timeline, out.map)
         if why is not None:
             out.notes.append(f"the timeline was not recorded on the map shown: {why}")
-    return out
+
+
+def _route_mismatch(route, occupancy) -> str | None:
+    """Why ``route`` was not planned on ``occupancy``: a pixel of its path whose world
+    point lies on another pixel there (the page draws the world points); None when every
+    one fits."""
+    px = np.asarray(route.pixels, np.float64).reshape(-1, 2)
+    xy = np.asarray(route.world, np.float64).reshape(-1, 2)
+    if not len(px) or len(px) != len(xy):
+        return None
+    with np.errstate(over="ignore", invalid="ignore"):
+        at = np.stack(occupancy.world_to_pixel(xy[:, 0], xy[:, 1]), axis=1)
+        off = ~np.isclose(at, px, rtol=0.0, atol=0.01).all(axis=1)
+    if not off.any():
+        return None
+    i = int(np.argmax(off))
+    return (
+        f"its pixel {px[i].astype(np.int64).tolist()} of its map lies at pixel "
+        f"{rounded(at[i], 1)} of the map shown"
+    )
 
 
 def _timeline_beyond(timeline, occupancy) -> str | None:
