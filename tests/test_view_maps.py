@@ -89,3 +89,18 @@ def test_a_route_planned_on_another_map_is_noted():
     assert any(
         n.startswith("the route was not planned on the map shown: its pixel ") for n in notes
     ), notes
+
+
+def test_rooms_with_no_room_are_noted():
+    """A segmentation that found no room (a map with no free pixel) draws nothing over
+    its map: the page says so, as for an empty graph, instead of a bare map."""
+    walls = np.ones((40, 50), bool)
+    occupancy = tj.OccupancyMap(
+        occupied=walls, free=~walls, unknown=np.zeros_like(walls), resolution_m=0.05
+    )
+    seg = tj.segment_rooms(occupancy)
+    assert not seg.rooms
+    notes = payload_of(view_html(seg))["notes"]
+    assert "the rooms are empty: no room, no door" in notes, notes
+    notes = payload_of(view_html(tj.segment_rooms(_room_map())))["notes"]
+    assert not any("rooms are empty" in n for n in notes)

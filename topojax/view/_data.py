@@ -199,6 +199,11 @@ def _note_other_maps(out: Inputs, checked) -> None:
             out.notes.append(f"the timeline was not recorded on the map shown: {why}")
 
 
+def _room_list(rooms) -> list:
+    """The rooms of a segmentation or of a ``(rooms, doors)`` pair."""
+    return list(rooms[0] if isinstance(rooms, tuple) else rooms.rooms)
+
+
 def _route_mismatch(route, occupancy) -> str | None:
     """Why ``route`` was not planned on ``occupancy``: a pixel of its path whose world
     point lies on another pixel there (the page draws the world points); None when every
@@ -485,6 +490,8 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
             note = graph.graph.get("note")  # a route graph's reason (topojax.route_graph)
             why = f"; its note: {note}" if isinstance(note, str) and note else ""
             inputs.notes.append(f"the {g['label']} is empty: no vertex, no edge{why}")
+    if inputs.rooms is not None and not _room_list(inputs.rooms):
+        inputs.notes.append("the rooms are empty: no room, no door")
     payload = {
         "version": FORMAT_VERSION,
         "title": inputs.title,
