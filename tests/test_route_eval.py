@@ -618,6 +618,30 @@ def test_a_route_graph_is_scored_at_the_snap_distance_it_was_built_for(tmp_path)
         evaluate_route_graph(bad, hall, 0.3, n_pairs=100)
 
 
+def test_a_route_graph_is_scored_at_the_robot_radius_it_was_built_for():
+    """Without ``robot_radius_m`` a route graph is scored for the robot it was built for,
+    as docs/route-graphs.md promises of all the options it records; a graph that records
+    none (another generator's) is refused with the parameter named."""
+    m = _corridor(18)
+    rg = _graph(m, [_row(9, 3, 198)])
+    rg.graph["robot_radius_m"] = RADIUS
+    own = evaluate_route_graph(rg, m, n_pairs=50)
+    assert own.robot_radius_m == RADIUS
+    assert own == dataclasses.replace(
+        evaluate_route_graph(rg, m, RADIUS, n_pairs=50), evaluation_s=own.evaluation_s
+    )
+    assert evaluate_route_graph(rg, m, 0.0, n_pairs=50).robot_radius_m == 0.0  # given wins
+    bare = nx.MultiGraph(rg)
+    bare.graph.pop("robot_radius_m")
+    with pytest.raises(ValueError, match="^robot_radius_m: expected the robot radius"):
+        evaluate_route_graph(bare, m, n_pairs=50)
+    bad = nx.MultiGraph(rg)
+    bad.graph["robot_radius_m"] = -1.0
+    match = "^robot_radius_m \\(the graph's 'robot_radius_m' attribute\\): "
+    with pytest.raises(ValueError, match=match):
+        evaluate_route_graph(bad, m, n_pairs=50)
+
+
 def _room_and_closet() -> OccupancyMap:
     """A 5 x 5 m room beside a closed 2 x 2 m closet (about 2 m2 feasible at 0.3 m),
     at 0.05 m per pixel."""

@@ -110,7 +110,14 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
     why = map_mismatch(graph, occupancy)
     if why is not None:  # a graph that records its map (a route graph) scored on another
         raise ValueError(f"occupancy: {why}")
-    radius = nonnegative_metres("robot_radius_m", radius)
+    if radius is None and graph.graph.get("robot_radius_m") is None:
+        raise ValueError(
+            "robot_radius_m: expected the robot radius in metres (>= 0; 0: a point robot), "
+            "received none, and the graph records none (a route graph records the radius "
+            "it was built for)"
+        )
+    radius, named = _given_or_recorded(graph, "robot_radius_m", radius, None)
+    radius = nonnegative_metres(named, radius)
     # a route graph is scored at the distance it was built to cover
     snap_m, named = _given_or_recorded(graph, "snap_m", snap_m, DEFAULT_SNAP_M)
     snap_m = positive_metres(named, snap_m)
@@ -210,7 +217,7 @@ def _routes(fs, geo, pairs: PairSet, pieces, snap_px: float, best_entry: bool):
 def evaluate_route_graph(
     graph: nx.Graph,
     occupancy,
-    robot_radius_m: float,
+    robot_radius_m: float | None = None,
     *,
     snap_m: float | None = None,
     entry: str = "nearest",
@@ -236,8 +243,10 @@ def evaluate_route_graph(
         The map the graph was made for (or its file).  A graph that records its map's
         ``shape``, ``resolution_m`` and ``origin`` (a route graph) must be scored on that
         map.
-    robot_radius_m : float
-        Robot radius in metres (>= 0; 0: a point robot, the free space is feasible).
+    robot_radius_m : float, optional
+        Robot radius in metres (>= 0; 0: a point robot, the free space is feasible);
+        default the graph's ``robot_radius_m`` attribute (a route graph's: the robot it
+        was built for).  A graph that records none needs it.
     snap_m : float, optional
         Largest distance (metres, > 0, at most :data:`MAX_SNAP_M`) from a point to the
         graph point it snaps to, and the coverage distance; default the graph's
