@@ -1047,6 +1047,23 @@ def test_yaml_defaults_and_overrides(tmp_path: Path):
     assert load_map(tmp_path / "rel.yml").occupied.all()
 
 
+@pytest.mark.parametrize("suffix", [".yaml", ".pgm"])
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("origin", (1.0, 2.0)), ("negate", 2), ("mode", "TRINARY"), ("resolution_m", -1.0)],
+)
+def test_a_bad_override_is_named_as_the_callers_not_the_files(tmp_path, suffix, key, value):
+    """load_map's own arguments are the caller's: a bad one is named alone, not as a
+    field of the map file, which holds a good value (the message sent the user to fix a
+    file that needed no fixing)."""
+    path = _yaml_map(tmp_path, GOOD)
+    if suffix == ".pgm":
+        path = tmp_path / "m.pgm"
+    with pytest.raises(ValueError, match=rf"^{key}: expected") as info:
+        load_map(path, **{key: value})
+    assert str(path) not in str(info.value)
+
+
 @pytest.mark.parametrize(
     ("given", "message"),
     [

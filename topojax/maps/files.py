@@ -203,6 +203,7 @@ def load_map(
     p = path_like("path", path)
     suffix = p.suffix.lower()
     _check_map_path(p, suffix)
+    resolution_m, origin, negate, mode = _given_settings(resolution_m, origin, negate, mode)
     if suffix in YAML_SUFFIXES:
         image_path, settings = _yaml_settings(
             p,
@@ -433,6 +434,18 @@ def _check_map_path(p: Path, suffix: str) -> None:
         raise ValueError(
             f"map path is not a regular file: {p} (a FIFO, socket or device); give a map file"
         )
+
+
+def _given_settings(resolution_m, origin, negate, mode) -> tuple:
+    """:func:`load_map`'s own ``resolution_m``, ``origin``, ``negate`` and ``mode``,
+    checked (None where not given): a bad one is the caller's, named alone, not as a
+    field of the map file."""
+    return (
+        None if resolution_m is None else metres_per_pixel("resolution_m", resolution_m),
+        None if origin is None else pose("origin", origin),
+        None if negate is None else binary_flag("negate", negate),
+        None if mode is None else one_of("mode", mode, MODES),
+    )
 
 
 def _yaml_settings(
