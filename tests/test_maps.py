@@ -816,6 +816,19 @@ def test_pgm_comment_resolution_is_read_whole_or_refused(tmp_path: Path):
     assert load_map(tmp_path / "b.yaml").resolution_m == 0.2
 
 
+@pytest.mark.parametrize("word", ["1e9", "1e-7"])
+def test_a_pgm_comments_resolution_out_of_range_is_named_as_the_comments(tmp_path, word):
+    """A comment's resolution outside the range a map may have is the comment's error,
+    named as such: it was reported as the caller's resolution_m, which nobody gave."""
+    img = np.array([[0, 205, 254], [254, 254, 0]], dtype=np.uint8)
+    _write_pgm(tmp_path / "b.pgm", img, comment=f"CREATOR: map_saver.cpp {word} m/pix")
+    with pytest.raises(
+        ValueError, match=rf"^map image .*b\.pgm: its comment .* gives the resolution as '{word}'"
+    ):
+        load_map(tmp_path / "b.pgm")
+    assert load_map(tmp_path / "b.pgm", resolution_m=0.1).resolution_m == 0.1
+
+
 def test_pgm_with_other_maxval(tmp_path: Path):
     img = np.array([[0, 30, 40], [80, 90, 100]], dtype=np.uint8)
     _write_pgm(tmp_path / "m.pgm", img, maxval=100)

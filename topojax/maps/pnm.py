@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .._cpus import check_fits_memory
-from .._validate import existing_file
+from .._validate import MAX_RESOLUTION_M, MIN_RESOLUTION_M, existing_file
 from ._decode import decode_image, decoder_limits, refuse_several_images
 
 __all__ = [
@@ -79,8 +79,9 @@ def _parse_pnm_header(data: bytes) -> tuple[int | None, list[str]]:
 def resolution_from_pgm_comments(comments: list[str], path: Path) -> float | None:
     """Resolution from a ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment: the number
     at the end of the word before ``m/pix`` (``0.05``, ``res=0.05``, ``(0.05``).  None if
-    no comment gives one.  A number that is not a positive one (``0,05``, ``-0.05``) is an
-    error rather than a misread: the map would be scaled wrongly without notice."""
+    no comment gives one.  A number that is not a positive one (``0,05``, ``-0.05``), or
+    one outside the resolutions a map may have, is an error rather than a misread: the
+    map would be scaled wrongly without notice."""
     for line in comments:
         m = _PGM_RES_RE.search(line)
         if not m:
@@ -98,6 +99,12 @@ def resolution_from_pgm_comments(comments: list[str], path: Path) -> float | Non
                 f"map image {path}: its comment {line!r} gives the resolution as "
                 f"{word!r}, which is not a positive number of metres per pixel; pass "
                 "resolution_m (--resolution) to set it"
+            )
+        if not MIN_RESOLUTION_M <= value <= MAX_RESOLUTION_M:
+            raise ValueError(
+                f"map image {path}: its comment {line!r} gives the resolution as "
+                f"{word!r}, outside the {MIN_RESOLUTION_M:g} to {MAX_RESOLUTION_M:g} metres "
+                "per pixel a map may have; pass resolution_m (--resolution) to set it"
             )
         return value
     return None
