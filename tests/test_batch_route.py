@@ -293,3 +293,13 @@ def test_plot_with_a_route_format_draws_the_route_graph_too(tmp_path):
         [_two_rooms()], formats="json", out_dir=tmp_path / "p", plot=True, workers=0, progress=False
     )
     assert not (tmp_path / "p" / "two_rooms_route.png").exists()
+
+
+def test_batch_help_says_plot_draws_the_route_graph_too(capsys):
+    """``topojax batch --help`` says what ``--plot`` writes with a route format as well."""
+    from topojax.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["batch", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "also write <name>_graph.png per map (and <name>_route.png with a route" in text

@@ -325,7 +325,11 @@ def add_command(subparsers) -> None:
     p.add_argument(
         "--kernel-threads", type=int, default=None, help="threads dispatching kernel calls"
     )
-    p.add_argument("--plot", action="store_true", help="also write <name>_graph.png per map")
+    p.add_argument(
+        "--plot",
+        action="store_true",
+        help="also write <name>_graph.png per map (and <name>_route.png with a route format)",
+    )
     p.add_argument(
         "--resume", action="store_true", help="skip maps whose outputs are complete and valid"
     )
