@@ -1060,6 +1060,16 @@ def test_yaml_defaults_and_overrides(tmp_path: Path):
     assert load_map(tmp_path / "rel.yml").occupied.all()
 
 
+def test_a_given_resolution_stands_in_for_a_yamls_missing_one(tmp_path):
+    """resolution_m (--resolution) replaces a YAML's resolution, so it also stands in for
+    a missing one, as origin= does for a missing origin; without it the error says how
+    to give one."""
+    path = _yaml_map(tmp_path, "image: m.pgm\norigin: [0, 0, 0]\n")
+    assert load_map(path, resolution_m=0.2).resolution_m == 0.2
+    with pytest.raises(ValueError, match=r"missing the required key 'resolution'.*resolution_m="):
+        load_map(path)
+
+
 @pytest.mark.parametrize("suffix", [".yaml", ".pgm"])
 @pytest.mark.parametrize(
     ("key", "value"),

@@ -154,9 +154,10 @@ def load_map(
         ``.yaml`` / ``.yml``: ROS ``map_server`` map description with the keys ``image``
         (required; relative to the YAML's folder; an absolute path that does not exist
         falls back to the file of the same name next to the YAML), ``resolution``
-        (required, m/px), ``origin`` ``[x, y, yaw]`` (required, as in ``map_server``,
-        unless given here), ``negate`` (default 0), ``occupied_thresh`` (default 0.65),
-        ``free_thresh`` (default 0.196) and ``mode`` (default ``trinary``).
+        (required, m/px, unless given here), ``origin`` ``[x, y, yaw]`` (required, as in
+        ``map_server``, unless given here), ``negate`` (default 0), ``occupied_thresh``
+        (default 0.65), ``free_thresh`` (default 0.196) and ``mode`` (default
+        ``trinary``).
         ``.pgm``, ``.png``, ``.jpg``, ``.jpeg``, ``.bmp``, ``.tif``, ``.tiff``: a plain
         image (1- to 16-bit; grey, grey + alpha, RGB, RGBA, CMYK or palette). Defaults:
         resolution from a PGM ``# CREATOR: map_saver.cpp 0.050 m/pix`` style comment if
@@ -462,9 +463,14 @@ def _yaml_settings(
     each given argument, else the YAML's field (checked, the error naming the file and
     the field), else ``map_server``'s default."""
     doc = _load_yaml(p)
-    for key in ("image", "resolution"):
-        if key not in doc:
-            raise ValueError(f"map YAML {p} is missing the required key {key!r}")
+    if "image" not in doc:
+        raise ValueError(f"map YAML {p} is missing the required key 'image'")
+    if resolution_m is None and "resolution" not in doc:
+        raise ValueError(
+            f"map YAML {p} is missing the required key 'resolution', as map_server requires "
+            "it: add 'resolution: M' (metres per pixel) to the file, or give it with "
+            "load_map's resolution_m= (--resolution on the command line)"
+        )
     if origin is None and "origin" not in doc:
         raise ValueError(
             f"map YAML {p} is missing the required key 'origin', as map_server requires "
