@@ -696,3 +696,21 @@ def test_an_edge_exactly_as_wide_as_the_limit_is_kept_whatever_its_rounding():
     assert width < 0.33  # 11 x 0.03 in float64
     assert prune_graph(g, min_clearance_m=0.33).number_of_edges() == 1
     assert prune_graph(g, min_clearance_m=0.3301).number_of_edges() == 0
+
+
+def test_a_topology_result_passed_as_the_graph_says_where_its_graph_is():
+    """build_graph returns a TopologyResult, whose ``.graph`` is the networkx graph: the
+    functions that take a graph, given the result, say so rather than only refusing it."""
+    occ = np.ones((40, 60), bool)
+    occ[5:35, 5:55] = False
+    m = tj.OccupancyMap.from_array(occ, resolution_m=0.05)
+    result = build_graph(m)
+    hint = r"received TopologyResult \(its \.graph is the networkx graph\)$"
+    with pytest.raises(TypeError, match=rf"^graph: expected .*, {hint}"):
+        prune_graph(result, min_spur_m=0.5)
+    with pytest.raises(TypeError, match=rf"^graph: expected .*, {hint}"):
+        tj.evaluate_route_graph(result, m, 0.1)
+    with pytest.raises(TypeError, match=rf"^graph: expected .*, {hint}"):
+        tj.plan_route(result, (0.5, 0.5), (2.0, 1.0))
+    with pytest.raises(TypeError, match=r"received DiGraph$"):  # a graph's .graph is a dict
+        prune_graph(nx.DiGraph(), min_spur_m=0.5)

@@ -658,6 +658,8 @@ def nx_graph(name: str, graph: Any, *, undirected: bool = True, multigraph: bool
         hint = ""
         if callable(getattr(graph, "to_networkx", None)):  # a GraphStore, say
             hint = " (its to_networkx() gives the networkx graph)"
+        elif isinstance(getattr(graph, "graph", None), nx.Graph):  # build_graph's result
+            hint = " (its .graph is the networkx graph)"
         raise TypeError(f"{name}: expected {_a(what)}, received {type(graph).__name__}{hint}")
     return graph
 
