@@ -801,12 +801,14 @@ def test_pgm_comment_resolution_is_read_whole_or_refused(tmp_path: Path):
     for comment, value in (("res=0.25 m/pix", 0.25), ("(0.5 m/pix)", 0.5)):
         _write_pgm(tmp_path / "g.pgm", img, comment=comment)
         assert load_map(tmp_path / "g.pgm").resolution_m == value, comment
-    for comment in ("units: m/pix", "Resolution in m/pix: 0.05"):
+    for comment in ("units: m/pix", "Resolution in m/pix: 0.05", "by Hannan m/pix"):
         _write_pgm(tmp_path / "g.pgm", img, comment=comment)
         with pytest.warns(UserWarning, match="states no resolution: assumed 0.05 m/px"):
             assert load_map(tmp_path / "g.pgm").resolution_m == 0.05, comment  # the default
     # a decimal comma, a sign or a zero must not be read as some other number
-    for comment in ("CREATOR: x 0,05 m/pix", "-0.05 m/pix", "x=0,05 m/pix", "0 m/pix"):
+    # nor a resolution written as NaN or infinity (as a C printf writes them)
+    bad = ("CREATOR: x 0,05 m/pix", "-0.05 m/pix", "x=0,05 m/pix", "0 m/pix", "nan m/pix")
+    for comment in (*bad, "CREATOR: map_saver.cpp -nan m/pix", "res=inf m/pix"):
         _write_pgm(tmp_path / "b.pgm", img, comment=comment)
         with pytest.raises(ValueError, match=r"b\.pgm.*not a positive number.*resolution_m"):
             load_map(tmp_path / "b.pgm")

@@ -30,8 +30,12 @@ DECODE_BYTES_PER_PIXEL = 5
 
 # the whitespace-delimited word before "m/pix" (map_saver writes "0.050 m/pix")
 _PGM_RES_RE = re.compile(r"(?:^|\s)(\S+)\s*m/pix")
-# the number-like end of that word: digits with dots, commas, a sign or an exponent
-_PGM_NUMBER_RE = re.compile(r"[-+]?[0-9.,]*[0-9][0-9.,]*(?:[eE][-+]?[0-9]+)?$")
+# the number-like end of that word: digits with dots, commas, a sign or an exponent, or
+# a NaN or an infinity as C's printf writes them
+_PGM_NUMBER_RE = re.compile(
+    r"[-+]?(?:[0-9.,]*[0-9][0-9.,]*(?:[eE][-+]?[0-9]+)?|(?<![a-z])(?:nan|inf|infinity))$",
+    re.IGNORECASE,
+)
 
 
 _LINE_END = re.compile(rb"[\r\n]")
