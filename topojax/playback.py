@@ -111,7 +111,7 @@ def replay(
     progress : bool
         Show a tqdm progress bar.
     max_scans : int, optional
-        Stop after this many scans.
+        Stop after this many scans of the log, those skipped included.
     reader_kwargs : dict, optional
         Passed to the reader.
     nav2_tolerance_m : float, optional

@@ -348,7 +348,12 @@ def add_command(subparsers) -> None:
     )
     p.add_argument("--resolution", type=float, default=0.05, help="m/px (default 0.05)")
     add_sigma_options(p, each_map=" (converted to pixels at --resolution)")
-    p.add_argument("--max-scans", type=int, help="stop after this many scans")
+    p.add_argument(
+        "--max-scans",
+        type=int,
+        help="stop after this many scans of the log, those skipped included (the summary "
+        "counts the scans mapped)",
+    )
     p.add_argument(
         "--max-extent-m",
         type=float,
