@@ -464,7 +464,10 @@ def test_replay_cli_resume(stopped, tmp_path, full_run, capsys):
     args = ["replay", str(INTEL_EXCERPT), "-o", str(stopped), "--no-progress"]
     args += ["--graph-every", "7", "--skeleton-every", "3", "--resume"]
     assert main(args) == 0
-    assert "replayed   40 scans" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "replayed   40 scans" in out
+    # the time and the loop timings are this run's: the summary says after what
+    assert "\nresumed    after 12 scans of the log: the time and the loop timings" in out
     assert_same_outputs(full_run[0], stopped)
     assert main(["replay", str(INTEL_EXCERPT), "-o", str(tmp_path / "empty"), "--resume"]) != 0
     assert "error: --resume: no saved state" in capsys.readouterr().err  # the option

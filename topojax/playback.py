@@ -761,6 +761,12 @@ def summary_text(summary: dict) -> str:
         doors = summary.get("doors")  # absent from a record written before it was kept
         line = f"rooms      {counted(summary['rooms'], 'room')}"
         lines.insert(2, line if doors is None else f"{line}, {counted(doors, 'door')}")
+    if summary.get("resumed_after"):
+        lines.insert(
+            1,
+            f"resumed    after {counted(summary['resumed_after'], 'scan')} of the log: the "
+            "time and the loop timings are this run's, of the scans after them",
+        )
     for k in ("distance", "splat", "skeleton", "graph", "rooms", "add_scan"):
         s = summary["timings"].get(k)
         if s:
