@@ -784,6 +784,15 @@ def test_view_command_leaves_out_a_route_written_beside_the_graph(tmp_path, caps
     text = capsys.readouterr().out
     assert "office.json" in text and "route" not in text.replace(str(tmp_path), "")
     assert not (out / "route_view.html").exists()
+    # copied without the folder's hidden record (cp out/* elsewhere), the route file is
+    # still told from a graph by what it holds: one GeoJSON Feature, not a collection
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for name in ("office.json", "route.geojson"):
+        (copy / name).write_bytes((out / name).read_bytes())
+    assert main(["view", str(copy)]) == 0
+    text = capsys.readouterr().out
+    assert "office.json" in text and "route" not in text.replace(str(tmp_path), "")
 
 
 def test_view_command_tells_the_graph_of_a_map_named_route_from_a_route_graph(tmp_path):

@@ -7,15 +7,17 @@ folder's ``.topojax-outputs.json`` records, ``map.yaml`` of a replay, the map a 
 manifest names), rooms ``STEM_rooms.geojson`` (``map_rooms.geojson`` of a replay), a route
 graph ``STEM_route.json`` (``route_graph.json`` of a replay; a batch's route graph
 without its graph is drawn over the map of its manifest) and a replay's
-``timeline.json.gz``; the routes ``topojax route`` wrote there are left out.  One
-result gives ``view.html``; several give one page each, ``STEM_view.html``, and
-``view.html`` lists them.
+``timeline.json.gz``; the routes ``topojax route`` wrote there are left out (told by
+the folder's record, or by the one GeoJSON Feature they hold).  One result gives
+``view.html``; several give one page each, ``STEM_view.html``, and ``view.html`` lists
+them.
 """
 
 from __future__ import annotations
 
 import html
 import json
+import re
 import urllib.parse
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -69,11 +71,27 @@ def _graph_stems(folder: Path, record: dict) -> dict[str, Path]:
             entry = record.get(path.name)
             if isinstance(entry, dict) and entry.get("command") == "route":
                 continue
+            if entry is None and suffix == ".geojson" and _one_feature(path):
+                continue  # a route, its record left behind (the files copied, say)
             if path.is_file() and (
                 not path.name.endswith(_NOT_GRAPHS) or _recorded_graph(path, record)
             ):
                 stems[path.name[: -len(suffix)]] = path
     return stems
+
+
+#: How a GeoJSON file of one Feature begins (a route, as ``topojax route`` writes it; a
+#: graph is a FeatureCollection).
+_ONE_FEATURE = re.compile(rb'\s*\{\s*"type"\s*:\s*"Feature"\s*[,}]')
+
+
+def _one_feature(path: Path) -> bool:
+    """Whether the file ``path`` begins as a GeoJSON Feature does (its first bytes)."""
+    try:
+        with open(path, "rb") as fh:
+            return _ONE_FEATURE.match(fh.read(256)) is not None
+    except OSError:  # a folder, say: not a graph either way
+        return False
 
 
 def _recorded_graph(path: Path, record: dict) -> bool:
