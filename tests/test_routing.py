@@ -564,6 +564,16 @@ def test_route_command_prints_and_writes_the_route(tmp_path, capsys):
     assert main([*argv, "-o", str(out), "--simplify-m", "0.2"]) == 0
     thin = json.loads(out.read_text())["geometry"]["coordinates"]
     np.testing.assert_allclose(thin, want.waypoints(tolerance_m=0.2))
+    assert "warning" not in capsys.readouterr().err
+    # wider than the corridors: its straight segments may cross walls, which is said
+    assert main([*argv, "-o", str(out), "--simplify-m", "50"]) == 0
+    err = capsys.readouterr().err
+    words = (
+        f"--simplify-m 50 m is more than the route's least clearance, "
+        f"{want.min_clearance_m:.3f} m: the written route's straight segments may cross "
+        "obstacles"
+    )
+    assert words in err
     assert main([*argv, "-o", str(out), "--simplify-m", "-1"]) == 2
     assert "--simplify-m: expected a finite number of metres > 0" in capsys.readouterr().err
     # the route is GeoJSON: another suffix is refused before any work, nothing written

@@ -262,6 +262,14 @@ def _cmd_route(args) -> int:
         print(f"note       {text}")
     for text in _unsafe(route, occupancy is not None):
         warnings.warn(text, UserWarning, stacklevel=2)
+    if args.out and args.simplify_m is not None and args.simplify_m > route.min_clearance_m:
+        warnings.warn(  # a NaN clearance (none recorded) compares False: nothing to say
+            f"--simplify-m {args.simplify_m:g} m is more than the route's least clearance, "
+            f"{route.min_clearance_m:.3f} m: the written route's straight segments may "
+            "cross obstacles",
+            UserWarning,
+            stacklevel=2,
+        )
     if args.out:
         from .._fs import atomic_write_bytes
 
