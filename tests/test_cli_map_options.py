@@ -62,6 +62,24 @@ def test_a_command_reads_its_map_with_the_map_options(tmp_path, command, written
     )
 
 
+def test_no_negate_reads_a_yaml_that_says_negate_as_it_is(tmp_path, capsys):
+    """``--no-negate`` overrides a YAML's ``negate: 1`` (``--negate`` sets it where the
+    file does not): a map whose YAML says so wrongly is still readable."""
+    plain = three_rooms_png(tmp_path / "plain.png")
+    (tmp_path / "wrong.yaml").write_text(
+        "image: plain.png\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 1\n", encoding="utf-8"
+    )
+    assert main(["graph", str(plain), "-o", str(tmp_path / "a"), "--resolution", "0.1"]) == 0
+    argv = ["graph", str(tmp_path / "wrong.yaml")]
+    assert main([*argv, "-o", str(tmp_path / "b"), "--no-negate"]) == 0
+    assert main([*argv, "-o", str(tmp_path / "c")]) == 0  # the file's negate: another map
+    want = _graph_doc(tmp_path / "a" / "plain.json")
+    assert _graph_doc(tmp_path / "b" / "wrong.json")["nodes"] == want["nodes"]
+    assert _graph_doc(tmp_path / "c" / "wrong.json")["nodes"] != want["nodes"]
+    assert main([*argv, "-o", str(tmp_path / "d"), "--negate", "--no-negate"]) == 0  # last
+    capsys.readouterr()
+
+
 def test_batch_reads_every_map_with_the_map_options(tmp_path, capsys):
     """Every map option reaches the batch's worker processes that read the maps, each
     map's manifest records them, ``--resume`` redoes a map read with other ones, and

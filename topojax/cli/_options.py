@@ -281,7 +281,12 @@ def add_map_options(p: argparse.ArgumentParser, *, each_map: str = "") -> None:
     )
     p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
     p.add_argument("--free-thresh", type=float, help="override free_thresh")
-    p.add_argument("--negate", action="store_true", help="image values are occupancy")
+    p.add_argument(
+        "--negate",
+        action=argparse.BooleanOptionalAction,
+        help="image values are occupancy (--no-negate: they are not; default: a YAML's "
+        "negate, else not)",
+    )
     p.add_argument(
         "--mode",
         choices=MODES,
@@ -314,8 +319,8 @@ def map_options(args) -> dict:
     for name in ("resolution_m", "occupied_thresh", "free_thresh", "mode"):
         if getattr(args, name) is not None:
             kw[name] = getattr(args, name)
-    if args.negate:
-        kw["negate"] = True
+    if args.negate is not None:
+        kw["negate"] = args.negate
     return kw
 
 
