@@ -142,9 +142,9 @@ def block_px_for_budget(
     available = available_memory_bytes()
     if available is not None and budget * 2**20 > available:
         warnings.warn(
-            f"memory_budget_mb: {budget:g} MB is more than the {byte_size(available)} of "
-            "memory available; blocks sized to it may not fit (a smaller budget gives "
-            "smaller blocks)",
+            f"memory_budget_mb: {budget:g} MB ({byte_size(budget * 2**20)}) is more than the "
+            f"{byte_size(available)} of memory available; blocks sized to it may not fit (a "
+            "smaller budget gives smaller blocks)",
             UserWarning,
             stacklevel=2,
         )
