@@ -422,6 +422,34 @@ def test_route_geojson_writes_no_float_noise():
     np.testing.assert_array_equal(route.world, world)  # the route itself keeps its floats
 
 
+def test_route_repr_summarises_its_arrays_and_ids():
+    """A notebook shows a route by its repr: a line with its length, sizes and what it
+    says of the robot, not its pixel and world arrays or every vertex and edge id."""
+    from topojax.routing import Route
+
+    n = 400
+    pixels = np.stack([np.zeros(n, np.int32), np.arange(n, dtype=np.int32)], axis=1)
+    world = pixels[:, ::-1] * 0.05
+    route = Route(
+        20.0,
+        pixels,
+        world,
+        tuple(range(100)),
+        tuple((i, i + 1, 0) for i in range(99)),
+        0.125,
+        0.25,
+        start_leg_feasible=True,
+        min_clearance_m=0.4,
+        robot_radius_m=0.3,
+    )
+    text = repr(route)
+    assert text == (
+        "Route(length_m=20.0, pixels=400, vertices=100, edges=99, start_snap_m=0.125, "
+        "goal_snap_m=0.25, start_leg_feasible=True, goal_leg_feasible=None, "
+        "min_clearance_m=0.4, robot_radius_m=0.3)"
+    )
+
+
 # ------------------------------------------------------------------ bad input
 
 

@@ -14,7 +14,7 @@ from .graph import polyline_keep
 from .io import jsonable
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Route:
     """A route along a topology graph.
 
@@ -85,6 +85,17 @@ class Route:
     goal_leg_feasible: bool | None = field(default=None, kw_only=True)
     min_clearance_m: float = field(default=math.nan, kw_only=True)
     robot_radius_m: float | None = field(default=None, kw_only=True)
+
+    def __repr__(self) -> str:
+        # the arrays and id tuples grow with the route: their sizes stand in for them
+        return (
+            f"Route(length_m={self.length_m!r}, pixels={len(self.pixels)}, "
+            f"vertices={len(self.vertices)}, edges={len(self.edges)}, "
+            f"start_snap_m={self.start_snap_m!r}, goal_snap_m={self.goal_snap_m!r}, "
+            f"start_leg_feasible={self.start_leg_feasible!r}, "
+            f"goal_leg_feasible={self.goal_leg_feasible!r}, "
+            f"min_clearance_m={self.min_clearance_m!r}, robot_radius_m={self.robot_radius_m!r})"
+        )
 
     def waypoints(self, *, tolerance_m: float = 0.1) -> np.ndarray:
         """The route's world polyline thinned to waypoints (Douglas–Peucker): every pixel
