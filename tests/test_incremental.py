@@ -1385,6 +1385,32 @@ def test_graph_ids_are_stable_away_from_changes():
     assert_matches_full_map(mapper)
 
 
+def test_update_reprs_stay_short_for_a_whole_map_of_ids():
+    """The first graph update of a large map adds every vertex and edge: a notebook showing
+    the update (or the scan report holding it) gets the first and last ids and their
+    count, not thousands of ids; a short tuple is shown whole."""
+    from topojax.incremental import RoomsUpdate
+
+    big = GraphUpdate(
+        added_vertices=tuple(range(5000)),
+        added_edges=tuple(range(7000)),
+        removed_edges=(3, 4),
+        region_px=12,
+        time_s=0.5,
+    )
+    assert repr(big) == (
+        "GraphUpdate(added_vertices=(0, 1, 2, ..., 4997, 4998, 4999; 5000 ids), "
+        "removed_vertices=(), changed_vertices=(), "
+        "added_edges=(0, 1, 2, ..., 6997, 6998, 6999; 7000 ids), removed_edges=(3, 4), "
+        "region_px=12, time_s=0.5)"
+    )
+    report = ScanReport(0, 10, 10, 0, 10, ("distance", "graph"), {}, 4, graph_update=big)
+    assert len(repr(report)) < 600 and repr(big) in repr(report)
+    rooms = RoomsUpdate(added=tuple(range(1, 101)), doors_added=((1, 2),), n_rooms=100)
+    assert "added=(1, 2, 3, ..., 98, 99, 100; 100 ids)" in repr(rooms)
+    assert "doors_added=((1, 2),)" in repr(rooms)
+
+
 def test_graph_update_reports_exactly_what_changed(shared_data):
     """Each GraphUpdate equals the difference of the graphs before and after it."""
     log = shared_data / "logs" / "carmen_corrected" / "intel-corrected.log.gz"

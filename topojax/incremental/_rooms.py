@@ -24,6 +24,7 @@ from .._caller import outside_stacklevel
 from .._cpus import MemoryRefusal
 from ._room_ids import SAME_ROOM_IOU, match_ids, pasted
 from ._tiles import ExportBudgetError
+from .reports import report_repr
 
 __all__ = [
     "SAME_ROOM_IOU",
@@ -35,7 +36,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class RoomsUpdate:
     """What one room update changed.
 
@@ -64,6 +65,9 @@ class RoomsUpdate:
     n_rooms: int = 0
     time_s: float = 0.0
     segmented_px: int = 0
+
+    def __repr__(self) -> str:
+        return report_repr(self)
 
 
 class RoomKeeper:

@@ -4,15 +4,38 @@ error metrics and timing statistics of a replay.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import networkx as nx
 import numpy as np
 
 from .._validate import finite_numbers, finite_pair, nx_graph, real_number
 
+#: Longest id tuple a report's repr shows whole; a longer one shows its ends and count.
+_IDS_SHOWN = 6
 
-@dataclass(frozen=True)
+
+def ids_repr(ids: tuple) -> str:
+    """``ids`` as a tuple's repr, or its first and last three and their count when longer
+    than :data:`_IDS_SHOWN` (a whole map's ids would fill a notebook)."""
+    if len(ids) <= _IDS_SHOWN:
+        return repr(ids)
+    ends = [*ids[:3], "...", *ids[-3:]]
+    return f"({', '.join(v if v == '...' else repr(v) for v in ends)}; {len(ids)} ids)"
+
+
+def report_repr(report: object) -> str:
+    """The repr of a frozen report dataclass, its tuples of ids shortened by
+    :func:`ids_repr`."""
+    parts = []
+    for f in fields(report):
+        value = getattr(report, f.name)
+        shown = ids_repr(value) if isinstance(value, tuple) else repr(value)
+        parts.append(f"{f.name}={shown}")
+    return f"{type(report).__name__}({', '.join(parts)})"
+
+
+@dataclass(frozen=True, repr=False)
 class GraphUpdate:
     """What one graph update changed.
 
@@ -41,6 +64,9 @@ class GraphUpdate:
     removed_edges: tuple[int, ...] = ()
     region_px: int = 0
     time_s: float = 0.0
+
+    def __repr__(self) -> str:
+        return report_repr(self)
 
     @property
     def empty(self) -> bool:
