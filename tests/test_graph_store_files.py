@@ -53,6 +53,19 @@ def test_hand_written_stores_come_back_array_for_array(tmp_path, name, skel, kw,
     assert_same_graph(back.to_networkx(), store.to_networkx())
 
 
+@pytest.mark.parametrize("mmap", [np.True_, np.False_, np.array(False)])
+def test_mmap_takes_a_numpy_bool_as_every_flag_does(tmp_path, mmap):
+    """A NumPy bool (from a comparison, or a config read with NumPy) is a bool, as
+    the configurations' flags take it; only numbers and other types are refused."""
+    store = FIXTURES[0][3]
+    tj.save_graph_store(store, tmp_path / "g")
+    back = tj.load_graph_store(tmp_path / "g", mmap=mmap)
+    assert mapped(back.node_pixel) is bool(mmap)
+    assert_same_store(back, store)
+    with pytest.raises(TypeError, match=r"^mmap: expected a bool, received int 1"):
+        tj.load_graph_store(tmp_path / "g", mmap=1)
+
+
 def test_a_tiled_build_leaves_its_graph_in_out_dir(tmp_path):
     m = tj.sample_map("office")
     out = tmp_path / "graph"

@@ -22,7 +22,7 @@ import numpy as np
 
 from .._fs import atomic_write, atomic_write_bytes, output_folder
 from .._npy import check_npy_size, load_npy
-from .._validate import instance_of, path_like
+from .._validate import flag, instance_of, path_like
 from ..graph.store import GraphStore
 from ._schema import _collect_schema, _decode_attrs, jsonable
 
@@ -137,7 +137,7 @@ def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
         dtype and shape the description gives (a file replaced or cut short).
     """
     folder = path_like("folder", folder)
-    mmap = instance_of("mmap", mmap, bool)
+    mmap = flag("mmap", mmap)
     desc = folder / STORE_FILE
     if not desc.is_file():
         raise FileNotFoundError(
