@@ -136,3 +136,23 @@ def test_an_obstacle_mask_with_masked_cells_is_refused_naming_it():
         with pytest.raises(TypeError, match=rf"^{name}: expected an array without masked"):
             call(masked)
     assert tj.distance_map(np.ma.masked_array(mask)).shape == (8, 8)  # nothing masked
+
+
+def test_a_skeleton_or_clearance_with_masked_cells_is_refused_naming_it():
+    """A masked skeleton pixel is neither on nor off, and a masked clearance has no value:
+    skeleton_to_graph refuses them, as thin and remove_t_centres do, instead of building
+    the graph of the values under the mask."""
+    skeleton = np.zeros((5, 7), bool)
+    skeleton[2, 1:6] = True
+    hidden = np.ma.masked_array(skeleton, mask=skeleton)
+    for call in (tj.skeleton_to_graph, tj.remove_t_centres):
+        with pytest.raises(TypeError, match=r"^skeleton: expected an array without masked"):
+            call(hidden)
+    clearance = np.ma.masked_array(np.ones(skeleton.shape), mask=skeleton)
+    with pytest.raises(TypeError, match=r"^clearance_px: expected an array without masked"):
+        tj.skeleton_to_graph(skeleton, clearance_px=clearance)
+    with pytest.raises(TypeError, match=r"^clearance_px: expected an array without masked"):
+        tj.skeleton_to_graph(skeleton, clearance_px=lambda flat: clearance.ravel()[flat])
+    whole = tj.skeleton_to_graph(np.ma.masked_array(skeleton), clearance_px=np.ma.ones((5, 7)))
+    assert whole.number_of_edges() == 1  # nothing masked: the arrays' data
+    assert next(iter(whole.edges(data="min_clearance_m")))[2] == 1.0

@@ -21,6 +21,7 @@ from .._validate import (
     nx_graph,
     plain_length_m,
     real_values,
+    unmasked,
 )
 from .geometry import _edge_pixel_index, orient, path_lengths_m
 from .store import KIND_JUNCTION, GraphStore
@@ -41,7 +42,7 @@ PixelToWorld = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
 def _as_skeleton(skeleton: object) -> np.ndarray:
-    arr = real_values(np.asarray(skeleton))
+    arr = real_values(np.asarray(unmasked("skeleton", skeleton)))
     if arr.dtype.kind not in "biuf":
         raise TypeError(
             f"skeleton: expected a bool-like array (bool, or integers/floats in {{0, 1}}), "
@@ -79,7 +80,7 @@ def _check_clearance(clearance_px: object, skel: np.ndarray, flat: np.ndarray) -
 def _real_clearances(values: object) -> np.ndarray:
     """``values`` as an array of real numbers (bfloat16 as float32, :func:`real_values`);
     a TypeError naming ``clearance_px`` for another dtype."""
-    arr = real_values(np.asarray(values))
+    arr = real_values(np.asarray(unmasked("clearance_px", values)))
     if arr.dtype.kind not in "iuf":
         raise TypeError(
             f"clearance_px: expected a real numeric array (pixels), received dtype {arr.dtype}"
