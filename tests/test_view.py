@@ -498,7 +498,15 @@ def test_a_map_on_disk_is_viewed_reading_only_the_window(res, tmp_path):
     [
         ((1, 2, 3), ValueError, "four finite numbers"),
         ((5, 0, 1, 1), ValueError, "x_min < x_max"),
+        # rows and columns first (a region's order): the order expected is named
+        (
+            (0, 10, 0, 10),
+            ValueError,
+            r"\(x_min, y_min, x_max, y_max\) in metres with x_min < x_max",
+        ),
         ("abcd", TypeError, "window: expected"),
+        (("0", "0", "5", "5"), TypeError, r"window: expected .*received tuple \('0'"),
+        ((False, 0, True, 1), TypeError, r"window: expected .*received tuple \(False"),
         ((-100, -100, -90, -90), ValueError, "less than 2 x 2 pixels"),
     ],
 )
@@ -1027,7 +1035,10 @@ def test_view_command_names_a_folder_that_takes_no_page(tmp_path, read_only_fold
     ("options", "message"),
     [
         (["--window", "nan", "0", "1", "1"], "--window: expected four finite numbers (metres)"),
-        (["--window", "5", "0", "1", "1"], "--window: expected x_min < x_max and y_min < y_max"),
+        (
+            ["--window", "5", "0", "1", "1"],
+            "--window: expected (x_min, y_min, x_max, y_max) in metres with x_min < x_max",
+        ),
         (["--max-pixels", "0"], "--max-pixels: expected an int >= 1, received 0"),
     ],
 )

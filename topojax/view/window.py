@@ -8,22 +8,26 @@ import math
 import networkx as nx
 import numpy as np
 
+from .._validate import is_real_number
+
 __all__ = ["checked_window", "apply_window"]
 
 
 def checked_window(window, *, name: str = "window") -> tuple[float, float, float, float]:
     """``(x_min, y_min, x_max, y_max)`` as floats after checking them; errors name the
-    argument ``name``."""
+    argument ``name`` and the order expected."""
+    expected = f"{name}: expected (x_min, y_min, x_max, y_max) in metres"
     try:
-        box = tuple(float(v) for v in window)
-    except (TypeError, ValueError):
-        raise TypeError(
-            f"{name}: expected (x_min, y_min, x_max, y_max) in metres, received {window!r}"
-        ) from None
+        items = list(window)
+    except TypeError:
+        items = None
+    if items is None or not all(is_real_number(v) for v in items):  # not "1", not True
+        raise TypeError(f"{expected}, received {type(window).__name__} {window!r}")
+    box = tuple(float(v) for v in items)
     if len(box) != 4 or not all(math.isfinite(v) for v in box):
         raise ValueError(f"{name}: expected four finite numbers (metres), received {window!r}")
     if not (box[0] < box[2] and box[1] < box[3]):
-        raise ValueError(f"{name}: expected x_min < x_max and y_min < y_max, received {window!r}")
+        raise ValueError(f"{expected} with x_min < x_max and y_min < y_max, received {window!r}")
     return box
 
 
