@@ -1385,6 +1385,19 @@ def test_graph_ids_are_stable_away_from_changes():
     assert_matches_full_map(mapper)
 
 
+def test_mapper_repr_says_what_it_holds():
+    """A notebook shows a mapper by its repr: its scans, resolution, strategy and
+    storage, not an object address."""
+    mapper = IncrementalMapper(resolution_m=0.1, skeleton_every=None, graph_every=None)
+    assert repr(mapper) == (
+        "IncrementalMapper(n_scans=0, resolution_m=0.1, strategy='exact', n_tiles=0, "
+        "pixel_bbox=None)"
+    )
+    mapper.add_points(np.array([[0.05, -0.05]]), origin_xy=(0.05, -0.05))
+    assert repr(mapper).startswith("IncrementalMapper(n_scans=1, resolution_m=0.1, ")
+    assert f"pixel_bbox={mapper.pixel_bbox}" in repr(mapper) and mapper.pixel_bbox
+
+
 def test_update_reprs_stay_short_for_a_whole_map_of_ids():
     """The first graph update of a large map adds every vertex and edge: a notebook showing
     the update (or the scan report holding it) gets the first and last ids and their

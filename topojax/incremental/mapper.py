@@ -276,6 +276,12 @@ class IncrementalMapper:
         pixels, or None before anything was allocated."""
         return self._tiles.pixel_bbox
 
+    def __repr__(self) -> str:
+        return (
+            f"IncrementalMapper(n_scans={self.n_scans}, resolution_m={self.resolution_m!r}, "
+            f"strategy={self.strategy!r}, n_tiles={self.n_tiles}, pixel_bbox={self.pixel_bbox})"
+        )
+
     def world_to_pixel(self, x, y) -> tuple[np.ndarray, np.ndarray]:
         """Global lattice pixel containing world points ``(x, y)``.
 
