@@ -1201,3 +1201,17 @@ def test_a_tiled_map_as_the_planners_map_says_how_to_get_its_occupancy_map():
         RoutePlanner(g, occupancy=TiledMap.from_occupancy(m))
     with pytest.raises(TypeError, match=r"^occupancy: .*received ndarray \(an array has no res"):
         plan_route(g, (0, 0), (2, 2), frame="pixel", occupancy=np.zeros((20, 20), bool))
+
+
+def test_a_planner_repr_says_what_it_plans_on():
+    m = tj.sample_map("intel")
+    g = tj.build_graph(m).graph
+    assert repr(RoutePlanner(g)) == (
+        f"RoutePlanner(vertices={g.number_of_nodes()}, edges={g.number_of_edges()}, "
+        "with_map=False, robot_radius_m=None)"
+    )
+    rg = tj.route_graph(m, robot_radius_m=0.3)
+    assert repr(RoutePlanner(rg, occupancy=m)) == (
+        f"RoutePlanner(vertices={rg.number_of_nodes()}, edges={rg.number_of_edges()}, "
+        "with_map=True, robot_radius_m=0.3, entry_m=1.0)"
+    )

@@ -229,6 +229,14 @@ class RoutePlanner:
             if np.float32(res) == np.float32(space.resolution_m):  # the clearance's scale
                 self._walls = WallDistance.of_clearance_m(space.clearance_m)
 
+    def __repr__(self) -> str:
+        mapped = self._occupancy is not None
+        entry = f", entry_m={self._entry_m!r}" if mapped else ""
+        return (
+            f"RoutePlanner(vertices={len(self._nodes)}, edges={len(self._path)}, "
+            f"with_map={mapped}, robot_radius_m={self._radius!r}{entry})"
+        )
+
     # ------------------------------------------------------------------ public
     def route(
         self, start, goal, *, frame: str = "world", max_snap_m: float | None = DEFAULT_MAX_SNAP_M
