@@ -150,3 +150,13 @@ def test_refusals_recorded_without_their_bounds_name_none():
         "bounds (max_extent_m, --max-extent-m in topojax replay) and"
         in (skipped_message(progress)[0])
     )
+
+
+def test_a_keyword_neither_replay_nor_the_mapper_takes_is_named_as_replays(tmp_path):
+    """``replay`` passes the keywords it does not take to the mapper: one the mapper does
+    not take either is refused before any work, as replay's, with what it takes."""
+    with pytest.raises(TypeError, match=r"^replay: unexpected keyword argument 'sigma'; "):
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "o", progress=False, sigma=3)
+    with pytest.raises(TypeError, match=r"arguments 'a', 'b'; expected .*'graph_every'"):
+        replay(INTEL_EXCERPT, out_dir=tmp_path / "o", progress=False, a=1, b=2)
+    assert not (tmp_path / "o").exists()

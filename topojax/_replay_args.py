@@ -32,6 +32,23 @@ def check_flags_and_reader(reader_kwargs, **flags) -> None:
         )
 
 
+def check_mapper_keywords(mapper_kw: dict) -> None:
+    """Refuse (TypeError, as :func:`replay`'s) keywords that :class:`IncrementalMapper`,
+    to which :func:`replay` passes those it does not take itself, does not take either."""
+    import inspect
+
+    from .incremental import IncrementalMapper
+
+    known = inspect.signature(IncrementalMapper).parameters
+    unknown = [k for k in mapper_kw if k not in known]
+    if unknown:
+        s = "s" if len(unknown) > 1 else ""
+        raise TypeError(
+            f"replay: unexpected keyword argument{s} {', '.join(map(repr, unknown))}; "
+            f"expected replay's own or IncrementalMapper's ({', '.join(map(repr, known))})"
+        )
+
+
 def check_replay_args(
     max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
 ):

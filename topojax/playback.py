@@ -15,6 +15,7 @@ from ._animation import animation_frame, write_animation
 from ._lock import one_writer
 from ._replay_args import (
     check_flags_and_reader,
+    check_mapper_keywords,
     check_replay_args,
     no_empty_folder_left,
     optional_outputs,  # noqa: F401 - for topojax.playback's users
@@ -166,6 +167,7 @@ def replay(
         removes it, one without ``resume`` an earlier one's state and recordings as it
         starts; the files the last replay there wrote and this one does not are removed.
     """
+    check_mapper_keywords(mapper_kw)
     nav2_tolerance_m, route_graph_radius_m = check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
     )
