@@ -1005,6 +1005,19 @@ def test_a_robot_larger_than_the_route_graph_was_built_for_is_refused(tmp_path, 
     assert "route: error: --robot-radius: expected at most the 0.3 m" in capsys.readouterr().err
 
 
+def test_the_route_graphs_own_radius_as_a_float32_plans():
+    """A radius equal to the one the route graph was built for, up to float32 rounding (a
+    radius read from a float32 array or message: 0.3 becomes 0.30000001), is that radius,
+    as the graph's float32 clearances hold it: it plans, with the map and without, rather
+    than being refused as larger with a message that gives both radii as 0.3 m."""
+    m, g = _fork(radius=0.3)
+    for occupancy in (None, m):
+        planner = RoutePlanner(g, occupancy=occupancy, robot_radius_m=np.float32(0.3))
+        assert planner.route((0.45, 2.15), (2.85, 1.15)).length_m > 0
+    with pytest.raises(ValueError, match=r"at most the 0\.3 m .* received 0\.300001 m"):
+        RoutePlanner(g, robot_radius_m=0.300001)
+
+
 def test_with_the_map_routes_on_a_route_graph_join_in_sight_and_are_never_longer():
     from topojax.routegraph.feasible import feasible_space
 

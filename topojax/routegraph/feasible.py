@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from .._validate import is_real_number, robot_radius
-from ..fields.clearance import clearance_at_least, free_clearance_px
+from ..fields.clearance import CLEARANCE_RTOL, clearance_at_least, free_clearance_px
 from ..maps import map_argument
 
 __all__ = ["FeasibleSpace", "check_radius_within_graphs", "feasible_space"]
@@ -154,11 +154,13 @@ def check_radius_within_graphs(attrs, radius_m: float) -> None:
     """A ValueError where ``radius_m`` (a planner's ``robot_radius_m``) is larger than
     the radius a route graph records it was built for (``attrs``' ``robot_radius_m``):
     its edges keep that far from obstacles only, so a route on it is no safe route for
-    the larger robot.  Nothing for a graph that records none (a topology graph)."""
+    the larger robot.  A radius larger by no more than the clearances' rounding
+    (:data:`~topojax.fields.clearance.CLEARANCE_RTOL`: the built one as a float32) is
+    the built one.  Nothing for a graph that records none (a topology graph)."""
     built = attrs.get("robot_radius_m")
-    if is_real_number(built) and radius_m > float(built) * (1 + 1e-9):
+    if is_real_number(built) and radius_m > float(built) * (1 + CLEARANCE_RTOL):
         raise ValueError(
-            f"robot_radius_m: expected at most the {float(built):g} m the route graph was "
+            f"robot_radius_m: expected at most the {float(built):.9g} m the route graph was "
             f"built for (its edges keep that far from obstacles, no farther), received "
-            f"{radius_m:g} m; build the route graph for a robot of {radius_m:g} m"
+            f"{radius_m:.9g} m; build the route graph for a robot of {radius_m:.9g} m"
         )
