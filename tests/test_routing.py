@@ -1056,6 +1056,26 @@ def test_with_the_map_routes_on_a_route_graph_join_in_sight_and_are_never_longer
     assert shorter > 0
 
 
+def test_with_the_map_an_end_as_near_to_two_points_of_an_edge_may_join_at_either():
+    """A point as near to two pixels of one edge (here between two pixels of a straight
+    corridor, the goal at its far end) may join at either, as without the map: the route
+    joins at the one nearer the goal, not at whichever comes first along the edge (or, in
+    the world frame, whichever the coordinates' rounding puts a hair nearer), which made
+    the route with the map longer than the one without."""
+    m, g = _fork()
+    start_px, goal_px = (11.0, 15.5), (10, 28)  # as near to (10, 15) as to (10, 16)
+    start_xy = tuple(float(v) for v in m.pixel_to_world(*start_px))
+    goal_xy = tuple(float(v) for v in m.pixel_to_world(*goal_px))
+    for occupancy in (None, m):
+        planner = RoutePlanner(g, occupancy=occupancy)
+        for route in (
+            planner.route(start_px, goal_px, frame="pixel"),
+            planner.route(start_xy, goal_xy),
+        ):
+            assert route.pixels[0].tolist() == [10, 16]
+            assert route.length_m == pytest.approx(1.2)
+
+
 def _half_pixel_samples(q, p) -> set[tuple[int, int]]:
     """The pixels of ``n = ceil(2 d) + 2`` points evenly spaced along ``q``-``p``, rounded
     half up: the sight test that sampled lines every half pixel."""

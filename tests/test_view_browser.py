@@ -421,6 +421,23 @@ def test_routes_from_where_the_robot_does_not_fit_equal_plan_route(browser, tmp_
     assert "behind an obstacle or off the map, as is every other within 1.50000 m" in got["error"]
 
 
+def test_an_end_as_near_to_two_points_of_an_edge_joins_as_the_planner_does(browser, tmp_path):
+    """A start as near to two pixels of one edge, between rows 15 and 16 of the left edge
+    with the goal at its lower end, may join at either: the page, as the planner given
+    the map, joins at the one that gives the shorter route (row 16: 1.9 m along the
+    graph), not at the first along the edge."""
+    occupancy, g = wall_between()
+    page = tj.write_view(g, tmp_path / "tie.html", map=occupancy)
+    assert _open(browser, page) == "ready"
+    a = tuple(map(float, occupancy.pixel_to_world(15.5, 11)))
+    b = tuple(map(float, occupancy.pixel_to_world(35, 10)))
+    want = tj.RoutePlanner(g, occupancy=occupancy).route(a, b)
+    assert want.length_m == pytest.approx(1.9)
+    got = _js(browser, "topojaxView.route(...arguments)", *a, *b, "graph")
+    assert abs(got["length_m"] - want.length_m) < 1e-9, got
+    assert abs(got["start_snap_m"] - want.start_snap_m) < 1e-9, got
+
+
 def test_sight_lines_in_the_page_pass_the_planners_pixels(intel):
     """The page's router and RoutePlanner see along the same lines: random ones on a
     random grid, from anywhere to pixel centres, borders, corners and off the grid."""

@@ -407,11 +407,12 @@ class RoutePlanner:
         self, q: np.ndarray, frame: str, scale: float, reach_m: float, mask: np.ndarray
     ) -> list[tuple[int, float]]:
         """``(tree point, distance m)`` of each edge's (or edgeless vertex's) nearest
-        corridor point within ``reach_m`` of query ``q`` that the robot reaches along
+        corridor points within ``reach_m`` of query ``q`` that the robot reaches along
         a straight line over pixels set in ``mask`` (bool (H, W)): every pixel the line
-        passes through (:func:`topojax._sight.sees`).  Candidates are tried nearest
-        first, a batch at a time, skipping edges already joined (bounded memory for any
-        reach)."""
+        passes through (:func:`topojax._sight.sees`); every one as near as the edge's
+        nearest (within :data:`_TIE`), as without the map, where the route may leave by
+        either.  Candidates are tried nearest first, a batch at a time, skipping points
+        farther than an edge's join (bounded memory for any reach)."""
         tree, owners = self._tree(frame)
         qp, (r, c) = self._query_pixel(q, frame)
         h, w = mask.shape
@@ -426,17 +427,18 @@ class RoutePlanner:
         cand, dist = cand[order], dist[order]
         key = np.where(owners[cand, 0] >= 0, owners[cand, 0], len(self._u) + owners[cand, 2])
         out: list[tuple[int, float]] = []
-        joined: set[int] = set()
+        # per edge (then edgeless vertex), the distance (m) it is joined at: inf until it is
+        joined = np.full(len(self._u) + len(self._nodes), np.inf)
         for b in range(0, cand.size, _ENTRY_BATCH):
             sel = np.arange(b, min(b + _ENTRY_BATCH, cand.size))
-            if joined:  # edges already joined need no farther point
-                sel = sel[~np.isin(key[sel], np.fromiter(joined, np.int64))]
+            sel = sel[dist[sel] <= joined[key[sel]] + _TIE]  # no point farther than a join
             if sel.size == 0:
                 continue
             seen = _sees(mask, qp, self._pixels_of(cand[sel], frame))
             for i in sel[seen].tolist():  # nearest first
-                if int(key[i]) not in joined:
-                    joined.add(int(key[i]))
+                e = int(key[i])
+                joined[e] = min(joined[e], dist[i])
+                if dist[i] <= joined[e] + _TIE:
                     out.append((int(cand[i]), float(dist[i])))
         return out
 

@@ -174,8 +174,9 @@ var TJ = (window.TJ = window.TJ || {});
     return { edge: e, index: i - this.G.starts[e], vertex: -1, dist: dist };
   };
 
-  /* append to `at` each edge's (or edgeless vertex's) nearest point within `reach`
-   * metres that (x, y) sees over the set pixels of `mask`, nearest first */
+  /* append to `at` each edge's (or edgeless vertex's) nearest points within `reach`
+   * metres that (x, y) sees over the set pixels of `mask` (every one at most TIE metres
+   * farther than the edge's nearest, as without them), nearest first */
   TJ.Router.prototype.entries = function (x, y, reach, mask, at) {
     var F = this.entry, G = this.G, np = G.np, grid = this.grid;
     var q = F.frame.worldToPixel(x, y);
@@ -188,14 +189,14 @@ var TJ = (window.TJ = window.TJ || {});
       return [Math.sqrt(dx * dx + dy * dy), i];
     });
     cand.sort(function (a, b) { return a[0] - b[0] || a[1] - b[1]; });
-    var joined = new Set();
+    var joined = new Map(); // key -> the distance it is joined at
     for (var k = 0; k < cand.length; k++) {
       var d = cand[k][0], i = cand[k][1];
       var key = i >= np ? G.ne + this.lonely[i - np] : this.pointEdge[i];
-      if (joined.has(key)) continue;
+      if (joined.has(key) && d > joined.get(key) + TIE) continue;
       var c = i >= np ? F.frame.worldToPixel(grid.x[i], grid.y[i]) : [G.rows[i], G.cols[i]];
       if (!sees(mask, q[0], q[1], c[0], c[1])) continue;
-      joined.add(key);
+      if (!joined.has(key)) joined.set(key, d);
       at.push(this.point(i, d));
     }
   };
