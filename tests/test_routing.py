@@ -1076,6 +1076,29 @@ def test_with_the_map_an_end_as_near_to_two_points_of_an_edge_may_join_at_either
             assert route.length_m == pytest.approx(1.2)
 
 
+def test_with_the_map_a_join_exactly_the_reach_away_is_in_reach_in_either_frame():
+    """A point exactly ``entry_m`` (here the graph's snap_m, 1 m: 20 pixels) from the graph
+    joins it along a leg the robot fits on, in the world frame as in the pixel frame,
+    though its world coordinates put the join 1.0000000000000002 m away: the reach allows
+    for the coordinates' rounding, as the fallback's does, rather than calling the leg
+    one the robot does not fit on (which ``topojax route`` warns of)."""
+    occupied = np.ones((60, 60), bool)
+    occupied[1:-1, 1:-1] = False
+    m = tj.OccupancyMap.from_array(occupied, resolution_m=0.05)
+    g = nx.MultiGraph(resolution_m=0.05, shape=(60, 60), robot_radius_m=0.25, snap_m=1.0)
+    for name, pixel in {"a": (8, 6), "b": (51, 6)}.items():
+        g.add_node(name, pixel=pixel, world=tuple(float(x) for x in m.pixel_to_world(*pixel)))
+    path = np.array([(r, 6) for r in range(8, 52)], np.int64)
+    x, y = m.pixel_to_world(path[:, 0], path[:, 1])
+    g.add_edge("a", "b", path=path, world=np.stack([x, y], 1), length_m=0.05 * 43)
+    planner = RoutePlanner(g, occupancy=m)
+    q = tuple(float(v) for v in m.pixel_to_world(30, 26))
+    assert planner.route(q, q).start_snap_m > 1.0  # the rounding of the world frame
+    for route in (planner.route(q, q), planner.route((30, 26), (30, 26), frame="pixel")):
+        assert route.start_leg_feasible and route.goal_leg_feasible
+        assert route.pixels[0].tolist() == [30, 6]
+
+
 def _half_pixel_samples(q, p) -> set[tuple[int, int]]:
     """The pixels of ``n = ceil(2 d) + 2`` points evenly spaced along ``q``-``p``, rounded
     half up: the sight test that sampled lines every half pixel."""

@@ -356,9 +356,11 @@ class RoutePlanner:
         nearest_m = float(dist) * scale
         cap = math.inf if max_snap_m is None else max_snap_m
         if self._feasible is not None and nearest_m <= cap:
-            # the nearest point itself within the second reach, whatever the rounding
+            # a join exactly the reach away within it, and the nearest point itself within
+            # the second reach, whatever the rounding of the query's coordinates
+            near = reach_m * (1 + 1e-12) + _TIE
             wide = (nearest_m + self._entry_m) * (1 + 1e-12) + _TIE
-            legs = ((True, self._feasible, reach_m), (False, self._clear, min(wide, cap)))
+            legs = ((True, self._feasible, near), (False, self._clear, min(wide, cap)))
             for fits, mask, reach in legs:  # the fallback's legs do not fit the robot
                 entries = self._entries(q, frame, scale, reach, mask)
                 seen = [self._snap(owners[i], d, fits) for i, d in entries]

@@ -149,9 +149,11 @@ var TJ = (window.TJ = window.TJ || {});
     var cap = maxSnap === null || maxSnap === undefined ? Infinity : maxSnap;
     if (this.entry && hit.dist <= cap) {
       // the points in sight over feasible pixels, else over those off the obstacles
-      // the nearest point itself within reach, whatever the rounding (as RoutePlanner)
+      // a join exactly the reach away within it, and the nearest point itself within
+      // the second reach, whatever the rounding (as RoutePlanner)
+      var near = Math.min(this.entry.reach, cap) * (1 + 1e-12) + TIE;
       var wide = Math.min((hit.dist + this.entry.reach) * (1 + 1e-12) + TIE, cap);
-      this.entries(x, y, Math.min(this.entry.reach, cap), this.entry, at);
+      this.entries(x, y, near, this.entry, at);
       if (at.length === 0) this.entries(x, y, wide, this.clear, at);
       if (at.length === 0) {
         throw new Error(
