@@ -230,11 +230,10 @@ class RoutePlanner:
                 self._walls = WallDistance.of_clearance_m(space.clearance_m)
 
     def __repr__(self) -> str:
-        mapped = self._occupancy is not None
-        entry = f", entry_m={self._entry_m!r}" if mapped else ""
+        entry = "" if self._occupancy is None else f", entry_m={self._entry_m!r}"
         return (
             f"RoutePlanner(vertices={len(self._nodes)}, edges={len(self._path)}, "
-            f"with_map={mapped}, robot_radius_m={self._radius!r}{entry})"
+            f"with_map={bool(entry)}, robot_radius_m={self._radius!r}{entry})"
         )
 
     # ------------------------------------------------------------------ public
