@@ -20,11 +20,12 @@ from ._validate import (
 from .config import GraphConfig
 
 
-def check_flags_and_reader(reader_kwargs, **flags) -> None:
-    """Check :func:`replay`'s bool options ``flags`` and ``reader_kwargs`` (a dict or
-    None)."""
+def check_options(reader_kwargs, mapper_kw: dict, **flags) -> None:
+    """Check :func:`replay`'s bool options ``flags``, ``reader_kwargs`` (a dict or None)
+    and the keywords it passes to the mapper (``mapper_kw``)."""
     for name, value in flags.items():
         flag(name, value)
+    check_mapper_keywords(mapper_kw)
     if reader_kwargs is not None and not isinstance(reader_kwargs, dict):
         raise TypeError(
             "reader_kwargs: expected a dict of keyword arguments of read_scans, received "

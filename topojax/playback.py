@@ -14,8 +14,7 @@ from typing import NamedTuple
 from ._animation import animation_frame, write_animation
 from ._lock import one_writer
 from ._replay_args import (
-    check_flags_and_reader,
-    check_mapper_keywords,
+    check_options,
     check_replay_args,
     no_empty_folder_left,
     optional_outputs,  # noqa: F401 - for topojax.playback's users
@@ -167,12 +166,11 @@ def replay(
         removes it, one without ``resume`` an earlier one's state and recordings as it
         starts; the files the last replay there wrote and this one does not are removed.
     """
-    check_mapper_keywords(mapper_kw)
     nav2_tolerance_m, route_graph_radius_m = check_replay_args(
         max_scans, nav2_tolerance_m, route_graph_radius_m, graph_config, out_dir, animate, mcap
     )
     refuse_overwriting_source(source, Path(out_dir), animate, mcap)
-    check_flags_and_reader(reader_kwargs, plot=plot, progress=progress, rooms=rooms, view=view)
+    check_options(reader_kwargs, mapper_kw, plot=plot, progress=progress, rooms=rooms, view=view)
     flag("resume", resume)
     every_s = nonnegative_quantity("checkpoint_every_s", checkpoint_every_s, "seconds")
     with no_empty_folder_left(Path(out_dir)), one_writer(Path(out_dir), name="out_dir"):
