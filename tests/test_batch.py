@@ -1640,6 +1640,10 @@ def test_outputs_never_replace_an_input_map_or_its_yaml_image(tmp_path, capsys):
     (src / "m.yaml").write_text("image: m_graph.png\nresolution: 0.05\norigin: [0, 0, 0]\n")
     with pytest.raises(ValueError, match="would overwrite an input map"):
         build_graphs([src / "m.yaml"], out_dir=src, plot=True, workers=0, progress=False)
+    # topojax batch names its own option, not the library's parameter
+    argv = ["batch", str(src / "m.yaml"), "-o", str(src), "--plot", "--workers", "0"]
+    assert main([*argv, "--no-progress"]) == 2
+    assert "error: -o/--out: writing" in capsys.readouterr().err
     # topojax graph with -o the map's own folder: --plot would write <stem>.png
     (src / "a.png").write_bytes(png)
     (src / "b.yaml").write_text("image: b.png\nresolution: 0.05\norigin: [0, 0, 0]\n")

@@ -133,8 +133,10 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
         )
         with one_writer(out, name="--out", command="batch"):  # one batch per folder
             records = run_batch(*map_inputs(paths), out, options)
-    except ValueError as exc:  # e.g. more --workers than the memory holds
-        raise _option_named(exc, "workers", "--workers") from None
+    except ValueError as exc:  # e.g. more --workers than the memory holds, or an output
+        # that would replace an input map: named as the options the user typed
+        exc = _option_named(exc, "workers", "--workers")
+        raise _option_named(exc, "out_dir", OUT_OPTION) from None
     finally:
         if client is not None:
             client.close()
