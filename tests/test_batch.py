@@ -1597,6 +1597,21 @@ def test_a_scheduler_that_cannot_be_reached_is_named_and_leaves_no_folder(tmp_pa
     assert not out.exists()
 
 
+def test_a_connect_timeout_without_a_scheduler_is_refused(tmp_path, capsys):
+    """``--connect-timeout`` does nothing without ``--scheduler``: refused naming both, as
+    the route and room options are without their formats, before ``-o`` is made."""
+    from topojax.cli import main
+
+    out = tmp_path / "out"
+    argv = ["batch", str(PAPER_MAPS[0]), "-o", str(out), "--no-progress", "--workers", "0"]
+    assert main([*argv, "--connect-timeout", "5"]) == 2
+    assert capsys.readouterr().err.startswith(
+        "topojax batch: error: --connect-timeout: only used with --scheduler; expected "
+        "--scheduler ADDRESS beside it, received none"
+    )
+    assert not out.exists()
+
+
 def test_workers_beside_a_scheduler_are_said_to_be_unused(tmp_path, capsys):
     """``--workers`` does nothing with ``--scheduler`` (the cluster's workers run the
     maps): a warning says so rather than let it seem to bound the cluster."""

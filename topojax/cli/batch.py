@@ -88,7 +88,8 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
                 "--scheduler needs dask.distributed (pip install 'topojax[dask]')"
             ) from exc
         try:
-            client = Client(args.scheduler, timeout=args.connect_timeout)
+            timeout = 30.0 if args.connect_timeout is None else args.connect_timeout
+            client = Client(args.scheduler, timeout=timeout)
         except (OSError, TypeError, ValueError) as exc:  # no scheduler there, a bad address
             raise ValueError(
                 f"--scheduler: expected the address of a running Dask scheduler (e.g. "
@@ -228,7 +229,13 @@ def _check_numbers(args) -> None:
         check_formats(args.formats)
     except ValueError as exc:
         raise _option_named(exc, "formats", "--formats") from None
-    quantity("--connect-timeout", args.connect_timeout, unit="seconds", allow_zero=False)
+    if args.connect_timeout is not None:
+        quantity("--connect-timeout", args.connect_timeout, unit="seconds", allow_zero=False)
+        if args.scheduler is None:
+            raise ValueError(
+                "--connect-timeout: only used with --scheduler; expected --scheduler ADDRESS "
+                "beside it, received none"
+            )
     if args.scheduler is not None and not args.scheduler.strip():  # an unset $SCHEDULER
         raise ValueError(
             "--scheduler: expected the address of a running Dask scheduler (e.g. "
@@ -316,7 +323,10 @@ def add_command(subparsers) -> None:
         help="run the CPU stages on a Dask distributed cluster, e.g. tcp://host:8786",
     )
     p.add_argument(
-        "--connect-timeout", type=float, default=30.0, help="seconds to reach the scheduler"
+        "--connect-timeout",
+        type=float,
+        default=None,
+        help="seconds to reach the --scheduler (default 30)",
     )
     add_map_options(p, each_map=", the same for every map file")
     add_sigma_options(p, each_map=" (each map through its own resolution)")
