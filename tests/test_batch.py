@@ -581,6 +581,22 @@ def test_a_run_cut_short_leaves_no_earlier_summary(tmp_path, monkeypatch):
     assert not (out / "summary.parquet").exists()
 
 
+@pytest.mark.parametrize("name", ["summary.csv", "summary.parquet"])
+def test_a_folder_in_place_of_the_summary_is_refused_before_any_map(tmp_path, capsys, name):
+    """A folder where the summary table goes is refused naming the output folder and the
+    table's file, before any map runs (not an OSError of its removal, naming no option)."""
+    from topojax.cli import main
+
+    out = tmp_path / "out"
+    (out / name).mkdir(parents=True)
+    with pytest.raises(ValueError, match=rf"^out_dir: .*{name} is a folder, expected"):
+        build_graphs(PAPER_MAPS[:1], out_dir=out, workers=0, progress=False)
+    argv = ["batch", str(PAPER_MAPS[0]), "-o", str(out), "--workers", "0", "--no-progress"]
+    assert main(argv) == 2
+    assert f"error: -o/--out: {out / name} is a folder" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [name]  # no map ran
+
+
 def test_killed_run_leaves_only_complete_files(tmp_path):
     """SIGKILL a run mid-way: every file under a final name is complete, resume finishes."""
     src = tmp_path / "in"

@@ -34,7 +34,14 @@ from .inputs import ROUTE_FORMATS, _Item
 from .interrupts import HeldInterrupts
 from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
 from .pool import WorkerPool, terminate_workers
-from .records import MapRecord, empty_reason, no_room_reason, totalled, write_summary
+from .records import (
+    MapRecord,
+    drop_summary,
+    empty_reason,
+    no_room_reason,
+    totalled,
+    write_summary,
+)
 from .worker import (
     InlineExecutor,
     _cpu_stage,
@@ -783,9 +790,8 @@ def run_batch(
         items_raw, sources, out=out, formats=options["formats"], plot=options["plot"]
     )
     runner = _BatchRun(items, out_dir=out, fingerprints=fingerprints, **options)
-    if out is not None:  # an earlier run's table: wrong once a map is redone, and a run
-        for name in ("summary.csv", "summary.parquet"):  # cut short writes none
-            (out / name).unlink(missing_ok=True)
+    if out is not None:
+        drop_summary(out)
     records = runner.run()
     if out is not None:
         write_summary(records, out)

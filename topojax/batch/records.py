@@ -149,6 +149,21 @@ def _csv_value(value: Any) -> str:
     return str(value)
 
 
+def drop_summary(out_dir: Path) -> None:
+    """Remove the summary table an earlier run left in ``out_dir`` (wrong once a map is
+    redone; a run cut short writes none).  ValueError naming ``out_dir`` if a folder is
+    where a table goes (it could neither be removed nor replaced)."""
+    targets = [out_dir / name for name in ("summary.csv", "summary.parquet")]
+    for target in targets:
+        if target.is_dir() and not target.is_symlink():
+            raise ValueError(
+                f"out_dir: {target} is a folder, expected the summary table's file or none "
+                "there; remove or rename the folder, or write into another one"
+            )
+    for target in targets:
+        target.unlink(missing_ok=True)
+
+
 def write_summary(records: Sequence[MapRecord], out_dir: str | Path) -> list[Path]:
     """Write the summary table of a batch, atomically.
 
