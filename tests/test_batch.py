@@ -1746,6 +1746,10 @@ def test_batch_argument_checks_for_flags_formats_and_folders(tmp_path):
     for formats in ("", [], ","):
         with pytest.raises(ValueError, match="formats: expected at least one"):
             build_graphs([occ], out_dir=tmp_path, formats=formats, workers=0, progress=False)
+    # a format that is no name is refused as what it is, not as its str() ("3", "106")
+    for formats, received in ((["json", 3], "int 3"), (b"json", "int 106"), ([None], "None")):
+        with pytest.raises(TypeError, match=rf"^formats: expected format names .*{received}"):
+            build_graphs([occ], formats=formats, workers=0, progress=False)
     rec = build_graphs([tmp_path], workers=0, progress=False)[0]
     assert rec.status == "error" and "is a folder" in rec.message
     assert "expand_map_inputs" in rec.message

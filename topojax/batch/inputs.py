@@ -450,11 +450,18 @@ def check_formats(formats: Any) -> tuple[str, ...]:
     if isinstance(formats, str):
         formats = [f for f in formats.split(",") if f.strip()]
     try:
-        items = [str(f).strip().lower().lstrip(".") for f in formats]
+        names = list(formats)
     except TypeError:
         raise TypeError(
             f"formats: expected a sequence of format names, received {type(formats).__name__}"
         ) from None
+    for name in names:
+        if not isinstance(name, str):
+            raise TypeError(
+                f"formats: expected format names (str), received {type(name).__name__} "
+                f"{name!r} among {formats!r}"
+            )
+    items = [f.strip().lower().lstrip(".") for f in names]
     allowed = tuple(_FORMAT_FILES)
     bad = [f for f in items if f not in allowed]
     if bad:
