@@ -60,3 +60,17 @@ def test_workers_given_with_an_executor_are_warned_of(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
         [rec] = build_graphs([MAP], executor=_Elsewhere(tmp_path), progress=False)
+
+
+@pytest.mark.parametrize("kind", ["thread", "process"])
+def test_an_executor_that_is_shut_down_is_refused_before_any_map(tmp_path, kind):
+    """An executor that takes no more tasks (shut down, or a closed Dask client) is refused
+    naming ``executor``, not turned into one error row per map after the kernels ran."""
+    from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+
+    executor = (ThreadPoolExecutor if kind == "thread" else ProcessPoolExecutor)(1)
+    executor.shutdown()
+    out = tmp_path / "out"
+    with pytest.raises(ValueError, match=r"^executor: expected an executor that takes tasks"):
+        build_graphs([MAP], executor=executor, out_dir=out, progress=False)
+    assert not out.exists() or not any(out.iterdir())

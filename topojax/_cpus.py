@@ -137,13 +137,23 @@ def _room_in(folder: str, limit_file: str, usage_file: str, inactive_key: str) -
 
 def as_executor(executor: Any) -> cf.Executor | None:
     """``executor`` itself (None or a :class:`concurrent.futures.Executor`), or the
-    executor of a Dask ``Client`` (``pure=False``)."""
-    if executor is None or isinstance(executor, cf.Executor):
-        return executor
-    get_executor = getattr(executor, "get_executor", None)
-    if get_executor is None:
-        raise TypeError(
-            "executor: expected None, a concurrent.futures.Executor or a "
-            f"dask.distributed Client, received {type(executor).__name__}"
-        )
-    return get_executor(pure=False)
+    executor of a Dask ``Client`` (``pure=False``); ValueError naming ``executor`` if it
+    takes no tasks (shut down, or the client closed), before any work is given to it."""
+    if executor is None:
+        return None
+    if not isinstance(executor, cf.Executor):
+        get_executor = getattr(executor, "get_executor", None)
+        if get_executor is None:
+            raise TypeError(
+                "executor: expected None, a concurrent.futures.Executor or a "
+                f"dask.distributed Client, received {type(executor).__name__}"
+            )
+        executor = get_executor(pure=False)
+    try:  # a shut-down executor refuses at once; a running one gets a task of no cost
+        executor.submit(int)
+    except Exception as exc:  # RuntimeError, Dask's ClosedClientError, ...
+        raise ValueError(
+            "executor: expected an executor that takes tasks, received one that refuses "
+            f"them (shut down, or its client closed): {type(exc).__name__}: {exc}"
+        ) from None
+    return executor
