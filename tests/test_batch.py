@@ -707,6 +707,21 @@ def test_sigterm_stops_the_worker_processes(tmp_path, background):
     assert not list(out.glob(".*.tmp"))
 
 
+def test_a_run_stopped_after_its_last_map_says_only_the_summary_is_missing(tmp_path):
+    """A stop that comes after every map's manifest (while the table is written) says
+    so: --resume then skips every map and writes summary.csv; it has no others to do."""
+    from topojax.cli.batch import _stopped_text
+
+    manifests = {tmp_path / f"{name}.manifest.json": None for name in ("a", "b")}
+    for path in manifests:
+        path.write_text("{}", encoding="utf-8")
+    assert _stopped_text(signal.SIGINT, tmp_path, manifests) == (
+        "topojax batch: interrupted (Ctrl-C) after it finished all 2 maps (their files and "
+        f"manifests are in {tmp_path}), before it wrote summary.csv; the same command with "
+        "--resume writes it"
+    )
+
+
 _INTERRUPTED_WHILE_WAITING = """
 import concurrent.futures._base as base
 import os, signal, sys

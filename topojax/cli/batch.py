@@ -202,6 +202,12 @@ def _stopped_text(signum: int, out, manifests: dict[Path, tuple[int, int] | None
     from .._words import counted
 
     done = sum(1 for path, was in manifests.items() if _stamp(path) not in (None, was))
+    if done == len(manifests):  # stopped while the table was written
+        return (
+            f"topojax batch: {how} after it finished all {counted(done, 'map')} (their "
+            f"files and manifests are in {out}), before it wrote summary.csv; the same "
+            "command with --resume writes it"
+        )
     return (
         f"topojax batch: {how}; this run finished {done} of {counted(len(manifests), 'map')} "
         f"(their files and manifests are in {out}; summary.csv is written only by a run "
