@@ -1099,9 +1099,31 @@ def test_a_negative_number_in_any_notation_is_a_value_not_an_option(word, value)
     assert args.window[:2] == [value, value]
 
 
-def test_a_negative_number_beyond_floats_is_left_to_argparse(capsys):
-    """An exponent too large for a float is not written out digit by digit (a billion
-    digits for ``-1e-999999999``): argparse reads the word as it would."""
-    with pytest.raises(SystemExit):
-        build_parser().parse_args(["route", "g.json", "--start", "-1e-999999999", "2"])
-    assert "--start: expected 2 arguments" in capsys.readouterr().err
+@pytest.mark.parametrize("word, value", [("-1e-999999999", -0.0), ("-1e500", -float("inf"))])
+def test_a_negative_number_beyond_floats_is_read_as_float_reads_it(word, value):
+    """An exponent too large for a float is a value, read as ``float`` reads it (then
+    refused as not finite where a finite number is expected), not an unknown option that
+    leaves ``--start`` with ``expected 2 arguments``."""
+    args = build_parser().parse_args(["route", "g.json", "--start", word, "2", "--goal", "1", "2"])
+    assert args.start == [value, 2.0]
+
+
+@pytest.mark.parametrize("word", ["-inf", "-Infinity", "-nan"])
+def test_a_negative_infinity_or_nan_is_refused_naming_the_option(word, tmp_path, capsys):
+    """``--sigma-m -inf`` is a value that the option refuses as not finite, not a missing
+    argument (``argument --sigma-m: expected one argument``)."""
+    map_file = ROOT / "topojax" / "data" / "a_scan.png"
+    assert main(["graph", str(map_file), "-o", str(tmp_path), "--sigma-m", word]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("topojax graph: error: --sigma-m: expected a finite number")
+
+
+def test_a_path_that_looks_like_a_negative_number_is_taken_as_written():
+    """A word is read verbatim: ``-o -1e2`` is the folder ``-1e2`` and ``-- -5.`` the map
+    file ``-5.``, not ``-100`` and ``-5`` (a number's plain form)."""
+    args = build_parser().parse_args(["graph", "-o", "-1e2", "--", "-5."])
+    assert (args.out, args.map) == ("-1e2", "-5.")
+    args = build_parser().parse_args(["batch", "-o", "out", "--", "-5.", "-1e3"])
+    assert args.inputs == ["-5.", "-1e3"]
+    args = build_parser().parse_args(["replay", "x.log", "--scan-topic", "-1e1"])
+    assert args.scan_topic == "-1e1"

@@ -12,7 +12,6 @@ import re
 import signal
 import sys
 import warnings
-from decimal import Decimal
 
 from .. import __version__
 from . import batch, graph, replay, rooms, route, route_graph, view
@@ -52,9 +51,12 @@ class _CommandParser(argparse.ArgumentParser):
     command's own usage line and name (``topojax route-graph: error: ...``, not the
     ``topojax`` ones), which suggests the command's closest option to a mistyped one."""
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # a word that writes a negative number in any notation is a value, taken verbatim
+        self._negative_number_matcher = _NEGATIVE
+
     def parse_known_args(self, args=None, namespace=None):
-        if args is not None:  # the words after the command's name
-            args = [_plain_negative(word) for word in args]
         namespace, extras = super().parse_known_args(args, namespace)
         if extras:
             self.error(_unrecognized_text(extras, self._option_string_actions))
@@ -71,23 +73,13 @@ class _CommandParser(argparse.ArgumentParser):
 _PATHS = frozenset({"out", "map", "graph", "folder", "source", "animate"})
 
 
-#: A negative decimal number in any notation: ``-1e-05``, ``-3E+5``, ``-5.``, ``-.5``.
-_NEGATIVE = re.compile(r"-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
-#: The largest exponent written out in full: beyond it a float is 0 or inf anyway.
-_MOST_DIGITS = 400
-
-
-def _plain_negative(word: str) -> str:
-    """``word`` as argparse reads a negative number (``-300000`` for ``-3e5``, the same
-    value digit for digit) where it is one in a form that argparse takes for an option
-    (exponents, a trailing point: ``--start -1e-05 2`` failed with ``expected 2
-    arguments``); any other word as it is."""
-    if not _NEGATIVE.fullmatch(word):
-        return word
-    number = Decimal(word)
-    if abs(number.adjusted()) > _MOST_DIGITS:  # not written out a billion digits long
-        return word
-    return format(number, "f")  # a plain decimal: argparse's own negative-number form
+#: A negative number in any notation ``float`` reads: ``-1e-05``, ``-3E+5``, ``-5.``,
+#: ``-.5``, ``-1_000``, ``-1e500``, ``-inf``, ``-nan``.  argparse's own pattern takes only
+#: ``-5`` and ``-0.5`` for numbers, and any other word that starts with a dash for an
+#: option (``--start -1e-05 2`` failed with ``expected 2 arguments``).
+_NEGATIVE = re.compile(
+    r"-(\d[\d_]*\.?[\d_]*|\.\d[\d_]*)([eE][-+]?\d[\d_]*)?\Z|-(inf|infinity|nan)\Z", re.IGNORECASE
+)
 
 
 def _unrecognized_text(extras: list[str], options) -> str:
