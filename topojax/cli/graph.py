@@ -14,12 +14,14 @@ from ._graph_out import (
     write_nav2,
 )
 from ._options import (
+    _OPTION_OF,
     add_map_options,
     add_nav2_options,
     add_pipeline_options,
     add_room_options,
     add_sigma_options,
     assumed_resolution_note,
+    graph_filters,
     load_option_map,
     map_options,
     nav2_tolerance,
@@ -117,15 +119,19 @@ def _write_outputs(
     return written
 
 
-def _classes_hint(occupancy, graph) -> list[str]:
+def _classes_hint(occupancy, result) -> list[str]:
     """A note when the map, as classified, cannot give a graph (no obstacle or no free
     pixel), gave none, or its walls look unknown (grey walls): usually thresholds or a
-    pixel convention that do not fit the file."""
+    pixel convention that do not fit the file; or when the pruning options removed every
+    corridor of the skeleton it gave."""
     from ..maps.classify import wall_share
 
     counts = tuple(int(m.sum()) for m in (occupancy.occupied, occupancy.free, occupancy.unknown))
     share = wall_share(occupancy.occupied, occupancy.free) if all(counts[:2]) else None
-    return map_notes(counts, share, graph.number_of_nodes() == 0)
+    empty = result.graph.number_of_nodes() == 0
+    pruned = graph_filters(result.config.graph) if empty and result.skeleton.any() else {}
+    names = [_OPTION_OF[name] for name in pruned if name in _OPTION_OF]
+    return map_notes(counts, share, empty, pruned_by=", ".join(names))
 
 
 def _cmd_graph(args) -> int:
@@ -151,7 +157,7 @@ def _cmd_graph(args) -> int:
     occupancy = load_option_map(args.map, map_options(args))
     config = pipeline_config(args, resolution_m=occupancy.resolution_m)
     result = build_graph(occupancy, config=config)
-    for line in _classes_hint(occupancy, result.graph):
+    for line in _classes_hint(occupancy, result):
         print(line)
     seg, notes = None, []
     if rooms_config is not None:
