@@ -1072,11 +1072,23 @@ def test_view_command_on_a_map_too_large(tmp_path, capsys):
     tj.save_graph(res.graph, tmp_path / "intel.json")
     tj.save_map(res.map, tmp_path / "intel.yaml")
     assert main(["view", str(tmp_path), "--max-pixels", "1000"]) == 2
-    assert "max_pixels=1000" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "more than --max-pixels 1000 (" in err and "--window X_MIN Y_MIN X_MAX Y_MAX" in err
+    assert "max_pixels" not in err and "window=" not in err  # the options, not parameters
     assert (
         main(["view", str(tmp_path), "--max-pixels", "1000000", "--window", "0", "0", "9", "9"])
         == 0
     )
+
+
+def test_view_command_on_a_graph_too_large_without_its_map_names_options(tmp_path, capsys):
+    """Without the graph's map in the folder the error says what to do on the command
+    line, not which Python arguments (``map=``, ``tj.open_tiled_map``) to pass."""
+    tj.save_graph(intel_result().graph, tmp_path / "intel.json")
+    assert main(["view", str(tmp_path), "--max-pixels", "1000"]) == 2
+    err = capsys.readouterr().err
+    assert "more than --max-pixels 1000 (" in err
+    assert "max_pixels" not in err and "map=" not in err and "tj." not in err
 
 
 def test_view_command_leaves_out_a_map_not_on_the_graphs_grid(tmp_path, capsys):

@@ -303,6 +303,20 @@ def _graph_grid(graph) -> tuple[int, int, float] | None:
         return None
 
 
+#: The words of write_view's refusal of a large map that name its arguments, and what
+#: the command says instead (without its map in the folder, ``--window`` cannot cut one).
+_AS_OPTIONS = (
+    ("max_pixels=", "--max-pixels "),
+    ("a larger max_pixels", "a larger --max-pixels"),
+    ("window=(x_min, y_min, x_max, y_max)", "--window X_MIN Y_MIN X_MAX Y_MAX"),
+    (
+        " (map=: an OccupancyMap, or tj.open_tiled_map(...) of a map on disk, read a window "
+        "at a time)",
+        " (the map it was made from, in the folder or recorded in its .topojax-outputs.json)",
+    ),
+)
+
+
 def _write_one(result: _Result, target: Path, args) -> str:
     from ..view import write_view
 
@@ -312,12 +326,12 @@ def _write_one(result: _Result, target: Path, args) -> str:
     try:
         write_view(obj, target, window=args.window, max_pixels=args.max_pixels, **kwargs)
     except ValueError as exc:
-        text, hint = str(exc), ""
+        text = str(exc)
         if text.startswith("window: "):  # write_view's argument, given as --window
             text = "--window: " + text.removeprefix("window: ")
-        if "max_pixels=" in text:
-            hint = " (here: --window X_MIN Y_MIN X_MAX Y_MAX, --max-pixels N)"
-        raise ValueError(f"{result.graph or result.rooms}: {text}{hint}") from None
+        for words, option in _AS_OPTIONS:  # write_view's arguments, as the options give them
+            text = text.replace(words, option)
+        raise ValueError(f"{result.graph or result.rooms}: {text}") from None
     parts = [f"{target} ({target.stat().st_size / 1e6:.2f} MB)"]
     if result.graph is not None:
         parts.append(f"graph {result.graph.name}")
