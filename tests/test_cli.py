@@ -1138,3 +1138,24 @@ def test_a_graph_pruned_away_is_said_so_naming_the_pruning_option(tmp_path, caps
     notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note")]
     assert len(notes) == 1
     assert "--min-component-m" in notes[0] and "--occupied-thresh" not in notes[0]
+
+
+@pytest.mark.parametrize(
+    "command, option, says",
+    [
+        ("graph", "--tile-px", "(default 256)"),
+        ("demo", "--tile-px", "(default 256)"),
+        ("batch", "--tile-px", "(default 256)"),
+        ("batch", "--connect-timeout", "(default 30)"),
+        ("batch", "--tiles-per-call", "default 16)"),
+        ("batch", "--kernel-threads", "(default: the cores this process may use, at most 8"),
+        ("graph", "--occupied-thresh", "from 0 to 1 (default: the YAML's, else 0.65)"),
+        ("rooms", "--free-thresh", "from 0 to 1 (default: the YAML's, else 0.196)"),
+    ],
+)
+def test_the_help_of_an_option_says_its_default(command, option, says):
+    """An option's --help says the value it takes when not given (and, for a threshold,
+    what it is), as docs/command-line.md does; 'override occupied_thresh' named a YAML key."""
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    action = sub.choices[command]._option_string_actions[option]
+    assert says in " ".join(action.help.split())

@@ -188,7 +188,7 @@ def add_pipeline_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--keep-t", action="store_true", help="do not remove T-junction centres")
     add_graph_options(p)
-    p.add_argument("--tile-px", type=int, default=256, help="JAX tile side in pixels")
+    p.add_argument("--tile-px", type=int, default=256, help="JAX tile side in pixels (default 256)")
 
 
 def add_graph_options(p: argparse.ArgumentParser) -> None:
@@ -279,8 +279,18 @@ def add_map_options(p: argparse.ArgumentParser, *, each_map: str = "") -> None:
         help=f"m/px of the map{each_map} (default: a YAML's own, a PGM's 'm/pix' comment, "
         "else 0.05; given, it replaces a YAML's or a PGM's)",
     )
-    p.add_argument("--occupied-thresh", type=float, help="override occupied_thresh")
-    p.add_argument("--free-thresh", type=float, help="override free_thresh")
+    p.add_argument(
+        "--occupied-thresh",
+        type=float,
+        help="a pixel is occupied above this share of occupancy, from 0 to 1 (default: the "
+        "YAML's, else 0.65)",
+    )
+    p.add_argument(
+        "--free-thresh",
+        type=float,
+        help="a pixel is free below this share of occupancy, from 0 to 1 (default: the "
+        "YAML's, else 0.196)",
+    )
     p.add_argument(
         "--negate",
         action=argparse.BooleanOptionalAction,

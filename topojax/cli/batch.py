@@ -338,10 +338,17 @@ def add_command(subparsers) -> None:
     add_sigma_options(p, each_map=" (each map through its own resolution)")
     add_pipeline_options(p)
     p.add_argument(
-        "--tiles-per-call", type=int, default=None, help="tiles per kernel call (bucket size)"
+        "--tiles-per-call",
+        type=int,
+        default=None,
+        help="tiles per kernel call (bucket size; default 16)",
     )
     p.add_argument(
-        "--kernel-threads", type=int, default=None, help="threads dispatching kernel calls"
+        "--kernel-threads",
+        type=int,
+        default=None,
+        help="threads dispatching kernel calls (default: the cores this process may use, at "
+        "most 8; 2 on an accelerator)",
     )
     p.add_argument(
         "--plot",
