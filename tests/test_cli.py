@@ -1159,3 +1159,16 @@ def test_the_help_of_an_option_says_its_default(command, option, says):
     sub = next(a for a in build_parser()._actions if a.dest == "command")
     action = sub.choices[command]._option_string_actions[option]
     assert says in " ".join(action.help.split())
+
+
+@pytest.mark.parametrize("value", ["-1", "nan", "-inf"])
+def test_route_refuses_a_bad_max_snap_m_saying_none_and_inf_are_taken(value, tmp_path, capsys):
+    """``--max-snap-m`` takes ``none`` or ``inf`` for no limit: its refusal of a negative
+    or NaN value says so, not that a finite number was expected."""
+    argv = ["route", str(tmp_path / "g.json"), "--start", "0", "0", "--goal", "1", "1"]
+    assert main([*argv, "--max-snap-m", value]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(
+        "topojax route: error: --max-snap-m: expected a number of metres >= 0, or none or inf "
+        "for no limit, received "
+    )

@@ -174,10 +174,14 @@ def _cmd_route(args) -> int:
         ("--simplify-m", args.simplify_m, positive_metres),
         ("--robot-radius", args.robot_radius, robot_radius),
         ("--entry-m", args.entry_m, nonnegative_metres),
-        ("--max-snap-m", args.max_snap_m, nonnegative_metres),
     ):
         if value is not None:
             check(option, value)
+    if args.max_snap_m is not None and not args.max_snap_m >= 0:  # also NaN; inf is None
+        raise ValueError(
+            "--max-snap-m: expected a number of metres >= 0, or none or inf for no limit, "
+            f"received {args.max_snap_m!r}"
+        )
     if args.simplify_m is not None and not args.out:  # it thins the file written
         raise ValueError("--simplify-m: only used with -o, which was not given")
     if args.out and os.path.realpath(args.out) == os.path.realpath(args.graph):
