@@ -266,21 +266,27 @@ def _cmd_route(args) -> int:
         print(f"note       {text}")
     for text in _unsafe(route, occupancy is not None):
         warnings.warn(text, UserWarning, stacklevel=2)
-    if args.out and args.simplify_m is not None and args.simplify_m > route.min_clearance_m:
+    if args.out:
+        _write_route(route, args)
+    return 0
+
+
+def _write_route(route, args) -> None:
+    """Write ``route`` to ``-o`` as GeoJSON, thinned by ``--simplify-m`` (warned of where
+    wider than the route's least clearance), and record it in the folder's record."""
+    from .._fs import atomic_write_bytes
+
+    if args.simplify_m is not None and args.simplify_m > route.min_clearance_m:
         warnings.warn(  # a NaN clearance (none recorded) compares False: nothing to say
             f"--simplify-m {args.simplify_m:g} m is more than the route's least clearance, "
             f"{route.min_clearance_m:.3f} m: the written route's straight segments may "
             "cross obstacles",
             UserWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
-    if args.out:
-        from .._fs import atomic_write_bytes
-
-        out = Path(args.out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        text = json.dumps(route.to_geojson(tolerance_m=args.simplify_m))
-        atomic_write_bytes(out, text.encode("utf-8"))
-        record_outputs(planned([out], args.graph), command="route")
-        print(f"wrote      {out}")
-    return 0
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(route.to_geojson(tolerance_m=args.simplify_m))
+    atomic_write_bytes(out, text.encode("utf-8"))
+    record_outputs(planned([out], args.graph), command="route")
+    print(f"wrote      {out}")
