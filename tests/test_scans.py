@@ -378,6 +378,19 @@ def test_carmen_max_range_sentinel(tmp_path):
         read_carmen(path, max_range_m=-1.0)
 
 
+def test_a_log_of_only_zero_readings_says_which_option_sets_the_max_range(tmp_path):
+    """Readings all 0 leave no no-return value above the margin: the refusal says how to
+    give the range, in the API and on the command line."""
+    path = tmp_path / "zeros.log"
+    path.write_text("".join(_flaser([0.0] * 5, (i, 0, 0)) for i in range(3)))
+    with (
+        pytest.warns(UserWarning, match="taken as the FLASER no-return value"),
+        pytest.raises(ValueError, match=r"pass max_range_m \(topojax replay --max-range\)$"),
+    ):
+        list(read_carmen(path))
+    assert len(list(read_carmen(path, max_range_m=10.0))) == 3
+
+
 def test_one_faulty_reading_does_not_set_the_no_return_value(tmp_path):
     """A reading far above the no-return value in one scan (a corrupt line) is dropped
     with a warning; it does not lift the range limit, which would turn every real

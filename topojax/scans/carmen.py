@@ -467,7 +467,7 @@ def _iter_carmen(
         if range_max_old <= 0:
             raise ValueError(
                 f"{path}: {chosen} no-return value {file_max} m minus no_return_margin_m "
-                f"{margin} m is not positive; pass max_range_m"
+                f"{margin} m is not positive; pass max_range_m (topojax replay --max-range)"
             )
     odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
