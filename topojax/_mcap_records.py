@@ -61,16 +61,17 @@ def _decompressed(data: bytes, compression: str, cut: bool) -> bytes:
     raise ValueError(f"chunk compression: expected '', 'zstd' or 'lz4', received {compression!r}")
 
 
-def chunk_parts(body: bytes) -> tuple[int, int, str, int]:
-    """A chunk body's uncompressed size, CRC, compression and where its compressed
-    records start; a ValueError where its head runs past ``body``."""
+def chunk_parts(body: bytes) -> tuple[int, str, int, int]:
+    """A chunk body's CRC, compression, where its compressed records start and their
+    length in bytes; a ValueError where its head runs past ``body``."""
     if len(body) < CHUNK_HEAD + 4:
         raise ValueError("a chunk's head runs past the end of its record")
-    size, crc = struct.unpack_from("<QI", body, 16)
+    (crc,) = struct.unpack_from("<I", body, CRC_AT)
     compression, pos = string_at(body, CHUNK_HEAD)
     if len(body) < pos + 8:
         raise ValueError("a chunk's head runs past the end of its record")
-    return size, crc, compression, pos + 8
+    (n,) = struct.unpack_from("<Q", body, pos)
+    return crc, compression, pos + 8, n
 
 
 def fill_chunk_crcs(path: Path) -> int:
@@ -91,9 +92,10 @@ def fill_chunk_crcs(path: Path) -> int:
                 return n
             if op == CHUNK:
                 body = fh.read(length)
-                _, crc, compression, start = chunk_parts(body)
+                crc, compression, start, size = chunk_parts(body)
                 if crc == 0:
-                    crc = zlib.crc32(decompress(body[start:], compression, cut=False))
+                    records = decompress(body[start : start + size], compression, cut=False)
+                    crc = zlib.crc32(records)
                     fh.seek(pos + RECORD_HEAD + CRC_AT)
                     fh.write(struct.pack("<I", crc))
                     n += 1

@@ -13,13 +13,12 @@ from typing import Any, NamedTuple
 from .._mcap_records import (
     CHANNEL,
     CHUNK,
-    CHUNK_HEAD,
-    CRC_AT,
     FOOTER,
     MCAP_MAGIC,
     MESSAGE,
     RECORD_HEAD,
     SCHEMA,
+    chunk_parts,
     decompress,
     string_at,
 )
@@ -129,19 +128,13 @@ class _McapSequential:
         """The messages of the chunk record at byte ``where``, in log-time order (of one
         ``cut`` short, those before the cut, then :class:`_Cut`); a ValueError for a
         whole chunk whose records do not match its CRC."""
-        if len(body) < CHUNK_HEAD + 4:
-            raise _Cut
         try:
-            compression, pos = string_at(body, CHUNK_HEAD)
-        except ValueError:
+            crc, compression, start, n = chunk_parts(body)
+        except ValueError:  # its head runs past the cut
             raise _Cut from None
-        if len(body) < pos + 8:
-            raise _Cut
-        (n,) = struct.unpack_from("<Q", body, pos)
-        data = body[pos + 8 : pos + 8 + n]
+        data = body[start : start + n]
         inner_cut = cut or len(data) < n
         records = decompress(data, compression, inner_cut)
-        (crc,) = struct.unpack_from("<I", body, CRC_AT)
         if crc and not inner_cut and zlib.crc32(records) != crc:
             raise ValueError(
                 f"{self.path}: the chunk at byte {where} is damaged: its records do not "
