@@ -3,9 +3,10 @@ that no output replaces an input map."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import BinaryIO
 
@@ -144,32 +145,34 @@ def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
         no_file_above(f"folder for output file {dest}", dest)
         raise FileNotFoundError(f"folder for output file {dest} does not exist: {folder}")
     fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=folder)
-    try:
-        # mkstemp creates the file 0600; give the result the permissions any ordinary
-        # new file would get (0666 less the process umask).
-        os.fchmod(fd, default_file_mode())
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, dest)
-    except BaseException as exc:
+    with naming_file(dest):
         try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        named = naming_file(exc, dest)
-        if named is not exc:
-            raise named from exc
+            # mkstemp creates the file 0600; give the result the permissions any ordinary
+            # new file would get (0666 less the process umask).
+            os.fchmod(fd, default_file_mode())
+            with os.fdopen(fd, "wb") as fh:
+                write(fh)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, dest)
+        except BaseException:
+            try:
+                os.unlink(tmp)
+            except FileNotFoundError:
+                pass
+            raise
+
+
+@contextlib.contextmanager
+def naming_file(dest) -> Iterator[None]:
+    """Re-raise a built-in OSError that names no file (a full disk says only "No space
+    left on device") as one of its type saying it could not write ``dest``."""
+    try:
+        yield
+    except OSError as exc:
+        if _unnamed_os_error(exc):
+            raise type(exc)(exc.errno, f"cannot write {dest} ({exc.strerror})") from exc
         raise
-
-
-def naming_file(exc: BaseException, dest) -> BaseException:
-    """``exc``, or where it is a built-in OSError that names no file (a full disk says
-    only "No space left on device"), one of its type saying it could not write ``dest``."""
-    if _unnamed_os_error(exc):
-        return type(exc)(exc.errno, f"cannot write {dest} ({exc.strerror})")
-    return exc
 
 
 def _unnamed_os_error(exc: BaseException) -> bool:

@@ -223,18 +223,6 @@ def _write_paths(row_start, cols, masks, state, h, w, eu, ek, urow, el, out_idx,
         at += el[e]
 
 
-@contextlib.contextmanager
-def _naming(dest: Path):
-    """Re-raise an OSError that names no file (a full disk) as one naming ``dest``."""
-    try:
-        yield
-    except OSError as exc:
-        named = naming_file(exc, dest)
-        if named is not exc:
-            raise named from exc
-        raise
-
-
 class _Output:
     """The store's two path arrays, in memory or as ``.npy`` files written in order."""
 
@@ -267,7 +255,7 @@ class _Output:
         if self.out_dir is None:
             self.arrays[name][self.at : self.at + values.shape[0]] = values
         else:
-            with _naming(self.out_dir / f"{name}.npy"):
+            with naming_file(self.out_dir / f"{name}.npy"):
                 self.files[name].write(np.ascontiguousarray(values).tobytes())
 
     def advance(self, n: int) -> None:
@@ -278,7 +266,7 @@ class _Output:
             return self.arrays
         try:
             for name, f in self.files.items():
-                with _naming(self.out_dir / f"{name}.npy"):
+                with naming_file(self.out_dir / f"{name}.npy"):
                     f.close()  # writes what the file's buffer still holds
                 os.replace(self.tmp[name], self.out_dir / f"{name}.npy")
         except BaseException:
