@@ -199,11 +199,6 @@ def _note_other_maps(out: Inputs, checked) -> None:
             out.notes.append(f"the timeline was not recorded on the map shown: {why}")
 
 
-def _room_list(rooms) -> list:
-    """The rooms of a segmentation or of a ``(rooms, doors)`` pair."""
-    return list(rooms[0] if isinstance(rooms, tuple) else rooms.rooms)
-
-
 def _route_mismatch(route, occupancy) -> str | None:
     """Why ``route`` was not planned on ``occupancy``: a pixel of its path whose world
     point lies on another pixel there (the page draws the world points); None when every
@@ -490,7 +485,8 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
             note = graph.graph.get("note")  # a route graph's reason (topojax.route_graph)
             why = f"; its note: {note}" if isinstance(note, str) and note else ""
             inputs.notes.append(f"the {g['label']} is empty: no vertex, no edge{why}")
-    if inputs.rooms is not None and not _room_list(inputs.rooms):
+    rooms = rooms_payload(inputs.rooms) if inputs.rooms is not None else None
+    if rooms is not None and not rooms["rooms"]:
         inputs.notes.append("the rooms are empty: no room, no door")
     payload = {
         "version": FORMAT_VERSION,
@@ -498,7 +494,7 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
         "frame": frame.to_json(),
         "rasters": rasters,
         "graphs": graphs,
-        "rooms": rooms_payload(inputs.rooms) if inputs.rooms is not None else None,
+        "rooms": rooms,
         "route": _route_payload(inputs.route) if inputs.route is not None else None,
         "timeline": inputs.timeline.payload() if inputs.timeline is not None else None,
         "max_snap_m": DEFAULT_MAX_SNAP_M,
