@@ -85,9 +85,9 @@ def test_a_budget_above_the_memory_available_is_warned_of_once_naming_the_option
         assert main(argv) == 0
     err = capsys.readouterr().err
     assert [line for line in err.splitlines() if "memory" in line] == [
-        "topojax graph: warning: --memory-budget-mb: 14 MB (14.0 MiB) is more than the 10.0 MiB of "
-        "memory available; blocks sized to it may not fit (a smaller budget gives smaller "
-        "blocks)"
+        "topojax graph: warning: --memory-budget-mb: 14 MB (14.0 MiB) is more than the "
+        "10.0 MiB of memory available; blocks sized to it may not fit (a smaller budget "
+        "gives smaller blocks)"
     ]
 
 

@@ -504,8 +504,8 @@ def test_a_memory_budget_above_the_memory_available_is_warned_of_once(monkeypatc
     with pytest.warns(UserWarning) as caught:
         assert block_px_for_budget(512, PipelineConfig()) % 256 == 0
     assert [str(w.message) for w in caught] == [
-        "memory_budget_mb: 512 MB (512.0 MiB) is more than the 100.0 MiB of memory available; blocks "
-        "sized to it may not fit (a smaller budget gives smaller blocks)"
+        "memory_budget_mb: 512 MB (512.0 MiB) is more than the 100.0 MiB of memory "
+        "available; blocks sized to it may not fit (a smaller budget gives smaller blocks)"
     ]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
