@@ -110,13 +110,13 @@ def _check_args(graph, occupancy, radius, snap_m, n_pairs, seed, min_region_m2, 
     why = map_mismatch(graph, occupancy)
     if why is not None:  # a graph that records its map (a route graph) scored on another
         raise ValueError(f"occupancy: {why}")
-    if radius is None and graph.graph.get("robot_radius_m") is None:
+    radius, named = _given_or_recorded(graph, "robot_radius_m", radius, None)
+    if radius is None:
         raise ValueError(
             "robot_radius_m: expected the robot radius in metres (>= 0; 0: a point robot), "
             "received none, and the graph records none (a route graph records the radius "
             "it was built for)"
         )
-    radius, named = _given_or_recorded(graph, "robot_radius_m", radius, None)
     radius = nonnegative_metres(named, radius)
     # a route graph is scored at the distance it was built to cover
     snap_m, named = _given_or_recorded(graph, "snap_m", snap_m, DEFAULT_SNAP_M)
