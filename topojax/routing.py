@@ -223,7 +223,7 @@ class RoutePlanner:
         )
         self._trees: dict = {}
         self._tree_px: dict = {}  # per frame, the tree points' pixels (with the map)
-        self._walls: WallDistance | None = None  # with the map, on the first route
+        self._walls: WallDistance | None = None  # with the map: a route graph's, else lazy
         if space is not None and graph.graph.get("kind") == "route_graph":
             res = space.resolution_m if self._res is None else self._res
             if np.float32(res) == np.float32(space.resolution_m):  # the clearance's scale
@@ -703,7 +703,7 @@ class RoutePlanner:
 
     def _wall_distance(self) -> WallDistance:
         """The map's distance to the nearest wall, as the graph's clearances measure it
-        (computed on the first route, then kept)."""
+        (a route graph's kept from its feasible space, else computed on the first route)."""
         if self._walls is None:
             res = self._occupancy.resolution_m if self._res is None else self._res
             self._walls = WallDistance.of_map(self._occupancy, self._graph.graph, res)
