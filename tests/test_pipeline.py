@@ -309,7 +309,14 @@ def test_maps_two_pixels_across_reflect_their_border_as_opencv(occupied):
 def test_obstacles_and_unknown_space_keep_the_papers_graph(capsys):
     """No free pixel but unknown space between walls: the paper's method only looks at
     obstacles, so the graph runs through the unknown space; free-space-only has none."""
-    from topojax.cli.graph import _classes_hint
+    from types import SimpleNamespace
+
+    from topojax.cli.graph import _classes_hint as hint_of
+
+    def _classes_hint(occupancy, graph):  # a result of that graph and no skeleton
+        skeleton = np.zeros(occupancy.shape, bool)
+        result = SimpleNamespace(graph=graph, skeleton=skeleton, config=tj.PipelineConfig())
+        return hint_of(occupancy, result)
 
     img = np.full((100, 120), 205, np.uint8)  # unknown
     img[20:80, 30] = img[20:80, 90] = img[20, 30:91] = 0  # three walls
