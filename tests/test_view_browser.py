@@ -546,3 +546,28 @@ def test_a_broken_page_says_so(browser, intel_page, tmp_path):
     corrupt.write_text(text[:z] + "AAAA" + text[z + 4 :])
     assert _open(browser, corrupt) == "error"
     assert "cannot be shown" in browser.find_element(By.ID, "tj-error").text
+
+
+def test_hovering_an_edge_of_an_earlier_update_names_it(browser, tmp_path):
+    # the edges an update removed stay in the timeline's pool; one lying under an edge of
+    # the update shown must not hide that edge from the hover
+    from view_cases import payload_of, unpacked
+
+    mapper, timeline, _ = intel_replay()
+    page = tj.write_view(mapper, tmp_path / "replay.html", timeline=timeline)
+    assert _open(browser, page) == "ready"
+    data = payload_of(page.read_text())["timeline"]
+    sizes = unpacked(data["pool"]["sizes"])
+    xy = unpacked(data["pool"]["xy"]).reshape(-1, 2)
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    _js(browser, "topojaxView.setLayer('vertices', false)")
+    for index, frame in enumerate(data["frames"]):
+        _js(browser, "topojaxView.setFrame(arguments[0])", index)
+        missed = []
+        for e in unpacked(frame["edges"]).tolist():
+            x, y = xy[(starts[e] + starts[e + 1]) // 2].tolist()
+            sx, sy = _js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", x, y)
+            hover = _js(browser, "topojaxView.hoverAt(arguments[0], arguments[1])", sx, sy)
+            if hover is None or hover["kind"] != "edge":
+                missed.append(e)
+        assert missed == [], f"update {index}: edges {missed} not found under the mouse"

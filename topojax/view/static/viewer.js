@@ -437,6 +437,26 @@ TJ.frameNo = 0;
     }
     return grid;
   };
+  /* the grid of the edges of timeline frame `index` (the pool keeps removed edges too) */
+  Viewer.prototype.frameEdgeGrid = function (index, f) {
+    var key = "frame " + index, grid = this.edgeGrids.get(key);
+    if (!grid) {
+      var P = this.timeline.pool, n = 0, k, e;
+      for (k = 0; k < f.edges.length; k++) n += P.sizes[f.edges[k]];
+      var pu = new Float32Array(n), pv = new Float32Array(n), edgeOf = new Int32Array(n), at = 0;
+      for (k = 0; k < f.edges.length; k++) {
+        e = f.edges[k];
+        pu.set(P.pu.subarray(P.starts[e], P.starts[e] + P.sizes[e]), at);
+        pv.set(P.pv.subarray(P.starts[e], P.starts[e] + P.sizes[e]), at);
+        edgeOf.fill(e, at, at + P.sizes[e]);
+        at += P.sizes[e];
+      }
+      grid = new TJ.Grid(pu, pv, 8);
+      grid.edgeOf = edgeOf;
+      this.edgeGrids.set(key, grid);
+    }
+    return grid;
+  };
 
   /* what is under screen point (sx, sy): {kind, lines} or null */
   Viewer.prototype.hoverAt = function (sx, sy) {
@@ -464,11 +484,10 @@ TJ.frameNo = 0;
         }
       }
       var L = f && i === 0 ? this.timeline.pool : g;
-      var grid = this.edgeGrid(f && i === 0 ? "pool" : g.name, L);
+      var grid = f && i === 0 ? this.frameEdgeGrid(this.frameIndex, f) : this.edgeGrid(g.name, L);
       var hit = grid.nearest(u, w, 6 / v.z);
       if (hit) {
         var e = grid.edgeOf[hit.index];
-        if (f && i === 0 && f.edges.indexOf(e) < 0) continue;
         var ends = f && i === 0 ? "" : " " + g.ids[g.u[e]] + "–" + g.ids[g.v[e]];
         return { kind: "edge", length_m: L.len[e], lines: [
           g.label + " edge" + ends,
