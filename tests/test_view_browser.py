@@ -571,3 +571,25 @@ def test_hovering_an_edge_of_an_earlier_update_names_it(browser, tmp_path):
             if hover is None or hover["kind"] != "edge":
                 missed.append(e)
         assert missed == [], f"update {index}: edges {missed} not found under the mouse"
+
+
+def test_a_cancelled_drag_stops_panning(intel):
+    # the browser cancels a pointer (a touch the system takes over, a window losing the
+    # pointer) without a pointerup: moves after it must not drag the map along
+    before = _js(intel, "topojaxView.view()")
+    intel.execute_script(
+        """
+        var c = document.getElementById('tj-canvas'), r = c.getBoundingClientRect();
+        function send(type, x) {
+          c.dispatchEvent(new PointerEvent(type, {pointerId: 7, button: 0, bubbles: true,
+            clientX: r.left + x, clientY: r.top + 200}));
+        }
+        send('pointerdown', 200);
+        send('pointercancel', 200);
+        send('pointermove', 300);
+        send('pointermove', 400);
+        """
+    )
+    _next_frame(intel)
+    after = _js(intel, "topojaxView.view()")
+    assert (after["tx"], after["ty"]) == (before["tx"], before["ty"])

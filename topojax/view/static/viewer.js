@@ -657,7 +657,7 @@ TJ.frameNo = 0;
       if (e.button !== 0) return;
       var p = local(e);
       down = { x: p[0], y: p[1], moved: false };
-      canvas.setPointerCapture(e.pointerId);
+      try { canvas.setPointerCapture(e.pointerId); } catch (err) { /* the pointer is already gone */ }
     });
     canvas.addEventListener("pointermove", function (e) {
       var p = local(e);
@@ -681,6 +681,10 @@ TJ.frameNo = 0;
       stage.classList.remove("tj-dragging");
       if (click && self.graphs.some(function (g) { return g.routable; })) self.clickAt(p[0], p[1]);
     });
+    // a pointer the browser cancels (or whose capture is lost) ends with no pointerup
+    function cancel() { down = null; stage.classList.remove("tj-dragging"); }
+    canvas.addEventListener("pointercancel", cancel);
+    canvas.addEventListener("lostpointercapture", cancel);
     canvas.addEventListener("pointerleave", function () { $("tj-tooltip").hidden = true; });
     if (typeof ResizeObserver === "function") {
       new ResizeObserver(function () { self.resize(); }).observe(stage);
