@@ -593,3 +593,19 @@ def test_a_cancelled_drag_stops_panning(intel):
     _next_frame(intel)
     after = _js(intel, "topojaxView.view()")
     assert (after["tx"], after["ty"]) == (before["tx"], before["ty"])
+
+
+def test_a_click_over_a_given_route_starts_a_new_one(browser, res, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    given = tj.plan_route(res.graph, (5.0, 30.0), (33.0, 5.0))
+    page = tj.write_view(res, tmp_path / "given.html", route=given)
+    assert _open(browser, page) == "ready"
+    panel = browser.find_element(By.ID, "tj-route")
+    assert f"{given.length_m:.3f} m" in panel.text
+    sx, sy = _js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", 12.3, 4.1)
+    _move(browser, sx, sy, click=True)
+    # the start of a new route: the panel asks for its goal, and the given route is gone
+    assert "click the goal" in panel.text
+    assert f"{given.length_m:.3f}" not in panel.text
+    assert _js(browser, "topojaxView.lastRoute()") is None

@@ -562,7 +562,8 @@ TJ.frameNo = 0;
   };
   Viewer.prototype.clickAt = function (sx, sy) {
     var world = this.screenToWorld(sx, sy);
-    if (this.routePoints.length >= 2) this.clearRoute();
+    // a first click starts a new route: the last one (or the route given) goes
+    if (this.routePoints.length >= 2 || this.route) this.clearRoute();
     this.routePoints.push(world);
     if (this.routePoints.length === 2) {
       var a = this.routePoints[0], b = this.routePoints[1];
