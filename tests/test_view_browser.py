@@ -609,3 +609,16 @@ def test_a_click_over_a_given_route_starts_a_new_one(browser, res, tmp_path):
     assert "click the goal" in panel.text
     assert f"{given.length_m:.3f}" not in panel.text
     assert _js(browser, "topojaxView.lastRoute()") is None
+
+
+def test_zooming_in_on_a_small_map_never_zooms_out(browser, tmp_path):
+    # a map (or a window) of a few pixels fits the canvas at more screen pixels per map
+    # pixel than the usual zoom limit
+    free = np.ones((4, 4), bool)
+    small = tj.OccupancyMap(~free, free, np.zeros_like(free), resolution_m=0.05)
+    assert _open(browser, tj.write_view(small, tmp_path / "small.html")) == "ready"
+    fitted = _js(browser, "topojaxView.view()")["z"]
+    _js(browser, "topojaxView.zoomAt(2, 100, 100)")
+    assert _js(browser, "topojaxView.view()")["z"] > fitted
+    _js(browser, "topojaxView.zoomAt(0.5, 100, 100)")
+    assert _js(browser, "topojaxView.view()")["z"] == pytest.approx(fitted)

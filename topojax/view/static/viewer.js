@@ -269,7 +269,8 @@ TJ.frameNo = 0;
   };
   Viewer.prototype.zoomAt = function (factor, sx, sy) {
     var v = this.view;
-    var z = Math.min(64, Math.max(this.fitZ / 16, v.z * factor));
+    // up to 64 screen px per map px, or 16 x the fit of a map of a few pixels
+    var z = Math.min(Math.max(64, 16 * this.fitZ), Math.max(this.fitZ / 16, v.z * factor));
     var k = z / v.z;
     v.tx = sx - (sx - v.tx) * k;
     v.ty = sy - (sy - v.ty) * k;
