@@ -622,3 +622,16 @@ def test_zooming_in_on_a_small_map_never_zooms_out(browser, tmp_path):
     assert _js(browser, "topojaxView.view()")["z"] > fitted
     _js(browser, "topojaxView.zoomAt(0.5, 100, 100)")
     assert _js(browser, "topojaxView.view()")["z"] == pytest.approx(fitted)
+
+
+def test_the_scale_bar_names_its_length_below_a_centimetre(browser, tmp_path):
+    from selenium.webdriver.common.by import By
+
+    free = np.ones((200, 200), bool)
+    fine = tj.OccupancyMap(~free, free, np.zeros_like(free), resolution_m=0.005)
+    assert _open(browser, tj.write_view(fine, tmp_path / "fine.html")) == "ready"
+    for _ in range(8):
+        _js(browser, "topojaxView.zoomAt(2, 300, 300)")
+        metres = _js(browser, "topojaxView.view()")["scale"]["metres"]
+        label = browser.find_element(By.ID, "tj-scale-label").text
+        assert label.endswith(" m") and float(label[:-2]) == pytest.approx(metres), label

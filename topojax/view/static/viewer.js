@@ -422,7 +422,8 @@ TJ.frameNo = 0;
     var len = TJ.niceLength(metresPerPx, 110);
     var px = len / metresPerPx;
     $("tj-scale-bar").style.width = px.toFixed(1) + "px";
-    var text = len >= 1000 ? len / 1000 + " km" : len >= 1 ? len + " m" : Math.round(len * 100) / 100 + " m";
+    // len is 1, 2 or 5 times a power of ten: one significant digit names it exactly
+    var text = len >= 1000 ? len / 1000 + " km" : +len.toPrecision(1) + " m";
     $("tj-scale-label").textContent = text;
     this.scale = { metres: len, pixels: px };
   };
