@@ -635,3 +635,28 @@ def test_the_scale_bar_names_its_length_below_a_centimetre(browser, tmp_path):
         metres = _js(browser, "topojaxView.view()")["scale"]["metres"]
         label = browser.find_element(By.ID, "tj-scale-label").text
         assert label.endswith(" m") and float(label[:-2]) == pytest.approx(metres), label
+
+
+def test_hovering_a_vertex_of_a_second_graph_over_an_edge_of_the_first(browser, tmp_path):
+    # vertices are drawn over every graph's edges, so the vertex under the mouse is named
+    occupancy, routes = office_route_graph()
+    res = tj.build_graph(occupancy)
+    page = tj.write_view(res, tmp_path / "two.html", graphs={"routes": routes})
+    assert _open(browser, page) == "ready"
+    _js(browser, "topojaxView.zoomAt(3, 400, 300)")
+    edge_points = np.concatenate([np.asarray(w) for *_, w in res.graph.edges(data="world")])
+    first = np.array([w for _, w in res.graph.nodes(data="world")])
+    z = _js(browser, "topojaxView.view()")["z"]
+    tried = 0
+    for _, (x, y) in routes.nodes(data="world"):
+        near_edge = np.hypot(*(edge_points - (x, y)).T).min() < 4 * 0.05 / z  # 4 px
+        far_vertex = np.abs(first - (x, y)).max(axis=1).min() > 10 * 0.05 / z  # 10 px
+        if not (near_edge and far_vertex):
+            continue
+        sx, sy = _js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", x, y)
+        if not (0 < sx < 900 and 0 < sy < 640):
+            continue
+        hover = _js(browser, "topojaxView.hoverAt(arguments[0], arguments[1])", sx, sy)
+        assert hover["kind"] == "vertex" and hover["lines"][0].startswith("routes vertex"), hover
+        tried += 1
+    assert tried > 0

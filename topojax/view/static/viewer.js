@@ -466,25 +466,28 @@ TJ.frameNo = 0;
     var u = (sx - v.tx) / v.z, w = (sy - v.ty) / v.z;
     var world = this.screenToWorld(sx, sy);
     var where = "x " + fmt(world[0], 3) + " m, y " + fmt(world[1], 3) + " m";
-    for (var i = 0; i < this.graphs.length; i++) {
+    // vertices are drawn over every graph's edges: a vertex under the point first
+    for (var i = 0; i < this.graphs.length && this.isOn("vertices"); i++) {
       var g = this.graphs[i];
       if (!this.isOn(g.name)) continue;
       var V = f && i === 0 ? { n: f.n, vu: f.vu, vv: f.vv, kind: f.kind, clear: f.clear, x: f.x, y: f.y, ids: f.ids } :
         { n: g.n, vu: g.vu, vv: g.vv, kind: g.kind, clear: g.clear, x: g.vx, y: g.vy, ids: g.ids };
-      if (this.isOn("vertices")) {
-        var best = -1, bestD = 8 / v.z;
-        for (var k = 0; k < V.n; k++) {
-          var d = Math.max(Math.abs(V.vu[k] - u), Math.abs(V.vv[k] - w));
-          if (d <= bestD) { bestD = d; best = k; }
-        }
-        if (best >= 0) {
-          return { kind: "vertex", id: V.ids[best], clearance_m: V.clear[best], lines: [
-            g.label + " vertex " + V.ids[best] + " · " + (TJ.KINDS[V.kind[best]] || "other"),
-            "clearance " + fmt(V.clear[best], 3) + " m",
-            "x " + fmt(V.x[best], 3) + " m, y " + fmt(V.y[best], 3) + " m",
-          ] };
-        }
+      var best = -1, bestD = 8 / v.z;
+      for (var k = 0; k < V.n; k++) {
+        var d = Math.max(Math.abs(V.vu[k] - u), Math.abs(V.vv[k] - w));
+        if (d <= bestD) { bestD = d; best = k; }
       }
+      if (best >= 0) {
+        return { kind: "vertex", id: V.ids[best], clearance_m: V.clear[best], lines: [
+          g.label + " vertex " + V.ids[best] + " · " + (TJ.KINDS[V.kind[best]] || "other"),
+          "clearance " + fmt(V.clear[best], 3) + " m",
+          "x " + fmt(V.x[best], 3) + " m, y " + fmt(V.y[best], 3) + " m",
+        ] };
+      }
+    }
+    for (i = 0; i < this.graphs.length; i++) {
+      g = this.graphs[i];
+      if (!this.isOn(g.name)) continue;
       var L = f && i === 0 ? this.timeline.pool : g;
       var grid = f && i === 0 ? this.frameEdgeGrid(this.frameIndex, f) : this.edgeGrid(g.name, L);
       var hit = grid.nearest(u, w, 6 / v.z);
