@@ -660,3 +660,29 @@ def test_hovering_a_vertex_of_a_second_graph_over_an_edge_of_the_first(browser, 
         assert hover["kind"] == "vertex" and hover["lines"][0].startswith("routes vertex"), hover
         tried += 1
     assert tried > 0
+
+
+def test_a_second_finger_does_not_throw_the_map_around(intel):
+    # a drag follows the pointer that started it; another one (a second finger on a touch
+    # screen) must not make the map jump between the two
+    before = _js(intel, "topojaxView.view()")
+    intel.execute_script(
+        """
+        var c = document.getElementById('tj-canvas'), r = c.getBoundingClientRect();
+        function send(type, id, x) {
+          c.dispatchEvent(new PointerEvent(type, {pointerId: id, button: 0, bubbles: true,
+            pointerType: 'touch', clientX: r.left + x, clientY: r.top + 200}));
+        }
+        send('pointerdown', 11, 200);
+        send('pointerdown', 12, 600);
+        send('pointermove', 11, 220);
+        send('pointermove', 12, 620);
+        send('pointermove', 11, 240);
+        send('pointerup', 12, 620);
+        send('pointerup', 11, 240);
+        """
+    )
+    _next_frame(intel)
+    after = _js(intel, "topojaxView.view()")
+    assert after["tx"] - before["tx"] == pytest.approx(40)
+    assert after["ty"] == before["ty"]

@@ -660,12 +660,14 @@ TJ.frameNo = 0;
       self.zoomAt(Math.pow(2, -dy / 300), p[0], p[1]);
     }, { passive: false });
     canvas.addEventListener("pointerdown", function (e) {
-      if (e.button !== 0) return;
+      // a drag follows the one pointer that began it (a second finger is left out)
+      if (e.button !== 0 || (down && down.id !== e.pointerId)) return;
       var p = local(e);
-      down = { x: p[0], y: p[1], moved: false };
+      down = { id: e.pointerId, x: p[0], y: p[1], moved: false };
       try { canvas.setPointerCapture(e.pointerId); } catch (err) { /* the pointer is already gone */ }
     });
     canvas.addEventListener("pointermove", function (e) {
+      if (down && e.pointerId !== down.id) return;
       var p = local(e);
       if (down) {
         var dx = p[0] - down.x, dy = p[1] - down.y;
@@ -681,14 +683,17 @@ TJ.frameNo = 0;
       self.showHover(p[0], p[1]);
     });
     canvas.addEventListener("pointerup", function (e) {
-      if (!down) return;
+      if (!down || e.pointerId !== down.id) return;
       var p = local(e), click = !down.moved;
       down = null;
       stage.classList.remove("tj-dragging");
       if (click && self.graphs.some(function (g) { return g.routable; })) self.clickAt(p[0], p[1]);
     });
     // a pointer the browser cancels (or whose capture is lost) ends with no pointerup
-    function cancel() { down = null; stage.classList.remove("tj-dragging"); }
+    function cancel(e) {
+      if (!down || e.pointerId !== down.id) return;
+      down = null; stage.classList.remove("tj-dragging");
+    }
     canvas.addEventListener("pointercancel", cancel);
     canvas.addEventListener("lostpointercapture", cancel);
     canvas.addEventListener("pointerleave", function () { $("tj-tooltip").hidden = true; });
