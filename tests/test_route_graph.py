@@ -428,6 +428,26 @@ def test_route_graph_command_counts_one_in_the_singular_and_names_an_undefined_s
     assert "nan" not in evaluation
 
 
+def test_replay_says_it_writes_no_nav2_file_for_an_empty_route_graph(tmp_path):
+    """A replay asked for the route graph's Nav2 file whose final route graph has no
+    edge writes the other route graph files and says, with why it is empty, that the
+    Nav2 file is missing (the Route Server needs an edge), as ``topojax route-graph`` does."""
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    out = tmp_path / "out"
+    summary = tj.replay(
+        log,
+        out_dir=out,
+        progress=False,
+        max_scans=10,
+        route_graph_radius_m=50.0,
+        nav2_tolerance_m=0.1,
+    )
+    assert (out / "route_graph.json").is_file() and (out / "graph_nav2.geojson").is_file()
+    assert not (out / "route_graph_nav2.geojson").exists()
+    (note,) = [m for m in summary["messages"] if m.startswith("empty route graph")]
+    assert note.endswith("; no route_graph_nav2.geojson (the Route Server needs an edge)")
+
+
 @pytest.mark.parametrize("radius_m", [0.0, -0.0, -1.0])
 def test_a_robot_radius_of_zero_or_less_is_refused_as_not_positive(tmp_path, radius_m):
     """A route graph needs a robot of some size: zero or less is refused as not positive

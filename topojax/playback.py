@@ -115,8 +115,8 @@ def replay(
     reader_kwargs : dict, optional
         Passed to the reader.
     nav2_tolerance_m : float, optional
-        Also write ``graph_nav2.geojson`` (and ``route_graph_nav2.geojson``) for the
-        Nav2 Route Server with this waypoint tolerance (:func:`topojax.save_nav2_graph`).
+        Also write ``graph_nav2.geojson`` (and ``route_graph_nav2.geojson``, where it has
+        an edge) for Nav2 with this tolerance (:func:`topojax.save_nav2_graph`).
     graph_config : GraphConfig, optional
         What the written graph (and Nav2 file and pictures) keep of the final graph
         (``free_space_only``, ``min_*_m``): ``build_graph(map, ...)``'s with this
@@ -463,7 +463,7 @@ def _write_and_close(
     final = False  # whether the recording's last messages are being written
     try:
         written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
-        messages += _route_note(done)
+        messages += _route_note(done, nav2_tolerance_m)
         written += _write_rooms_routes_view(mapper, done, out, timeline, nav2_tolerance_m)
         written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
         final = True
@@ -633,10 +633,16 @@ def _unwritable(mapper, exc: ExportBudgetError, out: Path, record: dict, progres
     )
 
 
-def _route_note(done: _Replayed) -> list[str]:
-    """Why the final route graph (if any) has no edge, as a message; else none."""
-    note = None if done.routes is None else done.routes.graph.get("note")
-    return [note] if note else []
+def _route_note(done: _Replayed, nav2_tolerance_m) -> list[str]:
+    """Why the final route graph (if any) has no edge, as a message naming the Nav2 file
+    not written for it (with a ``nav2_tolerance_m``); else none."""
+    routes = done.routes
+    if routes is None or routes.number_of_edges():
+        return []
+    note = routes.graph.get("note") or "the route graph has no edge"
+    if nav2_tolerance_m is not None:
+        note += "; no route_graph_nav2.geojson (the Route Server needs an edge)"
+    return [note]
 
 
 def _run(

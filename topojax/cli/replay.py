@@ -391,7 +391,11 @@ def add_command(subparsers) -> None:
     )
     _add_reader_options(p)
     add_graph_options(p)
-    add_nav2_options(p, "graph_nav2.geojson (and route_graph_nav2.geojson with --route-graph)")
+    add_nav2_options(
+        p,
+        "graph_nav2.geojson (and route_graph_nav2.geojson with --route-graph, where the "
+        "route graph has an edge)",
+    )
     p.add_argument(
         "--route-graph",
         type=float,
