@@ -14,6 +14,7 @@ from topojax._replay_state import ReplayProgress, skipped_message
 from topojax.cli import main
 from topojax.incremental import ExtentError, IncrementalMapper
 from topojax.playback import replay
+from topojax.rooms import RoomConfig
 from topojax.scans import read_scans
 
 INTEL_EXCERPT = Path(__file__).parent / "data" / "intel_first40.log.gz"
@@ -160,3 +161,18 @@ def test_a_keyword_neither_replay_nor_the_mapper_takes_is_named_as_replays(tmp_p
     with pytest.raises(TypeError, match=r"arguments 'a', 'b'; expected .*'graph_every'"):
         replay(INTEL_EXCERPT, out_dir=tmp_path / "o", progress=False, a=1, b=2)
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "keyword",
+    [{"rooms_every": 5}, {"room_config": RoomConfig(min_room_m2=5.0)}, {"rooms_local": False}],
+)
+def test_room_keywords_without_rooms_are_refused_before_the_replay(tmp_path, keyword):
+    """The mapper's room keywords only matter with ``rooms=True``: without it the replay
+    writes no rooms, so ``rooms_every`` would segment rooms for nothing and the others be
+    ignored; each is refused naming it and ``rooms``, before any file is written."""
+    (name,) = keyword
+    out = tmp_path / "o"
+    with pytest.raises(ValueError, match=rf"^{name}: only used with rooms=True, "):
+        replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=5, **keyword)
+    assert not out.exists()

@@ -26,6 +26,12 @@ def check_options(reader_kwargs, mapper_kw: dict, **flags) -> None:
     for name, value in flags.items():
         flag(name, value)
     check_mapper_keywords(mapper_kw)
+    for name in ("rooms_every", "room_config", "rooms_local"):
+        if not flags.get("rooms") and mapper_kw.get(name) is not None:
+            raise ValueError(
+                f"{name}: only used with rooms=True, which was not given (the replay keeps "
+                f"and writes rooms only with it); received {name}={mapper_kw[name]!r}"
+            )
     if reader_kwargs is not None and not isinstance(reader_kwargs, dict):
         raise TypeError(
             "reader_kwargs: expected a dict of keyword arguments of read_scans, received "

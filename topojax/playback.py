@@ -125,8 +125,8 @@ def replay(
         Also write ``route_graph.{graphml,json,geojson}``, the final map's route graph for
         a round robot of this radius (recorded at every update with ``mcap``).
     rooms : bool
-        Keep rooms as the map grows (``room_config`` in ``mapper_kw``), give the written
-        graphs their rooms and write ``map_rooms.{geojson,png,graphml,json}``.
+        Keep rooms as the map grows (``room_config``, ``rooms_*`` in ``mapper_kw``; refused
+        without it), give the graphs rooms, write ``map_rooms.{geojson,png,graphml,json}``.
     mcap : str or Path, optional
         Also write a ROS 2 MCAP recording (:mod:`topojax.io.mcap`, needs ``rosbags``):
         scans, map, graph (route graph, rooms) at every update, at the log's times.
