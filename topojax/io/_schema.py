@@ -221,8 +221,36 @@ def _schema_or_default(schema: Any) -> dict[str, Any]:
     }
 
 
+def _canonical_int(value: Any) -> bool:
+    """Whether ``value`` is an int, or a str that is one's decimal text as ``str`` gives
+    it (not ``"01"``, ``"+1"``, ``"1_0"`` or ``" 1"``, which ``int`` also reads)."""
+    if isinstance(value, bool):
+        return False
+    if isinstance(value, int):
+        return True
+    if not isinstance(value, str) or not value.isascii():
+        return False
+    try:
+        return str(int(value)) == value
+    except ValueError:
+        return False
+
+
+def decided_id_kinds(schema: dict[str, Any], ids: dict[str, list[Any]]) -> dict[str, Any]:
+    """``schema`` with the kind of the node ids and edge keys that a file without a schema
+    leaves open decided for the whole file (``ids``: each's values in the file): ``"int"``
+    where every one is an int or its decimal text, else ``"str"``; ids read one at a time
+    would make ``"01"`` and ``"1"`` one node, and a graph of mixed ids that cannot be saved.
+    """
+    out = dict(schema)
+    for name, values in ids.items():
+        if out[name] is None:
+            out[name] = "int" if all(_canonical_int(v) for v in values) else "str"
+    return out
+
+
 def _decode_id(value: Any, kind: str | None, what: str, path: Path) -> Any:
-    if kind == "str":
+    if kind == "str" and isinstance(value, (int, str)) and not isinstance(value, bool):
         return str(value)
     if kind == "int" or kind is None:
         if isinstance(value, bool):

@@ -132,7 +132,9 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     networkx.MultiGraph
         Same node ids, edge keys, node/edge order and attribute types as saved: numpy
         arrays (with their dtype) for array attributes such as edge ``path`` / ``world``,
-        tuples for node ``pixel`` / ``world`` and graph ``origin`` / ``shape``.
+        tuples for node ``pixel`` / ``world`` and graph ``origin`` / ``shape``. In a file
+        of another tool (no type schema) node ids and edge keys are ints where all of
+        them are ints or their decimal text (``"12"``, not ``"012"``), else all str.
 
     Raises
     ------

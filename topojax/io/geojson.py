@@ -20,6 +20,7 @@ from ._schema import (
     _xy,
     add_edge,
     add_node,
+    decided_id_kinds,
     jsonable,
 )
 
@@ -104,6 +105,7 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise ValueError(f"graph file {path} is not a GeoJSON FeatureCollection")
     schema = _schema_or_default(doc.get(_SCHEMA_KEY))
+    schema = decided_id_kinds(schema, _ids(doc.get("features", [])))
     g = nx.MultiGraph()
     g.graph.update(_decode_attrs(dict(doc.get("graph") or {}), schema["graph"]))
     edges = []
@@ -161,6 +163,21 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
         attrs["world"] = world
         add_edge(g, u, v, key, _in_order(attrs, schema["edge"]))
     return g
+
+
+def _ids(features: Any) -> dict[str, list]:
+    """The node ids (of the Points) and edge keys (of the LineStrings) in ``features``."""
+    ids: dict[str, list] = {"node_id": [], "edge_key": []}
+    for feat in features:
+        geom = feat.get("geometry") if isinstance(feat, dict) else None
+        props = feat.get("properties") if isinstance(feat, dict) else None
+        if not isinstance(geom, dict) or not isinstance(props, dict):
+            continue
+        if geom.get("type") == "Point" and "id" in props:
+            ids["node_id"].append(props["id"])
+        elif geom.get("type") == "LineString" and props.get("key") is not None:
+            ids["edge_key"].append(props["key"])
+    return ids
 
 
 def _in_order(attrs: dict, spec: dict) -> dict:

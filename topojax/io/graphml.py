@@ -18,6 +18,7 @@ from ._schema import (
     _to_python_scalar,
     add_edge,
     add_node,
+    decided_id_kinds,
     jsonable,
 )
 from ._stream import _Chunks
@@ -218,6 +219,8 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
         if name not in schema["graph"]:
             graph_attrs.pop(name, None)
     has_schema = schema_text is not None
+    keys = [k for *_, k in raw.edges(keys=True)]
+    schema = decided_id_kinds(schema, {"node_id": list(raw.nodes), "edge_key": keys})
     # networkx adds a node that only an edge names, bare; JSON and GeoJSON refuse it
     listed = _graphml_node_ids(path)  # a second parse of the file: only its node ids
     for u, v in raw.edges():

@@ -16,6 +16,7 @@ from ._schema import (
     _schema_or_default,
     add_edge,
     add_node,
+    decided_id_kinds,
     jsonable,
 )
 
@@ -71,6 +72,10 @@ def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
     edge_list_name = "edges" if "edges" in doc else "links"
     graph_attrs = dict(doc.get("graph") or {})
     schema = _schema_or_default(graph_attrs.pop(_SCHEMA_KEY, None))
+    entries = [e for e in doc.get(edge_list_name, []) if isinstance(e, dict)]
+    nodes = [e.get("id") for e in doc["nodes"] if isinstance(e, dict)]
+    keys = [e["key"] for e in entries if e.get("key") is not None]
+    schema = decided_id_kinds(schema, {"node_id": nodes, "edge_key": keys})
     g = nx.MultiGraph()
     g.graph.update(_decode_attrs(graph_attrs, schema["graph"]))
     for entry in doc["nodes"]:
