@@ -580,7 +580,7 @@ _POINT_B = _feature("Point", [1.0, 0.0], id=2)
                 "type": "FeatureCollection",
                 "features": [_POINT_A, _POINT_B, _feature("LineString", "xy", u=1, v=2)],
             },
-            r"features\[2\] coordinates must be a list of \[x, y\]",
+            r"features\[2\] coordinates: expected a list of \[x, y\], received 'xy'",
         ),
         # hand edits the readers do not look for: still a ValueError naming the file
         (".json", {"nodes": 5}, "not a topojax json graph"),

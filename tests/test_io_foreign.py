@@ -36,3 +36,44 @@ def test_numeric_string_ids_of_another_tool_load_as_ints(tmp_path: Path, suffix:
     else:
         path.write_text(json.dumps(nx.node_link_data(nx.relabel_nodes(g, str), edges="edges")))
     assert list(load_graph(path).nodes) == [0, 1, 12]
+
+
+def _gis_file(tmp_path: Path, point, line) -> Path:
+    """A graph GeoJSON as a GIS program saves it: a ``crs`` member, extra properties."""
+    doc = {
+        "type": "FeatureCollection",
+        "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::3857"}},
+        "features": [
+            {"type": "Feature", "geometry": {"type": "Point", "coordinates": point},
+             "properties": {"id": 0, "fid": 7}},
+            {"type": "Feature", "geometry": {"type": "Point", "coordinates": [3.0, 4.0]},
+             "properties": {"id": 1}},
+            {"type": "Feature", "geometry": {"type": "LineString", "coordinates": line},
+             "properties": {"u": 0, "v": 1, "key": 0}},
+        ],
+    }  # fmt: skip
+    path = tmp_path / "gis.geojson"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_geojson_positions_with_an_altitude_load_without_it(tmp_path: Path):
+    # RFC 7946 3.1.1: a position may hold an altitude as its third element
+    path = _gis_file(tmp_path, [1.0, 2.0, 0.0], [[1.0, 2.0, 0.0], [3.0, 4.0, 5.5]])
+    back = load_graph(path)
+    assert back.nodes[0] == {"fid": 7, "world": (1.0, 2.0)}
+    assert back.edges[0, 1, 0]["world"].tolist() == [[1.0, 2.0], [3.0, 4.0]]
+
+
+@pytest.mark.parametrize(
+    ("point", "line", "message"),
+    [
+        ([1.0, 2.0, 0.0, 1.0], [[1.0, 2.0], [3.0, 4.0]], r"features\[0\].*\[x, y\] or \[x, y, z\]"),
+        ([1.0, 2.0, "up"], [[1.0, 2.0], [3.0, 4.0]], r"features\[0\].*altitude.*'up'"),
+        ([1.0, 2.0], [[1.0, 2.0], [3.0, 4.0, 0.0, 0.0]], r"features\[2\].*position 1"),
+        ([1.0, 2.0], [[1.0, 2.0], [3.0]], r"features\[2\].*position 1.*\[3.0\]"),
+    ],
+)
+def test_geojson_positions_that_are_no_position_are_named(tmp_path, point, line, message):
+    with pytest.raises(ValueError, match=message):
+        load_graph(_gis_file(tmp_path, point, line))

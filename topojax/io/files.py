@@ -143,6 +143,11 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     ValueError
         If it is not a file (a saved graph store's folder is named as one), its format
         cannot be told from the suffix, or it cannot be parsed as that format.
+
+    Notes
+    -----
+    A GeoJSON position may hold an altitude as a third element (``[x, y, z]``, RFC 7946
+    3.1.1, as GIS tools write): it must be a finite number and is dropped.
     """
     p = graph_file("path", path)
     fmt = _format_for(p, format)

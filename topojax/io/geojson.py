@@ -122,7 +122,8 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
             node = _decode_id(props.pop("id"), schema["node_id"], "node id", path)
             props.pop("feature", None)
             attrs = _decode_attrs(props, schema["node"])
-            xy = _xy(coords, f"graph file {path}: features[{i}] coordinates")
+            where = f"graph file {path}: features[{i}] coordinates"
+            xy = _xy(_position(coords, where), where)
             spec = schema["node"].get("world") or {"kind": "tuple"}
             attrs["world"] = _decode_value(xy, spec)
             add_node(g, node, _in_order(attrs, schema["node"]))
@@ -146,14 +147,7 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
             key = _decode_id(key, schema["edge_key"], "edge key", path)
         appended = int(props.pop("closed_by_writer", 0))
         props.pop("feature", None)
-        try:
-            world = np.asarray(coords, dtype=np.float64)
-        except (TypeError, ValueError):
-            world = np.empty(0)
-        if world.ndim != 2 or world.shape[1] != 2:
-            raise ValueError(
-                f"graph file {path}: features[{i}] coordinates must be a list of [x, y]"
-            )
+        world = _line(coords, f"graph file {path}: features[{i}] coordinates")
         if appended:
             world = world[:-appended]
         attrs = _decode_attrs(props, schema["edge"])
@@ -163,6 +157,41 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
         attrs["world"] = world
         add_edge(g, u, v, key, _in_order(attrs, schema["edge"]))
     return g
+
+
+def _line(coords: Any, where: str) -> np.ndarray:
+    """A LineString's ``coords`` as float64 (K, 2), altitudes dropped (:func:`_position`);
+    ValueError naming ``where`` and the position that is none."""
+    try:
+        world = np.asarray(coords, dtype=np.float64)
+    except (TypeError, ValueError):
+        world = np.empty(0)
+    if world.ndim == 2 and world.shape[1] == 2:
+        return world
+    if world.ndim == 2 and world.shape[1] == 3 and np.all(np.isfinite(world[:, 2])):
+        return np.ascontiguousarray(world[:, :2])
+    if not isinstance(coords, list) or not coords:
+        raise ValueError(f"{where}: expected a list of [x, y], received {coords!r:.80}")
+    at = [f"{where} position {j}" for j in range(len(coords))]  # positions one by one
+    xy = [_xy(_position(c, w), w) for c, w in zip(coords, at, strict=True)]
+    return np.array(xy, dtype=np.float64)
+
+
+def _position(value: Any, where: str) -> Any:
+    """A GeoJSON position ``value`` without its altitude: RFC 7946 (3.1.1) allows one as
+    a third element, which GIS tools write; it must be a finite number.  ValueError
+    naming ``where`` for a fourth element or an altitude that is no finite number."""
+    if not isinstance(value, list) or len(value) < 3:
+        return value
+    if len(value) > 3:
+        raise ValueError(f"{where}: expected [x, y] or [x, y, z], received {value!r:.80}")
+    z = value[2]
+    if isinstance(z, bool) or not isinstance(z, (int, float)) or not np.isfinite(z):
+        raise ValueError(
+            f"{where}: expected an altitude (a finite number) as its third element, "
+            f"received {z!r:.80}"
+        )
+    return value[:2]
 
 
 def _ids(features: Any) -> dict[str, list]:
