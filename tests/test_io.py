@@ -583,8 +583,8 @@ _POINT_B = _feature("Point", [1.0, 0.0], id=2)
             r"features\[2\] coordinates: expected a list of \[x, y\], received 'xy'",
         ),
         # hand edits the readers do not look for: still a ValueError naming the file
-        (".json", {"nodes": 5}, "not a topojax json graph"),
-        (".json", {"graph": [1, 2], "nodes": []}, "not a topojax json graph"),
+        (".json", {"nodes": 5}, "'nodes': expected a list, received 5"),
+        (".json", {"graph": [1, 2], "nodes": []}, r"'graph': expected an object, received \["),
         (
             ".json",
             {
@@ -596,7 +596,7 @@ _POINT_B = _feature("Point", [1.0, 0.0], id=2)
         (
             ".geojson",
             {"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": [1]}]},
-            "not a topojax geojson graph",
+            r"features\[0\] 'geometry': expected an object or null, received \[1\]",
         ),
         # numbers a graph's users compute with: refused here, not deep in prune_graph
         (

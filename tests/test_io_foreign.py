@@ -77,3 +77,41 @@ def test_geojson_positions_with_an_altitude_load_without_it(tmp_path: Path):
 def test_geojson_positions_that_are_no_position_are_named(tmp_path, point, line, message):
     with pytest.raises(ValueError, match=message):
         load_graph(_gis_file(tmp_path, point, line))
+
+
+_NODE = {"type": "Feature", "geometry": {"type": "Point", "coordinates": [0, 0]}}
+
+
+@pytest.mark.parametrize(
+    ("suffix", "doc", "message"),
+    [
+        (".json", {"graph": [1], "nodes": []}, r"'graph': expected an object, received \[1\]"),
+        (".json", {"nodes": 5}, r"'nodes': expected a list, received 5"),
+        (".json", {"nodes": [], "links": {}}, r"'links': expected a list, received \{\}"),
+        (
+            ".geojson",
+            {"type": "FeatureCollection", "features": [], "graph": "g"},
+            r"'graph': expected an object, received 'g'",
+        ),
+        (
+            ".geojson",
+            {"type": "FeatureCollection", "features": {"a": 1}},
+            r"'features': expected a list, received \{'a': 1\}",
+        ),
+        (
+            ".geojson",
+            {"type": "FeatureCollection", "features": [{**_NODE, "properties": [1]}]},
+            r"features\[0\] 'properties': expected an object or null, received \[1\]",
+        ),
+        (
+            ".geojson",
+            {"type": "FeatureCollection", "features": [{**_NODE, "geometry": [1]}]},
+            r"features\[0\] 'geometry': expected an object or null, received \[1\]",
+        ),
+    ],
+)
+def test_members_of_the_wrong_json_type_are_named(tmp_path, suffix, doc, message):
+    path = tmp_path / f"odd{suffix}"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=message):
+        load_graph(path)

@@ -287,6 +287,19 @@ def _xy(value: Any, where: str) -> list[float]:
     return [float(arr[0]), float(arr[1])]
 
 
+def member(obj: dict, name: str, kind: type, where: str, *, null: str = "") -> Any:
+    """``obj[name]`` of a JSON document, ``kind()`` where absent or null; ValueError
+    naming ``where`` and the member unless it is a ``kind`` (dict or list).  ``null``:
+    text after the expectation, such as ``" or null"`` where a format allows null."""
+    value = obj.get(name)
+    if value is None:
+        return kind()
+    if not isinstance(value, kind):
+        expected = "an object" if kind is dict else "a list"
+        raise ValueError(f"{where} {name!r}: expected {expected}{null}, received {value!r:.80}")
+    return value
+
+
 def _check_ends(g, u: Any, v: Any, path: Path, where: str) -> None:
     """An edge must join two listed nodes (``g``: the graph, or the set of node ids;
     networkx would add bare ones silently)."""

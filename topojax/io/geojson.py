@@ -22,6 +22,7 @@ from ._schema import (
     add_node,
     decided_id_kinds,
     jsonable,
+    member,
 )
 
 _GEO_NODE_RESERVED = ("id", "feature")
@@ -105,15 +106,18 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise ValueError(f"graph file {path} is not a GeoJSON FeatureCollection")
     schema = _schema_or_default(doc.get(_SCHEMA_KEY))
-    schema = decided_id_kinds(schema, _ids(doc.get("features", [])))
+    features = member(doc, "features", list, f"graph file {path}:")
+    schema = decided_id_kinds(schema, _ids(features))
     g = nx.MultiGraph()
-    g.graph.update(_decode_attrs(dict(doc.get("graph") or {}), schema["graph"]))
+    graph_attrs = member(doc, "graph", dict, f"graph file {path}:")
+    g.graph.update(_decode_attrs(dict(graph_attrs), schema["graph"]))
     edges = []
-    for i, feat in enumerate(doc.get("features", [])):
+    for i, feat in enumerate(features):
+        where = f"graph file {path}: features[{i}]"
         if not isinstance(feat, dict) or feat.get("type") != "Feature":
-            raise ValueError(f"graph file {path}: features[{i}] is not a GeoJSON Feature")
-        geom = feat.get("geometry") or {}
-        props = dict(feat.get("properties") or {})
+            raise ValueError(f"{where} is not a GeoJSON Feature")
+        geom = member(feat, "geometry", dict, where, null=" or null")
+        props = dict(member(feat, "properties", dict, where, null=" or null"))
         gtype = geom.get("type")
         coords = geom.get("coordinates")
         if gtype == "Point":

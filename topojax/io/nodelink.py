@@ -18,6 +18,7 @@ from ._schema import (
     add_node,
     decided_id_kinds,
     jsonable,
+    member,
 )
 
 
@@ -70,21 +71,24 @@ def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
     if doc.get("directed", False):
         raise ValueError(f"graph file {path} holds a directed graph; expected undirected")
     edge_list_name = "edges" if "edges" in doc else "links"
-    graph_attrs = dict(doc.get("graph") or {})
+    where = f"graph file {path}:"
+    graph_attrs = dict(member(doc, "graph", dict, where))
     schema = _schema_or_default(graph_attrs.pop(_SCHEMA_KEY, None))
-    entries = [e for e in doc.get(edge_list_name, []) if isinstance(e, dict)]
-    nodes = [e.get("id") for e in doc["nodes"] if isinstance(e, dict)]
+    node_entries = member(doc, "nodes", list, where)
+    edge_entries = member(doc, edge_list_name, list, where)
+    entries = [e for e in edge_entries if isinstance(e, dict)]
+    nodes = [e.get("id") for e in node_entries if isinstance(e, dict)]
     keys = [e["key"] for e in entries if e.get("key") is not None]
     schema = decided_id_kinds(schema, {"node_id": nodes, "edge_key": keys})
     g = nx.MultiGraph()
     g.graph.update(_decode_attrs(graph_attrs, schema["graph"]))
-    for entry in doc["nodes"]:
+    for entry in node_entries:
         if not isinstance(entry, dict) or "id" not in entry:
             raise ValueError(f"graph file {path}: node entry without 'id': {entry!r}")
         attrs = {k: v for k, v in entry.items() if k != "id"}
         node = _decode_id(entry["id"], schema["node_id"], "node id", path)
         add_node(g, node, _decode_attrs(attrs, schema["node"]))
-    for entry in doc.get(edge_list_name, []):
+    for entry in edge_entries:
         if not isinstance(entry, dict) or "source" not in entry or "target" not in entry:
             raise ValueError(f"graph file {path}: edge entry without source/target: {entry!r}")
         u = _decode_id(entry["source"], schema["node_id"], "node id", path)
