@@ -520,3 +520,17 @@ def test_a_vertex_whose_only_edge_is_a_loop_left_out_is_left_out_too(tmp_path):
     features = json.loads(tj.save_nav2_graph(g, path).read_text())["features"]
     assert [f["properties"]["metadata"]["vertex"] for f in features[:2]] == [0, 1]
     assert features[2]["geometry"]["type"] == "MultiLineString"
+
+
+def test_a_bend_is_kept_where_the_coordinates_are_too_large_to_square(tmp_path):
+    # the chord's squared length overflows to infinity: the bend's distance from it cannot
+    # be computed, and a point whose distance is unknown must not be dropped
+    scale = 1e300
+    g = nx.MultiGraph()
+    g.add_node(0, world=(0.0, 0.0))
+    g.add_node(1, world=(scale, 0.0))
+    world = np.array([[0.0, 0.0], [scale / 2, scale / 3], [scale, 0.0]])
+    g.add_edge(0, 1, world=world, path=np.array([[0, 0], [0, 1], [0, 2]]))
+    doc = json.loads(tj.save_nav2_graph(g, tmp_path / "huge.geojson").read_text())
+    points = [f["geometry"]["coordinates"] for f in doc["features"]]
+    assert [scale / 2, scale / 3] in points

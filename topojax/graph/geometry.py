@@ -149,18 +149,29 @@ def polyline_keep(xy: np.ndarray, tol: float) -> np.ndarray:
         i, j = stack.pop()
         if j - i < 2:
             continue
-        a, b = xy[i], xy[j]
-        pts = xy[i + 1 : j]
-        ab = b - a
-        span = float(ab @ ab)
-        t = np.zeros(len(pts)) if span == 0 else np.clip((pts - a) @ ab / span, 0.0, 1.0)
-        dist = np.hypot(*(pts - (a + t[:, None] * ab)).T)
+        dist = _distances(xy[i + 1 : j], xy[i], xy[j])
         m = int(np.argmax(dist))
         if dist[m] > tol:
             m += i + 1
             keep[m] = True
             stack += [(i, m), (m, j)]
     return np.flatnonzero(keep)
+
+
+def _distances(pts: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The distance of each point of ``pts`` (K, 2) from the segment ``a``-``b``; where
+    the coordinates are too large to square in float64, computed in units of the
+    largest offset from ``a`` (unscaled, the distances would come out NaN)."""
+    ab = b - a
+    with np.errstate(over="ignore", invalid="ignore"):  # told apart just below
+        span = float(ab @ ab)
+        proj = (pts - a) @ ab
+    if not math.isfinite(span) or not np.all(np.isfinite(proj)):
+        unit = float(np.abs(np.vstack([pts - a, ab[None]])).max())
+        if 1 < unit < math.inf:  # scaled, every offset is at most 1: none overflows
+            return _distances(pts / unit, a / unit, b / unit) * unit
+    t = np.zeros(len(pts)) if span == 0 else np.clip(proj / span, 0.0, 1.0)
+    return np.hypot(*(pts - (a + t[:, None] * ab)).T)
 
 
 def graph_resolution_m(graph) -> float | None:
