@@ -115,3 +115,37 @@ def test_members_of_the_wrong_json_type_are_named(tmp_path, suffix, doc, message
     path.write_text(json.dumps(doc))
     with pytest.raises(ValueError, match=message):
         load_graph(path)
+
+
+@pytest.mark.parametrize("keep_members", [True, False])
+def test_geojson_rewritten_by_a_gis_program_with_null_columns_loads_as_saved(
+    tmp_path: Path, keep_members: bool
+):
+    import numpy as np
+
+    # a GIS program gives every feature every column of its attribute table: a Point gets
+    # u, v, key, path ... as null, a LineString id, pixel ...; and it may drop the file's
+    # foreign members (the graph attributes and the type schema)
+    g = nx.MultiGraph()
+    g.add_node(0, pixel=(0, 0), world=(0.0, 0.0), kind="end")
+    g.add_node(1, pixel=(0, 2), world=(0.1, 0.0), kind="junction")
+    for u, v, path in ((0, 1, [[0, 0], [0, 1], [0, 2]]), (1, 1, [[0, 2], [1, 2], [1, 3]])):
+        world = np.array(path) * 0.05  # the loop's polyline is open
+        g.add_edge(u, v, path=np.array(path), world=world[:, ::-1], length_m=0.1)
+    doc = json.loads(save_graph(g, tmp_path / "g.geojson").read_text())
+    columns = list(dict.fromkeys(k for f in doc["features"] for k in f["properties"]))
+    assert "closed_by_writer" in columns  # the open self-loop was closed
+    for f in doc["features"]:
+        f["properties"] = {k: f["properties"].get(k) for k in columns}
+    if not keep_members:
+        doc = {"type": "FeatureCollection", "name": "g", "features": doc["features"]}
+    path = tmp_path / "qgis.geojson"
+    path.write_text(json.dumps(doc))
+    back = load_graph(path)
+    assert [dict(d).keys() for _, d in back.nodes(data=True)] == [
+        d.keys() for _, d in g.nodes(data=True)
+    ]
+    pairs = zip(back.edges(keys=True, data=True), g.edges(keys=True, data=True), strict=True)
+    for (*_, d), (*_, e) in pairs:
+        assert d.keys() == e.keys()
+        assert np.array_equal(d["world"], e["world"]) and np.array_equal(d["path"], e["path"])

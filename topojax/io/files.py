@@ -147,7 +147,9 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     Notes
     -----
     A GeoJSON position may hold an altitude as a third element (``[x, y, z]``, RFC 7946
-    3.1.1, as GIS tools write): it must be a finite number and is dropped.
+    3.1.1, as GIS tools write): it must be a finite number and is dropped.  A null
+    property is an empty column of a GIS program's attribute table, and is dropped,
+    unless the file's type schema records that attribute for nodes (or edges).
     """
     p = graph_file("path", path)
     fmt = _format_for(p, format)

@@ -106,6 +106,7 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
         raise ValueError(f"graph file {path} is not a GeoJSON FeatureCollection")
     schema = _schema_or_default(doc.get(_SCHEMA_KEY))
+    foreign = schema["node_id"] is None  # no schema: every null is an empty column
     features = member(doc, "features", list, f"graph file {path}:")
     schema = decided_id_kinds(schema, _ids(features))
     g = nx.MultiGraph()
@@ -120,6 +121,8 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
         props = dict(member(feat, "properties", dict, where, null=" or null"))
         gtype = geom.get("type")
         coords = geom.get("coordinates")
+        saved = {} if foreign else schema["node" if gtype == "Point" else "edge"]
+        props = _columns_dropped(props, saved)
         if gtype == "Point":
             if "id" not in props:
                 raise ValueError(f"graph file {path}: Point features[{i}] has no 'id' property")
@@ -161,6 +164,14 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
         attrs["world"] = world
         add_edge(g, u, v, key, _in_order(attrs, schema["edge"]))
     return g
+
+
+def _columns_dropped(props: dict, saved: dict) -> dict:
+    """``props`` without the nulls of attributes that ``saved`` (the file's schema for the
+    feature's kind) does not record: the empty columns of a GIS program's attribute
+    table, which gives every feature every column (a Point ``u`` and ``path``, a
+    LineString ``id`` and ``pixel``)."""
+    return {k: v for k, v in props.items() if v is not None or k in saved}
 
 
 def _line(coords: Any, where: str) -> np.ndarray:
