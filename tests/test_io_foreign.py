@@ -149,3 +149,25 @@ def test_geojson_rewritten_by_a_gis_program_with_null_columns_loads_as_saved(
     for (*_, d), (*_, e) in pairs:
         assert d.keys() == e.keys()
         assert np.array_equal(d["world"], e["world"]) and np.array_equal(d["path"], e["path"])
+
+
+def test_graphml_default_values_of_another_tool_fill_the_elements_without_data(tmp_path):
+    # GraphML: a key's <default> is the value of every element that holds no data for it
+    path = tmp_path / "defaults.graphml"
+    path.write_text(
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        '<graphml xmlns="http://graphml.graphdrawing.org/xmlns">\n'
+        '<key id="d0" for="edge" attr.name="length_m" attr.type="double">'
+        "<default>1.5</default></key>\n"
+        '<key id="d1" for="node" attr.name="kind" attr.type="string">'
+        "<default>end</default></key>\n"
+        '<graph edgedefault="undirected">\n'
+        '<node id="0"/><node id="1"><data key="d1">junction</data></node>\n'
+        '<edge source="0" target="1"/>\n'
+        '<edge source="0" target="1"><data key="d0">2.0</data></edge>\n'
+        "</graph></graphml>\n"
+    )
+    back = load_graph(path)
+    assert dict(back.nodes(data="kind")) == {0: "end", 1: "junction"}
+    assert [d for *_, d in back.edges(keys=True, data="length_m")] == [1.5, 2.0]
+    assert back.graph == {}

@@ -215,9 +215,14 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
         schema = _schema_or_default(json.loads(schema_text) if schema_text else None)
     except json.JSONDecodeError:
         raise ValueError(f"graph file {path}: unreadable {_SCHEMA_KEY!r} attribute") from None
-    for name in ("node_default", "edge_default"):  # networkx's, unless the graph had them
-        if name not in schema["graph"]:
-            graph_attrs.pop(name, None)
+    # networkx keeps the keys' <default> values here, unless the graph had such attributes;
+    # GraphML gives them to every element that holds no data for the key
+    defaults = {
+        name: graph_attrs.pop(name, None) or {}
+        for name in ("node_default", "edge_default")
+        if name not in schema["graph"]
+    }
+    node_default, edge_default = (defaults.get(f"{s}_default", {}) for s in ("node", "edge"))
     has_schema = schema_text is not None
     keys = [k for *_, k in raw.edges(keys=True)]
     schema = decided_id_kinds(schema, {"node_id": list(raw.nodes), "edge_key": keys})
@@ -229,9 +234,10 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
     g.graph.update({k: _graphml_decode(v, schema["graph"].get(k)) for k, v in graph_attrs.items()})
     for n, d in raw.nodes(data=True):
         node = _decode_id(n, schema["node_id"], "node id", path)
+        d = d | {name: val for name, val in node_default.items() if name not in d}
         add_node(g, node, {k: _graphml_decode(v, schema["node"].get(k)) for k, v in d.items()})
     for u, v, k, d in raw.edges(keys=True, data=True):
-        attrs = dict(d)
+        attrs = d | {name: val for name, val in edge_default.items() if name not in d}
         # networkx's reader copies the GraphML edge id into an 'id' attribute.
         if "id" in attrs and (not has_schema or "id" not in schema["edge"]):
             attrs.pop("id")
