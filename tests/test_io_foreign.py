@@ -171,3 +171,22 @@ def test_graphml_default_values_of_another_tool_fill_the_elements_without_data(t
     assert dict(back.nodes(data="kind")) == {0: "end", 1: "junction"}
     assert [d for *_, d in back.edges(keys=True, data="length_m")] == [1.5, 2.0]
     assert back.graph == {}
+
+
+@pytest.mark.parametrize("suffix", [".json", ".geojson"])
+def test_an_attribute_of_ints_and_floats_keeps_each_values_type_in_json(tmp_path, suffix):
+    # JSON tells 3 from 3.0: each value comes back as the type it was saved as
+    g = nx.MultiGraph(resolution_m=0.05)
+    g.add_node(0, world=(0.0, 0.0), weight=3)
+    g.add_node(1, world=(1.0, 0.0), weight=2.5)
+    back = load_graph(save_graph(g, tmp_path / f"g{suffix}"))
+    assert [type(w) for _, w in back.nodes(data="weight")] == [int, float]
+
+
+def test_an_attribute_of_ints_and_floats_is_a_double_column_in_graphml(tmp_path):
+    g = nx.MultiGraph()
+    g.add_node(0, weight=3)
+    g.add_node(1, weight=2.5)
+    back = load_graph(save_graph(g, tmp_path / "g.graphml"))
+    assert list(back.nodes(data="weight")) == [(0, 3.0), (1, 2.5)]
+    assert [type(w) for _, w in back.nodes(data="weight")] == [float, float]

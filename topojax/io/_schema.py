@@ -142,8 +142,7 @@ def _decode_value(value: Any, spec: dict[str, Any] | None) -> Any:
         return arr
     if kind == "tuple":
         return _to_tuple(value) if isinstance(value, list) else value
-    if kind == "float" and isinstance(value, int) and not isinstance(value, bool):
-        return float(value)
+    # "float" (ints and floats): JSON tells 3 from 3.0, GraphML holds a double column
     return value
 
 

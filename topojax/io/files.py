@@ -63,7 +63,8 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
           are the str values of an attribute where one holds a control character
           (XML cannot hold most, and reads a carriage return back as a line feed);
           node ids, edge keys and attribute names with such a character other
-          than tab, line feed or carriage return are refused.
+          than tab, line feed or carriage return are refused. An attribute that holds
+          both ints and floats is a column of doubles: its ints come back as floats.
         * ``json``: networkx node-link data (``"nodes"`` / ``"edges"``, edge ``"key"``),
           arrays as nested lists.
         * ``geojson``: a FeatureCollection with one Point per node (properties ``id``,
