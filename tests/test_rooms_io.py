@@ -180,6 +180,23 @@ def test_an_outline_without_area_keeps_a_valid_ring(seg, tmp_path: Path):
     assert_rooms_equal(rooms, odd.rooms)
 
 
+def test_a_rooms_file_whose_gis_table_gives_every_feature_every_column_loads(seg, tmp_path: Path):
+    # a room kept as a property outline (no valid ring) gives a GIS program's table the
+    # columns outline and holes: every other feature gets them, and the doors' columns, null
+    first = dataclasses.replace(seg.rooms[0], polygon=seg.rooms[0].polygon[:2].copy())
+    odd = dataclasses.replace(seg, rooms=(first, *seg.rooms[1:]))
+    doc = json.loads(tj.save_rooms(odd, tmp_path / "r.geojson").read_text(encoding="utf-8"))
+    columns = list(dict.fromkeys(k for f in doc["features"] for k in f["properties"]))
+    assert "outline" in columns
+    for feat in doc["features"]:
+        feat["properties"] = {k: feat["properties"].get(k) for k in columns}
+    path = tmp_path / "gis.geojson"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    rooms, doors = tj.load_rooms(path)
+    assert_rooms_equal(rooms, odd.rooms)
+    assert_doors_equal(doors, odd.doors)
+
+
 def test_save_rooms_refuses_what_geojson_cannot_hold(seg, tmp_path: Path):
     with pytest.raises(TypeError, match="seg: expected a RoomSegmentation, received dict"):
         tj.save_rooms({}, tmp_path / "r.geojson")

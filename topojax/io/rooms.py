@@ -305,9 +305,9 @@ def _read_room(props: dict, geometry: dict, where: str):
         raise ValueError(
             f"{where}: geometry: expected a Polygon for a room, received {geometry.get('type')!r}"
         )
-    if "outline" in props:
+    if props.get("outline") is not None:  # null: a GIS table's empty column
         polygon = _points(props["outline"], np.float64, f"{where} outline")
-        holes = props.get("holes", [])
+        holes = [] if props.get("holes") is None else props["holes"]
         if not isinstance(holes, list):
             raise ValueError(
                 f"{where}: property 'holes': expected a list of rings, received {holes!r:.80}"
