@@ -190,3 +190,17 @@ def test_an_attribute_of_ints_and_floats_is_a_double_column_in_graphml(tmp_path)
     back = load_graph(save_graph(g, tmp_path / "g.graphml"))
     assert list(back.nodes(data="weight")) == [(0, 3.0), (1, 2.5)]
     assert [type(w) for _, w in back.nodes(data="weight")] == [float, float]
+
+
+def test_a_node_link_file_with_both_edge_lists_is_refused(tmp_path: Path):
+    """networkx writes ``edges`` or, in older versions, ``links``: a file holding both is
+    ambiguous, and reading one would drop the other's edges without a word."""
+    doc = {"nodes": [{"id": 0}, {"id": 1}], "edges": [], "links": [{"source": 0, "target": 1}]}
+    path = tmp_path / "both.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(ValueError, match=r"both\.json.* both 'edges' and 'links'"):
+        load_graph(path)
+    for name in ("edges", "links"):  # either alone is read
+        one = {"nodes": doc["nodes"], name: [{"source": 0, "target": 1}]}
+        path.write_text(json.dumps(one), encoding="utf-8")
+        assert load_graph(path).number_of_edges() == 1

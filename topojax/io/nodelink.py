@@ -70,6 +70,11 @@ def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
         raise ValueError(f"graph file {path} is not a node-link JSON object with 'nodes'")
     if doc.get("directed", False):
         raise ValueError(f"graph file {path} holds a directed graph; expected undirected")
+    if "edges" in doc and "links" in doc:  # networkx writes one or the other, by version
+        raise ValueError(
+            f"graph file {path}: expected one edge list, 'edges' or 'links', received both "
+            "'edges' and 'links'"
+        )
     edge_list_name = "edges" if "edges" in doc else "links"
     where = f"graph file {path}:"
     graph_attrs = dict(member(doc, "graph", dict, where))
