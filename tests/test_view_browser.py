@@ -686,3 +686,17 @@ def test_a_second_finger_does_not_throw_the_map_around(intel):
     after = _js(intel, "topojaxView.view()")
     assert after["tx"] - before["tx"] == pytest.approx(40)
     assert after["ty"] == before["ty"]
+
+
+def test_a_frame_that_is_no_number_is_refused(browser, tmp_path):
+    from selenium.common.exceptions import JavascriptException
+
+    mapper, timeline, _ = intel_replay()
+    page = tj.write_view(mapper, tmp_path / "replay.html", timeline=timeline)
+    assert _open(browser, page) == "ready"
+    n = _js(browser, "topojaxView.nFrames()")
+    for bad in ("NaN", "Infinity", "'2'", "null"):
+        with pytest.raises(JavascriptException, match=r"setFrame: expected a frame index"):
+            _js(browser, f"topojaxView.setFrame({bad})")
+    assert _js(browser, "topojaxView.setFrame(arguments[0])", n + 5)["final"]  # clamped
+    assert _js(browser, "topojaxView.setFrame(0)")["index"] == 0

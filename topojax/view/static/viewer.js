@@ -607,6 +607,9 @@ TJ.frameNo = 0;
   /* ------------------------------------------------------------------ timeline */
   Viewer.prototype.setFrame = function (i) {
     if (!this.timeline) throw new Error("this view has no timeline");
+    if (typeof i !== "number" || !isFinite(i)) {
+      throw new Error("setFrame: expected a frame index from 0 to " + this.nFrames + ", received " + i);
+    }
     this.frameIndex = Math.max(0, Math.min(this.nFrames, Math.round(i)));
     $("tj-slider").value = String(this.frameIndex);
     this.showFrame();
