@@ -748,7 +748,7 @@ class IncrementalMapper:
         if self._tiles.pixel_bbox is None:
             raise ValueError(
                 "rooms: the mapper is empty; they are kept up to date from the first scan "
-                "with valid readings on"
+                "with valid readings, or map with a known pixel, on"
             )
         box = self._bbox_or_raise("rooms")
         return self._rooms.update(
