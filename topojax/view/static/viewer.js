@@ -29,6 +29,7 @@ TJ.frameNo = 0;
     this.graphs = [];
     this.routers = new Map();
     this.edgeGrids = new Map();
+    this.frameGrid = null;  // the edge grid of the last timeline frame hovered
     this.routePoints = [];
     this.route = null;
     this.routeError = null;
@@ -439,9 +440,10 @@ TJ.frameNo = 0;
     }
     return grid;
   };
-  /* the grid of the edges of timeline frame `index` (the pool keeps removed edges too) */
+  /* the grid of the edges of timeline frame `index` (the pool keeps removed edges too);
+     only the last frame's is kept, so hovering through a long replay holds one grid */
   Viewer.prototype.frameEdgeGrid = function (index, f) {
-    var key = "frame " + index, grid = this.edgeGrids.get(key);
+    var grid = this.frameGrid && this.frameGrid.index === index ? this.frameGrid : null;
     if (!grid) {
       var P = this.timeline.pool, n = 0, k, e;
       for (k = 0; k < f.edges.length; k++) n += P.sizes[f.edges[k]];
@@ -455,7 +457,8 @@ TJ.frameNo = 0;
       }
       grid = new TJ.Grid(pu, pv, 8);
       grid.edgeOf = edgeOf;
-      this.edgeGrids.set(key, grid);
+      grid.index = index;
+      this.frameGrid = grid;
     }
     return grid;
   };
