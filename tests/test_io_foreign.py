@@ -70,6 +70,7 @@ def test_geojson_positions_with_an_altitude_load_without_it(tmp_path: Path):
     [
         ([1.0, 2.0, 0.0, 1.0], [[1.0, 2.0], [3.0, 4.0]], r"features\[0\].*\[x, y\] or \[x, y, z\]"),
         ([1.0, 2.0, "up"], [[1.0, 2.0], [3.0, 4.0]], r"features\[0\].*altitude.*'up'"),
+        ([1.0, 2.0, 10**400], [[1.0, 2.0], [3.0, 4.0]], r"features\[0\].*altitude.*1000"),
         ([1.0, 2.0], [[1.0, 2.0], [3.0, 4.0, 0.0, 0.0]], r"features\[2\].*position 1"),
         ([1.0, 2.0], [[1.0, 2.0], [3.0]], r"features\[2\].*position 1.*\[3.0\]"),
     ],

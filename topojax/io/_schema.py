@@ -11,6 +11,7 @@ tools) are decoded with the topojax defaults (``_DEFAULT_*_KINDS``).
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from pathlib import Path
 from typing import Any
@@ -284,6 +285,29 @@ def _xy(value: Any, where: str) -> list[float]:
             f"{where}: expected 2 finite numbers (x, y), received {value!r}{graphml_text(value)}"
         )
     return [float(arr[0]), float(arr[1])]
+
+
+def without_altitude(pos: Any, where: str) -> Any:
+    """A GeoJSON position ``pos`` without its altitude: RFC 7946 (3.1.1) allows one as a
+    third element, which GIS tools write; it must be a finite number and is dropped.
+    ValueError naming ``where`` for a fourth element or an altitude that is no finite
+    number (a JSON integer beyond any float included); anything else is returned as it
+    is, for the caller's own check."""
+    if not isinstance(pos, list) or len(pos) < 3:
+        return pos
+    if len(pos) > 3:
+        raise ValueError(f"{where}: expected [x, y] or [x, y, z], received {pos!r:.80}")
+    z = pos[2]
+    try:
+        finite = not isinstance(z, bool) and isinstance(z, (int, float)) and math.isfinite(z)
+    except OverflowError:  # an integer beyond any float
+        finite = False
+    if not finite:
+        raise ValueError(
+            f"{where}: expected an altitude (a finite number) as its third element, "
+            f"received {z!r:.80}"
+        )
+    return pos[:2]
 
 
 def member(obj: dict, name: str, kind: type, where: str, *, null: str = "") -> Any:

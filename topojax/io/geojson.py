@@ -23,6 +23,7 @@ from ._schema import (
     decided_id_kinds,
     jsonable,
     member,
+    without_altitude,
 )
 
 _GEO_NODE_RESERVED = ("id", "feature")
@@ -130,7 +131,7 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
             props.pop("feature", None)
             attrs = _decode_attrs(props, schema["node"])
             where = f"graph file {path}: features[{i}] coordinates"
-            xy = _xy(_position(coords, where), where)
+            xy = _xy(without_altitude(coords, where), where)
             spec = schema["node"].get("world") or {"kind": "tuple"}
             attrs["world"] = _decode_value(xy, spec)
             add_node(g, node, _in_order(attrs, schema["node"]))
@@ -188,25 +189,8 @@ def _line(coords: Any, where: str) -> np.ndarray:
     if not isinstance(coords, list) or not coords:
         raise ValueError(f"{where}: expected a list of [x, y], received {coords!r:.80}")
     at = [f"{where} position {j}" for j in range(len(coords))]  # positions one by one
-    xy = [_xy(_position(c, w), w) for c, w in zip(coords, at, strict=True)]
+    xy = [_xy(without_altitude(c, w), w) for c, w in zip(coords, at, strict=True)]
     return np.array(xy, dtype=np.float64)
-
-
-def _position(value: Any, where: str) -> Any:
-    """A GeoJSON position ``value`` without its altitude: RFC 7946 (3.1.1) allows one as
-    a third element, which GIS tools write; it must be a finite number.  ValueError
-    naming ``where`` for a fourth element or an altitude that is no finite number."""
-    if not isinstance(value, list) or len(value) < 3:
-        return value
-    if len(value) > 3:
-        raise ValueError(f"{where}: expected [x, y] or [x, y, z], received {value!r:.80}")
-    z = value[2]
-    if isinstance(z, bool) or not isinstance(z, (int, float)) or not np.isfinite(z):
-        raise ValueError(
-            f"{where}: expected an altitude (a finite number) as its third element, "
-            f"received {z!r:.80}"
-        )
-    return value[:2]
 
 
 def _ids(features: Any) -> dict[str, list]:

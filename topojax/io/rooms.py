@@ -22,6 +22,7 @@ from .._validate import (
     path_like,
     pose,
 )
+from ._schema import without_altitude
 
 __all__ = [
     "ROOM_FILE_SUFFIXES",
@@ -237,21 +238,7 @@ def _positions(value: Any, what: str, *, count: int | None = None) -> np.ndarray
     and the position for a fourth element or an altitude that is no finite number."""
     if not isinstance(value, list):
         return _points(value, np.float64, what, count=count)
-    pairs = []
-    for i, pos in enumerate(value):
-        if isinstance(pos, list) and len(pos) > 3:
-            raise ValueError(
-                f"{what}: position {i}: expected [x, y] or [x, y, z], received {pos!r:.80}"
-            )
-        if isinstance(pos, list) and len(pos) == 3:
-            z = pos[2]
-            if isinstance(z, bool) or not isinstance(z, (int, float)) or not _finite(z):
-                raise ValueError(
-                    f"{what}: position {i}: expected an altitude (a finite number) as its "
-                    f"third element, received {z!r:.80}"
-                )
-            pos = pos[:2]
-        pairs.append(pos)
+    pairs = [without_altitude(pos, f"{what}: position {i}") for i, pos in enumerate(value)]
     return _points(pairs, np.float64, what, count=count)
 
 
