@@ -19,7 +19,6 @@ import numpy as np
 from .._lock import one_writer
 from ..config import DistanceConfig, PipelineConfig
 from ..maps import OccupancyMap
-from ..maps.classify import wall_warning
 from ..rooms import RoomConfig
 from ..routegraph import RouteGraphConfig
 from .arguments import (
@@ -30,18 +29,12 @@ from .arguments import (
     workers_for_memory,
 )
 from .failures import _error_record, _lost_text
-from .inputs import ROUTE_FORMATS, _Item
+from .inputs import _Item
 from .interrupts import HeldInterrupts
 from .manifest import _drop_outputs, _forget_outputs, _resume_record, _write_manifest
+from .outcome import counted_record, noted_record
 from .pool import WorkerPool, terminate_workers
-from .records import (
-    MapRecord,
-    drop_summary,
-    empty_reason,
-    no_room_reason,
-    totalled,
-    write_summary,
-)
+from .records import MapRecord, drop_summary, totalled, write_summary
 from .worker import (
     InlineExecutor,
     _cpu_stage,
@@ -54,7 +47,6 @@ from .worker import (
     _loaded_from_bits,
     _LoadedBits,
     _warm_worker,
-    resolution_note,
     worker_context,
 )
 
@@ -603,42 +595,18 @@ class _BatchRun:
             res: _CpuResult = fut.result()
         except Exception as exc:  # the worker died or the task could not be run
             return replace(rec, status="error", message=f"CPU stage failed: {self._lost(exc)}")
-        rec = replace(
-            rec,
-            vertices=res.vertices,
-            edges=res.edges,
-            components=res.components,
-            total_length_m=res.total_length_m,
-            route_vertices=res.route_vertices,
-            route_edges=res.route_edges,
-            route_components=res.route_components,
-            rooms=res.rooms,
-            doors=res.doors,
-            t_thinning_s=res.t_thinning_s,
-            t_graph_s=res.t_graph_s,
-            t_write_s=res.t_write_s,
-            outputs=tuple(res.files),
-        )
+        rec = counted_record(rec, res)
         if res.error is not None:
             return replace(rec, status="error", message=res.error)
-        warning = wall_warning(self._walls.pop(item.index, None))
-        classes = self._classes.pop(item.index, (None, None))
-        # the paper's graph counts unless only route graphs or rooms were asked for
-        paper = self.out_dir is None or not set(self.formats) <= {*ROUTE_FORMATS, "rooms"}
-        mode = (self.map_options or {}).get("mode")
-        notes = [] if res.vertices or not paper else [empty_reason(*classes, mode=mode)]
-        notes += [no_room_reason(classes[1], mode=mode)] if res.rooms == 0 else []
-        notes += [res.nav2_note] if res.nav2_note else []
-        notes += [res.route_note] if res.route_note else []
-        notes += [warning] if warning else []
-        notes += resolution_note(item.path, self.map_options, rec.resolution_m)
-        empty = (paper and not res.vertices) or res.route_vertices == 0 or res.rooms == 0
-        rec = replace(
+        rec = noted_record(
             rec,
-            status="empty" if empty else rec.status,
-            message="; ".join(notes),  # why it is empty, and any warning
-            graph=res.graph,
-            route_graph=res.route_graph,
+            res,
+            path=item.path,
+            classes=self._classes.pop(item.index, (None, None)),
+            wall=self._walls.pop(item.index, None),
+            formats=self.formats,
+            written=self.out_dir is not None,
+            map_options=self.map_options,
         )
         if self.out_dir is not None:
             rec = totalled(rec)
