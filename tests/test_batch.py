@@ -1807,6 +1807,33 @@ def test_empty_graphs_are_reported_with_a_reason(tmp_path, capsys):
     assert ",empty," in summary and "--mode" in summary
 
 
+def test_a_graph_emptied_by_pruning_says_so_not_that_no_corridor_was_found(tmp_path, capsys):
+    """A map whose corridors are all removed by the pruning options is ``empty`` with the
+    options that removed them named (the keyword in the record, the option on the
+    command line), not told that no corridor was found or to check its thresholds."""
+    import cv2
+
+    from topojax.cli import main
+    from topojax.config import GraphConfig
+
+    occ = _synthetic((120, 160), 3, source="rooms")
+    config = PipelineConfig(graph=GraphConfig(min_component_m=1000.0))
+    (rec,) = build_graphs([occ], workers=0, config=config, progress=False)
+    assert rec.status == "empty" and rec.vertices == 0
+    assert "min_component_m" in rec.message and "removed every corridor" in rec.message
+    assert "no corridor was found" not in rec.message and "thresholds" not in rec.message
+    (plain,) = build_graphs([occ], workers=0, progress=False)  # the map gives corridors
+    assert plain.status == "ok" and plain.vertices > 0
+
+    cv2.imwrite(str(tmp_path / "rooms.png"), np.where(occ.occupied, 0, 255).astype(np.uint8))
+    args = ["batch", str(tmp_path / "rooms.png"), "-o", str(tmp_path / "out")]
+    args += ["--no-progress", "--workers", "0", "--min-component-m", "1000"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert "empty    rooms: empty graph: --min-component-m=1000 removed every corridor" in err
+    assert "no corridor was found" not in err and "min_component_m" not in err
+
+
 def test_a_bad_yaml_field_is_named_as_the_file_names_it(tmp_path, capsys):
     """An error row names a map YAML's field as the file spells it (``occupied_thresh``),
     not as the option of the same setting: the file is at fault."""

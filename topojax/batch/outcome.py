@@ -54,7 +54,9 @@ def noted_record(
     # the paper's graph counts unless only route graphs or rooms were asked for
     paper = not written or not set(formats) <= {*ROUTE_FORMATS, "rooms"}
     mode = (map_options or {}).get("mode")
-    notes = [] if res.vertices or not paper else [empty_reason(*classes, mode=mode)]
+    notes = (
+        [] if res.vertices or not paper else [empty_reason(*classes, mode=mode, pruned=res.pruned)]
+    )
     notes += [no_room_reason(classes[1], mode=mode)] if res.rooms == 0 else []
     notes += [res.nav2_note] if res.nav2_note else []
     notes += [res.route_note] if res.route_note else []

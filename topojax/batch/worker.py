@@ -21,6 +21,7 @@ from ..maps.classify import wall_share
 from ..maps.files import default_resolution_used, replaced_resolution, said_resolution
 from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
+from .records import pruned_by
 
 __all__ = ["InlineExecutor"]
 
@@ -81,6 +82,7 @@ class _CpuResult:
     doors: int | None = None
     route_note: str = ""  # why the route graph is empty or has no edge, where it is
     nav2_note: str = ""  # why the graph (nav2 format) got no Nav2 file, where it did not
+    pruned: str = ""  # the pruning settings that removed every corridor (records.pruned_by)
     t_thinning_s: float = 0.0
     t_graph_s: float = 0.0
     t_write_s: float = 0.0
@@ -160,6 +162,8 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
         res.edges = int(summary["n_edges"])
         res.components = int(summary["n_components"])
         res.total_length_m = float(summary["total_length_m"])
+        if not res.vertices and skeleton.any():  # the map gave corridors: pruning took all
+            res.pruned = pruned_by(job.config.graph)
         t2 = time.perf_counter()
         res.t_graph_s = t2 - t0_graph
 
