@@ -1932,6 +1932,28 @@ def test_an_empty_graph_with_the_nav2_format_is_empty_not_an_error(tmp_path):
     assert [r.status for r in again] == ["skipped"] * 3
 
 
+def test_a_map_without_either_nav2_file_says_so_once_naming_both(tmp_path):
+    """With both Nav2 formats, a map whose graph and route graph have no edge is told once
+    that it gets no Nav2 file, with the files it does not get named: not the same note
+    twice, which leaves the user to guess which file each is about."""
+    walls = np.ones((60, 60), bool)
+    occ = OccupancyMap(
+        occupied=walls,
+        free=np.zeros_like(walls),
+        unknown=np.zeros_like(walls),
+        resolution_m=0.05,
+        origin=(0.0, 0.0, 0.0),
+        source="walls",
+    )
+    kw = {"workers": 0, "progress": False, "out_dir": tmp_path, "formats": "nav2,route_nav2"}
+    (rec,) = build_graphs([occ], **kw)
+    assert rec.status == "empty"
+    assert rec.message.count("the Route Server needs an edge") == 1
+    assert "no Nav2 file walls_nav2.geojson or walls_route_nav2.geojson (" in rec.message
+    assert not (tmp_path / "walls_nav2.geojson").exists()
+    assert not (tmp_path / "walls_route_nav2.geojson").exists()
+
+
 def test_out_dir_and_bucket_are_checked_before_any_map_runs():
     """``out_dir`` must be a path (an int is named, not left to fail in ``pathlib``
     naming no option), and ``tiles_per_call`` is bounded as for :class:`PipelineConfig`

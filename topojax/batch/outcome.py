@@ -10,7 +10,7 @@ from typing import Any
 from ..maps.classify import wall_warning
 from .inputs import ROUTE_FORMATS
 from .records import MapRecord, empty_reason, no_room_reason
-from .worker import _CpuResult, resolution_note
+from .worker import _CpuResult, no_nav2_note, resolution_note
 
 
 def counted_record(rec: MapRecord, res: _CpuResult) -> MapRecord:
@@ -60,6 +60,7 @@ def noted_record(
     notes += [no_room_reason(classes[1], mode=mode)] if res.rooms == 0 else []
     notes += [res.nav2_note] if res.nav2_note else []
     notes += [res.route_note] if res.route_note else []
+    notes += no_nav2_note(res.no_nav2)
     notes += [warning] if warning else []
     notes += resolution_note(path, map_options, rec.resolution_m)
     empty = (paper and not res.vertices) or res.route_vertices == 0 or res.rooms == 0

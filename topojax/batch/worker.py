@@ -81,7 +81,8 @@ class _CpuResult:
     rooms: int | None = None
     doors: int | None = None
     route_note: str = ""  # why the route graph is empty or has no edge, where it is
-    nav2_note: str = ""  # why the graph (nav2 format) got no Nav2 file, where it did not
+    nav2_note: str = ""  # the warning of a graph (nav2 format) with vertices and no edge
+    no_nav2: list[str] = field(default_factory=list)  # Nav2 files not written: no edge
     pruned: str = ""  # the pruning settings that removed every corridor (records.pruned_by)
     t_thinning_s: float = 0.0
     t_graph_s: float = 0.0
@@ -186,10 +187,12 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
                 elif fmt == "route_nav2":
                     nav2 = Path(f"{stem}{_FORMAT_FILES[fmt][0]}")
                     written += _nav2_file(routes, res.route_edges, nav2)
+                    res.no_nav2 += [] if res.route_edges else [nav2.relative_to(out).as_posix()]
                 elif fmt == "nav2":
                     nav2 = Path(f"{stem}{_FORMAT_SUFFIX[fmt]}")
                     written += _nav2_file(graph, res.edges, nav2)
                     res.nav2_note = "" if res.edges else _nav2_note(res.vertices)
+                    res.no_nav2 += [] if res.edges else [nav2.relative_to(out).as_posix()]
                 else:
                     written.append(save_graph(graph, f"{stem}{_FORMAT_SUFFIX[fmt]}", format=fmt))
             if job.plot:
@@ -226,14 +229,18 @@ def _nav2_file(graph, n_edges: int | None, path: Path) -> list[Path]:
 
 
 def _nav2_note(vertices: int | None) -> str:
-    """Why a graph of ``vertices`` vertices and no edge gets no Nav2 file (a warning
-    where it has vertices; its emptiness is reported by itself otherwise)."""
-    why = "no Nav2 file (the Route Server needs an edge)"
+    """The warning of a graph of ``vertices`` vertices and no edge, which gets no Nav2
+    file; none where it has no vertex (its emptiness is reported by itself)."""
     if not vertices:
-        return why
-    return (
-        f"warning: the graph has {vertices} vert{'ex' if vertices == 1 else 'ices'}, no edge; {why}"
-    )
+        return ""
+    return f"warning: the graph has {vertices} vert{'ex' if vertices == 1 else 'ices'}, no edge"
+
+
+def no_nav2_note(names: list[str]) -> list[str]:
+    """The note of the Nav2 files ``names`` not written (their graph has no edge)."""
+    if not names:
+        return []
+    return [f"no Nav2 file {' or '.join(names)} (the Route Server needs an edge)"]
 
 
 def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) -> Any:
@@ -249,8 +256,6 @@ def _route_graph(job: _CpuJob, occupancy: OccupancyMap | None, res: _CpuResult) 
     res.route_edges = routes.number_of_edges()
     res.route_components = nx.number_connected_components(routes)
     res.route_note = routes.graph.get("note", "")
-    if res.route_note and "route_nav2" in job.formats:
-        res.route_note += "; no Nav2 file (the Route Server needs an edge)"
     return routes
 
 
