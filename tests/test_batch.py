@@ -1707,6 +1707,34 @@ def test_outputs_never_replace_an_input_map_or_its_yaml_image(tmp_path, capsys):
     assert "would overwrite the graph file" in capsys.readouterr().err
 
 
+def test_a_file_no_batch_wrote_under_an_output_name_is_warned_of_by_name(tmp_path, capsys):
+    """A file in the output folder with the name of a map's output that no batch manifest
+    lists (written by hand, or by another program) is named in a warning before any map
+    runs: it is replaced (removed, should the map fail) by the batch; files a batch wrote
+    and lists are replaced without a word."""
+    import cv2
+
+    from topojax.cli import main
+
+    occ = _synthetic((80, 100), 5)
+    cv2.imwrite(str(tmp_path / "rooms.png"), np.where(occ.occupied, 0, 255).astype(np.uint8))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "rooms.json").write_text("my own notes\n")
+    kw = {"out_dir": out, "workers": 0, "progress": False, "formats": "json"}
+    with pytest.warns(UserWarning, match=r"out_dir: .*rooms\.json") as caught:
+        (rec,) = build_graphs([tmp_path / "rooms.png"], **kw)
+    assert rec.status == "ok" and len(caught) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # its own files now: no warning
+        build_graphs([tmp_path / "rooms.png"], **kw)
+    (out / "rooms.manifest.json").unlink()
+    argv = ["batch", str(tmp_path / "rooms.png"), "-o", str(out), "--formats", "json"]
+    assert main([*argv, "--no-progress", "--workers", "0"]) == 0
+    err = capsys.readouterr().err
+    assert f"topojax batch: warning: --out: {out / 'rooms.json'}" in err and "out_dir" not in err
+
+
 def test_a_map_file_of_the_same_name_from_another_folder_is_refused(tmp_path):
     """Two batches into one folder: ``b/m.png`` after ``a/m.png`` would replace its
     outputs without a word, and the library refuses it as the command line does; the

@@ -395,6 +395,35 @@ def check_other_maps_files(
                 )
 
 
+def warn_unlisted_outputs(
+    items: list[_Item], out: Path, formats: tuple[str, ...], plot: bool, *, name: str
+) -> None:
+    """Warn (``name``: the output folder's parameter or option) of the files in ``out``
+    with a map's output name that no batch manifest lists (written by hand or by another
+    program): the batch replaces them, or removes them where the map fails."""
+    from .._words import counted
+
+    suffixes = _format_suffixes(formats) + [_MANIFEST_SUFFIX] + picture_suffixes(formats, plot)
+    found = [
+        target
+        for it in items
+        for target in (out / f"{it.name}{suffix}" for suffix in suffixes)
+        if target.is_file() and batch_input(target) is None
+    ]
+    if not found:
+        return
+    shown = ", ".join(map(str, found[:5])) + (f" and {len(found) - 5} more" if found[5:] else "")
+    them = "it" if len(found) == 1 else "them"
+    warnings.warn(
+        f"{name}: {shown}: {counted(len(found), 'file')} with a map's output name that no "
+        "batch manifest lists (written by hand, by another program, or by a batch stopped "
+        f"before that map's manifest); this batch replaces {them}, or removes {them} where "
+        f"the map fails; move {them} away first to keep {them}",
+        UserWarning,
+        stacklevel=4,
+    )
+
+
 def warn_unused_workers(executor: Any, workers: int | None) -> None:
     """Warn, at :func:`build_graphs`' caller, that ``workers`` given beside an
     ``executor`` is not used (the executor's own workers run the maps), as the command

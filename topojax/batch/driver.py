@@ -25,6 +25,7 @@ from .arguments import (
     batch_items,
     checked_options,
     map_inputs,
+    warn_unlisted_outputs,
     warn_unused_workers,
     workers_for_memory,
 )
@@ -668,6 +669,8 @@ def build_graphs(
     out_dir : str or path, optional
         Output folder (created; locked while the batch runs: a second batch or replay into
         it is refused, BlockingIOError); without it nothing is written (see keep_graphs).
+        A file there with a map's output name that no batch manifest lists is named in a
+        UserWarning before any map runs, then replaced.
     formats : sequence of str, or a comma-separated str
         Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2`` (the graph for
         the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms` with
@@ -750,13 +753,17 @@ def run_batch(
     sources: list[Path | None],
     out: Path | None,
     options: dict[str, Any],
+    *,
+    out_name: str = "out_dir",
 ) -> list[MapRecord]:
     """Run :func:`build_graphs` on its checked inputs (:func:`map_inputs`) and options
     (:func:`checked_options`, whose ``map_options`` ``topojax batch`` gives too); with an
-    output folder ``out``, this run's summary table replaces the one there."""
-    items, fingerprints = batch_items(
-        items_raw, sources, out=out, formats=options["formats"], plot=options["plot"]
-    )
+    output folder ``out`` (``out_name``: as its warnings name it), this run's summary
+    table replaces the one there."""
+    formats, plot = options["formats"], options["plot"]
+    items, fingerprints = batch_items(items_raw, sources, out=out, formats=formats, plot=plot)
+    if out is not None:
+        warn_unlisted_outputs(items, out, formats, plot, name=out_name)
     runner = _BatchRun(items, out_dir=out, fingerprints=fingerprints, **options)
     if out is not None:
         drop_summary(out)

@@ -133,7 +133,7 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
             map_options=reading,
         )
         with one_writer(out, name="--out", command="batch"):  # one batch per folder
-            records = run_batch(*map_inputs(paths), out, options)
+            records = run_batch(*map_inputs(paths), out, options, out_name="--out")
     except ValueError as exc:  # e.g. more --workers than the memory holds, or an output
         # that would replace an input map: named as the options the user typed
         exc = _option_named(exc, "workers", "--workers")
