@@ -581,6 +581,20 @@ def test_a_run_cut_short_leaves_no_earlier_summary(tmp_path, monkeypatch):
     assert not (out / "summary.parquet").exists()
 
 
+def test_the_summary_holds_the_maps_of_the_last_run_and_the_manifests_every_one(tmp_path):
+    """As documented: ``summary.csv`` is the table of the run that wrote it, so a later run
+    of other maps into the folder replaces it with theirs; the earlier maps' files stay,
+    and their manifests keep their rows."""
+    out = tmp_path / "out"
+    kw = {"out_dir": out, "workers": 0, "progress": False, "formats": "json"}
+    (first,) = build_graphs([_synthetic((60, 80), 1, source="first")], **kw)
+    (second,) = build_graphs([_synthetic((60, 80), 2, source="second")], **kw)
+    assert [row["map"] for row in _read_summary(out)] == ["second"]
+    manifest = json.loads((out / "first.manifest.json").read_text())
+    assert manifest["status"] == first.status and manifest["record"]["map"] == "first"
+    assert manifest["record"]["vertices"] == first.vertices and (out / "first.json").is_file()
+
+
 @pytest.mark.parametrize("name", ["summary.csv", "summary.parquet"])
 def test_a_folder_in_place_of_the_summary_is_refused_before_any_map(tmp_path, capsys, name):
     """A folder where the summary table goes is refused naming the output folder and the

@@ -718,7 +718,8 @@ def build_graphs(
     -------
     list of MapRecord
         One per input, in input order.  With ``out_dir``, the table is also written to
-        ``out_dir/summary.csv`` (and ``summary.parquet`` with pyarrow).
+        ``out_dir/summary.csv`` (and ``summary.parquet`` with pyarrow), replacing an
+        earlier run's: it holds this run's maps (each map's manifest keeps its row).
 
     Raises
     ------
