@@ -569,6 +569,27 @@ def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
     assert "max_extent_m" not in printed and "make the mapper" not in printed
 
 
+def test_replay_aligns_its_removed_lines_as_the_other_commands_do(tmp_path, capsys):
+    """The files a replay removes are said in lines whose label takes the column the
+    other commands' ``removed`` lines and the summary's own labels take."""
+    from topojax.playback import summary_text
+
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    out = tmp_path / "out"
+    argv = ["replay", str(log), "-o", str(out), "--no-progress", "--graph-every", "20"]
+    assert main([*argv, "--nav2"]) == 0
+    capsys.readouterr()
+    assert main(argv) == 0  # no Nav2 file this time: the earlier one goes
+    removed = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("removed")]
+    nav2 = out / "graph_nav2.geojson"
+    assert removed == [f"removed    {nav2}, written by an earlier replay"]
+    summary = {"n_scans": 1, "source": "log", "wall_s": 1.0, "map_shape": (10, 10)}
+    summary.update({"n_tiles": 1, "vertices": 0, "edges": 0, "timings": {}})
+    state = out / "mapper_state.npz"
+    text = summary_text({**summary, "messages": [f"removed {state}: the replay has finished"]})
+    assert text.splitlines()[-1] == f"removed    {state}: the replay has finished"
+
+
 def test_replay_prints_its_summary_in_its_own_words_with_the_progress_bar(tmp_path, capsys):
     """With the progress bar (no ``--no-progress``) the command prints the summary once,
     in its options' words, as without it, not the library's summary in its parameters'

@@ -747,6 +747,7 @@ def _write_pictures(result, out: Path, name: str, *, rooms=None) -> list[Path]:
 
 
 def summary_text(summary: dict) -> str:
+    """The printed summary of a replay (:func:`replay`'s record, with its messages)."""
     lines = [
         f"replayed   {counted(summary['n_scans'], 'scan')} of {summary['source']} in "
         f"{summary['wall_s']:.2f} s; map {summary['map_shape'][1]} x "
@@ -780,7 +781,9 @@ def summary_text(summary: dict) -> str:
                 f"{k:10s} {s['count']:6d} {s['mean_ms']:10.3f} {s['p50_ms']:10.3f} "
                 f"{s['p99_ms']:10.3f} {s['per_scan_ms']:12.4f}"
             )
-    lines.extend(summary.get("messages", []))
+    for message in summary.get("messages", []):  # a removed file: in the labels' column
+        word, _, rest = message.partition(" ")
+        lines.append(f"{word:10s} {rest}" if word == "removed" else message)
     return "\n".join(lines)
 
 
