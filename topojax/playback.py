@@ -7,7 +7,6 @@ import copy
 import functools
 import json
 import time
-from dataclasses import asdict
 from pathlib import Path
 from typing import NamedTuple
 
@@ -22,7 +21,7 @@ from ._replay_args import (
     refuse_overwriting_source,
     remove_stale,
 )
-from ._replay_skips import SkippedScans, ordered
+from ._replay_skips import SkippedScans
 from ._replay_state import (
     STATE_FILE,
     Checkpoints,
@@ -45,6 +44,7 @@ from ._replay_state import (
     skipped_message,
     skipped_note,
 )
+from ._replay_summary import replay_summary, route_note, summary_text
 from ._validate import flag, nonnegative_quantity
 from ._words import counted
 from .config import GraphConfig
@@ -53,7 +53,6 @@ from .incremental import (
     IncrementalMapper,
     ScanReport,
     settings_of,
-    timing_summary,
 )
 
 #: Whether :func:`replay` with ``progress`` prints its summary: False where the caller
@@ -282,7 +281,7 @@ def _finish(source, mapper, done, out: Path, progress_at, written, messages, pro
     from ._fs import atomic_write_bytes
 
     written.append(out / "timings.json")
-    summary = _summary(source, mapper, done, progress_at)
+    summary = replay_summary(source, mapper, done, progress_at)
     summary["written"] = [str(p) for p in written]
     # timings.json before the state goes: a stop in between leaves the state, which
     # --resume finishes again, never a folder with neither
@@ -463,7 +462,7 @@ def _write_and_close(
     final = False  # whether the recording's last messages are being written
     try:
         written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
-        messages += _route_note(done, nav2_tolerance_m)
+        messages += route_note(done, nav2_tolerance_m)
         written += _write_rooms_routes_view(mapper, done, out, timeline, nav2_tolerance_m)
         written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
         final = True
@@ -554,50 +553,6 @@ def _write_pictures_and_animation(
     return written
 
 
-def _summary(source, mapper: IncrementalMapper, done: _Replayed, progress_at) -> dict:
-    """The replay's record (``timings.json``, to which :func:`replay` adds ``written``)."""
-    from .graph import graph_summary
-
-    summary_g = graph_summary(done.result.graph)
-    routes = done.routes
-    return {
-        "rooms": None if done.seg is None else done.seg.n_rooms,
-        "doors": None if done.seg is None else len(done.seg.doors),
-        "route_graph": None if routes is None else _route_counts(routes),
-        "source": str(source),
-        "n_scans": mapper.n_scans,
-        "n_skipped": done.skipped.count,
-        "skipped_scans": done.skipped.texts,
-        "skipped_bounds": done.skipped.bounds,
-        "skipped_per_bound": ordered(done.skipped.per_bound),
-        "skipped_left_out": done.skipped.left_out,
-        "n_tiles": mapper.n_tiles,
-        "map_shape": list(done.result.map.shape),
-        "vertices": summary_g["n_vertices"],
-        "edges": summary_g["n_edges"],
-        "wall_s": done.wall_s,
-        "final_update_s": done.final_s,
-        "final_update": asdict(done.update),
-        "timings": timing_summary(done.reports),
-        "settings": settings_of(mapper),
-        "resumed_after": progress_at.resumed_after,
-        "checkpoints": progress_at.checkpoints,
-    }
-
-
-def _route_counts(routes) -> dict:
-    """The vertices, edges and components of a route graph, and its robot radius."""
-    import networkx as nx
-
-    n = routes.number_of_nodes()
-    return {
-        "vertices": n,
-        "edges": routes.number_of_edges(),
-        "components": nx.number_connected_components(routes) if n else 0,
-        "robot_radius_m": routes.graph["robot_radius_m"],
-    }
-
-
 def _final(mapper: IncrementalMapper, graph_config, rooms: bool):
     """The final graph update; returns its report, its time (s), the result to write
     (with ``graph_config``'s graph) and, with ``rooms``, the final rooms (assigned to the
@@ -631,18 +586,6 @@ def _unwritable(mapper, exc: ExportBudgetError, out: Path, record: dict, progres
         f"topojax replay) to skip such scans. To write it, replay again with resume=True "
         f"and a larger max_export_bytes.{skipped_note(progress_at)}"
     )
-
-
-def _route_note(done: _Replayed, nav2_tolerance_m) -> list[str]:
-    """Why the final route graph (if any) has no edge, as a message naming the Nav2 file
-    not written for it (with a ``nav2_tolerance_m``); else none."""
-    routes = done.routes
-    if routes is None or routes.number_of_edges():
-        return []
-    note = routes.graph.get("note") or "the route graph has no edge"
-    if nav2_tolerance_m is not None:
-        note += "; no route_graph_nav2.geojson (the Route Server needs an edge)"
-    return [note]
 
 
 def _run(
@@ -744,47 +687,6 @@ def _write_pictures(result, out: Path, name: str, *, rooms=None) -> list[Path]:
     atomic_write_bytes(out / "graph.png", result_png(result, title=title, rooms=rooms))
     atomic_write_bytes(out / "stages.png", stages_png(result, title=name))
     return [out / "graph.png", out / "stages.png"]
-
-
-def summary_text(summary: dict) -> str:
-    """The printed summary of a replay (:func:`replay`'s record, with its messages)."""
-    lines = [
-        f"replayed   {counted(summary['n_scans'], 'scan')} of {summary['source']} in "
-        f"{summary['wall_s']:.2f} s; map {summary['map_shape'][1]} x "
-        f"{summary['map_shape'][0]} px (w x h) in {counted(summary['n_tiles'], 'tile')}",
-        f"graph      {counted(summary['vertices'], 'vertex', 'vertices')}, "
-        f"{counted(summary['edges'], 'edge')}",
-        "loop        calls    mean ms     p50 ms     p99 ms   amortised ms/scan",
-    ]
-    routes = summary.get("route_graph")
-    if routes is not None:
-        lines.insert(
-            2,
-            f"route graph {counted(routes['vertices'], 'vertex', 'vertices')}, "
-            f"{counted(routes['edges'], 'edge')}, {counted(routes['components'], 'component')}, "
-            f"robot radius {routes['robot_radius_m']:g} m",
-        )
-    if summary.get("rooms") is not None:
-        doors = summary.get("doors")  # absent from a record written before it was kept
-        line = f"rooms      {counted(summary['rooms'], 'room')}"
-        lines.insert(2, line if doors is None else f"{line}, {counted(doors, 'door')}")
-    if summary.get("resumed_after"):
-        lines.insert(
-            1,
-            f"resumed    after {counted(summary['resumed_after'], 'scan')} of the log: the "
-            "time and the loop timings are this run's, of the scans after them",
-        )
-    for k in ("distance", "splat", "skeleton", "graph", "rooms", "add_scan"):
-        s = summary["timings"].get(k)
-        if s:
-            lines.append(
-                f"{k:10s} {s['count']:6d} {s['mean_ms']:10.3f} {s['p50_ms']:10.3f} "
-                f"{s['p99_ms']:10.3f} {s['per_scan_ms']:12.4f}"
-            )
-    for message in summary.get("messages", []):  # a removed file: in the labels' column
-        word, _, rest = message.partition(" ")
-        lines.append(f"{word:10s} {rest}" if word == "removed" else message)
-    return "\n".join(lines)
 
 
 def _with_graph_config(result, graph_config: GraphConfig):
