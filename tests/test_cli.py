@@ -569,6 +569,31 @@ def test_replay_refusals_name_the_options_of_the_command(tmp_path, capsys):
     assert "max_extent_m" not in printed and "make the mapper" not in printed
 
 
+def test_a_replay_graph_pruned_away_is_said_so_naming_the_pruning_setting(tmp_path, capsys):
+    """A replay whose map gives corridors, all of them removed by the pruning settings,
+    says so (the keyword in :func:`topojax.replay`'s messages, the option in the
+    command's), as ``topojax graph`` does, instead of a bare "0 vertices"."""
+    from topojax.config import GraphConfig
+    from topojax.playback import replay
+
+    log = Path(__file__).parent / "data" / "intel_first40.log.gz"
+    why = "removed every corridor the map gave; give a smaller value to keep some"
+    summary = replay(
+        log,
+        out_dir=tmp_path / "api",
+        progress=False,
+        graph_every=20,
+        graph_config=GraphConfig(min_component_m=1e6),
+    )
+    assert summary["vertices"] == 0
+    assert f"the graph is empty: min_component_m=1e+06 {why}" in summary["messages"]
+    argv = ["replay", str(log), "-o", str(tmp_path / "cli"), "--no-progress"]
+    assert main([*argv, "--graph-every", "20", "--min-component-m", "1e6"]) == 0
+    printed = capsys.readouterr().out
+    assert f"the graph is empty: --min-component-m=1e+06 {why}" in printed
+    assert "min_component_m" not in printed
+
+
 def test_replay_aligns_its_removed_lines_as_the_other_commands_do(tmp_path, capsys):
     """The files a replay removes are said in lines whose label takes the column the
     other commands' ``removed`` lines and the summary's own labels take."""

@@ -8,9 +8,10 @@ from dataclasses import asdict
 from ._replay_skips import ordered
 from ._words import counted
 from .graph import graph_summary
+from .graph.prune import pruned_by
 from .incremental import settings_of, timing_summary
 
-__all__ = ["replay_summary", "route_counts", "route_note", "summary_text"]
+__all__ = ["empty_note", "replay_summary", "route_counts", "route_note", "summary_text"]
 
 
 def replay_summary(source, mapper, done, progress_at) -> dict:
@@ -54,6 +55,20 @@ def route_counts(routes) -> dict:
         "components": nx.number_connected_components(routes) if n else 0,
         "robot_radius_m": routes.graph["robot_radius_m"],
     }
+
+
+def empty_note(result) -> list[str]:
+    """Why the graph of ``result`` (the final one, with the replay's graph settings) is
+    empty where its pruning settings removed every corridor of the skeleton; else none."""
+    if result.graph.number_of_nodes() or not result.skeleton.any():
+        return []
+    pruned = pruned_by(result.config.graph)
+    if not pruned:
+        return []
+    return [
+        f"the graph is empty: {pruned} removed every corridor the map gave; give a smaller "
+        "value to keep some"
+    ]
 
 
 def route_note(done, nav2_tolerance_m) -> list[str]:

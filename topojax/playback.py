@@ -44,7 +44,7 @@ from ._replay_state import (
     skipped_message,
     skipped_note,
 )
-from ._replay_summary import replay_summary, route_note, summary_text
+from ._replay_summary import empty_note, replay_summary, route_note, summary_text
 from ._validate import flag, nonnegative_quantity
 from ._words import counted
 from .config import GraphConfig
@@ -462,7 +462,7 @@ def _write_and_close(
     final = False  # whether the recording's last messages are being written
     try:
         written, messages = _write_graphs_and_map(done.result, out, nav2_tolerance_m)
-        messages += route_note(done, nav2_tolerance_m)
+        messages += empty_note(done.result) + route_note(done, nav2_tolerance_m)
         written += _write_rooms_routes_view(mapper, done, out, timeline, nav2_tolerance_m)
         written += _write_pictures_and_animation(mapper, done, out, plot, animate, source)
         final = True

@@ -226,19 +226,12 @@ def _arrow_schema(pa: Any, columns: Sequence[str]) -> Any:
     return pa.schema([(name, types.get(name, pa.float64())) for name in columns])
 
 
-def pruned_by(graph_config: Any) -> str:
-    """The pruning settings of ``graph_config`` (a :class:`topojax.config.GraphConfig`)
-    that remove parts of a graph, as ``name=value`` (``"min_component_m=1000"``)."""
-    names = ("min_clearance_m", "min_spur_m", "min_component_m")
-    return ", ".join(f"{n}={getattr(graph_config, n):g}" for n in names if getattr(graph_config, n))
-
-
 def empty_reason(
     n_occupied: int | None, n_free: int | None, *, mode: str | None = None, pruned: str = ""
 ) -> str:
     """Why a map's graph is empty, and what to check (the ``message`` of an empty map read
     in ``mode``, the ``map_mode`` given or None); ``pruned`` names the pruning settings
-    (:func:`pruned_by`) that removed every corridor of a map that gave some."""
+    (:func:`topojax.graph.prune.pruned_by`) that removed every corridor of a map that gave some."""
     if pruned:
         return (
             f"empty graph: {pruned} removed every corridor the map gave; give a smaller "

@@ -16,12 +16,12 @@ import numpy as np
 
 from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
+from ..graph.prune import pruned_by
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
 from ..maps.files import default_resolution_used, replaced_resolution, said_resolution
 from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
-from .records import pruned_by
 
 __all__ = ["InlineExecutor"]
 
@@ -83,7 +83,7 @@ class _CpuResult:
     route_note: str = ""  # why the route graph is empty or has no edge, where it is
     nav2_note: str = ""  # the warning of a graph (nav2 format) with vertices and no edge
     no_nav2: list[str] = field(default_factory=list)  # Nav2 files not written: no edge
-    pruned: str = ""  # the pruning settings that removed every corridor (records.pruned_by)
+    pruned: str = ""  # the pruning settings that removed every corridor (graph.prune.pruned_by)
     t_thinning_s: float = 0.0
     t_graph_s: float = 0.0
     t_write_s: float = 0.0

@@ -10,6 +10,9 @@ from pathlib import Path
 
 from .._constants import CARMEN_LASERS, STRATEGIES
 from ._options import (
+    _OPTION_OF as _PIPELINE_OPTION_OF,
+)
+from ._options import (
     _ROOM_OPTIONS,
     _as_options,
     add_graph_options,
@@ -165,7 +168,8 @@ def _cmd_replay(args) -> int:
     record_outputs(
         planned(summary["written"], args.source), command="replay", graph_options=filters
     )
-    words = {"max_extent_m": "--max-extent-m"}  # not "resume", a word of the messages
+    # not "resume", a word of the messages; the pruning settings of an emptied graph
+    words = {"max_extent_m": "--max-extent-m", **_PRUNING_OPTIONS}
     messages = [_in_options(m, words) for m in summary["messages"]]  # e.g. a skipped scan's
     print(summary_text({**summary, "messages": messages}))
     print("wrote      " + ", ".join(summary["written"]))
@@ -196,6 +200,10 @@ def _reader_refused(exc) -> ValueError:
     )
 
 
+#: The pruning settings a note of a graph they emptied names, and their options.
+_PRUNING_OPTIONS = {
+    name: _PIPELINE_OPTION_OF[name] for name in ("min_clearance_m", "min_spur_m", "min_component_m")
+}
 #: The parameters of :func:`topojax.replay` that errors name, and the options that set
 #: them (``mcap`` is checked as ``--mcap`` before; ``.mcap`` ends its messages' names).
 _OPTION_OF = {

@@ -23,6 +23,13 @@ from .geometry import _ends_at, _path_length_m, graph_resolution_m, holds
 from .store import fill_multigraph, paused_gc
 
 
+def pruned_by(graph_config) -> str:
+    """The pruning settings of ``graph_config`` (a :class:`topojax.config.GraphConfig`)
+    that remove parts of a graph, as ``name=value`` (``"min_component_m=1000"``)."""
+    names = ("min_clearance_m", "min_spur_m", "min_component_m")
+    return ", ".join(f"{n}={getattr(graph_config, n):g}" for n in names if getattr(graph_config, n))
+
+
 def prune_graph(
     graph: nx.MultiGraph,
     *,
