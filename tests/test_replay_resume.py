@@ -966,3 +966,25 @@ def test_a_ctrl_c_while_the_recording_is_closed_keeps_the_scans(
     for name in RECORDINGS:
         assert (out / name).read_bytes() == (full_recorded / name).read_bytes(), name
     assert {t for t, *_ in mcap_messages(out / "run.mcap")} == {"/map", "/topology"}
+
+
+def test_the_stop_warning_names_the_keyword_or_the_option_of_its_caller(
+    tmp_path, monkeypatch, capsys
+):
+    """The warning of a stopped replay says how to continue it in its caller's words:
+    ``resume=True`` from :func:`topojax.replay`, ``--resume`` from ``topojax replay``,
+    not both to either."""
+    interrupted_reader(monkeypatch, after=10)
+    with pytest.warns(RuntimeWarning, match="stopped after 10 scans") as caught:
+        with pytest.raises(KeyboardInterrupt):
+            replay(INTEL_EXCERPT, out_dir=tmp_path / "api", progress=False, **SETTINGS)
+    (text,) = [str(w.message) for w in caught if "stopped after" in str(w.message)]
+    assert text.endswith("(replay again with resume=True to continue from it)")
+    assert "--resume" not in text and "topojax replay" not in text
+    monkeypatch.undo()
+    interrupted_reader(monkeypatch, after=10)
+    args = ["replay", str(INTEL_EXCERPT), "-o", str(tmp_path / "cli"), "--no-progress"]
+    assert main([*args, "--graph-every", "7", "--skeleton-every", "3"]) == 130
+    err = capsys.readouterr().err
+    assert "(the same command with --resume continues from it)" in err
+    assert "resume=True" not in err

@@ -46,6 +46,11 @@ class ReplayProgress:
         self.skipped.skip(refusal, bound)
 
 
+#: How the warning of a stopped replay says to continue it (``topojax replay`` words it
+#: with its option).
+RESUME_ADVICE = "resume=True to continue from it"
+
+
 def skipped_message(progress: ReplayProgress) -> list[str]:
     """The scans a replay skipped (refused as beyond the mapper's bounds) in one message,
     none if none: the refusal itself for one scan, else how many of the scans taken, the
@@ -317,7 +322,7 @@ def keep_state(mapper, out: Path, record) -> bool:
         return False
     warnings.warn(
         f"replay stopped after {counted(mapper.n_scans, 'scan')}; the mapper's state is saved to "
-        f"{path} (replay with resume=True, topojax replay --resume, continues from it)",
+        f"{path} (replay again with {RESUME_ADVICE})",
         RuntimeWarning,
         stacklevel=_CALLER,
     )

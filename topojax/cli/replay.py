@@ -6,6 +6,7 @@ import contextlib
 import signal
 import sys
 import threading
+import warnings
 from pathlib import Path
 
 from .._constants import CARMEN_LASERS, STRATEGIES
@@ -138,6 +139,7 @@ def _cmd_replay(args) -> int:
         with (
             _stops_on_signals() as stopped,
             named_as_options(_OPTION_OF, _RESUME_OPTION_OF, advice=advice),
+            _warnings_in_words(),
         ):
             summary = replay(
                 args.source,
@@ -181,6 +183,28 @@ def _cmd_replay(args) -> int:
         )
         return 128 + stopped[0]
     return 0
+
+
+@contextlib.contextmanager
+def _warnings_in_words():
+    """Within ``with``, the warnings of :func:`topojax.replay` shown in this command's
+    words: how to continue a stopped replay names ``--resume``, not ``resume=True``."""
+    from .._replay_state import RESUME_ADVICE
+
+    shown = warnings.showwarning
+    words = {
+        f"(replay again with {RESUME_ADVICE})": "(the same command with --resume continues from it)"
+    }
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = str(message)
+        for phrase, instead in words.items():
+            text = text.replace(phrase, instead)
+        shown(text, category, filename, lineno, file, line)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
 
 
 def _export_bytes(mb: float) -> int:
