@@ -668,9 +668,8 @@ def build_graphs(
         Stage settings, as for :func:`topojax.build_graph`.
     out_dir : str or path, optional
         Output folder (created; locked while the batch runs: a second batch or replay into
-        it is refused, BlockingIOError); without it nothing is written (see keep_graphs).
-        A file there with a map's output name that no batch manifest lists is named in a
-        UserWarning before any map runs, then replaced.
+        it is refused, BlockingIOError; a file there of a map's output name that no manifest
+        lists is replaced, warned of by name); without it nothing is written.
     formats : sequence of str, or a comma-separated str
         Files per map, from ``graphml``, ``json``, ``geojson``, ``nav2`` (the graph for
         the Nav2 Route Server), ``rooms`` (:func:`topojax.segment_rooms` with
@@ -695,9 +694,8 @@ def build_graphs(
         Most tiles per group of maps sent to the kernels together (a larger map forms
         a group of its own).  Default ``16 * tiles_per_call``.
     keep_graphs : bool, optional
-        Return each graph in ``MapRecord.graph`` (and ``.route_graph``).  Default: True
-        without ``out_dir``, False with it (graphs are then on disk).  A map skipped by
-        ``resume`` is not rebuilt: its record holds none (:func:`topojax.load_graph`).
+        Return each graph in ``MapRecord.graph`` (and ``.route_graph``); default: only
+        without ``out_dir``.  A map skipped by ``resume`` holds none (:func:`topojax.load_graph`).
     map_mode : {"trinary", "scale", "raw", "ipa"}, optional
         Pixel convention for every map file, as ``mode`` of :func:`topojax.load_map`
         (``"ipa"`` for the IPA benchmark maps: every pixel below 250 inaccessible).
@@ -717,9 +715,8 @@ def build_graphs(
     Returns
     -------
     list of MapRecord
-        One per input, in input order.  With ``out_dir``, the table is also written to
-        ``out_dir/summary.csv`` (and ``summary.parquet`` with pyarrow), replacing an
-        earlier run's: it holds this run's maps (each map's manifest keeps its row).
+        One per input, in input order; with ``out_dir``, also ``out_dir/summary.csv`` (and
+        ``.parquet`` with pyarrow), replacing an earlier run's (manifests keep each row).
 
     Raises
     ------
