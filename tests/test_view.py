@@ -941,6 +941,26 @@ def test_view_command_with_several_results_writes_an_index(tmp_path, capsys):
     assert "not recorded" in capsys.readouterr().out
 
 
+def test_a_folder_whose_results_are_in_subfolders_says_which_to_view(tmp_path, capsys):
+    """A batch of maps from several folders writes each folder's results into a subfolder
+    of its output folder: the view of the output folder itself, which holds no result,
+    names the subfolders that do, instead of only listing what it found."""
+    from topojax.batch import build_graphs
+
+    for folder in ("ros", "sim"):
+        (tmp_path / folder).mkdir()
+        tj.save_map(tj.sample_map("a_scan"), tmp_path / folder / "m.yaml")
+    out = tmp_path / "out"
+    maps = [tmp_path / "ros" / "m.yaml", tmp_path / "sim" / "m.yaml"]
+    build_graphs(maps, out_dir=out, workers=0, progress=False, formats="json")
+    assert (out / "ros" / "m.json").is_file() and (out / "sim" / "m.json").is_file()
+    assert main(["view", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"the results are in its subfolders {out / 'ros'}, {out / 'sim'}" in err
+    assert f"topojax view {out / 'ros'}" in err
+    assert main(["view", str(out / "ros")]) == 0
+
+
 def test_view_command_errors(tmp_path, capsys):
     assert main(["view", str(tmp_path / "missing")]) == 2
     assert "OUT_DIR: expected a folder of results" in capsys.readouterr().err

@@ -375,6 +375,22 @@ def _remove_older_pages(folder: Path, record: dict, targets: list[Path]) -> None
             print(f"removed    {folder / name}, the page of a result no longer there")
 
 
+def _subfolders_hint(folder: Path) -> str:
+    """Where a ``folder`` without results holds some in subfolders (a batch of maps from
+    several folders writes each folder's maps into one), a sentence naming them (the
+    first 3) and how to view one; else ""."""
+    graphs = (p for suffix in _GRAPH_SUFFIXES for p in folder.rglob(f"*{suffix}"))
+    held = sorted({p.parent for p in graphs if p.parent != folder})
+    held = [d for d in held if find_results(d)]
+    if not held:
+        return ""
+    more = f" and {len(held) - 3} more" if held[3:] else ""
+    return (
+        f"; the results are in its subfolders {', '.join(map(str, held[:3]))}{more}: view "
+        f"each, e.g. topojax view {held[0]}"
+    )
+
+
 def _cmd_view(args) -> int:
     from .._fs import atomic_write_bytes, output_folder
     from .._validate import int_at_least
@@ -396,7 +412,7 @@ def _cmd_view(args) -> int:
         raise ValueError(
             f"OUT_DIR: no results in {folder}: expected what topojax {_WRITERS} write "
             "(a graph STEM.json / .graphml / .geojson, or rooms STEM_rooms.geojson); "
-            f"found {', '.join(found) if found else 'nothing'}"
+            f"found {', '.join(found) if found else 'nothing'}{_subfolders_hint(folder)}"
         )
     index = folder / "view.html"
     if len(results) == 1:
