@@ -400,13 +400,15 @@ def warn_unlisted_outputs(
 ) -> None:
     """Warn (``name``: the output folder's parameter or option) of the files in ``out``
     with a map's output name that no batch manifest lists (written by hand or by another
-    program): the batch replaces them, or removes them where the map fails."""
+    program): the batch replaces them, or removes them where the map fails.  The files of
+    a map whose manifest is there but damaged are a batch's: not warned of."""
     from .._words import counted
 
     suffixes = _format_suffixes(formats) + [_MANIFEST_SUFFIX] + picture_suffixes(formats, plot)
     found = [
         target
         for it in items
+        if not _damaged_manifest(out / f"{it.name}{_MANIFEST_SUFFIX}")
         for target in (out / f"{it.name}{suffix}" for suffix in suffixes)
         if target.is_file() and batch_input(target) is None
     ]
@@ -422,6 +424,11 @@ def warn_unlisted_outputs(
         UserWarning,
         stacklevel=4,
     )
+
+
+def _damaged_manifest(manifest: Path) -> bool:
+    """Whether ``manifest`` is a file that lists no outputs (unreadable or cut short)."""
+    return manifest.is_file() and batch_input(manifest) is None
 
 
 def warn_unused_workers(executor: Any, workers: int | None) -> None:
