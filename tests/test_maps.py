@@ -435,12 +435,29 @@ def test_from_array_occupancy_grid(dtype):
 
 def test_from_array_float_probability():
     arr = np.array([[0.0, 0.1, 0.195, 0.196, 0.5], [0.65, 0.651, 0.9, 1.0, 0.3]])
-    for dtype in (np.float32, np.float64):
+    for dtype in (np.float16, np.float32, np.float64):
         a = arr.astype(dtype)
         m = OccupancyMap.from_array(a)
-        assert np.array_equal(m.free, a < np.float64(0.196))
-        assert np.array_equal(m.occupied, a > np.float64(0.65))
+        assert np.array_equal(m.free, a < dtype(0.196))
+        assert np.array_equal(m.occupied, a > dtype(0.65))
         assert np.array_equal(m.unknown, ~m.free & ~m.occupied)
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, "bfloat16"])
+def test_from_array_float_threshold_values_compare_in_the_array_precision(dtype):
+    # A probability written as the threshold itself is the threshold in the array's own
+    # precision: float32(0.196) is a little below the float64 0.196, yet it is no more
+    # free than the 0.196 of a float64 map.
+    if dtype == "bfloat16":
+        dtype = pytest.importorskip("ml_dtypes").bfloat16
+    arr = np.array([[0.196, 0.65], [0.0, 1.0]]).astype(dtype)
+    m = OccupancyMap.from_array(arr)
+    assert m.unknown[0].all()
+    assert m.free[1, 0] and m.occupied[1, 1]
+    custom = OccupancyMap.from_array(
+        np.array([[0.3, 0.7], [0.0, 1.0]]).astype(dtype), free_thresh=0.3, occupied_thresh=0.7
+    )
+    assert custom.unknown[0].all()
 
 
 def test_from_array_uint8_grey_threshold_boundaries():

@@ -36,6 +36,7 @@ __all__ = [
     "classify_image",
     "rim_counts",
     "share_of_rim",
+    "thresholds_in_precision",
     "wall_share",
     "wall_warning",
 ]
@@ -333,6 +334,25 @@ def _classify_occupancy_grid(
     return codes
 
 
+def thresholds_in_precision(
+    dtype: np.dtype, occupied_thresh: float, free_thresh: float
+) -> tuple[float, float]:
+    """The thresholds rounded to ``dtype`` where it is a float (JAX's ``bfloat16`` too),
+    else as given: a probability map compares with them in its own precision, so that a
+    float32 ``0.196`` is the threshold 0.196 rather than the float just below it."""
+    if dtype.kind == "V" and dtype.fields is None:  # an ml_dtypes type: a float or not?
+        import ml_dtypes  # a dependency of JAX
+
+        try:
+            ml_dtypes.finfo(dtype)
+        except (TypeError, ValueError):  # an integer (int4) or a plain void
+            return occupied_thresh, free_thresh
+    elif dtype.kind != "f":
+        return occupied_thresh, free_thresh
+    occ, free = (float(v) for v in np.asarray([occupied_thresh, free_thresh]).astype(dtype))
+    return occ, free
+
+
 def _classify_probability(
     arr: np.ndarray,
     occupied_thresh: float,
@@ -358,7 +378,8 @@ def _classify_probability(
             f"float array must hold occupancy probabilities in [0, 1]; {n_bad} values are "
             f"outside (min {float(arr.min())!r}, max {float(arr.max())!r})"
         )
-    # np.float64 thresholds make float32 input compare at float64 precision (exact values).
+    # The thresholds come rounded to the array's dtype (thresholds_in_precision); float64
+    # comparisons of them with the values are exact.
     codes = np.full(arr.shape, _UNK, dtype=np.uint8)
     codes[arr < np.float64(free_thresh)] = _FREE
     codes[arr > np.float64(occupied_thresh)] = _OCC

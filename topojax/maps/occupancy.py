@@ -44,6 +44,7 @@ from .classify import (
     DEFAULT_OCCUPIED_THRESH,
     MODES,
     classify_array,
+    thresholds_in_precision,
 )
 
 __all__ = [
@@ -323,7 +324,9 @@ class OccupancyMap:
           else unknown.
           Values outside -1..100 raise ValueError.
         * **float** (H, W), JAX's ``bfloat16`` too: occupancy probabilities in [0, 1];
-          occupied if ``p > occupied_thresh``, free if ``p < free_thresh``, else unknown. NaN
+          occupied if ``p > occupied_thresh``, free if ``p < free_thresh``, else unknown,
+          compared in the array's precision (the thresholds rounded to its dtype, so a
+          float32 ``0.196`` is the free threshold 0.196, not below it). NaN
           or values outside [0, 1] raise ValueError (``np.ma.masked_invalid(array)`` makes
           NaN cells unknown).
 
@@ -371,9 +374,10 @@ class OccupancyMap:
         mode = one_of("mode", mode, MODES)
         negate = binary_flag("negate", negate)
         masked = masked_entries(array)
+        values = np.asarray(unmasked("array", array, fill=0))  # 0: a value every dtype accepts
+        occ_t, free_t = thresholds_in_precision(values.dtype, occ_t, free_t)
         codes = classify_array(
-            # 0: a value every dtype accepts
-            real_values(np.asarray(unmasked("array", array, fill=0))),
+            real_values(values),
             occupied_thresh=occ_t,
             free_thresh=free_t,
             negate=negate,
