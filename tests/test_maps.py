@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import re
 import struct
 import warnings
@@ -1383,6 +1384,31 @@ def test_save_map_errors(tmp_path: Path):
     (tmp_path / "f.yaml").write_text("image: e.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
     with pytest.raises(ValueError, match="'image': expected an image file, received the folder"):
         load_map(tmp_path / "f.yaml")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+@pytest.mark.parametrize("absolute", [False, True])
+def test_load_map_yaml_image_that_is_a_fifo_is_named_a_fifo(tmp_path: Path, absolute):
+    # The image exists but is no regular file: reading it would wait for a writer for ever,
+    # and "not found" would send the user looking for a file that is there.
+    os.mkfifo(tmp_path / "pipe.pgm")
+    image = tmp_path / "pipe.pgm" if absolute else "pipe.pgm"
+    (tmp_path / "m.yaml").write_text(f"image: {image}\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(
+        ValueError, match=r"'image': expected an image file, received the FIFO .*pipe\.pgm"
+    ):
+        load_map(tmp_path / "m.yaml")
+    with pytest.raises(ValueError, match=r"not a regular file: .*pipe\.pgm is a FIFO"):
+        load_map(tmp_path / "pipe.pgm")
+
+
+def test_load_map_yaml_absolute_image_that_is_a_folder_is_named_a_folder(tmp_path: Path):
+    (tmp_path / "img").mkdir()
+    (tmp_path / "m.yaml").write_text(
+        f"image: {tmp_path / 'img'}\nresolution: 0.1\norigin: [0, 0, 0]\n"
+    )
+    with pytest.raises(ValueError, match="'image': expected an image file, received the folder"):
+        load_map(tmp_path / "m.yaml")
 
 
 def test_pgm_writer_header_is_standard(tmp_path: Path):

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from .._cpus import check_fits_memory
+from .._fs import non_file_kind
 from .._validate import (
     MAX_RESOLUTION_M,
     MIN_RESOLUTION_M,
@@ -114,9 +115,11 @@ def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
     img = Path(image.strip())
     folder = yaml_path.parent
     if img.is_absolute():
+        _refuse_non_file(yaml_path, img)
         if img.is_file():
             return img
         fallback = folder / img.name
+        _refuse_non_file(yaml_path, fallback)
         if fallback.is_file():
             return fallback
         raise FileNotFoundError(
@@ -124,16 +127,25 @@ def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
             "next to the YAML"
         )
     resolved = folder / img
-    if resolved.is_dir():
-        raise ValueError(
-            f"map YAML {yaml_path}: field 'image': expected an image file, received the folder "
-            f"{resolved}"
-        )
+    _refuse_non_file(yaml_path, resolved)
     if not resolved.is_file():
         raise FileNotFoundError(
             f"map YAML {yaml_path}: image {image!r} not found (looked for {resolved})"
         )
     return resolved
+
+
+def _refuse_non_file(yaml_path: Path, image: Path) -> None:
+    """A ValueError if ``image`` exists but is no regular file (reading a FIFO would wait
+    for a writer for ever; "not found" would be untrue)."""
+    kind = non_file_kind(image)
+    if kind is not None:
+        article, _, noun = kind.partition(" ")
+        received = f"the {noun}" if article in ("a", "an") else kind
+        raise ValueError(
+            f"map YAML {yaml_path}: field 'image': expected an image file, received "
+            f"{received} {image}"
+        )
 
 
 def load_map(
@@ -433,7 +445,8 @@ def _check_map_path(p: Path, suffix: str) -> None:
         raise FileNotFoundError(f"map file not found: {p}")
     if not p.is_file():  # opening a FIFO would wait for a writer forever
         raise ValueError(
-            f"map path is not a regular file: {p} (a FIFO, socket or device); give a map file"
+            f"map path is not a regular file: {p} is {non_file_kind(p) or 'no file'}; give a "
+            "map file"
         )
 
 
