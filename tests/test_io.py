@@ -201,6 +201,41 @@ def test_round_trip_extra_attribute_types(tmp_path: Path, suffix: str):
 
 
 @pytest.mark.parametrize("suffix", FORMATS)
+def test_arrays_of_mixed_dtypes_come_back_with_their_values(tmp_path: Path, suffix: str):
+    # Arrays of several dtypes in one attribute are saved in NumPy's common dtype; where
+    # that holds every value (int32 beside int64, small uint64 beside int64) they come back
+    # in it, equal.
+    g = make_graph()
+    edges = list(g.edges(keys=True))
+    for i, e in enumerate(edges):
+        g.edges[e]["ids"] = np.array([i, 7], np.int32 if i % 2 else np.int64)
+        g.edges[e]["counts"] = np.array([i, 2**40], np.uint64 if i % 2 else np.int64)
+    back = load_graph(save_graph(g, tmp_path / f"m{suffix}"))
+    for i, e in enumerate(edges):
+        assert back.edges[e]["ids"].dtype == np.int64
+        assert back.edges[e]["ids"].tolist() == [i, 7]
+        assert back.edges[e]["counts"].tolist() == [i, 2**40]
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_arrays_whose_common_dtype_would_change_a_value_are_refused(tmp_path: Path, suffix):
+    # uint64 beside int64 is float64 to NumPy, which rounds 2**64 - 1 and 2**53 + 1: the
+    # file would give back other numbers than were saved.
+    g = make_graph()
+    (a, b, *_) = list(g.edges(keys=True))
+    g.edges[a]["counts"] = np.array([2**64 - 1], np.uint64)
+    g.edges[b]["counts"] = np.array([-1], np.int64)
+    target = tmp_path / f"m{suffix}"
+    with pytest.raises(ValueError, match=r"edge attribute 'counts'.*int64, uint64.*float64"):
+        save_graph(g, target)
+    assert not target.exists()
+    g.edges[a]["counts"] = np.array([2**53 + 1], np.int64)
+    g.edges[b]["counts"] = np.array([0.5])
+    with pytest.raises(ValueError, match=r"edge attribute 'counts'.*9007199254740993"):
+        save_graph(g, target)
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
 def test_plain_graph_and_str_ids(tmp_path: Path, suffix: str):
     g = nx.Graph()
     g.add_node(1, world=(0.0, 1.0))

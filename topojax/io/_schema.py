@@ -125,7 +125,36 @@ def _collect_schema(items: list[dict[str, Any]], where: str) -> dict[str, dict[s
             kinds[name] = _merge_kinds(
                 kinds.get(name), _value_kind(value), f"{where} attribute {name!r}"
             )
+    for name, spec in kinds.items():
+        if spec is not None and spec["kind"] == "ndarray":
+            _check_common_dtype(items, name, np.dtype(spec["dtype"]), f"{where} attribute")
     return {k: v for k, v in kinds.items() if v is not None}
+
+
+def _check_common_dtype(items: list[dict[str, Any]], name: str, common: np.dtype, where: str):
+    """Refuse, naming the attribute, an integer array of ``items``' attribute ``name`` that
+    the common dtype of its arrays (NumPy's, a float for uint64 beside int64) does not hold
+    exactly: the file would give back other numbers than were saved."""
+    if common.kind not in "fc":
+        return
+    for attrs in items:
+        value = attrs.get(name)
+        if not isinstance(value, np.ndarray) or value.dtype.kind not in "iu":
+            continue
+        ints = value.ravel().tolist()
+        with np.errstate(all="ignore"):
+            cast = value.ravel().astype(common).tolist()
+        changed = next((i for i, c in zip(ints, cast, strict=True) if i != c), None)
+        if changed is not None:
+            dtypes = sorted(
+                {str(a[name].dtype) for a in items if isinstance(a.get(name), np.ndarray)}
+            )
+            raise ValueError(
+                f"{where} {name!r}: expected arrays whose values one dtype holds exactly, "
+                f"received dtypes {', '.join(dtypes)}, saved as {common} (their common "
+                f"dtype), which changes the value {changed}; cast them to one dtype that "
+                "holds every value, or save them as lists"
+            )
 
 
 def _decode_value(value: Any, spec: dict[str, Any] | None) -> Any:

@@ -53,7 +53,8 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
         and edge keys must be int (or all str). Attribute values may be numbers, str,
         bool, None, tuples, lists, dicts and numpy arrays. Graph attributes of other
         types (e.g. objects) are skipped with a warning; dataclass instances are saved as
-        dicts.
+        dicts. The arrays of one attribute come back in their common dtype; integers it
+        would change (uint64 beside int64, whose common dtype is float64) are refused.
     path : str or Path
         Output file; its folder must exist.
     format : {"graphml", "json", "geojson"}, optional
