@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
+import re
 from pathlib import Path
 
 import networkx as nx
@@ -297,6 +299,29 @@ def test_graphml_is_readable_by_networkx(tmp_path: Path):
     # path is a JSON string in GraphML.
     paths = sorted(json.dumps(d["path"].tolist()) for _, _, d in g.edges(data=True))
     assert sorted(json.dumps(json.loads(d["path"])) for _, _, d in h.edges(data=True)) == paths
+
+
+def test_graphml_spells_booleans_and_special_doubles_as_xml_schema(tmp_path: Path):
+    # GraphML types its values with XML Schema, whose boolean is true / false and whose
+    # double spells NaN, INF and -INF; Python's True and nan are no such values (a Java
+    # reader refuses them). networkx and topojax read the XML Schema spellings back.
+    g = make_graph()
+    g.graph["flag"] = True
+    for n, value in zip(g.nodes, [math.nan, math.inf, -math.inf, 0.5, 1e300], strict=False):
+        g.nodes[n]["score"] = value
+        g.nodes[n]["seen"] = value == 0.5
+    path = save_graph(g, tmp_path / "g.graphml")
+    texts = re.findall(r">([^<]*)</data>", path.read_text())
+    for spelling in ("true", "false", "NaN", "INF", "-INF"):
+        assert spelling in texts
+    assert not {"True", "False", "nan", "inf", "-inf"} & set(texts)
+    back = load_graph(path)
+    assert back.graph["flag"] is True
+    theirs = nx.read_graphml(path, node_type=int, force_multigraph=True)
+    for n, d in g.nodes(data=True):
+        for h in (back, theirs):
+            assert h.nodes[n]["seen"] is d["seen"]
+            assert h.nodes[n]["score"] == d["score"] or math.isnan(h.nodes[n]["score"])
 
 
 def _strict_json(text: str):

@@ -97,9 +97,14 @@ GRAPHS = {
 }
 
 
+#: networkx's text of booleans and special doubles, and XML Schema's, which GraphML uses.
+_XML_SCHEMA_SPELLINGS = {"True": "true", "False": "false", "nan": "NaN", "inf": "INF"}
+
+
 def _networkx_graphml(graph: nx.Graph) -> bytes:
     """networkx's ``generate_graphml`` of the graph whose values are those ``save_graph``
-    writes as GraphML, its lines joined with "\\n"."""
+    writes as GraphML, its lines joined with "\\n", booleans and special doubles spelled
+    as XML Schema spells them (networkx writes Python's ``True`` and ``nan``)."""
     g = as_multigraph(graph)
     graph_attrs = _graph_attrs_to_save(g)
     schema = _xml_schema(g, graph_attrs, _build_schema(g, graph_attrs))
@@ -114,7 +119,12 @@ def _networkx_graphml(graph: nx.Graph) -> bytes:
         values = {name: _graphml_value(val, schema["edge"][name], name) for name, val in d.items()}
         u, v, k = (_to_python_scalar(x) for x in (u, v, k))
         h.add_edge(u, v, key=k, **values)
-    return "\n".join(nx.generate_graphml(h, encoding="utf-8", prettyprint=True)).encode()
+    text = "\n".join(nx.generate_graphml(h, encoding="utf-8", prettyprint=True))
+    return re.sub(
+        r">(-?)(True|False|nan|inf)</data>",
+        lambda m: f">{m[1]}{_XML_SCHEMA_SPELLINGS[m[2]]}</data>",
+        text,
+    ).encode()
 
 
 def _whole_json(doc: dict, *, allow_nan: bool) -> bytes:

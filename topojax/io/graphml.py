@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import re
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -143,7 +144,7 @@ def _data_elements(data: dict, keys: dict, scope: str, indent: str, end: str) ->
         return " />"
     parts = [">"]
     for name, value in data.items():
-        text = _escape(str(value), False)
+        text = _escape(_xml_text(value), False)
         key = keys[scope, name]
         parts.append(
             f'{indent}  <data key="{key}">{text}</data>'
@@ -152,6 +153,17 @@ def _data_elements(data: dict, keys: dict, scope: str, indent: str, end: str) ->
         )
     parts.append(f"{indent}{end}")
     return "".join(parts)
+
+
+def _xml_text(value: Any) -> str:
+    """The text of a :func:`_graphml_value` in XML Schema's spelling of its GraphML type:
+    ``true`` / ``false`` for a boolean, ``NaN`` / ``INF`` / ``-INF`` for such a double
+    (Python's ``True`` and ``nan`` are no XML Schema values; networkx reads both)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "NaN" if math.isnan(value) else ("INF" if value > 0 else "-INF")
+    return str(value)
 
 
 def _xml_schema(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
