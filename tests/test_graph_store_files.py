@@ -8,6 +8,7 @@ a file replaced or cut short, and wrong arguments are refused by name."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import stat
 from pathlib import Path
@@ -51,6 +52,38 @@ def test_hand_written_stores_come_back_array_for_array(tmp_path, name, skel, kw,
     assert back.attrs["origin"] == (1.0, 2.0, 0.0)  # a tuple again, not a list
     assert mapped(back.node_pixel) is mmap
     assert_same_graph(back.to_networkx(), store.to_networkx())
+
+
+def test_non_finite_attributes_are_saved_as_strict_json_and_come_back(tmp_path):
+    # JSON has no NaN or infinity: a bare NaN in graph_store.json is refused by strict
+    # readers (JavaScript's JSON.parse, jq, Go); the file stays JSON and loads the values.
+    attrs = {
+        "score": math.nan,
+        "bounds": (0.0, math.inf, -math.inf),
+        "params": {"sigma": [1.0, math.nan], "name": "NaN"},
+        "weights": np.array([[1.0, np.nan], [np.inf, 2.0]]),
+        "note": "Infinity",
+    }
+    store = GraphStore(**{**vars(FIXTURES[0][3]), "attrs": attrs})
+    tj.save_graph_store(store, tmp_path / "g")
+
+    def refuse(name):
+        raise AssertionError(f"not strict JSON: {name}")
+
+    json.loads((tmp_path / "g" / "graph_store.json").read_text(), parse_constant=refuse)
+    back = tj.load_graph_store(tmp_path / "g").attrs
+    assert math.isnan(back["score"])
+    assert back["bounds"] == (0.0, math.inf, -math.inf)
+    assert back["params"]["name"] == "NaN" and back["note"] == "Infinity"
+    assert back["params"]["sigma"][0] == 1.0 and math.isnan(back["params"]["sigma"][1])
+    assert back["weights"].dtype == np.float64
+    np.testing.assert_array_equal(back["weights"], attrs["weights"])
+    desc = tmp_path / "g" / "graph_store.json"
+    doc = json.loads(desc.read_text())
+    doc["non_finite"].append(["note", "NaN"])  # a place that holds no null
+    desc.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=r"non_finite: expected the place of a null.*'note'"):
+        tj.load_graph_store(tmp_path / "g")
 
 
 @pytest.mark.parametrize("mmap", [np.True_, np.False_, np.array(False)])

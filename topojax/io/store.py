@@ -4,8 +4,10 @@ larger than memory saved and opened again without networkx, its arrays memory-ma
 The folder holds one ``NAME.npy`` per array of the store (``node_pixel``,
 ``path_pixels``, ...; optional arrays only where present) and ``graph_store.json``: the
 format's name and version, each array's file, dtype and shape, and the graph attributes
-with their type schema (as :func:`topojax.save_graph` records them).  The JSON file is
-written last, so a folder without it (a save that was interrupted) is refused on load.
+with their type schema (as :func:`topojax.save_graph` records them).  The file is strict
+JSON: a NaN or infinity of an attribute is null there, its place and spelling listed in
+``"non_finite"``, which loading puts back.  The JSON file is written last, so a folder
+without it (a save that was interrupted) is refused on load.
 
 A route graph's store adds ``waypoint_offsets`` and ``waypoints``; being optional arrays,
 they leave the version at 1: a store without them is saved byte for byte as before, and
@@ -16,7 +18,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -87,7 +91,10 @@ def write_store(store: GraphStore, folder: Path, *, written: tuple[str, ...] = (
     named in ``written`` hold the store's already (the paths a tiled build wrote there a
     block at a time, which the store maps)."""
     attrs = {k: v for k, v in store.attrs.items() if k != "timings_s"}
-    doc_attrs = {k: jsonable(v, f"graph attribute {k!r}") for k, v in attrs.items()}
+    non_finite: list[list] = []
+    doc_attrs = _finite_json(
+        {k: jsonable(v, f"graph attribute {k!r}") for k, v in attrs.items()}, (), non_finite
+    )
     # the folder is not a complete store again until its description is written, last
     (folder / STORE_FILE).unlink(missing_ok=True)
     arrays = {}
@@ -107,6 +114,8 @@ def write_store(store: GraphStore, folder: Path, *, written: tuple[str, ...] = (
         "attrs": doc_attrs,
         "attrs_schema": _collect_schema([attrs], "graph"),
     }
+    if non_finite:  # strict JSON holds no NaN: null in attrs, its place and value here
+        doc["non_finite"] = non_finite
     atomic_write_bytes(folder / STORE_FILE, json.dumps(doc, indent=1).encode("utf-8"))
     return folder
 
@@ -186,8 +195,49 @@ def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
                 "or cut short)"
             )
         arrays[name] = arr
-    attrs = _decode_attrs(doc.get("attrs", {}), doc.get("attrs_schema", {}))
+    attrs = doc.get("attrs", {})
+    _put_non_finite(attrs, doc.get("non_finite", []), desc)
+    attrs = _decode_attrs(attrs, doc.get("attrs_schema", {}))
     try:
         return GraphStore(**arrays, attrs=attrs)
     except (TypeError, ValueError) as exc:  # files of different stores side by side
         raise ValueError(f"{desc}: the arrays do not make one graph store: {exc}") from None
+
+
+#: The spellings of the floats strict JSON cannot hold, in ``"non_finite"``.
+_NON_FINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
+
+
+def _finite_json(value: Any, place: tuple, found: list[list]) -> Any:
+    """The JSON value ``value`` with null for each NaN or infinity in it, whose place (the
+    keys and indices to it) and spelling (:data:`_NON_FINITE`) are added to ``found``."""
+    if isinstance(value, float) and not math.isfinite(value):
+        spelling = "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
+        found.append([*place, spelling])
+        return None
+    if isinstance(value, list):
+        return [_finite_json(v, (*place, i), found) for i, v in enumerate(value)]
+    if isinstance(value, dict):
+        return {k: _finite_json(v, (*place, k), found) for k, v in value.items()}
+    return value
+
+
+def _put_non_finite(attrs: Any, entries: Any, desc: Path) -> None:
+    """Put the NaNs and infinities of a description's ``"non_finite"`` ``entries`` back
+    into its ``attrs``, in the places that hold null."""
+    if not isinstance(entries, list):
+        raise ValueError(f"{desc}: non_finite: expected a list, received {entries!r}")
+    for entry in entries:
+        try:
+            *steps, last, spelling = entry
+            target = attrs
+            for step in steps:
+                target = target[step]
+            if target[last] is not None:
+                raise TypeError
+            target[last] = _NON_FINITE[spelling]
+        except (TypeError, ValueError, KeyError, IndexError):
+            raise ValueError(
+                f"{desc}: non_finite: expected the place of a null in attrs and one of "
+                f"{sorted(_NON_FINITE)}, received {entry!r}"
+            ) from None
