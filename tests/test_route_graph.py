@@ -472,6 +472,11 @@ def test_a_robot_radius_of_zero_or_less_is_refused_as_not_positive(tmp_path, rad
         (["--robot-radius", "2000"], "--robot-radius: expected a robot radius of at most 1000 m"),
         (["--snap-m", "6"], "--snap-m: expected 0.2 to 5 m"),
         (["--snap-m", "0.15"], "--snap-m: expected 0.2 to 5 m"),
+        (
+            ["--resolution", "10000"],
+            "map resolution (--resolution or the map's own): expected at most 666.667 m per "
+            "pixel for a route graph, received 10000",
+        ),
     ],
 )
 def test_route_graph_command_names_its_own_options_before_any_file(
@@ -1478,6 +1483,23 @@ def test_a_radius_under_one_and_a_half_pixels_is_refused():
             route_graph(m, robot_radius_m=radius)
     g = route_graph(m, robot_radius_m=1.5 * res)
     assert tj.evaluate_route_graph(g, m, 1.5 * res, n_pairs=50).unsafe_share == 0.0
+
+
+def test_a_map_too_coarse_for_any_robot_radius_says_so():
+    """At 10 km per pixel the least radius, 1.5 pixels, is above the largest robot radius
+    accepted: no radius can do, and the error says the resolution is what is wrong rather
+    than ask for a radius that the next call refuses as too large."""
+    free = np.zeros((40, 60), bool)
+    free[1:-1, 1:-1] = True
+    m = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=1e4)
+    expected = (
+        r"^resolution_m: expected at most 666\.667 m per pixel for a route graph, received "
+        r"10000: its least robot radius, 1\.5 pixels \(15000 m\), is above the largest "
+        r"robot radius accepted, 1000 m"
+    )
+    for radius in (0.3, 1000.0):
+        with pytest.raises(ValueError, match=expected):
+            route_graph(m, robot_radius_m=radius)
 
 
 @pytest.mark.parametrize(

@@ -73,7 +73,12 @@ def _check_numbers(args) -> None:
         from ..routegraph.build import RouteGraphConfig, check_scale
 
         radius = robot_radius("--route-graph", args.route_graph, allow_zero=False)
-        check_scale(RouteGraphConfig(robot_radius_m=radius), args.resolution, "--route-graph")
+        check_scale(
+            RouteGraphConfig(robot_radius_m=radius),
+            args.resolution,
+            "--route-graph",
+            resolution_name="--resolution",
+        )
 
 
 def _cmd_replay(args) -> int:

@@ -106,7 +106,13 @@ def _cmd_route_graph(args) -> int:
         )
     kw = map_options(args)  # its errors name their options
     occupancy = load_option_map(args.map, kw)
-    check_scale(config, occupancy.resolution_m, "--robot-radius", "--snap-m")
+    check_scale(
+        config,
+        occupancy.resolution_m,
+        "--robot-radius",
+        "--snap-m",
+        resolution_name="map resolution (--resolution or the map's own)",
+    )
     t0 = time.perf_counter()
     try:
         graph = unwarned_route_graph(occupancy, config=config)  # its note: printed below

@@ -16,6 +16,7 @@ import numpy as np
 from .._caller import outside_stacklevel
 from .._stage_memory import ROUTE_GRAPH_BYTES_PER_PX, SMALLER_MAP, check_stage_fits
 from .._validate import (
+    MAX_ROBOT_RADIUS_M,
     flag,
     instance_or_default,
     nonnegative_metres,
@@ -435,10 +436,20 @@ def check_scale(
     res: float,
     radius_name: str = "robot_radius_m",
     snap_name: str = "snap_m",
+    resolution_name: str = "resolution_m",
 ) -> None:
     """Refuse a robot radius, a ``snap_m`` or a ``shortcut_spacing_m`` too small for a map
     of ``res`` metres per pixel (see MIN_RADIUS_PX and MIN_REACH_PX; a spacing between 0
-    and one pixel); the radius's error names ``radius_name``, the snap's ``snap_name``."""
+    and one pixel), and a map so coarse that no robot radius fits (``resolution_name``);
+    the radius's error names ``radius_name``, the snap's ``snap_name``."""
+    coarsest = MAX_ROBOT_RADIUS_M / MIN_RADIUS_PX
+    if res > coarsest * (1 + _ROUNDING_PX):
+        raise ValueError(
+            f"{resolution_name}: expected at most {coarsest:g} m per pixel for a route graph, "
+            f"received {res:g}: its least robot radius, {MIN_RADIUS_PX:g} pixels "
+            f"({MIN_RADIUS_PX * res:g} m), is above the largest robot radius accepted, "
+            f"{MAX_ROBOT_RADIUS_M:g} m"
+        )
     if cfg.robot_radius_m / res < MIN_RADIUS_PX - _ROUNDING_PX:
         raise ValueError(
             f"{radius_name}: expected at least {MIN_RADIUS_PX:g} pixels of the map "
