@@ -954,6 +954,35 @@ def test_sigterm_in_a_write_leaves_no_temporary_file(tmp_path, command):
     assert out.is_dir() and not [p.name for p in out.iterdir() if p.suffix == ".tmp"]
 
 
+@pytest.mark.parametrize("code", ["ENOSPC", "EDQUOT", "EFBIG", "EIO"])
+def test_a_full_disk_ends_a_command_with_status_1_not_the_usage_status(
+    tmp_path, monkeypatch, capsys, code
+):
+    """Status 2 says the command line was wrong; a disk that fills (or fails) while the
+    command writes is no fault of its arguments: status 1, as out of memory, with the
+    file named."""
+    import errno
+
+    import topojax._fs as fs
+
+    number = getattr(errno, code)
+
+    class Os:  # the file system calls of atomic writes, the disk full at the first fsync
+        def __getattr__(self, name):
+            return getattr(os, name)
+
+        @staticmethod
+        def fsync(fd):
+            raise OSError(number, os.strerror(number))
+
+    monkeypatch.setattr(fs, "os", Os())
+    src = Path(topojax.__file__).parent / "data" / "office.png"
+    assert main(["graph", str(src), "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("topojax graph: error: cannot write ")
+    assert err.rstrip().endswith(f"({os.strerror(number)})")
+
+
 def test_summaries_count_one_in_the_singular():
     """The summary lines of ``graph`` and ``replay`` say "1 vertex", "1 edge", "1
     component", "1 scan" and "1 tile", and more of them in the plural."""

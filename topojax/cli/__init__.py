@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import difflib
+import errno
 import os
 import re
 import signal
@@ -122,6 +123,11 @@ def _use_compilation_cache() -> None:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
+#: The errors of a disk that is full or fails (no space, quota, file size, I/O): the
+#: command ends with status 1, as out of memory, not the usage status 2.
+_DISK_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO})
+
+
 def _message(exc: Exception) -> str:
     """The text of a command's error: an ``OSError`` made from a number and a message
     that names the option (``--out: cannot make the folder ...``) without the number's
@@ -196,7 +202,8 @@ def main(argv: list[str] | None = None) -> int:
             return int(args.handler(args) or 0)
     except (ValueError, TypeError, FileNotFoundError, OSError) as exc:
         print(f"topojax {args.command}: error: {_message(exc)}", file=sys.stderr)
-        return 2
+        # 2 is a usage error (argparse's status); a disk that filled or failed is not one
+        return 1 if isinstance(exc, OSError) and exc.errno in _DISK_ERRNOS else 2
     except Exception as exc:
         if not _out_of_memory(exc):
             raise
