@@ -458,6 +458,76 @@ def test_load_errors(tmp_path: Path):
         load_graph(no_nodes)
 
 
+def _point(node, xy):
+    props = {"feature": "node", "id": node}
+    return {
+        "type": "Feature",
+        "geometry": {"type": "Point", "coordinates": xy},
+        "properties": props,
+    }
+
+
+def _line(u, v, key):
+    geometry = {"type": "LineString", "coordinates": [[0, 0], [1, 1]]}
+    props = {"feature": "edge", "u": u, "v": v, "key": key}
+    return {"type": "Feature", "geometry": geometry, "properties": props}
+
+
+_GRAPHML_NODES = '<node id="1"><data key="d0">1.0</data></node><node id="2" />'
+_GRAPHML = (
+    '<graphml xmlns="http://graphml.graphdrawing.org/xmlns">'
+    '<key id="d0" for="node" attr.name="x" attr.type="double" />'
+    '<graph edgedefault="undirected">{}</graph></graphml>'
+)
+
+#: Files that list a node, or an edge with its key, twice: read one entry at a time, the
+#: second would silently overwrite the first's attributes.
+_LISTED_TWICE = {
+    "node.json": (
+        {"nodes": [{"id": 1, "x": 1.0}, {"id": 1, "x": 2.0}], "edges": []},
+        "node 1",
+    ),
+    "edge.json": (
+        {
+            "nodes": [{"id": 1}, {"id": 2}],
+            "edges": [{"source": 1, "target": 2, "key": 0}, {"source": 2, "target": 1, "key": 0}],
+        },
+        "edge (2, 1, 0)",
+    ),
+    "node.geojson": (
+        {"type": "FeatureCollection", "features": [_point(1, [0, 0]), _point(1, [5, 5])]},
+        "node 1",
+    ),
+    "edge.geojson": (
+        {
+            "type": "FeatureCollection",
+            "features": [_point(1, [0, 0]), _point(2, [1, 1]), _line(1, 2, 0), _line(1, 2, 0)],
+        },
+        "edge (1, 2, 0)",
+    ),
+    "node.graphml": (
+        _GRAPHML.format(_GRAPHML_NODES + '<node id="1"><data key="d0">2.0</data></node>'),
+        "node '1'",
+    ),
+    "edge.graphml": (
+        _GRAPHML.format(
+            _GRAPHML_NODES
+            + '<edge source="1" target="2" id="0" /><edge source="2" target="1" id="0" />'
+        ),
+        "edge ('2', '1', '0')",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(_LISTED_TWICE))
+def test_a_node_or_edge_listed_twice_is_refused(tmp_path: Path, name: str):
+    doc, what = _LISTED_TWICE[name]
+    path = tmp_path / name
+    path.write_text(doc if isinstance(doc, str) else json.dumps(doc))
+    with pytest.raises(ValueError, match=rf"{re.escape(str(path))}: .*{re.escape(what)}.* twice"):
+        load_graph(path)
+
+
 def test_save_errors(tmp_path: Path):
     with pytest.raises(TypeError, match="^graph: expected an undirected networkx graph, rec"):
         save_graph(nx.MultiDiGraph(), tmp_path / "g.json")

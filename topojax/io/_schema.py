@@ -360,15 +360,29 @@ def _check_ends(g, u: Any, v: Any, path: Path, where: str) -> None:
             raise ValueError(f"graph file {path}: {where} joins node {end!r}, which is not listed")
 
 
-def add_node(g: nx.MultiGraph, node: Any, attrs: dict[str, Any]) -> None:
+def listed_twice(path: Path, what: str) -> ValueError:
+    """The error of a file that lists ``what`` (a node, an edge with its key) twice: read
+    an entry at a time, the second would silently replace the first's attributes."""
+    return ValueError(f"graph file {path}: {what} is listed twice; expected each once")
+
+
+def add_node(g: nx.MultiGraph, node: Any, attrs: dict[str, Any], path: Path | None = None) -> None:
     """Add ``node`` to ``g`` with ``attrs``, whatever their names (``add_node(node,
-    **attrs)`` would take ``node_for_adding`` for its own argument)."""
+    **attrs)`` would take ``node_for_adding`` for its own argument); with the file's
+    ``path``, a node already in ``g`` is refused (:func:`listed_twice`)."""
+    if path is not None and node in g:
+        raise listed_twice(path, f"node {node!r}")
     g.add_node(node)
     g.nodes[node].update(attrs)
 
 
-def add_edge(g: nx.MultiGraph, u: Any, v: Any, key: Any, attrs: dict[str, Any]) -> None:
+def add_edge(
+    g: nx.MultiGraph, u: Any, v: Any, key: Any, attrs: dict[str, Any], path: Path | None = None
+) -> None:
     """Add the edge ``(u, v, key)`` (``key`` None: the next free one) to ``g`` with
-    ``attrs``, whatever their names (``key``, ``u_for_edge`` and ``v_for_edge`` too)."""
+    ``attrs``, whatever their names (``key``, ``u_for_edge`` and ``v_for_edge`` too); with
+    the file's ``path``, an edge already in ``g`` is refused (:func:`listed_twice`)."""
+    if path is not None and key is not None and g.has_edge(u, v, key):
+        raise listed_twice(path, f"edge {(u, v, key)!r}")
     key = g.add_edge(u, v, key=key)
     g.edges[u, v, key].update(attrs)

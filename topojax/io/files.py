@@ -144,7 +144,8 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
         If ``path`` does not exist.
     ValueError
         If it is not a file (a saved graph store's folder is named as one), its format
-        cannot be told from the suffix, or it cannot be parsed as that format.
+        cannot be told from the suffix, or it cannot be parsed as that format, or it
+        lists a node (or an edge with its key) twice.
 
     Notes
     -----

@@ -134,7 +134,7 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
             xy = _xy(without_altitude(coords, where), where)
             spec = schema["node"].get("world") or {"kind": "tuple"}
             attrs["world"] = _decode_value(xy, spec)
-            add_node(g, node, _in_order(attrs, schema["node"]))
+            add_node(g, node, _in_order(attrs, schema["node"]), path)
         elif gtype == "LineString":
             if "u" not in props or "v" not in props:
                 raise ValueError(
@@ -163,7 +163,7 @@ def _from_geojson(doc: Any, path: Path) -> nx.MultiGraph:
         if spec is not None and spec["kind"] == "ndarray":
             world = world.astype(np.dtype(spec["dtype"]), copy=False)
         attrs["world"] = world
-        add_edge(g, u, v, key, _in_order(attrs, schema["edge"]))
+        add_edge(g, u, v, key, _in_order(attrs, schema["edge"]), path)
     return g
 
 

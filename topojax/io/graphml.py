@@ -21,6 +21,7 @@ from ._schema import (
     add_node,
     decided_id_kinds,
     jsonable,
+    listed_twice,
 )
 from ._stream import _Chunks
 
@@ -264,12 +265,21 @@ def _read_graphml(path: Path) -> nx.MultiGraph:
 
 
 def _graphml_node_ids(path: Path) -> set[str]:
-    """The ids of the ``<node>`` elements of a GraphML file."""
+    """The ids of the ``<node>`` elements of a GraphML file; a ValueError for a node, or
+    an edge with its id, listed twice (networkx merges them into one)."""
     import xml.etree.ElementTree as ET
 
-    ids = set()
+    ids, edges = set(), set()
     for _, elem in ET.iterparse(path):
-        if elem.tag.rsplit("}", 1)[-1] == "node":
+        tag = elem.tag.rsplit("}", 1)[-1]
+        if tag == "node":
+            if elem.get("id") in ids:  # networkx would merge the two
+                raise listed_twice(path, f"node {elem.get('id')!r}")
             ids.add(elem.get("id"))
+        elif tag == "edge" and elem.get("id") is not None:
+            ends, key = (elem.get("source"), elem.get("target")), elem.get("id")
+            if (frozenset(ends), key) in edges:
+                raise listed_twice(path, f"edge {(*ends, key)!r}")
+            edges.add((frozenset(ends), key))
         elem.clear()
     return ids

@@ -92,7 +92,7 @@ def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
             raise ValueError(f"graph file {path}: node entry without 'id': {entry!r}")
         attrs = {k: v for k, v in entry.items() if k != "id"}
         node = _decode_id(entry["id"], schema["node_id"], "node id", path)
-        add_node(g, node, _decode_attrs(attrs, schema["node"]))
+        add_node(g, node, _decode_attrs(attrs, schema["node"]), path)
     for entry in edge_entries:
         if not isinstance(entry, dict) or "source" not in entry or "target" not in entry:
             raise ValueError(f"graph file {path}: edge entry without source/target: {entry!r}")
@@ -103,5 +103,5 @@ def _from_node_link(doc: Any, path: Path) -> nx.MultiGraph:
         key = entry.get("key")
         if key is not None:
             key = _decode_id(key, schema["edge_key"], "edge key", path)
-        add_edge(g, u, v, key, _decode_attrs(attrs, schema["edge"]))
+        add_edge(g, u, v, key, _decode_attrs(attrs, schema["edge"]), path)
     return g
