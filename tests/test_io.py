@@ -679,7 +679,14 @@ _POINT_B = _feature("Point", [1.0, 0.0], id=2)
         (".json", {"nodes": [{"x": 1}]}, "node entry without 'id'"),
         (".json", {"nodes": [{"id": 1}], "edges": [{"source": 1}]}, "without source/target"),
         (".json", {"nodes": [{"id": 1}], "edges": [{"source": 1, "target": 7}]}, "node 7"),
-        (".json", {"nodes": [{"id": True}]}, "bad node id True"),
+        (".json", {"nodes": [{"id": True}]}, "node id: expected an int or a str, received True"),
+        (".json", {"nodes": [{"id": 1.5}]}, "node id: expected an int or a str, received 1.5"),
+        (".json", {"nodes": [{"id": [1, 2]}]}, r"node id: expected an int or a str, received \["),
+        (
+            ".json",
+            {"nodes": [{"id": 1}], "edges": [{"source": 1, "target": 1, "key": 0.5}]},
+            "edge key: expected an int or a str, received 0.5",
+        ),
         (".geojson", {"type": "FeatureCollection", "features": [42]}, r"features\[0\] is not"),
         (
             ".geojson",

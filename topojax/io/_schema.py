@@ -283,7 +283,9 @@ def _decode_id(value: Any, kind: str | None, what: str, path: Path) -> Any:
         return str(value)
     if kind == "int" or kind is None:
         if isinstance(value, bool):
-            raise ValueError(f"graph file {path}: bad {what} {value!r}")
+            raise ValueError(
+                f"graph file {path}: {what}: expected an int or a str, received {value!r:.80}"
+            )
         if isinstance(value, int):
             return value
         if isinstance(value, str):
@@ -295,7 +297,7 @@ def _decode_id(value: Any, kind: str | None, what: str, path: Path) -> Any:
                         f"graph file {path}: {what} {value!r} is not an integer"
                     ) from None
                 return value
-    raise ValueError(f"graph file {path}: bad {what} {value!r}")
+    raise ValueError(f"graph file {path}: {what}: expected an int or a str, received {value!r:.80}")
 
 
 def _decode_attrs(attrs: dict[str, Any], specs: dict[str, Any]) -> dict[str, Any]:
