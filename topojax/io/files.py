@@ -62,7 +62,8 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
 
         * ``graphml``: arrays, tuples and lists are stored as JSON strings, and so
           are the str values of an attribute where one holds a control character
-          (XML cannot hold most, and reads a carriage return back as a line feed);
+          (XML cannot hold most, and reads a carriage return back as a line feed) and
+          the int values of one where an int is beyond 64 bits (GraphML's long);
           node ids, edge keys and attribute names with such a character other
           than tab, line feed or carriage return are refused. An attribute that holds
           both ints and floats is a column of doubles: its ints come back as floats.

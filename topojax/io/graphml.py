@@ -55,6 +55,8 @@ def _graphml_decode(value: Any, spec: dict[str, Any] | None) -> Any:
 #: GraphML's types (networkx's names) of the values :func:`_graphml_value` gives for
 #: each kind of the schema; "string" for the others.
 _KIND_XML_TYPES = {"bool": "boolean", "int": "long", "float": "double"}
+#: The range of GraphML's long (XML Schema's: 64-bit two's complement).
+_LONG_MIN, _LONG_MAX = -(2**63), 2**63 - 1
 #: The line breaks of :meth:`str.splitlines` left in ASCII text once escaped: networkx
 #: writes a document's lines joined with "\n".
 _LINE_BREAKS = re.compile("\r\n|[\r\n\x0b\x0c\x1c\x1d\x1e]")
@@ -167,22 +169,30 @@ def _xml_text(value: Any) -> str:
     return str(value)
 
 
+def _not_graphml_text(value: Any) -> bool:
+    """Is ``value`` a str that GraphML text loses or cannot hold (:data:`_NOT_XML_TEXT`),
+    or an int beyond GraphML's long (XML Schema's, 64 bits)?"""
+    if isinstance(value, str):
+        return _NOT_XML_TEXT.search(value) is not None
+    value = _to_python_scalar(value)
+    return isinstance(value, int) and not _LONG_MIN <= value <= _LONG_MAX
+
+
 def _xml_schema(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
-    """``schema`` with the kind ``"json"`` for each str attribute one of whose values
-    holds a character that GraphML text loses or cannot hold (:data:`_NOT_XML_TEXT`):
-    its values are written as JSON strings, which escape it, and read back as they were."""
+    """``schema`` with the kind ``"json"`` for each str or int attribute one of whose
+    values GraphML cannot hold as such (:func:`_not_graphml_text`): its values are
+    written as JSON strings, which hold them, and read back as they were."""
     out = dict(schema)
     for scope, items in (
         ("graph", [graph_attrs]),
         ("node", (d for _, d in g.nodes(data=True))),
         ("edge", (d for *_, d in g.edges(data=True))),
     ):
-        names = {name for name, spec in schema[scope].items() if spec["kind"] == "str"}
+        names = {name for name, spec in schema[scope].items() if spec["kind"] in ("str", "int")}
         found = set()
         for d in items if names else ():
             for name in names - found:
-                value = d.get(name)
-                if isinstance(value, str) and _NOT_XML_TEXT.search(value):
+                if _not_graphml_text(d.get(name)):
                     found.add(name)
         if found:
             out[scope] = {**schema[scope], **{name: {"kind": "json"} for name in found}}
