@@ -1305,6 +1305,25 @@ def test_a_broken_yaml_names_its_line_and_column_not_pyyaml_s_stream(
     assert "<unicode string>" not in str(info.value) and "\n" not in str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("text", "received"),
+    [
+        ("", "an empty document"),
+        ("# only a comment\n", "an empty document"),
+        ("- image: m.pgm\n- resolution: 0.1\n", "a list"),
+        ("m.pgm 0.1\n", "the text 'm.pgm 0.1'"),
+    ],
+)
+def test_a_yaml_that_is_no_mapping_says_what_it_holds(tmp_path: Path, text: str, received):
+    path = _yaml_map(tmp_path, text)
+    with pytest.raises(ValueError) as info:
+        load_map(path)
+    assert str(info.value) == (
+        f"map YAML {path}: expected a mapping of keys to values (image: ..., resolution: "
+        f"...), received {received}"
+    )
+
+
 def test_yaml_missing_image_file(tmp_path: Path):
     (tmp_path / "m.yaml").write_text("image: nothere.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
     with pytest.raises(FileNotFoundError, match="nothere.pgm"):

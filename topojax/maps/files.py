@@ -66,8 +66,15 @@ def _load_yaml(path: Path) -> dict[str, Any]:
             f"map YAML {path} could not be parsed: {_yaml_problem(exc, text)}"
         ) from None
     if not isinstance(doc, dict):
+        if doc is None:
+            received = "an empty document"
+        elif isinstance(doc, list):
+            received = "a list"
+        else:
+            received = f"the text {str(doc)!r:.80}"
         raise ValueError(
-            f"map YAML {path}: expected a mapping (key: value), received {type(doc).__name__}"
+            f"map YAML {path}: expected a mapping of keys to values (image: ..., resolution: "
+            f"...), received {received}"
         )
     # map_server reads these with yaml-cpp, which converts 5e-2 and quoted numbers too;
     # PyYAML (YAML 1.1) leaves them strings
