@@ -682,6 +682,11 @@ def test_from_array_errors():
             OccupancyMap.from_array(not_an_array)
     with pytest.raises(TypeError, match="object"):
         OccupancyMap.from_array(np.array([[None, None], [None, None]], dtype=object))
+    for ragged in ([[0, 100], [0]], [[0.1, 0.2], [0.3, [0.4]]]):  # rows of other lengths
+        with pytest.raises(
+            ValueError, match=r"^array: expected rows of one length \(an \(H, W\) array\)"
+        ):
+            OccupancyMap.from_array(ragged)
     with pytest.raises(ValueError, match="shape"):
         OccupancyMap.from_array(np.zeros((3, 3, 5), dtype=np.uint8))
     with pytest.raises(ValueError, match="shape"):

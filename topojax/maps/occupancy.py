@@ -374,7 +374,14 @@ class OccupancyMap:
         mode = one_of("mode", mode, MODES)
         negate = binary_flag("negate", negate)
         masked = masked_entries(array)
-        values = np.asarray(unmasked("array", array, fill=0))  # 0: a value every dtype accepts
+        given = unmasked("array", array, fill=0)  # 0: a value every dtype accepts
+        try:
+            values = np.asarray(given)
+        except ValueError:  # nested lists whose rows differ in length
+            raise ValueError(
+                "array: expected rows of one length (an (H, W) array), received nested "
+                f"sequences of different lengths ({type(array).__name__})"
+            ) from None
         occ_t, free_t = thresholds_in_precision(values.dtype, occ_t, free_t)
         codes = classify_array(
             real_values(values),
