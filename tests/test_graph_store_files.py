@@ -376,7 +376,7 @@ def test_a_store_folder_given_as_a_graph_file_names_load_graph_store(tmp_path, c
     assert main(argv) == 2
     assert "graph: expected a graph file" in capsys.readouterr().err
     (tmp_path / "other").mkdir()
-    with pytest.raises(ValueError, match=r"^path: expected a file, received a directory"):
+    with pytest.raises(ValueError, match=r"^path: expected a file, received the folder"):
         tj.load_graph(tmp_path / "other")
 
 

@@ -1671,7 +1671,7 @@ def test_save_load_continue_equals_uninterrupted(tmp_path):
 def test_load_rejects_bad_files(tmp_path):
     with pytest.raises(FileNotFoundError, match="^path: file not found: .*missing.npz"):
         IncrementalMapper.load(tmp_path / "missing.npz")
-    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
+    with pytest.raises(ValueError, match="^path: expected a file, received the folder"):
         IncrementalMapper.load(tmp_path)
     bad = tmp_path / "bad.npz"
     bad.write_bytes(b"this is not a zip file")

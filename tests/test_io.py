@@ -442,7 +442,7 @@ def test_unknown_suffix_lists_supported(tmp_path: Path):
         load_graph(tmp_path / "g.xml")
     with pytest.raises(FileNotFoundError, match="h.xml"):  # missing, whatever the suffix
         load_graph(tmp_path / "h.xml")
-    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
+    with pytest.raises(ValueError, match="^path: expected a file, received the folder"):
         load_graph(tmp_path)
 
 

@@ -494,7 +494,7 @@ def test_load_rooms_takes_doors_that_end_on_the_maps_border(tmp_path: Path):
 def test_load_rooms_missing_unreadable_or_another_kind_of_file(tmp_path: Path):
     with pytest.raises(FileNotFoundError, match="^path: file not found: .*nothing.geojson"):
         tj.load_rooms(tmp_path / "nothing.geojson")
-    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
+    with pytest.raises(ValueError, match="^path: expected a file, received the folder"):
         tj.load_rooms(tmp_path)
     broken = tmp_path / "broken.geojson"
     broken.write_text('{"type": "FeatureCollection", ', encoding="utf-8")

@@ -4,6 +4,7 @@ bools refused as numbers, NaN / inf, wrong types, and messages that name the par
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -469,14 +470,32 @@ def test_binary_image():
         v.binary_image("mask", np.array([[math.nan, 0.0]]))
 
 
+def test_non_file_kind_names_what_is_there_when_it_is_no_regular_file(tmp_path):
+    (tmp_path / "f").write_text("x")
+    from topojax._filekind import non_file_kind, the_non_file
+
+    assert non_file_kind(tmp_path / "f") is None
+    assert non_file_kind(tmp_path / "missing") is None
+    assert non_file_kind(tmp_path) == "a folder"
+    assert the_non_file(tmp_path) == "the folder"
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(tmp_path / "pipe")
+        assert non_file_kind(tmp_path / "pipe") == "a FIFO"
+        assert the_non_file(tmp_path / "pipe") == "the FIFO"
+
+
 def test_existing_file(tmp_path):
     f = tmp_path / "log.txt"
     f.write_text("x")
     assert v.existing_file("path", str(f)) == f
     with pytest.raises(FileNotFoundError, match="^path: file not found: .*nope"):
         v.existing_file("path", tmp_path / "nope")
-    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
+    with pytest.raises(ValueError, match=r"^path: expected a file, received the folder .*"):
         v.existing_file("path", tmp_path)
+    if hasattr(os, "mkfifo"):  # a named pipe is named as one, not "a directory or ..."
+        os.mkfifo(tmp_path / "pipe")
+        with pytest.raises(ValueError, match=r"^path: expected a file, received the FIFO .*pipe"):
+            v.existing_file("path", tmp_path / "pipe")
     for bad in (None, 5, b"log.txt"):
         with pytest.raises(TypeError, match=r"^path: expected a path \(str or os.PathLike\)"):
             v.existing_file("path", bad)

@@ -611,7 +611,7 @@ def test_a_corrupt_timeline_file_says_so(tmp_path):
         tj.Timeline.load(bad)
     with pytest.raises(FileNotFoundError, match="^path: file not found: .*missing.json.gz"):
         tj.Timeline.load(tmp_path / "missing.json.gz")
-    with pytest.raises(ValueError, match="^path: expected a file, received a directory"):
+    with pytest.raises(ValueError, match="^path: expected a file, received the folder"):
         tj.Timeline.load(tmp_path)
     with pytest.raises(ValueError, match="holds no graph update"):
         view_html(intel_result(), timeline=tj.Timeline())

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import stat
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -18,7 +17,6 @@ __all__ = [
     "atomic_write_bytes",
     "default_file_mode",
     "input_files",
-    "non_file_kind",
     "output_file",
     "output_file_in_folder",
     "output_folder",
@@ -186,24 +184,6 @@ def _unnamed_os_error(exc: BaseException) -> bool:
         and exc.errno is not None
         and isinstance(exc.strerror, str)
     )
-
-
-def non_file_kind(path: str | Path) -> str | None:
-    """What ``path`` is when it exists but is no regular file ("a folder", "a FIFO", "a
-    socket", "a character device", "a block device"), else None (a file, or nothing)."""
-    try:
-        mode = os.stat(path).st_mode
-    except (OSError, ValueError):
-        return None
-    kinds = (
-        (stat.S_ISREG, None),
-        (stat.S_ISDIR, "a folder"),
-        (stat.S_ISFIFO, "a FIFO"),
-        (stat.S_ISSOCK, "a socket"),
-        (stat.S_ISCHR, "a character device"),
-        (stat.S_ISBLK, "a block device"),
-    )
-    return next((kind for test, kind in kinds if test(mode)), "no regular file")
 
 
 def input_files(path: Path) -> list[Path]:

@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from ._filekind import the_non_file
+
 __all__ = [
     "binary_flag",
     "binary_image",
@@ -607,13 +609,13 @@ def no_file_above(name: str, path: Path) -> Path:
 def existing_file(name: str, path: Any) -> Path:
     """``path`` as a :class:`~pathlib.Path` after checking it is one (:func:`path_like`,
     a ``TypeError`` or, for an empty one, a ``ValueError`` otherwise) naming an existing
-    regular file: a ``FileNotFoundError`` if
-    nothing is there, a ``ValueError`` for a folder or a special file."""
+    regular file: a ``FileNotFoundError`` if nothing is there, a ``ValueError`` naming
+    what is there instead (a folder, a FIFO, ...)."""
     p = path_like(name, path)
     if not p.exists():
         raise FileNotFoundError(f"{name}: file not found: {p}")
     if not p.is_file():
-        raise ValueError(f"{name}: expected a file, received a directory or special file: {p}")
+        raise ValueError(f"{name}: expected a file, received {the_non_file(p)} {p}")
     return p
 
 

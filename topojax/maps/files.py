@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from .._cpus import check_fits_memory
-from .._fs import non_file_kind
+from .._filekind import non_file_kind, the_non_file
 from .._validate import (
     MAX_RESOLUTION_M,
     MIN_RESOLUTION_M,
@@ -145,13 +145,10 @@ def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
 def _refuse_non_file(yaml_path: Path, image: Path) -> None:
     """A ValueError if ``image`` exists but is no regular file (reading a FIFO would wait
     for a writer for ever; "not found" would be untrue)."""
-    kind = non_file_kind(image)
-    if kind is not None:
-        article, _, noun = kind.partition(" ")
-        received = f"the {noun}" if article in ("a", "an") else kind
+    if non_file_kind(image) is not None:
         raise ValueError(
             f"map YAML {yaml_path}: field 'image': expected an image file, received "
-            f"{received} {image}"
+            f"{the_non_file(image)} {image}"
         )
 
 
