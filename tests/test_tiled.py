@@ -6,6 +6,8 @@ clearances, attributes)."""
 
 from __future__ import annotations
 
+import os
+import threading
 import warnings
 from dataclasses import replace
 
@@ -958,3 +960,27 @@ def test_an_empty_pgm_is_named_as_empty(tmp_path):
         tj.open_tiled_map(empty)
     with pytest.raises(ValueError, match=r"map image .*map\.pgm is empty \(0 bytes\)"):
         tj.load_map(empty)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+@pytest.mark.parametrize("name", ["map.pgm", "map.yaml"])
+def test_a_named_pipe_is_refused_as_one_not_read(tmp_path, name):
+    """open_tiled_map of a FIFO waited for a writer for ever. A writer here sends a small
+    map, so that reading the pipe ends: the map must still be refused, as load_map does."""
+    fifo = tmp_path / name
+    os.mkfifo(fifo)
+    pgm = b"P5\n4 4\n255\n" + bytes([254] * 16)
+
+    def write():
+        with open(fifo, "wb") as out:  # waits for a reader
+            out.write(pgm if name.endswith(".pgm") else b"image: x.pgm\nresolution: 0.1\n")
+
+    writer = threading.Thread(target=write, daemon=True)
+    writer.start()
+    try:
+        with pytest.raises(ValueError, match=rf"path: .*{name} is a FIFO; expected a "):
+            tj.open_tiled_map(fifo)
+    finally:  # a reader that takes nothing lets the writer's open return
+        fd = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+        writer.join()
+        os.close(fd)

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from .._filekind import non_file_kind
 from .._fs import output_folder
 from .._npy import load_npy
 from .._validate import (
@@ -543,6 +544,12 @@ def open_tiled_map(path, **overrides) -> TiledMap:
         )
     if not p.exists():
         raise FileNotFoundError(f"path: map not found: {p}")
+    kind = non_file_kind(p)
+    if kind not in (None, "a folder"):  # reading a FIFO would wait for a writer for ever
+        raise ValueError(
+            f"path: {p} is {kind}; expected a tile folder, a Zarr array, a binary .pgm or a "
+            "map YAML (a regular file)"
+        )
     if p.is_dir() and (p / TILE_INDEX).is_file():
         return _open_folder(p, overrides)
     if p.is_dir() and (p / "zarr.json").is_file():
