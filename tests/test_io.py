@@ -350,6 +350,21 @@ def test_graphml_long_values_are_those_xml_schema_long_holds(tmp_path: Path):
     assert all(type(d["count"]) is int for _, d in back.nodes(data=True))
 
 
+def test_graphml_double_columns_keep_ints_a_double_cannot_hold(tmp_path: Path):
+    # An attribute of ints and floats is a GraphML double column; an int a double does
+    # not hold exactly (2**53 + 1, rounded) or at all (2**1100, an OverflowError) makes
+    # it a column of JSON text instead, whose numbers come back as they were.
+    g = make_graph()
+    values = [0.5, 2**53 + 1, 2**1100, -3, 1e300]
+    assert g.number_of_nodes() >= len(values)
+    for n, value in zip(g.nodes, values, strict=False):
+        g.nodes[n]["score"] = value
+    back = load_graph(save_graph(g, tmp_path / "g.graphml"))
+    for n, d in g.nodes(data=True):
+        assert back.nodes[n]["score"] == d["score"]
+        assert type(back.nodes[n]["score"]) is type(d["score"])
+
+
 def _strict_json(text: str):
     def bad_constant(name):
         raise AssertionError(f"non-standard JSON constant {name}")

@@ -66,7 +66,9 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
           the int values of one where an int is beyond 64 bits (GraphML's long);
           node ids, edge keys and attribute names with such a character other
           than tab, line feed or carriage return are refused. An attribute that holds
-          both ints and floats is a column of doubles: its ints come back as floats.
+          both ints and floats is a column of doubles: its ints come back as floats
+          (where a double does not hold one of them exactly, a column of JSON text
+          instead, whose ints and floats come back as they were).
         * ``json``: networkx node-link data (``"nodes"`` / ``"edges"``, edge ``"key"``),
           arrays as nested lists.
         * ``geojson``: a FeatureCollection with one Point per node (properties ``id``,

@@ -169,18 +169,26 @@ def _xml_text(value: Any) -> str:
     return str(value)
 
 
-def _not_graphml_text(value: Any) -> bool:
-    """Is ``value`` a str that GraphML text loses or cannot hold (:data:`_NOT_XML_TEXT`),
-    or an int beyond GraphML's long (XML Schema's, 64 bits)?"""
+def _not_graphml_text(value: Any, kind: str) -> bool:
+    """Is ``value`` of an attribute of ``kind`` a str that GraphML text loses or cannot
+    hold (:data:`_NOT_XML_TEXT`), an int beyond GraphML's long (XML Schema's, 64 bits),
+    or, in a double column (ints and floats), an int that no double holds exactly?"""
     if isinstance(value, str):
         return _NOT_XML_TEXT.search(value) is not None
     value = _to_python_scalar(value)
-    return isinstance(value, int) and not _LONG_MIN <= value <= _LONG_MAX
+    if not isinstance(value, int) or isinstance(value, bool):
+        return False
+    if kind == "float":
+        try:
+            return float(value) != value
+        except OverflowError:  # beyond any double
+            return True
+    return not _LONG_MIN <= value <= _LONG_MAX
 
 
 def _xml_schema(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> dict:
-    """``schema`` with the kind ``"json"`` for each str or int attribute one of whose
-    values GraphML cannot hold as such (:func:`_not_graphml_text`): its values are
+    """``schema`` with the kind ``"json"`` for each str, int or float attribute one of
+    whose values GraphML cannot hold as such (:func:`_not_graphml_text`): its values are
     written as JSON strings, which hold them, and read back as they were."""
     out = dict(schema)
     for scope, items in (
@@ -188,11 +196,15 @@ def _xml_schema(g: nx.MultiGraph, graph_attrs: dict[str, Any], schema: dict) -> 
         ("node", (d for _, d in g.nodes(data=True))),
         ("edge", (d for *_, d in g.edges(data=True))),
     ):
-        names = {name for name, spec in schema[scope].items() if spec["kind"] in ("str", "int")}
+        kinds = {
+            name: spec["kind"]
+            for name, spec in schema[scope].items()
+            if spec["kind"] in ("str", "int", "float")
+        }
         found = set()
-        for d in items if names else ():
-            for name in names - found:
-                if _not_graphml_text(d.get(name)):
+        for d in items if kinds else ():
+            for name in kinds.keys() - found:
+                if _not_graphml_text(d.get(name), kinds[name]):
                     found.add(name)
         if found:
             out[scope] = {**schema[scope], **{name: {"kind": "json"} for name in found}}
