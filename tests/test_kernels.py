@@ -517,3 +517,20 @@ def test_patch_view_into_a_reused_buffer_equals_a_fresh_one():
     )
     with pytest.raises(ValueError, match="out: expected shape"):
         grid.patch_view(b, halo, out=np.zeros((3, 3), bool))
+
+
+def test_dense_fields_repr_is_one_short_line():
+    """Printing the fields of a map says what they are (shape and dtypes), not their
+    values: four arrays' worth of numbers is no summary."""
+    obstacles = np.zeros((40, 30), bool)
+    obstacles[0] = True
+    text = repr(dense_fields(obstacles))
+    assert text == (
+        "DenseFields(40 x 30 px (rows x cols): sq_distance_px int32, distance float32, "
+        "lap_abs uint8, ridges bool)"
+    )
+    only = repr(dense_fields(obstacles, outputs=("distance",)))
+    assert only == (
+        "DenseFields(40 x 30 px (rows x cols): distance float32; not computed: "
+        "sq_distance_px, lap_abs, ridges)"
+    )

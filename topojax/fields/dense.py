@@ -237,6 +237,17 @@ class DenseFields:
     lap_abs: np.ndarray | None
     ridges: np.ndarray | None
 
+    def __repr__(self) -> str:
+        held = {n: getattr(self, n) for n in FIELD_NAMES if getattr(self, n) is not None}
+        shape = next(iter(held.values())).shape if held else None
+        text = ", ".join(f"{n} {a.dtype}" for n, a in held.items())
+        if shape is not None:
+            text = f"{' x '.join(map(str, shape))} px (rows x cols): {text}"
+        missing = [n for n in FIELD_NAMES if n not in held]
+        if missing:
+            text += f"{'; ' if held else ''}not computed: {', '.join(missing)}"
+        return f"DenseFields({text})"
+
 
 #: The fields of :class:`DenseFields`, in the order the kernel returns them.
 FIELD_NAMES = ("sq_distance_px", "distance", "lap_abs", "ridges")
