@@ -582,6 +582,28 @@ def test_timeline_keeps_every_update_and_round_trips(tmp_path):
         tj.Timeline.load(path).snapshot(mapper)
 
 
+def test_a_timeline_prints_what_it_recorded(tmp_path):
+    """A timeline's repr says what it holds (updates, scans as the page numbers them,
+    poses, the last graph), not its address."""
+    assert repr(tj.Timeline()) == "Timeline(no update yet, 0 robot poses, max_map_px=1024)"
+    mapper, timeline, _ = intel_replay()
+    n, e = timeline.last_counts()
+    want = (
+        f"Timeline(4 updates at scans 10 to 40, 40 robot poses, last graph {n} vertices, "
+        f"{e} edges, max_map_px=1024)"
+    )
+    assert repr(timeline) == want
+    path = timeline.save(tmp_path / "timeline.json.gz")
+    assert repr(tj.Timeline.load(path)) == want
+    doc = json.loads(gzip.decompress(path.read_bytes()))
+    del doc["continue"]  # one saved from a loaded timeline: to view only
+    path.write_bytes(gzip.compress(json.dumps(doc).encode()))
+    assert repr(tj.Timeline.load(path)) == (
+        f"Timeline(4 updates at scans 10 to 40, 40 robot poses, last graph {n} vertices, "
+        f"{e} edges; loaded from a file, to view only)"
+    )
+
+
 def test_a_timeline_file_that_unpacks_past_its_share_of_memory_is_refused(tmp_path, monkeypatch):
     """A small gzip file can unpack to gigabytes (and gzip records no size to trust): it
     is unpacked a megabyte at a time and refused once past a quarter of the memory

@@ -72,6 +72,28 @@ class Timeline:
             return None
         return int(frames[-1]["ids"]["n"]), int(frames[-1]["edges"]["n"])
 
+    def __repr__(self) -> str:
+        from .._words import counted
+
+        frames = self._loaded["frames"] if self._loaded is not None else self._frames
+        if self._loaded is not None:
+            poses = int(self._loaded["path"]["scan"]["n"])
+        else:
+            poses = len(self._path)
+        if frames:  # scans counted from 1, as the page shows them
+            first, last = frames[0]["scan"] + 1, frames[-1]["scan"] + 1
+            n, e = self.last_counts()
+            text = (
+                f"{counted(len(frames), 'update')} at scan{'s' * (first != last)} {first}"
+                f"{f' to {last}' if first != last else ''}, {counted(poses, 'robot pose')}, "
+                f"last graph {counted(n, 'vertex', 'vertices')}, {counted(e, 'edge')}"
+            )
+        else:
+            text = f"no update yet, {counted(poses, 'robot pose')}"
+        if self._loaded is not None:
+            return f"Timeline({text}; loaded from a file, to view only)"
+        return f"Timeline({text}, max_map_px={self.max_map_px})"
+
     def _last_map_box(self) -> list[float] | None:
         """The world box ``[x_min, y_min, x_max, y_max]`` of the last map picture kept,
         or None when no frame has one (``max_map_px=0``)."""
