@@ -551,6 +551,27 @@ def test_a_recorder_writes_one_recording(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.mcap"]
 
 
+def test_a_recorder_prints_its_file_state_and_counts(tmp_path):
+    """A recorder's repr says which file it writes, whether it records and what it wrote
+    so far, not its address."""
+    path = tmp_path / "r.mcap"
+    rec = McapRecorder(path)
+    assert repr(rec) == f"McapRecorder({str(path)!r}, not open)"
+    rec.open()
+    rec.add_scan(_scan(1.0))
+    rec.add_scan(_scan(2.0))
+    assert repr(rec) == (
+        f"McapRecorder({str(path)!r}, recording: /tf_static 1, /tf 2, /scan 2; "
+        "last scan at 2.000000000 s)"
+    )
+    rec.close()
+    assert repr(rec).startswith(f"McapRecorder({str(path)!r}, finished: /tf_static 1, ")
+    later = McapRecorder(tmp_path / "s.mcap", continue_from=path)
+    assert repr(later) == (
+        f"McapRecorder({str(tmp_path / 's.mcap')!r}, not open, continuing {str(path)!r})"
+    )
+
+
 def test_a_scan_whose_sensor_pose_overflows_is_refused(tmp_path):
     far = tj.Scan.from_arrays(
         np.full(5, 2.0), (1.7e308, 0.0, 0.0), angle_min=-0.2, angle_increment=0.1

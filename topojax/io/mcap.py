@@ -33,6 +33,7 @@ from .._fs import output_file
 from .._mcap_records import fill_chunk_crcs
 from .._validate import instance_of, no_file_above, nx_graph, xy_points
 from ..scans.scan import reading_limits
+from ._qos import offered_qos
 from ._recording_lock import lock_as_owner, remove_abandoned
 from ._schema import _xy
 
@@ -604,6 +605,16 @@ class McapRecorder:
         else:
             self.abort()
 
+    def __repr__(self) -> str:
+        state = "recording" if self._writer else "finished" if self._finished else "not open"
+        if self.counts:
+            state += ": " + ", ".join(f"{t} {n}" for t, n in self.counts.items())
+        if self._scanned:
+            state += f"; last scan at {self.stamp_ns / _NS:.9f} s"
+        if self._earlier is not None:
+            state += f", continuing {str(self._earlier)!r}"
+        return f"McapRecorder({str(self.path)!r}, {state})"
+
     # ------------------------------------------------------------------ messages
     def _write(self, topic: str, message, stamp_ns: int) -> None:
         self._write_raw(topic, _typestore().serialize_cdr(message, TOPICS[topic]), stamp_ns)
@@ -620,7 +631,10 @@ class McapRecorder:
         conn = self._connections.get(topic)
         if conn is None:
             conn = self._writer.add_connection(
-                topic, TOPICS[topic], typestore=_typestore(), offered_qos_profiles=_qos(topic)
+                topic,
+                TOPICS[topic],
+                typestore=_typestore(),
+                offered_qos_profiles=offered_qos(topic in _LATCHED),
             )
             self._connections[topic] = conn
         self._writer.write(conn, stamp_ns, raw)
@@ -699,36 +713,6 @@ class McapRecorder:
         from .rooms import _check_seg
 
         self._write("/rooms", room_markers(_check_seg(seg), self.stamp_ns), self.stamp_ns)
-
-
-def _qos(topic: str) -> list:
-    """The offered QoS of ``topic``: reliable, transient local, depth 1 for the latched
-    topics; the default (none recorded) for the others."""
-    if topic not in _LATCHED:
-        return []
-    from rosbags.interfaces import (
-        Qos,
-        QosDurability,
-        QosHistory,
-        QosLiveliness,
-        QosReliability,
-        QosTime,
-    )
-
-    zero = QosTime(0, 0)
-    return [
-        Qos(
-            QosHistory.KEEP_LAST,
-            1,
-            QosReliability.RELIABLE,
-            QosDurability.TRANSIENT_LOCAL,
-            zero,
-            zero,
-            QosLiveliness.AUTOMATIC,
-            zero,
-            False,
-        )
-    ]
 
 
 def save_mcap(result, path, *, rooms=None, route_graph=None) -> Path:
