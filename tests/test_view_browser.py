@@ -611,6 +611,25 @@ def test_a_click_over_a_given_route_starts_a_new_one(browser, res, tmp_path):
     assert _js(browser, "topojaxView.lastRoute()") is None
 
 
+def test_last_route_tells_a_given_route_from_a_clicked_one(browser, res, tmp_path):
+    # lastRoute() reports the route the panel shows: before any click that is route=,
+    # said to be given; after two clicks, theirs
+    given = tj.plan_route(res.graph, (5.0, 30.0), (33.0, 5.0))
+    page = tj.write_view(res, tmp_path / "given.html", route=given)
+    assert _open(browser, page) == "ready"
+    shown = _js(browser, "topojaxView.lastRoute()")
+    assert shown == {"length_m": pytest.approx(given.length_m), "given": True}
+    for point in ((12.3, 4.1), (20.7, 28.2)):
+        sx, sy = _js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", *point)
+        _move(browser, sx, sy, click=True)
+    clicked = _js(browser, "topojaxView.routePoints()")
+    want = tj.plan_route(res.graph, *clicked)
+    shown = _js(browser, "topojaxView.lastRoute()")
+    assert shown == {"length_m": pytest.approx(want.length_m, abs=1e-3), "given": False}
+    _js(browser, "topojaxView.clearRoute()")
+    assert _js(browser, "topojaxView.lastRoute()") is None
+
+
 def test_zooming_in_on_a_small_map_never_zooms_out(browser, tmp_path):
     # a map (or a window) of a few pixels fits the canvas at more screen pixels per map
     # pixel than the usual zoom limit

@@ -730,7 +730,7 @@ TJ.frameNo = 0;
       },
       lastRoute: function () {
         if (viewer.routeError) return { error: viewer.routeError };
-        return viewer.route ? { length_m: viewer.route.length_m } : null;
+        return viewer.route ? { length_m: viewer.route.length_m, given: !!viewer.route.given } : null;
       },
       clearRoute: function () { viewer.clearRoute(); },
       routePoints: function () { return viewer.routePoints.map(function (p) { return [p[0], p[1]]; }); },
