@@ -208,6 +208,74 @@ def test_hovering_a_vertex_shows_its_clearance(intel, res):
     assert math.hypot(x - d["world"][0], y - d["world"][1]) < 0.1  # a screen pixel or so
 
 
+def _tooltip(driver) -> str | None:
+    """The tooltip's text, or None while it is hidden."""
+    from selenium.webdriver.common.by import By
+
+    tip = driver.find_element(By.ID, "tj-tooltip")
+    return tip.text if tip.is_displayed() else None
+
+
+def _hover_text(driver, sx: float, sy: float) -> str | None:
+    """What the tooltip should say at canvas point (sx, sy) of the view drawn now."""
+    hover = _js(driver, "topojaxView.hoverAt(arguments[0], arguments[1])", sx, sy)
+    return None if hover is None else "\n".join(hover["lines"])
+
+
+def test_the_tooltip_follows_a_wheel_zoom_under_a_still_mouse(intel, res):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+    from selenium.webdriver.common.by import By
+
+    # zoomed in on a lonely junction, the mouse 20 px off it where nothing is under it
+    n, d = _lonely_junction(res.graph, 1.5)
+    _js(
+        intel,
+        "topojaxView.zoomAt(4, ...topojaxView.worldToScreen(arguments[0], arguments[1]))",
+        *d["world"],
+    )
+    jx, jy = _js(intel, "topojaxView.worldToScreen(arguments[0], arguments[1])", *d["world"])
+    spots = [(jx + 20 * math.cos(a), jy + 20 * math.sin(a)) for a in np.linspace(0, 6, 12)]
+    sx, sy = next(p for p in spots if _hover_text(intel, *p) is None)
+    _move(intel, sx, sy)
+    assert _tooltip(intel) is None
+    # the wheel zooms out about the mouse: the junction comes within reach of the hover
+    canvas = intel.find_element(By.ID, "tj-canvas")
+    w, h = canvas.size["width"], canvas.size["height"]
+    origin = ScrollOrigin.from_element(canvas, int(round(sx - w / 2)), int(round(sy - h / 2)))
+    ActionChains(intel).scroll_from_origin(origin, 0, 600).perform()
+    _next_frame(intel)
+    want = _hover_text(intel, sx, sy)
+    assert want is not None and f"vertex {n} · junction" in want
+    assert _tooltip(intel) == want
+
+
+def test_the_tooltip_follows_the_timeline_under_a_still_mouse(browser, tmp_path):
+    mapper, timeline, _ = intel_replay()
+    page = tj.write_view(mapper, tmp_path / "replay.html", timeline=timeline)
+    assert _open(browser, page) == "ready"
+    # a vertex of the final graph with nothing of the first update under it
+    for _, (x, y) in mapper.graph.nodes(data="world"):
+        sx, sy = _js(browser, "topojaxView.worldToScreen(arguments[0], arguments[1])", x, y)
+        if not (0 < sx < 900 and 0 < sy < 700):
+            continue
+        _js(browser, "topojaxView.setFrame(0)")
+        if _hover_text(browser, sx, sy) is not None:
+            continue
+        _js(browser, "topojaxView.setFrame(topojaxView.nFrames())")
+        break
+    else:
+        raise AssertionError("no vertex of the final graph away from the first update's")
+    _move(browser, sx, sy)
+    assert "vertex" in _tooltip(browser)
+    _js(browser, "topojaxView.setFrame(0)")  # as a replay playing steps to it
+    _next_frame(browser)
+    assert _tooltip(browser) is None
+    _js(browser, "topojaxView.setFrame(topojaxView.nFrames())")
+    _next_frame(browser)
+    assert _tooltip(browser) == _hover_text(browser, sx, sy)
+
+
 def test_hovering_an_edge_and_a_room(browser, res, tmp_path):
     from selenium.webdriver.common.by import By
 

@@ -39,6 +39,7 @@ TJ.frameNo = 0;
     this.pending = false;
     this.stats = { first_draw_ms: null, draw_ms: [] };
     this.hover = null;
+    this.pointer = null;  // the mouse over the canvas, [sx, sy], while it is not dragging
   }
 
   Viewer.prototype.fail = function (err) {
@@ -331,6 +332,9 @@ TJ.frameNo = 0;
     var ms = performance.now() - t0;
     this.stats.draw_ms.push(ms);
     if (this.stats.draw_ms.length > 600) this.stats.draw_ms.shift();
+    // a zoom, a step of the timeline or a layer switched changes what is under a still
+    // mouse: the tooltip says what is there now
+    if (this.pointer) this.showHover(this.pointer[0], this.pointer[1]);
   };
 
   Viewer.prototype.drawPicture = function (ctx, pic) {
@@ -682,10 +686,12 @@ TJ.frameNo = 0;
           stage.classList.add("tj-dragging");
           self.panBy(dx, dy);
           down.x = p[0]; down.y = p[1];
+          self.pointer = null;
           $("tj-tooltip").hidden = true;
           return;
         }
       }
+      self.pointer = p;
       self.showHover(p[0], p[1]);
     });
     canvas.addEventListener("pointerup", function (e) {
@@ -702,7 +708,7 @@ TJ.frameNo = 0;
     }
     canvas.addEventListener("pointercancel", cancel);
     canvas.addEventListener("lostpointercapture", cancel);
-    canvas.addEventListener("pointerleave", function () { $("tj-tooltip").hidden = true; });
+    canvas.addEventListener("pointerleave", function () { self.pointer = null; $("tj-tooltip").hidden = true; });
     if (typeof ResizeObserver === "function") {
       new ResizeObserver(function () { self.resize(); }).observe(stage);
     } else {
