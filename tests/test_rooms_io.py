@@ -73,6 +73,38 @@ def test_rooms_round_trip(seg, tmp_path: Path):
     assert [p.name for p in tmp_path.iterdir()] == ["r.geojson"], "no temporary file left"
 
 
+def test_load_rooms_gives_the_map_frame_the_file_records(seg, tmp_path: Path):
+    """The pair load_rooms gives carries the map the file records (its shape,
+    resolution and origin, where stated) and unpacks as before."""
+    import pickle
+
+    path = tj.save_rooms(seg, tmp_path / "r.geojson")
+    pair = tj.load_rooms(path)
+    rooms, doors = pair
+    assert pair.shape == seg.labels.shape and pair.resolution_m == seg.resolution_m
+    assert pair.origin == tuple(seg.origin)
+    h, w = seg.labels.shape
+    assert repr(pair) == (
+        f"LoadedRooms({len(rooms)} rooms, {len(doors)} doors, {w} x {h} px (w x h) at "
+        f"{seg.resolution_m:g} m/px, origin {tuple(seg.origin)})"
+    )
+    back = pickle.loads(pickle.dumps(pair))
+    assert [r.id for r in back[0]] == [r.id for r in rooms] and len(back[1]) == len(doors)
+    assert (back.shape, back.resolution_m, back.origin) == (
+        pair.shape,
+        pair.resolution_m,
+        pair.origin,
+    )
+    with pytest.raises(AttributeError):
+        pair.shape = (1, 1)
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    del doc["topojax_rooms"]  # another tool's file: no frame
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    bare = tj.load_rooms(path)
+    assert (bare.shape, bare.resolution_m, bare.origin) == (None, None, None)
+    assert repr(bare) == f"LoadedRooms({len(rooms)} rooms, {len(doors)} doors, no map recorded)"
+
+
 def test_rooms_geojson_is_an_rfc7946_feature_collection(seg, tmp_path: Path):
     doc = _strict(tj.save_rooms(seg, tmp_path / "r.geojson").read_text(encoding="utf-8"))
     assert doc["type"] == "FeatureCollection"

@@ -331,15 +331,39 @@ def test_rooms_of_another_map_are_noted(res):
     )
 
 
+def test_rooms_read_from_a_file_that_records_another_map_are_noted(res, tmp_path):
+    """A rooms file records its map: rooms of a map that was cropped on the right (their
+    pixels lie where they were, the map shown has more columns) are noted as not
+    segmented on the map shown, as a segmentation of it would be."""
+    m = res.map
+    cut = tj.OccupancyMap(
+        m.occupied[:, :-40], m.free[:, :-40], m.unknown[:, :-40],
+        resolution_m=m.resolution_m, origin=m.origin,
+    )  # fmt: skip
+    pair = tj.load_rooms(tj.save_rooms(tj.segment_rooms(cut), tmp_path / "cut.geojson"))
+    notes = payload_of(view_html(res, rooms=pair))["notes"]
+    h, w = m.shape
+    assert (
+        "the rooms were not segmented on the map shown: expected their map of shape "
+        f"({h}, {w - 40}), received a map of shape ({h}, {w})"
+    ) in notes, notes
+
+
 def test_rooms_read_from_a_file_of_another_map_are_noted(res, tmp_path):
-    """The (rooms, doors) pair load_rooms gives records no map; its doors' pixel ends and
-    its rooms' pixel boxes, put on the map shown, say whether they were made on it."""
+    """A (rooms, doors) pair that records no map (load_rooms' of another tool's file, or
+    one put together): its doors' pixel ends and its rooms' pixel boxes, put on the map
+    shown, say whether they were made on it."""
     own = tj.load_rooms(tj.save_rooms(tj.segment_rooms(res.map), tmp_path / "own.geojson"))
     assert own[1], "doors to check"
-    notes = payload_of(view_html(res, rooms=own))["notes"]
-    assert not any("rooms were not segmented" in n for n in notes)
+    for pair in (own, tuple(own)):
+        notes = payload_of(view_html(res, rooms=pair))["notes"]
+        assert not any("rooms were not segmented" in n for n in notes)
     office = tj.segment_rooms(tj.sample_map("office"))
     other = tj.load_rooms(tj.save_rooms(office, tmp_path / "office.geojson"))
+    notes = payload_of(view_html(res, rooms=other))["notes"]  # the file's map is named
+    assert any(n.endswith(f"expected their map of shape {office.labels.shape}, received a map "
+                          f"of shape {res.map.shape}") for n in notes), notes  # fmt: skip
+    other = tuple(other)  # no map recorded
     notes = payload_of(view_html(res, rooms=other))["notes"]
     assert any(
         re.fullmatch(

@@ -195,7 +195,7 @@ def _load(result: _Result):
     if result.rooms is not None:
         kwargs["rooms"] = load_rooms(result.rooms)
         if occupancy is not None:
-            _note_rooms_grid(result, occupancy)
+            _note_rooms_grid(result, kwargs["rooms"], occupancy)
     if result.route_graph is not None:
         kwargs["graphs"] = {"route graph": load_graph(result.route_graph)}
     if result.timeline is not None:
@@ -235,24 +235,13 @@ def _note_timeline(result: _Result, timeline, graph) -> None:
         )
 
 
-def _note_rooms_grid(result: _Result, occupancy) -> None:
-    """Note when the map found is not the one the rooms file records (``topojax_rooms``:
-    its shape, resolution and origin); the rooms are still drawn."""
+def _note_rooms_grid(result: _Result, rooms, occupancy) -> None:
+    """Note when the map found is not the one the rooms file records (its shape,
+    resolution and origin, which ``load_rooms`` gives with the ``rooms``); the rooms are
+    still drawn."""
     from ..maps.occupancy import grid_mismatch
 
-    meta = json.loads(result.rooms.read_text(encoding="utf-8")).get("topojax_rooms")
-    if not isinstance(meta, dict):
-        return
-    try:
-        why = grid_mismatch(
-            meta.get("shape"),
-            meta.get("resolution_m"),
-            meta.get("origin"),
-            occupancy,
-            owner="their",
-        )
-    except (TypeError, ValueError):  # a hand-made file's grid, not one save_rooms wrote
-        why = None
+    why = grid_mismatch(rooms.shape, rooms.resolution_m, rooms.origin, occupancy, owner="their")
     if why is not None:
         result.notes.append(
             f"{result.rooms.name}: the rooms were not segmented on the map shown: {why}"

@@ -8,7 +8,7 @@ import colorsys
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,6 +23,9 @@ from .._validate import (
     pose,
 )
 from ._schema import without_altitude
+
+if TYPE_CHECKING:
+    from ..rooms import LoadedRooms
 
 __all__ = [
     "ROOM_FILE_SUFFIXES",
@@ -369,7 +372,7 @@ def _read_door(props: dict, geometry: dict, where: str):
     )
 
 
-def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
+def load_rooms(path: str | Path) -> LoadedRooms:
     """Read a file written by :func:`save_rooms`.
 
     Parameters
@@ -379,6 +382,9 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
 
     Returns
     -------
+    LoadedRooms
+        The pair ``rooms, doors`` below, with the ``shape``, ``resolution_m`` and
+        ``origin`` of the map the file records (each None where it states none).
     rooms : tuple of Room
         In file order (id order as written), with ``polygon`` float64 (K, 2) world
         metres (the exterior ring, the closing position dropped, counter-clockwise),
@@ -411,6 +417,8 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
     resolution and origin) lie on the map's pixels, those on its border included:
     :func:`topojax.segment_rooms` never ends a doorway past the map's edge.
     """
+    from ..rooms import LoadedRooms
+
     p = existing_file("path", path)
     try:
         doc = json.loads(p.read_text(encoding="utf-8"))
@@ -450,7 +458,13 @@ def load_rooms(path: str | Path) -> tuple[tuple, tuple]:
     if None not in (shape, resolution_m, origin):
         _check_lines(doors, shape, resolution_m, origin)
     _check_links(rooms, doors)
-    return tuple(r for _, r in rooms), tuple(d for _, d in doors)
+    return LoadedRooms(
+        (r for _, r in rooms),
+        (d for _, d in doors),
+        shape=shape,
+        resolution_m=resolution_m,
+        origin=origin,
+    )
 
 
 def _map_frame(meta, where: str) -> tuple:

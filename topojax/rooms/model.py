@@ -12,7 +12,7 @@ from .._validate import finite_pair
 from ._kernels import label_stats
 from ._outline import outline
 
-__all__ = ["Door", "Room", "RoomSegmentation", "build_segmentation", "relabel"]
+__all__ = ["Door", "LoadedRooms", "Room", "RoomSegmentation", "build_segmentation", "relabel"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +101,56 @@ class Door:
     ends_world: np.ndarray
     width_m: float
     pixels: np.ndarray = field(repr=False)
+
+
+class LoadedRooms(tuple):
+    """The ``(rooms, doors)`` pair :func:`topojax.load_rooms` reads, with the map the file
+    records: it unpacks as ``rooms, doors = ...``.
+
+    Attributes
+    ----------
+    shape : (int, int) or None
+        The map's ``(H, W)``; None where the file states none (another tool's file).
+    resolution_m : float or None
+    origin : (float, float, float) or None
+        As :attr:`RoomSegmentation.origin`.
+    """
+
+    def __new__(cls, rooms, doors, *, shape=None, resolution_m=None, origin=None):
+        pair = super().__new__(cls, (tuple(rooms), tuple(doors)))
+        frame = {
+            "shape": None if shape is None else tuple(int(v) for v in shape),
+            "resolution_m": None if resolution_m is None else float(resolution_m),
+            "origin": None if origin is None else tuple(float(v) for v in origin),
+        }
+        for name, value in frame.items():
+            object.__setattr__(pair, name, value)
+        return pair
+
+    def __setattr__(self, name, value):
+        raise AttributeError(f"LoadedRooms is read-only: cannot set {name!r}")
+
+    def __reduce__(self):
+        frame = {"shape": self.shape, "resolution_m": self.resolution_m, "origin": self.origin}
+        return (_loaded_rooms, (self[0], self[1], frame))
+
+    def __repr__(self) -> str:
+        from .._words import counted
+
+        text = f"{counted(len(self[0]), 'room')}, {counted(len(self[1]), 'door')}"
+        if self.shape is not None:
+            text += f", {self.shape[1]} x {self.shape[0]} px (w x h)"
+        if self.resolution_m is not None:
+            text += f" at {self.resolution_m:g} m/px"
+        if self.origin is not None:
+            text += f", origin {self.origin}"
+        if (self.shape, self.resolution_m, self.origin) == (None, None, None):
+            text += ", no map recorded"
+        return f"LoadedRooms({text})"
+
+
+def _loaded_rooms(rooms, doors, frame: dict) -> LoadedRooms:
+    return LoadedRooms(rooms, doors, **frame)
 
 
 @dataclass(frozen=True, eq=False)

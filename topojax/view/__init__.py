@@ -100,9 +100,10 @@ def write_view(
         Rooms to draw: a segmentation, the pair :func:`topojax.load_rooms` returns, True
         (segment the map now; a mapper's own rooms), False (none).  Default: a mapper's
         rooms when it keeps them (``rooms_every`` > 0, or None once its rooms are in
-        use), else none.  The page notes a segmentation made on another map than the
-        one shown, and a pair (which records no map) whose doors' pixel ends or rooms'
-        pixel boxes do not fall where their world coordinates lie on it.
+        use), else none.  The page notes a segmentation, or :func:`topojax.load_rooms`'
+        pair, made on another map than the one shown, and a pair that records no map
+        whose doors' pixel ends or rooms' pixel boxes do not fall where their world
+        coordinates lie on it.
     graphs : dict of str to networkx graph, optional
         More graphs to draw, each a layer under its name (e.g. ``{"pruned":
         tj.prune_graph(res.graph, ...)}``); routes can be planned on each.  The page

@@ -185,8 +185,11 @@ def _note_other_maps(out: Inputs, checked) -> None:
         why = grid_mismatch(own.shape, own.resolution_m, own.origin, out.map, owner="their")
         if why is not None:
             out.notes.append(f"the rooms were not segmented on the map shown: {why}")
-    elif out.rooms is not None:  # a pair: no map recorded
-        why = pair_mismatch(out.rooms, out.map)
+    elif out.rooms is not None:  # a pair: load_rooms' records the file's map, if stated
+        frame = [getattr(out.rooms, k, None) for k in ("shape", "resolution_m", "origin")]
+        why = grid_mismatch(*frame, out.map, owner="their")
+        if why is None:  # as far as it is stated, their map: their pixels must fit it
+            why = pair_mismatch(out.rooms, out.map)
         if why is not None:
             out.notes.append(f"the rooms were not segmented on the map shown: {why}")
     if out.route is not None:

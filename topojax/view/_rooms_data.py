@@ -28,7 +28,7 @@ _PIXEL_SLACK = 0.01
 
 
 def pair_mismatch(pair, occupancy) -> str | None:
-    """Why a ``(rooms, doors)`` pair, which records no map, was not segmented on
+    """Why a ``(rooms, doors)`` pair, whatever map it records, was not segmented on
     ``occupancy``: a door whose world ends are not its pixel ends there, or a room whose
     outline leaves its pixel box there; None when every door and room fits."""
     rooms, doors = pair
