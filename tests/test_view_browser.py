@@ -749,30 +749,45 @@ def test_hovering_a_vertex_of_a_second_graph_over_an_edge_of_the_first(browser, 
     assert tried > 0
 
 
-def test_a_second_finger_does_not_throw_the_map_around(intel):
-    # a drag follows the pointer that started it; another one (a second finger on a touch
-    # screen) must not make the map jump between the two
+def test_two_fingers_pinch_zoom_and_the_one_left_drags_on(intel):
+    # on a touch screen two fingers zoom about their midpoint by the change of their
+    # distance, and move the map with it; lifting one, the other drags on from where it
+    # is (no jump), and lifting it is no click
     before = _js(intel, "topojaxView.view()")
+    under = _js(intel, "topojaxView.screenToWorld(400, 200)")
     intel.execute_script(
         """
         var c = document.getElementById('tj-canvas'), r = c.getBoundingClientRect();
-        function send(type, id, x) {
+        window.sendTouch = function (type, id, x) {
           c.dispatchEvent(new PointerEvent(type, {pointerId: id, button: 0, bubbles: true,
-            pointerType: 'touch', clientX: r.left + x, clientY: r.top + 200}));
-        }
-        send('pointerdown', 11, 200);
-        send('pointerdown', 12, 600);
-        send('pointermove', 11, 220);
-        send('pointermove', 12, 620);
-        send('pointermove', 11, 240);
-        send('pointerup', 12, 620);
-        send('pointerup', 11, 240);
+            pointerType: 'touch', isPrimary: id === 11, clientX: r.left + x,
+            clientY: r.top + 200}));
+        };
+        sendTouch('pointerdown', 11, 200);
+        sendTouch('pointerdown', 12, 600);
+        sendTouch('pointermove', 12, 700);
+        sendTouch('pointermove', 12, 800);
+        """
+    )
+    pinched = _js(intel, "topojaxView.view()")
+    assert pinched["z"] == pytest.approx(1.5 * before["z"])  # 400 px apart, then 600
+    # the point under the fingers' midpoint moved with it, from x 400 to 500
+    assert _js(intel, "topojaxView.worldToScreen(arguments[0], arguments[1])", *under) == (
+        pytest.approx([500, 200])
+    )
+    intel.execute_script(
+        """
+        sendTouch('pointerup', 12, 800);
+        sendTouch('pointermove', 11, 220);
+        sendTouch('pointermove', 11, 240);
+        sendTouch('pointerup', 11, 240);
         """
     )
     _next_frame(intel)
     after = _js(intel, "topojaxView.view()")
-    assert after["tx"] - before["tx"] == pytest.approx(40)
-    assert after["ty"] == before["ty"]
+    assert after["tx"] - pinched["tx"] == pytest.approx(40)
+    assert (after["ty"], after["z"]) == (pinched["ty"], pinched["z"])
+    assert _js(intel, "topojaxView.routePoints().length") == 0  # a pinch is no click
 
 
 def test_a_frame_that_is_no_number_is_refused(browser, tmp_path):

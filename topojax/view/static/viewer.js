@@ -1,6 +1,6 @@
 /* topojax viewer: the page (MIT licence, part of topojax).
  *
- * Pan by dragging, zoom with the wheel; hover a vertex, an edge or a room for its
+ * Pan by dragging, zoom with the wheel or two fingers; hover a vertex, an edge or a room for its
  * attributes; click a start and a goal for a route (TJ.Router, as topojax.plan_route);
  * replay a timeline.  window.topojaxView is the page's interface for scripts and tests. */
 "use strict";
@@ -669,16 +669,50 @@ TJ.frameNo = 0;
       var p = local(e), dy = e.deltaY * (e.deltaMode === 1 ? 33 : e.deltaMode === 2 ? 400 : 1);
       self.zoomAt(Math.pow(2, -dy / 300), p[0], p[1]);
     }, { passive: false });
+    // the pointers down on the canvas, at most two: one drags, two fingers pinch (the map
+    // follows their midpoint and zooms with their distance)
+    var pts = new Map(), pinch = null;
+    function spread() {
+      var ab = Array.from(pts.values()), a = ab[0], b = ab[1];
+      return { x: (a[0] + b[0]) / 2, y: (a[1] + b[1]) / 2, d: Math.hypot(b[0] - a[0], b[1] - a[1]) };
+    }
+    function hideTip() { self.pointer = null; $("tj-tooltip").hidden = true; }
+    /* pointer `id` is up or gone; whether that ends a click */
+    function end(id) {
+      pts.delete(id);
+      if (pinch) { // the finger left drags on from where it is: no jump, and no click
+        pinch = null;
+        var rest = pts.keys().next().value, q = pts.get(rest);
+        down = { id: rest, x: q[0], y: q[1], moved: true };
+        return false;
+      }
+      var click = !!down && !down.moved;
+      down = null;
+      stage.classList.remove("tj-dragging");
+      return click;
+    }
     canvas.addEventListener("pointerdown", function (e) {
-      // a drag follows the one pointer that began it (a second finger is left out)
-      if (e.button !== 0 || (down && down.id !== e.pointerId)) return;
+      if (e.button !== 0 || pts.has(e.pointerId) || pts.size >= 2) return;
       var p = local(e);
-      down = { id: e.pointerId, x: p[0], y: p[1], moved: false };
+      pts.set(e.pointerId, p);
       try { canvas.setPointerCapture(e.pointerId); } catch (err) { /* the pointer is already gone */ }
+      if (pts.size === 1) { down = { id: e.pointerId, x: p[0], y: p[1], moved: false }; return; }
+      pinch = spread();
+      down.moved = true;
+      stage.classList.add("tj-dragging");
+      hideTip();
     });
     canvas.addEventListener("pointermove", function (e) {
-      if (down && e.pointerId !== down.id) return;
       var p = local(e);
+      if (pts.has(e.pointerId)) pts.set(e.pointerId, p);
+      else if (pts.size) return; // another pointer while one drags
+      if (pinch) {
+        var now = spread();
+        self.panBy(now.x - pinch.x, now.y - pinch.y);
+        if (pinch.d > 0 && now.d > 0) self.zoomAt(now.d / pinch.d, now.x, now.y);
+        pinch = now;
+        return;
+      }
       if (down) {
         var dx = p[0] - down.x, dy = p[1] - down.y;
         if (down.moved || Math.abs(dx) + Math.abs(dy) > 4) {
@@ -686,8 +720,7 @@ TJ.frameNo = 0;
           stage.classList.add("tj-dragging");
           self.panBy(dx, dy);
           down.x = p[0]; down.y = p[1];
-          self.pointer = null;
-          $("tj-tooltip").hidden = true;
+          hideTip();
           return;
         }
       }
@@ -695,17 +728,12 @@ TJ.frameNo = 0;
       self.showHover(p[0], p[1]);
     });
     canvas.addEventListener("pointerup", function (e) {
-      if (!down || e.pointerId !== down.id) return;
-      var p = local(e), click = !down.moved;
-      down = null;
-      stage.classList.remove("tj-dragging");
-      if (click && self.graphs.some(function (g) { return g.routable; })) self.clickAt(p[0], p[1]);
+      if (!pts.has(e.pointerId)) return;
+      var p = local(e);
+      if (end(e.pointerId) && self.graphs.some(function (g) { return g.routable; })) self.clickAt(p[0], p[1]);
     });
     // a pointer the browser cancels (or whose capture is lost) ends with no pointerup
-    function cancel(e) {
-      if (!down || e.pointerId !== down.id) return;
-      down = null; stage.classList.remove("tj-dragging");
-    }
+    function cancel(e) { if (pts.has(e.pointerId)) end(e.pointerId); }
     canvas.addEventListener("pointercancel", cancel);
     canvas.addEventListener("lostpointercapture", cancel);
     canvas.addEventListener("pointerleave", function () { self.pointer = null; $("tj-tooltip").hidden = true; });
