@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import shutil
 import time
 
@@ -788,6 +789,46 @@ def test_two_fingers_pinch_zoom_and_the_one_left_drags_on(intel):
     assert after["tx"] - pinched["tx"] == pytest.approx(40)
     assert (after["ty"], after["z"]) == (pinched["ty"], pinched["z"])
     assert _js(intel, "topojaxView.routePoints().length") == 0  # a pinch is no click
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        ("zoomAt(NaN, 100, 100)", "zoomAt: expected f, sx, sy as finite numbers, received f = NaN"),
+        ("zoomAt(2)", "zoomAt: expected f, sx, sy as finite numbers, received sx = undefined"),
+        ("zoomAt('2', 1, 1)", 'zoomAt: expected f, sx, sy as finite numbers, received f = "2"'),
+        ("zoomAt(0, 100, 100)", "zoomAt: expected a zoom factor f > 0, received f = 0"),
+        ("zoomAt(-2, 100, 100)", "zoomAt: expected a zoom factor f > 0, received f = -2"),
+        ("panBy('5', 0)", 'panBy: expected dx, dy as finite numbers, received dx = "5"'),
+        ("panBy(0, Infinity)", "panBy: expected dx, dy as finite numbers, received dy = Infinity"),
+        (
+            "worldToScreen('a', 3)",
+            'worldToScreen: expected x, y as finite numbers, received x = "a"',
+        ),
+        (
+            "screenToWorld(1)",
+            "screenToWorld: expected sx, sy as finite numbers, received sy = undefined",
+        ),
+        ("hoverAt(NaN, 3)", "hoverAt: expected sx, sy as finite numbers, received sx = NaN"),
+    ],
+)
+def test_the_script_interface_refuses_what_is_no_point_by_name(intel, call, message):
+    # a string or NaN would leave the view at no place (tx "126.2" + "5": the map gone)
+    from selenium.common.exceptions import JavascriptException
+
+    before = _js(intel, "topojaxView.view()")
+    with pytest.raises(JavascriptException, match=re.escape(message)):
+        _js(intel, f"topojaxView.{call}")
+    assert _js(intel, "topojaxView.view()") == before
+
+
+def test_a_route_between_points_that_are_no_numbers_is_refused_by_name(intel):
+    got = _js(intel, "topojaxView.route(NaN, 0, 10, 10)")
+    assert got == {"error": "route: expected x0, y0, x1, y1 as finite numbers, received x0 = NaN"}
+    got = _js(intel, "topojaxView.route(5, 30)")
+    assert got == {
+        "error": "route: expected x0, y0, x1, y1 as finite numbers, received x1 = undefined"
+    }
 
 
 def test_a_frame_that_is_no_number_is_refused(browser, tmp_path):

@@ -745,6 +745,17 @@ TJ.frameNo = 0;
   };
 
   /* ------------------------------------------------------------------ the interface */
+  /* refuse, naming it, an argument of `fn` that is no finite number: a string or NaN
+     would leave the view at no place */
+  function numbers(fn, names, args) {
+    for (var i = 0; i < names.length; i++) {
+      var v = args[i];
+      if (typeof v !== "number" || !isFinite(v)) {
+        throw new Error(fn + ": expected " + names.join(", ") + " as finite numbers, received " +
+          names[i] + " = " + (typeof v === "string" ? JSON.stringify(v) : String(v)));
+      }
+    }
+  }
   function api(viewer, ready) {
     return {
       get state() { return viewer.state; },
@@ -757,6 +768,7 @@ TJ.frameNo = 0;
       setLayer: function (name, on) { viewer.setLayer(name, on); viewer.draw(); },
       route: function (x0, y0, x1, y1, graph) {
         try {
+          numbers("route", ["x0", "y0", "x1", "y1"], arguments);
           var r = viewer.planRoute(x0, y0, x1, y1, graph);
           return { length_m: r.length_m, start_snap_m: r.start_snap_m, goal_snap_m: r.goal_snap_m,
             n_points: r.xy.length / 2, vertices: r.vertices };
@@ -768,12 +780,28 @@ TJ.frameNo = 0;
       },
       clearRoute: function () { viewer.clearRoute(); },
       routePoints: function () { return viewer.routePoints.map(function (p) { return [p[0], p[1]]; }); },
-      worldToScreen: function (x, y) { return viewer.worldToScreen(x, y); },
-      screenToWorld: function (sx, sy) { return viewer.screenToWorld(sx, sy); },
-      hoverAt: function (sx, sy) { var h = viewer.hoverAt(sx, sy); return h ? h : null; },
+      worldToScreen: function (x, y) {
+        numbers("worldToScreen", ["x", "y"], arguments);
+        return viewer.worldToScreen(x, y);
+      },
+      screenToWorld: function (sx, sy) {
+        numbers("screenToWorld", ["sx", "sy"], arguments);
+        return viewer.screenToWorld(sx, sy);
+      },
+      hoverAt: function (sx, sy) {
+        numbers("hoverAt", ["sx", "sy"], arguments);
+        return viewer.hoverAt(sx, sy) || null;
+      },
       fit: function () { viewer.fit(); viewer.draw(); },
-      zoomAt: function (f, sx, sy) { viewer.zoomAt(f, sx, sy); viewer.draw(); },
-      panBy: function (dx, dy) { viewer.panBy(dx, dy); viewer.draw(); },
+      zoomAt: function (f, sx, sy) {
+        numbers("zoomAt", ["f", "sx", "sy"], arguments);
+        if (f <= 0) throw new Error("zoomAt: expected a zoom factor f > 0, received f = " + f);
+        viewer.zoomAt(f, sx, sy); viewer.draw();
+      },
+      panBy: function (dx, dy) {
+        numbers("panBy", ["dx", "dy"], arguments);
+        viewer.panBy(dx, dy); viewer.draw();
+      },
       view: function () { var v = viewer.view; return { z: v.z, tx: v.tx, ty: v.ty, w: v.w, h: v.h, scale: viewer.scale }; },
       nFrames: function () { return viewer.nFrames; },
       setFrame: function (i) { viewer.setFrame(i); viewer.draw(); return viewer.frameInfo(); },
