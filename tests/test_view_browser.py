@@ -831,6 +831,23 @@ def test_a_route_between_points_that_are_no_numbers_is_refused_by_name(intel):
     }
 
 
+def test_a_layer_or_graph_the_page_has_not_is_refused_naming_those_it_has(intel):
+    from selenium.common.exceptions import JavascriptException
+
+    names = ", ".join(layer["name"] for layer in _js(intel, "topojaxView.layers()"))
+    want = f'setLayer: expected a layer name ({names}), received "foo"'
+    with pytest.raises(JavascriptException, match=re.escape(want)):
+        _js(intel, "topojaxView.setLayer('foo', true)")
+    # a switch is true or false: "false", or none, would turn the layer on or off unasked
+    for on, shown in (("'false'", '"false"'), ("undefined", "undefined"), ("1", "1")):
+        want = f"setLayer: expected on = true or false, received {shown}"
+        with pytest.raises(JavascriptException, match=re.escape(want)):
+            _js(intel, f"topojaxView.setLayer('graph', {on})")
+    assert {layer["name"]: layer["on"] for layer in _js(intel, "topojaxView.layers()")}["graph"]
+    got = _js(intel, "topojaxView.route(5, 30, 33, 5, 'nope')")
+    assert got == {"error": 'route: expected graph, a graph layer\'s name (graph), received "nope"'}
+
+
 def test_a_frame_that_is_no_number_is_refused(browser, tmp_path):
     from selenium.common.exceptions import JavascriptException
 

@@ -9,6 +9,8 @@ TJ.frameNo = 0;
 
 (function () {
   function $(id) { return document.getElementById(id); }
+  /* a value as an error message shows what it received: text quoted */
+  TJ.shown = function (v) { return typeof v === "string" ? JSON.stringify(v) : String(v); };
   function fmt(x, digits) { return Number.isFinite(x) ? x.toFixed(digits) : "n/a"; }
   function el(tag, attrs, text) {
     var e = document.createElement(tag);
@@ -184,8 +186,12 @@ TJ.frameNo = 0;
 
   Viewer.prototype.setLayer = function (name, on) {
     var layer = this.layers.get(name);
-    if (!layer) throw new Error("no layer " + name);
-    layer.on = !!on;
+    if (!layer) {
+      throw new Error("setLayer: expected a layer name (" + Array.from(this.layers.keys()).join(", ") +
+        "), received " + TJ.shown(name));
+    }
+    if (typeof on !== "boolean") throw new Error("setLayer: expected on = true or false, received " + TJ.shown(on));
+    layer.on = on;
     var box = $("tj-layer-" + name);
     if (box) box.checked = layer.on;
     this.requestDraw();
@@ -561,7 +567,10 @@ TJ.frameNo = 0;
   Viewer.prototype.router = function (name) {
     var g = null;
     for (var i = 0; i < this.graphs.length; i++) if (this.graphs[i].name === name) g = this.graphs[i];
-    if (!g) throw new Error("no graph " + name);
+    if (!g) {
+      throw new Error("route: expected graph, a graph layer's name (" +
+        this.graphs.map(function (x) { return x.name; }).join(", ") + "), received " + TJ.shown(name));
+    }
     if (!this.routers.has(name)) this.routers.set(name, new TJ.Router(g));
     return this.routers.get(name);
   };
@@ -752,7 +761,7 @@ TJ.frameNo = 0;
       var v = args[i];
       if (typeof v !== "number" || !isFinite(v)) {
         throw new Error(fn + ": expected " + names.join(", ") + " as finite numbers, received " +
-          names[i] + " = " + (typeof v === "string" ? JSON.stringify(v) : String(v)));
+          names[i] + " = " + TJ.shown(v));
       }
     }
   }
