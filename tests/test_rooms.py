@@ -115,6 +115,13 @@ def test_reprs_are_short_summaries():
     w = seg.labels.shape[1]
     assert repr(seg) == f"RoomSegmentation(2 rooms, 1 door, {w} x 104 px (w x h) at {RES:g} m/px)"
     assert "polygon" not in repr(seg.rooms[0]) and "pixels" not in repr(seg.doors[0])
+    door = seg.doors[0]
+    (r0, c0), (r1, c1) = door.ends_px.tolist()
+    (x0, y0), (x1, y1) = door.ends_world.tolist()
+    assert repr(door) == (  # one line: its ends as numbers, not two arrays over four lines
+        f"Door(id=1, rooms=(1, 2), ends_px=(({r0}, {c0}), ({r1}, {c1})), "
+        f"ends_world=(({x0:g}, {y0:g}), ({x1:g}, {y1:g})), width_m={door.width_m!r})"
+    )
 
 
 def test_rooms_are_numbered_in_raster_order_of_their_first_pixel():

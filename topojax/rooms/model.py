@@ -102,6 +102,16 @@ class Door:
     width_m: float
     pixels: np.ndarray = field(repr=False)
 
+    def __repr__(self) -> str:
+        px = tuple(tuple(int(v) for v in p) for p in np.asarray(self.ends_px).reshape(-1, 2))
+        xy = ", ".join(
+            f"({x:g}, {y:g})" for x, y in np.asarray(self.ends_world, float).reshape(-1, 2)
+        )
+        return (
+            f"Door(id={self.id!r}, rooms={self.rooms!r}, ends_px={px}, ends_world=({xy}), "
+            f"width_m={self.width_m!r})"
+        )
+
 
 class LoadedRooms(tuple):
     """The ``(rooms, doors)`` pair :func:`topojax.load_rooms` reads, with the map the file
