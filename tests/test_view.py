@@ -750,6 +750,28 @@ def test_mapper_view_has_its_rooms_and_timeline():
     assert data["graphs"][0]["n_edges"] == mapper.graph.number_of_edges()
 
 
+def test_a_timeline_needs_the_graph_it_steps_through():
+    """The page shows a timeline's graph at each update in place of obj's own graph: a
+    map or rooms given alone have none (the updates' graphs would not be drawn), and a
+    graph of graphs= is not the mapper's (a route graph would be labelled with the
+    mapper's graph at each update)."""
+    mapper, timeline, _ = intel_replay()
+    routes = mapper.route_graph(robot_radius_m=0.3)
+    want = (
+        "timeline: expected obj to be the mapper (or its graph) whose graph the timeline "
+        "steps through, received {} with no graph of its own"
+    )
+    for obj, kwargs, name in (
+        (mapper.occupancy, {}, "an OccupancyMap"),
+        (mapper.occupancy, {"graphs": {"routes": routes}}, "an OccupancyMap"),
+        (mapper.rooms, {}, "a RoomSegmentation"),
+    ):
+        with pytest.raises(ValueError, match=re.escape(want.format(name))):
+            view_html(obj, timeline=timeline, **kwargs)
+    data = payload_of(view_html(mapper.graph, map=mapper.occupancy, timeline=timeline))
+    assert len(data["timeline"]["frames"]) == 4
+
+
 def test_a_timeline_recorded_beyond_the_map_shown_is_noted(res):
     """A timeline whose maps reach beyond the map shown (another run's, another map's)
     is drawn with a note saying so, as a graph or rooms of another map are; the map its

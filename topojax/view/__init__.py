@@ -113,7 +113,9 @@ def write_view(
         pixels do not lie where its world points fall on the map shown.
     timeline : Timeline, optional
         The mapper's graph at every update: the page gets a timeline to play or scrub
-        (and a note when its last map reaches beyond the map shown).
+        (and a note when its last map reaches beyond the map shown).  ``obj`` must have
+        a graph of its own (the mapper, or its graph), which the updates' graphs stand
+        in for.
     window : (x_min, y_min, x_max, y_max), optional
         Show only this world box (metres): the map and its layers inside it, the edges
         that pass through it (whole, with their vertices; routes run on those), the
@@ -136,8 +138,8 @@ def write_view(
         checked before any work.
     ValueError
         A map larger than ``max_pixels`` (the message names the limit and how to view a
-        part), nothing to show (no map and an empty graph), or a malformed graph, rooms
-        or timeline.
+        part), nothing to show (no map and an empty graph), a malformed graph, rooms
+        or timeline, or a timeline beside an ``obj`` without a graph of its own.
 
     Examples
     --------

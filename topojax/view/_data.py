@@ -160,6 +160,12 @@ def inputs_of(
             )
         out.rooms = rooms
     own_graphs = len(out.graphs)
+    if timeline is not None and not own_graphs:  # the page steps through obj's own graph
+        article = "an" if type(obj).__name__[0] in "AEIOU" else "a"
+        raise ValueError(
+            "timeline: expected obj to be the mapper (or its graph) whose graph the timeline "
+            f"steps through, received {article} {type(obj).__name__} with no graph of its own"
+        )
     for name, graph in _extra_graphs(graphs, [label for _, label, _ in out.graphs]):
         out.graphs.append((f"g{len(out.graphs)}", name, graph))
     out.route = _checked_route(route)
