@@ -750,6 +750,18 @@ def test_mapper_view_has_its_rooms_and_timeline():
     assert data["graphs"][0]["n_edges"] == mapper.graph.number_of_edges()
 
 
+def test_rooms_false_leaves_the_timeline_s_rooms_out_too():
+    """rooms=False shows no rooms: not the mapper's, nor those its timeline recorded."""
+    mapper, timeline, _ = intel_replay()
+    data = payload_of(view_html(mapper, timeline=timeline))
+    assert any(f["rooms"] >= 0 for f in data["timeline"]["frames"])  # recorded ones
+    data = payload_of(view_html(mapper, timeline=timeline, rooms=False))
+    assert data["rooms"] is None
+    assert [f["rooms"] for f in data["timeline"]["frames"]] == [-1] * 4
+    assert data["timeline"]["rooms"] == []
+    assert timeline.payload()["rooms"], "the timeline itself keeps them"
+
+
 def test_a_timeline_needs_the_graph_it_steps_through():
     """The page shows a timeline's graph at each update in place of obj's own graph: a
     map or rooms given alone have none (the updates' graphs would not be drawn), and a

@@ -98,7 +98,8 @@ def write_view(
         or the whole map once it is known to fit ``max_pixels``.
     rooms : RoomSegmentation, (rooms, doors), bool or None
         Rooms to draw: a segmentation, the pair :func:`topojax.load_rooms` returns, True
-        (segment the map now; a mapper's own rooms), False (none).  Default: a mapper's
+        (segment the map now; a mapper's own rooms), False (none, not even those a
+        ``timeline`` recorded).  Default: a mapper's
         rooms when it keeps them (``rooms_every`` > 0, or None once its rooms are in
         use), else none.  The page notes a segmentation, or :func:`topojax.load_rooms`'
         pair, made on another map than the one shown, and a pair that records no map

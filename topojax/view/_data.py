@@ -46,6 +46,7 @@ class Inputs:
         self.rooms = None
         self.route = None
         self.timeline = None
+        self.no_rooms = False  # rooms=False: none, not even a timeline's
         self.title = "topojax view"
         self.window = None  # the world box a window cut the inputs to
         self.notes: list[str] = []
@@ -170,6 +171,7 @@ def inputs_of(
         out.graphs.append((f"g{len(out.graphs)}", name, graph))
     out.route = _checked_route(route)
     out.timeline = _checked_timeline(timeline)
+    out.no_rooms = rooms is False
     if title is not None:
         out.title = instance_of("title", title, str)
     # a graph beside a map of another (one given in map=, or any in graphs= beside the
@@ -505,8 +507,18 @@ def build_payload(inputs: Inputs, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> di
         "graphs": graphs,
         "rooms": rooms,
         "route": _route_payload(inputs.route) if inputs.route is not None else None,
-        "timeline": inputs.timeline.payload() if inputs.timeline is not None else None,
+        "timeline": _timeline_payload(inputs),
         "max_snap_m": DEFAULT_MAX_SNAP_M,
         "notes": list(inputs.notes),
     }
     return payload
+
+
+def _timeline_payload(inputs: Inputs) -> dict | None:
+    """The timeline's page data; without its rooms for ``rooms=False``."""
+    if inputs.timeline is None:
+        return None
+    data = inputs.timeline.payload()
+    if inputs.no_rooms:
+        data = {**data, "rooms": [], "frames": [{**f, "rooms": -1} for f in data["frames"]]}
+    return data
