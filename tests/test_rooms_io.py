@@ -537,6 +537,28 @@ def test_load_rooms_missing_unreadable_or_another_kind_of_file(tmp_path: Path):
         tj.load_rooms(graph)
 
 
+@pytest.mark.parametrize(
+    ("save", "name"),
+    [
+        (tj.save_rooms, "r.geojson"),
+        (tj.save_room_labels, "r.png"),
+        (tj.save_room_graph, "r.graphml"),
+        (tj.save_room_graph, "r.json"),
+    ],
+)
+def test_room_writers_name_a_path_that_cannot_be_written(seg, tmp_path: Path, save, name):
+    missing = tmp_path / "missing" / name
+    with pytest.raises(
+        FileNotFoundError,
+        match=f"^path: expected a file in an existing folder, received {missing}, whose folder",
+    ):
+        save(seg, missing)
+    (tmp_path / "a_file").write_text("x")
+    with pytest.raises(NotADirectoryError, match="^path: "):
+        save(seg, tmp_path / "a_file" / name)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
 def test_an_empty_segmentation_round_trips(tmp_path: Path):
     occ = np.ones((20, 30), bool)  # all obstacle: no room
     m = tj.OccupancyMap(occupied=occ, free=~occ, unknown=np.zeros_like(occ))

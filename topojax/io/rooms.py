@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._fs import atomic_write_bytes
+from .._fs import atomic_write_bytes, output_file_in_folder
 from .._validate import (
     MAX_RESOLUTION_M,
     MIN_RESOLUTION_M,
@@ -185,6 +185,7 @@ def save_rooms(seg, path: str | Path) -> Path:
     p = path_like("path", path)
     if p.suffix.lower() != ".geojson":
         raise ValueError(f"path: expected a .geojson file name, received {str(p)!r}")
+    output_file_in_folder(p, name="path")  # before the work
     features = [_room_feature(seg, room) for room in seg.rooms]
     features += [_door_feature(door) for door in seg.doors]
     doc = {
@@ -660,6 +661,7 @@ def save_room_labels(seg, path: str | Path) -> Path:
     p = path_like("path", path)
     if p.suffix.lower() != ".png":
         raise ValueError(f"path: expected a .png file name, received {str(p)!r}")
+    output_file_in_folder(p, name="path")  # before the work
     rgb = room_picture(seg)
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb[..., ::-1]))
     if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
@@ -725,6 +727,7 @@ def save_room_graph(seg, path: str | Path) -> Path:
             f"path: expected a room-graph file ending in {sorted(_GRAPH_SUFFIXES)}, "
             f"received {str(p)!r}"
         )
+    output_file_in_folder(p, name="path")  # before the work
     return save_graph(room_graph(seg), p, format=fmt)
 
 
