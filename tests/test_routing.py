@@ -771,6 +771,31 @@ def test_a_point_too_far_for_any_distance_gets_the_planners_error(far, max_snap_
         tj.plan_route(g, far, start, frame="pixel", max_snap_m=max_snap_m)
 
 
+@pytest.mark.parametrize("frame", ["world", "pixel"])
+def test_a_point_too_far_to_tell_the_graphs_points_apart_is_refused_without_a_snap_limit(frame):
+    """Beyond 1e5 m (pixels in the pixel frame) the rounding of a distance outgrows the
+    tolerance within which corridor points count as equally near, so a far start and goal
+    would tie with every point and meet on one: a route of length 0.  With no snap limit
+    such a point is refused, naming it and max_snap_m; one just within is routed as a
+    nearer one along the same line is."""
+    g = prune_graph(tj.build_graph(tj.sample_map("intel")).graph)
+    planner = RoutePlanner(g)
+    key = "world" if frame == "world" else "path"
+    pts = np.concatenate([d[key] for *_, d in g.edges(data=True)]).astype(float)
+    edge = pts[:, 0].max()
+    top = pts[pts[:, 0] == edge]  # the points farthest along the first axis
+    a, b = (float(top[:, 1].min()), float(top[:, 1].max()))
+    assert b - a > 1.0
+    for far in (1e9, 1e12):
+        with pytest.raises(ValueError, match=r"^start: .*max_snap_m=None.* frame"):
+            planner.route((edge + far, a), (edge + 10.0, b), frame=frame, max_snap_m=None)
+        with pytest.raises(ValueError, match=r"^goal: .*max_snap_m=None"):
+            plan_route(g, (edge + 10.0, a), (edge + far, b), frame=frame, max_snap_m=None)
+    near = planner.route((edge + 10.0, a), (edge + 10.0, b), frame=frame, max_snap_m=None)
+    within = planner.route((edge + 9e4, a), (edge + 9e4, b), frame=frame, max_snap_m=None)
+    assert near.length_m > 0 and within.length_m == pytest.approx(near.length_m)
+
+
 def _fork(wall: bool = False, radius: float | None = 0.25):
     """A free 32 x 34 map of 0.1 m pixels (walls all round) with a fork from vertex "j" at
     (10, 3): edge j-a along row 10 to (10, 28), edge j-b down column 3 and along row 20 to

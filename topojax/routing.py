@@ -8,13 +8,15 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass
 
 import networkx as nx
 import numpy as np
 
 from ._route import Route, WallDistance, narrowest_m, recorded_clearance_m
 from ._sight import sees as _sees
+from ._snap import TIE as _TIE
+from ._snap import Snap as _Snap
+from ._snap import SnapLimitError, check_box_gap, check_resolved
 from ._validate import (
     finite_pair,
     nonnegative_metres,
@@ -46,16 +48,7 @@ __all__ = [
     "plan_route",
 ]
 
-#: Corridor points at most this much farther from a query point than the nearest one
-#: (metres, or pixels in the pixel frame) are as near: the same pixel on edges that cross.
-_TIE = 1e-9
-
 _FRAMES = ("world", "pixel")
-
-#: A query point farther than this from the box round the graph's points (metres, or
-#: pixels in the pixel frame) is refused before the k-d tree's search, whose squared
-#: distances would overflow (a float's square root of its largest value is about 1.3e154).
-_FAR = 1e150
 
 #: Default limit of :meth:`RoutePlanner.route` / :func:`plan_route` on the distance from a
 #: query point to the graph, metres: a point farther off (a goal in a room the graph does
@@ -72,38 +65,6 @@ _ENTRY_BATCH = 256
 
 class NoRouteError(nx.NetworkXNoPath):
     """The start and goal snap to parts of the graph that no corridor connects."""
-
-
-class SnapLimitError(ValueError):
-    """A start or goal farther from the graph than the snap limit.
-
-    Its message names the planner's parameter, ``max_snap_m``; ``name`` (``"start"`` or
-    ``"goal"``), ``distance_m`` and ``limit_m`` (metres) let a caller that took the limit
-    under another name (a command-line option) word it with :meth:`worded`.
-    """
-
-    def __init__(self, name: str, distance_m: float, limit_m: float) -> None:
-        self.name, self.distance_m, self.limit_m = name, distance_m, limit_m
-        super().__init__(self.worded(f"max_snap_m={limit_m}", "a larger max_snap_m, or None"))
-
-    def __reduce__(self):
-        return type(self), (self.name, self.distance_m, self.limit_m)
-
-    def worded(self, limit: str, lift: str) -> str:
-        """The message with the limit written ``limit`` and how to lift it ``lift``."""
-        return (
-            f"{self.name}: the nearest point of the graph is {self.distance_m:.6g} m away, "
-            f"more than {limit} (pass {lift} for no limit)"
-        )
-
-
-@dataclass(frozen=True)
-class _Snap:
-    edge: int  # index into the planner's edges, or -1 for a vertex without edges
-    index: int  # position on the edge's path (or 0)
-    vertex: object  # the vertex (node id) for edge == -1, else None
-    distance_m: float
-    feasible: bool | None = None  # the leg to it fits the robot (None: without the map)
 
 
 class RoutePlanner:
@@ -252,7 +213,9 @@ class RoutePlanner:
         max_snap_m : float, optional
             Largest allowed distance from a query point to the graph, metres; a point
             farther away raises ``ValueError`` (e.g. a goal in a room the graph does not
-            reach).  Default :data:`DEFAULT_MAX_SNAP_M` (5 m); ``None`` or inf: no limit.
+            reach).  Default :data:`DEFAULT_MAX_SNAP_M` (5 m); ``None`` or inf: no limit,
+            but a point over 1e5 m (pixels) off, where float distances no longer tell the
+            graph's points apart, is refused all the same.
 
         Returns
         -------
@@ -343,17 +306,12 @@ class RoutePlanner:
             self._check_off_obstacles(q, frame, name)
         tree, owners = self._tree(frame)
         scale = 1.0 if frame == "world" else self._pixel_size_m()
-        with np.errstate(over="ignore"):  # a gap beyond float range is inf: refused below
-            box_gap = float(np.hypot(*np.maximum(np.maximum(tree.mins - q, q - tree.maxes), 0.0)))
-        if box_gap > _FAR:
-            raise ValueError(
-                f"{name}: the nearest point of the graph is more than {box_gap * scale:.6g} m "
-                f"away; expected a point near the graph, received {tuple(q.tolist())} "
-                f"({frame} frame): is it in the graph's frame and units?"
-            )
+        check_box_gap(name, q, tree, scale, frame)
         dist, k = tree.query(q)
         nearest_m = float(dist) * scale
         cap = math.inf if max_snap_m is None else max_snap_m
+        if nearest_m <= cap:  # else the snap limit refuses it
+            check_resolved(name, q, float(dist), scale, frame)
         if self._feasible is not None and nearest_m <= cap:
             # a join exactly the reach away within it, and the nearest point itself within
             # the second reach, whatever the rounding of the query's coordinates
