@@ -40,7 +40,10 @@ def save_nav2_graph(
     straight pieces keep the robot's radius from the walls) is written along them
     instead, as they are: they must run from one of its vertices' ``world`` to the
     other's, each end within ``tolerance_m``, as the vertices are written in their place.
-    Every segment is written in both directions.
+    Every segment is written in both directions, once: where two corridors' chains hop
+    between the same two nodes (corridors that share a stretch), the Route Server would
+    drive the same straight line along either, so only the hop of the shorter corridor
+    (``length_m``; the first of equals) is written.
 
     Parameters
     ----------
@@ -287,11 +290,27 @@ class _Chains:
             self._corridor.append(len(self._corridors))
         self._corridors.append(corridor)
 
+    def _kept(self) -> np.ndarray:
+        """Per hop, whether it is written: of the hops between one pair of nodes (chains
+        of corridors that share a stretch), the shortest, the first added of equals."""
+        ends = np.frombuffer(self._ends, np.int64).reshape(-1, 2)
+        lo, hi = ends.min(axis=1), ends.max(axis=1)
+        lengths = np.frombuffer(self._lengths, np.float64)
+        order = np.lexsort((np.arange(len(lengths)), lengths, hi, lo))
+        first = np.ones(len(order), bool)
+        first[1:] = (np.diff(lo[order]) != 0) | (np.diff(hi[order]) != 0)
+        kept = np.zeros(len(order), bool)
+        kept[order[first]] = True
+        return kept
+
     def features(self, first_id: int) -> Iterator[dict]:
-        """Every hop as two MultiLineString features, one per direction, with ids from
-        ``first_id`` on."""
+        """Every hop kept (one per pair of nodes) as two MultiLineString features, one per
+        direction, with ids from ``first_id`` on."""
         next_id = first_id
+        kept = self._kept()
         for h, length in enumerate(self._lengths):
+            if not kept[h]:
+                continue
             a, b = self._ends[2 * h], self._ends[2 * h + 1]
             pa, pb = self._xy[4 * h : 4 * h + 2].tolist(), self._xy[4 * h + 2 : 4 * h + 4].tolist()
             meta = dict(self._corridors[self._corridor[h]], length_m=length)
