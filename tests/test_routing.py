@@ -20,7 +20,7 @@ from skimage.morphology import skeletonize
 from view_cases import crossing_graph, wall_between
 
 import topojax as tj
-from topojax._sight import sees
+from topojax._sight import sees, segment_pixels
 from topojax.graph import prune_graph, skeleton_to_graph
 from topojax.routing import NoRouteError, RoutePlanner, plan_route
 
@@ -847,6 +847,52 @@ def test_no_sight_line_is_drawn_past_max_snap_m(monkeypatch):
     assert np.array_equal(got.pixels, want.pixels)
 
 
+def test_with_a_long_reach_sight_lines_are_drawn_only_as_far_as_a_join_can_shorten_the_route(
+    monkeypatch,
+):
+    """A join d metres off costs at least d less the nearest join's distance, so joins
+    are looked for in growing rings until one beyond could not give a shorter route: with
+    entry_m=15 and no snap limit, a short route on the Intel route graph draws no sight
+    line to the corridors 15 m off (every one of them within the reach, before: 35 s a
+    query on the nav2 warehouse map at entry_m=100), and routes are the same as with one
+    pass over the whole reach."""
+    import topojax.routing as routing
+
+    m = tj.sample_map("intel")
+    rg = tj.route_graph(m, robot_radius_m=0.3)
+    planner = RoutePlanner(rg, occupancy=m, entry_m=15.0)
+    feasible = tj.routegraph.feasible.feasible_space(m, 0.3).feasible
+    part = rg.subgraph(max(nx.connected_components(rg), key=len))
+    near = np.concatenate([d["path"] for *_, d in part.edges(data=True)])
+    rng = np.random.default_rng(5)
+    near = near[rng.choice(len(near), 60)] + rng.integers(-10, 11, (60, 2))
+    near = [tuple(p) for p in near.tolist() if feasible[tuple(p)]]
+    queries = list(zip(near[0:10:2], near[1:10:2], strict=True))
+    drawn = []
+
+    def counting(feasible, q, points):
+        drawn.append(float(np.hypot(*(points - q).T).max()))
+        return sees(feasible, q, points)
+
+    monkeypatch.setattr(routing, "_sees", counting)
+    path = max((d["path"] for *_, d in rg.edges(data=True)), key=len)
+    a, b = (tuple(int(v) for v in path[i]) for i in (len(path) // 2, len(path) // 2 + 10))
+    short = planner.route(a, b, frame="pixel", max_snap_m=None)
+    assert short.length_m < 1.0 and max(drawn) * 0.05 < 5.0
+
+    def answer(a, b):
+        try:
+            r = planner.route(a, b, frame="pixel", max_snap_m=None)
+        except NoRouteError:
+            return None
+        return r.pixels.tolist(), r.edges, r.length_m, r.start_snap_m, r.goal_snap_m
+
+    got = [answer(a, b) for a, b in queries]
+    monkeypatch.setattr(routing, "_FIRST_RING_M", math.inf)  # the whole reach at once
+    assert got == [answer(a, b) for a, b in queries]
+    assert all(x is not None for x in got)
+
+
 def test_with_the_map_a_route_joins_the_edge_that_gives_the_shortest_route():
     m, g = _fork()
     start, goal = (13, 20), (18, 26)
@@ -1193,6 +1239,28 @@ def test_in_sight_exactly_when_every_pixel_the_line_passes_through_is_feasible(s
         cells = segment_pixels_exact(q, p)
         want = all(0 <= r < 9 and 0 <= c < 11 and feasible[r, c] for r, c in cells)
         assert ok == want, (q.tolist(), p.tolist(), sorted(cells))
+
+
+@pytest.mark.parametrize("blocked", [(40, 103), (40, 3996)])
+def test_a_sight_line_blocked_near_either_end_is_not_walked_to_the_other(monkeypatch, blocked):
+    """A line is checked near its two ends first: one blocked there (a wall beside the
+    query point or beside the corridor point) is refused without walking the thousands of
+    pixels between, the same answer as the whole walk."""
+    from topojax import _sight
+
+    feasible = np.ones((80, 4000), bool)
+    feasible[blocked] = False
+    q, far = np.array([40.0, 100.0]), np.array([[40.0, 3998.0], [40.0, 2.0]])
+    walked = []
+
+    def counting(*args, **kwargs):
+        out = segment_pixels(*args, **kwargs)
+        walked.append(out[0].size)
+        return out
+
+    monkeypatch.setattr(_sight, "segment_pixels", counting)
+    assert sees(feasible, q, far).tolist() == [False, True]
+    assert sum(walked) < 1000  # the clear line (98 pixels) whole, the blocked one in part
 
 
 @pytest.mark.parametrize(

@@ -62,6 +62,11 @@ DEFAULT_ENTRY_M = 1.0
 # Candidate entry points whose sight lines are drawn at once.
 _ENTRY_BATCH = 256
 
+# The first ring (metres) joins in sight are looked for within, and how much each next
+# one is wider, up to the reach.
+_FIRST_RING_M = 1.0
+_RING_GROWTH = 4.0
+
 
 class NoRouteError(nx.NetworkXNoPath):
     """The start and goal snap to parts of the graph that no corridor connects."""
@@ -239,13 +244,36 @@ class RoutePlanner:
             max_snap_m = nonnegative_metres("max_snap_m", max_snap_m)
         # a join farther than max_snap_m would be dropped: none is looked for
         reach = self._entry_m if max_snap_m is None else min(self._entry_m, max_snap_m)
-        s = self._snaps(start, frame, "start", reach, max_snap_m)
-        g = self._snaps(goal, frame, "goal", reach, max_snap_m)
+        # Joins in sight are looked for in growing rings: a join d metres off costs at
+        # least d less the nearest join's distance, so once a route costs less than that
+        # at the ring's edge, no join beyond it can give a shorter one.
+        ring = min(reach, _FIRST_RING_M)
+        while True:
+            last = ring >= reach
+            s = self._snaps(start, frame, "start", ring, max_snap_m, last=last)
+            g = None if s is None else self._snaps(goal, frame, "goal", ring, max_snap_m, last=last)
+            found, needed = (None, 0.0) if g is None else self._ring_route(s, g, max_snap_m, last)
+            if found is not None and (last or needed < ring):
+                return found
+            ring = min(reach, max(_RING_GROWTH * ring, 1.25 * needed))
+
+    def _ring_route(self, s: list[_Snap], g: list[_Snap], max_snap_m, last: bool):
+        """The route between the joins ``s`` and ``g`` found within a ring (the whole
+        reach when ``last``), and the ring beyond which no join can shorten it (metres);
+        ``(None, 0.0)`` when they do not connect within a ring short of the reach."""
         # joins in sight lie within the reach; the nearest points are all as far as the first
         for name, snaps in (("start", s), ("goal", g)):
             if max_snap_m is not None and snaps[0].distance_m > max_snap_m:
                 raise SnapLimitError(name, snaps[0].distance_m, max_snap_m)
-        return self._route(s, g)
+        try:
+            route = self._route(s, g)
+        except NoRouteError:
+            if last:  # no farther join to try
+                raise
+            return None, 0.0
+        s0, g0 = s[0].distance_m, g[0].distance_m
+        cost = (route.start_snap_m - s0) + route.length_m + (route.goal_snap_m - g0)
+        return route, (cost + max(s0, g0)) * (1 + 1e-9) + _TIE
 
     # ------------------------------------------------------------------ internals
     def _entry_space(self, occupancy, radius, entry_m):
@@ -291,14 +319,15 @@ class RoutePlanner:
         return feasible_space(occupancy, radius), entry_m, radius
 
     def _snaps(
-        self, point, frame: str, name: str, reach_m: float, max_snap_m: float | None
-    ) -> list[_Snap]:
+        self, point, frame: str, name: str, reach_m: float, max_snap_m, *, last: bool = True
+    ) -> list[_Snap] | None:
         """The points where a route from ``point`` may join the graph, nearest first: with
         the map, each edge's nearest point that ``point`` sees within ``reach_m`` (metres;
         see :meth:`route` for the frames) over feasible pixels, else (a point the robot
         does not fit at, or beyond reach) over pixels off the obstacles up to ``entry_m``
-        farther than the nearest point and within ``max_snap_m``, else a ValueError;
-        without the map, every corridor point as near as the nearest one (within
+        farther than the nearest point and within ``max_snap_m``, else a ValueError
+        (without ``last``, a ring short of the reach: None instead of either); without
+        the map, every corridor point as near as the nearest one (within
         :data:`_TIE`: one, or one per edge through the pixel where edges cross)."""
         what = "(x, y) in metres" if frame == "world" else "(row, col) in pixels"
         q = finite_pair(name, point, what)
@@ -323,6 +352,8 @@ class RoutePlanner:
                 seen = [self._snap(owners[i], d, fits) for i, d in entries]
                 if seen:  # a clear leg exists: none through a wall to a nearer point
                     return seen
+                if not last:  # farther rings first
+                    return None
             raise ValueError(
                 f"{name}: expected a point that sees the graph along a straight line off the "
                 f"map's obstacles, received {tuple(float(v) for v in q)} ({frame} frame), "
