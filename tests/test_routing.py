@@ -9,6 +9,7 @@ nearest skeleton pixel.  A route on the contracted graph must be exactly as long
 from __future__ import annotations
 
 import math
+import warnings
 
 import networkx as nx
 import numpy as np
@@ -805,7 +806,7 @@ def _fork(wall: bool = False, radius: float | None = 0.25):
     if wall:
         occupied[16, 15:] = True
     m = tj.OccupancyMap.from_array(occupied, resolution_m=0.1)
-    attrs = {"resolution_m": 0.1, "shape": (32, 34)}
+    attrs = {"resolution_m": 0.1, "shape": (32, 34), "origin": tuple(m.origin)}
     if radius is not None:
         attrs["robot_radius_m"] = radius
     g = nx.MultiGraph(**attrs)
@@ -1054,6 +1055,27 @@ def test_with_the_map_a_point_too_far_for_the_maps_grid_gets_the_planners_error(
         planner.route(near, far, max_snap_m=None)
 
 
+def test_a_map_given_for_a_graph_that_records_no_grid_is_warned_of_by_name():
+    """The planner checks the map against the graph's ``shape``, ``resolution_m`` and
+    ``origin``; for a graph that lacks some (made by another tool, or its attributes
+    dropped), that check is partial or none, and a wrong map would plan legs over the
+    wrong pixels without a word: a warning names the attributes missing."""
+    m, g = _fork()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a graph that records all three: no warning
+        RoutePlanner(g, occupancy=m)
+        RoutePlanner(g)  # and none without the map
+    for dropped, words in (
+        (("origin",), "'origin'"),
+        (("shape", "resolution_m", "origin"), "'shape', 'resolution_m' or 'origin'"),
+    ):
+        bare = g.copy()
+        for name in dropped:
+            del bare.graph[name]
+        with pytest.warns(UserWarning, match=f"^occupancy: the graph records no {words}"):
+            plan_route(bare, (13, 20), (18, 26), frame="pixel", occupancy=m)
+
+
 def test_a_robot_larger_than_the_route_graph_was_built_for_is_refused(tmp_path, capsys):
     """A route graph's edges keep its own robot_radius_m from obstacles and no more: a
     planner asked for a larger robot is refused (its routes would not be safe for it),
@@ -1159,6 +1181,7 @@ def test_with_the_map_a_join_exactly_the_reach_away_is_in_reach_in_either_frame(
     occupied[1:-1, 1:-1] = False
     m = tj.OccupancyMap.from_array(occupied, resolution_m=0.05)
     g = nx.MultiGraph(resolution_m=0.05, shape=(60, 60), robot_radius_m=0.25, snap_m=1.0)
+    g.graph["origin"] = tuple(m.origin)
     for name, pixel in {"a": (8, 6), "b": (51, 6)}.items():
         g.add_node(name, pixel=pixel, world=tuple(float(x) for x in m.pixel_to_world(*pixel)))
     path = np.array([(r, 6) for r in range(8, 52)], np.int64)

@@ -64,6 +64,7 @@ def rooms():
         resolution_m=0.1,
         pixel_to_world=m.pixel_to_world,
     )
+    g.graph["origin"] = tuple(m.origin)  # the map recorded, as build_graph does
     return m, g
 
 
@@ -220,6 +221,7 @@ def pinched():
         resolution_m=0.1,
         pixel_to_world=m.pixel_to_world,
     )
+    g.graph["origin"] = tuple(m.origin)  # the map recorded, as build_graph does
     return m, g
 
 

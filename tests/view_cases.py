@@ -98,6 +98,7 @@ def wall_between(closet: bool = False):
         occupied[4:9, 14:18] = False
     m = tj.OccupancyMap.from_array(occupied, resolution_m=0.1)
     g = nx.MultiGraph(resolution_m=0.1, shape=(40, 40), robot_radius_m=0.25, snap_m=1.0)
+    g.graph["origin"] = tuple(m.origin)
     corners = {"l0": (2, 10), "l1": (35, 10), "r0": (2, 22), "r1": (35, 22)}
     for name, pixel in corners.items():
         g.add_node(name, pixel=pixel, world=tuple(float(x) for x in m.pixel_to_world(*pixel)))

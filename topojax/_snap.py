@@ -3,11 +3,26 @@ the snaps it may take and the refusals of a point too far off to snap."""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FAR", "RESOLVED", "TIE", "Snap", "SnapLimitError", "check_box_gap", "check_resolved"]
+__all__ = [
+    "FAR",
+    "GRID_ATTRIBUTES",
+    "RESOLVED",
+    "TIE",
+    "Snap",
+    "SnapLimitError",
+    "check_box_gap",
+    "check_resolved",
+    "unrecorded_grid",
+    "warn_unchecked_grid",
+]
+
+#: The graph attributes a planner's map is checked against.
+GRID_ATTRIBUTES = ("shape", "resolution_m", "origin")
 
 #: Corridor points at most this much farther from a query point than the nearest one
 #: (metres, or pixels in the pixel frame) are as near: the same pixel on edges that cross.
@@ -87,3 +102,27 @@ def check_resolved(name: str, q: np.ndarray, distance: float, scale: float, fram
         f"expected a point near the graph, received {tuple(q.tolist())} ({frame} frame): "
         "is it in the graph's frame and units?"
     )
+
+
+def unrecorded_grid(attrs: dict, *, quote: str = "'") -> str:
+    """The attributes of :data:`GRID_ATTRIBUTES` that a graph's attributes ``attrs``
+    lack, in words (``'shape' or 'origin'``, each in ``quote``); empty when none."""
+    missing = [f"{quote}{name}{quote}" for name in GRID_ATTRIBUTES if attrs.get(name) is None]
+    if len(missing) < 2:
+        return "".join(missing)
+    return f"{', '.join(missing[:-1])} or {missing[-1]}"
+
+
+def warn_unchecked_grid(attrs: dict) -> None:
+    """Warn (``UserWarning``) that a planner's ``occupancy`` cannot be fully checked to be
+    the map of a graph whose attributes ``attrs`` lack some of :data:`GRID_ATTRIBUTES`,
+    naming them."""
+    missing = unrecorded_grid(attrs)
+    if missing:
+        warnings.warn(
+            f"occupancy: the graph records no {missing}, so the map cannot be checked to be "
+            "its map by that: legs to the graph are planned over the pixels of the map given "
+            "(set the attributes from the graph's map to check it)",
+            UserWarning,
+            stacklevel=4,
+        )

@@ -16,7 +16,7 @@ from ._route import Route, WallDistance, narrowest_m, recorded_clearance_m
 from ._sight import sees as _sees
 from ._snap import TIE as _TIE
 from ._snap import Snap as _Snap
-from ._snap import SnapLimitError, check_box_gap, check_resolved
+from ._snap import SnapLimitError, check_box_gap, check_resolved, warn_unchecked_grid
 from ._validate import (
     finite_pair,
     nonnegative_metres,
@@ -123,6 +123,12 @@ class RoutePlanner:
         4.5e307 m; ``occupancy`` is not the graph's map (shape, resolution, origin); no
         robot radius is given or known with ``occupancy``; ``entry_m`` without
         ``occupancy``; a ``robot_radius_m`` larger than the route graph was built for.
+
+    Warns
+    -----
+    UserWarning
+        ``occupancy`` for a graph that lacks some of ``shape``, ``resolution_m`` and
+        ``origin`` (named): the map is checked by those it records only.
     """
 
     def __init__(
@@ -298,6 +304,7 @@ class RoutePlanner:
         why = map_mismatch(self._graph, occupancy)
         if why is not None:
             raise ValueError(f"occupancy: {why}")
+        warn_unchecked_grid(attrs)
         radius_name = "robot_radius_m"
         if radius is None:
             radius = attrs.get("robot_radius_m")

@@ -163,6 +163,7 @@ def _unchecked(route, mapped: bool) -> list[str]:
 
 def _cmd_route(args) -> int:
     from .._fs import output_file
+    from .._snap import unrecorded_grid
     from .._validate import nonnegative_metres, positive_metres, robot_radius
     from .._words import counted
     from ..io import load_graph
@@ -224,16 +225,19 @@ def _cmd_route(args) -> int:
             )
         # the snap and entry distances are in metres: say when the resolution was assumed
         print(map_line(args.map, occupancy, assumed_resolution_note(args)))
-        if all(graph.graph.get(a) is None for a in ("shape", "resolution_m", "origin")):
-            print(  # nothing to compare: a graph made elsewhere, or its attributes dropped
-                "note       the graph records no shape, resolution_m or origin: --map "
-                "cannot be checked to be its map"
+        missing = unrecorded_grid(graph.graph, quote="")
+        if missing:  # a graph made elsewhere, or its attributes dropped: in --map's words
+            print(
+                f"note       the graph records no {missing}: --map cannot be checked to be "
+                "its map by that"
             )
     frame = "pixel" if args.pixel else "world"
     try:
-        planner = RoutePlanner(
-            graph, occupancy=occupancy, robot_radius_m=args.robot_radius, entry_m=args.entry_m
-        )
+        with warnings.catch_warnings():  # the planner's own warning of it, noted above
+            warnings.filterwarnings("ignore", "occupancy: the graph records no", UserWarning)
+            planner = RoutePlanner(
+                graph, occupancy=occupancy, robot_radius_m=args.robot_radius, entry_m=args.entry_m
+            )
     except ValueError as exc:  # the planner names its parameter; the user gave the option
         text = str(exc)
         for name, option in (("occupancy", "--map"), ("robot_radius_m", "--robot-radius")):
