@@ -794,7 +794,8 @@ def test_a_timeline_recorded_beyond_the_map_shown_is_noted(res):
     )
     final = mapper.to_result(update=False).map
     assert not any(
-        "timeline" in n for n in payload_of(view_html(final, timeline=timeline))["notes"]
+        "timeline" in n
+        for n in payload_of(view_html(mapper.graph, map=final, timeline=timeline))["notes"]
     )
     notes = payload_of(view_html(res, timeline=timeline))["notes"]  # the Intel map at (0, 0)
     (note,) = [n for n in notes if "timeline" in n]
