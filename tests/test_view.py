@@ -606,6 +606,16 @@ def test_timeline_keeps_every_update_and_round_trips(tmp_path):
         tj.Timeline.load(path).snapshot(mapper)
 
 
+@pytest.mark.parametrize("max_map_px", [100, 300, 600, 2000])
+def test_a_timeline_keeps_map_pictures_of_at_most_max_map_px(max_map_px):
+    mapper, _, _ = intel_replay()
+    timeline = tj.Timeline(max_map_px=max_map_px)
+    timeline.snapshot(mapper)
+    level = timeline.payload()["frames"][0]["map"]["level"]
+    side = max(level["width"], level["height"])
+    assert side <= max_map_px and (side > max_map_px // 2 or side == max(mapper.occupancy.shape))
+
+
 def test_a_timeline_prints_what_it_recorded(tmp_path):
     """A timeline's repr says what it holds (updates, scans as the page numbers them,
     poses, the last graph), not its address."""

@@ -126,7 +126,8 @@ def pyramid(
         mask; default: every tile is kept.
     max_side_px : int, optional
         The finest level shipped is the first whose longer side is at most this (a smooth
-        field needs no full resolution); default: full size.
+        field needs no full resolution; below a tile, it is the only level); default: full
+        size.
     min_step : int
         Nor any level finer than this many map pixels per level pixel (a power of two;
         for layers the page draws otherwise when zoomed in).
@@ -147,7 +148,7 @@ def pyramid(
         fits = max_side_px is None or max(level.shape) <= max_side_px
         if fits and step >= min_step:
             levels.append(_level_tiles(level, step, blank))
-        if max(level.shape) <= TILE_PX:
+        if max(level.shape) <= TILE_PX and fits:  # a level of one tile, and one shipped
             break
         level = _halve(level, reduce)
         step *= 2

@@ -20,7 +20,7 @@ import numpy as np
 
 from .._cpus import MemoryRefusal, available_memory_bytes, byte_size
 from .._validate import existing_file, flag, instance_of, int_at_least
-from ._encode import TILE_PX, packed, pyramid, unpacked
+from ._encode import packed, pyramid, unpacked
 from ._graphs import KIND_NAMES
 from ._rooms_data import rooms_payload
 
@@ -254,7 +254,7 @@ class Timeline:
         occ = mapper.occupancy
         image = occ.to_image()
         h, w = image.shape
-        levels = pyramid(image, reduce="map", max_side_px=max(self.max_map_px, TILE_PX))
+        levels = pyramid(image, reduce="map", max_side_px=self.max_map_px)
         finest = levels["levels"][0]
         ox, oy, _ = occ.origin
         res = occ.resolution_m
