@@ -810,6 +810,11 @@ def test_two_fingers_pinch_zoom_and_the_one_left_drags_on(intel):
             "screenToWorld: expected sx, sy as finite numbers, received sy = undefined",
         ),
         ("hoverAt(NaN, 3)", "hoverAt: expected sx, sy as finite numbers, received sx = NaN"),
+        # frames no number: the pan never ended
+        (
+            "benchmarkPan('a', 5)",
+            'benchmarkPan: expected frames, dx as finite numbers, received frames = "a"',
+        ),
     ],
 )
 def test_the_script_interface_refuses_what_is_no_point_by_name(intel, call, message):

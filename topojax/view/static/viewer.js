@@ -819,6 +819,7 @@ TJ.frameNo = 0;
       /* pan `frames` animation frames of `dx` CSS px; resolves with the time between
        * frames and the drawing time of each, milliseconds */
       benchmarkPan: function (frames, dx) {
+        numbers("benchmarkPan", ["frames", "dx"], arguments); // NaN frames: it never ends
         return new Promise(function (resolve) {
           var gaps = [], draws = [], last = null, i = 0;
           function step(t) {
