@@ -423,6 +423,21 @@ def test_route_geojson_writes_no_float_noise():
     np.testing.assert_array_equal(route.world, world)  # the route itself keeps its floats
 
 
+def test_a_route_without_world_coordinates_is_refused_as_geojson_not_written_as_nan():
+    """A route on a graph's lone vertex that records only its pixel has no world
+    coordinates (NaN): its GeoJSON would hold NaN, which is not JSON, so it is refused,
+    saying why; with the vertex's ``world`` it is written."""
+    g = nx.MultiGraph(resolution_m=0.1)
+    g.add_node(0, pixel=(3, 4))
+    route = plan_route(g, (3, 4), (3, 4), frame="pixel")
+    for kwargs in ({}, {"tolerance_m": 0.1}):
+        with pytest.raises(ValueError, match=r"^route: .*world coordinates.*vertex"):
+            route.to_geojson(**kwargs)
+    g.nodes[0]["world"] = (0.4, 0.3)
+    feature = plan_route(g, (3, 4), (3, 4), frame="pixel").to_geojson()
+    assert feature["geometry"]["coordinates"] == [[0.4, 0.3], [0.4, 0.3]]
+
+
 def test_route_repr_summarises_its_arrays_and_ids():
     """A notebook shows a route by its repr: a line with its length, sizes and what it
     says of the robot, not its pixel and world arrays or every vertex and edge id."""

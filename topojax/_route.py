@@ -132,7 +132,14 @@ class Route:
         pixel.  A route of one pixel (start and goal snapped together) repeats it: a GeoJSON
         ``LineString`` needs two positions.  Coordinates are rounded to 1e-9 m, a
         thousandth of the finest pixel a map may have (1e-6 m), so that ``5.675`` is
-        written, not the float noise ``5.675000000000001``."""
+        written, not the float noise ``5.675000000000001``.  A route without world
+        coordinates (NaN: on a lone vertex that records no ``world``) raises
+        ``ValueError``."""
+        if not np.isfinite(self.world).all():  # NaN is not JSON: no line to write
+            raise ValueError(
+                "route: its world coordinates are not known (NaN: planned on a vertex that "
+                "records no 'world'); expected a route on a graph with world coordinates"
+            )
         line = self.world if tolerance_m is None else self.waypoints(tolerance_m=tolerance_m)
         if len(line) == 1:  # start and goal on one pixel: RFC 7946 wants two positions
             line = np.concatenate([line, line])
