@@ -1301,6 +1301,26 @@ def test_a_sight_line_blocked_near_either_end_is_not_walked_to_the_other(monkeyp
     assert sum(walked) < 1000  # the clear line (98 pixels) whole, the blocked one in part
 
 
+def test_short_sight_lines_are_walked_whole_in_one_pass(monkeypatch):
+    """Lines of at most 64 pixels (every one at a route graph's default reach of 1 m, at
+    0.05 m a pixel) cost less whole than checked near their ends first."""
+    from topojax import _sight
+
+    feasible = np.ones((80, 80), bool)
+    feasible[40, 50] = False
+    q = np.array([40.0, 10.0])
+    ends = np.array([[40.0, 60.0], [10.0, 30.0], [70.0, 70.0]])
+    passes = []
+
+    def counting(*args, **kwargs):
+        passes.append(args)
+        return segment_pixels(*args, **kwargs)
+
+    monkeypatch.setattr(_sight, "segment_pixels", counting)
+    assert sees(feasible, q, ends).tolist() == [False, True, True]
+    assert len(passes) == 1
+
+
 @pytest.mark.parametrize(
     ("kwargs", "graph_radius", "exc", "words"),
     [

@@ -104,25 +104,27 @@ def sees(feasible: np.ndarray, q: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """
     pts = np.asarray(pts, np.float64).reshape(-1, 2)
     q = np.asarray(q, np.float64)
+    length = np.abs(pts - q).max(axis=1)
     seen = np.ones(pts.shape[0], bool)
     todo = np.arange(pts.shape[0])
-    # the pixels near q first: a line blocked there (most, in a cluttered map) is not
-    # walked to its end; a line within the window is then walked whole
-    for window, at_end in (*_WINDOWS, (None, False)):
-        whole = todo  # the lines within the window: checked whole
-        if window is not None:
-            whole = todo[np.abs(pts[todo] - q).max(axis=1) <= window - 1]
-        clear = _clear(feasible, q, pts[todo], window, at_end)
-        seen[todo[~clear]] = False
-        todo = np.setdiff1d(todo[clear], whole, assume_unique=True)
-        if todo.size == 0:
+    # the pixels near either end first: a long line blocked there (most, in a cluttered
+    # map) is not walked whole
+    for window, at_end in _WINDOWS:
+        long = todo[length[todo] > max(2 * window, _SHORT)]
+        if long.size == 0:  # the windows grow: no line is long for the next either
             break
+        seen[long[~_clear(feasible, q, pts[long], window, at_end)]] = False
+        todo = todo[seen[todo]]
+    seen[todo[~_clear(feasible, q, pts[todo], None, False)]] = False
     return seen
 
 
 #: The windows (pixels from the query's pixel, or from the line's other end) a sight
 #: line is checked within before it is walked whole.
 _WINDOWS = tuple((w, at_end) for w in (4, 16, 64, 256) for at_end in (False, True))
+
+#: Lines at most this many pixels long are walked whole at once.
+_SHORT = 64
 
 
 def _clear(feasible: np.ndarray, q: np.ndarray, pts: np.ndarray, window, at_end: bool):
