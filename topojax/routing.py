@@ -77,9 +77,10 @@ class RoutePlanner:
 
     Builds the lookup structures once (a k-d tree of the corridor pixels per frame, the
     edges' cumulative lengths, the vertex adjacency); each :meth:`route` then costs a
-    nearest-neighbour query per point (with the map, also a range query and the sight
-    lines to each edge in reach) and a Dijkstra search that stops once no unsettled
-    vertex can beat the best route found.
+    nearest-neighbour query per point (with the map, also range queries and the sight
+    lines to the edges in rings that grow within reach until no join beyond could give
+    a shorter route) and a Dijkstra search that stops once no unsettled vertex can beat
+    the best route found.
 
     Parameters
     ----------
