@@ -9,6 +9,7 @@ import os
 import re
 from pathlib import Path
 
+import ml_dtypes
 import networkx as nx
 import numpy as np
 import pytest
@@ -596,6 +597,33 @@ def test_save_errors(tmp_path: Path):
         assert np.isnan(back.nodes[3]["clearance_m"])
     assert not (tmp_path / "g.json").exists()
     assert not (tmp_path / "w.geojson").exists()
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+@pytest.mark.parametrize(
+    "array",
+    [
+        np.array([1 + 2j]),
+        np.array(["2020-01-01"], "datetime64[D]"),
+        np.array([b"raw"]),
+        np.zeros(2, [("a", np.int64)]),
+        np.array([object()], object),
+        np.array([0.5], ml_dtypes.bfloat16),
+        np.array([1 / 3], np.longdouble),
+    ],
+    ids=["complex", "datetime", "bytes", "structured", "object", "bfloat16", "longdouble"],
+)
+def test_an_array_of_values_no_file_holds_is_refused_naming_the_attribute(
+    tmp_path: Path, suffix: str, array: np.ndarray
+):
+    # Arrays are saved as JSON lists; a dtype JSON holds no value of was refused by the
+    # json module without naming the attribute, and a structured array was saved as a
+    # file load_graph then refused.
+    g = make_graph()
+    g.nodes[3]["odd"] = array
+    with pytest.raises(TypeError, match=r"^node 3 attribute 'odd': .*cannot be saved"):
+        save_graph(g, tmp_path / f"g{suffix}")
+    assert not (tmp_path / f"g{suffix}").exists()
 
 
 def test_unsupported_graph_attribute_is_skipped_with_warning(tmp_path: Path):

@@ -56,7 +56,7 @@ def jsonable(value: Any, where: str) -> Any:
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
     if isinstance(value, np.ndarray):
-        return value.tolist()
+        return _array_values(value, where)
     if isinstance(value, (list, tuple)):
         return [jsonable(v, where) for v in value]
     if isinstance(value, dict):
@@ -69,6 +69,22 @@ def jsonable(value: Any, where: str) -> Any:
     raise TypeError(
         f"{where}: values of type {type(value).__name__} cannot be saved "
         "(supported: numbers, str, bool, None, tuple, list, dict, numpy arrays)"
+    )
+
+
+def _array_values(value: np.ndarray, where: str) -> Any:
+    """``value.tolist()`` where a file holds its values and reads back its dtype: bool,
+    integer, float up to 64 bits, str, or objects that can be saved; a TypeError naming
+    ``where`` otherwise (complex, datetime, bytes, structured, ``bfloat16``...)."""
+    dtype = value.dtype
+    if dtype.kind in "biuU" or (dtype.kind == "f" and dtype.itemsize <= 8):
+        return value.tolist()
+    if dtype.kind == "O":
+        return jsonable(value.tolist(), where)
+    hint = " (cast it, e.g. .astype(np.float64))" if dtype.kind in "fV" else ""
+    raise TypeError(
+        f"{where}: arrays of dtype {dtype} cannot be saved{hint} (supported: bool, "
+        "integer, float up to 64 bits, str, and object arrays of values that can be)"
     )
 
 
