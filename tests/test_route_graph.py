@@ -474,7 +474,7 @@ def test_a_robot_radius_of_zero_or_less_is_refused_as_not_positive(tmp_path, rad
         (["--snap-m", "0.15"], "--snap-m: expected 0.2 to 5 m"),
         (
             ["--resolution", "10000"],
-            "map resolution (--resolution or the map's own): expected at most 666.667 m per "
+            "map resolution (--resolution or the map's own): expected at most 3.26667 m per "
             "pixel for a route graph, received 10000",
         ),
     ],
@@ -1485,21 +1485,30 @@ def test_a_radius_under_one_and_a_half_pixels_is_refused():
     assert tj.evaluate_route_graph(g, m, 1.5 * res, n_pairs=50).unsafe_share == 0.0
 
 
-def test_a_map_too_coarse_for_any_robot_radius_says_so():
-    """At 10 km per pixel the least radius, 1.5 pixels, is above the largest robot radius
-    accepted: no radius can do, and the error says the resolution is what is wrong rather
-    than ask for a radius that the next call refuses as too large."""
+def test_a_map_too_coarse_for_any_radius_or_snap_says_so():
+    """The least robot radius and the least ``snap_m`` grow with the pixel (1.5 pixels;
+    the waypoint tolerance plus 1.5 pixels) and have largest values (1000 m, 5 m): on a
+    coarser map no value can do, and the error says the resolution is what is wrong
+    rather than ask for a radius or a snap_m that the next call refuses as too large."""
     free = np.zeros((40, 60), bool)
     free[1:-1, 1:-1] = True
-    m = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=1e4)
-    expected = (
-        r"^resolution_m: expected at most 666\.667 m per pixel for a route graph, received "
-        r"10000: its least robot radius, 1\.5 pixels \(15000 m\), is above the largest "
-        r"robot radius accepted, 1000 m"
+    radius = (
+        r"its least robot radius, 1\.5 pixels \(15000 m\), is above the largest accepted, "
+        r"1000 m; "
     )
-    for radius in (0.3, 1000.0):
-        with pytest.raises(ValueError, match=expected):
-            route_graph(m, robot_radius_m=radius)
+    snap = (
+        r"its least snap_m, the waypoint tolerance \(0\.1 m\) plus 1\.5 pixels \({} m\), "
+        r"is above the largest accepted, 5 m$"
+    )
+    for res, reasons in ((1e4, radius + snap.format("15000\\.1")), (10.0, snap.format("15\\.1"))):
+        m = OccupancyMap(occupied=~free, free=free, unknown=np.zeros_like(free), resolution_m=res)
+        expected = (
+            rf"^resolution_m: expected at most 3\.26667 m per pixel for a route graph, "
+            rf"received {res:g}: {reasons}"
+        )
+        for radius_m in (0.3, 1000.0):
+            with pytest.raises(ValueError, match=expected):
+                route_graph(m, config=RouteGraphConfig(robot_radius_m=radius_m, snap_m=5.0))
 
 
 @pytest.mark.parametrize(

@@ -440,16 +440,10 @@ def check_scale(
 ) -> None:
     """Refuse a robot radius, a ``snap_m`` or a ``shortcut_spacing_m`` too small for a map
     of ``res`` metres per pixel (see MIN_RADIUS_PX and MIN_REACH_PX; a spacing between 0
-    and one pixel), and a map so coarse that no robot radius fits (``resolution_name``);
-    the radius's error names ``radius_name``, the snap's ``snap_name``."""
-    coarsest = MAX_ROBOT_RADIUS_M / MIN_RADIUS_PX
-    if res > coarsest * (1 + _ROUNDING_PX):
-        raise ValueError(
-            f"{resolution_name}: expected at most {coarsest:g} m per pixel for a route graph, "
-            f"received {res:g}: its least robot radius, {MIN_RADIUS_PX:g} pixels "
-            f"({MIN_RADIUS_PX * res:g} m), is above the largest robot radius accepted, "
-            f"{MAX_ROBOT_RADIUS_M:g} m"
-        )
+    and one pixel), and a map so coarse that no radius or no snap_m fits
+    (:func:`_too_coarse`); the errors name ``radius_name``, ``snap_name`` and
+    ``resolution_name``."""
+    _too_coarse(cfg, res, snap_name, resolution_name)
     if cfg.robot_radius_m / res < MIN_RADIUS_PX - _ROUNDING_PX:
         raise ValueError(
             f"{radius_name}: expected at least {MIN_RADIUS_PX:g} pixels of the map "
@@ -469,6 +463,35 @@ def check_scale(
             f"shortcut_spacing_m: expected 0 (shortcuts from vertices only) or at least one "
             f"pixel of the map ({res:g} m), received {cfg.shortcut_spacing_m!r}; anchors "
             "closer than a pixel are the same anchors, at many times the time and memory"
+        )
+
+
+def _too_coarse(cfg: RouteGraphConfig, res: float, snap_name: str, resolution_name: str):
+    """Refuse a map of ``res`` metres per pixel on which the least robot radius or the
+    least ``snap_m`` (for the waypoint tolerance of ``cfg``) is above its largest value:
+    asked for one of them, the user would be refused it as too large."""
+    least_radius = MIN_RADIUS_PX * res
+    least_snap = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
+    reasons = []
+    if least_radius > MAX_ROBOT_RADIUS_M * (1 + _ROUNDING_PX):
+        reasons.append(
+            f"its least robot radius, {MIN_RADIUS_PX:g} pixels ({least_radius:g} m), is above "
+            f"the largest accepted, {MAX_ROBOT_RADIUS_M:g} m"
+        )
+    if least_snap > MAX_SNAP_M * (1 + _ROUNDING_PX):
+        reasons.append(
+            f"its least {snap_name}, the waypoint tolerance ({cfg.waypoint_tolerance_m:g} m) "
+            f"plus {MIN_REACH_PX:g} pixels ({least_snap:g} m), is above the largest accepted, "
+            f"{MAX_SNAP_M:g} m"
+        )
+    if reasons:
+        coarsest = min(
+            MAX_ROBOT_RADIUS_M / MIN_RADIUS_PX,
+            (MAX_SNAP_M - cfg.waypoint_tolerance_m) / MIN_REACH_PX,
+        )
+        raise ValueError(
+            f"{resolution_name}: expected at most {coarsest:g} m per pixel for a route graph, "
+            f"received {res:g}: {'; '.join(reasons)}"
         )
 
 
