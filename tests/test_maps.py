@@ -461,6 +461,18 @@ def test_from_array_float_threshold_values_compare_in_the_array_precision(dtype)
     assert custom.unknown[0].all()
 
 
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, "bfloat16"])
+def test_from_array_unknown_values_match_in_the_array_precision(dtype):
+    # unknown_values=(0.1, 1.1) names the values as written; float32(0.1) is not the
+    # float64 0.1, yet it is the value the user marked unknown.
+    if dtype == "bfloat16":
+        dtype = pytest.importorskip("ml_dtypes").bfloat16
+    arr = np.array([[0.1, 1.1], [0.0, 1.0]]).astype(dtype)
+    m = OccupancyMap.from_array(arr, unknown_values=(0.1, 1.1))
+    assert m.unknown[0].all()
+    assert m.free[1, 0] and m.occupied[1, 1]
+
+
 def test_from_array_uint8_grey_threshold_boundaries():
     v = np.arange(256, dtype=np.uint8).reshape(16, 16)
     m = OccupancyMap.from_array(v)

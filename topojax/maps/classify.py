@@ -62,10 +62,14 @@ def classify_array(
     mode: str,
     unknown_values: Iterable[float] | None,
     given_type: str,
+    precision: np.dtype | None = None,
 ) -> np.ndarray:
     """Class codes (uint8, ``_FREE`` / ``_OCC`` / ``_UNK``) of an array, with the rules of
     :meth:`OccupancyMap.from_array` for its dtype; the parameters are already checked
-    there.  ``given_type`` names the type the caller passed, for the dtype error."""
+    there.  ``given_type`` names the type the caller passed, for the dtype error;
+    ``precision``: the dtype the caller's array had (``bfloat16`` before it was read as
+    float32), to which a float array's ``unknown_values`` are rounded."""
+    arr_dtype = array.dtype
     if array.dtype == np.uint8:
         return _classify_uint8(
             array,
@@ -83,6 +87,7 @@ def classify_array(
         mode=mode,
         unknown_values=unknown_values,
         given_type=given_type,
+        precision=arr_dtype if precision is None else precision,
     )
 
 
@@ -138,8 +143,10 @@ def _classify_values(
     mode: str,
     unknown_values: Iterable[float] | None,
     given_type: str,
+    precision: np.dtype,
 ) -> np.ndarray:
-    """Class codes of a bool mask, an OccupancyGrid integer array or a probability array."""
+    """Class codes of a bool mask, an OccupancyGrid integer array or a probability array
+    (whose ``unknown_values`` are rounded to ``precision``, the caller's float dtype)."""
     numeric = np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
     if arr.dtype != np.bool_ and not numeric:  # None, a string, complex numbers...
         raise TypeError(
@@ -169,7 +176,7 @@ def _classify_values(
     if np.issubdtype(arr.dtype, np.integer):
         return _classify_occupancy_grid(arr, occupied_thresh, free_thresh, unknown_values)
     # floating (other dtypes were refused above)
-    return _classify_probability(arr, occupied_thresh, free_thresh, unknown_values)
+    return _classify_probability(arr, occupied_thresh, free_thresh, unknown_values, precision)
 
 
 def _unknown_value_list(unknown_values: Iterable[float] | None) -> list[float]:
@@ -340,17 +347,26 @@ def thresholds_in_precision(
     """The thresholds rounded to ``dtype`` where it is a float (JAX's ``bfloat16`` too),
     else as given: a probability map compares with them in its own precision, so that a
     float32 ``0.196`` is the threshold 0.196 rather than the float just below it."""
+    occ, free = _in_precision(dtype, [occupied_thresh, free_thresh])
+    return occ, free
+
+
+def _in_precision(dtype: np.dtype, values: list[float]) -> list[float]:
+    """``values`` rounded to ``dtype`` where it is a float (``bfloat16`` too), else as
+    given (an integer dtype, ``int4``)."""
+    if not values:
+        return values
     if dtype.kind == "V" and dtype.fields is None:  # an ml_dtypes type: a float or not?
         import ml_dtypes  # a dependency of JAX
 
         try:
             ml_dtypes.finfo(dtype)
         except (TypeError, ValueError):  # an integer (int4) or a plain void
-            return occupied_thresh, free_thresh
+            return values
     elif dtype.kind != "f":
-        return occupied_thresh, free_thresh
-    occ, free = (float(v) for v in np.asarray([occupied_thresh, free_thresh]).astype(dtype))
-    return occ, free
+        return values
+    with np.errstate(over="ignore"):  # a value beyond the dtype matches none of its own
+        return [float(v) for v in np.asarray(values).astype(dtype)]
 
 
 def _classify_probability(
@@ -358,8 +374,10 @@ def _classify_probability(
     occupied_thresh: float,
     free_thresh: float,
     unknown_values: Iterable[float] | None,
+    precision: np.dtype,
 ) -> np.ndarray:
-    """Classify a float array of occupancy probabilities in [0, 1]."""
+    """Classify a float array of occupancy probabilities in [0, 1]; ``unknown_values``
+    match in ``precision`` (as written, 0.1 is float32(0.1) in a float32 array)."""
     n_nan = int(np.count_nonzero(np.isnan(arr)))
     if n_nan:
         raise ValueError(
@@ -367,7 +385,7 @@ def _classify_probability(
             f"{n_nan} NaN values (cells of unknown occupancy? mask them, "
             "np.ma.masked_invalid(array): masked cells are unknown)"
         )
-    extra = _unknown_value_list(unknown_values)
+    extra = _in_precision(precision, _unknown_value_list(unknown_values))
     forced = np.isin(arr, extra) if extra else None
     bad = (arr < 0.0) | (arr > 1.0)
     if forced is not None:

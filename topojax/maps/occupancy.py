@@ -351,9 +351,10 @@ class OccupancyMap:
         unknown_values : iterable of numbers, optional
             Input values that are classified unknown whatever the thresholds say, e.g.
             ``(230,)`` for maps that mark unexplored space with a light grey. For images
-            the values are compared with the intensity before ``negate``. Values listed
-            here are exempt from the range checks of integer and float inputs. Not
-            allowed for bool input.
+            the values are compared with the intensity before ``negate``, for a float
+            array in its precision (as the thresholds). Values listed here are exempt
+            from the range checks of integer and float inputs. Not allowed for bool
+            input.
         source : str, optional
             Stored in :attr:`OccupancyMap.source`.
 
@@ -391,6 +392,7 @@ class OccupancyMap:
             mode=mode,
             unknown_values=unknown_values,
             given_type=type(array).__name__,
+            precision=values.dtype,
         )
         if masked is not None:
             codes[masked if masked.ndim == codes.ndim else masked.any(axis=-1)] = _UNK
