@@ -570,6 +570,24 @@ def test_a_node_or_edge_listed_twice_is_refused(tmp_path: Path, name: str):
         load_graph(path)
 
 
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_a_schema_with_an_unknown_id_kind_is_refused_as_the_schema_s_fault(tmp_path, suffix):
+    # node id 1 is an int; the file's type schema, edited to "float", is what is wrong
+    g = make_graph()
+    path = save_graph(g, tmp_path / f"g{suffix}")
+    text = path.read_text()
+    edited = text.replace('"node_id": "int"', '"node_id": "float"')
+    edited = edited.replace(
+        "&quot;node_id&quot;: &quot;int&quot;", "&quot;node_id&quot;: &quot;float&quot;"
+    )
+    assert edited != text
+    path.write_text(edited)
+    with pytest.raises(
+        ValueError, match=r"topojax_schema: node_id: expected 'int' or 'str', received 'float'"
+    ):
+        load_graph(path)
+
+
 def test_save_errors(tmp_path: Path):
     with pytest.raises(TypeError, match="^graph: expected an undirected networkx graph, rec"):
         save_graph(nx.MultiDiGraph(), tmp_path / "g.json")

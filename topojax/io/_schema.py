@@ -254,7 +254,22 @@ def _build_schema(g: nx.MultiGraph, graph_attrs: dict[str, Any]) -> dict[str, An
 
 
 def _schema_or_default(schema: Any) -> dict[str, Any]:
+    """A file's type schema, or the topojax defaults for a file without one (another
+    tool's); a ValueError for a schema whose id kinds or attribute tables are no schema's
+    (a hand-edited file), rather than a fault blamed on the ids or values it describes."""
     if isinstance(schema, dict) and schema.get("version") == _SCHEMA_VERSION:
+        for name in ("node_id", "edge_key"):
+            if schema.get(name) not in (None, "int", "str"):
+                raise ValueError(
+                    f"{_SCHEMA_KEY}: {name}: expected 'int' or 'str', received "
+                    f"{schema.get(name)!r:.80}"
+                )
+        for scope in ("graph", "node", "edge"):
+            if not isinstance(schema.get(scope), dict):
+                raise ValueError(
+                    f"{_SCHEMA_KEY}: {scope}: expected an object of attribute kinds, received "
+                    f"{schema.get(scope)!r:.80}"
+                )
         return schema
     return {
         "version": _SCHEMA_VERSION,
