@@ -107,3 +107,18 @@ def test_a_pattern_lists_each_folder_once(tree, monkeypatch, pattern):
         "**/deep/*": ["sub/deep/c.png"],
     }[pattern]
     assert got == [tree / rel for rel in want]
+
+
+def test_a_pattern_given_to_build_graphs_as_a_map_says_to_expand_it(tree):
+    """``build_graphs`` takes map files: a glob pattern given in their place is an error
+    row that says to expand it (as a folder's says to search it), not only that no such
+    file exists."""
+    from topojax.batch import build_graphs
+
+    pattern = str(tree / "*.png")
+    (rec,) = build_graphs(pattern, workers=0, progress=False)
+    assert rec.status == "error"
+    assert f"map file not found: {pattern}" in rec.message
+    assert "a pattern? expand it first" in rec.message and "expand_map_inputs" in rec.message
+    (plain,) = build_graphs(tree / "missing.png", workers=0, progress=False)
+    assert "a pattern?" not in plain.message  # a plain name that is not there

@@ -420,6 +420,19 @@ def _read_pixels(path: Path) -> tuple[np.ndarray, int, list[str]]:
     return read_image(path)
 
 
+def _pattern_hint(p: Path) -> str:
+    """For a missing map path that looks like a glob pattern (below the folders there),
+    what expands it; else ""."""
+    there = next((a for a in p.parents if a.exists()), None)
+    missing = str(p if there is None else p.relative_to(there))
+    if not any(c in missing for c in "*?[{"):
+        return ""
+    return (
+        "; a pattern? expand it first (topojax batch, and topojax.batch.expand_map_inputs, "
+        "expand patterns)"
+    )
+
+
 def _check_map_path(p: Path, suffix: str) -> None:
     """Refuse a folder, an unsupported suffix, a missing file or one that is not a regular
     file (in that order)."""
@@ -440,13 +453,13 @@ def _check_map_path(p: Path, suffix: str) -> None:
         )
     if suffix not in YAML_SUFFIXES + IMAGE_SUFFIXES:
         if not p.exists():
-            raise FileNotFoundError(f"map file not found: {p}")
+            raise FileNotFoundError(f"map file not found: {p}{_pattern_hint(p)}")
         raise ValueError(
             f"map file {p} has unsupported suffix {p.suffix!r}; expected one of "
             f"{YAML_SUFFIXES + IMAGE_SUFFIXES}"
         )
     if not p.exists():
-        raise FileNotFoundError(f"map file not found: {p}")
+        raise FileNotFoundError(f"map file not found: {p}{_pattern_hint(p)}")
     if not p.is_file():  # opening a FIFO would wait for a writer forever
         raise ValueError(
             f"map path is not a regular file: {p} is {non_file_kind(p) or 'no file'}; give a "
