@@ -1878,6 +1878,29 @@ def test_a_graph_emptied_by_pruning_says_so_not_that_no_corridor_was_found(tmp_p
     assert "no corridor was found" not in err and "min_component_m" not in err
 
 
+def test_a_resumed_batch_prints_the_maps_it_skips_that_were_empty(tmp_path, capsys):
+    """``topojax batch --resume`` prints the line of a map it skips whose earlier run found
+    its graph empty, with why, as it prints a skipped map's warning: the user of a resumed
+    (e.g. interrupted) run learns of every empty map, not of this run's only."""
+    import cv2
+
+    from topojax.cli import main
+
+    occ = _synthetic((80, 100), 7)
+    cv2.imwrite(str(tmp_path / "rooms.png"), np.where(occ.occupied, 0, 255).astype(np.uint8))
+    argv = ["batch", str(tmp_path / "rooms.png"), "-o", str(tmp_path / "out"), "--no-progress"]
+    argv += ["--workers", "0", "--min-component-m", "1000", "--resolution", "0.05"]
+    assert main(argv) == 0
+    assert "empty    rooms: empty graph: --min-component-m=1000" in capsys.readouterr().err
+    assert main([*argv, "--resume"]) == 0
+    captured = capsys.readouterr()
+    assert "0 empty, 1 skipped" in captured.out
+    assert (
+        "skipped  rooms: outputs complete (resume) of an empty map: empty graph: "
+        "--min-component-m=1000 removed every corridor"
+    ) in captured.err
+
+
 def test_a_bad_yaml_field_is_named_as_the_file_names_it(tmp_path, capsys):
     """An error row names a map YAML's field as the file spells it (``occupied_thresh``),
     not as the option of the same setting: the file is at fault."""
