@@ -1878,6 +1878,30 @@ def test_a_graph_emptied_by_pruning_says_so_not_that_no_corridor_was_found(tmp_p
     assert "no corridor was found" not in err and "min_component_m" not in err
 
 
+def test_a_graph_emptied_by_free_space_only_says_so(tmp_path, capsys):
+    """A map whose corridors all run through unknown space gives no graph with
+    ``free_space_only`` (``--free-only``): its reason says so, not that no corridor was
+    found between the obstacles."""
+    import cv2
+
+    from topojax.cli import main
+    from topojax.config import GraphConfig
+
+    pixels = np.full((100, 120), 205, np.uint8)  # unknown, but for walls and a free corner
+    pixels[[0, -1], :] = pixels[:, [0, -1]] = pixels[50, 10:110] = 0
+    pixels[2:6, 2:6] = 254
+    cv2.imwrite(str(tmp_path / "hall.png"), pixels)
+    config = PipelineConfig(graph=GraphConfig(free_space_only=True))
+    (rec,) = build_graphs([tmp_path / "hall.png"], workers=0, config=config, progress=False)
+    assert rec.status == "empty"
+    assert "every corridor the map gave runs through unknown space" in rec.message
+    assert "free_space_only" in rec.message and "no corridor was found" not in rec.message
+    argv = ["batch", str(tmp_path / "hall.png"), "-o", str(tmp_path / "out"), "--no-progress"]
+    assert main([*argv, "--workers", "0", "--free-only"]) == 0
+    err = capsys.readouterr().err
+    assert "which --free-only leaves out" in err and "free_space_only" not in err
+
+
 def test_a_resumed_batch_prints_the_maps_it_skips_that_were_empty(tmp_path, capsys):
     """``topojax batch --resume`` prints the line of a map it skips whose earlier run found
     its graph empty, with why, as it prints a skipped map's warning: the user of a resumed

@@ -226,12 +226,22 @@ def _arrow_schema(pa: Any, columns: Sequence[str]) -> Any:
     return pa.schema([(name, types.get(name, pa.float64())) for name in columns])
 
 
+#: The setting that leaves out the corridors in unknown space (``GraphConfig``'s).
+FREE_ONLY = "free_space_only"
+
+
 def empty_reason(
     n_occupied: int | None, n_free: int | None, *, mode: str | None = None, pruned: str = ""
 ) -> str:
     """Why a map's graph is empty, and what to check (the ``message`` of an empty map read
-    in ``mode``, the ``map_mode`` given or None); ``pruned`` names the pruning settings
-    (:func:`topojax.graph.prune.pruned_by`) that removed every corridor of a map that gave some."""
+    in ``mode``, the ``map_mode`` given or None); ``pruned`` names what removed every
+    corridor of a map that gave some: the pruning settings
+    (:func:`topojax.graph.prune.pruned_by`), or :data:`FREE_ONLY`."""
+    if pruned == FREE_ONLY:
+        return (
+            "empty graph: every corridor the map gave runs through unknown space, which "
+            f"{FREE_ONLY} leaves out"
+        )
     if pruned:
         return (
             f"empty graph: {pruned} removed every corridor the map gave; give a smaller "

@@ -22,6 +22,7 @@ from ..maps.classify import wall_share
 from ..maps.files import default_resolution_used, replaced_resolution, said_resolution
 from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
+from .records import FREE_ONLY
 
 __all__ = ["InlineExecutor"]
 
@@ -83,7 +84,7 @@ class _CpuResult:
     route_note: str = ""  # why the route graph is empty or has no edge, where it is
     nav2_note: str = ""  # the warning of a graph (nav2 format) with vertices and no edge
     no_nav2: list[str] = field(default_factory=list)  # Nav2 files not written: no edge
-    pruned: str = ""  # the pruning settings that removed every corridor (graph.prune.pruned_by)
+    pruned: str = ""  # what removed every corridor: pruned_by's settings, or FREE_ONLY
     t_thinning_s: float = 0.0
     t_graph_s: float = 0.0
     t_write_s: float = 0.0
@@ -165,6 +166,8 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
         res.total_length_m = float(summary["total_length_m"])
         if not res.vertices and skeleton.any():  # the map gave corridors: pruning took all
             res.pruned = pruned_by(job.config.graph)
+        elif not res.vertices and free is not None and ridges.any():  # none in free space
+            res.pruned = FREE_ONLY
         t2 = time.perf_counter()
         res.t_graph_s = t2 - t0_graph
 

@@ -43,6 +43,7 @@ _NOTE_OPTION_OF = {
     "free_thresh": "--free-thresh",
     "negate": "--negate",
     "map_mode": "--mode",
+    "free_space_only": "--free-only",
 }
 
 
