@@ -1087,8 +1087,9 @@ def test_a_map_given_for_a_graph_that_records_no_grid_is_warned_of_by_name():
         bare = g.copy()
         for name in dropped:
             del bare.graph[name]
-        with pytest.warns(UserWarning, match=f"^occupancy: the graph records no {words}"):
+        with pytest.warns(UserWarning, match=f"^occupancy: the graph records no {words}") as w:
             plan_route(bare, (13, 20), (18, 26), frame="pixel", occupancy=m)
+        assert [x.filename for x in w] == [__file__]  # the caller's line, however deep
 
 
 def test_a_robot_larger_than_the_route_graph_was_built_for_is_refused(tmp_path, capsys):

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._caller import outside_stacklevel
+
 __all__ = [
     "FAR",
     "GRID_ATTRIBUTES",
@@ -124,5 +126,5 @@ def warn_unchecked_grid(attrs: dict) -> None:
             "its map by that: legs to the graph are planned over the pixels of the map given "
             "(set the attributes from the graph's map to check it)",
             UserWarning,
-            stacklevel=4,
+            stacklevel=outside_stacklevel(),
         )

@@ -9,6 +9,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from .._caller import outside_stacklevel
 from .._cpus import as_executor, available_memory_bytes, usable_cpus
 from .._fs import refuse_overwriting_inputs
 from .._validate import (
@@ -422,7 +423,7 @@ def warn_unlisted_outputs(
         f"before that map's manifest); this batch replaces {them}, or removes {them} where "
         f"the map fails; move {them} away first to keep {them}",
         UserWarning,
-        stacklevel=4,
+        stacklevel=outside_stacklevel(),
     )
 
 
@@ -440,5 +441,5 @@ def warn_unused_workers(executor: Any, workers: int | None) -> None:
             f"workers: not used with executor= (received {workers}): the executor's own "
             "workers run the maps",
             UserWarning,
-            stacklevel=3,
+            stacklevel=outside_stacklevel(),
         )
