@@ -452,7 +452,7 @@ def check_scale(
             "single obstacle pixels"
         )
     if _reach_px(cfg, res) < MIN_REACH_PX - _ROUNDING_PX:
-        least = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
+        least = _least_snap_m(cfg, res)
         raise ValueError(
             f"{snap_name}: expected at least the waypoint tolerance "
             f"({cfg.waypoint_tolerance_m:g} m) plus {MIN_REACH_PX:g} pixels of the map "
@@ -466,12 +466,18 @@ def check_scale(
         )
 
 
+def _least_snap_m(cfg: RouteGraphConfig, res: float) -> float:
+    """The least ``snap_m`` on a map of ``res`` metres per pixel: the waypoint tolerance of
+    ``cfg`` plus MIN_REACH_PX pixels."""
+    return cfg.waypoint_tolerance_m + MIN_REACH_PX * res
+
+
 def _too_coarse(cfg: RouteGraphConfig, res: float, snap_name: str, resolution_name: str):
     """Refuse a map of ``res`` metres per pixel on which the least robot radius or the
     least ``snap_m`` (for the waypoint tolerance of ``cfg``) is above its largest value:
     asked for one of them, the user would be refused it as too large."""
     least_radius = MIN_RADIUS_PX * res
-    least_snap = cfg.waypoint_tolerance_m + MIN_REACH_PX * res
+    least_snap = _least_snap_m(cfg, res)
     reasons = []
     if least_radius > MAX_ROBOT_RADIUS_M * (1 + _ROUNDING_PX):
         reasons.append(
