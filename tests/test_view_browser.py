@@ -863,5 +863,7 @@ def test_a_frame_that_is_no_number_is_refused(browser, tmp_path):
     for bad in ("NaN", "Infinity", "'2'", "null"):
         with pytest.raises(JavascriptException, match=r"setFrame: expected a frame index"):
             _js(browser, f"topojaxView.setFrame({bad})")
+    with pytest.raises(JavascriptException, match=r'received "2"\n'):  # a string, quoted
+        _js(browser, "topojaxView.setFrame('2')")
     assert _js(browser, "topojaxView.setFrame(arguments[0])", n + 5)["final"]  # clamped
     assert _js(browser, "topojaxView.setFrame(0)")["index"] == 0

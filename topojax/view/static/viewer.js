@@ -190,7 +190,9 @@ TJ.frameNo = 0;
       throw new Error("setLayer: expected a layer name (" + Array.from(this.layers.keys()).join(", ") +
         "), received " + TJ.shown(name));
     }
-    if (typeof on !== "boolean") throw new Error("setLayer: expected on = true or false, received " + TJ.shown(on));
+    if (typeof on !== "boolean") {
+      throw new Error("setLayer: expected on = true or false, received " + TJ.shown(on));
+    }
     layer.on = on;
     var box = $("tj-layer-" + name);
     if (box) box.checked = layer.on;
@@ -624,7 +626,8 @@ TJ.frameNo = 0;
   Viewer.prototype.setFrame = function (i) {
     if (!this.timeline) throw new Error("this view has no timeline");
     if (typeof i !== "number" || !isFinite(i)) {
-      throw new Error("setFrame: expected a frame index from 0 to " + this.nFrames + ", received " + i);
+      throw new Error("setFrame: expected a frame index from 0 to " + this.nFrames + ", received " +
+        TJ.shown(i));
     }
     this.frameIndex = Math.max(0, Math.min(this.nFrames, Math.round(i)));
     $("tj-slider").value = String(this.frameIndex);
@@ -745,7 +748,7 @@ TJ.frameNo = 0;
     function cancel(e) { if (pts.has(e.pointerId)) end(e.pointerId); }
     canvas.addEventListener("pointercancel", cancel);
     canvas.addEventListener("lostpointercapture", cancel);
-    canvas.addEventListener("pointerleave", function () { self.pointer = null; $("tj-tooltip").hidden = true; });
+    canvas.addEventListener("pointerleave", hideTip);
     if (typeof ResizeObserver === "function") {
       new ResizeObserver(function () { self.resize(); }).observe(stage);
     } else {
