@@ -36,7 +36,6 @@ __all__ = [
     "classify_image",
     "rim_counts",
     "share_of_rim",
-    "thresholds_in_precision",
     "wall_share",
     "wall_warning",
 ]
@@ -62,14 +61,13 @@ def classify_array(
     mode: str,
     unknown_values: Iterable[float] | None,
     given_type: str,
-    precision: np.dtype | None = None,
+    precision: np.dtype,
 ) -> np.ndarray:
     """Class codes (uint8, ``_FREE`` / ``_OCC`` / ``_UNK``) of an array, with the rules of
     :meth:`OccupancyMap.from_array` for its dtype; the parameters are already checked
     there.  ``given_type`` names the type the caller passed, for the dtype error;
     ``precision``: the dtype the caller's array had (``bfloat16`` before it was read as
-    float32), to which a float array's ``unknown_values`` are rounded."""
-    arr_dtype = array.dtype
+    float32), to which a float array's thresholds and ``unknown_values`` are rounded."""
     if array.dtype == np.uint8:
         return _classify_uint8(
             array,
@@ -87,7 +85,7 @@ def classify_array(
         mode=mode,
         unknown_values=unknown_values,
         given_type=given_type,
-        precision=arr_dtype if precision is None else precision,
+        precision=precision,
     )
 
 
@@ -146,7 +144,8 @@ def _classify_values(
     precision: np.dtype,
 ) -> np.ndarray:
     """Class codes of a bool mask, an OccupancyGrid integer array or a probability array
-    (whose ``unknown_values`` are rounded to ``precision``, the caller's float dtype)."""
+    (whose thresholds and ``unknown_values`` are rounded to ``precision``, the caller's
+    float dtype)."""
     numeric = np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
     if arr.dtype != np.bool_ and not numeric:  # None, a string, complex numbers...
         raise TypeError(
@@ -341,16 +340,6 @@ def _classify_occupancy_grid(
     return codes
 
 
-def thresholds_in_precision(
-    dtype: np.dtype, occupied_thresh: float, free_thresh: float
-) -> tuple[float, float]:
-    """The thresholds rounded to ``dtype`` where it is a float (JAX's ``bfloat16`` too),
-    else as given: a probability map compares with them in its own precision, so that a
-    float32 ``0.196`` is the threshold 0.196 rather than the float just below it."""
-    occ, free = _in_precision(dtype, [occupied_thresh, free_thresh])
-    return occ, free
-
-
 def _in_precision(dtype: np.dtype, values: list[float]) -> list[float]:
     """``values`` rounded to ``dtype`` where it is a float (``bfloat16`` too), else as
     given (an integer dtype, ``int4``)."""
@@ -376,8 +365,9 @@ def _classify_probability(
     unknown_values: Iterable[float] | None,
     precision: np.dtype,
 ) -> np.ndarray:
-    """Classify a float array of occupancy probabilities in [0, 1]; ``unknown_values``
-    match in ``precision`` (as written, 0.1 is float32(0.1) in a float32 array)."""
+    """Classify a float array of occupancy probabilities in [0, 1]; the thresholds and
+    ``unknown_values`` compare in ``precision`` (as written: a float32 ``0.196`` is the
+    threshold 0.196, not the float just below it; 0.1 is float32(0.1))."""
     n_nan = int(np.count_nonzero(np.isnan(arr)))
     if n_nan:
         raise ValueError(
@@ -396,8 +386,8 @@ def _classify_probability(
             f"float array must hold occupancy probabilities in [0, 1]; {n_bad} values are "
             f"outside (min {float(arr.min())!r}, max {float(arr.max())!r})"
         )
-    # The thresholds come rounded to the array's dtype (thresholds_in_precision); float64
-    # comparisons of them with the values are exact.
+    # the thresholds rounded to the array's dtype: float64 comparisons with them are exact
+    occupied_thresh, free_thresh = _in_precision(precision, [occupied_thresh, free_thresh])
     codes = np.full(arr.shape, _UNK, dtype=np.uint8)
     codes[arr < np.float64(free_thresh)] = _FREE
     codes[arr > np.float64(occupied_thresh)] = _OCC

@@ -44,7 +44,6 @@ from .classify import (
     DEFAULT_OCCUPIED_THRESH,
     MODES,
     classify_array,
-    thresholds_in_precision,
 )
 
 __all__ = [
@@ -383,7 +382,6 @@ class OccupancyMap:
                 "array: expected rows of one length (an (H, W) array), received nested "
                 f"sequences of different lengths ({type(array).__name__})"
             ) from None
-        occ_t, free_t = thresholds_in_precision(values.dtype, occ_t, free_t)
         codes = classify_array(
             real_values(values),
             occupied_thresh=occ_t,
