@@ -154,8 +154,10 @@ def _batch(args, manifests: dict[Path, tuple[int, int] | None]) -> int:
         f"{counted(counts['error'], 'error')}, {len(warned)} with a warning; "
         f"{megapixels:.1f} Mpx processed); table: {Path(args.out) / 'summary.csv'}"
     )
-    for r in records:
-        if r.status in ("error", "empty") or r in warned or _was_empty(r):
+    from ..batch.manifest import RESUMED
+
+    for r in records:  # a skipped map with more to say: its earlier warning, or why empty
+        if r.status in ("error", "empty") or r in warned or r.message not in ("", RESUMED):
             print(f"  {r.status:7s}  {r.map}: {r.message}", file=sys.stderr)
     return 1 if counts["error"] else 0
 
@@ -168,14 +170,6 @@ def _warned(record) -> bool:
     if record.status == "skipped":
         return record.message.startswith(f"{RESUMED}; ")
     return record.status == "ok" and bool(record.message)
-
-
-def _was_empty(record) -> bool:
-    """Whether ``record`` is of a map skipped by ``--resume`` whose earlier run found it
-    empty (its message says so and why)."""
-    from ..batch.manifest import RESUMED
-
-    return record.status == "skipped" and record.message.startswith(f"{RESUMED} of an empty")
 
 
 def _as_printed(records: list, args) -> list:
