@@ -368,7 +368,7 @@ def _subfolders_hint(folder: Path) -> str:
     """Where a ``folder`` without results holds some in subfolders (a batch of maps from
     several folders writes each folder's maps into one), a sentence naming them (the
     first 3) and how to view one; else ""."""
-    graphs = (p for suffix in _GRAPH_SUFFIXES for p in folder.rglob(f"*{suffix}"))
+    graphs = (p for p in folder.rglob("*") if p.name.endswith(_GRAPH_SUFFIXES))
     held = sorted({p.parent for p in graphs if p.parent != folder})
     held = [d for d in held if find_results(d)]
     if not held:
