@@ -634,9 +634,8 @@ def test_save_errors(tmp_path: Path):
 def test_an_array_of_values_no_file_holds_is_refused_naming_the_attribute(
     tmp_path: Path, suffix: str, array: np.ndarray
 ):
-    # Arrays are saved as JSON lists; a dtype JSON holds no value of was refused by the
-    # json module without naming the attribute, and a structured array was saved as a
-    # file load_graph then refused.
+    # Arrays are saved as JSON lists: a dtype that JSON holds no value of, or one that
+    # load_graph cannot read back (structured, bfloat16), is refused naming the attribute.
     g = make_graph()
     g.nodes[3]["odd"] = array
     with pytest.raises(TypeError, match=r"^node 3 attribute 'odd': .*cannot be saved"):

@@ -965,8 +965,8 @@ def test_an_empty_pgm_is_named_as_empty(tmp_path):
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
 @pytest.mark.parametrize("name", ["map.pgm", "map.yaml"])
 def test_a_named_pipe_is_refused_as_one_not_read(tmp_path, name):
-    """open_tiled_map of a FIFO waited for a writer for ever. A writer here sends a small
-    map, so that reading the pipe ends: the map must still be refused, as load_map does."""
+    """open_tiled_map refuses a FIFO by name, as load_map does, rather than wait on it for a
+    writer. A writer here sends a small map, so that a reading of the pipe would end."""
     fifo = tmp_path / name
     os.mkfifo(fifo)
     pgm = b"P5\n4 4\n255\n" + bytes([254] * 16)
