@@ -723,7 +723,7 @@ def test_atomic_write_to_a_folder_says_so_and_leaves_nothing(tmp_path: Path):
     folder.mkdir()
     with pytest.raises(IsADirectoryError, match=r"out is a folder: expected a file path"):
         atomic_write_bytes(folder, b"x")
-    with pytest.raises(IsADirectoryError, match="is a folder"):
+    with pytest.raises(IsADirectoryError, match="^path: expected a file name, received the folder"):
         save_graph(make_graph(), folder, format="json")
     # no temporary file left beside it, and the folder is untouched
     assert [p.name for p in tmp_path.iterdir()] == ["out"]

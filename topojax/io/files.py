@@ -17,7 +17,7 @@ from typing import Any, BinaryIO
 
 import networkx as nx
 
-from .._fs import atomic_write
+from .._fs import atomic_write, output_file_in_folder
 from .._validate import existing_file, instance_of, one_of, path_like
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
 from ._stream import _NotJsonCompliant, _write_json
@@ -87,6 +87,7 @@ def save_graph(graph: nx.MultiGraph, path: str | Path, *, format: str | None = N
     """
     p = path_like("path", path)
     fmt = _format_for(p, format)
+    output_file_in_folder(p, name="path")  # before the work
     g = as_multigraph(graph)
     graph_attrs = _graph_attrs_to_save(g)
     schema = _build_schema(g, graph_attrs)

@@ -12,7 +12,7 @@ from pathlib import Path
 import networkx as nx
 import numpy as np
 
-from .._fs import atomic_write
+from .._fs import atomic_write, output_file_in_folder
 from .._validate import instance_of, path_like, pixel_rows, positive_metres, xy_points
 from ..graph import holds, polyline_keep
 from ..graph.geometry import why_empty
@@ -100,6 +100,7 @@ def save_nav2_graph(
     instance_of("frame", frame, str, "non-empty string")
     if not frame:
         raise ValueError(f"frame: expected a non-empty string, received {frame!r}")
+    output_file_in_folder(p, name="path")  # before the work
     g = as_multigraph(graph)
     if g.number_of_edges() == 0:
         raise ValueError(

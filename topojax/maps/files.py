@@ -686,7 +686,7 @@ def save_map(
     """
     import yaml
 
-    from .._fs import atomic_write_bytes
+    from .._fs import atomic_write_bytes, output_file_in_folder
 
     occupancy_map = map_argument("occupancy_map", occupancy_map)
     yp = path_like("yaml_path", yaml_path)
@@ -710,6 +710,7 @@ def save_map(
             raise IsADirectoryError(
                 f"{name}: {target} is a folder; expected a file name to write there"
             )
+        output_file_in_folder(target, name=name)
     img = occupancy_map.to_image()
     h, w = img.shape
     header = (
