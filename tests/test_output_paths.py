@@ -51,3 +51,50 @@ def test_a_missing_folder_is_named_with_the_parameter_and_the_path_given(
     with pytest.raises(NotADirectoryError, match=f"^{name}: "):
         save(tmp_path / "a_file" / file)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+@pytest.mark.parametrize(("save", "name", "file"), WRITERS)
+def test_a_fifo_or_socket_is_not_replaced_by_a_file(tmp_path: Path, save, name: str, file: str):
+    import os
+    import socket
+    import stat
+
+    fifo = tmp_path / file
+    os.mkfifo(fifo)
+    with pytest.raises(
+        ValueError,
+        match=f"^{name}: expected a regular file or a new name, "
+        f"received the FIFO {re.escape(str(fifo))}",
+    ):
+        save(fifo)
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    fifo.unlink()
+    with socket.socket(socket.AF_UNIX) as sock:
+        sock.bind(str(fifo))
+        with pytest.raises(ValueError, match=f"^{name}: .* received the socket "):
+            save(fifo)
+        assert stat.S_ISSOCK(os.lstat(fifo).st_mode)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [file]
+
+
+def test_the_atomic_writer_replaces_only_a_regular_file(tmp_path: Path):
+    import os
+    import stat
+
+    from topojax._fs import atomic_write_bytes
+
+    fifo = tmp_path / "p.bin"
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match=f"cannot write over the FIFO {re.escape(str(fifo))}"):
+        atomic_write_bytes(fifo, b"x")
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert [p.name for p in tmp_path.iterdir()] == ["p.bin"]
+
+
+def test_save_map_names_image_name_for_a_fifo_where_the_image_goes(tmp_path: Path):
+    import os
+
+    os.mkfifo(tmp_path / "m.pgm")
+    with pytest.raises(ValueError, match="^image_name: .* received the FIFO "):
+        tj.save_map(small_map(), tmp_path / "m.yaml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.pgm"]

@@ -10,6 +10,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import BinaryIO
 
+from ._filekind import non_file_kind, the_non_file
 from ._validate import no_file_above, path_like
 
 __all__ = [
@@ -67,7 +68,8 @@ def output_folder(path: str | Path, *, name: str = "out_dir") -> Path:
 
 def output_file(path: str | Path, *, name: str = "path") -> Path:
     """``path`` as a :class:`~pathlib.Path` after checking, before any work, that a file
-    can be written there: it is not a folder (an ``IsADirectoryError``), no folder above
+    can be written there: it is not a folder (an ``IsADirectoryError``) nor anything else
+    that is no regular file (a FIFO, socket or device: a ``ValueError``), no folder above
     it is an existing file (a ``NotADirectoryError``,
     :func:`~topojax._validate.no_file_above`), and the nearest folder above it that
     exists takes a new file (tried with an empty one; an ``OSError`` otherwise: no
@@ -76,6 +78,10 @@ def output_file(path: str | Path, *, name: str = "path") -> Path:
     p = path_like(name, path)
     if p.is_dir():
         raise IsADirectoryError(f"{name}: expected a file name, received the folder {p}")
+    if non_file_kind(p) is not None:  # a FIFO, socket or device: not replaced by a file
+        raise ValueError(
+            f"{name}: expected a regular file or a new name, received {the_non_file(p)} {p}"
+        )
     no_file_above(name, p)
     folder = next(f for f in p.parents if f.is_dir())  # "." or "/" at the latest
     why = (
@@ -126,7 +132,8 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
 def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
     """Write a file atomically: ``write(fh)`` fills a temporary file in the same folder,
     which is flushed, synced and then renamed over ``path`` with :func:`os.replace`;
-    readers never see a partial file (and one that maps the old file keeps it).
+    readers never see a partial file (and one that maps the old file keeps it).  Only a
+    regular file is replaced: a FIFO, socket or device at ``path`` is refused.
 
     Parameters
     ----------
@@ -139,6 +146,10 @@ def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
     if dest.is_dir():
         raise IsADirectoryError(
             f"output file {dest} is a folder: expected a file path such as {dest / 'name'}"
+        )
+    if non_file_kind(dest) is not None:  # os.replace would put a file in its place
+        raise ValueError(
+            f"cannot write over {the_non_file(dest)} {dest}: expected a regular file or a new name"
         )
     folder = dest.parent if str(dest.parent) else Path(".")
     if not folder.is_dir():
