@@ -1341,6 +1341,26 @@ def test_a_yaml_that_is_no_mapping_says_what_it_holds(tmp_path: Path, text: str,
     )
 
 
+@pytest.mark.parametrize(
+    ("text", "key", "lines"),
+    [
+        (
+            "image: m.pgm\nresolution: 0.05\nresolution: 0.1\norigin: [0, 0, 0]\n",
+            "resolution",
+            "2 and 3",
+        ),
+        ("image: a.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nimage: m.pgm\n", "image", "1 and 4"),
+    ],
+)
+def test_a_key_given_twice_in_a_yaml_is_refused_naming_it(tmp_path: Path, text, key, lines):
+    path = _yaml_map(tmp_path, text)
+    with pytest.raises(ValueError) as info:
+        load_map(path)
+    assert str(info.value) == (
+        f"map YAML {path}: key {key!r} is given twice (lines {lines}); expected each key once"
+    )
+
+
 def test_yaml_missing_image_file(tmp_path: Path):
     (tmp_path / "m.yaml").write_text("image: nothere.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n")
     with pytest.raises(FileNotFoundError, match="nothere.pgm"):

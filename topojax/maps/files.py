@@ -39,6 +39,7 @@ from .pnm import (
     read_image,
     resolution_from_pgm_comments,
 )
+from .yaml_keys import DuplicateKeyError, safe_load_unique
 
 __all__ = ["IMAGE_SUFFIXES", "YAML_SUFFIXES", "load_map", "save_map"]
 
@@ -60,7 +61,9 @@ def _load_yaml(path: Path) -> dict[str, Any]:
     except UnicodeDecodeError as exc:
         raise ValueError(f"map YAML {path} is not valid UTF-8 text: {exc}") from None
     try:
-        doc = yaml.safe_load(text)
+        doc = safe_load_unique(text)
+    except DuplicateKeyError as exc:
+        raise ValueError(f"map YAML {path}: {exc}; expected each key once") from None
     except yaml.YAMLError as exc:
         raise ValueError(
             f"map YAML {path} could not be parsed: {_yaml_problem(exc, text)}"
@@ -196,9 +199,9 @@ def load_map(
     ValueError
         For undecodable images, images whose data the decoder reports damaged (a PNG
         checksum, corrupt JPEG data), files of several images (the pages of a TIFF, less
-        reduced-resolution copies; the frames of an animation), malformed YAML, missing
-        or invalid fields, or invalid parameters; the message names the file and the
-        field.
+        reduced-resolution copies; the frames of an animation), malformed YAML (a key given
+        twice included), missing or invalid fields, or invalid parameters; the message
+        names the file and the field.
     MemoryError
         For an image decoded into memory (any but a binary 8-bit PGM, which is
         memory-mapped) whose header gives more pixels than the memory available can
