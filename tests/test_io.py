@@ -462,6 +462,21 @@ def test_unknown_suffix_lists_supported(tmp_path: Path):
         load_graph(tmp_path)
 
 
+def test_load_graph_says_a_symlink_loop_is_one(tmp_path: Path):
+    loop = tmp_path / "loop.json"
+    loop.symlink_to("loop.json")
+    with pytest.raises(ValueError) as info:
+        load_graph(loop)
+    assert str(info.value) == f"path: expected a file, received {loop}, a loop of symbolic links"
+    dangling = tmp_path / "dangling.json"
+    dangling.symlink_to("gone.json")
+    with pytest.raises(FileNotFoundError) as info:
+        load_graph(dangling)
+    assert str(info.value) == (
+        f"path: file not found: {dangling} (a symbolic link to gone.json, which does not exist)"
+    )
+
+
 def test_load_errors(tmp_path: Path):
     with pytest.raises(FileNotFoundError, match="missing.json"):
         load_graph(tmp_path / "missing.json")

@@ -1494,3 +1494,18 @@ def test_opencv_log_level_is_restored_after_overlapping_reads(tmp_path):
     with ThreadPoolExecutor(4) as pool:
         list(pool.map(read, range(40)))
     assert cv2.utils.logging.getLogLevel() == before != cv2.utils.logging.LOG_LEVEL_SILENT
+
+
+def test_a_symlink_loop_or_a_dangling_link_says_what_it_is(tmp_path: Path):
+    loop = tmp_path / "loop.yaml"
+    loop.symlink_to("loop.yaml")
+    with pytest.raises(ValueError) as info:
+        load_map(loop)
+    assert str(info.value) == f"map path is not a file: {loop} is a loop of symbolic links"
+    dangling = tmp_path / "dangling.pgm"
+    dangling.symlink_to("gone.pgm")
+    with pytest.raises(FileNotFoundError) as info:
+        load_map(dangling)
+    assert str(info.value) == (
+        f"map file not found: {dangling} (a symbolic link to gone.pgm, which does not exist)"
+    )

@@ -3,11 +3,15 @@ the readers that expect a file."""
 
 from __future__ import annotations
 
+import errno
 import os
 import stat
 from pathlib import Path
 
-__all__ = ["non_file_kind", "the_non_file"]
+__all__ = ["LOOP", "broken_link", "missing_file_error", "non_file_kind", "the_non_file"]
+
+#: What :func:`broken_link` calls a link that leads back to itself.
+LOOP = "a loop of symbolic links"
 
 
 def the_non_file(path: str | Path) -> str:
@@ -34,3 +38,29 @@ def non_file_kind(path: str | Path) -> str | None:
         (stat.S_ISBLK, "a block device"),
     )
     return next((kind for test, kind in kinds if test(mode)), "no regular file")
+
+
+def broken_link(path: str | Path) -> str | None:
+    """What ``path`` is when it is a symbolic link that reaches no file: :data:`LOOP`, or
+    "a symbolic link to TARGET, which does not exist"; None otherwise (for a path that is
+    not there, "not found" is then the truth)."""
+    try:
+        os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return LOOP
+        if os.path.islink(path):
+            return f"a symbolic link to {os.readlink(path)}, which does not exist"
+    except ValueError:  # a NUL in the path
+        pass
+    return None
+
+
+def missing_file_error(name: str, path: str | Path) -> Exception:
+    """The error for parameter ``name``'s ``path``, where no file is found: a ValueError
+    for a loop of symbolic links, else a FileNotFoundError (naming where a dangling link
+    leads)."""
+    link = broken_link(path)
+    if link == LOOP:
+        return ValueError(f"{name}: expected a file, received {path}, {LOOP}")
+    return FileNotFoundError(f"{name}: file not found: {path}" + (f" ({link})" if link else ""))

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ._filekind import the_non_file
+from ._filekind import missing_file_error, the_non_file
 
 __all__ = [
     "binary_flag",
@@ -613,7 +613,7 @@ def existing_file(name: str, path: Any) -> Path:
     what is there instead (a folder, a FIFO, ...)."""
     p = path_like(name, path)
     if not p.exists():
-        raise FileNotFoundError(f"{name}: file not found: {p}")
+        raise missing_file_error(name, p)
     if not p.is_file():
         raise ValueError(f"{name}: expected a file, received {the_non_file(p)} {p}")
     return p

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from .._cpus import check_fits_memory
-from .._filekind import non_file_kind, the_non_file
+from .._filekind import LOOP, broken_link, non_file_kind, the_non_file
 from .._validate import (
     MAX_RESOLUTION_M,
     MIN_RESOLUTION_M,
@@ -436,6 +436,16 @@ def _pattern_hint(p: Path) -> str:
     )
 
 
+def _refuse_missing(p: Path) -> None:
+    """The error for a map path that reaches no file: a loop of symbolic links is said to
+    be one, a dangling link names where it leads."""
+    link = broken_link(p)
+    if link == LOOP:
+        raise ValueError(f"map path is not a file: {p} is {LOOP}")
+    hint = f" ({link})" if link else _pattern_hint(p)
+    raise FileNotFoundError(f"map file not found: {p}{hint}")
+
+
 def _check_map_path(p: Path, suffix: str) -> None:
     """Refuse a folder, an unsupported suffix, a missing file or one that is not a regular
     file (in that order)."""
@@ -456,13 +466,13 @@ def _check_map_path(p: Path, suffix: str) -> None:
         )
     if suffix not in YAML_SUFFIXES + IMAGE_SUFFIXES:
         if not p.exists():
-            raise FileNotFoundError(f"map file not found: {p}{_pattern_hint(p)}")
+            _refuse_missing(p)
         raise ValueError(
             f"map file {p} has unsupported suffix {p.suffix!r}; expected one of "
             f"{YAML_SUFFIXES + IMAGE_SUFFIXES}"
         )
     if not p.exists():
-        raise FileNotFoundError(f"map file not found: {p}{_pattern_hint(p)}")
+        _refuse_missing(p)
     if not p.is_file():  # opening a FIFO would wait for a writer forever
         raise ValueError(
             f"map path is not a regular file: {p} is {non_file_kind(p) or 'no file'}; give a "
