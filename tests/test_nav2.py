@@ -298,6 +298,8 @@ def test_a_rerun_whose_graph_has_no_edges_leaves_no_nav2_file_of_the_run_before(
         ({"tolerance_m": "0.1"}, TypeError, ["tolerance_m", "'0.1'"]),
         ({"frame": ""}, ValueError, ["frame", "non-empty"]),
         ({"frame": 3}, TypeError, ["frame", "non-empty string", "int"]),
+        ({"frame": "ma\x00p"}, ValueError, ["frame: ", "no control character", r"'ma\x00p'"]),
+        ({"frame": "map\n"}, ValueError, ["frame: ", "no control character", r"'map\n'"]),
     ],
 )
 def test_bad_input(tmp_path, kwargs, exc, words):

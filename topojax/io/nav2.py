@@ -55,7 +55,8 @@ def save_nav2_graph(
     tolerance_m : float
         Largest distance, metres, from a corridor pixel to the waypoint chain (> 0).
     frame : str
-        The nodes' ``frame`` property: the TF frame of the map (``"map"``).
+        The nodes' ``frame`` property: the TF frame of the map (``"map"``); printable
+        text.
 
     Returns
     -------
@@ -67,10 +68,11 @@ def save_nav2_graph(
     TypeError
         A ``tolerance_m`` that is not a number, a ``frame`` that is not a string.
     ValueError
-        A bad ``tolerance_m``, an empty ``frame``, a node or edge without ``world``, an
-        edge whose ``waypoints`` do not run from one of its vertices to the other (the
-        message names the edge, the vertices' positions and the waypoints' ends), or a
-        graph without edges (nav2_route refuses to load one).
+        A bad ``tolerance_m``, an empty ``frame`` or one with a control character, a
+        node or edge without ``world``, an edge whose ``waypoints`` do not run from one
+        of its vertices to the other (the message names the edge, the vertices'
+        positions and the waypoints' ends), or a graph without edges (nav2_route
+        refuses to load one).
 
     Notes
     -----
@@ -98,8 +100,10 @@ def save_nav2_graph(
     p = path_like("path", path)
     tol = positive_metres("tolerance_m", tolerance_m)
     instance_of("frame", frame, str, "non-empty string")
-    if not frame:
-        raise ValueError(f"frame: expected a non-empty string, received {frame!r}")
+    if not frame or not frame.isprintable():  # a NUL or line feed is no TF frame name
+        raise ValueError(
+            f"frame: expected a non-empty string with no control character, received {frame!r}"
+        )
     output_file_in_folder(p, name="path")  # before the work
     g = as_multigraph(graph)
     if g.number_of_edges() == 0:
