@@ -220,12 +220,17 @@ def test_smaller_tolerance_means_more_waypoints(tmp_path):
 def test_graphs_without_clearances_write_strict_json(tmp_path):
     g = skeleton_to_graph(art("#####\n..#..\n..#.."), resolution_m=0.5)
     del g.nodes[0]["kind"]  # missing attributes are left out, not written as null
+    # as are those no nav2_route metadata value holds: None, NaN, infinity
+    g.nodes[1].update(kind=None, clearance_m=float("nan"))
+    g.nodes[2].update(clearance_m=float("inf"))
     path = tj.save_nav2_graph(g, tmp_path / "g.geojson", frame="odom")
     text = path.read_text()
-    assert "NaN" not in text
+    assert "NaN" not in text and "Infinity" not in text
     doc = json.loads(text)
     no_nulls(doc)
-    assert "kind" not in doc["features"][0]["properties"]["metadata"]
+    metadata = [f["properties"]["metadata"] for f in doc["features"][:3]]
+    assert "kind" not in metadata[0] and "kind" not in metadata[1]
+    assert "clearance_m" not in metadata[1] and "clearance_m" not in metadata[2]
     assert {
         f["properties"].get("frame") for f in doc["features"] if "frame" in f["properties"]
     } == {"odom"}

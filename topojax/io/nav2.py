@@ -77,12 +77,15 @@ def save_nav2_graph(
     Notes
     -----
     Metadata values are numbers, strings and lists of them only (nav2_route's loader
-    accepts no ``null``).  Node ids: the graph's vertices with edges (vertices without edges
-    lead nowhere and are left out) are ``0 .. V-1`` in node order (``metadata``:
-    ``vertex``, the topojax node id (an id that is not a number or string, such as a
-    tuple, as its JSON text), ``kind``, ``clearance_m`` and, after
-    :func:`topojax.assign_rooms`, ``room``), then the waypoints
-    (``kind: "waypoint"``); edge ids follow.  Points with equal coordinates, as written
+    accepts no ``null``, strict JSON no NaN): a vertex's ``kind`` is written where it is
+    a string, its ``clearance_m`` where it is a finite number and its ``room`` where it
+    is an int; one of another value (None, NaN, infinity) is left out, as a missing one
+    is, and so are an edge's clearances.  Node ids: the graph's vertices with edges
+    (vertices without edges lead nowhere and are left out) are ``0 .. V-1`` in node
+    order (``metadata``: ``vertex``, the topojax node id (an id that is not a number or
+    string, such as a tuple, as its JSON text), ``kind``, ``clearance_m`` and, after
+    :func:`topojax.assign_rooms`, ``room``), then the waypoints (``kind: "waypoint"``);
+    edge ids follow.  Points with equal coordinates, as written
     (the floats as they are, unrounded), are one node with the edges of all: a waypoint
     where a route graph's edge crosses another or passes a vertex without meeting it (a
     few per map) is the node already there, and a vertex at an earlier vertex's place is
