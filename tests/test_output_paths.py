@@ -98,3 +98,26 @@ def test_save_map_names_image_name_for_a_fifo_where_the_image_goes(tmp_path: Pat
     with pytest.raises(ValueError, match="^image_name: .* received the FIFO "):
         tj.save_map(small_map(), tmp_path / "m.yaml")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.pgm"]
+
+
+@pytest.mark.parametrize(
+    ("save", "name", "file"),
+    [
+        (lambda p: tj.save_graph(small_graph(), p), "path", ".json"),
+        (lambda p: tj.save_graph(small_graph(), p), "path", ".GraphML"),
+        (tj.load_graph, "path", ".geojson"),
+        (lambda p: tj.save_map(small_map(), p), "yaml_path", ".yaml"),
+    ],
+)
+def test_a_file_named_only_by_its_suffix_is_said_to_have_no_stem(
+    tmp_path: Path, save, name: str, file: str
+):
+    path = tmp_path / file
+    if save is tj.load_graph:
+        tj.save_graph(small_graph(), tmp_path / "g.geojson").rename(path)
+    with pytest.raises(ValueError) as info:
+        save(path)
+    assert str(info.value) == (
+        f"{name}: a file named only {file!r} has no stem (the part before the suffix); "
+        f"expected a name such as 'map{file}', received {str(path)!r}"
+    )

@@ -22,6 +22,7 @@ __all__ = [
     "output_file_in_folder",
     "output_folder",
     "refuse_overwriting_inputs",
+    "refuse_suffix_only",
     "yaml_image",
 ]
 
@@ -91,6 +92,17 @@ def output_file(path: str | Path, *, name: str = "path") -> Path:
     )
     _try_writing(folder, f"{name}: cannot write {p}: {why}")
     return p
+
+
+def refuse_suffix_only(name: str, path: Path, suffixes) -> None:
+    """A ValueError naming ``name`` when ``path``'s file name is only one of ``suffixes``
+    (``.json``): to :mod:`pathlib` that is a hidden file without a suffix, and the error
+    would say the suffix is missing."""
+    if path.name.lower() in {s.lower() for s in suffixes}:
+        raise ValueError(
+            f"{name}: a file named only {path.name!r} has no stem (the part before the "
+            f"suffix); expected a name such as 'map{path.name}', received {str(path)!r}"
+        )
 
 
 def output_file_in_folder(path: str | Path, *, name: str = "path") -> Path:

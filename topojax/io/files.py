@@ -17,7 +17,7 @@ from typing import Any, BinaryIO
 
 import networkx as nx
 
-from .._fs import atomic_write, output_file_in_folder
+from .._fs import atomic_write, output_file_in_folder, refuse_suffix_only
 from .._validate import existing_file, instance_of, one_of, path_like
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
 from ._stream import _NotJsonCompliant, _write_json
@@ -34,6 +34,7 @@ def _format_for(path: Path, format: str | None) -> str:
     if format is not None:
         format = instance_of("format", format, str)
         return one_of("format", format.lower().lstrip("."), sorted(GRAPH_FORMATS.values()))
+    refuse_suffix_only("path", path, GRAPH_FORMATS)
     suffix = path.suffix.lower()
     if suffix not in GRAPH_FORMATS:
         raise ValueError(

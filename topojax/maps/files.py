@@ -699,10 +699,11 @@ def save_map(
     """
     import yaml
 
-    from .._fs import atomic_write_bytes, output_file_in_folder
+    from .._fs import atomic_write_bytes, output_file_in_folder, refuse_suffix_only
 
     occupancy_map = map_argument("occupancy_map", occupancy_map)
     yp = path_like("yaml_path", yaml_path)
+    refuse_suffix_only("yaml_path", yp, YAML_SUFFIXES)
     if yp.suffix.lower() not in YAML_SUFFIXES:
         raise ValueError(
             f"yaml_path: expected a name ending in .yaml or .yml, received {str(yp)!r}"
