@@ -999,6 +999,10 @@ def test_a_path_that_is_not_one_is_named_in_the_error():
             call(3)
         with pytest.raises(TypeError, match="received NoneType"):
             call(None)
+    # a NUL is in no path: named, not os's bare "embedded null byte" or "not found"
+    for call in [*_writers().values(), tj.load_map, tj.load_graph, tj.load_rooms]:
+        with pytest.raises(ValueError, match=r"path: expected a path, received one with a NUL"):
+            call("g\x00.json")
 
 
 def test_loading_a_nav2_or_rooms_geojson_as_a_graph_says_what_it_is(tmp_path):

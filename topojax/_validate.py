@@ -572,14 +572,15 @@ def finite_numbers(name: str, value: Any, n: int, what: str) -> tuple[float, ...
 
 def path_like(name: str, value: Any) -> Path:
     """``value`` as a :class:`~pathlib.Path` after checking it is a ``str`` or
-    ``os.PathLike``, and not empty (``Path("")`` is the current folder); a ``TypeError``
-    or ``ValueError`` naming ``name`` otherwise."""
+    ``os.PathLike``, not empty (``Path("")`` is the current folder) and without a NUL; a
+    ``TypeError`` or ``ValueError`` naming ``name`` otherwise."""
     if not isinstance(value, str | os.PathLike):
         raise TypeError(
             f"{name}: expected a path (str or os.PathLike), received {type(value).__name__}"
         )
-    if os.fspath(value) in ("", b""):
-        raise ValueError(f"{name}: expected a path, received an empty one ({value!r})")
+    if not (text := os.fsdecode(value)) or "\0" in text:  # no file is named with a NUL
+        what = "one with a NUL character" if text else "an empty one"
+        raise ValueError(f"{name}: expected a path, received {what} ({value!r})")
     return Path(value)
 
 
