@@ -1458,6 +1458,26 @@ def test_load_map_yaml_image_that_is_a_fifo_is_named_a_fifo(tmp_path: Path, abso
         load_map(tmp_path / "pipe.pgm")
 
 
+@pytest.mark.parametrize("absolute", [False, True])
+def test_load_map_yaml_image_that_is_a_symlink_loop_or_has_a_nul_says_so(tmp_path: Path, absolute):
+    (tmp_path / "loop.pgm").symlink_to("loop.pgm")
+    image = tmp_path / "loop.pgm" if absolute else "loop.pgm"
+    (tmp_path / "m.yaml").write_text(f"image: {image}\nresolution: 0.1\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError) as info:
+        load_map(tmp_path / "m.yaml")
+    assert str(info.value) == (
+        f"map YAML {tmp_path / 'm.yaml'}: field 'image': expected an image file, received "
+        f"{tmp_path / 'loop.pgm'}, a loop of symbolic links"
+    )
+    (tmp_path / "n.yaml").write_text('image: "a\\0.pgm"\nresolution: 0.1\norigin: [0, 0, 0]\n')
+    with pytest.raises(ValueError) as info:
+        load_map(tmp_path / "n.yaml")
+    assert str(info.value) == (
+        f"map YAML {tmp_path / 'n.yaml'}: field 'image': expected a file name without a NUL "
+        "character, received 'a\\x00.pgm'"
+    )
+
+
 def test_load_map_yaml_absolute_image_that_is_a_folder_is_named_a_folder(tmp_path: Path):
     (tmp_path / "img").mkdir()
     (tmp_path / "m.yaml").write_text(

@@ -122,6 +122,8 @@ def _number_text(value: Any) -> Any:
 def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
     if not isinstance(image, str) or not image.strip():
         raise _yaml_error(yaml_path, "image", "a non-empty file name", image)
+    if "\0" in image:  # os would say "embedded null byte", naming no file
+        raise _yaml_error(yaml_path, "image", "a file name without a NUL character", image)
     img = Path(image.strip())
     folder = yaml_path.parent
     if img.is_absolute():
@@ -147,7 +149,11 @@ def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
 
 def _refuse_non_file(yaml_path: Path, image: Path) -> None:
     """A ValueError if ``image`` exists but is no regular file (reading a FIFO would wait
-    for a writer for ever; "not found" would be untrue)."""
+    for a writer for ever; "not found" would be untrue), or a loop of symbolic links."""
+    if broken_link(image) == LOOP:
+        raise ValueError(
+            f"map YAML {yaml_path}: field 'image': expected an image file, received {image}, {LOOP}"
+        )
     if non_file_kind(image) is not None:
         raise ValueError(
             f"map YAML {yaml_path}: field 'image': expected an image file, received "
