@@ -408,6 +408,28 @@ def test_a_folder_named_as_an_output_file_is_refused_before_any_is_written(
     assert sorted(p.name for p in out.iterdir()) == [name]
 
 
+@pytest.mark.parametrize(
+    "command, name",
+    [("graph", "map.json"), ("route-graph", "map_route.json"), ("rooms", "map_rooms.png")],
+)
+def test_a_fifo_named_as_an_output_file_is_refused_before_any_is_written(
+    tmp_path, capsys, command, name
+):
+    """A FIFO in ``-o`` under the name of a file the command writes was found only when
+    that file's turn came, after the files before it were written, and the error named
+    the library's ``path``, not the option."""
+    from topojax.cli import main
+
+    a = _ros_map(tmp_path / "a", wall_col=20)
+    out = tmp_path / "out"
+    out.mkdir()
+    os.mkfifo(out / name)
+    assert main([command, str(a), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"-o/--out: expected to write the file {out / name}, received the FIFO" in err
+    assert sorted(p.name for p in out.iterdir()) == [name]
+
+
 def test_a_route_file_that_cannot_be_written_is_refused_before_the_route(
     tmp_path, capsys, read_only_folder
 ):
