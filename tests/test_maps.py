@@ -1529,3 +1529,15 @@ def test_a_symlink_loop_or_a_dangling_link_says_what_it_is(tmp_path: Path):
     assert str(info.value) == (
         f"map file not found: {dangling} (a symbolic link to gone.pgm, which does not exist)"
     )
+
+
+@pytest.mark.parametrize("name", [".yaml", ".PGM"])
+def test_a_map_file_named_only_by_its_suffix_is_said_to_have_no_stem(tmp_path: Path, name):
+    path = tmp_path / name
+    path.write_text("image: m.pgm\n")
+    with pytest.raises(ValueError) as info:
+        load_map(path)
+    assert str(info.value) == (
+        f"path: a file named only {name!r} has no stem (the part before the suffix); "
+        f"expected a name such as 'map{name}', received {str(path)!r}"
+    )

@@ -13,6 +13,7 @@ import numpy as np
 
 from .._cpus import check_fits_memory
 from .._filekind import LOOP, broken_link, non_file_kind, the_non_file
+from .._fs import refuse_suffix_only
 from .._validate import (
     MAX_RESOLUTION_M,
     MIN_RESOLUTION_M,
@@ -473,6 +474,7 @@ def _check_map_path(p: Path, suffix: str) -> None:
     if suffix not in YAML_SUFFIXES + IMAGE_SUFFIXES:
         if not p.exists():
             _refuse_missing(p)
+        refuse_suffix_only("path", p, YAML_SUFFIXES + IMAGE_SUFFIXES)
         raise ValueError(
             f"map file {p} has unsupported suffix {p.suffix!r}; expected one of "
             f"{YAML_SUFFIXES + IMAGE_SUFFIXES}"
