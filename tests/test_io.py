@@ -477,6 +477,19 @@ def test_load_graph_says_a_symlink_loop_is_one(tmp_path: Path):
     )
 
 
+@pytest.mark.parametrize("suffix", [".json", ".geojson"])
+def test_a_key_given_twice_in_a_json_graph_is_refused_naming_it(tmp_path: Path, suffix: str):
+    path = save_graph(make_graph(), tmp_path / f"g{suffix}")
+    text = path.read_text()
+    key = "type" if suffix == ".geojson" else "nodes"
+    path.write_text(text.rstrip()[:-1] + f', "{key}": []}}')
+    with pytest.raises(ValueError) as info:
+        load_graph(path)
+    assert str(info.value) == (
+        f"graph file {path}: key {key!r} is given twice in one object; expected each key once"
+    )
+
+
 def test_load_errors(tmp_path: Path):
     with pytest.raises(FileNotFoundError, match="missing.json"):
         load_graph(tmp_path / "missing.json")

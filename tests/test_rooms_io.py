@@ -677,3 +677,13 @@ def test_save_room_files_names_a_stem_that_is_no_file_name(seg, stem, error, wor
     with pytest.raises(error) as info:
         save_room_files(seg, stem)
     assert words in str(info.value)
+
+
+def test_a_key_given_twice_in_a_rooms_file_is_refused_naming_it(seg, tmp_path: Path):
+    path = tj.save_rooms(seg, tmp_path / "r.geojson")
+    path.write_text(path.read_text().rstrip()[:-1] + ', "features": []}')
+    with pytest.raises(ValueError) as info:
+        tj.load_rooms(path)
+    assert str(info.value) == (
+        f"rooms file {path}: key 'features' is given twice in one object; expected each key once"
+    )

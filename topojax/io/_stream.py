@@ -83,3 +83,28 @@ def _write_json(fh: BinaryIO, doc: dict[str, Any], *, allow_nan: bool) -> None:
                     pass
         raise
     out.close()
+
+
+class DuplicateKeyError(ValueError):
+    """A JSON object of the document gives ``key`` twice."""
+
+    def __init__(self, key: str) -> None:
+        super().__init__(f"key {key!r} is given twice in one object; expected each key once")
+        self.key = key
+
+
+def _unique_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    doc = dict(pairs)
+    if len(doc) < len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise DuplicateKeyError(key)
+            seen.add(key)
+    return doc
+
+
+def loads_unique(text: str) -> Any:
+    """``json.loads(text)``, raising :class:`DuplicateKeyError` where an object gives a
+    key twice (``json`` keeps the last value silently)."""
+    return json.loads(text, object_pairs_hook=_unique_pairs)

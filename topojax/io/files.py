@@ -20,7 +20,7 @@ import networkx as nx
 from .._fs import atomic_write, output_file_in_folder, refuse_suffix_only
 from .._validate import existing_file, instance_of, one_of, path_like
 from ._schema import _build_schema, _graph_attrs_to_save, as_multigraph
-from ._stream import _NotJsonCompliant, _write_json
+from ._stream import DuplicateKeyError, _NotJsonCompliant, _write_json, loads_unique
 from .geojson import _from_geojson, _to_geojson
 from .graphml import _read_graphml, _write_graphml
 from .nodelink import _from_node_link, _to_node_link
@@ -164,7 +164,9 @@ def load_graph(path: str | Path, *, format: str | None = None) -> nx.MultiGraph:
     if fmt == "graphml":
         return _numbers_checked(_structure_checked(_read_graphml, p, fmt), p)
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
+        doc = loads_unique(p.read_text(encoding="utf-8"))
+    except DuplicateKeyError as exc:
+        raise ValueError(f"graph file {p}: {exc}") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ValueError(f"graph file {p} is not valid JSON: {exc}") from None
     reader: Callable[[Any, Path], nx.MultiGraph]

@@ -23,6 +23,7 @@ from .._validate import (
     pose,
 )
 from ._schema import without_altitude
+from ._stream import DuplicateKeyError, loads_unique
 
 if TYPE_CHECKING:
     from ..rooms import LoadedRooms
@@ -422,7 +423,9 @@ def load_rooms(path: str | Path) -> LoadedRooms:
 
     p = existing_file("path", path)
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
+        doc = loads_unique(p.read_text(encoding="utf-8"))
+    except DuplicateKeyError as exc:
+        raise ValueError(f"rooms file {p}: {exc}") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ValueError(f"rooms file {p} is not valid JSON: {exc}") from None
     if not isinstance(doc, dict) or doc.get("type") != "FeatureCollection":
