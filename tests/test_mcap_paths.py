@@ -25,3 +25,14 @@ def test_graph_names_an_empty_mcap_option(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--mcap: expected a file name ending in .mcap, received an empty path" in err
     assert "'.'" not in err
+
+
+@pytest.mark.parametrize("given", [".mcap", "runs/.MCAP"])
+def test_a_name_that_is_only_the_suffix_is_said_to_have_no_stem(given):
+    with pytest.raises(ValueError) as info:
+        mcap_path(given, name="--mcap")
+    name = given.rpartition("/")[2]
+    assert str(info.value) == (
+        f"--mcap: a file named only {name!r} has no stem (the part before the suffix); "
+        f"expected a name such as 'map{name}', received {given!r}"
+    )

@@ -29,7 +29,7 @@ from .._constants import (
     ROUTE_EDGE_COLOUR,
     VERTEX_KIND_COLOURS,
 )
-from .._fs import output_file
+from .._fs import output_file, refuse_suffix_only
 from .._mcap_records import fill_chunk_crcs
 from .._validate import instance_of, no_file_above, nx_graph, xy_points
 from ..scans.scan import reading_limits
@@ -431,6 +431,7 @@ def mcap_path(path, *, name: str = "path", written: bool = True) -> Path:
             f"{name}: expected a file name ending in .mcap, received {type(path).__name__}"
         ) from None
     if p.suffix.lower() != ".mcap":  # the value as given: Path("") reads "."
+        refuse_suffix_only(name, p, (".mcap",))
         shown = repr(given) if given else "an empty path"
         raise ValueError(f"{name}: expected a file name ending in .mcap, received {shown}")
     if p.is_dir():
