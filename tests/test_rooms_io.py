@@ -687,3 +687,17 @@ def test_a_key_given_twice_in_a_rooms_file_is_refused_naming_it(seg, tmp_path: P
     assert str(info.value) == (
         f"rooms file {path}: key 'features' is given twice in one object; expected each key once"
     )
+
+
+@pytest.mark.parametrize(
+    ("save", "name"),
+    [(tj.save_rooms, ".geojson"), (tj.save_room_labels, ".png"), (tj.save_room_graph, ".json")],
+)
+def test_room_writers_say_a_name_that_is_only_the_suffix_has_no_stem(seg, tmp_path, save, name):
+    with pytest.raises(ValueError) as info:
+        save(seg, tmp_path / name)
+    assert str(info.value) == (
+        f"path: a file named only {name!r} has no stem (the part before the suffix); "
+        f"expected a name such as 'map{name}', received {str(tmp_path / name)!r}"
+    )
+    assert list(tmp_path.iterdir()) == []

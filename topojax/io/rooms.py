@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._fs import atomic_write_bytes, output_file_in_folder
+from .._fs import atomic_write_bytes, output_file_in_folder, refuse_suffix_only
 from .._validate import (
     MAX_RESOLUTION_M,
     MIN_RESOLUTION_M,
@@ -184,6 +184,7 @@ def save_rooms(seg, path: str | Path) -> Path:
     """
     seg = _check_seg(seg)
     p = path_like("path", path)
+    refuse_suffix_only("path", p, (".geojson",))
     if p.suffix.lower() != ".geojson":
         raise ValueError(f"path: expected a .geojson file name, received {str(p)!r}")
     output_file_in_folder(p, name="path")  # before the work
@@ -662,6 +663,7 @@ def save_room_labels(seg, path: str | Path) -> Path:
     import cv2
 
     p = path_like("path", path)
+    refuse_suffix_only("path", p, (".png",))
     if p.suffix.lower() != ".png":
         raise ValueError(f"path: expected a .png file name, received {str(p)!r}")
     output_file_in_folder(p, name="path")  # before the work
@@ -724,6 +726,7 @@ def save_room_graph(seg, path: str | Path) -> Path:
     from .files import save_graph
 
     p = path_like("path", path)
+    refuse_suffix_only("path", p, _GRAPH_SUFFIXES)
     fmt = _GRAPH_SUFFIXES.get(p.suffix.lower())
     if fmt is None:
         raise ValueError(
