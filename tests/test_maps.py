@@ -1521,7 +1521,7 @@ def test_a_symlink_loop_or_a_dangling_link_says_what_it_is(tmp_path: Path):
     loop.symlink_to("loop.yaml")
     with pytest.raises(ValueError) as info:
         load_map(loop)
-    assert str(info.value) == f"map path is not a file: {loop} is a loop of symbolic links"
+    assert str(info.value) == f"map path is not a file: {loop}, a loop of symbolic links"
     dangling = tmp_path / "dangling.pgm"
     dangling.symlink_to("gone.pgm")
     with pytest.raises(FileNotFoundError) as info:

@@ -121,3 +121,26 @@ def test_a_file_named_only_by_its_suffix_is_said_to_have_no_stem(
         f"{name}: a file named only {file!r} has no stem (the part before the suffix); "
         f"expected a name such as 'map{file}', received {str(path)!r}"
     )
+
+
+def test_a_folder_that_is_a_loop_of_symbolic_links_is_named_as_one(tmp_path: Path):
+    loop = tmp_path / "loop"
+    loop.symlink_to("loop")
+    path = loop / "g.json"
+    with pytest.raises(ValueError) as info:
+        tj.save_graph(small_graph(), path)
+    assert str(info.value) == (
+        f"path: expected a file in an existing folder, received {path}, whose folder {loop} "
+        "is a loop of symbolic links"
+    )
+    with pytest.raises(ValueError) as info:
+        tj.load_graph(path)
+    assert str(info.value) == (
+        f"path: expected a file, received {path}, whose folder {loop} is a loop of symbolic links"
+    )
+    with pytest.raises(ValueError) as info:
+        tj.load_map(loop / "m.yaml")
+    assert str(info.value) == (
+        f"map path is not a file: {loop / 'm.yaml'}, whose folder {loop} is a loop of "
+        "symbolic links"
+    )

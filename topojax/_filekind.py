@@ -8,7 +8,7 @@ import os
 import stat
 from pathlib import Path
 
-__all__ = ["LOOP", "broken_link", "missing_file_error", "non_file_kind", "the_non_file"]
+__all__ = ["LOOP", "broken_link", "loop_in", "missing_file_error", "non_file_kind", "the_non_file"]
 
 #: What :func:`broken_link` calls a link that leads back to itself.
 LOOP = "a loop of symbolic links"
@@ -41,18 +41,30 @@ def non_file_kind(path: str | Path) -> str | None:
 
 
 def broken_link(path: str | Path) -> str | None:
-    """What ``path`` is when it is a symbolic link that reaches no file: :data:`LOOP`, or
-    "a symbolic link to TARGET, which does not exist"; None otherwise (for a path that is
-    not there, "not found" is then the truth)."""
+    """What ``path`` is when it reaches no file through symbolic links: ", a loop of
+    symbolic links" or ", whose folder F is a loop of symbolic links" (to follow the
+    path in a message), or " (a symbolic link to TARGET, which does not exist)"; None
+    otherwise (for a path that is not there, "not found" is then the truth)."""
     try:
         os.stat(path)
     except OSError as exc:
         if exc.errno == errno.ELOOP:
-            return LOOP
+            loop = loop_in(path)
+            return f", {LOOP}" if loop is None else f", whose folder {loop} is {LOOP}"
         if os.path.islink(path):
-            return f"a symbolic link to {os.readlink(path)}, which does not exist"
+            return f" (a symbolic link to {os.readlink(path)}, which does not exist)"
     except ValueError:  # a NUL in the path
         pass
+    return None
+
+
+def loop_in(path: str | Path) -> Path | None:
+    """The first folder above ``path`` that is a loop of symbolic links, or None."""
+    for folder in reversed(Path(path).parents):
+        try:
+            os.stat(folder)
+        except OSError as exc:
+            return folder if exc.errno == errno.ELOOP else None
     return None
 
 
@@ -61,6 +73,6 @@ def missing_file_error(name: str, path: str | Path) -> Exception:
     for a loop of symbolic links, else a FileNotFoundError (naming where a dangling link
     leads)."""
     link = broken_link(path)
-    if link == LOOP:
-        return ValueError(f"{name}: expected a file, received {path}, {LOOP}")
-    return FileNotFoundError(f"{name}: file not found: {path}" + (f" ({link})" if link else ""))
+    if link is not None and LOOP in link:
+        return ValueError(f"{name}: expected a file, received {path}{link}")
+    return FileNotFoundError(f"{name}: file not found: {path}{link or ''}")

@@ -10,7 +10,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import BinaryIO
 
-from ._filekind import non_file_kind, the_non_file
+from ._filekind import LOOP, loop_in, non_file_kind, the_non_file
 from ._validate import no_file_above, path_like
 
 __all__ = [
@@ -109,6 +109,11 @@ def output_file_in_folder(path: str | Path, *, name: str = "path") -> Path:
     """:func:`output_file`, and ``path``'s folder exists (a ``FileNotFoundError`` naming
     ``name`` otherwise): for writers that make no folders, checked before their work."""
     p = output_file(path, name=name)
+    if (loop := loop_in(p)) is not None:
+        raise ValueError(
+            f"{name}: expected a file in an existing folder, received {p}, whose folder "
+            f"{loop} is {LOOP}"
+        )
     if not p.parent.is_dir():
         raise FileNotFoundError(
             f"{name}: expected a file in an existing folder, received {p}, whose folder "

@@ -151,9 +151,10 @@ def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
 def _refuse_non_file(yaml_path: Path, image: Path) -> None:
     """A ValueError if ``image`` exists but is no regular file (reading a FIFO would wait
     for a writer for ever; "not found" would be untrue), or a loop of symbolic links."""
-    if broken_link(image) == LOOP:
+    link = broken_link(image)
+    if link is not None and LOOP in link:
         raise ValueError(
-            f"map YAML {yaml_path}: field 'image': expected an image file, received {image}, {LOOP}"
+            f"map YAML {yaml_path}: field 'image': expected an image file, received {image}{link}"
         )
     if non_file_kind(image) is not None:
         raise ValueError(
@@ -447,9 +448,9 @@ def _refuse_missing(p: Path) -> None:
     """The error for a map path that reaches no file: a loop of symbolic links is said to
     be one, a dangling link names where it leads."""
     link = broken_link(p)
-    if link == LOOP:
-        raise ValueError(f"map path is not a file: {p} is {LOOP}")
-    hint = f" ({link})" if link else _pattern_hint(p)
+    if link is not None and LOOP in link:
+        raise ValueError(f"map path is not a file: {p}{link}")
+    hint = link or _pattern_hint(p)
     raise FileNotFoundError(f"map file not found: {p}{hint}")
 
 
