@@ -439,3 +439,14 @@ def test_damaged_waypoint_files_are_refused_naming_them(tmp_path):
     (tmp_path / "graph_store.json").write_text(json.dumps({**desc, "arrays": lines}))
     with pytest.raises(ValueError, match=r"one graph store: waypoints: expected shape \(6, 2\)"):
         tj.load_graph_store(tmp_path)
+
+
+def test_a_key_given_twice_in_the_description_is_refused_naming_it(tmp_path):
+    tj.save_graph_store(FIXTURES[1][3], tmp_path)
+    desc = tmp_path / "graph_store.json"
+    desc.write_text(desc.read_text().rstrip()[:-1] + ', "attrs": {}}')
+    with pytest.raises(ValueError) as info:
+        tj.load_graph_store(tmp_path)
+    assert str(info.value) == (
+        f"{desc}: key 'attrs' is given twice in one object; expected each key once"
+    )

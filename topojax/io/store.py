@@ -29,6 +29,7 @@ from .._npy import check_npy_size, load_npy
 from .._validate import flag, instance_of, path_like
 from ..graph.store import GraphStore
 from ._schema import _collect_schema, _decode_attrs, jsonable
+from ._stream import DuplicateKeyError, loads_unique
 
 __all__ = ["STORE_FILE", "load_graph_store", "save_graph_store", "write_store"]
 
@@ -154,7 +155,9 @@ def load_graph_store(folder, *, mmap: bool = True) -> GraphStore:
             f"received {folder}" + (", which does not exist" if not folder.exists() else "")
         )
     try:
-        doc = json.loads(desc.read_text(encoding="utf-8"))
+        doc = loads_unique(desc.read_text(encoding="utf-8"))
+    except DuplicateKeyError as exc:
+        raise ValueError(f"{desc}: {exc}") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"{desc}: expected a graph store's description, not JSON: {exc}") from None
     if not isinstance(doc, dict) or doc.get("format") != _FORMAT:
