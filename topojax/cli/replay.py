@@ -241,6 +241,14 @@ _OPTION_OF = {
     "resume": "--resume",
     "max_extent_m": "--max-extent-m",
     "checkpoint_every_s": "--checkpoint-every",
+    # the readers' options (``laser`` is also a word of their messages)
+    "max_range_m": "--max-range",
+    "scan_topic": "--scan-topic",
+    "pose_topic": "--pose-topic",
+    "allow_missing_pose": "--allow-missing-pose",
+    "tf_parent": "--tf-parent",
+    "base_frame": "--base-frame",
+    "sensor_offset": "--sensor-offset",
 }
 #: The advice of the mapper's refusals of a scan beyond ``max_extent_m`` that names
 #: settings this command has no option for (the mapper's tiles) or that it sets with an
@@ -259,6 +267,12 @@ _ADVICE = {
     "max_extent_m, --max-extent-m in topojax replay": "max_extent_m",
     "; --max-extent-m in topojax replay)": ")",
     "the kind laser=": "the kind --laser ",  # a CARMEN log without the lines asked for
+    # the readers' advice, keyword values as the options take them
+    "allow_missing_pose=True": "--allow-missing-pose",
+    "sensor_offset=(x_m, y_m, yaw_rad)": "--sensor-offset X Y YAW",
+    "base_frame= (": "--base-frame (",
+    "tf_parent='odom' or 'map', or pose_topic=)": "--tf-parent odom or map, or --pose-topic)",
+    "choose one with pose_topic=": "choose one with --pose-topic",
 }
 
 

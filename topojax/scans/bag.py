@@ -370,9 +370,8 @@ def _choose_pose_source(
         return "none", None
     raise ValueError(
         f"{p} has no pose source (no tf topic and no {', '.join(_POSE_TYPES)} topic); "
-        f"topics: {listing}. Pass allow_missing_pose=True (topojax replay "
-        "--allow-missing-pose) to read the scans with the identity pose (0, 0, 0), or "
-        "pose_topic (--pose-topic)."
+        f"topics: {listing}. Pass allow_missing_pose=True to read the scans with the identity "
+        "pose (0, 0, 0), or pose_topic."
     )
 
 
@@ -574,8 +573,8 @@ class _ScanPoses:
         elif pose_body is None:
             raise ValueError(
                 f"pose_topic: {pose_topic!r} in {path} does not name the robot frame; pass "
-                f"base_frame= (to look the laser mounting up in tf) or sensor_offset= "
-                "(--base-frame, --sensor-offset in topojax replay)"
+                "base_frame= (to look the laser mounting up in tf) or sensor_offset=(x_m, y_m, "
+                "yaw_rad)"
             )
         elif (
             pose_body in self.frames
@@ -587,8 +586,7 @@ class _ScanPoses:
             raise ValueError(
                 f"sensor_offset: the pose topic {pose_topic!r} gives the pose of frame "
                 f"{pose_body!r} but tf in {path} does not connect it to the scan frame "
-                f"{frame!r}; pass sensor_offset=(x_m, y_m, yaw_rad) (topojax replay "
-                "--sensor-offset X Y YAW)"
+                f"{frame!r}; pass sensor_offset=(x_m, y_m, yaw_rad)"
             )
         return robot, offset
 
@@ -606,7 +604,7 @@ class _ScanPoses:
             raise ValueError(
                 f"tf_parent: no tf chain from {parent_frame!r} to the scan frame {frame!r} in "
                 f"{path}; tf frames: {sorted(frames)} (try tf_parent='odom' or 'map', or "
-                f"pose_topic=; --tf-parent, --pose-topic in topojax replay)"
+                "pose_topic=)"
             )
         chain = self.tree.ancestors(frame)
         if base_frame is not None:
