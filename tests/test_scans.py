@@ -378,17 +378,23 @@ def test_carmen_max_range_sentinel(tmp_path):
         read_carmen(path, max_range_m=-1.0)
 
 
-def test_a_log_of_only_zero_readings_says_which_option_sets_the_max_range(tmp_path):
+def test_a_log_of_only_zero_readings_says_which_option_sets_the_max_range(tmp_path, capsys):
     """Readings all 0 leave no no-return value above the margin: the refusal says how to
     give the range, in the API and on the command line."""
     path = tmp_path / "zeros.log"
     path.write_text("".join(_flaser([0.0] * 5, (i, 0, 0)) for i in range(3)))
     with (
         pytest.warns(UserWarning, match="taken as the FLASER no-return value"),
-        pytest.raises(ValueError, match=r"pass max_range_m \(topojax replay --max-range\)$"),
+        pytest.raises(ValueError, match=r"is not positive; pass max_range_m$"),
     ):
         list(read_carmen(path))
     assert len(list(read_carmen(path, max_range_m=10.0))) == 3
+    from topojax.cli import main
+
+    assert main(["replay", str(path), "-o", str(tmp_path / "o"), "--no-progress"]) != 0
+    said = capsys.readouterr().err
+    assert said.count("give --max-range") == 2  # the warning and the error
+    assert "max_range_m" not in said
 
 
 def test_one_faulty_reading_does_not_set_the_no_return_value(tmp_path):
@@ -620,7 +626,7 @@ def test_a_carmen_log_whose_every_laser_line_is_skipped_as_malformed_is_refused(
             with pytest.raises(
                 ValueError,
                 match=rf"^{re.escape(str(path))}: no scan to read: \d malformed {kind} line\(s\) "
-                r"skipped \(bad_lines='skip', --skip-bad-lines\), the first on line 1: range reading: not a "
+                r"skipped \(bad_lines='skip'\), the first on line 1: range reading: not a "
                 r"number .*" + expected.format(kind),
             ):
                 list(read_carmen(path, bad_lines="skip", **kw))
@@ -634,6 +640,25 @@ def test_a_carmen_log_whose_every_laser_line_is_skipped_as_malformed_is_refused(
             + expected.format("FLASER"),
         ):
             list(read_carmen(path, bad_lines="skip", **kw))
+
+
+def test_replay_names_its_option_for_skipping_malformed_carmen_lines(tmp_path, capsys):
+    """A malformed laser line stops ``topojax replay`` with the option that skips it,
+    and a log of nothing else says the option skipped them: no API keyword either time."""
+    from topojax.cli import main
+
+    path = tmp_path / "bad.log"
+    path.write_text(_flaser([1, 2, 3, 4], (0, 0, 0)) + "FLASER 4 1 2 abc 4 0 0 0 0 0 0 1 h 1\n")
+    argv = ["replay", str(path), "-o", str(tmp_path / "o"), "--no-progress", "--max-range", "9"]
+    assert main(argv) != 0
+    said = capsys.readouterr().err
+    assert "(--skip-bad-lines skips such lines with a warning)" in said
+    assert "bad_lines" not in said
+    path.write_text("FLASER 4 1 2 abc 4 0 0 0 0 0 0 1 h 1\n")
+    assert main([*argv, "--skip-bad-lines"]) != 0
+    said = capsys.readouterr().err
+    assert "malformed FLASER line(s) skipped (--skip-bad-lines)" in said
+    assert "bad_lines" not in said
 
 
 def test_a_carmen_log_without_a_line_of_the_kind_asked_for_is_refused(tmp_path):
@@ -968,8 +993,7 @@ def test_carmen_laser_selection(tmp_path):
         assert len(list(read_carmen(path))) == 2
     assert [str(w.message) for w in caught] == [
         f"{path}: read the FLASER lines, the first laser kind in the log; it also holds "
-        "lines of other kinds, not read: 1 RLASER (pass laser=..., topojax replay --laser, "
-        "to read another)"
+        "lines of other kinds, not read: 1 RLASER (pass laser=... to read another)"
     ]
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # asked for by name: the other kinds are not wanted
@@ -996,6 +1020,8 @@ def test_replay_reads_the_carmen_laser_it_is_asked_for(tmp_path, capsys):
     assert main([*argv, "-o", str(tmp_path / "front")]) == 0
     captured = capsys.readouterr()
     assert "4 scans" in captured.out and "not read: 4 RLASER" in captured.err
+    assert "(give --laser KIND to read another)" in captured.err
+    assert "laser=" not in captured.err
     rear, front = ((tmp_path / d / "map.pgm").read_bytes() for d in ("rear", "front"))
     assert rear != front
     # a kind the log does not hold is refused under the option's name

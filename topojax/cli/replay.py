@@ -193,13 +193,13 @@ def _cmd_replay(args) -> int:
 @contextlib.contextmanager
 def _warnings_in_words():
     """Within ``with``, the warnings of :func:`topojax.replay` shown in this command's
-    words: how to continue a stopped replay names ``--resume``, not ``resume=True``."""
+    words: how to continue a stopped replay names ``--resume``, not ``resume=True``, and
+    the readers' advice its options as :data:`_ADVICE` words them."""
     from .._replay_state import RESUME_ADVICE
 
     shown = warnings.showwarning
-    words = {
-        f"(replay again with {RESUME_ADVICE})": "(the same command with --resume continues from it)"
-    }
+    resume = "(the same command with --resume continues from it)"
+    words = {f"(replay again with {RESUME_ADVICE})": resume, **_ADVICE}
 
     def show(message, category, filename, lineno, file=None, line=None):
         text = str(message)
@@ -273,6 +273,9 @@ _ADVICE = {
     "base_frame= (": "--base-frame (",
     "tf_parent='odom' or 'map', or pose_topic=)": "--tf-parent odom or map, or --pose-topic)",
     "choose one with pose_topic=": "choose one with --pose-topic",
+    "pass max_range_m": "give --max-range",
+    "(pass laser=... to read another)": "(give --laser KIND to read another)",
+    "bad_lines='skip'": "--skip-bad-lines",
 }
 
 

@@ -298,7 +298,7 @@ def _warn_if_no_sentinel(
         warnings.warn(
             f"{path}: {best} m is taken as the {laser} no-return value, "
             f"so readings from {best - margin:.4g} m up are dropped: {dropped} of {total}; "
-            "if the log has no no-return value, pass max_range_m (topojax replay --max-range)",
+            "if the log has no no-return value, pass max_range_m",
             stacklevel=3,
         )
 
@@ -310,7 +310,7 @@ def _warn_if_faulty(path: Path, laser: str, faulty: np.ndarray, sentinel: float)
         warnings.warn(
             f"{path}: readings above the log's no-return value {sentinel} m (up to "
             f"{faulty.max():.6g} m) in {faulty.size} {laser} scan(s) are taken as faulty and "
-            "dropped (pass max_range_m, topojax replay --max-range, to keep them)",
+            "dropped (pass max_range_m to keep them)",
             stacklevel=3,
         )
 
@@ -467,7 +467,7 @@ def _iter_carmen(
         if range_max_old <= 0:
             raise ValueError(
                 f"{path}: {chosen} no-return value {file_max} m minus no_return_margin_m "
-                f"{margin} m is not positive; pass max_range_m (topojax replay --max-range)"
+                f"{margin} m is not positive; pass max_range_m"
             )
     odom = _OdomPoses(path, chosen, params, offset_override)
     skipped = 0
@@ -560,8 +560,8 @@ def _warn_unread(path: Path, chosen: str, garbled: _Tally, others: Counter) -> N
         each = ", ".join(f"{n} {kind}" for kind, n in sorted(others.items()))
         warnings.warn(
             f"{path}: read the {chosen} lines, the first laser kind in the log; it also "
-            f"holds lines of other kinds, not read: {each} (pass laser=..., topojax "
-            "replay --laser, to read another)",
+            f"holds lines of other kinds, not read: {each} (pass laser=... to read "
+            "another)",
             stacklevel=3,
         )
 
@@ -602,8 +602,7 @@ def _no_scan(
         )
     if bad[0]:
         reasons.append(
-            f"{bad[0]} malformed {chosen} line(s) skipped (bad_lines='skip', --skip-bad-lines), "
-            f"the first on {bad[1]}"
+            f"{bad[0]} malformed {chosen} line(s) skipped (bad_lines='skip'), the first on {bad[1]}"
         )
     if before_odom:
         reasons.append(
@@ -639,8 +638,8 @@ def _warn_of_a_cut(
 
 def _malformed(path: Path, lineno: int, key: str, err: Exception) -> ValueError:
     return ValueError(
-        f"{path}:{lineno}: malformed {key} line: {err} (bad_lines='skip', or "
-        "--skip-bad-lines in topojax replay, skips such lines with a warning)"
+        f"{path}:{lineno}: malformed {key} line: {err} (bad_lines='skip' skips such lines "
+        "with a warning)"
     )
 
 
@@ -680,8 +679,7 @@ class _OdomPoses:
             return mounting("PARAM robot_frontlaser_*", vals)
         raise ValueError(
             f"{self.path}: {self.chosen} lines carry no pose and the log does not say where "
-            f"this laser is mounted; pass sensor_offset=(x_m, y_m, yaw_rad) (topojax replay "
-            "--sensor-offset X Y YAW)"
+            f"this laser is mounted; pass sensor_offset=(x_m, y_m, yaw_rad)"
         )
 
     def pose(self) -> tuple[float, float, float]:
