@@ -2881,7 +2881,7 @@ def test_replay_of_a_map_too_large_to_write_keeps_the_mapper_state(tmp_path):
     the mapper's state, and its error says where and how to skip the scans that grew
     the map."""
     out = tmp_path / "out"
-    with pytest.raises(ValueError, match=r"max_export_bytes=20000\b.*saved to .*--max-extent-m"):
+    with pytest.raises(ValueError, match=r"max_export_bytes=20000\b.*saved to .*max_extent_m"):
         replay(INTEL_EXCERPT, out_dir=out, progress=False, max_export_bytes=20_000)
     state = out / "mapper_state.npz"
     loaded = IncrementalMapper.load(state)
@@ -2925,6 +2925,8 @@ def test_replay_of_a_map_too_large_to_write_names_the_scans_it_skipped(tmp_path,
     n = int(re.search(r"skipped (\d+) of the 40 scans", str(err.value))[1])
     assert 0 < n < 40 and IncrementalMapper.load(out / "mapper_state.npz").n_scans == 40 - n
     assert "; the first: scan " in str(err.value)
+    assert "a smaller max_extent_m (now 50 m) to skip" in str(err.value)
+    assert "--" not in str(err.value) and "topojax replay" not in str(err.value)
     (out / "mapper_state.npz").unlink()
     args = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--no-progress"]
     with pytest.MonkeyPatch.context() as mp:
@@ -2934,6 +2936,7 @@ def test_replay_of_a_map_too_large_to_write_names_the_scans_it_skipped(tmp_path,
     text = capsys.readouterr().err
     assert f"skipped {n} of the 40 scans" in text and "beyond --max-extent-m=50 m" in text
     assert "a smaller --max-extent-m (now 50 m) to skip" in text
+    assert "max_extent_m" not in text and "topojax replay)" not in text
 
 
 def test_replay_stopped_part_way_keeps_the_mapper_state(tmp_path):

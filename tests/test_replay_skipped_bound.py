@@ -94,7 +94,7 @@ def test_a_long_skipping_replay_keeps_the_first_refusals_and_the_latest(far):
     total = NEAR + FAR + AFTER
     assert line.startswith(
         f"skipped {FAR} of {total} scans, each refused as beyond the mapper's bounds "
-        "(max_extent_m, --max-extent-m in topojax replay) and not mapped; "
+        "(max_extent_m) and not mapped; "
     )
     assert (
         f"the refusals of the first {KEPT_REFUSALS} and of the latest "

@@ -74,10 +74,10 @@ def skipped_message(progress: ReplayProgress) -> list[str]:
 
 
 #: The mapper's bounds a refusal may meet (:attr:`ExtentError.bound`) that the summary
-#: names, in its order, each as it names it (with the option of ``topojax replay`` that
-#: sets it, where it has one); pixels beyond 2^30 px from the origin are no setting.
+#: names, in its order, each as it names it (``topojax replay`` names its option);
+#: pixels beyond 2^30 px from the origin are no setting.
 _BOUNDS = {
-    "max_extent_m": "max_extent_m, --max-extent-m in topojax replay",
+    "max_extent_m": "max_extent_m",
     "max_tile_bytes": "max_tile_bytes",
     "max_grid_cells": "max_grid_cells",
 }
@@ -85,7 +85,7 @@ _BOUNDS = {
 
 def _bounds_met(bounds) -> str:
     """The settings among the ``bounds`` the refusals met (any collection of names),
-    as ``" (max_extent_m, --max-extent-m in topojax replay; max_tile_bytes)"``; ""
+    as ``" (max_extent_m; max_tile_bytes)"``; ""
     where none is a setting (pixels beyond 2^30 px from the origin, or not known)."""
     met = [name for bound, name in _BOUNDS.items() if bound in bounds]
     return f" ({'; '.join(met)})" if met else ""

@@ -582,8 +582,8 @@ def _unwritable(mapper, exc: ExportBudgetError, out: Path, record: dict, progres
         f"{exc}. The map of the {counted(mapper.n_scans, 'scan')} mapped is too large to export "
         f"whole; the mapper's state is saved to {path} (IncrementalMapper.load; export "
         "windows of it with occupancy_window). A pose far off (a localisation glitch)? "
-        f"Replay with a smaller max_extent_m (now {mapper.max_extent_m:g} m; --max-extent-m in "
-        f"topojax replay) to skip such scans. To write it, replay again with resume=True "
+        f"Replay with a smaller max_extent_m (now {mapper.max_extent_m:g} m) to skip such "
+        "scans. To write it, replay again with resume=True "
         f"and a larger max_export_bytes.{skipped_note(progress_at)}"
     )
 

@@ -264,8 +264,6 @@ _ADVICE = {
     "replay again with resume=True and a larger max_export_bytes": (
         "replay again with --resume and a larger --max-export-mb"
     ),
-    "max_extent_m, --max-extent-m in topojax replay": "max_extent_m",
-    "; --max-extent-m in topojax replay)": ")",
     "the kind laser=": "the kind --laser ",  # a CARMEN log without the lines asked for
     # the readers' advice, keyword values as the options take them
     "allow_missing_pose=True": "--allow-missing-pose",
