@@ -731,6 +731,30 @@ def test_replay_refuses_a_route_graph_radius_too_small_for_its_grid_before_mappi
         tj.replay(log, out_dir=tmp_path / "api", route_graph_radius_m=2000.0)
 
 
+def test_replay_blames_a_map_too_coarse_for_its_route_graph_on_the_resolution(
+    tmp_path, monkeypatch, capsys
+):
+    """A replay builds its route graph with the default snap_m, which neither the API nor
+    the command sets: a map too coarse for it is refused under the resolution, with the
+    coarsest it takes, never as a snap_m the caller did not give."""
+    from topojax.cli import main
+
+    def no_scan(self, scan):
+        raise AssertionError("a scan was mapped before the map's scale was checked")
+
+    monkeypatch.setattr(tj.IncrementalMapper, "add_scan", no_scan)
+    log = "tests/data/intel_first40.log.gz"
+    expected = r"^resolution_m: expected at most 0\.6 m per pixel for a route graph, received 1:"
+    with pytest.raises(ValueError, match=expected) as info:
+        tj.replay(log, out_dir=tmp_path / "api", route_graph_radius_m=2.0, resolution_m=1.0)
+    assert "snap_m" not in str(info.value)
+    argv = ["replay", log, "-o", str(tmp_path / "cli"), "--no-progress", "--resolution", "1"]
+    assert main([*argv, "--route-graph", "2"]) == 2
+    said = capsys.readouterr().err
+    assert "--resolution: expected at most 0.6 m per pixel for a route graph" in said
+    assert "snap_m" not in said and "resolution_m" not in said
+
+
 def _crossings(g: nx.MultiGraph, near_px: float = R / RES) -> int:
     """Pixels on two different edges' paths farther than ``near_px`` (the robot radius)
     from every vertex."""

@@ -232,7 +232,7 @@ def _replay_checked(
         from .routegraph.build import RouteGraphConfig, check_scale
 
         config = RouteGraphConfig(robot_radius_m=route_graph_radius_m)
-        check_scale(config, mapper.resolution_m, "route_graph_radius_m")
+        check_scale(config, mapper.resolution_m, "route_graph_radius_m", snap_name=None)
     retired = [] if resume else retire_earlier_replay(out)  # its options all checked
     with open_recording(mcap, kept.mcap) as recorder:
         done = _map_scans(

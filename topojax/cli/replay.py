@@ -77,6 +77,7 @@ def _check_numbers(args) -> None:
             RouteGraphConfig(robot_radius_m=radius),
             args.resolution,
             "--route-graph",
+            snap_name=None,  # the default snap_m, which the command has no option for
             resolution_name="--resolution",
         )
 

@@ -435,14 +435,14 @@ def check_scale(
     cfg: RouteGraphConfig,
     res: float,
     radius_name: str = "robot_radius_m",
-    snap_name: str = "snap_m",
+    snap_name: str | None = "snap_m",
     resolution_name: str = "resolution_m",
 ) -> None:
     """Refuse a robot radius, a ``snap_m`` or a ``shortcut_spacing_m`` too small for a map
     of ``res`` metres per pixel (see MIN_RADIUS_PX and MIN_REACH_PX; a spacing between 0
     and one pixel), and a map so coarse that no radius or no snap_m fits
     (:func:`_too_coarse`); the errors name ``radius_name``, ``snap_name`` and
-    ``resolution_name``."""
+    ``resolution_name`` (``snap_name`` None: a caller that cannot set ``snap_m``)."""
     _too_coarse(cfg, res, snap_name, resolution_name)
     if cfg.robot_radius_m / res < MIN_RADIUS_PX - _ROUNDING_PX:
         raise ValueError(
@@ -472,19 +472,27 @@ def _least_snap_m(cfg: RouteGraphConfig, res: float) -> float:
     return cfg.waypoint_tolerance_m + MIN_REACH_PX * res
 
 
-def _too_coarse(cfg: RouteGraphConfig, res: float, snap_name: str, resolution_name: str):
+def _too_coarse(cfg: RouteGraphConfig, res: float, snap_name: str | None, resolution_name: str):
     """Refuse a map of ``res`` metres per pixel on which the least robot radius or the
-    least ``snap_m`` (for the waypoint tolerance of ``cfg``) is above its largest value:
-    asked for one of them, the user would be refused it as too large."""
+    least ``snap_m`` (for the waypoint tolerance of ``cfg``) is above its largest value
+    (``cfg``'s own where ``snap_name`` is None): asked for one of them, the user would be
+    refused it as too large."""
     least_radius = MIN_RADIUS_PX * res
     least_snap = _least_snap_m(cfg, res)
+    most_snap = MAX_SNAP_M if snap_name is not None else cfg.snap_m
     reasons = []
     if least_radius > MAX_ROBOT_RADIUS_M * (1 + _ROUNDING_PX):
         reasons.append(
             f"its least robot radius, {MIN_RADIUS_PX:g} pixels ({least_radius:g} m), is above "
             f"the largest accepted, {MAX_ROBOT_RADIUS_M:g} m"
         )
-    if least_snap > MAX_SNAP_M * (1 + _ROUNDING_PX):
+    if snap_name is None and least_snap > most_snap * (1 + _ROUNDING_PX):
+        reasons.append(
+            f"its route graph's coverage distance, {most_snap:g} m, is below the waypoint "
+            f"tolerance ({cfg.waypoint_tolerance_m:g} m) plus {MIN_REACH_PX:g} pixels "
+            f"({least_snap:g} m)"
+        )
+    elif least_snap > MAX_SNAP_M * (1 + _ROUNDING_PX):
         reasons.append(
             f"its least {snap_name}, the waypoint tolerance ({cfg.waypoint_tolerance_m:g} m) "
             f"plus {MIN_REACH_PX:g} pixels ({least_snap:g} m), is above the largest accepted, "
@@ -493,7 +501,7 @@ def _too_coarse(cfg: RouteGraphConfig, res: float, snap_name: str, resolution_na
     if reasons:
         coarsest = min(
             MAX_ROBOT_RADIUS_M / MIN_RADIUS_PX,
-            (MAX_SNAP_M - cfg.waypoint_tolerance_m) / MIN_REACH_PX,
+            (most_snap - cfg.waypoint_tolerance_m) / MIN_REACH_PX,
         )
         raise ValueError(
             f"{resolution_name}: expected at most {coarsest:g} m per pixel for a route graph, "
