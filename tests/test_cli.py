@@ -617,6 +617,29 @@ def test_a_replay_graph_pruned_away_is_said_so_naming_the_pruning_setting(tmp_pa
     assert "min_component_m" not in printed
 
 
+def test_a_graph_emptied_by_free_only_says_its_corridors_run_through_unknown_space(
+    tmp_path, capsys
+):
+    """``topojax graph --free-only`` on a map whose corridors all run through unknown
+    space gives no graph: the note says that --free-only left them out, as the batch's
+    reason does, not that no corridor was found and the thresholds need checking."""
+    import cv2
+    import numpy as np
+
+    pixels = np.full((100, 120), 205, np.uint8)  # unknown, but for walls and a free corner
+    pixels[[0, -1], :] = pixels[:, [0, -1]] = pixels[50, 10:110] = 0
+    pixels[2:6, 2:6] = 254
+    cv2.imwrite(str(tmp_path / "hall.png"), pixels)
+    argv = ["graph", str(tmp_path / "hall.png"), "-o", str(tmp_path / "out"), "--free-only"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert (
+        "note       the graph is empty: every corridor the map gave runs through unknown "
+        "space, which --free-only leaves out" in out
+    )
+    assert "no corridor was found" not in out and "free_space_only" not in out
+
+
 def test_replay_aligns_its_removed_lines_as_the_other_commands_do(tmp_path, capsys):
     """The files a replay removes are said in lines whose label takes the column the
     other commands' ``removed`` lines and the summary's own labels take."""

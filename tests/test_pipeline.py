@@ -315,7 +315,9 @@ def test_obstacles_and_unknown_space_keep_the_papers_graph(capsys):
 
     def _classes_hint(occupancy, graph):  # a result of that graph and no skeleton
         skeleton = np.zeros(occupancy.shape, bool)
-        result = SimpleNamespace(graph=graph, skeleton=skeleton, config=tj.PipelineConfig())
+        result = SimpleNamespace(
+            graph=graph, skeleton=skeleton, ridges=skeleton, config=tj.PipelineConfig()
+        )
         return hint_of(occupancy, result)
 
     img = np.full((100, 120), 205, np.uint8)  # unknown

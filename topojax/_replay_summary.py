@@ -8,7 +8,7 @@ from dataclasses import asdict
 from ._replay_skips import ordered
 from ._words import counted
 from .graph import graph_summary
-from .graph.prune import pruned_by
+from .graph.prune import emptied_reason, pruned_by
 from .incremental import settings_of, timing_summary
 
 __all__ = ["empty_note", "replay_summary", "route_counts", "route_note", "summary_text"]
@@ -63,12 +63,7 @@ def empty_note(result) -> list[str]:
     if result.graph.number_of_nodes() or not result.skeleton.any():
         return []
     pruned = pruned_by(result.config.graph)
-    if not pruned:
-        return []
-    return [
-        f"the graph is empty: {pruned} removed every corridor the map gave; give a smaller "
-        "value to keep some"
-    ]
+    return [f"the graph is empty: {emptied_reason(pruned)}"] if pruned else []
 
 
 def route_note(done, nav2_tolerance_m) -> list[str]:

@@ -226,27 +226,16 @@ def _arrow_schema(pa: Any, columns: Sequence[str]) -> Any:
     return pa.schema([(name, types.get(name, pa.float64())) for name in columns])
 
 
-#: The setting that leaves out the corridors in unknown space (``GraphConfig``'s).
-FREE_ONLY = "free_space_only"
-
-
 def empty_reason(
     n_occupied: int | None, n_free: int | None, *, mode: str | None = None, pruned: str = ""
 ) -> str:
     """Why a map's graph is empty, and what to check (the ``message`` of an empty map read
     in ``mode``, the ``map_mode`` given or None); ``pruned`` names what removed every
-    corridor of a map that gave some: the pruning settings
-    (:func:`topojax.graph.prune.pruned_by`), or :data:`FREE_ONLY`."""
-    if pruned == FREE_ONLY:
-        return (
-            "empty graph: every corridor the map gave runs through unknown space, which "
-            f"{FREE_ONLY} leaves out"
-        )
+    corridor of a map that gave some (:func:`topojax.graph.prune.what_emptied`)."""
     if pruned:
-        return (
-            f"empty graph: {pruned} removed every corridor the map gave; give a smaller "
-            "value to keep some"
-        )
+        from ..graph.prune import emptied_reason
+
+        return f"empty graph: {emptied_reason(pruned)}"
     if n_occupied == 0 and n_free == 0:
         why = "the map has no occupied and no free pixel as classified"
     elif n_occupied == 0:

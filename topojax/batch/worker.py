@@ -16,13 +16,12 @@ import numpy as np
 
 from .._fs import atomic_write_bytes
 from ..config import PipelineConfig
-from ..graph.prune import pruned_by
+from ..graph.prune import what_emptied
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
 from ..maps.files import default_resolution_used, replaced_resolution, said_resolution
 from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
 from .manifest import _sha256_file
-from .records import FREE_ONLY
 
 __all__ = ["InlineExecutor"]
 
@@ -84,7 +83,7 @@ class _CpuResult:
     route_note: str = ""  # why the route graph is empty or has no edge, where it is
     nav2_note: str = ""  # the warning of a graph (nav2 format) with vertices and no edge
     no_nav2: list[str] = field(default_factory=list)  # Nav2 files not written: no edge
-    pruned: str = ""  # what removed every corridor: pruned_by's settings, or FREE_ONLY
+    pruned: str = ""  # what removed every corridor (graph.prune.what_emptied)
     t_thinning_s: float = 0.0
     t_graph_s: float = 0.0
     t_write_s: float = 0.0
@@ -164,10 +163,8 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
         res.edges = int(summary["n_edges"])
         res.components = int(summary["n_components"])
         res.total_length_m = float(summary["total_length_m"])
-        if not res.vertices and skeleton.any():  # the map gave corridors: pruning took all
-            res.pruned = pruned_by(job.config.graph)
-        elif not res.vertices and free is not None and ridges.any():  # none in free space
-            res.pruned = FREE_ONLY
+        if not res.vertices:  # did the map give corridors, all pruned or in unknown space?
+            res.pruned = what_emptied(job.config.graph, skeleton, ridges)
         t2 = time.perf_counter()
         res.t_graph_s = t2 - t0_graph
 

@@ -102,14 +102,14 @@ def classes_note(n_occupied: int, n_free: int, n_unknown: int) -> str:
 
 
 def map_notes(
-    counts: tuple[int, int, int], wall_share: float | None, empty: bool, *, pruned_by: str = ""
+    counts: tuple[int, int, int], wall_share: float | None, empty: bool, *, emptied: str = ""
 ) -> list[str]:
     """The notes on a map's pixels as classified (``counts``: occupied, free, unknown) for
     a graph that is ``empty`` or not: :func:`classes_note` where the map cannot give a
     graph or gave none, and a warning where its walls look unknown (``wall_share``, of
-    :func:`topojax.maps.classify.wall_share`, low: grey walls).  ``pruned_by`` names the
-    pruning options that removed every corridor of a map that gave some (the note then
-    names them instead of the map's options)."""
+    :func:`topojax.maps.classify.wall_share`, low: grey walls).  ``emptied`` says why
+    a map that gave corridors has none (:func:`topojax.graph.prune.emptied_reason`, in
+    the command's options; the note then says it instead of naming the map's options)."""
     from ..maps.classify import wall_warning
 
     n_occ, n_free, n_unknown = counts
@@ -117,11 +117,8 @@ def map_notes(
         return [classes_note(n_occ, n_free, n_unknown)]
     warning = wall_warning(wall_share, to_check="--occupied-thresh, --free-thresh or --mode")
     notes = [f"note       {warning}"] if warning else []
-    if empty and pruned_by:
-        notes.append(
-            f"note       the graph is empty: {pruned_by} removed every corridor the map gave; "
-            "give a smaller value to keep some"
-        )
+    if empty and emptied:
+        notes.append(f"note       the graph is empty: {emptied}")
     elif empty:
         notes.append(classes_note(n_occ, n_free, 0))
     return notes

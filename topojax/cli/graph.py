@@ -122,16 +122,20 @@ def _write_outputs(
 def _classes_hint(occupancy, result) -> list[str]:
     """A note when the map, as classified, cannot give a graph (no obstacle or no free
     pixel), gave none, or its walls look unknown (grey walls): usually thresholds or a
-    pixel convention that do not fit the file; or when the pruning options removed every
-    corridor of the skeleton it gave."""
+    pixel convention that do not fit the file; or when the pruning options or
+    ``--free-only`` removed every corridor it gave."""
+    from ..graph.prune import FREE_ONLY, emptied_reason, what_emptied
     from ..maps.classify import wall_share
 
     counts = tuple(int(m.sum()) for m in (occupancy.occupied, occupancy.free, occupancy.unknown))
     share = wall_share(occupancy.occupied, occupancy.free) if all(counts[:2]) else None
     empty = result.graph.number_of_nodes() == 0
-    pruned = graph_filters(result.config.graph) if empty and result.skeleton.any() else {}
-    names = [_OPTION_OF[name] for name in pruned if name in _OPTION_OF]
-    return map_notes(counts, share, empty, pruned_by=", ".join(names))
+    emptied = what_emptied(result.config.graph, result.skeleton, result.ridges) if empty else ""
+    if emptied and emptied != FREE_ONLY:  # the pruning options, named without their values
+        pruned = graph_filters(result.config.graph)
+        emptied = ", ".join(_OPTION_OF[name] for name in pruned if name in _OPTION_OF)
+    reason = emptied_reason(emptied).replace(FREE_ONLY, "--free-only") if emptied else ""
+    return map_notes(counts, share, empty, emptied=reason)
 
 
 def _cmd_graph(args) -> int:

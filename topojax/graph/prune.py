@@ -30,6 +30,29 @@ def pruned_by(graph_config) -> str:
     return ", ".join(f"{n}={getattr(graph_config, n):g}" for n in names if getattr(graph_config, n))
 
 
+#: The setting that leaves out the corridors in unknown space (``GraphConfig``'s).
+FREE_ONLY = "free_space_only"
+
+
+def what_emptied(graph_config, skeleton: np.ndarray, ridges: np.ndarray) -> str:
+    """What removed every corridor of a map whose graph (of ``graph_config``) is empty:
+    :func:`pruned_by`'s settings where its ``skeleton`` has pixels, :data:`FREE_ONLY`
+    where only its ``ridges`` have (all in unknown space), "" where it gave none."""
+    if skeleton.any():
+        return pruned_by(graph_config)
+    return FREE_ONLY if graph_config.free_space_only and ridges.any() else ""
+
+
+def emptied_reason(emptied: str) -> str:
+    """Why a graph is empty whose map gave corridors: ``emptied`` (:func:`what_emptied`,
+    or the options that set its pruning) removed them all."""
+    if emptied == FREE_ONLY:
+        return (
+            f"every corridor the map gave runs through unknown space, which {FREE_ONLY} leaves out"
+        )
+    return f"{emptied} removed every corridor the map gave; give a smaller value to keep some"
+
+
 def prune_graph(
     graph: nx.MultiGraph,
     *,
