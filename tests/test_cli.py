@@ -1282,6 +1282,19 @@ def test_the_help_of_an_option_says_its_default(command, option, says):
     assert says in " ".join(action.help.split())
 
 
+def test_the_help_of_replay_view_names_every_file_it_writes():
+    """``topojax replay --view`` writes view.html and timeline.json.gz (from which
+    ``topojax view`` makes the page again): its --help names both, as
+    docs/command-line.md does."""
+    from topojax.playback import output_names
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    text = " ".join(sub.choices["replay"]._option_string_actions["--view"].help.split())
+    added = set(output_names(view=True)) - set(output_names())
+    assert added == {"view.html", "timeline.json.gz"}
+    assert all(name in text for name in added)
+
+
 @pytest.mark.parametrize("value", ["-1", "nan", "-inf"])
 def test_route_refuses_a_bad_max_snap_m_saying_none_and_inf_are_taken(value, tmp_path, capsys):
     """``--max-snap-m`` takes ``none`` or ``inf`` for no limit: its refusal of a negative

@@ -469,7 +469,8 @@ def add_command(subparsers) -> None:
         "--view",
         action="store_true",
         help="also write view.html: the interactive view of the final map and graph with a "
-        "timeline of every graph update (see topojax view)",
+        "timeline of every graph update, and timeline.json.gz, from which topojax view makes "
+        "the page again",
     )
     p.set_defaults(handler=_cmd_replay)
     return p
