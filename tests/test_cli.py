@@ -1282,6 +1282,28 @@ def test_the_help_of_an_option_says_its_default(command, option, says):
     assert says in " ".join(action.help.split())
 
 
+def test_a_map_without_a_usable_resolution_names_the_keyword_or_the_option(tmp_path, capsys):
+    """A PGM whose comment gives no usable resolution and a YAML without one are refused
+    with how to give it: ``resolution_m`` to ``load_map``, ``--resolution`` to the
+    commands that read maps (one map or a batch), never both in one message."""
+    pgm = tmp_path / "bad.pgm"
+    pgm.write_bytes(b"P5\n# resolution -2 m/pix\n4 4\n255\n" + bytes([254] * 16))
+    yaml = tmp_path / "nores.yaml"
+    yaml.write_text("image: bad.pgm\norigin: [0, 0, 0]\n")
+    for path, advice in ((pgm, "pass resolution_m to set it"), (yaml, "load_map's resolution_m=")):
+        with pytest.raises(ValueError, match=re.escape(advice)) as info:
+            topojax.load_map(path)
+        assert "--" not in str(info.value) and "command line" not in str(info.value)
+    for path, advice in ((pgm, "give --resolution to set it"), (yaml, "give it with --resolution")):
+        assert main(["graph", str(path), "-o", str(tmp_path / "g")]) == 2
+        err = capsys.readouterr().err
+        assert advice in err and "resolution_m" not in err and "load_map" not in err
+    argv = ["batch", str(yaml), "-o", str(tmp_path / "b"), "--workers", "0", "--no-progress"]
+    assert main(argv) != 0
+    err = capsys.readouterr().err
+    assert "give it with --resolution" in err and "resolution_m" not in err
+
+
 def test_the_help_of_replay_view_names_every_file_it_writes():
     """``topojax replay --view`` writes view.html and timeline.json.gz (from which
     ``topojax view`` makes the page again): its --help names both, as

@@ -800,8 +800,7 @@ def test_a_map_that_states_no_resolution_is_loaded_at_an_assumed_one_with_a_warn
         assert load_map(png).resolution_m == 0.05
     assert [str(w.message) for w in info] == [
         f"map {png} states no resolution: assumed 0.05 m/px, on which every length and "
-        "world point rests; give the map's own with load_map(..., resolution_m=...) "
-        "(--resolution on the command line)"
+        "world point rests; give the map's own with load_map(..., resolution_m=...)"
     ]
     assert info[0].filename == __file__  # it points at the call
     # a resolution given, in a PGM's comment or a YAML: nothing assumed, nothing said

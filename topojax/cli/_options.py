@@ -58,6 +58,8 @@ def _as_options(
     (the library's advice, such as "build with resume=False") as the command words it."""
     for phrase, instead in (advice or {}).items():
         text = text.replace(phrase, instead)
+    if not option_of:
+        return text
     names = "|".join(map(re.escape, option_of))
     words = re.compile(rf"(?<![\w/\\.-])({names})(?![\w/\\-]|\.\w)")
     return words.sub(lambda m: option_of[m.group(1)], text)
@@ -84,6 +86,14 @@ def _option_named(exc: ValueError, field: str, option: str) -> ValueError:
     return _as_option_error(exc, {field: option}) if str(exc).startswith(f"{field}:") else exc
 
 
+#: The advice of a map file's refusals that names ``load_map``'s ``resolution_m``, and
+#: what the commands that read maps say instead.
+MAP_ADVICE = {
+    "pass resolution_m to set it": "give --resolution to set it",
+    "give it with load_map's resolution_m=": "give it with --resolution",
+}
+
+
 #: The thresholds of :func:`map_options` that a map's loading checks against the other
 #: one, read from its YAML or map_server's default, and the options that give them.
 _THRESHOLD_OPTIONS = (("free_thresh", "--free-thresh"), ("occupied_thresh", "--occupied-thresh"))
@@ -102,6 +112,8 @@ def load_option_map(path, options: dict):
     except ValueError as exc:
         if given_threshold_refused(str(exc), options):
             raise _as_option_error(exc, dict(_THRESHOLD_OPTIONS)) from None
+        if type(exc) is ValueError and any(phrase in str(exc) for phrase in MAP_ADVICE):
+            raise _as_option_error(exc, {}, advice=MAP_ADVICE) from None
         raise
 
 

@@ -13,6 +13,7 @@ from ._options import (
     _OPTION_OF,
     _ROOM_OPTIONS,
     _THRESHOLD_OPTIONS,
+    MAP_ADVICE,
     _as_options,
     _option_named,
     add_map_options,
@@ -187,7 +188,7 @@ def _as_printed(records: list, args) -> list:
         if r.status == "error" and given_threshold_refused(error, map_options(args)):
             names = {**names, **dict(_THRESHOLD_OPTIONS)}  # the one given, the map's other
         text = r.message.replace(RESOLUTION_HINT, "--resolution sets it")
-        return _as_options(text.replace(GIVEN_RESOLUTION, "--resolution"), names)
+        return _as_options(text.replace(GIVEN_RESOLUTION, "--resolution"), names, advice=MAP_ADVICE)
 
     named = [replace(r, message=message(r)) for r in records]
     if any(a.message != b.message for a, b in zip(records, named, strict=True)):

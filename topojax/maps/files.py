@@ -254,7 +254,7 @@ def load_map(
             warnings.warn(
                 f"map {p} states no resolution: assumed {resolution_m:g} m/px, on which every "
                 "length and world point rests; give the map's own with load_map(..., "
-                "resolution_m=...) (--resolution on the command line)",
+                "resolution_m=...)",
                 UserWarning,
                 stacklevel=2,
             )
@@ -521,7 +521,7 @@ def _yaml_settings(
         raise ValueError(
             f"map YAML {p} is missing the required key 'resolution', as map_server requires "
             "it: add 'resolution: M' (metres per pixel) to the file, or give it with "
-            "load_map's resolution_m= (--resolution on the command line)"
+            "load_map's resolution_m="
         )
     if origin is None and "origin" not in doc:
         raise ValueError(

@@ -102,13 +102,13 @@ def resolution_from_pgm_comments(comments: list[str], path: Path) -> float | Non
             raise ValueError(
                 f"map image {path}: its comment {line!r} gives the resolution as "
                 f"{word!r}, which is not a positive number of metres per pixel; pass "
-                "resolution_m (--resolution) to set it"
+                "resolution_m to set it"
             )
         if not MIN_RESOLUTION_M <= value <= MAX_RESOLUTION_M:
             raise ValueError(
                 f"map image {path}: its comment {line!r} gives the resolution as "
                 f"{word!r}, outside the {MIN_RESOLUTION_M:g} to {MAX_RESOLUTION_M:g} metres "
-                "per pixel a map may have; pass resolution_m (--resolution) to set it"
+                "per pixel a map may have; pass resolution_m to set it"
             )
         return value
     return None
