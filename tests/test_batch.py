@@ -963,6 +963,28 @@ def test_a_pool_that_breaks_now_and_then_is_replaced_as_often_as_maps_get_done(
     assert len(lost) > driver._POOL_RESTARTS + 1  # more breaks than replacements in a row
 
 
+def test_a_map_lost_with_its_worker_says_how_to_run_it_again_in_its_callers_words(tmp_path):
+    """The message of a map whose worker process died says that resuming runs it
+    again: resume=True to build_graphs, --resume on the command line."""
+    from concurrent.futures.process import BrokenProcessPool
+    from types import SimpleNamespace
+
+    from topojax.batch.failures import _lost_text
+    from topojax.batch.pool import WorkerDied
+    from topojax.batch.records import MapRecord
+    from topojax.cli.batch import _as_printed
+
+    died = _lost_text(WorkerDied("the worker process of m died (exit code -9)"))
+    assert died.endswith("(killed for memory?; resume=True runs it again)")
+    queued = _lost_text(BrokenProcessPool("A child process terminated abruptly"))
+    assert queued.endswith("running, killed for memory?; resume=True runs it again)")
+    records = [MapRecord(map="m", path="m.png", status="error", message=m) for m in (died, queued)]
+    args = SimpleNamespace(resolution_m=None, occupied_thresh=None, free_thresh=None)
+    args = SimpleNamespace(**vars(args), negate=None, mode=None, out=tmp_path)
+    for printed in _as_printed(records, args):
+        assert printed.message.endswith("killed for memory?; --resume runs it again)")
+
+
 def pool_sizes(monkeypatch) -> list:
     """The ``max_workers`` of every process pool made from now on, in order."""
     from topojax.batch import driver

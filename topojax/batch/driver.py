@@ -177,8 +177,8 @@ class _BatchRun:
                 raise RuntimeError(
                     f"workers: a worker process died or could not start, and broke the pool "
                     f"{self._restarts + 1} times in a row (the last time: {exc}); no new "
-                    "pool is started for the maps left (--resume runs them again; fewer "
-                    "--workers need less memory)"
+                    "pool is started for the maps left (resume=True runs them again; fewer "
+                    "workers need less memory)"
                 ) from exc
             self._restarts += 1
             terminate_workers(self.executor)  # its live workers hold memory too

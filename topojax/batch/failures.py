@@ -29,8 +29,8 @@ def _lost_text(exc: BaseException, *, started: bool = True) -> str:
             "and no folder named topojax may hide the package from them)"
         )
     if isinstance(exc, WorkerDied):  # the own pool's: its message says which task died
-        return f"{_error_text(exc)} (killed for memory?; --resume runs it again)"
+        return f"{_error_text(exc)} (killed for memory?; resume=True runs it again)"
     return (
         f"{_error_text(exc)} (a worker process died while this map was queued or "
-        "running, killed for memory?; --resume runs it again)"
+        "running, killed for memory?; resume=True runs it again)"
     )

@@ -48,6 +48,13 @@ _NOTE_OPTION_OF = {
 }
 
 
+#: The advice of a map's message that names build_graphs' keywords, as the command says it.
+_ADVICE = {
+    "resume=True runs": "--resume runs",  # a map lost with its worker process
+    "fewer workers need": "fewer --workers need",
+}
+
+
 def _cmd_batch(args) -> int:
     stopped: list[signal.Signals] = []
     manifests: dict[Path, tuple[int, int] | None] = {}
@@ -188,7 +195,8 @@ def _as_printed(records: list, args) -> list:
         if r.status == "error" and given_threshold_refused(error, map_options(args)):
             names = {**names, **dict(_THRESHOLD_OPTIONS)}  # the one given, the map's other
         text = r.message.replace(RESOLUTION_HINT, "--resolution sets it")
-        return _as_options(text.replace(GIVEN_RESOLUTION, "--resolution"), names, advice=MAP_ADVICE)
+        text = text.replace(GIVEN_RESOLUTION, "--resolution")
+        return _as_options(text, names, advice={**MAP_ADVICE, **_ADVICE})
 
     named = [replace(r, message=message(r)) for r in records]
     if any(a.message != b.message for a, b in zip(records, named, strict=True)):
