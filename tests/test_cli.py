@@ -1250,15 +1250,18 @@ def test_a_path_that_looks_like_a_negative_number_is_taken_as_written():
     assert args.scan_topic == "-1e1"
 
 
-def test_a_graph_pruned_away_is_said_so_naming_the_pruning_option(tmp_path, capsys):
+@pytest.mark.parametrize("tiled", [[], ["--tiled"]])
+def test_a_graph_pruned_away_is_said_so_naming_the_pruning_option(tiled, tmp_path, capsys):
     """A map that gives corridors, all of them removed by ``--min-component-m``, gets a
     note naming that option, not one that no corridor was found and that the map's
-    thresholds or pixel convention may not fit the file."""
+    thresholds or pixel convention may not fit the file; built in blocks as well."""
     map_file = ROOT / "topojax" / "data" / "a_scan.png"
-    assert main(["graph", str(map_file), "-o", str(tmp_path), "--min-component-m", "1e6"]) == 0
+    argv = ["graph", str(map_file), "-o", str(tmp_path), "--min-component-m", "1e6", *tiled]
+    assert main(argv) == 0
     notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note")]
     assert len(notes) == 1
-    assert "--min-component-m" in notes[0] and "--occupied-thresh" not in notes[0]
+    assert "--min-component-m removed every corridor the map gave" in notes[0]
+    assert "--occupied-thresh" not in notes[0]
 
 
 @pytest.mark.parametrize(

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._options import MAP_OPTIONS_TO_CHECK, map_line
+from ._options import _OPTION_OF, MAP_OPTIONS_TO_CHECK, graph_filters, map_line
 
 #: The graph files of ``topojax graph``: ``STEM`` and each of these.
 GRAPH_SUFFIXES = (".graphml", ".json", ".geojson")
@@ -99,6 +99,18 @@ def classes_note(n_occupied: int, n_free: int, n_unknown: int) -> str:
         f"note       the map has {what} as classified ({n_occupied} occupied, {n_free} "
         f"free, {n_unknown} unknown), {outcome}; check {MAP_OPTIONS_TO_CHECK}"
     )
+
+
+def emptied_text(graph_config, emptied: str) -> str:
+    """Why a graph (of ``graph_config``) is empty whose map gave corridors, in the
+    command's options: ``emptied`` (:func:`topojax.graph.prune.what_emptied`) removed
+    them all, the pruning options named without their values; "" for none."""
+    from ..graph.prune import FREE_ONLY, emptied_reason
+
+    if emptied and emptied != FREE_ONLY:
+        pruned = graph_filters(graph_config)
+        emptied = ", ".join(_OPTION_OF[name] for name in pruned if name in _OPTION_OF)
+    return emptied_reason(emptied).replace(FREE_ONLY, "--free-only") if emptied else ""
 
 
 def map_notes(

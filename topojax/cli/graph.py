@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from ._graph_out import (
+    emptied_text,
     graph_files,
     map_notes,
     summary_lines,
@@ -14,14 +15,12 @@ from ._graph_out import (
     write_nav2,
 )
 from ._options import (
-    _OPTION_OF,
     add_map_options,
     add_nav2_options,
     add_pipeline_options,
     add_room_options,
     add_sigma_options,
     assumed_resolution_note,
-    graph_filters,
     load_option_map,
     map_options,
     nav2_tolerance,
@@ -124,18 +123,14 @@ def _classes_hint(occupancy, result) -> list[str]:
     pixel), gave none, or its walls look unknown (grey walls): usually thresholds or a
     pixel convention that do not fit the file; or when the pruning options or
     ``--free-only`` removed every corridor it gave."""
-    from ..graph.prune import FREE_ONLY, emptied_reason, what_emptied
+    from ..graph.prune import what_emptied
     from ..maps.classify import wall_share
 
     counts = tuple(int(m.sum()) for m in (occupancy.occupied, occupancy.free, occupancy.unknown))
     share = wall_share(occupancy.occupied, occupancy.free) if all(counts[:2]) else None
     empty = result.graph.number_of_nodes() == 0
     emptied = what_emptied(result.config.graph, result.skeleton, result.ridges) if empty else ""
-    if emptied and emptied != FREE_ONLY:  # the pruning options, named without their values
-        pruned = graph_filters(result.config.graph)
-        emptied = ", ".join(_OPTION_OF[name] for name in pruned if name in _OPTION_OF)
-    reason = emptied_reason(emptied).replace(FREE_ONLY, "--free-only") if emptied else ""
-    return map_notes(counts, share, empty, emptied=reason)
+    return map_notes(counts, share, empty, emptied=emptied_text(result.config.graph, emptied))
 
 
 def _cmd_graph(args) -> int:

@@ -6,6 +6,7 @@ import warnings
 from pathlib import Path
 
 from ._graph_out import (
+    emptied_text,
     graph_files,
     map_notes,
     summary_lines,
@@ -117,6 +118,7 @@ def cmd_graph_tiled(args) -> int:
     build, write the graph files, print a summary."""
     from .._lock import one_writer
     from .._validate import finite_positive
+    from ..graph.prune import pruned_by
     from ..maps.files import said_resolution
     from ..outofcore.build import block_px_for_budget, build_graph_tiled, tiled_source
 
@@ -149,7 +151,13 @@ def cmd_graph_tiled(args) -> int:
         _check_graph_files_fit(result, store)
         written = write_graph_files(result.graph, out, stem)
         empty = result.graph.number_of_nodes() == 0
-        notes = map_notes(*_census(source, block_px * block_px), empty)
+        # its skeleton had pixels: the pruning options removed every corridor
+        emptied = pruned_by(config.graph) if empty and result.cols.size else ""
+        notes = map_notes(
+            *_census(source, block_px * block_px),
+            empty,
+            emptied=emptied_text(config.graph, emptied),
+        )
         if tolerance is not None:
             nav2, nav2_notes = write_nav2(result.graph, out / f"{stem}_nav2.geojson", tolerance)
             written, notes = written + nav2, notes + nav2_notes
