@@ -2056,19 +2056,26 @@ def test_read_scans_dispatch(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["map.png", "map.pgm", "photo.jpg"])
-def test_read_scans_refuses_a_map_image_by_name(tmp_path, name):
+def test_read_scans_refuses_a_map_image_by_name(tmp_path, name, capsys):
     """A map image handed to the scan readers is named as one, not read as a CARMEN log
-    without laser lines; ``replay`` names it as its ``source``."""
+    without laser lines; ``replay`` names it as its ``source``.  What reads maps is
+    said in the caller's words: load_map to the API, the commands to topojax replay."""
     import cv2
 
     import topojax as tj
+    from topojax.cli import main
 
     path = tmp_path / name
     cv2.imwrite(str(path), np.full((4, 4), 254, np.uint8))
     with pytest.raises(ValueError, match=r"^path: expected a laser log .* received the map image"):
         read_scans(path)
-    with pytest.raises(ValueError, match=r"^source: expected a laser log"):
+    with pytest.raises(ValueError, match=r"^source: expected a laser log") as info:
         tj.replay(path, out_dir=tmp_path / "out", progress=False)
+    assert str(info.value).endswith("(load_map reads maps)")
+    assert main(["replay", str(path), "-o", str(tmp_path / "cli"), "--no-progress"]) == 2
+    said = capsys.readouterr().err
+    assert said.rstrip().endswith("(topojax graph, rooms and route-graph read maps)")
+    assert "load_map" not in said
 
 
 @pytest.mark.parametrize(

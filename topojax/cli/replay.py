@@ -275,6 +275,7 @@ _ADVICE = {
     "pass max_range_m": "give --max-range",
     "(pass laser=... to read another)": "(give --laser KIND to read another)",
     "bad_lines='skip'": "--skip-bad-lines",
+    "(load_map reads maps)": "(topojax graph, rooms and route-graph read maps)",
 }
 
 

@@ -127,6 +127,6 @@ def _reader_for(p: Path):
     ):
         raise ValueError(
             f"path: expected a laser log (CARMEN, Octave) or a bag (ROS 1, ROS 2, MCAP), "
-            f"received the map image {p} (topojax graph, rooms and route-graph read maps)"
+            f"received the map image {p} (load_map reads maps)"
         )
     return read_carmen
