@@ -229,7 +229,8 @@ def _replay_checked(
     )
     timeline = kept.timeline
     if route_graph_radius_m is not None:  # now, not after the whole replay
-        from .routegraph.build import RouteGraphConfig, check_scale
+        from .routegraph.build import RouteGraphConfig
+        from .routegraph.scale import check_scale
 
         config = RouteGraphConfig(robot_radius_m=route_graph_radius_m)
         check_scale(config, mapper.resolution_m, "route_graph_radius_m", snap_name=None)

@@ -363,7 +363,7 @@ def snap_option(value: float) -> float:
     tolerance to ``MAX_SNAP_M``); a ``ValueError`` naming the option otherwise."""
     from .._validate import positive_metres
     from ..routegraph import RouteGraphConfig
-    from ..routegraph.build import MAX_SNAP_M
+    from ..routegraph.scale import MAX_SNAP_M
 
     snap_m = positive_metres("--snap-m", value)
     least = 2 * RouteGraphConfig.waypoint_tolerance_m  # the class default: a float

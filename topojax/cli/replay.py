@@ -70,7 +70,8 @@ def _check_numbers(args) -> None:
 
         mounting("--sensor-offset", tuple(args.sensor_offset))
     if args.route_graph is not None:
-        from ..routegraph.build import RouteGraphConfig, check_scale
+        from ..routegraph.build import RouteGraphConfig
+        from ..routegraph.scale import check_scale
 
         radius = robot_radius("--route-graph", args.route_graph, allow_zero=False)
         check_scale(

@@ -86,7 +86,8 @@ def _cmd_route_graph(args) -> int:
     from .._words import counted
     from ..io import save_graph
     from ..routegraph import RouteGraphConfig
-    from ..routegraph.build import check_scale, unwarned_route_graph
+    from ..routegraph.build import unwarned_route_graph
+    from ..routegraph.scale import check_scale
 
     radius = robot_radius("--robot-radius", args.robot_radius_m, allow_zero=False)
     snap_m = snap_option(args.snap_m)

@@ -33,8 +33,8 @@ from ._eval_routes import (
     route_network,
     sample_pairs,
 )
-from .build import MAX_SNAP_M  # every route end checks the graph points within it
 from .feasible import FeasibleSpace, feasible_space
+from .scale import MAX_SNAP_M  # every route end checks the graph points within it
 
 __all__ = ["RouteGraphReport", "evaluate_route_graph"]
 
