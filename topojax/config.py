@@ -40,6 +40,9 @@ ORIGINAL_SIGMA_PX = math.sqrt(2.0 / ((10.0 + 11.0 / 455.0) / 455.0) ** 2 + 1.0 /
 #: Half-width of the original square kernel support (455 = 2 * 227 + 1 pixels).
 ORIGINAL_HALF_WIDTH_PX = 227
 
+#: The settings of :class:`GraphConfig` that prune a graph (:func:`topojax.prune_graph`).
+PRUNING_SETTINGS = ("min_clearance_m", "min_spur_m", "min_component_m")
+
 _THINNING = ("guo_hall", "zhang")
 #: Largest window half-width the distance kernels take (pixels).
 _MAX_HALF_WIDTH_PX = 4096
@@ -312,7 +315,7 @@ class GraphConfig:
     @property
     def prunes(self) -> bool:
         """Whether :func:`topojax.prune_graph` has anything to do."""
-        return self.min_clearance_m > 0 or self.min_spur_m > 0 or self.min_component_m > 0
+        return any(getattr(self, name) > 0 for name in PRUNING_SETTINGS)
 
 
 @dataclass(frozen=True, kw_only=True)

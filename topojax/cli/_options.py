@@ -185,7 +185,9 @@ def graph_config(args):
 def graph_filters(config) -> dict:
     """The options of ``config`` (a :class:`GraphConfig`) that change the graph written,
     by their field names (``{"min_spur_m": 0.5}``); empty when it keeps the whole graph."""
-    names = ("free_space_only", "min_clearance_m", "min_spur_m", "min_component_m")
+    from ..config import PRUNING_SETTINGS
+
+    names = ("free_space_only", *PRUNING_SETTINGS)
     return {name: getattr(config, name) for name in names if getattr(config, name)}
 
 

@@ -10,6 +10,7 @@ import warnings
 from pathlib import Path
 
 from .._constants import CARMEN_LASERS, STRATEGIES
+from ..config import PRUNING_SETTINGS
 from ._options import (
     _OPTION_OF as _PIPELINE_OPTION_OF,
 )
@@ -232,9 +233,7 @@ def _reader_refused(exc) -> ValueError:
 
 
 #: The pruning settings a note of a graph they emptied names, and their options.
-_PRUNING_OPTIONS = {
-    name: _PIPELINE_OPTION_OF[name] for name in ("min_clearance_m", "min_spur_m", "min_component_m")
-}
+_PRUNING_OPTIONS = {name: _PIPELINE_OPTION_OF[name] for name in PRUNING_SETTINGS}
 #: The parameters of :func:`topojax.replay` that errors name, and the options that set
 #: them (``mcap`` is checked as ``--mcap`` before; ``.mcap`` ends its messages' names).
 _OPTION_OF = {

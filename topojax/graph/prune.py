@@ -18,6 +18,7 @@ from .._validate import (
     plain_int_pair,
     plain_length_m,
 )
+from ..config import PRUNING_SETTINGS
 from ..fields.clearance import clearance_at_least
 from .geometry import _ends_at, _path_length_m, graph_resolution_m, holds
 from .store import fill_multigraph, paused_gc
@@ -26,8 +27,8 @@ from .store import fill_multigraph, paused_gc
 def pruned_by(graph_config) -> str:
     """The pruning settings of ``graph_config`` (a :class:`topojax.config.GraphConfig`)
     that remove parts of a graph, as ``name=value`` (``"min_component_m=1000"``)."""
-    names = ("min_clearance_m", "min_spur_m", "min_component_m")
-    return ", ".join(f"{n}={getattr(graph_config, n):g}" for n in names if getattr(graph_config, n))
+    values = ((n, getattr(graph_config, n)) for n in PRUNING_SETTINGS)
+    return ", ".join(f"{n}={v:g}" for n, v in values if v)
 
 
 #: The setting that leaves out the corridors in unknown space (``GraphConfig``'s).
