@@ -97,7 +97,7 @@ def summary_text(summary: dict) -> str:
             f"robot radius {routes['robot_radius_m']:g} m",
         )
     if summary.get("rooms") is not None:
-        doors = summary.get("doors")  # absent from a record written before it was kept
+        doors = summary.get("doors")  # a record of an older topojax may not have it
         line = f"rooms      {counted(summary['rooms'], 'room')}"
         lines.insert(2, line if doors is None else f"{line}, {counted(doors, 'door')}")
     if summary.get("resumed_after"):
