@@ -146,6 +146,15 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     atomic_write(path, lambda fh: fh.write(data))
 
 
+def refuse_folder(dest: Path) -> None:
+    """An ``IsADirectoryError`` when the output file ``dest`` a program chose (not a
+    caller's argument) is a folder."""
+    if dest.is_dir():
+        raise IsADirectoryError(
+            f"output file {dest} is a folder: expected a file path such as {dest / 'name'}"
+        )
+
+
 def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
     """Write a file atomically: ``write(fh)`` fills a temporary file in the same folder,
     which is flushed, synced and then renamed over ``path`` with :func:`os.replace`;
@@ -160,10 +169,7 @@ def atomic_write(path: str | Path, write: Callable[[BinaryIO], object]) -> None:
         Called with the temporary file, open for binary writing.
     """
     dest = Path(path)
-    if dest.is_dir():
-        raise IsADirectoryError(
-            f"output file {dest} is a folder: expected a file path such as {dest / 'name'}"
-        )
+    refuse_folder(dest)
     if non_file_kind(dest) is not None:  # os.replace would put a file in its place
         raise ValueError(
             f"cannot write over {the_non_file(dest)} {dest}: expected a regular file or a new name"

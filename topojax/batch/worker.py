@@ -14,13 +14,21 @@ from typing import Any
 
 import numpy as np
 
-from .._fs import atomic_write_bytes
+from .._fs import atomic_write_bytes, refuse_folder
 from ..config import PipelineConfig
 from ..graph.prune import what_emptied
 from ..maps import OccupancyMap, load_map
 from ..maps.classify import wall_share
 from ..maps.files import default_resolution_used, replaced_resolution, said_resolution
-from .inputs import _FORMAT_FILES, _FORMAT_SUFFIX, _PICTURE_SUFFIX, _ROUTE_PICTURE_SUFFIX, _Item
+from .inputs import (
+    _FORMAT_FILES,
+    _FORMAT_SUFFIX,
+    _PICTURE_SUFFIX,
+    _ROUTE_PICTURE_SUFFIX,
+    _format_suffixes,
+    _Item,
+    picture_suffixes,
+)
 from .manifest import _sha256_file
 
 __all__ = ["InlineExecutor"]
@@ -178,6 +186,9 @@ def _cpu_stage(job: _CpuJob) -> _CpuResult:
             if rooms is not None:
                 res.rooms, res.doors = rooms.n_rooms, len(rooms.doors)
             routes = _route_graph(job, occupancy, res) if job.route is not None else None
+            # files the batch names: a folder there is named as its output, not as a writer's
+            for suffix in _format_suffixes(job.formats) + picture_suffixes(job.formats, job.plot):
+                refuse_folder(Path(f"{stem}{suffix}"))
             written = []
             for fmt in job.formats:
                 if fmt == "rooms":
