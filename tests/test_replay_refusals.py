@@ -173,3 +173,21 @@ def test_room_keywords_without_rooms_are_refused_before_the_replay(tmp_path, key
     with pytest.raises(ValueError, match=rf"^{name}: only used with rooms=True, "):
         replay(INTEL_EXCERPT, out_dir=out, progress=False, max_scans=5, **keyword)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("name", ["graph.json", "view.html", "map_rooms.geojson"])
+def test_a_folder_where_an_output_goes_is_refused_before_any_scan(tmp_path, capsys, name):
+    """A folder where one of the files the replay writes goes is refused naming the output
+    folder (out_dir to the API, --out on the command line) before any scan is mapped: it
+    was met only when the files were written, after the whole log, and named the graph
+    writer's own parameter.  A folder with a name this replay does not write is left be."""
+    out = tmp_path / "out"
+    (out / name).mkdir(parents=True)
+    with pytest.raises(IsADirectoryError, match=rf"^out_dir: expected to write the file .*{name}"):
+        replay(INTEL_EXCERPT, out_dir=out, view=True, rooms=True, progress=False)
+    assert sorted(p.name for p in out.iterdir()) == [name]  # no state: no scan was mapped
+    argv = ["replay", str(INTEL_EXCERPT), "-o", str(out), "--view", "--rooms", "--no-progress"]
+    assert main(argv) == 2
+    assert f"error: --out: expected to write the file {out / name}" in capsys.readouterr().err
+    if name != "graph.json":  # not written without --view and --rooms
+        assert replay(INTEL_EXCERPT, out_dir=out, max_scans=3, progress=False)["n_scans"] == 3

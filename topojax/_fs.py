@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import BinaryIO
 
@@ -92,6 +92,32 @@ def output_file(path: str | Path, *, name: str = "path") -> Path:
     )
     _try_writing(folder, f"{name}: cannot write {p}: {why}")
     return p
+
+
+def refuse_non_files(targets: Iterable[Path], *, name: str) -> None:
+    """Refuse a folder, or anything else that is no regular file (a FIFO, socket or
+    device), where one of the files ``targets`` is to be written, naming ``name`` (the
+    output folder's parameter or option):
+    checked before any work, not when that file's turn comes after others were written.
+
+    Raises
+    ------
+    IsADirectoryError
+        If a target is an existing folder.
+    ValueError
+        If a target is a FIFO, socket or device, which the file would replace.
+    """
+    for target in targets:
+        if Path(target).is_dir():
+            raise IsADirectoryError(
+                f"{name}: expected to write the file {target}, received a folder of that "
+                "name; move it away or remove it first"
+            )
+        if non_file_kind(target) is not None:
+            raise ValueError(
+                f"{name}: expected to write the file {target}, received "
+                f"{the_non_file(target)} of that name; move it away or remove it first"
+            )
 
 
 def refuse_suffix_only(name: str, path: Path, suffixes) -> None:

@@ -123,6 +123,15 @@ def output_names(
     return names + ["view.html", "timeline.json.gz"] * view
 
 
+def refuse_folder_outputs(out: Path, **options: bool) -> None:
+    """Refuse, naming ``out_dir`` before any scan is mapped, a folder or anything else that
+    is no regular file where one of the files a replay with ``options`` (those of
+    :func:`output_names`) writes into ``out`` goes."""
+    from ._fs import refuse_non_files
+
+    refuse_non_files([out / name for name in output_names(**options)], name="out_dir")
+
+
 def refuse_overwriting_source(source, out: Path, animate, mcap) -> None:
     """Refuse a ``source`` that is not there (FileNotFoundError naming ``source``, not
     the reader's ``path``), and (ValueError) output paths that are the log itself or, for

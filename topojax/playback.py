@@ -18,6 +18,7 @@ from ._replay_args import (
     no_empty_folder_left,
     optional_outputs,  # noqa: F401 - for topojax.playback's users
     output_names,  # noqa: F401
+    refuse_folder_outputs,
     refuse_overwriting_source,
     remove_stale,
 )
@@ -214,6 +215,8 @@ def _replay_checked(
 ) -> dict:
     """The body of :func:`replay`, its arguments checked: open the log and make the
     mapper, map the scans, write the files and the summary; returns the summary."""
+    options = {"plot": plot, "rooms": rooms, "view": view, "nav2": nav2_tolerance_m is not None}
+    refuse_folder_outputs(out, route_graph=route_graph_radius_m is not None, **options)
     scans, mapper, progress_at, kept = _start(
         source,
         out,

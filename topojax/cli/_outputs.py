@@ -26,8 +26,6 @@ import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from .._filekind import non_file_kind, the_non_file
-
 __all__ = [
     "OUT_OPTION",
     "RECORD_NAME",
@@ -126,31 +124,6 @@ def check_outputs(
             if page and "view" in (command, before.get("command")):
                 continue  # a view page: made again from the folder's results at any time
             raise ValueError(_conflict(option, target, before, command, source, names_file))
-
-
-def refuse_folders(targets: Iterable[Path], *, option: str) -> None:
-    """Refuse a folder, or anything else that is no regular file (a FIFO, socket or
-    device), where one of the files ``targets`` is to be written, naming ``option``:
-    checked before any work, not when that file's turn comes after others were written.
-
-    Raises
-    ------
-    IsADirectoryError
-        If a target is an existing folder.
-    ValueError
-        If a target is a FIFO, socket or device, which the file would replace.
-    """
-    for target in targets:
-        if Path(target).is_dir():
-            raise IsADirectoryError(
-                f"{option}: expected to write the file {target}, received a folder of that "
-                "name; move it away or remove it first"
-            )
-        if non_file_kind(target) is not None:
-            raise ValueError(
-                f"{option}: expected to write the file {target}, received "
-                f"{the_non_file(target)} of that name; move it away or remove it first"
-            )
 
 
 def _written_by(target: Path, recorded: dict[str, dict]) -> dict | None:

@@ -6,6 +6,7 @@ import json
 import time
 from pathlib import Path
 
+from .._fs import refuse_non_files
 from ._graph_out import (
     emptied_text,
     graph_files,
@@ -33,7 +34,6 @@ from ._outputs import (
     output_stem,
     planned,
     record_outputs,
-    refuse_folders,
     remove_earlier_outputs,
 )
 from .rooms import room_lines
@@ -145,7 +145,7 @@ def _cmd_graph(args) -> int:
     targets = [Path(args.out) / name for name in _graph_files(stem, args)]
     _check_outputs_spare_inputs(Path(args.map), targets)
     check_outputs(planned(targets, args.map), command="graph", option=OUT_OPTION)
-    refuse_folders(targets, option=OUT_OPTION)
+    refuse_non_files(targets, name=OUT_OPTION)
     if args.mcap is not None:
         from ..io.mcap import mcap_path
 

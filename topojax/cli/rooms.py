@@ -6,6 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
+from .._fs import refuse_non_files
 from ._options import (
     MAP_OPTIONS_TO_CHECK,
     add_map_options,
@@ -22,7 +23,6 @@ from ._outputs import (
     output_stem,
     planned,
     record_outputs,
-    refuse_folders,
     remove_earlier_outputs,
 )
 
@@ -72,7 +72,7 @@ def _cmd_rooms(args) -> int:
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="rooms", option=OUT_OPTION)
-    refuse_folders(targets, option=OUT_OPTION)
+    refuse_non_files(targets, name=OUT_OPTION)
     occupancy = load_option_map(args.map, map_options(args))
     t0 = time.perf_counter()
     seg = segment_rooms(occupancy, config=config)

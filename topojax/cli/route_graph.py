@@ -8,6 +8,7 @@ import math
 import time
 from pathlib import Path
 
+from .._fs import refuse_non_files
 from ._options import (
     _option_named,
     add_map_options,
@@ -24,7 +25,6 @@ from ._outputs import (
     output_stem,
     planned,
     record_outputs,
-    refuse_folders,
     remove_earlier_outputs,
 )
 
@@ -97,7 +97,7 @@ def _cmd_route_graph(args) -> int:
     targets = [out / name for name in _files(stem, args)]
     refuse_overwriting_inputs([Path(args.map)], targets, option="--out")
     check_outputs(planned(targets, args.map), command="route-graph", option=OUT_OPTION)
-    refuse_folders(targets, option=OUT_OPTION)
+    refuse_non_files(targets, name=OUT_OPTION)
     if args.mcap is not None:
         from ..io.mcap import mcap_path
 
