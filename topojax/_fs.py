@@ -97,8 +97,8 @@ def output_file(path: str | Path, *, name: str = "path") -> Path:
 def refuse_non_files(targets: Iterable[Path], *, name: str) -> None:
     """Refuse a folder, or anything else that is no regular file (a FIFO, socket or
     device), where one of the files ``targets`` is to be written, naming ``name`` (the
-    output folder's parameter or option):
-    checked before any work, not when that file's turn comes after others were written.
+    output folder's parameter or option): checked before any work, not when that file's
+    turn comes after others were written.
 
     Raises
     ------
