@@ -8,9 +8,17 @@ import os
 import stat
 from pathlib import Path
 
-__all__ = ["LOOP", "broken_link", "loop_in", "missing_file_error", "non_file_kind", "the_non_file"]
+__all__ = [
+    "LOOP",
+    "dangling",
+    "loop_in",
+    "looped",
+    "missing_file_error",
+    "non_file_kind",
+    "the_non_file",
+]
 
-#: What :func:`broken_link` calls a link that leads back to itself.
+#: What :func:`looped` calls a link that leads back to itself.
 LOOP = "a loop of symbolic links"
 
 
@@ -40,22 +48,29 @@ def non_file_kind(path: str | Path) -> str | None:
     return next((kind for test, kind in kinds if test(mode)), "no regular file")
 
 
-def broken_link(path: str | Path) -> str | None:
-    """What ``path`` is when it reaches no file through symbolic links: ", a loop of
-    symbolic links" or ", whose folder F is a loop of symbolic links" (to follow the
-    path in a message), or " (a symbolic link to TARGET, which does not exist)"; None
-    otherwise (for a path that is not there, "not found" is then the truth)."""
+def looped(path: str | Path) -> str | None:
+    """ ", a loop of symbolic links" or ", whose folder F is a loop of symbolic links" (to
+    follow ``path`` in a message) where resolving it loops; None otherwise."""
     try:
         os.stat(path)
     except OSError as exc:
         if exc.errno == errno.ELOOP:
             loop = loop_in(path)
             return f", {LOOP}" if loop is None else f", whose folder {loop} is {LOOP}"
-        if os.path.islink(path):
-            return f" (a symbolic link to {os.readlink(path)}, which does not exist)"
     except ValueError:  # a NUL in the path
         pass
     return None
+
+
+def dangling(path: str | Path) -> str:
+    """ " (a symbolic link to TARGET, which does not exist)" where ``path`` is a link to
+    nothing; "" otherwise (for a path that is not there, "not found" is then the truth)."""
+    try:
+        if os.path.islink(path) and not os.path.exists(path):
+            return f" (a symbolic link to {os.readlink(path)}, which does not exist)"
+    except ValueError:  # a NUL in the path
+        pass
+    return ""
 
 
 def loop_in(path: str | Path) -> Path | None:
@@ -72,7 +87,6 @@ def missing_file_error(name: str, path: str | Path) -> Exception:
     """The error for parameter ``name``'s ``path``, where no file is found: a ValueError
     for a loop of symbolic links, else a FileNotFoundError (naming where a dangling link
     leads)."""
-    link = broken_link(path)
-    if link is not None and LOOP in link:
-        return ValueError(f"{name}: expected a file, received {path}{link}")
-    return FileNotFoundError(f"{name}: file not found: {path}{link or ''}")
+    if (loop := looped(path)) is not None:
+        return ValueError(f"{name}: expected a file, received {path}{loop}")
+    return FileNotFoundError(f"{name}: file not found: {path}{dangling(path)}")

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from .._cpus import check_fits_memory
-from .._filekind import LOOP, broken_link, non_file_kind, the_non_file
+from .._filekind import dangling, looped, non_file_kind, the_non_file
 from .._fs import refuse_suffix_only
 from .._validate import (
     MAX_RESOLUTION_M,
@@ -151,10 +151,9 @@ def _resolve_image_path(yaml_path: Path, image: Any) -> Path:
 def _refuse_non_file(yaml_path: Path, image: Path) -> None:
     """A ValueError if ``image`` exists but is no regular file (reading a FIFO would wait
     for a writer for ever; "not found" would be untrue), or a loop of symbolic links."""
-    link = broken_link(image)
-    if link is not None and LOOP in link:
+    if (loop := looped(image)) is not None:
         raise ValueError(
-            f"map YAML {yaml_path}: field 'image': expected an image file, received {image}{link}"
+            f"map YAML {yaml_path}: field 'image': expected an image file, received {image}{loop}"
         )
     if non_file_kind(image) is not None:
         raise ValueError(
@@ -447,11 +446,9 @@ def _pattern_hint(p: Path) -> str:
 def _refuse_missing(p: Path) -> None:
     """The error for a map path that reaches no file: a loop of symbolic links is said to
     be one, a dangling link names where it leads."""
-    link = broken_link(p)
-    if link is not None and LOOP in link:
-        raise ValueError(f"map path is not a file: {p}{link}")
-    hint = link or _pattern_hint(p)
-    raise FileNotFoundError(f"map file not found: {p}{hint}")
+    if (loop := looped(p)) is not None:
+        raise ValueError(f"map path is not a file: {p}{loop}")
+    raise FileNotFoundError(f"map file not found: {p}{dangling(p) or _pattern_hint(p)}")
 
 
 def _check_map_path(p: Path, suffix: str) -> None:
